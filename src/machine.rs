@@ -1,0 +1,299 @@
+//! The shapes of sans-IO machines and how they stack.
+//!
+//! ```text
+//!   Machine    one logical bus: a node, an SDO client pool, a supervisor …
+//!   BusLink    ports below, one logical bus above: a single port, or the dual-bus layer
+//!   Device     ports only: what a driver (simulator, tokio runtime) talks to
+//!   Station    = BusLink + Machine, which is a Device
+//! ```
+//!
+//! Drivers own time and I/O and do the same five things to every device: hand it frames, hand it
+//! port status, call `handle_timeout` at (or after) `poll_timeout`, drain `poll_transmit` to the
+//! ports, drain `poll_event` to the application. Every method may be called at any time;
+//! `handle_timeout` does whatever is due at `now` and nothing else.
+
+use crate::frame::Frame;
+use crate::queue::Bounded;
+use crate::time::{earliest, Instant};
+use core::convert::Infallible;
+use core::fmt;
+
+/// A protocol machine on one logical bus.
+pub trait Machine {
+    /// What the machine tells its application.
+    type Event;
+    /// A frame arrived from the (logical) bus.
+    fn handle_frame(&mut self, now: Instant, frame: &Frame);
+    /// Time passed; do what is due at `now`.
+    fn handle_timeout(&mut self, now: Instant);
+    /// Next frame to put on the bus.
+    fn poll_transmit(&mut self) -> Option<Frame>;
+    /// Earliest instant at which `handle_timeout` has work, if any.
+    fn poll_timeout(&self) -> Option<Instant>;
+    /// Next event for the application.
+    fn poll_event(&mut self) -> Option<Self::Event>;
+}
+
+/// Why a port failed to send, or what a controller reported (SocketCAN error frames, simulated
+/// faults, `embedded-can` error kinds).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum ErrorCause {
+    /// The controller went bus-off.
+    BusOff,
+    /// The controller is error passive.
+    ErrorPassive,
+    /// An error counter passed the warning level.
+    ErrorWarning,
+    /// Nobody acknowledged the frame (alone on the bus, or the bus is cut).
+    NoAck,
+    /// Bit error (sent one level, read the other).
+    Bit,
+    /// Stuff error.
+    Stuff,
+    /// Form error.
+    Form,
+    /// CRC error.
+    Crc,
+    /// Receive overflow: frames were lost in the controller or driver.
+    RxOverflow,
+    /// Transmission did not complete in time.
+    TxTimeout,
+    /// The bus is stuck dominant or transceiver failure.
+    Transceiver,
+    /// The network interface is down or missing.
+    InterfaceDown,
+    /// The controller restarted after bus-off.
+    Restarted,
+    /// Anything else the driver reported.
+    Other,
+}
+
+impl fmt::Display for ErrorCause {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(match self {
+            ErrorCause::BusOff => "bus-off",
+            ErrorCause::ErrorPassive => "error passive",
+            ErrorCause::ErrorWarning => "error warning",
+            ErrorCause::NoAck => "no acknowledge",
+            ErrorCause::Bit => "bit error",
+            ErrorCause::Stuff => "stuff error",
+            ErrorCause::Form => "form error",
+            ErrorCause::Crc => "CRC error",
+            ErrorCause::RxOverflow => "receive overflow",
+            ErrorCause::TxTimeout => "transmit timeout",
+            ErrorCause::Transceiver => "transceiver fault",
+            ErrorCause::InterfaceDown => "interface down",
+            ErrorCause::Restarted => "controller restarted",
+            ErrorCause::Other => "controller error",
+        })
+    }
+}
+
+/// What a port driver reports besides received frames.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum PortStatus {
+    /// A frame was sent (acknowledged on the bus), where the driver can tell.
+    TxOk,
+    /// A frame could not be sent.
+    TxFailed(ErrorCause),
+    /// The controller reported an error (error frame, state change).
+    Error(ErrorCause),
+    /// The port is unusable (interface down, socket closed).
+    Down(ErrorCause),
+    /// The port is usable again (reopened, restarted, interface up).
+    Up,
+}
+
+/// What a device asks of a port driver.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum PortRequest {
+    /// Re-initialise the port: reopen the socket, restart the controller after bus-off.
+    Reinit,
+}
+
+/// Anything with CAN ports: what a driver runs.
+pub trait Device {
+    /// What the device tells its application.
+    type Event;
+    /// Number of CAN ports (1 for a plain node, 2 for a dual-bus device).
+    fn port_count(&self) -> usize;
+    /// A frame arrived on `port`.
+    fn handle_rx(&mut self, now: Instant, port: usize, frame: &Frame);
+    /// The driver of `port` reports something.
+    fn handle_port_status(&mut self, now: Instant, port: usize, status: PortStatus);
+    /// Time passed; do what is due at `now`.
+    fn handle_timeout(&mut self, now: Instant);
+    /// Next frame to send, with the port to send it on.
+    fn poll_transmit(&mut self) -> Option<(usize, Frame)>;
+    /// Next request to a port driver.
+    fn poll_port_request(&mut self) -> Option<(usize, PortRequest)> {
+        None
+    }
+    /// Earliest instant at which `handle_timeout` has work, if any.
+    fn poll_timeout(&self) -> Option<Instant>;
+    /// Next event for the application.
+    fn poll_event(&mut self) -> Option<Self::Event>;
+}
+
+/// The layer between ports and a logical bus: one port passed through, or two ports merged.
+pub trait BusLink {
+    /// What the layer reports (port health, channel switches).
+    type Event;
+    /// Number of ports below.
+    fn port_count(&self) -> usize;
+    /// A frame from `port`; returns the logical frame to deliver upward, if any.
+    fn handle_rx(&mut self, now: Instant, port: usize, frame: &Frame) -> Option<Frame>;
+    /// Port driver status.
+    fn handle_port_status(&mut self, now: Instant, port: usize, status: PortStatus);
+    /// A logical frame to send.
+    fn send(&mut self, now: Instant, frame: &Frame);
+    /// Next frame for a port.
+    fn poll_transmit(&mut self) -> Option<(usize, Frame)>;
+    /// Next request to a port driver.
+    fn poll_port_request(&mut self) -> Option<(usize, PortRequest)> {
+        None
+    }
+    /// Time passed.
+    fn handle_timeout(&mut self, now: Instant);
+    /// Earliest deadline.
+    fn poll_timeout(&self) -> Option<Instant>;
+    /// Next event.
+    fn poll_event(&mut self) -> Option<Self::Event>;
+}
+
+/// The trivial link: one port is the logical bus. Counts what the port reports.
+#[derive(Debug, Default)]
+pub struct SinglePort {
+    out: Bounded<Frame, 4>,
+    /// Frames received.
+    pub rx_frames: u64,
+    /// Frames reported sent.
+    pub tx_ok: u64,
+    /// Frames reported failed.
+    pub tx_failed: u64,
+    /// Last error the port reported.
+    pub last_error: Option<ErrorCause>,
+}
+
+impl SinglePort {
+    /// A pass-through link.
+    pub fn new() -> Self {
+        Self::default()
+    }
+}
+
+impl BusLink for SinglePort {
+    type Event = Infallible;
+    fn port_count(&self) -> usize {
+        1
+    }
+    fn handle_rx(&mut self, _: Instant, _: usize, frame: &Frame) -> Option<Frame> {
+        self.rx_frames += 1;
+        Some(*frame)
+    }
+    fn handle_port_status(&mut self, _: Instant, _: usize, status: PortStatus) {
+        match status {
+            PortStatus::TxOk => self.tx_ok += 1,
+            PortStatus::TxFailed(c) => {
+                self.tx_failed += 1;
+                self.last_error = Some(c);
+            }
+            PortStatus::Error(c) | PortStatus::Down(c) => self.last_error = Some(c),
+            PortStatus::Up => {}
+        }
+    }
+    fn send(&mut self, _: Instant, frame: &Frame) {
+        self.out.push(*frame);
+    }
+    fn poll_transmit(&mut self) -> Option<(usize, Frame)> {
+        self.out.pop().map(|f| (0, f))
+    }
+    fn handle_timeout(&mut self, _: Instant) {}
+    fn poll_timeout(&self) -> Option<Instant> {
+        None
+    }
+    fn poll_event(&mut self) -> Option<Infallible> {
+        None
+    }
+}
+
+/// An event of a [`Station`]: from its link or from its machine.
+#[derive(Clone, Debug, PartialEq)]
+pub enum StationEvent<L, M> {
+    /// From the bus link (port health, channel switch).
+    Link(L),
+    /// From the machine (node, supervisor).
+    Machine(M),
+}
+
+/// A machine on a link: the unit a driver runs.
+#[derive(Debug)]
+pub struct Station<L, M> {
+    /// The link below.
+    pub link: L,
+    /// The machine above.
+    pub machine: M,
+    now: Instant,
+}
+
+impl<M: Machine> Station<SinglePort, M> {
+    /// A machine on a single port.
+    pub fn single(machine: M) -> Self {
+        Station::new(SinglePort::new(), machine)
+    }
+}
+
+impl<L: BusLink, M: Machine> Station<L, M> {
+    /// A machine on a link.
+    pub fn new(link: L, machine: M) -> Self {
+        Station {
+            link,
+            machine,
+            now: Instant::ZERO,
+        }
+    }
+}
+
+impl<L: BusLink, M: Machine> Device for Station<L, M> {
+    type Event = StationEvent<L::Event, M::Event>;
+
+    fn port_count(&self) -> usize {
+        self.link.port_count()
+    }
+    fn handle_rx(&mut self, now: Instant, port: usize, frame: &Frame) {
+        self.now = now;
+        if let Some(f) = self.link.handle_rx(now, port, frame) {
+            self.machine.handle_frame(now, &f);
+        }
+    }
+    fn handle_port_status(&mut self, now: Instant, port: usize, status: PortStatus) {
+        self.now = now;
+        self.link.handle_port_status(now, port, status);
+    }
+    fn handle_timeout(&mut self, now: Instant) {
+        self.now = now;
+        self.link.handle_timeout(now);
+        self.machine.handle_timeout(now);
+    }
+    fn poll_transmit(&mut self) -> Option<(usize, Frame)> {
+        loop {
+            if let Some(x) = self.link.poll_transmit() {
+                return Some(x);
+            }
+            let f = self.machine.poll_transmit()?;
+            self.link.send(self.now, &f);
+        }
+    }
+    fn poll_port_request(&mut self) -> Option<(usize, PortRequest)> {
+        self.link.poll_port_request()
+    }
+    fn poll_timeout(&self) -> Option<Instant> {
+        earliest(self.link.poll_timeout(), self.machine.poll_timeout())
+    }
+    fn poll_event(&mut self) -> Option<Self::Event> {
+        if let Some(e) = self.link.poll_event() {
+            return Some(StationEvent::Link(e));
+        }
+        self.machine.poll_event().map(StationEvent::Machine)
+    }
+}

@@ -1,0 +1,288 @@
+//! Entry definitions: data types, access, limits, defaults, hooks. All `const`-constructible so a
+//! dictionary's definitions can live in flash as a compile-time table.
+
+use crate::abort::AbortCode;
+
+/// CiA 301 data types (the numbers are the type indices of 0x0001–0x001B).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+#[repr(u16)]
+pub enum DataType {
+    /// BOOLEAN (1 byte on the wire, 0 or 1).
+    Boolean = 0x0001,
+    /// INTEGER8.
+    Integer8 = 0x0002,
+    /// INTEGER16.
+    Integer16 = 0x0003,
+    /// INTEGER32.
+    Integer32 = 0x0004,
+    /// UNSIGNED8.
+    Unsigned8 = 0x0005,
+    /// UNSIGNED16.
+    Unsigned16 = 0x0006,
+    /// UNSIGNED32.
+    Unsigned32 = 0x0007,
+    /// REAL32.
+    Real32 = 0x0008,
+    /// VISIBLE_STRING.
+    VisibleString = 0x0009,
+    /// OCTET_STRING.
+    OctetString = 0x000A,
+    /// DOMAIN.
+    Domain = 0x000F,
+    /// REAL64.
+    Real64 = 0x0011,
+    /// INTEGER64.
+    Integer64 = 0x0015,
+    /// UNSIGNED64.
+    Unsigned64 = 0x001B,
+}
+
+impl DataType {
+    /// Size in bytes of fixed-size types; `None` for strings and domains.
+    pub const fn fixed_size(self) -> Option<usize> {
+        use DataType::*;
+        match self {
+            Boolean | Integer8 | Unsigned8 => Some(1),
+            Integer16 | Unsigned16 => Some(2),
+            Integer32 | Unsigned32 | Real32 => Some(4),
+            Integer64 | Unsigned64 | Real64 => Some(8),
+            VisibleString | OctetString | Domain => None,
+        }
+    }
+    /// Size in bits, as a PDO mapping entry states it; `None` for variable-size types.
+    pub const fn bit_size(self) -> Option<u32> {
+        match self {
+            DataType::Boolean => Some(1),
+            _ => match self.fixed_size() {
+                Some(n) => Some(n as u32 * 8),
+                None => None,
+            },
+        }
+    }
+    /// The data type with CiA 301 type index `code`, if it is one this stack supports.
+    pub const fn from_code(code: u16) -> Option<DataType> {
+        use DataType::*;
+        Some(match code {
+            0x01 => Boolean,
+            0x02 => Integer8,
+            0x03 => Integer16,
+            0x04 => Integer32,
+            0x05 => Unsigned8,
+            0x06 => Unsigned16,
+            0x07 => Unsigned32,
+            0x08 => Real32,
+            0x09 => VisibleString,
+            0x0A => OctetString,
+            0x0F => Domain,
+            0x11 => Real64,
+            0x15 => Integer64,
+            0x1B => Unsigned64,
+            _ => return None,
+        })
+    }
+    pub(crate) const fn is_signed(self) -> bool {
+        matches!(
+            self,
+            DataType::Integer8 | DataType::Integer16 | DataType::Integer32 | DataType::Integer64
+        )
+    }
+    pub(crate) const fn is_real(self) -> bool {
+        matches!(self, DataType::Real32 | DataType::Real64)
+    }
+}
+
+/// Access right of an entry, as seen from the bus (SDO). The stack itself may update read-only
+/// entries (error register, error history) through the dictionary's local write.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum Access {
+    /// Read only; may change at run time (e.g. 0x1001).
+    Ro,
+    /// Write only.
+    Wo,
+    /// Read and write.
+    Rw,
+    /// Read only and never changes.
+    Const,
+}
+
+impl Access {
+    /// True if an SDO upload may read it.
+    pub const fn readable(self) -> bool {
+        !matches!(self, Access::Wo)
+    }
+    /// True if an SDO download may write it.
+    pub const fn writable(self) -> bool {
+        matches!(self, Access::Wo | Access::Rw)
+    }
+}
+
+/// The object an entry belongs to.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum ObjectType {
+    /// A single value at sub-index 0.
+    Var,
+    /// Sub 0 holds the count; subs 1.. share one type.
+    Array,
+    /// Sub 0 holds the highest sub-index; subs 1.. have their own types.
+    Record,
+}
+
+/// A default value. `NodeIdPlus(x)` is `x + node-ID`, the CiA 306 `$NODEID+x` form, so one
+/// compile-time table serves every node.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum DefaultValue {
+    /// All-zero bytes (empty for strings and domains).
+    Zero,
+    /// An unsigned number (also booleans).
+    Unsigned(u64),
+    /// A signed number.
+    Signed(i64),
+    /// A floating-point number.
+    Real(f64),
+    /// Raw bytes (strings, domains).
+    Bytes(&'static [u8]),
+    /// `x + node-ID`.
+    NodeIdPlus(u32),
+}
+
+/// A value limit, compared in the entry's own type.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Limit {
+    /// For unsigned types.
+    Unsigned(u64),
+    /// For signed types.
+    Signed(i64),
+    /// For real types.
+    Real(f64),
+}
+
+/// A hook that may veto a write: it sees the new value (already type- and limit-checked) and
+/// answers with the abort code to refuse it. Plain function pointers keep the table `const` and
+/// `no_std`; reactions to accepted writes are events ([`crate::node::NodeEvent`]), not callbacks.
+pub type WriteHook = fn(index: u16, sub: u8, data: &[u8]) -> Result<(), AbortCode>;
+
+/// The definition of one dictionary entry (index, sub-index).
+#[derive(Clone, Copy, Debug)]
+pub struct ObjectDef {
+    /// Object index.
+    pub index: u16,
+    /// Sub-index.
+    pub sub: u8,
+    /// The kind of object the entry belongs to.
+    pub object_type: ObjectType,
+    /// Data type.
+    pub data_type: DataType,
+    /// Access right from the bus.
+    pub access: Access,
+    /// May be mapped into a PDO.
+    pub pdo_mappable: bool,
+    /// Value after reset.
+    pub default: DefaultValue,
+    /// Lowest accepted value (numeric types).
+    pub low: Option<Limit>,
+    /// Highest accepted value (numeric types).
+    pub high: Option<Limit>,
+    /// Largest size in bytes for strings and domains (fixed types ignore it).
+    pub capacity: u32,
+    /// Human-readable name (EDS `ParameterName`).
+    pub name: &'static str,
+    /// Optional veto on writes.
+    pub hook: Option<WriteHook>,
+}
+
+impl ObjectDef {
+    /// A VAR entry with a zero default, read-write, not mappable.
+    pub const fn new(index: u16, sub: u8, data_type: DataType) -> ObjectDef {
+        ObjectDef {
+            index,
+            sub,
+            object_type: ObjectType::Var,
+            data_type,
+            access: Access::Rw,
+            pdo_mappable: false,
+            default: DefaultValue::Zero,
+            low: None,
+            high: None,
+            capacity: 0,
+            name: "",
+            hook: None,
+        }
+    }
+    /// UNSIGNED8 entry with a default.
+    pub const fn u8(index: u16, sub: u8, access: Access, default: u8) -> ObjectDef {
+        ObjectDef::new(index, sub, DataType::Unsigned8)
+            .access(access)
+            .default(DefaultValue::Unsigned(default as u64))
+    }
+    /// UNSIGNED16 entry with a default.
+    pub const fn u16(index: u16, sub: u8, access: Access, default: u16) -> ObjectDef {
+        ObjectDef::new(index, sub, DataType::Unsigned16)
+            .access(access)
+            .default(DefaultValue::Unsigned(default as u64))
+    }
+    /// UNSIGNED32 entry with a default.
+    pub const fn u32(index: u16, sub: u8, access: Access, default: u32) -> ObjectDef {
+        ObjectDef::new(index, sub, DataType::Unsigned32)
+            .access(access)
+            .default(DefaultValue::Unsigned(default as u64))
+    }
+    /// A string or domain entry holding at most `capacity` bytes.
+    pub const fn bytes(index: u16, sub: u8, data_type: DataType, capacity: u32) -> ObjectDef {
+        let mut d = ObjectDef::new(index, sub, data_type);
+        d.capacity = capacity;
+        d
+    }
+    /// Sets the access right.
+    pub const fn access(mut self, access: Access) -> ObjectDef {
+        self.access = access;
+        self
+    }
+    /// Sets the default value.
+    pub const fn default(mut self, default: DefaultValue) -> ObjectDef {
+        self.default = default;
+        self
+    }
+    /// Marks the entry PDO-mappable.
+    pub const fn mappable(mut self) -> ObjectDef {
+        self.pdo_mappable = true;
+        self
+    }
+    /// Sets the object type (for sub-entries of arrays and records).
+    pub const fn object_type(mut self, t: ObjectType) -> ObjectDef {
+        self.object_type = t;
+        self
+    }
+    /// Sets the accepted range.
+    pub const fn limits(mut self, low: Limit, high: Limit) -> ObjectDef {
+        self.low = Some(low);
+        self.high = Some(high);
+        self
+    }
+    /// Sets the name.
+    pub const fn named(mut self, name: &'static str) -> ObjectDef {
+        self.name = name;
+        self
+    }
+    /// Installs a write veto hook.
+    pub const fn hook(mut self, hook: WriteHook) -> ObjectDef {
+        self.hook = Some(hook);
+        self
+    }
+    /// The dictionary key: `index << 8 | sub`.
+    pub const fn key(&self) -> u32 {
+        key(self.index, self.sub)
+    }
+    /// Bytes needed to hold the value: the fixed size or the capacity.
+    pub const fn storage_size(&self) -> usize {
+        match self.data_type.fixed_size() {
+            Some(n) => n,
+            None => self.capacity as usize,
+        }
+    }
+}
+
+/// The dictionary key of (index, sub-index).
+#[inline(always)]
+pub const fn key(index: u16, sub: u8) -> u32 {
+    ((index as u32) << 8) | sub as u32
+}

@@ -1,0 +1,197 @@
+//! The dynamic dictionary (`alloc`): entries inserted and removed at run time. A master starts
+//! with its own ~1,300 entries and adds a handful per slave as slaves join.
+
+use super::def::{key, ObjectDef};
+use super::{miss, value, BuildError, Entry, ObjectDictionary};
+use crate::abort::AbortCode;
+use alloc::vec::Vec;
+use core::hash::{BuildHasherDefault, Hasher};
+use core::ops::RangeInclusive;
+
+/// A multiplicative hasher for the 32-bit keys: one multiply, no per-lookup seed. The keys are
+/// dictionary addresses chosen by the application, not attacker input, so DoS resistance buys
+/// nothing here and costs a third of the lookup time.
+#[derive(Default, Clone, Copy)]
+pub struct KeyHasher(u64);
+
+impl Hasher for KeyHasher {
+    fn finish(&self) -> u64 {
+        self.0
+    }
+    fn write(&mut self, bytes: &[u8]) {
+        for &b in bytes {
+            self.0 = (self.0.rotate_left(8) ^ b as u64).wrapping_mul(0x9E37_79B9_7F4A_7C15);
+        }
+    }
+    fn write_u32(&mut self, k: u32) {
+        // Fibonacci hashing; hashbrown takes its control byte from the top bits.
+        self.0 = (k as u64).wrapping_mul(0x9E37_79B9_7F4A_7C15);
+    }
+}
+
+struct DynEntry {
+    def: ObjectDef,
+    data: Vec<u8>,
+}
+
+/// A heap-backed dictionary whose entries can be inserted and removed while running.
+#[derive(Default)]
+pub struct DynamicDictionary {
+    map: hashbrown::HashMap<u32, DynEntry, BuildHasherDefault<KeyHasher>>,
+    node_id: u8,
+}
+
+impl DynamicDictionary {
+    /// An empty dictionary for `node_id` (used by `$NODEID`-relative defaults).
+    pub fn new(node_id: u8) -> Self {
+        DynamicDictionary {
+            map: Default::default(),
+            node_id,
+        }
+    }
+
+    /// A dictionary filled from definition tables.
+    pub fn from_tables(node_id: u8, tables: &[&[ObjectDef]]) -> Result<Self, BuildError> {
+        let mut od = Self::new(node_id);
+        for t in tables {
+            od.insert_all(t)?;
+        }
+        Ok(od)
+    }
+
+    /// Inserts one entry with its default value. A key that exists is an error.
+    pub fn insert(&mut self, def: ObjectDef) -> Result<(), BuildError> {
+        let k = def.key();
+        if self.map.contains_key(&k) {
+            return Err(BuildError::Duplicate {
+                index: def.index,
+                sub: def.sub,
+            });
+        }
+        let data = default_bytes(&def, self.node_id);
+        self.map.insert(k, DynEntry { def, data });
+        Ok(())
+    }
+
+    /// Inserts or replaces one entry (value reset to the default).
+    pub fn upsert(&mut self, def: ObjectDef) {
+        let data = default_bytes(&def, self.node_id);
+        self.map.insert(def.key(), DynEntry { def, data });
+    }
+
+    /// Inserts every definition of a table.
+    pub fn insert_all(&mut self, defs: &[ObjectDef]) -> Result<(), BuildError> {
+        self.map.reserve(defs.len());
+        for d in defs {
+            self.insert(*d)?;
+        }
+        Ok(())
+    }
+
+    /// Removes one entry; returns its definition if it existed.
+    pub fn remove(&mut self, index: u16, sub: u8) -> Option<ObjectDef> {
+        self.map.remove(&key(index, sub)).map(|e| e.def)
+    }
+
+    /// Removes every sub-index of an object; returns how many entries went.
+    pub fn remove_object(&mut self, index: u16) -> usize {
+        let before = self.map.len();
+        self.map.retain(|_, e| e.def.index != index);
+        before - self.map.len()
+    }
+
+    /// Sets the node-ID used by `$NODEID` defaults; takes effect at the next reset of the range.
+    pub fn set_node_id(&mut self, node_id: u8) {
+        self.node_id = node_id;
+    }
+}
+
+fn default_bytes(def: &ObjectDef, node_id: u8) -> Vec<u8> {
+    let mut data = alloc::vec![0u8; def.storage_size()];
+    let n = value::encode_default(def, node_id, &mut data);
+    data.truncate(n);
+    data
+}
+
+impl ObjectDictionary for DynamicDictionary {
+    #[inline]
+    fn get(&self, index: u16, sub: u8) -> Result<Entry<'_>, AbortCode> {
+        match self.map.get(&key(index, sub)) {
+            Some(e) => Ok(Entry {
+                def: &e.def,
+                data: &e.data,
+            }),
+            None => Err(miss(self.map.contains_key(&key(index, 0)))),
+        }
+    }
+
+    fn store(&mut self, index: u16, sub: u8, data: &[u8]) -> Result<(), AbortCode> {
+        let has_index = self.map.contains_key(&key(index, 0));
+        let e = self.map.get_mut(&key(index, sub)).ok_or(miss(has_index))?;
+        if data.len() > e.def.storage_size() {
+            return Err(AbortCode::LENGTH_TOO_HIGH);
+        }
+        e.data.clear();
+        e.data.extend_from_slice(data);
+        Ok(())
+    }
+
+    fn reset_range(&mut self, range: RangeInclusive<u16>) {
+        let node_id = self.node_id;
+        for e in self.map.values_mut() {
+            if range.contains(&e.def.index) {
+                e.data = default_bytes(&e.def, node_id);
+            }
+        }
+    }
+
+    fn node_id(&self) -> u8 {
+        self.node_id
+    }
+
+    fn for_each(&self, f: &mut dyn FnMut(Entry<'_>)) {
+        for e in self.map.values() {
+            f(Entry {
+                def: &e.def,
+                data: &e.data,
+            });
+        }
+    }
+
+    fn len(&self) -> usize {
+        self.map.len()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::od::{Access, DataType};
+
+    #[test]
+    fn entries_come_and_go_at_run_time() {
+        let mut od = DynamicDictionary::new(1);
+        od.insert(ObjectDef::u8(0x2100, 0, Access::Ro, 2)).unwrap();
+        od.insert(ObjectDef::u32(0x2100, 1, Access::Rw, 7)).unwrap();
+        od.insert(ObjectDef::u32(0x2100, 2, Access::Rw, 8)).unwrap();
+        assert_eq!(
+            od.insert(ObjectDef::u8(0x2100, 0, Access::Ro, 2)),
+            Err(BuildError::Duplicate { index: 0x2100, sub: 0 })
+        );
+        assert_eq!(od.get_value::<u32>(0x2100, 2), Ok(8));
+        assert!(od.remove(0x2100, 2).is_some());
+        assert_eq!(od.get(0x2100, 2).err(), Some(AbortCode::NO_SUB_INDEX));
+        assert_eq!(od.remove_object(0x2100), 2);
+        assert_eq!(od.get(0x2100, 1).err(), Some(AbortCode::NO_OBJECT));
+        assert!(od.is_empty());
+    }
+
+    #[test]
+    fn domain_capacity_is_enforced() {
+        let mut od = DynamicDictionary::new(1);
+        od.insert(ObjectDef::bytes(0x2200, 0, DataType::Domain, 1000)).unwrap();
+        od.write(0x2200, 0, &[7; 1000]).unwrap();
+        assert_eq!(od.read(0x2200, 0).map(<[u8]>::len), Ok(1000));
+        assert_eq!(od.write(0x2200, 0, &[7; 1001]), Err(AbortCode::LENGTH_TOO_HIGH));
+    }
+}

@@ -1,0 +1,183 @@
+//! The object dictionary: one interface ([`ObjectDictionary`]) over a static dictionary
+//! (compile-time definitions, fixed capacity, no heap) and a dynamic one (`alloc`: entries added
+//! and removed at run time, as a master grows its dictionary when slaves join).
+//!
+//! Values are stored as the little-endian bytes that travel on the bus, so SDO and PDO copy them
+//! without conversion. Lookup is a hash on `index << 8 | sub`, independent of dictionary size.
+
+pub mod comm;
+mod def;
+#[cfg(feature = "alloc")]
+mod dynamic;
+mod static_dict;
+mod value;
+
+pub use def::{
+    key, Access, DataType, DefaultValue, Limit, ObjectDef, ObjectType, WriteHook,
+};
+#[cfg(feature = "alloc")]
+pub use dynamic::DynamicDictionary;
+pub use static_dict::StaticDictionary;
+pub use value::{check_value, OdValue};
+
+use crate::abort::AbortCode;
+use core::fmt;
+use core::ops::RangeInclusive;
+
+/// Why a dictionary could not be built or extended.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum BuildError {
+    /// The same (index, sub-index) was defined twice.
+    Duplicate {
+        /// Index.
+        index: u16,
+        /// Sub-index.
+        sub: u8,
+    },
+    /// The static dictionary's entry capacity is exhausted.
+    TooManyEntries {
+        /// The capacity.
+        capacity: usize,
+    },
+    /// The static dictionary's value storage is exhausted.
+    OutOfStorage {
+        /// Index of the entry that did not fit.
+        index: u16,
+        /// Sub-index of the entry that did not fit.
+        sub: u8,
+        /// Bytes of storage the dictionary has.
+        capacity: usize,
+    },
+}
+
+impl fmt::Display for BuildError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            BuildError::Duplicate { index, sub } => {
+                write!(f, "entry {index:#06x}sub{sub} is defined twice")
+            }
+            BuildError::TooManyEntries { capacity } => write!(
+                f,
+                "dictionary holds at most {capacity} entries: raise the entry capacity parameter"
+            ),
+            BuildError::OutOfStorage { index, sub, capacity } => write!(
+                f,
+                "entry {index:#06x}sub{sub} does not fit the {capacity}-byte value storage: raise the storage parameter"
+            ),
+        }
+    }
+}
+
+/// An entry as found: its definition and its current value bytes.
+#[derive(Clone, Copy, Debug)]
+pub struct Entry<'a> {
+    /// The definition.
+    pub def: &'a ObjectDef,
+    /// Current value, little-endian.
+    pub data: &'a [u8],
+}
+
+/// What every dictionary provides. Required methods are the storage; the provided ones are the
+/// CiA 301 semantics (access rights, type/length/limit checks, hooks) shared by all of them.
+pub trait ObjectDictionary {
+    /// Looks up (index, sub-index) without any access check. Errors: [`AbortCode::NO_OBJECT`] if
+    /// the index is absent, [`AbortCode::NO_SUB_INDEX`] if only the sub-index is.
+    fn get(&self, index: u16, sub: u8) -> Result<Entry<'_>, AbortCode>;
+
+    /// Replaces the stored value without any check but capacity (the caller checked).
+    fn store(&mut self, index: u16, sub: u8, data: &[u8]) -> Result<(), AbortCode>;
+
+    /// Restores the defaults of every entry whose index is in `range` (reset node / reset
+    /// communication).
+    fn reset_range(&mut self, range: RangeInclusive<u16>);
+
+    /// The node-ID used for `$NODEID`-relative defaults.
+    fn node_id(&self) -> u8;
+
+    /// Calls `f` for every entry, in no particular order.
+    fn for_each(&self, f: &mut dyn FnMut(Entry<'_>));
+
+    /// Number of entries.
+    fn len(&self) -> usize;
+
+    /// True when empty.
+    fn is_empty(&self) -> bool {
+        self.len() == 0
+    }
+
+    /// Reads as an SDO upload would: refuses write-only entries.
+    fn read(&self, index: u16, sub: u8) -> Result<&[u8], AbortCode> {
+        let e = self.get(index, sub)?;
+        if !e.def.access.readable() {
+            return Err(AbortCode::WRITE_ONLY);
+        }
+        Ok(e.data)
+    }
+
+    /// Writes as an SDO download would: access right, type, length, limits, hook.
+    fn write(&mut self, index: u16, sub: u8, data: &[u8]) -> Result<(), AbortCode> {
+        let e = self.get(index, sub)?;
+        if !e.def.access.writable() {
+            return Err(AbortCode::READ_ONLY);
+        }
+        check_value(e.def, data)?;
+        self.store(index, sub, data)
+    }
+
+    /// Writes as the device itself would: read-only entries may change, but type, length and
+    /// limits still hold (a `const` entry never changes).
+    fn write_local(&mut self, index: u16, sub: u8, data: &[u8]) -> Result<(), AbortCode> {
+        let e = self.get(index, sub)?;
+        if e.def.access == Access::Const {
+            return Err(AbortCode::READ_ONLY);
+        }
+        check_value(e.def, data)?;
+        self.store(index, sub, data)
+    }
+
+    /// Reads a fixed-size value as `T` (no access check: the device reading its own entry).
+    /// [`AbortCode::TYPE_MISMATCH`] if `T` is not the entry's type.
+    fn get_value<T: OdValue>(&self, index: u16, sub: u8) -> Result<T, AbortCode>
+    where
+        Self: Sized,
+    {
+        let e = self.get(index, sub)?;
+        if !value::compatible(e.def.data_type, T::TYPE) {
+            return Err(AbortCode::TYPE_MISMATCH);
+        }
+        T::decode(e.data).ok_or(AbortCode::TYPE_MISMATCH)
+    }
+
+    /// Writes a fixed-size value as the device itself (see [`ObjectDictionary::write_local`]).
+    fn set_value<T: OdValue>(&mut self, index: u16, sub: u8, v: T) -> Result<(), AbortCode>
+    where
+        Self: Sized,
+    {
+        let e = self.get(index, sub)?;
+        if !value::compatible(e.def.data_type, T::TYPE) {
+            return Err(AbortCode::TYPE_MISMATCH);
+        }
+        let mut buf = [0u8; 8];
+        let n = v.encode(&mut buf);
+        self.write_local(index, sub, &buf[..n])
+    }
+
+    /// Reads an entry of any unsigned integer type up to 32 bits, widened; for the stack's own
+    /// configuration reads (COB-IDs, times), which tolerate U8/U16/U32 variations.
+    fn get_u32(&self, index: u16, sub: u8) -> Option<u32> {
+        let e = self.get(index, sub).ok()?;
+        let mut b = [0u8; 4];
+        let n = e.data.len().min(4);
+        b[..n].copy_from_slice(&e.data[..n]);
+        Some(u32::from_le_bytes(b))
+    }
+}
+
+/// Shared lookup-miss logic: which abort code a missing (index, sub) deserves.
+pub(crate) fn miss(has_index: bool) -> AbortCode {
+    if has_index {
+        AbortCode::NO_SUB_INDEX
+    } else {
+        AbortCode::NO_OBJECT
+    }
+}
