@@ -227,9 +227,16 @@ mod tests {
         let c = CobId(0x8000_0181);
         assert!(!c.is_valid());
         assert_eq!(c.with_valid(true), CobId(0x181));
-        assert_eq!(CobId(0x4000_0080).bit30(), true);
-        assert_eq!(CobId::extended(0x1234567).can_id(), Some(Id::Extended(0x1234567)));
-        assert_eq!(CobId(0x0000_0800).can_id(), None, "11-bit COB-ID with bit 11 set");
+        assert!(CobId(0x4000_0080).bit30());
+        assert_eq!(
+            CobId::extended(0x1234567).can_id(),
+            Some(Id::Extended(0x1234567))
+        );
+        assert_eq!(
+            CobId(0x0000_0800).can_id(),
+            None,
+            "11-bit COB-ID with bit 11 set"
+        );
     }
 
     #[test]
@@ -245,7 +252,11 @@ mod tests {
         assert_eq!(classify(emcy(n)), Function::Emcy(n));
         assert_eq!(classify(Id::Standard(0x80)), Function::Sync);
         assert_eq!(classify(Id::Standard(0x71)), Function::Other);
-        assert_eq!(classify(Id::Standard(0x700)), Function::Other, "node 0 is not a node");
+        assert_eq!(
+            classify(Id::Standard(0x700)),
+            Function::Other,
+            "node 0 is not a node"
+        );
         assert_eq!(tpdo(2, n), Id::Standard(0x292));
         assert_eq!(rpdo(3, n), Id::Standard(0x412));
     }

@@ -228,10 +228,12 @@ impl From<Id> for embedded_can::Id {
         // through `Id::standard`/`Id::extended`; out-of-range variants built by hand are masked.
         match id {
             Id::Standard(r) => embedded_can::Id::Standard(
-                embedded_can::StandardId::new(r & STANDARD_ID_MAX).unwrap_or(embedded_can::StandardId::ZERO),
+                embedded_can::StandardId::new(r & STANDARD_ID_MAX)
+                    .unwrap_or(embedded_can::StandardId::ZERO),
             ),
             Id::Extended(r) => embedded_can::Id::Extended(
-                embedded_can::ExtendedId::new(r & EXTENDED_ID_MAX).unwrap_or(embedded_can::ExtendedId::ZERO),
+                embedded_can::ExtendedId::new(r & EXTENDED_ID_MAX)
+                    .unwrap_or(embedded_can::ExtendedId::ZERO),
             ),
         }
     }
@@ -324,15 +326,18 @@ pub(crate) mod tests {
             (0u16..=STANDARD_ID_MAX).prop_map(Id::Standard),
             (0u32..=EXTENDED_ID_MAX).prop_map(Id::Extended),
         ];
-        (id, any::<bool>(), proptest::collection::vec(any::<u8>(), 0..=8)).prop_map(
-            |(id, rtr, data)| {
+        (
+            id,
+            any::<bool>(),
+            proptest::collection::vec(any::<u8>(), 0..=8),
+        )
+            .prop_map(|(id, rtr, data)| {
                 if rtr {
                     Frame::remote(id, data.len() as u8).unwrap()
                 } else {
                     Frame::new(id, &data).unwrap()
                 }
-            },
-        )
+            })
     }
 
     proptest! {

@@ -17,15 +17,24 @@ extern crate alloc;
 
 pub mod abort;
 pub mod cob_id;
+pub mod emcy;
 pub mod frame;
+pub mod guarding;
+pub mod heartbeat;
 pub mod machine;
+pub mod nmt;
+pub mod node;
 pub mod od;
 pub mod profile;
 pub mod queue;
+pub mod sync;
 pub mod time;
+pub mod time_stamp;
 
 pub use abort::AbortCode;
 pub use cob_id::{CobId, NodeId};
 pub use frame::{Frame, Id};
 pub use machine::{BusLink, Device, Machine, PortStatus, Station};
+pub use nmt::{NmtCommand, NmtState, NmtTarget};
+pub use node::{Node, NodeConfig, NodeEvent, NodeEventKind};
 pub use time::{Duration, Instant};

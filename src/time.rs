@@ -177,13 +177,22 @@ mod tests {
     fn arithmetic_saturates_instead_of_wrapping() {
         assert_eq!(Instant::MAX + Duration::from_secs(1), Instant::MAX);
         assert_eq!(Instant::ZERO - Duration::from_secs(1), Instant::ZERO);
-        assert_eq!(Instant::from_millis(5) - Instant::from_millis(7), Duration::ZERO);
-        assert_eq!(Instant::from_millis(7) - Instant::from_millis(5), Duration::from_millis(2));
+        assert_eq!(
+            Instant::from_millis(5) - Instant::from_millis(7),
+            Duration::ZERO
+        );
+        assert_eq!(
+            Instant::from_millis(7) - Instant::from_millis(5),
+            Duration::from_millis(2)
+        );
     }
 
     #[test]
     fn display_is_seconds_with_micros() {
-        assert_eq!(format!("{}", Instant::from_micros(12_000_150)), "12.000150s");
+        assert_eq!(
+            format!("{}", Instant::from_micros(12_000_150)),
+            "12.000150s"
+        );
         assert_eq!(format!("{}", Duration::from_micros(1_500)), "1.500ms");
         assert_eq!(format!("{}", Duration::from_millis(10)), "10ms");
     }

@@ -97,8 +97,42 @@ fn sync_overflow_value(_: u16, _: u8, data: &[u8]) -> Result<(), AbortCode> {
     }
 }
 
+/// What a device says it is: 0x1000 and 0x1018.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
+pub struct Identity {
+    /// 0x1000 device type.
+    pub device_type: u32,
+    /// 0x1018 sub 1.
+    pub vendor: u32,
+    /// 0x1018 sub 2.
+    pub product: u32,
+    /// 0x1018 sub 3.
+    pub revision: u32,
+    /// 0x1018 sub 4.
+    pub serial: u32,
+}
+
+impl Identity {
+    /// The six definitions of 0x1000 and 0x1018.
+    pub const fn defs(&self) -> [ObjectDef; 6] {
+        identity(
+            self.device_type,
+            self.vendor,
+            self.product,
+            self.revision,
+            self.serial,
+        )
+    }
+}
+
 /// 0x1000 device type and the 0x1018 identity record.
-pub const fn identity(device_type: u32, vendor: u32, product: u32, revision: u32, serial: u32) -> [ObjectDef; 6] {
+pub const fn identity(
+    device_type: u32,
+    vendor: u32,
+    product: u32,
+    revision: u32,
+    serial: u32,
+) -> [ObjectDef; 6] {
     const fn sub(sub: u8, v: u32, name: &'static str) -> ObjectDef {
         ObjectDef::u32(IDENTITY, sub, Access::Const, v)
             .object_type(ObjectType::Record)
@@ -155,5 +189,41 @@ fn only_zero(_: u16, _: u8, data: &[u8]) -> Result<(), AbortCode> {
         Ok(())
     } else {
         Err(AbortCode::VALUE_RANGE)
+    }
+}
+
+/// A complete dynamic dictionary of the communication objects: [`communication`], the identity,
+/// a 127-entry heartbeat consumer table and an 8-slot error history. Application entries are
+/// inserted on top of it.
+#[cfg(feature = "alloc")]
+pub fn standard_dictionary(node_id: u8, id: Identity) -> super::DynamicDictionary {
+    let mut od = super::DynamicDictionary::new(node_id);
+    // Every key in these tables is distinct, so the inserts cannot fail.
+    let _ = od.insert_all(&communication());
+    let _ = od.insert_all(&id.defs());
+    let _ = od.insert_all(&heartbeat_consumers::<128>());
+    let _ = od.insert_all(&error_history::<9>());
+    od
+}
+
+#[cfg(all(test, feature = "alloc"))]
+mod tests {
+    use super::*;
+    use crate::od::ObjectDictionary;
+
+    #[test]
+    fn standard_dictionary_is_complete() {
+        let od = standard_dictionary(
+            5,
+            Identity {
+                vendor: 7,
+                ..Identity::default()
+            },
+        );
+        assert_eq!(od.len(), COMM_LEN + 6 + 128 + 9);
+        assert_eq!(od.get_value::<u32>(EMCY_COB_ID, 0), Ok(0x85));
+        assert_eq!(od.get_value::<u32>(SDO_SERVER, 1), Ok(0x605));
+        assert_eq!(od.get_value::<u32>(IDENTITY, 1), Ok(7));
+        assert_eq!(od.get_value::<u8>(HEARTBEAT_CONSUMER, 0), Ok(127));
     }
 }

@@ -176,7 +176,10 @@ mod tests {
         od.insert(ObjectDef::u32(0x2100, 2, Access::Rw, 8)).unwrap();
         assert_eq!(
             od.insert(ObjectDef::u8(0x2100, 0, Access::Ro, 2)),
-            Err(BuildError::Duplicate { index: 0x2100, sub: 0 })
+            Err(BuildError::Duplicate {
+                index: 0x2100,
+                sub: 0
+            })
         );
         assert_eq!(od.get_value::<u32>(0x2100, 2), Ok(8));
         assert!(od.remove(0x2100, 2).is_some());
@@ -189,9 +192,13 @@ mod tests {
     #[test]
     fn domain_capacity_is_enforced() {
         let mut od = DynamicDictionary::new(1);
-        od.insert(ObjectDef::bytes(0x2200, 0, DataType::Domain, 1000)).unwrap();
+        od.insert(ObjectDef::bytes(0x2200, 0, DataType::Domain, 1000))
+            .unwrap();
         od.write(0x2200, 0, &[7; 1000]).unwrap();
         assert_eq!(od.read(0x2200, 0).map(<[u8]>::len), Ok(1000));
-        assert_eq!(od.write(0x2200, 0, &[7; 1001]), Err(AbortCode::LENGTH_TOO_HIGH));
+        assert_eq!(
+            od.write(0x2200, 0, &[7; 1001]),
+            Err(AbortCode::LENGTH_TOO_HIGH)
+        );
     }
 }

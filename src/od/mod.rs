@@ -12,9 +12,7 @@ mod dynamic;
 mod static_dict;
 mod value;
 
-pub use def::{
-    key, Access, DataType, DefaultValue, Limit, ObjectDef, ObjectType, WriteHook,
-};
+pub use def::{key, Access, DataType, DefaultValue, Limit, ObjectDef, ObjectType, WriteHook};
 #[cfg(feature = "alloc")]
 pub use dynamic::DynamicDictionary;
 pub use static_dict::StaticDictionary;

@@ -187,15 +187,24 @@ mod tests {
         let mut od = StaticDictionary::<8, 64>::new();
         od.load(3, &[&TABLE]).unwrap();
         assert_eq!(od.write(0x2000, 1, &[1]), Err(AbortCode::READ_ONLY));
-        assert_eq!(od.write(0x2000, 0, &[1, 2]), Err(AbortCode::LENGTH_TOO_HIGH));
-        assert_eq!(od.write(0x2001, 0, b"123456789"), Err(AbortCode::LENGTH_TOO_HIGH));
+        assert_eq!(
+            od.write(0x2000, 0, &[1, 2]),
+            Err(AbortCode::LENGTH_TOO_HIGH)
+        );
+        assert_eq!(
+            od.write(0x2001, 0, b"123456789"),
+            Err(AbortCode::LENGTH_TOO_HIGH)
+        );
         od.write(0x2001, 0, b"hello").unwrap();
         od.write_local(0x2000, 1, &[5]).unwrap();
         assert_eq!(od.read(0x2001, 0), Ok(&b"hello"[..]));
         od.reset_range(0x2000..=0x2FFF);
         assert_eq!(od.read(0x2001, 0), Ok(&b"abc"[..]));
         assert_eq!(od.get_value::<u8>(0x2000, 1), Ok(9));
-        assert_eq!(od.get_value::<u16>(0x2000, 1), Err(AbortCode::TYPE_MISMATCH));
+        assert_eq!(
+            od.get_value::<u16>(0x2000, 1),
+            Err(AbortCode::TYPE_MISMATCH)
+        );
     }
 
     #[test]
@@ -213,7 +222,10 @@ mod tests {
         let mut od = StaticDictionary::<8, 64>::new();
         assert_eq!(
             od.load(3, &[&TABLE, &TABLE]),
-            Err(BuildError::Duplicate { index: 0x1014, sub: 0 })
+            Err(BuildError::Duplicate {
+                index: 0x1014,
+                sub: 0
+            })
         );
     }
 }

@@ -179,19 +179,34 @@ mod tests {
             .limits(Limit::Unsigned(10), Limit::Unsigned(1000));
         assert_eq!(check_value(&d, &[1]), Err(AbortCode::LENGTH_TOO_LOW));
         assert_eq!(check_value(&d, &[1, 0, 0]), Err(AbortCode::LENGTH_TOO_HIGH));
-        assert_eq!(check_value(&d, &5u16.to_le_bytes()), Err(AbortCode::VALUE_TOO_LOW));
-        assert_eq!(check_value(&d, &1001u16.to_le_bytes()), Err(AbortCode::VALUE_TOO_HIGH));
+        assert_eq!(
+            check_value(&d, &5u16.to_le_bytes()),
+            Err(AbortCode::VALUE_TOO_LOW)
+        );
+        assert_eq!(
+            check_value(&d, &1001u16.to_le_bytes()),
+            Err(AbortCode::VALUE_TOO_HIGH)
+        );
         assert_eq!(check_value(&d, &1000u16.to_le_bytes()), Ok(()));
 
         let s = ObjectDef::new(0x2001, 0, DataType::Integer16)
             .limits(Limit::Signed(-5), Limit::Signed(5));
-        assert_eq!(check_value(&s, &(-6i16).to_le_bytes()), Err(AbortCode::VALUE_TOO_LOW));
+        assert_eq!(
+            check_value(&s, &(-6i16).to_le_bytes()),
+            Err(AbortCode::VALUE_TOO_LOW)
+        );
         assert_eq!(check_value(&s, &(-5i16).to_le_bytes()), Ok(()));
 
-        let r = ObjectDef::new(0x2002, 0, DataType::Real32)
-            .limits(Limit::Real(-1.0), Limit::Real(1.0));
-        assert_eq!(check_value(&r, &1.5f32.to_le_bytes()), Err(AbortCode::VALUE_TOO_HIGH));
-        assert_eq!(check_value(&r, &f32::NAN.to_le_bytes()), Err(AbortCode::VALUE_TOO_HIGH));
+        let r =
+            ObjectDef::new(0x2002, 0, DataType::Real32).limits(Limit::Real(-1.0), Limit::Real(1.0));
+        assert_eq!(
+            check_value(&r, &1.5f32.to_le_bytes()),
+            Err(AbortCode::VALUE_TOO_HIGH)
+        );
+        assert_eq!(
+            check_value(&r, &f32::NAN.to_le_bytes()),
+            Err(AbortCode::VALUE_TOO_HIGH)
+        );
 
         let b = ObjectDef::new(0x2003, 0, DataType::Boolean);
         assert_eq!(check_value(&b, &[2]), Err(AbortCode::VALUE_RANGE));
@@ -217,8 +232,7 @@ mod tests {
 
     #[test]
     fn defaults_encode_node_relative_values() {
-        let d = ObjectDef::u32(0x1014, 0, Access::Rw, 0)
-            .default(DefaultValue::NodeIdPlus(0x80));
+        let d = ObjectDef::u32(0x1014, 0, Access::Rw, 0).default(DefaultValue::NodeIdPlus(0x80));
         let mut out = [0u8; 8];
         assert_eq!(encode_default(&d, 5, &mut out), 4);
         assert_eq!(&out[..4], &0x85u32.to_le_bytes());
