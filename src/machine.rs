@@ -297,3 +297,54 @@ impl<L: BusLink, M: Machine> Device for Station<L, M> {
         self.machine.poll_event().map(StationEvent::Machine)
     }
 }
+
+/// An event of a [`Pair`].
+#[derive(Clone, Debug, PartialEq)]
+pub enum PairEvent<A, B> {
+    /// From the first machine.
+    A(A),
+    /// From the second machine.
+    B(B),
+}
+
+/// Two machines on one logical bus: every frame goes to both (each ignores what is not its
+/// business), their outputs are merged. How a node and an SDO client pool, or a node and a
+/// supervisor, become one machine for a station.
+#[derive(Debug, Default)]
+pub struct Pair<A, B> {
+    /// The first machine.
+    pub a: A,
+    /// The second machine.
+    pub b: B,
+}
+
+impl<A: Machine, B: Machine> Pair<A, B> {
+    /// Composes two machines.
+    pub fn new(a: A, b: B) -> Self {
+        Pair { a, b }
+    }
+}
+
+impl<A: Machine, B: Machine> Machine for Pair<A, B> {
+    type Event = PairEvent<A::Event, B::Event>;
+    fn handle_frame(&mut self, now: Instant, frame: &Frame) {
+        self.a.handle_frame(now, frame);
+        self.b.handle_frame(now, frame);
+    }
+    fn handle_timeout(&mut self, now: Instant) {
+        self.a.handle_timeout(now);
+        self.b.handle_timeout(now);
+    }
+    fn poll_transmit(&mut self) -> Option<Frame> {
+        self.a.poll_transmit().or_else(|| self.b.poll_transmit())
+    }
+    fn poll_timeout(&self) -> Option<Instant> {
+        earliest(self.a.poll_timeout(), self.b.poll_timeout())
+    }
+    fn poll_event(&mut self) -> Option<Self::Event> {
+        if let Some(e) = self.a.poll_event() {
+            return Some(PairEvent::A(e));
+        }
+        self.b.poll_event().map(PairEvent::B)
+    }
+}
