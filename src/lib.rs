@@ -27,6 +27,7 @@ pub mod node;
 pub mod od;
 pub mod profile;
 pub mod queue;
+pub mod sdo;
 pub mod sync;
 pub mod time;
 pub mod time_stamp;
