@@ -51,6 +51,7 @@ pub fn server(id: u8) -> TestNode {
 }
 
 pub type Lose = Box<dyn FnMut(&Frame) -> bool>;
+pub type Check = Box<dyn FnMut(&SdoClient, &[TestNode])>;
 
 pub struct Net {
     pub now: Instant,
@@ -61,7 +62,7 @@ pub struct Net {
     pub events: Vec<SdoEvent>,
     pub lose: Option<Lose>,
     /// After every delivered frame: checks that must hold at all times.
-    pub check: Option<Box<dyn FnMut(&SdoClient, &[TestNode])>>,
+    pub check: Option<Check>,
 }
 
 impl Net {
