@@ -220,6 +220,8 @@ impl<const N: usize> HeartbeatConsumer<N> {
     }
 
     /// A heartbeat (or boot-up) of `node` arrived. Returns `Resumed` if it had timed out.
+    /// O(1): the cached next deadline is a lower bound that only ever moves earlier here; the
+    /// exact minimum is recomputed when it is reached (one scan per expiry, not per heartbeat).
     #[inline]
     pub fn heard(&mut self, node: NodeId, now: Instant) -> Option<ConsumerEvent> {
         let i = match self.by_node[node.raw() as usize] {
@@ -228,23 +230,17 @@ impl<const N: usize> HeartbeatConsumer<N> {
         };
         let e = &mut self.entries[i];
         let was_lost = e.watch == Watch::Lost;
-        let old_deadline = match e.watch {
-            Watch::Running { deadline } => Some(deadline),
-            _ => None,
-        };
         let deadline = now + e.time;
         e.last = now;
         e.watch = Watch::Running { deadline };
-        // The cached minimum only moves if this entry held it or it is now earlier.
-        match self.next {
-            Some(n) if old_deadline == Some(n) => self.recompute_next(),
-            Some(n) if deadline >= n => {}
-            _ => self.next = Some(deadline),
+        if self.next.is_none_or(|n| deadline < n) {
+            self.next = Some(deadline);
         }
         was_lost.then_some(ConsumerEvent::Resumed { node })
     }
 
-    /// Earliest deadline among running entries.
+    /// When `handle_timeout` must run next: never later than the earliest deadline (it may be
+    /// earlier, after heartbeats moved the earliest entry on; the call then just re-arms).
     pub fn poll_timeout(&self) -> Option<Instant> {
         self.next
     }
@@ -358,7 +354,7 @@ mod tests {
     }
 
     #[test]
-    fn cached_minimum_follows_the_earliest_deadline() {
+    fn cached_deadline_is_a_lower_bound_re_armed_on_expiry() {
         let mut c: HeartbeatConsumer<4> = HeartbeatConsumer::new();
         c.configure(1, setting(1, 100)).unwrap();
         c.configure(2, setting(2, 50)).unwrap();
@@ -366,8 +362,15 @@ mod tests {
         c.heard(NodeId::must(2), Instant::ZERO);
         assert_eq!(c.poll_timeout(), Some(Instant::from_millis(50)));
         c.heard(NodeId::must(2), Instant::from_millis(40));
+        // A lower bound: waking at 50 ms finds nothing due and re-arms at the true minimum.
+        assert_eq!(c.poll_timeout(), Some(Instant::from_millis(50)));
+        let mut fired = 0;
+        c.handle_timeout(Instant::from_millis(50), |_| fired += 1);
+        assert_eq!(fired, 0);
         assert_eq!(c.poll_timeout(), Some(Instant::from_millis(90)));
         c.heard(NodeId::must(2), Instant::from_millis(80));
+        c.handle_timeout(Instant::from_millis(90), |_| fired += 1);
+        assert_eq!(fired, 0);
         assert_eq!(c.poll_timeout(), Some(Instant::from_millis(100)));
     }
 }
