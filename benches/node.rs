@@ -1,6 +1,7 @@
 //! Node frame handling: a master consuming heartbeats of 127 producers; cost per heartbeat.
+use std::hint::black_box;
 
-use criterion::{black_box, criterion_group, criterion_main, Criterion, Throughput};
+use criterion::{criterion_group, criterion_main, Criterion, Throughput};
 use duocan::od::comm;
 use duocan::{Frame, Id, Instant, Machine, Node, NodeConfig, NodeId};
 
