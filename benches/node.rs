@@ -1,9 +1,9 @@
 //! Node frame handling: a master consuming heartbeats of 127 producers; cost per heartbeat.
-use std::hint::black_box;
 
 use criterion::{criterion_group, criterion_main, Criterion, Throughput};
 use duocan::od::comm;
 use duocan::{Frame, Id, Instant, Machine, Node, NodeConfig, NodeId};
+use std::hint::black_box;
 
 fn heartbeat_consumer(c: &mut Criterion) {
     let od = comm::standard_dictionary(1, comm::Identity::default());

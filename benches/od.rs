@@ -1,9 +1,9 @@
 //! Dictionary lookup of a random existing entry in a 1,500-entry dictionary (the seed master's
-use std::hint::black_box;
 //! size): static and dynamic dictionaries, and the seed's own hash table for comparison.
 
 use criterion::{criterion_group, criterion_main, Criterion};
 use duocan::od::{DataType, DynamicDictionary, ObjectDef, ObjectDictionary, StaticDictionary};
+use std::hint::black_box;
 
 const ENTRIES: usize = 1_500;
 
