@@ -107,19 +107,26 @@ pub enum ConsumerEvent {
 enum Watch {
     /// Configured; monitoring starts with the first heartbeat (CiA 301).
     Waiting,
-    /// Heard; times out at the deadline.
-    Running { deadline: Instant },
+    /// Heard; times out at `last + time`.
+    Running,
     /// Timed out; waiting to be heard again.
     Lost,
 }
 
+/// 16 bytes: a no_std node carries 127 of these.
 #[derive(Clone, Copy, Debug)]
 struct Entry {
+    last: Instant,
+    time_ms: u16,
     node: NodeId,
     sub: u8,
-    time: Duration,
-    last: Instant,
     watch: Watch,
+}
+
+impl Entry {
+    fn deadline(&self) -> Instant {
+        self.last + Duration::from_millis(self.time_ms as u64)
+    }
 }
 
 /// Heartbeat consumer for up to `N` producers (CiA 301 allows 127).
@@ -163,7 +170,7 @@ impl<const N: usize> HeartbeatConsumer<N> {
                 .push(Entry {
                     node,
                     sub,
-                    time: setting.time,
+                    time_ms: setting.time.as_millis().min(u16::MAX as u64) as u16,
                     last: Instant::ZERO,
                     watch: Watch::Waiting,
                 })
@@ -212,10 +219,8 @@ impl<const N: usize> HeartbeatConsumer<N> {
         self.next = self
             .entries
             .iter()
-            .filter_map(|e| match e.watch {
-                Watch::Running { deadline } => Some(deadline),
-                _ => None,
-            })
+            .filter(|e| e.watch == Watch::Running)
+            .map(Entry::deadline)
             .min();
     }
 
@@ -230,9 +235,9 @@ impl<const N: usize> HeartbeatConsumer<N> {
         };
         let e = &mut self.entries[i];
         let was_lost = e.watch == Watch::Lost;
-        let deadline = now + e.time;
         e.last = now;
-        e.watch = Watch::Running { deadline };
+        e.watch = Watch::Running;
+        let deadline = e.deadline();
         if self.next.is_none_or(|n| deadline < n) {
             self.next = Some(deadline);
         }
@@ -252,8 +257,8 @@ impl<const N: usize> HeartbeatConsumer<N> {
             _ => return,
         }
         for e in self.entries.iter_mut() {
-            if let Watch::Running { deadline } = e.watch {
-                if deadline <= now {
+            if e.watch == Watch::Running {
+                if e.deadline() <= now {
                     e.watch = Watch::Lost;
                     out(ConsumerEvent::Timeout {
                         node: e.node,
@@ -267,9 +272,13 @@ impl<const N: usize> HeartbeatConsumer<N> {
 
     /// Monitored nodes with their consumer time and whether they are currently lost.
     pub fn monitored(&self) -> impl Iterator<Item = (NodeId, Duration, bool)> + '_ {
-        self.entries
-            .iter()
-            .map(|e| (e.node, e.time, e.watch == Watch::Lost))
+        self.entries.iter().map(|e| {
+            (
+                e.node,
+                Duration::from_millis(e.time_ms as u64),
+                e.watch == Watch::Lost,
+            )
+        })
     }
 
     /// Is `node` monitored and currently timed out?
