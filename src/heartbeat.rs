@@ -257,14 +257,12 @@ impl<const N: usize> HeartbeatConsumer<N> {
             _ => return,
         }
         for e in self.entries.iter_mut() {
-            if e.watch == Watch::Running {
-                if e.deadline() <= now {
-                    e.watch = Watch::Lost;
-                    out(ConsumerEvent::Timeout {
-                        node: e.node,
-                        last: e.last,
-                    });
-                }
+            if e.watch == Watch::Running && e.deadline() <= now {
+                e.watch = Watch::Lost;
+                out(ConsumerEvent::Timeout {
+                    node: e.node,
+                    last: e.last,
+                });
             }
         }
         self.recompute_next();
