@@ -22,6 +22,8 @@ pub mod machine;
 pub mod od;
 pub mod profile;
 pub mod queue;
+#[cfg(feature = "std")]
+pub mod sim;
 pub mod time;
 
 pub use abort::AbortCode;

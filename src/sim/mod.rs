@@ -1,0 +1,3 @@
+//! A deterministic simulated multi-bus CAN network in virtual time.
+
+pub mod timing;
