@@ -178,11 +178,17 @@ mod tests {
         let cases = [
             (std_frame(0x000, &[]), 53),
             (std_frame(0x7FF, &[]), 50),
-            (std_frame(0x123, &[0x11, 0x22, 0x33, 0x44, 0x55, 0x66, 0x77, 0x88]), 112),
+            (
+                std_frame(0x123, &[0x11, 0x22, 0x33, 0x44, 0x55, 0x66, 0x77, 0x88]),
+                112,
+            ),
             (std_frame(0x701, &[0x05]), 58),
             (std_frame(0x000, &[0; 8]), 127),
             (std_frame(0x7FF, &[0xFF; 8]), 126),
-            (Frame::new(Id::Extended(0x1234_5678), &[0xAA, 0x55]).unwrap(), 84),
+            (
+                Frame::new(Id::Extended(0x1234_5678), &[0xAA, 0x55]).unwrap(),
+                84,
+            ),
             (Frame::remote(Id::Standard(0x701), 1).unwrap(), 51),
             (Frame::remote(Id::Extended(0x1FFF_FFFF), 0).unwrap(), 74),
         ];
