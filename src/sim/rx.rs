@@ -21,7 +21,10 @@ impl SimNetwork {
                 continue;
             }
             self.ports[p].delayed = self.ports[p].delayed.saturating_sub(1);
-            self.rx_now(p, &item.frame);
+            // A closed interface loses what its driver still held.
+            if self.ports[p].iface_up {
+                self.rx_now(p, &item.frame);
+            }
         }
     }
 

@@ -3,6 +3,7 @@
 mod basic;
 mod determinism;
 mod faults;
+mod perf;
 mod power;
 mod probe;
 
