@@ -68,11 +68,11 @@ fn heartbeat_timeout_is_exact_with_real_frame_times() {
     let last_rx = sim
         .trace()
         .iter()
-        .filter_map(|r| match r {
+        .rev()
+        .find_map(|r| match r {
             TraceRecord::Tx(t) if t.frame.id() == Id::Standard(0x703) => Some(t.end),
             _ => None,
         })
-        .last()
         .unwrap();
     let hb = Frame::from_array(Id::Standard(0x703), [0x7F]);
     // 44 + 8 frame bits, 3 intermission and 4 stuff bits (two in the identifier and control
