@@ -28,6 +28,8 @@ pub mod od;
 pub mod profile;
 pub mod queue;
 pub mod sdo;
+#[cfg(feature = "std")]
+pub mod sim;
 pub mod sync;
 pub mod time;
 pub mod time_stamp;
