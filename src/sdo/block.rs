@@ -47,6 +47,7 @@ pub struct BlockSender {
     blksize: u8,
     next_seq: u8,
     sending: bool,
+    last_ack: Option<(u8, u8)>,
 }
 
 impl BlockSender {
@@ -58,6 +59,7 @@ impl BlockSender {
             blksize,
             next_seq: 1,
             sending: true,
+            last_ack: None,
         }
     }
 
@@ -98,23 +100,29 @@ impl BlockSender {
     }
 
     /// The receiver confirmed `ackseq` segments of the sub-block and asks for `blksize` next.
-    pub fn ack(&mut self, ackseq: u8, blksize: u8) -> Result<Acked, AbortCode> {
+    /// `None`: a second copy of the previous acknowledgement that cannot belong to this
+    /// sub-block (CAN may deliver a frame twice); ignored.
+    pub fn ack(&mut self, ackseq: u8, blksize: u8) -> Result<Option<Acked>, AbortCode> {
         let sent = self.next_seq - 1;
         if ackseq > sent {
+            if self.last_ack == Some((ackseq, blksize)) {
+                return Ok(None);
+            }
             return Err(AbortCode::INVALID_SEQUENCE);
         }
+        self.last_ack = Some((ackseq, blksize));
         if !valid_block_size(blksize) {
             return Err(AbortCode::INVALID_BLOCK_SIZE);
         }
         self.acked += ackseq as usize;
         if self.acked >= segments(self.len) {
             self.sending = false;
-            return Ok(Acked::Done);
+            return Ok(Some(Acked::Done));
         }
         self.blksize = blksize;
         self.next_seq = 1;
         self.sending = true;
-        Ok(Acked::More)
+        Ok(Some(Acked::More))
     }
 
     /// Bytes confirmed so far.
@@ -128,6 +136,9 @@ impl BlockSender {
 pub enum Received {
     /// Nothing to say yet.
     Continue,
+    /// A second copy of the segment that closed the previous sub-block (CAN may deliver a frame
+    /// twice): ignored.
+    Duplicate,
     /// The sub-block is over: acknowledge this sequence number (a new sub-block starts).
     Ack(u8),
 }
@@ -150,6 +161,8 @@ pub struct BlockReceiver {
     tail: Option<[u8; SEGMENT_DATA]>,
     complete: bool,
     started: bool,
+    /// The segment that closed the last sub-block, to recognise a second copy of it.
+    closer: Option<[u8; 8]>,
 }
 
 impl BlockReceiver {
@@ -161,6 +174,7 @@ impl BlockReceiver {
             tail: None,
             complete: false,
             started: false,
+            closer: None,
         }
     }
 
@@ -179,6 +193,12 @@ impl BlockReceiver {
         self.started
     }
 
+    /// True if `d` repeats the segment that closed the previous sub-block and nothing of the
+    /// next one arrived yet: a double reception, not a new segment.
+    pub fn is_repeat(&self, d: &[u8; 8]) -> bool {
+        !self.started && self.closer == Some(*d)
+    }
+
     /// A segment arrived. In-sequence data goes to `buf` (the last segment is held back until
     /// the end frame says how much of it is data); a segment out of sequence is ignored, and
     /// the end of the sub-block is acknowledged with the last good sequence number.
@@ -188,6 +208,9 @@ impl BlockReceiver {
         buf: &mut B,
         bound: Bound,
     ) -> Result<Received, AbortCode> {
+        if self.is_repeat(d) {
+            return Ok(Received::Duplicate);
+        }
         let s = BlockSegment::decode(d);
         if s.seqno == 0 || s.seqno > self.blksize {
             return Err(AbortCode::INVALID_SEQUENCE);
@@ -197,30 +220,31 @@ impl BlockReceiver {
             self.last_good = s.seqno;
             if s.last {
                 self.tail = Some(s.data);
-                return Ok(Received::Ack(self.finish_sub_block()));
+                return Ok(Received::Ack(self.finish_sub_block(Some(*d))));
             }
             if buf.len() + SEGMENT_DATA > bound.max || !buf.extend(&s.data) {
                 return Err(bound.code);
             }
             if s.seqno == self.blksize {
-                return Ok(Received::Ack(self.finish_sub_block()));
+                return Ok(Received::Ack(self.finish_sub_block(Some(*d))));
             }
             return Ok(Received::Continue);
         }
         // Out of sequence: a segment was lost (or this one repeats). Only the segment that
         // closes the sub-block matters: it is time to tell the sender where to resume.
         if s.last || s.seqno == self.blksize {
-            return Ok(Received::Ack(self.finish_sub_block()));
+            return Ok(Received::Ack(self.finish_sub_block(Some(*d))));
         }
         Ok(Received::Continue)
     }
 
     /// The sub-block timer expired: acknowledge what arrived so the sender resumes.
     pub fn timeout(&mut self) -> u8 {
-        self.finish_sub_block()
+        self.finish_sub_block(None)
     }
 
-    fn finish_sub_block(&mut self) -> u8 {
+    fn finish_sub_block(&mut self, closer: Option<[u8; 8]>) -> u8 {
+        self.closer = closer;
         let ack = self.last_good;
         self.last_good = 0;
         self.started = false;
@@ -291,7 +315,7 @@ mod tests {
             blocks += 1;
             // Every segment that closes the sub-block was lost: the receiver's timer fires.
             let a = ack.unwrap_or_else(|| rx.timeout());
-            if tx.ack(a, rx.blksize()).unwrap() == Acked::Done {
+            if tx.ack(a, rx.blksize()).unwrap() == Some(Acked::Done) {
                 assert!(rx.complete());
                 rx.finish(unused(len), &mut buf, BIG).unwrap();
                 return (buf.as_slice().to_vec(), blocks);

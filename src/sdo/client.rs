@@ -525,6 +525,9 @@ impl<B: TransferBuffer, const S: usize> SdoClient<B, S> {
         };
         let s = &mut self.sessions[i];
         if let State::BlockUpload { mut rx, crc, size } = s.state {
+            if rx.is_repeat(&d) {
+                return;
+            }
             if !rx.complete() {
                 if codec::is_abort_in_block(&d) {
                     return self.finish(i, now, Err(SdoErrorKind::Server(codec::abort_code(&d))));
@@ -535,6 +538,7 @@ impl<B: TransferBuffer, const S: usize> SdoClient<B, S> {
                         s.state = State::BlockUpload { rx, crc, size };
                         s.touch(now);
                         match r {
+                            Received::Duplicate => {}
                             Received::Continue => {
                                 s.subblock_deadline = Some(now + s.opts.subblock_timeout)
                             }
@@ -643,11 +647,12 @@ impl<B: TransferBuffer, const S: usize> SdoClient<B, S> {
                 State::BlockDownload { mut tx, crc },
             ) => match tx.ack(ackseq, blksize) {
                 Err(c) => Err(c),
-                Ok(Acked::More) => {
+                Ok(None) => Ok(None),
+                Ok(Some(Acked::More)) => {
                     s.state = State::BlockDownload { tx, crc };
                     Ok(None)
                 }
-                Ok(Acked::Done) => {
+                Ok(Some(Acked::Done)) => {
                     let data = s.buf.as_slice();
                     let end = Request::BlockDownloadEnd {
                         unused: block::unused(data.len()),

@@ -261,6 +261,9 @@ impl<B: TransferBuffer> SdoServer<B> {
             });
         };
         if let State::BlockDownload { rx, .. } = self.state {
+            if rx.is_repeat(&d) {
+                return Ok(());
+            }
             if !rx.complete() {
                 if codec::is_abort_in_block(&d) {
                     self.client_abort();
@@ -368,11 +371,12 @@ impl<B: TransferBuffer> SdoServer<B> {
             (Request::BlockUploadAck { ackseq, blksize }, State::BlockUpload { mut tx, crc }) => {
                 match tx.ack(ackseq, blksize) {
                     Err(c) => self.abort(c),
-                    Ok(Acked::More) => {
+                    Ok(None) => {}
+                    Ok(Some(Acked::More)) => {
                         self.state = State::BlockUpload { tx, crc };
                         self.touch(now);
                     }
-                    Ok(Acked::Done) => {
+                    Ok(Some(Acked::Done)) => {
                         let len = self.buf.len();
                         let crc = if crc { crc16(self.buf.as_slice()) } else { 0 };
                         self.respond(Response::BlockUploadEnd {
@@ -571,6 +575,7 @@ impl<B: TransferBuffer> SdoServer<B> {
                 self.state = State::BlockDownload { rx, crc, size };
                 self.touch(now);
                 match r {
+                    Received::Duplicate => {}
                     Received::Continue => {
                         self.subblock_deadline = Some(now + self.cfg.subblock_timeout)
                     }
