@@ -256,7 +256,7 @@ fn several_servers_at_once_one_transfer_per_server() {
 
 #[test]
 fn sessions_stay_taken_until_their_result_is_polled() {
-    let mut c: SdoClient<HeapBuffer, 2> = SdoClient::new(100);
+    let mut c: SdoClient<HeapBuffer, 2> = SdoClient::with_limit(100);
     let now = Instant::ZERO;
     let up = |c: &mut SdoClient<HeapBuffer, 2>, n: u8| {
         c.upload(now, NodeId::must(n), DOMAIN, 0, SdoOptions::default())

@@ -180,7 +180,7 @@ fn check(n: &Node<DynamicDictionary>, c: &SdoClient<HeapBuffer, 4>, now: Instant
 fn drive(seed: u64, seen: &mut Seen) {
     let (start, reqs, inputs) = case(seed);
     let mut n = node();
-    let mut c: SdoClient<HeapBuffer, 4> = SdoClient::new(CLIENT_LIMIT);
+    let mut c: SdoClient<HeapBuffer, 4> = SdoClient::with_limit(CLIENT_LIMIT);
     let mut now = Instant::from_millis(1);
     if let Some(d) = start {
         n.handle_frame(now, &Frame::from_array(Id::Standard(0x605), d));

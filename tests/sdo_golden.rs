@@ -29,7 +29,14 @@ fn exchange(net: &Net, from: usize) -> Vec<(Option<usize>, u16, [u8; 8])> {
 fn expedited_download_and_upload() {
     let mut net = Net::new(&[5]);
     net.client
-        .download(net.now, N, VALUES, 3, &500u32.to_le_bytes(), SdoOptions::default())
+        .download(
+            net.now,
+            N,
+            VALUES,
+            3,
+            &500u32.to_le_bytes(),
+            SdoOptions::default(),
+        )
         .unwrap();
     net.finish();
     assert_eq!(

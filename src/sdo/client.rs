@@ -282,9 +282,19 @@ pub struct SdoClient<B: TransferBuffer = DefaultBuffer, const S: usize = 8> {
     stats: SdoClientStats,
 }
 
-impl<B: TransferBuffer, const S: usize> SdoClient<B, S> {
-    /// A client whose transfers carry at most `limit` bytes, on the predefined channels.
+impl SdoClient {
+    /// A client with the default buffers and 8 sessions whose transfers carry at most `limit`
+    /// bytes, on the predefined channels. Other buffer types and session counts:
+    /// [`SdoClient::with_limit`].
     pub fn new(limit: usize) -> Self {
+        Self::with_limit(limit)
+    }
+}
+
+impl<B: TransferBuffer, const S: usize> SdoClient<B, S> {
+    /// A client with `S` sessions whose transfers carry at most `limit` bytes, on the predefined
+    /// channels.
+    pub fn with_limit(limit: usize) -> Self {
         SdoClient {
             sessions: core::array::from_fn(|_| Session::new(limit)),
             limit,
