@@ -19,11 +19,14 @@ mod client;
 pub mod codec;
 pub mod crc;
 mod error;
+mod request;
 mod server;
+mod session;
 
 #[cfg(feature = "alloc")]
 pub use buffer::HeapBuffer;
 pub use buffer::{DefaultBuffer, InlineBuffer, TransferBuffer, DEFAULT_LIMIT, INLINE_CAPACITY};
-pub use client::{Channel, Mode, RequestId, SdoClient, SdoClientStats, SdoEvent, SdoOptions};
+pub use client::SdoClient;
 pub use error::{Direction, SdoError, SdoErrorKind};
+pub use request::{Channel, Mode, RequestId, SdoClientStats, SdoEvent, SdoOptions};
 pub use server::{SdoServer, SdoServerConfig, SdoServerStats};
