@@ -467,3 +467,49 @@ fn stopped_means_no_sdo_and_a_reset_drops_the_transfer() {
     assert!(n.od().read(DOMAIN, 0).unwrap().is_empty());
     assert_eq!(n.sdo_server().rx_id(), Some(Id::Standard(0x605)));
 }
+
+/// A driver that takes one frame every 20 ms (a very slow bus): a sub-block of 127 segments
+/// takes 2.5 s to leave, longer than the 1 s timeout, and neither side gives up while its own
+/// segments are still waiting to be taken.
+#[test]
+fn a_slow_bus_does_not_time_out_a_sub_block_still_being_sent() {
+    let payload = pattern(889);
+    for upload in [true, false] {
+        let mut n = slave();
+        n.write(Instant::ZERO, DOMAIN, 0, &payload).unwrap();
+        let mut c: SdoClient = SdoClient::new(2000);
+        let mut now = Instant::ZERO;
+        let opts = SdoOptions::mode(Mode::Block);
+        if upload {
+            c.upload(now, N, DOMAIN, 0, opts).unwrap();
+        } else {
+            c.download(now, N, DOMAIN, 0, &payload, opts).unwrap();
+        }
+        let e = loop {
+            now += Duration::from_millis(20);
+            if n.poll_timeout().is_some_and(|t| t <= now) {
+                n.handle_timeout(now);
+            }
+            if c.poll_timeout().is_some_and(|t| t <= now) {
+                c.handle_timeout(now);
+            }
+            // One frame each way per step.
+            if let Some(f) = c.poll_transmit() {
+                n.handle_frame(now, &f);
+            }
+            if let Some(f) = n.poll_transmit() {
+                c.handle_frame(now, &f);
+            }
+            if let Some(e) = c.poll_event() {
+                break e;
+            }
+            assert!(now < Instant::from_secs(60), "no result");
+        };
+        assert!(e.result.is_ok(), "{:?}", e.result);
+        assert!(now > Instant::from_millis(2540), "{now}");
+        assert_eq!(n.od().read(DOMAIN, 0), Ok(&payload[..]));
+        if upload {
+            assert_eq!(e.data(), Some(&payload[..]));
+        }
+    }
+}

@@ -561,6 +561,12 @@ impl<B: TransferBuffer, const S: usize> Machine for SdoClient<B, S> {
                 }
             }
             if s.deadline.is_some_and(|t| t <= now) {
+                if matches!(s.state, State::BlockDownload { tx, .. } if tx.is_sending()) {
+                    // The driver has not taken the whole sub-block yet (a slow bus): the server
+                    // cannot have answered, so the wait starts over.
+                    s.touch(now);
+                    continue;
+                }
                 self.abort_session(i, now, AbortCode::TIMEOUT);
             }
         }

@@ -712,6 +712,11 @@ impl<B: TransferBuffer> SdoServer<B> {
             }
         }
         if self.deadline.is_some_and(|t| t <= now) {
+            if matches!(self.state, State::BlockUpload { tx, .. } if tx.is_sending()) {
+                // The driver has not taken the whole sub-block yet (a slow bus): the client
+                // cannot have answered, so the wait starts over.
+                return self.touch(now);
+            }
             self.abort(AbortCode::TIMEOUT);
         }
     }
