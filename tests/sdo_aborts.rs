@@ -7,7 +7,7 @@ mod sdo_net;
 use duocan::od::{comm, ObjectDictionary};
 use duocan::sdo::{Mode, SdoClient, SdoErrorKind, SdoEvent, SdoOptions, SdoServerConfig};
 use duocan::{AbortCode, Duration, Frame, Id, Instant, Machine, NodeId};
-use sdo_net::{server, Net, TestNode, DOMAIN, HOOKED, SMALL_DOMAIN, STRING, VALUES, WIDE};
+use sdo_net::{server, Net, TestNode, DOMAIN, HOOKED, SMALL_DOMAIN, STRING, VALUES, VETO, WIDE};
 
 const N: NodeId = NodeId::must(5);
 const T0: Instant = Instant::from_millis(10);
@@ -461,6 +461,36 @@ fn out_of_memory_on_the_server() {
         [abort(DOMAIN, 0, AbortCode::OUT_OF_MEMORY)]
     );
     assert!(n.sdo_server().buffer_len() <= 10);
+}
+
+/// Whatever code the dictionary or the application refuses a write with reaches the client's
+/// caller unchanged, typed, with its CiA 301 meaning: every code of the standard.
+#[test]
+fn every_abort_code_reaches_the_caller_with_its_meaning() {
+    let mut net = Net::new(&[5]);
+    for code in AbortCode::ALL {
+        for mode in [Mode::Expedited, Mode::Segmented, Mode::Block] {
+            assert_eq!(
+                download(&mut net, VETO, 0, &code.0.to_le_bytes(), mode),
+                *code
+            );
+        }
+    }
+    assert_eq!(net.nodes[0].od().get_value::<u32>(VETO, 0), Ok(0));
+    // A code the standard does not define is still carried faithfully.
+    net.client
+        .download(
+            net.now,
+            N,
+            VETO,
+            0,
+            &0x1234_5678u32.to_le_bytes(),
+            SdoOptions::default(),
+        )
+        .unwrap();
+    let e = net.finish()[0].result.clone().unwrap_err();
+    assert_eq!(e.kind, SdoErrorKind::Server(AbortCode(0x1234_5678)));
+    assert!(e.to_string().contains("not a CiA 301 abort code"));
 }
 
 // ----- client side: answers to bad responses, frame by frame -----

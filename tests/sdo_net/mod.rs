@@ -20,8 +20,18 @@ pub const HOOKED: u16 = 0x2003;
 pub const WIDE: u16 = 0x2004;
 /// DOMAIN, rw, 100 bytes.
 pub const SMALL_DOMAIN: u16 = 0x2005;
+/// UNSIGNED32 rw whose hook refuses every value but 0 with the value as abort code.
+pub const VETO: u16 = 0x2006;
 
 pub const DOMAIN_CAP: u32 = 64 * 1024 + 16;
+
+/// The application refuses a write with whatever code the value names.
+fn veto_with_code(_: u16, _: u8, d: &[u8]) -> Result<(), AbortCode> {
+    match u32::from_le_bytes([d[0], d[1], d[2], d[3]]) {
+        0 => Ok(()),
+        code => Err(AbortCode(code)),
+    }
+}
 
 fn even_only(_: u16, _: u8, d: &[u8]) -> Result<(), AbortCode> {
     if d[0] % 2 == 0 {
@@ -45,6 +55,7 @@ pub fn server(id: u8) -> TestNode {
         ObjectDef::u16(HOOKED, 0, Access::Rw, 0).hook(even_only),
         ObjectDef::new(WIDE, 0, DataType::Unsigned64),
         ObjectDef::bytes(SMALL_DOMAIN, 0, DataType::Domain, 100),
+        ObjectDef::u32(VETO, 0, Access::Rw, 0).hook(veto_with_code),
     ])
     .unwrap();
     Node::new(NodeConfig::slave(NodeId::new(id).unwrap()), od)
