@@ -314,7 +314,8 @@ impl<D: ObjectDictionary, P: IdProfile, const G: usize> Node<D, P, G> {
     pub fn sdo_server(&self) -> &SdoServer {
         &self.sdo
     }
-    /// The SDO server, to change its configuration.
+    /// The SDO server, to change its configuration. Its channel is re-read from 0x1200 at boot
+    /// and reset communication.
     pub fn sdo_server_mut(&mut self) -> &mut SdoServer {
         &mut self.sdo
     }

@@ -740,3 +740,17 @@ impl<B: TransferBuffer> SdoServer<B> {
         None
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::sdo::buffer::{InlineBuffer, INLINE_CAPACITY};
+
+    #[test]
+    fn a_no_std_server_costs_its_buffer_and_little_more() {
+        let inline = core::mem::size_of::<SdoServer<InlineBuffer<INLINE_CAPACITY>>>();
+        let heap = core::mem::size_of::<SdoServer>();
+        println!("SDO server: {inline} bytes with an inline buffer of {INLINE_CAPACITY}, {heap} bytes with the default buffer");
+        assert!(inline <= INLINE_CAPACITY + 256, "{inline}");
+    }
+}
