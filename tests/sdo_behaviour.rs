@@ -513,3 +513,50 @@ fn a_slow_bus_does_not_time_out_a_sub_block_still_being_sent() {
         }
     }
 }
+
+/// CRC is used only when both sides offer it: a server without CRC support says so in its
+/// initiate answer, and neither side computes or checks it then.
+#[test]
+fn crc_only_when_both_sides_support_it() {
+    let data: Vec<u8> = (1..=20).collect();
+    for (server_crc, client_crc) in [(false, true), (true, false), (true, true)] {
+        let mut net = Net::new(&[5]);
+        net.nodes[0].sdo_server_mut().set_config(SdoServerConfig {
+            crc: server_crc,
+            ..SdoServerConfig::default()
+        });
+        let opts = SdoOptions {
+            crc: client_crc,
+            ..SdoOptions::mode(Mode::Block)
+        };
+        net.client
+            .download(net.now, N, DOMAIN, 0, &data, opts)
+            .unwrap();
+        assert!(net.finish()[0].result.is_ok());
+        net.client.upload(net.now, N, DOMAIN, 0, opts).unwrap();
+        assert_eq!(net.finish()[0].data(), Some(&data[..]));
+        let ends: Vec<[u8; 8]> = net
+            .log
+            .iter()
+            .map(|(_, _, f)| f.data().try_into().unwrap())
+            .filter(|d: &[u8; 8]| d[0] == 0xC5)
+            .collect();
+        assert_eq!(ends.len(), 2, "one end frame each way");
+        let both = server_crc && client_crc;
+        let want = if both { [0xD3, 0xEA] } else { [0, 0] };
+        for e in ends {
+            assert_eq!(
+                [e[1], e[2]],
+                want,
+                "server {server_crc} client {client_crc}"
+            );
+        }
+        // The server's initiate answers carry its sc bit.
+        let sc = net
+            .log
+            .iter()
+            .filter(|(_, who, _)| who.is_some())
+            .any(|(_, _, f)| f.data()[0] == 0xA4 || f.data()[0] == 0xC6);
+        assert_eq!(sc, server_crc);
+    }
+}
