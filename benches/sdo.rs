@@ -52,12 +52,9 @@ fn simulated(mode: Mode, payload: &[u8]) -> Duration {
             &[bus],
         )
         .unwrap();
-    let s = sim
+    let _slave = sim
         .add_device("slave", Station::single(server()), &[bus])
         .unwrap();
-    // A whole sub-block goes to the controller at once.
-    sim.set_tx_capacity(m.port(0), 256);
-    sim.set_tx_capacity(s.port(0), 256);
     sim.device_mut(m).machine.a.boot(Instant::ZERO);
     sim.run_for(Duration::from_millis(1));
     sim.take_events(m);
