@@ -42,10 +42,18 @@
 //!
 //! Each occurrence is delivered at its first arrival, so when both buses deliver everything the
 //! per-sender order is the order sent (each bus keeps it, and the earlier of two ordered arrival
-//! pairs is ordered). When a bus *drops* a frame while being *ahead* of the other bus, the next
-//! frame of that sender can arrive on it before the dropped frame arrives on the lagging bus; no
-//! merger that delivers without waiting can know that something is missing, so such a frame is
-//! delivered first. The property tests pin down exactly this boundary.
+//! pairs is ordered). When one bus *drops* a frame, two things cannot be told apart by any merger
+//! that delivers without waiting, and the sender's order may then differ from the order sent
+//! (never the count):
+//!
+//! - the bus that dropped it is ahead and carries the sender's *next* frame before the dropped
+//!   frame arrives on the other bus: the next frame is delivered first;
+//! - the bus that dropped it carries a *repeat* of the same frame within the window: the repeat
+//!   looks exactly like the lost twin and is matched with it; the repeat itself is delivered
+//!   when its own copy arrives on the other bus, possibly after the sender's next frame.
+//!
+//! A lagging bus that drops frames, a dead bus, or two complete buses keep every sender's order
+//! exactly. The property tests (`tests/merge_properties.rs`) check these statements.
 
 use duocan::{Duration, Frame, Instant};
 
