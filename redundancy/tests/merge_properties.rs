@@ -183,7 +183,11 @@ fn order_is_observable(s: &Schedule, lossy: usize) -> bool {
     true
 }
 
-fn check_exactly_once(s: &Schedule, delivered: &[(u64, usize)], m: &Merger<1024>) -> Result<(), TestCaseError> {
+fn check_exactly_once(
+    s: &Schedule,
+    delivered: &[(u64, usize)],
+    m: &Merger<1024>,
+) -> Result<(), TestCaseError> {
     let got = counts(delivered.iter().map(|(_, i)| &s.sent[*i].frame));
     let want = counts(s.sent.iter().map(|x| &x.frame));
     prop_assert_eq!(delivered.len(), s.sent.len(), "no loss, no duplicate");
@@ -270,5 +274,9 @@ fn order_is_lost_only_by_overtaking_a_drop() {
     assert!(!order_is_observable(&s, 0));
     let (delivered, _) = run(&s);
     let frames: Vec<Frame> = delivered.iter().map(|(_, i)| s.sent[*i].frame).collect();
-    assert_eq!(frames, [j, k], "no loss, no duplicate; order as the buses showed it");
+    assert_eq!(
+        frames,
+        [j, k],
+        "no loss, no duplicate; order as the buses showed it"
+    );
 }
