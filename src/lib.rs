@@ -27,6 +27,8 @@ pub mod node;
 pub mod od;
 pub mod profile;
 pub mod queue;
+#[cfg(feature = "std")]
+pub mod sim;
 pub mod sync;
 pub mod time;
 pub mod time_stamp;
