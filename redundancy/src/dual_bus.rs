@@ -75,10 +75,14 @@ impl DualBusConfig {
     /// `mode` with the health and reachability timing derived from the node-guarding (or
     /// heartbeat) period: silence limit 3 periods.
     pub fn with_guard_period(mode: Mode, period: Duration) -> Self {
-        let health = HealthConfig::from_guard_period(period);
+        let skew_window = Duration::from_millis(10);
+        let health = HealthConfig {
+            tx_stall: skew_window,
+            ..HealthConfig::from_guard_period(period)
+        };
         DualBusConfig {
             mode,
-            skew_window: Duration::from_millis(10),
+            skew_window,
             health,
             reach_timeout: health.silence_limit,
             discrepancy_time: Duration::from_millis(100),
@@ -115,6 +119,8 @@ pub struct DualBus<C = Predefined, const N: usize = DEFAULT_MERGE_SLOTS> {
     pairs: SameFunction,
     out: Outbox,
     stats: LinkStats,
+    /// The latest instant any method was given (hand-over time of frames for the stall rule).
+    now: Instant,
 }
 
 impl DualBus<Predefined, DEFAULT_MERGE_SLOTS> {
@@ -130,10 +136,16 @@ impl<C: FrameClassifier, const N: usize> DualBus<C, N> {
         let mut health = cfg.health;
         let (policy, reach_enabled) = match cfg.mode {
             Mode::ActiveActive => (Policy::ActiveActive(Default::default()), true),
-            Mode::Cia302_6(c) => (Policy::Cia302_6(Cia3026::new(c)), true),
+            Mode::Cia302_6(c) => {
+                // One channel carries the traffic: flushing it would lose frames (302-6 has
+                // its own transmit-delay rule).
+                health.tx_stall = Duration::ZERO;
+                (Policy::Cia302_6(Cia3026::new(c)), true)
+            }
             Mode::EcssToggle(c) => {
                 // The inactive bus is quiet by design: silence and reachability mean nothing.
                 health.silence_detection = false;
+                health.tx_stall = Duration::ZERO;
                 (Policy::EcssToggle(Ecss::new(c)), false)
             }
         };
@@ -147,6 +159,7 @@ impl<C: FrameClassifier, const N: usize> DualBus<C, N> {
             pairs: SameFunction::new(cfg.discrepancy_time),
             out: Outbox::new(),
             stats: LinkStats::default(),
+            now: Instant::ZERO,
         }
     }
 
@@ -238,6 +251,7 @@ impl<C: FrameClassifier, const N: usize> BusLink for DualBus<C, N> {
     }
 
     fn handle_rx(&mut self, now: Instant, port: usize, frame: &Frame) -> Option<Frame> {
+        self.now = now;
         if port > 1 {
             self.stats.bad_port += 1;
             return None;
@@ -292,6 +306,7 @@ impl<C: FrameClassifier, const N: usize> BusLink for DualBus<C, N> {
     }
 
     fn handle_port_status(&mut self, now: Instant, port: usize, status: PortStatus) {
+        self.now = now;
         if port > 1 {
             return;
         }
@@ -300,6 +315,7 @@ impl<C: FrameClassifier, const N: usize> BusLink for DualBus<C, N> {
     }
 
     fn send(&mut self, now: Instant, frame: &Frame) {
+        self.now = now;
         let info = self.info(frame);
         let mask = self
             .policy
@@ -313,7 +329,7 @@ impl<C: FrameClassifier, const N: usize> BusLink for DualBus<C, N> {
 
     fn poll_transmit(&mut self) -> Option<(usize, Frame)> {
         let (p, f) = self.out.frames.pop()?;
-        self.health.count_tx(p);
+        self.health.count_tx(self.now, p);
         Some((p, f))
     }
 
@@ -322,6 +338,7 @@ impl<C: FrameClassifier, const N: usize> BusLink for DualBus<C, N> {
     }
 
     fn handle_timeout(&mut self, now: Instant) {
+        self.now = now;
         self.health.handle_timeout(now, &mut self.out);
         if self.reach_enabled {
             self.reach.handle_timeout(now, &mut self.out);

@@ -131,6 +131,12 @@ pub enum PortReason {
     Controller(ErrorCause),
     /// A transmission failed.
     TxFailed(ErrorCause),
+    /// A frame handed to the port got no transmit outcome for `waited`: the port cannot send
+    /// (a babbling node holds the bus, the controller is stuck); its queue was flushed.
+    TxStalled {
+        /// How long the oldest frame waited.
+        waited: Duration,
+    },
     /// The driver reported the port down.
     Down(ErrorCause),
     /// The driver reported the port up again.
@@ -184,6 +190,9 @@ impl fmt::Display for PortReason {
             PortReason::Silence { silent } => write!(f, "nothing received for {silent}"),
             PortReason::Controller(c) => write!(f, "controller reported {c}"),
             PortReason::TxFailed(c) => write!(f, "transmission failed: {c}"),
+            PortReason::TxStalled { waited } => {
+                write!(f, "transmission stalled for {waited}: queue flushed")
+            }
             PortReason::Down(c) => write!(f, "port down: {c}"),
             PortReason::Up => f.write_str("port up again"),
             PortReason::Reinit { attempt } => write!(f, "re-initialised (attempt {attempt})"),

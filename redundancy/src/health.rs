@@ -21,6 +21,12 @@
 //!   is ok again. It is then *recovering*: the transmit fan-out includes it again (so that peers
 //!   that also marked the bus failed hear traffic once it is repaired), and it returns to ok
 //!   after receiving frames for the probation time, or fails again after the silence limit.
+//! - **Transmit stall** (active-active, drivers that report transmit outcomes). A frame that
+//!   waits in a port's queue longer than the skew window would reach the receivers too late to be
+//!   matched with its twin, i.e. as a duplicate. So when the oldest frame handed to a port has had
+//!   no outcome for `tx_stall` (the window), the port is re-initialised at once (flushing its
+//!   queue) and failed; such a port comes back only through re-initialisation, not because it
+//!   receives (a babbling controller fills the bus with frames while nobody else can send).
 //! - **Trust.** Arrivals on a failed or recovering port are *match-only* while the other port is
 //!   ok or suspect: they may consume a twin but are never delivered themselves. A repaired
 //!   segment can first flush frames that were queued before the fault; those are older than the
@@ -86,6 +92,11 @@ pub struct HealthConfig {
     /// Apply the silence rule (off in bus-toggle mode, where the inactive bus is quiet by
     /// design).
     pub silence_detection: bool,
+    /// Oldest a frame handed to a port may get without a transmit outcome before the port is
+    /// flushed and failed (zero: never). Applies once the port's driver has reported an outcome
+    /// (drivers that cannot tell are never judged). The dual-bus layer sets it to the skew
+    /// window in active-active mode and to zero otherwise.
+    pub tx_stall: Duration,
 }
 
 impl HealthConfig {
@@ -100,6 +111,7 @@ impl HealthConfig {
             reinit_first: Duration::from_millis(100),
             reinit_max: Duration::from_secs(10),
             silence_detection: true,
+            tx_stall: Duration::ZERO,
         }
     }
 }
@@ -177,7 +189,7 @@ impl PortCounters {
 }
 
 /// State and counters of one port.
-#[derive(Clone, Copy, Debug)]
+#[derive(Clone, Debug)]
 pub struct PortHealth {
     state: PortState,
     since: Instant,
@@ -190,8 +202,17 @@ pub struct PortHealth {
     reinit_at: Option<Instant>,
     attempt: u32,
     backoff: Duration,
+    /// Hand-over times of frames without an outcome yet, oldest first.
+    outstanding: heapless::Deque<Instant, OUTSTANDING>,
+    /// The driver reports transmit outcomes.
+    reports_outcomes: bool,
+    /// A frame received revives the failed port (not after a transmit stall).
+    revive_on_rx: bool,
     counters: PortCounters,
 }
+
+/// Transmissions tracked per port for the stall rule.
+const OUTSTANDING: usize = 64;
 
 impl PortHealth {
     fn new(cfg: &HealthConfig) -> Self {
@@ -205,6 +226,9 @@ impl PortHealth {
             reinit_at: None,
             attempt: 0,
             backoff: cfg.reinit_first,
+            outstanding: heapless::Deque::new(),
+            reports_outcomes: false,
+            revive_on_rx: true,
             counters: PortCounters::default(),
         }
     }
@@ -264,8 +288,14 @@ impl Health {
         self.ports[p].state != PortState::Failed
     }
 
-    pub(crate) fn count_tx(&mut self, p: usize) {
-        self.ports[p].counters.tx += 1;
+    /// A frame was handed to port `p` at `now`.
+    pub(crate) fn count_tx(&mut self, now: Instant, p: usize) {
+        let port = &mut self.ports[p];
+        port.counters.tx += 1;
+        if port.outstanding.is_full() {
+            port.outstanding.pop_front();
+        }
+        let _ = port.outstanding.push_back(now);
     }
 
     /// A frame arrived on `p`; `first_copy` if it was delivered (its twin is due on the other
@@ -303,11 +333,12 @@ impl Health {
                     self.set(now, p, PortState::Ok, PortReason::Traffic, out);
                 }
             }
-            PortState::Failed => {
+            PortState::Failed if port.revive_on_rx => {
                 self.set(now, p, PortState::Recovering, PortReason::Traffic, out);
                 self.ports[p].probation_from = Some(now);
                 self.end_probation(now, p, out);
             }
+            PortState::Failed => {}
             PortState::Recovering => {
                 port.probation_from.get_or_insert(now);
                 self.end_probation(now, p, out);
@@ -333,9 +364,20 @@ impl Health {
     ) {
         let port = &mut self.ports[p];
         match status {
-            PortStatus::TxOk => port.counters.tx_ok += 1,
+            PortStatus::TxOk => {
+                port.counters.tx_ok += 1;
+                port.reports_outcomes = true;
+                port.outstanding.pop_front();
+            }
             PortStatus::TxFailed(c) => {
                 port.counters.tx_failed += 1;
+                port.reports_outcomes = true;
+                if c == ErrorCause::TxTimeout {
+                    // Refused at hand-over (queue full): the newest frame.
+                    port.outstanding.pop_back();
+                } else {
+                    port.outstanding.pop_front();
+                }
                 self.error(now, p, c, PortReason::TxFailed(c), out);
             }
             PortStatus::Error(ErrorCause::Restarted) => {
@@ -352,6 +394,7 @@ impl Health {
             }
             PortStatus::Error(c) => self.error(now, p, c, PortReason::Controller(c), out),
             PortStatus::Down(c) => {
+                port.outstanding.clear();
                 port.counters.errors[cause_index(c)] += 1;
                 port.counters.last_error = Some((now, c));
                 port.last_error = Some(now);
@@ -388,6 +431,7 @@ impl Health {
         if self.ports[p].state != PortState::Failed {
             self.set(now, p, PortState::Failed, reason, out);
         }
+        self.ports[p].revive_on_rx = !matches!(reason, PortReason::TxStalled { .. });
     }
 
     fn set(&mut self, at: Instant, p: usize, to: PortState, reason: PortReason, out: &mut Outbox) {
@@ -446,11 +490,21 @@ impl Health {
         Some((reference + threshold).max(missed + self.window))
     }
 
+    fn stall_deadline(&self, p: usize) -> Option<Instant> {
+        let port = &self.ports[p];
+        if self.cfg.tx_stall.is_zero() || !port.reports_outcomes || port.state == PortState::Failed
+        {
+            return None;
+        }
+        port.outstanding.front().map(|t| *t + self.cfg.tx_stall)
+    }
+
     /// Earliest deadline.
     pub fn poll_timeout(&self) -> Option<Instant> {
         let mut t = None;
         for p in 0..2 {
             t = earliest(t, self.silence_deadline(p));
+            t = earliest(t, self.stall_deadline(p));
             t = earliest(t, self.ports[p].reinit_at);
         }
         t
@@ -469,8 +523,18 @@ impl Health {
                 };
                 self.set(d, p, to, PortReason::Silence { silent }, out);
             }
+            if let Some(d) = self.stall_deadline(p).filter(|d| *d <= now) {
+                // Flush now: whatever waits in the queue would only arrive as duplicates.
+                let port = &mut self.ports[p];
+                port.outstanding.clear();
+                port.counters.reinits += 1;
+                out.request(p, PortRequest::Reinit);
+                let stalled = self.cfg.tx_stall;
+                self.fail(d, p, PortReason::TxStalled { waited: stalled }, out);
+            }
             if let Some(d) = self.ports[p].reinit_at.filter(|d| *d <= now) {
                 let port = &mut self.ports[p];
+                port.outstanding.clear();
                 port.attempt += 1;
                 port.counters.reinits += 1;
                 port.backoff = (port.backoff + port.backoff).min(self.cfg.reinit_max);
@@ -680,5 +744,41 @@ mod tests {
         assert_eq!(c.errors_of(ErrorCause::Crc), 1);
         assert_eq!(c.errors_of(ErrorCause::BusOff), 1);
         assert_eq!(c.tx_failed, 1);
+    }
+
+    #[test]
+    fn transmit_stall_flushes_and_fails_and_only_reinit_revives() {
+        let cfg = HealthConfig {
+            tx_stall: W,
+            ..HealthConfig::default()
+        };
+        let mut h = Health::new(cfg, W);
+        let mut out = Outbox::new();
+        // A driver that never reported an outcome is not judged.
+        h.count_tx(ms(0), 0);
+        assert_eq!(h.poll_timeout(), None);
+        h.on_status(ms(1), 0, PortStatus::TxOk, &mut out);
+        h.count_tx(ms(2), 0);
+        h.count_tx(ms(3), 0);
+        h.on_status(ms(4), 0, PortStatus::TxOk, &mut out);
+        // Oldest outstanding: handed at 3 ms.
+        assert_eq!(h.poll_timeout(), Some(ms(13)));
+        h.handle_timeout(ms(13), &mut out);
+        assert_eq!(out.requests.pop(), Some((0, PortRequest::Reinit)));
+        assert_eq!(
+            port_events(&mut out),
+            [(ms(13), 0, PortState::Failed, PortReason::TxStalled { waited: W })]
+        );
+        // Receiving (a babbler's frames) does not revive it; the back-off re-initialisation does.
+        h.on_rx(ms(20), 0, RxOutcome::Untrusted, &mut out);
+        assert_eq!(h.port(0).state(), PortState::Failed);
+        h.handle_timeout(ms(113), &mut out);
+        assert_eq!(h.port(0).state(), PortState::Recovering);
+        assert_eq!(h.port(0).counters().reinits, 2);
+        // A refused hand-over (queue full) concerns the newest frame.
+        h.count_tx(ms(120), 0);
+        h.count_tx(ms(121), 0);
+        h.on_status(ms(121), 0, PortStatus::TxFailed(ErrorCause::TxTimeout), &mut out);
+        assert_eq!(h.stall_deadline(0), Some(ms(130)));
     }
 }
