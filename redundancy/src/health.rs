@@ -767,7 +767,12 @@ mod tests {
         assert_eq!(out.requests.pop(), Some((0, PortRequest::Reinit)));
         assert_eq!(
             port_events(&mut out),
-            [(ms(13), 0, PortState::Failed, PortReason::TxStalled { waited: W })]
+            [(
+                ms(13),
+                0,
+                PortState::Failed,
+                PortReason::TxStalled { waited: W }
+            )]
         );
         // Receiving (a babbler's frames) does not revive it; the back-off re-initialisation does.
         h.on_rx(ms(20), 0, RxOutcome::Untrusted, &mut out);
@@ -778,7 +783,12 @@ mod tests {
         // A refused hand-over (queue full) concerns the newest frame.
         h.count_tx(ms(120), 0);
         h.count_tx(ms(121), 0);
-        h.on_status(ms(121), 0, PortStatus::TxFailed(ErrorCause::TxTimeout), &mut out);
+        h.on_status(
+            ms(121),
+            0,
+            PortStatus::TxFailed(ErrorCause::TxTimeout),
+            &mut out,
+        );
         assert_eq!(h.stall_deadline(0), Some(ms(130)));
     }
 }
