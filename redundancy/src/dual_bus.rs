@@ -171,6 +171,20 @@ impl<C: FrameClassifier, const N: usize> DualBus<C, N> {
     pub fn policy(&self) -> &Policy {
         &self.policy
     }
+    /// The CiA 302-6 policy (error counter, evaluation), in that mode.
+    pub fn cia302_6(&self) -> Option<&Cia3026> {
+        match &self.policy {
+            Policy::Cia302_6(p) => Some(p),
+            _ => None,
+        }
+    }
+    /// The ECSS policy (Bdefault, Ctoggle), in that mode.
+    pub fn ecss(&self) -> Option<&Ecss> {
+        match &self.policy {
+            Policy::EcssToggle(p) => Some(p),
+            _ => None,
+        }
+    }
     /// The active channel (302-6 and ECSS); `None` in active-active mode.
     pub fn active_channel(&self) -> Option<usize> {
         self.policy.active()
@@ -279,11 +293,6 @@ impl<C: FrameClassifier, const N: usize> BusLink for DualBus<C, N> {
                     RxOutcome::Untrusted
                 }
             }
-            // Sent on one channel only: whatever the port's health, nobody else will deliver it.
-            RxRoute::MergeSingle => match self.merger.arrive(now, port, frame) {
-                Verdict::Deliver => RxOutcome::Direct,
-                Verdict::Duplicate => RxOutcome::Duplicate,
-            },
         };
         self.health.on_rx(now, port, outcome, &mut self.out);
         if !matches!(outcome, RxOutcome::Delivered | RxOutcome::Direct) {

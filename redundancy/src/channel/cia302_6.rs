@@ -2,9 +2,9 @@
 //!
 //! - One *default* and one *redundant* channel. Application traffic (PDO, SDO, SYNC, EMCY, NMT)
 //!   goes out on the active channel only; heartbeats and boot-ups on both.
-//! - Received frames of both channels go through the exactly-once merger, so that nothing is
-//!   lost while the nodes of a network switch one after the other (heartbeats arrive twice and
-//!   are delivered once).
+//! - Frames are accepted from both channels, so that nothing is lost while the nodes of a
+//!   network switch one after the other: heartbeats (sent on both) through the exactly-once
+//!   merger, application frames (sent on one) as they come.
 //! - **Evaluation** counts heartbeats per producer on the default channel:
 //!   - power-on (first own boot-up) + 0x1F60 sub 2: if some producer gave fewer than 3, switch
 //!     to redundant;
@@ -368,9 +368,11 @@ impl ChannelPolicy for Cia3026 {
             }
             return RxRoute::Merge;
         }
-        // Application traffic travels on one channel; merged all the same, so that nothing is
-        // lost or doubled while the nodes switch one after the other.
-        RxRoute::MergeSingle
+        // Application traffic travels on one channel only, so it is never doubled; it is
+        // accepted from either, so that nothing is lost while the nodes switch one after the
+        // other. (Merging it would be wrong: an unchanged cyclic frame sent before a switch on
+        // one channel and after it on the other would look like a twin.)
+        RxRoute::Direct
     }
 
     fn on_status(&mut self, now: Instant, port: usize, status: PortStatus, out: &mut Outbox) {

@@ -47,8 +47,6 @@ pub enum RxRoute {
     /// Through the exactly-once merger; a twin is expected on the other port (so a port that
     /// never sees twins is silent).
     Merge,
-    /// Through the merger, but sent on one channel only: no twin expected.
-    MergeSingle,
     /// Up as it is (only one port carries it).
     Direct,
     /// Not for the application (inactive bus, link-layer frame).

@@ -201,6 +201,20 @@ impl Net {
             .expect("something was sent")
     }
 
+    /// Every transmission attempt on `bus`: (end, sender node-ID, frame, outcome).
+    pub fn wire(&self, bus: usize) -> Vec<(Instant, u8, Frame, TxOutcome)> {
+        self.sim
+            .trace()
+            .iter()
+            .filter_map(|r| match r {
+                TraceRecord::Tx(x) if x.bus == self.buses[bus] && !x.babble => {
+                    Some((x.end, x.sender.device.index() as u8 + 1, x.frame, x.outcome))
+                }
+                _ => None,
+            })
+            .collect()
+    }
+
     /// Every station received every other station's application frames exactly once, in order.
     pub fn assert_application_exact(&self) {
         let n = self.devs.len() as u8;
