@@ -6,7 +6,7 @@ mod common;
 
 use common::*;
 use duocan::{Duration, Frame, Id, Instant};
-use duocan_redundancy::{PortReason, PortState};
+use duocan_redundancy::{LinkEventKind, Member, PortReason, PortState};
 
 const SILENCE_LIMIT: Duration = Duration::from_millis(150);
 const SUSPECT_AFTER: Duration = Duration::from_millis(50);
@@ -224,4 +224,71 @@ fn babbling_port_floods_bus_1_the_other_bus_carries_the_traffic_in_bounded_memor
         let stats = link.stats();
         assert_eq!((stats.events_dropped, stats.tx_dropped), (0, 0));
     }
+}
+
+#[test]
+fn a_pair_is_one_stream_from_its_active_member_and_discrepancies_are_reported() {
+    let switch = Instant::from_millis(1_500);
+    let mut net = network(4, SLAVES, active_active(), STOP);
+    let m = net.dev(MASTER);
+    let (a, b) = (duocan::NodeId::must(2), duocan::NodeId::must(3));
+    let pair = net
+        .sim
+        .device_mut(m)
+        .link
+        .add_pair(a, b, Some(Member::A))
+        .unwrap();
+    net.sim.at(switch, move |sim| {
+        assert!(sim.device_mut(m).link.set_active(pair, Some(Member::B)));
+    });
+    run_to_end(&mut net);
+
+    // The master's application gets the pair's process data from A until the switch, from B
+    // after it; everything else as usual.
+    let app = &net.station(MASTER).machine.b;
+    let from = |node: u16| -> Vec<Instant> {
+        app.received
+            .iter()
+            .filter(|(_, f)| f.id().raw() & 0x7F == node as u32)
+            .map(|(t, _)| *t)
+            .collect()
+    };
+    let (got_a, got_b) = (from(2), from(3));
+    assert!(got_a.len() > 250 && got_a.iter().all(|t| *t < switch));
+    assert!(got_b.len() > 350 && got_b.iter().all(|t| *t > switch));
+    for r in 2..=SLAVES + 1 {
+        net.assert_application_exact_at(r);
+    }
+    // The standby's values are kept: B's last counter before the switch is known.
+    let link = &net.station(MASTER).link;
+    let (t, last_a) = link.pairs().latest(pair, Member::A, 1).unwrap();
+    assert!(t < STOP + Duration::from_millis(10) && last_a.id() == Id::Standard(0x182));
+    // TPDO2 carries the node-ID: A and B always differ, reported 100 ms after B's first TPDO2
+    // reached the master (A's came first). TPDO1 counters differ only for the 300 µs between
+    // the two boards' cycles: never reported.
+    let b_first = net
+        .wire(0)
+        .iter()
+        .filter(|x| x.1 == 3 && x.2.id() == Id::Standard(0x283))
+        .map(|x| x.0)
+        .min()
+        .unwrap();
+    let disc: Vec<_> = net
+        .link_events(MASTER)
+        .into_iter()
+        .filter_map(|e| match e.kind {
+            LinkEventKind::Discrepancy {
+                pair: p,
+                function,
+                a,
+                b,
+                since,
+            } => Some((e.at, p, function, a.data()[0], b.data()[0], since)),
+            _ => None,
+        })
+        .collect();
+    assert_eq!(
+        disc,
+        [(b_first + Duration::from_millis(100), pair, 2, 2, 3, b_first)]
+    );
 }

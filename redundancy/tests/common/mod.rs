@@ -217,26 +217,31 @@ impl Net {
 
     /// Every station received every other station's application frames exactly once, in order.
     pub fn assert_application_exact(&self) {
+        for r in 1..=self.devs.len() as u8 {
+            self.assert_application_exact_at(r);
+        }
+    }
+
+    /// Station `r` received every other station's application frames exactly once, in order.
+    pub fn assert_application_exact_at(&self, r: u8) {
         let n = self.devs.len() as u8;
-        for r in 1..=n {
-            let app = &self.station(r).machine.b;
-            for s in (1..=n).filter(|s| *s != r) {
-                let sender = &self.station(s).machine.b;
-                let want: Vec<u32> = (0..sender.sent_counter).collect();
-                let got = app.counters_from(s);
-                assert!(
-                    got == want,
-                    "node {r} from node {s}: {} counters instead of {} (first difference at {:?})",
-                    got.len(),
-                    want.len(),
-                    got.iter().zip(&want).position(|(a, b)| a != b)
-                );
-                assert_eq!(
-                    app.constants_from(s),
-                    sender.sent_const as usize,
-                    "node {r}: repeated frames of node {s}"
-                );
-            }
+        let app = &self.station(r).machine.b;
+        for s in (1..=n).filter(|s| *s != r) {
+            let sender = &self.station(s).machine.b;
+            let want: Vec<u32> = (0..sender.sent_counter).collect();
+            let got = app.counters_from(s);
+            assert!(
+                got == want,
+                "node {r} from node {s}: {} counters instead of {} (first difference at {:?})",
+                got.len(),
+                want.len(),
+                got.iter().zip(&want).position(|(a, b)| a != b)
+            );
+            assert_eq!(
+                app.constants_from(s),
+                sender.sent_const as usize,
+                "node {r}: repeated frames of node {s}"
+            );
         }
     }
 
