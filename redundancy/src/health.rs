@@ -381,7 +381,8 @@ impl Health {
                 self.error(now, p, c, PortReason::TxFailed(c), out);
             }
             PortStatus::Error(ErrorCause::Restarted) => {
-                port.counters.errors[cause_index(ErrorCause::Restarted)] += 1;
+                port.counters.errors[cause_index(ErrorCause::Restarted)] =
+                    port.counters.errors[cause_index(ErrorCause::Restarted)].saturating_add(1);
                 if port.state == PortState::Failed {
                     self.set(
                         now,
@@ -395,7 +396,8 @@ impl Health {
             PortStatus::Error(c) => self.error(now, p, c, PortReason::Controller(c), out),
             PortStatus::Down(c) => {
                 port.outstanding.clear();
-                port.counters.errors[cause_index(c)] += 1;
+                port.counters.errors[cause_index(c)] =
+                    port.counters.errors[cause_index(c)].saturating_add(1);
                 port.counters.last_error = Some((now, c));
                 port.last_error = Some(now);
                 self.fail(now, p, PortReason::Down(c), out);
@@ -417,7 +419,8 @@ impl Health {
         out: &mut Outbox,
     ) {
         let port = &mut self.ports[p];
-        port.counters.errors[cause_index(c)] += 1;
+        port.counters.errors[cause_index(c)] =
+            port.counters.errors[cause_index(c)].saturating_add(1);
         port.counters.last_error = Some((now, c));
         port.last_error = Some(now);
         if is_fatal(c) {
@@ -527,7 +530,7 @@ impl Health {
                 // Flush now: whatever waits in the queue would only arrive as duplicates.
                 let port = &mut self.ports[p];
                 port.outstanding.clear();
-                port.counters.reinits += 1;
+                port.counters.reinits = port.counters.reinits.saturating_add(1);
                 out.request(p, PortRequest::Reinit);
                 let stalled = self.cfg.tx_stall;
                 self.fail(d, p, PortReason::TxStalled { waited: stalled }, out);
@@ -535,8 +538,8 @@ impl Health {
             if let Some(d) = self.ports[p].reinit_at.filter(|d| *d <= now) {
                 let port = &mut self.ports[p];
                 port.outstanding.clear();
-                port.attempt += 1;
-                port.counters.reinits += 1;
+                port.attempt = port.attempt.saturating_add(1);
+                port.counters.reinits = port.counters.reinits.saturating_add(1);
                 port.backoff = (port.backoff + port.backoff).min(self.cfg.reinit_max);
                 let attempt = port.attempt;
                 out.request(p, PortRequest::Reinit);

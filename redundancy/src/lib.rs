@@ -7,7 +7,7 @@
 //! One type, three policies ([`Mode`]):
 //!
 //! - **Active-active** (default): transmit fan-out to every port not failed; receive
-//!   [merge](merge) delivering each frame occurrence exactly once; [same-function
+//!   [merge] delivering each frame occurrence exactly once; [same-function
 //!   merge](pairs_merge) of A/B board pairs with discrepancy events.
 //! - **CiA 302-6** active-standby ([`channel::cia302_6`]): 0x1F60, heartbeats on both channels,
 //!   evaluation windows, 0x7F indicate-active-interface, transmit-error counter.
@@ -16,7 +16,7 @@
 //!
 //! Around them: [port health](health) (counters, error causes, ok / suspect / failed /
 //! recovering, silence limit, re-initialisation with back-off), [per-node per-bus
-//! reachability](reach), and [events](events) with reasons and timestamps for every change.
+//! reachability](reach), and [events] with reasons and timestamps for every change.
 //! Configuration comes from code ([`DualBusConfig`]) or from the dictionary ([`config`]).
 //!
 //! Everything is bounded (fixed-capacity tables and queues, counted overflow) and builds for

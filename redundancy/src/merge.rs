@@ -38,6 +38,14 @@
 //! possible harm is that the twin of the evicted arrival, arriving later, is delivered as a
 //! duplicate (at most one per eviction). Losing a frame is worse than a counted duplicate.
 //!
+//! # Failed ports
+//!
+//! The merger itself treats both ports alike. The layer feeds it arrivals from a port that is
+//! failed or recovering (while the other port is healthy) through [`Merger::match_only`]: such
+//! an arrival may consume a pending twin but is never delivered or recorded, because a repaired
+//! segment can first flush frames older than the window, which would otherwise come up a second
+//! time (see [`crate::health`]). With both ports unhealthy, both deliver normally.
+//!
 //! # Order
 //!
 //! Each occurrence is delivered at its first arrival, so when both buses deliver everything the

@@ -403,7 +403,7 @@ impl ChannelPolicy for Cia3026 {
                     break;
                 }
                 self.pending.pop_front();
-                self.late += 1;
+                self.late = self.late.saturating_add(1);
                 self.tx_error(due, out);
             }
         }
