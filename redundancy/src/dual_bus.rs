@@ -243,7 +243,7 @@ impl<C: FrameClassifier, const N: usize> DualBus<C, N> {
     /// Counters.
     pub fn stats(&self) -> LinkStats {
         LinkStats {
-            tx_dropped: self.out.frames.dropped(),
+            tx_dropped: self.out.frames_dropped(),
             events_dropped: self.out.events.dropped(),
             requests_dropped: self.out.requests.dropped(),
             ..self.stats
@@ -337,7 +337,7 @@ impl<C: FrameClassifier, const N: usize> BusLink for DualBus<C, N> {
     }
 
     fn poll_transmit(&mut self) -> Option<(usize, Frame)> {
-        let (p, f) = self.out.frames.pop()?;
+        let (p, f) = self.out.pop_frame()?;
         self.health.count_tx(self.now, p);
         Some((p, f))
     }

@@ -206,7 +206,8 @@ pub struct PortHealth {
     outstanding: heapless::Deque<Instant, OUTSTANDING>,
     /// The driver reports transmit outcomes.
     reports_outcomes: bool,
-    /// A frame received revives the failed port (not after a transmit stall).
+    /// Traffic (a frame, the driver's "up") revives the failed port; not after a transmit
+    /// stall, where only the back-off re-initialisation does.
     revive_on_rx: bool,
     counters: PortCounters,
 }
@@ -383,7 +384,7 @@ impl Health {
             PortStatus::Error(ErrorCause::Restarted) => {
                 port.counters.errors[cause_index(ErrorCause::Restarted)] =
                     port.counters.errors[cause_index(ErrorCause::Restarted)].saturating_add(1);
-                if port.state == PortState::Failed {
+                if port.state == PortState::Failed && port.revive_on_rx {
                     self.set(
                         now,
                         p,
@@ -403,7 +404,8 @@ impl Health {
                 self.fail(now, p, PortReason::Down(c), out);
             }
             PortStatus::Up => {
-                if port.state == PortState::Failed {
+                // After a transmit stall the driver's "up" answers the flush, not the cause.
+                if port.state == PortState::Failed && port.revive_on_rx {
                     self.set(now, p, PortState::Recovering, PortReason::Up, out);
                 }
             }
@@ -519,12 +521,12 @@ impl Health {
             while let Some(d) = self.silence_deadline(p).filter(|d| *d <= now) {
                 let port = &self.ports[p];
                 let silent = d.saturating_since(port.silence_ref.unwrap_or(d));
-                let to = if silent >= self.cfg.silence_limit {
-                    PortState::Failed
+                let reason = PortReason::Silence { silent };
+                if silent >= self.cfg.silence_limit {
+                    self.fail(d, p, reason, out);
                 } else {
-                    PortState::Suspect
-                };
-                self.set(d, p, to, PortReason::Silence { silent }, out);
+                    self.set(d, p, PortState::Suspect, reason, out);
+                }
             }
             if let Some(d) = self.stall_deadline(p).filter(|d| *d <= now) {
                 // Flush now: whatever waits in the queue would only arrive as duplicates.

@@ -201,16 +201,33 @@ fn babbling_port_floods_bus_1_the_other_bus_carries_the_traffic_in_bounded_memor
     assert!(flooded > 5_000, "the flood ran: {flooded} frames");
     for node in 1..=SLAVES + 1 {
         let link = &net.station(node).link;
-        // Bus 1 could not carry this station's frames: flushed and failed within the window.
+        // Bus 1 could not carry this station's frames: 10 ms (the window) after the first frame
+        // it could not send, the port was flushed and failed; re-initialised after 100, 200,
+        // 400 ms, each time failing again 10 ms later, until the flood was over.
         let ev = net.port_events(node, 0);
-        assert!(
-            ev.iter().any(|e| e.2 == PortState::Failed
-                && matches!(
-                    e.3,
-                    PortReason::TxStalled { .. } | PortReason::Silence { .. }
-                )),
-            "node {node}: {ev:?}"
-        );
+        let ms = Duration::from_millis;
+        let stalled = PortReason::TxStalled { waited: ms(10) };
+        let t0 = ev[0].0;
+        assert!(t0 > CUT && t0 <= CUT + ms(20), "node {node}: {ev:?}");
+        let mut want = vec![(t0, PortState::Failed, stalled)];
+        let mut t = t0;
+        for (attempt, backoff) in [(1, 100), (2, 200), (3, 400)] {
+            t += ms(backoff);
+            want.push((t, PortState::Recovering, PortReason::Reinit { attempt }));
+            want.push((t + ms(10), PortState::Failed, stalled));
+            t += ms(10);
+        }
+        // The fourth attempt, 800 ms later, finds a quiet bus: ok after the 50 ms probation.
+        want.push((
+            t + ms(800),
+            PortState::Recovering,
+            PortReason::Reinit { attempt: 4 },
+        ));
+        let got: Vec<_> = ev.iter().map(|e| (e.0, e.2, e.3)).collect();
+        assert_eq!(got[..8], want[..], "node {node}");
+        assert_eq!(got.len(), 9, "node {node}: {got:?}");
+        assert_eq!((got[8].1, got[8].2), (PortState::Ok, PortReason::Traffic));
+        assert!(got[8].0 >= want[7].0 + ms(50) && got[8].0 < want[7].0 + ms(60));
         assert_eq!(link.port_state(0), PortState::Ok, "node {node} recovered");
         assert!(net.port_events(node, 1).is_empty(), "node {node}");
         // The flood passed through this station's merger without growing it.

@@ -490,7 +490,7 @@ mod tests {
         assert_eq!(p.route_tx(ms(1), &pdo, &none, &h, &mut out), 0b01);
         assert!(p.select(ms(2), 1, &mut out));
         assert_eq!(p.route_tx(ms(3), &pdo, &none, &h, &mut out), 0b10);
-        assert_eq!(out.frames.pop(), Some((1, indicate_active())));
+        assert_eq!(out.pop_frame(), Some((1, indicate_active())));
     }
 
     #[test]
@@ -522,7 +522,7 @@ mod tests {
                 }
             )]
         );
-        assert_eq!(out.frames.pop(), Some((1, indicate_active())));
+        assert_eq!(out.pop_frame(), Some((1, indicate_active())));
         // Back to default as soon as both give three heartbeats there.
         for t in [1100, 1200, 1300] {
             p.on_rx(ms(t), 0, &hb(2), &info(2), &mut out);
@@ -532,7 +532,7 @@ mod tests {
             channel_events(&mut out),
             [(ms(1301), 1, 0, SwitchReason::HeartbeatsBack)]
         );
-        assert_eq!(out.frames.pop(), Some((0, indicate_active())));
+        assert_eq!(out.pop_frame(), Some((0, indicate_active())));
     }
 
     #[test]
@@ -658,7 +658,7 @@ mod tests {
             RxRoute::Ignore
         );
         assert_eq!(p.active_channel(), 1);
-        assert!(out.frames.is_empty());
+        assert!(out.pop_frame().is_none());
         assert_eq!(
             channel_events(&mut out),
             [(ms(5), 0, 1, SwitchReason::Indicated)]
