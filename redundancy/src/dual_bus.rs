@@ -21,6 +21,7 @@ use crate::channel::{
     ChannelPolicy, Cia3026, Cia3026Config, Ecss, EcssConfig, FrameInfo, ModeKind, Policy, RxRoute,
 };
 use crate::classify::FrameClassifier;
+use crate::config::{ConfigError, OdLayout};
 use crate::events::LinkEvent;
 use crate::health::{Health, HealthConfig, PortHealth, PortState, RxOutcome};
 use crate::merge::{Merger, Verdict};
@@ -28,6 +29,7 @@ use crate::outbox::Outbox;
 use crate::pairs_merge::{Member, PairError, PairId, PairVerdict, SameFunction};
 use crate::reach::Reach;
 use duocan::machine::{BusLink, PortRequest, PortStatus};
+use duocan::od::ObjectDictionary;
 use duocan::profile::Predefined;
 use duocan::time::earliest;
 use duocan::{Duration, Frame, Instant};
@@ -127,6 +129,11 @@ impl DualBus<Predefined, DEFAULT_MERGE_SLOTS> {
     /// A layer for the predefined connection set.
     pub fn new(cfg: DualBusConfig) -> Self {
         DualBus::with_classifier(cfg, Predefined)
+    }
+    /// A layer for the predefined connection set, configured by a dictionary (see
+    /// [`DualBusConfig::from_od`]).
+    pub fn from_od<D: ObjectDictionary>(od: &D, layout: &OdLayout) -> Result<Self, ConfigError> {
+        Ok(DualBus::new(DualBusConfig::from_od(od, layout)?))
     }
 }
 
