@@ -27,6 +27,7 @@ pub mod node;
 pub mod od;
 pub mod profile;
 pub mod queue;
+pub mod sdo;
 #[cfg(feature = "std")]
 pub mod sim;
 pub mod sync;
