@@ -33,6 +33,7 @@ pub mod events;
 pub mod health;
 pub mod merge;
 pub mod outbox;
+pub mod pairs;
 pub mod pairs_merge;
 pub mod reach;
 
