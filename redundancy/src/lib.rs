@@ -30,6 +30,7 @@ pub mod classify;
 pub mod config;
 pub mod dual_bus;
 pub mod events;
+pub mod flying_master;
 pub mod health;
 pub mod merge;
 pub mod outbox;
