@@ -38,6 +38,8 @@ pub mod outbox;
 pub mod pairs;
 pub mod pairs_merge;
 pub mod reach;
+pub mod station;
+pub mod supervisor;
 
 pub use channel::{Cia3026Config, EcssConfig, EcssRole, ModeKind, NodeSet};
 pub use classify::FrameClassifier;
@@ -47,3 +49,5 @@ pub use health::{HealthConfig, PortState};
 pub use merge::{Merger, Verdict};
 pub use outbox::{Outbox, EVENT_QUEUE, FRAME_QUEUE, REQUEST_QUEUE};
 pub use pairs_merge::{Member, PairId};
+pub use station::SupervisedStation;
+pub use supervisor::{LinkCommand, Supervisor, SupervisorConfig, SupervisorEvent};
