@@ -574,6 +574,15 @@ impl PairSupervisor {
         self.handle_timeout(now);
         for p in 0..self.pairs.len() {
             self.ensure_active(now, p, RoleReason::Takeover);
+            // Two running members (one started by another master behind a partition): the
+            // standby goes back to pre-operational.
+            if let Some(a) = self.pairs[p].active {
+                let o = self.pairs[p].member(a.other());
+                if o.joined() && o.nmt == Some(NmtState::Operational) {
+                    let node = o.node;
+                    self.nmt(NmtCommand::EnterPreOperational, node);
+                }
+            }
         }
     }
 

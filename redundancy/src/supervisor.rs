@@ -560,6 +560,9 @@ impl<D: ObjectDictionary> Machine for Supervisor<D> {
 
     fn handle_timeout(&mut self, now: Instant) {
         self.fm.handle_timeout(now);
+        if let Some(to) = self.fm.take_handback() {
+            self.plan(now, Planned::HandOver(Some(to)));
+        }
         // Role changes first: a takeover makes the node a producer before its timers run.
         self.pump(now);
         self.run_planned(now);
