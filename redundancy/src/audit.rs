@@ -310,13 +310,21 @@ mod tests {
         assert_eq!(lines.len(), 2);
         assert!(lines[0].starts_with("#1 0.115000s: pair 3"), "{}", lines[0]);
         assert!(lines[0].contains("active A -> B: active member silent since 0.065000s"));
-        assert!(lines[1].contains("master standby -> active"), "{}", lines[1]);
+        assert!(
+            lines[1].contains("master standby -> active"),
+            "{}",
+            lines[1]
+        );
         let mut c = std::string::String::new();
         t.write_csv(&mut c).unwrap();
         let rows: std::vec::Vec<&str> = c.lines().collect();
         assert_eq!(rows[0], "seq,time_us,kind,subject,from,to,reason");
         assert!(rows[1].starts_with("1,115000,pair,pair 3 ("), "{}", rows[1]);
-        assert!(rows[1].contains(",A,B,\"active member silent"), "{}", rows[1]);
+        assert!(
+            rows[1].contains(",A,B,\"active member silent"),
+            "{}",
+            rows[1]
+        );
         assert!(rows[2].starts_with("2,200000,master,master,standby,active,\""));
     }
 }

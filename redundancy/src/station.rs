@@ -128,14 +128,18 @@ fn member_word(m: Option<Member>) -> &'static str {
     }
 }
 
-impl<D: ObjectDictionary, C: FrameClassifier, const N: usize> fmt::Display
-    for Status<'_, D, C, N>
-{
+impl<D: ObjectDictionary, C: FrameClassifier, const N: usize> fmt::Display for Status<'_, D, C, N> {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         let sup = &self.st.sup;
         let fm = sup.flying_master();
         writeln!(f, "status at {}", self.now)?;
-        write!(f, "master {} ({}): {}", fm.rank().node, fm.rank().priority, fm.role())?;
+        write!(
+            f,
+            "master {} ({}): {}",
+            fm.rank().node,
+            fm.rank().priority,
+            fm.role()
+        )?;
         if fm.is_active() && !fm.may_command(self.now) {
             write!(f, ", commands suspended")?;
         }
@@ -190,7 +194,13 @@ impl<D: ObjectDictionary, C: FrameClassifier, const N: usize> fmt::Display
                         Phase::Joined => "joined",
                     },
                 };
-                write!(f, " {:#04x}    {:<16} {:<12}", s.node.raw(), nmt.as_str(), phase)?;
+                write!(
+                    f,
+                    " {:#04x}    {:<16} {:<12}",
+                    s.node.raw(),
+                    nmt.as_str(),
+                    phase
+                )?;
             }
             writeln!(f)?;
         }

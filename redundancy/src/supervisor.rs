@@ -40,7 +40,7 @@ use duocan::queue::Bounded;
 use duocan::sdo::{RequestId, SdoClient, SdoOptions};
 use duocan::time::earliest;
 use duocan::time_stamp::TimeOfDay;
-use duocan::{Duration, Frame, Id, Instant, Node, NodeEvent, NodeId, NmtCommand, NmtState};
+use duocan::{Duration, Frame, Id, Instant, NmtCommand, NmtState, Node, NodeEvent, NodeId};
 use heapless::Vec;
 
 /// Frames the supervisor itself can hold (NMT commands, flying-master frames).
@@ -187,7 +187,12 @@ impl<D: ObjectDictionary> Supervisor<D> {
         // Entries a master dictionary has; a missing one is reported by the node's own checks.
         let _ = node.set(now, comm::HEARTBEAT_PRODUCER, 0, hb);
         let _ = node.set(now, comm::SYNC_COB_ID, 0, SYNC_CONSUME);
-        let _ = node.set(now, comm::SYNC_PERIOD, 0, cfg.sync_period.as_micros() as u32);
+        let _ = node.set(
+            now,
+            comm::SYNC_PERIOD,
+            0,
+            cfg.sync_period.as_micros() as u32,
+        );
         let _ = node.set(now, comm::TIME_COB_ID, 0, TIME_CONSUME);
         node.boot(now);
         let mut fm = FlyingMaster::new(cfg.flying);
@@ -550,7 +555,8 @@ impl<D: ObjectDictionary> Machine for Supervisor<D> {
             return self.pump(now);
         }
         if let Some((node, state)) = Self::heartbeat_frame(frame) {
-            self.fm.heartbeat(now, node, state == NmtState::Initialising);
+            self.fm
+                .heartbeat(now, node, state == NmtState::Initialising);
             self.pairs.heartbeat(now, node, state);
         }
         self.node.handle_frame(now, frame);

@@ -52,7 +52,11 @@ fn run(order: [Fault; 3], spacing: Duration) {
         }
     }
     // Only the failed slave was reset; nobody rebooted.
-    assert_eq!(n.resets_in(Instant::from_millis(1000), t + Duration::from_secs(2)), [a(2)], "{ctx}");
+    assert_eq!(
+        n.resets_in(Instant::from_millis(1000), t + Duration::from_secs(2)),
+        [a(2)],
+        "{ctx}"
+    );
 }
 
 const ORDERS: [[Fault; 3]; 6] = [

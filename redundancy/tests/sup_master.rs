@@ -46,7 +46,9 @@ fn time_offsets(n: &SupNet) -> Vec<(Instant, u8, i64)> {
         if f.id() != Id::Standard(0x100) {
             continue;
         }
-        if v.last().is_some_and(|l| t.saturating_since(l.0) < Duration::from_millis(2)) {
+        if v.last()
+            .is_some_and(|l| t.saturating_since(l.0) < Duration::from_millis(2))
+        {
             continue;
         }
         let tod = TimeOfDay::from_bytes(f.data()).unwrap();
@@ -60,7 +62,10 @@ fn assert_takeover(n: &SupNet) -> Instant {
     let last = n.last_heartbeat(STRONG, KILL);
     let t = last + TIMEOUT;
     let r = n.master_roles(WEAK);
-    let take = r.iter().find(|r| r.to == MasterRole::Active).expect("takeover");
+    let take = r
+        .iter()
+        .find(|r| r.to == MasterRole::Active)
+        .expect("takeover");
     assert_eq!(take.at, t);
     assert_eq!(
         take.reason,
@@ -103,10 +108,17 @@ fn strong_master_killed_weak_takes_over_without_resets_or_sync_gap_and_supervise
         .filter(|s| s.1 == WEAK)
         .map(|s| s.0)
         .collect();
-    assert!(weak[0] <= t + ONE_MS, "first SYNC at once: {} vs {t}", weak[0]);
+    assert!(
+        weak[0] <= t + ONE_MS,
+        "first SYNC at once: {} vs {t}",
+        weak[0]
+    );
     for w in weak[1..].windows(2) {
         let d = w[1] - w[0];
-        assert!(d >= SYNC - Duration::from_micros(200) && d <= SYNC + Duration::from_micros(200), "{w:?}");
+        assert!(
+            d >= SYNC - Duration::from_micros(200) && d <= SYNC + Duration::from_micros(200),
+            "{w:?}"
+        );
     }
     // TIME continues the strong master's time base: no jump beyond the 1 ms resolution.
     let offs = time_offsets(&n);
@@ -122,9 +134,15 @@ fn strong_master_killed_weak_takes_over_without_resets_or_sync_gap_and_supervise
         .find(|x| x.2 == NmtCommand::Start && x.3 == b(5))
         .unwrap();
     assert_eq!(start.1, WEAK);
-    assert!(start.0 > last_a + Duration::from_millis(50) && start.0 <= last_a + Duration::from_millis(51));
+    assert!(
+        start.0 > last_a + Duration::from_millis(50)
+            && start.0 <= last_a + Duration::from_millis(51)
+    );
     let r = n.pair_roles(WEAK, 5);
-    assert_eq!(r.last().unwrap().reason, RoleReason::ActiveSilent { last: last_a });
+    assert_eq!(
+        r.last().unwrap().reason,
+        RoleReason::ActiveSilent { last: last_a }
+    );
     for i in 0..20 {
         let want = if i == 5 { Member::B } else { Member::A };
         assert_eq!(n.active_member(WEAK, i), Some(want), "pair {i}");
@@ -172,11 +190,16 @@ fn revertive_planned_hand_back_without_sync_gap() {
     let around: Vec<_> = n
         .syncs()
         .into_iter()
-        .filter(|s| s.0 > back.at - Duration::from_millis(100) && s.0 < back.at + Duration::from_millis(100))
+        .filter(|s| {
+            s.0 > back.at - Duration::from_millis(100) && s.0 < back.at + Duration::from_millis(100)
+        })
         .collect();
     assert!(around.iter().any(|s| s.1 == WEAK) && around.iter().any(|s| s.1 == STRONG));
     for w in around.windows(2) {
         let d = w[1].0 - w[0].0;
-        assert!(d >= SYNC - Duration::from_micros(300) && d <= SYNC + Duration::from_micros(300), "{w:?}");
+        assert!(
+            d >= SYNC - Duration::from_micros(300) && d <= SYNC + Duration::from_micros(300),
+            "{w:?}"
+        );
     }
 }

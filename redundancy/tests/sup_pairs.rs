@@ -45,13 +45,17 @@ fn start_up_strong_master_active_first_members_active_weak_shadows() {
     let nmt = nmt_after(&n, Instant::ZERO);
     assert_eq!(
         nmt.iter().map(|x| (x.1, x.2)).collect::<Vec<_>>(),
-        (0..4).map(|i| (NmtCommand::Start, a(i))).collect::<Vec<_>>()
+        (0..4)
+            .map(|i| (NmtCommand::Start, a(i)))
+            .collect::<Vec<_>>()
     );
     assert!(nmt.iter().all(|x| x.0 > ms(610) && x.0 < ms(615)));
     let status = n.sim.device(n.master(STRONG)).status(ms(2000)).to_string();
     assert!(status.contains("master node 0x01 (0): active"), "{status}");
     assert!(
-        status.contains("0     A       0x10    operational      joined       0x50    pre-operational  joined"),
+        status.contains(
+            "0     A       0x10    operational      joined       0x50    pre-operational  joined"
+        ),
         "{status}"
     );
 }
@@ -68,7 +72,11 @@ fn active_member_killed_standby_started_within_consumer_time_plus_1ms_then_rejoi
     // At the deadline: start B (on the bus within one frame), then reset A.
     assert_eq!(nmt[0].1, NmtCommand::Start);
     assert_eq!(nmt[0].2, b(0));
-    assert!(nmt[0].0 > deadline && nmt[0].0 <= deadline + ONE_MS, "{:?} vs {deadline}", nmt[0]);
+    assert!(
+        nmt[0].0 > deadline && nmt[0].0 <= deadline + ONE_MS,
+        "{:?} vs {deadline}",
+        nmt[0]
+    );
     assert_eq!((nmt[1].1, nmt[1].2), (NmtCommand::ResetNode, a(0)));
     assert!(nmt[1].0 <= deadline + ONE_MS);
     // A was dead: nothing more. It rejoins as standby (configured, not started: non-revertive).
@@ -76,12 +84,18 @@ fn active_member_killed_standby_started_within_consumer_time_plus_1ms_then_rejoi
     let roles = n.pair_roles(STRONG, 0);
     assert_eq!(roles.len(), 2);
     assert_eq!(roles[1].at, deadline);
-    assert_eq!((roles[1].from, roles[1].to), (Some(Member::A), Some(Member::B)));
+    assert_eq!(
+        (roles[1].from, roles[1].to),
+        (Some(Member::A), Some(Member::B))
+    );
     assert_eq!(roles[1].reason, RoleReason::ActiveSilent { last });
     assert_eq!(n.active_member(STRONG, 0), Some(Member::B));
     let pair = *n.sup(STRONG).pair_supervisor().pair(PairId(0)).unwrap();
     assert!(pair.member(Member::A).joined());
-    assert_eq!(pair.member(Member::A).nmt, Some(duocan::NmtState::PreOperational));
+    assert_eq!(
+        pair.member(Member::A).nmt,
+        Some(duocan::NmtState::PreOperational)
+    );
     assert!(n.boot_ups_in(ms(1500), ms(1501)).contains(&a(0)));
     // The weak master followed from the NMT commands on the wire.
     assert_eq!(n.active_member(WEAK, 0), Some(Member::B));
@@ -99,7 +113,10 @@ fn active_member_killed_standby_started_within_consumer_time_plus_1ms_then_rejoi
     // The audit trail has the change with its reason and time.
     let mut text = String::new();
     n.sup(STRONG).audit().write_text(&mut text).unwrap();
-    assert!(text.contains("active A -> B: active member silent since"), "{text}");
+    assert!(
+        text.contains("active A -> B: active member silent since"),
+        "{text}"
+    );
 }
 
 #[test]
@@ -164,5 +181,8 @@ fn configured_member_that_never_boots_is_reported_missing_and_never_commanded() 
     assert_eq!(missing, [(ms(5000), b(3))]);
     assert!(n.nmt_first_copies().iter().all(|x| x.3 != b(3)));
     let status = n.sim.device(n.master(STRONG)).status(ms(7000)).to_string();
-    assert!(status.contains("0x53    unknown          missing"), "{status}");
+    assert!(
+        status.contains("0x53    unknown          missing"),
+        "{status}"
+    );
 }

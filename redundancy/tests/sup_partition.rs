@@ -97,7 +97,11 @@ fn partition_between_the_masters_then_heal() {
     assert!(demoted.at > HEAL && demoted.at < HEAL + DETECT_CYCLE);
     assert!(matches!(demoted.reason, MasterReason::ConflictLost(_)));
     // In practice: within one master heartbeat period of the heal.
-    assert!(demoted.at < HEAL + Duration::from_millis(21), "{}", demoted.at);
+    assert!(
+        demoted.at < HEAL + Duration::from_millis(21),
+        "{}",
+        demoted.at
+    );
 
     // No slave got NMT commands from both masters between the cut and the resolution.
     for i in 0..4 {
@@ -116,8 +120,12 @@ fn partition_between_the_masters_then_heal() {
         .flat_map(|sl| nmt_reaching(&n, sl))
         .filter(|c| c.0 > CUT && c.0 < HEAL)
         .collect();
-    assert!(during.iter().any(|c| c.1 == WEAK && c.2 == NmtCommand::Start));
-    assert!(during.iter().any(|c| c.1 == STRONG && c.2 == NmtCommand::Start));
+    assert!(during
+        .iter()
+        .any(|c| c.1 == WEAK && c.2 == NmtCommand::Start));
+    assert!(during
+        .iter()
+        .any(|c| c.1 == STRONG && c.2 == NmtCommand::Start));
     // Nothing was reset after the heal: the healed members were adopted, not rebooted.
     assert!(n.boot_ups_in(HEAL, HEAL + DETECT_CYCLE).is_empty());
 

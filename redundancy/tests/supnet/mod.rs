@@ -71,7 +71,10 @@ pub struct SupNet {
 }
 
 fn link(p: &Params) -> DualBus {
-    DualBus::new(DualBusConfig::with_guard_period(Mode::ActiveActive, p.slave_hb))
+    DualBus::new(DualBusConfig::with_guard_period(
+        Mode::ActiveActive,
+        p.slave_hb,
+    ))
 }
 
 pub fn master_station(p: &Params, id: u8, now: Instant) -> MasterDev {
@@ -81,14 +84,8 @@ pub fn master_station(p: &Params, id: u8, now: Instant) -> MasterDev {
         comm::standard_dictionary(id, comm::Identity::default()),
     );
     let peer = if id == STRONG { WEAK } else { STRONG };
-    let mut cfg = SupervisorConfig::new(
-        (id - 1) as u8,
-        nid,
-        p.master_hb,
-        p.master_timeout,
-        p.sync,
-    )
-    .with_peer((peer - 1) as u8, NodeId::must(peer));
+    let mut cfg = SupervisorConfig::new((id - 1) as u8, nid, p.master_hb, p.master_timeout, p.sync)
+        .with_peer((peer - 1) as u8, NodeId::must(peer));
     cfg.pairs.revertive = p.revertive_pairs;
     cfg.flying.revertive = p.revertive_master;
     cfg.time_period = Duration::from_millis(100);
@@ -281,11 +278,7 @@ impl SupNet {
     pub fn nmt_first_copies(&self) -> Vec<(Instant, u8, NmtCommand, u8)> {
         let mut v: Vec<(Instant, u8, NmtCommand, u8)> = vec![];
         for (t, _, s, c, n) in self.nmt_on_wire() {
-            if let Some(prev) = v
-                .iter()
-                .rev()
-                .find(|x| x.1 == s && x.2 == c && x.3 == n)
-            {
+            if let Some(prev) = v.iter().rev().find(|x| x.1 == s && x.2 == c && x.3 == n) {
                 if t.saturating_since(prev.0) < Duration::from_millis(5) {
                     continue;
                 }
@@ -322,14 +315,19 @@ impl SupNet {
             .map(|x| x.0)
             .filter(|t| *t >= from && *t <= to)
             .collect();
-        s.windows(2).map(|w| w[1] - w[0]).max().unwrap_or(Duration::ZERO)
+        s.windows(2)
+            .map(|w| w[1] - w[0])
+            .max()
+            .unwrap_or(Duration::ZERO)
     }
     /// The end of the first copy of `node`'s last heartbeat delivered up to `t`.
     pub fn last_heartbeat(&self, node: u8, t: Instant) -> Instant {
         let hb: Vec<Instant> = self
             .delivered()
             .into_iter()
-            .filter(|(e, _, s, f)| *s == node && *e <= t && f.id() == Id::Standard(0x700 + node as u16))
+            .filter(|(e, _, s, f)| {
+                *s == node && *e <= t && f.id() == Id::Standard(0x700 + node as u16)
+            })
             .map(|x| x.0)
             .collect();
         let last = *hb.iter().max().expect("a heartbeat");
