@@ -123,29 +123,35 @@ fn drive(m: &mut Master, arrivals: &[(u64, usize, Frame)], answer_sdo: bool) -> 
 /// Four active masters with every pair joined (A active), at 2 s.
 fn warm() -> Vec<Master> {
     // Boards already running: adopted and configured, the A boards started.
-    let warmup = heartbeats(
-        Instant::ZERO,
-        Duration::from_millis(2000),
-        |i| if i < PAIRS { 0x05 } else { 0x7F },
-    );
+    let warmup = heartbeats(Instant::ZERO, Duration::from_millis(2000), |i| {
+        if i < PAIRS {
+            0x05
+        } else {
+            0x7F
+        }
+    });
     (0..NETWORKS)
         .map(|_| {
             let mut m = master();
             drive(&mut m, &warmup, true);
             assert!(m.sup.is_active());
-            assert!(m.sup.pairs().all(|(_, p)| p.active.is_some()
-                && p.members.iter().all(|s| s.joined())));
+            assert!(m
+                .sup
+                .pairs()
+                .all(|(_, p)| p.active.is_some() && p.members.iter().all(|s| s.joined())));
             m
         })
         .collect()
 }
 
 fn supervisor_scale(c: &mut Criterion) {
-    let second = heartbeats(
-        Instant::from_millis(2000),
-        Duration::from_secs(1),
-        |i| if i < PAIRS { 0x05 } else { 0x7F },
-    );
+    let second = heartbeats(Instant::from_millis(2000), Duration::from_secs(1), |i| {
+        if i < PAIRS {
+            0x05
+        } else {
+            0x7F
+        }
+    });
     assert_eq!(second.len(), 2 * 108 * 100);
     let mut g = c.benchmark_group("supervisor");
     g.sample_size(10);
@@ -174,7 +180,10 @@ fn supervisor_scale(c: &mut Criterion) {
         }
         best = best.min(start.elapsed().as_secs_f64());
         for m in &ms {
-            assert!(m.sup.pairs().all(|(_, p)| p.active == Some(duocan_redundancy::Member::A)));
+            assert!(m
+                .sup
+                .pairs()
+                .all(|(_, p)| p.active == Some(duocan_redundancy::Member::A)));
         }
     }
     println!(

@@ -176,6 +176,8 @@ pub struct Supervisor<D> {
     /// Last SYNC produced or received (the grid planned switches align to).
     last_sync: Option<Instant>,
     planned: Option<(Planned, Instant)>,
+    /// The SDO client may hold frames although no configuration runs.
+    sdo_tail: bool,
     stats: SupervisorStats,
 }
 
@@ -216,6 +218,7 @@ impl<D: ObjectDictionary> Supervisor<D> {
             configuring: Vec::new(),
             last_sync: None,
             planned: None,
+            sdo_tail: false,
             stats: SupervisorStats::default(),
         };
         s.pump(now);
@@ -388,8 +391,14 @@ impl<D: ObjectDictionary> Supervisor<D> {
                 progressed = true;
                 self.node_event(now, e);
             }
-            while let Some(e) = self.sdo.poll_event() {
+            while let Some(e) = if self.configuring.is_empty() {
+                None
+            } else {
+                self.sdo.poll_event()
+            } {
                 progressed = true;
+                // A finished transfer may leave a frame (an abort) to send.
+                self.sdo_tail = true;
                 self.configuring.retain(|(r, _)| *r != e.request);
                 let ok = e.result.is_ok();
                 if let Err(error) = e.result {
@@ -560,7 +569,10 @@ impl<D: ObjectDictionary> Machine for Supervisor<D> {
             self.pairs.heartbeat(now, node, state);
         }
         self.node.handle_frame(now, frame);
-        self.sdo.handle_frame(now, frame);
+        // The client only serves configurations: idle, it has nothing to do with a frame.
+        if !self.configuring.is_empty() {
+            self.sdo.handle_frame(now, frame);
+        }
         self.pump(now);
     }
 
@@ -575,7 +587,9 @@ impl<D: ObjectDictionary> Machine for Supervisor<D> {
         self.pump(now);
         self.pairs.handle_timeout(now);
         self.node.handle_timeout(now);
-        self.sdo.handle_timeout(now);
+        if !self.configuring.is_empty() {
+            self.sdo.handle_timeout(now);
+        }
         self.pump(now);
     }
 
@@ -586,13 +600,22 @@ impl<D: ObjectDictionary> Machine for Supervisor<D> {
         if let Some(f) = self.node.poll_transmit() {
             return Some(f);
         }
-        self.sdo.poll_transmit()
+        if self.configuring.is_empty() && !self.sdo_tail {
+            return None;
+        }
+        let f = self.sdo.poll_transmit();
+        if f.is_none() {
+            self.sdo_tail = false;
+        }
+        f
     }
 
     fn poll_timeout(&self) -> Option<Instant> {
         let mut t = earliest(self.fm.poll_timeout(), self.pairs.poll_timeout());
         t = earliest(t, self.node.poll_timeout());
-        t = earliest(t, self.sdo.poll_timeout());
+        if !self.configuring.is_empty() {
+            t = earliest(t, self.sdo.poll_timeout());
+        }
         earliest(t, self.planned.map(|p| p.1))
     }
 
