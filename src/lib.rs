@@ -25,6 +25,7 @@ pub mod machine;
 pub mod nmt;
 pub mod node;
 pub mod od;
+pub mod pdo;
 pub mod profile;
 pub mod queue;
 pub mod sync;
