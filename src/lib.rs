@@ -28,6 +28,8 @@ pub mod od;
 pub mod pdo;
 pub mod profile;
 pub mod queue;
+#[cfg(feature = "std")]
+pub mod sim;
 pub mod sync;
 pub mod time;
 pub mod time_stamp;
