@@ -8,7 +8,8 @@
 //! - 252: sampled at SYNC, sent on RTR; 253: sampled and sent on RTR;
 //! - 254/255: event-driven: sent on an event, at the latest when the event timer elapses (the
 //!   timer restarts at every transmission), never sooner than the inhibit time after the
-//!   previous transmission (an event during the inhibit time is sent when it ends).
+//!   previous transmission (an event during the inhibit time is sent when it ends). Times count
+//!   from the instant the frame is queued for the bus, as CANopenNode counts them.
 //!
 //! Entering operational counts as an event for 254/255, so the current values go out at once.
 
