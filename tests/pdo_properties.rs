@@ -205,7 +205,7 @@ proptest! {
                 0 => n.set_nmt_state(now, NmtState::PreOperational),
                 1 => n.set_nmt_state(now, NmtState::Operational),
                 2..=5 => { let _ = n.set(now, 0x6001, 0, v); }
-                6 => { let _ = n.tpdo_request(now, (v % 6) as u16); }
+                6 => { let _ = n.tpdo_request(now, v % 6); }
                 _ => {}
             }
             n.handle_frame(now, &f);
