@@ -22,11 +22,17 @@
 //! Dummy entries (index 0x0001–0x001B of a supported fixed-size type, sub 0) are placeholders:
 //! skipped on reception, zeros on transmission.
 
+pub mod configurator;
 mod mapping;
 pub mod params;
 mod rpdo;
 mod tpdo;
 
+#[cfg(feature = "alloc")]
+pub use configurator::{mirror, Local, Mirror, MirrorError};
+pub use configurator::{
+    ConfigError, ConfigErrorKind, Configured, PdoConfig, PdoConfigurator, SdoAccess,
+};
 pub use mapping::{
     check_entry, check_mapping, mask, read_bits, write_bits, Dir, MapEntry, MAX_BITS, MAX_ENTRIES,
 };
