@@ -7,8 +7,8 @@ use duocan::machine::StationEvent;
 use duocan::node::{NodeEventKind, ObjectAccess};
 use duocan::od::{comm, Access, DataType, DynamicDictionary, ObjectDef, ObjectDictionary};
 use duocan::pdo::{
-    mirror, params, ConfigErrorKind, Dir, Local, MapEntry, Mirror, MirrorError, PdoConfig,
-    PdoConfigurator, PdoEvent, SdoAccess,
+    mirror, params, AccessError, ConfigErrorKind, Dir, Local, MapEntry, Mirror, MirrorError,
+    PdoConfig, PdoConfigurator, PdoEvent, SdoAccess,
 };
 use duocan::sim::{BusConfig, SimNetwork, TraceRecord, TxOutcome};
 use duocan::{
@@ -66,7 +66,7 @@ fn run_local<A: ObjectAccess>(
                 dev.write(now, index, sub, a.data()).map(|_| vec![])
             }
         };
-        job.handle(r.as_deref().map_err(|e| *e));
+        job.handle(r.as_deref().map_err(|e| AccessError::Aborted(*e)));
     }
     log
 }

@@ -14,8 +14,8 @@
 //! this job (reported as `fallback`): the COB-ID already selects the wanted identifier and is
 //! valid, each parameter is either written or already holds the wanted value (read back after a
 //! refusal), and the mapping, which cannot change while the PDO is valid, already is the wanted
-//! one. Protocol failures (timeouts and other 0x0503xxxx/0x0504xxxx codes) never lead to the
-//! fallback: they fail the job.
+//! one. Only a refusal by the device leads to the fallback: no answer, or an abort of the SDO
+//! protocol itself (0x0503xxxx/0x0504xxxx), fails the job.
 
 use super::mapping::{Dir, MapEntry, MAX_ENTRIES};
 use super::params::{self, sub};
@@ -136,11 +136,23 @@ pub struct Configured {
     pub previous_cob_id: CobId,
 }
 
+/// How one SDO access failed.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum AccessError {
+    /// The device aborted it with this code.
+    Aborted(AbortCode),
+    /// The device was not heard: the client timed out or gave up (with the abort code it sent,
+    /// if any), or could not start the transfer.
+    NoAnswer(Option<AbortCode>),
+}
+
 /// What went wrong.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum ConfigErrorKind {
-    /// The device (or the SDO layer) aborted the access with this code.
+    /// The device aborted the access with this code.
     Aborted(AbortCode),
+    /// The device did not answer (the SDO client's abort code, if it sent one).
+    NoAnswer(Option<AbortCode>),
     /// The device refused to disable the PDO and holds something else than wanted (read back).
     Mismatch {
         /// Wanted value.
@@ -178,7 +190,11 @@ impl fmt::Display for ConfigError {
             self.node, self.index, self.sub
         )?;
         match self.kind {
-            ConfigErrorKind::Aborted(code) => write!(f, "aborted with {code}"),
+            ConfigErrorKind::Aborted(code) => write!(f, "the device aborted with {code}"),
+            ConfigErrorKind::NoAnswer(Some(code)) => {
+                write!(f, "no answer from the device (the client aborted with {code})")
+            }
+            ConfigErrorKind::NoAnswer(None) => write!(f, "no answer from the device"),
             ConfigErrorKind::Mismatch { wanted, found } => write!(
                 f,
                 "the device refuses to disable the PDO and holds {found:#x} instead of {wanted:#x}: \
@@ -365,8 +381,8 @@ impl PdoConfigurator {
     }
 
     /// How the access [`PdoConfigurator::next`] asked for ended: the uploaded bytes (empty for a
-    /// download) or the abort code (the device's, or the SDO client's for a timeout).
-    pub fn handle(&mut self, result: Result<&[u8], AbortCode>) {
+    /// download) or why it failed.
+    pub fn handle(&mut self, result: Result<&[u8], AccessError>) {
         let Some(a) = self.next() else { return };
         let value = match result {
             Ok(d) if matches!(a, SdoAccess::Read { .. }) => {
@@ -378,7 +394,10 @@ impl PdoConfigurator {
                 Some(u32::from_le_bytes(b))
             }
             Ok(_) => None,
-            Err(code) => {
+            Err(AccessError::NoAnswer(code)) => {
+                return self.fail(a, ConfigErrorKind::NoAnswer(code));
+            }
+            Err(AccessError::Aborted(code)) => {
                 let refused = !protocol_failure(code);
                 match self.step {
                     Step::Disable if refused => {
@@ -484,7 +503,7 @@ mod tests {
         while let Some(a) = job.next() {
             log.push(a);
             let r = f(a);
-            job.handle(r.as_deref().map_err(|e| *e));
+            job.handle(r.as_deref().map_err(|e| AccessError::Aborted(*e)));
         }
         log
     }
@@ -528,7 +547,30 @@ mod tests {
     }
 
     #[test]
-    fn timeouts_fail_without_fallback() {
+    fn no_answer_fails_without_fallback() {
+        let mut job = PdoConfigurator::new(
+            NodeId::must(5),
+            Dir::Receive,
+            2,
+            PdoConfig::new(CobId(0x305), 255),
+        );
+        job.handle(Ok(&0x305u32.to_le_bytes()));
+        job.handle(Err(AccessError::NoAnswer(Some(AbortCode::TIMEOUT))));
+        let e = job.result().unwrap().unwrap_err();
+        assert_eq!(
+            (e.index, e.sub, e.fallback, e.kind),
+            (
+                0x1401,
+                1,
+                false,
+                ConfigErrorKind::NoAnswer(Some(AbortCode::TIMEOUT))
+            )
+        );
+        assert_eq!(job.next(), None);
+    }
+
+    #[test]
+    fn protocol_aborts_from_the_device_fail_without_fallback() {
         let mut job = PdoConfigurator::new(
             NodeId::must(5),
             Dir::Receive,

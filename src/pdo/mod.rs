@@ -31,7 +31,7 @@ mod tpdo;
 #[cfg(feature = "alloc")]
 pub use configurator::{mirror, Local, Mirror, MirrorError};
 pub use configurator::{
-    ConfigError, ConfigErrorKind, Configured, PdoConfig, PdoConfigurator, SdoAccess,
+    AccessError, ConfigError, ConfigErrorKind, Configured, PdoConfig, PdoConfigurator, SdoAccess,
 };
 pub use mapping::{
     check_entry, check_mapping, mask, read_bits, write_bits, Dir, MapEntry, MAX_BITS, MAX_ENTRIES,
