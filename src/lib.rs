@@ -28,6 +28,7 @@ pub mod od;
 pub mod pdo;
 pub mod profile;
 pub mod queue;
+pub mod sdo;
 #[cfg(feature = "std")]
 pub mod sim;
 pub mod sync;
