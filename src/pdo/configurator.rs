@@ -3,7 +3,8 @@
 //!
 //! [`PdoConfigurator`] is a sans-IO job. It says which SDO access comes next
 //! ([`PdoConfigurator::next`]), is told how it ended ([`PdoConfigurator::handle`]), and finally
-//! reports [`Configured`] or a [`ConfigError`]. Any SDO client can carry it.
+//! reports [`Configured`] or a [`ConfigError`]. [`SdoPdoJob`] carries it over the master's
+//! [`crate::sdo::SdoClient`]; [`mirror`] sets up the master's own end of the PDO.
 //!
 //! The sequence is CiA 301's: read the COB-ID, disable the PDO (bit 31), write the transmission
 //! type, inhibit time, event timer and SYNC start value that are asked for, then the mapping
@@ -488,8 +489,10 @@ impl PdoConfigurator {
 
 #[cfg(feature = "alloc")]
 mod mirror;
+mod over_sdo;
 #[cfg(feature = "alloc")]
 pub use mirror::{mirror, Local, Mirror, MirrorError};
+pub use over_sdo::SdoPdoJob;
 
 #[cfg(test)]
 mod tests {

@@ -32,6 +32,7 @@ mod tpdo;
 pub use configurator::{mirror, Local, Mirror, MirrorError};
 pub use configurator::{
     AccessError, ConfigError, ConfigErrorKind, Configured, PdoConfig, PdoConfigurator, SdoAccess,
+    SdoPdoJob,
 };
 pub use mapping::{
     check_entry, check_mapping, mask, read_bits, write_bits, Dir, MapEntry, MAX_BITS, MAX_ENTRIES,
