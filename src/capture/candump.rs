@@ -261,7 +261,10 @@ mod tests {
         assert_eq!(l.timestamp_us, 1_700_000_000_123_456);
         assert_eq!(
             l.record,
-            Record::Frame(Frame::from_array(Id::Standard(0x123), [0xDE, 0xAD, 0xBE, 0xEF]))
+            Record::Frame(Frame::from_array(
+                Id::Standard(0x123),
+                [0xDE, 0xAD, 0xBE, 0xEF]
+            ))
         );
         let r = parse_line("(1.5) can0 701#R").unwrap();
         assert_eq!(r.timestamp_us, 1_500_000);

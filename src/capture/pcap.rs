@@ -39,7 +39,9 @@ pub fn encode_frame(frame: &Frame) -> ([u8; 16], usize) {
 /// Decodes one packet of link type 227.
 pub fn decode_packet(p: &[u8]) -> Result<Record, PcapError> {
     if p.len() < 8 {
-        return Err(PcapError::BadPacket("shorter than the 8-byte SocketCAN header"));
+        return Err(PcapError::BadPacket(
+            "shorter than the 8-byte SocketCAN header",
+        ));
     }
     let word = u32::from_be_bytes([p[0], p[1], p[2], p[3]]);
     let len = p[4] as usize;
@@ -118,7 +120,10 @@ impl fmt::Display for PcapError {
                 write!(f, "pcap file truncated at byte {offset}")
             }
             PcapError::Oversized { offset, len } => {
-                write!(f, "pcap packet at byte {offset} claims {len} bytes: corrupt file")
+                write!(
+                    f,
+                    "pcap packet at byte {offset} claims {len} bytes: corrupt file"
+                )
             }
             PcapError::BadPacket(why) => write!(f, "bad SocketCAN packet: {why}"),
         }
@@ -339,10 +344,16 @@ mod tests {
             }
             assert!(complete <= 2);
         }
-        assert!(matches!(PcapReader::new(&b"hello world, not pcap"[..]), Err(PcapError::NotPcap)));
+        assert!(matches!(
+            PcapReader::new(&b"hello world, not pcap"[..]),
+            Err(PcapError::NotPcap)
+        ));
         let mut other = b.clone();
         other[20] = 1;
-        assert!(matches!(PcapReader::new(&other[..]), Err(PcapError::LinkType(1))));
+        assert!(matches!(
+            PcapReader::new(&other[..]),
+            Err(PcapError::LinkType(1))
+        ));
         let mut huge = b.clone();
         huge[32..36].copy_from_slice(&1_000_000u32.to_le_bytes());
         let first = PcapReader::new(&huge[..]).unwrap().next().unwrap();

@@ -212,8 +212,7 @@ impl<M: Machine> Machine for Tapped<M> {
     type Event = M::Event;
     fn handle_frame(&mut self, now: Instant, frame: &Frame) {
         self.now = now;
-        self.tap
-            .frame(now, TapPoint::Logical, Direction::Rx, frame);
+        self.tap.frame(now, TapPoint::Logical, Direction::Rx, frame);
         self.inner.handle_frame(now, frame);
     }
     fn handle_timeout(&mut self, now: Instant) {
@@ -269,9 +268,24 @@ mod tests {
             .pcap(Filter::Point(TapPoint::Port(1)), pc.clone())
             .unwrap();
         let f = Frame::from_array(Id::Standard(0x701), [5]);
-        rec.frame(Instant::from_micros(1), TapPoint::Port(0), Direction::Rx, &f);
-        rec.frame(Instant::from_micros(2), TapPoint::Port(1), Direction::Rx, &f);
-        rec.frame(Instant::from_micros(3), TapPoint::Logical, Direction::Rx, &f);
+        rec.frame(
+            Instant::from_micros(1),
+            TapPoint::Port(0),
+            Direction::Rx,
+            &f,
+        );
+        rec.frame(
+            Instant::from_micros(2),
+            TapPoint::Port(1),
+            Direction::Rx,
+            &f,
+        );
+        rec.frame(
+            Instant::from_micros(3),
+            TapPoint::Logical,
+            Direction::Rx,
+            &f,
+        );
         let text = String::from_utf8(log.0.lock().unwrap().clone()).unwrap();
         let lines: Vec<_> = text.lines().collect();
         assert_eq!(

@@ -128,7 +128,9 @@ impl<D: Device, C: Can, const N: usize> EmbeddedDriver<D, C, N> {
             let Some(q) = self.backlog.get_mut(port) else {
                 continue; // a port the driver does not have: nothing can send it
             };
-            let queued = frame.to_embedded::<C::Frame>().map(|f| q.push_back(f).is_ok());
+            let queued = frame
+                .to_embedded::<C::Frame>()
+                .map(|f| q.push_back(f).is_ok());
             if queued != Some(true) {
                 self.stats[port].tx_dropped = self.stats[port].tx_dropped.wrapping_add(1);
             }
@@ -190,7 +192,9 @@ mod tests {
             if self.busy {
                 return Err(nb::Error::WouldBlock);
             }
-            self.sent.push(*f).map_err(|_| nb::Error::Other(ErrorKind::Overrun))?;
+            self.sent
+                .push(*f)
+                .map_err(|_| nb::Error::Other(ErrorKind::Overrun))?;
             Ok(None)
         }
         fn receive(&mut self) -> nb::Result<Frame, ErrorKind> {

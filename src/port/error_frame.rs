@@ -144,7 +144,10 @@ mod tests {
             &[PortStatus::Error(ErrorCause::ErrorPassive)]
         );
         let warn = decode(class::CRTL, &[0, ctrl::RX_WARNING, 0, 0, 0, 0, 0, 0]);
-        assert_eq!(warn.as_slice(), &[PortStatus::Error(ErrorCause::ErrorWarning)]);
+        assert_eq!(
+            warn.as_slice(),
+            &[PortStatus::Error(ErrorCause::ErrorWarning)]
+        );
         let ovf = decode(class::CRTL, &[0, ctrl::RX_OVERFLOW, 0, 0, 0, 0, 0, 0]);
         assert_eq!(ovf.as_slice(), &[PortStatus::Error(ErrorCause::RxOverflow)]);
         let active = decode(class::CRTL, &[0, ctrl::ACTIVE, 0, 0, 0, 0, 0, 0]);

@@ -26,4 +26,6 @@ pub use counters::{PortCounters, PortCountersSnapshot};
 #[cfg(feature = "tokio")]
 mod asynch;
 #[cfg(feature = "tokio")]
+pub mod mem;
+#[cfg(feature = "tokio")]
 pub use asynch::{Port, PortError, PortErrorKind, PortInput};

@@ -323,7 +323,9 @@ mod tests {
         );
         assert_eq!(
             decode_error_frame(&ef).as_slice(),
-            &[crate::machine::PortStatus::Down(crate::machine::ErrorCause::BusOff)]
+            &[crate::machine::PortStatus::Down(
+                crate::machine::ErrorCause::BusOff
+            )]
         );
     }
 
@@ -335,8 +337,12 @@ mod tests {
             .enable_all()
             .build()
             .unwrap();
-        let err = rt.block_on(async { SocketCanPort::open("duocan-nope0") }).unwrap_err();
+        let err = rt
+            .block_on(async { SocketCanPort::open("duocan-nope0") })
+            .unwrap_err();
         assert_eq!(err.kind, PortErrorKind::NoSuchInterface);
-        assert!(err.to_string().contains("ip link add dev duocan-nope0 type vcan"));
+        assert!(err
+            .to_string()
+            .contains("ip link add dev duocan-nope0 type vcan"));
     }
 }

@@ -159,7 +159,10 @@ pub fn encode(frame: &Frame, timestamp: f64, channel: Option<&str>) -> Vec<u8> {
         (Value::from("timestamp"), Value::F64(timestamp)),
         (Value::from("arbitration_id"), Value::from(raw)),
         (Value::from("is_extended_id"), Value::Boolean(ext)),
-        (Value::from("is_remote_frame"), Value::Boolean(frame.is_remote())),
+        (
+            Value::from("is_remote_frame"),
+            Value::Boolean(frame.is_remote()),
+        ),
         (Value::from("is_error_frame"), Value::Boolean(false)),
         (
             Value::from("channel"),
@@ -211,7 +214,9 @@ pub fn decode(datagram: &[u8]) -> Result<(Frame, f64), DecodeError> {
     } else {
         u16::try_from(raw).ok().and_then(Id::standard)
     }
-    .ok_or(DecodeError::Invalid(crate::frame::FrameError::BadId { raw }))?;
+    .ok_or(DecodeError::Invalid(crate::frame::FrameError::BadId {
+        raw,
+    }))?;
     let dlc = get("dlc")
         .and_then(Value::as_u64)
         .ok_or(DecodeError::Field("dlc"))?;
@@ -315,8 +320,10 @@ fn open_sockets(cfg: &UdpBusConfig, name: &str) -> Result<Sockets, PortError> {
     let tx = Socket::new(Domain::IPV4, Type::DGRAM, Some(Protocol::UDP)).map_err(io("socket"))?;
     tx.set_multicast_if_v4(&cfg.interface)
         .map_err(io("IP_MULTICAST_IF"))?;
-    tx.set_multicast_ttl_v4(cfg.ttl).map_err(io("IP_MULTICAST_TTL"))?;
-    tx.set_multicast_loop_v4(true).map_err(io("IP_MULTICAST_LOOP"))?;
+    tx.set_multicast_ttl_v4(cfg.ttl)
+        .map_err(io("IP_MULTICAST_TTL"))?;
+    tx.set_multicast_loop_v4(true)
+        .map_err(io("IP_MULTICAST_LOOP"))?;
     tx.bind(&SocketAddrV4::new(cfg.interface, 0).into())
         .map_err(io("bind the send socket"))?;
     tx.set_nonblocking(true).map_err(io("non-blocking"))?;

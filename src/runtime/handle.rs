@@ -1,6 +1,6 @@
 //! The application's side of a running runtime.
 
-use super::core::Command;
+use super::task::Command;
 use super::{Clock, RuntimeEvent};
 use crate::port::{PortCounters, PortCountersSnapshot};
 use crate::time::Instant;

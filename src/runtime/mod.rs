@@ -20,10 +20,10 @@
 //! request/response helper ([`Handle::request`]) that starts an operation and awaits the event
 //! that completes it — the shape asynchronous SDO transfers take.
 
-mod core;
 mod handle;
 mod node;
 mod port_task;
+mod task;
 
 pub use handle::{Handle, RuntimeClosed};
 pub use node::{LocalNode, NodeHost};
@@ -146,7 +146,8 @@ where
         let name = port.name().to_owned();
         let counters = port.counters();
         let spawn: SpawnPort = Box::new(move |w: port_task::Wiring| {
-            let span = tracing::info_span!("port", net = %w.net, port = w.index, name = %port.name());
+            let span =
+                tracing::info_span!("port", net = %w.net, port = w.index, name = %port.name());
             tokio::spawn(port_task::run(port, w).instrument(span));
         });
         self.ports.push((name, counters, spawn));
@@ -188,7 +189,7 @@ where
         }
         drop(in_tx);
         let span = tracing::info_span!("net", net = %self.name);
-        let core = core::Core {
+        let core = task::Core {
             device: self.device,
             clock,
             ports: port_txs,
@@ -198,5 +199,156 @@ where
         };
         let task = tokio::spawn(core.run(cmd_rx, in_rx).instrument(span));
         Ok(Handle::new(cmd_tx, ev_tx, clock, names, counters, task))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::machine::{Station, StationEvent};
+    use crate::node::{NodeEvent, NodeEventKind};
+    use crate::od::{comm, DynamicDictionary};
+    use crate::port::mem::MemBus;
+    use crate::{NmtCommand, NmtState, NmtTarget, Node, NodeConfig, NodeId};
+    use std::time::Duration as StdDuration;
+
+    type Dev = Station<crate::machine::SinglePort, Node<DynamicDictionary>>;
+
+    fn node(id: u8, master: bool, hb_ms: u16) -> Dev {
+        let nid = NodeId::new(id).unwrap();
+        let mut od = comm::standard_dictionary(id, comm::Identity::default());
+        use crate::od::ObjectDictionary;
+        od.write_local(comm::HEARTBEAT_PRODUCER, 0, &hb_ms.to_le_bytes())
+            .unwrap();
+        let cfg = if master {
+            NodeConfig::master(nid)
+        } else {
+            NodeConfig::slave(nid)
+        };
+        Station::single(Node::new(cfg, od))
+    }
+
+    fn node_event(
+        e: &RuntimeEvent<StationEvent<std::convert::Infallible, NodeEvent>>,
+    ) -> Option<NodeEventKind> {
+        match e {
+            RuntimeEvent::Device(StationEvent::Machine(n)) => Some(n.kind),
+            _ => None,
+        }
+    }
+
+    #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+    async fn master_starts_a_slave_and_hears_its_heartbeat() {
+        let bus = MemBus::new("mem0");
+        let slave = Runtime::new(node(5, false, 20))
+            .name("slave")
+            .port(bus.port())
+            .spawn()
+            .unwrap();
+        let master = Runtime::new(node(1, true, 0))
+            .name("master")
+            .port(bus.port())
+            .spawn()
+            .unwrap();
+        let mut ev = master.subscribe();
+        slave.boot().await.unwrap();
+        master.boot().await.unwrap();
+        master
+            .nmt(NmtCommand::Start, NmtTarget::Node(NodeId::new(5).unwrap()))
+            .await
+            .unwrap()
+            .unwrap();
+        let seen = tokio::time::timeout(StdDuration::from_secs(5), async {
+            loop {
+                let e = ev.recv().await.unwrap();
+                if let Some(NodeEventKind::RemoteState {
+                    node,
+                    to: NmtState::Operational,
+                    ..
+                }) = node_event(&e)
+                {
+                    return node;
+                }
+            }
+        })
+        .await
+        .expect("master saw the slave operational");
+        assert_eq!(seen.raw(), 5);
+        assert_eq!(slave.nmt_state().await.unwrap(), NmtState::Operational);
+        assert_eq!(
+            slave.read(0x1017, 0).await.unwrap().unwrap(),
+            20u16.to_le_bytes()
+        );
+        // Heartbeats come from the node's deadlines: about 1 per 20 ms, not per runtime tick.
+        let before = master.port_counters(0).unwrap().rx_frames;
+        tokio::time::sleep(StdDuration::from_millis(400)).await;
+        let n = master.port_counters(0).unwrap().rx_frames - before;
+        assert!((10..=22).contains(&n), "{n} heartbeats in 400 ms at 20 ms");
+        // A write through the handle takes effect: heartbeat off, frames stop.
+        slave
+            .write(0x1017, 0, 0u16.to_le_bytes().to_vec())
+            .await
+            .unwrap()
+            .unwrap();
+        tokio::time::sleep(StdDuration::from_millis(50)).await;
+        let before = master.port_counters(0).unwrap().rx_frames;
+        tokio::time::sleep(StdDuration::from_millis(200)).await;
+        assert_eq!(master.port_counters(0).unwrap().rx_frames, before);
+        slave.shutdown().await;
+        master.shutdown().await;
+        assert!(master.nmt_state().await.is_err(), "closed runtime says so");
+    }
+
+    #[tokio::test]
+    async fn port_count_must_match() {
+        let bus = MemBus::new("m");
+        let e = Runtime::new(node(1, true, 0))
+            .port(bus.port())
+            .port(bus.port())
+            .spawn();
+        assert_eq!(
+            e.err(),
+            Some(StartError::PortCount {
+                device: 1,
+                given: 2
+            })
+        );
+    }
+
+    #[tokio::test]
+    async fn request_waits_for_the_completing_event() {
+        let bus = MemBus::new("m");
+        let master = Runtime::new(node(1, true, 0))
+            .port(bus.port())
+            .spawn()
+            .unwrap();
+        let slave = Runtime::new(node(9, false, 0))
+            .port(bus.port())
+            .spawn()
+            .unwrap();
+        slave.boot().await.unwrap();
+        // Start: boot the master; done: the event that says it is operational.
+        let r = master.request(
+            |d, now| {
+                d.machine.boot(now);
+                d.machine.id()
+            },
+            |id, e| match e {
+                StationEvent::Machine(NodeEvent {
+                    kind:
+                        NodeEventKind::StateChanged {
+                            to: NmtState::Operational,
+                            ..
+                        },
+                    at,
+                }) => Some((*id, *at)),
+                _ => None,
+            },
+        );
+        let (id, _at) = tokio::time::timeout(StdDuration::from_secs(5), r)
+            .await
+            .unwrap()
+            .unwrap();
+        assert_eq!(id.raw(), 1);
     }
 }

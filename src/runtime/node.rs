@@ -14,11 +14,20 @@ pub trait LocalNode {
     /// Reads an entry as the device itself.
     fn read_entry(&self, index: u16, sub: u8) -> Result<Vec<u8>, AbortCode>;
     /// Writes an entry as the device itself, with the stack's reactions.
-    fn write_entry(&mut self, now: Instant, index: u16, sub: u8, data: &[u8])
-        -> Result<(), AbortCode>;
+    fn write_entry(
+        &mut self,
+        now: Instant,
+        index: u16,
+        sub: u8,
+        data: &[u8],
+    ) -> Result<(), AbortCode>;
     /// Queues an NMT command.
-    fn send_nmt(&mut self, now: Instant, cmd: NmtCommand, target: NmtTarget)
-        -> Result<(), QueueFull>;
+    fn send_nmt(
+        &mut self,
+        now: Instant,
+        cmd: NmtCommand,
+        target: NmtTarget,
+    ) -> Result<(), QueueFull>;
     /// The local NMT state.
     fn state(&self) -> NmtState;
     /// Power-on: boot-up message, pre-operational (or operational for a master).
@@ -85,7 +94,11 @@ where
     D::Event: Clone + Send + 'static,
 {
     /// Reads an entry of the local dictionary.
-    pub async fn read(&self, index: u16, sub: u8) -> Result<Result<Vec<u8>, AbortCode>, RuntimeClosed> {
+    pub async fn read(
+        &self,
+        index: u16,
+        sub: u8,
+    ) -> Result<Result<Vec<u8>, AbortCode>, RuntimeClosed> {
         self.call(move |d, _| d.local_node().read_entry(index, sub))
             .await
     }
