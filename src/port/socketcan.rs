@@ -1,4 +1,9 @@
-//! Linux SocketCAN ports (`can0`, `vcan0`, …) on the `socketcan` crate's tokio socket.
+//! Linux SocketCAN ports (`can0`, `vcan0`, …) on the `socketcan` crate's raw socket.
+//!
+//! The socket is registered with tokio directly, with interest in socket errors as well as
+//! readiness: when an interface goes down the kernel reports ENETDOWN as a socket error
+//! (EPOLLERR), which a plain readable-interest wait (as in `socketcan::tokio`) never wakes for,
+//! so a port on a downed interface that only listens would never notice.
 //!
 //! Error frames are enabled and decoded into [`PortStatus`] (bus-off, error passive, no-ack, …).
 //! Opening checks the interface first, so a missing or down interface gives an error that says
@@ -14,12 +19,41 @@ use super::error_frame::{self, ErrorStatuses};
 use super::{Port, PortCounters, PortError, PortErrorKind, PortInput};
 use crate::frame::{Frame, FrameError, Id};
 use socketcan::{
-    CanAnyFrame, CanDataFrame, CanErrorFrame, CanFrame, CanRemoteFrame, EmbeddedFrame,
+    CanAnyFrame, CanDataFrame, CanErrorFrame, CanFrame, CanRemoteFrame, EmbeddedFrame, Socket,
     SocketOptions,
 };
 use std::io;
+use tokio::io::unix::AsyncFd;
+use tokio::io::Interest;
 
-type TokioCanSocket = socketcan::tokio::CanSocket;
+/// A non-blocking raw CAN socket registered with tokio, woken by errors too.
+#[derive(Debug)]
+struct TokioCanSocket(AsyncFd<socketcan::CanSocket>);
+
+impl TokioCanSocket {
+    fn open(ifname: &str) -> io::Result<Self> {
+        let s = socketcan::CanSocket::open(ifname)?;
+        s.set_nonblocking(true)?;
+        // `AsyncFd::new` is deprecated for types that may not own their descriptor; `CanSocket`
+        // owns it (closes it on drop) and the AsyncFd owns the socket, so this use is sound.
+        #[allow(deprecated)]
+        let fd = AsyncFd::new(s)?;
+        Ok(TokioCanSocket(fd))
+    }
+    fn set_error_filter_accept_all(&self) -> io::Result<()> {
+        self.0.get_ref().set_error_filter_accept_all()
+    }
+    async fn read_frame(&self) -> io::Result<CanFrame> {
+        self.0
+            .async_io(Interest::READABLE | Interest::ERROR, |s| s.read_frame())
+            .await
+    }
+    async fn write_frame(&self, f: CanFrame) -> io::Result<()> {
+        self.0
+            .async_io(Interest::WRITABLE | Interest::ERROR, |s| s.write_frame(&f))
+            .await
+    }
+}
 
 fn id_of(id: socketcan::Id) -> Id {
     Id::from(id)
@@ -292,11 +326,11 @@ impl Port for SocketCanPort {
 
 /// Writes an error frame (`bits` | `CAN_ERR_FLAG`, `data`) on `ifname`: how tests inject
 /// controller errors on a vcan interface, which has no controller of its own.
-pub async fn inject_error_frame(ifname: &str, bits: u32, data: &[u8]) -> io::Result<()> {
-    let sock = TokioCanSocket::open(ifname)?;
+pub fn inject_error_frame(ifname: &str, bits: u32, data: &[u8]) -> io::Result<()> {
+    let sock = socketcan::CanSocket::open(ifname)?;
     let ef = CanErrorFrame::new_error(bits, data)
         .map_err(|e| io::Error::new(io::ErrorKind::InvalidInput, e.to_string()))?;
-    sock.write_frame(CanFrame::Error(ef)).await
+    sock.write_frame(&CanFrame::Error(ef))
 }
 
 #[cfg(test)]

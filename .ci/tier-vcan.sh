@@ -1,0 +1,33 @@
+#!/bin/bash
+# Tier 2: real SocketCAN on vcan0/vcan1/vcan2, inside a qemu VM running Debian's stock kernel
+# (the host kernel has no CAN). Installs what it needs (qemu, busybox, the kernel deb's CAN
+# modules), runs tests/vcan.rs in the VM, then the runtime-overhead measurement (bare
+# socketcan echo loop vs the tokio runtime, same VM).
+#   .ci/tier-vcan.sh            tests + benchmark
+#   .ci/tier-vcan.sh --no-bench tests only
+# Exits non-zero, saying why, when anything cannot run.
+set -euo pipefail
+ROOT=$(cd "$(dirname "$0")/.." && pwd)
+VM="$ROOT/.ci/vcanvm"
+cd "$ROOT"
+fail() { echo "tier-vcan: FAILED: $*" >&2; exit 1; }
+
+command -v cargo >/dev/null || fail "cargo not found"
+[ "$(id -u)" = 0 ] || fail "needs root (apt-get install of qemu-system-x86, busybox-static, cpio)"
+"$VM/setup.sh" || fail "vcanvm setup (apt-get / kernel download) failed"
+
+export VCANS=vcan0,vcan1,vcan2
+export RUST_TEST_THREADS=1            # tests switch interfaces down and up
+export VCANVM_TIMEOUT=${VCANVM_TIMEOUT:-600}
+export CARGO_TARGET_X86_64_UNKNOWN_LINUX_GNU_RUNNER="$VM/vm-run.sh"
+
+echo "== tier-vcan: SocketCAN integration tests in the VM"
+cargo test --features test-vcan --test vcan || fail "vcan tests"
+
+if [ "${1:-}" != "--no-bench" ]; then
+  echo "== tier-vcan: runtime overhead on vcan (in the VM)"
+  cargo build --release --features socketcan --example rt_overhead || fail "build rt_overhead"
+  BIN=$(cargo metadata --format-version 1 --no-deps | python3 -c 'import sys,json; print(json.load(sys.stdin)["target_directory"])')/release/examples/rt_overhead
+  "$VM/vm-run.sh" "$BIN" vcan 20000 || fail "rt_overhead in the VM"
+fi
+echo "tier-vcan: OK"

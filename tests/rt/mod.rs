@@ -1,0 +1,90 @@
+//! Helpers for tests that run devices under the tokio runtime on real ports.
+#![allow(dead_code)]
+
+use duocan::machine::{SinglePort, Station, StationEvent};
+use duocan::node::{NodeEvent, NodeEventKind};
+use duocan::od::{comm, DynamicDictionary, ObjectDictionary};
+use duocan::runtime::RuntimeEvent;
+use duocan::{Node, NodeConfig, NodeId};
+use std::time::Duration;
+use tokio::sync::broadcast;
+
+pub type TestNode = Node<DynamicDictionary>;
+
+/// A node with heartbeat period `hb_ms` (0: off) and heartbeat consumers `(node, timeout_ms)`.
+pub fn node(id: u8, master: bool, hb_ms: u16, consume: &[(u8, u16)]) -> TestNode {
+    let nid = NodeId::new(id).expect("valid node-ID");
+    let mut od = comm::standard_dictionary(
+        id,
+        comm::Identity {
+            vendor: 0x1234,
+            product: id as u32,
+            ..Default::default()
+        },
+    );
+    od.write_local(comm::HEARTBEAT_PRODUCER, 0, &hb_ms.to_le_bytes())
+        .expect("0x1017 writable");
+    for (i, (n, t)) in consume.iter().enumerate() {
+        let v = ((*n as u32) << 16) | *t as u32;
+        od.write_local(comm::HEARTBEAT_CONSUMER, i as u8 + 1, &v.to_le_bytes())
+            .expect("0x1016 writable");
+    }
+    let cfg = if master {
+        NodeConfig::master(nid)
+    } else {
+        NodeConfig::slave(nid)
+    };
+    Node::new(cfg, od)
+}
+
+pub fn single(n: TestNode) -> Station<SinglePort, TestNode> {
+    Station::single(n)
+}
+
+/// The node event inside a runtime event of a station, if it is one.
+pub fn node_event<L>(e: &RuntimeEvent<StationEvent<L, NodeEvent>>) -> Option<NodeEventKind> {
+    match e {
+        RuntimeEvent::Device(StationEvent::Machine(n)) => Some(n.kind),
+        _ => None,
+    }
+}
+
+/// Waits up to `secs` for an event `pick` accepts.
+pub async fn wait_for<E: Clone, T>(
+    rx: &mut broadcast::Receiver<E>,
+    secs: u64,
+    what: &str,
+    mut pick: impl FnMut(&E) -> Option<T>,
+) -> T {
+    let r = tokio::time::timeout(Duration::from_secs(secs), async {
+        loop {
+            match rx.recv().await {
+                Ok(e) => {
+                    if let Some(t) = pick(&e) {
+                        return t;
+                    }
+                }
+                Err(broadcast::error::RecvError::Lagged(_)) => {}
+                Err(broadcast::error::RecvError::Closed) => panic!("runtime closed waiting for {what}"),
+            }
+        }
+    })
+    .await;
+    match r {
+        Ok(t) => t,
+        Err(_) => panic!("timed out after {secs} s waiting for {what}"),
+    }
+}
+
+/// Collects every event for `ms` milliseconds.
+pub async fn collect<E: Clone>(rx: &mut broadcast::Receiver<E>, ms: u64) -> Vec<E> {
+    let mut out = Vec::new();
+    let until = tokio::time::Instant::now() + Duration::from_millis(ms);
+    loop {
+        match tokio::time::timeout_at(until, rx.recv()).await {
+            Ok(Ok(e)) => out.push(e),
+            Ok(Err(broadcast::error::RecvError::Lagged(_))) => {}
+            Ok(Err(_)) | Err(_) => return out,
+        }
+    }
+}
