@@ -117,7 +117,8 @@ mod vcan {
     pub struct Can(socketcan::CanSocket);
     impl Can {
         pub fn open(ifname: &str) -> Result<Self, String> {
-            let s = socketcan::CanSocket::open(ifname).map_err(|e| format!("open {ifname}: {e}"))?;
+            let s =
+                socketcan::CanSocket::open(ifname).map_err(|e| format!("open {ifname}: {e}"))?;
             s.set_read_timeout(Duration::from_secs(3))
                 .map_err(|e| e.to_string())?;
             Ok(Can(s))
@@ -132,7 +133,12 @@ mod vcan {
         fn recv(&mut self) -> Result<Option<Frame>, String> {
             match self.0.read_frame() {
                 Ok(f) => Ok(Frame::try_from(&f).ok()),
-                Err(e) if e.kind() == std::io::ErrorKind::WouldBlock || e.kind() == std::io::ErrorKind::TimedOut => Ok(None),
+                Err(e)
+                    if e.kind() == std::io::ErrorKind::WouldBlock
+                        || e.kind() == std::io::ErrorKind::TimedOut =>
+                {
+                    Ok(None)
+                }
                 Err(e) => Err(e.to_string()),
             }
         }
@@ -175,17 +181,23 @@ mod udp {
     }
     impl Udp {
         pub fn open(cfg: &UdpBusConfig) -> Result<Self, String> {
-            let e = |x: std::io::Error| format!("{}: {x} (run inside `unshare -n` with `ip link set lo up; ip route add 224.0.0.0/4 dev lo`)", cfg.name());
+            let e = |x: std::io::Error| {
+                format!("{}: {x} (run inside `unshare -n` with `ip link set lo up; ip route add 224.0.0.0/4 dev lo`)", cfg.name())
+            };
             let rx = Socket::new(Domain::IPV4, Type::DGRAM, Some(Protocol::UDP)).map_err(e)?;
             rx.set_reuse_address(true).map_err(e)?;
             rx.set_reuse_port(true).map_err(e)?;
-            rx.bind(&SocketAddrV4::new(cfg.group, cfg.port).into()).map_err(e)?;
-            rx.join_multicast_v4(&cfg.group, &cfg.interface).map_err(e)?;
-            rx.set_read_timeout(Some(Duration::from_secs(3))).map_err(e)?;
+            rx.bind(&SocketAddrV4::new(cfg.group, cfg.port).into())
+                .map_err(e)?;
+            rx.join_multicast_v4(&cfg.group, &cfg.interface)
+                .map_err(e)?;
+            rx.set_read_timeout(Some(Duration::from_secs(3)))
+                .map_err(e)?;
             let tx = Socket::new(Domain::IPV4, Type::DGRAM, Some(Protocol::UDP)).map_err(e)?;
             tx.set_multicast_if_v4(&cfg.interface).map_err(e)?;
             tx.set_multicast_ttl_v4(1).map_err(e)?;
-            tx.bind(&SocketAddrV4::new(cfg.interface, 0).into()).map_err(e)?;
+            tx.bind(&SocketAddrV4::new(cfg.interface, 0).into())
+                .map_err(e)?;
             let tx: UdpSocket = tx.into();
             let own = tx.local_addr().map_err(e)?;
             Ok(Udp {
@@ -209,7 +221,12 @@ mod udp {
                 match self.rx.recv_from(&mut self.buf) {
                     Ok((_, from)) if from == self.own => {}
                     Ok((k, _)) => return Ok(decode(&self.buf[..k]).ok().map(|(f, _)| f)),
-                    Err(e) if e.kind() == std::io::ErrorKind::WouldBlock || e.kind() == std::io::ErrorKind::TimedOut => return Ok(None),
+                    Err(e)
+                        if e.kind() == std::io::ErrorKind::WouldBlock
+                            || e.kind() == std::io::ErrorKind::TimedOut =>
+                    {
+                        return Ok(None)
+                    }
                     Err(e) => return Err(e.to_string()),
                 }
             }
@@ -246,7 +263,10 @@ fn main() {
         Some("vcan") => vcan::run(n),
         #[cfg(feature = "udp")]
         Some("udp") => udp::run(n),
-        _ => Err("usage: rt_overhead vcan|udp [FRAMES] (vcan needs feature socketcan, udp feature udp)".into()),
+        _ => Err(
+            "usage: rt_overhead vcan|udp [FRAMES] (vcan needs feature socketcan, udp feature udp)"
+                .into(),
+        ),
     };
     if let Err(e) = r {
         eprintln!("rt_overhead: {e}");

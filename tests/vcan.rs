@@ -32,7 +32,9 @@ impl LinkDown {
 
 impl Drop for LinkDown {
     fn drop(&mut self) {
-        let _ = Command::new("ip").args(["link", "set", self.0, "up"]).status();
+        let _ = Command::new("ip")
+            .args(["link", "set", self.0, "up"])
+            .status();
     }
 }
 
@@ -97,7 +99,10 @@ async fn error_frames_become_port_status() {
 async fn missing_or_down_interfaces_give_clear_errors_and_reopen_works() {
     let e = SocketCanPort::open("vcan9").unwrap_err();
     assert_eq!(e.kind, PortErrorKind::NoSuchInterface);
-    assert!(e.to_string().contains("ip link add dev vcan9 type vcan"), "{e}");
+    assert!(
+        e.to_string().contains("ip link add dev vcan9 type vcan"),
+        "{e}"
+    );
 
     let down = LinkDown::new("vcan2");
     assert_eq!(link_state("vcan2"), LinkState::Down);
@@ -117,11 +122,16 @@ async fn missing_or_down_interfaces_give_clear_errors_and_reopen_works() {
     let (mut p, r) = reader.await.unwrap();
     let err = r.expect("read woke up").expect_err("read failed");
     assert_eq!(err.kind, PortErrorKind::InterfaceDown, "{err}");
-    assert_eq!(p.reopen().await.unwrap_err().kind, PortErrorKind::InterfaceDown);
+    assert_eq!(
+        p.reopen().await.unwrap_err().kind,
+        PortErrorKind::InterfaceDown
+    );
     drop(down);
     p.reopen().await.expect("reopen after up");
     let mut q = SocketCanPort::open("vcan2").unwrap();
-    q.send(&Frame::from_array(Id::Standard(0x42), [1])).await.unwrap();
+    q.send(&Frame::from_array(Id::Standard(0x42), [1]))
+        .await
+        .unwrap();
     assert_eq!(
         recv_input(&mut p).await,
         PortInput::Frame(Frame::from_array(Id::Standard(0x42), [1]))
@@ -157,7 +167,12 @@ async fn master_and_slaves_in_separate_tasks_heartbeat_and_nmt() {
         .unwrap();
     let mut operational = std::collections::BTreeSet::new();
     wait_for(&mut ev, 5, "both slaves operational", |e| {
-        if let Some(K::RemoteState { node, to: NmtState::Operational, .. }) = node_event(e) {
+        if let Some(K::RemoteState {
+            node,
+            to: NmtState::Operational,
+            ..
+        }) = node_event(e)
+        {
             operational.insert(node.raw());
         }
         (operational.len() == 2).then_some(())
@@ -166,15 +181,22 @@ async fn master_and_slaves_in_separate_tasks_heartbeat_and_nmt() {
     assert_eq!(s5.nmt_state().await.unwrap(), NmtState::Operational);
     // Slave 6 stops: the master's consumer times it out, and only it.
     s6.shutdown().await;
-    let lost = wait_for(&mut ev, 5, "heartbeat timeout of node 6", |e| match node_event(e) {
-        Some(K::HeartbeatTimeout { node, .. }) => Some(node.raw()),
-        _ => None,
-    })
+    let lost = wait_for(
+        &mut ev,
+        5,
+        "heartbeat timeout of node 6",
+        |e| match node_event(e) {
+            Some(K::HeartbeatTimeout { node, .. }) => Some(node.raw()),
+            _ => None,
+        },
+    )
     .await;
     assert_eq!(lost, 6);
     let later = collect(&mut ev, 500).await;
     assert!(
-        !later.iter().any(|e| matches!(node_event(e), Some(K::HeartbeatTimeout { node, .. }) if node.raw() == 5)),
+        !later.iter().any(
+            |e| matches!(node_event(e), Some(K::HeartbeatTimeout { node, .. }) if node.raw() == 5)
+        ),
         "node 5 keeps its heartbeat"
     );
     // NMT stop to node 5 through the handle.
@@ -184,7 +206,11 @@ async fn master_and_slaves_in_separate_tasks_heartbeat_and_nmt() {
         .unwrap()
         .unwrap();
     wait_for(&mut ev, 5, "node 5 stopped", |e| match node_event(e) {
-        Some(K::RemoteState { node, to: NmtState::Stopped, .. }) if node.raw() == 5 => Some(()),
+        Some(K::RemoteState {
+            node,
+            to: NmtState::Stopped,
+            ..
+        }) if node.raw() == 5 => Some(()),
         _ => None,
     })
     .await;
@@ -278,7 +304,11 @@ async fn bus_failover_when_an_interface_goes_down_and_recovery() {
 
     let down = LinkDown::new("vcan0");
     let st = wait_for(&mut ev, 5, "port 0 reported down", |e| match e {
-        RuntimeEvent::Port { port: 0, status: PortStatus::Down(c), .. } => Some(*c),
+        RuntimeEvent::Port {
+            port: 0,
+            status: PortStatus::Down(c),
+            ..
+        } => Some(*c),
         _ => None,
     })
     .await;
@@ -291,18 +321,32 @@ async fn bus_failover_when_an_interface_goes_down_and_recovery() {
     let before = master.port_counters(1).unwrap().rx_frames;
     let during = collect(&mut ev, 800).await;
     let after = master.port_counters(1).unwrap().rx_frames;
-    assert!(after - before >= 15, "frames keep flowing on vcan1: {}", after - before);
     assert!(
-        !during.iter().any(|e| matches!(node_event(e), Some(K::HeartbeatTimeout { .. }))),
+        after - before >= 15,
+        "frames keep flowing on vcan1: {}",
+        after - before
+    );
+    assert!(
+        !during
+            .iter()
+            .any(|e| matches!(node_event(e), Some(K::HeartbeatTimeout { .. }))),
         "no heartbeat lost during the failover: {during:?}"
     );
     let p0 = master.port_counters(0).unwrap().rx_frames;
     tokio::time::sleep(Duration::from_millis(200)).await;
-    assert_eq!(master.port_counters(0).unwrap().rx_frames, p0, "nothing on the dead wire");
+    assert_eq!(
+        master.port_counters(0).unwrap().rx_frames,
+        p0,
+        "nothing on the dead wire"
+    );
 
     drop(down);
     wait_for(&mut ev, 5, "port 0 back up", |e| match e {
-        RuntimeEvent::Port { port: 0, status: PortStatus::Up, .. } => Some(()),
+        RuntimeEvent::Port {
+            port: 0,
+            status: PortStatus::Up,
+            ..
+        } => Some(()),
         _ => None,
     })
     .await;

@@ -65,7 +65,9 @@ pub async fn wait_for<E: Clone, T>(
                     }
                 }
                 Err(broadcast::error::RecvError::Lagged(_)) => {}
-                Err(broadcast::error::RecvError::Closed) => panic!("runtime closed waiting for {what}"),
+                Err(broadcast::error::RecvError::Closed) => {
+                    panic!("runtime closed waiting for {what}")
+                }
             }
         }
     })

@@ -1,0 +1,101 @@
+"""An independent CANopen peer for duocan's tests: python `canopen` over python-can's
+udp_multicast bus. Driven by tests/python_peer.rs; talks to it through stdout lines.
+
+    peer.py node ID HB_MS GROUP PORT     LocalNode: SDO server, heartbeat, NMT slave
+    peer.py junk GROUP PORT              python-can sends frames duocan must refuse, then one good
+Stdout: one line per event, "READY", "STATE <name>", "SENT <n>". Ends when stdin closes.
+"""
+import struct
+import sys
+import threading
+import time
+
+import can
+import canopen
+from canopen import objectdictionary as odm
+from canopen.objectdictionary import datatypes as dt
+
+
+def say(*words):
+    print(" ".join(str(w) for w in words), flush=True)
+
+
+def var(name, index, sub, data_type, access, default):
+    v = odm.ODVariable(name, index, sub)
+    v.data_type = data_type
+    v.access_type = access
+    v.default = default
+    return v
+
+
+def dictionary(node_id, hb_ms):
+    od = odm.ObjectDictionary()
+    od.node_id = node_id
+    od.add_object(var("Device type", 0x1000, 0, dt.UNSIGNED32, "ro", 0x00020192))
+    od.add_object(var("Producer heartbeat time", 0x1017, 0, dt.UNSIGNED16, "rw", hb_ms))
+    ident = odm.ODRecord("Identity object", 0x1018)
+    ident.add_member(var("Number of entries", 0x1018, 0, dt.UNSIGNED8, "ro", 1))
+    ident.add_member(var("Vendor-ID", 0x1018, 1, dt.UNSIGNED32, "ro", 0xD0CA))
+    od.add_object(ident)
+    od.add_object(var("Expedited value", 0x2000, 0, dt.UNSIGNED32, "rw", 0x12345678))
+    od.add_object(var("Segmented text", 0x2001, 0, dt.VISIBLE_STRING, "rw",
+                      "python canopen peer: a string longer than four bytes"))
+    od.add_object(var("Domain", 0x2002, 0, dt.DOMAIN, "rw", b""))
+    od.add_object(var("Process value", 0x6000, 0, dt.UNSIGNED16, "rw", 0))
+    return od
+
+
+def watch_stdin(stop):
+    for _ in sys.stdin:
+        pass
+    stop.set()
+
+
+def node(node_id, hb_ms, group, port):
+    network = canopen.Network()
+    network.connect(interface="udp_multicast", channel=group, port=port)
+    local = canopen.LocalNode(node_id, dictionary(node_id, hb_ms))
+    network.add_node(local)
+    stop = threading.Event()
+    threading.Thread(target=watch_stdin, args=(stop,), daemon=True).start()
+    say("READY")
+    local.nmt.state = "INITIALISING"  # boot-up message
+    local.nmt.state = "PRE-OPERATIONAL"  # starts the heartbeat
+    last = None
+    while not stop.is_set():
+        st = local.nmt.state
+        if st != last:
+            say("STATE", st)
+            last = st
+        time.sleep(0.01)
+    network.disconnect()
+
+
+def junk(group, port):
+    bus = can.Bus(interface="udp_multicast", channel=group, port=port)
+    say("READY")
+    sent = 0
+    # A CAN FD frame and an error frame: valid python-can messages, not classic CAN frames.
+    bus.send(can.Message(arbitration_id=0x123, is_fd=True, data=bytes(range(12)), is_extended_id=False))
+    sent += 1
+    bus.send(can.Message(arbitration_id=0x0, is_error_frame=True, data=bytes(8)))
+    sent += 1
+    # Then a good one that must arrive.
+    bus.send(can.Message(arbitration_id=0x5A5, data=[1, 2, 3], is_extended_id=False))
+    say("SENT", sent)
+    for _ in sys.stdin:
+        pass
+    bus.shutdown()
+
+
+def main(argv):
+    if argv[1] == "node":
+        node(int(argv[2], 0), int(argv[3]), argv[4], int(argv[5]))
+    elif argv[1] == "junk":
+        junk(argv[2], int(argv[3]))
+    else:
+        raise SystemExit("unknown mode " + argv[1])
+
+
+if __name__ == "__main__":
+    main(sys.argv)
