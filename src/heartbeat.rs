@@ -107,19 +107,26 @@ pub enum ConsumerEvent {
 enum Watch {
     /// Configured; monitoring starts with the first heartbeat (CiA 301).
     Waiting,
-    /// Heard; times out at the deadline.
-    Running { deadline: Instant },
+    /// Heard; times out at `last + time`.
+    Running,
     /// Timed out; waiting to be heard again.
     Lost,
 }
 
+/// 16 bytes: a no_std node carries 127 of these.
 #[derive(Clone, Copy, Debug)]
 struct Entry {
+    last: Instant,
+    time_ms: u16,
     node: NodeId,
     sub: u8,
-    time: Duration,
-    last: Instant,
     watch: Watch,
+}
+
+impl Entry {
+    fn deadline(&self) -> Instant {
+        self.last + Duration::from_millis(self.time_ms as u64)
+    }
 }
 
 /// Heartbeat consumer for up to `N` producers (CiA 301 allows 127).
@@ -163,7 +170,7 @@ impl<const N: usize> HeartbeatConsumer<N> {
                 .push(Entry {
                     node,
                     sub,
-                    time: setting.time,
+                    time_ms: setting.time.as_millis().min(u16::MAX as u64) as u16,
                     last: Instant::ZERO,
                     watch: Watch::Waiting,
                 })
@@ -212,14 +219,14 @@ impl<const N: usize> HeartbeatConsumer<N> {
         self.next = self
             .entries
             .iter()
-            .filter_map(|e| match e.watch {
-                Watch::Running { deadline } => Some(deadline),
-                _ => None,
-            })
+            .filter(|e| e.watch == Watch::Running)
+            .map(Entry::deadline)
             .min();
     }
 
     /// A heartbeat (or boot-up) of `node` arrived. Returns `Resumed` if it had timed out.
+    /// O(1): the cached next deadline is a lower bound that only ever moves earlier here; the
+    /// exact minimum is recomputed when it is reached (one scan per expiry, not per heartbeat).
     #[inline]
     pub fn heard(&mut self, node: NodeId, now: Instant) -> Option<ConsumerEvent> {
         let i = match self.by_node[node.raw() as usize] {
@@ -228,23 +235,17 @@ impl<const N: usize> HeartbeatConsumer<N> {
         };
         let e = &mut self.entries[i];
         let was_lost = e.watch == Watch::Lost;
-        let old_deadline = match e.watch {
-            Watch::Running { deadline } => Some(deadline),
-            _ => None,
-        };
-        let deadline = now + e.time;
         e.last = now;
-        e.watch = Watch::Running { deadline };
-        // The cached minimum only moves if this entry held it or it is now earlier.
-        match self.next {
-            Some(n) if old_deadline == Some(n) => self.recompute_next(),
-            Some(n) if deadline >= n => {}
-            _ => self.next = Some(deadline),
+        e.watch = Watch::Running;
+        let deadline = e.deadline();
+        if self.next.is_none_or(|n| deadline < n) {
+            self.next = Some(deadline);
         }
         was_lost.then_some(ConsumerEvent::Resumed { node })
     }
 
-    /// Earliest deadline among running entries.
+    /// When `handle_timeout` must run next: never later than the earliest deadline (it may be
+    /// earlier, after heartbeats moved the earliest entry on; the call then just re-arms).
     pub fn poll_timeout(&self) -> Option<Instant> {
         self.next
     }
@@ -256,14 +257,12 @@ impl<const N: usize> HeartbeatConsumer<N> {
             _ => return,
         }
         for e in self.entries.iter_mut() {
-            if let Watch::Running { deadline } = e.watch {
-                if deadline <= now {
-                    e.watch = Watch::Lost;
-                    out(ConsumerEvent::Timeout {
-                        node: e.node,
-                        last: e.last,
-                    });
-                }
+            if e.watch == Watch::Running && e.deadline() <= now {
+                e.watch = Watch::Lost;
+                out(ConsumerEvent::Timeout {
+                    node: e.node,
+                    last: e.last,
+                });
             }
         }
         self.recompute_next();
@@ -271,9 +270,13 @@ impl<const N: usize> HeartbeatConsumer<N> {
 
     /// Monitored nodes with their consumer time and whether they are currently lost.
     pub fn monitored(&self) -> impl Iterator<Item = (NodeId, Duration, bool)> + '_ {
-        self.entries
-            .iter()
-            .map(|e| (e.node, e.time, e.watch == Watch::Lost))
+        self.entries.iter().map(|e| {
+            (
+                e.node,
+                Duration::from_millis(e.time_ms as u64),
+                e.watch == Watch::Lost,
+            )
+        })
     }
 
     /// Is `node` monitored and currently timed out?
@@ -358,7 +361,7 @@ mod tests {
     }
 
     #[test]
-    fn cached_minimum_follows_the_earliest_deadline() {
+    fn cached_deadline_is_a_lower_bound_re_armed_on_expiry() {
         let mut c: HeartbeatConsumer<4> = HeartbeatConsumer::new();
         c.configure(1, setting(1, 100)).unwrap();
         c.configure(2, setting(2, 50)).unwrap();
@@ -366,8 +369,15 @@ mod tests {
         c.heard(NodeId::must(2), Instant::ZERO);
         assert_eq!(c.poll_timeout(), Some(Instant::from_millis(50)));
         c.heard(NodeId::must(2), Instant::from_millis(40));
+        // A lower bound: waking at 50 ms finds nothing due and re-arms at the true minimum.
+        assert_eq!(c.poll_timeout(), Some(Instant::from_millis(50)));
+        let mut fired = 0;
+        c.handle_timeout(Instant::from_millis(50), |_| fired += 1);
+        assert_eq!(fired, 0);
         assert_eq!(c.poll_timeout(), Some(Instant::from_millis(90)));
         c.heard(NodeId::must(2), Instant::from_millis(80));
+        c.handle_timeout(Instant::from_millis(90), |_| fired += 1);
+        assert_eq!(fired, 0);
         assert_eq!(c.poll_timeout(), Some(Instant::from_millis(100)));
     }
 }

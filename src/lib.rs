@@ -32,6 +32,8 @@ pub mod profile;
 pub mod queue;
 #[cfg(feature = "tokio")]
 pub mod runtime;
+#[cfg(feature = "std")]
+pub mod sim;
 pub mod sync;
 pub mod time;
 pub mod time_stamp;

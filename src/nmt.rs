@@ -288,12 +288,20 @@ pub struct NodeView {
 /// guarding answers from all nodes (configured as consumers or not).
 #[derive(Clone, Debug)]
 pub struct NodeTable {
-    nodes: [Option<NodeView>; 128],
+    /// State code per node-ID; `UNKNOWN` when never heard (kept apart from the times so a
+    /// no_std node's table stays small).
+    states: [u8; 128],
+    seen: [Instant; 128],
 }
+
+const UNKNOWN: u8 = 0xFF;
 
 impl Default for NodeTable {
     fn default() -> Self {
-        NodeTable { nodes: [None; 128] }
+        NodeTable {
+            states: [UNKNOWN; 128],
+            seen: [Instant::ZERO; 128],
+        }
     }
 }
 
@@ -306,9 +314,10 @@ impl NodeTable {
         state: NmtState,
         now: Instant,
     ) -> Option<Option<NmtState>> {
-        let slot = &mut self.nodes[node.raw() as usize];
-        let prev = slot.map(|v| v.state);
-        *slot = Some(NodeView { state, seen: now });
+        let i = node.raw() as usize;
+        let prev = NmtState::from_code(self.states[i]);
+        self.states[i] = state.code();
+        self.seen[i] = now;
         if prev == Some(state) {
             None
         } else {
@@ -317,18 +326,22 @@ impl NodeTable {
     }
     /// Last known view of a node.
     pub fn get(&self, node: NodeId) -> Option<NodeView> {
-        self.nodes[node.raw() as usize]
+        let i = node.raw() as usize;
+        NmtState::from_code(self.states[i]).map(|state| NodeView {
+            state,
+            seen: self.seen[i],
+        })
     }
     /// Forgets a node (e.g. after the master reset it and awaits its boot-up).
     pub fn forget(&mut self, node: NodeId) {
-        self.nodes[node.raw() as usize] = None;
+        self.states[node.raw() as usize] = UNKNOWN;
     }
     /// Every node with a known state.
     pub fn iter(&self) -> impl Iterator<Item = (NodeId, NodeView)> + '_ {
-        self.nodes
-            .iter()
-            .enumerate()
-            .filter_map(|(i, v)| Some((NodeId::new(i as u8)?, (*v)?)))
+        (1..=127u8).filter_map(|i| {
+            let n = NodeId::new(i)?;
+            Some((n, self.get(n)?))
+        })
     }
 }
 

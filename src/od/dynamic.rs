@@ -2,32 +2,11 @@
 //! with its own ~1,300 entries and adds a handful per slave as slaves join.
 
 use super::def::{key, ObjectDef};
-use super::{miss, value, BuildError, Entry, ObjectDictionary};
+use super::{miss, value, BuildError, Entry, KeyHasher, ObjectDictionary};
 use crate::abort::AbortCode;
 use alloc::vec::Vec;
-use core::hash::{BuildHasherDefault, Hasher};
+use core::hash::BuildHasherDefault;
 use core::ops::RangeInclusive;
-
-/// A multiplicative hasher for the 32-bit keys: one multiply, no per-lookup seed. The keys are
-/// dictionary addresses chosen by the application, not attacker input, so DoS resistance buys
-/// nothing here and costs a third of the lookup time.
-#[derive(Default, Clone, Copy)]
-pub struct KeyHasher(u64);
-
-impl Hasher for KeyHasher {
-    fn finish(&self) -> u64 {
-        self.0
-    }
-    fn write(&mut self, bytes: &[u8]) {
-        for &b in bytes {
-            self.0 = (self.0.rotate_left(8) ^ b as u64).wrapping_mul(0x9E37_79B9_7F4A_7C15);
-        }
-    }
-    fn write_u32(&mut self, k: u32) {
-        // Fibonacci hashing; hashbrown takes its control byte from the top bits.
-        self.0 = (k as u64).wrapping_mul(0x9E37_79B9_7F4A_7C15);
-    }
-}
 
 struct DynEntry {
     def: ObjectDef,

@@ -20,6 +20,7 @@ pub use value::{check_value, OdValue};
 
 use crate::abort::AbortCode;
 use core::fmt;
+use core::hash::Hasher;
 use core::ops::RangeInclusive;
 
 /// Why a dictionary could not be built or extended.
@@ -177,5 +178,33 @@ pub(crate) fn miss(has_index: bool) -> AbortCode {
         AbortCode::NO_SUB_INDEX
     } else {
         AbortCode::NO_OBJECT
+    }
+}
+
+/// A multiplicative hasher for the 32-bit keys: one multiply, no per-lookup seed. The keys are
+/// dictionary addresses chosen by the application, not attacker input, so DoS resistance buys
+/// nothing here and costs a third of the lookup time.
+#[derive(Default, Clone, Copy)]
+pub struct KeyHasher(u64);
+
+impl Hasher for KeyHasher {
+    fn finish(&self) -> u64 {
+        // Fold the well-mixed high half into the low bits hash tables index with.
+        self.0 ^ (self.0 >> 32)
+    }
+    fn write(&mut self, bytes: &[u8]) {
+        for &b in bytes {
+            self.0 = (self.0.rotate_left(8) ^ b as u64).wrapping_mul(0x9E37_79B9_7F4A_7C15);
+        }
+    }
+    fn write_u32(&mut self, k: u32) {
+        // Fibonacci hashing; hashbrown takes its control byte from the top bits.
+        self.0 = (k as u64).wrapping_mul(0x9E37_79B9_7F4A_7C15);
+    }
+}
+
+impl hash32::Hasher for KeyHasher {
+    fn finish32(&self) -> u32 {
+        (self.0 >> 32) as u32
     }
 }

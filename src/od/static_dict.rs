@@ -2,10 +2,11 @@
 //! index in a fixed-capacity hash map. No heap; sized by two const parameters.
 
 use super::def::{key, ObjectDef};
-use super::{miss, value, BuildError, Entry, ObjectDictionary};
+use super::{miss, value, BuildError, Entry, KeyHasher, ObjectDictionary};
 use crate::abort::AbortCode;
 use core::ops::RangeInclusive;
-use heapless::index_map::FnvIndexMap;
+use hash32::BuildHasherDefault;
+use heapless::index_map::IndexMap;
 
 #[derive(Clone, Copy)]
 struct Slot {
@@ -25,7 +26,7 @@ struct Slot {
 /// assert_eq!(od.get_value::<u16>(0x2000, 0), Ok(7));
 /// ```
 pub struct StaticDictionary<const N: usize, const BYTES: usize> {
-    map: FnvIndexMap<u32, Slot, N>,
+    map: IndexMap<u32, Slot, BuildHasherDefault<KeyHasher>, N>,
     arena: [u8; BYTES],
     used: usize,
     node_id: u8,
@@ -41,7 +42,7 @@ impl<const N: usize, const BYTES: usize> StaticDictionary<N, BYTES> {
     /// An empty dictionary; `const`, so it can be placed in a `static`.
     pub const fn new() -> Self {
         StaticDictionary {
-            map: FnvIndexMap::new(),
+            map: IndexMap::new(),
             arena: [0; BYTES],
             used: 0,
             node_id: 0,

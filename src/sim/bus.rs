@@ -1,0 +1,194 @@
+//! Buses, their segments and the port controllers attached to them.
+
+use super::fault::FaultRates;
+use crate::frame::Frame;
+use crate::time::{Duration, Instant};
+use std::collections::{BTreeSet, VecDeque};
+use std::sync::Arc;
+
+/// Frames a port's transmit queue holds unless [`set_tx_capacity`](super::SimNetwork::set_tx_capacity)
+/// says otherwise.
+pub const DEFAULT_TX_CAPACITY: usize = 64;
+
+/// Counters of one bus since creation or [`reset_stats`](super::SimNetwork::reset_stats).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct BusStats {
+    /// Transmission attempts that finished (any outcome).
+    pub attempts: u64,
+    /// Attempts acknowledged by at least one receiver.
+    pub delivered: u64,
+    /// Attempts that reached nobody: bus down, sender cut off or powered off, no receiver.
+    pub lost: u64,
+    /// Attempts destroyed by a detected error (retransmitted by the sender).
+    pub error_frames: u64,
+    /// Attempts cut short by a partition or heal.
+    pub aborted: u64,
+    /// Wire bits of all finished attempts, stuffing and intermission included.
+    pub busy_bits: u64,
+    /// Time the bus carried those bits (summed over segments when partitioned).
+    pub busy_time: Duration,
+}
+
+impl BusStats {
+    /// Fraction of `window` the bus was busy (1.0 = saturated; can exceed 1 when partitioned,
+    /// since segments carry frames in parallel).
+    pub fn load(&self, window: Duration) -> f64 {
+        if window.is_zero() {
+            return 0.0;
+        }
+        self.busy_time.as_micros() as f64 / window.as_micros() as f64
+    }
+}
+
+/// Counters of one port since creation or [`reset_stats`](super::SimNetwork::reset_stats).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct PortStats {
+    /// Transmission attempts started, retransmissions and babble included.
+    pub tx_attempts: u64,
+    /// Frames reported sent (`PortStatus::TxOk`).
+    pub tx_ok: u64,
+    /// Frames reported failed (`PortStatus::TxFailed`), overflow included.
+    pub tx_failed: u64,
+    /// Frames refused because the transmit queue was full.
+    pub tx_overflow: u64,
+    /// Frames handed to the device.
+    pub rx: u64,
+    /// Frames this port missed (reported as receive overflow).
+    pub rx_dropped: u64,
+    /// Frames this port received twice.
+    pub rx_duplicated: u64,
+    /// Frames handed to the device late.
+    pub rx_delayed: u64,
+    /// Frames delivered with a flipped data bit.
+    pub rx_corrupted: u64,
+    /// Error frames this port took part in (as sender or receiver).
+    pub error_frames: u64,
+}
+
+/// A frame on the wire.
+#[derive(Clone, Copy, Debug)]
+pub(super) struct InFlight {
+    pub(super) start: Instant,
+    pub(super) end: Instant,
+    pub(super) sender: u32,
+    /// Sender's generation at start: a reboot meanwhile makes the attempt the old device's.
+    pub(super) generation: u32,
+    pub(super) frame: Frame,
+    pub(super) bits: u32,
+    pub(super) babble: bool,
+    /// Decided at start, because an error frame lasts longer than a good one.
+    pub(super) error: bool,
+}
+
+/// A part of a bus with its own wire: the whole bus, one side of a partition, or the stub of a
+/// disconnected port.
+#[derive(Debug, Default)]
+pub(super) struct Segment {
+    /// Global port indices, ascending.
+    pub(super) members: Vec<u32>,
+    /// `(arbitration key, port)` of every member with a frame ready: the first entry wins.
+    pub(super) ready: BTreeSet<(u64, u32)>,
+    pub(super) busy: Option<InFlight>,
+}
+
+impl Segment {
+    pub(super) fn insert_member(&mut self, p: u32) {
+        if let Err(at) = self.members.binary_search(&p) {
+            self.members.insert(at, p);
+        }
+    }
+    pub(super) fn remove_member(&mut self, p: u32) {
+        if let Ok(at) = self.members.binary_search(&p) {
+            self.members.remove(at);
+        }
+    }
+}
+
+/// One simulated bus.
+pub(super) struct Bus {
+    pub(super) name: Arc<str>,
+    pub(super) bitrate: u32,
+    pub(super) up: bool,
+    /// Global indices of every attached port, ascending.
+    pub(super) ports: Vec<u32>,
+    /// Segments `0..groups` are the partition groups (one when whole); later ones are stubs of
+    /// disconnected ports.
+    pub(super) segments: Vec<Segment>,
+    pub(super) groups: u32,
+    pub(super) faults: Option<FaultRates>,
+    /// Attached ports whose own rates include detected corruption: only then does starting a
+    /// frame look at every receiver.
+    pub(super) detect_ports: u32,
+    pub(super) stats: BusStats,
+}
+
+impl Bus {
+    pub(super) fn new(name: &str, bitrate: u32) -> Self {
+        Bus {
+            name: name.into(),
+            bitrate,
+            up: true,
+            ports: Vec::new(),
+            segments: vec![Segment::default()],
+            groups: 1,
+            faults: None,
+            detect_ports: 0,
+            stats: BusStats::default(),
+        }
+    }
+}
+
+/// A port controller: transmit queue, wiring state and counters.
+pub(super) struct Port {
+    pub(super) dev: u32,
+    /// The port number the device uses.
+    pub(super) local: u32,
+    pub(super) bus: u32,
+    /// Partition group (0 unless listed in a partition).
+    pub(super) group: u32,
+    /// Segment currently wired to: `group`, or a stub while disconnected.
+    pub(super) seg: u32,
+    pub(super) connected: bool,
+    /// False while the interface is down (socket closed).
+    pub(super) iface_up: bool,
+    pub(super) queue: VecDeque<Frame>,
+    pub(super) capacity: usize,
+    pub(super) babble: Option<Frame>,
+    pub(super) transmitting: bool,
+    /// The entry this port has in its segment's ready set.
+    pub(super) ready: Option<(u32, u64)>,
+    pub(super) faults: Option<FaultRates>,
+    /// Deliveries scheduled for later and the due time of the last one: later frames queue
+    /// behind them so a port never sees frames out of order.
+    pub(super) delayed: u32,
+    pub(super) delay_tail: Instant,
+    pub(super) stats: PortStats,
+}
+
+impl Port {
+    pub(super) fn new(dev: u32, local: u32, bus: u32) -> Self {
+        Port {
+            dev,
+            local,
+            bus,
+            group: 0,
+            seg: 0,
+            connected: true,
+            iface_up: true,
+            queue: VecDeque::new(),
+            capacity: DEFAULT_TX_CAPACITY,
+            babble: None,
+            transmitting: false,
+            ready: None,
+            faults: None,
+            delayed: 0,
+            delay_tail: Instant::ZERO,
+            stats: PortStats::default(),
+        }
+    }
+    /// The frame this port would put on the wire next: a babbling controller repeats its frame
+    /// and holds the queue back.
+    pub(super) fn head(&self) -> Option<&Frame> {
+        self.babble.as_ref().or(self.queue.front())
+    }
+}

@@ -1,0 +1,150 @@
+//! Driving one device: reporting to it, draining it into the port controllers, tracking its
+//! deadline, and keeping each port's place in its segment's arbitration.
+
+use super::trace::TraceRecord;
+use super::SimNetwork;
+use crate::frame::Frame;
+use crate::machine::{ErrorCause, PortRequest, PortStatus};
+use crate::time::{Duration, Instant};
+use core::cmp::Reverse;
+
+/// `handle_timeout` calls one device may need at one instant before the simulator assumes it
+/// will never be satisfied and moves its deadline 1 µs on.
+const SPIN_LIMIT: u32 = 64;
+/// Rounds of "deliver the statuses a drain produced, drain again" before the rest are dropped:
+/// a device that answers every `TxFailed` by resending to the same full queue would loop.
+const STATUS_ROUNDS: u32 = 16;
+
+impl SimNetwork {
+    /// Reports `status` on port `p` to its device now, if it has power.
+    pub(super) fn port_status(&mut self, p: usize, status: PortStatus) {
+        let (d, local) = (self.ports[p].dev as usize, self.ports[p].local as usize);
+        if self.devices[d].powered {
+            self.devices[d]
+                .dev
+                .handle_port_status(self.now, local, status);
+            self.flush(d);
+        }
+    }
+
+    /// Drains what the device has for the simulator after an input: frames into port queues,
+    /// port requests, events into its log, and its new deadline.
+    pub(super) fn flush(&mut self, d: usize) {
+        let now = self.now;
+        let mut rounds = 0;
+        loop {
+            while let Some((port, frame)) = self.devices[d].dev.poll_transmit() {
+                self.enqueue_tx(d, port, frame);
+            }
+            while let Some((port, req)) = self.devices[d].dev.poll_port_request() {
+                self.port_request(d, port, req);
+            }
+            if self.statuses.is_empty() {
+                break;
+            }
+            let mut statuses = std::mem::take(&mut self.statuses);
+            rounds += 1;
+            if rounds <= STATUS_ROUNDS {
+                for (port, status) in statuses.drain(..) {
+                    self.devices[d].dev.handle_port_status(now, port, status);
+                }
+            }
+            statuses.clear();
+            self.statuses = statuses;
+            if rounds > STATUS_ROUNDS {
+                break;
+            }
+        }
+        self.devices[d].dev.record_events(now);
+        let deadline = self.devices[d].dev.poll_timeout();
+        self.set_deadline(d, deadline);
+    }
+
+    fn set_deadline(&mut self, d: usize, deadline: Option<Instant>) {
+        let now = self.now;
+        let dev = &mut self.devices[d];
+        let mut due = deadline.map(|t| t.max(now));
+        if due == Some(now) && dev.spin_at == now && dev.spins >= SPIN_LIMIT {
+            due = Some(now + Duration::from_micros(1));
+        }
+        if due != dev.deadline {
+            dev.deadline = due;
+            if let Some(t) = due {
+                self.deadlines.push(Reverse((t, d as u32)));
+            }
+        }
+    }
+
+    fn enqueue_tx(&mut self, d: usize, local: usize, frame: Frame) {
+        let dev = &mut self.devices[d];
+        if local >= dev.ports as usize {
+            dev.misaddressed += 1;
+            return;
+        }
+        let p = dev.first_port as usize + local;
+        let port = &mut self.ports[p];
+        if !port.iface_up {
+            port.stats.tx_failed += 1;
+            self.statuses
+                .push((local, PortStatus::TxFailed(ErrorCause::InterfaceDown)));
+            return;
+        }
+        if port.queue.len() >= port.capacity {
+            port.stats.tx_overflow += 1;
+            port.stats.tx_failed += 1;
+            self.statuses
+                .push((local, PortStatus::TxFailed(ErrorCause::TxTimeout)));
+            let (at, port) = (self.now, self.port_ref(p));
+            self.record(|| TraceRecord::TxOverflow { at, port, frame });
+            return;
+        }
+        port.queue.push_back(frame);
+        if port.queue.len() == 1 {
+            self.refresh_port(p);
+        }
+    }
+
+    fn port_request(&mut self, d: usize, local: usize, req: PortRequest) {
+        let dev = &mut self.devices[d];
+        if local >= dev.ports as usize {
+            dev.misaddressed += 1;
+            return;
+        }
+        let p = dev.first_port as usize + local;
+        match req {
+            PortRequest::Reinit => {
+                self.ports[p].queue.clear();
+                self.refresh_port(p);
+                let port = &self.ports[p];
+                if !port.iface_up {
+                    self.statuses
+                        .push((local, PortStatus::Down(ErrorCause::InterfaceDown)));
+                } else if port.connected {
+                    self.statuses.push((local, PortStatus::Up));
+                }
+            }
+        }
+    }
+
+    /// Puts port `p`'s entry in its segment's ready set in line with its state.
+    pub(super) fn refresh_port(&mut self, p: usize) {
+        let port = &self.ports[p];
+        let live = self.devices[port.dev as usize].powered && port.iface_up && !port.transmitting;
+        let want = if live {
+            port.head().map(|f| (port.seg, f.arbitration_key()))
+        } else {
+            None
+        };
+        if want == port.ready {
+            return;
+        }
+        let bus = &mut self.buses[port.bus as usize];
+        if let Some((s, key)) = port.ready {
+            bus.segments[s as usize].ready.remove(&(key, p as u32));
+        }
+        if let Some((s, key)) = want {
+            bus.segments[s as usize].ready.insert((key, p as u32));
+        }
+        self.ports[p].ready = want;
+    }
+}

@@ -1,0 +1,340 @@
+//! The event loop: what happens at one instant, in which order.
+
+use super::bus::InFlight;
+use super::fault::{chance, flip_bit};
+use super::ids::BusId;
+use super::timing;
+use super::trace::{TraceRecord, TxOutcome, TxRecord};
+use super::SimNetwork;
+use crate::machine::{ErrorCause, PortStatus};
+use crate::time::{earliest, Instant};
+use core::cmp::Reverse;
+
+impl SimNetwork {
+    /// Brings the current instant to rest: touched devices driven, due timeouts run, idle
+    /// segments arbitrating.
+    pub(super) fn settle(&mut self) {
+        self.flush_touched();
+        self.run_due_timeouts();
+        self.arbitrate();
+    }
+
+    /// The next instant with work, if any.
+    pub(super) fn next_time(&mut self) -> Option<Instant> {
+        self.drop_stale_deadlines();
+        let mut t = self.deadlines.peek().map(|Reverse((t, _))| *t);
+        t = earliest(t, self.delayed.peek().map(|d| d.at));
+        t = earliest(t, self.actions.peek().map(|a| a.at));
+        for bus in &self.buses {
+            for seg in &bus.segments {
+                t = earliest(t, seg.busy.map(|tx| tx.end));
+            }
+        }
+        t
+    }
+
+    /// Everything due at `t`, in the documented order.
+    pub(super) fn process_instant(&mut self, t: Instant) {
+        self.now = self.now.max(t);
+        self.deliver_delayed();
+        self.complete_transmissions();
+        self.run_actions();
+        self.run_due_timeouts();
+        self.arbitrate();
+    }
+
+    fn drop_stale_deadlines(&mut self) {
+        while let Some(&Reverse((t, d))) = self.deadlines.peek() {
+            let dev = &self.devices[d as usize];
+            if dev.powered && dev.deadline == Some(t) {
+                break;
+            }
+            self.deadlines.pop();
+        }
+        // Devices that move their deadline on every frame leave stale entries behind; rebuild
+        // before they outnumber the live ones by far.
+        if self.deadlines.len() > 4 * self.devices.len() + 1024 {
+            self.deadlines = self
+                .devices
+                .iter()
+                .enumerate()
+                .filter(|(_, d)| d.powered)
+                .filter_map(|(i, d)| d.deadline.map(|t| Reverse((t, i as u32))))
+                .collect();
+        }
+    }
+
+    fn flush_touched(&mut self) {
+        if self.touched.is_empty() {
+            return;
+        }
+        let mut list = std::mem::take(&mut self.touched);
+        list.sort_unstable();
+        for &d in &list {
+            let d = d as usize;
+            self.devices[d].touched = false;
+            if self.devices[d].powered {
+                self.devices[d].dev.handle_timeout(self.now);
+                self.flush(d);
+            }
+        }
+        list.clear();
+        self.touched = list;
+    }
+
+    fn run_due_timeouts(&mut self) {
+        let now = self.now;
+        while let Some(&Reverse((t, d))) = self.deadlines.peek() {
+            if t > now {
+                break;
+            }
+            self.deadlines.pop();
+            let dev = &mut self.devices[d as usize];
+            if !dev.powered || dev.deadline != Some(t) {
+                continue;
+            }
+            dev.deadline = None;
+            if dev.spin_at == now {
+                dev.spins += 1;
+            } else {
+                dev.spin_at = now;
+                dev.spins = 1;
+            }
+            dev.dev.handle_timeout(now);
+            self.flush(d as usize);
+        }
+    }
+
+    fn run_actions(&mut self) {
+        while self.actions.peek().is_some_and(|a| a.at <= self.now) {
+            let Some(action) = self.actions.pop() else {
+                break;
+            };
+            self.in_action = true;
+            (action.item)(self);
+            self.in_action = false;
+            self.flush_touched();
+        }
+    }
+
+    fn complete_transmissions(&mut self) {
+        for b in 0..self.buses.len() {
+            for s in 0..self.buses[b].segments.len() {
+                if self.buses[b].segments[s]
+                    .busy
+                    .is_some_and(|tx| tx.end <= self.now)
+                {
+                    self.complete(b, s);
+                }
+            }
+        }
+    }
+
+    fn arbitrate(&mut self) {
+        for b in 0..self.buses.len() {
+            for s in 0..self.buses[b].segments.len() {
+                let seg = &self.buses[b].segments[s];
+                if seg.busy.is_some() {
+                    continue;
+                }
+                if let Some(&(_, p)) = seg.ready.first() {
+                    self.start_tx(b, s, p as usize);
+                }
+            }
+        }
+    }
+
+    fn start_tx(&mut self, b: usize, s: usize, p: usize) {
+        let port = &mut self.ports[p];
+        let (frame, babble) = match (port.babble, port.queue.front()) {
+            (Some(f), _) => (f, true),
+            (None, Some(&f)) => {
+                port.queue.pop_front();
+                (f, false)
+            }
+            (None, None) => {
+                self.refresh_port(p);
+                return;
+            }
+        };
+        port.transmitting = true;
+        port.stats.tx_attempts += 1;
+        let generation = self.devices[port.dev as usize].generation;
+        self.refresh_port(p);
+        let error = self.draw_detected_error(b, s, p);
+        let bits = if error {
+            timing::error_frame_bits(&frame)
+        } else {
+            timing::frame_bits(&frame)
+        };
+        let bus = &mut self.buses[b];
+        let end = self.now + timing::bits_duration(bits, bus.bitrate);
+        bus.segments[s].busy = Some(InFlight {
+            start: self.now,
+            end,
+            sender: p as u32,
+            generation,
+            frame,
+            bits,
+            babble,
+            error,
+        });
+    }
+
+    /// Whether the frame starting on segment `s` will be destroyed by a detected error.
+    fn draw_detected_error(&mut self, b: usize, s: usize, sender: usize) -> bool {
+        let bus = &self.buses[b];
+        let rate = bus.faults.map_or(0.0, |f| f.corrupt_detected);
+        if chance(&mut self.rng, rate) {
+            return true;
+        }
+        if bus.detect_ports == 0 {
+            return false;
+        }
+        for &m in &bus.segments[s].members {
+            let port = &self.ports[m as usize];
+            let rate = port.faults.map_or(0.0, |f| f.corrupt_detected);
+            if m as usize != sender
+                && port.iface_up
+                && self.devices[port.dev as usize].powered
+                && chance(&mut self.rng, rate)
+            {
+                return true;
+            }
+        }
+        false
+    }
+
+    fn complete(&mut self, b: usize, s: usize) {
+        let Some(tx) = self.buses[b].segments[s].busy.take() else {
+            return;
+        };
+        let p = tx.sender as usize;
+        let d = self.ports[p].dev as usize;
+        self.ports[p].transmitting = false;
+
+        let mut rx = std::mem::take(&mut self.receivers);
+        rx.clear();
+        for &m in &self.buses[b].segments[s].members {
+            let port = &self.ports[m as usize];
+            if m != tx.sender && port.iface_up && self.devices[port.dev as usize].powered {
+                rx.push(m);
+            }
+        }
+        let alive = self.devices[d].powered && self.devices[d].generation == tx.generation;
+        let outcome = if !alive {
+            TxOutcome::SenderOff
+        } else if !self.buses[b].up {
+            TxOutcome::BusDown
+        } else if !self.ports[p].connected {
+            TxOutcome::SenderDisconnected
+        } else if rx.is_empty() {
+            TxOutcome::NoAck
+        } else if tx.error {
+            TxOutcome::ErrorFrame
+        } else {
+            TxOutcome::Delivered {
+                receivers: rx.len() as u32,
+            }
+        };
+        if outcome == TxOutcome::ErrorFrame && !tx.babble {
+            self.ports[p].queue.push_front(tx.frame);
+        }
+        self.refresh_port(p);
+
+        let stats = &mut self.buses[b].stats;
+        stats.attempts += 1;
+        stats.busy_bits += u64::from(tx.bits);
+        stats.busy_time = stats.busy_time + (tx.end - tx.start);
+        match outcome {
+            TxOutcome::Delivered { .. } => stats.delivered += 1,
+            TxOutcome::ErrorFrame => stats.error_frames += 1,
+            _ => stats.lost += 1,
+        }
+        self.record_tx(b, s, &tx, outcome);
+
+        let sender_status = match outcome {
+            TxOutcome::SenderOff | TxOutcome::Aborted => None,
+            TxOutcome::BusDown | TxOutcome::SenderDisconnected | TxOutcome::NoAck => {
+                Some(PortStatus::TxFailed(ErrorCause::NoAck))
+            }
+            TxOutcome::ErrorFrame => Some(PortStatus::Error(ErrorCause::Crc)),
+            TxOutcome::Delivered { .. } => Some(PortStatus::TxOk),
+        };
+        if let Some(status) = sender_status {
+            if outcome == TxOutcome::ErrorFrame {
+                self.ports[p].stats.error_frames += 1;
+            }
+            if !tx.babble && self.ports[p].iface_up {
+                match status {
+                    PortStatus::TxOk => self.ports[p].stats.tx_ok += 1,
+                    PortStatus::TxFailed(_) => self.ports[p].stats.tx_failed += 1,
+                    _ => {}
+                }
+                self.port_status(p, status);
+            }
+        }
+        match outcome {
+            TxOutcome::ErrorFrame => {
+                for &r in &rx {
+                    self.ports[r as usize].stats.error_frames += 1;
+                    self.port_status(r as usize, PortStatus::Error(ErrorCause::Crc));
+                }
+            }
+            TxOutcome::Delivered { .. } => {
+                let bus_flip = self.buses[b].faults.map_or(0.0, |f| f.corrupt_undetected);
+                let wire = if chance(&mut self.rng, bus_flip) {
+                    flip_bit(&mut self.rng, &tx.frame).unwrap_or(tx.frame)
+                } else {
+                    tx.frame
+                };
+                for &r in &rx {
+                    self.deliver(b, r as usize, &tx.frame, &wire);
+                }
+            }
+            _ => {}
+        }
+        self.receivers = rx;
+    }
+
+    /// Cuts short every frame on the bus's wires (partition or heal); senders retransmit.
+    pub(super) fn abort_in_flight(&mut self, b: usize) {
+        for s in 0..self.buses[b].segments.len() {
+            let Some(mut tx) = self.buses[b].segments[s].busy.take() else {
+                continue;
+            };
+            tx.end = self.now;
+            let p = tx.sender as usize;
+            self.ports[p].transmitting = false;
+            let d = self.ports[p].dev as usize;
+            if !tx.babble && self.devices[d].generation == tx.generation {
+                self.ports[p].queue.push_front(tx.frame);
+            }
+            self.refresh_port(p);
+            let stats = &mut self.buses[b].stats;
+            stats.attempts += 1;
+            stats.aborted += 1;
+            stats.busy_time = stats.busy_time + (tx.end - tx.start);
+            self.record_tx(b, s, &tx, TxOutcome::Aborted);
+        }
+    }
+
+    fn record_tx(&mut self, b: usize, s: usize, tx: &InFlight, outcome: TxOutcome) {
+        if !self.recording {
+            return;
+        }
+        let sender = self.port_ref(tx.sender as usize);
+        let name = self.devices[sender.device.index()].name.clone();
+        self.trace.push(TraceRecord::Tx(TxRecord {
+            start: tx.start,
+            end: tx.end,
+            bus: BusId(b as u32),
+            segment: s as u32,
+            sender,
+            sender_name: name,
+            frame: tx.frame,
+            babble: tx.babble,
+            outcome,
+        }));
+    }
+}

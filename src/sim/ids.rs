@@ -1,0 +1,162 @@
+//! Handles to buses, devices and ports of a [`SimNetwork`](super::SimNetwork), and its errors.
+
+use core::fmt;
+use core::hash::{Hash, Hasher};
+use core::marker::PhantomData;
+
+/// A bus of a simulation, in creation order.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
+pub struct BusId(pub(super) u32);
+
+impl BusId {
+    /// Position in creation order (0 for the first bus).
+    pub const fn index(self) -> usize {
+        self.0 as usize
+    }
+}
+
+impl fmt::Display for BusId {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(f, "bus{}", self.0)
+    }
+}
+
+/// A device of a simulation, untyped: what fault, power and statistics calls take.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
+pub struct DeviceRef(pub(super) u32);
+
+impl DeviceRef {
+    /// Position in creation order: ties in arbitration go to the lower index.
+    pub const fn index(self) -> usize {
+        self.0 as usize
+    }
+    /// One of the device's ports.
+    pub const fn port(self, port: usize) -> PortRef {
+        PortRef { device: self, port }
+    }
+}
+
+impl fmt::Display for DeviceRef {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(f, "dev{}", self.0)
+    }
+}
+
+/// A device of a simulation that remembers its type, so that
+/// [`SimNetwork::device`](super::SimNetwork::device) hands back a `&T`.
+pub struct DevId<T> {
+    pub(super) index: u32,
+    // `fn() -> T` keeps the handle `Copy`, `Send` and `Sync` whatever `T` is.
+    _type: PhantomData<fn() -> T>,
+}
+
+impl<T> DevId<T> {
+    pub(super) const fn new(index: u32) -> Self {
+        DevId {
+            index,
+            _type: PhantomData,
+        }
+    }
+    /// Position in creation order.
+    pub const fn index(self) -> usize {
+        self.index as usize
+    }
+    /// The untyped handle.
+    pub const fn erased(self) -> DeviceRef {
+        DeviceRef(self.index)
+    }
+    /// One of the device's ports.
+    pub const fn port(self, port: usize) -> PortRef {
+        self.erased().port(port)
+    }
+}
+
+impl<T> Clone for DevId<T> {
+    fn clone(&self) -> Self {
+        *self
+    }
+}
+impl<T> Copy for DevId<T> {}
+impl<T> PartialEq for DevId<T> {
+    fn eq(&self, other: &Self) -> bool {
+        self.index == other.index
+    }
+}
+impl<T> Eq for DevId<T> {}
+impl<T> Hash for DevId<T> {
+    fn hash<H: Hasher>(&self, state: &mut H) {
+        self.index.hash(state);
+    }
+}
+impl<T> fmt::Debug for DevId<T> {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(f, "DevId({})", self.index)
+    }
+}
+impl<T> From<DevId<T>> for DeviceRef {
+    fn from(id: DevId<T>) -> Self {
+        id.erased()
+    }
+}
+
+/// One port of one device.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
+pub struct PortRef {
+    /// The device.
+    pub device: DeviceRef,
+    /// The port, as the device numbers it (`0..port_count()`).
+    pub port: usize,
+}
+
+impl fmt::Display for PortRef {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(f, "{}.{}", self.device, self.port)
+    }
+}
+
+/// How to build a bus.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct BusConfig {
+    /// Shown in traces and `Debug` output.
+    pub name: String,
+    /// Bits per second (0 is treated as 1).
+    pub bitrate: u32,
+}
+
+impl BusConfig {
+    /// A bus called `name` running at `bitrate` bit/s.
+    pub fn new(name: impl Into<String>, bitrate: u32) -> Self {
+        BusConfig {
+            name: name.into(),
+            bitrate,
+        }
+    }
+}
+
+/// What the simulator refuses.
+#[derive(Clone, Debug, PartialEq, Eq)]
+#[non_exhaustive]
+pub enum SimError {
+    /// A device must get exactly one bus per port.
+    PortCount {
+        /// Ports the device has.
+        ports: usize,
+        /// Buses it was given.
+        buses: usize,
+    },
+    /// The bus does not belong to this simulation.
+    UnknownBus(BusId),
+}
+
+impl fmt::Display for SimError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            SimError::PortCount { ports, buses } => {
+                write!(f, "device has {ports} ports but was given {buses} buses")
+            }
+            SimError::UnknownBus(b) => write!(f, "{b} is not a bus of this simulation"),
+        }
+    }
+}
+
+impl std::error::Error for SimError {}

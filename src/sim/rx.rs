@@ -1,0 +1,135 @@
+//! The receive path: random per-receiver faults, late deliveries in order, hand-over to devices.
+
+use super::fault::{chance, either, flip_bit, FaultRates};
+use super::ids::BusId;
+use super::sched::{DelayedRx, Timed};
+use super::trace::{RxFault, RxRecord, TraceRecord};
+use super::SimNetwork;
+use crate::frame::Frame;
+use crate::machine::{ErrorCause, PortStatus};
+use crate::time::{Duration, Instant};
+
+impl SimNetwork {
+    pub(super) fn deliver_delayed(&mut self) {
+        while self.delayed.peek().is_some_and(|d| d.at <= self.now) {
+            let Some(Timed { item, .. }) = self.delayed.pop() else {
+                break;
+            };
+            let p = item.port as usize;
+            let d = self.ports[p].dev as usize;
+            if self.devices[d].generation != item.generation || !self.devices[d].powered {
+                continue;
+            }
+            self.ports[p].delayed = self.ports[p].delayed.saturating_sub(1);
+            // A closed interface loses what its driver still held.
+            if self.ports[p].iface_up {
+                self.rx_now(p, &item.frame);
+            }
+        }
+    }
+
+    pub(super) fn record_rx(&mut self, b: usize, r: usize, frame: &Frame, fault: RxFault) {
+        let port = self.port_ref(r);
+        let (at, frame) = (self.now, *frame);
+        self.record(|| {
+            TraceRecord::Rx(RxRecord {
+                at,
+                bus: BusId(b as u32),
+                port,
+                frame,
+                fault,
+            })
+        });
+    }
+
+    /// Hands a frame that ended on the wire to receiver `r`, through its random faults.
+    /// `wire` is `sent` after any bus-wide bit flip.
+    pub(super) fn deliver(&mut self, b: usize, r: usize, sent: &Frame, wire: &Frame) {
+        if wire != sent {
+            self.ports[r].stats.rx_corrupted += 1;
+            self.record_rx(b, r, sent, RxFault::Corrupted { delivered: *wire });
+        }
+        let (bus_f, port_f) = (self.buses[b].faults, self.ports[r].faults);
+        if bus_f.is_none() && port_f.is_none() {
+            self.enqueue_rx(r, wire, Duration::ZERO);
+            return;
+        }
+        let bf = bus_f.unwrap_or(FaultRates::NONE);
+        let pf = port_f.unwrap_or(FaultRates::NONE);
+        if chance(&mut self.rng, either(bf.drop, pf.drop)) {
+            self.ports[r].stats.rx_dropped += 1;
+            self.record_rx(b, r, sent, RxFault::Dropped);
+            self.port_status(r, PortStatus::Error(ErrorCause::RxOverflow));
+            return;
+        }
+        let mut frame = *wire;
+        if chance(&mut self.rng, pf.corrupt_undetected) {
+            if let Some(f) = flip_bit(&mut self.rng, &frame) {
+                frame = f;
+                self.ports[r].stats.rx_corrupted += 1;
+                self.record_rx(b, r, sent, RxFault::Corrupted { delivered: f });
+            }
+        }
+        let delay = if chance(&mut self.rng, either(bf.delay, pf.delay)) {
+            let max = bf.max_delay.max(pf.max_delay).as_micros().max(1);
+            Duration::from_micros(self.rng.u64(1..=max))
+        } else {
+            Duration::ZERO
+        };
+        let twice = chance(&mut self.rng, either(bf.duplicate, pf.duplicate));
+        if !delay.is_zero() {
+            let until = self.delivery_time(r, delay);
+            self.ports[r].stats.rx_delayed += 1;
+            self.record_rx(b, r, sent, RxFault::Delayed { until });
+        }
+        if twice {
+            self.ports[r].stats.rx_duplicated += 1;
+            self.record_rx(b, r, sent, RxFault::Duplicated);
+        }
+        self.enqueue_rx(r, &frame, delay);
+        if twice {
+            self.enqueue_rx(r, &frame, delay);
+        }
+    }
+
+    /// When a frame delayed by `delay` reaches port `r`: never before one delayed earlier.
+    fn delivery_time(&self, r: usize, delay: Duration) -> Instant {
+        let port = &self.ports[r];
+        let due = self.now + delay;
+        if port.delayed > 0 {
+            due.max(port.delay_tail)
+        } else {
+            due
+        }
+    }
+
+    fn enqueue_rx(&mut self, r: usize, frame: &Frame, delay: Duration) {
+        if delay.is_zero() && self.ports[r].delayed == 0 {
+            self.rx_now(r, frame);
+            return;
+        }
+        let at = self.delivery_time(r, delay);
+        let generation = self.devices[self.ports[r].dev as usize].generation;
+        let port = &mut self.ports[r];
+        port.delayed += 1;
+        port.delay_tail = at;
+        let seq = self.next_seq();
+        self.delayed.push(Timed {
+            at,
+            seq,
+            item: DelayedRx {
+                port: r as u32,
+                generation,
+                frame: *frame,
+            },
+        });
+    }
+
+    fn rx_now(&mut self, r: usize, frame: &Frame) {
+        let port = &mut self.ports[r];
+        port.stats.rx += 1;
+        let (d, local) = (port.dev as usize, port.local as usize);
+        self.devices[d].dev.handle_rx(self.now, local, frame);
+        self.flush(d);
+    }
+}
