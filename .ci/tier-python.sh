@@ -28,6 +28,9 @@ if ! "$VENV/bin/python" -c 'import can, canopen, msgpack' 2>/dev/null; then
 fi
 "$VENV/bin/python" -c 'import can, canopen; print("python-can", can.__version__, "canopen", canopen.__version__)'
 
+echo "== tier-python: runtime, port and capture unit tests (all features)"
+cargo test --features tokio,udp,socketcan --lib || fail "library tests with the runtime features"
+
 echo "== tier-python: build (outside the namespace)"
 cargo test --features test-python --test python_peer --no-run || fail "build python_peer tests"
 BENCH=1; [ "${1:-}" = "--no-bench" ] && BENCH=0

@@ -351,4 +351,64 @@ mod tests {
             .unwrap();
         assert_eq!(id.raw(), 1);
     }
+
+    #[derive(Clone, Default)]
+    struct Shared(Arc<std::sync::Mutex<Vec<u8>>>);
+    impl std::io::Write for Shared {
+        fn write(&mut self, b: &[u8]) -> std::io::Result<usize> {
+            self.0.lock().unwrap().extend_from_slice(b);
+            Ok(b.len())
+        }
+        fn flush(&mut self) -> std::io::Result<()> {
+            Ok(())
+        }
+    }
+
+    #[tokio::test]
+    async fn the_tap_records_what_each_port_sends_and_receives() {
+        use crate::capture::{
+            candump,
+            recorder::{Filter, Recorder},
+        };
+        let bus = MemBus::new("m");
+        let log = Shared::default();
+        let rec = Arc::new(
+            Recorder::with_epoch(0)
+                .port_names(["mem0"])
+                .candump(Filter::All, log.clone()),
+        );
+        let master = Runtime::new(node(1, true, 0))
+            .port(bus.port())
+            .tap(rec.clone())
+            .spawn()
+            .unwrap();
+        let slave = Runtime::new(node(5, false, 0))
+            .port(bus.port())
+            .spawn()
+            .unwrap();
+        let mut ev = master.subscribe();
+        master.boot().await.unwrap();
+        slave.boot().await.unwrap();
+        tokio::time::timeout(StdDuration::from_secs(5), async {
+            loop {
+                if let Some(NodeEventKind::BootUp { .. }) = node_event(&ev.recv().await.unwrap()) {
+                    return;
+                }
+            }
+        })
+        .await
+        .unwrap();
+        let text = String::from_utf8(log.0.lock().unwrap().clone()).unwrap();
+        let frames: Vec<_> = text
+            .lines()
+            .map(|l| candump::parse_line(l).unwrap())
+            .map(|e| (e.interface, e.record.frame().copied().unwrap()))
+            .collect();
+        let boot = |id: u16| crate::Frame::from_array(crate::Id::Standard(0x700 + id), [0]);
+        assert_eq!(
+            frames,
+            [("mem0".to_string(), boot(1)), ("mem0".to_string(), boot(5))],
+            "the master's own boot-up (sent) and the slave's (received)"
+        );
+    }
 }
