@@ -15,6 +15,13 @@ fail() { echo "tier-vcan: FAILED: $*" >&2; exit 1; }
 command -v cargo >/dev/null || fail "cargo not found"
 [ "$(id -u)" = 0 ] || fail "needs root (apt-get install of qemu-system-x86, busybox-static, cpio)"
 "$VM/setup.sh" || fail "vcanvm setup (apt-get / kernel download) failed"
+if ! command -v canplayer >/dev/null; then   # can-utils go into the VM for the log tests
+  export DEBIAN_FRONTEND=noninteractive
+  apt-get install -y -qq --no-install-recommends can-utils >/dev/null \
+    || { apt-get update -qq && apt-get install -y -qq --no-install-recommends can-utils >/dev/null; } \
+    || fail "apt-get install can-utils"
+fi
+export WITH_CANUTILS=1
 
 export VCANS=vcan0,vcan1,vcan2
 export RUST_TEST_THREADS=1            # tests switch interfaces down and up
