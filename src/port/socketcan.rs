@@ -5,7 +5,7 @@
 //! (EPOLLERR), which a plain readable-interest wait (as in `socketcan::tokio`) never wakes for,
 //! so a port on a downed interface that only listens would never notice.
 //!
-//! Error frames are enabled and decoded into [`PortStatus`] (bus-off, error passive, no-ack, …).
+//! Error frames are enabled and decoded into [`PortStatus`](crate::PortStatus) (bus-off, error passive, no-ack, …).
 //! Opening checks the interface first, so a missing or down interface gives an error that says
 //! so and how to fix it, instead of a bare errno. After a failure the runtime calls
 //! [`Port::reopen`], which waits for nothing: it checks the interface and opens a new socket, or

@@ -22,7 +22,8 @@ impl fmt::Display for RuntimeClosed {
 
 impl std::error::Error for RuntimeClosed {}
 
-/// A cloneable handle to a running device.
+/// A cloneable handle to a running device. The runtime runs while any handle exists: dropping
+/// the last one stops it, as does [`Handle::shutdown`].
 pub struct Handle<D: crate::Device> {
     commands: mpsc::UnboundedSender<Command<D>>,
     events: broadcast::Sender<RuntimeEvent<D::Event>>,
