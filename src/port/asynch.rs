@@ -115,6 +115,11 @@ pub trait Port: Send + 'static {
     /// Next frame or status. Invalid input is counted and skipped, not returned. An `Err`
     /// means the port is unusable until [`Port::reopen`] succeeds.
     fn recv(&mut self) -> impl Future<Output = Result<PortInput, PortError>> + Send;
+    /// The next input if one is ready without waiting, for draining bursts in one go; `None`
+    /// when nothing is ready (or the port cannot tell). An `Err` means the same as from `recv`.
+    fn try_recv(&mut self) -> Option<Result<PortInput, PortError>> {
+        None
+    }
     /// Sends one frame.
     fn send(&mut self, frame: &Frame) -> impl Future<Output = Result<(), PortError>> + Send;
     /// Re-opens the port after a failure (or on request: after bus-off, to reset the socket).

@@ -247,6 +247,37 @@ fn open_socket(ifname: &str) -> Result<TokioCanSocket, PortError> {
     Ok(socket)
 }
 
+impl SocketCanPort {
+    /// Classifies a received frame: a frame to hand on, or `None` (error frame queued as status,
+    /// invalid frame counted).
+    fn accept(&mut self, raw: &CanFrame) -> Option<PortInput> {
+        match raw {
+            CanFrame::Error(ef) => {
+                self.counters.rx_error_frames();
+                self.pending = decode_error_frame(ef);
+                tracing::debug!(port = %self.ifname, bits = ef.error_bits(), "error frame");
+                None
+            }
+            other => match Frame::try_from(other) {
+                Ok(f) => {
+                    self.counters.rx_frames();
+                    Some(PortInput::Frame(f))
+                }
+                Err(e) => {
+                    self.counters.rx_invalid();
+                    tracing::warn!(port = %self.ifname, error = %e, "frame refused");
+                    None
+                }
+            },
+        }
+    }
+
+    fn read_failed(&mut self, e: io::Error) -> PortError {
+        self.socket = None;
+        PortError::io(&self.ifname, "read failed", e)
+    }
+}
+
 impl Port for SocketCanPort {
     fn name(&self) -> &str {
         &self.ifname
@@ -264,29 +295,31 @@ impl Port for SocketCanPort {
             let Some(sock) = self.socket.as_ref() else {
                 return Err(self.closed());
             };
-            let raw = match sock.read_frame().await {
-                Ok(f) => f,
-                Err(e) => {
-                    self.socket = None;
-                    return Err(PortError::io(&self.ifname, "read failed", e));
-                }
-            };
-            match &raw {
-                CanFrame::Error(ef) => {
-                    self.counters.rx_error_frames();
-                    self.pending = decode_error_frame(ef);
-                    tracing::debug!(port = %self.ifname, bits = ef.error_bits(), "error frame");
-                }
-                other => match Frame::try_from(other) {
-                    Ok(f) => {
-                        self.counters.rx_frames();
-                        return Ok(PortInput::Frame(f));
+            match sock.read_frame().await {
+                Ok(raw) => {
+                    if let Some(x) = self.accept(&raw) {
+                        return Ok(x);
                     }
-                    Err(e) => {
-                        self.counters.rx_invalid();
-                        tracing::warn!(port = %self.ifname, error = %e, "frame refused");
+                }
+                Err(e) => return Err(self.read_failed(e)),
+            }
+        }
+    }
+
+    fn try_recv(&mut self) -> Option<Result<PortInput, PortError>> {
+        loop {
+            if !self.pending.is_empty() {
+                return Some(Ok(PortInput::Status(self.pending.remove(0))));
+            }
+            // The socket is non-blocking: a direct read takes what is queued, if anything.
+            match self.socket.as_ref()?.0.get_ref().read_frame() {
+                Ok(raw) => {
+                    if let Some(x) = self.accept(&raw) {
+                        return Some(Ok(x));
                     }
-                },
+                }
+                Err(e) if e.kind() == io::ErrorKind::WouldBlock => return None,
+                Err(e) => return Some(Err(self.read_failed(e))),
             }
         }
     }

@@ -342,6 +342,31 @@ fn open_sockets(cfg: &UdpBusConfig, name: &str) -> Result<Sockets, PortError> {
     })
 }
 
+impl UdpPort {
+    /// Decodes the datagram in the buffer: a frame, or `None` (our own, or refused and counted).
+    fn accept(&mut self, n: usize, from: SocketAddr) -> Option<PortInput> {
+        if self.sockets.as_ref().is_some_and(|s| s.own == from) {
+            return None;
+        }
+        match decode(&self.buf[..n]) {
+            Ok((f, _)) => {
+                self.counters.rx_frames();
+                Some(PortInput::Frame(f))
+            }
+            Err(e) => {
+                self.counters.rx_invalid();
+                tracing::warn!(port = %self.name, %from, len = n, error = %e, "datagram refused");
+                None
+            }
+        }
+    }
+
+    fn failed(&mut self, e: std::io::Error) -> PortError {
+        self.sockets = None;
+        PortError::io(&self.name, "receive failed", e)
+    }
+}
+
 impl Port for UdpPort {
     fn name(&self) -> &str {
         &self.name
@@ -356,25 +381,27 @@ impl Port for UdpPort {
             let Some(s) = self.sockets.as_ref() else {
                 return Err(PortError::new(&self.name, PortErrorKind::Closed, "closed"));
             };
-            let (n, from) = match s.rx.recv_from(&mut self.buf).await {
-                Ok(x) => x,
-                Err(e) => {
-                    self.sockets = None;
-                    return Err(PortError::io(&self.name, "receive failed", e));
+            match s.rx.recv_from(&mut self.buf).await {
+                Ok((n, from)) => {
+                    if let Some(x) = self.accept(n, from) {
+                        return Ok(x);
+                    }
                 }
-            };
-            if from == s.own {
-                continue;
+                Err(e) => return Err(self.failed(e)),
             }
-            match decode(&self.buf[..n]) {
-                Ok((f, _)) => {
-                    self.counters.rx_frames();
-                    return Ok(PortInput::Frame(f));
+        }
+    }
+
+    fn try_recv(&mut self) -> Option<Result<PortInput, PortError>> {
+        loop {
+            match self.sockets.as_ref()?.rx.try_recv_from(&mut self.buf) {
+                Ok((n, from)) => {
+                    if let Some(x) = self.accept(n, from) {
+                        return Some(Ok(x));
+                    }
                 }
-                Err(e) => {
-                    self.counters.rx_invalid();
-                    tracing::warn!(port = %self.name, %from, len = n, error = %e, "datagram refused");
-                }
+                Err(e) if e.kind() == std::io::ErrorKind::WouldBlock => return None,
+                Err(e) => return Some(Err(self.failed(e))),
             }
         }
     }

@@ -29,54 +29,41 @@ enum Step {
     Stop,
 }
 
+/// Inputs (or outgoing frames) moved per wake-up without waiting again.
+const BURST: usize = 32;
+
 pub(crate) async fn run<P: Port>(mut port: P, mut w: Wiring) {
     loop {
         let step = tokio::select! {
             cmd = w.from_core.recv() => match cmd {
                 None => Step::Stop,
-                Some(PortCmd::Send(f)) => match port.send(&f).await {
-                    Ok(()) => Step::Continue,
-                    Err(e) => {
-                        tracing::warn!(error = %e, "send failed");
-                        let down = matches!(
-                            e.kind,
-                            PortErrorKind::InterfaceDown | PortErrorKind::NoSuchInterface | PortErrorKind::Closed
-                        );
-                        if down {
-                            report(&w, PortStatus::Down(e.cause())).await;
-                            Step::Failed
-                        } else {
-                            report(&w, PortStatus::TxFailed(e.cause())).await;
-                            Step::Continue
+                Some(cmd) => {
+                    let mut step = command(&mut port, &w, cmd).await;
+                    for _ in 1..BURST {
+                        if !matches!(step, Step::Continue) {
+                            break;
+                        }
+                        match w.from_core.try_recv() {
+                            Ok(cmd) => step = command(&mut port, &w, cmd).await,
+                            Err(_) => break,
                         }
                     }
-                },
-                Some(PortCmd::Request(PortRequest::Reinit)) => match port.reopen().await {
-                    Ok(()) => {
-                        report(&w, PortStatus::Up).await;
-                        Step::Continue
-                    }
-                    Err(e) => {
-                        tracing::warn!(error = %e, "re-init failed");
-                        report(&w, PortStatus::Down(e.cause())).await;
-                        Step::Failed
-                    }
-                },
-            },
-            r = port.recv() => match r {
-                Ok(x) => {
-                    if w.to_core.send((w.index, x)).await.is_err() {
-                        Step::Stop
-                    } else {
-                        Step::Continue
-                    }
-                }
-                Err(e) => {
-                    tracing::warn!(error = %e, "receive failed");
-                    report(&w, PortStatus::Down(e.cause())).await;
-                    Step::Failed
+                    step
                 }
             },
+            r = port.recv() => {
+                let mut step = input(&w, r).await;
+                for _ in 1..BURST {
+                    if !matches!(step, Step::Continue) {
+                        break;
+                    }
+                    match port.try_recv() {
+                        Some(r) => step = input(&w, r).await,
+                        None => break,
+                    }
+                }
+                step
+            }
         };
         match step {
             Step::Continue => {}
@@ -87,6 +74,58 @@ pub(crate) async fn run<P: Port>(mut port: P, mut w: Wiring) {
                 }
             }
         }
+    }
+}
+
+async fn input(w: &Wiring, r: Result<PortInput, crate::port::PortError>) -> Step {
+    match r {
+        Ok(x) => {
+            if w.to_core.send((w.index, x)).await.is_err() {
+                Step::Stop
+            } else {
+                Step::Continue
+            }
+        }
+        Err(e) => {
+            tracing::warn!(error = %e, "receive failed");
+            report(w, PortStatus::Down(e.cause())).await;
+            Step::Failed
+        }
+    }
+}
+
+async fn command<P: Port>(port: &mut P, w: &Wiring, cmd: PortCmd) -> Step {
+    match cmd {
+        PortCmd::Send(f) => match port.send(&f).await {
+            Ok(()) => Step::Continue,
+            Err(e) => {
+                tracing::warn!(error = %e, "send failed");
+                let down = matches!(
+                    e.kind,
+                    PortErrorKind::InterfaceDown
+                        | PortErrorKind::NoSuchInterface
+                        | PortErrorKind::Closed
+                );
+                if down {
+                    report(w, PortStatus::Down(e.cause())).await;
+                    Step::Failed
+                } else {
+                    report(w, PortStatus::TxFailed(e.cause())).await;
+                    Step::Continue
+                }
+            }
+        },
+        PortCmd::Request(PortRequest::Reinit) => match port.reopen().await {
+            Ok(()) => {
+                report(w, PortStatus::Up).await;
+                Step::Continue
+            }
+            Err(e) => {
+                tracing::warn!(error = %e, "re-init failed");
+                report(w, PortStatus::Down(e.cause())).await;
+                Step::Failed
+            }
+        },
     }
 }
 
