@@ -1,11 +1,10 @@
 //! The application's side of a running runtime.
 
-use super::task::Command;
+use super::task::{Command, Start, Watcher};
 use super::{Clock, RuntimeEvent};
 use crate::port::{PortCounters, PortCountersSnapshot};
 use crate::time::Instant;
 use std::fmt;
-use std::future::Future;
 use std::sync::{Arc, Mutex};
 use tokio::sync::{broadcast, mpsc, oneshot};
 use tokio::task::JoinHandle;
@@ -86,47 +85,43 @@ where
         rx.await.map_err(|_| RuntimeClosed)
     }
 
-    /// Starts an operation with `start` and waits for the event that completes it: `done`
-    /// is given every event from then on, with what `start` returned (a transfer id, say),
-    /// and the first `Some` is the result. Events are subscribed to before `start` runs, so
-    /// none is missed.
-    pub fn request<T, R, S, M>(
-        &self,
-        start: S,
-        mut done: M,
-    ) -> impl Future<Output = Result<R, RuntimeClosed>> + Send + 'static
+    /// Starts an operation and waits for the event that completes it. `start` runs on the
+    /// device: `Err(r)` is an immediate result (it did not start), `Ok(token)` means it started;
+    /// then `done` sees every following event of the device with the token (a transfer id, say)
+    /// and the first `Some` is the result. No event is missed: the watch is set up in the same
+    /// step as the start, inside the runtime, and does not depend on a subscriber keeping up.
+    pub async fn request<T, R, S, M>(&self, start: S, mut done: M) -> Result<R, RuntimeClosed>
     where
-        S: FnOnce(&mut D, Instant) -> T + Send + 'static,
+        S: FnOnce(&mut D, Instant) -> Result<T, R> + Send + 'static,
         M: FnMut(&T, &D::Event) -> Option<R> + Send + 'static,
-        T: Send + Sync + 'static,
+        T: Send + 'static,
         R: Send + 'static,
     {
-        let mut rx = self.events.subscribe();
-        let commands = self.commands.clone();
-        async move {
-            let (tx, token) = oneshot::channel();
-            let call = Box::new(move |d: &mut D, now: Instant| {
-                let _ = tx.send(start(d, now));
-            });
-            commands
-                .send(Command::Call(call))
-                .map_err(|_| RuntimeClosed)?;
-            let token = token.await.map_err(|_| RuntimeClosed)?;
-            loop {
-                match rx.recv().await {
-                    Ok(RuntimeEvent::Device(e)) => {
-                        if let Some(r) = done(&token, &e) {
-                            return Ok(r);
-                        }
-                    }
-                    Ok(RuntimeEvent::Port { .. }) => {}
-                    Err(broadcast::error::RecvError::Lagged(n)) => {
-                        tracing::warn!(missed = n, "request waiter lagged behind events");
-                    }
-                    Err(broadcast::error::RecvError::Closed) => return Err(RuntimeClosed),
+        let (tx, rx) = oneshot::channel();
+        let start: Start<D, D::Event> = Box::new(move |d: &mut D, now: Instant| {
+            let token = match start(d, now) {
+                Ok(t) => t,
+                Err(r) => {
+                    let _ = tx.send(r);
+                    return None;
                 }
-            }
-        }
+            };
+            let mut tx = Some(tx);
+            let w: Watcher<D::Event> = Box::new(move |e: &D::Event| match done(&token, e) {
+                Some(r) => {
+                    if let Some(tx) = tx.take() {
+                        let _ = tx.send(r);
+                    }
+                    true
+                }
+                None => false,
+            });
+            Some(w)
+        });
+        self.commands
+            .send(Command::Watch(start))
+            .map_err(|_| RuntimeClosed)?;
+        rx.await.map_err(|_| RuntimeClosed)
     }
 
     /// Every event from now on. A subscriber more than [`super::EVENT_QUEUE`] events behind

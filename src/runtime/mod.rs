@@ -196,6 +196,7 @@ where
             counters: counters.clone(),
             events: ev_tx.clone(),
             tap: self.tap,
+            watchers: Vec::new(),
         };
         let task = tokio::spawn(core.run(cmd_rx, in_rx).instrument(span));
         Ok(Handle::new(cmd_tx, ev_tx, clock, names, counters, task))
@@ -331,7 +332,7 @@ mod tests {
         let r = master.request(
             |d, now| {
                 d.machine.boot(now);
-                d.machine.id()
+                Ok::<_, (crate::NodeId, Instant)>(d.machine.id())
             },
             |id, e| match e {
                 StationEvent::Machine(NodeEvent {

@@ -11,8 +11,15 @@ use tokio::sync::{broadcast, mpsc};
 /// A closure run on the device inside the core task.
 pub(crate) type Call<D> = Box<dyn FnOnce(&mut D, crate::Instant) + Send>;
 
-pub(crate) enum Command<D> {
+/// Sees every event of the device until it returns true (it got what it waited for).
+pub(crate) type Watcher<E> = Box<dyn FnMut(&E) -> bool + Send>;
+
+/// Starts something and returns the watcher that completes it, if it started.
+pub(crate) type Start<D, E> = Box<dyn FnOnce(&mut D, crate::Instant) -> Option<Watcher<E>> + Send>;
+
+pub(crate) enum Command<D: Device> {
     Call(Call<D>),
+    Watch(Start<D, D::Event>),
     Shutdown,
 }
 
@@ -26,6 +33,7 @@ pub(crate) struct Core<D: Device> {
     pub counters: Vec<PortCounters>,
     pub events: broadcast::Sender<RuntimeEvent<D::Event>>,
     pub tap: Option<Arc<dyn Tap>>,
+    pub watchers: Vec<Watcher<D::Event>>,
 }
 
 impl<D> Core<D>
@@ -51,6 +59,11 @@ where
             tokio::select! {
                 cmd = commands.recv() => match cmd {
                     Some(Command::Call(f)) => f(&mut self.device, self.clock.now()),
+                    Some(Command::Watch(start)) => {
+                        if let Some(w) = start(&mut self.device, self.clock.now()) {
+                            self.watchers.push(w);
+                        }
+                    }
                     Some(Command::Shutdown) | None => break,
                 },
                 first = input.recv() => {
@@ -125,6 +138,8 @@ where
         }
         while let Some(e) = self.device.poll_event() {
             tracing::debug!(event = ?e, "event");
+            // Watchers see every event, losslessly, before subscribers (who may lag).
+            self.watchers.retain_mut(|w| !w(&e));
             // No subscriber is fine: events are then only logged.
             let _ = self.events.send(RuntimeEvent::Device(e));
         }
