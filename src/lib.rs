@@ -32,6 +32,7 @@ pub mod profile;
 pub mod queue;
 #[cfg(feature = "tokio")]
 pub mod runtime;
+pub mod sdo;
 #[cfg(feature = "std")]
 pub mod sim;
 pub mod sync;

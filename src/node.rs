@@ -16,6 +16,7 @@ use crate::nmt::{self, Malformed, NmtCommand, NmtState, NmtTarget, NodeTable, No
 use crate::od::{check_value, comm, Access, Entry, ObjectDictionary, OdValue};
 use crate::profile::{IdProfile, Predefined, ProfileFrame};
 use crate::queue::Bounded;
+use crate::sdo::{SdoServer, SdoServerConfig};
 use crate::sync::{SyncConfig, SyncService};
 use crate::time::{earliest, Duration, Instant};
 use crate::time_stamp::{TimeOfDay, TimeService};
@@ -253,6 +254,8 @@ pub struct NodeCore<D, P = Predefined, const G: usize = 127> {
     tx: Bounded<Frame, TX_QUEUE>,
     events: Bounded<NodeEvent, EVENT_QUEUE>,
     stats: NodeStats,
+    /// Boot-ups so far: the SDO server re-reads its channel when this changes.
+    boots: u32,
 }
 
 /// A CANopen node on one logical bus.
@@ -261,6 +264,8 @@ pub struct NodeCore<D, P = Predefined, const G: usize = 127> {
 /// master (0 for a plain slave).
 pub struct Node<D, P = Predefined, const G: usize = 127> {
     core: NodeCore<D, P, G>,
+    sdo: SdoServer,
+    sdo_boots: u32,
 }
 
 impl<D: ObjectDictionary> Node<D, Predefined, 127> {
@@ -291,7 +296,10 @@ impl<D: ObjectDictionary, P: IdProfile, const G: usize> Node<D, P, G> {
                 tx: Bounded::new(),
                 events: Bounded::new(),
                 stats: NodeStats::default(),
+                boots: 0,
             },
+            sdo: SdoServer::new(SdoServerConfig::default()),
+            sdo_boots: 0,
         }
     }
 
@@ -299,6 +307,30 @@ impl<D: ObjectDictionary, P: IdProfile, const G: usize> Node<D, P, G> {
     /// pre-operational (or operational with `auto_start`).
     pub fn boot(&mut self, now: Instant) {
         self.core.boot(now);
+        self.sdo_follow_core();
+    }
+
+    /// The SDO server (channel from 0x1200, configuration, counters).
+    pub fn sdo_server(&self) -> &SdoServer {
+        &self.sdo
+    }
+    /// The SDO server, to change its configuration. Its channel is re-read from 0x1200 at boot
+    /// and reset communication.
+    pub fn sdo_server_mut(&mut self) -> &mut SdoServer {
+        &mut self.sdo
+    }
+
+    /// After anything that may have reset the node or left the SDO states: re-read the channel
+    /// (boot, reset communication), drop a transfer the state no longer allows.
+    fn sdo_follow_core(&mut self) {
+        if self.core.boots != self.sdo_boots {
+            self.sdo_boots = self.core.boots;
+            let id = self.core.id();
+            self.sdo.configure_from(&self.core.od, id);
+        }
+        if !self.core.state.services().sdo {
+            self.sdo.cancel();
+        }
     }
 
     /// The node-ID.
@@ -367,6 +399,7 @@ impl<D: ObjectDictionary, P: IdProfile, const G: usize> Node<D, P, G> {
     /// Changes the local state as the application (a master starting itself, …).
     pub fn set_nmt_state(&mut self, now: Instant, state: NmtState) {
         self.core.enter(now, state, StateCause::Local);
+        self.sdo_follow_core();
     }
 
     /// Sends an NMT module-control command (master).
@@ -491,6 +524,7 @@ impl<D: ObjectDictionary, P: IdProfile, const G: usize> NodeCore<D, P, G> {
     }
 
     fn boot(&mut self, now: Instant) {
+        self.boots = self.boots.wrapping_add(1);
         let from = self.state;
         self.state = NmtState::Initialising;
         self.apply_config(now);
@@ -1019,16 +1053,31 @@ impl<D: ObjectDictionary, P: IdProfile, const G: usize> Machine for Node<D, P, G
     type Event = NodeEvent;
 
     fn handle_frame(&mut self, now: Instant, frame: &Frame) {
+        if Some(frame.id()) == self.sdo.rx_id() && self.core.state.services().sdo {
+            self.core.stats.rx_frames += 1;
+            if let Err(reason) = self.sdo.handle_frame(now, frame, &mut self.core) {
+                self.core.malformed(now, frame.id(), reason);
+            }
+            return;
+        }
         self.core.handle_frame(now, frame);
+        self.sdo_follow_core();
     }
     fn handle_timeout(&mut self, now: Instant) {
         self.core.handle_timeout(now);
+        self.sdo_follow_core();
+        self.sdo.handle_timeout(now);
     }
     fn poll_transmit(&mut self) -> Option<Frame> {
-        self.core.tx.pop()
+        if let Some(f) = self.core.tx.pop() {
+            return Some(f);
+        }
+        let f = self.sdo.poll_transmit()?;
+        self.core.stats.tx_frames += 1;
+        Some(f)
     }
     fn poll_timeout(&self) -> Option<Instant> {
-        self.core.poll_timeout()
+        earliest(self.core.poll_timeout(), self.sdo.poll_timeout())
     }
     fn poll_event(&mut self) -> Option<NodeEvent> {
         self.core.events.pop()

@@ -1,2 +1,46 @@
-#![no_std]
-//! placeholder
+//! # duocan-redundancy
+//!
+//! Redundancy for duocan on two CAN buses. This crate's first part is the **dual-bus
+//! abstraction layer**: [`DualBus`], a sans-IO [`BusLink`](duocan::BusLink) with two ports
+//! below and one logical bus above, so that a node of the standard stack runs on top unchanged.
+//!
+//! One type, three policies ([`Mode`]):
+//!
+//! - **Active-active** (default): transmit fan-out to every port not failed; receive
+//!   [merge] delivering each frame occurrence exactly once; [same-function
+//!   merge](pairs_merge) of A/B board pairs with discrepancy events.
+//! - **CiA 302-6** active-standby ([`channel::cia302_6`]): 0x1F60, heartbeats on both channels,
+//!   evaluation windows, 0x7F indicate-active-interface, transmit-error counter.
+//! - **ECSS bus toggle** ([`channel::ecss`]): 0x2000 Bdefault/Ttoggle/Ntoggle/Ctoggle, toggling
+//!   on loss of the redundancy master's heartbeat.
+//!
+//! Around them: [port health](health) (counters, error causes, ok / suspect / failed /
+//! recovering, silence limit, re-initialisation with back-off), [per-node per-bus
+//! reachability](reach), and [events] with reasons and timestamps for every change.
+//! Configuration comes from code ([`DualBusConfig`]) or from the dictionary ([`config`]).
+//!
+//! Everything is bounded (fixed-capacity tables and queues, counted overflow) and builds for
+//! `no_std` targets.
+#![cfg_attr(not(feature = "std"), no_std)]
+#![warn(missing_docs)]
+#![forbid(unsafe_code)]
+
+pub mod channel;
+pub mod classify;
+pub mod config;
+pub mod dual_bus;
+pub mod events;
+pub mod health;
+pub mod merge;
+pub mod outbox;
+pub mod pairs_merge;
+pub mod reach;
+
+pub use channel::{Cia3026Config, EcssConfig, EcssRole, ModeKind, NodeSet};
+pub use classify::FrameClassifier;
+pub use dual_bus::{DualBus, DualBusConfig, LinkStats, Mode, DEFAULT_MERGE_SLOTS};
+pub use events::{LinkEvent, LinkEventKind, PortReason, SwitchReason};
+pub use health::{HealthConfig, PortState};
+pub use merge::{Merger, Verdict};
+pub use outbox::{Outbox, EVENT_QUEUE, FRAME_QUEUE, REQUEST_QUEUE};
+pub use pairs_merge::{Member, PairId};

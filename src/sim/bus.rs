@@ -47,10 +47,11 @@ pub struct PortStats {
     pub tx_attempts: u64,
     /// Frames reported sent (`PortStatus::TxOk`).
     pub tx_ok: u64,
-    /// Frames reported failed (`PortStatus::TxFailed`), overflow included.
+    /// Frames reported failed (`PortStatus::TxFailed`).
     pub tx_failed: u64,
-    /// Frames refused because the transmit queue was full.
-    pub tx_overflow: u64,
+    /// Times the device had to wait because this port's transmit queue was full (back-pressure:
+    /// the frame is held by the driver, not lost).
+    pub tx_blocked: u64,
     /// Frames handed to the device.
     pub rx: u64,
     /// Frames this port missed (reported as receive overflow).

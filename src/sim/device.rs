@@ -81,6 +81,9 @@ pub(super) struct DeviceState {
     /// instant it was read); heap entries that disagree are stale.
     pub(super) deadline: Option<Instant>,
     pub(super) touched: bool,
+    /// A frame pulled from the device whose port queue was full: it goes first once there is
+    /// room, and until then no further frame is pulled (back-pressure).
+    pub(super) held: Option<(usize, Frame)>,
     /// Instant and count of `handle_timeout` calls there, to stop a device that keeps asking
     /// for the instant it was just given from spinning forever.
     pub(super) spin_at: Instant,
@@ -141,6 +144,7 @@ impl SimNetwork {
             generation: 0,
             deadline: None,
             touched: false,
+            held: None,
             spin_at: Instant::ZERO,
             spins: 0,
             misaddressed: 0,
@@ -280,6 +284,7 @@ impl SimNetwork {
         let dev = &mut self.devices[d];
         dev.generation = dev.generation.wrapping_add(1);
         dev.deadline = None;
+        dev.held = None;
         let ports = dev.port_range();
         for p in ports {
             let port = &mut self.ports[p];

@@ -1,7 +1,6 @@
 //! Driving one device: reporting to it, draining it into the port controllers, tracking its
 //! deadline, and keeping each port's place in its segment's arbitration.
 
-use super::trace::TraceRecord;
 use super::SimNetwork;
 use crate::frame::Frame;
 use crate::machine::{ErrorCause, PortRequest, PortStatus};
@@ -33,8 +32,18 @@ impl SimNetwork {
         let now = self.now;
         let mut rounds = 0;
         loop {
-            while let Some((port, frame)) = self.devices[d].dev.poll_transmit() {
-                self.enqueue_tx(d, port, frame);
+            if let Some((port, frame)) = self.devices[d].held.take() {
+                if !self.enqueue_tx(d, port, frame) {
+                    self.devices[d].held = Some((port, frame));
+                }
+            }
+            if self.devices[d].held.is_none() {
+                while let Some((port, frame)) = self.devices[d].dev.poll_transmit() {
+                    if !self.enqueue_tx(d, port, frame) {
+                        self.devices[d].held = Some((port, frame));
+                        break;
+                    }
+                }
             }
             while let Some((port, req)) = self.devices[d].dev.poll_port_request() {
                 self.port_request(d, port, req);
@@ -75,11 +84,13 @@ impl SimNetwork {
         }
     }
 
-    fn enqueue_tx(&mut self, d: usize, local: usize, frame: Frame) {
+    /// Hands a frame to a port controller. False when the queue is full: the caller holds the
+    /// frame and stops pulling until a slot frees.
+    fn enqueue_tx(&mut self, d: usize, local: usize, frame: Frame) -> bool {
         let dev = &mut self.devices[d];
         if local >= dev.ports as usize {
             dev.misaddressed += 1;
-            return;
+            return true;
         }
         let p = dev.first_port as usize + local;
         let port = &mut self.ports[p];
@@ -87,21 +98,17 @@ impl SimNetwork {
             port.stats.tx_failed += 1;
             self.statuses
                 .push((local, PortStatus::TxFailed(ErrorCause::InterfaceDown)));
-            return;
+            return true;
         }
         if port.queue.len() >= port.capacity {
-            port.stats.tx_overflow += 1;
-            port.stats.tx_failed += 1;
-            self.statuses
-                .push((local, PortStatus::TxFailed(ErrorCause::TxTimeout)));
-            let (at, port) = (self.now, self.port_ref(p));
-            self.record(|| TraceRecord::TxOverflow { at, port, frame });
-            return;
+            port.stats.tx_blocked += 1;
+            return false;
         }
         port.queue.push_back(frame);
         if port.queue.len() == 1 {
             self.refresh_port(p);
         }
+        true
     }
 
     fn port_request(&mut self, d: usize, local: usize, req: PortRequest) {

@@ -17,6 +17,7 @@ impl SimNetwork {
         self.flush_touched();
         self.run_due_timeouts();
         self.arbitrate();
+        self.refill_held();
     }
 
     /// The next instant with work, if any.
@@ -41,6 +42,27 @@ impl SimNetwork {
         self.run_actions();
         self.run_due_timeouts();
         self.arbitrate();
+        self.refill_held();
+    }
+
+    /// Devices blocked on a full queue that just freed a slot hand over their next frames, and
+    /// those may start on idle segments at once (a driver refilling the controller).
+    fn refill_held(&mut self) {
+        while !self.refill.is_empty() {
+            let mut list = std::mem::take(&mut self.refill);
+            list.sort_unstable();
+            list.dedup();
+            for &d in &list {
+                if self.devices[d as usize].powered {
+                    self.flush(d as usize);
+                }
+            }
+            list.clear();
+            if self.refill.is_empty() {
+                self.refill = list;
+            }
+            self.arbitrate();
+        }
     }
 
     fn drop_stale_deadlines(&mut self) {
@@ -150,6 +172,10 @@ impl SimNetwork {
             (Some(f), _) => (f, true),
             (None, Some(&f)) => {
                 port.queue.pop_front();
+                let owner = port.dev;
+                if self.devices[owner as usize].held.is_some() {
+                    self.refill.push(owner);
+                }
                 (f, false)
             }
             (None, None) => {

@@ -252,8 +252,10 @@ impl SimNetwork {
     }
 
     /// Sets how many frames the port's transmit queue holds (default
-    /// [`DEFAULT_TX_CAPACITY`](super::DEFAULT_TX_CAPACITY)). A frame handed to a full queue is
-    /// dropped, counted and reported as `TxFailed(ErrorCause::TxTimeout)`.
+    /// [`DEFAULT_TX_CAPACITY`](super::DEFAULT_TX_CAPACITY)). Like a driver that waits for room
+    /// in the controller, the simulator stops pulling frames from a device whose next frame
+    /// targets a full queue and resumes as soon as a slot frees: nothing is lost, the device's own
+    /// bounded queues fill up instead.
     pub fn set_tx_capacity(&mut self, port: PortRef, capacity: usize) {
         let p = self.port_index(port);
         self.ports[p].capacity = capacity;

@@ -119,6 +119,8 @@ pub struct SimNetwork {
     /// Devices changed through `device_mut` (or powered on, added, replaced) since they were
     /// last driven.
     touched: Vec<u32>,
+    /// Devices holding a frame whose port queue just freed a slot.
+    refill: Vec<u32>,
     trace: Vec<TraceRecord>,
     recording: bool,
     /// Scratch buffers reused on the frame path.
@@ -142,6 +144,7 @@ impl SimNetwork {
             actions: BinaryHeap::new(),
             seq: 0,
             touched: Vec::new(),
+            refill: Vec::new(),
             trace: Vec::new(),
             recording: true,
             statuses: Vec::new(),

@@ -13,15 +13,6 @@ pub enum TraceRecord {
     Tx(TxRecord),
     /// A fault that hit one receiver of a delivered frame; follows the frame's [`TxRecord`].
     Rx(RxRecord),
-    /// A device handed a frame to a full transmit queue; the frame was dropped.
-    TxOverflow {
-        /// When.
-        at: Instant,
-        /// The port whose queue was full.
-        port: PortRef,
-        /// The dropped frame.
-        frame: Frame,
-    },
 }
 
 /// A transmission attempt.
@@ -125,9 +116,6 @@ impl fmt::Display for TraceRecord {
                     "{} {} rx {} {}: {:?}",
                     r.at, r.bus, r.port, r.frame, r.fault
                 )
-            }
-            TraceRecord::TxOverflow { at, port, frame } => {
-                write!(f, "{at} {port} tx queue full, dropped {frame}")
             }
         }
     }
