@@ -29,7 +29,7 @@ fi
 "$VENV/bin/python" -c 'import can, canopen; print("python-can", can.__version__, "canopen", canopen.__version__)'
 
 echo "== tier-python: runtime, port and capture unit tests (all features)"
-cargo test --features tokio,udp,socketcan --lib || fail "library tests with the runtime features"
+cargo test --features tokio,udp,socketcan --lib --test runtime_mem || fail "library and memory-bus runtime tests"
 
 echo "== tier-python: build (outside the namespace)"
 cargo test --features test-python --test python_peer --no-run || fail "build python_peer tests"

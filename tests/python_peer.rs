@@ -9,8 +9,10 @@ use duocan::node::NodeEventKind as K;
 use duocan::port::udp::{encode, UdpBusConfig, UdpPort};
 use duocan::port::{Port, PortInput};
 use duocan::runtime::Runtime;
+use duocan::sdo::{Mode, SdoErrorKind, SdoOptions};
+use duocan::AbortCode;
 use duocan::{Frame, Id, NmtCommand, NmtState, NmtTarget, NodeId};
-use rt::{node, node_event, single, wait_for};
+use rt::{node, node_event, pattern, single, wait_for};
 use std::process::Stdio;
 use std::time::Duration;
 use tokio::io::{AsyncBufReadExt, BufReader, Lines};
@@ -57,6 +59,16 @@ impl Peer {
             Ok(None) => panic!("python peer exited before printing {prefix:?}"),
             Err(_) => panic!("python peer did not print {prefix:?} within {secs} s"),
         }
+    }
+
+    async fn send_line(&mut self, line: &str) {
+        use tokio::io::AsyncWriteExt;
+        let stdin = self.child.stdin.as_mut().expect("stdin piped");
+        stdin
+            .write_all(format!("{line}\n").as_bytes())
+            .await
+            .unwrap();
+        stdin.flush().await.unwrap();
     }
 
     async fn stop(mut self) {
@@ -224,4 +236,120 @@ async fn garbage_datagrams_are_counted_and_the_runtime_keeps_going() {
     );
     peer.stop().await;
     master.shutdown().await;
+}
+
+fn hex(b: &[u8]) -> String {
+    b.iter().map(|x| format!("{x:02x}")).collect()
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn duocan_sdo_client_against_a_python_local_node() {
+    let cfg = UdpBusConfig::numbered(2);
+    let m = Runtime::new(rt::master(1, &[]))
+        .name("master")
+        .port(UdpPort::open(cfg.clone()).expect("open the UDP bus (inside unshare -n?)"))
+        .spawn()
+        .unwrap();
+    m.boot().await.unwrap();
+    let (g, p) = group(&cfg);
+    let mut peer = Peer::spawn(&["node", "0x22", "0", &g, &p]).await;
+    peer.expect("STATE PRE-OPERATIONAL", 10).await;
+    let py = NodeId::new(0x22).unwrap();
+    let o = SdoOptions::default;
+
+    // Expedited and segmented uploads.
+    let v = m.sdo_read(py, 0x2000, 0, o()).await.unwrap().unwrap();
+    assert_eq!(v, 0x1234_5678u32.to_le_bytes());
+    let v = m.sdo_read(py, 0x1018, 1, o()).await.unwrap().unwrap();
+    assert_eq!(v, 0xD0CAu32.to_le_bytes());
+    let v = m.sdo_read(py, 0x2001, 0, o()).await.unwrap().unwrap();
+    assert_eq!(v, b"python canopen peer: a string longer than four bytes");
+
+    // Expedited and segmented downloads: the python node reports what it stored.
+    m.sdo_write(py, 0x2000, 0, 0xA5A5_0001u32.to_le_bytes().to_vec(), o())
+        .await
+        .unwrap()
+        .unwrap();
+    assert_eq!(peer.expect("WRITE 2000", 5).await, "WRITE 2000 0 0100a5a5");
+    let text = b"segmented download from duocan to python".to_vec();
+    m.sdo_write(
+        py,
+        0x2001,
+        0,
+        text.clone(),
+        SdoOptions::mode(Mode::Segmented),
+    )
+    .await
+    .unwrap()
+    .unwrap();
+    assert_eq!(
+        peer.expect("WRITE 2001", 5).await,
+        format!("WRITE 2001 0 {}", hex(&text))
+    );
+
+    // python canopen's server has no block transfer: block download falls back to segmented
+    // (the server aborts with 0x05040001), block upload is answered as a plain upload.
+    let blob = pattern(300, 3);
+    m.sdo_write(py, 0x2002, 0, blob.clone(), SdoOptions::mode(Mode::Block))
+        .await
+        .unwrap()
+        .unwrap();
+    assert_eq!(
+        peer.expect("WRITE 2002", 5).await,
+        format!("WRITE 2002 0 {}", hex(&blob))
+    );
+    let back = m
+        .sdo_read(py, 0x2002, 0, SdoOptions::mode(Mode::Block))
+        .await
+        .unwrap()
+        .unwrap();
+    assert_eq!(back, blob);
+
+    let e = m.sdo_read(py, 0x2100, 0, o()).await.unwrap().unwrap_err();
+    assert_eq!(e.kind, SdoErrorKind::Server(AbortCode::NO_OBJECT));
+    assert_eq!(m.port_counters(0).unwrap().rx_invalid, 0);
+    peer.stop().await;
+    m.shutdown().await;
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn python_sdo_client_reads_and_writes_a_duocan_node() {
+    let cfg = UdpBusConfig::numbered(3);
+    let d = Runtime::new(single(rt::sdo_node(0x33, false, 0, &[])))
+        .name("duocan-slave")
+        .port(UdpPort::open(cfg.clone()).expect("open the UDP bus (inside unshare -n?)"))
+        .spawn()
+        .unwrap();
+    d.boot().await.unwrap();
+    let (g, p) = group(&cfg);
+    let mut peer = Peer::spawn(&["client", "0x33", &g, &p]).await;
+    peer.send_line("go").await;
+    assert_eq!(peer.expect("READ 1018", 10).await, "READ 1018 1 34120000");
+    assert_eq!(
+        peer.expect("READ 2001", 5).await,
+        format!("READ 2001 0 {}", hex(b"duocan node over a real bus"))
+    );
+    peer.expect("WROTE 2000 0", 5).await;
+    assert_eq!(
+        d.read(0x2000, 0).await.unwrap().unwrap(),
+        0x1122_3344u32.to_le_bytes()
+    );
+    peer.expect("WROTE 2001 0", 5).await;
+    assert_eq!(
+        d.read(0x2001, 0).await.unwrap().unwrap(),
+        b"written by python canopen over segmented SDO"
+    );
+    // Block download and block upload, driven by python's client against duocan's server.
+    peer.expect("WROTE 2002 0", 10).await;
+    let blob = pattern(1000, 9);
+    assert_eq!(d.read(0x2002, 0).await.unwrap().unwrap(), blob);
+    assert_eq!(
+        peer.expect("READ 2002", 10).await,
+        format!("READ 2002 0 {}", hex(&blob))
+    );
+    assert_eq!(peer.expect("ABORT", 5).await, "ABORT 2100 0 0x06020000");
+    peer.expect("DONE", 5).await;
+    assert_eq!(d.port_counters(0).unwrap().rx_invalid, 0);
+    peer.stop().await;
+    d.shutdown().await;
 }

@@ -6,15 +6,17 @@
 
 use duocan::capture::recorder::{Filter, Recorder, Tapped};
 use duocan::emcy::{code, register};
-use duocan::machine::{SinglePort, Station};
+use duocan::machine::{Pair, SinglePort, Station};
 use duocan::od::{comm, DynamicDictionary};
+use duocan::od::{Access, DataType, DefaultValue, ObjectDef};
+use duocan::sdo::{SdoClient, SdoOptions};
 use duocan::sim::{BusConfig, SimNetwork};
 use duocan::{Duration, Instant, NmtCommand, NmtTarget, Node, NodeConfig, NodeId};
 use std::process::Command;
 use std::sync::Arc;
 
 type Plain = Station<SinglePort, Node<DynamicDictionary>>;
-type Recorded = Station<SinglePort, Tapped<Node<DynamicDictionary>>>;
+type Recorded = Station<SinglePort, Tapped<Pair<Node<DynamicDictionary>, SdoClient>>>;
 
 fn od(id: u8) -> DynamicDictionary {
     comm::standard_dictionary(id, comm::Identity::default())
@@ -32,17 +34,26 @@ fn capture() -> std::path::PathBuf {
     let mut sim = SimNetwork::new(7);
     let bus = sim.add_bus(BusConfig::new("can0", 500_000));
     let master_node = Node::new(NodeConfig::master(NodeId::must(1)), od(1));
+    let master = Pair::new(master_node, SdoClient::new(1024));
     let m = sim
         .add_device::<Recorded>(
             "master",
-            Station::single(Tapped::new(master_node, rec.clone())),
+            Station::single(Tapped::new(master, rec.clone())),
             &[bus],
+        )
+        .unwrap();
+    let mut slave_od = od(5);
+    slave_od
+        .insert(
+            ObjectDef::bytes(0x2001, 0, DataType::VisibleString, 64)
+                .access(Access::Rw)
+                .default(DefaultValue::Bytes(b"segmented upload")),
         )
         .unwrap();
     let s = sim
         .add_device::<Plain>(
             "slave",
-            Station::single(Node::new(NodeConfig::slave(NodeId::must(5)), od(5))),
+            Station::single(Node::new(NodeConfig::slave(NodeId::must(5)), slave_od)),
             &[bus],
         )
         .unwrap();
@@ -53,7 +64,7 @@ fn capture() -> std::path::PathBuf {
         n.boot(t0);
     }
     {
-        let n = &mut sim.device_mut(m).machine.inner;
+        let n = &mut sim.device_mut(m).machine.inner.a;
         n.set(t0, comm::SYNC_PERIOD, 0, 50_000u32).unwrap();
         n.set(t0, comm::SYNC_COB_ID, 0, 0x4000_0080u32).unwrap();
         n.boot(t0);
@@ -63,6 +74,7 @@ fn capture() -> std::path::PathBuf {
     sim.device_mut(m)
         .machine
         .inner
+        .a
         .nmt_command(now, NmtCommand::Start, NmtTarget::Node(NodeId::must(5)))
         .unwrap();
     sim.run_for(Duration::from_millis(130));
@@ -71,6 +83,19 @@ fn capture() -> std::path::PathBuf {
         .machine
         .emcy_raise(now, code::GENERIC, register::GENERIC, [1, 2, 3, 4, 5]);
     sim.run_for(Duration::from_millis(100));
+    // SDO: an expedited and a segmented upload from the slave.
+    let now = sim.now();
+    let client = &mut sim.device_mut(m).machine.inner.b;
+    client
+        .upload(now, NodeId::must(5), 0x1018, 1, SdoOptions::default())
+        .unwrap();
+    sim.run_for(Duration::from_millis(20));
+    let now = sim.now();
+    let client = &mut sim.device_mut(m).machine.inner.b;
+    client
+        .upload(now, NodeId::must(5), 0x2001, 0, SdoOptions::default())
+        .unwrap();
+    sim.run_for(Duration::from_millis(50));
     rec.flush().expect("flush pcap");
     assert_eq!(rec.errors(), 0);
     path
@@ -107,7 +132,7 @@ fn tshark(path: &std::path::Path, filter: &str, fields: &[&str]) -> Vec<Vec<Stri
 }
 
 #[test]
-fn tshark_decodes_nmt_heartbeat_sync_and_emcy() {
+fn tshark_decodes_nmt_heartbeat_sync_emcy_and_sdo() {
     let path = capture();
     let all = tshark(
         &path,
@@ -159,4 +184,48 @@ fn tshark_decodes_nmt_heartbeat_sync_and_emcy() {
     assert_eq!(emcy[0][0], "0x1000");
     assert_eq!(emcy[0][1], "0x01");
     assert_eq!(emcy[0][2].replace(':', ""), "0102030405");
+
+    let req = tshark(
+        &path,
+        "can.id == 0x605",
+        &[
+            "canopen.sdo.ccs",
+            "canopen.sdo.main_idx",
+            "canopen.sdo.sub_idx",
+        ],
+    );
+    let res = tshark(
+        &path,
+        "can.id == 0x585",
+        &[
+            "canopen.sdo.scs",
+            "canopen.sdo.main_idx",
+            "canopen.sdo.e",
+            "canopen.sdo.data.bytes",
+        ],
+    );
+    println!("SDO requests {req:?}\nSDO responses {res:?}");
+    assert_eq!(
+        req[0][1..],
+        ["0x1018", "0x01"],
+        "expedited upload request of 0x1018:01"
+    );
+    assert_eq!(res[0][1], "0x1018");
+    assert_eq!(res[0][2], "1", "expedited response");
+    assert_eq!(
+        req[1][1..],
+        ["0x2001", "0x00"],
+        "segmented upload request of 0x2001"
+    );
+    assert_eq!(res[1][3], "10000000", "segmented: size 16 announced");
+    assert!(
+        req[2..].iter().all(|r| r[0] == "3"),
+        "upload segment requests: {req:?}"
+    );
+    let data: String = res[2..].iter().map(|r| r[3].as_str()).collect();
+    let want: String = b"segmented upload"
+        .iter()
+        .map(|b| format!("{b:02x}"))
+        .collect();
+    assert!(data.starts_with(&want), "segments carry the string: {data}");
 }

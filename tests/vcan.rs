@@ -411,3 +411,61 @@ async fn candump_logs_interoperate_with_can_utils() {
         .collect();
     assert_eq!(back, frames, "candump -L output:\n{text}");
 }
+
+/// A master (node + SDO client) and two slaves, each in its own runtime on vcan0: SDO in every
+/// mode, to both slaves at once.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn sdo_between_runtimes_over_vcan() {
+    use duocan::sdo::{Mode, SdoOptions};
+    let m = Runtime::new(rt::master(1, &[]))
+        .name("master")
+        .port(SocketCanPort::open("vcan0").unwrap())
+        .spawn()
+        .unwrap();
+    let s5 = Runtime::new(single(rt::sdo_node(5, false, 100, &[])))
+        .name("slave5")
+        .port(SocketCanPort::open("vcan0").unwrap())
+        .spawn()
+        .unwrap();
+    let s6 = Runtime::new(single(rt::sdo_node(6, false, 100, &[])))
+        .name("slave6")
+        .port(SocketCanPort::open("vcan0").unwrap())
+        .spawn()
+        .unwrap();
+    for h in [&s5, &s6] {
+        h.boot().await.unwrap();
+    }
+    m.boot().await.unwrap();
+    let (n5, n6) = (NodeId::new(5).unwrap(), NodeId::new(6).unwrap());
+    let v = m
+        .sdo_read(n5, 0x1018, 2, SdoOptions::default())
+        .await
+        .unwrap()
+        .unwrap();
+    assert_eq!(v, 5u32.to_le_bytes(), "product code of node 5");
+    let text = m
+        .sdo_read(n6, 0x2001, 0, SdoOptions::default())
+        .await
+        .unwrap()
+        .unwrap();
+    assert_eq!(text, b"duocan node over a real bus");
+    let (a, b) = (rt::pattern(2000, 5), rt::pattern(1500, 6));
+    let (ra, rb) = tokio::join!(
+        m.sdo_write(n5, 0x2002, 0, a.clone(), SdoOptions::mode(Mode::Block)),
+        m.sdo_write(n6, 0x2002, 0, b.clone(), SdoOptions::mode(Mode::Segmented)),
+    );
+    ra.unwrap().unwrap();
+    rb.unwrap().unwrap();
+    assert_eq!(s5.read(0x2002, 0).await.unwrap().unwrap(), a);
+    assert_eq!(s6.read(0x2002, 0).await.unwrap().unwrap(), b);
+    let back = m
+        .sdo_read(n5, 0x2002, 0, SdoOptions::mode(Mode::Block))
+        .await
+        .unwrap()
+        .unwrap();
+    assert_eq!(back, a);
+    m.shutdown().await;
+    for h in [&s5, &s6] {
+        h.shutdown().await;
+    }
+}

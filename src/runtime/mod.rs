@@ -23,10 +23,12 @@
 mod handle;
 mod node;
 mod port_task;
+mod sdo;
 mod task;
 
 pub use handle::{Handle, RuntimeClosed};
 pub use node::{LocalNode, NodeHost};
+pub use sdo::{SdoEvents, SdoHost};
 
 use crate::capture::recorder::Tap;
 use crate::machine::{Device, PortStatus};

@@ -2,8 +2,11 @@
 udp_multicast bus. Driven by tests/python_peer.rs; talks to it through stdout lines.
 
     peer.py node ID HB_MS GROUP PORT     LocalNode: SDO server, heartbeat, NMT slave
+    peer.py client NODE GROUP PORT        SDO client: reads and writes NODE's dictionary
     peer.py junk GROUP PORT              python-can sends frames duocan must refuse, then one good
-Stdout: one line per event, "READY", "STATE <name>", "SENT <n>". Ends when stdin closes.
+Stdout: one line per event: "READY", "STATE <name>", "WRITE <index> <sub> <hex>" (a write to the
+LocalNode), "READ <index> <sub> <hex>", "WROTE <index> <sub>", "ABORT <index> <sub> <code>",
+"DONE", "SENT <n>". Ends when stdin closes.
 """
 import struct
 import sys
@@ -56,6 +59,11 @@ def node(node_id, hb_ms, group, port):
     network.connect(interface="udp_multicast", channel=group, port=port)
     local = canopen.LocalNode(node_id, dictionary(node_id, hb_ms))
     network.add_node(local)
+
+    def on_write(index, subindex, od, data):
+        say("WRITE", "%04X" % index, subindex, bytes(data).hex())
+
+    local.add_write_callback(on_write)
     stop = threading.Event()
     threading.Thread(target=watch_stdin, args=(stop,), daemon=True).start()
     say("READY")
@@ -68,6 +76,47 @@ def node(node_id, hb_ms, group, port):
             say("STATE", st)
             last = st
         time.sleep(0.01)
+    network.disconnect()
+
+
+def pattern(n, seed):
+    return bytes(((i * 31) + seed) & 0xFF for i in range(n))
+
+
+def client(node_id, group, port):
+    network = canopen.Network()
+    network.connect(interface="udp_multicast", channel=group, port=port)
+    remote = canopen.RemoteNode(node_id, odm.ObjectDictionary())
+    network.add_node(remote)
+    sdo = remote.sdo
+    sdo.RESPONSE_TIMEOUT = 2.0
+    say("READY")
+    sys.stdin.readline()  # the test says when duocan's node is up
+
+    def read(index, sub):
+        say("READ", "%04X" % index, sub, sdo.upload(index, sub).hex())
+
+    def write(index, sub, data, force_segment=False):
+        sdo.download(index, sub, data, force_segment=force_segment)
+        say("WROTE", "%04X" % index, sub)
+
+    read(0x1018, 1)                                   # expedited upload
+    read(0x2001, 0)                                   # segmented upload
+    write(0x2000, 0, struct.pack("<I", 0x11223344))   # expedited download
+    write(0x2001, 0, b"written by python canopen over segmented SDO", force_segment=True)
+    blob = pattern(1000, 9)
+    with sdo.open(0x2002, 0, "wb", size=len(blob), block_transfer=True) as f:
+        f.write(blob)                                 # block download
+    say("WROTE", "2002", 0)
+    with sdo.open(0x2002, 0, "rb", block_transfer=True) as f:
+        say("READ", "2002", 0, f.read().hex())        # block upload
+    try:
+        sdo.upload(0x2100, 0)
+    except canopen.SdoAbortedError as e:
+        say("ABORT", "2100", 0, "0x%08X" % e.code)
+    say("DONE")
+    for _ in sys.stdin:
+        pass
     network.disconnect()
 
 
@@ -91,6 +140,8 @@ def junk(group, port):
 def main(argv):
     if argv[1] == "node":
         node(int(argv[2], 0), int(argv[3]), argv[4], int(argv[5]))
+    elif argv[1] == "client":
+        client(int(argv[2], 0), argv[3], int(argv[4]))
     elif argv[1] == "junk":
         junk(argv[2], int(argv[3]))
     else:

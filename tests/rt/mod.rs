@@ -41,10 +41,30 @@ pub fn single(n: TestNode) -> Station<SinglePort, TestNode> {
     Station::single(n)
 }
 
+/// Machine events that may carry a node event.
+pub trait NodeEv {
+    fn node_ev(&self) -> Option<NodeEventKind>;
+}
+
+impl NodeEv for NodeEvent {
+    fn node_ev(&self) -> Option<NodeEventKind> {
+        Some(self.kind)
+    }
+}
+
+impl<B> NodeEv for duocan::machine::PairEvent<NodeEvent, B> {
+    fn node_ev(&self) -> Option<NodeEventKind> {
+        match self {
+            duocan::machine::PairEvent::A(n) => Some(n.kind),
+            duocan::machine::PairEvent::B(_) => None,
+        }
+    }
+}
+
 /// The node event inside a runtime event of a station, if it is one.
-pub fn node_event<L>(e: &RuntimeEvent<StationEvent<L, NodeEvent>>) -> Option<NodeEventKind> {
+pub fn node_event<L, M: NodeEv>(e: &RuntimeEvent<StationEvent<L, M>>) -> Option<NodeEventKind> {
     match e {
-        RuntimeEvent::Device(StationEvent::Machine(n)) => Some(n.kind),
+        RuntimeEvent::Device(StationEvent::Machine(n)) => n.node_ev(),
         _ => None,
     }
 }
@@ -89,4 +109,49 @@ pub async fn collect<E: Clone>(rx: &mut broadcast::Receiver<E>, ms: u64) -> Vec<
             Ok(Err(_)) | Err(_) => return out,
         }
     }
+}
+
+/// Application entries for SDO tests: 0x2000 u32 (expedited), 0x2001 visible string and
+/// 0x2002 domain (segmented and block), all writable.
+pub fn add_sdo_entries(od: &mut DynamicDictionary) {
+    use duocan::od::{Access, DataType, DefaultValue, ObjectDef};
+    od.insert(ObjectDef::u32(0x2000, 0, Access::Rw, 0xCAFE_F00D).named("Value"))
+        .expect("new entry");
+    od.insert(
+        ObjectDef::bytes(0x2001, 0, DataType::VisibleString, 64)
+            .access(Access::Rw)
+            .default(DefaultValue::Bytes(b"duocan node over a real bus"))
+            .named("Text"),
+    )
+    .expect("new entry");
+    od.insert(
+        ObjectDef::bytes(0x2002, 0, DataType::Domain, 4096)
+            .access(Access::Rw)
+            .named("Blob"),
+    )
+    .expect("new entry");
+}
+
+/// A node with the SDO test entries.
+pub fn sdo_node(id: u8, master: bool, hb_ms: u16, consume: &[(u8, u16)]) -> TestNode {
+    let mut n = node(id, master, hb_ms, consume);
+    add_sdo_entries(n.od_mut());
+    n
+}
+
+/// A master: node plus SDO client.
+pub type Master = Station<SinglePort, duocan::machine::Pair<TestNode, duocan::sdo::SdoClient>>;
+
+pub fn master(id: u8, consume: &[(u8, u16)]) -> Master {
+    Station::single(duocan::machine::Pair::new(
+        sdo_node(id, true, 0, consume),
+        duocan::sdo::SdoClient::new(8192),
+    ))
+}
+
+/// `len` bytes of a recognisable pattern.
+pub fn pattern(len: usize, seed: u8) -> Vec<u8> {
+    (0..len)
+        .map(|i| (i as u8).wrapping_mul(31).wrapping_add(seed))
+        .collect()
 }
