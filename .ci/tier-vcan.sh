@@ -1,8 +1,8 @@
 #!/bin/bash
 # Tier 2: real SocketCAN on vcan0/vcan1/vcan2, inside a qemu VM running Debian's stock kernel
 # (the host kernel has no CAN). Installs what it needs (qemu, busybox, the kernel deb's CAN
-# modules), runs tests/vcan.rs in the VM, then the runtime-overhead measurement (bare
-# socketcan echo loop vs the tokio runtime, same VM).
+# modules, can-utils), runs tests/vcan.rs and redundancy/tests/vcan_failover.rs in the VM, then
+# the runtime-overhead measurement (bare socketcan echo loop vs the tokio runtime, same VM).
 #   .ci/tier-vcan.sh            tests + benchmark
 #   .ci/tier-vcan.sh --no-bench tests only
 # Exits non-zero, saying why, when anything cannot run.
@@ -30,6 +30,8 @@ export CARGO_TARGET_X86_64_UNKNOWN_LINUX_GNU_RUNNER="$VM/vm-run.sh"
 
 echo "== tier-vcan: SocketCAN integration tests in the VM"
 cargo test --features test-vcan --test vcan || fail "vcan tests"
+echo "== tier-vcan: the dual-bus layer (duocan-redundancy) failing over between vcan0 and vcan1"
+cargo test -p duocan-redundancy --features test-vcan --test vcan_failover || fail "dual-bus failover on vcan"
 
 if [ "${1:-}" != "--no-bench" ]; then
   echo "== tier-vcan: runtime overhead on vcan (in the VM)"

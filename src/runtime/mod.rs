@@ -118,7 +118,9 @@ type SpawnPort = Box<dyn FnOnce(port_task::Wiring) + Send>;
 
 /// Builds and starts a runtime for one device.
 pub struct Runtime<D> {
-    device: D,
+    // Boxed: devices can be large (a dual-bus layer's merger is ~100 KiB), and the device
+    // must not be copied through every future and stack frame on its way into the task.
+    device: Box<D>,
     name: String,
     ports: Vec<(String, PortCounters, SpawnPort)>,
     tap: Option<Arc<dyn Tap>>,
@@ -131,6 +133,10 @@ where
 {
     /// A runtime for `device`; add its ports in order with [`Runtime::port`].
     pub fn new(device: D) -> Self {
+        Self::boxed(Box::new(device))
+    }
+    /// A runtime for a device already on the heap (large devices built in place).
+    pub fn boxed(device: Box<D>) -> Self {
         Runtime {
             device,
             name: "duocan".into(),

@@ -27,7 +27,7 @@ pub(crate) enum Command<D: Device> {
 const RX_BATCH: usize = 64;
 
 pub(crate) struct Core<D: Device> {
-    pub device: D,
+    pub device: Box<D>,
     pub clock: Clock,
     pub ports: Vec<mpsc::Sender<PortCmd>>,
     pub counters: Vec<PortCounters>,
@@ -58,9 +58,9 @@ where
             };
             tokio::select! {
                 cmd = commands.recv() => match cmd {
-                    Some(Command::Call(f)) => f(&mut self.device, self.clock.now()),
+                    Some(Command::Call(f)) => f(&mut *self.device, self.clock.now()),
                     Some(Command::Watch(start)) => {
-                        if let Some(w) = start(&mut self.device, self.clock.now()) {
+                        if let Some(w) = start(&mut *self.device, self.clock.now()) {
                             self.watchers.push(w);
                         }
                     }
