@@ -27,6 +27,7 @@ pub mod machine;
 pub mod nmt;
 pub mod node;
 pub mod od;
+pub mod pdo;
 pub mod port;
 pub mod profile;
 pub mod queue;

@@ -34,7 +34,9 @@ pub trait LocalNode {
     fn power_on(&mut self, now: Instant);
 }
 
-impl<D: ObjectDictionary, P: IdProfile, const G: usize> LocalNode for Node<D, P, G> {
+impl<D: ObjectDictionary, P: IdProfile, const G: usize, const T: usize, const R: usize> LocalNode
+    for Node<D, P, G, T, R>
+{
     fn read_entry(&self, index: u16, sub: u8) -> Result<Vec<u8>, AbortCode> {
         self.od().get(index, sub).map(|e| e.data.to_vec())
     }
@@ -69,7 +71,9 @@ pub trait NodeHost {
     fn local_node(&mut self) -> &mut dyn LocalNode;
 }
 
-impl<D: ObjectDictionary, P: IdProfile, const G: usize> NodeHost for Node<D, P, G> {
+impl<D: ObjectDictionary, P: IdProfile, const G: usize, const T: usize, const R: usize> NodeHost
+    for Node<D, P, G, T, R>
+{
     fn local_node(&mut self) -> &mut dyn LocalNode {
         self
     }
