@@ -353,3 +353,46 @@ async fn python_sdo_client_reads_and_writes_a_duocan_node() {
     peer.stop().await;
     d.shutdown().await;
 }
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn python_tpdo_is_consumed_by_a_duocan_rpdo() {
+    use duocan::node::NodeEventKind;
+    use duocan::pdo::PdoEvent;
+    let cfg = UdpBusConfig::numbered(4);
+    let mut n = node(1, true, 0, &[]);
+    rt::add_rpdo1(&mut n, 0x180 + 0x22);
+    let m = Runtime::new(single(n))
+        .name("master")
+        .port(UdpPort::open(cfg.clone()).expect("open the UDP bus (inside unshare -n?)"))
+        .spawn()
+        .unwrap();
+    let mut ev = m.subscribe();
+    m.boot().await.unwrap();
+    assert_eq!(m.nmt_state().await.unwrap(), NmtState::Operational);
+    let (g, p) = group(&cfg);
+    let mut peer = Peer::spawn(&["node", "0x22", "0", &g, &p]).await;
+    for value in [0x1234u16, 0xABCD] {
+        peer.send_line(&format!("tpdo {value}")).await;
+        peer.expect("TPDO", 5).await;
+        wait_for(&mut ev, 5, "RPDO1 applied with the new value", |e| {
+            matches!(
+                node_event(e),
+                Some(NodeEventKind::Pdo(PdoEvent::RpdoReceived { pdo: 1 }))
+            )
+            .then_some(())
+        })
+        .await;
+        tokio::time::timeout(Duration::from_secs(5), async {
+            loop {
+                if m.read(0x2100, 0).await.unwrap().unwrap() == value.to_le_bytes() {
+                    return;
+                }
+                tokio::time::sleep(Duration::from_millis(10)).await;
+            }
+        })
+        .await
+        .unwrap_or_else(|_| panic!("0x2100 never became {value:#06x}"));
+    }
+    peer.stop().await;
+    m.shutdown().await;
+}

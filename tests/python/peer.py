@@ -45,12 +45,39 @@ def dictionary(node_id, hb_ms):
                       "python canopen peer: a string longer than four bytes"))
     od.add_object(var("Domain", 0x2002, 0, dt.DOMAIN, "rw", b""))
     od.add_object(var("Process value", 0x6000, 0, dt.UNSIGNED16, "rw", 0))
+    tpdo = odm.ODRecord("TPDO1 communication parameter", 0x1800)
+    tpdo.add_member(var("Highest sub-index", 0x1800, 0, dt.UNSIGNED8, "ro", 5))
+    tpdo.add_member(var("COB-ID", 0x1800, 1, dt.UNSIGNED32, "rw", 0x180 + node_id))
+    tpdo.add_member(var("Transmission type", 0x1800, 2, dt.UNSIGNED8, "rw", 254))
+    od.add_object(tpdo)
+    tmap = odm.ODRecord("TPDO1 mapping parameter", 0x1A00)
+    tmap.add_member(var("Number of entries", 0x1A00, 0, dt.UNSIGNED8, "rw", 1))
+    tmap.add_member(var("Entry 1", 0x1A00, 1, dt.UNSIGNED32, "rw", 0x60000010))
+    od.add_object(tmap)
     return od
 
 
-def watch_stdin(stop):
-    for _ in sys.stdin:
-        pass
+def watch_stdin(stop, local=None):
+    """Commands from the test; end of input stops the peer.
+    `tpdo VALUE`: TPDO1 (0x6000, 16 bits) carries VALUE, sent every 50 ms."""
+    tpdo = None
+    for line in sys.stdin:
+        words = line.split()
+        if local is not None and words[:1] == ["tpdo"]:
+            if tpdo is None:
+                tpdo = local.tpdo[1]
+                tpdo.clear()
+                tpdo.add_variable(0x6000)
+                tpdo.cob_id = 0x180 + local.id
+                tpdo.enabled = True
+                tpdo.map[0].raw = int(words[1], 0)
+                tpdo.start(0.05)
+            else:
+                tpdo.map[0].raw = int(words[1], 0)
+                tpdo.update()
+            say("TPDO", words[1])
+    if tpdo is not None:
+        tpdo.stop()
     stop.set()
 
 
@@ -65,7 +92,7 @@ def node(node_id, hb_ms, group, port):
 
     local.add_write_callback(on_write)
     stop = threading.Event()
-    threading.Thread(target=watch_stdin, args=(stop,), daemon=True).start()
+    threading.Thread(target=watch_stdin, args=(stop, local), daemon=True).start()
     say("READY")
     local.nmt.state = "INITIALISING"  # boot-up message
     local.nmt.state = "PRE-OPERATIONAL"  # starts the heartbeat

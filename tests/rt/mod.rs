@@ -155,3 +155,21 @@ pub fn pattern(len: usize, seed: u8) -> Vec<u8> {
         .map(|i| (i as u8).wrapping_mul(31).wrapping_add(seed))
         .collect()
 }
+
+/// Adds RPDO1 on `cob_id` mapping 0x2100:00 (u16) to a node's dictionary.
+pub fn add_rpdo1(n: &mut TestNode, cob_id: u32) {
+    use duocan::od::{Access, DefaultValue, ObjectDef};
+    use duocan::pdo::params;
+    let od = n.od_mut();
+    od.upsert(
+        ObjectDef::u16(0x2100, 0, Access::Rw, 0)
+            .mappable()
+            .named("Peer value"),
+    );
+    for d in params::rpdo_comm(1, DefaultValue::Unsigned(cob_id as u64), 254, 0) {
+        od.upsert(d);
+    }
+    for d in params::rpdo_mapping::<9>(1, &[0x2100_0010]) {
+        od.upsert(d);
+    }
+}
