@@ -9,6 +9,7 @@ use duocan::emcy::{code, register};
 use duocan::machine::{Pair, SinglePort, Station};
 use duocan::od::{comm, DynamicDictionary};
 use duocan::od::{Access, DataType, DefaultValue, ObjectDef};
+use duocan::pdo::params;
 use duocan::sdo::{SdoClient, SdoOptions};
 use duocan::sim::{BusConfig, SimNetwork};
 use duocan::{Duration, Instant, NmtCommand, NmtTarget, Node, NodeConfig, NodeId};
@@ -50,6 +51,14 @@ fn capture() -> std::path::PathBuf {
                 .default(DefaultValue::Bytes(b"segmented upload")),
         )
         .unwrap();
+    // TPDO1 on 0x185: 0x2101 (u16 0xBEEF), sent every 50 ms while operational.
+    slave_od.upsert(ObjectDef::u16(0x2101, 0, Access::Rw, 0xBEEF).mappable());
+    for d in params::tpdo_comm(1, DefaultValue::NodeIdPlus(0x180), 255, 0, 50) {
+        slave_od.upsert(d);
+    }
+    for d in params::tpdo_mapping::<9>(1, &[0x2101_0010]) {
+        slave_od.upsert(d);
+    }
     let s = sim
         .add_device::<Plain>(
             "slave",
@@ -132,7 +141,7 @@ fn tshark(path: &std::path::Path, filter: &str, fields: &[&str]) -> Vec<Vec<Stri
 }
 
 #[test]
-fn tshark_decodes_nmt_heartbeat_sync_emcy_and_sdo() {
+fn tshark_decodes_nmt_heartbeat_sync_emcy_sdo_and_pdo() {
     let path = capture();
     let all = tshark(
         &path,
@@ -228,4 +237,24 @@ fn tshark_decodes_nmt_heartbeat_sync_emcy_and_sdo() {
         .map(|b| format!("{b:02x}"))
         .collect();
     assert!(data.starts_with(&want), "segments carry the string: {data}");
+
+    let pdo = tshark(
+        &path,
+        "can.id == 0x185",
+        &["canopen.function_code", "canopen.pdo.data.bytes"],
+    );
+    assert!(
+        pdo.len() >= 3,
+        "TPDO1 every 50 ms once operational: {pdo:?}"
+    );
+    assert!(
+        pdo.iter().all(|p| p[1] == "efbe"),
+        "0xBEEF little-endian: {pdo:?}"
+    );
+    let pre = tshark(
+        &path,
+        "can.id == 0x185 && frame.time_relative < 0.12",
+        &["frame.number"],
+    );
+    assert!(pre.is_empty(), "no PDO before the NMT start: {pre:?}");
 }
