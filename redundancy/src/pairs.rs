@@ -518,7 +518,11 @@ impl PairSupervisor {
     pub fn locate(&self, node: NodeId) -> Option<(PairId, Member)> {
         let i = self.index[node.raw() as usize];
         (i != NONE).then(|| {
-            let m = if i % 2 == 0 { Member::A } else { Member::B };
+            let m = if i.is_multiple_of(2) {
+                Member::A
+            } else {
+                Member::B
+            };
             (PairId(i / 2), m)
         })
     }

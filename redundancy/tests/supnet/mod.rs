@@ -84,8 +84,8 @@ pub fn master_station(p: &Params, id: u8, now: Instant) -> MasterDev {
         comm::standard_dictionary(id, comm::Identity::default()),
     );
     let peer = if id == STRONG { WEAK } else { STRONG };
-    let mut cfg = SupervisorConfig::new((id - 1) as u8, nid, p.master_hb, p.master_timeout, p.sync)
-        .with_peer((peer - 1) as u8, NodeId::must(peer));
+    let mut cfg = SupervisorConfig::new(id - 1, nid, p.master_hb, p.master_timeout, p.sync)
+        .with_peer(peer - 1, NodeId::must(peer));
     cfg.pairs.revertive = p.revertive_pairs;
     cfg.flying.revertive = p.revertive_master;
     cfg.time_period = Duration::from_millis(100);
