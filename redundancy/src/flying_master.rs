@@ -61,8 +61,10 @@
 //! has no gap. A standby can take the role by hand ([`FlyingMaster::take_over`]): its 0x71 makes
 //! an active master that has heard it alive all along step down.
 
+use crate::config::{read, ConfigError};
 use core::cmp::Ordering;
 use core::fmt;
+use duocan::od::{Access, ObjectDef, ObjectDictionary, ObjectType};
 use duocan::queue::Bounded;
 use duocan::time::earliest;
 use duocan::{Duration, Frame, Id, Instant, NodeId};
@@ -169,6 +171,59 @@ impl FlyingMasterConfig {
         self.negotiation_delay
             + self.priority_slot.saturating_mul(self.rank.priority as u64)
             + self.device_slot.saturating_mul(self.rank.node.raw() as u64)
+    }
+}
+
+/// NMT start-up (0x1F80); bit 5 makes a device flying-master capable.
+pub const NMT_STARTUP: u16 = 0x1F80;
+/// Flying-master timing (0x1F90).
+pub const FLYING_MASTER_TIMING: u16 = 0x1F90;
+/// 0x1F80 bit 5: NMT flying master.
+pub const STARTUP_FLYING_MASTER: u32 = 1 << 5;
+
+/// The seven entries of 0x1F90 with the CiA 302-2 defaults (times in ms).
+pub const fn timing_objects() -> [ObjectDef; 7] {
+    const fn rec(d: ObjectDef) -> ObjectDef {
+        d.object_type(ObjectType::Record)
+    }
+    const I: u16 = FLYING_MASTER_TIMING;
+    [
+        rec(ObjectDef::u8(I, 0, Access::Const, 6)).named("NMT flying master timing parameters"),
+        rec(ObjectDef::u16(I, 1, Access::Rw, 100)).named("Active master detection timeout"),
+        rec(ObjectDef::u16(I, 2, Access::Rw, 500)).named("Negotiation delay"),
+        rec(ObjectDef::u16(I, 3, Access::Rw, 0)).named("NMT master priority"),
+        rec(ObjectDef::u16(I, 4, Access::Rw, 1500)).named("Priority time slot"),
+        rec(ObjectDef::u16(I, 5, Access::Rw, 10)).named("CANopen device time slot"),
+        rec(ObjectDef::u16(I, 6, Access::Rw, 4000)).named("Multiple master detect cycle time"),
+    ]
+}
+
+impl FlyingMasterConfig {
+    /// Reads 0x1F80 and 0x1F90 of `node`'s dictionary: `None` if 0x1F80 bit 5 is clear (not a
+    /// flying master). The master-heartbeat timeout is not a 302-2 entry and is given.
+    pub fn from_od<D: ObjectDictionary>(
+        od: &D,
+        node: NodeId,
+        master_timeout: Duration,
+    ) -> Result<Option<Self>, ConfigError> {
+        if read(od, NMT_STARTUP, 0)? & STARTUP_FLYING_MASTER == 0 {
+            return Ok(None);
+        }
+        let ms = |sub| read(od, FLYING_MASTER_TIMING, sub).map(|v| Duration::from_millis(v as u64));
+        let priority = read(od, FLYING_MASTER_TIMING, 3)?;
+        let priority = u8::try_from(priority).map_err(|_| ConfigError::Invalid {
+            index: FLYING_MASTER_TIMING,
+            sub: 3,
+            what: "priority above 255",
+        })?;
+        Ok(Some(FlyingMasterConfig {
+            detection_timeout: ms(1)?,
+            negotiation_delay: ms(2)?,
+            priority_slot: ms(4)?,
+            device_slot: ms(5)?,
+            detect_cycle: ms(6)?,
+            ..FlyingMasterConfig::new(priority, node, master_timeout)
+        }))
     }
 }
 
@@ -318,6 +373,8 @@ pub enum MasterError {
     /// The peer table is full.
     PeersFull,
 }
+
+impl core::error::Error for MasterError {}
 
 impl fmt::Display for MasterError {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
@@ -754,5 +811,37 @@ impl fmt::Debug for FlyingMaster {
             .field("role", &self.role)
             .field("peers", &self.peers)
             .finish_non_exhaustive()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use duocan::od::{comm, StaticDictionary};
+
+    static COMM: [ObjectDef; comm::COMM_LEN] = comm::communication();
+    static STARTUP: [ObjectDef; 1] = [ObjectDef::u32(NMT_STARTUP, 0, Access::Rw, 0)];
+    static TIMING: [ObjectDef; 7] = timing_objects();
+
+    #[test]
+    fn configuration_from_the_dictionary() {
+        let mut od = StaticDictionary::<64, 512>::new();
+        od.load(1, &[&COMM, &STARTUP, &TIMING]).unwrap();
+        let node = NodeId::must(1);
+        let t = Duration::from_millis(50);
+        assert_eq!(FlyingMasterConfig::from_od(&od, node, t), Ok(None));
+        od.set_value::<u32>(NMT_STARTUP, 0, 0x21).unwrap();
+        od.set_value::<u16>(FLYING_MASTER_TIMING, 3, 2).unwrap();
+        od.set_value::<u16>(FLYING_MASTER_TIMING, 6, 1000).unwrap();
+        let c = FlyingMasterConfig::from_od(&od, node, t).unwrap().unwrap();
+        assert_eq!(c.rank, Rank::new(2, node));
+        assert_eq!(c.detect_cycle, Duration::from_millis(1000));
+        assert_eq!(c.detection_timeout, Duration::from_millis(100));
+        assert_eq!(
+            c.negotiation_wait(),
+            Duration::from_millis(500 + 2 * 1500 + 10)
+        );
+        od.set_value::<u16>(FLYING_MASTER_TIMING, 3, 300).unwrap();
+        assert!(FlyingMasterConfig::from_od(&od, node, t).is_err());
     }
 }

@@ -430,6 +430,8 @@ pub enum PairsError {
     Shadow,
 }
 
+impl core::error::Error for PairsError {}
+
 impl fmt::Display for PairsError {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         match self {

@@ -17,6 +17,35 @@
 //! supervisor queues [`LinkCommand`]s, which [`SupervisedStation`](crate::station::SupervisedStation)
 //! forwards to its [`DualBus`](crate::DualBus) after every input.
 //!
+//! ```
+//! use duocan::od::comm;
+//! use duocan::sim::{BusConfig, SimNetwork};
+//! use duocan::{Duration, Instant, Node, NodeConfig, NodeId, Station};
+//! use duocan_redundancy::pairs::PairSpec;
+//! use duocan_redundancy::{DualBus, DualBusConfig, Member, PairId, SupervisedStation, Supervisor, SupervisorConfig};
+//!
+//! let ms = Duration::from_millis;
+//! let mut sim = SimNetwork::new(1);
+//! let buses = [sim.add_bus(BusConfig::new("can1", 1_000_000)), sim.add_bus(BusConfig::new("can2", 1_000_000))];
+//! // A master alone (a weak peer, node 2, is declared but absent), one pair of boards.
+//! let node = Node::new(NodeConfig::master(NodeId::must(1)), comm::standard_dictionary(1, Default::default()));
+//! let cfg = SupervisorConfig::new(0, NodeId::must(1), ms(20), ms(50), ms(10)).with_peer(1, NodeId::must(2));
+//! let mut sup = Supervisor::new(node, cfg, Instant::ZERO);
+//! sup.add_pair(Instant::ZERO, PairSpec::new(NodeId::must(0x10), NodeId::must(0x50), ms(20), ms(50))).unwrap();
+//! let master = sim.add_device("master", SupervisedStation::new(DualBus::new(DualBusConfig::default()), sup).unwrap(), &buses)?;
+//! for id in [0x10, 0x50] {
+//!     let mut n = Node::new(NodeConfig::slave(NodeId::must(id)), comm::standard_dictionary(id, Default::default()));
+//!     n.boot(Instant::ZERO);
+//!     sim.add_device(format!("board {id:#x}"), Station::new(DualBus::new(DualBusConfig::default()), n), &buses)?;
+//! }
+//! sim.run_until(Instant::from_secs(1));
+//! let st = sim.device(master);
+//! assert!(st.sup.is_active());
+//! assert_eq!(st.sup.pair_supervisor().pair(PairId(0)).unwrap().active, Some(Member::A));
+//! println!("{}", st.status(Instant::from_secs(1)));
+//! # Ok::<(), Box<dyn std::error::Error>>(())
+//! ```
+//!
 //! Until the CiA 302-2 boot process of the root crate is available, joining configures a slave
 //! with one SDO download of its heartbeat producer time (0x1017); the [`PairCommand::Configure`]
 //! requests are the hook where the master's configure process takes over.
