@@ -282,6 +282,8 @@ pub enum MasterReason {
         /// Its last heartbeat.
         last: Instant,
     },
+    /// The active master sent a boot-up: it rebooted and is no longer active.
+    MasterRebooted(NodeId),
     /// Two active masters: this one is worse and stepped down.
     ConflictLost(Rank),
     /// Appointed by the active master's hand-over.
@@ -303,6 +305,7 @@ impl fmt::Display for MasterReason {
             MasterReason::HeartbeatLost { master, last } => {
                 write!(f, "heartbeat of active master {master} lost (last {last})")
             }
+            MasterReason::MasterRebooted(n) => write!(f, "active master {n} rebooted"),
             MasterReason::ConflictLost(r) => {
                 write!(f, "two active masters: {r} ranks better")
             }
@@ -521,6 +524,12 @@ impl FlyingMaster {
             self.suspect(now);
         }
         if self.role == MasterRole::Standby(Some(rank)) {
+            if boot_up {
+                // The active master rebooted (faster than the timeout): it is not active any
+                // more and starts by detecting; take over now rather than leave the network
+                // without a master for a whole negotiation.
+                return self.lose_master(now, rank, MasterReason::MasterRebooted(node));
+            }
             self.phase_deadline = Some(now + timeout);
         }
         self.plan_handback(now);
@@ -672,6 +681,14 @@ impl FlyingMaster {
 
     fn master_silent(&mut self, t: Instant, master: Rank) {
         let last = t - self.cfg.master_timeout;
+        let reason = MasterReason::HeartbeatLost {
+            master: master.node,
+            last,
+        };
+        self.lose_master(t, master, reason);
+    }
+
+    fn lose_master(&mut self, t: Instant, master: Rank, reason: MasterReason) {
         if let Some(p) = self.peers.iter_mut().find(|p| p.rank == master) {
             p.lost = true;
             p.continuous = false;
@@ -681,10 +698,6 @@ impl FlyingMaster {
             .iter()
             .filter(|p| p.rank < self.cfg.rank && p.rank != master && self.alive(p, t))
             .count() as u64;
-        let reason = MasterReason::HeartbeatLost {
-            master: master.node,
-            last,
-        };
         if better == 0 {
             self.activate(t, reason);
         } else {

@@ -214,6 +214,35 @@ fn takeover_exactly_at_the_heartbeat_timeout_without_negotiation() {
 }
 
 #[test]
+fn a_master_that_reboots_within_the_timeout_is_replaced_at_its_boot_up() {
+    let mut w = Wire::new(&[(0, 1), (1, 2)], |c| c);
+    w.start(0, ms(0));
+    w.start(1, ms(0));
+    w.run_until(ms(1000));
+    // Node 1 reboots at 1010 (no heartbeat gap long enough for a timeout): its boot-up.
+    w.run_until(ms(1010));
+    w.devs[0].fm = FlyingMaster::new(FlyingMasterConfig::new(0, NodeId::must(1), TIMEOUT));
+    w.devs[0]
+        .fm
+        .add_peer(Rank::new(1, NodeId::must(2)))
+        .unwrap();
+    w.devs[1].fm.heartbeat(ms(1010), NodeId::must(1), true);
+    w.flush(1);
+    w.start(0, ms(1010));
+    w.run_until(ms(3000));
+    assert_eq!(w.actives(), [1]);
+    assert_eq!(
+        w.devs[1].roles.last(),
+        Some(&(
+            ms(1010),
+            MasterRole::Active,
+            MasterReason::MasterRebooted(NodeId::must(1))
+        ))
+    );
+    assert!(matches!(w.devs[0].fm.role(), MasterRole::Standby(Some(r)) if r.node.raw() == 2));
+}
+
+#[test]
 fn with_three_masters_the_best_live_one_takes_over_first() {
     let mut w = Wire::new(&[(0, 1), (1, 2), (2, 3)], |c| c);
     for i in 0..3 {
