@@ -242,7 +242,9 @@ impl IdProfile for RailwayProfile {
         let (code, address) = split(frame_id)?;
         match (Function::from_code(code)?, remote) {
             (Function::Nmt, false) if address.raw() == 0 => Some(ProfileFrame::Nmt),
-            (Function::Heartbeat, false) => self.table.node_at(address).map(ProfileFrame::Heartbeat),
+            (Function::Heartbeat, false) => {
+                self.table.node_at(address).map(ProfileFrame::Heartbeat)
+            }
             (Function::NodeGuarding, _) => self.table.node_at(address).map(ProfileFrame::Guarding),
             (Function::FaultReport, false) => self.table.node_at(address).map(ProfileFrame::Emcy),
             _ => None,

@@ -227,7 +227,13 @@ impl Payload {
 
 impl fmt::Debug for Payload {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        write!(f, "Payload({:#06x}:{} {:02x?})", self.index, self.sub, self.data())
+        write!(
+            f,
+            "Payload({:#06x}:{} {:02x?})",
+            self.index,
+            self.sub,
+            self.data()
+        )
     }
 }
 
@@ -291,7 +297,10 @@ mod tests {
             Err(PayloadError::Length { id: ID, len: 9 })
         );
         let msg = Payload::decode(&short).unwrap_err().to_string();
-        assert!(msg.contains("0x02012341x") && msg.contains("4 bytes"), "{msg}");
+        assert!(
+            msg.contains("0x02012341x") && msg.contains("4 bytes"),
+            "{msg}"
+        );
     }
 
     #[test]

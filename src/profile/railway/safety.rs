@@ -183,7 +183,12 @@ impl FieldState {
         let index = p.index();
         let byte = match p.data() {
             [b] => *b,
-            d => return Err(SafetyError::Length { index, len: d.len() }),
+            d => {
+                return Err(SafetyError::Length {
+                    index,
+                    len: d.len(),
+                })
+            }
         };
         let state = match index {
             objects::TRACK_CIRCUIT => FieldState::Track(TrackCircuit::from_code(byte)?),

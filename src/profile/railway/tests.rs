@@ -10,8 +10,12 @@ const A: DeviceAddress = DeviceAddress::board_at(1, 2, 3, 4);
 const B: DeviceAddress = DeviceAddress::board_at(1, 2, 3, 5);
 
 fn profile() -> RailwayProfile {
-    RailwayProfile::with(&[(n(10), A), (n(11), B), (n(1), DeviceAddress::board_at(0, 0, 0, 1))])
-        .unwrap()
+    RailwayProfile::with(&[
+        (n(10), A),
+        (n(11), B),
+        (n(1), DeviceAddress::board_at(0, 0, 0, 1)),
+    ])
+    .unwrap()
 }
 
 #[test]
@@ -21,7 +25,10 @@ fn services_of_a_node_sit_at_its_board_address() {
     assert_eq!(p.heartbeat(n(10)), Id::Extended(0x0081_2340));
     assert_eq!(p.guarding(n(10)), Id::Extended(0x0401_2340));
     assert_eq!(p.emcy(n(11)), Id::Extended(0x0041_2350));
-    assert_eq!(p.id(Function::StateChange, n(10), 7), Some(Id::Extended(0x0201_2347)));
+    assert_eq!(
+        p.id(Function::StateChange, n(10), 7),
+        Some(Id::Extended(0x0201_2347))
+    );
     assert_eq!(p.id(Function::StateChange, n(12), 7), None);
     assert_eq!(RailwayProfile::SYNC, Id::Extended(0x0020_0000));
 }
@@ -34,7 +41,11 @@ fn classify_recognises_the_fixed_services_only() {
     assert_eq!(c(0x0000_0000, true), None);
     assert_eq!(c(0x0000_0001, false), None, "NMT lives at address 0 only");
     assert_eq!(c(0x0081_2340, false), Some(ProfileFrame::Heartbeat(n(10))));
-    assert_eq!(c(0x0081_2340, true), None, "guarding has its own identifier");
+    assert_eq!(
+        c(0x0081_2340, true),
+        None,
+        "guarding has its own identifier"
+    );
     assert_eq!(c(0x0401_2350, true), Some(ProfileFrame::Guarding(n(11))));
     assert_eq!(c(0x0401_2350, false), Some(ProfileFrame::Guarding(n(11))));
     assert_eq!(c(0x0041_2340, false), Some(ProfileFrame::Emcy(n(10))));
@@ -68,25 +79,45 @@ fn table_rules() {
     assert_eq!(p.len(), 3);
     assert_eq!(
         p.add(n(12), A),
-        Err(TableError::AddressTaken { address: A, by: n(10) })
+        Err(TableError::AddressTaken {
+            address: A,
+            by: n(10)
+        })
     );
     let port3 = A.with_port(3);
     assert_eq!(
         p.add(n(12), port3),
-        Err(TableError::NotABoard { node: n(12), address: port3 })
+        Err(TableError::NotABoard {
+            node: n(12),
+            address: port3
+        })
     );
-    assert!(p.add(n(12), port3).unwrap_err().to_string().contains("port 3"));
+    assert!(p
+        .add(n(12), port3)
+        .unwrap_err()
+        .to_string()
+        .contains("port 3"));
     // Re-adding is a no-op; moving a node frees its old address.
     p.add(n(10), A).unwrap();
     let c = DeviceAddress::board_at(2, 0, 0, 1);
     p.add(n(10), c).unwrap();
-    assert_eq!((p.address(n(10)), p.node_at(A), p.node_at(c)), (Some(c), None, Some(n(10))));
-    assert_eq!(p.node_at(c.with_port(9)), Some(n(10)), "node_at ignores the port");
+    assert_eq!(
+        (p.address(n(10)), p.node_at(A), p.node_at(c)),
+        (Some(c), None, Some(n(10)))
+    );
+    assert_eq!(
+        p.node_at(c.with_port(9)),
+        Some(n(10)),
+        "node_at ignores the port"
+    );
     assert_eq!(p.remove(n(10)), Some(c));
     assert_eq!(p.remove(n(10)), None);
     assert_eq!(p.node_at(c), None);
     let all: Vec<_> = p.iter().collect();
-    assert_eq!(all, [(n(1), DeviceAddress::board_at(0, 0, 0, 1)), (n(11), B)]);
+    assert_eq!(
+        all,
+        [(n(1), DeviceAddress::board_at(0, 0, 0, 1)), (n(11), B)]
+    );
 }
 
 #[test]
@@ -100,7 +131,10 @@ fn every_node_id_fits() {
     for id in 1..=127u8 {
         let a = p.address(n(id)).unwrap();
         assert_eq!(p.node_at(a), Some(n(id)));
-        assert_eq!(p.classify(p.heartbeat(n(id)), false), Some(ProfileFrame::Heartbeat(n(id))));
+        assert_eq!(
+            p.classify(p.heartbeat(n(id)), false),
+            Some(ProfileFrame::Heartbeat(n(id)))
+        );
     }
 }
 
@@ -123,11 +157,14 @@ fn sdo_channel_and_dictionary_defaults_are_29_bit() {
     assert_eq!(od.get_u32(comm::EMCY_COB_ID, 0), Some(0x2041_2340));
     assert_eq!(od.get_u32(comm::SYNC_COB_ID, 0), Some(0x2020_0000));
     // Resets restore these defaults, not the predefined ones.
-    od.store(comm::EMCY_COB_ID, 0, &0x85u32.to_le_bytes()).unwrap();
+    od.store(comm::EMCY_COB_ID, 0, &0x85u32.to_le_bytes())
+        .unwrap();
     od.reset_range(0x1000..=0x1FFF);
     assert_eq!(od.get_u32(comm::EMCY_COB_ID, 0), Some(0x2041_2340));
     let defs = RailwayProfile::comm_objects(A);
-    assert!(defs.iter().all(|d| !matches!(d.default, DefaultValue::NodeIdPlus(_))));
+    assert!(defs
+        .iter()
+        .all(|d| !matches!(d.default, DefaultValue::NodeIdPlus(_))));
 }
 
 proptest! {
