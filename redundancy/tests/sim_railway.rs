@@ -134,7 +134,7 @@ fn state_tpdo(node: u8, port: u8, bytes: u8, timer_ms: u16) -> Vec<ObjectDef> {
         params::tpdo_comm(1, DefaultValue::Unsigned(cob.0 as u64), 254, 0, timer_ms).to_vec();
     v.extend(params::tpdo_mapping::<9>(
         1,
-        &[(IMAGE as u32) << 16 | bytes as u32 * 8],
+        &[((IMAGE as u32) << 16) | (bytes as u32 * 8)],
     ));
     v
 }
@@ -566,12 +566,7 @@ fn stack_and_dual_bus_run_unchanged_over_the_railway_profile() {
         .map(|x| x.0)
         .min()
         .unwrap();
-    let a_latest = from_a
-        .iter()
-        .filter(|(t, _)| *t <= first_moving)
-        .last()
-        .unwrap()
-        .1;
+    let a_latest = from_a.iter().rfind(|(t, _)| *t <= first_moving).unwrap().1;
     assert_eq!(
         disc,
         [(
