@@ -28,6 +28,8 @@ pub mod od;
 pub mod pdo;
 pub mod profile;
 pub mod queue;
+#[cfg(feature = "std")]
+pub mod report;
 pub mod sdo;
 #[cfg(feature = "std")]
 pub mod sim;
