@@ -1061,28 +1061,15 @@ impl<D: ObjectDictionary, P: IdProfile, const G: usize, const TPDOS: usize, cons
                 [self.state.code()],
             ));
         }
-        let mut lost: heapless::Vec<ConsumerEvent, 16> = heapless::Vec::new();
-        loop {
-            // Drained in batches: a table of 127 can time out at one instant.
-            let mut more = false;
-            self.consumer.handle_timeout(now, |e| {
-                if lost.push(e).is_err() {
-                    more = true;
-                }
-            });
-            for e in lost.iter() {
-                if let ConsumerEvent::Timeout { node, last } = *e {
-                    self.events.push(NodeEvent {
-                        at: now,
-                        kind: NodeEventKind::HeartbeatTimeout { node, last },
-                    });
-                }
+        let events = &mut self.events;
+        self.consumer.handle_timeout(now, |e| {
+            if let ConsumerEvent::Timeout { node, last } = e {
+                events.push(NodeEvent {
+                    at: now,
+                    kind: NodeEventKind::HeartbeatTimeout { node, last },
+                });
             }
-            lost.clear();
-            if !more {
-                break;
-            }
-        }
+        });
         if self.guard.handle_timeout(now) == Some(LifeEvent::Lost) {
             self.event(now, NodeEventKind::LifeGuardingLost);
             self.emcy_raise(
