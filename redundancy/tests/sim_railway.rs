@@ -145,7 +145,7 @@ fn state_id(node: u8, port: u8) -> Id {
 
 /// The track board's state change number `seq`: occupancy alternating every ten reports.
 fn track_payload(seq: u16) -> Payload {
-    let state = if (seq / 10) % 2 == 0 {
+    let state = if (seq / 10).is_multiple_of(2) {
         TrackCircuit::Clear
     } else {
         TrackCircuit::Occupied
