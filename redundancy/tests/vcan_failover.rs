@@ -132,20 +132,23 @@ async fn frames_keep_flowing_on_vcan1_while_vcan0_is_down_and_vcan0_recovers() {
         (link_port(e) == Some((0, PortState::Failed))).then_some(())
     })
     .await;
+    // Behaviour, not speed: the emulated CPU may be slow, so wait (generously) for 15 more
+    // frames on vcan1 instead of counting within a fixed window.
     let before = master.port_counters(1).unwrap().rx_frames;
     let mut lost = false;
-    let until = tokio::time::Instant::now() + StdDuration::from_millis(800);
-    while let Ok(r) = tokio::time::timeout_at(until, ev.recv()).await {
-        if let Ok(RuntimeEvent::Device(StationEvent::Machine(n))) = r {
+    let until = tokio::time::Instant::now() + StdDuration::from_secs(20);
+    while master.port_counters(1).unwrap().rx_frames - before < 15 {
+        assert!(
+            tokio::time::Instant::now() < until,
+            "frames stopped on vcan1 while vcan0 was down: {} in 20 s",
+            master.port_counters(1).unwrap().rx_frames - before
+        );
+        if let Ok(Ok(RuntimeEvent::Device(StationEvent::Machine(n)))) =
+            tokio::time::timeout(StdDuration::from_millis(50), ev.recv()).await
+        {
             lost |= matches!(n.kind, NodeEventKind::HeartbeatTimeout { .. });
         }
     }
-    let after = master.port_counters(1).unwrap().rx_frames;
-    assert!(
-        after - before >= 15,
-        "frames keep flowing on vcan1: {}",
-        after - before
-    );
     assert!(!lost, "the node above never lost the slave's heartbeat");
 
     drop(down);
