@@ -111,9 +111,7 @@ impl Assignment {
     }
     /// With node guarding every `guard_time_ms`, lost after `retry_factor` silent periods.
     pub const fn guarded(self, guard_time_ms: u16, retry_factor: u8) -> Assignment {
-        Assignment(
-            (self.0 & 0xFF) | ((retry_factor as u32) << 8) | ((guard_time_ms as u32) << 16),
-        )
+        Assignment((self.0 & 0xFF) | ((retry_factor as u32) << 8) | ((guard_time_ms as u32) << 16))
     }
 }
 

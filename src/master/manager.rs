@@ -35,10 +35,10 @@ pub(super) struct Slot {
     pub(super) cfg: SlaveConfig,
     pub(super) phase: BootPhase,
     process: Option<Process>,
-    /// The SDO request of the running process.
+    /// The SDO request in flight to the node (of the running process, or of one dropped).
     request: Option<RequestId>,
-    /// A request aborted by a restart, whose result is to be swallowed.
-    cancelled: Option<RequestId>,
+    /// Begin the process once the request in flight ends.
+    restart: bool,
     queued: bool,
     probe_at: Option<Instant>,
     wait_until: Option<Instant>,
@@ -59,7 +59,7 @@ impl Slot {
             phase: BootPhase::Unassigned,
             process: None,
             request: None,
-            cancelled: None,
+            restart: false,
             queued: false,
             probe_at: None,
             wait_until: None,
@@ -215,17 +215,16 @@ impl<D: ObjectDictionary, P: IdProfile, const S: usize> Master<D, P, S> {
         let now = e.at;
         let n = e.node;
         let s = self.slot_mut(n);
-        if s.cancelled == Some(e.request) {
-            s.cancelled = None;
-            return;
-        }
         if s.request != Some(e.request) {
             self.emit(now, MasterEventKind::Sdo(e));
             return;
         }
         s.request = None;
         if s.process.is_none() {
-            // Abandoned when the master went standby.
+            // Of a dropped process: the result means nothing now.
+            if core::mem::take(&mut s.restart) {
+                self.begin(now, n);
+            }
             return;
         }
         if e.result.is_ok() {
@@ -262,7 +261,7 @@ impl<D: ObjectDictionary, P: IdProfile, const S: usize> Master<D, P, S> {
             self.begin(now, n);
         } else {
             // 0x1F81 bit 2 clear: reported only; the application decides (boot_slave).
-            self.cancel(now, n);
+            self.cancel(n);
             self.slot_mut(n).phase = BootPhase::WaitBootUp;
         }
     }
@@ -303,10 +302,11 @@ impl<D: ObjectDictionary, P: IdProfile, const S: usize> Master<D, P, S> {
         match target {
             NmtTarget::Node(n) => self.refresh(n),
             NmtTarget::All => {
-                let _ = self
-                    .node
-                    .od_mut()
-                    .store(objects::REQUEST_NMT, REQUEST_ALL, &[request::UNKNOWN]);
+                let _ = self.node.od_mut().store(
+                    objects::REQUEST_NMT,
+                    REQUEST_ALL,
+                    &[request::UNKNOWN],
+                );
             }
         }
     }
@@ -314,10 +314,13 @@ impl<D: ObjectDictionary, P: IdProfile, const S: usize> Master<D, P, S> {
     fn on_assignment(&mut self, now: Instant, n: NodeId) {
         let a = self.assignment(n);
         if let Err(MasterError::Refused { code, .. }) = self.set_consumer(now, n, a.is_slave()) {
-            self.emit(now, MasterEventKind::ConsumerNotConfigured { node: n, code });
+            self.emit(
+                now,
+                MasterEventKind::ConsumerNotConfigured { node: n, code },
+            );
         }
         if !a.is_slave() {
-            self.cancel(now, n);
+            self.cancel(n);
             self.slot_mut(n).phase = BootPhase::Unassigned;
             return;
         }
@@ -357,9 +360,7 @@ impl<D: ObjectDictionary, P: IdProfile, const S: usize> Master<D, P, S> {
 
     pub(super) fn boot_network(&mut self, now: Instant) {
         let slaves: heapless::Vec<NodeId, 127> = self.assigned().collect();
-        let keep_alive = slaves
-            .iter()
-            .any(|n| self.assignment(*n).is_keep_alive());
+        let keep_alive = slaves.iter().any(|n| self.assignment(*n).is_keep_alive());
         if keep_alive {
             for n in &slaves {
                 if !self.assignment(*n).is_keep_alive() {
@@ -382,11 +383,7 @@ impl<D: ObjectDictionary, P: IdProfile, const S: usize> Master<D, P, S> {
                 s.probe_at = probe;
             }
         }
-        let ms = self
-            .node
-            .od()
-            .get_u32(objects::BOOT_TIME, 0)
-            .unwrap_or(0);
+        let ms = self.node.od().get_u32(objects::BOOT_TIME, 0).unwrap_or(0);
         self.network = Network::Booting {
             deadline: (ms > 0).then(|| now + Duration::from_millis(ms as u64)),
             reported: false,
@@ -427,11 +424,7 @@ impl<D: ObjectDictionary, P: IdProfile, const S: usize> Master<D, P, S> {
                 },
             );
         } else {
-            let ms = self
-                .node
-                .od()
-                .get_u32(objects::BOOT_TIME, 0)
-                .unwrap_or(0);
+            let ms = self.node.od().get_u32(objects::BOOT_TIME, 0).unwrap_or(0);
             self.network = Network::Booting {
                 deadline: (ms > 0).then(|| now + Duration::from_millis(ms as u64)),
                 reported: false,
@@ -447,6 +440,7 @@ impl<D: ObjectDictionary, P: IdProfile, const S: usize> Master<D, P, S> {
             // A transfer under way ends by itself; its result is dropped (no abort frame: a
             // standby sends nothing).
             s.process = None;
+            s.restart = false;
             s.queued = false;
             s.probe_at = None;
             s.wait_until = None;
@@ -531,29 +525,33 @@ impl<D: ObjectDictionary, P: IdProfile, const S: usize> Master<D, P, S> {
     // ----- one slave -----
 
     /// (Re)starts the boot process of `n` from the identity check.
+    ///
+    /// A request still in flight to `n` is waited for, not aborted: SDO frames carry no
+    /// transaction number, so a server that got the old request (after its reset, say) would
+    /// answer it into the new transfer. Its result is dropped and the process begins then.
     pub(super) fn begin(&mut self, now: Instant, n: NodeId) {
-        self.cancel(now, n);
+        self.cancel(n);
         let s = self.slot_mut(n);
-        s.process = Some(Process::new(&s.cfg));
         s.phase = BootPhase::Identifying;
+        if s.request.is_some() {
+            s.restart = true;
+            return;
+        }
+        s.process = Some(Process::new(&s.cfg));
         self.stats.boots_started += 1;
         self.issue(now, n);
     }
 
-    /// Stops whatever runs for `n`: its transfer is aborted (its result swallowed), its place
-    /// in the session queue and its timers dropped.
-    fn cancel(&mut self, now: Instant, n: NodeId) {
+    /// Drops whatever runs for `n`: its process, its place in the session queue, its timers.
+    /// A transfer in flight ends by itself (its result is dropped).
+    fn cancel(&mut self, n: NodeId) {
         let s = self.slot_mut(n);
         s.process = None;
+        s.restart = false;
         s.probe_at = None;
         s.wait_until = None;
         s.hb_check = None;
-        if let Some(r) = s.request.take() {
-            if self.sdo.abort(now, r, AbortCode::GENERAL) {
-                self.slot_mut(n).cancelled = Some(r);
-            }
-        }
-        if core::mem::take(&mut self.slot_mut(n).queued) {
+        if core::mem::take(&mut s.queued) {
             self.waiting.retain(|x| *x != n);
         }
     }
@@ -704,11 +702,26 @@ impl<D: ObjectDictionary, P: IdProfile, const S: usize> Master<D, P, S> {
         }
         let consumer = self.consumer_ms(n);
         let startup = self.startup();
+        let beats = self
+            .slot(n)
+            .cfg
+            .heartbeat_producer_ms
+            .is_some_and(|p| p > 0);
+        if beats && consumer > 0 {
+            // Error control starts now: the consumer entry is re-armed to wait for the first
+            // heartbeat of the configured producer (its boot-up had started it, and a long
+            // configuration must not count as silence); the K watchdog covers a slave that
+            // never beats.
+            if let Err(MasterError::Refused { code, .. }) = self.set_consumer(now, n, true) {
+                self.emit(
+                    now,
+                    MasterEventKind::ConsumerNotConfigured { node: n, code },
+                );
+            }
+            self.slot_mut(n).hb_check = Some((now, now + Duration::from_millis(consumer as u64)));
+        }
         let s = self.slot_mut(n);
         s.last_error = None;
-        if s.cfg.heartbeat_producer_ms.is_some_and(|p| p > 0) && consumer > 0 {
-            s.hb_check = Some((now, now + Duration::from_millis(consumer as u64)));
-        }
         let policy = if startup.has(NmtStartup::NO_SLAVE_START) {
             StartPolicy::Application
         } else {
@@ -743,7 +756,7 @@ impl<D: ObjectDictionary, P: IdProfile, const S: usize> Master<D, P, S> {
     }
 
     fn adopt(&mut self, now: Instant, n: NodeId, state: NmtState) {
-        self.cancel(now, n);
+        self.cancel(n);
         self.slot_mut(n).phase = BootPhase::Adopted;
         self.emit(now, MasterEventKind::SlaveAdopted { node: n, state });
     }
@@ -802,10 +815,8 @@ impl<D: ObjectDictionary, P: IdProfile, const S: usize> Master<D, P, S> {
         target: NmtTarget,
     ) -> Result<(), MasterError> {
         self.send_nmt(now, cmd, target)?;
-        let nodes: heapless::Vec<NodeId, 127> = self
-            .assigned()
-            .filter(|n| target.includes(*n))
-            .collect();
+        let nodes: heapless::Vec<NodeId, 127> =
+            self.assigned().filter(|n| target.includes(*n)).collect();
         for n in nodes {
             match cmd {
                 NmtCommand::Start => {
@@ -821,7 +832,7 @@ impl<D: ObjectDictionary, P: IdProfile, const S: usize> Master<D, P, S> {
                     }
                 }
                 NmtCommand::ResetNode | NmtCommand::ResetCommunication => {
-                    self.cancel(now, n);
+                    self.cancel(n);
                     let probe = self.probe_after(now);
                     let s = self.slot_mut(n);
                     s.phase = BootPhase::WaitBootUp;
@@ -909,7 +920,10 @@ impl<D: ObjectDictionary, P: IdProfile, const S: usize> Master<D, P, S> {
     ) -> Result<(), MasterError> {
         let ms = if on { self.consumer_ms(n) } else { 0 };
         let od = self.node.od();
-        let count = od.get_u32(comm::HEARTBEAT_CONSUMER, 0).unwrap_or(0).min(127) as u8;
+        let count = od
+            .get_u32(comm::HEARTBEAT_CONSUMER, 0)
+            .unwrap_or(0)
+            .min(127) as u8;
         let value = |sub: u8| od.get_u32(comm::HEARTBEAT_CONSUMER, sub);
         let names = |sub: u8| value(sub).is_some_and(|v| (v >> 16) as u8 == n.raw());
         let free = |sub: u8| value(sub).is_some_and(|v| v & 0xFFFF == 0 || (v >> 16) as u8 == 0);

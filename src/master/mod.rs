@@ -40,8 +40,7 @@ pub mod objects;
 
 pub use boot::{BootError, BootPhase, ErrorStatus};
 pub use config::{
-    Assignment, ConfigStep, ExpectedIdentity, NetworkConfig, NmtStartup, SlaveConfig,
-    StartPolicy,
+    Assignment, ConfigStep, ExpectedIdentity, NetworkConfig, NmtStartup, SlaveConfig, StartPolicy,
 };
 pub use events::{MasterError, MasterEvent, MasterEventKind, MasterStats, NodeSet, SlaveView};
 
@@ -132,10 +131,7 @@ impl<D: ObjectDictionary, P: IdProfile, const S: usize> Master<D, P, S> {
         };
         put(NMT_STARTUP, 0, config.startup.0)?;
         put(BOOT_TIME, 0, config.boot_time_ms)?;
-        let mut slots: Vec<Slot> = (1..=127u8)
-            .filter_map(NodeId::new)
-            .map(Slot::new)
-            .collect();
+        let mut slots: Vec<Slot> = (1..=127u8).filter_map(NodeId::new).map(Slot::new).collect();
         for s in &config.slaves {
             if s.node == node.node_id {
                 return Err(MasterError::OwnNode(s.node));
@@ -377,12 +373,7 @@ impl<D: ObjectDictionary, P: IdProfile, const S: usize> Master<D, P, S> {
     }
 
     fn startup(&self) -> NmtStartup {
-        NmtStartup(
-            self.node
-                .od()
-                .get_u32(objects::NMT_STARTUP, 0)
-                .unwrap_or(0),
-        )
+        NmtStartup(self.node.od().get_u32(objects::NMT_STARTUP, 0).unwrap_or(0))
     }
 
     fn assignment(&self, n: NodeId) -> Assignment {

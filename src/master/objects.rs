@@ -117,8 +117,7 @@ pub fn insert_master_objects(od: &mut DynamicDictionary, startup: u32, boot_time
     let singles = startup_and_boot_time(startup, boot_time_ms);
     let requests = request_nmt();
     let tables: [&[ObjectDef]; 8] = [
-        &arrays[0], &arrays[1], &arrays[2], &arrays[3], &arrays[4], &arrays[5], &singles,
-        &requests,
+        &arrays[0], &arrays[1], &arrays[2], &arrays[3], &arrays[4], &arrays[5], &singles, &requests,
     ];
     for t in tables {
         for d in t {
