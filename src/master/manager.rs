@@ -777,9 +777,10 @@ impl<D: ObjectDictionary, P: IdProfile, const S: usize> Master<D, P, S> {
     fn error_control(&mut self, now: Instant, n: NodeId, status: ErrorStatus) {
         let a = self.assignment(n);
         let phase = self.slot(n).phase;
-        // While its boot process runs the slave answers SDO: its heartbeat is off because it
-        // was reset, and the process will restart it.
-        if !a.is_slave() || phase.is_running() {
+        // Only a slave whose error control was started counts (a standby cannot tell, so it
+        // reports what it sees). Before that its boot-up alone started the consumer: a slave
+        // being booted again, failed, or not yet heard is not "lost".
+        if !a.is_slave() || !(phase.is_booted() || phase == BootPhase::Observed) {
             return;
         }
         let s = self.slot_mut(n);
@@ -787,7 +788,7 @@ impl<D: ObjectDictionary, P: IdProfile, const S: usize> Master<D, P, S> {
         s.last_error = Some(status);
         self.refresh(n);
         self.emit(now, MasterEventKind::SlaveLost { node: n, status });
-        if !self.acting() || !phase.is_booted() {
+        if !self.acting() {
             return;
         }
         let startup = self.startup();
