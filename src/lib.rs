@@ -16,6 +16,8 @@
 extern crate alloc;
 
 pub mod abort;
+#[cfg(feature = "std")]
+pub mod capture;
 pub mod cob_id;
 pub mod emcy;
 pub mod frame;
@@ -27,8 +29,12 @@ pub mod master;
 pub mod nmt;
 pub mod node;
 pub mod od;
+pub mod pdo;
+pub mod port;
 pub mod profile;
 pub mod queue;
+#[cfg(feature = "tokio")]
+pub mod runtime;
 pub mod sdo;
 #[cfg(feature = "std")]
 pub mod sim;

@@ -14,6 +14,7 @@ use crate::heartbeat::{ConsumerEvent, ConsumerSetting, HeartbeatConsumer, Heartb
 use crate::machine::Machine;
 use crate::nmt::{self, Malformed, NmtCommand, NmtState, NmtTarget, NodeTable, NodeView};
 use crate::od::{check_value, comm, Access, Entry, ObjectDictionary, OdValue};
+use crate::pdo::{self, PdoEngine, PdoError, PdoEvent, RpdoStatus, TpdoStatus};
 use crate::profile::{IdProfile, Predefined, ProfileFrame};
 use crate::queue::Bounded;
 use crate::sdo::{SdoServer, SdoServerConfig};
@@ -184,6 +185,8 @@ pub enum NodeEventKind {
         /// The addressed node-ID byte (0 = all).
         target: u8,
     },
+    /// The PDO engine reports something.
+    Pdo(PdoEvent),
     /// A frame was refused as malformed (nothing changed because of it).
     Malformed {
         /// Its identifier.
@@ -236,8 +239,15 @@ pub trait ObjectAccess {
     fn nmt_state(&self) -> NmtState;
 }
 
-/// Everything of a node but the SDO server: dictionary, NMT, error control, SYNC, TIME, EMCY.
-pub struct NodeCore<D, P = Predefined, const G: usize = 127> {
+/// Everything of a node but the SDO server: dictionary, NMT, error control, SYNC, TIME, EMCY,
+/// PDO.
+pub struct NodeCore<
+    D,
+    P = Predefined,
+    const G: usize = 127,
+    const TPDOS: usize = 4,
+    const RPDOS: usize = 4,
+> {
     od: D,
     profile: P,
     cfg: NodeConfig,
@@ -251,6 +261,7 @@ pub struct NodeCore<D, P = Predefined, const G: usize = 127> {
     emcy: EmcyProducer,
     history_slots: u8,
     nodes: NodeTable,
+    pdo: PdoEngine<TPDOS, RPDOS>,
     tx: Bounded<Frame, TX_QUEUE>,
     events: Bounded<NodeEvent, EVENT_QUEUE>,
     stats: NodeStats,
@@ -261,9 +272,16 @@ pub struct NodeCore<D, P = Predefined, const G: usize = 127> {
 /// A CANopen node on one logical bus.
 ///
 /// `D` is the dictionary, `P` the identifier profile, `G` how many nodes it can guard as a
-/// master (0 for a plain slave).
-pub struct Node<D, P = Predefined, const G: usize = 127> {
-    core: NodeCore<D, P, G>,
+/// master (0 for a plain slave), `TPDOS`/`RPDOS` how many TPDOs and RPDOs it runs (a master
+/// mirroring many slaves' TPDOs needs hundreds of RPDOs: `Node::<_, _, 127, 4, 512>::with_profile`).
+pub struct Node<
+    D,
+    P = Predefined,
+    const G: usize = 127,
+    const TPDOS: usize = 4,
+    const RPDOS: usize = 4,
+> {
+    core: NodeCore<D, P, G, TPDOS, RPDOS>,
     sdo: SdoServer,
     sdo_boots: u32,
 }
@@ -275,7 +293,9 @@ impl<D: ObjectDictionary> Node<D, Predefined, 127> {
     }
 }
 
-impl<D: ObjectDictionary, P: IdProfile, const G: usize> Node<D, P, G> {
+impl<D: ObjectDictionary, P: IdProfile, const G: usize, const TPDOS: usize, const RPDOS: usize>
+    Node<D, P, G, TPDOS, RPDOS>
+{
     /// A node with a custom identifier profile.
     pub fn with_profile(cfg: NodeConfig, od: D, profile: P) -> Self {
         Node {
@@ -293,6 +313,7 @@ impl<D: ObjectDictionary, P: IdProfile, const G: usize> Node<D, P, G> {
                 emcy: EmcyProducer::default(),
                 history_slots: 0,
                 nodes: NodeTable::default(),
+                pdo: PdoEngine::new(),
                 tx: Bounded::new(),
                 events: Bounded::new(),
                 stats: NodeStats::default(),
@@ -363,11 +384,11 @@ impl<D: ObjectDictionary, P: IdProfile, const G: usize> Node<D, P, G> {
         }
     }
     /// Mutable access to the parts (for protocol servers composed beside the node).
-    pub fn core_mut(&mut self) -> &mut NodeCore<D, P, G> {
+    pub fn core_mut(&mut self) -> &mut NodeCore<D, P, G, TPDOS, RPDOS> {
         &mut self.core
     }
     /// The parts.
-    pub fn core(&self) -> &NodeCore<D, P, G> {
+    pub fn core(&self) -> &NodeCore<D, P, G, TPDOS, RPDOS> {
         &self.core
     }
 
@@ -479,15 +500,87 @@ impl<D: ObjectDictionary, P: IdProfile, const G: usize> Node<D, P, G> {
     pub fn set_time_period(&mut self, now: Instant, period: Duration) {
         self.core.time.set_period(now, period);
     }
+
+    /// Asks TPDO `pdo` (1-based) to be sent: types 254/255 at once (or when the inhibit time
+    /// ends), type 0 at the next SYNC. Writing a mapped entry does the same by itself.
+    pub fn tpdo_request(&mut self, now: Instant, pdo: u16) -> Result<(), PdoError> {
+        let (engine, mut io) = self.core.pdo_io();
+        engine.request(now, pdo, &mut io)
+    }
+    /// What TPDO `pdo` (1-based) is doing; `None` beyond the node's capacity.
+    pub fn tpdo_status(&self, pdo: u16) -> Option<TpdoStatus> {
+        self.core.pdo.tpdo_status(pdo)
+    }
+    /// What RPDO `pdo` (1-based) is doing; `None` beyond the node's capacity.
+    pub fn rpdo_status(&self, pdo: u16) -> Option<RpdoStatus> {
+        self.core.pdo.rpdo_status(pdo)
+    }
+    /// Report every RPDO applied ([`PdoEvent::RpdoReceived`]; on by default). Off, the
+    /// application reads the dictionary or [`Node::rpdo_status`] instead, and a high PDO rate
+    /// cannot crowd other events out of the bounded queue.
+    pub fn set_rpdo_events(&mut self, on: bool) {
+        self.core.pdo.set_rx_events(on);
+    }
+    /// Re-reads every PDO's parameters, restarting those that changed: after structural changes
+    /// through [`Node::od_mut`] (entries a mapping refers to inserted or removed).
+    pub fn reload_pdos(&mut self, now: Instant) {
+        let (engine, mut io) = self.core.pdo_io();
+        for slot in 0..TPDOS as u16 {
+            engine.reload(now, pdo::Dir::Transmit, slot, &mut io);
+        }
+        for slot in 0..RPDOS as u16 {
+            engine.reload(now, pdo::Dir::Receive, slot, &mut io);
+        }
+        self.core.pdo_emcy(now);
+    }
 }
 
-impl<D: ObjectDictionary, P: IdProfile, const G: usize> NodeCore<D, P, G> {
+impl<D: ObjectDictionary, P: IdProfile, const G: usize, const TPDOS: usize, const RPDOS: usize>
+    NodeCore<D, P, G, TPDOS, RPDOS>
+{
     fn id(&self) -> NodeId {
         self.cfg.node_id
     }
 
     fn event(&mut self, at: Instant, kind: NodeEventKind) {
         self.events.push(NodeEvent { at, kind });
+    }
+
+    fn pdo_io(&mut self) -> (&mut PdoEngine<TPDOS, RPDOS>, pdo::Io<'_, D>) {
+        let io = pdo::Io {
+            od: &mut self.od,
+            tx: &mut self.tx,
+            stats: &mut self.stats,
+            events: &mut self.events,
+        };
+        (&mut self.pdo, io)
+    }
+
+    fn pdo_emcy(&mut self, now: Instant) {
+        while let Some(a) = self.pdo.take_emcy() {
+            match a {
+                pdo::EmcyAction::Raise(code, data) => {
+                    self.emcy_raise(now, code, emcy::register::COMMUNICATION, data)
+                }
+                pdo::EmcyAction::Clear(code) => self.emcy_clear(now, code),
+            }
+        }
+    }
+
+    fn pdo_sync(&mut self, now: Instant, counter: Option<u8>) {
+        let (engine, mut io) = self.pdo_io();
+        engine.on_sync(now, counter, &mut io);
+        self.pdo_emcy(now);
+    }
+
+    /// A write landed: PDO parameters reload their PDO, other entries may trigger TPDOs.
+    fn pdo_written(&mut self, now: Instant, index: u16, sub: u8) {
+        let (engine, mut io) = self.pdo_io();
+        match pdo::classify(index) {
+            Some((dir, _, slot)) => engine.reload(now, dir, slot, &mut io),
+            None => engine.written(now, index, sub, &mut io),
+        }
+        self.pdo_emcy(now);
     }
 
     fn send(&mut self, f: Frame) -> Result<(), QueueFull> {
@@ -556,6 +649,13 @@ impl<D: ObjectDictionary, P: IdProfile, const G: usize> NodeCore<D, P, G> {
         }
         self.state = to;
         self.event(now, NodeEventKind::StateChanged { from, to, cause });
+        if to == NmtState::Operational {
+            let (engine, mut io) = self.pdo_io();
+            engine.start(now, &mut io);
+        } else if from == NmtState::Operational {
+            self.pdo.stop();
+        }
+        self.pdo_emcy(now);
     }
 
     fn u16_of(&self, index: u16) -> u16 {
@@ -626,6 +726,9 @@ impl<D: ObjectDictionary, P: IdProfile, const G: usize> NodeCore<D, P, G> {
         self.history_slots = (1..=254u8)
             .take_while(|s| self.od.get(comm::ERROR_HISTORY, *s).is_ok())
             .count() as u8;
+        let (engine, mut io) = self.pdo_io();
+        engine.load_all(now, &mut io);
+        self.pdo_emcy(now);
     }
 
     /// Bus-side or local write with CiA 301 checks, the communication objects' own rules, and
@@ -655,6 +758,7 @@ impl<D: ObjectDictionary, P: IdProfile, const G: usize> NodeCore<D, P, G> {
 
     /// Rules of communication objects that depend on other entries or on running services.
     fn validate_comm(&self, index: u16, sub: u8, data: &[u8]) -> Result<(), AbortCode> {
+        pdo::check_write(&self.od, index, sub, data)?;
         let new = || {
             let mut b = [0u8; 4];
             let n = data.len().min(4);
@@ -694,6 +798,7 @@ impl<D: ObjectDictionary, P: IdProfile, const G: usize> NodeCore<D, P, G> {
     }
 
     fn on_written(&mut self, now: Instant, index: u16, sub: u8, by: Writer) {
+        self.pdo_written(now, index, sub);
         match index {
             comm::HEARTBEAT_PRODUCER => self.hb.restart(
                 now,
@@ -872,13 +977,16 @@ impl<D: ObjectDictionary, P: IdProfile, const G: usize> NodeCore<D, P, G> {
                 return;
             }
             match self.sync.received(now, frame) {
-                Ok(tick) => self.event(
-                    now,
-                    NodeEventKind::Sync {
-                        counter: tick.counter,
-                        produced: false,
-                    },
-                ),
+                Ok(tick) => {
+                    self.event(
+                        now,
+                        NodeEventKind::Sync {
+                            counter: tick.counter,
+                            produced: false,
+                        },
+                    );
+                    self.pdo_sync(now, tick.counter);
+                }
                 Err(reason) => {
                     self.malformed(now, id, reason);
                     self.emcy_raise(
@@ -899,6 +1007,11 @@ impl<D: ObjectDictionary, P: IdProfile, const G: usize> NodeCore<D, P, G> {
                 Ok(tod) => self.event(now, NodeEventKind::Time { tod }),
                 Err(reason) => self.malformed(now, id, reason),
             }
+            return;
+        }
+        let (engine, mut io) = self.pdo_io();
+        if engine.handle_frame(now, frame, &mut io) {
+            self.pdo_emcy(now);
             return;
         }
         match self.profile.classify(id, frame.is_remote()) {
@@ -949,28 +1062,15 @@ impl<D: ObjectDictionary, P: IdProfile, const G: usize> NodeCore<D, P, G> {
                 [self.state.code()],
             ));
         }
-        let mut lost: heapless::Vec<ConsumerEvent, 16> = heapless::Vec::new();
-        loop {
-            // Drained in batches: a table of 127 can time out at one instant.
-            let mut more = false;
-            self.consumer.handle_timeout(now, |e| {
-                if lost.push(e).is_err() {
-                    more = true;
-                }
-            });
-            for e in lost.iter() {
-                if let ConsumerEvent::Timeout { node, last } = *e {
-                    self.events.push(NodeEvent {
-                        at: now,
-                        kind: NodeEventKind::HeartbeatTimeout { node, last },
-                    });
-                }
+        let events = &mut self.events;
+        self.consumer.handle_timeout(now, |e| {
+            if let ConsumerEvent::Timeout { node, last } = e {
+                events.push(NodeEvent {
+                    at: now,
+                    kind: NodeEventKind::HeartbeatTimeout { node, last },
+                });
             }
-            lost.clear();
-            if !more {
-                break;
-            }
-        }
+        });
         if self.guard.handle_timeout(now) == Some(LifeEvent::Lost) {
             self.event(now, NodeEventKind::LifeGuardingLost);
             self.emcy_raise(
@@ -1009,6 +1109,7 @@ impl<D: ObjectDictionary, P: IdProfile, const G: usize> NodeCore<D, P, G> {
                         produced: true,
                     },
                 );
+                self.pdo_sync(now, tick.counter);
             }
         }
         if let Some(f) = self.time.handle_timeout(now) {
@@ -1016,6 +1117,9 @@ impl<D: ObjectDictionary, P: IdProfile, const G: usize> NodeCore<D, P, G> {
                 let _ = self.send(f);
             }
         }
+        let (engine, mut io) = self.pdo_io();
+        engine.handle_timeout(now, &mut io);
+        self.pdo_emcy(now);
         self.flush_emcy(now);
     }
 
@@ -1028,6 +1132,7 @@ impl<D: ObjectDictionary, P: IdProfile, const G: usize> NodeCore<D, P, G> {
         t = earliest(t, self.guard_master.poll_timeout());
         t = earliest(t, self.sync.poll_timeout());
         t = earliest(t, self.time.poll_timeout());
+        t = earliest(t, self.pdo.poll_timeout());
         if self.state.services().emcy {
             t = earliest(t, self.emcy.poll_timeout());
         }
@@ -1035,7 +1140,9 @@ impl<D: ObjectDictionary, P: IdProfile, const G: usize> NodeCore<D, P, G> {
     }
 }
 
-impl<D: ObjectDictionary, P: IdProfile, const G: usize> ObjectAccess for NodeCore<D, P, G> {
+impl<D: ObjectDictionary, P: IdProfile, const G: usize, const TPDOS: usize, const RPDOS: usize>
+    ObjectAccess for NodeCore<D, P, G, TPDOS, RPDOS>
+{
     fn entry(&self, index: u16, sub: u8) -> Result<Entry<'_>, AbortCode> {
         self.od.get(index, sub)
     }
@@ -1050,7 +1157,9 @@ impl<D: ObjectDictionary, P: IdProfile, const G: usize> ObjectAccess for NodeCor
     }
 }
 
-impl<D: ObjectDictionary, P: IdProfile, const G: usize> Machine for Node<D, P, G> {
+impl<D: ObjectDictionary, P: IdProfile, const G: usize, const TPDOS: usize, const RPDOS: usize>
+    Machine for Node<D, P, G, TPDOS, RPDOS>
+{
     type Event = NodeEvent;
 
     fn handle_frame(&mut self, now: Instant, frame: &Frame) {

@@ -592,3 +592,35 @@ fn no_deadline_in_the_past_is_left_behind() {
     assert!(next > ms(10));
     assert!(w.sent(SLAVE, 0x80).is_empty(), "no SYNC while stopped");
 }
+
+#[test]
+fn many_timeouts_at_one_instant_are_all_reported() {
+    let mut nodes = vec![node(1, true)];
+    nodes.extend((2..=25).map(|id| node(id, false)));
+    let mut w = Wire::new(nodes);
+    w.boot_all();
+    for i in 1..w.nodes.len() {
+        let id = w.nodes[i].id().raw() as u32;
+        w.nodes[i]
+            .set(ms(0), comm::HEARTBEAT_PRODUCER, 0, 100u16)
+            .unwrap();
+        w.nodes[MASTER]
+            .set(ms(0), comm::HEARTBEAT_CONSUMER, i as u8, (id << 16) | 150)
+            .unwrap();
+    }
+    w.run_until(ms(100));
+    for a in w.alive.iter_mut().skip(1) {
+        *a = false;
+    }
+    w.run_until(ms(400));
+    let t: Vec<_> = w.events[MASTER]
+        .iter()
+        .filter(|e| matches!(e.kind, K::HeartbeatTimeout { .. }))
+        .map(|e| e.at)
+        .collect();
+    assert_eq!(
+        t,
+        vec![ms(250); 24],
+        "every silent node, all at last heartbeat + 150 ms"
+    );
+}

@@ -105,8 +105,9 @@ impl ObjectDictionary for DynamicDictionary {
     }
 
     fn store(&mut self, index: u16, sub: u8, data: &[u8]) -> Result<(), AbortCode> {
-        let has_index = self.map.contains_key(&key(index, 0));
-        let e = self.map.get_mut(&key(index, sub)).ok_or(miss(has_index))?;
+        let Some(e) = self.map.get_mut(&key(index, sub)) else {
+            return Err(miss(self.map.contains_key(&key(index, 0))));
+        };
         if data.len() > e.def.storage_size() {
             return Err(AbortCode::LENGTH_TOO_HIGH);
         }

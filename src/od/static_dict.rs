@@ -118,8 +118,9 @@ impl<const N: usize, const BYTES: usize> ObjectDictionary for StaticDictionary<N
     }
 
     fn store(&mut self, index: u16, sub: u8, data: &[u8]) -> Result<(), AbortCode> {
-        let has_index = self.map.contains_key(&key(index, 0));
-        let s = self.map.get_mut(&key(index, sub)).ok_or(miss(has_index))?;
+        let Some(s) = self.map.get_mut(&key(index, sub)) else {
+            return Err(miss(self.map.contains_key(&key(index, 0))));
+        };
         if data.len() > s.def.storage_size() {
             return Err(AbortCode::LENGTH_TOO_HIGH);
         }

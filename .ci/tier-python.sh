@@ -1,0 +1,57 @@
+#!/bin/bash
+# Tier 3: python-can / python `canopen` as an independent peer over python-can's udp_multicast
+# bus, inside a private network namespace (no packet can leave the machine), plus the runtime
+# overhead measurement on the UDP bus (bare socket echo vs the tokio runtime).
+#   .ci/tier-python.sh            tests + benchmark
+#   .ci/tier-python.sh --no-bench tests only
+# Installs python3-venv if missing, pip-installs the peers into $TARGET/pyenv, builds first
+# (the namespace has no route to the registries), then runs offline inside `unshare -n`.
+set -euo pipefail
+ROOT=$(cd "$(dirname "$0")/.." && pwd)
+cd "$ROOT"
+fail() { echo "tier-python: FAILED: $*" >&2; exit 1; }
+
+command -v cargo >/dev/null || fail "cargo not found"
+command -v unshare >/dev/null || fail "unshare (util-linux) not found"
+command -v ip >/dev/null || fail "ip (iproute2) not found"
+TARGET=$(cargo metadata --format-version 1 --no-deps | python3 -c 'import sys,json; print(json.load(sys.stdin)["target_directory"])') \
+  || fail "cargo metadata"
+VENV="$TARGET/pyenv"
+if ! python3 -c 'import venv, ensurepip' 2>/dev/null; then
+  [ "$(id -u)" = 0 ] || fail "python3-venv missing and not root to install it"
+  export DEBIAN_FRONTEND=noninteractive
+  apt-get update -qq && apt-get install -y -qq python3-venv >/dev/null || fail "apt-get install python3-venv"
+fi
+if ! "$VENV/bin/python" -c 'import can, canopen, msgpack' 2>/dev/null; then
+  python3 -m venv "$VENV" || fail "cannot create venv $VENV"
+  "$VENV/bin/pip" install -q python-can canopen msgpack || fail "pip install python-can canopen msgpack"
+fi
+"$VENV/bin/python" -c 'import can, canopen; print("python-can", can.__version__, "canopen", canopen.__version__)'
+
+echo "== tier-python: runtime, port and capture unit tests (all features)"
+cargo test --features tokio,udp,socketcan --lib --test runtime_mem || fail "library and memory-bus runtime tests"
+
+echo "== tier-python: build (outside the namespace)"
+cargo test --features test-python --test python_peer --no-run || fail "build python_peer tests"
+BENCH=1; [ "${1:-}" = "--no-bench" ] && BENCH=0
+if [ $BENCH = 1 ]; then
+  cargo build --release --features udp --example rt_overhead || fail "build rt_overhead"
+fi
+
+echo "== tier-python: tests inside unshare -n"
+export DUOCAN_PYTHON="$VENV/bin/python"
+unshare -n sh -ec '
+  ip link set lo up
+  ip route add 224.0.0.0/4 dev lo
+  cargo test --offline --features test-python --test python_peer
+' || fail "python peer tests"
+
+if [ $BENCH = 1 ]; then
+  echo "== tier-python: runtime overhead on the UDP bus (inside unshare -n)"
+  unshare -n sh -ec '
+    ip link set lo up
+    ip route add 224.0.0.0/4 dev lo
+    "$0"/release/examples/rt_overhead udp 20000
+  ' "$TARGET" || fail "rt_overhead udp"
+fi
+echo "tier-python: OK"

@@ -1,0 +1,42 @@
+#!/bin/bash
+# Tier 2: real SocketCAN on vcan0/vcan1/vcan2, inside a qemu VM running Debian's stock kernel
+# (the host kernel has no CAN). Installs what it needs (qemu, busybox, the kernel deb's CAN
+# modules, can-utils), runs tests/vcan.rs and redundancy/tests/vcan_failover.rs in the VM, then
+# the runtime-overhead measurement (bare socketcan echo loop vs the tokio runtime, same VM).
+#   .ci/tier-vcan.sh            tests + benchmark
+#   .ci/tier-vcan.sh --no-bench tests only
+# Exits non-zero, saying why, when anything cannot run.
+set -euo pipefail
+ROOT=$(cd "$(dirname "$0")/.." && pwd)
+VM="$ROOT/.ci/vcanvm"
+cd "$ROOT"
+fail() { echo "tier-vcan: FAILED: $*" >&2; exit 1; }
+
+command -v cargo >/dev/null || fail "cargo not found"
+[ "$(id -u)" = 0 ] || fail "needs root (apt-get install of qemu-system-x86, busybox-static, cpio)"
+"$VM/setup.sh" || fail "vcanvm setup (apt-get / kernel download) failed"
+if ! command -v canplayer >/dev/null; then   # can-utils go into the VM for the log tests
+  export DEBIAN_FRONTEND=noninteractive
+  apt-get install -y -qq --no-install-recommends can-utils >/dev/null \
+    || { apt-get update -qq && apt-get install -y -qq --no-install-recommends can-utils >/dev/null; } \
+    || fail "apt-get install can-utils"
+fi
+export WITH_CANUTILS=1
+
+export VCANS=vcan0,vcan1,vcan2
+export RUST_TEST_THREADS=1            # tests switch interfaces down and up
+export VCANVM_TIMEOUT=${VCANVM_TIMEOUT:-600}
+export CARGO_TARGET_X86_64_UNKNOWN_LINUX_GNU_RUNNER="$VM/vm-run.sh"
+
+echo "== tier-vcan: SocketCAN integration tests in the VM"
+cargo test --features test-vcan --test vcan || fail "vcan tests"
+echo "== tier-vcan: the dual-bus layer (duocan-redundancy) failing over between vcan0 and vcan1"
+cargo test -p duocan-redundancy --features test-vcan --test vcan_failover || fail "dual-bus failover on vcan"
+
+if [ "${1:-}" != "--no-bench" ]; then
+  echo "== tier-vcan: runtime overhead on vcan (in the VM)"
+  cargo build --release --features socketcan --example rt_overhead || fail "build rt_overhead"
+  BIN=$(cargo metadata --format-version 1 --no-deps | python3 -c 'import sys,json; print(json.load(sys.stdin)["target_directory"])')/release/examples/rt_overhead
+  "$VM/vm-run.sh" "$BIN" vcan 20000 || fail "rt_overhead in the VM"
+fi
+echo "tier-vcan: OK"

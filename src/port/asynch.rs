@@ -1,0 +1,127 @@
+//! The async port interface the runtime drives.
+
+use super::PortCounters;
+use crate::frame::Frame;
+use crate::machine::{ErrorCause, PortStatus};
+use std::fmt;
+use std::future::Future;
+use std::io;
+
+/// What a port delivers.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum PortInput {
+    /// A classic CAN frame from the bus.
+    Frame(Frame),
+    /// Controller status: a decoded error frame, a state change.
+    Status(PortStatus),
+}
+
+/// What kind of failure a [`PortError`] is.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum PortErrorKind {
+    /// The interface does not exist.
+    NoSuchInterface,
+    /// The interface exists but is down.
+    InterfaceDown,
+    /// The port was configured in a way it refuses (e.g. a non-loopback UDP interface without
+    /// opt-in, a non-multicast group).
+    Config,
+    /// The operating system refused an operation (socket, bind, read, write).
+    Io,
+    /// The port was closed.
+    Closed,
+}
+
+/// A port failure: which port, what happened, and what to do about it.
+#[derive(Debug)]
+pub struct PortError {
+    /// Port name (interface or multicast group).
+    pub port: String,
+    /// What kind of failure.
+    pub kind: PortErrorKind,
+    /// What was being done, and a hint how to fix it.
+    pub context: String,
+    /// The operating system error, if any.
+    pub source: Option<io::Error>,
+}
+
+impl PortError {
+    /// A failure of `port`.
+    pub fn new(port: &str, kind: PortErrorKind, context: impl Into<String>) -> Self {
+        PortError {
+            port: port.to_owned(),
+            kind,
+            context: context.into(),
+            source: None,
+        }
+    }
+    /// An OS error while doing `context` on `port`; ENODEV and ENETDOWN get their own kinds.
+    pub fn io(port: &str, context: impl Into<String>, e: io::Error) -> Self {
+        let kind = match e.raw_os_error() {
+            Some(code) if code == ENODEV || code == ENXIO => PortErrorKind::NoSuchInterface,
+            Some(code) if code == ENETDOWN => PortErrorKind::InterfaceDown,
+            _ => PortErrorKind::Io,
+        };
+        PortError {
+            port: port.to_owned(),
+            kind,
+            context: context.into(),
+            source: Some(e),
+        }
+    }
+    /// The cause to report upward as port status.
+    pub fn cause(&self) -> ErrorCause {
+        match self.kind {
+            PortErrorKind::NoSuchInterface
+            | PortErrorKind::InterfaceDown
+            | PortErrorKind::Closed => ErrorCause::InterfaceDown,
+            PortErrorKind::Config | PortErrorKind::Io => ErrorCause::Other,
+        }
+    }
+}
+
+// errno values shared by every Linux architecture the project targets (asm-generic).
+const ENXIO: i32 = 6;
+const ENODEV: i32 = 19;
+const ENETDOWN: i32 = 100;
+
+impl fmt::Display for PortError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(f, "port {}: {}", self.port, self.context)?;
+        if let Some(e) = &self.source {
+            write!(f, ": {e}")?;
+        }
+        Ok(())
+    }
+}
+
+impl std::error::Error for PortError {
+    fn source(&self) -> Option<&(dyn std::error::Error + 'static)> {
+        self.source
+            .as_ref()
+            .map(|e| e as &(dyn std::error::Error + 'static))
+    }
+}
+
+/// One CAN interface driven by the async runtime.
+///
+/// `recv` must be cancel-safe: the runtime races it against outgoing frames and drops the
+/// future when a frame is to be sent. Readiness-based socket reads (SocketCAN, UDP) are.
+pub trait Port: Send + 'static {
+    /// The port's name, for logs and errors (`vcan0`, `239.74.163.2:43113`).
+    fn name(&self) -> &str;
+    /// The port's counters (shared: read them from anywhere).
+    fn counters(&self) -> PortCounters;
+    /// Next frame or status. Invalid input is counted and skipped, not returned. An `Err`
+    /// means the port is unusable until [`Port::reopen`] succeeds.
+    fn recv(&mut self) -> impl Future<Output = Result<PortInput, PortError>> + Send;
+    /// The next input if one is ready without waiting, for draining bursts in one go; `None`
+    /// when nothing is ready (or the port cannot tell). An `Err` means the same as from `recv`.
+    fn try_recv(&mut self) -> Option<Result<PortInput, PortError>> {
+        None
+    }
+    /// Sends one frame.
+    fn send(&mut self, frame: &Frame) -> impl Future<Output = Result<(), PortError>> + Send;
+    /// Re-opens the port after a failure (or on request: after bus-off, to reset the socket).
+    fn reopen(&mut self) -> impl Future<Output = Result<(), PortError>> + Send;
+}

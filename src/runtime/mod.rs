@@ -1,0 +1,423 @@
+//! The tokio runtime: drives a [`Device`] from real ports and the monotonic clock.
+//!
+//! ```text
+//!   port task 0 ──(frames, status)──┐                 ┌──> broadcast: RuntimeEvent
+//!   port task 1 ──────────────────┐ │                 │
+//!                                 ▼ ▼                 │
+//!                     core task: the Device ──────────┘
+//!                        ▲   waits on: port input, commands, the device's next deadline
+//!   Handle ──(closures)──┘
+//! ```
+//!
+//! The core task owns the device and sleeps until whichever comes first: input from a port, a
+//! command from a [`Handle`], or the device's [`poll_timeout`](Device::poll_timeout). There is
+//! no fixed tick. Each port runs in its own task, so a slow or failed port never holds up the
+//! other; a failed port reports [`PortStatus::Down`](crate::PortStatus), is re-opened with
+//! backoff, and reports `Up` when it works again.
+//!
+//! Everything the application does goes through the [`Handle`] as a closure run on the device
+//! inside the core task ([`Handle::call`]), with typed helpers for nodes ([`NodeHost`]) and a
+//! request/response helper ([`Handle::request`]) that starts an operation and awaits the event
+//! that completes it — the shape asynchronous SDO transfers take.
+
+mod handle;
+mod node;
+mod port_task;
+mod sdo;
+mod task;
+
+pub use handle::{Handle, RuntimeClosed};
+pub use node::{LocalNode, NodeHost};
+pub use sdo::{SdoEvents, SdoHost};
+
+use crate::capture::recorder::Tap;
+use crate::machine::{Device, PortStatus};
+use crate::port::{Port, PortCounters};
+use crate::time::Instant;
+use std::fmt;
+use std::sync::Arc;
+use tokio::sync::{broadcast, mpsc};
+use tracing::Instrument;
+
+/// Capacity of each port's outgoing queue (frames the device produced, not yet written).
+pub const PORT_TX_QUEUE: usize = 256;
+/// Capacity of the queue from all ports into the core task.
+pub const RX_QUEUE: usize = 1024;
+/// Capacity of the event broadcast: a subscriber lagging further misses events (and is told).
+pub const EVENT_QUEUE: usize = 1024;
+
+/// What the runtime reports.
+#[derive(Clone, Debug, PartialEq)]
+pub enum RuntimeEvent<E> {
+    /// An event of the device, as it produced it.
+    Device(E),
+    /// A port's status as its driver reported it (also handed to the device).
+    Port {
+        /// When.
+        at: Instant,
+        /// Port index.
+        port: usize,
+        /// What.
+        status: PortStatus,
+    },
+}
+
+/// The runtime's clock: microseconds since the runtime started.
+#[derive(Clone, Copy, Debug)]
+pub struct Clock {
+    origin: tokio::time::Instant,
+}
+
+impl Clock {
+    /// A clock starting now.
+    pub fn start() -> Self {
+        Clock {
+            origin: tokio::time::Instant::now(),
+        }
+    }
+    /// Current time.
+    pub fn now(&self) -> Instant {
+        let d = self.origin.elapsed();
+        Instant::from_micros(u64::try_from(d.as_micros()).unwrap_or(u64::MAX))
+    }
+    /// The tokio instant of `t` (far future for [`Instant::MAX`]).
+    pub fn to_tokio(&self, t: Instant) -> tokio::time::Instant {
+        let far = self.origin + std::time::Duration::from_secs(86_400 * 365 * 30);
+        self.origin
+            .checked_add(std::time::Duration::from_micros(t.as_micros()))
+            .map_or(far, |x| x.min(far))
+    }
+}
+
+/// The runtime could not start.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub enum StartError {
+    /// The device has a different number of ports than were given.
+    PortCount {
+        /// Ports the device has.
+        device: usize,
+        /// Ports given.
+        given: usize,
+    },
+}
+
+impl fmt::Display for StartError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            StartError::PortCount { device, given } => write!(
+                f,
+                "the device has {device} port(s) but {given} were given: add one Port per device port"
+            ),
+        }
+    }
+}
+
+impl std::error::Error for StartError {}
+
+type SpawnPort = Box<dyn FnOnce(port_task::Wiring) + Send>;
+
+/// Builds and starts a runtime for one device.
+pub struct Runtime<D> {
+    // Boxed: devices can be large (a dual-bus layer's merger is ~100 KiB), and the device
+    // must not be copied through every future and stack frame on its way into the task.
+    device: Box<D>,
+    name: String,
+    ports: Vec<(String, PortCounters, SpawnPort)>,
+    tap: Option<Arc<dyn Tap>>,
+}
+
+impl<D> Runtime<D>
+where
+    D: Device + Send + 'static,
+    D::Event: Clone + Send + fmt::Debug + 'static,
+{
+    /// A runtime for `device`; add its ports in order with [`Runtime::port`].
+    pub fn new(device: D) -> Self {
+        Self::boxed(Box::new(device))
+    }
+    /// A runtime for a device already on the heap (large devices built in place).
+    pub fn boxed(device: Box<D>) -> Self {
+        Runtime {
+            device,
+            name: "duocan".into(),
+            ports: Vec::new(),
+            tap: None,
+        }
+    }
+    /// Names the network (the `net` field of every log line of this runtime).
+    pub fn name(mut self, name: impl Into<String>) -> Self {
+        self.name = name.into();
+        self
+    }
+    /// Adds the next port (index = number of ports added before).
+    pub fn port<P: Port>(mut self, port: P) -> Self {
+        let name = port.name().to_owned();
+        let counters = port.counters();
+        let spawn: SpawnPort = Box::new(move |w: port_task::Wiring| {
+            let span =
+                tracing::info_span!("port", net = %w.net, port = w.index, name = %port.name());
+            tokio::spawn(port_task::run(port, w).instrument(span));
+        });
+        self.ports.push((name, counters, spawn));
+        self
+    }
+    /// Records every frame each port received or sent (see [`crate::capture::recorder`]).
+    pub fn tap(mut self, tap: Arc<dyn Tap>) -> Self {
+        self.tap = Some(tap);
+        self
+    }
+
+    /// Starts the port tasks and the core task on the current tokio runtime.
+    pub fn spawn(self) -> Result<Handle<D>, StartError> {
+        let given = self.ports.len();
+        if given != self.device.port_count() {
+            return Err(StartError::PortCount {
+                device: self.device.port_count(),
+                given,
+            });
+        }
+        let clock = Clock::start();
+        let (in_tx, in_rx) = mpsc::channel(RX_QUEUE);
+        let (cmd_tx, cmd_rx) = mpsc::unbounded_channel();
+        let (ev_tx, _) = broadcast::channel(EVENT_QUEUE);
+        let mut port_txs = Vec::with_capacity(given);
+        let mut names = Vec::with_capacity(given);
+        let mut counters = Vec::with_capacity(given);
+        for (index, (name, c, spawn)) in self.ports.into_iter().enumerate() {
+            let (tx, rx) = mpsc::channel(PORT_TX_QUEUE);
+            spawn(port_task::Wiring {
+                index,
+                net: self.name.clone(),
+                to_core: in_tx.clone(),
+                from_core: rx,
+            });
+            port_txs.push(tx);
+            names.push(name);
+            counters.push(c);
+        }
+        drop(in_tx);
+        let span = tracing::info_span!("net", net = %self.name);
+        let core = task::Core {
+            device: self.device,
+            clock,
+            ports: port_txs,
+            counters: counters.clone(),
+            events: ev_tx.clone(),
+            tap: self.tap,
+            watchers: Vec::new(),
+        };
+        let task = tokio::spawn(core.run(cmd_rx, in_rx).instrument(span));
+        Ok(Handle::new(cmd_tx, ev_tx, clock, names, counters, task))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::machine::{Station, StationEvent};
+    use crate::node::{NodeEvent, NodeEventKind};
+    use crate::od::{comm, DynamicDictionary};
+    use crate::port::mem::MemBus;
+    use crate::{NmtCommand, NmtState, NmtTarget, Node, NodeConfig, NodeId};
+    use std::time::Duration as StdDuration;
+
+    type Dev = Station<crate::machine::SinglePort, Node<DynamicDictionary>>;
+
+    fn node(id: u8, master: bool, hb_ms: u16) -> Dev {
+        let nid = NodeId::new(id).unwrap();
+        let mut od = comm::standard_dictionary(id, comm::Identity::default());
+        use crate::od::ObjectDictionary;
+        od.write_local(comm::HEARTBEAT_PRODUCER, 0, &hb_ms.to_le_bytes())
+            .unwrap();
+        let cfg = if master {
+            NodeConfig::master(nid)
+        } else {
+            NodeConfig::slave(nid)
+        };
+        Station::single(Node::new(cfg, od))
+    }
+
+    fn node_event(
+        e: &RuntimeEvent<StationEvent<std::convert::Infallible, NodeEvent>>,
+    ) -> Option<NodeEventKind> {
+        match e {
+            RuntimeEvent::Device(StationEvent::Machine(n)) => Some(n.kind),
+            _ => None,
+        }
+    }
+
+    #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+    async fn master_starts_a_slave_and_hears_its_heartbeat() {
+        let bus = MemBus::new("mem0");
+        let slave = Runtime::new(node(5, false, 20))
+            .name("slave")
+            .port(bus.port())
+            .spawn()
+            .unwrap();
+        let master = Runtime::new(node(1, true, 0))
+            .name("master")
+            .port(bus.port())
+            .spawn()
+            .unwrap();
+        let mut ev = master.subscribe();
+        slave.boot().await.unwrap();
+        master.boot().await.unwrap();
+        master
+            .nmt(NmtCommand::Start, NmtTarget::Node(NodeId::new(5).unwrap()))
+            .await
+            .unwrap()
+            .unwrap();
+        let seen = tokio::time::timeout(StdDuration::from_secs(5), async {
+            loop {
+                let e = ev.recv().await.unwrap();
+                if let Some(NodeEventKind::RemoteState {
+                    node,
+                    to: NmtState::Operational,
+                    ..
+                }) = node_event(&e)
+                {
+                    return node;
+                }
+            }
+        })
+        .await
+        .expect("master saw the slave operational");
+        assert_eq!(seen.raw(), 5);
+        assert_eq!(slave.nmt_state().await.unwrap(), NmtState::Operational);
+        assert_eq!(
+            slave.read(0x1017, 0).await.unwrap().unwrap(),
+            20u16.to_le_bytes()
+        );
+        // Heartbeats come from the node's deadlines: about 1 per 20 ms, not per runtime tick.
+        let before = master.port_counters(0).unwrap().rx_frames;
+        tokio::time::sleep(StdDuration::from_millis(400)).await;
+        let n = master.port_counters(0).unwrap().rx_frames - before;
+        assert!((10..=22).contains(&n), "{n} heartbeats in 400 ms at 20 ms");
+        // A write through the handle takes effect: heartbeat off, frames stop.
+        slave
+            .write(0x1017, 0, 0u16.to_le_bytes().to_vec())
+            .await
+            .unwrap()
+            .unwrap();
+        tokio::time::sleep(StdDuration::from_millis(50)).await;
+        let before = master.port_counters(0).unwrap().rx_frames;
+        tokio::time::sleep(StdDuration::from_millis(200)).await;
+        assert_eq!(master.port_counters(0).unwrap().rx_frames, before);
+        slave.shutdown().await;
+        master.shutdown().await;
+        assert!(master.nmt_state().await.is_err(), "closed runtime says so");
+    }
+
+    #[tokio::test]
+    async fn port_count_must_match() {
+        let bus = MemBus::new("m");
+        let e = Runtime::new(node(1, true, 0))
+            .port(bus.port())
+            .port(bus.port())
+            .spawn();
+        assert_eq!(
+            e.err(),
+            Some(StartError::PortCount {
+                device: 1,
+                given: 2
+            })
+        );
+    }
+
+    #[tokio::test]
+    async fn request_waits_for_the_completing_event() {
+        let bus = MemBus::new("m");
+        let master = Runtime::new(node(1, true, 0))
+            .port(bus.port())
+            .spawn()
+            .unwrap();
+        let slave = Runtime::new(node(9, false, 0))
+            .port(bus.port())
+            .spawn()
+            .unwrap();
+        slave.boot().await.unwrap();
+        // Start: boot the master; done: the event that says it is operational.
+        let r = master.request(
+            |d, now| {
+                d.machine.boot(now);
+                Ok::<_, (crate::NodeId, Instant)>(d.machine.id())
+            },
+            |id, e| match e {
+                StationEvent::Machine(NodeEvent {
+                    kind:
+                        NodeEventKind::StateChanged {
+                            to: NmtState::Operational,
+                            ..
+                        },
+                    at,
+                }) => Some((*id, *at)),
+                _ => None,
+            },
+        );
+        let (id, _at) = tokio::time::timeout(StdDuration::from_secs(5), r)
+            .await
+            .unwrap()
+            .unwrap();
+        assert_eq!(id.raw(), 1);
+    }
+
+    #[derive(Clone, Default)]
+    struct Shared(Arc<std::sync::Mutex<Vec<u8>>>);
+    impl std::io::Write for Shared {
+        fn write(&mut self, b: &[u8]) -> std::io::Result<usize> {
+            self.0.lock().unwrap().extend_from_slice(b);
+            Ok(b.len())
+        }
+        fn flush(&mut self) -> std::io::Result<()> {
+            Ok(())
+        }
+    }
+
+    #[tokio::test]
+    async fn the_tap_records_what_each_port_sends_and_receives() {
+        use crate::capture::{
+            candump,
+            recorder::{Filter, Recorder},
+        };
+        let bus = MemBus::new("m");
+        let log = Shared::default();
+        let rec = Arc::new(
+            Recorder::with_epoch(0)
+                .port_names(["mem0"])
+                .candump(Filter::All, log.clone()),
+        );
+        let master = Runtime::new(node(1, true, 0))
+            .port(bus.port())
+            .tap(rec.clone())
+            .spawn()
+            .unwrap();
+        let slave = Runtime::new(node(5, false, 0))
+            .port(bus.port())
+            .spawn()
+            .unwrap();
+        let mut ev = master.subscribe();
+        master.boot().await.unwrap();
+        slave.boot().await.unwrap();
+        tokio::time::timeout(StdDuration::from_secs(5), async {
+            loop {
+                if let Some(NodeEventKind::BootUp { .. }) = node_event(&ev.recv().await.unwrap()) {
+                    return;
+                }
+            }
+        })
+        .await
+        .unwrap();
+        let text = String::from_utf8(log.0.lock().unwrap().clone()).unwrap();
+        let frames: Vec<_> = text
+            .lines()
+            .map(|l| candump::parse_line(l).unwrap())
+            .map(|e| (e.interface, e.record.frame().copied().unwrap()))
+            .collect();
+        let boot = |id: u16| crate::Frame::from_array(crate::Id::Standard(0x700 + id), [0]);
+        assert_eq!(
+            frames,
+            [("mem0".to_string(), boot(1)), ("mem0".to_string(), boot(5))],
+            "the master's own boot-up (sent) and the slave's (received)"
+        );
+    }
+}

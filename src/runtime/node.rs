@@ -1,0 +1,136 @@
+//! Typed handle operations for devices that contain a [`Node`].
+
+use super::handle::{Handle, RuntimeClosed};
+use crate::abort::AbortCode;
+use crate::machine::{Pair, Station};
+use crate::nmt::{NmtCommand, NmtState, NmtTarget};
+use crate::node::{Node, QueueFull};
+use crate::od::ObjectDictionary;
+use crate::profile::IdProfile;
+use crate::time::Instant;
+
+/// What the handle can do to the local node of a device (object-safe view of [`Node`]).
+pub trait LocalNode {
+    /// Reads an entry as the device itself.
+    fn read_entry(&self, index: u16, sub: u8) -> Result<Vec<u8>, AbortCode>;
+    /// Writes an entry as the device itself, with the stack's reactions.
+    fn write_entry(
+        &mut self,
+        now: Instant,
+        index: u16,
+        sub: u8,
+        data: &[u8],
+    ) -> Result<(), AbortCode>;
+    /// Queues an NMT command.
+    fn send_nmt(
+        &mut self,
+        now: Instant,
+        cmd: NmtCommand,
+        target: NmtTarget,
+    ) -> Result<(), QueueFull>;
+    /// The local NMT state.
+    fn state(&self) -> NmtState;
+    /// Power-on: boot-up message, pre-operational (or operational for a master).
+    fn power_on(&mut self, now: Instant);
+}
+
+impl<D: ObjectDictionary, P: IdProfile, const G: usize, const T: usize, const R: usize> LocalNode
+    for Node<D, P, G, T, R>
+{
+    fn read_entry(&self, index: u16, sub: u8) -> Result<Vec<u8>, AbortCode> {
+        self.od().get(index, sub).map(|e| e.data.to_vec())
+    }
+    fn write_entry(
+        &mut self,
+        now: Instant,
+        index: u16,
+        sub: u8,
+        data: &[u8],
+    ) -> Result<(), AbortCode> {
+        self.write(now, index, sub, data)
+    }
+    fn send_nmt(
+        &mut self,
+        now: Instant,
+        cmd: NmtCommand,
+        target: NmtTarget,
+    ) -> Result<(), QueueFull> {
+        self.nmt_command(now, cmd, target)
+    }
+    fn state(&self) -> NmtState {
+        self.nmt_state()
+    }
+    fn power_on(&mut self, now: Instant) {
+        self.boot(now)
+    }
+}
+
+/// A device (or machine) with a local node in it.
+pub trait NodeHost {
+    /// The node.
+    fn local_node(&mut self) -> &mut dyn LocalNode;
+}
+
+impl<D: ObjectDictionary, P: IdProfile, const G: usize, const T: usize, const R: usize> NodeHost
+    for Node<D, P, G, T, R>
+{
+    fn local_node(&mut self) -> &mut dyn LocalNode {
+        self
+    }
+}
+
+/// The node of a pair is its first machine (`Pair::new(node, sdo_client)`).
+impl<A: NodeHost, B> NodeHost for Pair<A, B> {
+    fn local_node(&mut self) -> &mut dyn LocalNode {
+        self.a.local_node()
+    }
+}
+
+impl<L, M: NodeHost> NodeHost for Station<L, M> {
+    fn local_node(&mut self) -> &mut dyn LocalNode {
+        self.machine.local_node()
+    }
+}
+
+impl<D> Handle<D>
+where
+    D: crate::Device + NodeHost + Send + 'static,
+    D::Event: Clone + Send + 'static,
+{
+    /// Reads an entry of the local dictionary.
+    pub async fn read(
+        &self,
+        index: u16,
+        sub: u8,
+    ) -> Result<Result<Vec<u8>, AbortCode>, RuntimeClosed> {
+        self.call(move |d, _| d.local_node().read_entry(index, sub))
+            .await
+    }
+    /// Writes an entry of the local dictionary (the stack reacts: heartbeat period, …).
+    pub async fn write(
+        &self,
+        index: u16,
+        sub: u8,
+        data: Vec<u8>,
+    ) -> Result<Result<(), AbortCode>, RuntimeClosed> {
+        self.call(move |d, now| d.local_node().write_entry(now, index, sub, &data))
+            .await
+    }
+    /// Sends an NMT command.
+    pub async fn nmt(
+        &self,
+        cmd: NmtCommand,
+        target: NmtTarget,
+    ) -> Result<Result<(), QueueFull>, RuntimeClosed> {
+        self.call(move |d, now| d.local_node().send_nmt(now, cmd, target))
+            .await
+    }
+    /// The local node's NMT state.
+    pub async fn nmt_state(&self) -> Result<NmtState, RuntimeClosed> {
+        self.call(|d, _| d.local_node().state()).await
+    }
+    /// Boots the local node (sends its boot-up message).
+    pub async fn boot(&self) -> Result<(), RuntimeClosed> {
+        self.call(|d, now| d.local_node().power_on(now)).await
+    }
+}

@@ -1,0 +1,169 @@
+//! One task per port: reads, writes, and re-opens after failures.
+
+use crate::frame::Frame;
+use crate::machine::{PortRequest, PortStatus};
+use crate::port::{Port, PortErrorKind, PortInput};
+use std::time::Duration;
+use tokio::sync::mpsc;
+
+/// First wait before re-opening a failed port; doubles up to [`BACKOFF_MAX`].
+pub const BACKOFF_MIN: Duration = Duration::from_millis(20);
+/// Longest wait between re-open attempts.
+pub const BACKOFF_MAX: Duration = Duration::from_millis(500);
+
+pub(crate) enum PortCmd {
+    Send(Frame),
+    Request(PortRequest),
+}
+
+pub(crate) struct Wiring {
+    pub index: usize,
+    pub net: String,
+    pub to_core: mpsc::Sender<(usize, PortInput)>,
+    pub from_core: mpsc::Receiver<PortCmd>,
+}
+
+enum Step {
+    Continue,
+    Failed,
+    Stop,
+}
+
+/// Inputs (or outgoing frames) moved per wake-up without waiting again.
+const BURST: usize = 32;
+
+pub(crate) async fn run<P: Port>(mut port: P, mut w: Wiring) {
+    loop {
+        let step = tokio::select! {
+            cmd = w.from_core.recv() => match cmd {
+                None => Step::Stop,
+                Some(cmd) => {
+                    let mut step = command(&mut port, &w, cmd).await;
+                    for _ in 1..BURST {
+                        if !matches!(step, Step::Continue) {
+                            break;
+                        }
+                        match w.from_core.try_recv() {
+                            Ok(cmd) => step = command(&mut port, &w, cmd).await,
+                            Err(_) => break,
+                        }
+                    }
+                    step
+                }
+            },
+            r = port.recv() => {
+                let mut step = input(&w, r).await;
+                for _ in 1..BURST {
+                    if !matches!(step, Step::Continue) {
+                        break;
+                    }
+                    match port.try_recv() {
+                        Some(r) => step = input(&w, r).await,
+                        None => break,
+                    }
+                }
+                step
+            }
+        };
+        match step {
+            Step::Continue => {}
+            Step::Stop => return,
+            Step::Failed => {
+                if !recover(&mut port, &mut w).await {
+                    return;
+                }
+            }
+        }
+    }
+}
+
+async fn input(w: &Wiring, r: Result<PortInput, crate::port::PortError>) -> Step {
+    match r {
+        Ok(x) => {
+            if w.to_core.send((w.index, x)).await.is_err() {
+                Step::Stop
+            } else {
+                Step::Continue
+            }
+        }
+        Err(e) => {
+            tracing::warn!(error = %e, "receive failed");
+            report(w, PortStatus::Down(e.cause())).await;
+            Step::Failed
+        }
+    }
+}
+
+async fn command<P: Port>(port: &mut P, w: &Wiring, cmd: PortCmd) -> Step {
+    match cmd {
+        PortCmd::Send(f) => match port.send(&f).await {
+            Ok(()) => Step::Continue,
+            Err(e) => {
+                tracing::warn!(error = %e, "send failed");
+                let down = matches!(
+                    e.kind,
+                    PortErrorKind::InterfaceDown
+                        | PortErrorKind::NoSuchInterface
+                        | PortErrorKind::Closed
+                );
+                if down {
+                    report(w, PortStatus::Down(e.cause())).await;
+                    Step::Failed
+                } else {
+                    report(w, PortStatus::TxFailed(e.cause())).await;
+                    Step::Continue
+                }
+            }
+        },
+        PortCmd::Request(PortRequest::Reinit) => match port.reopen().await {
+            Ok(()) => {
+                report(w, PortStatus::Up).await;
+                Step::Continue
+            }
+            Err(e) => {
+                tracing::warn!(error = %e, "re-init failed");
+                report(w, PortStatus::Down(e.cause())).await;
+                Step::Failed
+            }
+        },
+    }
+}
+
+async fn report(w: &Wiring, s: PortStatus) {
+    let _ = w.to_core.send((w.index, PortInput::Status(s))).await;
+}
+
+/// Re-opens with backoff; frames the device sends meanwhile are dropped and counted.
+/// Returns false when the runtime is shutting down.
+async fn recover<P: Port>(port: &mut P, w: &mut Wiring) -> bool {
+    let counters = port.counters();
+    let mut wait = BACKOFF_MIN;
+    let mut attempts = 0u32;
+    loop {
+        let until = tokio::time::Instant::now() + wait;
+        loop {
+            tokio::select! {
+                cmd = w.from_core.recv() => match cmd {
+                    None => return false,
+                    Some(PortCmd::Send(_)) => counters.tx_dropped(),
+                    Some(PortCmd::Request(_)) => {}
+                },
+                () = tokio::time::sleep_until(until) => break,
+            }
+        }
+        attempts += 1;
+        match port.reopen().await {
+            Ok(()) => {
+                tracing::info!(attempts, "port re-opened");
+                report(w, PortStatus::Up).await;
+                return true;
+            }
+            Err(e) => {
+                if attempts == 1 || attempts % 20 == 0 {
+                    tracing::warn!(attempts, error = %e, "re-open failed, retrying");
+                }
+                wait = (wait * 2).min(BACKOFF_MAX);
+            }
+        }
+    }
+}

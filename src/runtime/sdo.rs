@@ -1,0 +1,194 @@
+//! Asynchronous SDO transfers through a [`Handle`]: `handle.sdo_read(node, …).await`.
+//!
+//! The device holds an [`SdoClient`] (usually `Pair::new(node, client)` in a station). A read or
+//! write starts the transfer inside the core task and waits for the client's [`SdoEvent`] that
+//! names its [`RequestId`] (through [`Handle::request`], so the result cannot be missed); many
+//! transfers can be in flight at once, to different nodes.
+
+use super::handle::{Handle, RuntimeClosed};
+use crate::machine::{Pair, PairEvent, Station, StationEvent};
+use crate::sdo::{RequestId, SdoClient, SdoError, SdoEvent, SdoOptions, TransferBuffer};
+use crate::time::Instant;
+use crate::NodeId;
+
+/// A device (or machine) with an SDO client in it.
+pub trait SdoHost {
+    /// Starts reading (index, sub) of `node`.
+    fn sdo_upload(
+        &mut self,
+        now: Instant,
+        node: NodeId,
+        index: u16,
+        sub: u8,
+        opts: SdoOptions,
+    ) -> Result<RequestId, SdoError>;
+    /// Starts writing `data` to (index, sub) of `node`.
+    fn sdo_download(
+        &mut self,
+        now: Instant,
+        node: NodeId,
+        index: u16,
+        sub: u8,
+        data: &[u8],
+        opts: SdoOptions,
+    ) -> Result<RequestId, SdoError>;
+}
+
+impl<B: TransferBuffer, const S: usize> SdoHost for SdoClient<B, S> {
+    fn sdo_upload(
+        &mut self,
+        now: Instant,
+        node: NodeId,
+        index: u16,
+        sub: u8,
+        opts: SdoOptions,
+    ) -> Result<RequestId, SdoError> {
+        self.upload(now, node, index, sub, opts)
+    }
+    fn sdo_download(
+        &mut self,
+        now: Instant,
+        node: NodeId,
+        index: u16,
+        sub: u8,
+        data: &[u8],
+        opts: SdoOptions,
+    ) -> Result<RequestId, SdoError> {
+        self.download(now, node, index, sub, data, opts)
+    }
+}
+
+/// The client of a pair is its second machine (`Pair::new(node, client)`).
+impl<A, C: SdoHost> SdoHost for Pair<A, C> {
+    fn sdo_upload(
+        &mut self,
+        now: Instant,
+        node: NodeId,
+        index: u16,
+        sub: u8,
+        opts: SdoOptions,
+    ) -> Result<RequestId, SdoError> {
+        self.b.sdo_upload(now, node, index, sub, opts)
+    }
+    fn sdo_download(
+        &mut self,
+        now: Instant,
+        node: NodeId,
+        index: u16,
+        sub: u8,
+        data: &[u8],
+        opts: SdoOptions,
+    ) -> Result<RequestId, SdoError> {
+        self.b.sdo_download(now, node, index, sub, data, opts)
+    }
+}
+
+impl<L, M: SdoHost> SdoHost for Station<L, M> {
+    fn sdo_upload(
+        &mut self,
+        now: Instant,
+        node: NodeId,
+        index: u16,
+        sub: u8,
+        opts: SdoOptions,
+    ) -> Result<RequestId, SdoError> {
+        self.machine.sdo_upload(now, node, index, sub, opts)
+    }
+    fn sdo_download(
+        &mut self,
+        now: Instant,
+        node: NodeId,
+        index: u16,
+        sub: u8,
+        data: &[u8],
+        opts: SdoOptions,
+    ) -> Result<RequestId, SdoError> {
+        self.machine.sdo_download(now, node, index, sub, data, opts)
+    }
+}
+
+/// How to find the client's events among a device's events.
+pub trait SdoEvents {
+    /// The transfer result in `e`, if `e` is one: its request and the data read (empty for a
+    /// write) or the error.
+    fn sdo_result(&self) -> Option<(RequestId, Result<Vec<u8>, SdoError>)>;
+}
+
+impl<B: TransferBuffer> SdoEvents for SdoEvent<B> {
+    fn sdo_result(&self) -> Option<(RequestId, Result<Vec<u8>, SdoError>)> {
+        Some((
+            self.request,
+            self.result
+                .as_ref()
+                .map(|b| b.as_slice().to_vec())
+                .map_err(|e| *e),
+        ))
+    }
+}
+
+impl<A, B: SdoEvents> SdoEvents for PairEvent<A, B> {
+    fn sdo_result(&self) -> Option<(RequestId, Result<Vec<u8>, SdoError>)> {
+        match self {
+            PairEvent::B(e) => e.sdo_result(),
+            PairEvent::A(_) => None,
+        }
+    }
+}
+
+impl<L, M: SdoEvents> SdoEvents for StationEvent<L, M> {
+    fn sdo_result(&self) -> Option<(RequestId, Result<Vec<u8>, SdoError>)> {
+        match self {
+            StationEvent::Machine(m) => m.sdo_result(),
+            StationEvent::Link(_) => None,
+        }
+    }
+}
+
+impl<D> Handle<D>
+where
+    D: crate::Device + SdoHost + Send + 'static,
+    D::Event: SdoEvents + Clone + Send + 'static,
+{
+    /// Reads (index, sub) of `node` over SDO.
+    pub async fn sdo_read(
+        &self,
+        node: NodeId,
+        index: u16,
+        sub: u8,
+        opts: SdoOptions,
+    ) -> Result<Result<Vec<u8>, SdoError>, RuntimeClosed> {
+        self.request(
+            move |d, now| d.sdo_upload(now, node, index, sub, opts).map_err(Err),
+            result_of,
+        )
+        .await
+    }
+
+    /// Writes `data` to (index, sub) of `node` over SDO.
+    pub async fn sdo_write(
+        &self,
+        node: NodeId,
+        index: u16,
+        sub: u8,
+        data: Vec<u8>,
+        opts: SdoOptions,
+    ) -> Result<Result<(), SdoError>, RuntimeClosed> {
+        let r = self
+            .request(
+                move |d, now| {
+                    d.sdo_download(now, node, index, sub, &data, opts)
+                        .map_err(Err)
+                },
+                result_of,
+            )
+            .await?;
+        Ok(r.map(|_| ()))
+    }
+}
+
+fn result_of<E: SdoEvents>(id: &RequestId, e: &E) -> Option<Result<Vec<u8>, SdoError>> {
+    match e.sdo_result() {
+        Some((rid, r)) if rid == *id => Some(r),
+        _ => None,
+    }
+}

@@ -1,0 +1,147 @@
+//! The core task: the only owner of the device.
+
+use super::port_task::PortCmd;
+use super::{Clock, RuntimeEvent};
+use crate::capture::recorder::{Direction, Tap, TapPoint};
+use crate::machine::{Device, PortStatus};
+use crate::port::{PortCounters, PortInput};
+use std::sync::Arc;
+use tokio::sync::{broadcast, mpsc};
+
+/// A closure run on the device inside the core task.
+pub(crate) type Call<D> = Box<dyn FnOnce(&mut D, crate::Instant) + Send>;
+
+/// Sees every event of the device until it returns true (it got what it waited for).
+pub(crate) type Watcher<E> = Box<dyn FnMut(&E) -> bool + Send>;
+
+/// Starts something and returns the watcher that completes it, if it started.
+pub(crate) type Start<D, E> = Box<dyn FnOnce(&mut D, crate::Instant) -> Option<Watcher<E>> + Send>;
+
+pub(crate) enum Command<D: Device> {
+    Call(Call<D>),
+    Watch(Start<D, D::Event>),
+    Shutdown,
+}
+
+/// Port inputs handled per wake-up before the device's outputs are flushed.
+const RX_BATCH: usize = 64;
+
+pub(crate) struct Core<D: Device> {
+    pub device: Box<D>,
+    pub clock: Clock,
+    pub ports: Vec<mpsc::Sender<PortCmd>>,
+    pub counters: Vec<PortCounters>,
+    pub events: broadcast::Sender<RuntimeEvent<D::Event>>,
+    pub tap: Option<Arc<dyn Tap>>,
+    pub watchers: Vec<Watcher<D::Event>>,
+}
+
+impl<D> Core<D>
+where
+    D: Device + Send + 'static,
+    D::Event: Clone + Send + std::fmt::Debug + 'static,
+{
+    pub async fn run(
+        mut self,
+        mut commands: mpsc::UnboundedReceiver<Command<D>>,
+        mut input: mpsc::Receiver<(usize, PortInput)>,
+    ) {
+        tracing::info!(ports = self.ports.len(), "runtime started");
+        loop {
+            self.flush();
+            let deadline = self.device.poll_timeout();
+            let sleep = async {
+                match deadline {
+                    Some(t) => tokio::time::sleep_until(self.clock.to_tokio(t)).await,
+                    None => std::future::pending().await,
+                }
+            };
+            tokio::select! {
+                cmd = commands.recv() => match cmd {
+                    Some(Command::Call(f)) => f(&mut *self.device, self.clock.now()),
+                    Some(Command::Watch(start)) => {
+                        if let Some(w) = start(&mut *self.device, self.clock.now()) {
+                            self.watchers.push(w);
+                        }
+                    }
+                    Some(Command::Shutdown) | None => break,
+                },
+                first = input.recv() => {
+                    if let Some((port, x)) = first {
+                        self.input(port, x);
+                        for _ in 1..RX_BATCH {
+                            match input.try_recv() {
+                                Ok((port, x)) => self.input(port, x),
+                                Err(_) => break,
+                            }
+                        }
+                    }
+                },
+                () = sleep => {}
+            }
+            let now = self.clock.now();
+            if self.device.poll_timeout().is_some_and(|t| t <= now) {
+                self.device.handle_timeout(now);
+            }
+        }
+        tracing::info!("runtime stopped");
+    }
+
+    fn input(&mut self, port: usize, x: PortInput) {
+        let now = self.clock.now();
+        match x {
+            PortInput::Frame(f) => {
+                if let Some(t) = &self.tap {
+                    t.frame(now, TapPoint::Port(port), Direction::Rx, &f);
+                }
+                self.device.handle_rx(now, port, &f);
+            }
+            PortInput::Status(status) => {
+                match status {
+                    PortStatus::Down(_) | PortStatus::TxFailed(_) | PortStatus::Error(_) => {
+                        tracing::warn!(port, ?status, "port status")
+                    }
+                    _ => tracing::info!(port, ?status, "port status"),
+                }
+                self.device.handle_port_status(now, port, status);
+                let _ = self.events.send(RuntimeEvent::Port {
+                    at: now,
+                    port,
+                    status,
+                });
+            }
+        }
+    }
+
+    /// Moves everything the device has to the ports and the subscribers.
+    fn flush(&mut self) {
+        let now = self.clock.now();
+        while let Some((port, f)) = self.device.poll_transmit() {
+            let Some(tx) = self.ports.get(port) else {
+                tracing::error!(port, "device sent on a port it does not have");
+                continue;
+            };
+            if let Some(t) = &self.tap {
+                t.frame(now, TapPoint::Port(port), Direction::Tx, &f);
+            }
+            if tx.try_send(PortCmd::Send(f)).is_err() {
+                // The port cannot keep up (or is down): drop rather than stall the device.
+                self.counters[port].tx_dropped();
+                tracing::debug!(port, frame = %f, "port queue full, frame dropped");
+            }
+        }
+        while let Some((port, req)) = self.device.poll_port_request() {
+            if let Some(tx) = self.ports.get(port) {
+                tracing::info!(port, ?req, "port request");
+                let _ = tx.try_send(PortCmd::Request(req));
+            }
+        }
+        while let Some(e) = self.device.poll_event() {
+            tracing::debug!(event = ?e, "event");
+            // Watchers see every event, losslessly, before subscribers (who may lag).
+            self.watchers.retain_mut(|w| !w(&e));
+            // No subscriber is fine: events are then only logged.
+            let _ = self.events.send(RuntimeEvent::Device(e));
+        }
+    }
+}

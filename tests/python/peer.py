@@ -1,0 +1,179 @@
+"""An independent CANopen peer for duocan's tests: python `canopen` over python-can's
+udp_multicast bus. Driven by tests/python_peer.rs; talks to it through stdout lines.
+
+    peer.py node ID HB_MS GROUP PORT     LocalNode: SDO server, heartbeat, NMT slave
+    peer.py client NODE GROUP PORT        SDO client: reads and writes NODE's dictionary
+    peer.py junk GROUP PORT              python-can sends frames duocan must refuse, then one good
+Stdout: one line per event: "READY", "STATE <name>", "WRITE <index> <sub> <hex>" (a write to the
+LocalNode), "READ <index> <sub> <hex>", "WROTE <index> <sub>", "ABORT <index> <sub> <code>",
+"DONE", "SENT <n>". Ends when stdin closes.
+"""
+import struct
+import sys
+import threading
+import time
+
+import can
+import canopen
+from canopen import objectdictionary as odm
+from canopen.objectdictionary import datatypes as dt
+
+
+def say(*words):
+    print(" ".join(str(w) for w in words), flush=True)
+
+
+def var(name, index, sub, data_type, access, default):
+    v = odm.ODVariable(name, index, sub)
+    v.data_type = data_type
+    v.access_type = access
+    v.default = default
+    return v
+
+
+def dictionary(node_id, hb_ms):
+    od = odm.ObjectDictionary()
+    od.node_id = node_id
+    od.add_object(var("Device type", 0x1000, 0, dt.UNSIGNED32, "ro", 0x00020192))
+    od.add_object(var("Producer heartbeat time", 0x1017, 0, dt.UNSIGNED16, "rw", hb_ms))
+    ident = odm.ODRecord("Identity object", 0x1018)
+    ident.add_member(var("Number of entries", 0x1018, 0, dt.UNSIGNED8, "ro", 1))
+    ident.add_member(var("Vendor-ID", 0x1018, 1, dt.UNSIGNED32, "ro", 0xD0CA))
+    od.add_object(ident)
+    od.add_object(var("Expedited value", 0x2000, 0, dt.UNSIGNED32, "rw", 0x12345678))
+    od.add_object(var("Segmented text", 0x2001, 0, dt.VISIBLE_STRING, "rw",
+                      "python canopen peer: a string longer than four bytes"))
+    od.add_object(var("Domain", 0x2002, 0, dt.DOMAIN, "rw", b""))
+    od.add_object(var("Process value", 0x6000, 0, dt.UNSIGNED16, "rw", 0))
+    tpdo = odm.ODRecord("TPDO1 communication parameter", 0x1800)
+    tpdo.add_member(var("Highest sub-index", 0x1800, 0, dt.UNSIGNED8, "ro", 5))
+    tpdo.add_member(var("COB-ID", 0x1800, 1, dt.UNSIGNED32, "rw", 0x180 + node_id))
+    tpdo.add_member(var("Transmission type", 0x1800, 2, dt.UNSIGNED8, "rw", 254))
+    od.add_object(tpdo)
+    tmap = odm.ODRecord("TPDO1 mapping parameter", 0x1A00)
+    tmap.add_member(var("Number of entries", 0x1A00, 0, dt.UNSIGNED8, "rw", 1))
+    tmap.add_member(var("Entry 1", 0x1A00, 1, dt.UNSIGNED32, "rw", 0x60000010))
+    od.add_object(tmap)
+    return od
+
+
+def watch_stdin(stop, local=None):
+    """Commands from the test; end of input stops the peer.
+    `tpdo VALUE`: TPDO1 (0x6000, 16 bits) carries VALUE, sent every 50 ms."""
+    tpdo = None
+    for line in sys.stdin:
+        words = line.split()
+        if local is not None and words[:1] == ["tpdo"]:
+            if tpdo is None:
+                tpdo = local.tpdo[1]
+                tpdo.clear()
+                tpdo.add_variable(0x6000)
+                tpdo.cob_id = 0x180 + local.id
+                tpdo.enabled = True
+                tpdo.map[0].raw = int(words[1], 0)
+                tpdo.start(0.05)
+            else:
+                tpdo.map[0].raw = int(words[1], 0)
+                tpdo.update()
+            say("TPDO", words[1])
+    if tpdo is not None:
+        tpdo.stop()
+    stop.set()
+
+
+def node(node_id, hb_ms, group, port):
+    network = canopen.Network()
+    network.connect(interface="udp_multicast", channel=group, port=port)
+    local = canopen.LocalNode(node_id, dictionary(node_id, hb_ms))
+    network.add_node(local)
+
+    def on_write(index, subindex, od, data):
+        say("WRITE", "%04X" % index, subindex, bytes(data).hex())
+
+    local.add_write_callback(on_write)
+    stop = threading.Event()
+    threading.Thread(target=watch_stdin, args=(stop, local), daemon=True).start()
+    say("READY")
+    local.nmt.state = "INITIALISING"  # boot-up message
+    local.nmt.state = "PRE-OPERATIONAL"  # starts the heartbeat
+    last = None
+    while not stop.is_set():
+        st = local.nmt.state
+        if st != last:
+            say("STATE", st)
+            last = st
+        time.sleep(0.01)
+    network.disconnect()
+
+
+def pattern(n, seed):
+    return bytes(((i * 31) + seed) & 0xFF for i in range(n))
+
+
+def client(node_id, group, port):
+    network = canopen.Network()
+    network.connect(interface="udp_multicast", channel=group, port=port)
+    remote = canopen.RemoteNode(node_id, odm.ObjectDictionary())
+    network.add_node(remote)
+    sdo = remote.sdo
+    sdo.RESPONSE_TIMEOUT = 2.0
+    say("READY")
+    sys.stdin.readline()  # the test says when duocan's node is up
+
+    def read(index, sub):
+        say("READ", "%04X" % index, sub, sdo.upload(index, sub).hex())
+
+    def write(index, sub, data, force_segment=False):
+        sdo.download(index, sub, data, force_segment=force_segment)
+        say("WROTE", "%04X" % index, sub)
+
+    read(0x1018, 1)                                   # expedited upload
+    read(0x2001, 0)                                   # segmented upload
+    write(0x2000, 0, struct.pack("<I", 0x11223344))   # expedited download
+    write(0x2001, 0, b"written by python canopen over segmented SDO", force_segment=True)
+    blob = pattern(1000, 9)
+    with sdo.open(0x2002, 0, "wb", size=len(blob), block_transfer=True) as f:
+        f.write(blob)                                 # block download
+    say("WROTE", "2002", 0)
+    with sdo.open(0x2002, 0, "rb", block_transfer=True) as f:
+        say("READ", "2002", 0, f.read().hex())        # block upload
+    try:
+        sdo.upload(0x2100, 0)
+    except canopen.SdoAbortedError as e:
+        say("ABORT", "2100", 0, "0x%08X" % e.code)
+    say("DONE")
+    for _ in sys.stdin:
+        pass
+    network.disconnect()
+
+
+def junk(group, port):
+    bus = can.Bus(interface="udp_multicast", channel=group, port=port)
+    say("READY")
+    sent = 0
+    # A CAN FD frame and an error frame: valid python-can messages, not classic CAN frames.
+    bus.send(can.Message(arbitration_id=0x123, is_fd=True, data=bytes(range(12)), is_extended_id=False))
+    sent += 1
+    bus.send(can.Message(arbitration_id=0x0, is_error_frame=True, data=bytes(8)))
+    sent += 1
+    # Then a good one that must arrive.
+    bus.send(can.Message(arbitration_id=0x5A5, data=[1, 2, 3], is_extended_id=False))
+    say("SENT", sent)
+    for _ in sys.stdin:
+        pass
+    bus.shutdown()
+
+
+def main(argv):
+    if argv[1] == "node":
+        node(int(argv[2], 0), int(argv[3]), argv[4], int(argv[5]))
+    elif argv[1] == "client":
+        client(int(argv[2], 0), argv[3], int(argv[4]))
+    elif argv[1] == "junk":
+        junk(argv[2], int(argv[3]))
+    else:
+        raise SystemExit("unknown mode " + argv[1])
+
+
+if __name__ == "__main__":
+    main(sys.argv)
