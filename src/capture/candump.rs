@@ -80,7 +80,7 @@ pub fn format_frame(timestamp_us: u64, interface: &str, frame: &Frame) -> String
 fn hex_bytes(s: &str, max: usize) -> Result<Vec<u8>, ParseError> {
     // can-utils allows '.' separators between bytes.
     let digits: Vec<u8> = s.bytes().filter(|b| *b != b'.').collect();
-    if digits.len() % 2 != 0 {
+    if !digits.len().is_multiple_of(2) {
         return Err(err("odd number of hex digits in data"));
     }
     if digits.len() / 2 > max {

@@ -219,7 +219,7 @@ mod tests {
     #[test]
     fn hooks_can_veto() {
         fn only_even(_: u16, _: u8, d: &[u8]) -> Result<(), AbortCode> {
-            if d[0] % 2 == 0 {
+            if d[0].is_multiple_of(2) {
                 Ok(())
             } else {
                 Err(AbortCode::LOCAL_CONTROL)

@@ -95,7 +95,7 @@ pub fn check_entry<D: ObjectDictionary + ?Sized>(
     let fits = match def.data_type.bit_size() {
         Some(n) => e.bits as u32 <= n,
         // Strings and domains: whole bytes, at most their capacity.
-        None => e.bits % 8 == 0 && (e.bits / 8) as u32 <= def.capacity,
+        None => e.bits.is_multiple_of(8) && (e.bits / 8) as u32 <= def.capacity,
     };
     if fits {
         Ok(())

@@ -159,7 +159,7 @@ async fn recover<P: Port>(port: &mut P, w: &mut Wiring) -> bool {
                 return true;
             }
             Err(e) => {
-                if attempts == 1 || attempts % 20 == 0 {
+                if attempts == 1 || attempts.is_multiple_of(20) {
                     tracing::warn!(attempts, error = %e, "re-open failed, retrying");
                 }
                 wait = (wait * 2).min(BACKOFF_MAX);

@@ -345,7 +345,7 @@ mod tests {
         let mut seed = 7u32;
         let (got, _) = run(890, 10, |_| {
             seed = seed.wrapping_mul(1_103_515_245).wrapping_add(12345);
-            (seed >> 16) % 3 == 0
+            (seed >> 16).is_multiple_of(3)
         });
         assert_eq!(got, want);
     }

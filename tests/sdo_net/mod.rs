@@ -34,7 +34,7 @@ fn veto_with_code(_: u16, _: u8, d: &[u8]) -> Result<(), AbortCode> {
 }
 
 fn even_only(_: u16, _: u8, d: &[u8]) -> Result<(), AbortCode> {
-    if d[0] % 2 == 0 {
+    if d[0].is_multiple_of(2) {
         Ok(())
     } else {
         Err(AbortCode::LOCAL_CONTROL)
