@@ -9,14 +9,24 @@ use duocan::master::{
     BootPhase, MasterEventKind as K, NetworkConfig, NmtStartup, SlaveConfig, StartPolicy,
 };
 use duocan::od::{comm, ObjectDictionary};
-use duocan::{Duration, Instant, NmtState, NodeId};
+use duocan::pdo::{MapEntry, PdoConfig};
+use duocan::{CobId, Duration, Id, Instant, NmtState, NodeId};
 use master_net::*;
 
 const BITRATE: u32 = 500_000;
 const IDS: std::ops::RangeInclusive<u8> = 2..=21;
 /// SDO accesses of each slave's boot process: 0x1000, 0x1018 sub 1–4, three application
-/// entries, 0x1017.
-const ACCESSES: u32 = 9;
+/// entries, TPDO1 (read the COB-ID, disable, type, event timer, mapping count 0, two entries,
+/// count, enable), 0x1017.
+const ACCESSES: u32 = 18;
+const TPDO_PERIOD_MS: u16 = 100;
+
+fn tpdo1(id: u8) -> PdoConfig {
+    PdoConfig::new(CobId(0x180 + id as u32), 254)
+        .event_timer(TPDO_PERIOD_MS)
+        .mapping(&[MapEntry::new(APP, 1, 16), MapEntry::new(APP, 2, 16)])
+        .unwrap()
+}
 
 fn network(mandatory: bool, startup: NmtStartup) -> NetworkConfig {
     let mut net = NetworkConfig::new().startup(startup).boot_time_ms(2_000);
@@ -26,7 +36,8 @@ fn network(mandatory: bool, startup: NmtStartup) -> NetworkConfig {
             .heartbeat(50, 150)
             .write_u16(APP, 1, id as u16 * 10)
             .write_u16(APP, 2, id as u16 * 100)
-            .write_u16(APP, 3, 0xBEEF);
+            .write_u16(APP, 3, 0xBEEF)
+            .tpdo(1, tpdo1(id));
         if mandatory {
             s = s.mandatory();
         }
@@ -40,8 +51,49 @@ fn boot_time(id: u8) -> Instant {
     Instant::from_micros(5_000 + ((id as u64 * 7919) % 20) * 12_000 + id as u64 * 17)
 }
 
-/// Checks every slave is configured as asked and operational, and the master monitors it.
+/// Checks every slave is configured as asked and operational, the master monitors it, and its
+/// TPDO1 carries its two application values every 100 ms.
 fn assert_configured_and_running(n: &Net) {
+    let frames = n.frames();
+    let quiet = frames
+        .iter()
+        .rfind(|(_, f)| matches!(f.id(), Id::Standard(0x581..=0x67F)))
+        .unwrap()
+        .0;
+    for id in IDS {
+        let od = n.slave(id).od();
+        assert_eq!(od.get_value::<u32>(0x1800, 1), Ok(0x180 + id as u32));
+        assert_eq!(od.get_value::<u8>(0x1800, 2), Ok(254));
+        assert_eq!(od.get_value::<u16>(0x1800, 5), Ok(TPDO_PERIOD_MS));
+        assert_eq!(od.get_value::<u8>(0x1A00, 0), Ok(2));
+        assert_eq!(od.get_value::<u32>(0x1A00, 1), Ok(0x2000_0110));
+        assert_eq!(od.get_value::<u32>(0x1A00, 2), Ok(0x2000_0210));
+        let tpdos: Vec<_> = frames
+            .iter()
+            .filter(|(_, f)| f.id() == Id::Standard(0x180 + id as u16))
+            .collect();
+        assert!(tpdos.len() >= 5, "slave {id}: {} TPDOs", tpdos.len());
+        let a = (id as u16 * 10).to_le_bytes();
+        let b = (id as u16 * 100).to_le_bytes();
+        for (_, f) in &tpdos {
+            assert_eq!(f.data(), [a[0], a[1], b[0], b[1]], "slave {id}");
+        }
+        // Exact period once the boot traffic is over (during it, a heartbeat starved by another
+        // slave's SDO exchange holds the TPDO behind it in the slave's controller queue).
+        let steady: Vec<_> = tpdos
+            .iter()
+            .filter(|(t, _)| *t > quiet + Duration::from_millis(20))
+            .collect();
+        assert!(steady.len() >= 5);
+        for w in steady.windows(2) {
+            let gap = w[1].0 - w[0].0;
+            assert_eq!(
+                gap,
+                Duration::from_millis(TPDO_PERIOD_MS as u64),
+                "slave {id}"
+            );
+        }
+    }
     for id in IDS {
         let s = n.slave(id);
         assert_eq!(s.nmt_state(), NmtState::Operational, "slave {id}");

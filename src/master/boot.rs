@@ -9,7 +9,8 @@
 
 use super::config::{ConfigStep, ExpectedIdentity, SlaveConfig};
 use crate::od::comm;
-use crate::sdo::SdoError;
+use crate::pdo::{params::MAX_PDOS, AccessError, ConfigError, PdoConfigurator, SdoAccess};
+use crate::sdo::{SdoError, SdoErrorKind};
 use core::fmt;
 
 /// CiA 302-2 error status of the boot process: why a slave was not (or no longer is) booted.
@@ -115,6 +116,13 @@ impl fmt::Display for ErrorStatus {
 pub enum BootError {
     /// The SDO access failed: abort code from either side (timeouts included), node, object.
     Sdo(SdoError),
+    /// Configuring one of the slave's PDOs failed (which entry, and how).
+    Pdo(ConfigError),
+    /// A PDO step names a PDO number outside 1–512.
+    NoSuchPdo {
+        /// The number.
+        pdo: u16,
+    },
     /// An identity entry was read but is not 4 bytes long.
     BadReply {
         /// Index.
@@ -130,6 +138,10 @@ impl fmt::Display for BootError {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         match self {
             BootError::Sdo(e) => write!(f, "{e}"),
+            BootError::Pdo(e) => write!(f, "{e}"),
+            BootError::NoSuchPdo { pdo } => {
+                write!(f, "PDO {pdo} does not exist: CiA 301 numbers PDOs 1 to 512")
+            }
             BootError::BadReply { index, sub, len } => write!(
                 f,
                 "{index:#06x}sub{sub} answered with {len} bytes instead of 4: the device does not follow CiA 301"
@@ -220,10 +232,12 @@ pub(crate) enum Outcome {
 }
 
 /// One run of the boot process for one slave.
-#[derive(Clone, Debug, PartialEq, Eq)]
+#[derive(Clone, Debug)]
 pub(crate) struct Process {
     step: Step,
     heartbeat: [u8; 2],
+    /// The configurator of the PDO step under way, and the access it asks for now.
+    pdo: Option<(PdoConfigurator, Option<SdoAccess>)>,
 }
 
 fn expected(id: &ExpectedIdentity, sub: u8) -> u32 {
@@ -249,6 +263,7 @@ impl Process {
         Process {
             step: Step::DeviceType,
             heartbeat: cfg.heartbeat_producer_ms.unwrap_or(0).to_le_bytes(),
+            pdo: None,
         }
     }
 
@@ -274,6 +289,17 @@ impl Process {
                     sub: *sub,
                     data,
                 }),
+                ConfigStep::Pdo { .. } => match self.pdo.as_ref()?.1.as_ref()? {
+                    SdoAccess::Read { index, sub } => Some(Access::Read {
+                        index: *index,
+                        sub: *sub,
+                    }),
+                    a @ SdoAccess::Write { index, sub, .. } => Some(Access::Write {
+                        index: *index,
+                        sub: *sub,
+                        data: a.data(),
+                    }),
+                },
             },
             Step::Heartbeat => Some(Access::Write {
                 index: comm::HEARTBEAT_PRODUCER,
@@ -312,6 +338,68 @@ impl Process {
         }
     }
 
+    /// Moves to the step after the current one; a PDO step gets its configurator.
+    fn advance(&mut self, cfg: &SlaveConfig, id: &ExpectedIdentity) -> Outcome {
+        self.step = Self::next(self.step, cfg, id);
+        self.pdo = None;
+        if let Step::Config(i) = self.step {
+            if let Some(ConfigStep::Pdo { dir, pdo, config }) = cfg.steps.get(i) {
+                if !(1..=MAX_PDOS).contains(pdo) {
+                    self.step = Step::Done;
+                    return Outcome::Failed {
+                        status: ErrorStatus::J,
+                        reason: BootError::NoSuchPdo { pdo: *pdo },
+                    };
+                }
+                let job = PdoConfigurator::new(cfg.node, *dir, *pdo, (**config).clone());
+                let first = job.next();
+                self.pdo = Some((job, first));
+            }
+        }
+        if self.step == Step::Done {
+            Outcome::Done
+        } else {
+            Outcome::Continue
+        }
+    }
+
+    /// Takes the result of the current PDO configurator's access.
+    fn handle_pdo(
+        &mut self,
+        cfg: &SlaveConfig,
+        id: &ExpectedIdentity,
+        result: Result<&[u8], SdoError>,
+    ) -> Outcome {
+        let Some((job, current)) = self.pdo.as_mut() else {
+            return self.advance(cfg, id);
+        };
+        // A refusal by the device is the configurator's to judge (its fallback); anything
+        // else means the device was not heard.
+        job.handle(result.map_err(|e| match e.kind {
+            SdoErrorKind::Server(code) => AccessError::Aborted(code),
+            _ => AccessError::NoAnswer(e.code()),
+        }));
+        match job.result() {
+            Some(Ok(_)) => self.advance(cfg, id),
+            Some(Err(e)) => {
+                self.step = Step::Done;
+                self.pdo = None;
+                Outcome::Failed {
+                    status: ErrorStatus::J,
+                    reason: BootError::Pdo(e),
+                }
+            }
+            None => {
+                *current = job.next();
+                if current.is_some() {
+                    Outcome::Continue
+                } else {
+                    self.advance(cfg, id)
+                }
+            }
+        }
+    }
+
     /// Takes the result of the current access. `id` is what the master expects (its
     /// 0x1F84–0x1F88 entries for this node, read when the result arrives).
     pub(crate) fn handle(
@@ -321,6 +409,9 @@ impl Process {
         result: Result<&[u8], SdoError>,
     ) -> Outcome {
         let step = self.step;
+        if self.pdo.is_some() {
+            return self.handle_pdo(cfg, id, result);
+        }
         let data = match result {
             Ok(d) => d,
             Err(e) => {
@@ -365,12 +456,7 @@ impl Process {
                 };
             }
         }
-        self.step = Self::next(step, cfg, id);
-        if self.step == Step::Done {
-            Outcome::Done
-        } else {
-            Outcome::Continue
-        }
+        self.advance(cfg, id)
     }
 }
 
@@ -516,6 +602,87 @@ mod tests {
                 }
             }
         );
+    }
+
+    #[test]
+    fn pdo_step_runs_the_configurator_in_cia_order() {
+        use crate::cob_id::CobId;
+        use crate::pdo::{MapEntry, PdoConfig};
+        let pdo = PdoConfig::new(CobId(0x189), 254)
+            .event_timer(100)
+            .mapping(&[MapEntry::new(0x2000, 1, 16)])
+            .unwrap();
+        let cfg = SlaveConfig::new(N).tpdo(1, pdo).write_u8(0x2001, 0, 1);
+        let (seen, out) = run(&cfg, &ExpectedIdentity::default(), |a| {
+            Ok(match a {
+                Access::Read { index: 0x1800, .. } => 0x189u32,
+                _ => 0,
+            }
+            .to_le_bytes())
+        });
+        assert_eq!(out, Outcome::Done);
+        assert_eq!(
+            seen,
+            [
+                (0x1000, 0, false),
+                (0x1800, 1, false),
+                (0x1800, 1, true),
+                (0x1800, 2, true),
+                (0x1800, 5, true),
+                (0x1A00, 0, true),
+                (0x1A00, 1, true),
+                (0x1A00, 0, true),
+                (0x1800, 1, true),
+                (0x2001, 0, true),
+            ]
+        );
+    }
+
+    #[test]
+    fn pdo_refused_and_different_fails_with_j_naming_the_entry() {
+        use crate::cob_id::CobId;
+        use crate::pdo::{ConfigErrorKind, PdoConfig};
+        let cfg = SlaveConfig::new(N).tpdo(2, PdoConfig::new(CobId(0x289), 1));
+        let refused = |index, sub| SdoError {
+            node: N,
+            index,
+            sub,
+            direction: Direction::Download,
+            kind: SdoErrorKind::Server(AbortCode::READ_ONLY),
+        };
+        // The device refuses every write and its COB-ID is another one.
+        let (_, out) = run(&cfg, &ExpectedIdentity::default(), |a| match a {
+            Access::Write { index, sub, .. } => Err(refused(index, sub)),
+            Access::Read { index: 0x1801, .. } => Ok(0x4000_0199u32.to_le_bytes()),
+            Access::Read { .. } => Ok([0; 4]),
+        });
+        let Outcome::Failed {
+            status: ErrorStatus::J,
+            reason: BootError::Pdo(e),
+        } = out
+        else {
+            panic!("{out:?}")
+        };
+        assert_eq!((e.node, e.index, e.sub), (N, 0x1801, 1));
+        assert!(e.fallback);
+        assert!(matches!(e.kind, ConfigErrorKind::Mismatch { .. }));
+    }
+
+    #[test]
+    fn pdo_number_out_of_range_fails_without_panicking() {
+        use crate::cob_id::CobId;
+        use crate::pdo::PdoConfig;
+        let cfg = SlaveConfig::new(N).rpdo(513, PdoConfig::new(CobId(0x209), 255));
+        let mut p = Process::new(&cfg);
+        let out = p.handle(&cfg, &ExpectedIdentity::default(), Ok(&[0; 4]));
+        assert_eq!(
+            out,
+            Outcome::Failed {
+                status: ErrorStatus::J,
+                reason: BootError::NoSuchPdo { pdo: 513 }
+            }
+        );
+        assert_eq!(p.access(&cfg), None);
     }
 
     #[test]

@@ -26,7 +26,9 @@
 //! ```
 
 use crate::cob_id::NodeId;
+use crate::pdo::{Dir, PdoConfig};
 use crate::time::Duration;
+use alloc::boxed::Box;
 use alloc::vec::Vec;
 
 /// 0x1F80 NMT startup: how the master starts itself and the network.
@@ -155,6 +157,17 @@ pub enum ConfigStep {
         /// The value's bytes.
         data: Vec<u8>,
     },
+    /// One of the slave's PDOs, configured by a [`PdoConfigurator`](crate::pdo::PdoConfigurator)
+    /// (CiA 301 order: disable, parameters, mapping, enable; the seed's fallback for devices
+    /// that refuse to disable a PDO already configured as wanted).
+    Pdo {
+        /// The slave's side: [`Dir::Transmit`] for one of its TPDOs.
+        dir: Dir,
+        /// PDO number, 1–512 (TPDO1 is 0x1800/0x1A00).
+        pdo: u16,
+        /// What it must become (boxed: a full mapping is 64 entries, a write step a few bytes).
+        config: Box<PdoConfig>,
+    },
 }
 
 /// Everything the master does to one slave beyond what its 0x1F8x entries say.
@@ -237,6 +250,24 @@ impl SlaveConfig {
     /// Adds an SDO write of an UNSIGNED32.
     pub fn write_u32(self, index: u16, sub: u8, v: u32) -> SlaveConfig {
         self.write(index, sub, &v.to_le_bytes())
+    }
+    /// Configures the slave's TPDO `pdo` (1–512).
+    pub fn tpdo(mut self, pdo: u16, config: PdoConfig) -> SlaveConfig {
+        self.steps.push(ConfigStep::Pdo {
+            dir: Dir::Transmit,
+            pdo,
+            config: Box::new(config),
+        });
+        self
+    }
+    /// Configures the slave's RPDO `pdo` (1–512).
+    pub fn rpdo(mut self, pdo: u16, config: PdoConfig) -> SlaveConfig {
+        self.steps.push(ConfigStep::Pdo {
+            dir: Dir::Receive,
+            pdo,
+            config: Box::new(config),
+        });
+        self
     }
 }
 

@@ -243,6 +243,13 @@ pub enum MasterError {
         /// Sub-index.
         sub: u8,
     },
+    /// A PDO step of a slave's configuration names a PDO number outside 1–512.
+    NoSuchPdo {
+        /// The slave.
+        node: NodeId,
+        /// The number.
+        pdo: u16,
+    },
     /// The dictionary refused a configuration value.
     Refused {
         /// Index.
@@ -272,6 +279,10 @@ impl fmt::Display for MasterError {
             MasterError::MissingObject { index, sub } => write!(
                 f,
                 "the master's dictionary has no {index:#06x}sub{sub}: build it with master::objects::master_dictionary"
+            ),
+            MasterError::NoSuchPdo { node, pdo } => write!(
+                f,
+                "the configuration of {node} names PDO {pdo}: CiA 301 numbers PDOs 1 to 512"
             ),
             MasterError::Refused { index, sub, code } => {
                 write!(f, "the master's {index:#06x}sub{sub} refused the value: {code}")

@@ -80,7 +80,9 @@ impl Slot {
     }
 }
 
-impl<D: ObjectDictionary, P: IdProfile, const S: usize> Master<D, P, S> {
+impl<D: ObjectDictionary, P: IdProfile, const S: usize, const T: usize, const R: usize>
+    Master<D, P, S, T, R>
+{
     // ----- inputs -----
 
     /// Drains the node's and the client's events, reacting to each, until nothing moves.

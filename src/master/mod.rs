@@ -62,10 +62,11 @@ pub const NMT_QUEUE: usize = 256;
 /// Events the master holds before the application drains them.
 pub const EVENT_QUEUE: usize = 1024;
 
-/// A CiA 302-2 NMT master on one logical bus. `S` is the number of SDO client sessions: how many
-/// slaves are configured at once.
-pub struct Master<D, P = Predefined, const S: usize = 8> {
-    node: Node<D, P>,
+/// A CiA 302-2 NMT master on one logical bus. `S` is the number of SDO client sessions (how many
+/// slaves are configured at once); `T` and `R` the master node's own TPDO and RPDO capacity (a
+/// master mirroring many slaves' TPDOs with [`crate::pdo::mirror`] needs as many RPDOs).
+pub struct Master<D, P = Predefined, const S: usize = 8, const T: usize = 4, const R: usize = 4> {
+    node: Node<D, P, 127, T, R>,
     sdo: SdoClient<DefaultBuffer, S>,
     slots: Vec<Slot>,
     network: Network,
@@ -98,7 +99,9 @@ impl<D: ObjectDictionary> Master<D> {
     }
 }
 
-impl<D: ObjectDictionary, P: IdProfile, const S: usize> Master<D, P, S> {
+impl<D: ObjectDictionary, P: IdProfile, const S: usize, const T: usize, const R: usize>
+    Master<D, P, S, T, R>
+{
     /// A master from its parts: the node's configuration (its `auto_start` and `accept_nmt` are
     /// overridden: the master starts itself per 0x1F80 and obeys no NMT master), dictionary,
     /// identifier profile and SDO client (with the channels of that profile).
@@ -133,9 +136,7 @@ impl<D: ObjectDictionary, P: IdProfile, const S: usize> Master<D, P, S> {
         put(BOOT_TIME, 0, config.boot_time_ms)?;
         let mut slots: Vec<Slot> = (1..=127u8).filter_map(NodeId::new).map(Slot::new).collect();
         for s in &config.slaves {
-            if s.node == node.node_id {
-                return Err(MasterError::OwnNode(s.node));
-            }
+            check_slave(s, node.node_id)?;
             let n = s.node.raw();
             put(SLAVE_ASSIGNMENT, n, s.assignment.0)?;
             put(DEVICE_TYPE_ID, n, s.identity.device_type)?;
@@ -157,7 +158,7 @@ impl<D: ObjectDictionary, P: IdProfile, const S: usize> Master<D, P, S> {
             ..node
         };
         let mut m = Master {
-            node: Node::with_profile(node_cfg, od, profile),
+            node: Node::<D, P, 127, T, R>::with_profile(node_cfg, od, profile),
             sdo,
             slots,
             network: Network::Idle,
@@ -294,9 +295,7 @@ impl<D: ObjectDictionary, P: IdProfile, const S: usize> Master<D, P, S> {
     pub fn add_slave(&mut self, now: Instant, cfg: SlaveConfig) -> Result<(), MasterError> {
         use objects::*;
         let n = cfg.node;
-        if n == self.node.id() {
-            return Err(MasterError::OwnNode(n));
-        }
+        check_slave(&cfg, self.node.id())?;
         let id = cfg.identity;
         let assignment = cfg.assignment.0;
         self.slot_mut(n).cfg = cfg;
@@ -345,12 +344,12 @@ impl<D: ObjectDictionary, P: IdProfile, const S: usize> Master<D, P, S> {
     }
 
     /// The master's own node.
-    pub fn node(&self) -> &Node<D, P> {
+    pub fn node(&self) -> &Node<D, P, 127, T, R> {
         &self.node
     }
     /// The master's own node, for the application's own use (its dictionary, EMCY, TIME). NMT
     /// commands belong in [`Master::nmt`], so that the boot processes follow them.
-    pub fn node_mut(&mut self) -> &mut Node<D, P> {
+    pub fn node_mut(&mut self) -> &mut Node<D, P, 127, T, R> {
         &mut self.node
     }
     /// The SDO client.
@@ -465,7 +464,27 @@ impl<D: ObjectDictionary, P: IdProfile, const S: usize> Master<D, P, S> {
     }
 }
 
-impl<D: ObjectDictionary, P: IdProfile, const S: usize> Machine for Master<D, P, S> {
+/// What can be checked of a slave's configuration before it is used.
+fn check_slave(cfg: &SlaveConfig, master: NodeId) -> Result<(), MasterError> {
+    if cfg.node == master {
+        return Err(MasterError::OwnNode(cfg.node));
+    }
+    for step in &cfg.steps {
+        if let ConfigStep::Pdo { pdo, .. } = step {
+            if !(1..=crate::pdo::params::MAX_PDOS).contains(pdo) {
+                return Err(MasterError::NoSuchPdo {
+                    node: cfg.node,
+                    pdo: *pdo,
+                });
+            }
+        }
+    }
+    Ok(())
+}
+
+impl<D: ObjectDictionary, P: IdProfile, const S: usize, const T: usize, const R: usize> Machine
+    for Master<D, P, S, T, R>
+{
     type Event = MasterEvent;
 
     fn handle_frame(&mut self, now: Instant, frame: &Frame) {

@@ -6,6 +6,7 @@ use duocan::master::{
     objects, ExpectedIdentity, Master, MasterEvent, MasterEventKind, NetworkConfig,
 };
 use duocan::od::{comm, Access, DynamicDictionary, ObjectDef};
+use duocan::pdo::params;
 use duocan::sim::{timing, BusConfig, BusId, DevId, SimNetwork, TraceRecord, TxOutcome};
 use duocan::{Duration, Frame, Id, Instant, Node, NodeConfig, NodeId, Station};
 use std::convert::Infallible;
@@ -16,7 +17,8 @@ pub type SlaveDev = Station<SinglePort, Node<DynamicDictionary>>;
 pub const MASTER_ID: NodeId = NodeId::must(1);
 pub const VENDOR: u32 = 0x0000_0A5E;
 pub const DEVICE_TYPE: u32 = 0x0001_0191;
-/// Application entries every test slave has: 0x2000 sub 1–3, UNSIGNED16 rw.
+/// Application entries every test slave has: 0x2000 sub 1–3, UNSIGNED16 rw, mappable; and TPDO1
+/// (0x1800/0x1A00).
 pub const APP: u16 = 0x2000;
 
 /// What slave `id` is.
@@ -47,11 +49,21 @@ pub fn slave_node(id: u8, identity: comm::Identity) -> Node<DynamicDictionary> {
     let mut od = comm::standard_dictionary(id, identity);
     od.insert_all(&[
         ObjectDef::u8(APP, 0, Access::Const, 3),
-        ObjectDef::u16(APP, 1, Access::Rw, 0),
-        ObjectDef::u16(APP, 2, Access::Rw, 0),
-        ObjectDef::u16(APP, 3, Access::Rw, 0),
+        ObjectDef::u16(APP, 1, Access::Rw, 0).mappable(),
+        ObjectDef::u16(APP, 2, Access::Rw, 0).mappable(),
+        ObjectDef::u16(APP, 3, Access::Rw, 0).mappable(),
     ])
     .unwrap();
+    // TPDO1 on its predefined identifier, event-driven, nothing mapped yet.
+    od.insert_all(&params::tpdo_comm(
+        1,
+        params::predefined_tpdo_cob(1),
+        255,
+        0,
+        0,
+    ))
+    .unwrap();
+    od.insert_all(&params::tpdo_mapping::<9>(1, &[])).unwrap();
     Node::new(NodeConfig::slave(NodeId::must(id)), od)
 }
 
