@@ -434,13 +434,17 @@ impl<D: ObjectDictionary, P: IdProfile, const S: usize, const T: usize, const R:
         }
     }
 
-    pub(super) fn stand_by(&mut self) {
+    pub(super) fn stand_by(&mut self, now: Instant) {
         self.network = Network::Idle;
         self.waiting.clear();
         let assigned: heapless::Vec<NodeId, 127> = self.assigned().collect();
         for s in self.slots.iter_mut() {
-            // A transfer under way ends by itself; its result is dropped (no abort frame: a
-            // standby sends nothing).
+            // Transfers under way are aborted now, the last frames this master sends for them:
+            // left to run, their timeouts would send the aborts later, from a standby. Their
+            // results are dropped.
+            if let Some(r) = s.request {
+                self.sdo.abort(now, r, AbortCode::GENERAL);
+            }
             s.process = None;
             s.restart = false;
             s.queued = false;

@@ -205,7 +205,7 @@ impl<D: ObjectDictionary, P: IdProfile, const S: usize, const T: usize, const R:
     /// Makes the master active (it manages the network) or standby (it observes). Becoming
     /// active resets nothing: operational and stopped slaves are adopted, pre-operational ones
     /// booted without a reset, silent ones probed. Becoming standby abandons the boot processes
-    /// (transfers under way end; their results are dropped) and stops SYNC and TIME production.
+    /// (transfers under way are aborted at once) and stops SYNC and TIME production.
     pub fn set_active(&mut self, now: Instant, active: bool) {
         if active == self.active {
             return;
@@ -217,7 +217,7 @@ impl<D: ObjectDictionary, P: IdProfile, const S: usize, const T: usize, const R:
             if active {
                 self.take_over(now);
             } else {
-                self.stand_by();
+                self.stand_by(now);
             }
         }
         self.pump(now);
