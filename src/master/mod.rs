@@ -31,6 +31,48 @@
 //!
 //! SDO accesses of the boot processes run on the client's sessions, one per slave; when all
 //! are taken, slaves wait in a bounded FIFO ([`MasterStats::jobs_queued`]).
+//!
+//! # Example
+//! A master and one slave on the simulated bus; the slave's start is left to the application
+//! (as a slave-pair supervisor does with the members of a pair).
+//!
+//! ```
+//! use duocan::master::{objects, BootPhase, Master, NetworkConfig, SlaveConfig};
+//! use duocan::master::StartPolicy;
+//! use duocan::od::comm;
+//! use duocan::sim::{BusConfig, SimNetwork};
+//! use duocan::{Instant, NmtState, Node, NodeConfig, NodeId, Station};
+//!
+//! let five = NodeId::must(5);
+//! let net = NetworkConfig::new().slave(
+//!     SlaveConfig::new(five)
+//!         .mandatory()
+//!         .heartbeat(100, 250)
+//!         .write_u32(0x1005, 0, 0x80)
+//!         .start(StartPolicy::Application),
+//! );
+//! let od = objects::master_dictionary(1, comm::Identity::default());
+//! let master = Master::new(NodeId::must(1), od, net).unwrap();
+//! let slave = Node::new(NodeConfig::slave(five), comm::standard_dictionary(5, Default::default()));
+//!
+//! let mut sim = SimNetwork::new(1);
+//! let bus = sim.add_bus(BusConfig::new("can0", 500_000));
+//! let m = sim.add_device("master", Station::single(master), &[bus]).unwrap();
+//! let s = sim.add_device("slave", Station::single(slave), &[bus]).unwrap();
+//! sim.device_mut(s).machine.boot(Instant::ZERO);
+//! sim.device_mut(m).machine.boot(Instant::ZERO);
+//! sim.run_until(Instant::from_millis(20));
+//!
+//! let view = sim.device(m).machine.slave(five);
+//! assert_eq!(view.phase, BootPhase::Ready);
+//! assert_eq!(view.state, Some(NmtState::PreOperational));
+//! assert!(sim.device(m).machine.network_started());
+//!
+//! let now = sim.now();
+//! sim.device_mut(m).machine.start_slave(now, five).unwrap();
+//! sim.run_until(Instant::from_millis(25));
+//! assert_eq!(sim.device(s).machine.nmt_state(), NmtState::Operational);
+//! ```
 
 mod boot;
 mod config;
