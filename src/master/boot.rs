@@ -11,6 +11,7 @@ use super::config::{ConfigStep, ExpectedIdentity, SlaveConfig};
 use crate::od::comm;
 use crate::pdo::{params::MAX_PDOS, AccessError, ConfigError, PdoConfigurator, SdoAccess};
 use crate::sdo::{SdoError, SdoErrorKind};
+use alloc::boxed::Box;
 use core::fmt;
 
 /// CiA 302-2 error status of the boot process: why a slave was not (or no longer is) booted.
@@ -236,8 +237,9 @@ pub(crate) enum Outcome {
 pub(crate) struct Process {
     step: Step,
     heartbeat: [u8; 2],
-    /// The configurator of the PDO step under way, and the access it asks for now.
-    pdo: Option<(PdoConfigurator, Option<SdoAccess>)>,
+    /// The configurator of the PDO step under way, and the access it asks for now (boxed: a
+    /// mapping of 64 entries is large, and most of the time no PDO step runs).
+    pdo: Option<Box<(PdoConfigurator, Option<SdoAccess>)>>,
 }
 
 fn expected(id: &ExpectedIdentity, sub: u8) -> u32 {
@@ -353,7 +355,7 @@ impl Process {
                 }
                 let job = PdoConfigurator::new(cfg.node, *dir, *pdo, (**config).clone());
                 let first = job.next();
-                self.pdo = Some((job, first));
+                self.pdo = Some(Box::new((job, first)));
             }
         }
         if self.step == Step::Done {
@@ -370,7 +372,7 @@ impl Process {
         id: &ExpectedIdentity,
         result: Result<&[u8], SdoError>,
     ) -> Outcome {
-        let Some((job, current)) = self.pdo.as_mut() else {
+        let Some((job, current)) = self.pdo.as_deref_mut() else {
             return self.advance(cfg, id);
         };
         // A refusal by the device is the configurator's to judge (its fallback); anything

@@ -619,7 +619,12 @@ impl<D: ObjectDictionary, P: IdProfile, const S: usize, const T: usize, const R:
                 break;
             };
             self.slot_mut(n).queued = false;
+            let counted = self.stats.jobs_queued;
             self.issue(now, n);
+            // Still waiting (its node busy with the application's transfer): the same wait.
+            if self.slot(n).queued {
+                self.stats.jobs_queued = counted;
+            }
         }
     }
 
