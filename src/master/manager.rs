@@ -5,11 +5,11 @@ use super::boot::{BootPhase, ErrorStatus, Outcome, Process};
 use super::config::{ExpectedIdentity, NmtStartup, SlaveConfig, StartPolicy};
 use super::events::{MasterError, MasterEventKind, NodeSet};
 use super::objects::{self, request, REQUEST_ALL};
-use super::{Master, NMT_QUEUE};
+use super::Master;
 use crate::abort::AbortCode;
 use crate::cob_id::NodeId;
 use crate::machine::Machine;
-use crate::nmt::{self, NmtCommand, NmtState, NmtTarget};
+use crate::nmt::{NmtCommand, NmtState, NmtTarget};
 use crate::node::{NodeEvent, NodeEventKind};
 use crate::od::{comm, ObjectDictionary};
 use crate::profile::IdProfile;
@@ -34,20 +34,20 @@ pub(super) enum Network {
 pub(super) struct Slot {
     pub(super) cfg: SlaveConfig,
     pub(super) phase: BootPhase,
-    process: Option<Process>,
+    pub(super) process: Option<Process>,
     /// The SDO request in flight to the node (of the running process, or of one dropped).
-    request: Option<RequestId>,
+    pub(super) request: Option<RequestId>,
     /// Begin the process once the request in flight ends.
-    restart: bool,
-    queued: bool,
-    probe_at: Option<Instant>,
-    wait_until: Option<Instant>,
+    pub(super) restart: bool,
+    pub(super) queued: bool,
+    pub(super) probe_at: Option<Instant>,
+    pub(super) wait_until: Option<Instant>,
     /// K watchdog: (configured at, first heartbeat due by).
-    hb_check: Option<(Instant, Instant)>,
+    pub(super) hb_check: Option<(Instant, Instant)>,
     /// Last NMT command that addressed the node: the state it leads to (`None`: a reset), when.
     pub(super) commanded: Option<(Option<NmtState>, Instant)>,
     pub(super) missing: bool,
-    missing_reported: bool,
+    pub(super) missing_reported: bool,
     pub(super) last_error: Option<ErrorStatus>,
     pub(super) boot_ups: u32,
 }
@@ -72,7 +72,7 @@ impl Slot {
         }
     }
 
-    fn deadline(&self) -> Option<Instant> {
+    pub(super) fn deadline(&self) -> Option<Instant> {
         earliest(
             earliest(self.probe_at, self.wait_until),
             self.hb_check.map(|(_, d)| d),
@@ -169,7 +169,7 @@ impl<D: ObjectDictionary, P: IdProfile, const S: usize, const T: usize, const R:
         }
     }
 
-    fn on_node_event(&mut self, e: NodeEvent) {
+    pub(super) fn on_node_event(&mut self, e: NodeEvent) {
         let now = e.at;
         self.emit(now, MasterEventKind::Node(e.kind));
         match e.kind {
@@ -213,7 +213,7 @@ impl<D: ObjectDictionary, P: IdProfile, const S: usize, const T: usize, const R:
         }
     }
 
-    fn on_sdo_event(&mut self, e: SdoEvent) {
+    pub(super) fn on_sdo_event(&mut self, e: SdoEvent) {
         let now = e.at;
         let n = e.node;
         let s = self.slot_mut(n);
@@ -243,7 +243,7 @@ impl<D: ObjectDictionary, P: IdProfile, const S: usize, const T: usize, const R:
         self.apply(now, n, out);
     }
 
-    fn on_boot_up(&mut self, now: Instant, n: NodeId) {
+    pub(super) fn on_boot_up(&mut self, now: Instant, n: NodeId) {
         let s = self.slot_mut(n);
         s.boot_ups = s.boot_ups.saturating_add(1);
         s.missing = false;
@@ -268,7 +268,7 @@ impl<D: ObjectDictionary, P: IdProfile, const S: usize, const T: usize, const R:
         }
     }
 
-    fn on_request_nmt(&mut self, now: Instant, sub: u8) {
+    pub(super) fn on_request_nmt(&mut self, now: Instant, sub: u8) {
         let value = self
             .node
             .od()
@@ -313,7 +313,7 @@ impl<D: ObjectDictionary, P: IdProfile, const S: usize, const T: usize, const R:
         }
     }
 
-    fn on_assignment(&mut self, now: Instant, n: NodeId) {
+    pub(super) fn on_assignment(&mut self, now: Instant, n: NodeId) {
         let a = self.assignment(n);
         if let Err(MasterError::Refused { code, .. }) = self.set_consumer(now, n, a.is_slave()) {
             self.emit(
@@ -339,7 +339,7 @@ impl<D: ObjectDictionary, P: IdProfile, const S: usize, const T: usize, const R:
 
     /// A write to 0x1005/0x1012 while standby must not make the master a producer: the wish is
     /// kept for when it becomes active.
-    fn on_producer_written(&mut self, now: Instant, index: u16) {
+    pub(super) fn on_producer_written(&mut self, now: Instant, index: u16) {
         let Some(v) = self.node.od().get_u32(index, 0) else {
             return;
         };
@@ -354,176 +354,6 @@ impl<D: ObjectDictionary, P: IdProfile, const S: usize, const T: usize, const R:
             match index {
                 comm::SYNC_COB_ID => self.produce_sync = on,
                 _ => self.produce_time = on,
-            }
-        }
-    }
-
-    // ----- the network -----
-
-    pub(super) fn boot_network(&mut self, now: Instant) {
-        let slaves: heapless::Vec<NodeId, 127> = self.assigned().collect();
-        let keep_alive = slaves.iter().any(|n| self.assignment(*n).is_keep_alive());
-        if keep_alive {
-            for n in &slaves {
-                if !self.assignment(*n).is_keep_alive() {
-                    let _ = self.send_nmt(now, NmtCommand::ResetCommunication, (*n).into());
-                }
-            }
-        } else if !slaves.is_empty() {
-            let _ = self.send_nmt(now, NmtCommand::ResetCommunication, NmtTarget::All);
-        }
-        for n in slaves {
-            let wait = Duration::from_millis(self.consumer_ms(n) as u64);
-            let probe = self.probe_after(now);
-            let keep_alive = self.assignment(n).is_keep_alive();
-            let s = self.slot_mut(n);
-            if keep_alive {
-                s.phase = BootPhase::WaitState;
-                s.wait_until = Some(now + wait);
-            } else {
-                s.phase = BootPhase::WaitBootUp;
-                s.probe_at = probe;
-            }
-        }
-        let ms = self.node.od().get_u32(objects::BOOT_TIME, 0).unwrap_or(0);
-        self.network = Network::Booting {
-            deadline: (ms > 0).then(|| now + Duration::from_millis(ms as u64)),
-            reported: false,
-        };
-        self.check_network_start(now);
-    }
-
-    pub(super) fn take_over(&mut self, now: Instant) {
-        if !self.acting() {
-            return;
-        }
-        let slaves: heapless::Vec<NodeId, 127> = self.assigned().collect();
-        for n in slaves {
-            match self.view_state(n) {
-                Some(state @ (NmtState::Operational | NmtState::Stopped)) => {
-                    self.adopt(now, n, state)
-                }
-                Some(_) => self.begin(now, n),
-                None => {
-                    let s = self.slot_mut(n);
-                    s.phase = BootPhase::WaitBootUp;
-                    s.probe_at = Some(now);
-                }
-            }
-        }
-        let mandatory_booted = self
-            .assigned()
-            .filter(|n| self.assignment(*n).is_mandatory())
-            .all(|n| self.slot(n).phase.is_booted());
-        if mandatory_booted {
-            self.network = Network::Started;
-            self.self_start(now);
-            self.emit(
-                now,
-                MasterEventKind::NetworkStarted {
-                    broadcast: false,
-                    takeover: true,
-                },
-            );
-        } else {
-            let ms = self.node.od().get_u32(objects::BOOT_TIME, 0).unwrap_or(0);
-            self.network = Network::Booting {
-                deadline: (ms > 0).then(|| now + Duration::from_millis(ms as u64)),
-                reported: false,
-            };
-        }
-    }
-
-    pub(super) fn stand_by(&mut self, now: Instant) {
-        self.network = Network::Idle;
-        self.waiting.clear();
-        let assigned: heapless::Vec<NodeId, 127> = self.assigned().collect();
-        for s in self.slots.iter_mut() {
-            // Transfers under way are aborted now, the last frames this master sends for them:
-            // left to run, their timeouts would send the aborts later, from a standby. Their
-            // results are dropped.
-            if let Some(r) = s.request {
-                self.sdo.abort(now, r, AbortCode::GENERAL);
-            }
-            s.process = None;
-            s.restart = false;
-            s.queued = false;
-            s.probe_at = None;
-            s.wait_until = None;
-            s.hb_check = None;
-        }
-        for n in assigned {
-            self.slot_mut(n).phase = BootPhase::Observed;
-        }
-    }
-
-    fn check_network_start(&mut self, now: Instant) {
-        if !matches!(self.network, Network::Booting { .. }) || !self.acting() {
-            return;
-        }
-        let ready = self
-            .assigned()
-            .filter(|n| self.assignment(*n).is_mandatory())
-            .all(|n| self.slot(n).phase.is_booted());
-        if ready {
-            self.start_network_now(now);
-        }
-    }
-
-    pub(super) fn start_network_now(&mut self, now: Instant) {
-        self.network = Network::Started;
-        self.self_start(now);
-        let startup = self.startup();
-        let waiting: heapless::Vec<NodeId, 127> = self
-            .assigned()
-            .filter(|n| self.slot(*n).phase == BootPhase::WaitStart)
-            .collect();
-        // One broadcast only when it cannot start a slave that is not configured (being
-        // configured, failed, or left to the application).
-        let broadcast = !startup.has(NmtStartup::NO_SLAVE_START)
-            && startup.has(NmtStartup::START_ALL)
-            && !waiting.is_empty()
-            && self.assigned().all(|n| {
-                let s = self.slot(n);
-                s.cfg.start == StartPolicy::Auto
-                    && matches!(
-                        s.phase,
-                        BootPhase::WaitStart
-                            | BootPhase::Started
-                            | BootPhase::Adopted
-                            | BootPhase::WaitBootUp
-                    )
-            });
-        self.emit(
-            now,
-            MasterEventKind::NetworkStarted {
-                broadcast,
-                takeover: false,
-            },
-        );
-        if startup.has(NmtStartup::NO_SLAVE_START) {
-            for n in waiting {
-                self.slot_mut(n).phase = BootPhase::Ready;
-            }
-        } else if broadcast {
-            if self
-                .send_nmt(now, NmtCommand::Start, NmtTarget::All)
-                .is_ok()
-            {
-                for n in waiting {
-                    self.slot_mut(n).phase = BootPhase::Started;
-                    self.emit(
-                        now,
-                        MasterEventKind::SlaveStarted {
-                            node: n,
-                            broadcast: true,
-                        },
-                    );
-                }
-            }
-        } else {
-            for n in waiting {
-                self.start_one(now, n);
             }
         }
     }
@@ -550,7 +380,7 @@ impl<D: ObjectDictionary, P: IdProfile, const S: usize, const T: usize, const R:
 
     /// Drops whatever runs for `n`: its process, its place in the session queue, its timers.
     /// A transfer in flight ends by itself (its result is dropped).
-    fn cancel(&mut self, n: NodeId) {
+    pub(super) fn cancel(&mut self, n: NodeId) {
         let s = self.slot_mut(n);
         s.process = None;
         s.restart = false;
@@ -563,7 +393,7 @@ impl<D: ObjectDictionary, P: IdProfile, const S: usize, const T: usize, const R:
     }
 
     /// Starts the current access of `n`'s process, or queues `n` for a session.
-    fn issue(&mut self, now: Instant, n: NodeId) {
+    pub(super) fn issue(&mut self, now: Instant, n: NodeId) {
         let opts = SdoOptions {
             timeout: self.sdo_timeout,
             ..SdoOptions::default()
@@ -611,7 +441,7 @@ impl<D: ObjectDictionary, P: IdProfile, const S: usize, const T: usize, const R:
     }
 
     /// Gives waiting slaves the sessions that became free, in arrival order.
-    fn dispatch(&mut self, now: Instant) {
+    pub(super) fn dispatch(&mut self, now: Instant) {
         let mut tries = self.waiting.len();
         while tries > 0 && self.sdo.in_flight() < S {
             tries -= 1;
@@ -628,7 +458,7 @@ impl<D: ObjectDictionary, P: IdProfile, const S: usize, const T: usize, const R:
         }
     }
 
-    fn apply(&mut self, now: Instant, n: NodeId, out: Outcome) {
+    pub(super) fn apply(&mut self, now: Instant, n: NodeId, out: Outcome) {
         match out {
             Outcome::Continue => self.issue(now, n),
             Outcome::Done => {
@@ -694,14 +524,14 @@ impl<D: ObjectDictionary, P: IdProfile, const S: usize, const T: usize, const R:
         }
     }
 
-    fn fail(&mut self, n: NodeId, status: ErrorStatus) {
+    pub(super) fn fail(&mut self, n: NodeId, status: ErrorStatus) {
         let s = self.slot_mut(n);
         s.process = None;
         s.phase = BootPhase::Failed(status);
         s.last_error = Some(status);
     }
 
-    fn configured(&mut self, now: Instant, n: NodeId) {
+    pub(super) fn configured(&mut self, now: Instant, n: NodeId) {
         let a = self.assignment(n);
         if a.guard_time_ms() > 0 {
             self.node.guard_node(
@@ -753,7 +583,7 @@ impl<D: ObjectDictionary, P: IdProfile, const S: usize, const T: usize, const R:
         self.check_network_start(now);
     }
 
-    fn start_one(&mut self, now: Instant, n: NodeId) {
+    pub(super) fn start_one(&mut self, now: Instant, n: NodeId) {
         if self.send_nmt(now, NmtCommand::Start, n.into()).is_ok() {
             self.slot_mut(n).phase = BootPhase::Started;
             self.emit(
@@ -766,13 +596,13 @@ impl<D: ObjectDictionary, P: IdProfile, const S: usize, const T: usize, const R:
         }
     }
 
-    fn adopt(&mut self, now: Instant, n: NodeId, state: NmtState) {
+    pub(super) fn adopt(&mut self, now: Instant, n: NodeId, state: NmtState) {
         self.cancel(n);
         self.slot_mut(n).phase = BootPhase::Adopted;
         self.emit(now, MasterEventKind::SlaveAdopted { node: n, state });
     }
 
-    fn decide_keep_alive(&mut self, now: Instant, n: NodeId) {
+    pub(super) fn decide_keep_alive(&mut self, now: Instant, n: NodeId) {
         self.slot_mut(n).wait_until = None;
         if !self.acting() {
             return;
@@ -785,7 +615,7 @@ impl<D: ObjectDictionary, P: IdProfile, const S: usize, const T: usize, const R:
     }
 
     /// Error control lost `n` (E, F, K).
-    fn error_control(&mut self, now: Instant, n: NodeId, status: ErrorStatus) {
+    pub(super) fn error_control(&mut self, now: Instant, n: NodeId, status: ErrorStatus) {
         let a = self.assignment(n);
         let phase = self.slot(n).phase;
         // Only a slave whose error control was started counts (a standby cannot tell, so it
@@ -817,81 +647,10 @@ impl<D: ObjectDictionary, P: IdProfile, const S: usize, const T: usize, const R:
         }
     }
 
-    // ----- NMT -----
-
-    /// Sends a command and makes the boot processes follow it.
-    pub(super) fn command(
-        &mut self,
-        now: Instant,
-        cmd: NmtCommand,
-        target: NmtTarget,
-    ) -> Result<(), MasterError> {
-        self.send_nmt(now, cmd, target)?;
-        let nodes: heapless::Vec<NodeId, 127> =
-            self.assigned().filter(|n| target.includes(*n)).collect();
-        for n in nodes {
-            match cmd {
-                NmtCommand::Start => {
-                    if matches!(self.slot(n).phase, BootPhase::WaitStart | BootPhase::Ready) {
-                        self.slot_mut(n).phase = BootPhase::Started;
-                        self.emit(
-                            now,
-                            MasterEventKind::SlaveStarted {
-                                node: n,
-                                broadcast: target == NmtTarget::All,
-                            },
-                        );
-                    }
-                }
-                NmtCommand::ResetNode | NmtCommand::ResetCommunication => {
-                    self.cancel(n);
-                    let probe = self.probe_after(now);
-                    let s = self.slot_mut(n);
-                    s.phase = BootPhase::WaitBootUp;
-                    s.probe_at = probe;
-                }
-                NmtCommand::Stop | NmtCommand::EnterPreOperational => {}
-            }
-        }
-        Ok(())
-    }
-
-    /// Queues the frame and records what the addressed nodes are expected to be.
-    fn send_nmt(
-        &mut self,
-        now: Instant,
-        cmd: NmtCommand,
-        target: NmtTarget,
-    ) -> Result<(), MasterError> {
-        if self.nmt_out.len() >= NMT_QUEUE {
-            self.stats.nmt_dropped += 1;
-            return Err(MasterError::QueueFull);
-        }
-        let frame = nmt::command_frame(self.node.profile().nmt(), cmd, target);
-        self.nmt_out.push_back(frame);
-        self.stats.nmt_sent += 1;
-        self.note_command(now, cmd, target);
-        Ok(())
-    }
-
-    fn note_command(&mut self, now: Instant, cmd: NmtCommand, target: NmtTarget) {
-        let state = match cmd {
-            NmtCommand::ResetNode | NmtCommand::ResetCommunication => None,
-            c => Some(c.resulting_state()),
-        };
-        for i in 1..=127u8 {
-            let Some(n) = NodeId::new(i) else { continue };
-            if target.includes(n) && n != self.node.id() {
-                self.slot_mut(n).commanded = Some((state, now));
-                self.refresh(n);
-            }
-        }
-    }
-
     // ----- helpers -----
 
     /// Stores `n`'s state as 0x1F82 sub n reads it.
-    fn refresh(&mut self, n: NodeId) {
+    pub(super) fn refresh(&mut self, n: NodeId) {
         let code = self.slave(n).request_nmt_code();
         let _ = self
             .node
@@ -899,7 +658,7 @@ impl<D: ObjectDictionary, P: IdProfile, const S: usize, const T: usize, const R:
             .store(objects::REQUEST_NMT, n.raw(), &[code]);
     }
 
-    fn expected_identity(&self, n: NodeId) -> ExpectedIdentity {
+    pub(super) fn expected_identity(&self, n: NodeId) -> ExpectedIdentity {
         let od = self.node.od();
         let get = |index| od.get_u32(index, n.raw()).unwrap_or(0);
         ExpectedIdentity {
@@ -911,14 +670,14 @@ impl<D: ObjectDictionary, P: IdProfile, const S: usize, const T: usize, const R:
         }
     }
 
-    fn consumer_ms(&self, n: NodeId) -> u16 {
+    pub(super) fn consumer_ms(&self, n: NodeId) -> u16 {
         match self.slot(n).cfg.heartbeat_consumer_ms {
             0 => self.default_consumer_ms,
             ms => ms,
         }
     }
 
-    fn probe_after(&self, now: Instant) -> Option<Instant> {
+    pub(super) fn probe_after(&self, now: Instant) -> Option<Instant> {
         (!self.probe_interval.is_zero()).then(|| now + self.probe_interval)
     }
 

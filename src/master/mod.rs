@@ -78,6 +78,7 @@ mod boot;
 mod config;
 mod events;
 mod manager;
+mod network;
 pub mod objects;
 
 pub use boot::{BootError, BootPhase, ErrorStatus};
