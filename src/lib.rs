@@ -33,6 +33,8 @@ pub mod pdo;
 pub mod port;
 pub mod profile;
 pub mod queue;
+#[cfg(feature = "std")]
+pub mod report;
 #[cfg(feature = "tokio")]
 pub mod runtime;
 pub mod sdo;

@@ -1,7 +1,8 @@
 //! What the layer needs to know about a frame beyond its bytes: whose heartbeat it is, which
 //! node sent it, and which process-data function it carries. The predefined connection set is
-//! one implementation; a deployment-specific identifier scheme (such as the railway 29-bit
-//! profile) plugs in by implementing [`FrameClassifier`].
+//! one implementation; a deployment-specific identifier scheme plugs in by implementing
+//! [`FrameClassifier`], as the railway 29-bit profile
+//! ([`RailwayProfile`](duocan::profile::railway::RailwayProfile)) does here.
 
 use duocan::cob_id::predefined::{self, Function};
 use duocan::profile::{IdProfile, Predefined, ProfileFrame};
@@ -19,6 +20,13 @@ pub trait FrameClassifier {
     /// two members of a pair with the same function key carry the same function and are merged
     /// into one stream.
     fn function(&self, frame: &Frame) -> Option<(NodeId, u32)>;
+    /// Whether two frames of one function, one from each member of a pair, carry the same
+    /// value (otherwise a discrepancy is timed). By default: the same bytes. A scheme whose
+    /// payload holds something member-specific (the railway CRC covers the sender's address)
+    /// compares the value only.
+    fn same_value(&self, a: &Frame, b: &Frame) -> bool {
+        a.data() == b.data()
+    }
 }
 
 /// The predefined connection set: heartbeat 0x700+n; senders from EMCY 0x80+n, TPDO1–4,
@@ -95,7 +103,13 @@ impl<C: FrameClassifier + ?Sized> FrameClassifier for &C {
     fn function(&self, frame: &Frame) -> Option<(NodeId, u32)> {
         (**self).function(frame)
     }
+    fn same_value(&self, a: &Frame, b: &Frame) -> bool {
+        (**self).same_value(a, b)
+    }
 }
+
+mod railway;
+pub use railway::state_function;
 
 #[cfg(test)]
 mod tests {

@@ -307,9 +307,12 @@ impl<C: FrameClassifier, const N: usize> BusLink for DualBus<C, N> {
         }
         if !self.pairs.is_empty() {
             if let Some((node, function)) = self.classifier.function(frame) {
+                let classifier = &self.classifier;
                 if self
                     .pairs
-                    .on_frame(now, node, function, frame, &mut self.out)
+                    .on_frame_by(now, node, function, frame, &mut self.out, |a, b| {
+                        classifier.same_value(a, b)
+                    })
                     == PairVerdict::Standby
                 {
                     self.stats.standby += 1;

@@ -228,7 +228,8 @@ impl SameFunction {
         self.dropped_values
     }
 
-    /// A delivered frame carrying `function` of `node`.
+    /// A delivered frame carrying `function` of `node`; A and B values compared byte for byte.
+    #[cfg(test)]
     pub(crate) fn on_frame(
         &mut self,
         now: Instant,
@@ -236,6 +237,20 @@ impl SameFunction {
         function: u32,
         frame: &Frame,
         out: &mut Outbox,
+    ) -> PairVerdict {
+        self.on_frame_by(now, node, function, frame, out, |a, b| a.data() == b.data())
+    }
+
+    /// A delivered frame carrying `function` of `node`; `same` tells whether A's and B's
+    /// latest frames carry the same value.
+    pub(crate) fn on_frame_by(
+        &mut self,
+        now: Instant,
+        node: NodeId,
+        function: u32,
+        frame: &Frame,
+        out: &mut Outbox,
+        same: impl Fn(&Frame, &Frame) -> bool,
     ) -> PairVerdict {
         let Some((pair, member)) = self.member_of(node) else {
             return PairVerdict::NotPaired;
@@ -272,7 +287,7 @@ impl SameFunction {
         };
         v.latest[member.index()] = Some((now, *frame));
         let differ = match v.latest {
-            [Some((_, a)), Some((_, b))] => a.dlc() != b.dlc() || a.data() != b.data(),
+            [Some((_, a)), Some((_, b))] => !same(&a, &b),
             _ => false,
         };
         match (differ, v.differ_since) {

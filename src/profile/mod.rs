@@ -3,7 +3,9 @@
 //! SYNC, TIME, EMCY COB-IDs) is read from the dictionary instead.
 //!
 //! The stack only ever asks a profile; the predefined connection set is one implementation and a
-//! deployment-specific scheme (such as the railway 29-bit layout) is another.
+//! deployment-specific scheme ([`railway`], the seed's 29-bit layout) is another.
+
+pub mod railway;
 
 use crate::cob_id::{predefined, NodeId};
 use crate::frame::Id;
