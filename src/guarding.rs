@@ -2,6 +2,9 @@
 //! guarding (the slave notices the master's silence after guard time × life time factor).
 //!
 //! The seed's redundant design has both masters guard every slave, so both sides are complete.
+//! The slave toggles its answer bit at every request, whoever sent it, so a master that guards
+//! beside another one counts the other's requests it observes on the bus
+//! ([`GuardMaster::observed_request`]) and checks every answer in the order the slave gave them.
 
 use crate::cob_id::NodeId;
 use crate::nmt::NmtState;
@@ -106,10 +109,17 @@ struct Guarded {
     life_time: Duration,
     next_poll: Instant,
     deadline: Instant,
-    awaiting: bool,
+    /// Requests (own and observed) not answered yet.
+    awaiting: u8,
     expect_toggle: bool,
+    /// The toggle expected is known: the node booted while guarded, or answered once.
+    synced: bool,
     lost: bool,
 }
+
+/// Outstanding requests counted at most: a lost answer must not make later frames on the
+/// identifier (heartbeats share it) count as answers for long.
+const MAX_OUTSTANDING: u8 = 2;
 
 /// The master side: polls up to `N` nodes with remote frames and checks the answers.
 #[derive(Clone, Debug)]
@@ -133,9 +143,19 @@ impl<const N: usize> GuardMaster<N> {
 
     /// Starts (or re-times) guarding `node`: first request at `now`, then every `guard_time`;
     /// timeout after `guard_time × factor` without a valid answer. Returns false when full.
+    ///
+    /// A node guarded already keeps its toggle expectation (the slave's toggle runs on). A node
+    /// not guarded before may have answered other masters: its first answer sets the toggle
+    /// expected next, unless its boot-up is seen first (then the first answer must carry 0).
     pub fn guard(&mut self, now: Instant, node: NodeId, guard_time: Duration, factor: u8) -> bool {
-        self.unguard(node);
         let life_time = guard_time.saturating_mul(factor.max(1) as u64);
+        if let Some(g) = self.nodes.iter_mut().find(|g| g.node == node) {
+            g.guard_time = guard_time;
+            g.life_time = life_time;
+            g.next_poll = now;
+            g.deadline = now + life_time;
+            return true;
+        }
         self.nodes
             .push(Guarded {
                 node,
@@ -143,8 +163,9 @@ impl<const N: usize> GuardMaster<N> {
                 life_time,
                 next_poll: now,
                 deadline: now + life_time,
-                awaiting: false,
+                awaiting: 0,
                 expect_toggle: false,
+                synced: false,
                 lost: false,
             })
             .is_ok()
@@ -159,6 +180,21 @@ impl<const N: usize> GuardMaster<N> {
     pub fn booted(&mut self, node: NodeId) {
         if let Some(g) = self.nodes.iter_mut().find(|g| g.node == node) {
             g.expect_toggle = false;
+            g.synced = true;
+            g.awaiting = 0;
+        }
+    }
+
+    /// Another master's guarding request for `node` was seen on the bus: the slave's next
+    /// answer is to it, and toggles the bit like an answer to this master. Returns false if
+    /// `node` is not guarded here.
+    pub fn observed_request(&mut self, node: NodeId) -> bool {
+        match self.nodes.iter_mut().find(|g| g.node == node) {
+            Some(g) => {
+                g.awaiting = (g.awaiting + 1).min(MAX_OUTSTANDING);
+                true
+            }
+            None => false,
         }
     }
 
@@ -175,10 +211,14 @@ impl<const N: usize> GuardMaster<N> {
         let Some(g) = self.nodes.iter_mut().find(|g| g.node == node) else {
             return;
         };
-        if !g.awaiting {
+        if g.awaiting == 0 {
             return;
         }
-        g.awaiting = false;
+        g.awaiting -= 1;
+        if !g.synced {
+            g.synced = true;
+            g.expect_toggle = toggle;
+        }
         if toggle != g.expect_toggle {
             out(GuardEvent::ToggleError {
                 node,
@@ -224,7 +264,7 @@ impl<const N: usize> GuardMaster<N> {
             }
             if g.next_poll <= now {
                 request(g.node);
-                g.awaiting = true;
+                g.awaiting = (g.awaiting + 1).min(MAX_OUTSTANDING);
                 g.next_poll += g.guard_time.max(Duration::from_micros(1));
                 if g.next_poll <= now {
                     g.next_poll = now + g.guard_time;
@@ -322,5 +362,88 @@ mod tests {
         assert_eq!(m.poll_timeout(), Some(Instant::from_millis(201)));
         m.handle_timeout(Instant::from_millis(201), |n| reqs.push(n), |e| evs.push(e));
         assert_eq!(evs, [GuardEvent::Timeout { node: n }]);
+    }
+
+    #[test]
+    fn two_masters_guarding_one_slave_see_no_toggle_error() {
+        // Master X guards at 0, 100, 200 …; master Y at 50, 150, … and 160 (close to X's 200):
+        // the slave toggles at every request, X counts Y's requests it observes.
+        let n = NodeId::must(7);
+        let mut x: GuardMaster<4> = GuardMaster::new();
+        let mut slave = GuardSlave::default();
+        x.guard(Instant::ZERO, n, Duration::from_millis(100), 3);
+        let mut evs = Vec::new();
+        let mut t = 0;
+        let mut answered = 0;
+        for step in 0..40u64 {
+            let now = Instant::from_millis(step * 50);
+            if step % 2 == 0 {
+                let mut asked = false;
+                x.handle_timeout(now, |_| asked = true, |e| evs.push(e));
+                assert!(asked);
+            } else {
+                assert!(x.observed_request(n));
+            }
+            if step % 7 == 3 {
+                // Y asks again before the slave answered: two answers follow.
+                assert!(x.observed_request(n));
+                let (b, _) = slave.request(now, NmtState::Operational);
+                x.answer(now, n, NmtState::Operational, b & 0x80 != 0, |e| {
+                    evs.push(e)
+                });
+                answered += 1;
+            }
+            let (b, _) = slave.request(now, NmtState::Operational);
+            x.answer(now, n, NmtState::Operational, b & 0x80 != 0, |e| {
+                evs.push(e)
+            });
+            answered += 1;
+            t = step;
+        }
+        assert!(answered > 40 && t == 39);
+        assert!(
+            evs.iter().all(|e| matches!(e, GuardEvent::State { .. })),
+            "{evs:?}"
+        );
+        // A node X does not guard is not its business.
+        assert!(!x.observed_request(NodeId::must(8)));
+    }
+
+    #[test]
+    fn re_guarding_keeps_the_toggle_and_a_boot_up_resets_it() {
+        let n = NodeId::must(7);
+        let mut m: GuardMaster<4> = GuardMaster::new();
+        let mut slave = GuardSlave::default();
+        let mut evs = Vec::new();
+        m.guard(Instant::ZERO, n, Duration::from_millis(100), 3);
+        for k in 0..3u64 {
+            let now = Instant::from_millis(k * 100);
+            m.handle_timeout(now, |_| {}, |e| evs.push(e));
+            let (b, _) = slave.request(now, NmtState::Operational);
+            m.answer(now, n, NmtState::Operational, b & 0x80 != 0, |e| {
+                evs.push(e)
+            });
+            // Re-timed (a configuration run again): the slave's toggle runs on.
+            m.guard(now, n, Duration::from_millis(100), 3);
+        }
+        assert!(evs.iter().all(|e| matches!(e, GuardEvent::State { .. })));
+        // The slave reboots: its first answer carries 0, and 1 would be an error.
+        m.booted(n);
+        m.handle_timeout(Instant::from_millis(300), |_| {}, |e| evs.push(e));
+        evs.clear();
+        m.answer(
+            Instant::from_millis(301),
+            n,
+            NmtState::PreOperational,
+            true,
+            |e| evs.push(e),
+        );
+        assert_eq!(
+            evs,
+            [GuardEvent::ToggleError {
+                node: n,
+                expected: false
+            }]
+        );
     }
 }

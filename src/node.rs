@@ -1021,7 +1021,7 @@ impl<D: ObjectDictionary, P: IdProfile, const G: usize, const TPDOS: usize, cons
                     // Shared identifier: a remote frame here is a guarding request.
                     if n == self.id() {
                         self.guard_request(now, frame);
-                    } else {
+                    } else if !self.guard_master.observed_request(n) {
                         self.stats.unhandled += 1;
                     }
                 } else {
@@ -1032,7 +1032,10 @@ impl<D: ObjectDictionary, P: IdProfile, const G: usize, const TPDOS: usize, cons
                 if n == self.id() {
                     self.guard_request(now, frame);
                 } else if frame.is_remote() {
-                    self.stats.unhandled += 1;
+                    // Another master guarding a node this one guards too: the answer follows.
+                    if !self.guard_master.observed_request(n) {
+                        self.stats.unhandled += 1;
+                    }
                 } else {
                     self.error_control_received(now, n, frame);
                 }

@@ -276,3 +276,161 @@ fn demoted_master_goes_quiet_at_once() {
         }) == Some((t, false))
     );
 }
+
+/// Events of the master's own node (the pass-through), with their kinds.
+fn node_kinds(
+    log: &[(
+        Instant,
+        StationEvent<std::convert::Infallible, duocan::master::MasterEvent>,
+    )],
+) -> Vec<(Instant, NodeEventKind)> {
+    log.iter()
+        .filter_map(|(_, e)| match e {
+            StationEvent::Machine(duocan::master::MasterEvent {
+                at,
+                kind: K::Node(k),
+            }) => Some((*at, *k)),
+            _ => None,
+        })
+        .collect()
+}
+
+#[test]
+fn standby_guards_the_guarded_slaves_beside_the_active_master() {
+    // Slaves 2 and 3 without heartbeat, guarded every 100 ms with life time factor 3.
+    let guarded = |id: u8| SlaveConfig {
+        assignment: duocan::master::Assignment::slave().guarded(100, 3),
+        ..SlaveConfig::new(NodeId::must(id)).identity(expected(id))
+    };
+    let net = || NetworkConfig::new().slave(guarded(2)).slave(guarded(3));
+    let mut n = Net::new(BITRATE, master(net()), &[2, 3]);
+    let standby = n
+        .sim
+        .add_device(
+            "standby",
+            Station::single(master_with(STANDBY_ID, net().standby(), |_| {})),
+            &[n.bus],
+        )
+        .unwrap();
+    n.boot_master();
+    n.sim.device_mut(standby).machine.boot(Instant::ZERO);
+    for id in [2, 3] {
+        n.boot_slave_at(id, Instant::from_millis(5));
+    }
+    n.sim.run_until(Instant::from_millis(1_000));
+
+    // Both masters poll both slaves every 100 ms.
+    fn rtr(
+        sim: &duocan::sim::SimNetwork,
+        who: &str,
+        node: u16,
+        from: Instant,
+        to: Instant,
+    ) -> usize {
+        sent(sim)
+            .into_iter()
+            .filter(|(t, name, f)| {
+                name == who
+                    && f.is_remote()
+                    && f.id() == Id::Standard(0x700 + node)
+                    && *t >= from
+                    && *t < to
+            })
+            .count()
+    }
+    for who in ["master", "standby"] {
+        for node in [2, 3] {
+            let c = rtr(
+                &n.sim,
+                who,
+                node,
+                Instant::from_millis(200),
+                Instant::from_millis(1_000),
+            );
+            assert_eq!(c, 8, "{who} guarding {node}");
+        }
+    }
+    // The slaves answered every request of either master, toggling each time; neither master
+    // saw a toggle error.
+    for id in [2u16, 3] {
+        let answers: Vec<u8> = sent(&n.sim)
+            .into_iter()
+            .filter(|(_, name, f)| {
+                *name == format!("slave{id}")
+                    && !f.is_remote()
+                    && f.id() == Id::Standard(0x700 + id)
+            })
+            .map(|(_, _, f)| f.data()[0])
+            .skip(1) // the boot-up
+            .collect();
+        assert!(answers.len() >= 16, "{answers:?}");
+        for w in answers.windows(2) {
+            assert_ne!(w[0] & 0x80, w[1] & 0x80, "slave {id}: {answers:?}");
+        }
+    }
+    let toggle_errors = |log: &[(
+        Instant,
+        StationEvent<std::convert::Infallible, duocan::master::MasterEvent>,
+    )]| {
+        node_kinds(log)
+            .into_iter()
+            .filter(|(_, k)| matches!(k, NodeEventKind::GuardToggleError { .. }))
+            .count()
+    };
+    assert_eq!(toggle_errors(n.sim.events(n.master)), 0);
+    assert_eq!(toggle_errors(n.sim.events(standby)), 0);
+    // Besides its boot-up and heartbeat, the standby sent only guarding requests.
+    assert!(sent(&n.sim)
+        .into_iter()
+        .filter(|(_, name, _)| name == "standby")
+        .all(|(_, _, f)| f.id() == Id::Standard(0x710) || f.is_remote()));
+    assert_eq!(n.sim.device(standby).machine.stats().nmt_sent, 0);
+
+    // Slave 3 dies: both masters lose it (F) at their own life time after its last answer.
+    let dev3 = n.slave_dev(3);
+    n.sim
+        .at(Instant::from_millis(1_020), move |sim| sim.power_off(dev3));
+    n.sim.run_until(Instant::from_millis(1_450));
+    let last_answer = sent(&n.sim)
+        .into_iter()
+        .filter(|(t, name, f)| {
+            name == "slave3" && !f.is_remote() && *t < Instant::from_millis(1_020)
+        })
+        .map(|(t, _, _)| t)
+        .max()
+        .unwrap();
+    for log in [n.sim.events(n.master), n.sim.events(standby)] {
+        let lost = all(&master_events(log), |k| match k {
+            K::SlaveLost { node, status } if node.raw() == 3 => Some(*status),
+            _ => None,
+        });
+        assert_eq!(lost.len(), 1, "{lost:?}");
+        assert_eq!(lost[0].1, duocan::master::ErrorStatus::F);
+        // Life time 300 ms from the last valid answer each master took.
+        assert!(
+            lost[0].0 > last_answer + Duration::from_millis(200)
+                && lost[0].0 <= last_answer + Duration::from_millis(300),
+            "{} vs {}",
+            lost[0].0,
+            last_answer
+        );
+    }
+    assert!(n.sim.device(standby).machine.slave(NodeId::must(3)).missing);
+
+    // The active master dies; the standby takes over and guards on, without a toggle error and
+    // without touching the running slave.
+    let m = n.master;
+    n.sim.power_off(m);
+    n.sim.run_until(Instant::from_millis(1_500));
+    let t = n.sim.now();
+    n.sim.device_mut(standby).machine.set_active(t, true);
+    n.sim.run_until(Instant::from_millis(2_500));
+    assert_eq!(
+        rtr(&n.sim, "standby", 2, t, Instant::from_millis(2_500)),
+        10
+    );
+    assert_eq!(toggle_errors(n.sim.events(standby)), 0);
+    assert_eq!(n.slave(2).nmt_state(), NmtState::Operational);
+    assert!(nmt_frames(&n.sim).iter().all(|(at, _, _)| *at < t));
+    assert!(!n.sim.device(standby).machine.slave(NodeId::must(2)).missing);
+}

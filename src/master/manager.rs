@@ -48,6 +48,8 @@ pub(super) struct Slot {
     pub(super) commanded: Option<(Option<NmtState>, Instant)>,
     pub(super) missing: bool,
     pub(super) missing_reported: bool,
+    /// This master's node guards it (0x1F81 guard time), active or standby.
+    pub(super) guarded: bool,
     pub(super) last_error: Option<ErrorStatus>,
     pub(super) boot_ups: u32,
 }
@@ -67,6 +69,7 @@ impl Slot {
             commanded: None,
             missing: false,
             missing_reported: false,
+            guarded: false,
             last_error: None,
             boot_ups: 0,
         }
@@ -173,8 +176,12 @@ impl<D: ObjectDictionary, P: IdProfile, const S: usize, const T: usize, const R:
         let now = e.at;
         self.emit(now, MasterEventKind::Node(e.kind));
         match e.kind {
-            NodeEventKind::BootUp { node } => self.on_boot_up(now, node),
+            NodeEventKind::BootUp { node } => {
+                self.on_boot_up(now, node);
+                self.standby_guard(now, node);
+            }
             NodeEventKind::RemoteState { node, .. } => {
+                self.standby_guard(now, node);
                 self.refresh(node);
                 if self.slot(node).phase == BootPhase::WaitState {
                     self.decide_keep_alive(now, node);
@@ -324,6 +331,9 @@ impl<D: ObjectDictionary, P: IdProfile, const S: usize, const T: usize, const R:
         if !a.is_slave() {
             self.cancel(n);
             self.slot_mut(n).phase = BootPhase::Unassigned;
+            if core::mem::take(&mut self.slot_mut(n).guarded) {
+                self.node.unguard_node(n);
+            }
             return;
         }
         if self.slot(n).phase == BootPhase::Unassigned {
@@ -532,15 +542,7 @@ impl<D: ObjectDictionary, P: IdProfile, const S: usize, const T: usize, const R:
     }
 
     pub(super) fn configured(&mut self, now: Instant, n: NodeId) {
-        let a = self.assignment(n);
-        if a.guard_time_ms() > 0 {
-            self.node.guard_node(
-                now,
-                n,
-                Duration::from_millis(a.guard_time_ms() as u64),
-                a.retry_factor().max(1),
-            );
-        }
+        self.guard(now, n);
         let consumer = self.consumer_ms(n);
         let startup = self.startup();
         let beats = self
@@ -648,6 +650,26 @@ impl<D: ObjectDictionary, P: IdProfile, const S: usize, const T: usize, const R:
     }
 
     // ----- helpers -----
+
+    /// Starts (or re-times) node guarding of `n` if its 0x1F81 entry gives a guard time.
+    pub(super) fn guard(&mut self, now: Instant, n: NodeId) {
+        let a = self.assignment(n);
+        if !a.is_slave() || a.guard_time_ms() == 0 {
+            return;
+        }
+        let t = Duration::from_millis(a.guard_time_ms() as u64);
+        let guarded = self.node.guard_node(now, n, t, a.retry_factor().max(1));
+        self.slot_mut(n).guarded = guarded;
+    }
+
+    /// A standby guards the slaves it hears (redundancy: both masters guard, so that each
+    /// slave's life guarding sees both, and the standby knows who is alive before it takes
+    /// over). An active master starts guarding at the end of the boot process instead.
+    pub(super) fn standby_guard(&mut self, now: Instant, n: NodeId) {
+        if self.booted && !self.acting() && !self.slot(n).guarded {
+            self.guard(now, n);
+        }
+    }
 
     /// Stores `n`'s state as 0x1F82 sub n reads it.
     pub(super) fn refresh(&mut self, n: NodeId) {

@@ -25,7 +25,9 @@
 //! # Standby
 //! A standby master ([`Master::set_active`]) sends no NMT, no SDO, no SYNC and no TIME (it
 //! clears the producer bits of 0x1005/0x1012 while standby and restores them when active). It
-//! keeps tracking states from the traffic. Becoming active does not reset anything: slaves seen
+//! keeps tracking states from the traffic, produces its heartbeat, and guards the slaves whose
+//! 0x1F81 entry gives a guard time once it hears them (both masters of a redundant pair guard,
+//! each counting the other's requests so that the slave's toggle bit checks out). Becoming active does not reset anything: slaves seen
 //! operational (or stopped) are adopted as they are, pre-operational ones are booted (identity,
 //! configuration, start per policy), silent ones are probed.
 //!
@@ -269,6 +271,15 @@ impl<D: ObjectDictionary, P: IdProfile, const S: usize, const T: usize, const R:
     /// True if the master is active.
     pub fn is_active(&self) -> bool {
         self.active
+    }
+
+    /// Whether the master produces SYNC and TIME while active (bit 30 of 0x1005 and 0x1012
+    /// follows the role; the identifiers, period and time base stay as configured). What a
+    /// redundancy supervisor sets before the first takeover.
+    pub fn set_production(&mut self, now: Instant, sync: bool, time: bool) {
+        self.produce_sync = sync;
+        self.produce_time = time;
+        self.set_producers(now, self.active);
     }
 
     /// True if the network was started (every mandatory slave booted, or forced).
