@@ -181,7 +181,6 @@ impl<const N: usize> GuardMaster<N> {
         if let Some(g) = self.nodes.iter_mut().find(|g| g.node == node) {
             g.expect_toggle = false;
             g.synced = true;
-            g.awaiting = 0;
         }
     }
 

@@ -30,15 +30,24 @@
 //!   master-heartbeat timeout, multiple-master detection and conflict resolution after a
 //!   partition, planned hand-over;
 //! - the [audit trail](audit) of every role change, switch and toggle;
-//! - [`Supervisor`], the [`Machine`](duocan::Machine) composing them with the master node, and
-//!   [`SupervisedStation`], which runs it over a [`DualBus`] and tells the layer which pair
-//!   member is active; its [status](station::Status) prints as a table.
+//! - [`Supervisor`] (feature `alloc`), the [`Machine`](duocan::Machine) composing them with the
+//!   CiA 302-2 [`Master`](duocan::master::Master) of the root crate (boot, identity check and
+//!   configuration of every slave, NMT, active/standby), and [`SupervisedStation`], which runs it
+//!   over a [`DualBus`] and tells the layer which pair member is active; its
+//!   [status](station::Status) prints as a table;
+//! - [`LogicalNetwork`] (feature `alloc`), what the application holds per dual-bus network:
+//!   dictionary, SDO client access to any node, NMT, PDO values, one typed event stream, the
+//!   status table and the audit export, as a sans-IO [`Device`](duocan::Device) that the
+//!   simulator and the tokio runtime drive alike.
 //!
 //! Everything is bounded (fixed-capacity tables and queues, counted overflow) and builds for
-//! `no_std` targets.
+//! `no_std` targets; the supervisor needs `alloc` (as the root crate's master does).
 #![cfg_attr(not(feature = "std"), no_std)]
 #![warn(missing_docs)]
 #![forbid(unsafe_code)]
+
+#[cfg(feature = "alloc")]
+extern crate alloc;
 
 pub mod audit;
 pub mod channel;
@@ -49,11 +58,15 @@ pub mod events;
 pub mod flying_master;
 pub mod health;
 pub mod merge;
+#[cfg(feature = "alloc")]
+pub mod network;
 pub mod outbox;
 pub mod pairs;
 pub mod pairs_merge;
 pub mod reach;
+#[cfg(feature = "alloc")]
 pub mod station;
+#[cfg(feature = "alloc")]
 pub mod supervisor;
 
 pub use channel::{Cia3026Config, EcssConfig, EcssRole, ModeKind, NodeSet};
@@ -62,7 +75,13 @@ pub use dual_bus::{DualBus, DualBusConfig, LinkStats, Mode, DEFAULT_MERGE_SLOTS}
 pub use events::{LinkEvent, LinkEventKind, PortReason, SwitchReason};
 pub use health::{HealthConfig, PortState};
 pub use merge::{Merger, Verdict};
+#[cfg(feature = "alloc")]
+pub use network::{LogicalNetwork, NetworkError, NetworkEvent, NetworkEventKind};
 pub use outbox::{Outbox, EVENT_QUEUE, FRAME_QUEUE, REQUEST_QUEUE};
 pub use pairs_merge::{Member, PairId};
+#[cfg(feature = "alloc")]
 pub use station::SupervisedStation;
-pub use supervisor::{LinkCommand, Supervisor, SupervisorConfig, SupervisorEvent};
+#[cfg(feature = "alloc")]
+pub use supervisor::{
+    AddPairError, JoinRefusal, LinkCommand, Supervisor, SupervisorConfig, SupervisorEvent,
+};

@@ -8,10 +8,14 @@
 //!
 //! # Rules (redundancy.md §4)
 //!
-//! - **Joining.** A member's boot-up asks for its configuration ([`PairCommand::Configure`],
-//!   at least 0x1017); when [`PairSupervisor::configured`] reports success it is *joined*. The
-//!   first member of a pair to be configured becomes active and is started; the other stays
-//!   pre-operational as standby. A first start and a rejoin after a fault look the same.
+//! - **Joining.** A member's boot-up asks for its configuration ([`PairCommand::Configure`]:
+//!   the CiA 302-2 boot process of the master, identity check, configuration, at least 0x1017);
+//!   when [`PairSupervisor::configured`] reports success it is *joined*. The first member of a
+//!   pair to be configured becomes active and is started; the other stays pre-operational as
+//!   standby. A first start and a rejoin after a fault look the same. A failed configuration
+//!   resets the member (it boots and is configured again); a member that is not what the
+//!   configuration expects ([`PairSupervisor::rejected`]: wrong identity) is left alone, not
+//!   joined, until it boots again.
 //! - **Evaluation** is event-driven: every joined member has a deadline, its last heartbeat (or
 //!   its configuration, whichever is later) + the pair's consumer time. At the deadline exactly:
 //!   - active silent, standby alive → start the standby (it becomes active), reset the active;
@@ -39,10 +43,15 @@
 //!
 //! A supervisor in [`Authority::Command`] evaluates and commands. One in [`Authority::Shadow`]
 //! (the standby master, or an active one that suspects another active master) only follows:
-//! heartbeats and boot-ups keep the table and the deadlines up to date, and NMT commands of the
-//! active master seen on the bus ([`PairSupervisor::nmt_observed`]) move the roles. Switching to
-//! command evaluates at once what is due (a takeover acts on the shadow table without resetting
-//! anything that is alive).
+//! heartbeats and boot-ups keep the table and the deadlines up to date, NMT commands of the
+//! active master seen on the bus ([`PairSupervisor::nmt_observed`]) move the roles, and a member
+//! joins when the active master is seen to configure it
+//! ([`PairSupervisor::configuration_observed`]; or, for a table that cannot see that, at its
+//! first heartbeat after its boot-up, [`PairsConfig::shadow_join_on_heartbeat`]). One in
+//! [`Authority::Idle`] (no active master known yet, at power-on) records and follows commands but
+//! takes nobody's word for a configuration. Switching to command evaluates at once what is due (a
+//! takeover acts on the shadow table without resetting anything that is alive) and configures
+//! what nobody was seen to configure.
 
 use crate::pairs_merge::{Member, PairId, MAX_PAIRS};
 use core::fmt;
@@ -107,6 +116,12 @@ pub struct PairsConfig {
     /// A configured member not heard for this long after the table started (or after it was
     /// reset) is reported missing.
     pub boot_timeout: Duration,
+    /// A shadow table takes a member's first heartbeat after its boot-up as the sign that the
+    /// active master configured it (its heartbeat producer time is written last). Right for a
+    /// table that sees nothing else; wrong for boards that beat by default. The supervisor sees
+    /// the active master's SDO confirmations and clears this
+    /// ([`PairSupervisor::configuration_observed`]).
+    pub shadow_join_on_heartbeat: bool,
 }
 
 impl Default for PairsConfig {
@@ -116,6 +131,7 @@ impl Default for PairsConfig {
             adopt: true,
             holdoff: Duration::from_millis(200),
             boot_timeout: Duration::from_secs(5),
+            shadow_join_on_heartbeat: true,
         }
     }
 }
@@ -125,8 +141,12 @@ impl Default for PairsConfig {
 pub enum Authority {
     /// Evaluates and sends commands (the active master).
     Command,
-    /// Follows what is observed; sends nothing (a standby master).
+    /// Follows what is observed of an active master; sends nothing (a standby master).
     Shadow,
+    /// No active master is known (power-on detection and negotiation): records what it hears
+    /// and what commands it sees, takes nobody's word for a configuration, sends nothing. What
+    /// booted or was heard meanwhile is configured once this master commands.
+    Idle,
 }
 
 /// Where a member is in its life cycle, as the supervisor sees it.
@@ -173,6 +193,8 @@ pub struct MemberState {
     adopt_at: Option<Instant>,
     /// Silence deadline while joined.
     deadline: Option<Instant>,
+    /// Found not to be what the configuration expects; not adopted until it boots again.
+    rejected: bool,
 }
 
 impl MemberState {
@@ -188,6 +210,7 @@ impl MemberState {
             missing: false,
             adopt_at: None,
             deadline: None,
+            rejected: false,
         }
     }
     /// True if joined.
@@ -201,6 +224,10 @@ impl MemberState {
     /// Joined and not silent at `now`.
     pub fn alive_at(&self, now: Instant) -> bool {
         self.joined() && self.deadline.is_some_and(|d| d > now)
+    }
+    /// Its identity is not what the configuration expects: left out until it boots again.
+    pub fn is_rejected(&self) -> bool {
+        self.rejected
     }
 }
 
@@ -365,6 +392,8 @@ pub enum LossReason {
     Rebooted,
     /// Its configuration failed; it was reset.
     ConfigFailed,
+    /// It is not what the configuration expects (identity); it was left alone.
+    Rejected,
     /// A reset command for it was seen on the bus (shadow).
     ResetObserved,
 }
@@ -489,8 +518,8 @@ impl PairSupervisor {
         self.cfg = cfg;
     }
 
-    /// Adds a pair; its members are awaited from `now` (boot timeout).
-    pub fn add_pair(&mut self, now: Instant, spec: PairSpec) -> Result<PairId, PairsError> {
+    /// Whether [`PairSupervisor::add_pair`] would accept `spec`.
+    pub fn check(&self, spec: &PairSpec) -> Result<(), PairsError> {
         if spec.a == spec.b {
             return Err(PairsError::SameNode(spec.a));
         }
@@ -499,6 +528,15 @@ impl PairSupervisor {
                 return Err(PairsError::NodeTaken(n));
             }
         }
+        if self.pairs.is_full() {
+            return Err(PairsError::Full);
+        }
+        Ok(())
+    }
+
+    /// Adds a pair; its members are awaited from `now` (boot timeout).
+    pub fn add_pair(&mut self, now: Instant, spec: PairSpec) -> Result<PairId, PairsError> {
+        self.check(&spec)?;
         let p = self.pairs.len();
         self.pairs
             .push(PairState {
@@ -562,7 +600,7 @@ impl PairSupervisor {
             return;
         }
         self.authority = a;
-        if a == Authority::Shadow {
+        if a != Authority::Command {
             return;
         }
         for p in 0..self.pairs.len() {
@@ -610,6 +648,7 @@ impl PairSupervisor {
             s.deadline = None;
             s.adopt_at = None;
             s.missing = false;
+            s.rejected = false;
         }
         if was.phase == Phase::Joined {
             self.event(PairsEvent::Lost {
@@ -643,6 +682,7 @@ impl PairSupervisor {
         let p = pair.0 as usize;
         let consumer = self.pairs[p].spec.consumer_time;
         let shadow = self.authority == Authority::Shadow;
+        let on_heartbeat = shadow && self.cfg.shadow_join_on_heartbeat;
         let (adopt, holdoff) = (self.cfg.adopt, self.cfg.holdoff);
         let s = self.pairs[p].member_mut(m);
         let first_after_boot = s.nmt == Some(NmtState::Initialising);
@@ -657,11 +697,11 @@ impl PairSupervisor {
                 s.deadline = Some(now + consumer);
             }
             // The active master configured it (it beats now): joined as it says.
-            Phase::Configuring => join = shadow && first_after_boot,
+            Phase::Configuring => join = on_heartbeat && first_after_boot,
             // Heard while following: it is in the active master's network.
-            Phase::Waiting if shadow => join = true,
+            Phase::Waiting if shadow && !s.rejected => join = true,
             Phase::Waiting => {
-                if adopt && s.adopt_at.is_none() {
+                if adopt && !s.rejected && s.adopt_at.is_none() {
                     s.adopt_at = Some(now + holdoff);
                     adopt_at = s.adopt_at;
                 }
@@ -673,15 +713,15 @@ impl PairSupervisor {
         if let Some(t) = adopt_at {
             self.lower_next(t);
         }
-        if self.authority == Authority::Shadow {
+        if self.authority != Authority::Command {
             self.follow_state(now, p, m, state);
         }
     }
 
-    /// An NMT command seen on the bus (sent by another master). Followed in shadow; ignored
-    /// when commanding (a commander learns of another commander through the flying master).
+    /// An NMT command seen on the bus (sent by another master). Followed unless commanding (a
+    /// commander learns of another commander through the flying master).
     pub fn nmt_observed(&mut self, now: Instant, cmd: NmtCommand, target: u8) {
-        if self.authority != Authority::Shadow {
+        if self.authority == Authority::Command {
             return;
         }
         if target == 0 {
@@ -700,15 +740,25 @@ impl PairSupervisor {
         }
     }
 
-    /// The configuration of `node` finished (`ok`) or failed.
-    pub fn configured(&mut self, now: Instant, node: NodeId, ok: bool) {
-        let Some((pair, m)) = self.locate(node) else {
-            return;
-        };
-        let p = pair.0 as usize;
-        if self.pairs[p].member(m).phase != Phase::Configuring {
+    /// Another master was seen ending the configuration of `node` (its confirmation of the
+    /// heartbeat producer time, the last step): a member that booted joins the shadow table.
+    /// Ignored when commanding (this master's own configurations report through
+    /// [`PairSupervisor::configured`]) and for members not being configured.
+    pub fn configuration_observed(&mut self, now: Instant, node: NodeId) {
+        if self.authority == Authority::Command {
             return;
         }
+        if let Some((p, m)) = self.configuring(node) {
+            self.join(now, p, m);
+        }
+    }
+
+    /// The configuration of `node` finished (`ok`) or failed (it is reset, to boot and be
+    /// configured again). Ignored unless `node` is a pair member being configured.
+    pub fn configured(&mut self, now: Instant, node: NodeId, ok: bool) {
+        let Some((p, m)) = self.configuring(node) else {
+            return;
+        };
         if ok {
             return self.join(now, p, m);
         }
@@ -716,6 +766,32 @@ impl PairSupervisor {
         if self.authority == Authority::Command {
             self.nmt(NmtCommand::ResetNode, node);
         }
+    }
+
+    /// `node` is not what the configuration expects (its identity differs): it does not join
+    /// (a joined one leaves) and is not reset (a reset would not change what it is), nor adopted
+    /// when heard; its next boot-up is checked again. Ignored unless `node` is a pair member.
+    pub fn rejected(&mut self, now: Instant, node: NodeId) {
+        let Some((pair, m)) = self.locate(node) else {
+            return;
+        };
+        let p = pair.0 as usize;
+        if self.pairs[p].member(m).phase != Phase::Waiting {
+            self.leave(now, p, m, LossReason::Rejected);
+        }
+        self.pairs[p].member_mut(m).rejected = true;
+    }
+
+    /// True if `node` is a pair member whose configuration was asked for and has not ended.
+    pub fn is_configuring(&self, node: NodeId) -> bool {
+        self.configuring(node).is_some()
+    }
+
+    /// The pair index and member of `node` if it is being configured.
+    fn configuring(&self, node: NodeId) -> Option<(usize, Member)> {
+        let (pair, m) = self.locate(node)?;
+        let p = pair.0 as usize;
+        (self.pairs[p].member(m).phase == Phase::Configuring).then_some((p, m))
     }
 
     // ----- commands -----
@@ -879,7 +955,7 @@ impl PairSupervisor {
             member: m,
             node,
         });
-        if self.authority == Authority::Shadow {
+        if self.authority != Authority::Command {
             if nmt == Some(NmtState::Operational) && self.pairs[p].active.is_none() {
                 self.set_role(now, p, Some(m), RoleReason::Observed);
             }
@@ -915,7 +991,7 @@ impl PairSupervisor {
         if self.pairs[p].active == Some(m) {
             self.set_role(t, p, None, RoleReason::CommandObserved);
         }
-        if was_joined || reason == LossReason::ConfigFailed {
+        if was_joined || matches!(reason, LossReason::ConfigFailed | LossReason::Rejected) {
             self.event(PairsEvent::Lost {
                 at: t,
                 pair,

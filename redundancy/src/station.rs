@@ -6,7 +6,8 @@
 //! delivers the active member's process data from the instant the role changes), mirrors the
 //! supervisor's pairs into the layer, and records the layer's port changes, channel switches and
 //! toggles in the supervisor's audit trail. [`SupervisedStation::status`] is the snapshot the
-//! application prints: ports, master role, pairs, nodes.
+//! application prints: ports, master role, pairs, the other slaves, and the nodes heard on one
+//! bus only.
 
 use crate::dual_bus::DualBus;
 use crate::events::LinkEvent;
@@ -18,23 +19,41 @@ use crate::FrameClassifier;
 use core::fmt;
 use duocan::machine::{BusLink, Device, Machine, PortRequest, PortStatus, StationEvent};
 use duocan::od::ObjectDictionary;
-use duocan::profile::Predefined;
+use duocan::profile::{IdProfile, Predefined};
 use duocan::time::earliest;
 use duocan::{Frame, Instant};
 
-/// A redundant master on a dual bus.
-pub struct SupervisedStation<D, C = Predefined, const N: usize = { crate::DEFAULT_MERGE_SLOTS }> {
+/// A redundant master on a dual bus: `C` and `N` are the [`DualBus`]'s (frame classifier,
+/// merge slots), `P`, `S`, `T`, `R` the [`Supervisor`]'s.
+pub struct SupervisedStation<
+    D,
+    C = Predefined,
+    const N: usize = { crate::DEFAULT_MERGE_SLOTS },
+    P = Predefined,
+    const S: usize = 8,
+    const T: usize = 4,
+    const R: usize = 4,
+> {
     /// The dual-bus layer.
     pub link: DualBus<C, N>,
     /// The supervisor.
-    pub sup: Supervisor<D>,
+    pub sup: Supervisor<D, P, S, T, R>,
     now: Instant,
 }
 
-impl<D: ObjectDictionary, C: FrameClassifier, const N: usize> SupervisedStation<D, C, N> {
+impl<
+        D: ObjectDictionary,
+        C: FrameClassifier,
+        const N: usize,
+        P: IdProfile,
+        const S: usize,
+        const T: usize,
+        const R: usize,
+    > SupervisedStation<D, C, N, P, S, T, R>
+{
     /// Puts `sup` on `link`; the supervisor's pairs are configured in the layer (same
     /// identifiers), with no active member until the supervisor says so.
-    pub fn new(mut link: DualBus<C, N>, sup: Supervisor<D>) -> Result<Self, PairError> {
+    pub fn new(mut link: DualBus<C, N>, sup: Supervisor<D, P, S, T, R>) -> Result<Self, PairError> {
         for (id, p) in sup.pairs() {
             let got = link.add_pair(p.spec.a, p.spec.b, p.active)?;
             debug_assert_eq!(got, id);
@@ -49,7 +68,7 @@ impl<D: ObjectDictionary, C: FrameClassifier, const N: usize> SupervisedStation<
     }
 
     /// The status snapshot, printable as a table.
-    pub fn status(&self, now: Instant) -> Status<'_, D, C, N> {
+    pub fn status(&self, now: Instant) -> Status<'_, D, C, N, P, S, T, R> {
         Status { st: self, now }
     }
 
@@ -65,8 +84,15 @@ impl<D: ObjectDictionary, C: FrameClassifier, const N: usize> SupervisedStation<
     }
 }
 
-impl<D: ObjectDictionary, C: FrameClassifier, const N: usize> Device
-    for SupervisedStation<D, C, N>
+impl<
+        D: ObjectDictionary,
+        C: FrameClassifier,
+        const N: usize,
+        P: IdProfile,
+        const S: usize,
+        const T: usize,
+        const R: usize,
+    > Device for SupervisedStation<D, C, N, P, S, T, R>
 {
     type Event = StationEvent<LinkEvent, SupervisorEvent>;
 
@@ -115,8 +141,8 @@ impl<D: ObjectDictionary, C: FrameClassifier, const N: usize> Device
 }
 
 /// A snapshot of a supervised station; `Display` prints it as a table.
-pub struct Status<'a, D, C, const N: usize> {
-    st: &'a SupervisedStation<D, C, N>,
+pub struct Status<'a, D, C, const N: usize, P, const S: usize, const T: usize, const R: usize> {
+    st: &'a SupervisedStation<D, C, N, P, S, T, R>,
     now: Instant,
 }
 
@@ -128,7 +154,16 @@ fn member_word(m: Option<Member>) -> &'static str {
     }
 }
 
-impl<D: ObjectDictionary, C: FrameClassifier, const N: usize> fmt::Display for Status<'_, D, C, N> {
+impl<
+        D: ObjectDictionary,
+        C: FrameClassifier,
+        const N: usize,
+        P: IdProfile,
+        const S: usize,
+        const T: usize,
+        const R: usize,
+    > fmt::Display for Status<'_, D, C, N, P, S, T, R>
+{
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         let sup = &self.st.sup;
         let fm = sup.flying_master();
@@ -187,6 +222,7 @@ impl<D: ObjectDictionary, C: FrameClassifier, const N: usize> fmt::Display for S
                     },
                 );
                 let phase = match (s.phase, s.missing) {
+                    (Phase::Waiting, _) if s.is_rejected() => "rejected",
                     (Phase::Waiting, true) => "missing",
                     (ph, _) => match ph {
                         Phase::Waiting => "waiting",
@@ -204,15 +240,82 @@ impl<D: ObjectDictionary, C: FrameClassifier, const N: usize> fmt::Display for S
             }
             writeln!(f)?;
         }
+        let mut header = false;
+        for v in sup
+            .slaves()
+            .filter(|v| sup.pair_supervisor().locate(v.node).is_none())
+        {
+            if !header {
+                writeln!(f, "slave  state            boot phase   error")?;
+                header = true;
+            }
+            let state = Word(v.state.map(Shown::State).unwrap_or(Shown::Unknown));
+            let phase = Word(Shown::Phase(v.phase));
+            write!(f, "{:#04x}   {:<16} {:<12}", v.node.raw(), state, phase)?;
+            match (v.missing, v.last_error) {
+                (true, _) => writeln!(f, " missing")?,
+                (false, Some(e)) => writeln!(f, " {}", e.letter())?,
+                (false, None) => writeln!(f, " -")?,
+            }
+        }
         let others: usize = sup
             .node()
             .remotes()
             .filter(|(n, _)| sup.pair_supervisor().locate(*n).is_none())
+            .filter(|(n, _)| !sup.master().slave(*n).assignment.is_slave())
             .count();
         writeln!(f, "other nodes heard: {others}")?;
+        for (n, heard) in self.st.link.reach().iter() {
+            match heard {
+                [true, false] => writeln!(f, "node {:#04x} heard on bus 1 only", n.raw())?,
+                [false, true] => writeln!(f, "node {:#04x} heard on bus 2 only", n.raw())?,
+                _ => {}
+            }
+        }
         if let MasterRole::Standby(Some(r)) = fm.role() {
             writeln!(f, "following {}", r)?;
         }
         Ok(())
+    }
+}
+
+/// What a status cell shows.
+enum Shown {
+    Unknown,
+    State(duocan::NmtState),
+    Phase(duocan::master::BootPhase),
+}
+
+/// A cell padded like a string (`{:<16}`), written without allocating.
+struct Word(Shown);
+
+impl fmt::Display for Word {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        use duocan::master::BootPhase as B;
+        let mut s = heapless::String::<24>::new();
+        let _ = match &self.0 {
+            Shown::Unknown => fmt::write(&mut s, format_args!("unknown")),
+            Shown::State(n) => fmt::write(&mut s, format_args!("{n}")),
+            Shown::Phase(p) => fmt::write(
+                &mut s,
+                format_args!(
+                    "{}",
+                    match p {
+                        B::Unassigned => "unassigned",
+                        B::Observed => "observed",
+                        B::WaitBootUp => "wait boot-up",
+                        B::WaitState => "wait state",
+                        B::Identifying => "identifying",
+                        B::Configuring => "configuring",
+                        B::WaitStart => "wait start",
+                        B::Ready => "ready",
+                        B::Started => "started",
+                        B::Adopted => "adopted",
+                        B::Failed(_) => "failed",
+                    }
+                ),
+            ),
+        };
+        f.pad(s.as_str())
     }
 }

@@ -1,23 +1,44 @@
 //! The supervisor: a redundant master's brain on one logical bus.
 //!
-//! [`Supervisor`] is a [`Machine`] composing the master's [`Node`] (heartbeat, SYNC, TIME, NMT
-//! state of every node), an [`SdoClient`] for the configuration of joining slaves, the
+//! [`Supervisor`] is a [`Machine`] composing the CiA 302-2 [`Master`] (its node: heartbeat,
+//! SYNC, TIME, NMT state of every node; its SDO client; the boot process of every slave), the
 //! [`PairSupervisor`], the [`FlyingMaster`] and the [`AuditTrail`]:
 //!
-//! - **Active** (strong, or weak after a takeover): produces SYNC and TIME, commands the slaves
-//!   (pair supervision in [`Authority::Command`]), answers the flying-master requests.
-//! - **Standby** (hot): consumes SYNC and TIME, produces its own heartbeat, follows the pair table
-//!   from the heartbeats and the active master's NMT commands ([`Authority::Shadow`]), watches the
-//!   active master's heartbeat. At the timeout it takes over without resetting anything: the
-//!   shadow table becomes the commanding one, SYNC continues the grid it consumed (the first SYNC
-//!   comes at once if one is overdue, then on the old grid), TIME continues the time base it
-//!   consumed.
+//! - **Active** (strong, or weak after a takeover): the master is active
+//!   ([`Master::set_active`]): it produces SYNC and TIME, boots and configures slaves, and sends
+//!   the NMT commands of the pair supervision ([`Authority::Command`]); the flying master answers
+//!   the requests of other master-capable devices.
+//! - **Standby** (hot): the master observes: it consumes SYNC and TIME, produces its own
+//!   heartbeat, guards the slaves configured for guarding, follows every node's state; the pair
+//!   table follows the heartbeats and the active master's NMT commands
+//!   ([`Authority::Shadow`]); the flying master watches the active master's heartbeat. At the
+//!   timeout it takes over without resetting anything: the master adopts the running slaves and
+//!   re-checks the pre-operational ones, the shadow table becomes the commanding one, SYNC
+//!   continues the grid it consumed (the first SYNC comes at once if one is overdue, then on the
+//!   old grid), TIME continues the time base it consumed.
+//!
+//! # Pair members and the master
+//!
+//! Each member of a pair is a slave of the master ([`Supervisor::add_pair`]), assigned so that
+//! the supervisor decides about it: start left to the application
+//! ([`StartPolicy::Application`]), no boot process of the master's own accord (0x1F81 bit 2
+//! clear), neither mandatory nor keep-alive. Its boot-up makes the pair supervision ask for its
+//! configuration ([`PairCommand::Configure`]), which runs the master's boot process
+//! ([`Master::boot_slave`]: 0x1000/0x1018 checked against 0x1F84–0x1F88, the configuration
+//! steps, PDOs, the heartbeat producer time); [`MasterEventKind::SlaveConfigured`] makes it
+//! joined. A wrong identity or a failed configuration keeps it out, and
+//! [`SupervisorEvent::NotJoined`] says why. NMT commands go through the master
+//! ([`Master::nmt`]), so that its view of every slave follows them. Other slaves are plain
+//! slaves of the master ([`Supervisor::add_slave`], or the
+//! [`NetworkConfig`](duocan::master::NetworkConfig) the master was built with), booted and
+//! started by it.
 //!
 //! Which pair member is active must reach the dual-bus layer (same-function merge): the
 //! supervisor queues [`LinkCommand`]s, which [`SupervisedStation`](crate::station::SupervisedStation)
 //! forwards to its [`DualBus`](crate::DualBus) after every input.
 //!
 //! ```
+//! use duocan::master::{objects, Master, NetworkConfig};
 //! use duocan::od::comm;
 //! use duocan::sim::{BusConfig, SimNetwork};
 //! use duocan::{Duration, Instant, Node, NodeConfig, NodeId, Station};
@@ -28,10 +49,11 @@
 //! let mut sim = SimNetwork::new(1);
 //! let buses = [sim.add_bus(BusConfig::new("can1", 1_000_000)), sim.add_bus(BusConfig::new("can2", 1_000_000))];
 //! // A master alone (a weak peer, node 2, is declared but absent), one pair of boards.
-//! let node = Node::new(NodeConfig::master(NodeId::must(1)), comm::standard_dictionary(1, Default::default()));
+//! let od = objects::master_dictionary(1, comm::Identity::default());
+//! let master = Master::new(NodeId::must(1), od, NetworkConfig::new()).unwrap();
 //! let cfg = SupervisorConfig::new(0, NodeId::must(1), ms(20), ms(50), ms(10)).with_peer(1, NodeId::must(2));
-//! let mut sup = Supervisor::new(node, cfg, Instant::ZERO);
-//! sup.add_pair(Instant::ZERO, PairSpec::new(NodeId::must(0x10), NodeId::must(0x50), ms(20), ms(50))).unwrap();
+//! let mut sup = Supervisor::new(master, cfg, Instant::ZERO);
+//! sup.add_pair(Instant::ZERO, PairSpec::new(NodeId::must(0x10), NodeId::must(0x50), ms(20), ms(50)))?;
 //! let master = sim.add_device("master", SupervisedStation::new(DualBus::new(DualBusConfig::default()), sup).unwrap(), &buses)?;
 //! for id in [0x10, 0x50] {
 //!     let mut n = Node::new(NodeConfig::slave(NodeId::must(id)), comm::standard_dictionary(id, Default::default()));
@@ -45,10 +67,6 @@
 //! println!("{}", st.status(Instant::from_secs(1)));
 //! # Ok::<(), Box<dyn std::error::Error>>(())
 //! ```
-//!
-//! Until the CiA 302-2 boot process of the root crate is available, joining configures a slave
-//! with one SDO download of its heartbeat producer time (0x1017); the [`PairCommand::Configure`]
-//! requests are the hook where the master's configure process takes over.
 
 use crate::audit::{AuditEntry, AuditTrail};
 use crate::events::LinkEvent;
@@ -60,35 +78,36 @@ use crate::pairs::{
     PairsEvent,
 };
 use crate::pairs_merge::{Member, PairId};
+use alloc::collections::VecDeque;
 use core::fmt;
 use duocan::machine::Machine;
+use duocan::master::{
+    objects, Assignment, BootError, ErrorStatus, Master, MasterError as ManagerError, MasterEvent,
+    MasterEventKind, NmtStartup, SlaveConfig, SlaveView, StartPolicy,
+};
 use duocan::nmt::{self, NmtTarget};
 use duocan::node::{NodeEventKind, Writer};
 use duocan::od::{comm, ObjectDictionary};
+use duocan::profile::{IdProfile, Predefined, ProfileFrame};
 use duocan::queue::Bounded;
-use duocan::sdo::{RequestId, SdoClient, SdoOptions};
+use duocan::sdo::{DefaultBuffer, SdoClient, SdoEvent};
 use duocan::time::earliest;
 use duocan::time_stamp::TimeOfDay;
-use duocan::{Duration, Frame, Id, Instant, NmtCommand, NmtState, Node, NodeEvent, NodeId};
+use duocan::{Duration, Frame, Instant, NmtCommand, NmtState, Node, NodeEvent, NodeId};
 use heapless::Vec;
 
-/// Frames the supervisor itself can hold (NMT commands, flying-master frames).
-pub const TX_QUEUE: usize = 256;
+/// Flying-master frames the supervisor itself can hold.
+pub const TX_QUEUE: usize = 64;
 /// Events the supervisor can hold before the application drains them.
-pub const EVENT_QUEUE: usize = 256;
-/// Configurations that can wait for a free SDO session.
-pub const CONFIG_QUEUE: usize = 128;
-/// Configurations at once.
-const SDO_SESSIONS: usize = 8;
+pub const EVENT_QUEUE: usize = 1024;
 
-/// SYNC COB-ID as consumer / as producer.
-const SYNC_CONSUME: u32 = 0x0000_0080;
-const SYNC_PRODUCE: u32 = 0x4000_0080;
-/// TIME COB-ID as consumer / as producer.
-const TIME_CONSUME: u32 = 0x8000_0100;
-const TIME_PRODUCE: u32 = 0x4000_0100;
+/// 0x1012 bit 31: consume TIME; bit 30: produce it (the master sets it while active).
+const TIME_CONSUMER: u32 = 1 << 31;
+const TIME_PRODUCER: u32 = 1 << 30;
 
-/// How a supervisor is set up.
+/// How a supervisor is set up. The master's own settings (0x1F80, SDO timeout, probe
+/// interval, the slaves that are no pair members) are the
+/// [`NetworkConfig`](duocan::master::NetworkConfig) it was built with.
 #[derive(Clone, Debug, PartialEq, Eq)]
 pub struct SupervisorConfig {
     /// Flying-master timing, rank and policy (the node-ID is the rank's).
@@ -101,10 +120,8 @@ pub struct SupervisorConfig {
     pub heartbeat: Duration,
     /// SYNC period while active (zero: no SYNC).
     pub sync_period: Duration,
-    /// TIME period while active (zero: no periodic TIME).
+    /// TIME period while active (zero: TIME once at each takeover only).
     pub time_period: Duration,
-    /// SDO timeout of a configuration.
-    pub sdo_timeout: Duration,
 }
 
 impl SupervisorConfig {
@@ -120,11 +137,15 @@ impl SupervisorConfig {
         SupervisorConfig {
             flying: FlyingMasterConfig::new(priority, node, master_timeout),
             peers: Vec::new(),
-            pairs: PairsConfig::default(),
+            // The supervisor sees the active master's SDO confirmations: a board's own default
+            // heartbeat is no sign of its configuration.
+            pairs: PairsConfig {
+                shadow_join_on_heartbeat: false,
+                ..PairsConfig::default()
+            },
             heartbeat,
             sync_period,
             time_period: Duration::ZERO,
-            sdo_timeout: Duration::from_millis(100),
         }
     }
     /// With another master-capable device.
@@ -143,23 +164,80 @@ pub enum LinkCommand {
     Forget(PairId, Member),
 }
 
+/// Why a pair member did not join.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum JoinRefusal {
+    /// Its identity is not what 0x1F84–0x1F88 expect: it is left alone (not reset, not
+    /// adopted) until it boots again.
+    Identity {
+        /// C, D, M, N or O.
+        status: ErrorStatus,
+        /// The member's entry (0x1000 or 0x1018).
+        index: u16,
+        /// Its sub-index.
+        sub: u8,
+        /// What the master expects.
+        expected: u32,
+        /// What the member has.
+        actual: u32,
+    },
+    /// A step of its boot process failed: it is reset, to boot and be configured again.
+    Config {
+        /// The CiA 302-2 error status (B: no answer, J: a configuration write failed).
+        status: ErrorStatus,
+        /// Which access failed and how.
+        reason: BootError,
+    },
+    /// The master refused to run its boot process.
+    Master(ManagerError),
+}
+
+impl fmt::Display for JoinRefusal {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            JoinRefusal::Identity {
+                status,
+                index,
+                sub,
+                expected,
+                actual,
+            } => write!(
+                f,
+                "{status}: {index:#06x}sub{sub} is {actual:#010x}, expected {expected:#010x}; check the board or the expected identity"
+            ),
+            JoinRefusal::Config { status, reason } => write!(f, "{status}: {reason}"),
+            JoinRefusal::Master(e) => write!(f, "the master refused its boot process: {e}"),
+        }
+    }
+}
+
 /// What the supervisor tells the application.
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Debug, PartialEq)]
 pub enum SupervisorEvent {
-    /// From the master node (SYNC ticks and local writes are not forwarded; see the counters).
+    /// From the master's own node (SYNC ticks and local writes are not forwarded; see the
+    /// counters).
     Node(NodeEvent),
     /// From the pair supervision.
     Pairs(PairsEvent),
     /// From the flying master.
     Master(FlyingEvent),
-    /// A configuration failed (SDO).
-    ConfigFailed {
+    /// From the CiA 302-2 master: boot-ups, identity checks, configurations, starts, adoptions,
+    /// error control losses, request NMT, activation.
+    Manager(MasterEvent),
+    /// The result of an SDO transfer the application started ([`Supervisor::sdo_mut`]).
+    Sdo(SdoEvent),
+    /// A pair member was refused by the master's boot process and did not join.
+    NotJoined {
         /// When.
         at: Instant,
-        /// The node.
+        /// The pair.
+        pair: PairId,
+        /// The member.
+        member: Member,
+        /// Its node.
         node: NodeId,
-        /// The SDO error.
-        error: duocan::sdo::SdoError,
+        /// Why.
+        why: JoinRefusal,
     },
 }
 
@@ -170,16 +248,43 @@ pub struct SupervisorStats {
     pub sync_produced: u64,
     /// SYNC received.
     pub sync_received: u64,
-    /// NMT commands sent.
+    /// NMT commands of the pair supervision sent through the master.
     pub nmt_sent: u32,
-    /// NMT commands the pair supervision asked for while this master could not command.
+    /// NMT commands the pair supervision asked for while this master could not command (or
+    /// the master's queue was full).
     pub nmt_withheld: u32,
-    /// Configurations started.
+    /// Boot processes of pair members started on the pair supervision's request.
     pub configs: u32,
     /// Frames dropped because the driver did not drain them.
     pub tx_dropped: u32,
     /// Events dropped because the application did not drain them.
     pub events_dropped: u32,
+}
+
+/// Why a pair could not be added.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum AddPairError {
+    /// The pair table refused it.
+    Pairs(PairsError),
+    /// The master refused a member's slave configuration.
+    Master(NodeId, ManagerError),
+}
+
+impl core::error::Error for AddPairError {}
+
+impl fmt::Display for AddPairError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            AddPairError::Pairs(e) => write!(f, "{e}"),
+            AddPairError::Master(n, e) => write!(f, "pair member {n}: {e}"),
+        }
+    }
+}
+
+impl From<PairsError> for AddPairError {
+    fn from(e: PairsError) -> Self {
+        AddPairError::Pairs(e)
+    }
 }
 
 /// A planned hand-over or take-over, done between two SYNCs.
@@ -189,43 +294,61 @@ enum Planned {
     TakeOver,
 }
 
-/// A redundant master: node, configuration, pair supervision, flying master, audit trail.
-pub struct Supervisor<D> {
-    node: Node<D>,
-    sdo: SdoClient<duocan::sdo::DefaultBuffer, SDO_SESSIONS>,
+/// A redundant master: the CiA 302-2 master, pair supervision, flying master, audit trail.
+/// `P`, `S`, `T`, `R` are the [`Master`]'s: identifier profile, SDO sessions, TPDO and RPDO
+/// capacity.
+pub struct Supervisor<D, P = Predefined, const S: usize = 8, const T: usize = 4, const R: usize = 4>
+{
+    master: Master<D, P, S, T, R>,
     pairs: PairSupervisor,
     fm: FlyingMaster,
     audit: AuditTrail,
     cfg: SupervisorConfig,
     tx: Bounded<Frame, TX_QUEUE>,
-    events: Bounded<SupervisorEvent, EVENT_QUEUE>,
+    events: VecDeque<SupervisorEvent>,
+    events_dropped: u32,
     link: Bounded<LinkCommand, 256>,
-    to_configure: Bounded<(NodeId, Duration), CONFIG_QUEUE>,
-    configuring: Vec<(RequestId, NodeId), SDO_SESSIONS>,
     /// Last SYNC produced or received (the grid planned switches align to).
     last_sync: Option<Instant>,
     planned: Option<(Planned, Instant)>,
-    /// The SDO client may hold frames although no configuration runs.
-    sdo_tail: bool,
     stats: SupervisorStats,
 }
 
-impl<D: ObjectDictionary> Supervisor<D> {
-    /// A supervisor on `node` (created, not booted; a master configuration: it ignores NMT
-    /// commands of others). Boots the node at `now` and starts the flying-master detection.
-    pub fn new(mut node: Node<D>, cfg: SupervisorConfig, now: Instant) -> Self {
+impl<D: ObjectDictionary, P: IdProfile, const S: usize, const T: usize, const R: usize>
+    Supervisor<D, P, S, T, R>
+{
+    /// A supervisor on `master` (built, not booted). The supervisor makes it a standby until
+    /// the flying master decides, sets its heartbeat, SYNC period and production, makes it a
+    /// TIME consumer (so that a takeover continues the time base), sets 0x1F80 bits 0 (NMT
+    /// master) and 5 (flying master), boots it at `now` and starts the flying-master detection.
+    pub fn new(mut master: Master<D, P, S, T, R>, cfg: SupervisorConfig, now: Instant) -> Self {
+        master.set_active(now, false);
         let hb = cfg.heartbeat.as_millis().min(u16::MAX as u64) as u16;
+        let node = master.node_mut();
         // Entries a master dictionary has; a missing one is reported by the node's own checks.
         let _ = node.set(now, comm::HEARTBEAT_PRODUCER, 0, hb);
-        let _ = node.set(now, comm::SYNC_COB_ID, 0, SYNC_CONSUME);
         let _ = node.set(
             now,
             comm::SYNC_PERIOD,
             0,
-            cfg.sync_period.as_micros() as u32,
+            cfg.sync_period.as_micros().min(u32::MAX as u64) as u32,
         );
-        let _ = node.set(now, comm::TIME_COB_ID, 0, TIME_CONSUME);
-        node.boot(now);
+        let time = node.od().get_u32(comm::TIME_COB_ID, 0).unwrap_or(0x100);
+        let _ = node.set(
+            now,
+            comm::TIME_COB_ID,
+            0,
+            (time | TIME_CONSUMER) & !TIME_PRODUCER,
+        );
+        let startup = node.od().get_u32(objects::NMT_STARTUP, 0).unwrap_or(0);
+        let startup = NmtStartup(startup)
+            .with(NmtStartup::MASTER)
+            .with(NmtStartup::FLYING_MASTER);
+        let _ = node
+            .od_mut()
+            .write_local(objects::NMT_STARTUP, 0, &startup.0.to_le_bytes());
+        master.set_production(now, !cfg.sync_period.is_zero(), true);
+        master.boot(now);
         let mut fm = FlyingMaster::new(cfg.flying);
         for p in &cfg.peers {
             let _ = fm.add_peer(*p);
@@ -234,29 +357,85 @@ impl<D: ObjectDictionary> Supervisor<D> {
         let mut pairs = PairSupervisor::new(cfg.pairs);
         pairs.set_authority(now, Authority::Shadow);
         let mut s = Supervisor {
-            node,
-            sdo: SdoClient::with_limit(64),
+            master,
             pairs,
             fm,
             audit: AuditTrail::new(),
             cfg,
             tx: Bounded::new(),
-            events: Bounded::new(),
+            events: VecDeque::new(),
+            events_dropped: 0,
             link: Bounded::new(),
-            to_configure: Bounded::new(),
-            configuring: Vec::new(),
             last_sync: None,
             planned: None,
-            sdo_tail: false,
             stats: SupervisorStats::default(),
         };
         s.pump(now);
         s
     }
 
-    /// Adds a slave pair to supervise.
-    pub fn add_pair(&mut self, now: Instant, spec: PairSpec) -> Result<PairId, PairsError> {
-        self.pairs.add_pair(now, spec)
+    /// Adds a slave pair to supervise; both members become slaves of the master with nothing
+    /// configured but their heartbeat (and the device type of `spec`, if not 0).
+    pub fn add_pair(&mut self, now: Instant, spec: PairSpec) -> Result<PairId, AddPairError> {
+        self.add_pair_with(
+            now,
+            spec,
+            SlaveConfig::new(spec.a),
+            SlaveConfig::new(spec.b),
+        )
+    }
+
+    /// Adds a slave pair whose members the master configures as `a` and `b` say (identity,
+    /// configuration steps, PDOs, guarding in the assignment). The supervisor overrides what
+    /// pair supervision needs: the node-IDs of `spec`, the heartbeat (producer and consumer time
+    /// of `spec`), start by the application, no boot of the master's own accord, neither
+    /// mandatory nor keep-alive; `spec`'s device type where the identity leaves it unchecked.
+    pub fn add_pair_with(
+        &mut self,
+        now: Instant,
+        spec: PairSpec,
+        a: SlaveConfig,
+        b: SlaveConfig,
+    ) -> Result<PairId, AddPairError> {
+        self.pairs.check(&spec)?;
+        let ms = |d: Duration| d.as_millis().min(u16::MAX as u64) as u16;
+        let member = |node: NodeId, mut c: SlaveConfig| {
+            c.node = node;
+            c.assignment = Assignment(
+                (c.assignment.0 | Assignment::SLAVE)
+                    & !(Assignment::BOOT | Assignment::MANDATORY | Assignment::KEEP_ALIVE),
+            );
+            if c.identity.device_type == 0 {
+                c.identity.device_type = spec.device_type;
+            }
+            c.heartbeat(ms(spec.producer_time), ms(spec.consumer_time))
+                .start(StartPolicy::Application)
+        };
+        self.master
+            .add_slave(now, member(spec.a, a))
+            .map_err(|e| AddPairError::Master(spec.a, e))?;
+        if let Err(e) = self.master.add_slave(now, member(spec.b, b)) {
+            // Not half a pair: A is no slave of this master again.
+            let _ = self.master.node_mut().write(
+                now,
+                objects::SLAVE_ASSIGNMENT,
+                spec.a.raw(),
+                &0u32.to_le_bytes(),
+            );
+            self.pump(now);
+            return Err(AddPairError::Master(spec.b, e));
+        }
+        let id = self.pairs.add_pair(now, spec)?;
+        self.pump(now);
+        Ok(id)
+    }
+
+    /// Adds (or replaces) a slave that is no pair member: booted, configured and started by the
+    /// master as `cfg` says.
+    pub fn add_slave(&mut self, now: Instant, cfg: SlaveConfig) -> Result<(), ManagerError> {
+        let r = self.master.add_slave(now, cfg);
+        self.pump(now);
+        r
     }
 
     // ----- application API -----
@@ -268,6 +447,11 @@ impl<D: ObjectDictionary> Supervisor<D> {
     /// True when active.
     pub fn is_active(&self) -> bool {
         self.fm.is_active()
+    }
+    /// True when this master may send NMT commands now (active, not suspended by a suspected
+    /// second active master).
+    pub fn may_command(&self, now: Instant) -> bool {
+        self.fm.may_command(now)
     }
     /// The flying master (rank, peers, active master).
     pub fn flying_master(&self) -> &FlyingMaster {
@@ -281,13 +465,44 @@ impl<D: ObjectDictionary> Supervisor<D> {
     pub fn pair_supervisor(&self) -> &PairSupervisor {
         &self.pairs
     }
-    /// The master node (states of every node heard: [`Node::remotes`]).
-    pub fn node(&self) -> &Node<D> {
-        &self.node
+    /// The CiA 302-2 master (its view of every slave, its node, its SDO client).
+    pub fn master(&self) -> &Master<D, P, S, T, R> {
+        &self.master
     }
-    /// The master node, for the application's own use (its writes go through the node).
-    pub fn node_mut(&mut self) -> &mut Node<D> {
-        &mut self.node
+    /// Every slave of the master, pair members included: state, boot phase, errors.
+    pub fn slaves(&self) -> impl Iterator<Item = SlaveView> + '_ {
+        self.master.slaves()
+    }
+    /// The master's node (states of every node heard: [`Node::remotes`]).
+    pub fn node(&self) -> &Node<D, P, 127, T, R> {
+        self.master.node()
+    }
+    /// The master's node, for the application's own use (its dictionary, EMCY, TPDOs). NMT
+    /// commands belong in [`Supervisor::nmt`].
+    pub fn node_mut(&mut self) -> &mut Node<D, P, 127, T, R> {
+        self.master.node_mut()
+    }
+    /// The master's SDO client, for the application's transfers; their results arrive as
+    /// [`SupervisorEvent::Sdo`]. A transfer to a slave the master is booting waits for the
+    /// boot's (the client refuses it as busy).
+    pub fn sdo_mut(&mut self) -> &mut SdoClient<DefaultBuffer, S> {
+        self.master.sdo_mut()
+    }
+    /// Sends an NMT command through the master, if this master may command now. Pair members
+    /// are better switched with [`Supervisor::switch_over`]: the pair table does not follow its
+    /// own master's commands.
+    pub fn nmt(
+        &mut self,
+        now: Instant,
+        cmd: NmtCommand,
+        target: NmtTarget,
+    ) -> Result<(), ManagerError> {
+        if !self.fm.may_command(now) {
+            return Err(ManagerError::Standby);
+        }
+        let r = self.master.nmt(now, cmd, target);
+        self.pump(now);
+        r
     }
     /// The audit trail.
     pub fn audit(&self) -> &AuditTrail {
@@ -297,13 +512,13 @@ impl<D: ObjectDictionary> Supervisor<D> {
     pub fn stats(&self) -> SupervisorStats {
         SupervisorStats {
             tx_dropped: self.tx.dropped(),
-            events_dropped: self.events.dropped(),
+            events_dropped: self.events_dropped,
             ..self.stats
         }
     }
     /// Sets the network time (the active master then produces TIME from it).
     pub fn set_time(&mut self, now: Instant, tod: TimeOfDay) {
-        self.node.set_time(now, tod);
+        self.master.node_mut().set_time(now, tod);
     }
     /// Makes `to` the active member of `pair` by hand (active master only).
     pub fn switch_over(
@@ -382,16 +597,42 @@ impl<D: ObjectDictionary> Supervisor<D> {
         };
     }
 
-    fn heartbeat_frame(frame: &Frame) -> Option<(NodeId, NmtState)> {
-        let Id::Standard(id) = frame.id() else {
-            return None;
-        };
-        if !(0x701..=0x77F).contains(&id) || frame.is_remote() {
+    /// A boot-up, heartbeat or guarding answer: (node, state).
+    fn error_control(&self, frame: &Frame) -> Option<(NodeId, NmtState)> {
+        if frame.is_remote() || frame.dlc() != 1 {
             return None;
         }
-        let node = NodeId::new((id - 0x700) as u8)?;
-        let (state, _) = nmt::parse_error_control(frame).ok()?;
-        Some((node, state))
+        match self.master.node().profile().classify(frame.id(), false)? {
+            ProfileFrame::Heartbeat(n) | ProfileFrame::Guarding(n) => {
+                let (state, _) = nmt::parse_error_control(frame).ok()?;
+                Some((n, state))
+            }
+            _ => None,
+        }
+    }
+
+    /// A pair member confirming an SDO download of its heartbeat producer time (0x1017): the
+    /// last step of a master's boot process, so seen from a standby, the active master has
+    /// configured it.
+    fn heartbeat_confirmed(&self, frame: &Frame) -> Option<NodeId> {
+        let d = frame.data();
+        if frame.is_remote() || d.len() != 8 || d[..4] != [0x60, 0x17, 0x10, 0x00] {
+            return None;
+        }
+        let sdo = self.master.sdo();
+        self.pairs.pairs().find_map(|(_, p)| {
+            [p.spec.a, p.spec.b]
+                .into_iter()
+                .find(|n| sdo.channel(*n).response == frame.id())
+        })
+    }
+
+    fn emit(&mut self, e: SupervisorEvent) {
+        if self.events.len() >= EVENT_QUEUE {
+            self.events_dropped = self.events_dropped.saturating_add(1);
+        } else {
+            self.events.push_back(e);
+        }
     }
 
     /// Moves every output of the parts to where it belongs.
@@ -403,7 +644,7 @@ impl<D: ObjectDictionary> Supervisor<D> {
             }
             while let Some(e) = self.fm.poll_event() {
                 progressed = true;
-                self.master_event(now, e);
+                self.flying_event(now, e);
             }
             self.sync_authority(now);
             while let Some(c) = self.pairs.poll_command() {
@@ -414,62 +655,51 @@ impl<D: ObjectDictionary> Supervisor<D> {
                 if let PairsEvent::Role(r) = e {
                     self.audit.record(r.at, AuditEntry::Pair(r));
                 }
-                self.events.push(SupervisorEvent::Pairs(e));
+                self.emit(SupervisorEvent::Pairs(e));
             }
-            while let Some(e) = self.node.poll_event() {
+            while let Some(e) = self.master.poll_event() {
                 progressed = true;
-                self.node_event(now, e);
+                self.manager_event(now, e);
             }
-            while let Some(e) = if self.configuring.is_empty() {
-                None
-            } else {
-                self.sdo.poll_event()
-            } {
-                progressed = true;
-                // A finished transfer may leave a frame (an abort) to send.
-                self.sdo_tail = true;
-                self.configuring.retain(|(r, _)| *r != e.request);
-                let ok = e.result.is_ok();
-                if let Err(error) = e.result {
-                    self.events.push(SupervisorEvent::ConfigFailed {
-                        at: e.at,
-                        node: e.node,
-                        error,
-                    });
-                }
-                self.pairs.configured(e.at, e.node, ok);
-            }
-            self.start_configurations(now);
             if !progressed {
                 break;
             }
         }
     }
 
-    /// Pair supervision commands only while this master may command.
+    /// Pair supervision commands only while this master may command, follows while another
+    /// master is known to be active (or may be), and only records while nobody is.
     fn sync_authority(&mut self, now: Instant) {
         let want = if self.fm.may_command(now) {
             Authority::Command
-        } else {
+        } else if matches!(
+            self.fm.role(),
+            MasterRole::Active | MasterRole::Standby(Some(_))
+        ) {
             Authority::Shadow
+        } else {
+            Authority::Idle
         };
         if self.pairs.authority() != want {
-            if want == Authority::Shadow {
-                // Whatever was waiting for a session is the new commander's business.
-                self.to_configure.clear();
-            }
             self.pairs.set_authority(now, want);
         }
     }
 
-    fn master_event(&mut self, now: Instant, e: FlyingEvent) {
+    fn flying_event(&mut self, now: Instant, e: FlyingEvent) {
         match e {
             FlyingEvent::Role(r) => {
                 self.audit.record(r.at, AuditEntry::Master(r));
                 if r.to.is_active() && !r.from.is_active() {
-                    self.become_producer(now, true);
+                    // The master adopts what runs, re-checks what does not, produces SYNC on
+                    // the grid it consumed and TIME from the base it consumed.
+                    self.master.set_active(now, true);
+                    if !self.cfg.time_period.is_zero() {
+                        let node = self.master.node_mut();
+                        node.set_time_period(now, self.cfg.time_period);
+                        node.send_time(now);
+                    }
                 } else if r.from.is_active() && !r.to.is_active() {
-                    self.become_producer(now, false);
+                    self.master.set_active(now, false);
                     self.planned = None;
                 }
             }
@@ -477,44 +707,29 @@ impl<D: ObjectDictionary> Supervisor<D> {
                 self.audit.record(at, AuditEntry::Suspended { until });
             }
         }
-        self.events.push(SupervisorEvent::Master(e));
-    }
-
-    /// SYNC and TIME production follow the role; the services keep their grid and time base.
-    fn become_producer(&mut self, now: Instant, on: bool) {
-        let (sync, time) = if on {
-            (SYNC_PRODUCE, TIME_PRODUCE)
-        } else {
-            (SYNC_CONSUME, TIME_CONSUME)
-        };
-        let _ = self.node.set(now, comm::SYNC_COB_ID, 0, sync);
-        let _ = self.node.set(now, comm::TIME_COB_ID, 0, time);
-        if on && !self.cfg.time_period.is_zero() {
-            self.node.set_time_period(now, self.cfg.time_period);
-            self.node.send_time(now);
-        }
+        self.emit(SupervisorEvent::Master(e));
     }
 
     fn pair_command(&mut self, now: Instant, c: PairCommand) {
         match c {
             PairCommand::Nmt { cmd, node } => {
-                if self.fm.may_command(now) {
-                    let f = nmt::command_frame(Id::Standard(0), cmd, NmtTarget::Node(node));
-                    self.tx.push(f);
+                let sent = self.fm.may_command(now)
+                    && self.master.nmt(now, cmd, NmtTarget::Node(node)).is_ok();
+                if sent {
                     self.stats.nmt_sent += 1;
-                    if matches!(cmd, NmtCommand::ResetNode | NmtCommand::ResetCommunication) {
-                        self.node.forget_remote(node);
-                    }
                 } else {
                     self.stats.nmt_withheld += 1;
                 }
             }
-            PairCommand::Configure {
-                node,
-                producer_time,
-            } => {
-                if self.fm.may_command(now) {
-                    self.to_configure.push((node, producer_time));
+            PairCommand::Configure { node, .. } => {
+                // A boot process already running for it (begun at its boot-up after a reset
+                // by this master, or at the takeover) is the one asked for.
+                if !self.fm.may_command(now) || self.master.slave(node).phase.is_running() {
+                    return;
+                }
+                match self.master.boot_slave(now, node) {
+                    Ok(()) => self.stats.configs += 1,
+                    Err(e) => self.refused(now, node, JoinRefusal::Master(e)),
                 }
             }
             PairCommand::SetActive { pair, member } => {
@@ -526,38 +741,72 @@ impl<D: ObjectDictionary> Supervisor<D> {
         }
     }
 
-    fn start_configurations(&mut self, now: Instant) {
-        while !self.configuring.is_full() {
-            let Some((node, hb)) = self.to_configure.pop() else {
-                return;
-            };
-            let ms = hb.as_millis().min(u16::MAX as u64) as u16;
-            let opts = SdoOptions {
-                timeout: self.cfg.sdo_timeout,
-                ..SdoOptions::default()
-            };
-            match self.sdo.download(
-                now,
-                node,
-                comm::HEARTBEAT_PRODUCER,
-                0,
-                &ms.to_le_bytes(),
-                opts,
-            ) {
-                Ok(r) => {
-                    self.stats.configs += 1;
-                    let _ = self.configuring.push((r, node));
-                }
-                Err(error) => {
-                    self.events.push(SupervisorEvent::ConfigFailed {
-                        at: now,
-                        node,
-                        error,
-                    });
-                    self.pairs.configured(now, node, false);
-                }
+    /// A pair member's boot process failed: the table is told, the application too.
+    fn refused(&mut self, at: Instant, node: NodeId, why: JoinRefusal) {
+        let Some((pair, member)) = self.pairs.locate(node) else {
+            return;
+        };
+        let configuring = self.pairs.is_configuring(node);
+        let changed = match why {
+            JoinRefusal::Identity { .. } => {
+                // Whatever its phase: a member found to be another device is out.
+                let joined = self
+                    .pairs
+                    .pair(pair)
+                    .is_some_and(|p| p.member(member).joined());
+                self.pairs.rejected(at, node);
+                configuring || joined
             }
+            JoinRefusal::Config { .. } | JoinRefusal::Master(_) => {
+                self.pairs.configured(at, node, false);
+                configuring
+            }
+        };
+        if changed {
+            self.emit(SupervisorEvent::NotJoined {
+                at,
+                pair,
+                member,
+                node,
+                why,
+            });
         }
+    }
+
+    fn manager_event(&mut self, now: Instant, e: MasterEvent) {
+        let at = e.at;
+        match e.kind {
+            MasterEventKind::Node(kind) => return self.node_event(now, NodeEvent { at, kind }),
+            MasterEventKind::Sdo(s) => return self.emit(SupervisorEvent::Sdo(s)),
+            MasterEventKind::SlaveConfigured { node, .. } => {
+                self.pairs.configured(at, node, true);
+            }
+            MasterEventKind::IdentityMismatch {
+                node,
+                status,
+                index,
+                sub,
+                expected,
+                actual,
+            } => self.refused(
+                at,
+                node,
+                JoinRefusal::Identity {
+                    status,
+                    index,
+                    sub,
+                    expected,
+                    actual,
+                },
+            ),
+            MasterEventKind::ConfigFailed {
+                node,
+                status,
+                reason,
+            } => self.refused(at, node, JoinRefusal::Config { status, reason }),
+            _ => {}
+        }
+        self.emit(SupervisorEvent::Manager(e));
     }
 
     fn node_event(&mut self, now: Instant, e: NodeEvent) {
@@ -581,27 +830,27 @@ impl<D: ObjectDictionary> Supervisor<D> {
             } => return,
             _ => {}
         }
-        self.events.push(SupervisorEvent::Node(e));
+        self.emit(SupervisorEvent::Node(e));
     }
 }
 
-impl<D: ObjectDictionary> Machine for Supervisor<D> {
+impl<D: ObjectDictionary, P: IdProfile, const S: usize, const T: usize, const R: usize> Machine
+    for Supervisor<D, P, S, T, R>
+{
     type Event = SupervisorEvent;
 
     fn handle_frame(&mut self, now: Instant, frame: &Frame) {
         if self.fm.handle_frame(now, frame) {
             return self.pump(now);
         }
-        if let Some((node, state)) = Self::heartbeat_frame(frame) {
+        if let Some((node, state)) = self.error_control(frame) {
             self.fm
                 .heartbeat(now, node, state == NmtState::Initialising);
             self.pairs.heartbeat(now, node, state);
+        } else if let Some(node) = self.heartbeat_confirmed(frame) {
+            self.pairs.configuration_observed(now, node);
         }
-        self.node.handle_frame(now, frame);
-        // The client only serves configurations: idle, it has nothing to do with a frame.
-        if !self.configuring.is_empty() {
-            self.sdo.handle_frame(now, frame);
-        }
+        self.master.handle_frame(now, frame);
         self.pump(now);
     }
 
@@ -610,15 +859,13 @@ impl<D: ObjectDictionary> Machine for Supervisor<D> {
         if let Some(to) = self.fm.take_handback() {
             self.plan(now, Planned::HandOver(Some(to)));
         }
-        // Role changes first: a takeover makes the node a producer before its timers run.
+        // Role changes first: a takeover makes the master active before its timers run.
         self.pump(now);
         self.run_planned(now);
         self.pump(now);
         self.pairs.handle_timeout(now);
-        self.node.handle_timeout(now);
-        if !self.configuring.is_empty() {
-            self.sdo.handle_timeout(now);
-        }
+        self.pump(now);
+        self.master.handle_timeout(now);
         self.pump(now);
     }
 
@@ -626,34 +873,23 @@ impl<D: ObjectDictionary> Machine for Supervisor<D> {
         if let Some(f) = self.tx.pop() {
             return Some(f);
         }
-        if let Some(f) = self.node.poll_transmit() {
-            return Some(f);
-        }
-        if self.configuring.is_empty() && !self.sdo_tail {
-            return None;
-        }
-        let f = self.sdo.poll_transmit();
-        if f.is_none() {
-            self.sdo_tail = false;
-        }
-        f
+        self.master.poll_transmit()
     }
 
     fn poll_timeout(&self) -> Option<Instant> {
         let mut t = earliest(self.fm.poll_timeout(), self.pairs.poll_timeout());
-        t = earliest(t, self.node.poll_timeout());
-        if !self.configuring.is_empty() {
-            t = earliest(t, self.sdo.poll_timeout());
-        }
+        t = earliest(t, self.master.poll_timeout());
         earliest(t, self.planned.map(|p| p.1))
     }
 
     fn poll_event(&mut self) -> Option<SupervisorEvent> {
-        self.events.pop()
+        self.events.pop_front()
     }
 }
 
-impl<D> fmt::Debug for Supervisor<D> {
+impl<D, P, const S: usize, const T: usize, const R: usize> fmt::Debug
+    for Supervisor<D, P, S, T, R>
+{
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         f.debug_struct("Supervisor")
             .field("fm", &self.fm)

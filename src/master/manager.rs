@@ -115,9 +115,25 @@ impl<D: ObjectDictionary, P: IdProfile, const S: usize, const T: usize, const R:
             } => deadline,
             _ => None,
         };
+        debug_assert!(
+            self.slot_deadline()
+                .is_none_or(|t| self.slot_timer.is_some_and(|b| b <= t)),
+            "a slot timer was armed without Master::arm"
+        );
+        earliest(net, self.slot_timer)
+    }
+
+    /// The earliest timer of any slot, computed (127 slots: not on every poll).
+    fn slot_deadline(&self) -> Option<Instant> {
         self.slots
             .iter()
-            .fold(net, |t, s| earliest(t, s.deadline()))
+            .fold(None, |t, s| earliest(t, s.deadline()))
+    }
+
+    /// A slot timer was set to `t`: the cached lower bound of every slot's timers follows.
+    /// Clearing a timer needs nothing (a bound reached early only costs a look at the slots).
+    pub(super) fn arm(&mut self, t: Option<Instant>) {
+        self.slot_timer = earliest(self.slot_timer, t);
     }
 
     pub(super) fn on_timers(&mut self, now: Instant) {
@@ -141,6 +157,9 @@ impl<D: ObjectDictionary, P: IdProfile, const S: usize, const T: usize, const R:
                     self.emit(d, MasterEventKind::MandatoryMissing { nodes });
                 }
             }
+        }
+        if self.slot_timer.is_none_or(|t| t > now) {
+            return;
         }
         for i in 0..self.slots.len() {
             let Some(n) = NodeId::new(i as u8 + 1) else {
@@ -170,6 +189,7 @@ impl<D: ObjectDictionary, P: IdProfile, const S: usize, const T: usize, const R:
                 }
             }
         }
+        self.slot_timer = self.slot_deadline();
     }
 
     pub(super) fn on_node_event(&mut self, e: NodeEvent) {
@@ -341,6 +361,7 @@ impl<D: ObjectDictionary, P: IdProfile, const S: usize, const T: usize, const R:
                 let s = self.slot_mut(n);
                 s.phase = BootPhase::WaitBootUp;
                 s.probe_at = Some(now);
+                self.arm(Some(now));
             } else {
                 self.slot_mut(n).phase = BootPhase::Observed;
             }
@@ -416,6 +437,7 @@ impl<D: ObjectDictionary, P: IdProfile, const S: usize, const T: usize, const R:
         let Some(access) = p.access(&s.cfg) else {
             return;
         };
+        self.sdo_idle = false;
         let started = match access {
             super::boot::Access::Read { index, sub } => self.sdo.upload(now, n, index, sub, opts),
             super::boot::Access::Write { index, sub, data } => {
@@ -508,6 +530,7 @@ impl<D: ObjectDictionary, P: IdProfile, const S: usize, const T: usize, const R:
                 s.missing = true;
                 s.last_error = Some(ErrorStatus::B);
                 let report = !core::mem::replace(&mut s.missing_reported, true);
+                self.arm(probe);
                 self.refresh(n);
                 if report {
                     self.emit(
@@ -561,7 +584,9 @@ impl<D: ObjectDictionary, P: IdProfile, const S: usize, const T: usize, const R:
                     MasterEventKind::ConsumerNotConfigured { node: n, code },
                 );
             }
-            self.slot_mut(n).hb_check = Some((now, now + Duration::from_millis(consumer as u64)));
+            let due = now + Duration::from_millis(consumer as u64);
+            self.slot_mut(n).hb_check = Some((now, due));
+            self.arm(Some(due));
         }
         let s = self.slot_mut(n);
         s.last_error = None;
@@ -644,6 +669,7 @@ impl<D: ObjectDictionary, P: IdProfile, const S: usize, const T: usize, const R:
             let s = self.slot_mut(n);
             s.phase = BootPhase::WaitBootUp;
             s.probe_at = probe;
+            self.arm(probe);
         } else {
             self.slot_mut(n).phase = BootPhase::Failed(status);
         }

@@ -27,9 +27,10 @@
 //! clears the producer bits of 0x1005/0x1012 while standby and restores them when active). It
 //! keeps tracking states from the traffic, produces its heartbeat, and guards the slaves whose
 //! 0x1F81 entry gives a guard time once it hears them (both masters of a redundant pair guard,
-//! each counting the other's requests so that the slave's toggle bit checks out). Becoming active does not reset anything: slaves seen
-//! operational (or stopped) are adopted as they are, pre-operational ones are booted (identity,
-//! configuration, start per policy), silent ones are probed.
+//! each counting the other's requests so that the slave's toggle bit checks out). Becoming
+//! active does not reset anything: slaves seen operational (or stopped) are adopted as they are,
+//! pre-operational ones are booted (identity, configuration, start per policy) unless their boot
+//! is the application's (0x1F81 bit 2 clear: adopted as they are too), silent ones are probed.
 //!
 //! SDO accesses of the boot processes run on the client's sessions, one per slave; when all
 //! are taken, slaves wait in a bounded FIFO ([`MasterStats::jobs_queued`]).
@@ -113,7 +114,12 @@ pub const EVENT_QUEUE: usize = 1024;
 pub struct Master<D, P = Predefined, const S: usize = 8, const T: usize = 4, const R: usize = 4> {
     node: Node<D, P, 127, T, R>,
     sdo: SdoClient<DefaultBuffer, S>,
+    /// The client has no transfer running and nothing to send: it is left out of the frame
+    /// path (a master of a hundred slaves mostly hears heartbeats).
+    sdo_idle: bool,
     slots: Vec<Slot>,
+    /// A lower bound of every slot's timers (probe, keep-alive wait, K watchdog).
+    slot_timer: Option<Instant>,
     network: Network,
     active: bool,
     booted: bool,
@@ -205,7 +211,9 @@ impl<D: ObjectDictionary, P: IdProfile, const S: usize, const T: usize, const R:
         let mut m = Master {
             node: Node::<D, P, 127, T, R>::with_profile(node_cfg, od, profile),
             sdo,
+            sdo_idle: false,
             slots,
+            slot_timer: None,
             network: Network::Idle,
             active: config.active,
             booted: false,
@@ -249,7 +257,8 @@ impl<D: ObjectDictionary, P: IdProfile, const S: usize, const T: usize, const R:
 
     /// Makes the master active (it manages the network) or standby (it observes). Becoming
     /// active resets nothing: operational and stopped slaves are adopted, pre-operational ones
-    /// booted without a reset, silent ones probed. Becoming standby abandons the boot processes
+    /// booted without a reset (adopted if their boot is the application's, 0x1F81 bit 2 clear),
+    /// silent ones probed. Becoming standby abandons the boot processes
     /// (transfers under way are aborted at once) and stops SYNC and TIME production.
     pub fn set_active(&mut self, now: Instant, active: bool) {
         if active == self.active {
@@ -413,6 +422,7 @@ impl<D: ObjectDictionary, P: IdProfile, const S: usize, const T: usize, const R:
     /// The SDO client, for the application's own transfers; their results arrive as
     /// [`MasterEventKind::Sdo`]. A transfer to a slave being booted waits for the boot's.
     pub fn sdo_mut(&mut self) -> &mut SdoClient<DefaultBuffer, S> {
+        self.sdo_idle = false;
         &mut self.sdo
     }
     /// Counters.
@@ -543,13 +553,17 @@ impl<D: ObjectDictionary, P: IdProfile, const S: usize, const T: usize, const R:
 
     fn handle_frame(&mut self, now: Instant, frame: &Frame) {
         self.node.handle_frame(now, frame);
-        self.sdo.handle_frame(now, frame);
+        if !self.sdo_idle {
+            self.sdo.handle_frame(now, frame);
+        }
         self.pump(now);
     }
 
     fn handle_timeout(&mut self, now: Instant) {
         self.node.handle_timeout(now);
-        self.sdo.handle_timeout(now);
+        if !self.sdo_idle {
+            self.sdo.handle_timeout(now);
+        }
         self.pump(now);
         self.on_timers(now);
         self.pump(now);
@@ -559,16 +573,25 @@ impl<D: ObjectDictionary, P: IdProfile, const S: usize, const T: usize, const R:
         if let Some(f) = self.nmt_out.pop_front() {
             return Some(f);
         }
-        self.node
-            .poll_transmit()
-            .or_else(|| self.sdo.poll_transmit())
+        if let Some(f) = self.node.poll_transmit() {
+            return Some(f);
+        }
+        if self.sdo_idle {
+            return None;
+        }
+        let f = self.sdo.poll_transmit();
+        // Drained and nothing running: nothing can come out of it until a transfer starts.
+        self.sdo_idle = f.is_none() && self.sdo.in_flight() == 0;
+        f
     }
 
     fn poll_timeout(&self) -> Option<Instant> {
-        earliest(
-            earliest(self.node.poll_timeout(), self.sdo.poll_timeout()),
-            self.deadline(),
-        )
+        let sdo = if self.sdo_idle {
+            None
+        } else {
+            self.sdo.poll_timeout()
+        };
+        earliest(earliest(self.node.poll_timeout(), sdo), self.deadline())
     }
 
     fn poll_event(&mut self) -> Option<MasterEvent> {

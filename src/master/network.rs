@@ -39,9 +39,11 @@ impl<D: ObjectDictionary, P: IdProfile, const S: usize, const T: usize, const R:
             if keep_alive {
                 s.phase = BootPhase::WaitState;
                 s.wait_until = Some(now + wait);
+                self.arm(Some(now + wait));
             } else {
                 s.phase = BootPhase::WaitBootUp;
                 s.probe_at = probe;
+                self.arm(probe);
             }
         }
         let ms = self.node.od().get_u32(objects::BOOT_TIME, 0).unwrap_or(0);
@@ -62,11 +64,16 @@ impl<D: ObjectDictionary, P: IdProfile, const S: usize, const T: usize, const R:
                 Some(state @ (NmtState::Operational | NmtState::Stopped)) => {
                     self.adopt(now, n, state)
                 }
+                // Its boot is the application's (0x1F81 bit 2 clear; a slave-pair supervisor
+                // knows which members the previous master configured): left as it is, without
+                // a burst of SDO traffic at the moment SYNC must continue on its grid.
+                Some(state) if !self.assignment(n).reboots() => self.adopt(now, n, state),
                 Some(_) => self.begin(now, n),
                 None => {
                     let s = self.slot_mut(n);
                     s.phase = BootPhase::WaitBootUp;
                     s.probe_at = Some(now);
+                    self.arm(Some(now));
                 }
             }
         }
@@ -103,6 +110,7 @@ impl<D: ObjectDictionary, P: IdProfile, const S: usize, const T: usize, const R:
             // results are dropped.
             if let Some(r) = s.request {
                 self.sdo.abort(now, r, AbortCode::GENERAL);
+                self.sdo_idle = false;
             }
             s.process = None;
             s.restart = false;
@@ -219,6 +227,7 @@ impl<D: ObjectDictionary, P: IdProfile, const S: usize, const T: usize, const R:
                     let s = self.slot_mut(n);
                     s.phase = BootPhase::WaitBootUp;
                     s.probe_at = probe;
+                    self.arm(probe);
                 }
                 NmtCommand::Stop | NmtCommand::EnterPreOperational => {}
             }

@@ -86,6 +86,10 @@ impl<B: TransferBuffer, const S: usize> SdoClient<B, S> {
             ..self.stats
         }
     }
+    /// The channel a request to `node` goes on unless its options name another.
+    pub fn channel(&self, node: NodeId) -> Channel {
+        (self.channels)(node)
+    }
     /// The transfer limit.
     pub fn limit(&self) -> usize {
         self.limit

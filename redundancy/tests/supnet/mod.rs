@@ -5,6 +5,7 @@
 #![allow(dead_code)]
 
 use duocan::machine::StationEvent;
+use duocan::master::{objects, Master, NetworkConfig};
 use duocan::od::{comm, DynamicDictionary};
 use duocan::sim::{BusConfig, BusId, DevId, SimNetwork, TraceRecord, TxOutcome};
 use duocan::{Duration, Frame, Id, Instant, NmtCommand, Node, NodeConfig, NodeId, Station};
@@ -79,17 +80,15 @@ fn link(p: &Params) -> DualBus {
 
 pub fn master_station(p: &Params, id: u8, now: Instant) -> MasterDev {
     let nid = NodeId::must(id);
-    let node = Node::new(
-        NodeConfig::master(nid),
-        comm::standard_dictionary(id, comm::Identity::default()),
-    );
+    let od = objects::master_dictionary(id, comm::Identity::default());
+    let master = Master::new(nid, od, NetworkConfig::new()).unwrap();
     let peer = if id == STRONG { WEAK } else { STRONG };
     let mut cfg = SupervisorConfig::new(id - 1, nid, p.master_hb, p.master_timeout, p.sync)
         .with_peer(peer - 1, NodeId::must(peer));
     cfg.pairs.revertive = p.revertive_pairs;
     cfg.flying.revertive = p.revertive_master;
     cfg.time_period = Duration::from_millis(100);
-    let mut sup = Supervisor::new(node, cfg, now);
+    let mut sup = Supervisor::new(master, cfg, now);
     for i in 0..p.pairs {
         sup.add_pair(
             now,
@@ -201,7 +200,7 @@ impl SupNet {
             .events(self.master(id))
             .iter()
             .filter_map(|(_, e)| match e {
-                StationEvent::Machine(m) => Some(*m),
+                StationEvent::Machine(m) => Some(m.clone()),
                 _ => None,
             })
             .collect()

@@ -1,0 +1,578 @@
+//! The logical network object (redundancy.md §6): what the application holds per dual-bus
+//! network.
+//!
+//! [`LogicalNetwork`] is a thin facade over a [`SupervisedStation`] (dual-bus layer, CiA 302-2
+//! master, pair supervision, flying master, audit trail). It adds no state and no behaviour of
+//! its own; it gathers what the application needs in one place:
+//!
+//! | need                         | call                                                        |
+//! |------------------------------|-------------------------------------------------------------|
+//! | the object dictionary        | [`LogicalNetwork::od`], [`read`](LogicalNetwork::read), [`write`](LogicalNetwork::write) |
+//! | SDO access to any node       | [`sdo_read`](LogicalNetwork::sdo_read), [`sdo_write`](LogicalNetwork::sdo_write): a [`RequestId`] now, [`NetworkEventKind::Sdo`] when done |
+//! | NMT commands                 | [`nmt`](LogicalNetwork::nmt)                                 |
+//! | PDO values                   | [`pdo_value`](LogicalNetwork::pdo_value): the master's mirrored RPDO entries ([`mirror_tpdo`](LogicalNetwork::mirror_tpdo)) |
+//! | events                       | [`Device::poll_event`]: one typed stream, [`NetworkEvent`]   |
+//! | slave, pair and master state | [`slaves`](LogicalNetwork::slaves), [`pairs`](LogicalNetwork::pairs), [`role`](LogicalNetwork::role) |
+//! | manual control               | [`set_active`](LogicalNetwork::set_active), [`set_standby`](LogicalNetwork::set_standby), [`switch_over`](LogicalNetwork::switch_over) |
+//! | status snapshot              | [`status`](LogicalNetwork::status), printable as a table     |
+//! | audit export                 | [`export_audit_csv`](LogicalNetwork::export_audit_csv), [`export_audit_text`](LogicalNetwork::export_audit_text) |
+//!
+//! It is a sans-IO [`Device`]: the simulator runs it as any device, and so does the tokio
+//! runtime, whose `Handle::request` fits the SDO calls exactly (start on the device, wait for the
+//! event with the request id).
+//!
+//! ```
+//! use duocan::master::{objects, Master, NetworkConfig};
+//! use duocan::od::comm;
+//! use duocan::sim::{BusConfig, SimNetwork};
+//! use duocan::{Duration, Instant, Node, NodeConfig, NodeId, Station};
+//! use duocan_redundancy::pairs::PairSpec;
+//! use duocan_redundancy::{
+//!     DualBus, DualBusConfig, LogicalNetwork, NetworkEventKind, SupervisedStation, Supervisor,
+//!     SupervisorConfig,
+//! };
+//!
+//! let ms = Duration::from_millis;
+//! let mut sim = SimNetwork::new(1);
+//! let buses = [sim.add_bus(BusConfig::new("can1", 1_000_000)), sim.add_bus(BusConfig::new("can2", 1_000_000))];
+//! let master = Master::new(NodeId::must(1), objects::master_dictionary(1, Default::default()), NetworkConfig::new()).unwrap();
+//! let mut sup = Supervisor::new(master, SupervisorConfig::new(0, NodeId::must(1), ms(20), ms(50), ms(10)), Instant::ZERO);
+//! sup.add_pair(Instant::ZERO, PairSpec::new(NodeId::must(0x10), NodeId::must(0x50), ms(20), ms(50)))?;
+//! let net = LogicalNetwork::new(SupervisedStation::new(DualBus::new(DualBusConfig::default()), sup).unwrap());
+//! let net = sim.add_device("turnout rack", net, &buses)?;
+//! for id in [0x10, 0x50] {
+//!     let mut n = Node::new(NodeConfig::slave(NodeId::must(id)), comm::standard_dictionary(id, Default::default()));
+//!     n.boot(Instant::ZERO);
+//!     sim.add_device(format!("board {id:#x}"), Station::new(DualBus::new(DualBusConfig::default()), n), &buses)?;
+//! }
+//! sim.run_until(Instant::from_secs(1));
+//! // Read board A's device type over SDO.
+//! let now = sim.now();
+//! let req = sim.device_mut(net).sdo_read(now, NodeId::must(0x10), 0x1000, 0)?;
+//! sim.run_until(Instant::from_millis(1_010));
+//! let done = sim.events(net).iter().find_map(|(_, e)| match &e.kind {
+//!     NetworkEventKind::Sdo(s) if s.request == req => Some(s.clone()),
+//!     _ => None,
+//! });
+//! assert!(done.is_some_and(|s| s.result.is_ok()));
+//! println!("{}", sim.device(net).status(sim.now()));
+//! # Ok::<(), Box<dyn std::error::Error>>(())
+//! ```
+
+use crate::audit::AuditTrail;
+use crate::events::{LinkEvent, LinkEventKind, PortReason};
+use crate::flying_master::{FlyingEvent, MasterError, MasterRole, MasterRoleChange};
+use crate::health::PortState;
+use crate::pairs::{PairState, PairsError, PairsEvent, RoleChange};
+use crate::pairs_merge::{Member, PairId};
+use crate::station::{Status, SupervisedStation};
+use crate::supervisor::{Supervisor, SupervisorEvent};
+use crate::FrameClassifier;
+use core::fmt;
+use duocan::abort::AbortCode;
+use duocan::emcy::EmcyMessage;
+use duocan::machine::{Device, PortRequest, PortStatus, StationEvent};
+use duocan::master::{ErrorStatus, MasterError as ManagerError, MasterEventKind, SlaveView};
+use duocan::nmt::NmtTarget;
+use duocan::node::NodeEventKind;
+use duocan::od::{DynamicDictionary, ObjectDictionary, OdValue};
+use duocan::pdo::{Dir, PdoConfig, PdoEvent};
+use duocan::profile::{IdProfile, Predefined};
+use duocan::sdo::{RequestId, SdoError, SdoEvent, SdoOptions};
+use duocan::{Frame, Instant, NmtCommand, NmtState, NodeId};
+
+/// One dual-bus network as the application sees it. The generic parameters are the
+/// [`SupervisedStation`]'s.
+pub struct LogicalNetwork<
+    D,
+    C = Predefined,
+    const N: usize = { crate::DEFAULT_MERGE_SLOTS },
+    P = Predefined,
+    const S: usize = 8,
+    const T: usize = 4,
+    const R: usize = 4,
+> {
+    station: SupervisedStation<D, C, N, P, S, T, R>,
+}
+
+/// Something that happened on the network, and when.
+#[derive(Clone, Debug, PartialEq)]
+pub struct NetworkEvent {
+    /// When (for timeouts: exactly the deadline).
+    pub at: Instant,
+    /// What.
+    pub kind: NetworkEventKind,
+}
+
+/// The kinds of [`NetworkEvent`]: the typed ones the application reacts to, and everything else
+/// as the station reported it.
+#[derive(Clone, Debug, PartialEq)]
+pub enum NetworkEventKind {
+    /// A port (one bus) changed health state.
+    Port {
+        /// 0 = bus 1.
+        port: u8,
+        /// Before.
+        from: PortState,
+        /// After.
+        to: PortState,
+        /// Why.
+        reason: PortReason,
+    },
+    /// The buses a node is heard on changed (heard on one bus only is a fault to report).
+    Reach {
+        /// The node.
+        node: NodeId,
+        /// Heard on bus 1, on bus 2.
+        heard: [bool; 2],
+    },
+    /// A node sent its boot-up.
+    NodeBooted {
+        /// The node.
+        node: NodeId,
+    },
+    /// A node's NMT state changed (from its heartbeat or guarding answer).
+    NodeState {
+        /// The node.
+        node: NodeId,
+        /// Known before, if anything.
+        from: Option<NmtState>,
+        /// Now.
+        to: NmtState,
+    },
+    /// Error control lost a slave: heartbeat (E), guarding (F), none after configuration (K).
+    NodeLost {
+        /// The slave.
+        node: NodeId,
+        /// E, F or K.
+        status: ErrorStatus,
+    },
+    /// A pair's active member changed (reason and members inside).
+    PairRole(RoleChange),
+    /// This master's role changed.
+    MasterRole(MasterRoleChange),
+    /// An EMCY message of a node.
+    Emcy {
+        /// The node.
+        node: NodeId,
+        /// The message.
+        msg: EmcyMessage,
+    },
+    /// A and B of a pair have carried different values of one function for longer than the
+    /// discrepancy time.
+    Discrepancy {
+        /// The pair.
+        pair: PairId,
+        /// The function (e.g. the TPDO number).
+        function: u32,
+        /// A's latest frame.
+        a: Frame,
+        /// B's latest frame.
+        b: Frame,
+        /// Since when they differ.
+        since: Instant,
+    },
+    /// A and B agree again.
+    DiscrepancyCleared {
+        /// The pair.
+        pair: PairId,
+        /// The function.
+        function: u32,
+    },
+    /// One of the master's RPDOs was received: its values are in the dictionary
+    /// ([`LogicalNetwork::pdo_value`]).
+    PdoReceived {
+        /// The master's RPDO number.
+        pdo: u16,
+    },
+    /// An SDO transfer the application started ended (its [`RequestId`] inside).
+    Sdo(SdoEvent),
+    /// Anything else (member joined or lost, boot process steps, channel switches, …).
+    Other(StationEvent<LinkEvent, SupervisorEvent>),
+}
+
+/// Why a call on the network was refused.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum NetworkError {
+    /// This master is standby: SDO and NMT to other nodes are the active master's (two SDO
+    /// clients on one server channel would corrupt each other's transfers).
+    Standby,
+    /// The SDO client refused the request (busy node, no free session, too long).
+    Sdo(SdoError),
+    /// The master refused the NMT command.
+    Nmt(ManagerError),
+    /// The pair table refused the switch-over.
+    Pairs(PairsError),
+    /// The flying master refused the role change.
+    Role(MasterError),
+}
+
+impl core::error::Error for NetworkError {}
+
+impl fmt::Display for NetworkError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            NetworkError::Standby => f.write_str(
+                "this master is standby: SDO and NMT go through the active master (or make this one active)",
+            ),
+            NetworkError::Sdo(e) => write!(f, "{e}"),
+            NetworkError::Nmt(e) => write!(f, "{e}"),
+            NetworkError::Pairs(e) => write!(f, "{e}"),
+            NetworkError::Role(e) => write!(f, "{e}"),
+        }
+    }
+}
+
+impl<
+        D: ObjectDictionary,
+        C: FrameClassifier,
+        const N: usize,
+        P: IdProfile,
+        const S: usize,
+        const T: usize,
+        const R: usize,
+    > LogicalNetwork<D, C, N, P, S, T, R>
+{
+    /// The network run by `station`.
+    pub fn new(station: SupervisedStation<D, C, N, P, S, T, R>) -> Self {
+        LogicalNetwork { station }
+    }
+    /// The station underneath (dual-bus layer and supervisor).
+    pub fn station(&self) -> &SupervisedStation<D, C, N, P, S, T, R> {
+        &self.station
+    }
+    /// The station underneath, for what the facade does not cover.
+    pub fn station_mut(&mut self) -> &mut SupervisedStation<D, C, N, P, S, T, R> {
+        &mut self.station
+    }
+    /// The supervisor.
+    pub fn supervisor(&self) -> &Supervisor<D, P, S, T, R> {
+        &self.station.sup
+    }
+
+    // ----- dictionary -----
+
+    /// The master's object dictionary.
+    pub fn od(&self) -> &D {
+        self.station.sup.node().od()
+    }
+    /// Reads an entry of the master's dictionary (no access check: the application's own).
+    pub fn read(&self, index: u16, sub: u8) -> Result<&[u8], AbortCode> {
+        self.od().get(index, sub).map(|e| e.data)
+    }
+    /// Writes an entry of the master's dictionary, with the stack's reactions.
+    pub fn write(
+        &mut self,
+        now: Instant,
+        index: u16,
+        sub: u8,
+        data: &[u8],
+    ) -> Result<(), AbortCode> {
+        self.station.sup.node_mut().write(now, index, sub, data)
+    }
+
+    // ----- SDO -----
+
+    /// Reads (index, sub) of `node` over SDO; the result comes as [`NetworkEventKind::Sdo`]
+    /// with the returned id.
+    pub fn sdo_read(
+        &mut self,
+        now: Instant,
+        node: NodeId,
+        index: u16,
+        sub: u8,
+    ) -> Result<RequestId, NetworkError> {
+        self.sdo_read_with(now, node, index, sub, SdoOptions::default())
+    }
+    /// [`LogicalNetwork::sdo_read`] with options (protocol, timeout, channel).
+    pub fn sdo_read_with(
+        &mut self,
+        now: Instant,
+        node: NodeId,
+        index: u16,
+        sub: u8,
+        opts: SdoOptions,
+    ) -> Result<RequestId, NetworkError> {
+        self.check_active()?;
+        self.station
+            .sup
+            .sdo_mut()
+            .upload(now, node, index, sub, opts)
+            .map_err(NetworkError::Sdo)
+    }
+    /// Writes `data` to (index, sub) of `node` over SDO; the result comes as
+    /// [`NetworkEventKind::Sdo`] with the returned id.
+    pub fn sdo_write(
+        &mut self,
+        now: Instant,
+        node: NodeId,
+        index: u16,
+        sub: u8,
+        data: &[u8],
+    ) -> Result<RequestId, NetworkError> {
+        self.sdo_write_with(now, node, index, sub, data, SdoOptions::default())
+    }
+    /// [`LogicalNetwork::sdo_write`] with options.
+    pub fn sdo_write_with(
+        &mut self,
+        now: Instant,
+        node: NodeId,
+        index: u16,
+        sub: u8,
+        data: &[u8],
+        opts: SdoOptions,
+    ) -> Result<RequestId, NetworkError> {
+        self.check_active()?;
+        self.station
+            .sup
+            .sdo_mut()
+            .download(now, node, index, sub, data, opts)
+            .map_err(NetworkError::Sdo)
+    }
+
+    // ----- NMT -----
+
+    /// Sends an NMT command (active master only; the master's view of the slaves follows it).
+    pub fn nmt(
+        &mut self,
+        now: Instant,
+        cmd: NmtCommand,
+        target: NmtTarget,
+    ) -> Result<(), NetworkError> {
+        self.station.sup.nmt(now, cmd, target).map_err(|e| match e {
+            ManagerError::Standby => NetworkError::Standby,
+            e => NetworkError::Nmt(e),
+        })
+    }
+
+    // ----- PDO -----
+
+    /// The bytes of a master dictionary entry an RPDO writes (see
+    /// [`LogicalNetwork::mirror_tpdo`]): the latest value received.
+    pub fn pdo_value(&self, index: u16, sub: u8) -> Result<&[u8], AbortCode> {
+        self.read(index, sub)
+    }
+    /// [`LogicalNetwork::pdo_value`], decoded.
+    pub fn pdo_value_as<V: OdValue>(&self, index: u16, sub: u8) -> Result<V, AbortCode> {
+        self.od().get_value(index, sub)
+    }
+
+    // ----- state and control -----
+
+    /// Every slave of the master (pair members included).
+    pub fn slaves(&self) -> impl Iterator<Item = SlaveView> + '_ {
+        self.station.sup.slaves()
+    }
+    /// What the master knows of one node.
+    pub fn slave(&self, node: NodeId) -> SlaveView {
+        self.station.sup.master().slave(node)
+    }
+    /// The pair table.
+    pub fn pairs(&self) -> impl Iterator<Item = (PairId, &PairState)> + '_ {
+        self.station.sup.pairs()
+    }
+    /// Makes `to` the active member of `pair` (active master only).
+    pub fn switch_over(
+        &mut self,
+        now: Instant,
+        pair: PairId,
+        to: Member,
+    ) -> Result<(), NetworkError> {
+        self.station
+            .sup
+            .switch_over(now, pair, to)
+            .map_err(NetworkError::Pairs)
+    }
+    /// This master's role.
+    pub fn role(&self) -> MasterRole {
+        self.station.sup.role()
+    }
+    /// Makes this standby master active by hand (between two SYNCs).
+    pub fn set_active(&mut self, now: Instant) -> Result<(), NetworkError> {
+        self.station.sup.set_active(now).map_err(NetworkError::Role)
+    }
+    /// Hands the role of this active master to the best live one (between two SYNCs).
+    pub fn set_standby(&mut self, now: Instant) -> Result<(), NetworkError> {
+        self.station
+            .sup
+            .set_standby(now)
+            .map_err(NetworkError::Role)
+    }
+
+    // ----- status and audit -----
+
+    /// Ports, master role, pairs, slaves: `Display` prints a table.
+    pub fn status(&self, now: Instant) -> Status<'_, D, C, N, P, S, T, R> {
+        self.station.status(now)
+    }
+    /// The audit trail (every role change, switch and toggle with reason and time).
+    pub fn audit(&self) -> &AuditTrail {
+        self.station.sup.audit()
+    }
+    /// The audit trail as CSV (`seq,time_us,kind,subject,from,to,reason`).
+    pub fn export_audit_csv(&self, out: &mut impl fmt::Write) -> fmt::Result {
+        self.audit().write_csv(out)
+    }
+    /// The audit trail as text, one line per record.
+    pub fn export_audit_text(&self, out: &mut impl fmt::Write) -> fmt::Result {
+        self.audit().write_text(out)
+    }
+
+    fn check_active(&self) -> Result<(), NetworkError> {
+        if self.station.sup.is_active() {
+            Ok(())
+        } else {
+            Err(NetworkError::Standby)
+        }
+    }
+}
+
+impl<
+        C: FrameClassifier,
+        const N: usize,
+        P: IdProfile,
+        const S: usize,
+        const T: usize,
+        const R: usize,
+    > LogicalNetwork<DynamicDictionary, C, N, P, S, T, R>
+{
+    /// Makes the master's RPDO `m.pdo` the other end of a slave's TPDO configured as `remote`:
+    /// the values land in the master's entries `m.locals` (created where missing), read with
+    /// [`LogicalNetwork::pdo_value`]; each reception is a [`NetworkEventKind::PdoReceived`].
+    /// Both masters of a network mirror the same way, so a standby has the values too.
+    pub fn mirror_tpdo(
+        &mut self,
+        now: Instant,
+        remote: &PdoConfig,
+        m: &duocan::pdo::Mirror<'_>,
+    ) -> Result<(), duocan::pdo::MirrorError> {
+        duocan::pdo::mirror(self.station.sup.node_mut(), now, Dir::Transmit, remote, m)
+    }
+}
+
+/// When a station event happened.
+fn when(e: &StationEvent<LinkEvent, SupervisorEvent>) -> Instant {
+    match e {
+        StationEvent::Link(l) => l.at,
+        StationEvent::Machine(m) => match m {
+            SupervisorEvent::Node(n) => n.at,
+            SupervisorEvent::Pairs(p) => match p {
+                PairsEvent::Role(r) => r.at,
+                PairsEvent::Joined { at, .. }
+                | PairsEvent::Lost { at, .. }
+                | PairsEvent::Missing { at, .. } => *at,
+            },
+            SupervisorEvent::Master(FlyingEvent::Role(r)) => r.at,
+            SupervisorEvent::Master(FlyingEvent::Suspended { at, .. }) => *at,
+            SupervisorEvent::Manager(e) => e.at,
+            SupervisorEvent::Sdo(s) => s.at,
+            SupervisorEvent::NotJoined { at, .. } => *at,
+        },
+    }
+}
+
+/// The typed kind of a station event, if it has one.
+fn typed(e: &StationEvent<LinkEvent, SupervisorEvent>) -> Option<NetworkEventKind> {
+    use NetworkEventKind as K;
+    Some(match e {
+        StationEvent::Link(l) => match l.kind {
+            LinkEventKind::Port {
+                port,
+                from,
+                to,
+                reason,
+            } => K::Port {
+                port,
+                from,
+                to,
+                reason,
+            },
+            LinkEventKind::Reach { node, heard } => K::Reach { node, heard },
+            LinkEventKind::Discrepancy {
+                pair,
+                function,
+                a,
+                b,
+                since,
+            } => K::Discrepancy {
+                pair,
+                function,
+                a,
+                b,
+                since,
+            },
+            LinkEventKind::DiscrepancyCleared { pair, function } => {
+                K::DiscrepancyCleared { pair, function }
+            }
+            _ => return None,
+        },
+        StationEvent::Machine(m) => match m {
+            SupervisorEvent::Node(n) => match n.kind {
+                NodeEventKind::BootUp { node } => K::NodeBooted { node },
+                NodeEventKind::RemoteState { node, from, to } => K::NodeState { node, from, to },
+                NodeEventKind::Emcy { node, msg } => K::Emcy { node, msg },
+                NodeEventKind::Pdo(PdoEvent::RpdoReceived { pdo }) => K::PdoReceived { pdo },
+                _ => return None,
+            },
+            SupervisorEvent::Pairs(PairsEvent::Role(r)) => K::PairRole(*r),
+            SupervisorEvent::Master(FlyingEvent::Role(r)) => K::MasterRole(*r),
+            SupervisorEvent::Manager(e) => match e.kind {
+                MasterEventKind::SlaveLost { node, status } => K::NodeLost { node, status },
+                _ => return None,
+            },
+            SupervisorEvent::Sdo(s) => K::Sdo(s.clone()),
+            _ => return None,
+        },
+    })
+}
+
+impl<
+        D: ObjectDictionary,
+        C: FrameClassifier,
+        const N: usize,
+        P: IdProfile,
+        const S: usize,
+        const T: usize,
+        const R: usize,
+    > Device for LogicalNetwork<D, C, N, P, S, T, R>
+{
+    type Event = NetworkEvent;
+
+    fn port_count(&self) -> usize {
+        self.station.port_count()
+    }
+    fn handle_rx(&mut self, now: Instant, port: usize, frame: &Frame) {
+        self.station.handle_rx(now, port, frame);
+    }
+    fn handle_port_status(&mut self, now: Instant, port: usize, status: PortStatus) {
+        self.station.handle_port_status(now, port, status);
+    }
+    fn handle_timeout(&mut self, now: Instant) {
+        self.station.handle_timeout(now);
+    }
+    fn poll_transmit(&mut self) -> Option<(usize, Frame)> {
+        self.station.poll_transmit()
+    }
+    fn poll_port_request(&mut self) -> Option<(usize, PortRequest)> {
+        self.station.poll_port_request()
+    }
+    fn poll_timeout(&self) -> Option<Instant> {
+        self.station.poll_timeout()
+    }
+    fn poll_event(&mut self) -> Option<NetworkEvent> {
+        let e = self.station.poll_event()?;
+        let at = when(&e);
+        let kind = typed(&e).unwrap_or(NetworkEventKind::Other(e));
+        Some(NetworkEvent { at, kind })
+    }
+}
+
+impl<D, C, const N: usize, P, const S: usize, const T: usize, const R: usize> fmt::Debug
+    for LogicalNetwork<D, C, N, P, S, T, R>
+{
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.debug_struct("LogicalNetwork")
+            .field("sup", &self.station.sup)
+            .finish_non_exhaustive()
+    }
+}
