@@ -91,7 +91,8 @@ fn sdo_answer(f: &Frame) -> Frame {
 }
 
 /// Drives a station with `arrivals`, running its timeouts on time and answering its SDO
-/// requests (the slaves' side of the boot process). Returns frames sent.
+/// requests once (the slaves' side of the boot process; the station sends every frame on both
+/// ports). Returns frames sent.
 fn drive(m: &mut Station, arrivals: &[(u64, usize, Frame)], answer_sdo: bool) -> u64 {
     let mut sent = 0u64;
     let mut answers: Vec<Frame> = vec![];
@@ -99,9 +100,9 @@ fn drive(m: &mut Station, arrivals: &[(u64, usize, Frame)], answer_sdo: bool) ->
         let now = Instant::from_micros(*t);
         while let Some(d) = m.poll_timeout().filter(|d| *d <= now) {
             m.handle_timeout(d);
-            while let Some((_, f)) = m.poll_transmit() {
+            while let Some((port, f)) = m.poll_transmit() {
                 sent += 1;
-                if answer_sdo && (0x601..=0x67F).contains(&f.id().raw()) {
+                if answer_sdo && port == 0 && (0x601..=0x67F).contains(&f.id().raw()) {
                     answers.push(sdo_answer(&f));
                 }
             }
@@ -111,9 +112,9 @@ fn drive(m: &mut Station, arrivals: &[(u64, usize, Frame)], answer_sdo: bool) ->
         for a in answers.drain(..) {
             m.handle_rx(now, 0, &a);
         }
-        while let Some((_, f)) = m.poll_transmit() {
+        while let Some((port, f)) = m.poll_transmit() {
             sent += 1;
-            if answer_sdo && (0x601..=0x67F).contains(&f.id().raw()) {
+            if answer_sdo && port == 0 && (0x601..=0x67F).contains(&f.id().raw()) {
                 answers.push(sdo_answer(&f));
             }
         }

@@ -392,7 +392,8 @@ pub enum LossReason {
     Rebooted,
     /// Its configuration failed; it was reset.
     ConfigFailed,
-    /// It is not what the configuration expects (identity); it was left alone.
+    /// It is not what the configuration expects (identity) or refused its configuration; it
+    /// was left alone.
     Rejected,
     /// A reset command for it was seen on the bus (shadow).
     ResetObserved,
@@ -768,7 +769,8 @@ impl PairSupervisor {
         }
     }
 
-    /// `node` is not what the configuration expects (its identity differs): it does not join
+    /// `node` is not what the configuration expects (its identity differs, or it refuses its
+    /// configuration): it does not join
     /// (a joined one leaves) and is not reset (a reset would not change what it is), nor adopted
     /// when heard; its next boot-up is checked again. Ignored unless `node` is a pair member.
     pub fn rejected(&mut self, now: Instant, node: NodeId) {

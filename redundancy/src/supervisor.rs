@@ -181,7 +181,9 @@ pub enum JoinRefusal {
         /// What the member has.
         actual: u32,
     },
-    /// A step of its boot process failed: it is reset, to boot and be configured again.
+    /// A step of its boot process failed. If the member did not answer, it is reset, to boot
+    /// and be configured again; if it refused (an abort code, a PDO it will not take), it is
+    /// left alone like a wrong identity: a reset would not change its answer.
     Config {
         /// The CiA 302-2 error status (B: no answer, J: a configuration write failed).
         status: ErrorStatus,
@@ -190,6 +192,26 @@ pub enum JoinRefusal {
     },
     /// The master refused to run its boot process.
     Master(ManagerError),
+}
+
+impl JoinRefusal {
+    /// True if the member did not answer (worth a reset and another try); false if it answered
+    /// and refused, or is another device.
+    pub fn is_transient(&self) -> bool {
+        use duocan::pdo::ConfigErrorKind;
+        use duocan::sdo::SdoErrorKind;
+        match self {
+            JoinRefusal::Config {
+                reason: BootError::Sdo(e),
+                ..
+            } => !matches!(e.kind, SdoErrorKind::Server(_)),
+            JoinRefusal::Config {
+                reason: BootError::Pdo(e),
+                ..
+            } => matches!(e.kind, ConfigErrorKind::NoAnswer(_)),
+            _ => false,
+        }
+    }
 }
 
 impl fmt::Display for JoinRefusal {
@@ -747,20 +769,19 @@ impl<D: ObjectDictionary, P: IdProfile, const S: usize, const T: usize, const R:
             return;
         };
         let configuring = self.pairs.is_configuring(node);
-        let changed = match why {
-            JoinRefusal::Identity { .. } => {
-                // Whatever its phase: a member found to be another device is out.
-                let joined = self
-                    .pairs
-                    .pair(pair)
-                    .is_some_and(|p| p.member(member).joined());
-                self.pairs.rejected(at, node);
-                configuring || joined
-            }
-            JoinRefusal::Config { .. } | JoinRefusal::Master(_) => {
-                self.pairs.configured(at, node, false);
-                configuring
-            }
+        let changed = if why.is_transient() {
+            // Not answering: reset, it boots and is configured again.
+            self.pairs.configured(at, node, false);
+            configuring
+        } else {
+            // Another device, or one that refuses its configuration: out, whatever its phase,
+            // until it boots again.
+            let joined = self
+                .pairs
+                .pair(pair)
+                .is_some_and(|p| p.member(member).joined());
+            self.pairs.rejected(at, node);
+            configuring || joined
         };
         if changed {
             self.emit(SupervisorEvent::NotJoined {

@@ -10,7 +10,9 @@ use duocan::nmt::NmtTarget;
 use duocan::od::{comm, Access, DataType, DynamicDictionary, ObjectDef, ObjectDictionary};
 use duocan::pdo::{params, Local, MapEntry, Mirror, PdoConfig};
 use duocan::sim::{BusConfig, BusId, DevId, SimNetwork, TraceRecord, TxOutcome};
-use duocan::{Duration, Id, Instant, NmtCommand, NmtState, Node, NodeConfig, NodeId, Station};
+use duocan::{
+    Duration, Id, Instant, Machine, NmtCommand, NmtState, Node, NodeConfig, NodeId, Station,
+};
 use duocan_redundancy::flying_master::MasterRole;
 use duocan_redundancy::pairs::{PairSpec, RoleReason};
 use duocan_redundancy::{
@@ -20,7 +22,40 @@ use duocan_redundancy::{
 };
 
 type Net = LogicalNetwork<DynamicDictionary>;
-type SlaveDev = Station<DualBus, Node<DynamicDictionary>>;
+
+/// A board's node whose SDO answers can be muted (a board that hears but does not answer).
+struct Quiet {
+    node: Node<DynamicDictionary>,
+    mute_sdo: bool,
+}
+
+impl Machine for Quiet {
+    type Event = duocan::NodeEvent;
+    fn handle_frame(&mut self, now: Instant, frame: &duocan::Frame) {
+        self.node.handle_frame(now, frame)
+    }
+    fn handle_timeout(&mut self, now: Instant) {
+        self.node.handle_timeout(now)
+    }
+    fn poll_transmit(&mut self) -> Option<duocan::Frame> {
+        loop {
+            let f = self.node.poll_transmit()?;
+            let sdo = matches!(f.id(), Id::Standard(0x581..=0x5FF));
+            if !(self.mute_sdo && sdo) {
+                return Some(f);
+            }
+        }
+    }
+    fn poll_timeout(&self) -> Option<Instant> {
+        self.node.poll_timeout()
+    }
+    fn poll_event(&mut self) -> Option<duocan::NodeEvent> {
+        self.node.poll_event()
+    }
+}
+
+type Board = Station<DualBus, Quiet>;
+type SlaveDev = Board;
 
 const STRONG: u8 = 1;
 const WEAK: u8 = 2;
@@ -76,7 +111,13 @@ fn board(id: u8, vendor: u32, hb_ms: u16, now: Instant) -> SlaveDev {
         .unwrap();
     let mut node = Node::new(NodeConfig::slave(n(id)), od);
     node.boot(now);
-    Station::new(link(), node)
+    Station::new(
+        link(),
+        Quiet {
+            node,
+            mute_sdo: false,
+        },
+    )
 }
 
 fn link() -> DualBus {
@@ -102,7 +143,14 @@ fn expected() -> ExpectedIdentity {
 /// Where a master keeps the mirrored value of each board's TPDO1: A, B, the I/O slave.
 const MIRRORS: [(u8, u16, u16); 3] = [(A, 1, 0x3000), (B, 2, 0x3001), (IO, 3, 0x3002)];
 
-fn network(id: u8) -> Net {
+/// What board B's configuration adds to A's: nothing, or a write the board refuses.
+#[derive(Clone, Copy, PartialEq)]
+enum BConfig {
+    Same,
+    RefusedWrite,
+}
+
+fn network(id: u8, b_config: BConfig) -> Net {
     let od = objects::master_dictionary(id, comm::Identity::default());
     let slaves = NetworkConfig::new()
         .sdo_timeout(Duration::from_millis(100))
@@ -122,11 +170,16 @@ fn network(id: u8) -> Net {
         .with_peer(peer - 1, n(peer));
     let mut sup = Supervisor::new(master, cfg, Instant::ZERO);
     let member = |m: u8| SlaveConfig::new(n(m)).identity(expected()).tpdo(1, tpdo(m));
+    let b = match b_config {
+        BConfig::Same => member(B),
+        // The vendor-ID is read-only: the board aborts the write.
+        BConfig::RefusedWrite => member(B).write_u32(0x1018, 1, VENDOR),
+    };
     sup.add_pair_with(
         Instant::ZERO,
         PairSpec::new(n(A), n(B), HB, CONSUMER),
         member(A),
-        member(B),
+        b,
     )
     .unwrap();
     let mut net = LogicalNetwork::new(SupervisedStation::new(link(), sup).unwrap());
@@ -158,14 +211,19 @@ impl World {
     /// Both masters and the boards; `b_vendor` is the vendor-ID board B reports (a wrong one
     /// comes with a heartbeat of its own, so that it is heard).
     fn new(b_vendor: u32) -> World {
+        World::with(b_vendor, BConfig::Same)
+    }
+    fn with(b_vendor: u32, b_config: BConfig) -> World {
         let mut sim = SimNetwork::new(3);
         let buses = [
             sim.add_bus(BusConfig::new("can1", 1_000_000)),
             sim.add_bus(BusConfig::new("can2", 1_000_000)),
         ];
         let masters = [
-            sim.add_device("strong", network(STRONG), &buses).unwrap(),
-            sim.add_device("weak", network(WEAK), &buses).unwrap(),
+            sim.add_device("strong", network(STRONG, b_config), &buses)
+                .unwrap(),
+            sim.add_device("weak", network(WEAK, b_config), &buses)
+                .unwrap(),
         ];
         let slaves = [(A, VENDOR), (B, b_vendor), (IO, VENDOR), (GUARDED, VENDOR)]
             .into_iter()
@@ -194,7 +252,7 @@ impl World {
         self.slaves.iter().find(|s| s.0 == id).unwrap().1
     }
     fn node(&self, id: u8) -> &Node<DynamicDictionary> {
-        &self.sim.device(self.slave(id)).machine
+        &self.sim.device(self.slave(id)).machine.node
     }
     fn set_app(&mut self, id: u8, v: u16) {
         let d = self.slave(id);
@@ -202,6 +260,7 @@ impl World {
         self.sim
             .device_mut(d)
             .machine
+            .node
             .write(now, APP, 1, &v.to_le_bytes())
             .unwrap();
     }
@@ -421,6 +480,7 @@ fn one_typed_event_stream_for_ports_nodes_pairs_masters_emcy_and_discrepancies()
     w.sim
         .device_mut(io)
         .machine
+        .node
         .emcy_raise(now, 0x5000, 0x01, [1, 2, 3, 4, 5]);
     w.sim.run_for(Duration::from_millis(5));
     for id in [STRONG, WEAK] {
@@ -600,4 +660,88 @@ fn a_member_with_the_wrong_identity_does_not_join_and_an_event_says_why() {
     assert_eq!(p.active, Some(Member::A));
     assert_eq!(w.node(B).od().get_value::<u32>(0x1A00, 1), Ok(0x2000_0110));
     assert_eq!(w.node(B).nmt_state(), NmtState::PreOperational);
+}
+
+/// The NotJoined events of the strong master for node B: (at, why).
+fn not_joined(w: &World) -> Vec<(Instant, JoinRefusal)> {
+    w.sim
+        .events(w.masters[0])
+        .iter()
+        .filter_map(|(_, e)| match &e.kind {
+            K::Other(duocan::machine::StationEvent::Machine(SupervisorEvent::NotJoined {
+                at,
+                node,
+                why,
+                ..
+            })) if *node == n(B) => Some((*at, *why)),
+            _ => None,
+        })
+        .collect()
+}
+
+#[test]
+fn a_member_refusing_its_configuration_is_left_out_not_reset_again_and_again() {
+    let mut w = World::with(VENDOR, BConfig::RefusedWrite);
+    w.sim.run_until(ms(2_000));
+    let refusals = not_joined(&w);
+    assert_eq!(refusals.len(), 1, "{refusals:?}");
+    let JoinRefusal::Config {
+        status,
+        reason: duocan::master::BootError::Sdo(e),
+    } = refusals[0].1
+    else {
+        panic!("{refusals:?}")
+    };
+    assert_eq!(status, ErrorStatus::J);
+    assert_eq!((e.node, e.index, e.sub), (n(B), 0x1018, 1));
+    assert!(!refusals[0].1.is_transient());
+    let p = *w.net(STRONG).pairs().next().unwrap().1;
+    assert_eq!(p.active, Some(Member::A));
+    assert!(!p.member(Member::B).joined() && p.member(Member::B).is_rejected());
+    assert!(!w
+        .wire()
+        .iter()
+        .any(|(_, _, f)| f.id() == Id::Standard(0) && f.data() == [0x81, B]));
+}
+
+#[test]
+fn a_member_that_does_not_answer_is_reset_and_joins_once_it_answers() {
+    let mut w = World::new(VENDOR);
+    // B hears but does not answer SDO from the start; it answers again at 1.5 s.
+    let b = w.slave(B);
+    w.sim.device_mut(b).machine.mute_sdo = true;
+    w.sim.at(ms(1_500), move |sim| {
+        sim.device_mut(b).machine.mute_sdo = false
+    });
+    w.sim.run_until(ms(2_500));
+    let refusals = not_joined(&w);
+    assert!(refusals.len() >= 3, "{refusals:?}");
+    for (_, why) in &refusals {
+        assert!(why.is_transient(), "{why}");
+        assert!(matches!(
+            why,
+            JoinRefusal::Config {
+                status: ErrorStatus::B,
+                ..
+            }
+        ));
+    }
+    // Each refusal (the SDO timeout, 100 ms after the request) resets B at once.
+    let resets: Vec<Instant> = w
+        .wire()
+        .iter()
+        .filter(|(_, s, f)| s == "strong" && f.id() == Id::Standard(0) && f.data() == [0x81, B])
+        .map(|x| x.0)
+        .collect();
+    assert_eq!(resets.len(), refusals.len());
+    for ((at, _), r) in refusals.iter().zip(&resets) {
+        assert!(*r > *at && *r <= *at + Duration::from_millis(1), "{at} {r}");
+    }
+    assert!(refusals.iter().all(|(at, _)| *at < ms(1_650)));
+    // Answering again, it joined as standby.
+    let p = *w.net(STRONG).pairs().next().unwrap().1;
+    assert!(p.member(Member::B).joined());
+    assert_eq!(p.active, Some(Member::A));
+    assert_eq!(w.node(B).nmt_state(), NmtState::PreOperational);
+    assert_eq!(w.node(B).od().get_value::<u32>(0x1A00, 1), Ok(0x2000_0110));
 }
