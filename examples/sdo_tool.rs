@@ -159,7 +159,7 @@ fn encode(ty: Type, value: &str) -> Result<Vec<u8>, String> {
         Type::Hex | Type::Auto => {
             let digits: String = value.chars().filter(|c| !c.is_whitespace()).collect();
             let digits = digits.strip_prefix("0x").unwrap_or(&digits);
-            if digits.is_empty() || digits.len() % 2 != 0 {
+            if digits.is_empty() || !digits.len().is_multiple_of(2) {
                 return Err(format!("{value:?}: give whole bytes in hex, like 01020a"));
             }
             (0..digits.len())
