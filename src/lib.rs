@@ -24,6 +24,8 @@ pub mod frame;
 pub mod guarding;
 pub mod heartbeat;
 pub mod machine;
+#[cfg(feature = "alloc")]
+pub mod master;
 pub mod nmt;
 pub mod node;
 pub mod od;

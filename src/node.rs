@@ -912,19 +912,20 @@ impl<D: ObjectDictionary, P: IdProfile, const G: usize, const TPDOS: usize, cons
             Ok(x) => x,
             Err(reason) => return self.malformed(now, frame.id(), reason),
         };
-        if let Some(from) = self.nodes.observe(node, state, now) {
-            if state == NmtState::Initialising {
-                self.event(now, NodeEventKind::BootUp { node });
-            } else {
-                self.event(
-                    now,
-                    NodeEventKind::RemoteState {
-                        node,
-                        from,
-                        to: state,
-                    },
-                );
-            }
+        let changed = self.nodes.observe(node, state, now);
+        if state == NmtState::Initialising {
+            // Every boot-up is news, also a second one with no heartbeat in between (a slave
+            // without a producer that reboots again): a master reconfigures on each.
+            self.event(now, NodeEventKind::BootUp { node });
+        } else if let Some(from) = changed {
+            self.event(
+                now,
+                NodeEventKind::RemoteState {
+                    node,
+                    from,
+                    to: state,
+                },
+            );
         }
         if state == NmtState::Initialising {
             self.guard_master.booted(node);

@@ -3,6 +3,9 @@
 //!
 //! The producer runs on a fixed grid: SYNC k is due at start + k·period whatever the driver's
 //! latency, so jitter does not accumulate. A period change takes effect from the last SYNC sent.
+//! A consumer that becomes the producer (a standby master taking over) continues the grid of the
+//! SYNCs it received: the next one is due one period after the last one heard, at once if that
+//! is past.
 
 use crate::cob_id::CobId;
 use crate::frame::{Frame, Id};
@@ -41,9 +44,10 @@ pub struct SyncService {
 
 impl SyncService {
     /// Applies a configuration at `now`. Production starts one period after `now`, or, if SYNC
-    /// was already running, one new period after the last SYNC (a clean period change).
+    /// was already running (produced here, or received from the previous producer), one new
+    /// period after the last SYNC (a clean period change; a takeover without a gap).
     pub fn configure(&mut self, now: Instant, cfg: SyncConfig) {
-        let was_producing = self.next.is_some();
+        let was_producing = self.next.is_some() || (self.last.is_some() && !self.is_producer());
         if cfg.overflow != self.cfg.overflow {
             self.counter = 1;
         }
@@ -135,6 +139,12 @@ impl SyncService {
             [] if expected == 0 => {}
             [c] if expected == 1 => {
                 self.last = Some(now);
+                // A consumer that takes over production continues the counter it heard.
+                self.counter = if *c >= self.cfg.overflow || *c == 0 {
+                    1
+                } else {
+                    c + 1
+                };
                 return Ok(SyncTick { counter: Some(*c) });
             }
             d => {

@@ -161,6 +161,7 @@ impl fmt::Debug for Duration {
 }
 
 /// Earliest of two optional deadlines: what a composite machine reports from its parts.
+#[inline]
 pub fn earliest(a: Option<Instant>, b: Option<Instant>) -> Option<Instant> {
     match (a, b) {
         (Some(x), Some(y)) => Some(x.min(y)),

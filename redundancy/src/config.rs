@@ -124,7 +124,7 @@ impl fmt::Display for ConfigError {
     }
 }
 
-fn read<D: ObjectDictionary>(od: &D, index: u16, sub: u8) -> Result<u32, ConfigError> {
+pub(crate) fn read<D: ObjectDictionary>(od: &D, index: u16, sub: u8) -> Result<u32, ConfigError> {
     match od.get(index, sub) {
         Ok(_) => od.get_u32(index, sub).ok_or(ConfigError::Missing {
             index,

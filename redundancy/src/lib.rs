@@ -19,22 +19,42 @@
 //! reachability](reach), and [events] with reasons and timestamps for every change.
 //! Configuration comes from code ([`DualBusConfig`]) or from the dictionary ([`config`]).
 //!
+//! The second part is the **supervisor** of a redundant master, on top of the layer and the
+//! stack:
+//!
+//! - [slave-pair supervision](pairs): the pair table, joining on boot-up, event-driven
+//!   evaluation with per-member deadlines (reaction = the consumer time), the seed's four cases
+//!   and the single-member ones, non-revertive or revertive, manual switch-over, a watchdog for
+//!   members that never speak;
+//! - [CiA 302-2 flying master](flying_master): strong/weak master by priority, takeover at the
+//!   master-heartbeat timeout, multiple-master detection and conflict resolution after a
+//!   partition, planned hand-over;
+//! - the [audit trail](audit) of every role change, switch and toggle;
+//! - [`Supervisor`], the [`Machine`](duocan::Machine) composing them with the master node, and
+//!   [`SupervisedStation`], which runs it over a [`DualBus`] and tells the layer which pair
+//!   member is active; its [status](station::Status) prints as a table.
+//!
 //! Everything is bounded (fixed-capacity tables and queues, counted overflow) and builds for
 //! `no_std` targets.
 #![cfg_attr(not(feature = "std"), no_std)]
 #![warn(missing_docs)]
 #![forbid(unsafe_code)]
 
+pub mod audit;
 pub mod channel;
 pub mod classify;
 pub mod config;
 pub mod dual_bus;
 pub mod events;
+pub mod flying_master;
 pub mod health;
 pub mod merge;
 pub mod outbox;
+pub mod pairs;
 pub mod pairs_merge;
 pub mod reach;
+pub mod station;
+pub mod supervisor;
 
 pub use channel::{Cia3026Config, EcssConfig, EcssRole, ModeKind, NodeSet};
 pub use classify::FrameClassifier;
@@ -44,3 +64,5 @@ pub use health::{HealthConfig, PortState};
 pub use merge::{Merger, Verdict};
 pub use outbox::{Outbox, EVENT_QUEUE, FRAME_QUEUE, REQUEST_QUEUE};
 pub use pairs_merge::{Member, PairId};
+pub use station::SupervisedStation;
+pub use supervisor::{LinkCommand, Supervisor, SupervisorConfig, SupervisorEvent};

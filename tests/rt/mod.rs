@@ -173,3 +173,30 @@ pub fn add_rpdo1(n: &mut TestNode, cob_id: u32) {
         od.upsert(d);
     }
 }
+
+/// Waits until `count()` has grown by `n` — behaviour, not speed: the VM's emulated CPU may be
+/// slow under load — collecting the events meanwhile. Panics after `secs` naming `what`.
+pub async fn until_grown<E: Clone>(
+    rx: &mut broadcast::Receiver<E>,
+    count: impl Fn() -> u64,
+    n: u64,
+    secs: u64,
+    what: &str,
+) -> Vec<E> {
+    let start = count();
+    let until = tokio::time::Instant::now() + Duration::from_secs(secs);
+    let mut out = Vec::new();
+    while count() - start < n {
+        assert!(
+            tokio::time::Instant::now() < until,
+            "{what}: only {} of {n} in {secs} s",
+            count() - start
+        );
+        match tokio::time::timeout(Duration::from_millis(20), rx.recv()).await {
+            Ok(Ok(e)) => out.push(e),
+            Ok(Err(broadcast::error::RecvError::Closed)) => panic!("runtime closed"),
+            _ => {}
+        }
+    }
+    out
+}
