@@ -16,16 +16,14 @@ use crate::dictionary::{self, Od, FIELD_TIMEOUT, IMAGE, IMAGE_LEN, TRACK_STATES}
 use crate::mirror::{self, Changes, TrackChange, Tracks, Verdict};
 use crate::{ADDRESS, MERGE_SLOTS, NODE_ID, TRACKS};
 use core::fmt;
-use duocan::machine::{PortRequest, StationEvent};
+use duocan::machine::StationEvent;
 use duocan::node::{NodeEventKind, StateCause};
 use duocan::od::{BuildError, ObjectDictionary};
 use duocan::port::embedded::{status_of, EmbeddedDriver, EmbeddedPortStats, RX_BURST};
 use duocan::profile::railway::safety::{FieldState, SafetyCode, TrackCircuit};
 use duocan::profile::railway::{DeviceAddress, RailwayProfile};
 use duocan::time::earliest;
-use duocan::{
-    CobId, Device, Duration, Frame, Instant, Node, NodeConfig, NodeEvent, NodeId, Station,
-};
+use duocan::{CobId, Duration, Frame, Instant, Node, NodeConfig, NodeEvent, NodeId, Station};
 use duocan_redundancy::{DualBus, DualBusConfig, LinkEvent, Mode};
 use embedded_can::nb::Can;
 use embedded_can::Error as _;
@@ -43,17 +41,13 @@ pub type GatewayDevice = Station<Link, Board>;
 pub type DeviceEvent = StationEvent<LinkEvent, NodeEvent>;
 
 /// The dual-bus layer's configuration on `embedded-can` controllers: active-active, the
-/// silence limit 3 heartbeat periods of the network, and no transmit-stall rule: `nb::Can`
-/// tells when a controller refuses a frame but never when one was acknowledged on the bus, so
-/// an outstanding frame is no sign of a stall here (the rule would fail a healthy bus after
-/// the first reported error).
+/// silence limit 3 heartbeat periods of the network. (`nb::Can` never confirms a frame as
+/// acknowledged, so the layer's transmit-stall rule never arms here.)
 pub fn link_config() -> DualBusConfig {
-    let mut cfg = DualBusConfig::with_guard_period(
+    DualBusConfig::with_guard_period(
         Mode::ActiveActive,
         Duration::from_millis(dictionary::HEARTBEAT_MS as u64),
-    );
-    cfg.health.tx_stall = Duration::ZERO;
-    cfg
+    )
 }
 
 /// Events the application can hold before it drains them.
@@ -131,7 +125,6 @@ pub struct Gateway<C: Can> {
     events: Deque<Event, EVENT_QUEUE>,
     events_dropped: u32,
     field_stats: FieldStats,
-    reinit: [bool; 2],
 }
 
 impl<C: Can> Gateway<C> {
@@ -162,7 +155,6 @@ impl<C: Can> Gateway<C> {
             events: Deque::new(),
             events_dropped: 0,
             field_stats: FieldStats::default(),
-            reinit: [false; 2],
         };
         gw.node_mut().boot(now);
         gw.publish_all(now);
@@ -177,17 +169,10 @@ impl<C: Can> Gateway<C> {
         self.field_stats.timeouts += stale.len() as u32;
         self.publish(now, &stale);
         let mut next = self.driver.poll(now);
-        // Events and requests can hold frames back (a re-initialisation request holds that
-        // port's frames; a reboot rewrites the mirrors): take them, then send what they freed.
-        for _ in 0..2 {
-            let booted = self.drain_device();
-            if booted {
-                // Power-on or NMT reset restored the dictionary's defaults: put the mirrors back.
-                self.publish_all(now);
-            }
-            if !(booted | self.drain_requests()) {
-                break;
-            }
+        // The driver re-initialises ports the dual-bus layer asks for. A reboot (power-on or NMT
+        // reset) restores the dictionary's defaults: put the mirrors back and send them.
+        if self.drain_device() {
+            self.publish_all(now);
             next = self.driver.poll(now);
         }
         earliest(next, self.tracks.deadline())
@@ -196,13 +181,6 @@ impl<C: Can> Gateway<C> {
     /// Next event.
     pub fn poll_event(&mut self) -> Option<Event> {
         self.events.pop_front()
-    }
-    /// A bus (0: bus 1, 1: bus 2) the dual-bus layer wants re-initialised (restart its
-    /// controller, e.g. after bus-off); each request is returned once.
-    pub fn take_reinit(&mut self) -> Option<usize> {
-        let p = self.reinit.iter().position(|r| *r)?;
-        self.reinit[p] = false;
-        Some(p)
     }
     /// State and cause of track circuit `track` (1-based).
     pub fn track(&self, track: u8) -> Option<(TrackCircuit, mirror::Cause)> {
@@ -310,19 +288,6 @@ impl<C: Can> Gateway<C> {
         // default (occupied) in place.
         let _ = node.write(now, TRACK_STATES, track, &[state.code()]);
         let _ = node.write(now, IMAGE, track, &image[..IMAGE_LEN]);
-    }
-
-    /// Takes the dual-bus layer's re-initialisation requests (for [`Gateway::take_reinit`]);
-    /// true if there were any.
-    fn drain_requests(&mut self) -> bool {
-        let mut any = false;
-        while let Some((port, PortRequest::Reinit)) = self.driver.device_mut().poll_port_request() {
-            any = true;
-            if let Some(r) = self.reinit.get_mut(port) {
-                *r = true;
-            }
-        }
-        any
     }
 
     /// Moves the device's events to the queue; true if the node (re)booted.

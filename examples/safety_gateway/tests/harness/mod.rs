@@ -11,8 +11,8 @@ use duocan::profile::railway::safety::{objects, FieldState, TrackCircuit};
 use duocan::profile::railway::{self, DeviceAddress, Function, Payload, RailwayProfile};
 use duocan::sdo::{SdoClient, SdoError, SdoEvent, SdoOptions, TransferBuffer};
 use duocan::{
-    Device, Frame, Id, Instant, Machine, NmtCommand, NmtTarget, Node, NodeConfig, NodeEvent,
-    NodeId, Station,
+    Frame, Id, Instant, Machine, NmtCommand, NmtTarget, Node, NodeConfig, NodeEvent, NodeId,
+    Station,
 };
 use duocan_redundancy::{DualBus, DualBusConfig, LinkEvent, Mode};
 use safety_gateway::mock::{MockCan, Wire};
@@ -118,12 +118,10 @@ fn master_device() -> MasterDev {
     od.write_local(comm::HEARTBEAT_CONSUMER, 1, &consumer.to_le_bytes())
         .unwrap();
     let node = Node::with_profile(NodeConfig::master(MASTER), od, profile());
-    // The master runs on the same kind of driver: no transmit-stall rule either.
-    let mut cfg = DualBusConfig::with_guard_period(
+    let cfg = DualBusConfig::with_guard_period(
         Mode::ActiveActive,
         duocan::Duration::from_millis(MASTER_HB_MS as u64),
     );
-    cfg.health.tx_stall = duocan::Duration::ZERO;
     Station::new(
         DualBus::with_classifier(cfg, profile()),
         Pair::new(
@@ -188,16 +186,6 @@ impl Bench {
         for _ in 0..64 {
             self.next[0] = self.gateway.poll(self.now);
             self.next[1] = self.master.poll(self.now);
-            // The master's dual-bus layer asks to restart controllers after failures; a mock
-            // controller needs nothing, but the request must be taken (it holds the port's
-            // frames back until then).
-            let mut requests = false;
-            while self.master.device_mut().poll_port_request().is_some() {
-                requests = true;
-            }
-            if requests {
-                self.next[1] = self.master.poll(self.now);
-            }
             while let Some(e) = self.gateway.poll_event() {
                 self.gateway_events.push(e);
             }
