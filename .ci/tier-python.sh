@@ -1,7 +1,8 @@
 #!/bin/bash
 # Tier 3: python-can / python `canopen` as an independent peer over python-can's udp_multicast
 # bus, inside a private network namespace (no packet can leave the machine), plus the runtime
-# overhead measurement on the UDP bus (bare socket echo vs the tokio runtime).
+# overhead measurement on the UDP bus (bare socket echo vs the tokio runtime), and the sdo_tool
+# example against a duocan node on the UDP bus.
 #   .ci/tier-python.sh            tests + benchmark
 #   .ci/tier-python.sh --no-bench tests only
 # Installs python3-venv if missing, pip-installs the peers into $TARGET/pyenv, builds first
@@ -33,6 +34,9 @@ cargo test --features tokio,udp,socketcan --lib --test runtime_mem || fail "libr
 
 echo "== tier-python: build (outside the namespace)"
 cargo test --features test-python --test python_peer --no-run || fail "build python_peer tests"
+# The sdo_tool example and its test (which runs the example's binary against a duocan node).
+cargo build --features test-python --example sdo_tool || fail "build the sdo_tool example"
+cargo test --features test-python --test sdo_tool --no-run || fail "build sdo_tool tests"
 BENCH=1; [ "${1:-}" = "--no-bench" ] && BENCH=0
 if [ $BENCH = 1 ]; then
   cargo build --release --features udp --example rt_overhead || fail "build rt_overhead"
@@ -45,6 +49,11 @@ unshare -n sh -ec '
   ip route add 224.0.0.0/4 dev lo
   cargo test --offline --features test-python --test python_peer
 ' || fail "python peer tests"
+unshare -n sh -ec '
+  ip link set lo up
+  ip route add 224.0.0.0/4 dev lo
+  cargo test --offline --features test-python --test sdo_tool
+' || fail "sdo_tool example against a duocan node on the UDP bus"
 
 if [ $BENCH = 1 ]; then
   echo "== tier-python: runtime overhead on the UDP bus (inside unshare -n)"

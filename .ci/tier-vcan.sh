@@ -1,8 +1,10 @@
 #!/bin/bash
 # Tier 2: real SocketCAN on vcan0/vcan1/vcan2, inside a qemu VM running Debian's stock kernel
 # (the host kernel has no CAN). Installs what it needs (qemu, busybox, the kernel deb's CAN
-# modules, can-utils), runs tests/vcan.rs and redundancy/tests/vcan_failover.rs in the VM, then
-# the runtime-overhead measurement (bare socketcan echo loop vs the tokio runtime, same VM).
+# modules, can-utils), runs tests/vcan.rs, redundancy/tests/vcan_failover.rs and the
+# dual_vcan_failover example's self-test in the VM (and checks on the host that the example
+# refuses to run without its interfaces, saying how to create them), then the runtime-overhead
+# measurement (bare socketcan echo loop vs the tokio runtime, same VM).
 #   .ci/tier-vcan.sh            tests + benchmark
 #   .ci/tier-vcan.sh --no-bench tests only
 # Exits non-zero, saying why, when anything cannot run.
@@ -32,6 +34,23 @@ echo "== tier-vcan: SocketCAN integration tests in the VM"
 cargo test --features test-vcan --test vcan || fail "vcan tests"
 echo "== tier-vcan: the dual-bus layer (duocan-redundancy) failing over between vcan0 and vcan1"
 cargo test -p duocan-redundancy --features test-vcan --test vcan_failover || fail "dual-bus failover on vcan"
+
+echo "== tier-vcan: the dual_vcan_failover example"
+cargo build --features socketcan --example dual_vcan_failover || fail "build dual_vcan_failover"
+TARGET=$(cargo metadata --format-version 1 --no-deps | python3 -c 'import sys,json; print(json.load(sys.stdin)["target_directory"])')
+EX="$TARGET/debug/examples/dual_vcan_failover"
+# Without the interfaces (the host has no CAN) it must exit non-zero saying how to create them.
+missing_check() {  # $@: arguments; the interfaces they name do not exist
+  set +e; out=$("$EX" "$@" 2>&1); rc=$?; set -e
+  [ $rc -ne 0 ] || fail "dual_vcan_failover $* exited 0 without its interfaces"
+  for want in "sudo modprobe vcan" "ip link add dev" "type vcan"; do
+    case $out in *"$want"*) ;; *) fail "dual_vcan_failover $*: message lacks '$want': $out" ;; esac
+  done
+  echo "missing interfaces refused (exit $rc), with instructions"
+}
+missing_check --buses nocan8,nocan9 --self-test
+if [ ! -e /sys/class/net/vcan0 ] && [ ! -e /sys/class/net/vcan1 ]; then missing_check --self-test; fi
+"$VM/vm-run.sh" "$EX" --self-test || fail "dual_vcan_failover --self-test in the VM"
 
 if [ "${1:-}" != "--no-bench" ]; then
   echo "== tier-vcan: runtime overhead on vcan (in the VM)"

@@ -204,7 +204,8 @@ pub struct PortHealth {
     backoff: Duration,
     /// Hand-over times of frames without an outcome yet, oldest first.
     outstanding: heapless::Deque<Instant, OUTSTANDING>,
-    /// The driver reports transmit outcomes.
+    /// The driver confirms successful transmissions (`TxOk`); only then can silence about a
+    /// handed-over frame mean a stall.
     reports_outcomes: bool,
     /// Traffic (a frame, the driver's "up") revives the failed port; not after a transmit
     /// stall, where only the back-off re-initialisation does.
@@ -372,7 +373,8 @@ impl Health {
             }
             PortStatus::TxFailed(c) => {
                 port.counters.tx_failed += 1;
-                port.reports_outcomes = true;
+                // Failures alone do not arm the stall check: a driver that never confirms a
+                // success (embedded-can has no way to) would look stalled after every failure.
                 if c == ErrorCause::TxTimeout {
                     // Refused at hand-over (queue full): the newest frame.
                     port.outstanding.pop_back();
@@ -759,9 +761,20 @@ mod tests {
         };
         let mut h = Health::new(cfg, W);
         let mut out = Outbox::new();
-        // A driver that never reported an outcome is not judged.
+        // A driver that never confirmed a success is not judged, even after failures
+        // (embedded-can drivers report failures but cannot confirm successes).
         h.count_tx(ms(0), 0);
         assert_eq!(h.poll_timeout(), None);
+        let mut only_failures = Health::new(cfg, W);
+        only_failures.count_tx(ms(0), 0);
+        only_failures.on_status(
+            ms(0),
+            0,
+            PortStatus::TxFailed(ErrorCause::Bit),
+            &mut Outbox::new(),
+        );
+        only_failures.count_tx(ms(1), 0);
+        assert_eq!(only_failures.stall_deadline(0), None);
         h.on_status(ms(1), 0, PortStatus::TxOk, &mut out);
         h.count_tx(ms(2), 0);
         h.count_tx(ms(3), 0);

@@ -7,12 +7,14 @@
 //! with. No allocation: the per-port transmit backlog is a fixed `heapless` queue.
 //!
 //! Controller errors ([`embedded_can::ErrorKind`]) are reported to the device as port status.
-//! [`PortRequest::Reinit`](crate::machine::PortRequest) is not handled here — only the
-//! application knows how to restart its controller — so take requests with
-//! `driver.device_mut().poll_port_request()`.
+//! [`PortRequest::Reinit`](crate::machine::PortRequest) is handled here: the port's backlog is
+//! flushed, the application's restart hook runs if one is installed
+//! ([`EmbeddedDriver::with_reinit`]: only the application knows how to restart its controller)
+//! and the device is told the port is up again (or down, if the hook failed). A layer waiting for
+//! its re-initialisation is therefore never left waiting by an application that forgot it.
 
 use crate::frame::Frame;
-use crate::machine::{Device, ErrorCause, PortStatus};
+use crate::machine::{Device, ErrorCause, PortRequest, PortStatus};
 use crate::time::Instant;
 use embedded_can::nb::Can;
 use embedded_can::{Error as _, ErrorKind};
@@ -49,7 +51,12 @@ pub struct EmbeddedPortStats {
     pub tx_frames: u32,
     /// Frames dropped: backlog full, or the driver's frame type refused them.
     pub tx_dropped: u32,
+    /// Re-initialisations the device asked for and the driver performed.
+    pub reinits: u32,
 }
+
+/// Restarts a controller (bus-off recovery, re-arming filters…); false if it failed.
+pub type ReinitHook<C> = fn(&mut C) -> bool;
 
 /// Drives a device over `N` non-blocking CAN drivers.
 pub struct EmbeddedDriver<D, C: Can, const N: usize> {
@@ -57,6 +64,7 @@ pub struct EmbeddedDriver<D, C: Can, const N: usize> {
     ports: [C; N],
     backlog: [Deque<C::Frame, TX_BACKLOG>; N],
     stats: [EmbeddedPortStats; N],
+    reinit: Option<ReinitHook<C>>,
 }
 
 impl<D: Device, C: Can, const N: usize> EmbeddedDriver<D, C, N> {
@@ -67,7 +75,15 @@ impl<D: Device, C: Can, const N: usize> EmbeddedDriver<D, C, N> {
             ports,
             backlog: core::array::from_fn(|_| Deque::new()),
             stats: [EmbeddedPortStats::default(); N],
+            reinit: None,
         }
+    }
+
+    /// Installs the controller restart the driver runs when the device asks to re-initialise a
+    /// port.
+    pub fn with_reinit(mut self, hook: ReinitHook<C>) -> Self {
+        self.reinit = Some(hook);
+        self
     }
 
     /// The device.
@@ -100,8 +116,27 @@ impl<D: Device, C: Can, const N: usize> EmbeddedDriver<D, C, N> {
         if self.device.poll_timeout().is_some_and(|t| t <= now) {
             self.device.handle_timeout(now);
         }
+        self.reinit_requested(now);
         self.transmit(now);
         self.device.poll_timeout()
+    }
+
+    fn reinit_requested(&mut self, now: Instant) {
+        while let Some((i, PortRequest::Reinit)) = self.device.poll_port_request() {
+            let (Some(port), Some(backlog)) = (self.ports.get_mut(i), self.backlog.get_mut(i))
+            else {
+                continue;
+            };
+            backlog.clear();
+            self.stats[i].reinits = self.stats[i].reinits.wrapping_add(1);
+            let ok = self.reinit.is_none_or(|restart| restart(port));
+            let status = if ok {
+                PortStatus::Up
+            } else {
+                PortStatus::Down(ErrorCause::Other)
+            };
+            self.device.handle_port_status(now, i, status);
+        }
     }
 
     fn receive(&mut self, now: Instant, i: usize) {

@@ -1,0 +1,62 @@
+//! # A railway safety gateway on duocan's no_std core
+//!
+//! A board with three CAN controllers (e.g. an STM32G474: Cortex-M4F, three FDCAN, 128 KiB
+//! SRAM). Two sit on the interlocking's dual bus; the third on a field bus where a
+//! track-circuit board reports its track circuits. The gateway mirrors them to the
+//! interlocking: every report is checked (railway CRC over identifier and content, asymmetric
+//! codes 0x55/0xAA), anything doubtful or stale becomes *occupied*, and the mirrored states go
+//! out as CRC-protected state changes on both buses, event-driven and refreshed cyclically. On
+//! the interlocking side it is an ordinary CANopen slave of the railway 29-bit profile:
+//! boot-up, heartbeat, NMT, SDO server (0x6000 sub *k* reads a mirrored state).
+//!
+//! Everything lives in static storage: the dictionary's definitions are `const` tables
+//! ([`dictionary`]), its values a fixed arena; the node, the dual-bus layer, the driver and the
+//! mirrors are one [`Gateway`] placed in a `static` [`Storage`]. No allocator exists in this
+//! crate's world (`duocan` and `duocan-redundancy` without default features).
+//!
+//! [`mock`] has an in-memory controller pair so that the same code runs on a host: this
+//! crate's tests and `cargo run -p safety-gateway --example gateway_host` drive the gateway
+//! against a duocan interlocking master on two mock buses and a scripted field board.
+#![cfg_attr(not(test), no_std)]
+#![warn(missing_docs)]
+#![forbid(unsafe_code)]
+
+pub mod dictionary;
+pub mod gateway;
+pub mod mirror;
+pub mod mock;
+
+pub use gateway::{Board, Event, FieldStats, Gateway, GatewayDevice, SetupError, Storage};
+pub use mirror::{Cause, TrackChange};
+
+use duocan::profile::railway::DeviceAddress;
+use duocan::NodeId;
+
+/// The gateway's node-ID on the interlocking network.
+pub const NODE_ID: NodeId = NodeId::must(20);
+/// Its board address there: row 1, cabinet 4, layer 1, board 1 (I/O port *k* carries track
+/// circuit *k*).
+pub const ADDRESS: DeviceAddress = DeviceAddress::board_at(1, 4, 1, 1);
+/// The track-circuit board on the field bus.
+pub const FIELD_BOARD: DeviceAddress = DeviceAddress::board_at(0, 0, 1, 1);
+/// The field board's I/O port whose state changes carry the track circuits (sub-index *k* =
+/// track circuit *k*).
+pub const FIELD_PORT: u8 = 1;
+/// Track circuits mirrored.
+pub const TRACKS: u8 = 4;
+/// Merger slots of the dual-bus layer: the gateway hears a master's heartbeats, NMT, SYNC and
+/// SDO, a few frames per 10 ms window.
+pub const MERGE_SLOTS: usize = 64;
+
+/// RAM budget of the slave node with its dictionary (issue 2's no_std slave): 16 KiB.
+pub const NODE_RAM_BUDGET: usize = 16 * 1024;
+/// RAM budget of the whole gateway (node, dual-bus layer, driver, mirrors, event queue): half
+/// the reference MCU's 128 KiB, the rest for stacks and the HAL.
+pub const GATEWAY_RAM_BUDGET: usize = 64 * 1024;
+
+// The budgets hold on the target, checked when the crate is built for it.
+#[cfg(all(target_arch = "arm", target_os = "none"))]
+const _: () = {
+    assert!(core::mem::size_of::<Board>() <= NODE_RAM_BUDGET);
+    assert!(core::mem::size_of::<Gateway<mock::MockCan<'static>>>() <= GATEWAY_RAM_BUDGET);
+};
