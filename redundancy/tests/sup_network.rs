@@ -428,6 +428,45 @@ fn one_object_per_network_dictionary_sdo_nmt_pdo_status_audit() {
     let mut text = String::new();
     w.net(WEAK).export_audit_text(&mut text).unwrap();
     assert!(text.contains("master negotiating -> standby"), "{text}");
+
+    // Manual control: the weak master takes the role by hand, then switches the pair over.
+    let now = w.sim.now();
+    assert!(matches!(
+        w.net_mut(STRONG).set_active(now),
+        Err(NetworkError::Role(_))
+    ));
+    assert!(matches!(
+        w.net_mut(WEAK).switch_over(now, PairId(0), Member::B),
+        Err(NetworkError::Pairs(_))
+    ));
+    w.net_mut(WEAK).set_active(now).unwrap();
+    w.sim.run_for(Duration::from_millis(100));
+    assert_eq!(w.net(WEAK).role(), MasterRole::Active);
+    assert!(
+        matches!(w.net(STRONG).role(), MasterRole::Standby(Some(r)) if r.node == n(WEAK)),
+        "{}",
+        w.net(STRONG).role()
+    );
+    let now = w.sim.now();
+    w.net_mut(WEAK)
+        .switch_over(now, PairId(0), Member::B)
+        .unwrap();
+    w.sim.run_for(Duration::from_millis(50));
+    assert_eq!(w.node(B).nmt_state(), NmtState::Operational);
+    assert_eq!(w.node(A).nmt_state(), NmtState::PreOperational);
+    for id in [STRONG, WEAK] {
+        let p = *w.net(id).pairs().next().unwrap().1;
+        assert_eq!(p.active, Some(Member::B), "master {id}");
+    }
+    let mut text = String::new();
+    w.net(WEAK).export_audit_text(&mut text).unwrap();
+    assert!(
+        text.contains(
+            "standby (active: node 0x01 (priority 0)) -> active: commanded by the application"
+        ),
+        "{text}"
+    );
+    assert!(text.contains("active A -> B: manual switch-over"), "{text}");
 }
 
 #[test]
