@@ -366,7 +366,7 @@ mod tests {
 
     #[test]
     fn active_member_delivers_standby_is_kept_and_roles_switch() {
-        let mut s = SameFunction::new(Duration::from_millis(50));
+        let mut s: SameFunction = SameFunction::new(Duration::from_millis(50));
         let mut out = Outbox::new();
         let (a, b) = (NodeId::must(0x10), NodeId::must(0x11));
         let p = s.add_pair(a, b, Some(Member::A)).unwrap();
@@ -405,7 +405,7 @@ mod tests {
 
     #[test]
     fn discrepancy_is_raised_after_the_time_and_cleared() {
-        let mut s = SameFunction::new(Duration::from_millis(50));
+        let mut s: SameFunction = SameFunction::new(Duration::from_millis(50));
         let mut out = Outbox::new();
         let (a, b) = (NodeId::must(0x10), NodeId::must(0x11));
         let p = s.add_pair(a, b, Some(Member::A)).unwrap();
