@@ -136,7 +136,7 @@ fn demo(out: PathBuf) -> ExitCode {
 
 fn ms(d: duocan::Duration) -> String {
     let us = d.as_micros();
-    if us % 1000 == 0 {
+    if us.is_multiple_of(1000) {
         format!("{} ms", us / 1000)
     } else {
         format!("{:.1} ms", us as f64 / 1000.0)

@@ -324,8 +324,7 @@ impl<'a> Analysis<'a> {
                 BoardEvent::State(s) => Some((at, s)),
                 _ => None,
             })
-            .filter(|(at, _)| *at >= from && *at <= t)
-            .last()
+            .rfind(|(at, _)| *at >= from && *at <= t)
             .is_some_and(|(_, s)| s == NmtState::Operational)
     }
 

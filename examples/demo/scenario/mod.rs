@@ -203,7 +203,7 @@ fn schedules() -> [Vec<Route>; 4] {
             pair: r % nx,
             code: BARRIERS_DOWN,
         });
-        let aspect = if r % 2 == 0 {
+        let aspect = if r.is_multiple_of(2) {
             SignalAspect::Proceed
         } else {
             SignalAspect::Caution
