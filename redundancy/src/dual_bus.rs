@@ -26,7 +26,7 @@ use crate::events::LinkEvent;
 use crate::health::{Health, HealthConfig, PortHealth, PortState, RxOutcome};
 use crate::merge::{Merger, Verdict};
 use crate::outbox::Outbox;
-use crate::pairs_merge::{Member, PairError, PairId, PairVerdict, SameFunction};
+use crate::pairs_merge::{Member, PairError, PairId, PairVerdict, SameFunction, MAX_FUNCTIONS};
 use crate::reach::Reach;
 use duocan::machine::{BusLink, PortRequest, PortStatus};
 use duocan::od::ObjectDictionary;
@@ -111,14 +111,18 @@ pub struct LinkStats {
 
 /// The dual-bus layer. `C` classifies frames (heartbeats, senders, functions; the predefined
 /// connection set by default); `N` is the merger's slot count.
-pub struct DualBus<C = Predefined, const N: usize = DEFAULT_MERGE_SLOTS> {
+pub struct DualBus<
+    C = Predefined,
+    const N: usize = DEFAULT_MERGE_SLOTS,
+    const F: usize = MAX_FUNCTIONS,
+> {
     classifier: C,
     policy: Policy,
     merger: Merger<N>,
     health: Health,
     reach: Reach,
     reach_enabled: bool,
-    pairs: SameFunction,
+    pairs: SameFunction<F>,
     out: Outbox,
     stats: LinkStats,
     /// The latest instant any method was given (hand-over time of frames for the stall rule).
@@ -137,7 +141,7 @@ impl DualBus<Predefined, DEFAULT_MERGE_SLOTS> {
     }
 }
 
-impl<C: FrameClassifier, const N: usize> DualBus<C, N> {
+impl<C: FrameClassifier, const N: usize, const F: usize> DualBus<C, N, F> {
     /// A layer with a custom frame classifier (identifier scheme).
     pub fn with_classifier(cfg: DualBusConfig, classifier: C) -> Self {
         let mut health = cfg.health;
@@ -222,7 +226,7 @@ impl<C: FrameClassifier, const N: usize> DualBus<C, N> {
         &self.reach
     }
     /// The pair table and the members' latest values.
-    pub fn pairs(&self) -> &SameFunction {
+    pub fn pairs(&self) -> &SameFunction<F> {
         &self.pairs
     }
     /// Configures an A/B pair for the same-function merge.
@@ -264,7 +268,7 @@ impl<C: FrameClassifier, const N: usize> DualBus<C, N> {
     }
 }
 
-impl<C: FrameClassifier, const N: usize> BusLink for DualBus<C, N> {
+impl<C: FrameClassifier, const N: usize, const F: usize> BusLink for DualBus<C, N, F> {
     type Event = LinkEvent;
 
     fn port_count(&self) -> usize {
@@ -381,7 +385,7 @@ impl<C: FrameClassifier, const N: usize> BusLink for DualBus<C, N> {
     }
 }
 
-impl<C, const N: usize> core::fmt::Debug for DualBus<C, N> {
+impl<C, const N: usize, const F: usize> core::fmt::Debug for DualBus<C, N, F> {
     fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
         f.debug_struct("DualBus")
             .field("mode", &self.policy.kind())

@@ -21,7 +21,8 @@ use heapless::index_map::FnvIndexMap;
 
 /// Pairs a layer can hold: 55 board pairs per network, rounded up.
 pub const MAX_PAIRS: usize = 64;
-/// (pair, function) values a layer can keep for comparison.
+/// (pair, function) values a layer keeps for comparison by default (a power of two). A board
+/// that supervises no pairs can use a tiny table (`DualBus<_, _, 2>`): each entry costs ~100 B.
 pub const MAX_FUNCTIONS: usize = 256;
 
 /// Index of a configured pair.
@@ -108,19 +109,19 @@ pub enum PairVerdict {
     Standby,
 }
 
-/// The pair table and the latest values per (pair, function).
+/// The pair table and the latest values per (pair, function); room for `F` of those.
 #[derive(Debug)]
-pub struct SameFunction {
+pub struct SameFunction<const F: usize = MAX_FUNCTIONS> {
     pairs: heapless::Vec<PairEntry, MAX_PAIRS>,
     /// node-ID → pair index + 1 (0: none) in the low 7 bits, member B in bit 7.
     by_node: [u8; 128],
-    values: FnvIndexMap<(u8, u32), Values, MAX_FUNCTIONS>,
+    values: FnvIndexMap<(u8, u32), Values, F>,
     discrepancy_time: Duration,
     next_check: Option<Instant>,
     dropped_values: u32,
 }
 
-impl SameFunction {
+impl<const F: usize> SameFunction<F> {
     /// No pairs; values differing for `discrepancy_time` are reported (zero: never).
     pub fn new(discrepancy_time: Duration) -> Self {
         SameFunction {
@@ -365,7 +366,7 @@ mod tests {
 
     #[test]
     fn active_member_delivers_standby_is_kept_and_roles_switch() {
-        let mut s = SameFunction::new(Duration::from_millis(50));
+        let mut s: SameFunction = SameFunction::new(Duration::from_millis(50));
         let mut out = Outbox::new();
         let (a, b) = (NodeId::must(0x10), NodeId::must(0x11));
         let p = s.add_pair(a, b, Some(Member::A)).unwrap();
@@ -404,7 +405,7 @@ mod tests {
 
     #[test]
     fn discrepancy_is_raised_after_the_time_and_cleared() {
-        let mut s = SameFunction::new(Duration::from_millis(50));
+        let mut s: SameFunction = SameFunction::new(Duration::from_millis(50));
         let mut out = Outbox::new();
         let (a, b) = (NodeId::must(0x10), NodeId::must(0x11));
         let p = s.add_pair(a, b, Some(Member::A)).unwrap();

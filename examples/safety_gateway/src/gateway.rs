@@ -30,8 +30,9 @@ use embedded_can::Error as _;
 use heapless::Deque;
 use static_cell::StaticCell;
 
-/// The dual-bus layer of the interlocking side, classifying by the shared railway profile.
-pub type Link = DualBus<&'static RailwayProfile, MERGE_SLOTS>;
+/// The dual-bus layer of the interlocking side, classifying by the shared railway profile. The
+/// gateway supervises no A/B pairs, so its same-function table is the smallest there is.
+pub type Link = DualBus<&'static RailwayProfile, MERGE_SLOTS, 2>;
 /// The slave node: static dictionary, railway profile, no node guarding of others, one TPDO
 /// per track circuit, no RPDO.
 pub type Board = Node<Od, &'static RailwayProfile, 0, { TRACKS as usize }, 0>;

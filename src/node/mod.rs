@@ -1,0 +1,416 @@
+//! A CANopen node: the CiA 301 services of one node-ID composed over one logical bus.
+//!
+//! [`Node`] is a [`Machine`]: frames and time in; frames, deadlines and [`NodeEvent`]s out. The
+//! dictionary is the node's configuration: services read their parameters from it at boot and
+//! react when an entry changes (writing 0x1017 restarts the heartbeat, 0x1006 re-times SYNC, …).
+//! Every write — local or from the bus — goes through the node so that those reactions happen.
+
+use crate::abort::AbortCode;
+use crate::cob_id::NodeId;
+use crate::emcy::EmcyProducer;
+use crate::frame::Frame;
+use crate::guarding::{GuardMaster, GuardSlave};
+use crate::heartbeat::{HeartbeatConsumer, HeartbeatProducer};
+use crate::machine::Machine;
+use crate::nmt::{self, NmtCommand, NmtState, NmtTarget, NodeTable, NodeView};
+use crate::od::{Entry, ObjectDictionary, OdValue};
+use crate::pdo::{self, PdoEngine, PdoError, RpdoStatus, TpdoStatus};
+use crate::profile::{IdProfile, Predefined};
+use crate::queue::Bounded;
+use crate::sdo::{SdoServer, SdoServerConfig};
+use crate::sync::SyncService;
+use crate::time::{earliest, Duration, Instant};
+use crate::time_stamp::{TimeOfDay, TimeService};
+
+/// Heartbeat consumer capacity: CiA 301 allows 127 producers in 0x1016.
+pub const HEARTBEAT_CONSUMERS: usize = 127;
+/// Frames a node can hold before the driver drains them.
+pub const TX_QUEUE: usize = 32;
+/// Events a node can hold before the application drains them.
+pub const EVENT_QUEUE: usize = 32;
+
+/// How a node behaves beyond what its dictionary says.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct NodeConfig {
+    /// The node-ID.
+    pub node_id: NodeId,
+    /// Enter operational by itself after boot-up (a master starting itself, 0x1F80 bit 2).
+    pub auto_start: bool,
+    /// Obey NMT commands from the bus. A master does not; it still reports them as events.
+    pub accept_nmt: bool,
+    /// Report EMCY messages of other nodes (on their default identifiers).
+    pub consume_emcy: bool,
+}
+
+impl NodeConfig {
+    /// A slave: waits for NMT start, obeys NMT, consumes EMCY.
+    pub const fn slave(node_id: NodeId) -> Self {
+        NodeConfig {
+            node_id,
+            auto_start: false,
+            accept_nmt: true,
+            consume_emcy: true,
+        }
+    }
+    /// A master: starts itself, ignores NMT commands of others, consumes EMCY.
+    pub const fn master(node_id: NodeId) -> Self {
+        NodeConfig {
+            node_id,
+            auto_start: true,
+            accept_nmt: false,
+            consume_emcy: true,
+        }
+    }
+}
+
+mod config;
+mod dispatch;
+mod events;
+
+pub use events::{NodeEvent, NodeEventKind, NodeStats, QueueFull, StateCause, Writer};
+
+/// What protocol servers (SDO, PDO) use to reach a node's dictionary: bus-side access rights
+/// and checks, and the stack's reactions to writes.
+pub trait ObjectAccess {
+    /// Finds an entry (no access check).
+    fn entry(&self, index: u16, sub: u8) -> Result<Entry<'_>, AbortCode>;
+    /// Reads as a remote client may.
+    fn read(&self, index: u16, sub: u8) -> Result<&[u8], AbortCode>;
+    /// Writes as a remote client may; the stack reacts as to any write.
+    fn write(&mut self, now: Instant, index: u16, sub: u8, data: &[u8]) -> Result<(), AbortCode>;
+    /// The node's NMT state (SDO is refused in stopped).
+    fn nmt_state(&self) -> NmtState;
+}
+
+/// Everything of a node but the SDO server: dictionary, NMT, error control, SYNC, TIME, EMCY,
+/// PDO.
+pub struct NodeCore<
+    D,
+    P = Predefined,
+    const G: usize = 127,
+    const TPDOS: usize = 4,
+    const RPDOS: usize = 4,
+> {
+    od: D,
+    profile: P,
+    cfg: NodeConfig,
+    state: NmtState,
+    hb: HeartbeatProducer,
+    consumer: HeartbeatConsumer<HEARTBEAT_CONSUMERS>,
+    guard: GuardSlave,
+    guard_master: GuardMaster<G>,
+    sync: SyncService,
+    time: TimeService,
+    emcy: EmcyProducer,
+    history_slots: u8,
+    nodes: NodeTable,
+    pdo: PdoEngine<TPDOS, RPDOS>,
+    tx: Bounded<Frame, TX_QUEUE>,
+    events: Bounded<NodeEvent, EVENT_QUEUE>,
+    stats: NodeStats,
+    /// Boot-ups so far: the SDO server re-reads its channel when this changes.
+    boots: u32,
+}
+
+/// A CANopen node on one logical bus.
+///
+/// `D` is the dictionary, `P` the identifier profile, `G` how many nodes it can guard as a
+/// master (0 for a plain slave), `TPDOS`/`RPDOS` how many TPDOs and RPDOs it runs (a master
+/// mirroring many slaves' TPDOs needs hundreds of RPDOs: `Node::<_, _, 127, 4, 512>::with_profile`).
+pub struct Node<
+    D,
+    P = Predefined,
+    const G: usize = 127,
+    const TPDOS: usize = 4,
+    const RPDOS: usize = 4,
+> {
+    core: NodeCore<D, P, G, TPDOS, RPDOS>,
+    sdo: SdoServer,
+    sdo_boots: u32,
+}
+
+impl<D: ObjectDictionary> Node<D, Predefined, 127> {
+    /// A node with the predefined connection set. Nothing is sent until [`Node::boot`].
+    pub fn new(cfg: NodeConfig, od: D) -> Self {
+        Node::with_profile(cfg, od, Predefined)
+    }
+}
+
+impl<D: ObjectDictionary, P: IdProfile, const G: usize, const TPDOS: usize, const RPDOS: usize>
+    Node<D, P, G, TPDOS, RPDOS>
+{
+    /// A node with a custom identifier profile.
+    pub fn with_profile(cfg: NodeConfig, od: D, profile: P) -> Self {
+        Node {
+            core: NodeCore {
+                od,
+                profile,
+                cfg,
+                state: NmtState::Initialising,
+                hb: HeartbeatProducer::default(),
+                consumer: HeartbeatConsumer::new(),
+                guard: GuardSlave::default(),
+                guard_master: GuardMaster::new(),
+                sync: SyncService::default(),
+                time: TimeService::default(),
+                emcy: EmcyProducer::default(),
+                history_slots: 0,
+                nodes: NodeTable::default(),
+                pdo: PdoEngine::new(),
+                tx: Bounded::new(),
+                events: Bounded::new(),
+                stats: NodeStats::default(),
+                boots: 0,
+            },
+            sdo: SdoServer::new(SdoServerConfig::default()),
+            sdo_boots: 0,
+        }
+    }
+
+    /// Power-on: configure the services from the dictionary, send boot-up, enter
+    /// pre-operational (or operational with `auto_start`).
+    pub fn boot(&mut self, now: Instant) {
+        self.core.boot(now);
+        self.sdo_follow_core();
+    }
+
+    /// The SDO server (channel from 0x1200, configuration, counters).
+    pub fn sdo_server(&self) -> &SdoServer {
+        &self.sdo
+    }
+    /// The SDO server, to change its configuration. Its channel is re-read from 0x1200 at boot
+    /// and reset communication.
+    pub fn sdo_server_mut(&mut self) -> &mut SdoServer {
+        &mut self.sdo
+    }
+
+    /// After anything that may have reset the node or left the SDO states: re-read the channel
+    /// (boot, reset communication), drop a transfer the state no longer allows.
+    fn sdo_follow_core(&mut self) {
+        if self.core.boots != self.sdo_boots {
+            self.sdo_boots = self.core.boots;
+            let id = self.core.id();
+            self.sdo.configure_from(&self.core.od, id);
+        }
+        if !self.core.state.services().sdo {
+            self.sdo.cancel();
+        }
+    }
+
+    /// The node-ID.
+    pub fn id(&self) -> NodeId {
+        self.core.cfg.node_id
+    }
+    /// The local NMT state.
+    pub fn nmt_state(&self) -> NmtState {
+        self.core.state
+    }
+    /// The dictionary, for reading.
+    pub fn od(&self) -> &D {
+        &self.core.od
+    }
+    /// The dictionary, for structural changes (inserting or removing entries of a dynamic
+    /// dictionary). Value writes belong in [`Node::write`], so that the stack reacts to them.
+    pub fn od_mut(&mut self) -> &mut D {
+        &mut self.core.od
+    }
+    /// The identifier profile.
+    pub fn profile(&self) -> &P {
+        &self.core.profile
+    }
+    /// Counters.
+    pub fn stats(&self) -> NodeStats {
+        NodeStats {
+            tx_dropped: self.core.tx.dropped(),
+            events_dropped: self.core.events.dropped(),
+            ..self.core.stats
+        }
+    }
+    /// Mutable access to the parts (for protocol servers composed beside the node).
+    pub fn core_mut(&mut self) -> &mut NodeCore<D, P, G, TPDOS, RPDOS> {
+        &mut self.core
+    }
+    /// The parts.
+    pub fn core(&self) -> &NodeCore<D, P, G, TPDOS, RPDOS> {
+        &self.core
+    }
+
+    /// Writes an entry as the device itself (read-only entries included, `const` ones not), with
+    /// the stack's reactions (0x1017 restarts the heartbeat, …).
+    pub fn write(
+        &mut self,
+        now: Instant,
+        index: u16,
+        sub: u8,
+        data: &[u8],
+    ) -> Result<(), AbortCode> {
+        self.core
+            .write_checked(now, index, sub, data, Writer::Local)
+    }
+    /// Typed [`Node::write`].
+    pub fn set<T: OdValue>(
+        &mut self,
+        now: Instant,
+        index: u16,
+        sub: u8,
+        v: T,
+    ) -> Result<(), AbortCode> {
+        let mut buf = [0u8; 8];
+        let n = v.encode(&mut buf);
+        self.write(now, index, sub, &buf[..n])
+    }
+
+    /// Changes the local state as the application (a master starting itself, …).
+    pub fn set_nmt_state(&mut self, now: Instant, state: NmtState) {
+        self.core.enter(now, state, StateCause::Local);
+        self.sdo_follow_core();
+    }
+
+    /// Sends an NMT module-control command (master).
+    pub fn nmt_command(
+        &mut self,
+        now: Instant,
+        cmd: NmtCommand,
+        target: NmtTarget,
+    ) -> Result<(), QueueFull> {
+        let _ = now;
+        let f = nmt::command_frame(self.core.profile.nmt(), cmd, target);
+        self.core.send(f)
+    }
+
+    /// Starts guarding `node` (master): requests every `guard_time`, timeout after
+    /// `guard_time × factor`. Returns false when the guarding table is full.
+    pub fn guard_node(
+        &mut self,
+        now: Instant,
+        node: NodeId,
+        guard_time: Duration,
+        factor: u8,
+    ) -> bool {
+        self.core.guard_master.guard(now, node, guard_time, factor)
+    }
+    /// Stops guarding `node`.
+    pub fn unguard_node(&mut self, node: NodeId) {
+        self.core.guard_master.unguard(node);
+    }
+
+    /// What this node knows of another node's state.
+    pub fn remote(&self, node: NodeId) -> Option<NodeView> {
+        self.core.nodes.get(node)
+    }
+    /// Every node whose state is known.
+    pub fn remotes(&self) -> impl Iterator<Item = (NodeId, NodeView)> + '_ {
+        self.core.nodes.iter()
+    }
+    /// Forgets a node's state (after resetting it, before its boot-up).
+    pub fn forget_remote(&mut self, node: NodeId) {
+        self.core.nodes.forget(node);
+    }
+    /// True if `node` is monitored by the heartbeat consumer and currently timed out.
+    pub fn heartbeat_lost(&self, node: NodeId) -> bool {
+        self.core.consumer.is_lost(node)
+    }
+
+    /// Raises an error: error register, history (0x1003) and an EMCY message.
+    pub fn emcy_raise(&mut self, now: Instant, code: u16, register_bits: u8, data: [u8; 5]) {
+        self.core.emcy_raise(now, code, register_bits, data);
+    }
+    /// Clears an error; clearing the last one sends the error-reset EMCY.
+    pub fn emcy_clear(&mut self, now: Instant, code: u16) {
+        self.core.emcy_clear(now, code);
+    }
+
+    /// Sets the local clock (time of day at `now`).
+    pub fn set_time(&mut self, now: Instant, tod: TimeOfDay) {
+        self.core.time.set(now, tod);
+    }
+    /// The local time of day at `now`, if the clock is set.
+    pub fn time_of_day(&self, now: Instant) -> Option<TimeOfDay> {
+        self.core.time.base().map(|b| b.at(now))
+    }
+    /// Sends TIME now (producer only). Returns false if this node is not the producer, has no
+    /// clock or is in a state without TIME.
+    pub fn send_time(&mut self, now: Instant) -> bool {
+        if !self.core.state.services().time {
+            return false;
+        }
+        match self.core.time.frame(now) {
+            Some(f) => self.core.send(f).is_ok(),
+            None => false,
+        }
+    }
+    /// Produce TIME every `period` while producer (zero: only on request).
+    pub fn set_time_period(&mut self, now: Instant, period: Duration) {
+        self.core.time.set_period(now, period);
+    }
+
+    /// Asks TPDO `pdo` (1-based) to be sent: types 254/255 at once (or when the inhibit time
+    /// ends), type 0 at the next SYNC. Writing a mapped entry does the same by itself.
+    pub fn tpdo_request(&mut self, now: Instant, pdo: u16) -> Result<(), PdoError> {
+        let (engine, mut io) = self.core.pdo_io();
+        engine.request(now, pdo, &mut io)
+    }
+    /// What TPDO `pdo` (1-based) is doing; `None` beyond the node's capacity.
+    pub fn tpdo_status(&self, pdo: u16) -> Option<TpdoStatus> {
+        self.core.pdo.tpdo_status(pdo)
+    }
+    /// What RPDO `pdo` (1-based) is doing; `None` beyond the node's capacity.
+    pub fn rpdo_status(&self, pdo: u16) -> Option<RpdoStatus> {
+        self.core.pdo.rpdo_status(pdo)
+    }
+    /// Report every RPDO applied ([`PdoEvent::RpdoReceived`]; on by default). Off, the
+    /// application reads the dictionary or [`Node::rpdo_status`] instead, and a high PDO rate
+    /// cannot crowd other events out of the bounded queue.
+    pub fn set_rpdo_events(&mut self, on: bool) {
+        self.core.pdo.set_rx_events(on);
+    }
+    /// Re-reads every PDO's parameters, restarting those that changed: after structural changes
+    /// through [`Node::od_mut`] (entries a mapping refers to inserted or removed).
+    pub fn reload_pdos(&mut self, now: Instant) {
+        let (engine, mut io) = self.core.pdo_io();
+        for slot in 0..TPDOS as u16 {
+            engine.reload(now, pdo::Dir::Transmit, slot, &mut io);
+        }
+        for slot in 0..RPDOS as u16 {
+            engine.reload(now, pdo::Dir::Receive, slot, &mut io);
+        }
+        self.core.pdo_emcy(now);
+    }
+}
+
+impl<D: ObjectDictionary, P: IdProfile, const G: usize, const TPDOS: usize, const RPDOS: usize>
+    Machine for Node<D, P, G, TPDOS, RPDOS>
+{
+    type Event = NodeEvent;
+
+    fn handle_frame(&mut self, now: Instant, frame: &Frame) {
+        if Some(frame.id()) == self.sdo.rx_id() && self.core.state.services().sdo {
+            self.core.stats.rx_frames += 1;
+            if let Err(reason) = self.sdo.handle_frame(now, frame, &mut self.core) {
+                self.core.malformed(now, frame.id(), reason);
+            }
+            return;
+        }
+        self.core.handle_frame(now, frame);
+        self.sdo_follow_core();
+    }
+    fn handle_timeout(&mut self, now: Instant) {
+        self.core.handle_timeout(now);
+        self.sdo_follow_core();
+        self.sdo.handle_timeout(now);
+    }
+    fn poll_transmit(&mut self) -> Option<Frame> {
+        if let Some(f) = self.core.tx.pop() {
+            return Some(f);
+        }
+        let f = self.sdo.poll_transmit()?;
+        self.core.stats.tx_frames += 1;
+        Some(f)
+    }
+    fn poll_timeout(&self) -> Option<Instant> {
+        earliest(self.core.poll_timeout(), self.sdo.poll_timeout())
+    }
+    fn poll_event(&mut self) -> Option<NodeEvent> {
+        self.core.events.pop()
+    }
+}
