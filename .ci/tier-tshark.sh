@@ -1,7 +1,8 @@
 #!/bin/bash
 # Tier 4: Wireshark's CANopen dissector decodes duocan's pcap captures (link type 227).
 # Installs Debian's `tshark` non-interactively if missing, then runs tests/tshark.rs, which
-# captures a simulated scenario and asserts on tshark's CANopen fields.
+# captures a simulated scenario and the demo's turnout rack (examples/demo) and asserts on
+# tshark's CANopen fields.
 set -euo pipefail
 ROOT=$(cd "$(dirname "$0")/.." && pwd)
 cd "$ROOT"

@@ -2,7 +2,13 @@
 //!
 //! A master and a slave run on the simulated bus with the master's logical bus tapped into a
 //! pcap file; `tshark` (Debian package `tshark`, on PATH) decodes it as CANopen and the test
-//! asserts on the dissector's fields. `.ci/tier-tshark.sh` installs tshark and runs this.
+//! asserts on the dissector's fields. The demo's pcap of its turnout rack (the CANopen rack whose
+//! active board is killed) is decoded the same way. `.ci/tier-tshark.sh` installs tshark and
+//! runs this.
+
+#[allow(dead_code)]
+#[path = "../examples/demo/scenario/mod.rs"]
+mod scenario;
 
 use duocan::capture::recorder::{Filter, Recorder, Tapped};
 use duocan::emcy::{code, register};
@@ -257,4 +263,139 @@ fn tshark_decodes_nmt_heartbeat_sync_emcy_sdo_and_pdo() {
         &["frame.number"],
     );
     assert!(pre.is_empty(), "no PDO before the NMT start: {pre:?}");
+}
+
+/// Seconds of simulated time of a packet, from its epoch time as tshark prints it.
+fn sim_seconds(epoch: &str) -> f64 {
+    epoch.parse::<f64>().unwrap() - scenario::outputs::EPOCH_US as f64 / 1e6
+}
+
+#[test]
+fn tshark_decodes_the_demo_turnout_rack_as_canopen() {
+    // The station's devices need a big stack in debug builds (see tests/demo.rs).
+    std::thread::Builder::new()
+        .stack_size(256 << 20)
+        .spawn(demo_pcap)
+        .unwrap()
+        .join()
+        .unwrap();
+}
+
+fn demo_pcap() {
+    use scenario::analysis::Analysis;
+    let st = scenario::run();
+    let a = Analysis::new(&st);
+    let o = a.outcome();
+    let dir = std::path::Path::new(env!("CARGO_TARGET_TMPDIR")).join("demo-tshark");
+    let paths = scenario::outputs::write_all(&st, &a.chart(), &dir).unwrap();
+    let path = paths
+        .pcaps
+        .iter()
+        .find(|p| p.ends_with("turnout1.pcap"))
+        .expect("a pcap of the turnout rack's bus 1");
+
+    // Every frame of the CANopen rack is CANopen to Wireshark.
+    let all = tshark(path, "frame", &["frame.number"]);
+    let canopen = tshark(path, "canopen", &["frame.number"]);
+    assert!(all.len() > 10_000, "{} frames", all.len());
+    assert_eq!(canopen.len(), all.len());
+
+    // P2's standby B (0x22) is started once, at the instant the demo measured.
+    let start = tshark(
+        path,
+        "can.id == 0 && canopen.nmt_ctrl.node_id == 0x22",
+        &["frame.time_epoch", "canopen.nmt_ctrl.cd"],
+    );
+    assert_eq!(start.len(), 1, "{start:?}");
+    assert_eq!(start[0][1], "0x01", "NMT start");
+    let measured = o
+        .failovers
+        .iter()
+        .find(|f| f.what.contains("P2: board B started"))
+        .unwrap();
+    let at = sim_seconds(&start[0][0]);
+    assert!(
+        (at - measured.at.as_micros() as f64 / 1e6).abs() < 2e-6,
+        "{at} vs {}",
+        measured.at
+    );
+
+    // The killed A (0x12) is silent from its power loss until its replacement boots.
+    let killed = st
+        .happened
+        .iter()
+        .find(|h| matches!(h.act, scenario::Act::BoardKilled { .. }))
+        .unwrap()
+        .at
+        .as_micros() as f64
+        / 1e6;
+    let a_hb: Vec<(f64, String)> = tshark(
+        path,
+        "can.id == 0x712",
+        &["frame.time_epoch", "canopen.nmt_guard.state"],
+    )
+    .into_iter()
+    .map(|r| (sim_seconds(&r[0]), r[1].clone()))
+    .collect();
+    let gap: Vec<_> = a_hb
+        .iter()
+        .filter(|(t, _)| *t > killed && *t < 11.3)
+        .collect();
+    assert!(gap.is_empty(), "{gap:?}");
+    let boots: Vec<f64> = a_hb
+        .iter()
+        .filter(|(_, s)| s == "0x00")
+        .map(|x| x.0)
+        .collect();
+    assert_eq!(boots.len(), 2, "power-on and replacement: {boots:?}");
+    assert!((boots[1] - 11.3).abs() < 0.001);
+    assert!(
+        a_hb.iter().any(|(t, s)| *t < killed && s == "0x05"),
+        "operational before"
+    );
+
+    // The command due at 7 s went to the dead A, then to B, which answered with the same bytes.
+    let to_a = tshark(
+        path,
+        "can.id == 0x212",
+        &["frame.time_epoch", "canopen.pdo.data.bytes"],
+    );
+    let to_b = tshark(
+        path,
+        "can.id == 0x222",
+        &["frame.time_epoch", "canopen.pdo.data.bytes"],
+    );
+    let late_a: Vec<_> = to_a
+        .iter()
+        .filter(|r| sim_seconds(&r[0]) > killed)
+        .collect();
+    assert_eq!(late_a.len(), 1, "{to_a:?}");
+    let first_b = to_b
+        .iter()
+        .find(|r| sim_seconds(&r[0]) > killed)
+        .expect("a command to B");
+    assert_eq!(first_b[1], late_a[0][1], "the same command, resent");
+    let answer = tshark(
+        path,
+        "can.id == 0x2a2",
+        &["frame.time_epoch", "canopen.pdo.data.bytes"],
+    );
+    assert!(answer
+        .iter()
+        .any(|r| r[1] == first_b[1] && sim_seconds(&r[0]) > sim_seconds(&first_b[0])));
+
+    // The replacement A is configured over SDO: its heartbeat producer time written.
+    let sdo = tshark(
+        path,
+        "can.id == 0x612 && canopen.sdo.main_idx == 0x1017",
+        &["frame.time_epoch", "canopen.sdo.ccs"],
+    );
+    assert!(
+        sdo.iter().any(|r| r[1] == "1" && sim_seconds(&r[0]) > 11.3),
+        "{sdo:?}"
+    );
+
+    // SYNC every 20 ms all day, from whichever master is active.
+    let sync = tshark(path, "can.id == 0x80", &["frame.number"]);
+    assert!(sync.len() > 850, "{} SYNC", sync.len());
 }
