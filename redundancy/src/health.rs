@@ -459,6 +459,10 @@ impl Health {
             PortState::Failed => {
                 port.reinit_at = Some(at + port.backoff);
                 port.probation_from = None;
+                // What this port heard no longer says anything about the other one.
+                let other = &mut self.ports[1 - p];
+                other.first_missed = None;
+                other.silence_ref = None;
             }
             PortState::Recovering => {
                 port.reinit_at = None;
@@ -482,6 +486,11 @@ impl Health {
             return None;
         }
         let port = &self.ports[p];
+        // Silence means something only next to a working port that hears traffic: with the
+        // other port failed, a quiet bus is just a quiet network.
+        if self.ports[1 - p].state == PortState::Failed {
+            return None;
+        }
         let threshold = match port.state {
             PortState::Failed => return None,
             PortState::Ok
@@ -617,6 +626,35 @@ mod tests {
             }
             t += 10;
         }
+    }
+
+    #[test]
+    fn a_quiet_port_is_not_judged_next_to_a_failed_one() {
+        let mut h = Health::new(HealthConfig::default(), W);
+        let mut out = Outbox::new();
+        // Traffic on both, then port 1's interface goes down and the network falls quiet (a
+        // silent master): port 0 hears nothing more, and must stay usable.
+        traffic(&mut h, &mut out, 0, 1000, 1000);
+        // Port 0 missed the last frame port 1 heard before it went down.
+        h.on_rx(ms(995), 1, RxOutcome::Delivered, &mut out);
+        h.on_status(
+            ms(1000),
+            1,
+            PortStatus::Down(ErrorCause::InterfaceDown),
+            &mut out,
+        );
+        let mut t = 1000;
+        while t < 10_000 {
+            if let Some(d) = h.poll_timeout().filter(|d| *d <= ms(t)) {
+                h.handle_timeout(d, &mut out);
+            }
+            t += 10;
+        }
+        assert!(
+            port_events(&mut out).iter().all(|(_, p, _, _)| *p == 1),
+            "port 0 keeps its state while port 1 is failed"
+        );
+        assert!(h.usable(0));
     }
 
     #[test]

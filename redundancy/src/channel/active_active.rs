@@ -1,7 +1,7 @@
 //! Active-active: every logical frame goes out on every port that is not failed; every received
 //! frame goes through the exactly-once merger. No channel to switch.
 
-use super::{ChannelPolicy, FrameInfo, PortMask, RxRoute};
+use super::{ChannelPolicy, FrameInfo, PortMask, RxRoute, BOTH};
 use crate::health::Health;
 use crate::outbox::Outbox;
 use duocan::machine::PortStatus;
@@ -20,8 +20,13 @@ impl ChannelPolicy for ActiveActive {
         h: &Health,
         _: &mut Outbox,
     ) -> PortMask {
-        // A failed port gets nothing until it has recovered.
-        (h.usable(0) as u8) | (h.usable(1) as u8) << 1
+        // A failed port gets nothing until it has recovered, unless both are failed: then both
+        // get everything, because sending nowhere is certain silence and a port marked failed
+        // may still reach someone (a node that only stopped hearing a silent peer).
+        match (h.usable(0) as u8) | (h.usable(1) as u8) << 1 {
+            0 => BOTH,
+            mask => mask,
+        }
     }
     fn on_rx(&mut self, _: Instant, _: usize, _: &Frame, _: &FrameInfo, _: &mut Outbox) -> RxRoute {
         RxRoute::Merge
@@ -36,5 +41,32 @@ impl ChannelPolicy for ActiveActive {
     }
     fn select(&mut self, _: Instant, _: usize, _: &mut Outbox) -> bool {
         false
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::health::HealthConfig;
+    use duocan::machine::ErrorCause;
+    use duocan::{Duration, Id};
+
+    #[test]
+    fn fan_out_skips_a_failed_port_but_never_leaves_the_node_mute() {
+        let mut h = Health::new(HealthConfig::default(), Duration::from_millis(10));
+        let mut out = Outbox::new();
+        let f = Frame::from_array(Id::Standard(0x705), [5]);
+        let info = FrameInfo { heartbeat: None };
+        let mut p = ActiveActive;
+        let t = Instant::ZERO;
+        assert_eq!(p.route_tx(t, &f, &info, &h, &mut out), 0b11);
+        h.on_status(t, 0, PortStatus::Down(ErrorCause::InterfaceDown), &mut out);
+        assert_eq!(p.route_tx(t, &f, &info, &h, &mut out), 0b10);
+        h.on_status(t, 1, PortStatus::Down(ErrorCause::InterfaceDown), &mut out);
+        assert_eq!(
+            p.route_tx(t, &f, &info, &h, &mut out),
+            0b11,
+            "both failed: try both"
+        );
     }
 }
