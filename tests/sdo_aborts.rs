@@ -514,6 +514,18 @@ fn out(c: &mut SdoClient) -> Vec<[u8; 8]> {
     v
 }
 
+/// The client answers `answer` with an abort of `code` and reports `code` to its caller.
+fn client_aborts(c: &mut SdoClient, now: Instant, answer: [u8; 8], code: AbortCode) {
+    assert_eq!(reply(c, now, answer), [abort(DOMAIN, 0, code)]);
+    assert_eq!(client_error(c), SdoErrorKind::Client(code));
+}
+
+/// An upload of [`DOMAIN`] whose request went out.
+fn start_upload(c: &mut SdoClient) {
+    c.upload(T0, N, DOMAIN, 0, SdoOptions::default()).unwrap();
+    out(c);
+}
+
 fn client_error(c: &mut SdoClient) -> SdoErrorKind {
     let e = c.poll_event().expect("a result");
     e.result.unwrap_err().kind
@@ -522,69 +534,55 @@ fn client_error(c: &mut SdoClient) -> SdoErrorKind {
 #[test]
 fn client_toggle_bit_not_alternated() {
     let mut c = client();
-    c.upload(T0, N, DOMAIN, 0, SdoOptions::default()).unwrap();
-    out(&mut c);
+    start_upload(&mut c);
     assert_eq!(
         reply(&mut c, T0, [0x41, 0x00, 0x20, 0x00, 14, 0, 0, 0]),
         [[0x60, 0, 0, 0, 0, 0, 0, 0]]
     );
-    assert_eq!(
-        reply(&mut c, T0, [0x10, 1, 2, 3, 4, 5, 6, 7]),
-        [abort(DOMAIN, 0, AbortCode::TOGGLE_BIT)]
-    );
-    assert_eq!(
-        client_error(&mut c),
-        SdoErrorKind::Client(AbortCode::TOGGLE_BIT)
+    client_aborts(
+        &mut c,
+        T0,
+        [0x10, 1, 2, 3, 4, 5, 6, 7],
+        AbortCode::TOGGLE_BIT,
     );
     // Download: the server must echo the toggle bit of the segment.
     c.download(T0, N, DOMAIN, 0, &[1; 10], SdoOptions::default())
         .unwrap();
     out(&mut c);
     reply(&mut c, T0, [0x60, 0x00, 0x20, 0x00, 0, 0, 0, 0]);
-    assert_eq!(
-        reply(&mut c, T0, [0x30, 0, 0, 0, 0, 0, 0, 0]),
-        [abort(DOMAIN, 0, AbortCode::TOGGLE_BIT)]
-    );
-    assert_eq!(
-        client_error(&mut c),
-        SdoErrorKind::Client(AbortCode::TOGGLE_BIT)
+    client_aborts(
+        &mut c,
+        T0,
+        [0x30, 0, 0, 0, 0, 0, 0, 0],
+        AbortCode::TOGGLE_BIT,
     );
 }
 
 #[test]
 fn client_unknown_or_unexpected_command() {
     let mut c = client();
-    c.upload(T0, N, DOMAIN, 0, SdoOptions::default()).unwrap();
-    out(&mut c);
-    assert_eq!(
-        reply(&mut c, T0, [0xE0, 0x00, 0x20, 0x00, 0, 0, 0, 0]),
-        [abort(DOMAIN, 0, AbortCode::COMMAND_SPECIFIER)]
-    );
-    assert_eq!(
-        client_error(&mut c),
-        SdoErrorKind::Client(AbortCode::COMMAND_SPECIFIER)
+    start_upload(&mut c);
+    client_aborts(
+        &mut c,
+        T0,
+        [0xE0, 0x00, 0x20, 0x00, 0, 0, 0, 0],
+        AbortCode::COMMAND_SPECIFIER,
     );
     // A download response to an upload.
-    c.upload(T0, N, DOMAIN, 0, SdoOptions::default()).unwrap();
-    out(&mut c);
-    assert_eq!(
-        reply(&mut c, T0, [0x60, 0x00, 0x20, 0x00, 0, 0, 0, 0]),
-        [abort(DOMAIN, 0, AbortCode::COMMAND_SPECIFIER)]
-    );
-    assert_eq!(
-        client_error(&mut c),
-        SdoErrorKind::Client(AbortCode::COMMAND_SPECIFIER)
+    start_upload(&mut c);
+    client_aborts(
+        &mut c,
+        T0,
+        [0x60, 0x00, 0x20, 0x00, 0, 0, 0, 0],
+        AbortCode::COMMAND_SPECIFIER,
     );
     // The answer names another object.
-    c.upload(T0, N, DOMAIN, 0, SdoOptions::default()).unwrap();
-    out(&mut c);
-    assert_eq!(
-        reply(&mut c, T0, [0x4F, 0x01, 0x20, 0x00, 1, 0, 0, 0]),
-        [abort(DOMAIN, 0, AbortCode::PARAMETER_INCOMPATIBLE)]
-    );
-    assert_eq!(
-        client_error(&mut c),
-        SdoErrorKind::Client(AbortCode::PARAMETER_INCOMPATIBLE)
+    start_upload(&mut c);
+    client_aborts(
+        &mut c,
+        T0,
+        [0x4F, 0x01, 0x20, 0x00, 1, 0, 0, 0],
+        AbortCode::PARAMETER_INCOMPATIBLE,
     );
 }
 
@@ -594,13 +592,11 @@ fn client_invalid_block_size() {
     c.download(T0, N, DOMAIN, 0, &[1; 100], SdoOptions::mode(Mode::Block))
         .unwrap();
     assert_eq!(out(&mut c), [[0xC6, 0x00, 0x20, 0x00, 100, 0, 0, 0]]);
-    assert_eq!(
-        reply(&mut c, T0, [0xA4, 0x00, 0x20, 0x00, 0, 0, 0, 0]),
-        [abort(DOMAIN, 0, AbortCode::INVALID_BLOCK_SIZE)]
-    );
-    assert_eq!(
-        client_error(&mut c),
-        SdoErrorKind::Client(AbortCode::INVALID_BLOCK_SIZE)
+    client_aborts(
+        &mut c,
+        T0,
+        [0xA4, 0x00, 0x20, 0x00, 0, 0, 0, 0],
+        AbortCode::INVALID_BLOCK_SIZE,
     );
     // In a sub-block acknowledgement.
     c.download(T0, N, DOMAIN, 0, &[1; 100], SdoOptions::mode(Mode::Block))
@@ -629,13 +625,11 @@ fn client_invalid_sequence_number() {
         reply(&mut c, T0, [0xC6, 0x00, 0x20, 0x00, 100, 0, 0, 0]),
         [[0xA3, 0, 0, 0, 0, 0, 0, 0]]
     );
-    assert_eq!(
-        reply(&mut c, T0, [0x0B, 1, 2, 3, 4, 5, 6, 7]),
-        [abort(DOMAIN, 0, AbortCode::INVALID_SEQUENCE)]
-    );
-    assert_eq!(
-        client_error(&mut c),
-        SdoErrorKind::Client(AbortCode::INVALID_SEQUENCE)
+    client_aborts(
+        &mut c,
+        T0,
+        [0x0B, 1, 2, 3, 4, 5, 6, 7],
+        AbortCode::INVALID_SEQUENCE,
     );
     // Block download: the server acknowledges a segment that was never sent.
     c.download(T0, N, DOMAIN, 0, &[1; 100], SdoOptions::mode(Mode::Block))
@@ -645,13 +639,11 @@ fn client_invalid_sequence_number() {
         reply(&mut c, T0, [0xA4, 0x00, 0x20, 0x00, 4, 0, 0, 0]).len(),
         4
     );
-    assert_eq!(
-        reply(&mut c, T0, [0xA2, 5, 4, 0, 0, 0, 0, 0]),
-        [abort(DOMAIN, 0, AbortCode::INVALID_SEQUENCE)]
-    );
-    assert_eq!(
-        client_error(&mut c),
-        SdoErrorKind::Client(AbortCode::INVALID_SEQUENCE)
+    client_aborts(
+        &mut c,
+        T0,
+        [0xA2, 5, 4, 0, 0, 0, 0, 0],
+        AbortCode::INVALID_SEQUENCE,
     );
 }
 
@@ -668,13 +660,11 @@ fn client_crc_error() {
         reply(&mut c, T0, [0x83, 15, 16, 17, 18, 19, 20, 0]),
         [[0xA2, 3, 127, 0, 0, 0, 0, 0]]
     );
-    assert_eq!(
-        reply(&mut c, T0, [0xC5, 0x00, 0xEA, 0, 0, 0, 0, 0]),
-        [abort(DOMAIN, 0, AbortCode::CRC_ERROR)]
-    );
-    assert_eq!(
-        client_error(&mut c),
-        SdoErrorKind::Client(AbortCode::CRC_ERROR)
+    client_aborts(
+        &mut c,
+        T0,
+        [0xC5, 0x00, 0xEA, 0, 0, 0, 0, 0],
+        AbortCode::CRC_ERROR,
     );
 }
 
@@ -706,31 +696,24 @@ fn client_timeout_aborts_exactly() {
 #[test]
 fn client_out_of_memory_and_length_mismatch() {
     let mut c = client();
-    c.upload(T0, N, DOMAIN, 0, SdoOptions::default()).unwrap();
-    out(&mut c);
-    assert_eq!(
-        reply(&mut c, T0, [0x41, 0x00, 0x20, 0x00, 0xE9, 0x03, 0, 0]),
-        [abort(DOMAIN, 0, AbortCode::OUT_OF_MEMORY)]
-    );
-    assert_eq!(
-        client_error(&mut c),
-        SdoErrorKind::Client(AbortCode::OUT_OF_MEMORY)
+    start_upload(&mut c);
+    client_aborts(
+        &mut c,
+        T0,
+        [0x41, 0x00, 0x20, 0x00, 0xE9, 0x03, 0, 0],
+        AbortCode::OUT_OF_MEMORY,
     );
     // Fewer bytes than announced.
-    c.upload(T0, N, DOMAIN, 0, SdoOptions::default()).unwrap();
-    out(&mut c);
+    start_upload(&mut c);
     reply(&mut c, T0, [0x41, 0x00, 0x20, 0x00, 10, 0, 0, 0]);
-    assert_eq!(
-        reply(&mut c, T0, [0x01, 1, 2, 3, 4, 5, 6, 7]),
-        [abort(DOMAIN, 0, AbortCode::LENGTH_TOO_LOW)]
-    );
-    assert_eq!(
-        client_error(&mut c),
-        SdoErrorKind::Client(AbortCode::LENGTH_TOO_LOW)
+    client_aborts(
+        &mut c,
+        T0,
+        [0x01, 1, 2, 3, 4, 5, 6, 7],
+        AbortCode::LENGTH_TOO_LOW,
     );
     // The server aborting is reported as the server's code.
-    c.upload(T0, N, DOMAIN, 0, SdoOptions::default()).unwrap();
-    out(&mut c);
+    start_upload(&mut c);
     assert!(reply(&mut c, T0, abort(DOMAIN, 0, AbortCode::HARDWARE_ERROR)).is_empty());
     assert_eq!(
         client_error(&mut c),

@@ -28,7 +28,7 @@ mod task;
 
 pub use handle::{Handle, RuntimeClosed};
 pub use node::{LocalNode, NodeHost};
-pub use sdo::{SdoEvents, SdoHost};
+pub use sdo::{SdoEvents, SdoHost, SdoStart};
 
 use crate::capture::recorder::Tap;
 use crate::machine::{Device, PortStatus};

@@ -11,99 +11,46 @@ use crate::sdo::{RequestId, SdoClient, SdoError, SdoEvent, SdoOptions, TransferB
 use crate::time::Instant;
 use crate::NodeId;
 
+/// One transfer to start: a read when `data` is `None`, else a write of `data`.
+#[derive(Clone, Copy, Debug)]
+pub struct SdoStart<'a> {
+    /// The server's node.
+    pub node: NodeId,
+    /// Object index.
+    pub index: u16,
+    /// Sub-index.
+    pub sub: u8,
+    /// What to write, or `None` to read.
+    pub data: Option<&'a [u8]>,
+    /// Mode, timeout, block size.
+    pub opts: SdoOptions,
+}
+
 /// A device (or machine) with an SDO client in it.
 pub trait SdoHost {
-    /// Starts reading (index, sub) of `node`.
-    fn sdo_upload(
-        &mut self,
-        now: Instant,
-        node: NodeId,
-        index: u16,
-        sub: u8,
-        opts: SdoOptions,
-    ) -> Result<RequestId, SdoError>;
-    /// Starts writing `data` to (index, sub) of `node`.
-    fn sdo_download(
-        &mut self,
-        now: Instant,
-        node: NodeId,
-        index: u16,
-        sub: u8,
-        data: &[u8],
-        opts: SdoOptions,
-    ) -> Result<RequestId, SdoError>;
+    /// Starts the transfer `r`.
+    fn sdo_start(&mut self, now: Instant, r: SdoStart<'_>) -> Result<RequestId, SdoError>;
 }
 
 impl<B: TransferBuffer, const S: usize> SdoHost for SdoClient<B, S> {
-    fn sdo_upload(
-        &mut self,
-        now: Instant,
-        node: NodeId,
-        index: u16,
-        sub: u8,
-        opts: SdoOptions,
-    ) -> Result<RequestId, SdoError> {
-        self.upload(now, node, index, sub, opts)
-    }
-    fn sdo_download(
-        &mut self,
-        now: Instant,
-        node: NodeId,
-        index: u16,
-        sub: u8,
-        data: &[u8],
-        opts: SdoOptions,
-    ) -> Result<RequestId, SdoError> {
-        self.download(now, node, index, sub, data, opts)
+    fn sdo_start(&mut self, now: Instant, r: SdoStart<'_>) -> Result<RequestId, SdoError> {
+        match r.data {
+            None => self.upload(now, r.node, r.index, r.sub, r.opts),
+            Some(d) => self.download(now, r.node, r.index, r.sub, d, r.opts),
+        }
     }
 }
 
 /// The client of a pair is its second machine (`Pair::new(node, client)`).
 impl<A, C: SdoHost> SdoHost for Pair<A, C> {
-    fn sdo_upload(
-        &mut self,
-        now: Instant,
-        node: NodeId,
-        index: u16,
-        sub: u8,
-        opts: SdoOptions,
-    ) -> Result<RequestId, SdoError> {
-        self.b.sdo_upload(now, node, index, sub, opts)
-    }
-    fn sdo_download(
-        &mut self,
-        now: Instant,
-        node: NodeId,
-        index: u16,
-        sub: u8,
-        data: &[u8],
-        opts: SdoOptions,
-    ) -> Result<RequestId, SdoError> {
-        self.b.sdo_download(now, node, index, sub, data, opts)
+    fn sdo_start(&mut self, now: Instant, r: SdoStart<'_>) -> Result<RequestId, SdoError> {
+        self.b.sdo_start(now, r)
     }
 }
 
 impl<L, M: SdoHost> SdoHost for Station<L, M> {
-    fn sdo_upload(
-        &mut self,
-        now: Instant,
-        node: NodeId,
-        index: u16,
-        sub: u8,
-        opts: SdoOptions,
-    ) -> Result<RequestId, SdoError> {
-        self.machine.sdo_upload(now, node, index, sub, opts)
-    }
-    fn sdo_download(
-        &mut self,
-        now: Instant,
-        node: NodeId,
-        index: u16,
-        sub: u8,
-        data: &[u8],
-        opts: SdoOptions,
-    ) -> Result<RequestId, SdoError> {
-        self.machine.sdo_download(now, node, index, sub, data, opts)
+    fn sdo_start(&mut self, now: Instant, r: SdoStart<'_>) -> Result<RequestId, SdoError> {
+        self.machine.sdo_start(now, r)
     }
 }
 
@@ -157,11 +104,15 @@ where
         sub: u8,
         opts: SdoOptions,
     ) -> Result<Result<Vec<u8>, SdoError>, RuntimeClosed> {
-        self.request(
-            move |d, now| d.sdo_upload(now, node, index, sub, opts).map_err(Err),
-            result_of,
-        )
-        .await
+        let r = SdoStart {
+            node,
+            index,
+            sub,
+            data: None,
+            opts,
+        };
+        self.request(move |d, now| d.sdo_start(now, r).map_err(Err), result_of)
+            .await
     }
 
     /// Writes `data` to (index, sub) of `node` over SDO.
@@ -176,8 +127,14 @@ where
         let r = self
             .request(
                 move |d, now| {
-                    d.sdo_download(now, node, index, sub, &data, opts)
-                        .map_err(Err)
+                    let r = SdoStart {
+                        node,
+                        index,
+                        sub,
+                        data: Some(&data),
+                        opts,
+                    };
+                    d.sdo_start(now, r).map_err(Err)
                 },
                 result_of,
             )
