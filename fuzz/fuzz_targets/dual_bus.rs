@@ -1,0 +1,96 @@
+//! The dual-bus layer in each mode fed random arrivals on both ports, port reports, sends and
+//! time steps: no panic, bounded output and events, deadlines that move on once handled.
+#![no_main]
+
+use duocan::machine::{ErrorCause, PortStatus};
+use duocan::{BusLink, Duration, Frame, Id, Instant, NodeId};
+use duocan_redundancy::{Cia3026Config, DualBus, DualBusConfig, EcssConfig, Mode};
+use libfuzzer_sys::fuzz_target;
+
+const CAUSES: [ErrorCause; 6] = [
+    ErrorCause::BusOff,
+    ErrorCause::ErrorPassive,
+    ErrorCause::NoAck,
+    ErrorCause::InterfaceDown,
+    ErrorCause::TxTimeout,
+    ErrorCause::Restarted,
+];
+
+fn drain(b: &mut DualBus) {
+    let mut k = 0;
+    while b.poll_transmit().is_some() || b.poll_port_request().is_some() {
+        k += 1;
+        assert!(k <= 256, "unbounded transmit queue");
+    }
+    let mut k = 0;
+    while b.poll_event().is_some() {
+        k += 1;
+        assert!(k <= 256, "unbounded event queue");
+    }
+}
+
+fuzz_target!(|data: &[u8]| {
+    let Some((&mode, rest)) = data.split_first() else {
+        return;
+    };
+    let mode = match mode % 3 {
+        0 => Mode::ActiveActive,
+        1 => Mode::Cia302_6(Cia3026Config::default()),
+        _ => Mode::EcssToggle(EcssConfig::slave(
+            NodeId::must(1),
+            Duration::from_millis(50),
+        )),
+    };
+    let mut b = DualBus::new(DualBusConfig::with_guard_period(
+        mode,
+        Duration::from_millis(20),
+    ));
+    let mut now = Instant::ZERO;
+    for c in rest.chunks_exact(6) {
+        let [op, lo, hi, dlc, byte, step] = *c else {
+            continue;
+        };
+        now += Duration::from_micros(u64::from(step) * 250);
+        for _ in 0..64 {
+            match b.poll_timeout() {
+                Some(t) if t <= now => b.handle_timeout(now),
+                _ => break,
+            }
+            drain(&mut b);
+        }
+        let id = Id::Standard(u16::from_le_bytes([lo, hi]) & 0x7FF);
+        let frame = Frame::new(id, &[byte; 8][..usize::from(dlc % 9)]);
+        let port = usize::from(op & 1);
+        match op >> 1 & 7 {
+            0..=3 => {
+                if let Ok(f) = frame {
+                    let _ = b.handle_rx(now, port, &f);
+                }
+            }
+            4 => {
+                if let Ok(f) = frame {
+                    b.send(now, &f);
+                }
+            }
+            5 => {
+                let cause = CAUSES[usize::from(byte) % CAUSES.len()];
+                let s = match dlc % 5 {
+                    0 => PortStatus::TxOk,
+                    1 => PortStatus::TxFailed(cause),
+                    2 => PortStatus::Error(cause),
+                    3 => PortStatus::Down(cause),
+                    _ => PortStatus::Up,
+                };
+                b.handle_port_status(now, port, s);
+            }
+            // An arrival on both ports, the twin `step` quarter-milliseconds later.
+            _ => {
+                if let Ok(f) = frame {
+                    let _ = b.handle_rx(now, port, &f);
+                    let _ = b.handle_rx(now + Duration::from_micros(u64::from(step)), 1 - port, &f);
+                }
+            }
+        }
+        drain(&mut b);
+    }
+});

@@ -1,0 +1,75 @@
+//! An SDO client with transfers under way (expedited, segmented and block, up and down, to
+//! three servers) fed random answers and time steps: no panic, bounded output, every request
+//! ends (result or abort) once its timeout has passed.
+#![no_main]
+
+use duocan::sdo::{HeapBuffer, Mode, SdoClient, SdoOptions};
+use duocan::{Duration, Frame, Id, Instant, Machine, NodeId};
+use libfuzzer_sys::fuzz_target;
+
+const LIMIT: usize = 4096;
+
+fuzz_target!(|data: &[u8]| {
+    let Some((&setup, rest)) = data.split_first() else {
+        return;
+    };
+    let mut c: SdoClient<HeapBuffer, 4> = SdoClient::with_limit(LIMIT);
+    let timeout = Duration::from_millis(100);
+    let mut started = 0;
+    for k in 0..3u8 {
+        let node = NodeId::must(5 + k);
+        let mode = match (setup >> (2 * k)) & 3 {
+            0 => Mode::Expedited,
+            1 => Mode::Segmented,
+            _ => Mode::Block,
+        };
+        let opts = SdoOptions {
+            mode,
+            timeout,
+            ..SdoOptions::default()
+        };
+        let ok = if setup & (0x40 << (k & 1)) == 0 {
+            c.upload(Instant::ZERO, node, 0x2000, k, opts).is_ok()
+        } else {
+            c.download(Instant::ZERO, node, 0x2000, k, &[k; 900], opts)
+                .is_ok()
+        };
+        started += usize::from(ok);
+    }
+    let mut now = Instant::ZERO;
+    let mut ended = 0;
+    for chunk in rest.chunks_exact(11) {
+        let [who, dlc, step, d @ ..] = chunk else {
+            continue;
+        };
+        now += Duration::from_millis(u64::from(*step % 32));
+        let id = Id::Standard(0x585 + u16::from(*who % 4));
+        if let Ok(f) = Frame::new(id, &d[..usize::from(*dlc % 9)]) {
+            c.handle_frame(now, &f);
+        }
+        if c.poll_timeout().is_some_and(|t| t <= now) {
+            c.handle_timeout(now);
+        }
+        let mut k = 0;
+        while c.poll_transmit().is_some() {
+            k += 1;
+            assert!(k <= 4 * 128, "unbounded client output");
+        }
+        while c.poll_event().is_some() {
+            ended += 1;
+        }
+    }
+    // Long after every timeout, nothing is left under way.
+    now += Duration::from_secs(10);
+    for _ in 0..8 {
+        if c.poll_timeout().is_some_and(|t| t <= now) {
+            c.handle_timeout(now);
+        }
+        while c.poll_transmit().is_some() {}
+        while c.poll_event().is_some() {
+            ended += 1;
+        }
+    }
+    assert_eq!(ended, started, "every request ends exactly once");
+    assert!(c.poll_timeout().is_none(), "no deadline without a transfer");
+});
