@@ -32,6 +32,30 @@ pub trait Machine {
     fn poll_timeout(&self) -> Option<Instant>;
     /// Next event for the application.
     fn poll_event(&mut self) -> Option<Self::Event>;
+    /// The link below asks something of this machine (see [`LinkRequest`]); machines that have
+    /// no state to change there ignore it.
+    fn handle_link_request(&mut self, now: Instant, req: LinkRequest) {
+        let _ = (now, req);
+    }
+}
+
+/// What a bus link asks of the machine above it: the effects a redundancy scheme has on the
+/// node, which the link itself cannot apply because the node owns its state and dictionary.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum LinkRequest {
+    /// Go to pre-operational (ECSS bus toggle: the redundancy master's heartbeat was lost).
+    EnterPreOperational,
+    /// An UNSIGNED8 status entry the link maintains changed (ECSS Bdefault and Ctoggle, the
+    /// CiA 302-6 channel error counter): write it so that it reads true over SDO. A dictionary
+    /// without the entry ignores it.
+    SetStatus {
+        /// Object index.
+        index: u16,
+        /// Sub-index.
+        sub: u8,
+        /// The new value.
+        value: u8,
+    },
 }
 
 /// Why a port failed to send, or what a controller reported (SocketCAN error frames, simulated
@@ -159,6 +183,10 @@ pub trait BusLink {
     fn poll_timeout(&self) -> Option<Instant>;
     /// Next event.
     fn poll_event(&mut self) -> Option<Self::Event>;
+    /// Next request to the machine above; a [`Station`] applies them after every input.
+    fn poll_machine_request(&mut self) -> Option<LinkRequest> {
+        None
+    }
 }
 
 /// The trivial link: one port is the logical bus. Counts what the port reports.
@@ -262,17 +290,21 @@ impl<L: BusLink, M: Machine> Device for Station<L, M> {
     }
     fn handle_rx(&mut self, now: Instant, port: usize, frame: &Frame) {
         self.now = now;
-        if let Some(f) = self.link.handle_rx(now, port, frame) {
+        let f = self.link.handle_rx(now, port, frame);
+        forward_requests(now, &mut self.link, &mut self.machine);
+        if let Some(f) = f {
             self.machine.handle_frame(now, &f);
         }
     }
     fn handle_port_status(&mut self, now: Instant, port: usize, status: PortStatus) {
         self.now = now;
         self.link.handle_port_status(now, port, status);
+        forward_requests(now, &mut self.link, &mut self.machine);
     }
     fn handle_timeout(&mut self, now: Instant) {
         self.now = now;
         self.link.handle_timeout(now);
+        forward_requests(now, &mut self.link, &mut self.machine);
         self.machine.handle_timeout(now);
     }
     fn poll_transmit(&mut self) -> Option<(usize, Frame)> {
@@ -295,6 +327,13 @@ impl<L: BusLink, M: Machine> Device for Station<L, M> {
             return Some(StationEvent::Link(e));
         }
         self.machine.poll_event().map(StationEvent::Machine)
+    }
+}
+
+/// Hands the link's requests to the machine above it.
+pub fn forward_requests<L: BusLink, M: Machine>(now: Instant, link: &mut L, machine: &mut M) {
+    while let Some(r) = link.poll_machine_request() {
+        machine.handle_link_request(now, r);
     }
 }
 
@@ -346,5 +385,9 @@ impl<A: Machine, B: Machine> Machine for Pair<A, B> {
             return Some(PairEvent::A(e));
         }
         self.b.poll_event().map(PairEvent::B)
+    }
+    fn handle_link_request(&mut self, now: Instant, req: LinkRequest) {
+        self.a.handle_link_request(now, req);
+        self.b.handle_link_request(now, req);
     }
 }

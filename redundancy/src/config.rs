@@ -231,10 +231,10 @@ impl DualBusConfig {
             .filter_map(|i| od.get_u32(i, 0))
             .find(|v| *v != 0)
             .unwrap_or(100);
-        Ok(DualBusConfig::with_guard_period(
-            mode,
-            Duration::from_millis(period as u64),
-        ))
+        Ok(DualBusConfig {
+            od_layout: *layout,
+            ..DualBusConfig::with_guard_period(mode, Duration::from_millis(period as u64))
+        })
     }
 }
 

@@ -28,7 +28,7 @@ use crate::merge::{Merger, Verdict};
 use crate::outbox::Outbox;
 use crate::pairs_merge::{Member, PairError, PairId, PairVerdict, SameFunction, MAX_FUNCTIONS};
 use crate::reach::Reach;
-use duocan::machine::{BusLink, PortRequest, PortStatus};
+use duocan::machine::{BusLink, LinkRequest, PortRequest, PortStatus};
 use duocan::od::ObjectDictionary;
 use duocan::profile::Predefined;
 use duocan::time::earliest;
@@ -65,6 +65,10 @@ pub struct DualBusConfig {
     pub reach_timeout: Duration,
     /// A/B values differing this long raise a discrepancy (default 100 ms; zero: never).
     pub discrepancy_time: Duration,
+    /// Where the node's dictionary has the redundancy objects: the layer keeps their status
+    /// entries (ECSS Bdefault and Ctoggle, the CiA 302-6 channel error counter) up to date
+    /// through [`LinkRequest::SetStatus`].
+    pub od_layout: OdLayout,
 }
 
 impl Default for DualBusConfig {
@@ -88,6 +92,7 @@ impl DualBusConfig {
             health,
             reach_timeout: health.silence_limit,
             discrepancy_time: Duration::from_millis(100),
+            od_layout: OdLayout::default(),
         }
     }
 }
@@ -127,6 +132,17 @@ pub struct DualBus<
     stats: LinkStats,
     /// The latest instant any method was given (hand-over time of frames for the stall rule).
     now: Instant,
+    layout: OdLayout,
+    /// The status values last written to the node's dictionary.
+    shown: Status,
+}
+
+/// The mode's status entries, as last shown in the dictionary.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+struct Status {
+    bdefault: u8,
+    ctoggle: u8,
+    counter: u8,
 }
 
 impl DualBus<Predefined, DEFAULT_MERGE_SLOTS> {
@@ -160,7 +176,7 @@ impl<C: FrameClassifier, const N: usize, const F: usize> DualBus<C, N, F> {
                 (Policy::EcssToggle(Ecss::new(c)), false)
             }
         };
-        DualBus {
+        let mut l = DualBus {
             classifier,
             policy,
             merger: Merger::new(cfg.skew_window),
@@ -171,7 +187,47 @@ impl<C: FrameClassifier, const N: usize, const F: usize> DualBus<C, N, F> {
             out: Outbox::new(),
             stats: LinkStats::default(),
             now: Instant::ZERO,
+            layout: cfg.od_layout,
+            shown: Status::default(),
+        };
+        // The dictionary starts with the configured values: only changes are written.
+        l.shown = l.status();
+        l
+    }
+
+    fn status(&self) -> Status {
+        match &self.policy {
+            Policy::Cia302_6(c) => Status {
+                counter: c.error_counter(),
+                ..Status::default()
+            },
+            Policy::EcssToggle(e) => Status {
+                bdefault: e.bdefault(),
+                ctoggle: e.ctoggle(),
+                ..Status::default()
+            },
+            Policy::ActiveActive(_) => Status::default(),
         }
+    }
+
+    /// Queues a [`LinkRequest::SetStatus`] for every status value that changed.
+    fn show_status(&mut self) {
+        let now = self.status();
+        let (red, tog) = (self.layout.redundancy, self.layout.toggle);
+        for (index, sub, old, new) in [
+            (red, 5, self.shown.counter, now.counter),
+            (tog, 1, self.shown.bdefault, now.bdefault),
+            (tog, 4, self.shown.ctoggle, now.ctoggle),
+        ] {
+            if old != new {
+                self.out.machine(LinkRequest::SetStatus {
+                    index,
+                    sub,
+                    value: new,
+                });
+            }
+        }
+        self.shown = now;
     }
 
     /// The scheme running.
@@ -288,6 +344,7 @@ impl<C: FrameClassifier, const N: usize, const F: usize> BusLink for DualBus<C, 
         }
         let info = self.info(frame);
         let route = self.policy.on_rx(now, port, frame, &info, &mut self.out);
+        self.show_status();
         let outcome = match route {
             RxRoute::Ignore => RxOutcome::Ignored,
             RxRoute::Direct => RxOutcome::Direct,
@@ -335,6 +392,7 @@ impl<C: FrameClassifier, const N: usize, const F: usize> BusLink for DualBus<C, 
         }
         self.health.on_status(now, port, status, &mut self.out);
         self.policy.on_status(now, port, status, &mut self.out);
+        self.show_status();
     }
 
     fn send(&mut self, now: Instant, frame: &Frame) {
@@ -343,6 +401,7 @@ impl<C: FrameClassifier, const N: usize, const F: usize> BusLink for DualBus<C, 
         let mask = self
             .policy
             .route_tx(now, frame, &info, &self.health, &mut self.out);
+        self.show_status();
         for p in 0..2 {
             if mask & (1 << p) != 0 {
                 self.out.frame(p, *frame);
@@ -367,6 +426,7 @@ impl<C: FrameClassifier, const N: usize, const F: usize> BusLink for DualBus<C, 
             self.reach.handle_timeout(now, &mut self.out);
         }
         self.policy.handle_timeout(now, &mut self.out);
+        self.show_status();
         self.pairs.handle_timeout(now, &mut self.out);
         self.merger.expire(now);
     }
@@ -382,6 +442,10 @@ impl<C: FrameClassifier, const N: usize, const F: usize> BusLink for DualBus<C, 
 
     fn poll_event(&mut self) -> Option<LinkEvent> {
         self.out.events.pop()
+    }
+
+    fn poll_machine_request(&mut self) -> Option<LinkRequest> {
+        self.out.machine.pop()
     }
 }
 

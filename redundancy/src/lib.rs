@@ -77,7 +77,7 @@ pub use health::{HealthConfig, PortState};
 pub use merge::{Merger, Verdict};
 #[cfg(feature = "alloc")]
 pub use network::{LogicalNetwork, NetworkError, NetworkEvent, NetworkEventKind};
-pub use outbox::{Outbox, EVENT_QUEUE, FRAME_QUEUE, REQUEST_QUEUE};
+pub use outbox::{Outbox, EVENT_QUEUE, FRAME_QUEUE, MACHINE_QUEUE, REQUEST_QUEUE};
 pub use pairs_merge::{Member, PairId};
 #[cfg(feature = "alloc")]
 pub use station::SupervisedStation;

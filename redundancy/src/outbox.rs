@@ -2,7 +2,7 @@
 //! for the application. Overflow is counted, never grown.
 
 use crate::events::LinkEvent;
-use duocan::machine::PortRequest;
+use duocan::machine::{LinkRequest, PortRequest};
 use duocan::queue::Bounded;
 use duocan::Frame;
 
@@ -14,6 +14,8 @@ pub const FRAME_QUEUE: usize = 16;
 pub const EVENT_QUEUE: usize = 160;
 /// Requests waiting for the driver.
 pub const REQUEST_QUEUE: usize = 8;
+/// Requests waiting for the machine above (a status change of each kind and a state change).
+pub const MACHINE_QUEUE: usize = 8;
 
 /// The output queues a layer's parts (health, reachability, channel policies) write to.
 #[derive(Debug, Default)]
@@ -22,6 +24,7 @@ pub struct Outbox {
     pub(crate) frames: [Bounded<Frame, FRAME_QUEUE>; 2],
     pub(crate) events: Bounded<LinkEvent, EVENT_QUEUE>,
     pub(crate) requests: Bounded<(usize, PortRequest), REQUEST_QUEUE>,
+    pub(crate) machine: Bounded<LinkRequest, MACHINE_QUEUE>,
 }
 
 impl Outbox {
@@ -36,6 +39,10 @@ impl Outbox {
     /// Queues a request for the driver of `port`.
     pub fn request(&mut self, port: usize, r: PortRequest) {
         self.requests.push((port, r));
+    }
+    /// Queues a request for the machine above the layer.
+    pub fn machine(&mut self, r: LinkRequest) {
+        self.machine.push(r);
     }
     /// Queues a frame for `port` (0 or 1; others are ignored).
     pub fn frame(&mut self, port: usize, f: Frame) {

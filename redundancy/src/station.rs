@@ -73,6 +73,10 @@ impl<
     }
 
     fn forward(&mut self) {
+        // The layer's requests (status entries, ECSS pre-operational) go to the master's node.
+        while let Some(r) = self.link.poll_machine_request() {
+            self.sup.node_mut().handle_link_request(self.now, r);
+        }
         while let Some(c) = self.sup.poll_link_command() {
             match c {
                 LinkCommand::SetActive(p, m) => {
@@ -101,7 +105,9 @@ impl<
     }
     fn handle_rx(&mut self, now: Instant, port: usize, frame: &Frame) {
         self.now = now;
-        if let Some(f) = self.link.handle_rx(now, port, frame) {
+        let f = self.link.handle_rx(now, port, frame);
+        self.forward();
+        if let Some(f) = f {
             self.sup.handle_frame(now, &f);
             self.forward();
         }
@@ -109,6 +115,7 @@ impl<
     fn handle_port_status(&mut self, now: Instant, port: usize, status: PortStatus) {
         self.now = now;
         self.link.handle_port_status(now, port, status);
+        self.forward();
     }
     fn handle_timeout(&mut self, now: Instant) {
         self.now = now;

@@ -6,10 +6,13 @@ mod common;
 
 use common::*;
 use duocan::node::NodeEventKind;
+use duocan::od::ObjectDictionary;
 use duocan::sim::TxOutcome;
 use duocan::{Duration, Frame, Instant, NmtCommand, NmtTarget, NodeId};
 use duocan_redundancy::channel::cia302_6::indicate_active;
 use duocan_redundancy::{Cia3026Config, DualBusConfig, LinkEventKind, Mode, SwitchReason};
+use std::cell::RefCell;
+use std::rc::Rc;
 
 const SLAVES: u8 = 8;
 const POWER_ON_WINDOW: Duration = Duration::from_millis(300);
@@ -158,6 +161,9 @@ fn power_on_evaluation_switches_to_redundant_when_default_gave_fewer_than_three(
     }
 }
 
+/// (when, node, 0x1F60 sub 5 in its dictionary, its layer's error counter).
+type Shown = (Instant, u8, u8, u8);
+
 #[test]
 fn transmit_errors_switch_to_redundant_and_heartbeats_bring_the_network_back() {
     let cut = Instant::from_millis(1_005);
@@ -167,7 +173,31 @@ fn transmit_errors_switch_to_redundant_and_heartbeats_bring_the_network_back() {
     let default = net.buses[0];
     net.sim.at(cut, move |sim| sim.bus_down(default));
     net.sim.at(repair, move |sim| sim.bus_up(default));
+    // Every 5 ms, each node's dictionary (0x1F60 sub 5) against its layer's error counter.
+    let shown: Rc<RefCell<Vec<Shown>>> = Rc::default();
+    for k in 0..600u64 {
+        let t = Instant::from_millis(5 * k);
+        let out = shown.clone();
+        let devs: Vec<_> = (1..=SLAVES + 1).map(|n| net.dev(n)).collect();
+        net.sim.at(t, move |sim| {
+            for (i, d) in devs.iter().enumerate() {
+                let st = sim.device(*d);
+                let od = st.machine.a.od().get_u32(0x1F60, 5).unwrap() as u8;
+                let layer = st.link.cia302_6().unwrap().error_counter();
+                out.borrow_mut().push((t, i as u8 + 1, od, layer));
+            }
+        });
+    }
     net.sim.run_until(stop + Duration::from_millis(100));
+    let shown = shown.borrow();
+    assert!(
+        shown.iter().all(|(_, _, od, layer)| od == layer),
+        "0x1F60 sub 5 shows the counter"
+    );
+    assert!(
+        shown.iter().any(|x| x.2 == 16),
+        "and the counter reached the threshold"
+    );
 
     let wire = net.wire(0);
     for node in 1..=SLAVES + 1 {

@@ -4,9 +4,12 @@
 mod common;
 
 use common::*;
+use duocan::od::ObjectDictionary;
 use duocan::sim::TxOutcome;
-use duocan::{Duration, Frame, Id, Instant, NodeId};
+use duocan::{Duration, Frame, Id, Instant, NmtCommand, NmtState, NmtTarget, NodeId};
 use duocan_redundancy::{DualBusConfig, EcssConfig, LinkEventKind, Mode, SwitchReason};
+use std::cell::RefCell;
+use std::rc::Rc;
 
 const SLAVES: u8 = 6;
 /// The slaves' consumer time for the master's heartbeat (3 × its 50 ms period): `P`.
@@ -113,6 +116,12 @@ fn slaves_follow_the_master_to_the_other_bus_after_t_minus_one_periods() {
         );
         let ecss = net.station(node).link.ecss().unwrap();
         assert_eq!((ecss.bdefault(), ecss.ctoggle()), (1, 1));
+        // The dictionary shows it: 0x2000 sub 1 Bdefault and sub 4 Ctoggle.
+        let od = net.station(node).machine.a.od();
+        assert_eq!(
+            (od.get_u32(0x2000, 1), od.get_u32(0x2000, 4)),
+            (Some(1), Some(1))
+        );
         // On the wire: the slave's traffic on bus 1 until the toggle, on bus 2 after it.
         assert!(app_frames_of(&net, 0, node).iter().all(|x| *x <= toggle_at));
         let on_2 = app_frames_of(&net, 1, node);
@@ -182,4 +191,78 @@ fn without_a_master_slaves_toggle_n_times_then_stay_and_report_until_it_returns(
             .all(|x| (*x > tg(0, 0, 1, 1).0 && *x <= tg(1, 1, 0, 2).0)
                 || (*x > tg(2, 0, 1, 3).0 && *x <= tg(3, 1, 0, 4).0)));
     }
+}
+
+/// What a slave shows at one instant: NMT state, 0x2000 sub 1 and sub 4 in its dictionary, and
+/// the layer's own Bdefault and Ctoggle.
+type Sample = (Instant, NmtState, u8, u8, u8, u8);
+
+#[test]
+fn losing_the_master_puts_the_slave_in_pre_operational_and_0x2000_shows_the_toggling() {
+    let stop = Instant::from_millis(4_000);
+    let mut net = network_with(23, SLAVES, cfg, stop);
+    let m = net.dev(MASTER);
+    let start = Instant::from_millis(500);
+    net.sim.at(start, move |sim| {
+        let node = &mut sim.device_mut(m).machine.a;
+        node.nmt_command(start, NmtCommand::Start, NmtTarget::All)
+            .unwrap();
+    });
+    let me = m.erased();
+    net.sim
+        .at(Instant::from_millis(1_000), move |sim| sim.power_off(me));
+    net.sim
+        .at(Instant::from_millis(3_000), move |sim| sim.power_on(me));
+    let samples: Rc<RefCell<Vec<Sample>>> = Rc::default();
+    let s = net.dev(2);
+    for k in 60..400u64 {
+        let t = Instant::from_millis(10 * k);
+        let out = samples.clone();
+        net.sim.at(t, move |sim| {
+            let st = sim.device(s);
+            let od = st.machine.a.od();
+            let read = |sub| od.get_u32(0x2000, sub).unwrap() as u8;
+            let ecss = st.link.ecss().unwrap();
+            out.borrow_mut().push((
+                t,
+                st.machine.a.nmt_state(),
+                read(1),
+                read(4),
+                ecss.bdefault(),
+                ecss.ctoggle(),
+            ));
+        });
+    }
+    net.sim.run_until(stop);
+
+    let lost = net
+        .link_events(2)
+        .into_iter()
+        .find(|e| matches!(e.kind, LinkEventKind::MasterLost { .. }))
+        .unwrap()
+        .at;
+    let samples = samples.borrow();
+    let mut seen = std::collections::BTreeSet::new();
+    for &(t, state, od_b, od_c, b, c) in samples.iter() {
+        // The dictionary always shows what the layer does.
+        assert_eq!((od_b, od_c), (b, c), "at {t}");
+        seen.insert(c);
+        if t < lost {
+            assert_eq!(
+                state,
+                NmtState::Operational,
+                "at {t}: started before the loss"
+            );
+        } else {
+            assert_eq!(
+                state,
+                NmtState::PreOperational,
+                "at {t}: pre-operational after it"
+            );
+        }
+    }
+    // Ctoggle counted 0 to Ntoggle (4) in the dictionary.
+    assert_eq!(seen.into_iter().collect::<Vec<_>>(), [0, 1, 2, 3, 4]);
+    // Read over SDO-visible state at the end: the master is back on bus 1, Ctoggle stays 4.
+    assert_eq!(samples.last().map(|x| (x.2, x.3)), Some((0, 4)));
 }

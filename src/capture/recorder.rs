@@ -231,6 +231,9 @@ impl<M: Machine> Machine for Tapped<M> {
     fn poll_event(&mut self) -> Option<M::Event> {
         self.inner.poll_event()
     }
+    fn handle_link_request(&mut self, now: Instant, req: crate::machine::LinkRequest) {
+        self.inner.handle_link_request(now, req);
+    }
 }
 
 #[cfg(feature = "tokio")]

@@ -11,7 +11,7 @@ use crate::emcy::EmcyProducer;
 use crate::frame::Frame;
 use crate::guarding::{GuardMaster, GuardSlave};
 use crate::heartbeat::{HeartbeatConsumer, HeartbeatProducer};
-use crate::machine::Machine;
+use crate::machine::{LinkRequest, Machine};
 use crate::nmt::{self, NmtCommand, NmtState, NmtTarget, NodeTable, NodeView};
 use crate::od::{Entry, ObjectDictionary, OdValue};
 use crate::pdo::{self, PdoEngine, PdoError, RpdoStatus, TpdoStatus};
@@ -412,5 +412,19 @@ impl<D: ObjectDictionary, P: IdProfile, const G: usize, const TPDOS: usize, cons
     }
     fn poll_event(&mut self) -> Option<NodeEvent> {
         self.core.events.pop()
+    }
+    fn handle_link_request(&mut self, now: Instant, req: LinkRequest) {
+        match req {
+            LinkRequest::EnterPreOperational => {
+                if matches!(self.nmt_state(), NmtState::Operational | NmtState::Stopped) {
+                    self.set_nmt_state(now, NmtState::PreOperational);
+                }
+            }
+            LinkRequest::SetStatus { index, sub, value } => {
+                // Through the node, so that a PDO mapping the entry sees the change; a
+                // dictionary without the entry simply does not show it.
+                let _ = self.write(now, index, sub, &[value]);
+            }
+        }
     }
 }

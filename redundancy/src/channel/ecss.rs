@@ -4,12 +4,15 @@
 //! bus are not delivered. A **slave** watches the redundancy master's heartbeat (0x1016 sub 1:
 //! its node-ID and the consumer time `P`) on the active bus, from its own boot-up on:
 //!
-//! - on loss (`P` after the last heartbeat, or after boot-up): report [`MasterLost`] (the node
-//!   on top must enter pre-operational), Ctoggle = 0, wait (Ttoggle − 1) × `P`, switch bus,
+//! - on loss (`P` after the last heartbeat, or after boot-up): report [`MasterLost`] and ask the
+//!   node on top to enter pre-operational (`LinkRequest::EnterPreOperational`), Ctoggle = 0, wait (Ttoggle − 1) × `P`, switch bus,
 //!   Ctoggle += 1; keep toggling every Ttoggle × `P` while Ctoggle < Ntoggle; when the next
 //!   toggle would exceed Ntoggle, stay and report [`NoMaster`];
 //! - when the master's heartbeat is heard on the active bus again, that bus becomes the default
 //!   ([`MasterFound`]).
+//!
+//! The dual-bus layer writes Bdefault (sub 1) and Ctoggle (sub 4) into the node's dictionary as
+//! they change (`LinkRequest::SetStatus`), so a master reads them over SDO.
 //!
 //! `P` stands for the master's heartbeat period: the consumer time is the only period a slave
 //! knows. A Ttoggle of zero is treated as one. A **master** stays on its bus until commanded
@@ -23,7 +26,7 @@ use super::{switched, ChannelPolicy, FrameInfo, PortMask, RxRoute};
 use crate::events::{LinkEvent, LinkEventKind, SwitchReason};
 use crate::health::Health;
 use crate::outbox::Outbox;
-use duocan::machine::PortStatus;
+use duocan::machine::{LinkRequest, PortStatus};
 use duocan::{Duration, Frame, Instant, NodeId};
 
 /// What this device is in the bus-toggle scheme.
@@ -207,6 +210,7 @@ impl ChannelPolicy for Ecss {
                             bus: self.active as u8,
                         },
                     });
+                    out.machine(LinkRequest::EnterPreOperational);
                     self.ctoggle = 0;
                     self.phase = Phase::Toggling {
                         next: deadline + period.saturating_mul(self.ttoggle() - 1),

@@ -281,7 +281,12 @@ pub fn network_with(
     let mut devs = vec![];
     for id in 1..=slaves + 1 {
         let nid = NodeId::must(id);
-        let od = comm::standard_dictionary(id, comm::Identity::default());
+        let mut od = comm::standard_dictionary(id, comm::Identity::default());
+        // The redundancy objects, whose status entries the layer keeps up to date.
+        od.insert_all(&duocan_redundancy::config::CIA302_6_OBJECTS)
+            .unwrap();
+        od.insert_all(&duocan_redundancy::config::ECSS_OBJECTS)
+            .unwrap();
         let nc = if id == MASTER {
             NodeConfig::master(nid)
         } else {
