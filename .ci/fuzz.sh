@@ -17,7 +17,7 @@ cd "$ROOT/fuzz"
 cargo fuzz build --sanitizer none || fail "building the fuzz targets"
 for t in $(cargo fuzz list); do
   echo "== fuzz: $t for ${SECONDS_EACH} s"
-  log="$ROOT/fuzz/target/fuzz-$t.log"
+  log=$(mktemp)
   set +e
   cargo fuzz run --sanitizer none "$t" -- -max_total_time="$SECONDS_EACH" -print_final_stats=0 >"$log" 2>&1
   rc=$?
