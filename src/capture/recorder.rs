@@ -1,7 +1,7 @@
 //! Recording what a device sees: every port, and the logical bus above the dual-bus layer.
 //!
 //! A [`Tap`] is told of each frame with where and when it was seen. The runtime feeds it every
-//! frame a port received or sent ([`Runtime::tap`](crate::runtime::Runtime::tap)); wrapping the
+//! frame a port received or sent (`Runtime::tap`, feature `tokio`); wrapping the
 //! machine of a [`Station`](crate::Station) in [`Tapped`] feeds it the logical bus (what the
 //! stack above the dual-bus layer receives and sends). [`Recorder`] is the tap that writes
 //! candump logs and pcap files; clone its `Arc` into both places.

@@ -358,7 +358,7 @@ impl<D: ObjectDictionary, P: IdProfile, const G: usize, const TPDOS: usize, cons
     pub fn rpdo_status(&self, pdo: u16) -> Option<RpdoStatus> {
         self.core.pdo.rpdo_status(pdo)
     }
-    /// Report every RPDO applied ([`PdoEvent::RpdoReceived`]; on by default). Off, the
+    /// Report every RPDO applied ([`PdoEvent::RpdoReceived`](crate::pdo::PdoEvent::RpdoReceived); on by default). Off, the
     /// application reads the dictionary or [`Node::rpdo_status`] instead, and a high PDO rate
     /// cannot crowd other events out of the bounded queue.
     pub fn set_rpdo_events(&mut self, on: bool) {
