@@ -466,7 +466,10 @@ impl Health {
             }
             PortState::Recovering => {
                 port.reinit_at = None;
+                // Judged afresh: only frames it misses from now on count against it (in a quiet
+                // network a stale miss from before the repair would fail it again and again).
                 port.silence_ref = Some(at);
+                port.first_missed = None;
             }
             PortState::Suspect => {}
         }
@@ -626,6 +629,37 @@ mod tests {
             }
             t += 10;
         }
+    }
+
+    #[test]
+    fn a_repaired_port_in_a_quiet_network_is_not_failed_again_for_an_old_miss() {
+        let mut h = Health::new(HealthConfig::default(), W);
+        let mut out = Outbox::new();
+        // Port 1 goes silent while port 0 hears traffic, and fails; then the network falls
+        // quiet (traffic ends at 1000 ms).
+        traffic(&mut h, &mut out, 0, 200, 1000);
+        assert_eq!(h.port(1).state(), PortState::Failed);
+        // Re-initialised after its back-off: recovering, and nothing is missed from then on.
+        let mut t = 1000;
+        while t < 5_000 {
+            if let Some(d) = h.poll_timeout().filter(|d| *d <= ms(t)) {
+                h.handle_timeout(d, &mut out);
+            }
+            t += 5;
+        }
+        assert_eq!(
+            h.port(1).state(),
+            PortState::Recovering,
+            "{:?}",
+            port_events(&mut out)
+        );
+        // A frame port 0 delivers and port 1 misses counts again: port 1 has been silent for
+        // longer than the limit, so it fails when the twin is overdue (one window later).
+        h.on_rx(ms(5_000), 0, RxOutcome::Delivered, &mut out);
+        let d = h.poll_timeout().unwrap();
+        assert_eq!(d, ms(5_000) + W);
+        h.handle_timeout(d, &mut out);
+        assert_eq!(h.port(1).state(), PortState::Failed);
     }
 
     #[test]

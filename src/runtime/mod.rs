@@ -188,6 +188,7 @@ where
             spawn(port_task::Wiring {
                 index,
                 net: self.name.clone(),
+                clock,
                 to_core: in_tx.clone(),
                 from_core: rx,
             });
@@ -205,6 +206,7 @@ where
             events: ev_tx.clone(),
             tap: self.tap,
             watchers: Vec::new(),
+            last: crate::time::Instant::ZERO,
         };
         let task = tokio::spawn(core.run(cmd_rx, in_rx).instrument(span));
         Ok(Handle::new(cmd_tx, ev_tx, clock, names, counters, task))

@@ -1,8 +1,9 @@
 //! One task per port: reads, writes, and re-opens after failures.
 
 use crate::frame::Frame;
-use crate::machine::{PortRequest, PortStatus};
+use crate::machine::{ErrorCause, PortRequest, PortStatus};
 use crate::port::{Port, PortErrorKind, PortInput};
+use crate::time::Instant;
 use std::time::Duration;
 use tokio::sync::mpsc;
 
@@ -16,16 +17,22 @@ pub(crate) enum PortCmd {
     Request(PortRequest),
 }
 
+/// What a port task hands the core: the port, the input, and when it was read (so that the
+/// merger measures the skew between the buses, not the core's backlog).
+pub(crate) type Arrival = (usize, PortInput, Instant);
+
 pub(crate) struct Wiring {
     pub index: usize,
     pub net: String,
-    pub to_core: mpsc::Sender<(usize, PortInput)>,
+    pub clock: super::Clock,
+    pub to_core: mpsc::Sender<Arrival>,
     pub from_core: mpsc::Receiver<PortCmd>,
 }
 
 enum Step {
     Continue,
-    Failed,
+    /// The port is unusable, for this reason (reported already).
+    Failed(ErrorCause),
     Stop,
 }
 
@@ -68,8 +75,8 @@ pub(crate) async fn run<P: Port>(mut port: P, mut w: Wiring) {
         match step {
             Step::Continue => {}
             Step::Stop => return,
-            Step::Failed => {
-                if !recover(&mut port, &mut w).await {
+            Step::Failed(cause) => {
+                if !recover(&mut port, &mut w, cause).await {
                     return;
                 }
             }
@@ -80,7 +87,7 @@ pub(crate) async fn run<P: Port>(mut port: P, mut w: Wiring) {
 async fn input(w: &Wiring, r: Result<PortInput, crate::port::PortError>) -> Step {
     match r {
         Ok(x) => {
-            if w.to_core.send((w.index, x)).await.is_err() {
+            if w.to_core.send((w.index, x, w.clock.now())).await.is_err() {
                 Step::Stop
             } else {
                 Step::Continue
@@ -89,7 +96,7 @@ async fn input(w: &Wiring, r: Result<PortInput, crate::port::PortError>) -> Step
         Err(e) => {
             tracing::warn!(error = %e, "receive failed");
             report(w, PortStatus::Down(e.cause())).await;
-            Step::Failed
+            Step::Failed(e.cause())
         }
     }
 }
@@ -108,7 +115,7 @@ async fn command<P: Port>(port: &mut P, w: &Wiring, cmd: PortCmd) -> Step {
                 );
                 if down {
                     report(w, PortStatus::Down(e.cause())).await;
-                    Step::Failed
+                    Step::Failed(e.cause())
                 } else {
                     report(w, PortStatus::TxFailed(e.cause())).await;
                     Step::Continue
@@ -123,19 +130,24 @@ async fn command<P: Port>(port: &mut P, w: &Wiring, cmd: PortCmd) -> Step {
             Err(e) => {
                 tracing::warn!(error = %e, "re-init failed");
                 report(w, PortStatus::Down(e.cause())).await;
-                Step::Failed
+                Step::Failed(e.cause())
             }
         },
     }
 }
 
 async fn report(w: &Wiring, s: PortStatus) {
-    let _ = w.to_core.send((w.index, PortInput::Status(s))).await;
+    let _ = w
+        .to_core
+        .send((w.index, PortInput::Status(s), w.clock.now()))
+        .await;
 }
 
-/// Re-opens with backoff; frames the device sends meanwhile are dropped and counted.
+/// Re-opens with backoff; frames the device sends meanwhile are dropped and counted, and a
+/// re-initialisation the device asks for meanwhile is answered with the port still down (so
+/// that it does not count on a port that cannot carry anything yet).
 /// Returns false when the runtime is shutting down.
-async fn recover<P: Port>(port: &mut P, w: &mut Wiring) -> bool {
+async fn recover<P: Port>(port: &mut P, w: &mut Wiring, cause: ErrorCause) -> bool {
     let counters = port.counters();
     let mut wait = BACKOFF_MIN;
     let mut attempts = 0u32;
@@ -146,7 +158,7 @@ async fn recover<P: Port>(port: &mut P, w: &mut Wiring) -> bool {
                 cmd = w.from_core.recv() => match cmd {
                     None => return false,
                     Some(PortCmd::Send(_)) => counters.tx_dropped(),
-                    Some(PortCmd::Request(_)) => {}
+                    Some(PortCmd::Request(_)) => report(w, PortStatus::Down(cause)).await,
                 },
                 () = tokio::time::sleep_until(until) => break,
             }

@@ -1,6 +1,6 @@
 //! The core task: the only owner of the device.
 
-use super::port_task::PortCmd;
+use super::port_task::{Arrival, PortCmd};
 use super::{Clock, RuntimeEvent};
 use crate::capture::recorder::{Direction, Tap, TapPoint};
 use crate::machine::{Device, PortStatus};
@@ -34,6 +34,9 @@ pub(crate) struct Core<D: Device> {
     pub events: broadcast::Sender<RuntimeEvent<D::Event>>,
     pub tap: Option<Arc<dyn Tap>>,
     pub watchers: Vec<Watcher<D::Event>>,
+    /// The latest instant handed to the device: inputs stamped earlier (read before the
+    /// device's last call) are handed over at this instant, so that its time never goes back.
+    pub last: crate::Instant,
 }
 
 impl<D> Core<D>
@@ -44,7 +47,7 @@ where
     pub async fn run(
         mut self,
         mut commands: mpsc::UnboundedReceiver<Command<D>>,
-        mut input: mpsc::Receiver<(usize, PortInput)>,
+        mut input: mpsc::Receiver<Arrival>,
     ) {
         tracing::info!(ports = self.ports.len(), "runtime started");
         loop {
@@ -58,20 +61,24 @@ where
             };
             tokio::select! {
                 cmd = commands.recv() => match cmd {
-                    Some(Command::Call(f)) => f(&mut *self.device, self.clock.now()),
+                    Some(Command::Call(f)) => {
+                        let now = self.now();
+                        f(&mut *self.device, now)
+                    }
                     Some(Command::Watch(start)) => {
-                        if let Some(w) = start(&mut *self.device, self.clock.now()) {
+                        let now = self.now();
+                        if let Some(w) = start(&mut *self.device, now) {
                             self.watchers.push(w);
                         }
                     }
                     Some(Command::Shutdown) | None => break,
                 },
                 first = input.recv() => {
-                    if let Some((port, x)) = first {
-                        self.input(port, x);
+                    if let Some((port, x, at)) = first {
+                        self.input(port, x, at);
                         for _ in 1..RX_BATCH {
                             match input.try_recv() {
-                                Ok((port, x)) => self.input(port, x),
+                                Ok((port, x, at)) => self.input(port, x, at),
                                 Err(_) => break,
                             }
                         }
@@ -79,7 +86,7 @@ where
                 },
                 () = sleep => {}
             }
-            let now = self.clock.now();
+            let now = self.now();
             if self.device.poll_timeout().is_some_and(|t| t <= now) {
                 self.device.handle_timeout(now);
             }
@@ -87,8 +94,19 @@ where
         tracing::info!("runtime stopped");
     }
 
-    fn input(&mut self, port: usize, x: PortInput) {
-        let now = self.clock.now();
+    /// The clock's time, as the device's next instant.
+    fn now(&mut self) -> crate::Instant {
+        self.at(self.clock.now())
+    }
+
+    /// `t`, or the device's last instant if that is later.
+    fn at(&mut self, t: crate::Instant) -> crate::Instant {
+        self.last = self.last.max(t);
+        self.last
+    }
+
+    fn input(&mut self, port: usize, x: PortInput, read_at: crate::Instant) {
+        let now = self.at(read_at);
         match x {
             PortInput::Frame(f) => {
                 if let Some(t) = &self.tap {

@@ -20,13 +20,14 @@ impl ChannelPolicy for ActiveActive {
         h: &Health,
         _: &mut Outbox,
     ) -> PortMask {
-        // A failed port gets nothing until it has recovered, unless both are failed: then both
-        // get everything, because sending nowhere is certain silence and a port marked failed
-        // may still reach someone (a node that only stopped hearing a silent peer).
-        match (h.usable(0) as u8) | (h.usable(1) as u8) << 1 {
-            0 => BOTH,
-            mask => mask,
+        // A failed port gets nothing until it has recovered, unless no port is known to work
+        // (ok or suspect): then both get everything, because a recovering port is unproven,
+        // sending nowhere is certain silence, and a port marked failed may still reach someone
+        // (a node that only stopped hearing a silent peer).
+        if !h.port(0).state().is_trusted() && !h.port(1).state().is_trusted() {
+            return BOTH;
         }
+        (h.usable(0) as u8) | (h.usable(1) as u8) << 1
     }
     fn on_rx(&mut self, _: Instant, _: usize, _: &Frame, _: &FrameInfo, _: &mut Outbox) -> RxRoute {
         RxRoute::Merge
@@ -68,5 +69,19 @@ mod tests {
             0b11,
             "both failed: try both"
         );
+        // One re-initialised (recovering, unproven), the other failed: still both.
+        h.on_status(t, 1, PortStatus::Up, &mut out);
+        assert_eq!(h.port(1).state(), crate::PortState::Recovering);
+        assert_eq!(p.route_tx(t, &f, &info, &h, &mut out), 0b11);
+        // Once a port is proven again, a failed one gets nothing.
+        h.on_rx(t, 1, crate::health::RxOutcome::Delivered, &mut out);
+        h.on_rx(
+            t + Duration::from_millis(200),
+            1,
+            crate::health::RxOutcome::Delivered,
+            &mut out,
+        );
+        assert_eq!(h.port(1).state(), crate::PortState::Ok);
+        assert_eq!(p.route_tx(t, &f, &info, &h, &mut out), 0b10);
     }
 }
