@@ -31,6 +31,8 @@ fi
 
 echo "== tier-python: runtime, port and capture unit tests (all features)"
 cargo test --features tokio,udp,socketcan --lib --test runtime_mem || fail "library and memory-bus runtime tests"
+cargo test -p duocan-redundancy --features tokio --lib --test runtime_network \
+  || fail "the logical network object under the runtime (memory buses)"
 
 echo "== tier-python: build (outside the namespace)"
 cargo test --features test-python --test python_peer --no-run || fail "build python_peer tests"

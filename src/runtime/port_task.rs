@@ -179,3 +179,72 @@ async fn recover<P: Port>(port: &mut P, w: &mut Wiring, cause: ErrorCause) -> bo
         }
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::port::{PortCounters, PortError};
+    use crate::{Id, Instant};
+
+    /// A port whose interface is down: every send and re-open fails, nothing arrives.
+    struct DeadPort(PortCounters);
+
+    impl Port for DeadPort {
+        fn name(&self) -> &str {
+            "dead0"
+        }
+        fn counters(&self) -> PortCounters {
+            self.0.clone()
+        }
+        async fn recv(&mut self) -> Result<PortInput, PortError> {
+            std::future::pending().await
+        }
+        async fn send(&mut self, _: &Frame) -> Result<(), PortError> {
+            Err(PortError::new(
+                "dead0",
+                PortErrorKind::InterfaceDown,
+                "send",
+            ))
+        }
+        async fn reopen(&mut self) -> Result<(), PortError> {
+            Err(PortError::new(
+                "dead0",
+                PortErrorKind::InterfaceDown,
+                "reopen",
+            ))
+        }
+    }
+
+    #[tokio::test]
+    async fn a_re_init_request_while_the_port_is_down_is_answered_with_down() {
+        let (to_core, mut inputs) = mpsc::channel::<Arrival>(16);
+        let (cmds, from_core) = mpsc::channel(16);
+        let wiring = Wiring {
+            index: 1,
+            net: "test".into(),
+            clock: super::super::Clock::start(),
+            to_core,
+            from_core,
+        };
+        tokio::spawn(run(DeadPort(PortCounters::new()), wiring));
+        let f = Frame::from_array(Id::Standard(0x705), [5]);
+        cmds.send(PortCmd::Send(f)).await.unwrap();
+        let down = |x: Option<Arrival>| {
+            matches!(
+                x,
+                Some((1, PortInput::Status(PortStatus::Down(ErrorCause::InterfaceDown)), at))
+                    if at >= Instant::ZERO
+            )
+        };
+        assert!(
+            down(inputs.recv().await),
+            "the failed send reports the port down"
+        );
+        // While it keeps trying to re-open, the device asks for a re-initialisation: it hears
+        // at once that the port is still down (not silence, which it would take for success).
+        cmds.send(PortCmd::Request(PortRequest::Reinit))
+            .await
+            .unwrap();
+        assert!(down(inputs.recv().await));
+    }
+}
