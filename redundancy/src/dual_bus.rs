@@ -212,6 +212,9 @@ impl<C: FrameClassifier, const N: usize, const F: usize> DualBus<C, N, F> {
 
     /// Queues a [`LinkRequest::SetStatus`] for every status value that changed.
     fn show_status(&mut self) {
+        if matches!(self.policy, Policy::ActiveActive(_)) {
+            return; // no status entries: keep the frame path lean
+        }
         let now = self.status();
         let (red, tog) = (self.layout.redundancy, self.layout.toggle);
         for (index, sub, old, new) in [
