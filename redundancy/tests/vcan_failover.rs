@@ -3,40 +3,30 @@
 
 use duocan::machine::{PortStatus, Station, StationEvent};
 use duocan::node::NodeEventKind;
-use duocan::od::{comm, DynamicDictionary, ObjectDictionary};
 use duocan::port::socketcan::SocketCanPort;
 use duocan::runtime::{Runtime, RuntimeEvent};
-use duocan::{Duration, Node, NodeConfig, NodeId};
+use duocan::Duration;
 use duocan_redundancy::{DualBus, DualBusConfig, LinkEvent, LinkEventKind, Mode, PortState};
 use std::process::Command;
 use std::time::Duration as StdDuration;
-use tokio::sync::broadcast;
 
-type Dev = Station<DualBus, Node<DynamicDictionary>>;
+// The root crate's helpers for runtime tests (nodes, waiting on events).
+#[path = "../../tests/rt/mod.rs"]
+mod rt;
+use rt::wait_for;
+
+type Dev = Station<DualBus, rt::TestNode>;
 type Ev = RuntimeEvent<StationEvent<LinkEvent, duocan::NodeEvent>>;
 
 const HB_MS: u16 = 25;
 
 fn station(id: u8, master: bool, hb_ms: u16, consume: Option<(u8, u16)>) -> Dev {
-    let mut od = comm::standard_dictionary(id, comm::Identity::default());
-    od.write_local(comm::HEARTBEAT_PRODUCER, 0, &hb_ms.to_le_bytes())
-        .unwrap();
-    if let Some((n, t)) = consume {
-        let v = ((n as u32) << 16) | t as u32;
-        od.write_local(comm::HEARTBEAT_CONSUMER, 1, &v.to_le_bytes())
-            .unwrap();
-    }
-    let nid = NodeId::new(id).unwrap();
-    let cfg = if master {
-        NodeConfig::master(nid)
-    } else {
-        NodeConfig::slave(nid)
-    };
     let link = DualBus::new(DualBusConfig::with_guard_period(
         Mode::ActiveActive,
         Duration::from_millis(HB_MS as u64),
     ));
-    Station::new(link, Node::new(cfg, od))
+    let consume: Vec<_> = consume.into_iter().collect();
+    Station::new(link, rt::node(id, master, hb_ms, &consume))
 }
 
 fn ip(args: &[&str]) {
@@ -52,29 +42,6 @@ impl Drop for LinkDown {
             .args(["link", "set", "vcan0", "up"])
             .status();
     }
-}
-
-async fn wait_for<T>(
-    rx: &mut broadcast::Receiver<Ev>,
-    secs: u64,
-    what: &str,
-    mut pick: impl FnMut(&Ev) -> Option<T>,
-) -> T {
-    let r = tokio::time::timeout(StdDuration::from_secs(secs), async {
-        loop {
-            match rx.recv().await {
-                Ok(e) => {
-                    if let Some(t) = pick(&e) {
-                        return t;
-                    }
-                }
-                Err(broadcast::error::RecvError::Lagged(_)) => {}
-                Err(broadcast::error::RecvError::Closed) => panic!("runtime closed"),
-            }
-        }
-    })
-    .await;
-    r.unwrap_or_else(|_| panic!("timed out after {secs} s waiting for {what}"))
 }
 
 fn link_port(e: &Ev) -> Option<(u8, PortState)> {
