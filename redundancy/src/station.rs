@@ -17,7 +17,9 @@ use crate::pairs_merge::{Member, PairError};
 use crate::supervisor::{LinkCommand, Supervisor, SupervisorEvent};
 use crate::FrameClassifier;
 use core::fmt;
-use duocan::machine::{BusLink, Device, Machine, PortRequest, PortStatus, StationEvent};
+use duocan::machine::{
+    forward_requests, BusLink, Device, Machine, PortRequest, PortStatus, StationEvent,
+};
 use duocan::od::ObjectDictionary;
 use duocan::profile::{IdProfile, Predefined};
 use duocan::time::earliest;
@@ -74,9 +76,7 @@ impl<
 
     fn forward(&mut self) {
         // The layer's requests (status entries, ECSS pre-operational) go to the master's node.
-        while let Some(r) = self.link.poll_machine_request() {
-            self.sup.node_mut().handle_link_request(self.now, r);
-        }
+        forward_requests(self.now, &mut self.link, self.sup.node_mut());
         while let Some(c) = self.sup.poll_link_command() {
             match c {
                 LinkCommand::SetActive(p, m) => {
