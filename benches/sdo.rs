@@ -9,10 +9,10 @@
 //! a server or a client; criterion's time is per transfer, its throughput in segments per second.
 
 use criterion::{criterion_group, Criterion, Throughput};
-use duocan::machine::{Pair, PairEvent, StationEvent};
+use duocan::machine::{Composite, CompositeEvent, StationEvent};
 use duocan::od::{comm, DataType, DynamicDictionary, ObjectDef};
 use duocan::sdo::codec::{BlockSegment, Init, Request, Response, SegmentData};
-use duocan::sdo::{block, crc, Mode, SdoClient, SdoOptions};
+use duocan::sdo::{block, crc, SdoClient, SdoOptions, TransferMode};
 use duocan::sim::{timing, BusConfig, SimNetwork};
 use duocan::{Duration, Frame, Id, Instant, Machine, Node, NodeConfig, NodeId, Station};
 use std::hint::black_box;
@@ -38,7 +38,7 @@ fn data(len: usize) -> Vec<u8> {
 // ----- simulated time -----
 
 /// Runs one transfer on a simulated 1 Mbit/s bus; returns how long it took.
-fn simulated(mode: Mode, payload: &[u8]) -> Duration {
+fn simulated(mode: TransferMode, payload: &[u8]) -> Duration {
     let mut sim = SimNetwork::new(1);
     let bus = sim.add_bus(BusConfig::new("can0", BITRATE));
     let master = Node::new(
@@ -48,7 +48,7 @@ fn simulated(mode: Mode, payload: &[u8]) -> Duration {
     let m = sim
         .add_device(
             "master",
-            Station::single(Pair::new(master, SdoClient::new(70_000))),
+            Station::single(Composite::new(master, SdoClient::new(70_000))),
             &[bus],
         )
         .unwrap();
@@ -67,7 +67,7 @@ fn simulated(mode: Mode, payload: &[u8]) -> Duration {
     loop {
         sim.step().expect("a result");
         for (_, e) in sim.take_events(m) {
-            if let StationEvent::Machine(PairEvent::B(e)) = e {
+            if let StationEvent::Machine(CompositeEvent::B(e)) = e {
                 assert!(e.result.is_ok());
                 return e.at - t0;
             }
@@ -181,8 +181,8 @@ fn print_simulated_throughput() {
     let payload = data(64 * 1024);
     let kib = |d: Duration| payload.len() as f64 / 1024.0 / (d.as_micros() as f64 / 1e6);
     for (mode, frames) in [
-        (Mode::Block, block_frames(&payload)),
-        (Mode::Segmented, segmented_frames(&payload)),
+        (TransferMode::Block, block_frames(&payload)),
+        (TransferMode::Segmented, segmented_frames(&payload)),
     ] {
         let took = simulated(mode, &payload);
         let limit = bus_time(&frames);
@@ -234,7 +234,7 @@ fn record(start: impl FnOnce(&mut SdoClient)) -> Recording {
     rec
 }
 
-fn download(mode: Mode, len: usize) -> impl FnOnce(&mut SdoClient) {
+fn download(mode: TransferMode, len: usize) -> impl FnOnce(&mut SdoClient) {
     move |c| {
         c.download(
             Instant::ZERO,
@@ -248,7 +248,7 @@ fn download(mode: Mode, len: usize) -> impl FnOnce(&mut SdoClient) {
     }
 }
 
-fn upload(mode: Mode) -> impl FnOnce(&mut SdoClient) {
+fn upload(mode: TransferMode) -> impl FnOnce(&mut SdoClient) {
     move |c| {
         c.upload(Instant::ZERO, S, DOMAIN, 0, SdoOptions::mode(mode))
             .unwrap();
@@ -262,10 +262,13 @@ fn server_per_segment(c: &mut Criterion) {
     let mut g = c.benchmark_group("sdo_server");
     g.throughput(Throughput::Elements(SEGMENTS));
     for (name, start) in [
-        ("block_download_per_segment", download(Mode::Block, 889)),
+        (
+            "block_download_per_segment",
+            download(TransferMode::Block, 889),
+        ),
         (
             "segmented_download_per_segment",
-            download(Mode::Segmented, 889),
+            download(TransferMode::Segmented, 889),
         ),
     ] {
         let rec = record(start);
@@ -289,8 +292,11 @@ fn server_per_segment(c: &mut Criterion) {
         );
     }
     for (name, start) in [
-        ("block_upload_per_segment", upload(Mode::Block)),
-        ("segmented_upload_per_segment", upload(Mode::Segmented)),
+        ("block_upload_per_segment", upload(TransferMode::Block)),
+        (
+            "segmented_upload_per_segment",
+            upload(TransferMode::Segmented),
+        ),
     ] {
         let rec = record(start);
         let mut n = server();
@@ -318,19 +324,19 @@ fn client_per_segment(c: &mut Criterion) {
     let cases: [(&str, Start); 4] = [
         (
             "block_upload_per_segment",
-            Box::new(|c| upload(Mode::Block)(c)),
+            Box::new(|c| upload(TransferMode::Block)(c)),
         ),
         (
             "segmented_upload_per_segment",
-            Box::new(|c| upload(Mode::Segmented)(c)),
+            Box::new(|c| upload(TransferMode::Segmented)(c)),
         ),
         (
             "block_download_per_segment",
-            Box::new(|c| download(Mode::Block, 889)(c)),
+            Box::new(|c| download(TransferMode::Block, 889)(c)),
         ),
         (
             "segmented_download_per_segment",
-            Box::new(|c| download(Mode::Segmented, 889)(c)),
+            Box::new(|c| download(TransferMode::Segmented, 889)(c)),
         ),
     ];
     for (name, start) in cases {

@@ -23,7 +23,7 @@ use duocan::od::{comm, DynamicDictionary, ObjectDictionary};
 use duocan::port::socketcan::{link_state, LinkState, SocketCanPort};
 use duocan::runtime::{Handle, Runtime, RuntimeEvent};
 use duocan::{Duration, NmtCommand, NmtTarget, Node, NodeConfig, NodeEvent, NodeId};
-use duocan_redundancy::{DualBus, DualBusConfig, LinkEvent, LinkEventKind, Mode, PortState};
+use duocan_redundancy::{DualBus, DualBusConfig, LinkEvent, LinkEventKind, LinkMode, PortState};
 use std::process::{Command, ExitCode};
 use std::sync::atomic::{AtomicUsize, Ordering};
 use std::sync::Arc;
@@ -142,8 +142,10 @@ fn station(id: u8, master: bool, skew_ms: u64) -> Dev {
     } else {
         NodeConfig::slave(nid)
     };
-    let mut bus =
-        DualBusConfig::with_guard_period(Mode::ActiveActive, Duration::from_millis(HB_MS as u64));
+    let mut bus = DualBusConfig::with_guard_period(
+        LinkMode::ActiveActive,
+        Duration::from_millis(HB_MS as u64),
+    );
     bus.skew_window = Duration::from_millis(skew_ms);
     bus.health.tx_stall = bus.skew_window;
     let link = DualBus::new(bus);

@@ -5,7 +5,29 @@
 //! deadlines and events. No clocks, sockets, threads or allocation on the frame path, so the same
 //! code runs on a bare-metal board, in a deterministic simulation and under tokio.
 //!
-//! Start with [`node::Node`] (one CANopen device on one logical bus), [`machine`] (how machines
+//! ## Layers
+//!
+//! Each folder of the crate is one layer; a module imports only from its own layer and the ones
+//! below it (`.ci/run` checks this). From the bottom up:
+//!
+//! | Layer | Module | What it holds |
+//! | --- | --- | --- |
+//! | 0 | [`frame`] | frames and identifiers, COB-IDs and node-IDs, time as an input, bounded queues |
+//! | 1 | [`machine`] | the shapes: [`Machine`], [`BusLink`], [`Device`], [`Station`] |
+//! | 2 | [`od`] | the object dictionary: types, values, static and dynamic dictionaries, abort codes |
+//! | 3 | [`cia301`] | the CiA 301 services, one module per object: [`nmt`], [`heartbeat`], [`guarding`], [`sync`], [`time_stamp`], [`emcy`], [`sdo`], [`pdo`] |
+//! | 4 | [`profile`] | identifier profiles: the predefined connection set, the railway 29-bit scheme |
+//! | 5 | [`node`] | [`Node`]: the services composed into one CANopen device |
+//! | 6 | [`cia302`] | the CiA 302-2 [`master`] and the master-side [PDO configuration](cia302::pdo_config) |
+//! | 7 | [`port`] | ports: SocketCAN, python-can's UDP bus, in-memory, any `embedded-can` controller |
+//! | 8 | [`capture`] · [`sim`] | candump and pcap captures; the simulated multi-bus network (virtual time) |
+//! | 9 | [`runtime`] | the tokio driver: ports and the monotonic clock around any [`Device`] |
+//!
+//! The redundancy crate (`duocan-redundancy`) adds its dual-bus layer as one more
+//! [`BusLink`], and its supervisor as one more [`Machine`]: the stack above a bus link does not
+//! know there are two wires.
+//!
+//! Start with [`Node`] (one CANopen device on one logical bus), [`machine`] (how machines
 //! compose and what a driver does with them) and, with the `std` feature, [`sim`] (the simulated
 //! multi-bus network every test and the demo run on).
 #![cfg_attr(not(feature = "std"), no_std)]
@@ -15,39 +37,32 @@
 #[cfg(feature = "alloc")]
 extern crate alloc;
 
-pub mod abort;
+// Layer 0 to 2: primitives, the machine shapes, the dictionary.
+pub mod frame;
+pub mod machine;
+pub mod od;
+// Layer 3 to 6: the standard's services, identifier profiles, the node, the master.
+pub mod cia301;
+pub mod cia302;
+pub mod node;
+pub mod profile;
+// Layer 7 to 9: I/O around the machines.
 #[cfg(feature = "std")]
 pub mod capture;
-pub mod cob_id;
-pub mod emcy;
-pub mod frame;
-pub mod guarding;
-pub mod heartbeat;
-pub mod machine;
-#[cfg(feature = "alloc")]
-pub mod master;
-pub mod nmt;
-pub mod node;
-pub mod od;
-pub mod pdo;
 pub mod port;
-pub mod profile;
-pub mod queue;
-#[cfg(feature = "std")]
-pub mod report;
 #[cfg(feature = "tokio")]
 pub mod runtime;
-pub mod sdo;
 #[cfg(feature = "std")]
 pub mod sim;
-pub mod sync;
-pub mod time;
-pub mod time_stamp;
 
-pub use abort::AbortCode;
-pub use cob_id::{CobId, NodeId};
+// Short paths for what users name most.
+pub use cia301::{emcy, guarding, heartbeat, nmt, pdo, sdo, sync, time_stamp};
+#[cfg(feature = "alloc")]
+pub use cia302::master;
+pub use frame::cob_id::{CobId, NodeId, NodeSet};
+pub use frame::instant::{Duration, Instant};
 pub use frame::{Frame, Id};
 pub use machine::{BusLink, Device, Machine, PortStatus, Station};
 pub use nmt::{NmtCommand, NmtState, NmtTarget};
 pub use node::{Node, NodeConfig, NodeEvent, NodeEventKind};
-pub use time::{Duration, Instant};
+pub use od::abort::AbortCode;

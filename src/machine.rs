@@ -12,9 +12,9 @@
 //! ports, drain `poll_event` to the application. Every method may be called at any time;
 //! `handle_timeout` does whatever is due at `now` and nothing else.
 
+use crate::frame::instant::{earliest, Instant};
+use crate::frame::queue::Bounded;
 use crate::frame::Frame;
-use crate::queue::Bounded;
-use crate::time::{earliest, Instant};
 use core::convert::Infallible;
 use core::fmt;
 
@@ -337,9 +337,9 @@ pub fn forward_requests<L: BusLink, M: Machine>(now: Instant, link: &mut L, mach
     }
 }
 
-/// An event of a [`Pair`].
+/// An event of a [`Composite`].
 #[derive(Clone, Debug, PartialEq)]
-pub enum PairEvent<A, B> {
+pub enum CompositeEvent<A, B> {
     /// From the first machine.
     A(A),
     /// From the second machine.
@@ -350,22 +350,22 @@ pub enum PairEvent<A, B> {
 /// business), their outputs are merged. How a node and an SDO client pool, or a node and a
 /// supervisor, become one machine for a station.
 #[derive(Debug, Default)]
-pub struct Pair<A, B> {
+pub struct Composite<A, B> {
     /// The first machine.
     pub a: A,
     /// The second machine.
     pub b: B,
 }
 
-impl<A: Machine, B: Machine> Pair<A, B> {
+impl<A: Machine, B: Machine> Composite<A, B> {
     /// Composes two machines.
     pub fn new(a: A, b: B) -> Self {
-        Pair { a, b }
+        Composite { a, b }
     }
 }
 
-impl<A: Machine, B: Machine> Machine for Pair<A, B> {
-    type Event = PairEvent<A::Event, B::Event>;
+impl<A: Machine, B: Machine> Machine for Composite<A, B> {
+    type Event = CompositeEvent<A::Event, B::Event>;
     fn handle_frame(&mut self, now: Instant, frame: &Frame) {
         self.a.handle_frame(now, frame);
         self.b.handle_frame(now, frame);
@@ -382,9 +382,9 @@ impl<A: Machine, B: Machine> Machine for Pair<A, B> {
     }
     fn poll_event(&mut self) -> Option<Self::Event> {
         if let Some(e) = self.a.poll_event() {
-            return Some(PairEvent::A(e));
+            return Some(CompositeEvent::A(e));
         }
-        self.b.poll_event().map(PairEvent::B)
+        self.b.poll_event().map(CompositeEvent::B)
     }
     fn handle_link_request(&mut self, now: Instant, req: LinkRequest) {
         self.a.handle_link_request(now, req);

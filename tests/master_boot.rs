@@ -5,11 +5,12 @@
 
 mod master_net;
 
+use duocan::cia302::pdo_config::PdoConfig;
 use duocan::master::{
     BootPhase, MasterEventKind as K, NetworkConfig, NmtStartup, SlaveConfig, StartPolicy,
 };
 use duocan::od::{comm, ObjectDictionary};
-use duocan::pdo::{MapEntry, PdoConfig};
+use duocan::pdo::MapEntry;
 use duocan::{CobId, Duration, Id, Instant, NmtState, NodeId};
 use master_net::*;
 

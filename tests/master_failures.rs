@@ -5,12 +5,11 @@
 mod master_net;
 
 use duocan::master::{
-    BootError, BootPhase, ErrorStatus, MasterEventKind as K, NetworkConfig, NmtStartup, NodeSet,
-    SlaveConfig,
+    BootError, BootPhase, ErrorStatus, MasterEventKind as K, NetworkConfig, NmtStartup, SlaveConfig,
 };
 use duocan::od::{comm, ObjectDictionary};
 use duocan::sdo::SdoErrorKind;
-use duocan::{AbortCode, Duration, Instant, NmtState, NodeId};
+use duocan::{AbortCode, Duration, Instant, NmtState, NodeId, NodeSet};
 use master_net::*;
 
 const BITRATE: u32 = 500_000;

@@ -4,11 +4,12 @@
 
 mod master_net;
 
+use duocan::cia302::pdo_config::PdoConfig;
 use duocan::master::{
     Master, MasterEventKind as K, NetworkConfig, NmtStartup, SlaveConfig, StartPolicy,
 };
 use duocan::od::{comm, DynamicDictionary};
-use duocan::pdo::{MapEntry, PdoConfig};
+use duocan::pdo::MapEntry;
 use duocan::sdo::codec::{Init, Request, Response};
 use duocan::{
     AbortCode, CobId, Duration, Frame, Id, Instant, Machine, NmtCommand, NmtTarget, NodeId,

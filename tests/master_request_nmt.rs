@@ -3,7 +3,7 @@
 
 mod master_net;
 
-use duocan::machine::{Pair, PairEvent, SinglePort, StationEvent};
+use duocan::machine::{Composite, CompositeEvent, SinglePort, StationEvent};
 use duocan::master::objects::{request, REQUEST_ALL, REQUEST_NMT};
 use duocan::master::{BootPhase, MasterEventKind as K, NetworkConfig, SlaveConfig};
 use duocan::od::{comm, DynamicDictionary};
@@ -15,7 +15,7 @@ use duocan::{
 };
 use master_net::*;
 
-type Tool = Station<SinglePort, Pair<Node<DynamicDictionary>, SdoClient>>;
+type Tool = Station<SinglePort, Composite<Node<DynamicDictionary>, SdoClient>>;
 
 const BITRATE: u32 = 500_000;
 const TOOL: NodeId = NodeId::must(0x7E);
@@ -35,7 +35,7 @@ fn rig(config: NetworkConfig) -> Rig {
         .sim
         .add_device(
             "tool",
-            Station::single(Pair::new(node, SdoClient::new(64))),
+            Station::single(Composite::new(node, SdoClient::new(64))),
             &[n.bus],
         )
         .unwrap();
@@ -71,7 +71,7 @@ impl Rig {
         loop {
             self.n.sim.step().expect("idle without a result");
             for (_, e) in self.n.sim.take_events(self.tool) {
-                if let StationEvent::Machine(PairEvent::B(e)) = e {
+                if let StationEvent::Machine(CompositeEvent::B(e)) = e {
                     assert_eq!(e.request, id);
                     return e.result.map(|b| b.as_slice().to_vec());
                 }

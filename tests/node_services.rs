@@ -4,7 +4,8 @@ mod common;
 
 use common::{node, Wire};
 use duocan::emcy::register;
-use duocan::node::{NodeEventKind as K, ObjectAccess, StateCause};
+use duocan::node::{NodeEventKind as K, StateCause};
+use duocan::od::ObjectAccess;
 use duocan::od::{comm, ObjectDictionary};
 use duocan::time_stamp::TimeOfDay;
 use duocan::{

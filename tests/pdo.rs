@@ -5,7 +5,8 @@ mod common;
 
 use common::{node, TestNode, Wire};
 use duocan::emcy::code as emcy_code;
-use duocan::node::{NodeEventKind as K, ObjectAccess};
+use duocan::node::NodeEventKind as K;
+use duocan::od::ObjectAccess;
 use duocan::od::{comm, Access, DataType, ObjectDef, ObjectDictionary};
 use duocan::pdo::{params, Dir, PdoError, PdoEvent};
 use duocan::{AbortCode, Frame, Id, Instant, NmtCommand, NmtState, NmtTarget, NodeId};

@@ -3,13 +3,15 @@
 //! disabled, and, on the simulated bus, configuration over SDO followed by the master's mirrored
 //! PDOs exchanging data both ways at a 10 ms SYNC.
 
-use duocan::machine::{Pair, PairEvent, SinglePort, StationEvent};
-use duocan::node::{NodeEventKind, ObjectAccess};
-use duocan::od::{comm, Access, DataType, DynamicDictionary, ObjectDef, ObjectDictionary};
-use duocan::pdo::{
-    mirror, params, AccessError, ConfigErrorKind, Dir, Local, MapEntry, Mirror, MirrorError,
-    PdoConfig, PdoConfigurator, PdoEvent, SdoAccess, SdoPdoJob,
+use duocan::cia302::pdo_config::{
+    mirror, AccessError, Local, Mirror, MirrorError, PdoConfig, PdoConfigErrorKind,
+    PdoConfigurator, SdoAccess, SdoPdoJob,
 };
+use duocan::machine::{Composite, CompositeEvent, SinglePort, StationEvent};
+use duocan::node::NodeEventKind;
+use duocan::od::ObjectAccess;
+use duocan::od::{comm, Access, DataType, DynamicDictionary, ObjectDef, ObjectDictionary};
+use duocan::pdo::{params, Dir, MapEntry, PdoEvent};
 use duocan::sdo::SdoClient;
 use duocan::sim::{BusConfig, DevId, SimNetwork, TraceRecord, TxOutcome};
 use duocan::{
@@ -124,7 +126,7 @@ fn configurator_rewrites_a_slave_pdo_in_cia_order() {
     run_local(&mut job, slave.core_mut(), Instant::ZERO);
     let e = job.result().unwrap().unwrap_err();
     assert_eq!((e.index, e.sub), (0x1A00, 0));
-    assert_eq!(e.kind, ConfigErrorKind::Aborted(AbortCode::PDO_LENGTH));
+    assert_eq!(e.kind, PdoConfigErrorKind::Aborted(AbortCode::PDO_LENGTH));
 }
 
 fn refuse_disable(_: u16, _: u8, data: &[u8]) -> Result<(), AbortCode> {
@@ -184,7 +186,7 @@ fn seed_fallback_accepts_a_device_that_refuses_to_be_disabled_when_it_matches() 
     assert_eq!((e.index, e.sub), (0x1A00, 2));
     assert_eq!(
         e.kind,
-        ConfigErrorKind::Mismatch {
+        PdoConfigErrorKind::Mismatch {
             wanted: 0x6001_000C,
             found: 0x6001_0010
         }
@@ -209,7 +211,7 @@ fn seed_fallback_accepts_a_device_that_refuses_to_be_disabled_when_it_matches() 
         (
             0x1800,
             3,
-            ConfigErrorKind::Mismatch {
+            PdoConfigErrorKind::Mismatch {
                 wanted: 7,
                 found: 0
             }
@@ -267,7 +269,7 @@ fn mirror_rejects_what_it_cannot_build() {
     assert_eq!(master.rpdo_status(1).unwrap().id, Some(Id::Standard(0x185)));
 }
 
-type Master = Station<SinglePort, Pair<Node<DynamicDictionary>, SdoClient>>;
+type Master = Station<SinglePort, Composite<Node<DynamicDictionary>, SdoClient>>;
 
 /// Configuration over SDO, then two-way exchange, on the simulated bus at 250 kbit/s. The master
 /// configures slave 5's TPDO1 and RPDO1 and slave 6's TPDO1 (slave 6 refuses to disable it and
@@ -282,7 +284,7 @@ fn master_configures_slaves_over_sdo_then_exchanges_both_ways_at_10ms_sync() {
         NodeConfig::master(NodeId::must(1)),
         comm::standard_dictionary(1, comm::Identity::default()),
     );
-    let pair = Pair::new(master, SdoClient::new(64));
+    let pair = Composite::new(master, SdoClient::new(64));
     let m: DevId<Master> = sim
         .add_device("master", Station::single(pair), &[bus])
         .unwrap();
@@ -314,7 +316,7 @@ fn master_configures_slaves_over_sdo_then_exchanges_both_ways_at_10ms_sync() {
             "configuration takes too long"
         );
         for (_, e) in sim.take_events(m) {
-            if let StationEvent::Machine(PairEvent::B(ev)) = e {
+            if let StationEvent::Machine(CompositeEvent::B(ev)) = e {
                 assert!(
                     jobs.iter_mut().any(|j| j.handle_event(&ev)),
                     "unclaimed {ev:?}"
@@ -491,6 +493,6 @@ fn master_configures_slaves_over_sdo_then_exchanges_both_ways_at_10ms_sync() {
     // The master's reception timeouts (25 ms) never fired while the slaves kept sending.
     assert!(!sim.events(m).iter().any(|(_, e)| matches!(
         e,
-        StationEvent::Machine(PairEvent::A(ev)) if matches!(ev.kind, NodeEventKind::Pdo(PdoEvent::RpdoTimeout { .. }))
+        StationEvent::Machine(CompositeEvent::A(ev)) if matches!(ev.kind, NodeEventKind::Pdo(PdoEvent::RpdoTimeout { .. }))
     )));
 }

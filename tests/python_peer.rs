@@ -9,7 +9,7 @@ use duocan::node::NodeEventKind as K;
 use duocan::port::udp::{encode, UdpBusConfig, UdpPort};
 use duocan::port::{Port, PortInput};
 use duocan::runtime::Runtime;
-use duocan::sdo::{Mode, SdoErrorKind, SdoOptions};
+use duocan::sdo::{SdoErrorKind, SdoOptions, TransferMode};
 use duocan::AbortCode;
 use duocan::{Frame, Id, NmtCommand, NmtState, NmtTarget, NodeId};
 use rt::{node, node_event, pattern, single, wait_for};
@@ -277,7 +277,7 @@ async fn duocan_sdo_client_against_a_python_local_node() {
         0x2001,
         0,
         text.clone(),
-        SdoOptions::mode(Mode::Segmented),
+        SdoOptions::mode(TransferMode::Segmented),
     )
     .await
     .unwrap()
@@ -290,16 +290,22 @@ async fn duocan_sdo_client_against_a_python_local_node() {
     // python canopen's server has no block transfer: block download falls back to segmented
     // (the server aborts with 0x05040001), block upload is answered as a plain upload.
     let blob = pattern(300, 3);
-    m.sdo_write(py, 0x2002, 0, blob.clone(), SdoOptions::mode(Mode::Block))
-        .await
-        .unwrap()
-        .unwrap();
+    m.sdo_write(
+        py,
+        0x2002,
+        0,
+        blob.clone(),
+        SdoOptions::mode(TransferMode::Block),
+    )
+    .await
+    .unwrap()
+    .unwrap();
     assert_eq!(
         peer.expect("WRITE 2002", 5).await,
         format!("WRITE 2002 0 {}", hex(&blob))
     );
     let back = m
-        .sdo_read(py, 0x2002, 0, SdoOptions::mode(Mode::Block))
+        .sdo_read(py, 0x2002, 0, SdoOptions::mode(TransferMode::Block))
         .await
         .unwrap()
         .unwrap();

@@ -2,7 +2,11 @@
 //! one group per network, one lane per row, one rect per span at the right place, one marker
 //! per fault, axis labels and a legend of the states used.
 
-use duocan::report::{render, Fault, Lane, LaneKind, Network, Span, State, Timeline};
+#[path = "../examples/demo/report/mod.rs"]
+#[allow(dead_code, unused_imports)]
+mod report;
+
+use report::{render, ChartError, Fault, Lane, LaneKind, Network, Span, State, Timeline};
 use roxmltree::{Document, Node};
 
 const END: f64 = 60.0;
@@ -262,4 +266,27 @@ fn the_subtitle_counts_from_the_data() {
         sub,
         "2 network(s), 0 s to 60 s of simulated time, 4 fault(s)"
     );
+}
+
+/// The example in the renderer's module documentation.
+#[test]
+fn module_doc_example_renders() -> Result<(), ChartError> {
+    let chart = Timeline {
+        title: "signal rack".into(),
+        start: 0.0,
+        end: 60.0,
+        networks: vec![Network {
+            name: "signal rack".into(),
+            lanes: vec![Lane::from_changes(
+                "bus 1",
+                LaneKind::Bus,
+                &[(0.0, State::Ok), (12.3, State::Failed), (40.0, State::Ok)],
+                60.0,
+            )],
+            faults: vec![Fault::new(12.3, "bus 1 cut")],
+        }],
+    };
+    let svg = render(&chart)?;
+    assert!(svg.starts_with("<svg") && svg.contains("bus 1 cut"));
+    Ok(())
 }

@@ -5,7 +5,7 @@ mod rt;
 
 use duocan::port::mem::MemBus;
 use duocan::runtime::Runtime;
-use duocan::sdo::{Mode, SdoErrorKind, SdoOptions};
+use duocan::sdo::{SdoErrorKind, SdoOptions, TransferMode};
 use duocan::{AbortCode, NodeId};
 use rt::{master, pattern, sdo_node, single};
 
@@ -52,7 +52,7 @@ async fn sdo_through_the_handle_every_mode() {
         0x2001,
         0,
         long.clone(),
-        SdoOptions::mode(Mode::Segmented),
+        SdoOptions::mode(TransferMode::Segmented),
     )
     .await
     .unwrap()
@@ -63,14 +63,26 @@ async fn sdo_through_the_handle_every_mode() {
     let a = pattern(3000, 1);
     let b = pattern(2500, 2);
     let (ra, rb) = tokio::join!(
-        m.sdo_write(n5, 0x2002, 0, a.clone(), SdoOptions::mode(Mode::Block)),
-        m.sdo_write(n6, 0x2002, 0, b.clone(), SdoOptions::mode(Mode::Block)),
+        m.sdo_write(
+            n5,
+            0x2002,
+            0,
+            a.clone(),
+            SdoOptions::mode(TransferMode::Block)
+        ),
+        m.sdo_write(
+            n6,
+            0x2002,
+            0,
+            b.clone(),
+            SdoOptions::mode(TransferMode::Block)
+        ),
     );
     ra.unwrap().unwrap();
     rb.unwrap().unwrap();
     let (ra, rb) = tokio::join!(
-        m.sdo_read(n5, 0x2002, 0, SdoOptions::mode(Mode::Block)),
-        m.sdo_read(n6, 0x2002, 0, SdoOptions::mode(Mode::Block)),
+        m.sdo_read(n5, 0x2002, 0, SdoOptions::mode(TransferMode::Block)),
+        m.sdo_read(n6, 0x2002, 0, SdoOptions::mode(TransferMode::Block)),
     );
     assert_eq!(ra.unwrap().unwrap(), a);
     assert_eq!(rb.unwrap().unwrap(), b);
@@ -94,9 +106,15 @@ async fn sdo_through_the_handle_every_mode() {
     assert_eq!(e.kind, SdoErrorKind::Client(AbortCode::TIMEOUT));
     // Immediate refusals do not wait: expedited mode cannot carry 5 bytes.
     let e = m
-        .sdo_write(n5, 0x2002, 0, vec![0; 5], SdoOptions::mode(Mode::Expedited))
+        .sdo_write(
+            n5,
+            0x2002,
+            0,
+            vec![0; 5],
+            SdoOptions::mode(TransferMode::Expedited),
+        )
         .await
         .unwrap()
         .unwrap_err();
-    assert_eq!(e.kind, SdoErrorKind::Mode);
+    assert_eq!(e.kind, SdoErrorKind::TransferMode);
 }

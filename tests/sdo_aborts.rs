@@ -5,7 +5,7 @@
 mod sdo_net;
 
 use duocan::od::{comm, ObjectDictionary};
-use duocan::sdo::{Mode, SdoClient, SdoErrorKind, SdoEvent, SdoOptions, SdoServerConfig};
+use duocan::sdo::{SdoClient, SdoErrorKind, SdoEvent, SdoOptions, SdoServerConfig, TransferMode};
 use duocan::{AbortCode, Duration, Frame, Id, Instant, Machine, NodeId};
 use sdo_net::{server, Net, TestNode, DOMAIN, HOOKED, SMALL_DOMAIN, STRING, VALUES, VETO, WIDE};
 
@@ -257,7 +257,7 @@ fn failing(net: &mut Net, ev: Vec<SdoEvent>) -> AbortCode {
     code
 }
 
-fn download(net: &mut Net, index: u16, sub: u8, data: &[u8], mode: Mode) -> AbortCode {
+fn download(net: &mut Net, index: u16, sub: u8, data: &[u8], mode: TransferMode) -> AbortCode {
     net.client
         .download(net.now, N, index, sub, data, SdoOptions::mode(mode))
         .unwrap();
@@ -265,7 +265,7 @@ fn download(net: &mut Net, index: u16, sub: u8, data: &[u8], mode: Mode) -> Abor
     failing(net, ev)
 }
 
-fn upload(net: &mut Net, index: u16, sub: u8, mode: Mode) -> AbortCode {
+fn upload(net: &mut Net, index: u16, sub: u8, mode: TransferMode) -> AbortCode {
     net.client
         .upload(net.now, N, index, sub, SdoOptions::mode(mode))
         .unwrap();
@@ -276,7 +276,11 @@ fn upload(net: &mut Net, index: u16, sub: u8, mode: Mode) -> AbortCode {
 #[test]
 fn object_and_sub_index_must_exist() {
     let mut net = Net::new(&[5]);
-    for mode in [Mode::Auto, Mode::Segmented, Mode::Block] {
+    for mode in [
+        TransferMode::Auto,
+        TransferMode::Segmented,
+        TransferMode::Block,
+    ] {
         assert_eq!(upload(&mut net, 0x3000, 0, mode), AbortCode::NO_OBJECT);
         assert_eq!(upload(&mut net, VALUES, 9, mode), AbortCode::NO_SUB_INDEX);
         assert_eq!(
@@ -289,7 +293,7 @@ fn object_and_sub_index_must_exist() {
         );
     }
     assert_eq!(
-        download(&mut net, 0x3000, 0, &[1], Mode::Expedited),
+        download(&mut net, 0x3000, 0, &[1], TransferMode::Expedited),
         AbortCode::NO_OBJECT
     );
 }
@@ -297,10 +301,14 @@ fn object_and_sub_index_must_exist() {
 #[test]
 fn access_rights_read_of_write_only_and_write_of_read_only() {
     let mut net = Net::new(&[5]);
-    for mode in [Mode::Auto, Mode::Block] {
+    for mode in [TransferMode::Auto, TransferMode::Block] {
         assert_eq!(upload(&mut net, VALUES, 2, mode), AbortCode::WRITE_ONLY);
     }
-    for mode in [Mode::Expedited, Mode::Segmented, Mode::Block] {
+    for mode in [
+        TransferMode::Expedited,
+        TransferMode::Segmented,
+        TransferMode::Block,
+    ] {
         assert_eq!(
             download(&mut net, VALUES, 1, &[1, 0, 0, 0], mode),
             AbortCode::READ_ONLY
@@ -321,7 +329,7 @@ fn access_rights_read_of_write_only_and_write_of_read_only() {
 #[test]
 fn lengths_too_high_and_too_low() {
     let mut net = Net::new(&[5]);
-    for mode in [Mode::Segmented, Mode::Block] {
+    for mode in [TransferMode::Segmented, TransferMode::Block] {
         assert_eq!(
             download(&mut net, VALUES, 3, &[1; 5], mode),
             AbortCode::LENGTH_TOO_HIGH
@@ -344,11 +352,11 @@ fn lengths_too_high_and_too_low() {
         );
     }
     assert_eq!(
-        download(&mut net, VALUES, 3, &[1; 2], Mode::Expedited),
+        download(&mut net, VALUES, 3, &[1; 2], TransferMode::Expedited),
         AbortCode::LENGTH_TOO_LOW
     );
     assert_eq!(
-        download(&mut net, WIDE, 0, &[1; 4], Mode::Expedited),
+        download(&mut net, WIDE, 0, &[1; 4], TransferMode::Expedited),
         AbortCode::LENGTH_TOO_LOW
     );
     assert_eq!(net.nodes[0].od().get_value::<u32>(VALUES, 3), Ok(100));
@@ -377,7 +385,11 @@ fn segmented_download_shorter_or_longer_than_announced() {
 #[test]
 fn value_range_limits_and_hook_veto() {
     let mut net = Net::new(&[5]);
-    for mode in [Mode::Expedited, Mode::Segmented, Mode::Block] {
+    for mode in [
+        TransferMode::Expedited,
+        TransferMode::Segmented,
+        TransferMode::Block,
+    ] {
         assert_eq!(
             download(&mut net, VALUES, 3, &5u32.to_le_bytes(), mode),
             AbortCode::VALUE_TOO_LOW
@@ -411,7 +423,13 @@ fn device_state_refusal() {
         .set(net.now, comm::SYNC_PERIOD, 0, 10_000u32)
         .unwrap();
     assert_eq!(
-        download(&mut net, comm::SYNC_OVERFLOW, 0, &[10], Mode::Expedited),
+        download(
+            &mut net,
+            comm::SYNC_OVERFLOW,
+            0,
+            &[10],
+            TransferMode::Expedited
+        ),
         AbortCode::DEVICE_STATE
     );
     net.nodes[0]
@@ -437,7 +455,7 @@ fn out_of_memory_on_the_server() {
         max_transfer: 100,
         ..SdoServerConfig::default()
     });
-    for mode in [Mode::Segmented, Mode::Block] {
+    for mode in [TransferMode::Segmented, TransferMode::Block] {
         assert_eq!(
             download(&mut net, DOMAIN, 0, &[1; 101], mode),
             AbortCode::OUT_OF_MEMORY
@@ -445,7 +463,7 @@ fn out_of_memory_on_the_server() {
     }
     net.nodes[0].write(net.now, DOMAIN, 0, &[1; 101]).unwrap();
     assert_eq!(
-        upload(&mut net, DOMAIN, 0, Mode::Auto),
+        upload(&mut net, DOMAIN, 0, TransferMode::Auto),
         AbortCode::OUT_OF_MEMORY
     );
     // Announced sizes are checked up front; an unannounced one as the data comes.
@@ -469,7 +487,11 @@ fn out_of_memory_on_the_server() {
 fn every_abort_code_reaches_the_caller_with_its_meaning() {
     let mut net = Net::new(&[5]);
     for code in AbortCode::ALL {
-        for mode in [Mode::Expedited, Mode::Segmented, Mode::Block] {
+        for mode in [
+            TransferMode::Expedited,
+            TransferMode::Segmented,
+            TransferMode::Block,
+        ] {
             assert_eq!(
                 download(&mut net, VETO, 0, &code.0.to_le_bytes(), mode),
                 *code
@@ -589,8 +611,15 @@ fn client_unknown_or_unexpected_command() {
 #[test]
 fn client_invalid_block_size() {
     let mut c = client();
-    c.download(T0, N, DOMAIN, 0, &[1; 100], SdoOptions::mode(Mode::Block))
-        .unwrap();
+    c.download(
+        T0,
+        N,
+        DOMAIN,
+        0,
+        &[1; 100],
+        SdoOptions::mode(TransferMode::Block),
+    )
+    .unwrap();
     assert_eq!(out(&mut c), [[0xC6, 0x00, 0x20, 0x00, 100, 0, 0, 0]]);
     client_aborts(
         &mut c,
@@ -599,8 +628,15 @@ fn client_invalid_block_size() {
         AbortCode::INVALID_BLOCK_SIZE,
     );
     // In a sub-block acknowledgement.
-    c.download(T0, N, DOMAIN, 0, &[1; 100], SdoOptions::mode(Mode::Block))
-        .unwrap();
+    c.download(
+        T0,
+        N,
+        DOMAIN,
+        0,
+        &[1; 100],
+        SdoOptions::mode(TransferMode::Block),
+    )
+    .unwrap();
     out(&mut c);
     assert_eq!(
         reply(&mut c, T0, [0xA4, 0x00, 0x20, 0x00, 4, 0, 0, 0]).len(),
@@ -617,7 +653,7 @@ fn client_invalid_sequence_number() {
     let mut c = client();
     let opts = SdoOptions {
         block_size: 10,
-        ..SdoOptions::mode(Mode::Block)
+        ..SdoOptions::mode(TransferMode::Block)
     };
     c.upload(T0, N, DOMAIN, 0, opts).unwrap();
     assert_eq!(out(&mut c), [[0xA4, 0x00, 0x20, 0x00, 10, 0, 0, 0]]);
@@ -632,8 +668,15 @@ fn client_invalid_sequence_number() {
         AbortCode::INVALID_SEQUENCE,
     );
     // Block download: the server acknowledges a segment that was never sent.
-    c.download(T0, N, DOMAIN, 0, &[1; 100], SdoOptions::mode(Mode::Block))
-        .unwrap();
+    c.download(
+        T0,
+        N,
+        DOMAIN,
+        0,
+        &[1; 100],
+        SdoOptions::mode(TransferMode::Block),
+    )
+    .unwrap();
     out(&mut c);
     assert_eq!(
         reply(&mut c, T0, [0xA4, 0x00, 0x20, 0x00, 4, 0, 0, 0]).len(),
@@ -650,7 +693,7 @@ fn client_invalid_sequence_number() {
 #[test]
 fn client_crc_error() {
     let mut c = client();
-    c.upload(T0, N, DOMAIN, 0, SdoOptions::mode(Mode::Block))
+    c.upload(T0, N, DOMAIN, 0, SdoOptions::mode(TransferMode::Block))
         .unwrap();
     out(&mut c);
     reply(&mut c, T0, [0xC6, 0x00, 0x20, 0x00, 20, 0, 0, 0]);
@@ -754,7 +797,7 @@ fn client_and_server_timeouts_end_to_end() {
             &[5; 20],
             SdoOptions {
                 timeout: Duration::from_millis(1500),
-                ..SdoOptions::mode(Mode::Segmented)
+                ..SdoOptions::mode(TransferMode::Segmented)
             },
         )
         .unwrap();

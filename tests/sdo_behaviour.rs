@@ -7,7 +7,7 @@ mod sdo_net;
 
 use duocan::od::{Access, ObjectDef, ObjectDictionary};
 use duocan::sdo::{
-    Channel, HeapBuffer, Mode, SdoClient, SdoErrorKind, SdoOptions, SdoServerConfig,
+    Channel, HeapBuffer, SdoClient, SdoErrorKind, SdoOptions, SdoServerConfig, TransferMode,
 };
 use duocan::{AbortCode, CobId, Duration, Frame, Id, Instant, Machine, NodeId};
 use sdo_net::{server, Net, TestNode, DOMAIN, STRING, VALUES};
@@ -54,7 +54,14 @@ fn a_lost_block_download_segment_is_sent_again_from_the_last_good_one() {
     }));
     let data = pattern(890);
     net.client
-        .download(net.now, N, DOMAIN, 0, &data, SdoOptions::mode(Mode::Block))
+        .download(
+            net.now,
+            N,
+            DOMAIN,
+            0,
+            &data,
+            SdoOptions::mode(TransferMode::Block),
+        )
         .unwrap();
     assert!(net.finish()[0].result.is_ok());
     assert_eq!(net.nodes[0].od().read(DOMAIN, 0).unwrap(), &data[..]);
@@ -80,7 +87,14 @@ fn a_lost_end_of_sub_block_is_recovered_by_the_servers_sub_block_timer() {
     let data = pattern(2000);
     let t0 = net.now;
     net.client
-        .download(net.now, N, DOMAIN, 0, &data, SdoOptions::mode(Mode::Block))
+        .download(
+            net.now,
+            N,
+            DOMAIN,
+            0,
+            &data,
+            SdoOptions::mode(TransferMode::Block),
+        )
         .unwrap();
     assert!(net.finish()[0].result.is_ok());
     assert_eq!(net.nodes[0].od().read(DOMAIN, 0).unwrap(), &data[..]);
@@ -107,7 +121,7 @@ fn a_lost_block_upload_segment_is_sent_again() {
     }));
     let t0 = net.now;
     net.client
-        .upload(net.now, N, DOMAIN, 0, SdoOptions::mode(Mode::Block))
+        .upload(net.now, N, DOMAIN, 0, SdoOptions::mode(TransferMode::Block))
         .unwrap();
     let ev = net.finish();
     assert_eq!(ev[0].data(), Some(&data[..]));
@@ -129,11 +143,18 @@ fn block_falls_back_to_segmented_when_the_server_has_no_block_transfer() {
     });
     let data = pattern(890);
     net.client
-        .download(net.now, N, DOMAIN, 0, &data, SdoOptions::mode(Mode::Block))
+        .download(
+            net.now,
+            N,
+            DOMAIN,
+            0,
+            &data,
+            SdoOptions::mode(TransferMode::Block),
+        )
         .unwrap();
     let ev = net.finish();
     assert!(ev[0].result.is_ok());
-    assert_eq!(ev[0].mode, Mode::Segmented);
+    assert_eq!(ev[0].mode, TransferMode::Segmented);
     assert_eq!(net.nodes[0].od().read(DOMAIN, 0).unwrap(), &data[..]);
     assert_eq!(
         from_server(&net, 0)[0].1,
@@ -145,11 +166,11 @@ fn block_falls_back_to_segmented_when_the_server_has_no_block_transfer() {
     );
     let from = net.log.len();
     net.client
-        .upload(net.now, N, DOMAIN, 0, SdoOptions::mode(Mode::Block))
+        .upload(net.now, N, DOMAIN, 0, SdoOptions::mode(TransferMode::Block))
         .unwrap();
     let ev = net.finish();
     assert_eq!(ev[0].data(), Some(&data[..]));
-    assert_eq!(ev[0].mode, Mode::Segmented);
+    assert_eq!(ev[0].mode, TransferMode::Segmented);
     assert_eq!(
         from_client(&net, from)[1],
         [0x40, 0x00, 0x20, 0x00, 0, 0, 0, 0]
@@ -162,10 +183,10 @@ fn block_falls_back_to_segmented_when_the_server_has_no_block_transfer() {
             VALUES,
             3,
             &500u32.to_le_bytes(),
-            SdoOptions::mode(Mode::Block),
+            SdoOptions::mode(TransferMode::Block),
         )
         .unwrap();
-    assert_eq!(net.finish()[0].mode, Mode::Expedited);
+    assert_eq!(net.finish()[0].mode, TransferMode::Expedited);
     assert_eq!(net.nodes[0].od().get_value::<u32>(VALUES, 3), Ok(500));
     assert_eq!(net.client.stats().fallbacks, 3);
 }
@@ -175,22 +196,22 @@ fn protocol_switch_threshold_lets_the_server_answer_small_uploads_plainly() {
     let mut net = Net::new(&[5]);
     let opts = SdoOptions {
         pst: 21,
-        ..SdoOptions::mode(Mode::Block)
+        ..SdoOptions::mode(TransferMode::Block)
     };
     net.client.upload(net.now, N, VALUES, 1, opts).unwrap();
     let ev = net.finish();
     assert_eq!(ev[0].data(), Some(&7u32.to_le_bytes()[..]));
-    assert_eq!(ev[0].mode, Mode::Expedited);
+    assert_eq!(ev[0].mode, TransferMode::Expedited);
     net.nodes[0]
         .write(net.now, STRING, 0, b"twenty-one bytes!!!!")
         .unwrap();
     net.client.upload(net.now, N, STRING, 0, opts).unwrap();
     let ev = net.finish();
     assert_eq!(ev[0].data(), Some(&b"twenty-one bytes!!!!"[..]));
-    assert_eq!(ev[0].mode, Mode::Segmented);
+    assert_eq!(ev[0].mode, TransferMode::Segmented);
     net.nodes[0].write(net.now, DOMAIN, 0, &[1; 22]).unwrap();
     net.client.upload(net.now, N, DOMAIN, 0, opts).unwrap();
-    assert_eq!(net.finish()[0].mode, Mode::Block);
+    assert_eq!(net.finish()[0].mode, TransferMode::Block);
 }
 
 #[test]
@@ -198,7 +219,11 @@ fn several_servers_at_once_one_transfer_per_server() {
     let mut net = Net::new(&[5, 6, 7]);
     let mut ids = vec![];
     for (k, node) in [5u8, 6, 7].into_iter().enumerate() {
-        let mode = [Mode::Block, Mode::Segmented, Mode::Block][k];
+        let mode = [
+            TransferMode::Block,
+            TransferMode::Segmented,
+            TransferMode::Block,
+        ][k];
         let data = vec![node; 890 + k];
         ids.push(
             net.client
@@ -359,7 +384,7 @@ fn custom_channels_with_29_bit_identifiers() {
     // Per request…
     let opts = SdoOptions {
         channel: Some(extended_channel(N)),
-        ..SdoOptions::mode(Mode::Block)
+        ..SdoOptions::mode(TransferMode::Block)
     };
     let from = net.log.len();
     net.client
@@ -479,7 +504,7 @@ fn a_slow_bus_does_not_time_out_a_sub_block_still_being_sent() {
         n.write(Instant::ZERO, DOMAIN, 0, &payload).unwrap();
         let mut c: SdoClient = SdoClient::new(2000);
         let mut now = Instant::ZERO;
-        let opts = SdoOptions::mode(Mode::Block);
+        let opts = SdoOptions::mode(TransferMode::Block);
         if upload {
             c.upload(now, N, DOMAIN, 0, opts).unwrap();
         } else {
@@ -527,7 +552,7 @@ fn crc_only_when_both_sides_support_it() {
         });
         let opts = SdoOptions {
             crc: client_crc,
-            ..SdoOptions::mode(Mode::Block)
+            ..SdoOptions::mode(TransferMode::Block)
         };
         net.client
             .download(net.now, N, DOMAIN, 0, &data, opts)

@@ -8,7 +8,7 @@
 //! the random frames hit the segment, sub-block and end states.
 
 use duocan::od::{comm, Access, DataType, DynamicDictionary, ObjectDef, ObjectDictionary};
-use duocan::sdo::{HeapBuffer, Mode, SdoClient, SdoErrorKind, SdoOptions};
+use duocan::sdo::{HeapBuffer, SdoClient, SdoErrorKind, SdoOptions, TransferMode};
 use duocan::{AbortCode, Duration, Frame, Id, Instant, Machine, Node, NodeConfig, NodeId};
 use proptest::prelude::*;
 use std::collections::BTreeSet;
@@ -189,7 +189,12 @@ fn drive(seed: u64, seen: &mut Seen) {
     let mut started = 0;
     for (node, upload, mode, len) in reqs {
         let node = NodeId::must(node);
-        let mode = [Mode::Auto, Mode::Expedited, Mode::Segmented, Mode::Block][mode as usize];
+        let mode = [
+            TransferMode::Auto,
+            TransferMode::Expedited,
+            TransferMode::Segmented,
+            TransferMode::Block,
+        ][mode as usize];
         let opts = SdoOptions {
             block_size: 9,
             ..SdoOptions::mode(mode)

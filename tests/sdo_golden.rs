@@ -5,7 +5,7 @@
 mod sdo_net;
 
 use duocan::od::ObjectDictionary;
-use duocan::sdo::{Mode, SdoOptions};
+use duocan::sdo::{SdoOptions, TransferMode};
 use duocan::{Id, NodeId};
 use sdo_net::{Net, DOMAIN, STRING, VALUES};
 
@@ -107,7 +107,14 @@ fn block_download_and_upload_with_crc() {
     let data: Vec<u8> = (1..=20).collect();
     let mut net = Net::new(&[5]);
     net.client
-        .download(net.now, N, DOMAIN, 0, &data, SdoOptions::mode(Mode::Block))
+        .download(
+            net.now,
+            N,
+            DOMAIN,
+            0,
+            &data,
+            SdoOptions::mode(TransferMode::Block),
+        )
         .unwrap();
     assert!(net.finish()[0].result.is_ok());
     assert_eq!(net.nodes[0].od().read(DOMAIN, 0), Ok(&data[..]));
@@ -131,7 +138,7 @@ fn block_download_and_upload_with_crc() {
     );
     let from = net.log.len();
     net.client
-        .upload(net.now, N, DOMAIN, 0, SdoOptions::mode(Mode::Block))
+        .upload(net.now, N, DOMAIN, 0, SdoOptions::mode(TransferMode::Block))
         .unwrap();
     let ev = net.finish();
     assert_eq!(ev[0].data(), Some(&data[..]));

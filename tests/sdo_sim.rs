@@ -8,15 +8,15 @@
 
 mod sdo_net;
 
-use duocan::machine::{Pair, PairEvent, SinglePort, StationEvent};
+use duocan::machine::{Composite, CompositeEvent, SinglePort, StationEvent};
 use duocan::od::{DynamicDictionary, ObjectDictionary};
 use duocan::sdo::codec::{BlockSegment, Init, Request, Response, SegmentData};
-use duocan::sdo::{block, crc, Mode, SdoClient, SdoError, SdoEvent, SdoOptions};
+use duocan::sdo::{block, crc, SdoClient, SdoError, SdoEvent, SdoOptions, TransferMode};
 use duocan::sim::{timing, BusConfig, BusId, DevId, FaultRates, RxFault, SimNetwork, TraceRecord};
 use duocan::{AbortCode, Duration, Frame, Id, Instant, Node, NodeConfig, NodeId, Station};
 use sdo_net::DOMAIN;
 
-type Master = Station<SinglePort, Pair<Node<DynamicDictionary>, SdoClient>>;
+type Master = Station<SinglePort, Composite<Node<DynamicDictionary>, SdoClient>>;
 type Slave = Station<SinglePort, Node<DynamicDictionary>>;
 
 const BITRATE: u32 = 1_000_000;
@@ -40,7 +40,11 @@ fn rig(seed: u64, faults: FaultRates) -> Rig {
     );
     let client = SdoClient::new(duocan::sdo::DEFAULT_LIMIT + 16);
     let m = sim
-        .add_device("master", Station::single(Pair::new(master, client)), &[bus])
+        .add_device(
+            "master",
+            Station::single(Composite::new(master, client)),
+            &[bus],
+        )
         .unwrap();
     let s = sim
         .add_device("slave", Station::single(sdo_net::server(5)), &[bus])
@@ -75,7 +79,7 @@ impl Rig {
                 .expect("the simulation went idle without a result");
             assert!(t - t0 < Duration::from_secs(120), "transfer hangs");
             for (_, e) in self.sim.take_events(self.m) {
-                if let StationEvent::Machine(PairEvent::B(e)) = e {
+                if let StationEvent::Machine(CompositeEvent::B(e)) = e {
                     assert_eq!(e.request, id);
                     return (t0, e);
                 }
@@ -102,15 +106,15 @@ fn pattern(len: usize, seed: u64) -> Vec<u8> {
 fn modes(len: usize) -> Vec<SdoOptions> {
     let mut v = vec![
         SdoOptions::default(),
-        SdoOptions::mode(Mode::Segmented),
-        SdoOptions::mode(Mode::Block),
+        SdoOptions::mode(TransferMode::Segmented),
+        SdoOptions::mode(TransferMode::Block),
         SdoOptions {
             crc: false,
-            ..SdoOptions::mode(Mode::Block)
+            ..SdoOptions::mode(TransferMode::Block)
         },
     ];
     if (1..=4).contains(&len) {
-        v.push(SdoOptions::mode(Mode::Expedited));
+        v.push(SdoOptions::mode(TransferMode::Expedited));
     }
     v
 }
@@ -157,7 +161,7 @@ fn random_loss_and_delay_complete_or_time_out_never_corrupt() {
                     ok += 1;
                     if dropped > 0 {
                         // Only block transfer survives a lost frame: by retransmission.
-                        assert_eq!(e.mode, Mode::Block);
+                        assert_eq!(e.mode, TransferMode::Block);
                         recovered += 1;
                     }
                 }
@@ -325,8 +329,16 @@ fn block_and_segmented_download_reach_90_percent_of_their_bus_limits() {
     let data = pattern(64 * 1024, 77);
     let mut r = rig(5, FaultRates::NONE);
 
-    let (t0, e) =
-        r.run(|c, now| c.download(now, S, DOMAIN, 0, &data, SdoOptions::mode(Mode::Block)));
+    let (t0, e) = r.run(|c, now| {
+        c.download(
+            now,
+            S,
+            DOMAIN,
+            0,
+            &data,
+            SdoOptions::mode(TransferMode::Block),
+        )
+    });
     assert!(e.result.is_ok());
     let took = e.at - t0;
     let frames = block_download_frames(&data);
@@ -350,8 +362,16 @@ fn block_and_segmented_download_reach_90_percent_of_their_bus_limits() {
     // The simulated exchange is exactly the protocol's frames, back to back.
     assert_eq!(took, limit);
 
-    let (t0, e) =
-        r.run(|c, now| c.download(now, S, DOMAIN, 0, &data, SdoOptions::mode(Mode::Segmented)));
+    let (t0, e) = r.run(|c, now| {
+        c.download(
+            now,
+            S,
+            DOMAIN,
+            0,
+            &data,
+            SdoOptions::mode(TransferMode::Segmented),
+        )
+    });
     assert!(e.result.is_ok());
     let took = e.at - t0;
     let limit = bus_time(&segmented_download_frames(&data));

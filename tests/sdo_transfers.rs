@@ -4,7 +4,7 @@
 mod sdo_net;
 
 use duocan::od::ObjectDictionary;
-use duocan::sdo::{Direction, Mode, SdoErrorKind, SdoOptions};
+use duocan::sdo::{Direction, SdoErrorKind, SdoOptions, TransferMode};
 use duocan::NodeId;
 use sdo_net::{Net, DOMAIN};
 
@@ -20,20 +20,20 @@ fn pattern(len: usize, seed: u8) -> Vec<u8> {
 fn modes(len: usize) -> Vec<(&'static str, SdoOptions)> {
     let mut v = vec![
         ("auto", SdoOptions::default()),
-        ("segmented", SdoOptions::mode(Mode::Segmented)),
-        ("block+crc", SdoOptions::mode(Mode::Block)),
+        ("segmented", SdoOptions::mode(TransferMode::Segmented)),
+        ("block+crc", SdoOptions::mode(TransferMode::Block)),
         (
             "block",
             SdoOptions {
                 crc: false,
-                ..SdoOptions::mode(Mode::Block)
+                ..SdoOptions::mode(TransferMode::Block)
             },
         ),
         (
             "block blksize 5",
             SdoOptions {
                 block_size: 5,
-                ..SdoOptions::mode(Mode::Block)
+                ..SdoOptions::mode(TransferMode::Block)
             },
         ),
         (
@@ -45,21 +45,23 @@ fn modes(len: usize) -> Vec<(&'static str, SdoOptions)> {
         ),
     ];
     if (1..=4).contains(&len) {
-        v.push(("expedited", SdoOptions::mode(Mode::Expedited)));
+        v.push(("expedited", SdoOptions::mode(TransferMode::Expedited)));
     }
     v
 }
 
-fn expected_mode(opts: &SdoOptions, len: usize, dir: Direction) -> Mode {
+fn expected_mode(opts: &SdoOptions, len: usize, dir: Direction) -> TransferMode {
     match (opts.mode, dir) {
-        (Mode::Block, _) => Mode::Block,
-        (_, Direction::Upload) if (1..=4).contains(&len) => Mode::Expedited,
-        (_, Direction::Upload) => Mode::Segmented,
-        (Mode::Auto, _) if (1..=4).contains(&len) => Mode::Expedited,
-        (Mode::Auto, _) if opts.block_threshold.is_some_and(|t| len >= t) => Mode::Block,
+        (TransferMode::Block, _) => TransferMode::Block,
+        (_, Direction::Upload) if (1..=4).contains(&len) => TransferMode::Expedited,
+        (_, Direction::Upload) => TransferMode::Segmented,
+        (TransferMode::Auto, _) if (1..=4).contains(&len) => TransferMode::Expedited,
+        (TransferMode::Auto, _) if opts.block_threshold.is_some_and(|t| len >= t) => {
+            TransferMode::Block
+        }
         (m, _) => {
-            if m == Mode::Auto {
-                Mode::Segmented
+            if m == TransferMode::Auto {
+                TransferMode::Segmented
             } else {
                 m
             }
@@ -123,9 +125,9 @@ fn expedited_refuses_sizes_it_cannot_carry() {
                 DOMAIN,
                 0,
                 &vec![1; len],
-                SdoOptions::mode(Mode::Expedited),
+                SdoOptions::mode(TransferMode::Expedited),
             )
             .unwrap_err();
-        assert_eq!(e.kind, SdoErrorKind::Mode);
+        assert_eq!(e.kind, SdoErrorKind::TransferMode);
     }
 }

@@ -12,7 +12,7 @@ mod scenario;
 
 use duocan::capture::recorder::{Filter, Recorder, Tapped};
 use duocan::emcy::{code, register};
-use duocan::machine::{Pair, SinglePort, Station};
+use duocan::machine::{Composite, SinglePort, Station};
 use duocan::od::{comm, DynamicDictionary};
 use duocan::od::{Access, DataType, DefaultValue, ObjectDef};
 use duocan::pdo::params;
@@ -23,7 +23,7 @@ use std::process::Command;
 use std::sync::Arc;
 
 type Plain = Station<SinglePort, Node<DynamicDictionary>>;
-type Recorded = Station<SinglePort, Tapped<Pair<Node<DynamicDictionary>, SdoClient>>>;
+type Recorded = Station<SinglePort, Tapped<Composite<Node<DynamicDictionary>, SdoClient>>>;
 
 fn od(id: u8) -> DynamicDictionary {
     comm::standard_dictionary(id, comm::Identity::default())
@@ -41,7 +41,7 @@ fn capture() -> std::path::PathBuf {
     let mut sim = SimNetwork::new(7);
     let bus = sim.add_bus(BusConfig::new("can0", 500_000));
     let master_node = Node::new(NodeConfig::master(NodeId::must(1)), od(1));
-    let master = Pair::new(master_node, SdoClient::new(1024));
+    let master = Composite::new(master_node, SdoClient::new(1024));
     let m = sim
         .add_device::<Recorded>(
             "master",

@@ -409,7 +409,7 @@ async fn candump_logs_interoperate_with_can_utils() {
 /// mode, to both slaves at once.
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn sdo_between_runtimes_over_vcan() {
-    use duocan::sdo::{Mode, SdoOptions};
+    use duocan::sdo::{SdoOptions, TransferMode};
     let m = Runtime::new(rt::master(1, &[]))
         .name("master")
         .port(SocketCanPort::open("vcan0").unwrap())
@@ -444,15 +444,27 @@ async fn sdo_between_runtimes_over_vcan() {
     assert_eq!(text, b"duocan node over a real bus");
     let (a, b) = (rt::pattern(2000, 5), rt::pattern(1500, 6));
     let (ra, rb) = tokio::join!(
-        m.sdo_write(n5, 0x2002, 0, a.clone(), SdoOptions::mode(Mode::Block)),
-        m.sdo_write(n6, 0x2002, 0, b.clone(), SdoOptions::mode(Mode::Segmented)),
+        m.sdo_write(
+            n5,
+            0x2002,
+            0,
+            a.clone(),
+            SdoOptions::mode(TransferMode::Block)
+        ),
+        m.sdo_write(
+            n6,
+            0x2002,
+            0,
+            b.clone(),
+            SdoOptions::mode(TransferMode::Segmented)
+        ),
     );
     ra.unwrap().unwrap();
     rb.unwrap().unwrap();
     assert_eq!(s5.read(0x2002, 0).await.unwrap().unwrap(), a);
     assert_eq!(s6.read(0x2002, 0).await.unwrap().unwrap(), b);
     let back = m
-        .sdo_read(n5, 0x2002, 0, SdoOptions::mode(Mode::Block))
+        .sdo_read(n5, 0x2002, 0, SdoOptions::mode(TransferMode::Block))
         .await
         .unwrap()
         .unwrap();

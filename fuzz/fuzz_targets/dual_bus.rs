@@ -4,7 +4,7 @@
 
 use duocan::machine::{ErrorCause, PortStatus};
 use duocan::{BusLink, Duration, Frame, Id, Instant, NodeId};
-use duocan_redundancy::{Cia3026Config, DualBus, DualBusConfig, EcssConfig, Mode};
+use duocan_redundancy::{Cia3026Config, DualBus, DualBusConfig, EcssConfig, LinkMode};
 use libfuzzer_sys::fuzz_target;
 
 const CAUSES: [ErrorCause; 6] = [
@@ -34,9 +34,9 @@ fuzz_target!(|data: &[u8]| {
         return;
     };
     let mode = match mode % 3 {
-        0 => Mode::ActiveActive,
-        1 => Mode::Cia302_6(Cia3026Config::default()),
-        _ => Mode::EcssToggle(EcssConfig::slave(
+        0 => LinkMode::ActiveActive,
+        1 => LinkMode::Cia302_6(Cia3026Config::default()),
+        _ => LinkMode::EcssToggle(EcssConfig::slave(
             NodeId::must(1),
             Duration::from_millis(50),
         )),

@@ -3,7 +3,7 @@
 //! ends (result or abort) once its timeout has passed.
 #![no_main]
 
-use duocan::sdo::{HeapBuffer, Mode, SdoClient, SdoOptions};
+use duocan::sdo::{HeapBuffer, TransferMode, SdoClient, SdoOptions};
 use duocan::{Duration, Frame, Id, Instant, Machine, NodeId};
 use libfuzzer_sys::fuzz_target;
 
@@ -19,9 +19,9 @@ fuzz_target!(|data: &[u8]| {
     for k in 0..3u8 {
         let node = NodeId::must(5 + k);
         let mode = match (setup >> (2 * k)) & 3 {
-            0 => Mode::Expedited,
-            1 => Mode::Segmented,
-            _ => Mode::Block,
+            0 => TransferMode::Expedited,
+            1 => TransferMode::Segmented,
+            _ => TransferMode::Block,
         };
         let opts = SdoOptions {
             mode,

@@ -8,7 +8,7 @@
 use criterion::{criterion_group, criterion_main, Criterion, Throughput};
 use duocan::machine::BusLink;
 use duocan::{Duration, Frame, Id, Instant};
-use duocan_redundancy::merge::{Merger, Verdict};
+use duocan_redundancy::link::merge::{Merger, Verdict};
 use duocan_redundancy::{DualBus, DualBusConfig};
 use std::hint::black_box;
 use std::time::Instant as WallClock;

@@ -8,9 +8,9 @@ use criterion::{criterion_group, criterion_main, Criterion};
 use duocan::master::{objects, Master, NetworkConfig};
 use duocan::od::{comm, DynamicDictionary};
 use duocan::{Device, Duration, Frame, Id, Instant, NodeId};
-use duocan_redundancy::pairs::PairSpec;
+use duocan_redundancy::PairSpec;
 use duocan_redundancy::{
-    DualBus, DualBusConfig, Mode, SupervisedStation, Supervisor, SupervisorConfig,
+    DualBus, DualBusConfig, LinkMode, SupervisedStation, Supervisor, SupervisorConfig,
 };
 use std::hint::black_box;
 use std::time::Instant as WallClock;
@@ -55,7 +55,7 @@ fn master() -> Station {
         )
         .unwrap();
     }
-    let link = DualBus::new(DualBusConfig::with_guard_period(Mode::ActiveActive, HB));
+    let link = DualBus::new(DualBusConfig::with_guard_period(LinkMode::ActiveActive, HB));
     SupervisedStation::new(link, sup).unwrap()
 }
 

@@ -1,44 +1,53 @@
 //! # duocan-redundancy
 //!
-//! Redundancy for duocan on two CAN buses. This crate's first part is the **dual-bus
-//! abstraction layer**: [`DualBus`], a sans-IO [`BusLink`](duocan::BusLink) with two ports
-//! below and one logical bus above, so that a node of the standard stack runs on top unchanged.
+//! Redundancy for duocan on two CAN buses: one logical bus from two ports, primary/standby
+//! board pairs, and strong/weak master failover.
 //!
-//! One type, three policies ([`Mode`]):
+//! ## Layers
+//!
+//! Each folder is one layer; a module imports only from its own layer and the ones below it
+//! (`.ci/run` checks this), and everything sits on the root crate `duocan`.
+//!
+//! | Layer | Module | What it holds |
+//! | --- | --- | --- |
+//! | 0 | [`pair`] | the shared vocabulary: [`PairId`], [`Member`], [`PairSpec`] |
+//! | 1 | [`link`] | the **dual-bus layer** [`DualBus`]: a [`BusLink`](duocan::BusLink) with two ports below and one logical bus above |
+//! | 2 | [`supervisor`] | slave-pair supervision, the CiA 302-2 flying master, the audit trail; [`Supervisor`] composes them with the CiA 302-2 master |
+//! | 3 | [`station`] | [`SupervisedStation`]: a supervisor on a dual bus, with its status table |
+//! | 4 | [`network`] | [`LogicalNetwork`]: what the application holds per dual-bus network |
+//!
+//! The dual-bus layer has one type and three policies ([`LinkMode`]):
 //!
 //! - **Active-active** (default): transmit fan-out to every port not failed; receive
-//!   [merge] delivering each frame occurrence exactly once; [same-function
-//!   merge](pairs_merge) of A/B board pairs with discrepancy events.
-//! - **CiA 302-6** active-standby ([`channel::cia302_6`]): 0x1F60, heartbeats on both channels,
-//!   evaluation windows, 0x7F indicate-active-interface, transmit-error counter.
-//! - **ECSS bus toggle** ([`channel::ecss`]): 0x2000 Bdefault/Ttoggle/Ntoggle/Ctoggle, toggling
-//!   on loss of the redundancy master's heartbeat.
+//!   [merge](link::merge) delivering each frame occurrence exactly once; [same-function
+//!   merge](link::same_function) of A/B board pairs with discrepancy events.
+//! - **CiA 302-6** active-standby ([`link::channel::cia302_6`]): 0x1F60, heartbeats on both
+//!   channels, evaluation windows, 0x7F indicate-active-interface, transmit-error counter.
+//! - **ECSS bus toggle** ([`link::channel::ecss`]): 0x2000 Bdefault/Ttoggle/Ntoggle/Ctoggle,
+//!   toggling on loss of the redundancy master's heartbeat.
 //!
-//! Around them: [port health](health) (counters, error causes, ok / suspect / failed /
+//! Around them: [port health](link::health) (counters, error causes, ok / suspect / failed /
 //! recovering, silence limit, re-initialisation with back-off), [per-node per-bus
-//! reachability](reach), and [events] with reasons and timestamps for every change.
-//! Configuration comes from code ([`DualBusConfig`]) or from the dictionary ([`config`]).
+//! reachability](link::reach), and [events](link::events) with reasons and timestamps for every
+//! change. Configuration comes from code ([`DualBusConfig`]) or from the dictionary
+//! ([`link::config`]).
 //!
-//! The second part is the **supervisor** of a redundant master, on top of the layer and the
-//! stack:
+//! The supervisor runs on top of the layer and the stack:
 //!
-//! - [slave-pair supervision](pairs): the pair table, joining on boot-up, event-driven
-//!   evaluation with per-member deadlines (reaction = the consumer time), the seed's four cases
-//!   and the single-member ones, non-revertive or revertive, manual switch-over, a watchdog for
-//!   members that never speak;
-//! - [CiA 302-2 flying master](flying_master): strong/weak master by priority, takeover at the
-//!   master-heartbeat timeout, multiple-master detection and conflict resolution after a
-//!   partition, planned hand-over;
-//! - the [audit trail](audit) of every role change, switch and toggle;
+//! - [slave-pair supervision](supervisor::pairs): the pair table, joining on boot-up,
+//!   event-driven evaluation with per-member deadlines (reaction = the consumer time), the four
+//!   cases of the published railway design and the single-member ones, non-revertive or
+//!   revertive, manual switch-over, a watchdog for members that never speak;
+//! - [CiA 302-2 flying master](supervisor::flying_master): strong/weak master by priority,
+//!   takeover at the master-heartbeat timeout, multiple-master detection and conflict resolution
+//!   after a partition, planned hand-over;
+//! - the [audit trail](supervisor::audit) of every role change, switch and toggle;
 //! - [`Supervisor`] (feature `alloc`), the [`Machine`](duocan::Machine) composing them with the
-//!   CiA 302-2 [`Master`](duocan::master::Master) of the root crate (boot, identity check and
-//!   configuration of every slave, NMT, active/standby), and [`SupervisedStation`], which runs it
-//!   over a [`DualBus`] and tells the layer which pair member is active; its
-//!   [status](station::Status) prints as a table;
-//! - [`LogicalNetwork`] (feature `alloc`), what the application holds per dual-bus network:
-//!   dictionary, SDO client access to any node, NMT, PDO values, one typed event stream, the
-//!   status table and the audit export, as a sans-IO [`Device`](duocan::Device) that the
-//!   simulator and the tokio runtime drive alike.
+//!   CiA 302-2 [`Master`](duocan::master::Master) of the root crate, and [`SupervisedStation`],
+//!   which runs it over a [`DualBus`] and tells the layer which pair member is active;
+//! - [`LogicalNetwork`] (feature `alloc`): dictionary, SDO client access to any node, NMT, PDO
+//!   values, one typed event stream, the status table and the audit export, as a sans-IO
+//!   [`Device`](duocan::Device) that the simulator and the tokio runtime drive alike.
 //!
 //! Everything is bounded (fixed-capacity tables and queues, counted overflow) and builds for
 //! `no_std` targets; the supervisor needs `alloc` (as the root crate's master does).
@@ -49,36 +58,24 @@
 #[cfg(feature = "alloc")]
 extern crate alloc;
 
-pub mod audit;
-pub mod channel;
-pub mod classify;
-pub mod config;
-pub mod dual_bus;
-pub mod events;
-pub mod flying_master;
-pub mod health;
-pub mod merge;
+pub mod link;
 #[cfg(feature = "alloc")]
 pub mod network;
-pub mod outbox;
-pub mod pairs;
-pub mod pairs_merge;
-pub mod reach;
+pub mod pair;
 #[cfg(feature = "alloc")]
 pub mod station;
-#[cfg(feature = "alloc")]
 pub mod supervisor;
 
-pub use channel::{Cia3026Config, EcssConfig, EcssRole, ModeKind, NodeSet};
-pub use classify::FrameClassifier;
-pub use dual_bus::{DualBus, DualBusConfig, LinkStats, Mode, DEFAULT_MERGE_SLOTS};
-pub use events::{LinkEvent, LinkEventKind, PortReason, SwitchReason};
-pub use health::{HealthConfig, PortState};
-pub use merge::{Merger, Verdict};
+pub use link::channel::{Cia3026Config, EcssConfig, EcssRole, ModeKind};
+pub use link::classify::FrameClassifier;
+pub use link::dual_bus::{DualBus, DualBusConfig, LinkMode, LinkStats, DEFAULT_MERGE_SLOTS};
+pub use link::events::{LinkEvent, LinkEventKind, PortReason, SwitchReason};
+pub use link::health::{HealthConfig, PortState};
+pub use link::merge::{Merger, Verdict};
+pub use link::outbox::{Outbox, EVENT_QUEUE, FRAME_QUEUE, MACHINE_QUEUE, REQUEST_QUEUE};
 #[cfg(feature = "alloc")]
 pub use network::{LogicalNetwork, NetworkError, NetworkEvent, NetworkEventKind};
-pub use outbox::{Outbox, EVENT_QUEUE, FRAME_QUEUE, MACHINE_QUEUE, REQUEST_QUEUE};
-pub use pairs_merge::{Member, PairId};
+pub use pair::{Member, PairId, PairSpec};
 #[cfg(feature = "alloc")]
 pub use station::SupervisedStation;
 #[cfg(feature = "alloc")]

@@ -26,7 +26,7 @@
 //! use duocan::od::comm;
 //! use duocan::sim::{BusConfig, SimNetwork};
 //! use duocan::{Duration, Instant, Node, NodeConfig, NodeId, Station};
-//! use duocan_redundancy::pairs::PairSpec;
+//! use duocan_redundancy::PairSpec;
 //! use duocan_redundancy::{
 //!     DualBus, DualBusConfig, LogicalNetwork, NetworkEventKind, SupervisedStation, Supervisor,
 //!     SupervisorConfig,
@@ -59,24 +59,27 @@
 //! # Ok::<(), Box<dyn std::error::Error>>(())
 //! ```
 
-use crate::audit::AuditTrail;
-use crate::events::{LinkEvent, LinkEventKind, PortReason};
-use crate::flying_master::{FlyingEvent, MasterError, MasterRole, MasterRoleChange};
-use crate::health::PortState;
-use crate::pairs::{PairState, PairsError, PairsEvent, RoleChange};
-use crate::pairs_merge::{Member, PairId};
+use crate::link::events::{LinkEvent, LinkEventKind, PortReason};
+use crate::link::health::PortState;
+use crate::pair::{Member, PairId};
 use crate::station::{Status, SupervisedStation};
+use crate::supervisor::audit::AuditTrail;
+use crate::supervisor::flying_master::{
+    FlyingEvent, FlyingMasterError, MasterRole, MasterRoleChange,
+};
+use crate::supervisor::pairs::{PairState, PairsError, PairsEvent, RoleChange};
 use crate::supervisor::{Supervisor, SupervisorEvent};
 use crate::FrameClassifier;
 use core::fmt;
-use duocan::abort::AbortCode;
+use duocan::cia302::pdo_config::PdoConfig;
 use duocan::emcy::EmcyMessage;
 use duocan::machine::{Device, PortRequest, PortStatus, StationEvent};
-use duocan::master::{ErrorStatus, MasterError as ManagerError, MasterEventKind, SlaveView};
+use duocan::master::{ErrorStatus, MasterError, MasterEventKind, SlaveView};
 use duocan::nmt::NmtTarget;
 use duocan::node::NodeEventKind;
+use duocan::od::abort::AbortCode;
 use duocan::od::{DynamicDictionary, ObjectDictionary, OdValue};
-use duocan::pdo::{Dir, PdoConfig, PdoEvent};
+use duocan::pdo::{Dir, PdoEvent};
 use duocan::profile::{IdProfile, Predefined};
 use duocan::sdo::{RequestId, SdoError, SdoEvent, SdoOptions};
 use duocan::{Frame, Instant, NmtCommand, NmtState, NodeId};
@@ -200,11 +203,11 @@ pub enum NetworkError {
     /// The SDO client refused the request (busy node, no free session, too long).
     Sdo(SdoError),
     /// The master refused the NMT command.
-    Nmt(ManagerError),
+    Nmt(MasterError),
     /// The pair table refused the switch-over.
     Pairs(PairsError),
     /// The flying master refused the role change.
-    Role(MasterError),
+    Role(FlyingMasterError),
 }
 
 impl core::error::Error for NetworkError {}
@@ -340,7 +343,7 @@ impl<
         target: NmtTarget,
     ) -> Result<(), NetworkError> {
         self.station.sup.nmt(now, cmd, target).map_err(|e| match e {
-            ManagerError::Standby => NetworkError::Standby,
+            MasterError::Standby => NetworkError::Standby,
             e => NetworkError::Nmt(e),
         })
     }
@@ -444,9 +447,15 @@ impl<
         &mut self,
         now: Instant,
         remote: &PdoConfig,
-        m: &duocan::pdo::Mirror<'_>,
-    ) -> Result<(), duocan::pdo::MirrorError> {
-        duocan::pdo::mirror(self.station.sup.node_mut(), now, Dir::Transmit, remote, m)
+        m: &duocan::cia302::pdo_config::Mirror<'_>,
+    ) -> Result<(), duocan::cia302::pdo_config::MirrorError> {
+        duocan::cia302::pdo_config::mirror(
+            self.station.sup.node_mut(),
+            now,
+            Dir::Transmit,
+            remote,
+            m,
+        )
     }
 }
 
@@ -462,9 +471,9 @@ fn when(e: &StationEvent<LinkEvent, SupervisorEvent>) -> Instant {
                 | PairsEvent::Lost { at, .. }
                 | PairsEvent::Missing { at, .. } => *at,
             },
-            SupervisorEvent::Master(FlyingEvent::Role(r)) => r.at,
-            SupervisorEvent::Master(FlyingEvent::Suspended { at, .. }) => *at,
-            SupervisorEvent::Manager(e) => e.at,
+            SupervisorEvent::FlyingMaster(FlyingEvent::Role(r)) => r.at,
+            SupervisorEvent::FlyingMaster(FlyingEvent::Suspended { at, .. }) => *at,
+            SupervisorEvent::Master(e) => e.at,
             SupervisorEvent::Sdo(s) => s.at,
             SupervisorEvent::NotJoined { at, .. } => *at,
         },
@@ -515,8 +524,8 @@ fn typed(e: &StationEvent<LinkEvent, SupervisorEvent>) -> Option<NetworkEventKin
                 _ => return None,
             },
             SupervisorEvent::Pairs(PairsEvent::Role(r)) => K::PairRole(*r),
-            SupervisorEvent::Master(FlyingEvent::Role(r)) => K::MasterRole(*r),
-            SupervisorEvent::Manager(e) => match e.kind {
+            SupervisorEvent::FlyingMaster(FlyingEvent::Role(r)) => K::MasterRole(*r),
+            SupervisorEvent::Master(e) => match e.kind {
                 MasterEventKind::SlaveLost { node, status } => K::NodeLost { node, status },
                 _ => return None,
             },

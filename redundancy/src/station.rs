@@ -9,20 +9,21 @@
 //! application prints: ports, master role, pairs, the other slaves, and the nodes heard on one
 //! bus only.
 
-use crate::dual_bus::DualBus;
-use crate::events::LinkEvent;
-use crate::flying_master::MasterRole;
-use crate::pairs::Phase;
-use crate::pairs_merge::{Member, PairError};
+use crate::link::dual_bus::DualBus;
+use crate::link::events::LinkEvent;
+use crate::link::same_function::PairError;
+use crate::pair::Member;
+use crate::supervisor::flying_master::MasterRole;
+use crate::supervisor::pairs::Phase;
 use crate::supervisor::{LinkCommand, Supervisor, SupervisorEvent};
 use crate::FrameClassifier;
 use core::fmt;
+use duocan::frame::instant::earliest;
 use duocan::machine::{
     forward_requests, BusLink, Device, Machine, PortRequest, PortStatus, StationEvent,
 };
 use duocan::od::ObjectDictionary;
 use duocan::profile::{IdProfile, Predefined};
-use duocan::time::earliest;
 use duocan::{Frame, Instant};
 
 /// A redundant master on a dual bus: `C` and `N` are the [`DualBus`]'s (frame classifier,

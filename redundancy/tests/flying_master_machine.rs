@@ -2,7 +2,7 @@
 //! every 20 ms, with exact instants for negotiation, takeover and conflict resolution.
 
 use duocan::{Duration, Frame, Id, Instant, NodeId};
-use duocan_redundancy::flying_master::{
+use duocan_redundancy::supervisor::flying_master::{
     FlyingEvent, FlyingMaster, FlyingMasterConfig, MasterReason, MasterRole, Rank,
 };
 

@@ -5,7 +5,7 @@
 //! unmatched and must expire by the window, never by eviction.
 
 use duocan::{Duration, Frame, Id, Instant};
-use duocan_redundancy::merge::{Merger, Verdict};
+use duocan_redundancy::link::merge::{Merger, Verdict};
 
 #[test]
 fn one_bus_dead_for_an_hour_keeps_memory_constant() {

@@ -7,7 +7,7 @@
 //! buses are fed to the merger in time order, ties in random order.
 
 use duocan::{Duration, Frame, Id, Instant};
-use duocan_redundancy::merge::{Merger, Verdict};
+use duocan_redundancy::link::merge::{Merger, Verdict};
 use proptest::prelude::*;
 use std::collections::HashMap;
 

@@ -2,10 +2,10 @@
 //! exact instants. The simulator scenarios (sup_*.rs) show the same rules on the wire.
 
 use duocan::{Duration, Instant, NmtCommand, NmtState, NodeId};
-use duocan_redundancy::pairs::{
-    Authority, LossReason, PairCommand, PairSpec, PairSupervisor, PairsConfig, PairsEvent, Phase,
-    RoleReason,
+use duocan_redundancy::supervisor::pairs::{
+    Authority, LossReason, PairCommand, PairSupervisor, PairsConfig, PairsEvent, Phase, RoleReason,
 };
+use duocan_redundancy::PairSpec;
 use duocan_redundancy::{Member, PairId};
 use proptest::prelude::*;
 
@@ -132,16 +132,16 @@ fn active_silent_standby_started_exactly_at_the_consumer_time_active_reset() {
         ]
     );
     let ev = events(&mut s);
-    assert!(
-        ev.contains(&PairsEvent::Role(duocan_redundancy::pairs::RoleChange {
+    assert!(ev.contains(&PairsEvent::Role(
+        duocan_redundancy::supervisor::pairs::RoleChange {
             at: ms(115),
             pair: p,
             nodes: [A, B],
             from: Some(Member::A),
             to: Some(Member::B),
             reason: RoleReason::ActiveSilent { last: ms(65) }
-        }))
-    );
+        }
+    )));
     assert!(ev.contains(&PairsEvent::Lost {
         at: ms(115),
         pair: p,

@@ -8,8 +8,8 @@ use duocan::od::{comm, DynamicDictionary};
 use duocan::port::mem::MemBus;
 use duocan::runtime::Runtime;
 use duocan::{Duration, Instant, NmtCommand, NmtState, Node, NodeConfig, NodeId, Station};
-use duocan_redundancy::flying_master::MasterRole;
-use duocan_redundancy::pairs::PairSpec;
+use duocan_redundancy::supervisor::flying_master::MasterRole;
+use duocan_redundancy::PairSpec;
 use duocan_redundancy::{
     DualBus, DualBusConfig, LogicalNetwork, Member, NetworkEventKind, SupervisedStation,
     Supervisor, SupervisorConfig,

@@ -9,8 +9,8 @@ use duocan::node::NodeEventKind;
 use duocan::od::ObjectDictionary;
 use duocan::sim::TxOutcome;
 use duocan::{Duration, Frame, Instant, NmtCommand, NmtTarget, NodeId};
-use duocan_redundancy::channel::cia302_6::indicate_active;
-use duocan_redundancy::{Cia3026Config, DualBusConfig, LinkEventKind, Mode, SwitchReason};
+use duocan_redundancy::link::channel::cia302_6::indicate_active;
+use duocan_redundancy::{Cia3026Config, DualBusConfig, LinkEventKind, LinkMode, SwitchReason};
 use std::cell::RefCell;
 use std::rc::Rc;
 
@@ -20,7 +20,7 @@ const RESET_WINDOW: Duration = Duration::from_millis(200);
 
 fn cfg(threshold: u8) -> DualBusConfig {
     DualBusConfig::with_guard_period(
-        Mode::Cia302_6(Cia3026Config {
+        LinkMode::Cia302_6(Cia3026Config {
             eval_power_on: POWER_ON_WINDOW,
             eval_reset: RESET_WINDOW,
             error_threshold: threshold,

@@ -7,7 +7,7 @@ use common::*;
 use duocan::od::ObjectDictionary;
 use duocan::sim::TxOutcome;
 use duocan::{Duration, Frame, Id, Instant, NmtCommand, NmtState, NmtTarget, NodeId};
-use duocan_redundancy::{DualBusConfig, EcssConfig, LinkEventKind, Mode, SwitchReason};
+use duocan_redundancy::{DualBusConfig, EcssConfig, LinkEventKind, LinkMode, SwitchReason};
 use std::cell::RefCell;
 use std::rc::Rc;
 
@@ -26,7 +26,10 @@ fn cfg(node: u8) -> DualBusConfig {
             ..EcssConfig::slave(M, P)
         }
     };
-    DualBusConfig::with_guard_period(Mode::EcssToggle(ecss), Duration::from_millis(HB_MS as u64))
+    DualBusConfig::with_guard_period(
+        LinkMode::EcssToggle(ecss),
+        Duration::from_millis(HB_MS as u64),
+    )
 }
 
 /// The toggle-related events of `node`.

@@ -7,14 +7,14 @@
 //! signal board watched by node guarding instead of heartbeats. Bus 1 is cut for a second;
 //! later B disagrees with A, and the track board dies.
 
-use duocan::machine::{Pair, PairEvent, StationEvent};
+use duocan::machine::{Composite, CompositeEvent, StationEvent};
 use duocan::node::NodeEventKind;
 use duocan::od::{comm, Access, DataType, DefaultValue, DynamicDictionary, ObjectDef};
 use duocan::pdo::params;
 use duocan::profile::railway::safety::{
     objects, FieldState, PointPosition, SafetyCode, TrackCircuit,
 };
-use duocan::profile::railway::{self, DeviceAddress, Function, Payload, RailwayProfile};
+use duocan::profile::railway::{self, DeviceAddress, Payload, RailFunction, RailwayProfile};
 use duocan::profile::IdProfile;
 use duocan::sdo::{Direction, SdoClient, SdoEvent, SdoOptions};
 use duocan::sim::{BusConfig, BusId, DevId, SimNetwork, TraceRecord, TxOutcome};
@@ -22,9 +22,9 @@ use duocan::{
     CobId, Duration, Frame, Id, Instant, Machine, NmtCommand, NmtState, NmtTarget, Node,
     NodeConfig, NodeEvent, NodeId, Station,
 };
-use duocan_redundancy::classify::state_function;
+use duocan_redundancy::link::classify::state_function;
 use duocan_redundancy::{
-    DualBus, DualBusConfig, LinkEvent, LinkEventKind, Member, Mode, PortReason, PortState,
+    DualBus, DualBusConfig, LinkEvent, LinkEventKind, LinkMode, Member, PortReason, PortState,
 };
 
 const MASTER: u8 = 1;
@@ -84,7 +84,7 @@ struct Interlocking {
 impl Machine for Interlocking {
     type Event = ();
     fn handle_frame(&mut self, now: Instant, frame: &Frame) {
-        if railway::split(frame.id()).map(|x| x.0) == Some(Function::StateChange.code()) {
+        if railway::split(frame.id()).map(|x| x.0) == Some(RailFunction::StateChange.code()) {
             self.states.push((now, *frame));
         }
     }
@@ -102,7 +102,7 @@ impl Machine for Interlocking {
 
 type RailNode = Node<DynamicDictionary, RailwayProfile>;
 type Link = DualBus<RailwayProfile>;
-type MasterDev = Station<Link, Pair<RailNode, Pair<SdoClient, Interlocking>>>;
+type MasterDev = Station<Link, Composite<RailNode, Composite<SdoClient, Interlocking>>>;
 type BoardDev = Station<Link, RailNode>;
 
 /// A dictionary with the railway identifiers as defaults, an 8-byte image entry for a TPDO and
@@ -127,7 +127,7 @@ fn dictionary(node: u8) -> DynamicDictionary {
 /// written, and every `timer_ms` (0: only when written).
 fn state_tpdo(node: u8, port: u8, bytes: u8, timer_ms: u16) -> Vec<ObjectDef> {
     let cob = CobId::from_id(railway::id(
-        Function::StateChange,
+        RailFunction::StateChange,
         address(node).with_port(port),
     ));
     let mut v =
@@ -140,7 +140,7 @@ fn state_tpdo(node: u8, port: u8, bytes: u8, timer_ms: u16) -> Vec<ObjectDef> {
 }
 
 fn state_id(node: u8, port: u8) -> Id {
-    railway::id(Function::StateChange, address(node).with_port(port))
+    railway::id(RailFunction::StateChange, address(node).with_port(port))
 }
 
 /// The track board's state change number `seq`: occupancy alternating every ten reports.
@@ -175,7 +175,7 @@ impl Net {
             .events(self.master)
             .iter()
             .filter_map(|(_, e)| match e {
-                StationEvent::Machine(PairEvent::A(e)) => Some(*e),
+                StationEvent::Machine(CompositeEvent::A(e)) => Some(*e),
                 _ => None,
             })
             .collect()
@@ -195,7 +195,7 @@ impl Net {
             .events(self.master)
             .iter()
             .filter_map(|(_, e)| match e {
-                StationEvent::Machine(PairEvent::B(PairEvent::A(e))) => Some(e.clone()),
+                StationEvent::Machine(CompositeEvent::B(CompositeEvent::A(e))) => Some(e.clone()),
                 _ => None,
             })
             .collect()
@@ -228,7 +228,7 @@ fn build() -> Net {
     ];
     let link = || {
         DualBus::with_classifier(
-            DualBusConfig::with_guard_period(Mode::ActiveActive, Duration::from_millis(HB_MS)),
+            DualBusConfig::with_guard_period(LinkMode::ActiveActive, Duration::from_millis(HB_MS)),
             profile.clone(),
         )
     };
@@ -260,7 +260,10 @@ fn build() -> Net {
     assert_eq!(pair.0, 0);
     let station = Station::new(
         mlink,
-        Pair::new(m, Pair::new(SdoClient::new(1024), Interlocking::default())),
+        Composite::new(
+            m,
+            Composite::new(SdoClient::new(1024), Interlocking::default()),
+        ),
     );
     let master = sim.add_device("master", station, &buses).unwrap();
 

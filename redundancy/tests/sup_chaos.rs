@@ -18,8 +18,8 @@ use duocan::machine::StationEvent;
 use duocan::node::NodeEventKind;
 use duocan::sim::PortRef;
 use duocan::{Device, Duration, Frame, Id, Instant, NmtState, PortStatus};
-use duocan_redundancy::flying_master::{FlyingEvent, MasterReason};
-use duocan_redundancy::pairs::{PairsEvent, RoleReason};
+use duocan_redundancy::supervisor::flying_master::{FlyingEvent, MasterReason};
+use duocan_redundancy::supervisor::pairs::{PairsEvent, RoleReason};
 use duocan_redundancy::{Member, PairId, SupervisorEvent};
 use supnet::*;
 
@@ -234,7 +234,7 @@ fn soak() {
                     {
                         failovers += 1
                     }
-                    StationEvent::Machine(SupervisorEvent::Master(FlyingEvent::Role(r)))
+                    StationEvent::Machine(SupervisorEvent::FlyingMaster(FlyingEvent::Role(r)))
                         if matches!(r.reason, MasterReason::HeartbeatLost { .. }) =>
                     {
                         takeovers += 1
@@ -282,14 +282,19 @@ fn soak() {
             master_changed = t;
             continue;
         };
-        if n.sup(m).role() != duocan_redundancy::flying_master::MasterRole::Active {
+        if n.sup(m).role() != duocan_redundancy::supervisor::flying_master::MasterRole::Active {
             master_changed = t;
         }
         let became = n
             .sup(m)
             .audit()
             .iter()
-            .filter(|r| matches!(r.entry, duocan_redundancy::audit::AuditEntry::Master(_)))
+            .filter(|r| {
+                matches!(
+                    r.entry,
+                    duocan_redundancy::supervisor::audit::AuditEntry::Master(_)
+                )
+            })
             .map(|r| r.at)
             .max()
             .unwrap_or(Instant::ZERO);

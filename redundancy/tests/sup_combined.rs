@@ -4,7 +4,7 @@
 mod supnet;
 
 use duocan::{Duration, Instant, NmtState};
-use duocan_redundancy::flying_master::MasterRole;
+use duocan_redundancy::supervisor::flying_master::MasterRole;
 use duocan_redundancy::Member;
 use supnet::*;
 

@@ -5,8 +5,8 @@ mod supnet;
 
 use duocan::time_stamp::TimeOfDay;
 use duocan::{Duration, Id, Instant, NmtCommand};
-use duocan_redundancy::flying_master::{MasterReason, MasterRole};
-use duocan_redundancy::pairs::RoleReason;
+use duocan_redundancy::supervisor::flying_master::{MasterReason, MasterRole};
+use duocan_redundancy::supervisor::pairs::RoleReason;
 use duocan_redundancy::Member;
 use supnet::*;
 

@@ -4,19 +4,21 @@
 //! node with request id and completion event, NMT, PDO values, one typed event stream, the status
 //! table, the audit export; and the pair members' joining through the master's boot process.
 
-use duocan::cob_id::CobId;
+use duocan::cia302::pdo_config::{Local, Mirror, PdoConfig};
+use duocan::frame::cob_id::CobId;
 use duocan::master::{objects, ErrorStatus, ExpectedIdentity, Master, NetworkConfig, SlaveConfig};
 use duocan::nmt::NmtTarget;
 use duocan::od::{comm, Access, DataType, DynamicDictionary, ObjectDef, ObjectDictionary};
-use duocan::pdo::{params, Local, MapEntry, Mirror, PdoConfig};
+use duocan::pdo::{params, MapEntry};
 use duocan::sim::{BusConfig, BusId, DevId, SimNetwork, TraceRecord, TxOutcome};
 use duocan::{
     Duration, Id, Instant, Machine, NmtCommand, NmtState, Node, NodeConfig, NodeId, Station,
 };
-use duocan_redundancy::flying_master::MasterRole;
-use duocan_redundancy::pairs::{PairSpec, RoleReason};
+use duocan_redundancy::supervisor::flying_master::MasterRole;
+use duocan_redundancy::supervisor::pairs::RoleReason;
+use duocan_redundancy::PairSpec;
 use duocan_redundancy::{
-    DualBus, DualBusConfig, JoinRefusal, LogicalNetwork, Member, Mode, NetworkError,
+    DualBus, DualBusConfig, JoinRefusal, LinkMode, LogicalNetwork, Member, NetworkError,
     NetworkEventKind as K, PairId, SupervisedStation, Supervisor, SupervisorConfig,
     SupervisorEvent,
 };
@@ -121,7 +123,7 @@ fn board(id: u8, vendor: u32, hb_ms: u16, now: Instant) -> SlaveDev {
 }
 
 fn link() -> DualBus {
-    DualBus::new(DualBusConfig::with_guard_period(Mode::ActiveActive, HB))
+    DualBus::new(DualBusConfig::with_guard_period(LinkMode::ActiveActive, HB))
 }
 
 /// TPDO1 of `id`: 0x2000 sub 1, every 20 ms.
@@ -582,7 +584,7 @@ fn one_typed_event_stream_for_ports_nodes_pairs_masters_emcy_and_discrepancies()
         assert!(
             w.events(id)
                 .iter()
-                .any(|(t, k)| *t > cut && matches!(k, K::Port { port: 1, to, .. } if *to != duocan_redundancy::health::PortState::Ok)),
+                .any(|(t, k)| *t > cut && matches!(k, K::Port { port: 1, to, .. } if *to != duocan_redundancy::link::health::PortState::Ok)),
             "master {id}"
         );
     }

@@ -4,8 +4,8 @@
 mod supnet;
 
 use duocan::{Duration, Instant, NmtCommand};
-use duocan_redundancy::flying_master::MasterRole;
-use duocan_redundancy::pairs::{PairsEvent, RoleReason};
+use duocan_redundancy::supervisor::flying_master::MasterRole;
+use duocan_redundancy::supervisor::pairs::{PairsEvent, RoleReason};
 use duocan_redundancy::{Member, PairId, SupervisorEvent};
 use supnet::*;
 

@@ -6,7 +6,7 @@ mod supnet;
 
 use duocan::sim::{PortRef, TraceRecord, TxOutcome};
 use duocan::{Duration, Id, Instant, NmtCommand, NmtState};
-use duocan_redundancy::flying_master::{MasterReason, MasterRole};
+use duocan_redundancy::supervisor::flying_master::{MasterReason, MasterRole};
 use duocan_redundancy::Member;
 use supnet::*;
 

@@ -6,7 +6,7 @@ use duocan::node::NodeEventKind;
 use duocan::port::socketcan::SocketCanPort;
 use duocan::runtime::{Runtime, RuntimeEvent};
 use duocan::Duration;
-use duocan_redundancy::{DualBus, DualBusConfig, LinkEvent, LinkEventKind, Mode, PortState};
+use duocan_redundancy::{DualBus, DualBusConfig, LinkEvent, LinkEventKind, LinkMode, PortState};
 use std::process::Command;
 use std::time::Duration as StdDuration;
 
@@ -22,7 +22,7 @@ const HB_MS: u16 = 25;
 
 fn station(id: u8, master: bool, hb_ms: u16, consume: Option<(u8, u16)>) -> Dev {
     let link = DualBus::new(DualBusConfig::with_guard_period(
-        Mode::ActiveActive,
+        LinkMode::ActiveActive,
         Duration::from_millis(HB_MS as u64),
     ));
     let consume: Vec<_> = consume.into_iter().collect();

@@ -8,9 +8,9 @@
 
 use super::candump::CandumpWriter;
 use super::pcap::PcapWriter;
+use crate::frame::instant::Instant;
 use crate::frame::Frame;
 use crate::machine::Machine;
-use crate::time::Instant;
 use std::io::{self, Write};
 use std::sync::{Arc, Mutex};
 use std::time::{SystemTime, UNIX_EPOCH};
@@ -26,7 +26,7 @@ pub enum TapPoint {
 
 /// Which way the frame went, seen from the device.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
-pub enum Direction {
+pub enum TapDirection {
     /// Received.
     Rx,
     /// Sent.
@@ -36,7 +36,7 @@ pub enum Direction {
 /// Something told of every frame at a tap point.
 pub trait Tap: Send + Sync {
     /// A frame was seen at `point` going `dir`, at `at` (the driver's clock).
-    fn frame(&self, at: Instant, point: TapPoint, dir: Direction, frame: &Frame);
+    fn frame(&self, at: Instant, point: TapPoint, dir: TapDirection, frame: &Frame);
 }
 
 /// Which frames a sink records.
@@ -169,7 +169,7 @@ impl Default for Recorder {
 }
 
 impl Tap for Recorder {
-    fn frame(&self, at: Instant, point: TapPoint, _dir: Direction, frame: &Frame) {
+    fn frame(&self, at: Instant, point: TapPoint, _dir: TapDirection, frame: &Frame) {
         let ts = self.epoch_us.saturating_add(at.as_micros());
         let name = self.name(point);
         let Ok(mut i) = self.inner.lock() else {
@@ -212,7 +212,8 @@ impl<M: Machine> Machine for Tapped<M> {
     type Event = M::Event;
     fn handle_frame(&mut self, now: Instant, frame: &Frame) {
         self.now = now;
-        self.tap.frame(now, TapPoint::Logical, Direction::Rx, frame);
+        self.tap
+            .frame(now, TapPoint::Logical, TapDirection::Rx, frame);
         self.inner.handle_frame(now, frame);
     }
     fn handle_timeout(&mut self, now: Instant) {
@@ -222,7 +223,7 @@ impl<M: Machine> Machine for Tapped<M> {
     fn poll_transmit(&mut self) -> Option<Frame> {
         let f = self.inner.poll_transmit()?;
         self.tap
-            .frame(self.now, TapPoint::Logical, Direction::Tx, &f);
+            .frame(self.now, TapPoint::Logical, TapDirection::Tx, &f);
         Some(f)
     }
     fn poll_timeout(&self) -> Option<Instant> {
@@ -233,13 +234,6 @@ impl<M: Machine> Machine for Tapped<M> {
     }
     fn handle_link_request(&mut self, now: Instant, req: crate::machine::LinkRequest) {
         self.inner.handle_link_request(now, req);
-    }
-}
-
-#[cfg(feature = "tokio")]
-impl<M: crate::runtime::NodeHost> crate::runtime::NodeHost for Tapped<M> {
-    fn local_node(&mut self) -> &mut dyn crate::runtime::LocalNode {
-        self.inner.local_node()
     }
 }
 
@@ -274,19 +268,19 @@ mod tests {
         rec.frame(
             Instant::from_micros(1),
             TapPoint::Port(0),
-            Direction::Rx,
+            TapDirection::Rx,
             &f,
         );
         rec.frame(
             Instant::from_micros(2),
             TapPoint::Port(1),
-            Direction::Rx,
+            TapDirection::Rx,
             &f,
         );
         rec.frame(
             Instant::from_micros(3),
             TapPoint::Logical,
-            Direction::Rx,
+            TapDirection::Rx,
             &f,
         );
         let text = String::from_utf8(log.0.lock().unwrap().clone()).unwrap();

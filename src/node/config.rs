@@ -1,16 +1,16 @@
 //! The dictionary as configuration: reading the services' parameters, the rules of
 //! communication objects, and the services' reactions to writes.
 
-use super::{NodeCore, NodeEventKind, ObjectAccess, Writer};
-use crate::abort::AbortCode;
-use crate::cob_id::CobId;
-use crate::heartbeat::ConsumerSetting;
-use crate::nmt::NmtState;
+use super::{NodeCore, NodeEventKind, Writer};
+use crate::cia301::heartbeat::ConsumerSetting;
+use crate::cia301::pdo::{self};
+use crate::cia301::sync::SyncConfig;
+use crate::frame::cob_id::CobId;
+use crate::frame::instant::{Duration, Instant};
+use crate::od::abort::AbortCode;
+use crate::od::ObjectAccess;
 use crate::od::{check_value, comm, Access, Entry, ObjectDictionary};
-use crate::pdo::{self};
 use crate::profile::IdProfile;
-use crate::sync::SyncConfig;
-use crate::time::{Duration, Instant};
 
 impl<D: ObjectDictionary, P: IdProfile, const G: usize, const TPDOS: usize, const RPDOS: usize>
     NodeCore<D, P, G, TPDOS, RPDOS>
@@ -40,7 +40,7 @@ impl<D: ObjectDictionary, P: IdProfile, const G: usize, const TPDOS: usize, cons
     }
 
     pub(super) fn emcy_params(&self) -> (CobId, u16) {
-        let default = crate::cob_id::CobId::from_id(self.profile.emcy(self.id()));
+        let default = crate::frame::cob_id::CobId::from_id(self.profile.emcy(self.id()));
         (
             CobId(self.od.get_u32(comm::EMCY_COB_ID, 0).unwrap_or(default.0)),
             self.u16_of(comm::EMCY_INHIBIT),
@@ -202,8 +202,5 @@ impl<D: ObjectDictionary, P: IdProfile, const G: usize, const TPDOS: usize, cons
     }
     fn write(&mut self, now: Instant, index: u16, sub: u8, data: &[u8]) -> Result<(), AbortCode> {
         self.write_checked(now, index, sub, data, Writer::Sdo)
-    }
-    fn nmt_state(&self) -> NmtState {
-        self.state
     }
 }

@@ -1,16 +1,20 @@
 //! The node at work: boot and NMT state, frame dispatch, timeouts, EMCY.
 
-use super::{NodeCore, NodeEvent, NodeEventKind, QueueFull, StateCause};
-use crate::cob_id::NodeId;
-use crate::emcy::{self, EmcyMessage, EmcyProducer};
+use super::{
+    NodeCore, NodeEvent, NodeEventKind, NodeStats, QueueFull, StateCause, EVENT_QUEUE, TX_QUEUE,
+};
+use crate::cia301::emcy::{self, EmcyMessage, EmcyProducer};
+use crate::cia301::guarding::{GuardEvent, LifeEvent};
+use crate::cia301::heartbeat::ConsumerEvent;
+use crate::cia301::nmt::{self, NmtCommand, NmtState};
+use crate::cia301::pdo::{self, PdoEngine};
+use crate::frame::cob_id::NodeId;
+use crate::frame::instant::{earliest, Instant};
+use crate::frame::queue::Bounded;
+use crate::frame::Malformed;
 use crate::frame::{Frame, Id};
-use crate::guarding::{GuardEvent, LifeEvent};
-use crate::heartbeat::ConsumerEvent;
-use crate::nmt::{self, Malformed, NmtCommand, NmtState};
 use crate::od::{comm, ObjectDictionary};
-use crate::pdo::{self, PdoEngine};
 use crate::profile::{IdProfile, ProfileFrame};
-use crate::time::{earliest, Instant};
 
 impl<D: ObjectDictionary, P: IdProfile, const G: usize, const TPDOS: usize, const RPDOS: usize>
     NodeCore<D, P, G, TPDOS, RPDOS>
@@ -23,12 +27,14 @@ impl<D: ObjectDictionary, P: IdProfile, const G: usize, const TPDOS: usize, cons
         self.events.push(NodeEvent { at, kind });
     }
 
-    pub(super) fn pdo_io(&mut self) -> (&mut PdoEngine<TPDOS, RPDOS>, pdo::Io<'_, D>) {
+    pub(super) fn pdo_io(&mut self) -> (&mut PdoEngine<TPDOS, RPDOS>, pdo::Io<'_, D, PdoOut<'_>>) {
         let io = pdo::Io {
             od: &mut self.od,
-            tx: &mut self.tx,
-            stats: &mut self.stats,
-            events: &mut self.events,
+            out: PdoOut {
+                tx: &mut self.tx,
+                stats: &mut self.stats,
+                events: &mut self.events,
+            },
         };
         (&mut self.pdo, io)
     }
@@ -442,5 +448,26 @@ impl<D: ObjectDictionary, P: IdProfile, const G: usize, const TPDOS: usize, cons
             t = earliest(t, self.emcy.poll_timeout());
         }
         t
+    }
+}
+
+/// The node's queues, as the PDO engine's output.
+pub(super) struct PdoOut<'a> {
+    tx: &'a mut Bounded<Frame, TX_QUEUE>,
+    stats: &'a mut NodeStats,
+    events: &'a mut Bounded<NodeEvent, EVENT_QUEUE>,
+}
+
+impl pdo::PdoOutput for PdoOut<'_> {
+    fn send(&mut self, frame: Frame) {
+        if self.tx.push(frame) {
+            self.stats.tx_frames += 1;
+        }
+    }
+    fn event(&mut self, at: Instant, e: pdo::PdoEvent) {
+        self.events.push(NodeEvent {
+            at,
+            kind: NodeEventKind::Pdo(e),
+        });
     }
 }

@@ -1,13 +1,14 @@
 //! What a node tells its application: typed events with timestamps, counters, errors.
 
 use super::TX_QUEUE;
-use crate::cob_id::NodeId;
-use crate::emcy::EmcyMessage;
+use crate::cia301::emcy::EmcyMessage;
+use crate::cia301::nmt::{NmtCommand, NmtState};
+use crate::cia301::pdo::PdoEvent;
+use crate::cia301::time_stamp::TimeOfDay;
+use crate::frame::cob_id::NodeId;
+use crate::frame::instant::Instant;
 use crate::frame::Id;
-use crate::nmt::{Malformed, NmtCommand, NmtState};
-use crate::pdo::PdoEvent;
-use crate::time::Instant;
-use crate::time_stamp::TimeOfDay;
+use crate::frame::Malformed;
 use core::fmt;
 
 /// Why the local NMT state changed.

@@ -5,22 +5,22 @@
 //! react when an entry changes (writing 0x1017 restarts the heartbeat, 0x1006 re-times SYNC, …).
 //! Every write — local or from the bus — goes through the node so that those reactions happen.
 
-use crate::abort::AbortCode;
-use crate::cob_id::NodeId;
-use crate::emcy::EmcyProducer;
+use crate::cia301::emcy::EmcyProducer;
+use crate::cia301::guarding::{GuardMaster, GuardSlave};
+use crate::cia301::heartbeat::{HeartbeatConsumer, HeartbeatProducer};
+use crate::cia301::nmt::{self, NmtCommand, NmtState, NmtTarget, NodeTable, NodeView};
+use crate::cia301::pdo::{self, PdoEngine, PdoError, RpdoStatus, TpdoStatus};
+use crate::cia301::sdo::{SdoServer, SdoServerConfig};
+use crate::cia301::sync::SyncService;
+use crate::cia301::time_stamp::{TimeOfDay, TimeService};
+use crate::frame::cob_id::NodeId;
+use crate::frame::instant::{earliest, Duration, Instant};
+use crate::frame::queue::Bounded;
 use crate::frame::Frame;
-use crate::guarding::{GuardMaster, GuardSlave};
-use crate::heartbeat::{HeartbeatConsumer, HeartbeatProducer};
 use crate::machine::{LinkRequest, Machine};
-use crate::nmt::{self, NmtCommand, NmtState, NmtTarget, NodeTable, NodeView};
-use crate::od::{Entry, ObjectDictionary, OdValue};
-use crate::pdo::{self, PdoEngine, PdoError, RpdoStatus, TpdoStatus};
+use crate::od::abort::AbortCode;
+use crate::od::{ObjectDictionary, OdValue};
 use crate::profile::{IdProfile, Predefined};
-use crate::queue::Bounded;
-use crate::sdo::{SdoServer, SdoServerConfig};
-use crate::sync::SyncService;
-use crate::time::{earliest, Duration, Instant};
-use crate::time_stamp::{TimeOfDay, TimeService};
 
 /// Heartbeat consumer capacity: CiA 301 allows 127 producers in 0x1016.
 pub const HEARTBEAT_CONSUMERS: usize = 127;
@@ -68,19 +68,6 @@ mod dispatch;
 mod events;
 
 pub use events::{NodeEvent, NodeEventKind, NodeStats, QueueFull, StateCause, Writer};
-
-/// What protocol servers (SDO, PDO) use to reach a node's dictionary: bus-side access rights
-/// and checks, and the stack's reactions to writes.
-pub trait ObjectAccess {
-    /// Finds an entry (no access check).
-    fn entry(&self, index: u16, sub: u8) -> Result<Entry<'_>, AbortCode>;
-    /// Reads as a remote client may.
-    fn read(&self, index: u16, sub: u8) -> Result<&[u8], AbortCode>;
-    /// Writes as a remote client may; the stack reacts as to any write.
-    fn write(&mut self, now: Instant, index: u16, sub: u8, data: &[u8]) -> Result<(), AbortCode>;
-    /// The node's NMT state (SDO is refused in stopped).
-    fn nmt_state(&self) -> NmtState;
-}
 
 /// Everything of a node but the SDO server: dictionary, NMT, error control, SYNC, TIME, EMCY,
 /// PDO.
@@ -358,7 +345,7 @@ impl<D: ObjectDictionary, P: IdProfile, const G: usize, const TPDOS: usize, cons
     pub fn rpdo_status(&self, pdo: u16) -> Option<RpdoStatus> {
         self.core.pdo.rpdo_status(pdo)
     }
-    /// Report every RPDO applied ([`PdoEvent::RpdoReceived`](crate::pdo::PdoEvent::RpdoReceived); on by default). Off, the
+    /// Report every RPDO applied ([`PdoEvent::RpdoReceived`](crate::cia301::pdo::PdoEvent::RpdoReceived); on by default). Off, the
     /// application reads the dictionary or [`Node::rpdo_status`] instead, and a high PDO rate
     /// cannot crowd other events out of the bounded queue.
     pub fn set_rpdo_events(&mut self, on: bool) {
@@ -375,6 +362,13 @@ impl<D: ObjectDictionary, P: IdProfile, const G: usize, const TPDOS: usize, cons
             engine.reload(now, pdo::Dir::Receive, slot, &mut io);
         }
         self.core.pdo_emcy(now);
+    }
+}
+
+impl<D, P, const G: usize, const TPDOS: usize, const RPDOS: usize> NodeCore<D, P, G, TPDOS, RPDOS> {
+    /// The local NMT state.
+    pub fn nmt_state(&self) -> NmtState {
+        self.state
     }
 }
 

@@ -13,7 +13,7 @@
 //! ```
 
 use super::def::{Access, DataType, DefaultValue, ObjectDef, ObjectType};
-use crate::abort::AbortCode;
+use crate::od::abort::AbortCode;
 
 /// Device type.
 pub const DEVICE_TYPE: u16 = 0x1000;

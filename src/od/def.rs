@@ -1,7 +1,7 @@
 //! Entry definitions: data types, access, limits, defaults, hooks. All `const`-constructible so a
 //! dictionary's definitions can live in flash as a compile-time table.
 
-use crate::abort::AbortCode;
+use crate::od::abort::AbortCode;
 
 /// CiA 301 data types (the numbers are the type indices of 0x0001–0x001B).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]

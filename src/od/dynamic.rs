@@ -3,7 +3,7 @@
 
 use super::def::{key, ObjectDef};
 use super::{miss, value, BuildError, Entry, KeyHasher, ObjectDictionary};
-use crate::abort::AbortCode;
+use crate::od::abort::AbortCode;
 use alloc::vec::Vec;
 use core::hash::BuildHasherDefault;
 use core::ops::RangeInclusive;

@@ -5,6 +5,8 @@
 //! Values are stored as the little-endian bytes that travel on the bus, so SDO and PDO copy them
 //! without conversion. Lookup is a hash on `index << 8 | sub`, independent of dictionary size.
 
+pub mod abort;
+mod access;
 pub mod comm;
 mod def;
 #[cfg(feature = "alloc")]
@@ -12,13 +14,14 @@ mod dynamic;
 mod static_dict;
 mod value;
 
+pub use access::ObjectAccess;
 pub use def::{key, Access, DataType, DefaultValue, Limit, ObjectDef, ObjectType, WriteHook};
 #[cfg(feature = "alloc")]
 pub use dynamic::DynamicDictionary;
 pub use static_dict::StaticDictionary;
 pub use value::{check_value, OdValue};
 
-use crate::abort::AbortCode;
+use crate::od::abort::AbortCode;
 use core::fmt;
 use core::hash::Hasher;
 use core::ops::RangeInclusive;

@@ -1,7 +1,7 @@
 //! Encoding of values (little-endian, as on the wire) and the checks every write goes through.
 
 use super::def::{DataType, DefaultValue, Limit, ObjectDef};
-use crate::abort::AbortCode;
+use crate::od::abort::AbortCode;
 
 /// A Rust type that maps onto a fixed-size CiA 301 data type.
 pub trait OdValue: Sized + Copy {

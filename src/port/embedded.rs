@@ -13,9 +13,9 @@
 //! and the device is told the port is up again (or down, if the hook failed). A layer waiting for
 //! its re-initialisation is therefore never left waiting by an application that forgot it.
 
+use crate::frame::instant::Instant;
 use crate::frame::Frame;
 use crate::machine::{Device, ErrorCause, PortRequest, PortStatus};
-use crate::time::Instant;
 use embedded_can::nb::Can;
 use embedded_can::{Error as _, ErrorKind};
 use heapless::Deque;

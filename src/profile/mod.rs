@@ -7,7 +7,7 @@
 
 pub mod railway;
 
-use crate::cob_id::{predefined, NodeId};
+use crate::frame::cob_id::{predefined, NodeId};
 use crate::frame::Id;
 
 /// What a profile recognises in an identifier.

@@ -2,8 +2,8 @@
 
 use super::task::{Command, Start, Watcher};
 use super::{Clock, RuntimeEvent};
+use crate::frame::instant::Instant;
 use crate::port::{PortCounters, PortCountersSnapshot};
-use crate::time::Instant;
 use std::fmt;
 use std::sync::{Arc, Mutex};
 use tokio::sync::{broadcast, mpsc, oneshot};

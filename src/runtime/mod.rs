@@ -31,9 +31,9 @@ pub use node::{LocalNode, NodeHost};
 pub use sdo::{SdoEvents, SdoHost, SdoStart};
 
 use crate::capture::recorder::Tap;
+use crate::frame::instant::Instant;
 use crate::machine::{Device, PortStatus};
 use crate::port::{Port, PortCounters};
-use crate::time::Instant;
 use std::fmt;
 use std::sync::Arc;
 use tokio::sync::{broadcast, mpsc};
@@ -206,7 +206,7 @@ where
             events: ev_tx.clone(),
             tap: self.tap,
             watchers: Vec::new(),
-            last: crate::time::Instant::ZERO,
+            last: crate::frame::instant::Instant::ZERO,
         };
         let task = tokio::spawn(core.run(cmd_rx, in_rx).instrument(span));
         Ok(Handle::new(cmd_tx, ev_tx, clock, names, counters, task))

@@ -1,13 +1,13 @@
 //! Typed handle operations for devices that contain a [`Node`].
 
 use super::handle::{Handle, RuntimeClosed};
-use crate::abort::AbortCode;
-use crate::machine::{Pair, Station};
-use crate::nmt::{NmtCommand, NmtState, NmtTarget};
+use crate::cia301::nmt::{NmtCommand, NmtState, NmtTarget};
+use crate::frame::instant::Instant;
+use crate::machine::{Composite, Station};
 use crate::node::{Node, QueueFull};
+use crate::od::abort::AbortCode;
 use crate::od::ObjectDictionary;
 use crate::profile::IdProfile;
-use crate::time::Instant;
 
 /// What the handle can do to the local node of a device (object-safe view of [`Node`]).
 pub trait LocalNode {
@@ -71,6 +71,14 @@ pub trait NodeHost {
     fn local_node(&mut self) -> &mut dyn LocalNode;
 }
 
+// A tapped machine records its frames and still hands out its node (the capture layer sits
+// below the runtime, so the runtime says how the two fit).
+impl<M: NodeHost> NodeHost for crate::capture::recorder::Tapped<M> {
+    fn local_node(&mut self) -> &mut dyn LocalNode {
+        self.inner.local_node()
+    }
+}
+
 impl<D: ObjectDictionary, P: IdProfile, const G: usize, const T: usize, const R: usize> NodeHost
     for Node<D, P, G, T, R>
 {
@@ -79,8 +87,8 @@ impl<D: ObjectDictionary, P: IdProfile, const G: usize, const T: usize, const R:
     }
 }
 
-/// The node of a pair is its first machine (`Pair::new(node, sdo_client)`).
-impl<A: NodeHost, B> NodeHost for Pair<A, B> {
+/// The node of a pair is its first machine (`Composite::new(node, sdo_client)`).
+impl<A: NodeHost, B> NodeHost for Composite<A, B> {
     fn local_node(&mut self) -> &mut dyn LocalNode {
         self.a.local_node()
     }

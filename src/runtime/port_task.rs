@@ -1,9 +1,9 @@
 //! One task per port: reads, writes, and re-opens after failures.
 
+use crate::frame::instant::Instant;
 use crate::frame::Frame;
 use crate::machine::{ErrorCause, PortRequest, PortStatus};
 use crate::port::{Port, PortErrorKind, PortInput};
-use crate::time::Instant;
 use std::time::Duration;
 use tokio::sync::mpsc;
 

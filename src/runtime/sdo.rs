@@ -1,14 +1,14 @@
 //! Asynchronous SDO transfers through a [`Handle`]: `handle.sdo_read(node, …).await`.
 //!
-//! The device holds an [`SdoClient`] (usually `Pair::new(node, client)` in a station). A read or
+//! The device holds an [`SdoClient`] (usually `Composite::new(node, client)` in a station). A read or
 //! write starts the transfer inside the core task and waits for the client's [`SdoEvent`] that
 //! names its [`RequestId`] (through [`Handle::request`], so the result cannot be missed); many
 //! transfers can be in flight at once, to different nodes.
 
 use super::handle::{Handle, RuntimeClosed};
-use crate::machine::{Pair, PairEvent, Station, StationEvent};
-use crate::sdo::{RequestId, SdoClient, SdoError, SdoEvent, SdoOptions, TransferBuffer};
-use crate::time::Instant;
+use crate::cia301::sdo::{RequestId, SdoClient, SdoError, SdoEvent, SdoOptions, TransferBuffer};
+use crate::frame::instant::Instant;
+use crate::machine::{Composite, CompositeEvent, Station, StationEvent};
 use crate::NodeId;
 
 /// One transfer to start: a read when `data` is `None`, else a write of `data`.
@@ -22,7 +22,7 @@ pub struct SdoStart<'a> {
     pub sub: u8,
     /// What to write, or `None` to read.
     pub data: Option<&'a [u8]>,
-    /// Mode, timeout, block size.
+    /// TransferMode, timeout, block size.
     pub opts: SdoOptions,
 }
 
@@ -41,8 +41,8 @@ impl<B: TransferBuffer, const S: usize> SdoHost for SdoClient<B, S> {
     }
 }
 
-/// The client of a pair is its second machine (`Pair::new(node, client)`).
-impl<A, C: SdoHost> SdoHost for Pair<A, C> {
+/// The client of a pair is its second machine (`Composite::new(node, client)`).
+impl<A, C: SdoHost> SdoHost for Composite<A, C> {
     fn sdo_start(&mut self, now: Instant, r: SdoStart<'_>) -> Result<RequestId, SdoError> {
         self.b.sdo_start(now, r)
     }
@@ -73,11 +73,11 @@ impl<B: TransferBuffer> SdoEvents for SdoEvent<B> {
     }
 }
 
-impl<A, B: SdoEvents> SdoEvents for PairEvent<A, B> {
+impl<A, B: SdoEvents> SdoEvents for CompositeEvent<A, B> {
     fn sdo_result(&self) -> Option<(RequestId, Result<Vec<u8>, SdoError>)> {
         match self {
-            PairEvent::B(e) => e.sdo_result(),
-            PairEvent::A(_) => None,
+            CompositeEvent::B(e) => e.sdo_result(),
+            CompositeEvent::A(_) => None,
         }
     }
 }

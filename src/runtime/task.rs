@@ -2,7 +2,7 @@
 
 use super::port_task::{Arrival, PortCmd};
 use super::{Clock, RuntimeEvent};
-use crate::capture::recorder::{Direction, Tap, TapPoint};
+use crate::capture::recorder::{Tap, TapDirection, TapPoint};
 use crate::machine::{Device, PortStatus};
 use crate::port::{PortCounters, PortInput};
 use std::sync::Arc;
@@ -110,7 +110,7 @@ where
         match x {
             PortInput::Frame(f) => {
                 if let Some(t) = &self.tap {
-                    t.frame(now, TapPoint::Port(port), Direction::Rx, &f);
+                    t.frame(now, TapPoint::Port(port), TapDirection::Rx, &f);
                 }
                 self.device.handle_rx(now, port, &f);
             }
@@ -140,7 +140,7 @@ where
                 continue;
             };
             if let Some(t) = &self.tap {
-                t.frame(now, TapPoint::Port(port), Direction::Tx, &f);
+                t.frame(now, TapPoint::Port(port), TapDirection::Tx, &f);
             }
             if tx.try_send(PortCmd::Send(f)).is_err() {
                 // The port cannot keep up (or is down): drop rather than stall the device.

@@ -1,8 +1,8 @@
 //! Buses, their segments and the port controllers attached to them.
 
 use super::fault::FaultRates;
+use crate::frame::instant::{Duration, Instant};
 use crate::frame::Frame;
-use crate::time::{Duration, Instant};
 use std::collections::{BTreeSet, VecDeque};
 use std::sync::Arc;
 

@@ -3,9 +3,9 @@
 use super::bus::Port;
 use super::ids::{BusId, DevId, DeviceRef, SimError};
 use super::SimNetwork;
+use crate::frame::instant::Instant;
 use crate::frame::Frame;
 use crate::machine::{Device, PortRequest, PortStatus};
-use crate::time::Instant;
 use std::any::Any;
 use std::sync::Arc;
 

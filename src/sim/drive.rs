@@ -2,9 +2,9 @@
 //! deadline, and keeping each port's place in its segment's arbitration.
 
 use super::SimNetwork;
+use crate::frame::instant::{Duration, Instant};
 use crate::frame::Frame;
 use crate::machine::{ErrorCause, PortRequest, PortStatus};
-use crate::time::{Duration, Instant};
 use core::cmp::Reverse;
 
 /// `handle_timeout` calls one device may need at one instant before the simulator assumes it

@@ -6,8 +6,8 @@ use super::ids::BusId;
 use super::timing;
 use super::trace::{TraceRecord, TxOutcome, TxRecord};
 use super::SimNetwork;
+use crate::frame::instant::{earliest, Instant};
 use crate::machine::{ErrorCause, PortStatus};
-use crate::time::{earliest, Instant};
 use core::cmp::Reverse;
 
 impl SimNetwork {

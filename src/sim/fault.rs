@@ -3,9 +3,9 @@
 use super::bus::Segment;
 use super::ids::{BusId, PortRef};
 use super::SimNetwork;
+use crate::frame::instant::Duration;
 use crate::frame::Frame;
 use crate::machine::{ErrorCause, PortStatus};
-use crate::time::Duration;
 
 /// Probabilities of random faults, per frame (bus rates, for every receiver of the bus) or per
 /// frame and receiving port (port rates). A bus rate and a port rate of the same kind combine as

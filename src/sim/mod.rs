@@ -94,8 +94,8 @@ pub use fault::FaultRates;
 pub use ids::{BusConfig, BusId, DevId, DeviceRef, PortRef, SimError};
 pub use trace::{RxFault, RxRecord, TraceRecord, TxOutcome, TxRecord};
 
+use crate::frame::instant::{Duration, Instant};
 use crate::machine::PortStatus;
-use crate::time::{Duration, Instant};
 use bus::{Bus, Port};
 use core::cmp::Reverse;
 use core::fmt;

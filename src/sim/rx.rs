@@ -5,9 +5,9 @@ use super::ids::BusId;
 use super::sched::{DelayedRx, Timed};
 use super::trace::{RxFault, RxRecord, TraceRecord};
 use super::SimNetwork;
+use crate::frame::instant::{Duration, Instant};
 use crate::frame::Frame;
 use crate::machine::{ErrorCause, PortStatus};
-use crate::time::{Duration, Instant};
 
 impl SimNetwork {
     pub(super) fn deliver_delayed(&mut self) {

@@ -1,8 +1,8 @@
 //! Min-heap entries ordered by time, then by insertion: equal times keep their order.
 
 use super::SimNetwork;
+use crate::frame::instant::Instant;
 use crate::frame::Frame;
-use crate::time::Instant;
 use core::cmp::Ordering;
 
 /// Something due at `at`; the sequence number breaks ties in insertion order.

@@ -7,8 +7,8 @@
 //! whose bit time is a whole number of microseconds (1 Mbit/s, 500, 250, 125, 100, 50, 20,
 //! 10 kbit/s), and never optimistic for the others.
 
+use crate::frame::instant::Duration;
 use crate::frame::{Frame, Id};
-use crate::time::Duration;
 
 /// CRC delimiter, ACK slot, ACK delimiter and end of frame: never stuffed.
 const TRAILER_BITS: u32 = 3 + 7;

@@ -1,8 +1,8 @@
 //! The recorder: what happened on the wires, comparable between runs.
 
 use super::ids::{BusId, PortRef};
+use crate::frame::instant::Instant;
 use crate::frame::Frame;
-use crate::time::Instant;
 use core::fmt;
 use std::sync::Arc;
 

@@ -52,11 +52,11 @@ impl NodeEv for NodeEvent {
     }
 }
 
-impl<B> NodeEv for duocan::machine::PairEvent<NodeEvent, B> {
+impl<B> NodeEv for duocan::machine::CompositeEvent<NodeEvent, B> {
     fn node_ev(&self) -> Option<NodeEventKind> {
         match self {
-            duocan::machine::PairEvent::A(n) => Some(n.kind),
-            duocan::machine::PairEvent::B(_) => None,
+            duocan::machine::CompositeEvent::A(n) => Some(n.kind),
+            duocan::machine::CompositeEvent::B(_) => None,
         }
     }
 }
@@ -140,10 +140,10 @@ pub fn sdo_node(id: u8, master: bool, hb_ms: u16, consume: &[(u8, u16)]) -> Test
 }
 
 /// A master: node plus SDO client.
-pub type Master = Station<SinglePort, duocan::machine::Pair<TestNode, duocan::sdo::SdoClient>>;
+pub type Master = Station<SinglePort, duocan::machine::Composite<TestNode, duocan::sdo::SdoClient>>;
 
 pub fn master(id: u8, consume: &[(u8, u16)]) -> Master {
-    Station::single(duocan::machine::Pair::new(
+    Station::single(duocan::machine::Composite::new(
         sdo_node(id, true, 0, consume),
         duocan::sdo::SdoClient::new(8192),
     ))

@@ -18,9 +18,9 @@ use super::station::{board_node, master_node, MASTER_NAMES, STRONG, WEAK};
 use super::{Act, Happened, Station, CONSUMER, DETECT_CYCLE, MASTER_TIMEOUT, SILENCE_LIMIT, SYNC};
 use duocan::sim::{DeviceRef, TraceRecord, TxOutcome};
 use duocan::{Duration, Frame, Instant, NmtState};
-use duocan_redundancy::flying_master::{MasterReason, MasterRole};
-use duocan_redundancy::health::PortState;
-use duocan_redundancy::pairs::PairsEvent;
+use duocan_redundancy::link::health::PortState;
+use duocan_redundancy::supervisor::flying_master::{MasterReason, MasterRole};
+use duocan_redundancy::supervisor::pairs::PairsEvent;
 use duocan_redundancy::{Member, NetworkEventKind as K, SupervisorEvent};
 use std::collections::HashMap;
 

@@ -5,12 +5,12 @@
 
 use super::field::{Kind, Shared};
 use super::scheme::Scheme;
+use duocan::frame::instant::earliest;
 use duocan::machine::Machine;
 use duocan::node::NodeEventKind;
 use duocan::od::{comm, DynamicDictionary};
-use duocan::time::earliest;
 use duocan::{Frame, Instant, NmtState, Node, NodeConfig, NodeId, Station};
-use duocan_redundancy::{DualBus, DualBusConfig, Mode};
+use duocan_redundancy::{DualBus, DualBusConfig, LinkMode};
 use std::collections::VecDeque;
 
 /// What a board did.
@@ -82,7 +82,7 @@ pub fn board<S: Scheme>(
     let mut node = Node::with_profile(NodeConfig::slave(id), od, scheme.clone());
     node.boot(now);
     let link = DualBus::with_classifier(
-        DualBusConfig::with_guard_period(Mode::ActiveActive, guard),
+        DualBusConfig::with_guard_period(LinkMode::ActiveActive, guard),
         scheme.clone(),
     );
     Station::new(

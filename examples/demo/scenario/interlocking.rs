@@ -10,11 +10,11 @@
 
 use super::field::Kind;
 use super::scheme::Scheme;
+use duocan::frame::instant::earliest;
 use duocan::machine::{BusLink, Device, PortRequest, PortStatus};
 use duocan::od::DynamicDictionary;
-use duocan::time::earliest;
 use duocan::{Duration, Frame, Id, Instant, NodeId};
-use duocan_redundancy::pairs::PairsEvent;
+use duocan_redundancy::supervisor::pairs::PairsEvent;
 use duocan_redundancy::{LogicalNetwork, Member, NetworkEvent, NetworkEventKind, SupervisorEvent};
 use std::collections::{BTreeMap, VecDeque};
 use std::rc::Rc;
@@ -134,7 +134,7 @@ impl<S: Scheme> Interlocking<S> {
         boards: &[NodeId],
         schedule: Rc<Vec<Route>>,
         now: Instant,
-    ) -> Result<Self, duocan::pdo::MirrorError> {
+    ) -> Result<Self, duocan::cia302::pdo_config::MirrorError> {
         let mut mirrors = Vec::new();
         for &b in boards {
             let msgs: &[Msg] = if kind == Kind::Track {
@@ -148,19 +148,26 @@ impl<S: Scheme> Interlocking<S> {
                     Msg::Answer => scheme.answer_id(b),
                 };
                 let index = 0x3000 + mirrors.len() as u16;
-                let locals: Vec<Option<duocan::pdo::Local>> = scheme
+                let locals: Vec<Option<duocan::cia302::pdo_config::Local>> = scheme
                     .layout()
                     .iter()
                     .enumerate()
-                    .map(|(i, (_, t))| Some(duocan::pdo::Local::new(index, i as u8 + 1, *t)))
+                    .map(|(i, (_, t))| {
+                        Some(duocan::cia302::pdo_config::Local::new(
+                            index,
+                            i as u8 + 1,
+                            *t,
+                        ))
+                    })
                     .collect();
-                let remote = duocan::pdo::PdoConfig::new(duocan::CobId::from_id(id), 255)
-                    .mapping(&scheme.mapping())
-                    .ok_or(duocan::pdo::MirrorError::NoMapping)?;
+                let remote =
+                    duocan::cia302::pdo_config::PdoConfig::new(duocan::CobId::from_id(id), 255)
+                        .mapping(&scheme.mapping())
+                        .ok_or(duocan::cia302::pdo_config::MirrorError::NoMapping)?;
                 net.mirror_tpdo(
                     now,
                     &remote,
-                    &duocan::pdo::Mirror {
+                    &duocan::cia302::pdo_config::Mirror {
                         pdo: mirrors.len() as u16 + 1,
                         transmission_type: 255,
                         event_timer_ms: 0,

@@ -13,6 +13,10 @@ pub mod board;
 pub mod field;
 pub mod interlocking;
 pub mod outputs;
+// The timeline chart is the demo's own report, not part of the library.
+#[path = "../report/mod.rs"]
+#[allow(dead_code, unused_imports)]
+pub mod report;
 pub mod scheme;
 pub mod station;
 

@@ -17,7 +17,7 @@
 use super::field::Kind;
 use duocan::od::{DataType, DynamicDictionary};
 use duocan::pdo::MapEntry;
-use duocan::profile::railway::{self, DeviceAddress, Function, Payload, RailwayProfile};
+use duocan::profile::railway::{self, DeviceAddress, Payload, RailFunction, RailwayProfile};
 use duocan::profile::{IdProfile, Predefined};
 use duocan::sdo::Channel;
 use duocan::{Frame, Id, NodeId};
@@ -124,8 +124,8 @@ pub const fn address<const ROW: u8>(n: NodeId) -> DeviceAddress {
 fn channel<const ROW: u8>(n: NodeId) -> Channel {
     let a = address::<ROW>(n);
     Channel {
-        request: railway::id(Function::SdoRequest, a),
-        response: railway::id(Function::SdoResponse, a),
+        request: railway::id(RailFunction::SdoRequest, a),
+        response: railway::id(RailFunction::SdoResponse, a),
     }
 }
 
@@ -146,26 +146,26 @@ pub fn railway_profile(row: u8, nodes: impl IntoIterator<Item = NodeId>) -> Rail
 impl Scheme for RailwayProfile {
     const NAME: &'static str = "railway 29-bit profile";
     fn command(&self, board: NodeId, kind: Kind, seq: u16, code: u8) -> Frame {
-        self.message(Function::Command, board, kind, seq, code)
+        self.message(RailFunction::Command, board, kind, seq, code)
     }
     fn answer(&self, board: NodeId, kind: Kind, seq: u16, code: u8) -> Frame {
-        self.message(Function::CommandAnswer, board, kind, seq, code)
+        self.message(RailFunction::CommandAnswer, board, kind, seq, code)
     }
     fn report(&self, board: NodeId, kind: Kind, seq: u16, code: u8) -> Frame {
-        self.message(Function::StateChange, board, kind, seq, code)
+        self.message(RailFunction::StateChange, board, kind, seq, code)
     }
     fn parse_command(&self, me: NodeId, kind: Kind, f: &Frame) -> Option<(u16, u8)> {
-        if f.is_remote() || Some(f.id()) != self.id(Function::Command, me, 1) {
+        if f.is_remote() || Some(f.id()) != self.id(RailFunction::Command, me, 1) {
             return None;
         }
         Scheme::decode(self, f.id(), kind, f.data())
     }
     fn report_id(&self, board: NodeId) -> Id {
-        self.id(Function::StateChange, board, 1)
+        self.id(RailFunction::StateChange, board, 1)
             .unwrap_or(Id::Extended(0))
     }
     fn answer_id(&self, board: NodeId) -> Id {
-        self.id(Function::CommandAnswer, board, 1)
+        self.id(RailFunction::CommandAnswer, board, 1)
             .unwrap_or(Id::Extended(0))
     }
     fn decode(&self, id: Id, kind: Kind, bytes: &[u8]) -> Option<(u16, u8)> {
@@ -197,11 +197,11 @@ impl Scheme for RailwayProfile {
 }
 
 trait Message {
-    fn message(&self, f: Function, board: NodeId, kind: Kind, seq: u16, code: u8) -> Frame;
+    fn message(&self, f: RailFunction, board: NodeId, kind: Kind, seq: u16, code: u8) -> Frame;
 }
 
 impl Message for RailwayProfile {
-    fn message(&self, f: Function, board: NodeId, kind: Kind, seq: u16, code: u8) -> Frame {
+    fn message(&self, f: RailFunction, board: NodeId, kind: Kind, seq: u16, code: u8) -> Frame {
         let id = self.id(f, board, 1).unwrap_or(Id::Extended(0));
         // Three data bytes always fit the payload.
         Payload::new(kind.object(), 1, &three(seq, code))

@@ -11,10 +11,10 @@ use duocan::od::comm;
 use duocan::sdo::{DefaultBuffer, SdoClient, DEFAULT_LIMIT};
 use duocan::sim::{BusConfig, BusId, DevId, DeviceRef, SimNetwork};
 use duocan::{Id, Instant, NmtState, NodeConfig, NodeId};
-use duocan_redundancy::flying_master::MasterRole;
-use duocan_redundancy::pairs::PairSpec;
+use duocan_redundancy::supervisor::flying_master::MasterRole;
+use duocan_redundancy::PairSpec;
 use duocan_redundancy::{
-    DualBus, DualBusConfig, LogicalNetwork, Member, Mode, SupervisedStation, Supervisor,
+    DualBus, DualBusConfig, LinkMode, LogicalNetwork, Member, SupervisedStation, Supervisor,
     SupervisorConfig,
 };
 use std::rc::Rc;
@@ -97,7 +97,7 @@ fn master<S: Scheme>(spec: &RackSpec<S>, which: usize, now: Instant) -> Interloc
         boards.extend([a, b]);
     }
     let link = DualBus::with_classifier(
-        DualBusConfig::with_guard_period(Mode::ActiveActive, BOARD_HB),
+        DualBusConfig::with_guard_period(LinkMode::ActiveActive, BOARD_HB),
         spec.scheme.clone(),
     );
     let net = LogicalNetwork::new(

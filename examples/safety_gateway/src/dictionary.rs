@@ -14,7 +14,7 @@ use crate::{ADDRESS, TRACKS};
 use duocan::od::{comm, Access, DataType, DefaultValue, ObjectDef, ObjectType, StaticDictionary};
 use duocan::pdo::params;
 use duocan::profile::railway::safety::{objects, TrackCircuit};
-use duocan::profile::railway::{self, Function, RailwayProfile};
+use duocan::profile::railway::{self, RailFunction, RailwayProfile};
 use duocan::CobId;
 
 /// Entries the dictionary has room for (a power of two).
@@ -51,7 +51,7 @@ pub const DEVICE_TYPE: u32 = 0x0000_0191;
 /// The 29-bit identifier TPDO `track` uses by default: a state change on the gateway's I/O
 /// port `track`.
 pub const fn state_id(track: u8) -> duocan::Id {
-    railway::id(Function::StateChange, ADDRESS.with_port(track))
+    railway::id(RailFunction::StateChange, ADDRESS.with_port(track))
 }
 
 /// [`comm::communication`] with what differs on this board: the railway identifiers of

@@ -16,15 +16,15 @@ use crate::dictionary::{self, Od, FIELD_TIMEOUT, IMAGE, IMAGE_LEN, TRACK_STATES}
 use crate::mirror::{self, Changes, TrackChange, Tracks, Verdict};
 use crate::{ADDRESS, MERGE_SLOTS, NODE_ID, TRACKS};
 use core::fmt;
+use duocan::frame::instant::earliest;
 use duocan::machine::StationEvent;
 use duocan::node::{NodeEventKind, StateCause};
 use duocan::od::{BuildError, ObjectDictionary};
 use duocan::port::embedded::{status_of, EmbeddedDriver, EmbeddedPortStats, RX_BURST};
 use duocan::profile::railway::safety::{FieldState, SafetyCode, TrackCircuit};
 use duocan::profile::railway::{DeviceAddress, RailwayProfile};
-use duocan::time::earliest;
 use duocan::{CobId, Duration, Frame, Instant, Node, NodeConfig, NodeEvent, NodeId, Station};
-use duocan_redundancy::{DualBus, DualBusConfig, LinkEvent, Mode};
+use duocan_redundancy::{DualBus, DualBusConfig, LinkEvent, LinkMode};
 use embedded_can::nb::Can;
 use embedded_can::Error as _;
 use heapless::Deque;
@@ -46,7 +46,7 @@ pub type DeviceEvent = StationEvent<LinkEvent, NodeEvent>;
 /// acknowledged, so the layer's transmit-stall rule never arms here.)
 pub fn link_config() -> DualBusConfig {
     DualBusConfig::with_guard_period(
-        Mode::ActiveActive,
+        LinkMode::ActiveActive,
         Duration::from_millis(dictionary::HEARTBEAT_MS as u64),
     )
 }

@@ -15,7 +15,7 @@
 
 use crate::{FIELD_BOARD, FIELD_PORT, TRACKS};
 use duocan::profile::railway::safety::{objects, FieldState, SafetyError, TrackCircuit};
-use duocan::profile::railway::{split, Function, Payload, PayloadError};
+use duocan::profile::railway::{split, Payload, PayloadError, RailFunction};
 use duocan::{Duration, Frame, Instant};
 
 /// Why a mirror holds its state.
@@ -77,7 +77,7 @@ pub fn classify(frame: &Frame) -> Verdict {
     let Some((code, address)) = split(frame.id()) else {
         return Verdict::Foreign;
     };
-    if code != Function::StateChange.code()
+    if code != RailFunction::StateChange.code()
         || address.board_address() != FIELD_BOARD
         || address.port() != FIELD_PORT
     {
@@ -227,7 +227,7 @@ mod tests {
     use duocan::profile::railway::{id, DeviceAddress};
     use duocan::Id;
 
-    const PORT_ID: Id = id(Function::StateChange, FIELD_BOARD.with_port(FIELD_PORT));
+    const PORT_ID: Id = id(RailFunction::StateChange, FIELD_BOARD.with_port(FIELD_PORT));
     const T: Duration = Duration::from_millis(300);
 
     fn report(track: u8, code: u8) -> Frame {
@@ -244,10 +244,13 @@ mod tests {
             }
         );
         // Same content under another port or board, or another object: not ours.
-        let other_port = id(Function::StateChange, FIELD_BOARD.with_port(2));
+        let other_port = id(RailFunction::StateChange, FIELD_BOARD.with_port(2));
         let f = Payload::byte(objects::TRACK_CIRCUIT, 1, 0x55).encode(other_port);
         assert_eq!(classify(&f), Verdict::Foreign);
-        let other_board = id(Function::StateChange, DeviceAddress::board_at(0, 0, 1, 2));
+        let other_board = id(
+            RailFunction::StateChange,
+            DeviceAddress::board_at(0, 0, 1, 2),
+        );
         let f = Payload::byte(objects::TRACK_CIRCUIT, 1, 0x55).encode(other_board);
         assert_eq!(classify(&f), Verdict::Foreign);
         assert_eq!(classify(&report(TRACKS + 1, 0x55)), Verdict::Foreign);

@@ -2,7 +2,7 @@
 //! [`Node`] paired with a small cyclic application, and helpers to read what happened.
 #![allow(dead_code)]
 
-use duocan::machine::{Pair, PairEvent, StationEvent};
+use duocan::machine::{Composite, CompositeEvent, StationEvent};
 use duocan::node::NodeEventKind;
 use duocan::od::{comm, DynamicDictionary};
 use duocan::sim::{BusConfig, BusId, DevId, SimNetwork, TraceRecord, TxOutcome};
@@ -87,9 +87,9 @@ impl Machine for App {
     }
 }
 
-pub type Machines = Pair<Node<DynamicDictionary>, App>;
+pub type Machines = Composite<Node<DynamicDictionary>, App>;
 pub type Dev = Station<DualBus, Machines>;
-pub type Ev = StationEvent<LinkEvent, PairEvent<NodeEvent, ()>>;
+pub type Ev = StationEvent<LinkEvent, CompositeEvent<NodeEvent, ()>>;
 
 pub const MASTER: u8 = 1;
 /// Heartbeat period of every node; the health and reachability timing derives from it.
@@ -124,7 +124,7 @@ impl Net {
             .events(self.dev(node))
             .iter()
             .filter_map(|(_, e)| match e {
-                StationEvent::Machine(PairEvent::A(n)) => Some(*n),
+                StationEvent::Machine(CompositeEvent::A(n)) => Some(*n),
                 _ => None,
             })
             .collect()
@@ -283,9 +283,9 @@ pub fn network_with(
         let nid = NodeId::must(id);
         let mut od = comm::standard_dictionary(id, comm::Identity::default());
         // The redundancy objects, whose status entries the layer keeps up to date.
-        od.insert_all(&duocan_redundancy::config::CIA302_6_OBJECTS)
+        od.insert_all(&duocan_redundancy::link::config::CIA302_6_OBJECTS)
             .unwrap();
-        od.insert_all(&duocan_redundancy::config::ECSS_OBJECTS)
+        od.insert_all(&duocan_redundancy::link::config::ECSS_OBJECTS)
             .unwrap();
         let nc = if id == MASTER {
             NodeConfig::master(nid)
@@ -313,7 +313,7 @@ pub fn network_with(
         node.boot(Instant::ZERO);
         let start = Instant::from_millis(100) + Duration::from_micros(300 * id as u64);
         let app = App::new(id, start, Duration::from_millis(10), stop);
-        let station = Station::new(DualBus::new(cfg(id)), Pair::new(node, app));
+        let station = Station::new(DualBus::new(cfg(id)), Composite::new(node, app));
         devs.push(sim.add_device(format!("n{id}"), station, &buses).unwrap());
     }
     Net { sim, buses, devs }
@@ -323,7 +323,7 @@ pub fn network_with(
 /// 150 ms, suspect after 50 ms, probation 50 ms.
 pub fn active_active() -> DualBusConfig {
     DualBusConfig::with_guard_period(
-        duocan_redundancy::Mode::ActiveActive,
+        duocan_redundancy::LinkMode::ActiveActive,
         Duration::from_millis(HB_MS as u64),
     )
 }

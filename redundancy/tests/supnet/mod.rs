@@ -9,11 +9,12 @@ use duocan::master::{objects, Master, NetworkConfig};
 use duocan::od::{comm, DynamicDictionary};
 use duocan::sim::{BusConfig, BusId, DevId, SimNetwork, TraceRecord, TxOutcome};
 use duocan::{Duration, Frame, Id, Instant, NmtCommand, Node, NodeConfig, NodeId, Station};
-use duocan_redundancy::flying_master::{FlyingEvent, MasterRole, MasterRoleChange};
-use duocan_redundancy::pairs::{PairSpec, PairsEvent, RoleChange};
+use duocan_redundancy::supervisor::flying_master::{FlyingEvent, MasterRole, MasterRoleChange};
+use duocan_redundancy::supervisor::pairs::{PairsEvent, RoleChange};
+use duocan_redundancy::PairSpec;
 use duocan_redundancy::{
-    DualBus, DualBusConfig, Member, Mode, PairId, SupervisedStation, Supervisor, SupervisorConfig,
-    SupervisorEvent,
+    DualBus, DualBusConfig, LinkMode, Member, PairId, SupervisedStation, Supervisor,
+    SupervisorConfig, SupervisorEvent,
 };
 
 pub type MasterDev = SupervisedStation<DynamicDictionary>;
@@ -73,7 +74,7 @@ pub struct SupNet {
 
 fn link(p: &Params) -> DualBus {
     DualBus::new(DualBusConfig::with_guard_period(
-        Mode::ActiveActive,
+        LinkMode::ActiveActive,
         p.slave_hb,
     ))
 }
@@ -209,7 +210,7 @@ impl SupNet {
         self.sup_events(id)
             .into_iter()
             .filter_map(|e| match e {
-                SupervisorEvent::Master(FlyingEvent::Role(r)) => Some(r),
+                SupervisorEvent::FlyingMaster(FlyingEvent::Role(r)) => Some(r),
                 _ => None,
             })
             .collect()

@@ -21,7 +21,7 @@ use core::fmt;
 ///   it (never decoded as a service).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
 #[repr(u16)]
-pub enum Function {
+pub enum RailFunction {
     /// NMT module control (duocan's choice; address 0).
     Nmt = 0x000,
     /// SYNC, the interlocking cycle (duocan's choice; address 0).
@@ -50,22 +50,22 @@ pub enum Function {
     Unmapped = 0x1FF,
 }
 
-impl Function {
+impl RailFunction {
     /// Every code, in priority order.
-    pub const ALL: [Function; 13] = [
-        Function::Nmt,
-        Function::Sync,
-        Function::FaultReport,
-        Function::Heartbeat,
-        Function::CommandAnswer,
-        Function::Command,
-        Function::StateChange,
-        Function::NodeGuarding,
-        Function::StateQuery,
-        Function::StateAnswer,
-        Function::SdoResponse,
-        Function::SdoRequest,
-        Function::Unmapped,
+    pub const ALL: [RailFunction; 13] = [
+        RailFunction::Nmt,
+        RailFunction::Sync,
+        RailFunction::FaultReport,
+        RailFunction::Heartbeat,
+        RailFunction::CommandAnswer,
+        RailFunction::Command,
+        RailFunction::StateChange,
+        RailFunction::NodeGuarding,
+        RailFunction::StateQuery,
+        RailFunction::StateAnswer,
+        RailFunction::SdoResponse,
+        RailFunction::SdoRequest,
+        RailFunction::Unmapped,
     ];
 
     /// The 9-bit code.
@@ -74,21 +74,21 @@ impl Function {
     }
     /// The function with this code; `None` for codes the scheme does not use (free for the
     /// application).
-    pub const fn from_code(code: u16) -> Option<Function> {
+    pub const fn from_code(code: u16) -> Option<RailFunction> {
         Some(match code {
-            0x000 => Function::Nmt,
-            0x002 => Function::Sync,
-            0x004 => Function::FaultReport,
-            0x008 => Function::Heartbeat,
-            0x010 => Function::CommandAnswer,
-            0x012 => Function::Command,
-            0x020 => Function::StateChange,
-            0x040 => Function::NodeGuarding,
-            0x042 => Function::StateQuery,
-            0x044 => Function::StateAnswer,
-            0x080 => Function::SdoResponse,
-            0x082 => Function::SdoRequest,
-            0x1FF => Function::Unmapped,
+            0x000 => RailFunction::Nmt,
+            0x002 => RailFunction::Sync,
+            0x004 => RailFunction::FaultReport,
+            0x008 => RailFunction::Heartbeat,
+            0x010 => RailFunction::CommandAnswer,
+            0x012 => RailFunction::Command,
+            0x020 => RailFunction::StateChange,
+            0x040 => RailFunction::NodeGuarding,
+            0x042 => RailFunction::StateQuery,
+            0x044 => RailFunction::StateAnswer,
+            0x080 => RailFunction::SdoResponse,
+            0x082 => RailFunction::SdoRequest,
+            0x1FF => RailFunction::Unmapped,
             _ => return None,
         })
     }
@@ -97,24 +97,24 @@ impl Function {
     pub const fn from_device(self) -> bool {
         matches!(
             self,
-            Function::FaultReport
-                | Function::Heartbeat
-                | Function::CommandAnswer
-                | Function::StateChange
-                | Function::NodeGuarding
-                | Function::StateAnswer
-                | Function::SdoResponse
+            RailFunction::FaultReport
+                | RailFunction::Heartbeat
+                | RailFunction::CommandAnswer
+                | RailFunction::StateChange
+                | RailFunction::NodeGuarding
+                | RailFunction::StateAnswer
+                | RailFunction::SdoResponse
         )
     }
     /// True for functions of the board as a whole: their address has port 0.
     pub const fn node_level(self) -> bool {
         !matches!(
             self,
-            Function::CommandAnswer
-                | Function::Command
-                | Function::StateChange
-                | Function::StateQuery
-                | Function::StateAnswer
+            RailFunction::CommandAnswer
+                | RailFunction::Command
+                | RailFunction::StateChange
+                | RailFunction::StateQuery
+                | RailFunction::StateAnswer
         )
     }
     /// True for functions whose payload is index + sub-index + data + CRC
@@ -124,22 +124,22 @@ impl Function {
     }
 }
 
-impl fmt::Display for Function {
+impl fmt::Display for RailFunction {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         f.write_str(match self {
-            Function::Nmt => "NMT",
-            Function::Sync => "SYNC",
-            Function::FaultReport => "fault report",
-            Function::Heartbeat => "heartbeat",
-            Function::CommandAnswer => "command answer",
-            Function::Command => "command",
-            Function::StateChange => "state change",
-            Function::NodeGuarding => "node guarding",
-            Function::StateQuery => "state query",
-            Function::StateAnswer => "state answer",
-            Function::SdoResponse => "SDO response",
-            Function::SdoRequest => "SDO request",
-            Function::Unmapped => "unmapped node",
+            RailFunction::Nmt => "NMT",
+            RailFunction::Sync => "SYNC",
+            RailFunction::FaultReport => "fault report",
+            RailFunction::Heartbeat => "heartbeat",
+            RailFunction::CommandAnswer => "command answer",
+            RailFunction::Command => "command",
+            RailFunction::StateChange => "state change",
+            RailFunction::NodeGuarding => "node guarding",
+            RailFunction::StateQuery => "state query",
+            RailFunction::StateAnswer => "state answer",
+            RailFunction::SdoResponse => "SDO response",
+            RailFunction::SdoRequest => "SDO request",
+            RailFunction::Unmapped => "unmapped node",
         })
     }
 }
@@ -150,26 +150,26 @@ mod tests {
 
     #[test]
     fn codes_round_trip_and_are_distinct_and_in_priority_order() {
-        for (i, f) in Function::ALL.iter().enumerate() {
-            assert_eq!(Function::from_code(f.code()), Some(*f));
+        for (i, f) in RailFunction::ALL.iter().enumerate() {
+            assert_eq!(RailFunction::from_code(f.code()), Some(*f));
             assert!(f.code() <= super::super::address::FUNCTION_MAX);
             if i > 0 {
-                assert!(Function::ALL[i - 1].code() < f.code());
+                assert!(RailFunction::ALL[i - 1].code() < f.code());
             }
         }
-        let known = (0..=0x1FF).filter_map(Function::from_code).count();
-        assert_eq!(known, Function::ALL.len());
+        let known = (0..=0x1FF).filter_map(RailFunction::from_code).count();
+        assert_eq!(known, RailFunction::ALL.len());
     }
 
     #[test]
     fn the_seed_codes_are_kept() {
-        assert_eq!(Function::FaultReport.code(), 0x004);
-        assert_eq!(Function::Heartbeat.code(), 0x008);
-        assert_eq!(Function::CommandAnswer.code(), 0x010);
-        assert_eq!(Function::Command.code(), 0x012);
-        assert_eq!(Function::StateChange.code(), 0x020);
-        assert_eq!(Function::NodeGuarding.code(), 0x040);
-        assert_eq!(Function::StateQuery.code(), 0x042);
-        assert_eq!(Function::StateAnswer.code(), 0x044);
+        assert_eq!(RailFunction::FaultReport.code(), 0x004);
+        assert_eq!(RailFunction::Heartbeat.code(), 0x008);
+        assert_eq!(RailFunction::CommandAnswer.code(), 0x010);
+        assert_eq!(RailFunction::Command.code(), 0x012);
+        assert_eq!(RailFunction::StateChange.code(), 0x020);
+        assert_eq!(RailFunction::NodeGuarding.code(), 0x040);
+        assert_eq!(RailFunction::StateQuery.code(), 0x042);
+        assert_eq!(RailFunction::StateAnswer.code(), 0x044);
     }
 }

@@ -1,27 +1,27 @@
 //! The railway identifier profile: the seed's 29-bit scheme (CAN 2.0B) as an [`IdProfile`].
 //!
-//! An identifier is a 9-bit [`Function`] code above a 20-bit [`DeviceAddress`] (row · cabinet ·
+//! An identifier is a 9-bit [`RailFunction`] code above a 20-bit [`DeviceAddress`] (row · cabinet ·
 //! layer · board · port). A node is a board; [`RailwayProfile`] holds the bounded table that
 //! says which node-ID sits at which board address, and maps the services whose identifiers
 //! CiA 301 fixes:
 //!
 //! | service | identifier |
 //! |---|---|
-//! | NMT module control | [`Function::Nmt`] · address 0 |
-//! | boot-up, heartbeat | [`Function::Heartbeat`] · the node's address |
-//! | node guarding (request and answer) | [`Function::NodeGuarding`] · the node's address |
-//! | default EMCY | [`Function::FaultReport`] · the node's address |
+//! | NMT module control | [`RailFunction::Nmt`] · address 0 |
+//! | boot-up, heartbeat | [`RailFunction::Heartbeat`] · the node's address |
+//! | node guarding (request and answer) | [`RailFunction::NodeGuarding`] · the node's address |
+//! | default EMCY | [`RailFunction::FaultReport`] · the node's address |
 //!
 //! Their payloads stay CiA 301's, so the stack runs unchanged. The identifiers the dictionary
 //! holds (SYNC, SDO server, EMCY after reset) come from [`RailwayProfile::comm_objects`]; PDO
-//! COB-IDs are 29-bit ones like `CobId::from_id(railway::id(Function::StateChange, port))`.
+//! COB-IDs are 29-bit ones like `CobId::from_id(railway::id(RailFunction::StateChange, port))`.
 //!
 //! Process frames (command, command answer, state change, state query, state answer) carry the
 //! railway [`payload`]: index, sub-index, data and a CRC over the identifier and content. Safety
 //! states in them use the asymmetric codes of [`safety`].
 //!
 //! ```
-//! use duocan::profile::railway::{DeviceAddress, Function, RailwayProfile};
+//! use duocan::profile::railway::{DeviceAddress, RailFunction, RailwayProfile};
 //! use duocan::profile::{IdProfile, ProfileFrame};
 //! use duocan::{Id, NodeId};
 //!
@@ -36,7 +36,7 @@
 //! );
 //! // Its point machine on I/O port 2 reports state changes on 0x0201_2342.
 //! let port2 = profile.address(turnout_a).unwrap().with_port(2);
-//! assert_eq!(duocan::profile::railway::id(Function::StateChange, port2).raw(), 0x0201_2342);
+//! assert_eq!(duocan::profile::railway::id(RailFunction::StateChange, port2).raw(), 0x0201_2342);
 //! # Ok::<(), duocan::profile::railway::TableError>(())
 //! ```
 
@@ -49,19 +49,19 @@ mod table;
 pub use address::{
     compose, split, AddressError, DeviceAddress, ADDRESS_MAX, FIELD_MAX, FUNCTION_MAX,
 };
-pub use function::Function;
+pub use function::RailFunction;
 pub use payload::{Payload, PayloadError};
 pub use table::TableError;
 
 use super::{IdProfile, ProfileFrame};
-use crate::cob_id::{CobId, NodeId};
+use crate::cia301::sdo::Channel;
+use crate::frame::cob_id::{CobId, NodeId};
 use crate::frame::Id;
 use crate::od::{comm, ObjectDef, ObjectType};
-use crate::sdo::Channel;
 use table::Table;
 
 /// The identifier of `function` at `address`.
-pub const fn id(function: Function, address: DeviceAddress) -> Id {
+pub const fn id(function: RailFunction, address: DeviceAddress) -> Id {
     compose(function.code(), address)
 }
 
@@ -69,7 +69,7 @@ pub const fn id(function: Function, address: DeviceAddress) -> Id {
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct Decoded {
     /// The function code.
-    pub function: Function,
+    pub function: RailFunction,
     /// The full address (port included).
     pub address: DeviceAddress,
     /// The node at the address's board, if the table has one.
@@ -93,9 +93,9 @@ impl Default for RailwayProfile {
 
 impl RailwayProfile {
     /// NMT module control: function 0x000, address 0 (the highest priority on the bus).
-    pub const NMT: Id = id(Function::Nmt, DeviceAddress::board_at(0, 0, 0, 0));
+    pub const NMT: Id = id(RailFunction::Nmt, DeviceAddress::board_at(0, 0, 0, 0));
     /// SYNC: function 0x002, address 0.
-    pub const SYNC: Id = id(Function::Sync, DeviceAddress::board_at(0, 0, 0, 0));
+    pub const SYNC: Id = id(RailFunction::Sync, DeviceAddress::board_at(0, 0, 0, 0));
 
     /// An empty table.
     pub const fn new() -> Self {
@@ -141,22 +141,22 @@ impl RailwayProfile {
     }
 
     /// The identifier of `function` on `node`'s I/O `port` (0: the board itself).
-    pub fn id(&self, function: Function, node: NodeId, port: u8) -> Option<Id> {
+    pub fn id(&self, function: RailFunction, node: NodeId, port: u8) -> Option<Id> {
         Some(id(function, self.address(node)?.with_port(port)))
     }
     /// What an identifier names: `None` for 11-bit identifiers and codes the scheme does not use.
     pub fn decode(&self, frame_id: Id) -> Option<Decoded> {
         let (code, address) = split(frame_id)?;
         Some(Decoded {
-            function: Function::from_code(code)?,
+            function: RailFunction::from_code(code)?,
             address,
             node: self.node_at(address),
         })
     }
 
     /// The SDO server COB-IDs of `node` (client → server, server → client), as 0x1200 and
-    /// 0x1280 hold them: 29-bit identifiers [`Function::SdoRequest`] and
-    /// [`Function::SdoResponse`] at the node's board address.
+    /// 0x1280 hold them: 29-bit identifiers [`RailFunction::SdoRequest`] and
+    /// [`RailFunction::SdoResponse`] at the node's board address.
     pub fn sdo_cob_ids(&self, node: NodeId) -> Option<(u32, u32)> {
         let a = self.address(node)?;
         Some(sdo_cob_ids(a))
@@ -188,7 +188,7 @@ impl RailwayProfile {
                 comm::EMCY_COB_ID,
                 0,
                 crate::od::Access::Rw,
-                CobId::from_id(id(Function::FaultReport, board)).0,
+                CobId::from_id(id(RailFunction::FaultReport, board)).0,
             )
             .named("COB-ID EMCY"),
             ObjectDef::u32(comm::SDO_SERVER, 1, crate::od::Access::Ro, rx)
@@ -201,14 +201,14 @@ impl RailwayProfile {
     }
 
     /// The identifier of a service of `node`; a node missing from the table gets
-    /// [`Function::Unmapped`] with its node-ID as address, which nobody decodes.
+    /// [`RailFunction::Unmapped`] with its node-ID as address, which nobody decodes.
     #[inline]
-    fn node_id(&self, function: Function, node: NodeId) -> Id {
+    fn node_id(&self, function: RailFunction, node: NodeId) -> Id {
         match self.address(node) {
             Some(a) => id(function, a),
             // A node-ID always fits the 20 address bits.
             None => compose(
-                Function::Unmapped.code(),
+                RailFunction::Unmapped.code(),
                 DeviceAddress::from_raw(node.raw() as u32).unwrap_or_default(),
             ),
         }
@@ -217,8 +217,8 @@ impl RailwayProfile {
 
 const fn sdo_cob_ids(board: DeviceAddress) -> (u32, u32) {
     (
-        CobId::from_id(id(Function::SdoRequest, board)).0,
-        CobId::from_id(id(Function::SdoResponse, board)).0,
+        CobId::from_id(id(RailFunction::SdoRequest, board)).0,
+        CobId::from_id(id(RailFunction::SdoResponse, board)).0,
     )
 }
 
@@ -227,26 +227,30 @@ impl IdProfile for RailwayProfile {
         Self::NMT
     }
     fn heartbeat(&self, node: NodeId) -> Id {
-        self.node_id(Function::Heartbeat, node)
+        self.node_id(RailFunction::Heartbeat, node)
     }
     fn guarding(&self, node: NodeId) -> Id {
-        self.node_id(Function::NodeGuarding, node)
+        self.node_id(RailFunction::NodeGuarding, node)
     }
     fn emcy(&self, node: NodeId) -> Id {
-        self.node_id(Function::FaultReport, node)
+        self.node_id(RailFunction::FaultReport, node)
     }
     /// Node-level services need port 0 and an address in the table; a remote frame is only a
     /// guarding request (heartbeat, EMCY and NMT have data frames only).
     #[inline]
     fn classify(&self, frame_id: Id, remote: bool) -> Option<ProfileFrame> {
         let (code, address) = split(frame_id)?;
-        match (Function::from_code(code)?, remote) {
-            (Function::Nmt, false) if address.raw() == 0 => Some(ProfileFrame::Nmt),
-            (Function::Heartbeat, false) => {
+        match (RailFunction::from_code(code)?, remote) {
+            (RailFunction::Nmt, false) if address.raw() == 0 => Some(ProfileFrame::Nmt),
+            (RailFunction::Heartbeat, false) => {
                 self.table.node_at(address).map(ProfileFrame::Heartbeat)
             }
-            (Function::NodeGuarding, _) => self.table.node_at(address).map(ProfileFrame::Guarding),
-            (Function::FaultReport, false) => self.table.node_at(address).map(ProfileFrame::Emcy),
+            (RailFunction::NodeGuarding, _) => {
+                self.table.node_at(address).map(ProfileFrame::Guarding)
+            }
+            (RailFunction::FaultReport, false) => {
+                self.table.node_at(address).map(ProfileFrame::Emcy)
+            }
             _ => None,
         }
     }

@@ -30,8 +30,8 @@
 //! Decoding never panics: a remote frame, a wrong length or a CRC mismatch is a
 //! [`PayloadError`].
 
+use crate::cia301::sdo::crc;
 use crate::frame::{Frame, Id};
-use crate::sdo::crc;
 use core::fmt;
 
 /// Most data bytes a payload carries (8 − index − sub-index − CRC).

@@ -1,7 +1,7 @@
 //! The bounded node-ID ↔ board-address table of a [`super::RailwayProfile`].
 
 use super::address::DeviceAddress;
-use crate::cob_id::NodeId;
+use crate::frame::cob_id::NodeId;
 use core::fmt;
 
 /// Why an entry could not be added.

@@ -26,10 +26,10 @@ fn services_of_a_node_sit_at_its_board_address() {
     assert_eq!(p.guarding(n(10)), Id::Extended(0x0401_2340));
     assert_eq!(p.emcy(n(11)), Id::Extended(0x0041_2350));
     assert_eq!(
-        p.id(Function::StateChange, n(10), 7),
+        p.id(RailFunction::StateChange, n(10), 7),
         Some(Id::Extended(0x0201_2347))
     );
-    assert_eq!(p.id(Function::StateChange, n(12), 7), None);
+    assert_eq!(p.id(RailFunction::StateChange, n(12), 7), None);
     assert_eq!(RailwayProfile::SYNC, Id::Extended(0x0020_0000));
 }
 
@@ -66,7 +66,7 @@ fn a_node_missing_from_the_table_is_visible_and_decoded_by_nobody() {
     assert_eq!(
         p.decode(id),
         Some(Decoded {
-            function: Function::Unmapped,
+            function: RailFunction::Unmapped,
             address: DeviceAddress::from_raw(99).unwrap(),
             node: None
         })
@@ -171,7 +171,7 @@ proptest! {
     /// Whatever the identifier, classify and decode agree with the table and never panic.
     #[test]
     fn classify_agrees_with_the_table(
-        code in prop_oneof![0u16..=FUNCTION_MAX, proptest::sample::select(Function::ALL.map(Function::code).to_vec())],
+        code in prop_oneof![0u16..=FUNCTION_MAX, proptest::sample::select(RailFunction::ALL.map(RailFunction::code).to_vec())],
         address in prop_oneof![0u32..=ADDRESS_MAX, proptest::sample::select(vec![0, 0x1_2340, 0x1_2350, 0x1_2341, 0x10])],
         remote in any::<bool>(),
     ) {

@@ -2,11 +2,11 @@
 
 use super::probe::{std_frame, Probe, ProbeEvent};
 use super::{network, tx_records};
+use crate::frame::instant::{Duration, Instant};
 use crate::frame::{Frame, Id};
 use crate::machine::{ErrorCause, PortRequest, PortStatus};
 use crate::sim::timing::frame_duration;
 use crate::sim::{SimError, TxOutcome};
-use crate::time::{Duration, Instant};
 use std::cell::RefCell;
 use std::rc::Rc;
 

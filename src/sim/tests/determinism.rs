@@ -2,9 +2,9 @@
 
 use super::network;
 use super::probe::{std_frame, Probe};
+use crate::frame::instant::{Duration, Instant};
 use crate::frame::Id;
 use crate::sim::{FaultRates, RxFault, TraceRecord, TxOutcome};
-use crate::time::{Duration, Instant};
 
 /// A busy dual-bus network with every random fault on, a partition, a cut and a babbler.
 fn run(seed: u64) -> (Vec<TraceRecord>, Vec<usize>) {

@@ -2,10 +2,10 @@
 
 use super::probe::{std_frame, Probe};
 use super::{network, tx_records};
+use crate::frame::instant::{Duration, Instant};
 use crate::machine::{ErrorCause, PortStatus};
 use crate::sim::timing::{bits_duration, error_frame_bits, frame_duration};
 use crate::sim::{FaultRates, RxFault, TraceRecord, TxOutcome};
-use crate::time::{Duration, Instant};
 
 const RATE: u32 = 500_000;
 const MS: Duration = Duration::from_millis(1);

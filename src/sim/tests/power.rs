@@ -2,9 +2,9 @@
 
 use super::probe::{std_frame, Probe, ProbeEvent};
 use super::{network, tx_records};
+use crate::frame::instant::{Duration, Instant};
 use crate::sim::timing::frame_duration;
 use crate::sim::TxOutcome;
-use crate::time::{Duration, Instant};
 
 const RATE: u32 = 500_000;
 const MS: Duration = Duration::from_millis(1);

@@ -1,8 +1,8 @@
 //! A configurable test device: sends periodically or on demand, records everything it is told.
 
+use crate::frame::instant::{Duration, Instant};
 use crate::frame::{Frame, Id};
 use crate::machine::{Device, PortRequest, PortStatus};
-use crate::time::{Duration, Instant};
 use std::collections::VecDeque;
 
 /// What a probe reports to its event log.

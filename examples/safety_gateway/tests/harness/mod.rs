@@ -4,17 +4,17 @@
 //! frames cross the mock wires at once, so instants are exact.
 #![allow(dead_code)]
 
-use duocan::machine::{Pair, PairEvent, StationEvent};
+use duocan::machine::{Composite, CompositeEvent, StationEvent};
 use duocan::od::{comm, DynamicDictionary, ObjectDictionary};
 use duocan::port::embedded::EmbeddedDriver;
 use duocan::profile::railway::safety::{objects, FieldState, TrackCircuit};
-use duocan::profile::railway::{self, DeviceAddress, Function, Payload, RailwayProfile};
+use duocan::profile::railway::{self, DeviceAddress, Payload, RailFunction, RailwayProfile};
 use duocan::sdo::{SdoClient, SdoError, SdoEvent, SdoOptions, TransferBuffer};
 use duocan::{
     Frame, Id, Instant, Machine, NmtCommand, NmtTarget, Node, NodeConfig, NodeEvent, NodeId,
     Station,
 };
-use duocan_redundancy::{DualBus, DualBusConfig, LinkEvent, Mode};
+use duocan_redundancy::{DualBus, DualBusConfig, LinkEvent, LinkMode};
 use safety_gateway::mock::{MockCan, Wire};
 use safety_gateway::{Event, Gateway, Storage, ADDRESS, FIELD_BOARD, FIELD_PORT, NODE_ID, TRACKS};
 use static_cell::StaticCell;
@@ -73,7 +73,7 @@ impl Machine for Interlocking {
         let Some((code, address)) = railway::split(frame.id()) else {
             return;
         };
-        if code != Function::StateChange.code() || address.board_address() != ADDRESS {
+        if code != RailFunction::StateChange.code() || address.board_address() != ADDRESS {
             return;
         }
         let track = address.port();
@@ -100,8 +100,9 @@ impl Machine for Interlocking {
 
 pub type MasterNode = Node<DynamicDictionary, RailwayProfile>;
 pub type MasterDev =
-    Station<DualBus<RailwayProfile>, Pair<MasterNode, Pair<SdoClient, Interlocking>>>;
-pub type MasterEvent = StationEvent<LinkEvent, PairEvent<NodeEvent, PairEvent<SdoEvent, ()>>>;
+    Station<DualBus<RailwayProfile>, Composite<MasterNode, Composite<SdoClient, Interlocking>>>;
+pub type MasterEvent =
+    StationEvent<LinkEvent, CompositeEvent<NodeEvent, CompositeEvent<SdoEvent, ()>>>;
 
 fn profile() -> RailwayProfile {
     RailwayProfile::with(&NETWORK).expect("network table")
@@ -119,14 +120,14 @@ fn master_device() -> MasterDev {
         .unwrap();
     let node = Node::with_profile(NodeConfig::master(MASTER), od, profile());
     let cfg = DualBusConfig::with_guard_period(
-        Mode::ActiveActive,
+        LinkMode::ActiveActive,
         duocan::Duration::from_millis(MASTER_HB_MS as u64),
     );
     Station::new(
         DualBus::with_classifier(cfg, profile()),
-        Pair::new(
+        Composite::new(
             node,
-            Pair::new(SdoClient::new(256), Interlocking::default()),
+            Composite::new(SdoClient::new(256), Interlocking::default()),
         ),
     )
 }
@@ -299,12 +300,16 @@ impl Bench {
         let deadline = self.now.saturating_add(duocan::Duration::from_secs(3));
         loop {
             let done = self.master_events.iter().find_map(|(_, e)| match e {
-                StationEvent::Machine(PairEvent::B(PairEvent::A(ev))) if ev.request == id => Some(
-                    ev.result
-                        .as_ref()
-                        .map(|b| b.as_slice().to_vec())
-                        .map_err(|e| *e),
-                ),
+                StationEvent::Machine(CompositeEvent::B(CompositeEvent::A(ev)))
+                    if ev.request == id =>
+                {
+                    Some(
+                        ev.result
+                            .as_ref()
+                            .map(|b| b.as_slice().to_vec())
+                            .map_err(|e| *e),
+                    )
+                }
                 _ => None,
             });
             if let Some(r) = done {
@@ -332,7 +337,7 @@ impl Bench {
         self.master_events
             .iter()
             .filter_map(|(_, e)| match e {
-                StationEvent::Machine(PairEvent::A(n)) => Some((n.at, n.kind)),
+                StationEvent::Machine(CompositeEvent::A(n)) => Some((n.at, n.kind)),
                 _ => None,
             })
             .collect()
@@ -357,7 +362,7 @@ pub fn report(track: u8, code: u8) -> Frame {
 
 /// The identifier of the field board's track-circuit port.
 pub fn field_id() -> Id {
-    railway::id(Function::StateChange, FIELD_BOARD.with_port(FIELD_PORT))
+    railway::id(RailFunction::StateChange, FIELD_BOARD.with_port(FIELD_PORT))
 }
 
 /// Counts per track of the interlocking's view, for messages.

@@ -1,0 +1,87 @@
+//! Active-active: every logical frame goes out on every port that is not failed; every received
+//! frame goes through the exactly-once merger. No channel to switch.
+
+use super::{ChannelPolicy, FrameInfo, PortMask, RxRoute, BOTH};
+use crate::link::health::Health;
+use crate::link::outbox::Outbox;
+use duocan::machine::PortStatus;
+use duocan::{Frame, Instant};
+
+/// The active-active policy.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct ActiveActive;
+
+impl ChannelPolicy for ActiveActive {
+    fn route_tx(
+        &mut self,
+        _: Instant,
+        _: &Frame,
+        _: &FrameInfo,
+        h: &Health,
+        _: &mut Outbox,
+    ) -> PortMask {
+        // A failed port gets nothing until it has recovered, unless no port is known to work
+        // (ok or suspect): then both get everything, because a recovering port is unproven,
+        // sending nowhere is certain silence, and a port marked failed may still reach someone
+        // (a node that only stopped hearing a silent peer).
+        if !h.port(0).state().is_trusted() && !h.port(1).state().is_trusted() {
+            return BOTH;
+        }
+        (h.usable(0) as u8) | (h.usable(1) as u8) << 1
+    }
+    fn on_rx(&mut self, _: Instant, _: usize, _: &Frame, _: &FrameInfo, _: &mut Outbox) -> RxRoute {
+        RxRoute::Merge
+    }
+    fn on_status(&mut self, _: Instant, _: usize, _: PortStatus, _: &mut Outbox) {}
+    fn handle_timeout(&mut self, _: Instant, _: &mut Outbox) {}
+    fn poll_timeout(&self) -> Option<Instant> {
+        None
+    }
+    fn active(&self) -> Option<usize> {
+        None
+    }
+    fn select(&mut self, _: Instant, _: usize, _: &mut Outbox) -> bool {
+        false
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::link::health::HealthConfig;
+    use duocan::machine::ErrorCause;
+    use duocan::{Duration, Id};
+
+    #[test]
+    fn fan_out_skips_a_failed_port_but_never_leaves_the_node_mute() {
+        let mut h = Health::new(HealthConfig::default(), Duration::from_millis(10));
+        let mut out = Outbox::new();
+        let f = Frame::from_array(Id::Standard(0x705), [5]);
+        let info = FrameInfo { heartbeat: None };
+        let mut p = ActiveActive;
+        let t = Instant::ZERO;
+        assert_eq!(p.route_tx(t, &f, &info, &h, &mut out), 0b11);
+        h.on_status(t, 0, PortStatus::Down(ErrorCause::InterfaceDown), &mut out);
+        assert_eq!(p.route_tx(t, &f, &info, &h, &mut out), 0b10);
+        h.on_status(t, 1, PortStatus::Down(ErrorCause::InterfaceDown), &mut out);
+        assert_eq!(
+            p.route_tx(t, &f, &info, &h, &mut out),
+            0b11,
+            "both failed: try both"
+        );
+        // One re-initialised (recovering, unproven), the other failed: still both.
+        h.on_status(t, 1, PortStatus::Up, &mut out);
+        assert_eq!(h.port(1).state(), crate::PortState::Recovering);
+        assert_eq!(p.route_tx(t, &f, &info, &h, &mut out), 0b11);
+        // Once a port is proven again, a failed one gets nothing.
+        h.on_rx(t, 1, crate::link::health::RxOutcome::Delivered, &mut out);
+        h.on_rx(
+            t + Duration::from_millis(200),
+            1,
+            crate::link::health::RxOutcome::Delivered,
+            &mut out,
+        );
+        assert_eq!(h.port(1).state(), crate::PortState::Ok);
+        assert_eq!(p.route_tx(t, &f, &info, &h, &mut out), 0b10);
+    }
+}

@@ -1,0 +1,668 @@
+//! CiA 302-6 network redundancy (active-standby), for interoperating with standard devices.
+//!
+//! - One *default* and one *redundant* channel. Application traffic (PDO, SDO, SYNC, EMCY, NMT)
+//!   goes out on the active channel only; heartbeats and boot-ups on both.
+//! - Frames are accepted from both channels, so that nothing is lost while the nodes of a
+//!   network switch one after the other: heartbeats (sent on both) through the exactly-once
+//!   merger, application frames (sent on one) as they come.
+//! - **Evaluation** counts heartbeats per producer on the default channel:
+//!   - power-on (first own boot-up) + 0x1F60 sub 2: if some producer gave fewer than 3, switch
+//!     to redundant;
+//!   - reset communication (every later own boot-up) returns to the default channel, and after
+//!     0x1F60 sub 3, if some producer gave none, switch to redundant;
+//!   - while on redundant, in consecutive windows of sub 2 (sub 3 if sub 2 is zero; one
+//!     unbounded window if both are), as soon as every producer gave 3 or more, switch back.
+//!
+//!   The producers are the nodes of 0x1016; if none are configured, every node whose
+//!   heartbeat was heard on either channel in the window. A zero evaluation time skips that
+//!   evaluation.
+//! - **Channel error counter** (sub 5): each failed transmission on the default channel adds 4
+//!   (capped at the threshold, sub 4), each success subtracts 1 (floor 0). Reaching the
+//!   threshold disables the default channel (until the counter drops below it again, through
+//!   successful heartbeats, which still go out on both) and switches to redundant. A threshold of
+//!   zero disables the counter. If sub 1 (maximum transmit delay) is not zero, a frame handed to
+//!   the default channel without an outcome within that time counts as failed, so the driver
+//!   must report `TxOk`/`TxFailed`.
+//! - **Indicate active interface.** A node that switches by its own decision sends CAN-ID 0x7F,
+//!   DLC 0, on the new channel. A node that hears 0x7F makes that channel active (without
+//!   indicating in turn). 0x7F is consumed by the layer.
+//!
+//! Units: subs 1–3 are milliseconds (public material does not fix them; ms is what the other
+//! CiA 301 times use).
+
+use super::{switched, ChannelPolicy, FrameInfo, PortMask, RxRoute, BOTH};
+use crate::link::events::{LinkEvent, LinkEventKind, SwitchReason};
+use crate::link::health::Health;
+use crate::link::outbox::Outbox;
+use duocan::frame::instant::earliest;
+use duocan::machine::PortStatus;
+use duocan::NodeSet;
+use duocan::{Duration, Frame, Id, Instant, NodeId};
+
+/// The "indicate active interface" identifier.
+pub const INDICATE_ACTIVE_ID: u16 = 0x7F;
+/// Heartbeats per producer a window needs (power-on evaluation and switching back).
+pub const REQUIRED_HEARTBEATS: u8 = 3;
+/// Transmissions on the default channel tracked for the maximum transmit delay.
+const PENDING: usize = 64;
+
+/// The "indicate active interface" frame.
+pub fn indicate_active() -> Frame {
+    Frame::from_array(Id::Standard(INDICATE_ACTIVE_ID), [])
+}
+
+/// CiA 302-6 configuration (0x1F60 and the producers of 0x1016).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Cia3026Config {
+    /// Port of the default channel (0 or 1); the other is the redundant channel.
+    pub default_channel: u8,
+    /// 0x1F60 sub 1: maximum transmit delay (zero: not checked).
+    pub max_tx_delay: Duration,
+    /// 0x1F60 sub 2: heartbeat evaluation time after power-on.
+    pub eval_power_on: Duration,
+    /// 0x1F60 sub 3: heartbeat evaluation time after reset communication.
+    pub eval_reset: Duration,
+    /// 0x1F60 sub 4: channel error counter threshold (zero: counter disabled).
+    pub error_threshold: u8,
+    /// Heartbeat producers to evaluate (empty: every producer heard).
+    pub producers: NodeSet,
+}
+
+impl Default for Cia3026Config {
+    /// Default channel on port 0, no transmit delay check, 1 s evaluation windows, threshold 16
+    /// (four failed transmissions in a row), producers as heard.
+    fn default() -> Self {
+        Cia3026Config {
+            default_channel: 0,
+            max_tx_delay: Duration::ZERO,
+            eval_power_on: Duration::from_millis(1000),
+            eval_reset: Duration::from_millis(1000),
+            error_threshold: 16,
+            producers: NodeSet::EMPTY,
+        }
+    }
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Phase {
+    /// Not booted yet.
+    Idle,
+    PowerOn {
+        until: Instant,
+    },
+    Reset {
+        until: Instant,
+    },
+    /// On default, nothing to evaluate.
+    Running,
+    /// On redundant, waiting for the default channel's heartbeats.
+    Redundant {
+        window_end: Option<Instant>,
+    },
+}
+
+/// The CiA 302-6 policy.
+#[derive(Clone, Debug)]
+pub struct Cia3026 {
+    cfg: Cia3026Config,
+    active: usize,
+    counter: u8,
+    disabled: bool,
+    phase: Phase,
+    booted: bool,
+    counts: [u8; 128],
+    heard: NodeSet,
+    pending: heapless::Deque<Instant, PENDING>,
+    /// Outcomes still to come for transmissions already counted as timed out.
+    late: u32,
+}
+
+impl Cia3026 {
+    /// On the default channel, waiting for the node's boot-up.
+    pub fn new(cfg: Cia3026Config) -> Self {
+        let cfg = Cia3026Config {
+            default_channel: cfg.default_channel.min(1),
+            ..cfg
+        };
+        Cia3026 {
+            cfg,
+            active: cfg.default_channel as usize,
+            counter: 0,
+            disabled: false,
+            phase: Phase::Idle,
+            booted: false,
+            counts: [0; 128],
+            heard: NodeSet::EMPTY,
+            pending: heapless::Deque::new(),
+            late: 0,
+        }
+    }
+    /// The configuration.
+    pub fn config(&self) -> &Cia3026Config {
+        &self.cfg
+    }
+    /// The active channel.
+    pub fn active_channel(&self) -> usize {
+        self.active
+    }
+    /// The channel error counter (0x1F60 sub 5).
+    pub fn error_counter(&self) -> u8 {
+        self.counter
+    }
+    /// True while the error counter keeps the default channel disabled.
+    pub fn default_disabled(&self) -> bool {
+        self.disabled
+    }
+    /// Heartbeats of `node` counted on the default channel in the current window.
+    pub fn heartbeats(&self, node: NodeId) -> u8 {
+        self.counts[node.raw() as usize]
+    }
+    /// The end of the evaluation window in progress, if any.
+    pub fn evaluation_deadline(&self) -> Option<Instant> {
+        match self.phase {
+            Phase::PowerOn { until } | Phase::Reset { until } => Some(until),
+            Phase::Redundant { window_end } => window_end,
+            Phase::Idle | Phase::Running => None,
+        }
+    }
+
+    fn default(&self) -> usize {
+        self.cfg.default_channel as usize
+    }
+    fn redundant(&self) -> usize {
+        1 - self.default()
+    }
+    fn recheck(&self) -> Option<Duration> {
+        [self.cfg.eval_power_on, self.cfg.eval_reset]
+            .into_iter()
+            .find(|d| !d.is_zero())
+    }
+    fn new_window(&mut self) {
+        self.counts = [0; 128];
+        self.heard = NodeSet::EMPTY;
+    }
+    fn producers(&self) -> NodeSet {
+        if self.cfg.producers.is_empty() {
+            self.heard
+        } else {
+            self.cfg.producers
+        }
+    }
+    /// The producer with the fewest heartbeats on default.
+    fn weakest(&self) -> Option<(NodeId, u8)> {
+        self.producers()
+            .iter()
+            .map(|n| (n, self.counts[n.raw() as usize]))
+            .min_by_key(|(_, c)| *c)
+    }
+    fn settle_phase(&mut self, at: Instant) {
+        self.phase = if self.active == self.default() {
+            Phase::Running
+        } else {
+            Phase::Redundant {
+                window_end: self.recheck().map(|d| at + d),
+            }
+        };
+    }
+
+    fn switch(
+        &mut self,
+        at: Instant,
+        to: usize,
+        reason: SwitchReason,
+        indicate: bool,
+        out: &mut Outbox,
+    ) {
+        if to == self.active {
+            return;
+        }
+        let from = self.active;
+        self.active = to;
+        switched(out, at, from, to, reason);
+        if indicate {
+            out.frame(to, indicate_active());
+        }
+        self.new_window();
+        self.settle_phase(at);
+    }
+
+    fn boot_up(&mut self, now: Instant, out: &mut Outbox) {
+        let power_on = !self.booted;
+        self.booted = true;
+        if !power_on {
+            // Reset communication: 0x1F60 is a communication object, the channel state resets.
+            let d = self.default();
+            self.switch(now, d, SwitchReason::ResetCommunication, true, out);
+            self.counter = 0;
+            self.disabled = false;
+        }
+        let window = if power_on {
+            self.cfg.eval_power_on
+        } else {
+            self.cfg.eval_reset
+        };
+        self.new_window();
+        if window.is_zero() {
+            self.settle_phase(now);
+        } else if power_on {
+            self.phase = Phase::PowerOn {
+                until: now + window,
+            };
+        } else {
+            self.phase = Phase::Reset {
+                until: now + window,
+            };
+        }
+    }
+
+    fn evaluate(&mut self, at: Instant, out: &mut Outbox) {
+        let reason = match self.phase {
+            Phase::PowerOn { .. } => match self.weakest() {
+                Some((node, count)) if count < REQUIRED_HEARTBEATS => {
+                    Some(SwitchReason::PowerOnEvaluation { node, count })
+                }
+                _ => None,
+            },
+            Phase::Reset { .. } => match self.weakest() {
+                Some((node, 0)) => Some(SwitchReason::ResetEvaluation { node }),
+                _ => None,
+            },
+            _ => None,
+        };
+        match reason {
+            Some(r) if self.active == self.default() => {
+                let to = self.redundant();
+                self.switch(at, to, r, true, out);
+            }
+            _ => {
+                self.new_window();
+                self.settle_phase(at);
+            }
+        }
+    }
+
+    fn tx_error(&mut self, at: Instant, out: &mut Outbox) {
+        let threshold = self.cfg.error_threshold;
+        if threshold == 0 {
+            return;
+        }
+        self.counter = self.counter.saturating_add(4).min(threshold);
+        if self.counter >= threshold && !self.disabled {
+            self.disabled = true;
+            out.event(LinkEvent {
+                at,
+                kind: LinkEventKind::DefaultDisabled {
+                    counter: self.counter,
+                },
+            });
+            if self.active == self.default() {
+                let to = self.redundant();
+                let counter = self.counter;
+                self.switch(at, to, SwitchReason::TxErrors { counter }, true, out);
+            }
+        }
+    }
+
+    fn tx_outcome(&mut self) {
+        if self.late > 0 {
+            self.late -= 1;
+        } else {
+            self.pending.pop_front();
+        }
+    }
+}
+
+impl ChannelPolicy for Cia3026 {
+    fn route_tx(
+        &mut self,
+        now: Instant,
+        frame: &Frame,
+        info: &FrameInfo,
+        _: &Health,
+        out: &mut Outbox,
+    ) -> PortMask {
+        if info.is_boot_up(frame) {
+            self.boot_up(now, out);
+        }
+        let mask = if info.heartbeat.is_some() {
+            BOTH
+        } else {
+            1 << self.active
+        };
+        if !self.cfg.max_tx_delay.is_zero() && mask & (1 << self.default()) != 0 {
+            if self.pending.is_full() {
+                // The driver does not report outcomes fast enough; keep the newest.
+                self.pending.pop_front();
+            }
+            let _ = self.pending.push_back(now);
+        }
+        mask
+    }
+
+    fn on_rx(
+        &mut self,
+        now: Instant,
+        port: usize,
+        frame: &Frame,
+        info: &FrameInfo,
+        out: &mut Outbox,
+    ) -> RxRoute {
+        if frame.id() == Id::Standard(INDICATE_ACTIVE_ID) && !frame.is_remote() && frame.dlc() == 0
+        {
+            self.switch(now, port, SwitchReason::Indicated, false, out);
+            return RxRoute::Ignore;
+        }
+        if let Some(n) = info.heartbeat {
+            self.heard.insert(n);
+            if port == self.default() {
+                let c = &mut self.counts[n.raw() as usize];
+                *c = c.saturating_add(1);
+                if matches!(self.phase, Phase::Redundant { .. })
+                    && !self.disabled
+                    && self
+                        .weakest()
+                        .is_some_and(|(_, c)| c >= REQUIRED_HEARTBEATS)
+                {
+                    let d = self.default();
+                    self.switch(now, d, SwitchReason::HeartbeatsBack, true, out);
+                }
+            }
+            return RxRoute::Merge;
+        }
+        // Application traffic travels on one channel only, so it is never doubled; it is
+        // accepted from either, so that nothing is lost while the nodes switch one after the
+        // other. (Merging it would be wrong: an unchanged cyclic frame sent before a switch on
+        // one channel and after it on the other would look like a twin.)
+        RxRoute::Direct
+    }
+
+    fn on_status(&mut self, now: Instant, port: usize, status: PortStatus, out: &mut Outbox) {
+        if port != self.default() {
+            return;
+        }
+        match status {
+            PortStatus::TxOk => {
+                self.tx_outcome();
+                self.counter = self.counter.saturating_sub(1);
+                if self.disabled && self.counter < self.cfg.error_threshold {
+                    self.disabled = false;
+                }
+            }
+            PortStatus::TxFailed(_) => {
+                self.tx_outcome();
+                self.tx_error(now, out);
+            }
+            _ => {}
+        }
+    }
+
+    fn handle_timeout(&mut self, now: Instant, out: &mut Outbox) {
+        if !self.cfg.max_tx_delay.is_zero() {
+            while let Some(&sent) = self.pending.front() {
+                let due = sent + self.cfg.max_tx_delay;
+                if due > now {
+                    break;
+                }
+                self.pending.pop_front();
+                self.late = self.late.saturating_add(1);
+                self.tx_error(due, out);
+            }
+        }
+        match self.phase {
+            Phase::PowerOn { until } | Phase::Reset { until } if until <= now => {
+                self.evaluate(until, out);
+            }
+            Phase::Redundant {
+                window_end: Some(end),
+            } if end <= now => {
+                // Whole windows that passed without enough heartbeats: start a fresh one.
+                let step = self.recheck().unwrap_or(Duration::MAX);
+                let mut next = end + step;
+                while next <= now {
+                    next += step;
+                }
+                self.new_window();
+                self.phase = Phase::Redundant {
+                    window_end: Some(next),
+                };
+            }
+            _ => {}
+        }
+    }
+
+    fn poll_timeout(&self) -> Option<Instant> {
+        let pending = if self.cfg.max_tx_delay.is_zero() {
+            None
+        } else {
+            self.pending.front().map(|t| *t + self.cfg.max_tx_delay)
+        };
+        earliest(pending, self.evaluation_deadline())
+    }
+
+    fn active(&self) -> Option<usize> {
+        Some(self.active)
+    }
+
+    fn select(&mut self, now: Instant, port: usize, out: &mut Outbox) -> bool {
+        self.switch(now, port.min(1), SwitchReason::Command, true, out);
+        true
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use duocan::machine::ErrorCause;
+
+    fn ms(x: u64) -> Instant {
+        Instant::from_millis(x)
+    }
+    fn hb(n: u8) -> Frame {
+        Frame::from_array(Id::Standard(0x700 + n as u16), [5])
+    }
+    fn info(n: u8) -> FrameInfo {
+        FrameInfo {
+            heartbeat: NodeId::new(n),
+        }
+    }
+    fn channel_events(out: &mut Outbox) -> Vec<(Instant, u8, u8, SwitchReason)> {
+        let mut v = vec![];
+        while let Some(e) = out.events.pop() {
+            if let LinkEventKind::Channel { from, to, reason } = e.kind {
+                v.push((e.at, from, to, reason));
+            }
+        }
+        v
+    }
+    fn boot(p: &mut Cia3026, now: Instant, out: &mut Outbox) -> PortMask {
+        let h = Health::new(Default::default(), Duration::from_millis(10));
+        let f = Frame::from_array(Id::Standard(0x701), [0]);
+        p.route_tx(now, &f, &info(1), &h, out)
+    }
+
+    #[test]
+    fn heartbeats_go_on_both_channels_everything_else_on_the_active_one() {
+        let mut p = Cia3026::new(Cia3026Config::default());
+        let mut out = Outbox::new();
+        let h = Health::new(Default::default(), Duration::from_millis(10));
+        assert_eq!(boot(&mut p, ms(0), &mut out), BOTH);
+        let pdo = Frame::from_array(Id::Standard(0x181), [1]);
+        let none = FrameInfo { heartbeat: None };
+        assert_eq!(p.route_tx(ms(1), &pdo, &none, &h, &mut out), 0b01);
+        assert!(p.select(ms(2), 1, &mut out));
+        assert_eq!(p.route_tx(ms(3), &pdo, &none, &h, &mut out), 0b10);
+        assert_eq!(out.pop_frame(), Some((1, indicate_active())));
+    }
+
+    #[test]
+    fn power_on_evaluation_switches_when_a_producer_gave_fewer_than_three() {
+        let producers: NodeSet = [NodeId::must(2), NodeId::must(3)].into_iter().collect();
+        let cfg = Cia3026Config {
+            producers,
+            ..Default::default()
+        };
+        let mut p = Cia3026::new(cfg);
+        let mut out = Outbox::new();
+        boot(&mut p, ms(0), &mut out);
+        for t in [100, 200, 300] {
+            p.on_rx(ms(t), 0, &hb(2), &info(2), &mut out);
+            p.on_rx(ms(t), 1, &hb(3), &info(3), &mut out);
+        }
+        p.on_rx(ms(400), 0, &hb(3), &info(3), &mut out);
+        assert_eq!(p.poll_timeout(), Some(ms(1000)));
+        p.handle_timeout(ms(1000), &mut out);
+        assert_eq!(
+            channel_events(&mut out),
+            [(
+                ms(1000),
+                0,
+                1,
+                SwitchReason::PowerOnEvaluation {
+                    node: NodeId::must(3),
+                    count: 1
+                }
+            )]
+        );
+        assert_eq!(out.pop_frame(), Some((1, indicate_active())));
+        // Back to default as soon as both give three heartbeats there.
+        for t in [1100, 1200, 1300] {
+            p.on_rx(ms(t), 0, &hb(2), &info(2), &mut out);
+            p.on_rx(ms(t + 1), 0, &hb(3), &info(3), &mut out);
+        }
+        assert_eq!(
+            channel_events(&mut out),
+            [(ms(1301), 1, 0, SwitchReason::HeartbeatsBack)]
+        );
+        assert_eq!(out.pop_frame(), Some((0, indicate_active())));
+    }
+
+    #[test]
+    fn power_on_evaluation_stays_when_every_producer_gave_three() {
+        let mut p = Cia3026::new(Cia3026Config::default());
+        let mut out = Outbox::new();
+        boot(&mut p, ms(0), &mut out);
+        for t in [100, 200, 300] {
+            p.on_rx(ms(t), 0, &hb(2), &info(2), &mut out);
+            p.on_rx(ms(t), 1, &hb(2), &info(2), &mut out);
+        }
+        p.handle_timeout(ms(1000), &mut out);
+        assert!(channel_events(&mut out).is_empty());
+        assert_eq!(p.poll_timeout(), None);
+    }
+
+    #[test]
+    fn reset_communication_returns_to_default_and_switches_if_a_producer_is_silent() {
+        let producers: NodeSet = [NodeId::must(2), NodeId::must(3)].into_iter().collect();
+        let cfg = Cia3026Config {
+            producers,
+            eval_reset: Duration::from_millis(500),
+            ..Default::default()
+        };
+        let mut p = Cia3026::new(cfg);
+        let mut out = Outbox::new();
+        boot(&mut p, ms(0), &mut out);
+        p.select(ms(10), 1, &mut out);
+        boot(&mut p, ms(2000), &mut out);
+        p.on_rx(ms(2100), 0, &hb(2), &info(2), &mut out);
+        p.handle_timeout(ms(2500), &mut out);
+        assert_eq!(
+            channel_events(&mut out),
+            [
+                (ms(10), 0, 1, SwitchReason::Command),
+                (ms(2000), 1, 0, SwitchReason::ResetCommunication),
+                (
+                    ms(2500),
+                    0,
+                    1,
+                    SwitchReason::ResetEvaluation {
+                        node: NodeId::must(3)
+                    }
+                ),
+            ]
+        );
+    }
+
+    #[test]
+    fn error_counter_plus_four_minus_one_reaching_the_threshold_switches() {
+        let cfg = Cia3026Config {
+            error_threshold: 10,
+            eval_power_on: Duration::ZERO,
+            ..Default::default()
+        };
+        let mut p = Cia3026::new(cfg);
+        let mut out = Outbox::new();
+        boot(&mut p, ms(0), &mut out);
+        let fail = PortStatus::TxFailed(ErrorCause::NoAck);
+        p.on_status(ms(1), 0, fail, &mut out);
+        p.on_status(ms(2), 0, PortStatus::TxOk, &mut out);
+        p.on_status(ms(3), 1, fail, &mut out); // redundant channel: not counted
+        assert_eq!(p.error_counter(), 3);
+        p.on_status(ms(4), 0, fail, &mut out);
+        assert_eq!(p.error_counter(), 7);
+        assert_eq!(p.active_channel(), 0);
+        p.on_status(ms(5), 0, fail, &mut out);
+        assert_eq!(p.error_counter(), 10);
+        assert!(p.default_disabled());
+        assert_eq!(
+            channel_events(&mut out),
+            [(ms(5), 0, 1, SwitchReason::TxErrors { counter: 10 })]
+        );
+        // Disabled: heartbeats on default do not switch back until a success re-enables it.
+        for t in 6..9 {
+            p.on_rx(ms(t), 0, &hb(2), &info(2), &mut out);
+        }
+        assert_eq!(p.active_channel(), 1);
+        p.on_status(ms(10), 0, PortStatus::TxOk, &mut out);
+        assert!(!p.default_disabled());
+        p.on_rx(ms(11), 0, &hb(2), &info(2), &mut out);
+        assert_eq!(p.active_channel(), 0);
+    }
+
+    #[test]
+    fn max_transmit_delay_counts_missing_outcomes_as_errors() {
+        let cfg = Cia3026Config {
+            error_threshold: 8,
+            eval_power_on: Duration::ZERO,
+            max_tx_delay: Duration::from_millis(5),
+            ..Default::default()
+        };
+        let mut p = Cia3026::new(cfg);
+        let mut out = Outbox::new();
+        boot(&mut p, ms(0), &mut out);
+        p.on_status(ms(1), 0, PortStatus::TxOk, &mut out); // the boot-up
+        let h = Health::new(Default::default(), Duration::from_millis(10));
+        let pdo = Frame::from_array(Id::Standard(0x181), [1]);
+        let none = FrameInfo { heartbeat: None };
+        p.route_tx(ms(10), &pdo, &none, &h, &mut out);
+        p.route_tx(ms(11), &pdo, &none, &h, &mut out);
+        assert_eq!(p.poll_timeout(), Some(ms(15)));
+        p.handle_timeout(ms(16), &mut out);
+        assert_eq!(p.error_counter(), 8);
+        assert_eq!(
+            channel_events(&mut out),
+            [(ms(16), 0, 1, SwitchReason::TxErrors { counter: 8 })]
+        );
+        // The late outcomes do not pop anything else.
+        p.on_status(ms(20), 0, PortStatus::TxOk, &mut out);
+        p.on_status(ms(20), 0, PortStatus::TxOk, &mut out);
+        assert_eq!(p.error_counter(), 6);
+    }
+
+    #[test]
+    fn indication_makes_the_channel_active_without_answering() {
+        let mut p = Cia3026::new(Cia3026Config::default());
+        let mut out = Outbox::new();
+        boot(&mut p, ms(0), &mut out);
+        let none = FrameInfo { heartbeat: None };
+        assert_eq!(
+            p.on_rx(ms(5), 1, &indicate_active(), &none, &mut out),
+            RxRoute::Ignore
+        );
+        assert_eq!(p.active_channel(), 1);
+        assert!(out.pop_frame().is_none());
+        assert_eq!(
+            channel_events(&mut out),
+            [(ms(5), 0, 1, SwitchReason::Indicated)]
+        );
+    }
+}

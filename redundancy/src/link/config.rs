@@ -1,0 +1,324 @@
+//! Configuration from the object dictionary: the definition tables of 0x1F60 (CiA 302-6
+//! redundancy configuration) and of the ECSS bus-toggle object (0x2000 by default; the index is
+//! configurable), and readers that build a [`DualBusConfig`] from any [`ObjectDictionary`].
+//!
+//! ```
+//! use duocan::od::{comm, ObjectDictionary, StaticDictionary, ObjectDef};
+//! use duocan_redundancy::link::config::{self, OdLayout};
+//! use duocan_redundancy::{DualBusConfig, LinkMode};
+//!
+//! static COMM: [ObjectDef; comm::COMM_LEN] = comm::communication();
+//! static RED: [ObjectDef; 6] = config::cia302_6_objects(config::REDUNDANCY_CONFIG);
+//! let mut od = StaticDictionary::<32, 256>::new();
+//! od.load(5, &[&COMM, &RED]).unwrap();
+//! od.set_value::<u16>(0x1F60, 2, 500).unwrap();
+//! let cfg = DualBusConfig::from_od(&od, &OdLayout::default()).unwrap();
+//! let LinkMode::Cia302_6(c) = cfg.mode else { panic!() };
+//! assert_eq!(c.eval_power_on, duocan::Duration::from_millis(500));
+//! ```
+
+use crate::link::channel::{Cia3026Config, EcssConfig, EcssRole};
+use crate::link::dual_bus::{DualBusConfig, LinkMode};
+use core::fmt;
+use duocan::od::abort::AbortCode;
+use duocan::od::{comm, Access, DefaultValue, Limit, ObjectDef, ObjectDictionary, ObjectType};
+use duocan::NodeSet;
+use duocan::{Duration, NodeId};
+
+/// CiA 302-6 redundancy configuration.
+pub const REDUNDANCY_CONFIG: u16 = 0x1F60;
+/// Default index of the ECSS bus-toggle object (manufacturer-specific area).
+pub const BUS_TOGGLE: u16 = 0x2000;
+
+/// Where the redundancy objects live in a dictionary.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct OdLayout {
+    /// The CiA 302-6 object (0x1F60).
+    pub redundancy: u16,
+    /// The ECSS bus-toggle object (0x2000).
+    pub toggle: u16,
+}
+
+impl Default for OdLayout {
+    fn default() -> Self {
+        OdLayout {
+            redundancy: REDUNDANCY_CONFIG,
+            toggle: BUS_TOGGLE,
+        }
+    }
+}
+
+/// The six entries of the CiA 302-6 redundancy configuration at `index`. Times in ms.
+pub const fn cia302_6_objects(index: u16) -> [ObjectDef; 6] {
+    const fn rec(d: ObjectDef) -> ObjectDef {
+        d.object_type(ObjectType::Record)
+    }
+    [
+        rec(ObjectDef::u8(index, 0, Access::Const, 5)).named("Redundancy configuration"),
+        rec(ObjectDef::u16(index, 1, Access::Rw, 0)).named("Maximum transmit delay"),
+        rec(ObjectDef::u16(index, 2, Access::Rw, 1000))
+            .named("Heartbeat evaluation time after power-on"),
+        rec(ObjectDef::u16(index, 3, Access::Rw, 1000))
+            .named("Heartbeat evaluation time after reset communication"),
+        rec(ObjectDef::u8(index, 4, Access::Rw, 16)).named("Channel error counter threshold"),
+        rec(ObjectDef::u8(index, 5, Access::Ro, 0)).named("Channel error counter"),
+    ]
+}
+
+/// The five entries of the ECSS bus-toggle object at `index`.
+pub const fn ecss_objects(index: u16) -> [ObjectDef; 5] {
+    const fn rec(d: ObjectDef) -> ObjectDef {
+        d.object_type(ObjectType::Record)
+    }
+    [
+        rec(ObjectDef::u8(index, 0, Access::Const, 4)).named("Bus redundancy"),
+        rec(ObjectDef::u8(index, 1, Access::Rw, 0))
+            .limits(Limit::Unsigned(0), Limit::Unsigned(1))
+            .named("Bdefault"),
+        rec(ObjectDef::u8(index, 2, Access::Rw, 2)).named("Ttoggle"),
+        rec(ObjectDef::u8(index, 3, Access::Rw, 4)).named("Ntoggle"),
+        rec(ObjectDef::u8(index, 4, Access::Ro, 0))
+            .default(DefaultValue::Unsigned(0))
+            .named("Ctoggle"),
+    ]
+}
+
+/// The 0x1F60 table at its standard index.
+pub static CIA302_6_OBJECTS: [ObjectDef; 6] = cia302_6_objects(REDUNDANCY_CONFIG);
+/// The bus-toggle table at 0x2000.
+pub static ECSS_OBJECTS: [ObjectDef; 5] = ecss_objects(BUS_TOGGLE);
+
+/// Why a configuration could not be read.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum ConfigError {
+    /// An entry the configuration needs is missing or unreadable.
+    Missing {
+        /// Index.
+        index: u16,
+        /// Sub-index.
+        sub: u8,
+        /// What the dictionary said.
+        abort: AbortCode,
+    },
+    /// An entry holds a value the layer cannot use.
+    Invalid {
+        /// Index.
+        index: u16,
+        /// Sub-index.
+        sub: u8,
+        /// What is wrong.
+        what: &'static str,
+    },
+}
+
+impl fmt::Display for ConfigError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            ConfigError::Missing { index, sub, abort } => write!(
+                f,
+                "redundancy configuration needs {index:#06x}sub{sub}, which cannot be read ({abort:?}): add the entry to the dictionary"
+            ),
+            ConfigError::Invalid { index, sub, what } => {
+                write!(f, "{index:#06x}sub{sub}: {what}")
+            }
+        }
+    }
+}
+
+pub(crate) fn read<D: ObjectDictionary>(od: &D, index: u16, sub: u8) -> Result<u32, ConfigError> {
+    match od.get(index, sub) {
+        Ok(_) => od.get_u32(index, sub).ok_or(ConfigError::Missing {
+            index,
+            sub,
+            abort: AbortCode::TYPE_MISMATCH,
+        }),
+        Err(abort) => Err(ConfigError::Missing { index, sub, abort }),
+    }
+}
+
+fn has_object<D: ObjectDictionary>(od: &D, index: u16) -> bool {
+    od.get(index, 0).is_ok()
+}
+
+/// The heartbeat producers a device consumes (0x1016 entries with a node-ID and a time).
+pub fn heartbeat_producers<D: ObjectDictionary>(od: &D) -> NodeSet {
+    let mut set = NodeSet::EMPTY;
+    let count = od
+        .get_u32(comm::HEARTBEAT_CONSUMER, 0)
+        .unwrap_or(0)
+        .min(127) as u8;
+    for sub in 1..=count {
+        if let Some((n, t)) = od
+            .get_u32(comm::HEARTBEAT_CONSUMER, sub)
+            .and_then(consumer_entry)
+        {
+            if !t.is_zero() {
+                set.insert(n);
+            }
+        }
+    }
+    set
+}
+
+/// Decodes a 0x1016 sub-entry: node-ID in bits 16–23, time in ms in bits 0–15.
+fn consumer_entry(v: u32) -> Option<(NodeId, Duration)> {
+    let n = NodeId::new(((v >> 16) & 0xFF) as u8)?;
+    Some((n, Duration::from_millis((v & 0xFFFF) as u64)))
+}
+
+impl Cia3026Config {
+    /// Reads 0x1F60 (at `index`) subs 1–4 and the producers of 0x1016.
+    pub fn from_od<D: ObjectDictionary>(od: &D, index: u16) -> Result<Self, ConfigError> {
+        let ms = |sub| read(od, index, sub).map(|v| Duration::from_millis(v as u64));
+        let threshold = read(od, index, 4)?;
+        Ok(Cia3026Config {
+            default_channel: 0,
+            max_tx_delay: ms(1)?,
+            eval_power_on: ms(2)?,
+            eval_reset: ms(3)?,
+            error_threshold: u8::try_from(threshold).map_err(|_| ConfigError::Invalid {
+                index,
+                sub: 4,
+                what: "channel error counter threshold above 255",
+            })?,
+            producers: heartbeat_producers(od),
+        })
+    }
+}
+
+impl EcssConfig {
+    /// Reads the bus-toggle object at `index` and the redundancy master from 0x1016 sub 1 (a
+    /// device without a valid entry there is the master).
+    pub fn from_od<D: ObjectDictionary>(od: &D, index: u16) -> Result<Self, ConfigError> {
+        let bdefault = read(od, index, 1)?;
+        if bdefault > 1 {
+            return Err(ConfigError::Invalid {
+                index,
+                sub: 1,
+                what: "Bdefault must be 0 (bus 1) or 1 (bus 2)",
+            });
+        }
+        let role = match od
+            .get_u32(comm::HEARTBEAT_CONSUMER, 1)
+            .and_then(consumer_entry)
+        {
+            Some((master, period)) if !period.is_zero() => EcssRole::Slave { master, period },
+            _ => EcssRole::Master,
+        };
+        Ok(EcssConfig {
+            bdefault: bdefault as u8,
+            ttoggle: read(od, index, 2)?.min(255) as u8,
+            ntoggle: read(od, index, 3)?.min(255) as u8,
+            role,
+        })
+    }
+}
+
+impl DualBusConfig {
+    /// The configuration a dictionary describes: CiA 302-6 if it has the redundancy object,
+    /// else bus toggling if it has the toggle object, else active-active. Timing from the
+    /// guard time (0x100C) or, without one, the producer heartbeat time (0x1017); 100 ms if
+    /// neither is set.
+    pub fn from_od<D: ObjectDictionary>(od: &D, layout: &OdLayout) -> Result<Self, ConfigError> {
+        let mode = if has_object(od, layout.redundancy) {
+            LinkMode::Cia302_6(Cia3026Config::from_od(od, layout.redundancy)?)
+        } else if has_object(od, layout.toggle) {
+            LinkMode::EcssToggle(EcssConfig::from_od(od, layout.toggle)?)
+        } else {
+            LinkMode::ActiveActive
+        };
+        let period = [comm::GUARD_TIME, comm::HEARTBEAT_PRODUCER]
+            .into_iter()
+            .filter_map(|i| od.get_u32(i, 0))
+            .find(|v| *v != 0)
+            .unwrap_or(100);
+        Ok(DualBusConfig {
+            od_layout: *layout,
+            ..DualBusConfig::with_guard_period(mode, Duration::from_millis(period as u64))
+        })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use duocan::od::StaticDictionary;
+
+    static COMM: [ObjectDef; comm::COMM_LEN] = comm::communication();
+    static HB: [ObjectDef; 4] = comm::heartbeat_consumers::<4>();
+    static TOGGLE_AT_2100: [ObjectDef; 5] = ecss_objects(0x2100);
+
+    #[test]
+    fn mode_follows_the_objects_present() {
+        let mut od = StaticDictionary::<64, 512>::new();
+        od.load(5, &[&COMM, &HB]).unwrap();
+        od.set_value::<u16>(comm::HEARTBEAT_PRODUCER, 0, 50)
+            .unwrap();
+        let c = DualBusConfig::from_od(&od, &OdLayout::default()).unwrap();
+        assert_eq!(c.mode, LinkMode::ActiveActive);
+        assert_eq!(c.health.silence_limit, Duration::from_millis(150));
+
+        let mut od = StaticDictionary::<64, 512>::new();
+        od.load(5, &[&COMM, &HB, &CIA302_6_OBJECTS]).unwrap();
+        od.set_value::<u32>(comm::HEARTBEAT_CONSUMER, 1, 0x0002_0064)
+            .unwrap();
+        od.set_value::<u32>(comm::HEARTBEAT_CONSUMER, 3, 0x0007_0064)
+            .unwrap();
+        od.set_value::<u16>(REDUNDANCY_CONFIG, 1, 20).unwrap();
+        let c = DualBusConfig::from_od(&od, &OdLayout::default()).unwrap();
+        let LinkMode::Cia302_6(m) = c.mode else {
+            panic!("{:?}", c.mode)
+        };
+        assert_eq!(m.max_tx_delay, Duration::from_millis(20));
+        assert_eq!(m.error_threshold, 16);
+        assert_eq!(
+            m.producers.iter().map(|n| n.raw()).collect::<Vec<_>>(),
+            [2, 7]
+        );
+
+        let mut od = StaticDictionary::<64, 512>::new();
+        od.load(5, &[&COMM, &HB, &TOGGLE_AT_2100]).unwrap();
+        od.set_value::<u32>(comm::HEARTBEAT_CONSUMER, 1, 0x0001_00C8)
+            .unwrap();
+        od.set_value::<u8>(0x2100, 1, 1).unwrap();
+        let layout = OdLayout {
+            toggle: 0x2100,
+            ..Default::default()
+        };
+        let c = DualBusConfig::from_od(&od, &layout).unwrap();
+        assert_eq!(
+            c.mode,
+            LinkMode::EcssToggle(EcssConfig {
+                bdefault: 1,
+                ttoggle: 2,
+                ntoggle: 4,
+                role: EcssRole::Slave {
+                    master: NodeId::must(1),
+                    period: Duration::from_millis(200)
+                }
+            })
+        );
+        // Bdefault is range-checked by the dictionary itself.
+        assert!(od.write(0x2100, 1, &[2]).is_err());
+    }
+
+    #[test]
+    fn missing_entries_are_reported() {
+        static PARTIAL: [ObjectDef; 2] = {
+            let t = cia302_6_objects(REDUNDANCY_CONFIG);
+            [t[0], t[1]]
+        };
+        let mut od = StaticDictionary::<64, 512>::new();
+        od.load(5, &[&COMM, &PARTIAL]).unwrap();
+        let e = DualBusConfig::from_od(&od, &OdLayout::default()).unwrap_err();
+        assert_eq!(
+            e,
+            ConfigError::Missing {
+                index: 0x1F60,
+                sub: 4,
+                abort: AbortCode::NO_SUB_INDEX
+            }
+        );
+        assert!(e.to_string().contains("0x1f60sub4"));
+    }
+}

@@ -1,0 +1,557 @@
+//! The dual-bus abstraction layer: two CAN ports below, one logical bus above.
+//!
+//! [`DualBus`] implements [`BusLink`], so any [`Machine`](duocan::Machine) — a
+//! [`Node`](duocan::Node) of the standard stack, unchanged — runs on top of it in a
+//! [`Station`](duocan::Station). The three redundancy modes are policies behind one type, chosen
+//! by [`LinkMode`] in the [`DualBusConfig`] (from code or from the dictionary, see
+//! [`crate::link::config`]).
+//!
+//! ```
+//! use duocan::{Station, Node, NodeConfig, NodeId};
+//! use duocan::od::{comm, DynamicDictionary};
+//! use duocan_redundancy::{DualBus, DualBusConfig};
+//!
+//! let od = comm::standard_dictionary(5, Default::default());
+//! let node = Node::new(NodeConfig::slave(NodeId::must(5)), od);
+//! let station = Station::new(DualBus::new(DualBusConfig::default()), node);
+//! assert_eq!(duocan::Device::port_count(&station), 2);
+//! ```
+
+use crate::link::channel::{
+    ChannelPolicy, Cia3026, Cia3026Config, Ecss, EcssConfig, FrameInfo, ModeKind, Policy, RxRoute,
+};
+use crate::link::classify::FrameClassifier;
+use crate::link::config::{ConfigError, OdLayout};
+use crate::link::events::LinkEvent;
+use crate::link::health::{Health, HealthConfig, PortHealth, PortState, RxOutcome};
+use crate::link::merge::{Merger, Verdict};
+use crate::link::outbox::Outbox;
+use crate::link::reach::Reach;
+use crate::link::same_function::{PairError, PairVerdict, SameFunction, MAX_FUNCTIONS};
+use crate::pair::{Member, PairId};
+use duocan::frame::instant::earliest;
+use duocan::machine::{BusLink, LinkRequest, PortRequest, PortStatus};
+use duocan::od::ObjectDictionary;
+use duocan::profile::Predefined;
+use duocan::{Duration, Frame, Instant};
+
+/// Merger slots of a [`DualBus`] unless chosen otherwise: 768 records, enough for two
+/// saturated 1 Mbit/s buses with a 10 ms window.
+pub const DEFAULT_MERGE_SLOTS: usize = 1024;
+
+/// Which redundancy scheme the layer runs.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
+pub enum LinkMode {
+    /// Both buses carry everything; receive merge exactly once (the railway default).
+    #[default]
+    ActiveActive,
+    /// CiA 302-6 active-standby.
+    Cia302_6(Cia3026Config),
+    /// ECSS-E-ST-50-15C bus toggling.
+    EcssToggle(EcssConfig),
+}
+
+/// Everything a [`DualBus`] is configured with.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct DualBusConfig {
+    /// The scheme.
+    pub mode: LinkMode,
+    /// Skew window of the merger (default 10 ms): longer than the worst inter-bus skew, shorter
+    /// than the shortest repetition period that matters.
+    pub skew_window: Duration,
+    /// Port health timing.
+    pub health: HealthConfig,
+    /// A node not heard on a bus for this long is reported unreachable there (default: the
+    /// silence limit).
+    pub reach_timeout: Duration,
+    /// A/B values differing this long raise a discrepancy (default 100 ms; zero: never).
+    pub discrepancy_time: Duration,
+    /// Where the node's dictionary has the redundancy objects: the layer keeps their status
+    /// entries (ECSS Bdefault and Ctoggle, the CiA 302-6 channel error counter) up to date
+    /// through [`LinkRequest::SetStatus`].
+    pub od_layout: OdLayout,
+}
+
+impl Default for DualBusConfig {
+    fn default() -> Self {
+        DualBusConfig::with_guard_period(LinkMode::ActiveActive, Duration::from_millis(100))
+    }
+}
+
+impl DualBusConfig {
+    /// `mode` with the health and reachability timing derived from the node-guarding (or
+    /// heartbeat) period: silence limit 3 periods.
+    pub fn with_guard_period(mode: LinkMode, period: Duration) -> Self {
+        let skew_window = Duration::from_millis(10);
+        let health = HealthConfig {
+            tx_stall: skew_window,
+            ..HealthConfig::from_guard_period(period)
+        };
+        DualBusConfig {
+            mode,
+            skew_window,
+            health,
+            reach_timeout: health.silence_limit,
+            discrepancy_time: Duration::from_millis(100),
+            od_layout: OdLayout::default(),
+        }
+    }
+}
+
+/// Counters of the layer itself.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct LinkStats {
+    /// Frames received on a port index other than 0 and 1 (ignored).
+    pub bad_port: u64,
+    /// Frames delivered upward.
+    pub delivered: u64,
+    /// Standby frames of pairs kept but not delivered.
+    pub standby: u64,
+    /// Frames for the ports dropped because the driver did not drain them.
+    pub tx_dropped: u32,
+    /// Events dropped because the application did not drain them.
+    pub events_dropped: u32,
+    /// Requests dropped because the driver did not drain them.
+    pub requests_dropped: u32,
+}
+
+/// The dual-bus layer. `C` classifies frames (heartbeats, senders, functions; the predefined
+/// connection set by default); `N` is the merger's slot count.
+pub struct DualBus<
+    C = Predefined,
+    const N: usize = DEFAULT_MERGE_SLOTS,
+    const F: usize = MAX_FUNCTIONS,
+> {
+    classifier: C,
+    policy: Policy,
+    merger: Merger<N>,
+    health: Health,
+    reach: Reach,
+    reach_enabled: bool,
+    pairs: SameFunction<F>,
+    out: Outbox,
+    stats: LinkStats,
+    /// The latest instant any method was given (hand-over time of frames for the stall rule).
+    now: Instant,
+    layout: OdLayout,
+    /// The status values last written to the node's dictionary.
+    shown: Status,
+}
+
+/// The mode's status entries, as last shown in the dictionary.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+struct Status {
+    bdefault: u8,
+    ctoggle: u8,
+    counter: u8,
+}
+
+impl DualBus<Predefined, DEFAULT_MERGE_SLOTS> {
+    /// A layer for the predefined connection set.
+    pub fn new(cfg: DualBusConfig) -> Self {
+        DualBus::with_classifier(cfg, Predefined)
+    }
+    /// A layer for the predefined connection set, configured by a dictionary (see
+    /// [`DualBusConfig::from_od`]).
+    pub fn from_od<D: ObjectDictionary>(od: &D, layout: &OdLayout) -> Result<Self, ConfigError> {
+        Ok(DualBus::new(DualBusConfig::from_od(od, layout)?))
+    }
+}
+
+impl<C: FrameClassifier, const N: usize, const F: usize> DualBus<C, N, F> {
+    /// A layer with a custom frame classifier (identifier scheme).
+    pub fn with_classifier(cfg: DualBusConfig, classifier: C) -> Self {
+        let mut health = cfg.health;
+        let (policy, reach_enabled) = match cfg.mode {
+            LinkMode::ActiveActive => (Policy::ActiveActive(Default::default()), true),
+            LinkMode::Cia302_6(c) => {
+                // One channel carries the traffic: flushing it would lose frames (302-6 has
+                // its own transmit-delay rule).
+                health.tx_stall = Duration::ZERO;
+                (Policy::Cia302_6(Cia3026::new(c)), true)
+            }
+            LinkMode::EcssToggle(c) => {
+                // The inactive bus is quiet by design: silence and reachability mean nothing.
+                health.silence_detection = false;
+                health.tx_stall = Duration::ZERO;
+                (Policy::EcssToggle(Ecss::new(c)), false)
+            }
+        };
+        let mut l = DualBus {
+            classifier,
+            policy,
+            merger: Merger::new(cfg.skew_window),
+            health: Health::new(health, cfg.skew_window),
+            reach: Reach::new(cfg.reach_timeout, cfg.skew_window),
+            reach_enabled,
+            pairs: SameFunction::new(cfg.discrepancy_time),
+            out: Outbox::new(),
+            stats: LinkStats::default(),
+            now: Instant::ZERO,
+            layout: cfg.od_layout,
+            shown: Status::default(),
+        };
+        // The dictionary starts with the configured values: only changes are written.
+        l.shown = l.status();
+        l
+    }
+
+    fn status(&self) -> Status {
+        match &self.policy {
+            Policy::Cia302_6(c) => Status {
+                counter: c.error_counter(),
+                ..Status::default()
+            },
+            Policy::EcssToggle(e) => Status {
+                bdefault: e.bdefault(),
+                ctoggle: e.ctoggle(),
+                ..Status::default()
+            },
+            Policy::ActiveActive(_) => Status::default(),
+        }
+    }
+
+    /// Queues a [`LinkRequest::SetStatus`] for every status value that changed.
+    fn show_status(&mut self) {
+        if matches!(self.policy, Policy::ActiveActive(_)) {
+            return; // no status entries: keep the frame path lean
+        }
+        let now = self.status();
+        let (red, tog) = (self.layout.redundancy, self.layout.toggle);
+        for (index, sub, old, new) in [
+            (red, 5, self.shown.counter, now.counter),
+            (tog, 1, self.shown.bdefault, now.bdefault),
+            (tog, 4, self.shown.ctoggle, now.ctoggle),
+        ] {
+            if old != new {
+                self.out.machine(LinkRequest::SetStatus {
+                    index,
+                    sub,
+                    value: new,
+                });
+            }
+        }
+        self.shown = now;
+    }
+
+    /// The scheme running.
+    pub fn mode(&self) -> ModeKind {
+        self.policy.kind()
+    }
+    /// The policy, for mode-specific status (302-6 error counter, ECSS Ctoggle, …).
+    pub fn policy(&self) -> &Policy {
+        &self.policy
+    }
+    /// The CiA 302-6 policy (error counter, evaluation), in that mode.
+    pub fn cia302_6(&self) -> Option<&Cia3026> {
+        match &self.policy {
+            Policy::Cia302_6(p) => Some(p),
+            _ => None,
+        }
+    }
+    /// The ECSS policy (Bdefault, Ctoggle), in that mode.
+    pub fn ecss(&self) -> Option<&Ecss> {
+        match &self.policy {
+            Policy::EcssToggle(p) => Some(p),
+            _ => None,
+        }
+    }
+    /// The active channel (302-6 and ECSS); `None` in active-active mode.
+    pub fn active_channel(&self) -> Option<usize> {
+        self.policy.active()
+    }
+    /// Makes `port` the active channel by command (302-6: with the 0x7F indication). False in
+    /// active-active mode.
+    pub fn select_channel(&mut self, now: Instant, port: usize) -> bool {
+        self.policy.select(now, port, &mut self.out)
+    }
+    /// Health of both ports.
+    pub fn health(&self) -> &Health {
+        &self.health
+    }
+    /// One port's health.
+    pub fn port(&self, p: usize) -> &PortHealth {
+        self.health.port(p)
+    }
+    /// One port's state.
+    pub fn port_state(&self, p: usize) -> PortState {
+        self.health.port(p).state()
+    }
+    /// The receive merger.
+    pub fn merger(&self) -> &Merger<N> {
+        &self.merger
+    }
+    /// Per-node, per-bus reachability.
+    pub fn reach(&self) -> &Reach {
+        &self.reach
+    }
+    /// The pair table and the members' latest values.
+    pub fn pairs(&self) -> &SameFunction<F> {
+        &self.pairs
+    }
+    /// Configures an A/B pair for the same-function merge.
+    pub fn add_pair(
+        &mut self,
+        a: duocan::NodeId,
+        b: duocan::NodeId,
+        active: Option<Member>,
+    ) -> Result<PairId, PairError> {
+        self.pairs.add_pair(a, b, active)
+    }
+    /// Makes `member` the pair member whose process data is delivered (`None`: neither). For
+    /// the supervisor.
+    pub fn set_active(&mut self, pair: PairId, member: Option<Member>) -> bool {
+        self.pairs.set_active(pair, member)
+    }
+    /// Forgets a member's latest values (after resetting it).
+    pub fn forget_member(&mut self, pair: PairId, member: Member) {
+        self.pairs.forget(pair, member);
+    }
+    /// The classifier.
+    pub fn classifier(&self) -> &C {
+        &self.classifier
+    }
+    /// Counters.
+    pub fn stats(&self) -> LinkStats {
+        LinkStats {
+            tx_dropped: self.out.frames_dropped(),
+            events_dropped: self.out.events.dropped(),
+            requests_dropped: self.out.requests.dropped(),
+            ..self.stats
+        }
+    }
+
+    fn info(&self, frame: &Frame) -> FrameInfo {
+        FrameInfo {
+            heartbeat: self.classifier.heartbeat_of(frame),
+        }
+    }
+}
+
+impl<C: FrameClassifier, const N: usize, const F: usize> BusLink for DualBus<C, N, F> {
+    type Event = LinkEvent;
+
+    fn port_count(&self) -> usize {
+        2
+    }
+
+    fn handle_rx(&mut self, now: Instant, port: usize, frame: &Frame) -> Option<Frame> {
+        self.now = now;
+        if port > 1 {
+            self.stats.bad_port += 1;
+            return None;
+        }
+        if self.reach_enabled {
+            if let Some(n) = self.classifier.sender(frame) {
+                self.reach.on_heard(now, n, port, &mut self.out);
+            }
+        }
+        let info = self.info(frame);
+        let route = self.policy.on_rx(now, port, frame, &info, &mut self.out);
+        self.show_status();
+        let outcome = match route {
+            RxRoute::Ignore => RxOutcome::Ignored,
+            RxRoute::Direct => RxOutcome::Direct,
+            RxRoute::Merge if self.health.trusted(port) => {
+                match self.merger.arrive(now, port, frame) {
+                    Verdict::Deliver => RxOutcome::Delivered,
+                    Verdict::Duplicate => RxOutcome::Duplicate,
+                }
+            }
+            RxRoute::Merge => {
+                if self.merger.match_only(now, port, frame) {
+                    RxOutcome::Duplicate
+                } else {
+                    RxOutcome::Untrusted
+                }
+            }
+        };
+        self.health.on_rx(now, port, outcome, &mut self.out);
+        if !matches!(outcome, RxOutcome::Delivered | RxOutcome::Direct) {
+            return None;
+        }
+        if !self.pairs.is_empty() {
+            if let Some((node, function)) = self.classifier.function(frame) {
+                let classifier = &self.classifier;
+                if self
+                    .pairs
+                    .on_frame_by(now, node, function, frame, &mut self.out, |a, b| {
+                        classifier.same_value(a, b)
+                    })
+                    == PairVerdict::Standby
+                {
+                    self.stats.standby += 1;
+                    return None;
+                }
+            }
+        }
+        self.stats.delivered += 1;
+        Some(*frame)
+    }
+
+    fn handle_port_status(&mut self, now: Instant, port: usize, status: PortStatus) {
+        self.now = now;
+        if port > 1 {
+            return;
+        }
+        self.health.on_status(now, port, status, &mut self.out);
+        self.policy.on_status(now, port, status, &mut self.out);
+        self.show_status();
+    }
+
+    fn send(&mut self, now: Instant, frame: &Frame) {
+        self.now = now;
+        let info = self.info(frame);
+        let mask = self
+            .policy
+            .route_tx(now, frame, &info, &self.health, &mut self.out);
+        self.show_status();
+        for p in 0..2 {
+            if mask & (1 << p) != 0 {
+                self.out.frame(p, *frame);
+            }
+        }
+    }
+
+    fn poll_transmit(&mut self) -> Option<(usize, Frame)> {
+        let (p, f) = self.out.pop_frame()?;
+        self.health.count_tx(self.now, p);
+        Some((p, f))
+    }
+
+    fn poll_port_request(&mut self) -> Option<(usize, PortRequest)> {
+        self.out.requests.pop()
+    }
+
+    fn handle_timeout(&mut self, now: Instant) {
+        self.now = now;
+        self.health.handle_timeout(now, &mut self.out);
+        if self.reach_enabled {
+            self.reach.handle_timeout(now, &mut self.out);
+        }
+        self.policy.handle_timeout(now, &mut self.out);
+        self.show_status();
+        self.pairs.handle_timeout(now, &mut self.out);
+        self.merger.expire(now);
+    }
+
+    fn poll_timeout(&self) -> Option<Instant> {
+        let mut t = self.health.poll_timeout();
+        if self.reach_enabled {
+            t = earliest(t, self.reach.poll_timeout());
+        }
+        t = earliest(t, self.policy.poll_timeout());
+        earliest(t, self.pairs.poll_timeout())
+    }
+
+    fn poll_event(&mut self) -> Option<LinkEvent> {
+        self.out.events.pop()
+    }
+
+    fn poll_machine_request(&mut self) -> Option<LinkRequest> {
+        self.out.machine.pop()
+    }
+}
+
+impl<C, const N: usize, const F: usize> core::fmt::Debug for DualBus<C, N, F> {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        f.debug_struct("DualBus")
+            .field("mode", &self.policy.kind())
+            .field("active", &self.policy.active())
+            .field(
+                "ports",
+                &[self.health.port(0).state(), self.health.port(1).state()],
+            )
+            .field("merger", &self.merger)
+            .field("stats", &self.stats)
+            .finish_non_exhaustive()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::link::events::{LinkEventKind, PortReason};
+    use duocan::machine::ErrorCause;
+    use duocan::{Id, NodeId};
+
+    fn ms(x: u64) -> Instant {
+        Instant::from_millis(x)
+    }
+    fn drain(l: &mut DualBus) -> Vec<(usize, Frame)> {
+        core::iter::from_fn(|| l.poll_transmit()).collect()
+    }
+
+    #[test]
+    fn fan_out_skips_failed_ports_and_the_merge_delivers_once() {
+        let mut l = DualBus::new(DualBusConfig::default());
+        let f = Frame::from_array(Id::Standard(0x181), [1]);
+        l.send(ms(0), &f);
+        assert_eq!(drain(&mut l), [(0, f), (1, f)]);
+        l.handle_port_status(ms(1), 1, PortStatus::Down(ErrorCause::InterfaceDown));
+        l.send(ms(2), &f);
+        assert_eq!(drain(&mut l), [(0, f)]);
+        assert_eq!(l.port(0).counters().tx, 2);
+        assert_eq!(l.port(1).counters().tx, 1);
+        let g = Frame::from_array(Id::Standard(0x182), [2]);
+        assert_eq!(l.handle_rx(ms(3), 0, &g), Some(g));
+        assert_eq!(l.handle_rx(ms(3), 1, &g), None);
+        assert_eq!(l.handle_rx(ms(3), 7, &g), None);
+        assert_eq!(l.stats().bad_port, 1);
+        assert_eq!(l.stats().delivered, 1);
+        let e = l.poll_event().unwrap();
+        assert_eq!(
+            e.kind,
+            LinkEventKind::Port {
+                port: 1,
+                from: PortState::Ok,
+                to: PortState::Failed,
+                reason: PortReason::Down(ErrorCause::InterfaceDown)
+            }
+        );
+    }
+
+    #[test]
+    fn pairs_deliver_the_active_member_only_and_follow_set_active() {
+        let mut l = DualBus::new(DualBusConfig::default());
+        let (a, b) = (NodeId::must(0x10), NodeId::must(0x11));
+        let p = l.add_pair(a, b, Some(Member::A)).unwrap();
+        let ta = Frame::from_array(Id::Standard(0x190), [1]);
+        let tb = Frame::from_array(Id::Standard(0x191), [1]);
+        let hb_b = Frame::from_array(Id::Standard(0x711), [5]);
+        assert_eq!(l.handle_rx(ms(0), 0, &ta), Some(ta));
+        assert_eq!(l.handle_rx(ms(0), 0, &tb), None);
+        // Not process data: both members' heartbeats go up.
+        assert_eq!(l.handle_rx(ms(0), 0, &hb_b), Some(hb_b));
+        assert_eq!(l.pairs().latest(p, Member::B, 1), Some((ms(0), tb)));
+        assert!(l.set_active(p, Some(Member::B)));
+        assert_eq!(l.handle_rx(ms(20), 0, &ta), None);
+        assert_eq!(l.handle_rx(ms(20), 0, &tb), Some(tb));
+        assert_eq!(l.stats().standby, 2);
+    }
+
+    #[test]
+    fn modes_and_commands() {
+        let mut l = DualBus::new(DualBusConfig::default());
+        assert_eq!(l.mode(), ModeKind::ActiveActive);
+        assert_eq!(l.active_channel(), None);
+        assert!(!l.select_channel(ms(0), 1));
+        let cfg = DualBusConfig {
+            mode: LinkMode::EcssToggle(EcssConfig::master()),
+            ..DualBusConfig::default()
+        };
+        let mut l = DualBus::new(cfg);
+        assert_eq!(l.mode(), ModeKind::EcssToggle);
+        assert!(!l.health().config().silence_detection);
+        let f = Frame::from_array(Id::Standard(0x181), [1]);
+        l.send(ms(0), &f);
+        assert_eq!(drain(&mut l), [(0, f)]);
+        // Only the active bus is listened to.
+        assert_eq!(l.handle_rx(ms(1), 1, &f), None);
+        assert_eq!(l.handle_rx(ms(1), 0, &f), Some(f));
+        assert!(l.select_channel(ms(2), 1));
+        l.send(ms(3), &f);
+        assert_eq!(drain(&mut l), [(1, f)]);
+        assert_eq!(l.ecss().map(|e| e.active_bus()), Some(1));
+    }
+}

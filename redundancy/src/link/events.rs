@@ -1,0 +1,301 @@
+//! What the dual-bus layer reports: every port-state change, channel switch, toggle,
+//! reachability change and A/B discrepancy, with its reason and the instant it happened.
+//!
+//! Ports are numbered 0 and 1 in the API and printed as "bus 1" and "bus 2".
+
+use crate::link::health::PortState;
+use crate::pair::{Member, PairId};
+use core::fmt;
+use duocan::machine::ErrorCause;
+use duocan::{Duration, Frame, Instant, NodeId};
+
+/// One thing that happened in the layer.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct LinkEvent {
+    /// When (for timer-driven changes: exactly the deadline).
+    pub at: Instant,
+    /// What.
+    pub kind: LinkEventKind,
+}
+
+/// The kinds of [`LinkEvent`].
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum LinkEventKind {
+    /// A port changed health state.
+    Port {
+        /// Port index (0 = bus 1).
+        port: u8,
+        /// Previous state.
+        from: PortState,
+        /// New state.
+        to: PortState,
+        /// Why.
+        reason: PortReason,
+    },
+    /// The set of buses a node is heard on changed (`heard[p]`: heard on port `p` within the
+    /// reachability timeout). The first report of a node comes one skew window after it was
+    /// first heard, so that its twin has had time to arrive.
+    Reach {
+        /// The node.
+        node: NodeId,
+        /// Heard on port 0, on port 1.
+        heard: [bool; 2],
+    },
+    /// The active channel changed (CiA 302-6 and ECSS modes).
+    Channel {
+        /// Previous active port.
+        from: u8,
+        /// New active port.
+        to: u8,
+        /// Why.
+        reason: SwitchReason,
+    },
+    /// ECSS: the redundancy master's heartbeat was lost on the active bus. The node on top must
+    /// enter pre-operational (`Node::set_nmt_state`); toggling starts.
+    MasterLost {
+        /// The redundancy master.
+        master: NodeId,
+        /// The bus it was lost on.
+        bus: u8,
+    },
+    /// ECSS: the bus was toggled while searching for the master.
+    Toggle {
+        /// Previous bus.
+        from: u8,
+        /// New bus.
+        to: u8,
+        /// Toggle counter (0x2000 sub 4) after this toggle.
+        ctoggle: u8,
+    },
+    /// ECSS: Ntoggle toggles without finding the master; the layer stays on `bus`.
+    NoMaster {
+        /// The bus it stays on.
+        bus: u8,
+        /// Toggle counter.
+        ctoggle: u8,
+    },
+    /// ECSS: the master's heartbeat is back on `bus`, which becomes the default bus
+    /// (0x2000 sub 1).
+    MasterFound {
+        /// The redundancy master.
+        master: NodeId,
+        /// The bus, now the default.
+        bus: u8,
+    },
+    /// CiA 302-6: the channel error counter (0x1F60 sub 5) reached its threshold; the default
+    /// channel is disabled until transmissions on it succeed again.
+    DefaultDisabled {
+        /// The counter.
+        counter: u8,
+    },
+    /// The A and B members of a pair have carried different values for one function for longer
+    /// than the discrepancy time.
+    Discrepancy {
+        /// The pair.
+        pair: PairId,
+        /// The function key (e.g. the TPDO number).
+        function: u32,
+        /// The latest frame of member A.
+        a: Frame,
+        /// The latest frame of member B.
+        b: Frame,
+        /// When the values started to differ.
+        since: Instant,
+    },
+    /// A reported discrepancy ended: the two members agree again.
+    DiscrepancyCleared {
+        /// The pair.
+        pair: PairId,
+        /// The function key.
+        function: u32,
+    },
+    /// A pair member's value could not be kept for comparison because the function table is
+    /// full (delivery is unaffected); reported once per pair.
+    PairTableFull {
+        /// The pair.
+        pair: PairId,
+        /// The member whose frame arrived.
+        member: Member,
+    },
+}
+
+/// Why a port changed state.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum PortReason {
+    /// Nothing received for `silent` while the other port kept receiving first copies.
+    Silence {
+        /// How long it has been silent.
+        silent: Duration,
+    },
+    /// The controller reported an error.
+    Controller(ErrorCause),
+    /// A transmission failed.
+    TxFailed(ErrorCause),
+    /// A frame handed to the port got no transmit outcome for `waited`: the port cannot send
+    /// (a babbling node holds the bus, the controller is stuck); its queue was flushed.
+    TxStalled {
+        /// How long the oldest frame waited.
+        waited: Duration,
+    },
+    /// The driver reported the port down.
+    Down(ErrorCause),
+    /// The driver reported the port up again.
+    Up,
+    /// The layer asked the driver to re-initialise the port (attempt number, from 1).
+    Reinit {
+        /// Attempt since the port last was ok.
+        attempt: u32,
+    },
+    /// Frames are received again.
+    Traffic,
+}
+
+/// Why the active channel changed.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum SwitchReason {
+    /// 302-6 power-on evaluation: `node` gave `count` (< 3) heartbeats on the default channel.
+    PowerOnEvaluation {
+        /// The producer with the fewest heartbeats.
+        node: NodeId,
+        /// Its heartbeats in the window.
+        count: u8,
+    },
+    /// 302-6 evaluation after reset communication: `node` gave no heartbeat on default.
+    ResetEvaluation {
+        /// The silent producer.
+        node: NodeId,
+    },
+    /// 302-6: every producer gave 3 or more heartbeats on the default channel again.
+    HeartbeatsBack,
+    /// 302-6: the channel error counter reached its threshold.
+    TxErrors {
+        /// The counter.
+        counter: u8,
+    },
+    /// 302-6: "indicate active interface" (0x7F) heard on the new channel.
+    Indicated,
+    /// Reset communication returned to the default channel.
+    ResetCommunication,
+    /// The application asked.
+    Command,
+}
+
+fn bus(p: u8) -> u8 {
+    p + 1
+}
+
+impl fmt::Display for PortReason {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            PortReason::Silence { silent } => write!(f, "nothing received for {silent}"),
+            PortReason::Controller(c) => write!(f, "controller reported {c}"),
+            PortReason::TxFailed(c) => write!(f, "transmission failed: {c}"),
+            PortReason::TxStalled { waited } => {
+                write!(f, "transmission stalled for {waited}: queue flushed")
+            }
+            PortReason::Down(c) => write!(f, "port down: {c}"),
+            PortReason::Up => f.write_str("port up again"),
+            PortReason::Reinit { attempt } => write!(f, "re-initialised (attempt {attempt})"),
+            PortReason::Traffic => f.write_str("frames received again"),
+        }
+    }
+}
+
+impl fmt::Display for SwitchReason {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            SwitchReason::PowerOnEvaluation { node, count } => write!(
+                f,
+                "power-on evaluation: {node} gave {count} heartbeat(s) on the default channel"
+            ),
+            SwitchReason::ResetEvaluation { node } => write!(
+                f,
+                "evaluation after reset communication: no heartbeat of {node} on the default channel"
+            ),
+            SwitchReason::HeartbeatsBack => {
+                f.write_str("every producer's heartbeat is back on the default channel")
+            }
+            SwitchReason::TxErrors { counter } => {
+                write!(f, "channel error counter reached {counter}")
+            }
+            SwitchReason::Indicated => f.write_str("indicate-active-interface (0x7F) received"),
+            SwitchReason::ResetCommunication => f.write_str("reset communication"),
+            SwitchReason::Command => f.write_str("commanded"),
+        }
+    }
+}
+
+/// One line, e.g. `1.250000s: node 0x12 heard on bus 2 only`.
+impl fmt::Display for LinkEvent {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(f, "{}: ", self.at)?;
+        match self.kind {
+            LinkEventKind::Port {
+                port,
+                from,
+                to,
+                reason,
+            } => write!(f, "bus {} port {from} -> {to}: {reason}", bus(port)),
+            LinkEventKind::Reach { node, heard } => match heard {
+                [true, true] => write!(f, "{node} heard on both buses"),
+                [true, false] => write!(f, "{node} heard on bus 1 only"),
+                [false, true] => write!(f, "{node} heard on bus 2 only"),
+                [false, false] => write!(f, "{node} heard on no bus"),
+            },
+            LinkEventKind::Channel { from, to, reason } => write!(
+                f,
+                "active channel bus {} -> bus {}: {reason}",
+                bus(from),
+                bus(to)
+            ),
+            LinkEventKind::MasterLost { master, bus: b } => write!(
+                f,
+                "heartbeat of redundancy master {master} lost on bus {}: enter pre-operational",
+                bus(b)
+            ),
+            LinkEventKind::Toggle { from, to, ctoggle } => write!(
+                f,
+                "toggled bus {} -> bus {} (Ctoggle {ctoggle})",
+                bus(from),
+                bus(to)
+            ),
+            LinkEventKind::NoMaster { bus: b, ctoggle } => write!(
+                f,
+                "no master found after {ctoggle} toggle(s): staying on bus {}",
+                bus(b)
+            ),
+            LinkEventKind::MasterFound { master, bus: b } => write!(
+                f,
+                "redundancy master {master} heard on bus {}: now the default bus",
+                bus(b)
+            ),
+            LinkEventKind::DefaultDisabled { counter } => write!(
+                f,
+                "default channel disabled: channel error counter {counter}"
+            ),
+            LinkEventKind::Discrepancy {
+                pair,
+                function,
+                a,
+                b,
+                since,
+            } => write!(
+                f,
+                "pair {} function {function}: A sends {a}, B sends {b} (since {since})",
+                pair.0
+            ),
+            LinkEventKind::DiscrepancyCleared { pair, function } => {
+                write!(
+                    f,
+                    "pair {} function {function}: A and B agree again",
+                    pair.0
+                )
+            }
+            LinkEventKind::PairTableFull { pair, member } => write!(
+                f,
+                "pair {} member {member}: function table full, values not compared",
+                pair.0
+            ),
+        }
+    }
+}

@@ -1,0 +1,884 @@
+//! Port health: counters, error causes and an explicit state per port.
+//!
+//! ```text
+//!            error report                 silence limit / bus-off / down
+//!   ok ──────────────────────▶ suspect ────────────────────────────────▶ failed
+//!    ▲  ◀── frame, no error for        ◀──┐                               │ back-off elapsed:
+//!    │       the hold time                │                               │ PortRequest::Reinit
+//!    │                                    │ silence limit                 ▼   (or Up, or a frame)
+//!    └──────── frames for the probation ─ recovering ◀────────────────────┘
+//! ```
+//!
+//! - **Silence.** A port is silent when it has received nothing while the other port received
+//!   *first copies* (frames the merger delivered, whose twins this port should have seen within
+//!   the skew window). Twins do not count, so a network that simply goes quiet fails nobody. A
+//!   port silent for `suspect_after` becomes suspect, for `silence_limit` failed; the instant is
+//!   exact: last frame + limit (or first missed frame + window, if later).
+//! - **Controller reports.** Bus-off, interface down and transceiver faults fail the port at
+//!   once; other errors (error passive, CRC, no-ack, …) make an ok port suspect.
+//! - **Re-initialisation.** A failed port is re-initialised (`PortRequest::Reinit`) after a
+//!   back-off that doubles on every failed attempt up to a maximum, and is reset when the port
+//!   is ok again. It is then *recovering*: the transmit fan-out includes it again (so that peers
+//!   that also marked the bus failed hear traffic once it is repaired), and it returns to ok
+//!   after receiving frames for the probation time, or fails again after the silence limit.
+//! - **Transmit stall** (active-active, drivers that report transmit outcomes). A frame that
+//!   waits in a port's queue longer than the skew window would reach the receivers too late to be
+//!   matched with its twin, i.e. as a duplicate. So when the oldest frame handed to a port has had
+//!   no outcome for `tx_stall` (the window), the port is re-initialised at once (flushing its
+//!   queue) and failed; such a port comes back only through re-initialisation, not because it
+//!   receives (a babbling controller fills the bus with frames while nobody else can send).
+//! - **Trust.** Arrivals on a failed or recovering port are *match-only* while the other port is
+//!   ok or suspect: they may consume a twin but are never delivered themselves. A repaired
+//!   segment can first flush frames that were queued before the fault; those are older than the
+//!   skew window and would otherwise be delivered a second time. The other port delivers every
+//!   occurrence meanwhile, so nothing is lost unless both buses fail at once.
+
+use crate::link::events::{LinkEvent, LinkEventKind, PortReason};
+use crate::link::outbox::Outbox;
+use core::fmt;
+use duocan::frame::instant::earliest;
+use duocan::machine::{ErrorCause, PortRequest, PortStatus};
+use duocan::{Duration, Instant};
+
+/// The health of a port.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum PortState {
+    /// Working.
+    Ok,
+    /// Errors reported or silent for a while; still used.
+    Suspect,
+    /// Not used for transmission; waiting for re-initialisation.
+    Failed,
+    /// Re-initialised or receiving again; used for transmission, not yet trusted for delivery.
+    Recovering,
+}
+
+impl PortState {
+    /// Ok or suspect: frames from it are delivered.
+    pub const fn is_trusted(self) -> bool {
+        matches!(self, PortState::Ok | PortState::Suspect)
+    }
+}
+
+impl fmt::Display for PortState {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(match self {
+            PortState::Ok => "ok",
+            PortState::Suspect => "suspect",
+            PortState::Failed => "failed",
+            PortState::Recovering => "recovering",
+        })
+    }
+}
+
+/// Timing of the health rules.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct HealthConfig {
+    /// Silence after which a port fails. Default 300 ms: 3 × a 100 ms guarding period.
+    pub silence_limit: Duration,
+    /// Silence after which a port is suspect (default: a third of the limit, i.e. one guarding
+    /// period). Zero or not below the limit: no silence-suspect step.
+    pub suspect_after: Duration,
+    /// A suspect port is ok again at the first frame received this long after its last error
+    /// report (default: one guarding period).
+    pub error_hold: Duration,
+    /// A recovering port is ok again at the first frame received this long after its first one
+    /// (default: one guarding period). Zero: at the first frame.
+    pub probation: Duration,
+    /// Back-off before the first re-initialisation of a failed port (default 100 ms).
+    pub reinit_first: Duration,
+    /// Longest back-off (default 10 s).
+    pub reinit_max: Duration,
+    /// Apply the silence rule (off in bus-toggle mode, where the inactive bus is quiet by
+    /// design).
+    pub silence_detection: bool,
+    /// Oldest a frame handed to a port may get without a transmit outcome before the port is
+    /// flushed and failed (zero: never). Applies once the port's driver has reported an outcome
+    /// (drivers that cannot tell are never judged). The dual-bus layer sets it to the skew
+    /// window in active-active mode and to zero otherwise.
+    pub tx_stall: Duration,
+}
+
+impl HealthConfig {
+    /// The defaults for a given node-guarding (or heartbeat) period: silence limit 3 periods,
+    /// suspect after, error hold and probation one period.
+    pub const fn from_guard_period(period: Duration) -> Self {
+        HealthConfig {
+            silence_limit: period.saturating_mul(3),
+            suspect_after: period,
+            error_hold: period,
+            probation: period,
+            reinit_first: Duration::from_millis(100),
+            reinit_max: Duration::from_secs(10),
+            silence_detection: true,
+            tx_stall: Duration::ZERO,
+        }
+    }
+}
+
+impl Default for HealthConfig {
+    fn default() -> Self {
+        HealthConfig::from_guard_period(Duration::from_millis(100))
+    }
+}
+
+/// Number of [`ErrorCause`] variants (the length of [`HealthCounters::errors`]).
+pub const ERROR_CAUSES: usize = 14;
+
+/// Index of an error cause in [`HealthCounters::errors`].
+pub const fn cause_index(c: ErrorCause) -> usize {
+    match c {
+        ErrorCause::BusOff => 0,
+        ErrorCause::ErrorPassive => 1,
+        ErrorCause::ErrorWarning => 2,
+        ErrorCause::NoAck => 3,
+        ErrorCause::Bit => 4,
+        ErrorCause::Stuff => 5,
+        ErrorCause::Form => 6,
+        ErrorCause::Crc => 7,
+        ErrorCause::RxOverflow => 8,
+        ErrorCause::TxTimeout => 9,
+        ErrorCause::Transceiver => 10,
+        ErrorCause::InterfaceDown => 11,
+        ErrorCause::Restarted => 12,
+        ErrorCause::Other => 13,
+    }
+}
+
+/// Causes that make a port unusable at once.
+const fn is_fatal(c: ErrorCause) -> bool {
+    matches!(
+        c,
+        ErrorCause::BusOff | ErrorCause::InterfaceDown | ErrorCause::Transceiver
+    )
+}
+
+/// Counters of one port.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct HealthCounters {
+    /// Frames received.
+    pub rx: u64,
+    /// Received frames delivered upward (first copies).
+    pub delivered: u64,
+    /// Received frames dropped as twins.
+    pub duplicates: u64,
+    /// Received frames dropped because the port was not trusted and no twin was pending.
+    pub untrusted: u64,
+    /// Frames handed to the port.
+    pub tx: u64,
+    /// Transmissions the driver confirmed.
+    pub tx_ok: u64,
+    /// Transmissions the driver reported failed.
+    pub tx_failed: u64,
+    /// Error reports (controller errors and failed transmissions) by cause
+    /// (see [`cause_index`]).
+    pub errors: [u32; ERROR_CAUSES],
+    /// Re-initialisations requested.
+    pub reinits: u32,
+    /// Last frame received.
+    pub last_rx: Option<Instant>,
+    /// Last error reported, with its cause.
+    pub last_error: Option<(Instant, ErrorCause)>,
+}
+
+impl HealthCounters {
+    /// Error reports of one cause.
+    pub fn errors_of(&self, c: ErrorCause) -> u32 {
+        self.errors[cause_index(c)]
+    }
+}
+
+/// State and counters of one port.
+#[derive(Clone, Debug)]
+pub struct PortHealth {
+    state: PortState,
+    since: Instant,
+    /// Start of the current silence: last frame, entry into recovering, or start of observation.
+    silence_ref: Option<Instant>,
+    /// First first-copy on the other port since this port's last frame.
+    first_missed: Option<Instant>,
+    last_error: Option<Instant>,
+    probation_from: Option<Instant>,
+    reinit_at: Option<Instant>,
+    attempt: u32,
+    backoff: Duration,
+    /// Hand-over times of frames without an outcome yet, oldest first.
+    outstanding: heapless::Deque<Instant, OUTSTANDING>,
+    /// The driver confirms successful transmissions (`TxOk`); only then can silence about a
+    /// handed-over frame mean a stall.
+    reports_outcomes: bool,
+    /// Traffic (a frame, the driver's "up") revives the failed port; not after a transmit
+    /// stall, where only the back-off re-initialisation does.
+    revive_on_rx: bool,
+    counters: HealthCounters,
+}
+
+/// Transmissions tracked per port for the stall rule.
+const OUTSTANDING: usize = 64;
+
+impl PortHealth {
+    fn new(cfg: &HealthConfig) -> Self {
+        PortHealth {
+            state: PortState::Ok,
+            since: Instant::ZERO,
+            silence_ref: None,
+            first_missed: None,
+            last_error: None,
+            probation_from: None,
+            reinit_at: None,
+            attempt: 0,
+            backoff: cfg.reinit_first,
+            outstanding: heapless::Deque::new(),
+            reports_outcomes: false,
+            revive_on_rx: true,
+            counters: HealthCounters::default(),
+        }
+    }
+    /// Current state.
+    pub fn state(&self) -> PortState {
+        self.state
+    }
+    /// When it entered the current state.
+    pub fn since(&self) -> Instant {
+        self.since
+    }
+    /// Counters.
+    pub fn counters(&self) -> &HealthCounters {
+        &self.counters
+    }
+    /// Re-initialisation attempts since the port was last ok.
+    pub fn attempts(&self) -> u32 {
+        self.attempt
+    }
+    /// When the next re-initialisation is due (failed ports).
+    pub fn next_reinit(&self) -> Option<Instant> {
+        self.reinit_at
+    }
+}
+
+/// The health of both ports.
+#[derive(Clone, Debug)]
+pub struct Health {
+    cfg: HealthConfig,
+    window: Duration,
+    ports: [PortHealth; 2],
+}
+
+impl Health {
+    /// Both ports ok. `window` is the merger's skew window: the time a twin may take.
+    pub fn new(cfg: HealthConfig, window: Duration) -> Self {
+        Health {
+            cfg,
+            window,
+            ports: [PortHealth::new(&cfg), PortHealth::new(&cfg)],
+        }
+    }
+    /// The configuration.
+    pub fn config(&self) -> &HealthConfig {
+        &self.cfg
+    }
+    /// One port (0 or 1; anything else reads port 1).
+    pub fn port(&self, p: usize) -> &PortHealth {
+        &self.ports[p.min(1)]
+    }
+    /// True if frames from `p` may be delivered: `p` is ok or suspect, or the other port is not.
+    pub fn trusted(&self, p: usize) -> bool {
+        self.ports[p].state.is_trusted() || !self.ports[1 - p].state.is_trusted()
+    }
+    /// True if transmissions may go to `p` (not failed).
+    pub fn usable(&self, p: usize) -> bool {
+        self.ports[p].state != PortState::Failed
+    }
+
+    /// A frame was handed to port `p` at `now`.
+    pub(crate) fn count_tx(&mut self, now: Instant, p: usize) {
+        let port = &mut self.ports[p];
+        port.counters.tx += 1;
+        if port.outstanding.is_full() {
+            port.outstanding.pop_front();
+        }
+        let _ = port.outstanding.push_back(now);
+    }
+
+    /// A frame arrived on `p`; `first_copy` if it was delivered (its twin is due on the other
+    /// port), `delivered`/`duplicate` for the counters.
+    pub(crate) fn on_rx(&mut self, now: Instant, p: usize, outcome: RxOutcome, out: &mut Outbox) {
+        let o = 1 - p;
+        {
+            let c = &mut self.ports[p].counters;
+            c.rx += 1;
+            c.last_rx = Some(now);
+            match outcome {
+                RxOutcome::Delivered | RxOutcome::Direct => c.delivered += 1,
+                RxOutcome::Duplicate => c.duplicates += 1,
+                RxOutcome::Untrusted => c.untrusted += 1,
+                RxOutcome::Ignored => {}
+            }
+        }
+        let port = &mut self.ports[p];
+        port.silence_ref = Some(now);
+        port.first_missed = None;
+        if matches!(outcome, RxOutcome::Delivered | RxOutcome::Untrusted) {
+            let other = &mut self.ports[o];
+            other.first_missed.get_or_insert(now);
+            // Observation of the other port starts with the first traffic seen at all.
+            other.silence_ref.get_or_insert(now);
+        }
+        let port = &mut self.ports[p];
+        match port.state {
+            PortState::Ok => {}
+            PortState::Suspect => {
+                if port
+                    .last_error
+                    .is_none_or(|e| now.saturating_since(e) >= self.cfg.error_hold)
+                {
+                    self.set(now, p, PortState::Ok, PortReason::Traffic, out);
+                }
+            }
+            PortState::Failed if port.revive_on_rx => {
+                self.set(now, p, PortState::Recovering, PortReason::Traffic, out);
+                self.ports[p].probation_from = Some(now);
+                self.end_probation(now, p, out);
+            }
+            PortState::Failed => {}
+            PortState::Recovering => {
+                port.probation_from.get_or_insert(now);
+                self.end_probation(now, p, out);
+            }
+        }
+    }
+
+    fn end_probation(&mut self, now: Instant, p: usize, out: &mut Outbox) {
+        if let Some(from) = self.ports[p].probation_from {
+            if now.saturating_since(from) >= self.cfg.probation {
+                self.set(now, p, PortState::Ok, PortReason::Traffic, out);
+            }
+        }
+    }
+
+    /// The driver of `p` reports something.
+    pub(crate) fn on_status(
+        &mut self,
+        now: Instant,
+        p: usize,
+        status: PortStatus,
+        out: &mut Outbox,
+    ) {
+        let port = &mut self.ports[p];
+        match status {
+            PortStatus::TxOk => {
+                port.counters.tx_ok += 1;
+                port.reports_outcomes = true;
+                port.outstanding.pop_front();
+            }
+            PortStatus::TxFailed(c) => {
+                port.counters.tx_failed += 1;
+                // Failures alone do not arm the stall check: a driver that never confirms a
+                // success (embedded-can has no way to) would look stalled after every failure.
+                if c == ErrorCause::TxTimeout {
+                    // Refused at hand-over (queue full): the newest frame.
+                    port.outstanding.pop_back();
+                } else {
+                    port.outstanding.pop_front();
+                }
+                self.error(now, p, c, PortReason::TxFailed(c), out);
+            }
+            PortStatus::Error(ErrorCause::Restarted) => {
+                port.counters.errors[cause_index(ErrorCause::Restarted)] =
+                    port.counters.errors[cause_index(ErrorCause::Restarted)].saturating_add(1);
+                if port.state == PortState::Failed && port.revive_on_rx {
+                    self.set(
+                        now,
+                        p,
+                        PortState::Recovering,
+                        PortReason::Controller(ErrorCause::Restarted),
+                        out,
+                    );
+                }
+            }
+            PortStatus::Error(c) => self.error(now, p, c, PortReason::Controller(c), out),
+            PortStatus::Down(c) => {
+                port.outstanding.clear();
+                port.counters.errors[cause_index(c)] =
+                    port.counters.errors[cause_index(c)].saturating_add(1);
+                port.counters.last_error = Some((now, c));
+                port.last_error = Some(now);
+                self.fail(now, p, PortReason::Down(c), out);
+            }
+            PortStatus::Up => {
+                // After a transmit stall the driver's "up" answers the flush, not the cause.
+                if port.state == PortState::Failed && port.revive_on_rx {
+                    self.set(now, p, PortState::Recovering, PortReason::Up, out);
+                }
+            }
+        }
+    }
+
+    fn error(
+        &mut self,
+        now: Instant,
+        p: usize,
+        c: ErrorCause,
+        reason: PortReason,
+        out: &mut Outbox,
+    ) {
+        let port = &mut self.ports[p];
+        port.counters.errors[cause_index(c)] =
+            port.counters.errors[cause_index(c)].saturating_add(1);
+        port.counters.last_error = Some((now, c));
+        port.last_error = Some(now);
+        if is_fatal(c) {
+            self.fail(now, p, reason, out);
+        } else if port.state == PortState::Ok {
+            self.set(now, p, PortState::Suspect, reason, out);
+        }
+    }
+
+    fn fail(&mut self, now: Instant, p: usize, reason: PortReason, out: &mut Outbox) {
+        if self.ports[p].state != PortState::Failed {
+            self.set(now, p, PortState::Failed, reason, out);
+        }
+        self.ports[p].revive_on_rx = !matches!(reason, PortReason::TxStalled { .. });
+    }
+
+    fn set(&mut self, at: Instant, p: usize, to: PortState, reason: PortReason, out: &mut Outbox) {
+        let port = &mut self.ports[p];
+        let from = port.state;
+        if from == to {
+            return;
+        }
+        port.state = to;
+        port.since = at;
+        match to {
+            PortState::Ok => {
+                port.attempt = 0;
+                port.backoff = self.cfg.reinit_first;
+                port.reinit_at = None;
+                port.probation_from = None;
+            }
+            PortState::Failed => {
+                port.reinit_at = Some(at + port.backoff);
+                port.probation_from = None;
+                // What this port heard no longer says anything about the other one.
+                let other = &mut self.ports[1 - p];
+                other.first_missed = None;
+                other.silence_ref = None;
+            }
+            PortState::Recovering => {
+                port.reinit_at = None;
+                // Judged afresh: only frames it misses from now on count against it (in a quiet
+                // network a stale miss from before the repair would fail it again and again).
+                port.silence_ref = Some(at);
+                port.first_missed = None;
+            }
+            PortState::Suspect => {}
+        }
+        out.event(LinkEvent {
+            at,
+            kind: LinkEventKind::Port {
+                port: p as u8,
+                from,
+                to,
+                reason,
+            },
+        });
+    }
+
+    fn silence_deadline(&self, p: usize) -> Option<Instant> {
+        if !self.cfg.silence_detection {
+            return None;
+        }
+        let port = &self.ports[p];
+        // Silence means something only next to a working port that hears traffic: with the
+        // other port failed, a quiet bus is just a quiet network.
+        if self.ports[1 - p].state == PortState::Failed {
+            return None;
+        }
+        let threshold = match port.state {
+            PortState::Failed => return None,
+            PortState::Ok
+                if !self.cfg.suspect_after.is_zero()
+                    && self.cfg.suspect_after < self.cfg.silence_limit =>
+            {
+                self.cfg.suspect_after
+            }
+            _ => self.cfg.silence_limit,
+        };
+        let missed = port.first_missed?;
+        let reference = port.silence_ref?;
+        Some((reference + threshold).max(missed + self.window))
+    }
+
+    fn stall_deadline(&self, p: usize) -> Option<Instant> {
+        let port = &self.ports[p];
+        if self.cfg.tx_stall.is_zero() || !port.reports_outcomes || port.state == PortState::Failed
+        {
+            return None;
+        }
+        port.outstanding.front().map(|t| *t + self.cfg.tx_stall)
+    }
+
+    /// Earliest deadline.
+    pub fn poll_timeout(&self) -> Option<Instant> {
+        let mut t = None;
+        for p in 0..2 {
+            t = earliest(t, self.silence_deadline(p));
+            t = earliest(t, self.stall_deadline(p));
+            t = earliest(t, self.ports[p].reinit_at);
+        }
+        t
+    }
+
+    /// Applies silence rules and re-initialisations due at `now`; events carry the deadlines.
+    pub(crate) fn handle_timeout(&mut self, now: Instant, out: &mut Outbox) {
+        for p in 0..2 {
+            while let Some(d) = self.silence_deadline(p).filter(|d| *d <= now) {
+                let port = &self.ports[p];
+                let silent = d.saturating_since(port.silence_ref.unwrap_or(d));
+                let reason = PortReason::Silence { silent };
+                if silent >= self.cfg.silence_limit {
+                    self.fail(d, p, reason, out);
+                } else {
+                    self.set(d, p, PortState::Suspect, reason, out);
+                }
+            }
+            if let Some(d) = self.stall_deadline(p).filter(|d| *d <= now) {
+                // Flush now: whatever waits in the queue would only arrive as duplicates.
+                let port = &mut self.ports[p];
+                port.outstanding.clear();
+                port.counters.reinits = port.counters.reinits.saturating_add(1);
+                out.request(p, PortRequest::Reinit);
+                let stalled = self.cfg.tx_stall;
+                self.fail(d, p, PortReason::TxStalled { waited: stalled }, out);
+            }
+            if let Some(d) = self.ports[p].reinit_at.filter(|d| *d <= now) {
+                let port = &mut self.ports[p];
+                port.outstanding.clear();
+                port.attempt = port.attempt.saturating_add(1);
+                port.counters.reinits = port.counters.reinits.saturating_add(1);
+                port.backoff = (port.backoff + port.backoff).min(self.cfg.reinit_max);
+                let attempt = port.attempt;
+                out.request(p, PortRequest::Reinit);
+                self.set(
+                    d,
+                    p,
+                    PortState::Recovering,
+                    PortReason::Reinit { attempt },
+                    out,
+                );
+            }
+        }
+    }
+}
+
+/// What became of a received frame, for the counters and the silence rule.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(crate) enum RxOutcome {
+    /// First copy, delivered: its twin is due on the other port.
+    Delivered,
+    /// Twin of a delivered frame.
+    Duplicate,
+    /// From an untrusted port, no twin pending: dropped (the other port should deliver it).
+    Untrusted,
+    /// Delivered without merging (single active channel): no twin expected.
+    Direct,
+    /// Not for the application (inactive channel, link-layer frame).
+    Ignored,
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    const W: Duration = Duration::from_millis(10);
+    fn ms(x: u64) -> Instant {
+        Instant::from_millis(x)
+    }
+    fn port_events(out: &mut Outbox) -> Vec<(Instant, u8, PortState, PortReason)> {
+        let mut v = vec![];
+        while let Some(e) = out.events.pop() {
+            if let LinkEventKind::Port {
+                port, to, reason, ..
+            } = e.kind
+            {
+                v.push((e.at, port, to, reason));
+            }
+        }
+        v
+    }
+    /// Frames on both ports every 10 ms until `cut`, then only on port 0, until `end`.
+    fn traffic(h: &mut Health, out: &mut Outbox, from: u64, cut: u64, end: u64) {
+        let mut t = from;
+        while t < end {
+            if let Some(d) = h.poll_timeout().filter(|d| *d < ms(t)) {
+                h.handle_timeout(d, out);
+            }
+            let first = if h.trusted(0) {
+                RxOutcome::Delivered
+            } else {
+                RxOutcome::Untrusted
+            };
+            h.on_rx(ms(t), 0, first, out);
+            if t < cut {
+                let o = if h.trusted(1) {
+                    RxOutcome::Duplicate
+                } else {
+                    RxOutcome::Untrusted
+                };
+                h.on_rx(ms(t) + Duration::from_micros(200), 1, o, out);
+            }
+            t += 10;
+        }
+    }
+
+    #[test]
+    fn a_repaired_port_in_a_quiet_network_is_not_failed_again_for_an_old_miss() {
+        let mut h = Health::new(HealthConfig::default(), W);
+        let mut out = Outbox::new();
+        // Port 1 goes silent while port 0 hears traffic, and fails; then the network falls
+        // quiet (traffic ends at 1000 ms).
+        traffic(&mut h, &mut out, 0, 200, 1000);
+        assert_eq!(h.port(1).state(), PortState::Failed);
+        // Re-initialised after its back-off: recovering, and nothing is missed from then on.
+        let mut t = 1000;
+        while t < 5_000 {
+            if let Some(d) = h.poll_timeout().filter(|d| *d <= ms(t)) {
+                h.handle_timeout(d, &mut out);
+            }
+            t += 5;
+        }
+        assert_eq!(
+            h.port(1).state(),
+            PortState::Recovering,
+            "{:?}",
+            port_events(&mut out)
+        );
+        // A frame port 0 delivers and port 1 misses counts again: port 1 has been silent for
+        // longer than the limit, so it fails when the twin is overdue (one window later).
+        h.on_rx(ms(5_000), 0, RxOutcome::Delivered, &mut out);
+        let d = h.poll_timeout().unwrap();
+        assert_eq!(d, ms(5_000) + W);
+        h.handle_timeout(d, &mut out);
+        assert_eq!(h.port(1).state(), PortState::Failed);
+    }
+
+    #[test]
+    fn a_quiet_port_is_not_judged_next_to_a_failed_one() {
+        let mut h = Health::new(HealthConfig::default(), W);
+        let mut out = Outbox::new();
+        // Traffic on both, then port 1's interface goes down and the network falls quiet (a
+        // silent master): port 0 hears nothing more, and must stay usable.
+        traffic(&mut h, &mut out, 0, 1000, 1000);
+        // Port 0 missed the last frame port 1 heard before it went down.
+        h.on_rx(ms(995), 1, RxOutcome::Delivered, &mut out);
+        h.on_status(
+            ms(1000),
+            1,
+            PortStatus::Down(ErrorCause::InterfaceDown),
+            &mut out,
+        );
+        let mut t = 1000;
+        while t < 10_000 {
+            if let Some(d) = h.poll_timeout().filter(|d| *d <= ms(t)) {
+                h.handle_timeout(d, &mut out);
+            }
+            t += 10;
+        }
+        assert!(
+            port_events(&mut out).iter().all(|(_, p, _, _)| *p == 1),
+            "port 0 keeps its state while port 1 is failed"
+        );
+        assert!(h.usable(0));
+    }
+
+    #[test]
+    fn silence_makes_suspect_then_failed_at_exact_instants_then_reinit_with_backoff() {
+        let mut h = Health::new(HealthConfig::default(), W);
+        let mut out = Outbox::new();
+        traffic(&mut h, &mut out, 0, 1000, 2000);
+        // Last frame on port 1 at 990.2 ms: suspect 100 ms later, failed 300 ms later,
+        // re-initialised 100 ms after that, failed again after 300 ms of silence, then 200 ms
+        // back-off …
+        let last = ms(990) + Duration::from_micros(200);
+        let ev = port_events(&mut out);
+        let silence = |d| PortReason::Silence {
+            silent: Duration::from_millis(d),
+        };
+        assert_eq!(
+            ev[..5],
+            [
+                (
+                    last + Duration::from_millis(100),
+                    1,
+                    PortState::Suspect,
+                    silence(100)
+                ),
+                (
+                    last + Duration::from_millis(300),
+                    1,
+                    PortState::Failed,
+                    silence(300)
+                ),
+                (
+                    last + Duration::from_millis(400),
+                    1,
+                    PortState::Recovering,
+                    PortReason::Reinit { attempt: 1 }
+                ),
+                (
+                    last + Duration::from_millis(700),
+                    1,
+                    PortState::Failed,
+                    silence(300)
+                ),
+                (
+                    last + Duration::from_millis(900),
+                    1,
+                    PortState::Recovering,
+                    PortReason::Reinit { attempt: 2 }
+                ),
+            ]
+        );
+        assert_eq!(out.requests.pop(), Some((1, PortRequest::Reinit)));
+        assert_eq!(h.port(0).state(), PortState::Ok);
+    }
+
+    #[test]
+    fn a_quiet_network_fails_nobody() {
+        let mut h = Health::new(HealthConfig::default(), W);
+        let mut out = Outbox::new();
+        traffic(&mut h, &mut out, 0, 1000, 1000);
+        assert_eq!(h.poll_timeout(), None);
+        h.handle_timeout(ms(10_000), &mut out);
+        assert!(port_events(&mut out).is_empty());
+        // Traffic resumes, port 1 a little late: still nothing.
+        traffic(&mut h, &mut out, 20_000, 30_000, 30_000);
+        h.handle_timeout(ms(30_500), &mut out);
+        assert!(port_events(&mut out).is_empty());
+    }
+
+    #[test]
+    fn repaired_port_recovers_after_probation_and_is_untrusted_meanwhile() {
+        let mut h = Health::new(HealthConfig::default(), W);
+        let mut out = Outbox::new();
+        traffic(&mut h, &mut out, 0, 100, 450);
+        assert_eq!(h.port(1).state(), PortState::Failed);
+        assert!(!h.trusted(1));
+        traffic(&mut h, &mut out, 450, 1000, 1000);
+        let ev = port_events(&mut out);
+        let n = ev.len();
+        let first = ms(450) + Duration::from_micros(200);
+        assert_eq!(
+            ev[n - 2..],
+            [
+                (first, 1, PortState::Recovering, PortReason::Traffic),
+                (
+                    first + Duration::from_millis(100),
+                    1,
+                    PortState::Ok,
+                    PortReason::Traffic
+                )
+            ]
+        );
+        assert_eq!(h.port(1).attempts(), 0);
+    }
+
+    #[test]
+    fn controller_reports() {
+        let mut h = Health::new(HealthConfig::default(), W);
+        let mut out = Outbox::new();
+        h.on_status(ms(1), 0, PortStatus::Error(ErrorCause::Crc), &mut out);
+        assert_eq!(h.port(0).state(), PortState::Suspect);
+        // A frame within the hold time keeps it suspect; after it, ok.
+        h.on_rx(ms(50), 0, RxOutcome::Delivered, &mut out);
+        assert_eq!(h.port(0).state(), PortState::Suspect);
+        h.on_rx(ms(101), 0, RxOutcome::Delivered, &mut out);
+        assert_eq!(h.port(0).state(), PortState::Ok);
+        h.on_status(
+            ms(200),
+            0,
+            PortStatus::TxFailed(ErrorCause::BusOff),
+            &mut out,
+        );
+        assert_eq!(h.port(0).state(), PortState::Failed);
+        assert!(!h.usable(0));
+        h.on_status(
+            ms(250),
+            0,
+            PortStatus::Error(ErrorCause::Restarted),
+            &mut out,
+        );
+        assert_eq!(h.port(0).state(), PortState::Recovering);
+        h.on_status(
+            ms(260),
+            1,
+            PortStatus::Down(ErrorCause::InterfaceDown),
+            &mut out,
+        );
+        h.on_status(ms(270), 1, PortStatus::Up, &mut out);
+        assert_eq!(h.port(1).state(), PortState::Recovering);
+        // Both untrusted: both deliver.
+        assert!(h.trusted(0) && h.trusted(1));
+        let c = h.port(0).counters();
+        assert_eq!(c.errors_of(ErrorCause::Crc), 1);
+        assert_eq!(c.errors_of(ErrorCause::BusOff), 1);
+        assert_eq!(c.tx_failed, 1);
+    }
+
+    #[test]
+    fn transmit_stall_flushes_and_fails_and_only_reinit_revives() {
+        let cfg = HealthConfig {
+            tx_stall: W,
+            ..HealthConfig::default()
+        };
+        let mut h = Health::new(cfg, W);
+        let mut out = Outbox::new();
+        // A driver that never confirmed a success is not judged, even after failures
+        // (embedded-can drivers report failures but cannot confirm successes).
+        h.count_tx(ms(0), 0);
+        assert_eq!(h.poll_timeout(), None);
+        let mut only_failures = Health::new(cfg, W);
+        only_failures.count_tx(ms(0), 0);
+        only_failures.on_status(
+            ms(0),
+            0,
+            PortStatus::TxFailed(ErrorCause::Bit),
+            &mut Outbox::new(),
+        );
+        only_failures.count_tx(ms(1), 0);
+        assert_eq!(only_failures.stall_deadline(0), None);
+        h.on_status(ms(1), 0, PortStatus::TxOk, &mut out);
+        h.count_tx(ms(2), 0);
+        h.count_tx(ms(3), 0);
+        h.on_status(ms(4), 0, PortStatus::TxOk, &mut out);
+        // Oldest outstanding: handed at 3 ms.
+        assert_eq!(h.poll_timeout(), Some(ms(13)));
+        h.handle_timeout(ms(13), &mut out);
+        assert_eq!(out.requests.pop(), Some((0, PortRequest::Reinit)));
+        assert_eq!(
+            port_events(&mut out),
+            [(
+                ms(13),
+                0,
+                PortState::Failed,
+                PortReason::TxStalled { waited: W }
+            )]
+        );
+        // Receiving (a babbler's frames) does not revive it; the back-off re-initialisation does.
+        h.on_rx(ms(20), 0, RxOutcome::Untrusted, &mut out);
+        assert_eq!(h.port(0).state(), PortState::Failed);
+        h.handle_timeout(ms(113), &mut out);
+        assert_eq!(h.port(0).state(), PortState::Recovering);
+        assert_eq!(h.port(0).counters().reinits, 2);
+        // A refused hand-over (queue full) concerns the newest frame.
+        h.count_tx(ms(120), 0);
+        h.count_tx(ms(121), 0);
+        h.on_status(
+            ms(121),
+            0,
+            PortStatus::TxFailed(ErrorCause::TxTimeout),
+            &mut out,
+        );
+        assert_eq!(h.stall_deadline(0), Some(ms(130)));
+    }
+}

@@ -1,0 +1,92 @@
+//! The layer's bounded output queues: frames for the ports, requests for the drivers, events
+//! for the application. Overflow is counted, never grown.
+
+use crate::link::events::LinkEvent;
+use duocan::frame::queue::Bounded;
+use duocan::machine::{LinkRequest, PortRequest};
+use duocan::Frame;
+
+/// Frames waiting for the driver. The station drains them after every logical frame, so a few
+/// suffice (one logical frame fans out to two ports, a channel switch adds an indication).
+pub const FRAME_QUEUE: usize = 16;
+/// Events waiting for the application: room for a reachability change of every node-ID at one
+/// instant plus port and channel events.
+pub const EVENT_QUEUE: usize = 160;
+/// Requests waiting for the driver.
+pub const REQUEST_QUEUE: usize = 8;
+/// Requests waiting for the machine above (a status change of each kind and a state change).
+pub const MACHINE_QUEUE: usize = 8;
+
+/// The output queues a layer's parts (health, reachability, channel policies) write to.
+#[derive(Debug, Default)]
+pub struct Outbox {
+    /// Per port, so that one port's frames can wait for its re-initialisation.
+    pub(crate) frames: [Bounded<Frame, FRAME_QUEUE>; 2],
+    pub(crate) events: Bounded<LinkEvent, EVENT_QUEUE>,
+    pub(crate) requests: Bounded<(usize, PortRequest), REQUEST_QUEUE>,
+    pub(crate) machine: Bounded<LinkRequest, MACHINE_QUEUE>,
+}
+
+impl Outbox {
+    /// Empty queues.
+    pub fn new() -> Self {
+        Self::default()
+    }
+    /// Queues an event for the application.
+    pub fn event(&mut self, e: LinkEvent) {
+        self.events.push(e);
+    }
+    /// Queues a request for the driver of `port`.
+    pub fn request(&mut self, port: usize, r: PortRequest) {
+        self.requests.push((port, r));
+    }
+    /// Queues a request for the machine above the layer.
+    pub fn machine(&mut self, r: LinkRequest) {
+        self.machine.push(r);
+    }
+    /// Queues a frame for `port` (0 or 1; others are ignored).
+    pub fn frame(&mut self, port: usize, f: Frame) {
+        if let Some(q) = self.frames.get_mut(port) {
+            q.push(f);
+        }
+    }
+    /// The next frame for a driver. A port's frames wait while a request to that port is
+    /// pending: a driver may drain frames before requests, and frames handed after a decision
+    /// to re-initialise are meant for the re-initialised port, not to be flushed by it.
+    pub fn pop_frame(&mut self) -> Option<(usize, Frame)> {
+        for p in 0..2 {
+            if self.requests.iter().any(|(q, _)| *q == p) {
+                continue;
+            }
+            if let Some(f) = self.frames[p].pop() {
+                return Some((p, f));
+            }
+        }
+        None
+    }
+    /// Frames dropped because the driver did not drain them.
+    pub fn frames_dropped(&self) -> u32 {
+        self.frames[0]
+            .dropped()
+            .saturating_add(self.frames[1].dropped())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use duocan::Id;
+
+    #[test]
+    fn a_ports_frames_wait_for_its_pending_request() {
+        let mut o = Outbox::new();
+        let f = Frame::from_array(Id::Standard(1), []);
+        o.request(0, PortRequest::Reinit);
+        o.frame(0, f);
+        o.frame(1, f);
+        assert_eq!(o.pop_frame(), Some((1, f)));
+        assert_eq!(o.pop_frame(), None);
+        assert_eq!(o.requests.pop(), Some((0, PortRequest::Reinit)));
+        assert_eq!(o.pop_frame(), Some((0, f)));
+    }
+}

@@ -1,0 +1,330 @@
+//! The audit trail: every switch-over, toggle and role change with its reason and time.
+//!
+//! A fixed-capacity ring: when full, the oldest record is overwritten and counted
+//! ([`AuditTrail::overwritten`]), so memory stays bounded and the loss is visible. Records carry
+//! a sequence number, so an exporter that reads periodically can tell whether it missed some.
+//! Export as text lines ([`AuditTrail::write_text`]) or CSV ([`AuditTrail::write_csv`]) into any
+//! [`core::fmt::Write`].
+
+use crate::link::events::{LinkEvent, LinkEventKind};
+use crate::pair::Member;
+use crate::supervisor::flying_master::{MasterRole, MasterRoleChange};
+use crate::supervisor::pairs::RoleChange;
+use core::fmt::{self, Write};
+use duocan::Instant;
+use heapless::Deque;
+
+/// Records a trail holds unless chosen otherwise.
+pub const AUDIT_CAPACITY: usize = 256;
+
+/// What is recorded.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum AuditEntry {
+    /// A pair's active member changed.
+    Pair(RoleChange),
+    /// This master's role changed.
+    Master(MasterRoleChange),
+    /// A port state change, channel switch or bus toggle of the dual-bus layer.
+    Link(LinkEvent),
+    /// This master suspended its NMT commands (another active master suspected).
+    Suspended {
+        /// Until when.
+        until: Instant,
+    },
+}
+
+impl AuditEntry {
+    /// Whether a link event belongs in the trail (state changes, switches, toggles; not
+    /// reachability or discrepancy reports).
+    pub fn link_worth_recording(e: &LinkEvent) -> bool {
+        matches!(
+            e.kind,
+            LinkEventKind::Port { .. }
+                | LinkEventKind::Channel { .. }
+                | LinkEventKind::Toggle { .. }
+                | LinkEventKind::MasterLost { .. }
+                | LinkEventKind::MasterFound { .. }
+                | LinkEventKind::NoMaster { .. }
+                | LinkEventKind::DefaultDisabled { .. }
+        )
+    }
+    fn kind(&self) -> &'static str {
+        match self {
+            AuditEntry::Pair(_) => "pair",
+            AuditEntry::Master(_) => "master",
+            AuditEntry::Link(_) => "link",
+            AuditEntry::Suspended { .. } => "suspend",
+        }
+    }
+}
+
+/// One record.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct AuditRecord {
+    /// Sequence number, from 1, never reused.
+    pub seq: u32,
+    /// When it happened.
+    pub at: Instant,
+    /// What.
+    pub entry: AuditEntry,
+}
+
+fn role(r: Option<Member>) -> &'static str {
+    match r {
+        Some(Member::A) => "A",
+        Some(Member::B) => "B",
+        None => "none",
+    }
+}
+
+/// `#12 1.250000s pair 3 (A node 0x10, B node 0x11) active A -> B: active member silent since …`
+impl fmt::Display for AuditRecord {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(f, "#{} ", self.seq)?;
+        match &self.entry {
+            AuditEntry::Pair(r) => write!(f, "{r}"),
+            AuditEntry::Master(m) => write!(f, "{m}"),
+            AuditEntry::Link(l) => write!(f, "{l}"),
+            AuditEntry::Suspended { until } => write!(
+                f,
+                "{}: NMT commands suspended until {until}: another active master suspected",
+                self.at
+            ),
+        }
+    }
+}
+
+/// A bounded trail of [`AuditRecord`]s.
+pub struct AuditTrail<const N: usize = AUDIT_CAPACITY> {
+    ring: Deque<AuditRecord, N>,
+    seq: u32,
+    overwritten: u32,
+}
+
+impl<const N: usize> Default for AuditTrail<N> {
+    fn default() -> Self {
+        Self::new()
+    }
+}
+
+impl<const N: usize> AuditTrail<N> {
+    /// An empty trail.
+    pub const fn new() -> Self {
+        AuditTrail {
+            ring: Deque::new(),
+            seq: 0,
+            overwritten: 0,
+        }
+    }
+    /// Records `entry` at `at`; overwrites (and counts) the oldest record when full.
+    pub fn record(&mut self, at: Instant, entry: AuditEntry) {
+        self.seq = self.seq.wrapping_add(1);
+        let r = AuditRecord {
+            seq: self.seq,
+            at,
+            entry,
+        };
+        if self.ring.is_full() {
+            self.ring.pop_front();
+            self.overwritten = self.overwritten.saturating_add(1);
+        }
+        // Cannot fail: a slot is free.
+        let _ = self.ring.push_back(r);
+    }
+    /// The records kept, oldest first.
+    pub fn iter(&self) -> impl Iterator<Item = &AuditRecord> {
+        self.ring.iter()
+    }
+    /// Records kept.
+    pub fn len(&self) -> usize {
+        self.ring.len()
+    }
+    /// True when nothing was recorded (or all was cleared).
+    pub fn is_empty(&self) -> bool {
+        self.ring.is_empty()
+    }
+    /// Records overwritten because the trail was full.
+    pub fn overwritten(&self) -> u32 {
+        self.overwritten
+    }
+    /// Records ever made.
+    pub fn total(&self) -> u32 {
+        self.seq
+    }
+    /// Records with a sequence number above `seq` (what an exporter has not read yet).
+    pub fn since(&self, seq: u32) -> impl Iterator<Item = &AuditRecord> {
+        self.ring.iter().filter(move |r| r.seq > seq)
+    }
+    /// Forgets every record (the counters stay).
+    pub fn clear(&mut self) {
+        self.ring.clear();
+    }
+
+    /// One line per record ([`AuditRecord`]'s `Display`).
+    pub fn write_text(&self, out: &mut impl Write) -> fmt::Result {
+        if self.overwritten > 0 {
+            writeln!(out, "({} older records overwritten)", self.overwritten)?;
+        }
+        for r in self.iter() {
+            writeln!(out, "{r}")?;
+        }
+        Ok(())
+    }
+
+    /// CSV with a header: `seq,time_us,kind,subject,from,to,reason`. The reason is quoted.
+    pub fn write_csv(&self, out: &mut impl Write) -> fmt::Result {
+        writeln!(out, "seq,time_us,kind,subject,from,to,reason")?;
+        for r in self.iter() {
+            write!(out, "{},{},{},", r.seq, r.at.as_micros(), r.entry.kind())?;
+            match &r.entry {
+                AuditEntry::Pair(c) => write!(
+                    out,
+                    "pair {} ({}/{}),{},{},\"{}\"",
+                    c.pair.0,
+                    c.nodes[0],
+                    c.nodes[1],
+                    role(c.from),
+                    role(c.to),
+                    Quoted(&c.reason)
+                )?,
+                AuditEntry::Master(m) => write!(
+                    out,
+                    "master,{},{},\"{}\"",
+                    RoleWord(m.from),
+                    RoleWord(m.to),
+                    Quoted(&m.reason)
+                )?,
+                AuditEntry::Link(l) => write!(out, "link,,,\"{}\"", Quoted(l))?,
+                AuditEntry::Suspended { until } => {
+                    write!(out, "master,active,suspended,\"until {until}\"")?
+                }
+            }
+            writeln!(out)?;
+        }
+        Ok(())
+    }
+}
+
+impl<const N: usize> fmt::Debug for AuditTrail<N> {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.debug_struct("AuditTrail")
+            .field("len", &self.ring.len())
+            .field("total", &self.seq)
+            .field("overwritten", &self.overwritten)
+            .finish()
+    }
+}
+
+/// A role as one CSV word.
+struct RoleWord(MasterRole);
+
+impl fmt::Display for RoleWord {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(match self.0 {
+            MasterRole::Off => "off",
+            MasterRole::Detecting => "detecting",
+            MasterRole::Negotiating => "negotiating",
+            MasterRole::Active => "active",
+            MasterRole::Standby(_) => "standby",
+        })
+    }
+}
+
+/// Displays `T` with `"` doubled, for a quoted CSV field.
+struct Quoted<'a, T>(&'a T);
+
+impl<T: fmt::Display> fmt::Display for Quoted<'_, T> {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        struct Esc<'a, 'b>(&'a mut fmt::Formatter<'b>);
+        impl Write for Esc<'_, '_> {
+            fn write_str(&mut self, s: &str) -> fmt::Result {
+                for (i, part) in s.split('"').enumerate() {
+                    if i > 0 {
+                        self.0.write_str("\"\"")?;
+                    }
+                    self.0.write_str(part)?;
+                }
+                Ok(())
+            }
+        }
+        write!(Esc(f), "{}", self.0)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::pair::PairId;
+    use crate::supervisor::flying_master::MasterReason;
+    use crate::supervisor::pairs::RoleReason;
+    use duocan::NodeId;
+
+    fn change(at: u64) -> AuditEntry {
+        AuditEntry::Pair(RoleChange {
+            at: Instant::from_millis(at),
+            pair: PairId(3),
+            nodes: [NodeId::must(0x10), NodeId::must(0x11)],
+            from: Some(Member::A),
+            to: Some(Member::B),
+            reason: RoleReason::ActiveSilent {
+                last: Instant::from_millis(at - 50),
+            },
+        })
+    }
+
+    #[test]
+    fn the_ring_overwrites_the_oldest_and_counts() {
+        let mut t: AuditTrail<4> = AuditTrail::new();
+        for i in 0..6 {
+            t.record(Instant::from_millis(100 + i), change(100 + i));
+        }
+        assert_eq!(t.len(), 4);
+        assert_eq!(t.overwritten(), 2);
+        assert_eq!(t.total(), 6);
+        assert_eq!(
+            t.iter().map(|r| r.seq).collect::<std::vec::Vec<_>>(),
+            [3, 4, 5, 6]
+        );
+        assert_eq!(t.since(5).count(), 1);
+    }
+
+    #[test]
+    fn text_and_csv_export() {
+        let mut t: AuditTrail<8> = AuditTrail::new();
+        t.record(Instant::from_millis(115), change(115));
+        t.record(
+            Instant::from_millis(200),
+            AuditEntry::Master(MasterRoleChange {
+                at: Instant::from_millis(200),
+                from: MasterRole::Standby(None),
+                to: MasterRole::Active,
+                reason: MasterReason::HeartbeatLost {
+                    master: NodeId::must(1),
+                    last: Instant::from_millis(150),
+                },
+            }),
+        );
+        let mut s = std::string::String::new();
+        t.write_text(&mut s).unwrap();
+        let lines: std::vec::Vec<&str> = s.lines().collect();
+        assert_eq!(lines.len(), 2);
+        assert!(lines[0].starts_with("#1 0.115000s: pair 3"), "{}", lines[0]);
+        assert!(lines[0].contains("active A -> B: active member silent since 0.065000s"));
+        assert!(
+            lines[1].contains("master standby -> active"),
+            "{}",
+            lines[1]
+        );
+        let mut c = std::string::String::new();
+        t.write_csv(&mut c).unwrap();
+        let rows: std::vec::Vec<&str> = c.lines().collect();
+        assert_eq!(rows[0], "seq,time_us,kind,subject,from,to,reason");
+        assert!(rows[1].starts_with("1,115000,pair,pair 3 ("), "{}", rows[1]);
+        assert!(
+            rows[1].contains(",A,B,\"active member silent"),
+            "{}",
+            rows[1]
+        );
+        assert!(rows[2].starts_with("2,200000,master,master,standby,active,\""));
+    }
+}

@@ -1,0 +1,920 @@
+//! The supervisor: a redundant master's brain on one logical bus.
+//!
+//! [`Supervisor`] is a [`Machine`] composing the CiA 302-2 [`Master`] (its node: heartbeat,
+//! SYNC, TIME, NMT state of every node; its SDO client; the boot process of every slave), the
+//! [`PairSupervisor`], the [`FlyingMaster`] and the [`AuditTrail`]:
+//!
+//! - **Active** (strong, or weak after a takeover): the master is active
+//!   ([`Master::set_active`]): it produces SYNC and TIME, boots and configures slaves, and sends
+//!   the NMT commands of the pair supervision ([`Authority::Command`]); the flying master answers
+//!   the requests of other master-capable devices.
+//! - **Standby** (hot): the master observes: it consumes SYNC and TIME, produces its own
+//!   heartbeat, guards the slaves configured for guarding, follows every node's state; the pair
+//!   table follows the heartbeats and the active master's NMT commands
+//!   ([`Authority::Shadow`]); the flying master watches the active master's heartbeat. At the
+//!   timeout it takes over without resetting anything: the master adopts the running slaves and
+//!   re-checks the pre-operational ones, the shadow table becomes the commanding one, SYNC
+//!   continues the grid it consumed (the first SYNC comes at once if one is overdue, then on the
+//!   old grid), TIME continues the time base it consumed.
+//!
+//! # Pair members and the master
+//!
+//! Each member of a pair is a slave of the master ([`Supervisor::add_pair`]), assigned so that
+//! the supervisor decides about it: start left to the application
+//! ([`StartPolicy::Application`]), no boot process of the master's own accord (0x1F81 bit 2
+//! clear), neither mandatory nor keep-alive. Its boot-up makes the pair supervision ask for its
+//! configuration ([`PairCommand::Configure`]), which runs the master's boot process
+//! ([`Master::boot_slave`]: 0x1000/0x1018 checked against 0x1F84–0x1F88, the configuration
+//! steps, PDOs, the heartbeat producer time); [`MasterEventKind::SlaveConfigured`] makes it
+//! joined. A wrong identity or a failed configuration keeps it out, and
+//! [`SupervisorEvent::NotJoined`] says why. NMT commands go through the master
+//! ([`Master::nmt`]), so that its view of every slave follows them. Other slaves are plain
+//! slaves of the master ([`Supervisor::add_slave`], or the
+//! [`NetworkConfig`](duocan::master::NetworkConfig) the master was built with), booted and
+//! started by it.
+//!
+//! Which pair member is active must reach the dual-bus layer (same-function merge): the
+//! supervisor queues [`LinkCommand`]s, which [`SupervisedStation`](crate::station::SupervisedStation)
+//! forwards to its [`DualBus`](crate::DualBus) after every input.
+//!
+//! ```
+//! use duocan::master::{objects, Master, NetworkConfig};
+//! use duocan::od::comm;
+//! use duocan::sim::{BusConfig, SimNetwork};
+//! use duocan::{Duration, Instant, Node, NodeConfig, NodeId, Station};
+//! use duocan_redundancy::PairSpec;
+//! use duocan_redundancy::{DualBus, DualBusConfig, Member, PairId, SupervisedStation, Supervisor, SupervisorConfig};
+//!
+//! let ms = Duration::from_millis;
+//! let mut sim = SimNetwork::new(1);
+//! let buses = [sim.add_bus(BusConfig::new("can1", 1_000_000)), sim.add_bus(BusConfig::new("can2", 1_000_000))];
+//! // A master alone (a weak peer, node 2, is declared but absent), one pair of boards.
+//! let od = objects::master_dictionary(1, comm::Identity::default());
+//! let master = Master::new(NodeId::must(1), od, NetworkConfig::new()).unwrap();
+//! let cfg = SupervisorConfig::new(0, NodeId::must(1), ms(20), ms(50), ms(10)).with_peer(1, NodeId::must(2));
+//! let mut sup = Supervisor::new(master, cfg, Instant::ZERO);
+//! sup.add_pair(Instant::ZERO, PairSpec::new(NodeId::must(0x10), NodeId::must(0x50), ms(20), ms(50)))?;
+//! let master = sim.add_device("master", SupervisedStation::new(DualBus::new(DualBusConfig::default()), sup).unwrap(), &buses)?;
+//! for id in [0x10, 0x50] {
+//!     let mut n = Node::new(NodeConfig::slave(NodeId::must(id)), comm::standard_dictionary(id, Default::default()));
+//!     n.boot(Instant::ZERO);
+//!     sim.add_device(format!("board {id:#x}"), Station::new(DualBus::new(DualBusConfig::default()), n), &buses)?;
+//! }
+//! sim.run_until(Instant::from_secs(1));
+//! let st = sim.device(master);
+//! assert!(st.sup.is_active());
+//! assert_eq!(st.sup.pair_supervisor().pair(PairId(0)).unwrap().active, Some(Member::A));
+//! println!("{}", st.status(Instant::from_secs(1)));
+//! # Ok::<(), Box<dyn std::error::Error>>(())
+//! ```
+
+use crate::link::events::LinkEvent;
+use crate::pair::{Member, PairId, PairSpec};
+use crate::supervisor::audit::{AuditEntry, AuditTrail};
+use crate::supervisor::flying_master::{
+    FlyingEvent, FlyingMaster, FlyingMasterConfig, FlyingMasterError, MasterRole, Rank, MAX_PEERS,
+};
+use crate::supervisor::pairs::{
+    Authority, PairCommand, PairState, PairSupervisor, PairsConfig, PairsError, PairsEvent,
+};
+use alloc::collections::VecDeque;
+use core::fmt;
+use duocan::frame::instant::earliest;
+use duocan::frame::queue::Bounded;
+use duocan::machine::Machine;
+use duocan::master::{
+    objects, Assignment, BootError, ErrorStatus, Master, MasterError, MasterEvent, MasterEventKind,
+    NmtStartup, SlaveConfig, SlaveView, StartPolicy,
+};
+use duocan::nmt::{self, NmtTarget};
+use duocan::node::{NodeEventKind, Writer};
+use duocan::od::{comm, ObjectDictionary};
+use duocan::profile::{IdProfile, Predefined, ProfileFrame};
+use duocan::sdo::{DefaultBuffer, SdoClient, SdoEvent};
+use duocan::time_stamp::TimeOfDay;
+use duocan::{Duration, Frame, Instant, NmtCommand, NmtState, Node, NodeEvent, NodeId};
+use heapless::Vec;
+
+/// Flying-master frames the supervisor itself can hold.
+pub const TX_QUEUE: usize = 64;
+/// Events the supervisor can hold before the application drains them.
+pub const EVENT_QUEUE: usize = 1024;
+
+/// 0x1012 bit 31: consume TIME; bit 30: produce it (the master sets it while active).
+const TIME_CONSUMER: u32 = 1 << 31;
+const TIME_PRODUCER: u32 = 1 << 30;
+
+/// How a supervisor is set up. The master's own settings (0x1F80, SDO timeout, probe
+/// interval, the slaves that are no pair members) are the
+/// [`NetworkConfig`](duocan::master::NetworkConfig) it was built with.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct SupervisorConfig {
+    /// Flying-master timing, rank and policy (the node-ID is the rank's).
+    pub flying: FlyingMasterConfig,
+    /// The other master-capable devices.
+    pub peers: Vec<Rank, MAX_PEERS>,
+    /// Pair supervision policy.
+    pub pairs: PairsConfig,
+    /// This master's heartbeat producer time.
+    pub heartbeat: Duration,
+    /// SYNC period while active (zero: no SYNC).
+    pub sync_period: Duration,
+    /// TIME period while active (zero: TIME once at each takeover only).
+    pub time_period: Duration,
+}
+
+impl SupervisorConfig {
+    /// A master of `priority` at `node` with a heartbeat of `heartbeat` and a master-heartbeat
+    /// timeout of `master_timeout`, SYNC every `sync_period`; the 0x1F90 defaults otherwise.
+    pub fn new(
+        priority: u8,
+        node: NodeId,
+        heartbeat: Duration,
+        master_timeout: Duration,
+        sync_period: Duration,
+    ) -> Self {
+        SupervisorConfig {
+            flying: FlyingMasterConfig::new(priority, node, master_timeout),
+            peers: Vec::new(),
+            // The supervisor sees the active master's SDO confirmations: a board's own default
+            // heartbeat is no sign of its configuration.
+            pairs: PairsConfig {
+                shadow_join_on_heartbeat: false,
+                ..PairsConfig::default()
+            },
+            heartbeat,
+            sync_period,
+            time_period: Duration::ZERO,
+        }
+    }
+    /// With another master-capable device.
+    pub fn with_peer(mut self, priority: u8, node: NodeId) -> Self {
+        let _ = self.peers.push(Rank::new(priority, node));
+        self
+    }
+}
+
+/// What the supervisor asks of the dual-bus layer.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum LinkCommand {
+    /// Deliver the process data of `member` of `pair` (`None`: neither).
+    SetActive(PairId, Option<Member>),
+    /// Forget a member's latest values.
+    Forget(PairId, Member),
+}
+
+/// Why a pair member did not join.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum JoinRefusal {
+    /// Its identity is not what 0x1F84–0x1F88 expect: it is left alone (not reset, not
+    /// adopted) until it boots again.
+    Identity {
+        /// C, D, M, N or O.
+        status: ErrorStatus,
+        /// The member's entry (0x1000 or 0x1018).
+        index: u16,
+        /// Its sub-index.
+        sub: u8,
+        /// What the master expects.
+        expected: u32,
+        /// What the member has.
+        actual: u32,
+    },
+    /// A step of its boot process failed. If the member did not answer, it is reset, to boot
+    /// and be configured again; if it refused (an abort code, a PDO it will not take), it is
+    /// left alone like a wrong identity: a reset would not change its answer.
+    Config {
+        /// The CiA 302-2 error status (B: no answer, J: a configuration write failed).
+        status: ErrorStatus,
+        /// Which access failed and how.
+        reason: BootError,
+    },
+    /// The master refused to run its boot process.
+    Master(MasterError),
+}
+
+impl JoinRefusal {
+    /// True if the member did not answer (worth a reset and another try); false if it answered
+    /// and refused, or is another device.
+    pub fn is_transient(&self) -> bool {
+        use duocan::cia302::pdo_config::PdoConfigErrorKind;
+        use duocan::sdo::SdoErrorKind;
+        match self {
+            JoinRefusal::Config {
+                reason: BootError::Sdo(e),
+                ..
+            } => !matches!(e.kind, SdoErrorKind::Server(_)),
+            JoinRefusal::Config {
+                reason: BootError::Pdo(e),
+                ..
+            } => matches!(e.kind, PdoConfigErrorKind::NoAnswer(_)),
+            _ => false,
+        }
+    }
+}
+
+impl fmt::Display for JoinRefusal {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            JoinRefusal::Identity {
+                status,
+                index,
+                sub,
+                expected,
+                actual,
+            } => write!(
+                f,
+                "{status}: {index:#06x}sub{sub} is {actual:#010x}, expected {expected:#010x}; check the board or the expected identity"
+            ),
+            JoinRefusal::Config { status, reason } => write!(f, "{status}: {reason}"),
+            JoinRefusal::Master(e) => write!(f, "the master refused its boot process: {e}"),
+        }
+    }
+}
+
+/// What the supervisor tells the application.
+#[derive(Clone, Debug, PartialEq)]
+pub enum SupervisorEvent {
+    /// From the master's own node (SYNC ticks and local writes are not forwarded; see the
+    /// counters).
+    Node(NodeEvent),
+    /// From the pair supervision.
+    Pairs(PairsEvent),
+    /// From the flying master (which master of the network is active).
+    FlyingMaster(FlyingEvent),
+    /// From the CiA 302-2 master: boot-ups, identity checks, configurations, starts, adoptions,
+    /// error control losses, request NMT, activation.
+    Master(MasterEvent),
+    /// The result of an SDO transfer the application started ([`Supervisor::sdo_mut`]).
+    Sdo(SdoEvent),
+    /// A pair member was refused by the master's boot process and did not join.
+    NotJoined {
+        /// When.
+        at: Instant,
+        /// The pair.
+        pair: PairId,
+        /// The member.
+        member: Member,
+        /// Its node.
+        node: NodeId,
+        /// Why.
+        why: JoinRefusal,
+    },
+}
+
+/// Counters.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct SupervisorStats {
+    /// SYNC produced.
+    pub sync_produced: u64,
+    /// SYNC received.
+    pub sync_received: u64,
+    /// NMT commands of the pair supervision sent through the master.
+    pub nmt_sent: u32,
+    /// NMT commands the pair supervision asked for while this master could not command (or
+    /// the master's queue was full).
+    pub nmt_withheld: u32,
+    /// Boot processes of pair members started on the pair supervision's request.
+    pub configs: u32,
+    /// Frames dropped because the driver did not drain them.
+    pub tx_dropped: u32,
+    /// Events dropped because the application did not drain them.
+    pub events_dropped: u32,
+}
+
+/// Why a pair could not be added.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum AddPairError {
+    /// The pair table refused it.
+    Pairs(PairsError),
+    /// The master refused a member's slave configuration.
+    Master(NodeId, MasterError),
+}
+
+impl core::error::Error for AddPairError {}
+
+impl fmt::Display for AddPairError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            AddPairError::Pairs(e) => write!(f, "{e}"),
+            AddPairError::Master(n, e) => write!(f, "pair member {n}: {e}"),
+        }
+    }
+}
+
+impl From<PairsError> for AddPairError {
+    fn from(e: PairsError) -> Self {
+        AddPairError::Pairs(e)
+    }
+}
+
+/// A planned hand-over or take-over, done between two SYNCs.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Planned {
+    HandOver(Option<Rank>),
+    TakeOver,
+}
+
+/// A redundant master: the CiA 302-2 master, pair supervision, flying master, audit trail.
+/// `P`, `S`, `T`, `R` are the [`Master`]'s: identifier profile, SDO sessions, TPDO and RPDO
+/// capacity.
+pub struct Supervisor<D, P = Predefined, const S: usize = 8, const T: usize = 4, const R: usize = 4>
+{
+    master: Master<D, P, S, T, R>,
+    pairs: PairSupervisor,
+    fm: FlyingMaster,
+    audit: AuditTrail,
+    cfg: SupervisorConfig,
+    tx: Bounded<Frame, TX_QUEUE>,
+    events: VecDeque<SupervisorEvent>,
+    events_dropped: u32,
+    link: Bounded<LinkCommand, 256>,
+    /// Last SYNC produced or received (the grid planned switches align to).
+    last_sync: Option<Instant>,
+    planned: Option<(Planned, Instant)>,
+    stats: SupervisorStats,
+}
+
+impl<D: ObjectDictionary, P: IdProfile, const S: usize, const T: usize, const R: usize>
+    Supervisor<D, P, S, T, R>
+{
+    /// A supervisor on `master` (built, not booted). The supervisor makes it a standby until
+    /// the flying master decides, sets its heartbeat, SYNC period and production, makes it a
+    /// TIME consumer (so that a takeover continues the time base), sets 0x1F80 bits 0 (NMT
+    /// master) and 5 (flying master), boots it at `now` and starts the flying-master detection.
+    pub fn new(mut master: Master<D, P, S, T, R>, cfg: SupervisorConfig, now: Instant) -> Self {
+        master.set_active(now, false);
+        let hb = cfg.heartbeat.as_millis().min(u16::MAX as u64) as u16;
+        let node = master.node_mut();
+        // Entries a master dictionary has; a missing one is reported by the node's own checks.
+        let _ = node.set(now, comm::HEARTBEAT_PRODUCER, 0, hb);
+        let _ = node.set(
+            now,
+            comm::SYNC_PERIOD,
+            0,
+            cfg.sync_period.as_micros().min(u32::MAX as u64) as u32,
+        );
+        let time = node.od().get_u32(comm::TIME_COB_ID, 0).unwrap_or(0x100);
+        let _ = node.set(
+            now,
+            comm::TIME_COB_ID,
+            0,
+            (time | TIME_CONSUMER) & !TIME_PRODUCER,
+        );
+        let startup = node.od().get_u32(objects::NMT_STARTUP, 0).unwrap_or(0);
+        let startup = NmtStartup(startup)
+            .with(NmtStartup::MASTER)
+            .with(NmtStartup::FLYING_MASTER);
+        let _ = node
+            .od_mut()
+            .write_local(objects::NMT_STARTUP, 0, &startup.0.to_le_bytes());
+        master.set_production(now, !cfg.sync_period.is_zero(), true);
+        master.boot(now);
+        let mut fm = FlyingMaster::new(cfg.flying);
+        for p in &cfg.peers {
+            let _ = fm.add_peer(*p);
+        }
+        fm.start(now);
+        let mut pairs = PairSupervisor::new(cfg.pairs);
+        pairs.set_authority(now, Authority::Shadow);
+        let mut s = Supervisor {
+            master,
+            pairs,
+            fm,
+            audit: AuditTrail::new(),
+            cfg,
+            tx: Bounded::new(),
+            events: VecDeque::new(),
+            events_dropped: 0,
+            link: Bounded::new(),
+            last_sync: None,
+            planned: None,
+            stats: SupervisorStats::default(),
+        };
+        s.pump(now);
+        s
+    }
+
+    /// Adds a slave pair to supervise; both members become slaves of the master with nothing
+    /// configured but their heartbeat (and the device type of `spec`, if not 0).
+    pub fn add_pair(&mut self, now: Instant, spec: PairSpec) -> Result<PairId, AddPairError> {
+        self.add_pair_with(
+            now,
+            spec,
+            SlaveConfig::new(spec.a),
+            SlaveConfig::new(spec.b),
+        )
+    }
+
+    /// Adds a slave pair whose members the master configures as `a` and `b` say (identity,
+    /// configuration steps, PDOs, guarding in the assignment). The supervisor overrides what
+    /// pair supervision needs: the node-IDs of `spec`, the heartbeat (producer and consumer time
+    /// of `spec`), start by the application, no boot of the master's own accord, neither
+    /// mandatory nor keep-alive; `spec`'s device type where the identity leaves it unchecked.
+    pub fn add_pair_with(
+        &mut self,
+        now: Instant,
+        spec: PairSpec,
+        a: SlaveConfig,
+        b: SlaveConfig,
+    ) -> Result<PairId, AddPairError> {
+        self.pairs.check(&spec)?;
+        let ms = |d: Duration| d.as_millis().min(u16::MAX as u64) as u16;
+        let member = |node: NodeId, mut c: SlaveConfig| {
+            c.node = node;
+            c.assignment = Assignment(
+                (c.assignment.0 | Assignment::SLAVE)
+                    & !(Assignment::BOOT | Assignment::MANDATORY | Assignment::KEEP_ALIVE),
+            );
+            if c.identity.device_type == 0 {
+                c.identity.device_type = spec.device_type;
+            }
+            c.heartbeat(ms(spec.producer_time), ms(spec.consumer_time))
+                .start(StartPolicy::Application)
+        };
+        self.master
+            .add_slave(now, member(spec.a, a))
+            .map_err(|e| AddPairError::Master(spec.a, e))?;
+        if let Err(e) = self.master.add_slave(now, member(spec.b, b)) {
+            // Not half a pair: A is no slave of this master again.
+            let _ = self.master.node_mut().write(
+                now,
+                objects::SLAVE_ASSIGNMENT,
+                spec.a.raw(),
+                &0u32.to_le_bytes(),
+            );
+            self.pump(now);
+            return Err(AddPairError::Master(spec.b, e));
+        }
+        let id = self.pairs.add_pair(now, spec)?;
+        self.pump(now);
+        Ok(id)
+    }
+
+    /// Adds (or replaces) a slave that is no pair member: booted, configured and started by the
+    /// master as `cfg` says.
+    pub fn add_slave(&mut self, now: Instant, cfg: SlaveConfig) -> Result<(), MasterError> {
+        let r = self.master.add_slave(now, cfg);
+        self.pump(now);
+        r
+    }
+
+    // ----- application API -----
+
+    /// This master's role.
+    pub fn role(&self) -> MasterRole {
+        self.fm.role()
+    }
+    /// True when active.
+    pub fn is_active(&self) -> bool {
+        self.fm.is_active()
+    }
+    /// True when this master may send NMT commands now (active, not suspended by a suspected
+    /// second active master).
+    pub fn may_command(&self, now: Instant) -> bool {
+        self.fm.may_command(now)
+    }
+    /// The flying master (rank, peers, active master).
+    pub fn flying_master(&self) -> &FlyingMaster {
+        &self.fm
+    }
+    /// The pair table.
+    pub fn pairs(&self) -> impl Iterator<Item = (PairId, &PairState)> + '_ {
+        self.pairs.pairs()
+    }
+    /// The pair supervision.
+    pub fn pair_supervisor(&self) -> &PairSupervisor {
+        &self.pairs
+    }
+    /// The CiA 302-2 master (its view of every slave, its node, its SDO client).
+    pub fn master(&self) -> &Master<D, P, S, T, R> {
+        &self.master
+    }
+    /// Every slave of the master, pair members included: state, boot phase, errors.
+    pub fn slaves(&self) -> impl Iterator<Item = SlaveView> + '_ {
+        self.master.slaves()
+    }
+    /// The master's node (states of every node heard: [`Node::remotes`]).
+    pub fn node(&self) -> &Node<D, P, 127, T, R> {
+        self.master.node()
+    }
+    /// The master's node, for the application's own use (its dictionary, EMCY, TPDOs). NMT
+    /// commands belong in [`Supervisor::nmt`].
+    pub fn node_mut(&mut self) -> &mut Node<D, P, 127, T, R> {
+        self.master.node_mut()
+    }
+    /// The master's SDO client, for the application's transfers; their results arrive as
+    /// [`SupervisorEvent::Sdo`]. A transfer to a slave the master is booting waits for the
+    /// boot's (the client refuses it as busy).
+    pub fn sdo_mut(&mut self) -> &mut SdoClient<DefaultBuffer, S> {
+        self.master.sdo_mut()
+    }
+    /// Sends an NMT command through the master, if this master may command now. Pair members
+    /// are better switched with [`Supervisor::switch_over`]: the pair table does not follow its
+    /// own master's commands.
+    pub fn nmt(
+        &mut self,
+        now: Instant,
+        cmd: NmtCommand,
+        target: NmtTarget,
+    ) -> Result<(), MasterError> {
+        if !self.fm.may_command(now) {
+            return Err(MasterError::Standby);
+        }
+        let r = self.master.nmt(now, cmd, target);
+        self.pump(now);
+        r
+    }
+    /// The audit trail.
+    pub fn audit(&self) -> &AuditTrail {
+        &self.audit
+    }
+    /// Counters.
+    pub fn stats(&self) -> SupervisorStats {
+        SupervisorStats {
+            tx_dropped: self.tx.dropped(),
+            events_dropped: self.events_dropped,
+            ..self.stats
+        }
+    }
+    /// Sets the network time (the active master then produces TIME from it).
+    pub fn set_time(&mut self, now: Instant, tod: TimeOfDay) {
+        self.master.node_mut().set_time(now, tod);
+    }
+    /// Makes `to` the active member of `pair` by hand (active master only).
+    pub fn switch_over(
+        &mut self,
+        now: Instant,
+        pair: PairId,
+        to: Member,
+    ) -> Result<(), PairsError> {
+        self.pairs.switch_over(now, pair, to)?;
+        self.pump(now);
+        Ok(())
+    }
+    /// Puts this (active) master in standby by hand: the role is handed to the best live
+    /// master between two SYNCs.
+    pub fn set_standby(&mut self, now: Instant) -> Result<(), FlyingMasterError> {
+        if !self.fm.is_active() {
+            return Err(FlyingMasterError::WrongRole(self.fm.role()));
+        }
+        if !self.fm.peers().iter().any(|p| {
+            p.last
+                .is_some_and(|l| l + self.cfg.flying.master_timeout > now)
+        }) {
+            return Err(FlyingMasterError::NoSuccessor);
+        }
+        self.plan(now, Planned::HandOver(None));
+        Ok(())
+    }
+    /// Makes this (standby) master active by hand, between two SYNCs.
+    pub fn set_active(&mut self, now: Instant) -> Result<(), FlyingMasterError> {
+        if self.fm.is_active() {
+            return Err(FlyingMasterError::WrongRole(self.fm.role()));
+        }
+        self.plan(now, Planned::TakeOver);
+        Ok(())
+    }
+    /// Drains the next command for the dual-bus layer.
+    pub fn poll_link_command(&mut self) -> Option<LinkCommand> {
+        self.link.pop()
+    }
+    /// Records a dual-bus event in the audit trail if it is a switch, toggle or port change.
+    pub fn audit_link(&mut self, e: &LinkEvent) {
+        if AuditEntry::link_worth_recording(e) {
+            self.audit.record(e.at, AuditEntry::Link(*e));
+        }
+    }
+
+    // ----- internals -----
+
+    /// Half a SYNC period after the last SYNC (now if there is no SYNC).
+    fn plan(&mut self, now: Instant, what: Planned) {
+        let p = self.cfg.sync_period;
+        let at = match self.last_sync {
+            Some(g) if !p.is_zero() => {
+                let mut t = g + Duration::from_micros(p.as_micros() / 2);
+                while t < now {
+                    t += p;
+                }
+                t
+            }
+            _ => now,
+        };
+        self.planned = Some((what, at));
+    }
+
+    fn run_planned(&mut self, now: Instant) {
+        let Some((what, at)) = self.planned else {
+            return;
+        };
+        if at > now {
+            return;
+        }
+        self.planned = None;
+        let _ = match what {
+            Planned::HandOver(to) => self.fm.hand_over(now, to).map(|_| ()),
+            Planned::TakeOver => self.fm.take_over(now),
+        };
+    }
+
+    /// A boot-up, heartbeat or guarding answer: (node, state).
+    fn error_control(&self, frame: &Frame) -> Option<(NodeId, NmtState)> {
+        if frame.is_remote() || frame.dlc() != 1 {
+            return None;
+        }
+        match self.master.node().profile().classify(frame.id(), false)? {
+            ProfileFrame::Heartbeat(n) | ProfileFrame::Guarding(n) => {
+                let (state, _) = nmt::parse_error_control(frame).ok()?;
+                Some((n, state))
+            }
+            _ => None,
+        }
+    }
+
+    /// A pair member confirming an SDO download of its heartbeat producer time (0x1017): the
+    /// last step of a master's boot process, so seen from a standby, the active master has
+    /// configured it.
+    fn heartbeat_confirmed(&self, frame: &Frame) -> Option<NodeId> {
+        let d = frame.data();
+        if frame.is_remote() || d.len() != 8 || d[..4] != [0x60, 0x17, 0x10, 0x00] {
+            return None;
+        }
+        let sdo = self.master.sdo();
+        self.pairs.pairs().find_map(|(_, p)| {
+            [p.spec.a, p.spec.b]
+                .into_iter()
+                .find(|n| sdo.channel(*n).response == frame.id())
+        })
+    }
+
+    fn emit(&mut self, e: SupervisorEvent) {
+        if self.events.len() >= EVENT_QUEUE {
+            self.events_dropped = self.events_dropped.saturating_add(1);
+        } else {
+            self.events.push_back(e);
+        }
+    }
+
+    /// Moves every output of the parts to where it belongs.
+    fn pump(&mut self, now: Instant) {
+        loop {
+            let mut progressed = false;
+            while let Some(f) = self.fm.poll_transmit() {
+                self.tx.push(f);
+            }
+            while let Some(e) = self.fm.poll_event() {
+                progressed = true;
+                self.flying_event(now, e);
+            }
+            self.sync_authority(now);
+            while let Some(c) = self.pairs.poll_command() {
+                progressed = true;
+                self.pair_command(now, c);
+            }
+            while let Some(e) = self.pairs.poll_event() {
+                if let PairsEvent::Role(r) = e {
+                    self.audit.record(r.at, AuditEntry::Pair(r));
+                }
+                self.emit(SupervisorEvent::Pairs(e));
+            }
+            while let Some(e) = self.master.poll_event() {
+                progressed = true;
+                self.manager_event(now, e);
+            }
+            if !progressed {
+                break;
+            }
+        }
+    }
+
+    /// Pair supervision commands only while this master may command, follows while another
+    /// master is known to be active (or may be), and only records while nobody is.
+    fn sync_authority(&mut self, now: Instant) {
+        let want = if self.fm.may_command(now) {
+            Authority::Command
+        } else if matches!(
+            self.fm.role(),
+            MasterRole::Active | MasterRole::Standby(Some(_))
+        ) {
+            Authority::Shadow
+        } else {
+            Authority::Idle
+        };
+        if self.pairs.authority() != want {
+            self.pairs.set_authority(now, want);
+        }
+    }
+
+    fn flying_event(&mut self, now: Instant, e: FlyingEvent) {
+        match e {
+            FlyingEvent::Role(r) => {
+                self.audit.record(r.at, AuditEntry::Master(r));
+                if r.to.is_active() && !r.from.is_active() {
+                    // The master adopts what runs, re-checks what does not, produces SYNC on
+                    // the grid it consumed and TIME from the base it consumed.
+                    self.master.set_active(now, true);
+                    if !self.cfg.time_period.is_zero() {
+                        let node = self.master.node_mut();
+                        node.set_time_period(now, self.cfg.time_period);
+                        node.send_time(now);
+                    }
+                } else if r.from.is_active() && !r.to.is_active() {
+                    self.master.set_active(now, false);
+                    self.planned = None;
+                }
+            }
+            FlyingEvent::Suspended { at, until } => {
+                self.audit.record(at, AuditEntry::Suspended { until });
+            }
+        }
+        self.emit(SupervisorEvent::FlyingMaster(e));
+    }
+
+    fn pair_command(&mut self, now: Instant, c: PairCommand) {
+        match c {
+            PairCommand::Nmt { cmd, node } => {
+                let sent = self.fm.may_command(now)
+                    && self.master.nmt(now, cmd, NmtTarget::Node(node)).is_ok();
+                if sent {
+                    self.stats.nmt_sent += 1;
+                } else {
+                    self.stats.nmt_withheld += 1;
+                }
+            }
+            PairCommand::Configure { node, .. } => {
+                // A boot process already running for it (begun at its boot-up after a reset
+                // by this master, or at the takeover) is the one asked for.
+                if !self.fm.may_command(now) || self.master.slave(node).phase.is_running() {
+                    return;
+                }
+                match self.master.boot_slave(now, node) {
+                    Ok(()) => self.stats.configs += 1,
+                    Err(e) => self.refused(now, node, JoinRefusal::Master(e)),
+                }
+            }
+            PairCommand::SetActive { pair, member } => {
+                self.link.push(LinkCommand::SetActive(pair, member));
+            }
+            PairCommand::Forget { pair, member } => {
+                self.link.push(LinkCommand::Forget(pair, member));
+            }
+        }
+    }
+
+    /// A pair member's boot process failed: the table is told, the application too.
+    fn refused(&mut self, at: Instant, node: NodeId, why: JoinRefusal) {
+        let Some((pair, member)) = self.pairs.locate(node) else {
+            return;
+        };
+        let configuring = self.pairs.is_configuring(node);
+        let changed = if why.is_transient() {
+            // Not answering: reset, it boots and is configured again.
+            self.pairs.configured(at, node, false);
+            configuring
+        } else {
+            // Another device, or one that refuses its configuration: out, whatever its phase,
+            // until it boots again.
+            let joined = self
+                .pairs
+                .pair(pair)
+                .is_some_and(|p| p.member(member).joined());
+            self.pairs.rejected(at, node);
+            configuring || joined
+        };
+        if changed {
+            self.emit(SupervisorEvent::NotJoined {
+                at,
+                pair,
+                member,
+                node,
+                why,
+            });
+        }
+    }
+
+    fn manager_event(&mut self, now: Instant, e: MasterEvent) {
+        let at = e.at;
+        match e.kind {
+            MasterEventKind::Node(kind) => return self.node_event(now, NodeEvent { at, kind }),
+            MasterEventKind::Sdo(s) => return self.emit(SupervisorEvent::Sdo(s)),
+            MasterEventKind::SlaveConfigured { node, .. } => {
+                self.pairs.configured(at, node, true);
+            }
+            MasterEventKind::IdentityMismatch {
+                node,
+                status,
+                index,
+                sub,
+                expected,
+                actual,
+            } => self.refused(
+                at,
+                node,
+                JoinRefusal::Identity {
+                    status,
+                    index,
+                    sub,
+                    expected,
+                    actual,
+                },
+            ),
+            MasterEventKind::ConfigFailed {
+                node,
+                status,
+                reason,
+            } => self.refused(at, node, JoinRefusal::Config { status, reason }),
+            _ => {}
+        }
+        self.emit(SupervisorEvent::Master(e));
+    }
+
+    fn node_event(&mut self, now: Instant, e: NodeEvent) {
+        match e.kind {
+            NodeEventKind::Sync { produced, .. } => {
+                self.last_sync = Some(e.at);
+                if produced {
+                    self.stats.sync_produced += 1;
+                } else {
+                    self.stats.sync_received += 1;
+                    self.fm.foreign_activity(now);
+                }
+                return;
+            }
+            NodeEventKind::NmtObserved { cmd, target } => {
+                self.fm.foreign_activity(now);
+                self.pairs.nmt_observed(e.at, cmd, target);
+            }
+            NodeEventKind::ObjectWritten {
+                by: Writer::Local, ..
+            } => return,
+            _ => {}
+        }
+        self.emit(SupervisorEvent::Node(e));
+    }
+}
+
+impl<D: ObjectDictionary, P: IdProfile, const S: usize, const T: usize, const R: usize> Machine
+    for Supervisor<D, P, S, T, R>
+{
+    type Event = SupervisorEvent;
+
+    fn handle_frame(&mut self, now: Instant, frame: &Frame) {
+        if self.fm.handle_frame(now, frame) {
+            return self.pump(now);
+        }
+        if let Some((node, state)) = self.error_control(frame) {
+            self.fm
+                .heartbeat(now, node, state == NmtState::Initialising);
+            self.pairs.heartbeat(now, node, state);
+        } else if let Some(node) = self.heartbeat_confirmed(frame) {
+            self.pairs.configuration_observed(now, node);
+        }
+        self.master.handle_frame(now, frame);
+        self.pump(now);
+    }
+
+    fn handle_timeout(&mut self, now: Instant) {
+        self.fm.handle_timeout(now);
+        if let Some(to) = self.fm.take_handback() {
+            self.plan(now, Planned::HandOver(Some(to)));
+        }
+        // Role changes first: a takeover makes the master active before its timers run.
+        self.pump(now);
+        self.run_planned(now);
+        self.pump(now);
+        self.pairs.handle_timeout(now);
+        self.pump(now);
+        self.master.handle_timeout(now);
+        self.pump(now);
+    }
+
+    fn poll_transmit(&mut self) -> Option<Frame> {
+        if let Some(f) = self.tx.pop() {
+            return Some(f);
+        }
+        self.master.poll_transmit()
+    }
+
+    fn poll_timeout(&self) -> Option<Instant> {
+        let mut t = earliest(self.fm.poll_timeout(), self.pairs.poll_timeout());
+        t = earliest(t, self.master.poll_timeout());
+        earliest(t, self.planned.map(|p| p.1))
+    }
+
+    fn poll_event(&mut self) -> Option<SupervisorEvent> {
+        self.events.pop_front()
+    }
+}
+
+impl<D, P, const S: usize, const T: usize, const R: usize> fmt::Debug
+    for Supervisor<D, P, S, T, R>
+{
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.debug_struct("Supervisor")
+            .field("fm", &self.fm)
+            .field("pairs", &self.pairs)
+            .field("stats", &self.stats)
+            .finish_non_exhaustive()
+    }
+}

@@ -1,0 +1,22 @@
+//! Layer 2, the **supervisor** of a redundant master, on top of the stack's CiA 302-2 master.
+//!
+//! | Part | Module |
+//! | --- | --- |
+//! | Slave-pair supervision: the pair table, joining, per-member deadlines, switch-over | [`pairs`] |
+//! | CiA 302-2 flying master: strong/weak by priority, takeover, conflict resolution | [`flying_master`] |
+//! | The audit trail of every role change, switch and toggle | [`audit`] |
+//! | [`Supervisor`] (feature `alloc`): the machine composing them with the master | `machine` |
+//!
+//! The supervisor decides; the dual-bus layer below is told the outcome (which board of a pair
+//! is active) through [`LinkCommand`]s.
+
+pub mod audit;
+pub mod flying_master;
+#[cfg(feature = "alloc")]
+mod machine;
+pub mod pairs;
+
+#[cfg(feature = "alloc")]
+pub use machine::{
+    AddPairError, JoinRefusal, LinkCommand, Supervisor, SupervisorConfig, SupervisorEvent,
+};

@@ -1,0 +1,1109 @@
+//! Slave-pair supervision: the seed's heartbeat table, event-driven and exact.
+//!
+//! [`PairSupervisor`] is a sans-IO machine. Its inputs are observations — a member's boot-up or
+//! heartbeat at an instant, the result of its configuration, an NMT command seen on the bus —
+//! and time. Its outputs are [`PairCommand`]s (NMT start / reset / enter pre-operational of a
+//! node, configure a node, tell the dual-bus layer which member is active) and [`PairsEvent`]s
+//! (role changes with pair, members, reason and time; members joining, lost, missing).
+//!
+//! # Rules (redundancy.md §4)
+//!
+//! - **Joining.** A member's boot-up asks for its configuration ([`PairCommand::Configure`]:
+//!   the CiA 302-2 boot process of the master, identity check, configuration, at least 0x1017);
+//!   when [`PairSupervisor::configured`] reports success it is *joined*. The first member of a
+//!   pair to be configured becomes active and is started; the other stays pre-operational as
+//!   standby. A first start and a rejoin after a fault look the same. A failed configuration
+//!   resets the member (it boots and is configured again); a member that is not what the
+//!   configuration expects ([`PairSupervisor::rejected`]: wrong identity) is left alone, not
+//!   joined, until it boots again.
+//! - **Evaluation** is event-driven: every joined member has a deadline, its last heartbeat (or
+//!   its configuration, whichever is later) + the pair's consumer time. At the deadline exactly:
+//!   - active silent, standby alive → start the standby (it becomes active), reset the active;
+//!   - standby silent (active alive, or none) → reset it;
+//!   - the only joined member silent → reset it, the pair has no active member.
+//!
+//!   Both silent is the last two cases in a row (with one deadline each). Members reset are no
+//!   longer joined; the start of the new active is emitted first, at the deadline, so it is on
+//!   the bus within the consumer time + one frame.
+//! - **Non-revertive** by default: a member that rejoins after a failover is standby. With
+//!   [`PairsConfig::revertive`], member A takes the role back when it rejoins (a planned
+//!   switch: A started, B sent to pre-operational).
+//! - **Watchdog.** Monitoring starts at configuration, so a member that is configured and never
+//!   speaks is detected like one that stops. A configured pair member that is never heard at all
+//!   is reported [`PairsEvent::Missing`] after [`PairsConfig::boot_timeout`] (once per wait; no
+//!   NMT command is sent to a node nobody hears).
+//! - **Members heard without boot-up** (a reset that never reached the node, e.g. across a
+//!   partition, or a supervisor started after its slaves) are *adopted*: after
+//!   [`PairsConfig::holdoff`] without a boot-up they are configured and join like any other
+//!   member; an operational one joining a pair that has an active member is sent to
+//!   pre-operational. The hold-off gives a second master that reappeared with them (a healed
+//!   partition) the time to be detected before this one commands anything.
+//!
+//! # Command and shadow
+//!
+//! A supervisor in [`Authority::Command`] evaluates and commands. One in [`Authority::Shadow`]
+//! (the standby master, or an active one that suspects another active master) only follows:
+//! heartbeats and boot-ups keep the table and the deadlines up to date, NMT commands of the
+//! active master seen on the bus ([`PairSupervisor::nmt_observed`]) move the roles, and a member
+//! joins when the active master is seen to configure it
+//! ([`PairSupervisor::configuration_observed`]; or, for a table that cannot see that, at its
+//! first heartbeat after its boot-up, [`PairsConfig::shadow_join_on_heartbeat`]). One in
+//! [`Authority::Idle`] (no active master known yet, at power-on) records and follows commands but
+//! takes nobody's word for a configuration. Switching to command evaluates at once what is due (a
+//! takeover acts on the shadow table without resetting anything that is alive) and configures
+//! what nobody was seen to configure.
+
+use crate::pair::{Member, PairId, PairSpec, MAX_PAIRS};
+use core::fmt;
+use duocan::frame::queue::Bounded;
+use duocan::{Duration, Instant, NmtCommand, NmtState, NodeId};
+use heapless::Vec;
+
+/// Commands a supervisor can hold before they are drained.
+pub const COMMAND_QUEUE: usize = 256;
+/// Events a supervisor can hold before they are drained.
+pub const EVENT_QUEUE: usize = 256;
+
+/// Policy of the whole table.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct PairsConfig {
+    /// Give the role back to A when A rejoins (default: false, non-revertive).
+    pub revertive: bool,
+    /// Adopt members heard without a boot-up (default: true).
+    pub adopt: bool,
+    /// How long a member heard without boot-up is watched before it is adopted.
+    pub holdoff: Duration,
+    /// A configured member not heard for this long after the table started (or after it was
+    /// reset) is reported missing.
+    pub boot_timeout: Duration,
+    /// A shadow table takes a member's first heartbeat after its boot-up as the sign that the
+    /// active master configured it (its heartbeat producer time is written last). Right for a
+    /// table that sees nothing else; wrong for boards that beat by default. The supervisor sees
+    /// the active master's SDO confirmations and clears this
+    /// ([`PairSupervisor::configuration_observed`]).
+    pub shadow_join_on_heartbeat: bool,
+}
+
+impl Default for PairsConfig {
+    fn default() -> Self {
+        PairsConfig {
+            revertive: false,
+            adopt: true,
+            holdoff: Duration::from_millis(200),
+            boot_timeout: Duration::from_secs(5),
+            shadow_join_on_heartbeat: true,
+        }
+    }
+}
+
+/// Whether the table commands or follows.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Authority {
+    /// Evaluates and sends commands (the active master).
+    Command,
+    /// Follows what is observed of an active master; sends nothing (a standby master).
+    Shadow,
+    /// No active master is known (power-on detection and negotiation): records what it hears
+    /// and what commands it sees, takes nobody's word for a configuration, sends nothing. What
+    /// booted or was heard meanwhile is configured once this master commands.
+    Idle,
+}
+
+/// Where a member is in its life cycle, as the supervisor sees it.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Phase {
+    /// Not joined: waiting for its boot-up (never heard, or reset).
+    Waiting,
+    /// Boot-up (or adoption) seen; its configuration is running.
+    Configuring,
+    /// Configured and monitored.
+    Joined,
+}
+
+impl fmt::Display for Phase {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(match self {
+            Phase::Waiting => "waiting",
+            Phase::Configuring => "configuring",
+            Phase::Joined => "joined",
+        })
+    }
+}
+
+/// One member of a pair in the table.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct MemberState {
+    /// A or B.
+    pub member: Member,
+    /// Its node-ID.
+    pub node: NodeId,
+    /// Life cycle.
+    pub phase: Phase,
+    /// Last NMT state heard (boot-up, heartbeat).
+    pub nmt: Option<NmtState>,
+    /// Heartbeats received since it joined.
+    pub heartbeats: u32,
+    /// Last heartbeat (or boot-up).
+    pub last: Option<Instant>,
+    /// When the current phase began.
+    pub since: Instant,
+    /// Reported missing during the current wait.
+    pub missing: bool,
+    /// Heard without a boot-up while not joined: adopted at this instant.
+    adopt_at: Option<Instant>,
+    /// Silence deadline while joined.
+    deadline: Option<Instant>,
+    /// Found not to be what the configuration expects; not adopted until it boots again.
+    rejected: bool,
+}
+
+impl MemberState {
+    fn new(member: Member, node: NodeId, now: Instant) -> Self {
+        MemberState {
+            member,
+            node,
+            phase: Phase::Waiting,
+            nmt: None,
+            heartbeats: 0,
+            last: None,
+            since: now,
+            missing: false,
+            adopt_at: None,
+            deadline: None,
+            rejected: false,
+        }
+    }
+    /// True if joined.
+    pub fn joined(&self) -> bool {
+        self.phase == Phase::Joined
+    }
+    /// The instant its heartbeat is next due at the latest (joined members).
+    pub fn deadline(&self) -> Option<Instant> {
+        self.deadline
+    }
+    /// Joined and not silent at `now`.
+    pub fn alive_at(&self, now: Instant) -> bool {
+        self.joined() && self.deadline.is_some_and(|d| d > now)
+    }
+    /// Its identity is not what the configuration expects: left out until it boots again.
+    pub fn is_rejected(&self) -> bool {
+        self.rejected
+    }
+}
+
+/// One pair in the table.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct PairState {
+    /// Its configuration.
+    pub spec: PairSpec,
+    /// The active member, if any.
+    pub active: Option<Member>,
+    /// A and B.
+    pub members: [MemberState; 2],
+}
+
+impl PairState {
+    /// A member's state.
+    pub fn member(&self, m: Member) -> &MemberState {
+        &self.members[idx(m)]
+    }
+    fn member_mut(&mut self, m: Member) -> &mut MemberState {
+        &mut self.members[idx(m)]
+    }
+}
+
+const fn idx(m: Member) -> usize {
+    match m {
+        Member::A => 0,
+        Member::B => 1,
+    }
+}
+
+/// What the supervisor asks of the master and the dual-bus layer.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum PairCommand {
+    /// Send an NMT command to one node.
+    Nmt {
+        /// The command.
+        cmd: NmtCommand,
+        /// The node.
+        node: NodeId,
+    },
+    /// Configure a node (at least its heartbeat producer time), then report the result with
+    /// [`PairSupervisor::configured`].
+    Configure {
+        /// The node.
+        node: NodeId,
+        /// Heartbeat producer time to write to 0x1017.
+        producer_time: Duration,
+    },
+    /// Tell the dual-bus layer which member's process data to deliver.
+    SetActive {
+        /// The pair.
+        pair: PairId,
+        /// The active member.
+        member: Option<Member>,
+    },
+    /// Tell the dual-bus layer to forget a member's latest values (it was reset).
+    Forget {
+        /// The pair.
+        pair: PairId,
+        /// The member.
+        member: Member,
+    },
+}
+
+/// Why a pair's active member changed.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum RoleReason {
+    /// The first member configured became active.
+    FirstJoined,
+    /// The active member was silent for the consumer time (last heartbeat given).
+    ActiveSilent {
+        /// Its last heartbeat (or its configuration, if it never beat).
+        last: Instant,
+    },
+    /// The active member booted again (it lost its state).
+    ActiveRebooted,
+    /// The only joined member was silent.
+    OnlyMemberSilent {
+        /// Its last heartbeat.
+        last: Instant,
+    },
+    /// The application asked.
+    Manual,
+    /// Revertive policy: A rejoined and takes the role back.
+    Revert,
+    /// Followed from the active master's NMT commands or the members' states (shadow).
+    Observed,
+    /// This master took command and found the pair without an active member.
+    Takeover,
+    /// The active member was reset or stopped by an NMT command seen on the bus.
+    CommandObserved,
+}
+
+impl fmt::Display for RoleReason {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            RoleReason::FirstJoined => f.write_str("first member configured"),
+            RoleReason::ActiveSilent { last } => {
+                write!(f, "active member silent since {last}")
+            }
+            RoleReason::ActiveRebooted => f.write_str("active member booted again"),
+            RoleReason::OnlyMemberSilent { last } => {
+                write!(f, "only joined member silent since {last}")
+            }
+            RoleReason::Manual => f.write_str("manual switch-over"),
+            RoleReason::Revert => f.write_str("revertive policy: A rejoined"),
+            RoleReason::Observed => f.write_str("observed from the active master"),
+            RoleReason::Takeover => f.write_str("new active master: pair had no active member"),
+            RoleReason::CommandObserved => f.write_str("NMT command observed"),
+        }
+    }
+}
+
+/// A pair's active member changed.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct RoleChange {
+    /// When (for a silence: exactly the deadline).
+    pub at: Instant,
+    /// The pair.
+    pub pair: PairId,
+    /// Node-IDs of A and B.
+    pub nodes: [NodeId; 2],
+    /// Previous active member.
+    pub from: Option<Member>,
+    /// New active member.
+    pub to: Option<Member>,
+    /// Why.
+    pub reason: RoleReason,
+}
+
+impl fmt::Display for RoleChange {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        let m = |x: Option<Member>| match x {
+            Some(Member::A) => "A",
+            Some(Member::B) => "B",
+            None => "none",
+        };
+        write!(
+            f,
+            "{}: pair {} (A {}, B {}) active {} -> {}: {}",
+            self.at,
+            self.pair.0,
+            self.nodes[0],
+            self.nodes[1],
+            m(self.from),
+            m(self.to),
+            self.reason
+        )
+    }
+}
+
+/// Why a member left the table.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum LossReason {
+    /// Silent for the consumer time; it was reset.
+    Silent {
+        /// Last heartbeat (or configuration).
+        last: Instant,
+    },
+    /// It booted again.
+    Rebooted,
+    /// Its configuration failed; it was reset.
+    ConfigFailed,
+    /// It is not what the configuration expects (identity) or refused its configuration; it
+    /// was left alone.
+    Rejected,
+    /// A reset command for it was seen on the bus (shadow).
+    ResetObserved,
+}
+
+/// What the pair supervisor reports.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum PairsEvent {
+    /// A pair's active member changed.
+    Role(RoleChange),
+    /// A member joined (configured).
+    Joined {
+        /// When.
+        at: Instant,
+        /// The pair.
+        pair: PairId,
+        /// The member.
+        member: Member,
+        /// Its node.
+        node: NodeId,
+    },
+    /// A member is no longer joined.
+    Lost {
+        /// When (for a silence: the deadline).
+        at: Instant,
+        /// The pair.
+        pair: PairId,
+        /// The member.
+        member: Member,
+        /// Its node.
+        node: NodeId,
+        /// Why.
+        reason: LossReason,
+    },
+    /// A configured member was not heard within the boot timeout.
+    Missing {
+        /// When.
+        at: Instant,
+        /// The pair.
+        pair: PairId,
+        /// The member.
+        member: Member,
+        /// Its node.
+        node: NodeId,
+        /// Since when it has been awaited.
+        since: Instant,
+    },
+}
+
+/// Why a pair could not be added or a command was refused.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum PairsError {
+    /// The table holds [`MAX_PAIRS`] pairs already.
+    Full,
+    /// The node belongs to a pair already.
+    NodeTaken(NodeId),
+    /// A and B are the same node.
+    SameNode(NodeId),
+    /// No such pair.
+    NoPair(PairId),
+    /// The member to switch to is not joined and alive.
+    NotAlive(PairId, Member),
+    /// This supervisor follows another master and commands nothing.
+    Shadow,
+}
+
+impl core::error::Error for PairsError {}
+
+impl fmt::Display for PairsError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            PairsError::Full => write!(f, "pair table full ({MAX_PAIRS} pairs)"),
+            PairsError::NodeTaken(n) => write!(f, "{n} already belongs to a pair"),
+            PairsError::SameNode(n) => write!(f, "A and B are both {n}"),
+            PairsError::NoPair(p) => write!(f, "no pair {}", p.0),
+            PairsError::NotAlive(p, m) => write!(
+                f,
+                "pair {} member {m} is not joined and alive: cannot make it active",
+                p.0
+            ),
+            PairsError::Shadow => f.write_str(
+                "this master is standby: switch-overs are commanded by the active master",
+            ),
+        }
+    }
+}
+
+const NONE: u8 = 0xFF;
+
+/// The pair table and its evaluation.
+pub struct PairSupervisor {
+    cfg: PairsConfig,
+    authority: Authority,
+    pairs: Vec<PairState, MAX_PAIRS>,
+    /// node-ID → pair index · 2 + member index.
+    index: [u8; 128],
+    /// A lower bound of every member's next deadline (recomputed when reached).
+    next: Option<Instant>,
+    commands: Bounded<PairCommand, COMMAND_QUEUE>,
+    events: Bounded<PairsEvent, EVENT_QUEUE>,
+}
+
+impl PairSupervisor {
+    /// An empty table, commanding.
+    pub fn new(cfg: PairsConfig) -> Self {
+        PairSupervisor {
+            cfg,
+            authority: Authority::Command,
+            pairs: Vec::new(),
+            index: [NONE; 128],
+            next: None,
+            commands: Bounded::new(),
+            events: Bounded::new(),
+        }
+    }
+
+    /// The policy.
+    pub fn config(&self) -> &PairsConfig {
+        &self.cfg
+    }
+    /// Changes the policy (revertive, hold-off, …) from now on.
+    pub fn set_config(&mut self, cfg: PairsConfig) {
+        self.cfg = cfg;
+    }
+
+    /// Whether [`PairSupervisor::add_pair`] would accept `spec`.
+    pub fn check(&self, spec: &PairSpec) -> Result<(), PairsError> {
+        if spec.a == spec.b {
+            return Err(PairsError::SameNode(spec.a));
+        }
+        for n in [spec.a, spec.b] {
+            if self.index[n.raw() as usize] != NONE {
+                return Err(PairsError::NodeTaken(n));
+            }
+        }
+        if self.pairs.is_full() {
+            return Err(PairsError::Full);
+        }
+        Ok(())
+    }
+
+    /// Adds a pair; its members are awaited from `now` (boot timeout).
+    pub fn add_pair(&mut self, now: Instant, spec: PairSpec) -> Result<PairId, PairsError> {
+        self.check(&spec)?;
+        let p = self.pairs.len();
+        self.pairs
+            .push(PairState {
+                spec,
+                active: None,
+                members: [
+                    MemberState::new(Member::A, spec.a, now),
+                    MemberState::new(Member::B, spec.b, now),
+                ],
+            })
+            .map_err(|_| PairsError::Full)?;
+        self.index[spec.a.raw() as usize] = (p * 2) as u8;
+        self.index[spec.b.raw() as usize] = (p * 2 + 1) as u8;
+        self.lower_next(now + self.cfg.boot_timeout);
+        Ok(PairId(p as u8))
+    }
+
+    /// The pair and member a node belongs to.
+    pub fn locate(&self, node: NodeId) -> Option<(PairId, Member)> {
+        let i = self.index[node.raw() as usize];
+        (i != NONE).then(|| {
+            let m = if i.is_multiple_of(2) {
+                Member::A
+            } else {
+                Member::B
+            };
+            (PairId(i / 2), m)
+        })
+    }
+
+    /// One pair.
+    pub fn pair(&self, p: PairId) -> Option<&PairState> {
+        self.pairs.get(p.0 as usize)
+    }
+    /// The whole table.
+    pub fn pairs(&self) -> impl Iterator<Item = (PairId, &PairState)> + '_ {
+        self.pairs
+            .iter()
+            .enumerate()
+            .map(|(i, p)| (PairId(i as u8), p))
+    }
+    /// Number of pairs.
+    pub fn len(&self) -> usize {
+        self.pairs.len()
+    }
+    /// True if no pair is configured.
+    pub fn is_empty(&self) -> bool {
+        self.pairs.is_empty()
+    }
+
+    /// Commanding or following.
+    pub fn authority(&self) -> Authority {
+        self.authority
+    }
+
+    /// Switches between commanding and following. Becoming the commander evaluates at once
+    /// what is due: silent members, pairs without an active member but with a live one,
+    /// configurations the previous commander left unfinished.
+    pub fn set_authority(&mut self, now: Instant, a: Authority) {
+        if self.authority == a {
+            return;
+        }
+        self.authority = a;
+        if a != Authority::Command {
+            return;
+        }
+        for p in 0..self.pairs.len() {
+            for m in [Member::A, Member::B] {
+                let s = self.pairs[p].members[idx(m)];
+                if s.phase == Phase::Configuring {
+                    self.configure(p, m);
+                } else if s.phase == Phase::Waiting && s.adopt_at.is_some() {
+                    // Watched while following: the hold-off starts over from now.
+                    self.pairs[p].member_mut(m).adopt_at = Some(now + self.cfg.holdoff);
+                }
+            }
+        }
+        self.next = Some(now);
+        self.handle_timeout(now);
+        for p in 0..self.pairs.len() {
+            self.ensure_active(now, p, RoleReason::Takeover);
+            // Two running members (one started by another master behind a partition): the
+            // standby goes back to pre-operational.
+            if let Some(a) = self.pairs[p].active {
+                let o = self.pairs[p].member(a.other());
+                if o.joined() && o.nmt == Some(NmtState::Operational) {
+                    let node = o.node;
+                    self.nmt(NmtCommand::EnterPreOperational, node);
+                }
+            }
+        }
+    }
+
+    // ----- observations -----
+
+    /// A node's boot-up message (heartbeat with state initialising) at `now`.
+    pub fn boot_up(&mut self, now: Instant, node: NodeId) {
+        let Some((pair, m)) = self.locate(node) else {
+            return;
+        };
+        let p = pair.0 as usize;
+        let was = self.pairs[p].members[idx(m)];
+        {
+            let s = self.pairs[p].member_mut(m);
+            s.nmt = Some(NmtState::Initialising);
+            s.last = Some(now);
+            s.phase = Phase::Configuring;
+            s.since = now;
+            s.deadline = None;
+            s.adopt_at = None;
+            s.missing = false;
+            s.rejected = false;
+        }
+        if was.phase == Phase::Joined {
+            self.event(PairsEvent::Lost {
+                at: now,
+                pair,
+                member: m,
+                node,
+                reason: LossReason::Rebooted,
+            });
+        }
+        self.cmd(PairCommand::Forget { pair, member: m });
+        if self.pairs[p].active == Some(m) {
+            // Its state is gone: the standby takes over at once if it can.
+            let o = m.other();
+            let to = self.pairs[p].member(o).alive_at(now).then_some(o);
+            self.set_role(now, p, to, RoleReason::ActiveRebooted);
+        }
+        if self.authority == Authority::Command {
+            self.configure(p, m);
+        }
+    }
+
+    /// A heartbeat (not a boot-up) of `node` in `state` at `now`.
+    pub fn heartbeat(&mut self, now: Instant, node: NodeId, state: NmtState) {
+        if state == NmtState::Initialising {
+            return self.boot_up(now, node);
+        }
+        let Some((pair, m)) = self.locate(node) else {
+            return;
+        };
+        let p = pair.0 as usize;
+        let consumer = self.pairs[p].spec.consumer_time;
+        let shadow = self.authority == Authority::Shadow;
+        let on_heartbeat = shadow && self.cfg.shadow_join_on_heartbeat;
+        let (adopt, holdoff) = (self.cfg.adopt, self.cfg.holdoff);
+        let s = self.pairs[p].member_mut(m);
+        let first_after_boot = s.nmt == Some(NmtState::Initialising);
+        s.nmt = Some(state);
+        s.last = Some(now);
+        let mut join = false;
+        let mut adopt_at = None;
+        match s.phase {
+            Phase::Joined => {
+                s.heartbeats = s.heartbeats.saturating_add(1);
+                // Deadlines only move later: the cached lower bound stays valid.
+                s.deadline = Some(now + consumer);
+            }
+            // The active master configured it (it beats now): joined as it says.
+            Phase::Configuring => join = on_heartbeat && first_after_boot,
+            // Heard while following: it is in the active master's network.
+            Phase::Waiting if shadow && !s.rejected => join = true,
+            Phase::Waiting => {
+                if adopt && !s.rejected && s.adopt_at.is_none() {
+                    s.adopt_at = Some(now + holdoff);
+                    adopt_at = s.adopt_at;
+                }
+            }
+        }
+        if join {
+            self.join(now, p, m);
+        }
+        if let Some(t) = adopt_at {
+            self.lower_next(t);
+        }
+        if self.authority != Authority::Command {
+            self.follow_state(now, p, m, state);
+        }
+    }
+
+    /// An NMT command seen on the bus (sent by another master). Followed unless commanding (a
+    /// commander learns of another commander through the flying master).
+    pub fn nmt_observed(&mut self, now: Instant, cmd: NmtCommand, target: u8) {
+        if self.authority == Authority::Command {
+            return;
+        }
+        if target == 0 {
+            for p in 0..self.pairs.len() {
+                for m in [Member::A, Member::B] {
+                    self.follow_command(now, p, m, cmd);
+                }
+            }
+            return;
+        }
+        let Some(node) = NodeId::new(target) else {
+            return;
+        };
+        if let Some((pair, m)) = self.locate(node) {
+            self.follow_command(now, pair.0 as usize, m, cmd);
+        }
+    }
+
+    /// Another master was seen ending the configuration of `node` (its confirmation of the
+    /// heartbeat producer time, the last step): a member that booted joins the shadow table.
+    /// Ignored when commanding (this master's own configurations report through
+    /// [`PairSupervisor::configured`]) and for members not being configured.
+    pub fn configuration_observed(&mut self, now: Instant, node: NodeId) {
+        if self.authority == Authority::Command {
+            return;
+        }
+        if let Some((p, m)) = self.configuring(node) {
+            self.join(now, p, m);
+        }
+    }
+
+    /// The configuration of `node` finished (`ok`) or failed (it is reset, to boot and be
+    /// configured again). Ignored unless `node` is a pair member being configured.
+    pub fn configured(&mut self, now: Instant, node: NodeId, ok: bool) {
+        let Some((p, m)) = self.configuring(node) else {
+            return;
+        };
+        if ok {
+            return self.join(now, p, m);
+        }
+        self.leave(now, p, m, LossReason::ConfigFailed);
+        if self.authority == Authority::Command {
+            self.nmt(NmtCommand::ResetNode, node);
+        }
+    }
+
+    /// `node` is not what the configuration expects (its identity differs, or it refuses its
+    /// configuration): it does not join
+    /// (a joined one leaves) and is not reset (a reset would not change what it is), nor adopted
+    /// when heard; its next boot-up is checked again. Ignored unless `node` is a pair member.
+    pub fn rejected(&mut self, now: Instant, node: NodeId) {
+        let Some((pair, m)) = self.locate(node) else {
+            return;
+        };
+        let p = pair.0 as usize;
+        if self.pairs[p].member(m).phase != Phase::Waiting {
+            self.leave(now, p, m, LossReason::Rejected);
+        }
+        self.pairs[p].member_mut(m).rejected = true;
+    }
+
+    /// True if `node` is a pair member whose configuration was asked for and has not ended.
+    pub fn is_configuring(&self, node: NodeId) -> bool {
+        self.configuring(node).is_some()
+    }
+
+    /// The pair index and member of `node` if it is being configured.
+    fn configuring(&self, node: NodeId) -> Option<(usize, Member)> {
+        let (pair, m) = self.locate(node)?;
+        let p = pair.0 as usize;
+        (self.pairs[p].member(m).phase == Phase::Configuring).then_some((p, m))
+    }
+
+    // ----- commands -----
+
+    /// Makes `to` the active member of `pair` by hand: it is started, the previous active member
+    /// sent to pre-operational.
+    pub fn switch_over(
+        &mut self,
+        now: Instant,
+        pair: PairId,
+        to: Member,
+    ) -> Result<(), PairsError> {
+        if self.authority != Authority::Command {
+            return Err(PairsError::Shadow);
+        }
+        let p = pair.0 as usize;
+        let state = self.pairs.get(p).ok_or(PairsError::NoPair(pair))?;
+        if !state.member(to).alive_at(now) {
+            return Err(PairsError::NotAlive(pair, to));
+        }
+        if state.active == Some(to) {
+            return Ok(());
+        }
+        self.planned_switch(now, p, to, RoleReason::Manual);
+        Ok(())
+    }
+
+    // ----- time -----
+
+    /// Earliest instant at which [`PairSupervisor::handle_timeout`] has work (may be early).
+    pub fn poll_timeout(&self) -> Option<Instant> {
+        self.next
+    }
+
+    /// Does what is due at `now`: silences, adoptions, missing members, in deadline order.
+    pub fn handle_timeout(&mut self, now: Instant) {
+        if self.next.is_none_or(|t| t > now) {
+            return;
+        }
+        while let Some((t, p, m)) = self.earliest() {
+            if t > now {
+                break;
+            }
+            self.expire(t, p, m);
+        }
+        self.next = self.earliest().map(|x| x.0);
+    }
+
+    // ----- outputs -----
+
+    /// Next command.
+    pub fn poll_command(&mut self) -> Option<PairCommand> {
+        self.commands.pop()
+    }
+    /// Next event.
+    pub fn poll_event(&mut self) -> Option<PairsEvent> {
+        self.events.pop()
+    }
+    /// Commands and events dropped because they were not drained.
+    pub fn dropped(&self) -> (u32, u32) {
+        (self.commands.dropped(), self.events.dropped())
+    }
+
+    // ----- internals -----
+
+    /// The earliest due item of any member: (instant, pair, member).
+    fn earliest(&self) -> Option<(Instant, usize, Member)> {
+        let mut best: Option<(Instant, usize, Member)> = None;
+        for (p, pair) in self.pairs.iter().enumerate() {
+            for s in &pair.members {
+                if let Some(t) = self.due(s) {
+                    if best.is_none_or(|b| t < b.0) {
+                        best = Some((t, p, s.member));
+                    }
+                }
+            }
+        }
+        best
+    }
+
+    fn due(&self, s: &MemberState) -> Option<Instant> {
+        match s.phase {
+            Phase::Joined => {
+                if self.authority == Authority::Command {
+                    s.deadline
+                } else {
+                    None
+                }
+            }
+            Phase::Waiting => {
+                let adopt = s.adopt_at.filter(|_| self.authority == Authority::Command);
+                let missing = (!s.missing && s.last.is_none_or(|l| l < s.since))
+                    .then(|| s.since + self.cfg.boot_timeout);
+                duocan::frame::instant::earliest(adopt, missing)
+            }
+            Phase::Configuring => None,
+        }
+    }
+
+    fn expire(&mut self, t: Instant, p: usize, m: Member) {
+        let s = self.pairs[p].members[idx(m)];
+        match s.phase {
+            Phase::Joined => self.silent(t, p, m, s),
+            Phase::Waiting => {
+                if s.adopt_at.is_some_and(|a| a <= t) && self.authority == Authority::Command {
+                    let st = self.pairs[p].member_mut(m);
+                    st.adopt_at = None;
+                    st.phase = Phase::Configuring;
+                    st.since = t;
+                    self.configure(p, m);
+                } else {
+                    self.pairs[p].member_mut(m).missing = true;
+                    self.event(PairsEvent::Missing {
+                        at: t,
+                        pair: PairId(p as u8),
+                        member: m,
+                        node: s.node,
+                        since: s.since,
+                    });
+                }
+            }
+            Phase::Configuring => {}
+        }
+    }
+
+    /// A joined member's deadline passed at `t`.
+    fn silent(&mut self, t: Instant, p: usize, m: Member, s: MemberState) {
+        let last = s
+            .deadline
+            .map_or(t, |d| d - self.pairs[p].spec.consumer_time);
+        let o = m.other();
+        let other_alive = self.pairs[p].member(o).alive_at(t);
+        if self.pairs[p].active == Some(m) {
+            if other_alive {
+                // Start first: the new active is what the reaction bound is about.
+                self.set_role(t, p, Some(o), RoleReason::ActiveSilent { last });
+            } else {
+                self.set_role(t, p, None, RoleReason::OnlyMemberSilent { last });
+            }
+        }
+        self.leave(t, p, m, LossReason::Silent { last });
+        self.nmt(NmtCommand::ResetNode, s.node);
+    }
+
+    fn join(&mut self, now: Instant, p: usize, m: Member) {
+        let spec = self.pairs[p].spec;
+        let s = self.pairs[p].member_mut(m);
+        s.phase = Phase::Joined;
+        s.since = now;
+        s.heartbeats = 0;
+        s.adopt_at = None;
+        s.missing = false;
+        // Monitoring starts now, whether or not it ever beats.
+        let deadline = s.last.map_or(now, |l| l.max(now)) + spec.consumer_time;
+        s.deadline = Some(deadline);
+        let (nmt, node) = (s.nmt, s.node);
+        self.lower_next(deadline);
+        self.event(PairsEvent::Joined {
+            at: now,
+            pair: PairId(p as u8),
+            member: m,
+            node,
+        });
+        if self.authority != Authority::Command {
+            if nmt == Some(NmtState::Operational) && self.pairs[p].active.is_none() {
+                self.set_role(now, p, Some(m), RoleReason::Observed);
+            }
+            return;
+        }
+        match self.pairs[p].active {
+            None => {
+                self.set_role(now, p, Some(m), RoleReason::FirstJoined);
+            }
+            Some(a) if a != m => {
+                if self.cfg.revertive && m == Member::A {
+                    self.planned_switch(now, p, m, RoleReason::Revert);
+                } else if nmt == Some(NmtState::Operational) {
+                    // Adopted while running (started by another master): back to standby.
+                    self.nmt(NmtCommand::EnterPreOperational, node);
+                }
+            }
+            Some(_) => {}
+        }
+    }
+
+    /// A joined or configuring member leaves the table (reset, rebooted, failed configuration).
+    fn leave(&mut self, t: Instant, p: usize, m: Member, reason: LossReason) {
+        let pair = PairId(p as u8);
+        let s = self.pairs[p].member_mut(m);
+        let was_joined = s.phase == Phase::Joined;
+        s.phase = Phase::Waiting;
+        s.since = t;
+        s.deadline = None;
+        s.adopt_at = None;
+        s.missing = false;
+        let node = s.node;
+        if self.pairs[p].active == Some(m) {
+            self.set_role(t, p, None, RoleReason::CommandObserved);
+        }
+        if was_joined || matches!(reason, LossReason::ConfigFailed | LossReason::Rejected) {
+            self.event(PairsEvent::Lost {
+                at: t,
+                pair,
+                member: m,
+                node,
+                reason,
+            });
+        }
+        self.cmd(PairCommand::Forget { pair, member: m });
+        self.lower_next(t + self.cfg.boot_timeout);
+    }
+
+    /// Makes `to` active, starting it (commanding), and reports the change.
+    fn set_role(&mut self, t: Instant, p: usize, to: Option<Member>, reason: RoleReason) {
+        let from = self.pairs[p].active;
+        if from == to {
+            return;
+        }
+        self.pairs[p].active = to;
+        let spec = self.pairs[p].spec;
+        if self.authority == Authority::Command {
+            if let Some(m) = to {
+                // A member already running (adopted) needs no start.
+                if self.pairs[p].member(m).nmt != Some(NmtState::Operational) {
+                    self.nmt(NmtCommand::Start, spec.node(m));
+                }
+            }
+        }
+        let pair = PairId(p as u8);
+        self.cmd(PairCommand::SetActive { pair, member: to });
+        self.event(PairsEvent::Role(RoleChange {
+            at: t,
+            pair,
+            nodes: [spec.a, spec.b],
+            from,
+            to,
+            reason,
+        }));
+    }
+
+    /// A switch between two live members: the new one started, the old one to pre-operational.
+    fn planned_switch(&mut self, now: Instant, p: usize, to: Member, reason: RoleReason) {
+        let old = self.pairs[p].active;
+        self.set_role(now, p, Some(to), reason);
+        if let Some(o) = old.filter(|o| *o != to) {
+            let node = self.pairs[p].spec.node(o);
+            self.nmt(NmtCommand::EnterPreOperational, node);
+        }
+    }
+
+    /// A pair without an active member but with a live joined member gets one.
+    fn ensure_active(&mut self, now: Instant, p: usize, reason: RoleReason) {
+        if self.pairs[p].active.is_some() {
+            return;
+        }
+        let pick = [Member::A, Member::B]
+            .into_iter()
+            .filter(|m| self.pairs[p].member(*m).alive_at(now))
+            // An operational member keeps running rather than being replaced.
+            .max_by_key(|m| {
+                (
+                    self.pairs[p].member(*m).nmt == Some(NmtState::Operational),
+                    *m == Member::A,
+                )
+            });
+        if let Some(m) = pick {
+            self.set_role(now, p, Some(m), reason);
+        }
+    }
+
+    /// Shadow: a member's reported state moves the roles.
+    fn follow_state(&mut self, now: Instant, p: usize, m: Member, state: NmtState) {
+        if !self.pairs[p].member(m).joined() {
+            return;
+        }
+        let active = self.pairs[p].active;
+        match state {
+            NmtState::Operational if active.is_none() => {
+                self.set_role(now, p, Some(m), RoleReason::Observed)
+            }
+            NmtState::PreOperational | NmtState::Stopped if active == Some(m) => {
+                let o = m.other();
+                let other_op = self.pairs[p].member(o).joined()
+                    && self.pairs[p].member(o).nmt == Some(NmtState::Operational);
+                self.set_role(now, p, other_op.then_some(o), RoleReason::Observed)
+            }
+            _ => {}
+        }
+    }
+
+    /// Shadow: an NMT command of the active master moves the table.
+    fn follow_command(&mut self, now: Instant, p: usize, m: Member, cmd: NmtCommand) {
+        match cmd {
+            NmtCommand::Start => {
+                if !self.pairs[p].member(m).joined() {
+                    self.join(now, p, m);
+                }
+                self.pairs[p].member_mut(m).nmt = Some(NmtState::Operational);
+                self.set_role(now, p, Some(m), RoleReason::Observed);
+            }
+            NmtCommand::EnterPreOperational | NmtCommand::Stop => {
+                self.pairs[p].member_mut(m).nmt = Some(cmd.resulting_state());
+                if self.pairs[p].active == Some(m) {
+                    self.set_role(now, p, None, RoleReason::CommandObserved);
+                }
+            }
+            NmtCommand::ResetNode | NmtCommand::ResetCommunication => {
+                let s = self.pairs[p].member(m);
+                if s.phase != Phase::Waiting {
+                    self.leave(now, p, m, LossReason::ResetObserved);
+                }
+            }
+        }
+    }
+
+    fn configure(&mut self, p: usize, m: Member) {
+        let spec = self.pairs[p].spec;
+        self.cmd(PairCommand::Configure {
+            node: spec.node(m),
+            producer_time: spec.producer_time,
+        });
+    }
+
+    fn nmt(&mut self, cmd: NmtCommand, node: NodeId) {
+        if self.authority == Authority::Command {
+            self.cmd(PairCommand::Nmt { cmd, node });
+        }
+    }
+
+    fn cmd(&mut self, c: PairCommand) {
+        self.commands.push(c);
+    }
+
+    fn event(&mut self, e: PairsEvent) {
+        self.events.push(e);
+    }
+
+    fn lower_next(&mut self, t: Instant) {
+        if self.next.is_none_or(|n| t < n) {
+            self.next = Some(t);
+        }
+    }
+}
+
+impl fmt::Debug for PairSupervisor {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.debug_struct("PairSupervisor")
+            .field("authority", &self.authority)
+            .field("pairs", &self.pairs.len())
+            .field("next", &self.next)
+            .finish_non_exhaustive()
+    }
+}

@@ -1,0 +1,240 @@
+//! Emergency objects: producer (0x1014 COB-ID, 0x1015 inhibit in 100 µs, 0x1001 error register,
+//! 0x1003 history kept by the node) and consumer decoding.
+
+use crate::frame::cob_id::CobId;
+use crate::frame::instant::{Duration, Instant};
+use crate::frame::queue::Bounded;
+use crate::frame::Malformed;
+use crate::frame::{Frame, Id};
+
+/// Error register (0x1001) bits.
+pub mod register {
+    /// Generic error: set whenever any error is active.
+    pub const GENERIC: u8 = 0x01;
+    /// Current.
+    pub const CURRENT: u8 = 0x02;
+    /// Voltage.
+    pub const VOLTAGE: u8 = 0x04;
+    /// Temperature.
+    pub const TEMPERATURE: u8 = 0x08;
+    /// Communication error (overrun, error state).
+    pub const COMMUNICATION: u8 = 0x10;
+    /// Device profile specific.
+    pub const PROFILE: u8 = 0x20;
+    /// Manufacturer specific.
+    pub const MANUFACTURER: u8 = 0x80;
+}
+
+/// Standard error codes the stack itself raises.
+pub mod code {
+    /// Error reset or no error.
+    pub const NO_ERROR: u16 = 0x0000;
+    /// Generic error.
+    pub const GENERIC: u16 = 0x1000;
+    /// CAN overrun (objects lost).
+    pub const CAN_OVERRUN: u16 = 0x8110;
+    /// CAN in error passive mode.
+    pub const CAN_PASSIVE: u16 = 0x8120;
+    /// Life guard error or heartbeat error.
+    pub const LIFE_GUARD: u16 = 0x8130;
+    /// Recovered from bus-off.
+    pub const BUS_OFF_RECOVERED: u16 = 0x8140;
+    /// PDO not processed due to length error.
+    pub const PDO_LENGTH: u16 = 0x8210;
+    /// PDO length exceeded.
+    pub const PDO_LENGTH_EXCEEDED: u16 = 0x8220;
+    /// Unexpected SYNC data length.
+    pub const SYNC_LENGTH: u16 = 0x8240;
+    /// RPDO timeout.
+    pub const RPDO_TIMEOUT: u16 = 0x8250;
+}
+
+/// One EMCY message: error code, error register, five manufacturer bytes.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub struct EmcyMessage {
+    /// Error code (0x0000 = error reset).
+    pub code: u16,
+    /// Error register (0x1001) at the time of the message.
+    pub register: u8,
+    /// Manufacturer-specific bytes.
+    pub data: [u8; 5],
+}
+
+impl EmcyMessage {
+    /// The eight bytes on the wire.
+    pub fn to_bytes(&self) -> [u8; 8] {
+        let c = self.code.to_le_bytes();
+        let d = self.data;
+        [c[0], c[1], self.register, d[0], d[1], d[2], d[3], d[4]]
+    }
+    /// Decodes a received EMCY frame (exactly 8 data bytes).
+    pub fn from_frame(frame: &Frame) -> Result<EmcyMessage, Malformed> {
+        if frame.is_remote() {
+            return Err(Malformed::UnexpectedRemote);
+        }
+        match frame.data() {
+            [c0, c1, reg, d @ ..] if d.len() == 5 => Ok(EmcyMessage {
+                code: u16::from_le_bytes([*c0, *c1]),
+                register: *reg,
+                data: [d[0], d[1], d[2], d[3], d[4]],
+            }),
+            d => Err(Malformed::WrongLength {
+                expected: 8,
+                got: d.len() as u8,
+            }),
+        }
+    }
+}
+
+/// The EMCY producer: active errors, the error register they imply, and the inhibit-timed
+/// transmit queue.
+#[derive(Debug, Default)]
+pub struct EmcyProducer {
+    id: Option<Id>,
+    inhibit: Duration,
+    last_sent: Option<Instant>,
+    pending: Bounded<EmcyMessage, 8>,
+    active: heapless::Vec<(u16, u8), 8>,
+}
+
+impl EmcyProducer {
+    /// Applies 0x1014 and 0x1015 (inhibit in 100 µs units).
+    pub fn configure(&mut self, cob: CobId, inhibit_100us: u16) {
+        self.id = if cob.is_valid() { cob.can_id() } else { None };
+        self.inhibit = Duration::from_micros(inhibit_100us as u64 * 100);
+    }
+
+    /// The error register implied by the active errors.
+    pub fn register(&self) -> u8 {
+        let bits = self.active.iter().fold(0, |acc, (_, r)| acc | r);
+        if self.active.is_empty() {
+            0
+        } else {
+            bits | register::GENERIC
+        }
+    }
+
+    /// Records an active error and queues its message. Returns the message (for the history), or
+    /// `None` if the same code is already active (no repeated EMCY for a standing error).
+    pub fn raise(&mut self, code: u16, register_bits: u8, data: [u8; 5]) -> Option<EmcyMessage> {
+        if self.active.iter().any(|(c, _)| *c == code) {
+            return None;
+        }
+        if self.active.push((code, register_bits)).is_err() {
+            // Table full: the error is still reported, and GENERIC stays set via the others.
+        }
+        let msg = EmcyMessage {
+            code,
+            register: self.register(),
+            data,
+        };
+        self.pending.push(msg);
+        Some(msg)
+    }
+
+    /// Clears an active error; when none remain, queues the error-reset message (code 0x0000).
+    /// Returns true if `code` was active.
+    pub fn clear(&mut self, code: u16) -> bool {
+        let before = self.active.len();
+        self.active.retain(|(c, _)| *c != code);
+        if self.active.len() == before {
+            return false;
+        }
+        if self.active.is_empty() {
+            self.pending.push(EmcyMessage {
+                code: code::NO_ERROR,
+                register: 0,
+                data: [0; 5],
+            });
+        }
+        true
+    }
+
+    /// Active error codes.
+    pub fn active(&self) -> impl Iterator<Item = u16> + '_ {
+        self.active.iter().map(|(c, _)| *c)
+    }
+
+    /// Messages dropped because the queue was full.
+    pub fn dropped(&self) -> u32 {
+        self.pending.dropped()
+    }
+
+    /// Next frame if the inhibit time allows it at `now`.
+    pub fn poll_frame(&mut self, now: Instant) -> Option<Frame> {
+        if self.pending.is_empty() || self.id.is_none() {
+            return None;
+        }
+        if let Some(last) = self.last_sent {
+            if now < last + self.inhibit {
+                return None;
+            }
+        }
+        let msg = self.pending.pop()?;
+        self.last_sent = Some(now);
+        Some(Frame::from_array(self.id?, msg.to_bytes()))
+    }
+
+    /// When the inhibit time lets the next waiting message go.
+    pub fn poll_timeout(&self) -> Option<Instant> {
+        if self.pending.is_empty() || self.id.is_none() {
+            return None;
+        }
+        Some(self.last_sent.map_or(Instant::ZERO, |l| l + self.inhibit))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn frame_layout_byte_for_byte() {
+        let m = EmcyMessage {
+            code: 0x8130,
+            register: 0x11,
+            data: [1, 2, 3, 4, 5],
+        };
+        assert_eq!(m.to_bytes(), [0x30, 0x81, 0x11, 1, 2, 3, 4, 5]);
+        let f = Frame::from_array(Id::Standard(0x85), m.to_bytes());
+        assert_eq!(EmcyMessage::from_frame(&f), Ok(m));
+        let short = Frame::new(Id::Standard(0x85), &[0x30, 0x81]).unwrap();
+        assert_eq!(
+            EmcyMessage::from_frame(&short),
+            Err(Malformed::WrongLength {
+                expected: 8,
+                got: 2
+            })
+        );
+    }
+
+    #[test]
+    fn inhibit_time_spaces_messages() {
+        let mut p = EmcyProducer::default();
+        p.configure(CobId(0x85), 10); // 1 ms
+        p.raise(0x1000, 0, [0; 5]);
+        p.raise(0x8130, register::COMMUNICATION, [0; 5]);
+        let t0 = Instant::from_millis(5);
+        assert!(p.poll_frame(t0).is_some());
+        assert!(p.poll_frame(t0).is_none());
+        assert_eq!(p.poll_timeout(), Some(Instant::from_millis(6)));
+        let f = p.poll_frame(Instant::from_millis(6)).unwrap();
+        assert_eq!(f.data()[2], register::GENERIC | register::COMMUNICATION);
+    }
+
+    #[test]
+    fn clearing_the_last_error_sends_error_reset() {
+        let mut p = EmcyProducer::default();
+        p.configure(CobId(0x85), 0);
+        p.raise(0x1000, 0, [0; 5]);
+        assert!(
+            p.raise(0x1000, 0, [0; 5]).is_none(),
+            "standing error is not repeated"
+        );
+        p.poll_frame(Instant::ZERO).unwrap();
+        assert!(p.clear(0x1000));
+        assert_eq!(p.register(), 0);
+        let f = p.poll_frame(Instant::ZERO).unwrap();
+        assert_eq!(f.data(), &[0, 0, 0, 0, 0, 0, 0, 0]);
+    }
+}

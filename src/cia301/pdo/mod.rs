@@ -1,0 +1,996 @@
+//! Process data objects: the PDO engine a [`crate::node::Node`] runs, the parameter tables, and
+//! the master side that configures a slave's PDOs over SDO.
+//!
+//! The engine reads everything from the dictionary: communication parameters (0x1400–0x15FF,
+//! 0x1800–0x19FF) and mappings (0x1600–0x17FF, 0x1A00–0x1BFF). A node with capacity for `T`
+//! TPDOs and `R` RPDOs serves TPDO1–T and RPDO1–R; parameter objects of higher numbers may exist
+//! in the dictionary but are inert. PDOs are numbered from 1 as CiA 301 names them: RPDO1 is
+//! 0x1400/0x1600, TPDO3 is 0x1802/0x1A02.
+//!
+//! Writes to the parameters follow CiA 301 (checked by the node before they are stored):
+//! - a valid PDO's identifier (COB-ID bits 0–29) cannot change: invalidate it first (0x06090030);
+//!   11-bit identifiers CiA 301 restricts (NMT, SYNC/TIME/EMCY ranges, SDO, error control) are
+//!   refused (0x06090030);
+//! - transmission types 241–251 (TPDO) and 241–253 (RPDO) are reserved (0x06090030); RTR-only
+//!   types need bit 30 (no RTR) clear (0x06090030);
+//! - inhibit time and SYNC start value change only while the PDO is invalid (0x06090030);
+//! - mapping entries change only while the PDO is invalid and sub 0 is 0, sub 0 only while the
+//!   PDO is invalid (0x06090030, as CANopenNode and Lely answer); each entry must exist
+//!   (0x06020000/0x06090011), be mappable in that direction with a length it can hold
+//!   (0x06040041); sub 0 = n checks entries 1..n and their total against 64 bits (0x06040042).
+//!
+//! Dummy entries (index 0x0001–0x001B of a supported fixed-size type, sub 0) are placeholders:
+//! skipped on reception, zeros on transmission.
+
+pub(crate) mod mapping;
+pub mod params;
+mod rpdo;
+mod tpdo;
+
+pub use mapping::{
+    check_entry, check_mapping, mask, read_bits, write_bits, Dir, MapEntry, MAX_BITS, MAX_ENTRIES,
+};
+
+use crate::cia301::emcy;
+use crate::frame::cob_id::CobId;
+use crate::frame::instant::{earliest, Duration, Instant};
+use crate::frame::queue::Bounded;
+use crate::frame::{Frame, Id};
+use crate::od::abort::AbortCode;
+use crate::od::{key, ObjectDictionary};
+use core::fmt;
+use mapping::{Mapping, CACHED};
+use params::{RPDO_COMM, RPDO_MAPPING, TPDO_COMM, TPDO_MAPPING};
+use rpdo::{OnFrame, Recovered, Rpdo, RpdoParams};
+use tpdo::{OnRtr, OnSync, Tpdo, TpdoParams};
+
+/// What the PDO engine reports (inside the node's events: `NodeEventKind::Pdo`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum PdoEvent {
+    /// An RPDO's data was written into the dictionary: at reception for asynchronous RPDOs, at
+    /// the SYNC after reception for synchronous ones. One event per PDO, not per entry; can be
+    /// switched off ([`crate::node::Node::set_rpdo_events`]) at high rates.
+    RpdoReceived {
+        /// RPDO number (1 = 0x1400).
+        pdo: u16,
+    },
+    /// An RPDO with an event timer was not received in time (EMCY 0x8250 raised). Fires once per
+    /// loss, exactly at the last reception + the event timer.
+    RpdoTimeout {
+        /// RPDO number.
+        pdo: u16,
+        /// Its last reception.
+        last: Instant,
+    },
+    /// An RPDO frame shorter than its mapping was refused (EMCY 0x8210 raised). Reported once
+    /// per error episode; a correct frame ends it.
+    RpdoTooShort {
+        /// RPDO number.
+        pdo: u16,
+        /// Bytes the mapping needs.
+        expected: u8,
+        /// Bytes received.
+        got: u8,
+    },
+    /// A valid PDO's stored configuration cannot be used (a mapped entry is gone, a reserved
+    /// transmission type was stored behind the stack's back); the PDO stays silent.
+    Unusable {
+        /// Receive or transmit.
+        dir: Dir,
+        /// PDO number.
+        pdo: u16,
+        /// What is wrong, as the abort code a write of it would get.
+        reason: AbortCode,
+    },
+}
+
+/// Why an application request for a PDO was refused.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum PdoError {
+    /// The node has no such PDO (number 0 or beyond its capacity).
+    NoSuchPdo {
+        /// The number asked for.
+        pdo: u16,
+    },
+    /// The PDO is not running: invalid COB-ID, empty or unusable mapping, or the node is not
+    /// operational.
+    NotRunning {
+        /// The PDO.
+        pdo: u16,
+    },
+    /// Its transmission type does not send on application events (only 0, 254, 255 do).
+    NotEventDriven {
+        /// The PDO.
+        pdo: u16,
+        /// Its transmission type.
+        transmission_type: u8,
+    },
+}
+
+impl fmt::Display for PdoError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            PdoError::NoSuchPdo { pdo } => write!(
+                f,
+                "TPDO{pdo} does not exist on this node: raise the node's TPDO capacity"
+            ),
+            PdoError::NotRunning { pdo } => write!(
+                f,
+                "TPDO{pdo} is not running: check its COB-ID (bit 31), its mapping and that the node is operational"
+            ),
+            PdoError::NotEventDriven {
+                pdo,
+                transmission_type,
+            } => write!(
+                f,
+                "TPDO{pdo} has transmission type {transmission_type}: only types 0, 254 and 255 send on request"
+            ),
+        }
+    }
+}
+
+/// What a TPDO is doing.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct TpdoStatus {
+    /// Its identifier, if its COB-ID is valid.
+    pub id: Option<Id>,
+    /// Transmission type.
+    pub transmission_type: u8,
+    /// Sending (valid, usable, node operational).
+    pub running: bool,
+    /// Mapped length in bits.
+    pub mapped_bits: u32,
+    /// Frames sent.
+    pub sent: u32,
+    /// Last transmission.
+    pub last_sent: Option<Instant>,
+    /// Why a valid PDO is unusable.
+    pub error: Option<AbortCode>,
+}
+
+/// What an RPDO is doing.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct RpdoStatus {
+    /// Its identifier, if its COB-ID is valid.
+    pub id: Option<Id>,
+    /// Transmission type.
+    pub transmission_type: u8,
+    /// Receiving (valid, usable, node operational).
+    pub running: bool,
+    /// Mapped length in bits.
+    pub mapped_bits: u32,
+    /// Frames accepted.
+    pub received: u32,
+    /// Last accepted frame.
+    pub last_received: Option<Instant>,
+    /// The reception timeout expired and no frame came since.
+    pub timed_out: bool,
+    /// The last frame was too short.
+    pub length_error: bool,
+    /// Why a valid PDO is unusable.
+    pub error: Option<AbortCode>,
+}
+
+/// An EMCY the engine wants the node to raise or clear.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(crate) enum EmcyAction {
+    Raise(u16, [u8; 5]),
+    Clear(u16),
+}
+
+/// Where the engine puts what it produces. The engine owns this contract and knows nothing of
+/// the node that composes it: the node implements it over its own transmit and event queues.
+pub(crate) trait PdoOutput {
+    /// A PDO to send (a full queue is the implementor's to count).
+    fn send(&mut self, frame: Frame);
+    /// Something to tell the application.
+    fn event(&mut self, at: Instant, e: PdoEvent);
+}
+
+/// The dictionary and the output the engine works with while it runs.
+pub(crate) struct Io<'a, D, O> {
+    pub od: &'a mut D,
+    pub out: O,
+}
+
+impl<D, O: PdoOutput> Io<'_, D, O> {
+    fn send(&mut self, id: Id, data: &[u8]) {
+        if let Ok(f) = Frame::new(id, data) {
+            self.out.send(f);
+        }
+    }
+    fn event(&mut self, at: Instant, e: PdoEvent) {
+        self.out.event(at, e);
+    }
+}
+
+/// Which PDO parameter object `index` is: direction, mapping (true) or communication, PDO slot.
+pub(crate) fn classify(index: u16) -> Option<(Dir, bool, u16)> {
+    match index {
+        0x1400..=0x15FF => Some((Dir::Receive, false, index - RPDO_COMM)),
+        0x1600..=0x17FF => Some((Dir::Receive, true, index - RPDO_MAPPING)),
+        0x1800..=0x19FF => Some((Dir::Transmit, false, index - TPDO_COMM)),
+        0x1A00..=0x1BFF => Some((Dir::Transmit, true, index - TPDO_MAPPING)),
+        _ => None,
+    }
+}
+
+const fn comm_index(dir: Dir, slot: u16) -> u16 {
+    match dir {
+        Dir::Receive => RPDO_COMM + slot,
+        Dir::Transmit => TPDO_COMM + slot,
+    }
+}
+
+const fn map_index(dir: Dir, slot: u16) -> u16 {
+    match dir {
+        Dir::Receive => RPDO_MAPPING + slot,
+        Dir::Transmit => TPDO_MAPPING + slot,
+    }
+}
+
+/// CiA 301's restricted 11-bit identifiers: no PDO may use them.
+pub const fn restricted_id(raw: u16) -> bool {
+    raw <= 0x7F
+        || (raw >= 0x101 && raw <= 0x180)
+        || (raw >= 0x581 && raw <= 0x5FF)
+        || (raw >= 0x601 && raw <= 0x67F)
+        || (raw >= 0x6E0 && raw <= 0x6FF)
+        || raw >= 0x701
+}
+
+fn le_u32(data: &[u8]) -> u32 {
+    mapping::le_u64(data) as u32
+}
+
+/// The CiA 301 rules of a write to a PDO parameter object, checked against the dictionary as it
+/// is before the write. Other indices pass.
+pub(crate) fn check_write<D: ObjectDictionary + ?Sized>(
+    od: &D,
+    index: u16,
+    sub: u8,
+    data: &[u8],
+) -> Result<(), AbortCode> {
+    let Some((dir, is_map, slot)) = classify(index) else {
+        return Ok(());
+    };
+    let comm = comm_index(dir, slot);
+    let cob = CobId(
+        od.get_u32(comm, params::sub::COB_ID)
+            .unwrap_or(CobId::INVALID),
+    );
+    let valid = cob.is_valid();
+    let v = le_u32(data);
+    if is_map {
+        if valid {
+            return Err(AbortCode::VALUE_RANGE);
+        }
+        if sub == 0 {
+            if v > MAX_ENTRIES as u32 {
+                return Err(AbortCode::VALUE_RANGE);
+            }
+            let mut bits = 0u32;
+            for s in 1..=v as u8 {
+                let raw = od.get_u32(index, s).ok_or(AbortCode::PDO_LENGTH)?;
+                let e = MapEntry::from_raw(raw);
+                check_entry(od, dir, e)?;
+                bits += e.bits as u32;
+            }
+            if bits > MAX_BITS {
+                return Err(AbortCode::PDO_LENGTH);
+            }
+            return Ok(());
+        }
+        if od.get_u32(index, 0).unwrap_or(0) != 0 {
+            return Err(AbortCode::VALUE_RANGE);
+        }
+        return match v {
+            0 => Ok(()),
+            raw => check_entry(od, dir, MapEntry::from_raw(raw)),
+        };
+    }
+    let ttype = od
+        .get_u32(comm, params::sub::TRANSMISSION_TYPE)
+        .unwrap_or(255) as u8;
+    let rtr_only = |t: u8| dir == Dir::Transmit && (t == 252 || t == 253);
+    match sub {
+        params::sub::COB_ID => {
+            let new = CobId(v);
+            if !new.is_valid() {
+                return Ok(());
+            }
+            if valid && (cob.0 & 0x3FFF_FFFF) != (new.0 & 0x3FFF_FFFF) {
+                return Err(AbortCode::VALUE_RANGE);
+            }
+            match new.can_id() {
+                None => Err(AbortCode::VALUE_RANGE),
+                Some(Id::Standard(raw)) if restricted_id(raw) => Err(AbortCode::VALUE_RANGE),
+                Some(_) if rtr_only(ttype) && new.bit30() => Err(AbortCode::VALUE_RANGE),
+                Some(_) => Ok(()),
+            }
+        }
+        params::sub::TRANSMISSION_TYPE => {
+            let t = v as u8;
+            let reserved = match dir {
+                Dir::Transmit => (241..=251).contains(&t),
+                Dir::Receive => (241..=253).contains(&t),
+            };
+            if reserved || (valid && rtr_only(t) && cob.bit30()) {
+                Err(AbortCode::VALUE_RANGE)
+            } else {
+                Ok(())
+            }
+        }
+        params::sub::INHIBIT_TIME if dir == Dir::Transmit && valid => Err(AbortCode::VALUE_RANGE),
+        params::sub::SYNC_START if dir == Dir::Transmit => {
+            if valid || v > 240 {
+                Err(AbortCode::VALUE_RANGE)
+            } else {
+                Ok(())
+            }
+        }
+        _ => Ok(()),
+    }
+}
+
+fn read_cob<D: ObjectDictionary + ?Sized>(od: &D, dir: Dir, slot: u16) -> Option<CobId> {
+    od.get_u32(comm_index(dir, slot), params::sub::COB_ID)
+        .map(CobId)
+}
+
+fn read_tpdo<D: ObjectDictionary + ?Sized>(od: &D, slot: u16) -> TpdoParams {
+    let Some(cob) = read_cob(od, Dir::Transmit, slot) else {
+        return Tpdo::new().p;
+    };
+    let c = comm_index(Dir::Transmit, slot);
+    let get = |s| od.get_u32(c, s).unwrap_or(0);
+    let ttype = od.get_u32(c, params::sub::TRANSMISSION_TYPE).unwrap_or(255) as u8;
+    let mut p = TpdoParams {
+        id: if cob.is_valid() { cob.can_id() } else { None },
+        rtr_allowed: !cob.bit30(),
+        ttype,
+        inhibit: Duration::from_micros(get(params::sub::INHIBIT_TIME) as u64 * 100),
+        event_timer: Duration::from_millis(get(params::sub::EVENT_TIMER) as u64),
+        sync_start: get(params::sub::SYNC_START) as u8,
+        mapping: Mapping::EMPTY,
+        error: None,
+    };
+    match Mapping::load(od, Dir::Transmit, map_index(Dir::Transmit, slot)) {
+        Ok(m) => p.mapping = m,
+        Err(e) => p.error = Some(e),
+    }
+    if (241..=251).contains(&ttype) {
+        p.error = Some(AbortCode::VALUE_RANGE);
+    }
+    p
+}
+
+fn read_rpdo<D: ObjectDictionary + ?Sized>(od: &D, slot: u16) -> RpdoParams {
+    let Some(cob) = read_cob(od, Dir::Receive, slot) else {
+        return Rpdo::new().p;
+    };
+    let c = comm_index(Dir::Receive, slot);
+    let ttype = od.get_u32(c, params::sub::TRANSMISSION_TYPE).unwrap_or(255) as u8;
+    let mut p = RpdoParams {
+        id: if cob.is_valid() { cob.can_id() } else { None },
+        ttype,
+        timeout: Duration::from_millis(od.get_u32(c, params::sub::EVENT_TIMER).unwrap_or(0) as u64),
+        mapping: Mapping::EMPTY,
+        error: None,
+    };
+    match Mapping::load(od, Dir::Receive, map_index(Dir::Receive, slot)) {
+        Ok(m) => p.mapping = m,
+        Err(e) => p.error = Some(e),
+    }
+    if (241..=253).contains(&ttype) {
+        p.error = Some(AbortCode::VALUE_RANGE);
+    }
+    p
+}
+
+/// Identifier as a sortable key: 11-bit below 29-bit.
+fn id_key(id: Id) -> u32 {
+    match id {
+        Id::Standard(r) => r as u32,
+        Id::Extended(r) => r | 1 << 31,
+    }
+}
+
+/// Sorted (key, slot) pairs: the range of slots whose key is `k`.
+fn equal_range(v: &[(u32, u16)], k: u32) -> (usize, usize) {
+    let lo = v.partition_point(|x| x.0 < k);
+    let hi = lo + v[lo..].partition_point(|x| x.0 == k);
+    (lo, hi)
+}
+
+/// Entry → event-capable TPDOs that map it, sorted by entry key. Holds 8 mappings per TPDO on
+/// average; beyond that (long bit-granular mappings) lookups fall back to scanning the TPDOs.
+struct Reverse<const T: usize> {
+    slots: [[(u32, u16); CACHED]; T],
+    len: usize,
+    overflow: bool,
+}
+
+impl<const T: usize> Reverse<T> {
+    const fn new() -> Self {
+        Reverse {
+            slots: [[(0, 0); CACHED]; T],
+            len: 0,
+            overflow: false,
+        }
+    }
+
+    fn is_empty(&self) -> bool {
+        self.len == 0 && !self.overflow
+    }
+
+    fn pairs(&self) -> &[(u32, u16)] {
+        &self.slots.as_flattened()[..self.len]
+    }
+
+    fn rebuild<D: ObjectDictionary + ?Sized>(&mut self, tpdos: &[Tpdo; T], od: &D) {
+        self.len = 0;
+        self.overflow = false;
+        let flat = self.slots.as_flattened_mut();
+        'all: for (k, t) in tpdos.iter().enumerate() {
+            if !(t.p.active() && t.p.event_capable()) {
+                continue;
+            }
+            for j in 0..t.p.mapping.count() {
+                let e = t.p.mapping.entry(od, map_index(Dir::Transmit, k as u16), j);
+                if e.is_dummy() {
+                    continue;
+                }
+                let Some(slot) = flat.get_mut(self.len) else {
+                    self.overflow = true;
+                    break 'all;
+                };
+                *slot = (key(e.index, e.sub), k as u16);
+                self.len += 1;
+            }
+        }
+        let v = &mut flat[..self.len];
+        v.sort_unstable();
+        // A TPDO mapping one entry twice is triggered once.
+        let mut w = 0;
+        for r in 0..v.len() {
+            if w == 0 || v[w - 1] != v[r] {
+                v[w] = v[r];
+                w += 1;
+            }
+        }
+        self.len = w;
+    }
+}
+
+/// The PDO engine of a node: `T` TPDOs and `R` RPDOs.
+pub(crate) struct PdoEngine<const T: usize, const R: usize> {
+    tpdos: [Tpdo; T],
+    rpdos: [Rpdo; R],
+    rx_index: heapless::Vec<(u32, u16), R>,
+    tx_index: heapless::Vec<(u32, u16), T>,
+    reverse: Reverse<T>,
+    running: bool,
+    /// No engine deadline is earlier than this (it may be early: a lower bound, made exact at
+    /// the next timeout, so that a reception costs O(1) however many RPDOs there are).
+    next: Option<Instant>,
+    rx_events: bool,
+    emcy: Bounded<EmcyAction, 8>,
+    timeouts: u16,
+    shorts: u16,
+}
+
+impl<const T: usize, const R: usize> PdoEngine<T, R> {
+    pub fn new() -> Self {
+        PdoEngine {
+            tpdos: [const { Tpdo::new() }; T],
+            rpdos: [const { Rpdo::new() }; R],
+            rx_index: heapless::Vec::new(),
+            tx_index: heapless::Vec::new(),
+            reverse: Reverse::new(),
+            running: false,
+            next: None,
+            rx_events: true,
+            emcy: Bounded::new(),
+            timeouts: 0,
+            shorts: 0,
+        }
+    }
+
+    pub fn set_rx_events(&mut self, on: bool) {
+        self.rx_events = on;
+    }
+
+    pub fn take_emcy(&mut self) -> Option<EmcyAction> {
+        self.emcy.pop()
+    }
+
+    pub fn poll_timeout(&self) -> Option<Instant> {
+        if self.running {
+            self.next
+        } else {
+            None
+        }
+    }
+
+    fn note(&mut self, t: Option<Instant>) {
+        self.next = earliest(self.next, t);
+    }
+
+    fn count_episode(
+        counter: &mut u16,
+        emcy: &mut Bounded<EmcyAction, 8>,
+        code: u16,
+        open: bool,
+        pdo: u16,
+    ) {
+        if open {
+            *counter += 1;
+            if *counter == 1 {
+                let b = pdo.to_le_bytes();
+                emcy.push(EmcyAction::Raise(code, [b[0], b[1], 0, 0, 0]));
+            }
+        } else {
+            *counter = counter.saturating_sub(1);
+            if *counter == 0 {
+                emcy.push(EmcyAction::Clear(code));
+            }
+        }
+    }
+
+    fn recovered(&mut self, rec: Recovered, pdo: u16) {
+        if rec.length {
+            Self::count_episode(
+                &mut self.shorts,
+                &mut self.emcy,
+                emcy::code::PDO_LENGTH,
+                false,
+                pdo,
+            );
+        }
+        if rec.timeout {
+            Self::count_episode(
+                &mut self.timeouts,
+                &mut self.emcy,
+                emcy::code::RPDO_TIMEOUT,
+                false,
+                pdo,
+            );
+        }
+    }
+
+    fn rebuild_indexes<D: ObjectDictionary + ?Sized>(&mut self, od: &D) {
+        self.rx_index.clear();
+        for (k, r) in self.rpdos.iter().enumerate() {
+            if let (true, Some(id)) = (r.p.active(), r.p.id) {
+                let _ = self.rx_index.push((id_key(id), k as u16));
+            }
+        }
+        self.rx_index.sort_unstable();
+        self.tx_index.clear();
+        for (k, t) in self.tpdos.iter().enumerate() {
+            if let (true, Some(id)) = (t.p.active(), t.p.id) {
+                let _ = self.tx_index.push((id_key(id), k as u16));
+            }
+        }
+        self.tx_index.sort_unstable();
+        self.reverse.rebuild(&self.tpdos, od);
+    }
+
+    /// Reads every PDO's parameters (boot, reset communication). Nothing runs until
+    /// [`PdoEngine::start`].
+    pub fn load_all<D: ObjectDictionary, O: PdoOutput>(
+        &mut self,
+        now: Instant,
+        io: &mut Io<'_, D, O>,
+    ) {
+        self.stop();
+        for k in 0..T {
+            let p = read_tpdo(io.od, k as u16);
+            report(io, now, Dir::Transmit, k, p.id, p.error);
+            self.tpdos[k].p = p;
+        }
+        for k in 0..R {
+            let p = read_rpdo(io.od, k as u16);
+            report(io, now, Dir::Receive, k, p.id, p.error);
+            self.rpdos[k].p = p;
+        }
+        self.rebuild_indexes(io.od);
+    }
+
+    /// Re-reads one PDO after a write to its parameters.
+    pub fn reload<D: ObjectDictionary, O: PdoOutput>(
+        &mut self,
+        now: Instant,
+        dir: Dir,
+        slot: u16,
+        io: &mut Io<'_, D, O>,
+    ) {
+        let k = slot as usize;
+        match dir {
+            Dir::Transmit if k < T => {
+                let new = read_tpdo(io.od, slot);
+                let t = &mut self.tpdos[k];
+                let old = t.p;
+                if new == old {
+                    return;
+                }
+                report(io, now, dir, k, new.id, new.error);
+                let same_run = new.id == old.id
+                    && new.ttype == old.ttype
+                    && new.mapping == old.mapping
+                    && new.error == old.error
+                    && new.sync_start == old.sync_start;
+                if same_run {
+                    if new.event_timer != old.event_timer {
+                        t.retime(now, new);
+                    } else {
+                        t.p = new;
+                    }
+                } else {
+                    t.stop();
+                    t.p = new;
+                    if self.running {
+                        t.start(now);
+                    }
+                    self.rebuild_indexes(io.od);
+                }
+                self.service_tpdo(k, now, io);
+            }
+            Dir::Receive if k < R => {
+                let new = read_rpdo(io.od, slot);
+                let old = self.rpdos[k].p;
+                if new == old {
+                    return;
+                }
+                report(io, now, dir, k, new.id, new.error);
+                if new.id == old.id
+                    && new.ttype == old.ttype
+                    && new.mapping == old.mapping
+                    && new.error == old.error
+                {
+                    self.rpdos[k].p = new;
+                } else {
+                    let rec = self.rpdos[k].stop();
+                    self.recovered(rec, k as u16 + 1);
+                    self.rpdos[k].p = new;
+                    if self.running {
+                        self.rpdos[k].start();
+                    }
+                    self.rebuild_indexes(io.od);
+                }
+            }
+            _ => {}
+        }
+    }
+
+    /// Entering operational: PDOs start; event-driven TPDOs send their current values.
+    pub fn start<D: ObjectDictionary, O: PdoOutput>(
+        &mut self,
+        now: Instant,
+        io: &mut Io<'_, D, O>,
+    ) {
+        self.running = true;
+        self.next = None;
+        for t in self.tpdos.iter_mut() {
+            t.start(now);
+        }
+        for r in self.rpdos.iter_mut() {
+            r.start();
+        }
+        self.service(now, io);
+    }
+
+    /// Leaving operational: everything stops, buffered data is dropped, open errors cleared.
+    pub fn stop(&mut self) {
+        self.running = false;
+        self.next = None;
+        for t in self.tpdos.iter_mut() {
+            t.stop();
+        }
+        for k in 0..R {
+            let rec = self.rpdos[k].stop();
+            self.recovered(rec, k as u16 + 1);
+        }
+    }
+
+    fn send_tpdo<D: ObjectDictionary, O: PdoOutput>(
+        &mut self,
+        k: usize,
+        now: Instant,
+        io: &mut Io<'_, D, O>,
+    ) {
+        let t = &mut self.tpdos[k];
+        let Some(id) = t.p.id else { return };
+        let mut buf = [0u8; 8];
+        let n =
+            t.p.mapping
+                .pack(io.od, map_index(Dir::Transmit, k as u16), &mut buf);
+        io.send(id, &buf[..n as usize]);
+        t.sent(now);
+        let d = t.deadline();
+        self.note(d);
+    }
+
+    /// Sends TPDO `k` if it is due at `now`, else records when it will be.
+    fn service_tpdo<D: ObjectDictionary, O: PdoOutput>(
+        &mut self,
+        k: usize,
+        now: Instant,
+        io: &mut Io<'_, D, O>,
+    ) {
+        if self.tpdos[k].due(now) {
+            self.send_tpdo(k, now, io);
+        } else {
+            let d = self.tpdos[k].deadline();
+            self.note(d);
+        }
+    }
+
+    /// Everything due at `now`; then the exact next deadline.
+    fn service<D: ObjectDictionary, O: PdoOutput>(&mut self, now: Instant, io: &mut Io<'_, D, O>) {
+        let mut next = None;
+        for k in 0..T {
+            if self.tpdos[k].due(now) {
+                self.send_tpdo(k, now, io);
+            }
+            next = earliest(next, self.tpdos[k].deadline());
+        }
+        for k in 0..R {
+            if let Some(last) = self.rpdos[k].due(now) {
+                let pdo = k as u16 + 1;
+                io.event(now, PdoEvent::RpdoTimeout { pdo, last });
+                Self::count_episode(
+                    &mut self.timeouts,
+                    &mut self.emcy,
+                    emcy::code::RPDO_TIMEOUT,
+                    true,
+                    pdo,
+                );
+            }
+            next = earliest(next, self.rpdos[k].deadline());
+        }
+        self.next = next;
+    }
+
+    /// Time passed.
+    pub fn handle_timeout<D: ObjectDictionary, O: PdoOutput>(
+        &mut self,
+        now: Instant,
+        io: &mut Io<'_, D, O>,
+    ) {
+        if !self.running || self.next.is_none_or(|t| t > now) {
+            return;
+        }
+        self.service(now, io);
+    }
+
+    /// A SYNC was received or produced: synchronous RPDOs take effect, synchronous TPDOs go.
+    pub fn on_sync<D: ObjectDictionary, O: PdoOutput>(
+        &mut self,
+        now: Instant,
+        counter: Option<u8>,
+        io: &mut Io<'_, D, O>,
+    ) {
+        if !self.running {
+            return;
+        }
+        for k in 0..R {
+            if let Some(b) = self.rpdos[k].buffered.take() {
+                self.apply(k, now, &b, io);
+            }
+        }
+        for k in 0..T {
+            match self.tpdos[k].on_sync(counter) {
+                OnSync::Nothing => {}
+                OnSync::Send => self.send_tpdo(k, now, io),
+                OnSync::Sample => {
+                    let t = &mut self.tpdos[k];
+                    let mut buf = [0u8; 8];
+                    t.p.mapping
+                        .pack(io.od, map_index(Dir::Transmit, k as u16), &mut buf);
+                    t.sampled = Some(buf);
+                }
+            }
+        }
+    }
+
+    /// Writes an RPDO payload into the dictionary; mapped writes trigger TPDOs as any write.
+    fn apply<D: ObjectDictionary, O: PdoOutput>(
+        &mut self,
+        k: usize,
+        now: Instant,
+        payload: &[u8; 8],
+        io: &mut Io<'_, D, O>,
+    ) {
+        let m = self.rpdos[k].p.mapping;
+        let track = !self.reverse.is_empty();
+        let mut keys: heapless::Vec<(u16, u8), { MAX_ENTRIES as usize }> = heapless::Vec::new();
+        m.unpack(io.od, map_index(Dir::Receive, k as u16), payload, |i, s| {
+            if track {
+                let _ = keys.push((i, s));
+            }
+        });
+        if self.rx_events {
+            io.event(now, PdoEvent::RpdoReceived { pdo: k as u16 + 1 });
+        }
+        for (i, s) in keys {
+            self.written(now, i, s, io);
+        }
+    }
+
+    /// A frame from the bus. False when it is no PDO of this node.
+    pub fn handle_frame<D: ObjectDictionary, O: PdoOutput>(
+        &mut self,
+        now: Instant,
+        frame: &Frame,
+        io: &mut Io<'_, D, O>,
+    ) -> bool {
+        let k = id_key(frame.id());
+        if frame.is_remote() {
+            let (lo, hi) = equal_range(&self.tx_index, k);
+            for i in lo..hi {
+                let slot = self.tx_index[i].1 as usize;
+                match self.tpdos[slot].rtr() {
+                    OnRtr::Ignore => {}
+                    OnRtr::SendSampled => {
+                        let t = &mut self.tpdos[slot];
+                        if let (Some(b), Some(id)) = (t.sampled, t.p.id) {
+                            io.send(id, &b[..t.p.mapping.bytes() as usize]);
+                            t.sent(now);
+                        }
+                    }
+                    OnRtr::Event => self.service_tpdo(slot, now, io),
+                }
+            }
+            return lo < hi;
+        }
+        let (lo, hi) = equal_range(&self.rx_index, k);
+        for i in lo..hi {
+            let slot = self.rx_index[i].1 as usize;
+            let pdo = slot as u16 + 1;
+            let mut rec = Recovered::default();
+            match self.rpdos[slot].frame(now, frame.data(), &mut rec) {
+                OnFrame::Ignore | OnFrame::Buffered => {}
+                OnFrame::TooShort {
+                    expected,
+                    got,
+                    first,
+                } => {
+                    if first {
+                        io.event(now, PdoEvent::RpdoTooShort { pdo, expected, got });
+                        Self::count_episode(
+                            &mut self.shorts,
+                            &mut self.emcy,
+                            emcy::code::PDO_LENGTH,
+                            true,
+                            pdo,
+                        );
+                    }
+                }
+                OnFrame::Apply => {
+                    let mut b = [0u8; 8];
+                    let d = frame.data();
+                    b[..d.len()].copy_from_slice(d);
+                    self.apply(slot, now, &b, io);
+                }
+            }
+            self.recovered(rec, pdo);
+            let d = self.rpdos[slot].deadline();
+            self.note(d);
+        }
+        lo < hi
+    }
+
+    /// An entry was written (by the application, SDO or an RPDO): event-driven TPDOs mapping it
+    /// are triggered.
+    pub fn written<D: ObjectDictionary, O: PdoOutput>(
+        &mut self,
+        now: Instant,
+        index: u16,
+        sub: u8,
+        io: &mut Io<'_, D, O>,
+    ) {
+        if !self.running || self.reverse.is_empty() {
+            return;
+        }
+        let key = key(index, sub);
+        if self.reverse.overflow {
+            for k in 0..T {
+                if self.maps(k, key, io.od) && self.tpdos[k].trigger() {
+                    self.service_tpdo(k, now, io);
+                }
+            }
+            return;
+        }
+        let (lo, hi) = equal_range(self.reverse.pairs(), key);
+        for i in lo..hi {
+            let k = self.reverse.pairs()[i].1 as usize;
+            if self.tpdos[k].trigger() {
+                self.service_tpdo(k, now, io);
+            }
+        }
+    }
+
+    fn maps<D: ObjectDictionary>(&self, k: usize, key: u32, od: &D) -> bool {
+        let t = &self.tpdos[k];
+        t.p.event_capable()
+            && (0..t.p.mapping.count()).any(|j| {
+                let e = t.p.mapping.entry(od, map_index(Dir::Transmit, k as u16), j);
+                !e.is_dummy() && crate::od::key(e.index, e.sub) == key
+            })
+    }
+
+    /// The application asks TPDO `pdo` to be sent (types 254/255: now, or when the inhibit time
+    /// ends; type 0: at the next SYNC).
+    pub fn request<D: ObjectDictionary, O: PdoOutput>(
+        &mut self,
+        now: Instant,
+        pdo: u16,
+        io: &mut Io<'_, D, O>,
+    ) -> Result<(), PdoError> {
+        let k = (pdo as usize).wrapping_sub(1);
+        let t = self.tpdos.get_mut(k).ok_or(PdoError::NoSuchPdo { pdo })?;
+        if !t.running() {
+            return Err(PdoError::NotRunning { pdo });
+        }
+        if !t.p.event_capable() {
+            return Err(PdoError::NotEventDriven {
+                pdo,
+                transmission_type: t.p.ttype,
+            });
+        }
+        if t.trigger() {
+            self.service_tpdo(k, now, io);
+        }
+        Ok(())
+    }
+
+    pub fn tpdo_status(&self, pdo: u16) -> Option<TpdoStatus> {
+        let t = self.tpdos.get((pdo as usize).wrapping_sub(1))?;
+        Some(TpdoStatus {
+            id: t.p.id,
+            transmission_type: t.p.ttype,
+            running: t.running(),
+            mapped_bits: t.p.mapping.bits(),
+            sent: t.sent,
+            last_sent: t.last_sent(),
+            error: t.p.error,
+        })
+    }
+
+    pub fn rpdo_status(&self, pdo: u16) -> Option<RpdoStatus> {
+        let r = self.rpdos.get((pdo as usize).wrapping_sub(1))?;
+        Some(RpdoStatus {
+            id: r.p.id,
+            transmission_type: r.p.ttype,
+            running: r.running(),
+            mapped_bits: r.p.mapping.bits(),
+            received: r.received,
+            last_received: r.last_rx(),
+            timed_out: r.timed_out(),
+            length_error: r.length_error(),
+            error: r.p.error,
+        })
+    }
+}
+
+fn report<D, O: PdoOutput>(
+    io: &mut Io<'_, D, O>,
+    now: Instant,
+    dir: Dir,
+    k: usize,
+    id: Option<Id>,
+    error: Option<AbortCode>,
+) {
+    if let (Some(_), Some(reason)) = (id, error) {
+        io.event(
+            now,
+            PdoEvent::Unusable {
+                dir,
+                pdo: k as u16 + 1,
+                reason,
+            },
+        );
+    }
+}

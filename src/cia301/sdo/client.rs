@@ -1,0 +1,609 @@
+//! The SDO client: up to `S` transfers at once, to different servers, one per server at a time.
+//!
+//! A sans-IO [`Machine`] of its own, composed with the master's [`crate::Node`] through
+//! [`crate::machine::Composite`]. Requests return a [`RequestId`] at once; the result arrives as an
+//! [`SdoEvent`] carrying that id, the node, the object and either the data or an [`SdoError`].
+//!
+//! ```
+//! use duocan::sdo::{Channel, SdoClient, SdoOptions, TransferMode};
+//! use duocan::{Instant, Machine, NodeId};
+//!
+//! let mut client: SdoClient = SdoClient::new(64 * 1024);
+//! let node = NodeId::must(5);
+//! let id = client.upload(Instant::ZERO, node, 0x1018, 1, SdoOptions::default()).unwrap();
+//! let f = client.poll_transmit().unwrap();
+//! assert_eq!(f.id(), Channel::predefined(node).request);
+//! assert_eq!(f.data(), [0x40, 0x18, 0x10, 0x01, 0, 0, 0, 0]);
+//! // … the server's answer goes to client.handle_frame, the result comes from poll_event.
+//! # let _ = (id, TransferMode::Auto);
+//! ```
+
+use super::block::{self, Acked, BlockReceiver, BlockSender, Received};
+use super::buffer::{DefaultBuffer, TransferBuffer};
+use super::codec::{self, Init, Request, Response, MAX_BLOCK_SIZE};
+use super::crc::crc16;
+use super::error::{Direction, SdoError, SdoErrorKind};
+use super::request::{Channel, RequestId, SdoClientStats, SdoEvent, SdoOptions, TransferMode};
+use super::session::{
+    next_download_segment, prepare_upload, start_download, upload_segment, Session, State,
+};
+use crate::frame::cob_id::NodeId;
+use crate::frame::instant::{earliest, Instant};
+use crate::frame::queue::Bounded;
+use crate::frame::Frame;
+use crate::machine::Machine;
+use crate::od::abort::AbortCode;
+
+/// A sans-IO SDO client with `S` sessions; transfer buffers of type `B`, each bounded by the
+/// client's limit.
+pub struct SdoClient<B: TransferBuffer = DefaultBuffer, const S: usize = 8> {
+    sessions: [Session<B>; S],
+    limit: usize,
+    next_id: u32,
+    channels: fn(NodeId) -> Channel,
+    events: Bounded<SdoEvent<B>, S>,
+    rr: usize,
+    stats: SdoClientStats,
+}
+
+impl SdoClient {
+    /// A client with the default buffers and 8 sessions whose transfers carry at most `limit`
+    /// bytes, on the predefined channels. Other buffer types and session counts:
+    /// [`SdoClient::with_limit`].
+    pub fn new(limit: usize) -> Self {
+        Self::with_limit(limit)
+    }
+}
+
+impl<B: TransferBuffer, const S: usize> SdoClient<B, S> {
+    /// A client with `S` sessions whose transfers carry at most `limit` bytes, on the predefined
+    /// channels.
+    pub fn with_limit(limit: usize) -> Self {
+        SdoClient {
+            sessions: core::array::from_fn(|_| Session::new(limit)),
+            limit,
+            next_id: 1,
+            channels: Channel::predefined,
+            events: Bounded::new(),
+            rr: 0,
+            stats: SdoClientStats::default(),
+        }
+    }
+
+    /// Uses `f` to find the channel of a node (a custom identifier profile); a request's
+    /// [`SdoOptions::channel`] still takes precedence.
+    pub fn with_channels(mut self, f: fn(NodeId) -> Channel) -> Self {
+        self.channels = f;
+        self
+    }
+
+    /// Counters.
+    pub fn stats(&self) -> SdoClientStats {
+        let tx_dropped = self.sessions.iter().map(|s| s.out.dropped()).sum();
+        SdoClientStats {
+            tx_dropped,
+            events_dropped: self.events.dropped(),
+            ..self.stats
+        }
+    }
+    /// The channel a request to `node` goes on unless its options name another.
+    pub fn channel(&self, node: NodeId) -> Channel {
+        (self.channels)(node)
+    }
+    /// The transfer limit.
+    pub fn limit(&self) -> usize {
+        self.limit
+    }
+    /// Transfers running.
+    pub fn in_flight(&self) -> usize {
+        self.sessions.iter().filter(|s| s.active()).count()
+    }
+    /// True if a transfer to `node` is running.
+    pub fn is_busy(&self, node: NodeId) -> bool {
+        self.sessions.iter().any(|s| s.active() && s.node == node)
+    }
+    /// The largest transfer buffer in use, in bytes (never above [`SdoClient::limit`]).
+    pub fn max_buffer_len(&self) -> usize {
+        self.sessions.iter().map(|s| s.buf.len()).max().unwrap_or(0)
+    }
+
+    /// Reads (index, sub) of `node`'s dictionary.
+    pub fn upload(
+        &mut self,
+        now: Instant,
+        node: NodeId,
+        index: u16,
+        sub: u8,
+        opts: SdoOptions,
+    ) -> Result<RequestId, SdoError> {
+        let i = self.take_session(node, index, sub, Direction::Upload, &opts)?;
+        let s = &mut self.sessions[i];
+        s.buf.clear();
+        if opts.mode == TransferMode::Block {
+            s.mode = TransferMode::Block;
+            s.request(Request::BlockUploadInitiate {
+                index,
+                sub,
+                crc: opts.crc,
+                blksize: opts.block_size.clamp(1, MAX_BLOCK_SIZE),
+                pst: opts.pst,
+            });
+            s.state = State::BlockUploadInit;
+        } else {
+            s.mode = TransferMode::Segmented;
+            s.request(Request::InitiateUpload { index, sub });
+            s.state = State::UploadInit;
+        }
+        s.touch(now);
+        Ok(s.request)
+    }
+
+    /// Writes `data` to (index, sub) of `node`'s dictionary.
+    pub fn download(
+        &mut self,
+        now: Instant,
+        node: NodeId,
+        index: u16,
+        sub: u8,
+        data: &[u8],
+        opts: SdoOptions,
+    ) -> Result<RequestId, SdoError> {
+        let err = |kind| SdoError {
+            node,
+            index,
+            sub,
+            direction: Direction::Download,
+            kind,
+        };
+        if data.len() > self.limit {
+            return Err(err(SdoErrorKind::TooLong {
+                len: data.len(),
+                limit: self.limit,
+            }));
+        }
+        let small = (1..=4).contains(&data.len());
+        let mode = match opts.mode {
+            TransferMode::Expedited if !small => return Err(err(SdoErrorKind::TransferMode)),
+            TransferMode::Auto if small => TransferMode::Expedited,
+            TransferMode::Auto if opts.block_threshold.is_some_and(|t| data.len() >= t) => {
+                TransferMode::Block
+            }
+            TransferMode::Auto => TransferMode::Segmented,
+            m => m,
+        };
+        let i = self.take_session(node, index, sub, Direction::Download, &opts)?;
+        let s = &mut self.sessions[i];
+        s.buf.clear();
+        s.buf.reserve(data.len());
+        // Cannot fail: the length was checked against the limit every buffer has.
+        let _ = s.buf.extend(data);
+        start_download(s, mode);
+        s.touch(now);
+        Ok(s.request)
+    }
+
+    /// Aborts a running request with `code` (the server is told). Returns false if it is not
+    /// running.
+    pub fn abort(&mut self, now: Instant, request: RequestId, code: AbortCode) -> bool {
+        let Some(i) = self
+            .sessions
+            .iter()
+            .position(|s| s.active() && s.request == request)
+        else {
+            return false;
+        };
+        self.abort_session(i, now, code);
+        true
+    }
+
+    fn take_session(
+        &mut self,
+        node: NodeId,
+        index: u16,
+        sub: u8,
+        direction: Direction,
+        opts: &SdoOptions,
+    ) -> Result<usize, SdoError> {
+        let err = |kind| SdoError {
+            node,
+            index,
+            sub,
+            direction,
+            kind,
+        };
+        let channel = opts.channel.unwrap_or((self.channels)(node));
+        if self
+            .sessions
+            .iter()
+            .any(|s| s.active() && (s.node == node || s.channel.response == channel.response))
+        {
+            return Err(err(SdoErrorKind::Busy));
+        }
+        // A session stays taken until its result is polled, so results are never dropped.
+        if self.in_flight() + self.events.len() >= S {
+            return Err(err(SdoErrorKind::NoSession { sessions: S }));
+        }
+        let Some(i) = self
+            .sessions
+            .iter()
+            .position(|s| !s.active() && s.out.is_empty())
+            .or_else(|| self.sessions.iter().position(|s| !s.active()))
+        else {
+            return Err(err(SdoErrorKind::NoSession { sessions: S }));
+        };
+        let request = RequestId(self.next_id);
+        self.next_id = self.next_id.wrapping_add(1);
+        self.stats.started += 1;
+        let s = &mut self.sessions[i];
+        s.request = request;
+        s.node = node;
+        s.index = index;
+        s.sub = sub;
+        s.channel = channel;
+        s.opts = *opts;
+        s.direction = direction;
+        s.subblock_deadline = None;
+        s.buf.set_limit(self.limit);
+        Ok(i)
+    }
+
+    fn finish(&mut self, i: usize, now: Instant, result: Result<(), SdoErrorKind>) {
+        let limit = self.limit;
+        let s = &mut self.sessions[i];
+        let result = match result {
+            Ok(()) => {
+                self.stats.completed += 1;
+                Ok(match s.direction {
+                    Direction::Upload => core::mem::replace(&mut s.buf, B::with_limit(limit)),
+                    Direction::Download => {
+                        s.buf.clear();
+                        B::with_limit(0)
+                    }
+                })
+            }
+            Err(kind) => {
+                self.stats.failed += 1;
+                s.buf.clear();
+                Err(SdoError {
+                    node: s.node,
+                    index: s.index,
+                    sub: s.sub,
+                    direction: s.direction,
+                    kind,
+                })
+            }
+        };
+        s.state = State::Idle;
+        s.deadline = None;
+        s.subblock_deadline = None;
+        self.events.push(SdoEvent {
+            at: now,
+            request: s.request,
+            node: s.node,
+            index: s.index,
+            sub: s.sub,
+            direction: s.direction,
+            mode: s.mode,
+            result,
+        });
+    }
+
+    fn abort_session(&mut self, i: usize, now: Instant, code: AbortCode) {
+        let s = &mut self.sessions[i];
+        let (index, sub) = (s.index, s.sub);
+        s.send(codec::abort_frame(index, sub, code));
+        self.finish(i, now, Err(SdoErrorKind::Client(code)));
+    }
+
+    fn session_frame(&mut self, i: usize, now: Instant, frame: &Frame) {
+        let Some(d) = (!frame.is_remote())
+            .then(|| <[u8; 8]>::try_from(frame.data()).ok())
+            .flatten()
+        else {
+            self.stats.malformed += 1;
+            return;
+        };
+        let s = &mut self.sessions[i];
+        if let State::BlockUpload { mut rx, crc, size } = s.state {
+            if rx.is_repeat(&d) {
+                return;
+            }
+            if !rx.complete() {
+                if codec::is_abort_in_block(&d) {
+                    return self.finish(i, now, Err(SdoErrorKind::Server(codec::abort_code(&d))));
+                }
+                return match rx.segment(&d, &mut s.buf, s.bound) {
+                    Err(c) => self.abort_session(i, now, c),
+                    Ok(r) => {
+                        s.state = State::BlockUpload { rx, crc, size };
+                        s.touch(now);
+                        match r {
+                            Received::Duplicate => {}
+                            Received::Continue => {
+                                s.subblock_deadline = Some(now + s.opts.subblock_timeout)
+                            }
+                            Received::Ack(ackseq) => {
+                                s.subblock_deadline = None;
+                                s.request(Request::BlockUploadAck {
+                                    ackseq,
+                                    blksize: rx.blksize(),
+                                });
+                            }
+                        }
+                    }
+                };
+            }
+        }
+        match Response::decode(&d) {
+            Ok(r) => self.response(i, now, r),
+            Err(c) => self.abort_session(i, now, c),
+        }
+    }
+
+    fn response(&mut self, i: usize, now: Instant, r: Response) {
+        let s = &mut self.sessions[i];
+        let (want_index, want_sub) = (s.index, s.sub);
+        let mux_ok = |index: u16, sub: u8| index == want_index && sub == want_sub;
+        let step: Result<Option<()>, AbortCode> = match (r, s.state) {
+            (Response::Abort { code, .. }, State::BlockDownloadInit)
+                if code == AbortCode::COMMAND_SPECIFIER =>
+            {
+                // The server does not know block transfer: fall back.
+                self.stats.fallbacks += 1;
+                let small = (1..=4).contains(&s.buf.len());
+                start_download(
+                    s,
+                    if small {
+                        TransferMode::Expedited
+                    } else {
+                        TransferMode::Segmented
+                    },
+                );
+                Ok(None)
+            }
+            (Response::Abort { code, .. }, State::BlockUploadInit)
+                if code == AbortCode::COMMAND_SPECIFIER =>
+            {
+                self.stats.fallbacks += 1;
+                s.mode = TransferMode::Segmented;
+                let (index, sub) = (s.index, s.sub);
+                s.request(Request::InitiateUpload { index, sub });
+                s.state = State::UploadInit;
+                Ok(None)
+            }
+            (Response::Abort { code, .. }, _) => {
+                return self.finish(i, now, Err(SdoErrorKind::Server(code)));
+            }
+            (Response::InitiateDownload { index, sub }, State::DownloadInit { expedited }) => {
+                if !mux_ok(index, sub) {
+                    Err(AbortCode::PARAMETER_INCOMPATIBLE)
+                } else if expedited {
+                    Ok(Some(()))
+                } else {
+                    next_download_segment(s, false, 0);
+                    Ok(None)
+                }
+            }
+            (
+                Response::DownloadSegment { toggle },
+                State::DownloadSegment {
+                    toggle: t,
+                    offset,
+                    last,
+                },
+            ) => {
+                if toggle != t {
+                    Err(AbortCode::TOGGLE_BIT)
+                } else if last {
+                    Ok(Some(()))
+                } else {
+                    next_download_segment(s, !t, offset);
+                    Ok(None)
+                }
+            }
+            (
+                Response::BlockDownloadInitiate {
+                    index,
+                    sub,
+                    crc,
+                    blksize,
+                },
+                State::BlockDownloadInit,
+            ) => {
+                if !mux_ok(index, sub) {
+                    Err(AbortCode::PARAMETER_INCOMPATIBLE)
+                } else if !block::valid_block_size(blksize) {
+                    Err(AbortCode::INVALID_BLOCK_SIZE)
+                } else {
+                    s.state = State::BlockDownload {
+                        tx: BlockSender::new(s.buf.len(), blksize),
+                        crc: crc && s.opts.crc,
+                    };
+                    Ok(None)
+                }
+            }
+            (
+                Response::BlockDownloadAck { ackseq, blksize },
+                State::BlockDownload { mut tx, crc },
+            ) => match tx.ack(ackseq, blksize) {
+                Err(c) => Err(c),
+                Ok(None) => Ok(None),
+                Ok(Some(Acked::More)) => {
+                    s.state = State::BlockDownload { tx, crc };
+                    Ok(None)
+                }
+                Ok(Some(Acked::Done)) => {
+                    let data = s.buf.as_slice();
+                    let end = Request::BlockDownloadEnd {
+                        unused: block::unused(data.len()),
+                        crc: if crc { crc16(data) } else { 0 },
+                    };
+                    s.request(end);
+                    s.state = State::BlockDownloadEnd;
+                    Ok(None)
+                }
+            },
+            (Response::BlockDownloadEnd, State::BlockDownloadEnd) => Ok(Some(())),
+            (
+                Response::InitiateUpload { index, sub, init },
+                State::UploadInit | State::BlockUploadInit,
+            ) => {
+                if !mux_ok(index, sub) {
+                    Err(AbortCode::PARAMETER_INCOMPATIBLE)
+                } else {
+                    match init {
+                        Init::Expedited { data, len } => {
+                            s.mode = TransferMode::Expedited;
+                            let n = len.unwrap_or(4) as usize;
+                            let _ = s.buf.extend(&data[..n.min(4)]);
+                            Ok(Some(()))
+                        }
+                        Init::Segmented { size } => {
+                            s.mode = TransferMode::Segmented;
+                            match prepare_upload(s, size) {
+                                Err(c) => Err(c),
+                                Ok(()) => {
+                                    s.request(Request::UploadSegment { toggle: false });
+                                    s.state = State::UploadSegment {
+                                        toggle: false,
+                                        size,
+                                    };
+                                    Ok(None)
+                                }
+                            }
+                        }
+                    }
+                }
+            }
+            (
+                Response::UploadSegment { toggle, data, last },
+                State::UploadSegment { toggle: t, size },
+            ) => upload_segment(s, toggle, t, data, last, size),
+            (
+                Response::BlockUploadInitiate {
+                    index,
+                    sub,
+                    crc,
+                    size,
+                },
+                State::BlockUploadInit,
+            ) => {
+                if !mux_ok(index, sub) {
+                    Err(AbortCode::PARAMETER_INCOMPATIBLE)
+                } else {
+                    match prepare_upload(s, size) {
+                        Err(c) => Err(c),
+                        Ok(()) => {
+                            s.request(Request::BlockUploadStart);
+                            s.state = State::BlockUpload {
+                                rx: BlockReceiver::new(s.opts.block_size.clamp(1, MAX_BLOCK_SIZE)),
+                                crc: crc && s.opts.crc,
+                                size,
+                            };
+                            Ok(None)
+                        }
+                    }
+                }
+            }
+            (
+                Response::BlockUploadEnd { unused, crc },
+                State::BlockUpload {
+                    mut rx,
+                    crc: use_crc,
+                    size,
+                },
+            ) => match rx.finish(unused, &mut s.buf, s.bound) {
+                Err(c) => Err(c),
+                Ok(()) => {
+                    let len = s.buf.len();
+                    match size {
+                        Some(n) if len > n as usize => Err(AbortCode::LENGTH_TOO_HIGH),
+                        Some(n) if len < n as usize => Err(AbortCode::LENGTH_TOO_LOW),
+                        _ if use_crc && crc16(s.buf.as_slice()) != crc => Err(AbortCode::CRC_ERROR),
+                        _ => {
+                            s.request(Request::BlockUploadEnd);
+                            Ok(Some(()))
+                        }
+                    }
+                }
+            },
+            _ => Err(AbortCode::COMMAND_SPECIFIER),
+        };
+        match step {
+            Err(c) => self.abort_session(i, now, c),
+            Ok(Some(())) => self.finish(i, now, Ok(())),
+            Ok(None) => self.sessions[i].touch(now),
+        }
+    }
+}
+
+impl<B: TransferBuffer, const S: usize> Machine for SdoClient<B, S> {
+    type Event = SdoEvent<B>;
+
+    fn handle_frame(&mut self, now: Instant, frame: &Frame) {
+        if let Some(i) = self
+            .sessions
+            .iter()
+            .position(|s| s.active() && s.channel.response == frame.id())
+        {
+            self.session_frame(i, now, frame);
+        }
+    }
+
+    fn handle_timeout(&mut self, now: Instant) {
+        for i in 0..S {
+            let s = &mut self.sessions[i];
+            if s.subblock_deadline.is_some_and(|t| t <= now) {
+                s.subblock_deadline = None;
+                if let State::BlockUpload { mut rx, crc, size } = s.state {
+                    if rx.in_sub_block() {
+                        let ackseq = rx.timeout();
+                        s.state = State::BlockUpload { rx, crc, size };
+                        s.request(Request::BlockUploadAck {
+                            ackseq,
+                            blksize: rx.blksize(),
+                        });
+                    }
+                }
+            }
+            if s.deadline.is_some_and(|t| t <= now) {
+                if matches!(s.state, State::BlockDownload { tx, .. } if tx.is_sending()) {
+                    // The driver has not taken the whole sub-block yet (a slow bus): the server
+                    // cannot have answered, so the wait starts over.
+                    s.touch(now);
+                    continue;
+                }
+                self.abort_session(i, now, AbortCode::TIMEOUT);
+            }
+        }
+    }
+
+    fn poll_transmit(&mut self) -> Option<Frame> {
+        // Round robin, so one block transfer does not starve the other sessions.
+        for k in 0..S {
+            let i = (self.rr + k) % S;
+            let s = &mut self.sessions[i];
+            let f = s.out.pop().or_else(|| match s.state {
+                State::BlockDownload { ref mut tx, .. } => tx
+                    .next_segment(s.buf.as_slice())
+                    .map(|d| Frame::from_array(s.channel.request, d)),
+                _ => None,
+            });
+            if f.is_some() {
+                self.rr = (i + 1) % S;
+                return f;
+            }
+        }
+        None
+    }
+
+    fn poll_timeout(&self) -> Option<Instant> {
+        self.sessions.iter().fold(None, |t, s| {
+            earliest(earliest(t, s.deadline), s.subblock_deadline)
+        })
+    }
+
+    fn poll_event(&mut self) -> Option<SdoEvent<B>> {
+        self.events.pop()
+    }
+}

@@ -1,0 +1,205 @@
+//! One client session: the state of a transfer to one server and the frames it sends.
+
+use super::block::{BlockReceiver, BlockSender, Bound};
+use super::buffer::TransferBuffer;
+use super::codec::{Init, Request, SegmentData, SEGMENT_DATA};
+use super::error::Direction;
+use super::request::{Channel, RequestId, SdoOptions, TransferMode};
+use crate::frame::cob_id::NodeId;
+use crate::frame::instant::Instant;
+use crate::frame::queue::Bounded;
+use crate::frame::Frame;
+use crate::od::abort::AbortCode;
+
+#[derive(Clone, Copy, Debug)]
+pub(super) enum State {
+    Idle,
+    DownloadInit {
+        expedited: bool,
+    },
+    DownloadSegment {
+        toggle: bool,
+        offset: usize,
+        last: bool,
+    },
+    BlockDownloadInit,
+    BlockDownload {
+        tx: BlockSender,
+        crc: bool,
+    },
+    BlockDownloadEnd,
+    UploadInit,
+    UploadSegment {
+        toggle: bool,
+        size: Option<u32>,
+    },
+    BlockUploadInit,
+    BlockUpload {
+        rx: BlockReceiver,
+        crc: bool,
+        size: Option<u32>,
+    },
+}
+
+pub(super) struct Session<B> {
+    pub(super) state: State,
+    pub(super) request: RequestId,
+    pub(super) node: NodeId,
+    pub(super) index: u16,
+    pub(super) sub: u8,
+    pub(super) channel: Channel,
+    pub(super) opts: SdoOptions,
+    pub(super) direction: Direction,
+    pub(super) mode: TransferMode,
+    pub(super) buf: B,
+    pub(super) bound: Bound,
+    pub(super) deadline: Option<Instant>,
+    pub(super) subblock_deadline: Option<Instant>,
+    pub(super) out: Bounded<Frame, 4>,
+}
+
+impl<B: TransferBuffer> Session<B> {
+    pub(super) fn new(limit: usize) -> Self {
+        let node = NodeId::must(1);
+        Session {
+            state: State::Idle,
+            request: RequestId(0),
+            node,
+            index: 0,
+            sub: 0,
+            channel: Channel::predefined(node),
+            opts: SdoOptions::default(),
+            direction: Direction::Upload,
+            mode: TransferMode::Auto,
+            buf: B::with_limit(limit),
+            bound: Bound {
+                max: limit,
+                code: AbortCode::OUT_OF_MEMORY,
+            },
+            deadline: None,
+            subblock_deadline: None,
+            out: Bounded::new(),
+        }
+    }
+    pub(super) fn active(&self) -> bool {
+        !matches!(self.state, State::Idle)
+    }
+    pub(super) fn send(&mut self, d: [u8; 8]) {
+        self.out.push(Frame::from_array(self.channel.request, d));
+    }
+    pub(super) fn request(&mut self, r: Request) {
+        self.send(r.encode());
+    }
+    pub(super) fn touch(&mut self, now: Instant) {
+        self.deadline = Some(now + self.opts.timeout);
+    }
+}
+
+/// Sends the initiate frame of a download in `mode`.
+pub(super) fn start_download<B: TransferBuffer>(s: &mut Session<B>, mode: TransferMode) {
+    let (index, sub) = (s.index, s.sub);
+    let len = s.buf.len();
+    s.mode = mode;
+    match mode {
+        TransferMode::Expedited => {
+            if let Some(init) = Init::expedited(s.buf.as_slice()) {
+                s.request(Request::InitiateDownload { index, sub, init });
+                s.state = State::DownloadInit { expedited: true };
+                return;
+            }
+            // Not 1–4 bytes (a fallback from block with such data): segmented it is.
+            start_download(s, TransferMode::Segmented)
+        }
+        TransferMode::Block => {
+            let crc = s.opts.crc;
+            s.request(Request::BlockDownloadInitiate {
+                index,
+                sub,
+                crc,
+                size: Some(len as u32),
+            });
+            s.state = State::BlockDownloadInit;
+        }
+        TransferMode::Segmented | TransferMode::Auto => {
+            s.mode = TransferMode::Segmented;
+            s.request(Request::InitiateDownload {
+                index,
+                sub,
+                init: Init::Segmented {
+                    size: Some(len as u32),
+                },
+            });
+            s.state = State::DownloadInit { expedited: false };
+        }
+    }
+}
+
+pub(super) fn next_download_segment<B: TransferBuffer>(
+    s: &mut Session<B>,
+    toggle: bool,
+    offset: usize,
+) {
+    let len = s.buf.len();
+    let end = (offset + SEGMENT_DATA).min(len);
+    let data = SegmentData::from_slice(&s.buf.as_slice()[offset..end]);
+    let last = end == len;
+    s.request(Request::DownloadSegment { toggle, data, last });
+    s.state = State::DownloadSegment {
+        toggle,
+        offset: end,
+        last,
+    };
+}
+
+/// Checks an announced upload size and sets the bound for the data to come.
+pub(super) fn prepare_upload<B: TransferBuffer>(
+    s: &mut Session<B>,
+    size: Option<u32>,
+) -> Result<(), AbortCode> {
+    let limit = s.buf.limit();
+    s.bound = Bound {
+        max: limit,
+        code: AbortCode::OUT_OF_MEMORY,
+    };
+    if let Some(n) = size {
+        let n = n as usize;
+        if n > limit {
+            return Err(AbortCode::OUT_OF_MEMORY);
+        }
+        s.buf.reserve(n);
+        s.bound = Bound {
+            max: n,
+            code: AbortCode::LENGTH_TOO_HIGH,
+        };
+    }
+    Ok(())
+}
+
+pub(super) fn upload_segment<B: TransferBuffer>(
+    s: &mut Session<B>,
+    toggle: bool,
+    expected: bool,
+    data: SegmentData,
+    last: bool,
+    size: Option<u32>,
+) -> Result<Option<()>, AbortCode> {
+    if toggle != expected {
+        return Err(AbortCode::TOGGLE_BIT);
+    }
+    let bytes = data.bytes();
+    if s.buf.len() + bytes.len() > s.bound.max || !s.buf.extend(bytes) {
+        return Err(s.bound.code);
+    }
+    if last {
+        if size.is_some_and(|n| s.buf.len() < n as usize) {
+            return Err(AbortCode::LENGTH_TOO_LOW);
+        }
+        return Ok(Some(()));
+    }
+    s.request(Request::UploadSegment { toggle: !toggle });
+    s.state = State::UploadSegment {
+        toggle: !toggle,
+        size,
+    };
+    Ok(None)
+}

@@ -1,0 +1,239 @@
+//! SYNC producer and consumer (0x1005 COB-ID with bit 30 = producer, 0x1006 period in µs,
+//! 0x1007 window, 0x1019 counter overflow).
+//!
+//! The producer runs on a fixed grid: SYNC k is due at start + k·period whatever the driver's
+//! latency, so jitter does not accumulate. A period change takes effect from the last SYNC sent.
+//! A consumer that becomes the producer (a standby master taking over) continues the grid of the
+//! SYNCs it received: the next one is due one period after the last one heard, at once if that
+//! is past.
+
+use crate::frame::cob_id::CobId;
+use crate::frame::instant::{Duration, Instant};
+use crate::frame::Malformed;
+use crate::frame::{Frame, Id};
+
+/// SYNC configuration as the dictionary holds it.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
+pub struct SyncConfig {
+    /// 0x1005.
+    pub cob_id: CobId,
+    /// 0x1006 (µs; 0 = no production).
+    pub period: Duration,
+    /// 0x1007 (µs; 0 = no window).
+    pub window: Duration,
+    /// 0x1019 (0 = no counter, 2–240 = counter wraps after this value).
+    pub overflow: u8,
+}
+
+/// A received or produced SYNC.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct SyncTick {
+    /// The counter, when SYNC carries one.
+    pub counter: Option<u8>,
+}
+
+/// SYNC producer and consumer.
+#[derive(Clone, Debug, Default)]
+pub struct SyncService {
+    cfg: SyncConfig,
+    id: Option<Id>,
+    counter: u8,
+    next: Option<Instant>,
+    last: Option<Instant>,
+}
+
+impl SyncService {
+    /// Applies a configuration at `now`. Production starts one period after `now`, or, if SYNC
+    /// was already running (produced here, or received from the previous producer), one new
+    /// period after the last SYNC (a clean period change; a takeover without a gap).
+    pub fn configure(&mut self, now: Instant, cfg: SyncConfig) {
+        let was_producing = self.next.is_some() || (self.last.is_some() && !self.is_producer());
+        if cfg.overflow != self.cfg.overflow {
+            self.counter = 1;
+        }
+        self.cfg = cfg;
+        self.id = cfg.cob_id.can_id();
+        self.next = if self.is_producer() && !cfg.period.is_zero() {
+            let from = match (was_producing, self.last) {
+                (true, Some(last)) => last,
+                _ => now,
+            };
+            Some((from + cfg.period).max(now))
+        } else {
+            None
+        };
+        if self.counter == 0 {
+            self.counter = 1;
+        }
+    }
+
+    /// Reset communication: counter back to 1, production restarts from `now`.
+    pub fn reset(&mut self, now: Instant, cfg: SyncConfig) {
+        self.counter = 1;
+        self.next = None;
+        self.last = None;
+        self.configure(now, cfg);
+    }
+
+    /// The configuration in force.
+    pub fn config(&self) -> SyncConfig {
+        self.cfg
+    }
+
+    /// True when 0x1005 bit 30 makes this node the SYNC producer.
+    pub fn is_producer(&self) -> bool {
+        self.cfg.cob_id.bit30()
+    }
+
+    /// The identifier SYNC uses, if valid.
+    pub fn id(&self) -> Option<Id> {
+        self.id
+    }
+
+    /// Next SYNC due.
+    pub fn poll_timeout(&self) -> Option<Instant> {
+        self.next
+    }
+
+    /// When the last SYNC was produced or received.
+    pub fn last(&self) -> Option<Instant> {
+        self.last
+    }
+
+    /// Produces the SYNC due at `now`, if any.
+    pub fn handle_timeout(&mut self, now: Instant) -> Option<(Frame, SyncTick)> {
+        let due = self.next.filter(|t| *t <= now)?;
+        let id = self.id?;
+        let mut next = due + self.cfg.period;
+        if next <= now {
+            // More than one period late: keep the phase, drop the backlog (one SYNC, not a burst).
+            let periods = (now - due).as_micros() / self.cfg.period.as_micros().max(1);
+            next = due + self.cfg.period.saturating_mul(periods + 1);
+        }
+        self.next = Some(next);
+        self.last = Some(now);
+        let tick = self.tick();
+        let frame = match tick.counter {
+            Some(c) => Frame::from_array(id, [c]),
+            None => Frame::from_array(id, []),
+        };
+        Some((frame, tick))
+    }
+
+    fn tick(&mut self) -> SyncTick {
+        if self.cfg.overflow < 2 {
+            return SyncTick { counter: None };
+        }
+        let c = self.counter;
+        self.counter = if c >= self.cfg.overflow { 1 } else { c + 1 };
+        SyncTick { counter: Some(c) }
+    }
+
+    /// A frame on the SYNC identifier arrived (consumer side).
+    pub fn received(&mut self, now: Instant, frame: &Frame) -> Result<SyncTick, Malformed> {
+        if frame.is_remote() {
+            return Err(Malformed::UnexpectedRemote);
+        }
+        let expected = if self.cfg.overflow >= 2 { 1 } else { 0 };
+        match frame.data() {
+            [] if expected == 0 => {}
+            [c] if expected == 1 => {
+                self.last = Some(now);
+                // A consumer that takes over production continues the counter it heard.
+                self.counter = if *c >= self.cfg.overflow || *c == 0 {
+                    1
+                } else {
+                    c + 1
+                };
+                return Ok(SyncTick { counter: Some(*c) });
+            }
+            d => {
+                return Err(Malformed::WrongLength {
+                    expected,
+                    got: d.len() as u8,
+                })
+            }
+        }
+        self.last = Some(now);
+        Ok(SyncTick { counter: None })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn cfg(period_us: u64, overflow: u8) -> SyncConfig {
+        SyncConfig {
+            cob_id: CobId(0x4000_0080),
+            period: Duration::from_micros(period_us),
+            window: Duration::ZERO,
+            overflow,
+        }
+    }
+
+    #[test]
+    fn counter_runs_1_to_overflow_and_wraps() {
+        let mut s = SyncService::default();
+        s.configure(Instant::ZERO, cfg(1000, 3));
+        let mut got = std::vec::Vec::new();
+        let mut t = Instant::ZERO;
+        for _ in 0..5 {
+            t = s.poll_timeout().unwrap();
+            let (f, _) = s.handle_timeout(t).unwrap();
+            got.push(f.data()[0]);
+        }
+        assert_eq!(got, [1, 2, 3, 1, 2]);
+        assert_eq!(t, Instant::from_millis(5));
+    }
+
+    #[test]
+    fn without_counter_sync_is_empty() {
+        let mut s = SyncService::default();
+        s.configure(Instant::ZERO, cfg(1000, 0));
+        let (f, tick) = s.handle_timeout(Instant::from_millis(1)).unwrap();
+        assert_eq!(f.dlc(), 0);
+        assert_eq!(f.id(), Id::Standard(0x80));
+        assert_eq!(tick.counter, None);
+    }
+
+    #[test]
+    fn period_change_counts_from_the_last_sync() {
+        let mut s = SyncService::default();
+        s.configure(Instant::ZERO, cfg(10_000, 0));
+        s.handle_timeout(Instant::from_millis(10)).unwrap();
+        s.configure(Instant::from_millis(13), cfg(5_000, 0));
+        assert_eq!(s.poll_timeout(), Some(Instant::from_millis(15)));
+        s.configure(Instant::from_millis(13), cfg(1_000, 0));
+        assert_eq!(
+            s.poll_timeout(),
+            Some(Instant::from_millis(13)),
+            "never in the past"
+        );
+    }
+
+    #[test]
+    fn consumer_checks_length() {
+        let mut s = SyncService::default();
+        s.configure(
+            Instant::ZERO,
+            SyncConfig {
+                cob_id: CobId(0x80),
+                ..cfg(0, 0)
+            },
+        );
+        let one = Frame::new(Id::Standard(0x80), &[1]).unwrap();
+        assert_eq!(
+            s.received(Instant::ZERO, &one),
+            Err(Malformed::WrongLength {
+                expected: 0,
+                got: 1
+            })
+        );
+        let none = Frame::new(Id::Standard(0x80), &[]).unwrap();
+        assert_eq!(
+            s.received(Instant::ZERO, &none),
+            Ok(SyncTick { counter: None })
+        );
+    }
+}

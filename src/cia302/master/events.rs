@@ -1,0 +1,249 @@
+//! What the master reports: typed events with timestamps, the per-slave view, counters, errors.
+
+use super::boot::{BootError, BootPhase, ErrorStatus};
+use super::config::{Assignment, StartPolicy};
+use crate::cia301::nmt::{NmtCommand, NmtState, NmtTarget};
+use crate::cia301::sdo::SdoEvent;
+use crate::frame::cob_id::NodeId;
+use crate::frame::cob_id::NodeSet;
+use crate::frame::instant::Instant;
+use crate::node::NodeEventKind;
+use crate::od::abort::AbortCode;
+use core::fmt;
+
+/// What happened, and when.
+#[derive(Clone, Debug, PartialEq)]
+pub struct MasterEvent {
+    /// When (for the node's timeouts: exactly the deadline).
+    pub at: Instant,
+    /// What.
+    pub kind: MasterEventKind,
+}
+
+/// The kinds of [`MasterEvent`].
+#[derive(Clone, Debug, PartialEq)]
+pub enum MasterEventKind {
+    /// From the master's own node (passed through unchanged).
+    Node(NodeEventKind),
+    /// The result of an SDO transfer the application started on [`super::Master::sdo_mut`]
+    /// (the master's own transfers are reported through the events below).
+    Sdo(SdoEvent),
+    /// An assigned slave sent its boot-up; the boot process starts if the master is active.
+    SlaveBootUp {
+        /// The slave.
+        node: NodeId,
+    },
+    /// The slave is not what 0x1F84–0x1F88 expect; it is not configured nor started.
+    IdentityMismatch {
+        /// The slave.
+        node: NodeId,
+        /// C, D, M, N or O.
+        status: ErrorStatus,
+        /// The slave's entry (0x1000 or 0x1018).
+        index: u16,
+        /// Its sub-index.
+        sub: u8,
+        /// What the master expects.
+        expected: u32,
+        /// What the slave has.
+        actual: u32,
+    },
+    /// A step of the boot process failed; the slave is not started.
+    ConfigFailed {
+        /// The slave.
+        node: NodeId,
+        /// The CiA 302-2 error status.
+        status: ErrorStatus,
+        /// Which access failed and how.
+        reason: BootError,
+    },
+    /// The slave's identity was checked and its configuration written; it is ready to start.
+    SlaveConfigured {
+        /// The slave.
+        node: NodeId,
+        /// Whether the master starts it or leaves that to the application.
+        start: StartPolicy,
+    },
+    /// The master started the slave.
+    SlaveStarted {
+        /// The slave.
+        node: NodeId,
+        /// By the "start all nodes" broadcast.
+        broadcast: bool,
+    },
+    /// The slave was found in `state` and left as it was (keep-alive slave at the master's
+    /// boot, status L; or any slave at a takeover).
+    SlaveAdopted {
+        /// The slave.
+        node: NodeId,
+        /// Its state.
+        state: NmtState,
+    },
+    /// Error control lost the slave: heartbeat (E), guarding (F), or no heartbeat after it was
+    /// configured (K).
+    SlaveLost {
+        /// The slave.
+        node: NodeId,
+        /// E, F or K.
+        status: ErrorStatus,
+    },
+    /// The boot time (0x1F89) passed with these mandatory slaves not booted: the network is not
+    /// started (it starts when they are).
+    MandatoryMissing {
+        /// The slaves.
+        nodes: NodeSet,
+    },
+    /// Every mandatory slave is booted and the network was started.
+    NetworkStarted {
+        /// With one "start all nodes" broadcast.
+        broadcast: bool,
+        /// At a takeover, found running (nothing was sent).
+        takeover: bool,
+    },
+    /// A request NMT (0x1F82) write from another node (or the application).
+    NmtRequest {
+        /// The addressed node(s).
+        target: NmtTarget,
+        /// The command asked for.
+        cmd: NmtCommand,
+        /// False if the master did not send it (standby, or a reset of the master itself).
+        sent: bool,
+    },
+    /// The master became active or standby.
+    ActiveChanged {
+        /// Active now.
+        active: bool,
+    },
+    /// The master could not add a heartbeat consumer entry (0x1016) for an assigned slave.
+    ConsumerNotConfigured {
+        /// The slave.
+        node: NodeId,
+        /// Why the dictionary refused it.
+        code: AbortCode,
+    },
+}
+
+/// What the master knows of one node.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct SlaveView {
+    /// The node.
+    pub node: NodeId,
+    /// Its 0x1F81 value.
+    pub assignment: Assignment,
+    /// Its NMT state: heard (boot-up, heartbeat, guarding) or, if nothing was heard since, as
+    /// last commanded by this master.
+    pub state: Option<NmtState>,
+    /// Error control lost it, or it does not answer.
+    pub missing: bool,
+    /// Where its boot process is.
+    pub phase: BootPhase,
+    /// The last error status, if any.
+    pub last_error: Option<ErrorStatus>,
+    /// Boot-ups seen.
+    pub boot_ups: u32,
+    /// Who starts it.
+    pub start: StartPolicy,
+}
+
+impl SlaveView {
+    /// The 0x1F82 read value: 0 unknown, 1 missing, 4 stopped, 5 operational, 127
+    /// pre-operational.
+    pub fn request_nmt_code(&self) -> u8 {
+        use super::objects::request;
+        if self.missing {
+            return request::MISSING;
+        }
+        match self.state {
+            None => request::UNKNOWN,
+            Some(NmtState::Stopped) => request::STOP,
+            Some(NmtState::Operational) => request::START,
+            Some(NmtState::PreOperational | NmtState::Initialising) => request::PRE_OPERATIONAL,
+        }
+    }
+}
+
+/// Counters.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct MasterStats {
+    /// NMT commands sent.
+    pub nmt_sent: u32,
+    /// NMT commands dropped: the transmit queue was full.
+    pub nmt_dropped: u32,
+    /// Boot process runs started.
+    pub boots_started: u32,
+    /// Probes of silent slaves.
+    pub probes: u32,
+    /// Times a slave's SDO access had to wait for a free client session.
+    pub jobs_queued: u32,
+    /// Most slaves waiting for a session at once.
+    pub max_waiting: u32,
+    /// Events dropped because the application did not drain them.
+    pub events_dropped: u32,
+}
+
+/// Why a master call was refused.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum MasterError {
+    /// The master is standby (or 0x1F80 bit 0 is clear): it sends nothing.
+    Standby,
+    /// The node is not an assigned slave.
+    NotAssigned(NodeId),
+    /// The node is the master itself.
+    OwnNode(NodeId),
+    /// The NMT transmit queue is full: drain `poll_transmit` and retry.
+    QueueFull,
+    /// The master's dictionary lacks a master object (use
+    /// [`super::objects::master_dictionary`]).
+    MissingObject {
+        /// Index.
+        index: u16,
+        /// Sub-index.
+        sub: u8,
+    },
+    /// A PDO step of a slave's configuration names a PDO number outside 1–512.
+    NoSuchPdo {
+        /// The slave.
+        node: NodeId,
+        /// The number.
+        pdo: u16,
+    },
+    /// The dictionary refused a configuration value.
+    Refused {
+        /// Index.
+        index: u16,
+        /// Sub-index.
+        sub: u8,
+        /// Why.
+        code: AbortCode,
+    },
+}
+
+impl fmt::Display for MasterError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            MasterError::Standby => f.write_str(
+                "the master is standby or not the NMT master (0x1F80 bit 0): activate it first",
+            ),
+            MasterError::NotAssigned(n) => write!(
+                f,
+                "{n} is not an assigned slave: set bit 0 of 0x1F81 sub {}",
+                n.raw()
+            ),
+            MasterError::OwnNode(n) => write!(f, "{n} is the master itself"),
+            MasterError::QueueFull => {
+                f.write_str("the master's NMT queue is full: drain poll_transmit and retry")
+            }
+            MasterError::MissingObject { index, sub } => write!(
+                f,
+                "the master's dictionary has no {index:#06x}sub{sub}: build it with master::objects::master_dictionary"
+            ),
+            MasterError::NoSuchPdo { node, pdo } => write!(
+                f,
+                "the configuration of {node} names PDO {pdo}: CiA 301 numbers PDOs 1 to 512"
+            ),
+            MasterError::Refused { index, sub, code } => {
+                write!(f, "the master's {index:#06x}sub{sub} refused the value: {code}")
+            }
+        }
+    }
+}

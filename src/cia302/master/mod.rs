@@ -1,0 +1,601 @@
+//! The CiA 302-2 master (`alloc`): network boot-up, slave identity check and configuration,
+//! request NMT, and the hooks a redundancy supervisor needs (active/standby, start policy,
+//! per-slave boot on demand, the per-node state view).
+//!
+//! [`Master`] is a [`Machine`] composing the master's own [`Node`] (dictionary, NMT, heartbeat,
+//! SYNC, TIME, SDO server), an [`SdoClient`] and the boot manager. It reacts to the node's
+//! events (boot-ups, heartbeats, states, writes to its own 0x1F8x entries) and to SDO results,
+//! and reports [`MasterEvent`]s: its own, plus every node event and the results of SDO transfers
+//! the application started, so the application still sees everything.
+//!
+//! # What it does (active)
+//! - At [`Master::boot`]: resets communication of the slaves (one broadcast, or one command per
+//!   slave when keep-alive slaves must be spared), then boots every slave in parallel as its
+//!   boot-up arrives: reads 0x1000 and the 0x1018 entries 0x1F84–0x1F88 expect, writes the
+//!   slave's configuration steps and its heartbeat producer time, then starts it (or leaves that
+//!   to the application, [`StartPolicy::Application`]).
+//! - Mandatory slaves (0x1F81 bit 3) gate the network start within the boot time (0x1F89); then
+//!   the master enters operational itself (0x1F80 bit 2 clear) and starts the slaves, with one
+//!   broadcast (bit 1) when that cannot start a slave that is not configured.
+//! - A slave that boots again (power cycle, reset) is booted again; an error control loss (E,
+//!   F, K) is reported and handled per 0x1F80 bits 4/6 (mandatory) or by waiting for the slave.
+//! - 0x1F82: another node writes sub n (128: all) to have the master send an NMT command; a read
+//!   gives the node's state as the master knows it.
+//!
+//! # Standby
+//! A standby master ([`Master::set_active`]) sends no NMT, no SDO, no SYNC and no TIME (it
+//! clears the producer bits of 0x1005/0x1012 while standby and restores them when active). It
+//! keeps tracking states from the traffic, produces its heartbeat, and guards the slaves whose
+//! 0x1F81 entry gives a guard time once it hears them (both masters of a redundant pair guard,
+//! each counting the other's requests so that the slave's toggle bit checks out). Becoming
+//! active does not reset anything: slaves seen operational (or stopped) are adopted as they are,
+//! pre-operational ones are booted (identity, configuration, start per policy) unless their boot
+//! is the application's (0x1F81 bit 2 clear: adopted as they are too), silent ones are probed.
+//!
+//! SDO accesses of the boot processes run on the client's sessions, one per slave; when all
+//! are taken, slaves wait in a bounded FIFO ([`MasterStats::jobs_queued`]).
+//!
+//! # Example
+//! A master and one slave on the simulated bus; the slave's start is left to the application
+//! (as a slave-pair supervisor does with the members of a pair).
+//!
+//! ```
+//! use duocan::master::{objects, BootPhase, Master, NetworkConfig, SlaveConfig};
+//! use duocan::master::StartPolicy;
+//! use duocan::od::comm;
+//! use duocan::sim::{BusConfig, SimNetwork};
+//! use duocan::{Instant, NmtState, Node, NodeConfig, NodeId, Station};
+//!
+//! let five = NodeId::must(5);
+//! let net = NetworkConfig::new().slave(
+//!     SlaveConfig::new(five)
+//!         .mandatory()
+//!         .heartbeat(100, 250)
+//!         .write_u32(0x1005, 0, 0x80)
+//!         .start(StartPolicy::Application),
+//! );
+//! let od = objects::master_dictionary(1, comm::Identity::default());
+//! let master = Master::new(NodeId::must(1), od, net).unwrap();
+//! let slave = Node::new(NodeConfig::slave(five), comm::standard_dictionary(5, Default::default()));
+//!
+//! let mut sim = SimNetwork::new(1);
+//! let bus = sim.add_bus(BusConfig::new("can0", 500_000));
+//! let m = sim.add_device("master", Station::single(master), &[bus]).unwrap();
+//! let s = sim.add_device("slave", Station::single(slave), &[bus]).unwrap();
+//! sim.device_mut(s).machine.boot(Instant::ZERO);
+//! sim.device_mut(m).machine.boot(Instant::ZERO);
+//! sim.run_until(Instant::from_millis(20));
+//!
+//! let view = sim.device(m).machine.slave(five);
+//! assert_eq!(view.phase, BootPhase::Ready);
+//! assert_eq!(view.state, Some(NmtState::PreOperational));
+//! assert!(sim.device(m).machine.network_started());
+//!
+//! let now = sim.now();
+//! sim.device_mut(m).machine.start_slave(now, five).unwrap();
+//! sim.run_until(Instant::from_millis(25));
+//! assert_eq!(sim.device(s).machine.nmt_state(), NmtState::Operational);
+//! ```
+
+mod boot;
+mod config;
+mod events;
+mod network;
+pub mod objects;
+mod slaves;
+
+pub use boot::{BootError, BootPhase, ErrorStatus};
+pub use config::{
+    Assignment, ConfigStep, ExpectedIdentity, NetworkConfig, NmtStartup, SlaveConfig, StartPolicy,
+};
+pub use events::{MasterError, MasterEvent, MasterEventKind, MasterStats, SlaveView};
+
+use crate::cia301::nmt::{NmtCommand, NmtState, NmtTarget};
+use crate::cia301::sdo::{DefaultBuffer, SdoClient, DEFAULT_LIMIT};
+use crate::frame::cob_id::NodeId;
+use crate::frame::instant::{earliest, Duration, Instant};
+use crate::frame::Frame;
+use crate::machine::Machine;
+use crate::node::{Node, NodeConfig};
+use crate::od::{comm, ObjectDictionary};
+use crate::profile::{IdProfile, Predefined};
+use alloc::collections::VecDeque;
+use alloc::vec::Vec;
+use network::Network;
+use slaves::Slot;
+
+/// NMT commands the master holds before the driver drains them.
+pub const NMT_QUEUE: usize = 256;
+/// Events the master holds before the application drains them.
+pub const EVENT_QUEUE: usize = 1024;
+
+/// A CiA 302-2 NMT master on one logical bus. `S` is the number of SDO client sessions (how many
+/// slaves are configured at once); `T` and `R` the master node's own TPDO and RPDO capacity (a
+/// master mirroring many slaves' TPDOs with [`crate::cia302::pdo_config::mirror`] needs as many RPDOs).
+pub struct Master<D, P = Predefined, const S: usize = 8, const T: usize = 4, const R: usize = 4> {
+    node: Node<D, P, 127, T, R>,
+    sdo: SdoClient<DefaultBuffer, S>,
+    /// The client has no transfer running and nothing to send: it is left out of the frame
+    /// path (a master of a hundred slaves mostly hears heartbeats).
+    sdo_idle: bool,
+    slots: Vec<Slot>,
+    /// A lower bound of every slot's timers (probe, keep-alive wait, K watchdog).
+    slot_timer: Option<Instant>,
+    network: Network,
+    active: bool,
+    booted: bool,
+    /// SYNC and TIME production wanted (0x1005/0x1012 bit 30) while active.
+    produce_sync: bool,
+    produce_time: bool,
+    waiting: VecDeque<NodeId>,
+    nmt_out: VecDeque<Frame>,
+    events: VecDeque<MasterEvent>,
+    stats: MasterStats,
+    sdo_timeout: Duration,
+    probe_interval: Duration,
+    default_consumer_ms: u16,
+}
+
+impl<D: ObjectDictionary> Master<D> {
+    /// A master with node-ID `node_id` on the predefined connection set, 8 SDO sessions and a
+    /// 64 KiB transfer limit. `od` must hold the master objects
+    /// ([`objects::master_dictionary`]); `config`'s values are written into it.
+    pub fn new(node_id: NodeId, od: D, config: NetworkConfig) -> Result<Self, MasterError> {
+        Master::with_parts(
+            NodeConfig::master(node_id),
+            od,
+            Predefined,
+            SdoClient::with_limit(DEFAULT_LIMIT),
+            config,
+        )
+    }
+}
+
+impl<D: ObjectDictionary, P: IdProfile, const S: usize, const T: usize, const R: usize>
+    Master<D, P, S, T, R>
+{
+    /// A master from its parts: the node's configuration (its `auto_start` and `accept_nmt` are
+    /// overridden: the master starts itself per 0x1F80 and obeys no NMT master), dictionary,
+    /// identifier profile and SDO client (with the channels of that profile).
+    pub fn with_parts(
+        node: NodeConfig,
+        mut od: D,
+        profile: P,
+        sdo: SdoClient<DefaultBuffer, S>,
+        config: NetworkConfig,
+    ) -> Result<Self, MasterError> {
+        use objects::*;
+        for (index, sub) in [
+            (NMT_STARTUP, 0),
+            (BOOT_TIME, 0),
+            (SLAVE_ASSIGNMENT, 127),
+            (REQUEST_NMT, REQUEST_ALL),
+            (DEVICE_TYPE_ID, 127),
+            (VENDOR_ID, 127),
+            (PRODUCT_CODE, 127),
+            (REVISION_NUMBER, 127),
+            (SERIAL_NUMBER, 127),
+        ] {
+            if od.get(index, sub).is_err() {
+                return Err(MasterError::MissingObject { index, sub });
+            }
+        }
+        let mut put = |index: u16, sub: u8, v: u32| {
+            od.write_local(index, sub, &v.to_le_bytes())
+                .map_err(|code| MasterError::Refused { index, sub, code })
+        };
+        put(NMT_STARTUP, 0, config.startup.0)?;
+        put(BOOT_TIME, 0, config.boot_time_ms)?;
+        let mut slots: Vec<Slot> = (1..=127u8).filter_map(NodeId::new).map(Slot::new).collect();
+        for s in &config.slaves {
+            check_slave(s, node.node_id)?;
+            let n = s.node.raw();
+            put(SLAVE_ASSIGNMENT, n, s.assignment.0)?;
+            put(DEVICE_TYPE_ID, n, s.identity.device_type)?;
+            put(VENDOR_ID, n, s.identity.vendor)?;
+            put(PRODUCT_CODE, n, s.identity.product)?;
+            put(REVISION_NUMBER, n, s.identity.revision)?;
+            put(SERIAL_NUMBER, n, s.identity.serial)?;
+            slots[n as usize - 1].cfg = s.clone();
+        }
+        let producer = |od: &D, index| {
+            od.get_u32(index, 0)
+                .is_some_and(|v| v & crate::frame::cob_id::CobId::BIT30 != 0)
+        };
+        let produce_sync = producer(&od, comm::SYNC_COB_ID);
+        let produce_time = producer(&od, comm::TIME_COB_ID);
+        let node_cfg = NodeConfig {
+            auto_start: false,
+            accept_nmt: false,
+            ..node
+        };
+        let mut m = Master {
+            node: Node::<D, P, 127, T, R>::with_profile(node_cfg, od, profile),
+            sdo,
+            sdo_idle: false,
+            slots,
+            slot_timer: None,
+            network: Network::Idle,
+            active: config.active,
+            booted: false,
+            produce_sync,
+            produce_time,
+            waiting: VecDeque::with_capacity(127),
+            nmt_out: VecDeque::new(),
+            events: VecDeque::new(),
+            stats: MasterStats::default(),
+            sdo_timeout: config.sdo_timeout,
+            probe_interval: config.probe_interval,
+            default_consumer_ms: config.default_consumer_ms,
+        };
+        // Before boot the node reads its dictionary at boot, so plain stores suffice.
+        for n in (1..=127u8).filter_map(NodeId::new) {
+            if m.assignment(n).is_slave() {
+                m.set_consumer(Instant::ZERO, n, true)?;
+            }
+        }
+        if !m.active {
+            m.set_producers(Instant::ZERO, false);
+        }
+        Ok(m)
+    }
+
+    /// Powers the master on: boots its node and, if active, the network.
+    pub fn boot(&mut self, now: Instant) {
+        self.booted = true;
+        self.node.boot(now);
+        if self.acting() {
+            self.boot_network(now);
+        } else {
+            self.self_start(now);
+            let slaves: heapless::Vec<NodeId, 127> = self.assigned().collect();
+            for n in slaves {
+                self.slot_mut(n).phase = BootPhase::Observed;
+            }
+        }
+        self.pump(now);
+    }
+
+    /// Makes the master active (it manages the network) or standby (it observes). Becoming
+    /// active resets nothing: operational and stopped slaves are adopted, pre-operational ones
+    /// booted without a reset (adopted if their boot is the application's, 0x1F81 bit 2 clear),
+    /// silent ones probed. Becoming standby abandons the boot processes
+    /// (transfers under way are aborted at once) and stops SYNC and TIME production.
+    pub fn set_active(&mut self, now: Instant, active: bool) {
+        if active == self.active {
+            return;
+        }
+        self.active = active;
+        self.emit(now, MasterEventKind::ActiveChanged { active });
+        self.set_producers(now, active);
+        if self.booted {
+            if active {
+                self.take_over(now);
+            } else {
+                self.stand_by(now);
+            }
+        }
+        self.pump(now);
+    }
+
+    /// True if the master is active.
+    pub fn is_active(&self) -> bool {
+        self.active
+    }
+
+    /// Whether the master produces SYNC and TIME while active (bit 30 of 0x1005 and 0x1012
+    /// follows the role; the identifiers, period and time base stay as configured). What a
+    /// redundancy supervisor sets before the first takeover.
+    pub fn set_production(&mut self, now: Instant, sync: bool, time: bool) {
+        self.produce_sync = sync;
+        self.produce_time = time;
+        self.set_producers(now, self.active);
+    }
+
+    /// True if the network was started (every mandatory slave booted, or forced).
+    pub fn network_started(&self) -> bool {
+        matches!(self.network, Network::Started)
+    }
+
+    /// Starts the network now, whether or not every mandatory slave has booted: the master
+    /// enters operational (0x1F80 bit 2 clear) and starts every configured slave.
+    pub fn start_network(&mut self, now: Instant) -> Result<(), MasterError> {
+        if !self.acting() {
+            return Err(MasterError::Standby);
+        }
+        if !self.network_started() {
+            self.start_network_now(now);
+        }
+        self.pump(now);
+        Ok(())
+    }
+
+    /// Sends an NMT command. The boot processes follow: a reset slave is booted again when its
+    /// boot-up arrives; a started slave is marked started.
+    pub fn nmt(
+        &mut self,
+        now: Instant,
+        cmd: NmtCommand,
+        target: NmtTarget,
+    ) -> Result<(), MasterError> {
+        if !self.acting() {
+            return Err(MasterError::Standby);
+        }
+        if target == NmtTarget::Node(self.node.id()) {
+            return Err(MasterError::OwnNode(self.node.id()));
+        }
+        self.command(now, cmd, target)?;
+        self.pump(now);
+        Ok(())
+    }
+
+    /// Starts one slave (NMT start).
+    pub fn start_slave(&mut self, now: Instant, node: NodeId) -> Result<(), MasterError> {
+        self.nmt(now, NmtCommand::Start, NmtTarget::Node(node))
+    }
+
+    /// Resets one slave (NMT reset node); its boot process runs again at its boot-up.
+    pub fn reset_slave(&mut self, now: Instant, node: NodeId) -> Result<(), MasterError> {
+        self.nmt(now, NmtCommand::ResetNode, NmtTarget::Node(node))
+    }
+
+    /// Runs the boot process of one slave now, without resetting it: identity, configuration,
+    /// then start per its policy.
+    pub fn boot_slave(&mut self, now: Instant, node: NodeId) -> Result<(), MasterError> {
+        if !self.acting() {
+            return Err(MasterError::Standby);
+        }
+        if !self.assignment(node).is_slave() {
+            return Err(MasterError::NotAssigned(node));
+        }
+        self.begin(now, node);
+        self.pump(now);
+        Ok(())
+    }
+
+    /// Adds or replaces a slave at run time: writes its 0x1F81/0x1F84–0x1F88 entries and its
+    /// heartbeat consumer entry. An active master probes it at once (it is booted when it
+    /// answers or sends its boot-up).
+    pub fn add_slave(&mut self, now: Instant, cfg: SlaveConfig) -> Result<(), MasterError> {
+        use objects::*;
+        let n = cfg.node;
+        check_slave(&cfg, self.node.id())?;
+        let id = cfg.identity;
+        let assignment = cfg.assignment.0;
+        self.slot_mut(n).cfg = cfg;
+        for (index, v) in [
+            (DEVICE_TYPE_ID, id.device_type),
+            (VENDOR_ID, id.vendor),
+            (PRODUCT_CODE, id.product),
+            (REVISION_NUMBER, id.revision),
+            (SERIAL_NUMBER, id.serial),
+            (SLAVE_ASSIGNMENT, assignment),
+        ] {
+            self.write_own(now, index, n.raw(), v)?;
+        }
+        self.pump(now);
+        Ok(())
+    }
+
+    /// Changes who starts a slave once configured.
+    pub fn set_start_policy(&mut self, node: NodeId, policy: StartPolicy) {
+        self.slot_mut(node).cfg.start = policy;
+    }
+
+    /// What the master knows of one node (any node-ID, assigned or not).
+    pub fn slave(&self, node: NodeId) -> SlaveView {
+        let s = self.slot(node);
+        SlaveView {
+            node,
+            assignment: self.assignment(node),
+            state: self.view_state(node),
+            missing: s.missing,
+            phase: s.phase,
+            last_error: s.last_error,
+            boot_ups: s.boot_ups,
+            start: s.cfg.start,
+        }
+    }
+
+    /// Every assigned slave.
+    pub fn slaves(&self) -> impl Iterator<Item = SlaveView> + '_ {
+        self.assigned().map(|n| self.slave(n))
+    }
+
+    /// The master's configuration of a slave.
+    pub fn slave_config(&self, node: NodeId) -> &SlaveConfig {
+        &self.slot(node).cfg
+    }
+
+    /// The master's own node.
+    pub fn node(&self) -> &Node<D, P, 127, T, R> {
+        &self.node
+    }
+    /// The master's own node, for the application's own use (its dictionary, EMCY, TIME). NMT
+    /// commands belong in [`Master::nmt`], so that the boot processes follow them.
+    pub fn node_mut(&mut self) -> &mut Node<D, P, 127, T, R> {
+        &mut self.node
+    }
+    /// The SDO client.
+    pub fn sdo(&self) -> &SdoClient<DefaultBuffer, S> {
+        &self.sdo
+    }
+    /// The SDO client, for the application's own transfers; their results arrive as
+    /// [`MasterEventKind::Sdo`]. A transfer to a slave being booted waits for the boot's.
+    pub fn sdo_mut(&mut self) -> &mut SdoClient<DefaultBuffer, S> {
+        self.sdo_idle = false;
+        &mut self.sdo
+    }
+    /// Counters.
+    pub fn stats(&self) -> MasterStats {
+        self.stats
+    }
+
+    /// True if the master manages the network now: booted, active, and 0x1F80 bit 0 set.
+    fn acting(&self) -> bool {
+        self.booted && self.active && self.startup().has(NmtStartup::MASTER)
+    }
+
+    fn startup(&self) -> NmtStartup {
+        NmtStartup(self.node.od().get_u32(objects::NMT_STARTUP, 0).unwrap_or(0))
+    }
+
+    fn assignment(&self, n: NodeId) -> Assignment {
+        Assignment(
+            self.node
+                .od()
+                .get_u32(objects::SLAVE_ASSIGNMENT, n.raw())
+                .unwrap_or(0),
+        )
+    }
+
+    fn assigned(&self) -> impl Iterator<Item = NodeId> + '_ {
+        (1..=127u8)
+            .filter_map(NodeId::new)
+            .filter(|n| self.assignment(*n).is_slave())
+    }
+
+    fn slot(&self, n: NodeId) -> &Slot {
+        &self.slots[n.raw() as usize - 1]
+    }
+
+    fn slot_mut(&mut self, n: NodeId) -> &mut Slot {
+        &mut self.slots[n.raw() as usize - 1]
+    }
+
+    fn emit(&mut self, at: Instant, kind: MasterEventKind) {
+        if self.events.len() >= EVENT_QUEUE {
+            self.stats.events_dropped = self.stats.events_dropped.saturating_add(1);
+        } else {
+            self.events.push_back(MasterEvent { at, kind });
+        }
+    }
+
+    /// The node's state: heard after the last command, else as commanded, else as last heard.
+    fn view_state(&self, n: NodeId) -> Option<NmtState> {
+        let heard = self.node.remote(n);
+        let state = match (heard, self.slot(n).commanded) {
+            (Some(v), Some((_, at))) if v.seen > at => Some(v.state),
+            (_, Some((state, _))) => state,
+            (h, None) => h.map(|v| v.state),
+        };
+        // A node that sent its boot-up is pre-operational.
+        state.map(|s| match s {
+            NmtState::Initialising => NmtState::PreOperational,
+            s => s,
+        })
+    }
+
+    /// Runs the master's own node into operational unless 0x1F80 bit 2 forbids it.
+    fn self_start(&mut self, now: Instant) {
+        if !self.startup().has(NmtStartup::NO_SELF_START)
+            && self.node.nmt_state() != NmtState::Operational
+        {
+            self.node.set_nmt_state(now, NmtState::Operational);
+        }
+    }
+
+    /// Sets or clears bit 30 of 0x1005 and 0x1012 (SYNC and TIME production) as wanted.
+    fn set_producers(&mut self, now: Instant, on: bool) {
+        for (index, wanted) in [
+            (comm::SYNC_COB_ID, self.produce_sync),
+            (comm::TIME_COB_ID, self.produce_time),
+        ] {
+            let Some(v) = self.node.od().get_u32(index, 0) else {
+                continue;
+            };
+            let bit = crate::frame::cob_id::CobId::BIT30;
+            let new = if on && wanted { v | bit } else { v & !bit };
+            if new != v {
+                let data = new.to_le_bytes();
+                if self.booted {
+                    let _ = self.node.write(now, index, 0, &data);
+                } else {
+                    let _ = self.node.od_mut().write_local(index, 0, &data);
+                }
+            }
+        }
+    }
+
+    /// Writes one of the master's own entries (with the node's reactions once booted).
+    fn write_own(&mut self, now: Instant, index: u16, sub: u8, v: u32) -> Result<(), MasterError> {
+        let data = v.to_le_bytes();
+        let r = if self.booted {
+            self.node.write(now, index, sub, &data)
+        } else {
+            self.node.od_mut().write_local(index, sub, &data)
+        };
+        r.map_err(|code| MasterError::Refused { index, sub, code })
+    }
+}
+
+/// What can be checked of a slave's configuration before it is used.
+fn check_slave(cfg: &SlaveConfig, master: NodeId) -> Result<(), MasterError> {
+    if cfg.node == master {
+        return Err(MasterError::OwnNode(cfg.node));
+    }
+    for step in &cfg.steps {
+        if let ConfigStep::Pdo { pdo, .. } = step {
+            if !(1..=crate::cia301::pdo::params::MAX_PDOS).contains(pdo) {
+                return Err(MasterError::NoSuchPdo {
+                    node: cfg.node,
+                    pdo: *pdo,
+                });
+            }
+        }
+    }
+    Ok(())
+}
+
+impl<D: ObjectDictionary, P: IdProfile, const S: usize, const T: usize, const R: usize> Machine
+    for Master<D, P, S, T, R>
+{
+    type Event = MasterEvent;
+
+    fn handle_frame(&mut self, now: Instant, frame: &Frame) {
+        self.node.handle_frame(now, frame);
+        if !self.sdo_idle {
+            self.sdo.handle_frame(now, frame);
+        }
+        self.pump(now);
+    }
+
+    fn handle_timeout(&mut self, now: Instant) {
+        self.node.handle_timeout(now);
+        if !self.sdo_idle {
+            self.sdo.handle_timeout(now);
+        }
+        self.pump(now);
+        self.on_timers(now);
+        self.pump(now);
+    }
+
+    fn poll_transmit(&mut self) -> Option<Frame> {
+        if let Some(f) = self.nmt_out.pop_front() {
+            return Some(f);
+        }
+        if let Some(f) = self.node.poll_transmit() {
+            return Some(f);
+        }
+        if self.sdo_idle {
+            return None;
+        }
+        let f = self.sdo.poll_transmit();
+        // Drained and nothing running: nothing can come out of it until a transfer starts.
+        self.sdo_idle = f.is_none() && self.sdo.in_flight() == 0;
+        f
+    }
+
+    fn poll_timeout(&self) -> Option<Instant> {
+        let sdo = if self.sdo_idle {
+            None
+        } else {
+            self.sdo.poll_timeout()
+        };
+        earliest(earliest(self.node.poll_timeout(), sdo), self.deadline())
+    }
+
+    fn poll_event(&mut self) -> Option<MasterEvent> {
+        self.events.pop_front()
+    }
+}

@@ -1,0 +1,180 @@
+//! Definition tables of the CiA 302-2 master objects: 0x1F80 NMT startup, 0x1F81 slave
+//! assignment, 0x1F82 request NMT, 0x1F84–0x1F88 expected identity, 0x1F89 boot time.
+//!
+//! All `const`, like [`crate::od::comm`]. Arrays have sub 0 = 127 (128 for 0x1F82, whose sub 128
+//! addresses all nodes) and one entry per node-ID.
+
+use crate::od::abort::AbortCode;
+use crate::od::{comm, Access, DynamicDictionary, ObjectDef, ObjectType};
+
+/// NMT startup.
+pub const NMT_STARTUP: u16 = 0x1F80;
+/// NMT slave assignment.
+pub const SLAVE_ASSIGNMENT: u16 = 0x1F81;
+/// Request NMT: writing sub n asks the master to send an NMT command to node n (128: all);
+/// reading gives node n's state as the master knows it.
+pub const REQUEST_NMT: u16 = 0x1F82;
+/// Device type identification (expected 0x1000).
+pub const DEVICE_TYPE_ID: u16 = 0x1F84;
+/// Vendor identification (expected 0x1018 sub 1).
+pub const VENDOR_ID: u16 = 0x1F85;
+/// Product code (expected 0x1018 sub 2).
+pub const PRODUCT_CODE: u16 = 0x1F86;
+/// Revision number (expected 0x1018 sub 3).
+pub const REVISION_NUMBER: u16 = 0x1F87;
+/// Serial number (expected 0x1018 sub 4).
+pub const SERIAL_NUMBER: u16 = 0x1F88;
+/// Boot time in ms.
+pub const BOOT_TIME: u16 = 0x1F89;
+
+/// The sub-index of 0x1F82 that addresses all nodes.
+pub const REQUEST_ALL: u8 = 128;
+
+/// 0x1F82 values: what a request asks for, and what a read reports.
+pub mod request {
+    /// Read: the state is unknown.
+    pub const UNKNOWN: u8 = 0;
+    /// Read: the node is missing (not heard, heartbeat lost).
+    pub const MISSING: u8 = 1;
+    /// Stop (write) / stopped (read).
+    pub const STOP: u8 = 4;
+    /// Start (write) / operational (read).
+    pub const START: u8 = 5;
+    /// Write: reset node.
+    pub const RESET_NODE: u8 = 6;
+    /// Write: reset communication.
+    pub const RESET_COMMUNICATION: u8 = 7;
+    /// Enter pre-operational (write) / pre-operational (read).
+    pub const PRE_OPERATIONAL: u8 = 127;
+}
+
+/// Entries of one node-indexed array: sub 0 = 127, subs 1–127 rw UNSIGNED32 = 0.
+pub const fn node_array(index: u16, name: &'static str) -> [ObjectDef; 128] {
+    let mut out = [ObjectDef::u32(index, 0, Access::Rw, 0); 128];
+    out[0] = ObjectDef::u8(index, 0, Access::Const, 127)
+        .object_type(ObjectType::Array)
+        .named(name);
+    let mut i = 1;
+    while i < 128 {
+        out[i] = ObjectDef::u32(index, i as u8, Access::Rw, 0)
+            .object_type(ObjectType::Array)
+            .named(name);
+        i += 1;
+    }
+    out
+}
+
+/// 0x1F80 and 0x1F89.
+pub const fn startup_and_boot_time(startup: u32, boot_time_ms: u32) -> [ObjectDef; 2] {
+    [
+        ObjectDef::u32(NMT_STARTUP, 0, Access::Rw, startup).named("NMT startup"),
+        ObjectDef::u32(BOOT_TIME, 0, Access::Rw, boot_time_ms).named("Boot time"),
+    ]
+}
+
+/// 0x1F82: sub 0 = 128, subs 1–128 rw UNSIGNED8 that accept only the request values.
+pub const fn request_nmt() -> [ObjectDef; 129] {
+    let mut out = [ObjectDef::u8(REQUEST_NMT, 0, Access::Rw, 0); 129];
+    out[0] = ObjectDef::u8(REQUEST_NMT, 0, Access::Const, 128)
+        .object_type(ObjectType::Array)
+        .named("Request NMT");
+    let mut i = 1;
+    while i < 129 {
+        out[i] = ObjectDef::u8(REQUEST_NMT, i as u8, Access::Rw, 0)
+            .object_type(ObjectType::Array)
+            .hook(request_value)
+            .named("Request NMT");
+        i += 1;
+    }
+    out
+}
+
+/// A 0x1F82 write must name a command CiA 302-2 defines.
+fn request_value(_: u16, _: u8, data: &[u8]) -> Result<(), AbortCode> {
+    match data.first() {
+        Some(
+            &(request::STOP
+            | request::START
+            | request::RESET_NODE
+            | request::RESET_COMMUNICATION
+            | request::PRE_OPERATIONAL),
+        ) => Ok(()),
+        _ => Err(AbortCode::VALUE_RANGE),
+    }
+}
+
+/// Inserts every master object into a dynamic dictionary (0x1F80/0x1F89 with the given values);
+/// entries that exist already are kept.
+pub fn insert_master_objects(od: &mut DynamicDictionary, startup: u32, boot_time_ms: u32) {
+    let arrays = [
+        node_array(SLAVE_ASSIGNMENT, "NMT slave assignment"),
+        node_array(DEVICE_TYPE_ID, "Device type identification"),
+        node_array(VENDOR_ID, "Vendor identification"),
+        node_array(PRODUCT_CODE, "Product code"),
+        node_array(REVISION_NUMBER, "Revision number"),
+        node_array(SERIAL_NUMBER, "Serial number"),
+    ];
+    let singles = startup_and_boot_time(startup, boot_time_ms);
+    let requests = request_nmt();
+    let tables: [&[ObjectDef]; 8] = [
+        &arrays[0], &arrays[1], &arrays[2], &arrays[3], &arrays[4], &arrays[5], &singles, &requests,
+    ];
+    for t in tables {
+        for d in t {
+            // A duplicate is an entry the caller defined already: theirs wins.
+            let _ = od.insert(*d);
+        }
+    }
+}
+
+/// A master's dictionary: the standard communication objects
+/// ([`comm::standard_dictionary`]) plus every master object. Its slave-related values are
+/// written by [`super::Master::new`] from the [`super::NetworkConfig`].
+pub fn master_dictionary(node_id: u8, identity: comm::Identity) -> DynamicDictionary {
+    let mut od = comm::standard_dictionary(node_id, identity);
+    insert_master_objects(&mut od, 0, 0);
+    od
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::od::ObjectDictionary;
+
+    #[test]
+    fn master_dictionary_has_every_object() {
+        let od = master_dictionary(1, Default::default());
+        for index in [
+            SLAVE_ASSIGNMENT,
+            DEVICE_TYPE_ID,
+            VENDOR_ID,
+            PRODUCT_CODE,
+            REVISION_NUMBER,
+            SERIAL_NUMBER,
+        ] {
+            assert_eq!(od.get_value::<u8>(index, 0), Ok(127));
+            assert_eq!(od.get_value::<u32>(index, 127), Ok(0));
+            assert!(od.get(index, 128).is_err());
+        }
+        assert_eq!(od.get_value::<u8>(REQUEST_NMT, 0), Ok(128));
+        assert_eq!(od.get_value::<u8>(REQUEST_NMT, REQUEST_ALL), Ok(0));
+        assert_eq!(od.get_value::<u32>(NMT_STARTUP, 0), Ok(0));
+        assert_eq!(od.get_value::<u32>(BOOT_TIME, 0), Ok(0));
+    }
+
+    #[test]
+    fn request_nmt_accepts_only_commands() {
+        let mut od = master_dictionary(1, Default::default());
+        for v in [4u8, 5, 6, 7, 127] {
+            assert_eq!(od.write(REQUEST_NMT, 3, &[v]), Ok(()));
+        }
+        for v in [0u8, 1, 2, 3, 8, 126, 128, 255] {
+            assert_eq!(
+                od.write(REQUEST_NMT, 3, &[v]),
+                Err(AbortCode::VALUE_RANGE),
+                "{v}"
+            );
+        }
+        assert_eq!(od.write(REQUEST_NMT, 0, &[5]), Err(AbortCode::READ_ONLY));
+    }
+}

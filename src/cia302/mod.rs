@@ -1,0 +1,13 @@
+//! Layer 6, CiA 302: what a network manager does to the other nodes (`alloc`).
+//!
+//! - [`master`]: the CiA 302-2 NMT master: boot-up of the network, identity check, slave
+//!   configuration, mandatory slaves, boot time, request NMT (0x1F82), active/standby hooks.
+//! - [`pdo_config`]: configuring a slave's PDOs over SDO in CiA order, and mirroring them in the
+//!   master's own dictionary.
+//!
+//! Both run on a [node](crate::node) and its CiA 301 services; nothing below this layer knows
+//! that a master exists.
+
+#[cfg(feature = "alloc")]
+pub mod master;
+pub mod pdo_config;
