@@ -30,15 +30,15 @@ fi
 "$VENV/bin/python" -c 'import can, canopen; print("python-can", can.__version__, "canopen", canopen.__version__)'
 
 echo "== tier-python: runtime, port and capture unit tests (all features)"
-cargo test --features tokio,udp,socketcan --lib --test runtime_mem || fail "library and memory-bus runtime tests"
-cargo test -p duocan-redundancy --features tokio --lib --test runtime_network \
+cargo test --features tokio,udp,socketcan --lib --test runtime || fail "library and memory-bus runtime tests"
+cargo test -p duocan-redundancy --features tokio --lib --test runtime \
   || fail "the logical network object under the runtime (memory buses)"
 
 echo "== tier-python: build (outside the namespace)"
-cargo test --features test-python --test python_peer --no-run || fail "build python_peer tests"
+cargo test -p duocan-tiers --features python --test python_peer --no-run || fail "build python_peer tests"
 # The sdo_tool example and its test (which runs the example's binary against a duocan node).
-cargo build --features test-python --example sdo_tool || fail "build the sdo_tool example"
-cargo test --features test-python --test sdo_tool --no-run || fail "build sdo_tool tests"
+cargo build -p duocan --features udp --example sdo_tool || fail "build the sdo_tool example"
+cargo test -p duocan-tiers --features python --test sdo_tool --no-run || fail "build sdo_tool tests"
 BENCH=1; [ "${1:-}" = "--no-bench" ] && BENCH=0
 if [ $BENCH = 1 ]; then
   cargo build --release --features udp --example rt_overhead || fail "build rt_overhead"
@@ -49,12 +49,12 @@ export DUOCAN_PYTHON="$VENV/bin/python"
 unshare -n sh -ec '
   ip link set lo up
   ip route add 224.0.0.0/4 dev lo
-  cargo test --offline --features test-python --test python_peer
+  cargo test --offline -p duocan-tiers --features python --test python_peer
 ' || fail "python peer tests"
 unshare -n sh -ec '
   ip link set lo up
   ip route add 224.0.0.0/4 dev lo
-  cargo test --offline --features test-python --test sdo_tool
+  cargo test --offline -p duocan-tiers --features python --test sdo_tool
 ' || fail "sdo_tool example against a duocan node on the UDP bus"
 
 if [ $BENCH = 1 ]; then

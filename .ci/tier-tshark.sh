@@ -19,5 +19,5 @@ if ! command -v tshark >/dev/null; then
 fi
 tshark --version | head -1
 echo "== tier-tshark: pcap captures decoded by tshark"
-cargo test --features test-tshark --test tshark || fail "tshark tests"
+cargo test -p duocan-tiers --features tshark --test tshark || fail "tshark tests"
 echo "tier-tshark: OK"

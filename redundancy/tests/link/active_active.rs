@@ -1,0 +1,309 @@
+//! Active-active mode on the simulated dual bus: a master and 20 nodes exchange frames every
+//! 10 ms while a bus is cut, a single port is unplugged, or a port babbles. Nothing is lost or
+//! doubled at the application; port states follow, at exact instants in simulated time.
+
+use crate::sim::*;
+use duocan::{Duration, Frame, Id, Instant};
+use duocan_redundancy::{LinkEventKind, Member, PortReason, PortState};
+
+const SILENCE_LIMIT: Duration = Duration::from_millis(150);
+const SUSPECT_AFTER: Duration = Duration::from_millis(50);
+const CUT: Instant = Instant::from_millis(1_005);
+const REPAIR: Instant = Instant::from_millis(2_000);
+const STOP: Instant = Instant::from_millis(3_500);
+const END: Instant = Instant::from_millis(3_600);
+const SLAVES: u8 = 20;
+
+fn run_to_end(net: &mut Net) {
+    stop_sync(net, STOP);
+    net.sim.run_until(END);
+}
+
+/// The port of every station on `bus` goes suspect (at its first failed transmission, or after
+/// 50 ms of silence) and failed exactly the silence limit after the last frame it received; it
+/// returns to ok after the repair; the other port sees no event at all.
+fn assert_bus_failed_and_recovered(net: &Net, bus: usize) {
+    for node in 1..=SLAVES + 1 {
+        let last = net.last_rx(node, bus, CUT);
+        let ev = net.port_events(node, bus as u8);
+        let (t, from, to, reason) = ev[0];
+        assert_eq!(
+            (from, to),
+            (PortState::Ok, PortState::Suspect),
+            "node {node}"
+        );
+        match reason {
+            PortReason::Silence { silent } => {
+                assert_eq!(
+                    (t, silent),
+                    (last + SUSPECT_AFTER, SUSPECT_AFTER),
+                    "node {node}"
+                )
+            }
+            PortReason::TxFailed(duocan::machine::ErrorCause::NoAck) => {
+                assert!(t > CUT && t < last + SUSPECT_AFTER, "node {node}")
+            }
+            r => panic!("node {node}: suspect because {r:?}"),
+        }
+        assert_eq!(
+            ev[1],
+            (
+                last + SILENCE_LIMIT,
+                PortState::Suspect,
+                PortState::Failed,
+                PortReason::Silence {
+                    silent: SILENCE_LIMIT
+                }
+            ),
+            "node {node}"
+        );
+        // Re-initialised after a back-off of 100 ms, failed again after the silence limit,
+        // re-initialised after 200 ms, … (the next attempt, 400 ms later, is after the repair).
+        let ms = Duration::from_millis;
+        let cycle: Vec<_> = ev[2..6].iter().map(|e| (e.0, e.2, e.3)).collect();
+        let silence = PortReason::Silence {
+            silent: SILENCE_LIMIT,
+        };
+        assert_eq!(
+            cycle,
+            [
+                (
+                    last + ms(250),
+                    PortState::Recovering,
+                    PortReason::Reinit { attempt: 1 }
+                ),
+                (last + ms(400), PortState::Failed, silence),
+                (
+                    last + ms(600),
+                    PortState::Recovering,
+                    PortReason::Reinit { attempt: 2 }
+                ),
+                (last + ms(750), PortState::Failed, silence),
+            ],
+            "node {node}"
+        );
+        let (t, _, to, reason) = *ev.last().unwrap();
+        assert_eq!(
+            (to, reason),
+            (PortState::Ok, PortReason::Traffic),
+            "node {node}"
+        );
+        assert!(
+            t > REPAIR && t < REPAIR + Duration::from_millis(400),
+            "node {node}: {t}"
+        );
+        assert_eq!(net.station(node).link.port_state(bus), PortState::Ok);
+        assert!(
+            net.port_events(node, 1 - bus as u8).is_empty(),
+            "node {node}: the other bus stays ok"
+        );
+        let m = net.station(node).link.merger().stats();
+        assert_eq!(m.evicted, 0);
+    }
+}
+
+fn cut_bus(bus: usize) {
+    let mut net = network(1, SLAVES, active_active(), STOP);
+    let b = net.buses[bus];
+    net.sim.at(CUT, move |sim| sim.bus_down(b));
+    net.sim.at(REPAIR, move |sim| sim.bus_up(b));
+    run_to_end(&mut net);
+
+    net.assert_application_exact();
+    net.assert_no_heartbeat_lost();
+    for node in 2..=SLAVES + 1 {
+        let (produced, received) = sync_counts(&net, node);
+        assert_eq!(received, produced, "SYNC at node {node}");
+        assert!(produced > 340);
+    }
+    assert_bus_failed_and_recovered(&net, bus);
+
+    // Reachability: the master reports every node heard on the surviving bus only, at the
+    // node's last frame on the cut bus + the timeout, then on both again.
+    for node in 2..=SLAVES + 1 {
+        let last = net.last_tx(node, bus, CUT);
+        let mut only = [false, false];
+        only[1 - bus] = true;
+        let ev = net.reach_events(MASTER, node);
+        assert_eq!(ev[0].1, [true, true], "first report of node {node}");
+        assert_eq!(ev[1], (last + SILENCE_LIMIT, only), "node {node}");
+        assert_eq!(ev.last().unwrap().1, [true, true]);
+    }
+}
+
+#[test]
+fn cut_bus_1_mid_exchange_loses_and_doubles_nothing() {
+    cut_bus(0);
+}
+
+#[test]
+fn cut_bus_2_mid_exchange_loses_and_doubles_nothing() {
+    cut_bus(1);
+}
+
+#[test]
+fn single_port_unplugged_is_failed_at_its_node_and_reported_by_the_others() {
+    const NODE: u8 = 7;
+    let mut net = network(2, SLAVES, active_active(), STOP);
+    let port = net.dev(NODE).port(0);
+    net.sim.at(CUT, move |sim| sim.disconnect(port));
+    net.sim.at(REPAIR, move |sim| sim.reconnect(port));
+    run_to_end(&mut net);
+
+    net.assert_application_exact();
+    net.assert_no_heartbeat_lost();
+    // The node's own port fails exactly at the silence limit, and recovers after the repair.
+    let last = net.last_rx(NODE, 0, CUT);
+    let ev = net.port_events(NODE, 0);
+    assert_eq!(ev[1].0, last + SILENCE_LIMIT);
+    assert_eq!(ev[1].2, PortState::Failed);
+    assert_eq!(net.station(NODE).link.port_state(0), PortState::Ok);
+    // Everybody else: no port event, but "node 7 heard on bus 2 only", then both again.
+    let last = net.last_tx(NODE, 0, CUT);
+    for node in (1..=SLAVES + 1).filter(|n| *n != NODE) {
+        assert!(net.port_events(node, 0).is_empty(), "node {node}");
+        assert!(net.port_events(node, 1).is_empty(), "node {node}");
+        let ev = net.reach_events(node, NODE);
+        assert_eq!(ev[1], (last + SILENCE_LIMIT, [false, true]), "node {node}");
+        assert_eq!(ev[2].1, [true, true], "node {node}");
+        assert!(ev[2].0 >= REPAIR);
+        // Nobody else lost sight of anybody.
+        for other in (1..=SLAVES + 1).filter(|o| *o != NODE && *o != node) {
+            assert_eq!(
+                net.reach_events(node, other).len(),
+                1,
+                "{node} about {other}"
+            );
+        }
+    }
+}
+
+#[test]
+fn babbling_port_floods_bus_1_the_other_bus_carries_the_traffic_in_bounded_memory() {
+    const NODE: u8 = 5;
+    let mut net = network(3, SLAVES, active_active(), STOP);
+    let port = net.dev(NODE).port(0);
+    let flood = Frame::from_array(Id::Standard(0x001), [0xFF; 8]);
+    net.sim.at(CUT, move |sim| sim.babble(port, Some(flood)));
+    net.sim.at(REPAIR, move |sim| sim.babble(port, None));
+    run_to_end(&mut net);
+
+    net.assert_application_exact();
+    net.assert_no_heartbeat_lost();
+    let flooded = net
+        .sim
+        .trace()
+        .iter()
+        .filter(|r| matches!(r, duocan::sim::TraceRecord::Tx(t) if t.babble))
+        .count();
+    assert!(flooded > 5_000, "the flood ran: {flooded} frames");
+    for node in 1..=SLAVES + 1 {
+        let link = &net.station(node).link;
+        // Bus 1 could not carry this station's frames: 10 ms (the window) after the first frame
+        // it could not send, the port was flushed and failed; re-initialised after 100, 200,
+        // 400 ms, each time failing again 10 ms later, until the flood was over.
+        let ev = net.port_events(node, 0);
+        let ms = Duration::from_millis;
+        let stalled = PortReason::TxStalled { waited: ms(10) };
+        let t0 = ev[0].0;
+        assert!(t0 > CUT && t0 <= CUT + ms(20), "node {node}: {ev:?}");
+        let mut want = vec![(t0, PortState::Failed, stalled)];
+        let mut t = t0;
+        for (attempt, backoff) in [(1, 100), (2, 200), (3, 400)] {
+            t += ms(backoff);
+            want.push((t, PortState::Recovering, PortReason::Reinit { attempt }));
+            want.push((t + ms(10), PortState::Failed, stalled));
+            t += ms(10);
+        }
+        // The fourth attempt, 800 ms later, finds a quiet bus: ok after the 50 ms probation.
+        want.push((
+            t + ms(800),
+            PortState::Recovering,
+            PortReason::Reinit { attempt: 4 },
+        ));
+        let got: Vec<_> = ev.iter().map(|e| (e.0, e.2, e.3)).collect();
+        assert_eq!(got[..8], want[..], "node {node}");
+        assert_eq!(got.len(), 9, "node {node}: {got:?}");
+        assert_eq!((got[8].1, got[8].2), (PortState::Ok, PortReason::Traffic));
+        assert!(got[8].0 >= want[7].0 + ms(50) && got[8].0 < want[7].0 + ms(60));
+        assert_eq!(link.port_state(0), PortState::Ok, "node {node} recovered");
+        assert!(net.port_events(node, 1).is_empty(), "node {node}");
+        // The flood passed through this station's merger without growing it.
+        let m = link.merger().stats();
+        assert_eq!(m.evicted, 0, "node {node}");
+        assert!(
+            m.high_water < 400,
+            "node {node}: high water {}",
+            m.high_water
+        );
+        let stats = link.stats();
+        assert_eq!((stats.events_dropped, stats.tx_dropped), (0, 0));
+    }
+}
+
+#[test]
+fn a_pair_is_one_stream_from_its_active_member_and_discrepancies_are_reported() {
+    let switch = Instant::from_millis(1_500);
+    let mut net = network(4, SLAVES, active_active(), STOP);
+    let m = net.dev(MASTER);
+    let (a, b) = (duocan::NodeId::must(2), duocan::NodeId::must(3));
+    let pair = net
+        .sim
+        .device_mut(m)
+        .link
+        .add_pair(a, b, Some(Member::A))
+        .unwrap();
+    net.sim.at(switch, move |sim| {
+        assert!(sim.device_mut(m).link.set_active(pair, Some(Member::B)));
+    });
+    run_to_end(&mut net);
+
+    // The master's application gets the pair's process data from A until the switch, from B
+    // after it; everything else as usual.
+    let app = &net.station(MASTER).machine.b;
+    let from = |node: u16| -> Vec<Instant> {
+        app.received
+            .iter()
+            .filter(|(_, f)| f.id().raw() & 0x7F == node as u32)
+            .map(|(t, _)| *t)
+            .collect()
+    };
+    let (got_a, got_b) = (from(2), from(3));
+    assert!(got_a.len() > 250 && got_a.iter().all(|t| *t < switch));
+    assert!(got_b.len() > 350 && got_b.iter().all(|t| *t > switch));
+    for r in 2..=SLAVES + 1 {
+        net.assert_application_exact_at(r);
+    }
+    // The standby's values are kept: B's last counter before the switch is known.
+    let link = &net.station(MASTER).link;
+    let (t, last_a) = link.pairs().latest(pair, Member::A, 1).unwrap();
+    assert!(t < STOP + Duration::from_millis(10) && last_a.id() == Id::Standard(0x182));
+    // TPDO2 carries the node-ID: A and B always differ, reported 100 ms after B's first TPDO2
+    // reached the master (A's came first). TPDO1 counters differ only for the 300 µs between
+    // the two boards' cycles: never reported.
+    let b_first = net
+        .wire(0)
+        .iter()
+        .filter(|x| x.1 == 3 && x.2.id() == Id::Standard(0x283))
+        .map(|x| x.0)
+        .min()
+        .unwrap();
+    let disc: Vec<_> = net
+        .link_events(MASTER)
+        .into_iter()
+        .filter_map(|e| match e.kind {
+            LinkEventKind::Discrepancy {
+                pair: p,
+                function,
+                a,
+                b,
+                since,
+            } => Some((e.at, p, function, a.data()[0], b.data()[0], since)),
+            _ => None,
+        })
+        .collect();
+    assert_eq!(
+        disc,
+        [(b_first + Duration::from_millis(100), pair, 2, 2, 3, b_first)]
+    );
+}

@@ -1,0 +1,269 @@
+//! ECSS bus-toggle mode on the simulated dual bus: slaves follow the redundancy master's
+//! heartbeat, toggling every Ttoggle periods up to Ntoggle times, with the frames on the wire.
+
+use crate::sim::*;
+use duocan::od::ObjectDictionary;
+use duocan::sim::TxOutcome;
+use duocan::{Duration, Frame, Id, Instant, NmtCommand, NmtState, NmtTarget, NodeId};
+use duocan_redundancy::{DualBusConfig, EcssConfig, LinkEventKind, LinkMode, SwitchReason};
+use std::cell::RefCell;
+use std::rc::Rc;
+
+const SLAVES: u8 = 6;
+/// The slaves' consumer time for the master's heartbeat (3 × its 50 ms period): `P`.
+const P: Duration = Duration::from_millis(150);
+const M: NodeId = NodeId::must(MASTER);
+
+fn cfg(node: u8) -> DualBusConfig {
+    let ecss = if node == MASTER {
+        EcssConfig::master()
+    } else {
+        EcssConfig {
+            ttoggle: 2,
+            ntoggle: 4,
+            ..EcssConfig::slave(M, P)
+        }
+    };
+    DualBusConfig::with_guard_period(
+        LinkMode::EcssToggle(ecss),
+        Duration::from_millis(HB_MS as u64),
+    )
+}
+
+/// The toggle-related events of `node`.
+fn toggles(net: &Net, node: u8) -> Vec<(Instant, LinkEventKind)> {
+    net.link_events(node)
+        .into_iter()
+        .filter(|e| {
+            matches!(
+                e.kind,
+                LinkEventKind::MasterLost { .. }
+                    | LinkEventKind::Toggle { .. }
+                    | LinkEventKind::NoMaster { .. }
+                    | LinkEventKind::MasterFound { .. }
+                    | LinkEventKind::Channel { .. }
+            )
+        })
+        .map(|e| (e.at, e.kind))
+        .collect()
+}
+
+fn master_heartbeats(net: &Net, bus: usize) -> Vec<Instant> {
+    net.wire(bus)
+        .into_iter()
+        .filter(|x| {
+            x.1 == MASTER
+                && x.2.id() == Id::Standard(0x701)
+                && matches!(x.3, TxOutcome::Delivered { .. })
+        })
+        .map(|x| x.0)
+        .collect()
+}
+
+fn app_frames_of(net: &Net, bus: usize, node: u8) -> Vec<Instant> {
+    let tpdo = |f: &Frame| f.id() == Id::Standard(0x180 + node as u16);
+    net.wire(bus)
+        .into_iter()
+        .filter(|x| x.1 == node && tpdo(&x.2))
+        .map(|x| x.0)
+        .collect()
+}
+
+#[test]
+fn slaves_follow_the_master_to_the_other_bus_after_t_minus_one_periods() {
+    let stop = Instant::from_millis(2_500);
+    let mut net = network_with(21, SLAVES, cfg, stop);
+    let m = net.dev(MASTER);
+    let t = Instant::from_millis(1_000);
+    net.sim.at(t, move |sim| {
+        assert!(sim.device_mut(m).link.select_channel(t, 1));
+    });
+    net.sim.run_until(stop);
+
+    assert_eq!(
+        toggles(&net, MASTER),
+        [(
+            t,
+            LinkEventKind::Channel {
+                from: 0,
+                to: 1,
+                reason: SwitchReason::Command
+            }
+        )]
+    );
+    let last = *master_heartbeats(&net, 0).last().unwrap();
+    assert!(last <= t);
+    let toggle_at = last + P + P; // lost after P, first toggle (Ttoggle − 1) × P later
+    let found = master_heartbeats(&net, 1)
+        .into_iter()
+        .find(|h| *h > toggle_at)
+        .unwrap();
+    for node in 2..=SLAVES + 1 {
+        assert_eq!(
+            toggles(&net, node),
+            [
+                (last + P, LinkEventKind::MasterLost { master: M, bus: 0 }),
+                (
+                    toggle_at,
+                    LinkEventKind::Toggle {
+                        from: 0,
+                        to: 1,
+                        ctoggle: 1
+                    }
+                ),
+                (found, LinkEventKind::MasterFound { master: M, bus: 1 }),
+            ],
+            "node {node}"
+        );
+        let ecss = net.station(node).link.ecss().unwrap();
+        assert_eq!((ecss.bdefault(), ecss.ctoggle()), (1, 1));
+        // The dictionary shows it: 0x2000 sub 1 Bdefault and sub 4 Ctoggle.
+        let od = net.station(node).machine.a.od();
+        assert_eq!(
+            (od.get_u32(0x2000, 1), od.get_u32(0x2000, 4)),
+            (Some(1), Some(1))
+        );
+        // On the wire: the slave's traffic on bus 1 until the toggle, on bus 2 after it.
+        assert!(app_frames_of(&net, 0, node).iter().all(|x| *x <= toggle_at));
+        let on_2 = app_frames_of(&net, 1, node);
+        assert!(on_2.len() > 100 && on_2.iter().all(|x| *x > toggle_at));
+        // The master's frames on bus 2 before the toggle were not delivered: the first master
+        // heartbeat the slave saw on bus 2 is the one that found it.
+        assert!(master_heartbeats(&net, 1)[0] < toggle_at);
+    }
+}
+
+#[test]
+fn without_a_master_slaves_toggle_n_times_then_stay_and_report_until_it_returns() {
+    let stop = Instant::from_millis(4_000);
+    let mut net = network_with(22, SLAVES, cfg, stop);
+    let m = net.dev(MASTER).erased();
+    net.sim
+        .at(Instant::from_millis(1_000), move |sim| sim.power_off(m));
+    net.sim
+        .at(Instant::from_millis(3_000), move |sim| sim.power_on(m));
+    net.sim.run_until(stop);
+
+    let hbs = master_heartbeats(&net, 0);
+    let last = *hbs
+        .iter()
+        .rfind(|h| **h <= Instant::from_millis(1_000))
+        .unwrap();
+    let back = *hbs
+        .iter()
+        .find(|h| **h > Instant::from_millis(3_000))
+        .unwrap();
+    let tg = |n: u64, from, to, c| {
+        (
+            last + P + P + (P + P).saturating_mul(n),
+            LinkEventKind::Toggle {
+                from,
+                to,
+                ctoggle: c,
+            },
+        )
+    };
+    for node in 2..=SLAVES + 1 {
+        assert_eq!(
+            toggles(&net, node),
+            [
+                (last + P, LinkEventKind::MasterLost { master: M, bus: 0 }),
+                tg(0, 0, 1, 1),
+                tg(1, 1, 0, 2),
+                tg(2, 0, 1, 3),
+                tg(3, 1, 0, 4),
+                // The fifth toggle would exceed Ntoggle: stay on bus 1 and say so.
+                (
+                    last + P + P + (P + P).saturating_mul(4),
+                    LinkEventKind::NoMaster { bus: 0, ctoggle: 4 }
+                ),
+                (back, LinkEventKind::MasterFound { master: M, bus: 0 }),
+            ],
+            "node {node}"
+        );
+        let ecss = net.station(node).link.ecss().unwrap();
+        assert!(!ecss.no_master());
+        assert_eq!((ecss.bdefault(), ecss.ctoggle()), (0, 4));
+        // On the wire: the slave's frames alternate between the buses while it searches.
+        let on_2 = app_frames_of(&net, 1, node);
+        assert!(!on_2.is_empty());
+        assert!(on_2
+            .iter()
+            .all(|x| (*x > tg(0, 0, 1, 1).0 && *x <= tg(1, 1, 0, 2).0)
+                || (*x > tg(2, 0, 1, 3).0 && *x <= tg(3, 1, 0, 4).0)));
+    }
+}
+
+/// What a slave shows at one instant: NMT state, 0x2000 sub 1 and sub 4 in its dictionary, and
+/// the layer's own Bdefault and Ctoggle.
+type Sample = (Instant, NmtState, u8, u8, u8, u8);
+
+#[test]
+fn losing_the_master_puts_the_slave_in_pre_operational_and_0x2000_shows_the_toggling() {
+    let stop = Instant::from_millis(4_000);
+    let mut net = network_with(23, SLAVES, cfg, stop);
+    let m = net.dev(MASTER);
+    let start = Instant::from_millis(500);
+    net.sim.at(start, move |sim| {
+        let node = &mut sim.device_mut(m).machine.a;
+        node.nmt_command(start, NmtCommand::Start, NmtTarget::All)
+            .unwrap();
+    });
+    let me = m.erased();
+    net.sim
+        .at(Instant::from_millis(1_000), move |sim| sim.power_off(me));
+    net.sim
+        .at(Instant::from_millis(3_000), move |sim| sim.power_on(me));
+    let samples: Rc<RefCell<Vec<Sample>>> = Rc::default();
+    let s = net.dev(2);
+    for k in 60..400u64 {
+        let t = Instant::from_millis(10 * k);
+        let out = samples.clone();
+        net.sim.at(t, move |sim| {
+            let st = sim.device(s);
+            let od = st.machine.a.od();
+            let read = |sub| od.get_u32(0x2000, sub).unwrap() as u8;
+            let ecss = st.link.ecss().unwrap();
+            out.borrow_mut().push((
+                t,
+                st.machine.a.nmt_state(),
+                read(1),
+                read(4),
+                ecss.bdefault(),
+                ecss.ctoggle(),
+            ));
+        });
+    }
+    net.sim.run_until(stop);
+
+    let lost = net
+        .link_events(2)
+        .into_iter()
+        .find(|e| matches!(e.kind, LinkEventKind::MasterLost { .. }))
+        .unwrap()
+        .at;
+    let samples = samples.borrow();
+    let mut seen = std::collections::BTreeSet::new();
+    for &(t, state, od_b, od_c, b, c) in samples.iter() {
+        // The dictionary always shows what the layer does.
+        assert_eq!((od_b, od_c), (b, c), "at {t}");
+        seen.insert(c);
+        if t < lost {
+            assert_eq!(
+                state,
+                NmtState::Operational,
+                "at {t}: started before the loss"
+            );
+        } else {
+            assert_eq!(
+                state,
+                NmtState::PreOperational,
+                "at {t}: pre-operational after it"
+            );
+        }
+    }
+    // Ctoggle counted 0 to Ntoggle (4) in the dictionary.
+    assert_eq!(seen.into_iter().collect::<Vec<_>>(), [0, 1, 2, 3, 4]);
+    // Read over SDO-visible state at the end: the master is back on bus 1, Ctoggle stays 4.
+    assert_eq!(samples.last().map(|x| (x.2, x.3)), Some((0, 4)));
+}

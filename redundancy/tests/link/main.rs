@@ -1,0 +1,9 @@
+//! The dual-bus layer (`duocan_redundancy::link`): the merger, and each policy on the simulated dual bus.
+
+mod active_active;
+mod cia302_6;
+mod ecss;
+mod merge_memory;
+mod merge_properties;
+mod railway;
+mod sim;

@@ -1,0 +1,3 @@
+//! The logical network object (`duocan_redundancy::network`) on the simulated dual bus.
+
+mod logical;

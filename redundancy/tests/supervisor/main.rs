@@ -1,0 +1,10 @@
+//! The supervisor (`duocan_redundancy::supervisor`): pair and flying-master machines, and the supervisor with the CiA 302-2 master on the simulated dual bus.
+
+mod chaos;
+mod combined;
+mod flying_master;
+mod master;
+mod net;
+mod on_bus;
+mod pairs;
+mod partition;

@@ -1,0 +1,9 @@
+//! The railway station demo (`examples/demo`): the same scenario, its invariants asserted, and
+//! its timeline chart.
+
+#[path = "../../examples/demo/scenario/mod.rs"]
+#[allow(dead_code)]
+mod scenario;
+
+mod report_svg;
+mod run;

@@ -1,0 +1,11 @@
+//! The CiA 302-2 master (`duocan::master`) and the master-side PDO configuration (`duocan::cia302::pdo_config`).
+
+mod boot;
+mod control;
+mod failures;
+mod net;
+mod pdo_config;
+mod properties;
+mod reboot;
+mod request_nmt;
+mod standby;

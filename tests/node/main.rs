@@ -1,0 +1,8 @@
+//! The node (`duocan::node`): every CiA 301 service through a node, properties, static RAM, timing on the simulated bus.
+
+#[path = "../common/mod.rs"]
+mod common;
+mod memory;
+mod properties;
+mod services;
+mod sim;

@@ -1,0 +1,7 @@
+//! The PDO engine (`duocan::pdo`): transmission types, mapping, timing on the simulated bus, properties.
+
+#[path = "../common/mod.rs"]
+mod common;
+mod engine;
+mod properties;
+mod sim;

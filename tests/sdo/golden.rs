@@ -1,0 +1,161 @@
+//! Golden frame sequences: one expedited, one segmented and one block transfer each way, byte for
+//! byte as CiA 301 §7.2.4.3 lays them out (expected bytes written by hand from the standard; the
+//! block CRC from an independent bitwise CRC-16/XMODEM computation).
+
+use crate::net::{Net, DOMAIN, STRING, VALUES};
+use duocan::od::ObjectDictionary;
+use duocan::sdo::{SdoOptions, TransferMode};
+use duocan::{Id, NodeId};
+
+const N: NodeId = NodeId::must(5);
+const C: Option<usize> = None;
+const S: Option<usize> = Some(0);
+
+fn exchange(net: &Net, from: usize) -> Vec<(Option<usize>, u16, [u8; 8])> {
+    net.log[from..]
+        .iter()
+        .map(|(_, who, f)| {
+            let Id::Standard(id) = f.id() else {
+                panic!("SDO on 11-bit identifiers here")
+            };
+            (*who, id, f.data().try_into().unwrap())
+        })
+        .collect()
+}
+
+#[test]
+fn expedited_download_and_upload() {
+    let mut net = Net::new(&[5]);
+    net.client
+        .download(
+            net.now,
+            N,
+            VALUES,
+            3,
+            &500u32.to_le_bytes(),
+            SdoOptions::default(),
+        )
+        .unwrap();
+    net.finish();
+    assert_eq!(
+        exchange(&net, 0),
+        [
+            (C, 0x605, [0x23, 0x02, 0x20, 0x03, 0xF4, 0x01, 0x00, 0x00]),
+            (S, 0x585, [0x60, 0x02, 0x20, 0x03, 0x00, 0x00, 0x00, 0x00]),
+        ]
+    );
+    let from = net.log.len();
+    net.client
+        .upload(net.now, N, VALUES, 1, SdoOptions::default())
+        .unwrap();
+    let ev = net.finish();
+    assert_eq!(ev[0].data(), Some(&7u32.to_le_bytes()[..]));
+    assert_eq!(
+        exchange(&net, from),
+        [
+            (C, 0x605, [0x40, 0x02, 0x20, 0x01, 0x00, 0x00, 0x00, 0x00]),
+            (S, 0x585, [0x43, 0x02, 0x20, 0x01, 0x07, 0x00, 0x00, 0x00]),
+        ]
+    );
+}
+
+#[test]
+fn segmented_download_and_upload() {
+    let mut net = Net::new(&[5]);
+    net.client
+        .download(net.now, N, STRING, 0, b"duocan-sdo", SdoOptions::default())
+        .unwrap();
+    net.finish();
+    assert_eq!(net.nodes[0].od().read(STRING, 0), Ok(&b"duocan-sdo"[..]));
+    assert_eq!(
+        exchange(&net, 0),
+        [
+            // ccs=1, s=1: size 10 follows.
+            (C, 0x605, [0x21, 0x01, 0x20, 0x00, 0x0A, 0x00, 0x00, 0x00]),
+            (S, 0x585, [0x60, 0x01, 0x20, 0x00, 0x00, 0x00, 0x00, 0x00]),
+            // t=0, n=0, c=0: "duocan-"
+            (C, 0x605, [0x00, b'd', b'u', b'o', b'c', b'a', b'n', b'-']),
+            (S, 0x585, [0x20, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00]),
+            // t=1, n=4, c=1: "sdo"
+            (C, 0x605, [0x19, b's', b'd', b'o', 0x00, 0x00, 0x00, 0x00]),
+            (S, 0x585, [0x30, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00]),
+        ]
+    );
+    let from = net.log.len();
+    net.client
+        .upload(net.now, N, STRING, 0, SdoOptions::default())
+        .unwrap();
+    let ev = net.finish();
+    assert_eq!(ev[0].data(), Some(&b"duocan-sdo"[..]));
+    assert_eq!(
+        exchange(&net, from),
+        [
+            (C, 0x605, [0x40, 0x01, 0x20, 0x00, 0x00, 0x00, 0x00, 0x00]),
+            (S, 0x585, [0x41, 0x01, 0x20, 0x00, 0x0A, 0x00, 0x00, 0x00]),
+            (C, 0x605, [0x60, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00]),
+            (S, 0x585, [0x00, b'd', b'u', b'o', b'c', b'a', b'n', b'-']),
+            (C, 0x605, [0x70, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00]),
+            (S, 0x585, [0x19, b's', b'd', b'o', 0x00, 0x00, 0x00, 0x00]),
+        ]
+    );
+}
+
+#[test]
+fn block_download_and_upload_with_crc() {
+    let data: Vec<u8> = (1..=20).collect();
+    let mut net = Net::new(&[5]);
+    net.client
+        .download(
+            net.now,
+            N,
+            DOMAIN,
+            0,
+            &data,
+            SdoOptions::mode(TransferMode::Block),
+        )
+        .unwrap();
+    assert!(net.finish()[0].result.is_ok());
+    assert_eq!(net.nodes[0].od().read(DOMAIN, 0), Ok(&data[..]));
+    assert_eq!(
+        exchange(&net, 0),
+        [
+            // ccs=6, cc=1 (CRC), s=1 (size 20), cs=0.
+            (C, 0x605, [0xC6, 0x00, 0x20, 0x00, 0x14, 0x00, 0x00, 0x00]),
+            // scs=5, sc=1, ss=0; blksize 127.
+            (S, 0x585, [0xA4, 0x00, 0x20, 0x00, 0x7F, 0x00, 0x00, 0x00]),
+            (C, 0x605, [0x01, 1, 2, 3, 4, 5, 6, 7]),
+            (C, 0x605, [0x02, 8, 9, 10, 11, 12, 13, 14]),
+            // c=1, seqno 3: the last segment, six bytes of data.
+            (C, 0x605, [0x83, 15, 16, 17, 18, 19, 20, 0]),
+            // ss=2: ackseq 3, next blksize 127.
+            (S, 0x585, [0xA2, 0x03, 0x7F, 0x00, 0x00, 0x00, 0x00, 0x00]),
+            // cs=1, n=1 unused byte; CRC 0xEAD3.
+            (C, 0x605, [0xC5, 0xD3, 0xEA, 0x00, 0x00, 0x00, 0x00, 0x00]),
+            (S, 0x585, [0xA1, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00]),
+        ]
+    );
+    let from = net.log.len();
+    net.client
+        .upload(net.now, N, DOMAIN, 0, SdoOptions::mode(TransferMode::Block))
+        .unwrap();
+    let ev = net.finish();
+    assert_eq!(ev[0].data(), Some(&data[..]));
+    assert_eq!(
+        exchange(&net, from),
+        [
+            // ccs=5, cc=1, cs=0; blksize 127, pst 0.
+            (C, 0x605, [0xA4, 0x00, 0x20, 0x00, 0x7F, 0x00, 0x00, 0x00]),
+            // scs=6, sc=1, s=1, ss=0; size 20.
+            (S, 0x585, [0xC6, 0x00, 0x20, 0x00, 0x14, 0x00, 0x00, 0x00]),
+            // cs=3: start.
+            (C, 0x605, [0xA3, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00]),
+            (S, 0x585, [0x01, 1, 2, 3, 4, 5, 6, 7]),
+            (S, 0x585, [0x02, 8, 9, 10, 11, 12, 13, 14]),
+            (S, 0x585, [0x83, 15, 16, 17, 18, 19, 20, 0]),
+            (C, 0x605, [0xA2, 0x03, 0x7F, 0x00, 0x00, 0x00, 0x00, 0x00]),
+            // ss=1, n=1; CRC.
+            (S, 0x585, [0xC5, 0xD3, 0xEA, 0x00, 0x00, 0x00, 0x00, 0x00]),
+            (C, 0x605, [0xA1, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00]),
+        ]
+    );
+}

@@ -1,0 +1,9 @@
+//! SDO server and client (`duocan::sdo`): transfers in every mode, aborts, golden frame sequences, random frame sequences, behaviour on the simulated bus.
+
+mod aborts;
+mod behaviour;
+mod golden;
+mod net;
+mod random;
+mod sim;
+mod transfers;

@@ -1,0 +1,405 @@
+//! python `canopen` / python-can as an independent peer on the udp_multicast bus.
+//!
+//! Needs a private network namespace with loopback multicast and `DUOCAN_PYTHON` pointing at a
+//! python with `python-can`, `canopen` and `msgpack`: `.ci/tier-python.sh` sets up both.
+
+#[path = "../../tests/common/runtime.rs"]
+mod rt;
+
+use duocan::node::NodeEventKind as K;
+use duocan::port::udp::{encode, UdpBusConfig, UdpPort};
+use duocan::port::{Port, PortInput};
+use duocan::runtime::Runtime;
+use duocan::sdo::{SdoErrorKind, SdoOptions, TransferMode};
+use duocan::AbortCode;
+use duocan::{Frame, Id, NmtCommand, NmtState, NmtTarget, NodeId};
+use rt::{node, node_event, pattern, single, wait_for};
+use std::process::Stdio;
+use std::time::Duration;
+use tokio::io::{AsyncBufReadExt, BufReader, Lines};
+use tokio::process::{Child, ChildStdout, Command};
+
+struct Peer {
+    child: Child,
+    out: Lines<BufReader<ChildStdout>>,
+}
+
+impl Peer {
+    async fn spawn(args: &[&str]) -> Peer {
+        let python = std::env::var("DUOCAN_PYTHON").unwrap_or_else(|_| {
+            panic!("DUOCAN_PYTHON is not set: point it at a python with python-can, canopen and msgpack (.ci/tier-python.sh does)")
+        });
+        let script = concat!(env!("CARGO_MANIFEST_DIR"), "/python/peer.py");
+        let mut child = Command::new(&python)
+            .arg(script)
+            .args(args)
+            .stdin(Stdio::piped())
+            .stdout(Stdio::piped())
+            .kill_on_drop(true)
+            .spawn()
+            .unwrap_or_else(|e| panic!("cannot run {python}: {e}"));
+        let out = BufReader::new(child.stdout.take().expect("stdout piped")).lines();
+        let mut p = Peer { child, out };
+        p.expect("READY", 20).await;
+        p
+    }
+
+    /// Waits for a line starting with `prefix`; returns the line.
+    async fn expect(&mut self, prefix: &str, secs: u64) -> String {
+        let r = tokio::time::timeout(Duration::from_secs(secs), async {
+            while let Some(l) = self.out.next_line().await.expect("peer stdout") {
+                if l.starts_with(prefix) {
+                    return Some(l);
+                }
+            }
+            None
+        })
+        .await;
+        match r {
+            Ok(Some(l)) => l,
+            Ok(None) => panic!("python peer exited before printing {prefix:?}"),
+            Err(_) => panic!("python peer did not print {prefix:?} within {secs} s"),
+        }
+    }
+
+    async fn send_line(&mut self, line: &str) {
+        use tokio::io::AsyncWriteExt;
+        let stdin = self.child.stdin.as_mut().expect("stdin piped");
+        stdin
+            .write_all(format!("{line}\n").as_bytes())
+            .await
+            .unwrap();
+        stdin.flush().await.unwrap();
+    }
+
+    async fn stop(mut self) {
+        drop(self.child.stdin.take());
+        let _ = tokio::time::timeout(Duration::from_secs(5), self.child.wait()).await;
+    }
+}
+
+fn group(cfg: &UdpBusConfig) -> (String, String) {
+    (cfg.group.to_string(), cfg.port.to_string())
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn python_node_heartbeat_is_consumed_and_duocan_nmt_drives_it() {
+    let cfg = UdpBusConfig::numbered(0);
+    let master = Runtime::new(single(node(1, true, 0, &[(0x22, 500)])))
+        .name("master")
+        .port(UdpPort::open(cfg.clone()).expect("open the UDP bus (inside unshare -n?)"))
+        .spawn()
+        .unwrap();
+    let mut ev = master.subscribe();
+    master.boot().await.unwrap();
+    let (g, p) = group(&cfg);
+    let mut peer = Peer::spawn(&["node", "0x22", "100", &g, &p]).await;
+    peer.expect("STATE PRE-OPERATIONAL", 10).await;
+    wait_for(&mut ev, 10, "python boot-up", |e| match node_event(e) {
+        Some(K::BootUp { node }) if node.raw() == 0x22 => Some(()),
+        _ => None,
+    })
+    .await;
+    wait_for(
+        &mut ev,
+        5,
+        "python heartbeat pre-operational",
+        |e| match node_event(e) {
+            Some(K::RemoteState {
+                node,
+                to: NmtState::PreOperational,
+                ..
+            }) if node.raw() == 0x22 => Some(()),
+            _ => None,
+        },
+    )
+    .await;
+
+    let target = NmtTarget::Node(NodeId::new(0x22).unwrap());
+    for (cmd, py, st) in [
+        (
+            NmtCommand::Start,
+            "STATE OPERATIONAL",
+            NmtState::Operational,
+        ),
+        (NmtCommand::Stop, "STATE STOPPED", NmtState::Stopped),
+        (
+            NmtCommand::EnterPreOperational,
+            "STATE PRE-OPERATIONAL",
+            NmtState::PreOperational,
+        ),
+    ] {
+        master.nmt(cmd, target).await.unwrap().unwrap();
+        peer.expect(py, 5).await;
+        wait_for(
+            &mut ev,
+            5,
+            "python heartbeat with the new state",
+            |e| match node_event(e) {
+                Some(K::RemoteState { node, to, .. }) if node.raw() == 0x22 && to == st => Some(()),
+                _ => None,
+            },
+        )
+        .await;
+    }
+    // NMT to another node-ID leaves it alone; broadcast start reaches it.
+    master
+        .nmt(
+            NmtCommand::Start,
+            NmtTarget::Node(NodeId::new(0x23).unwrap()),
+        )
+        .await
+        .unwrap()
+        .unwrap();
+    master
+        .nmt(NmtCommand::Start, NmtTarget::All)
+        .await
+        .unwrap()
+        .unwrap();
+    let l = peer.expect("STATE", 5).await;
+    assert_eq!(
+        l, "STATE OPERATIONAL",
+        "only the broadcast changed the state"
+    );
+
+    // The peer goes away: the consumer times out 500 ms after its last heartbeat.
+    peer.stop().await;
+    wait_for(
+        &mut ev,
+        5,
+        "heartbeat timeout of 0x22",
+        |e| match node_event(e) {
+            Some(K::HeartbeatTimeout { node, .. }) if node.raw() == 0x22 => Some(()),
+            _ => None,
+        },
+    )
+    .await;
+    assert_eq!(master.port_counters(0).unwrap().rx_invalid, 0);
+    master.shutdown().await;
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn garbage_datagrams_are_counted_and_the_runtime_keeps_going() {
+    let cfg = UdpBusConfig::numbered(1);
+    let mut port = UdpPort::open(cfg.clone()).expect("open the UDP bus (inside unshare -n?)");
+    let counters = port.counters();
+    // Raw junk from a plain socket: not msgpack, truncated, a map with wrong types, bad DLC.
+    let junk = std::net::UdpSocket::bind("127.0.0.1:0").unwrap();
+    let good = encode(&Frame::from_array(Id::Standard(0x181), [1, 2]), 0.0, None);
+    let mut wrong_type = good.clone();
+    let i = wrong_type.windows(3).position(|w| w == b"dlc").unwrap();
+    wrong_type[i + 3] = 0xc3; // dlc: true
+    let datagrams: Vec<Vec<u8>> = vec![
+        b"definitely not msgpack".to_vec(),
+        good[..good.len() / 2].to_vec(),
+        vec![0x92, 0x01, 0x02],
+        wrong_type,
+        vec![],
+    ];
+    for d in &datagrams {
+        junk.send_to(d, (cfg.group, cfg.port)).unwrap();
+    }
+    junk.send_to(&good, (cfg.group, cfg.port)).unwrap();
+    let got = tokio::time::timeout(Duration::from_secs(5), port.recv())
+        .await
+        .expect("the good frame arrives")
+        .unwrap();
+    assert_eq!(
+        got,
+        PortInput::Frame(Frame::from_array(Id::Standard(0x181), [1, 2]))
+    );
+    assert_eq!(counters.snapshot().rx_invalid, datagrams.len() as u64);
+
+    // python-can's own CAN FD and error frames, then a good frame, into a running runtime.
+    let master = Runtime::new(single(node(1, true, 0, &[])))
+        .port(port)
+        .spawn()
+        .unwrap();
+    master.boot().await.unwrap();
+    let (g, p) = group(&cfg);
+    let mut peer = Peer::spawn(&["junk", &g, &p]).await;
+    peer.expect("SENT 2", 10).await;
+    tokio::time::timeout(Duration::from_secs(5), async {
+        while master.port_counters(0).unwrap().rx_frames < 2 {
+            tokio::time::sleep(Duration::from_millis(10)).await;
+        }
+    })
+    .await
+    .expect("the good python frame arrived");
+    assert_eq!(
+        master.port_counters(0).unwrap().rx_invalid,
+        datagrams.len() as u64 + 2
+    );
+    assert_eq!(
+        master.nmt_state().await.unwrap(),
+        NmtState::Operational,
+        "runtime still answers"
+    );
+    peer.stop().await;
+    master.shutdown().await;
+}
+
+fn hex(b: &[u8]) -> String {
+    b.iter().map(|x| format!("{x:02x}")).collect()
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn duocan_sdo_client_against_a_python_local_node() {
+    let cfg = UdpBusConfig::numbered(2);
+    let m = Runtime::new(rt::master(1, &[]))
+        .name("master")
+        .port(UdpPort::open(cfg.clone()).expect("open the UDP bus (inside unshare -n?)"))
+        .spawn()
+        .unwrap();
+    m.boot().await.unwrap();
+    let (g, p) = group(&cfg);
+    let mut peer = Peer::spawn(&["node", "0x22", "0", &g, &p]).await;
+    peer.expect("STATE PRE-OPERATIONAL", 10).await;
+    let py = NodeId::new(0x22).unwrap();
+    let o = SdoOptions::default;
+
+    // Expedited and segmented uploads.
+    let v = m.sdo_read(py, 0x2000, 0, o()).await.unwrap().unwrap();
+    assert_eq!(v, 0x1234_5678u32.to_le_bytes());
+    let v = m.sdo_read(py, 0x1018, 1, o()).await.unwrap().unwrap();
+    assert_eq!(v, 0xD0CAu32.to_le_bytes());
+    let v = m.sdo_read(py, 0x2001, 0, o()).await.unwrap().unwrap();
+    assert_eq!(v, b"python canopen peer: a string longer than four bytes");
+
+    // Expedited and segmented downloads: the python node reports what it stored.
+    m.sdo_write(py, 0x2000, 0, 0xA5A5_0001u32.to_le_bytes().to_vec(), o())
+        .await
+        .unwrap()
+        .unwrap();
+    assert_eq!(peer.expect("WRITE 2000", 5).await, "WRITE 2000 0 0100a5a5");
+    let text = b"segmented download from duocan to python".to_vec();
+    m.sdo_write(
+        py,
+        0x2001,
+        0,
+        text.clone(),
+        SdoOptions::mode(TransferMode::Segmented),
+    )
+    .await
+    .unwrap()
+    .unwrap();
+    assert_eq!(
+        peer.expect("WRITE 2001", 5).await,
+        format!("WRITE 2001 0 {}", hex(&text))
+    );
+
+    // python canopen's server has no block transfer: block download falls back to segmented
+    // (the server aborts with 0x05040001), block upload is answered as a plain upload.
+    let blob = pattern(300, 3);
+    m.sdo_write(
+        py,
+        0x2002,
+        0,
+        blob.clone(),
+        SdoOptions::mode(TransferMode::Block),
+    )
+    .await
+    .unwrap()
+    .unwrap();
+    assert_eq!(
+        peer.expect("WRITE 2002", 5).await,
+        format!("WRITE 2002 0 {}", hex(&blob))
+    );
+    let back = m
+        .sdo_read(py, 0x2002, 0, SdoOptions::mode(TransferMode::Block))
+        .await
+        .unwrap()
+        .unwrap();
+    assert_eq!(back, blob);
+
+    let e = m.sdo_read(py, 0x2100, 0, o()).await.unwrap().unwrap_err();
+    assert_eq!(e.kind, SdoErrorKind::Server(AbortCode::NO_OBJECT));
+    assert_eq!(m.port_counters(0).unwrap().rx_invalid, 0);
+    peer.stop().await;
+    m.shutdown().await;
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn python_sdo_client_reads_and_writes_a_duocan_node() {
+    let cfg = UdpBusConfig::numbered(3);
+    let d = Runtime::new(single(rt::sdo_node(0x33, false, 0, &[])))
+        .name("duocan-slave")
+        .port(UdpPort::open(cfg.clone()).expect("open the UDP bus (inside unshare -n?)"))
+        .spawn()
+        .unwrap();
+    d.boot().await.unwrap();
+    let (g, p) = group(&cfg);
+    let mut peer = Peer::spawn(&["client", "0x33", &g, &p]).await;
+    peer.send_line("go").await;
+    assert_eq!(peer.expect("READ 1018", 10).await, "READ 1018 1 34120000");
+    assert_eq!(
+        peer.expect("READ 2001", 5).await,
+        format!("READ 2001 0 {}", hex(b"duocan node over a real bus"))
+    );
+    peer.expect("WROTE 2000 0", 5).await;
+    assert_eq!(
+        d.read(0x2000, 0).await.unwrap().unwrap(),
+        0x1122_3344u32.to_le_bytes()
+    );
+    peer.expect("WROTE 2001 0", 5).await;
+    assert_eq!(
+        d.read(0x2001, 0).await.unwrap().unwrap(),
+        b"written by python canopen over segmented SDO"
+    );
+    // Block download and block upload, driven by python's client against duocan's server.
+    peer.expect("WROTE 2002 0", 10).await;
+    let blob = pattern(1000, 9);
+    assert_eq!(d.read(0x2002, 0).await.unwrap().unwrap(), blob);
+    assert_eq!(
+        peer.expect("READ 2002", 10).await,
+        format!("READ 2002 0 {}", hex(&blob))
+    );
+    assert_eq!(peer.expect("ABORT", 5).await, "ABORT 2100 0 0x06020000");
+    peer.expect("DONE", 5).await;
+    assert_eq!(d.port_counters(0).unwrap().rx_invalid, 0);
+    peer.stop().await;
+    d.shutdown().await;
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn python_tpdo_is_consumed_by_a_duocan_rpdo() {
+    use duocan::node::NodeEventKind;
+    use duocan::pdo::PdoEvent;
+    let cfg = UdpBusConfig::numbered(4);
+    let mut n = node(1, true, 0, &[]);
+    rt::add_rpdo1(&mut n, 0x180 + 0x22);
+    let m = Runtime::new(single(n))
+        .name("master")
+        .port(UdpPort::open(cfg.clone()).expect("open the UDP bus (inside unshare -n?)"))
+        .spawn()
+        .unwrap();
+    let mut ev = m.subscribe();
+    m.boot().await.unwrap();
+    assert_eq!(m.nmt_state().await.unwrap(), NmtState::Operational);
+    let (g, p) = group(&cfg);
+    let mut peer = Peer::spawn(&["node", "0x22", "0", &g, &p]).await;
+    for value in [0x1234u16, 0xABCD] {
+        peer.send_line(&format!("tpdo {value}")).await;
+        peer.expect("TPDO", 5).await;
+        wait_for(&mut ev, 5, "RPDO1 applied with the new value", |e| {
+            matches!(
+                node_event(e),
+                Some(NodeEventKind::Pdo(PdoEvent::RpdoReceived { pdo: 1 }))
+            )
+            .then_some(())
+        })
+        .await;
+        tokio::time::timeout(Duration::from_secs(5), async {
+            loop {
+                if m.read(0x2100, 0).await.unwrap().unwrap() == value.to_le_bytes() {
+                    return;
+                }
+                tokio::time::sleep(Duration::from_millis(10)).await;
+            }
+        })
+        .await
+        .unwrap_or_else(|_| panic!("0x2100 never became {value:#06x}"));
+    }
+    peer.stop().await;
+    m.shutdown().await;
+}

@@ -1,0 +1,155 @@
+//! The dual-bus layer under duocan's tokio runtime on two real SocketCAN interfaces: vcan0 is
+//! set down mid-run and up again. Runs inside duocan's qemu VM (`.ci/tier-vcan.sh`).
+
+use duocan::machine::{PortStatus, Station, StationEvent};
+use duocan::node::NodeEventKind;
+use duocan::port::socketcan::SocketCanPort;
+use duocan::runtime::{Runtime, RuntimeEvent};
+use duocan::Duration;
+use duocan_redundancy::{DualBus, DualBusConfig, LinkEvent, LinkEventKind, LinkMode, PortState};
+use std::process::Command;
+use std::time::Duration as StdDuration;
+
+// The root crate's helpers for runtime tests (nodes, waiting on events).
+#[path = "../../tests/common/runtime.rs"]
+mod rt;
+use rt::wait_for;
+
+type Dev = Station<DualBus, rt::TestNode>;
+type Ev = RuntimeEvent<StationEvent<LinkEvent, duocan::NodeEvent>>;
+
+const HB_MS: u16 = 25;
+
+fn station(id: u8, master: bool, hb_ms: u16, consume: Option<(u8, u16)>) -> Dev {
+    let link = DualBus::new(DualBusConfig::with_guard_period(
+        LinkMode::ActiveActive,
+        Duration::from_millis(HB_MS as u64),
+    ));
+    let consume: Vec<_> = consume.into_iter().collect();
+    Station::new(link, rt::node(id, master, hb_ms, &consume))
+}
+
+fn ip(args: &[&str]) {
+    let st = Command::new("ip").args(args).status().expect("run ip");
+    assert!(st.success(), "ip {args:?} failed");
+}
+
+/// vcan0 down until dropped (also when the test fails).
+struct LinkDown;
+impl Drop for LinkDown {
+    fn drop(&mut self) {
+        let _ = Command::new("ip")
+            .args(["link", "set", "vcan0", "up"])
+            .status();
+    }
+}
+
+fn link_port(e: &Ev) -> Option<(u8, PortState)> {
+    match e {
+        RuntimeEvent::Device(StationEvent::Link(LinkEvent {
+            kind: LinkEventKind::Port { port, to, .. },
+            ..
+        })) => Some((*port, *to)),
+        _ => None,
+    }
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn frames_keep_flowing_on_vcan1_while_vcan0_is_down_and_vcan0_recovers() {
+    let master = Runtime::new(station(1, true, 0, Some((5, 300))))
+        .name("master")
+        .port(SocketCanPort::open("vcan0").unwrap())
+        .port(SocketCanPort::open("vcan1").unwrap())
+        .spawn()
+        .unwrap();
+    let slave = Runtime::new(station(5, false, HB_MS, None))
+        .name("slave")
+        .port(SocketCanPort::open("vcan0").unwrap())
+        .port(SocketCanPort::open("vcan1").unwrap())
+        .spawn()
+        .unwrap();
+    let mut ev = master.subscribe();
+    master.call(|d, now| d.machine.boot(now)).await.unwrap();
+    slave.call(|d, now| d.machine.boot(now)).await.unwrap();
+    for p in [0, 1] {
+        let until = tokio::time::Instant::now() + StdDuration::from_secs(10);
+        while master.port_counters(p).unwrap().rx_frames < 5 {
+            assert!(
+                tokio::time::Instant::now() < until,
+                "no heartbeats on port {p}"
+            );
+            tokio::time::sleep(StdDuration::from_millis(20)).await;
+        }
+    }
+    let (a, b) = (
+        master.port_counters(0).unwrap().rx_frames,
+        master.port_counters(1).unwrap().rx_frames,
+    );
+    assert!(a >= 5 && b >= 5, "heartbeats on both buses: {a} {b}");
+    // The merger hands each heartbeat to the node once, although it arrives twice.
+    let delivered = master.call(|d, _| d.link.stats().delivered).await.unwrap();
+    assert!(
+        delivered <= a.max(b) + 2,
+        "{delivered} delivered of {a}+{b} received"
+    );
+
+    ip(&["link", "set", "vcan0", "down"]);
+    let down = LinkDown;
+    wait_for(&mut ev, 5, "runtime reports port 0 down", |e| match e {
+        RuntimeEvent::Port {
+            port: 0,
+            status: PortStatus::Down(_),
+            ..
+        } => Some(()),
+        _ => None,
+    })
+    .await;
+    wait_for(&mut ev, 5, "layer marks port 0 failed", |e| {
+        (link_port(e) == Some((0, PortState::Failed))).then_some(())
+    })
+    .await;
+    // Behaviour, not speed: the emulated CPU may be slow, so wait (generously) for 15 more
+    // frames on vcan1 instead of counting within a fixed window.
+    let before = master.port_counters(1).unwrap().rx_frames;
+    let mut lost = false;
+    let until = tokio::time::Instant::now() + StdDuration::from_secs(20);
+    while master.port_counters(1).unwrap().rx_frames - before < 15 {
+        assert!(
+            tokio::time::Instant::now() < until,
+            "frames stopped on vcan1 while vcan0 was down: {} in 20 s",
+            master.port_counters(1).unwrap().rx_frames - before
+        );
+        if let Ok(Ok(RuntimeEvent::Device(StationEvent::Machine(n)))) =
+            tokio::time::timeout(StdDuration::from_millis(50), ev.recv()).await
+        {
+            lost |= matches!(n.kind, NodeEventKind::HeartbeatTimeout { .. });
+        }
+    }
+    assert!(!lost, "the node above never lost the slave's heartbeat");
+
+    drop(down);
+    wait_for(&mut ev, 5, "runtime reports port 0 up", |e| match e {
+        RuntimeEvent::Port {
+            port: 0,
+            status: PortStatus::Up,
+            ..
+        } => Some(()),
+        _ => None,
+    })
+    .await;
+    wait_for(&mut ev, 10, "layer trusts port 0 again", |e| {
+        (link_port(e) == Some((0, PortState::Ok))).then_some(())
+    })
+    .await;
+    let p0 = master.port_counters(0).unwrap().rx_frames;
+    let until = tokio::time::Instant::now() + StdDuration::from_secs(20);
+    while master.port_counters(0).unwrap().rx_frames - p0 < 5 {
+        assert!(
+            tokio::time::Instant::now() < until,
+            "frames flow on vcan0 again"
+        );
+        tokio::time::sleep(StdDuration::from_millis(20)).await;
+    }
+    master.shutdown().await;
+    slave.shutdown().await;
+}
