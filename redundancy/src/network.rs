@@ -1,4 +1,4 @@
-//! The logical network object (redundancy.md §6): what the application holds per dual-bus
+//! The logical network object: what the application holds per dual-bus
 //! network.
 //!
 //! [`LogicalNetwork`] is a thin facade over a [`SupervisedStation`] (dual-bus layer, CiA 302-2

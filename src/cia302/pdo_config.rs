@@ -11,7 +11,7 @@
 //! (count 0, entries, count), then the final COB-ID.
 //!
 //! Some devices refuse to disable a PDO (a constant COB-ID, or a firmware that rejects bit 31).
-//! The seed master accepted such a device when the PDO was already what was wanted, and so does
+//! A published embedded master accepted such a device when the PDO was already what was wanted, and so does
 //! this job (reported as `fallback`): the COB-ID already selects the wanted identifier and is
 //! valid, each parameter is either written or already holds the wanted value (read back after a
 //! refusal), and the mapping, which cannot change while the PDO is valid, already is the wanted
@@ -402,7 +402,7 @@ impl PdoConfigurator {
                 let refused = !protocol_failure(code);
                 match self.step {
                     Step::Disable if refused => {
-                        // The seed's fallback: accept the PDO as it is if it already matches.
+                        // The published master's fallback: accept the PDO as it is if it already matches.
                         self.fallback = true;
                         let want = self.cfg.cob_id;
                         let have = self.previous;

@@ -3,7 +3,7 @@
 //! SYNC, TIME, EMCY COB-IDs) is read from the dictionary instead.
 //!
 //! The stack only ever asks a profile; the predefined connection set is one implementation and a
-//! deployment-specific scheme ([`railway`], the seed's 29-bit layout) is another.
+//! deployment-specific scheme ([`railway`], the 29-bit layout of a published railway-depot network) is another.
 
 pub mod railway;
 

@@ -16,7 +16,7 @@ pub const PROVE: Duration = Duration::from_millis(60);
 /// How long level-crossing barriers take to go down or up.
 pub const BARRIERS: Duration = Duration::from_millis(500);
 
-/// Level-crossing barriers up (road open): an asymmetric code like railway.md's (four ones,
+/// Level-crossing barriers up (road open): an asymmetric code like the railway profile's (four ones,
 /// four zeros, eight bits from "down").
 pub const BARRIERS_UP: u8 = 0x3C;
 /// Barriers down (road closed).

@@ -159,7 +159,7 @@ pub enum ConfigStep {
         data: Vec<u8>,
     },
     /// One of the slave's PDOs, configured by a [`PdoConfigurator`](crate::cia302::pdo_config::PdoConfigurator)
-    /// (CiA 301 order: disable, parameters, mapping, enable; the seed's fallback for devices
+    /// (CiA 301 order: disable, parameters, mapping, enable; the fallback a published embedded master used for devices
     /// that refuse to disable a PDO already configured as wanted).
     Pdo {
         /// The slave's side: [`Dir::Transmit`] for one of its TPDOs.

@@ -1,4 +1,4 @@
-//! The seed's 29-bit identifier: a 9-bit function code above a 20-bit device address.
+//! The railway scheme's 29-bit identifier: a 9-bit function code above a 20-bit device address.
 //!
 //! ```text
 //!  28        20 19   16 15   12 11    8 7     4 3     0

@@ -4,17 +4,17 @@ use core::fmt;
 
 /// What a railway frame is, from the top 9 bits of its identifier. Lower codes win arbitration.
 ///
-/// The seed fixes fault report, heartbeat, command (answer), state change, node guarding and
+/// The published railway design fixes fault report, heartbeat, command (answer), state change, node guarding and
 /// state query. The rest are duocan's choices, documented here:
 ///
-/// - **State answer 0x044**: the seed's source gives 0x040 for both node guarding and state
+/// - **State answer 0x044**: the published design's source gives 0x040 for both node guarding and state
 ///   answer; 0x044 is the next free code of the same priority class.
-/// - **NMT 0x000** (address 0): the seed has no NMT identifier; module control must beat
+/// - **NMT 0x000** (address 0): the published design has no NMT identifier; module control must beat
 ///   everything, as CiA 301 gives it 0x000.
 /// - **SYNC 0x002** (address 0): the interlocking cycle; above fault reports, as CiA 301 puts
 ///   SYNC (0x080) above EMCY (0x081+).
 /// - **SDO 0x080 / 0x082** (server's address, port 0): configuration traffic, below every
-///   process and error-control code; answer below request as the seed orders command answer
+///   process and error-control code; answer below request as the published design orders command answer
 ///   (0x010) before command (0x012).
 /// - **Unmapped 0x1FF**: the lowest priority; what a node missing from the profile's table
 ///   sends its error control on, so that the mistake is visible on the bus and nobody acts on
@@ -40,7 +40,7 @@ pub enum RailFunction {
     NodeGuarding = 0x040,
     /// State query of the interlocking (railway payload with CRC, no data).
     StateQuery = 0x042,
-    /// State answer (0x044: the seed's source gives 0x040 twice).
+    /// State answer (0x044: the published design's source gives 0x040 twice).
     StateAnswer = 0x044,
     /// SDO server → client (duocan's choice).
     SdoResponse = 0x080,

@@ -1,4 +1,4 @@
-//! The railway identifier profile: the seed's 29-bit scheme (CAN 2.0B) as an [`IdProfile`].
+//! The railway identifier profile: the 29-bit scheme (CAN 2.0B) of a published redundant railway-depot network as an [`IdProfile`].
 //!
 //! An identifier is a 9-bit [`RailFunction`] code above a 20-bit [`DeviceAddress`] (row · cabinet ·
 //! layer · board · port). A node is a board; [`RailwayProfile`] holds the bounded table that

@@ -1,5 +1,5 @@
 //! The railway 29-bit profile as a [`FrameClassifier`]: the dual-bus layer's reachability,
-//! heartbeat evaluation and same-function merge over the seed's identifier scheme.
+//! heartbeat evaluation and same-function merge over the railway 29-bit identifier scheme.
 //!
 //! - **Heartbeats**: data frames of one byte on [`RailFunction::Heartbeat`] at a node's board
 //!   address.
