@@ -35,9 +35,20 @@ def module_of(path, src):
 
 def imports(text, crate):
     """Top-level modules named after `crate::` (also inside `crate::{a, b::c}`)."""
-    found = set(re.findall(r"\bcrate::([a-z_][a-z0-9_]*)", text))
+    found = set(re.findall(r"\bcrate::([A-Za-z_]\w*)", text))
     for group in re.findall(r"\bcrate::\{([^}]*)", text):
-        found.update(re.findall(r"(?:^|,)\s*([a-z_][a-z0-9_]*)", group))
+        found.update(re.findall(r"(?:^|,)\s*([A-Za-z_]\w*)", group))
+    return found
+
+
+def reexports(src):
+    """Names the crate root re-exports (`pub use module::...::{A, b}`), mapped to their module, so
+    that `crate::A` counts as an import from that module's layer."""
+    text = "\n".join(t for _, t in code_lines(src / "lib.rs"))
+    found = {}
+    for module, rest in re.findall(r"pub use (\w+)::([^;]*);", text, re.S):
+        for name in re.findall(r"\b(\w+)\b(?:\s*,|\s*}|\s*$)", rest):
+            found[name] = module
     return found
 
 
@@ -46,6 +57,10 @@ def check_layers(cfg):
     for c in cfg["crate"]:
         src = ROOT / c["src"]
         rank = {m: i for i, layer in enumerate(c["layers"]) for m in layer}
+        aliases = reexports(src)
+        for name, module in aliases.items():
+            if module in rank and name not in rank:
+                rank[name] = rank[module]
         for path in sorted(src.rglob("*.rs")):
             if "tests" in path.relative_to(src).parts[:-1]:
                 continue
