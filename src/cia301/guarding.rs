@@ -1,7 +1,7 @@
 //! Node guarding (the master polls, the slave answers with its state and a toggle bit) and life
 //! guarding (the slave notices the master's silence after guard time × life time factor).
 //!
-//! The seed's redundant design has both masters guard every slave, so both sides are complete.
+//! In a redundant network both masters guard every slave, so both sides are complete.
 //! The slave toggles its answer bit at every request, whoever sent it, so a master that guards
 //! beside another one counts the other's requests it observes on the bus
 //! ([`GuardMaster::observed_request`]) and checks every answer in the order the slave gave them.

@@ -1,4 +1,4 @@
-//! Slave-pair supervision: the seed's heartbeat table, event-driven and exact.
+//! Slave-pair supervision: a heartbeat table of redundant slave pairs, event-driven and exact.
 //!
 //! [`PairSupervisor`] is a sans-IO machine. Its inputs are observations — a member's boot-up or
 //! heartbeat at an instant, the result of its configuration, an NMT command seen on the bus —
@@ -6,7 +6,7 @@
 //! node, configure a node, tell the dual-bus layer which member is active) and [`PairsEvent`]s
 //! (role changes with pair, members, reason and time; members joining, lost, missing).
 //!
-//! # Rules (redundancy.md §4)
+//! # Rules
 //!
 //! - **Joining.** A member's boot-up asks for its configuration ([`PairCommand::Configure`]:
 //!   the CiA 302-2 boot process of the master, identity check, configuration, at least 0x1017);
