@@ -56,7 +56,7 @@ pub mod runtime;
 pub mod sim;
 
 // Short paths for what users name most.
-pub use cia301::{emcy, guarding, heartbeat, nmt, pdo, sdo, sync, time_stamp};
+pub use cia301::{emcy, guarding, heartbeat, nmt, pdo, sdo, service, sync, time_stamp};
 #[cfg(feature = "alloc")]
 pub use cia302::master;
 pub use frame::cob_id::{CobId, NodeId, NodeSet};

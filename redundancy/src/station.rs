@@ -229,7 +229,7 @@ impl<
                         x
                     },
                 );
-                let phase = match (s.phase, s.missing) {
+                let phase = match (s.phase(), s.missing()) {
                     (Phase::Waiting, _) if s.is_rejected() => "rejected",
                     (Phase::Waiting, true) => "missing",
                     (ph, _) => match ph {

@@ -1,6 +1,7 @@
 //! Emergency objects: producer (0x1014 COB-ID, 0x1015 inhibit in 100 µs, 0x1001 error register,
 //! 0x1003 history kept by the node) and consumer decoding.
 
+use crate::cia301::service::ServiceOutput;
 use crate::frame::cob_id::CobId;
 use crate::frame::instant::{Duration, Instant};
 use crate::frame::queue::Bounded;
@@ -175,6 +176,17 @@ impl EmcyProducer {
         Some(Frame::from_array(self.id?, msg.to_bytes()))
     }
 
+    /// Sends every waiting message the inhibit time lets go at `now`, if the NMT state allows
+    /// EMCY (otherwise they wait).
+    pub fn handle_timeout<O: ServiceOutput>(&mut self, now: Instant, out: &mut O) {
+        if !out.nmt_state().services().emcy {
+            return;
+        }
+        while let Some(f) = self.poll_frame(now) {
+            out.send(f);
+        }
+    }
+
     /// When the inhibit time lets the next waiting message go.
     pub fn poll_timeout(&self) -> Option<Instant> {
         if self.pending.is_empty() || self.id.is_none() {
@@ -220,6 +232,25 @@ mod tests {
         assert_eq!(p.poll_timeout(), Some(Instant::from_millis(6)));
         let f = p.poll_frame(Instant::from_millis(6)).unwrap();
         assert_eq!(f.data()[2], register::GENERIC | register::COMMUNICATION);
+    }
+
+    #[test]
+    fn timeout_sends_what_the_inhibit_time_allows_and_nothing_when_stopped() {
+        use crate::cia301::nmt::NmtState;
+        use crate::cia301::service::Recorder;
+        let mut p = EmcyProducer::default();
+        p.configure(CobId(0x85), 10); // 1 ms
+        p.raise(0x1000, 0, [0; 5]);
+        p.raise(0x8130, register::COMMUNICATION, [0; 5]);
+        let mut out = Recorder::new(NmtState::Stopped);
+        p.handle_timeout(Instant::ZERO, &mut out);
+        assert!(out.frames.is_empty(), "stopped: EMCY waits");
+        let mut out = Recorder::new(NmtState::Operational);
+        p.handle_timeout(Instant::ZERO, &mut out);
+        assert_eq!(out.frames.len(), 1, "the inhibit time holds the second");
+        p.handle_timeout(Instant::from_millis(1), &mut out);
+        assert_eq!(out.frames.len(), 2);
+        assert!(out.events.is_empty());
     }
 
     #[test]

@@ -1,12 +1,13 @@
 //! Node guarding (the master polls, the slave answers with its state and a toggle bit) and life
 //! guarding (the slave notices the master's silence after guard time × life time factor).
 //!
-//! The published redundant railway design has both masters guard every slave, so both sides are complete.
+//! In a redundant network both masters guard every slave, so both sides are complete.
 //! The slave toggles its answer bit at every request, whoever sent it, so a master that guards
 //! beside another one counts the other's requests it observes on the bus
 //! ([`GuardMaster::observed_request`]) and checks every answer in the order the slave gave them.
 
 use crate::cia301::nmt::NmtState;
+use crate::cia301::service::{ServiceEvent, ServiceOutput};
 use crate::frame::cob_id::NodeId;
 use crate::frame::instant::{Duration, Instant};
 
@@ -61,14 +62,14 @@ impl GuardSlave {
         self.deadline
     }
     /// Reports a life-guarding loss if the deadline passed.
-    pub fn handle_timeout(&mut self, now: Instant) -> Option<LifeEvent> {
+    pub fn handle_timeout<O: ServiceOutput>(&mut self, now: Instant, out: &mut O) {
         match self.deadline {
             Some(d) if d <= now => {
                 self.deadline = None;
                 self.lost = true;
-                Some(LifeEvent::Lost)
+                out.event(now, ServiceEvent::Life(LifeEvent::Lost));
             }
-            _ => None,
+            _ => {}
         }
     }
 }
@@ -249,20 +250,19 @@ impl<const N: usize> GuardMaster<N> {
             .min()
     }
 
-    /// Sends due requests (`request(node)` queues the remote frame) and reports timeouts.
-    pub fn handle_timeout(
-        &mut self,
-        now: Instant,
-        mut request: impl FnMut(NodeId),
-        mut out: impl FnMut(GuardEvent),
-    ) {
+    /// Reports timeouts and asks for the due requests ([`ServiceEvent::GuardRequest`]: the
+    /// composer sends the remote frame), node by node.
+    pub fn handle_timeout<O: ServiceOutput>(&mut self, now: Instant, out: &mut O) {
         for g in self.nodes.iter_mut() {
             if !g.lost && g.deadline <= now {
                 g.lost = true;
-                out(GuardEvent::Timeout { node: g.node });
+                out.event(
+                    now,
+                    ServiceEvent::Guard(GuardEvent::Timeout { node: g.node }),
+                );
             }
             if g.next_poll <= now {
-                request(g.node);
+                out.event(now, ServiceEvent::GuardRequest { node: g.node });
                 g.awaiting = (g.awaiting + 1).min(MAX_OUTSTANDING);
                 g.next_poll += g.guard_time.max(Duration::from_micros(1));
                 if g.next_poll <= now {
@@ -281,7 +281,38 @@ impl<const N: usize> GuardMaster<N> {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::cia301::service::Recorder;
     use std::vec::Vec;
+
+    /// Runs the master's timeout: requests asked for go to `reqs`, reports to `evs`.
+    fn tick<const N: usize>(
+        m: &mut GuardMaster<N>,
+        now: Instant,
+        reqs: &mut Vec<NodeId>,
+        evs: &mut Vec<GuardEvent>,
+    ) {
+        let mut out = Recorder::new(NmtState::Operational);
+        m.handle_timeout(now, &mut out);
+        assert!(out.frames.is_empty(), "the identifiers are the composer's");
+        for e in out.kinds() {
+            match e {
+                ServiceEvent::GuardRequest { node } => reqs.push(node),
+                ServiceEvent::Guard(e) => evs.push(e),
+                other => panic!("not a guarding output: {other:?}"),
+            }
+        }
+    }
+
+    /// Runs the slave's timeout: what life guarding reported.
+    fn life(s: &mut GuardSlave, now: Instant) -> Option<LifeEvent> {
+        let mut out = Recorder::new(NmtState::Operational);
+        s.handle_timeout(now, &mut out);
+        match out.kinds()[..] {
+            [] => None,
+            [ServiceEvent::Life(e)] => Some(e),
+            ref other => panic!("not one life-guarding event: {other:?}"),
+        }
+    }
 
     #[test]
     fn slave_toggle_starts_at_zero_and_alternates() {
@@ -301,9 +332,9 @@ mod tests {
         assert_eq!(s.poll_timeout(), None, "starts with the first request");
         s.request(Instant::from_millis(10), NmtState::Operational);
         assert_eq!(s.poll_timeout(), Some(Instant::from_millis(310)));
-        assert_eq!(s.handle_timeout(Instant::from_millis(309)), None);
+        assert_eq!(life(&mut s, Instant::from_millis(309)), None);
         assert_eq!(
-            s.handle_timeout(Instant::from_millis(310)),
+            life(&mut s, Instant::from_millis(310)),
             Some(LifeEvent::Lost)
         );
         assert_eq!(
@@ -320,7 +351,7 @@ mod tests {
         m.guard(Instant::ZERO, n, Duration::from_millis(100), 2);
         let mut reqs = Vec::new();
         let mut evs = Vec::new();
-        m.handle_timeout(Instant::ZERO, |n| reqs.push(n), |e| evs.push(e));
+        tick(&mut m, Instant::ZERO, &mut reqs, &mut evs);
         assert_eq!(reqs, [n]);
         m.answer(
             Instant::from_millis(1),
@@ -338,7 +369,7 @@ mod tests {
         );
         evs.clear();
         assert_eq!(m.poll_timeout(), Some(Instant::from_millis(100)));
-        m.handle_timeout(Instant::from_millis(100), |n| reqs.push(n), |e| evs.push(e));
+        tick(&mut m, Instant::from_millis(100), &mut reqs, &mut evs);
         // Same toggle again: the slave's answer was lost or it did not alternate.
         m.answer(
             Instant::from_millis(101),
@@ -356,10 +387,10 @@ mod tests {
         );
         evs.clear();
         // No valid answer since 1 ms: life time 200 ms → timeout at 201 ms.
-        m.handle_timeout(Instant::from_millis(200), |n| reqs.push(n), |e| evs.push(e));
+        tick(&mut m, Instant::from_millis(200), &mut reqs, &mut evs);
         assert!(evs.is_empty());
         assert_eq!(m.poll_timeout(), Some(Instant::from_millis(201)));
-        m.handle_timeout(Instant::from_millis(201), |n| reqs.push(n), |e| evs.push(e));
+        tick(&mut m, Instant::from_millis(201), &mut reqs, &mut evs);
         assert_eq!(evs, [GuardEvent::Timeout { node: n }]);
     }
 
@@ -377,9 +408,9 @@ mod tests {
         for step in 0..40u64 {
             let now = Instant::from_millis(step * 50);
             if step % 2 == 0 {
-                let mut asked = false;
-                x.handle_timeout(now, |_| asked = true, |e| evs.push(e));
-                assert!(asked);
+                let mut asked = Vec::new();
+                tick(&mut x, now, &mut asked, &mut evs);
+                assert!(!asked.is_empty());
             } else {
                 assert!(x.observed_request(n));
             }
@@ -417,7 +448,7 @@ mod tests {
         m.guard(Instant::ZERO, n, Duration::from_millis(100), 3);
         for k in 0..3u64 {
             let now = Instant::from_millis(k * 100);
-            m.handle_timeout(now, |_| {}, |e| evs.push(e));
+            tick(&mut m, now, &mut Vec::new(), &mut evs);
             let (b, _) = slave.request(now, NmtState::Operational);
             m.answer(now, n, NmtState::Operational, b & 0x80 != 0, |e| {
                 evs.push(e)
@@ -428,7 +459,7 @@ mod tests {
         assert!(evs.iter().all(|e| matches!(e, GuardEvent::State { .. })));
         // The slave reboots: its first answer carries 0, and 1 would be an error.
         m.booted(n);
-        m.handle_timeout(Instant::from_millis(300), |_| {}, |e| evs.push(e));
+        tick(&mut m, Instant::from_millis(300), &mut Vec::new(), &mut evs);
         evs.clear();
         m.answer(
             Instant::from_millis(301),

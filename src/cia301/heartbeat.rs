@@ -4,6 +4,7 @@
 //! last heartbeat + consumer time: no scan period is added, the driver is woken at the deadline.
 
 use crate::cia301::nmt::NmtState;
+use crate::cia301::service::{ServiceEvent, ServiceOutput};
 use crate::frame::cob_id::NodeId;
 use crate::frame::instant::{Duration, Instant};
 use crate::od::abort::AbortCode;
@@ -37,6 +38,13 @@ impl HeartbeatProducer {
     /// When the next heartbeat is due.
     pub fn poll_timeout(&self) -> Option<Instant> {
         self.next
+    }
+    /// Asks for the heartbeat if it is due at `now` and the NMT state allows error control; the
+    /// schedule advances either way (a node that is stopped keeps its grid).
+    pub fn handle_timeout<O: ServiceOutput>(&mut self, now: Instant, out: &mut O) {
+        if self.due(now) && out.nmt_state().services().error_control {
+            out.event(now, ServiceEvent::HeartbeatDue);
+        }
     }
     /// True if a heartbeat is due at `now`; advances the schedule.
     pub fn due(&mut self, now: Instant) -> bool {
@@ -251,7 +259,7 @@ impl<const N: usize> HeartbeatConsumer<N> {
     }
 
     /// Reports (through `out`) every entry whose deadline is at or before `now`.
-    pub fn handle_timeout(&mut self, now: Instant, mut out: impl FnMut(ConsumerEvent)) {
+    pub fn handle_timeout<O: ServiceOutput>(&mut self, now: Instant, out: &mut O) {
         match self.next {
             Some(n) if n <= now => {}
             _ => return,
@@ -259,10 +267,13 @@ impl<const N: usize> HeartbeatConsumer<N> {
         for e in self.entries.iter_mut() {
             if e.watch == Watch::Running && e.deadline() <= now {
                 e.watch = Watch::Lost;
-                out(ConsumerEvent::Timeout {
-                    node: e.node,
-                    last: e.last,
-                });
+                out.event(
+                    now,
+                    ServiceEvent::Consumer(ConsumerEvent::Timeout {
+                        node: e.node,
+                        last: e.last,
+                    }),
+                );
             }
         }
         self.recompute_next();
@@ -293,12 +304,48 @@ pub fn heartbeat_payload(state: NmtState) -> [u8; 1] {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::cia301::service::Recorder;
+
+    /// Runs the consumer's timeout and returns what it reported.
+    fn expire<const N: usize>(
+        c: &mut HeartbeatConsumer<N>,
+        now: Instant,
+    ) -> std::vec::Vec<ConsumerEvent> {
+        let mut out = Recorder::new(NmtState::Operational);
+        c.handle_timeout(now, &mut out);
+        out.kinds()
+            .into_iter()
+            .map(|e| match e {
+                ServiceEvent::Consumer(e) => e,
+                other => panic!("not a consumer event: {other:?}"),
+            })
+            .collect()
+    }
 
     fn setting(node: u8, ms: u64) -> ConsumerSetting {
         ConsumerSetting {
             node: NodeId::new(node),
             time: Duration::from_millis(ms),
         }
+    }
+
+    #[test]
+    fn producer_asks_for_the_heartbeat_only_where_the_state_allows_it() {
+        let mut p = HeartbeatProducer::default();
+        p.restart(Instant::ZERO, Duration::from_millis(10));
+        let mut out = Recorder::new(NmtState::Operational);
+        p.handle_timeout(Instant::from_millis(9), &mut out);
+        p.handle_timeout(Instant::from_millis(10), &mut out);
+        assert_eq!(
+            out.events,
+            [(Instant::from_millis(10), ServiceEvent::HeartbeatDue)]
+        );
+        assert!(out.frames.is_empty(), "the identifier is the composer's");
+        // Initialising allows no error control: the grid advances, nothing is asked for.
+        let mut out = Recorder::new(NmtState::Initialising);
+        p.handle_timeout(Instant::from_millis(20), &mut out);
+        assert!(out.events.is_empty());
+        assert_eq!(p.poll_timeout(), Some(Instant::from_millis(30)));
     }
 
     #[test]
@@ -325,10 +372,9 @@ mod tests {
         );
         c.heard(NodeId::must(5), Instant::from_millis(100));
         assert_eq!(c.poll_timeout(), Some(Instant::from_millis(250)));
-        let mut evs = std::vec::Vec::new();
-        c.handle_timeout(Instant::from_micros(249_999), |e| evs.push(e));
+        let mut evs = expire(&mut c, Instant::from_micros(249_999));
         assert!(evs.is_empty());
-        c.handle_timeout(Instant::from_millis(250), |e| evs.push(e));
+        evs.extend(expire(&mut c, Instant::from_millis(250)));
         assert_eq!(
             evs,
             [ConsumerEvent::Timeout {
@@ -371,12 +417,11 @@ mod tests {
         c.heard(NodeId::must(2), Instant::from_millis(40));
         // A lower bound: waking at 50 ms finds nothing due and re-arms at the true minimum.
         assert_eq!(c.poll_timeout(), Some(Instant::from_millis(50)));
-        let mut fired = 0;
-        c.handle_timeout(Instant::from_millis(50), |_| fired += 1);
+        let mut fired = expire(&mut c, Instant::from_millis(50)).len();
         assert_eq!(fired, 0);
         assert_eq!(c.poll_timeout(), Some(Instant::from_millis(90)));
         c.heard(NodeId::must(2), Instant::from_millis(80));
-        c.handle_timeout(Instant::from_millis(90), |_| fired += 1);
+        fired += expire(&mut c, Instant::from_millis(90)).len();
         assert_eq!(fired, 0);
         assert_eq!(c.poll_timeout(), Some(Instant::from_millis(100)));
     }

@@ -12,6 +12,9 @@
 //! | SDO server and client: expedited, segmented, block | [`sdo`] | 0x580/0x600 + node |
 //! | PDO engine, mapping and parameters | [`pdo`] | 0x180…0x500 + node |
 //!
+//! The timed services share one shape ([`service`]): `poll_timeout` for the next deadline,
+//! `handle_timeout(now, &mut out)` writing frames and events into a [`service::ServiceOutput`].
+//!
 //! Everything here sits on the [object dictionary](crate::od) and the [frame](crate::frame)
 //! primitives only: no service knows the node that composes it, and none knows about the master
 //! or the ports. The root re-exports each module, so `duocan::sdo` is `duocan::cia301::sdo`.
@@ -22,5 +25,6 @@ pub mod heartbeat;
 pub mod nmt;
 pub mod pdo;
 pub mod sdo;
+pub mod service;
 pub mod sync;
 pub mod time_stamp;

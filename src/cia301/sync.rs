@@ -7,6 +7,7 @@
 //! SYNCs it received: the next one is due one period after the last one heard, at once if that
 //! is past.
 
+use crate::cia301::service::{ServiceEvent, ServiceOutput};
 use crate::frame::cob_id::CobId;
 use crate::frame::instant::{Duration, Instant};
 use crate::frame::Malformed;
@@ -100,8 +101,19 @@ impl SyncService {
         self.last
     }
 
-    /// Produces the SYNC due at `now`, if any.
-    pub fn handle_timeout(&mut self, now: Instant) -> Option<(Frame, SyncTick)> {
+    /// Produces the SYNC due at `now`, if any: its frame, then [`ServiceEvent::SyncProduced`].
+    /// A state without SYNC (stopped) keeps the grid and the counter running silently.
+    pub fn handle_timeout<O: ServiceOutput>(&mut self, now: Instant, out: &mut O) {
+        if let Some((frame, tick)) = self.produce(now) {
+            if out.nmt_state().services().sync {
+                out.send(frame);
+                out.event(now, ServiceEvent::SyncProduced(tick));
+            }
+        }
+    }
+
+    /// Advances the schedule past `now` and builds the SYNC that was due, if any.
+    fn produce(&mut self, now: Instant) -> Option<(Frame, SyncTick)> {
         let due = self.next.filter(|t| *t <= now)?;
         let id = self.id?;
         let mut next = due + self.cfg.period;
@@ -180,7 +192,7 @@ mod tests {
         let mut t = Instant::ZERO;
         for _ in 0..5 {
             t = s.poll_timeout().unwrap();
-            let (f, _) = s.handle_timeout(t).unwrap();
+            let (f, _) = s.produce(t).unwrap();
             got.push(f.data()[0]);
         }
         assert_eq!(got, [1, 2, 3, 1, 2]);
@@ -191,7 +203,7 @@ mod tests {
     fn without_counter_sync_is_empty() {
         let mut s = SyncService::default();
         s.configure(Instant::ZERO, cfg(1000, 0));
-        let (f, tick) = s.handle_timeout(Instant::from_millis(1)).unwrap();
+        let (f, tick) = s.produce(Instant::from_millis(1)).unwrap();
         assert_eq!(f.dlc(), 0);
         assert_eq!(f.id(), Id::Standard(0x80));
         assert_eq!(tick.counter, None);
@@ -201,7 +213,7 @@ mod tests {
     fn period_change_counts_from_the_last_sync() {
         let mut s = SyncService::default();
         s.configure(Instant::ZERO, cfg(10_000, 0));
-        s.handle_timeout(Instant::from_millis(10)).unwrap();
+        s.produce(Instant::from_millis(10)).unwrap();
         s.configure(Instant::from_millis(13), cfg(5_000, 0));
         assert_eq!(s.poll_timeout(), Some(Instant::from_millis(15)));
         s.configure(Instant::from_millis(13), cfg(1_000, 0));
@@ -210,6 +222,31 @@ mod tests {
             Some(Instant::from_millis(13)),
             "never in the past"
         );
+    }
+
+    #[test]
+    fn produced_sync_is_sent_then_reported_and_kept_silent_when_stopped() {
+        use crate::cia301::nmt::NmtState;
+        use crate::cia301::service::Recorder;
+        let mut s = SyncService::default();
+        s.configure(Instant::ZERO, cfg(1000, 3));
+        let mut out = Recorder::new(NmtState::PreOperational);
+        s.handle_timeout(Instant::from_millis(1), &mut out);
+        assert_eq!(out.frames, [Frame::from_array(Id::Standard(0x80), [1])]);
+        assert_eq!(
+            out.events,
+            [(
+                Instant::from_millis(1),
+                ServiceEvent::SyncProduced(SyncTick { counter: Some(1) })
+            )]
+        );
+        // Stopped: no SYNC, but the grid and the counter run on.
+        let mut out = Recorder::new(NmtState::Stopped);
+        s.handle_timeout(Instant::from_millis(2), &mut out);
+        assert!(out.frames.is_empty() && out.events.is_empty());
+        let mut out = Recorder::new(NmtState::Operational);
+        s.handle_timeout(Instant::from_millis(3), &mut out);
+        assert_eq!(out.frames, [Frame::from_array(Id::Standard(0x80), [3])]);
     }
 
     #[test]

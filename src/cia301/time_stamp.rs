@@ -4,6 +4,7 @@
 //! instant follows without drift. A standby master consumes TIME into its base and, when it takes
 //! over, produces from that same base: the network's clock does not jump.
 
+use crate::cia301::service::ServiceOutput;
 use crate::frame::cob_id::CobId;
 use crate::frame::instant::{Duration, Instant};
 use crate::frame::Malformed;
@@ -136,11 +137,18 @@ impl TimeService {
     pub fn poll_timeout(&self) -> Option<Instant> {
         self.next
     }
-    /// Periodic production.
-    pub fn handle_timeout(&mut self, now: Instant) -> Option<Frame> {
-        let due = self.next.filter(|t| *t <= now)?;
+    /// Periodic production: the TIME due at `now`, if the NMT state allows TIME (the period
+    /// runs on either way).
+    pub fn handle_timeout<O: ServiceOutput>(&mut self, now: Instant, out: &mut O) {
+        let Some(due) = self.next.filter(|t| *t <= now) else {
+            return;
+        };
         self.next = Some((due + self.period).max(now + Duration::from_micros(1)));
-        self.frame(now)
+        if let Some(f) = self.frame(now) {
+            if out.nmt_state().services().time {
+                out.send(f);
+            }
+        }
     }
     /// A TIME frame arrived: the local clock follows it when this node consumes TIME.
     pub fn received(&mut self, now: Instant, frame: &Frame) -> Result<TimeOfDay, Malformed> {
@@ -190,6 +198,30 @@ mod tests {
             base.at(Instant::from_millis(10_600)),
             TimeOfDay { days: 6, ms: 100 }
         );
+    }
+
+    #[test]
+    fn periodic_time_goes_out_where_the_state_allows_it() {
+        use crate::cia301::nmt::NmtState;
+        use crate::cia301::service::Recorder;
+        let mut t = TimeService::default();
+        t.configure(Instant::ZERO, CobId(0x4000_0100));
+        t.set(Instant::ZERO, TimeOfDay { days: 1, ms: 0 });
+        t.set_period(Instant::ZERO, Duration::from_millis(10));
+        let mut out = Recorder::new(NmtState::Stopped);
+        t.handle_timeout(Instant::from_millis(10), &mut out);
+        assert!(out.frames.is_empty());
+        assert_eq!(t.poll_timeout(), Some(Instant::from_millis(20)));
+        let mut out = Recorder::new(NmtState::Operational);
+        t.handle_timeout(Instant::from_millis(20), &mut out);
+        assert_eq!(
+            out.frames,
+            [Frame::from_array(
+                Id::Standard(0x100),
+                TimeOfDay { days: 1, ms: 20 }.to_bytes()
+            )]
+        );
+        assert!(out.events.is_empty());
     }
 
     #[test]

@@ -170,6 +170,15 @@ pub fn earliest(a: Option<Instant>, b: Option<Instant>) -> Option<Instant> {
     }
 }
 
+/// Earliest of any number of optional deadlines: a machine lists its named timers in one array
+/// (`earliest_of([self.retry, self.timeout, …])`), so that its next deadline is computed in one
+/// place and a new timer is one more element. No allocation; an array folds like a written-out
+/// chain of [`earliest`].
+#[inline]
+pub fn earliest_of(deadlines: impl IntoIterator<Item = Option<Instant>>) -> Option<Instant> {
+    deadlines.into_iter().fold(None, earliest)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -205,5 +214,19 @@ mod tests {
         assert_eq!(earliest(a, b), b);
         assert_eq!(earliest(a, None), a);
         assert_eq!(earliest(None, None), None);
+    }
+
+    #[test]
+    fn earliest_of_folds_any_number_of_timers() {
+        let t = |ms| Some(Instant::from_millis(ms));
+        assert_eq!(earliest_of([t(5), None, t(3), t(4)]), t(3));
+        assert_eq!(earliest_of([None, None]), None);
+        assert_eq!(earliest_of([] as [Option<Instant>; 0]), None);
+        assert_eq!(earliest_of([t(7)]), t(7));
+        // Ties and the order of the list do not matter.
+        assert_eq!(
+            earliest_of([t(2), t(2), None]),
+            earliest_of([None, t(2), t(2)])
+        );
     }
 }

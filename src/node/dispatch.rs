@@ -8,13 +8,31 @@ use crate::cia301::guarding::{GuardEvent, LifeEvent};
 use crate::cia301::heartbeat::ConsumerEvent;
 use crate::cia301::nmt::{self, NmtCommand, NmtState};
 use crate::cia301::pdo::{self, PdoEngine};
+use crate::cia301::service::{ServiceEvent, ServiceOutput};
+use crate::cia301::sync::SyncTick;
 use crate::frame::cob_id::NodeId;
-use crate::frame::instant::{earliest, Instant};
+use crate::frame::instant::{earliest_of, Instant};
 use crate::frame::queue::Bounded;
 use crate::frame::Malformed;
 use crate::frame::{Frame, Id};
 use crate::od::{comm, ObjectDictionary};
 use crate::profile::{IdProfile, ProfileFrame};
+
+/// The node's queues as a [`NodeOut`], borrowing only the fields it needs so that the services
+/// beside them can run at the same time.
+macro_rules! node_out {
+    ($core:ident) => {
+        NodeOut {
+            tx: &mut $core.tx,
+            stats: &mut $core.stats,
+            events: &mut $core.events,
+            profile: &$core.profile,
+            id: $core.cfg.node_id,
+            state: $core.state,
+            then: FollowUp::default(),
+        }
+    };
+}
 
 impl<D: ObjectDictionary, P: IdProfile, const G: usize, const TPDOS: usize, const RPDOS: usize>
     NodeCore<D, P, G, TPDOS, RPDOS>
@@ -27,14 +45,13 @@ impl<D: ObjectDictionary, P: IdProfile, const G: usize, const TPDOS: usize, cons
         self.events.push(NodeEvent { at, kind });
     }
 
-    pub(super) fn pdo_io(&mut self) -> (&mut PdoEngine<TPDOS, RPDOS>, pdo::Io<'_, D, PdoOut<'_>>) {
+    #[allow(clippy::type_complexity)]
+    pub(super) fn pdo_io(
+        &mut self,
+    ) -> (&mut PdoEngine<TPDOS, RPDOS>, pdo::Io<'_, D, NodeOut<'_, P>>) {
         let io = pdo::Io {
             od: &mut self.od,
-            out: PdoOut {
-                tx: &mut self.tx,
-                stats: &mut self.stats,
-                events: &mut self.events,
-            },
+            out: node_out!(self),
         };
         (&mut self.pdo, io)
     }
@@ -176,12 +193,7 @@ impl<D: ObjectDictionary, P: IdProfile, const G: usize, const TPDOS: usize, cons
     }
 
     pub(super) fn flush_emcy(&mut self, now: Instant) {
-        if !self.state.services().emcy {
-            return;
-        }
-        while let Some(f) = self.emcy.poll_frame(now) {
-            let _ = self.send(f);
-        }
+        self.run(now, Timer::Emcy);
     }
 
     pub(super) fn nmt_received(&mut self, now: Instant, frame: &Frame) {
@@ -251,14 +263,9 @@ impl<D: ObjectDictionary, P: IdProfile, const G: usize, const TPDOS: usize, cons
     }
 
     pub(super) fn guard_event(&mut self, now: Instant, e: GuardEvent) {
-        let kind = match e {
-            // The state itself was recorded from the frame already.
-            GuardEvent::State { .. } => return,
-            GuardEvent::Timeout { node } => NodeEventKind::GuardingTimeout { node },
-            GuardEvent::Resumed { node } => NodeEventKind::GuardingResumed { node },
-            GuardEvent::ToggleError { node, .. } => NodeEventKind::GuardToggleError { node },
-        };
-        self.event(now, kind);
+        if let Some(kind) = guard_kind(e) {
+            self.event(now, kind);
+        }
     }
 
     pub(super) fn guard_request(&mut self, now: Instant, frame: &Frame) {
@@ -267,10 +274,11 @@ impl<D: ObjectDictionary, P: IdProfile, const G: usize, const TPDOS: usize, cons
         }
         let (byte, resumed) = self.guard.request(now, self.state);
         let _ = self.send(Frame::from_array(self.profile.guarding(self.id()), [byte]));
-        if resumed.is_some() {
-            self.emcy_clear(now, emcy::code::LIFE_GUARD);
-            self.event(now, NodeEventKind::LifeGuardingResumed);
-        }
+        let life = FollowUp {
+            life: resumed,
+            ..FollowUp::default()
+        };
+        self.follow_up(now, life);
     }
 
     pub(super) fn handle_frame(&mut self, now: Instant, frame: &Frame) {
@@ -362,112 +370,204 @@ impl<D: ObjectDictionary, P: IdProfile, const G: usize, const TPDOS: usize, cons
         }
     }
 
+    /// Every timed service in turn, each writing into the node's queues; what one service's
+    /// output means for another (a lost life guarding raises an EMCY, a SYNC moves the PDOs)
+    /// happens right after it, before the next service runs.
     pub(super) fn handle_timeout(&mut self, now: Instant) {
         if self.state == NmtState::Initialising {
             return;
         }
-        let services = self.state.services();
-        if self.hb.due(now) && services.error_control {
-            let _ = self.send(Frame::from_array(
-                self.profile.heartbeat(self.id()),
-                [self.state.code()],
-            ));
+        for timer in Timer::ALL {
+            self.run(now, timer);
         }
-        let events = &mut self.events;
-        self.consumer.handle_timeout(now, |e| {
-            if let ConsumerEvent::Timeout { node, last } = e {
-                events.push(NodeEvent {
-                    at: now,
-                    kind: NodeEventKind::HeartbeatTimeout { node, last },
-                });
-            }
-        });
-        if self.guard.handle_timeout(now) == Some(LifeEvent::Lost) {
-            self.event(now, NodeEventKind::LifeGuardingLost);
-            self.emcy_raise(
-                now,
-                emcy::code::LIFE_GUARD,
-                emcy::register::COMMUNICATION,
-                [0; 5],
-            );
-        }
-        let mut requests: heapless::Vec<NodeId, G> = heapless::Vec::new();
-        let mut gevs: heapless::Vec<GuardEvent, G> = heapless::Vec::new();
-        self.guard_master.handle_timeout(
-            now,
-            |n| {
-                let _ = requests.push(n);
-            },
-            |e| {
-                let _ = gevs.push(e);
-            },
-        );
-        for e in gevs {
-            self.guard_event(now, e);
-        }
-        for n in requests {
-            if let Ok(f) = Frame::remote(self.profile.guarding(n), 1) {
-                let _ = self.send(f);
-            }
-        }
-        if let Some((f, tick)) = self.sync.handle_timeout(now) {
-            if services.sync {
-                let _ = self.send(f);
-                self.event(
-                    now,
-                    NodeEventKind::Sync {
-                        counter: tick.counter,
-                        produced: true,
-                    },
-                );
-                self.pdo_sync(now, tick.counter);
-            }
-        }
-        if let Some(f) = self.time.handle_timeout(now) {
-            if services.time {
-                let _ = self.send(f);
-            }
-        }
-        let (engine, mut io) = self.pdo_io();
-        engine.handle_timeout(now, &mut io);
-        self.pdo_emcy(now);
-        self.flush_emcy(now);
     }
 
+    /// The next deadline of the timed services (none while initialising).
     pub(super) fn poll_timeout(&self) -> Option<Instant> {
         if self.state == NmtState::Initialising {
             return None;
         }
-        let mut t = earliest(self.hb.poll_timeout(), self.consumer.poll_timeout());
-        t = earliest(t, self.guard.poll_timeout());
-        t = earliest(t, self.guard_master.poll_timeout());
-        t = earliest(t, self.sync.poll_timeout());
-        t = earliest(t, self.time.poll_timeout());
-        t = earliest(t, self.pdo.poll_timeout());
-        if self.state.services().emcy {
-            t = earliest(t, self.emcy.poll_timeout());
+        earliest_of(Timer::ALL.map(|t| self.deadline(t)))
+    }
+
+    #[inline]
+    fn deadline(&self, timer: Timer) -> Option<Instant> {
+        match timer {
+            Timer::Heartbeat => self.hb.poll_timeout(),
+            Timer::HeartbeatConsumer => self.consumer.poll_timeout(),
+            Timer::LifeGuarding => self.guard.poll_timeout(),
+            Timer::NodeGuarding => self.guard_master.poll_timeout(),
+            Timer::Sync => self.sync.poll_timeout(),
+            Timer::Time => self.time.poll_timeout(),
+            Timer::Pdo => self.pdo.poll_timeout(),
+            // Messages wait while the state forbids EMCY: no wake-up for them.
+            Timer::Emcy => self
+                .emcy
+                .poll_timeout()
+                .filter(|_| self.state.services().emcy),
         }
-        t
+    }
+
+    /// Runs one timed service at `now`, then what its output asks of the rest of the node.
+    fn run(&mut self, now: Instant, timer: Timer) {
+        let mut out = node_out!(self);
+        match timer {
+            Timer::Heartbeat => self.hb.handle_timeout(now, &mut out),
+            Timer::HeartbeatConsumer => self.consumer.handle_timeout(now, &mut out),
+            Timer::LifeGuarding => self.guard.handle_timeout(now, &mut out),
+            Timer::NodeGuarding => self.guard_master.handle_timeout(now, &mut out),
+            Timer::Sync => self.sync.handle_timeout(now, &mut out),
+            Timer::Time => self.time.handle_timeout(now, &mut out),
+            Timer::Pdo => {
+                let mut io = pdo::Io {
+                    od: &mut self.od,
+                    out,
+                };
+                self.pdo.handle_timeout(now, &mut io);
+                out = io.out;
+                out.then.pdo_emcy = true;
+            }
+            Timer::Emcy => self.emcy.handle_timeout(now, &mut out),
+        }
+        let then = out.then;
+        self.follow_up(now, then);
+    }
+
+    /// What a service's output asks of other services, in the order the node always did it.
+    fn follow_up(&mut self, now: Instant, then: FollowUp) {
+        match then.life {
+            Some(LifeEvent::Lost) => {
+                self.event(now, NodeEventKind::LifeGuardingLost);
+                self.emcy_raise(
+                    now,
+                    emcy::code::LIFE_GUARD,
+                    emcy::register::COMMUNICATION,
+                    [0; 5],
+                );
+            }
+            Some(LifeEvent::Resumed) => {
+                self.emcy_clear(now, emcy::code::LIFE_GUARD);
+                self.event(now, NodeEventKind::LifeGuardingResumed);
+            }
+            None => {}
+        }
+        if let Some(tick) = then.sync {
+            self.pdo_sync(now, tick.counter);
+        }
+        if then.pdo_emcy {
+            self.pdo_emcy(now);
+        }
     }
 }
 
-/// The node's queues, as the PDO engine's output.
-pub(super) struct PdoOut<'a> {
+/// The node's timed services, in the order a timeout runs them: the order their frames leave
+/// in. A new service is one more entry here and one arm in `deadline` and `run`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Timer {
+    Heartbeat,
+    HeartbeatConsumer,
+    LifeGuarding,
+    NodeGuarding,
+    Sync,
+    Time,
+    Pdo,
+    /// Last: whatever the others raised goes out in the same call.
+    Emcy,
+}
+
+impl Timer {
+    const ALL: [Timer; 8] = [
+        Timer::Heartbeat,
+        Timer::HeartbeatConsumer,
+        Timer::LifeGuarding,
+        Timer::NodeGuarding,
+        Timer::Sync,
+        Timer::Time,
+        Timer::Pdo,
+        Timer::Emcy,
+    ];
+}
+
+/// The node event a guarding report is; `None` for a state answer (recorded from the frame).
+fn guard_kind(e: GuardEvent) -> Option<NodeEventKind> {
+    Some(match e {
+        GuardEvent::State { .. } => return None,
+        GuardEvent::Timeout { node } => NodeEventKind::GuardingTimeout { node },
+        GuardEvent::Resumed { node } => NodeEventKind::GuardingResumed { node },
+        GuardEvent::ToggleError { node, .. } => NodeEventKind::GuardToggleError { node },
+    })
+}
+
+/// What a service's output asks of the rest of the node once the service has run (it cannot be
+/// done while the output borrows the node's queues).
+#[derive(Clone, Copy, Debug, Default)]
+pub(super) struct FollowUp {
+    /// Life guarding lost or resumed: event and EMCY.
+    life: Option<LifeEvent>,
+    /// A SYNC was produced: synchronous PDOs follow.
+    sync: Option<SyncTick>,
+    /// The PDO engine ran: its EMCY requests are raised or cleared.
+    pdo_emcy: bool,
+}
+
+/// The node's queues, as the services' output.
+pub(super) struct NodeOut<'a, P> {
     tx: &'a mut Bounded<Frame, TX_QUEUE>,
     stats: &'a mut NodeStats,
     events: &'a mut Bounded<NodeEvent, EVENT_QUEUE>,
+    profile: &'a P,
+    id: NodeId,
+    state: NmtState,
+    then: FollowUp,
 }
 
-impl pdo::PdoOutput for PdoOut<'_> {
+impl<P: IdProfile> ServiceOutput for NodeOut<'_, P> {
+    #[inline]
+    fn nmt_state(&self) -> NmtState {
+        self.state
+    }
+    #[inline]
     fn send(&mut self, frame: Frame) {
         if self.tx.push(frame) {
             self.stats.tx_frames += 1;
         }
     }
-    fn event(&mut self, at: Instant, e: pdo::PdoEvent) {
-        self.events.push(NodeEvent {
-            at,
-            kind: NodeEventKind::Pdo(e),
-        });
+    fn event(&mut self, at: Instant, e: ServiceEvent) {
+        let kind = match e {
+            ServiceEvent::HeartbeatDue => {
+                let f = Frame::from_array(self.profile.heartbeat(self.id), [self.state.code()]);
+                return self.send(f);
+            }
+            ServiceEvent::GuardRequest { node } => {
+                if let Ok(f) = Frame::remote(self.profile.guarding(node), 1) {
+                    self.send(f);
+                }
+                return;
+            }
+            ServiceEvent::Consumer(ConsumerEvent::Timeout { node, last }) => {
+                NodeEventKind::HeartbeatTimeout { node, last }
+            }
+            ServiceEvent::Consumer(ConsumerEvent::Resumed { node }) => {
+                NodeEventKind::HeartbeatResumed { node }
+            }
+            ServiceEvent::Guard(e) => match guard_kind(e) {
+                Some(kind) => kind,
+                None => return,
+            },
+            // The node's event and the EMCY go together, after the service has run.
+            ServiceEvent::Life(e) => {
+                self.then.life = Some(e);
+                return;
+            }
+            ServiceEvent::SyncProduced(tick) => {
+                self.then.sync = Some(tick);
+                NodeEventKind::Sync {
+                    counter: tick.counter,
+                    produced: true,
+                }
+            }
+            ServiceEvent::Pdo(e) => NodeEventKind::Pdo(e),
+        };
+        self.events.push(NodeEvent { at, kind });
     }
 }

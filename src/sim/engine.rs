@@ -6,7 +6,7 @@ use super::ids::BusId;
 use super::timing;
 use super::trace::{TraceRecord, TxOutcome, TxRecord};
 use super::SimNetwork;
-use crate::frame::instant::{earliest, Instant};
+use crate::frame::instant::{earliest_of, Instant};
 use crate::machine::{ErrorCause, PortStatus};
 use core::cmp::Reverse;
 
@@ -23,15 +23,16 @@ impl SimNetwork {
     /// The next instant with work, if any.
     pub(super) fn next_time(&mut self) -> Option<Instant> {
         self.drop_stale_deadlines();
-        let mut t = self.deadlines.peek().map(|Reverse((t, _))| *t);
-        t = earliest(t, self.delayed.peek().map(|d| d.at));
-        t = earliest(t, self.actions.peek().map(|a| a.at));
-        for bus in &self.buses {
-            for seg in &bus.segments {
-                t = earliest(t, seg.busy.map(|tx| tx.end));
-            }
-        }
-        t
+        let queues = earliest_of([
+            self.deadlines.peek().map(|Reverse((t, _))| *t),
+            self.delayed.peek().map(|d| d.at),
+            self.actions.peek().map(|a| a.at),
+        ]);
+        let busy = self
+            .buses
+            .iter()
+            .flat_map(|bus| bus.segments.iter().map(|seg| seg.busy.map(|tx| tx.end)));
+        earliest_of(core::iter::once(queues).chain(busy))
     }
 
     /// Everything due at `t`, in the documented order.

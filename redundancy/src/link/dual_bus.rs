@@ -29,7 +29,7 @@ use crate::link::outbox::Outbox;
 use crate::link::reach::Reach;
 use crate::link::same_function::{PairError, PairVerdict, SameFunction, MAX_FUNCTIONS};
 use crate::pair::{Member, PairId};
-use duocan::frame::instant::earliest;
+use duocan::frame::instant::earliest_of;
 use duocan::machine::{BusLink, LinkRequest, PortRequest, PortStatus};
 use duocan::od::ObjectDictionary;
 use duocan::profile::Predefined;
@@ -436,12 +436,16 @@ impl<C: FrameClassifier, const N: usize, const F: usize> BusLink for DualBus<C, 
     }
 
     fn poll_timeout(&self) -> Option<Instant> {
-        let mut t = self.health.poll_timeout();
-        if self.reach_enabled {
-            t = earliest(t, self.reach.poll_timeout());
-        }
-        t = earliest(t, self.policy.poll_timeout());
-        earliest(t, self.pairs.poll_timeout())
+        earliest_of([
+            self.health.poll_timeout(),
+            if self.reach_enabled {
+                self.reach.poll_timeout()
+            } else {
+                None
+            },
+            self.policy.poll_timeout(),
+            self.pairs.poll_timeout(),
+        ])
     }
 
     fn poll_event(&mut self) -> Option<LinkEvent> {

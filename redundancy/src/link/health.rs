@@ -36,7 +36,7 @@
 use crate::link::events::{LinkEvent, LinkEventKind, PortReason};
 use crate::link::outbox::Outbox;
 use core::fmt;
-use duocan::frame::instant::earliest;
+use duocan::frame::instant::earliest_of;
 use duocan::machine::{ErrorCause, PortRequest, PortStatus};
 use duocan::{Duration, Instant};
 
@@ -188,18 +188,46 @@ impl HealthCounters {
     }
 }
 
+/// A port's state with what only that state knows.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Condition {
+    Ok,
+    Suspect,
+    Failed {
+        /// The back-off ends: the port is re-initialised.
+        reinit_at: Instant,
+        /// Traffic (a frame, the driver's "up") revives it; not after a transmit stall, where
+        /// only the back-off re-initialisation does.
+        revive_on_rx: bool,
+    },
+    Recovering {
+        /// Its first frame since it recovers: the probation runs from there.
+        probation_from: Option<Instant>,
+    },
+}
+
+impl Condition {
+    const fn state(self) -> PortState {
+        match self {
+            Condition::Ok => PortState::Ok,
+            Condition::Suspect => PortState::Suspect,
+            Condition::Failed { .. } => PortState::Failed,
+            Condition::Recovering { .. } => PortState::Recovering,
+        }
+    }
+}
+
 /// State and counters of one port.
 #[derive(Clone, Debug)]
 pub struct PortHealth {
-    state: PortState,
+    /// The state, with the data of that state.
+    cond: Condition,
     since: Instant,
     /// Start of the current silence: last frame, entry into recovering, or start of observation.
     silence_ref: Option<Instant>,
     /// First first-copy on the other port since this port's last frame.
     first_missed: Option<Instant>,
     last_error: Option<Instant>,
-    probation_from: Option<Instant>,
-    reinit_at: Option<Instant>,
     attempt: u32,
     backoff: Duration,
     /// Hand-over times of frames without an outcome yet, oldest first.
@@ -207,9 +235,6 @@ pub struct PortHealth {
     /// The driver confirms successful transmissions (`TxOk`); only then can silence about a
     /// handed-over frame mean a stall.
     reports_outcomes: bool,
-    /// Traffic (a frame, the driver's "up") revives the failed port; not after a transmit
-    /// stall, where only the back-off re-initialisation does.
-    revive_on_rx: bool,
     counters: HealthCounters,
 }
 
@@ -219,24 +244,21 @@ const OUTSTANDING: usize = 64;
 impl PortHealth {
     fn new(cfg: &HealthConfig) -> Self {
         PortHealth {
-            state: PortState::Ok,
+            cond: Condition::Ok,
             since: Instant::ZERO,
             silence_ref: None,
             first_missed: None,
             last_error: None,
-            probation_from: None,
-            reinit_at: None,
             attempt: 0,
             backoff: cfg.reinit_first,
             outstanding: heapless::Deque::new(),
             reports_outcomes: false,
-            revive_on_rx: true,
             counters: HealthCounters::default(),
         }
     }
     /// Current state.
     pub fn state(&self) -> PortState {
-        self.state
+        self.cond.state()
     }
     /// When it entered the current state.
     pub fn since(&self) -> Instant {
@@ -252,7 +274,20 @@ impl PortHealth {
     }
     /// When the next re-initialisation is due (failed ports).
     pub fn next_reinit(&self) -> Option<Instant> {
-        self.reinit_at
+        match self.cond {
+            Condition::Failed { reinit_at, .. } => Some(reinit_at),
+            _ => None,
+        }
+    }
+    /// Failed, and traffic would revive it (not after a transmit stall).
+    fn revives_on_traffic(&self) -> bool {
+        matches!(
+            self.cond,
+            Condition::Failed {
+                revive_on_rx: true,
+                ..
+            }
+        )
     }
 }
 
@@ -283,11 +318,11 @@ impl Health {
     }
     /// True if frames from `p` may be delivered: `p` is ok or suspect, or the other port is not.
     pub fn trusted(&self, p: usize) -> bool {
-        self.ports[p].state.is_trusted() || !self.ports[1 - p].state.is_trusted()
+        self.ports[p].state().is_trusted() || !self.ports[1 - p].state().is_trusted()
     }
     /// True if transmissions may go to `p` (not failed).
     pub fn usable(&self, p: usize) -> bool {
-        self.ports[p].state != PortState::Failed
+        self.ports[p].state() != PortState::Failed
     }
 
     /// A frame was handed to port `p` at `now`.
@@ -325,9 +360,9 @@ impl Health {
             other.silence_ref.get_or_insert(now);
         }
         let port = &mut self.ports[p];
-        match port.state {
-            PortState::Ok => {}
-            PortState::Suspect => {
+        match &mut port.cond {
+            Condition::Ok => {}
+            Condition::Suspect => {
                 if port
                     .last_error
                     .is_none_or(|e| now.saturating_since(e) >= self.cfg.error_hold)
@@ -335,21 +370,28 @@ impl Health {
                     self.set(now, p, PortState::Ok, PortReason::Traffic, out);
                 }
             }
-            PortState::Failed if port.revive_on_rx => {
+            Condition::Failed {
+                revive_on_rx: true, ..
+            } => {
                 self.set(now, p, PortState::Recovering, PortReason::Traffic, out);
-                self.ports[p].probation_from = Some(now);
+                self.ports[p].cond = Condition::Recovering {
+                    probation_from: Some(now),
+                };
                 self.end_probation(now, p, out);
             }
-            PortState::Failed => {}
-            PortState::Recovering => {
-                port.probation_from.get_or_insert(now);
+            Condition::Failed { .. } => {}
+            Condition::Recovering { probation_from } => {
+                probation_from.get_or_insert(now);
                 self.end_probation(now, p, out);
             }
         }
     }
 
     fn end_probation(&mut self, now: Instant, p: usize, out: &mut Outbox) {
-        if let Some(from) = self.ports[p].probation_from {
+        if let Condition::Recovering {
+            probation_from: Some(from),
+        } = self.ports[p].cond
+        {
             if now.saturating_since(from) >= self.cfg.probation {
                 self.set(now, p, PortState::Ok, PortReason::Traffic, out);
             }
@@ -386,7 +428,7 @@ impl Health {
             PortStatus::Error(ErrorCause::Restarted) => {
                 port.counters.errors[cause_index(ErrorCause::Restarted)] =
                     port.counters.errors[cause_index(ErrorCause::Restarted)].saturating_add(1);
-                if port.state == PortState::Failed && port.revive_on_rx {
+                if port.revives_on_traffic() {
                     self.set(
                         now,
                         p,
@@ -407,7 +449,7 @@ impl Health {
             }
             PortStatus::Up => {
                 // After a transmit stall the driver's "up" answers the flush, not the cause.
-                if port.state == PortState::Failed && port.revive_on_rx {
+                if port.revives_on_traffic() {
                     self.set(now, p, PortState::Recovering, PortReason::Up, out);
                 }
             }
@@ -429,49 +471,55 @@ impl Health {
         port.last_error = Some(now);
         if is_fatal(c) {
             self.fail(now, p, reason, out);
-        } else if port.state == PortState::Ok {
+        } else if port.cond == Condition::Ok {
             self.set(now, p, PortState::Suspect, reason, out);
         }
     }
 
     fn fail(&mut self, now: Instant, p: usize, reason: PortReason, out: &mut Outbox) {
-        if self.ports[p].state != PortState::Failed {
+        if self.ports[p].state() != PortState::Failed {
             self.set(now, p, PortState::Failed, reason, out);
         }
-        self.ports[p].revive_on_rx = !matches!(reason, PortReason::TxStalled { .. });
+        // The latest cause decides, also for a port that had failed already.
+        if let Condition::Failed { revive_on_rx, .. } = &mut self.ports[p].cond {
+            *revive_on_rx = !matches!(reason, PortReason::TxStalled { .. });
+        }
     }
 
     fn set(&mut self, at: Instant, p: usize, to: PortState, reason: PortReason, out: &mut Outbox) {
         let port = &mut self.ports[p];
-        let from = port.state;
+        let from = port.state();
         if from == to {
             return;
         }
-        port.state = to;
         port.since = at;
-        match to {
+        port.cond = match to {
             PortState::Ok => {
                 port.attempt = 0;
                 port.backoff = self.cfg.reinit_first;
-                port.reinit_at = None;
-                port.probation_from = None;
+                Condition::Ok
             }
-            PortState::Failed => {
-                port.reinit_at = Some(at + port.backoff);
-                port.probation_from = None;
-                // What this port heard no longer says anything about the other one.
-                let other = &mut self.ports[1 - p];
-                other.first_missed = None;
-                other.silence_ref = None;
-            }
+            // `fail` settles whether traffic may revive it.
+            PortState::Failed => Condition::Failed {
+                reinit_at: at + port.backoff,
+                revive_on_rx: true,
+            },
             PortState::Recovering => {
-                port.reinit_at = None;
                 // Judged afresh: only frames it misses from now on count against it (in a quiet
                 // network a stale miss from before the repair would fail it again and again).
                 port.silence_ref = Some(at);
                 port.first_missed = None;
+                Condition::Recovering {
+                    probation_from: None,
+                }
             }
-            PortState::Suspect => {}
+            PortState::Suspect => Condition::Suspect,
+        };
+        if to == PortState::Failed {
+            // What this port heard no longer says anything about the other one.
+            let other = &mut self.ports[1 - p];
+            other.first_missed = None;
+            other.silence_ref = None;
         }
         out.event(LinkEvent {
             at,
@@ -491,10 +539,10 @@ impl Health {
         let port = &self.ports[p];
         // Silence means something only next to a working port that hears traffic: with the
         // other port failed, a quiet bus is just a quiet network.
-        if self.ports[1 - p].state == PortState::Failed {
+        if self.ports[1 - p].state() == PortState::Failed {
             return None;
         }
-        let threshold = match port.state {
+        let threshold = match port.state() {
             PortState::Failed => return None,
             PortState::Ok
                 if !self.cfg.suspect_after.is_zero()
@@ -511,7 +559,9 @@ impl Health {
 
     fn stall_deadline(&self, p: usize) -> Option<Instant> {
         let port = &self.ports[p];
-        if self.cfg.tx_stall.is_zero() || !port.reports_outcomes || port.state == PortState::Failed
+        if self.cfg.tx_stall.is_zero()
+            || !port.reports_outcomes
+            || port.state() == PortState::Failed
         {
             return None;
         }
@@ -520,13 +570,13 @@ impl Health {
 
     /// Earliest deadline.
     pub fn poll_timeout(&self) -> Option<Instant> {
-        let mut t = None;
-        for p in 0..2 {
-            t = earliest(t, self.silence_deadline(p));
-            t = earliest(t, self.stall_deadline(p));
-            t = earliest(t, self.ports[p].reinit_at);
-        }
-        t
+        earliest_of([0, 1].map(|p| {
+            earliest_of([
+                self.silence_deadline(p),
+                self.stall_deadline(p),
+                self.ports[p].next_reinit(),
+            ])
+        }))
     }
 
     /// Applies silence rules and re-initialisations due at `now`; events carry the deadlines.
@@ -551,7 +601,7 @@ impl Health {
                 let stalled = self.cfg.tx_stall;
                 self.fail(d, p, PortReason::TxStalled { waited: stalled }, out);
             }
-            if let Some(d) = self.ports[p].reinit_at.filter(|d| *d <= now) {
+            if let Some(d) = self.ports[p].next_reinit().filter(|d| *d <= now) {
                 let port = &mut self.ports[p];
                 port.outstanding.clear();
                 port.attempt = port.attempt.saturating_add(1);

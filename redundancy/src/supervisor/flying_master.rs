@@ -64,7 +64,7 @@
 use crate::link::config::{read, ConfigError};
 use core::cmp::Ordering;
 use core::fmt;
-use duocan::frame::instant::earliest;
+use duocan::frame::instant::earliest_of;
 use duocan::frame::queue::Bounded;
 use duocan::od::{Access, ObjectDef, ObjectDictionary, ObjectType};
 use duocan::{Duration, Frame, Id, Instant, NodeId};
@@ -586,9 +586,12 @@ impl FlyingMaster {
 
     /// Earliest deadline.
     pub fn poll_timeout(&self) -> Option<Instant> {
-        let mut t = earliest(self.phase_deadline, self.detect_at);
-        t = earliest(t, self.suspended_until);
-        earliest(t, self.handback_at)
+        earliest_of([
+            self.phase_deadline,
+            self.detect_at,
+            self.suspended_until,
+            self.handback_at,
+        ])
     }
 
     /// Does what is due at `now`.

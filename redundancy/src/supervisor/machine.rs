@@ -79,7 +79,7 @@ use crate::supervisor::pairs::{
 };
 use alloc::collections::VecDeque;
 use core::fmt;
-use duocan::frame::instant::earliest;
+use duocan::frame::instant::earliest_of;
 use duocan::frame::queue::Bounded;
 use duocan::machine::Machine;
 use duocan::master::{
@@ -897,9 +897,12 @@ impl<D: ObjectDictionary, P: IdProfile, const S: usize, const T: usize, const R:
     }
 
     fn poll_timeout(&self) -> Option<Instant> {
-        let mut t = earliest(self.fm.poll_timeout(), self.pairs.poll_timeout());
-        t = earliest(t, self.master.poll_timeout());
-        earliest(t, self.planned.map(|p| p.1))
+        earliest_of([
+            self.fm.poll_timeout(),
+            self.pairs.poll_timeout(),
+            self.master.poll_timeout(),
+            self.planned.map(|p| p.1),
+        ])
     }
 
     fn poll_event(&mut self) -> Option<SupervisorEvent> {

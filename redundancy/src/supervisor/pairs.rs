@@ -1,5 +1,4 @@
-//! Slave-pair supervision: the heartbeat table of the published railway design, event-driven
-//! and exact.
+//! Slave-pair supervision: a heartbeat table of redundant slave pairs, event-driven and exact.
 //!
 //! [`PairSupervisor`] is a sans-IO machine. Its inputs are observations — a member's boot-up or
 //! heartbeat at an instant, the result of its configuration, an NMT command seen on the bus —
@@ -56,6 +55,7 @@
 
 use crate::pair::{Member, PairId, PairSpec, MAX_PAIRS};
 use core::fmt;
+use duocan::frame::instant::earliest_of;
 use duocan::frame::queue::Bounded;
 use duocan::{Duration, Instant, NmtCommand, NmtState, NodeId};
 use heapless::Vec;
@@ -131,6 +131,34 @@ impl fmt::Display for Phase {
     }
 }
 
+/// A member's phase with what only that phase knows: a waiting member has no silence deadline,
+/// a joined one is never adopted.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Stage {
+    /// Not joined.
+    Waiting {
+        /// Heard without a boot-up: adopted at this instant.
+        adopt_at: Option<Instant>,
+        /// Reported missing during this wait.
+        missing: bool,
+    },
+    /// Its configuration is running.
+    Configuring,
+    /// Configured and monitored.
+    Joined {
+        /// Its heartbeat is due at the latest at this instant.
+        deadline: Instant,
+    },
+}
+
+impl Stage {
+    /// A fresh wait: not heard, not reported.
+    const WAITING: Stage = Stage::Waiting {
+        adopt_at: None,
+        missing: false,
+    };
+}
+
 /// One member of a pair in the table.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct MemberState {
@@ -138,8 +166,6 @@ pub struct MemberState {
     pub member: Member,
     /// Its node-ID.
     pub node: NodeId,
-    /// Life cycle.
-    pub phase: Phase,
     /// Last NMT state heard (boot-up, heartbeat).
     pub nmt: Option<NmtState>,
     /// Heartbeats received since it joined.
@@ -148,13 +174,10 @@ pub struct MemberState {
     pub last: Option<Instant>,
     /// When the current phase began.
     pub since: Instant,
-    /// Reported missing during the current wait.
-    pub missing: bool,
-    /// Heard without a boot-up while not joined: adopted at this instant.
-    adopt_at: Option<Instant>,
-    /// Silence deadline while joined.
-    deadline: Option<Instant>,
-    /// Found not to be what the configuration expects; not adopted until it boots again.
+    /// Life cycle, with the data of its phase.
+    stage: Stage,
+    /// Found not to be what the configuration expects; not adopted until it boots again. Not
+    /// part of the phase: only a boot-up clears it, whatever happened in between.
     rejected: bool,
 }
 
@@ -163,28 +186,40 @@ impl MemberState {
         MemberState {
             member,
             node,
-            phase: Phase::Waiting,
             nmt: None,
             heartbeats: 0,
             last: None,
             since: now,
-            missing: false,
-            adopt_at: None,
-            deadline: None,
+            stage: Stage::WAITING,
             rejected: false,
         }
     }
+    /// Life cycle.
+    pub fn phase(&self) -> Phase {
+        match self.stage {
+            Stage::Waiting { .. } => Phase::Waiting,
+            Stage::Configuring => Phase::Configuring,
+            Stage::Joined { .. } => Phase::Joined,
+        }
+    }
+    /// Reported missing during the current wait.
+    pub fn missing(&self) -> bool {
+        matches!(self.stage, Stage::Waiting { missing: true, .. })
+    }
     /// True if joined.
     pub fn joined(&self) -> bool {
-        self.phase == Phase::Joined
+        matches!(self.stage, Stage::Joined { .. })
     }
     /// The instant its heartbeat is next due at the latest (joined members).
     pub fn deadline(&self) -> Option<Instant> {
-        self.deadline
+        match self.stage {
+            Stage::Joined { deadline } => Some(deadline),
+            _ => None,
+        }
     }
     /// Joined and not silent at `now`.
     pub fn alive_at(&self, now: Instant) -> bool {
-        self.joined() && self.deadline.is_some_and(|d| d > now)
+        self.deadline().is_some_and(|d| d > now)
     }
     /// Its identity is not what the configuration expects: left out until it boots again.
     pub fn is_rejected(&self) -> bool {
@@ -567,12 +602,14 @@ impl PairSupervisor {
         }
         for p in 0..self.pairs.len() {
             for m in [Member::A, Member::B] {
-                let s = self.pairs[p].members[idx(m)];
-                if s.phase == Phase::Configuring {
-                    self.configure(p, m);
-                } else if s.phase == Phase::Waiting && s.adopt_at.is_some() {
+                let holdoff = self.cfg.holdoff;
+                match &mut self.pairs[p].member_mut(m).stage {
+                    Stage::Configuring => self.configure(p, m),
                     // Watched while following: the hold-off starts over from now.
-                    self.pairs[p].member_mut(m).adopt_at = Some(now + self.cfg.holdoff);
+                    Stage::Waiting {
+                        adopt_at: Some(at), ..
+                    } => *at = now + holdoff,
+                    _ => {}
                 }
             }
         }
@@ -605,14 +642,11 @@ impl PairSupervisor {
             let s = self.pairs[p].member_mut(m);
             s.nmt = Some(NmtState::Initialising);
             s.last = Some(now);
-            s.phase = Phase::Configuring;
+            s.stage = Stage::Configuring;
             s.since = now;
-            s.deadline = None;
-            s.adopt_at = None;
-            s.missing = false;
             s.rejected = false;
         }
-        if was.phase == Phase::Joined {
+        if was.joined() {
             self.event(PairsEvent::Lost {
                 at: now,
                 pair,
@@ -652,20 +686,20 @@ impl PairSupervisor {
         s.last = Some(now);
         let mut join = false;
         let mut adopt_at = None;
-        match s.phase {
-            Phase::Joined => {
+        match &mut s.stage {
+            Stage::Joined { deadline } => {
                 s.heartbeats = s.heartbeats.saturating_add(1);
                 // Deadlines only move later: the cached lower bound stays valid.
-                s.deadline = Some(now + consumer);
+                *deadline = now + consumer;
             }
             // The active master configured it (it beats now): joined as it says.
-            Phase::Configuring => join = on_heartbeat && first_after_boot,
+            Stage::Configuring => join = on_heartbeat && first_after_boot,
             // Heard while following: it is in the active master's network.
-            Phase::Waiting if shadow && !s.rejected => join = true,
-            Phase::Waiting => {
-                if adopt && !s.rejected && s.adopt_at.is_none() {
-                    s.adopt_at = Some(now + holdoff);
-                    adopt_at = s.adopt_at;
+            Stage::Waiting { .. } if shadow && !s.rejected => join = true,
+            Stage::Waiting { adopt_at: at, .. } => {
+                if adopt && !s.rejected && at.is_none() {
+                    *at = Some(now + holdoff);
+                    adopt_at = *at;
                 }
             }
         }
@@ -739,7 +773,7 @@ impl PairSupervisor {
             return;
         };
         let p = pair.0 as usize;
-        if self.pairs[p].member(m).phase != Phase::Waiting {
+        if self.pairs[p].member(m).phase() != Phase::Waiting {
             self.leave(now, p, m, LossReason::Rejected);
         }
         self.pairs[p].member_mut(m).rejected = true;
@@ -754,7 +788,7 @@ impl PairSupervisor {
     fn configuring(&self, node: NodeId) -> Option<(usize, Member)> {
         let (pair, m) = self.locate(node)?;
         let p = pair.0 as usize;
-        (self.pairs[p].member(m).phase == Phase::Configuring).then_some((p, m))
+        (self.pairs[p].member(m).phase() == Phase::Configuring).then_some((p, m))
     }
 
     // ----- commands -----
@@ -836,37 +870,33 @@ impl PairSupervisor {
     }
 
     fn due(&self, s: &MemberState) -> Option<Instant> {
-        match s.phase {
-            Phase::Joined => {
-                if self.authority == Authority::Command {
-                    s.deadline
-                } else {
-                    None
-                }
-            }
-            Phase::Waiting => {
-                let adopt = s.adopt_at.filter(|_| self.authority == Authority::Command);
-                let missing = (!s.missing && s.last.is_none_or(|l| l < s.since))
+        let commanding = self.authority == Authority::Command;
+        match s.stage {
+            Stage::Joined { deadline } => commanding.then_some(deadline),
+            Stage::Waiting { adopt_at, missing } => {
+                let adopt = adopt_at.filter(|_| commanding);
+                let missing = (!missing && s.last.is_none_or(|l| l < s.since))
                     .then(|| s.since + self.cfg.boot_timeout);
-                duocan::frame::instant::earliest(adopt, missing)
+                earliest_of([adopt, missing])
             }
-            Phase::Configuring => None,
+            Stage::Configuring => None,
         }
     }
 
     fn expire(&mut self, t: Instant, p: usize, m: Member) {
         let s = self.pairs[p].members[idx(m)];
-        match s.phase {
-            Phase::Joined => self.silent(t, p, m, s),
-            Phase::Waiting => {
-                if s.adopt_at.is_some_and(|a| a <= t) && self.authority == Authority::Command {
+        match s.stage {
+            Stage::Joined { .. } => self.silent(t, p, m, s),
+            Stage::Waiting { adopt_at, .. } => {
+                if adopt_at.is_some_and(|a| a <= t) && self.authority == Authority::Command {
                     let st = self.pairs[p].member_mut(m);
-                    st.adopt_at = None;
-                    st.phase = Phase::Configuring;
+                    st.stage = Stage::Configuring;
                     st.since = t;
                     self.configure(p, m);
                 } else {
-                    self.pairs[p].member_mut(m).missing = true;
+                    if let Stage::Waiting { missing, .. } = &mut self.pairs[p].member_mut(m).stage {
+                        *missing = true;
+                    }
                     self.event(PairsEvent::Missing {
                         at: t,
                         pair: PairId(p as u8),
@@ -876,14 +906,14 @@ impl PairSupervisor {
                     });
                 }
             }
-            Phase::Configuring => {}
+            Stage::Configuring => {}
         }
     }
 
     /// A joined member's deadline passed at `t`.
     fn silent(&mut self, t: Instant, p: usize, m: Member, s: MemberState) {
         let last = s
-            .deadline
+            .deadline()
             .map_or(t, |d| d - self.pairs[p].spec.consumer_time);
         let o = m.other();
         let other_alive = self.pairs[p].member(o).alive_at(t);
@@ -902,14 +932,11 @@ impl PairSupervisor {
     fn join(&mut self, now: Instant, p: usize, m: Member) {
         let spec = self.pairs[p].spec;
         let s = self.pairs[p].member_mut(m);
-        s.phase = Phase::Joined;
-        s.since = now;
-        s.heartbeats = 0;
-        s.adopt_at = None;
-        s.missing = false;
         // Monitoring starts now, whether or not it ever beats.
         let deadline = s.last.map_or(now, |l| l.max(now)) + spec.consumer_time;
-        s.deadline = Some(deadline);
+        s.stage = Stage::Joined { deadline };
+        s.since = now;
+        s.heartbeats = 0;
         let (nmt, node) = (s.nmt, s.node);
         self.lower_next(deadline);
         self.event(PairsEvent::Joined {
@@ -944,12 +971,9 @@ impl PairSupervisor {
     fn leave(&mut self, t: Instant, p: usize, m: Member, reason: LossReason) {
         let pair = PairId(p as u8);
         let s = self.pairs[p].member_mut(m);
-        let was_joined = s.phase == Phase::Joined;
-        s.phase = Phase::Waiting;
+        let was_joined = s.joined();
+        s.stage = Stage::WAITING;
         s.since = t;
-        s.deadline = None;
-        s.adopt_at = None;
-        s.missing = false;
         let node = s.node;
         if self.pairs[p].active == Some(m) {
             self.set_role(t, p, None, RoleReason::CommandObserved);
@@ -1063,7 +1087,7 @@ impl PairSupervisor {
             }
             NmtCommand::ResetNode | NmtCommand::ResetCommunication => {
                 let s = self.pairs[p].member(m);
-                if s.phase != Phase::Waiting {
+                if s.phase() != Phase::Waiting {
                     self.leave(now, p, m, LossReason::ResetObserved);
                 }
             }
@@ -1106,5 +1130,37 @@ impl fmt::Debug for PairSupervisor {
             .field("pairs", &self.pairs.len())
             .field("next", &self.next)
             .finish_non_exhaustive()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_member_carries_only_the_data_of_its_phase() {
+        let mut s = MemberState::new(Member::A, NodeId::must(5), Instant::ZERO);
+        assert_eq!(
+            (s.phase(), s.deadline(), s.missing()),
+            (Phase::Waiting, None, false)
+        );
+        s.stage = Stage::Waiting {
+            adopt_at: Some(Instant::from_millis(1)),
+            missing: true,
+        };
+        assert_eq!(
+            (s.phase(), s.deadline(), s.missing()),
+            (Phase::Waiting, None, true)
+        );
+        s.stage = Stage::Joined {
+            deadline: Instant::from_millis(10),
+        };
+        assert_eq!(s.phase(), Phase::Joined);
+        assert!(!s.missing());
+        assert_eq!(s.deadline(), Some(Instant::from_millis(10)));
+        assert!(s.alive_at(Instant::from_millis(9)) && !s.alive_at(Instant::from_millis(10)));
+        s.stage = Stage::Configuring;
+        assert_eq!((s.phase(), s.deadline()), (Phase::Configuring, None));
+        assert!(!s.alive_at(Instant::ZERO));
     }
 }

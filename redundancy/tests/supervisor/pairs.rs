@@ -149,7 +149,7 @@ fn active_silent_standby_started_exactly_at_the_consumer_time_active_reset() {
         node: A,
         reason: LossReason::Silent { last: ms(65) }
     }));
-    assert_eq!(s.pair(p).unwrap().member(Member::A).phase, Phase::Waiting);
+    assert_eq!(s.pair(p).unwrap().member(Member::A).phase(), Phase::Waiting);
 
     // A reboots and rejoins as standby (non-revertive): no NMT command but its configuration.
     s.boot_up(ms(300), A);

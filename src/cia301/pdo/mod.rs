@@ -32,6 +32,7 @@ pub use mapping::{
 };
 
 use crate::cia301::emcy;
+use crate::cia301::service::{ServiceEvent, ServiceOutput};
 use crate::frame::cob_id::CobId;
 use crate::frame::instant::{earliest, Duration, Instant};
 use crate::frame::queue::Bounded;
@@ -178,29 +179,20 @@ pub(crate) enum EmcyAction {
     Clear(u16),
 }
 
-/// Where the engine puts what it produces. The engine owns this contract and knows nothing of
-/// the node that composes it: the node implements it over its own transmit and event queues.
-pub(crate) trait PdoOutput {
-    /// A PDO to send (a full queue is the implementor's to count).
-    fn send(&mut self, frame: Frame);
-    /// Something to tell the application.
-    fn event(&mut self, at: Instant, e: PdoEvent);
-}
-
 /// The dictionary and the output the engine works with while it runs.
 pub(crate) struct Io<'a, D, O> {
     pub od: &'a mut D,
     pub out: O,
 }
 
-impl<D, O: PdoOutput> Io<'_, D, O> {
+impl<D, O: ServiceOutput> Io<'_, D, O> {
     fn send(&mut self, id: Id, data: &[u8]) {
         if let Ok(f) = Frame::new(id, data) {
             self.out.send(f);
         }
     }
     fn event(&mut self, at: Instant, e: PdoEvent) {
-        self.out.event(at, e);
+        self.out.event(at, ServiceEvent::Pdo(e));
     }
 }
 
@@ -579,7 +571,7 @@ impl<const T: usize, const R: usize> PdoEngine<T, R> {
 
     /// Reads every PDO's parameters (boot, reset communication). Nothing runs until
     /// [`PdoEngine::start`].
-    pub fn load_all<D: ObjectDictionary, O: PdoOutput>(
+    pub fn load_all<D: ObjectDictionary, O: ServiceOutput>(
         &mut self,
         now: Instant,
         io: &mut Io<'_, D, O>,
@@ -599,7 +591,7 @@ impl<const T: usize, const R: usize> PdoEngine<T, R> {
     }
 
     /// Re-reads one PDO after a write to its parameters.
-    pub fn reload<D: ObjectDictionary, O: PdoOutput>(
+    pub fn reload<D: ObjectDictionary, O: ServiceOutput>(
         &mut self,
         now: Instant,
         dir: Dir,
@@ -665,7 +657,7 @@ impl<const T: usize, const R: usize> PdoEngine<T, R> {
     }
 
     /// Entering operational: PDOs start; event-driven TPDOs send their current values.
-    pub fn start<D: ObjectDictionary, O: PdoOutput>(
+    pub fn start<D: ObjectDictionary, O: ServiceOutput>(
         &mut self,
         now: Instant,
         io: &mut Io<'_, D, O>,
@@ -694,7 +686,7 @@ impl<const T: usize, const R: usize> PdoEngine<T, R> {
         }
     }
 
-    fn send_tpdo<D: ObjectDictionary, O: PdoOutput>(
+    fn send_tpdo<D: ObjectDictionary, O: ServiceOutput>(
         &mut self,
         k: usize,
         now: Instant,
@@ -713,7 +705,7 @@ impl<const T: usize, const R: usize> PdoEngine<T, R> {
     }
 
     /// Sends TPDO `k` if it is due at `now`, else records when it will be.
-    fn service_tpdo<D: ObjectDictionary, O: PdoOutput>(
+    fn service_tpdo<D: ObjectDictionary, O: ServiceOutput>(
         &mut self,
         k: usize,
         now: Instant,
@@ -728,7 +720,11 @@ impl<const T: usize, const R: usize> PdoEngine<T, R> {
     }
 
     /// Everything due at `now`; then the exact next deadline.
-    fn service<D: ObjectDictionary, O: PdoOutput>(&mut self, now: Instant, io: &mut Io<'_, D, O>) {
+    fn service<D: ObjectDictionary, O: ServiceOutput>(
+        &mut self,
+        now: Instant,
+        io: &mut Io<'_, D, O>,
+    ) {
         let mut next = None;
         for k in 0..T {
             if self.tpdos[k].due(now) {
@@ -754,7 +750,7 @@ impl<const T: usize, const R: usize> PdoEngine<T, R> {
     }
 
     /// Time passed.
-    pub fn handle_timeout<D: ObjectDictionary, O: PdoOutput>(
+    pub fn handle_timeout<D: ObjectDictionary, O: ServiceOutput>(
         &mut self,
         now: Instant,
         io: &mut Io<'_, D, O>,
@@ -766,7 +762,7 @@ impl<const T: usize, const R: usize> PdoEngine<T, R> {
     }
 
     /// A SYNC was received or produced: synchronous RPDOs take effect, synchronous TPDOs go.
-    pub fn on_sync<D: ObjectDictionary, O: PdoOutput>(
+    pub fn on_sync<D: ObjectDictionary, O: ServiceOutput>(
         &mut self,
         now: Instant,
         counter: Option<u8>,
@@ -796,7 +792,7 @@ impl<const T: usize, const R: usize> PdoEngine<T, R> {
     }
 
     /// Writes an RPDO payload into the dictionary; mapped writes trigger TPDOs as any write.
-    fn apply<D: ObjectDictionary, O: PdoOutput>(
+    fn apply<D: ObjectDictionary, O: ServiceOutput>(
         &mut self,
         k: usize,
         now: Instant,
@@ -820,7 +816,7 @@ impl<const T: usize, const R: usize> PdoEngine<T, R> {
     }
 
     /// A frame from the bus. False when it is no PDO of this node.
-    pub fn handle_frame<D: ObjectDictionary, O: PdoOutput>(
+    pub fn handle_frame<D: ObjectDictionary, O: ServiceOutput>(
         &mut self,
         now: Instant,
         frame: &Frame,
@@ -884,7 +880,7 @@ impl<const T: usize, const R: usize> PdoEngine<T, R> {
 
     /// An entry was written (by the application, SDO or an RPDO): event-driven TPDOs mapping it
     /// are triggered.
-    pub fn written<D: ObjectDictionary, O: PdoOutput>(
+    pub fn written<D: ObjectDictionary, O: ServiceOutput>(
         &mut self,
         now: Instant,
         index: u16,
@@ -923,7 +919,7 @@ impl<const T: usize, const R: usize> PdoEngine<T, R> {
 
     /// The application asks TPDO `pdo` to be sent (types 254/255: now, or when the inhibit time
     /// ends; type 0: at the next SYNC).
-    pub fn request<D: ObjectDictionary, O: PdoOutput>(
+    pub fn request<D: ObjectDictionary, O: ServiceOutput>(
         &mut self,
         now: Instant,
         pdo: u16,
@@ -975,7 +971,7 @@ impl<const T: usize, const R: usize> PdoEngine<T, R> {
     }
 }
 
-fn report<D, O: PdoOutput>(
+fn report<D, O: ServiceOutput>(
     io: &mut Io<'_, D, O>,
     now: Instant,
     dir: Dir,

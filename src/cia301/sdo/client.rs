@@ -28,7 +28,7 @@ use super::session::{
     next_download_segment, prepare_upload, start_download, upload_segment, Session, State,
 };
 use crate::frame::cob_id::NodeId;
-use crate::frame::instant::{earliest, Instant};
+use crate::frame::instant::{earliest_of, Instant};
 use crate::frame::queue::Bounded;
 use crate::frame::Frame;
 use crate::machine::Machine;
@@ -598,9 +598,11 @@ impl<B: TransferBuffer, const S: usize> Machine for SdoClient<B, S> {
     }
 
     fn poll_timeout(&self) -> Option<Instant> {
-        self.sessions.iter().fold(None, |t, s| {
-            earliest(earliest(t, s.deadline), s.subblock_deadline)
-        })
+        earliest_of(
+            self.sessions
+                .iter()
+                .flat_map(|s| [s.deadline, s.subblock_deadline]),
+        )
     }
 
     fn poll_event(&mut self) -> Option<SdoEvent<B>> {

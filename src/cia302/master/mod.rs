@@ -93,7 +93,7 @@ pub use events::{MasterError, MasterEvent, MasterEventKind, MasterStats, SlaveVi
 use crate::cia301::nmt::{NmtCommand, NmtState, NmtTarget};
 use crate::cia301::sdo::{DefaultBuffer, SdoClient, DEFAULT_LIMIT};
 use crate::frame::cob_id::NodeId;
-use crate::frame::instant::{earliest, Duration, Instant};
+use crate::frame::instant::{earliest_of, Duration, Instant};
 use crate::frame::Frame;
 use crate::machine::Machine;
 use crate::node::{Node, NodeConfig};
@@ -592,7 +592,7 @@ impl<D: ObjectDictionary, P: IdProfile, const S: usize, const T: usize, const R:
         } else {
             self.sdo.poll_timeout()
         };
-        earliest(earliest(self.node.poll_timeout(), sdo), self.deadline())
+        earliest_of([self.node.poll_timeout(), sdo, self.deadline()])
     }
 
     fn poll_event(&mut self) -> Option<MasterEvent> {

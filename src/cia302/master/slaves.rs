@@ -11,7 +11,7 @@ use crate::cia301::nmt::{NmtCommand, NmtState, NmtTarget};
 use crate::cia301::sdo::{RequestId, SdoErrorKind, SdoEvent, SdoOptions, TransferBuffer};
 use crate::frame::cob_id::NodeId;
 use crate::frame::cob_id::NodeSet;
-use crate::frame::instant::{earliest, Duration, Instant};
+use crate::frame::instant::{earliest, earliest_of, Duration, Instant};
 use crate::machine::Machine;
 use crate::node::{NodeEvent, NodeEventKind};
 use crate::od::abort::AbortCode;
@@ -64,10 +64,11 @@ impl Slot {
     }
 
     pub(super) fn deadline(&self) -> Option<Instant> {
-        earliest(
-            earliest(self.probe_at, self.wait_until),
+        earliest_of([
+            self.probe_at,
+            self.wait_until,
             self.hb_check.map(|(_, d)| d),
-        )
+        ])
     }
 }
 
@@ -113,9 +114,7 @@ impl<D: ObjectDictionary, P: IdProfile, const S: usize, const T: usize, const R:
 
     /// The earliest timer of any slot, computed (127 slots: not on every poll).
     fn slot_deadline(&self) -> Option<Instant> {
-        self.slots
-            .iter()
-            .fold(None, |t, s| earliest(t, s.deadline()))
+        earliest_of(self.slots.iter().map(|s| s.deadline()))
     }
 
     /// A slot timer was set to `t`: the cached lower bound of every slot's timers follows.
