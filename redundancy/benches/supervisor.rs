@@ -137,9 +137,9 @@ fn warm() -> Vec<Station> {
         .map(|_| {
             let mut m = master();
             drive(&mut m, &warmup, true);
-            assert!(m.sup.is_active());
+            assert!(m.sup().is_active());
             assert!(m
-                .sup
+                .sup()
                 .pairs()
                 .all(|(_, p)| p.active.is_some() && p.members.iter().all(|s| s.joined())));
             m
@@ -184,7 +184,7 @@ fn supervisor_scale(c: &mut Criterion) {
         best = best.min(start.elapsed().as_secs_f64());
         for m in &ms {
             assert!(m
-                .sup
+                .sup()
                 .pairs()
                 .all(|(_, p)| p.active == Some(duocan_redundancy::Member::A)));
         }

@@ -68,7 +68,9 @@ pub mod supervisor;
 
 pub use link::channel::{Cia3026Config, EcssConfig, EcssRole, ModeKind};
 pub use link::classify::FrameClassifier;
-pub use link::dual_bus::{DualBus, DualBusConfig, LinkMode, LinkStats, DEFAULT_MERGE_SLOTS};
+pub use link::dual_bus::{
+    DualBus, DualBusConfig, DualBusNode, LinkCommand, LinkMode, LinkStats, DEFAULT_MERGE_SLOTS,
+};
 pub use link::events::{LinkEvent, LinkEventKind, PortReason, SwitchReason};
 pub use link::health::{HealthConfig, PortState};
 pub use link::merge::{Merger, Verdict};
@@ -77,8 +79,6 @@ pub use link::outbox::{Outbox, EVENT_QUEUE, FRAME_QUEUE, MACHINE_QUEUE, REQUEST_
 pub use network::{LogicalNetwork, NetworkError, NetworkEvent, NetworkEventKind};
 pub use pair::{Member, PairId, PairSpec};
 #[cfg(feature = "alloc")]
-pub use station::SupervisedStation;
+pub use station::{RedundantMaster, SupervisedStation};
 #[cfg(feature = "alloc")]
-pub use supervisor::{
-    AddPairError, JoinRefusal, LinkCommand, Supervisor, SupervisorConfig, SupervisorEvent,
-};
+pub use supervisor::{AddPairError, JoinRefusal, Supervisor, SupervisorConfig, SupervisorEvent};

@@ -16,8 +16,13 @@ use crate::frame::{Frame, Id};
 use crate::od::{comm, ObjectDictionary};
 use crate::profile::{IdProfile, ProfileFrame};
 
-impl<D: ObjectDictionary, P: IdProfile, const G: usize, const TPDOS: usize, const RPDOS: usize>
-    NodeCore<D, P, G, TPDOS, RPDOS>
+impl<
+        D: ObjectDictionary,
+        P: IdProfile,
+        const GUARDED: usize,
+        const TPDOS: usize,
+        const RPDOS: usize,
+    > NodeCore<D, P, GUARDED, TPDOS, RPDOS>
 {
     pub(super) fn id(&self) -> NodeId {
         self.cfg.node_id
@@ -391,8 +396,8 @@ impl<D: ObjectDictionary, P: IdProfile, const G: usize, const TPDOS: usize, cons
                 [0; 5],
             );
         }
-        let mut requests: heapless::Vec<NodeId, G> = heapless::Vec::new();
-        let mut gevs: heapless::Vec<GuardEvent, G> = heapless::Vec::new();
+        let mut requests: heapless::Vec<NodeId, GUARDED> = heapless::Vec::new();
+        let mut gevs: heapless::Vec<GuardEvent, GUARDED> = heapless::Vec::new();
         self.guard_master.handle_timeout(
             now,
             |n| {

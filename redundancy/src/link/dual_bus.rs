@@ -98,6 +98,27 @@ impl DualBusConfig {
     }
 }
 
+/// A node on a dual bus: the common redundant slave (one board of a pair), or any node that
+/// needs no supervisor.
+pub type DualBusNode<D, P = Predefined> = duocan::Station<DualBus<P>, duocan::Node<D, P>>;
+
+/// What the machine above (a redundant master's supervisor) tells the layer about the pairs of
+/// the same-function merge: the layer knows of pairs only what it is told.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum LinkCommand {
+    /// Deliver the process data of `member` of `pair` (`None`: neither).
+    SetActive(PairId, Option<Member>),
+    /// Forget a member's latest values.
+    Forget(PairId, Member),
+}
+
+// A machine with nothing to tell the layer (a node) runs on it as well.
+impl From<core::convert::Infallible> for LinkCommand {
+    fn from(never: core::convert::Infallible) -> Self {
+        match never {}
+    }
+}
+
 /// Counters of the layer itself.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub struct LinkStats {
@@ -330,6 +351,7 @@ impl<C: FrameClassifier, const N: usize, const F: usize> DualBus<C, N, F> {
 
 impl<C: FrameClassifier, const N: usize, const F: usize> BusLink for DualBus<C, N, F> {
     type Event = LinkEvent;
+    type Command = LinkCommand;
 
     fn port_count(&self) -> usize {
         2
@@ -450,6 +472,15 @@ impl<C: FrameClassifier, const N: usize, const F: usize> BusLink for DualBus<C, 
 
     fn poll_machine_request(&mut self) -> Option<LinkRequest> {
         self.out.machine.pop()
+    }
+
+    fn handle_command(&mut self, _now: Instant, cmd: LinkCommand) {
+        match cmd {
+            LinkCommand::SetActive(p, m) => {
+                self.set_active(p, m);
+            }
+            LinkCommand::Forget(p, m) => self.forget_member(p, m),
+        }
     }
 }
 
