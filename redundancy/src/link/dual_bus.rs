@@ -137,19 +137,21 @@ pub struct LinkStats {
 }
 
 /// The dual-bus layer. `C` classifies frames (heartbeats, senders, functions; the predefined
-/// connection set by default); `N` is the merger's slot count.
+/// connection set by default); `SLOTS` is the merger's slot count, `FUNCTIONS` the room for
+/// (pair, function) values of the same-function merge. Both are part of the type so that the
+/// layer needs no allocator.
 pub struct DualBus<
     C = Predefined,
-    const N: usize = DEFAULT_MERGE_SLOTS,
-    const F: usize = MAX_FUNCTIONS,
+    const SLOTS: usize = DEFAULT_MERGE_SLOTS,
+    const FUNCTIONS: usize = MAX_FUNCTIONS,
 > {
     classifier: C,
     policy: Policy,
-    merger: Merger<N>,
+    merger: Merger<SLOTS>,
     health: Health,
     reach: Reach,
     reach_enabled: bool,
-    pairs: SameFunction<F>,
+    pairs: SameFunction<FUNCTIONS>,
     out: Outbox,
     stats: LinkStats,
     /// The latest instant any method was given (hand-over time of frames for the stall rule).
@@ -179,7 +181,7 @@ impl DualBus<Predefined, DEFAULT_MERGE_SLOTS> {
     }
 }
 
-impl<C: FrameClassifier, const N: usize, const F: usize> DualBus<C, N, F> {
+impl<C: FrameClassifier, const SLOTS: usize, const FUNCTIONS: usize> DualBus<C, SLOTS, FUNCTIONS> {
     /// A layer with a custom frame classifier (identifier scheme).
     pub fn with_classifier(cfg: DualBusConfig, classifier: C) -> Self {
         let mut health = cfg.health;
@@ -299,7 +301,7 @@ impl<C: FrameClassifier, const N: usize, const F: usize> DualBus<C, N, F> {
         self.health.port(p).state()
     }
     /// The receive merger.
-    pub fn merger(&self) -> &Merger<N> {
+    pub fn merger(&self) -> &Merger<SLOTS> {
         &self.merger
     }
     /// Per-node, per-bus reachability.
@@ -307,7 +309,7 @@ impl<C: FrameClassifier, const N: usize, const F: usize> DualBus<C, N, F> {
         &self.reach
     }
     /// The pair table and the members' latest values.
-    pub fn pairs(&self) -> &SameFunction<F> {
+    pub fn pairs(&self) -> &SameFunction<FUNCTIONS> {
         &self.pairs
     }
     /// Configures an A/B pair for the same-function merge.
@@ -349,7 +351,9 @@ impl<C: FrameClassifier, const N: usize, const F: usize> DualBus<C, N, F> {
     }
 }
 
-impl<C: FrameClassifier, const N: usize, const F: usize> BusLink for DualBus<C, N, F> {
+impl<C: FrameClassifier, const SLOTS: usize, const FUNCTIONS: usize> BusLink
+    for DualBus<C, SLOTS, FUNCTIONS>
+{
     type Event = LinkEvent;
     type Command = LinkCommand;
 
@@ -484,7 +488,9 @@ impl<C: FrameClassifier, const N: usize, const F: usize> BusLink for DualBus<C, 
     }
 }
 
-impl<C, const N: usize, const F: usize> core::fmt::Debug for DualBus<C, N, F> {
+impl<C, const SLOTS: usize, const FUNCTIONS: usize> core::fmt::Debug
+    for DualBus<C, SLOTS, FUNCTIONS>
+{
     fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
         f.debug_struct("DualBus")
             .field("mode", &self.policy.kind())
