@@ -23,14 +23,16 @@ use duocan::od::{comm, DynamicDictionary, ObjectDictionary};
 use duocan::port::socketcan::{link_state, LinkState, SocketCanPort};
 use duocan::runtime::{Handle, Runtime, RuntimeEvent};
 use duocan::{Duration, NmtCommand, NmtTarget, Node, NodeConfig, NodeEvent, NodeId};
-use duocan_redundancy::{DualBus, DualBusConfig, LinkEvent, LinkEventKind, LinkMode, PortState};
+use duocan_redundancy::{
+    DualBus, DualBusConfig, DualBusNode, LinkEvent, LinkEventKind, LinkMode, PortState,
+};
 use std::process::{Command, ExitCode};
 use std::sync::atomic::{AtomicUsize, Ordering};
 use std::sync::Arc;
 use std::time::Duration as StdDuration;
 use tokio::sync::broadcast;
 
-type Dev = Station<DualBus, Node<DynamicDictionary>>;
+type Dev = DualBusNode<DynamicDictionary>;
 type Ev = RuntimeEvent<StationEvent<LinkEvent, NodeEvent>>;
 
 const MASTER: u8 = 1;

@@ -12,6 +12,7 @@
 
 mod firmware {
     use duocan::machine::{SinglePort, Station};
+    use duocan::node::SlaveNode;
     use duocan::od::{comm, ObjectDef, StaticDictionary};
     use duocan::port::embedded::EmbeddedDriver;
     use duocan::profile::Predefined;
@@ -22,10 +23,15 @@ mod firmware {
     static IDENT: [ObjectDef; 6] = comm::identity(0x191, 0xD0CA, 1, 1, 42);
     static HB: [ObjectDef; 4] = comm::heartbeat_consumers::<4>();
 
+    /// Objects and data bytes of the static dictionary.
+    const OBJECTS: usize = 64;
+    const DATA: usize = 512;
     /// The slave: a static dictionary, no node guarding.
-    pub type Slave = Node<StaticDictionary<64, 512>, Predefined, 0>;
+    pub type Slave = SlaveNode<StaticDictionary<OBJECTS, DATA>>;
+    /// CAN controllers: one.
+    const PORTS: usize = 1;
     /// The slave on one controller.
-    pub type Driver<C> = EmbeddedDriver<Station<SinglePort, Slave>, C, 1>;
+    pub type Driver<C> = EmbeddedDriver<Station<SinglePort, Slave>, C, PORTS>;
 
     /// Builds the slave with node-ID `id` and a 100 ms heartbeat, and boots it.
     pub fn start<C: Can>(id: u8, can: C, now: Instant) -> Option<Driver<C>> {

@@ -28,6 +28,7 @@ struct Echo {
 
 impl Machine for Echo {
     type Event = ();
+    type LinkCommand = std::convert::Infallible;
     fn handle_frame(&mut self, _: Instant, f: &Frame) {
         if f.id() == Id::Standard(PING) {
             if let Ok(r) = Frame::new(Id::Standard(PONG), f.data()) {

@@ -7,6 +7,12 @@
 //!   Station    = BusLink + Machine, which is a Device
 //! ```
 //!
+//! Between the link and the machine of a station, two paths run after every input: the link's
+//! [`LinkRequest`]s up to the machine (the node owns the state a redundancy scheme changes), and
+//! the machine's [`Machine::LinkCommand`]s down to the link (a supervisor decides which pair
+//! member's process data the link delivers). Most machines and links have nothing to say on the
+//! second path: their command type is [`Infallible`] and the default methods do nothing.
+//!
 //! Drivers own time and I/O and do the same five things to every device: hand it frames, hand it
 //! port status, call `handle_timeout` at (or after) `poll_timeout`, drain `poll_transmit` to the
 //! ports, drain `poll_event` to the application. Every method may be called at any time;
@@ -22,6 +28,9 @@ use core::fmt;
 pub trait Machine {
     /// What the machine tells its application.
     type Event;
+    /// What the machine tells the link below it (a [`Station`] hands them on with
+    /// [`BusLink::handle_command`]); [`Infallible`] for a machine with nothing to tell.
+    type LinkCommand;
     /// A frame arrived from the (logical) bus.
     fn handle_frame(&mut self, now: Instant, frame: &Frame);
     /// Time passed; do what is due at `now`.
@@ -36,6 +45,11 @@ pub trait Machine {
     /// no state to change there ignore it.
     fn handle_link_request(&mut self, now: Instant, req: LinkRequest) {
         let _ = (now, req);
+    }
+    /// Next command for the link below; a [`Station`] drains them after every input, so that the
+    /// link acts on them at the instant they were decided.
+    fn poll_link_command(&mut self) -> Option<Self::LinkCommand> {
+        None
     }
 }
 
@@ -163,6 +177,9 @@ pub trait Device {
 pub trait BusLink {
     /// What the layer reports (port health, channel switches).
     type Event;
+    /// What the layer takes from the machine above (see [`Machine::LinkCommand`]);
+    /// [`Infallible`] for a layer that takes nothing.
+    type Command;
     /// Number of ports below.
     fn port_count(&self) -> usize;
     /// A frame from `port`; returns the logical frame to deliver upward, if any.
@@ -186,6 +203,10 @@ pub trait BusLink {
     /// Next request to the machine above; a [`Station`] applies them after every input.
     fn poll_machine_request(&mut self) -> Option<LinkRequest> {
         None
+    }
+    /// A command of the machine above; layers that have no state to change there ignore it.
+    fn handle_command(&mut self, now: Instant, cmd: Self::Command) {
+        let _ = (now, cmd);
     }
 }
 
@@ -212,6 +233,7 @@ impl SinglePort {
 
 impl BusLink for SinglePort {
     type Event = Infallible;
+    type Command = Infallible;
     fn port_count(&self) -> usize {
         1
     }
@@ -255,6 +277,10 @@ pub enum StationEvent<L, M> {
 }
 
 /// A machine on a link: the unit a driver runs.
+///
+/// After every input the station hands the link's [`LinkRequest`]s to the machine and the
+/// machine's [`Machine::LinkCommand`]s to the link (which must take them: `M::LinkCommand:
+/// Into<L::Command>`, trivially true when the machine has none).
 #[derive(Debug)]
 pub struct Station<L, M> {
     /// The link below.
@@ -282,7 +308,21 @@ impl<L: BusLink, M: Machine> Station<L, M> {
     }
 }
 
-impl<L: BusLink, M: Machine> Device for Station<L, M> {
+impl<L: BusLink, M: Machine> Station<L, M>
+where
+    M::LinkCommand: Into<L::Command>,
+{
+    /// The link's requests up, then the machine's commands down.
+    fn forward(&mut self, now: Instant) {
+        forward_requests(now, &mut self.link, &mut self.machine);
+        forward_commands(now, &mut self.machine, &mut self.link);
+    }
+}
+
+impl<L: BusLink, M: Machine> Device for Station<L, M>
+where
+    M::LinkCommand: Into<L::Command>,
+{
     type Event = StationEvent<L::Event, M::Event>;
 
     fn port_count(&self) -> usize {
@@ -291,21 +331,24 @@ impl<L: BusLink, M: Machine> Device for Station<L, M> {
     fn handle_rx(&mut self, now: Instant, port: usize, frame: &Frame) {
         self.now = now;
         let f = self.link.handle_rx(now, port, frame);
-        forward_requests(now, &mut self.link, &mut self.machine);
+        self.forward(now);
         if let Some(f) = f {
             self.machine.handle_frame(now, &f);
+            self.forward(now);
         }
     }
     fn handle_port_status(&mut self, now: Instant, port: usize, status: PortStatus) {
         self.now = now;
         self.link.handle_port_status(now, port, status);
-        forward_requests(now, &mut self.link, &mut self.machine);
+        self.forward(now);
     }
     fn handle_timeout(&mut self, now: Instant) {
         self.now = now;
         self.link.handle_timeout(now);
+        // What the link decided is in force before the machine's timers run.
         forward_requests(now, &mut self.link, &mut self.machine);
         self.machine.handle_timeout(now);
+        self.forward(now);
     }
     fn poll_transmit(&mut self) -> Option<(usize, Frame)> {
         loop {
@@ -337,6 +380,16 @@ pub fn forward_requests<L: BusLink, M: Machine>(now: Instant, link: &mut L, mach
     }
 }
 
+/// Hands the machine's commands to the link below it.
+pub fn forward_commands<M: Machine, L: BusLink>(now: Instant, machine: &mut M, link: &mut L)
+where
+    M::LinkCommand: Into<L::Command>,
+{
+    while let Some(c) = machine.poll_link_command() {
+        link.handle_command(now, c.into());
+    }
+}
+
 /// An event of a [`Composite`].
 #[derive(Clone, Debug, PartialEq)]
 pub enum CompositeEvent<A, B> {
@@ -348,7 +401,8 @@ pub enum CompositeEvent<A, B> {
 
 /// Two machines on one logical bus: every frame goes to both (each ignores what is not its
 /// business), their outputs are merged. How a node and an SDO client pool, or a node and a
-/// supervisor, become one machine for a station.
+/// supervisor, become one machine for a station. Commands for the link come from both, in the
+/// first machine's type: a machine that commands the link goes first.
 #[derive(Debug, Default)]
 pub struct Composite<A, B> {
     /// The first machine.
@@ -364,8 +418,12 @@ impl<A: Machine, B: Machine> Composite<A, B> {
     }
 }
 
-impl<A: Machine, B: Machine> Machine for Composite<A, B> {
+impl<A: Machine, B: Machine> Machine for Composite<A, B>
+where
+    B::LinkCommand: Into<A::LinkCommand>,
+{
     type Event = CompositeEvent<A::Event, B::Event>;
+    type LinkCommand = A::LinkCommand;
     fn handle_frame(&mut self, now: Instant, frame: &Frame) {
         self.a.handle_frame(now, frame);
         self.b.handle_frame(now, frame);
@@ -389,5 +447,10 @@ impl<A: Machine, B: Machine> Machine for Composite<A, B> {
     fn handle_link_request(&mut self, now: Instant, req: LinkRequest) {
         self.a.handle_link_request(now, req);
         self.b.handle_link_request(now, req);
+    }
+    fn poll_link_command(&mut self) -> Option<A::LinkCommand> {
+        self.a
+            .poll_link_command()
+            .or_else(|| self.b.poll_link_command().map(Into::into))
     }
 }

@@ -6,11 +6,12 @@
 
 use criterion::{criterion_group, criterion_main, Criterion};
 use duocan::master::{objects, Master, NetworkConfig};
-use duocan::od::{comm, DynamicDictionary};
+use duocan::od::comm;
 use duocan::{Device, Duration, Frame, Id, Instant, NodeId};
 use duocan_redundancy::PairSpec;
 use duocan_redundancy::{
-    DualBus, DualBusConfig, LinkMode, SupervisedStation, Supervisor, SupervisorConfig,
+    DualBus, DualBusConfig, LinkMode, RedundantMaster, SupervisedStation, Supervisor,
+    SupervisorConfig,
 };
 use std::hint::black_box;
 use std::time::Instant as WallClock;
@@ -19,7 +20,7 @@ const NETWORKS: usize = 4;
 const PAIRS: u8 = 54;
 const HB: Duration = Duration::from_millis(10);
 
-type Station = SupervisedStation<DynamicDictionary>;
+type Station = RedundantMaster;
 
 fn board(i: u8) -> u8 {
     // A boards 2..=55, B boards 66..=119.
@@ -137,9 +138,9 @@ fn warm() -> Vec<Station> {
         .map(|_| {
             let mut m = master();
             drive(&mut m, &warmup, true);
-            assert!(m.sup.is_active());
+            assert!(m.sup().is_active());
             assert!(m
-                .sup
+                .sup()
                 .pairs()
                 .all(|(_, p)| p.active.is_some() && p.members.iter().all(|s| s.joined())));
             m
@@ -184,7 +185,7 @@ fn supervisor_scale(c: &mut Criterion) {
         best = best.min(start.elapsed().as_secs_f64());
         for m in &ms {
             assert!(m
-                .sup
+                .sup()
                 .pairs()
                 .all(|(_, p)| p.active == Some(duocan_redundancy::Member::A)));
         }

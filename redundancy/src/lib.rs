@@ -13,7 +13,7 @@
 //! | 0 | [`pair`] | the shared vocabulary: [`PairId`], [`Member`], [`PairSpec`] |
 //! | 1 | [`link`] | the **dual-bus layer** [`DualBus`]: a [`BusLink`](duocan::BusLink) with two ports below and one logical bus above |
 //! | 2 | [`supervisor`] | slave-pair supervision, the CiA 302-2 flying master, the audit trail; [`Supervisor`] composes them with the CiA 302-2 master |
-//! | 3 | [`station`] | [`SupervisedStation`]: a supervisor on a dual bus, with its status table |
+//! | 3 | [`station`] | [`SupervisedStation`]: a supervisor on a dual bus (a [`Station`](duocan::Station)), with its status table |
 //! | 4 | [`network`] | [`LogicalNetwork`]: what the application holds per dual-bus network |
 //!
 //! The dual-bus layer has one type and three policies ([`LinkMode`]):
@@ -43,14 +43,19 @@
 //!   after a partition, planned hand-over;
 //! - the [audit trail](supervisor::audit) of every role change, switch and toggle;
 //! - [`Supervisor`] (feature `alloc`), the [`Machine`](duocan::Machine) composing them with the
-//!   CiA 302-2 [`Master`](duocan::master::Master) of the root crate, and [`SupervisedStation`],
-//!   which runs it over a [`DualBus`] and tells the layer which pair member is active;
+//!   CiA 302-2 [`Master`](duocan::master::Master) of the root crate, and [`SupervisedStation`]
+//!   ([`RedundantMaster`] for the common shape), which runs it over a [`DualBus`]: the
+//!   supervisor's [`LinkCommand`]s tell the layer which pair member is active, the way any
+//!   machine's commands reach the link of a [`Station`](duocan::Station);
 //! - [`LogicalNetwork`] (feature `alloc`): dictionary, SDO client access to any node, NMT, PDO
 //!   values, one typed event stream, the status table and the audit export, as a sans-IO
 //!   [`Device`](duocan::Device) that the simulator and the tokio runtime drive alike.
 //!
 //! Everything is bounded (fixed-capacity tables and queues, counted overflow) and builds for
-//! `no_std` targets; the supervisor needs `alloc` (as the root crate's master does).
+//! `no_std` targets; the supervisor needs `alloc` (as the root crate's master does). The layer's
+//! capacities are part of its type (`DualBus<C, SLOTS, FUNCTIONS>`) so that it needs no
+//! allocator; the `alloc` types above it (supervisor, station, network) are spelled with a
+//! dictionary and an identifier profile only, their capacities fixed where they are built.
 #![cfg_attr(not(feature = "std"), no_std)]
 #![warn(missing_docs)]
 #![forbid(unsafe_code)]
@@ -68,7 +73,9 @@ pub mod supervisor;
 
 pub use link::channel::{Cia3026Config, EcssConfig, EcssRole, ModeKind};
 pub use link::classify::FrameClassifier;
-pub use link::dual_bus::{DualBus, DualBusConfig, LinkMode, LinkStats, DEFAULT_MERGE_SLOTS};
+pub use link::dual_bus::{
+    DualBus, DualBusConfig, DualBusNode, LinkCommand, LinkMode, LinkStats, DEFAULT_MERGE_SLOTS,
+};
 pub use link::events::{LinkEvent, LinkEventKind, PortReason, SwitchReason};
 pub use link::health::{HealthConfig, PortState};
 pub use link::merge::{Merger, Verdict};
@@ -77,8 +84,6 @@ pub use link::outbox::{Outbox, EVENT_QUEUE, FRAME_QUEUE, MACHINE_QUEUE, REQUEST_
 pub use network::{LogicalNetwork, NetworkError, NetworkEvent, NetworkEventKind};
 pub use pair::{Member, PairId, PairSpec};
 #[cfg(feature = "alloc")]
-pub use station::SupervisedStation;
+pub use station::{RedundantMaster, SupervisedStation};
 #[cfg(feature = "alloc")]
-pub use supervisor::{
-    AddPairError, JoinRefusal, LinkCommand, Supervisor, SupervisorConfig, SupervisorEvent,
-};
+pub use supervisor::{AddPairError, JoinRefusal, Supervisor, SupervisorConfig, SupervisorEvent};

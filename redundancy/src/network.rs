@@ -84,18 +84,10 @@ use duocan::profile::{IdProfile, Predefined};
 use duocan::sdo::{RequestId, SdoError, SdoEvent, SdoOptions};
 use duocan::{Frame, Instant, NmtCommand, NmtState, NodeId};
 
-/// One dual-bus network as the application sees it. The generic parameters are the
-/// [`SupervisedStation`]'s.
-pub struct LogicalNetwork<
-    D,
-    C = Predefined,
-    const N: usize = { crate::DEFAULT_MERGE_SLOTS },
-    P = Predefined,
-    const S: usize = 8,
-    const T: usize = 4,
-    const R: usize = 4,
-> {
-    station: SupervisedStation<D, C, N, P, S, T, R>,
+/// One dual-bus network as the application sees it: `D` is the master's dictionary, `P` the
+/// identifier profile (as for the [`SupervisedStation`] underneath).
+pub struct LogicalNetwork<D, P = Predefined> {
+    station: SupervisedStation<D, P>,
 }
 
 /// Something that happened on the network, and when.
@@ -226,38 +218,29 @@ impl fmt::Display for NetworkError {
     }
 }
 
-impl<
-        D: ObjectDictionary,
-        C: FrameClassifier,
-        const N: usize,
-        P: IdProfile,
-        const S: usize,
-        const T: usize,
-        const R: usize,
-    > LogicalNetwork<D, C, N, P, S, T, R>
-{
+impl<D: ObjectDictionary, P: IdProfile + FrameClassifier> LogicalNetwork<D, P> {
     /// The network run by `station`.
-    pub fn new(station: SupervisedStation<D, C, N, P, S, T, R>) -> Self {
+    pub fn new(station: SupervisedStation<D, P>) -> Self {
         LogicalNetwork { station }
     }
     /// The station underneath (dual-bus layer and supervisor).
-    pub fn station(&self) -> &SupervisedStation<D, C, N, P, S, T, R> {
+    pub fn station(&self) -> &SupervisedStation<D, P> {
         &self.station
     }
     /// The station underneath, for what the facade does not cover.
-    pub fn station_mut(&mut self) -> &mut SupervisedStation<D, C, N, P, S, T, R> {
+    pub fn station_mut(&mut self) -> &mut SupervisedStation<D, P> {
         &mut self.station
     }
     /// The supervisor.
-    pub fn supervisor(&self) -> &Supervisor<D, P, S, T, R> {
-        &self.station.sup
+    pub fn supervisor(&self) -> &Supervisor<D, P> {
+        self.station.sup()
     }
 
     // ----- dictionary -----
 
     /// The master's object dictionary.
     pub fn od(&self) -> &D {
-        self.station.sup.node().od()
+        self.station.sup().node().od()
     }
     /// Reads an entry of the master's dictionary (no access check: the application's own).
     pub fn read(&self, index: u16, sub: u8) -> Result<&[u8], AbortCode> {
@@ -271,7 +254,10 @@ impl<
         sub: u8,
         data: &[u8],
     ) -> Result<(), AbortCode> {
-        self.station.sup.node_mut().write(now, index, sub, data)
+        self.station
+            .sup_mut()
+            .node_mut()
+            .write(now, index, sub, data)
     }
 
     // ----- SDO -----
@@ -298,7 +284,7 @@ impl<
     ) -> Result<RequestId, NetworkError> {
         self.check_active()?;
         self.station
-            .sup
+            .sup_mut()
             .sdo_mut()
             .upload(now, node, index, sub, opts)
             .map_err(NetworkError::Sdo)
@@ -327,7 +313,7 @@ impl<
     ) -> Result<RequestId, NetworkError> {
         self.check_active()?;
         self.station
-            .sup
+            .sup_mut()
             .sdo_mut()
             .download(now, node, index, sub, data, opts)
             .map_err(NetworkError::Sdo)
@@ -342,10 +328,13 @@ impl<
         cmd: NmtCommand,
         target: NmtTarget,
     ) -> Result<(), NetworkError> {
-        self.station.sup.nmt(now, cmd, target).map_err(|e| match e {
-            MasterError::Standby => NetworkError::Standby,
-            e => NetworkError::Nmt(e),
-        })
+        self.station
+            .sup_mut()
+            .nmt(now, cmd, target)
+            .map_err(|e| match e {
+                MasterError::Standby => NetworkError::Standby,
+                e => NetworkError::Nmt(e),
+            })
     }
 
     // ----- PDO -----
@@ -364,15 +353,15 @@ impl<
 
     /// Every slave of the master (pair members included).
     pub fn slaves(&self) -> impl Iterator<Item = SlaveView> + '_ {
-        self.station.sup.slaves()
+        self.station.sup().slaves()
     }
     /// What the master knows of one node.
     pub fn slave(&self, node: NodeId) -> SlaveView {
-        self.station.sup.master().slave(node)
+        self.station.sup().master().slave(node)
     }
     /// The pair table.
     pub fn pairs(&self) -> impl Iterator<Item = (PairId, &PairState)> + '_ {
-        self.station.sup.pairs()
+        self.station.sup().pairs()
     }
     /// Makes `to` the active member of `pair` (active master only).
     pub fn switch_over(
@@ -382,22 +371,25 @@ impl<
         to: Member,
     ) -> Result<(), NetworkError> {
         self.station
-            .sup
+            .sup_mut()
             .switch_over(now, pair, to)
             .map_err(NetworkError::Pairs)
     }
     /// This master's role.
     pub fn role(&self) -> MasterRole {
-        self.station.sup.role()
+        self.station.sup().role()
     }
     /// Makes this standby master active by hand (between two SYNCs).
     pub fn set_active(&mut self, now: Instant) -> Result<(), NetworkError> {
-        self.station.sup.set_active(now).map_err(NetworkError::Role)
+        self.station
+            .sup_mut()
+            .set_active(now)
+            .map_err(NetworkError::Role)
     }
     /// Hands the role of this active master to the best live one (between two SYNCs).
     pub fn set_standby(&mut self, now: Instant) -> Result<(), NetworkError> {
         self.station
-            .sup
+            .sup_mut()
             .set_standby(now)
             .map_err(NetworkError::Role)
     }
@@ -405,12 +397,12 @@ impl<
     // ----- status and audit -----
 
     /// Ports, master role, pairs, slaves: `Display` prints a table.
-    pub fn status(&self, now: Instant) -> Status<'_, D, C, N, P, S, T, R> {
+    pub fn status(&self, now: Instant) -> Status<'_, D, P> {
         self.station.status(now)
     }
     /// The audit trail (every role change, switch and toggle with reason and time).
     pub fn audit(&self) -> &AuditTrail {
-        self.station.sup.audit()
+        self.station.sup().audit()
     }
     /// The audit trail as CSV (`seq,time_us,kind,subject,from,to,reason`).
     pub fn export_audit_csv(&self, out: &mut impl fmt::Write) -> fmt::Result {
@@ -422,7 +414,7 @@ impl<
     }
 
     fn check_active(&self) -> Result<(), NetworkError> {
-        if self.station.sup.is_active() {
+        if self.station.sup().is_active() {
             Ok(())
         } else {
             Err(NetworkError::Standby)
@@ -430,15 +422,7 @@ impl<
     }
 }
 
-impl<
-        C: FrameClassifier,
-        const N: usize,
-        P: IdProfile,
-        const S: usize,
-        const T: usize,
-        const R: usize,
-    > LogicalNetwork<DynamicDictionary, C, N, P, S, T, R>
-{
+impl<P: IdProfile + FrameClassifier> LogicalNetwork<DynamicDictionary, P> {
     /// Makes the master's RPDO `m.pdo` the other end of a slave's TPDO configured as `remote`:
     /// the values land in the master's entries `m.locals` (created where missing), read with
     /// [`LogicalNetwork::pdo_value`]; each reception is a [`NetworkEventKind::PdoReceived`].
@@ -450,7 +434,7 @@ impl<
         m: &duocan::cia302::pdo_config::Mirror<'_>,
     ) -> Result<(), duocan::cia302::pdo_config::MirrorError> {
         duocan::cia302::pdo_config::mirror(
-            self.station.sup.node_mut(),
+            self.station.sup_mut().node_mut(),
             now,
             Dir::Transmit,
             remote,
@@ -535,16 +519,7 @@ fn typed(e: &StationEvent<LinkEvent, SupervisorEvent>) -> Option<NetworkEventKin
     })
 }
 
-impl<
-        D: ObjectDictionary,
-        C: FrameClassifier,
-        const N: usize,
-        P: IdProfile,
-        const S: usize,
-        const T: usize,
-        const R: usize,
-    > Device for LogicalNetwork<D, C, N, P, S, T, R>
-{
+impl<D: ObjectDictionary, P: IdProfile + FrameClassifier> Device for LogicalNetwork<D, P> {
     type Event = NetworkEvent;
 
     fn port_count(&self) -> usize {
@@ -576,12 +551,10 @@ impl<
     }
 }
 
-impl<D, C, const N: usize, P, const S: usize, const T: usize, const R: usize> fmt::Debug
-    for LogicalNetwork<D, C, N, P, S, T, R>
-{
+impl<D, P> fmt::Debug for LogicalNetwork<D, P> {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         f.debug_struct("LogicalNetwork")
-            .field("sup", &self.station.sup)
+            .field("sup", self.station.sup())
             .finish_non_exhaustive()
     }
 }

@@ -1,13 +1,14 @@
-//! A redundant master as a driver runs it: the dual-bus layer below, the [`Supervisor`] above,
-//! and the glue that tells the layer which pair member is active.
+//! A redundant master as a driver runs it: the dual-bus layer below, the [`Supervisor`] above.
 //!
-//! [`SupervisedStation`] is a [`Device`] like [`duocan::Station`], plus: after every input it
-//! forwards the supervisor's [`LinkCommand`]s to the [`DualBus`] (so the same-function merge
-//! delivers the active member's process data from the instant the role changes), mirrors the
-//! supervisor's pairs into the layer, and records the layer's port changes, channel switches and
-//! toggles in the supervisor's audit trail. [`SupervisedStation::status`] is the snapshot the
-//! application prints: ports, master role, pairs, the other slaves, and the nodes heard on one
-//! bus only.
+//! The composition itself is the root crate's: a [`Station`] of a [`DualBus`] and a
+//! [`Supervisor`] hands the layer's requests to the master's node and the supervisor's
+//! [`LinkCommand`](crate::LinkCommand)s to the layer after every input (so the same-function
+//! merge delivers the active member's process data from the instant the role changes).
+//! [`SupervisedStation`] wraps that station for what only a redundant master has: the
+//! supervisor's pairs configured in the layer from the start, the layer's port changes,
+//! channel switches and toggles recorded in the supervisor's audit trail, and
+//! [`SupervisedStation::status`], the snapshot the application prints: ports, master role,
+//! pairs, the other slaves, and the nodes heard on one bus only.
 
 use crate::link::dual_bus::DualBus;
 use crate::link::events::LinkEvent;
@@ -15,142 +16,116 @@ use crate::link::same_function::PairError;
 use crate::pair::Member;
 use crate::supervisor::flying_master::MasterRole;
 use crate::supervisor::pairs::Phase;
-use crate::supervisor::{LinkCommand, Supervisor, SupervisorEvent};
+use crate::supervisor::{Supervisor, SupervisorEvent};
 use crate::FrameClassifier;
 use core::fmt;
-use duocan::frame::instant::earliest;
+use core::ops::{Deref, DerefMut};
 use duocan::machine::{
-    forward_requests, BusLink, Device, Machine, PortRequest, PortStatus, StationEvent,
+    forward_commands, forward_requests, Device, PortRequest, PortStatus, Station, StationEvent,
 };
-use duocan::od::ObjectDictionary;
+use duocan::od::{DynamicDictionary, ObjectDictionary};
 use duocan::profile::{IdProfile, Predefined};
 use duocan::{Frame, Instant};
 
-/// A redundant master on a dual bus: `C` and `N` are the [`DualBus`]'s (frame classifier,
-/// merge slots), `P`, `S`, `T`, `R` the [`Supervisor`]'s.
-pub struct SupervisedStation<
-    D,
-    C = Predefined,
-    const N: usize = { crate::DEFAULT_MERGE_SLOTS },
-    P = Predefined,
-    const S: usize = 8,
-    const T: usize = 4,
-    const R: usize = 4,
-> {
-    /// The dual-bus layer.
-    pub link: DualBus<C, N>,
-    /// The supervisor.
-    pub sup: Supervisor<D, P, S, T, R>,
-    now: Instant,
+/// A redundant master on a dual bus: a [`Station`] of a [`DualBus`] and a [`Supervisor`] (which
+/// it dereferences to: `link` and `machine`), plus its status table. `D` is the master's
+/// dictionary, `P` its identifier profile, which also classifies frames for the layer.
+pub struct SupervisedStation<D, P = Predefined> {
+    station: Station<DualBus<P>, Supervisor<D, P>>,
 }
 
-impl<
-        D: ObjectDictionary,
-        C: FrameClassifier,
-        const N: usize,
-        P: IdProfile,
-        const S: usize,
-        const T: usize,
-        const R: usize,
-    > SupervisedStation<D, C, N, P, S, T, R>
-{
+/// The common redundant master: a dictionary built at run time, on the predefined connection set
+/// unless `P` says otherwise.
+pub type RedundantMaster<P = Predefined> = SupervisedStation<DynamicDictionary, P>;
+
+impl<D: ObjectDictionary, P: IdProfile + FrameClassifier> SupervisedStation<D, P> {
     /// Puts `sup` on `link`; the supervisor's pairs are configured in the layer (same
     /// identifiers), with no active member until the supervisor says so.
-    pub fn new(mut link: DualBus<C, N>, sup: Supervisor<D, P, S, T, R>) -> Result<Self, PairError> {
+    pub fn new(mut link: DualBus<P>, mut sup: Supervisor<D, P>) -> Result<Self, PairError> {
         for (id, p) in sup.pairs() {
             let got = link.add_pair(p.spec.a, p.spec.b, p.active)?;
             debug_assert_eq!(got, id);
         }
-        let mut s = SupervisedStation {
-            link,
-            sup,
-            now: Instant::ZERO,
-        };
-        s.forward();
-        Ok(s)
+        // What either decided while they were built applies before the first input.
+        forward_requests(Instant::ZERO, &mut link, &mut sup);
+        forward_commands(Instant::ZERO, &mut sup, &mut link);
+        Ok(SupervisedStation {
+            station: Station::new(link, sup),
+        })
     }
 
     /// The status snapshot, printable as a table.
-    pub fn status(&self, now: Instant) -> Status<'_, D, C, N, P, S, T, R> {
+    pub fn status(&self, now: Instant) -> Status<'_, D, P> {
         Status { st: self, now }
-    }
-
-    fn forward(&mut self) {
-        // The layer's requests (status entries, ECSS pre-operational) go to the master's node.
-        forward_requests(self.now, &mut self.link, self.sup.node_mut());
-        while let Some(c) = self.sup.poll_link_command() {
-            match c {
-                LinkCommand::SetActive(p, m) => {
-                    self.link.set_active(p, m);
-                }
-                LinkCommand::Forget(p, m) => self.link.forget_member(p, m),
-            }
-        }
     }
 }
 
-impl<
-        D: ObjectDictionary,
-        C: FrameClassifier,
-        const N: usize,
-        P: IdProfile,
-        const S: usize,
-        const T: usize,
-        const R: usize,
-    > Device for SupervisedStation<D, C, N, P, S, T, R>
-{
+impl<D, P> SupervisedStation<D, P> {
+    /// The supervisor.
+    pub fn sup(&self) -> &Supervisor<D, P> {
+        &self.station.machine
+    }
+    /// The supervisor, for the application's commands (switch-over, NMT, SDO, time).
+    pub fn sup_mut(&mut self) -> &mut Supervisor<D, P> {
+        &mut self.station.machine
+    }
+    /// The station inside.
+    pub fn into_station(self) -> Station<DualBus<P>, Supervisor<D, P>> {
+        self.station
+    }
+}
+
+impl<D, P> Deref for SupervisedStation<D, P> {
+    type Target = Station<DualBus<P>, Supervisor<D, P>>;
+    fn deref(&self) -> &Self::Target {
+        &self.station
+    }
+}
+
+impl<D, P> DerefMut for SupervisedStation<D, P> {
+    fn deref_mut(&mut self) -> &mut Self::Target {
+        &mut self.station
+    }
+}
+
+impl<D: ObjectDictionary, P: IdProfile + FrameClassifier> Device for SupervisedStation<D, P> {
     type Event = StationEvent<LinkEvent, SupervisorEvent>;
 
     fn port_count(&self) -> usize {
-        2
+        self.station.port_count()
     }
     fn handle_rx(&mut self, now: Instant, port: usize, frame: &Frame) {
-        self.now = now;
-        let f = self.link.handle_rx(now, port, frame);
-        self.forward();
-        if let Some(f) = f {
-            self.sup.handle_frame(now, &f);
-            self.forward();
-        }
+        self.station.handle_rx(now, port, frame);
     }
     fn handle_port_status(&mut self, now: Instant, port: usize, status: PortStatus) {
-        self.now = now;
-        self.link.handle_port_status(now, port, status);
-        self.forward();
+        self.station.handle_port_status(now, port, status);
     }
     fn handle_timeout(&mut self, now: Instant) {
-        self.now = now;
-        self.link.handle_timeout(now);
-        self.sup.handle_timeout(now);
-        self.forward();
+        self.station.handle_timeout(now);
     }
     fn poll_transmit(&mut self) -> Option<(usize, Frame)> {
-        loop {
-            if let Some(x) = self.link.poll_transmit() {
-                return Some(x);
-            }
-            let f = self.sup.poll_transmit()?;
-            self.link.send(self.now, &f);
-        }
+        self.station.poll_transmit()
     }
     fn poll_port_request(&mut self) -> Option<(usize, PortRequest)> {
-        self.link.poll_port_request()
+        self.station.poll_port_request()
     }
     fn poll_timeout(&self) -> Option<Instant> {
-        earliest(self.link.poll_timeout(), self.sup.poll_timeout())
+        self.station.poll_timeout()
     }
     fn poll_event(&mut self) -> Option<Self::Event> {
-        if let Some(e) = self.link.poll_event() {
-            self.sup.audit_link(&e);
-            return Some(StationEvent::Link(e));
+        let e = self.station.poll_event()?;
+        // The audit trail records the layer's switches, toggles and port changes as the
+        // application sees them.
+        if let StationEvent::Link(l) = &e {
+            self.station.machine.audit_link(l);
         }
-        self.sup.poll_event().map(StationEvent::Machine)
+        Some(e)
     }
 }
 
 /// A snapshot of a supervised station; `Display` prints it as a table.
-pub struct Status<'a, D, C, const N: usize, P, const S: usize, const T: usize, const R: usize> {
-    st: &'a SupervisedStation<D, C, N, P, S, T, R>,
+pub struct Status<'a, D, P> {
+    st: &'a SupervisedStation<D, P>,
     now: Instant,
 }
 
@@ -162,18 +137,9 @@ fn member_word(m: Option<Member>) -> &'static str {
     }
 }
 
-impl<
-        D: ObjectDictionary,
-        C: FrameClassifier,
-        const N: usize,
-        P: IdProfile,
-        const S: usize,
-        const T: usize,
-        const R: usize,
-    > fmt::Display for Status<'_, D, C, N, P, S, T, R>
-{
+impl<D: ObjectDictionary, P: IdProfile + FrameClassifier> fmt::Display for Status<'_, D, P> {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        let sup = &self.st.sup;
+        let sup = self.st.sup();
         let fm = sup.flying_master();
         writeln!(f, "status at {}", self.now)?;
         write!(

@@ -210,6 +210,7 @@ impl<M> Tapped<M> {
 
 impl<M: Machine> Machine for Tapped<M> {
     type Event = M::Event;
+    type LinkCommand = M::LinkCommand;
     fn handle_frame(&mut self, now: Instant, frame: &Frame) {
         self.now = now;
         self.tap
@@ -234,6 +235,9 @@ impl<M: Machine> Machine for Tapped<M> {
     }
     fn handle_link_request(&mut self, now: Instant, req: crate::machine::LinkRequest) {
         self.inner.handle_link_request(now, req);
+    }
+    fn poll_link_command(&mut self) -> Option<M::LinkCommand> {
+        self.inner.poll_link_command()
     }
 }
 

@@ -12,8 +12,13 @@ use crate::od::ObjectAccess;
 use crate::od::{check_value, comm, Access, Entry, ObjectDictionary};
 use crate::profile::IdProfile;
 
-impl<D: ObjectDictionary, P: IdProfile, const G: usize, const TPDOS: usize, const RPDOS: usize>
-    NodeCore<D, P, G, TPDOS, RPDOS>
+impl<
+        D: ObjectDictionary,
+        P: IdProfile,
+        const GUARDED: usize,
+        const TPDOS: usize,
+        const RPDOS: usize,
+    > NodeCore<D, P, GUARDED, TPDOS, RPDOS>
 {
     pub(super) fn u16_of(&self, index: u16) -> u16 {
         self.od.get_u32(index, 0).unwrap_or(0) as u16
@@ -191,8 +196,13 @@ impl<D: ObjectDictionary, P: IdProfile, const G: usize, const TPDOS: usize, cons
     }
 }
 
-impl<D: ObjectDictionary, P: IdProfile, const G: usize, const TPDOS: usize, const RPDOS: usize>
-    ObjectAccess for NodeCore<D, P, G, TPDOS, RPDOS>
+impl<
+        D: ObjectDictionary,
+        P: IdProfile,
+        const GUARDED: usize,
+        const TPDOS: usize,
+        const RPDOS: usize,
+    > ObjectAccess for NodeCore<D, P, GUARDED, TPDOS, RPDOS>
 {
     fn entry(&self, index: u16, sub: u8) -> Result<Entry<'_>, AbortCode> {
         self.od.get(index, sub)

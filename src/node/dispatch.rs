@@ -34,8 +34,13 @@ macro_rules! node_out {
     };
 }
 
-impl<D: ObjectDictionary, P: IdProfile, const G: usize, const TPDOS: usize, const RPDOS: usize>
-    NodeCore<D, P, G, TPDOS, RPDOS>
+impl<
+        D: ObjectDictionary,
+        P: IdProfile,
+        const GUARDED: usize,
+        const TPDOS: usize,
+        const RPDOS: usize,
+    > NodeCore<D, P, GUARDED, TPDOS, RPDOS>
 {
     pub(super) fn id(&self) -> NodeId {
         self.cfg.node_id

@@ -29,6 +29,13 @@ pub const TX_QUEUE: usize = 32;
 /// Events a node can hold before the application drains them.
 pub const EVENT_QUEUE: usize = 32;
 
+/// How many nodes a node can guard as an NMT master unless told otherwise: every node-ID.
+pub const ALL_NODES: usize = 127;
+
+/// A slave node: it guards nobody (no node-guarding master table), and runs the default four
+/// TPDOs and four RPDOs.
+pub type SlaveNode<D, P = Predefined> = Node<D, P, 0>;
+
 /// How a node behaves beyond what its dictionary says.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct NodeConfig {
@@ -74,7 +81,7 @@ pub use events::{NodeEvent, NodeEventKind, NodeStats, QueueFull, StateCause, Wri
 pub struct NodeCore<
     D,
     P = Predefined,
-    const G: usize = 127,
+    const GUARDED: usize = ALL_NODES,
     const TPDOS: usize = 4,
     const RPDOS: usize = 4,
 > {
@@ -85,7 +92,7 @@ pub struct NodeCore<
     hb: HeartbeatProducer,
     consumer: HeartbeatConsumer<HEARTBEAT_CONSUMERS>,
     guard: GuardSlave,
-    guard_master: GuardMaster<G>,
+    guard_master: GuardMaster<GUARDED>,
     sync: SyncService,
     time: TimeService,
     emcy: EmcyProducer,
@@ -101,30 +108,45 @@ pub struct NodeCore<
 
 /// A CANopen node on one logical bus.
 ///
-/// `D` is the dictionary, `P` the identifier profile, `G` how many nodes it can guard as a
-/// master (0 for a plain slave), `TPDOS`/`RPDOS` how many TPDOs and RPDOs it runs (a master
-/// mirroring many slaves' TPDOs needs hundreds of RPDOs: `Node::<_, _, 127, 4, 512>::with_profile`).
+/// `D` is the dictionary, `P` the identifier profile, `GUARDED` how many nodes it can guard as a
+/// master (0 for a plain slave: [`SlaveNode`]), `TPDOS`/`RPDOS` how many TPDOs and RPDOs it runs
+/// (a master mirroring many slaves' TPDOs needs hundreds of RPDOs). The capacities are part of
+/// the type so that a node needs no allocator; spell a shape once as a type alias:
+///
+/// ```
+/// use duocan::node::{Node, ALL_NODES};
+/// use duocan::od::DynamicDictionary;
+/// use duocan::profile::Predefined;
+///
+/// /// A concentrator mirroring the TPDOs of many boards.
+/// type Concentrator = Node<DynamicDictionary, Predefined, ALL_NODES, 4, 512>;
+/// ```
 pub struct Node<
     D,
     P = Predefined,
-    const G: usize = 127,
+    const GUARDED: usize = ALL_NODES,
     const TPDOS: usize = 4,
     const RPDOS: usize = 4,
 > {
-    core: NodeCore<D, P, G, TPDOS, RPDOS>,
+    core: NodeCore<D, P, GUARDED, TPDOS, RPDOS>,
     sdo: SdoServer,
     sdo_boots: u32,
 }
 
-impl<D: ObjectDictionary> Node<D, Predefined, 127> {
+impl<D: ObjectDictionary> Node<D, Predefined, ALL_NODES> {
     /// A node with the predefined connection set. Nothing is sent until [`Node::boot`].
     pub fn new(cfg: NodeConfig, od: D) -> Self {
         Node::with_profile(cfg, od, Predefined)
     }
 }
 
-impl<D: ObjectDictionary, P: IdProfile, const G: usize, const TPDOS: usize, const RPDOS: usize>
-    Node<D, P, G, TPDOS, RPDOS>
+impl<
+        D: ObjectDictionary,
+        P: IdProfile,
+        const GUARDED: usize,
+        const TPDOS: usize,
+        const RPDOS: usize,
+    > Node<D, P, GUARDED, TPDOS, RPDOS>
 {
     /// A node with a custom identifier profile.
     pub fn with_profile(cfg: NodeConfig, od: D, profile: P) -> Self {
@@ -214,11 +236,11 @@ impl<D: ObjectDictionary, P: IdProfile, const G: usize, const TPDOS: usize, cons
         }
     }
     /// Mutable access to the parts (for protocol servers composed beside the node).
-    pub fn core_mut(&mut self) -> &mut NodeCore<D, P, G, TPDOS, RPDOS> {
+    pub fn core_mut(&mut self) -> &mut NodeCore<D, P, GUARDED, TPDOS, RPDOS> {
         &mut self.core
     }
     /// The parts.
-    pub fn core(&self) -> &NodeCore<D, P, G, TPDOS, RPDOS> {
+    pub fn core(&self) -> &NodeCore<D, P, GUARDED, TPDOS, RPDOS> {
         &self.core
     }
 
@@ -365,17 +387,25 @@ impl<D: ObjectDictionary, P: IdProfile, const G: usize, const TPDOS: usize, cons
     }
 }
 
-impl<D, P, const G: usize, const TPDOS: usize, const RPDOS: usize> NodeCore<D, P, G, TPDOS, RPDOS> {
+impl<D, P, const GUARDED: usize, const TPDOS: usize, const RPDOS: usize>
+    NodeCore<D, P, GUARDED, TPDOS, RPDOS>
+{
     /// The local NMT state.
     pub fn nmt_state(&self) -> NmtState {
         self.state
     }
 }
 
-impl<D: ObjectDictionary, P: IdProfile, const G: usize, const TPDOS: usize, const RPDOS: usize>
-    Machine for Node<D, P, G, TPDOS, RPDOS>
+impl<
+        D: ObjectDictionary,
+        P: IdProfile,
+        const GUARDED: usize,
+        const TPDOS: usize,
+        const RPDOS: usize,
+    > Machine for Node<D, P, GUARDED, TPDOS, RPDOS>
 {
     type Event = NodeEvent;
+    type LinkCommand = core::convert::Infallible;
 
     fn handle_frame(&mut self, now: Instant, frame: &Frame) {
         if Some(frame.id()) == self.sdo.rx_id() && self.core.state.services().sdo {

@@ -58,23 +58,23 @@ pub struct EmbeddedPortStats {
 /// Restarts a controller (bus-off recovery, re-arming filters…); false if it failed.
 pub type ReinitHook<C> = fn(&mut C) -> bool;
 
-/// Drives a device over `N` non-blocking CAN drivers.
-pub struct EmbeddedDriver<D, C: Can, const N: usize> {
+/// Drives a device over `PORTS` non-blocking CAN drivers.
+pub struct EmbeddedDriver<D, C: Can, const PORTS: usize> {
     device: D,
-    ports: [C; N],
-    backlog: [Deque<C::Frame, TX_BACKLOG>; N],
-    stats: [EmbeddedPortStats; N],
+    ports: [C; PORTS],
+    backlog: [Deque<C::Frame, TX_BACKLOG>; PORTS],
+    stats: [EmbeddedPortStats; PORTS],
     reinit: Option<ReinitHook<C>>,
 }
 
-impl<D: Device, C: Can, const N: usize> EmbeddedDriver<D, C, N> {
+impl<D: Device, C: Can, const PORTS: usize> EmbeddedDriver<D, C, PORTS> {
     /// A driver for `device` on `ports` (port `i` of the device is `ports[i]`).
-    pub fn new(device: D, ports: [C; N]) -> Self {
+    pub fn new(device: D, ports: [C; PORTS]) -> Self {
         EmbeddedDriver {
             device,
             ports,
             backlog: core::array::from_fn(|_| Deque::new()),
-            stats: [EmbeddedPortStats::default(); N],
+            stats: [EmbeddedPortStats::default(); PORTS],
             reinit: None,
         }
     }
@@ -110,7 +110,7 @@ impl<D: Device, C: Can, const N: usize> EmbeddedDriver<D, C, N> {
     /// Does everything that can be done at `now`; returns when to call again at the latest
     /// (`None`: only when a frame arrives).
     pub fn poll(&mut self, now: Instant) -> Option<Instant> {
-        for i in 0..N {
+        for i in 0..PORTS {
             self.receive(now, i);
         }
         if self.device.poll_timeout().is_some_and(|t| t <= now) {
@@ -170,7 +170,7 @@ impl<D: Device, C: Can, const N: usize> EmbeddedDriver<D, C, N> {
                 self.stats[port].tx_dropped = self.stats[port].tx_dropped.wrapping_add(1);
             }
         }
-        for i in 0..N {
+        for i in 0..PORTS {
             while let Some(f) = self.backlog[i].pop_front() {
                 match self.ports[i].transmit(&f) {
                     Ok(replaced) => {

@@ -34,8 +34,13 @@ pub trait LocalNode {
     fn power_on(&mut self, now: Instant);
 }
 
-impl<D: ObjectDictionary, P: IdProfile, const G: usize, const T: usize, const R: usize> LocalNode
-    for Node<D, P, G, T, R>
+impl<
+        D: ObjectDictionary,
+        P: IdProfile,
+        const GUARDED: usize,
+        const TPDOS: usize,
+        const RPDOS: usize,
+    > LocalNode for Node<D, P, GUARDED, TPDOS, RPDOS>
 {
     fn read_entry(&self, index: u16, sub: u8) -> Result<Vec<u8>, AbortCode> {
         self.od().get(index, sub).map(|e| e.data.to_vec())
@@ -79,8 +84,13 @@ impl<M: NodeHost> NodeHost for crate::capture::recorder::Tapped<M> {
     }
 }
 
-impl<D: ObjectDictionary, P: IdProfile, const G: usize, const T: usize, const R: usize> NodeHost
-    for Node<D, P, G, T, R>
+impl<
+        D: ObjectDictionary,
+        P: IdProfile,
+        const GUARDED: usize,
+        const TPDOS: usize,
+        const RPDOS: usize,
+    > NodeHost for Node<D, P, GUARDED, TPDOS, RPDOS>
 {
     fn local_node(&mut self) -> &mut dyn LocalNode {
         self

@@ -233,6 +233,7 @@ struct ActiveStandby {
 
 impl BusLink for ActiveStandby {
     type Event = (usize, usize);
+    type Command = std::convert::Infallible;
     fn port_count(&self) -> usize {
         2
     }

@@ -150,6 +150,7 @@ impl<S: Scheme> Board<S> {
 
 impl<S: Scheme> Machine for Board<S> {
     type Event = BoardEvent;
+    type LinkCommand = std::convert::Infallible;
 
     fn handle_frame(&mut self, now: Instant, frame: &Frame) {
         self.node.handle_frame(now, frame);

@@ -19,23 +19,9 @@ use duocan_redundancy::{LogicalNetwork, Member, NetworkEvent, NetworkEventKind, 
 use std::collections::{BTreeMap, VecDeque};
 use std::rc::Rc;
 
-/// SDO sessions, TPDOs and RPDOs of a master (RPDOs: two per board mirrored).
-pub const SESSIONS: usize = 8;
-/// TPDOs of a master.
-pub const TPDOS: usize = 4;
-/// RPDOs of a master: an answer and a state-change PDO per board, up to 10 pairs.
-pub const RPDOS: usize = 40;
-
-/// The logical network object of one computer on one rack.
-pub type Net<S> = LogicalNetwork<
-    DynamicDictionary,
-    S,
-    { duocan_redundancy::DEFAULT_MERGE_SLOTS },
-    S,
-    SESSIONS,
-    TPDOS,
-    RPDOS,
->;
+/// The logical network object of one computer on one rack. Its master has room for an answer
+/// and a state-change PDO per board mirrored ([`duocan::master::RPDOS`]).
+pub type Net<S> = LogicalNetwork<DynamicDictionary, S>;
 
 /// An unanswered command is sent again after this long.
 pub const ANSWER_TIMEOUT: Duration = Duration::from_millis(30);

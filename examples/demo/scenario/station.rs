@@ -3,12 +3,12 @@
 
 use super::board::{board, BoardDev, BoardEvent};
 use super::field::{Kind, Shared};
-use super::interlocking::{IlEvent, Interlocking, Route, RPDOS, SESSIONS, TPDOS};
+use super::interlocking::{IlEvent, Interlocking, Route};
 use super::scheme::Scheme;
 use super::{BITRATE, BOARD_HB, CONSUMER, MASTER_HB, MASTER_TIMEOUT, SYNC};
-use duocan::master::{objects, Master, NetworkConfig};
+use duocan::master::{objects, Master, MasterSdoClient, NetworkConfig};
 use duocan::od::comm;
-use duocan::sdo::{DefaultBuffer, SdoClient, DEFAULT_LIMIT};
+use duocan::sdo::DEFAULT_LIMIT;
 use duocan::sim::{BusConfig, BusId, DevId, DeviceRef, SimNetwork};
 use duocan::{Id, Instant, NmtState, NodeConfig, NodeId};
 use duocan_redundancy::supervisor::flying_master::MasterRole;
@@ -75,9 +75,8 @@ fn master<S: Scheme>(spec: &RackSpec<S>, which: usize, now: Instant) -> Interloc
     };
     let mut od = objects::master_dictionary(id.raw(), identity);
     spec.scheme.fit_dictionary(&mut od, id);
-    let sdo = SdoClient::<DefaultBuffer, SESSIONS>::with_limit(DEFAULT_LIMIT)
-        .with_channels(spec.scheme.channels());
-    let m = Master::<_, S, SESSIONS, TPDOS, RPDOS>::with_parts(
+    let sdo = MasterSdoClient::with_limit(DEFAULT_LIMIT).with_channels(spec.scheme.channels());
+    let m = Master::with_parts(
         NodeConfig::master(id),
         od,
         spec.scheme.clone(),

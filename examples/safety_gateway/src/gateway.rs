@@ -32,10 +32,20 @@ use static_cell::StaticCell;
 
 /// The dual-bus layer of the interlocking side, classifying by the shared railway profile. The
 /// gateway supervises no A/B pairs, so its same-function table is the smallest there is.
-pub type Link = DualBus<&'static RailwayProfile, MERGE_SLOTS, 2>;
+pub type Link = DualBus<&'static RailwayProfile, MERGE_SLOTS, FUNCTIONS>;
+/// Room of the same-function table: the least there is, no pair being supervised.
+pub const FUNCTIONS: usize = 2;
 /// The slave node: static dictionary, railway profile, no node guarding of others, one TPDO
 /// per track circuit, no RPDO.
-pub type Board = Node<Od, &'static RailwayProfile, 0, { TRACKS as usize }, 0>;
+pub type Board = Node<Od, &'static RailwayProfile, GUARDED, TPDOS, RPDOS>;
+/// Nodes the board guards: none (it is a slave).
+pub const GUARDED: usize = 0;
+/// TPDOs of the board: one per track circuit.
+pub const TPDOS: usize = TRACKS as usize;
+/// RPDOs of the board: none.
+pub const RPDOS: usize = 0;
+/// CAN controllers of the interlocking side: the two buses.
+pub const PORTS: usize = 2;
 /// What the embedded driver runs: the node on the dual-bus layer.
 pub type GatewayDevice = Station<Link, Board>;
 /// What the interlocking side reports.
@@ -120,7 +130,7 @@ impl fmt::Display for SetupError {
 
 /// The gateway: interlocking-side driver (two controllers), field controller, mirrors.
 pub struct Gateway<C: Can> {
-    driver: EmbeddedDriver<GatewayDevice, C, 2>,
+    driver: EmbeddedDriver<GatewayDevice, C, PORTS>,
     field: C,
     tracks: Tracks,
     events: Deque<Event, EVENT_QUEUE>,

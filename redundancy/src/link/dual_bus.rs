@@ -98,6 +98,27 @@ impl DualBusConfig {
     }
 }
 
+/// A node on a dual bus: the common redundant slave (one board of a pair), or any node that
+/// needs no supervisor.
+pub type DualBusNode<D, P = Predefined> = duocan::Station<DualBus<P>, duocan::Node<D, P>>;
+
+/// What the machine above (a redundant master's supervisor) tells the layer about the pairs of
+/// the same-function merge: the layer knows of pairs only what it is told.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum LinkCommand {
+    /// Deliver the process data of `member` of `pair` (`None`: neither).
+    SetActive(PairId, Option<Member>),
+    /// Forget a member's latest values.
+    Forget(PairId, Member),
+}
+
+// A machine with nothing to tell the layer (a node) runs on it as well.
+impl From<core::convert::Infallible> for LinkCommand {
+    fn from(never: core::convert::Infallible) -> Self {
+        match never {}
+    }
+}
+
 /// Counters of the layer itself.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub struct LinkStats {
@@ -116,19 +137,21 @@ pub struct LinkStats {
 }
 
 /// The dual-bus layer. `C` classifies frames (heartbeats, senders, functions; the predefined
-/// connection set by default); `N` is the merger's slot count.
+/// connection set by default); `SLOTS` is the merger's slot count, `FUNCTIONS` the room for
+/// (pair, function) values of the same-function merge. Both are part of the type so that the
+/// layer needs no allocator.
 pub struct DualBus<
     C = Predefined,
-    const N: usize = DEFAULT_MERGE_SLOTS,
-    const F: usize = MAX_FUNCTIONS,
+    const SLOTS: usize = DEFAULT_MERGE_SLOTS,
+    const FUNCTIONS: usize = MAX_FUNCTIONS,
 > {
     classifier: C,
     policy: Policy,
-    merger: Merger<N>,
+    merger: Merger<SLOTS>,
     health: Health,
     reach: Reach,
     reach_enabled: bool,
-    pairs: SameFunction<F>,
+    pairs: SameFunction<FUNCTIONS>,
     out: Outbox,
     stats: LinkStats,
     /// The latest instant any method was given (hand-over time of frames for the stall rule).
@@ -158,7 +181,7 @@ impl DualBus<Predefined, DEFAULT_MERGE_SLOTS> {
     }
 }
 
-impl<C: FrameClassifier, const N: usize, const F: usize> DualBus<C, N, F> {
+impl<C: FrameClassifier, const SLOTS: usize, const FUNCTIONS: usize> DualBus<C, SLOTS, FUNCTIONS> {
     /// A layer with a custom frame classifier (identifier scheme).
     pub fn with_classifier(cfg: DualBusConfig, classifier: C) -> Self {
         let mut health = cfg.health;
@@ -278,7 +301,7 @@ impl<C: FrameClassifier, const N: usize, const F: usize> DualBus<C, N, F> {
         self.health.port(p).state()
     }
     /// The receive merger.
-    pub fn merger(&self) -> &Merger<N> {
+    pub fn merger(&self) -> &Merger<SLOTS> {
         &self.merger
     }
     /// Per-node, per-bus reachability.
@@ -286,7 +309,7 @@ impl<C: FrameClassifier, const N: usize, const F: usize> DualBus<C, N, F> {
         &self.reach
     }
     /// The pair table and the members' latest values.
-    pub fn pairs(&self) -> &SameFunction<F> {
+    pub fn pairs(&self) -> &SameFunction<FUNCTIONS> {
         &self.pairs
     }
     /// Configures an A/B pair for the same-function merge.
@@ -328,8 +351,11 @@ impl<C: FrameClassifier, const N: usize, const F: usize> DualBus<C, N, F> {
     }
 }
 
-impl<C: FrameClassifier, const N: usize, const F: usize> BusLink for DualBus<C, N, F> {
+impl<C: FrameClassifier, const SLOTS: usize, const FUNCTIONS: usize> BusLink
+    for DualBus<C, SLOTS, FUNCTIONS>
+{
     type Event = LinkEvent;
+    type Command = LinkCommand;
 
     fn port_count(&self) -> usize {
         2
@@ -455,9 +481,20 @@ impl<C: FrameClassifier, const N: usize, const F: usize> BusLink for DualBus<C, 
     fn poll_machine_request(&mut self) -> Option<LinkRequest> {
         self.out.machine.pop()
     }
+
+    fn handle_command(&mut self, _now: Instant, cmd: LinkCommand) {
+        match cmd {
+            LinkCommand::SetActive(p, m) => {
+                self.set_active(p, m);
+            }
+            LinkCommand::Forget(p, m) => self.forget_member(p, m),
+        }
+    }
 }
 
-impl<C, const N: usize, const F: usize> core::fmt::Debug for DualBus<C, N, F> {
+impl<C, const SLOTS: usize, const FUNCTIONS: usize> core::fmt::Debug
+    for DualBus<C, SLOTS, FUNCTIONS>
+{
     fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
         f.debug_struct("DualBus")
             .field("mode", &self.policy.kind())

@@ -25,10 +25,10 @@
 //! record at the front of the ring is live exactly when its sequence number is among them. No
 //! record is ever searched for or moved.
 //!
-//! A `Merger<N>` has `N` slots (a power of two) and holds at most [`Merger::capacity`] = ¾·N
-//! records, keeping the table at most ¾ full. Two saturated 1 Mbit/s buses deliver at most about
-//! 21,300 frames/s each, i.e. ~430 records in a 10 ms window, which the default `N = 1024` holds
-//! with room to spare. With one bus dead every record expires unmatched after the window, so the
+//! A `Merger<SLOTS>` has `SLOTS` slots (a power of two) and holds at most [`Merger::capacity`] =
+//! ¾·SLOTS records, keeping the table at most ¾ full. Two saturated 1 Mbit/s buses deliver at most
+//! about 21,300 frames/s each, i.e. ~430 records in a 10 ms window, which the default
+//! `SLOTS = 1024` holds with room to spare. With one bus dead every record expires unmatched after the window, so the
 //! occupancy is bounded by the live bus's rate × window: memory is constant by construction.
 //!
 //! # Overflow
@@ -134,7 +134,7 @@ impl Record {
     };
 }
 
-/// The active-active receive merger for two ports (0 and 1), with `N` slots.
+/// The active-active receive merger for two ports (0 and 1), with `SLOTS` slots.
 ///
 /// ```
 /// use duocan::{Duration, Frame, Id, Instant};
@@ -149,49 +149,49 @@ impl Record {
 /// assert_eq!(m.arrive(t(3), 1, &hb), Verdict::Duplicate);
 /// assert_eq!(m.arrive(t(4), 1, &hb), Verdict::Duplicate);
 /// ```
-pub struct Merger<const N: usize> {
+pub struct Merger<const SLOTS: usize> {
     window: u64,
-    ring: [Record; N],
+    ring: [Record; SLOTS],
     head: usize,
     len: usize,
-    slots: [Slot; N],
-    free: [u16; N],
+    slots: [Slot; SLOTS],
+    free: [u16; SLOTS],
     free_len: usize,
     /// Open addressing, linear probing: 0 = empty, else arena slot + 1.
-    index: [u16; N],
+    index: [u16; SLOTS],
     stats: MergeStats,
 }
 
 /// Arena slot numbers are stored as `u16 + 1`.
 const MAX_SLOTS: usize = 1 << 15;
 
-impl<const N: usize> Merger<N> {
+impl<const SLOTS: usize> Merger<SLOTS> {
     const CHECK: () = assert!(
-        N.is_power_of_two() && N >= 4 && N <= MAX_SLOTS,
+        SLOTS.is_power_of_two() && SLOTS >= 4 && SLOTS <= MAX_SLOTS,
         "merger slots must be a power of two between 4 and 32768"
     );
-    const CAP: usize = N - N / 4;
-    const MASK: usize = N - 1;
-    const SHIFT: u32 = 64 - N.trailing_zeros();
+    const CAP: usize = SLOTS - SLOTS / 4;
+    const MASK: usize = SLOTS - 1;
+    const SHIFT: u32 = 64 - SLOTS.trailing_zeros();
 
     /// An empty merger matching twins up to `window` apart.
     pub fn new(window: Duration) -> Self {
         #[allow(clippy::let_unit_value)]
         let () = Self::CHECK;
-        let mut free = [0u16; N];
+        let mut free = [0u16; SLOTS];
         // Hand out low slots first (free list is a stack).
         for (i, f) in free.iter_mut().enumerate() {
-            *f = (N - 1 - i) as u16;
+            *f = (SLOTS - 1 - i) as u16;
         }
         Merger {
             window: window.as_micros(),
-            ring: [Record::EMPTY; N],
+            ring: [Record::EMPTY; SLOTS],
             head: 0,
             len: 0,
-            slots: [Slot::EMPTY; N],
+            slots: [Slot::EMPTY; SLOTS],
             free,
-            free_len: N,
-            index: [0; N],
+            free_len: SLOTS,
+            index: [0; SLOTS],
             stats: MergeStats::default(),
         }
     }
@@ -210,7 +210,7 @@ impl<const N: usize> Merger<N> {
     }
     /// Distinct keys held now.
     pub fn keys(&self) -> usize {
-        N - self.free_len
+        SLOTS - self.free_len
     }
     /// The skew window.
     pub fn window(&self) -> Duration {
@@ -380,7 +380,7 @@ impl<const N: usize> Merger<N> {
     }
 
     fn insert(&mut self, hi: u64, lo: u64, hash: u32) -> usize {
-        // Cannot be empty: slots in use ≤ records held < CAP < N.
+        // Cannot be empty: slots in use ≤ records held < CAP < SLOTS.
         self.free_len -= 1;
         let s = self.free[self.free_len] as usize;
         self.slots[s] = Slot {
@@ -428,7 +428,7 @@ impl<const N: usize> Merger<N> {
     }
 }
 
-impl<const N: usize> core::fmt::Debug for Merger<N> {
+impl<const SLOTS: usize> core::fmt::Debug for Merger<SLOTS> {
     fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
         f.debug_struct("Merger")
             .field("window", &self.window())

@@ -21,7 +21,8 @@ use duocan::{Duration, Frame, Instant, NodeId};
 use heapless::index_map::FnvIndexMap;
 
 /// (pair, function) values a layer keeps for comparison by default (a power of two). A board
-/// that supervises no pairs can use a tiny table (`DualBus<_, _, 2>`): each entry costs ~100 B.
+/// that supervises no pairs can use a tiny table (a `DualBus` with `FUNCTIONS` = 2): each entry
+/// costs ~100 B.
 pub const MAX_FUNCTIONS: usize = 256;
 
 /// Why a pair could not be configured.
@@ -70,19 +71,19 @@ pub enum PairVerdict {
     Standby,
 }
 
-/// The pair table and the latest values per (pair, function); room for `F` of those.
+/// The pair table and the latest values per (pair, function); room for `FUNCTIONS` of those.
 #[derive(Debug)]
-pub struct SameFunction<const F: usize = MAX_FUNCTIONS> {
+pub struct SameFunction<const FUNCTIONS: usize = MAX_FUNCTIONS> {
     pairs: heapless::Vec<PairEntry, MAX_PAIRS>,
     /// node-ID → pair index + 1 (0: none) in the low 7 bits, member B in bit 7.
     by_node: [u8; 128],
-    values: FnvIndexMap<(u8, u32), Values, F>,
+    values: FnvIndexMap<(u8, u32), Values, FUNCTIONS>,
     discrepancy_time: Duration,
     next_check: Option<Instant>,
     dropped_values: u32,
 }
 
-impl<const F: usize> SameFunction<F> {
+impl<const FUNCTIONS: usize> SameFunction<FUNCTIONS> {
     /// No pairs; values differing for `discrepancy_time` are reported (zero: never).
     pub fn new(discrepancy_time: Duration) -> Self {
         SameFunction {

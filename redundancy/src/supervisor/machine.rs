@@ -34,8 +34,10 @@
 //! started by it.
 //!
 //! Which pair member is active must reach the dual-bus layer (same-function merge): the
-//! supervisor queues [`LinkCommand`]s, which [`SupervisedStation`](crate::station::SupervisedStation)
-//! forwards to its [`DualBus`](crate::DualBus) after every input.
+//! supervisor's [`Machine::LinkCommand`]s are [`LinkCommand`]s, which a
+//! [`Station`](duocan::Station) on a [`DualBus`](crate::DualBus) hands to the layer after every
+//! input; [`SupervisedStation`](crate::station::SupervisedStation) is that station with the
+//! pairs configured in the layer from the start and a status table.
 //!
 //! ```
 //! use duocan::master::{objects, Master, NetworkConfig};
@@ -62,12 +64,13 @@
 //! }
 //! sim.run_until(Instant::from_secs(1));
 //! let st = sim.device(master);
-//! assert!(st.sup.is_active());
-//! assert_eq!(st.sup.pair_supervisor().pair(PairId(0)).unwrap().active, Some(Member::A));
+//! assert!(st.sup().is_active());
+//! assert_eq!(st.sup().pair_supervisor().pair(PairId(0)).unwrap().active, Some(Member::A));
 //! println!("{}", st.status(Instant::from_secs(1)));
 //! # Ok::<(), Box<dyn std::error::Error>>(())
 //! ```
 
+use crate::link::dual_bus::LinkCommand;
 use crate::link::events::LinkEvent;
 use crate::pair::{Member, PairId, PairSpec};
 use crate::supervisor::audit::{AuditEntry, AuditTrail};
@@ -81,18 +84,18 @@ use alloc::collections::VecDeque;
 use core::fmt;
 use duocan::frame::instant::earliest_of;
 use duocan::frame::queue::Bounded;
-use duocan::machine::Machine;
+use duocan::machine::{LinkRequest, Machine};
 use duocan::master::{
     objects, Assignment, BootError, ErrorStatus, Master, MasterError, MasterEvent, MasterEventKind,
-    NmtStartup, SlaveConfig, SlaveView, StartPolicy,
+    MasterNode, MasterSdoClient, NmtStartup, SlaveConfig, SlaveView, StartPolicy,
 };
 use duocan::nmt::{self, NmtTarget};
 use duocan::node::{NodeEventKind, Writer};
 use duocan::od::{comm, ObjectDictionary};
 use duocan::profile::{IdProfile, Predefined, ProfileFrame};
-use duocan::sdo::{DefaultBuffer, SdoClient, SdoEvent};
+use duocan::sdo::SdoEvent;
 use duocan::time_stamp::TimeOfDay;
-use duocan::{Duration, Frame, Instant, NmtCommand, NmtState, Node, NodeEvent, NodeId};
+use duocan::{Duration, Frame, Instant, NmtCommand, NmtState, NodeEvent, NodeId};
 use heapless::Vec;
 
 /// Flying-master frames the supervisor itself can hold.
@@ -152,15 +155,6 @@ impl SupervisorConfig {
         let _ = self.peers.push(Rank::new(priority, node));
         self
     }
-}
-
-/// What the supervisor asks of the dual-bus layer.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum LinkCommand {
-    /// Deliver the process data of `member` of `pair` (`None`: neither).
-    SetActive(PairId, Option<Member>),
-    /// Forget a member's latest values.
-    Forget(PairId, Member),
 }
 
 /// Why a pair member did not join.
@@ -316,11 +310,9 @@ enum Planned {
 }
 
 /// A redundant master: the CiA 302-2 master, pair supervision, flying master, audit trail.
-/// `P`, `S`, `T`, `R` are the [`Master`]'s: identifier profile, SDO sessions, TPDO and RPDO
-/// capacity.
-pub struct Supervisor<D, P = Predefined, const S: usize = 8, const T: usize = 4, const R: usize = 4>
-{
-    master: Master<D, P, S, T, R>,
+/// `D` and `P` are the [`Master`]'s dictionary and identifier profile.
+pub struct Supervisor<D, P = Predefined> {
+    master: Master<D, P>,
     pairs: PairSupervisor,
     fm: FlyingMaster,
     audit: AuditTrail,
@@ -335,14 +327,12 @@ pub struct Supervisor<D, P = Predefined, const S: usize = 8, const T: usize = 4,
     stats: SupervisorStats,
 }
 
-impl<D: ObjectDictionary, P: IdProfile, const S: usize, const T: usize, const R: usize>
-    Supervisor<D, P, S, T, R>
-{
+impl<D: ObjectDictionary, P: IdProfile> Supervisor<D, P> {
     /// A supervisor on `master` (built, not booted). The supervisor makes it a standby until
     /// the flying master decides, sets its heartbeat, SYNC period and production, makes it a
     /// TIME consumer (so that a takeover continues the time base), sets 0x1F80 bits 0 (NMT
     /// master) and 5 (flying master), boots it at `now` and starts the flying-master detection.
-    pub fn new(mut master: Master<D, P, S, T, R>, cfg: SupervisorConfig, now: Instant) -> Self {
+    pub fn new(mut master: Master<D, P>, cfg: SupervisorConfig, now: Instant) -> Self {
         master.set_active(now, false);
         let hb = cfg.heartbeat.as_millis().min(u16::MAX as u64) as u16;
         let node = master.node_mut();
@@ -487,26 +477,26 @@ impl<D: ObjectDictionary, P: IdProfile, const S: usize, const T: usize, const R:
         &self.pairs
     }
     /// The CiA 302-2 master (its view of every slave, its node, its SDO client).
-    pub fn master(&self) -> &Master<D, P, S, T, R> {
+    pub fn master(&self) -> &Master<D, P> {
         &self.master
     }
     /// Every slave of the master, pair members included: state, boot phase, errors.
     pub fn slaves(&self) -> impl Iterator<Item = SlaveView> + '_ {
         self.master.slaves()
     }
-    /// The master's node (states of every node heard: [`Node::remotes`]).
-    pub fn node(&self) -> &Node<D, P, 127, T, R> {
+    /// The master's node (states of every node heard: [`Node::remotes`](duocan::Node::remotes)).
+    pub fn node(&self) -> &MasterNode<D, P> {
         self.master.node()
     }
     /// The master's node, for the application's own use (its dictionary, EMCY, TPDOs). NMT
     /// commands belong in [`Supervisor::nmt`].
-    pub fn node_mut(&mut self) -> &mut Node<D, P, 127, T, R> {
+    pub fn node_mut(&mut self) -> &mut MasterNode<D, P> {
         self.master.node_mut()
     }
     /// The master's SDO client, for the application's transfers; their results arrive as
     /// [`SupervisorEvent::Sdo`]. A transfer to a slave the master is booting waits for the
     /// boot's (the client refuses it as busy).
-    pub fn sdo_mut(&mut self) -> &mut SdoClient<DefaultBuffer, S> {
+    pub fn sdo_mut(&mut self) -> &mut MasterSdoClient {
         self.master.sdo_mut()
     }
     /// Sends an NMT command through the master, if this master may command now. Pair members
@@ -574,10 +564,6 @@ impl<D: ObjectDictionary, P: IdProfile, const S: usize, const T: usize, const R:
         }
         self.plan(now, Planned::TakeOver);
         Ok(())
-    }
-    /// Drains the next command for the dual-bus layer.
-    pub fn poll_link_command(&mut self) -> Option<LinkCommand> {
-        self.link.pop()
     }
     /// Records a dual-bus event in the audit trail if it is a switch, toggle or port change.
     pub fn audit_link(&mut self, e: &LinkEvent) {
@@ -854,10 +840,10 @@ impl<D: ObjectDictionary, P: IdProfile, const S: usize, const T: usize, const R:
     }
 }
 
-impl<D: ObjectDictionary, P: IdProfile, const S: usize, const T: usize, const R: usize> Machine
-    for Supervisor<D, P, S, T, R>
-{
+impl<D: ObjectDictionary, P: IdProfile> Machine for Supervisor<D, P> {
     type Event = SupervisorEvent;
+    /// Which pair member's process data the dual-bus layer delivers.
+    type LinkCommand = LinkCommand;
 
     fn handle_frame(&mut self, now: Instant, frame: &Frame) {
         if self.fm.handle_frame(now, frame) {
@@ -908,11 +894,19 @@ impl<D: ObjectDictionary, P: IdProfile, const S: usize, const T: usize, const R:
     fn poll_event(&mut self) -> Option<SupervisorEvent> {
         self.events.pop_front()
     }
+
+    /// The layer's requests (status entries, ECSS pre-operational) are for the master's node,
+    /// which owns that state; its reactions reach the supervisor with its next input.
+    fn handle_link_request(&mut self, now: Instant, req: LinkRequest) {
+        self.master.node_mut().handle_link_request(now, req);
+    }
+
+    fn poll_link_command(&mut self) -> Option<LinkCommand> {
+        self.link.pop()
+    }
 }
 
-impl<D, P, const S: usize, const T: usize, const R: usize> fmt::Debug
-    for Supervisor<D, P, S, T, R>
-{
+impl<D, P> fmt::Debug for Supervisor<D, P> {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         f.debug_struct("Supervisor")
             .field("fm", &self.fm)

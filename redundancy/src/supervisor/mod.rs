@@ -16,7 +16,8 @@ pub mod flying_master;
 mod machine;
 pub mod pairs;
 
+// Defined with the layer that takes it (the layer cannot look up here); the supervisor's
+// vocabulary all the same.
+pub use crate::link::dual_bus::LinkCommand;
 #[cfg(feature = "alloc")]
-pub use machine::{
-    AddPairError, JoinRefusal, LinkCommand, Supervisor, SupervisorConfig, SupervisorEvent,
-};
+pub use machine::{AddPairError, JoinRefusal, Supervisor, SupervisorConfig, SupervisorEvent};

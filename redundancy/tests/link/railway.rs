@@ -83,6 +83,7 @@ struct Interlocking {
 
 impl Machine for Interlocking {
     type Event = ();
+    type LinkCommand = std::convert::Infallible;
     fn handle_frame(&mut self, now: Instant, frame: &Frame) {
         if railway::split(frame.id()).map(|x| x.0) == Some(RailFunction::StateChange.code()) {
             self.states.push((now, *frame));

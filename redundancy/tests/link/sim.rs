@@ -56,6 +56,7 @@ impl App {
 
 impl Machine for App {
     type Event = ();
+    type LinkCommand = std::convert::Infallible;
     fn handle_frame(&mut self, now: Instant, frame: &Frame) {
         let raw = frame.id().raw();
         if (0x181..=0x1FF).contains(&raw) || (0x281..=0x2FF).contains(&raw) {

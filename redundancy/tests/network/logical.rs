@@ -33,6 +33,7 @@ struct Quiet {
 
 impl Machine for Quiet {
     type Event = duocan::NodeEvent;
+    type LinkCommand = std::convert::Infallible;
     fn handle_frame(&mut self, now: Instant, frame: &duocan::Frame) {
         self.node.handle_frame(now, frame)
     }

@@ -27,7 +27,7 @@ fn params() -> Params {
 fn net(p: Params) -> SupNet {
     let mut n = SupNet::new(p);
     let m = n.master(STRONG);
-    n.sim.device_mut(m).sup.set_time(
+    n.sim.device_mut(m).sup_mut().set_time(
         Instant::ZERO,
         TimeOfDay {
             days: 14_000,

@@ -168,7 +168,7 @@ impl SupNet {
         self.masters[(id - 1) as usize]
     }
     pub fn sup(&self, id: u8) -> &Supervisor<DynamicDictionary> {
-        &self.sim.device(self.master(id)).sup
+        self.sim.device(self.master(id)).sup()
     }
 
     /// Kills a slave at `t`.

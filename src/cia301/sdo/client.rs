@@ -1,4 +1,4 @@
-//! The SDO client: up to `S` transfers at once, to different servers, one per server at a time.
+//! The SDO client: up to `SESSIONS` transfers at once, to different servers, one per server at a time.
 //!
 //! A sans-IO [`Machine`] of its own, composed with the master's [`crate::Node`] through
 //! [`crate::machine::Composite`]. Requests return a [`RequestId`] at once; the result arrives as an
@@ -34,14 +34,14 @@ use crate::frame::Frame;
 use crate::machine::Machine;
 use crate::od::abort::AbortCode;
 
-/// A sans-IO SDO client with `S` sessions; transfer buffers of type `B`, each bounded by the
+/// A sans-IO SDO client with `SESSIONS` sessions; transfer buffers of type `B`, each bounded by the
 /// client's limit.
-pub struct SdoClient<B: TransferBuffer = DefaultBuffer, const S: usize = 8> {
-    sessions: [Session<B>; S],
+pub struct SdoClient<B: TransferBuffer = DefaultBuffer, const SESSIONS: usize = 8> {
+    sessions: [Session<B>; SESSIONS],
     limit: usize,
     next_id: u32,
     channels: fn(NodeId) -> Channel,
-    events: Bounded<SdoEvent<B>, S>,
+    events: Bounded<SdoEvent<B>, SESSIONS>,
     rr: usize,
     stats: SdoClientStats,
 }
@@ -55,8 +55,8 @@ impl SdoClient {
     }
 }
 
-impl<B: TransferBuffer, const S: usize> SdoClient<B, S> {
-    /// A client with `S` sessions whose transfers carry at most `limit` bytes, on the predefined
+impl<B: TransferBuffer, const SESSIONS: usize> SdoClient<B, SESSIONS> {
+    /// A client with `SESSIONS` sessions whose transfers carry at most `limit` bytes, on the predefined
     /// channels.
     pub fn with_limit(limit: usize) -> Self {
         SdoClient {
@@ -220,8 +220,8 @@ impl<B: TransferBuffer, const S: usize> SdoClient<B, S> {
             return Err(err(SdoErrorKind::Busy));
         }
         // A session stays taken until its result is polled, so results are never dropped.
-        if self.in_flight() + self.events.len() >= S {
-            return Err(err(SdoErrorKind::NoSession { sessions: S }));
+        if self.in_flight() + self.events.len() >= SESSIONS {
+            return Err(err(SdoErrorKind::NoSession { sessions: SESSIONS }));
         }
         let Some(i) = self
             .sessions
@@ -229,7 +229,7 @@ impl<B: TransferBuffer, const S: usize> SdoClient<B, S> {
             .position(|s| !s.active() && s.out.is_empty())
             .or_else(|| self.sessions.iter().position(|s| !s.active()))
         else {
-            return Err(err(SdoErrorKind::NoSession { sessions: S }));
+            return Err(err(SdoErrorKind::NoSession { sessions: SESSIONS }));
         };
         let request = RequestId(self.next_id);
         self.next_id = self.next_id.wrapping_add(1);
@@ -537,8 +537,9 @@ impl<B: TransferBuffer, const S: usize> SdoClient<B, S> {
     }
 }
 
-impl<B: TransferBuffer, const S: usize> Machine for SdoClient<B, S> {
+impl<B: TransferBuffer, const SESSIONS: usize> Machine for SdoClient<B, SESSIONS> {
     type Event = SdoEvent<B>;
+    type LinkCommand = core::convert::Infallible;
 
     fn handle_frame(&mut self, now: Instant, frame: &Frame) {
         if let Some(i) = self
@@ -551,7 +552,7 @@ impl<B: TransferBuffer, const S: usize> Machine for SdoClient<B, S> {
     }
 
     fn handle_timeout(&mut self, now: Instant) {
-        for i in 0..S {
+        for i in 0..SESSIONS {
             let s = &mut self.sessions[i];
             if s.subblock_deadline.is_some_and(|t| t <= now) {
                 s.subblock_deadline = None;
@@ -580,8 +581,8 @@ impl<B: TransferBuffer, const S: usize> Machine for SdoClient<B, S> {
 
     fn poll_transmit(&mut self) -> Option<Frame> {
         // Round robin, so one block transfer does not starve the other sessions.
-        for k in 0..S {
-            let i = (self.rr + k) % S;
+        for k in 0..SESSIONS {
+            let i = (self.rr + k) % SESSIONS;
             let s = &mut self.sessions[i];
             let f = s.out.pop().or_else(|| match s.state {
                 State::BlockDownload { ref mut tx, .. } => tx
@@ -590,7 +591,7 @@ impl<B: TransferBuffer, const S: usize> Machine for SdoClient<B, S> {
                 _ => None,
             });
             if f.is_some() {
-                self.rr = (i + 1) % S;
+                self.rr = (i + 1) % SESSIONS;
                 return f;
             }
         }

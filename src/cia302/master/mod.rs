@@ -96,7 +96,7 @@ use crate::frame::cob_id::NodeId;
 use crate::frame::instant::{earliest_of, Duration, Instant};
 use crate::frame::Frame;
 use crate::machine::Machine;
-use crate::node::{Node, NodeConfig};
+use crate::node::{Node, NodeConfig, ALL_NODES};
 use crate::od::{comm, ObjectDictionary};
 use crate::profile::{IdProfile, Predefined};
 use alloc::collections::VecDeque;
@@ -109,12 +109,32 @@ pub const NMT_QUEUE: usize = 256;
 /// Events the master holds before the application drains them.
 pub const EVENT_QUEUE: usize = 1024;
 
-/// A CiA 302-2 NMT master on one logical bus. `S` is the number of SDO client sessions (how many
-/// slaves are configured at once); `T` and `R` the master node's own TPDO and RPDO capacity (a
-/// master mirroring many slaves' TPDOs with [`crate::cia302::pdo_config::mirror`] needs as many RPDOs).
-pub struct Master<D, P = Predefined, const S: usize = 8, const T: usize = 4, const R: usize = 4> {
-    node: Node<D, P, 127, T, R>,
-    sdo: SdoClient<DefaultBuffer, S>,
+/// TPDOs of a master's own node.
+pub const TPDOS: usize = 4;
+/// RPDOs of a master's own node: room for mirroring the TPDOs of its slaves
+/// ([`crate::cia302::pdo_config::mirror`]), two for each board of a rack of sixteen.
+pub const RPDOS: usize = 64;
+/// SDO client sessions of a master: how many slaves it configures at once (the others wait in
+/// its queue).
+pub const SESSIONS: usize = 8;
+
+/// The node inside a [`Master`]: it guards every node-ID (0x1F81 guard times), runs [`TPDOS`]
+/// TPDOs and [`RPDOS`] RPDOs.
+pub type MasterNode<D, P = Predefined> = Node<D, P, ALL_NODES, TPDOS, RPDOS>;
+
+/// The SDO client inside a [`Master`]: [`SESSIONS`] sessions with the default buffers.
+pub type MasterSdoClient = SdoClient<DefaultBuffer, SESSIONS>;
+
+/// A master on the railway 29-bit identifier profile, with a dictionary built at run time.
+pub type RailwayMaster =
+    Master<crate::od::DynamicDictionary, crate::profile::railway::RailwayProfile>;
+
+/// A CiA 302-2 NMT master on one logical bus. `D` is its dictionary, `P` its identifier profile;
+/// its node is a [`MasterNode`], its SDO client a [`MasterSdoClient`] (capacities fixed here so
+/// that every master, supervisor and network type is spelled with these two parameters only).
+pub struct Master<D, P = Predefined> {
+    node: MasterNode<D, P>,
+    sdo: MasterSdoClient,
     /// The client has no transfer running and nothing to send: it is left out of the frame
     /// path (a master of a hundred slaves mostly hears heartbeats).
     sdo_idle: bool,
@@ -151,9 +171,7 @@ impl<D: ObjectDictionary> Master<D> {
     }
 }
 
-impl<D: ObjectDictionary, P: IdProfile, const S: usize, const T: usize, const R: usize>
-    Master<D, P, S, T, R>
-{
+impl<D: ObjectDictionary, P: IdProfile> Master<D, P> {
     /// A master from its parts: the node's configuration (its `auto_start` and `accept_nmt` are
     /// overridden: the master starts itself per 0x1F80 and obeys no NMT master), dictionary,
     /// identifier profile and SDO client (with the channels of that profile).
@@ -161,7 +179,7 @@ impl<D: ObjectDictionary, P: IdProfile, const S: usize, const T: usize, const R:
         node: NodeConfig,
         mut od: D,
         profile: P,
-        sdo: SdoClient<DefaultBuffer, S>,
+        sdo: MasterSdoClient,
         config: NetworkConfig,
     ) -> Result<Self, MasterError> {
         use objects::*;
@@ -210,7 +228,7 @@ impl<D: ObjectDictionary, P: IdProfile, const S: usize, const T: usize, const R:
             ..node
         };
         let mut m = Master {
-            node: Node::<D, P, 127, T, R>::with_profile(node_cfg, od, profile),
+            node: MasterNode::with_profile(node_cfg, od, profile),
             sdo,
             sdo_idle: false,
             slots,
@@ -408,21 +426,21 @@ impl<D: ObjectDictionary, P: IdProfile, const S: usize, const T: usize, const R:
     }
 
     /// The master's own node.
-    pub fn node(&self) -> &Node<D, P, 127, T, R> {
+    pub fn node(&self) -> &MasterNode<D, P> {
         &self.node
     }
     /// The master's own node, for the application's own use (its dictionary, EMCY, TIME). NMT
     /// commands belong in [`Master::nmt`], so that the boot processes follow them.
-    pub fn node_mut(&mut self) -> &mut Node<D, P, 127, T, R> {
+    pub fn node_mut(&mut self) -> &mut MasterNode<D, P> {
         &mut self.node
     }
     /// The SDO client.
-    pub fn sdo(&self) -> &SdoClient<DefaultBuffer, S> {
+    pub fn sdo(&self) -> &MasterSdoClient {
         &self.sdo
     }
     /// The SDO client, for the application's own transfers; their results arrive as
     /// [`MasterEventKind::Sdo`]. A transfer to a slave being booted waits for the boot's.
-    pub fn sdo_mut(&mut self) -> &mut SdoClient<DefaultBuffer, S> {
+    pub fn sdo_mut(&mut self) -> &mut MasterSdoClient {
         self.sdo_idle = false;
         &mut self.sdo
     }
@@ -547,10 +565,9 @@ fn check_slave(cfg: &SlaveConfig, master: NodeId) -> Result<(), MasterError> {
     Ok(())
 }
 
-impl<D: ObjectDictionary, P: IdProfile, const S: usize, const T: usize, const R: usize> Machine
-    for Master<D, P, S, T, R>
-{
+impl<D: ObjectDictionary, P: IdProfile> Machine for Master<D, P> {
     type Event = MasterEvent;
+    type LinkCommand = core::convert::Infallible;
 
     fn handle_frame(&mut self, now: Instant, frame: &Frame) {
         self.node.handle_frame(now, frame);

@@ -27,9 +27,7 @@ pub(super) enum Network {
     Started,
 }
 
-impl<D: ObjectDictionary, P: IdProfile, const S: usize, const T: usize, const R: usize>
-    Master<D, P, S, T, R>
-{
+impl<D: ObjectDictionary, P: IdProfile> Master<D, P> {
     // ----- the network -----
 
     pub(super) fn boot_network(&mut self, now: Instant) {

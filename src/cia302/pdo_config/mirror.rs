@@ -140,8 +140,8 @@ fn dummy_type(bits: u8) -> DataType {
 /// created where missing (read-write, mappable); parameter objects too. The parameters are then
 /// written through the node in the CiA 301 order (invalidate, type, timer, mapping, validate), so
 /// the engine picks the PDO up as from any configuration write.
-pub fn mirror<P: IdProfile, const G: usize, const T: usize, const R: usize>(
-    node: &mut Node<DynamicDictionary, P, G, T, R>,
+pub fn mirror<P: IdProfile, const GUARDED: usize, const TPDOS: usize, const RPDOS: usize>(
+    node: &mut Node<DynamicDictionary, P, GUARDED, TPDOS, RPDOS>,
     now: Instant,
     remote_dir: Dir,
     remote: &PdoConfig,
@@ -158,7 +158,7 @@ pub fn mirror<P: IdProfile, const G: usize, const T: usize, const R: usize>(
         Dir::Transmit => Dir::Receive,
         Dir::Receive => Dir::Transmit,
     };
-    let capacity = if dir == Dir::Receive { R } else { T };
+    let capacity = if dir == Dir::Receive { RPDOS } else { TPDOS };
     if m.pdo == 0 || m.pdo as usize > capacity {
         return Err(MirrorError::NoSuchPdo {
             pdo: m.pdo,
@@ -210,10 +210,11 @@ pub fn mirror<P: IdProfile, const G: usize, const T: usize, const R: usize>(
         };
         let _ = node.od_mut().insert_all(defs);
     }
-    let write = |node: &mut Node<DynamicDictionary, P, G, T, R>, index, sub, v: u32, len| {
-        node.write(now, index, sub, &v.to_le_bytes()[..len])
-            .map_err(|code| MirrorError::Write { index, sub, code })
-    };
+    let write =
+        |node: &mut Node<DynamicDictionary, P, GUARDED, TPDOS, RPDOS>, index, sub, v: u32, len| {
+            node.write(now, index, sub, &v.to_le_bytes()[..len])
+                .map_err(|code| MirrorError::Write { index, sub, code })
+        };
     let cob = node.od().get_u32(comm, sub::COB_ID).unwrap_or(0x8000_0000);
     write(node, comm, sub::COB_ID, cob | 0x8000_0000, 4)?;
     let n = entries.len() as u8;

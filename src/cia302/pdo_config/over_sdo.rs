@@ -46,10 +46,10 @@ impl SdoPdoJob {
     }
 
     /// Starts the next access unless one is running or the job is over.
-    pub fn poll<B: TransferBuffer, const S: usize>(
+    pub fn poll<B: TransferBuffer, const SESSIONS: usize>(
         &mut self,
         now: Instant,
-        client: &mut SdoClient<B, S>,
+        client: &mut SdoClient<B, SESSIONS>,
     ) {
         while self.pending.is_none() {
             let Some(a) = self.job.next() else { return };

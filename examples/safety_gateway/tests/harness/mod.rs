@@ -69,6 +69,7 @@ impl Interlocking {
 
 impl Machine for Interlocking {
     type Event = ();
+    type LinkCommand = std::convert::Infallible;
     fn handle_frame(&mut self, now: Instant, frame: &Frame) {
         let Some((code, address)) = railway::split(frame.id()) else {
             return;
