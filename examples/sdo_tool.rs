@@ -18,7 +18,7 @@
 use clap::{Parser, Subcommand, ValueEnum};
 use duocan::machine::Station;
 use duocan::port::udp::{UdpBusConfig, UdpPort};
-use duocan::runtime::{Handle, Runtime};
+use duocan::runtime::{Handle, Runtime, RuntimeError};
 use duocan::sdo::{SdoClient, SdoError, SdoErrorKind, SdoOptions};
 use duocan::{AbortCode, Duration, NodeId};
 use std::net::Ipv4Addr;
@@ -225,6 +225,16 @@ enum Failure {
     Sdo(SdoError),
 }
 
+impl From<RuntimeError> for Failure {
+    fn from(e: RuntimeError) -> Self {
+        match e {
+            RuntimeError::Sdo(e) => Failure::Sdo(e),
+            // The runtime stopped under the tool: nothing the node did.
+            e => Failure::Setup(e.to_string()),
+        }
+    }
+}
+
 fn udp_config(spec: &str) -> Result<UdpBusConfig, String> {
     let rest = spec.strip_prefix("udp").unwrap_or(spec);
     let parts: Vec<&str> = rest.split(':').skip(1).collect();
@@ -279,10 +289,7 @@ async fn read(h: &Handle<Device>, cli: &Cli, index: u16, sub: u8) -> Result<Vec<
         timeout: Duration::from_millis(cli.timeout_ms),
         ..SdoOptions::default()
     };
-    h.sdo_read(cli.node, index, sub, opts)
-        .await
-        .map_err(|e| Failure::Setup(e.to_string()))?
-        .map_err(Failure::Sdo)
+    Ok(h.sdo_read(cli.node, index, sub, opts).await?)
 }
 
 async fn run(cli: &Cli) -> Result<(), Failure> {
@@ -304,14 +311,10 @@ async fn run(cli: &Cli) -> Result<(), Failure> {
                     ..SdoOptions::default()
                 };
                 let n = data.len();
-                match h.sdo_write(cli.node, *index, *sub, data, opts).await {
-                    Err(e) => Err(Failure::Setup(e.to_string())),
-                    Ok(Err(e)) => Err(Failure::Sdo(e)),
-                    Ok(Ok(())) => {
-                        println!("{index:#06x}:{sub:02x} written ({n} bytes)");
-                        Ok(())
-                    }
-                }
+                h.sdo_write(cli.node, *index, *sub, data, opts)
+                    .await
+                    .map_err(Failure::from)
+                    .map(|()| println!("{index:#06x}:{sub:02x} written ({n} bytes)"))
             }
         },
         Command::Info => info(&h, cli).await,

@@ -147,6 +147,30 @@ pub enum AccessError {
     NoAnswer(Option<AbortCode>),
 }
 
+impl fmt::Display for AccessError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            AccessError::Aborted(code) => write!(f, "the device aborted with {code}"),
+            AccessError::NoAnswer(Some(code)) => {
+                write!(
+                    f,
+                    "no answer from the device (the client aborted with {code})"
+                )
+            }
+            AccessError::NoAnswer(None) => f.write_str("no answer from the device"),
+        }
+    }
+}
+
+impl core::error::Error for AccessError {
+    fn source(&self) -> Option<&(dyn core::error::Error + 'static)> {
+        match self {
+            AccessError::Aborted(code) | AccessError::NoAnswer(Some(code)) => Some(code),
+            AccessError::NoAnswer(None) => None,
+        }
+    }
+}
+
 /// What went wrong.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum PdoConfigErrorKind {
@@ -204,6 +228,17 @@ impl fmt::Display for PdoConfigError {
             PdoConfigErrorKind::BadReply { len } => {
                 write!(f, "the device answered with {len} bytes, not 1–4")
             }
+        }
+    }
+}
+
+impl core::error::Error for PdoConfigError {
+    fn source(&self) -> Option<&(dyn core::error::Error + 'static)> {
+        match &self.kind {
+            PdoConfigErrorKind::Aborted(code) | PdoConfigErrorKind::NoAnswer(Some(code)) => {
+                Some(code)
+            }
+            _ => None,
         }
     }
 }

@@ -116,6 +116,8 @@ impl fmt::Display for FrameError {
     }
 }
 
+impl core::error::Error for FrameError {}
+
 /// One classic CAN frame.
 #[derive(Clone, Copy, PartialEq, Eq, Hash)]
 pub struct Frame {
@@ -325,6 +327,8 @@ impl fmt::Display for Malformed {
         }
     }
 }
+
+impl core::error::Error for Malformed {}
 
 #[cfg(test)]
 pub(crate) mod tests {

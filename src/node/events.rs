@@ -172,3 +172,5 @@ impl fmt::Display for QueueFull {
         )
     }
 }
+
+impl core::error::Error for QueueFull {}

@@ -26,7 +26,7 @@ mod port_task;
 mod sdo;
 mod task;
 
-pub use handle::{Handle, RuntimeClosed};
+pub use handle::{Handle, RuntimeClosed, RuntimeError};
 pub use node::{LocalNode, NodeHost};
 pub use sdo::{SdoEvents, SdoHost, SdoStart};
 
@@ -267,7 +267,6 @@ mod tests {
         master
             .nmt(NmtCommand::Start, NmtTarget::Node(NodeId::new(5).unwrap()))
             .await
-            .unwrap()
             .unwrap();
         let seen = tokio::time::timeout(StdDuration::from_secs(5), async {
             loop {
@@ -286,10 +285,7 @@ mod tests {
         .expect("master saw the slave operational");
         assert_eq!(seen.raw(), 5);
         assert_eq!(slave.nmt_state().await.unwrap(), NmtState::Operational);
-        assert_eq!(
-            slave.read(0x1017, 0).await.unwrap().unwrap(),
-            20u16.to_le_bytes()
-        );
+        assert_eq!(slave.read(0x1017, 0).await.unwrap(), 20u16.to_le_bytes());
         // Heartbeats come from the node's deadlines: about 1 per 20 ms, not per runtime tick.
         let before = master.port_counters(0).unwrap().rx_frames;
         tokio::time::sleep(StdDuration::from_millis(400)).await;
@@ -299,7 +295,6 @@ mod tests {
         slave
             .write(0x1017, 0, 0u16.to_le_bytes().to_vec())
             .await
-            .unwrap()
             .unwrap();
         tokio::time::sleep(StdDuration::from_millis(50)).await;
         let before = master.port_counters(0).unwrap().rx_frames;
@@ -342,7 +337,7 @@ mod tests {
         let r = master.request(
             |d, now| {
                 d.machine.boot(now);
-                Ok::<_, (crate::NodeId, Instant)>(d.machine.id())
+                Ok::<_, RuntimeError>(d.machine.id())
             },
             |id, e| match e {
                 StationEvent::Machine(NodeEvent {
@@ -352,7 +347,7 @@ mod tests {
                             ..
                         },
                     at,
-                }) => Some((*id, *at)),
+                }) => Some(Ok((*id, *at))),
                 _ => None,
             },
         );

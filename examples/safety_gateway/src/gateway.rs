@@ -118,6 +118,16 @@ impl fmt::Display for SetupError {
     }
 }
 
+impl core::error::Error for SetupError {
+    fn source(&self) -> Option<&(dyn core::error::Error + 'static)> {
+        match self {
+            SetupError::Table(e) => Some(e),
+            SetupError::Dictionary(e) => Some(e),
+            _ => None,
+        }
+    }
+}
+
 /// The gateway: interlocking-side driver (two controllers), field controller, mirrors.
 pub struct Gateway<C: Can> {
     driver: EmbeddedDriver<GatewayDevice, C, 2>,

@@ -45,6 +45,8 @@ impl fmt::Display for PairError {
     }
 }
 
+impl core::error::Error for PairError {}
+
 #[derive(Clone, Copy, Debug)]
 struct PairEntry {
     nodes: [NodeId; 2],

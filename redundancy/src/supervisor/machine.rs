@@ -291,7 +291,14 @@ pub enum AddPairError {
     Master(NodeId, MasterError),
 }
 
-impl core::error::Error for AddPairError {}
+impl core::error::Error for AddPairError {
+    fn source(&self) -> Option<&(dyn core::error::Error + 'static)> {
+        match self {
+            AddPairError::Pairs(e) => Some(e),
+            AddPairError::Master(_, e) => Some(e),
+        }
+    }
+}
 
 impl fmt::Display for AddPairError {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {

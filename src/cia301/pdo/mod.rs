@@ -129,6 +129,8 @@ impl fmt::Display for PdoError {
     }
 }
 
+impl core::error::Error for PdoError {}
+
 /// What a TPDO is doing.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct TpdoStatus {

@@ -247,3 +247,12 @@ impl fmt::Display for MasterError {
         }
     }
 }
+
+impl core::error::Error for MasterError {
+    fn source(&self) -> Option<&(dyn core::error::Error + 'static)> {
+        match self {
+            MasterError::Refused { code, .. } => Some(code),
+            _ => None,
+        }
+    }
+}

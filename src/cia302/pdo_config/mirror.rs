@@ -125,6 +125,15 @@ impl fmt::Display for MirrorError {
     }
 }
 
+impl core::error::Error for MirrorError {
+    fn source(&self) -> Option<&(dyn core::error::Error + 'static)> {
+        match self {
+            MirrorError::Write { code, .. } => Some(code),
+            _ => None,
+        }
+    }
+}
+
 /// The smallest unsigned type a dummy entry of `bits` can name.
 fn dummy_type(bits: u8) -> DataType {
     match bits {

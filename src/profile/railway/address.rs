@@ -57,6 +57,8 @@ impl fmt::Display for AddressError {
     }
 }
 
+impl core::error::Error for AddressError {}
+
 impl DeviceAddress {
     /// An address from its five fields, each 0–15.
     pub const fn new(

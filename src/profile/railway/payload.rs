@@ -108,6 +108,8 @@ impl fmt::Display for PayloadError {
     }
 }
 
+impl core::error::Error for PayloadError {}
+
 /// The CRC of `content` sent under `id`.
 pub fn crc(id: Id, content: &[u8]) -> u16 {
     let word = match id {
