@@ -147,7 +147,14 @@ impl fmt::Display for DecodeError {
     }
 }
 
-impl std::error::Error for DecodeError {}
+impl std::error::Error for DecodeError {
+    fn source(&self) -> Option<&(dyn std::error::Error + 'static)> {
+        match self {
+            DecodeError::Invalid(e) => Some(e),
+            _ => None,
+        }
+    }
+}
 
 /// Encodes a frame as python-can's `pack_message` does (same keys, same order, same types).
 pub fn encode(frame: &Frame, timestamp: f64, channel: Option<&str>) -> Vec<u8> {

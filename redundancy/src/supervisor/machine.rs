@@ -232,6 +232,18 @@ impl fmt::Display for JoinRefusal {
     }
 }
 
+// A refusal is reported in an event, not returned; it is still an error an application may
+// pass on with `?` or log with its cause.
+impl core::error::Error for JoinRefusal {
+    fn source(&self) -> Option<&(dyn core::error::Error + 'static)> {
+        match self {
+            JoinRefusal::Identity { .. } => None,
+            JoinRefusal::Config { reason, .. } => Some(reason),
+            JoinRefusal::Master(e) => Some(e),
+        }
+    }
+}
+
 /// What the supervisor tells the application.
 #[derive(Clone, Debug, PartialEq)]
 pub enum SupervisorEvent {
