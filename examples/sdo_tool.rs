@@ -285,10 +285,7 @@ fn socketcan_port(_: Runtime<Device>, ifname: &str) -> Result<Runtime<Device>, F
 }
 
 async fn read(h: &Handle<Device>, cli: &Cli, index: u16, sub: u8) -> Result<Vec<u8>, Failure> {
-    let opts = SdoOptions {
-        timeout: Duration::from_millis(cli.timeout_ms),
-        ..SdoOptions::default()
-    };
+    let opts = SdoOptions::default().with_timeout(Duration::from_millis(cli.timeout_ms));
     Ok(h.sdo_read(cli.node, index, sub, opts).await?)
 }
 
@@ -306,10 +303,8 @@ async fn run(cli: &Cli) -> Result<(), Failure> {
         } => match encode(*ty, value) {
             Err(e) => Err(Failure::Setup(e)),
             Ok(data) => {
-                let opts = SdoOptions {
-                    timeout: Duration::from_millis(cli.timeout_ms),
-                    ..SdoOptions::default()
-                };
+                let opts =
+                    SdoOptions::default().with_timeout(Duration::from_millis(cli.timeout_ms));
                 let n = data.len();
                 h.sdo_write(cli.node, *index, *sub, data, opts)
                     .await

@@ -110,6 +110,7 @@ pub struct NetworkEvent {
 /// The kinds of [`NetworkEvent`]: the typed ones the application reacts to, and everything else
 /// as the station reported it.
 #[derive(Clone, Debug, PartialEq)]
+#[non_exhaustive]
 pub enum NetworkEventKind {
     /// A port (one bus) changed health state.
     Port {

@@ -42,6 +42,7 @@ pub struct NodeEvent {
 
 /// The kinds of [`NodeEvent`].
 #[derive(Clone, Copy, Debug, PartialEq)]
+#[non_exhaustive]
 pub enum NodeEventKind {
     /// This node's NMT state changed.
     StateChanged {

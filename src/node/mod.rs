@@ -31,6 +31,7 @@ pub const EVENT_QUEUE: usize = 32;
 
 /// How a node behaves beyond what its dictionary says.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[non_exhaustive]
 pub struct NodeConfig {
     /// The node-ID.
     pub node_id: NodeId,
@@ -40,6 +41,29 @@ pub struct NodeConfig {
     pub accept_nmt: bool,
     /// Report EMCY messages of other nodes (on their default identifiers).
     pub consume_emcy: bool,
+}
+
+// Builders: the struct is `#[non_exhaustive]` (it may gain fields), so code outside the crate
+// starts from a constructor or `Default` and sets what it needs.
+impl NodeConfig {
+    /// The configuration with [`auto_start`](Self::auto_start) replaced.
+    #[must_use]
+    pub fn with_auto_start(mut self, auto_start: bool) -> Self {
+        self.auto_start = auto_start;
+        self
+    }
+    /// The configuration with [`accept_nmt`](Self::accept_nmt) replaced.
+    #[must_use]
+    pub fn with_accept_nmt(mut self, accept_nmt: bool) -> Self {
+        self.accept_nmt = accept_nmt;
+        self
+    }
+    /// The configuration with [`consume_emcy`](Self::consume_emcy) replaced.
+    #[must_use]
+    pub fn with_consume_emcy(mut self, consume_emcy: bool) -> Self {
+        self.consume_emcy = consume_emcy;
+        self
+    }
 }
 
 impl NodeConfig {

@@ -116,6 +116,7 @@ impl fmt::Display for PortRef {
 
 /// How to build a bus.
 #[derive(Clone, Debug, PartialEq, Eq)]
+#[non_exhaustive]
 pub struct BusConfig {
     /// Shown in traces and `Debug` output.
     pub name: String,

@@ -53,6 +53,7 @@ pub enum LinkMode {
 
 /// Everything a [`DualBus`] is configured with.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[non_exhaustive]
 pub struct DualBusConfig {
     /// The scheme.
     pub mode: LinkMode,
@@ -70,6 +71,47 @@ pub struct DualBusConfig {
     /// entries (ECSS Bdefault and Ctoggle, the CiA 302-6 channel error counter) up to date
     /// through [`LinkRequest::SetStatus`].
     pub od_layout: OdLayout,
+}
+
+// Builders: the struct is `#[non_exhaustive]` (it may gain fields), so code outside the crate
+// starts from a constructor or `Default` and sets what it needs.
+impl DualBusConfig {
+    /// The configuration with [`mode`](Self::mode) replaced.
+    #[must_use]
+    pub fn with_mode(mut self, mode: LinkMode) -> Self {
+        self.mode = mode;
+        self
+    }
+    /// The configuration with [`skew_window`](Self::skew_window) replaced.
+    #[must_use]
+    pub fn with_skew_window(mut self, skew_window: Duration) -> Self {
+        self.skew_window = skew_window;
+        self
+    }
+    /// The configuration with [`health`](Self::health) replaced.
+    #[must_use]
+    pub fn with_health(mut self, health: HealthConfig) -> Self {
+        self.health = health;
+        self
+    }
+    /// The configuration with [`reach_timeout`](Self::reach_timeout) replaced.
+    #[must_use]
+    pub fn with_reach_timeout(mut self, reach_timeout: Duration) -> Self {
+        self.reach_timeout = reach_timeout;
+        self
+    }
+    /// The configuration with [`discrepancy_time`](Self::discrepancy_time) replaced.
+    #[must_use]
+    pub fn with_discrepancy_time(mut self, discrepancy_time: Duration) -> Self {
+        self.discrepancy_time = discrepancy_time;
+        self
+    }
+    /// The configuration with [`od_layout`](Self::od_layout) replaced.
+    #[must_use]
+    pub fn with_od_layout(mut self, od_layout: OdLayout) -> Self {
+        self.od_layout = od_layout;
+        self
+    }
 }
 
 impl Default for DualBusConfig {

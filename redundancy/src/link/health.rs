@@ -73,6 +73,7 @@ impl fmt::Display for PortState {
 
 /// Timing of the health rules.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[non_exhaustive]
 pub struct HealthConfig {
     /// Silence after which a port fails. Default 300 ms: 3 × a 100 ms guarding period.
     pub silence_limit: Duration,
@@ -97,6 +98,59 @@ pub struct HealthConfig {
     /// (drivers that cannot tell are never judged). The dual-bus layer sets it to the skew
     /// window in active-active mode and to zero otherwise.
     pub tx_stall: Duration,
+}
+
+// Builders: the struct is `#[non_exhaustive]` (it may gain fields), so code outside the crate
+// starts from a constructor or `Default` and sets what it needs.
+impl HealthConfig {
+    /// The configuration with [`silence_limit`](Self::silence_limit) replaced.
+    #[must_use]
+    pub fn with_silence_limit(mut self, silence_limit: Duration) -> Self {
+        self.silence_limit = silence_limit;
+        self
+    }
+    /// The configuration with [`suspect_after`](Self::suspect_after) replaced.
+    #[must_use]
+    pub fn with_suspect_after(mut self, suspect_after: Duration) -> Self {
+        self.suspect_after = suspect_after;
+        self
+    }
+    /// The configuration with [`error_hold`](Self::error_hold) replaced.
+    #[must_use]
+    pub fn with_error_hold(mut self, error_hold: Duration) -> Self {
+        self.error_hold = error_hold;
+        self
+    }
+    /// The configuration with [`probation`](Self::probation) replaced.
+    #[must_use]
+    pub fn with_probation(mut self, probation: Duration) -> Self {
+        self.probation = probation;
+        self
+    }
+    /// The configuration with [`reinit_first`](Self::reinit_first) replaced.
+    #[must_use]
+    pub fn with_reinit_first(mut self, reinit_first: Duration) -> Self {
+        self.reinit_first = reinit_first;
+        self
+    }
+    /// The configuration with [`reinit_max`](Self::reinit_max) replaced.
+    #[must_use]
+    pub fn with_reinit_max(mut self, reinit_max: Duration) -> Self {
+        self.reinit_max = reinit_max;
+        self
+    }
+    /// The configuration with [`silence_detection`](Self::silence_detection) replaced.
+    #[must_use]
+    pub fn with_silence_detection(mut self, silence_detection: bool) -> Self {
+        self.silence_detection = silence_detection;
+        self
+    }
+    /// The configuration with [`tx_stall`](Self::tx_stall) replaced.
+    #[must_use]
+    pub fn with_tx_stall(mut self, tx_stall: Duration) -> Self {
+        self.tx_stall = tx_stall;
+        self
+    }
 }
 
 impl HealthConfig {

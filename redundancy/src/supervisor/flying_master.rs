@@ -130,6 +130,7 @@ impl fmt::Display for Rank {
 
 /// 0x1F90 and this implementation's additions.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[non_exhaustive]
 pub struct FlyingMasterConfig {
     /// This device's rank (node-ID, 0x1F90 sub 3 priority).
     pub rank: Rank,
@@ -149,6 +150,65 @@ pub struct FlyingMasterConfig {
     pub revertive: bool,
     /// How long a better master must be heard as standby before it is given the role back.
     pub handback_delay: Duration,
+}
+
+// Builders: the struct is `#[non_exhaustive]` (it may gain fields), so code outside the crate
+// starts from a constructor or `Default` and sets what it needs.
+impl FlyingMasterConfig {
+    /// The configuration with [`rank`](Self::rank) replaced.
+    #[must_use]
+    pub fn with_rank(mut self, rank: Rank) -> Self {
+        self.rank = rank;
+        self
+    }
+    /// The configuration with [`detection_timeout`](Self::detection_timeout) replaced.
+    #[must_use]
+    pub fn with_detection_timeout(mut self, detection_timeout: Duration) -> Self {
+        self.detection_timeout = detection_timeout;
+        self
+    }
+    /// The configuration with [`negotiation_delay`](Self::negotiation_delay) replaced.
+    #[must_use]
+    pub fn with_negotiation_delay(mut self, negotiation_delay: Duration) -> Self {
+        self.negotiation_delay = negotiation_delay;
+        self
+    }
+    /// The configuration with [`priority_slot`](Self::priority_slot) replaced.
+    #[must_use]
+    pub fn with_priority_slot(mut self, priority_slot: Duration) -> Self {
+        self.priority_slot = priority_slot;
+        self
+    }
+    /// The configuration with [`device_slot`](Self::device_slot) replaced.
+    #[must_use]
+    pub fn with_device_slot(mut self, device_slot: Duration) -> Self {
+        self.device_slot = device_slot;
+        self
+    }
+    /// The configuration with [`detect_cycle`](Self::detect_cycle) replaced.
+    #[must_use]
+    pub fn with_detect_cycle(mut self, detect_cycle: Duration) -> Self {
+        self.detect_cycle = detect_cycle;
+        self
+    }
+    /// The configuration with [`master_timeout`](Self::master_timeout) replaced.
+    #[must_use]
+    pub fn with_master_timeout(mut self, master_timeout: Duration) -> Self {
+        self.master_timeout = master_timeout;
+        self
+    }
+    /// The configuration with [`revertive`](Self::revertive) replaced.
+    #[must_use]
+    pub fn with_revertive(mut self, revertive: bool) -> Self {
+        self.revertive = revertive;
+        self
+    }
+    /// The configuration with [`handback_delay`](Self::handback_delay) replaced.
+    #[must_use]
+    pub fn with_handback_delay(mut self, handback_delay: Duration) -> Self {
+        self.handback_delay = handback_delay;
+        self
+    }
 }
 
 impl FlyingMasterConfig {
@@ -341,6 +401,7 @@ impl fmt::Display for MasterRoleChange {
 
 /// What the flying master reports.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[non_exhaustive]
 pub enum FlyingEvent {
     /// The role changed.
     Role(MasterRoleChange),

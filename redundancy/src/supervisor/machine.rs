@@ -108,6 +108,7 @@ const TIME_PRODUCER: u32 = 1 << 30;
 /// interval, the slaves that are no pair members) are the
 /// [`NetworkConfig`](duocan::master::NetworkConfig) it was built with.
 #[derive(Clone, Debug, PartialEq, Eq)]
+#[non_exhaustive]
 pub struct SupervisorConfig {
     /// Flying-master timing, rank and policy (the node-ID is the rank's).
     pub flying: FlyingMasterConfig,
@@ -121,6 +122,41 @@ pub struct SupervisorConfig {
     pub sync_period: Duration,
     /// TIME period while active (zero: TIME once at each takeover only).
     pub time_period: Duration,
+}
+
+// Builders: the struct is `#[non_exhaustive]` (it may gain fields), so code outside the crate
+// starts from a constructor or `Default` and sets what it needs.
+impl SupervisorConfig {
+    /// The configuration with [`flying`](Self::flying) replaced.
+    #[must_use]
+    pub fn with_flying(mut self, flying: FlyingMasterConfig) -> Self {
+        self.flying = flying;
+        self
+    }
+    /// The configuration with [`pairs`](Self::pairs) replaced.
+    #[must_use]
+    pub fn with_pairs(mut self, pairs: PairsConfig) -> Self {
+        self.pairs = pairs;
+        self
+    }
+    /// The configuration with [`heartbeat`](Self::heartbeat) replaced.
+    #[must_use]
+    pub fn with_heartbeat(mut self, heartbeat: Duration) -> Self {
+        self.heartbeat = heartbeat;
+        self
+    }
+    /// The configuration with [`sync_period`](Self::sync_period) replaced.
+    #[must_use]
+    pub fn with_sync_period(mut self, sync_period: Duration) -> Self {
+        self.sync_period = sync_period;
+        self
+    }
+    /// The configuration with [`time_period`](Self::time_period) replaced.
+    #[must_use]
+    pub fn with_time_period(mut self, time_period: Duration) -> Self {
+        self.time_period = time_period;
+        self
+    }
 }
 
 impl SupervisorConfig {
@@ -246,6 +282,7 @@ impl core::error::Error for JoinRefusal {
 
 /// What the supervisor tells the application.
 #[derive(Clone, Debug, PartialEq)]
+#[non_exhaustive]
 pub enum SupervisorEvent {
     /// From the master's own node (SYNC ticks and local writes are not forwarded; see the
     /// counters).

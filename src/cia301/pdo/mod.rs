@@ -46,6 +46,7 @@ use tpdo::{OnRtr, OnSync, Tpdo, TpdoParams};
 
 /// What the PDO engine reports (inside the node's events: `NodeEventKind::Pdo`).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[non_exhaustive]
 pub enum PdoEvent {
     /// An RPDO's data was written into the dictionary: at reception for asynchronous RPDOs, at
     /// the SYNC after reception for synchronous ones. One event per PDO, not per entry; can be

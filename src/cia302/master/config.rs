@@ -173,6 +173,7 @@ pub enum ConfigStep {
 
 /// Everything the master does to one slave beyond what its 0x1F8x entries say.
 #[derive(Clone, Debug, PartialEq, Eq)]
+#[non_exhaustive]
 pub struct SlaveConfig {
     /// The slave.
     pub node: NodeId,
@@ -212,6 +213,13 @@ impl SlaveConfig {
     /// Keep alive: never reset; adopted when found operational.
     pub fn keep_alive(mut self) -> SlaveConfig {
         self.assignment.0 |= Assignment::KEEP_ALIVE;
+        self
+    }
+    /// The whole 0x1F81 entry at once (bits set by [`SlaveConfig::mandatory`] and
+    /// [`SlaveConfig::keep_alive`] included): for guarding and other bits without a builder.
+    #[must_use]
+    pub fn with_assignment(mut self, assignment: Assignment) -> SlaveConfig {
+        self.assignment = assignment;
         self
     }
     /// The identity to check.
@@ -274,6 +282,7 @@ impl SlaveConfig {
 
 /// The whole network as the master sees it.
 #[derive(Clone, Debug, PartialEq, Eq)]
+#[non_exhaustive]
 pub struct NetworkConfig {
     /// 0x1F80.
     pub startup: NmtStartup,

@@ -22,6 +22,7 @@ pub struct MasterEvent {
 
 /// The kinds of [`MasterEvent`].
 #[derive(Clone, Debug, PartialEq)]
+#[non_exhaustive]
 pub enum MasterEventKind {
     /// From the master's own node (passed through unchanged).
     Node(NodeEventKind),
