@@ -27,10 +27,13 @@ pub trait Machine {
     /// Time passed; do what is due at `now`.
     fn handle_timeout(&mut self, now: Instant);
     /// Next frame to put on the bus.
+    #[must_use]
     fn poll_transmit(&mut self) -> Option<Frame>;
     /// Earliest instant at which `handle_timeout` has work, if any.
+    #[must_use]
     fn poll_timeout(&self) -> Option<Instant>;
     /// Next event for the application.
+    #[must_use]
     fn poll_event(&mut self) -> Option<Self::Event>;
     /// The link below asks something of this machine (see [`LinkRequest`]); machines that have
     /// no state to change there ignore it.
@@ -148,14 +151,18 @@ pub trait Device {
     /// Time passed; do what is due at `now`.
     fn handle_timeout(&mut self, now: Instant);
     /// Next frame to send, with the port to send it on.
+    #[must_use]
     fn poll_transmit(&mut self) -> Option<(usize, Frame)>;
     /// Next request to a port driver.
+    #[must_use]
     fn poll_port_request(&mut self) -> Option<(usize, PortRequest)> {
         None
     }
     /// Earliest instant at which `handle_timeout` has work, if any.
+    #[must_use]
     fn poll_timeout(&self) -> Option<Instant>;
     /// Next event for the application.
+    #[must_use]
     fn poll_event(&mut self) -> Option<Self::Event>;
 }
 
@@ -172,18 +179,23 @@ pub trait BusLink {
     /// A logical frame to send.
     fn send(&mut self, now: Instant, frame: &Frame);
     /// Next frame for a port.
+    #[must_use]
     fn poll_transmit(&mut self) -> Option<(usize, Frame)>;
     /// Next request to a port driver.
+    #[must_use]
     fn poll_port_request(&mut self) -> Option<(usize, PortRequest)> {
         None
     }
     /// Time passed.
     fn handle_timeout(&mut self, now: Instant);
     /// Earliest deadline.
+    #[must_use]
     fn poll_timeout(&self) -> Option<Instant>;
     /// Next event.
+    #[must_use]
     fn poll_event(&mut self) -> Option<Self::Event>;
     /// Next request to the machine above; a [`Station`] applies them after every input.
+    #[must_use]
     fn poll_machine_request(&mut self) -> Option<LinkRequest> {
         None
     }
@@ -205,6 +217,7 @@ pub struct SinglePort {
 
 impl SinglePort {
     /// A pass-through link.
+    #[must_use]
     pub fn new() -> Self {
         Self::default()
     }
@@ -266,6 +279,7 @@ pub struct Station<L, M> {
 
 impl<M: Machine> Station<SinglePort, M> {
     /// A machine on a single port.
+    #[must_use]
     pub fn single(machine: M) -> Self {
         Station::new(SinglePort::new(), machine)
     }
@@ -273,6 +287,7 @@ impl<M: Machine> Station<SinglePort, M> {
 
 impl<L: BusLink, M: Machine> Station<L, M> {
     /// A machine on a link.
+    #[must_use]
     pub fn new(link: L, machine: M) -> Self {
         Station {
             link,
@@ -359,6 +374,7 @@ pub struct Composite<A, B> {
 
 impl<A: Machine, B: Machine> Composite<A, B> {
     /// Composes two machines.
+    #[must_use]
     pub fn new(a: A, b: B) -> Self {
         Composite { a, b }
     }

@@ -268,6 +268,7 @@ impl<
     > LogicalNetwork<D, C, N, P, S, T, R>
 {
     /// The network run by `station`.
+    #[must_use]
     pub fn new(station: SupervisedStation<D, C, N, P, S, T, R>) -> Self {
         LogicalNetwork { station }
     }

@@ -121,6 +121,7 @@ impl SyncService {
     }
 
     /// Next SYNC due.
+    #[must_use]
     pub fn poll_timeout(&self) -> Option<Instant> {
         self.next
     }

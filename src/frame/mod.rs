@@ -144,6 +144,7 @@ impl Frame {
     }
 
     /// A data frame from a fixed-size payload; the length is checked at compile time.
+    #[must_use]
     pub const fn from_array<const N: usize>(id: Id, data: [u8; N]) -> Frame {
         const { assert!(N <= 8, "classic CAN carries at most 8 bytes") };
         let mut buf = [0u8; 8];

@@ -434,6 +434,7 @@ impl<D: ObjectDictionary, P: IdProfile, const G: usize, const TPDOS: usize, cons
         self.flush_emcy(now);
     }
 
+    #[must_use]
     pub(super) fn poll_timeout(&self) -> Option<Instant> {
         if self.state == NmtState::Initialising {
             return None;

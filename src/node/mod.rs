@@ -68,6 +68,7 @@ impl NodeConfig {
 
 impl NodeConfig {
     /// A slave: waits for NMT start, obeys NMT, consumes EMCY.
+    #[must_use]
     pub const fn slave(node_id: NodeId) -> Self {
         NodeConfig {
             node_id,
@@ -77,6 +78,7 @@ impl NodeConfig {
         }
     }
     /// A master: starts itself, ignores NMT commands of others, consumes EMCY.
+    #[must_use]
     pub const fn master(node_id: NodeId) -> Self {
         NodeConfig {
             node_id,
@@ -142,6 +144,7 @@ pub struct Node<
 
 impl<D: ObjectDictionary> Node<D, Predefined, 127> {
     /// A node with the predefined connection set. Nothing is sent until [`Node::boot`].
+    #[must_use]
     pub fn new(cfg: NodeConfig, od: D) -> Self {
         Node::with_profile(cfg, od, Predefined)
     }
@@ -151,6 +154,7 @@ impl<D: ObjectDictionary, P: IdProfile, const G: usize, const TPDOS: usize, cons
     Node<D, P, G, TPDOS, RPDOS>
 {
     /// A node with a custom identifier profile.
+    #[must_use]
     pub fn with_profile(cfg: NodeConfig, od: D, profile: P) -> Self {
         Node {
             core: NodeCore {

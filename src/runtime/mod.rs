@@ -70,6 +70,7 @@ pub struct Clock {
 
 impl Clock {
     /// A clock starting now.
+    #[must_use]
     pub fn start() -> Self {
         Clock {
             origin: tokio::time::Instant::now(),
@@ -132,10 +133,12 @@ where
     D::Event: Clone + Send + fmt::Debug + 'static,
 {
     /// A runtime for `device`; add its ports in order with [`Runtime::port`].
+    #[must_use]
     pub fn new(device: D) -> Self {
         Self::boxed(Box::new(device))
     }
     /// A runtime for a device already on the heap (large devices built in place).
+    #[must_use]
     pub fn boxed(device: Box<D>) -> Self {
         Runtime {
             device,
@@ -145,11 +148,13 @@ where
         }
     }
     /// Names the network (the `net` field of every log line of this runtime).
+    #[must_use]
     pub fn name(mut self, name: impl Into<String>) -> Self {
         self.name = name.into();
         self
     }
     /// Adds the next port (index = number of ports added before).
+    #[must_use]
     pub fn port<P: Port>(mut self, port: P) -> Self {
         let name = port.name().to_owned();
         let counters = port.counters();
@@ -162,6 +167,7 @@ where
         self
     }
     /// Records every frame each port received or sent (see [`crate::capture::recorder`]).
+    #[must_use]
     pub fn tap(mut self, tap: Arc<dyn Tap>) -> Self {
         self.tap = Some(tap);
         self

@@ -126,6 +126,7 @@ pub struct BusConfig {
 
 impl BusConfig {
     /// A bus called `name` running at `bitrate` bit/s.
+    #[must_use]
     pub fn new(name: impl Into<String>, bitrate: u32) -> Self {
         BusConfig {
             name: name.into(),

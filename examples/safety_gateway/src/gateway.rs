@@ -190,6 +190,7 @@ impl<C: Can> Gateway<C> {
     }
 
     /// Next event.
+    #[must_use]
     pub fn poll_event(&mut self) -> Option<Event> {
         self.events.pop_front()
     }
@@ -366,6 +367,7 @@ impl<C: Can> Default for Storage<C> {
 
 impl<C: Can> Storage<C> {
     /// Empty storage (`const`: for a `static`).
+    #[must_use]
     pub const fn new() -> Self {
         Storage {
             profile: StaticCell::new(),

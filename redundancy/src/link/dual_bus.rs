@@ -123,6 +123,7 @@ impl Default for DualBusConfig {
 impl DualBusConfig {
     /// `mode` with the health and reachability timing derived from the node-guarding (or
     /// heartbeat) period: silence limit 3 periods.
+    #[must_use]
     pub fn with_guard_period(mode: LinkMode, period: Duration) -> Self {
         let skew_window = Duration::from_millis(10);
         let health = HealthConfig {
@@ -190,6 +191,7 @@ struct Status {
 
 impl DualBus<Predefined, DEFAULT_MERGE_SLOTS> {
     /// A layer for the predefined connection set.
+    #[must_use]
     pub fn new(cfg: DualBusConfig) -> Self {
         DualBus::with_classifier(cfg, Predefined)
     }
@@ -202,6 +204,7 @@ impl DualBus<Predefined, DEFAULT_MERGE_SLOTS> {
 
 impl<C: FrameClassifier, const N: usize, const F: usize> DualBus<C, N, F> {
     /// A layer with a custom frame classifier (identifier scheme).
+    #[must_use]
     pub fn with_classifier(cfg: DualBusConfig, classifier: C) -> Self {
         let mut health = cfg.health;
         let (policy, reach_enabled) = match cfg.mode {

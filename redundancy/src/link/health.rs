@@ -156,6 +156,7 @@ impl HealthConfig {
 impl HealthConfig {
     /// The defaults for a given node-guarding (or heartbeat) period: silence limit 3 periods,
     /// suspect after, error hold and probation one period.
+    #[must_use]
     pub const fn from_guard_period(period: Duration) -> Self {
         HealthConfig {
             silence_limit: period.saturating_mul(3),
@@ -320,6 +321,7 @@ pub struct Health {
 
 impl Health {
     /// Both ports ok. `window` is the merger's skew window: the time a twin may take.
+    #[must_use]
     pub fn new(cfg: HealthConfig, window: Duration) -> Self {
         Health {
             cfg,
@@ -573,6 +575,7 @@ impl Health {
     }
 
     /// Earliest deadline.
+    #[must_use]
     pub fn poll_timeout(&self) -> Option<Instant> {
         let mut t = None;
         for p in 0..2 {

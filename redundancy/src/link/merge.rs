@@ -175,6 +175,7 @@ impl<const N: usize> Merger<N> {
     const SHIFT: u32 = 64 - N.trailing_zeros();
 
     /// An empty merger matching twins up to `window` apart.
+    #[must_use]
     pub fn new(window: Duration) -> Self {
         #[allow(clippy::let_unit_value)]
         let () = Self::CHECK;

@@ -86,6 +86,7 @@ pub struct SameFunction<const F: usize = MAX_FUNCTIONS> {
 
 impl<const F: usize> SameFunction<F> {
     /// No pairs; values differing for `discrepancy_time` are reported (zero: never).
+    #[must_use]
     pub fn new(discrepancy_time: Duration) -> Self {
         SameFunction {
             pairs: heapless::Vec::new(),
@@ -278,6 +279,7 @@ impl<const F: usize> SameFunction<F> {
     }
 
     /// Earliest discrepancy deadline (may be early).
+    #[must_use]
     pub fn poll_timeout(&self) -> Option<Instant> {
         self.next_check
     }

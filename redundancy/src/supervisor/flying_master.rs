@@ -97,6 +97,7 @@ pub struct Rank {
 
 impl Rank {
     /// A rank.
+    #[must_use]
     pub const fn new(priority: u8, node: NodeId) -> Self {
         Rank { priority, node }
     }
@@ -213,6 +214,7 @@ impl FlyingMasterConfig {
 
 impl FlyingMasterConfig {
     /// The 0x1F90 defaults for a device of `priority` and `node`, with a master-heartbeat timeout.
+    #[must_use]
     pub const fn new(priority: u8, node: NodeId, master_timeout: Duration) -> Self {
         FlyingMasterConfig {
             rank: Rank::new(priority, node),
@@ -472,6 +474,7 @@ pub struct FlyingMaster {
 
 impl FlyingMaster {
     /// A device that has not started.
+    #[must_use]
     pub fn new(cfg: FlyingMasterConfig) -> Self {
         FlyingMaster {
             cfg,
@@ -646,6 +649,7 @@ impl FlyingMaster {
     // ----- time -----
 
     /// Earliest deadline.
+    #[must_use]
     pub fn poll_timeout(&self) -> Option<Instant> {
         let mut t = earliest(self.phase_deadline, self.detect_at);
         t = earliest(t, self.suspended_until);
@@ -689,10 +693,12 @@ impl FlyingMaster {
     // ----- outputs -----
 
     /// Next frame to send.
+    #[must_use]
     pub fn poll_transmit(&mut self) -> Option<Frame> {
         self.tx.pop()
     }
     /// Next event.
+    #[must_use]
     pub fn poll_event(&mut self) -> Option<FlyingEvent> {
         self.events.pop()
     }

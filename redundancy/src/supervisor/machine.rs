@@ -162,6 +162,7 @@ impl SupervisorConfig {
 impl SupervisorConfig {
     /// A master of `priority` at `node` with a heartbeat of `heartbeat` and a master-heartbeat
     /// timeout of `master_timeout`, SYNC every `sync_period`; the 0x1F90 defaults otherwise.
+    #[must_use]
     pub fn new(
         priority: u8,
         node: NodeId,
@@ -184,6 +185,7 @@ impl SupervisorConfig {
         }
     }
     /// With another master-capable device.
+    #[must_use]
     pub fn with_peer(mut self, priority: u8, node: NodeId) -> Self {
         let _ = self.peers.push(Rank::new(priority, node));
         self
@@ -398,6 +400,7 @@ impl<D: ObjectDictionary, P: IdProfile, const S: usize, const T: usize, const R:
     /// the flying master decides, sets its heartbeat, SYNC period and production, makes it a
     /// TIME consumer (so that a takeover continues the time base), sets 0x1F80 bits 0 (NMT
     /// master) and 5 (flying master), boots it at `now` and starts the flying-master detection.
+    #[must_use]
     pub fn new(mut master: Master<D, P, S, T, R>, cfg: SupervisorConfig, now: Instant) -> Self {
         master.set_active(now, false);
         let hb = cfg.heartbeat.as_millis().min(u16::MAX as u64) as u16;
@@ -632,6 +635,7 @@ impl<D: ObjectDictionary, P: IdProfile, const S: usize, const T: usize, const R:
         Ok(())
     }
     /// Drains the next command for the dual-bus layer.
+    #[must_use]
     pub fn poll_link_command(&mut self) -> Option<LinkCommand> {
         self.link.pop()
     }

@@ -495,6 +495,7 @@ pub struct PairSupervisor {
 
 impl PairSupervisor {
     /// An empty table, commanding.
+    #[must_use]
     pub fn new(cfg: PairsConfig) -> Self {
         PairSupervisor {
             cfg,
@@ -821,6 +822,7 @@ impl PairSupervisor {
     // ----- time -----
 
     /// Earliest instant at which [`PairSupervisor::handle_timeout`] has work (may be early).
+    #[must_use]
     pub fn poll_timeout(&self) -> Option<Instant> {
         self.next
     }
@@ -842,10 +844,12 @@ impl PairSupervisor {
     // ----- outputs -----
 
     /// Next command.
+    #[must_use]
     pub fn poll_command(&mut self) -> Option<PairCommand> {
         self.commands.pop()
     }
     /// Next event.
+    #[must_use]
     pub fn poll_event(&mut self) -> Option<PairsEvent> {
         self.events.pop()
     }

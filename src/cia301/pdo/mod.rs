@@ -484,6 +484,7 @@ pub(crate) struct PdoEngine<const T: usize, const R: usize> {
 }
 
 impl<const T: usize, const R: usize> PdoEngine<T, R> {
+    #[must_use]
     pub fn new() -> Self {
         PdoEngine {
             tpdos: [const { Tpdo::new() }; T],
@@ -508,6 +509,7 @@ impl<const T: usize, const R: usize> PdoEngine<T, R> {
         self.emcy.pop()
     }
 
+    #[must_use]
     pub fn poll_timeout(&self) -> Option<Instant> {
         if self.running {
             self.next

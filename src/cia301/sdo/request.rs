@@ -20,6 +20,7 @@ pub struct Channel {
 
 impl Channel {
     /// The default channel of a node's first server: 0x600 + n and 0x580 + n.
+    #[must_use]
     pub const fn predefined(node: NodeId) -> Channel {
         Channel {
             request: predefined::sdo_rx(node),
@@ -152,6 +153,7 @@ impl Default for SdoOptions {
 
 impl SdoOptions {
     /// The defaults with another mode.
+    #[must_use]
     pub fn mode(mode: TransferMode) -> Self {
         SdoOptions {
             mode,

@@ -159,6 +159,7 @@ pub struct SdoServer<B: TransferBuffer = DefaultBuffer> {
 impl<B: TransferBuffer> SdoServer<B> {
     /// A server without a channel (see [`SdoServer::set_channel`] and
     /// [`SdoServer::configure_from`]).
+    #[must_use]
     pub fn new(cfg: SdoServerConfig) -> Self {
         SdoServer {
             cfg,
@@ -764,11 +765,13 @@ impl<B: TransferBuffer> SdoServer<B> {
     }
 
     /// Earliest instant `handle_timeout` has work.
+    #[must_use]
     pub fn poll_timeout(&self) -> Option<Instant> {
         earliest(self.deadline, self.subblock_deadline)
     }
 
     /// The next frame to send: an answer, or the next segment of a block upload.
+    #[must_use]
     pub fn poll_transmit(&mut self) -> Option<Frame> {
         let id = self.tx?;
         if let Some(d) = self.out.pop() {

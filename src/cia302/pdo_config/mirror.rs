@@ -26,6 +26,7 @@ pub struct Local {
 
 impl Local {
     /// An entry (index, sub) of type `data_type`.
+    #[must_use]
     pub const fn new(index: u16, sub: u8, data_type: DataType) -> Local {
         Local {
             index,

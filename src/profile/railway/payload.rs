@@ -141,6 +141,7 @@ impl Payload {
         })
     }
     /// A payload of one data byte (a safety state).
+    #[must_use]
     pub const fn byte(index: u16, sub: u8, value: u8) -> Payload {
         Payload {
             index,
@@ -150,6 +151,7 @@ impl Payload {
         }
     }
     /// A payload without data (a state query).
+    #[must_use]
     pub const fn empty(index: u16, sub: u8) -> Payload {
         Payload {
             index,

@@ -161,6 +161,7 @@ pub struct Cia3026 {
 
 impl Cia3026 {
     /// On the default channel, waiting for the node's boot-up.
+    #[must_use]
     pub fn new(cfg: Cia3026Config) -> Self {
         let cfg = Cia3026Config {
             default_channel: cfg.default_channel.min(1),

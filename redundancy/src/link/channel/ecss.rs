@@ -89,6 +89,7 @@ impl EcssConfig {
 impl EcssConfig {
     /// A slave of `master` whose heartbeat is expected every `period`: starts on bus 1, toggles
     /// after 2 periods, at most 4 times.
+    #[must_use]
     pub const fn slave(master: NodeId, period: Duration) -> Self {
         EcssConfig {
             bdefault: 0,
@@ -98,6 +99,7 @@ impl EcssConfig {
         }
     }
     /// The redundancy master, on bus 1.
+    #[must_use]
     pub const fn master() -> Self {
         EcssConfig {
             bdefault: 0,
@@ -133,6 +135,7 @@ pub struct Ecss {
 
 impl Ecss {
     /// On Bdefault, idle until the node's boot-up.
+    #[must_use]
     pub fn new(cfg: EcssConfig) -> Self {
         let b = cfg.bdefault.min(1);
         Ecss {
