@@ -154,14 +154,16 @@ fn station(id: u8, master: bool, skew_ms: u64) -> Dev {
     Station::new(link, Node::new(cfg, od))
 }
 
-fn start(name: &str, dev: Dev, buses: &[String; 2]) -> Result<Handle<Dev>, String> {
-    let open = |b: &String| SocketCanPort::open(b).map_err(|e| e.to_string());
-    Runtime::new(dev)
+fn start(
+    name: &str,
+    dev: Dev,
+    buses: &[String; 2],
+) -> Result<Handle<Dev>, Box<dyn std::error::Error>> {
+    Ok(Runtime::new(dev)
         .name(name)
-        .port(open(&buses[0])?)
-        .port(open(&buses[1])?)
-        .spawn()
-        .map_err(|e| e.to_string())
+        .port(SocketCanPort::open(&buses[0])?)
+        .port(SocketCanPort::open(&buses[1])?)
+        .spawn()?)
 }
 
 /// One line per event worth telling.

@@ -145,18 +145,18 @@ mod vcan {
         }
     }
 
-    pub fn run(n: u64) -> Result<(), String> {
+    pub fn run(n: u64) -> Result<(), Box<dyn std::error::Error>> {
         let echo = bare_echo(Box::new(Can::open("vcan0")?), n);
         let bare = drive(&mut Can::open("vcan0")?, n)?;
         let _ = echo.join();
-        let rt = tokio::runtime::Runtime::new().map_err(|e| e.to_string())?;
+        let rt = tokio::runtime::Runtime::new()?;
         let handle = rt.block_on(async {
-            let port = SocketCanPort::open("vcan0").map_err(|e| e.to_string())?;
-            Runtime::new(Station::single(Echo::default()))
+            let port = SocketCanPort::open("vcan0")?;
+            let echo = Runtime::new(Station::single(Echo::default()))
                 .name("echo")
                 .port(port)
-                .spawn()
-                .map_err(|e| e.to_string())
+                .spawn()?;
+            Ok::<_, Box<dyn std::error::Error>>(echo)
         })?;
         std::thread::sleep(Duration::from_millis(50));
         let through = drive(&mut Can::open("vcan0")?, n)?;
@@ -234,19 +234,19 @@ mod udp {
         }
     }
 
-    pub fn run(n: u64) -> Result<(), String> {
+    pub fn run(n: u64) -> Result<(), Box<dyn std::error::Error>> {
         let cfg = UdpBusConfig::numbered(7);
         let echo = bare_echo(Box::new(Udp::open(&cfg)?), n);
         let bare = drive(&mut Udp::open(&cfg)?, n)?;
         let _ = echo.join();
-        let rt = tokio::runtime::Runtime::new().map_err(|e| e.to_string())?;
+        let rt = tokio::runtime::Runtime::new()?;
         let handle = rt.block_on(async {
-            let port = UdpPort::open(cfg.clone()).map_err(|e| e.to_string())?;
-            Runtime::new(Station::single(Echo::default()))
+            let port = UdpPort::open(cfg.clone())?;
+            let echo = Runtime::new(Station::single(Echo::default()))
                 .name("echo")
                 .port(port)
-                .spawn()
-                .map_err(|e| e.to_string())
+                .spawn()?;
+            Ok::<_, Box<dyn std::error::Error>>(echo)
         })?;
         std::thread::sleep(Duration::from_millis(50));
         let through = drive(&mut Udp::open(&cfg)?, n)?;

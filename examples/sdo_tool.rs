@@ -18,7 +18,7 @@
 use clap::{Parser, Subcommand, ValueEnum};
 use duocan::machine::Station;
 use duocan::port::udp::{UdpBusConfig, UdpPort};
-use duocan::runtime::{Handle, Runtime};
+use duocan::runtime::{Handle, Runtime, RuntimeError};
 use duocan::sdo::{SdoClient, SdoError, SdoErrorKind, SdoOptions};
 use duocan::{AbortCode, Duration, NodeId};
 use std::net::Ipv4Addr;
@@ -225,6 +225,16 @@ enum Failure {
     Sdo(SdoError),
 }
 
+impl From<RuntimeError> for Failure {
+    fn from(e: RuntimeError) -> Self {
+        match e {
+            RuntimeError::Sdo(e) => Failure::Sdo(e),
+            // The runtime stopped under the tool: nothing the node did.
+            e => Failure::Setup(e.to_string()),
+        }
+    }
+}
+
 fn udp_config(spec: &str) -> Result<UdpBusConfig, String> {
     let rest = spec.strip_prefix("udp").unwrap_or(spec);
     let parts: Vec<&str> = rest.split(':').skip(1).collect();
@@ -275,14 +285,8 @@ fn socketcan_port(_: Runtime<Device>, ifname: &str) -> Result<Runtime<Device>, F
 }
 
 async fn read(h: &Handle<Device>, cli: &Cli, index: u16, sub: u8) -> Result<Vec<u8>, Failure> {
-    let opts = SdoOptions {
-        timeout: Duration::from_millis(cli.timeout_ms),
-        ..SdoOptions::default()
-    };
-    h.sdo_read(cli.node, index, sub, opts)
-        .await
-        .map_err(|e| Failure::Setup(e.to_string()))?
-        .map_err(Failure::Sdo)
+    let opts = SdoOptions::default().with_timeout(Duration::from_millis(cli.timeout_ms));
+    Ok(h.sdo_read(cli.node, index, sub, opts).await?)
 }
 
 async fn run(cli: &Cli) -> Result<(), Failure> {
@@ -299,19 +303,13 @@ async fn run(cli: &Cli) -> Result<(), Failure> {
         } => match encode(*ty, value) {
             Err(e) => Err(Failure::Setup(e)),
             Ok(data) => {
-                let opts = SdoOptions {
-                    timeout: Duration::from_millis(cli.timeout_ms),
-                    ..SdoOptions::default()
-                };
+                let opts =
+                    SdoOptions::default().with_timeout(Duration::from_millis(cli.timeout_ms));
                 let n = data.len();
-                match h.sdo_write(cli.node, *index, *sub, data, opts).await {
-                    Err(e) => Err(Failure::Setup(e.to_string())),
-                    Ok(Err(e)) => Err(Failure::Sdo(e)),
-                    Ok(Ok(())) => {
-                        println!("{index:#06x}:{sub:02x} written ({n} bytes)");
-                        Ok(())
-                    }
-                }
+                h.sdo_write(cli.node, *index, *sub, data, opts)
+                    .await
+                    .map_err(Failure::from)
+                    .map(|()| println!("{index:#06x}:{sub:02x} written ({n} bytes)"))
             }
         },
         Command::Info => info(&h, cli).await,

@@ -36,10 +36,13 @@ pub trait Machine {
     /// Time passed; do what is due at `now`.
     fn handle_timeout(&mut self, now: Instant);
     /// Next frame to put on the bus.
+    #[must_use]
     fn poll_transmit(&mut self) -> Option<Frame>;
     /// Earliest instant at which `handle_timeout` has work, if any.
+    #[must_use]
     fn poll_timeout(&self) -> Option<Instant>;
     /// Next event for the application.
+    #[must_use]
     fn poll_event(&mut self) -> Option<Self::Event>;
     /// The link below asks something of this machine (see [`LinkRequest`]); machines that have
     /// no state to change there ignore it.
@@ -48,6 +51,7 @@ pub trait Machine {
     }
     /// Next command for the link below; a [`Station`] drains them after every input, so that the
     /// link acts on them at the instant they were decided.
+    #[must_use]
     fn poll_link_command(&mut self) -> Option<Self::LinkCommand> {
         None
     }
@@ -162,14 +166,18 @@ pub trait Device {
     /// Time passed; do what is due at `now`.
     fn handle_timeout(&mut self, now: Instant);
     /// Next frame to send, with the port to send it on.
+    #[must_use]
     fn poll_transmit(&mut self) -> Option<(usize, Frame)>;
     /// Next request to a port driver.
+    #[must_use]
     fn poll_port_request(&mut self) -> Option<(usize, PortRequest)> {
         None
     }
     /// Earliest instant at which `handle_timeout` has work, if any.
+    #[must_use]
     fn poll_timeout(&self) -> Option<Instant>;
     /// Next event for the application.
+    #[must_use]
     fn poll_event(&mut self) -> Option<Self::Event>;
 }
 
@@ -189,18 +197,23 @@ pub trait BusLink {
     /// A logical frame to send.
     fn send(&mut self, now: Instant, frame: &Frame);
     /// Next frame for a port.
+    #[must_use]
     fn poll_transmit(&mut self) -> Option<(usize, Frame)>;
     /// Next request to a port driver.
+    #[must_use]
     fn poll_port_request(&mut self) -> Option<(usize, PortRequest)> {
         None
     }
     /// Time passed.
     fn handle_timeout(&mut self, now: Instant);
     /// Earliest deadline.
+    #[must_use]
     fn poll_timeout(&self) -> Option<Instant>;
     /// Next event.
+    #[must_use]
     fn poll_event(&mut self) -> Option<Self::Event>;
     /// Next request to the machine above; a [`Station`] applies them after every input.
+    #[must_use]
     fn poll_machine_request(&mut self) -> Option<LinkRequest> {
         None
     }
@@ -226,6 +239,7 @@ pub struct SinglePort {
 
 impl SinglePort {
     /// A pass-through link.
+    #[must_use]
     pub fn new() -> Self {
         Self::default()
     }
@@ -292,6 +306,7 @@ pub struct Station<L, M> {
 
 impl<M: Machine> Station<SinglePort, M> {
     /// A machine on a single port.
+    #[must_use]
     pub fn single(machine: M) -> Self {
         Station::new(SinglePort::new(), machine)
     }
@@ -299,6 +314,7 @@ impl<M: Machine> Station<SinglePort, M> {
 
 impl<L: BusLink, M: Machine> Station<L, M> {
     /// A machine on a link.
+    #[must_use]
     pub fn new(link: L, machine: M) -> Self {
         Station {
             link,
@@ -413,6 +429,7 @@ pub struct Composite<A, B> {
 
 impl<A: Machine, B: Machine> Composite<A, B> {
     /// Composes two machines.
+    #[must_use]
     pub fn new(a: A, b: B) -> Self {
         Composite { a, b }
     }

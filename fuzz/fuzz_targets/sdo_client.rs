@@ -23,11 +23,7 @@ fuzz_target!(|data: &[u8]| {
             1 => TransferMode::Segmented,
             _ => TransferMode::Block,
         };
-        let opts = SdoOptions {
-            mode,
-            timeout,
-            ..SdoOptions::default()
-        };
+        let opts = SdoOptions::default().with_mode(mode).with_timeout(timeout);
         let ok = if setup & (0x40 << (k & 1)) == 0 {
             c.upload(Instant::ZERO, node, 0x2000, k, opts).is_ok()
         } else {

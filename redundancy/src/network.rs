@@ -102,6 +102,7 @@ pub struct NetworkEvent {
 /// The kinds of [`NetworkEvent`]: the typed ones the application reacts to, and everything else
 /// as the station reported it.
 #[derive(Clone, Debug, PartialEq)]
+#[non_exhaustive]
 pub enum NetworkEventKind {
     /// A port (one bus) changed health state.
     Port {
@@ -186,13 +187,14 @@ pub enum NetworkEventKind {
     Other(StationEvent<LinkEvent, SupervisorEvent>),
 }
 
-/// Why a call on the network was refused.
+/// Why a call on the network was refused, or failed.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum NetworkError {
     /// This master is standby: SDO and NMT to other nodes are the active master's (two SDO
     /// clients on one server channel would corrupt each other's transfers).
     Standby,
-    /// The SDO client refused the request (busy node, no free session, too long).
+    /// The SDO client refused the request (busy node, no free session, too long), or, for a
+    /// transfer awaited through a runtime handle, the transfer failed.
     Sdo(SdoError),
     /// The master refused the NMT command.
     Nmt(MasterError),
@@ -200,9 +202,37 @@ pub enum NetworkError {
     Pairs(PairsError),
     /// The flying master refused the role change.
     Role(FlyingMasterError),
+    /// The runtime driving the network has stopped (only from calls through a runtime handle,
+    /// which then return this one error for everything).
+    Closed,
 }
 
-impl core::error::Error for NetworkError {}
+impl From<SdoError> for NetworkError {
+    fn from(e: SdoError) -> Self {
+        NetworkError::Sdo(e)
+    }
+}
+
+/// A network driven by the tokio runtime: `handle.try_call(|net, now| net.nmt(…)).await?` and
+/// `handle.sdo_read(…).await?` return [`NetworkError`] alone, a stopped runtime included.
+#[cfg(feature = "tokio")]
+impl From<duocan::runtime::RuntimeClosed> for NetworkError {
+    fn from(_: duocan::runtime::RuntimeClosed) -> Self {
+        NetworkError::Closed
+    }
+}
+
+impl core::error::Error for NetworkError {
+    fn source(&self) -> Option<&(dyn core::error::Error + 'static)> {
+        match self {
+            NetworkError::Standby | NetworkError::Closed => None,
+            NetworkError::Sdo(e) => Some(e),
+            NetworkError::Nmt(e) => Some(e),
+            NetworkError::Pairs(e) => Some(e),
+            NetworkError::Role(e) => Some(e),
+        }
+    }
+}
 
 impl fmt::Display for NetworkError {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
@@ -214,12 +244,14 @@ impl fmt::Display for NetworkError {
             NetworkError::Nmt(e) => write!(f, "{e}"),
             NetworkError::Pairs(e) => write!(f, "{e}"),
             NetworkError::Role(e) => write!(f, "{e}"),
+            NetworkError::Closed => f.write_str("the duocan runtime has stopped"),
         }
     }
 }
 
 impl<D: ObjectDictionary, P: IdProfile + FrameClassifier> LogicalNetwork<D, P> {
     /// The network run by `station`.
+    #[must_use]
     pub fn new(station: SupervisedStation<D, P>) -> Self {
         LogicalNetwork { station }
     }
@@ -548,6 +580,36 @@ impl<D: ObjectDictionary, P: IdProfile + FrameClassifier> Device for LogicalNetw
         let at = when(&e);
         let kind = typed(&e).unwrap_or(NetworkEventKind::Other(e));
         Some(NetworkEvent { at, kind })
+    }
+}
+
+/// SDO through the tokio runtime: `handle.sdo_read(node, index, sub, opts).await?` starts the
+/// transfer on the network (refused on a standby master) and waits for its
+/// [`NetworkEventKind::Sdo`]; every failure is one [`NetworkError`].
+#[cfg(feature = "tokio")]
+impl<D: ObjectDictionary, P: IdProfile + FrameClassifier> duocan::runtime::SdoHost
+    for LogicalNetwork<D, P>
+{
+    type Error = NetworkError;
+    fn sdo_start(
+        &mut self,
+        now: Instant,
+        r: duocan::runtime::SdoStart<'_>,
+    ) -> Result<RequestId, NetworkError> {
+        match r.data {
+            None => self.sdo_read_with(now, r.node, r.index, r.sub, r.opts),
+            Some(d) => self.sdo_write_with(now, r.node, r.index, r.sub, d, r.opts),
+        }
+    }
+}
+
+#[cfg(feature = "tokio")]
+impl duocan::runtime::SdoEvents for NetworkEvent {
+    fn sdo_result(&self) -> Option<(RequestId, Result<alloc::vec::Vec<u8>, SdoError>)> {
+        match &self.kind {
+            NetworkEventKind::Sdo(s) => s.sdo_result(),
+            _ => None,
+        }
     }
 }
 

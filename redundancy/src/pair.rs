@@ -30,6 +30,7 @@ impl Member {
         }
     }
     /// The other member.
+    #[must_use]
     pub const fn other(self) -> Member {
         match self {
             Member::A => Member::B,
@@ -64,6 +65,7 @@ pub struct PairSpec {
 
 impl PairSpec {
     /// A pair whose members beat every `producer_time` and fail after `consumer_time`.
+    #[must_use]
     pub const fn new(
         a: NodeId,
         b: NodeId,

@@ -220,6 +220,7 @@ pub struct CandumpWriter<W: Write> {
 
 impl<W: Write> CandumpWriter<W> {
     /// A writer on `out`.
+    #[must_use]
     pub fn new(out: W) -> Self {
         CandumpWriter { out }
     }

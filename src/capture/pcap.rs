@@ -130,7 +130,14 @@ impl fmt::Display for PcapError {
     }
 }
 
-impl std::error::Error for PcapError {}
+impl std::error::Error for PcapError {
+    fn source(&self) -> Option<&(dyn std::error::Error + 'static)> {
+        match self {
+            PcapError::Io(e) => Some(e),
+            _ => None,
+        }
+    }
+}
 
 /// Writes a pcap file.
 #[derive(Debug)]

@@ -82,6 +82,7 @@ pub struct Recorder {
 
 impl Recorder {
     /// A recorder whose instant zero is now on the wall clock.
+    #[must_use]
     pub fn new() -> Self {
         let now = SystemTime::now()
             .duration_since(UNIX_EPOCH)
@@ -91,6 +92,7 @@ impl Recorder {
     }
     /// A recorder whose instant zero is `epoch_us` µs after the Unix epoch (fixed, for
     /// reproducible captures of simulated runs).
+    #[must_use]
     pub fn with_epoch(epoch_us: u64) -> Self {
         Recorder {
             epoch_us,
@@ -103,16 +105,19 @@ impl Recorder {
         }
     }
     /// Interface names for the candump log, by port index (default `can0`, `can1`, …).
+    #[must_use]
     pub fn port_names<S: Into<String>>(mut self, names: impl IntoIterator<Item = S>) -> Self {
         self.names = names.into_iter().map(Into::into).collect();
         self
     }
     /// Interface name of the logical bus in the candump log (default `logical`).
+    #[must_use]
     pub fn logical_name(mut self, name: impl Into<String>) -> Self {
         self.logical = name.into();
         self
     }
     /// Adds a candump log of the frames `filter` selects.
+    #[must_use]
     pub fn candump(self, filter: Filter, out: impl Write + Send + 'static) -> Self {
         self.add(Sink {
             filter,
@@ -199,6 +204,7 @@ pub struct Tapped<M> {
 
 impl<M> Tapped<M> {
     /// Wraps `inner`.
+    #[must_use]
     pub fn new(inner: M, tap: Arc<dyn Tap>) -> Self {
         Tapped {
             inner,

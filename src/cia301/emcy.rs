@@ -162,6 +162,7 @@ impl EmcyProducer {
     }
 
     /// Next frame if the inhibit time allows it at `now`.
+    #[must_use]
     pub fn poll_frame(&mut self, now: Instant) -> Option<Frame> {
         if self.pending.is_empty() || self.id.is_none() {
             return None;
@@ -188,6 +189,7 @@ impl EmcyProducer {
     }
 
     /// When the inhibit time lets the next waiting message go.
+    #[must_use]
     pub fn poll_timeout(&self) -> Option<Instant> {
         if self.pending.is_empty() || self.id.is_none() {
             return None;

@@ -58,6 +58,7 @@ impl GuardSlave {
         (byte, resumed)
     }
     /// When the master's next request is due at the latest.
+    #[must_use]
     pub fn poll_timeout(&self) -> Option<Instant> {
         self.deadline
     }
@@ -136,6 +137,7 @@ impl<const N: usize> Default for GuardMaster<N> {
 
 impl<const N: usize> GuardMaster<N> {
     /// Guards nobody.
+    #[must_use]
     pub const fn new() -> Self {
         GuardMaster {
             nodes: heapless::Vec::new(),
@@ -237,6 +239,7 @@ impl<const N: usize> GuardMaster<N> {
     }
 
     /// Earliest poll or timeout.
+    #[must_use]
     pub fn poll_timeout(&self) -> Option<Instant> {
         self.nodes
             .iter()

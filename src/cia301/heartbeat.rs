@@ -36,6 +36,7 @@ impl HeartbeatProducer {
         self.period
     }
     /// When the next heartbeat is due.
+    #[must_use]
     pub fn poll_timeout(&self) -> Option<Instant> {
         self.next
     }
@@ -75,6 +76,7 @@ pub struct ConsumerSetting {
 
 impl ConsumerSetting {
     /// Decodes the 0x1016 sub-entry format.
+    #[must_use]
     pub fn from_u32(v: u32) -> Self {
         ConsumerSetting {
             node: NodeId::new(((v >> 16) & 0xFF) as u8),
@@ -154,6 +156,7 @@ impl<const N: usize> Default for HeartbeatConsumer<N> {
 
 impl<const N: usize> HeartbeatConsumer<N> {
     /// An empty table.
+    #[must_use]
     pub const fn new() -> Self {
         HeartbeatConsumer {
             entries: heapless::Vec::new(),
@@ -254,6 +257,7 @@ impl<const N: usize> HeartbeatConsumer<N> {
 
     /// When `handle_timeout` must run next: never later than the earliest deadline (it may be
     /// earlier, after heartbeats moved the earliest entry on; the call then just re-arms).
+    #[must_use]
     pub fn poll_timeout(&self) -> Option<Instant> {
         self.next
     }

@@ -15,6 +15,7 @@ use crate::frame::{Frame, Id};
 
 /// SYNC configuration as the dictionary holds it.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
+#[non_exhaustive]
 pub struct SyncConfig {
     /// 0x1005.
     pub cob_id: CobId,
@@ -24,6 +25,35 @@ pub struct SyncConfig {
     pub window: Duration,
     /// 0x1019 (0 = no counter, 2–240 = counter wraps after this value).
     pub overflow: u8,
+}
+
+// Builders: the struct is `#[non_exhaustive]` (it may gain fields), so code outside the crate
+// starts from a constructor or `Default` and sets what it needs.
+impl SyncConfig {
+    /// The configuration with [`cob_id`](Self::cob_id) replaced.
+    #[must_use]
+    pub fn with_cob_id(mut self, cob_id: CobId) -> Self {
+        self.cob_id = cob_id;
+        self
+    }
+    /// The configuration with [`period`](Self::period) replaced.
+    #[must_use]
+    pub fn with_period(mut self, period: Duration) -> Self {
+        self.period = period;
+        self
+    }
+    /// The configuration with [`window`](Self::window) replaced.
+    #[must_use]
+    pub fn with_window(mut self, window: Duration) -> Self {
+        self.window = window;
+        self
+    }
+    /// The configuration with [`overflow`](Self::overflow) replaced.
+    #[must_use]
+    pub fn with_overflow(mut self, overflow: u8) -> Self {
+        self.overflow = overflow;
+        self
+    }
 }
 
 /// A received or produced SYNC.
@@ -92,6 +122,7 @@ impl SyncService {
     }
 
     /// Next SYNC due.
+    #[must_use]
     pub fn poll_timeout(&self) -> Option<Instant> {
         self.next
     }

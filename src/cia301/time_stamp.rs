@@ -50,6 +50,7 @@ impl TimeOfDay {
         self.days as u64 * MS_PER_DAY + self.ms as u64
     }
     /// From milliseconds since 1984-01-01 (days saturate at 65535).
+    #[must_use]
     pub fn from_total_ms(total: u64) -> TimeOfDay {
         TimeOfDay {
             days: (total / MS_PER_DAY).min(u16::MAX as u64) as u16,
@@ -68,6 +69,7 @@ pub struct TimeBase {
 
 impl TimeBase {
     /// `tod` was the time of day at `at`.
+    #[must_use]
     pub fn new(at: Instant, tod: TimeOfDay) -> Self {
         TimeBase {
             at,
@@ -134,6 +136,7 @@ impl TimeService {
         Some(Frame::from_array(self.id?, tod.to_bytes()))
     }
     /// Next periodic TIME.
+    #[must_use]
     pub fn poll_timeout(&self) -> Option<Instant> {
         self.next
     }

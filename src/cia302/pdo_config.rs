@@ -43,6 +43,7 @@ pub struct PdoConfig {
 
 impl PdoConfig {
     /// A PDO on `cob_id` with `transmission_type`; nothing else written.
+    #[must_use]
     pub fn new(cob_id: CobId, transmission_type: u8) -> PdoConfig {
         PdoConfig {
             cob_id,
@@ -54,16 +55,19 @@ impl PdoConfig {
         }
     }
     /// Also writes the inhibit time (100 µs units).
+    #[must_use]
     pub fn inhibit(mut self, inhibit_100us: u16) -> PdoConfig {
         self.inhibit_100us = Some(inhibit_100us);
         self
     }
     /// Also writes the event timer (ms).
+    #[must_use]
     pub fn event_timer(mut self, ms: u16) -> PdoConfig {
         self.event_timer_ms = Some(ms);
         self
     }
     /// Also writes the SYNC start value.
+    #[must_use]
     pub fn sync_start(mut self, start: u8) -> PdoConfig {
         self.sync_start = Some(start);
         self
@@ -147,6 +151,30 @@ pub enum AccessError {
     NoAnswer(Option<AbortCode>),
 }
 
+impl fmt::Display for AccessError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            AccessError::Aborted(code) => write!(f, "the device aborted with {code}"),
+            AccessError::NoAnswer(Some(code)) => {
+                write!(
+                    f,
+                    "no answer from the device (the client aborted with {code})"
+                )
+            }
+            AccessError::NoAnswer(None) => f.write_str("no answer from the device"),
+        }
+    }
+}
+
+impl core::error::Error for AccessError {
+    fn source(&self) -> Option<&(dyn core::error::Error + 'static)> {
+        match self {
+            AccessError::Aborted(code) | AccessError::NoAnswer(Some(code)) => Some(code),
+            AccessError::NoAnswer(None) => None,
+        }
+    }
+}
+
 /// What went wrong.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum PdoConfigErrorKind {
@@ -208,6 +236,17 @@ impl fmt::Display for PdoConfigError {
     }
 }
 
+impl core::error::Error for PdoConfigError {
+    fn source(&self) -> Option<&(dyn core::error::Error + 'static)> {
+        match &self.kind {
+            PdoConfigErrorKind::Aborted(code) | PdoConfigErrorKind::NoAnswer(Some(code)) => {
+                Some(code)
+            }
+            _ => None,
+        }
+    }
+}
+
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 enum Param {
     Type,
@@ -261,6 +300,7 @@ impl PdoConfigurator {
     ///
     /// # Panics
     /// If `pdo` is not 1–512.
+    #[must_use]
     pub fn new(node: NodeId, dir: Dir, pdo: u16, cfg: PdoConfig) -> PdoConfigurator {
         assert!((1..=params::MAX_PDOS).contains(&pdo), "PDO number 1..=512");
         let (comm, map) = match dir {

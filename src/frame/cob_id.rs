@@ -21,6 +21,7 @@ impl NodeId {
         self.0
     }
     /// Panics at compile time when used in a const context with an invalid value; for literals.
+    #[must_use]
     pub const fn must(raw: u8) -> NodeId {
         match NodeId::new(raw) {
             Some(n) => n,
@@ -54,14 +55,17 @@ impl CobId {
     pub const EXTENDED: u32 = 1 << 29;
 
     /// A valid COB-ID for an 11-bit identifier.
+    #[must_use]
     pub const fn standard(id: u16) -> CobId {
         CobId((id & STANDARD_ID_MAX) as u32)
     }
     /// A valid COB-ID for a 29-bit identifier.
+    #[must_use]
     pub const fn extended(id: u32) -> CobId {
         CobId((id & EXTENDED_ID_MAX) | Self::EXTENDED)
     }
     /// A COB-ID for the given CAN identifier.
+    #[must_use]
     pub const fn from_id(id: Id) -> CobId {
         match id {
             Id::Standard(r) => CobId::standard(r),
@@ -81,6 +85,7 @@ impl CobId {
         self.0 & Self::EXTENDED != 0
     }
     /// The same COB-ID with bit 31 set or cleared.
+    #[must_use]
     pub const fn with_valid(self, valid: bool) -> CobId {
         if valid {
             CobId(self.0 & !Self::INVALID)
@@ -89,6 +94,7 @@ impl CobId {
         }
     }
     /// The same COB-ID with bit 30 set or cleared.
+    #[must_use]
     pub const fn with_bit30(self, set: bool) -> CobId {
         if set {
             CobId(self.0 | Self::BIT30)
@@ -229,6 +235,7 @@ impl NodeSet {
         self.0 |= 1u128 << n.raw();
     }
     /// With a node added.
+    #[must_use]
     pub const fn with(self, n: NodeId) -> NodeSet {
         NodeSet(self.0 | 1u128 << n.raw())
     }

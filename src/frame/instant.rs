@@ -22,14 +22,17 @@ impl Instant {
     pub const MAX: Instant = Instant(u64::MAX);
 
     /// An instant `us` microseconds after the origin.
+    #[must_use]
     pub const fn from_micros(us: u64) -> Self {
         Instant(us)
     }
     /// An instant `ms` milliseconds after the origin.
+    #[must_use]
     pub const fn from_millis(ms: u64) -> Self {
         Instant(ms.saturating_mul(1_000))
     }
     /// An instant `s` seconds after the origin.
+    #[must_use]
     pub const fn from_secs(s: u64) -> Self {
         Instant(s.saturating_mul(1_000_000))
     }
@@ -42,10 +45,12 @@ impl Instant {
         Duration(self.0.saturating_sub(earlier.0))
     }
     /// `self + d`, saturating at [`Instant::MAX`] instead of wrapping.
+    #[must_use]
     pub const fn saturating_add(self, d: Duration) -> Instant {
         Instant(self.0.saturating_add(d.0))
     }
     /// `self - d`, saturating at [`Instant::ZERO`].
+    #[must_use]
     pub const fn saturating_sub(self, d: Duration) -> Instant {
         Instant(self.0.saturating_sub(d.0))
     }
@@ -58,14 +63,17 @@ impl Duration {
     pub const MAX: Duration = Duration(u64::MAX);
 
     /// `us` microseconds.
+    #[must_use]
     pub const fn from_micros(us: u64) -> Self {
         Duration(us)
     }
     /// `ms` milliseconds.
+    #[must_use]
     pub const fn from_millis(ms: u64) -> Self {
         Duration(ms.saturating_mul(1_000))
     }
     /// `s` seconds.
+    #[must_use]
     pub const fn from_secs(s: u64) -> Self {
         Duration(s.saturating_mul(1_000_000))
     }
@@ -82,6 +90,7 @@ impl Duration {
         self.0 == 0
     }
     /// `self * n`, saturating.
+    #[must_use]
     pub const fn saturating_mul(self, n: u64) -> Duration {
         Duration(self.0.saturating_mul(n))
     }

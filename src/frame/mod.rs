@@ -116,6 +116,8 @@ impl fmt::Display for FrameError {
     }
 }
 
+impl core::error::Error for FrameError {}
+
 /// One classic CAN frame.
 #[derive(Clone, Copy, PartialEq, Eq, Hash)]
 pub struct Frame {
@@ -142,6 +144,7 @@ impl Frame {
     }
 
     /// A data frame from a fixed-size payload; the length is checked at compile time.
+    #[must_use]
     pub const fn from_array<const N: usize>(id: Id, data: [u8; N]) -> Frame {
         const { assert!(N <= 8, "classic CAN carries at most 8 bytes") };
         let mut buf = [0u8; 8];
@@ -325,6 +328,8 @@ impl fmt::Display for Malformed {
         }
     }
 }
+
+impl core::error::Error for Malformed {}
 
 #[cfg(test)]
 pub(crate) mod tests {

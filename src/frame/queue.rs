@@ -18,6 +18,7 @@ impl<T, const N: usize> Default for Bounded<T, N> {
 
 impl<T, const N: usize> Bounded<T, N> {
     /// An empty queue.
+    #[must_use]
     pub const fn new() -> Self {
         Bounded {
             items: Deque::new(),

@@ -388,6 +388,7 @@ impl<
     }
 
     /// The next deadline of the timed services (none while initialising).
+    #[must_use]
     pub(super) fn poll_timeout(&self) -> Option<Instant> {
         if self.state == NmtState::Initialising {
             return None;

@@ -42,6 +42,7 @@ pub struct NodeEvent {
 
 /// The kinds of [`NodeEvent`].
 #[derive(Clone, Copy, Debug, PartialEq)]
+#[non_exhaustive]
 pub enum NodeEventKind {
     /// This node's NMT state changed.
     StateChanged {
@@ -172,3 +173,5 @@ impl fmt::Display for QueueFull {
         )
     }
 }
+
+impl core::error::Error for QueueFull {}

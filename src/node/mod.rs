@@ -38,6 +38,7 @@ pub type SlaveNode<D, P = Predefined> = Node<D, P, 0>;
 
 /// How a node behaves beyond what its dictionary says.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[non_exhaustive]
 pub struct NodeConfig {
     /// The node-ID.
     pub node_id: NodeId,
@@ -49,8 +50,32 @@ pub struct NodeConfig {
     pub consume_emcy: bool,
 }
 
+// Builders: the struct is `#[non_exhaustive]` (it may gain fields), so code outside the crate
+// starts from a constructor or `Default` and sets what it needs.
+impl NodeConfig {
+    /// The configuration with [`auto_start`](Self::auto_start) replaced.
+    #[must_use]
+    pub fn with_auto_start(mut self, auto_start: bool) -> Self {
+        self.auto_start = auto_start;
+        self
+    }
+    /// The configuration with [`accept_nmt`](Self::accept_nmt) replaced.
+    #[must_use]
+    pub fn with_accept_nmt(mut self, accept_nmt: bool) -> Self {
+        self.accept_nmt = accept_nmt;
+        self
+    }
+    /// The configuration with [`consume_emcy`](Self::consume_emcy) replaced.
+    #[must_use]
+    pub fn with_consume_emcy(mut self, consume_emcy: bool) -> Self {
+        self.consume_emcy = consume_emcy;
+        self
+    }
+}
+
 impl NodeConfig {
     /// A slave: waits for NMT start, obeys NMT, consumes EMCY.
+    #[must_use]
     pub const fn slave(node_id: NodeId) -> Self {
         NodeConfig {
             node_id,
@@ -60,6 +85,7 @@ impl NodeConfig {
         }
     }
     /// A master: starts itself, ignores NMT commands of others, consumes EMCY.
+    #[must_use]
     pub const fn master(node_id: NodeId) -> Self {
         NodeConfig {
             node_id,
@@ -135,6 +161,7 @@ pub struct Node<
 
 impl<D: ObjectDictionary> Node<D, Predefined, ALL_NODES> {
     /// A node with the predefined connection set. Nothing is sent until [`Node::boot`].
+    #[must_use]
     pub fn new(cfg: NodeConfig, od: D) -> Self {
         Node::with_profile(cfg, od, Predefined)
     }
@@ -149,6 +176,7 @@ impl<
     > Node<D, P, GUARDED, TPDOS, RPDOS>
 {
     /// A node with a custom identifier profile.
+    #[must_use]
     pub fn with_profile(cfg: NodeConfig, od: D, profile: P) -> Self {
         Node {
             core: NodeCore {

@@ -102,6 +102,8 @@ impl fmt::Display for AbortCode {
         }
     }
 }
+
+impl core::error::Error for AbortCode {}
 impl fmt::Debug for AbortCode {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         fmt::Display::fmt(self, f)

@@ -192,6 +192,7 @@ pub struct ObjectDef {
 
 impl ObjectDef {
     /// A VAR entry with a zero default, read-write, not mappable.
+    #[must_use]
     pub const fn new(index: u16, sub: u8, data_type: DataType) -> ObjectDef {
         ObjectDef {
             index,
@@ -209,61 +210,72 @@ impl ObjectDef {
         }
     }
     /// UNSIGNED8 entry with a default.
+    #[must_use]
     pub const fn u8(index: u16, sub: u8, access: Access, default: u8) -> ObjectDef {
         ObjectDef::new(index, sub, DataType::Unsigned8)
             .access(access)
             .default(DefaultValue::Unsigned(default as u64))
     }
     /// UNSIGNED16 entry with a default.
+    #[must_use]
     pub const fn u16(index: u16, sub: u8, access: Access, default: u16) -> ObjectDef {
         ObjectDef::new(index, sub, DataType::Unsigned16)
             .access(access)
             .default(DefaultValue::Unsigned(default as u64))
     }
     /// UNSIGNED32 entry with a default.
+    #[must_use]
     pub const fn u32(index: u16, sub: u8, access: Access, default: u32) -> ObjectDef {
         ObjectDef::new(index, sub, DataType::Unsigned32)
             .access(access)
             .default(DefaultValue::Unsigned(default as u64))
     }
     /// A string or domain entry holding at most `capacity` bytes.
+    #[must_use]
     pub const fn bytes(index: u16, sub: u8, data_type: DataType, capacity: u32) -> ObjectDef {
         let mut d = ObjectDef::new(index, sub, data_type);
         d.capacity = capacity;
         d
     }
     /// Sets the access right.
+    #[must_use]
     pub const fn access(mut self, access: Access) -> ObjectDef {
         self.access = access;
         self
     }
     /// Sets the default value.
+    #[must_use]
     pub const fn default(mut self, default: DefaultValue) -> ObjectDef {
         self.default = default;
         self
     }
     /// Marks the entry PDO-mappable.
+    #[must_use]
     pub const fn mappable(mut self) -> ObjectDef {
         self.pdo_mappable = true;
         self
     }
     /// Sets the object type (for sub-entries of arrays and records).
+    #[must_use]
     pub const fn object_type(mut self, t: ObjectType) -> ObjectDef {
         self.object_type = t;
         self
     }
     /// Sets the accepted range.
+    #[must_use]
     pub const fn limits(mut self, low: Limit, high: Limit) -> ObjectDef {
         self.low = Some(low);
         self.high = Some(high);
         self
     }
     /// Sets the name.
+    #[must_use]
     pub const fn named(mut self, name: &'static str) -> ObjectDef {
         self.name = name;
         self
     }
     /// Installs a write veto hook.
+    #[must_use]
     pub const fn hook(mut self, hook: WriteHook) -> ObjectDef {
         self.hook = Some(hook);
         self

@@ -22,6 +22,7 @@ pub struct DynamicDictionary {
 
 impl DynamicDictionary {
     /// An empty dictionary for `node_id` (used by `$NODEID`-relative defaults).
+    #[must_use]
     pub fn new(node_id: u8) -> Self {
         DynamicDictionary {
             map: Default::default(),

@@ -70,6 +70,8 @@ impl fmt::Display for BuildError {
     }
 }
 
+impl core::error::Error for BuildError {}
+
 /// An entry as found: its definition and its current value bytes.
 #[derive(Clone, Copy, Debug)]
 pub struct Entry<'a> {

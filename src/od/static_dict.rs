@@ -40,6 +40,7 @@ impl<const N: usize, const BYTES: usize> Default for StaticDictionary<N, BYTES> 
 
 impl<const N: usize, const BYTES: usize> StaticDictionary<N, BYTES> {
     /// An empty dictionary; `const`, so it can be placed in a `static`.
+    #[must_use]
     pub const fn new() -> Self {
         StaticDictionary {
             map: IndexMap::new(),

@@ -47,6 +47,7 @@ pub struct PortError {
 
 impl PortError {
     /// A failure of `port`.
+    #[must_use]
     pub fn new(port: &str, kind: PortErrorKind, context: impl Into<String>) -> Self {
         PortError {
             port: port.to_owned(),
@@ -56,6 +57,7 @@ impl PortError {
         }
     }
     /// An OS error while doing `context` on `port`; ENODEV and ENETDOWN get their own kinds.
+    #[must_use]
     pub fn io(port: &str, context: impl Into<String>, e: io::Error) -> Self {
         let kind = match e.raw_os_error() {
             Some(code) if code == ENODEV || code == ENXIO => PortErrorKind::NoSuchInterface,

@@ -48,6 +48,7 @@ macro_rules! bump {
 
 impl PortCounters {
     /// Fresh counters at zero.
+    #[must_use]
     pub fn new() -> Self {
         Self::default()
     }

@@ -69,6 +69,7 @@ pub struct EmbeddedDriver<D, C: Can, const PORTS: usize> {
 
 impl<D: Device, C: Can, const PORTS: usize> EmbeddedDriver<D, C, PORTS> {
     /// A driver for `device` on `ports` (port `i` of the device is `ports[i]`).
+    #[must_use]
     pub fn new(device: D, ports: [C; PORTS]) -> Self {
         EmbeddedDriver {
             device,
@@ -81,6 +82,7 @@ impl<D: Device, C: Can, const PORTS: usize> EmbeddedDriver<D, C, PORTS> {
 
     /// Installs the controller restart the driver runs when the device asks to re-initialise a
     /// port.
+    #[must_use]
     pub fn with_reinit(mut self, hook: ReinitHook<C>) -> Self {
         self.reinit = Some(hook);
         self
@@ -103,6 +105,7 @@ impl<D: Device, C: Can, const PORTS: usize> EmbeddedDriver<D, C, PORTS> {
         self.stats.get(i).copied()
     }
     /// Next event of the device.
+    #[must_use]
     pub fn poll_event(&mut self) -> Option<D::Event> {
         self.device.poll_event()
     }

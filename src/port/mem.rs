@@ -18,6 +18,7 @@ pub struct MemBus {
 
 impl MemBus {
     /// A new, empty bus.
+    #[must_use]
     pub fn new(name: impl Into<String>) -> Self {
         MemBus {
             tx: broadcast::channel(MEM_BUS_DEPTH).0,

@@ -49,6 +49,7 @@ pub struct UdpBusConfig {
 
 impl UdpBusConfig {
     /// A bus on `group:port`, loopback only, TTL 1.
+    #[must_use]
     pub fn new(group: Ipv4Addr, port: u16) -> Self {
         UdpBusConfig {
             group,
@@ -60,10 +61,12 @@ impl UdpBusConfig {
         }
     }
     /// python-can's default bus (239.74.163.2:43113), loopback only.
+    #[must_use]
     pub fn python_can_default() -> Self {
         Self::new(DEFAULT_GROUP, DEFAULT_PORT)
     }
     /// Bus number `n` of a test network: group 239.74.163.(2+n), port 43113+n.
+    #[must_use]
     pub fn numbered(n: u8) -> Self {
         Self::new(
             Ipv4Addr::new(239, 74, 163, 2u8.saturating_add(n)),
@@ -72,12 +75,14 @@ impl UdpBusConfig {
     }
     /// Opt in to sending on a non-loopback interface (its local address). CAN traffic then
     /// leaves the machine: only for networks made for it.
+    #[must_use]
     pub fn on_interface(mut self, addr: Ipv4Addr) -> Self {
         self.interface = addr;
         self.allow_non_loopback = true;
         self
     }
     /// Sets the `channel` field of sent frames.
+    #[must_use]
     pub fn with_channel(mut self, channel: impl Into<String>) -> Self {
         self.channel = Some(channel.into());
         self
@@ -147,7 +152,14 @@ impl fmt::Display for DecodeError {
     }
 }
 
-impl std::error::Error for DecodeError {}
+impl std::error::Error for DecodeError {
+    fn source(&self) -> Option<&(dyn std::error::Error + 'static)> {
+        match self {
+            DecodeError::Invalid(e) => Some(e),
+            _ => None,
+        }
+    }
+}
 
 /// Encodes a frame as python-can's `pack_message` does (same keys, same order, same types).
 pub fn encode(frame: &Frame, timestamp: f64, channel: Option<&str>) -> Vec<u8> {

@@ -2,7 +2,10 @@
 
 use super::task::{Command, Start, Watcher};
 use super::{Clock, RuntimeEvent};
+use crate::cia301::sdo::SdoError;
 use crate::frame::instant::Instant;
+use crate::node::QueueFull;
+use crate::od::abort::AbortCode;
 use crate::port::{PortCounters, PortCountersSnapshot};
 use std::fmt;
 use std::sync::{Arc, Mutex};
@@ -20,6 +23,70 @@ impl fmt::Display for RuntimeClosed {
 }
 
 impl std::error::Error for RuntimeClosed {}
+
+/// Why an operation through a [`Handle`] failed: the runtime stopped, or the operation itself
+/// failed on the device. Every typed handle call ([`Handle::sdo_read`], [`Handle::read`],
+/// [`Handle::nmt`], …) returns this one error, so a caller ends each call in `?` and still
+/// tells the cases apart by matching.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[non_exhaustive]
+pub enum RuntimeError {
+    /// The runtime has stopped (shut down, or its task panicked).
+    Closed,
+    /// The SDO transfer could not start, or failed (node, object and cause inside).
+    Sdo(SdoError),
+    /// The local dictionary refused the access with this abort code.
+    Abort(AbortCode),
+    /// The local node's transmit queue was full.
+    QueueFull(QueueFull),
+}
+
+impl fmt::Display for RuntimeError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        // The wrapped error says it all; repeating a prefix would only lengthen the message.
+        match self {
+            RuntimeError::Closed => fmt::Display::fmt(&RuntimeClosed, f),
+            RuntimeError::Sdo(e) => fmt::Display::fmt(e, f),
+            RuntimeError::Abort(code) => write!(f, "the local dictionary refused: {code}"),
+            RuntimeError::QueueFull(e) => fmt::Display::fmt(e, f),
+        }
+    }
+}
+
+impl std::error::Error for RuntimeError {
+    fn source(&self) -> Option<&(dyn std::error::Error + 'static)> {
+        match self {
+            RuntimeError::Closed => None,
+            RuntimeError::Sdo(e) => Some(e),
+            RuntimeError::Abort(code) => Some(code),
+            RuntimeError::QueueFull(e) => Some(e),
+        }
+    }
+}
+
+impl From<RuntimeClosed> for RuntimeError {
+    fn from(_: RuntimeClosed) -> Self {
+        RuntimeError::Closed
+    }
+}
+
+impl From<SdoError> for RuntimeError {
+    fn from(e: SdoError) -> Self {
+        RuntimeError::Sdo(e)
+    }
+}
+
+impl From<AbortCode> for RuntimeError {
+    fn from(code: AbortCode) -> Self {
+        RuntimeError::Abort(code)
+    }
+}
+
+impl From<QueueFull> for RuntimeError {
+    fn from(e: QueueFull) -> Self {
+        RuntimeError::QueueFull(e)
+    }
+}
 
 /// A cloneable handle to a running device. The runtime runs while any handle exists: dropping
 /// the last one stops it, as does [`Handle::shutdown`].
@@ -69,7 +136,8 @@ where
     }
 
     /// Runs `f` on the device inside the runtime, with the current time, and returns its result.
-    /// Whatever the device queues (frames, events) is flushed right after.
+    /// Whatever the device queues (frames, events) is flushed right after. For a fallible `f`,
+    /// [`Handle::try_call`] returns one flat error instead of a result inside a result.
     pub async fn call<R, F>(&self, f: F) -> Result<R, RuntimeClosed>
     where
         F: FnOnce(&mut D, Instant) -> R + Send + 'static,
@@ -85,24 +153,39 @@ where
         rx.await.map_err(|_| RuntimeClosed)
     }
 
-    /// Starts an operation and waits for the event that completes it. `start` runs on the
-    /// device: `Err(r)` is an immediate result (it did not start), `Ok(token)` means it started;
-    /// then `done` sees every following event of the device with the token (a transfer id, say)
-    /// and the first `Some` is the result. No event is missed: the watch is set up in the same
-    /// step as the start, inside the runtime, and does not depend on a subscriber keeping up.
-    pub async fn request<T, R, S, M>(&self, start: S, mut done: M) -> Result<R, RuntimeClosed>
+    /// [`Handle::call`] for a fallible `f`: its error and a stopped runtime come back as one
+    /// error `E` (anything a [`RuntimeClosed`] converts into: [`RuntimeError`], a boxed error,
+    /// an application's own error type), so the call ends in `?`.
+    pub async fn try_call<T, E, F>(&self, f: F) -> Result<T, E>
     where
-        S: FnOnce(&mut D, Instant) -> Result<T, R> + Send + 'static,
-        M: FnMut(&T, &D::Event) -> Option<R> + Send + 'static,
+        F: FnOnce(&mut D, Instant) -> Result<T, E> + Send + 'static,
+        T: Send + 'static,
+        E: From<RuntimeClosed> + Send + 'static,
+    {
+        self.call(f).await?
+    }
+
+    /// Starts an operation and waits for the event that completes it. `start` runs on the
+    /// device: `Err(e)` means it did not start, `Ok(token)` means it started; then `done` sees
+    /// every following event of the device with the token (a transfer id, say) and the first
+    /// `Some` is the outcome. The refusal, the outcome's error and a stopped runtime are one
+    /// error `E` (anything a [`RuntimeClosed`] converts into), so the call ends in `?`. No event
+    /// is missed: the watch is set up in the same step as the start, inside the runtime, and
+    /// does not depend on a subscriber keeping up.
+    pub async fn request<T, R, E, S, M>(&self, start: S, mut done: M) -> Result<R, E>
+    where
+        S: FnOnce(&mut D, Instant) -> Result<T, E> + Send + 'static,
+        M: FnMut(&T, &D::Event) -> Option<Result<R, E>> + Send + 'static,
         T: Send + 'static,
         R: Send + 'static,
+        E: From<RuntimeClosed> + Send + 'static,
     {
-        let (tx, rx) = oneshot::channel();
+        let (tx, rx) = oneshot::channel::<Result<R, E>>();
         let start: Start<D, D::Event> = Box::new(move |d: &mut D, now: Instant| {
             let token = match start(d, now) {
                 Ok(t) => t,
-                Err(r) => {
-                    let _ = tx.send(r);
+                Err(e) => {
+                    let _ = tx.send(Err(e));
                     return None;
                 }
             };
@@ -121,7 +204,7 @@ where
         self.commands
             .send(Command::Watch(start))
             .map_err(|_| RuntimeClosed)?;
-        rx.await.map_err(|_| RuntimeClosed)
+        rx.await.map_err(|_| RuntimeClosed)?
     }
 
     /// Every event from now on. A subscriber more than [`super::EVENT_QUEUE`] events behind

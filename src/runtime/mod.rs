@@ -26,7 +26,7 @@ mod port_task;
 mod sdo;
 mod task;
 
-pub use handle::{Handle, RuntimeClosed};
+pub use handle::{Handle, RuntimeClosed, RuntimeError};
 pub use node::{LocalNode, NodeHost};
 pub use sdo::{SdoEvents, SdoHost, SdoStart};
 
@@ -70,6 +70,7 @@ pub struct Clock {
 
 impl Clock {
     /// A clock starting now.
+    #[must_use]
     pub fn start() -> Self {
         Clock {
             origin: tokio::time::Instant::now(),
@@ -132,10 +133,12 @@ where
     D::Event: Clone + Send + fmt::Debug + 'static,
 {
     /// A runtime for `device`; add its ports in order with [`Runtime::port`].
+    #[must_use]
     pub fn new(device: D) -> Self {
         Self::boxed(Box::new(device))
     }
     /// A runtime for a device already on the heap (large devices built in place).
+    #[must_use]
     pub fn boxed(device: Box<D>) -> Self {
         Runtime {
             device,
@@ -145,11 +148,13 @@ where
         }
     }
     /// Names the network (the `net` field of every log line of this runtime).
+    #[must_use]
     pub fn name(mut self, name: impl Into<String>) -> Self {
         self.name = name.into();
         self
     }
     /// Adds the next port (index = number of ports added before).
+    #[must_use]
     pub fn port<P: Port>(mut self, port: P) -> Self {
         let name = port.name().to_owned();
         let counters = port.counters();
@@ -162,6 +167,7 @@ where
         self
     }
     /// Records every frame each port received or sent (see [`crate::capture::recorder`]).
+    #[must_use]
     pub fn tap(mut self, tap: Arc<dyn Tap>) -> Self {
         self.tap = Some(tap);
         self
@@ -267,7 +273,6 @@ mod tests {
         master
             .nmt(NmtCommand::Start, NmtTarget::Node(NodeId::new(5).unwrap()))
             .await
-            .unwrap()
             .unwrap();
         let seen = tokio::time::timeout(StdDuration::from_secs(5), async {
             loop {
@@ -286,10 +291,7 @@ mod tests {
         .expect("master saw the slave operational");
         assert_eq!(seen.raw(), 5);
         assert_eq!(slave.nmt_state().await.unwrap(), NmtState::Operational);
-        assert_eq!(
-            slave.read(0x1017, 0).await.unwrap().unwrap(),
-            20u16.to_le_bytes()
-        );
+        assert_eq!(slave.read(0x1017, 0).await.unwrap(), 20u16.to_le_bytes());
         // Heartbeats come from the node's deadlines: about 1 per 20 ms, not per runtime tick.
         let before = master.port_counters(0).unwrap().rx_frames;
         tokio::time::sleep(StdDuration::from_millis(400)).await;
@@ -299,7 +301,6 @@ mod tests {
         slave
             .write(0x1017, 0, 0u16.to_le_bytes().to_vec())
             .await
-            .unwrap()
             .unwrap();
         tokio::time::sleep(StdDuration::from_millis(50)).await;
         let before = master.port_counters(0).unwrap().rx_frames;
@@ -342,7 +343,7 @@ mod tests {
         let r = master.request(
             |d, now| {
                 d.machine.boot(now);
-                Ok::<_, (crate::NodeId, Instant)>(d.machine.id())
+                Ok::<_, RuntimeError>(d.machine.id())
             },
             |id, e| match e {
                 StationEvent::Machine(NodeEvent {
@@ -352,7 +353,7 @@ mod tests {
                             ..
                         },
                     at,
-                }) => Some((*id, *at)),
+                }) => Some(Ok((*id, *at))),
                 _ => None,
             },
         );

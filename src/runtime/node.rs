@@ -1,6 +1,6 @@
 //! Typed handle operations for devices that contain a [`Node`].
 
-use super::handle::{Handle, RuntimeClosed};
+use super::handle::{Handle, RuntimeError};
 use crate::cia301::nmt::{NmtCommand, NmtState, NmtTarget};
 use crate::frame::instant::Instant;
 use crate::machine::{Composite, Station};
@@ -116,39 +116,26 @@ where
     D::Event: Clone + Send + 'static,
 {
     /// Reads an entry of the local dictionary.
-    pub async fn read(
-        &self,
-        index: u16,
-        sub: u8,
-    ) -> Result<Result<Vec<u8>, AbortCode>, RuntimeClosed> {
-        self.call(move |d, _| d.local_node().read_entry(index, sub))
+    pub async fn read(&self, index: u16, sub: u8) -> Result<Vec<u8>, RuntimeError> {
+        self.try_call(move |d, _| Ok(d.local_node().read_entry(index, sub)?))
             .await
     }
     /// Writes an entry of the local dictionary (the stack reacts: heartbeat period, …).
-    pub async fn write(
-        &self,
-        index: u16,
-        sub: u8,
-        data: Vec<u8>,
-    ) -> Result<Result<(), AbortCode>, RuntimeClosed> {
-        self.call(move |d, now| d.local_node().write_entry(now, index, sub, &data))
+    pub async fn write(&self, index: u16, sub: u8, data: Vec<u8>) -> Result<(), RuntimeError> {
+        self.try_call(move |d, now| Ok(d.local_node().write_entry(now, index, sub, &data)?))
             .await
     }
     /// Sends an NMT command.
-    pub async fn nmt(
-        &self,
-        cmd: NmtCommand,
-        target: NmtTarget,
-    ) -> Result<Result<(), QueueFull>, RuntimeClosed> {
-        self.call(move |d, now| d.local_node().send_nmt(now, cmd, target))
+    pub async fn nmt(&self, cmd: NmtCommand, target: NmtTarget) -> Result<(), RuntimeError> {
+        self.try_call(move |d, now| Ok(d.local_node().send_nmt(now, cmd, target)?))
             .await
     }
     /// The local node's NMT state.
-    pub async fn nmt_state(&self) -> Result<NmtState, RuntimeClosed> {
-        self.call(|d, _| d.local_node().state()).await
+    pub async fn nmt_state(&self) -> Result<NmtState, RuntimeError> {
+        Ok(self.call(|d, _| d.local_node().state()).await?)
     }
     /// Boots the local node (sends its boot-up message).
-    pub async fn boot(&self) -> Result<(), RuntimeClosed> {
-        self.call(|d, now| d.local_node().power_on(now)).await
+    pub async fn boot(&self) -> Result<(), RuntimeError> {
+        Ok(self.call(|d, now| d.local_node().power_on(now)).await?)
     }
 }

@@ -3,9 +3,11 @@
 //! The device holds an [`SdoClient`] (usually `Composite::new(node, client)` in a station). A read or
 //! write starts the transfer inside the core task and waits for the client's [`SdoEvent`] that
 //! names its [`RequestId`] (through [`Handle::request`], so the result cannot be missed); many
-//! transfers can be in flight at once, to different nodes.
+//! transfers can be in flight at once, to different nodes. A refusal to start, a failed
+//! transfer and a stopped runtime come back as one error (the host's [`SdoHost::Error`],
+//! [`RuntimeError`] for a plain client), so each call ends in `?`.
 
-use super::handle::{Handle, RuntimeClosed};
+use super::handle::{Handle, RuntimeClosed, RuntimeError};
 use crate::cia301::sdo::{RequestId, SdoClient, SdoError, SdoEvent, SdoOptions, TransferBuffer};
 use crate::frame::instant::Instant;
 use crate::machine::{Composite, CompositeEvent, Station, StationEvent};
@@ -28,28 +30,35 @@ pub struct SdoStart<'a> {
 
 /// A device (or machine) with an SDO client in it.
 pub trait SdoHost {
+    /// The one error of a transfer through a [`Handle`]: the host's refusal to start, the
+    /// transfer's [`SdoError`] and a stopped runtime all convert into it.
+    type Error: From<SdoError> + From<RuntimeClosed> + Send + 'static;
     /// Starts the transfer `r`.
-    fn sdo_start(&mut self, now: Instant, r: SdoStart<'_>) -> Result<RequestId, SdoError>;
+    fn sdo_start(&mut self, now: Instant, r: SdoStart<'_>) -> Result<RequestId, Self::Error>;
 }
 
 impl<B: TransferBuffer, const S: usize> SdoHost for SdoClient<B, S> {
-    fn sdo_start(&mut self, now: Instant, r: SdoStart<'_>) -> Result<RequestId, SdoError> {
-        match r.data {
+    type Error = RuntimeError;
+    fn sdo_start(&mut self, now: Instant, r: SdoStart<'_>) -> Result<RequestId, RuntimeError> {
+        let started = match r.data {
             None => self.upload(now, r.node, r.index, r.sub, r.opts),
             Some(d) => self.download(now, r.node, r.index, r.sub, d, r.opts),
-        }
+        };
+        Ok(started?)
     }
 }
 
 /// The client of a pair is its second machine (`Composite::new(node, client)`).
 impl<A, C: SdoHost> SdoHost for Composite<A, C> {
-    fn sdo_start(&mut self, now: Instant, r: SdoStart<'_>) -> Result<RequestId, SdoError> {
+    type Error = C::Error;
+    fn sdo_start(&mut self, now: Instant, r: SdoStart<'_>) -> Result<RequestId, C::Error> {
         self.b.sdo_start(now, r)
     }
 }
 
 impl<L, M: SdoHost> SdoHost for Station<L, M> {
-    fn sdo_start(&mut self, now: Instant, r: SdoStart<'_>) -> Result<RequestId, SdoError> {
+    type Error = M::Error;
+    fn sdo_start(&mut self, now: Instant, r: SdoStart<'_>) -> Result<RequestId, M::Error> {
         self.machine.sdo_start(now, r)
     }
 }
@@ -103,7 +112,7 @@ where
         index: u16,
         sub: u8,
         opts: SdoOptions,
-    ) -> Result<Result<Vec<u8>, SdoError>, RuntimeClosed> {
+    ) -> Result<Vec<u8>, D::Error> {
         let r = SdoStart {
             node,
             index,
@@ -111,7 +120,7 @@ where
             data: None,
             opts,
         };
-        self.request(move |d, now| d.sdo_start(now, r).map_err(Err), result_of)
+        self.request(move |d, now| d.sdo_start(now, r), result_of)
             .await
     }
 
@@ -123,29 +132,29 @@ where
         sub: u8,
         data: Vec<u8>,
         opts: SdoOptions,
-    ) -> Result<Result<(), SdoError>, RuntimeClosed> {
-        let r = self
-            .request(
-                move |d, now| {
-                    let r = SdoStart {
-                        node,
-                        index,
-                        sub,
-                        data: Some(&data),
-                        opts,
-                    };
-                    d.sdo_start(now, r).map_err(Err)
-                },
-                result_of,
-            )
-            .await?;
-        Ok(r.map(|_| ()))
+    ) -> Result<(), D::Error> {
+        self.request(
+            move |d, now| {
+                let r = SdoStart {
+                    node,
+                    index,
+                    sub,
+                    data: Some(&data),
+                    opts,
+                };
+                d.sdo_start(now, r)
+            },
+            result_of,
+        )
+        .await
+        .map(|_| ())
     }
 }
 
-fn result_of<E: SdoEvents>(id: &RequestId, e: &E) -> Option<Result<Vec<u8>, SdoError>> {
+/// The outcome of transfer `id` if `e` is its completion, in the host's error.
+fn result_of<V: SdoEvents, E: From<SdoError>>(id: &RequestId, e: &V) -> Option<Result<Vec<u8>, E>> {
     match e.sdo_result() {
-        Some((rid, r)) if rid == *id => Some(r),
+        Some((rid, r)) if rid == *id => Some(r.map_err(E::from)),
         _ => None,
     }
 }

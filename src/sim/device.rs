@@ -14,8 +14,11 @@ pub(super) trait ErasedDevice {
     fn handle_rx(&mut self, now: Instant, port: usize, frame: &Frame);
     fn handle_port_status(&mut self, now: Instant, port: usize, status: PortStatus);
     fn handle_timeout(&mut self, now: Instant);
+    #[must_use]
     fn poll_transmit(&mut self) -> Option<(usize, Frame)>;
+    #[must_use]
     fn poll_port_request(&mut self) -> Option<(usize, PortRequest)>;
+    #[must_use]
     fn poll_timeout(&self) -> Option<Instant>;
     /// Moves every pending event into the typed log, stamped with `now`.
     fn record_events(&mut self, now: Instant);

@@ -54,10 +54,12 @@ impl FaultRates {
             && self.corrupt_undetected <= 0.0
     }
     /// With drop probability `p`.
+    #[must_use]
     pub fn with_drop(self, p: f64) -> Self {
         FaultRates { drop: p, ..self }
     }
     /// With duplication probability `p`.
+    #[must_use]
     pub fn with_duplicate(self, p: f64) -> Self {
         FaultRates {
             duplicate: p,
@@ -65,6 +67,7 @@ impl FaultRates {
         }
     }
     /// With delay probability `p`, by up to `max`.
+    #[must_use]
     pub fn with_delay(self, p: f64, max: Duration) -> Self {
         FaultRates {
             delay: p,
@@ -73,6 +76,7 @@ impl FaultRates {
         }
     }
     /// With detected-corruption (error frame) probability `p`.
+    #[must_use]
     pub fn with_corrupt_detected(self, p: f64) -> Self {
         FaultRates {
             corrupt_detected: p,
@@ -80,6 +84,7 @@ impl FaultRates {
         }
     }
     /// With undetected-corruption (bit flip) probability `p`.
+    #[must_use]
     pub fn with_corrupt_undetected(self, p: f64) -> Self {
         FaultRates {
             corrupt_undetected: p,

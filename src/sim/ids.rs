@@ -116,6 +116,7 @@ impl fmt::Display for PortRef {
 
 /// How to build a bus.
 #[derive(Clone, Debug, PartialEq, Eq)]
+#[non_exhaustive]
 pub struct BusConfig {
     /// Shown in traces and `Debug` output.
     pub name: String,
@@ -125,6 +126,7 @@ pub struct BusConfig {
 
 impl BusConfig {
     /// A bus called `name` running at `bitrate` bit/s.
+    #[must_use]
     pub fn new(name: impl Into<String>, bitrate: u32) -> Self {
         BusConfig {
             name: name.into(),

@@ -200,3 +200,13 @@ pub async fn until_grown<E: Clone>(
     }
     out
 }
+
+/// The SDO error of a handle call that must have failed with one (anything else fails the test).
+pub fn sdo_error<T: std::fmt::Debug>(
+    r: Result<T, duocan::runtime::RuntimeError>,
+) -> duocan::sdo::SdoError {
+    match r {
+        Err(duocan::runtime::RuntimeError::Sdo(e)) => e,
+        other => panic!("expected an SDO error, got {other:?}"),
+    }
+}

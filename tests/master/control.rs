@@ -192,10 +192,9 @@ fn mandatory_slave_lost_with_reset_all_resets_and_reboots_the_others() {
 #[test]
 fn guarded_slave_lost_is_error_status_f() {
     // No heartbeat: the master guards slave 2 every 100 ms, life time factor 3.
-    let guarded = SlaveConfig {
-        assignment: duocan::master::Assignment::slave().guarded(100, 3),
-        ..SlaveConfig::new(NodeId::must(2)).identity(expected(2))
-    };
+    let guarded = SlaveConfig::new(NodeId::must(2))
+        .identity(expected(2))
+        .with_assignment(duocan::master::Assignment::slave().guarded(100, 3));
     let mut n = Net::new(BITRATE, master(NetworkConfig::new().slave(guarded)), &[2]);
     n.boot_master();
     n.boot_slave_at(2, Instant::from_millis(1));

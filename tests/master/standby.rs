@@ -296,9 +296,10 @@ fn node_kinds(
 #[test]
 fn standby_guards_the_guarded_slaves_beside_the_active_master() {
     // Slaves 2 and 3 without heartbeat, guarded every 100 ms with life time factor 3.
-    let guarded = |id: u8| SlaveConfig {
-        assignment: duocan::master::Assignment::slave().guarded(100, 3),
-        ..SlaveConfig::new(NodeId::must(id)).identity(expected(id))
+    let guarded = |id: u8| {
+        SlaveConfig::new(NodeId::must(id))
+            .identity(expected(id))
+            .with_assignment(duocan::master::Assignment::slave().guarded(100, 3))
     };
     let net = || NetworkConfig::new().slave(guarded(2)).slave(guarded(3));
     let mut n = Net::new(BITRATE, master(net()), &[2, 3]);

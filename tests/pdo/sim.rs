@@ -31,10 +31,7 @@ fn station(id: u8, tables: &[&[ObjectDef]]) -> Dev {
     for t in tables {
         od.insert_all(t).unwrap();
     }
-    let cfg = NodeConfig {
-        auto_start: true,
-        ..NodeConfig::slave(nid)
-    };
+    let cfg = NodeConfig::slave(nid).with_auto_start(true);
     Station::single(Node::new(cfg, od))
 }
 

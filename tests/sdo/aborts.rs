@@ -109,10 +109,8 @@ fn server_unknown_or_unexpected_command() {
 #[test]
 fn server_block_transfer_not_supported_answers_command_specifier() {
     let mut n = slave();
-    n.sdo_server_mut().set_config(SdoServerConfig {
-        block: false,
-        ..SdoServerConfig::default()
-    });
+    n.sdo_server_mut()
+        .set_config(SdoServerConfig::default().with_block(false));
     assert_eq!(
         send(&mut n, T0, [0xC6, 0x00, 0x20, 0x00, 20, 0, 0, 0]),
         [abort(DOMAIN, 0, AbortCode::COMMAND_SPECIFIER)]
@@ -148,10 +146,8 @@ fn server_invalid_block_size() {
 #[test]
 fn server_invalid_sequence_number() {
     let mut n = slave();
-    n.sdo_server_mut().set_config(SdoServerConfig {
-        block_size: 10,
-        ..SdoServerConfig::default()
-    });
+    n.sdo_server_mut()
+        .set_config(SdoServerConfig::default().with_block_size(10));
     assert_eq!(
         send(&mut n, T0, [0xC6, 0x00, 0x20, 0x00, 100, 0, 0, 0]),
         [[0xA4, 0x00, 0x20, 0x00, 10, 0, 0, 0]]
@@ -449,10 +445,9 @@ fn device_state_refusal() {
 #[test]
 fn out_of_memory_on_the_server() {
     let mut net = Net::new(&[5]);
-    net.nodes[0].sdo_server_mut().set_config(SdoServerConfig {
-        max_transfer: 100,
-        ..SdoServerConfig::default()
-    });
+    net.nodes[0]
+        .sdo_server_mut()
+        .set_config(SdoServerConfig::default().with_max_transfer(100));
     for mode in [TransferMode::Segmented, TransferMode::Block] {
         assert_eq!(
             download(&mut net, DOMAIN, 0, &[1; 101], mode),
@@ -466,10 +461,8 @@ fn out_of_memory_on_the_server() {
     );
     // Announced sizes are checked up front; an unannounced one as the data comes.
     let mut n = slave();
-    n.sdo_server_mut().set_config(SdoServerConfig {
-        max_transfer: 10,
-        ..SdoServerConfig::default()
-    });
+    n.sdo_server_mut()
+        .set_config(SdoServerConfig::default().with_max_transfer(10));
     send(&mut n, T0, [0x20, 0x00, 0x20, 0x00, 0, 0, 0, 0]);
     send(&mut n, T0, [0x00, 1, 2, 3, 4, 5, 6, 7]);
     assert_eq!(
@@ -649,10 +642,7 @@ fn client_invalid_block_size() {
 #[test]
 fn client_invalid_sequence_number() {
     let mut c = client();
-    let opts = SdoOptions {
-        block_size: 10,
-        ..SdoOptions::mode(TransferMode::Block)
-    };
+    let opts = SdoOptions::mode(TransferMode::Block).with_block_size(10);
     c.upload(T0, N, DOMAIN, 0, opts).unwrap();
     assert_eq!(out(&mut c), [[0xA4, 0x00, 0x20, 0x00, 10, 0, 0, 0]]);
     assert_eq!(
@@ -712,10 +702,7 @@ fn client_crc_error() {
 #[test]
 fn client_timeout_aborts_exactly() {
     let mut c = client();
-    let opts = SdoOptions {
-        timeout: Duration::from_millis(250),
-        ..SdoOptions::default()
-    };
+    let opts = SdoOptions::default().with_timeout(Duration::from_millis(250));
     c.upload(T0, N, DOMAIN, 0, opts).unwrap();
     out(&mut c);
     let t1 = T0 + Duration::from_millis(100);
@@ -793,10 +780,7 @@ fn client_and_server_timeouts_end_to_end() {
             DOMAIN,
             0,
             &[5; 20],
-            SdoOptions {
-                timeout: Duration::from_millis(1500),
-                ..SdoOptions::mode(TransferMode::Segmented)
-            },
+            SdoOptions::mode(TransferMode::Segmented).with_timeout(Duration::from_millis(1500)),
         )
         .unwrap();
     let ev = net.finish();

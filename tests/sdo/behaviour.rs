@@ -135,10 +135,9 @@ fn a_lost_block_upload_segment_is_sent_again() {
 #[test]
 fn block_falls_back_to_segmented_when_the_server_has_no_block_transfer() {
     let mut net = Net::new(&[5]);
-    net.nodes[0].sdo_server_mut().set_config(SdoServerConfig {
-        block: false,
-        ..SdoServerConfig::default()
-    });
+    net.nodes[0]
+        .sdo_server_mut()
+        .set_config(SdoServerConfig::default().with_block(false));
     let data = pattern(890);
     net.client
         .download(
@@ -192,10 +191,7 @@ fn block_falls_back_to_segmented_when_the_server_has_no_block_transfer() {
 #[test]
 fn protocol_switch_threshold_lets_the_server_answer_small_uploads_plainly() {
     let mut net = Net::new(&[5]);
-    let opts = SdoOptions {
-        pst: 21,
-        ..SdoOptions::mode(TransferMode::Block)
-    };
+    let opts = SdoOptions::mode(TransferMode::Block).with_pst(21);
     net.client.upload(net.now, N, VALUES, 1, opts).unwrap();
     let ev = net.finish();
     assert_eq!(ev[0].data(), Some(&7u32.to_le_bytes()[..]));
@@ -380,10 +376,7 @@ fn custom_channels_with_29_bit_identifiers() {
         Some(Id::Extended(0x1AB_0605))
     );
     // Per request…
-    let opts = SdoOptions {
-        channel: Some(extended_channel(N)),
-        ..SdoOptions::mode(TransferMode::Block)
-    };
+    let opts = SdoOptions::mode(TransferMode::Block).with_channel(Some(extended_channel(N)));
     let from = net.log.len();
     net.client
         .download(net.now, N, DOMAIN, 0, &pattern(100), opts)
@@ -544,14 +537,10 @@ fn crc_only_when_both_sides_support_it() {
     let data: Vec<u8> = (1..=20).collect();
     for (server_crc, client_crc) in [(false, true), (true, false), (true, true)] {
         let mut net = Net::new(&[5]);
-        net.nodes[0].sdo_server_mut().set_config(SdoServerConfig {
-            crc: server_crc,
-            ..SdoServerConfig::default()
-        });
-        let opts = SdoOptions {
-            crc: client_crc,
-            ..SdoOptions::mode(TransferMode::Block)
-        };
+        net.nodes[0]
+            .sdo_server_mut()
+            .set_config(SdoServerConfig::default().with_crc(server_crc));
+        let opts = SdoOptions::mode(TransferMode::Block).with_crc(client_crc);
         net.client
             .download(net.now, N, DOMAIN, 0, &data, opts)
             .unwrap();

@@ -28,11 +28,11 @@ fn node() -> Node<DynamicDictionary> {
     ])
     .unwrap();
     let mut n = Node::new(NodeConfig::slave(NodeId::must(5)), od);
-    n.sdo_server_mut().set_config(duocan::sdo::SdoServerConfig {
-        max_transfer: SERVER_LIMIT,
-        block_size: 9,
-        ..Default::default()
-    });
+    n.sdo_server_mut().set_config(
+        duocan::sdo::SdoServerConfig::default()
+            .with_max_transfer(SERVER_LIMIT)
+            .with_block_size(9),
+    );
     n.boot(Instant::ZERO);
     n.write(Instant::ZERO, 0x2000, 0, &[7; 40]).unwrap();
     while n.poll_transmit().is_some() {}
@@ -195,10 +195,7 @@ fn drive(seed: u64, seen: &mut Seen) {
             TransferMode::Segmented,
             TransferMode::Block,
         ][mode as usize];
-        let opts = SdoOptions {
-            block_size: 9,
-            ..SdoOptions::mode(mode)
-        };
+        let opts = SdoOptions::mode(mode).with_block_size(9);
         let r = if upload {
             c.upload(now, node, 0x2000, 0, opts)
         } else {

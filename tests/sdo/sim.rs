@@ -106,10 +106,7 @@ fn modes(len: usize) -> Vec<SdoOptions> {
         SdoOptions::default(),
         SdoOptions::mode(TransferMode::Segmented),
         SdoOptions::mode(TransferMode::Block),
-        SdoOptions {
-            crc: false,
-            ..SdoOptions::mode(TransferMode::Block)
-        },
+        SdoOptions::mode(TransferMode::Block).with_crc(false),
     ];
     if (1..=4).contains(&len) {
         v.push(SdoOptions::mode(TransferMode::Expedited));

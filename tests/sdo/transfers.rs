@@ -22,24 +22,15 @@ fn modes(len: usize) -> Vec<(&'static str, SdoOptions)> {
         ("block+crc", SdoOptions::mode(TransferMode::Block)),
         (
             "block",
-            SdoOptions {
-                crc: false,
-                ..SdoOptions::mode(TransferMode::Block)
-            },
+            SdoOptions::mode(TransferMode::Block).with_crc(false),
         ),
         (
             "block blksize 5",
-            SdoOptions {
-                block_size: 5,
-                ..SdoOptions::mode(TransferMode::Block)
-            },
+            SdoOptions::mode(TransferMode::Block).with_block_size(5),
         ),
         (
             "auto with block threshold",
-            SdoOptions {
-                block_threshold: Some(8),
-                ..SdoOptions::default()
-            },
+            SdoOptions::default().with_block_threshold(Some(8)),
         ),
     ];
     if (1..=4).contains(&len) {

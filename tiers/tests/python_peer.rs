@@ -13,7 +13,7 @@ use duocan::runtime::Runtime;
 use duocan::sdo::{SdoErrorKind, SdoOptions, TransferMode};
 use duocan::AbortCode;
 use duocan::{Frame, Id, NmtCommand, NmtState, NmtTarget, NodeId};
-use rt::{node, node_event, pattern, single, wait_for};
+use rt::{node, node_event, pattern, sdo_error, single, wait_for};
 use std::process::Stdio;
 use std::time::Duration;
 use tokio::io::{AsyncBufReadExt, BufReader, Lines};
@@ -129,7 +129,7 @@ async fn python_node_heartbeat_is_consumed_and_duocan_nmt_drives_it() {
             NmtState::PreOperational,
         ),
     ] {
-        master.nmt(cmd, target).await.unwrap().unwrap();
+        master.nmt(cmd, target).await.unwrap();
         peer.expect(py, 5).await;
         wait_for(
             &mut ev,
@@ -149,13 +149,8 @@ async fn python_node_heartbeat_is_consumed_and_duocan_nmt_drives_it() {
             NmtTarget::Node(NodeId::new(0x23).unwrap()),
         )
         .await
-        .unwrap()
         .unwrap();
-    master
-        .nmt(NmtCommand::Start, NmtTarget::All)
-        .await
-        .unwrap()
-        .unwrap();
+    master.nmt(NmtCommand::Start, NmtTarget::All).await.unwrap();
     let l = peer.expect("STATE", 5).await;
     assert_eq!(
         l, "STATE OPERATIONAL",
@@ -259,17 +254,16 @@ async fn duocan_sdo_client_against_a_python_local_node() {
     let o = SdoOptions::default;
 
     // Expedited and segmented uploads.
-    let v = m.sdo_read(py, 0x2000, 0, o()).await.unwrap().unwrap();
+    let v = m.sdo_read(py, 0x2000, 0, o()).await.unwrap();
     assert_eq!(v, 0x1234_5678u32.to_le_bytes());
-    let v = m.sdo_read(py, 0x1018, 1, o()).await.unwrap().unwrap();
+    let v = m.sdo_read(py, 0x1018, 1, o()).await.unwrap();
     assert_eq!(v, 0xD0CAu32.to_le_bytes());
-    let v = m.sdo_read(py, 0x2001, 0, o()).await.unwrap().unwrap();
+    let v = m.sdo_read(py, 0x2001, 0, o()).await.unwrap();
     assert_eq!(v, b"python canopen peer: a string longer than four bytes");
 
     // Expedited and segmented downloads: the python node reports what it stored.
     m.sdo_write(py, 0x2000, 0, 0xA5A5_0001u32.to_le_bytes().to_vec(), o())
         .await
-        .unwrap()
         .unwrap();
     assert_eq!(peer.expect("WRITE 2000", 5).await, "WRITE 2000 0 0100a5a5");
     let text = b"segmented download from duocan to python".to_vec();
@@ -281,7 +275,6 @@ async fn duocan_sdo_client_against_a_python_local_node() {
         SdoOptions::mode(TransferMode::Segmented),
     )
     .await
-    .unwrap()
     .unwrap();
     assert_eq!(
         peer.expect("WRITE 2001", 5).await,
@@ -299,7 +292,6 @@ async fn duocan_sdo_client_against_a_python_local_node() {
         SdoOptions::mode(TransferMode::Block),
     )
     .await
-    .unwrap()
     .unwrap();
     assert_eq!(
         peer.expect("WRITE 2002", 5).await,
@@ -308,11 +300,10 @@ async fn duocan_sdo_client_against_a_python_local_node() {
     let back = m
         .sdo_read(py, 0x2002, 0, SdoOptions::mode(TransferMode::Block))
         .await
-        .unwrap()
         .unwrap();
     assert_eq!(back, blob);
 
-    let e = m.sdo_read(py, 0x2100, 0, o()).await.unwrap().unwrap_err();
+    let e = sdo_error(m.sdo_read(py, 0x2100, 0, o()).await);
     assert_eq!(e.kind, SdoErrorKind::Server(AbortCode::NO_OBJECT));
     assert_eq!(m.port_counters(0).unwrap().rx_invalid, 0);
     peer.stop().await;
@@ -338,18 +329,18 @@ async fn python_sdo_client_reads_and_writes_a_duocan_node() {
     );
     peer.expect("WROTE 2000 0", 5).await;
     assert_eq!(
-        d.read(0x2000, 0).await.unwrap().unwrap(),
+        d.read(0x2000, 0).await.unwrap(),
         0x1122_3344u32.to_le_bytes()
     );
     peer.expect("WROTE 2001 0", 5).await;
     assert_eq!(
-        d.read(0x2001, 0).await.unwrap().unwrap(),
+        d.read(0x2001, 0).await.unwrap(),
         b"written by python canopen over segmented SDO"
     );
     // Block download and block upload, driven by python's client against duocan's server.
     peer.expect("WROTE 2002 0", 10).await;
     let blob = pattern(1000, 9);
-    assert_eq!(d.read(0x2002, 0).await.unwrap().unwrap(), blob);
+    assert_eq!(d.read(0x2002, 0).await.unwrap(), blob);
     assert_eq!(
         peer.expect("READ 2002", 10).await,
         format!("READ 2002 0 {}", hex(&blob))
@@ -391,7 +382,7 @@ async fn python_tpdo_is_consumed_by_a_duocan_rpdo() {
         .await;
         tokio::time::timeout(Duration::from_secs(5), async {
             loop {
-                if m.read(0x2100, 0).await.unwrap().unwrap() == value.to_le_bytes() {
+                if m.read(0x2100, 0).await.unwrap() == value.to_le_bytes() {
                     return;
                 }
                 tokio::time::sleep(Duration::from_millis(10)).await;

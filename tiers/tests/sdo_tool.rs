@@ -71,10 +71,7 @@ async fn reads_writes_and_identity_of_a_duocan_node() {
     .await;
     assert_eq!(code, 0, "{err}");
     assert!(out.contains("0x1017:00 written (2 bytes)"), "{out}");
-    assert_eq!(
-        node.read(0x1017, 0).await.unwrap().unwrap(),
-        100u16.to_le_bytes()
-    );
+    assert_eq!(node.read(0x1017, 0).await.unwrap(), 100u16.to_le_bytes());
     let (_, out, _) = sdo_tool(&[
         "--port", port, "--node", "5", "read", "0x1017", "0", "--type", "u16",
     ])
@@ -88,10 +85,7 @@ async fn reads_writes_and_identity_of_a_duocan_node() {
     ])
     .await;
     assert_eq!(code, 0, "{err}");
-    assert_eq!(
-        node.read(0x2001, 0).await.unwrap().unwrap(),
-        text.as_bytes()
-    );
+    assert_eq!(node.read(0x2001, 0).await.unwrap(), text.as_bytes());
     let (_, out, _) = sdo_tool(&["-p", port, "-n", "5", "read", "0x2001", "0", "-t", "str"]).await;
     assert_eq!(out.trim(), format!("0x2001:00 = {text}"));
     let (code, _, err) = sdo_tool(&[
@@ -107,10 +101,7 @@ async fn reads_writes_and_identity_of_a_duocan_node() {
     ])
     .await;
     assert_eq!(code, 0, "{err}");
-    assert_eq!(
-        node.read(0x2002, 0).await.unwrap().unwrap(),
-        [1, 2, 0x0A, 0xFF]
-    );
+    assert_eq!(node.read(0x2002, 0).await.unwrap(), [1, 2, 0x0A, 0xFF]);
 
     let (code, out, err) = sdo_tool(&["--port", port, "--node", "5", "info"]).await;
     assert_eq!(code, 0, "{err}");
@@ -178,7 +169,7 @@ async fn failures_say_what_failed_and_exit_non_zero() {
     assert_eq!(code, 2);
     assert!(err.contains("udp:N takes a bus number"), "{err}");
     assert_eq!(
-        node.read(0x1017, 0).await.unwrap().unwrap(),
+        node.read(0x1017, 0).await.unwrap(),
         [0, 0],
         "nothing written"
     );

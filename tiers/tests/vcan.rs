@@ -161,11 +161,7 @@ async fn master_and_slaves_in_separate_tasks_heartbeat_and_nmt() {
     master.boot().await.unwrap();
     s5.boot().await.unwrap();
     s6.boot().await.unwrap();
-    master
-        .nmt(NmtCommand::Start, NmtTarget::All)
-        .await
-        .unwrap()
-        .unwrap();
+    master.nmt(NmtCommand::Start, NmtTarget::All).await.unwrap();
     let mut operational = std::collections::BTreeSet::new();
     wait_for(&mut ev, 5, "both slaves operational", |e| {
         if let Some(K::RemoteState {
@@ -204,7 +200,6 @@ async fn master_and_slaves_in_separate_tasks_heartbeat_and_nmt() {
     master
         .nmt(NmtCommand::Stop, NmtTarget::Node(NodeId::new(5).unwrap()))
         .await
-        .unwrap()
         .unwrap();
     wait_for(&mut ev, 5, "node 5 stopped", |e| match node_event(e) {
         Some(K::RemoteState {
@@ -435,13 +430,11 @@ async fn sdo_between_runtimes_over_vcan() {
     let v = m
         .sdo_read(n5, 0x1018, 2, SdoOptions::default())
         .await
-        .unwrap()
         .unwrap();
     assert_eq!(v, 5u32.to_le_bytes(), "product code of node 5");
     let text = m
         .sdo_read(n6, 0x2001, 0, SdoOptions::default())
         .await
-        .unwrap()
         .unwrap();
     assert_eq!(text, b"duocan node over a real bus");
     let (a, b) = (rt::pattern(2000, 5), rt::pattern(1500, 6));
@@ -461,14 +454,13 @@ async fn sdo_between_runtimes_over_vcan() {
             SdoOptions::mode(TransferMode::Segmented)
         ),
     );
-    ra.unwrap().unwrap();
-    rb.unwrap().unwrap();
-    assert_eq!(s5.read(0x2002, 0).await.unwrap().unwrap(), a);
-    assert_eq!(s6.read(0x2002, 0).await.unwrap().unwrap(), b);
+    ra.unwrap();
+    rb.unwrap();
+    assert_eq!(s5.read(0x2002, 0).await.unwrap(), a);
+    assert_eq!(s6.read(0x2002, 0).await.unwrap(), b);
     let back = m
         .sdo_read(n5, 0x2002, 0, SdoOptions::mode(TransferMode::Block))
         .await
-        .unwrap()
         .unwrap();
     assert_eq!(back, a);
     m.shutdown().await;

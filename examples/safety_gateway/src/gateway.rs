@@ -128,6 +128,16 @@ impl fmt::Display for SetupError {
     }
 }
 
+impl core::error::Error for SetupError {
+    fn source(&self) -> Option<&(dyn core::error::Error + 'static)> {
+        match self {
+            SetupError::Table(e) => Some(e),
+            SetupError::Dictionary(e) => Some(e),
+            _ => None,
+        }
+    }
+}
+
 /// The gateway: interlocking-side driver (two controllers), field controller, mirrors.
 pub struct Gateway<C: Can> {
     driver: EmbeddedDriver<GatewayDevice, C, PORTS>,
@@ -190,6 +200,7 @@ impl<C: Can> Gateway<C> {
     }
 
     /// Next event.
+    #[must_use]
     pub fn poll_event(&mut self) -> Option<Event> {
         self.events.pop_front()
     }
@@ -366,6 +377,7 @@ impl<C: Can> Default for Storage<C> {
 
 impl<C: Can> Storage<C> {
     /// Empty storage (`const`: for a `static`).
+    #[must_use]
     pub const fn new() -> Self {
         Storage {
             profile: StaticCell::new(),

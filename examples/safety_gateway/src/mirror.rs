@@ -123,6 +123,7 @@ impl Default for Tracks {
 
 impl Tracks {
     /// Every track circuit occupied, nothing reported.
+    #[must_use]
     pub const fn new() -> Self {
         Tracks {
             mirrors: [Mirror {

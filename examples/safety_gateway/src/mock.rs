@@ -31,6 +31,7 @@ impl Default for Wire {
 
 impl Wire {
     /// An intact, empty segment.
+    #[must_use]
     pub const fn new() -> Self {
         Wire {
             to: [RefCell::new(Deque::new()), RefCell::new(Deque::new())],

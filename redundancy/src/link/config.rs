@@ -125,6 +125,15 @@ impl fmt::Display for ConfigError {
     }
 }
 
+impl core::error::Error for ConfigError {
+    fn source(&self) -> Option<&(dyn core::error::Error + 'static)> {
+        match self {
+            ConfigError::Missing { abort, .. } => Some(abort),
+            _ => None,
+        }
+    }
+}
+
 pub(crate) fn read<D: ObjectDictionary>(od: &D, index: u16, sub: u8) -> Result<u32, ConfigError> {
     match od.get(index, sub) {
         Ok(_) => od.get_u32(index, sub).ok_or(ConfigError::Missing {

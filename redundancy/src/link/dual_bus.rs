@@ -53,6 +53,7 @@ pub enum LinkMode {
 
 /// Everything a [`DualBus`] is configured with.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[non_exhaustive]
 pub struct DualBusConfig {
     /// The scheme.
     pub mode: LinkMode,
@@ -72,6 +73,47 @@ pub struct DualBusConfig {
     pub od_layout: OdLayout,
 }
 
+// Builders: the struct is `#[non_exhaustive]` (it may gain fields), so code outside the crate
+// starts from a constructor or `Default` and sets what it needs.
+impl DualBusConfig {
+    /// The configuration with [`mode`](Self::mode) replaced.
+    #[must_use]
+    pub fn with_mode(mut self, mode: LinkMode) -> Self {
+        self.mode = mode;
+        self
+    }
+    /// The configuration with [`skew_window`](Self::skew_window) replaced.
+    #[must_use]
+    pub fn with_skew_window(mut self, skew_window: Duration) -> Self {
+        self.skew_window = skew_window;
+        self
+    }
+    /// The configuration with [`health`](Self::health) replaced.
+    #[must_use]
+    pub fn with_health(mut self, health: HealthConfig) -> Self {
+        self.health = health;
+        self
+    }
+    /// The configuration with [`reach_timeout`](Self::reach_timeout) replaced.
+    #[must_use]
+    pub fn with_reach_timeout(mut self, reach_timeout: Duration) -> Self {
+        self.reach_timeout = reach_timeout;
+        self
+    }
+    /// The configuration with [`discrepancy_time`](Self::discrepancy_time) replaced.
+    #[must_use]
+    pub fn with_discrepancy_time(mut self, discrepancy_time: Duration) -> Self {
+        self.discrepancy_time = discrepancy_time;
+        self
+    }
+    /// The configuration with [`od_layout`](Self::od_layout) replaced.
+    #[must_use]
+    pub fn with_od_layout(mut self, od_layout: OdLayout) -> Self {
+        self.od_layout = od_layout;
+        self
+    }
+}
+
 impl Default for DualBusConfig {
     fn default() -> Self {
         DualBusConfig::with_guard_period(LinkMode::ActiveActive, Duration::from_millis(100))
@@ -81,6 +123,7 @@ impl Default for DualBusConfig {
 impl DualBusConfig {
     /// `mode` with the health and reachability timing derived from the node-guarding (or
     /// heartbeat) period: silence limit 3 periods.
+    #[must_use]
     pub fn with_guard_period(mode: LinkMode, period: Duration) -> Self {
         let skew_window = Duration::from_millis(10);
         let health = HealthConfig {
@@ -171,6 +214,7 @@ struct Status {
 
 impl DualBus<Predefined, DEFAULT_MERGE_SLOTS> {
     /// A layer for the predefined connection set.
+    #[must_use]
     pub fn new(cfg: DualBusConfig) -> Self {
         DualBus::with_classifier(cfg, Predefined)
     }
@@ -183,6 +227,7 @@ impl DualBus<Predefined, DEFAULT_MERGE_SLOTS> {
 
 impl<C: FrameClassifier, const SLOTS: usize, const FUNCTIONS: usize> DualBus<C, SLOTS, FUNCTIONS> {
     /// A layer with a custom frame classifier (identifier scheme).
+    #[must_use]
     pub fn with_classifier(cfg: DualBusConfig, classifier: C) -> Self {
         let mut health = cfg.health;
         let (policy, reach_enabled) = match cfg.mode {

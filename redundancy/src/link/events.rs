@@ -20,6 +20,7 @@ pub struct LinkEvent {
 
 /// The kinds of [`LinkEvent`].
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[non_exhaustive]
 pub enum LinkEventKind {
     /// A port changed health state.
     Port {

@@ -73,6 +73,7 @@ impl fmt::Display for PortState {
 
 /// Timing of the health rules.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[non_exhaustive]
 pub struct HealthConfig {
     /// Silence after which a port fails. Default 300 ms: 3 × a 100 ms guarding period.
     pub silence_limit: Duration,
@@ -99,9 +100,63 @@ pub struct HealthConfig {
     pub tx_stall: Duration,
 }
 
+// Builders: the struct is `#[non_exhaustive]` (it may gain fields), so code outside the crate
+// starts from a constructor or `Default` and sets what it needs.
+impl HealthConfig {
+    /// The configuration with [`silence_limit`](Self::silence_limit) replaced.
+    #[must_use]
+    pub fn with_silence_limit(mut self, silence_limit: Duration) -> Self {
+        self.silence_limit = silence_limit;
+        self
+    }
+    /// The configuration with [`suspect_after`](Self::suspect_after) replaced.
+    #[must_use]
+    pub fn with_suspect_after(mut self, suspect_after: Duration) -> Self {
+        self.suspect_after = suspect_after;
+        self
+    }
+    /// The configuration with [`error_hold`](Self::error_hold) replaced.
+    #[must_use]
+    pub fn with_error_hold(mut self, error_hold: Duration) -> Self {
+        self.error_hold = error_hold;
+        self
+    }
+    /// The configuration with [`probation`](Self::probation) replaced.
+    #[must_use]
+    pub fn with_probation(mut self, probation: Duration) -> Self {
+        self.probation = probation;
+        self
+    }
+    /// The configuration with [`reinit_first`](Self::reinit_first) replaced.
+    #[must_use]
+    pub fn with_reinit_first(mut self, reinit_first: Duration) -> Self {
+        self.reinit_first = reinit_first;
+        self
+    }
+    /// The configuration with [`reinit_max`](Self::reinit_max) replaced.
+    #[must_use]
+    pub fn with_reinit_max(mut self, reinit_max: Duration) -> Self {
+        self.reinit_max = reinit_max;
+        self
+    }
+    /// The configuration with [`silence_detection`](Self::silence_detection) replaced.
+    #[must_use]
+    pub fn with_silence_detection(mut self, silence_detection: bool) -> Self {
+        self.silence_detection = silence_detection;
+        self
+    }
+    /// The configuration with [`tx_stall`](Self::tx_stall) replaced.
+    #[must_use]
+    pub fn with_tx_stall(mut self, tx_stall: Duration) -> Self {
+        self.tx_stall = tx_stall;
+        self
+    }
+}
+
 impl HealthConfig {
     /// The defaults for a given node-guarding (or heartbeat) period: silence limit 3 periods,
     /// suspect after, error hold and probation one period.
+    #[must_use]
     pub const fn from_guard_period(period: Duration) -> Self {
         HealthConfig {
             silence_limit: period.saturating_mul(3),
@@ -301,6 +356,7 @@ pub struct Health {
 
 impl Health {
     /// Both ports ok. `window` is the merger's skew window: the time a twin may take.
+    #[must_use]
     pub fn new(cfg: HealthConfig, window: Duration) -> Self {
         Health {
             cfg,
@@ -569,6 +625,7 @@ impl Health {
     }
 
     /// Earliest deadline.
+    #[must_use]
     pub fn poll_timeout(&self) -> Option<Instant> {
         earliest_of([0, 1].map(|p| {
             earliest_of([

@@ -175,6 +175,7 @@ impl<const SLOTS: usize> Merger<SLOTS> {
     const SHIFT: u32 = 64 - SLOTS.trailing_zeros();
 
     /// An empty merger matching twins up to `window` apart.
+    #[must_use]
     pub fn new(window: Duration) -> Self {
         #[allow(clippy::let_unit_value)]
         let () = Self::CHECK;

@@ -29,6 +29,7 @@ pub struct Outbox {
 
 impl Outbox {
     /// Empty queues.
+    #[must_use]
     pub fn new() -> Self {
         Self::default()
     }

@@ -35,6 +35,7 @@ pub struct Reach {
 impl Reach {
     /// A table reporting a bus lost for a node after `timeout` without a frame of it, and new
     /// nodes `settle` after they are first heard.
+    #[must_use]
     pub fn new(timeout: Duration, settle: Duration) -> Self {
         Reach {
             timeout: timeout.as_micros(),
@@ -106,6 +107,7 @@ impl Reach {
     }
 
     /// Earliest deadline (may be early: a sweep then finds nothing to do).
+    #[must_use]
     pub fn poll_timeout(&self) -> Option<Instant> {
         self.next_check.map(Instant::from_micros)
     }

@@ -46,6 +46,8 @@ impl fmt::Display for PairError {
     }
 }
 
+impl core::error::Error for PairError {}
+
 #[derive(Clone, Copy, Debug)]
 struct PairEntry {
     nodes: [NodeId; 2],
@@ -85,6 +87,7 @@ pub struct SameFunction<const FUNCTIONS: usize = MAX_FUNCTIONS> {
 
 impl<const FUNCTIONS: usize> SameFunction<FUNCTIONS> {
     /// No pairs; values differing for `discrepancy_time` are reported (zero: never).
+    #[must_use]
     pub fn new(discrepancy_time: Duration) -> Self {
         SameFunction {
             pairs: heapless::Vec::new(),
@@ -277,6 +280,7 @@ impl<const FUNCTIONS: usize> SameFunction<FUNCTIONS> {
     }
 
     /// Earliest discrepancy deadline (may be early).
+    #[must_use]
     pub fn poll_timeout(&self) -> Option<Instant> {
         self.next_check
     }

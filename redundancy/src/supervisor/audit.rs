@@ -109,6 +109,7 @@ impl<const N: usize> Default for AuditTrail<N> {
 
 impl<const N: usize> AuditTrail<N> {
     /// An empty trail.
+    #[must_use]
     pub const fn new() -> Self {
         AuditTrail {
             ring: Deque::new(),

@@ -97,6 +97,7 @@ pub struct Rank {
 
 impl Rank {
     /// A rank.
+    #[must_use]
     pub const fn new(priority: u8, node: NodeId) -> Self {
         Rank { priority, node }
     }
@@ -130,6 +131,7 @@ impl fmt::Display for Rank {
 
 /// 0x1F90 and this implementation's additions.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[non_exhaustive]
 pub struct FlyingMasterConfig {
     /// This device's rank (node-ID, 0x1F90 sub 3 priority).
     pub rank: Rank,
@@ -151,8 +153,68 @@ pub struct FlyingMasterConfig {
     pub handback_delay: Duration,
 }
 
+// Builders: the struct is `#[non_exhaustive]` (it may gain fields), so code outside the crate
+// starts from a constructor or `Default` and sets what it needs.
+impl FlyingMasterConfig {
+    /// The configuration with [`rank`](Self::rank) replaced.
+    #[must_use]
+    pub fn with_rank(mut self, rank: Rank) -> Self {
+        self.rank = rank;
+        self
+    }
+    /// The configuration with [`detection_timeout`](Self::detection_timeout) replaced.
+    #[must_use]
+    pub fn with_detection_timeout(mut self, detection_timeout: Duration) -> Self {
+        self.detection_timeout = detection_timeout;
+        self
+    }
+    /// The configuration with [`negotiation_delay`](Self::negotiation_delay) replaced.
+    #[must_use]
+    pub fn with_negotiation_delay(mut self, negotiation_delay: Duration) -> Self {
+        self.negotiation_delay = negotiation_delay;
+        self
+    }
+    /// The configuration with [`priority_slot`](Self::priority_slot) replaced.
+    #[must_use]
+    pub fn with_priority_slot(mut self, priority_slot: Duration) -> Self {
+        self.priority_slot = priority_slot;
+        self
+    }
+    /// The configuration with [`device_slot`](Self::device_slot) replaced.
+    #[must_use]
+    pub fn with_device_slot(mut self, device_slot: Duration) -> Self {
+        self.device_slot = device_slot;
+        self
+    }
+    /// The configuration with [`detect_cycle`](Self::detect_cycle) replaced.
+    #[must_use]
+    pub fn with_detect_cycle(mut self, detect_cycle: Duration) -> Self {
+        self.detect_cycle = detect_cycle;
+        self
+    }
+    /// The configuration with [`master_timeout`](Self::master_timeout) replaced.
+    #[must_use]
+    pub fn with_master_timeout(mut self, master_timeout: Duration) -> Self {
+        self.master_timeout = master_timeout;
+        self
+    }
+    /// The configuration with [`revertive`](Self::revertive) replaced.
+    #[must_use]
+    pub fn with_revertive(mut self, revertive: bool) -> Self {
+        self.revertive = revertive;
+        self
+    }
+    /// The configuration with [`handback_delay`](Self::handback_delay) replaced.
+    #[must_use]
+    pub fn with_handback_delay(mut self, handback_delay: Duration) -> Self {
+        self.handback_delay = handback_delay;
+        self
+    }
+}
+
 impl FlyingMasterConfig {
     /// The 0x1F90 defaults for a device of `priority` and `node`, with a master-heartbeat timeout.
+    #[must_use]
     pub const fn new(priority: u8, node: NodeId, master_timeout: Duration) -> Self {
         FlyingMasterConfig {
             rank: Rank::new(priority, node),
@@ -341,6 +403,7 @@ impl fmt::Display for MasterRoleChange {
 
 /// What the flying master reports.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[non_exhaustive]
 pub enum FlyingEvent {
     /// The role changed.
     Role(MasterRoleChange),
@@ -411,6 +474,7 @@ pub struct FlyingMaster {
 
 impl FlyingMaster {
     /// A device that has not started.
+    #[must_use]
     pub fn new(cfg: FlyingMasterConfig) -> Self {
         FlyingMaster {
             cfg,
@@ -585,6 +649,7 @@ impl FlyingMaster {
     // ----- time -----
 
     /// Earliest deadline.
+    #[must_use]
     pub fn poll_timeout(&self) -> Option<Instant> {
         earliest_of([
             self.phase_deadline,
@@ -631,10 +696,12 @@ impl FlyingMaster {
     // ----- outputs -----
 
     /// Next frame to send.
+    #[must_use]
     pub fn poll_transmit(&mut self) -> Option<Frame> {
         self.tx.pop()
     }
     /// Next event.
+    #[must_use]
     pub fn poll_event(&mut self) -> Option<FlyingEvent> {
         self.events.pop()
     }

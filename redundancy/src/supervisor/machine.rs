@@ -111,6 +111,7 @@ const TIME_PRODUCER: u32 = 1 << 30;
 /// interval, the slaves that are no pair members) are the
 /// [`NetworkConfig`](duocan::master::NetworkConfig) it was built with.
 #[derive(Clone, Debug, PartialEq, Eq)]
+#[non_exhaustive]
 pub struct SupervisorConfig {
     /// Flying-master timing, rank and policy (the node-ID is the rank's).
     pub flying: FlyingMasterConfig,
@@ -126,9 +127,45 @@ pub struct SupervisorConfig {
     pub time_period: Duration,
 }
 
+// Builders: the struct is `#[non_exhaustive]` (it may gain fields), so code outside the crate
+// starts from a constructor or `Default` and sets what it needs.
+impl SupervisorConfig {
+    /// The configuration with [`flying`](Self::flying) replaced.
+    #[must_use]
+    pub fn with_flying(mut self, flying: FlyingMasterConfig) -> Self {
+        self.flying = flying;
+        self
+    }
+    /// The configuration with [`pairs`](Self::pairs) replaced.
+    #[must_use]
+    pub fn with_pairs(mut self, pairs: PairsConfig) -> Self {
+        self.pairs = pairs;
+        self
+    }
+    /// The configuration with [`heartbeat`](Self::heartbeat) replaced.
+    #[must_use]
+    pub fn with_heartbeat(mut self, heartbeat: Duration) -> Self {
+        self.heartbeat = heartbeat;
+        self
+    }
+    /// The configuration with [`sync_period`](Self::sync_period) replaced.
+    #[must_use]
+    pub fn with_sync_period(mut self, sync_period: Duration) -> Self {
+        self.sync_period = sync_period;
+        self
+    }
+    /// The configuration with [`time_period`](Self::time_period) replaced.
+    #[must_use]
+    pub fn with_time_period(mut self, time_period: Duration) -> Self {
+        self.time_period = time_period;
+        self
+    }
+}
+
 impl SupervisorConfig {
     /// A master of `priority` at `node` with a heartbeat of `heartbeat` and a master-heartbeat
     /// timeout of `master_timeout`, SYNC every `sync_period`; the 0x1F90 defaults otherwise.
+    #[must_use]
     pub fn new(
         priority: u8,
         node: NodeId,
@@ -151,6 +188,7 @@ impl SupervisorConfig {
         }
     }
     /// With another master-capable device.
+    #[must_use]
     pub fn with_peer(mut self, priority: u8, node: NodeId) -> Self {
         let _ = self.peers.push(Rank::new(priority, node));
         self
@@ -226,8 +264,21 @@ impl fmt::Display for JoinRefusal {
     }
 }
 
+// A refusal is reported in an event, not returned; it is still an error an application may
+// pass on with `?` or log with its cause.
+impl core::error::Error for JoinRefusal {
+    fn source(&self) -> Option<&(dyn core::error::Error + 'static)> {
+        match self {
+            JoinRefusal::Identity { .. } => None,
+            JoinRefusal::Config { reason, .. } => Some(reason),
+            JoinRefusal::Master(e) => Some(e),
+        }
+    }
+}
+
 /// What the supervisor tells the application.
 #[derive(Clone, Debug, PartialEq)]
+#[non_exhaustive]
 pub enum SupervisorEvent {
     /// From the master's own node (SYNC ticks and local writes are not forwarded; see the
     /// counters).
@@ -285,7 +336,14 @@ pub enum AddPairError {
     Master(NodeId, MasterError),
 }
 
-impl core::error::Error for AddPairError {}
+impl core::error::Error for AddPairError {
+    fn source(&self) -> Option<&(dyn core::error::Error + 'static)> {
+        match self {
+            AddPairError::Pairs(e) => Some(e),
+            AddPairError::Master(_, e) => Some(e),
+        }
+    }
+}
 
 impl fmt::Display for AddPairError {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
@@ -332,6 +390,7 @@ impl<D: ObjectDictionary, P: IdProfile> Supervisor<D, P> {
     /// the flying master decides, sets its heartbeat, SYNC period and production, makes it a
     /// TIME consumer (so that a takeover continues the time base), sets 0x1F80 bits 0 (NMT
     /// master) and 5 (flying master), boots it at `now` and starts the flying-master detection.
+    #[must_use]
     pub fn new(mut master: Master<D, P>, cfg: SupervisorConfig, now: Instant) -> Self {
         master.set_active(now, false);
         let hb = cfg.heartbeat.as_millis().min(u16::MAX as u64) as u16;

@@ -67,6 +67,7 @@ pub const EVENT_QUEUE: usize = 256;
 
 /// Policy of the whole table.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[non_exhaustive]
 pub struct PairsConfig {
     /// Give the role back to A when A rejoins (default: false, non-revertive).
     pub revertive: bool,
@@ -83,6 +84,41 @@ pub struct PairsConfig {
     /// the active master's SDO confirmations and clears this
     /// ([`PairSupervisor::configuration_observed`]).
     pub shadow_join_on_heartbeat: bool,
+}
+
+// Builders: the struct is `#[non_exhaustive]` (it may gain fields), so code outside the crate
+// starts from a constructor or `Default` and sets what it needs.
+impl PairsConfig {
+    /// The configuration with [`revertive`](Self::revertive) replaced.
+    #[must_use]
+    pub fn with_revertive(mut self, revertive: bool) -> Self {
+        self.revertive = revertive;
+        self
+    }
+    /// The configuration with [`adopt`](Self::adopt) replaced.
+    #[must_use]
+    pub fn with_adopt(mut self, adopt: bool) -> Self {
+        self.adopt = adopt;
+        self
+    }
+    /// The configuration with [`holdoff`](Self::holdoff) replaced.
+    #[must_use]
+    pub fn with_holdoff(mut self, holdoff: Duration) -> Self {
+        self.holdoff = holdoff;
+        self
+    }
+    /// The configuration with [`boot_timeout`](Self::boot_timeout) replaced.
+    #[must_use]
+    pub fn with_boot_timeout(mut self, boot_timeout: Duration) -> Self {
+        self.boot_timeout = boot_timeout;
+        self
+    }
+    /// The configuration with [`shadow_join_on_heartbeat`](Self::shadow_join_on_heartbeat) replaced.
+    #[must_use]
+    pub fn with_shadow_join_on_heartbeat(mut self, shadow_join_on_heartbeat: bool) -> Self {
+        self.shadow_join_on_heartbeat = shadow_join_on_heartbeat;
+        self
+    }
 }
 
 impl Default for PairsConfig {
@@ -397,6 +433,7 @@ pub enum LossReason {
 
 /// What the pair supervisor reports.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[non_exhaustive]
 pub enum PairsEvent {
     /// A pair's active member changed.
     Role(RoleChange),
@@ -494,6 +531,7 @@ pub struct PairSupervisor {
 
 impl PairSupervisor {
     /// An empty table, commanding.
+    #[must_use]
     pub fn new(cfg: PairsConfig) -> Self {
         PairSupervisor {
             cfg,
@@ -819,6 +857,7 @@ impl PairSupervisor {
     // ----- time -----
 
     /// Earliest instant at which [`PairSupervisor::handle_timeout`] has work (may be early).
+    #[must_use]
     pub fn poll_timeout(&self) -> Option<Instant> {
         self.next
     }
@@ -840,10 +879,12 @@ impl PairSupervisor {
     // ----- outputs -----
 
     /// Next command.
+    #[must_use]
     pub fn poll_command(&mut self) -> Option<PairCommand> {
         self.commands.pop()
     }
     /// Next event.
+    #[must_use]
     pub fn poll_event(&mut self) -> Option<PairsEvent> {
         self.events.pop()
     }

@@ -18,12 +18,12 @@ const RESET_WINDOW: Duration = Duration::from_millis(200);
 
 fn cfg(threshold: u8) -> DualBusConfig {
     DualBusConfig::with_guard_period(
-        LinkMode::Cia302_6(Cia3026Config {
-            eval_power_on: POWER_ON_WINDOW,
-            eval_reset: RESET_WINDOW,
-            error_threshold: threshold,
-            ..Cia3026Config::default()
-        }),
+        LinkMode::Cia302_6(
+            Cia3026Config::default()
+                .with_eval_power_on(POWER_ON_WINDOW)
+                .with_eval_reset(RESET_WINDOW)
+                .with_error_threshold(threshold),
+        ),
         Duration::from_millis(HB_MS as u64),
     )
 }

@@ -18,11 +18,7 @@ fn cfg(node: u8) -> DualBusConfig {
     let ecss = if node == MASTER {
         EcssConfig::master()
     } else {
-        EcssConfig {
-            ttoggle: 2,
-            ntoggle: 4,
-            ..EcssConfig::slave(M, P)
-        }
+        EcssConfig::slave(M, P).with_ttoggle(2).with_ntoggle(4)
     };
     DualBusConfig::with_guard_period(
         LinkMode::EcssToggle(ecss),

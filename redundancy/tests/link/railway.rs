@@ -363,10 +363,7 @@ fn build() -> Net {
 fn schedule_sdo(net: &mut Net) {
     let m = net.master;
     let p = profile();
-    let opts = |node: u8| SdoOptions {
-        channel: Some(p.sdo_channel(n(node)).unwrap()),
-        ..SdoOptions::default()
-    };
+    let opts = |node: u8| SdoOptions::default().with_channel(Some(p.sdo_channel(n(node)).unwrap()));
     let (o4, o5) = (opts(TRACK), opts(SIGNAL));
     net.sim.at(ms(400), move |sim| {
         let c = &mut sim.device_mut(m).machine.b.a;

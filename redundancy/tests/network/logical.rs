@@ -163,10 +163,11 @@ fn network(id: u8, b_config: BConfig) -> Net {
                 .heartbeat(20, 50)
                 .tpdo(1, tpdo(IO)),
         )
-        .slave(SlaveConfig {
-            assignment: duocan::master::Assignment::slave().guarded(50, 3),
-            ..SlaveConfig::new(n(GUARDED)).identity(expected())
-        });
+        .slave(
+            SlaveConfig::new(n(GUARDED))
+                .identity(expected())
+                .with_assignment(duocan::master::Assignment::slave().guarded(50, 3)),
+        );
     let master = Master::new(n(id), od, slaves).unwrap();
     let peer = if id == STRONG { WEAK } else { STRONG };
     let cfg = SupervisorConfig::new(id - 1, n(id), HB, Duration::from_millis(50), HB)

@@ -1,18 +1,20 @@
 //! The logical network object under duocan's tokio runtime, on two in-memory buses: the same
 //! sans-IO device the simulator runs, driven by wall-clock time. SDO through `Handle::request`
-//! (start on the device, completion by request id), NMT and state queries through `Handle::call`.
+//! (start on the device, completion by request id) and `Handle::sdo_read`, NMT through
+//! `Handle::try_call` and state queries through `Handle::call`, each with one flat error.
 
 use duocan::master::{objects, Master, NetworkConfig};
 use duocan::nmt::NmtTarget;
 use duocan::od::{comm, DynamicDictionary};
 use duocan::port::mem::MemBus;
 use duocan::runtime::Runtime;
+use duocan::sdo::SdoOptions;
 use duocan::{Duration, Instant, NmtCommand, NmtState, Node, NodeConfig, NodeId, Station};
 use duocan_redundancy::supervisor::flying_master::MasterRole;
 use duocan_redundancy::PairSpec;
 use duocan_redundancy::{
-    DualBus, DualBusConfig, LogicalNetwork, Member, NetworkEventKind, SupervisedStation,
-    Supervisor, SupervisorConfig,
+    DualBus, DualBusConfig, LogicalNetwork, Member, NetworkError, NetworkEventKind,
+    SupervisedStation, Supervisor, SupervisorConfig,
 };
 
 fn n(id: u8) -> NodeId {
@@ -105,29 +107,30 @@ async fn the_network_object_under_the_tokio_runtime() {
     // SDO: started on the device, completed by the event with its request id.
     let vendor = h
         .request(
-            |net, now| {
-                net.sdo_read(now, n(0x50), 0x1018, 1)
-                    .map_err(|e| Err(e.to_string()))
-            },
+            |net, now| net.sdo_read(now, n(0x50), 0x1018, 1),
             |req, e| match &e.kind {
                 NetworkEventKind::Sdo(s) if s.request == *req => Some(
                     s.result
                         .clone()
                         .map(|b| b.to_vec())
-                        .map_err(|e| e.to_string()),
+                        .map_err(NetworkError::from),
                 ),
                 _ => None,
             },
         )
         .await
-        .unwrap()
+        .unwrap();
+    assert_eq!(vendor, 0xA5Eu32.to_le_bytes());
+    // The same through the handle's SDO call, which does the above.
+    let vendor = h
+        .sdo_read(n(0x50), 0x1018, 1, SdoOptions::default())
+        .await
         .unwrap();
     assert_eq!(vendor, 0xA5Eu32.to_le_bytes());
 
     // NMT through the network object, states through a call.
-    h.call(|net, now| net.nmt(now, NmtCommand::Stop, NmtTarget::Node(n(0x50))))
+    h.try_call(|net, now| net.nmt(now, NmtCommand::Stop, NmtTarget::Node(n(0x50))))
         .await
-        .unwrap()
         .unwrap();
     let mut stopped = false;
     for _ in 0..40 {

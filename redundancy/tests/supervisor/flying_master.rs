@@ -339,10 +339,7 @@ fn planned_hand_over_and_manual_take_over() {
 
 #[test]
 fn revertive_asks_for_a_hand_back_once_the_better_master_is_heard_long_enough() {
-    let mut w = Wire::new(&[(0, 1), (1, 2)], |c| FlyingMasterConfig {
-        revertive: true,
-        ..c
-    });
+    let mut w = Wire::new(&[(0, 1), (1, 2)], |c| c.with_revertive(true));
     w.start(1, ms(0));
     w.run_until(ms(3000));
     assert_eq!(w.actives(), [1]);

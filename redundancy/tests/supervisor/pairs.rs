@@ -238,10 +238,7 @@ fn configured_member_that_never_beats_is_detected_from_its_configuration() {
 
 #[test]
 fn member_that_never_boots_is_reported_missing_once() {
-    let cfg = PairsConfig {
-        boot_timeout: Duration::from_secs(2),
-        ..Default::default()
-    };
+    let cfg = PairsConfig::default().with_boot_timeout(Duration::from_secs(2));
     let (mut s, p) = table(cfg);
     s.boot_up(ms(0), A);
     s.configured(ms(3), A, true);
@@ -269,10 +266,7 @@ fn member_that_never_boots_is_reported_missing_once() {
 
 #[test]
 fn revertive_gives_the_role_back_to_a_when_it_rejoins() {
-    let (mut s, p) = table(PairsConfig {
-        revertive: true,
-        ..Default::default()
-    });
+    let (mut s, p) = table(PairsConfig::default().with_revertive(true));
     s.boot_up(ms(0), B);
     s.configured(ms(1), B, true);
     s.heartbeat(ms(20), B, NmtState::Operational);

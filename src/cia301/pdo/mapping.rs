@@ -39,14 +39,17 @@ pub struct MapEntry {
 
 impl MapEntry {
     /// An entry mapping `bits` bits of (index, sub).
+    #[must_use]
     pub const fn new(index: u16, sub: u8, bits: u8) -> MapEntry {
         MapEntry { index, sub, bits }
     }
     /// A dummy entry of `bits` bits of data type `t` (placeholder in an RPDO).
+    #[must_use]
     pub const fn dummy(t: DataType, bits: u8) -> MapEntry {
         MapEntry::new(t as u16, 0, bits)
     }
     /// Decodes the 32-bit dictionary value.
+    #[must_use]
     pub const fn from_raw(raw: u32) -> MapEntry {
         MapEntry {
             index: (raw >> 16) as u16,

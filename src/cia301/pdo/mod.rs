@@ -47,6 +47,7 @@ use tpdo::{OnRtr, OnSync, Tpdo, TpdoParams};
 
 /// What the PDO engine reports (inside the node's events: `NodeEventKind::Pdo`).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[non_exhaustive]
 pub enum PdoEvent {
     /// An RPDO's data was written into the dictionary: at reception for asynchronous RPDOs, at
     /// the SYNC after reception for synchronous ones. One event per PDO, not per entry; can be
@@ -129,6 +130,8 @@ impl fmt::Display for PdoError {
         }
     }
 }
+
+impl core::error::Error for PdoError {}
 
 /// What a TPDO is doing.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -473,6 +476,7 @@ pub(crate) struct PdoEngine<const T: usize, const R: usize> {
 }
 
 impl<const T: usize, const R: usize> PdoEngine<T, R> {
+    #[must_use]
     pub fn new() -> Self {
         PdoEngine {
             tpdos: [const { Tpdo::new() }; T],
@@ -497,6 +501,7 @@ impl<const T: usize, const R: usize> PdoEngine<T, R> {
         self.emcy.pop()
     }
 
+    #[must_use]
     pub fn poll_timeout(&self) -> Option<Instant> {
         if self.running {
             self.next

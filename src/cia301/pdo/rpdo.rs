@@ -68,6 +68,7 @@ pub(crate) struct Recovered {
 }
 
 impl Rpdo {
+    #[must_use]
     pub const fn new() -> Rpdo {
         Rpdo {
             p: RpdoParams {

@@ -78,6 +78,7 @@ pub(crate) struct Tpdo {
 }
 
 impl Tpdo {
+    #[must_use]
     pub const fn new() -> Tpdo {
         Tpdo {
             p: TpdoParams {

@@ -52,6 +52,7 @@ pub struct BlockSender {
 
 impl BlockSender {
     /// A sender of `len` bytes, first sub-block of `blksize` segments (checked by the caller).
+    #[must_use]
     pub fn new(len: usize, blksize: u8) -> Self {
         BlockSender {
             len,
@@ -167,6 +168,7 @@ pub struct BlockReceiver {
 
 impl BlockReceiver {
     /// A receiver of sub-blocks of `blksize` segments.
+    #[must_use]
     pub fn new(blksize: u8) -> Self {
         BlockReceiver {
             blksize,

@@ -50,6 +50,7 @@ impl SdoClient {
     /// A client with the default buffers and 8 sessions whose transfers carry at most `limit`
     /// bytes, on the predefined channels. Other buffer types and session counts:
     /// [`SdoClient::with_limit`].
+    #[must_use]
     pub fn new(limit: usize) -> Self {
         Self::with_limit(limit)
     }
@@ -58,6 +59,7 @@ impl SdoClient {
 impl<B: TransferBuffer, const SESSIONS: usize> SdoClient<B, SESSIONS> {
     /// A client with `SESSIONS` sessions whose transfers carry at most `limit` bytes, on the predefined
     /// channels.
+    #[must_use]
     pub fn with_limit(limit: usize) -> Self {
         SdoClient {
             sessions: core::array::from_fn(|_| Session::new(limit)),

@@ -90,6 +90,7 @@ pub struct SegmentData {
 
 impl SegmentData {
     /// The first (up to) seven bytes of `src`.
+    #[must_use]
     pub fn from_slice(src: &[u8]) -> SegmentData {
         let n = src.len().min(SEGMENT_DATA);
         let mut data = [0u8; SEGMENT_DATA];
@@ -531,6 +532,7 @@ pub struct BlockSegment {
 
 impl BlockSegment {
     /// Decodes any 8 bytes as a segment.
+    #[must_use]
     pub fn decode(d: &[u8; 8]) -> BlockSegment {
         let mut data = [0u8; SEGMENT_DATA];
         data.copy_from_slice(&d[1..8]);

@@ -117,6 +117,16 @@ impl fmt::Display for SdoError {
     }
 }
 
+// The abort code, when there is one, is the cause (its CiA 301 meaning is in the message too).
+impl core::error::Error for SdoError {
+    fn source(&self) -> Option<&(dyn core::error::Error + 'static)> {
+        match &self.kind {
+            SdoErrorKind::Server(c) | SdoErrorKind::Client(c) => Some(c),
+            _ => None,
+        }
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -20,6 +20,7 @@ pub struct Channel {
 
 impl Channel {
     /// The default channel of a node's first server: 0x600 + n and 0x580 + n.
+    #[must_use]
     pub const fn predefined(node: NodeId) -> Channel {
         Channel {
             request: predefined::sdo_rx(node),
@@ -60,6 +61,7 @@ pub enum TransferMode {
 
 /// How one transfer is carried out.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[non_exhaustive]
 pub struct SdoOptions {
     /// Protocol.
     pub mode: TransferMode,
@@ -81,6 +83,59 @@ pub struct SdoOptions {
     pub channel: Option<Channel>,
 }
 
+// Builders: the struct is `#[non_exhaustive]` (it may gain fields), so code outside the crate
+// starts from a constructor or `Default` and sets what it needs.
+impl SdoOptions {
+    /// The options with [`mode`](Self::mode) replaced.
+    #[must_use]
+    pub fn with_mode(mut self, mode: TransferMode) -> Self {
+        self.mode = mode;
+        self
+    }
+    /// The options with [`timeout`](Self::timeout) replaced.
+    #[must_use]
+    pub fn with_timeout(mut self, timeout: Duration) -> Self {
+        self.timeout = timeout;
+        self
+    }
+    /// The options with [`subblock_timeout`](Self::subblock_timeout) replaced.
+    #[must_use]
+    pub fn with_subblock_timeout(mut self, subblock_timeout: Duration) -> Self {
+        self.subblock_timeout = subblock_timeout;
+        self
+    }
+    /// The options with [`crc`](Self::crc) replaced.
+    #[must_use]
+    pub fn with_crc(mut self, crc: bool) -> Self {
+        self.crc = crc;
+        self
+    }
+    /// The options with [`block_size`](Self::block_size) replaced.
+    #[must_use]
+    pub fn with_block_size(mut self, block_size: u8) -> Self {
+        self.block_size = block_size;
+        self
+    }
+    /// The options with [`pst`](Self::pst) replaced.
+    #[must_use]
+    pub fn with_pst(mut self, pst: u8) -> Self {
+        self.pst = pst;
+        self
+    }
+    /// The options with [`block_threshold`](Self::block_threshold) replaced.
+    #[must_use]
+    pub fn with_block_threshold(mut self, block_threshold: Option<usize>) -> Self {
+        self.block_threshold = block_threshold;
+        self
+    }
+    /// The options with [`channel`](Self::channel) replaced.
+    #[must_use]
+    pub fn with_channel(mut self, channel: Option<Channel>) -> Self {
+        self.channel = channel;
+        self
+    }
+}
+
 impl Default for SdoOptions {
     fn default() -> Self {
         SdoOptions {
@@ -98,6 +153,7 @@ impl Default for SdoOptions {
 
 impl SdoOptions {
     /// The defaults with another mode.
+    #[must_use]
     pub fn mode(mode: TransferMode) -> Self {
         SdoOptions {
             mode,

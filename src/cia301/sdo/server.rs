@@ -25,6 +25,7 @@ use crate::od::{comm, ObjectDictionary};
 
 /// How a server behaves.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[non_exhaustive]
 pub struct SdoServerConfig {
     /// How long the server waits for the client's next frame before aborting with 0x05040000.
     pub timeout: Duration,
@@ -40,6 +41,47 @@ pub struct SdoServerConfig {
     pub block_size: u8,
     /// Largest value one transfer may carry; beyond it the server answers 0x05040005.
     pub max_transfer: usize,
+}
+
+// Builders: the struct is `#[non_exhaustive]` (it may gain fields), so code outside the crate
+// starts from a constructor or `Default` and sets what it needs.
+impl SdoServerConfig {
+    /// The configuration with [`timeout`](Self::timeout) replaced.
+    #[must_use]
+    pub fn with_timeout(mut self, timeout: Duration) -> Self {
+        self.timeout = timeout;
+        self
+    }
+    /// The configuration with [`subblock_timeout`](Self::subblock_timeout) replaced.
+    #[must_use]
+    pub fn with_subblock_timeout(mut self, subblock_timeout: Duration) -> Self {
+        self.subblock_timeout = subblock_timeout;
+        self
+    }
+    /// The configuration with [`block`](Self::block) replaced.
+    #[must_use]
+    pub fn with_block(mut self, block: bool) -> Self {
+        self.block = block;
+        self
+    }
+    /// The configuration with [`crc`](Self::crc) replaced.
+    #[must_use]
+    pub fn with_crc(mut self, crc: bool) -> Self {
+        self.crc = crc;
+        self
+    }
+    /// The configuration with [`block_size`](Self::block_size) replaced.
+    #[must_use]
+    pub fn with_block_size(mut self, block_size: u8) -> Self {
+        self.block_size = block_size;
+        self
+    }
+    /// The configuration with [`max_transfer`](Self::max_transfer) replaced.
+    #[must_use]
+    pub fn with_max_transfer(mut self, max_transfer: usize) -> Self {
+        self.max_transfer = max_transfer;
+        self
+    }
 }
 
 impl Default for SdoServerConfig {
@@ -117,6 +159,7 @@ pub struct SdoServer<B: TransferBuffer = DefaultBuffer> {
 impl<B: TransferBuffer> SdoServer<B> {
     /// A server without a channel (see [`SdoServer::set_channel`] and
     /// [`SdoServer::configure_from`]).
+    #[must_use]
     pub fn new(cfg: SdoServerConfig) -> Self {
         SdoServer {
             cfg,
@@ -722,11 +765,13 @@ impl<B: TransferBuffer> SdoServer<B> {
     }
 
     /// Earliest instant `handle_timeout` has work.
+    #[must_use]
     pub fn poll_timeout(&self) -> Option<Instant> {
         earliest(self.deadline, self.subblock_deadline)
     }
 
     /// The next frame to send: an answer, or the next segment of a block upload.
+    #[must_use]
     pub fn poll_transmit(&mut self) -> Option<Frame> {
         let id = self.tx?;
         if let Some(d) = self.out.pop() {

@@ -152,6 +152,16 @@ impl fmt::Display for BootError {
     }
 }
 
+impl core::error::Error for BootError {
+    fn source(&self) -> Option<&(dyn core::error::Error + 'static)> {
+        match self {
+            BootError::Sdo(e) => Some(e),
+            BootError::Pdo(e) => Some(e),
+            _ => None,
+        }
+    }
+}
+
 /// Where a slave is, as far as this master's boot process goes.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 pub enum BootPhase {

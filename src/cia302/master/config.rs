@@ -53,6 +53,7 @@ impl NmtStartup {
     pub const STOP_ALL: NmtStartup = NmtStartup(1 << 6);
 
     /// These bits and `other`'s.
+    #[must_use]
     pub const fn with(self, other: NmtStartup) -> NmtStartup {
         NmtStartup(self.0 | other.0)
     }
@@ -85,6 +86,7 @@ impl Assignment {
     pub const KEEP_ALIVE: u32 = 1 << 4;
 
     /// An optional slave that is booted again whenever it boots up.
+    #[must_use]
     pub const fn slave() -> Assignment {
         Assignment(Self::SLAVE | Self::BOOT)
     }
@@ -113,6 +115,7 @@ impl Assignment {
         (self.0 >> 16) as u16
     }
     /// With node guarding every `guard_time_ms`, lost after `retry_factor` silent periods.
+    #[must_use]
     pub const fn guarded(self, guard_time_ms: u16, retry_factor: u8) -> Assignment {
         Assignment((self.0 & 0xFF) | ((retry_factor as u32) << 8) | ((guard_time_ms as u32) << 16))
     }
@@ -173,6 +176,7 @@ pub enum ConfigStep {
 
 /// Everything the master does to one slave beyond what its 0x1F8x entries say.
 #[derive(Clone, Debug, PartialEq, Eq)]
+#[non_exhaustive]
 pub struct SlaveConfig {
     /// The slave.
     pub node: NodeId,
@@ -193,6 +197,7 @@ pub struct SlaveConfig {
 
 impl SlaveConfig {
     /// An optional slave, identity unchecked, nothing configured, started by the master.
+    #[must_use]
     pub fn new(node: NodeId) -> SlaveConfig {
         SlaveConfig {
             node,
@@ -205,33 +210,46 @@ impl SlaveConfig {
         }
     }
     /// Mandatory: the network does not start without it.
+    #[must_use]
     pub fn mandatory(mut self) -> SlaveConfig {
         self.assignment.0 |= Assignment::MANDATORY;
         self
     }
     /// Keep alive: never reset; adopted when found operational.
+    #[must_use]
     pub fn keep_alive(mut self) -> SlaveConfig {
         self.assignment.0 |= Assignment::KEEP_ALIVE;
         self
     }
+    /// The whole 0x1F81 entry at once (bits set by [`SlaveConfig::mandatory`] and
+    /// [`SlaveConfig::keep_alive`] included): for guarding and other bits without a builder.
+    #[must_use]
+    pub fn with_assignment(mut self, assignment: Assignment) -> SlaveConfig {
+        self.assignment = assignment;
+        self
+    }
     /// The identity to check.
+    #[must_use]
     pub fn identity(mut self, identity: ExpectedIdentity) -> SlaveConfig {
         self.identity = identity;
         self
     }
     /// The slave produces a heartbeat every `producer_ms`; the master expects one within
     /// `consumer_ms`.
+    #[must_use]
     pub fn heartbeat(mut self, producer_ms: u16, consumer_ms: u16) -> SlaveConfig {
         self.heartbeat_producer_ms = Some(producer_ms);
         self.heartbeat_consumer_ms = consumer_ms;
         self
     }
     /// Who starts it.
+    #[must_use]
     pub fn start(mut self, policy: StartPolicy) -> SlaveConfig {
         self.start = policy;
         self
     }
     /// Adds an SDO write of raw bytes.
+    #[must_use]
     pub fn write(mut self, index: u16, sub: u8, data: &[u8]) -> SlaveConfig {
         self.steps.push(ConfigStep::Write {
             index,
@@ -241,18 +259,22 @@ impl SlaveConfig {
         self
     }
     /// Adds an SDO write of an UNSIGNED8.
+    #[must_use]
     pub fn write_u8(self, index: u16, sub: u8, v: u8) -> SlaveConfig {
         self.write(index, sub, &[v])
     }
     /// Adds an SDO write of an UNSIGNED16.
+    #[must_use]
     pub fn write_u16(self, index: u16, sub: u8, v: u16) -> SlaveConfig {
         self.write(index, sub, &v.to_le_bytes())
     }
     /// Adds an SDO write of an UNSIGNED32.
+    #[must_use]
     pub fn write_u32(self, index: u16, sub: u8, v: u32) -> SlaveConfig {
         self.write(index, sub, &v.to_le_bytes())
     }
     /// Configures the slave's TPDO `pdo` (1–512).
+    #[must_use]
     pub fn tpdo(mut self, pdo: u16, config: PdoConfig) -> SlaveConfig {
         self.steps.push(ConfigStep::Pdo {
             dir: Dir::Transmit,
@@ -262,6 +284,7 @@ impl SlaveConfig {
         self
     }
     /// Configures the slave's RPDO `pdo` (1–512).
+    #[must_use]
     pub fn rpdo(mut self, pdo: u16, config: PdoConfig) -> SlaveConfig {
         self.steps.push(ConfigStep::Pdo {
             dir: Dir::Receive,
@@ -274,6 +297,7 @@ impl SlaveConfig {
 
 /// The whole network as the master sees it.
 #[derive(Clone, Debug, PartialEq, Eq)]
+#[non_exhaustive]
 pub struct NetworkConfig {
     /// 0x1F80.
     pub startup: NmtStartup,
@@ -309,40 +333,48 @@ impl Default for NetworkConfig {
 
 impl NetworkConfig {
     /// An active NMT master with no slaves (see [`Default`]).
+    #[must_use]
     pub fn new() -> NetworkConfig {
         NetworkConfig::default()
     }
     /// Sets 0x1F80.
+    #[must_use]
     pub fn startup(mut self, startup: NmtStartup) -> NetworkConfig {
         self.startup = startup;
         self
     }
     /// Sets 0x1F89.
+    #[must_use]
     pub fn boot_time_ms(mut self, ms: u32) -> NetworkConfig {
         self.boot_time_ms = ms;
         self
     }
     /// Starts as a standby master.
+    #[must_use]
     pub fn standby(mut self) -> NetworkConfig {
         self.active = false;
         self
     }
     /// Sets the SDO timeout.
+    #[must_use]
     pub fn sdo_timeout(mut self, t: Duration) -> NetworkConfig {
         self.sdo_timeout = t;
         self
     }
     /// Sets the probe interval.
+    #[must_use]
     pub fn probe_interval(mut self, t: Duration) -> NetworkConfig {
         self.probe_interval = t;
         self
     }
     /// Sets the default consumer heartbeat time.
+    #[must_use]
     pub fn default_consumer_ms(mut self, ms: u16) -> NetworkConfig {
         self.default_consumer_ms = ms;
         self
     }
     /// Adds (or replaces) a slave.
+    #[must_use]
     pub fn slave(mut self, slave: SlaveConfig) -> NetworkConfig {
         self.slaves.retain(|s| s.node != slave.node);
         self.slaves.push(slave);

@@ -22,6 +22,7 @@ pub struct MasterEvent {
 
 /// The kinds of [`MasterEvent`].
 #[derive(Clone, Debug, PartialEq)]
+#[non_exhaustive]
 pub enum MasterEventKind {
     /// From the master's own node (passed through unchanged).
     Node(NodeEventKind),
@@ -244,6 +245,15 @@ impl fmt::Display for MasterError {
             MasterError::Refused { index, sub, code } => {
                 write!(f, "the master's {index:#06x}sub{sub} refused the value: {code}")
             }
+        }
+    }
+}
+
+impl core::error::Error for MasterError {
+    fn source(&self) -> Option<&(dyn core::error::Error + 'static)> {
+        match self {
+            MasterError::Refused { code, .. } => Some(code),
+            _ => None,
         }
     }
 }

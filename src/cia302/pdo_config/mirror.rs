@@ -26,6 +26,7 @@ pub struct Local {
 
 impl Local {
     /// An entry (index, sub) of type `data_type`.
+    #[must_use]
     pub const fn new(index: u16, sub: u8, data_type: DataType) -> Local {
         Local {
             index,
@@ -121,6 +122,15 @@ impl fmt::Display for MirrorError {
             MirrorError::Write { index, sub, code } => {
                 write!(f, "writing {index:#06x}sub{sub} of the master failed: {code}")
             }
+        }
+    }
+}
+
+impl core::error::Error for MirrorError {
+    fn source(&self) -> Option<&(dyn core::error::Error + 'static)> {
+        match self {
+            MirrorError::Write { code, .. } => Some(code),
+            _ => None,
         }
     }
 }

@@ -21,6 +21,7 @@ pub struct SdoPdoJob {
 
 impl SdoPdoJob {
     /// Carries `job` with the client's default options (expedited transfers, 1 s timeout).
+    #[must_use]
     pub fn new(job: PdoConfigurator) -> SdoPdoJob {
         SdoPdoJob {
             job,
@@ -30,6 +31,7 @@ impl SdoPdoJob {
     }
 
     /// Uses `opts` for every access (timeout, custom channel).
+    #[must_use]
     pub fn with_options(mut self, opts: SdoOptions) -> SdoPdoJob {
         self.opts = opts;
         self

@@ -57,6 +57,8 @@ impl fmt::Display for AddressError {
     }
 }
 
+impl core::error::Error for AddressError {}
+
 impl DeviceAddress {
     /// An address from its five fields, each 0–15.
     pub const fn new(
@@ -87,6 +89,7 @@ impl DeviceAddress {
     }
     /// A board address (port 0); panics (at compile time in a const context) on a field above
     /// 15. For literals.
+    #[must_use]
     pub const fn board_at(row: u8, cabinet: u8, layer: u8, board: u8) -> DeviceAddress {
         match DeviceAddress::new(row, cabinet, layer, board, 0) {
             Ok(a) => a,
@@ -126,10 +129,12 @@ impl DeviceAddress {
         self.0 as u8 & FIELD_MAX
     }
     /// The same board, I/O port `port` (masked to 4 bits).
+    #[must_use]
     pub const fn with_port(self, port: u8) -> DeviceAddress {
         DeviceAddress((self.0 & !0xF) | (port & FIELD_MAX) as u32)
     }
     /// The board this address belongs to (port 0).
+    #[must_use]
     pub const fn board_address(self) -> DeviceAddress {
         self.with_port(0)
     }

@@ -98,6 +98,7 @@ impl RailwayProfile {
     pub const SYNC: Id = id(RailFunction::Sync, DeviceAddress::board_at(0, 0, 0, 0));
 
     /// An empty table.
+    #[must_use]
     pub const fn new() -> Self {
         RailwayProfile {
             table: Table::new(),

@@ -108,6 +108,8 @@ impl fmt::Display for PayloadError {
     }
 }
 
+impl core::error::Error for PayloadError {}
+
 /// The CRC of `content` sent under `id`.
 pub fn crc(id: Id, content: &[u8]) -> u16 {
     let word = match id {
@@ -139,6 +141,7 @@ impl Payload {
         })
     }
     /// A payload of one data byte (a safety state).
+    #[must_use]
     pub const fn byte(index: u16, sub: u8, value: u8) -> Payload {
         Payload {
             index,
@@ -148,6 +151,7 @@ impl Payload {
         }
     }
     /// A payload without data (a state query).
+    #[must_use]
     pub const fn empty(index: u16, sub: u8) -> Payload {
         Payload {
             index,

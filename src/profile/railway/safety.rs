@@ -53,6 +53,8 @@ impl fmt::Display for SafetyError {
     }
 }
 
+impl core::error::Error for SafetyError {}
+
 /// A safety state with an asymmetric byte code.
 pub trait SafetyCode: Sized + Copy + 'static {
     /// What it is, for error messages.

@@ -38,6 +38,8 @@ impl fmt::Display for TableError {
     }
 }
 
+impl core::error::Error for TableError {}
+
 const NONE: u32 = u32::MAX;
 
 /// Node-ID → address and address → node-ID, both bounded (every node-ID 1–127 can have one

@@ -291,10 +291,7 @@ impl Bench {
             SdoOptions,
         ) -> Result<duocan::sdo::RequestId, SdoError>,
     ) -> Result<Vec<u8>, SdoError> {
-        let opts = SdoOptions {
-            channel: profile().sdo_channel(NODE_ID),
-            ..SdoOptions::default()
-        };
+        let opts = SdoOptions::default().with_channel(profile().sdo_channel(NODE_ID));
         let now = self.now;
         let id = start(&mut self.master.device_mut().machine.b.a, now, opts)?;
         self.settle();

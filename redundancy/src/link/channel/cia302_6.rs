@@ -53,6 +53,7 @@ pub fn indicate_active() -> Frame {
 
 /// CiA 302-6 configuration (0x1F60 and the producers of 0x1016).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[non_exhaustive]
 pub struct Cia3026Config {
     /// Port of the default channel (0 or 1); the other is the redundant channel.
     pub default_channel: u8,
@@ -66,6 +67,47 @@ pub struct Cia3026Config {
     pub error_threshold: u8,
     /// Heartbeat producers to evaluate (empty: every producer heard).
     pub producers: NodeSet,
+}
+
+// Builders: the struct is `#[non_exhaustive]` (it may gain fields), so code outside the crate
+// starts from a constructor or `Default` and sets what it needs.
+impl Cia3026Config {
+    /// The configuration with [`default_channel`](Self::default_channel) replaced.
+    #[must_use]
+    pub fn with_default_channel(mut self, default_channel: u8) -> Self {
+        self.default_channel = default_channel;
+        self
+    }
+    /// The configuration with [`max_tx_delay`](Self::max_tx_delay) replaced.
+    #[must_use]
+    pub fn with_max_tx_delay(mut self, max_tx_delay: Duration) -> Self {
+        self.max_tx_delay = max_tx_delay;
+        self
+    }
+    /// The configuration with [`eval_power_on`](Self::eval_power_on) replaced.
+    #[must_use]
+    pub fn with_eval_power_on(mut self, eval_power_on: Duration) -> Self {
+        self.eval_power_on = eval_power_on;
+        self
+    }
+    /// The configuration with [`eval_reset`](Self::eval_reset) replaced.
+    #[must_use]
+    pub fn with_eval_reset(mut self, eval_reset: Duration) -> Self {
+        self.eval_reset = eval_reset;
+        self
+    }
+    /// The configuration with [`error_threshold`](Self::error_threshold) replaced.
+    #[must_use]
+    pub fn with_error_threshold(mut self, error_threshold: u8) -> Self {
+        self.error_threshold = error_threshold;
+        self
+    }
+    /// The configuration with [`producers`](Self::producers) replaced.
+    #[must_use]
+    pub fn with_producers(mut self, producers: NodeSet) -> Self {
+        self.producers = producers;
+        self
+    }
 }
 
 impl Default for Cia3026Config {
@@ -119,6 +161,7 @@ pub struct Cia3026 {
 
 impl Cia3026 {
     /// On the default channel, waiting for the node's boot-up.
+    #[must_use]
     pub fn new(cfg: Cia3026Config) -> Self {
         let cfg = Cia3026Config {
             default_channel: cfg.default_channel.min(1),

@@ -45,6 +45,7 @@ pub enum EcssRole {
 
 /// Bus-toggle configuration (0x2000 and 0x1016 sub 1).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[non_exhaustive]
 pub struct EcssConfig {
     /// Sub 1, Bdefault: the bus (port) to start on.
     pub bdefault: u8,
@@ -56,9 +57,39 @@ pub struct EcssConfig {
     pub role: EcssRole,
 }
 
+// Builders: the struct is `#[non_exhaustive]` (it may gain fields), so code outside the crate
+// starts from a constructor or `Default` and sets what it needs.
+impl EcssConfig {
+    /// The configuration with [`bdefault`](Self::bdefault) replaced.
+    #[must_use]
+    pub fn with_bdefault(mut self, bdefault: u8) -> Self {
+        self.bdefault = bdefault;
+        self
+    }
+    /// The configuration with [`ttoggle`](Self::ttoggle) replaced.
+    #[must_use]
+    pub fn with_ttoggle(mut self, ttoggle: u8) -> Self {
+        self.ttoggle = ttoggle;
+        self
+    }
+    /// The configuration with [`ntoggle`](Self::ntoggle) replaced.
+    #[must_use]
+    pub fn with_ntoggle(mut self, ntoggle: u8) -> Self {
+        self.ntoggle = ntoggle;
+        self
+    }
+    /// The configuration with [`role`](Self::role) replaced.
+    #[must_use]
+    pub fn with_role(mut self, role: EcssRole) -> Self {
+        self.role = role;
+        self
+    }
+}
+
 impl EcssConfig {
     /// A slave of `master` whose heartbeat is expected every `period`: starts on bus 1, toggles
     /// after 2 periods, at most 4 times.
+    #[must_use]
     pub const fn slave(master: NodeId, period: Duration) -> Self {
         EcssConfig {
             bdefault: 0,
@@ -68,6 +99,7 @@ impl EcssConfig {
         }
     }
     /// The redundancy master, on bus 1.
+    #[must_use]
     pub const fn master() -> Self {
         EcssConfig {
             bdefault: 0,
@@ -103,6 +135,7 @@ pub struct Ecss {
 
 impl Ecss {
     /// On Bdefault, idle until the node's boot-up.
+    #[must_use]
     pub fn new(cfg: EcssConfig) -> Self {
         let b = cfg.bdefault.min(1);
         Ecss {

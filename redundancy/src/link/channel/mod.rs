@@ -78,6 +78,7 @@ pub trait ChannelPolicy {
     /// Time passed.
     fn handle_timeout(&mut self, now: Instant, out: &mut Outbox);
     /// Earliest deadline.
+    #[must_use]
     fn poll_timeout(&self) -> Option<Instant>;
     /// The active channel, for single-channel policies.
     fn active(&self) -> Option<usize>;

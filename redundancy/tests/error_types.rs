@@ -1,0 +1,96 @@
+//! Every public error type of the crate is a standard error that crosses threads: a user
+//! function returning `Box<dyn Error + Send + Sync>` ends each call in `?` without `map_err`.
+
+use duocan::master::MasterError;
+use duocan::sdo::{Direction, SdoError, SdoErrorKind};
+use duocan::{AbortCode, NodeId};
+use duocan_redundancy::link::config::ConfigError;
+use duocan_redundancy::link::same_function::PairError;
+use duocan_redundancy::supervisor::flying_master::{FlyingMasterError, MasterRole};
+use duocan_redundancy::supervisor::pairs::PairsError;
+use duocan_redundancy::{AddPairError, JoinRefusal, NetworkError, PairId};
+use std::error::Error;
+
+type BoxError = Box<dyn Error + Send + Sync>;
+
+// Compile-time: each type is `Error + Send + Sync + 'static`.
+const _: () = {
+    const fn check<T: core::error::Error + Send + Sync + 'static>() {}
+    check::<ConfigError>();
+    check::<PairError>();
+    check::<PairsError>();
+    check::<AddPairError>();
+    check::<FlyingMasterError>();
+    check::<JoinRefusal>();
+    check::<NetworkError>();
+};
+
+/// What a user function does: `?` on the error, nothing else.
+fn user<E: Error + Send + Sync + 'static>(r: Result<(), E>) -> Result<(), BoxError> {
+    r?;
+    Ok(())
+}
+
+/// `?` boxes `e`, keeps its message, and the box downcasts back to it.
+fn boxes<E: Error + Send + Sync + PartialEq + std::fmt::Debug + Copy + 'static>(e: E) {
+    let text = e.to_string();
+    assert!(!text.is_empty(), "{e:?} says nothing");
+    let boxed = user(Err(e)).unwrap_err();
+    assert_eq!(boxed.to_string(), text);
+    assert_eq!(boxed.downcast_ref::<E>(), Some(&e));
+}
+
+fn sdo_error() -> SdoError {
+    SdoError {
+        node: NodeId::must(0x10),
+        index: 0x1018,
+        sub: 1,
+        direction: Direction::Upload,
+        kind: SdoErrorKind::Busy,
+    }
+}
+
+#[test]
+fn each_error_ends_a_call_in_the_question_mark() {
+    boxes(ConfigError::Missing {
+        index: 0x1F60,
+        sub: 1,
+        abort: AbortCode::NO_OBJECT,
+    });
+    boxes(PairError::Full);
+    boxes(PairsError::NoPair(PairId(3)));
+    boxes(AddPairError::Master(
+        NodeId::must(0x10),
+        MasterError::Standby,
+    ));
+    boxes(FlyingMasterError::WrongRole(MasterRole::Standby(None)));
+    boxes(JoinRefusal::Master(MasterError::Standby));
+    boxes(NetworkError::Standby);
+    boxes(NetworkError::Sdo(sdo_error()));
+    boxes(NetworkError::Closed);
+}
+
+#[test]
+fn wrapping_errors_name_their_cause() {
+    let e = NetworkError::from(sdo_error());
+    assert_eq!(e, NetworkError::Sdo(sdo_error()));
+    assert_eq!(
+        e.source().and_then(|s| s.downcast_ref::<SdoError>()),
+        Some(&sdo_error())
+    );
+    let e = AddPairError::from(PairsError::Full);
+    assert_eq!(
+        e.source().and_then(|s| s.downcast_ref::<PairsError>()),
+        Some(&PairsError::Full)
+    );
+    assert!(NetworkError::Standby.source().is_none());
+}
+
+#[cfg(feature = "tokio")]
+#[test]
+fn a_stopped_runtime_is_a_network_error() {
+    fn closed() -> Result<(), NetworkError> {
+        Err(duocan::runtime::RuntimeClosed)?
+    }
+    assert_eq!(closed(), Err(NetworkError::Closed));
+}
