@@ -393,25 +393,21 @@ impl<
         if self.state == NmtState::Initialising {
             return None;
         }
-        earliest_of(Timer::ALL.map(|t| self.deadline(t)))
-    }
-
-    #[inline]
-    fn deadline(&self, timer: Timer) -> Option<Instant> {
-        match timer {
-            Timer::Heartbeat => self.hb.poll_timeout(),
-            Timer::HeartbeatConsumer => self.consumer.poll_timeout(),
-            Timer::LifeGuarding => self.guard.poll_timeout(),
-            Timer::NodeGuarding => self.guard_master.poll_timeout(),
-            Timer::Sync => self.sync.poll_timeout(),
-            Timer::Time => self.time.poll_timeout(),
-            Timer::Pdo => self.pdo.poll_timeout(),
+        // Written out rather than mapped over `Timer::ALL`: this runs after every frame, and the
+        // direct form measured as fast as the old chain (the mapped one 40 % slower, benches/node.rs).
+        earliest_of([
+            self.hb.poll_timeout(),
+            self.consumer.poll_timeout(),
+            self.guard.poll_timeout(),
+            self.guard_master.poll_timeout(),
+            self.sync.poll_timeout(),
+            self.time.poll_timeout(),
+            self.pdo.poll_timeout(),
             // Messages wait while the state forbids EMCY: no wake-up for them.
-            Timer::Emcy => self
-                .emcy
+            self.emcy
                 .poll_timeout()
                 .filter(|_| self.state.services().emcy),
-        }
+        ])
     }
 
     /// Runs one timed service at `now`, then what its output asks of the rest of the node.
@@ -467,7 +463,7 @@ impl<
 }
 
 /// The node's timed services, in the order a timeout runs them: the order their frames leave
-/// in. A new service is one more entry here and one arm in `deadline` and `run`.
+/// in. A new service is one more entry here and one arm in `run` and one line in `poll_timeout`.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 enum Timer {
     Heartbeat,
