@@ -6,6 +6,7 @@ mod failures;
 mod net;
 mod pdo_config;
 mod properties;
+mod queues;
 mod reboot;
 mod request_nmt;
 mod standby;

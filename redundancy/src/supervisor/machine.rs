@@ -100,7 +100,8 @@ use heapless::Vec;
 
 /// Flying-master frames the supervisor itself can hold.
 pub const TX_QUEUE: usize = 64;
-/// Events the supervisor can hold before the application drains them.
+/// Events the supervisor can hold before the application drains them, by default
+/// ([`SupervisorConfig::event_queue`]).
 pub const EVENT_QUEUE: usize = 1024;
 
 /// 0x1012 bit 31: consume TIME; bit 30: produce it (the master sets it while active).
@@ -125,6 +126,10 @@ pub struct SupervisorConfig {
     pub sync_period: Duration,
     /// TIME period while active (zero: TIME once at each takeover only).
     pub time_period: Duration,
+    /// Events the supervisor holds before the application drains them (default
+    /// [`EVENT_QUEUE`]); allocated once when the supervisor is built, never grown: an event
+    /// beyond it is dropped and counted.
+    pub event_queue: usize,
 }
 
 // Builders: the struct is `#[non_exhaustive]` (it may gain fields), so code outside the crate
@@ -160,6 +165,12 @@ impl SupervisorConfig {
         self.time_period = time_period;
         self
     }
+    /// The configuration with [`event_queue`](Self::event_queue) replaced (at least 1).
+    #[must_use]
+    pub fn with_event_queue(mut self, capacity: usize) -> Self {
+        self.event_queue = capacity;
+        self
+    }
 }
 
 impl SupervisorConfig {
@@ -185,6 +196,7 @@ impl SupervisorConfig {
             heartbeat,
             sync_period,
             time_period: Duration::ZERO,
+            event_queue: EVENT_QUEUE,
         }
     }
     /// With another master-capable device.
@@ -426,6 +438,7 @@ impl<D: ObjectDictionary, P: IdProfile> Supervisor<D, P> {
         fm.start(now);
         let mut pairs = PairSupervisor::new(cfg.pairs);
         pairs.set_authority(now, Authority::Shadow);
+        let event_capacity = cfg.event_queue.max(1);
         let mut s = Supervisor {
             master,
             pairs,
@@ -433,7 +446,8 @@ impl<D: ObjectDictionary, P: IdProfile> Supervisor<D, P> {
             audit: AuditTrail::new(),
             cfg,
             tx: Bounded::new(),
-            events: VecDeque::new(),
+            // Allocated once here and never grown: `emit` checks the capacity first.
+            events: VecDeque::with_capacity(event_capacity),
             events_dropped: 0,
             link: Bounded::new(),
             last_sync: None,
@@ -694,7 +708,7 @@ impl<D: ObjectDictionary, P: IdProfile> Supervisor<D, P> {
     }
 
     fn emit(&mut self, e: SupervisorEvent) {
-        if self.events.len() >= EVENT_QUEUE {
+        if self.events.len() >= self.cfg.event_queue.max(1) {
             self.events_dropped = self.events_dropped.saturating_add(1);
         } else {
             self.events.push_back(e);

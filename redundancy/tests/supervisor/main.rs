@@ -8,3 +8,4 @@ mod net;
 mod on_bus;
 mod pairs;
 mod partition;
+mod queues;

@@ -315,6 +315,13 @@ pub struct NetworkConfig {
     pub default_consumer_ms: u16,
     /// The slaves.
     pub slaves: Vec<SlaveConfig>,
+    /// Events the master holds before the application drains them (default
+    /// [`EVENT_QUEUE`](super::EVENT_QUEUE)); allocated once when the master is built, never
+    /// grown: an event beyond it is dropped and counted.
+    pub event_queue: usize,
+    /// NMT commands the master holds before the driver drains them (default
+    /// [`NMT_QUEUE`](super::NMT_QUEUE)); allocated once, never grown.
+    pub nmt_queue: usize,
 }
 
 impl Default for NetworkConfig {
@@ -327,6 +334,8 @@ impl Default for NetworkConfig {
             probe_interval: Duration::from_millis(1_000),
             default_consumer_ms: 0,
             slaves: Vec::new(),
+            event_queue: super::EVENT_QUEUE,
+            nmt_queue: super::NMT_QUEUE,
         }
     }
 }
@@ -371,6 +380,18 @@ impl NetworkConfig {
     #[must_use]
     pub fn default_consumer_ms(mut self, ms: u16) -> NetworkConfig {
         self.default_consumer_ms = ms;
+        self
+    }
+    /// Sets the event queue's capacity (at least 1).
+    #[must_use]
+    pub fn event_queue(mut self, capacity: usize) -> NetworkConfig {
+        self.event_queue = capacity;
+        self
+    }
+    /// Sets the NMT command queue's capacity (at least 1).
+    #[must_use]
+    pub fn nmt_queue(mut self, capacity: usize) -> NetworkConfig {
+        self.nmt_queue = capacity;
         self
     }
     /// Adds (or replaces) a slave.

@@ -104,9 +104,11 @@ use alloc::vec::Vec;
 use network::Network;
 use slaves::Slot;
 
-/// NMT commands the master holds before the driver drains them.
+/// NMT commands the master holds before the driver drains them, by default
+/// ([`NetworkConfig::nmt_queue`]).
 pub const NMT_QUEUE: usize = 256;
-/// Events the master holds before the application drains them.
+/// Events the master holds before the application drains them, by default
+/// ([`NetworkConfig::event_queue`]).
 pub const EVENT_QUEUE: usize = 1024;
 
 /// TPDOs of a master's own node.
@@ -149,7 +151,9 @@ pub struct Master<D, P = Predefined> {
     produce_time: bool,
     waiting: VecDeque<NodeId>,
     nmt_out: VecDeque<Frame>,
+    nmt_capacity: usize,
     events: VecDeque<MasterEvent>,
+    event_capacity: usize,
     stats: MasterStats,
     sdo_timeout: Duration,
     probe_interval: Duration,
@@ -239,8 +243,12 @@ impl<D: ObjectDictionary, P: IdProfile> Master<D, P> {
             produce_sync,
             produce_time,
             waiting: VecDeque::with_capacity(127),
-            nmt_out: VecDeque::new(),
-            events: VecDeque::new(),
+            // Allocated once here; the queues check their capacity before every push, so they
+            // never grow (bounded memory on a heap-backed master too).
+            nmt_out: VecDeque::with_capacity(config.nmt_queue.max(1)),
+            nmt_capacity: config.nmt_queue.max(1),
+            events: VecDeque::with_capacity(config.event_queue.max(1)),
+            event_capacity: config.event_queue.max(1),
             stats: MasterStats::default(),
             sdo_timeout: config.sdo_timeout,
             probe_interval: config.probe_interval,
@@ -482,7 +490,7 @@ impl<D: ObjectDictionary, P: IdProfile> Master<D, P> {
     }
 
     fn emit(&mut self, at: Instant, kind: MasterEventKind) {
-        if self.events.len() >= EVENT_QUEUE {
+        if self.events.len() >= self.event_capacity {
             self.stats.events_dropped = self.stats.events_dropped.saturating_add(1);
         } else {
             self.events.push_back(MasterEvent { at, kind });

@@ -5,7 +5,7 @@
 use super::boot::BootPhase;
 use super::config::{NmtStartup, StartPolicy};
 use super::events::{MasterError, MasterEventKind};
-use super::{objects, Master, NMT_QUEUE};
+use super::{objects, Master};
 use crate::cia301::nmt::{self, NmtCommand, NmtState, NmtTarget};
 use crate::frame::cob_id::NodeId;
 use crate::frame::instant::{Duration, Instant};
@@ -253,7 +253,7 @@ impl<D: ObjectDictionary, P: IdProfile> Master<D, P> {
         cmd: NmtCommand,
         target: NmtTarget,
     ) -> Result<(), MasterError> {
-        if self.nmt_out.len() >= NMT_QUEUE {
+        if self.nmt_out.len() >= self.nmt_capacity {
             self.stats.nmt_dropped += 1;
             return Err(MasterError::QueueFull);
         }
