@@ -6,9 +6,11 @@
 //! use duocan::od::{comm, ObjectDef, StaticDictionary};
 //! static COMM: [ObjectDef; comm::COMM_LEN] = comm::communication();
 //! static ID: [ObjectDef; 6] = comm::identity(0x0001_0191, 0x1234, 1, 1, 42);
-//! static HB: [ObjectDef; 5] = comm::heartbeat_consumers::<5>();
-//! static HIST: [ObjectDef; 9] = comm::error_history::<9>();
-//! let mut od = StaticDictionary::<64, 512>::new();
+//! static HB: [ObjectDef; 5] = comm::heartbeat_consumers();
+//! static HIST: [ObjectDef; 9] = comm::error_history();
+//! // Room for 64 entries and 512 bytes of values.
+//! type SlaveDictionary = StaticDictionary<64, 512>;
+//! let mut od = SlaveDictionary::new();
 //! od.load(5, &[&COMM, &ID, &HB, &HIST]).unwrap();
 //! ```
 

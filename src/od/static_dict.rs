@@ -21,7 +21,9 @@ struct Slot {
 /// ```
 /// use duocan::od::{Access, ObjectDef, ObjectDictionary, StaticDictionary};
 /// static APP: [ObjectDef; 1] = [ObjectDef::u16(0x2000, 0, Access::Rw, 7)];
-/// let mut od = StaticDictionary::<16, 64>::new();
+/// // Room for 16 entries and 64 bytes of values, named where the dictionary is declared.
+/// type AppDictionary = StaticDictionary<16, 64>;
+/// let mut od = AppDictionary::new();
 /// od.load(5, &[&APP]).unwrap();
 /// assert_eq!(od.get_value::<u16>(0x2000, 0), Ok(7));
 /// ```

@@ -8,8 +8,10 @@
 //! static APP: [ObjectDef; 1] = [ObjectDef::u16(0x6000, 1, Access::Rw, 0).mappable()];
 //! static T1: [ObjectDef; params::TPDO_COMM_LEN] =
 //!     params::tpdo_comm(1, params::predefined_tpdo_cob(1), 255, 0, 100);
-//! static T1_MAP: [ObjectDef; 3] = params::tpdo_mapping::<3>(1, &[0x6000_0110]);
-//! let mut od = StaticDictionary::<16, 128>::new();
+//! static T1_MAP: [ObjectDef; 3] = params::tpdo_mapping(1, &[0x6000_0110]);
+//! // Room for 16 entries and 128 bytes of values.
+//! type AppDictionary = StaticDictionary<16, 128>;
+//! let mut od = AppDictionary::new();
 //! od.load(5, &[&APP, &T1, &T1_MAP]).unwrap();
 //! ```
 
