@@ -126,9 +126,9 @@ pub struct SupervisorConfig {
     pub sync_period: Duration,
     /// TIME period while active (zero: TIME once at each takeover only).
     pub time_period: Duration,
-    /// Events the supervisor holds before the application drains them (default
-    /// [`EVENT_QUEUE`]); allocated once when the supervisor is built, never grown: an event
-    /// beyond it is dropped and counted.
+    /// Events the supervisor holds before the application drains them (default 1,024);
+    /// allocated once when the supervisor is built, never grown: an event beyond it is dropped
+    /// and counted.
     pub event_queue: usize,
 }
 
