@@ -153,7 +153,7 @@ impl SimNetwork {
         }
     }
 
-    /// The seed the network was created with.
+    /// The random seed the network was created with.
     pub fn seed(&self) -> u64 {
         self.seed
     }
