@@ -75,10 +75,10 @@ use crate::link::events::LinkEvent;
 use crate::pair::{Member, PairId, PairSpec};
 use crate::supervisor::audit::{AuditEntry, AuditTrail};
 use crate::supervisor::flying_master::{
-    FlyingEvent, FlyingMaster, FlyingMasterConfig, FlyingMasterError, MasterRole, Rank, MAX_PEERS,
+    FlyingEvent, FlyingMaster, FlyingMasterError, MasterRole, Rank,
 };
 use crate::supervisor::pairs::{
-    Authority, PairCommand, PairState, PairSupervisor, PairsConfig, PairsError, PairsEvent,
+    Authority, PairCommand, PairState, PairSupervisor, PairsError, PairsEvent,
 };
 use alloc::collections::VecDeque;
 use core::fmt;
@@ -86,291 +86,24 @@ use duocan::frame::instant::earliest_of;
 use duocan::frame::queue::Bounded;
 use duocan::machine::{LinkRequest, Machine};
 use duocan::master::{
-    objects, Assignment, BootError, ErrorStatus, Master, MasterError, MasterEvent, MasterEventKind,
-    MasterNode, MasterSdoClient, NmtStartup, SlaveConfig, SlaveView, StartPolicy,
+    objects, Assignment, Master, MasterError, MasterEvent, MasterEventKind, MasterNode,
+    MasterSdoClient, NmtStartup, SlaveConfig, SlaveView, StartPolicy,
 };
 use duocan::nmt::{self, NmtTarget};
 use duocan::node::{NodeEventKind, Writer};
 use duocan::od::{comm, ObjectDictionary};
 use duocan::profile::{IdProfile, Predefined, ProfileFrame};
-use duocan::sdo::SdoEvent;
 use duocan::time_stamp::TimeOfDay;
 use duocan::{Duration, Frame, Instant, NmtCommand, NmtState, NodeEvent, NodeId};
-use heapless::Vec;
+
+use super::config::SupervisorConfig;
+use super::events::{AddPairError, JoinRefusal, SupervisorEvent, SupervisorStats};
 
 /// Flying-master frames the supervisor itself can hold.
 pub const TX_QUEUE: usize = 64;
-/// Events the supervisor can hold before the application drains them, by default
-/// ([`SupervisorConfig::event_queue`]).
-pub const EVENT_QUEUE: usize = 1024;
-
 /// 0x1012 bit 31: consume TIME; bit 30: produce it (the master sets it while active).
 const TIME_CONSUMER: u32 = 1 << 31;
 const TIME_PRODUCER: u32 = 1 << 30;
-
-/// How a supervisor is set up. The master's own settings (0x1F80, SDO timeout, probe
-/// interval, the slaves that are no pair members) are the
-/// [`NetworkConfig`](duocan::master::NetworkConfig) it was built with.
-#[derive(Clone, Debug, PartialEq, Eq)]
-#[non_exhaustive]
-pub struct SupervisorConfig {
-    /// Flying-master timing, rank and policy (the node-ID is the rank's).
-    pub flying: FlyingMasterConfig,
-    /// The other master-capable devices.
-    pub peers: Vec<Rank, MAX_PEERS>,
-    /// Pair supervision policy.
-    pub pairs: PairsConfig,
-    /// This master's heartbeat producer time.
-    pub heartbeat: Duration,
-    /// SYNC period while active (zero: no SYNC).
-    pub sync_period: Duration,
-    /// TIME period while active (zero: TIME once at each takeover only).
-    pub time_period: Duration,
-    /// Events the supervisor holds before the application drains them (default 1,024);
-    /// allocated once when the supervisor is built, never grown: an event beyond it is dropped
-    /// and counted.
-    pub event_queue: usize,
-}
-
-// Builders: the struct is `#[non_exhaustive]` (it may gain fields), so code outside the crate
-// starts from a constructor or `Default` and sets what it needs.
-impl SupervisorConfig {
-    /// The configuration with [`flying`](Self::flying) replaced.
-    #[must_use]
-    pub fn with_flying(mut self, flying: FlyingMasterConfig) -> Self {
-        self.flying = flying;
-        self
-    }
-    /// The configuration with [`pairs`](Self::pairs) replaced.
-    #[must_use]
-    pub fn with_pairs(mut self, pairs: PairsConfig) -> Self {
-        self.pairs = pairs;
-        self
-    }
-    /// The configuration with [`heartbeat`](Self::heartbeat) replaced.
-    #[must_use]
-    pub fn with_heartbeat(mut self, heartbeat: Duration) -> Self {
-        self.heartbeat = heartbeat;
-        self
-    }
-    /// The configuration with [`sync_period`](Self::sync_period) replaced.
-    #[must_use]
-    pub fn with_sync_period(mut self, sync_period: Duration) -> Self {
-        self.sync_period = sync_period;
-        self
-    }
-    /// The configuration with [`time_period`](Self::time_period) replaced.
-    #[must_use]
-    pub fn with_time_period(mut self, time_period: Duration) -> Self {
-        self.time_period = time_period;
-        self
-    }
-    /// The configuration with [`event_queue`](Self::event_queue) replaced (at least 1).
-    #[must_use]
-    pub fn with_event_queue(mut self, capacity: usize) -> Self {
-        self.event_queue = capacity;
-        self
-    }
-}
-
-impl SupervisorConfig {
-    /// A master of `priority` at `node` with a heartbeat of `heartbeat` and a master-heartbeat
-    /// timeout of `master_timeout`, SYNC every `sync_period`; the 0x1F90 defaults otherwise.
-    #[must_use]
-    pub fn new(
-        priority: u8,
-        node: NodeId,
-        heartbeat: Duration,
-        master_timeout: Duration,
-        sync_period: Duration,
-    ) -> Self {
-        SupervisorConfig {
-            flying: FlyingMasterConfig::new(priority, node, master_timeout),
-            peers: Vec::new(),
-            // The supervisor sees the active master's SDO confirmations: a board's own default
-            // heartbeat is no sign of its configuration.
-            pairs: PairsConfig {
-                shadow_join_on_heartbeat: false,
-                ..PairsConfig::default()
-            },
-            heartbeat,
-            sync_period,
-            time_period: Duration::ZERO,
-            event_queue: EVENT_QUEUE,
-        }
-    }
-    /// With another master-capable device.
-    #[must_use]
-    pub fn with_peer(mut self, priority: u8, node: NodeId) -> Self {
-        let _ = self.peers.push(Rank::new(priority, node));
-        self
-    }
-}
-
-/// Why a pair member did not join.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum JoinRefusal {
-    /// Its identity is not what 0x1F84–0x1F88 expect: it is left alone (not reset, not
-    /// adopted) until it boots again.
-    Identity {
-        /// C, D, M, N or O.
-        status: ErrorStatus,
-        /// The member's entry (0x1000 or 0x1018).
-        index: u16,
-        /// Its sub-index.
-        sub: u8,
-        /// What the master expects.
-        expected: u32,
-        /// What the member has.
-        actual: u32,
-    },
-    /// A step of its boot process failed. If the member did not answer, it is reset, to boot
-    /// and be configured again; if it refused (an abort code, a PDO it will not take), it is
-    /// left alone like a wrong identity: a reset would not change its answer.
-    Config {
-        /// The CiA 302-2 error status (B: no answer, J: a configuration write failed).
-        status: ErrorStatus,
-        /// Which access failed and how.
-        reason: BootError,
-    },
-    /// The master refused to run its boot process.
-    Master(MasterError),
-}
-
-impl JoinRefusal {
-    /// True if the member did not answer (worth a reset and another try); false if it answered
-    /// and refused, or is another device.
-    pub fn is_transient(&self) -> bool {
-        use duocan::cia302::pdo_config::PdoConfigErrorKind;
-        use duocan::sdo::SdoErrorKind;
-        match self {
-            JoinRefusal::Config {
-                reason: BootError::Sdo(e),
-                ..
-            } => !matches!(e.kind, SdoErrorKind::Server(_)),
-            JoinRefusal::Config {
-                reason: BootError::Pdo(e),
-                ..
-            } => matches!(e.kind, PdoConfigErrorKind::NoAnswer(_)),
-            _ => false,
-        }
-    }
-}
-
-impl fmt::Display for JoinRefusal {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        match self {
-            JoinRefusal::Identity {
-                status,
-                index,
-                sub,
-                expected,
-                actual,
-            } => write!(
-                f,
-                "{status}: {index:#06x}sub{sub} is {actual:#010x}, expected {expected:#010x}; check the board or the expected identity"
-            ),
-            JoinRefusal::Config { status, reason } => write!(f, "{status}: {reason}"),
-            JoinRefusal::Master(e) => write!(f, "the master refused its boot process: {e}"),
-        }
-    }
-}
-
-// A refusal is reported in an event, not returned; it is still an error an application may
-// pass on with `?` or log with its cause.
-impl core::error::Error for JoinRefusal {
-    fn source(&self) -> Option<&(dyn core::error::Error + 'static)> {
-        match self {
-            JoinRefusal::Identity { .. } => None,
-            JoinRefusal::Config { reason, .. } => Some(reason),
-            JoinRefusal::Master(e) => Some(e),
-        }
-    }
-}
-
-/// What the supervisor tells the application.
-#[derive(Clone, Debug, PartialEq)]
-#[non_exhaustive]
-pub enum SupervisorEvent {
-    /// From the master's own node (SYNC ticks and local writes are not forwarded; see the
-    /// counters).
-    Node(NodeEvent),
-    /// From the pair supervision.
-    Pairs(PairsEvent),
-    /// From the flying master (which master of the network is active).
-    FlyingMaster(FlyingEvent),
-    /// From the CiA 302-2 master: boot-ups, identity checks, configurations, starts, adoptions,
-    /// error control losses, request NMT, activation.
-    Master(MasterEvent),
-    /// The result of an SDO transfer the application started ([`Supervisor::sdo_mut`]).
-    Sdo(SdoEvent),
-    /// A pair member was refused by the master's boot process and did not join.
-    NotJoined {
-        /// When.
-        at: Instant,
-        /// The pair.
-        pair: PairId,
-        /// The member.
-        member: Member,
-        /// Its node.
-        node: NodeId,
-        /// Why.
-        why: JoinRefusal,
-    },
-}
-
-/// Counters.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
-pub struct SupervisorStats {
-    /// SYNC produced.
-    pub sync_produced: u64,
-    /// SYNC received.
-    pub sync_received: u64,
-    /// NMT commands of the pair supervision sent through the master.
-    pub nmt_sent: u32,
-    /// NMT commands the pair supervision asked for while this master could not command (or
-    /// the master's queue was full).
-    pub nmt_withheld: u32,
-    /// Boot processes of pair members started on the pair supervision's request.
-    pub configs: u32,
-    /// Frames dropped because the driver did not drain them.
-    pub tx_dropped: u32,
-    /// Events dropped because the application did not drain them.
-    pub events_dropped: u32,
-}
-
-/// Why a pair could not be added.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum AddPairError {
-    /// The pair table refused it.
-    Pairs(PairsError),
-    /// The master refused a member's slave configuration.
-    Master(NodeId, MasterError),
-}
-
-impl core::error::Error for AddPairError {
-    fn source(&self) -> Option<&(dyn core::error::Error + 'static)> {
-        match self {
-            AddPairError::Pairs(e) => Some(e),
-            AddPairError::Master(_, e) => Some(e),
-        }
-    }
-}
-
-impl fmt::Display for AddPairError {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        match self {
-            AddPairError::Pairs(e) => write!(f, "{e}"),
-            AddPairError::Master(n, e) => write!(f, "pair member {n}: {e}"),
-        }
-    }
-}
-
-impl From<PairsError> for AddPairError {
-    fn from(e: PairsError) -> Self {
-        AddPairError::Pairs(e)
-    }
-}
 
 /// A planned hand-over or take-over, done between two SYNCs.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]

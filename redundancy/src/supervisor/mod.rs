@@ -11,6 +11,10 @@
 //! is active) through [`LinkCommand`]s.
 
 pub mod audit;
+#[cfg(feature = "alloc")]
+mod config;
+#[cfg(feature = "alloc")]
+mod events;
 pub mod flying_master;
 #[cfg(feature = "alloc")]
 mod machine;
@@ -20,4 +24,8 @@ pub mod pairs;
 // vocabulary all the same.
 pub use crate::link::dual_bus::LinkCommand;
 #[cfg(feature = "alloc")]
-pub use machine::{AddPairError, JoinRefusal, Supervisor, SupervisorConfig, SupervisorEvent};
+pub use config::{SupervisorConfig, EVENT_QUEUE};
+#[cfg(feature = "alloc")]
+pub use events::{AddPairError, JoinRefusal, SupervisorEvent, SupervisorStats};
+#[cfg(feature = "alloc")]
+pub use machine::Supervisor;

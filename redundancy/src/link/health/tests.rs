@@ -1,0 +1,295 @@
+//! Port health: every rule of the state machine, with exact instants.
+
+use super::*;
+
+const W: Duration = Duration::from_millis(10);
+fn ms(x: u64) -> Instant {
+    Instant::from_millis(x)
+}
+fn port_events(out: &mut Outbox) -> Vec<(Instant, u8, PortState, PortReason)> {
+    let mut v = vec![];
+    while let Some(e) = out.events.pop() {
+        if let LinkEventKind::Port {
+            port, to, reason, ..
+        } = e.kind
+        {
+            v.push((e.at, port, to, reason));
+        }
+    }
+    v
+}
+/// Frames on both ports every 10 ms until `cut`, then only on port 0, until `end`.
+fn traffic(h: &mut Health, out: &mut Outbox, from: u64, cut: u64, end: u64) {
+    let mut t = from;
+    while t < end {
+        if let Some(d) = h.poll_timeout().filter(|d| *d < ms(t)) {
+            h.handle_timeout(d, out);
+        }
+        let first = if h.trusted(0) {
+            RxOutcome::Delivered
+        } else {
+            RxOutcome::Untrusted
+        };
+        h.on_rx(ms(t), 0, first, out);
+        if t < cut {
+            let o = if h.trusted(1) {
+                RxOutcome::Duplicate
+            } else {
+                RxOutcome::Untrusted
+            };
+            h.on_rx(ms(t) + Duration::from_micros(200), 1, o, out);
+        }
+        t += 10;
+    }
+}
+
+#[test]
+fn a_repaired_port_in_a_quiet_network_is_not_failed_again_for_an_old_miss() {
+    let mut h = Health::new(HealthConfig::default(), W);
+    let mut out = Outbox::new();
+    // Port 1 goes silent while port 0 hears traffic, and fails; then the network falls
+    // quiet (traffic ends at 1000 ms).
+    traffic(&mut h, &mut out, 0, 200, 1000);
+    assert_eq!(h.port(1).state(), PortState::Failed);
+    // Re-initialised after its back-off: recovering, and nothing is missed from then on.
+    let mut t = 1000;
+    while t < 5_000 {
+        if let Some(d) = h.poll_timeout().filter(|d| *d <= ms(t)) {
+            h.handle_timeout(d, &mut out);
+        }
+        t += 5;
+    }
+    assert_eq!(
+        h.port(1).state(),
+        PortState::Recovering,
+        "{:?}",
+        port_events(&mut out)
+    );
+    // A frame port 0 delivers and port 1 misses counts again: port 1 has been silent for
+    // longer than the limit, so it fails when the twin is overdue (one window later).
+    h.on_rx(ms(5_000), 0, RxOutcome::Delivered, &mut out);
+    let d = h.poll_timeout().unwrap();
+    assert_eq!(d, ms(5_000) + W);
+    h.handle_timeout(d, &mut out);
+    assert_eq!(h.port(1).state(), PortState::Failed);
+}
+
+#[test]
+fn a_quiet_port_is_not_judged_next_to_a_failed_one() {
+    let mut h = Health::new(HealthConfig::default(), W);
+    let mut out = Outbox::new();
+    // Traffic on both, then port 1's interface goes down and the network falls quiet (a
+    // silent master): port 0 hears nothing more, and must stay usable.
+    traffic(&mut h, &mut out, 0, 1000, 1000);
+    // Port 0 missed the last frame port 1 heard before it went down.
+    h.on_rx(ms(995), 1, RxOutcome::Delivered, &mut out);
+    h.on_status(
+        ms(1000),
+        1,
+        PortStatus::Down(ErrorCause::InterfaceDown),
+        &mut out,
+    );
+    let mut t = 1000;
+    while t < 10_000 {
+        if let Some(d) = h.poll_timeout().filter(|d| *d <= ms(t)) {
+            h.handle_timeout(d, &mut out);
+        }
+        t += 10;
+    }
+    assert!(
+        port_events(&mut out).iter().all(|(_, p, _, _)| *p == 1),
+        "port 0 keeps its state while port 1 is failed"
+    );
+    assert!(h.usable(0));
+}
+
+#[test]
+fn silence_makes_suspect_then_failed_at_exact_instants_then_reinit_with_backoff() {
+    let mut h = Health::new(HealthConfig::default(), W);
+    let mut out = Outbox::new();
+    traffic(&mut h, &mut out, 0, 1000, 2000);
+    // Last frame on port 1 at 990.2 ms: suspect 100 ms later, failed 300 ms later,
+    // re-initialised 100 ms after that, failed again after 300 ms of silence, then 200 ms
+    // back-off …
+    let last = ms(990) + Duration::from_micros(200);
+    let ev = port_events(&mut out);
+    let silence = |d| PortReason::Silence {
+        silent: Duration::from_millis(d),
+    };
+    assert_eq!(
+        ev[..5],
+        [
+            (
+                last + Duration::from_millis(100),
+                1,
+                PortState::Suspect,
+                silence(100)
+            ),
+            (
+                last + Duration::from_millis(300),
+                1,
+                PortState::Failed,
+                silence(300)
+            ),
+            (
+                last + Duration::from_millis(400),
+                1,
+                PortState::Recovering,
+                PortReason::Reinit { attempt: 1 }
+            ),
+            (
+                last + Duration::from_millis(700),
+                1,
+                PortState::Failed,
+                silence(300)
+            ),
+            (
+                last + Duration::from_millis(900),
+                1,
+                PortState::Recovering,
+                PortReason::Reinit { attempt: 2 }
+            ),
+        ]
+    );
+    assert_eq!(out.requests.pop(), Some((1, PortRequest::Reinit)));
+    assert_eq!(h.port(0).state(), PortState::Ok);
+}
+
+#[test]
+fn a_quiet_network_fails_nobody() {
+    let mut h = Health::new(HealthConfig::default(), W);
+    let mut out = Outbox::new();
+    traffic(&mut h, &mut out, 0, 1000, 1000);
+    assert_eq!(h.poll_timeout(), None);
+    h.handle_timeout(ms(10_000), &mut out);
+    assert!(port_events(&mut out).is_empty());
+    // Traffic resumes, port 1 a little late: still nothing.
+    traffic(&mut h, &mut out, 20_000, 30_000, 30_000);
+    h.handle_timeout(ms(30_500), &mut out);
+    assert!(port_events(&mut out).is_empty());
+}
+
+#[test]
+fn repaired_port_recovers_after_probation_and_is_untrusted_meanwhile() {
+    let mut h = Health::new(HealthConfig::default(), W);
+    let mut out = Outbox::new();
+    traffic(&mut h, &mut out, 0, 100, 450);
+    assert_eq!(h.port(1).state(), PortState::Failed);
+    assert!(!h.trusted(1));
+    traffic(&mut h, &mut out, 450, 1000, 1000);
+    let ev = port_events(&mut out);
+    let n = ev.len();
+    let first = ms(450) + Duration::from_micros(200);
+    assert_eq!(
+        ev[n - 2..],
+        [
+            (first, 1, PortState::Recovering, PortReason::Traffic),
+            (
+                first + Duration::from_millis(100),
+                1,
+                PortState::Ok,
+                PortReason::Traffic
+            )
+        ]
+    );
+    assert_eq!(h.port(1).attempts(), 0);
+}
+
+#[test]
+fn controller_reports() {
+    let mut h = Health::new(HealthConfig::default(), W);
+    let mut out = Outbox::new();
+    h.on_status(ms(1), 0, PortStatus::Error(ErrorCause::Crc), &mut out);
+    assert_eq!(h.port(0).state(), PortState::Suspect);
+    // A frame within the hold time keeps it suspect; after it, ok.
+    h.on_rx(ms(50), 0, RxOutcome::Delivered, &mut out);
+    assert_eq!(h.port(0).state(), PortState::Suspect);
+    h.on_rx(ms(101), 0, RxOutcome::Delivered, &mut out);
+    assert_eq!(h.port(0).state(), PortState::Ok);
+    h.on_status(
+        ms(200),
+        0,
+        PortStatus::TxFailed(ErrorCause::BusOff),
+        &mut out,
+    );
+    assert_eq!(h.port(0).state(), PortState::Failed);
+    assert!(!h.usable(0));
+    h.on_status(
+        ms(250),
+        0,
+        PortStatus::Error(ErrorCause::Restarted),
+        &mut out,
+    );
+    assert_eq!(h.port(0).state(), PortState::Recovering);
+    h.on_status(
+        ms(260),
+        1,
+        PortStatus::Down(ErrorCause::InterfaceDown),
+        &mut out,
+    );
+    h.on_status(ms(270), 1, PortStatus::Up, &mut out);
+    assert_eq!(h.port(1).state(), PortState::Recovering);
+    // Both untrusted: both deliver.
+    assert!(h.trusted(0) && h.trusted(1));
+    let c = h.port(0).counters();
+    assert_eq!(c.errors_of(ErrorCause::Crc), 1);
+    assert_eq!(c.errors_of(ErrorCause::BusOff), 1);
+    assert_eq!(c.tx_failed, 1);
+}
+
+#[test]
+fn transmit_stall_flushes_and_fails_and_only_reinit_revives() {
+    let cfg = HealthConfig {
+        tx_stall: W,
+        ..HealthConfig::default()
+    };
+    let mut h = Health::new(cfg, W);
+    let mut out = Outbox::new();
+    // A driver that never confirmed a success is not judged, even after failures
+    // (embedded-can drivers report failures but cannot confirm successes).
+    h.count_tx(ms(0), 0);
+    assert_eq!(h.poll_timeout(), None);
+    let mut only_failures = Health::new(cfg, W);
+    only_failures.count_tx(ms(0), 0);
+    only_failures.on_status(
+        ms(0),
+        0,
+        PortStatus::TxFailed(ErrorCause::Bit),
+        &mut Outbox::new(),
+    );
+    only_failures.count_tx(ms(1), 0);
+    assert_eq!(only_failures.stall_deadline(0), None);
+    h.on_status(ms(1), 0, PortStatus::TxOk, &mut out);
+    h.count_tx(ms(2), 0);
+    h.count_tx(ms(3), 0);
+    h.on_status(ms(4), 0, PortStatus::TxOk, &mut out);
+    // Oldest outstanding: handed at 3 ms.
+    assert_eq!(h.poll_timeout(), Some(ms(13)));
+    h.handle_timeout(ms(13), &mut out);
+    assert_eq!(out.requests.pop(), Some((0, PortRequest::Reinit)));
+    assert_eq!(
+        port_events(&mut out),
+        [(
+            ms(13),
+            0,
+            PortState::Failed,
+            PortReason::TxStalled { waited: W }
+        )]
+    );
+    // Receiving (a babbler's frames) does not revive it; the back-off re-initialisation does.
+    h.on_rx(ms(20), 0, RxOutcome::Untrusted, &mut out);
+    assert_eq!(h.port(0).state(), PortState::Failed);
+    h.handle_timeout(ms(113), &mut out);
+    assert_eq!(h.port(0).state(), PortState::Recovering);
+    assert_eq!(h.port(0).counters().reinits, 2);
+    // A refused hand-over (queue full) concerns the newest frame.
+    h.count_tx(ms(120), 0);
+    h.count_tx(ms(121), 0);
+    h.on_status(
+        ms(121),
+        0,
+        PortStatus::TxFailed(ErrorCause::TxTimeout),
+        &mut out,
+    );
+    assert_eq!(h.stall_deadline(0), Some(ms(130)));
+}

@@ -1,0 +1,175 @@
+//! What a [`Supervisor`](super::Supervisor) reports, and why a pair could not be added or a
+//! member did not join.
+
+use crate::pair::{Member, PairId};
+use crate::supervisor::flying_master::FlyingEvent;
+use crate::supervisor::pairs::{PairsError, PairsEvent};
+use core::fmt;
+use duocan::master::{BootError, ErrorStatus, MasterError, MasterEvent};
+use duocan::sdo::SdoEvent;
+use duocan::{Instant, NodeEvent, NodeId};
+
+/// Why a pair member did not join.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum JoinRefusal {
+    /// Its identity is not what 0x1F84–0x1F88 expect: it is left alone (not reset, not
+    /// adopted) until it boots again.
+    Identity {
+        /// C, D, M, N or O.
+        status: ErrorStatus,
+        /// The member's entry (0x1000 or 0x1018).
+        index: u16,
+        /// Its sub-index.
+        sub: u8,
+        /// What the master expects.
+        expected: u32,
+        /// What the member has.
+        actual: u32,
+    },
+    /// A step of its boot process failed. If the member did not answer, it is reset, to boot
+    /// and be configured again; if it refused (an abort code, a PDO it will not take), it is
+    /// left alone like a wrong identity: a reset would not change its answer.
+    Config {
+        /// The CiA 302-2 error status (B: no answer, J: a configuration write failed).
+        status: ErrorStatus,
+        /// Which access failed and how.
+        reason: BootError,
+    },
+    /// The master refused to run its boot process.
+    Master(MasterError),
+}
+
+impl JoinRefusal {
+    /// True if the member did not answer (worth a reset and another try); false if it answered
+    /// and refused, or is another device.
+    pub fn is_transient(&self) -> bool {
+        use duocan::cia302::pdo_config::PdoConfigErrorKind;
+        use duocan::sdo::SdoErrorKind;
+        match self {
+            JoinRefusal::Config {
+                reason: BootError::Sdo(e),
+                ..
+            } => !matches!(e.kind, SdoErrorKind::Server(_)),
+            JoinRefusal::Config {
+                reason: BootError::Pdo(e),
+                ..
+            } => matches!(e.kind, PdoConfigErrorKind::NoAnswer(_)),
+            _ => false,
+        }
+    }
+}
+
+impl fmt::Display for JoinRefusal {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            JoinRefusal::Identity {
+                status,
+                index,
+                sub,
+                expected,
+                actual,
+            } => write!(
+                f,
+                "{status}: {index:#06x}sub{sub} is {actual:#010x}, expected {expected:#010x}; check the board or the expected identity"
+            ),
+            JoinRefusal::Config { status, reason } => write!(f, "{status}: {reason}"),
+            JoinRefusal::Master(e) => write!(f, "the master refused its boot process: {e}"),
+        }
+    }
+}
+
+// A refusal is reported in an event, not returned; it is still an error an application may
+// pass on with `?` or log with its cause.
+impl core::error::Error for JoinRefusal {
+    fn source(&self) -> Option<&(dyn core::error::Error + 'static)> {
+        match self {
+            JoinRefusal::Identity { .. } => None,
+            JoinRefusal::Config { reason, .. } => Some(reason),
+            JoinRefusal::Master(e) => Some(e),
+        }
+    }
+}
+
+/// What the supervisor tells the application.
+#[derive(Clone, Debug, PartialEq)]
+#[non_exhaustive]
+pub enum SupervisorEvent {
+    /// From the master's own node (SYNC ticks and local writes are not forwarded; see the
+    /// counters).
+    Node(NodeEvent),
+    /// From the pair supervision.
+    Pairs(PairsEvent),
+    /// From the flying master (which master of the network is active).
+    FlyingMaster(FlyingEvent),
+    /// From the CiA 302-2 master: boot-ups, identity checks, configurations, starts, adoptions,
+    /// error control losses, request NMT, activation.
+    Master(MasterEvent),
+    /// The result of an SDO transfer the application started ([`Supervisor::sdo_mut`](super::Supervisor::sdo_mut)).
+    Sdo(SdoEvent),
+    /// A pair member was refused by the master's boot process and did not join.
+    NotJoined {
+        /// When.
+        at: Instant,
+        /// The pair.
+        pair: PairId,
+        /// The member.
+        member: Member,
+        /// Its node.
+        node: NodeId,
+        /// Why.
+        why: JoinRefusal,
+    },
+}
+
+/// Counters.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct SupervisorStats {
+    /// SYNC produced.
+    pub sync_produced: u64,
+    /// SYNC received.
+    pub sync_received: u64,
+    /// NMT commands of the pair supervision sent through the master.
+    pub nmt_sent: u32,
+    /// NMT commands the pair supervision asked for while this master could not command (or
+    /// the master's queue was full).
+    pub nmt_withheld: u32,
+    /// Boot processes of pair members started on the pair supervision's request.
+    pub configs: u32,
+    /// Frames dropped because the driver did not drain them.
+    pub tx_dropped: u32,
+    /// Events dropped because the application did not drain them.
+    pub events_dropped: u32,
+}
+
+/// Why a pair could not be added.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum AddPairError {
+    /// The pair table refused it.
+    Pairs(PairsError),
+    /// The master refused a member's slave configuration.
+    Master(NodeId, MasterError),
+}
+
+impl core::error::Error for AddPairError {
+    fn source(&self) -> Option<&(dyn core::error::Error + 'static)> {
+        match self {
+            AddPairError::Pairs(e) => Some(e),
+            AddPairError::Master(_, e) => Some(e),
+        }
+    }
+}
+
+impl fmt::Display for AddPairError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            AddPairError::Pairs(e) => write!(f, "{e}"),
+            AddPairError::Master(n, e) => write!(f, "pair member {n}: {e}"),
+        }
+    }
+}
+
+impl From<PairsError> for AddPairError {
+    fn from(e: PairsError) -> Self {
+        AddPairError::Pairs(e)
+    }
+}
