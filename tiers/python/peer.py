@@ -6,8 +6,10 @@ udp_multicast bus. Driven by tests/python_peer.rs; talks to it through stdout li
     peer.py junk GROUP PORT              python-can sends frames duocan must refuse, then one good
 Stdout: one line per event: "READY", "STATE <name>", "WRITE <index> <sub> <hex>" (a write to the
 LocalNode), "READ <index> <sub> <hex>", "WROTE <index> <sub>", "ABORT <index> <sub> <code>",
-"DONE", "SENT <n>". Ends when stdin closes.
+"DONE", "SENT <n>", "ERROR <command> <exception>". Ends when stdin closes.
 """
+import faulthandler
+import signal
 import struct
 import sys
 import threading
@@ -19,8 +21,15 @@ from canopen import objectdictionary as odm
 from canopen.objectdictionary import datatypes as dt
 
 
+_say_lock = threading.Lock()
+
+
 def say(*words):
-    print(" ".join(str(w) for w in words), flush=True)
+    # One write per line under a lock: print() from two threads (the NMT state loop and the
+    # command thread) can interleave the words of one line with the newline of another.
+    with _say_lock:
+        sys.stdout.write(" ".join(str(w) for w in words) + "\n")
+        sys.stdout.flush()
 
 
 def var(name, index, sub, data_type, access, default):
@@ -64,17 +73,21 @@ def watch_stdin(stop, local=None):
     for line in sys.stdin:
         words = line.split()
         if local is not None and words[:1] == ["tpdo"]:
-            if tpdo is None:
-                tpdo = local.tpdo[1]
-                tpdo.clear()
-                tpdo.add_variable(0x6000)
-                tpdo.cob_id = 0x180 + local.id
-                tpdo.enabled = True
-                tpdo.map[0].raw = int(words[1], 0)
-                tpdo.start(0.05)
-            else:
-                tpdo.map[0].raw = int(words[1], 0)
-                tpdo.update()
+            try:
+                if tpdo is None:
+                    tpdo = local.tpdo[1]
+                    tpdo.clear()
+                    tpdo.add_variable(0x6000)
+                    tpdo.cob_id = 0x180 + local.id
+                    tpdo.enabled = True
+                    tpdo.map[0].raw = int(words[1], 0)
+                    tpdo.start(0.05)
+                else:
+                    tpdo.map[0].raw = int(words[1], 0)
+                    tpdo.update()
+            except Exception as e:  # the test fails with this line instead of a silent timeout
+                say("ERROR", line.strip(), repr(e))
+                continue
             say("TPDO", words[1])
     if tpdo is not None:
         tpdo.stop()
@@ -176,4 +189,6 @@ def main(argv):
 
 
 if __name__ == "__main__":
+    # SIGUSR1 prints every thread's stack to stderr: the test asks for it when the peer hangs.
+    faulthandler.register(signal.SIGUSR1, all_threads=True)
     main(sys.argv)
