@@ -1,7 +1,10 @@
 //! Random frames and time steps into a slave node and a master node (standard dictionaries,
 //! heartbeat producer and consumers, SDO server, PDOs, SYNC, EMCY, guarding): no panic, a
-//! bounded number of frames and events per input, and deadlines that move on once handled.
+//! bounded number of frames and events per input, and deadlines that move on once handled, also
+//! when the clock steps back, jumps an hour ahead or reaches the end of time (the clock contract).
 #![no_main]
+
+mod clock;
 
 use duocan::od::{comm, DynamicDictionary, ObjectDictionary};
 use duocan::{Duration, Frame, Id, Instant, Machine, Node, NodeConfig, NodeId};
@@ -65,12 +68,14 @@ fuzz_target!(|data: &[u8]| {
         let [who, lo, hi, flags, dlc, step, d @ ..] = c else {
             continue;
         };
-        now += match step >> 6 {
-            0 => Duration::ZERO,
-            1 => Duration::from_micros(u64::from(*step & 0x3F) * 100),
-            2 => Duration::from_millis(u64::from(*step & 0x3F) * 10),
-            _ => Duration::from_millis(u64::from(*step & 0x3F) * 1000),
-        };
+        now = clock::misbehave(now, *step).unwrap_or_else(|| {
+            now + match step >> 6 {
+                0 => Duration::ZERO,
+                1 => Duration::from_micros(u64::from(*step & 0x3F) * 100),
+                2 => Duration::from_millis(u64::from(*step & 0x3F) * 10),
+                _ => Duration::from_millis(u64::from(*step & 0x3F) * 1000),
+            }
+        });
         let raw = u16::from_le_bytes([*lo, *hi]);
         let id = if flags & 1 == 1 {
             Id::Extended(u32::from(raw) | u32::from(*flags >> 1) << 16)

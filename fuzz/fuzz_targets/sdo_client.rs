@@ -1,7 +1,10 @@
 //! An SDO client with transfers under way (expedited, segmented and block, up and down, to
-//! three servers) fed random answers and time steps: no panic, bounded output, every request
-//! ends (result or abort) once its timeout has passed.
+//! three servers) fed random answers and time steps (steps back, an hour ahead and the end of
+//! time among them: the clock contract): no panic, bounded output, every request ends (result or
+//! abort) once its timeout has passed.
 #![no_main]
+
+mod clock;
 
 use duocan::sdo::{HeapBuffer, TransferMode, SdoClient, SdoOptions};
 use duocan::{Duration, Frame, Id, Instant, Machine, NodeId};
@@ -38,7 +41,8 @@ fuzz_target!(|data: &[u8]| {
         let [who, dlc, step, d @ ..] = chunk else {
             continue;
         };
-        now += Duration::from_millis(u64::from(*step % 32));
+        now = clock::misbehave(now, *step)
+            .unwrap_or_else(|| now + Duration::from_millis(u64::from(*step % 32)));
         let id = Id::Standard(0x585 + u16::from(*who % 4));
         if let Ok(f) = Frame::new(id, &d[..usize::from(*dlc % 9)]) {
             c.handle_frame(now, &f);
@@ -55,7 +59,10 @@ fuzz_target!(|data: &[u8]| {
             ended += 1;
         }
     }
-    // Long after every timeout, nothing is left under way.
+    // A clock that ended comes back (the driver reports the step with one `handle_timeout`); long
+    // after every timeout, nothing is left under way.
+    now = clock::sane(now);
+    c.handle_timeout(now);
     now += Duration::from_secs(10);
     for _ in 0..8 {
         if c.poll_timeout().is_some_and(|t| t <= now) {

@@ -3,7 +3,7 @@
 
 use crate::cia301::service::ServiceOutput;
 use crate::frame::cob_id::CobId;
-use crate::frame::instant::{Duration, Instant};
+use crate::frame::instant::{shift_back, Duration, Instant};
 use crate::frame::queue::Bounded;
 use crate::frame::Malformed;
 use crate::frame::{Frame, Id};
@@ -186,6 +186,11 @@ impl EmcyProducer {
         while let Some(f) = self.poll_frame(now) {
             out.send(f);
         }
+    }
+
+    /// The caller's clock stepped back `by` (the clock contract, [`crate::frame::instant`]).
+    pub fn step_back(&mut self, by: Duration) {
+        shift_back(&mut self.last_sent, by);
     }
 
     /// When the inhibit time lets the next waiting message go.

@@ -9,7 +9,7 @@
 use crate::cia301::nmt::NmtState;
 use crate::cia301::service::{ServiceEvent, ServiceOutput};
 use crate::frame::cob_id::NodeId;
-use crate::frame::instant::{Duration, Instant};
+use crate::frame::instant::{shift_back, Duration, Instant};
 
 /// The slave side: answers guarding requests and watches the master's polling.
 #[derive(Clone, Debug, Default)]
@@ -61,6 +61,10 @@ impl GuardSlave {
     #[must_use]
     pub fn poll_timeout(&self) -> Option<Instant> {
         self.deadline
+    }
+    /// The caller's clock stepped back `by` (the clock contract, [`crate::frame::instant`]).
+    pub fn step_back(&mut self, by: Duration) {
+        shift_back(&mut self.deadline, by);
     }
     /// Reports a life-guarding loss if the deadline passed.
     pub fn handle_timeout<O: ServiceOutput>(&mut self, now: Instant, out: &mut O) {
@@ -272,6 +276,14 @@ impl<const N: usize> GuardMaster<N> {
                     g.next_poll = now + g.guard_time;
                 }
             }
+        }
+    }
+
+    /// The caller's clock stepped back `by` (the clock contract, [`crate::frame::instant`]).
+    pub fn step_back(&mut self, by: Duration) {
+        for g in self.nodes.iter_mut() {
+            g.next_poll = g.next_poll - by;
+            g.deadline = g.deadline - by;
         }
     }
 

@@ -6,7 +6,7 @@
 use crate::cia301::nmt::NmtState;
 use crate::cia301::service::{ServiceEvent, ServiceOutput};
 use crate::frame::cob_id::NodeId;
-use crate::frame::instant::{Duration, Instant};
+use crate::frame::instant::{next_on_grid, shift_back, Duration, Instant};
 use crate::od::abort::AbortCode;
 
 /// Produces the heartbeat on a fixed grid (no drift: the next beat is scheduled from the previous
@@ -47,17 +47,16 @@ impl HeartbeatProducer {
             out.event(now, ServiceEvent::HeartbeatDue);
         }
     }
+    /// The caller's clock stepped back `by` (the clock contract, [`crate::frame::instant`]).
+    pub fn step_back(&mut self, by: Duration) {
+        shift_back(&mut self.next, by);
+    }
     /// True if a heartbeat is due at `now`; advances the schedule.
     pub fn due(&mut self, now: Instant) -> bool {
         match self.next {
             Some(t) if t <= now => {
-                let mut n = t + self.period;
-                if n <= now {
-                    // The driver was late by more than a period: keep the phase, skip the backlog.
-                    let behind = (now - t).as_micros() / self.period.as_micros().max(1);
-                    n = t + self.period.saturating_mul(behind + 1);
-                }
-                self.next = Some(n);
+                // A driver late by more than a period: the phase is kept, the backlog skipped.
+                self.next = Some(next_on_grid(t, self.period, now));
                 true
             }
             _ => false,
@@ -279,6 +278,14 @@ impl<const N: usize> HeartbeatConsumer<N> {
                     }),
                 );
             }
+        }
+        self.recompute_next();
+    }
+
+    /// The caller's clock stepped back `by` (the clock contract, [`crate::frame::instant`]).
+    pub fn step_back(&mut self, by: Duration) {
+        for e in self.entries.iter_mut() {
+            e.last = e.last - by;
         }
         self.recompute_next();
     }

@@ -2,7 +2,7 @@
 //! of module control, and the master's view of every node's state.
 
 use crate::frame::cob_id::NodeId;
-use crate::frame::instant::Instant;
+use crate::frame::instant::{Duration, Instant};
 use crate::frame::Malformed;
 use crate::frame::{Frame, Id};
 use core::fmt;
@@ -287,6 +287,12 @@ impl NodeTable {
             None
         } else {
             Some(prev)
+        }
+    }
+    /// The caller's clock stepped back `by` (the clock contract, [`crate::frame::instant`]).
+    pub fn step_back(&mut self, by: Duration) {
+        for t in self.seen.iter_mut() {
+            *t = *t - by;
         }
     }
     /// Last known view of a node.

@@ -9,7 +9,7 @@
 
 use crate::cia301::service::{ServiceEvent, ServiceOutput};
 use crate::frame::cob_id::CobId;
-use crate::frame::instant::{Duration, Instant};
+use crate::frame::instant::{next_on_grid, shift_back, Duration, Instant};
 use crate::frame::Malformed;
 use crate::frame::{Frame, Id};
 
@@ -127,6 +127,12 @@ impl SyncService {
         self.next
     }
 
+    /// The caller's clock stepped back `by` (the clock contract, [`crate::frame::instant`]).
+    pub fn step_back(&mut self, by: Duration) {
+        shift_back(&mut self.next, by);
+        shift_back(&mut self.last, by);
+    }
+
     /// When the last SYNC was produced or received.
     pub fn last(&self) -> Option<Instant> {
         self.last
@@ -147,13 +153,8 @@ impl SyncService {
     fn produce(&mut self, now: Instant) -> Option<(Frame, SyncTick)> {
         let due = self.next.filter(|t| *t <= now)?;
         let id = self.id?;
-        let mut next = due + self.cfg.period;
-        if next <= now {
-            // More than one period late: keep the phase, drop the backlog (one SYNC, not a burst).
-            let periods = (now - due).as_micros() / self.cfg.period.as_micros().max(1);
-            next = due + self.cfg.period.saturating_mul(periods + 1);
-        }
-        self.next = Some(next);
+        // More than one period late: keep the phase, drop the backlog (one SYNC, not a burst).
+        self.next = Some(next_on_grid(due, self.cfg.period, now));
         self.last = Some(now);
         let tick = self.tick();
         let frame = match tick.counter {

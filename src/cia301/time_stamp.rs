@@ -6,7 +6,7 @@
 
 use crate::cia301::service::ServiceOutput;
 use crate::frame::cob_id::CobId;
-use crate::frame::instant::{Duration, Instant};
+use crate::frame::instant::{next_on_grid, shift_back, Duration, Instant};
 use crate::frame::Malformed;
 use crate::frame::{Frame, Id};
 
@@ -146,11 +146,20 @@ impl TimeService {
         let Some(due) = self.next.filter(|t| *t <= now) else {
             return;
         };
-        self.next = Some((due + self.period).max(now + Duration::from_micros(1)));
+        self.next = Some(next_on_grid(due, self.period, now));
         if let Some(f) = self.frame(now) {
             if out.nmt_state().services().time {
                 out.send(f);
             }
+        }
+    }
+    /// The caller's clock stepped back `by` (the clock contract, [`crate::frame::instant`]): the
+    /// next TIME keeps its distance, and the time of day goes on from where it was instead of
+    /// standing still until the old clock is reached again.
+    pub fn step_back(&mut self, by: Duration) {
+        shift_back(&mut self.next, by);
+        if let Some(b) = self.base.as_mut() {
+            b.at = b.at - by;
         }
     }
     /// A TIME frame arrived: the local clock follows it when this node consumes TIME.

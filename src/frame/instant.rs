@@ -3,6 +3,47 @@
 //! The core never reads a clock. Every machine is handed the current [`Instant`] by its driver:
 //! the simulator's virtual clock or the runtime's monotonic clock. Both are plain microsecond
 //! counters, so a failover timing observed in simulation is the exact number the code computed.
+//!
+//! # The clock contract
+//!
+//! What a machine does when the time it is given misbehaves. The simulator and the tokio runtime
+//! never make it misbehave; an embedded driver's timer may (a wrap, a resynchronised RTC, a
+//! glitch), and every machine copes with it in the same way:
+//!
+//! - **A jump ahead** is time that passed: every timeout due in between fires once; a periodic
+//!   producer (heartbeat, SYNC, TIME, event-timer PDOs) sends once, not a burst of the periods it
+//!   missed, and keeps its phase.
+//! - **A step back** is noticed on the next input that carries the earlier time (a frame, a
+//!   `handle_timeout`, a boot; [`TimeWatch`] does the noticing). The machine then moves every time
+//!   it holds — deadlines, "last sent", "last heard" — back by the size of the step: no timer
+//!   gains or loses remaining time, as if the clock had always read the new way. A glitch to one
+//!   hour ahead and back costs one period of each service, not an hour of silence. A driver
+//!   whose clock can step back calls `handle_timeout(now)` once after the step, so that a machine
+//!   with no traffic re-anchors too.
+//! - **[`Instant::MAX`] is the end of time.** A deadline that would fall at or beyond it is
+//!   "never": `poll_timeout` does not report it ([`earliest`] and [`earliest_of`] drop it), so a
+//!   driver loop at `Instant::MAX` handles what is due once and then waits, instead of spinning on
+//!   a deadline that stays due forever.
+//!
+//! ```
+//! use duocan::frame::instant::{earliest, shift_back, TimeWatch};
+//! use duocan::{Duration, Instant};
+//!
+//! let mut watch = TimeWatch::new();
+//! let glitch = Instant::from_secs(3600);
+//! assert_eq!(watch.step_back(glitch), None); // a glitch ahead is time that passed
+//! let step = watch.step_back(Instant::from_millis(5)); // and back: re-anchor
+//! assert_eq!(step, Some(glitch - Instant::from_millis(5)));
+//! assert_eq!(watch.step_back(Instant::from_millis(6)), None); // normal again
+//!
+//! // A heartbeat scheduled 100 ms after the glitch comes 100 ms after the new time.
+//! let mut next = Some(glitch + Duration::from_millis(100));
+//! shift_back(&mut next, step.unwrap());
+//! assert_eq!(next, Some(Instant::from_millis(105)));
+//!
+//! // Nothing is ever due at the end of time.
+//! assert_eq!(earliest(Some(Instant::MAX), None), None);
+//! ```
 
 use core::fmt;
 use core::ops::{Add, AddAssign, Sub};
@@ -169,9 +210,15 @@ impl fmt::Debug for Duration {
     }
 }
 
-/// Earliest of two optional deadlines: what a composite machine reports from its parts.
+/// Earliest of two optional deadlines: what a composite machine reports from its parts. A
+/// deadline at [`Instant::MAX`] is "never" (the clock contract) and is dropped.
 #[inline]
 pub fn earliest(a: Option<Instant>, b: Option<Instant>) -> Option<Instant> {
+    min2(a, b).filter(|t| *t != Instant::MAX)
+}
+
+#[inline]
+fn min2(a: Option<Instant>, b: Option<Instant>) -> Option<Instant> {
     match (a, b) {
         (Some(x), Some(y)) => Some(x.min(y)),
         (x, None) => x,
@@ -182,10 +229,69 @@ pub fn earliest(a: Option<Instant>, b: Option<Instant>) -> Option<Instant> {
 /// Earliest of any number of optional deadlines: a machine lists its named timers in one array
 /// (`earliest_of([self.retry, self.timeout, …])`), so that its next deadline is computed in one
 /// place and a new timer is one more element. No allocation; an array folds like a written-out
-/// chain of [`earliest`].
+/// chain of [`earliest`]. A deadline at [`Instant::MAX`] is "never" and is dropped.
 #[inline]
 pub fn earliest_of(deadlines: impl IntoIterator<Item = Option<Instant>>) -> Option<Instant> {
-    deadlines.into_iter().fold(None, earliest)
+    deadlines
+        .into_iter()
+        .fold(None, min2)
+        .filter(|t| *t != Instant::MAX)
+}
+
+/// The next instant of a periodic schedule after the one `due` was handled at `now`: the next
+/// point of the grid `due + k × period` (k ≥ 1) later than `now`. A driver that was late by more
+/// than a period gets one send and the phase kept, not a burst of the periods it missed (the
+/// clock contract's jump ahead). A zero period counts as 1 µs.
+#[inline]
+#[must_use]
+pub fn next_on_grid(due: Instant, period: Duration, now: Instant) -> Instant {
+    let next = due + period;
+    if next > now {
+        return next;
+    }
+    let p = period.as_micros().max(1);
+    let behind = (now - due).as_micros() / p;
+    due + Duration::from_micros(p).saturating_mul(behind + 1)
+}
+
+/// Notices the caller's clock stepping back: a machine keeps one and asks it on every input that
+/// carries a time (the clock contract above). One comparison per input; no allocation.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct TimeWatch {
+    latest: Instant,
+}
+
+impl TimeWatch {
+    /// A watch that has seen no time yet.
+    #[must_use]
+    pub const fn new() -> Self {
+        TimeWatch {
+            latest: Instant::ZERO,
+        }
+    }
+    /// Records `now`; when it is earlier than the latest time seen before, returns by how much the
+    /// caller's clock stepped back (the machine moves every time it holds back by as much). From
+    /// then on `now` is the latest time.
+    #[inline]
+    #[must_use]
+    pub fn step_back(&mut self, now: Instant) -> Option<Duration> {
+        let back = (now < self.latest).then(|| self.latest - now);
+        self.latest = now;
+        back
+    }
+    /// The latest time seen.
+    pub const fn latest(&self) -> Instant {
+        self.latest
+    }
+}
+
+/// Moves a held time (a deadline, a "last sent") back with a clock that stepped back `by`
+/// (saturating at [`Instant::ZERO`]): the time still to run, or run already, stays the same.
+#[inline]
+pub fn shift_back(t: &mut Option<Instant>, by: Duration) {
+    if let Some(t) = t {
+        *t = *t - by;
+    }
 }
 
 #[cfg(test)]
@@ -223,6 +329,51 @@ mod tests {
         assert_eq!(earliest(a, b), b);
         assert_eq!(earliest(a, None), a);
         assert_eq!(earliest(None, None), None);
+    }
+
+    #[test]
+    fn the_end_of_time_is_never_due() {
+        let t = |ms| Some(Instant::from_millis(ms));
+        assert_eq!(earliest(Some(Instant::MAX), None), None);
+        assert_eq!(earliest(Some(Instant::MAX), t(4)), t(4));
+        assert_eq!(earliest_of([Some(Instant::MAX), None]), None);
+        assert_eq!(earliest_of([Some(Instant::MAX), t(9), t(8)]), t(8));
+    }
+
+    #[test]
+    fn a_late_periodic_send_keeps_the_phase_and_skips_the_backlog() {
+        let ms = Instant::from_millis;
+        let p = Duration::from_millis(10);
+        assert_eq!(next_on_grid(ms(100), p, ms(100)), ms(110));
+        assert_eq!(next_on_grid(ms(100), p, ms(109)), ms(110));
+        assert_eq!(next_on_grid(ms(100), p, ms(110)), ms(120));
+        assert_eq!(next_on_grid(ms(100), p, ms(3_600_005)), ms(3_600_010));
+        assert_eq!(
+            next_on_grid(ms(100), Duration::ZERO, ms(100)),
+            ms(100) + Duration::from_micros(1)
+        );
+        assert_eq!(next_on_grid(ms(100), p, Instant::MAX), Instant::MAX);
+    }
+
+    #[test]
+    fn a_step_back_is_noticed_once_with_its_size() {
+        let mut w = TimeWatch::new();
+        assert_eq!(w.step_back(Instant::from_millis(10)), None);
+        assert_eq!(w.step_back(Instant::from_millis(10)), None);
+        assert_eq!(
+            w.step_back(Instant::from_millis(9)),
+            Some(Duration::from_millis(1))
+        );
+        assert_eq!(w.step_back(Instant::from_millis(9)), None);
+        assert_eq!(w.latest(), Instant::from_millis(9));
+        let mut d = Some(Instant::from_secs(100));
+        shift_back(&mut d, Duration::from_secs(99));
+        assert_eq!(d, Some(Instant::from_secs(1)));
+        shift_back(&mut d, Duration::from_secs(99));
+        assert_eq!(d, Some(Instant::ZERO), "saturates at the origin");
+        let mut none = None;
+        shift_back(&mut none, Duration::from_secs(1));
+        assert_eq!(none, None);
     }
 
     #[test]

@@ -11,7 +11,7 @@ use crate::cia301::pdo::{self, PdoEngine};
 use crate::cia301::service::{ServiceEvent, ServiceOutput};
 use crate::cia301::sync::SyncTick;
 use crate::frame::cob_id::NodeId;
-use crate::frame::instant::{earliest_of, Instant};
+use crate::frame::instant::{earliest_of, Duration, Instant};
 use crate::frame::queue::Bounded;
 use crate::frame::Malformed;
 use crate::frame::{Frame, Id};
@@ -385,6 +385,21 @@ impl<
         for timer in Timer::ALL {
             self.run(now, timer);
         }
+    }
+
+    /// The caller's clock stepped back `by`: every timed service and the table of remote nodes
+    /// move back with it (the clock contract).
+    #[cold]
+    pub(super) fn step_back(&mut self, by: Duration) {
+        self.hb.step_back(by);
+        self.consumer.step_back(by);
+        self.guard.step_back(by);
+        self.guard_master.step_back(by);
+        self.sync.step_back(by);
+        self.time.step_back(by);
+        self.pdo.step_back(by);
+        self.emcy.step_back(by);
+        self.nodes.step_back(by);
     }
 
     /// The next deadline of the timed services (none while initialising).

@@ -14,7 +14,7 @@ use crate::cia301::sdo::{SdoServer, SdoServerConfig};
 use crate::cia301::sync::SyncService;
 use crate::cia301::time_stamp::{TimeOfDay, TimeService};
 use crate::frame::cob_id::NodeId;
-use crate::frame::instant::{earliest, Duration, Instant};
+use crate::frame::instant::{earliest, Duration, Instant, TimeWatch};
 use crate::frame::queue::Bounded;
 use crate::frame::Frame;
 use crate::machine::{LinkRequest, Machine};
@@ -130,6 +130,8 @@ pub struct NodeCore<
     stats: NodeStats,
     /// Boot-ups so far: the SDO server re-reads its channel when this changes.
     boots: u32,
+    /// Notices the caller's clock stepping back (the clock contract).
+    clock: TimeWatch,
 }
 
 /// A CANopen node on one logical bus.
@@ -198,6 +200,7 @@ impl<
                 events: Bounded::new(),
                 stats: NodeStats::default(),
                 boots: 0,
+                clock: TimeWatch::new(),
             },
             sdo: SdoServer::new(SdoServerConfig::default()),
             sdo_boots: 0,
@@ -207,6 +210,7 @@ impl<
     /// Power-on: configure the services from the dictionary, send boot-up, enter
     /// pre-operational (or operational with `auto_start`).
     pub fn boot(&mut self, now: Instant) {
+        self.watch_clock(now);
         self.core.boot(now);
         self.sdo_follow_core();
     }
@@ -219,6 +223,16 @@ impl<
     /// and reset communication.
     pub fn sdo_server_mut(&mut self) -> &mut SdoServer {
         &mut self.sdo
+    }
+
+    /// The clock contract ([`crate::frame::instant`]): on every input that carries a time, a step
+    /// back of the caller's clock moves every time the node holds back with it.
+    #[inline]
+    fn watch_clock(&mut self, now: Instant) {
+        if let Some(by) = self.core.clock.step_back(now) {
+            self.core.step_back(by);
+            self.sdo.step_back(by);
+        }
     }
 
     /// After anything that may have reset the node or left the SDO states: re-read the channel
@@ -299,6 +313,7 @@ impl<
 
     /// Changes the local state as the application (a master starting itself, …).
     pub fn set_nmt_state(&mut self, now: Instant, state: NmtState) {
+        self.watch_clock(now);
         self.core.enter(now, state, StateCause::Local);
         self.sdo_follow_core();
     }
@@ -436,6 +451,7 @@ impl<
     type LinkCommand = core::convert::Infallible;
 
     fn handle_frame(&mut self, now: Instant, frame: &Frame) {
+        self.watch_clock(now);
         if Some(frame.id()) == self.sdo.rx_id() && self.core.state.services().sdo {
             self.core.stats.rx_frames += 1;
             if let Err(reason) = self.sdo.handle_frame(now, frame, &mut self.core) {
@@ -447,6 +463,7 @@ impl<
         self.sdo_follow_core();
     }
     fn handle_timeout(&mut self, now: Instant) {
+        self.watch_clock(now);
         self.core.handle_timeout(now);
         self.sdo_follow_core();
         self.sdo.handle_timeout(now);

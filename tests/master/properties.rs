@@ -1,6 +1,7 @@
 //! The master under random input: frames of any kind (boot-ups, heartbeats, SDO answers right,
-//! wrong or garbled, NMT, noise), time jumps, and application calls in any order. It never
-//! panics, its queues stay bounded, and a standby never sends NMT, SYNC or SDO requests.
+//! wrong or garbled, NMT, noise), time jumps ahead, steps back and the end of time (the clock
+//! contract), and application calls in any order. It never panics, never spins on a deadline, its
+//! queues stay bounded, and a standby never sends NMT, SYNC or SDO requests.
 
 use crate::net::*;
 use duocan::cia302::pdo_config::PdoConfig;
@@ -36,6 +37,12 @@ enum Op {
     /// Every slave answers every request correctly, this many rounds (slaves at work).
     Respond(u8),
     Advance(u32),
+    /// The caller's clock steps back this many µs; the driver reports it with `handle_timeout`.
+    Back(u32),
+    /// One `handle_timeout` an hour ahead, and time goes on from there.
+    FarAhead,
+    /// The clock reaches `Instant::MAX`.
+    End,
     SetActive(bool),
     Nmt(u8, u8),
     BootSlave(u8),
@@ -65,6 +72,9 @@ fn op() -> impl Strategy<Value = Op> {
         (1u8..30).prop_map(Op::Respond),
         (1u8..30).prop_map(Op::Respond),
         (0u32..400_000).prop_map(Op::Advance),
+        (0u32..2_000_000).prop_map(Op::Back),
+        Just(Op::FarAhead),
+        Just(Op::End),
         any::<bool>().prop_map(Op::SetActive),
         (0u8..6, 0u8..=12).prop_map(|(c, n)| Op::Nmt(c, n)),
         node.clone().prop_map(Op::BootSlave),
@@ -278,6 +288,25 @@ proptest! {
                     h.now = until;
                     h.m.handle_timeout(h.now);
                     h.drain(false)?;
+                }
+                Op::Back(us) => {
+                    h.now = h.now - Duration::from_micros(us as u64);
+                    h.m.handle_timeout(h.now);
+                    h.drain(false)?;
+                }
+                Op::FarAhead | Op::End => {
+                    h.now = match op {
+                        Op::End => Instant::MAX,
+                        _ => h.now + Duration::from_secs(3600),
+                    };
+                    // A driver loop at that instant: what is due is handled, then it waits.
+                    let mut rounds = 0;
+                    while let Some(t) = h.m.poll_timeout().filter(|t| *t <= h.now) {
+                        rounds += 1;
+                        prop_assert!(rounds <= 3, "still due at {t:?} after {rounds} rounds");
+                        h.m.handle_timeout(h.now);
+                        h.drain(false)?;
+                    }
                 }
                 Op::SetActive(a) => {
                     h.m.set_active(h.now, a);

@@ -1,5 +1,6 @@
 //! The node (`duocan::node`): every CiA 301 service through a node, properties, static RAM, timing on the simulated bus.
 
+mod clock;
 #[path = "../common/mod.rs"]
 mod common;
 mod memory;

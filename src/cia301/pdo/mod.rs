@@ -34,7 +34,7 @@ pub use mapping::{
 
 use crate::cia301::emcy;
 use crate::cia301::service::{ServiceEvent, ServiceOutput};
-use crate::frame::instant::{earliest, Instant};
+use crate::frame::instant::{earliest, Duration, Instant};
 use crate::frame::queue::Bounded;
 use crate::frame::{Frame, Id};
 use crate::od::abort::AbortCode;
@@ -570,6 +570,20 @@ impl<const T: usize, const R: usize> PdoEngine<T, R> {
             next = earliest(next, self.rpdos[k].deadline());
         }
         self.next = next;
+    }
+
+    /// The caller's clock stepped back `by` (the clock contract, [`crate::frame::instant`]):
+    /// event timers, reception timeouts and inhibit times keep what they have left to run.
+    pub fn step_back(&mut self, by: Duration) {
+        for t in self.tpdos.iter_mut() {
+            t.step_back(by);
+        }
+        for r in self.rpdos.iter_mut() {
+            r.step_back(by);
+        }
+        // The bound is made exact by the timeout this causes: a timer that saturated at the end
+        // of time was "never" in it, and is a real deadline once moved back.
+        self.next = Some(Instant::ZERO);
     }
 
     /// Time passed.

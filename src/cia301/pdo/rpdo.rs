@@ -10,7 +10,7 @@
 //!   frame, which clears it.
 
 use super::mapping::Mapping;
-use crate::frame::instant::{Duration, Instant};
+use crate::frame::instant::{shift_back, Duration, Instant};
 use crate::frame::Id;
 use crate::od::abort::AbortCode;
 
@@ -164,6 +164,12 @@ impl Rpdo {
             }
             _ => None,
         }
+    }
+
+    /// The caller's clock stepped back `by` (the clock contract, [`crate::frame::instant`]).
+    pub fn step_back(&mut self, by: Duration) {
+        shift_back(&mut self.last_rx, by);
+        shift_back(&mut self.deadline, by);
     }
 
     pub fn deadline(&self) -> Option<Instant> {

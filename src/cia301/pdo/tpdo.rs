@@ -14,7 +14,7 @@
 //! Entering operational counts as an event for 254/255, so the current values go out at once.
 
 use super::mapping::Mapping;
-use crate::frame::instant::{earliest, Duration, Instant};
+use crate::frame::instant::{earliest, shift_back, Duration, Instant};
 use crate::frame::Id;
 use crate::od::abort::AbortCode;
 
@@ -225,6 +225,12 @@ impl Tpdo {
 
     fn inhibit_over(&self, now: Instant) -> bool {
         self.last_sent.is_none_or(|l| now >= l + self.p.inhibit)
+    }
+
+    /// The caller's clock stepped back `by` (the clock contract, [`crate::frame::instant`]).
+    pub fn step_back(&mut self, by: Duration) {
+        shift_back(&mut self.last_sent, by);
+        shift_back(&mut self.timer_due, by);
     }
 
     /// It was sent at `now`.

@@ -28,7 +28,7 @@ use super::session::{
     next_download_segment, prepare_upload, start_download, upload_segment, Session, State,
 };
 use crate::frame::cob_id::NodeId;
-use crate::frame::instant::{earliest_of, Instant};
+use crate::frame::instant::{earliest_of, shift_back, Instant, TimeWatch};
 use crate::frame::queue::Bounded;
 use crate::frame::Frame;
 use crate::machine::Machine;
@@ -44,6 +44,7 @@ pub struct SdoClient<B: TransferBuffer = DefaultBuffer, const SESSIONS: usize = 
     events: Bounded<SdoEvent<B>, SESSIONS>,
     rr: usize,
     stats: SdoClientStats,
+    clock: TimeWatch,
 }
 
 impl SdoClient {
@@ -69,6 +70,18 @@ impl<B: TransferBuffer, const SESSIONS: usize> SdoClient<B, SESSIONS> {
             events: Bounded::new(),
             rr: 0,
             stats: SdoClientStats::default(),
+            clock: TimeWatch::new(),
+        }
+    }
+
+    /// The clock contract ([`crate::frame::instant`]): when the caller's clock stepped back,
+    /// each transfer's timeouts move back with it.
+    fn watch_clock(&mut self, now: Instant) {
+        if let Some(by) = self.clock.step_back(now) {
+            for s in self.sessions.iter_mut() {
+                shift_back(&mut s.deadline, by);
+                shift_back(&mut s.subblock_deadline, by);
+            }
         }
     }
 
@@ -544,6 +557,7 @@ impl<B: TransferBuffer, const SESSIONS: usize> Machine for SdoClient<B, SESSIONS
     type LinkCommand = core::convert::Infallible;
 
     fn handle_frame(&mut self, now: Instant, frame: &Frame) {
+        self.watch_clock(now);
         if let Some(i) = self
             .sessions
             .iter()
@@ -554,6 +568,7 @@ impl<B: TransferBuffer, const SESSIONS: usize> Machine for SdoClient<B, SESSIONS
     }
 
     fn handle_timeout(&mut self, now: Instant) {
+        self.watch_clock(now);
         for i in 0..SESSIONS {
             let s = &mut self.sessions[i];
             if s.subblock_deadline.is_some_and(|t| t <= now) {

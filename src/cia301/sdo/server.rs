@@ -15,7 +15,7 @@ use super::buffer::{DefaultBuffer, TransferBuffer, DEFAULT_LIMIT};
 use super::codec::{self, Init, Request, Response, SegmentData, MAX_BLOCK_SIZE};
 use super::crc::crc16;
 use crate::frame::cob_id::{predefined, CobId, NodeId};
-use crate::frame::instant::{earliest, Duration, Instant};
+use crate::frame::instant::{earliest, shift_back, Duration, Instant};
 use crate::frame::queue::Bounded;
 use crate::frame::Malformed;
 use crate::frame::{Frame, Id};
@@ -768,6 +768,12 @@ impl<B: TransferBuffer> SdoServer<B> {
     #[must_use]
     pub fn poll_timeout(&self) -> Option<Instant> {
         earliest(self.deadline, self.subblock_deadline)
+    }
+
+    /// The caller's clock stepped back `by` (the clock contract, [`crate::frame::instant`]).
+    pub fn step_back(&mut self, by: Duration) {
+        shift_back(&mut self.deadline, by);
+        shift_back(&mut self.subblock_deadline, by);
     }
 
     /// The next frame to send: an answer, or the next segment of a block upload.

@@ -93,7 +93,7 @@ pub use events::{MasterError, MasterEvent, MasterEventKind, MasterStats, SlaveVi
 use crate::cia301::nmt::{NmtCommand, NmtState, NmtTarget};
 use crate::cia301::sdo::{DefaultBuffer, SdoClient, DEFAULT_LIMIT};
 use crate::frame::cob_id::NodeId;
-use crate::frame::instant::{earliest_of, Duration, Instant};
+use crate::frame::instant::{earliest_of, Duration, Instant, TimeWatch};
 use crate::frame::Frame;
 use crate::machine::Machine;
 use crate::node::{Node, NodeConfig, ALL_NODES};
@@ -158,6 +158,8 @@ pub struct Master<D, P = Predefined> {
     sdo_timeout: Duration,
     probe_interval: Duration,
     default_consumer_ms: u16,
+    /// Notices the caller's clock stepping back (the clock contract).
+    clock: TimeWatch,
 }
 
 impl<D: ObjectDictionary> Master<D> {
@@ -253,6 +255,7 @@ impl<D: ObjectDictionary, P: IdProfile> Master<D, P> {
             sdo_timeout: config.sdo_timeout,
             probe_interval: config.probe_interval,
             default_consumer_ms: config.default_consumer_ms,
+            clock: TimeWatch::new(),
         };
         // Before boot the node reads its dictionary at boot, so plain stores suffice.
         for n in (1..=127u8).filter_map(NodeId::new) {
@@ -268,6 +271,7 @@ impl<D: ObjectDictionary, P: IdProfile> Master<D, P> {
 
     /// Powers the master on: boots its node and, if active, the network.
     pub fn boot(&mut self, now: Instant) {
+        self.watch_clock(now);
         self.booted = true;
         self.node.boot(now);
         if self.acting() {
@@ -578,6 +582,7 @@ impl<D: ObjectDictionary, P: IdProfile> Machine for Master<D, P> {
     type LinkCommand = core::convert::Infallible;
 
     fn handle_frame(&mut self, now: Instant, frame: &Frame) {
+        self.watch_clock(now);
         self.node.handle_frame(now, frame);
         if !self.sdo_idle {
             self.sdo.handle_frame(now, frame);
@@ -586,6 +591,7 @@ impl<D: ObjectDictionary, P: IdProfile> Machine for Master<D, P> {
     }
 
     fn handle_timeout(&mut self, now: Instant) {
+        self.watch_clock(now);
         self.node.handle_timeout(now);
         if !self.sdo_idle {
             self.sdo.handle_timeout(now);

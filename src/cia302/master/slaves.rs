@@ -11,7 +11,7 @@ use crate::cia301::nmt::{NmtCommand, NmtState, NmtTarget};
 use crate::cia301::sdo::{RequestId, SdoErrorKind, SdoEvent, SdoOptions, TransferBuffer};
 use crate::frame::cob_id::NodeId;
 use crate::frame::cob_id::NodeSet;
-use crate::frame::instant::{earliest, earliest_of, Duration, Instant};
+use crate::frame::instant::{earliest, earliest_of, shift_back, Duration, Instant};
 use crate::machine::Machine;
 use crate::node::{NodeEvent, NodeEventKind};
 use crate::od::abort::AbortCode;
@@ -70,6 +70,19 @@ impl Slot {
             self.hb_check.map(|(_, d)| d),
         ])
     }
+
+    /// The caller's clock stepped back `by` (the clock contract, [`crate::frame::instant`]).
+    fn step_back(&mut self, by: Duration) {
+        shift_back(&mut self.probe_at, by);
+        shift_back(&mut self.wait_until, by);
+        if let Some((armed, due)) = self.hb_check.as_mut() {
+            *armed = *armed - by;
+            *due = *due - by;
+        }
+        if let Some((_, at)) = self.commanded.as_mut() {
+            *at = *at - by;
+        }
+    }
 }
 
 impl<D: ObjectDictionary, P: IdProfile> Master<D, P> {
@@ -119,6 +132,29 @@ impl<D: ObjectDictionary, P: IdProfile> Master<D, P> {
     /// Clearing a timer needs nothing (a bound reached early only costs a look at the slots).
     pub(super) fn arm(&mut self, t: Option<Instant>) {
         self.slot_timer = earliest(self.slot_timer, t);
+    }
+
+    /// The clock contract ([`crate::frame::instant`]): on every input that carries a time, a step
+    /// back of the caller's clock moves every timer of the master back with it (its node and SDO
+    /// client watch the clock themselves).
+    #[inline]
+    pub(super) fn watch_clock(&mut self, now: Instant) {
+        if let Some(by) = self.clock.step_back(now) {
+            self.step_back(by);
+        }
+    }
+
+    #[cold]
+    fn step_back(&mut self, by: Duration) {
+        for s in self.slots.iter_mut() {
+            s.step_back(by);
+        }
+        // Recomputed rather than shifted: a timer that saturated at the end of time was "never"
+        // in the cached bound, and is a real deadline once moved back.
+        self.slot_timer = self.slot_deadline();
+        if let Network::Booting { deadline, .. } = &mut self.network {
+            shift_back(deadline, by);
+        }
     }
 
     pub(super) fn on_timers(&mut self, now: Instant) {
