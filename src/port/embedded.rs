@@ -12,8 +12,12 @@
 //! ([`EmbeddedDriver::with_reinit`]: only the application knows how to restart its controller)
 //! and the device is told the port is up again (or down, if the hook failed). A layer waiting for
 //! its re-initialisation is therefore never left waiting by an application that forgot it.
+//!
+//! A hardware timer may wrap or be resynchronised: `poll` notices a time earlier than the last one
+//! and hands it to the device with one `handle_timeout`, so the device re-anchors its timers as
+//! the clock contract says ([`crate::frame::instant`]) even with no frame arriving.
 
-use crate::frame::instant::Instant;
+use crate::frame::instant::{Instant, TimeWatch};
 use crate::frame::Frame;
 use crate::machine::{Device, ErrorCause, PortRequest, PortStatus};
 use embedded_can::nb::Can;
@@ -65,6 +69,7 @@ pub struct EmbeddedDriver<D, C: Can, const PORTS: usize> {
     backlog: [Deque<C::Frame, TX_BACKLOG>; PORTS],
     stats: [EmbeddedPortStats; PORTS],
     reinit: Option<ReinitHook<C>>,
+    clock: TimeWatch,
 }
 
 impl<D: Device, C: Can, const PORTS: usize> EmbeddedDriver<D, C, PORTS> {
@@ -77,6 +82,7 @@ impl<D: Device, C: Can, const PORTS: usize> EmbeddedDriver<D, C, PORTS> {
             backlog: core::array::from_fn(|_| Deque::new()),
             stats: [EmbeddedPortStats::default(); PORTS],
             reinit: None,
+            clock: TimeWatch::new(),
         }
     }
 
@@ -116,7 +122,9 @@ impl<D: Device, C: Can, const PORTS: usize> EmbeddedDriver<D, C, PORTS> {
         for i in 0..PORTS {
             self.receive(now, i);
         }
-        if self.device.poll_timeout().is_some_and(|t| t <= now) {
+        // A step back of the timer is reported at once, due or not (the clock contract).
+        let stepped_back = self.clock.step_back(now).is_some();
+        if stepped_back || self.device.poll_timeout().is_some_and(|t| t <= now) {
             self.device.handle_timeout(now);
         }
         self.reinit_requested(now);
@@ -211,7 +219,7 @@ mod tests {
     use crate::frame::Id;
     use crate::machine::{Machine, Station};
     use crate::od::{comm, ObjectDictionary};
-    use crate::{Node, NodeConfig, NodeId};
+    use crate::{Duration, Node, NodeConfig, NodeId};
 
     /// A controller with one mailbox that is busy every other call.
     #[derive(Default)]
@@ -279,5 +287,24 @@ mod tests {
         assert_eq!(drv.device().link.last_error, Some(ErrorCause::Crc));
         while drv.poll_event().is_some() {}
         let _ = drv.device_mut().machine.poll_event();
+    }
+
+    #[test]
+    fn a_timer_that_steps_back_is_reported_to_the_device() {
+        let id = NodeId::new(5).unwrap();
+        let mut od = comm::standard_dictionary(5, comm::Identity::default());
+        od.write_local(comm::HEARTBEAT_PRODUCER, 0, &100u16.to_le_bytes())
+            .unwrap();
+        let mut node = Node::new(NodeConfig::slave(id), od);
+        node.boot(Instant::ZERO);
+        let mut drv = EmbeddedDriver::new(Station::single(node), [Flaky::default()]);
+        let ms = Instant::from_millis;
+        assert_eq!(drv.poll(ms(0)), Some(ms(100)));
+        // A glitch to an hour ahead: the heartbeat due goes out, the next is on the grid.
+        let glitch = Instant::from_secs(3600);
+        assert_eq!(drv.poll(glitch), Some(glitch + Duration::from_millis(100)));
+        // The timer comes back to 50 ms: with no frame and nothing due by the old clock, the
+        // driver still tells the device, whose heartbeat is again 100 ms away.
+        assert_eq!(drv.poll(ms(50)), Some(ms(150)));
     }
 }
