@@ -36,6 +36,7 @@ use crate::cia301::emcy;
 use crate::cia301::service::{ServiceEvent, ServiceOutput};
 use crate::frame::instant::{earliest, Instant};
 use crate::frame::queue::Bounded;
+use crate::frame::storage::{Inline, Storage, Table};
 use crate::frame::{Frame, Id};
 use crate::od::abort::AbortCode;
 use crate::od::{key, ObjectDictionary};
@@ -216,18 +217,51 @@ fn equal_range(v: &[(u32, u16)], k: u32) -> (usize, usize) {
     (lo, hi)
 }
 
+/// The running PDOs by identifier: sorted (key, slot) pairs, with room for every PDO.
+struct Index<S: Storage, const N: usize> {
+    slots: Table<(u32, u16), N, S>,
+    len: usize,
+}
+
+impl<S: Storage, const N: usize> Index<S, N> {
+    fn new(capacity: usize) -> Self {
+        Index {
+            slots: Table::new(capacity, || (0, 0)),
+            len: 0,
+        }
+    }
+
+    fn pairs(&self) -> &[(u32, u16)] {
+        &self.slots[..self.len]
+    }
+
+    /// The identifiers of the running PDOs (`None`: not running), sorted.
+    fn rebuild(&mut self, ids: impl Iterator<Item = Option<Id>>) {
+        let slots = &mut *self.slots;
+        self.len = 0;
+        for (k, id) in ids.enumerate() {
+            if let Some(id) = id {
+                // Cannot overflow: one slot per PDO.
+                slots[self.len] = (id_key(id), k as u16);
+                self.len += 1;
+            }
+        }
+        slots[..self.len].sort_unstable();
+    }
+}
+
 /// Entry → event-capable TPDOs that map it, sorted by entry key. Holds 8 mappings per TPDO on
 /// average; beyond that (long bit-granular mappings) lookups fall back to scanning the TPDOs.
-struct Reverse<const T: usize> {
-    slots: [[(u32, u16); CACHED]; T],
+struct Reverse<S: Storage, const T: usize> {
+    slots: Table<[(u32, u16); CACHED], T, S>,
     len: usize,
     overflow: bool,
 }
 
-impl<const T: usize> Reverse<T> {
-    const fn new() -> Self {
+impl<S: Storage, const T: usize> Reverse<S, T> {
+    fn new(tpdos: usize) -> Self {
         Reverse {
-            slots: [[(0, 0); CACHED]; T],
+            slots: Table::new(tpdos, || [(0, 0); CACHED]),
             len: 0,
             overflow: false,
         }
@@ -241,7 +275,7 @@ impl<const T: usize> Reverse<T> {
         &self.slots.as_flattened()[..self.len]
     }
 
-    fn rebuild<D: ObjectDictionary + ?Sized>(&mut self, tpdos: &[Tpdo; T], od: &D) {
+    fn rebuild<D: ObjectDictionary + ?Sized>(&mut self, tpdos: &[Tpdo], od: &D) {
         self.len = 0;
         self.overflow = false;
         let flat = self.slots.as_flattened_mut();
@@ -276,13 +310,14 @@ impl<const T: usize> Reverse<T> {
     }
 }
 
-/// The PDO engine of a node: `T` TPDOs and `R` RPDOs.
-pub(crate) struct PdoEngine<const T: usize, const R: usize> {
-    tpdos: [Tpdo; T],
-    rpdos: [Rpdo; R],
-    rx_index: heapless::Vec<(u32, u16), R>,
-    tx_index: heapless::Vec<(u32, u16), T>,
-    reverse: Reverse<T>,
+/// The PDO engine of a node: `T` TPDOs and `R` RPDOs inline, or as many as it was built with on
+/// the heap.
+pub(crate) struct PdoEngine<const T: usize, const R: usize, S: Storage = Inline> {
+    tpdos: Table<Tpdo, T, S>,
+    rpdos: Table<Rpdo, R, S>,
+    rx_index: Index<S, R>,
+    tx_index: Index<S, T>,
+    reverse: Reverse<S, T>,
     running: bool,
     /// No engine deadline is earlier than this (it may be early: a lower bound, made exact at
     /// the next timeout, so that a reception costs O(1) however many RPDOs there are).
@@ -293,15 +328,16 @@ pub(crate) struct PdoEngine<const T: usize, const R: usize> {
     shorts: u16,
 }
 
-impl<const T: usize, const R: usize> PdoEngine<T, R> {
+impl<const T: usize, const R: usize, S: Storage> PdoEngine<T, R, S> {
+    /// An engine for `tpdos` TPDOs and `rpdos` RPDOs (inline storage: `T` and `R`).
     #[must_use]
-    pub fn new() -> Self {
+    pub fn new(tpdos: usize, rpdos: usize) -> Self {
         PdoEngine {
-            tpdos: [const { Tpdo::new() }; T],
-            rpdos: [const { Rpdo::new() }; R],
-            rx_index: heapless::Vec::new(),
-            tx_index: heapless::Vec::new(),
-            reverse: Reverse::new(),
+            tpdos: Table::new(tpdos, Tpdo::new),
+            rpdos: Table::new(rpdos, Rpdo::new),
+            rx_index: Index::new(rpdos),
+            tx_index: Index::new(tpdos),
+            reverse: Reverse::new(tpdos),
             running: false,
             next: None,
             rx_events: true,
@@ -309,6 +345,16 @@ impl<const T: usize, const R: usize> PdoEngine<T, R> {
             timeouts: 0,
             shorts: 0,
         }
+    }
+
+    /// TPDOs the engine runs (TPDO1 up to this).
+    pub fn tpdo_capacity(&self) -> usize {
+        self.tpdos.len()
+    }
+
+    /// RPDOs the engine runs (RPDO1 up to this).
+    pub fn rpdo_capacity(&self) -> usize {
+        self.rpdos.len()
     }
 
     pub fn set_rx_events(&mut self, on: bool) {
@@ -375,20 +421,11 @@ impl<const T: usize, const R: usize> PdoEngine<T, R> {
     }
 
     fn rebuild_indexes<D: ObjectDictionary + ?Sized>(&mut self, od: &D) {
-        self.rx_index.clear();
-        for (k, r) in self.rpdos.iter().enumerate() {
-            if let (true, Some(id)) = (r.p.active(), r.p.id) {
-                let _ = self.rx_index.push((id_key(id), k as u16));
-            }
-        }
-        self.rx_index.sort_unstable();
-        self.tx_index.clear();
-        for (k, t) in self.tpdos.iter().enumerate() {
-            if let (true, Some(id)) = (t.p.active(), t.p.id) {
-                let _ = self.tx_index.push((id_key(id), k as u16));
-            }
-        }
-        self.tx_index.sort_unstable();
+        let running = |active: bool, id: Option<Id>| id.filter(|_| active);
+        self.rx_index
+            .rebuild(self.rpdos.iter().map(|r| running(r.p.active(), r.p.id)));
+        self.tx_index
+            .rebuild(self.tpdos.iter().map(|t| running(t.p.active(), t.p.id)));
         self.reverse.rebuild(&self.tpdos, od);
     }
 
@@ -400,12 +437,12 @@ impl<const T: usize, const R: usize> PdoEngine<T, R> {
         io: &mut Io<'_, D, O>,
     ) {
         self.stop();
-        for k in 0..T {
+        for k in 0..self.tpdos.len() {
             let p = read_tpdo(io.od, k as u16);
             report(io, now, Dir::Transmit, k, p.id, p.error);
             self.tpdos[k].p = p;
         }
-        for k in 0..R {
+        for k in 0..self.rpdos.len() {
             let p = read_rpdo(io.od, k as u16);
             report(io, now, Dir::Receive, k, p.id, p.error);
             self.rpdos[k].p = p;
@@ -423,7 +460,7 @@ impl<const T: usize, const R: usize> PdoEngine<T, R> {
     ) {
         let k = slot as usize;
         match dir {
-            Dir::Transmit if k < T => {
+            Dir::Transmit if k < self.tpdos.len() => {
                 let new = read_tpdo(io.od, slot);
                 let t = &mut self.tpdos[k];
                 let old = t.p;
@@ -452,7 +489,7 @@ impl<const T: usize, const R: usize> PdoEngine<T, R> {
                 }
                 self.service_tpdo(k, now, io);
             }
-            Dir::Receive if k < R => {
+            Dir::Receive if k < self.rpdos.len() => {
                 let new = read_rpdo(io.od, slot);
                 let old = self.rpdos[k].p;
                 if new == old {
@@ -503,7 +540,7 @@ impl<const T: usize, const R: usize> PdoEngine<T, R> {
         for t in self.tpdos.iter_mut() {
             t.stop();
         }
-        for k in 0..R {
+        for k in 0..self.rpdos.len() {
             let rec = self.rpdos[k].stop();
             self.recovered(rec, k as u16 + 1);
         }
@@ -549,13 +586,13 @@ impl<const T: usize, const R: usize> PdoEngine<T, R> {
         io: &mut Io<'_, D, O>,
     ) {
         let mut next = None;
-        for k in 0..T {
+        for k in 0..self.tpdos.len() {
             if self.tpdos[k].due(now) {
                 self.send_tpdo(k, now, io);
             }
             next = earliest(next, self.tpdos[k].deadline());
         }
-        for k in 0..R {
+        for k in 0..self.rpdos.len() {
             if let Some(last) = self.rpdos[k].due(now) {
                 let pdo = k as u16 + 1;
                 io.event(now, PdoEvent::RpdoTimeout { pdo, last });
@@ -594,12 +631,12 @@ impl<const T: usize, const R: usize> PdoEngine<T, R> {
         if !self.running {
             return;
         }
-        for k in 0..R {
+        for k in 0..self.rpdos.len() {
             if let Some(b) = self.rpdos[k].buffered.take() {
                 self.apply(k, now, &b, io);
             }
         }
-        for k in 0..T {
+        for k in 0..self.tpdos.len() {
             match self.tpdos[k].on_sync(counter) {
                 OnSync::Nothing => {}
                 OnSync::Send => self.send_tpdo(k, now, io),
@@ -647,9 +684,9 @@ impl<const T: usize, const R: usize> PdoEngine<T, R> {
     ) -> bool {
         let k = id_key(frame.id());
         if frame.is_remote() {
-            let (lo, hi) = equal_range(&self.tx_index, k);
+            let (lo, hi) = equal_range(self.tx_index.pairs(), k);
             for i in lo..hi {
-                let slot = self.tx_index[i].1 as usize;
+                let slot = self.tx_index.pairs()[i].1 as usize;
                 match self.tpdos[slot].rtr() {
                     OnRtr::Ignore => {}
                     OnRtr::SendSampled => {
@@ -664,9 +701,9 @@ impl<const T: usize, const R: usize> PdoEngine<T, R> {
             }
             return lo < hi;
         }
-        let (lo, hi) = equal_range(&self.rx_index, k);
+        let (lo, hi) = equal_range(self.rx_index.pairs(), k);
         for i in lo..hi {
-            let slot = self.rx_index[i].1 as usize;
+            let slot = self.rx_index.pairs()[i].1 as usize;
             let pdo = slot as u16 + 1;
             let mut rec = Recovered::default();
             match self.rpdos[slot].frame(now, frame.data(), &mut rec) {
@@ -715,7 +752,7 @@ impl<const T: usize, const R: usize> PdoEngine<T, R> {
         }
         let key = key(index, sub);
         if self.reverse.overflow {
-            for k in 0..T {
+            for k in 0..self.tpdos.len() {
                 if self.maps(k, key, io.od) && self.tpdos[k].trigger() {
                     self.service_tpdo(k, now, io);
                 }
