@@ -24,12 +24,55 @@ mod sealed {
 pub trait Storage: sealed::Sealed {
     /// The slots of a [`Table`] of `T`.
     type Slots<T, const N: usize>: AsRef<[T]> + AsMut<[T]>;
+    /// A vector of at most a fixed number of `T`.
+    type Vec<T, const N: usize>: BoundedVec<T>;
     /// A bounded FIFO of `T`.
     type Fifo<T, const N: usize>: Fifo<T>;
     /// `len` slots made by `fill` (inline: `N` slots; `len` must be `N`).
     fn slots<T, const N: usize>(len: usize, fill: impl FnMut() -> T) -> Self::Slots<T, N>;
     /// An empty FIFO holding at most `capacity` items (inline: `N`; `capacity` must be `N`).
     fn fifo<T, const N: usize>(capacity: usize) -> Self::Fifo<T, N>;
+    /// An empty vector holding at most `capacity` items (inline: `N`; `capacity` must be `N`).
+    fn vec<T, const N: usize>(capacity: usize) -> Self::Vec<T, N>;
+}
+
+/// A vector that holds at most the items it was built for: pushing beyond is refused, never
+/// growth.
+pub trait BoundedVec<T>: Deref<Target = [T]> + DerefMut {
+    /// Appends; gives the item back when full.
+    fn try_push(&mut self, item: T) -> Result<(), T>;
+    /// Removes every item.
+    fn clear(&mut self);
+}
+
+impl<T, const N: usize> BoundedVec<T> for heapless::Vec<T, N> {
+    #[inline]
+    fn try_push(&mut self, item: T) -> Result<(), T> {
+        self.push(item)
+    }
+    #[inline]
+    fn clear(&mut self) {
+        heapless::Vec::clear(self);
+    }
+}
+
+/// Bounded by the capacity allocated when it was built ([`Storage::vec`]).
+#[cfg(feature = "alloc")]
+impl<T> BoundedVec<T> for alloc::vec::Vec<T> {
+    #[inline]
+    fn try_push(&mut self, item: T) -> Result<(), T> {
+        // Checked before the push, so the vector never reallocates.
+        if self.len() < self.capacity() {
+            self.push(item);
+            Ok(())
+        } else {
+            Err(item)
+        }
+    }
+    #[inline]
+    fn clear(&mut self) {
+        alloc::vec::Vec::clear(self);
+    }
 }
 
 /// Tables as arrays inside their owner, sized by its const generics: no allocator, no
@@ -42,6 +85,7 @@ impl sealed::Sealed for Inline {}
 impl Storage for Inline {
     type Slots<T, const N: usize> = [T; N];
     type Fifo<T, const N: usize> = Bounded<T, N>;
+    type Vec<T, const N: usize> = heapless::Vec<T, N>;
     fn slots<T, const N: usize>(len: usize, mut fill: impl FnMut() -> T) -> [T; N] {
         debug_assert_eq!(len, N, "an inline table has its const length");
         core::array::from_fn(|_| fill())
@@ -49,6 +93,10 @@ impl Storage for Inline {
     fn fifo<T, const N: usize>(capacity: usize) -> Bounded<T, N> {
         debug_assert_eq!(capacity, N, "an inline queue has its const capacity");
         Bounded::new()
+    }
+    fn vec<T, const N: usize>(capacity: usize) -> heapless::Vec<T, N> {
+        debug_assert_eq!(capacity, N, "an inline vector has its const capacity");
+        heapless::Vec::new()
     }
 }
 
@@ -65,11 +113,15 @@ impl sealed::Sealed for Heap {}
 impl Storage for Heap {
     type Slots<T, const N: usize> = alloc::boxed::Box<[T]>;
     type Fifo<T, const N: usize> = super::queue::BoundedHeap<T>;
+    type Vec<T, const N: usize> = alloc::vec::Vec<T>;
     fn slots<T, const N: usize>(len: usize, mut fill: impl FnMut() -> T) -> Self::Slots<T, N> {
         (0..len).map(|_| fill()).collect()
     }
     fn fifo<T, const N: usize>(capacity: usize) -> Self::Fifo<T, N> {
         super::queue::BoundedHeap::new(capacity)
+    }
+    fn vec<T, const N: usize>(capacity: usize) -> Self::Vec<T, N> {
+        alloc::vec::Vec::with_capacity(capacity)
     }
 }
 
@@ -122,5 +174,12 @@ mod tests {
         assert!(q.push(1) && q.push(2));
         assert!(!q.push(3));
         assert_eq!((q.len(), q.dropped(), Fifo::capacity(&q)), (2, 1, 2));
+        let mut v = Heap::vec::<u8, 3>(2);
+        let room = v.capacity();
+        for i in 0..10 {
+            let _ = v.try_push(i);
+        }
+        assert_eq!((v.len(), v.capacity()), (room, room));
+        assert_eq!(v.try_push(10), Err(10));
     }
 }

@@ -36,7 +36,7 @@ use crate::cia301::emcy;
 use crate::cia301::service::{ServiceEvent, ServiceOutput};
 use crate::frame::instant::{earliest, Instant};
 use crate::frame::queue::Bounded;
-use crate::frame::storage::{Inline, Storage, Table};
+use crate::frame::storage::{BoundedVec, Inline, Storage, Table};
 use crate::frame::{Frame, Id};
 use crate::od::abort::AbortCode;
 use crate::od::{key, ObjectDictionary};
@@ -217,39 +217,6 @@ fn equal_range(v: &[(u32, u16)], k: u32) -> (usize, usize) {
     (lo, hi)
 }
 
-/// The running PDOs by identifier: sorted (key, slot) pairs, with room for every PDO.
-struct Index<S: Storage, const N: usize> {
-    slots: Table<(u32, u16), N, S>,
-    len: usize,
-}
-
-impl<S: Storage, const N: usize> Index<S, N> {
-    fn new(capacity: usize) -> Self {
-        Index {
-            slots: Table::new(capacity, || (0, 0)),
-            len: 0,
-        }
-    }
-
-    fn pairs(&self) -> &[(u32, u16)] {
-        &self.slots[..self.len]
-    }
-
-    /// The identifiers of the running PDOs (`None`: not running), sorted.
-    fn rebuild(&mut self, ids: impl Iterator<Item = Option<Id>>) {
-        let slots = &mut *self.slots;
-        self.len = 0;
-        for (k, id) in ids.enumerate() {
-            if let Some(id) = id {
-                // Cannot overflow: one slot per PDO.
-                slots[self.len] = (id_key(id), k as u16);
-                self.len += 1;
-            }
-        }
-        slots[..self.len].sort_unstable();
-    }
-}
-
 /// Entry → event-capable TPDOs that map it, sorted by entry key. Holds 8 mappings per TPDO on
 /// average; beyond that (long bit-granular mappings) lookups fall back to scanning the TPDOs.
 struct Reverse<S: Storage, const T: usize> {
@@ -315,8 +282,8 @@ impl<S: Storage, const T: usize> Reverse<S, T> {
 pub(crate) struct PdoEngine<const T: usize, const R: usize, S: Storage = Inline> {
     tpdos: Table<Tpdo, T, S>,
     rpdos: Table<Rpdo, R, S>,
-    rx_index: Index<S, R>,
-    tx_index: Index<S, T>,
+    rx_index: S::Vec<(u32, u16), R>,
+    tx_index: S::Vec<(u32, u16), T>,
     reverse: Reverse<S, T>,
     running: bool,
     /// No engine deadline is earlier than this (it may be early: a lower bound, made exact at
@@ -335,8 +302,8 @@ impl<const T: usize, const R: usize, S: Storage> PdoEngine<T, R, S> {
         PdoEngine {
             tpdos: Table::new(tpdos, Tpdo::new),
             rpdos: Table::new(rpdos, Rpdo::new),
-            rx_index: Index::new(rpdos),
-            tx_index: Index::new(tpdos),
+            rx_index: S::vec(rpdos),
+            tx_index: S::vec(tpdos),
             reverse: Reverse::new(tpdos),
             running: false,
             next: None,
@@ -421,11 +388,20 @@ impl<const T: usize, const R: usize, S: Storage> PdoEngine<T, R, S> {
     }
 
     fn rebuild_indexes<D: ObjectDictionary + ?Sized>(&mut self, od: &D) {
-        let running = |active: bool, id: Option<Id>| id.filter(|_| active);
-        self.rx_index
-            .rebuild(self.rpdos.iter().map(|r| running(r.p.active(), r.p.id)));
-        self.tx_index
-            .rebuild(self.tpdos.iter().map(|t| running(t.p.active(), t.p.id)));
+        self.rx_index.clear();
+        for (k, r) in self.rpdos.iter().enumerate() {
+            if let (true, Some(id)) = (r.p.active(), r.p.id) {
+                let _ = self.rx_index.try_push((id_key(id), k as u16));
+            }
+        }
+        self.rx_index.sort_unstable();
+        self.tx_index.clear();
+        for (k, t) in self.tpdos.iter().enumerate() {
+            if let (true, Some(id)) = (t.p.active(), t.p.id) {
+                let _ = self.tx_index.try_push((id_key(id), k as u16));
+            }
+        }
+        self.tx_index.sort_unstable();
         self.reverse.rebuild(&self.tpdos, od);
     }
 
@@ -684,9 +660,9 @@ impl<const T: usize, const R: usize, S: Storage> PdoEngine<T, R, S> {
     ) -> bool {
         let k = id_key(frame.id());
         if frame.is_remote() {
-            let (lo, hi) = equal_range(self.tx_index.pairs(), k);
+            let (lo, hi) = equal_range(&self.tx_index, k);
             for i in lo..hi {
-                let slot = self.tx_index.pairs()[i].1 as usize;
+                let slot = self.tx_index[i].1 as usize;
                 match self.tpdos[slot].rtr() {
                     OnRtr::Ignore => {}
                     OnRtr::SendSampled => {
@@ -701,9 +677,9 @@ impl<const T: usize, const R: usize, S: Storage> PdoEngine<T, R, S> {
             }
             return lo < hi;
         }
-        let (lo, hi) = equal_range(self.rx_index.pairs(), k);
+        let (lo, hi) = equal_range(&self.rx_index, k);
         for i in lo..hi {
-            let slot = self.rx_index.pairs()[i].1 as usize;
+            let slot = self.rx_index[i].1 as usize;
             let pdo = slot as u16 + 1;
             let mut rec = Recovered::default();
             match self.rpdos[slot].frame(now, frame.data(), &mut rec) {
