@@ -12,7 +12,7 @@
 //!
 //! | Layer | Module | What it holds |
 //! | --- | --- | --- |
-//! | 0 | [`frame`] | frames and identifiers, COB-IDs and node-IDs, time as an input, bounded queues |
+//! | 0 | [`frame`] | frames and identifiers, COB-IDs and node-IDs, time as an input, bounded queues and tables (inline or heap) |
 //! | 1 | [`machine`] | the shapes: [`Machine`], [`BusLink`], [`Device`], [`Station`] |
 //! | 2 | [`od`] | the object dictionary: types, values, static and dynamic dictionaries, abort codes |
 //! | 3 | [`cia301`] | the CiA 301 services, one module per object: [`nmt`], [`heartbeat`], [`guarding`], [`sync`], [`time_stamp`], [`emcy`], [`sdo`], [`pdo`] |

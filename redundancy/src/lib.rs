@@ -55,7 +55,10 @@
 //! `no_std` targets; the supervisor needs `alloc` (as the root crate's master does). The layer's
 //! capacities are part of its type (`DualBus<C, SLOTS, FUNCTIONS>`) so that it needs no
 //! allocator; the `alloc` types above it (supervisor, station, network) are spelled with a
-//! dictionary and an identifier profile only, their capacities fixed where they are built.
+//! dictionary and an identifier profile only: their capacities are configuration values
+//! (the master's PDOs, SDO sessions and queues in
+//! [`NetworkConfig`](duocan::master::NetworkConfig), the supervisor's event queue in
+//! [`SupervisorConfig`]), allocated once when they are built and never grown.
 #![cfg_attr(not(feature = "std"), no_std)]
 #![warn(missing_docs)]
 #![forbid(unsafe_code)]

@@ -6,6 +6,7 @@
 pub mod cob_id;
 pub mod instant;
 pub mod queue;
+pub mod storage;
 
 use core::fmt;
 

@@ -7,6 +7,7 @@ use crate::cia301::pdo::{self};
 use crate::cia301::sync::SyncConfig;
 use crate::frame::cob_id::CobId;
 use crate::frame::instant::{Duration, Instant};
+use crate::frame::storage::Storage;
 use crate::od::abort::AbortCode;
 use crate::od::ObjectAccess;
 use crate::od::{check_value, comm, Access, Entry, ObjectDictionary};
@@ -18,7 +19,8 @@ impl<
         const GUARDED: usize,
         const TPDOS: usize,
         const RPDOS: usize,
-    > NodeCore<D, P, GUARDED, TPDOS, RPDOS>
+        S: Storage,
+    > NodeCore<D, P, GUARDED, TPDOS, RPDOS, S>
 {
     pub(super) fn u16_of(&self, index: u16) -> u16 {
         self.od.get_u32(index, 0).unwrap_or(0) as u16
@@ -202,7 +204,8 @@ impl<
         const GUARDED: usize,
         const TPDOS: usize,
         const RPDOS: usize,
-    > ObjectAccess for NodeCore<D, P, GUARDED, TPDOS, RPDOS>
+        S: Storage,
+    > ObjectAccess for NodeCore<D, P, GUARDED, TPDOS, RPDOS, S>
 {
     fn entry(&self, index: u16, sub: u8) -> Result<Entry<'_>, AbortCode> {
         self.od.get(index, sub)

@@ -13,6 +13,7 @@ use crate::cia301::sync::SyncTick;
 use crate::frame::cob_id::NodeId;
 use crate::frame::instant::{earliest_of, Duration, Instant};
 use crate::frame::queue::Bounded;
+use crate::frame::storage::Storage;
 use crate::frame::Malformed;
 use crate::frame::{Frame, Id};
 use crate::od::{comm, ObjectDictionary};
@@ -40,7 +41,8 @@ impl<
         const GUARDED: usize,
         const TPDOS: usize,
         const RPDOS: usize,
-    > NodeCore<D, P, GUARDED, TPDOS, RPDOS>
+        S: Storage,
+    > NodeCore<D, P, GUARDED, TPDOS, RPDOS, S>
 {
     pub(super) fn id(&self) -> NodeId {
         self.cfg.node_id
@@ -53,7 +55,10 @@ impl<
     #[allow(clippy::type_complexity)]
     pub(super) fn pdo_io(
         &mut self,
-    ) -> (&mut PdoEngine<TPDOS, RPDOS>, pdo::Io<'_, D, NodeOut<'_, P>>) {
+    ) -> (
+        &mut PdoEngine<TPDOS, RPDOS, S>,
+        pdo::Io<'_, D, NodeOut<'_, P>>,
+    ) {
         let io = pdo::Io {
             od: &mut self.od,
             out: node_out!(self),

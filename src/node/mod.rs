@@ -16,6 +16,7 @@ use crate::cia301::time_stamp::{TimeOfDay, TimeService};
 use crate::frame::cob_id::NodeId;
 use crate::frame::instant::{earliest, Duration, Instant, TimeWatch};
 use crate::frame::queue::Bounded;
+use crate::frame::storage::{Inline, Storage};
 use crate::frame::Frame;
 use crate::machine::{LinkRequest, Machine};
 use crate::od::abort::AbortCode;
@@ -110,6 +111,7 @@ pub struct NodeCore<
     const GUARDED: usize = ALL_NODES,
     const TPDOS: usize = 4,
     const RPDOS: usize = 4,
+    S: Storage = Inline,
 > {
     od: D,
     profile: P,
@@ -124,7 +126,7 @@ pub struct NodeCore<
     emcy: EmcyProducer,
     history_slots: u8,
     nodes: NodeTable,
-    pdo: PdoEngine<TPDOS, RPDOS>,
+    pdo: PdoEngine<TPDOS, RPDOS, S>,
     tx: Bounded<Frame, TX_QUEUE>,
     events: Bounded<NodeEvent, EVENT_QUEUE>,
     stats: NodeStats,
@@ -149,14 +151,21 @@ pub struct NodeCore<
 /// /// A concentrator mirroring the TPDOs of many boards.
 /// type Concentrator = Node<DynamicDictionary, Predefined, ALL_NODES, 4, 512>;
 /// ```
+///
+/// `S` is where the PDO tables live: [`Inline`] (the default) holds `TPDOS` and `RPDOS` inside
+/// the node; [`Heap`](crate::frame::storage::Heap) (`alloc`) allocates them once when the node is
+/// built, as many as [`Node::with_pdo_capacity`] asks for (`TPDOS`/`RPDOS` are then only what
+/// the other constructors allocate). The master's node is one
+/// ([`MasterNode`](crate::master::MasterNode)): its PDO counts are configuration values.
 pub struct Node<
     D,
     P = Predefined,
     const GUARDED: usize = ALL_NODES,
     const TPDOS: usize = 4,
     const RPDOS: usize = 4,
+    S: Storage = Inline,
 > {
-    core: NodeCore<D, P, GUARDED, TPDOS, RPDOS>,
+    core: NodeCore<D, P, GUARDED, TPDOS, RPDOS, S>,
     sdo: SdoServer,
     sdo_boots: u32,
 }
@@ -169,17 +178,46 @@ impl<D: ObjectDictionary> Node<D, Predefined, ALL_NODES> {
     }
 }
 
+#[cfg(feature = "alloc")]
 impl<
         D: ObjectDictionary,
         P: IdProfile,
         const GUARDED: usize,
         const TPDOS: usize,
         const RPDOS: usize,
-    > Node<D, P, GUARDED, TPDOS, RPDOS>
+    > Node<D, P, GUARDED, TPDOS, RPDOS, crate::frame::storage::Heap>
+{
+    /// A node whose PDO tables are allocated now for `tpdos` TPDOs and `rpdos` RPDOs (at most
+    /// 512 each, the numbers CiA 301 has; more are cut to 512). They never grow.
+    #[must_use]
+    pub fn with_pdo_capacity(
+        cfg: NodeConfig,
+        od: D,
+        profile: P,
+        tpdos: usize,
+        rpdos: usize,
+    ) -> Self {
+        let max = pdo::params::MAX_PDOS as usize;
+        Self::build(cfg, od, profile, tpdos.min(max), rpdos.min(max))
+    }
+}
+
+impl<
+        D: ObjectDictionary,
+        P: IdProfile,
+        const GUARDED: usize,
+        const TPDOS: usize,
+        const RPDOS: usize,
+        S: Storage,
+    > Node<D, P, GUARDED, TPDOS, RPDOS, S>
 {
     /// A node with a custom identifier profile.
     #[must_use]
     pub fn with_profile(cfg: NodeConfig, od: D, profile: P) -> Self {
+        Self::build(cfg, od, profile, TPDOS, RPDOS)
+    }
+
+    fn build(cfg: NodeConfig, od: D, profile: P, tpdos: usize, rpdos: usize) -> Self {
         Node {
             core: NodeCore {
                 od,
@@ -195,7 +233,7 @@ impl<
                 emcy: EmcyProducer::default(),
                 history_slots: 0,
                 nodes: NodeTable::default(),
-                pdo: PdoEngine::new(),
+                pdo: PdoEngine::new(tpdos, rpdos),
                 tx: Bounded::new(),
                 events: Bounded::new(),
                 stats: NodeStats::default(),
@@ -278,11 +316,11 @@ impl<
         }
     }
     /// Mutable access to the parts (for protocol servers composed beside the node).
-    pub fn core_mut(&mut self) -> &mut NodeCore<D, P, GUARDED, TPDOS, RPDOS> {
+    pub fn core_mut(&mut self) -> &mut NodeCore<D, P, GUARDED, TPDOS, RPDOS, S> {
         &mut self.core
     }
     /// The parts.
-    pub fn core(&self) -> &NodeCore<D, P, GUARDED, TPDOS, RPDOS> {
+    pub fn core(&self) -> &NodeCore<D, P, GUARDED, TPDOS, RPDOS, S> {
         &self.core
     }
 
@@ -402,6 +440,15 @@ impl<
         let (engine, mut io) = self.core.pdo_io();
         engine.request(now, pdo, &mut io)
     }
+    /// TPDOs the node runs: TPDO1 up to this number (`TPDOS`, or what the heap storage was
+    /// built with). It never changes.
+    pub fn tpdo_capacity(&self) -> usize {
+        self.core.pdo.tpdo_capacity()
+    }
+    /// RPDOs the node runs: RPDO1 up to this number. It never changes.
+    pub fn rpdo_capacity(&self) -> usize {
+        self.core.pdo.rpdo_capacity()
+    }
     /// What TPDO `pdo` (1-based) is doing; `None` beyond the node's capacity.
     pub fn tpdo_status(&self, pdo: u16) -> Option<TpdoStatus> {
         self.core.pdo.tpdo_status(pdo)
@@ -420,18 +467,18 @@ impl<
     /// through [`Node::od_mut`] (entries a mapping refers to inserted or removed).
     pub fn reload_pdos(&mut self, now: Instant) {
         let (engine, mut io) = self.core.pdo_io();
-        for slot in 0..TPDOS as u16 {
+        for slot in 0..engine.tpdo_capacity() as u16 {
             engine.reload(now, pdo::Dir::Transmit, slot, &mut io);
         }
-        for slot in 0..RPDOS as u16 {
+        for slot in 0..engine.rpdo_capacity() as u16 {
             engine.reload(now, pdo::Dir::Receive, slot, &mut io);
         }
         self.core.pdo_emcy(now);
     }
 }
 
-impl<D, P, const GUARDED: usize, const TPDOS: usize, const RPDOS: usize>
-    NodeCore<D, P, GUARDED, TPDOS, RPDOS>
+impl<D, P, const GUARDED: usize, const TPDOS: usize, const RPDOS: usize, S: Storage>
+    NodeCore<D, P, GUARDED, TPDOS, RPDOS, S>
 {
     /// The local NMT state.
     pub fn nmt_state(&self) -> NmtState {
@@ -445,7 +492,8 @@ impl<
         const GUARDED: usize,
         const TPDOS: usize,
         const RPDOS: usize,
-    > Machine for Node<D, P, GUARDED, TPDOS, RPDOS>
+        S: Storage,
+    > Machine for Node<D, P, GUARDED, TPDOS, RPDOS, S>
 {
     type Event = NodeEvent;
     type LinkCommand = core::convert::Infallible;

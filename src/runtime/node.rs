@@ -3,6 +3,7 @@
 use super::handle::{Handle, RuntimeError};
 use crate::cia301::nmt::{NmtCommand, NmtState, NmtTarget};
 use crate::frame::instant::Instant;
+use crate::frame::storage::Storage;
 use crate::machine::{Composite, Station};
 use crate::node::{Node, QueueFull};
 use crate::od::abort::AbortCode;
@@ -40,7 +41,8 @@ impl<
         const GUARDED: usize,
         const TPDOS: usize,
         const RPDOS: usize,
-    > LocalNode for Node<D, P, GUARDED, TPDOS, RPDOS>
+        S: Storage,
+    > LocalNode for Node<D, P, GUARDED, TPDOS, RPDOS, S>
 {
     fn read_entry(&self, index: u16, sub: u8) -> Result<Vec<u8>, AbortCode> {
         self.od().get(index, sub).map(|e| e.data.to_vec())
@@ -90,7 +92,8 @@ impl<
         const GUARDED: usize,
         const TPDOS: usize,
         const RPDOS: usize,
-    > NodeHost for Node<D, P, GUARDED, TPDOS, RPDOS>
+        S: Storage,
+    > NodeHost for Node<D, P, GUARDED, TPDOS, RPDOS, S>
 {
     fn local_node(&mut self) -> &mut dyn LocalNode {
         self

@@ -10,6 +10,7 @@
 use super::handle::{Handle, RuntimeClosed, RuntimeError};
 use crate::cia301::sdo::{RequestId, SdoClient, SdoError, SdoEvent, SdoOptions, TransferBuffer};
 use crate::frame::instant::Instant;
+use crate::frame::storage::Storage;
 use crate::machine::{Composite, CompositeEvent, Station, StationEvent};
 use crate::NodeId;
 
@@ -37,7 +38,7 @@ pub trait SdoHost {
     fn sdo_start(&mut self, now: Instant, r: SdoStart<'_>) -> Result<RequestId, Self::Error>;
 }
 
-impl<B: TransferBuffer, const S: usize> SdoHost for SdoClient<B, S> {
+impl<B: TransferBuffer, const N: usize, S: Storage> SdoHost for SdoClient<B, N, S> {
     type Error = RuntimeError;
     fn sdo_start(&mut self, now: Instant, r: SdoStart<'_>) -> Result<RequestId, RuntimeError> {
         let started = match r.data {

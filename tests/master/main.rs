@@ -1,6 +1,7 @@
 //! The CiA 302-2 master (`duocan::master`) and the master-side PDO configuration (`duocan::cia302::pdo_config`).
 
 mod boot;
+mod capacity;
 mod control;
 mod failures;
 mod net;

@@ -5,3 +5,4 @@ mod common;
 mod engine;
 mod properties;
 mod sim;
+mod storage;

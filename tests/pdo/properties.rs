@@ -2,7 +2,9 @@
 //! TPDO and an RPDO, and of a PDO-configured node under random frames.
 
 use crate::common::{node, Wire};
-use duocan::od::{comm, Access, DataType, DefaultValue, ObjectDef, ObjectDictionary};
+use duocan::od::{
+    comm, Access, DataType, DefaultValue, DynamicDictionary, ObjectDef, ObjectDictionary,
+};
 use duocan::pdo::{mask, params, read_bits, write_bits};
 use duocan::{Duration, Frame, Id, Instant, Machine, NmtState};
 use proptest::prelude::*;
@@ -65,7 +67,60 @@ fn typed_fields() -> impl Strategy<Value = Vec<(DataType, u32, u64)>> {
     })
 }
 
-fn any_pdo_frame() -> impl Strategy<Value = Frame> {
+/// Entries 0x6000 (8 bits) and 0x6001 (16 bits), TPDO1–3 of types 255 (inhibit and event
+/// timer), 252 and 2, RPDO1 of type 0 with a timeout, RPDO2 of type 255 with a dummy entry.
+pub(crate) fn every_pdo_type(od: &mut DynamicDictionary) {
+    od.insert_all(&[
+        ObjectDef::u8(0x6000, 0, Access::Rw, 0).mappable(),
+        ObjectDef::u16(0x6001, 0, Access::Rw, 0).mappable(),
+    ])
+    .unwrap();
+    od.insert_all(&params::tpdo_comm(
+        1,
+        params::predefined_tpdo_cob(1),
+        255,
+        10,
+        5,
+    ))
+    .unwrap();
+    od.insert_all(&params::tpdo_mapping::<3>(1, &[0x6001_0010, 0x6000_0003]))
+        .unwrap();
+    od.insert_all(&params::tpdo_comm(
+        2,
+        params::predefined_tpdo_cob(2),
+        252,
+        0,
+        0,
+    ))
+    .unwrap();
+    od.insert_all(&params::tpdo_mapping::<2>(2, &[0x6000_0008]))
+        .unwrap();
+    od.insert_all(&params::tpdo_comm(
+        3,
+        params::predefined_tpdo_cob(3),
+        2,
+        0,
+        0,
+    ))
+    .unwrap();
+    od.insert_all(&params::tpdo_mapping::<2>(3, &[0x6000_0008]))
+        .unwrap();
+    od.insert_all(&params::rpdo_comm(1, params::predefined_rpdo_cob(1), 0, 4))
+        .unwrap();
+    od.insert_all(&params::rpdo_mapping::<2>(1, &[0x6000_0008]))
+        .unwrap();
+    od.insert_all(&params::rpdo_comm(
+        2,
+        params::predefined_rpdo_cob(2),
+        255,
+        2,
+    ))
+    .unwrap();
+    od.insert_all(&params::rpdo_mapping::<3>(2, &[0x6001_0010, 0x0005_0008]))
+        .unwrap();
+}
+
+pub(crate) fn any_pdo_frame() -> impl Strategy<Value = Frame> {
     let id = prop_oneof![
         Just(0x80u16),
         Just(0x185),
@@ -174,21 +229,7 @@ proptest! {
         ops in proptest::collection::vec((any_pdo_frame(), 0u64..3_000, 0u8..20, any::<u16>()), 1..300)
     ) {
         let mut n = node(5, false);
-        let od = n.od_mut();
-        od.insert_all(&[
-            ObjectDef::u8(0x6000, 0, Access::Rw, 0).mappable(),
-            ObjectDef::u16(0x6001, 0, Access::Rw, 0).mappable(),
-        ]).unwrap();
-        od.insert_all(&params::tpdo_comm(1, params::predefined_tpdo_cob(1), 255, 10, 5)).unwrap();
-        od.insert_all(&params::tpdo_mapping::<3>(1, &[0x6001_0010, 0x6000_0003])).unwrap();
-        od.insert_all(&params::tpdo_comm(2, params::predefined_tpdo_cob(2), 252, 0, 0)).unwrap();
-        od.insert_all(&params::tpdo_mapping::<2>(2, &[0x6000_0008])).unwrap();
-        od.insert_all(&params::tpdo_comm(3, params::predefined_tpdo_cob(3), 2, 0, 0)).unwrap();
-        od.insert_all(&params::tpdo_mapping::<2>(3, &[0x6000_0008])).unwrap();
-        od.insert_all(&params::rpdo_comm(1, params::predefined_rpdo_cob(1), 0, 4)).unwrap();
-        od.insert_all(&params::rpdo_mapping::<2>(1, &[0x6000_0008])).unwrap();
-        od.insert_all(&params::rpdo_comm(2, params::predefined_rpdo_cob(2), 255, 2)).unwrap();
-        od.insert_all(&params::rpdo_mapping::<3>(2, &[0x6001_0010, 0x0005_0008])).unwrap();
+        every_pdo_type(n.od_mut());
         let mut now = Instant::ZERO;
         n.boot(now);
         n.set_nmt_state(now, NmtState::Operational);

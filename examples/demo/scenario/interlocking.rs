@@ -20,7 +20,7 @@ use std::collections::{BTreeMap, VecDeque};
 use std::rc::Rc;
 
 /// The logical network object of one computer on one rack. Its master has room for an answer
-/// and a state-change PDO per board mirrored ([`duocan::master::RPDOS`]).
+/// and a state-change PDO per board mirrored (the master's default [`duocan::master::RPDOS`]).
 pub type Net<S> = LogicalNetwork<DynamicDictionary, S>;
 
 /// An unanswered command is sent again after this long.

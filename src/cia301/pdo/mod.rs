@@ -36,6 +36,7 @@ use crate::cia301::emcy;
 use crate::cia301::service::{ServiceEvent, ServiceOutput};
 use crate::frame::instant::{earliest, Duration, Instant};
 use crate::frame::queue::Bounded;
+use crate::frame::storage::{BoundedVec, Inline, Storage, Table};
 use crate::frame::{Frame, Id};
 use crate::od::abort::AbortCode;
 use crate::od::{key, ObjectDictionary};
@@ -218,16 +219,16 @@ fn equal_range(v: &[(u32, u16)], k: u32) -> (usize, usize) {
 
 /// Entry → event-capable TPDOs that map it, sorted by entry key. Holds 8 mappings per TPDO on
 /// average; beyond that (long bit-granular mappings) lookups fall back to scanning the TPDOs.
-struct Reverse<const T: usize> {
-    slots: [[(u32, u16); CACHED]; T],
+struct Reverse<S: Storage, const T: usize> {
+    slots: Table<[(u32, u16); CACHED], T, S>,
     len: usize,
     overflow: bool,
 }
 
-impl<const T: usize> Reverse<T> {
-    const fn new() -> Self {
+impl<S: Storage, const T: usize> Reverse<S, T> {
+    fn new(tpdos: usize) -> Self {
         Reverse {
-            slots: [[(0, 0); CACHED]; T],
+            slots: Table::new(tpdos, || [(0, 0); CACHED]),
             len: 0,
             overflow: false,
         }
@@ -241,7 +242,7 @@ impl<const T: usize> Reverse<T> {
         &self.slots.as_flattened()[..self.len]
     }
 
-    fn rebuild<D: ObjectDictionary + ?Sized>(&mut self, tpdos: &[Tpdo; T], od: &D) {
+    fn rebuild<D: ObjectDictionary + ?Sized>(&mut self, tpdos: &[Tpdo], od: &D) {
         self.len = 0;
         self.overflow = false;
         let flat = self.slots.as_flattened_mut();
@@ -276,13 +277,14 @@ impl<const T: usize> Reverse<T> {
     }
 }
 
-/// The PDO engine of a node: `T` TPDOs and `R` RPDOs.
-pub(crate) struct PdoEngine<const T: usize, const R: usize> {
-    tpdos: [Tpdo; T],
-    rpdos: [Rpdo; R],
-    rx_index: heapless::Vec<(u32, u16), R>,
-    tx_index: heapless::Vec<(u32, u16), T>,
-    reverse: Reverse<T>,
+/// The PDO engine of a node: `T` TPDOs and `R` RPDOs inline, or as many as it was built with on
+/// the heap.
+pub(crate) struct PdoEngine<const T: usize, const R: usize, S: Storage = Inline> {
+    tpdos: Table<Tpdo, T, S>,
+    rpdos: Table<Rpdo, R, S>,
+    rx_index: S::Vec<(u32, u16), R>,
+    tx_index: S::Vec<(u32, u16), T>,
+    reverse: Reverse<S, T>,
     running: bool,
     /// No engine deadline is earlier than this (it may be early: a lower bound, made exact at
     /// the next timeout, so that a reception costs O(1) however many RPDOs there are).
@@ -293,15 +295,16 @@ pub(crate) struct PdoEngine<const T: usize, const R: usize> {
     shorts: u16,
 }
 
-impl<const T: usize, const R: usize> PdoEngine<T, R> {
+impl<const T: usize, const R: usize, S: Storage> PdoEngine<T, R, S> {
+    /// An engine for `tpdos` TPDOs and `rpdos` RPDOs (inline storage: `T` and `R`).
     #[must_use]
-    pub fn new() -> Self {
+    pub fn new(tpdos: usize, rpdos: usize) -> Self {
         PdoEngine {
-            tpdos: [const { Tpdo::new() }; T],
-            rpdos: [const { Rpdo::new() }; R],
-            rx_index: heapless::Vec::new(),
-            tx_index: heapless::Vec::new(),
-            reverse: Reverse::new(),
+            tpdos: Table::new(tpdos, Tpdo::new),
+            rpdos: Table::new(rpdos, Rpdo::new),
+            rx_index: S::vec(rpdos),
+            tx_index: S::vec(tpdos),
+            reverse: Reverse::new(tpdos),
             running: false,
             next: None,
             rx_events: true,
@@ -309,6 +312,16 @@ impl<const T: usize, const R: usize> PdoEngine<T, R> {
             timeouts: 0,
             shorts: 0,
         }
+    }
+
+    /// TPDOs the engine runs (TPDO1 up to this).
+    pub fn tpdo_capacity(&self) -> usize {
+        self.tpdos.len()
+    }
+
+    /// RPDOs the engine runs (RPDO1 up to this).
+    pub fn rpdo_capacity(&self) -> usize {
+        self.rpdos.len()
     }
 
     pub fn set_rx_events(&mut self, on: bool) {
@@ -378,14 +391,14 @@ impl<const T: usize, const R: usize> PdoEngine<T, R> {
         self.rx_index.clear();
         for (k, r) in self.rpdos.iter().enumerate() {
             if let (true, Some(id)) = (r.p.active(), r.p.id) {
-                let _ = self.rx_index.push((id_key(id), k as u16));
+                let _ = self.rx_index.try_push((id_key(id), k as u16));
             }
         }
         self.rx_index.sort_unstable();
         self.tx_index.clear();
         for (k, t) in self.tpdos.iter().enumerate() {
             if let (true, Some(id)) = (t.p.active(), t.p.id) {
-                let _ = self.tx_index.push((id_key(id), k as u16));
+                let _ = self.tx_index.try_push((id_key(id), k as u16));
             }
         }
         self.tx_index.sort_unstable();
@@ -400,12 +413,12 @@ impl<const T: usize, const R: usize> PdoEngine<T, R> {
         io: &mut Io<'_, D, O>,
     ) {
         self.stop();
-        for k in 0..T {
+        for k in 0..self.tpdos.len() {
             let p = read_tpdo(io.od, k as u16);
             report(io, now, Dir::Transmit, k, p.id, p.error);
             self.tpdos[k].p = p;
         }
-        for k in 0..R {
+        for k in 0..self.rpdos.len() {
             let p = read_rpdo(io.od, k as u16);
             report(io, now, Dir::Receive, k, p.id, p.error);
             self.rpdos[k].p = p;
@@ -423,7 +436,7 @@ impl<const T: usize, const R: usize> PdoEngine<T, R> {
     ) {
         let k = slot as usize;
         match dir {
-            Dir::Transmit if k < T => {
+            Dir::Transmit if k < self.tpdos.len() => {
                 let new = read_tpdo(io.od, slot);
                 let t = &mut self.tpdos[k];
                 let old = t.p;
@@ -452,7 +465,7 @@ impl<const T: usize, const R: usize> PdoEngine<T, R> {
                 }
                 self.service_tpdo(k, now, io);
             }
-            Dir::Receive if k < R => {
+            Dir::Receive if k < self.rpdos.len() => {
                 let new = read_rpdo(io.od, slot);
                 let old = self.rpdos[k].p;
                 if new == old {
@@ -503,7 +516,7 @@ impl<const T: usize, const R: usize> PdoEngine<T, R> {
         for t in self.tpdos.iter_mut() {
             t.stop();
         }
-        for k in 0..R {
+        for k in 0..self.rpdos.len() {
             let rec = self.rpdos[k].stop();
             self.recovered(rec, k as u16 + 1);
         }
@@ -549,13 +562,13 @@ impl<const T: usize, const R: usize> PdoEngine<T, R> {
         io: &mut Io<'_, D, O>,
     ) {
         let mut next = None;
-        for k in 0..T {
+        for k in 0..self.tpdos.len() {
             if self.tpdos[k].due(now) {
                 self.send_tpdo(k, now, io);
             }
             next = earliest(next, self.tpdos[k].deadline());
         }
-        for k in 0..R {
+        for k in 0..self.rpdos.len() {
             if let Some(last) = self.rpdos[k].due(now) {
                 let pdo = k as u16 + 1;
                 io.event(now, PdoEvent::RpdoTimeout { pdo, last });
@@ -608,12 +621,12 @@ impl<const T: usize, const R: usize> PdoEngine<T, R> {
         if !self.running {
             return;
         }
-        for k in 0..R {
+        for k in 0..self.rpdos.len() {
             if let Some(b) = self.rpdos[k].buffered.take() {
                 self.apply(k, now, &b, io);
             }
         }
-        for k in 0..T {
+        for k in 0..self.tpdos.len() {
             match self.tpdos[k].on_sync(counter) {
                 OnSync::Nothing => {}
                 OnSync::Send => self.send_tpdo(k, now, io),
@@ -729,7 +742,7 @@ impl<const T: usize, const R: usize> PdoEngine<T, R> {
         }
         let key = key(index, sub);
         if self.reverse.overflow {
-            for k in 0..T {
+            for k in 0..self.tpdos.len() {
                 if self.maps(k, key, io.od) && self.tpdos[k].trigger() {
                     self.service_tpdo(k, now, io);
                 }

@@ -29,19 +29,29 @@ use super::session::{
 };
 use crate::frame::cob_id::NodeId;
 use crate::frame::instant::{earliest_of, shift_back, Instant, TimeWatch};
-use crate::frame::queue::Bounded;
+use crate::frame::queue::Fifo;
+use crate::frame::storage::{Inline, Storage, Table};
 use crate::frame::Frame;
 use crate::machine::Machine;
 use crate::od::abort::AbortCode;
 
 /// A sans-IO SDO client with `SESSIONS` sessions; transfer buffers of type `B`, each bounded by the
 /// client's limit.
-pub struct SdoClient<B: TransferBuffer = DefaultBuffer, const SESSIONS: usize = 8> {
-    sessions: [Session<B>; SESSIONS],
+///
+/// `S` is where the session table lives: [`Inline`] (the default) holds `SESSIONS` sessions
+/// inside the client; [`Heap`](crate::frame::storage::Heap) (`alloc`) allocates them once when
+/// the client is built, as many as [`SdoClient::with_sessions`] asks for (the master's client:
+/// its session count is a configuration value).
+pub struct SdoClient<
+    B: TransferBuffer = DefaultBuffer,
+    const SESSIONS: usize = 8,
+    S: Storage = Inline,
+> {
+    sessions: Table<Session<B>, SESSIONS, S>,
     limit: usize,
     next_id: u32,
     channels: fn(NodeId) -> Channel,
-    events: Bounded<SdoEvent<B>, SESSIONS>,
+    events: S::Fifo<SdoEvent<B>, SESSIONS>,
     rr: usize,
     stats: SdoClientStats,
     clock: TimeWatch,
@@ -57,17 +67,36 @@ impl SdoClient {
     }
 }
 
-impl<B: TransferBuffer, const SESSIONS: usize> SdoClient<B, SESSIONS> {
+#[cfg(feature = "alloc")]
+impl<B: TransferBuffer, const SESSIONS: usize> SdoClient<B, SESSIONS, crate::frame::storage::Heap> {
+    /// A client whose `sessions` sessions (at least one) are allocated now, never grown; its
+    /// transfers carry at most `limit` bytes, on the predefined channels.
+    #[must_use]
+    pub fn with_sessions(limit: usize, sessions: usize) -> Self {
+        Self::build(limit, sessions.max(1))
+    }
+
+    /// The channel function (the profile's SDO identifiers).
+    pub(crate) fn channels(&self) -> fn(NodeId) -> Channel {
+        self.channels
+    }
+}
+
+impl<B: TransferBuffer, const SESSIONS: usize, S: Storage> SdoClient<B, SESSIONS, S> {
     /// A client with `SESSIONS` sessions whose transfers carry at most `limit` bytes, on the predefined
     /// channels.
     #[must_use]
     pub fn with_limit(limit: usize) -> Self {
+        Self::build(limit, SESSIONS)
+    }
+
+    fn build(limit: usize, sessions: usize) -> Self {
         SdoClient {
-            sessions: core::array::from_fn(|_| Session::new(limit)),
+            sessions: Table::new(sessions, || Session::new(limit)),
             limit,
             next_id: 1,
             channels: Channel::predefined,
-            events: Bounded::new(),
+            events: S::fifo(sessions),
             rr: 0,
             stats: SdoClientStats::default(),
             clock: TimeWatch::new(),
@@ -83,6 +112,12 @@ impl<B: TransferBuffer, const SESSIONS: usize> SdoClient<B, SESSIONS> {
                 shift_back(&mut s.subblock_deadline, by);
             }
         }
+    }
+
+    /// Transfers the client can run at once: its session count (`SESSIONS`, or what the heap
+    /// storage was built with). It never changes.
+    pub fn sessions(&self) -> usize {
+        self.sessions.len()
     }
 
     /// Uses `f` to find the channel of a node (a custom identifier profile); a request's
@@ -235,8 +270,9 @@ impl<B: TransferBuffer, const SESSIONS: usize> SdoClient<B, SESSIONS> {
             return Err(err(SdoErrorKind::Busy));
         }
         // A session stays taken until its result is polled, so results are never dropped.
-        if self.in_flight() + self.events.len() >= SESSIONS {
-            return Err(err(SdoErrorKind::NoSession { sessions: SESSIONS }));
+        let sessions = self.sessions.len();
+        if self.in_flight() + self.events.len() >= sessions {
+            return Err(err(SdoErrorKind::NoSession { sessions }));
         }
         let Some(i) = self
             .sessions
@@ -244,7 +280,7 @@ impl<B: TransferBuffer, const SESSIONS: usize> SdoClient<B, SESSIONS> {
             .position(|s| !s.active() && s.out.is_empty())
             .or_else(|| self.sessions.iter().position(|s| !s.active()))
         else {
-            return Err(err(SdoErrorKind::NoSession { sessions: SESSIONS }));
+            return Err(err(SdoErrorKind::NoSession { sessions }));
         };
         let request = RequestId(self.next_id);
         self.next_id = self.next_id.wrapping_add(1);
@@ -552,7 +588,7 @@ impl<B: TransferBuffer, const SESSIONS: usize> SdoClient<B, SESSIONS> {
     }
 }
 
-impl<B: TransferBuffer, const SESSIONS: usize> Machine for SdoClient<B, SESSIONS> {
+impl<B: TransferBuffer, const SESSIONS: usize, S: Storage> Machine for SdoClient<B, SESSIONS, S> {
     type Event = SdoEvent<B>;
     type LinkCommand = core::convert::Infallible;
 
@@ -569,7 +605,7 @@ impl<B: TransferBuffer, const SESSIONS: usize> Machine for SdoClient<B, SESSIONS
 
     fn handle_timeout(&mut self, now: Instant) {
         self.watch_clock(now);
-        for i in 0..SESSIONS {
+        for i in 0..self.sessions.len() {
             let s = &mut self.sessions[i];
             if s.subblock_deadline.is_some_and(|t| t <= now) {
                 s.subblock_deadline = None;
@@ -598,8 +634,9 @@ impl<B: TransferBuffer, const SESSIONS: usize> Machine for SdoClient<B, SESSIONS
 
     fn poll_transmit(&mut self) -> Option<Frame> {
         // Round robin, so one block transfer does not starve the other sessions.
-        for k in 0..SESSIONS {
-            let i = (self.rr + k) % SESSIONS;
+        let n = self.sessions.len();
+        for k in 0..n {
+            let i = (self.rr + k) % n;
             let s = &mut self.sessions[i];
             let f = s.out.pop().or_else(|| match s.state {
                 State::BlockDownload { ref mut tx, .. } => tx
@@ -608,7 +645,7 @@ impl<B: TransferBuffer, const SESSIONS: usize> Machine for SdoClient<B, SESSIONS
                 _ => None,
             });
             if f.is_some() {
-                self.rr = (i + 1) % SESSIONS;
+                self.rr = (i + 1) % n;
                 return f;
             }
         }

@@ -322,6 +322,17 @@ pub struct NetworkConfig {
     /// NMT commands the master holds before the driver drains them (default
     /// [`NMT_QUEUE`](super::NMT_QUEUE)); allocated once, never grown.
     pub nmt_queue: usize,
+    /// TPDOs of the master's own node (default [`TPDOS`](super::TPDOS), at most 512); allocated
+    /// once when the master is built, never grown.
+    pub tpdos: usize,
+    /// RPDOs of the master's own node, room for mirroring its slaves' TPDOs
+    /// ([`crate::cia302::pdo_config::mirror`]; default [`RPDOS`](super::RPDOS), at most 512);
+    /// allocated once, never grown.
+    pub rpdos: usize,
+    /// SDO client sessions: how many slaves the master configures at once, the others waiting
+    /// in its queue, and how many transfers the application can run beside them (default
+    /// [`SESSIONS`](super::SESSIONS), at least 1); allocated once, never grown.
+    pub sdo_sessions: usize,
 }
 
 impl Default for NetworkConfig {
@@ -336,6 +347,9 @@ impl Default for NetworkConfig {
             slaves: Vec::new(),
             event_queue: super::EVENT_QUEUE,
             nmt_queue: super::NMT_QUEUE,
+            tpdos: super::TPDOS,
+            rpdos: super::RPDOS,
+            sdo_sessions: super::SESSIONS,
         }
     }
 }
@@ -392,6 +406,24 @@ impl NetworkConfig {
     #[must_use]
     pub fn nmt_queue(mut self, capacity: usize) -> NetworkConfig {
         self.nmt_queue = capacity;
+        self
+    }
+    /// Sets how many TPDOs the master's own node runs (at most 512).
+    #[must_use]
+    pub fn with_tpdos(mut self, tpdos: usize) -> NetworkConfig {
+        self.tpdos = tpdos;
+        self
+    }
+    /// Sets how many RPDOs the master's own node runs (at most 512).
+    #[must_use]
+    pub fn with_rpdos(mut self, rpdos: usize) -> NetworkConfig {
+        self.rpdos = rpdos;
+        self
+    }
+    /// Sets how many SDO transfers the master runs at once (at least 1).
+    #[must_use]
+    pub fn with_sdo_sessions(mut self, sessions: usize) -> NetworkConfig {
+        self.sdo_sessions = sessions;
         self
     }
     /// Adds (or replaces) a slave.

@@ -3,6 +3,7 @@
 use super::boot::{BootError, BootPhase, ErrorStatus};
 use super::config::{Assignment, StartPolicy};
 use crate::cia301::nmt::{NmtCommand, NmtState, NmtTarget};
+use crate::cia301::pdo::Dir;
 use crate::cia301::sdo::SdoEvent;
 use crate::frame::cob_id::NodeId;
 use crate::frame::cob_id::NodeSet;
@@ -208,6 +209,14 @@ pub enum MasterError {
         /// The number.
         pdo: u16,
     },
+    /// The configuration asks for more PDOs of the master's own node than CiA 301 numbers
+    /// (512 in each direction).
+    TooManyPdos {
+        /// Receive ([`NetworkConfig::rpdos`](super::NetworkConfig::rpdos)) or transmit.
+        dir: Dir,
+        /// The count asked for.
+        count: usize,
+    },
     /// The dictionary refused a configuration value.
     Refused {
         /// Index.
@@ -241,6 +250,14 @@ impl fmt::Display for MasterError {
             MasterError::NoSuchPdo { node, pdo } => write!(
                 f,
                 "the configuration of {node} names PDO {pdo}: CiA 301 numbers PDOs 1 to 512"
+            ),
+            MasterError::TooManyPdos { dir, count } => write!(
+                f,
+                "the master is configured for {count} {}s: CiA 301 numbers PDOs 1 to 512",
+                match dir {
+                    Dir::Receive => "RPDO",
+                    Dir::Transmit => "TPDO",
+                }
             ),
             MasterError::Refused { index, sub, code } => {
                 write!(f, "the master's {index:#06x}sub{sub} refused the value: {code}")

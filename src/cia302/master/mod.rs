@@ -91,9 +91,11 @@ pub use config::{
 pub use events::{MasterError, MasterEvent, MasterEventKind, MasterStats, SlaveView};
 
 use crate::cia301::nmt::{NmtCommand, NmtState, NmtTarget};
+use crate::cia301::pdo::Dir;
 use crate::cia301::sdo::{DefaultBuffer, SdoClient, DEFAULT_LIMIT};
 use crate::frame::cob_id::NodeId;
 use crate::frame::instant::{earliest_of, Duration, Instant, TimeWatch};
+use crate::frame::storage::Heap;
 use crate::frame::Frame;
 use crate::machine::Machine;
 use crate::node::{Node, NodeConfig, ALL_NODES};
@@ -111,29 +113,33 @@ pub const NMT_QUEUE: usize = 256;
 /// ([`NetworkConfig::event_queue`]).
 pub const EVENT_QUEUE: usize = 1024;
 
-/// TPDOs of a master's own node.
+/// TPDOs of a master's own node by default ([`NetworkConfig::tpdos`]).
 pub const TPDOS: usize = 4;
-/// RPDOs of a master's own node: room for mirroring the TPDOs of its slaves
-/// ([`crate::cia302::pdo_config::mirror`]), two for each board of a rack of sixteen.
+/// RPDOs of a master's own node by default ([`NetworkConfig::rpdos`]): room for mirroring the
+/// TPDOs of its slaves ([`crate::cia302::pdo_config::mirror`]), two for each board of a rack of
+/// sixteen.
 pub const RPDOS: usize = 64;
-/// SDO client sessions of a master: how many slaves it configures at once (the others wait in
-/// its queue).
+/// SDO client sessions of a master by default ([`NetworkConfig::sdo_sessions`]): how many slaves
+/// it configures at once (the others wait in its queue).
 pub const SESSIONS: usize = 8;
 
-/// The node inside a [`Master`]: it guards every node-ID (0x1F81 guard times), runs [`TPDOS`]
-/// TPDOs and [`RPDOS`] RPDOs.
-pub type MasterNode<D, P = Predefined> = Node<D, P, ALL_NODES, TPDOS, RPDOS>;
+/// The node inside a [`Master`]: it guards every node-ID (0x1F81 guard times); its PDO tables
+/// are allocated once when the master is built, [`NetworkConfig::tpdos`] TPDOs and
+/// [`NetworkConfig::rpdos`] RPDOs ([`TPDOS`] and [`RPDOS`] by default).
+pub type MasterNode<D, P = Predefined> = Node<D, P, ALL_NODES, TPDOS, RPDOS, Heap>;
 
-/// The SDO client inside a [`Master`]: [`SESSIONS`] sessions with the default buffers.
-pub type MasterSdoClient = SdoClient<DefaultBuffer, SESSIONS>;
+/// The SDO client inside a [`Master`], with the default buffers: its sessions are allocated
+/// once, [`NetworkConfig::sdo_sessions`] of them ([`SESSIONS`] by default).
+pub type MasterSdoClient = SdoClient<DefaultBuffer, SESSIONS, Heap>;
 
 /// A master on the railway 29-bit identifier profile, with a dictionary built at run time.
 pub type RailwayMaster =
     Master<crate::od::DynamicDictionary, crate::profile::railway::RailwayProfile>;
 
 /// A CiA 302-2 NMT master on one logical bus. `D` is its dictionary, `P` its identifier profile;
-/// its node is a [`MasterNode`], its SDO client a [`MasterSdoClient`] (capacities fixed here so
-/// that every master, supervisor and network type is spelled with these two parameters only).
+/// its node is a [`MasterNode`], its SDO client a [`MasterSdoClient`]. Their capacities are
+/// configuration values ([`NetworkConfig`]), allocated once when the master is built, so that
+/// every master, supervisor and network type is spelled with these two parameters only.
 pub struct Master<D, P = Predefined> {
     node: MasterNode<D, P>,
     sdo: MasterSdoClient,
@@ -163,15 +169,15 @@ pub struct Master<D, P = Predefined> {
 }
 
 impl<D: ObjectDictionary> Master<D> {
-    /// A master with node-ID `node_id` on the predefined connection set, 8 SDO sessions and a
-    /// 64 KiB transfer limit. `od` must hold the master objects
-    /// ([`objects::master_dictionary`]); `config`'s values are written into it.
+    /// A master with node-ID `node_id` on the predefined connection set and a 64 KiB SDO
+    /// transfer limit. `od` must hold the master objects ([`objects::master_dictionary`]);
+    /// `config`'s values are written into it.
     pub fn new(node_id: NodeId, od: D, config: NetworkConfig) -> Result<Self, MasterError> {
         Master::with_parts(
             NodeConfig::master(node_id),
             od,
             Predefined,
-            SdoClient::with_limit(DEFAULT_LIMIT),
+            MasterSdoClient::with_sessions(DEFAULT_LIMIT, config.sdo_sessions),
             config,
         )
     }
@@ -180,7 +186,9 @@ impl<D: ObjectDictionary> Master<D> {
 impl<D: ObjectDictionary, P: IdProfile> Master<D, P> {
     /// A master from its parts: the node's configuration (its `auto_start` and `accept_nmt` are
     /// overridden: the master starts itself per 0x1F80 and obeys no NMT master), dictionary,
-    /// identifier profile and SDO client (with the channels of that profile).
+    /// identifier profile and SDO client (its transfer limit and the channels of that profile;
+    /// its session table is allocated for [`NetworkConfig::sdo_sessions`], so a client of
+    /// another size is built anew with the same limit and channels).
     pub fn with_parts(
         node: NodeConfig,
         mut od: D,
@@ -208,6 +216,18 @@ impl<D: ObjectDictionary, P: IdProfile> Master<D, P> {
             od.write_local(index, sub, &v.to_le_bytes())
                 .map_err(|code| MasterError::Refused { index, sub, code })
         };
+        let max = crate::cia301::pdo::params::MAX_PDOS as usize;
+        for (dir, count) in [(Dir::Transmit, config.tpdos), (Dir::Receive, config.rpdos)] {
+            if count > max {
+                return Err(MasterError::TooManyPdos { dir, count });
+            }
+        }
+        let sessions = config.sdo_sessions.max(1);
+        let sdo = if sdo.sessions() == sessions {
+            sdo
+        } else {
+            MasterSdoClient::with_sessions(sdo.limit(), sessions).with_channels(sdo.channels())
+        };
         put(NMT_STARTUP, 0, config.startup.0)?;
         put(BOOT_TIME, 0, config.boot_time_ms)?;
         let mut slots: Vec<Slot> = (1..=127u8).filter_map(NodeId::new).map(Slot::new).collect();
@@ -234,7 +254,7 @@ impl<D: ObjectDictionary, P: IdProfile> Master<D, P> {
             ..node
         };
         let mut m = Master {
-            node: MasterNode::with_profile(node_cfg, od, profile),
+            node: MasterNode::with_pdo_capacity(node_cfg, od, profile, config.tpdos, config.rpdos),
             sdo,
             sdo_idle: false,
             slots,

@@ -6,7 +6,7 @@ use super::config::{ExpectedIdentity, NmtStartup, SlaveConfig, StartPolicy};
 use super::events::{MasterError, MasterEventKind};
 use super::network::Network;
 use super::objects::{self, request, REQUEST_ALL};
-use super::{Master, SESSIONS};
+use super::Master;
 use crate::cia301::nmt::{NmtCommand, NmtState, NmtTarget};
 use crate::cia301::sdo::{RequestId, SdoErrorKind, SdoEvent, SdoOptions, TransferBuffer};
 use crate::frame::cob_id::NodeId;
@@ -496,7 +496,7 @@ impl<D: ObjectDictionary, P: IdProfile> Master<D, P> {
     /// Gives waiting slaves the sessions that became free, in arrival order.
     pub(super) fn dispatch(&mut self, now: Instant) {
         let mut tries = self.waiting.len();
-        while tries > 0 && self.sdo.in_flight() < SESSIONS {
+        while tries > 0 && self.sdo.in_flight() < self.sdo.sessions() {
             tries -= 1;
             let Some(n) = self.waiting.pop_front() else {
                 break;

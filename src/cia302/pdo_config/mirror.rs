@@ -6,6 +6,7 @@ use super::PdoConfig;
 use crate::cia301::pdo::mapping::{Dir, MapEntry};
 use crate::cia301::pdo::params::{self, sub};
 use crate::frame::instant::Instant;
+use crate::frame::storage::Storage;
 use crate::node::Node;
 use crate::od::abort::AbortCode;
 use crate::od::{DataType, DefaultValue, DynamicDictionary, ObjectDef, ObjectDictionary};
@@ -150,8 +151,14 @@ fn dummy_type(bits: u8) -> DataType {
 /// created where missing (read-write, mappable); parameter objects too. The parameters are then
 /// written through the node in the CiA 301 order (invalidate, type, timer, mapping, validate), so
 /// the engine picks the PDO up as from any configuration write.
-pub fn mirror<P: IdProfile, const GUARDED: usize, const TPDOS: usize, const RPDOS: usize>(
-    node: &mut Node<DynamicDictionary, P, GUARDED, TPDOS, RPDOS>,
+pub fn mirror<
+    P: IdProfile,
+    const GUARDED: usize,
+    const TPDOS: usize,
+    const RPDOS: usize,
+    S: Storage,
+>(
+    node: &mut Node<DynamicDictionary, P, GUARDED, TPDOS, RPDOS, S>,
     now: Instant,
     remote_dir: Dir,
     remote: &PdoConfig,
@@ -168,7 +175,11 @@ pub fn mirror<P: IdProfile, const GUARDED: usize, const TPDOS: usize, const RPDO
         Dir::Transmit => Dir::Receive,
         Dir::Receive => Dir::Transmit,
     };
-    let capacity = if dir == Dir::Receive { RPDOS } else { TPDOS };
+    let capacity = if dir == Dir::Receive {
+        node.rpdo_capacity()
+    } else {
+        node.tpdo_capacity()
+    };
     if m.pdo == 0 || m.pdo as usize > capacity {
         return Err(MirrorError::NoSuchPdo {
             pdo: m.pdo,
@@ -220,11 +231,14 @@ pub fn mirror<P: IdProfile, const GUARDED: usize, const TPDOS: usize, const RPDO
         };
         let _ = node.od_mut().insert_all(defs);
     }
-    let write =
-        |node: &mut Node<DynamicDictionary, P, GUARDED, TPDOS, RPDOS>, index, sub, v: u32, len| {
-            node.write(now, index, sub, &v.to_le_bytes()[..len])
-                .map_err(|code| MirrorError::Write { index, sub, code })
-        };
+    let write = |node: &mut Node<DynamicDictionary, P, GUARDED, TPDOS, RPDOS, S>,
+                 index,
+                 sub,
+                 v: u32,
+                 len| {
+        node.write(now, index, sub, &v.to_le_bytes()[..len])
+            .map_err(|code| MirrorError::Write { index, sub, code })
+    };
     let cob = node.od().get_u32(comm, sub::COB_ID).unwrap_or(0x8000_0000);
     write(node, comm, sub::COB_ID, cob | 0x8000_0000, 4)?;
     let n = entries.len() as u8;

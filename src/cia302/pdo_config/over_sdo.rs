@@ -5,6 +5,7 @@ use crate::cia301::sdo::{
     RequestId, SdoClient, SdoErrorKind, SdoEvent, SdoOptions, TransferBuffer,
 };
 use crate::frame::instant::Instant;
+use crate::frame::storage::Storage;
 
 /// Runs a [`PdoConfigurator`] over an [`SdoClient`]: one access at a time.
 ///
@@ -48,10 +49,10 @@ impl SdoPdoJob {
     }
 
     /// Starts the next access unless one is running or the job is over.
-    pub fn poll<B: TransferBuffer, const SESSIONS: usize>(
+    pub fn poll<B: TransferBuffer, const SESSIONS: usize, S: Storage>(
         &mut self,
         now: Instant,
-        client: &mut SdoClient<B, SESSIONS>,
+        client: &mut SdoClient<B, SESSIONS, S>,
     ) {
         while self.pending.is_none() {
             let Some(a) = self.job.next() else { return };
