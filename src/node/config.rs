@@ -112,6 +112,9 @@ impl<
             return Err(AbortCode::READ_ONLY);
         }
         check_value(e.def, data)?;
+        if matches!(index, comm::STORE_PARAMETERS | comm::RESTORE_DEFAULTS) && sub >= 1 {
+            return self.storage_write(now, index, sub, data, by);
+        }
         self.validate_comm(index, sub, data)?;
         self.od.store(index, sub, data)?;
         self.on_written(now, index, sub, by);

@@ -131,6 +131,7 @@ impl<
             [NmtState::Initialising.code()],
         );
         let _ = self.send(boot_up);
+        self.publish_storage_capabilities();
         if from != NmtState::Initialising {
             self.event(
                 now,
@@ -215,13 +216,16 @@ impl<
             NmtCommand::Start | NmtCommand::Stop | NmtCommand::EnterPreOperational => {
                 self.enter(now, cmd.resulting_state(), cause)
             }
+            // Each reset reloads its area: the power-on image, then what was stored.
             NmtCommand::ResetNode => {
                 self.od.reset_range(0x1000..=0xFFFF);
+                self.load_stored(now, 0x1000..=0xFFFF);
                 self.emcy = EmcyProducer::default();
                 self.boot(now);
             }
             NmtCommand::ResetCommunication => {
                 self.od.reset_range(0x1000..=0x1FFF);
+                self.load_stored(now, 0x1000..=0x1FFF);
                 self.boot(now);
             }
         }

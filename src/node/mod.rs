@@ -19,6 +19,7 @@ use crate::frame::queue::Bounded;
 use crate::frame::Frame;
 use crate::machine::{LinkRequest, Machine};
 use crate::od::abort::AbortCode;
+use crate::od::storage::{ParameterGroup, StorageError};
 use crate::od::{ObjectDictionary, OdValue};
 use crate::profile::{IdProfile, Predefined};
 
@@ -99,8 +100,11 @@ impl NodeConfig {
 mod config;
 mod dispatch;
 mod events;
+mod storage;
 
-pub use events::{NodeEvent, NodeEventKind, NodeStats, QueueFull, StateCause, Writer};
+pub use events::{
+    NodeEvent, NodeEventKind, NodeStats, QueueFull, StateCause, StorageAction, Writer,
+};
 
 /// Everything of a node but the SDO server: dictionary, NMT, error control, SYNC, TIME, EMCY,
 /// PDO.
@@ -204,11 +208,57 @@ impl<
         }
     }
 
-    /// Power-on: configure the services from the dictionary, send boot-up, enter
+    /// Power-on: what the dictionary holds now becomes its power-on image (the values the NMT
+    /// resets restore), the stored parameters are loaded over it, then the services are
+    /// configured from the dictionary, the boot-up is sent and the node enters
     /// pre-operational (or operational with `auto_start`).
+    ///
+    /// So the application configures the node before calling this (writes, `od_mut`), and
+    /// that configuration survives reset-communication and reset-node; values written later
+    /// (over SDO or locally) are volatile unless stored (0x1010).
     pub fn boot(&mut self, now: Instant) {
+        let _ = self.capture_power_on(now);
+        self.core.load_stored(now, 0x1000..=0xFFFF);
         self.core.boot(now);
         self.sdo_follow_core();
+    }
+
+    /// Takes the dictionary's current values as its power-on image, as [`Node::boot`] does: for
+    /// an application that reconfigures the node after boot and wants the resets to keep it. A
+    /// dictionary without room for it keeps its previous image and says so (here and as
+    /// [`NodeEventKind::StorageFailed`]).
+    pub fn capture_power_on(&mut self, now: Instant) -> Result<(), StorageError> {
+        let r = self.core.od.capture_power_on();
+        if let Err(error) = r {
+            self.core.event(
+                now,
+                NodeEventKind::StorageFailed {
+                    action: StorageAction::CapturePowerOn,
+                    error,
+                },
+            );
+        }
+        r
+    }
+
+    /// Stores `group`'s current parameters on the dictionary's medium, as a 0x1010 `"save"`
+    /// does ([`NodeEventKind::ParametersStored`] or [`NodeEventKind::StorageFailed`]).
+    pub fn store_parameters(
+        &mut self,
+        now: Instant,
+        group: ParameterGroup,
+    ) -> Result<(), StorageError> {
+        self.core.storage_command(now, true, group, Writer::Local)
+    }
+
+    /// Removes `group` from the stored parameters, as a 0x1011 `"load"` does: its defaults (the
+    /// power-on image) apply from the next reset that reloads it.
+    pub fn restore_defaults(
+        &mut self,
+        now: Instant,
+        group: ParameterGroup,
+    ) -> Result<(), StorageError> {
+        self.core.storage_command(now, false, group, Writer::Local)
     }
 
     /// The SDO server (channel from 0x1200, configuration, counters).

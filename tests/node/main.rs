@@ -6,3 +6,5 @@ mod memory;
 mod properties;
 mod services;
 mod sim;
+mod storage;
+mod storage_file;
