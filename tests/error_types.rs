@@ -133,7 +133,9 @@ fn each_error_ends_a_call_in_the_question_mark() {
     let text = e.to_string();
     assert_eq!(user(Err(e)).unwrap_err().to_string(), text);
     let dir = std::env::temp_dir().join(format!("duocan-no-such-dir-{}", std::process::id()));
-    let e = FileStorage::new(dir.join("params")).store(b"x").unwrap_err();
+    let e = FileStorage::new(dir.join("params"))
+        .store(b"x")
+        .unwrap_err();
     let text = e.to_string();
     assert!(text.contains("cannot create"), "{text}");
     assert_eq!(user(Err(e)).unwrap_err().to_string(), text);

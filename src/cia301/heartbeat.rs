@@ -27,6 +27,16 @@ impl HeartbeatProducer {
             Some(now + period)
         };
     }
+    /// A heartbeat goes out now (the caller sends it) and the grid restarts from `now`: after
+    /// an NMT state change or a new producer time. Returns false when no heartbeat is produced
+    /// (period zero).
+    pub fn beat_now(&mut self, now: Instant) -> bool {
+        if self.period.is_zero() {
+            return false;
+        }
+        self.next = Some(now + self.period);
+        true
+    }
     /// Stops producing.
     pub fn stop(&mut self) {
         self.next = None;
@@ -292,6 +302,11 @@ impl<const N: usize> HeartbeatConsumer<N> {
                 e.watch == Watch::Lost,
             )
         })
+    }
+
+    /// Is any monitored node currently timed out?
+    pub fn any_lost(&self) -> bool {
+        self.entries.iter().any(|e| e.watch == Watch::Lost)
     }
 
     /// Is `node` monitored and currently timed out?

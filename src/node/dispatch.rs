@@ -132,6 +132,10 @@ impl<
         );
         let _ = self.send(boot_up);
         self.publish_storage_capabilities();
+        // The reset restored 0x1001's power-on value; errors still active say otherwise.
+        let _ = self
+            .od
+            .store(comm::ERROR_REGISTER, 0, &[self.emcy.register()]);
         if from != NmtState::Initialising {
             self.event(
                 now,
@@ -146,6 +150,8 @@ impl<
         if self.cfg.auto_start {
             self.enter(now, NmtState::Operational, StateCause::Boot);
         }
+        // Heartbeat consumers and life guarding start over: a loss they reported is gone.
+        self.monitoring_changed(now, None);
     }
 
     pub(super) fn enter(&mut self, now: Instant, to: NmtState, cause: StateCause) {
@@ -155,6 +161,10 @@ impl<
         }
         self.state = to;
         self.event(now, NodeEventKind::StateChanged { from, to, cause });
+        if cause != StateCause::Boot {
+            // The boot-up message announced the boot; every later change is announced at once.
+            self.heartbeat_now(now);
+        }
         if to == NmtState::Operational {
             let (engine, mut io) = self.pdo_io();
             engine.start(now, &mut io);
@@ -261,6 +271,7 @@ impl<
         }
         if let Some(ConsumerEvent::Resumed { node }) = self.consumer.heard(node, now) {
             self.event(now, NodeEventKind::HeartbeatResumed { node });
+            self.monitoring_changed(now, None);
         }
         let mut evs: heapless::Vec<GuardEvent, 2> = heapless::Vec::new();
         self.guard_master.answer(now, node, state, toggle, |e| {
@@ -444,18 +455,16 @@ impl<
         match then.life {
             Some(LifeEvent::Lost) => {
                 self.event(now, NodeEventKind::LifeGuardingLost);
-                self.emcy_raise(
-                    now,
-                    emcy::code::LIFE_GUARD,
-                    emcy::register::COMMUNICATION,
-                    [0; 5],
-                );
+                self.monitoring_changed(now, None);
             }
             Some(LifeEvent::Resumed) => {
-                self.emcy_clear(now, emcy::code::LIFE_GUARD);
+                self.monitoring_changed(now, None);
                 self.event(now, NodeEventKind::LifeGuardingResumed);
             }
             None => {}
+        }
+        if let Some(node) = then.heartbeat_lost {
+            self.monitoring_changed(now, Some(node));
         }
         if let Some(tick) = then.sync {
             self.pdo_sync(now, tick.counter);
@@ -510,6 +519,8 @@ fn guard_kind(e: GuardEvent) -> Option<NodeEventKind> {
 pub(super) struct FollowUp {
     /// Life guarding lost or resumed: event and EMCY.
     life: Option<LifeEvent>,
+    /// A consumed heartbeat was lost (the first such node of the call): EMCY.
+    heartbeat_lost: Option<NodeId>,
     /// A SYNC was produced: synchronous PDOs follow.
     sync: Option<SyncTick>,
     /// The PDO engine ran: its EMCY requests are raised or cleared.
@@ -551,6 +562,7 @@ impl<P: IdProfile> ServiceOutput for NodeOut<'_, P> {
                 return;
             }
             ServiceEvent::Consumer(ConsumerEvent::Timeout { node, last }) => {
+                self.then.heartbeat_lost.get_or_insert(node);
                 NodeEventKind::HeartbeatTimeout { node, last }
             }
             ServiceEvent::Consumer(ConsumerEvent::Resumed { node }) => {

@@ -49,6 +49,11 @@ pub struct NodeConfig {
     pub accept_nmt: bool,
     /// Report EMCY messages of other nodes (on their default identifiers).
     pub consume_emcy: bool,
+    /// Tell the bus when a consumed heartbeat (0x1016) is lost: EMCY 0x8130 with the
+    /// communication bit of 0x1001, recorded in 0x1003, and the error reset when the producer
+    /// is heard again (CiA 301, what a slave does so that every master learns of it). A master
+    /// handles its lost slaves itself (CiA 302-2) and does not announce them.
+    pub heartbeat_loss_emcy: bool,
 }
 
 // Builders: the struct is `#[non_exhaustive]` (it may gain fields), so code outside the crate
@@ -72,10 +77,16 @@ impl NodeConfig {
         self.consume_emcy = consume_emcy;
         self
     }
+    /// The configuration with [`heartbeat_loss_emcy`](Self::heartbeat_loss_emcy) replaced.
+    #[must_use]
+    pub fn with_heartbeat_loss_emcy(mut self, heartbeat_loss_emcy: bool) -> Self {
+        self.heartbeat_loss_emcy = heartbeat_loss_emcy;
+        self
+    }
 }
 
 impl NodeConfig {
-    /// A slave: waits for NMT start, obeys NMT, consumes EMCY.
+    /// A slave: waits for NMT start, obeys NMT, consumes EMCY, announces a lost heartbeat.
     #[must_use]
     pub const fn slave(node_id: NodeId) -> Self {
         NodeConfig {
@@ -83,9 +94,11 @@ impl NodeConfig {
             auto_start: false,
             accept_nmt: true,
             consume_emcy: true,
+            heartbeat_loss_emcy: true,
         }
     }
-    /// A master: starts itself, ignores NMT commands of others, consumes EMCY.
+    /// A master: starts itself, ignores NMT commands of others, consumes EMCY, handles lost
+    /// heartbeats itself.
     #[must_use]
     pub const fn master(node_id: NodeId) -> Self {
         NodeConfig {
@@ -93,12 +106,14 @@ impl NodeConfig {
             auto_start: true,
             accept_nmt: false,
             consume_emcy: true,
+            heartbeat_loss_emcy: false,
         }
     }
 }
 
 mod config;
 mod dispatch;
+mod error_control;
 mod events;
 mod storage;
 

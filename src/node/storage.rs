@@ -92,7 +92,10 @@ impl<
     pub(super) fn publish_storage_capabilities(&mut self) {
         let caps = self.od.storage_capabilities();
         for (index, mask) in [
-            (comm::STORE_PARAMETERS, capability::ON_COMMAND | capability::AUTONOMOUS),
+            (
+                comm::STORE_PARAMETERS,
+                capability::ON_COMMAND | capability::AUTONOMOUS,
+            ),
             // Restoring has only the one bit.
             (comm::RESTORE_DEFAULTS, capability::ON_COMMAND),
         ] {

@@ -128,9 +128,21 @@ pub const fn parameter_storage() -> [ObjectDef; STORAGE_LEN] {
         command(STORE_PARAMETERS, 4, "Save manufacturer defined parameters"),
         highest(RESTORE_DEFAULTS, "Restore default parameters"),
         command(RESTORE_DEFAULTS, 1, "Restore all default parameters"),
-        command(RESTORE_DEFAULTS, 2, "Restore communication default parameters"),
-        command(RESTORE_DEFAULTS, 3, "Restore application default parameters"),
-        command(RESTORE_DEFAULTS, 4, "Restore manufacturer defined default parameters"),
+        command(
+            RESTORE_DEFAULTS,
+            2,
+            "Restore communication default parameters",
+        ),
+        command(
+            RESTORE_DEFAULTS,
+            3,
+            "Restore application default parameters",
+        ),
+        command(
+            RESTORE_DEFAULTS,
+            4,
+            "Restore manufacturer defined default parameters",
+        ),
     ]
 }
 

@@ -24,9 +24,9 @@ pub use value::{check_value, OdValue};
 
 use crate::od::abort::AbortCode;
 use core::fmt;
-use storage::{LoadReport, ParameterGroup, StorageError};
 use core::hash::Hasher;
 use core::ops::RangeInclusive;
+use storage::{LoadReport, ParameterGroup, StorageError};
 
 /// Why a dictionary could not be built or extended.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]

@@ -2,6 +2,7 @@
 
 #[path = "../common/mod.rs"]
 mod common;
+mod error_control;
 mod memory;
 mod properties;
 mod services;

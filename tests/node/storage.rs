@@ -5,8 +5,8 @@
 
 use duocan::node::{NodeEventKind as K, StorageAction, Writer};
 use duocan::od::storage::{
-    ImageError, MemoryStorage, MemoryStorageError, ParameterGroup, ParameterStorage,
-    StorageError, StoredDictionary,
+    ImageError, MemoryStorage, MemoryStorageError, ParameterGroup, ParameterStorage, StorageError,
+    StoredDictionary,
 };
 use duocan::od::{comm, Access, DynamicDictionary, ObjectDef, ObjectDictionary, StaticDictionary};
 use duocan::{AbortCode, Frame, Id, Instant, Machine, NmtState, Node, NodeConfig, NodeId};
@@ -117,7 +117,10 @@ fn sdo_write<M: Machine>(
     req[1..3].copy_from_slice(&index.to_le_bytes());
     req[3] = sub;
     req[4..4 + n].copy_from_slice(data);
-    node.handle_frame(now, &Frame::from_array(Id::Standard(0x600 + ID.raw() as u16), req));
+    node.handle_frame(
+        now,
+        &Frame::from_array(Id::Standard(0x600 + ID.raw() as u16), req),
+    );
     let answer = drain(node)
         .into_iter()
         .find(|f| f.id() == Id::Standard(0x580 + ID.raw() as u16))
@@ -165,7 +168,14 @@ fn values(node: &Slave) -> (u16, u32, u16) {
 
 /// Writes 0x1017 = 500, 0x2000 = 21, 0x6000 = 11 over SDO.
 fn reconfigure(node: &mut Slave, now: Instant) {
-    sdo_write(node, now, comm::HEARTBEAT_PRODUCER, 0, &500u16.to_le_bytes()).unwrap();
+    sdo_write(
+        node,
+        now,
+        comm::HEARTBEAT_PRODUCER,
+        0,
+        &500u16.to_le_bytes(),
+    )
+    .unwrap();
     sdo_write(node, now, MANUFACTURER, 0, &21u32.to_le_bytes()).unwrap();
     sdo_write(node, now, APPLICATION, 0, &11u16.to_le_bytes()).unwrap();
     assert_eq!(values(node), (500, 21, 11));
@@ -196,10 +206,8 @@ fn the_configuration_given_before_boot_survives_both_resets() {
         node.set(ms(0), comm::HEARTBEAT_PRODUCER, 0, 1000u16)
             .unwrap();
         node.boot(ms(0));
-        let mut log: Vec<(Instant, Frame)> = drain(&mut node)
-            .into_iter()
-            .map(|f| (ms(0), f))
-            .collect();
+        let mut log: Vec<(Instant, Frame)> =
+            drain(&mut node).into_iter().map(|f| (ms(0), f)).collect();
         nmt(&mut node, ms(10), RESET_COMMUNICATION);
         log.extend(drain(&mut node).into_iter().map(|f| (ms(10), f)));
         assert_eq!(
@@ -271,8 +279,14 @@ fn each_group_stores_its_area_and_the_resets_reload_it() {
         nmt(&mut node, ms(3), RESET_NODE);
         assert_eq!(values(&node), expected, "{group}");
         // Reset-communication reloads the communication area from the same image.
-        sdo_write(&mut node, ms(4), comm::HEARTBEAT_PRODUCER, 0, &700u16.to_le_bytes())
-            .unwrap();
+        sdo_write(
+            &mut node,
+            ms(4),
+            comm::HEARTBEAT_PRODUCER,
+            0,
+            &700u16.to_le_bytes(),
+        )
+        .unwrap();
         nmt(&mut node, ms(5), RESET_COMMUNICATION);
         assert_eq!(values(&node).0, expected.0, "{group}");
         // A power cycle: the firmware configures a new node on the same medium.
@@ -326,9 +340,18 @@ fn a_wrong_signature_is_refused_with_0x08000020_and_nothing_is_stored() {
     let mut node = slave(Flaky::default());
     reconfigure(&mut node, ms(1));
     let refused = Err(AbortCode::CANNOT_STORE);
-    assert_eq!(sdo_write(&mut node, ms(2), comm::STORE_PARAMETERS, 1, b"savf"), refused);
-    assert_eq!(sdo_write(&mut node, ms(2), comm::STORE_PARAMETERS, 2, LOAD), refused);
-    assert_eq!(sdo_write(&mut node, ms(2), comm::RESTORE_DEFAULTS, 2, SAVE), refused);
+    assert_eq!(
+        sdo_write(&mut node, ms(2), comm::STORE_PARAMETERS, 1, b"savf"),
+        refused
+    );
+    assert_eq!(
+        sdo_write(&mut node, ms(2), comm::STORE_PARAMETERS, 2, LOAD),
+        refused
+    );
+    assert_eq!(
+        sdo_write(&mut node, ms(2), comm::RESTORE_DEFAULTS, 2, SAVE),
+        refused
+    );
     // "save" read as a big-endian number is not the signature either.
     assert_eq!(
         sdo_write(&mut node, ms(2), comm::STORE_PARAMETERS, 1, b"evas"),
@@ -357,7 +380,14 @@ fn a_failed_store_aborts_with_0x06060000_and_the_previous_image_survives() {
     let before = node.od().storage().memory.image().unwrap().to_vec();
     events(&mut node);
     // A new value, then a medium that refuses to write.
-    sdo_write(&mut node, ms(2), comm::HEARTBEAT_PRODUCER, 0, &700u16.to_le_bytes()).unwrap();
+    sdo_write(
+        &mut node,
+        ms(2),
+        comm::HEARTBEAT_PRODUCER,
+        0,
+        &700u16.to_le_bytes(),
+    )
+    .unwrap();
     node.od_mut().storage_mut().fail = true;
     assert_eq!(
         sdo_write(&mut node, ms(3), comm::STORE_PARAMETERS, 1, SAVE),
@@ -388,7 +418,11 @@ fn the_reads_give_the_capability_bits() {
     let mut node = slave(Flaky::default());
     for index in [comm::STORE_PARAMETERS, comm::RESTORE_DEFAULTS] {
         for sub in 1..=4 {
-            assert_eq!(sdo_read_u32(&mut node, ms(1), index, sub), 1, "{index:#x} {sub}");
+            assert_eq!(
+                sdo_read_u32(&mut node, ms(1), index, sub),
+                1,
+                "{index:#x} {sub}"
+            );
         }
     }
     // Without a medium: nothing is stored on command, and "save" cannot be stored.
@@ -396,8 +430,14 @@ fn the_reads_give_the_capability_bits() {
     let mut plain = Node::new(NodeConfig::slave(ID), od);
     plain.boot(ms(0));
     drain(&mut plain);
-    assert_eq!(sdo_read_u32(&mut plain, ms(1), comm::STORE_PARAMETERS, 1), 0);
-    assert_eq!(sdo_read_u32(&mut plain, ms(1), comm::RESTORE_DEFAULTS, 2), 0);
+    assert_eq!(
+        sdo_read_u32(&mut plain, ms(1), comm::STORE_PARAMETERS, 1),
+        0
+    );
+    assert_eq!(
+        sdo_read_u32(&mut plain, ms(1), comm::RESTORE_DEFAULTS, 2),
+        0
+    );
     assert_eq!(
         sdo_write(&mut plain, ms(1), comm::STORE_PARAMETERS, 1, SAVE),
         Err(AbortCode::CANNOT_STORE)
@@ -485,14 +525,15 @@ fn stored_values_that_no_longer_fit_the_dictionary_are_skipped_and_counted() {
     let medium = std::mem::take(node.od_mut().storage_mut());
     // A firmware update: 0x2000 is gone, 0x6000 refuses 11 now.
     let mut od = comm::standard_dictionary(ID.raw(), comm::Identity::default());
-    od.insert(
-        ObjectDef::u16(APPLICATION, 0, Access::Rw, 1).limits(
-            duocan::od::Limit::Unsigned(0),
-            duocan::od::Limit::Unsigned(10),
-        ),
-    )
+    od.insert(ObjectDef::u16(APPLICATION, 0, Access::Rw, 1).limits(
+        duocan::od::Limit::Unsigned(0),
+        duocan::od::Limit::Unsigned(10),
+    ))
     .unwrap();
-    let mut node = Node::new(NodeConfig::slave(ID), StoredDictionary::<_, _, 4096>::new(od, medium));
+    let mut node = Node::new(
+        NodeConfig::slave(ID),
+        StoredDictionary::<_, _, 4096>::new(od, medium),
+    );
     node.boot(ms(0));
     let loaded: Vec<_> = events(&mut node)
         .into_iter()
@@ -506,7 +547,10 @@ fn stored_values_that_no_longer_fit_the_dictionary_are_skipped_and_counted() {
         matches!(loaded[..], [(applied, 2)] if applied > 0),
         "{loaded:?}"
     );
-    assert_eq!(node.od().get_value::<u16>(comm::HEARTBEAT_PRODUCER, 0), Ok(500));
+    assert_eq!(
+        node.od().get_value::<u16>(comm::HEARTBEAT_PRODUCER, 0),
+        Ok(500)
+    );
     assert_eq!(node.od().get_value::<u16>(APPLICATION, 0), Ok(1));
 }
 
@@ -542,7 +586,10 @@ fn a_static_dictionary_without_room_for_the_power_on_image_says_so() {
     node.boot(ms(0));
     assert_eq!(node.od().power_on_used(), 16);
     nmt(&mut node, ms(1), RESET_NODE);
-    assert_eq!(node.od().get_value::<u16>(comm::HEARTBEAT_PRODUCER, 0), Ok(1000));
+    assert_eq!(
+        node.od().get_value::<u16>(comm::HEARTBEAT_PRODUCER, 0),
+        Ok(1000)
+    );
     assert_eq!(
         node.od().get_value::<u32>(comm::HEARTBEAT_CONSUMER, 1),
         Ok((1 << 16) | 300)

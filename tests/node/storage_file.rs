@@ -14,10 +14,8 @@ struct TempDir(PathBuf);
 
 impl TempDir {
     fn new(name: &str) -> TempDir {
-        let dir = std::env::temp_dir().join(format!(
-            "duocan-storage-{}-{name}",
-            std::process::id()
-        ));
+        let dir =
+            std::env::temp_dir().join(format!("duocan-storage-{}-{name}", std::process::id()));
         let _ = fs::remove_dir_all(&dir);
         fs::create_dir_all(&dir).unwrap();
         TempDir(dir)
@@ -59,8 +57,15 @@ fn a_failed_store_leaves_the_previous_image_and_no_temporary_file() {
     let e = f.store(b"new image").unwrap_err();
     assert_eq!(e.op, FileStorageOp::Create);
     assert_eq!(e.path, f.temp_path());
-    assert!(e.to_string().starts_with("parameter storage: cannot create"), "{e}");
-    assert!(std::error::Error::source(&e).is_some(), "the system's reason");
+    assert!(
+        e.to_string()
+            .starts_with("parameter storage: cannot create"),
+        "{e}"
+    );
+    assert!(
+        std::error::Error::source(&e).is_some(),
+        "the system's reason"
+    );
     let mut buf = [0u8; 64];
     assert_eq!(f.load(&mut buf).unwrap(), Some(10));
     assert_eq!(&buf[..10], b"good image");

@@ -310,7 +310,11 @@ mod tests {
         od.write(0x1017, 0, &500u16.to_le_bytes()).unwrap();
         od.write(0x6000, 0, b"abc").unwrap();
         let len = rebuild(&od, ParameterGroup::Communication, &mut buf, 0).unwrap();
-        assert_eq!(len, IMAGE_OVERHEAD + ENTRY_OVERHEAD + 2, "0x1001 is not a parameter");
+        assert_eq!(
+            len,
+            IMAGE_OVERHEAD + ENTRY_OVERHEAD + 2,
+            "0x1001 is not a parameter"
+        );
         let len = rebuild(&od, ParameterGroup::Application, &mut buf, len).unwrap();
         validate(&buf[..len]).unwrap();
         let got: std::vec::Vec<_> = entries(&buf[..len]).map(|(i, s, _)| (i, s)).collect();
@@ -366,7 +370,10 @@ mod tests {
         assert_eq!(image_size(&od), needed + 6);
         assert!(image_size(&od) <= image_capacity(8, 32));
         let mut buf = [0u8; 64];
-        assert_eq!(rebuild(&od, ParameterGroup::All, &mut buf[..needed], 0), Ok(needed));
+        assert_eq!(
+            rebuild(&od, ParameterGroup::All, &mut buf[..needed], 0),
+            Ok(needed)
+        );
     }
 
     #[test]

@@ -56,11 +56,11 @@
 //! [`Node::boot`]: crate::node::Node::boot
 //! [`ObjectDictionary::capture_power_on`]: super::ObjectDictionary::capture_power_on
 
+#[cfg(feature = "std")]
+mod file;
 mod image;
 mod memory;
 mod stored;
-#[cfg(feature = "std")]
-mod file;
 
 #[cfg(feature = "std")]
 pub use file::{FileStorage, FileStorageError, FileStorageOp};
