@@ -10,7 +10,8 @@ use crate::frame::instant::{Duration, Instant};
 use crate::od::abort::AbortCode;
 
 /// Produces the heartbeat on a fixed grid (no drift: the next beat is scheduled from the previous
-/// schedule, not from when the driver happened to call).
+/// schedule, not from when the driver happened to call). A node beats at once on an NMT state
+/// change and on a new producer time ([`beat_now`](Self::beat_now)), and the grid restarts there.
 #[derive(Clone, Debug, Default)]
 pub struct HeartbeatProducer {
     period: Duration,
