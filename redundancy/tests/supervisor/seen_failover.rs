@@ -46,8 +46,7 @@ fn the_started_standby_is_seen_operational_at_once_not_on_its_heartbeat_grid() {
     let hb = heartbeats(&n, b(0));
     let last_standby = *hb
         .iter()
-        .filter(|(t, _)| *t < start.0)
-        .next_back()
+        .rfind(|(t, _)| *t < start.0)
         .expect("the standby beat before");
     assert_eq!(last_standby.1, 0x7F, "pre-operational");
     let first_running = *hb
