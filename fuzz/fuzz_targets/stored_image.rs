@@ -4,7 +4,7 @@
 //! Never a panic; the dictionary keeps only values its definitions accept.
 #![no_main]
 
-use duocan::od::storage::{MemoryStorage, ParameterStorage, StoredDictionary};
+use duocan::od::storage::{crc32, MemoryStorage, ParameterStorage, StoredDictionary};
 use duocan::od::{check_value, comm, ObjectDef, ObjectDictionary, StaticDictionary};
 use duocan::{Frame, Id, Instant, Machine, Node, NodeConfig, NodeId};
 use libfuzzer_sys::fuzz_target;
@@ -15,18 +15,6 @@ static HIST: [ObjectDef; 5] = comm::error_history::<5>();
 static STORE: [ObjectDef; comm::STORAGE_LEN] = comm::parameter_storage();
 
 const IMAGE: usize = 2048;
-
-/// CRC-32 (IEEE), as the image carries it.
-fn crc32(data: &[u8]) -> u32 {
-    let mut c = !0u32;
-    for &b in data {
-        c ^= b as u32;
-        for _ in 0..8 {
-            c = if c & 1 != 0 { (c >> 1) ^ 0xEDB8_8320 } else { c >> 1 };
-        }
-    }
-    !c
-}
 
 fn run(image: &[u8]) {
     let mut medium = MemoryStorage::<IMAGE>::new();
@@ -45,7 +33,10 @@ fn run(image: &[u8]) {
     for f in [
         Frame::from_array(Id::Standard(0), [0x82, 5]),
         Frame::from_array(Id::Standard(0), [0x81, 5]),
-        Frame::from_array(Id::Standard(0x605), [0x23, 0x10, 0x10, 1, b's', b'a', b'v', b'e']),
+        Frame::from_array(
+            Id::Standard(0x605),
+            [0x23, 0x10, 0x10, 1, b's', b'a', b'v', b'e'],
+        ),
     ] {
         node.handle_frame(t, &f);
         while node.poll_transmit().is_some() {}

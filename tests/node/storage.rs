@@ -183,6 +183,13 @@ fn reconfigure(node: &mut Slave, now: Instant) {
 
 const POWER_ON: (u16, u32, u16) = (1000, 20, 10);
 
+/// A slave on an empty medium, reconfigured over SDO at 1 ms.
+fn reconfigured() -> Slave {
+    let mut node = slave(Flaky::default());
+    reconfigure(&mut node, ms(1));
+    node
+}
+
 /// The heartbeat instants in `frames`, sent by the node at `times`.
 fn heartbeats(log: &[(Instant, Frame)]) -> Vec<(Instant, u8)> {
     log.iter()
@@ -241,8 +248,7 @@ fn the_configuration_given_before_boot_survives_both_resets() {
 
 #[test]
 fn sdo_writes_are_volatile_until_stored() {
-    let mut node = slave(Flaky::default());
-    reconfigure(&mut node, ms(1));
+    let mut node = reconfigured();
     // Reset-communication reloads the communication area only.
     nmt(&mut node, ms(2), RESET_COMMUNICATION);
     assert_eq!(values(&node), (1000, 21, 11));
@@ -298,8 +304,7 @@ fn each_group_stores_its_area_and_the_resets_reload_it() {
 
 #[test]
 fn restored_defaults_take_effect_at_the_next_reset_of_the_group() {
-    let mut node = slave(Flaky::default());
-    reconfigure(&mut node, ms(1));
+    let mut node = reconfigured();
     sdo_write(&mut node, ms(1), comm::STORE_PARAMETERS, 1, SAVE).unwrap();
     // Communication defaults: not at once, at the next reset-communication.
     sdo_write(&mut node, ms(2), comm::RESTORE_DEFAULTS, 2, LOAD).unwrap();
@@ -337,8 +342,7 @@ fn restored_defaults_take_effect_at_the_next_reset_of_the_group() {
 
 #[test]
 fn a_wrong_signature_is_refused_with_0x08000020_and_nothing_is_stored() {
-    let mut node = slave(Flaky::default());
-    reconfigure(&mut node, ms(1));
+    let mut node = reconfigured();
     let refused = Err(AbortCode::CANNOT_STORE);
     assert_eq!(
         sdo_write(&mut node, ms(2), comm::STORE_PARAMETERS, 1, b"savf"),
@@ -374,8 +378,7 @@ fn a_wrong_signature_is_refused_with_0x08000020_and_nothing_is_stored() {
 
 #[test]
 fn a_failed_store_aborts_with_0x06060000_and_the_previous_image_survives() {
-    let mut node = slave(Flaky::default());
-    reconfigure(&mut node, ms(1));
+    let mut node = reconfigured();
     sdo_write(&mut node, ms(1), comm::STORE_PARAMETERS, 2, SAVE).unwrap();
     let before = node.od().storage().memory.image().unwrap().to_vec();
     events(&mut node);
@@ -519,8 +522,7 @@ fn an_unreadable_image_leaves_the_power_on_values_and_says_so() {
 
 #[test]
 fn stored_values_that_no_longer_fit_the_dictionary_are_skipped_and_counted() {
-    let mut node = slave(Flaky::default());
-    reconfigure(&mut node, ms(1));
+    let mut node = reconfigured();
     sdo_write(&mut node, ms(1), comm::STORE_PARAMETERS, 1, SAVE).unwrap();
     let medium = std::mem::take(node.od_mut().storage_mut());
     // A firmware update: 0x2000 is gone, 0x6000 refuses 11 now.
@@ -554,12 +556,12 @@ fn stored_values_that_no_longer_fit_the_dictionary_are_skipped_and_counted() {
     assert_eq!(node.od().get_value::<u16>(APPLICATION, 0), Ok(1));
 }
 
-#[test]
-fn a_static_dictionary_without_room_for_the_power_on_image_says_so() {
+/// A static-dictionary slave with `P` bytes of power-on image, configured before boot with a
+/// producer time (a 7-byte record) and one consumer (9 bytes), booted at 0.
+fn static_slave<const P: usize>() -> Node<StaticDictionary<32, 256, P>> {
     static COMM: [ObjectDef; comm::COMM_LEN] = comm::communication();
     static HB: [ObjectDef; 5] = comm::heartbeat_consumers::<5>();
-    // Eight bytes of power-on image: one U16 record (5 + 2) fits, two do not.
-    let mut od = StaticDictionary::<32, 256, 8>::new();
+    let mut od = StaticDictionary::<32, 256, P>::new();
     od.load(ID.raw(), &[&COMM, &HB]).unwrap();
     let mut node = Node::new(NodeConfig::slave(ID), od);
     node.set(ms(0), comm::HEARTBEAT_PRODUCER, 0, 1000u16)
@@ -567,6 +569,13 @@ fn a_static_dictionary_without_room_for_the_power_on_image_says_so() {
     node.set(ms(0), comm::HEARTBEAT_CONSUMER, 1, (1u32 << 16) | 300)
         .unwrap();
     node.boot(ms(0));
+    node
+}
+
+#[test]
+fn a_static_dictionary_without_room_for_the_power_on_image_says_so() {
+    // Eight bytes: the producer time would fit, both records do not.
+    let mut node = static_slave::<8>();
     assert!(events(&mut node).iter().any(|e| e.kind
         == K::StorageFailed {
             action: StorageAction::CapturePowerOn,
@@ -575,15 +584,9 @@ fn a_static_dictionary_without_room_for_the_power_on_image_says_so() {
                 capacity: 8
             }
         }));
+    assert_eq!(node.od().power_on_used(), 0, "all or nothing");
     // With room, the same configuration is kept.
-    let mut od = StaticDictionary::<32, 256, 16>::new();
-    od.load(ID.raw(), &[&COMM, &HB]).unwrap();
-    let mut node = Node::new(NodeConfig::slave(ID), od);
-    node.set(ms(0), comm::HEARTBEAT_PRODUCER, 0, 1000u16)
-        .unwrap();
-    node.set(ms(0), comm::HEARTBEAT_CONSUMER, 1, (1u32 << 16) | 300)
-        .unwrap();
-    node.boot(ms(0));
+    let mut node = static_slave::<16>();
     assert_eq!(node.od().power_on_used(), 16);
     nmt(&mut node, ms(1), RESET_NODE);
     assert_eq!(

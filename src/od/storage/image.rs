@@ -102,9 +102,10 @@ impl fmt::Display for ImageError {
 
 impl core::error::Error for ImageError {}
 
-/// CRC-32 (IEEE 802.3, reflected, as zlib computes it). Bitwise: images are a few hundred
+/// The CRC an image ends with: CRC-32 (IEEE 802.3, reflected, as zlib computes it) of every
+/// byte before it; for tools that write or repair images. Bitwise: images are a few hundred
 /// bytes, written on command, so a table would cost 1 KiB of flash for nothing.
-fn crc32(data: &[u8]) -> u32 {
+pub fn crc32(data: &[u8]) -> u32 {
     let mut c = !0u32;
     for &b in data {
         c ^= b as u32;

@@ -64,7 +64,7 @@ mod stored;
 
 #[cfg(feature = "std")]
 pub use file::{FileStorage, FileStorageError, FileStorageOp};
-pub use image::{image_capacity, image_size, ImageError, ENTRY_OVERHEAD, IMAGE_OVERHEAD};
+pub use image::{crc32, image_capacity, image_size, ImageError, ENTRY_OVERHEAD, IMAGE_OVERHEAD};
 pub use memory::{MemoryStorage, MemoryStorageError};
 pub use stored::StoredDictionary;
 
