@@ -9,3 +9,4 @@ mod services;
 mod sim;
 mod storage;
 mod storage_file;
+mod storage_properties;

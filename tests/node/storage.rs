@@ -12,13 +12,13 @@ use duocan::od::{comm, Access, DynamicDictionary, ObjectDef, ObjectDictionary, S
 use duocan::{AbortCode, Frame, Id, Instant, Machine, NmtState, Node, NodeConfig, NodeId};
 use std::fmt;
 
-const ID: NodeId = NodeId::must(5);
+pub const ID: NodeId = NodeId::must(5);
 /// Manufacturer-specific area (0x2000–0x5FFF): stored by "all" and by sub-index 4.
-const MANUFACTURER: u16 = 0x2000;
+pub const MANUFACTURER: u16 = 0x2000;
 /// Standardised profile area (0x6000–0x9FFF): the application group.
-const APPLICATION: u16 = 0x6000;
-const SAVE: &[u8] = b"save";
-const LOAD: &[u8] = b"load";
+pub const APPLICATION: u16 = 0x6000;
+pub const SAVE: &[u8] = b"save";
+pub const LOAD: &[u8] = b"load";
 
 /// A medium whose next operations can be made to fail.
 #[derive(Default)]
@@ -62,10 +62,10 @@ impl ParameterStorage for Flaky {
     }
 }
 
-type Od = StoredDictionary<DynamicDictionary, Flaky, 4096>;
-type Slave = Node<Od>;
+pub type Od = StoredDictionary<DynamicDictionary, Flaky, 4096>;
+pub type Slave = Node<Od>;
 
-fn ms(v: u64) -> Instant {
+pub fn ms(v: u64) -> Instant {
     Instant::from_millis(v)
 }
 
@@ -82,7 +82,7 @@ fn dictionary() -> DynamicDictionary {
 
 /// A slave whose application configures it before boot (the power-on image: heartbeat
 /// 1000 ms, 0x2000 = 20, 0x6000 = 10) on `medium`, booted at 0.
-fn slave(medium: Flaky) -> Slave {
+pub fn slave(medium: Flaky) -> Slave {
     let od = StoredDictionary::new(dictionary(), medium);
     let mut node = Node::new(NodeConfig::slave(ID), od);
     node.set(ms(0), comm::HEARTBEAT_PRODUCER, 0, 1000u16)
@@ -103,7 +103,7 @@ fn events<M: Machine>(node: &mut M) -> Vec<M::Event> {
 }
 
 /// An SDO expedited download from a client: the server's answer as the client reads it.
-fn sdo_write<M: Machine>(
+pub fn sdo_write<M: Machine>(
     node: &mut M,
     now: Instant,
     index: u16,
@@ -150,14 +150,14 @@ fn sdo_read_u32<M: Machine>(node: &mut M, now: Instant, index: u16, sub: u8) -> 
     u32::from_le_bytes([d[4], d[5], d[6], d[7]])
 }
 
-fn nmt<M: Machine>(node: &mut M, now: Instant, cmd: u8) {
+pub fn nmt<M: Machine>(node: &mut M, now: Instant, cmd: u8) {
     node.handle_frame(now, &Frame::from_array(Id::Standard(0), [cmd, ID.raw()]));
 }
-const RESET_NODE: u8 = 0x81;
-const RESET_COMMUNICATION: u8 = 0x82;
+pub const RESET_NODE: u8 = 0x81;
+pub const RESET_COMMUNICATION: u8 = 0x82;
 
 /// (0x1017, 0x2000, 0x6000) as the dictionary holds them.
-fn values(node: &Slave) -> (u16, u32, u16) {
+pub fn values(node: &Slave) -> (u16, u32, u16) {
     let od = node.od();
     (
         od.get_value(comm::HEARTBEAT_PRODUCER, 0).unwrap(),
@@ -181,7 +181,7 @@ fn reconfigure(node: &mut Slave, now: Instant) {
     assert_eq!(values(node), (500, 21, 11));
 }
 
-const POWER_ON: (u16, u32, u16) = (1000, 20, 10);
+pub const POWER_ON: (u16, u32, u16) = (1000, 20, 10);
 
 /// A slave on an empty medium, reconfigured over SDO at 1 ms.
 fn reconfigured() -> Slave {
