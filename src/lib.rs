@@ -14,7 +14,7 @@
 //! | --- | --- | --- |
 //! | 0 | [`frame`] | frames and identifiers, COB-IDs and node-IDs, time as an input, bounded queues and tables (inline or heap) |
 //! | 1 | [`machine`] | the shapes: [`Machine`], [`BusLink`], [`Device`], [`Station`] |
-//! | 2 | [`od`] | the object dictionary: types, values, static and dynamic dictionaries, abort codes |
+//! | 2 | [`od`] | the object dictionary: types, values, static and dynamic dictionaries, abort codes, the power-on image and parameter storage (0x1010/0x1011) |
 //! | 3 | [`cia301`] | the CiA 301 services, one module per object: [`nmt`], [`heartbeat`], [`guarding`], [`sync`], [`time_stamp`], [`emcy`], [`sdo`], [`pdo`] |
 //! | 4 | [`profile`] | identifier profiles: the predefined connection set, the railway 29-bit scheme |
 //! | 5 | [`node`] | [`Node`]: the services composed into one CANopen device |

@@ -5,6 +5,9 @@ use duocan::cia302::pdo_config::{AccessError, MirrorError, PdoConfigError, PdoCo
 use duocan::frame::{FrameError, Malformed};
 use duocan::master::{BootError, MasterError};
 use duocan::node::QueueFull;
+use duocan::od::storage::{
+    FileStorage, ImageError, MemoryStorage, MemoryStorageError, ParameterStorage, StorageError,
+};
 use duocan::od::BuildError;
 use duocan::pdo::PdoError;
 use duocan::profile::railway::safety::SafetyError;
@@ -22,6 +25,10 @@ const _: () = {
     check::<Malformed>();
     check::<AbortCode>();
     check::<BuildError>();
+    check::<StorageError>();
+    check::<ImageError>();
+    check::<MemoryStorageError>();
+    check::<duocan::od::storage::FileStorageError>();
     check::<SdoError>();
     check::<PdoError>();
     check::<QueueFull>();
@@ -113,11 +120,24 @@ fn each_error_ends_a_call_in_the_question_mark() {
         kind: PdoConfigErrorKind::BadReply { len: 0 },
     });
     boxes(MirrorError::NoMapping);
+    boxes(MemoryStorage::<4>::new().store(&[0; 5]).unwrap_err());
+    boxes(StorageError::TooLarge {
+        needed: 600,
+        capacity: 512,
+    });
+    boxes(ImageError::BadMagic);
     boxes(duocan::sim::SimError::PortCount { ports: 2, buses: 1 });
     boxes(duocan::capture::candump::parse_line("not a candump line").unwrap_err());
     // Not `Clone`: boxed by hand.
     let e = duocan::capture::pcap::decode_packet(&[1, 2]).unwrap_err();
     let text = e.to_string();
+    assert_eq!(user(Err(e)).unwrap_err().to_string(), text);
+    let dir = std::env::temp_dir().join(format!("duocan-no-such-dir-{}", std::process::id()));
+    let e = FileStorage::new(dir.join("params"))
+        .store(b"x")
+        .unwrap_err();
+    let text = e.to_string();
+    assert!(text.contains("cannot create"), "{text}");
     assert_eq!(user(Err(e)).unwrap_err().to_string(), text);
 }
 
@@ -143,6 +163,13 @@ fn wrapping_errors_name_their_cause() {
     assert!(AccessError::Aborted(AbortCode::NO_OBJECT)
         .source()
         .is_some());
+    let corrupt = StorageError::Corrupt(ImageError::BadMagic);
+    assert_eq!(
+        corrupt
+            .source()
+            .and_then(|s| s.downcast_ref::<ImageError>()),
+        Some(&ImageError::BadMagic)
+    );
 }
 
 #[cfg(feature = "tokio")]

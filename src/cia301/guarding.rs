@@ -57,6 +57,10 @@ impl GuardSlave {
         let resumed = core::mem::replace(&mut self.lost, false).then_some(LifeEvent::Resumed);
         (byte, resumed)
     }
+    /// True from a life-guarding loss until the next request.
+    pub fn is_lost(&self) -> bool {
+        self.lost
+    }
     /// When the master's next request is due at the latest.
     #[must_use]
     pub fn poll_timeout(&self) -> Option<Instant> {

@@ -10,7 +10,8 @@ use crate::frame::instant::{next_on_grid, shift_back, Duration, Instant};
 use crate::od::abort::AbortCode;
 
 /// Produces the heartbeat on a fixed grid (no drift: the next beat is scheduled from the previous
-/// schedule, not from when the driver happened to call).
+/// schedule, not from when the driver happened to call). A node beats at once on an NMT state
+/// change and on a new producer time ([`beat_now`](Self::beat_now)), and the grid restarts there.
 #[derive(Clone, Debug, Default)]
 pub struct HeartbeatProducer {
     period: Duration,
@@ -26,6 +27,16 @@ impl HeartbeatProducer {
         } else {
             Some(now + period)
         };
+    }
+    /// A heartbeat goes out now (the caller sends it) and the grid restarts from `now`: after
+    /// an NMT state change or a new producer time. Returns false when no heartbeat is produced
+    /// (period zero).
+    pub fn beat_now(&mut self, now: Instant) -> bool {
+        if self.period.is_zero() {
+            return false;
+        }
+        self.next = Some(now + self.period);
+        true
     }
     /// Stops producing.
     pub fn stop(&mut self) {
@@ -299,6 +310,11 @@ impl<const N: usize> HeartbeatConsumer<N> {
                 e.watch == Watch::Lost,
             )
         })
+    }
+
+    /// Is any monitored node currently timed out?
+    pub fn any_lost(&self) -> bool {
+        self.entries.iter().any(|e| e.watch == Watch::Lost)
     }
 
     /// Is `node` monitored and currently timed out?

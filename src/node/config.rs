@@ -114,6 +114,9 @@ impl<
             return Err(AbortCode::READ_ONLY);
         }
         check_value(e.def, data)?;
+        if matches!(index, comm::STORE_PARAMETERS | comm::RESTORE_DEFAULTS) && sub >= 1 {
+            return self.storage_write(now, index, sub, data, by);
+        }
         self.validate_comm(index, sub, data)?;
         self.od.store(index, sub, data)?;
         self.on_written(now, index, sub, by);
@@ -164,13 +167,20 @@ impl<
     pub(super) fn on_written(&mut self, now: Instant, index: u16, sub: u8, by: Writer) {
         self.pdo_written(now, index, sub);
         match index {
-            comm::HEARTBEAT_PRODUCER => self.hb.restart(
-                now,
-                Duration::from_millis(self.u16_of(comm::HEARTBEAT_PRODUCER) as u64),
-            ),
+            comm::HEARTBEAT_PRODUCER => {
+                let period = Duration::from_millis(self.u16_of(comm::HEARTBEAT_PRODUCER) as u64);
+                // A new producer time is announced at once and its grid starts there; the
+                // same time written again leaves the grid alone.
+                if period != self.hb.period() {
+                    self.hb.restart(now, period);
+                    self.heartbeat_now(now);
+                }
+            }
             comm::HEARTBEAT_CONSUMER if sub >= 1 => {
                 let v = self.od.get_u32(index, sub).unwrap_or(0);
                 let _ = self.consumer.configure(sub, ConsumerSetting::from_u32(v));
+                // A reconfigured entry starts over: a loss it reported is gone.
+                self.monitoring_changed(now, None);
             }
             comm::GUARD_TIME | comm::LIFE_TIME_FACTOR => {
                 let (gt, lf) = self.guard_params();

@@ -136,6 +136,11 @@ impl<
             [NmtState::Initialising.code()],
         );
         let _ = self.send(boot_up);
+        self.publish_storage_capabilities();
+        // The reset restored 0x1001's power-on value; errors still active say otherwise.
+        let _ = self
+            .od
+            .store(comm::ERROR_REGISTER, 0, &[self.emcy.register()]);
         if from != NmtState::Initialising {
             self.event(
                 now,
@@ -150,6 +155,8 @@ impl<
         if self.cfg.auto_start {
             self.enter(now, NmtState::Operational, StateCause::Boot);
         }
+        // Heartbeat consumers and life guarding start over: a loss they reported is gone.
+        self.monitoring_changed(now, None);
     }
 
     pub(super) fn enter(&mut self, now: Instant, to: NmtState, cause: StateCause) {
@@ -159,6 +166,10 @@ impl<
         }
         self.state = to;
         self.event(now, NodeEventKind::StateChanged { from, to, cause });
+        if cause != StateCause::Boot {
+            // The boot-up message announced the boot; every later change is announced at once.
+            self.heartbeat_now(now);
+        }
         if to == NmtState::Operational {
             let (engine, mut io) = self.pdo_io();
             engine.start(now, &mut io);
@@ -220,13 +231,16 @@ impl<
             NmtCommand::Start | NmtCommand::Stop | NmtCommand::EnterPreOperational => {
                 self.enter(now, cmd.resulting_state(), cause)
             }
+            // Each reset reloads its area: the power-on image, then what was stored.
             NmtCommand::ResetNode => {
                 self.od.reset_range(0x1000..=0xFFFF);
+                self.load_stored(now, 0x1000..=0xFFFF);
                 self.emcy = EmcyProducer::default();
                 self.boot(now);
             }
             NmtCommand::ResetCommunication => {
                 self.od.reset_range(0x1000..=0x1FFF);
+                self.load_stored(now, 0x1000..=0x1FFF);
                 self.boot(now);
             }
         }
@@ -262,6 +276,7 @@ impl<
         }
         if let Some(ConsumerEvent::Resumed { node }) = self.consumer.heard(node, now) {
             self.event(now, NodeEventKind::HeartbeatResumed { node });
+            self.monitoring_changed(now, None);
         }
         let mut evs: heapless::Vec<GuardEvent, 2> = heapless::Vec::new();
         self.guard_master.answer(now, node, state, toggle, |e| {
@@ -460,18 +475,16 @@ impl<
         match then.life {
             Some(LifeEvent::Lost) => {
                 self.event(now, NodeEventKind::LifeGuardingLost);
-                self.emcy_raise(
-                    now,
-                    emcy::code::LIFE_GUARD,
-                    emcy::register::COMMUNICATION,
-                    [0; 5],
-                );
+                self.monitoring_changed(now, None);
             }
             Some(LifeEvent::Resumed) => {
-                self.emcy_clear(now, emcy::code::LIFE_GUARD);
+                self.monitoring_changed(now, None);
                 self.event(now, NodeEventKind::LifeGuardingResumed);
             }
             None => {}
+        }
+        if let Some(node) = then.heartbeat_lost {
+            self.monitoring_changed(now, Some(node));
         }
         if let Some(tick) = then.sync {
             self.pdo_sync(now, tick.counter);
@@ -526,6 +539,8 @@ fn guard_kind(e: GuardEvent) -> Option<NodeEventKind> {
 pub(super) struct FollowUp {
     /// Life guarding lost or resumed: event and EMCY.
     life: Option<LifeEvent>,
+    /// A consumed heartbeat was lost (the first such node of the call): EMCY.
+    heartbeat_lost: Option<NodeId>,
     /// A SYNC was produced: synchronous PDOs follow.
     sync: Option<SyncTick>,
     /// The PDO engine ran: its EMCY requests are raised or cleared.
@@ -567,6 +582,7 @@ impl<P: IdProfile> ServiceOutput for NodeOut<'_, P> {
                 return;
             }
             ServiceEvent::Consumer(ConsumerEvent::Timeout { node, last }) => {
+                self.then.heartbeat_lost.get_or_insert(node);
                 NodeEventKind::HeartbeatTimeout { node, last }
             }
             ServiceEvent::Consumer(ConsumerEvent::Resumed { node }) => {

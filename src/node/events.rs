@@ -9,6 +9,7 @@ use crate::frame::cob_id::NodeId;
 use crate::frame::instant::Instant;
 use crate::frame::Id;
 use crate::frame::Malformed;
+use crate::od::storage::{LoadReport, ParameterGroup, StorageError};
 use core::fmt;
 
 /// Why the local NMT state changed.
@@ -29,6 +30,20 @@ pub enum Writer {
     Local,
     /// A remote client over SDO.
     Sdo,
+}
+
+/// What a failed parameter-storage operation was.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum StorageAction {
+    /// Storing a group (0x1010).
+    Store(ParameterGroup),
+    /// Restoring a group's defaults (0x1011).
+    Restore(ParameterGroup),
+    /// Loading the stored values at power-on or at a reset.
+    Load,
+    /// Taking the power-on image at boot: the dictionary has no room for it (the NMT resets
+    /// then restore the previous image, or the defaults).
+    CapturePowerOn,
 }
 
 /// What happened, and when.
@@ -135,6 +150,31 @@ pub enum NodeEventKind {
     },
     /// The PDO engine reports something.
     Pdo(PdoEvent),
+    /// A group's parameters were stored (0x1010 `"save"`).
+    ParametersStored {
+        /// The group.
+        group: ParameterGroup,
+        /// Who asked.
+        by: Writer,
+    },
+    /// A group's stored parameters were removed (0x1011 `"load"`): its defaults apply from the
+    /// next reset that reloads it.
+    DefaultsRestored {
+        /// The group.
+        group: ParameterGroup,
+        /// Who asked.
+        by: Writer,
+    },
+    /// Stored parameters were loaded at power-on or at a reset.
+    ParametersLoaded(LoadReport),
+    /// A store, restore or load of parameters failed. A store or restore changed nothing on
+    /// the medium; a failed load leaves the power-on values in place.
+    StorageFailed {
+        /// What was attempted.
+        action: StorageAction,
+        /// Why it failed.
+        error: StorageError,
+    },
     /// A frame was refused as malformed (nothing changed because of it).
     Malformed {
         /// Its identifier.

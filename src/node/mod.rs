@@ -20,6 +20,7 @@ use crate::frame::storage::{Inline, Storage};
 use crate::frame::Frame;
 use crate::machine::{LinkRequest, Machine};
 use crate::od::abort::AbortCode;
+use crate::od::storage::{ParameterGroup, StorageError};
 use crate::od::{ObjectDictionary, OdValue};
 use crate::profile::{IdProfile, Predefined};
 
@@ -49,6 +50,11 @@ pub struct NodeConfig {
     pub accept_nmt: bool,
     /// Report EMCY messages of other nodes (on their default identifiers).
     pub consume_emcy: bool,
+    /// Tell the bus when a consumed heartbeat (0x1016) is lost: EMCY 0x8130 with the
+    /// communication bit of 0x1001, recorded in 0x1003, and the error reset when the producer
+    /// is heard again (CiA 301, what a slave does so that every master learns of it). A master
+    /// handles its lost slaves itself (CiA 302-2) and does not announce them.
+    pub heartbeat_loss_emcy: bool,
 }
 
 // Builders: the struct is `#[non_exhaustive]` (it may gain fields), so code outside the crate
@@ -72,10 +78,16 @@ impl NodeConfig {
         self.consume_emcy = consume_emcy;
         self
     }
+    /// The configuration with [`heartbeat_loss_emcy`](Self::heartbeat_loss_emcy) replaced.
+    #[must_use]
+    pub fn with_heartbeat_loss_emcy(mut self, heartbeat_loss_emcy: bool) -> Self {
+        self.heartbeat_loss_emcy = heartbeat_loss_emcy;
+        self
+    }
 }
 
 impl NodeConfig {
-    /// A slave: waits for NMT start, obeys NMT, consumes EMCY.
+    /// A slave: waits for NMT start, obeys NMT, consumes EMCY, announces a lost heartbeat.
     #[must_use]
     pub const fn slave(node_id: NodeId) -> Self {
         NodeConfig {
@@ -83,9 +95,11 @@ impl NodeConfig {
             auto_start: false,
             accept_nmt: true,
             consume_emcy: true,
+            heartbeat_loss_emcy: true,
         }
     }
-    /// A master: starts itself, ignores NMT commands of others, consumes EMCY.
+    /// A master: starts itself, ignores NMT commands of others, consumes EMCY, handles lost
+    /// heartbeats itself.
     #[must_use]
     pub const fn master(node_id: NodeId) -> Self {
         NodeConfig {
@@ -93,15 +107,20 @@ impl NodeConfig {
             auto_start: true,
             accept_nmt: false,
             consume_emcy: true,
+            heartbeat_loss_emcy: false,
         }
     }
 }
 
 mod config;
 mod dispatch;
+mod error_control;
 mod events;
+mod storage;
 
-pub use events::{NodeEvent, NodeEventKind, NodeStats, QueueFull, StateCause, Writer};
+pub use events::{
+    NodeEvent, NodeEventKind, NodeStats, QueueFull, StateCause, StorageAction, Writer,
+};
 
 /// Everything of a node but the SDO server: dictionary, NMT, error control, SYNC, TIME, EMCY,
 /// PDO.
@@ -245,12 +264,58 @@ impl<
         }
     }
 
-    /// Power-on: configure the services from the dictionary, send boot-up, enter
+    /// Power-on: what the dictionary holds now becomes its power-on image (the values the NMT
+    /// resets restore), the stored parameters are loaded over it, then the services are
+    /// configured from the dictionary, the boot-up is sent and the node enters
     /// pre-operational (or operational with `auto_start`).
+    ///
+    /// So the application configures the node before calling this (writes, `od_mut`), and
+    /// that configuration survives reset-communication and reset-node; values written later
+    /// (over SDO or locally) are volatile unless stored (0x1010).
     pub fn boot(&mut self, now: Instant) {
         self.watch_clock(now);
+        let _ = self.capture_power_on(now);
+        self.core.load_stored(now, 0x1000..=0xFFFF);
         self.core.boot(now);
         self.sdo_follow_core();
+    }
+
+    /// Takes the dictionary's current values as its power-on image, as [`Node::boot`] does: for
+    /// an application that reconfigures the node after boot and wants the resets to keep it. A
+    /// dictionary without room for it keeps its previous image and says so (here and as
+    /// [`NodeEventKind::StorageFailed`]).
+    pub fn capture_power_on(&mut self, now: Instant) -> Result<(), StorageError> {
+        let r = self.core.od.capture_power_on();
+        if let Err(error) = r {
+            self.core.event(
+                now,
+                NodeEventKind::StorageFailed {
+                    action: StorageAction::CapturePowerOn,
+                    error,
+                },
+            );
+        }
+        r
+    }
+
+    /// Stores `group`'s current parameters on the dictionary's medium, as a 0x1010 `"save"`
+    /// does ([`NodeEventKind::ParametersStored`] or [`NodeEventKind::StorageFailed`]).
+    pub fn store_parameters(
+        &mut self,
+        now: Instant,
+        group: ParameterGroup,
+    ) -> Result<(), StorageError> {
+        self.core.storage_command(now, true, group, Writer::Local)
+    }
+
+    /// Removes `group` from the stored parameters, as a 0x1011 `"load"` does: its defaults (the
+    /// power-on image) apply from the next reset that reloads it.
+    pub fn restore_defaults(
+        &mut self,
+        now: Instant,
+        group: ParameterGroup,
+    ) -> Result<(), StorageError> {
+        self.core.storage_command(now, false, group, Writer::Local)
     }
 
     /// The SDO server (channel from 0x1200, configuration, counters).

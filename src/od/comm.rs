@@ -49,6 +49,13 @@ pub const IDENTITY: u16 = 0x1018;
 pub const SYNC_OVERFLOW: u16 = 0x1019;
 /// First SDO server parameter.
 pub const SDO_SERVER: u16 = 0x1200;
+/// Store parameters (write `"save"` to store a group).
+pub const STORE_PARAMETERS: u16 = 0x1010;
+/// Restore default parameters (write `"load"` to restore a group's defaults).
+pub const RESTORE_DEFAULTS: u16 = 0x1011;
+
+/// Number of entries [`parameter_storage`] defines.
+pub const STORAGE_LEN: usize = 10;
 
 /// Number of entries [`communication`] defines.
 pub const COMM_LEN: usize = 15;
@@ -97,6 +104,46 @@ fn sync_overflow_value(_: u16, _: u8, data: &[u8]) -> Result<(), AbortCode> {
         Some(0) | Some(2..=240) => Ok(()),
         _ => Err(AbortCode::VALUE_RANGE),
     }
+}
+
+/// 0x1010 store parameters and 0x1011 restore default parameters, sub-indices 1–4 (all,
+/// communication, application, manufacturer; see [`storage`](super::storage)). The read value
+/// of each sub-index is set by the node at boot from what the dictionary's medium can do.
+pub const fn parameter_storage() -> [ObjectDef; STORAGE_LEN] {
+    const fn command(index: u16, sub: u8, name: &'static str) -> ObjectDef {
+        ObjectDef::u32(index, sub, Access::Rw, 0)
+            .object_type(ObjectType::Array)
+            .named(name)
+    }
+    const fn highest(index: u16, name: &'static str) -> ObjectDef {
+        ObjectDef::u8(index, 0, Access::Const, 4)
+            .object_type(ObjectType::Array)
+            .named(name)
+    }
+    [
+        highest(STORE_PARAMETERS, "Store parameters"),
+        command(STORE_PARAMETERS, 1, "Save all parameters"),
+        command(STORE_PARAMETERS, 2, "Save communication parameters"),
+        command(STORE_PARAMETERS, 3, "Save application parameters"),
+        command(STORE_PARAMETERS, 4, "Save manufacturer defined parameters"),
+        highest(RESTORE_DEFAULTS, "Restore default parameters"),
+        command(RESTORE_DEFAULTS, 1, "Restore all default parameters"),
+        command(
+            RESTORE_DEFAULTS,
+            2,
+            "Restore communication default parameters",
+        ),
+        command(
+            RESTORE_DEFAULTS,
+            3,
+            "Restore application default parameters",
+        ),
+        command(
+            RESTORE_DEFAULTS,
+            4,
+            "Restore manufacturer defined default parameters",
+        ),
+    ]
 }
 
 /// What a device says it is: 0x1000 and 0x1018.
@@ -195,8 +242,9 @@ fn only_zero(_: u16, _: u8, data: &[u8]) -> Result<(), AbortCode> {
 }
 
 /// A complete dynamic dictionary of the communication objects: [`communication`], the identity,
-/// a 127-entry heartbeat consumer table and an 8-slot error history. Application entries are
-/// inserted on top of it.
+/// a 127-entry heartbeat consumer table, an 8-slot error history and 0x1010/0x1011
+/// ([`parameter_storage`]; they store once the dictionary has a medium). Application entries
+/// are inserted on top of it.
 #[cfg(feature = "alloc")]
 pub fn standard_dictionary(node_id: u8, id: Identity) -> super::DynamicDictionary {
     let mut od = super::DynamicDictionary::new(node_id);
@@ -205,6 +253,7 @@ pub fn standard_dictionary(node_id: u8, id: Identity) -> super::DynamicDictionar
     let _ = od.insert_all(&id.defs());
     let _ = od.insert_all(&heartbeat_consumers::<128>());
     let _ = od.insert_all(&error_history::<9>());
+    let _ = od.insert_all(&parameter_storage());
     od
 }
 
@@ -222,7 +271,7 @@ mod tests {
                 ..Identity::default()
             },
         );
-        assert_eq!(od.len(), COMM_LEN + 6 + 128 + 9);
+        assert_eq!(od.len(), COMM_LEN + 6 + 128 + 9 + STORAGE_LEN);
         assert_eq!(od.get_value::<u32>(EMCY_COB_ID, 0), Ok(0x85));
         assert_eq!(od.get_value::<u32>(SDO_SERVER, 1), Ok(0x605));
         assert_eq!(od.get_value::<u32>(IDENTITY, 1), Ok(7));

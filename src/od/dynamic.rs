@@ -2,8 +2,10 @@
 //! with its own ~1,300 entries and adds a handful per slave as slaves join.
 
 use super::def::{key, ObjectDef};
+use super::storage::StorageError;
 use super::{miss, value, BuildError, Entry, KeyHasher, ObjectDictionary};
 use crate::od::abort::AbortCode;
+use alloc::boxed::Box;
 use alloc::vec::Vec;
 use core::hash::BuildHasherDefault;
 use core::ops::RangeInclusive;
@@ -11,6 +13,9 @@ use core::ops::RangeInclusive;
 struct DynEntry {
     def: ObjectDef,
     data: Vec<u8>,
+    /// The value at the last capture when it differs from the default (most entries keep
+    /// their default, and cost nothing here).
+    power_on: Option<Box<[u8]>>,
 }
 
 /// A heap-backed dictionary whose entries can be inserted and removed while running.
@@ -49,14 +54,29 @@ impl DynamicDictionary {
             });
         }
         let data = default_bytes(&def, self.node_id);
-        self.map.insert(k, DynEntry { def, data });
+        self.map.insert(
+            k,
+            DynEntry {
+                def,
+                data,
+                power_on: None,
+            },
+        );
         Ok(())
     }
 
-    /// Inserts or replaces one entry (value reset to the default).
+    /// Inserts or replaces one entry (value reset to the default, which is also its power-on
+    /// value).
     pub fn upsert(&mut self, def: ObjectDef) {
         let data = default_bytes(&def, self.node_id);
-        self.map.insert(def.key(), DynEntry { def, data });
+        self.map.insert(
+            def.key(),
+            DynEntry {
+                def,
+                data,
+                power_on: None,
+            },
+        );
     }
 
     /// Inserts every definition of a table.
@@ -81,8 +101,13 @@ impl DynamicDictionary {
     }
 
     /// Sets the node-ID used by `$NODEID` defaults; takes effect at the next reset of the range.
+    /// The power-on values go: they were taken for the old node-ID, so the next reset restores
+    /// the defaults (capture again to keep a configuration).
     pub fn set_node_id(&mut self, node_id: u8) {
         self.node_id = node_id;
+        for e in self.map.values_mut() {
+            e.power_on = None;
+        }
     }
 }
 
@@ -121,9 +146,21 @@ impl ObjectDictionary for DynamicDictionary {
         let node_id = self.node_id;
         for e in self.map.values_mut() {
             if range.contains(&e.def.index) {
-                e.data = default_bytes(&e.def, node_id);
+                e.data = match &e.power_on {
+                    Some(v) => v.to_vec(),
+                    None => default_bytes(&e.def, node_id),
+                };
             }
         }
+    }
+
+    fn capture_power_on(&mut self) -> Result<(), StorageError> {
+        let node_id = self.node_id;
+        for e in self.map.values_mut() {
+            e.power_on = (!value::is_default(&e.def, node_id, &e.data))
+                .then(|| e.data.clone().into_boxed_slice());
+        }
+        Ok(())
     }
 
     fn node_id(&self) -> u8 {

@@ -12,6 +12,7 @@ mod def;
 #[cfg(feature = "alloc")]
 mod dynamic;
 mod static_dict;
+pub mod storage;
 mod value;
 
 pub use access::ObjectAccess;
@@ -25,6 +26,7 @@ use crate::od::abort::AbortCode;
 use core::fmt;
 use core::hash::Hasher;
 use core::ops::RangeInclusive;
+use storage::{LoadReport, ParameterGroup, StorageError};
 
 /// Why a dictionary could not be built or extended.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -91,9 +93,20 @@ pub trait ObjectDictionary {
     /// Replaces the stored value without any check but capacity (the caller checked).
     fn store(&mut self, index: u16, sub: u8, data: &[u8]) -> Result<(), AbortCode>;
 
-    /// Restores the defaults of every entry whose index is in `range` (reset node / reset
-    /// communication).
+    /// Restores the power-on value of every entry whose index is in `range` (reset node / reset
+    /// communication): the value it held at the last [`capture_power_on`](Self::capture_power_on),
+    /// or its default if there was none (or the entry came later).
     fn reset_range(&mut self, range: RangeInclusive<u16>);
+
+    /// Takes every entry's current value as its power-on value, the one
+    /// [`reset_range`](Self::reset_range) restores. A node calls it when it boots, so that what
+    /// the application configured before boot survives the NMT resets (CiA 301: the values
+    /// after a reset are the power-on values, not the compile-time table).
+    ///
+    /// All or nothing: a dictionary with bounded room for the image
+    /// ([`StaticDictionary`]'s `POWER_ON`) refuses with [`StorageError::TooLarge`] and keeps the
+    /// previous image.
+    fn capture_power_on(&mut self) -> Result<(), StorageError>;
 
     /// The node-ID used for `$NODEID`-relative defaults.
     fn node_id(&self) -> u8;
@@ -107,6 +120,32 @@ pub trait ObjectDictionary {
     /// True when empty.
     fn is_empty(&self) -> bool {
         self.len() == 0
+    }
+
+    /// What a read of 0x1010/0x1011 sub 1–4 gives: the [`storage::capability`] bits. Zero unless
+    /// the dictionary has a medium ([`storage::StoredDictionary`]).
+    fn storage_capabilities(&self) -> u32 {
+        0
+    }
+
+    /// Stores the current values of `group`'s parameters (0x1010 `"save"`), all or nothing.
+    fn store_parameters(&mut self, group: ParameterGroup) -> Result<(), StorageError> {
+        let _ = group;
+        Err(StorageError::Unsupported)
+    }
+
+    /// Removes `group` from the stored parameters (0x1011 `"load"`): its defaults apply from
+    /// the next reset that reloads it.
+    fn restore_defaults(&mut self, group: ParameterGroup) -> Result<(), StorageError> {
+        let _ = group;
+        Err(StorageError::Unsupported)
+    }
+
+    /// Writes the stored values of the entries in `range` into the dictionary (power-on and
+    /// resets, after [`reset_range`](Self::reset_range)). Nothing stored is not an error.
+    fn load_parameters(&mut self, range: RangeInclusive<u16>) -> Result<LoadReport, StorageError> {
+        let _ = range;
+        Ok(LoadReport::default())
     }
 
     /// Reads as an SDO upload would: refuses write-only entries.

@@ -1,7 +1,9 @@
 //! The static dictionary: definitions in `'static` tables (flash), values in a fixed byte arena,
-//! index in a fixed-capacity hash map. No heap; sized by two const parameters.
+//! index in a fixed-capacity hash map, the power-on image in a fixed record area. No heap; sized
+//! by three const parameters.
 
 use super::def::{key, ObjectDef};
+use super::storage::{self, StorageError};
 use super::{miss, value, BuildError, Entry, KeyHasher, ObjectDictionary};
 use crate::od::abort::AbortCode;
 use core::ops::RangeInclusive;
@@ -15,8 +17,20 @@ struct Slot {
     len: u32,
 }
 
+/// Bytes a [`StaticDictionary`] keeps for its power-on image unless told otherwise: room for
+/// about twenty entries the application configures before boot (a producer time, a few
+/// consumers, PDO parameters).
+pub const POWER_ON_BYTES: usize = 256;
+
+/// Bytes a power-on record spends besides the value: index, sub-index, length.
+const RECORD_HEADER: usize = 5;
+
 /// A dictionary over compile-time definition tables, with room for `N` entries (a power of two,
-/// as the hash map requires) and `BYTES` bytes of values.
+/// as the hash map requires), `BYTES` bytes of values and `POWER_ON` bytes of power-on image.
+///
+/// The power-on image ([`ObjectDictionary::capture_power_on`]) holds only the entries whose
+/// value differs from their compile-time default, 5 bytes plus the value each: what the
+/// application configured before boot. The defaults themselves live in flash, in the tables.
 ///
 /// ```
 /// use duocan::od::{Access, ObjectDef, ObjectDictionary, StaticDictionary};
@@ -27,20 +41,31 @@ struct Slot {
 /// od.load(5, &[&APP]).unwrap();
 /// assert_eq!(od.get_value::<u16>(0x2000, 0), Ok(7));
 /// ```
-pub struct StaticDictionary<const N: usize, const BYTES: usize> {
+pub struct StaticDictionary<
+    const N: usize,
+    const BYTES: usize,
+    const POWER_ON: usize = POWER_ON_BYTES,
+> {
     map: IndexMap<u32, Slot, BuildHasherDefault<KeyHasher>, N>,
     arena: [u8; BYTES],
     used: usize,
     node_id: u8,
+    /// Power-on records: index u16 LE, sub-index, length u16 LE, value.
+    power_on: [u8; POWER_ON],
+    power_on_used: usize,
 }
 
-impl<const N: usize, const BYTES: usize> Default for StaticDictionary<N, BYTES> {
+impl<const N: usize, const BYTES: usize, const POWER_ON: usize> Default
+    for StaticDictionary<N, BYTES, POWER_ON>
+{
     fn default() -> Self {
         Self::new()
     }
 }
 
-impl<const N: usize, const BYTES: usize> StaticDictionary<N, BYTES> {
+impl<const N: usize, const BYTES: usize, const POWER_ON: usize>
+    StaticDictionary<N, BYTES, POWER_ON>
+{
     /// An empty dictionary; `const`, so it can be placed in a `static`.
     #[must_use]
     pub const fn new() -> Self {
@@ -49,6 +74,8 @@ impl<const N: usize, const BYTES: usize> StaticDictionary<N, BYTES> {
             arena: [0; BYTES],
             used: 0,
             node_id: 0,
+            power_on: [0; POWER_ON],
+            power_on_used: 0,
         }
     }
 
@@ -99,13 +126,23 @@ impl<const N: usize, const BYTES: usize> StaticDictionary<N, BYTES> {
         self.used
     }
 
+    /// Bytes of the power-on image in use (of `POWER_ON`).
+    pub fn power_on_used(&self) -> usize {
+        self.power_on_used
+    }
+
     /// Sets the node-ID used by `$NODEID` defaults; takes effect at the next reset of the range.
+    /// The power-on image goes: it was taken for the old node-ID, so the next reset restores
+    /// the defaults (capture again to keep a configuration).
     pub fn set_node_id(&mut self, node_id: u8) {
         self.node_id = node_id;
+        self.power_on_used = 0;
     }
 }
 
-impl<const N: usize, const BYTES: usize> ObjectDictionary for StaticDictionary<N, BYTES> {
+impl<const N: usize, const BYTES: usize, const POWER_ON: usize> ObjectDictionary
+    for StaticDictionary<N, BYTES, POWER_ON>
+{
     #[inline]
     fn get(&self, index: u16, sub: u8) -> Result<Entry<'_>, AbortCode> {
         match self.map.get(&key(index, sub)) {
@@ -143,6 +180,68 @@ impl<const N: usize, const BYTES: usize> ObjectDictionary for StaticDictionary<N
                     as u32;
             }
         }
+        // Then what the application configured before boot, over the defaults.
+        let mut at = 0;
+        while at + RECORD_HEADER <= self.power_on_used {
+            let h = &self.power_on[at..at + RECORD_HEADER];
+            let (index, sub) = (u16::from_le_bytes([h[0], h[1]]), h[2]);
+            let len = u16::from_le_bytes([h[3], h[4]]) as usize;
+            let value = at + RECORD_HEADER..at + RECORD_HEADER + len;
+            at = value.end;
+            if !range.contains(&index) {
+                continue;
+            }
+            // Taken from the entry itself, so it fits; checked all the same.
+            if let Some(s) = self
+                .map
+                .get_mut(&key(index, sub))
+                .filter(|s| len <= s.def.storage_size())
+            {
+                let start = s.offset as usize;
+                self.arena[start..start + len].copy_from_slice(&self.power_on[value]);
+                s.len = len as u32;
+            }
+        }
+    }
+
+    fn capture_power_on(&mut self) -> Result<(), StorageError> {
+        let node_id = self.node_id;
+        let changed = |s: &Slot| {
+            let start = s.offset as usize;
+            let data = &self.arena[start..start + s.len as usize];
+            (!value::is_default(s.def, node_id, data)).then_some(data)
+        };
+        // Measure first: all or nothing.
+        let needed: usize = self
+            .map
+            .values()
+            .filter_map(changed)
+            .map(|d| RECORD_HEADER + d.len())
+            .sum();
+        let too_long = self
+            .map
+            .values()
+            .filter_map(changed)
+            .any(|d| d.len() > u16::MAX as usize);
+        if needed > POWER_ON || too_long {
+            return Err(StorageError::TooLarge {
+                needed: storage::bytes(needed),
+                capacity: storage::bytes(POWER_ON),
+            });
+        }
+        let mut at = 0;
+        for s in self.map.values() {
+            if let Some(data) = changed(s) {
+                let r = &mut self.power_on[at..at + RECORD_HEADER + data.len()];
+                r[..2].copy_from_slice(&s.def.index.to_le_bytes());
+                r[2] = s.def.sub;
+                r[3..5].copy_from_slice(&(data.len() as u16).to_le_bytes());
+                r[RECORD_HEADER..].copy_from_slice(data);
+                at += r.len();
+            }
+        }
+        self.power_on_used = at;
+        Ok(())
     }
 
     fn node_id(&self) -> u8 {

@@ -85,6 +85,22 @@ pub(crate) fn encode_default(def: &ObjectDef, node_id: u8, out: &mut [u8]) -> us
     n
 }
 
+/// True if `data` is what [`encode_default`] gives for `def` (without a buffer of the entry's
+/// size: power-on captures compare every entry).
+pub(crate) fn is_default(def: &ObjectDef, node_id: u8, data: &[u8]) -> bool {
+    let size = def.storage_size();
+    match def.default {
+        DefaultValue::Bytes(b) => data == &b[..b.len().min(size)],
+        DefaultValue::Zero if def.data_type.fixed_size().is_none() => data.is_empty(),
+        // Numbers: at most eight bytes, whatever the type.
+        _ => {
+            let mut tmp = [0u8; 8];
+            let n = encode_default(def, node_id, &mut tmp[..size.min(8)]);
+            data == &tmp[..n]
+        }
+    }
+}
+
 fn put_int(v: u64, size: Option<usize>, out: &mut [u8]) -> usize {
     let n = size.unwrap_or(8).min(out.len());
     out[..n].copy_from_slice(&v.to_le_bytes()[..n]);

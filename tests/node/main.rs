@@ -3,7 +3,11 @@
 mod clock;
 #[path = "../common/mod.rs"]
 mod common;
+mod error_control;
 mod memory;
 mod properties;
 mod services;
 mod sim;
+mod storage;
+mod storage_file;
+mod storage_properties;

@@ -48,6 +48,7 @@ fn boot_up_is_0x700_plus_id_with_state_zero_then_pre_operational() {
 fn heartbeat_frames_and_producer_restart_on_0x1017_write() {
     let mut w = wire();
     w.boot_all();
+    // A new producer time is announced at once and its grid starts there.
     w.nodes[SLAVE]
         .set(w.now, comm::HEARTBEAT_PRODUCER, 0, 100u16)
         .unwrap();
@@ -55,10 +56,17 @@ fn heartbeat_frames_and_producer_restart_on_0x1017_write() {
     let hb: Vec<_> = w.sent(SLAVE, 0x705).into_iter().skip(1).collect();
     assert_eq!(
         hb.iter().map(|(t, _)| *t).collect::<Vec<_>>(),
-        [ms(100), ms(200)]
+        [ms(0), ms(100), ms(200)]
     );
     assert!(hb.iter().all(|(_, f)| f.data() == [0x7F]));
-    // Writing 0x1017 restarts the producer from the write.
+    // The same time written again leaves the grid alone.
+    w.nodes[SLAVE]
+        .set(ms(250), comm::HEARTBEAT_PRODUCER, 0, 100u16)
+        .unwrap();
+    w.run_until(ms(250));
+    assert_eq!(w.sent(SLAVE, 0x705).len(), 4);
+    // Writing 30 ms at 250 ms sends at once and restarts the grid from the write; the NMT
+    // start in the same instant is announced at once too, and the grid starts over from it.
     w.nodes[SLAVE]
         .set(ms(250), comm::HEARTBEAT_PRODUCER, 0, 30u16)
         .unwrap();
@@ -67,12 +75,15 @@ fn heartbeat_frames_and_producer_restart_on_0x1017_write() {
         .unwrap();
     w.flush();
     w.run_until(ms(311));
-    let hb: Vec<_> = w.sent(SLAVE, 0x705).into_iter().skip(3).collect();
+    let hb: Vec<_> = w.sent(SLAVE, 0x705).into_iter().skip(4).collect();
+    let f = |state| Frame::from_array(Id::Standard(0x705), [state]);
     assert_eq!(
         hb,
         [
-            (ms(280), Frame::from_array(Id::Standard(0x705), [0x05])),
-            (ms(310), Frame::from_array(Id::Standard(0x705), [0x05]))
+            (ms(250), f(0x7F)),
+            (ms(250), f(0x05)),
+            (ms(280), f(0x05)),
+            (ms(310), f(0x05))
         ]
     );
 }

@@ -4,6 +4,7 @@ udp_multicast bus. Driven by tests/python_peer.rs; talks to it through stdout li
     peer.py node ID HB_MS GROUP PORT     LocalNode: SDO server, heartbeat, NMT slave
     peer.py client NODE GROUP PORT        SDO client: reads and writes NODE's dictionary
     peer.py junk GROUP PORT              python-can sends frames duocan must refuse, then one good
+    peer.py storage NODE GROUP PORT       stores and restores NODE's parameters (0x1010/0x1011)
 Stdout: one line per event: "READY", "STATE <name>", "WRITE <index> <sub> <hex>" (a write to the
 LocalNode), "READ <index> <sub> <hex>", "WROTE <index> <sub>", "ABORT <index> <sub> <code>",
 "DONE", "SENT <n>", "ERROR <command> <exception>". Ends when stdin closes.
@@ -160,6 +161,45 @@ def client(node_id, group, port):
     network.disconnect()
 
 
+def storage(node_id, group, port):
+    network = canopen.Network()
+    network.connect(interface="udp_multicast", channel=group, port=port)
+    remote = canopen.RemoteNode(node_id, odm.ObjectDictionary())
+    network.add_node(remote)
+    sdo = remote.sdo
+    sdo.RESPONSE_TIMEOUT = 2.0
+    say("READY")
+    sys.stdin.readline()  # the test says when duocan's node is up
+
+    def read(index, sub):
+        say("READ", "%04X" % index, sub, sdo.upload(index, sub).hex())
+
+    def reset(command):
+        remote.nmt.send_command(command)
+        remote.nmt.wait_for_bootup(5)
+        say("BOOTED")
+
+    read(0x1010, 2)                                   # the capability: stores on command
+    sdo.download(0x1017, 0, struct.pack("<H", 300))   # a volatile write over SDO
+    try:
+        sdo.download(0x1010, 2, b"nope")
+    except canopen.SdoAbortedError as e:
+        say("ABORT", "1010", 2, "0x%08X" % e.code)
+    remote.store(2)                                   # "save": the communication parameters
+    say("STORED")
+    reset(0x81)                                       # reset node: the stored value comes back
+    read(0x1017, 0)
+    remote.restore(1)                                 # "load": not at once...
+    say("RESTORED")
+    read(0x1017, 0)
+    reset(0x82)                                       # ...at the next reset
+    read(0x1017, 0)
+    say("DONE")
+    for _ in sys.stdin:
+        pass
+    network.disconnect()
+
+
 def junk(group, port):
     bus = can.Bus(interface="udp_multicast", channel=group, port=port)
     say("READY")
@@ -184,6 +224,8 @@ def main(argv):
         client(int(argv[2], 0), argv[3], int(argv[4]))
     elif argv[1] == "junk":
         junk(argv[2], int(argv[3]))
+    elif argv[1] == "storage":
+        storage(int(argv[2], 0), argv[3], int(argv[4]))
     else:
         raise SystemExit("unknown mode " + argv[1])
 

@@ -428,3 +428,44 @@ async fn python_tpdo_is_consumed_by_a_duocan_rpdo() {
     peer.stop().await;
     m.shutdown().await;
 }
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn python_canopen_stores_and_restores_a_duocan_nodes_parameters() {
+    use duocan::od::storage::{MemoryStorage, StoredDictionary};
+    use duocan::od::{comm, ObjectDictionary};
+    use duocan::Station;
+    let cfg = UdpBusConfig::numbered(5);
+    let id = NodeId::must(0x34);
+    let od = comm::standard_dictionary(id.raw(), comm::Identity::default());
+    let mut n = duocan::Node::new(
+        duocan::NodeConfig::slave(id),
+        StoredDictionary::<_, _, 4096>::new(od, MemoryStorage::<4096>::new()),
+    );
+    // The application's configuration before boot: the power-on value of 0x1017.
+    n.od_mut()
+        .write_local(comm::HEARTBEAT_PRODUCER, 0, &1000u16.to_le_bytes())
+        .unwrap();
+    let d = Runtime::new(Station::single(n))
+        .name("duocan-slave")
+        .port(UdpPort::open(cfg.clone()).expect("open the UDP bus (inside unshare -n?)"))
+        .spawn()
+        .unwrap();
+    d.boot().await.unwrap();
+    let (g, p) = group(&cfg);
+    let mut peer = Peer::spawn(&["storage", "0x34", &g, &p]).await;
+    peer.send_line("go").await;
+    assert_eq!(peer.expect("READ 1010", 5).await, "READ 1010 2 01000000");
+    assert_eq!(peer.expect("ABORT", 5).await, "ABORT 1010 2 0x08000020");
+    peer.expect("STORED", 5).await;
+    peer.expect("BOOTED", 10).await;
+    // Reset-node: the stored 300 ms, not the 1000 ms of the power-on image.
+    assert_eq!(peer.expect("READ 1017", 5).await, "READ 1017 0 2c01");
+    peer.expect("RESTORED", 5).await;
+    assert_eq!(peer.expect("READ 1017", 5).await, "READ 1017 0 2c01");
+    peer.expect("BOOTED", 10).await;
+    // Reset-communication after the restore: the application's 1000 ms.
+    assert_eq!(peer.expect("READ 1017", 5).await, "READ 1017 0 e803");
+    peer.expect("DONE", 5).await;
+    peer.stop().await;
+    d.shutdown().await;
+}

@@ -9,3 +9,4 @@ mod on_bus;
 mod pairs;
 mod partition;
 mod queues;
+mod seen_failover;
