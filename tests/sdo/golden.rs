@@ -4,7 +4,7 @@
 
 use crate::net::{Net, DOMAIN, STRING, VALUES};
 use duocan::od::ObjectDictionary;
-use duocan::sdo::{SdoOptions, TransferMode};
+use duocan::sdo::{SdoOptions, SdoServerConfig, TransferMode};
 use duocan::{Id, NodeId};
 
 const N: NodeId = NodeId::must(5);
@@ -158,4 +158,58 @@ fn block_download_and_upload_with_crc() {
             (C, 0x605, [0xA1, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00]),
         ]
     );
+}
+
+/// A client that does not ask for CRC (cc=0) still gets the real CRC in the end frame when the
+/// server's initiate response sets sc=1: CiA 301 ties the CRC to the server's bit, and clients
+/// such as python `canopen` check it whenever that bit is set.
+#[test]
+fn block_upload_without_client_crc_carries_the_real_crc() {
+    let data: Vec<u8> = (1..=20).collect();
+    let mut net = Net::new(&[5]);
+    net.nodes[0].write(net.now, DOMAIN, 0, &data).unwrap();
+    let opts = SdoOptions::mode(TransferMode::Block).with_crc(false);
+    net.client.upload(net.now, N, DOMAIN, 0, opts).unwrap();
+    let ev = net.finish();
+    assert_eq!(ev[0].data(), Some(&data[..]));
+    assert_eq!(
+        exchange(&net, 0),
+        [
+            // ccs=5, cc=0 (no CRC asked), cs=0; blksize 127, pst 0.
+            (C, 0x605, [0xA0, 0x00, 0x20, 0x00, 0x7F, 0x00, 0x00, 0x00]),
+            // scs=6, sc=1 (the server supports CRC), s=1; size 20.
+            (S, 0x585, [0xC6, 0x00, 0x20, 0x00, 0x14, 0x00, 0x00, 0x00]),
+            (C, 0x605, [0xA3, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00]),
+            (S, 0x585, [0x01, 1, 2, 3, 4, 5, 6, 7]),
+            (S, 0x585, [0x02, 8, 9, 10, 11, 12, 13, 14]),
+            (S, 0x585, [0x83, 15, 16, 17, 18, 19, 20, 0]),
+            (C, 0x605, [0xA2, 0x03, 0x7F, 0x00, 0x00, 0x00, 0x00, 0x00]),
+            // ss=1, n=1; the CRC-16 of bytes 1..=20 (0xEAD3), not zero.
+            (S, 0x585, [0xC5, 0xD3, 0xEA, 0x00, 0x00, 0x00, 0x00, 0x00]),
+            (C, 0x605, [0xA1, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00]),
+        ]
+    );
+}
+
+/// A server configured without CRC support does not set sc, and its end frame carries 0.
+#[test]
+fn block_upload_from_a_server_without_crc_support() {
+    let data: Vec<u8> = (1..=20).collect();
+    let mut net = Net::new(&[5]);
+    net.nodes[0].write(net.now, DOMAIN, 0, &data).unwrap();
+    net.nodes[0]
+        .sdo_server_mut()
+        .set_config(SdoServerConfig::default().with_crc(false));
+    net.client
+        .upload(net.now, N, DOMAIN, 0, SdoOptions::mode(TransferMode::Block))
+        .unwrap();
+    let ev = net.finish();
+    assert_eq!(ev[0].data(), Some(&data[..]));
+    let frames = exchange(&net, 0);
+    // scs=6, sc=0, s=1.
+    assert_eq!(
+        frames[1],
+        (S, 0x585, [0xC2, 0x00, 0x20, 0x00, 0x14, 0, 0, 0])
+    );
+    assert_eq!(frames[7], (S, 0x585, [0xC5, 0, 0, 0, 0, 0, 0, 0]));
 }
