@@ -4,7 +4,7 @@ use super::network;
 use crate::frame::instant::{Duration, Instant};
 use crate::frame::{Frame, Id};
 use crate::machine::{Device, PortStatus};
-use crate::sim::DEFAULT_EVENT_CAPACITY;
+use crate::sim::{BusId, DevId, SimNetwork, DEFAULT_EVENT_CAPACITY};
 
 /// Sends one frame every `period` and reports every frame it hears; keeps nothing itself.
 struct Chatter {
@@ -60,22 +60,21 @@ impl Device for Chatter {
     }
 }
 
+/// A talker sending every `period` and a listener (which sends once an hour) on `bus`.
+fn talker_and_listener(sim: &mut SimNetwork, bus: BusId, period: Duration) -> DevId<Chatter> {
+    sim.add_device("talker", Chatter::new(0x181, period), &[bus])
+        .unwrap();
+    let hourly = Chatter::new(0x182, Duration::from_secs(3600));
+    sim.add_device("listener", hourly, &[bus]).unwrap()
+}
+
 /// An hour of a frame every 10 ms with recording off: the listener's log stops at its capacity,
 /// everything past it is counted, and taking the events makes room again.
 #[test]
 fn an_hour_without_recording_keeps_the_event_log_bounded() {
     let (mut sim, b) = network(3, 1, 500_000);
     sim.set_recording(false);
-    let period = Duration::from_millis(10);
-    sim.add_device("talker", Chatter::new(0x181, period), &[b[0]])
-        .unwrap();
-    let l = sim
-        .add_device(
-            "listener",
-            Chatter::new(0x182, Duration::from_secs(3600)),
-            &[b[0]],
-        )
-        .unwrap();
+    let l = talker_and_listener(&mut sim, b[0], Duration::from_millis(10));
     let mut longest = 0;
     for minute in 1..=60 {
         sim.run_until(Instant::from_secs(60 * minute));
@@ -114,19 +113,7 @@ fn an_hour_without_recording_keeps_the_event_log_bounded() {
 fn recording_keeps_every_event() {
     let (mut sim, b) = network(4, 1, 500_000);
     sim.set_event_capacity(10);
-    sim.add_device(
-        "talker",
-        Chatter::new(0x181, Duration::from_millis(1)),
-        &[b[0]],
-    )
-    .unwrap();
-    let l = sim
-        .add_device(
-            "listener",
-            Chatter::new(0x182, Duration::from_secs(3600)),
-            &[b[0]],
-        )
-        .unwrap();
+    let l = talker_and_listener(&mut sim, b[0], Duration::from_millis(1));
     sim.run_until(Instant::from_millis(100));
     // Sent at 0, 1 ms, …, 99 ms: all delivered and kept past the capacity of 10.
     assert_eq!(sim.events(l).len(), 100);
