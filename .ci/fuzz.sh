@@ -1,8 +1,9 @@
 #!/bin/bash
 # Coverage-guided fuzzing (libFuzzer through cargo fuzz) of every decoder and protocol machine
 # that takes bytes from a bus or a file: fuzz/fuzz_targets/*.rs. Each target runs for
-# FUZZ_SECONDS (default 30) from an empty corpus; a crash fails the tier and names the input
-# that caused it (fuzz/artifacts/<target>/), which `cargo fuzz run <target> <file>` replays.
+# FUZZ_SECONDS (default 30) from an empty corpus (plus fuzz/seeds/<target>/ where present); a
+# crash fails the tier and names the input that caused it (fuzz/artifacts/<target>/), which
+# `cargo fuzz run <target> <file>` replays.
 # cargo fuzz wants nightly compiler flags: RUSTC_BOOTSTRAP lets the stable toolchain take them.
 set -euo pipefail
 ROOT=$(cd "$(dirname "$0")/.." && pwd)
@@ -19,7 +20,14 @@ for t in $(cargo fuzz list); do
   echo "== fuzz: $t for ${SECONDS_EACH} s"
   log=$(mktemp)
   set +e
-  cargo fuzz run --sanitizer none "$t" -- -max_total_time="$SECONDS_EACH" -print_final_stats=0 >"$log" 2>&1
+  # Hand-made seeds (fuzz/seeds/<target>/, committed) join the corpus: inputs that reach deep
+  # states (a slave configured through its PDOs) the fuzzer would need minutes to find.
+  corpus=()
+  if [ -d "seeds/$t" ]; then
+    mkdir -p "corpus/$t"
+    corpus=("corpus/$t" "seeds/$t")
+  fi
+  cargo fuzz run --sanitizer none "$t" "${corpus[@]}" -- -max_total_time="$SECONDS_EACH" -print_final_stats=0 >"$log" 2>&1
   rc=$?
   set -e
   grep -E "^(#[0-9]+ +DONE|Done )" "$log" || true

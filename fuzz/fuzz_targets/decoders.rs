@@ -15,7 +15,7 @@ fuzz_target!(|data: &[u8]| {
     for line in text.lines() {
         let _ = candump::parse_line(line);
     }
-    for entry in candump::read_log(data).take(1000) {
+    for entry in candump::read_log("fuzz", data).take(1000) {
         let _ = entry;
     }
     let _ = pcap::decode_packet(data);

@@ -2,19 +2,12 @@
 //! time steps: no panic, bounded output and events, deadlines that move on once handled.
 #![no_main]
 
-use duocan::machine::{ErrorCause, PortStatus};
+mod common;
+
+use common::port_status;
 use duocan::{BusLink, Duration, Frame, Id, Instant, NodeId};
 use duocan_redundancy::{Cia3026Config, DualBus, DualBusConfig, EcssConfig, LinkMode};
 use libfuzzer_sys::fuzz_target;
-
-const CAUSES: [ErrorCause; 6] = [
-    ErrorCause::BusOff,
-    ErrorCause::ErrorPassive,
-    ErrorCause::NoAck,
-    ErrorCause::InterfaceDown,
-    ErrorCause::TxTimeout,
-    ErrorCause::Restarted,
-];
 
 fn drain(b: &mut DualBus) {
     let mut k = 0;
@@ -72,17 +65,7 @@ fuzz_target!(|data: &[u8]| {
                     b.send(now, &f);
                 }
             }
-            5 => {
-                let cause = CAUSES[usize::from(byte) % CAUSES.len()];
-                let s = match dlc % 5 {
-                    0 => PortStatus::TxOk,
-                    1 => PortStatus::TxFailed(cause),
-                    2 => PortStatus::Error(cause),
-                    3 => PortStatus::Down(cause),
-                    _ => PortStatus::Up,
-                };
-                b.handle_port_status(now, port, s);
-            }
+            5 => b.handle_port_status(now, port, port_status(dlc, byte)),
             // An arrival on both ports, the twin `step` quarter-milliseconds later.
             _ => {
                 if let Ok(f) = frame {

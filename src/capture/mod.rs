@@ -6,8 +6,10 @@
 //! - [`recorder`]: a [`Tap`](recorder::Tap) the runtime (every port) and a [`Tapped`](recorder::Tapped)
 //!   machine wrapper (the logical bus above the dual-bus layer) feed, writing to any of the above.
 //!
-//! Readers never panic on bad files: a truncated or garbled capture gives an error naming the
-//! line or byte offset, and the records before it.
+//! Readers never panic on bad files and never guess: a truncated, garbled or out-of-range
+//! capture gives an error naming the source and line (candump) or the record and byte offset
+//! (pcap), and the records before it. Lines are read with a bound ([`candump::MAX_LINE`]), so a
+//! file that is not a log costs no more memory than a line.
 
 pub mod candump;
 pub mod pcap;

@@ -20,8 +20,9 @@ pub(super) trait ErasedDevice {
     fn poll_port_request(&mut self) -> Option<(usize, PortRequest)>;
     #[must_use]
     fn poll_timeout(&self) -> Option<Instant>;
-    /// Moves every pending event into the typed log, stamped with `now`.
-    fn record_events(&mut self, now: Instant);
+    /// Moves every pending event into the typed log, stamped with `now`; with a `cap`, the log
+    /// holds at most that many and the rest are drained and dropped. Returns how many were.
+    fn record_events(&mut self, now: Instant, cap: Option<usize>) -> u64;
     fn as_any(&self) -> &dyn Any;
     fn as_any_mut(&mut self) -> &mut dyn Any;
 }
@@ -56,10 +57,16 @@ where
     fn poll_timeout(&self) -> Option<Instant> {
         self.device.poll_timeout()
     }
-    fn record_events(&mut self, now: Instant) {
+    fn record_events(&mut self, now: Instant, cap: Option<usize>) -> u64 {
+        let mut dropped = 0;
         while let Some(e) = self.device.poll_event() {
-            self.events.push((now, e));
+            if cap.is_some_and(|c| self.events.len() >= c) {
+                dropped += 1;
+            } else {
+                self.events.push((now, e));
+            }
         }
+        dropped
     }
     fn as_any(&self) -> &dyn Any {
         self
@@ -93,6 +100,8 @@ pub(super) struct DeviceState {
     pub(super) spins: u32,
     /// Frames and requests addressed to a port the device does not have.
     pub(super) misaddressed: u64,
+    /// Events dropped because the log was full (recording off).
+    pub(super) events_dropped: u64,
 }
 
 impl DeviceState {
@@ -151,6 +160,7 @@ impl SimNetwork {
             spin_at: Instant::ZERO,
             spins: 0,
             misaddressed: 0,
+            events_dropped: 0,
         });
         self.touch(index);
         Ok(DevId::new(index))
@@ -206,6 +216,13 @@ impl SimNetwork {
     {
         self.touch(id.index);
         &mut self.slot_mut(id).device
+    }
+
+    /// Events the device dropped because its log was full: with recording off
+    /// ([`set_recording`](Self::set_recording)) the log holds at most
+    /// [`event_capacity`](Self::set_event_capacity) events until they are taken.
+    pub fn events_dropped(&self, dev: impl Into<DeviceRef>) -> u64 {
+        self.device_state(dev.into()).events_dropped
     }
 
     /// Events the device produced, each with the instant it was drained.

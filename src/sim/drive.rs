@@ -64,7 +64,10 @@ impl SimNetwork {
                 break;
             }
         }
-        self.devices[d].dev.record_events(now);
+        // With recording off nobody keeps the whole history: the log is bounded.
+        let cap = (!self.recording).then_some(self.event_capacity);
+        let dropped = self.devices[d].dev.record_events(now, cap);
+        self.devices[d].events_dropped += dropped;
         let deadline = self.devices[d].dev.poll_timeout();
         self.set_deadline(d, deadline);
     }

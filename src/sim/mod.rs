@@ -90,6 +90,10 @@ mod trace;
 mod tests;
 
 pub use bus::{BusStats, PortStats, DEFAULT_TX_CAPACITY};
+
+/// Events each device's log holds while recording is off, unless
+/// [`SimNetwork::set_event_capacity`] says otherwise.
+pub const DEFAULT_EVENT_CAPACITY: usize = 16_384;
 pub use fault::FaultRates;
 pub use ids::{BusConfig, BusId, DevId, DeviceRef, PortRef, SimError};
 pub use trace::{RxFault, RxRecord, TraceRecord, TxOutcome, TxRecord};
@@ -123,6 +127,8 @@ pub struct SimNetwork {
     refill: Vec<u32>,
     trace: Vec<TraceRecord>,
     recording: bool,
+    /// Most events a device's log holds while recording is off.
+    event_capacity: usize,
     /// Scratch buffers reused on the frame path.
     statuses: Vec<(usize, PortStatus)>,
     receivers: Vec<u32>,
@@ -147,6 +153,7 @@ impl SimNetwork {
             refill: Vec::new(),
             trace: Vec::new(),
             recording: true,
+            event_capacity: DEFAULT_EVENT_CAPACITY,
             statuses: Vec::new(),
             receivers: Vec::new(),
             in_action: false,
@@ -259,8 +266,19 @@ impl SimNetwork {
     }
 
     /// Switches recording on or off (on by default); counters keep counting either way.
+    ///
+    /// Recording keeps the whole history: every transmission in the trace and every device
+    /// event in its log. Off, nothing goes to the trace and each device's event log holds at
+    /// most [`DEFAULT_EVENT_CAPACITY`] events (see [`set_event_capacity`](Self::set_event_capacity))
+    /// until [`take_events`](Self::take_events) empties it; the rest are dropped and counted
+    /// ([`events_dropped`](Self::events_dropped)), so memory stays fixed however long the run.
     pub fn set_recording(&mut self, on: bool) {
         self.recording = on;
+    }
+
+    /// Most events each device's log holds while recording is off.
+    pub fn set_event_capacity(&mut self, capacity: usize) {
+        self.event_capacity = capacity;
     }
 
     // ----- counters -----

@@ -193,8 +193,10 @@ fn day() {
             _ => None,
         })
         .collect();
-    let file = std::io::BufReader::new(std::fs::File::open(&paths.candump).unwrap());
-    let entries: Vec<_> = candump::read_log(file).map(|e| e.unwrap()).collect();
+    let entries: Vec<_> = candump::CandumpReader::open(&paths.candump)
+        .unwrap()
+        .map(|e| e.unwrap())
+        .collect();
     assert_eq!(entries.len(), delivered.len());
     assert_eq!(entries.len() as u64, o.frames);
     for (e, x) in entries.iter().zip(&delivered) {

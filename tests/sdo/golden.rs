@@ -4,7 +4,7 @@
 
 use crate::net::{Net, DOMAIN, STRING, VALUES};
 use duocan::od::ObjectDictionary;
-use duocan::sdo::{SdoOptions, TransferMode};
+use duocan::sdo::{SdoOptions, SdoServerConfig, TransferMode};
 use duocan::{Id, NodeId};
 
 const N: NodeId = NodeId::must(5);
@@ -142,20 +142,69 @@ fn block_download_and_upload_with_crc() {
     assert_eq!(ev[0].data(), Some(&data[..]));
     assert_eq!(
         exchange(&net, from),
-        [
-            // ccs=5, cc=1, cs=0; blksize 127, pst 0.
-            (C, 0x605, [0xA4, 0x00, 0x20, 0x00, 0x7F, 0x00, 0x00, 0x00]),
-            // scs=6, sc=1, s=1, ss=0; size 20.
-            (S, 0x585, [0xC6, 0x00, 0x20, 0x00, 0x14, 0x00, 0x00, 0x00]),
-            // cs=3: start.
-            (C, 0x605, [0xA3, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00]),
-            (S, 0x585, [0x01, 1, 2, 3, 4, 5, 6, 7]),
-            (S, 0x585, [0x02, 8, 9, 10, 11, 12, 13, 14]),
-            (S, 0x585, [0x83, 15, 16, 17, 18, 19, 20, 0]),
-            (C, 0x605, [0xA2, 0x03, 0x7F, 0x00, 0x00, 0x00, 0x00, 0x00]),
-            // ss=1, n=1; CRC.
-            (S, 0x585, [0xC5, 0xD3, 0xEA, 0x00, 0x00, 0x00, 0x00, 0x00]),
-            (C, 0x605, [0xA1, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00]),
-        ]
+        block_upload_1_to_20(true, true, 0xEAD3)
     );
+}
+
+/// A client that does not ask for CRC (cc=0) still gets the real CRC in the end frame when the
+/// server's initiate response sets sc=1: CiA 301 ties the CRC to the server's bit, and clients
+/// such as python `canopen` check it whenever that bit is set.
+#[test]
+fn block_upload_without_client_crc_carries_the_real_crc() {
+    let data: Vec<u8> = (1..=20).collect();
+    let mut net = Net::new(&[5]);
+    net.nodes[0].write(net.now, DOMAIN, 0, &data).unwrap();
+    let opts = SdoOptions::mode(TransferMode::Block).with_crc(false);
+    net.client.upload(net.now, N, DOMAIN, 0, opts).unwrap();
+    let ev = net.finish();
+    assert_eq!(ev[0].data(), Some(&data[..]));
+    // The client did not ask (cc=0), the server announced CRC (sc=1): the end frame carries
+    // the CRC-16 of bytes 1..=20, not zero.
+    assert_eq!(exchange(&net, 0), block_upload_1_to_20(false, true, 0xEAD3));
+}
+
+/// A server configured without CRC support does not set sc, and its end frame carries 0.
+#[test]
+fn block_upload_from_a_server_without_crc_support() {
+    let data: Vec<u8> = (1..=20).collect();
+    let mut net = Net::new(&[5]);
+    net.nodes[0].write(net.now, DOMAIN, 0, &data).unwrap();
+    net.nodes[0]
+        .sdo_server_mut()
+        .set_config(SdoServerConfig::default().with_crc(false));
+    net.client
+        .upload(net.now, N, DOMAIN, 0, SdoOptions::mode(TransferMode::Block))
+        .unwrap();
+    let ev = net.finish();
+    assert_eq!(ev[0].data(), Some(&data[..]));
+    assert_eq!(exchange(&net, 0), block_upload_1_to_20(true, false, 0));
+}
+
+/// The block upload of bytes 1..=20 from node 5, frame by frame: `cc` is the client's CRC bit,
+/// `sc` the server's, `crc` what the server's end frame carries.
+fn block_upload_1_to_20(cc: bool, sc: bool, crc: u16) -> Vec<(Option<usize>, u16, [u8; 8])> {
+    let [lo, hi] = crc.to_le_bytes();
+    vec![
+        // ccs=5, cc, cs=0; blksize 127, pst 0.
+        (
+            C,
+            0x605,
+            [0xA0 | u8::from(cc) << 2, 0x00, 0x20, 0x00, 0x7F, 0, 0, 0],
+        ),
+        // scs=6, sc, s=1, ss=0; size 20.
+        (
+            S,
+            0x585,
+            [0xC2 | u8::from(sc) << 2, 0x00, 0x20, 0x00, 0x14, 0, 0, 0],
+        ),
+        // cs=3: start.
+        (C, 0x605, [0xA3, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00]),
+        (S, 0x585, [0x01, 1, 2, 3, 4, 5, 6, 7]),
+        (S, 0x585, [0x02, 8, 9, 10, 11, 12, 13, 14]),
+        (S, 0x585, [0x83, 15, 16, 17, 18, 19, 20, 0]),
+        (C, 0x605, [0xA2, 0x03, 0x7F, 0x00, 0x00, 0x00, 0x00, 0x00]),
+        // ss=1, n=1; the CRC.
+        (S, 0x585, [0xC5, lo, hi, 0x00, 0x00, 0x00, 0x00, 0x00]),
+        (C, 0x605, [0xA1, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00]),
+    ]
 }

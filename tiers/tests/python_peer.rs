@@ -379,6 +379,17 @@ async fn python_sdo_client_reads_and_writes_a_duocan_node() {
         peer.expect("READ 2002", 10).await,
         format!("READ 2002 0 {}", hex(&blob))
     );
+    // Block transfers with `request_crc_support=False`: duocan's server sets the CRC bit, so
+    // python sends a CRC on download and checks the end frame's CRC on upload; the upload fails
+    // with "CRC is not OK" unless the end frame carries the real one.
+    peer.send_line("go").await;
+    peer.expect("WROTE-NO-CRC 2002 0", 10).await;
+    let blob = pattern(700, 77);
+    assert_eq!(d.read(0x2002, 0).await.unwrap(), blob);
+    assert_eq!(
+        peer.expect("READ-NO-CRC 2002", 10).await,
+        format!("READ-NO-CRC 2002 0 {}", hex(&blob))
+    );
     assert_eq!(peer.expect("ABORT", 5).await, "ABORT 2100 0 0x06020000");
     peer.expect("DONE", 5).await;
     assert_eq!(d.port_counters(0).unwrap().rx_invalid, 0);

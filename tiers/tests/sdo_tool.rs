@@ -165,6 +165,37 @@ async fn failures_say_what_failed_and_exit_non_zero() {
     .await;
     assert_eq!(code, 2);
     assert!(err.contains("300 does not fit u8"), "{err}");
+    // Inputs that made the tool panic or misread them: exit 2, the argument quoted, no panic.
+    for (args, says) in [
+        (
+            &["--node=--170141183460469231731687303715884105728", "info"][..],
+            "no sign allowed here",
+        ),
+        (&["--node=-0x-5", "info"][..], "no sign allowed here"),
+        (&["--node=+5", "info"][..], "'+' is not a decimal digit"),
+        (
+            &["--node", "5", "write", "0x2002", "0", "hex", "0é"][..],
+            "is not hex",
+        ),
+        (
+            &["--node", "5", "read", "0x1é", "0"][..],
+            "'é' is not a hex digit",
+        ),
+        (
+            &["--node", "5", "--timeout-ms", "0", "info"][..],
+            "give 1 to 3600000",
+        ),
+    ] {
+        let mut all = vec!["--port", port];
+        all.extend_from_slice(args);
+        let (code, _, err) = sdo_tool(&all).await;
+        assert_eq!(code, 2, "{args:?}: {err}");
+        assert!(err.contains(says), "{args:?}: {err}");
+        assert!(!err.contains("panicked"), "{args:?}: {err}");
+    }
+    let (code, _, err) = sdo_tool(&["--port", "udp:+5", "--node", "5", "info"]).await;
+    assert_eq!(code, 2);
+    assert!(err.contains("udp:N takes a bus number"), "{err}");
     let (code, _, err) = sdo_tool(&["--port", "udp:x", "--node", "5", "info"]).await;
     assert_eq!(code, 2);
     assert!(err.contains("udp:N takes a bus number"), "{err}");

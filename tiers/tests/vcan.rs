@@ -393,7 +393,7 @@ async fn candump_logs_interoperate_with_can_utils() {
     }
     let out = dump.wait_with_output().unwrap();
     let text = String::from_utf8(out.stdout).unwrap();
-    let back: Vec<Frame> = read_log(text.as_bytes())
+    let back: Vec<Frame> = read_log("candump -L", text.as_bytes())
         .map(|e| match e.expect("candump line parses").record {
             Record::Frame(f) => f,
             other => panic!("unexpected record {other:?}"),

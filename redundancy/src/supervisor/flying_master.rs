@@ -143,7 +143,7 @@ pub struct FlyingMasterConfig {
     pub priority_slot: Duration,
     /// Sub 5: device time slot (10 ms).
     pub device_slot: Duration,
-    /// Sub 6: multiple-master detect cycle (4000 ms).
+    /// Sub 6: multiple-master detect cycle (4000 ms; zero: no periodic detection).
     pub detect_cycle: Duration,
     /// Heartbeat consumer time for the other masters: the takeover deadline.
     pub master_timeout: Duration,
@@ -666,7 +666,10 @@ impl FlyingMaster {
         }
         if let Some(t) = self.detect_at.filter(|t| *t <= now) {
             self.send(FORCE_NEGOTIATION, &self.cfg.rank.payload());
-            self.detect_at = Some(t + self.cfg.detect_cycle);
+            // On the cycle's grid; after a jump of the clock past further cycles, one cycle
+            // after `now`: one request for all the missed ones, not a burst of them.
+            let next = t + self.cfg.detect_cycle;
+            self.detect_at = self.detection_after(if next <= now { now } else { t });
         }
         if let Some(t) = self.handback_at.filter(|t| *t <= now) {
             self.handback_at = None;
@@ -780,6 +783,13 @@ impl FlyingMaster {
         }
     }
 
+    /// The next periodic detection, a cycle after `from`; none with a zero cycle (a request
+    /// due again at the instant it was sent would never let time move on).
+    fn detection_after(&self, from: Instant) -> Option<Instant> {
+        let cycle = self.cfg.detect_cycle;
+        (!cycle.is_zero()).then(|| from + cycle)
+    }
+
     fn negotiate(&mut self, now: Instant, reason: MasterReason) {
         self.phase_deadline = Some(now + self.cfg.negotiation_wait());
         self.change(now, MasterRole::Negotiating, reason);
@@ -788,7 +798,7 @@ impl FlyingMaster {
     fn activate(&mut self, now: Instant, reason: MasterReason) {
         self.phase_deadline = None;
         self.suspended_until = None;
-        self.detect_at = Some(now + self.cfg.detect_cycle);
+        self.detect_at = self.detection_after(now);
         for p in self.peers.iter_mut() {
             p.continuous = p.last.is_some_and(|l| l + self.cfg.master_timeout > now);
         }

@@ -342,4 +342,15 @@ fn soak() {
     );
     assert!(faults > 500 && pair_checks > 100_000 && probe_seen > 50_000);
     assert!(takeovers > 20 && failovers > 50);
+    // Recording is off: the masters' events, taken at every check, all arrived; the slaves'
+    // logs, never taken, stopped at their capacity instead of growing for an hour.
+    for id in [STRONG, WEAK] {
+        assert_eq!(n.sim.events_dropped(n.master(id)), 0, "master {id}");
+    }
+    let slave = n.slave(a(0));
+    assert!(n.sim.events_dropped(slave) > 0);
+    assert_eq!(
+        n.sim.events(slave).len(),
+        duocan::sim::DEFAULT_EVENT_CAPACITY
+    );
 }

@@ -375,3 +375,38 @@ fn malformed_and_foreign_frames_change_nothing() {
     fm.handle_frame(ms(2), &Frame::new(Id::Standard(0x75), &[]).unwrap());
     assert_eq!(fm.poll_transmit().unwrap().data(), &[0, 1]);
 }
+
+#[test]
+fn a_clock_jump_sends_one_detection_request_not_one_per_missed_cycle() {
+    let mut w = Wire::new(&[(0, 1)], |c| c);
+    w.start(0, ms(0));
+    w.run_until(ms(3000));
+    assert_eq!(w.actives(), [0]);
+    let before = w.sent(0x76).len();
+    // An hour ahead: 900 detect cycles were missed. One request goes out, and the next one
+    // is a cycle after the new time, not at the next missed grid point (which would be due
+    // at once, again and again: a driver loop spinning through the hour).
+    let t = Instant::from_secs(3600);
+    w.now = t;
+    assert!(w.devs[0].fm.poll_timeout().is_some_and(|d| d <= t));
+    w.devs[0].fm.handle_timeout(t);
+    w.flush(0);
+    assert_eq!(w.sent(0x76).len(), before + 1);
+    assert_eq!(
+        w.devs[0].fm.poll_timeout(),
+        Some(t + Duration::from_millis(4000))
+    );
+    w.run_until(t + Duration::from_millis(4000));
+    assert_eq!(w.sent(0x76).len(), before + 2);
+}
+
+#[test]
+fn a_zero_detect_cycle_means_no_periodic_detection() {
+    // 0x1F90 sub 6 = 0: a request due again at the instant it was sent would stop time.
+    let mut w = Wire::new(&[(0, 1)], |c| c.with_detect_cycle(Duration::ZERO));
+    w.start(0, ms(0));
+    w.run_until(ms(20_000));
+    assert_eq!(w.actives(), [0]);
+    assert!(w.sent(0x76).is_empty());
+    assert!(w.devs[0].fm.poll_timeout().is_none_or(|d| d > ms(20_000)));
+}

@@ -128,6 +128,8 @@ enum State {
         crc: bool,
         size: Option<u32>,
     },
+    // Block upload: `crc` is whether the end frame carries the real CRC; it follows the bit
+    // the server announced, not the client's request.
     BlockUploadStart {
         crc: bool,
         blksize: u8,
@@ -362,12 +364,12 @@ impl<B: TransferBuffer> SdoServer<B> {
                 Request::BlockUploadInitiate {
                     index,
                     sub,
-                    crc,
                     blksize,
                     pst,
+                    ..
                 },
                 _,
-            ) => self.initiate_block_upload(now, index, sub, crc, blksize, pst, od),
+            ) => self.initiate_block_upload(now, index, sub, blksize, pst, od),
             (
                 Request::DownloadSegment { toggle, data, last },
                 State::Download { toggle: t, size },
@@ -704,13 +706,14 @@ impl<B: TransferBuffer> SdoServer<B> {
         };
     }
 
-    #[allow(clippy::too_many_arguments)]
+    /// The client's CRC bit is not consulted: CiA 301 has the end frame carry a CRC whenever
+    /// the server announces support, and clients (python `canopen` among them) check it then
+    /// even if they did not ask, so a server that sets the bit sends the real CRC.
     fn initiate_block_upload<A: ObjectAccess + ?Sized>(
         &mut self,
         now: Instant,
         index: u16,
         sub: u8,
-        crc: bool,
         blksize: u8,
         pst: u8,
         od: &mut A,
@@ -737,7 +740,7 @@ impl<B: TransferBuffer> SdoServer<B> {
             size: Some(len as u32),
         });
         self.state = State::BlockUploadStart {
-            crc: crc && self.cfg.crc,
+            crc: self.cfg.crc,
             blksize,
         };
     }

@@ -2,6 +2,7 @@
 
 mod basic;
 mod determinism;
+mod events;
 mod faults;
 mod power;
 mod probe;
