@@ -18,9 +18,9 @@
 //! ports, drain `poll_event` to the application. Every method may be called at any time;
 //! `handle_timeout` does whatever is due at `now` and nothing else.
 
+use crate::frame::cob_id::NodeId;
 use crate::frame::instant::{earliest, Instant};
 use crate::frame::queue::Bounded;
-use crate::frame::cob_id::NodeId;
 use crate::frame::Frame;
 use core::convert::Infallible;
 use core::fmt;

@@ -79,7 +79,7 @@ pub use link::classify::FrameClassifier;
 pub use link::dual_bus::{
     DualBus, DualBusConfig, DualBusNode, LinkCommand, LinkMode, LinkStats, DEFAULT_MERGE_SLOTS,
 };
-pub use link::events::{LinkEvent, LinkEventKind, PortReason, SwitchReason};
+pub use link::events::{LinkEvent, LinkEventKind, PortReason, Suspicion, SwitchReason};
 pub use link::health::{HealthConfig, PortState};
 pub use link::merge::{Merger, Verdict};
 pub use link::outbox::{Outbox, EVENT_QUEUE, FRAME_QUEUE, MACHINE_QUEUE, REQUEST_QUEUE};

@@ -1,0 +1,617 @@
+//! Heartbeat plausibility per node and per bus: is the device beating with a node's identifier
+//! the node it claims to be?
+//!
+//! A heartbeat carries no sender address. A device that sends another node's heartbeat (a
+//! babbling controller, a board configured with a node-ID already taken, a rogue tool) keeps
+//! that node "alive" for every consumer, whether or not the node still runs. The dual-bus layer
+//! is where this shows: it sees each bus separately. For every *watched* node (the
+//! supervisor watches each pair member with the producer time configured into it, through
+//! [`LinkCommand::Watch`](crate::LinkCommand::Watch)) it applies two rules.
+//!
+//! # Rule 1: far faster than the period (per bus)
+//!
+//! With `T` the node's producer time, its heartbeats (boot-ups included) on one bus are
+//! **too fast** at the first heartbeat that ends a span of time `s` holding more than
+//! `BURST + 1 + s / (3T/4)` of them, i.e. `5 + 4s/(3T)` with [`BURST`] = 4. A node may thus beat
+//! up to a third faster than its producer time for ever (clock tolerance) and add up to four
+//! extra heartbeats at once (its boot-up, the heartbeat a node sends at once on a state change
+//! or a new producer time). Implemented as a leaky bucket (GCRA): one `u64` per node and bus, in
+//! quarter microseconds so that the drain of `3T/4` per heartbeat is exact.
+//!
+//! - A babbling controller repeating the heartbeat back to back is flagged at its **sixth frame**
+//!   at the latest (fewer if the node's own heartbeats had filled the bucket): at 1 Mbit/s about
+//!   0.4 ms after it starts.
+//! - Two devices beating with the same node-ID and period (any phase, any states) fill the bucket
+//!   by about two thirds of a heartbeat per period: flagged **within 8 periods** of both beating.
+//!
+//! While a bus is too fast for a node, that node's error-control frames from that bus are
+//! dropped before the merge (counted in [`LinkStats::implausible`](crate::LinkStats)): neither
+//! the stack above nor the merger's twin matching sees them, so the node's heartbeats on the
+//! other bus, if any, are delivered as they are. The verdict ends when the bucket has drained:
+//! at the latest `(BURST + 2) · 3T/4` after the last excess frame while nothing else arrives.
+//! One period after the verdict the rate measured over that period is reported:
+//! [`LinkEventKind::Babbling`] (identifier, bus, frames/s) when it is more than
+//! [`BABBLE_FACTOR`] times the producer rate, [`LinkEventKind::DuplicateNode`] otherwise
+//! (devices sharing the node-ID).
+//!
+//! # Rule 2: on one bus only
+//!
+//! A watched node whose heartbeats were heard on both buses (since its last boot-up) and then,
+//! for the reachability timeout `W` ([`DualBusConfig::reach_timeout`](crate::DualBusConfig)), on
+//! one bus only, is suspect at the instant its last heartbeat on the silent bus is `W` old
+//! (exactly), provided the silent bus is *healthy for it*: the port is ok and carried, more than
+//! one and a half periods after that last heartbeat, the heartbeat of another watched node of
+//! **lower priority** (a higher identifier). Neither a cut nor a babbler can then be what keeps
+//! the node's heartbeat off that bus: a cut stops every frame, and a babbler blocks every
+//! identifier of lower priority than its own. Without such a witness at the deadline the rule is
+//! checked again at each of the node's heartbeats (so within one period of a witness). The
+//! node is trusted again when it is heard on the other bus, when it boots (boot-up frame), or
+//! when it is heard nowhere for `W` (its silence is then for the consumers to judge). The rule
+//! applies in the modes that listen on both buses (active-active, CiA 302-6), not in ECSS
+//! toggling.
+//!
+//! # Verdicts
+//!
+//! A node is *suspect* while either rule holds. The change is handed to the machine above as
+//! [`LinkRequest::NodeSuspect`] (the supervisor takes the member's heartbeats as no sign of
+//! life and handles an active member like a silent one) and reported as
+//! [`LinkEventKind::Suspect`] (with the reason, at each rule's onset) and
+//! [`LinkEventKind::Trusted`].
+//!
+//! # Memory
+//!
+//! A table of fixed capacity, [`MAX_MEMBERS`] nodes (every member of the most pairs a supervisor
+//! holds), indexed by node-ID: about 13 KiB, allocated once at the first watch, so that a layer
+//! that watches nothing (a node's) carries only a pointer. Nothing per frame. A watch beyond the
+//! table is refused and counted; without the `alloc` feature there is no table (the supervisor,
+//! the only one to watch, needs `alloc` anyway).
+
+use crate::link::events::{LinkEvent, LinkEventKind, Suspicion};
+use crate::link::health::{Health, PortState};
+use crate::link::outbox::{Outbox, MACHINE_QUEUE};
+use crate::pair::MAX_MEMBERS;
+use duocan::machine::LinkRequest;
+use duocan::{Duration, Frame, Id, Instant, NodeId};
+use heapless::Vec;
+
+/// Extra heartbeats a node may send in one burst on one bus (see rule 1).
+pub const BURST: u64 = 4;
+/// A rate measured above this many times the producer rate is a babbling identifier; up to it,
+/// devices sharing a node-ID.
+pub const BABBLE_FACTOR: u64 = 4;
+const NEVER: u64 = u64::MAX;
+
+/// One bus of a watched node.
+#[derive(Clone, Copy, Debug)]
+struct Track {
+    /// Theoretical arrival time of the leaky bucket, in quarter microseconds (0: empty).
+    tat: u64,
+    /// Its last heartbeat on this bus (µs), `NEVER`.
+    last: u64,
+    /// When its heartbeats here were last found too fast (µs): the start of the measuring
+    /// window.
+    since: u64,
+    /// Heartbeats in the measuring window, `(since, since + T]`.
+    count: u32,
+    /// The window's report is still due.
+    measuring: bool,
+    /// Rule 1 holds: its heartbeats here are dropped.
+    fast: bool,
+}
+
+impl Track {
+    const NEW: Track = Track {
+        tat: 0,
+        last: NEVER,
+        since: NEVER,
+        count: 0,
+        measuring: false,
+        fast: false,
+    };
+    fn fast(&self) -> bool {
+        self.fast
+    }
+}
+
+/// One watched node.
+#[derive(Clone, Copy, Debug)]
+struct Watch {
+    node: NodeId,
+    /// Producer time (µs), not zero.
+    period: u64,
+    /// Arbitration key of its heartbeat identifier, once heard (higher: lower priority).
+    key: Option<u32>,
+    /// Its heartbeat identifier, once heard.
+    id: Option<Id>,
+    ports: [Track; 2],
+    /// Heard on both buses within `W` since its last boot-up.
+    paired: bool,
+    /// Rule 2 holds: heard on this port only.
+    one_bus: Option<u8>,
+    /// What the machine above was last told.
+    told: bool,
+    /// Rule 2 failed for want of a witness at this instant: checked again once the silent bus
+    /// carried another watched heartbeat.
+    checked: u64,
+}
+
+impl Watch {
+    fn suspect(&self) -> bool {
+        self.one_bus.is_some() || self.ports.iter().any(Track::fast)
+    }
+}
+
+/// The CAN arbitration order as a number: lower wins. The 11 base bits first; a standard frame
+/// beats an extended one with the same base; then the 18 extension bits.
+fn arbitration_key(id: Id) -> u32 {
+    match id {
+        Id::Standard(s) => (s as u32) << 19,
+        Id::Extended(e) => ((e >> 18) << 19) | (1 << 18) | (e & 0x3_FFFF),
+    }
+}
+
+/// The watched nodes: an index by node-ID and the entries, of fixed capacity.
+#[derive(Clone, Debug)]
+struct Table {
+    /// node-ID → position in `watched` (`NONE`: not watched).
+    index: [u8; 128],
+    watched: Vec<Watch, MAX_MEMBERS>,
+}
+
+const NONE: u8 = u8::MAX;
+
+impl Table {
+    const fn new() -> Self {
+        Table {
+            index: [NONE; 128],
+            watched: Vec::new(),
+        }
+    }
+}
+
+// The table is allocated once, at the first watch: a layer that watches nothing (a node's)
+// carries only the pointer. Without an allocator there is no table and watches are refused.
+#[cfg(feature = "alloc")]
+type Holder = alloc::boxed::Box<Table>;
+#[cfg(feature = "alloc")]
+fn allocate() -> Option<Holder> {
+    Some(alloc::boxed::Box::new(Table::new()))
+}
+#[cfg(not(feature = "alloc"))]
+#[derive(Clone, Debug)]
+enum Holder {}
+#[cfg(not(feature = "alloc"))]
+fn allocate() -> Option<Holder> {
+    None
+}
+#[cfg(not(feature = "alloc"))]
+impl core::ops::Deref for Holder {
+    type Target = Table;
+    fn deref(&self) -> &Table {
+        match *self {}
+    }
+}
+#[cfg(not(feature = "alloc"))]
+impl core::ops::DerefMut for Holder {
+    fn deref_mut(&mut self) -> &mut Table {
+        match *self {}
+    }
+}
+
+/// The plausibility table of a dual-bus layer (see the [module docs](self)).
+#[derive(Clone, Debug)]
+pub struct Plausibility {
+    /// Rule 2's window `W` (µs); `None`: rule 2 off.
+    window: Option<u64>,
+    table: Option<Holder>,
+    /// Last watched heartbeat on each bus (µs): what rule 2's witnesses can have changed.
+    last_any: [u64; 2],
+    /// A lower bound of the next deadline.
+    next: Option<u64>,
+    /// A change could not be handed up (the machine queue was full): retried at the next input.
+    unsynced: bool,
+    refused: u32,
+}
+
+impl Plausibility {
+    /// An empty table; rule 2 with window `one_bus` (`None`: off).
+    #[must_use]
+    pub fn new(one_bus: Option<Duration>) -> Self {
+        Plausibility {
+            window: one_bus.filter(|w| !w.is_zero()).map(Duration::as_micros),
+            table: None,
+            last_any: [NEVER; 2],
+            next: None,
+            unsynced: false,
+            refused: 0,
+        }
+    }
+
+    /// Watches `node`, whose producer time is `period` (zero: stops watching it). False if the
+    /// table is full ([`MAX_MEMBERS`] nodes) or there is no allocator (counted in
+    /// [`Plausibility::refused`]).
+    pub fn watch(&mut self, node: NodeId, period: Duration) -> bool {
+        let n = node.raw() as usize;
+        if period.is_zero() {
+            if let Some(t) = self.table.as_deref_mut() {
+                if t.index[n] != NONE {
+                    t.watched.swap_remove(t.index[n] as usize);
+                    t.index = [NONE; 128];
+                    for (i, w) in t.watched.iter().enumerate() {
+                        t.index[w.node.raw() as usize] = i as u8;
+                    }
+                }
+            }
+            return true;
+        }
+        if self.table.is_none() {
+            self.table = allocate();
+        }
+        let Some(t) = self.table.as_deref_mut() else {
+            self.refused = self.refused.saturating_add(1);
+            return false;
+        };
+        if t.index[n] != NONE {
+            t.watched[t.index[n] as usize].period = period.as_micros();
+            return true;
+        }
+        let w = Watch {
+            node,
+            period: period.as_micros(),
+            key: None,
+            id: None,
+            ports: [Track::NEW; 2],
+            paired: false,
+            one_bus: None,
+            told: false,
+            checked: NEVER,
+        };
+        if t.watched.push(w).is_err() {
+            self.refused = self.refused.saturating_add(1);
+            return false;
+        }
+        t.index[n] = (t.watched.len() - 1) as u8;
+        true
+    }
+
+    /// True if no node is watched (the frame path then skips the table).
+    #[inline]
+    pub fn is_empty(&self) -> bool {
+        self.table.is_none()
+    }
+    /// Whether `node` is suspect now (`None`: not watched).
+    pub fn is_suspect(&self, node: NodeId) -> Option<bool> {
+        self.entry(node).map(Watch::suspect)
+    }
+    /// The bus `node` is heard on only, if rule 2 holds for it.
+    pub fn one_bus(&self, node: NodeId) -> Option<u8> {
+        self.entry(node).and_then(|w| w.one_bus)
+    }
+    /// Whether `node`'s heartbeats on port `p` are too fast (rule 1) now.
+    pub fn too_fast(&self, node: NodeId, p: usize) -> bool {
+        self.entry(node).is_some_and(|w| w.ports[p.min(1)].fast())
+    }
+    /// Watches refused because the table was full (or there is no allocator).
+    pub fn refused(&self) -> u32 {
+        self.refused
+    }
+    /// Every watched node with whether it is suspect.
+    pub fn iter(&self) -> impl Iterator<Item = (NodeId, bool)> + '_ {
+        self.entries().iter().map(|w| (w.node, w.suspect()))
+    }
+
+    fn entries(&self) -> &[Watch] {
+        self.table.as_deref().map_or(&[], |t| &t.watched[..])
+    }
+    fn entry(&self, node: NodeId) -> Option<&Watch> {
+        self.find(node).map(|i| &self.entries()[i])
+    }
+    #[inline]
+    fn find(&self, node: NodeId) -> Option<usize> {
+        let t = self.table.as_deref()?;
+        let i = t.index[node.raw() as usize];
+        (i != NONE).then_some(i as usize)
+    }
+    /// Entry `i` (an index `find` returned).
+    fn at(&mut self, i: usize) -> &mut Watch {
+        match self.table.as_deref_mut() {
+            Some(t) => &mut t.watched[i],
+            None => unreachable!("an index exists only with a table"),
+        }
+    }
+
+    /// An error-control frame of `node` (heartbeat or boot-up) arrived on port `p` at `now`.
+    /// Returns true if it is to be dropped: that bus carries `node`'s heartbeats far too fast.
+    pub(crate) fn on_heartbeat(
+        &mut self,
+        now: Instant,
+        p: usize,
+        node: NodeId,
+        frame: &Frame,
+        health: &Health,
+        out: &mut Outbox,
+    ) -> bool {
+        if self.unsynced {
+            self.sync_all(now, out);
+        }
+        let Some(i) = self.find(node) else {
+            return false;
+        };
+        let t = now.as_micros();
+        let (fast, mut onset) = self.rate(i, p, t, frame);
+        if let Some(win) = self.window {
+            self.last_any[p] = t;
+            self.pairing(i, p, t, win, frame);
+            self.wake(t.saturating_add(win));
+            if onset.is_none() && self.one_bus_due(i, t, health) {
+                self.at(i).one_bus = Some(p as u8);
+                onset = Some(Suspicion::OneBus { heard: p as u8 });
+            }
+        }
+        if let Some(why) = onset {
+            out.event(LinkEvent {
+                at: now,
+                kind: LinkEventKind::Suspect { node, why },
+            });
+        }
+        self.sync(i, now, out);
+        fast
+    }
+
+    /// Rule 1 for a heartbeat of node `i` on `p` at `t`: (too fast now, the onset if it starts).
+    fn rate(&mut self, i: usize, p: usize, t: u64, frame: &Frame) -> (bool, Option<Suspicion>) {
+        let w = self.at(i);
+        w.key = Some(arbitration_key(frame.id()));
+        w.id = Some(frame.id());
+        let period = w.period;
+        // The bucket drains 3T/4 per heartbeat: 3T in quarter microseconds.
+        let drain = period.saturating_mul(3);
+        let tq = t.saturating_mul(4);
+        let tr = &mut w.ports[p];
+        tr.last = t;
+        if tr.tat <= tq {
+            // Drained: the verdict ended at `tat` (the sweep normally saw to it on time).
+            tr.fast = false;
+        }
+        let tat = tr.tat.max(tq).saturating_add(drain);
+        let excess = tat - tq > drain.saturating_mul(BURST + 1);
+        // The cap keeps a babble's past from outliving it by more than `BURST + 2` drains.
+        tr.tat = tat.min(tq.saturating_add(drain.saturating_mul(BURST + 2)));
+        if tr.measuring && t > tr.since && t <= tr.since.saturating_add(period) {
+            tr.count = tr.count.saturating_add(1);
+        }
+        let mut onset = None;
+        if excess && !tr.fast {
+            tr.fast = true;
+            if !tr.measuring {
+                tr.since = t;
+                tr.count = 0;
+                tr.measuring = true;
+            }
+            onset = Some(Suspicion::TooFast { port: p as u8 });
+        }
+        let fast = tr.fast();
+        let drained = tr.tat.div_ceil(4);
+        if fast {
+            self.wake(drained);
+        }
+        if onset.is_some() {
+            self.wake(t.saturating_add(period));
+        }
+        (fast, onset)
+    }
+
+    /// Rule 2's bookkeeping for a heartbeat of node `i` on `p` at `t`: heard on both buses
+    /// (paired), heard on the other bus again, or booted.
+    fn pairing(&mut self, i: usize, p: usize, t: u64, win: u64, frame: &Frame) {
+        let w = self.at(i);
+        if frame.data().first() == Some(&0) {
+            // A boot-up: a new life, judged afresh once heard on both buses again.
+            w.paired = false;
+            w.one_bus = None;
+            return;
+        }
+        let other = w.ports[1 - p].last;
+        if other != NEVER && t < other.saturating_add(win) {
+            w.paired = true;
+            if w.one_bus.is_some_and(|h| h as usize != p) {
+                w.one_bus = None;
+            }
+        }
+    }
+
+    /// Rule 2 for watched node `i` at `t`: heard on one bus only for `W`, the other healthy.
+    fn one_bus_due(&mut self, i: usize, t: u64, health: &Health) -> bool {
+        let Some(win) = self.window else {
+            return false;
+        };
+        let w = &self.entries()[i];
+        if !w.paired || w.one_bus.is_some() {
+            return false;
+        }
+        let Some(q) = (0..2).find(|&q| {
+            let (lq, lp) = (w.ports[q].last, w.ports[1 - q].last);
+            lq.saturating_add(win) <= t && lp != NEVER && t < lp.saturating_add(win)
+        }) else {
+            return false;
+        };
+        if w.checked != NEVER && self.last_any[q] <= w.checked {
+            return false; // nothing new on the silent bus since the last failed check
+        }
+        let after = w.ports[q].last.saturating_add(w.period + w.period / 2);
+        let ok = health.port(q).state() == PortState::Ok && self.witnessed(i, q, after);
+        self.at(i).checked = if ok { NEVER } else { t };
+        ok
+    }
+
+    /// A lower-priority watched heartbeat arrived on `q` after `after`.
+    fn witnessed(&self, i: usize, q: usize, after: u64) -> bool {
+        let Some(k) = self.entries()[i].key else {
+            return false;
+        };
+        self.entries().iter().any(|m| {
+            m.key.is_some_and(|mk| mk > k) && m.ports[q].last != NEVER && m.ports[q].last > after
+        })
+    }
+
+    fn wake(&mut self, t: u64) {
+        self.next = Some(self.next.map_or(t, |n| n.min(t)));
+    }
+
+    /// Earliest deadline (may be early: a sweep then finds nothing to do).
+    #[must_use]
+    pub fn poll_timeout(&self) -> Option<Instant> {
+        self.next.map(Instant::from_micros)
+    }
+
+    /// Ends, reports and judges what is due at `now`, each at its own instant, and recomputes
+    /// the next deadline.
+    pub(crate) fn handle_timeout(&mut self, now: Instant, health: &Health, out: &mut Outbox) {
+        if self.unsynced {
+            self.sync_all(now, out);
+        }
+        let t = now.as_micros();
+        if self.next.is_none_or(|n| n > t) {
+            return;
+        }
+        let mut next: Option<u64> = None;
+        let mut soonest = |d: u64| {
+            if d > t {
+                next = Some(next.map_or(d, |n: u64| n.min(d)));
+            }
+        };
+        for i in 0..self.entries().len() {
+            let node = self.at(i).node;
+            for p in 0..2 {
+                let w = self.at(i);
+                let period = w.period;
+                let id = w.id;
+                let tr = &mut w.ports[p];
+                if tr.measuring {
+                    let end = tr.since.saturating_add(period);
+                    if end <= t {
+                        tr.measuring = false;
+                        out.event(report(node, id, p, tr, period, end));
+                    } else {
+                        soonest(end);
+                    }
+                }
+                if tr.fast {
+                    let drained = tr.tat.div_ceil(4);
+                    if drained <= t {
+                        tr.fast = false;
+                    } else {
+                        soonest(drained);
+                    }
+                }
+            }
+            if let Some(win) = self.window {
+                self.sweep_one_bus(i, t, win, health, out);
+                let w = &self.entries()[i];
+                if w.paired || w.one_bus.is_some() {
+                    for tr in &w.ports {
+                        if tr.last != NEVER {
+                            soonest(tr.last.saturating_add(win));
+                        }
+                    }
+                }
+            }
+            self.sync(i, now, out);
+        }
+        self.next = next;
+    }
+
+    /// Rule 2's deadlines for node `i` up to `t`.
+    fn sweep_one_bus(&mut self, i: usize, t: u64, win: u64, health: &Health, out: &mut Outbox) {
+        let w = self.at(i);
+        let heard = |l: u64| l != NEVER && t < l.saturating_add(win);
+        if !heard(w.ports[0].last) && !heard(w.ports[1].last) {
+            // Heard nowhere: nothing left to doubt; a new appearance is judged afresh.
+            w.paired = false;
+            w.one_bus = None;
+            return;
+        }
+        let falls = (0..2)
+            .map(|q| w.ports[q].last.saturating_add(win))
+            .filter(|d| *d <= t)
+            .max();
+        if let Some(fall) = falls {
+            // Judged at the deadline, unless an earlier check lacked a witness.
+            let at = if self.at(i).checked == NEVER { fall } else { t };
+            if self.one_bus_due(i, t, health) {
+                let w = self.at(i);
+                let p = if heard(w.ports[0].last) { 0 } else { 1 };
+                w.one_bus = Some(p as u8);
+                out.event(LinkEvent {
+                    at: Instant::from_micros(at),
+                    kind: LinkEventKind::Suspect {
+                        node: w.node,
+                        why: Suspicion::OneBus { heard: p as u8 },
+                    },
+                });
+            }
+        }
+    }
+
+    /// Hands node `i`'s state to the machine above if it changed (and reports the end of a
+    /// suspicion); if the queue is full it is retried at the next input.
+    fn sync(&mut self, i: usize, now: Instant, out: &mut Outbox) {
+        let w = self.at(i);
+        let suspect = w.suspect();
+        if suspect == w.told {
+            return;
+        }
+        if out.machine.len() >= MACHINE_QUEUE {
+            self.unsynced = true;
+            return;
+        }
+        out.machine(LinkRequest::NodeSuspect {
+            node: w.node,
+            suspect,
+        });
+        w.told = suspect;
+        if !suspect {
+            out.event(LinkEvent {
+                at: now,
+                kind: LinkEventKind::Trusted { node: w.node },
+            });
+        }
+    }
+
+    fn sync_all(&mut self, now: Instant, out: &mut Outbox) {
+        self.unsynced = false;
+        for i in 0..self.entries().len() {
+            self.sync(i, now, out);
+        }
+    }
+}
+
+/// The rate measured in the window after a too-fast verdict, as a babble or a duplicate.
+fn report(node: NodeId, id: Option<Id>, p: usize, tr: &Track, period: u64, end: u64) -> LinkEvent {
+    let per_s = |n: u64| (n.saturating_mul(1_000_000) / period.max(1)).min(u32::MAX as u64) as u32;
+    let (rate, allowed) = (per_s(tr.count as u64), per_s(1));
+    let since = Instant::from_micros(tr.since);
+    let port = p as u8;
+    let kind = if tr.count as u64 > BABBLE_FACTOR {
+        LinkEventKind::Babbling {
+            node,
+            id: id.unwrap_or(Id::Standard(0)),
+            port,
+            rate,
+            allowed,
+            since,
+        }
+    } else {
+        LinkEventKind::DuplicateNode {
+            node,
+            port,
+            rate,
+            allowed,
+            since,
+        }
+    };
+    LinkEvent {
+        at: Instant::from_micros(end),
+        kind,
+    }
+}
