@@ -243,6 +243,13 @@ impl<D: ObjectDictionary, P: IdProfile> Supervisor<D, P> {
             return Err(AddPairError::Master(spec.b, e));
         }
         let id = self.pairs.add_pair(now, spec)?;
+        // The layer judges the members' heartbeats against the producer time they get.
+        for node in [spec.a, spec.b] {
+            self.link.push(LinkCommand::Watch {
+                node,
+                producer_ms: ms(spec.producer_time),
+            });
+        }
         self.pump(now);
         Ok(id)
     }
@@ -318,6 +325,9 @@ impl<D: ObjectDictionary, P: IdProfile> Supervisor<D, P> {
             return Err(MasterError::Standby);
         }
         let r = self.master.nmt(now, cmd, target);
+        if r.is_ok() {
+            self.pairs.application_nmt(cmd, target.code());
+        }
         self.pump(now);
         r
     }
@@ -701,9 +711,15 @@ impl<D: ObjectDictionary, P: IdProfile> Machine for Supervisor<D, P> {
         self.events.pop_front()
     }
 
-    /// The layer's requests (status entries, ECSS pre-operational) are for the master's node,
-    /// which owns that state; its reactions reach the supervisor with its next input.
+    /// A verdict on a node's heartbeats is for the pair supervision (a suspect member is
+    /// handled like a silent one, at once); the layer's other requests (status entries, ECSS
+    /// pre-operational) are for the master's node, which owns that state; its reactions reach
+    /// the supervisor with its next input.
     fn handle_link_request(&mut self, now: Instant, req: LinkRequest) {
+        if let LinkRequest::NodeSuspect { node, suspect } = req {
+            self.pairs.suspect(now, node, suspect);
+            return self.pump(now);
+        }
         self.master.node_mut().handle_link_request(now, req);
     }
 

@@ -153,6 +153,15 @@ pub struct PairSupervisor {
     next: Option<Instant>,
     commands: Bounded<PairCommand, COMMAND_QUEUE>,
     events: Bounded<PairsEvent, EVENT_QUEUE>,
+    /// Node-IDs (bits) whose heartbeats the dual-bus layer finds implausible.
+    suspect: u128,
+    /// Node-IDs (bits) the application started through this table's master.
+    by_application: u128,
+}
+
+/// The bit of `node` in a node-ID set.
+const fn bit(node: NodeId) -> u128 {
+    1 << node.raw()
 }
 
 impl PairSupervisor {
@@ -167,6 +176,8 @@ impl PairSupervisor {
             next: None,
             commands: Bounded::new(),
             events: Bounded::new(),
+            suspect: 0,
+            by_application: 0,
         }
     }
 
@@ -301,6 +312,9 @@ impl PairSupervisor {
             return;
         };
         let p = pair.0 as usize;
+        if self.is_suspect(node) {
+            return; // an implausible error-control frame is no news of the node
+        }
         let was = self.pairs[p].members[idx(m)];
         {
             let s = self.pairs[p].member_mut(m);
@@ -340,12 +354,16 @@ impl PairSupervisor {
             return;
         };
         let p = pair.0 as usize;
+        if self.is_suspect(node) {
+            return; // no sign of life: the heartbeat may be an impostor's
+        }
         let consumer = self.pairs[p].spec.consumer_time;
         let shadow = self.authority == Authority::Shadow;
         let on_heartbeat = shadow && self.cfg.shadow_join_on_heartbeat;
         let (adopt, holdoff) = (self.cfg.adopt, self.cfg.holdoff);
         let s = self.pairs[p].member_mut(m);
-        let first_after_boot = s.nmt == Some(NmtState::Initialising);
+        let was = s.nmt;
+        let first_after_boot = was == Some(NmtState::Initialising);
         s.nmt = Some(state);
         s.last = Some(now);
         let mut join = false;
@@ -375,7 +393,56 @@ impl PairSupervisor {
         }
         if self.authority != Authority::Command {
             self.follow_state(now, p, m, state);
+        } else {
+            self.stop_running_standby(now, p, m, was, state);
         }
+    }
+
+    /// The application sent `cmd` to `target` (0: all nodes) through this table's master: a
+    /// standby it starts may run beside the active member (a test, a comparison of both); any
+    /// other command to it, or one of this table's own, ends that.
+    pub fn application_nmt(&mut self, cmd: NmtCommand, target: u8) {
+        let targets = match NodeId::new(target) {
+            Some(n) => bit(n),
+            None => u128::MAX,
+        };
+        if cmd == NmtCommand::Start {
+            self.by_application |= targets;
+        } else {
+            self.by_application &= !targets;
+        }
+    }
+
+    /// Whether the dual-bus layer finds `node`'s heartbeats implausible
+    /// ([`PairSupervisor::suspect`]).
+    pub fn is_suspect(&self, node: NodeId) -> bool {
+        self.suspect & bit(node) != 0
+    }
+
+    /// The dual-bus layer judged `node`'s heartbeats implausible (`suspect`: an impostor on one
+    /// bus, a babbling identifier, a duplicate node-ID) or plausible again. While suspect, its
+    /// heartbeats and boot-ups are no sign of life and it is not adopted; a joined member is
+    /// handled at once as if its consumer time had run out (commanding: an active member is
+    /// replaced by a live standby, the member is reset). Ignored unless `node` is a pair member.
+    pub fn suspect(&mut self, now: Instant, node: NodeId, suspect: bool) {
+        let Some((pair, m)) = self.locate(node) else {
+            return;
+        };
+        if self.is_suspect(node) == suspect {
+            return;
+        }
+        self.suspect ^= bit(node);
+        if !suspect {
+            return;
+        }
+        match &mut self.pairs[pair.0 as usize].member_mut(m).stage {
+            Stage::Joined { deadline } => *deadline = (*deadline).min(now),
+            // Not adopted on an impostor's word.
+            Stage::Waiting { adopt_at, .. } => *adopt_at = None,
+            Stage::Configuring => {}
+        }
+        self.lower_next(now);
+        self.handle_timeout(now);
     }
 
     /// An NMT command seen on the bus (sent by another master). Followed unless commanding (a
@@ -584,23 +651,35 @@ impl PairSupervisor {
             .map_or(t, |d| d - self.pairs[p].spec.consumer_time);
         let o = m.other();
         let other_alive = self.pairs[p].member(o).alive_at(t);
+        let (why, loss) = if self.is_suspect(s.node) {
+            (Some(RoleReason::ActiveSuspect), LossReason::Suspect)
+        } else {
+            (None, LossReason::Silent { last })
+        };
         if self.pairs[p].active == Some(m) {
             if other_alive {
                 // Start first: the new active is what the reaction bound is about.
-                self.set_role(t, p, Some(o), RoleReason::ActiveSilent { last });
+                let why = why.unwrap_or(RoleReason::ActiveSilent { last });
+                self.set_role(t, p, Some(o), why);
             } else {
-                self.set_role(t, p, None, RoleReason::OnlyMemberSilent { last });
+                let why = why.unwrap_or(RoleReason::OnlyMemberSilent { last });
+                self.set_role(t, p, None, why);
             }
         }
-        self.leave(t, p, m, LossReason::Silent { last });
+        self.leave(t, p, m, loss);
         self.nmt(NmtCommand::ResetNode, s.node);
     }
 
     fn join(&mut self, now: Instant, p: usize, m: Member) {
         let spec = self.pairs[p].spec;
+        let suspect = self.is_suspect(spec.node(m));
         let s = self.pairs[p].member_mut(m);
-        // Monitoring starts now, whether or not it ever beats.
-        let deadline = s.last.map_or(now, |l| l.max(now)) + spec.consumer_time;
+        // Monitoring starts now, whether or not it ever beats; a suspect member is due at once.
+        let deadline = if suspect {
+            now
+        } else {
+            s.last.map_or(now, |l| l.max(now)) + spec.consumer_time
+        };
         s.stage = Stage::Joined { deadline };
         s.since = now;
         s.heartbeats = 0;
@@ -696,6 +775,33 @@ impl PairSupervisor {
         }
     }
 
+    /// Commanding: a joined standby heard becoming operational while the active member is
+    /// alive was started by someone else (a rogue NMT start): back to pre-operational at once.
+    /// Only on the change (a heartbeat of the active member just switched over may still say
+    /// operational), and not if the application started it
+    /// ([`PairSupervisor::application_nmt`]).
+    fn stop_running_standby(
+        &mut self,
+        now: Instant,
+        p: usize,
+        m: Member,
+        was: Option<NmtState>,
+        state: NmtState,
+    ) {
+        let pair = &self.pairs[p];
+        let Some(a) = pair.active.filter(|a| *a != m) else {
+            return;
+        };
+        let s = pair.member(m);
+        let started = state == NmtState::Operational && was != Some(NmtState::Operational);
+        let node = s.node;
+        let by_application = self.by_application & bit(node) != 0;
+        if !started || !s.joined() || by_application || !pair.member(a).alive_at(now) {
+            return;
+        }
+        self.nmt(NmtCommand::EnterPreOperational, node);
+    }
+
     /// A pair without an active member but with a live joined member gets one.
     fn ensure_active(&mut self, now: Instant, p: usize, reason: RoleReason) {
         if self.pairs[p].active.is_some() {
@@ -771,6 +877,8 @@ impl PairSupervisor {
 
     fn nmt(&mut self, cmd: NmtCommand, node: NodeId) {
         if self.authority == Authority::Command {
+            // This table decides again what it runs.
+            self.by_application &= !bit(node);
             self.cmd(PairCommand::Nmt { cmd, node });
         }
     }
