@@ -160,22 +160,16 @@ struct Table {
 
 const NONE: u8 = u8::MAX;
 
-impl Table {
-    const fn new() -> Self {
-        Table {
-            index: [NONE; 128],
-            watched: Vec::new(),
-        }
-    }
-}
-
 // The table is allocated once, at the first watch: a layer that watches nothing (a node's)
 // carries only the pointer. Without an allocator there is no table and watches are refused.
 #[cfg(feature = "alloc")]
 type Holder = alloc::boxed::Box<Table>;
 #[cfg(feature = "alloc")]
 fn allocate() -> Option<Holder> {
-    Some(alloc::boxed::Box::new(Table::new()))
+    Some(alloc::boxed::Box::new(Table {
+        index: [NONE; 128],
+        watched: Vec::new(),
+    }))
 }
 #[cfg(not(feature = "alloc"))]
 #[derive(Clone, Debug)]
