@@ -122,11 +122,11 @@ fn too_fast_at(arrivals: &[Instant], period: Duration) -> Option<Instant> {
     })
 }
 
-/// Heartbeats per second measured in the period after a verdict at `v`.
+/// Heartbeats per second measured over the period from a verdict at `v`, `[v, v + T)`.
 fn rate_after(arrivals: &[Instant], v: Instant) -> u32 {
     let count = arrivals
         .iter()
-        .filter(|t| **t > v && **t <= v + PERIOD)
+        .filter(|t| **t >= v && **t < v + PERIOD)
         .count() as u32;
     count * 50
 }
@@ -380,7 +380,11 @@ fn two_devices_sharing_a_node_id_are_reported_and_the_standby_takes_over() {
         .collect();
     want.sort_by_key(|x| x.0);
     assert_eq!(dups[..2], want);
-    assert!(dups.iter().all(|d| d.3 == 100), "{dups:?}");
+    assert!(dups[..2].iter().all(|d| d.3 == 100), "{dups:?}");
+    assert!(
+        dups.iter().all(|d| d.3 <= 4 * d.4),
+        "never taken for a babble: {dups:?}"
+    );
     // Once the reset board is silent, the other device alone beats plausibly: trusted again,
     // the board is adopted and configured, beats, and is found sharing its node-ID again (and
     // reset) for as long as the other device is there, each time reported.

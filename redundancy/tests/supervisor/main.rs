@@ -11,3 +11,4 @@ mod pairs;
 mod partition;
 mod queues;
 mod seen_failover;
+mod trust;

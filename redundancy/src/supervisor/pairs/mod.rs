@@ -62,10 +62,12 @@ use heapless::Vec;
 
 mod events;
 mod state;
+mod trust;
 
 pub use events::{LossReason, PairCommand, PairsError, PairsEvent, RoleChange, RoleReason};
 use state::{idx, Stage};
 pub use state::{Authority, MemberState, PairState, Phase};
+use trust::bit;
 
 /// Commands a supervisor can hold before they are drained.
 pub const COMMAND_QUEUE: usize = 256;
@@ -157,11 +159,6 @@ pub struct PairSupervisor {
     suspect: u128,
     /// Node-IDs (bits) the application started through this table's master.
     by_application: u128,
-}
-
-/// The bit of `node` in a node-ID set.
-const fn bit(node: NodeId) -> u128 {
-    1 << node.raw()
 }
 
 impl PairSupervisor {
@@ -398,53 +395,6 @@ impl PairSupervisor {
         }
     }
 
-    /// The application sent `cmd` to `target` (0: all nodes) through this table's master: a
-    /// standby it starts may run beside the active member (a test, a comparison of both); any
-    /// other command to it, or one of this table's own, ends that.
-    pub fn application_nmt(&mut self, cmd: NmtCommand, target: u8) {
-        let targets = match NodeId::new(target) {
-            Some(n) => bit(n),
-            None => u128::MAX,
-        };
-        if cmd == NmtCommand::Start {
-            self.by_application |= targets;
-        } else {
-            self.by_application &= !targets;
-        }
-    }
-
-    /// Whether the dual-bus layer finds `node`'s heartbeats implausible
-    /// ([`PairSupervisor::suspect`]).
-    pub fn is_suspect(&self, node: NodeId) -> bool {
-        self.suspect & bit(node) != 0
-    }
-
-    /// The dual-bus layer judged `node`'s heartbeats implausible (`suspect`: an impostor on one
-    /// bus, a babbling identifier, a duplicate node-ID) or plausible again. While suspect, its
-    /// heartbeats and boot-ups are no sign of life and it is not adopted; a joined member is
-    /// handled at once as if its consumer time had run out (commanding: an active member is
-    /// replaced by a live standby, the member is reset). Ignored unless `node` is a pair member.
-    pub fn suspect(&mut self, now: Instant, node: NodeId, suspect: bool) {
-        let Some((pair, m)) = self.locate(node) else {
-            return;
-        };
-        if self.is_suspect(node) == suspect {
-            return;
-        }
-        self.suspect ^= bit(node);
-        if !suspect {
-            return;
-        }
-        match &mut self.pairs[pair.0 as usize].member_mut(m).stage {
-            Stage::Joined { deadline } => *deadline = (*deadline).min(now),
-            // Not adopted on an impostor's word.
-            Stage::Waiting { adopt_at, .. } => *adopt_at = None,
-            Stage::Configuring => {}
-        }
-        self.lower_next(now);
-        self.handle_timeout(now);
-    }
-
     /// An NMT command seen on the bus (sent by another master). Followed unless commanding (a
     /// commander learns of another commander through the flying master).
     pub fn nmt_observed(&mut self, now: Instant, cmd: NmtCommand, target: u8) {
@@ -486,6 +436,11 @@ impl PairSupervisor {
         let Some((p, m)) = self.configuring(node) else {
             return;
         };
+        if ok && self.is_suspect(node) {
+            // Configured while its heartbeats are in doubt: it waits, unstarted and not reset,
+            // until they are trusted and it is adopted again.
+            return self.leave(now, p, m, LossReason::Suspect);
+        }
         if ok {
             return self.join(now, p, m);
         }
@@ -745,6 +700,10 @@ impl PairSupervisor {
         }
         self.pairs[p].active = to;
         let spec = self.pairs[p].spec;
+        if let Some(m) = to {
+            // Running it is this table's decision from now on.
+            self.by_application &= !bit(spec.node(m));
+        }
         if self.authority == Authority::Command {
             if let Some(m) = to {
                 // A member already running (adopted) needs no start.
@@ -773,33 +732,6 @@ impl PairSupervisor {
             let node = self.pairs[p].spec.node(o);
             self.nmt(NmtCommand::EnterPreOperational, node);
         }
-    }
-
-    /// Commanding: a joined standby heard becoming operational while the active member is
-    /// alive was started by someone else (a rogue NMT start): back to pre-operational at once.
-    /// Only on the change (a heartbeat of the active member just switched over may still say
-    /// operational), and not if the application started it
-    /// ([`PairSupervisor::application_nmt`]).
-    fn stop_running_standby(
-        &mut self,
-        now: Instant,
-        p: usize,
-        m: Member,
-        was: Option<NmtState>,
-        state: NmtState,
-    ) {
-        let pair = &self.pairs[p];
-        let Some(a) = pair.active.filter(|a| *a != m) else {
-            return;
-        };
-        let s = pair.member(m);
-        let started = state == NmtState::Operational && was != Some(NmtState::Operational);
-        let node = s.node;
-        let by_application = self.by_application & bit(node) != 0;
-        if !started || !s.joined() || by_application || !pair.member(a).alive_at(now) {
-            return;
-        }
-        self.nmt(NmtCommand::EnterPreOperational, node);
     }
 
     /// A pair without an active member but with a live joined member gets one.

@@ -1,0 +1,298 @@
+//! The two rules and the verdicts, at each heartbeat and at each deadline.
+
+use super::{arbitration_key, Plausibility, Track, BABBLE_FACTOR, BURST, NEVER};
+use crate::link::events::{LinkEvent, LinkEventKind, Suspicion};
+use crate::link::health::{Health, PortState};
+use crate::link::outbox::{Outbox, MACHINE_QUEUE};
+use duocan::machine::LinkRequest;
+use duocan::{Frame, Id, Instant, NodeId};
+
+impl Plausibility {
+    /// An error-control frame of `node` (heartbeat or boot-up) arrived on port `p` at `now`.
+    /// Returns true if it is to be dropped: that bus carries `node`'s heartbeats far too fast.
+    pub(crate) fn on_heartbeat(
+        &mut self,
+        now: Instant,
+        p: usize,
+        node: NodeId,
+        frame: &Frame,
+        health: &Health,
+        out: &mut Outbox,
+    ) -> bool {
+        self.watch_clock(now);
+        if self.unsynced {
+            self.sync_all(now, out);
+        }
+        let Some(i) = self.find(node) else {
+            return false;
+        };
+        let t = now.as_micros();
+        let (fast, mut onset) = self.rate(i, p, t, frame);
+        if let Some(win) = self.window {
+            self.last_any[p] = t;
+            self.pairing(i, p, t, win, frame);
+            self.wake(t.saturating_add(win));
+            if onset.is_none() && self.one_bus_due(i, t, health) {
+                self.at(i).one_bus = Some(p as u8);
+                onset = Some(Suspicion::OneBus { heard: p as u8 });
+            }
+        }
+        if let Some(why) = onset {
+            out.event(LinkEvent {
+                at: now,
+                kind: LinkEventKind::Suspect { node, why },
+            });
+        }
+        self.sync(i, now, out);
+        fast
+    }
+
+    /// Rule 1 for a heartbeat of node `i` on `p` at `t`: (too fast now, the onset if it starts).
+    fn rate(&mut self, i: usize, p: usize, t: u64, frame: &Frame) -> (bool, Option<Suspicion>) {
+        let w = self.at(i);
+        w.key = Some(arbitration_key(frame.id()));
+        w.id = Some(frame.id());
+        let period = w.period;
+        // The bucket drains 3T/4 per heartbeat: 3T in quarter microseconds.
+        let drain = period.saturating_mul(3);
+        let tq = t.saturating_mul(4);
+        let tr = &mut w.ports[p];
+        tr.last = t;
+        if tr.tat <= tq {
+            // Drained: the verdict ended at `tat` (the sweep normally saw to it on time).
+            tr.fast = false;
+        }
+        let tat = tr.tat.max(tq).saturating_add(drain);
+        let excess = tat - tq > drain.saturating_mul(BURST + 1);
+        // The cap keeps a babble's past from outliving it by more than `BURST + 2` drains.
+        tr.tat = tat.min(tq.saturating_add(drain.saturating_mul(BURST + 2)));
+        if tr.measuring && t > tr.since && t < tr.since.saturating_add(period) {
+            tr.count = tr.count.saturating_add(1);
+        }
+        let mut onset = None;
+        if excess && !tr.fast {
+            tr.fast = true;
+            if !tr.measuring {
+                // The window is [t, t + T): this heartbeat and those of one period after it.
+                tr.since = t;
+                tr.count = 1;
+                tr.measuring = true;
+            }
+            onset = Some(Suspicion::TooFast { port: p as u8 });
+        }
+        let fast = tr.fast();
+        let drained = tr.tat.div_ceil(4);
+        if fast {
+            self.wake(drained);
+        }
+        if onset.is_some() {
+            self.wake(t.saturating_add(period));
+        }
+        (fast, onset)
+    }
+
+    /// Rule 2's bookkeeping for a heartbeat of node `i` on `p` at `t`: heard on both buses
+    /// (paired), heard on the other bus again, or booted.
+    fn pairing(&mut self, i: usize, p: usize, t: u64, win: u64, frame: &Frame) {
+        let w = self.at(i);
+        if frame.data().first() == Some(&0) {
+            // A boot-up: a new life, judged afresh once heard on both buses again.
+            w.paired = false;
+            w.one_bus = None;
+            return;
+        }
+        let other = w.ports[1 - p].last;
+        if other != NEVER && t < other.saturating_add(win) {
+            w.paired = true;
+            if w.one_bus.is_some_and(|h| h as usize != p) {
+                w.one_bus = None;
+            }
+        }
+    }
+
+    /// Rule 2 for watched node `i` at `t`: heard on one bus only for `W`, the other healthy.
+    fn one_bus_due(&mut self, i: usize, t: u64, health: &Health) -> bool {
+        let Some(win) = self.window else {
+            return false;
+        };
+        let w = &self.entries()[i];
+        if !w.paired || w.one_bus.is_some() {
+            return false;
+        }
+        let Some(q) = (0..2).find(|&q| {
+            let (lq, lp) = (w.ports[q].last, w.ports[1 - q].last);
+            lq.saturating_add(win) <= t && lp != NEVER && t < lp.saturating_add(win)
+        }) else {
+            return false;
+        };
+        if w.checked != NEVER && self.last_any[q] <= w.checked {
+            return false; // nothing new on the silent bus since the last failed check
+        }
+        let after = w.ports[q].last.saturating_add(w.period + w.period / 2);
+        let ok = health.port(q).state() == PortState::Ok && self.witnessed(i, q, after);
+        self.at(i).checked = if ok { NEVER } else { t };
+        ok
+    }
+
+    /// A lower-priority watched heartbeat arrived on `q` after `after`.
+    fn witnessed(&self, i: usize, q: usize, after: u64) -> bool {
+        let Some(k) = self.entries()[i].key else {
+            return false;
+        };
+        self.entries().iter().any(|m| {
+            m.key.is_some_and(|mk| mk > k) && m.ports[q].last != NEVER && m.ports[q].last > after
+        })
+    }
+
+    /// Ends, reports and judges what is due at `now`, each at its own instant, and recomputes
+    /// the next deadline.
+    pub(crate) fn handle_timeout(&mut self, now: Instant, health: &Health, out: &mut Outbox) {
+        self.watch_clock(now);
+        if self.unsynced {
+            self.sync_all(now, out);
+        }
+        let t = now.as_micros();
+        if self.next.is_none_or(|n| n > t) {
+            return;
+        }
+        let mut next: Option<u64> = None;
+        let mut soonest = |d: u64| {
+            if d > t {
+                next = Some(next.map_or(d, |n: u64| n.min(d)));
+            }
+        };
+        for i in 0..self.entries().len() {
+            let node = self.at(i).node;
+            for p in 0..2 {
+                let w = self.at(i);
+                let period = w.period;
+                let id = w.id;
+                let tr = &mut w.ports[p];
+                if tr.measuring {
+                    let end = tr.since.saturating_add(period);
+                    if end <= t {
+                        tr.measuring = false;
+                        out.event(report(node, id, p, tr, period, end));
+                    } else {
+                        soonest(end);
+                    }
+                }
+                if tr.fast {
+                    let drained = tr.tat.div_ceil(4);
+                    if drained <= t {
+                        tr.fast = false;
+                    } else {
+                        soonest(drained);
+                    }
+                }
+            }
+            if let Some(win) = self.window {
+                self.sweep_one_bus(i, t, win, health, out);
+                let w = &self.entries()[i];
+                if w.paired || w.one_bus.is_some() {
+                    for tr in &w.ports {
+                        if tr.last != NEVER {
+                            soonest(tr.last.saturating_add(win));
+                        }
+                    }
+                }
+            }
+            self.sync(i, now, out);
+        }
+        self.next = next;
+    }
+
+    /// Rule 2's deadlines for node `i` up to `t`.
+    fn sweep_one_bus(&mut self, i: usize, t: u64, win: u64, health: &Health, out: &mut Outbox) {
+        let w = self.at(i);
+        let heard = |l: u64| l != NEVER && t < l.saturating_add(win);
+        if !heard(w.ports[0].last) && !heard(w.ports[1].last) {
+            // Heard nowhere: nothing left to doubt; a new appearance is judged afresh.
+            w.paired = false;
+            w.one_bus = None;
+            return;
+        }
+        let falls = (0..2)
+            .map(|q| w.ports[q].last.saturating_add(win))
+            .filter(|d| *d <= t)
+            .max();
+        if let Some(fall) = falls {
+            // Judged at the deadline, unless an earlier check lacked a witness.
+            let at = if self.at(i).checked == NEVER { fall } else { t };
+            if self.one_bus_due(i, t, health) {
+                let w = self.at(i);
+                let p = if heard(w.ports[0].last) { 0 } else { 1 };
+                w.one_bus = Some(p as u8);
+                out.event(LinkEvent {
+                    at: Instant::from_micros(at),
+                    kind: LinkEventKind::Suspect {
+                        node: w.node,
+                        why: Suspicion::OneBus { heard: p as u8 },
+                    },
+                });
+            }
+        }
+    }
+
+    /// Hands node `i`'s state to the machine above if it changed (and reports the end of a
+    /// suspicion); if the queue is full it is retried at the next input.
+    fn sync(&mut self, i: usize, now: Instant, out: &mut Outbox) {
+        let w = self.at(i);
+        let suspect = w.suspect();
+        if suspect == w.told {
+            return;
+        }
+        if out.machine.len() >= MACHINE_QUEUE {
+            self.unsynced = true;
+            return;
+        }
+        out.machine(LinkRequest::NodeSuspect {
+            node: w.node,
+            suspect,
+        });
+        w.told = suspect;
+        if !suspect {
+            out.event(LinkEvent {
+                at: now,
+                kind: LinkEventKind::Trusted { node: w.node },
+            });
+        }
+    }
+
+    fn sync_all(&mut self, now: Instant, out: &mut Outbox) {
+        self.unsynced = false;
+        for i in 0..self.entries().len() {
+            self.sync(i, now, out);
+        }
+    }
+}
+
+/// The rate measured in the window after a too-fast verdict, as a babble or a duplicate.
+fn report(node: NodeId, id: Option<Id>, p: usize, tr: &Track, period: u64, end: u64) -> LinkEvent {
+    let per_s = |n: u64| (n.saturating_mul(1_000_000) / period.max(1)).min(u32::MAX as u64) as u32;
+    let (rate, allowed) = (per_s(tr.count as u64), per_s(1));
+    let since = Instant::from_micros(tr.since);
+    let port = p as u8;
+    let kind = if tr.count as u64 > BABBLE_FACTOR {
+        LinkEventKind::Babbling {
+            node,
+            id: id.unwrap_or(Id::Standard(0)),
+            port,
+            rate,
+            allowed,
+            since,
+        }
+    } else {
+        LinkEventKind::DuplicateNode {
+            node,
+            port,
+            rate,
+            allowed,
+            since,
+        }
+    };
+    LinkEvent {
+        at: Instant::from_micros(end),
+        kind,
+    }
+}
