@@ -33,6 +33,12 @@
 //! [`NetworkConfig`](duocan::master::NetworkConfig) the master was built with), booted and
 //! started by it.
 //!
+//! Each member's heartbeats are judged by the dual-bus layer too ([`LinkCommand::Watch`] with
+//! its producer time, at [`Supervisor::add_pair`]): a babbling identifier, a duplicate node-ID
+//! or an impostor on one bus makes the member suspect ([`LinkRequest::NodeSuspect`]), and a
+//! suspect member is handled like a silent one at once; the bounds are in
+//! [`pairs`](crate::supervisor::pairs#heartbeats-that-lie).
+//!
 //! Which pair member is active must reach the dual-bus layer (same-function merge): the
 //! supervisor's [`Machine::LinkCommand`]s are [`LinkCommand`]s, which a
 //! [`Station`](duocan::Station) on a [`DualBus`](crate::DualBus) hands to the layer after every

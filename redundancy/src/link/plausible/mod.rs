@@ -19,8 +19,8 @@
 //! quarter microseconds so that the drain of `3T/4` per heartbeat is exact.
 //!
 //! - A babbling controller repeating the heartbeat back to back is flagged at its **sixth frame**
-//!   at the latest (fewer if the node's own heartbeats had filled the bucket): at 1 Mbit/s about
-//!   0.4 ms after it starts.
+//!   at the latest (earlier if the node's own heartbeats had partly filled the bucket): well
+//!   under a millisecond at 1 Mbit/s (0.46 ms in the simulator test).
 //! - Two devices beating with the same node-ID and period (any phase, any states) fill the bucket
 //!   by about two thirds of a heartbeat per period: flagged **within 8 periods** of both beating.
 //!
@@ -29,10 +29,12 @@
 //! the stack above nor the merger's twin matching sees them, so the node's heartbeats on the
 //! other bus, if any, are delivered as they are. The verdict ends when the bucket has drained:
 //! at the latest `(BURST + 2) · 3T/4` after the last excess frame while nothing else arrives.
-//! One period after the verdict the rate measured over that period is reported:
-//! [`LinkEventKind::Babbling`] (identifier, bus, frames/s) when it is more than
-//! [`BABBLE_FACTOR`] times the producer rate, [`LinkEventKind::DuplicateNode`] otherwise
-//! (devices sharing the node-ID).
+//! One period after the verdict the rate measured over `[verdict, verdict + T)` is reported:
+//! [`Babbling`](crate::LinkEventKind::Babbling) (identifier, bus, frames/s) when it is more
+//! than [`BABBLE_FACTOR`] times the producer rate, [`DuplicateNode`][dup] otherwise (devices
+//! sharing the node-ID).
+//!
+//! [dup]: crate::LinkEventKind::DuplicateNode
 //!
 //! # Rule 2: on one bus only
 //!
@@ -53,18 +55,21 @@
 //! # Verdicts
 //!
 //! A node is *suspect* while either rule holds. The change is handed to the machine above as
-//! [`LinkRequest::NodeSuspect`] (the supervisor takes the member's heartbeats as no sign of
+//! [`LinkRequest::NodeSuspect`][req] (the supervisor takes the member's heartbeats as no sign of
 //! life and handles an active member like a silent one) and reported as
-//! [`LinkEventKind::Suspect`] (with the reason, at each rule's onset) and
-//! [`LinkEventKind::Trusted`].
+//! [`Suspect`](crate::LinkEventKind::Suspect) (with the reason, at each rule's onset) and
+//! [`Trusted`](crate::LinkEventKind::Trusted). Should the machine queue be full, the change is
+//! handed up at the next input (a station drains the queue after every input).
+//!
+//! [req]: duocan::machine::LinkRequest::NodeSuspect
 //!
 //! # Memory
 //!
-//! A table of fixed capacity, [`MAX_MEMBERS`] nodes (every member of the most pairs a supervisor
-//! holds), indexed by node-ID: about 13 KiB, allocated once at the first watch, so that a layer
-//! that watches nothing (a node's) carries only a pointer. Nothing per frame. A watch beyond the
-//! table is refused and counted; without the `alloc` feature there is no table (the supervisor,
-//! the only one to watch, needs `alloc` anyway).
+//! One entry per watched node, room for every node-ID ([`MAX_MEMBERS`]), indexed by node-ID:
+//! about 13 KiB, allocated once at the first watch and never grown, so that a layer that watches
+//! nothing (a node's) carries only a pointer. Nothing per frame. Without the `alloc` feature
+//! there is no table and watches are refused (counted; the supervisor, the only one to watch,
+//! needs `alloc` anyway).
 
 use crate::pair::MAX_MEMBERS;
 use duocan::frame::instant::TimeWatch;

@@ -39,6 +39,34 @@
 //!   pre-operational. The hold-off gives a second master that reappeared with them (a healed
 //!   partition) the time to be detected before this one commands anything.
 //!
+//! # Heartbeats that lie
+//!
+//! A heartbeat names its node but not its sender: a babbling controller repeating it, a second
+//! board configured with the same node-ID, a device beating it on one bus only would keep a
+//! dead member "alive". The dual-bus layer judges each member's heartbeats per bus against the
+//! producer time it is configured with ([`crate::link::plausible`]) and hands its verdicts here
+//! ([`PairSupervisor::suspect`]). A **suspect** member is handled like a silent one at the
+//! instant of the verdict: an active member is replaced by a live standby (started first, on the
+//! bus within one frame) and reset; a standby is reset; while suspect its heartbeats and
+//! boot-ups are no sign of life, it is not adopted, and a configuration that ends meanwhile
+//! leaves it waiting, unstarted. The standby is thus started, after the member's last real
+//! heartbeat, within the consumer time + 1 ms, or earlier, at the verdict:
+//!
+//! | What | Verdict (detection bound) |
+//! | --- | --- |
+//! | A controller babbling the heartbeat on one bus | at its 6th frame at the latest (0.4 ms at 1 Mbit/s) |
+//! | Two devices with the same node-ID beating at the producer time | within 8 producer periods of both beating |
+//! | An impostor beating on one bus only | the real node's last heartbeat on the other bus + the reachability window (3 guarding periods by default): consumer time + 1 ms + (window − consumer time) |
+//!
+//! A standby heard becoming operational while the active member is alive was started by
+//! someone else (a rogue NMT start-all): it is sent back to pre-operational at that heartbeat.
+//! The active master takes an NMT command it did not send as a sign of another active master
+//! and suspends its own commands for the detection timeout (0x1F90 sub 1, 100 ms by default; see
+//! [`crate::supervisor::flying_master`]), so one board runs again, on the bus within one frame,
+//! at the later of the command + the detection timeout and the standby's first heartbeat after
+//! it. A standby the application starts through this master
+//! ([`PairSupervisor::application_nmt`]) is left running.
+//!
 //! # Command and shadow
 //!
 //! A supervisor in [`Authority::Command`] evaluates and commands. One in [`Authority::Shadow`]
