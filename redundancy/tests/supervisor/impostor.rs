@@ -503,3 +503,50 @@ fn rogue_start_all_with_a_slow_standby_heartbeat_is_undone_at_that_heartbeat() {
     }
     assert!(nmt.iter().any(|x| x.0 > until + Duration::from_millis(50)));
 }
+
+#[test]
+fn a_second_board_set_to_the_same_node_id_is_reported_and_never_started() {
+    // A spare board configured as 0x10 is plugged in at 1007 ms: its boot-up makes pair 0 fail
+    // over (the active member "booted"), then both boards answer as 0x10 and beat.
+    let mut n = SupNet::new(Params::default());
+    let (p, buses) = (n.p, n.buses);
+    n.sim.at(ms(1007), move |sim| {
+        let second = slave_station(&p, a(0), ms(1007));
+        sim.add_device("second 0x10", second, &buses).unwrap();
+    });
+    n.sim.run_until(ms(3000));
+    let roles = n.pair_roles(STRONG, 0);
+    let last = roles.last().unwrap();
+    assert_eq!(
+        (last.from, last.to, last.reason),
+        (Some(Member::A), Some(Member::B), RoleReason::ActiveRebooted)
+    );
+    let per_bus: Vec<Vec<Instant>> = (0..2).map(|b| arrivals(&n, b, 0x710)).collect();
+    let v: Vec<Instant> = per_bus
+        .iter()
+        .map(|a| too_fast_at(a, PERIOD).unwrap())
+        .collect();
+    let mut want = vec![
+        (v[0], Suspicion::TooFast { port: 0 }),
+        (v[1], Suspicion::TooFast { port: 1 }),
+    ];
+    want.sort_by_key(|x| x.0);
+    assert_eq!(suspects(&n, STRONG)[..2], want);
+    let dups: Vec<(Instant, u8)> = link_events(&n, STRONG)
+        .into_iter()
+        .filter_map(|e| match e.kind {
+            LinkEventKind::DuplicateNode { port, since, .. } => Some((since, port)),
+            _ => None,
+        })
+        .collect();
+    assert!(
+        dups.contains(&(v[0], 0)) && dups.contains(&(v[1], 1)),
+        "{dups:?}"
+    );
+    // Neither board set to 0x10 is ever started again: B alone runs.
+    assert!(!n
+        .nmt_first_copies()
+        .iter()
+        .any(|x| x.0 > last.at && x.2 == NmtCommand::Start && (x.3 == a(0) || x.3 == 0)));
+    assert!(running(&n, b(0)) && !running(&n, a(0)));
+}
