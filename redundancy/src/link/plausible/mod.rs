@@ -121,6 +121,8 @@ struct Watch {
     node: NodeId,
     /// Producer time (µs), not zero.
     period: u64,
+    /// What each heartbeat adds to the bucket: 3T/4, in quarter microseconds (3T).
+    drain: u64,
     /// Arbitration key of its heartbeat identifier, once heard (higher: lower priority).
     key: Option<u32>,
     /// Its heartbeat identifier, once heard.
@@ -160,7 +162,7 @@ struct Table {
     watched: Vec<Watch, MAX_MEMBERS>,
 }
 
-const NONE: u8 = u8::MAX;
+pub(super) const NONE: u8 = u8::MAX;
 
 // The table is allocated once, at the first watch: a layer that watches nothing (a node's)
 // carries only the pointer. Without an allocator there is no table and watches are refused.
@@ -251,13 +253,16 @@ impl Plausibility {
             self.refused = self.refused.saturating_add(1);
             return false;
         };
+        let (period, drain) = (period.as_micros(), period.as_micros().saturating_mul(3));
         if t.index[n] != NONE {
-            t.watched[t.index[n] as usize].period = period.as_micros();
+            let w = &mut t.watched[t.index[n] as usize];
+            (w.period, w.drain) = (period, drain);
             return true;
         }
         let w = Watch {
             node,
-            period: period.as_micros(),
+            period,
+            drain,
             key: None,
             id: None,
             ports: [Track::NEW; 2],

@@ -10,6 +10,9 @@ use duocan::{Frame, Id, Instant, NodeId};
 impl Plausibility {
     /// An error-control frame of `node` (heartbeat or boot-up) arrived on port `p` at `now`.
     /// Returns true if it is to be dropped: that bus carries `node`'s heartbeats far too fast.
+    ///
+    /// The frame path of every watched heartbeat: one entry touched, no division, the rare
+    /// cases (a verdict, a pending check of rule 2, a change to hand up) out of line.
     pub(crate) fn on_heartbeat(
         &mut self,
         now: Instant,
@@ -23,43 +26,29 @@ impl Plausibility {
         if self.unsynced {
             self.sync_all(now, out);
         }
-        let Some(i) = self.find(node) else {
+        let t = now.as_micros();
+        let window = self.window;
+        let Some(table) = self.table.as_deref_mut() else {
             return false;
         };
-        let t = now.as_micros();
-        let (fast, mut onset) = self.rate(i, p, t, frame);
-        if let Some(win) = self.window {
-            self.last_any[p] = t;
-            self.pairing(i, p, t, win, frame);
-            self.wake(t.saturating_add(win));
-            if onset.is_none() && self.one_bus_due(i, t, health) {
-                self.at(i).one_bus = Some(p as u8);
-                onset = Some(Suspicion::OneBus { heard: p as u8 });
-            }
+        let i = table.index[node.raw() as usize];
+        if i == super::NONE {
+            return false;
         }
-        if let Some(why) = onset {
-            out.event(LinkEvent {
-                at: now,
-                kind: LinkEventKind::Suspect { node, why },
-            });
+        let i = i as usize;
+        let w = &mut table.watched[i];
+        if w.id.is_none() {
+            w.id = Some(frame.id());
+            w.key = Some(arbitration_key(frame.id()));
         }
-        self.sync(i, now, out);
-        fast
-    }
-
-    /// Rule 1 for a heartbeat of node `i` on `p` at `t`: (too fast now, the onset if it starts).
-    fn rate(&mut self, i: usize, p: usize, t: u64, frame: &Frame) -> (bool, Option<Suspicion>) {
-        let w = self.at(i);
-        w.key = Some(arbitration_key(frame.id()));
-        w.id = Some(frame.id());
-        let period = w.period;
-        // The bucket drains 3T/4 per heartbeat: 3T in quarter microseconds.
-        let drain = period.saturating_mul(3);
+        // Rule 1: the leaky bucket, in quarter microseconds.
+        let (drain, period) = (w.drain, w.period);
         let tq = t.saturating_mul(4);
         let tr = &mut w.ports[p];
+        let before = tr.last;
         tr.last = t;
         if tr.tat <= tq {
-            // Drained: the verdict ended at `tat` (the sweep normally saw to it on time).
+            // Drained: a verdict ended at `tat` (the sweep normally saw to it on time).
             tr.fast = false;
         }
         let tat = tr.tat.max(tq).saturating_add(drain);
@@ -80,34 +69,64 @@ impl Plausibility {
             }
             onset = Some(Suspicion::TooFast { port: p as u8 });
         }
-        let fast = tr.fast();
+        let fast = tr.fast;
         let drained = tr.tat.div_ceil(4);
+        // Rule 2's bookkeeping: heard on both buses (paired), on the other bus again, booted.
+        let mut recheck = false;
+        let mut due = None;
+        if let Some(win) = window {
+            let heard = |l: u64| l != NEVER && t < l.saturating_add(win);
+            let other = w.ports[1 - p].last;
+            let boot_up = frame.data().first() == Some(&0);
+            if boot_up || !(heard(before) || heard(other)) {
+                // A boot-up, or heard nowhere for a window: a new life, judged afresh once
+                // heard on both buses again.
+                w.paired = false;
+                w.one_bus = None;
+            }
+            if !boot_up && heard(other) {
+                w.paired = true;
+                if w.one_bus.is_some_and(|h| h as usize != p) {
+                    w.one_bus = None;
+                }
+            }
+            // The other bus's deadline is armed only once it missed a heartbeat: the frame
+            // path of a node heard on both buses sets no timer.
+            let late = other != NEVER && other.saturating_add(period + period / 2) < t;
+            if w.one_bus.is_some() {
+                due = Some(t.saturating_add(win));
+            } else if w.paired && late {
+                due = Some(other.saturating_add(win));
+            }
+            // A check that lacked a witness (or a deadline noticed late) is made at once.
+            recheck = w.checked != NEVER || due.is_some_and(|d| d <= t);
+        }
+        let changed = w.suspect() != w.told;
+        if window.is_some() {
+            self.last_any[p] = t;
+        }
+        if let Some(d) = due.filter(|d| *d > t) {
+            self.wake(d);
+        }
         if fast {
             self.wake(drained);
         }
         if onset.is_some() {
             self.wake(t.saturating_add(period));
+        } else if recheck && self.one_bus_due(i, t, health) {
+            self.at(i).one_bus = Some(p as u8);
+            onset = Some(Suspicion::OneBus { heard: p as u8 });
         }
-        (fast, onset)
-    }
-
-    /// Rule 2's bookkeeping for a heartbeat of node `i` on `p` at `t`: heard on both buses
-    /// (paired), heard on the other bus again, or booted.
-    fn pairing(&mut self, i: usize, p: usize, t: u64, win: u64, frame: &Frame) {
-        let w = self.at(i);
-        if frame.data().first() == Some(&0) {
-            // A boot-up: a new life, judged afresh once heard on both buses again.
-            w.paired = false;
-            w.one_bus = None;
-            return;
+        if let Some(why) = onset {
+            out.event(LinkEvent {
+                at: now,
+                kind: LinkEventKind::Suspect { node, why },
+            });
         }
-        let other = w.ports[1 - p].last;
-        if other != NEVER && t < other.saturating_add(win) {
-            w.paired = true;
-            if w.one_bus.is_some_and(|h| h as usize != p) {
-                w.one_bus = None;
-            }
+        if changed || onset.is_some() {
+            self.sync(i, now, out);
         }
+        fast
     }
 
     /// Rule 2 for watched node `i` at `t`: heard on one bus only for `W`, the other healthy.
@@ -189,11 +208,11 @@ impl Plausibility {
             if let Some(win) = self.window {
                 self.sweep_one_bus(i, t, win, health, out);
                 let w = &self.entries()[i];
-                if w.paired || w.one_bus.is_some() {
-                    for tr in &w.ports {
-                        if tr.last != NEVER {
-                            soonest(tr.last.saturating_add(win));
-                        }
+                let late = |l: u64| l.saturating_add(w.period + w.period / 2) < t;
+                for tr in w.ports.iter().filter(|tr| tr.last != NEVER) {
+                    // The end of a one-bus verdict; the fall of a bus that missed a heartbeat.
+                    if w.one_bus.is_some() || (w.paired && late(tr.last)) {
+                        soonest(tr.last.saturating_add(win));
                     }
                 }
             }

@@ -323,14 +323,14 @@ fn a_clock_step_back_is_no_burst() {
         r.beat(ms(t), 0, 0x10, 5);
         t += 12;
     }
-    // The clock steps back by one hour's worth of a glitch... and back to normal pace.
+    // The clock steps back by more than a second; the heartbeats go on at their pace: without
+    // the bucket moving back with the clock they would look a second too early.
     let mut t = 5;
     for _ in 0..10 {
         assert!(!r.beat(ms(t), 0, 0x10, 5));
         t += 12;
     }
     assert!(r.requests().is_empty());
-    assert!(r.p.poll_timeout().is_some_and(|d| d < ms(1_000)));
 }
 
 #[test]
