@@ -297,10 +297,15 @@ impl<C: FrameClassifier, const SLOTS: usize, const FUNCTIONS: usize> DualBus<C, 
     }
 
     /// Queues a [`LinkRequest::SetStatus`] for every status value that changed.
+    #[inline]
     fn show_status(&mut self) {
-        if matches!(self.policy, Policy::ActiveActive(_)) {
-            return; // no status entries: keep the frame path lean
+        // Active-active has no status entries: the frame path only tests the mode.
+        if !matches!(self.policy, Policy::ActiveActive(_)) {
+            self.show_mode_status();
         }
+    }
+
+    fn show_mode_status(&mut self) {
         let now = self.status();
         let (red, tog) = (self.layout.redundancy, self.layout.toggle);
         for (index, sub, old, new) in [
@@ -549,6 +554,7 @@ impl<C: FrameClassifier, const SLOTS: usize, const FUNCTIONS: usize> BusLink
         self.merger.expire(now);
     }
 
+    #[inline]
     fn poll_timeout(&self) -> Option<Instant> {
         earliest_of([
             self.health.poll_timeout(),

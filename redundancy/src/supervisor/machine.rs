@@ -456,6 +456,13 @@ impl<D: ObjectDictionary, P: IdProfile> Supervisor<D, P> {
         })
     }
 
+    /// The dual-bus layer's verdict on a node's heartbeats: for the pair supervision.
+    #[cold]
+    fn verdict(&mut self, now: Instant, node: NodeId, suspect: bool) {
+        self.pairs.suspect(now, node, suspect);
+        self.pump(now);
+    }
+
     fn emit(&mut self, e: SupervisorEvent) {
         if self.events.len() >= self.cfg.event_queue.max(1) {
             self.events_dropped = self.events_dropped.saturating_add(1);
@@ -723,8 +730,7 @@ impl<D: ObjectDictionary, P: IdProfile> Machine for Supervisor<D, P> {
     /// the supervisor with its next input.
     fn handle_link_request(&mut self, now: Instant, req: LinkRequest) {
         if let LinkRequest::NodeSuspect { node, suspect } = req {
-            self.pairs.suspect(now, node, suspect);
-            return self.pump(now);
+            return self.verdict(now, node, suspect);
         }
         self.master.node_mut().handle_link_request(now, req);
     }

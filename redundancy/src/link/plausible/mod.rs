@@ -123,6 +123,10 @@ struct Watch {
     period: u64,
     /// What each heartbeat adds to the bucket: 3T/4, in quarter microseconds (3T).
     drain: u64,
+    /// The most the bucket may hold: `BURST + 1` heartbeats' worth.
+    limit: u64,
+    /// A bus is late for it once its last heartbeat there is this old (µs): 1.5 T.
+    late: u64,
     /// Arbitration key of its heartbeat identifier, once heard (higher: lower priority).
     key: Option<u32>,
     /// Its heartbeat identifier, once heard.
@@ -137,9 +141,20 @@ struct Watch {
     /// Rule 2 failed for want of a witness at this instant: checked again once the silent bus
     /// carried another watched heartbeat.
     checked: u64,
+    /// Nothing pending: heard on both buses, trusted, no verdict, no window, no failed check.
+    /// The frame path needs to look no further; recomputed ([`Watch::settle`]) after anything
+    /// else touched the entry.
+    quiet: bool,
 }
 
 impl Watch {
+    fn settle(&mut self) {
+        self.quiet = self.paired
+            && !self.told
+            && self.one_bus.is_none()
+            && self.checked == NEVER
+            && !self.ports.iter().any(|tr| tr.fast || tr.measuring);
+    }
     fn suspect(&self) -> bool {
         self.one_bus.is_some() || self.ports.iter().any(Track::fast)
     }
@@ -232,6 +247,8 @@ impl Plausibility {
     /// Watches `node`, whose producer time is `period` (zero: stops watching it). False if the
     /// table is full ([`MAX_MEMBERS`] nodes) or there is no allocator (counted in
     /// [`Plausibility::refused`]).
+    // Configuration, not the frame path: kept out of the callers so that they stay small.
+    #[inline(never)]
     pub fn watch(&mut self, node: NodeId, period: Duration) -> bool {
         let n = node.raw() as usize;
         if period.is_zero() {
@@ -253,16 +270,20 @@ impl Plausibility {
             self.refused = self.refused.saturating_add(1);
             return false;
         };
-        let (period, drain) = (period.as_micros(), period.as_micros().saturating_mul(3));
+        let period = period.as_micros();
+        let drain = period.saturating_mul(3);
+        let (limit, late) = (drain.saturating_mul(BURST + 1), period + period / 2);
         if t.index[n] != NONE {
             let w = &mut t.watched[t.index[n] as usize];
-            (w.period, w.drain) = (period, drain);
+            (w.period, w.drain, w.limit, w.late) = (period, drain, limit, late);
             return true;
         }
         let w = Watch {
             node,
             period,
             drain,
+            limit,
+            late,
             key: None,
             id: None,
             ports: [Track::NEW; 2],
@@ -270,6 +291,7 @@ impl Plausibility {
             one_bus: None,
             told: false,
             checked: NEVER,
+            quiet: false,
         };
         if t.watched.push(w).is_err() {
             self.refused = self.refused.saturating_add(1);
@@ -331,17 +353,23 @@ impl Plausibility {
 
     /// Earliest deadline (may be early: a sweep then finds nothing to do).
     #[must_use]
+    #[inline]
     pub fn poll_timeout(&self) -> Option<Instant> {
         self.next.filter(|t| *t != NEVER).map(Instant::from_micros)
     }
 
     /// The clock contract ([`duocan::frame::instant`]): on every input, a step back of the
     /// caller's clock moves every time held back by the step.
+    #[inline]
     fn watch_clock(&mut self, now: Instant) {
-        let Some(by) = self.clock.step_back(now) else {
-            return;
-        };
-        let by = by.as_micros();
+        if let Some(by) = self.clock.step_back(now) {
+            self.step_back(by.as_micros());
+        }
+    }
+
+    /// Moves every time held back by `by` µs.
+    #[cold]
+    fn step_back(&mut self, by: u64) {
         let back = |t: &mut u64| {
             if *t != NEVER {
                 *t = t.saturating_sub(by);

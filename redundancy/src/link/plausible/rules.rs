@@ -1,6 +1,6 @@
 //! The two rules and the verdicts, at each heartbeat and at each deadline.
 
-use super::{arbitration_key, Plausibility, Track, BABBLE_FACTOR, BURST, NEVER};
+use super::{arbitration_key, Plausibility, Track, BABBLE_FACTOR, NEVER};
 use crate::link::events::{LinkEvent, LinkEventKind, Suspicion};
 use crate::link::health::{Health, PortState};
 use crate::link::outbox::{Outbox, MACHINE_QUEUE};
@@ -11,8 +11,10 @@ impl Plausibility {
     /// An error-control frame of `node` (heartbeat or boot-up) arrived on port `p` at `now`.
     /// Returns true if it is to be dropped: that bus carries `node`'s heartbeats far too fast.
     ///
-    /// The frame path of every watched heartbeat: one entry touched, no division, the rare
-    /// cases (a verdict, a pending check of rule 2, a change to hand up) out of line.
+    /// The frame path of every watched heartbeat. The common case — a node heard on both buses
+    /// at its pace, trusted, nothing pending — moves its bucket and its last heartbeat and
+    /// nothing else; everything else is [`Plausibility::judge`], out of line.
+    #[inline]
     pub(crate) fn on_heartbeat(
         &mut self,
         now: Instant,
@@ -23,6 +25,47 @@ impl Plausibility {
         out: &mut Outbox,
     ) -> bool {
         self.watch_clock(now);
+        if let (false, Some(win), Some(table)) =
+            (self.unsynced, self.window, self.table.as_deref_mut())
+        {
+            let i = table.index[node.raw() as usize];
+            if i == super::NONE {
+                return false;
+            }
+            let w = &mut table.watched[i as usize];
+            let t = now.as_micros();
+            let heard = |l: u64| l != NEVER && t < l.saturating_add(win);
+            let (tr, other) = (&w.ports[p], &w.ports[1 - p]);
+            let usual = w.quiet
+                && heard(tr.last)
+                && heard(other.last)
+                && other.last.saturating_add(w.late) >= t;
+            if usual && frame.data().first() != Some(&0) {
+                let tq = t.saturating_mul(4);
+                let tat = tr.tat.max(tq).saturating_add(w.drain);
+                if tat - tq <= w.limit {
+                    let tr = &mut w.ports[p];
+                    (tr.last, tr.tat) = (t, tat);
+                    self.last_any[p] = t;
+                    return false;
+                }
+            }
+        }
+        self.judge(now, p, node, frame, health, out)
+    }
+
+    /// [`Plausibility::on_heartbeat`] when anything may change: both rules in full.
+    #[cold]
+    #[inline(never)]
+    fn judge(
+        &mut self,
+        now: Instant,
+        p: usize,
+        node: NodeId,
+        frame: &Frame,
+        health: &Health,
+        out: &mut Outbox,
+    ) -> bool {
         if self.unsynced {
             self.sync_all(now, out);
         }
@@ -42,7 +85,7 @@ impl Plausibility {
             w.key = Some(arbitration_key(frame.id()));
         }
         // Rule 1: the leaky bucket, in quarter microseconds.
-        let (drain, period) = (w.drain, w.period);
+        let (drain, limit, period, late_after) = (w.drain, w.limit, w.period, w.late);
         let tq = t.saturating_mul(4);
         let tr = &mut w.ports[p];
         let before = tr.last;
@@ -52,9 +95,9 @@ impl Plausibility {
             tr.fast = false;
         }
         let tat = tr.tat.max(tq).saturating_add(drain);
-        let excess = tat - tq > drain.saturating_mul(BURST + 1);
+        let excess = tat - tq > limit;
         // The cap keeps a babble's past from outliving it by more than `BURST + 2` drains.
-        tr.tat = tat.min(tq.saturating_add(drain.saturating_mul(BURST + 2)));
+        tr.tat = tat.min(tq.saturating_add(limit.saturating_add(drain)));
         if tr.measuring && t > tr.since && t < tr.since.saturating_add(period) {
             tr.count = tr.count.saturating_add(1);
         }
@@ -92,7 +135,7 @@ impl Plausibility {
             }
             // The other bus's deadline is armed only once it missed a heartbeat: the frame
             // path of a node heard on both buses sets no timer.
-            let late = other != NEVER && other.saturating_add(period + period / 2) < t;
+            let late = other != NEVER && other.saturating_add(late_after) < t;
             if w.one_bus.is_some() {
                 due = Some(t.saturating_add(win));
             } else if w.paired && late {
@@ -126,6 +169,7 @@ impl Plausibility {
         if changed || onset.is_some() {
             self.sync(i, now, out);
         }
+        self.at(i).settle();
         fast
     }
 
@@ -208,7 +252,7 @@ impl Plausibility {
             if let Some(win) = self.window {
                 self.sweep_one_bus(i, t, win, health, out);
                 let w = &self.entries()[i];
-                let late = |l: u64| l.saturating_add(w.period + w.period / 2) < t;
+                let late = |l: u64| l.saturating_add(w.late) < t;
                 for tr in w.ports.iter().filter(|tr| tr.last != NEVER) {
                     // The end of a one-bus verdict; the fall of a bus that missed a heartbeat.
                     if w.one_bus.is_some() || (w.paired && late(tr.last)) {
@@ -217,6 +261,7 @@ impl Plausibility {
                 }
             }
             self.sync(i, now, out);
+            self.at(i).settle();
         }
         self.next = next;
     }
@@ -282,6 +327,7 @@ impl Plausibility {
         self.unsynced = false;
         for i in 0..self.entries().len() {
             self.sync(i, now, out);
+            self.at(i).settle();
         }
     }
 }

@@ -419,7 +419,10 @@ impl PairSupervisor {
         if self.authority != Authority::Command {
             self.follow_state(now, p, m, state);
         } else {
-            self.stop_running_standby(now, p, m, was, state);
+            // Only a change to operational can be a standby started by someone else.
+            if state == NmtState::Operational && was != Some(NmtState::Operational) {
+                self.stop_running_standby(now, p, m);
+            }
         }
     }
 

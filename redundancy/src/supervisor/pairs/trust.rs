@@ -3,7 +3,7 @@
 
 use super::state::Stage;
 use super::{Member, PairSupervisor};
-use duocan::{Instant, NmtCommand, NmtState, NodeId};
+use duocan::{Instant, NmtCommand, NodeId};
 
 /// The bit of `node` in a node-ID set.
 pub(super) const fn bit(node: NodeId) -> u128 {
@@ -58,28 +58,20 @@ impl PairSupervisor {
         self.handle_timeout(now);
     }
 
-    /// Commanding: a joined standby heard becoming operational while the active member is
-    /// alive was started by someone else (a rogue NMT start): back to pre-operational at once.
-    /// Only on the change (a heartbeat of the active member just switched over may still say
-    /// operational), and not if the application started it
+    /// Commanding: a joined standby heard becoming operational (the caller sees the change;
+    /// a heartbeat of the active member just switched over may still say operational) while
+    /// the active member is alive was started by someone else (a rogue NMT start): back to
+    /// pre-operational at once, unless the application started it
     /// ([`PairSupervisor::application_nmt`]).
-    pub(super) fn stop_running_standby(
-        &mut self,
-        now: Instant,
-        p: usize,
-        m: Member,
-        was: Option<NmtState>,
-        state: NmtState,
-    ) {
+    pub(super) fn stop_running_standby(&mut self, now: Instant, p: usize, m: Member) {
         let pair = &self.pairs[p];
         let Some(a) = pair.active.filter(|a| *a != m) else {
             return;
         };
         let s = pair.member(m);
-        let started = state == NmtState::Operational && was != Some(NmtState::Operational);
         let node = s.node;
         let by_application = self.by_application & bit(node) != 0;
-        if !started || !s.joined() || by_application || !pair.member(a).alive_at(now) {
+        if !s.joined() || by_application || !pair.member(a).alive_at(now) {
             return;
         }
         self.nmt(NmtCommand::EnterPreOperational, node);
