@@ -34,12 +34,12 @@ impl Plausibility {
             }
             let w = &mut table.watched[i as usize];
             let t = now.as_micros();
-            let heard = |l: u64| l != NEVER && t < l.saturating_add(win);
+            // Quiet means heard on both buses (neither time is NEVER); with the other bus heard
+            // and not late, this heartbeat changes nothing but the bucket.
             let (tr, other) = (&w.ports[p], &w.ports[1 - p]);
             let usual = w.quiet
-                && heard(tr.last)
-                && heard(other.last)
-                && other.last.saturating_add(w.late) >= t;
+                && t < other.last.saturating_add(win)
+                && t <= other.last.saturating_add(w.late);
             if usual && frame.data().first() != Some(&0) {
                 let tq = t.saturating_mul(4);
                 let tat = tr.tat.max(tq).saturating_add(w.drain);
