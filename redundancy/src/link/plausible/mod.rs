@@ -127,8 +127,9 @@ struct Watch {
     limit: u64,
     /// A bus is late for it once its last heartbeat there is this old (µs): 1.5 T.
     late: u64,
-    /// Arbitration key of its heartbeat identifier, once heard (higher: lower priority).
-    key: Option<u32>,
+    /// Arbitration key of its heartbeat ([`Frame::arbitration_key`](duocan::Frame::arbitration_key)),
+    /// once heard: higher is lower priority.
+    key: Option<u64>,
     /// Its heartbeat identifier, once heard.
     id: Option<Id>,
     ports: [Track; 2],
@@ -157,15 +158,6 @@ impl Watch {
     }
     fn suspect(&self) -> bool {
         self.one_bus.is_some() || self.ports.iter().any(Track::fast)
-    }
-}
-
-/// The CAN arbitration order as a number: lower wins. The 11 base bits first; a standard frame
-/// beats an extended one with the same base; then the 18 extension bits.
-fn arbitration_key(id: Id) -> u32 {
-    match id {
-        Id::Standard(s) => (s as u32) << 19,
-        Id::Extended(e) => ((e >> 18) << 19) | (1 << 18) | (e & 0x3_FFFF),
     }
 }
 

@@ -1,6 +1,6 @@
 //! The two rules and the verdicts, at each heartbeat and at each deadline.
 
-use super::{arbitration_key, Plausibility, Track, BABBLE_FACTOR, NEVER};
+use super::{Plausibility, Track, BABBLE_FACTOR, NEVER};
 use crate::link::events::{LinkEvent, LinkEventKind, Suspicion};
 use crate::link::health::{Health, PortState};
 use crate::link::outbox::{Outbox, MACHINE_QUEUE};
@@ -82,7 +82,7 @@ impl Plausibility {
         let w = &mut table.watched[i];
         if w.id.is_none() {
             w.id = Some(frame.id());
-            w.key = Some(arbitration_key(frame.id()));
+            w.key = Some(frame.arbitration_key());
         }
         // Rule 1: the leaky bucket, in quarter microseconds.
         let (drain, limit, period, late_after) = (w.drain, w.limit, w.period, w.late);
