@@ -262,7 +262,9 @@ impl Plausibility {
             self.refused = self.refused.saturating_add(1);
             return false;
         };
-        let period = period.as_micros();
+        // Longer than 12 days is taken as 12 days: every sum on the frame path stays far from
+        // overflowing (a producer time is at most 65.535 s).
+        let period = period.as_micros().min(1 << 40);
         let drain = period.saturating_mul(3);
         let (limit, late) = (drain.saturating_mul(BURST + 1), period + period / 2);
         if t.index[n] != NONE {

@@ -25,29 +25,35 @@ impl Plausibility {
         out: &mut Outbox,
     ) -> bool {
         self.watch_clock(now);
-        if let (false, Some(win), Some(table)) =
-            (self.unsynced, self.window, self.table.as_deref_mut())
-        {
-            let i = table.index[node.raw() as usize];
+        let t = now.as_micros();
+        // Below 2^60 µs (36,000 years) no sum here can overflow: plain arithmetic.
+        if let (true, false, Some(win), Some(table)) = (
+            t < 1 << 60,
+            self.unsynced,
+            self.window,
+            self.table.as_deref_mut(),
+        ) {
+            let i = table.index[(node.raw() & 0x7F) as usize];
             if i == super::NONE {
                 return false;
             }
-            let w = &mut table.watched[i as usize];
-            let t = now.as_micros();
-            // Quiet means heard on both buses (neither time is NEVER); with the other bus heard
-            // and not late, this heartbeat changes nothing but the bucket.
-            let (tr, other) = (&w.ports[p], &w.ports[1 - p]);
-            let usual = w.quiet
-                && t < other.last.saturating_add(win)
-                && t <= other.last.saturating_add(w.late);
-            if usual && frame.data().first() != Some(&0) {
-                let tq = t.saturating_mul(4);
-                let tat = tr.tat.max(tq).saturating_add(w.drain);
-                if tat - tq <= w.limit {
-                    let tr = &mut w.ports[p];
-                    (tr.last, tr.tat) = (t, tat);
-                    self.last_any[p] = t;
-                    return false;
+            if let Some(w) = table.watched.get_mut(i as usize) {
+                // Quiet means heard on both buses (neither time is NEVER); with the other bus
+                // heard and not late, this heartbeat changes nothing but the bucket.
+                let other = w.ports[(p ^ 1) & 1].last;
+                if w.quiet
+                    && t < other + win
+                    && t <= other + w.late
+                    && frame.data().first() != Some(&0)
+                {
+                    let tr = &mut w.ports[p & 1];
+                    let tq = t * 4;
+                    let tat = tr.tat.max(tq) + w.drain;
+                    if tat - tq <= w.limit {
+                        (tr.last, tr.tat) = (t, tat);
+                        self.last_any[p & 1] = t;
+                        return false;
+                    }
                 }
             }
         }
