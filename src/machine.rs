@@ -18,6 +18,7 @@
 //! ports, drain `poll_event` to the application. Every method may be called at any time;
 //! `handle_timeout` does whatever is due at `now` and nothing else.
 
+use crate::frame::cob_id::NodeId;
 use crate::frame::instant::{earliest, Instant};
 use crate::frame::queue::Bounded;
 use crate::frame::Frame;
@@ -73,6 +74,17 @@ pub enum LinkRequest {
         sub: u8,
         /// The new value.
         value: u8,
+    },
+    /// The link judged the error-control messages (heartbeats, boot-ups) of a remote `node`
+    /// implausible (`suspect`: heard far faster than its heartbeat period allows, or on one bus
+    /// only while the other bus carries lower-priority heartbeats), or plausible again. A
+    /// machine that watches the node (a redundant master's supervisor) takes its heartbeats as
+    /// no sign of life while it is suspect; others ignore it.
+    NodeSuspect {
+        /// The remote node.
+        node: NodeId,
+        /// True from the verdict on, false once every reason has ended.
+        suspect: bool,
     },
 }
 

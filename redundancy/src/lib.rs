@@ -28,8 +28,9 @@
 //!
 //! Around them: [port health](link::health) (counters, error causes, ok / suspect / failed /
 //! recovering, silence limit, re-initialisation with back-off), [per-node per-bus
-//! reachability](link::reach), and [events](link::events) with reasons and timestamps for every
-//! change. Configuration comes from code ([`DualBusConfig`]) or from the dictionary
+//! reachability](link::reach), [heartbeat plausibility](link::plausible) per node and bus
+//! (babbling identifiers, duplicate node-IDs, impostors on one bus), and [events](link::events)
+//! with reasons and timestamps for every change. Configuration comes from code ([`DualBusConfig`]) or from the dictionary
 //! ([`link::config`]).
 //!
 //! The supervisor runs on top of the layer and the stack:
@@ -37,7 +38,8 @@
 //! - [slave-pair supervision](supervisor::pairs): the pair table, joining on boot-up,
 //!   event-driven evaluation with per-member deadlines (reaction = the consumer time), the four
 //!   cases of the published railway design and the single-member ones, non-revertive or
-//!   revertive, manual switch-over, a watchdog for members that never speak;
+//!   revertive, manual switch-over, a watchdog for members that never speak, members whose
+//!   heartbeats lie handled like silent ones, standbys started by someone else sent back;
 //! - [CiA 302-2 flying master](supervisor::flying_master): strong/weak master by priority,
 //!   takeover at the master-heartbeat timeout, multiple-master detection and conflict resolution
 //!   after a partition, planned hand-over;
@@ -79,7 +81,7 @@ pub use link::classify::FrameClassifier;
 pub use link::dual_bus::{
     DualBus, DualBusConfig, DualBusNode, LinkCommand, LinkMode, LinkStats, DEFAULT_MERGE_SLOTS,
 };
-pub use link::events::{LinkEvent, LinkEventKind, PortReason, SwitchReason};
+pub use link::events::{LinkEvent, LinkEventKind, PortReason, Suspicion, SwitchReason};
 pub use link::health::{HealthConfig, PortState};
 pub use link::merge::{Merger, Verdict};
 pub use link::outbox::{Outbox, EVENT_QUEUE, FRAME_QUEUE, MACHINE_QUEUE, REQUEST_QUEUE};

@@ -9,6 +9,9 @@ use duocan::{Duration, NodeId};
 
 /// Pairs a layer can hold: 55 board pairs per network, rounded up.
 pub const MAX_PAIRS: usize = 64;
+/// Members of that many pairs: the nodes whose heartbeats a dual-bus layer can judge for
+/// plausibility.
+pub const MAX_MEMBERS: usize = 2 * MAX_PAIRS;
 /// Index of a configured pair.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
 pub struct PairId(pub u8);

@@ -196,6 +196,7 @@ impl<D: ObjectDictionary, P: IdProfile + FrameClassifier> fmt::Display for Statu
                     },
                 );
                 let phase = match (s.phase(), s.missing()) {
+                    _ if sup.pair_supervisor().is_suspect(s.node) => "suspect",
                     (Phase::Waiting, _) if s.is_rejected() => "rejected",
                     (Phase::Waiting, true) => "missing",
                     (ph, _) => match ph {

@@ -607,6 +607,8 @@ impl<
                 // dictionary without the entry simply does not show it.
                 let _ = self.write(now, index, sub, &[value]);
             }
+            // About a remote node: a node acts on its own heartbeat consumers' timeouts only.
+            LinkRequest::NodeSuspect { .. } => {}
         }
     }
 }

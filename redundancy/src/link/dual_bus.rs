@@ -26,6 +26,7 @@ use crate::link::events::LinkEvent;
 use crate::link::health::{Health, HealthConfig, PortHealth, PortState, RxOutcome};
 use crate::link::merge::{Merger, Verdict};
 use crate::link::outbox::Outbox;
+use crate::link::plausible::Plausibility;
 use crate::link::reach::Reach;
 use crate::link::same_function::{PairError, PairVerdict, SameFunction, MAX_FUNCTIONS};
 use crate::pair::{Member, PairId};
@@ -153,6 +154,14 @@ pub enum LinkCommand {
     SetActive(PairId, Option<Member>),
     /// Forget a member's latest values.
     Forget(PairId, Member),
+    /// Judge the heartbeats of `node`, whose producer time is `producer_ms` milliseconds (as
+    /// in 0x1017), for plausibility (zero: stop; see [`crate::link::plausible`]).
+    Watch {
+        /// The node.
+        node: duocan::NodeId,
+        /// Its heartbeat producer time in milliseconds.
+        producer_ms: u16,
+    },
 }
 
 // A machine with nothing to tell the layer (a node) runs on it as well.
@@ -177,6 +186,11 @@ pub struct LinkStats {
     pub events_dropped: u32,
     /// Requests dropped because the driver did not drain them.
     pub requests_dropped: u32,
+    /// Error-control frames dropped because their bus carried the node's heartbeats far faster
+    /// than its period allows ([plausibility](crate::link::plausible), rule 1).
+    pub implausible: u64,
+    /// Watches refused because the plausibility table was full.
+    pub watch_refused: u32,
 }
 
 /// The dual-bus layer. `C` classifies frames (heartbeats, senders, functions; the predefined
@@ -194,6 +208,7 @@ pub struct DualBus<
     health: Health,
     reach: Reach,
     reach_enabled: bool,
+    plausible: Plausibility,
     pairs: SameFunction<FUNCTIONS>,
     out: Outbox,
     stats: LinkStats,
@@ -252,6 +267,8 @@ impl<C: FrameClassifier, const SLOTS: usize, const FUNCTIONS: usize> DualBus<C, 
             health: Health::new(health, cfg.skew_window),
             reach: Reach::new(cfg.reach_timeout, cfg.skew_window),
             reach_enabled,
+            // Rule 2 needs both buses listened to, as reachability does.
+            plausible: Plausibility::new(reach_enabled.then_some(cfg.reach_timeout)),
             pairs: SameFunction::new(cfg.discrepancy_time),
             out: Outbox::new(),
             stats: LinkStats::default(),
@@ -280,10 +297,15 @@ impl<C: FrameClassifier, const SLOTS: usize, const FUNCTIONS: usize> DualBus<C, 
     }
 
     /// Queues a [`LinkRequest::SetStatus`] for every status value that changed.
+    #[inline]
     fn show_status(&mut self) {
-        if matches!(self.policy, Policy::ActiveActive(_)) {
-            return; // no status entries: keep the frame path lean
+        // Active-active has no status entries: the frame path only tests the mode.
+        if !matches!(self.policy, Policy::ActiveActive(_)) {
+            self.show_mode_status();
         }
+    }
+
+    fn show_mode_status(&mut self) {
         let now = self.status();
         let (red, tog) = (self.layout.redundancy, self.layout.toggle);
         for (index, sub, old, new) in [
@@ -353,6 +375,16 @@ impl<C: FrameClassifier, const SLOTS: usize, const FUNCTIONS: usize> DualBus<C, 
     pub fn reach(&self) -> &Reach {
         &self.reach
     }
+    /// Heartbeat plausibility of the watched nodes.
+    pub fn plausibility(&self) -> &Plausibility {
+        &self.plausible
+    }
+    /// Judges the heartbeats of `node`, whose producer time is `period`, for plausibility
+    /// (zero: stop). False if the table is full (or the crate has no `alloc` feature). For the
+    /// supervisor ([`LinkCommand::Watch`]).
+    pub fn watch(&mut self, node: duocan::NodeId, period: Duration) -> bool {
+        self.plausible.watch(node, period)
+    }
     /// The pair table and the members' latest values.
     pub fn pairs(&self) -> &SameFunction<FUNCTIONS> {
         &self.pairs
@@ -385,6 +417,7 @@ impl<C: FrameClassifier, const SLOTS: usize, const FUNCTIONS: usize> DualBus<C, 
             tx_dropped: self.out.frames_dropped(),
             events_dropped: self.out.events.dropped(),
             requests_dropped: self.out.requests.dropped(),
+            watch_refused: self.plausible.refused(),
             ..self.stats
         }
     }
@@ -418,6 +451,19 @@ impl<C: FrameClassifier, const SLOTS: usize, const FUNCTIONS: usize> BusLink
             }
         }
         let info = self.info(frame);
+        if let Some(n) = info.heartbeat.filter(|_| !self.plausible.is_empty()) {
+            // A bus carrying this node's heartbeats far too fast: neither the policy, the
+            // merger nor the stack above sees them.
+            if self
+                .plausible
+                .on_heartbeat(now, port, n, frame, &self.health, &mut self.out)
+            {
+                self.stats.implausible += 1;
+                self.health
+                    .on_rx(now, port, RxOutcome::Ignored, &mut self.out);
+                return None;
+            }
+        }
         let route = self.policy.on_rx(now, port, frame, &info, &mut self.out);
         self.show_status();
         let outcome = match route {
@@ -500,12 +546,15 @@ impl<C: FrameClassifier, const SLOTS: usize, const FUNCTIONS: usize> BusLink
         if self.reach_enabled {
             self.reach.handle_timeout(now, &mut self.out);
         }
+        self.plausible
+            .handle_timeout(now, &self.health, &mut self.out);
         self.policy.handle_timeout(now, &mut self.out);
         self.show_status();
         self.pairs.handle_timeout(now, &mut self.out);
         self.merger.expire(now);
     }
 
+    #[inline]
     fn poll_timeout(&self) -> Option<Instant> {
         earliest_of([
             self.health.poll_timeout(),
@@ -516,6 +565,7 @@ impl<C: FrameClassifier, const SLOTS: usize, const FUNCTIONS: usize> BusLink
             },
             self.policy.poll_timeout(),
             self.pairs.poll_timeout(),
+            self.plausible.poll_timeout(),
         ])
     }
 
@@ -533,6 +583,9 @@ impl<C: FrameClassifier, const SLOTS: usize, const FUNCTIONS: usize> BusLink
                 self.set_active(p, m);
             }
             LinkCommand::Forget(p, m) => self.forget_member(p, m),
+            LinkCommand::Watch { node, producer_ms } => {
+                self.watch(node, Duration::from_millis(producer_ms as u64));
+            }
         }
     }
 }

@@ -7,7 +7,7 @@ use crate::link::health::PortState;
 use crate::pair::{Member, PairId};
 use core::fmt;
 use duocan::machine::ErrorCause;
-use duocan::{Duration, Frame, Instant, NodeId};
+use duocan::{Duration, Frame, Id, Instant, NodeId};
 
 /// One thing that happened in the layer.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -117,6 +117,68 @@ pub enum LinkEventKind {
         pair: PairId,
         /// The member whose frame arrived.
         member: Member,
+    },
+    /// The heartbeats of a watched node became implausible (see
+    /// [`crate::link::plausible`]): reported at the onset of each reason.
+    Suspect {
+        /// The node.
+        node: NodeId,
+        /// Why.
+        why: Suspicion,
+    },
+    /// Every reason to suspect the node's heartbeats has ended.
+    Trusted {
+        /// The node.
+        node: NodeId,
+    },
+    /// A babbling identifier: the heartbeat identifier `id` of `node` arrived on `port` at
+    /// `rate` frames/s, measured over one producer period after the verdict at `since`; the
+    /// producer time allows `allowed` per second. Its frames on that bus are dropped until the
+    /// rate falls back.
+    Babbling {
+        /// The node whose heartbeat identifier it is.
+        node: NodeId,
+        /// The identifier.
+        id: Id,
+        /// Port index (0 = bus 1).
+        port: u8,
+        /// Frames per second measured.
+        rate: u32,
+        /// Heartbeats per second the node's producer time gives.
+        allowed: u32,
+        /// When its heartbeats there were found far too fast.
+        since: Instant,
+    },
+    /// Two or more devices share `node`'s node-ID: its heartbeats arrived on `port` at `rate`
+    /// per second (measured over one producer period after the verdict at `since`), a small
+    /// multiple of the `allowed` rate.
+    DuplicateNode {
+        /// The node-ID.
+        node: NodeId,
+        /// Port index (0 = bus 1).
+        port: u8,
+        /// Heartbeats per second measured.
+        rate: u32,
+        /// Heartbeats per second the node's producer time gives.
+        allowed: u32,
+        /// When its heartbeats there were found too fast.
+        since: Instant,
+    },
+}
+
+/// Why a watched node's heartbeats are implausible.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Suspicion {
+    /// Heard far faster than its producer time on `port` (a babbling identifier, or devices
+    /// sharing its node-ID).
+    TooFast {
+        /// Port index (0 = bus 1).
+        port: u8,
+    },
+    /// Heard on port `heard` only, while the other bus, healthy, heard it before.
+    OneBus {
+        /// The port it is still heard on.
+        heard: u8,
     },
 }
 
@@ -296,6 +358,45 @@ impl fmt::Display for LinkEvent {
                 f,
                 "pair {} member {member}: function table full, values not compared",
                 pair.0
+            ),
+            LinkEventKind::Suspect { node, why } => match why {
+                Suspicion::TooFast { port } => write!(
+                    f,
+                    "{node} suspect: its heartbeat comes far faster than its period on bus {}",
+                    bus(port)
+                ),
+                Suspicion::OneBus { heard } => write!(
+                    f,
+                    "{node} suspect: heard on bus {} only while bus {} is healthy",
+                    bus(heard),
+                    bus(1 - heard.min(1))
+                ),
+            },
+            LinkEventKind::Trusted { node } => {
+                write!(f, "{node} trusted again: its heartbeats are plausible")
+            }
+            LinkEventKind::Babbling {
+                node,
+                id,
+                port,
+                rate,
+                allowed,
+                since,
+            } => write!(
+                f,
+                "identifier {id} ({node}'s heartbeat) babbling on bus {}: {rate} frames/s, its period allows {allowed}/s (since {since})",
+                bus(port)
+            ),
+            LinkEventKind::DuplicateNode {
+                node,
+                port,
+                rate,
+                allowed,
+                since,
+            } => write!(
+                f,
+                "{node} on bus {}: {rate} heartbeats/s where its period gives {allowed}/s: devices share its node-ID (since {since})",
+                bus(port)
             ),
         }
     }

@@ -8,6 +8,7 @@
 //! | Exact duplicate merge of the two ports' receptions (active-active) | [`merge`] |
 //! | Port health: counters, error causes, ok / suspect / failed / recovering, re-initialisation | [`health`] |
 //! | Per-node, per-bus reachability | [`reach`] |
+//! | Heartbeat plausibility per node and bus: babbling identifiers, duplicate node-IDs, impostors on one bus | [`plausible`] |
 //! | The channel policies: active-active, CiA 302-6, ECSS bus toggle | [`channel`] |
 //! | Same-function merge of the two boards of a pair | [`same_function`] |
 //! | Which frames carry which node's process data | [`classify`] |
@@ -25,5 +26,6 @@ pub mod events;
 pub mod health;
 pub mod merge;
 pub mod outbox;
+pub mod plausible;
 pub mod reach;
 pub mod same_function;

@@ -34,8 +34,9 @@ pub enum AuditEntry {
 }
 
 impl AuditEntry {
-    /// Whether a link event belongs in the trail (state changes, switches, toggles; not
-    /// reachability or discrepancy reports).
+    /// Whether a link event belongs in the trail (state changes, switches, toggles, verdicts on
+    /// a node's heartbeats: impostor, babbling identifier, duplicate node-ID; not reachability or
+    /// discrepancy reports).
     pub fn link_worth_recording(e: &LinkEvent) -> bool {
         matches!(
             e.kind,
@@ -46,6 +47,10 @@ impl AuditEntry {
                 | LinkEventKind::MasterFound { .. }
                 | LinkEventKind::NoMaster { .. }
                 | LinkEventKind::DefaultDisabled { .. }
+                | LinkEventKind::Suspect { .. }
+                | LinkEventKind::Trusted { .. }
+                | LinkEventKind::Babbling { .. }
+                | LinkEventKind::DuplicateNode { .. }
         )
     }
     fn kind(&self) -> &'static str {

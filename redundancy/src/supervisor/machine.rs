@@ -33,6 +33,12 @@
 //! [`NetworkConfig`](duocan::master::NetworkConfig) the master was built with), booted and
 //! started by it.
 //!
+//! Each member's heartbeats are judged by the dual-bus layer too ([`LinkCommand::Watch`] with
+//! its producer time, at [`Supervisor::add_pair`]): a babbling identifier, a duplicate node-ID
+//! or an impostor on one bus makes the member suspect ([`LinkRequest::NodeSuspect`]), and a
+//! suspect member is handled like a silent one at once; the bounds are in
+//! [`pairs`](crate::supervisor::pairs#heartbeats-that-lie).
+//!
 //! Which pair member is active must reach the dual-bus layer (same-function merge): the
 //! supervisor's [`Machine::LinkCommand`]s are [`LinkCommand`]s, which a
 //! [`Station`](duocan::Station) on a [`DualBus`](crate::DualBus) hands to the layer after every
@@ -243,6 +249,13 @@ impl<D: ObjectDictionary, P: IdProfile> Supervisor<D, P> {
             return Err(AddPairError::Master(spec.b, e));
         }
         let id = self.pairs.add_pair(now, spec)?;
+        // The layer judges the members' heartbeats against the producer time they get.
+        for node in [spec.a, spec.b] {
+            self.link.push(LinkCommand::Watch {
+                node,
+                producer_ms: ms(spec.producer_time),
+            });
+        }
         self.pump(now);
         Ok(id)
     }
@@ -318,6 +331,9 @@ impl<D: ObjectDictionary, P: IdProfile> Supervisor<D, P> {
             return Err(MasterError::Standby);
         }
         let r = self.master.nmt(now, cmd, target);
+        if r.is_ok() {
+            self.pairs.application_nmt(cmd, target.code());
+        }
         self.pump(now);
         r
     }
@@ -438,6 +454,13 @@ impl<D: ObjectDictionary, P: IdProfile> Supervisor<D, P> {
                 .into_iter()
                 .find(|n| sdo.channel(*n).response == frame.id())
         })
+    }
+
+    /// The dual-bus layer's verdict on a node's heartbeats: for the pair supervision.
+    #[cold]
+    fn verdict(&mut self, now: Instant, node: NodeId, suspect: bool) {
+        self.pairs.suspect(now, node, suspect);
+        self.pump(now);
     }
 
     fn emit(&mut self, e: SupervisorEvent) {
@@ -701,9 +724,14 @@ impl<D: ObjectDictionary, P: IdProfile> Machine for Supervisor<D, P> {
         self.events.pop_front()
     }
 
-    /// The layer's requests (status entries, ECSS pre-operational) are for the master's node,
-    /// which owns that state; its reactions reach the supervisor with its next input.
+    /// A verdict on a node's heartbeats is for the pair supervision (a suspect member is
+    /// handled like a silent one, at once); the layer's other requests (status entries, ECSS
+    /// pre-operational) are for the master's node, which owns that state; its reactions reach
+    /// the supervisor with its next input.
     fn handle_link_request(&mut self, now: Instant, req: LinkRequest) {
+        if let LinkRequest::NodeSuspect { node, suspect } = req {
+            return self.verdict(now, node, suspect);
+        }
         self.master.node_mut().handle_link_request(now, req);
     }
 

@@ -5,5 +5,6 @@ mod cia302_6;
 mod ecss;
 mod merge_memory;
 mod merge_properties;
+mod plausible_properties;
 mod railway;
 mod sim;

@@ -3,6 +3,7 @@
 mod chaos;
 mod combined;
 mod flying_master;
+mod impostor;
 mod master;
 mod net;
 mod on_bus;
@@ -10,3 +11,4 @@ mod pairs;
 mod partition;
 mod queues;
 mod seen_failover;
+mod trust;

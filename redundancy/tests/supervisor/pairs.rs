@@ -9,16 +9,16 @@ use duocan_redundancy::PairSpec;
 use duocan_redundancy::{Member, PairId};
 use proptest::prelude::*;
 
-const A: NodeId = NodeId::must(0x10);
-const B: NodeId = NodeId::must(0x11);
-const PRODUCER: Duration = Duration::from_millis(20);
-const CONSUMER: Duration = Duration::from_millis(50);
+pub const A: NodeId = NodeId::must(0x10);
+pub const B: NodeId = NodeId::must(0x11);
+pub const PRODUCER: Duration = Duration::from_millis(20);
+pub const CONSUMER: Duration = Duration::from_millis(50);
 
-fn ms(x: u64) -> Instant {
+pub fn ms(x: u64) -> Instant {
     Instant::from_millis(x)
 }
 
-fn table(cfg: PairsConfig) -> (PairSupervisor, PairId) {
+pub fn table(cfg: PairsConfig) -> (PairSupervisor, PairId) {
     let mut s = PairSupervisor::new(cfg);
     let p = s
         .add_pair(Instant::ZERO, PairSpec::new(A, B, PRODUCER, CONSUMER))
@@ -26,10 +26,10 @@ fn table(cfg: PairsConfig) -> (PairSupervisor, PairId) {
     (s, p)
 }
 
-fn commands(s: &mut PairSupervisor) -> Vec<PairCommand> {
+pub fn commands(s: &mut PairSupervisor) -> Vec<PairCommand> {
     core::iter::from_fn(|| s.poll_command()).collect()
 }
-fn nmts(s: &mut PairSupervisor) -> Vec<(NmtCommand, u8)> {
+pub fn nmts(s: &mut PairSupervisor) -> Vec<(NmtCommand, u8)> {
     commands(s)
         .into_iter()
         .filter_map(|c| match c {
@@ -38,10 +38,10 @@ fn nmts(s: &mut PairSupervisor) -> Vec<(NmtCommand, u8)> {
         })
         .collect()
 }
-fn events(s: &mut PairSupervisor) -> Vec<PairsEvent> {
+pub fn events(s: &mut PairSupervisor) -> Vec<PairsEvent> {
     core::iter::from_fn(|| s.poll_event()).collect()
 }
-fn roles(s: &mut PairSupervisor) -> Vec<(Instant, Option<Member>, Option<Member>, RoleReason)> {
+pub fn roles(s: &mut PairSupervisor) -> Vec<(Instant, Option<Member>, Option<Member>, RoleReason)> {
     events(s)
         .into_iter()
         .filter_map(|e| match e {
@@ -53,7 +53,7 @@ fn roles(s: &mut PairSupervisor) -> Vec<(Instant, Option<Member>, Option<Member>
 
 /// Both members boot at 0, are configured at 5 (A) and 6 (B) ms, and beat every 20 ms from
 /// then on, in pre-operational (A operational once started).
-fn running() -> (PairSupervisor, PairId) {
+pub fn running() -> (PairSupervisor, PairId) {
     let (mut s, p) = table(PairsConfig::default());
     s.boot_up(ms(0), A);
     s.boot_up(ms(0), B);

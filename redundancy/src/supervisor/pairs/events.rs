@@ -65,6 +65,9 @@ pub enum RoleReason {
     Takeover,
     /// The active member was reset or stopped by an NMT command seen on the bus.
     CommandObserved,
+    /// The active member's heartbeats became implausible (an impostor on one bus, a babbling
+    /// identifier, a duplicate node-ID): handled as if it were silent.
+    ActiveSuspect,
 }
 
 impl fmt::Display for RoleReason {
@@ -83,6 +86,9 @@ impl fmt::Display for RoleReason {
             RoleReason::Observed => f.write_str("observed from the active master"),
             RoleReason::Takeover => f.write_str("new active master: pair had no active member"),
             RoleReason::CommandObserved => f.write_str("NMT command observed"),
+            RoleReason::ActiveSuspect => f.write_str(
+                "active member's heartbeats implausible (impostor, babbling identifier or duplicate node-ID)",
+            ),
         }
     }
 }
@@ -142,6 +148,8 @@ pub enum LossReason {
     Rejected,
     /// A reset command for it was seen on the bus (shadow).
     ResetObserved,
+    /// Its heartbeats became implausible; it was reset, as a silent member is.
+    Suspect,
 }
 
 /// What the pair supervisor reports.

@@ -39,6 +39,34 @@
 //!   pre-operational. The hold-off gives a second master that reappeared with them (a healed
 //!   partition) the time to be detected before this one commands anything.
 //!
+//! # Heartbeats that lie
+//!
+//! A heartbeat names its node but not its sender: a babbling controller repeating it, a second
+//! board configured with the same node-ID, a device beating it on one bus only would keep a
+//! dead member "alive". The dual-bus layer judges each member's heartbeats per bus against the
+//! producer time it is configured with ([`crate::link::plausible`]) and hands its verdicts here
+//! ([`PairSupervisor::suspect`]). A **suspect** member is handled like a silent one at the
+//! instant of the verdict: an active member is replaced by a live standby (started first, on the
+//! bus within one frame) and reset; a standby is reset; while suspect its heartbeats and
+//! boot-ups are no sign of life, it is not adopted, and a configuration that ends meanwhile
+//! leaves it waiting, unstarted. The standby is thus started, after the member's last real
+//! heartbeat, within the consumer time + 1 ms, or earlier, at the verdict:
+//!
+//! | What | Verdict (detection bound) |
+//! | --- | --- |
+//! | A controller babbling the heartbeat on one bus | at its 6th frame at the latest (0.4 ms at 1 Mbit/s) |
+//! | Two devices with the same node-ID beating at the producer time | within 8 producer periods of both beating |
+//! | An impostor beating on one bus only | the real node's last heartbeat on the other bus + the reachability window (3 guarding periods by default): consumer time + 1 ms + (window − consumer time) |
+//!
+//! A standby heard becoming operational while the active member is alive was started by
+//! someone else (a rogue NMT start-all): it is sent back to pre-operational at that heartbeat.
+//! The active master takes an NMT command it did not send as a sign of another active master
+//! and suspends its own commands for the detection timeout (0x1F90 sub 1, 100 ms by default; see
+//! [`crate::supervisor::flying_master`]), so one board runs again, on the bus within one frame,
+//! at the later of the command + the detection timeout and the standby's first heartbeat after
+//! it. A standby the application starts through this master
+//! ([`PairSupervisor::application_nmt`]) is left running.
+//!
 //! # Command and shadow
 //!
 //! A supervisor in [`Authority::Command`] evaluates and commands. One in [`Authority::Shadow`]
@@ -62,10 +90,12 @@ use heapless::Vec;
 
 mod events;
 mod state;
+mod trust;
 
 pub use events::{LossReason, PairCommand, PairsError, PairsEvent, RoleChange, RoleReason};
 use state::{idx, Stage};
 pub use state::{Authority, MemberState, PairState, Phase};
+use trust::bit;
 
 /// Commands a supervisor can hold before they are drained.
 pub const COMMAND_QUEUE: usize = 256;
@@ -153,6 +183,10 @@ pub struct PairSupervisor {
     next: Option<Instant>,
     commands: Bounded<PairCommand, COMMAND_QUEUE>,
     events: Bounded<PairsEvent, EVENT_QUEUE>,
+    /// Node-IDs (bits) whose heartbeats the dual-bus layer finds implausible.
+    suspect: u128,
+    /// Node-IDs (bits) the application started through this table's master.
+    by_application: u128,
 }
 
 impl PairSupervisor {
@@ -167,6 +201,8 @@ impl PairSupervisor {
             next: None,
             commands: Bounded::new(),
             events: Bounded::new(),
+            suspect: 0,
+            by_application: 0,
         }
     }
 
@@ -301,6 +337,9 @@ impl PairSupervisor {
             return;
         };
         let p = pair.0 as usize;
+        if self.is_suspect(node) {
+            return; // an implausible error-control frame is no news of the node
+        }
         let was = self.pairs[p].members[idx(m)];
         {
             let s = self.pairs[p].member_mut(m);
@@ -340,12 +379,16 @@ impl PairSupervisor {
             return;
         };
         let p = pair.0 as usize;
+        if self.is_suspect(node) {
+            return; // no sign of life: the heartbeat may be an impostor's
+        }
         let consumer = self.pairs[p].spec.consumer_time;
         let shadow = self.authority == Authority::Shadow;
         let on_heartbeat = shadow && self.cfg.shadow_join_on_heartbeat;
         let (adopt, holdoff) = (self.cfg.adopt, self.cfg.holdoff);
         let s = self.pairs[p].member_mut(m);
-        let first_after_boot = s.nmt == Some(NmtState::Initialising);
+        let was = s.nmt;
+        let first_after_boot = was == Some(NmtState::Initialising);
         s.nmt = Some(state);
         s.last = Some(now);
         let mut join = false;
@@ -375,6 +418,11 @@ impl PairSupervisor {
         }
         if self.authority != Authority::Command {
             self.follow_state(now, p, m, state);
+        } else {
+            // Only a change to operational can be a standby started by someone else.
+            if state == NmtState::Operational && was != Some(NmtState::Operational) {
+                self.stop_running_standby(now, p, m);
+            }
         }
     }
 
@@ -419,6 +467,11 @@ impl PairSupervisor {
         let Some((p, m)) = self.configuring(node) else {
             return;
         };
+        if ok && self.is_suspect(node) {
+            // Configured while its heartbeats are in doubt: it waits, unstarted and not reset,
+            // until they are trusted and it is adopted again.
+            return self.leave(now, p, m, LossReason::Suspect);
+        }
         if ok {
             return self.join(now, p, m);
         }
@@ -584,23 +637,35 @@ impl PairSupervisor {
             .map_or(t, |d| d - self.pairs[p].spec.consumer_time);
         let o = m.other();
         let other_alive = self.pairs[p].member(o).alive_at(t);
+        let (why, loss) = if self.is_suspect(s.node) {
+            (Some(RoleReason::ActiveSuspect), LossReason::Suspect)
+        } else {
+            (None, LossReason::Silent { last })
+        };
         if self.pairs[p].active == Some(m) {
             if other_alive {
                 // Start first: the new active is what the reaction bound is about.
-                self.set_role(t, p, Some(o), RoleReason::ActiveSilent { last });
+                let why = why.unwrap_or(RoleReason::ActiveSilent { last });
+                self.set_role(t, p, Some(o), why);
             } else {
-                self.set_role(t, p, None, RoleReason::OnlyMemberSilent { last });
+                let why = why.unwrap_or(RoleReason::OnlyMemberSilent { last });
+                self.set_role(t, p, None, why);
             }
         }
-        self.leave(t, p, m, LossReason::Silent { last });
+        self.leave(t, p, m, loss);
         self.nmt(NmtCommand::ResetNode, s.node);
     }
 
     fn join(&mut self, now: Instant, p: usize, m: Member) {
         let spec = self.pairs[p].spec;
+        let suspect = self.is_suspect(spec.node(m));
         let s = self.pairs[p].member_mut(m);
-        // Monitoring starts now, whether or not it ever beats.
-        let deadline = s.last.map_or(now, |l| l.max(now)) + spec.consumer_time;
+        // Monitoring starts now, whether or not it ever beats; a suspect member is due at once.
+        let deadline = if suspect {
+            now
+        } else {
+            s.last.map_or(now, |l| l.max(now)) + spec.consumer_time
+        };
         s.stage = Stage::Joined { deadline };
         s.since = now;
         s.heartbeats = 0;
@@ -666,6 +731,10 @@ impl PairSupervisor {
         }
         self.pairs[p].active = to;
         let spec = self.pairs[p].spec;
+        if let Some(m) = to {
+            // Running it is this table's decision from now on.
+            self.by_application &= !bit(spec.node(m));
+        }
         if self.authority == Authority::Command {
             if let Some(m) = to {
                 // A member already running (adopted) needs no start.
@@ -771,6 +840,8 @@ impl PairSupervisor {
 
     fn nmt(&mut self, cmd: NmtCommand, node: NodeId) {
         if self.authority == Authority::Command {
+            // This table decides again what it runs.
+            self.by_application &= !bit(node);
             self.cmd(PairCommand::Nmt { cmd, node });
         }
     }

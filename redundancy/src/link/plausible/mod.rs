@@ -1,0 +1,393 @@
+//! Heartbeat plausibility per node and per bus: is the device beating with a node's identifier
+//! the node it claims to be?
+//!
+//! A heartbeat carries no sender address. A device that sends another node's heartbeat (a
+//! babbling controller, a board configured with a node-ID already taken, a rogue tool) keeps
+//! that node "alive" for every consumer, whether or not the node still runs. The dual-bus layer
+//! is where this shows: it sees each bus separately. For every *watched* node (the
+//! supervisor watches each pair member with the producer time configured into it, through
+//! [`LinkCommand::Watch`](crate::LinkCommand::Watch)) it applies two rules.
+//!
+//! # Rule 1: far faster than the period (per bus)
+//!
+//! With `T` the node's producer time, its heartbeats (boot-ups included) on one bus are
+//! **too fast** at the first heartbeat that ends a span of time `s` holding more than
+//! `BURST + 1 + s / (3T/4)` of them, i.e. `5 + 4s/(3T)` with [`BURST`] = 4. A node may thus beat
+//! up to a third faster than its producer time for ever (clock tolerance) and add up to four
+//! extra heartbeats at once (its boot-up, the heartbeat a node sends at once on a state change
+//! or a new producer time). Implemented as a leaky bucket (GCRA): one `u64` per node and bus, in
+//! quarter microseconds so that the drain of `3T/4` per heartbeat is exact.
+//!
+//! - A babbling controller repeating the heartbeat back to back is flagged at its **sixth frame**
+//!   at the latest (earlier if the node's own heartbeats had partly filled the bucket): well
+//!   under a millisecond at 1 Mbit/s (0.46 ms in the simulator test).
+//! - Two devices beating with the same node-ID and period (any phase, any states) fill the bucket
+//!   by about two thirds of a heartbeat per period: flagged **within 8 periods** of both beating.
+//!
+//! While a bus is too fast for a node, that node's error-control frames from that bus are
+//! dropped before the merge (counted in [`LinkStats::implausible`](crate::LinkStats)): neither
+//! the stack above nor the merger's twin matching sees them, so the node's heartbeats on the
+//! other bus, if any, are delivered as they are. The verdict ends when the bucket has drained:
+//! at the latest `(BURST + 2) · 3T/4` after the last excess frame while nothing else arrives.
+//! One period after the verdict the rate measured over `[verdict, verdict + T)` is reported:
+//! [`Babbling`](crate::LinkEventKind::Babbling) (identifier, bus, frames/s) when it is more
+//! than [`BABBLE_FACTOR`] times the producer rate, [`DuplicateNode`][dup] otherwise (devices
+//! sharing the node-ID).
+//!
+//! [dup]: crate::LinkEventKind::DuplicateNode
+//!
+//! # Rule 2: on one bus only
+//!
+//! A watched node whose heartbeats were heard on both buses (since its last boot-up) and then,
+//! for the reachability timeout `W` ([`DualBusConfig::reach_timeout`](crate::DualBusConfig)), on
+//! one bus only, is suspect at the instant its last heartbeat on the silent bus is `W` old
+//! (exactly), provided the silent bus is *healthy for it*: the port is ok and carried, more than
+//! one and a half periods after that last heartbeat, the heartbeat of another watched node of
+//! **lower priority** (a higher identifier). Neither a cut nor a babbler can then be what keeps
+//! the node's heartbeat off that bus: a cut stops every frame, and a babbler blocks every
+//! identifier of lower priority than its own. Without such a witness at the deadline the rule is
+//! checked again at each of the node's heartbeats (so within one period of a witness). The
+//! node is trusted again when it is heard on the other bus, when it boots (boot-up frame), or
+//! when it is heard nowhere for `W` (its silence is then for the consumers to judge). The rule
+//! applies in the modes that listen on both buses (active-active, CiA 302-6), not in ECSS
+//! toggling.
+//!
+//! # Verdicts
+//!
+//! A node is *suspect* while either rule holds. The change is handed to the machine above as
+//! [`LinkRequest::NodeSuspect`][req] (the supervisor takes the member's heartbeats as no sign of
+//! life and handles an active member like a silent one) and reported as
+//! [`Suspect`](crate::LinkEventKind::Suspect) (with the reason, at each rule's onset) and
+//! [`Trusted`](crate::LinkEventKind::Trusted). Should the machine queue be full, the change is
+//! handed up at the next input (a station drains the queue after every input).
+//!
+//! [req]: duocan::machine::LinkRequest::NodeSuspect
+//!
+//! # Memory
+//!
+//! One entry per watched node, room for every node-ID ([`MAX_MEMBERS`]), indexed by node-ID:
+//! about 13 KiB, allocated once at the first watch and never grown, so that a layer that watches
+//! nothing (a node's) carries only a pointer. Nothing per frame. Without the `alloc` feature
+//! there is no table and watches are refused (counted; the supervisor, the only one to watch,
+//! needs `alloc` anyway).
+
+use crate::pair::MAX_MEMBERS;
+use duocan::frame::instant::TimeWatch;
+use duocan::{Duration, Id, Instant, NodeId};
+use heapless::Vec;
+
+/// Extra heartbeats a node may send in one burst on one bus (see rule 1).
+pub const BURST: u64 = 4;
+/// A rate measured above this many times the producer rate is a babbling identifier; up to it,
+/// devices sharing a node-ID.
+pub const BABBLE_FACTOR: u64 = 4;
+const NEVER: u64 = u64::MAX;
+
+/// One bus of a watched node.
+#[derive(Clone, Copy, Debug)]
+struct Track {
+    /// Theoretical arrival time of the leaky bucket, in quarter microseconds (0: empty).
+    tat: u64,
+    /// Its last heartbeat on this bus (µs), `NEVER`.
+    last: u64,
+    /// When its heartbeats here were last found too fast (µs): the start of the measuring
+    /// window.
+    since: u64,
+    /// Heartbeats in the measuring window, `[since, since + T)`.
+    count: u32,
+    /// The window's report is still due.
+    measuring: bool,
+    /// Rule 1 holds: its heartbeats here are dropped.
+    fast: bool,
+}
+
+impl Track {
+    const NEW: Track = Track {
+        tat: 0,
+        last: NEVER,
+        since: NEVER,
+        count: 0,
+        measuring: false,
+        fast: false,
+    };
+    fn fast(&self) -> bool {
+        self.fast
+    }
+}
+
+/// One watched node.
+#[derive(Clone, Copy, Debug)]
+struct Watch {
+    node: NodeId,
+    /// Producer time (µs), not zero.
+    period: u64,
+    /// What each heartbeat adds to the bucket: 3T/4, in quarter microseconds (3T).
+    drain: u64,
+    /// The most the bucket may hold: `BURST + 1` heartbeats' worth.
+    limit: u64,
+    /// A bus is late for it once its last heartbeat there is this old (µs): 1.5 T.
+    late: u64,
+    /// Arbitration key of its heartbeat ([`Frame::arbitration_key`](duocan::Frame::arbitration_key)),
+    /// once heard: higher is lower priority.
+    key: Option<u64>,
+    /// Its heartbeat identifier, once heard.
+    id: Option<Id>,
+    ports: [Track; 2],
+    /// Heard on both buses within `W` since its last boot-up.
+    paired: bool,
+    /// Rule 2 holds: heard on this port only.
+    one_bus: Option<u8>,
+    /// What the machine above was last told.
+    told: bool,
+    /// Rule 2 failed for want of a witness at this instant: checked again once the silent bus
+    /// carried another watched heartbeat.
+    checked: u64,
+    /// Nothing pending: heard on both buses, trusted, no verdict, no window, no failed check.
+    /// The frame path needs to look no further; recomputed ([`Watch::settle`]) after anything
+    /// else touched the entry.
+    quiet: bool,
+}
+
+impl Watch {
+    fn settle(&mut self) {
+        self.quiet = self.paired
+            && !self.told
+            && self.one_bus.is_none()
+            && self.checked == NEVER
+            && !self.ports.iter().any(|tr| tr.fast || tr.measuring);
+    }
+    fn suspect(&self) -> bool {
+        self.one_bus.is_some() || self.ports.iter().any(Track::fast)
+    }
+}
+
+/// The watched nodes: an index by node-ID and the entries, of fixed capacity.
+#[derive(Clone, Debug)]
+struct Table {
+    /// node-ID → position in `watched` (`NONE`: not watched).
+    index: [u8; 128],
+    watched: Vec<Watch, MAX_MEMBERS>,
+}
+
+pub(super) const NONE: u8 = u8::MAX;
+
+// The table is allocated once, at the first watch: a layer that watches nothing (a node's)
+// carries only the pointer. Without an allocator there is no table and watches are refused.
+#[cfg(feature = "alloc")]
+type Holder = alloc::boxed::Box<Table>;
+#[cfg(feature = "alloc")]
+fn allocate() -> Option<Holder> {
+    Some(alloc::boxed::Box::new(Table {
+        index: [NONE; 128],
+        watched: Vec::new(),
+    }))
+}
+#[cfg(not(feature = "alloc"))]
+#[derive(Clone, Debug)]
+enum Holder {}
+#[cfg(not(feature = "alloc"))]
+fn allocate() -> Option<Holder> {
+    None
+}
+#[cfg(not(feature = "alloc"))]
+impl core::ops::Deref for Holder {
+    type Target = Table;
+    fn deref(&self) -> &Table {
+        match *self {}
+    }
+}
+#[cfg(not(feature = "alloc"))]
+impl core::ops::DerefMut for Holder {
+    fn deref_mut(&mut self) -> &mut Table {
+        match *self {}
+    }
+}
+
+/// The plausibility table of a dual-bus layer (see the [module docs](self)).
+#[derive(Clone, Debug)]
+pub struct Plausibility {
+    /// Rule 2's window `W` (µs); `None`: rule 2 off.
+    window: Option<u64>,
+    table: Option<Holder>,
+    /// Last watched heartbeat on each bus (µs): what rule 2's witnesses can have changed.
+    last_any: [u64; 2],
+    /// A lower bound of the next deadline.
+    next: Option<u64>,
+    /// A change could not be handed up (the machine queue was full): retried at the next input.
+    unsynced: bool,
+    refused: u32,
+    /// Notices the caller's clock stepping back (the clock contract): every time held moves back
+    /// with it, so that a step back is no burst of heartbeats.
+    clock: TimeWatch,
+}
+
+impl Plausibility {
+    /// An empty table; rule 2 with window `one_bus` (`None`: off).
+    #[must_use]
+    pub fn new(one_bus: Option<Duration>) -> Self {
+        Plausibility {
+            window: one_bus.filter(|w| !w.is_zero()).map(Duration::as_micros),
+            table: None,
+            last_any: [NEVER; 2],
+            next: None,
+            unsynced: false,
+            refused: 0,
+            clock: TimeWatch::new(),
+        }
+    }
+
+    /// Watches `node`, whose producer time is `period` (zero: stops watching it). False if the
+    /// table is full ([`MAX_MEMBERS`] nodes) or there is no allocator (counted in
+    /// [`Plausibility::refused`]).
+    // Configuration, not the frame path: kept out of the callers so that they stay small.
+    #[inline(never)]
+    pub fn watch(&mut self, node: NodeId, period: Duration) -> bool {
+        let n = node.raw() as usize;
+        if period.is_zero() {
+            if let Some(t) = self.table.as_deref_mut() {
+                if t.index[n] != NONE {
+                    t.watched.swap_remove(t.index[n] as usize);
+                    t.index = [NONE; 128];
+                    for (i, w) in t.watched.iter().enumerate() {
+                        t.index[w.node.raw() as usize] = i as u8;
+                    }
+                }
+            }
+            return true;
+        }
+        if self.table.is_none() {
+            self.table = allocate();
+        }
+        let Some(t) = self.table.as_deref_mut() else {
+            self.refused = self.refused.saturating_add(1);
+            return false;
+        };
+        // Longer than 12 days is taken as 12 days: every sum on the frame path stays far from
+        // overflowing (a producer time is at most 65.535 s).
+        let period = period.as_micros().min(1 << 40);
+        let drain = period.saturating_mul(3);
+        let (limit, late) = (drain.saturating_mul(BURST + 1), period + period / 2);
+        if t.index[n] != NONE {
+            let w = &mut t.watched[t.index[n] as usize];
+            (w.period, w.drain, w.limit, w.late) = (period, drain, limit, late);
+            return true;
+        }
+        let w = Watch {
+            node,
+            period,
+            drain,
+            limit,
+            late,
+            key: None,
+            id: None,
+            ports: [Track::NEW; 2],
+            paired: false,
+            one_bus: None,
+            told: false,
+            checked: NEVER,
+            quiet: false,
+        };
+        if t.watched.push(w).is_err() {
+            self.refused = self.refused.saturating_add(1);
+            return false;
+        }
+        t.index[n] = (t.watched.len() - 1) as u8;
+        true
+    }
+
+    /// True if no node is watched (the frame path then skips the table).
+    #[inline]
+    pub fn is_empty(&self) -> bool {
+        self.table.is_none()
+    }
+    /// Whether `node` is suspect now (`None`: not watched).
+    pub fn is_suspect(&self, node: NodeId) -> Option<bool> {
+        self.entry(node).map(Watch::suspect)
+    }
+    /// The bus `node` is heard on only, if rule 2 holds for it.
+    pub fn one_bus(&self, node: NodeId) -> Option<u8> {
+        self.entry(node).and_then(|w| w.one_bus)
+    }
+    /// Whether `node`'s heartbeats on port `p` are too fast (rule 1) now.
+    pub fn too_fast(&self, node: NodeId, p: usize) -> bool {
+        self.entry(node).is_some_and(|w| w.ports[p.min(1)].fast())
+    }
+    /// Watches refused because the table was full (or there is no allocator).
+    pub fn refused(&self) -> u32 {
+        self.refused
+    }
+    /// Every watched node with whether it is suspect.
+    pub fn iter(&self) -> impl Iterator<Item = (NodeId, bool)> + '_ {
+        self.entries().iter().map(|w| (w.node, w.suspect()))
+    }
+
+    fn entries(&self) -> &[Watch] {
+        self.table.as_deref().map_or(&[], |t| &t.watched[..])
+    }
+    fn entry(&self, node: NodeId) -> Option<&Watch> {
+        self.find(node).map(|i| &self.entries()[i])
+    }
+    #[inline]
+    fn find(&self, node: NodeId) -> Option<usize> {
+        let t = self.table.as_deref()?;
+        let i = t.index[node.raw() as usize];
+        (i != NONE).then_some(i as usize)
+    }
+    /// Entry `i` (an index `find` returned).
+    fn at(&mut self, i: usize) -> &mut Watch {
+        match self.table.as_deref_mut() {
+            Some(t) => &mut t.watched[i],
+            None => unreachable!("an index exists only with a table"),
+        }
+    }
+
+    fn wake(&mut self, t: u64) {
+        self.next = Some(self.next.map_or(t, |n| n.min(t)));
+    }
+
+    /// Earliest deadline (may be early: a sweep then finds nothing to do).
+    #[must_use]
+    #[inline]
+    pub fn poll_timeout(&self) -> Option<Instant> {
+        self.next.filter(|t| *t != NEVER).map(Instant::from_micros)
+    }
+
+    /// The clock contract ([`duocan::frame::instant`]): on every input, a step back of the
+    /// caller's clock moves every time held back by the step.
+    #[inline]
+    fn watch_clock(&mut self, now: Instant) {
+        if let Some(by) = self.clock.step_back(now) {
+            self.step_back(by.as_micros());
+        }
+    }
+
+    /// Moves every time held back by `by` µs.
+    #[cold]
+    fn step_back(&mut self, by: u64) {
+        let back = |t: &mut u64| {
+            if *t != NEVER {
+                *t = t.saturating_sub(by);
+            }
+        };
+        for v in self.last_any.iter_mut() {
+            back(v);
+        }
+        if let Some(n) = self.next.as_mut() {
+            back(n);
+        }
+        if let Some(t) = self.table.as_deref_mut() {
+            for w in t.watched.iter_mut() {
+                back(&mut w.checked);
+                for tr in w.ports.iter_mut() {
+                    back(&mut tr.last);
+                    back(&mut tr.since);
+                    tr.tat = tr.tat.saturating_sub(by.saturating_mul(4));
+                }
+            }
+        }
+    }
+}
+
+mod rules;
+#[cfg(test)]
+mod tests;

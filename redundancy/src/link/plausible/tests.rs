@@ -1,0 +1,368 @@
+use super::*;
+use crate::link::events::{LinkEvent, LinkEventKind, Suspicion};
+use crate::link::health::{Health, HealthConfig};
+use crate::link::outbox::{Outbox, MACHINE_QUEUE};
+use duocan::machine::LinkRequest;
+use duocan::Frame;
+use std::vec::Vec;
+
+const T: Duration = Duration::from_millis(12);
+const W: Duration = Duration::from_millis(36);
+
+fn us(x: u64) -> Instant {
+    Instant::from_micros(x)
+}
+fn ms(x: u64) -> Instant {
+    Instant::from_millis(x)
+}
+fn hb(node: u8, state: u8) -> Frame {
+    Frame::from_array(Id::Standard(0x700 + node as u16), [state])
+}
+fn n(x: u8) -> NodeId {
+    NodeId::must(x)
+}
+
+struct Rig {
+    p: Plausibility,
+    health: Health,
+    out: Outbox,
+}
+
+impl Rig {
+    fn new() -> Rig {
+        let mut p = Plausibility::new(Some(W));
+        for node in [0x10, 0x50] {
+            assert!(p.watch(n(node), T));
+        }
+        Rig {
+            p,
+            health: Health::new(HealthConfig::default(), Duration::from_millis(10)),
+            out: Outbox::new(),
+        }
+    }
+    /// Runs the deadlines up to `t`, then hands the heartbeat over; true if dropped.
+    fn beat(&mut self, t: Instant, port: usize, node: u8, state: u8) -> bool {
+        self.run(t);
+        self.p.on_heartbeat(
+            t,
+            port,
+            n(node),
+            &hb(node, state),
+            &self.health,
+            &mut self.out,
+        )
+    }
+    fn run(&mut self, until: Instant) {
+        while let Some(d) = self.p.poll_timeout().filter(|d| *d <= until) {
+            self.p.handle_timeout(d, &self.health, &mut self.out);
+        }
+    }
+    fn requests(&mut self) -> Vec<(u8, bool)> {
+        core::iter::from_fn(|| self.out.machine.pop())
+            .map(|r| match r {
+                LinkRequest::NodeSuspect { node, suspect } => (node.raw(), suspect),
+                other => panic!("{other:?}"),
+            })
+            .collect()
+    }
+    fn events(&mut self) -> Vec<LinkEvent> {
+        core::iter::from_fn(|| self.out.events.pop()).collect()
+    }
+}
+
+#[test]
+fn rule_one_is_five_plus_four_thirds_of_the_periods_in_any_span() {
+    // T = 12 ms: a span of 9 ms may hold 5 + 4·9/36 = 6 heartbeats, not 7.
+    let mut r = Rig::new();
+    for k in 0..6 {
+        assert!(!r.beat(us(100_000 + k * 1_800), 0, 0x10, 5));
+    }
+    assert!(r.requests().is_empty());
+    // A seventh within those 9 ms: too fast, dropped, handed up, reported.
+    assert!(r.beat(us(109_000), 0, 0x10, 5));
+    assert_eq!(r.requests(), [(0x10, true)]);
+    assert_eq!(r.p.is_suspect(n(0x10)), Some(true));
+    assert!(r.p.too_fast(n(0x10), 0) && !r.p.too_fast(n(0x10), 1));
+    let e = r.events();
+    assert_eq!(e.len(), 1);
+    assert_eq!(
+        (e[0].at, e[0].kind),
+        (
+            us(109_000),
+            LinkEventKind::Suspect {
+                node: n(0x10),
+                why: Suspicion::TooFast { port: 0 }
+            }
+        )
+    );
+    // The other bus is judged on its own.
+    assert!(!r.beat(us(109_100), 1, 0x10, 5));
+}
+
+#[test]
+fn the_verdict_ends_when_the_bucket_has_drained_and_the_rate_is_reported() {
+    let mut r = Rig::new();
+    // A babble: 40 frames 100 µs apart from 1 s.
+    let mut dropped = 0;
+    for k in 0..40 {
+        dropped += r.beat(us(1_000_000 + k * 100), 0, 0x10, 5) as usize;
+    }
+    // Flagged at the sixth (an empty bucket holds five at once), the rest dropped.
+    assert_eq!(dropped, 35);
+    let v = us(1_000_500);
+    assert_eq!(r.requests(), [(0x10, true)]);
+    r.events();
+    // One period later: the 35 frames in [v, v + T): a babble at 35 / 12 ms.
+    r.run(v + T);
+    let e = r.events();
+    assert_eq!(
+        e.iter().map(|e| (e.at, e.kind)).collect::<Vec<_>>(),
+        [(
+            v + T,
+            LinkEventKind::Babbling {
+                node: n(0x10),
+                id: Id::Standard(0x710),
+                port: 0,
+                rate: 35 * 1_000_000 / 12_000,
+                allowed: 83,
+                since: v
+            }
+        )]
+    );
+    // The bucket, capped at 6 drains of 9 ms after the last frame, empties 54 ms after it.
+    let last = us(1_003_900);
+    r.run(last + Duration::from_millis(54) - Duration::from_micros(1));
+    assert!(r.requests().is_empty());
+    r.run(last + Duration::from_millis(54));
+    assert_eq!(r.requests(), [(0x10, false)]);
+    assert_eq!(
+        r.events()
+            .iter()
+            .map(|e| (e.at, e.kind))
+            .collect::<Vec<_>>(),
+        [(
+            last + Duration::from_millis(54),
+            LinkEventKind::Trusted { node: n(0x10) }
+        )]
+    );
+    assert!(!r.beat(last + Duration::from_millis(60), 0, 0x10, 5));
+}
+
+#[test]
+fn a_second_device_at_the_same_period_is_a_duplicate_not_a_babble() {
+    let mut r = Rig::new();
+    let mut t = 1_000_000;
+    let mut first = None;
+    for _ in 0..20 {
+        for (off, state) in [(0, 5), (5_000, 0x7F)] {
+            if r.beat(us(t + off), 1, 0x10, state) && first.is_none() {
+                first = Some(us(t + off));
+            }
+        }
+        t += 12_000;
+    }
+    let v = first.expect("flagged");
+    // Within 8 periods of both beating.
+    assert!(v <= us(1_000_000) + T.saturating_mul(8), "{v}");
+    r.run(us(t));
+    let dup = r
+        .events()
+        .into_iter()
+        .find(|e| matches!(e.kind, LinkEventKind::DuplicateNode { .. }))
+        .unwrap();
+    assert_eq!(
+        (dup.at, dup.kind),
+        (
+            v + T,
+            LinkEventKind::DuplicateNode {
+                node: n(0x10),
+                port: 1,
+                rate: 2 * 1_000_000 / 12_000,
+                allowed: 83,
+                since: v
+            }
+        )
+    );
+}
+
+/// Both nodes beat on both buses every 12 ms until `until`; 0x10 stops on `silent` at `stop`.
+fn paired_then(r: &mut Rig, stop: u64, silent: Option<usize>, until: u64) {
+    let mut t = 100;
+    while t <= until {
+        for port in 0..2 {
+            if !(silent == Some(port) && t >= stop) {
+                r.beat(ms(t), port, 0x10, 5);
+            }
+            r.beat(ms(t) + Duration::from_micros(300), port, 0x50, 0x7F);
+        }
+        t += 12;
+    }
+}
+
+#[test]
+fn rule_two_one_bus_only_with_a_witness_on_the_other() {
+    let mut r = Rig::new();
+    // 0x10 no longer heard on bus 2 after 232 ms (its last heartbeat there); 0x50 (lower
+    // priority) is.
+    paired_then(&mut r, 244, Some(1), 400);
+    let fall = ms(232) + W;
+    let e: Vec<_> = r
+        .events()
+        .into_iter()
+        .filter(|e| matches!(e.kind, LinkEventKind::Suspect { .. }))
+        .collect();
+    assert_eq!(
+        e.iter().map(|e| (e.at, e.kind)).collect::<Vec<_>>(),
+        [(
+            fall,
+            LinkEventKind::Suspect {
+                node: n(0x10),
+                why: Suspicion::OneBus { heard: 0 }
+            }
+        )]
+    );
+    assert_eq!(r.requests(), [(0x10, true)]);
+    assert_eq!(r.p.one_bus(n(0x10)), Some(0));
+    // Heard on bus 2 again: trusted.
+    r.beat(ms(401), 1, 0x10, 5);
+    assert_eq!(r.requests(), [(0x10, false)]);
+    assert_eq!(r.p.one_bus(n(0x10)), None);
+}
+
+#[test]
+fn rule_two_needs_a_lower_priority_witness_an_ok_port_and_a_pairing() {
+    // The witness must have a lower priority: 0x50 stopping on bus 2 while 0x10 goes on there is
+    // no evidence against 0x50 (a babbler between 0x710 and 0x750 would do the same).
+    let mut r = Rig::new();
+    let mut t = 100;
+    while t <= 400 {
+        for port in 0..2 {
+            r.beat(ms(t), port, 0x10, 5);
+            if !(port == 1 && t >= 244) {
+                r.beat(ms(t) + Duration::from_micros(300), port, 0x50, 0x7F);
+            }
+        }
+        t += 12;
+    }
+    assert!(r.requests().is_empty());
+    assert_eq!(r.p.one_bus(n(0x50)), None);
+
+    // Bus 2 cut: nothing on it, no witness, no verdict.
+    let mut r = Rig::new();
+    let mut t = 100;
+    while t <= 400 {
+        for port in 0..2 {
+            if port == 0 || t < 244 {
+                r.beat(ms(t), port, 0x10, 5);
+                r.beat(ms(t) + Duration::from_micros(300), port, 0x50, 0x7F);
+            }
+        }
+        t += 12;
+    }
+    assert!(r.requests().is_empty());
+
+    // Never heard on bus 2: a node on one bus by design is no impostor.
+    let mut r = Rig::new();
+    let mut t = 100;
+    while t <= 400 {
+        r.beat(ms(t), 0, 0x10, 5);
+        for port in 0..2 {
+            r.beat(ms(t) + Duration::from_micros(300), port, 0x50, 0x7F);
+        }
+        t += 12;
+    }
+    assert!(r.requests().is_empty());
+}
+
+#[test]
+fn a_boot_up_is_a_new_life_judged_afresh() {
+    let mut r = Rig::new();
+    paired_then(&mut r, 244, Some(1), 400);
+    assert_eq!(r.requests(), [(0x10, true)]);
+    // It boots (a reset after its failover) and goes on on bus 1 only: not paired, trusted.
+    r.beat(ms(405), 0, 0x10, 0);
+    assert_eq!(r.requests(), [(0x10, false)]);
+    let mut t = 417;
+    while t <= 700 {
+        r.beat(ms(t), 0, 0x10, 0x7F);
+        for port in 0..2 {
+            r.beat(ms(t) + Duration::from_micros(300), port, 0x50, 0x7F);
+        }
+        t += 12;
+    }
+    assert!(r.requests().is_empty());
+}
+
+#[test]
+fn heard_nowhere_ends_the_suspicion_and_the_pairing() {
+    let mut r = Rig::new();
+    paired_then(&mut r, 244, Some(1), 400);
+    assert_eq!(r.requests(), [(0x10, true)]);
+    // The impostor on bus 1 stops too: at its last heartbeat + W, nothing left to doubt.
+    let mut t = 412;
+    while t <= 600 {
+        for port in 0..2 {
+            r.beat(ms(t) + Duration::from_micros(300), port, 0x50, 0x7F);
+        }
+        t += 12;
+    }
+    assert_eq!(r.requests(), [(0x10, false)]);
+    let trusted = r
+        .events()
+        .into_iter()
+        .find(|e| matches!(e.kind, LinkEventKind::Trusted { .. }))
+        .unwrap();
+    assert_eq!(trusted.at, ms(400) + W);
+}
+
+#[test]
+fn a_clock_step_back_is_no_burst() {
+    let mut r = Rig::new();
+    let mut t = 1_000;
+    for _ in 0..10 {
+        r.beat(ms(t), 0, 0x10, 5);
+        t += 12;
+    }
+    // The clock steps back by more than a second; the heartbeats go on at their pace: without
+    // the bucket moving back with the clock they would look a second too early.
+    let mut t = 5;
+    for _ in 0..10 {
+        assert!(!r.beat(ms(t), 0, 0x10, 5));
+        t += 12;
+    }
+    assert!(r.requests().is_empty());
+}
+
+#[test]
+fn a_full_machine_queue_delays_the_verdict_to_the_next_input_never_loses_it() {
+    let mut r = Rig::new();
+    for _ in 0..MACHINE_QUEUE {
+        r.out.machine(LinkRequest::EnterPreOperational);
+    }
+    for k in 0..6 {
+        r.beat(us(100_000 + k * 10), 0, 0x10, 5);
+    }
+    assert_eq!(r.out.machine.len(), MACHINE_QUEUE);
+    while r.out.machine.pop().is_some() {}
+    r.beat(us(100_100), 1, 0x50, 0x7F);
+    assert_eq!(r.requests(), [(0x10, true)]);
+}
+
+#[test]
+fn the_table_is_bounded_and_watches_can_end() {
+    let mut p = Plausibility::new(None);
+    assert!(p.is_empty());
+    for k in 1..=127u8 {
+        assert!(p.watch(n(k), T));
+    }
+    assert!(
+        p.watch(n(5), T.saturating_mul(2)),
+        "a new period for a watched node"
+    );
+    assert_eq!(p.refused(), 0);
+    assert_eq!(p.iter().count(), 127);
+    assert!(p.watch(n(5), Duration::ZERO));
+    assert_eq!(p.is_suspect(n(5)), None);
+    assert_eq!(p.is_suspect(n(6)), Some(false));
+    assert_eq!(p.iter().count(), 126);
+}

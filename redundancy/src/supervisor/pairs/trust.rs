@@ -1,0 +1,79 @@
+//! What the table believes of its members' heartbeats: the dual-bus layer's verdicts (an
+//! impostor, a babbling identifier, a duplicate node-ID), and who may have started a standby.
+
+use super::state::Stage;
+use super::{Member, PairSupervisor};
+use duocan::{Instant, NmtCommand, NodeId};
+
+/// The bit of `node` in a node-ID set.
+pub(super) const fn bit(node: NodeId) -> u128 {
+    1 << node.raw()
+}
+
+impl PairSupervisor {
+    /// The application sent `cmd` to `target` (0: all nodes) through this table's master: a
+    /// standby it starts may run beside the active member (a test, a comparison of both); any
+    /// other command to it, or one of this table's own, ends that.
+    pub fn application_nmt(&mut self, cmd: NmtCommand, target: u8) {
+        let targets = match NodeId::new(target) {
+            Some(n) => bit(n),
+            None => u128::MAX,
+        };
+        if cmd == NmtCommand::Start {
+            self.by_application |= targets;
+        } else {
+            self.by_application &= !targets;
+        }
+    }
+
+    /// Whether the dual-bus layer finds `node`'s heartbeats implausible
+    /// ([`PairSupervisor::suspect`]).
+    pub fn is_suspect(&self, node: NodeId) -> bool {
+        self.suspect & bit(node) != 0
+    }
+
+    /// The dual-bus layer judged `node`'s heartbeats implausible (`suspect`: an impostor on one
+    /// bus, a babbling identifier, a duplicate node-ID) or plausible again. While suspect, its
+    /// heartbeats and boot-ups are no sign of life and it is not adopted; a joined member is
+    /// handled at once as if its consumer time had run out (commanding: an active member is
+    /// replaced by a live standby, the member is reset). Ignored unless `node` is a pair member.
+    pub fn suspect(&mut self, now: Instant, node: NodeId, suspect: bool) {
+        let Some((pair, m)) = self.locate(node) else {
+            return;
+        };
+        if self.is_suspect(node) == suspect {
+            return;
+        }
+        self.suspect ^= bit(node);
+        if !suspect {
+            return;
+        }
+        match &mut self.pairs[pair.0 as usize].member_mut(m).stage {
+            Stage::Joined { deadline } => *deadline = (*deadline).min(now),
+            // Not adopted on an impostor's word.
+            Stage::Waiting { adopt_at, .. } => *adopt_at = None,
+            Stage::Configuring => {}
+        }
+        self.lower_next(now);
+        self.handle_timeout(now);
+    }
+
+    /// Commanding: a joined standby heard becoming operational (the caller sees the change;
+    /// a heartbeat of the active member just switched over may still say operational) while
+    /// the active member is alive was started by someone else (a rogue NMT start): back to
+    /// pre-operational at once, unless the application started it
+    /// ([`PairSupervisor::application_nmt`]).
+    pub(super) fn stop_running_standby(&mut self, now: Instant, p: usize, m: Member) {
+        let pair = &self.pairs[p];
+        let Some(a) = pair.active.filter(|a| *a != m) else {
+            return;
+        };
+        let s = pair.member(m);
+        let node = s.node;
+        let by_application = self.by_application & bit(node) != 0;
+        if !s.joined() || by_application || !pair.member(a).alive_at(now) {
+            return;
+        }
+        self.nmt(NmtCommand::EnterPreOperational, node);
+    }
+}

@@ -1,0 +1,552 @@
+//! Heartbeats that lie (issue 13, section 2), on the simulated dual bus with the supervised
+//! network of `net.rs` (slaves beat every 20 ms, consumer time 50 ms, reachability window
+//! 60 ms, 1 Mbit/s): a babbling controller repeating the active member's heartbeat, an impostor
+//! beating it on one bus only, a second device with the same node-ID, a rogue NMT start-all.
+//! Before the fix the first three left the pair with no running board for as long as the
+//! impostor lasted, and the last left both boards running for ever when the standby's
+//! heartbeat came after the master's command suspension.
+//!
+//! Every instant is exact: the verdicts are recomputed here from the frames on the wire with
+//! the rules as `link::plausible` states them.
+
+use crate::net::*;
+use duocan::machine::StationEvent;
+use duocan::sim::{BusId, DevId, TraceRecord, TxOutcome};
+use duocan::{Device, Duration, Frame, Id, Instant, NmtCommand, NmtState, PortStatus};
+use duocan_redundancy::supervisor::flying_master::FlyingEvent;
+use duocan_redundancy::supervisor::pairs::{LossReason, PairsEvent, Phase, RoleReason};
+use duocan_redundancy::{LinkEvent, LinkEventKind, Member, PairId, SupervisorEvent, Suspicion};
+
+const ONE_MS: Duration = Duration::from_millis(1);
+const PERIOD: Duration = Duration::from_millis(20);
+/// The reachability window of the masters' layers: 3 × the 20 ms heartbeat.
+const WINDOW: Duration = Duration::from_millis(60);
+const DETECTION_TIMEOUT: Duration = Duration::from_millis(100);
+
+fn ms(x: u64) -> Instant {
+    Instant::from_millis(x)
+}
+
+/// Sends `frame` on every port, every `period` from `start` (once if `period` is zero).
+struct Injector {
+    ports: usize,
+    frame: Frame,
+    next: Option<Instant>,
+    period: Duration,
+    out: Vec<(usize, Frame)>,
+}
+
+impl Device for Injector {
+    type Event = ();
+    fn port_count(&self) -> usize {
+        self.ports
+    }
+    fn handle_rx(&mut self, _: Instant, _: usize, _: &Frame) {}
+    fn handle_port_status(&mut self, _: Instant, _: usize, _: PortStatus) {}
+    fn handle_timeout(&mut self, now: Instant) {
+        while let Some(t) = self.next.filter(|t| *t <= now) {
+            for p in 0..self.ports {
+                self.out.push((p, self.frame));
+            }
+            self.next = (!self.period.is_zero()).then_some(t + self.period);
+        }
+    }
+    fn poll_transmit(&mut self) -> Option<(usize, Frame)> {
+        self.out.pop()
+    }
+    fn poll_timeout(&self) -> Option<Instant> {
+        self.next
+    }
+    fn poll_event(&mut self) -> Option<()> {
+        None
+    }
+}
+
+fn inject(
+    n: &mut SupNet,
+    buses: &[BusId],
+    frame: Frame,
+    start: Option<Instant>,
+    period: Duration,
+) -> DevId<Injector> {
+    let dev = Injector {
+        ports: buses.len(),
+        frame,
+        next: start,
+        period,
+        out: vec![],
+    };
+    n.sim.add_device("impostor", dev, buses).unwrap()
+}
+
+fn heartbeat(node: u8, state: u8) -> Frame {
+    Frame::from_array(Id::Standard(0x700 + node as u16), [state])
+}
+
+fn running(n: &SupNet, id: u8) -> bool {
+    n.sim.is_powered(n.slave(id))
+        && n.sim.device(n.slave(id)).machine.nmt_state() == NmtState::Operational
+}
+
+/// Ends of the frames with identifier `id` delivered on bus `bus` (whoever sent them, babbling
+/// controllers included): when each reached the masters.
+fn arrivals(n: &SupNet, bus: usize, id: u16) -> Vec<Instant> {
+    n.sim
+        .trace()
+        .iter()
+        .filter_map(|r| match r {
+            TraceRecord::Tx(x)
+                if x.bus == n.buses[bus]
+                    && x.frame.id() == Id::Standard(id)
+                    && matches!(x.outcome, TxOutcome::Delivered { .. }) =>
+            {
+                Some(x.end)
+            }
+            _ => None,
+        })
+        .collect()
+}
+
+/// Rule 1 restated: the first arrival that ends a span `s` holding more than `5 + 4s/(3T)`
+/// heartbeats.
+fn too_fast_at(arrivals: &[Instant], period: Duration) -> Option<Instant> {
+    let t = period.as_micros() as i128;
+    (0..arrivals.len()).find_map(|j| {
+        (j.saturating_sub(200)..=j)
+            .any(|i| {
+                let count = (j - i + 1) as i128;
+                let span = (arrivals[j] - arrivals[i]).as_micros() as i128;
+                3 * t * (count - 5) > 4 * span
+            })
+            .then_some(arrivals[j])
+    })
+}
+
+/// Heartbeats per second measured over the period from a verdict at `v`, `[v, v + T)`.
+fn rate_after(arrivals: &[Instant], v: Instant) -> u32 {
+    let count = arrivals
+        .iter()
+        .filter(|t| **t >= v && **t < v + PERIOD)
+        .count() as u32;
+    count * 50
+}
+
+fn link_events(n: &SupNet, id: u8) -> Vec<LinkEvent> {
+    n.sim
+        .events(n.master(id))
+        .iter()
+        .filter_map(|(_, e)| match e {
+            StationEvent::Link(l) => Some(*l),
+            _ => None,
+        })
+        .collect()
+}
+
+fn suspects(n: &SupNet, id: u8) -> Vec<(Instant, Suspicion)> {
+    link_events(n, id)
+        .into_iter()
+        .filter_map(|e| match e.kind {
+            LinkEventKind::Suspect { node, why } if node.raw() == a(0) => Some((e.at, why)),
+            _ => None,
+        })
+        .collect()
+}
+
+/// NMT commands (first copies) from the strong master after `from`: (end, command, target).
+fn nmt_after(n: &SupNet, from: Instant) -> Vec<(Instant, NmtCommand, u8)> {
+    n.nmt_first_copies()
+        .into_iter()
+        .filter(|x| x.0 > from && x.1 == STRONG)
+        .map(|(t, _, c, node)| (t, c, node))
+        .collect()
+}
+
+/// The failover of pair 0 at `v`: the role change, B's start on the wire within a frame, A
+/// reset after it, A out of the table as suspect.
+fn assert_failover_at(n: &SupNet, v: Instant) {
+    let roles = n.pair_roles(STRONG, 0);
+    let last = roles.last().unwrap();
+    assert_eq!(
+        (last.at, last.from, last.to, last.reason),
+        (
+            v,
+            Some(Member::A),
+            Some(Member::B),
+            RoleReason::ActiveSuspect
+        ),
+        "{roles:?}"
+    );
+    let nmt = nmt_after(n, v - ONE_MS);
+    assert_eq!((nmt[0].1, nmt[0].2), (NmtCommand::Start, b(0)), "{nmt:?}");
+    assert!(nmt[0].0 > v && nmt[0].0 <= v + ONE_MS, "{nmt:?} vs {v}");
+    assert_eq!(
+        (nmt[1].1, nmt[1].2),
+        (NmtCommand::ResetNode, a(0)),
+        "{nmt:?}"
+    );
+    let lost = n.sup_events(STRONG).into_iter().any(|e| {
+        matches!(e, SupervisorEvent::Pairs(PairsEvent::Lost { at, node, reason: LossReason::Suspect, .. })
+            if at == v && node.raw() == a(0))
+    });
+    assert!(lost);
+    // The weak master followed from the commands on the wire.
+    assert_eq!(n.active_member(WEAK, 0), Some(Member::B));
+}
+
+#[test]
+fn babbling_impostor_heartbeat_starts_the_standby_within_six_babble_frames() {
+    // The issue's case: a controller on bus 1 repeats 0x710 [05] back to back from 1000 ms;
+    // the real 0x10, the active member of pair 0, loses power at 1003 ms.
+    let mut n = SupNet::new(Params::default());
+    let hb = heartbeat(a(0), 5);
+    let bus1 = [n.buses[0]];
+    let dev = inject(&mut n, &bus1, hb, None, Duration::ZERO);
+    n.sim
+        .at(ms(1000), move |sim| sim.babble(dev.port(0), Some(hb)));
+    n.kill_slave_at(a(0), ms(1003));
+    n.sim.run_until(ms(1500));
+
+    let on_bus1 = arrivals(&n, 0, 0x710);
+    let v = too_fast_at(&on_bus1, PERIOD).unwrap();
+    let babble: Vec<Instant> = n
+        .sim
+        .trace()
+        .iter()
+        .filter_map(|r| match r {
+            TraceRecord::Tx(x) if x.babble => Some(x.end),
+            _ => None,
+        })
+        .collect();
+    // The stated bound: at the sixth babbled frame at the latest (here the fifth: the real
+    // heartbeat 7.5 ms earlier still weighed in the bucket), 0.46 ms after the babble began.
+    assert!(v <= babble[5], "{v} vs {:?}", &babble[..6]);
+    assert_eq!(v, babble[4]);
+    // Later, with the real board's last frame on bus 2 (its boot-up after the reset) a window
+    // old, the babbler is also the only one heard: the second reason, as the rule says.
+    let h = *arrivals(&n, 1, 0x710)
+        .iter()
+        .rfind(|t| **t < ms(1003))
+        .unwrap();
+    assert_eq!(
+        suspects(&n, STRONG),
+        [
+            (v, Suspicion::TooFast { port: 0 }),
+            (h + WINDOW, Suspicion::OneBus { heard: 0 })
+        ]
+    );
+    assert_failover_at(&n, v);
+    // The babbling identifier is reported with its bus and its rate, one period later.
+    let report = link_events(&n, STRONG)
+        .into_iter()
+        .find_map(|e| match e.kind {
+            LinkEventKind::Babbling {
+                node,
+                id,
+                port,
+                rate,
+                allowed,
+                since,
+            } => Some((e.at, node.raw(), id, port, rate, allowed, since)),
+            _ => None,
+        })
+        .expect("a babbling report");
+    let rate = rate_after(&on_bus1, v);
+    assert_eq!(
+        report,
+        (v + PERIOD, a(0), Id::Standard(0x710), 0, rate, 50, v)
+    );
+    assert!(rate > 16_000, "{rate}");
+    // Its frames no longer reach the stack (counted); the bus stays in use for the others.
+    let st = n.sim.device(n.master(STRONG));
+    assert!(st.link.stats().implausible > 8_000);
+    assert_eq!(st.link.port_state(0), duocan_redundancy::PortState::Ok);
+    // Exactly one running board, and the trail says why.
+    assert!(running(&n, b(0)) && !n.sim.is_powered(n.slave(a(0))));
+    let mut text = String::new();
+    n.sup(STRONG).audit().write_text(&mut text).unwrap();
+    assert!(
+        text.contains("identifier 0x710 (node 0x10's heartbeat) babbling on bus 1"),
+        "{text}"
+    );
+    assert!(
+        text.contains("active A -> B: active member's heartbeats implausible"),
+        "{text}"
+    );
+}
+
+#[test]
+fn babble_beginning_after_the_power_loss_cuts_the_silence_short() {
+    // The board dies first; the babble begins before its consumer time has run out: the
+    // standby is started at the babble's verdict, earlier than the silence would have done.
+    let mut n = SupNet::new(Params::default());
+    let hb = heartbeat(a(0), 5);
+    let bus1 = [n.buses[0]];
+    let dev = inject(&mut n, &bus1, hb, None, Duration::ZERO);
+    n.kill_slave_at(a(0), ms(1003));
+    n.sim
+        .at(ms(1030), move |sim| sim.babble(dev.port(0), Some(hb)));
+    n.sim.run_until(ms(1500));
+    let silent_at = n.last_heartbeat(a(0), ms(1003)) + Duration::from_millis(50);
+    let v = too_fast_at(&arrivals(&n, 0, 0x710), PERIOD).unwrap();
+    assert!(v > ms(1030) && v < silent_at, "{v} vs {silent_at}");
+    assert_failover_at(&n, v);
+}
+
+#[test]
+fn impostor_on_one_bus_only_is_suspect_one_window_after_the_other_bus_lost_the_node() {
+    // A device on bus 1 only beats 0x710 [05] every 20 ms from 1001 ms; the real 0x10 dies at
+    // 1003 ms. Before, the impostor kept it "alive" for ever.
+    let mut n = SupNet::new(Params::default());
+    let bus1 = [n.buses[0]];
+    inject(&mut n, &bus1, heartbeat(a(0), 5), Some(ms(1001)), PERIOD);
+    n.kill_slave_at(a(0), ms(1003));
+    n.sim.run_until(ms(1500));
+    // The last heartbeat of the real board on bus 2, plus the reachability window: bus 2 heard
+    // B (0x750, lower priority) all along, so it is healthy for 0x10.
+    let h = *arrivals(&n, 1, 0x710)
+        .iter()
+        .rfind(|t| **t < ms(1003))
+        .unwrap();
+    let v = h + WINDOW;
+    assert_eq!(suspects(&n, STRONG), [(v, Suspicion::OneBus { heard: 0 })]);
+    assert_failover_at(&n, v);
+    // Within consumer time + 1 ms + the detection bound (window − consumer time = 10 ms) of
+    // the board's last heartbeat.
+    let last = n.last_heartbeat(a(0), ms(1003));
+    assert!(v <= last + Duration::from_millis(50) + ONE_MS + Duration::from_millis(10));
+    // The impostor goes on: A is not adopted on its word, and the status says so.
+    let pair = *n.sup(STRONG).pair_supervisor().pair(PairId(0)).unwrap();
+    assert_eq!(pair.member(Member::A).phase(), Phase::Waiting);
+    assert!(n.sup(STRONG).pair_supervisor().is_suspect(pair.spec.a));
+    let status = n.sim.device(n.master(STRONG)).status(ms(1500)).to_string();
+    assert!(
+        status.contains("0x10    operational      suspect"),
+        "{status}"
+    );
+    assert!(running(&n, b(0)));
+}
+
+#[test]
+fn two_devices_sharing_a_node_id_are_reported_and_the_standby_takes_over() {
+    // A second device beats 0x710 [7F] (pre-operational) every 20 ms on both buses from 1007
+    // ms, between the real board's heartbeats (which say operational).
+    let mut n = SupNet::new(Params::default());
+    let buses = n.buses;
+    inject(
+        &mut n,
+        &buses,
+        heartbeat(a(0), 0x7F),
+        Some(ms(1007)),
+        PERIOD,
+    );
+    n.sim.run_until(ms(2000));
+    let per_bus: Vec<Vec<Instant>> = (0..2).map(|b| arrivals(&n, b, 0x710)).collect();
+    let v: Vec<Instant> = per_bus
+        .iter()
+        .map(|a| too_fast_at(a, PERIOD).unwrap())
+        .collect();
+    // Within 8 periods of both beating.
+    assert!(
+        v.iter().all(|t| *t <= ms(1007) + PERIOD.saturating_mul(8)),
+        "{v:?}"
+    );
+    let first = v[0].min(v[1]);
+    let mut want = vec![
+        (v[0], Suspicion::TooFast { port: 0 }),
+        (v[1], Suspicion::TooFast { port: 1 }),
+    ];
+    want.sort_by_key(|x| x.0);
+    assert_eq!(suspects(&n, STRONG)[..2], want);
+    assert_failover_at(&n, first);
+    // Reported as a duplicate node-ID on each bus, with the measured rate.
+    let dups: Vec<_> = link_events(&n, STRONG)
+        .into_iter()
+        .filter_map(|e| match e.kind {
+            LinkEventKind::DuplicateNode {
+                node,
+                port,
+                rate,
+                allowed,
+                since,
+            } => Some((e.at, node.raw(), port, rate, allowed, since)),
+            _ => None,
+        })
+        .collect();
+    let mut want: Vec<_> = (0..2)
+        .map(|p| {
+            let r = rate_after(&per_bus[p], v[p]);
+            (v[p] + PERIOD, a(0), p as u8, r, 50, v[p])
+        })
+        .collect();
+    want.sort_by_key(|x| x.0);
+    assert_eq!(dups[..2], want);
+    assert!(dups[..2].iter().all(|d| d.3 == 100), "{dups:?}");
+    assert!(
+        dups.iter().all(|d| d.3 <= 4 * d.4),
+        "never taken for a babble: {dups:?}"
+    );
+    // Once the reset board is silent, the other device alone beats plausibly: trusted again,
+    // the board is adopted and configured, beats, and is found sharing its node-ID again (and
+    // reset) for as long as the other device is there, each time reported.
+    let trusted: Vec<Instant> = link_events(&n, STRONG)
+        .into_iter()
+        .filter(|e| matches!(e.kind, LinkEventKind::Trusted { .. }))
+        .map(|e| e.at)
+        .collect();
+    assert!(
+        !trusted.is_empty() && dups.len() == 2 * (trusted.len() + 1),
+        "{trusted:?} {dups:?}"
+    );
+    assert!(!link_events(&n, STRONG)
+        .iter()
+        .any(|e| matches!(e.kind, LinkEventKind::Babbling { .. })));
+    let mut text = String::new();
+    n.sup(STRONG).audit().write_text(&mut text).unwrap();
+    assert!(
+        text.contains("devices share its node-ID"),
+        "an audit record: {text}"
+    );
+    // The real board was reset and is back, pre-operational, not joined while its identifier
+    // is shared: exactly one running board.
+    assert!(running(&n, b(0)) && !running(&n, a(0)));
+    assert!(n.sim.is_powered(n.slave(a(0))));
+    assert!(!n
+        .sup(STRONG)
+        .pair_supervisor()
+        .pair(PairId(0))
+        .unwrap()
+        .member(Member::A)
+        .joined());
+}
+
+/// A rogue device on bus 1 sends NMT start-all (0x000 [01 00]) at `at`.
+fn rogue_start_all(n: &mut SupNet, at: Instant) {
+    let bus1 = [n.buses[0]];
+    let start_all = Frame::from_array(Id::Standard(0), [0x01, 0x00]);
+    inject(n, &bus1, start_all, Some(at), Duration::ZERO);
+}
+
+/// The strong master's command suspension after the rogue frame: (from, until).
+fn suspension(n: &SupNet) -> (Instant, Instant) {
+    n.sup_events(STRONG)
+        .into_iter()
+        .find_map(|e| match e {
+            SupervisorEvent::FlyingMaster(FlyingEvent::Suspended { at, until }) => {
+                Some((at, until))
+            }
+            _ => None,
+        })
+        .expect("a foreign NMT command suspends the active master's commands")
+}
+
+#[test]
+fn rogue_start_all_one_running_board_again_at_the_detection_timeout() {
+    let mut n = SupNet::new(Params::default());
+    rogue_start_all(&mut n, ms(1001));
+    n.sim.run_until(ms(1500));
+    let rogue = arrivals(&n, 0, 0)
+        .into_iter()
+        .find(|t| *t > ms(1001))
+        .unwrap();
+    let (from, until) = suspension(&n);
+    assert_eq!((from, until), (rogue, rogue + DETECTION_TIMEOUT));
+    // Every B was started by the rogue frame and heard operational within its period; at the
+    // end of the suspension the master sends each back to pre-operational.
+    let nmt = nmt_after(&n, rogue);
+    assert_eq!(
+        nmt.iter().map(|x| (x.1, x.2)).collect::<Vec<_>>(),
+        (0..4)
+            .map(|i| (NmtCommand::EnterPreOperational, b(i)))
+            .collect::<Vec<_>>()
+    );
+    assert!(
+        nmt.iter().all(|x| x.0 > until && x.0 <= until + ONE_MS),
+        "{nmt:?} vs {until}"
+    );
+    for i in 0..4 {
+        assert!(running(&n, a(i)) && !running(&n, b(i)), "pair {i}");
+        assert_eq!(n.active_member(STRONG, i), Some(Member::A));
+        assert_eq!(n.active_member(WEAK, i), Some(Member::A));
+        assert_eq!(n.pair_roles(STRONG, i).len(), 1, "no switch-over");
+    }
+}
+
+#[test]
+fn rogue_start_all_with_a_slow_standby_heartbeat_is_undone_at_that_heartbeat() {
+    // Heartbeats every 200 ms: the standby's first heartbeat after the start comes after the
+    // suspension; before, it was never sent back.
+    let p = Params {
+        slave_hb: Duration::from_millis(200),
+        consumer: Duration::from_millis(500),
+        ..Params::default()
+    };
+    let mut n = SupNet::new(p);
+    rogue_start_all(&mut n, ms(1050));
+    n.sim.run_until(ms(2000));
+    let (_, until) = suspension(&n);
+    let nmt = nmt_after(&n, ms(1050));
+    assert_eq!(nmt.len(), 4, "{nmt:?}");
+    for i in 0..4 {
+        let seen_running = arrivals(&n, 0, 0x700 + b(i) as u16)
+            .into_iter()
+            .chain(arrivals(&n, 1, 0x700 + b(i) as u16))
+            .filter(|t| *t > ms(1050))
+            .min()
+            .unwrap();
+        let back = nmt.iter().find(|x| x.2 == b(i)).unwrap();
+        assert_eq!(back.1, NmtCommand::EnterPreOperational);
+        // The bound: the later of the suspension's end and the standby's next heartbeat, plus
+        // one frame.
+        let due = until.max(seen_running);
+        assert!(back.0 > due && back.0 <= due + ONE_MS, "{back:?} vs {due}");
+        assert!(running(&n, a(i)) && !running(&n, b(i)), "pair {i}");
+    }
+    assert!(nmt.iter().any(|x| x.0 > until + Duration::from_millis(50)));
+}
+
+#[test]
+fn a_second_board_set_to_the_same_node_id_is_reported_and_never_started() {
+    // A spare board configured as 0x10 is plugged in at 1007 ms: its boot-up makes pair 0 fail
+    // over (the active member "booted"), then both boards answer as 0x10 and beat.
+    let mut n = SupNet::new(Params::default());
+    let (p, buses) = (n.p, n.buses);
+    n.sim.at(ms(1007), move |sim| {
+        let second = slave_station(&p, a(0), ms(1007));
+        sim.add_device("second 0x10", second, &buses).unwrap();
+    });
+    n.sim.run_until(ms(3000));
+    let roles = n.pair_roles(STRONG, 0);
+    let last = roles.last().unwrap();
+    assert_eq!(
+        (last.from, last.to, last.reason),
+        (Some(Member::A), Some(Member::B), RoleReason::ActiveRebooted)
+    );
+    let per_bus: Vec<Vec<Instant>> = (0..2).map(|b| arrivals(&n, b, 0x710)).collect();
+    let v: Vec<Instant> = per_bus
+        .iter()
+        .map(|a| too_fast_at(a, PERIOD).unwrap())
+        .collect();
+    let mut want = vec![
+        (v[0], Suspicion::TooFast { port: 0 }),
+        (v[1], Suspicion::TooFast { port: 1 }),
+    ];
+    want.sort_by_key(|x| x.0);
+    assert_eq!(suspects(&n, STRONG)[..2], want);
+    let dups: Vec<(Instant, u8)> = link_events(&n, STRONG)
+        .into_iter()
+        .filter_map(|e| match e.kind {
+            LinkEventKind::DuplicateNode { port, since, .. } => Some((since, port)),
+            _ => None,
+        })
+        .collect();
+    assert!(
+        dups.contains(&(v[0], 0)) && dups.contains(&(v[1], 1)),
+        "{dups:?}"
+    );
+    // Neither board set to 0x10 is ever started again: B alone runs.
+    assert!(!n
+        .nmt_first_copies()
+        .iter()
+        .any(|x| x.0 > last.at && x.2 == NmtCommand::Start && (x.3 == a(0) || x.3 == 0)));
+    assert!(running(&n, b(0)) && !running(&n, a(0)));
+}
