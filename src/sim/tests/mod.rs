@@ -3,6 +3,7 @@
 mod basic;
 mod determinism;
 mod faults;
+mod latency;
 mod power;
 mod probe;
 
