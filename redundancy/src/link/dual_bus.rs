@@ -24,7 +24,8 @@ use crate::link::classify::FrameClassifier;
 use crate::link::config::{ConfigError, OdLayout};
 use crate::link::events::LinkEvent;
 use crate::link::health::{Health, HealthConfig, PortHealth, PortState, RxOutcome};
-use crate::link::merge::{Merger, Verdict};
+use crate::link::lag::LagMeter;
+use crate::link::merge::{Merger, Twin, Verdict};
 use crate::link::outbox::Outbox;
 use crate::link::reach::Reach;
 use crate::link::same_function::{PairError, PairVerdict, SameFunction, MAX_FUNCTIONS};
@@ -60,6 +61,11 @@ pub struct DualBusConfig {
     /// Skew window of the merger (default 10 ms): longer than the worst inter-bus skew, shorter
     /// than the shortest repetition period that matters.
     pub skew_window: Duration,
+    /// Widest the merge window grows to follow a bus that lags (default 4 × the skew window:
+    /// 40 ms); a bus lagging further is distrusted, and a lag up to twice this is measured at
+    /// all (see [`crate::link::lag`]). Not below the skew window (a smaller value is taken as
+    /// the skew window: no widening).
+    pub max_skew_window: Duration,
     /// Port health timing.
     pub health: HealthConfig,
     /// A node not heard on a bus for this long is reported unreachable there (default: the
@@ -86,6 +92,12 @@ impl DualBusConfig {
     #[must_use]
     pub fn with_skew_window(mut self, skew_window: Duration) -> Self {
         self.skew_window = skew_window;
+        self
+    }
+    /// The configuration with [`max_skew_window`](Self::max_skew_window) replaced.
+    #[must_use]
+    pub fn with_max_skew_window(mut self, max_skew_window: Duration) -> Self {
+        self.max_skew_window = max_skew_window;
         self
     }
     /// The configuration with [`health`](Self::health) replaced.
@@ -133,6 +145,7 @@ impl DualBusConfig {
         DualBusConfig {
             mode,
             skew_window,
+            max_skew_window: skew_window.saturating_mul(4),
             health,
             reach_timeout: health.silence_limit,
             discrepancy_time: Duration::from_millis(100),
@@ -191,6 +204,7 @@ pub struct DualBus<
     classifier: C,
     policy: Policy,
     merger: Merger<SLOTS>,
+    lag: LagMeter,
     health: Health,
     reach: Reach,
     reach_enabled: bool,
@@ -245,10 +259,14 @@ impl<C: FrameClassifier, const SLOTS: usize, const FUNCTIONS: usize> DualBus<C, 
                 (Policy::EcssToggle(Ecss::new(c)), false)
             }
         };
+        // A lag is forgotten after the silence limit: the time in which a port hears something
+        // anyway.
+        let lag = LagMeter::new(cfg.skew_window, cfg.max_skew_window, health.silence_limit);
         let mut l = DualBus {
             classifier,
             policy,
-            merger: Merger::new(cfg.skew_window),
+            merger: Merger::with_horizon(cfg.skew_window, lag.horizon()),
+            lag,
             health: Health::new(health, cfg.skew_window),
             reach: Reach::new(cfg.reach_timeout, cfg.skew_window),
             reach_enabled,
@@ -349,6 +367,11 @@ impl<C: FrameClassifier, const SLOTS: usize, const FUNCTIONS: usize> DualBus<C, 
     pub fn merger(&self) -> &Merger<SLOTS> {
         &self.merger
     }
+    /// Each port's lag, the merge window it needs and the port distrusted for lagging beyond
+    /// the maximum.
+    pub fn lag(&self) -> &LagMeter {
+        &self.lag
+    }
     /// Per-node, per-bus reachability.
     pub fn reach(&self) -> &Reach {
         &self.reach
@@ -394,6 +417,84 @@ impl<C: FrameClassifier, const SLOTS: usize, const FUNCTIONS: usize> DualBus<C, 
             heartbeat: self.classifier.heartbeat_of(frame),
         }
     }
+
+    /// A frame for the merger: through it on a trusted port, only as a twin on an untrusted
+    /// one, and on a port lagging beyond the maximum only as a twin unless the other port is
+    /// silent (see [`crate::link::lag`]).
+    fn merge(&mut self, now: Instant, port: usize, frame: &Frame) -> RxOutcome {
+        let other = self.health.port(1 - port);
+        if self.lag.distrusted(port) && other.state().is_trusted() {
+            if let Some(twin) = self.merger.match_measured(now, port, frame) {
+                self.measured(now, port, twin);
+                return RxOutcome::Duplicate;
+            }
+            if self.lag.other_silent(now, port, other.counters().last_rx) {
+                // Not recorded: the other port, silent, has no copy to come.
+                return RxOutcome::Delivered;
+            }
+            return RxOutcome::Untrusted;
+        }
+        if self.health.trusted(port) {
+            let (verdict, twin) = self.merger.arrive_measured(now, port, frame);
+            if let Some(twin) = twin {
+                self.measured(now, port, twin);
+            }
+            match (verdict, twin) {
+                (Verdict::Duplicate, _) => RxOutcome::Duplicate,
+                (Verdict::Deliver, Some(_)) => RxOutcome::Slipped,
+                (Verdict::Deliver, None) => RxOutcome::Delivered,
+            }
+        } else if self.merger.match_only(now, port, frame) {
+            RxOutcome::Duplicate
+        } else {
+            RxOutcome::Untrusted
+        }
+    }
+
+    /// Copies of a port are kept as late records only while the other port can deliver their
+    /// twins (ok or suspect): while it is failed or recovering its copies are lost, not late.
+    fn keep_late(&mut self, now: Instant) {
+        for p in 0..2 {
+            let keep = self.health.port(1 - p).state().is_trusted();
+            if keep != self.merger.keeps_late(p) {
+                self.merger.keep_late(p, keep, now);
+            }
+        }
+    }
+
+    /// A twin matched for `port`: a lag sample.
+    #[inline]
+    fn measured(&mut self, now: Instant, port: usize, twin: Twin) {
+        #[cfg(feature = "std")]
+        if std::env::var("LAGDBG").is_ok() && now.as_micros() > 3_550_000 && now.as_micros() < 3_601_000 {
+            std::eprintln!("DBG {now} port {port} {twin:?} {:?}", self.lag);
+        }
+        if let Some(lag) = twin.lag {
+            if self.lag.sample(now, port, lag, &mut self.out) {
+                self.follow_lag(now);
+            }
+        }
+    }
+
+    /// The lag meter changed a window or a distrust: the merger, port health and the ports'
+    /// states follow.
+    fn follow_lag(&mut self, at: Instant) {
+        let window = self.lag.window();
+        self.merger.set_window(window);
+        self.health.set_window(window);
+        for p in 0..2 {
+            // A port known to lag matches the other port's late copies: its twins. What it
+            // delivered before as first copies were twins too: forgotten, so that no later
+            // repeat on the other port is taken for their twin.
+            let lagging = self.lag.lagging(p);
+            if lagging && !self.merger.late_match(p) {
+                self.merger.forget(p);
+            }
+            self.merger.set_late_match(p, lagging);
+            let (lag, beyond) = (self.lag.lag(p), self.lag.distrusted(p));
+            self.health.set_lagging(at, p, lag, beyond, &mut self.out);
+        }
+    }
 }
 
 impl<C: FrameClassifier, const SLOTS: usize, const FUNCTIONS: usize> BusLink
@@ -423,22 +524,14 @@ impl<C: FrameClassifier, const SLOTS: usize, const FUNCTIONS: usize> BusLink
         let outcome = match route {
             RxRoute::Ignore => RxOutcome::Ignored,
             RxRoute::Direct => RxOutcome::Direct,
-            RxRoute::Merge if self.health.trusted(port) => {
-                match self.merger.arrive(now, port, frame) {
-                    Verdict::Deliver => RxOutcome::Delivered,
-                    Verdict::Duplicate => RxOutcome::Duplicate,
-                }
-            }
-            RxRoute::Merge => {
-                if self.merger.match_only(now, port, frame) {
-                    RxOutcome::Duplicate
-                } else {
-                    RxOutcome::Untrusted
-                }
-            }
+            RxRoute::Merge => self.merge(now, port, frame),
         };
         self.health.on_rx(now, port, outcome, &mut self.out);
-        if !matches!(outcome, RxOutcome::Delivered | RxOutcome::Direct) {
+        self.keep_late(now);
+        if !matches!(
+            outcome,
+            RxOutcome::Delivered | RxOutcome::Direct | RxOutcome::Slipped
+        ) {
             return None;
         }
         if !self.pairs.is_empty() {
@@ -466,6 +559,7 @@ impl<C: FrameClassifier, const SLOTS: usize, const FUNCTIONS: usize> BusLink
             return;
         }
         self.health.on_status(now, port, status, &mut self.out);
+        self.keep_late(now);
         self.policy.on_status(now, port, status, &mut self.out);
         self.show_status();
     }
@@ -497,12 +591,16 @@ impl<C: FrameClassifier, const SLOTS: usize, const FUNCTIONS: usize> BusLink
     fn handle_timeout(&mut self, now: Instant) {
         self.now = now;
         self.health.handle_timeout(now, &mut self.out);
+        self.keep_late(now);
         if self.reach_enabled {
             self.reach.handle_timeout(now, &mut self.out);
         }
         self.policy.handle_timeout(now, &mut self.out);
         self.show_status();
         self.pairs.handle_timeout(now, &mut self.out);
+        if let Some(at) = self.lag.handle_timeout(now, &mut self.out) {
+            self.follow_lag(at);
+        }
         self.merger.expire(now);
     }
 
@@ -516,6 +614,7 @@ impl<C: FrameClassifier, const SLOTS: usize, const FUNCTIONS: usize> BusLink
             },
             self.policy.poll_timeout(),
             self.pairs.poll_timeout(),
+            self.lag.poll_timeout(),
         ])
     }
 
@@ -549,6 +648,7 @@ impl<C, const SLOTS: usize, const FUNCTIONS: usize> core::fmt::Debug
                 &[self.health.port(0).state(), self.health.port(1).state()],
             )
             .field("merger", &self.merger)
+            .field("lag", &[self.lag.lag(0), self.lag.lag(1)])
             .field("stats", &self.stats)
             .finish_non_exhaustive()
     }

@@ -6,6 +6,7 @@
 //! | --- | --- |
 //! | The layer itself: ports below, logical bus above, one of three policies | [`dual_bus`] |
 //! | Exact duplicate merge of the two ports' receptions (active-active) | [`merge`] |
+//! | Each port's lag from matched twins: the merge window, distrust beyond the maximum | [`lag`] |
 //! | Port health: counters, error causes, ok / suspect / failed / recovering, re-initialisation | [`health`] |
 //! | Per-node, per-bus reachability | [`reach`] |
 //! | The channel policies: active-active, CiA 302-6, ECSS bus toggle | [`channel`] |
@@ -23,6 +24,7 @@ pub mod config;
 pub mod dual_bus;
 pub mod events;
 pub mod health;
+pub mod lag;
 pub mod merge;
 pub mod outbox;
 pub mod reach;

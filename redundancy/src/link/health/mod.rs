@@ -285,6 +285,9 @@ pub struct PortHealth {
     last_error: Option<Instant>,
     attempt: u32,
     backoff: Duration,
+    /// Lagging beyond the maximum window (the figure that made it so): suspect for that, and
+    /// not ok again on traffic until the lag is within the maximum again.
+    lagging: Option<Duration>,
     /// Hand-over times of frames without an outcome yet, oldest first.
     outstanding: heapless::Deque<Instant, OUTSTANDING>,
     /// The driver confirms successful transmissions (`TxOk`); only then can silence about a
@@ -306,6 +309,7 @@ impl PortHealth {
             last_error: None,
             attempt: 0,
             backoff: cfg.reinit_first,
+            lagging: None,
             outstanding: heapless::Deque::new(),
             reports_outcomes: false,
             counters: HealthCounters::default(),
@@ -333,6 +337,11 @@ impl PortHealth {
             Condition::Failed { reinit_at, .. } => Some(reinit_at),
             _ => None,
         }
+    }
+    /// The lag that makes it suspect: it lags beyond the maximum skew window
+    /// (see [`crate::link::lag`]).
+    pub fn lagging(&self) -> Option<Duration> {
+        self.lagging
     }
     /// Failed, and traffic would revive it (not after a transmit stall).
     fn revives_on_traffic(&self) -> bool {
@@ -381,6 +390,43 @@ impl Health {
         self.ports[p].state() != PortState::Failed
     }
 
+    /// The merge window changed (a lagging port): the time a twin may take.
+    pub(crate) fn set_window(&mut self, window: Duration) {
+        self.window = window;
+    }
+
+    /// Port `p`, lagging `lag` behind the other one, lags beyond the maximum skew window
+    /// (`beyond`) or not: an ok port becomes suspect, and one that was suspect for that alone is
+    /// ok again when it ends. (A port suspect for errors stays so; the lag event says why.)
+    pub(crate) fn set_lagging(
+        &mut self,
+        now: Instant,
+        p: usize,
+        lag: Duration,
+        beyond: bool,
+        out: &mut Outbox,
+    ) {
+        let port = &mut self.ports[p];
+        match (port.lagging, beyond) {
+            (None, true) => {
+                port.lagging = Some(lag);
+                if port.cond == Condition::Ok {
+                    self.set(now, p, PortState::Suspect, PortReason::Lag { lag }, out);
+                }
+            }
+            (Some(_), false) => {
+                port.lagging = None;
+                let held = port
+                    .last_error
+                    .is_some_and(|e| now.saturating_since(e) < self.cfg.error_hold);
+                if port.cond == Condition::Suspect && !held {
+                    self.set(now, p, PortState::Ok, PortReason::LagWithin { lag }, out);
+                }
+            }
+            _ => {}
+        }
+    }
+
     /// A frame was handed to port `p` at `now`.
     pub(crate) fn count_tx(&mut self, now: Instant, p: usize) {
         let port = &mut self.ports[p];
@@ -400,7 +446,7 @@ impl Health {
             c.rx += 1;
             c.last_rx = Some(now);
             match outcome {
-                RxOutcome::Delivered | RxOutcome::Direct => c.delivered += 1,
+                RxOutcome::Delivered | RxOutcome::Direct | RxOutcome::Slipped => c.delivered += 1,
                 RxOutcome::Duplicate => c.duplicates += 1,
                 RxOutcome::Untrusted => c.untrusted += 1,
                 RxOutcome::Ignored => {}
@@ -419,9 +465,10 @@ impl Health {
         match &mut port.cond {
             Condition::Ok => {}
             Condition::Suspect => {
-                if port
-                    .last_error
-                    .is_none_or(|e| now.saturating_since(e) >= self.cfg.error_hold)
+                if port.lagging.is_none()
+                    && port
+                        .last_error
+                        .is_none_or(|e| now.saturating_since(e) >= self.cfg.error_hold)
                 {
                     self.set(now, p, PortState::Ok, PortReason::Traffic, out);
                 }
@@ -449,7 +496,11 @@ impl Health {
         } = self.ports[p].cond
         {
             if now.saturating_since(from) >= self.cfg.probation {
-                self.set(now, p, PortState::Ok, PortReason::Traffic, out);
+                // Back, but still lagging beyond the maximum: suspect for that.
+                match self.ports[p].lagging {
+                    Some(lag) => self.set(now, p, PortState::Suspect, PortReason::Lag { lag }, out),
+                    None => self.set(now, p, PortState::Ok, PortReason::Traffic, out),
+                }
             }
         }
     }
@@ -690,6 +741,10 @@ pub(crate) enum RxOutcome {
     Duplicate,
     /// From an untrusted port, no twin pending: dropped (the other port should deliver it).
     Untrusted,
+    /// Delivered, although a late copy of the other port was pending: a lagging twin not yet
+    /// known as such, or a repeat of a frame the other port missed, whose own copy comes after.
+    /// Either way the other port has its copy: nothing missed.
+    Slipped,
     /// Delivered without merging (single active channel): no twin expected.
     Direct,
     /// Not for the application (inactive channel, link-layer frame).
