@@ -12,7 +12,7 @@
 //! | The channel policies: active-active, CiA 302-6, ECSS bus toggle | [`channel`] |
 //! | Same-function merge of the two boards of a pair | [`same_function`] |
 //! | Which frames carry which node's process data | [`classify`] |
-//! | Configuration from the dictionary (0x1F60, 0x2000) | [`config`] |
+//! | Configuration ([`DualBusConfig`](config::DualBusConfig)), from code or from the dictionary (0x1F60, 0x2000) | [`config`] |
 //! | What the layer reports, and the bounded queues it reports through | [`events`], [`outbox`] |
 //!
 //! Nothing here knows the supervisor: the layer is told which board of a pair is active, and

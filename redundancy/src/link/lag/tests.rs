@@ -52,7 +52,12 @@ fn a_twin_of_a_frame_older_than_one_the_port_already_had_is_no_lag() {
     let mut out = Outbox::new();
     // Port 0 leads: port 1's twins of its copies say port 0 had the frames of 100..=140 ms.
     for t in [100, 110, 120, 130, 140] {
-        m.sample(at(t) + Duration::from_micros(300), 1, Duration::from_micros(300), &mut out);
+        m.sample(
+            at(t) + Duration::from_micros(300),
+            1,
+            Duration::from_micros(300),
+            &mut out,
+        );
     }
     // Port 0 then matches a copy of 131 ms that port 1 got 20 ms ago: a repeat paired one
     // occurrence off (its own copy was missed), not a lag. Twice: still nothing.
@@ -87,10 +92,7 @@ fn the_lag_is_the_second_largest_sample_of_two_periods_and_the_window_follows_it
     assert_eq!(
         events(&mut out),
         [
-            (
-                at(20),
-                lag(1, Duration::from_micros(12_300), ms(22))
-            ),
+            (at(20), lag(1, Duration::from_micros(12_300), ms(22))),
             (at(40), lag(1, ms(18), ms(28))),
         ]
     );
@@ -99,11 +101,18 @@ fn the_lag_is_the_second_largest_sample_of_two_periods_and_the_window_follows_it
     m.sample(at(150), 1, Duration::from_micros(100), &mut out);
     assert_eq!(m.lag(1), ms(18));
     assert_eq!(m.poll_timeout(), Some(at(100)));
-    assert_eq!(m.handle_timeout(at(100), &mut out), None, "still the previous period");
+    assert_eq!(
+        m.handle_timeout(at(100), &mut out),
+        None,
+        "still the previous period"
+    );
     assert_eq!(m.poll_timeout(), Some(at(200)));
     assert_eq!(m.handle_timeout(at(230), &mut out), Some(at(200)));
     assert_eq!(m.window(), ms(10));
-    assert_eq!(events(&mut out), [(at(200), LinkEventKind::LagCleared { port: 1 })]);
+    assert_eq!(
+        events(&mut out),
+        [(at(200), LinkEventKind::LagCleared { port: 1 })]
+    );
     assert_eq!(m.poll_timeout(), None);
 }
 

@@ -134,14 +134,23 @@ fn a_copy_after_the_window_is_seen_within_the_horizon_and_matched_once_its_port_
     assert!(!m.late_match(1));
     // Port 1 not known to lag: its copy 25 ms late is seen (and measured) but delivered, as
     // without a horizon; the late record is used up.
-    assert_eq!(m.arrive_measured(t(0), 0, &f(1, 1)), (Verdict::Deliver, None));
-    assert_eq!(m.arrive_measured(t(25_000), 1, &f(1, 1)), (Verdict::Deliver, seen(25)));
+    assert_eq!(
+        m.arrive_measured(t(0), 0, &f(1, 1)),
+        (Verdict::Deliver, None)
+    );
+    assert_eq!(
+        m.arrive_measured(t(25_000), 1, &f(1, 1)),
+        (Verdict::Deliver, seen(25))
+    );
     let s = m.stats();
     assert_eq!((s.expired, s.slipped, s.late, s.delivered), (1, 1, 0, 2));
     // Known to lag: the next one is matched.
     m.set_late_match(1, true);
     assert_eq!(m.arrive(t(40_000), 0, &f(1, 2)), Verdict::Deliver);
-    assert_eq!(m.arrive_measured(t(65_000), 1, &f(1, 2)), (Verdict::Duplicate, seen(25)));
+    assert_eq!(
+        m.arrive_measured(t(65_000), 1, &f(1, 2)),
+        (Verdict::Duplicate, seen(25))
+    );
     assert_eq!((m.stats().late, m.stats().duplicates), (1, 1));
     // At the horizon it is gone: a copy 80 ms later is a new occurrence.
     assert_eq!(m.arrive(t(100_000), 0, &f(1, 3)), Verdict::Deliver);
@@ -153,7 +162,10 @@ fn a_copy_after_the_window_is_seen_within_the_horizon_and_matched_once_its_port_
     assert_eq!(m.horizon(), Duration::ZERO);
     m.set_late_match(1, true);
     m.arrive(t(0), 0, &f(1, 1));
-    assert_eq!(m.arrive_measured(t(25_000), 1, &f(1, 1)), (Verdict::Deliver, None));
+    assert_eq!(
+        m.arrive_measured(t(25_000), 1, &f(1, 1)),
+        (Verdict::Deliver, None)
+    );
 }
 
 #[test]
@@ -162,12 +174,18 @@ fn the_lag_of_a_twin_is_exact_when_it_matched_the_only_pending_copy() {
     let twin = |m: &mut Merger<16>, us, frame| m.arrive_measured(t(us), 1, &frame).1.unwrap();
     m.arrive(t(1_000), 0, &f(1, 1));
     let one = twin(&mut m, 4_500, f(1, 1));
-    assert_eq!((one.lag, one.late), (Some(Duration::from_micros(3_500)), false));
+    assert_eq!(
+        (one.lag, one.late),
+        (Some(Duration::from_micros(3_500)), false)
+    );
     // Two pending copies of one key: which one the twin is, is a convention; no figure.
     m.arrive(t(5_000), 0, &f(2, 2));
     m.arrive(t(6_000), 0, &f(2, 2));
     assert_eq!(twin(&mut m, 7_000, f(2, 2)).lag, None);
-    assert_eq!(twin(&mut m, 8_000, f(2, 2)).lag, Some(Duration::from_millis(2)));
+    assert_eq!(
+        twin(&mut m, 8_000, f(2, 2)).lag,
+        Some(Duration::from_millis(2))
+    );
     // A clock that went backwards measures zero, not an hour.
     m.arrive(t(9_000), 0, &f(3, 3));
     assert_eq!(twin(&mut m, 8_500, f(3, 3)).lag, Some(Duration::ZERO));
@@ -191,8 +209,14 @@ fn a_live_twin_comes_first_and_late_copies_are_taken_oldest_first() {
         })
     );
     // Two more copies on port 1 with nothing live pending: the late ones, oldest first.
-    assert_eq!(m.arrive_measured(t(45_000), 1, &f(1, 1)), (Verdict::Duplicate, seen(45)));
-    assert_eq!(m.arrive_measured(t(46_000), 1, &f(1, 1)), (Verdict::Duplicate, seen(26)));
+    assert_eq!(
+        m.arrive_measured(t(45_000), 1, &f(1, 1)),
+        (Verdict::Duplicate, seen(45))
+    );
+    assert_eq!(
+        m.arrive_measured(t(46_000), 1, &f(1, 1)),
+        (Verdict::Duplicate, seen(26))
+    );
     // None left: a fourth is a first copy.
     assert_eq!(m.arrive(t(47_000), 1, &f(1, 1)), Verdict::Deliver);
     assert_eq!(m.stats().late, 2);

@@ -17,15 +17,14 @@
 //! assert_eq!(duocan::Device::port_count(&station), 2);
 //! ```
 
-use crate::link::channel::{
-    ChannelPolicy, Cia3026, Cia3026Config, Ecss, EcssConfig, FrameInfo, ModeKind, Policy, RxRoute,
-};
+use crate::link::channel::{ChannelPolicy, Cia3026, Ecss, FrameInfo, ModeKind, Policy, RxRoute};
 use crate::link::classify::FrameClassifier;
 use crate::link::config::{ConfigError, OdLayout};
+pub use crate::link::config::{DualBusConfig, LinkMode};
 use crate::link::events::LinkEvent;
-use crate::link::health::{Health, HealthConfig, PortHealth, PortState, RxOutcome};
+use crate::link::health::{Health, PortHealth, PortState, RxOutcome};
 use crate::link::lag::LagMeter;
-use crate::link::merge::{Merger, Twin, Verdict};
+use crate::link::merge::Merger;
 use crate::link::outbox::Outbox;
 use crate::link::reach::Reach;
 use crate::link::same_function::{PairError, PairVerdict, SameFunction, MAX_FUNCTIONS};
@@ -39,120 +38,6 @@ use duocan::{Duration, Frame, Instant};
 /// Merger slots of a [`DualBus`] unless chosen otherwise: 768 records, enough for two
 /// saturated 1 Mbit/s buses with a 10 ms window.
 pub const DEFAULT_MERGE_SLOTS: usize = 1024;
-
-/// Which redundancy scheme the layer runs.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
-pub enum LinkMode {
-    /// Both buses carry everything; receive merge exactly once (the railway default).
-    #[default]
-    ActiveActive,
-    /// CiA 302-6 active-standby.
-    Cia302_6(Cia3026Config),
-    /// ECSS-E-ST-50-15C bus toggling.
-    EcssToggle(EcssConfig),
-}
-
-/// Everything a [`DualBus`] is configured with.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-#[non_exhaustive]
-pub struct DualBusConfig {
-    /// The scheme.
-    pub mode: LinkMode,
-    /// Skew window of the merger (default 10 ms): longer than the worst inter-bus skew, shorter
-    /// than the shortest repetition period that matters.
-    pub skew_window: Duration,
-    /// Widest the merge window grows to follow a bus that lags (default 4 × the skew window:
-    /// 40 ms); a bus lagging further is distrusted, and a lag up to twice this is measured at
-    /// all (see [`crate::link::lag`]). Not below the skew window (a smaller value is taken as
-    /// the skew window: no widening).
-    pub max_skew_window: Duration,
-    /// Port health timing.
-    pub health: HealthConfig,
-    /// A node not heard on a bus for this long is reported unreachable there (default: the
-    /// silence limit).
-    pub reach_timeout: Duration,
-    /// A/B values differing this long raise a discrepancy (default 100 ms; zero: never).
-    pub discrepancy_time: Duration,
-    /// Where the node's dictionary has the redundancy objects: the layer keeps their status
-    /// entries (ECSS Bdefault and Ctoggle, the CiA 302-6 channel error counter) up to date
-    /// through [`LinkRequest::SetStatus`].
-    pub od_layout: OdLayout,
-}
-
-// Builders: the struct is `#[non_exhaustive]` (it may gain fields), so code outside the crate
-// starts from a constructor or `Default` and sets what it needs.
-impl DualBusConfig {
-    /// The configuration with [`mode`](Self::mode) replaced.
-    #[must_use]
-    pub fn with_mode(mut self, mode: LinkMode) -> Self {
-        self.mode = mode;
-        self
-    }
-    /// The configuration with [`skew_window`](Self::skew_window) replaced.
-    #[must_use]
-    pub fn with_skew_window(mut self, skew_window: Duration) -> Self {
-        self.skew_window = skew_window;
-        self
-    }
-    /// The configuration with [`max_skew_window`](Self::max_skew_window) replaced.
-    #[must_use]
-    pub fn with_max_skew_window(mut self, max_skew_window: Duration) -> Self {
-        self.max_skew_window = max_skew_window;
-        self
-    }
-    /// The configuration with [`health`](Self::health) replaced.
-    #[must_use]
-    pub fn with_health(mut self, health: HealthConfig) -> Self {
-        self.health = health;
-        self
-    }
-    /// The configuration with [`reach_timeout`](Self::reach_timeout) replaced.
-    #[must_use]
-    pub fn with_reach_timeout(mut self, reach_timeout: Duration) -> Self {
-        self.reach_timeout = reach_timeout;
-        self
-    }
-    /// The configuration with [`discrepancy_time`](Self::discrepancy_time) replaced.
-    #[must_use]
-    pub fn with_discrepancy_time(mut self, discrepancy_time: Duration) -> Self {
-        self.discrepancy_time = discrepancy_time;
-        self
-    }
-    /// The configuration with [`od_layout`](Self::od_layout) replaced.
-    #[must_use]
-    pub fn with_od_layout(mut self, od_layout: OdLayout) -> Self {
-        self.od_layout = od_layout;
-        self
-    }
-}
-
-impl Default for DualBusConfig {
-    fn default() -> Self {
-        DualBusConfig::with_guard_period(LinkMode::ActiveActive, Duration::from_millis(100))
-    }
-}
-
-impl DualBusConfig {
-    /// `mode` with the health and reachability timing derived from the node-guarding (or
-    /// heartbeat) period: silence limit 3 periods.
-    #[must_use]
-    pub fn with_guard_period(mode: LinkMode, period: Duration) -> Self {
-        let skew_window = Duration::from_millis(10);
-        let health = HealthConfig {
-            tx_stall: skew_window,
-            ..HealthConfig::from_guard_period(period)
-        };
-        DualBusConfig {
-            mode,
-            skew_window,
-            max_skew_window: skew_window.saturating_mul(4),
-            health,
-            reach_timeout: health.silence_limit,
-            discrepancy_time: Duration::from_millis(100),
-            od_layout: OdLayout::default(),
-        }
-    }
-}
 
 /// A node on a dual bus: the common redundant slave (one board of a pair), or any node that
 /// needs no supervisor.
@@ -417,84 +302,6 @@ impl<C: FrameClassifier, const SLOTS: usize, const FUNCTIONS: usize> DualBus<C, 
             heartbeat: self.classifier.heartbeat_of(frame),
         }
     }
-
-    /// A frame for the merger: through it on a trusted port, only as a twin on an untrusted
-    /// one, and on a port lagging beyond the maximum only as a twin unless the other port is
-    /// silent (see [`crate::link::lag`]).
-    fn merge(&mut self, now: Instant, port: usize, frame: &Frame) -> RxOutcome {
-        let other = self.health.port(1 - port);
-        if self.lag.distrusted(port) && other.state().is_trusted() {
-            if let Some(twin) = self.merger.match_measured(now, port, frame) {
-                self.measured(now, port, twin);
-                return RxOutcome::Duplicate;
-            }
-            if self.lag.other_silent(now, port, other.counters().last_rx) {
-                // Not recorded: the other port, silent, has no copy to come.
-                return RxOutcome::Delivered;
-            }
-            return RxOutcome::Untrusted;
-        }
-        if self.health.trusted(port) {
-            let (verdict, twin) = self.merger.arrive_measured(now, port, frame);
-            if let Some(twin) = twin {
-                self.measured(now, port, twin);
-            }
-            match (verdict, twin) {
-                (Verdict::Duplicate, _) => RxOutcome::Duplicate,
-                (Verdict::Deliver, Some(_)) => RxOutcome::Slipped,
-                (Verdict::Deliver, None) => RxOutcome::Delivered,
-            }
-        } else if self.merger.match_only(now, port, frame) {
-            RxOutcome::Duplicate
-        } else {
-            RxOutcome::Untrusted
-        }
-    }
-
-    /// Copies of a port are kept as late records only while the other port can deliver their
-    /// twins (ok or suspect): while it is failed or recovering its copies are lost, not late.
-    fn keep_late(&mut self, now: Instant) {
-        for p in 0..2 {
-            let keep = self.health.port(1 - p).state().is_trusted();
-            if keep != self.merger.keeps_late(p) {
-                self.merger.keep_late(p, keep, now);
-            }
-        }
-    }
-
-    /// A twin matched for `port`: a lag sample.
-    #[inline]
-    fn measured(&mut self, now: Instant, port: usize, twin: Twin) {
-        #[cfg(feature = "std")]
-        if std::env::var("LAGDBG").is_ok() && now.as_micros() > 3_550_000 && now.as_micros() < 3_601_000 {
-            std::eprintln!("DBG {now} port {port} {twin:?} {:?}", self.lag);
-        }
-        if let Some(lag) = twin.lag {
-            if self.lag.sample(now, port, lag, &mut self.out) {
-                self.follow_lag(now);
-            }
-        }
-    }
-
-    /// The lag meter changed a window or a distrust: the merger, port health and the ports'
-    /// states follow.
-    fn follow_lag(&mut self, at: Instant) {
-        let window = self.lag.window();
-        self.merger.set_window(window);
-        self.health.set_window(window);
-        for p in 0..2 {
-            // A port known to lag matches the other port's late copies: its twins. What it
-            // delivered before as first copies were twins too: forgotten, so that no later
-            // repeat on the other port is taken for their twin.
-            let lagging = self.lag.lagging(p);
-            if lagging && !self.merger.late_match(p) {
-                self.merger.forget(p);
-            }
-            self.merger.set_late_match(p, lagging);
-            let (lag, beyond) = (self.lag.lag(p), self.lag.distrusted(p));
-            self.health.set_lagging(at, p, lag, beyond, &mut self.out);
-        }
-    }
 }
 
 impl<C: FrameClassifier, const SLOTS: usize, const FUNCTIONS: usize> BusLink
@@ -654,90 +461,6 @@ impl<C, const SLOTS: usize, const FUNCTIONS: usize> core::fmt::Debug
     }
 }
 
+mod rx;
 #[cfg(test)]
-mod tests {
-    use super::*;
-    use crate::link::events::{LinkEventKind, PortReason};
-    use duocan::machine::ErrorCause;
-    use duocan::{Id, NodeId};
-
-    fn ms(x: u64) -> Instant {
-        Instant::from_millis(x)
-    }
-    fn drain(l: &mut DualBus) -> Vec<(usize, Frame)> {
-        core::iter::from_fn(|| l.poll_transmit()).collect()
-    }
-
-    #[test]
-    fn fan_out_skips_failed_ports_and_the_merge_delivers_once() {
-        let mut l = DualBus::new(DualBusConfig::default());
-        let f = Frame::from_array(Id::Standard(0x181), [1]);
-        l.send(ms(0), &f);
-        assert_eq!(drain(&mut l), [(0, f), (1, f)]);
-        l.handle_port_status(ms(1), 1, PortStatus::Down(ErrorCause::InterfaceDown));
-        l.send(ms(2), &f);
-        assert_eq!(drain(&mut l), [(0, f)]);
-        assert_eq!(l.port(0).counters().tx, 2);
-        assert_eq!(l.port(1).counters().tx, 1);
-        let g = Frame::from_array(Id::Standard(0x182), [2]);
-        assert_eq!(l.handle_rx(ms(3), 0, &g), Some(g));
-        assert_eq!(l.handle_rx(ms(3), 1, &g), None);
-        assert_eq!(l.handle_rx(ms(3), 7, &g), None);
-        assert_eq!(l.stats().bad_port, 1);
-        assert_eq!(l.stats().delivered, 1);
-        let e = l.poll_event().unwrap();
-        assert_eq!(
-            e.kind,
-            LinkEventKind::Port {
-                port: 1,
-                from: PortState::Ok,
-                to: PortState::Failed,
-                reason: PortReason::Down(ErrorCause::InterfaceDown)
-            }
-        );
-    }
-
-    #[test]
-    fn pairs_deliver_the_active_member_only_and_follow_set_active() {
-        let mut l = DualBus::new(DualBusConfig::default());
-        let (a, b) = (NodeId::must(0x10), NodeId::must(0x11));
-        let p = l.add_pair(a, b, Some(Member::A)).unwrap();
-        let ta = Frame::from_array(Id::Standard(0x190), [1]);
-        let tb = Frame::from_array(Id::Standard(0x191), [1]);
-        let hb_b = Frame::from_array(Id::Standard(0x711), [5]);
-        assert_eq!(l.handle_rx(ms(0), 0, &ta), Some(ta));
-        assert_eq!(l.handle_rx(ms(0), 0, &tb), None);
-        // Not process data: both members' heartbeats go up.
-        assert_eq!(l.handle_rx(ms(0), 0, &hb_b), Some(hb_b));
-        assert_eq!(l.pairs().latest(p, Member::B, 1), Some((ms(0), tb)));
-        assert!(l.set_active(p, Some(Member::B)));
-        assert_eq!(l.handle_rx(ms(20), 0, &ta), None);
-        assert_eq!(l.handle_rx(ms(20), 0, &tb), Some(tb));
-        assert_eq!(l.stats().standby, 2);
-    }
-
-    #[test]
-    fn modes_and_commands() {
-        let mut l = DualBus::new(DualBusConfig::default());
-        assert_eq!(l.mode(), ModeKind::ActiveActive);
-        assert_eq!(l.active_channel(), None);
-        assert!(!l.select_channel(ms(0), 1));
-        let cfg = DualBusConfig {
-            mode: LinkMode::EcssToggle(EcssConfig::master()),
-            ..DualBusConfig::default()
-        };
-        let mut l = DualBus::new(cfg);
-        assert_eq!(l.mode(), ModeKind::EcssToggle);
-        assert!(!l.health().config().silence_detection);
-        let f = Frame::from_array(Id::Standard(0x181), [1]);
-        l.send(ms(0), &f);
-        assert_eq!(drain(&mut l), [(0, f)]);
-        // Only the active bus is listened to.
-        assert_eq!(l.handle_rx(ms(1), 1, &f), None);
-        assert_eq!(l.handle_rx(ms(1), 0, &f), Some(f));
-        assert!(l.select_channel(ms(2), 1));
-        l.send(ms(3), &f);
-        assert_eq!(drain(&mut l), [(1, f)]);
-        assert_eq!(l.ecss().map(|e| e.active_bus()), Some(1));
-    }
-}
+mod tests;
