@@ -159,6 +159,8 @@ pub(super) struct Port {
     /// The entry this port has in its segment's ready set.
     pub(super) ready: Option<(u32, u64)>,
     pub(super) faults: Option<FaultRates>,
+    /// Fixed receive latency (see [`set_port_latency`](super::SimNetwork::set_port_latency)).
+    pub(super) latency: Duration,
     /// Deliveries scheduled for later and the due time of the last one: later frames queue
     /// behind them so a port never sees frames out of order.
     pub(super) delayed: u32,
@@ -182,6 +184,7 @@ impl Port {
             transmitting: false,
             ready: None,
             faults: None,
+            latency: Duration::ZERO,
             delayed: 0,
             delay_tail: Instant::ZERO,
             stats: PortStats::default(),

@@ -1,4 +1,4 @@
-//! Fault injection: random per-frame faults and deliberate wiring faults.
+//! Fault injection: random per-frame faults, fixed port latency and deliberate wiring faults.
 
 use super::bus::Segment;
 use super::ids::{BusId, PortRef};
@@ -143,6 +143,23 @@ impl SimNetwork {
             _ => {}
         }
         self.ports[p].faults = (!rates.is_none()).then_some(rates);
+    }
+
+    /// Gives one receiving port a fixed latency: every frame it receives is handed to its device
+    /// exactly `latency` after the frame ended on the wire (on top of any random delay), in the
+    /// order the port received them, like a driver or gateway queue that runs behind. Zero
+    /// removes it. Frames already on their way keep their delivery time and later ones never
+    /// overtake them: after the latency is lowered, newer frames wait for the older ones and are
+    /// handed over at the same instant as the last of them. Nothing is random, nothing is
+    /// traced; the transmit side of the port is not affected.
+    pub fn set_port_latency(&mut self, port: PortRef, latency: Duration) {
+        let p = self.port_index(port);
+        self.ports[p].latency = latency;
+    }
+
+    /// The fixed receive latency of a port (zero unless set).
+    pub fn port_latency(&self, port: PortRef) -> Duration {
+        self.ports[self.port_index(port)].latency
     }
 
     /// Cuts the bus: frames still take their wire time but reach nobody, and their senders get

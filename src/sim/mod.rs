@@ -31,6 +31,7 @@
 //! All random faults draw from one generator seeded by [`SimNetwork::new`], in the fixed order
 //! above, so a seed reproduces a run exactly, trace and all. See [`FaultRates`] and the methods
 //! [`bus_down`](SimNetwork::bus_down), [`disconnect`](SimNetwork::disconnect),
+//! [`set_port_latency`](SimNetwork::set_port_latency) (a fixed receive latency, not random),
 //! [`partition`](SimNetwork::partition), [`babble`](SimNetwork::babble),
 //! [`port_down`](SimNetwork::port_down) and [`power_off`](SimNetwork::power_off).
 //!

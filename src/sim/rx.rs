@@ -1,4 +1,5 @@
-//! The receive path: random per-receiver faults, late deliveries in order, hand-over to devices.
+//! The receive path: random per-receiver faults, fixed port latency, late deliveries in order,
+//! hand-over to devices.
 
 use super::fault::{chance, either, flip_bit, FaultRates};
 use super::ids::BusId;
@@ -50,8 +51,9 @@ impl SimNetwork {
             self.record_rx(b, r, sent, RxFault::Corrupted { delivered: *wire });
         }
         let (bus_f, port_f) = (self.buses[b].faults, self.ports[r].faults);
+        let latency = self.ports[r].latency;
         if bus_f.is_none() && port_f.is_none() {
-            self.enqueue_rx(r, wire, Duration::ZERO);
+            self.enqueue_rx(r, wire, latency);
             return;
         }
         let bf = bus_f.unwrap_or(FaultRates::NONE);
@@ -70,14 +72,15 @@ impl SimNetwork {
                 self.record_rx(b, r, sent, RxFault::Corrupted { delivered: f });
             }
         }
-        let delay = if chance(&mut self.rng, either(bf.delay, pf.delay)) {
+        let random = if chance(&mut self.rng, either(bf.delay, pf.delay)) {
             let max = bf.max_delay.max(pf.max_delay).as_micros().max(1);
             Duration::from_micros(self.rng.u64(1..=max))
         } else {
             Duration::ZERO
         };
+        let delay = latency + random;
         let twice = chance(&mut self.rng, either(bf.duplicate, pf.duplicate));
-        if !delay.is_zero() {
+        if !random.is_zero() {
             let until = self.delivery_time(r, delay);
             self.ports[r].stats.rx_delayed += 1;
             self.record_rx(b, r, sent, RxFault::Delayed { until });

@@ -1,6 +1,7 @@
-//! Configuration from the object dictionary: the definition tables of 0x1F60 (CiA 302-6
-//! redundancy configuration) and of the ECSS bus-toggle object (0x2000 by default; the index is
-//! configurable), and readers that build a [`DualBusConfig`] from any [`ObjectDictionary`].
+//! What the layer is configured with ([`DualBusConfig`], [`LinkMode`]), from code or from the
+//! object dictionary: the definition tables of 0x1F60 (CiA 302-6 redundancy configuration) and of
+//! the ECSS bus-toggle object (0x2000 by default; the index is configurable), and readers that
+//! build a [`DualBusConfig`] from any [`ObjectDictionary`].
 //!
 //! ```
 //! use duocan::od::{comm, ObjectDictionary, StaticDictionary, ObjectDef};
@@ -18,12 +19,128 @@
 //! ```
 
 use crate::link::channel::{Cia3026Config, EcssConfig, EcssRole};
-use crate::link::dual_bus::{DualBusConfig, LinkMode};
+use crate::link::health::HealthConfig;
 use core::fmt;
+#[cfg(doc)]
+use duocan::machine::LinkRequest;
 use duocan::od::abort::AbortCode;
 use duocan::od::{comm, Access, DefaultValue, Limit, ObjectDef, ObjectDictionary, ObjectType};
 use duocan::NodeSet;
 use duocan::{Duration, NodeId};
+
+/// Which redundancy scheme the layer runs.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
+pub enum LinkMode {
+    /// Both buses carry everything; receive merge exactly once (the railway default).
+    #[default]
+    ActiveActive,
+    /// CiA 302-6 active-standby.
+    Cia302_6(Cia3026Config),
+    /// ECSS-E-ST-50-15C bus toggling.
+    EcssToggle(EcssConfig),
+}
+
+/// Everything a [`DualBus`](crate::DualBus) is configured with.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[non_exhaustive]
+pub struct DualBusConfig {
+    /// The scheme.
+    pub mode: LinkMode,
+    /// Skew window of the merger (default 10 ms): longer than the worst inter-bus skew, shorter
+    /// than the shortest repetition period that matters.
+    pub skew_window: Duration,
+    /// Widest the merge window grows to follow a bus that lags (default 4 × the skew window:
+    /// 40 ms); a bus lagging further is distrusted, and a lag up to twice this is measured at
+    /// all (see [`crate::link::lag`]). Not below the skew window (a smaller value is taken as
+    /// the skew window: no widening).
+    pub max_skew_window: Duration,
+    /// Port health timing.
+    pub health: HealthConfig,
+    /// A node not heard on a bus for this long is reported unreachable there (default: the
+    /// silence limit).
+    pub reach_timeout: Duration,
+    /// A/B values differing this long raise a discrepancy (default 100 ms; zero: never).
+    pub discrepancy_time: Duration,
+    /// Where the node's dictionary has the redundancy objects: the layer keeps their status
+    /// entries (ECSS Bdefault and Ctoggle, the CiA 302-6 channel error counter) up to date
+    /// through [`LinkRequest::SetStatus`].
+    pub od_layout: OdLayout,
+}
+
+// Builders: the struct is `#[non_exhaustive]` (it may gain fields), so code outside the crate
+// starts from a constructor or `Default` and sets what it needs.
+impl DualBusConfig {
+    /// The configuration with [`mode`](Self::mode) replaced.
+    #[must_use]
+    pub fn with_mode(mut self, mode: LinkMode) -> Self {
+        self.mode = mode;
+        self
+    }
+    /// The configuration with [`skew_window`](Self::skew_window) replaced.
+    #[must_use]
+    pub fn with_skew_window(mut self, skew_window: Duration) -> Self {
+        self.skew_window = skew_window;
+        self
+    }
+    /// The configuration with [`max_skew_window`](Self::max_skew_window) replaced.
+    #[must_use]
+    pub fn with_max_skew_window(mut self, max_skew_window: Duration) -> Self {
+        self.max_skew_window = max_skew_window;
+        self
+    }
+    /// The configuration with [`health`](Self::health) replaced.
+    #[must_use]
+    pub fn with_health(mut self, health: HealthConfig) -> Self {
+        self.health = health;
+        self
+    }
+    /// The configuration with [`reach_timeout`](Self::reach_timeout) replaced.
+    #[must_use]
+    pub fn with_reach_timeout(mut self, reach_timeout: Duration) -> Self {
+        self.reach_timeout = reach_timeout;
+        self
+    }
+    /// The configuration with [`discrepancy_time`](Self::discrepancy_time) replaced.
+    #[must_use]
+    pub fn with_discrepancy_time(mut self, discrepancy_time: Duration) -> Self {
+        self.discrepancy_time = discrepancy_time;
+        self
+    }
+    /// The configuration with [`od_layout`](Self::od_layout) replaced.
+    #[must_use]
+    pub fn with_od_layout(mut self, od_layout: OdLayout) -> Self {
+        self.od_layout = od_layout;
+        self
+    }
+}
+
+impl Default for DualBusConfig {
+    fn default() -> Self {
+        DualBusConfig::with_guard_period(LinkMode::ActiveActive, Duration::from_millis(100))
+    }
+}
+
+impl DualBusConfig {
+    /// `mode` with the health and reachability timing derived from the node-guarding (or
+    /// heartbeat) period: silence limit 3 periods.
+    #[must_use]
+    pub fn with_guard_period(mode: LinkMode, period: Duration) -> Self {
+        let skew_window = Duration::from_millis(10);
+        let health = HealthConfig {
+            tx_stall: skew_window,
+            ..HealthConfig::from_guard_period(period)
+        };
+        DualBusConfig {
+            mode,
+            skew_window,
+            max_skew_window: skew_window.saturating_mul(4),
+            health,
+            reach_timeout: health.silence_limit,
+            discrepancy_time: Duration::from_millis(100),
+            od_layout: OdLayout::default(),
+        }
+    }
+}
 
 /// CiA 302-6 redundancy configuration.
 pub const REDUNDANCY_CONFIG: u16 = 0x1F60;

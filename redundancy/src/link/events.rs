@@ -1,5 +1,6 @@
 //! What the dual-bus layer reports: every port-state change, channel switch, toggle,
-//! reachability change and A/B discrepancy, with its reason and the instant it happened.
+//! reachability change, A/B discrepancy and lagging bus, with its reason and the instant it
+//! happened.
 //!
 //! Ports are numbered 0 and 1 in the API and printed as "bus 1" and "bus 2".
 
@@ -164,6 +165,25 @@ pub enum LinkEventKind {
         /// When its heartbeats there were found too fast.
         since: Instant,
     },
+    /// The frames of `port` arrive `lag` after their twins on the other port (measured from
+    /// matched twins, see [`crate::link::lag`]): reported when the port starts lagging and
+    /// whenever the window its lag needs changes. `window` is that window: the skew window plus
+    /// the lag in whole milliseconds. Beyond the maximum window the port is distrusted (a port
+    /// event says so); its window then only serves to recognise its twins.
+    Lag {
+        /// Port index (0 = bus 1).
+        port: u8,
+        /// The measured lag.
+        lag: Duration,
+        /// The window the lag needs.
+        window: Duration,
+    },
+    /// The port no longer lags (under half the skew window): its window is the skew window
+    /// again.
+    LagCleared {
+        /// Port index (0 = bus 1).
+        port: u8,
+    },
 }
 
 /// Why a watched node's heartbeats are implausible.
@@ -184,6 +204,7 @@ pub enum Suspicion {
 
 /// Why a port changed state.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[non_exhaustive]
 pub enum PortReason {
     /// Nothing received for `silent` while the other port kept receiving first copies.
     Silence {
@@ -211,6 +232,17 @@ pub enum PortReason {
     },
     /// Frames are received again.
     Traffic,
+    /// Its frames arrive `lag` after their twins on the other bus, beyond the maximum skew
+    /// window: they are used only while the other bus is silent.
+    Lag {
+        /// The measured lag.
+        lag: Duration,
+    },
+    /// Its lag is within the maximum skew window again (`lag`, zero when gone): trusted again.
+    LagWithin {
+        /// The measured lag.
+        lag: Duration,
+    },
 }
 
 /// Why the active channel changed.
@@ -260,6 +292,13 @@ impl fmt::Display for PortReason {
             PortReason::Up => f.write_str("port up again"),
             PortReason::Reinit { attempt } => write!(f, "re-initialised (attempt {attempt})"),
             PortReason::Traffic => f.write_str("frames received again"),
+            PortReason::Lag { lag } => write!(
+                f,
+                "lags {lag} behind the other bus, beyond the maximum window: used only while the other bus is silent"
+            ),
+            PortReason::LagWithin { lag } => {
+                write!(f, "lag {lag}, within the maximum window again")
+            }
         }
     }
 }
@@ -398,6 +437,15 @@ impl fmt::Display for LinkEvent {
                 "{node} on bus {}: {rate} heartbeats/s where its period gives {allowed}/s: devices share its node-ID (since {since})",
                 bus(port)
             ),
+            LinkEventKind::Lag { port, lag, window } => write!(
+                f,
+                "bus {} lags {lag} behind bus {}: merge window {window}",
+                bus(port),
+                bus(1 - port.min(1))
+            ),
+            LinkEventKind::LagCleared { port } => {
+                write!(f, "bus {} no longer lags", bus(port))
+            }
         }
     }
 }

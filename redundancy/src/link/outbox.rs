@@ -37,6 +37,10 @@ impl Outbox {
     pub fn event(&mut self, e: LinkEvent) {
         self.events.push(e);
     }
+    /// The oldest queued event (the layer hands them out through `BusLink::poll_event`).
+    pub fn pop_event(&mut self) -> Option<LinkEvent> {
+        self.events.pop()
+    }
     /// Queues a request for the driver of `port`.
     pub fn request(&mut self, port: usize, r: PortRequest) {
         self.requests.push((port, r));

@@ -46,6 +46,12 @@ impl Reach {
         }
     }
 
+    /// Changes the settle time (the layer keeps it at the merge window, which follows a
+    /// lagging bus: the time the other copy may take).
+    pub(crate) fn set_settle(&mut self, settle: Duration) {
+        self.settle = settle.as_micros();
+    }
+
     /// Ports `node` is currently reported heard on, `None` if not reported yet.
     pub fn heard(&self, node: NodeId) -> Option<[bool; 2]> {
         match self.status[node.raw() as usize] {

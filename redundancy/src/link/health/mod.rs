@@ -33,6 +33,10 @@
 //!   skew window and would otherwise be delivered a second time. The other port delivers every
 //!   occurrence meanwhile, so nothing is lost unless both buses fail at once.
 
+mod config;
+
+pub use config::{cause_index, HealthConfig, HealthCounters, ERROR_CAUSES};
+
 use crate::link::events::{LinkEvent, LinkEventKind, PortReason};
 use crate::link::outbox::Outbox;
 use core::fmt;
@@ -71,176 +75,12 @@ impl fmt::Display for PortState {
     }
 }
 
-/// Timing of the health rules.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-#[non_exhaustive]
-pub struct HealthConfig {
-    /// Silence after which a port fails. Default 300 ms: 3 × a 100 ms guarding period.
-    pub silence_limit: Duration,
-    /// Silence after which a port is suspect (default: a third of the limit, i.e. one guarding
-    /// period). Zero or not below the limit: no silence-suspect step.
-    pub suspect_after: Duration,
-    /// A suspect port is ok again at the first frame received this long after its last error
-    /// report (default: one guarding period).
-    pub error_hold: Duration,
-    /// A recovering port is ok again at the first frame received this long after its first one
-    /// (default: one guarding period). Zero: at the first frame.
-    pub probation: Duration,
-    /// Back-off before the first re-initialisation of a failed port (default 100 ms).
-    pub reinit_first: Duration,
-    /// Longest back-off (default 10 s).
-    pub reinit_max: Duration,
-    /// Apply the silence rule (off in bus-toggle mode, where the inactive bus is quiet by
-    /// design).
-    pub silence_detection: bool,
-    /// Oldest a frame handed to a port may get without a transmit outcome before the port is
-    /// flushed and failed (zero: never). Applies once the port's driver has reported an outcome
-    /// (drivers that cannot tell are never judged). The dual-bus layer sets it to the skew
-    /// window in active-active mode and to zero otherwise.
-    pub tx_stall: Duration,
-}
-
-// Builders: the struct is `#[non_exhaustive]` (it may gain fields), so code outside the crate
-// starts from a constructor or `Default` and sets what it needs.
-impl HealthConfig {
-    /// The configuration with [`silence_limit`](Self::silence_limit) replaced.
-    #[must_use]
-    pub fn with_silence_limit(mut self, silence_limit: Duration) -> Self {
-        self.silence_limit = silence_limit;
-        self
-    }
-    /// The configuration with [`suspect_after`](Self::suspect_after) replaced.
-    #[must_use]
-    pub fn with_suspect_after(mut self, suspect_after: Duration) -> Self {
-        self.suspect_after = suspect_after;
-        self
-    }
-    /// The configuration with [`error_hold`](Self::error_hold) replaced.
-    #[must_use]
-    pub fn with_error_hold(mut self, error_hold: Duration) -> Self {
-        self.error_hold = error_hold;
-        self
-    }
-    /// The configuration with [`probation`](Self::probation) replaced.
-    #[must_use]
-    pub fn with_probation(mut self, probation: Duration) -> Self {
-        self.probation = probation;
-        self
-    }
-    /// The configuration with [`reinit_first`](Self::reinit_first) replaced.
-    #[must_use]
-    pub fn with_reinit_first(mut self, reinit_first: Duration) -> Self {
-        self.reinit_first = reinit_first;
-        self
-    }
-    /// The configuration with [`reinit_max`](Self::reinit_max) replaced.
-    #[must_use]
-    pub fn with_reinit_max(mut self, reinit_max: Duration) -> Self {
-        self.reinit_max = reinit_max;
-        self
-    }
-    /// The configuration with [`silence_detection`](Self::silence_detection) replaced.
-    #[must_use]
-    pub fn with_silence_detection(mut self, silence_detection: bool) -> Self {
-        self.silence_detection = silence_detection;
-        self
-    }
-    /// The configuration with [`tx_stall`](Self::tx_stall) replaced.
-    #[must_use]
-    pub fn with_tx_stall(mut self, tx_stall: Duration) -> Self {
-        self.tx_stall = tx_stall;
-        self
-    }
-}
-
-impl HealthConfig {
-    /// The defaults for a given node-guarding (or heartbeat) period: silence limit 3 periods,
-    /// suspect after, error hold and probation one period.
-    #[must_use]
-    pub const fn from_guard_period(period: Duration) -> Self {
-        HealthConfig {
-            silence_limit: period.saturating_mul(3),
-            suspect_after: period,
-            error_hold: period,
-            probation: period,
-            reinit_first: Duration::from_millis(100),
-            reinit_max: Duration::from_secs(10),
-            silence_detection: true,
-            tx_stall: Duration::ZERO,
-        }
-    }
-}
-
-impl Default for HealthConfig {
-    fn default() -> Self {
-        HealthConfig::from_guard_period(Duration::from_millis(100))
-    }
-}
-
-/// Number of [`ErrorCause`] variants (the length of [`HealthCounters::errors`]).
-pub const ERROR_CAUSES: usize = 14;
-
-/// Index of an error cause in [`HealthCounters::errors`].
-pub const fn cause_index(c: ErrorCause) -> usize {
-    match c {
-        ErrorCause::BusOff => 0,
-        ErrorCause::ErrorPassive => 1,
-        ErrorCause::ErrorWarning => 2,
-        ErrorCause::NoAck => 3,
-        ErrorCause::Bit => 4,
-        ErrorCause::Stuff => 5,
-        ErrorCause::Form => 6,
-        ErrorCause::Crc => 7,
-        ErrorCause::RxOverflow => 8,
-        ErrorCause::TxTimeout => 9,
-        ErrorCause::Transceiver => 10,
-        ErrorCause::InterfaceDown => 11,
-        ErrorCause::Restarted => 12,
-        ErrorCause::Other => 13,
-    }
-}
-
 /// Causes that make a port unusable at once.
 const fn is_fatal(c: ErrorCause) -> bool {
     matches!(
         c,
         ErrorCause::BusOff | ErrorCause::InterfaceDown | ErrorCause::Transceiver
     )
-}
-
-/// Counters of one port.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
-pub struct HealthCounters {
-    /// Frames received.
-    pub rx: u64,
-    /// Received frames delivered upward (first copies).
-    pub delivered: u64,
-    /// Received frames dropped as twins.
-    pub duplicates: u64,
-    /// Received frames dropped because the port was not trusted and no twin was pending.
-    pub untrusted: u64,
-    /// Frames handed to the port.
-    pub tx: u64,
-    /// Transmissions the driver confirmed.
-    pub tx_ok: u64,
-    /// Transmissions the driver reported failed.
-    pub tx_failed: u64,
-    /// Error reports (controller errors and failed transmissions) by cause
-    /// (see [`cause_index`]).
-    pub errors: [u32; ERROR_CAUSES],
-    /// Re-initialisations requested.
-    pub reinits: u32,
-    /// Last frame received.
-    pub last_rx: Option<Instant>,
-    /// Last error reported, with its cause.
-    pub last_error: Option<(Instant, ErrorCause)>,
-}
-
-impl HealthCounters {
-    /// Error reports of one cause.
-    pub fn errors_of(&self, c: ErrorCause) -> u32 {
-        self.errors[cause_index(c)]
-    }
 }
 
 /// A port's state with what only that state knows.
@@ -285,6 +125,9 @@ pub struct PortHealth {
     last_error: Option<Instant>,
     attempt: u32,
     backoff: Duration,
+    /// Lagging beyond the maximum window (the figure that made it so): suspect for that, and
+    /// not ok again on traffic until the lag is within the maximum again.
+    lagging: Option<Duration>,
     /// Hand-over times of frames without an outcome yet, oldest first.
     outstanding: heapless::Deque<Instant, OUTSTANDING>,
     /// The driver confirms successful transmissions (`TxOk`); only then can silence about a
@@ -306,6 +149,7 @@ impl PortHealth {
             last_error: None,
             attempt: 0,
             backoff: cfg.reinit_first,
+            lagging: None,
             outstanding: heapless::Deque::new(),
             reports_outcomes: false,
             counters: HealthCounters::default(),
@@ -333,6 +177,11 @@ impl PortHealth {
             Condition::Failed { reinit_at, .. } => Some(reinit_at),
             _ => None,
         }
+    }
+    /// The lag that makes it suspect: it lags beyond the maximum skew window
+    /// (see [`crate::link::lag`]).
+    pub fn lagging(&self) -> Option<Duration> {
+        self.lagging
     }
     /// Failed, and traffic would revive it (not after a transmit stall).
     fn revives_on_traffic(&self) -> bool {
@@ -381,6 +230,43 @@ impl Health {
         self.ports[p].state() != PortState::Failed
     }
 
+    /// The merge window changed (a lagging port): the time a twin may take.
+    pub(crate) fn set_window(&mut self, window: Duration) {
+        self.window = window;
+    }
+
+    /// Port `p`, lagging `lag` behind the other one, lags beyond the maximum skew window
+    /// (`beyond`) or not: an ok port becomes suspect, and one that was suspect for that alone is
+    /// ok again when it ends. (A port suspect for errors stays so; the lag event says why.)
+    pub(crate) fn set_lagging(
+        &mut self,
+        now: Instant,
+        p: usize,
+        lag: Duration,
+        beyond: bool,
+        out: &mut Outbox,
+    ) {
+        let port = &mut self.ports[p];
+        match (port.lagging, beyond) {
+            (None, true) => {
+                port.lagging = Some(lag);
+                if port.cond == Condition::Ok {
+                    self.set(now, p, PortState::Suspect, PortReason::Lag { lag }, out);
+                }
+            }
+            (Some(_), false) => {
+                port.lagging = None;
+                let held = port
+                    .last_error
+                    .is_some_and(|e| now.saturating_since(e) < self.cfg.error_hold);
+                if port.cond == Condition::Suspect && !held {
+                    self.set(now, p, PortState::Ok, PortReason::LagWithin { lag }, out);
+                }
+            }
+            _ => {}
+        }
+    }
+
     /// A frame was handed to port `p` at `now`.
     pub(crate) fn count_tx(&mut self, now: Instant, p: usize) {
         let port = &mut self.ports[p];
@@ -400,7 +286,7 @@ impl Health {
             c.rx += 1;
             c.last_rx = Some(now);
             match outcome {
-                RxOutcome::Delivered | RxOutcome::Direct => c.delivered += 1,
+                RxOutcome::Delivered | RxOutcome::Direct | RxOutcome::Slipped => c.delivered += 1,
                 RxOutcome::Duplicate => c.duplicates += 1,
                 RxOutcome::Untrusted => c.untrusted += 1,
                 RxOutcome::Ignored => {}
@@ -419,9 +305,10 @@ impl Health {
         match &mut port.cond {
             Condition::Ok => {}
             Condition::Suspect => {
-                if port
-                    .last_error
-                    .is_none_or(|e| now.saturating_since(e) >= self.cfg.error_hold)
+                if port.lagging.is_none()
+                    && port
+                        .last_error
+                        .is_none_or(|e| now.saturating_since(e) >= self.cfg.error_hold)
                 {
                     self.set(now, p, PortState::Ok, PortReason::Traffic, out);
                 }
@@ -449,7 +336,11 @@ impl Health {
         } = self.ports[p].cond
         {
             if now.saturating_since(from) >= self.cfg.probation {
-                self.set(now, p, PortState::Ok, PortReason::Traffic, out);
+                // Back, but still lagging beyond the maximum: suspect for that.
+                match self.ports[p].lagging {
+                    Some(lag) => self.set(now, p, PortState::Suspect, PortReason::Lag { lag }, out),
+                    None => self.set(now, p, PortState::Ok, PortReason::Traffic, out),
+                }
             }
         }
     }
@@ -690,6 +581,10 @@ pub(crate) enum RxOutcome {
     Duplicate,
     /// From an untrusted port, no twin pending: dropped (the other port should deliver it).
     Untrusted,
+    /// Delivered, although a late copy of the other port was pending: a lagging twin not yet
+    /// known as such, or a repeat of a frame the other port missed, whose own copy comes after.
+    /// Either way the other port has its copy: nothing missed.
+    Slipped,
     /// Delivered without merging (single active channel): no twin expected.
     Direct,
     /// Not for the application (inactive channel, link-layer frame).

@@ -293,3 +293,60 @@ fn transmit_stall_flushes_and_fails_and_only_reinit_revives() {
     );
     assert_eq!(h.stall_deadline(0), Some(ms(130)));
 }
+
+#[test]
+fn a_port_lagging_beyond_the_maximum_is_suspect_until_its_lag_is_within_again() {
+    let mut h = Health::new(HealthConfig::default(), W);
+    let mut out = Outbox::new();
+    let lag = Duration::from_millis(45);
+    h.set_lagging(ms(10), 1, lag, true, &mut out);
+    assert_eq!(h.port(1).lagging(), Some(lag));
+    // Frames received do not make it ok while it lags, nor does the lag report repeat.
+    h.on_rx(ms(500), 1, RxOutcome::Duplicate, &mut out);
+    h.set_lagging(ms(600), 1, lag, true, &mut out);
+    assert_eq!(h.port(1).state(), PortState::Suspect);
+    let within = Duration::from_millis(20);
+    h.set_lagging(ms(700), 1, within, false, &mut out);
+    assert_eq!(
+        port_events(&mut out),
+        [
+            (ms(10), 1, PortState::Suspect, PortReason::Lag { lag }),
+            (
+                ms(700),
+                1,
+                PortState::Ok,
+                PortReason::LagWithin { lag: within }
+            ),
+        ]
+    );
+    // Suspect for an error as well: it stays suspect when the lag ends, until the error hold
+    // is over and a frame comes.
+    h.on_status(
+        ms(800),
+        0,
+        PortStatus::Error(ErrorCause::ErrorPassive),
+        &mut out,
+    );
+    h.set_lagging(ms(810), 0, lag, true, &mut out);
+    h.set_lagging(ms(850), 0, Duration::ZERO, false, &mut out);
+    assert_eq!(h.port(0).state(), PortState::Suspect);
+    h.on_rx(ms(900), 0, RxOutcome::Delivered, &mut out);
+    assert_eq!(h.port(0).state(), PortState::Ok);
+    // A port that fails and recovers while it lags comes back suspect for the lag.
+    h.set_lagging(ms(1_000), 1, lag, true, &mut out);
+    h.on_status(
+        ms(1_000),
+        1,
+        PortStatus::Down(ErrorCause::InterfaceDown),
+        &mut out,
+    );
+    h.on_status(ms(1_050), 1, PortStatus::Up, &mut out);
+    h.on_rx(ms(1_060), 1, RxOutcome::Duplicate, &mut out);
+    h.on_rx(ms(1_200), 1, RxOutcome::Duplicate, &mut out);
+    assert_eq!(h.port(1).state(), PortState::Suspect);
+    let last = port_events(&mut out).pop().unwrap();
+    assert_eq!(
+        last,
+        (ms(1_200), 1, PortState::Suspect, PortReason::Lag { lag })
+    );
+}

@@ -65,6 +65,8 @@
 
 use duocan::{Duration, Frame, Instant};
 
+mod late;
+
 /// What to do with an arrival.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Verdict {
@@ -74,17 +76,37 @@ pub enum Verdict {
     Duplicate,
 }
 
+/// The other port's copy an arrival was matched with, or (late) only seen.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Twin {
+    /// How long after the other port's copy this one arrived, when that is known exactly: the
+    /// copy was the only pending one of its key, or a late one. `None` when several copies of
+    /// the key were pending (which of them is the twin is then a convention, not a fact).
+    pub lag: Option<Duration>,
+    /// The other copy had already left the window: a late copy, within the horizon.
+    pub late: bool,
+}
+
 /// What a merger has done since it was created.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub struct MergeStats {
     /// Arrivals delivered.
     pub delivered: u64,
-    /// Arrivals dropped as twins.
+    /// Arrivals dropped as twins (late ones included).
     pub duplicates: u64,
-    /// Unmatched records that expired (their twin never came: one bus missed the frame).
+    /// Arrivals dropped as twins of a copy that had already left the window (within the
+    /// horizon, on a port that may match late copies: see [`Merger::set_late_match`]).
+    pub late: u64,
+    /// Arrivals delivered although a late copy of them was pending, on a port that may not
+    /// match late copies: either a lagging twin (delivered a second time) or a repeat of a
+    /// frame the other port missed; the two look the same (see the module documentation).
+    pub slipped: u64,
+    /// Unmatched records that left the window (their twin had not come: one bus missed the
+    /// frame, or lags; with a horizon, a lagging twin may still be matched, see `late`).
     pub expired: u64,
-    /// Unmatched records evicted early because the table was full (each may cause one
-    /// duplicate later).
+    /// Unmatched records evicted early because the table was full (without a horizon each may
+    /// cause one duplicate later; with one, they stay matchable as late records while the ring
+    /// has room).
     pub evicted: u64,
     /// Arrivals on a port other than 0 and 1 (delivered, not recorded).
     pub bad_port: u64,
@@ -98,14 +120,21 @@ struct Slot {
     lo: u64,
     hash: u32,
     /// Arrivals recorded for this key so far (wrapping); the next record gets this number.
-    recorded: u32,
+    recorded: u16,
     /// Live (unmatched) records: the newest `unmatched` recorded ones.
     unmatched: u16,
-    /// Records in the ring pointing here, live or not; the slot is freed at zero.
+    /// Records pointing here, in the ring or late behind it; the slot is freed at zero.
     refs: u16,
-    /// Port holding the live records.
-    side: u8,
+    /// Ring position of the newest record: the age of the only live record.
+    last_pos: u16,
+    /// Late records of this key (all of the port in [`LATE_SIDE`]).
+    late: u16,
+    /// Bit 0: the port holding the live records; [`LATE_SIDE`]: the port of the late ones.
+    flags: u8,
 }
+
+/// The bit of [`Slot::flags`] naming the port of the late records.
+const LATE_SIDE: u8 = 2;
 
 impl Slot {
     const EMPTY: Slot = Slot {
@@ -115,15 +144,29 @@ impl Slot {
         recorded: 0,
         unmatched: 0,
         refs: 0,
-        side: 0,
+        last_pos: 0,
+        late: 0,
+        flags: 0,
     };
+    #[inline]
+    fn side(&self) -> u8 {
+        self.flags & 1
+    }
+    #[inline]
+    fn late_side(&self) -> u8 {
+        (self.flags & LATE_SIDE) >> 1
+    }
 }
 
+/// One arrival: in the ring while its window lasts, then, if unmatched and kept, a *late*
+/// record behind the ring (still pointing to its slot) until the horizon or until overwritten.
 #[derive(Clone, Copy)]
 struct Record {
     at: u64,
-    seq: u32,
+    seq: u16,
     slot: u16,
+    /// Behind the ring: a late record (its slot counts it in `late` and `refs`).
+    late: bool,
 }
 
 impl Record {
@@ -131,6 +174,7 @@ impl Record {
         at: 0,
         seq: 0,
         slot: 0,
+        late: false,
     };
 }
 
@@ -148,9 +192,24 @@ impl Record {
 /// assert_eq!(m.arrive(t(1), 0, &hb), Verdict::Deliver);
 /// assert_eq!(m.arrive(t(3), 1, &hb), Verdict::Duplicate);
 /// assert_eq!(m.arrive(t(4), 1, &hb), Verdict::Duplicate);
+///
+/// // With a horizon, a copy that comes after the window is still recognised and measured;
+/// // it is matched once its port is known to lag.
+/// let mut m: Merger<64> =
+///     Merger::with_horizon(Duration::from_millis(10), Duration::from_millis(80));
+/// let tpdo = |v| Frame::from_array(Id::Standard(0x185), [v]);
+/// assert_eq!(m.arrive_measured(t(0), 0, &tpdo(1)), (Verdict::Deliver, None));
+/// let (verdict, seen) = m.arrive_measured(t(25), 1, &tpdo(1));
+/// assert_eq!(verdict, Verdict::Deliver);
+/// assert_eq!(seen.and_then(|s| s.lag), Some(Duration::from_millis(25)));
+/// m.set_late_match(1, true);
+/// assert_eq!(m.arrive(t(40), 0, &tpdo(2)), Verdict::Deliver);
+/// assert_eq!(m.arrive(t(65), 1, &tpdo(2)), Verdict::Duplicate);
 /// ```
 pub struct Merger<const SLOTS: usize> {
     window: u64,
+    /// How long an unmatched record stays recognisable behind the ring (0: not at all).
+    horizon: u64,
     ring: [Record; SLOTS],
     head: usize,
     len: usize,
@@ -159,6 +218,14 @@ pub struct Merger<const SLOTS: usize> {
     free_len: usize,
     /// Open addressing, linear probing: 0 = empty, else arena slot + 1.
     index: [u16; SLOTS],
+    /// Late records behind the ring (those past the horizon included, until overwritten).
+    late: usize,
+    /// Per port: its unmatched records that arrived from this instant (µs) on are kept as late
+    /// records (the other port can deliver their twins); `None`: none are.
+    keep_late: [Option<u64>; 2],
+    /// Per port: its arrivals may match late records of the other port (it is known to lag);
+    /// otherwise they only see them.
+    late_match: [bool; 2],
     stats: MergeStats,
 }
 
@@ -177,6 +244,14 @@ impl<const SLOTS: usize> Merger<SLOTS> {
     /// An empty merger matching twins up to `window` apart.
     #[must_use]
     pub fn new(window: Duration) -> Self {
+        Self::with_horizon(window, Duration::ZERO)
+    }
+
+    /// An empty merger matching twins up to `window` apart, which also recognises a twin that
+    /// comes up to `horizon` after its copy on the other port (a lagging bus): see the module
+    /// documentation. A horizon not beyond the window is none.
+    #[must_use]
+    pub fn with_horizon(window: Duration, horizon: Duration) -> Self {
         #[allow(clippy::let_unit_value)]
         let () = Self::CHECK;
         let mut free = [0u16; SLOTS];
@@ -184,8 +259,10 @@ impl<const SLOTS: usize> Merger<SLOTS> {
         for (i, f) in free.iter_mut().enumerate() {
             *f = (SLOTS - 1 - i) as u16;
         }
+        let (window, horizon) = (window.as_micros(), horizon.as_micros());
         Merger {
-            window: window.as_micros(),
+            window,
+            horizon: if horizon > window { horizon } else { 0 },
             ring: [Record::EMPTY; SLOTS],
             head: 0,
             len: 0,
@@ -193,6 +270,9 @@ impl<const SLOTS: usize> Merger<SLOTS> {
             free,
             free_len: SLOTS,
             index: [0; SLOTS],
+            late: 0,
+            keep_late: [Some(0); 2],
+            late_match: [false; 2],
             stats: MergeStats::default(),
         }
     }
@@ -221,6 +301,22 @@ impl<const SLOTS: usize> Merger<SLOTS> {
     pub fn set_window(&mut self, window: Duration) {
         self.window = window.as_micros();
     }
+    /// How long after its arrival an unmatched record is still recognised by a lagging copy
+    /// (zero: not after its window).
+    pub fn horizon(&self) -> Duration {
+        Duration::from_micros(self.horizon)
+    }
+    /// Lets arrivals on `port` match late records of the other port (`true`: the port is known
+    /// to lag), or only see them (`false`, the default: they are delivered as before).
+    pub fn set_late_match(&mut self, port: usize, matches: bool) {
+        if let Some(m) = self.late_match.get_mut(port) {
+            *m = matches;
+        }
+    }
+    /// Whether arrivals on `port` match late records (see [`Merger::set_late_match`]).
+    pub fn late_match(&self, port: usize) -> bool {
+        self.late_match.get(port).copied().unwrap_or(false)
+    }
     /// Counters.
     pub fn stats(&self) -> MergeStats {
         self.stats
@@ -229,6 +325,9 @@ impl<const SLOTS: usize> Merger<SLOTS> {
     pub fn clear(&mut self) {
         *self = Merger {
             stats: self.stats,
+            horizon: self.horizon,
+            late_match: self.late_match,
+            keep_late: self.keep_late,
             ..Merger::new(self.window())
         };
     }
@@ -247,24 +346,42 @@ impl<const SLOTS: usize> Merger<SLOTS> {
 
     /// A frame arrived on `port` (0 or 1) at `now`. Times must not go backwards; if they do,
     /// the merger stays consistent but may match across the jump.
+    #[inline]
     pub fn arrive(&mut self, now: Instant, port: usize, frame: &Frame) -> Verdict {
+        self.arrive_measured(now, port, frame).0
+    }
+
+    /// As [`Merger::arrive`], reporting the other port's copy: for a duplicate, the twin it
+    /// matched; for a delivered arrival, a late copy it saw without matching it (its port may
+    /// not match late copies), or `None`: a first copy.
+    pub fn arrive_measured(
+        &mut self,
+        now: Instant,
+        port: usize,
+        frame: &Frame,
+    ) -> (Verdict, Option<Twin>) {
         self.expire(now);
         if port > 1 {
             self.stats.bad_port += 1;
             self.stats.delivered += 1;
-            return Verdict::Deliver;
+            return (Verdict::Deliver, None);
         }
         let side = port as u8;
         let (hi, lo) = key(frame);
         let hash = hash(hi, lo);
         let at = now.as_micros();
-        match self.find(hi, lo, hash) {
+        let seen = match self.find(hi, lo, hash) {
             Ok(s) => {
-                let slot = &mut self.slots[s];
-                if slot.unmatched > 0 && slot.side != side {
-                    slot.unmatched -= 1;
-                    self.stats.duplicates += 1;
-                    return Verdict::Duplicate;
+                if let Some(twin) = self.consume(s, side, at) {
+                    return (Verdict::Duplicate, Some(twin));
+                }
+                // Pinned: taking a late record may release the slot's last reference.
+                self.slots[s].refs += 1;
+                let seen = self.take_late(s, side, at);
+                self.slots[s].refs -= 1;
+                if seen.is_some() && self.late_match[port] {
+                    self.release_if_unused(s);
+                    return (Verdict::Duplicate, seen);
                 }
                 if self.len == Self::CAP {
                     // Pin the slot so that evicting its own last record cannot free it.
@@ -273,37 +390,51 @@ impl<const SLOTS: usize> Merger<SLOTS> {
                     self.slots[s].refs -= 1;
                 }
                 self.record(s, side, at);
+                seen
             }
             Err(_) => {
+                // No slot, no late record either (late records keep their slot).
                 if self.len == Self::CAP {
                     self.pop_front(true);
                 }
+                self.make_room();
                 let s = self.insert(hi, lo, hash);
                 self.record(s, side, at);
+                None
             }
-        }
+        };
         self.stats.delivered += 1;
-        Verdict::Deliver
+        if seen.is_some() {
+            self.stats.slipped += 1;
+        }
+        (Verdict::Deliver, seen)
     }
 
-    /// A frame arrived on a port that is not trusted to deliver (failed or recovering): it may
-    /// only be a twin. Consumes a matching record of the other port if there is one; never
+    /// A frame arrived on a port that is not trusted to deliver (failed or recovering, or
+    /// lagging beyond the maximum): it may only be a twin. Consumes a matching record of the
+    /// other port if there is one (a late one too, if the port may match late copies); never
     /// records. Returns true if it was a twin.
     pub fn match_only(&mut self, now: Instant, port: usize, frame: &Frame) -> bool {
+        self.match_measured(now, port, frame).is_some()
+    }
+
+    /// As [`Merger::match_only`], reporting the twin it matched.
+    pub fn match_measured(&mut self, now: Instant, port: usize, frame: &Frame) -> Option<Twin> {
         self.expire(now);
         if port > 1 {
-            return false;
+            return None;
         }
         let (hi, lo) = key(frame);
-        if let Ok(s) = self.find(hi, lo, hash(hi, lo)) {
-            let slot = &mut self.slots[s];
-            if slot.unmatched > 0 && slot.side != port as u8 {
-                slot.unmatched -= 1;
-                self.stats.duplicates += 1;
-                return true;
-            }
+        let hash = hash(hi, lo);
+        let at = now.as_micros();
+        let s = self.find(hi, lo, hash).ok()?;
+        if let Some(twin) = self.consume(s, port as u8, at) {
+            return Some(twin);
         }
-        false
+        if !self.late_match[port] {
+            return None;
+        }
+        self.take_late(s, port as u8, at)
     }
 
     /// Live records of `frame`'s key, with the port holding them.
@@ -311,23 +442,45 @@ impl<const SLOTS: usize> Merger<SLOTS> {
         let (hi, lo) = key(frame);
         let s = self.find(hi, lo, hash(hi, lo)).ok()?;
         let slot = &self.slots[s];
-        (slot.unmatched > 0).then_some((slot.side as usize, slot.unmatched))
+        (slot.unmatched > 0).then_some((slot.side() as usize, slot.unmatched))
+    }
+
+    /// Consumes the oldest live record of slot `s` held by the port other than `side`.
+    #[inline]
+    fn consume(&mut self, s: usize, side: u8, at: u64) -> Option<Twin> {
+        let slot = &mut self.slots[s];
+        if slot.unmatched == 0 || slot.side() == side {
+            return None;
+        }
+        // With one live record it is the newest, in the ring: its age is exact.
+        let lag = (slot.unmatched == 1).then(|| {
+            let newest = self.ring[slot.last_pos as usize].at;
+            Duration::from_micros(at.saturating_sub(newest))
+        });
+        slot.unmatched -= 1;
+        self.stats.duplicates += 1;
+        Some(Twin { lag, late: false })
     }
 
     fn record(&mut self, s: usize, side: u8, at: u64) {
+        let tail = (self.head + self.len) & Self::MASK;
         let slot = &mut self.slots[s];
         if slot.unmatched == 0 {
-            slot.side = side;
+            slot.flags = (slot.flags & !1) | side;
         }
         let seq = slot.recorded;
         slot.recorded = seq.wrapping_add(1);
         slot.unmatched += 1;
+        // Counted before the late record at the tail gives its reference back, which may be
+        // this slot's.
         slot.refs += 1;
-        let tail = (self.head + self.len) & Self::MASK;
+        slot.last_pos = tail as u16;
+        self.drop_late(tail);
         self.ring[tail] = Record {
             at,
             seq,
             slot: s as u16,
+            late: false,
         };
         self.len += 1;
         if self.len as u32 > self.stats.high_water {
@@ -336,22 +489,42 @@ impl<const SLOTS: usize> Merger<SLOTS> {
     }
 
     fn pop_front(&mut self, evicting: bool) {
-        let r = self.ring[self.head];
+        let pos = self.head;
+        let r = self.ring[pos];
         self.head = (self.head + 1) & Self::MASK;
         self.len -= 1;
         let s = r.slot as usize;
         let slot = &mut self.slots[s];
         // Live iff among the `unmatched` newest records of the key.
-        if slot.recorded.wrapping_sub(r.seq) <= slot.unmatched as u32 {
+        if slot.recorded.wrapping_sub(r.seq) <= slot.unmatched {
             slot.unmatched -= 1;
             if evicting {
                 self.stats.evicted += 1;
             } else {
                 self.stats.expired += 1;
             }
+            let side = slot.side();
+            if self.hold_late(pos, s, side) {
+                // It keeps its reference.
+                return;
+            }
         }
+        self.release(s);
+    }
+
+    /// One reference to slot `s` less; the slot is freed at zero.
+    #[inline]
+    fn release(&mut self, s: usize) {
+        let slot = &mut self.slots[s];
         slot.refs -= 1;
         if slot.refs == 0 {
+            self.remove(s);
+        }
+    }
+
+    /// Frees slot `s` if nothing refers to it (after a pin was taken off).
+    fn release_if_unused(&mut self, s: usize) {
+        if self.slots[s].refs == 0 {
             self.remove(s);
         }
     }
@@ -462,116 +635,4 @@ fn hash(hi: u64, lo: u64) -> u32 {
 }
 
 #[cfg(test)]
-mod tests {
-    use super::*;
-    use duocan::Id;
-
-    fn f(id: u16, d: u8) -> Frame {
-        Frame::from_array(Id::Standard(id), [d])
-    }
-    fn t(us: u64) -> Instant {
-        Instant::from_micros(us)
-    }
-    const W: Duration = Duration::from_millis(10);
-
-    #[test]
-    fn twin_within_window_is_dropped_and_late_twin_is_delivered() {
-        let mut m: Merger<16> = Merger::new(W);
-        assert_eq!(m.arrive(t(0), 0, &f(1, 1)), Verdict::Deliver);
-        assert_eq!(m.arrive(t(9_999), 1, &f(1, 1)), Verdict::Duplicate);
-        assert_eq!(m.arrive(t(20_000), 0, &f(1, 1)), Verdict::Deliver);
-        // Exactly one window later the record has expired: a new occurrence.
-        assert_eq!(m.arrive(t(30_000), 1, &f(1, 1)), Verdict::Deliver);
-        assert_eq!(m.stats().expired, 1);
-    }
-
-    #[test]
-    fn repeats_on_one_port_are_all_delivered_and_matched_one_for_one() {
-        let mut m: Merger<16> = Merger::new(W);
-        for i in 0..3 {
-            assert_eq!(m.arrive(t(i), 0, &f(1, 1)), Verdict::Deliver);
-        }
-        assert_eq!(m.unmatched(&f(1, 1)), Some((0, 3)));
-        for i in 0..3 {
-            assert_eq!(m.arrive(t(5 + i), 1, &f(1, 1)), Verdict::Duplicate);
-        }
-        // A fourth copy on port 1 has no twin left: new occurrence, recorded for port 1.
-        assert_eq!(m.arrive(t(9), 1, &f(1, 1)), Verdict::Deliver);
-        assert_eq!(m.unmatched(&f(1, 1)), Some((1, 1)));
-    }
-
-    #[test]
-    fn different_data_or_dlc_or_rtr_is_a_different_key() {
-        let mut m: Merger<16> = Merger::new(W);
-        let a = Frame::new(Id::Standard(5), &[0]).unwrap();
-        let b = Frame::new(Id::Standard(5), &[]).unwrap();
-        let r = Frame::remote(Id::Standard(5), 0).unwrap();
-        let x = Frame::new(Id::Extended(5), &[]).unwrap();
-        for fr in [a, b, r, x] {
-            assert_eq!(m.arrive(t(0), 0, &fr), Verdict::Deliver);
-        }
-        assert_eq!(m.keys(), 4);
-        for fr in [a, b, r, x] {
-            assert_eq!(m.arrive(t(1), 1, &fr), Verdict::Duplicate);
-        }
-    }
-
-    #[test]
-    fn slots_are_freed_when_records_leave() {
-        let mut m: Merger<16> = Merger::new(W);
-        for i in 0..12u8 {
-            m.arrive(t(0), 0, &f(0x100, i));
-        }
-        assert_eq!(m.keys(), 12);
-        m.expire(t(10_000));
-        assert_eq!((m.len(), m.keys()), (0, 0));
-        // The index is empty again: everything can be re-inserted and found.
-        for i in 0..12u8 {
-            m.arrive(t(10_000), 0, &f(0x100, i));
-        }
-        for i in 0..12u8 {
-            assert_eq!(m.arrive(t(10_001), 1, &f(0x100, i)), Verdict::Duplicate);
-        }
-    }
-
-    #[test]
-    fn overflow_evicts_the_oldest_and_never_refuses_a_delivery() {
-        let mut m: Merger<16> = Merger::new(W);
-        assert_eq!(m.capacity(), 12);
-        for i in 0..20u8 {
-            assert_eq!(m.arrive(t(i as u64), 0, &f(0x100, i)), Verdict::Deliver);
-        }
-        assert_eq!(m.len(), 12);
-        assert_eq!(m.stats().evicted, 8);
-        // The twins of the kept ones are matched; those of the evicted ones (0..8) come back
-        // as duplicates: one per eviction, no more.
-        for i in 8..20u8 {
-            assert_eq!(m.arrive(t(100), 1, &f(0x100, i)), Verdict::Duplicate);
-        }
-        for i in 0..8u8 {
-            assert_eq!(m.arrive(t(100), 1, &f(0x100, i)), Verdict::Deliver);
-        }
-        assert_eq!(m.stats().evicted, 8);
-    }
-
-    #[test]
-    fn eviction_of_the_arrivals_own_key_keeps_the_slot() {
-        let mut m: Merger<4> = Merger::new(W);
-        assert_eq!(m.capacity(), 3);
-        for i in 0..10 {
-            assert_eq!(m.arrive(t(i), 0, &f(7, 7)), Verdict::Deliver);
-        }
-        assert_eq!(m.unmatched(&f(7, 7)), Some((0, 3)));
-        assert_eq!(m.keys(), 1);
-    }
-
-    #[test]
-    fn match_only_consumes_but_never_records() {
-        let mut m: Merger<16> = Merger::new(W);
-        assert!(!m.match_only(t(0), 1, &f(1, 1)));
-        assert!(m.is_empty());
-        m.arrive(t(1), 0, &f(1, 1));
-        assert!(m.match_only(t(2), 1, &f(1, 1)));
-        assert_eq!(m.unmatched(&f(1, 1)), None);
-    }
-}
+mod tests;

@@ -17,14 +17,14 @@
 //! assert_eq!(duocan::Device::port_count(&station), 2);
 //! ```
 
-use crate::link::channel::{
-    ChannelPolicy, Cia3026, Cia3026Config, Ecss, EcssConfig, FrameInfo, ModeKind, Policy, RxRoute,
-};
+use crate::link::channel::{ChannelPolicy, Cia3026, Ecss, FrameInfo, ModeKind, Policy, RxRoute};
 use crate::link::classify::FrameClassifier;
 use crate::link::config::{ConfigError, OdLayout};
+pub use crate::link::config::{DualBusConfig, LinkMode};
 use crate::link::events::LinkEvent;
-use crate::link::health::{Health, HealthConfig, PortHealth, PortState, RxOutcome};
-use crate::link::merge::{Merger, Verdict};
+use crate::link::health::{Health, PortHealth, PortState, RxOutcome};
+use crate::link::lag::LagMeter;
+use crate::link::merge::Merger;
 use crate::link::outbox::Outbox;
 use crate::link::plausible::Plausibility;
 use crate::link::reach::Reach;
@@ -39,108 +39,6 @@ use duocan::{Duration, Frame, Instant};
 /// Merger slots of a [`DualBus`] unless chosen otherwise: 768 records, enough for two
 /// saturated 1 Mbit/s buses with a 10 ms window.
 pub const DEFAULT_MERGE_SLOTS: usize = 1024;
-
-/// Which redundancy scheme the layer runs.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
-pub enum LinkMode {
-    /// Both buses carry everything; receive merge exactly once (the railway default).
-    #[default]
-    ActiveActive,
-    /// CiA 302-6 active-standby.
-    Cia302_6(Cia3026Config),
-    /// ECSS-E-ST-50-15C bus toggling.
-    EcssToggle(EcssConfig),
-}
-
-/// Everything a [`DualBus`] is configured with.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-#[non_exhaustive]
-pub struct DualBusConfig {
-    /// The scheme.
-    pub mode: LinkMode,
-    /// Skew window of the merger (default 10 ms): longer than the worst inter-bus skew, shorter
-    /// than the shortest repetition period that matters.
-    pub skew_window: Duration,
-    /// Port health timing.
-    pub health: HealthConfig,
-    /// A node not heard on a bus for this long is reported unreachable there (default: the
-    /// silence limit).
-    pub reach_timeout: Duration,
-    /// A/B values differing this long raise a discrepancy (default 100 ms; zero: never).
-    pub discrepancy_time: Duration,
-    /// Where the node's dictionary has the redundancy objects: the layer keeps their status
-    /// entries (ECSS Bdefault and Ctoggle, the CiA 302-6 channel error counter) up to date
-    /// through [`LinkRequest::SetStatus`].
-    pub od_layout: OdLayout,
-}
-
-// Builders: the struct is `#[non_exhaustive]` (it may gain fields), so code outside the crate
-// starts from a constructor or `Default` and sets what it needs.
-impl DualBusConfig {
-    /// The configuration with [`mode`](Self::mode) replaced.
-    #[must_use]
-    pub fn with_mode(mut self, mode: LinkMode) -> Self {
-        self.mode = mode;
-        self
-    }
-    /// The configuration with [`skew_window`](Self::skew_window) replaced.
-    #[must_use]
-    pub fn with_skew_window(mut self, skew_window: Duration) -> Self {
-        self.skew_window = skew_window;
-        self
-    }
-    /// The configuration with [`health`](Self::health) replaced.
-    #[must_use]
-    pub fn with_health(mut self, health: HealthConfig) -> Self {
-        self.health = health;
-        self
-    }
-    /// The configuration with [`reach_timeout`](Self::reach_timeout) replaced.
-    #[must_use]
-    pub fn with_reach_timeout(mut self, reach_timeout: Duration) -> Self {
-        self.reach_timeout = reach_timeout;
-        self
-    }
-    /// The configuration with [`discrepancy_time`](Self::discrepancy_time) replaced.
-    #[must_use]
-    pub fn with_discrepancy_time(mut self, discrepancy_time: Duration) -> Self {
-        self.discrepancy_time = discrepancy_time;
-        self
-    }
-    /// The configuration with [`od_layout`](Self::od_layout) replaced.
-    #[must_use]
-    pub fn with_od_layout(mut self, od_layout: OdLayout) -> Self {
-        self.od_layout = od_layout;
-        self
-    }
-}
-
-impl Default for DualBusConfig {
-    fn default() -> Self {
-        DualBusConfig::with_guard_period(LinkMode::ActiveActive, Duration::from_millis(100))
-    }
-}
-
-impl DualBusConfig {
-    /// `mode` with the health and reachability timing derived from the node-guarding (or
-    /// heartbeat) period: silence limit 3 periods.
-    #[must_use]
-    pub fn with_guard_period(mode: LinkMode, period: Duration) -> Self {
-        let skew_window = Duration::from_millis(10);
-        let health = HealthConfig {
-            tx_stall: skew_window,
-            ..HealthConfig::from_guard_period(period)
-        };
-        DualBusConfig {
-            mode,
-            skew_window,
-            health,
-            reach_timeout: health.silence_limit,
-            discrepancy_time: Duration::from_millis(100),
-            od_layout: OdLayout::default(),
-        }
-    }
-}
 
 /// A node on a dual bus: the common redundant slave (one board of a pair), or any node that
 /// needs no supervisor.
@@ -205,6 +103,7 @@ pub struct DualBus<
     classifier: C,
     policy: Policy,
     merger: Merger<SLOTS>,
+    lag: LagMeter,
     health: Health,
     reach: Reach,
     reach_enabled: bool,
@@ -260,10 +159,14 @@ impl<C: FrameClassifier, const SLOTS: usize, const FUNCTIONS: usize> DualBus<C, 
                 (Policy::EcssToggle(Ecss::new(c)), false)
             }
         };
+        // A lag is forgotten after the silence limit: the time in which a port hears something
+        // anyway.
+        let lag = LagMeter::new(cfg.skew_window, cfg.max_skew_window, health.silence_limit);
         let mut l = DualBus {
             classifier,
             policy,
-            merger: Merger::new(cfg.skew_window),
+            merger: Merger::with_horizon(cfg.skew_window, lag.horizon()),
+            lag,
             health: Health::new(health, cfg.skew_window),
             reach: Reach::new(cfg.reach_timeout, cfg.skew_window),
             reach_enabled,
@@ -371,6 +274,11 @@ impl<C: FrameClassifier, const SLOTS: usize, const FUNCTIONS: usize> DualBus<C, 
     pub fn merger(&self) -> &Merger<SLOTS> {
         &self.merger
     }
+    /// Each port's lag, the merge window it needs and the port distrusted for lagging beyond
+    /// the maximum.
+    pub fn lag(&self) -> &LagMeter {
+        &self.lag
+    }
     /// Per-node, per-bus reachability.
     pub fn reach(&self) -> &Reach {
         &self.reach
@@ -469,22 +377,14 @@ impl<C: FrameClassifier, const SLOTS: usize, const FUNCTIONS: usize> BusLink
         let outcome = match route {
             RxRoute::Ignore => RxOutcome::Ignored,
             RxRoute::Direct => RxOutcome::Direct,
-            RxRoute::Merge if self.health.trusted(port) => {
-                match self.merger.arrive(now, port, frame) {
-                    Verdict::Deliver => RxOutcome::Delivered,
-                    Verdict::Duplicate => RxOutcome::Duplicate,
-                }
-            }
-            RxRoute::Merge => {
-                if self.merger.match_only(now, port, frame) {
-                    RxOutcome::Duplicate
-                } else {
-                    RxOutcome::Untrusted
-                }
-            }
+            RxRoute::Merge => self.merge(now, port, frame),
         };
         self.health.on_rx(now, port, outcome, &mut self.out);
-        if !matches!(outcome, RxOutcome::Delivered | RxOutcome::Direct) {
+        self.keep_late(now);
+        if !matches!(
+            outcome,
+            RxOutcome::Delivered | RxOutcome::Direct | RxOutcome::Slipped
+        ) {
             return None;
         }
         if !self.pairs.is_empty() {
@@ -512,6 +412,7 @@ impl<C: FrameClassifier, const SLOTS: usize, const FUNCTIONS: usize> BusLink
             return;
         }
         self.health.on_status(now, port, status, &mut self.out);
+        self.keep_late(now);
         self.policy.on_status(now, port, status, &mut self.out);
         self.show_status();
     }
@@ -543,6 +444,7 @@ impl<C: FrameClassifier, const SLOTS: usize, const FUNCTIONS: usize> BusLink
     fn handle_timeout(&mut self, now: Instant) {
         self.now = now;
         self.health.handle_timeout(now, &mut self.out);
+        self.keep_late(now);
         if self.reach_enabled {
             self.reach.handle_timeout(now, &mut self.out);
         }
@@ -551,6 +453,9 @@ impl<C: FrameClassifier, const SLOTS: usize, const FUNCTIONS: usize> BusLink
         self.policy.handle_timeout(now, &mut self.out);
         self.show_status();
         self.pairs.handle_timeout(now, &mut self.out);
+        if let Some(at) = self.lag.handle_timeout(now, &mut self.out) {
+            self.follow_lag(at);
+        }
         self.merger.expire(now);
     }
 
@@ -566,6 +471,7 @@ impl<C: FrameClassifier, const SLOTS: usize, const FUNCTIONS: usize> BusLink
             self.policy.poll_timeout(),
             self.pairs.poll_timeout(),
             self.plausible.poll_timeout(),
+            self.lag.poll_timeout(),
         ])
     }
 
@@ -602,95 +508,12 @@ impl<C, const SLOTS: usize, const FUNCTIONS: usize> core::fmt::Debug
                 &[self.health.port(0).state(), self.health.port(1).state()],
             )
             .field("merger", &self.merger)
+            .field("lag", &[self.lag.lag(0), self.lag.lag(1)])
             .field("stats", &self.stats)
             .finish_non_exhaustive()
     }
 }
 
+mod rx;
 #[cfg(test)]
-mod tests {
-    use super::*;
-    use crate::link::events::{LinkEventKind, PortReason};
-    use duocan::machine::ErrorCause;
-    use duocan::{Id, NodeId};
-
-    fn ms(x: u64) -> Instant {
-        Instant::from_millis(x)
-    }
-    fn drain(l: &mut DualBus) -> Vec<(usize, Frame)> {
-        core::iter::from_fn(|| l.poll_transmit()).collect()
-    }
-
-    #[test]
-    fn fan_out_skips_failed_ports_and_the_merge_delivers_once() {
-        let mut l = DualBus::new(DualBusConfig::default());
-        let f = Frame::from_array(Id::Standard(0x181), [1]);
-        l.send(ms(0), &f);
-        assert_eq!(drain(&mut l), [(0, f), (1, f)]);
-        l.handle_port_status(ms(1), 1, PortStatus::Down(ErrorCause::InterfaceDown));
-        l.send(ms(2), &f);
-        assert_eq!(drain(&mut l), [(0, f)]);
-        assert_eq!(l.port(0).counters().tx, 2);
-        assert_eq!(l.port(1).counters().tx, 1);
-        let g = Frame::from_array(Id::Standard(0x182), [2]);
-        assert_eq!(l.handle_rx(ms(3), 0, &g), Some(g));
-        assert_eq!(l.handle_rx(ms(3), 1, &g), None);
-        assert_eq!(l.handle_rx(ms(3), 7, &g), None);
-        assert_eq!(l.stats().bad_port, 1);
-        assert_eq!(l.stats().delivered, 1);
-        let e = l.poll_event().unwrap();
-        assert_eq!(
-            e.kind,
-            LinkEventKind::Port {
-                port: 1,
-                from: PortState::Ok,
-                to: PortState::Failed,
-                reason: PortReason::Down(ErrorCause::InterfaceDown)
-            }
-        );
-    }
-
-    #[test]
-    fn pairs_deliver_the_active_member_only_and_follow_set_active() {
-        let mut l = DualBus::new(DualBusConfig::default());
-        let (a, b) = (NodeId::must(0x10), NodeId::must(0x11));
-        let p = l.add_pair(a, b, Some(Member::A)).unwrap();
-        let ta = Frame::from_array(Id::Standard(0x190), [1]);
-        let tb = Frame::from_array(Id::Standard(0x191), [1]);
-        let hb_b = Frame::from_array(Id::Standard(0x711), [5]);
-        assert_eq!(l.handle_rx(ms(0), 0, &ta), Some(ta));
-        assert_eq!(l.handle_rx(ms(0), 0, &tb), None);
-        // Not process data: both members' heartbeats go up.
-        assert_eq!(l.handle_rx(ms(0), 0, &hb_b), Some(hb_b));
-        assert_eq!(l.pairs().latest(p, Member::B, 1), Some((ms(0), tb)));
-        assert!(l.set_active(p, Some(Member::B)));
-        assert_eq!(l.handle_rx(ms(20), 0, &ta), None);
-        assert_eq!(l.handle_rx(ms(20), 0, &tb), Some(tb));
-        assert_eq!(l.stats().standby, 2);
-    }
-
-    #[test]
-    fn modes_and_commands() {
-        let mut l = DualBus::new(DualBusConfig::default());
-        assert_eq!(l.mode(), ModeKind::ActiveActive);
-        assert_eq!(l.active_channel(), None);
-        assert!(!l.select_channel(ms(0), 1));
-        let cfg = DualBusConfig {
-            mode: LinkMode::EcssToggle(EcssConfig::master()),
-            ..DualBusConfig::default()
-        };
-        let mut l = DualBus::new(cfg);
-        assert_eq!(l.mode(), ModeKind::EcssToggle);
-        assert!(!l.health().config().silence_detection);
-        let f = Frame::from_array(Id::Standard(0x181), [1]);
-        l.send(ms(0), &f);
-        assert_eq!(drain(&mut l), [(0, f)]);
-        // Only the active bus is listened to.
-        assert_eq!(l.handle_rx(ms(1), 1, &f), None);
-        assert_eq!(l.handle_rx(ms(1), 0, &f), Some(f));
-        assert!(l.select_channel(ms(2), 1));
-        l.send(ms(3), &f);
-        assert_eq!(drain(&mut l), [(1, f)]);
-        assert_eq!(l.ecss().map(|e| e.active_bus()), Some(1));
-    }
-}
+mod tests;

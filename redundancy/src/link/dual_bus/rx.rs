@@ -1,0 +1,92 @@
+//! The receive path into the merger: trusted, untrusted and lagging ports, and what the lag
+//! meter changes.
+
+use super::DualBus;
+use crate::link::classify::FrameClassifier;
+use crate::link::health::RxOutcome;
+use crate::link::merge::{Twin, Verdict};
+use duocan::{Frame, Instant};
+
+impl<C: FrameClassifier, const SLOTS: usize, const FUNCTIONS: usize> DualBus<C, SLOTS, FUNCTIONS> {
+    /// A frame for the merger: through it on a trusted port, only as a twin on an untrusted
+    /// one, and on a port lagging beyond the maximum only as a twin unless the other port is
+    /// silent (see [`crate::link::lag`]).
+    pub(super) fn merge(&mut self, now: Instant, port: usize, frame: &Frame) -> RxOutcome {
+        let other = self.health.port(1 - port);
+        if self.lag.distrusted(port) && other.state().is_trusted() {
+            if let Some(twin) = self.merger.match_measured(now, port, frame) {
+                self.measured(now, port, twin);
+                return RxOutcome::Duplicate;
+            }
+            if self.lag.other_silent(now, port, other.counters().last_rx) {
+                // Not recorded: the other port, silent, has no copy to come.
+                return RxOutcome::Delivered;
+            }
+            return RxOutcome::Untrusted;
+        }
+        if self.health.trusted(port) {
+            let (verdict, twin) = self.merger.arrive_measured(now, port, frame);
+            if let Some(twin) = twin {
+                self.measured(now, port, twin);
+            }
+            match (verdict, twin) {
+                (Verdict::Duplicate, _) => RxOutcome::Duplicate,
+                (Verdict::Deliver, Some(_)) => RxOutcome::Slipped,
+                (Verdict::Deliver, None) => RxOutcome::Delivered,
+            }
+        } else if self.merger.match_only(now, port, frame) {
+            RxOutcome::Duplicate
+        } else {
+            RxOutcome::Untrusted
+        }
+    }
+
+    /// Copies of a port are kept as late records only while the other port can deliver their
+    /// twins (ok or suspect): while it is failed or recovering its copies are lost, not late.
+    pub(super) fn keep_late(&mut self, now: Instant) {
+        for p in 0..2 {
+            let keep = self.health.port(1 - p).state().is_trusted();
+            if keep != self.merger.keeps_late(p) {
+                self.merger.keep_late(p, keep, now);
+            }
+        }
+    }
+
+    /// A twin matched for `port`: a lag sample.
+    #[inline]
+    fn measured(&mut self, now: Instant, port: usize, twin: Twin) {
+        #[cfg(feature = "std")]
+        if std::env::var("LAGDBG").is_ok()
+            && now.as_micros() > 3_550_000
+            && now.as_micros() < 3_601_000
+        {
+            std::eprintln!("DBG {now} port {port} {twin:?} {:?}", self.lag);
+        }
+        if let Some(lag) = twin.lag {
+            if self.lag.sample(now, port, lag, &mut self.out) {
+                self.follow_lag(now);
+            }
+        }
+    }
+
+    /// The lag meter changed a window or a distrust: the merger, port health and the ports'
+    /// states follow.
+    pub(super) fn follow_lag(&mut self, at: Instant) {
+        let window = self.lag.window();
+        self.merger.set_window(window);
+        self.health.set_window(window);
+        self.reach.set_settle(window);
+        for p in 0..2 {
+            // A port known to lag matches the other port's late copies: its twins. What it
+            // delivered before as first copies were twins too: forgotten, so that no later
+            // repeat on the other port is taken for their twin.
+            let lagging = self.lag.lagging(p);
+            if lagging && !self.merger.late_match(p) {
+                self.merger.forget(p);
+            }
+            self.merger.set_late_match(p, lagging);
+            let (lag, beyond) = (self.lag.lag(p), self.lag.distrusted(p));
+            self.health.set_lagging(at, p, lag, beyond, &mut self.out);
+        }
+    }
+}

@@ -1,0 +1,87 @@
+//! The layer's own unit tests: fan-out, pairs, modes.
+
+use super::*;
+use crate::link::channel::EcssConfig;
+use crate::link::events::{LinkEventKind, PortReason};
+use duocan::machine::ErrorCause;
+use duocan::{Id, NodeId};
+
+fn ms(x: u64) -> Instant {
+    Instant::from_millis(x)
+}
+fn drain(l: &mut DualBus) -> Vec<(usize, Frame)> {
+    core::iter::from_fn(|| l.poll_transmit()).collect()
+}
+
+#[test]
+fn fan_out_skips_failed_ports_and_the_merge_delivers_once() {
+    let mut l = DualBus::new(DualBusConfig::default());
+    let f = Frame::from_array(Id::Standard(0x181), [1]);
+    l.send(ms(0), &f);
+    assert_eq!(drain(&mut l), [(0, f), (1, f)]);
+    l.handle_port_status(ms(1), 1, PortStatus::Down(ErrorCause::InterfaceDown));
+    l.send(ms(2), &f);
+    assert_eq!(drain(&mut l), [(0, f)]);
+    assert_eq!(l.port(0).counters().tx, 2);
+    assert_eq!(l.port(1).counters().tx, 1);
+    let g = Frame::from_array(Id::Standard(0x182), [2]);
+    assert_eq!(l.handle_rx(ms(3), 0, &g), Some(g));
+    assert_eq!(l.handle_rx(ms(3), 1, &g), None);
+    assert_eq!(l.handle_rx(ms(3), 7, &g), None);
+    assert_eq!(l.stats().bad_port, 1);
+    assert_eq!(l.stats().delivered, 1);
+    let e = l.poll_event().unwrap();
+    assert_eq!(
+        e.kind,
+        LinkEventKind::Port {
+            port: 1,
+            from: PortState::Ok,
+            to: PortState::Failed,
+            reason: PortReason::Down(ErrorCause::InterfaceDown)
+        }
+    );
+}
+
+#[test]
+fn pairs_deliver_the_active_member_only_and_follow_set_active() {
+    let mut l = DualBus::new(DualBusConfig::default());
+    let (a, b) = (NodeId::must(0x10), NodeId::must(0x11));
+    let p = l.add_pair(a, b, Some(Member::A)).unwrap();
+    let ta = Frame::from_array(Id::Standard(0x190), [1]);
+    let tb = Frame::from_array(Id::Standard(0x191), [1]);
+    let hb_b = Frame::from_array(Id::Standard(0x711), [5]);
+    assert_eq!(l.handle_rx(ms(0), 0, &ta), Some(ta));
+    assert_eq!(l.handle_rx(ms(0), 0, &tb), None);
+    // Not process data: both members' heartbeats go up.
+    assert_eq!(l.handle_rx(ms(0), 0, &hb_b), Some(hb_b));
+    assert_eq!(l.pairs().latest(p, Member::B, 1), Some((ms(0), tb)));
+    assert!(l.set_active(p, Some(Member::B)));
+    assert_eq!(l.handle_rx(ms(20), 0, &ta), None);
+    assert_eq!(l.handle_rx(ms(20), 0, &tb), Some(tb));
+    assert_eq!(l.stats().standby, 2);
+}
+
+#[test]
+fn modes_and_commands() {
+    let mut l = DualBus::new(DualBusConfig::default());
+    assert_eq!(l.mode(), ModeKind::ActiveActive);
+    assert_eq!(l.active_channel(), None);
+    assert!(!l.select_channel(ms(0), 1));
+    let cfg = DualBusConfig {
+        mode: LinkMode::EcssToggle(EcssConfig::master()),
+        ..DualBusConfig::default()
+    };
+    let mut l = DualBus::new(cfg);
+    assert_eq!(l.mode(), ModeKind::EcssToggle);
+    assert!(!l.health().config().silence_detection);
+    let f = Frame::from_array(Id::Standard(0x181), [1]);
+    l.send(ms(0), &f);
+    assert_eq!(drain(&mut l), [(0, f)]);
+    // Only the active bus is listened to.
+    assert_eq!(l.handle_rx(ms(1), 1, &f), None);
+    assert_eq!(l.handle_rx(ms(1), 0, &f), Some(f));
+    assert!(l.select_channel(ms(2), 1));
+    l.send(ms(3), &f);
+    assert_eq!(drain(&mut l), [(1, f)]);
+    assert_eq!(l.ecss().map(|e| e.active_bus()), Some(1));
+}

@@ -1,0 +1,311 @@
+//! Lag: how much later one port's copies arrive than the other port's, measured from matched
+//! twins; the merge window that follows it; and distrust of a port that lags beyond the maximum.
+//!
+//! A bus whose frames reach this node late (a driver or gateway queue that runs behind, a
+//! loaded segment) makes every twin older than the skew window: without this part each of its
+//! copies would come up a second time. The merger recognises such *late* twins up to its horizon
+//! (see [`crate::link::merge`]), so none is delivered twice; this part measures the lag they show,
+//! reports it and sets the merge window.
+//!
+//! # Measuring
+//!
+//! Every twin matched for an arrival on port `p` whose age is known exactly (it matched the only
+//! pending copy of its key, or a late copy: [`Twin::lag`]) is a *sample* of `p`'s lag. Samples
+//! below half the skew window are ordinary skew and ignored. Of the others, each port keeps the
+//! two largest of the current period and of the previous one; periods are `hold` long (the
+//! silence limit of port health), aligned on multiples of `hold` since time zero. **The lag of
+//! a port is the second largest of those four samples** (zero without two):
+//!
+//! - it rises with the second sample that shows it, and follows a lag that grows;
+//! - it is forgotten between one and two periods after the last sample that showed it;
+//! - one sample is not enough: a frame that one bus missed, whose next unchanged repeat comes
+//!   first on that bus, is matched with the missed copy's record and looks exactly like one
+//!   lagging twin (nothing is lost: its own copy on the other bus is delivered instead).
+//!
+//! # The window
+//!
+//! A port lags when its lag is at least half the skew window. Its window is then the skew
+//! window plus the lag, rounded down to whole milliseconds (so a full skew window is left for
+//! jitter on top of the lag), and the skew window otherwise. The merge window is the larger of
+//! the two ports' windows; it never goes below the configured skew window.
+//!
+//! - Up to `max_skew_window` the lagging port stays trusted: both ports deliver whatever comes
+//!   first, with the wider window.
+//! - Beyond it the port is **distrusted**: port health shows it suspect (reason
+//!   [`PortReason::Lag`](crate::link::events::PortReason::Lag)), and its frames only match
+//!   twins of the other port's copies, never delivered while the other port is working, unless
+//!   the other port is *silent*. Its window (capped at the horizon) still covers its lag, so that
+//!   its twins keep being matched and measured. Only one port is distrusted at a time.
+//! - The horizon is twice `max_skew_window`: the longest lag that can be measured at all.
+//!
+//! # Silent
+//!
+//! For a distrusted port `d`, the other port `g` is silent when
+//!
+//! - `g` has received nothing since the copy that `d`'s last twin was matched with (`d` has
+//!   caught up with everything `g` received, so an unmatched frame of `d` was never on `g`), or
+//! - `g` has received nothing for `d`'s window (any copy `g` had of it would have been matched).
+//!
+//! Then `d`'s unmatched frames are delivered (and not recorded: they have no twin to wait for).
+//! So when `g` dies, the frames `d` carries after `g`'s last one are delivered and nothing is lost;
+//! a frame that only `g` missed while it kept working is not taken from a bus that lags beyond
+//! the maximum. A failed or recovering `g` leaves `d` as the trusted port of port health.
+//!
+//! # Reports
+//!
+//! [`LinkEventKind::Lag`] whenever a port's window changes (it starts lagging, or its lag moves
+//! by whole milliseconds, or it becomes distrusted or trusted again), with the lag and the window;
+//! [`LinkEventKind::LagCleared`] when it no longer lags. Distrust and trust show as port-state
+//! changes too. Changes found when a period ends carry that instant.
+//!
+//! # Memory
+//!
+//! Four samples, a window and a flag per port: fixed.
+//!
+//! ```
+//! use duocan::{Duration, Instant};
+//! use duocan_redundancy::link::lag::LagMeter;
+//! use duocan_redundancy::link::outbox::Outbox;
+//! use duocan_redundancy::LinkEventKind;
+//!
+//! let ms = Duration::from_millis;
+//! let mut lag = LagMeter::new(ms(10), ms(40), ms(300));
+//! let mut out = Outbox::new();
+//! let t = Instant::from_millis;
+//! // Port 1's twins come 12 ms late: the second one sets its lag and widens the window.
+//! assert!(!lag.sample(t(100), 1, ms(12), &mut out));
+//! assert!(lag.sample(t(120), 1, ms(12), &mut out));
+//! assert_eq!((lag.lag(1), lag.window()), (ms(12), ms(22)));
+//! assert!(!lag.distrusted(1));
+//! let e = out.pop_event().unwrap();
+//! assert_eq!(e.kind, LinkEventKind::Lag { port: 1, lag: ms(12), window: ms(22) });
+//! ```
+
+use crate::link::events::{LinkEvent, LinkEventKind};
+use crate::link::outbox::Outbox;
+use duocan::{Duration, Instant};
+
+#[cfg(doc)]
+use crate::link::merge::Twin;
+
+const MS: u64 = 1_000;
+
+/// One port's samples and what they made of it.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+struct PortLag {
+    /// The two largest samples (µs) of the current period, largest first.
+    cur: [u64; 2],
+    /// The same for the previous period.
+    prev: [u64; 2],
+    /// The window as last applied and reported (µs).
+    window: u64,
+    distrusted: bool,
+    /// When the other port's copy of this port's last measured twin arrived (µs).
+    last_twin: Option<u64>,
+    /// The newest frame this port is known to have received, by its arrival on the other port
+    /// (µs): from its own twins, and from the other port's twins of its copies.
+    seen: u64,
+}
+
+impl PortLag {
+    fn holds_samples(&self) -> bool {
+        self.cur[0] != 0 || self.prev[0] != 0
+    }
+    /// The second largest of the four samples.
+    fn estimate(&self) -> u64 {
+        let [a, b] = self.cur;
+        let [c, d] = self.prev;
+        // Both pairs are sorted: the second largest is the larger of the two runners-up and the
+        // smaller of the two leaders.
+        a.min(c).max(b).max(d)
+    }
+}
+
+/// The lag of both ports, the merge window and the distrust of a port lagging beyond the
+/// maximum (see the module documentation).
+#[derive(Clone, Debug)]
+pub struct LagMeter {
+    base: u64,
+    max: u64,
+    horizon: u64,
+    hold: u64,
+    /// Samples below this are ordinary skew (half the base).
+    threshold: u64,
+    /// Index of the current period (time / hold).
+    period: u64,
+    ports: [PortLag; 2],
+}
+
+impl LagMeter {
+    /// A meter for a skew window `base`, widening it up to `max` (at least `base`), forgetting
+    /// a lag between one and two `hold` periods after its last sample (`hold` at least 1 ms).
+    #[must_use]
+    pub fn new(base: Duration, max: Duration, hold: Duration) -> Self {
+        let base = base.as_micros();
+        let max = max.as_micros().max(base);
+        let port = PortLag {
+            window: base,
+            ..PortLag::default()
+        };
+        LagMeter {
+            base,
+            max,
+            horizon: max.saturating_mul(2),
+            hold: hold.as_micros().max(MS),
+            threshold: base / 2,
+            period: 0,
+            ports: [port; 2],
+        }
+    }
+
+    /// How long after its window a copy still finds its twin: twice the maximum window, the
+    /// longest lag that can be measured.
+    pub fn horizon(&self) -> Duration {
+        Duration::from_micros(self.horizon)
+    }
+    /// The merge window now: the larger of the two ports' windows.
+    pub fn window(&self) -> Duration {
+        Duration::from_micros(self.ports[0].window.max(self.ports[1].window))
+    }
+    /// The window port `p`'s lag needs (the skew window when it does not lag).
+    pub fn port_window(&self, p: usize) -> Duration {
+        Duration::from_micros(self.ports[p.min(1)].window)
+    }
+    /// The lag of port `p` (0 or 1; others read port 1): zero while fewer than two samples show one.
+    pub fn lag(&self, p: usize) -> Duration {
+        Duration::from_micros(self.ports[p.min(1)].estimate())
+    }
+    /// True while port `p` lags (its window is wider than the skew window).
+    pub fn lagging(&self, p: usize) -> bool {
+        self.ports[p.min(1)].window > self.base
+    }
+    /// True while port `p` lags beyond the maximum window.
+    pub fn distrusted(&self, p: usize) -> bool {
+        self.ports[p.min(1)].distrusted
+    }
+
+    /// Whether the other port is silent for distrusted port `p` at `now`, given when the other
+    /// port last received a frame (see the module documentation).
+    pub fn other_silent(&self, now: Instant, p: usize, other_last_rx: Option<Instant>) -> bool {
+        let Some(last) = other_last_rx.map(Instant::as_micros) else {
+            return true;
+        };
+        let port = &self.ports[p.min(1)];
+        port.last_twin.is_some_and(|t| last <= t)
+            || now.as_micros().saturating_sub(last) >= port.window
+    }
+
+    /// A twin matched for an arrival on port `p` at `now` came `lag` after the other port's
+    /// copy. Returns true when a window or a distrust changed (the events are queued).
+    pub fn sample(&mut self, now: Instant, p: usize, lag: Duration, out: &mut Outbox) -> bool {
+        let p = p.min(1);
+        let (now_us, lag) = (now.as_micros(), lag.as_micros());
+        let copy = now_us.saturating_sub(lag);
+        // Each bus keeps its order: a twin of a frame older than one this port has already had
+        // (by more than the reordering two buses may show) is a copy paired one repeat off, not
+        // a lag.
+        let in_order = copy.saturating_add(self.threshold) >= self.ports[p].seen;
+        let port = &mut self.ports[p];
+        port.last_twin = Some(copy);
+        port.seen = port.seen.max(copy);
+        let other = &mut self.ports[1 - p];
+        other.seen = other.seen.max(now_us);
+        if lag < self.threshold || !in_order {
+            // Ordinary skew (the frequent case), or no lag: nothing to keep.
+            return false;
+        }
+        let mut changed = self.roll(now_us, out).is_some();
+        let cur = &mut self.ports[p].cur;
+        if lag > cur[0] {
+            *cur = [lag, cur[0]];
+        } else if lag > cur[1] {
+            cur[1] = lag;
+        }
+        changed |= self.evaluate(now_us, out);
+        changed
+    }
+
+    /// Ends the periods that are over at `now`. Returns the instant of the last change of a
+    /// window or a distrust, if any (the events are queued).
+    pub fn handle_timeout(&mut self, now: Instant, out: &mut Outbox) -> Option<Instant> {
+        self.roll(now.as_micros(), out).map(Instant::from_micros)
+    }
+
+    /// The end of the current period while samples are held (their end changes the lag).
+    #[must_use]
+    pub fn poll_timeout(&self) -> Option<Instant> {
+        let held = self.ports.iter().any(PortLag::holds_samples);
+        held.then(|| Instant::from_micros((self.period + 1).saturating_mul(self.hold)))
+    }
+
+    /// Moves to the period of `now`, one period end at a time so that each change carries its
+    /// instant.
+    fn roll(&mut self, now: u64, out: &mut Outbox) -> Option<u64> {
+        let target = now / self.hold;
+        let mut last = None;
+        while self.period < target {
+            self.period += 1;
+            if !self.ports.iter().any(PortLag::holds_samples) {
+                // Nothing left to forget: jump.
+                self.period = target;
+                break;
+            }
+            for port in &mut self.ports {
+                port.prev = port.cur;
+                port.cur = [0, 0];
+            }
+            let at = self.period.saturating_mul(self.hold);
+            if self.evaluate(at, out) {
+                last = Some(at);
+            }
+        }
+        last
+    }
+
+    /// Derives each port's window and distrust from its lag; reports changes at `at`.
+    fn evaluate(&mut self, at: u64, out: &mut Outbox) -> bool {
+        let mut changed = false;
+        for p in 0..2 {
+            let other_distrusted = self.ports[1 - p].distrusted;
+            let port = &self.ports[p];
+            let lag = port.estimate();
+            let (window, distrusted) = if lag < self.threshold {
+                (self.base, false)
+            } else {
+                let wanted = self.base.saturating_add(lag / MS * MS);
+                if wanted <= self.max {
+                    (wanted, false)
+                } else if other_distrusted {
+                    // Only one port can be the backup: this one keeps the maximum.
+                    (self.max, false)
+                } else {
+                    (wanted.min(self.horizon), true)
+                }
+            };
+            if (window, distrusted) == (port.window, port.distrusted) {
+                continue;
+            }
+            let kind = if window == self.base {
+                LinkEventKind::LagCleared { port: p as u8 }
+            } else {
+                LinkEventKind::Lag {
+                    port: p as u8,
+                    lag: Duration::from_micros(lag),
+                    window: Duration::from_micros(window),
+                }
+            };
+            out.event(LinkEvent {
+                at: Instant::from_micros(at),
+                kind,
+            });
+            let port = &mut self.ports[p];
+            port.window = window;
+            port.distrusted = distrusted;
+            changed = true;
+        }
+        changed
+    }
+}
+
+#[cfg(test)]
+mod tests;
