@@ -530,12 +530,15 @@ fn a_slow_bus_does_not_time_out_a_sub_block_still_being_sent() {
     }
 }
 
-/// CRC is used only when both sides offer it: a server without CRC support says so in its
-/// initiate answer, and neither side computes or checks it then.
+/// Who sends a CRC: a block download's end frame (the client's) carries it only when both sides
+/// offer CRC, and the server checks it only then; a block upload's end frame (the server's)
+/// carries it whenever the server announced CRC support, asked for or not, because clients
+/// (python `canopen` among them) check it whenever that bit is set. A server without CRC support
+/// says so in its initiate answers and never computes it.
 #[test]
-fn crc_only_when_both_sides_support_it() {
+fn crc_sent_as_each_side_announced_it() {
     let data: Vec<u8> = (1..=20).collect();
-    for (server_crc, client_crc) in [(false, true), (true, false), (true, true)] {
+    for (server_crc, client_crc) in [(false, true), (true, false), (true, true), (false, false)] {
         let mut net = Net::new(&[5]);
         net.nodes[0]
             .sdo_server_mut()
@@ -547,22 +550,21 @@ fn crc_only_when_both_sides_support_it() {
         assert!(net.finish()[0].result.is_ok());
         net.client.upload(net.now, N, DOMAIN, 0, opts).unwrap();
         assert_eq!(net.finish()[0].data(), Some(&data[..]));
-        let ends: Vec<[u8; 8]> = net
-            .log
-            .iter()
-            .map(|(_, _, f)| f.data().try_into().unwrap())
-            .filter(|d: &[u8; 8]| d[0] == 0xC5)
-            .collect();
-        assert_eq!(ends.len(), 2, "one end frame each way");
-        let both = server_crc && client_crc;
-        let want = if both { [0xD3, 0xEA] } else { [0, 0] };
-        for e in ends {
-            assert_eq!(
-                [e[1], e[2]],
-                want,
-                "server {server_crc} client {client_crc}"
-            );
-        }
+        let end = |server: bool| -> Vec<[u8; 2]> {
+            net.log
+                .iter()
+                .filter(|(_, who, f)| who.is_some() == server && f.data()[0] == 0xC5)
+                .map(|(_, _, f)| [f.data()[1], f.data()[2]])
+                .collect()
+        };
+        let crc = |on: bool| if on { [0xD3, 0xEA] } else { [0, 0] };
+        let case = format!("server {server_crc} client {client_crc}");
+        assert_eq!(
+            end(false),
+            [crc(server_crc && client_crc)],
+            "download end, {case}"
+        );
+        assert_eq!(end(true), [crc(server_crc)], "upload end, {case}");
         // The server's initiate answers carry its sc bit.
         let sc = net
             .log
