@@ -4,7 +4,7 @@
 //! when the clock steps back, jumps an hour ahead or reaches the end of time (the clock contract).
 #![no_main]
 
-mod clock;
+mod common;
 
 use duocan::od::{comm, DynamicDictionary, ObjectDictionary};
 use duocan::{Duration, Frame, Id, Instant, Machine, Node, NodeConfig, NodeId};
@@ -68,7 +68,7 @@ fuzz_target!(|data: &[u8]| {
         let [who, lo, hi, flags, dlc, step, d @ ..] = c else {
             continue;
         };
-        now = clock::misbehave(now, *step).unwrap_or_else(|| {
+        now = common::misbehave(now, *step).unwrap_or_else(|| {
             now + match step >> 6 {
                 0 => Duration::ZERO,
                 1 => Duration::from_micros(u64::from(*step & 0x3F) * 100),

@@ -4,7 +4,7 @@
 //! abort) once its timeout has passed.
 #![no_main]
 
-mod clock;
+mod common;
 
 use duocan::sdo::{HeapBuffer, TransferMode, SdoClient, SdoOptions};
 use duocan::{Duration, Frame, Id, Instant, Machine, NodeId};
@@ -41,7 +41,7 @@ fuzz_target!(|data: &[u8]| {
         let [who, dlc, step, d @ ..] = chunk else {
             continue;
         };
-        now = clock::misbehave(now, *step)
+        now = common::misbehave(now, *step)
             .unwrap_or_else(|| now + Duration::from_millis(u64::from(*step % 32)));
         let id = Id::Standard(0x585 + u16::from(*who % 4));
         if let Ok(f) = Frame::new(id, &d[..usize::from(*dlc % 9)]) {
@@ -61,7 +61,7 @@ fuzz_target!(|data: &[u8]| {
     }
     // A clock that ended comes back (the driver reports the step with one `handle_timeout`); long
     // after every timeout, nothing is left under way.
-    now = clock::sane(now);
+    now = common::sane(now);
     c.handle_timeout(now);
     now += Duration::from_secs(10);
     for _ in 0..8 {

@@ -10,7 +10,7 @@ use duocan::{Duration, Frame, Id, Instant};
 pub const MAX_PER_STEP: usize = 4096;
 
 /// Moves `now` by what `step` says: small and medium steps forward, a jump of a minute or an
-/// hour, or back in time (the clock contract: time may go backwards).
+/// hour, back in time, or to the end of time (the clock contract: time may misbehave).
 pub fn advance(now: Instant, step: u8) -> Instant {
     let k = u64::from(step & 0x3F);
     match step >> 6 {
@@ -18,8 +18,26 @@ pub fn advance(now: Instant, step: u8) -> Instant {
         1 => now + Duration::from_millis(k * 10),
         2 if k == 63 => now + Duration::from_secs(3600),
         2 => now + Duration::from_millis(k * 1000),
+        _ if k == 63 => Instant::MAX,
         _ => now.saturating_sub(Duration::from_millis(k * 10)),
     }
+}
+
+/// The next time for `b` if it stands for a misbehaving clock (a step back, an hour ahead, the
+/// end of time); any other byte is left to the target's own time step.
+pub fn misbehave(now: Instant, b: u8) -> Option<Instant> {
+    match b {
+        0xFF => Some(Instant::MAX),
+        0xFE => Some(now + Duration::from_secs(3600)),
+        0xF0..=0xFD => Some(now - Duration::from_millis(u64::from(b & 0x0F) * 100)),
+        _ => None,
+    }
+}
+
+/// A time well inside the clock's range, for the checks a target makes at its end ("long after
+/// every timeout"): from the end of time the clock comes back.
+pub fn sane(now: Instant) -> Instant {
+    now.min(Instant::from_secs(1_000_000))
 }
 
 const CAUSES: [ErrorCause; 6] = [

@@ -1,6 +1,7 @@
 //! The supervisor (`duocan_redundancy::supervisor`): pair and flying-master machines, and the supervisor with the CiA 302-2 master on the simulated dual bus.
 
 mod chaos;
+mod clock;
 mod combined;
 mod flying_master;
 mod impostor;
