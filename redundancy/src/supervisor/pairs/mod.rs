@@ -737,8 +737,12 @@ impl PairSupervisor {
         }
         if self.authority == Authority::Command {
             if let Some(m) = to {
-                // A member already running (adopted) needs no start.
-                if self.pairs[p].member(m).nmt != Some(NmtState::Operational) {
+                // A member already running (adopted) needs no start; nor does a suspect one,
+                // which the same instant's timeout replaces (a start would wake a board the
+                // table is about to reset).
+                if self.pairs[p].member(m).nmt != Some(NmtState::Operational)
+                    && !self.is_suspect(spec.node(m))
+                {
                     self.nmt(NmtCommand::Start, spec.node(m));
                 }
             }
