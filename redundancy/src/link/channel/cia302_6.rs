@@ -34,7 +34,7 @@ use super::{switched, ChannelPolicy, FrameInfo, PortMask, RxRoute, BOTH};
 use crate::link::events::{LinkEvent, LinkEventKind, SwitchReason};
 use crate::link::health::Health;
 use crate::link::outbox::Outbox;
-use duocan::frame::instant::earliest;
+use duocan::frame::instant::{earliest, next_on_grid};
 use duocan::machine::PortStatus;
 use duocan::NodeSet;
 use duocan::{Duration, Frame, Id, Instant, NodeId};
@@ -459,11 +459,10 @@ impl ChannelPolicy for Cia3026 {
                 window_end: Some(end),
             } if end <= now => {
                 // Whole windows that passed without enough heartbeats: start a fresh one.
+                // Computed, not stepped: after a jump ahead (or at the end of time) a loop of
+                // `next += step` would run for every window missed, or for ever.
                 let step = self.recheck().unwrap_or(Duration::MAX);
-                let mut next = end + step;
-                while next <= now {
-                    next += step;
-                }
+                let next = next_on_grid(end, step, now);
                 self.new_window();
                 self.phase = Phase::Redundant {
                     window_end: Some(next),
