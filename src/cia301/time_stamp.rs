@@ -78,7 +78,9 @@ impl TimeBase {
     }
     /// The time of day at `now` (earlier instants clamp to the anchor).
     pub fn at(&self, now: Instant) -> TimeOfDay {
-        TimeOfDay::from_total_ms((self.epoch_us + (now - self.at).as_micros()) / 1_000)
+        // Saturating: at the end of time the day count tops out instead of wrapping.
+        let us = self.epoch_us.saturating_add((now - self.at).as_micros());
+        TimeOfDay::from_total_ms(us / 1_000)
     }
 }
 

@@ -533,7 +533,12 @@ impl Health {
     /// Applies silence rules and re-initialisations due at `now`; events carry the deadlines.
     pub(crate) fn handle_timeout(&mut self, now: Instant, out: &mut Outbox) {
         for p in 0..2 {
-            while let Some(d) = self.silence_deadline(p).filter(|d| *d <= now) {
+            // At most the rule's two steps (suspect, then failed) per call: at the end of time a
+            // deadline saturated at `Instant::MAX` stays due, and a loop would never end.
+            for _ in 0..2 {
+                let Some(d) = self.silence_deadline(p).filter(|d| *d <= now) else {
+                    break;
+                };
                 let port = &self.ports[p];
                 let silent = d.saturating_since(port.silence_ref.unwrap_or(d));
                 let reason = PortReason::Silence { silent };
