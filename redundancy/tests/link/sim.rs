@@ -181,6 +181,26 @@ impl Net {
             .expect("something was received")
     }
     /// The end of the last frame `node` got onto `bus` up to `t`.
+    /// Ends of `node`'s frames delivered on `bus` that started at or after `t`.
+    pub fn sent_from(&self, node: u8, bus: usize, t: Instant) -> Vec<Instant> {
+        let me = self.dev(node).erased();
+        self.sim
+            .trace()
+            .iter()
+            .filter_map(|r| match r {
+                TraceRecord::Tx(x)
+                    if x.bus == self.buses[bus]
+                        && x.sender.device == me
+                        && x.start >= t
+                        && !x.babble
+                        && matches!(x.outcome, TxOutcome::Delivered { .. }) =>
+                {
+                    Some(x.end)
+                }
+                _ => None,
+            })
+            .collect()
+    }
     pub fn last_tx(&self, node: u8, bus: usize, t: Instant) -> Instant {
         let me = self.dev(node).erased();
         self.sim

@@ -22,11 +22,16 @@
 //!   that also marked the bus failed hear traffic once it is repaired), and it returns to ok
 //!   after receiving frames for the probation time, or fails again after the silence limit.
 //! - **Transmit stall** (active-active, drivers that report transmit outcomes). A frame that
-//!   waits in a port's queue longer than the skew window would reach the receivers too late to be
-//!   matched with its twin, i.e. as a duplicate. So when the oldest frame handed to a port has had
-//!   no outcome for `tx_stall` (the window), the port is re-initialised at once (flushing its
-//!   queue) and failed; such a port comes back only through re-initialisation, not because it
-//!   receives (a babbling controller fills the bus with frames while nobody else can send).
+//!   reaches the receivers more than the skew window after its twin on the other bus is not
+//!   matched with it, i.e. arrives as a duplicate. So when the other port has sent a frame
+//!   handed over no earlier than this port's oldest waiting one (the twin is on the wire) and
+//!   this port still has no outcome for it `tx_stall` (the window) later, the port is
+//!   re-initialised at once (flushing its queue) and failed; such a port comes back only through
+//!   re-initialisation, not because it receives (a babbling controller fills the bus with
+//!   frames while nobody else can send). Waiting alone is no stall: a low-priority frame can
+//!   lose arbitration for longer than the window on a busy network, and then it waits on both
+//!   buses alike and its twins still match. Nor is a port judged while the other port sends
+//!   nothing (failed, or its driver never confirms): without a twin there is no duplicate.
 //! - **Trust.** Arrivals on a failed or recovering port are *match-only* while the other port is
 //!   ok or suspect: they may consume a twin but are never delivered themselves. A repaired
 //!   segment can first flush frames that were queued before the fault; those are older than the
@@ -130,6 +135,12 @@ pub struct PortHealth {
     lagging: Option<Duration>,
     /// Hand-over times of frames without an outcome yet, oldest first.
     outstanding: heapless::Deque<Instant, OUTSTANDING>,
+    /// Hand-over time of the newest frame confirmed sent (`TxOk`).
+    last_sent: Option<Instant>,
+    /// When the other port was first seen to have sent a frame handed over no earlier than this
+    /// port's oldest waiting one: the stall rule's reference (twins must follow within the
+    /// window). Cleared whenever that oldest frame changes.
+    overtaken: Option<Instant>,
     /// The driver confirms successful transmissions (`TxOk`); only then can silence about a
     /// handed-over frame mean a stall.
     reports_outcomes: bool,
@@ -151,6 +162,8 @@ impl PortHealth {
             backoff: cfg.reinit_first,
             lagging: None,
             outstanding: heapless::Deque::new(),
+            last_sent: None,
+            overtaken: None,
             reports_outcomes: false,
             counters: HealthCounters::default(),
         }
@@ -271,10 +284,45 @@ impl Health {
     pub(crate) fn count_tx(&mut self, now: Instant, p: usize) {
         let port = &mut self.ports[p];
         port.counters.tx += 1;
+        let moved = port.outstanding.is_empty() || port.outstanding.is_full();
         if port.outstanding.is_full() {
             port.outstanding.pop_front();
         }
         let _ = port.outstanding.push_back(now);
+        if moved {
+            self.front_moved(now, p);
+        }
+    }
+
+    /// Port `p`'s oldest waiting frame is another one: the stall rule's reference starts over,
+    /// from now if the other port already sent a frame handed over after it (it did so at some
+    /// moment up to now; the later bound never fails a port early).
+    fn front_moved(&mut self, now: Instant, p: usize) {
+        let other_sent = self.ports[1 - p].last_sent;
+        let port = &mut self.ports[p];
+        port.overtaken = match (port.outstanding.front(), other_sent) {
+            (Some(f), Some(s)) if s > *f => Some(now),
+            _ => None,
+        };
+    }
+
+    /// Port `p` confirmed a frame handed over at `handed`: the other port's oldest waiting
+    /// frame, if handed over before it, is overtaken now. Only strictly before: frames handed
+    /// over in the same instant cannot be told apart, and ports send in the order they were
+    /// given, so a later one sent means every earlier one was.
+    fn sent(&mut self, now: Instant, p: usize, handed: Instant) {
+        self.ports[p].last_sent = Some(handed);
+        let other = &mut self.ports[1 - p];
+        if other.overtaken.is_none() && other.outstanding.front().is_some_and(|f| *f < handed) {
+            other.overtaken = Some(now);
+        }
+    }
+
+    /// Forgets port `p`'s waiting frames (flushed or gone with the interface).
+    fn flushed(&mut self, p: usize) {
+        let port = &mut self.ports[p];
+        port.outstanding.clear();
+        port.overtaken = None;
     }
 
     /// A frame arrived on `p`; `first_copy` if it was delivered (its twin is due on the other
@@ -358,7 +406,10 @@ impl Health {
             PortStatus::TxOk => {
                 port.counters.tx_ok += 1;
                 port.reports_outcomes = true;
-                port.outstanding.pop_front();
+                if let Some(handed) = port.outstanding.pop_front() {
+                    self.front_moved(now, p);
+                    self.sent(now, p, handed);
+                }
             }
             PortStatus::TxFailed(c) => {
                 port.counters.tx_failed += 1;
@@ -367,8 +418,11 @@ impl Health {
                 if c == ErrorCause::TxTimeout {
                     // Refused at hand-over (queue full): the newest frame.
                     port.outstanding.pop_back();
-                } else {
-                    port.outstanding.pop_front();
+                    if port.outstanding.is_empty() {
+                        self.front_moved(now, p);
+                    }
+                } else if port.outstanding.pop_front().is_some() {
+                    self.front_moved(now, p);
                 }
                 self.error(now, p, c, PortReason::TxFailed(c), out);
             }
@@ -387,7 +441,8 @@ impl Health {
             }
             PortStatus::Error(c) => self.error(now, p, c, PortReason::Controller(c), out),
             PortStatus::Down(c) => {
-                port.outstanding.clear();
+                self.flushed(p);
+                let port = &mut self.ports[p];
                 port.counters.errors[cause_index(c)] =
                     port.counters.errors[cause_index(c)].saturating_add(1);
                 port.counters.last_error = Some((now, c));
@@ -512,7 +567,7 @@ impl Health {
         {
             return None;
         }
-        port.outstanding.front().map(|t| *t + self.cfg.tx_stall)
+        port.overtaken.map(|t| t + self.cfg.tx_stall)
     }
 
     /// Earliest deadline.
@@ -550,16 +605,16 @@ impl Health {
             }
             if let Some(d) = self.stall_deadline(p).filter(|d| *d <= now) {
                 // Flush now: whatever waits in the queue would only arrive as duplicates.
+                self.flushed(p);
                 let port = &mut self.ports[p];
-                port.outstanding.clear();
                 port.counters.reinits = port.counters.reinits.saturating_add(1);
                 out.request(p, PortRequest::Reinit);
                 let stalled = self.cfg.tx_stall;
                 self.fail(d, p, PortReason::TxStalled { waited: stalled }, out);
             }
             if let Some(d) = self.ports[p].next_reinit().filter(|d| *d <= now) {
+                self.flushed(p);
                 let port = &mut self.ports[p];
-                port.outstanding.clear();
                 port.attempt = port.attempt.saturating_add(1);
                 port.counters.reinits = port.counters.reinits.saturating_add(1);
                 port.backoff = (port.backoff + port.backoff).min(self.cfg.reinit_max);
