@@ -43,7 +43,12 @@ impl<C: FrameClassifier, const SLOTS: usize, const FUNCTIONS: usize> DualBus<C, 
 
     /// Copies of a port are kept as late records only while the other port can deliver their
     /// twins (ok or suspect): while it is failed or recovering its copies are lost, not late.
+    #[inline]
     pub(super) fn keep_late(&mut self, now: Instant) {
+        if self.health.changes() == self.health_seen {
+            return;
+        }
+        self.health_seen = self.health.changes();
         for p in 0..2 {
             let keep = self.health.port(1 - p).state().is_trusted();
             if keep != self.merger.keeps_late(p) {
