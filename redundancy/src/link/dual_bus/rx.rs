@@ -60,13 +60,6 @@ impl<C: FrameClassifier, const SLOTS: usize, const FUNCTIONS: usize> DualBus<C, 
     /// A twin matched for `port`: a lag sample.
     #[inline]
     fn measured(&mut self, now: Instant, port: usize, twin: Twin) {
-        #[cfg(feature = "std")]
-        if std::env::var("LAGDBG").is_ok()
-            && now.as_micros() > 3_550_000
-            && now.as_micros() < 3_601_000
-        {
-            std::eprintln!("DBG {now} port {port} {twin:?} {:?}", self.lag);
-        }
         if let Some(lag) = twin.lag {
             if self.lag.sample(now, port, lag, &mut self.out) {
                 self.follow_lag(now);
