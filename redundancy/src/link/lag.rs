@@ -207,10 +207,12 @@ impl LagMeter {
         Duration::from_micros(self.ports[p.min(1)].estimate())
     }
     /// True while port `p` lags (its window is wider than the skew window).
+    #[inline]
     pub fn lagging(&self, p: usize) -> bool {
         self.ports[p.min(1)].window > self.base
     }
     /// True while port `p` lags beyond the maximum window.
+    #[inline]
     pub fn distrusted(&self, p: usize) -> bool {
         self.ports[p.min(1)].distrusted
     }
@@ -231,6 +233,7 @@ impl LagMeter {
 
     /// A twin matched for an arrival on port `p` at `now` came `lag` after the other port's
     /// copy. Returns true when a window or a distrust changed (the events are queued).
+    #[inline]
     pub fn sample(&mut self, now: Instant, p: usize, lag: Duration, out: &mut Outbox) -> bool {
         let p = p.min(1);
         let (now_us, lag) = (now.as_micros(), lag.as_micros());
@@ -248,6 +251,12 @@ impl LagMeter {
             // Ordinary skew (the frequent case), or no lag: nothing to keep.
             return false;
         }
+        self.keep(now_us, p, lag, out)
+    }
+
+    /// A sample that shows a lag: kept, and what it changes.
+    #[cold]
+    fn keep(&mut self, now_us: u64, p: usize, lag: u64, out: &mut Outbox) -> bool {
         let mut changed = self.roll(now_us, out).is_some();
         let cur = &mut self.ports[p].cur;
         if lag > cur[0] {

@@ -224,6 +224,7 @@ impl Health {
     }
     /// How many state changes there have been (wrapping): a different number means a port
     /// changed state.
+    #[inline]
     pub fn changes(&self) -> u32 {
         self.changes
     }
@@ -232,6 +233,7 @@ impl Health {
         &self.cfg
     }
     /// One port (0 or 1; anything else reads port 1).
+    #[inline]
     pub fn port(&self, p: usize) -> &PortHealth {
         &self.ports[p.min(1)]
     }

@@ -125,7 +125,15 @@ impl<const SLOTS: usize> Merger<SLOTS> {
     }
 
     /// Gives back the oldest late records until a new key leaves the table at most ¾ full.
+    #[inline]
     pub(super) fn make_room(&mut self) {
+        if self.late > 0 && self.keys() >= Self::CAP {
+            self.give_back_room();
+        }
+    }
+
+    #[cold]
+    fn give_back_room(&mut self) {
         let mask = SLOTS - 1;
         // Behind the ring, oldest first: from the position after its tail.
         let mut pos = (self.head + self.len) & mask;
