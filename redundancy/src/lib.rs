@@ -19,7 +19,8 @@
 //! The dual-bus layer has one type and three policies ([`LinkMode`]):
 //!
 //! - **Active-active** (default): transmit fan-out to every port not failed; receive
-//!   [merge](link::merge) delivering each frame occurrence exactly once; [same-function
+//!   [merge](link::merge) delivering each frame occurrence exactly once, its window following a
+//!   [lagging bus](link::lag) (measured, reported, distrusted beyond a maximum); [same-function
 //!   merge](link::same_function) of A/B board pairs with discrepancy events.
 //! - **CiA 302-6** active-standby ([`link::channel::cia302_6`]): 0x1F60, heartbeats on both
 //!   channels, evaluation windows, 0x7F indicate-active-interface, transmit-error counter.

@@ -2,32 +2,36 @@
 //! twins; the merge window that follows it; and distrust of a port that lags beyond the maximum.
 //!
 //! A bus whose frames reach this node late (a driver or gateway queue that runs behind, a
-//! loaded segment) makes every twin older than the skew window: without this part each of its
-//! copies would come up a second time. The merger recognises such *late* twins up to its horizon
-//! (see [`crate::link::merge`]), so none is delivered twice; this part measures the lag they show,
-//! reports it and sets the merge window.
+//! loaded segment) makes every twin older than the skew window: each of its copies would come up
+//! a second time. The merger keeps unmatched copies recognisable as *late* records up to its
+//! horizon (see [`crate::link::merge`]); this part measures the lag the twins show, reports it,
+//! sets the merge window and tells the merger which port may match late copies.
 //!
 //! # Measuring
 //!
-//! Every twin matched for an arrival on port `p` whose age is known exactly (it matched the only
-//! pending copy of its key, or a late copy: [`Twin::lag`]) is a *sample* of `p`'s lag. Samples
-//! below half the skew window are ordinary skew and ignored. Of the others, each port keeps the
-//! two largest of the current period and of the previous one; periods are `hold` long (the
-//! silence limit of port health), aligned on multiples of `hold` since time zero. **The lag of
-//! a port is the second largest of those four samples** (zero without two):
+//! Every twin seen for an arrival on port `p` whose age is known exactly (the only pending copy
+//! of its key, or a late copy: [`Twin::lag`]) is a *sample* of `p`'s lag, unless it is out of
+//! order: each bus keeps its order, so a twin of a frame more than half a skew window older than
+//! one `p` is known to have had already (its own twins, and the other port's twins of its
+//! copies, say which) is a copy paired one repeat off, not a lag. Samples below half the skew
+//! window are ordinary skew. Of the others, each port keeps the two largest of the current period
+//! and of the previous one; periods are `hold` long (the silence limit of port health), aligned
+//! on multiples of `hold` since time zero. **The lag of a port is the second largest of those
+//! four samples** (zero without two):
 //!
-//! - it rises with the second sample that shows it, and follows a lag that grows;
+//! - it is known at the second sample that shows it, and follows a lag that grows;
 //! - it is forgotten between one and two periods after the last sample that showed it;
 //! - one sample is not enough: a frame that one bus missed, whose next unchanged repeat comes
-//!   first on that bus, is matched with the missed copy's record and looks exactly like one
-//!   lagging twin (nothing is lost: its own copy on the other bus is delivered instead).
+//!   first on that bus, looks exactly like one lagging twin.
 //!
 //! # The window
 //!
 //! A port lags when its lag is at least half the skew window. Its window is then the skew
 //! window plus the lag, rounded down to whole milliseconds (so a full skew window is left for
 //! jitter on top of the lag), and the skew window otherwise. The merge window is the larger of
-//! the two ports' windows; it never goes below the configured skew window.
+//! the two ports' windows; it never goes below the configured skew window. A lagging port
+//! matches the other port's late copies (its twins); what it delivered before its lag was known
+//! is forgotten.
 //!
 //! - Up to `max_skew_window` the lagging port stays trusted: both ports deliver whatever comes
 //!   first, with the wider window.
@@ -40,16 +44,43 @@
 //!
 //! # Silent
 //!
-//! For a distrusted port `d`, the other port `g` is silent when
+//! For a distrusted port `d`, the other port `g` is silent when it has received nothing for half
+//! a skew window (a port receiving now may be behind, the lag having changed sides) and
 //!
-//! - `g` has received nothing since the copy that `d`'s last twin was matched with (`d` has
-//!   caught up with everything `g` received, so an unmatched frame of `d` was never on `g`), or
-//! - `g` has received nothing for `d`'s window (any copy `g` had of it would have been matched).
+//! - nothing since the copy that `d`'s last twin was matched with (`d` has caught up with
+//!   everything `g` received, so an unmatched frame of `d` was never on `g`), or
+//! - nothing for `d`'s window (any copy `g` had of it would have been matched).
 //!
 //! Then `d`'s unmatched frames are delivered (and not recorded: they have no twin to wait for).
 //! So when `g` dies, the frames `d` carries after `g`'s last one are delivered and nothing is lost;
 //! a frame that only `g` missed while it kept working is not taken from a bus that lags beyond
 //! the maximum. A failed or recovering `g` leaves `d` as the trusted port of port health.
+//!
+//! # What comes twice: the exact bound
+//!
+//! With both buses carrying every frame and a lag within the horizon less a skew window (70 ms
+//! by default):
+//!
+//! - Once a port's lag is known, none of its copies is delivered a second time: its twins are
+//!   matched in the window or as late records (a late record lasts until ¼ of the merger's slots
+//!   of newer records have been made at least: 256 with the default 1024).
+//! - Before that, a twin older than the window cannot be told from a new frame: the twins that
+//!   show the lag are delivered a second time. A port not known to lag whose lag jumps past the
+//!   window costs **exactly two frames**, its first two late twins, and none after
+//!   (`MergeStats::slipped` counts them). A port known to lag (at least half a skew window)
+//!   matches late twins at once, so a lag that grows further, or that appears below the window
+//!   and then grows, costs none. A lag that comes back after it was forgotten costs two again.
+//! - When the lag changes sides in one step while the port that lagged beyond the maximum is
+//!   still distrusted, the new laggard is silent until its first late frame arrives, and the
+//!   frames the distrusted port delivers meanwhile come again from the new laggard: at most the
+//!   frames sent during that silence, the new lag.
+//! - A frame that repeats unchanged faster than the lag may be paired one occurrence off when the
+//!   lag appears (its newer copy is in the window, its twin already late); nothing is lost or
+//!   doubled while it keeps repeating, and one copy comes twice when it stops.
+//! - Beyond the horizon a twin cannot be recognised: every copy of that bus comes twice.
+//!
+//! Nothing is lost in any of these cases: a copy is dropped only as the twin of one delivered, or,
+//! from a distrusted port, while the other port delivers.
 //!
 //! # Reports
 //!
@@ -176,10 +207,12 @@ impl LagMeter {
         Duration::from_micros(self.ports[p.min(1)].estimate())
     }
     /// True while port `p` lags (its window is wider than the skew window).
+    #[inline]
     pub fn lagging(&self, p: usize) -> bool {
         self.ports[p.min(1)].window > self.base
     }
     /// True while port `p` lags beyond the maximum window.
+    #[inline]
     pub fn distrusted(&self, p: usize) -> bool {
         self.ports[p.min(1)].distrusted
     }
@@ -191,12 +224,16 @@ impl LagMeter {
             return true;
         };
         let port = &self.ports[p.min(1)];
-        port.last_twin.is_some_and(|t| last <= t)
-            || now.as_micros().saturating_sub(last) >= port.window
+        let quiet = now.as_micros().saturating_sub(last);
+        // Quiet for half a skew window at least: a port that is receiving now may be the one
+        // behind (the lag changed sides) and get this frame in a moment.
+        quiet >= self.threshold
+            && (port.last_twin.is_some_and(|t| last <= t) || quiet >= port.window)
     }
 
     /// A twin matched for an arrival on port `p` at `now` came `lag` after the other port's
     /// copy. Returns true when a window or a distrust changed (the events are queued).
+    #[inline]
     pub fn sample(&mut self, now: Instant, p: usize, lag: Duration, out: &mut Outbox) -> bool {
         let p = p.min(1);
         let (now_us, lag) = (now.as_micros(), lag.as_micros());
@@ -214,6 +251,12 @@ impl LagMeter {
             // Ordinary skew (the frequent case), or no lag: nothing to keep.
             return false;
         }
+        self.keep(now_us, p, lag, out)
+    }
+
+    /// A sample that shows a lag: kept, and what it changes.
+    #[cold]
+    fn keep(&mut self, now_us: u64, p: usize, lag: u64, out: &mut Outbox) -> bool {
         let mut changed = self.roll(now_us, out).is_some();
         let cur = &mut self.ports[p].cur;
         if lag > cur[0] {

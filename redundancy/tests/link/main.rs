@@ -4,6 +4,7 @@ mod active_active;
 mod cia302_6;
 mod ecss;
 mod lag;
+mod lag_properties;
 mod merge_memory;
 mod merge_properties;
 mod plausible_properties;

@@ -105,6 +105,8 @@ pub struct DualBus<
     merger: Merger<SLOTS>,
     lag: LagMeter,
     health: Health,
+    /// Port health's state changes the merger's late records were last set for.
+    health_seen: u32,
     reach: Reach,
     reach_enabled: bool,
     plausible: Plausibility,
@@ -168,6 +170,7 @@ impl<C: FrameClassifier, const SLOTS: usize, const FUNCTIONS: usize> DualBus<C, 
             merger: Merger::with_horizon(cfg.skew_window, lag.horizon()),
             lag,
             health: Health::new(health, cfg.skew_window),
+            health_seen: 0,
             reach: Reach::new(cfg.reach_timeout, cfg.skew_window),
             reach_enabled,
             // Rule 2 needs both buses listened to, as reachability does.

@@ -11,18 +11,10 @@ impl<C: FrameClassifier, const SLOTS: usize, const FUNCTIONS: usize> DualBus<C, 
     /// A frame for the merger: through it on a trusted port, only as a twin on an untrusted
     /// one, and on a port lagging beyond the maximum only as a twin unless the other port is
     /// silent (see [`crate::link::lag`]).
+    #[inline]
     pub(super) fn merge(&mut self, now: Instant, port: usize, frame: &Frame) -> RxOutcome {
-        let other = self.health.port(1 - port);
-        if self.lag.distrusted(port) && other.state().is_trusted() {
-            if let Some(twin) = self.merger.match_measured(now, port, frame) {
-                self.measured(now, port, twin);
-                return RxOutcome::Duplicate;
-            }
-            if self.lag.other_silent(now, port, other.counters().last_rx) {
-                // Not recorded: the other port, silent, has no copy to come.
-                return RxOutcome::Delivered;
-            }
-            return RxOutcome::Untrusted;
+        if self.lag.distrusted(port) && self.health.port(1 - port).state().is_trusted() {
+            return self.merge_distrusted(now, port, frame);
         }
         if self.health.trusted(port) {
             let (verdict, twin) = self.merger.arrive_measured(now, port, frame);
@@ -41,9 +33,29 @@ impl<C: FrameClassifier, const SLOTS: usize, const FUNCTIONS: usize> DualBus<C, 
         }
     }
 
+    /// A frame on a port lagging beyond the maximum while the other port works.
+    #[cold]
+    fn merge_distrusted(&mut self, now: Instant, port: usize, frame: &Frame) -> RxOutcome {
+        if let Some(twin) = self.merger.match_measured(now, port, frame) {
+            self.measured(now, port, twin);
+            return RxOutcome::Duplicate;
+        }
+        let other_last_rx = self.health.port(1 - port).counters().last_rx;
+        if self.lag.other_silent(now, port, other_last_rx) {
+            // Not recorded: the other port, silent, has no copy to come.
+            return RxOutcome::Delivered;
+        }
+        RxOutcome::Untrusted
+    }
+
     /// Copies of a port are kept as late records only while the other port can deliver their
     /// twins (ok or suspect): while it is failed or recovering its copies are lost, not late.
+    #[inline]
     pub(super) fn keep_late(&mut self, now: Instant) {
+        if self.health.changes() == self.health_seen {
+            return;
+        }
+        self.health_seen = self.health.changes();
         for p in 0..2 {
             let keep = self.health.port(1 - p).state().is_trusted();
             if keep != self.merger.keeps_late(p) {

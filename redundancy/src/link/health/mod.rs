@@ -37,6 +37,11 @@
 //!   segment can first flush frames that were queued before the fault; those are older than the
 //!   skew window and would otherwise be delivered a second time. The other port delivers every
 //!   occurrence meanwhile, so nothing is lost unless both buses fail at once.
+//! - **Lag.** A port whose frames lag the other port's beyond the maximum skew window (measured
+//!   by [`crate::link::lag`]) is suspect for that (reason `Lag`), and not ok again on traffic
+//!   until its lag is within the maximum (reason `LagWithin`); meanwhile its frames only match
+//!   twins while the other port delivers. Silence counts the merge window in force (a lagging
+//!   port's twins take that long).
 
 mod config;
 
@@ -54,7 +59,8 @@ use duocan::{Duration, Instant};
 pub enum PortState {
     /// Working.
     Ok,
-    /// Errors reported or silent for a while; still used.
+    /// Errors reported, silent for a while, or lagging beyond the maximum skew window; still
+    /// used (a lagging one only to match twins while the other port delivers).
     Suspect,
     /// Not used for transmission; waiting for re-initialisation.
     Failed,
@@ -214,6 +220,8 @@ pub struct Health {
     cfg: HealthConfig,
     window: Duration,
     ports: [PortHealth; 2],
+    /// State changes so far (wrapping): lets the layer follow them without asking per frame.
+    changes: u32,
 }
 
 impl Health {
@@ -224,13 +232,21 @@ impl Health {
             cfg,
             window,
             ports: [PortHealth::new(&cfg), PortHealth::new(&cfg)],
+            changes: 0,
         }
+    }
+    /// How many state changes there have been (wrapping): a different number means a port
+    /// changed state.
+    #[inline]
+    pub fn changes(&self) -> u32 {
+        self.changes
     }
     /// The configuration.
     pub fn config(&self) -> &HealthConfig {
         &self.cfg
     }
     /// One port (0 or 1; anything else reads port 1).
+    #[inline]
     pub fn port(&self, p: usize) -> &PortHealth {
         &self.ports[p.min(1)]
     }
@@ -494,6 +510,7 @@ impl Health {
         if from == to {
             return;
         }
+        self.changes = self.changes.wrapping_add(1);
         port.since = at;
         port.cond = match to {
             PortState::Ok => {

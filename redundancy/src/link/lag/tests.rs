@@ -170,8 +170,11 @@ fn the_other_port_is_silent_once_the_lagging_one_has_caught_up_with_it_or_after_
     assert_eq!(m.port_window(1), ms(60));
     // Port 1's last twin was port 0's copy of 70 ms; port 0 heard something at 80 ms: not silent.
     assert!(!m.other_silent(at(125), 1, Some(at(80))));
-    // Port 0 heard nothing after the copy port 1 caught up with: silent.
+    // Port 0 heard nothing after the copy port 1 caught up with: silent, once it has been quiet
+    // for half a skew window.
     assert!(m.other_silent(at(125), 1, Some(at(70))));
+    assert!(!m.other_silent(at(74), 1, Some(at(70))));
+    assert!(m.other_silent(at(75), 1, Some(at(70))));
     // Nothing heard for the window: silent whatever the twins.
     assert!(!m.other_silent(at(139), 1, Some(at(80))));
     assert!(m.other_silent(at(140), 1, Some(at(80))));

@@ -66,11 +66,12 @@ impl<const SLOTS: usize> Merger<SLOTS> {
         if self.horizon == 0 || self.keep_late[side as usize].is_none_or(|since| at < since) {
             return false;
         }
-        let slot = &mut self.slots[s];
-        if slot.late > 0 && slot.late_side() != side {
-            // Both ports missed copies of this key: keep the older ones only.
-            return false;
+        if self.slots[s].late > 0 && self.slots[s].late_side() != side {
+            // Both ports hold unmatched copies of this key (one missed the other's, or lost
+            // them while it was not trusted): the newer is the one whose twin may still come.
+            self.drop_late_of_slot(s);
         }
+        let slot = &mut self.slots[s];
         slot.flags = (slot.flags & !LATE_SIDE) | side << 1;
         slot.late += 1;
         self.ring[pos].late = true;
@@ -108,8 +109,31 @@ impl<const SLOTS: usize> Merger<SLOTS> {
         }
     }
 
+    /// Gives up the late records of slot `s` (which holds a reference of its own meanwhile).
+    fn drop_late_of_slot(&mut self, s: usize) {
+        let mask = SLOTS - 1;
+        let mut pos = self.head;
+        for _ in 0..SLOTS - self.len {
+            if self.slots[s].late == 0 {
+                break;
+            }
+            pos = (pos + mask) & mask;
+            if self.ring[pos].late && self.ring[pos].slot as usize == s {
+                self.give_up(pos);
+            }
+        }
+    }
+
     /// Gives back the oldest late records until a new key leaves the table at most ¾ full.
+    #[inline]
     pub(super) fn make_room(&mut self) {
+        if self.late > 0 && self.keys() >= Self::CAP {
+            self.give_back_room();
+        }
+    }
+
+    #[cold]
+    fn give_back_room(&mut self) {
         let mask = SLOTS - 1;
         // Behind the ring, oldest first: from the position after its tail.
         let mut pos = (self.head + self.len) & mask;

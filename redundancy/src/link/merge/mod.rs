@@ -16,6 +16,28 @@
 //! At any time only one port of a key holds records (an arrival on the other would have consumed
 //! them), so a key needs a side, a count and a FIFO of arrival times.
 //!
+//! # A lagging bus: late records
+//!
+//! A bus that hands its frames over later than the window (a queue that runs behind) would make
+//! every twin a new occurrence. A merger built [`with_horizon`](Merger::with_horizon) keeps an
+//! unmatched record that leaves the window as a *late* record until the horizon:
+//!
+//! - an arrival of the other port that finds no live twin but a late record of its key *sees*
+//!   it: the record is used up (oldest first), the arrival reports how late it is
+//!   ([`Merger::arrive_measured`]) and is delivered and recorded as without a horizon
+//!   ([`MergeStats::slipped`]). A lagging twin and the repeat of a frame one bus missed look the
+//!   same; delivering keeps the rule's count for the repeat, and costs the lagging twin one
+//!   duplicate;
+//! - on a port known to lag ([`Merger::set_late_match`], set by the layer from the measured lag,
+//!   see [`crate::link::lag`]) it *matches* it instead: a twin, dropped ([`MergeStats::late`]);
+//! - a twin's lag is reported exactly when it matched the only pending record of its key (the
+//!   newest) or a late one; with several pending, which one is the twin is a convention.
+//!
+//! Copies of a port whose twins cannot come (the other port failed or recovering: lost, not late)
+//! are not kept late ([`Merger::keep_late`]), and a port that turns out to lag forgets what it
+//! delivered before ([`Merger::forget`]): those were twins, and no copy of the other port is to
+//! come for them. Without a horizon nothing changes.
+//!
 //! # Memory
 //!
 //! Records live in one ring in arrival order (so expiry pops from the front and is O(1) per
@@ -23,20 +45,30 @@
 //! arena slot and the key's arrival sequence number; since records of a key are consumed and
 //! expired oldest first, the live records of a key are always its `unmatched` newest ones, and a
 //! record at the front of the ring is live exactly when its sequence number is among them. No
-//! record is ever searched for or moved.
+//! live record is ever searched for or moved.
 //!
 //! A `Merger<SLOTS>` has `SLOTS` slots (a power of two) and holds at most [`Merger::capacity`] =
 //! ¾·SLOTS records, keeping the table at most ¾ full. Two saturated 1 Mbit/s buses deliver at most
 //! about 21,300 frames/s each, i.e. ~430 records in a 10 ms window, which the default
-//! `SLOTS = 1024` holds with room to spare. With one bus dead every record expires unmatched after the window, so the
-//! occupancy is bounded by the live bus's rate × window: memory is constant by construction.
+//! `SLOTS = 1024` holds with room to spare. With one bus dead every record expires unmatched after
+//! the window, so the occupancy is bounded by the live bus's rate × window: memory is constant by
+//! construction.
+//!
+//! Late records take no memory of their own: they are the ring positions behind its head (at
+//! least ¼ of them), the records that left it most recently, until new arrivals overwrite them.
+//! A late record keeps its key's slot, which counts its late records; only an arrival whose key
+//! has late records of the other port searches for them, behind the head and down to the
+//! horizon. When a new key would fill the table beyond ¾, the oldest late records give their
+//! slots back. So a late record is recognised until SLOTS − (records held) newer records have
+//! been made, and at most until the horizon.
 //!
 //! # Overflow
 //!
 //! When the ring is full, the oldest record is evicted before its window ends (counted in
 //! [`MergeStats::evicted`] when it was still unmatched). A delivery is never refused: the only
 //! possible harm is that the twin of the evicted arrival, arriving later, is delivered as a
-//! duplicate (at most one per eviction). Losing a frame is worse than a counted duplicate.
+//! duplicate (at most one per eviction; with a horizon the evicted record stays recognisable as a
+//! late record while the ring has room). Losing a frame is worse than a counted duplicate.
 //!
 //! # Failed ports
 //!
@@ -44,7 +76,8 @@
 //! failed or recovering (while the other port is healthy) through [`Merger::match_only`]: such
 //! an arrival may consume a pending twin but is never delivered or recorded, because a repaired
 //! segment can first flush frames older than the window, which would otherwise come up a second
-//! time (see [`crate::link::health`]). With both ports unhealthy, both deliver normally.
+//! time (see [`crate::link::health`]). With both ports unhealthy, both deliver normally. A port
+//! lagging beyond the maximum window goes through it too (matching late twins).
 //!
 //! # Order
 //!
@@ -61,7 +94,12 @@
 //!   when its own copy arrives on the other bus, possibly after the sender's next frame.
 //!
 //! A lagging bus that drops frames, a dead bus, or two complete buses keep every sender's order
-//! exactly. The property tests (`tests/merge_properties.rs`) check these statements.
+//! exactly; so does a bus that lags beyond the window while it lags (its copies are all twins,
+//! matched or, until its lag is known, delivered a second time after the first). When its lag
+//! ends while the layer still distrusts it (see [`crate::link::lag`]) and it then leads by the
+//! skew, a frame it had first is taken from the other bus, possibly after the sender's next one.
+//! The property tests (`tests/merge_properties.rs`, `tests/lag_properties.rs`) check these
+//! statements.
 
 use duocan::{Duration, Frame, Instant};
 
@@ -348,13 +386,25 @@ impl<const SLOTS: usize> Merger<SLOTS> {
     /// the merger stays consistent but may match across the jump.
     #[inline]
     pub fn arrive(&mut self, now: Instant, port: usize, frame: &Frame) -> Verdict {
-        self.arrive_measured(now, port, frame).0
+        self.arrive_inner::<false>(now, port, frame).0
     }
 
     /// As [`Merger::arrive`], reporting the other port's copy: for a duplicate, the twin it
     /// matched; for a delivered arrival, a late copy it saw without matching it (its port may
     /// not match late copies), or `None`: a first copy.
     pub fn arrive_measured(
+        &mut self,
+        now: Instant,
+        port: usize,
+        frame: &Frame,
+    ) -> (Verdict, Option<Twin>) {
+        self.arrive_inner::<true>(now, port, frame)
+    }
+
+    /// The arrival, measuring the twin's lag only if asked (`arrive` does not: one memory read
+    /// less on the hot path).
+    #[inline(always)]
+    fn arrive_inner<const MEASURE: bool>(
         &mut self,
         now: Instant,
         port: usize,
@@ -372,7 +422,7 @@ impl<const SLOTS: usize> Merger<SLOTS> {
         let at = now.as_micros();
         let seen = match self.find(hi, lo, hash) {
             Ok(s) => {
-                if let Some(twin) = self.consume(s, side, at) {
+                if let Some(twin) = self.consume::<MEASURE>(s, side, at) {
                     return (Verdict::Duplicate, Some(twin));
                 }
                 // Pinned: taking a late record may release the slot's last reference.
@@ -428,7 +478,7 @@ impl<const SLOTS: usize> Merger<SLOTS> {
         let hash = hash(hi, lo);
         let at = now.as_micros();
         let s = self.find(hi, lo, hash).ok()?;
-        if let Some(twin) = self.consume(s, port as u8, at) {
+        if let Some(twin) = self.consume::<true>(s, port as u8, at) {
             return Some(twin);
         }
         if !self.late_match[port] {
@@ -447,13 +497,13 @@ impl<const SLOTS: usize> Merger<SLOTS> {
 
     /// Consumes the oldest live record of slot `s` held by the port other than `side`.
     #[inline]
-    fn consume(&mut self, s: usize, side: u8, at: u64) -> Option<Twin> {
+    fn consume<const MEASURE: bool>(&mut self, s: usize, side: u8, at: u64) -> Option<Twin> {
         let slot = &mut self.slots[s];
         if slot.unmatched == 0 || slot.side() == side {
             return None;
         }
         // With one live record it is the newest, in the ring: its age is exact.
-        let lag = (slot.unmatched == 1).then(|| {
+        let lag = (MEASURE && slot.unmatched == 1).then(|| {
             let newest = self.ring[slot.last_pos as usize].at;
             Duration::from_micros(at.saturating_sub(newest))
         });

@@ -322,3 +322,19 @@ fn match_only_takes_a_late_twin_only_on_a_lagging_port_and_clear_keeps_the_setti
     assert_eq!((m.window(), m.horizon(), m.late_match(1)), (W, H, true));
     assert_eq!(m.stats().late, 1, "counters kept");
 }
+
+#[test]
+fn late_copies_of_a_key_on_both_ports_keep_the_newer_side() {
+    let mut m: Merger<16> = Merger::with_horizon(W, H);
+    m.set_late_match(1, true);
+    // Port 1 holds an unmatched copy (port 0 missed it); long after, past the horizon (but not
+    // overwritten), port 0 holds one of the same frame.
+    m.arrive(t(0), 1, &f(1, 1));
+    m.expire(t(10_000));
+    m.arrive(t(100_000), 0, &f(1, 1));
+    m.expire(t(110_000));
+    assert_eq!(m.late_records(), 1, "port 1's is given up");
+    // Port 1's lagging twin of the newer copy is matched.
+    assert_eq!(m.arrive(t(130_000), 1, &f(1, 1)), Verdict::Duplicate);
+    assert_eq!(m.stats().late, 1);
+}
