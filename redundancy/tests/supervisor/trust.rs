@@ -2,7 +2,7 @@
 //! identifier, duplicate node-ID), and standbys started by someone else: as a pure machine, at
 //! exact instants. `impostor.rs` shows the same on the wire.
 
-use crate::pairs::{commands, events, ms, nmts, roles, running, table, A, B};
+use crate::pairs::{commands, events, ms, nmts, observe, roles, running, table, A, B};
 use duocan::{Duration, NmtCommand, NmtState, NodeId};
 use duocan_redundancy::supervisor::pairs::{
     Authority, LossReason, PairCommand, PairsConfig, PairsEvent, Phase, RoleReason,
@@ -197,14 +197,9 @@ proptest! {
             t += Duration::from_millis(dt);
             let n = if which { A } else { B };
             match op {
-                0 => s.boot_up(t, n),
-                1 => s.heartbeat(t, n, NmtState::PreOperational),
-                2 => s.heartbeat(t, n, NmtState::Operational),
-                3 => s.configured(t, n, true),
-                4 => s.configured(t, n, false),
                 5 => s.suspect(t, n, true),
                 6 => s.suspect(t, n, false),
-                _ => s.handle_timeout(t),
+                op => observe(&mut s, op, n, t),
             }
             s.handle_timeout(t);
             let st = *s.pair(p).unwrap();
