@@ -96,6 +96,32 @@ fn a_suspect_only_member_is_reset_and_the_pair_has_none() {
 }
 
 #[test]
+fn a_suspect_standby_never_takes_the_role_even_for_an_instant() {
+    // A's deadline (55 ms) falls due in the same handling as the verdict on B (at 60 ms, its
+    // own deadline moved to then): B is not alive, so A's silence leaves the pair without an
+    // active member at once, rather than handing it to B for the next deadline to take back.
+    let (mut s, p) = running();
+    commands(&mut s);
+    events(&mut s);
+    s.heartbeat(ms(30), B, NmtState::PreOperational);
+    s.suspect(ms(60), B, true);
+    assert_eq!(
+        roles(&mut s),
+        [(
+            ms(55),
+            Some(Member::A),
+            None,
+            RoleReason::OnlyMemberSilent { last: ms(5) }
+        )]
+    );
+    assert_eq!(
+        nmts(&mut s),
+        [(NmtCommand::ResetNode, 0x10), (NmtCommand::ResetNode, 0x11)]
+    );
+    assert_eq!(s.pair(p).unwrap().active, None);
+}
+
+#[test]
 fn a_member_configured_while_suspect_waits_unstarted_and_unreset() {
     let (mut s, p) = table(PairsConfig::default());
     s.boot_up(ms(0), A);
