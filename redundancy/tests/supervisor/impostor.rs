@@ -509,6 +509,47 @@ fn rogue_start_all_with_a_slow_standby_heartbeat_is_undone_at_the_suspension_end
 }
 
 #[test]
+fn rogue_start_the_master_does_not_hear_is_undone_at_the_standbys_first_operational_heartbeat() {
+    // Bus 1 is split: the rogue device and the B boards on one side, the masters and the A
+    // boards on the other. The masters never see the start-all (no suspension); the B boards
+    // announce their new state at once (a heartbeat on every state change), on bus 2 too.
+    let mut n = SupNet::new(Params::default());
+    let bus1 = [n.buses[0]];
+    let start_all = Frame::from_array(Id::Standard(0), [0x01, 0x00]);
+    let rogue = inject(&mut n, &bus1, start_all, Some(ms(1001)), Duration::ZERO);
+    let mut side: Vec<duocan::sim::PortRef> = (0..4).map(|i| n.slave(b(i)).port(0)).collect();
+    side.push(rogue.port(0));
+    let bus = n.buses[0];
+    n.sim
+        .at(ms(1000), move |sim| sim.partition(bus, &[side.as_slice()]));
+    n.sim.run_until(ms(1500));
+    assert!(!n.sup_events(STRONG).iter().any(|e| matches!(
+        e,
+        SupervisorEvent::FlyingMaster(FlyingEvent::Suspended { .. })
+    )));
+    let nmt = nmt_after(&n, ms(1001));
+    assert_eq!(nmt.len(), 4, "{nmt:?}");
+    for i in 0..4 {
+        // Its first heartbeat saying operational, as the masters got it (bus 2).
+        let seen_running = n
+            .delivered()
+            .into_iter()
+            .filter(|(t, bus, _, f)| *t > ms(1001) && *bus == 1 && *f == heartbeat(b(i), 5))
+            .map(|x| x.0)
+            .min()
+            .unwrap();
+        let back = nmt.iter().find(|x| x.2 == b(i)).unwrap();
+        assert_eq!(back.1, NmtCommand::EnterPreOperational);
+        assert!(
+            back.0 > seen_running && back.0 <= seen_running + ONE_MS,
+            "{back:?} vs {seen_running}"
+        );
+        assert!(running(&n, a(i)) && !running(&n, b(i)), "pair {i}");
+        assert_eq!(n.pair_roles(STRONG, i).len(), 1, "no switch-over");
+    }
+}
+
+#[test]
 fn a_second_board_set_to_the_same_node_id_is_reported_and_never_started() {
     // A spare board configured as 0x10 is plugged in at 1007 ms: its boot-up makes pair 0 fail
     // over (the active member "booted"), then both boards answer as 0x10 and beat.

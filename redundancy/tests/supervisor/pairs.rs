@@ -428,6 +428,19 @@ fn table_limits_and_errors() {
     s.nmt_observed(ms(1), NmtCommand::Start, 200);
 }
 
+/// One random observation of `n` at `t` for the property tests: boot-up, heartbeat
+/// (pre-operational or operational), configuration ending well or not, or time passing.
+pub fn observe(s: &mut PairSupervisor, op: u8, n: NodeId, t: Instant) {
+    match op {
+        0 => s.boot_up(t, n),
+        1 => s.heartbeat(t, n, NmtState::PreOperational),
+        2 => s.heartbeat(t, n, NmtState::Operational),
+        3 => s.configured(t, n, true),
+        4 => s.configured(t, n, false),
+        _ => s.handle_timeout(t),
+    }
+}
+
 proptest! {
     /// Whatever the observations, with a commanding supervisor: at most one active member per
     /// pair, the active member is joined, every start goes to the member that became active,
@@ -441,14 +454,7 @@ proptest! {
         for (op, which, dt) in ops {
             t += Duration::from_millis(dt);
             let n = if which { A } else { B };
-            match op {
-                0 => s.boot_up(t, n),
-                1 => s.heartbeat(t, n, NmtState::PreOperational),
-                2 => s.heartbeat(t, n, NmtState::Operational),
-                3 => s.configured(t, n, true),
-                4 => s.configured(t, n, false),
-                _ => s.handle_timeout(t),
-            }
+            observe(&mut s, op, n, t);
             s.handle_timeout(t);
             let st = *s.pair(p).unwrap();
             if let Some(a) = st.active {

@@ -2,7 +2,7 @@
 //! identifier, duplicate node-ID), and standbys started by someone else: as a pure machine, at
 //! exact instants. `impostor.rs` shows the same on the wire.
 
-use crate::pairs::{commands, events, ms, nmts, roles, running, table, A, B};
+use crate::pairs::{commands, events, ms, nmts, observe, roles, running, table, A, B};
 use duocan::{Duration, NmtCommand, NmtState, NodeId};
 use duocan_redundancy::supervisor::pairs::{
     Authority, LossReason, PairCommand, PairsConfig, PairsEvent, Phase, RoleReason,
@@ -91,6 +91,32 @@ fn a_suspect_only_member_is_reset_and_the_pair_has_none() {
     assert_eq!(
         roles(&mut s),
         [(ms(30), Some(Member::A), None, RoleReason::ActiveSuspect)]
+    );
+    assert_eq!(s.pair(p).unwrap().active, None);
+}
+
+#[test]
+fn a_suspect_standby_never_takes_the_role_even_for_an_instant() {
+    // A's deadline (55 ms) falls due in the same handling as the verdict on B (at 60 ms, its
+    // own deadline moved to then): B is not alive, so A's silence leaves the pair without an
+    // active member at once, rather than handing it to B for the next deadline to take back.
+    let (mut s, p) = running();
+    commands(&mut s);
+    events(&mut s);
+    s.heartbeat(ms(30), B, NmtState::PreOperational);
+    s.suspect(ms(60), B, true);
+    assert_eq!(
+        roles(&mut s),
+        [(
+            ms(55),
+            Some(Member::A),
+            None,
+            RoleReason::OnlyMemberSilent { last: ms(5) }
+        )]
+    );
+    assert_eq!(
+        nmts(&mut s),
+        [(NmtCommand::ResetNode, 0x10), (NmtCommand::ResetNode, 0x11)]
     );
     assert_eq!(s.pair(p).unwrap().active, None);
 }
@@ -197,14 +223,9 @@ proptest! {
             t += Duration::from_millis(dt);
             let n = if which { A } else { B };
             match op {
-                0 => s.boot_up(t, n),
-                1 => s.heartbeat(t, n, NmtState::PreOperational),
-                2 => s.heartbeat(t, n, NmtState::Operational),
-                3 => s.configured(t, n, true),
-                4 => s.configured(t, n, false),
                 5 => s.suspect(t, n, true),
                 6 => s.suspect(t, n, false),
-                _ => s.handle_timeout(t),
+                op => observe(&mut s, op, n, t),
             }
             s.handle_timeout(t);
             let st = *s.pair(p).unwrap();

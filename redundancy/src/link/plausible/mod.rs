@@ -47,10 +47,14 @@
 //! the node's heartbeat off that bus: a cut stops every frame, and a babbler blocks every
 //! identifier of lower priority than its own. Without such a witness at the deadline the rule is
 //! checked again at each of the node's heartbeats (so within one period of a witness). The
-//! node is trusted again when it is heard on the other bus, when it boots (boot-up frame), or
-//! when it is heard nowhere for `W` (its silence is then for the consumers to judge). The rule
-//! applies in the modes that listen on both buses (active-active, CiA 302-6), not in ECSS
-//! toggling.
+//! deadline is armed by the node's first heartbeat on the other bus that finds the silent bus
+//! late (more than 1.5 periods without it), so a node heard on both buses costs no timer; the
+//! instant is exact when that heartbeat comes before the deadline, i.e. when `W` exceeds about
+//! 2.5 periods (the default, 3 guarding periods, does when the guarding period is the heartbeat
+//! period), and otherwise it is that heartbeat. The node is trusted again when it is heard on
+//! the other bus, when it boots (boot-up frame), or when it is heard nowhere for `W` (its silence
+//! is then for the consumers to judge). The rule applies in the modes that listen on both buses
+//! (active-active, CiA 302-6), not in ECSS toggling.
 //!
 //! # Verdicts
 //!

@@ -185,18 +185,32 @@ fn a_second_device_at_the_same_period_is_a_duplicate_not_a_babble() {
     );
 }
 
-/// Both nodes beat on both buses every 12 ms until `until`; 0x10 stops on `silent` at `stop`.
-fn paired_then(r: &mut Rig, stop: u64, silent: Option<usize>, until: u64) {
-    let mut t = 100;
+/// Every 12 ms from `from` to `until`: 0x10 beats on each bus `node` says (with the state it
+/// gives), the witness 0x50 (lower priority) 300 µs later on each bus `witness` says.
+fn beats(
+    r: &mut Rig,
+    (from, until): (u64, u64),
+    node: impl Fn(u64, usize) -> Option<u8>,
+    witness: impl Fn(u64, usize) -> bool,
+) {
+    let mut t = from;
     while t <= until {
         for port in 0..2 {
-            if !(silent == Some(port) && t >= stop) {
-                r.beat(ms(t), port, 0x10, 5);
+            if let Some(state) = node(t, port) {
+                r.beat(ms(t), port, 0x10, state);
             }
-            r.beat(ms(t) + Duration::from_micros(300), port, 0x50, 0x7F);
+            if witness(t, port) {
+                r.beat(ms(t) + Duration::from_micros(300), port, 0x50, 0x7F);
+            }
         }
         t += 12;
     }
+}
+
+/// Both nodes beat on both buses from 100 ms until `until`; 0x10 stops on `silent` at `stop`.
+fn paired_then(r: &mut Rig, stop: u64, silent: Option<usize>, until: u64) {
+    let node = |t, port| (!(silent == Some(port) && t >= stop)).then_some(5);
+    beats(r, (100, until), node, |_, _| true);
 }
 
 #[test]
@@ -234,43 +248,29 @@ fn rule_two_needs_a_lower_priority_witness_an_ok_port_and_a_pairing() {
     // The witness must have a lower priority: 0x50 stopping on bus 2 while 0x10 goes on there is
     // no evidence against 0x50 (a babbler between 0x710 and 0x750 would do the same).
     let mut r = Rig::new();
-    let mut t = 100;
-    while t <= 400 {
-        for port in 0..2 {
-            r.beat(ms(t), port, 0x10, 5);
-            if !(port == 1 && t >= 244) {
-                r.beat(ms(t) + Duration::from_micros(300), port, 0x50, 0x7F);
-            }
-        }
-        t += 12;
-    }
+    beats(
+        &mut r,
+        (100, 400),
+        |_, _| Some(5),
+        |t, port| !(port == 1 && t >= 244),
+    );
     assert!(r.requests().is_empty());
     assert_eq!(r.p.one_bus(n(0x50)), None);
 
     // Bus 2 cut: nothing on it, no witness, no verdict.
     let mut r = Rig::new();
-    let mut t = 100;
-    while t <= 400 {
-        for port in 0..2 {
-            if port == 0 || t < 244 {
-                r.beat(ms(t), port, 0x10, 5);
-                r.beat(ms(t) + Duration::from_micros(300), port, 0x50, 0x7F);
-            }
-        }
-        t += 12;
-    }
+    let up = |t, port| port == 0 || t < 244;
+    beats(&mut r, (100, 400), |t, port| up(t, port).then_some(5), up);
     assert!(r.requests().is_empty());
 
     // Never heard on bus 2: a node on one bus by design is no impostor.
     let mut r = Rig::new();
-    let mut t = 100;
-    while t <= 400 {
-        r.beat(ms(t), 0, 0x10, 5);
-        for port in 0..2 {
-            r.beat(ms(t) + Duration::from_micros(300), port, 0x50, 0x7F);
-        }
-        t += 12;
-    }
+    beats(
+        &mut r,
+        (100, 400),
+        |_, port| (port == 0).then_some(5),
+        |_, _| true,
+    );
     assert!(r.requests().is_empty());
 }
 
@@ -282,14 +282,12 @@ fn a_boot_up_is_a_new_life_judged_afresh() {
     // It boots (a reset after its failover) and goes on on bus 1 only: not paired, trusted.
     r.beat(ms(405), 0, 0x10, 0);
     assert_eq!(r.requests(), [(0x10, false)]);
-    let mut t = 417;
-    while t <= 700 {
-        r.beat(ms(t), 0, 0x10, 0x7F);
-        for port in 0..2 {
-            r.beat(ms(t) + Duration::from_micros(300), port, 0x50, 0x7F);
-        }
-        t += 12;
-    }
+    beats(
+        &mut r,
+        (417, 700),
+        |_, port| (port == 0).then_some(0x7F),
+        |_, _| true,
+    );
     assert!(r.requests().is_empty());
 }
 
@@ -299,13 +297,7 @@ fn heard_nowhere_ends_the_suspicion_and_the_pairing() {
     paired_then(&mut r, 244, Some(1), 400);
     assert_eq!(r.requests(), [(0x10, true)]);
     // The impostor on bus 1 stops too: at its last heartbeat + W, nothing left to doubt.
-    let mut t = 412;
-    while t <= 600 {
-        for port in 0..2 {
-            r.beat(ms(t) + Duration::from_micros(300), port, 0x50, 0x7F);
-        }
-        t += 12;
-    }
+    beats(&mut r, (412, 600), |_, _| None, |_, _| true);
     assert_eq!(r.requests(), [(0x10, false)]);
     let trusted = r
         .events()

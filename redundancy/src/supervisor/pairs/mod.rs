@@ -64,8 +64,10 @@
 //! and suspends its own commands for the detection timeout (0x1F90 sub 1, 100 ms by default; see
 //! [`crate::supervisor::flying_master`]), so one board runs again, on the bus within one frame,
 //! at the later of the command + the detection timeout and the standby's first heartbeat after
-//! it. A standby the application starts through this master
-//! ([`PairSupervisor::application_nmt`]) is left running.
+//! it. A node announces a state change at once with a heartbeat, so that is the command + the
+//! detection timeout when this master heard the command, and the standby's heartbeat right
+//! after its start when it did not (a command on a bus segment it cannot hear). A standby the
+//! application starts through this master ([`PairSupervisor::application_nmt`]) is left running.
 //!
 //! # Command and shadow
 //!
@@ -362,7 +364,7 @@ impl PairSupervisor {
         if self.pairs[p].active == Some(m) {
             // Its state is gone: the standby takes over at once if it can.
             let o = m.other();
-            let to = self.pairs[p].member(o).alive_at(now).then_some(o);
+            let to = self.alive(p, o, now).then_some(o);
             self.set_role(now, p, to, RoleReason::ActiveRebooted);
         }
         if self.authority == Authority::Command {
@@ -523,7 +525,7 @@ impl PairSupervisor {
         }
         let p = pair.0 as usize;
         let state = self.pairs.get(p).ok_or(PairsError::NoPair(pair))?;
-        if !state.member(to).alive_at(now) {
+        if !self.alive(p, to, now) {
             return Err(PairsError::NotAlive(pair, to));
         }
         if state.active == Some(to) {
@@ -636,7 +638,7 @@ impl PairSupervisor {
             .deadline()
             .map_or(t, |d| d - self.pairs[p].spec.consumer_time);
         let o = m.other();
-        let other_alive = self.pairs[p].member(o).alive_at(t);
+        let other_alive = self.alive(p, o, t);
         let (why, loss) = if self.is_suspect(s.node) {
             (Some(RoleReason::ActiveSuspect), LossReason::Suspect)
         } else {
@@ -776,7 +778,7 @@ impl PairSupervisor {
         }
         let pick = [Member::A, Member::B]
             .into_iter()
-            .filter(|m| self.pairs[p].member(*m).alive_at(now))
+            .filter(|m| self.alive(p, *m, now))
             // An operational member keeps running rather than being replaced.
             .max_by_key(|m| {
                 (

@@ -32,6 +32,12 @@ impl PairSupervisor {
         self.suspect & bit(node) != 0
     }
 
+    /// Member `m` of pair `p` is joined, not silent at `now` and trusted: one that can run.
+    pub(super) fn alive(&self, p: usize, m: Member, now: Instant) -> bool {
+        let s = self.pairs[p].member(m);
+        s.alive_at(now) && !self.is_suspect(s.node)
+    }
+
     /// The dual-bus layer judged `node`'s heartbeats implausible (`suspect`: an impostor on one
     /// bus, a babbling identifier, a duplicate node-ID) or plausible again. While suspect, its
     /// heartbeats and boot-ups are no sign of life and it is not adopted; a joined member is
@@ -71,7 +77,7 @@ impl PairSupervisor {
         let s = pair.member(m);
         let node = s.node;
         let by_application = self.by_application & bit(node) != 0;
-        if !s.joined() || by_application || !pair.member(a).alive_at(now) {
+        if !s.joined() || by_application || !self.alive(p, a, now) {
             return;
         }
         self.nmt(NmtCommand::EnterPreOperational, node);
