@@ -5,7 +5,7 @@
 use duocan::machine::{Composite, CompositeEvent, StationEvent};
 use duocan::node::NodeEventKind;
 use duocan::od::{comm, DynamicDictionary};
-use duocan::sim::{BusConfig, BusId, DevId, SimNetwork, TraceRecord, TxOutcome};
+use duocan::sim::{BusConfig, BusId, DevId, SimNetwork, TraceRecord, TxOutcome, TxRecord};
 use duocan::{Duration, Frame, Id, Instant, Machine, Node, NodeConfig, NodeEvent, NodeId, Station};
 use duocan_redundancy::{DualBus, DualBusConfig, LinkEvent, LinkEventKind, PortReason, PortState};
 use std::collections::VecDeque;
@@ -180,44 +180,34 @@ impl Net {
             .max()
             .expect("something was received")
     }
-    /// The end of the last frame `node` got onto `bus` up to `t`.
+    /// `node`'s own frames delivered on `bus` (not a babbling controller's), in time order.
+    fn delivered_by(&self, node: u8, bus: usize) -> impl Iterator<Item = &TxRecord> + '_ {
+        let me = self.dev(node).erased();
+        let bus = self.buses[bus];
+        self.sim.trace().iter().filter_map(move |r| match r {
+            TraceRecord::Tx(x)
+                if x.bus == bus
+                    && x.sender.device == me
+                    && !x.babble
+                    && matches!(x.outcome, TxOutcome::Delivered { .. }) =>
+            {
+                Some(x)
+            }
+            _ => None,
+        })
+    }
     /// Ends of `node`'s frames delivered on `bus` that started at or after `t`.
     pub fn sent_from(&self, node: u8, bus: usize, t: Instant) -> Vec<Instant> {
-        let me = self.dev(node).erased();
-        self.sim
-            .trace()
-            .iter()
-            .filter_map(|r| match r {
-                TraceRecord::Tx(x)
-                    if x.bus == self.buses[bus]
-                        && x.sender.device == me
-                        && x.start >= t
-                        && !x.babble
-                        && matches!(x.outcome, TxOutcome::Delivered { .. }) =>
-                {
-                    Some(x.end)
-                }
-                _ => None,
-            })
+        self.delivered_by(node, bus)
+            .filter(|x| x.start >= t)
+            .map(|x| x.end)
             .collect()
     }
+    /// The end of the last frame `node` got onto `bus` up to `t`.
     pub fn last_tx(&self, node: u8, bus: usize, t: Instant) -> Instant {
-        let me = self.dev(node).erased();
-        self.sim
-            .trace()
-            .iter()
-            .filter_map(|r| match r {
-                TraceRecord::Tx(x)
-                    if x.bus == self.buses[bus]
-                        && x.sender.device == me
-                        && x.end <= t
-                        && !x.babble
-                        && matches!(x.outcome, TxOutcome::Delivered { .. }) =>
-                {
-                    Some(x.end)
-                }
-                _ => None,
-            })
+        self.delivered_by(node, bus)
+            .map(|x| x.end)
+            .filter(|end| *end <= t)
             .max()
             .expect("something was sent")
     }
