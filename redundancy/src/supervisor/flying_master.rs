@@ -454,20 +454,57 @@ impl fmt::Display for FlyingMasterError {
     }
 }
 
+/// Where the device is, with the data only that phase has. Every transition builds the new
+/// variant whole, so nothing of one role (a detection cycle, a suspension, a hand-back) outlives
+/// it into the next; the public [`MasterRole`] is read off it.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum State {
+    /// Not started.
+    Off,
+    /// Asked for the active master; negotiates at `until` if nobody answered.
+    Detecting { until: Instant },
+    /// Announces itself at `until` unless another device announced first.
+    Negotiating { until: Instant },
+    /// Follows `master` (if known) and takes over at `takeover_at`: the master's heartbeat
+    /// deadline, or, the master lost, the end of the slots of the live devices ranked better.
+    Standby {
+        master: Option<Rank>,
+        takeover_at: Instant,
+    },
+    /// The active master, with its own timers.
+    Active(Active),
+}
+
+/// What only an active master keeps.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+struct Active {
+    /// Next periodic 0x76 (none with a zero detect cycle).
+    detect_at: Option<Instant>,
+    /// NMT commands suspended until then (another active master suspected).
+    suspended_until: Option<Instant>,
+    /// A revertive hand-back is due then.
+    handback_at: Option<Instant>,
+    /// The hand-back that became due, until the supervisor takes it.
+    handback: Option<Rank>,
+}
+
+impl State {
+    fn role(&self) -> MasterRole {
+        match self {
+            State::Off => MasterRole::Off,
+            State::Detecting { .. } => MasterRole::Detecting,
+            State::Negotiating { .. } => MasterRole::Negotiating,
+            State::Standby { master, .. } => MasterRole::Standby(*master),
+            State::Active(_) => MasterRole::Active,
+        }
+    }
+}
+
 /// One master-capable device's part of the flying-master protocol.
 pub struct FlyingMaster {
     cfg: FlyingMasterConfig,
-    role: MasterRole,
+    state: State,
     peers: Vec<Peer, MAX_PEERS>,
-    /// End of detection / negotiation / pending takeover.
-    phase_deadline: Option<Instant>,
-    /// Next periodic 0x76 (active).
-    detect_at: Option<Instant>,
-    /// Commands suspended until then (active).
-    suspended_until: Option<Instant>,
-    /// Revertive hand-back due then (active).
-    handback_at: Option<Instant>,
-    handback: Option<Rank>,
     tx: Bounded<Frame, 16>,
     events: Bounded<FlyingEvent, 16>,
 }
@@ -478,13 +515,8 @@ impl FlyingMaster {
     pub fn new(cfg: FlyingMasterConfig) -> Self {
         FlyingMaster {
             cfg,
-            role: MasterRole::Off,
+            state: State::Off,
             peers: Vec::new(),
-            phase_deadline: None,
-            detect_at: None,
-            suspended_until: None,
-            handback_at: None,
-            handback: None,
             tx: Bounded::new(),
             events: Bounded::new(),
         }
@@ -500,15 +532,15 @@ impl FlyingMaster {
     }
     /// The role now.
     pub fn role(&self) -> MasterRole {
-        self.role
+        self.state.role()
     }
     /// True when active.
     pub fn is_active(&self) -> bool {
-        self.role.is_active()
+        matches!(self.state, State::Active(_))
     }
     /// Active and not suspended: NMT commands to slaves may be sent at `now`.
     pub fn may_command(&self, now: Instant) -> bool {
-        self.is_active() && self.suspended_until.is_none_or(|u| now >= u)
+        matches!(self.state, State::Active(a) if a.suspended_until.is_none_or(|u| now >= u))
     }
     /// The other master-capable devices known.
     pub fn peers(&self) -> &[Peer] {
@@ -516,9 +548,9 @@ impl FlyingMaster {
     }
     /// The active master, as far as this device knows (itself when active).
     pub fn active_master(&self) -> Option<Rank> {
-        match self.role {
-            MasterRole::Active => Some(self.cfg.rank),
-            MasterRole::Standby(r) => r,
+        match self.state {
+            State::Active(_) => Some(self.cfg.rank),
+            State::Standby { master, .. } => master,
             _ => None,
         }
     }
@@ -530,11 +562,12 @@ impl FlyingMaster {
             .ok_or(FlyingMasterError::PeersFull)
     }
 
-    /// Power-on: ask for the active master.
+    /// Power-on: ask for the active master. Called again, it starts over from the detection,
+    /// whatever the role was.
     pub fn start(&mut self, now: Instant) {
         self.send(ACTIVE_MASTER_REQUEST, &[]);
-        self.phase_deadline = Some(now + self.cfg.detection_timeout);
-        self.change(now, MasterRole::Detecting, MasterReason::PowerOn);
+        let until = now + self.cfg.detection_timeout;
+        self.change(now, State::Detecting { until }, MasterReason::PowerOn);
     }
 
     // ----- inputs -----
@@ -553,13 +586,13 @@ impl FlyingMaster {
         }
         match (id, rank) {
             (ACTIVE_MASTER_RESPONSE, Some(r)) => self.on_announcement(now, r),
-            (NEGOTIATION_REQUEST, _) => match self.role {
-                MasterRole::Active => self.announce(),
-                MasterRole::Negotiating | MasterRole::Off => {}
+            (NEGOTIATION_REQUEST, _) => match self.state {
+                State::Active(_) => self.announce(),
+                State::Negotiating { .. } | State::Off => {}
                 _ => self.negotiate(now, MasterReason::NegotiationRequested),
             },
             (ACTIVE_MASTER_REQUEST, _) if self.is_active() => self.announce(),
-            (MASTER_CAPABLE_REQUEST, _) if self.role != MasterRole::Off => {
+            (MASTER_CAPABLE_REQUEST, _) if self.state != State::Off => {
                 self.send(MASTER_CAPABLE_RESPONSE, &self.cfg.rank.payload());
             }
             (FORCE_NEGOTIATION, Some(r)) if r.node != self.cfg.rank.node => self.on_force(now, r),
@@ -589,14 +622,17 @@ impl FlyingMaster {
         if returned && !boot_up && self.is_active() {
             self.suspect(now);
         }
-        if self.role == MasterRole::Standby(Some(rank)) {
+        if matches!(self.state, State::Standby { master: Some(m), .. } if m == rank) {
             if boot_up {
                 // The active master rebooted (faster than the timeout): it is not active any
                 // more and starts by detecting; take over now rather than leave the network
                 // without a master for a whole negotiation.
                 return self.lose_master(now, rank, MasterReason::MasterRebooted(node));
             }
-            self.phase_deadline = Some(now + timeout);
+            self.state = State::Standby {
+                master: Some(rank),
+                takeover_at: now + timeout,
+            };
         }
         self.plan_handback(now);
     }
@@ -614,7 +650,7 @@ impl FlyingMaster {
     /// standby.
     pub fn hand_over(&mut self, now: Instant, to: Option<Rank>) -> Result<Rank, FlyingMasterError> {
         if !self.is_active() {
-            return Err(FlyingMasterError::WrongRole(self.role));
+            return Err(FlyingMasterError::WrongRole(self.role()));
         }
         let to = match to {
             Some(r) => r,
@@ -623,8 +659,6 @@ impl FlyingMaster {
                 .ok_or(FlyingMasterError::NoSuccessor)?,
         };
         self.send(ACTIVE_MASTER_RESPONSE, &to.payload());
-        self.handback = None;
-        self.handback_at = None;
         self.follow(now, to, MasterReason::HandedOver(to));
         Ok(to)
     }
@@ -632,18 +666,21 @@ impl FlyingMaster {
     /// Takes the role by hand (standby): announces itself. An active master that has heard this
     /// one alive all along steps down.
     pub fn take_over(&mut self, now: Instant) -> Result<(), FlyingMasterError> {
-        match self.role {
-            MasterRole::Standby(_) | MasterRole::Negotiating | MasterRole::Detecting => {
+        match self.state {
+            State::Standby { .. } | State::Negotiating { .. } | State::Detecting { .. } => {
                 self.activate(now, MasterReason::Manual);
                 Ok(())
             }
-            r => Err(FlyingMasterError::WrongRole(r)),
+            _ => Err(FlyingMasterError::WrongRole(self.role())),
         }
     }
 
     /// A revertive hand-back that became due (the supervisor performs it between two SYNCs).
     pub fn take_handback(&mut self) -> Option<Rank> {
-        self.handback.take()
+        match &mut self.state {
+            State::Active(a) => a.handback.take(),
+            _ => None,
+        }
     }
 
     // ----- time -----
@@ -651,44 +688,37 @@ impl FlyingMaster {
     /// Earliest deadline.
     #[must_use]
     pub fn poll_timeout(&self) -> Option<Instant> {
-        earliest_of([
-            self.phase_deadline,
-            self.detect_at,
-            self.suspended_until,
-            self.handback_at,
-        ])
+        match self.state {
+            State::Off => None,
+            State::Detecting { until }
+            | State::Negotiating { until }
+            | State::Standby {
+                takeover_at: until, ..
+            } => earliest_of([Some(until)]),
+            State::Active(a) => earliest_of([a.detect_at, a.suspended_until, a.handback_at]),
+        }
     }
 
     /// Does what is due at `now`.
     pub fn handle_timeout(&mut self, now: Instant) {
-        if self.suspended_until.is_some_and(|u| u <= now) {
-            self.suspended_until = None;
-        }
-        if let Some(t) = self.detect_at.filter(|t| *t <= now) {
-            self.send(FORCE_NEGOTIATION, &self.cfg.rank.payload());
-            // On the cycle's grid; after a jump of the clock past further cycles, one cycle
-            // after `now`: one request for all the missed ones, not a burst of them.
-            let next = t + self.cfg.detect_cycle;
-            self.detect_at = self.detection_after(if next <= now { now } else { t });
-        }
-        if let Some(t) = self.handback_at.filter(|t| *t <= now) {
-            self.handback_at = None;
-            if self.is_active() {
-                self.handback = self.better_live_peer(t);
-            }
-        }
-        let Some(t) = self.phase_deadline.filter(|t| *t <= now) else {
-            return;
-        };
-        self.phase_deadline = None;
-        match self.role {
-            MasterRole::Detecting => {
+        match self.state {
+            State::Off => {}
+            State::Active(a) => self.active_timers(now, a),
+            State::Detecting { until: t } if t <= now => {
                 self.send(NEGOTIATION_REQUEST, &[]);
                 self.negotiate(t, MasterReason::NoActiveMaster);
             }
-            MasterRole::Negotiating => self.activate(t, MasterReason::NegotiationWon),
-            MasterRole::Standby(Some(master)) => self.master_silent(t, master),
-            MasterRole::Standby(None) => {
+            State::Negotiating { until: t } if t <= now => {
+                self.activate(t, MasterReason::NegotiationWon)
+            }
+            State::Standby {
+                master: Some(master),
+                takeover_at: t,
+            } if t <= now => self.master_silent(t, master),
+            State::Standby {
+                master: None,
+                takeover_at: t,
+            } if t <= now => {
                 // A pending takeover (better live peers had their slots first).
                 self.activate(t, MasterReason::NoActiveMaster)
             }
@@ -711,6 +741,26 @@ impl FlyingMaster {
 
     // ----- internals -----
 
+    /// The active master's timers due at `now`; `a` is its data, written back at the end (no
+    /// timer changes the role).
+    fn active_timers(&mut self, now: Instant, mut a: Active) {
+        if a.suspended_until.is_some_and(|u| u <= now) {
+            a.suspended_until = None;
+        }
+        if let Some(t) = a.detect_at.filter(|t| *t <= now) {
+            self.send(FORCE_NEGOTIATION, &self.cfg.rank.payload());
+            // On the cycle's grid; after a jump of the clock past further cycles, one cycle
+            // after `now`: one request for all the missed ones, not a burst of them.
+            let next = t + self.cfg.detect_cycle;
+            a.detect_at = self.detection_after(if next <= now { now } else { t });
+        }
+        if let Some(t) = a.handback_at.filter(|t| *t <= now) {
+            a.handback_at = None;
+            a.handback = self.better_live_peer(t);
+        }
+        self.state = State::Active(a);
+    }
+
     fn on_announcement(&mut self, now: Instant, r: Rank) {
         if r == self.cfg.rank {
             // Named by someone else's 0x71: a hand-over to this device.
@@ -719,8 +769,8 @@ impl FlyingMaster {
             }
             return;
         }
-        match self.role {
-            MasterRole::Active => {
+        match self.state {
+            State::Active(_) => {
                 let planned = self
                     .peers
                     .iter()
@@ -733,14 +783,14 @@ impl FlyingMaster {
                     self.suspect(now);
                 }
             }
-            MasterRole::Off => {}
+            State::Off => {}
             _ => self.follow(now, r, MasterReason::ActiveMasterFound(r)),
         }
     }
 
     fn on_force(&mut self, now: Instant, r: Rank) {
-        match self.role {
-            MasterRole::Active => {
+        match self.state {
+            State::Active(_) => {
                 if r < self.cfg.rank {
                     self.follow(now, r, MasterReason::ConflictLost(r));
                 } else {
@@ -750,8 +800,10 @@ impl FlyingMaster {
             }
             // The periodic detection of the master followed, or of a worse one (which the
             // better one will deal with).
-            MasterRole::Standby(Some(m)) if m <= r => {}
-            MasterRole::Off => {}
+            State::Standby {
+                master: Some(m), ..
+            } if m <= r => {}
+            State::Off => {}
             _ => self.follow(now, r, MasterReason::ActiveMasterFound(r)),
         }
     }
@@ -778,8 +830,12 @@ impl FlyingMaster {
         if better == 0 {
             self.activate(t, reason);
         } else {
-            self.phase_deadline = Some(t + self.cfg.device_slot.saturating_mul(better));
-            self.change(t, MasterRole::Standby(None), reason);
+            let takeover_at = t + self.cfg.device_slot.saturating_mul(better);
+            let pending = State::Standby {
+                master: None,
+                takeover_at,
+            };
+            self.change(t, pending, reason);
         }
     }
 
@@ -791,27 +847,24 @@ impl FlyingMaster {
     }
 
     fn negotiate(&mut self, now: Instant, reason: MasterReason) {
-        self.phase_deadline = Some(now + self.cfg.negotiation_wait());
-        self.change(now, MasterRole::Negotiating, reason);
+        let until = now + self.cfg.negotiation_wait();
+        self.change(now, State::Negotiating { until }, reason);
     }
 
     fn activate(&mut self, now: Instant, reason: MasterReason) {
-        self.phase_deadline = None;
-        self.suspended_until = None;
-        self.detect_at = self.detection_after(now);
         for p in self.peers.iter_mut() {
             p.continuous = p.last.is_some_and(|l| l + self.cfg.master_timeout > now);
         }
         self.announce();
-        self.change(now, MasterRole::Active, reason);
+        let active = Active {
+            detect_at: self.detection_after(now),
+            ..Active::default()
+        };
+        self.change(now, State::Active(active), reason);
         self.plan_handback(now);
     }
 
     fn follow(&mut self, now: Instant, r: Rank, reason: MasterReason) {
-        self.detect_at = None;
-        self.suspended_until = None;
-        self.handback_at = None;
-        self.handback = None;
         // Watched from its last heartbeat if that is recent, else from now.
         let timeout = self.cfg.master_timeout;
         let last = self
@@ -821,14 +874,22 @@ impl FlyingMaster {
             .and_then(|p| p.last)
             .filter(|l| *l + timeout > now)
             .unwrap_or(now);
-        self.phase_deadline = Some(last + timeout);
-        self.change(now, MasterRole::Standby(Some(r)), reason);
+        let standby = State::Standby {
+            master: Some(r),
+            takeover_at: last + timeout,
+        };
+        self.change(now, standby, reason);
     }
 
+    /// Active: another active master may be there; commands stop until the detection timeout
+    /// has passed without a conflict.
     fn suspect(&mut self, now: Instant) {
-        let fresh = self.suspended_until.is_none();
         let until = now + self.cfg.detection_timeout;
-        self.suspended_until = Some(until);
+        let State::Active(a) = &mut self.state else {
+            return;
+        };
+        let fresh = a.suspended_until.is_none();
+        a.suspended_until = Some(until);
         if fresh {
             self.send(FORCE_NEGOTIATION, &self.cfg.rank.payload());
             self.events.push(FlyingEvent::Suspended { at: now, until });
@@ -836,11 +897,15 @@ impl FlyingMaster {
     }
 
     fn plan_handback(&mut self, now: Instant) {
-        if !self.cfg.revertive || !self.is_active() || self.handback_at.is_some() {
+        let planned = match self.state {
+            State::Active(a) => a.handback_at.is_some(),
+            _ => return,
+        };
+        if !self.cfg.revertive || planned || self.better_live_peer(now).is_none() {
             return;
         }
-        if self.better_live_peer(now).is_some() {
-            self.handback_at = Some(now + self.cfg.handback_delay);
+        if let State::Active(a) = &mut self.state {
+            a.handback_at = Some(now + self.cfg.handback_delay);
         }
     }
 
@@ -886,12 +951,15 @@ impl FlyingMaster {
         }
     }
 
-    fn change(&mut self, at: Instant, to: MasterRole, reason: MasterReason) {
-        let from = self.role;
+    /// Enters `to`; reports a role change if the role differs (following the same master
+    /// again only re-times its deadline).
+    fn change(&mut self, at: Instant, to: State, reason: MasterReason) {
+        let from = self.role();
+        self.state = to;
+        let to = self.role();
         if from == to {
             return;
         }
-        self.role = to;
         self.events.push(FlyingEvent::Role(MasterRoleChange {
             at,
             from,
@@ -905,7 +973,7 @@ impl fmt::Debug for FlyingMaster {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         f.debug_struct("FlyingMaster")
             .field("rank", &self.cfg.rank)
-            .field("role", &self.role)
+            .field("role", &self.role())
             .field("peers", &self.peers)
             .finish_non_exhaustive()
     }
