@@ -1,7 +1,7 @@
 //! The boot process of one slave (CiA 302-2 "boot slave"): identity check, configuration,
 //! error control start, as a pure state machine. It names the SDO access to do next and is told
-//! how each ended; the manager carries the accesses over the master's SDO client and decides
-//! about starting.
+//! how each ended; the master carries the accesses over its SDO client and decides about
+//! starting (`boot_run.rs`).
 //!
 //! Order: 0x1000 (always read: a slave that does not answer is missing, status B), then 0x1018
 //! sub 1–4 where 0x1F85–0x1F88 expect a value (0 = not checked), then every configuration step,
