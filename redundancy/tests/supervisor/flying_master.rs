@@ -410,3 +410,65 @@ fn a_zero_detect_cycle_means_no_periodic_detection() {
     assert!(w.sent(0x76).is_empty());
     assert!(w.devs[0].fm.poll_timeout().is_none_or(|d| d > ms(20_000)));
 }
+
+/// Frames sent since the last call, by COB-ID.
+fn sent_ids(fm: &mut FlyingMaster) -> Vec<u16> {
+    let mut ids = vec![];
+    while let Some(f) = fm.poll_transmit() {
+        ids.push(f.id().raw() as u16);
+    }
+    ids
+}
+
+#[test]
+fn a_restart_of_an_active_master_leaves_none_of_its_timers_behind() {
+    // Alone: detection until 100, negotiation (500 + 0 × 1500 + 1 × 10 ms) until 610.
+    let mut fm = FlyingMaster::new(FlyingMasterConfig::new(0, NodeId::must(1), TIMEOUT));
+    fm.start(ms(0));
+    fm.handle_timeout(ms(100));
+    fm.handle_timeout(ms(610));
+    assert!(fm.is_active());
+    assert_eq!(fm.poll_timeout(), Some(ms(4610)), "the periodic detection");
+    // A foreign SYNC suspends its commands until 4500; then it starts over at 4450.
+    fm.foreign_activity(ms(4400));
+    assert!(!fm.may_command(ms(4400)));
+    assert_eq!(sent_ids(&mut fm), [0x73, 0x72, 0x71, 0x76]);
+    fm.start(ms(4450));
+    assert_eq!(fm.role(), MasterRole::Detecting);
+    // Neither the suspension (4500) nor the detection cycle (4610) of the active role is a
+    // deadline of the detecting one.
+    assert_eq!(fm.poll_timeout(), Some(ms(4550)));
+    fm.handle_timeout(ms(4550));
+    assert_eq!(fm.role(), MasterRole::Negotiating);
+    assert_eq!(fm.poll_timeout(), Some(ms(5060)));
+    fm.handle_timeout(ms(5060));
+    assert!(fm.is_active() && fm.may_command(ms(5060)));
+    // No 0x76 while detecting or negotiating: a request, a negotiation, the announcement.
+    assert_eq!(sent_ids(&mut fm), [0x73, 0x72, 0x71]);
+    assert_eq!(fm.poll_timeout(), Some(ms(9060)));
+}
+
+#[test]
+fn a_hand_back_that_became_due_is_not_given_after_the_role_is_gone() {
+    // Node 2 (priority 1), revertive, active alone at 100 + 500 + 1500 + 20 = 2120; the better
+    // node 1 heard from 2200 on: the hand-back is due at 3200.
+    let due = || {
+        let cfg = FlyingMasterConfig::new(1, NodeId::must(2), TIMEOUT).with_revertive(true);
+        let mut fm = FlyingMaster::new(cfg);
+        fm.add_peer(Rank::new(0, NodeId::must(1))).unwrap();
+        fm.start(ms(0));
+        fm.handle_timeout(ms(100));
+        fm.handle_timeout(ms(2120));
+        assert!(fm.is_active());
+        for t in (2200..=3200).step_by(20) {
+            fm.heartbeat(ms(t), NodeId::must(1), false);
+            fm.handle_timeout(ms(t));
+        }
+        fm
+    };
+    assert_eq!(due().take_handback(), Some(Rank::new(0, NodeId::must(1))));
+    let mut fm = due();
+    fm.start(ms(3210));
+    assert_eq!(fm.role(), MasterRole::Detecting);
+    assert_eq!(fm.take_handback(), None);
+}

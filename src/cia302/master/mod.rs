@@ -78,8 +78,11 @@
 //! ```
 
 mod boot;
+mod boot_run;
 mod config;
+mod error_control;
 mod events;
+mod inputs;
 mod network;
 pub mod objects;
 mod slaves;

@@ -82,20 +82,37 @@
 //! takes nobody's word for a configuration. Switching to command evaluates at once what is due (a
 //! takeover acts on the shadow table without resetting anything that is alive) and configures
 //! what nobody was seen to configure.
+//!
+//! # Files
+//!
+//! | File | What it holds |
+//! | --- | --- |
+//! | `mod.rs` | [`PairSupervisor`]: the table, adding pairs, authority, manual switch, outputs |
+//! | `config.rs` | [`PairsConfig`], the policy of the whole table |
+//! | `state.rs` | a pair and its members as the table sees them, each phase with its own data |
+//! | `observe.rs` | the observations: boot-ups, heartbeats, commands seen, configurations ended |
+//! | `roles.rs` | joining, leaving, and which member is active (commanding or following) |
+//! | `deadlines.rs` | the members' deadlines and what happens when one passes |
+//! | `trust.rs` | the dual-bus layer's verdicts on heartbeats, standbys started by someone else |
+//! | `events.rs` | what the table asks for ([`PairCommand`]) and reports ([`PairsEvent`]) |
 
 use crate::pair::{Member, PairId, PairSpec, MAX_PAIRS};
 use core::fmt;
-use duocan::frame::instant::earliest_of;
 use duocan::frame::queue::Bounded;
-use duocan::{Duration, Instant, NmtCommand, NmtState, NodeId};
+use duocan::{Instant, NmtCommand, NmtState, NodeId};
 use heapless::Vec;
 
+mod config;
+mod deadlines;
 mod events;
+mod observe;
+mod roles;
 mod state;
 mod trust;
 
+pub use config::PairsConfig;
 pub use events::{LossReason, PairCommand, PairsError, PairsEvent, RoleChange, RoleReason};
-use state::{idx, Stage};
+use state::Stage;
 pub use state::{Authority, MemberState, PairState, Phase};
 use trust::bit;
 
@@ -103,74 +120,6 @@ use trust::bit;
 pub const COMMAND_QUEUE: usize = 256;
 /// Events a supervisor can hold before they are drained.
 pub const EVENT_QUEUE: usize = 256;
-
-/// Policy of the whole table.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-#[non_exhaustive]
-pub struct PairsConfig {
-    /// Give the role back to A when A rejoins (default: false, non-revertive).
-    pub revertive: bool,
-    /// Adopt members heard without a boot-up (default: true).
-    pub adopt: bool,
-    /// How long a member heard without boot-up is watched before it is adopted.
-    pub holdoff: Duration,
-    /// A configured member not heard for this long after the table started (or after it was
-    /// reset) is reported missing.
-    pub boot_timeout: Duration,
-    /// A shadow table takes a member's first heartbeat after its boot-up as the sign that the
-    /// active master configured it (its heartbeat producer time is written last). Right for a
-    /// table that sees nothing else; wrong for boards that beat by default. The supervisor sees
-    /// the active master's SDO confirmations and clears this
-    /// ([`PairSupervisor::configuration_observed`]).
-    pub shadow_join_on_heartbeat: bool,
-}
-
-// Builders: the struct is `#[non_exhaustive]` (it may gain fields), so code outside the crate
-// starts from a constructor or `Default` and sets what it needs.
-impl PairsConfig {
-    /// The configuration with [`revertive`](Self::revertive) replaced.
-    #[must_use]
-    pub fn with_revertive(mut self, revertive: bool) -> Self {
-        self.revertive = revertive;
-        self
-    }
-    /// The configuration with [`adopt`](Self::adopt) replaced.
-    #[must_use]
-    pub fn with_adopt(mut self, adopt: bool) -> Self {
-        self.adopt = adopt;
-        self
-    }
-    /// The configuration with [`holdoff`](Self::holdoff) replaced.
-    #[must_use]
-    pub fn with_holdoff(mut self, holdoff: Duration) -> Self {
-        self.holdoff = holdoff;
-        self
-    }
-    /// The configuration with [`boot_timeout`](Self::boot_timeout) replaced.
-    #[must_use]
-    pub fn with_boot_timeout(mut self, boot_timeout: Duration) -> Self {
-        self.boot_timeout = boot_timeout;
-        self
-    }
-    /// The configuration with [`shadow_join_on_heartbeat`](Self::shadow_join_on_heartbeat) replaced.
-    #[must_use]
-    pub fn with_shadow_join_on_heartbeat(mut self, shadow_join_on_heartbeat: bool) -> Self {
-        self.shadow_join_on_heartbeat = shadow_join_on_heartbeat;
-        self
-    }
-}
-
-impl Default for PairsConfig {
-    fn default() -> Self {
-        PairsConfig {
-            revertive: false,
-            adopt: true,
-            holdoff: Duration::from_millis(200),
-            boot_timeout: Duration::from_secs(5),
-            shadow_join_on_heartbeat: true,
-        }
-    }
-}
 
 const NONE: u8 = 0xFF;
 
@@ -331,185 +280,6 @@ impl PairSupervisor {
         }
     }
 
-    // ----- observations -----
-
-    /// A node's boot-up message (heartbeat with state initialising) at `now`.
-    pub fn boot_up(&mut self, now: Instant, node: NodeId) {
-        let Some((pair, m)) = self.locate(node) else {
-            return;
-        };
-        let p = pair.0 as usize;
-        if self.is_suspect(node) {
-            return; // an implausible error-control frame is no news of the node
-        }
-        let was = self.pairs[p].members[idx(m)];
-        {
-            let s = self.pairs[p].member_mut(m);
-            s.nmt = Some(NmtState::Initialising);
-            s.last = Some(now);
-            s.stage = Stage::Configuring;
-            s.since = now;
-            s.rejected = false;
-        }
-        if was.joined() {
-            self.event(PairsEvent::Lost {
-                at: now,
-                pair,
-                member: m,
-                node,
-                reason: LossReason::Rebooted,
-            });
-        }
-        self.cmd(PairCommand::Forget { pair, member: m });
-        if self.pairs[p].active == Some(m) {
-            // Its state is gone: the standby takes over at once if it can.
-            let o = m.other();
-            let to = self.alive(p, o, now).then_some(o);
-            self.set_role(now, p, to, RoleReason::ActiveRebooted);
-        }
-        if self.authority == Authority::Command {
-            self.configure(p, m);
-        }
-    }
-
-    /// A heartbeat (not a boot-up) of `node` in `state` at `now`.
-    pub fn heartbeat(&mut self, now: Instant, node: NodeId, state: NmtState) {
-        if state == NmtState::Initialising {
-            return self.boot_up(now, node);
-        }
-        let Some((pair, m)) = self.locate(node) else {
-            return;
-        };
-        let p = pair.0 as usize;
-        if self.is_suspect(node) {
-            return; // no sign of life: the heartbeat may be an impostor's
-        }
-        let consumer = self.pairs[p].spec.consumer_time;
-        let shadow = self.authority == Authority::Shadow;
-        let on_heartbeat = shadow && self.cfg.shadow_join_on_heartbeat;
-        let (adopt, holdoff) = (self.cfg.adopt, self.cfg.holdoff);
-        let s = self.pairs[p].member_mut(m);
-        let was = s.nmt;
-        let first_after_boot = was == Some(NmtState::Initialising);
-        s.nmt = Some(state);
-        s.last = Some(now);
-        let mut join = false;
-        let mut adopt_at = None;
-        match &mut s.stage {
-            Stage::Joined { deadline } => {
-                s.heartbeats = s.heartbeats.saturating_add(1);
-                // Deadlines only move later: the cached lower bound stays valid.
-                *deadline = now + consumer;
-            }
-            // The active master configured it (it beats now): joined as it says.
-            Stage::Configuring => join = on_heartbeat && first_after_boot,
-            // Heard while following: it is in the active master's network.
-            Stage::Waiting { .. } if shadow && !s.rejected => join = true,
-            Stage::Waiting { adopt_at: at, .. } => {
-                if adopt && !s.rejected && at.is_none() {
-                    *at = Some(now + holdoff);
-                    adopt_at = *at;
-                }
-            }
-        }
-        if join {
-            self.join(now, p, m);
-        }
-        if let Some(t) = adopt_at {
-            self.lower_next(t);
-        }
-        if self.authority != Authority::Command {
-            self.follow_state(now, p, m, state);
-        } else {
-            // Only a change to operational can be a standby started by someone else.
-            if state == NmtState::Operational && was != Some(NmtState::Operational) {
-                self.stop_running_standby(now, p, m);
-            }
-        }
-    }
-
-    /// An NMT command seen on the bus (sent by another master). Followed unless commanding (a
-    /// commander learns of another commander through the flying master).
-    pub fn nmt_observed(&mut self, now: Instant, cmd: NmtCommand, target: u8) {
-        if self.authority == Authority::Command {
-            return;
-        }
-        if target == 0 {
-            for p in 0..self.pairs.len() {
-                for m in [Member::A, Member::B] {
-                    self.follow_command(now, p, m, cmd);
-                }
-            }
-            return;
-        }
-        let Some(node) = NodeId::new(target) else {
-            return;
-        };
-        if let Some((pair, m)) = self.locate(node) {
-            self.follow_command(now, pair.0 as usize, m, cmd);
-        }
-    }
-
-    /// Another master was seen ending the configuration of `node` (its confirmation of the
-    /// heartbeat producer time, the last step): a member that booted joins the shadow table.
-    /// Ignored when commanding (this master's own configurations report through
-    /// [`PairSupervisor::configured`]) and for members not being configured.
-    pub fn configuration_observed(&mut self, now: Instant, node: NodeId) {
-        if self.authority == Authority::Command {
-            return;
-        }
-        if let Some((p, m)) = self.configuring(node) {
-            self.join(now, p, m);
-        }
-    }
-
-    /// The configuration of `node` finished (`ok`) or failed (it is reset, to boot and be
-    /// configured again). Ignored unless `node` is a pair member being configured.
-    pub fn configured(&mut self, now: Instant, node: NodeId, ok: bool) {
-        let Some((p, m)) = self.configuring(node) else {
-            return;
-        };
-        if ok && self.is_suspect(node) {
-            // Configured while its heartbeats are in doubt: it waits, unstarted and not reset,
-            // until they are trusted and it is adopted again.
-            return self.leave(now, p, m, LossReason::Suspect);
-        }
-        if ok {
-            return self.join(now, p, m);
-        }
-        self.leave(now, p, m, LossReason::ConfigFailed);
-        if self.authority == Authority::Command {
-            self.nmt(NmtCommand::ResetNode, node);
-        }
-    }
-
-    /// `node` is not what the configuration expects (its identity differs, or it refuses its
-    /// configuration): it does not join
-    /// (a joined one leaves) and is not reset (a reset would not change what it is), nor adopted
-    /// when heard; its next boot-up is checked again. Ignored unless `node` is a pair member.
-    pub fn rejected(&mut self, now: Instant, node: NodeId) {
-        let Some((pair, m)) = self.locate(node) else {
-            return;
-        };
-        let p = pair.0 as usize;
-        if self.pairs[p].member(m).phase() != Phase::Waiting {
-            self.leave(now, p, m, LossReason::Rejected);
-        }
-        self.pairs[p].member_mut(m).rejected = true;
-    }
-
-    /// True if `node` is a pair member whose configuration was asked for and has not ended.
-    pub fn is_configuring(&self, node: NodeId) -> bool {
-        self.configuring(node).is_some()
-    }
-
-    /// The pair index and member of `node` if it is being configured.
-    fn configuring(&self, node: NodeId) -> Option<(usize, Member)> {
-        let (pair, m) = self.locate(node)?;
-        let p = pair.0 as usize;
-        (self.pairs[p].member(m).phase() == Phase::Configuring).then_some((p, m))
-    }
-
     // ----- commands -----
 
     /// Makes `to` the active member of `pair` by hand: it is started, the previous active member
@@ -535,28 +305,6 @@ impl PairSupervisor {
         Ok(())
     }
 
-    // ----- time -----
-
-    /// Earliest instant at which [`PairSupervisor::handle_timeout`] has work (may be early).
-    #[must_use]
-    pub fn poll_timeout(&self) -> Option<Instant> {
-        self.next
-    }
-
-    /// Does what is due at `now`: silences, adoptions, missing members, in deadline order.
-    pub fn handle_timeout(&mut self, now: Instant) {
-        if self.next.is_none_or(|t| t > now) {
-            return;
-        }
-        while let Some((t, p, m)) = self.earliest() {
-            if t > now {
-                break;
-            }
-            self.expire(t, p, m);
-        }
-        self.next = self.earliest().map(|x| x.0);
-    }
-
     // ----- outputs -----
 
     /// Next command.
@@ -575,266 +323,6 @@ impl PairSupervisor {
     }
 
     // ----- internals -----
-
-    /// The earliest due item of any member: (instant, pair, member).
-    fn earliest(&self) -> Option<(Instant, usize, Member)> {
-        let mut best: Option<(Instant, usize, Member)> = None;
-        for (p, pair) in self.pairs.iter().enumerate() {
-            for s in &pair.members {
-                if let Some(t) = self.due(s) {
-                    if best.is_none_or(|b| t < b.0) {
-                        best = Some((t, p, s.member));
-                    }
-                }
-            }
-        }
-        best
-    }
-
-    fn due(&self, s: &MemberState) -> Option<Instant> {
-        let commanding = self.authority == Authority::Command;
-        match s.stage {
-            Stage::Joined { deadline } => commanding.then_some(deadline),
-            Stage::Waiting { adopt_at, missing } => {
-                let adopt = adopt_at.filter(|_| commanding);
-                let missing = (!missing && s.last.is_none_or(|l| l < s.since))
-                    .then(|| s.since + self.cfg.boot_timeout);
-                earliest_of([adopt, missing])
-            }
-            Stage::Configuring => None,
-        }
-    }
-
-    fn expire(&mut self, t: Instant, p: usize, m: Member) {
-        let s = self.pairs[p].members[idx(m)];
-        match s.stage {
-            Stage::Joined { .. } => self.silent(t, p, m, s),
-            Stage::Waiting { adopt_at, .. } => {
-                if adopt_at.is_some_and(|a| a <= t) && self.authority == Authority::Command {
-                    let st = self.pairs[p].member_mut(m);
-                    st.stage = Stage::Configuring;
-                    st.since = t;
-                    self.configure(p, m);
-                } else {
-                    if let Stage::Waiting { missing, .. } = &mut self.pairs[p].member_mut(m).stage {
-                        *missing = true;
-                    }
-                    self.event(PairsEvent::Missing {
-                        at: t,
-                        pair: PairId(p as u8),
-                        member: m,
-                        node: s.node,
-                        since: s.since,
-                    });
-                }
-            }
-            Stage::Configuring => {}
-        }
-    }
-
-    /// A joined member's deadline passed at `t`.
-    fn silent(&mut self, t: Instant, p: usize, m: Member, s: MemberState) {
-        let last = s
-            .deadline()
-            .map_or(t, |d| d - self.pairs[p].spec.consumer_time);
-        let o = m.other();
-        let other_alive = self.alive(p, o, t);
-        let (why, loss) = if self.is_suspect(s.node) {
-            (Some(RoleReason::ActiveSuspect), LossReason::Suspect)
-        } else {
-            (None, LossReason::Silent { last })
-        };
-        if self.pairs[p].active == Some(m) {
-            if other_alive {
-                // Start first: the new active is what the reaction bound is about.
-                let why = why.unwrap_or(RoleReason::ActiveSilent { last });
-                self.set_role(t, p, Some(o), why);
-            } else {
-                let why = why.unwrap_or(RoleReason::OnlyMemberSilent { last });
-                self.set_role(t, p, None, why);
-            }
-        }
-        self.leave(t, p, m, loss);
-        self.nmt(NmtCommand::ResetNode, s.node);
-    }
-
-    fn join(&mut self, now: Instant, p: usize, m: Member) {
-        let spec = self.pairs[p].spec;
-        let suspect = self.is_suspect(spec.node(m));
-        let s = self.pairs[p].member_mut(m);
-        // Monitoring starts now, whether or not it ever beats; a suspect member is due at once.
-        let deadline = if suspect {
-            now
-        } else {
-            s.last.map_or(now, |l| l.max(now)) + spec.consumer_time
-        };
-        s.stage = Stage::Joined { deadline };
-        s.since = now;
-        s.heartbeats = 0;
-        let (nmt, node) = (s.nmt, s.node);
-        self.lower_next(deadline);
-        self.event(PairsEvent::Joined {
-            at: now,
-            pair: PairId(p as u8),
-            member: m,
-            node,
-        });
-        if self.authority != Authority::Command {
-            if nmt == Some(NmtState::Operational) && self.pairs[p].active.is_none() {
-                self.set_role(now, p, Some(m), RoleReason::Observed);
-            }
-            return;
-        }
-        match self.pairs[p].active {
-            None => {
-                self.set_role(now, p, Some(m), RoleReason::FirstJoined);
-            }
-            Some(a) if a != m => {
-                if self.cfg.revertive && m == Member::A {
-                    self.planned_switch(now, p, m, RoleReason::Revert);
-                } else if nmt == Some(NmtState::Operational) {
-                    // Adopted while running (started by another master): back to standby.
-                    self.nmt(NmtCommand::EnterPreOperational, node);
-                }
-            }
-            Some(_) => {}
-        }
-    }
-
-    /// A joined or configuring member leaves the table (reset, rebooted, failed configuration).
-    fn leave(&mut self, t: Instant, p: usize, m: Member, reason: LossReason) {
-        let pair = PairId(p as u8);
-        let s = self.pairs[p].member_mut(m);
-        let was_joined = s.joined();
-        s.stage = Stage::WAITING;
-        s.since = t;
-        let node = s.node;
-        if self.pairs[p].active == Some(m) {
-            self.set_role(t, p, None, RoleReason::CommandObserved);
-        }
-        if was_joined || matches!(reason, LossReason::ConfigFailed | LossReason::Rejected) {
-            self.event(PairsEvent::Lost {
-                at: t,
-                pair,
-                member: m,
-                node,
-                reason,
-            });
-        }
-        self.cmd(PairCommand::Forget { pair, member: m });
-        self.lower_next(t + self.cfg.boot_timeout);
-    }
-
-    /// Makes `to` active, starting it (commanding), and reports the change.
-    fn set_role(&mut self, t: Instant, p: usize, to: Option<Member>, reason: RoleReason) {
-        let from = self.pairs[p].active;
-        if from == to {
-            return;
-        }
-        self.pairs[p].active = to;
-        let spec = self.pairs[p].spec;
-        if let Some(m) = to {
-            // Running it is this table's decision from now on.
-            self.by_application &= !bit(spec.node(m));
-        }
-        if self.authority == Authority::Command {
-            if let Some(m) = to {
-                // A member already running (adopted) needs no start; nor does a suspect one,
-                // which the same instant's timeout replaces (a start would wake a board the
-                // table is about to reset).
-                if self.pairs[p].member(m).nmt != Some(NmtState::Operational)
-                    && !self.is_suspect(spec.node(m))
-                {
-                    self.nmt(NmtCommand::Start, spec.node(m));
-                }
-            }
-        }
-        let pair = PairId(p as u8);
-        self.cmd(PairCommand::SetActive { pair, member: to });
-        self.event(PairsEvent::Role(RoleChange {
-            at: t,
-            pair,
-            nodes: [spec.a, spec.b],
-            from,
-            to,
-            reason,
-        }));
-    }
-
-    /// A switch between two live members: the new one started, the old one to pre-operational.
-    fn planned_switch(&mut self, now: Instant, p: usize, to: Member, reason: RoleReason) {
-        let old = self.pairs[p].active;
-        self.set_role(now, p, Some(to), reason);
-        if let Some(o) = old.filter(|o| *o != to) {
-            let node = self.pairs[p].spec.node(o);
-            self.nmt(NmtCommand::EnterPreOperational, node);
-        }
-    }
-
-    /// A pair without an active member but with a live joined member gets one.
-    fn ensure_active(&mut self, now: Instant, p: usize, reason: RoleReason) {
-        if self.pairs[p].active.is_some() {
-            return;
-        }
-        let pick = [Member::A, Member::B]
-            .into_iter()
-            .filter(|m| self.alive(p, *m, now))
-            // An operational member keeps running rather than being replaced.
-            .max_by_key(|m| {
-                (
-                    self.pairs[p].member(*m).nmt == Some(NmtState::Operational),
-                    *m == Member::A,
-                )
-            });
-        if let Some(m) = pick {
-            self.set_role(now, p, Some(m), reason);
-        }
-    }
-
-    /// Shadow: a member's reported state moves the roles.
-    fn follow_state(&mut self, now: Instant, p: usize, m: Member, state: NmtState) {
-        if !self.pairs[p].member(m).joined() {
-            return;
-        }
-        let active = self.pairs[p].active;
-        match state {
-            NmtState::Operational if active.is_none() => {
-                self.set_role(now, p, Some(m), RoleReason::Observed)
-            }
-            NmtState::PreOperational | NmtState::Stopped if active == Some(m) => {
-                let o = m.other();
-                let other_op = self.pairs[p].member(o).joined()
-                    && self.pairs[p].member(o).nmt == Some(NmtState::Operational);
-                self.set_role(now, p, other_op.then_some(o), RoleReason::Observed)
-            }
-            _ => {}
-        }
-    }
-
-    /// Shadow: an NMT command of the active master moves the table.
-    fn follow_command(&mut self, now: Instant, p: usize, m: Member, cmd: NmtCommand) {
-        match cmd {
-            NmtCommand::Start => {
-                if !self.pairs[p].member(m).joined() {
-                    self.join(now, p, m);
-                }
-                self.pairs[p].member_mut(m).nmt = Some(NmtState::Operational);
-                self.set_role(now, p, Some(m), RoleReason::Observed);
-            }
-            NmtCommand::EnterPreOperational | NmtCommand::Stop => {
-                self.pairs[p].member_mut(m).nmt = Some(cmd.resulting_state());
-                if self.pairs[p].active == Some(m) {
-                    self.set_role(now, p, None, RoleReason::CommandObserved);
-                }
-            }
-            NmtCommand::ResetNode | NmtCommand::ResetCommunication => {
-                let s = self.pairs[p].member(m);
-                if s.phase() != Phase::Waiting {
-                    self.leave(now, p, m, LossReason::ResetObserved);
-                }
-            }
-        }
-    }
 
     fn configure(&mut self, p: usize, m: Member) {
         let spec = self.pairs[p].spec;
@@ -859,12 +347,6 @@ impl PairSupervisor {
     fn event(&mut self, e: PairsEvent) {
         self.events.push(e);
     }
-
-    fn lower_next(&mut self, t: Instant) {
-        if self.next.is_none_or(|n| t < n) {
-            self.next = Some(t);
-        }
-    }
 }
 
 impl fmt::Debug for PairSupervisor {
@@ -874,37 +356,5 @@ impl fmt::Debug for PairSupervisor {
             .field("pairs", &self.pairs.len())
             .field("next", &self.next)
             .finish_non_exhaustive()
-    }
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn a_member_carries_only_the_data_of_its_phase() {
-        let mut s = MemberState::new(Member::A, NodeId::must(5), Instant::ZERO);
-        assert_eq!(
-            (s.phase(), s.deadline(), s.missing()),
-            (Phase::Waiting, None, false)
-        );
-        s.stage = Stage::Waiting {
-            adopt_at: Some(Instant::from_millis(1)),
-            missing: true,
-        };
-        assert_eq!(
-            (s.phase(), s.deadline(), s.missing()),
-            (Phase::Waiting, None, true)
-        );
-        s.stage = Stage::Joined {
-            deadline: Instant::from_millis(10),
-        };
-        assert_eq!(s.phase(), Phase::Joined);
-        assert!(!s.missing());
-        assert_eq!(s.deadline(), Some(Instant::from_millis(10)));
-        assert!(s.alive_at(Instant::from_millis(9)) && !s.alive_at(Instant::from_millis(10)));
-        s.stage = Stage::Configuring;
-        assert_eq!((s.phase(), s.deadline()), (Phase::Configuring, None));
-        assert!(!s.alive_at(Instant::ZERO));
     }
 }

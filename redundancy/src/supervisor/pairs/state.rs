@@ -162,3 +162,35 @@ pub(super) const fn idx(m: Member) -> usize {
         Member::B => 1,
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_member_carries_only_the_data_of_its_phase() {
+        let mut s = MemberState::new(Member::A, NodeId::must(5), Instant::ZERO);
+        assert_eq!(
+            (s.phase(), s.deadline(), s.missing()),
+            (Phase::Waiting, None, false)
+        );
+        s.stage = Stage::Waiting {
+            adopt_at: Some(Instant::from_millis(1)),
+            missing: true,
+        };
+        assert_eq!(
+            (s.phase(), s.deadline(), s.missing()),
+            (Phase::Waiting, None, true)
+        );
+        s.stage = Stage::Joined {
+            deadline: Instant::from_millis(10),
+        };
+        assert_eq!(s.phase(), Phase::Joined);
+        assert!(!s.missing());
+        assert_eq!(s.deadline(), Some(Instant::from_millis(10)));
+        assert!(s.alive_at(Instant::from_millis(9)) && !s.alive_at(Instant::from_millis(10)));
+        s.stage = Stage::Configuring;
+        assert_eq!((s.phase(), s.deadline()), (Phase::Configuring, None));
+        assert!(!s.alive_at(Instant::ZERO));
+    }
+}

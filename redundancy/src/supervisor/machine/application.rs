@@ -1,0 +1,219 @@
+//! What the application does with a supervisor: add pairs and slaves, read the parts' state,
+//! send NMT commands, switch a pair over, hand the master role over or take it.
+
+use super::{Planned, Supervisor};
+use crate::link::dual_bus::LinkCommand;
+use crate::link::events::LinkEvent;
+use crate::pair::{Member, PairId, PairSpec};
+use crate::supervisor::audit::{AuditEntry, AuditTrail};
+use crate::supervisor::events::{AddPairError, SupervisorStats};
+use crate::supervisor::flying_master::{FlyingMaster, FlyingMasterError, MasterRole};
+use crate::supervisor::pairs::{PairState, PairSupervisor, PairsError};
+use duocan::master::{
+    objects, Assignment, Master, MasterError, MasterNode, MasterSdoClient, SlaveConfig, SlaveView,
+    StartPolicy,
+};
+use duocan::nmt::NmtTarget;
+use duocan::od::ObjectDictionary;
+use duocan::profile::IdProfile;
+use duocan::time_stamp::TimeOfDay;
+use duocan::{Duration, Instant, NmtCommand, NodeId};
+
+impl<D: ObjectDictionary, P: IdProfile> Supervisor<D, P> {
+    /// Adds a slave pair to supervise; both members become slaves of the master with nothing
+    /// configured but their heartbeat (and the device type of `spec`, if not 0).
+    pub fn add_pair(&mut self, now: Instant, spec: PairSpec) -> Result<PairId, AddPairError> {
+        self.add_pair_with(
+            now,
+            spec,
+            SlaveConfig::new(spec.a),
+            SlaveConfig::new(spec.b),
+        )
+    }
+
+    /// Adds a slave pair whose members the master configures as `a` and `b` say (identity,
+    /// configuration steps, PDOs, guarding in the assignment). The supervisor overrides what
+    /// pair supervision needs: the node-IDs of `spec`, the heartbeat (producer and consumer time
+    /// of `spec`), start by the application, no boot of the master's own accord, neither
+    /// mandatory nor keep-alive; `spec`'s device type where the identity leaves it unchecked.
+    pub fn add_pair_with(
+        &mut self,
+        now: Instant,
+        spec: PairSpec,
+        a: SlaveConfig,
+        b: SlaveConfig,
+    ) -> Result<PairId, AddPairError> {
+        self.pairs.check(&spec)?;
+        let ms = |d: Duration| d.as_millis().min(u16::MAX as u64) as u16;
+        let member = |node: NodeId, mut c: SlaveConfig| {
+            c.node = node;
+            c.assignment = Assignment(
+                (c.assignment.0 | Assignment::SLAVE)
+                    & !(Assignment::BOOT | Assignment::MANDATORY | Assignment::KEEP_ALIVE),
+            );
+            if c.identity.device_type == 0 {
+                c.identity.device_type = spec.device_type;
+            }
+            c.heartbeat(ms(spec.producer_time), ms(spec.consumer_time))
+                .start(StartPolicy::Application)
+        };
+        self.master
+            .add_slave(now, member(spec.a, a))
+            .map_err(|e| AddPairError::Master(spec.a, e))?;
+        if let Err(e) = self.master.add_slave(now, member(spec.b, b)) {
+            // Not half a pair: A is no slave of this master again.
+            let _ = self.master.node_mut().write(
+                now,
+                objects::SLAVE_ASSIGNMENT,
+                spec.a.raw(),
+                &0u32.to_le_bytes(),
+            );
+            self.pump(now);
+            return Err(AddPairError::Master(spec.b, e));
+        }
+        let id = self.pairs.add_pair(now, spec)?;
+        // The layer judges the members' heartbeats against the producer time they get.
+        for node in [spec.a, spec.b] {
+            self.link.push(LinkCommand::Watch {
+                node,
+                producer_ms: ms(spec.producer_time),
+            });
+        }
+        self.pump(now);
+        Ok(id)
+    }
+
+    /// Adds (or replaces) a slave that is no pair member: booted, configured and started by the
+    /// master as `cfg` says.
+    pub fn add_slave(&mut self, now: Instant, cfg: SlaveConfig) -> Result<(), MasterError> {
+        let r = self.master.add_slave(now, cfg);
+        self.pump(now);
+        r
+    }
+
+    // ----- application API -----
+
+    /// This master's role.
+    pub fn role(&self) -> MasterRole {
+        self.fm.role()
+    }
+    /// True when active.
+    pub fn is_active(&self) -> bool {
+        self.fm.is_active()
+    }
+    /// True when this master may send NMT commands now (active, not suspended by a suspected
+    /// second active master).
+    pub fn may_command(&self, now: Instant) -> bool {
+        self.fm.may_command(now)
+    }
+    /// The flying master (rank, peers, active master).
+    pub fn flying_master(&self) -> &FlyingMaster {
+        &self.fm
+    }
+    /// The pair table.
+    pub fn pairs(&self) -> impl Iterator<Item = (PairId, &PairState)> + '_ {
+        self.pairs.pairs()
+    }
+    /// The pair supervision.
+    pub fn pair_supervisor(&self) -> &PairSupervisor {
+        &self.pairs
+    }
+    /// The CiA 302-2 master (its view of every slave, its node, its SDO client).
+    pub fn master(&self) -> &Master<D, P> {
+        &self.master
+    }
+    /// Every slave of the master, pair members included: state, boot phase, errors.
+    pub fn slaves(&self) -> impl Iterator<Item = SlaveView> + '_ {
+        self.master.slaves()
+    }
+    /// The master's node (states of every node heard: [`Node::remotes`](duocan::Node::remotes)).
+    pub fn node(&self) -> &MasterNode<D, P> {
+        self.master.node()
+    }
+    /// The master's node, for the application's own use (its dictionary, EMCY, TPDOs). NMT
+    /// commands belong in [`Supervisor::nmt`].
+    pub fn node_mut(&mut self) -> &mut MasterNode<D, P> {
+        self.master.node_mut()
+    }
+    /// The master's SDO client, for the application's transfers; their results arrive as
+    /// [`SupervisorEvent::Sdo`](crate::supervisor::SupervisorEvent::Sdo). A transfer to a slave
+    /// the master is booting waits for the boot's (the client refuses it as busy).
+    pub fn sdo_mut(&mut self) -> &mut MasterSdoClient {
+        self.master.sdo_mut()
+    }
+    /// Sends an NMT command through the master, if this master may command now. Pair members
+    /// are better switched with [`Supervisor::switch_over`]: the pair table does not follow its
+    /// own master's commands.
+    pub fn nmt(
+        &mut self,
+        now: Instant,
+        cmd: NmtCommand,
+        target: NmtTarget,
+    ) -> Result<(), MasterError> {
+        if !self.fm.may_command(now) {
+            return Err(MasterError::Standby);
+        }
+        let r = self.master.nmt(now, cmd, target);
+        if r.is_ok() {
+            self.pairs.application_nmt(cmd, target.code());
+        }
+        self.pump(now);
+        r
+    }
+    /// The audit trail.
+    pub fn audit(&self) -> &AuditTrail {
+        &self.audit
+    }
+    /// Counters.
+    pub fn stats(&self) -> SupervisorStats {
+        SupervisorStats {
+            tx_dropped: self.tx.dropped(),
+            events_dropped: self.events_dropped,
+            ..self.stats
+        }
+    }
+    /// Sets the network time (the active master then produces TIME from it).
+    pub fn set_time(&mut self, now: Instant, tod: TimeOfDay) {
+        self.master.node_mut().set_time(now, tod);
+    }
+    /// Makes `to` the active member of `pair` by hand (active master only).
+    pub fn switch_over(
+        &mut self,
+        now: Instant,
+        pair: PairId,
+        to: Member,
+    ) -> Result<(), PairsError> {
+        self.pairs.switch_over(now, pair, to)?;
+        self.pump(now);
+        Ok(())
+    }
+    /// Puts this (active) master in standby by hand: the role is handed to the best live
+    /// master between two SYNCs.
+    pub fn set_standby(&mut self, now: Instant) -> Result<(), FlyingMasterError> {
+        if !self.fm.is_active() {
+            return Err(FlyingMasterError::WrongRole(self.fm.role()));
+        }
+        if !self.fm.peers().iter().any(|p| {
+            p.last
+                .is_some_and(|l| l + self.cfg.flying.master_timeout > now)
+        }) {
+            return Err(FlyingMasterError::NoSuccessor);
+        }
+        self.plan(now, Planned::HandOver(None));
+        Ok(())
+    }
+    /// Makes this (standby) master active by hand, between two SYNCs.
+    pub fn set_active(&mut self, now: Instant) -> Result<(), FlyingMasterError> {
+        if self.fm.is_active() {
+            return Err(FlyingMasterError::WrongRole(self.fm.role()));
+        }
+        self.plan(now, Planned::TakeOver);
+        Ok(())
+    }
+    /// Records a dual-bus event in the audit trail if it is a switch, toggle or port change.
+    pub fn audit_link(&mut self, e: &LinkEvent) {
+        if AuditEntry::link_worth_recording(e) {
+            self.audit.record(e.at, AuditEntry::Link(*e));
+        }
+    }
+}

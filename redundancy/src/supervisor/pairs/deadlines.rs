@@ -1,0 +1,120 @@
+//! The table's timers: every member's deadline (a joined member's silence, a waiting member's
+//! adoption or missing report) lives in its phase; a cached lower bound (`next`) spares
+//! [`PairSupervisor::handle_timeout`] a scan of the table until something can be due, and the
+//! due items are handled in deadline order.
+
+use super::state::{idx, Stage};
+use super::{Authority, LossReason, MemberState, PairId, PairSupervisor, PairsEvent, RoleReason};
+use crate::pair::Member;
+use duocan::frame::instant::earliest_of;
+use duocan::{Instant, NmtCommand};
+
+impl PairSupervisor {
+    /// Earliest instant at which [`PairSupervisor::handle_timeout`] has work (may be early).
+    #[must_use]
+    pub fn poll_timeout(&self) -> Option<Instant> {
+        self.next
+    }
+
+    /// Does what is due at `now`: silences, adoptions, missing members, in deadline order.
+    pub fn handle_timeout(&mut self, now: Instant) {
+        if self.next.is_none_or(|t| t > now) {
+            return;
+        }
+        while let Some((t, p, m)) = self.earliest() {
+            if t > now {
+                break;
+            }
+            self.expire(t, p, m);
+        }
+        self.next = self.earliest().map(|x| x.0);
+    }
+
+    /// The earliest due item of any member: (instant, pair, member).
+    fn earliest(&self) -> Option<(Instant, usize, Member)> {
+        let mut best: Option<(Instant, usize, Member)> = None;
+        for (p, pair) in self.pairs.iter().enumerate() {
+            for s in &pair.members {
+                if let Some(t) = self.due(s) {
+                    if best.is_none_or(|b| t < b.0) {
+                        best = Some((t, p, s.member));
+                    }
+                }
+            }
+        }
+        best
+    }
+
+    fn due(&self, s: &MemberState) -> Option<Instant> {
+        let commanding = self.authority == Authority::Command;
+        match s.stage {
+            Stage::Joined { deadline } => commanding.then_some(deadline),
+            Stage::Waiting { adopt_at, missing } => {
+                let adopt = adopt_at.filter(|_| commanding);
+                let missing = (!missing && s.last.is_none_or(|l| l < s.since))
+                    .then(|| s.since + self.cfg.boot_timeout);
+                earliest_of([adopt, missing])
+            }
+            Stage::Configuring => None,
+        }
+    }
+
+    fn expire(&mut self, t: Instant, p: usize, m: Member) {
+        let s = self.pairs[p].members[idx(m)];
+        match s.stage {
+            Stage::Joined { .. } => self.silent(t, p, m, s),
+            Stage::Waiting { adopt_at, .. } => {
+                if adopt_at.is_some_and(|a| a <= t) && self.authority == Authority::Command {
+                    let st = self.pairs[p].member_mut(m);
+                    st.stage = Stage::Configuring;
+                    st.since = t;
+                    self.configure(p, m);
+                } else {
+                    if let Stage::Waiting { missing, .. } = &mut self.pairs[p].member_mut(m).stage {
+                        *missing = true;
+                    }
+                    self.event(PairsEvent::Missing {
+                        at: t,
+                        pair: PairId(p as u8),
+                        member: m,
+                        node: s.node,
+                        since: s.since,
+                    });
+                }
+            }
+            Stage::Configuring => {}
+        }
+    }
+
+    /// A joined member's deadline passed at `t`.
+    fn silent(&mut self, t: Instant, p: usize, m: Member, s: MemberState) {
+        let last = s
+            .deadline()
+            .map_or(t, |d| d - self.pairs[p].spec.consumer_time);
+        let o = m.other();
+        let other_alive = self.alive(p, o, t);
+        let (why, loss) = if self.is_suspect(s.node) {
+            (Some(RoleReason::ActiveSuspect), LossReason::Suspect)
+        } else {
+            (None, LossReason::Silent { last })
+        };
+        if self.pairs[p].active == Some(m) {
+            if other_alive {
+                // Start first: the new active is what the reaction bound is about.
+                let why = why.unwrap_or(RoleReason::ActiveSilent { last });
+                self.set_role(t, p, Some(o), why);
+            } else {
+                let why = why.unwrap_or(RoleReason::OnlyMemberSilent { last });
+                self.set_role(t, p, None, why);
+            }
+        }
+        self.leave(t, p, m, loss);
+        self.nmt(NmtCommand::ResetNode, s.node);
+    }
+
+    pub(super) fn lower_next(&mut self, t: Instant) {
+        if self.next.is_none_or(|n| t < n) {
+            self.next = Some(t);
+        }
+    }
+}
