@@ -2,6 +2,7 @@
 
 mod active_active;
 mod cia302_6;
+mod clock;
 mod ecss;
 mod lag;
 mod lag_properties;

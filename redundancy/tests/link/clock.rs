@@ -1,0 +1,560 @@
+//! The clock contract in the dual-bus layer (`duocan::frame::instant`), driven sans-IO: a step
+//! back of the caller's clock, noticed on the next input, moves every time the layer holds back
+//! by the step, so that no timer gains or loses remaining time; a jump ahead is time that passed;
+//! at `Instant::MAX` nothing stays due.
+//!
+//! Each test runs traffic an hour into the clock, steps it back by an hour (the driver says so
+//! once, with `handle_timeout`) and checks the instants that follow in the new time line, which
+//! are exact: what was due 90 ms after the step's old time is due 90 ms after its new time.
+
+use duocan::machine::{BusLink, LinkRequest, PortRequest, PortStatus};
+use duocan::{Duration, Frame, Id, Instant, NodeId};
+use duocan_redundancy::{
+    Cia3026Config, DualBus, DualBusConfig, EcssConfig, LinkEvent, LinkEventKind, LinkMode, Member,
+    PortReason, PortState, SwitchReason,
+};
+
+pub(crate) const HOUR: Duration = Duration::from_secs(3600);
+
+fn ms(x: u64) -> Instant {
+    Instant::from_millis(x)
+}
+fn us(x: u64) -> Instant {
+    Instant::from_micros(x)
+}
+fn d(x: u64) -> Duration {
+    Duration::from_millis(x)
+}
+fn tpdo(node: u16, v: u8) -> Frame {
+    Frame::from_array(Id::Standard(0x180 + node), [v])
+}
+fn heartbeat(node: u16, state: u8) -> Frame {
+    Frame::from_array(Id::Standard(0x700 + node), [state])
+}
+
+/// A dual-bus layer driven as a driver drives it: deadlines handled when due (each at its own
+/// instant), everything it queues drained after every input.
+pub(crate) struct Rig {
+    pub(crate) l: DualBus,
+    pub(crate) events: Vec<LinkEvent>,
+    pub(crate) requests: Vec<(usize, PortRequest)>,
+    pub(crate) machine: Vec<LinkRequest>,
+    pub(crate) tx: Vec<(usize, Frame)>,
+}
+
+impl Rig {
+    pub(crate) fn new(cfg: DualBusConfig) -> Rig {
+        Rig {
+            l: DualBus::new(cfg),
+            events: vec![],
+            requests: vec![],
+            machine: vec![],
+            tx: vec![],
+        }
+    }
+    pub(crate) fn drain(&mut self) {
+        while let Some(f) = self.l.poll_transmit() {
+            self.tx.push(f);
+        }
+        while let Some(r) = self.l.poll_port_request() {
+            self.requests.push(r);
+        }
+        while let Some(r) = self.l.poll_machine_request() {
+            self.machine.push(r);
+        }
+        while let Some(e) = self.l.poll_event() {
+            self.events.push(e);
+        }
+    }
+    /// Handles every deadline up to `now`, each at its instant. A deadline that stays due is a
+    /// livelock.
+    pub(crate) fn run(&mut self, now: Instant) {
+        for _ in 0..64 {
+            match self.l.poll_timeout() {
+                Some(t) if t <= now => self.l.handle_timeout(t),
+                _ => return,
+            }
+            self.drain();
+        }
+        panic!("deadline {:?} still due at {now:?}", self.l.poll_timeout());
+    }
+    /// A frame arrives on `port` at `now`; true if it was delivered upward.
+    pub(crate) fn rx(&mut self, now: Instant, port: usize, f: Frame) -> bool {
+        self.run(now);
+        let up = self.l.handle_rx(now, port, &f).is_some();
+        self.drain();
+        up
+    }
+    /// The node sends `f` at `now`; the driver takes it at once.
+    pub(crate) fn send(&mut self, now: Instant, f: Frame) {
+        self.run(now);
+        self.l.send(now, &f);
+        self.drain();
+    }
+    pub(crate) fn status(&mut self, now: Instant, port: usize, s: PortStatus) {
+        self.run(now);
+        self.l.handle_port_status(now, port, s);
+        self.drain();
+    }
+    /// The clock stepped back and now reads `now`: the driver says so once (the contract).
+    pub(crate) fn clock_reads(&mut self, now: Instant) {
+        self.l.handle_timeout(now);
+        self.drain();
+    }
+    /// Port events of `port`: (instant, to, reason).
+    pub(crate) fn port_events(&self, port: u8) -> Vec<(Instant, PortState, PortReason)> {
+        self.events
+            .iter()
+            .filter_map(|e| match e.kind {
+                LinkEventKind::Port {
+                    port: p,
+                    to,
+                    reason,
+                    ..
+                } if p == port => Some((e.at, to, reason)),
+                _ => None,
+            })
+            .collect()
+    }
+    pub(crate) fn kinds(&self) -> Vec<(Instant, LinkEventKind)> {
+        self.events.iter().map(|e| (e.at, e.kind)).collect()
+    }
+}
+
+/// Node 5's TPDO every 10 ms from `from` (counter `k0` on), on bus 1 and, 0.2 ms later, on bus 2
+/// while `bus2`; returns the next counter.
+fn traffic(r: &mut Rig, from: Instant, n: u64, k0: u8, bus2: bool) -> u8 {
+    let mut k = k0;
+    for i in 0..n {
+        let t = from + d(10 * i);
+        assert!(r.rx(t, 0, tpdo(5, k)), "{t:?}: frame {k} delivered");
+        if bus2 {
+            assert!(!r.rx(t + Duration::from_micros(200), 1, tpdo(5, k)), "twin");
+        }
+        k = k.wrapping_add(1);
+    }
+    k
+}
+
+#[test]
+fn a_bus_that_dies_right_after_a_step_back_fails_at_the_silence_limit_in_the_new_time() {
+    // Default timing: silence limit 300 ms, suspect after 100 ms, reachability 300 ms.
+    let mut r = Rig::new(DualBusConfig::default());
+    let t0 = Instant::ZERO + HOUR;
+    // Both buses from 1 h to 1 h + 990 ms; bus 2's last frame at 1 h + 990.2 ms.
+    let k = traffic(&mut r, t0, 100, 0, true);
+    // 1 h + 1 s: bus 2 is dead from here on. At 1 h + 1.005 s the clock steps back an hour.
+    let k = traffic(&mut r, t0 + d(1000), 1, k, false);
+    r.clock_reads(ms(1005));
+    traffic(&mut r, ms(1010), 60, k, false);
+    r.run(ms(1700));
+    // Bus 2's last frame was at 990.2 ms in the new time line.
+    let last = us(990_200);
+    assert_eq!(
+        r.port_events(1),
+        [
+            (
+                last + d(100),
+                PortState::Suspect,
+                PortReason::Silence { silent: d(100) }
+            ),
+            (
+                last + d(300),
+                PortState::Failed,
+                PortReason::Silence { silent: d(300) }
+            ),
+        ]
+    );
+    let reach: Vec<_> = r
+        .kinds()
+        .into_iter()
+        .filter(|(_, k)| matches!(k, LinkEventKind::Reach { .. }))
+        .collect();
+    assert_eq!(
+        reach.last(),
+        Some(&(
+            last + d(300),
+            LinkEventKind::Reach {
+                node: NodeId::must(5),
+                heard: [true, false]
+            }
+        )),
+        "node 5 unreachable on bus 2 exactly the timeout after its last frame there"
+    );
+    assert!(r.port_events(0).is_empty(), "bus 1 untouched");
+}
+
+#[test]
+fn merge_records_move_back_with_the_clock() {
+    let mut r = Rig::new(DualBusConfig::default());
+    let t0 = Instant::ZERO + HOUR;
+    // A frame bus 2 missed, at 1 h; another one at 1 h + 4 ms whose twin comes after the step.
+    assert!(r.rx(t0, 0, tpdo(5, 1)));
+    assert!(r.rx(t0 + d(4), 0, tpdo(5, 2)));
+    r.clock_reads(ms(5));
+    // The twin 2 ms after its copy in the new time line: a duplicate, dropped once.
+    assert!(!r.rx(ms(6), 1, tpdo(5, 2)));
+    // The first frame again, 20 ms after its copy (beyond the 10 ms window) and on bus 2 only
+    // (bus 1 missed this one): a new occurrence. Had its old record stayed an hour in the
+    // future, it would never have expired and this frame would be lost as its twin.
+    assert!(r.rx(ms(20), 1, tpdo(5, 1)));
+    // Its twin on bus 1 within the window: dropped; a third copy of frame 2 comes again.
+    assert!(!r.rx(ms(21), 0, tpdo(5, 1)));
+    assert!(r.rx(ms(30), 0, tpdo(5, 2)));
+    assert!(!r.rx(ms(31), 1, tpdo(5, 2)));
+    assert_eq!(r.l.stats().delivered, 4);
+}
+
+#[test]
+fn the_transmit_stall_rule_keeps_its_time_after_a_step_back() {
+    let mut r = Rig::new(DualBusConfig::default());
+    let t0 = Instant::ZERO + HOUR;
+    let f = |v| Frame::from_array(Id::Standard(0x201), [v]);
+    // Both drivers confirm a frame an hour into the clock: they report outcomes.
+    r.send(t0, f(0));
+    r.status(t0 + d(1), 0, PortStatus::TxOk);
+    r.status(t0 + d(1), 1, PortStatus::TxOk);
+    r.clock_reads(ms(2));
+    // Both buses busy alike: a frame handed over at 10 ms waits 30 ms on both. No stall: its
+    // twins still match. (Had the frames confirmed an hour ahead stayed there, each port would
+    // have looked overtaken at once and both would be flushed at 20 ms.)
+    r.send(ms(10), f(1));
+    r.status(ms(40), 0, PortStatus::TxOk);
+    r.status(ms(41), 1, PortStatus::TxOk);
+    r.run(ms(100));
+    assert!(r.port_events(0).is_empty() && r.port_events(1).is_empty());
+    // A real stall: bus 1 sends two frames, bus 2 neither. Overtaken at bus 1's second outcome
+    // (103 ms), flushed and failed a window (10 ms) later.
+    r.send(ms(100), f(2));
+    r.send(ms(101), f(3));
+    r.status(ms(102), 0, PortStatus::TxOk);
+    r.status(ms(103), 0, PortStatus::TxOk);
+    r.run(ms(200));
+    assert_eq!(
+        r.port_events(1),
+        [(
+            ms(113),
+            PortState::Failed,
+            PortReason::TxStalled { waited: d(10) }
+        )]
+    );
+    assert_eq!(r.requests, [(1, PortRequest::Reinit)]);
+}
+
+fn cia302_6(cfg: Cia3026Config) -> Rig {
+    Rig::new(DualBusConfig::default().with_mode(LinkMode::Cia302_6(cfg)))
+}
+
+#[test]
+fn the_cia302_6_evaluation_window_keeps_its_time_after_a_step_back() {
+    // Power-on evaluation over 1 s from the node's boot-up an hour into the clock.
+    let mut r = cia302_6(Cia3026Config::default());
+    let t0 = Instant::ZERO + HOUR;
+    r.send(t0, heartbeat(5, 0));
+    // Producer 0x10 beats twice on the default channel, then the clock steps back an hour.
+    for t in [100, 200] {
+        for p in 0..2 {
+            r.rx(
+                t0 + d(t) + Duration::from_micros(p * 100),
+                p as usize,
+                heartbeat(0x10, 5),
+            );
+        }
+    }
+    r.clock_reads(ms(500));
+    r.run(ms(2000));
+    let switches: Vec<_> = r
+        .kinds()
+        .into_iter()
+        .filter(|(_, k)| matches!(k, LinkEventKind::Channel { .. }))
+        .collect();
+    assert_eq!(
+        switches,
+        [(
+            ms(1000),
+            LinkEventKind::Channel {
+                from: 0,
+                to: 1,
+                reason: SwitchReason::PowerOnEvaluation {
+                    node: NodeId::must(0x10),
+                    count: 2
+                }
+            }
+        )],
+        "the window ends 1 s after the boot-up, in the new time line"
+    );
+}
+
+#[test]
+fn the_cia302_6_transmit_delay_keeps_its_time_after_a_step_back() {
+    // A frame without an outcome 5 ms after its hand-over counts as failed; one failure
+    // reaches the threshold.
+    let cfg = Cia3026Config::default()
+        .with_max_tx_delay(d(5))
+        .with_error_threshold(4)
+        .with_eval_power_on(Duration::ZERO);
+    let mut r = cia302_6(cfg);
+    let t0 = Instant::ZERO + HOUR;
+    r.send(t0, heartbeat(5, 0));
+    r.status(t0 + d(1), 0, PortStatus::TxOk);
+    r.send(t0 + d(10), tpdo(5, 1));
+    r.clock_reads(ms(12));
+    r.run(ms(100));
+    assert_eq!(
+        r.kinds(),
+        [
+            (ms(15), LinkEventKind::DefaultDisabled { counter: 4 }),
+            (
+                ms(15),
+                LinkEventKind::Channel {
+                    from: 0,
+                    to: 1,
+                    reason: SwitchReason::TxErrors { counter: 4 }
+                }
+            ),
+        ]
+    );
+}
+
+#[test]
+fn the_ecss_toggle_keeps_its_timing_after_a_step_back() {
+    // A slave of master 1, whose heartbeat is expected every 50 ms; toggles every 2 periods, at
+    // most 4 times.
+    let cfg = DualBusConfig::default().with_mode(LinkMode::EcssToggle(EcssConfig::slave(
+        NodeId::must(1),
+        d(50),
+    )));
+    let mut r = Rig::new(cfg);
+    let t0 = Instant::ZERO + HOUR;
+    r.send(t0, heartbeat(5, 0));
+    r.rx(t0 + d(40), 0, heartbeat(1, 5));
+    r.clock_reads(ms(60));
+    r.run(ms(1000));
+    let toggle = |at, from, to, ctoggle| (ms(at), LinkEventKind::Toggle { from, to, ctoggle });
+    assert_eq!(
+        r.kinds(),
+        [
+            (
+                ms(90),
+                LinkEventKind::MasterLost {
+                    master: NodeId::must(1),
+                    bus: 0
+                }
+            ),
+            toggle(140, 0, 1, 1),
+            toggle(240, 1, 0, 2),
+            toggle(340, 0, 1, 3),
+            toggle(440, 1, 0, 4),
+            (ms(540), LinkEventKind::NoMaster { bus: 0, ctoggle: 4 }),
+        ],
+        "lost 50 ms after its last heartbeat at 40 ms in the new time line"
+    );
+    assert_eq!(r.machine, [LinkRequest::EnterPreOperational]);
+}
+
+/// Node 5's TPDO every 10 ms on both buses from `from` for `n` frames, bus 2's copy `lag` later
+/// (arrivals in time order).
+fn lagging(r: &mut Rig, from: Instant, n: u64, k0: u8, lag: Duration) -> u8 {
+    let mut arrivals = vec![];
+    for i in 0..n {
+        let t = from + d(10 * i);
+        let k = k0.wrapping_add(i as u8);
+        arrivals.push((t, 0, tpdo(5, k)));
+        arrivals.push((t + lag, 1, tpdo(5, k)));
+    }
+    arrivals.sort_by_key(|a| (a.0, a.1));
+    for (t, p, f) in arrivals {
+        r.rx(t, p, f);
+    }
+    k0.wrapping_add(n as u8)
+}
+
+#[test]
+fn a_lag_is_forgotten_on_time_after_a_step_back() {
+    // Lag periods are the silence limit (300 ms); a lag is forgotten when its period and the
+    // next one are over.
+    let mut r = Rig::new(DualBusConfig::default());
+    let t0 = Instant::ZERO + HOUR;
+    r.run(t0);
+    // Bus 2 lags 15 ms for 250 ms (its last lagging twin at 1 h + 255 ms, in the period that
+    // ends at 1 h + 300 ms), then the clock steps back an hour and bus 2 keeps pace.
+    let k = lagging(&mut r, t0, 25, 0, d(15));
+    r.clock_reads(ms(260));
+    lagging(&mut r, ms(270), 60, k, Duration::from_micros(200));
+    r.run(ms(1000));
+    let lag: Vec<_> = r
+        .kinds()
+        .into_iter()
+        .filter(|(_, k)| {
+            matches!(
+                k,
+                LinkEventKind::Lag { .. } | LinkEventKind::LagCleared { .. }
+            )
+        })
+        .collect();
+    assert_eq!(
+        lag.last(),
+        Some(&(ms(600), LinkEventKind::LagCleared { port: 1 })),
+        "{lag:?}"
+    );
+    assert_eq!(r.l.lag().window(), d(10));
+}
+
+#[test]
+fn a_discrepancy_keeps_its_time_after_a_step_back() {
+    let mut r = Rig::new(DualBusConfig::default());
+    let (a, b) = (NodeId::must(0x10), NodeId::must(0x11));
+    let pair = r.l.add_pair(a, b, Some(Member::A)).unwrap();
+    let t0 = Instant::ZERO + HOUR;
+    // A and B disagree from 1 h on; the clock steps back an hour 50 ms later.
+    r.rx(t0, 0, tpdo(0x10, 1));
+    r.rx(t0, 0, tpdo(0x11, 2));
+    r.clock_reads(ms(50));
+    r.run(ms(500));
+    let raised: Vec<_> = r
+        .kinds()
+        .into_iter()
+        .filter(|(_, k)| matches!(k, LinkEventKind::Discrepancy { .. }))
+        .collect();
+    assert_eq!(
+        raised,
+        [(
+            ms(100),
+            LinkEventKind::Discrepancy {
+                pair,
+                function: 1,
+                a: tpdo(0x10, 1),
+                b: tpdo(0x11, 2),
+                since: ms(0)
+            }
+        )]
+    );
+}
+
+#[test]
+fn a_watched_heartbeat_at_its_pace_across_a_step_back_stays_plausible() {
+    let mut r = Rig::new(DualBusConfig::default());
+    assert!(r.l.watch(NodeId::must(0x10), d(100)));
+    let t0 = Instant::ZERO + HOUR;
+    let mut delivered = 0;
+    for i in 0..10 {
+        for p in 0..2 {
+            delivered += r.rx(
+                t0 + d(100 * i) + Duration::from_micros(100 * p as u64),
+                p,
+                heartbeat(0x10, 5),
+            ) as u32;
+        }
+    }
+    r.clock_reads(ms(950));
+    for i in 0..10 {
+        for p in 0..2 {
+            delivered += r.rx(
+                ms(1000 + 100 * i) + Duration::from_micros(100 * p as u64),
+                p,
+                heartbeat(0x10, 5),
+            ) as u32;
+        }
+    }
+    assert_eq!(delivered, 20);
+    assert_eq!(r.l.stats().implausible, 0);
+    assert_eq!(
+        r.l.plausibility().is_suspect(NodeId::must(0x10)),
+        Some(false)
+    );
+}
+
+#[test]
+fn a_jump_ahead_is_time_that_passed_once() {
+    // Bus 2 lags (lag samples held), then one `handle_timeout` an hour ahead: what fell due in
+    // between comes once, each at its own instant, exactly as if the deadlines had been handled
+    // one by one; the driver's loop ends at once.
+    let scenario = |r: &mut Rig| {
+        let t0 = Instant::ZERO + HOUR;
+        r.run(t0);
+        lagging(r, t0, 25, 0, d(15));
+        // Bus 2 dies: one frame on bus 1 only.
+        r.rx(t0 + d(300), 0, tpdo(5, 99));
+    };
+    let mut jumped = Rig::new(DualBusConfig::default());
+    scenario(&mut jumped);
+    let ahead = Instant::ZERO + HOUR + HOUR;
+    jumped.l.handle_timeout(ahead);
+    jumped.drain();
+    let due = jumped.l.poll_timeout();
+    assert!(due.is_none_or(|t| t > ahead), "still due: {due:?}");
+    let mut stepped = Rig::new(DualBusConfig::default());
+    scenario(&mut stepped);
+    stepped.run(ahead);
+    // One call reports each part's changes in turn: the same changes at the same instants.
+    let in_time = |r: &Rig| {
+        let mut k = r.kinds();
+        k.sort_by_key(|(at, kind)| (*at, format!("{kind:?}")));
+        k
+    };
+    assert_eq!(in_time(&jumped), in_time(&stepped));
+    assert!(jumped
+        .port_events(1)
+        .iter()
+        .any(|(_, to, _)| *to == PortState::Failed));
+}
+
+/// Every mode with something held, taken to the end of time and back.
+#[test]
+fn at_the_end_of_time_nothing_stays_due_and_the_clock_comes_back() {
+    let modes = [
+        LinkMode::ActiveActive,
+        LinkMode::Cia302_6(Cia3026Config::default().with_max_tx_delay(d(5))),
+        LinkMode::EcssToggle(EcssConfig::slave(NodeId::must(1), d(50))),
+    ];
+    for mode in modes {
+        let mut r = Rig::new(DualBusConfig::default().with_mode(mode));
+        r.l.add_pair(NodeId::must(0x10), NodeId::must(0x11), Some(Member::A))
+            .unwrap();
+        assert!(r.l.watch(NodeId::must(0x10), d(100)));
+        let t0 = Instant::ZERO + HOUR;
+        r.send(t0, heartbeat(5, 0));
+        lagging(&mut r, t0, 25, 0, d(15));
+        r.rx(t0 + d(300), 0, tpdo(0x10, 1));
+        r.rx(t0 + d(300), 0, tpdo(0x11, 2));
+        r.rx(t0 + d(301), 0, heartbeat(0x10, 5));
+        r.send(t0 + d(302), tpdo(5, 7));
+        let mut calls = 0;
+        while r.l.poll_timeout().is_some() {
+            r.l.handle_timeout(Instant::MAX);
+            r.drain();
+            calls += 1;
+            assert!(
+                calls <= 3,
+                "{mode:?}: still due at the end of time: {:?}",
+                r.l.poll_timeout()
+            );
+        }
+        // Frames at the end of time are handled and leave nothing due either.
+        r.rx(Instant::MAX, 0, tpdo(5, 1));
+        r.rx(Instant::MAX, 1, tpdo(5, 1));
+        r.l.handle_timeout(Instant::MAX);
+        r.drain();
+        assert_eq!(r.l.poll_timeout(), None, "{mode:?}");
+        // The clock comes back to 10 s; the layer works on in the new time line.
+        r.events.clear();
+        r.clock_reads(ms(10_000));
+        if mode == LinkMode::ActiveActive {
+            let k = traffic(&mut r, ms(10_000), 50, 0, true);
+            traffic(&mut r, ms(10_500), 50, k, false);
+            r.run(ms(11_500));
+            let failed = r
+                .port_events(1)
+                .into_iter()
+                .find(|(_, to, _)| *to == PortState::Failed);
+            assert_eq!(
+                failed,
+                Some((
+                    us(10_490_200) + d(300),
+                    PortState::Failed,
+                    PortReason::Silence { silent: d(300) }
+                ))
+            );
+        }
+    }
+}
