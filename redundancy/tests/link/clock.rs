@@ -10,25 +10,24 @@
 use duocan::machine::{BusLink, LinkRequest, PortRequest, PortStatus};
 use duocan::{Duration, Frame, Id, Instant, NodeId};
 use duocan_redundancy::{
-    Cia3026Config, DualBus, DualBusConfig, EcssConfig, LinkEvent, LinkEventKind, LinkMode, Member,
-    PortReason, PortState, SwitchReason,
+    DualBus, DualBusConfig, LinkEvent, LinkEventKind, Member, PortReason, PortState,
 };
 
 pub(crate) const HOUR: Duration = Duration::from_secs(3600);
 
-fn ms(x: u64) -> Instant {
+pub(crate) fn ms(x: u64) -> Instant {
     Instant::from_millis(x)
 }
-fn us(x: u64) -> Instant {
+pub(crate) fn us(x: u64) -> Instant {
     Instant::from_micros(x)
 }
-fn d(x: u64) -> Duration {
+pub(crate) fn d(x: u64) -> Duration {
     Duration::from_millis(x)
 }
-fn tpdo(node: u16, v: u8) -> Frame {
+pub(crate) fn tpdo(node: u16, v: u8) -> Frame {
     Frame::from_array(Id::Standard(0x180 + node), [v])
 }
-fn heartbeat(node: u16, state: u8) -> Frame {
+pub(crate) fn heartbeat(node: u16, state: u8) -> Frame {
     Frame::from_array(Id::Standard(0x700 + node), [state])
 }
 
@@ -131,13 +130,24 @@ impl Rig {
             .collect()
     }
     pub(crate) fn kinds(&self) -> Vec<(Instant, LinkEventKind)> {
-        self.events.iter().map(|e| (e.at, e.kind)).collect()
+        self.kinds_where(|_| true)
+    }
+    /// The events whose kind `which` picks.
+    pub(crate) fn kinds_where(
+        &self,
+        which: impl Fn(&LinkEventKind) -> bool,
+    ) -> Vec<(Instant, LinkEventKind)> {
+        self.events
+            .iter()
+            .filter(|e| which(&e.kind))
+            .map(|e| (e.at, e.kind))
+            .collect()
     }
 }
 
 /// Node 5's TPDO every 10 ms from `from` (counter `k0` on), on bus 1 and, 0.2 ms later, on bus 2
 /// while `bus2`; returns the next counter.
-fn traffic(r: &mut Rig, from: Instant, n: u64, k0: u8, bus2: bool) -> u8 {
+pub(crate) fn traffic(r: &mut Rig, from: Instant, n: u64, k0: u8, bus2: bool) -> u8 {
     let mut k = k0;
     for i in 0..n {
         let t = from + d(10 * i);
@@ -190,11 +200,7 @@ fn a_bus_that_dies_right_after_a_step_back_fails_at_the_silence_limit_in_the_new
             ),
         ]
     );
-    let reach: Vec<_> = r
-        .kinds()
-        .into_iter()
-        .filter(|(_, k)| matches!(k, LinkEventKind::Reach { .. }))
-        .collect();
+    let reach = r.kinds_where(|k| matches!(k, LinkEventKind::Reach { .. }));
     assert_eq!(
         reach.last(),
         Some(&(
@@ -266,120 +272,9 @@ fn the_transmit_stall_rule_keeps_its_time_after_a_step_back() {
     assert_eq!(r.requests, [(1, PortRequest::Reinit)]);
 }
 
-fn cia302_6(cfg: Cia3026Config) -> Rig {
-    Rig::new(DualBusConfig::default().with_mode(LinkMode::Cia302_6(cfg)))
-}
-
-#[test]
-fn the_cia302_6_evaluation_window_keeps_its_time_after_a_step_back() {
-    // Power-on evaluation over 1 s from the node's boot-up an hour into the clock.
-    let mut r = cia302_6(Cia3026Config::default());
-    let t0 = Instant::ZERO + HOUR;
-    r.send(t0, heartbeat(5, 0));
-    // Producer 0x10 beats twice on the default channel, then the clock steps back an hour.
-    for t in [100, 200] {
-        for p in 0..2 {
-            r.rx(
-                t0 + d(t) + Duration::from_micros(p * 100),
-                p as usize,
-                heartbeat(0x10, 5),
-            );
-        }
-    }
-    r.step(t0 + d(500), ms(500));
-    r.run(ms(2000));
-    let switches: Vec<_> = r
-        .kinds()
-        .into_iter()
-        .filter(|(_, k)| matches!(k, LinkEventKind::Channel { .. }))
-        .collect();
-    assert_eq!(
-        switches,
-        [(
-            ms(1000),
-            LinkEventKind::Channel {
-                from: 0,
-                to: 1,
-                reason: SwitchReason::PowerOnEvaluation {
-                    node: NodeId::must(0x10),
-                    count: 2
-                }
-            }
-        )],
-        "the window ends 1 s after the boot-up, in the new time line"
-    );
-}
-
-#[test]
-fn the_cia302_6_transmit_delay_keeps_its_time_after_a_step_back() {
-    // A frame without an outcome 5 ms after its hand-over counts as failed; one failure
-    // reaches the threshold.
-    let cfg = Cia3026Config::default()
-        .with_max_tx_delay(d(5))
-        .with_error_threshold(4)
-        .with_eval_power_on(Duration::ZERO);
-    let mut r = cia302_6(cfg);
-    let t0 = Instant::ZERO + HOUR;
-    r.send(t0, heartbeat(5, 0));
-    r.status(t0 + d(1), 0, PortStatus::TxOk);
-    r.send(t0 + d(10), tpdo(5, 1));
-    r.step(t0 + d(12), ms(12));
-    r.run(ms(100));
-    assert_eq!(
-        r.kinds(),
-        [
-            (ms(15), LinkEventKind::DefaultDisabled { counter: 4 }),
-            (
-                ms(15),
-                LinkEventKind::Channel {
-                    from: 0,
-                    to: 1,
-                    reason: SwitchReason::TxErrors { counter: 4 }
-                }
-            ),
-        ]
-    );
-}
-
-#[test]
-fn the_ecss_toggle_keeps_its_timing_after_a_step_back() {
-    // A slave of master 1, whose heartbeat is expected every 50 ms; toggles every 2 periods, at
-    // most 4 times.
-    let cfg = DualBusConfig::default().with_mode(LinkMode::EcssToggle(EcssConfig::slave(
-        NodeId::must(1),
-        d(50),
-    )));
-    let mut r = Rig::new(cfg);
-    let t0 = Instant::ZERO + HOUR;
-    r.send(t0, heartbeat(5, 0));
-    r.rx(t0 + d(40), 0, heartbeat(1, 5));
-    r.step(t0 + d(60), ms(60));
-    r.run(ms(1000));
-    let toggle = |at, from, to, ctoggle| (ms(at), LinkEventKind::Toggle { from, to, ctoggle });
-    assert_eq!(
-        r.kinds(),
-        [
-            (
-                ms(90),
-                LinkEventKind::MasterLost {
-                    master: NodeId::must(1),
-                    bus: 0
-                }
-            ),
-            toggle(140, 0, 1, 1),
-            toggle(240, 1, 0, 2),
-            toggle(340, 0, 1, 3),
-            toggle(440, 1, 0, 4),
-            (ms(540), LinkEventKind::NoMaster { bus: 0, ctoggle: 4 }),
-        ],
-        "lost 50 ms after its last heartbeat at 40 ms in the new time line"
-    );
-    assert_eq!(r.machine.first(), Some(&LinkRequest::EnterPreOperational));
-}
-
 /// Node 5's TPDO every 10 ms on both buses from `from` for `n` frames, bus 2's copy `lag` later
 /// (arrivals in time order).
-fn lagging(r: &mut Rig, from: Instant, n: u64, k0: u8, lag: Duration) -> u8 {
+pub(crate) fn lagging(r: &mut Rig, from: Instant, n: u64, k0: u8, lag: Duration) -> u8 {
     let mut arrivals = vec![];
     for i in 0..n {
         let t = from + d(10 * i);
@@ -407,16 +302,12 @@ fn a_lag_is_forgotten_on_time_after_a_step_back() {
     r.step(t0 + d(260), ms(260));
     lagging(&mut r, ms(270), 60, k, Duration::from_micros(200));
     r.run(ms(1000));
-    let lag: Vec<_> = r
-        .kinds()
-        .into_iter()
-        .filter(|(_, k)| {
-            matches!(
-                k,
-                LinkEventKind::Lag { .. } | LinkEventKind::LagCleared { .. }
-            )
-        })
-        .collect();
+    let lag = r.kinds_where(|k| {
+        matches!(
+            k,
+            LinkEventKind::Lag { .. } | LinkEventKind::LagCleared { .. }
+        )
+    });
     assert_eq!(
         lag.last(),
         Some(&(ms(600), LinkEventKind::LagCleared { port: 1 })),
@@ -436,11 +327,7 @@ fn a_discrepancy_keeps_its_time_after_a_step_back() {
     r.rx(t0, 0, tpdo(0x11, 2));
     r.step(t0 + d(50), ms(50));
     r.run(ms(500));
-    let raised: Vec<_> = r
-        .kinds()
-        .into_iter()
-        .filter(|(_, k)| matches!(k, LinkEventKind::Discrepancy { .. }))
-        .collect();
+    let raised = r.kinds_where(|k| matches!(k, LinkEventKind::Discrepancy { .. }));
     assert_eq!(
         raised,
         [(
@@ -522,64 +409,4 @@ fn a_jump_ahead_is_time_that_passed_once() {
         .port_events(1)
         .iter()
         .any(|(_, to, _)| *to == PortState::Failed));
-}
-
-/// Every mode with something held, taken to the end of time and back.
-#[test]
-fn at_the_end_of_time_nothing_stays_due_and_the_clock_comes_back() {
-    let modes = [
-        LinkMode::ActiveActive,
-        LinkMode::Cia302_6(Cia3026Config::default().with_max_tx_delay(d(5))),
-        LinkMode::EcssToggle(EcssConfig::slave(NodeId::must(1), d(50))),
-    ];
-    for mode in modes {
-        let mut r = Rig::new(DualBusConfig::default().with_mode(mode));
-        r.l.add_pair(NodeId::must(0x10), NodeId::must(0x11), Some(Member::A))
-            .unwrap();
-        assert!(r.l.watch(NodeId::must(0x10), d(100)));
-        let t0 = Instant::ZERO + HOUR;
-        r.send(t0, heartbeat(5, 0));
-        lagging(&mut r, t0, 25, 0, d(15));
-        r.rx(t0 + d(300), 0, tpdo(0x10, 1));
-        r.rx(t0 + d(300), 0, tpdo(0x11, 2));
-        r.rx(t0 + d(301), 0, heartbeat(0x10, 5));
-        r.send(t0 + d(302), tpdo(5, 7));
-        let mut calls = 0;
-        while r.l.poll_timeout().is_some() {
-            r.l.handle_timeout(Instant::MAX);
-            r.drain();
-            calls += 1;
-            assert!(
-                calls <= 3,
-                "{mode:?}: still due at the end of time: {:?}",
-                r.l.poll_timeout()
-            );
-        }
-        // Frames at the end of time are handled and leave nothing due either.
-        r.rx(Instant::MAX, 0, tpdo(5, 1));
-        r.rx(Instant::MAX, 1, tpdo(5, 1));
-        r.l.handle_timeout(Instant::MAX);
-        r.drain();
-        assert_eq!(r.l.poll_timeout(), None, "{mode:?}");
-        // The clock comes back to 10 s, and bus 2 has died: its last frame, at the end of time,
-        // was at 10 s in the new time line.
-        r.events.clear();
-        r.step(Instant::MAX, ms(10_000));
-        if mode == LinkMode::ActiveActive {
-            traffic(&mut r, ms(10_010), 50, 0, false);
-            r.run(ms(11_000));
-            let failed = r
-                .port_events(1)
-                .into_iter()
-                .find(|(_, to, _)| *to == PortState::Failed);
-            assert_eq!(
-                failed,
-                Some((
-                    ms(10_300),
-                    PortState::Failed,
-                    PortReason::Silence { silent: d(300) }
-                ))
-            );
-        }
-    }
 }

@@ -338,28 +338,6 @@ impl<C: FrameClassifier, const SLOTS: usize, const FUNCTIONS: usize> DualBus<C, 
         }
     }
 
-    /// The clock contract: every input that carries a time passes it here first. One
-    /// comparison on the frame path.
-    #[inline]
-    fn watch_clock(&mut self, now: Instant) {
-        if let Some(by) = self.clock.step_back(now) {
-            self.step_back(by);
-        }
-    }
-
-    /// The caller's clock stepped back `by`: every part moves the times it holds back with it.
-    #[cold]
-    #[inline(never)]
-    fn step_back(&mut self, by: Duration) {
-        self.policy.step_back(by);
-        self.merger.step_back(by);
-        self.lag.step_back(by);
-        self.health.step_back(by);
-        self.reach.step_back(by);
-        self.plausible.step_back(by);
-        self.pairs.step_back(by);
-    }
-
     fn info(&self, frame: &Frame) -> FrameInfo {
         FrameInfo {
             heartbeat: self.classifier.heartbeat_of(frame),
@@ -545,6 +523,7 @@ impl<C, const SLOTS: usize, const FUNCTIONS: usize> core::fmt::Debug
     }
 }
 
+mod clock;
 mod rx;
 #[cfg(test)]
 mod tests;
