@@ -25,9 +25,9 @@
 //! stack's machines do, for every time its parts hold:
 //!
 //! - **A step back** is noticed by one [`TimeWatch`](duocan::frame::instant::TimeWatch) in the
-//!   [`DualBus`](dual_bus::DualBus), on every input that carries a time (a frame, a port status,
-//!   a send, `handle_timeout`, a command, a channel selection), and measured from the latest time
-//!   the layer was given; on the frame path that is one comparison. The layer then moves back
+//!   [`DualBus`](dual_bus::DualBus), on every input that carries a time it uses (a frame, a port
+//!   status, a send, `handle_timeout`, a channel selection), and measured from the latest time the
+//!   layer was given; on the frame path that is one comparison. The layer then moves back
 //!   by the step every time held: port health's silence references, missed first copies, error
 //!   times, the hand-over times of waiting frames and the transmit-stall references
 //!   (`last_sent`, `overtaken`), back-off and probation, the counters' last times; the merger's

@@ -491,8 +491,8 @@ impl<C: FrameClassifier, const SLOTS: usize, const FUNCTIONS: usize> BusLink
         self.out.machine.pop()
     }
 
-    fn handle_command(&mut self, now: Instant, cmd: LinkCommand) {
-        self.watch_clock(now);
+    // Commands use no time: the one given is not taken for the clock (a caller may pass any).
+    fn handle_command(&mut self, _now: Instant, cmd: LinkCommand) {
         match cmd {
             LinkCommand::SetActive(p, m) => {
                 self.set_active(p, m);
