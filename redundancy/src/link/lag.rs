@@ -15,9 +15,9 @@
 //! one `p` is known to have had already (its own twins, and the other port's twins of its
 //! copies, say which) is a copy paired one repeat off, not a lag. Samples below half the skew
 //! window are ordinary skew. Of the others, each port keeps the two largest of the current period
-//! and of the previous one; periods are `hold` long (the silence limit of port health), aligned
-//! on multiples of `hold` since time zero. **The lag of a port is the second largest of those
-//! four samples** (zero without two):
+//! and of the previous one; periods are `hold` long (the silence limit of port health), one after
+//! the other from time zero (a step back of the clock moves them back with it). **The lag of a
+//! port is the second largest of those four samples** (zero without two):
 //!
 //! - it is known at the second sample that shows it, and follows a lag that grows;
 //! - it is forgotten between one and two periods after the last sample that showed it;
@@ -114,6 +114,7 @@
 
 use crate::link::events::{LinkEvent, LinkEventKind};
 use crate::link::outbox::Outbox;
+use duocan::frame::instant::next_on_grid;
 use duocan::{Duration, Instant};
 
 #[cfg(doc)]
@@ -162,8 +163,8 @@ pub struct LagMeter {
     hold: u64,
     /// Samples below this are ordinary skew (half the base).
     threshold: u64,
-    /// Index of the current period (time / hold).
-    period: u64,
+    /// The end of the current period (µs).
+    period_end: u64,
     ports: [PortLag; 2],
 }
 
@@ -184,7 +185,7 @@ impl LagMeter {
             horizon: max.saturating_mul(2),
             hold: hold.as_micros().max(MS),
             threshold: base / 2,
-            period: 0,
+            period_end: hold.as_micros().max(MS),
             ports: [port; 2],
         }
     }
@@ -278,26 +279,41 @@ impl LagMeter {
     #[must_use]
     pub fn poll_timeout(&self) -> Option<Instant> {
         let held = self.ports.iter().any(PortLag::holds_samples);
-        held.then(|| Instant::from_micros((self.period + 1).saturating_mul(self.hold)))
+        held.then_some(Instant::from_micros(self.period_end))
+    }
+
+    /// The caller's clock stepped back `by` (the clock contract, see [`crate::link`]): the
+    /// periods and the times of the twins seen move back with it.
+    pub fn step_back(&mut self, by: Duration) {
+        let by = by.as_micros();
+        self.period_end = self.period_end.saturating_sub(by);
+        for port in &mut self.ports {
+            port.seen = port.seen.saturating_sub(by);
+            if let Some(t) = port.last_twin.as_mut() {
+                *t = t.saturating_sub(by);
+            }
+        }
     }
 
     /// Moves to the period of `now`, one period end at a time so that each change carries its
-    /// instant.
+    /// instant. At most three rounds: two period ends forget every sample, and then the period
+    /// of `now` is computed, not stepped to (a jump ahead costs no round per period missed).
     fn roll(&mut self, now: u64, out: &mut Outbox) -> Option<u64> {
-        let target = now / self.hold;
         let mut last = None;
-        while self.period < target {
-            self.period += 1;
+        while self.period_end <= now {
             if !self.ports.iter().any(PortLag::holds_samples) {
-                // Nothing left to forget: jump.
-                self.period = target;
+                // Nothing left to forget: to the period of `now`, on the same grid.
+                let end = Instant::from_micros(self.period_end);
+                let hold = Duration::from_micros(self.hold);
+                self.period_end = next_on_grid(end, hold, Instant::from_micros(now)).as_micros();
                 break;
             }
+            let at = self.period_end;
+            self.period_end = at.saturating_add(self.hold);
             for port in &mut self.ports {
                 port.prev = port.cur;
                 port.cur = [0, 0];
             }
-            let at = self.period.saturating_mul(self.hold);
             if self.evaluate(at, out) {
                 last = Some(at);
             }

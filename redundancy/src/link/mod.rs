@@ -18,6 +18,37 @@
 //!
 //! Nothing here knows the supervisor: the layer is told which board of a pair is active, and
 //! that is all it knows of pairs.
+//!
+//! # The clock contract
+//!
+//! The layer keeps [duocan's clock contract](duocan::frame::instant#the-clock-contract) as the
+//! stack's machines do, for every time its parts hold:
+//!
+//! - **A step back** is noticed by one [`TimeWatch`](duocan::frame::instant::TimeWatch) in the
+//!   [`DualBus`](dual_bus::DualBus), on every input that carries a time it uses (a frame, a port
+//!   status, a send, `handle_timeout`, a channel selection), and measured from the latest time the
+//!   layer was given; on the frame path that is one comparison. The layer then moves back
+//!   by the step every time held: port health's silence references, missed first copies, error
+//!   times, the hand-over times of waiting frames and the transmit-stall references
+//!   (`last_sent`, `overtaken`), back-off and probation, the counters' last times; the merger's
+//!   records (their window and horizon keep the time they had to run); the lag meter's periods
+//!   and twins; reachability's last frames; plausibility's buckets and last heartbeats; the
+//!   same-function values and their discrepancy clocks; the CiA 302-6 evaluation windows and
+//!   transmit delays; the ECSS heartbeat deadline and toggle instants. A bus that dies right
+//!   after the step fails exactly the silence limit after its last frame, as measured in the
+//!   new time line. Events already queued keep the instant they were reported at. A time older
+//!   than the step lands on the new time line's origin (instants are unsigned).
+//! - The parts that can be used on their own ([`Merger`](merge::Merger),
+//!   [`LagMeter`](lag::LagMeter), a [`ChannelPolicy`](channel::ChannelPolicy)) do not watch the
+//!   clock themselves: their owner tells them of a step (`step_back`).
+//! - **A jump ahead** is time that passed: each deadline in between is handled once, at its own
+//!   instant (the events carry it), in a bounded number of rounds whatever the jump: port
+//!   health takes at most its two silence steps per call, the lag meter at most three period
+//!   ends before it computes the period of the new time, the CiA 302-6 redundancy window is
+//!   computed, the ECSS slave toggles at most Ntoggle times.
+//! - **At [`Instant::MAX`](duocan::Instant::MAX)** no deadline is reported, so nothing stays
+//!   due; a frame heard then counts as heard a microsecond before (the tables use the end of
+//!   time for "never heard").
 
 pub mod channel;
 pub mod classify;

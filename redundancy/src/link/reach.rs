@@ -52,6 +52,29 @@ impl Reach {
         self.settle = settle.as_micros();
     }
 
+    /// The caller's clock stepped back `by` (the clock contract, see [`crate::link`]): the
+    /// times each node was last heard and the deadlines move back with it.
+    #[cold]
+    pub(crate) fn step_back(&mut self, by: Duration) {
+        let by = by.as_micros();
+        let back = |t: &mut u64| {
+            if *t != NEVER {
+                *t = t.saturating_sub(by);
+            }
+        };
+        for t in self.last.iter_mut().flatten() {
+            back(t);
+        }
+        for s in self.status.iter_mut() {
+            if let Status::Pending { due } = s {
+                back(due);
+            }
+        }
+        if let Some(t) = self.next_check.as_mut() {
+            back(t);
+        }
+    }
+
     /// Ports `node` is currently reported heard on, `None` if not reported yet.
     pub fn heard(&self, node: NodeId) -> Option<[bool; 2]> {
         match self.status[node.raw() as usize] {
@@ -78,7 +101,8 @@ impl Reach {
     #[inline]
     pub(crate) fn on_heard(&mut self, now: Instant, node: NodeId, p: usize, out: &mut Outbox) {
         let n = node.raw() as usize;
-        let t = now.as_micros();
+        // A frame at the end of time is not "never heard".
+        let t = now.as_micros().min(NEVER - 1);
         self.last[n][p] = t;
         match self.status[n] {
             Status::Unknown | Status::Reported { mask: 0 } => {

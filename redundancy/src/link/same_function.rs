@@ -17,6 +17,7 @@ use crate::link::events::{LinkEvent, LinkEventKind};
 use crate::link::outbox::Outbox;
 use crate::pair::{Member, PairId, MAX_PAIRS};
 use core::fmt;
+use duocan::frame::instant::shift_back;
 use duocan::{Duration, Frame, Instant, NodeId};
 use heapless::index_map::FnvIndexMap;
 
@@ -187,6 +188,19 @@ impl<const FUNCTIONS: usize> SameFunction<FUNCTIONS> {
                 v.reported = false;
             }
         }
+    }
+
+    /// The caller's clock stepped back `by` (the clock contract, see [`crate::link`]): the
+    /// members' latest values, the instants they started to differ and the next check move
+    /// back with it.
+    pub(crate) fn step_back(&mut self, by: Duration) {
+        for v in self.values.values_mut() {
+            for (t, _) in v.latest.iter_mut().flatten() {
+                *t = *t - by;
+            }
+            shift_back(&mut v.differ_since, by);
+        }
+        shift_back(&mut self.next_check, by);
     }
 
     /// Values that could not be kept because the table was full.

@@ -2,6 +2,9 @@
 
 mod active_active;
 mod cia302_6;
+mod clock;
+mod clock_modes;
+mod clock_properties;
 mod ecss;
 mod lag;
 mod lag_properties;

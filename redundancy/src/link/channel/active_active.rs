@@ -5,7 +5,7 @@ use super::{ChannelPolicy, FrameInfo, PortMask, RxRoute, BOTH};
 use crate::link::health::Health;
 use crate::link::outbox::Outbox;
 use duocan::machine::PortStatus;
-use duocan::{Frame, Instant};
+use duocan::{Duration, Frame, Instant};
 
 /// The active-active policy.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
@@ -43,6 +43,7 @@ impl ChannelPolicy for ActiveActive {
     fn select(&mut self, _: Instant, _: usize, _: &mut Outbox) -> bool {
         false
     }
+    fn step_back(&mut self, _: Duration) {}
 }
 
 #[cfg(test)]
@@ -50,7 +51,7 @@ mod tests {
     use super::*;
     use crate::link::health::HealthConfig;
     use duocan::machine::ErrorCause;
-    use duocan::{Duration, Id};
+    use duocan::Id;
 
     #[test]
     fn fan_out_skips_a_failed_port_but_never_leaves_the_node_mute() {

@@ -34,7 +34,7 @@ use super::{switched, ChannelPolicy, FrameInfo, PortMask, RxRoute, BOTH};
 use crate::link::events::{LinkEvent, LinkEventKind, SwitchReason};
 use crate::link::health::Health;
 use crate::link::outbox::Outbox;
-use duocan::frame::instant::{earliest, next_on_grid};
+use duocan::frame::instant::{earliest, next_on_grid, shift_back};
 use duocan::machine::PortStatus;
 use duocan::NodeSet;
 use duocan::{Duration, Frame, Id, Instant, NodeId};
@@ -488,6 +488,17 @@ impl ChannelPolicy for Cia3026 {
     fn select(&mut self, now: Instant, port: usize, out: &mut Outbox) -> bool {
         self.switch(now, port.min(1), SwitchReason::Command, true, out);
         true
+    }
+
+    fn step_back(&mut self, by: Duration) {
+        match &mut self.phase {
+            Phase::PowerOn { until } | Phase::Reset { until } => *until = *until - by,
+            Phase::Redundant { window_end } => shift_back(window_end, by),
+            Phase::Idle | Phase::Running => {}
+        }
+        for t in self.pending.iter_mut() {
+            *t = *t - by;
+        }
     }
 }
 

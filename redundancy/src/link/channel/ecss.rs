@@ -309,6 +309,13 @@ impl ChannelPolicy for Ecss {
         }
         true
     }
+
+    fn step_back(&mut self, by: Duration) {
+        match &mut self.phase {
+            Phase::Monitoring { deadline: t } | Phase::Toggling { next: t } => *t = *t - by,
+            Phase::Idle | Phase::NoMaster => {}
+        }
+    }
 }
 
 #[cfg(test)]

@@ -16,7 +16,7 @@ use crate::link::health::Health;
 use crate::link::outbox::Outbox;
 use core::fmt;
 use duocan::machine::PortStatus;
-use duocan::{Frame, Instant, NodeId};
+use duocan::{Duration, Frame, Instant, NodeId};
 
 pub use active_active::ActiveActive;
 pub use cia302_6::{Cia3026, Cia3026Config};
@@ -84,6 +84,9 @@ pub trait ChannelPolicy {
     fn active(&self) -> Option<usize>;
     /// Makes `port` the active channel by command; false if the policy has none.
     fn select(&mut self, now: Instant, port: usize, out: &mut Outbox) -> bool;
+    /// The caller's clock stepped back `by` (the clock contract, see [`crate::link`]): every
+    /// time the policy holds moves back with it.
+    fn step_back(&mut self, by: Duration);
 }
 
 /// Which policy a layer runs.
@@ -180,6 +183,9 @@ impl ChannelPolicy for Policy {
     }
     fn select(&mut self, now: Instant, port: usize, out: &mut Outbox) -> bool {
         self.inner().select(now, port, out)
+    }
+    fn step_back(&mut self, by: Duration) {
+        self.inner().step_back(by)
     }
 }
 

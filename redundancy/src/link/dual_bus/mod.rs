@@ -4,7 +4,9 @@
 //! [`Node`](duocan::Node) of the standard stack, unchanged — runs on top of it in a
 //! [`Station`](duocan::Station). The three redundancy modes are policies behind one type, chosen
 //! by [`LinkMode`] in the [`DualBusConfig`] (from code or from the dictionary, see
-//! [`crate::link::config`]).
+//! [`crate::link::config`]). Time is an input, and a clock that steps back, jumps ahead or
+//! reaches `Instant::MAX` is handled as the [layer's clock contract](crate::link#the-clock-contract)
+//! says.
 //!
 //! ```
 //! use duocan::{Station, Node, NodeConfig, NodeId};
@@ -30,7 +32,7 @@ use crate::link::plausible::Plausibility;
 use crate::link::reach::Reach;
 use crate::link::same_function::{PairError, PairVerdict, SameFunction, MAX_FUNCTIONS};
 use crate::pair::{Member, PairId};
-use duocan::frame::instant::earliest_of;
+use duocan::frame::instant::{earliest_of, TimeWatch};
 use duocan::machine::{BusLink, LinkRequest, PortRequest, PortStatus};
 use duocan::od::ObjectDictionary;
 use duocan::profile::Predefined;
@@ -113,8 +115,10 @@ pub struct DualBus<
     pairs: SameFunction<FUNCTIONS>,
     out: Outbox,
     stats: LinkStats,
-    /// The latest instant any method was given (hand-over time of frames for the stall rule).
-    now: Instant,
+    /// The latest instant any method was given (hand-over time of frames for the stall rule),
+    /// and the step back of the caller's clock it notices (the clock contract, see
+    /// [`crate::link`]).
+    clock: TimeWatch,
     layout: OdLayout,
     /// The status values last written to the node's dictionary.
     shown: Status,
@@ -178,7 +182,7 @@ impl<C: FrameClassifier, const SLOTS: usize, const FUNCTIONS: usize> DualBus<C, 
             pairs: SameFunction::new(cfg.discrepancy_time),
             out: Outbox::new(),
             stats: LinkStats::default(),
-            now: Instant::ZERO,
+            clock: TimeWatch::new(),
             layout: cfg.od_layout,
             shown: Status::default(),
         };
@@ -259,6 +263,7 @@ impl<C: FrameClassifier, const SLOTS: usize, const FUNCTIONS: usize> DualBus<C, 
     /// Makes `port` the active channel by command (302-6: with the 0x7F indication). False in
     /// active-active mode.
     pub fn select_channel(&mut self, now: Instant, port: usize) -> bool {
+        self.watch_clock(now);
         self.policy.select(now, port, &mut self.out)
     }
     /// Health of both ports.
@@ -351,7 +356,7 @@ impl<C: FrameClassifier, const SLOTS: usize, const FUNCTIONS: usize> BusLink
     }
 
     fn handle_rx(&mut self, now: Instant, port: usize, frame: &Frame) -> Option<Frame> {
-        self.now = now;
+        self.watch_clock(now);
         if port > 1 {
             self.stats.bad_port += 1;
             return None;
@@ -410,7 +415,7 @@ impl<C: FrameClassifier, const SLOTS: usize, const FUNCTIONS: usize> BusLink
     }
 
     fn handle_port_status(&mut self, now: Instant, port: usize, status: PortStatus) {
-        self.now = now;
+        self.watch_clock(now);
         if port > 1 {
             return;
         }
@@ -421,7 +426,7 @@ impl<C: FrameClassifier, const SLOTS: usize, const FUNCTIONS: usize> BusLink
     }
 
     fn send(&mut self, now: Instant, frame: &Frame) {
-        self.now = now;
+        self.watch_clock(now);
         let info = self.info(frame);
         let mask = self
             .policy
@@ -436,7 +441,7 @@ impl<C: FrameClassifier, const SLOTS: usize, const FUNCTIONS: usize> BusLink
 
     fn poll_transmit(&mut self) -> Option<(usize, Frame)> {
         let (p, f) = self.out.pop_frame()?;
-        self.health.count_tx(self.now, p);
+        self.health.count_tx(self.clock.latest(), p);
         Some((p, f))
     }
 
@@ -445,7 +450,7 @@ impl<C: FrameClassifier, const SLOTS: usize, const FUNCTIONS: usize> BusLink
     }
 
     fn handle_timeout(&mut self, now: Instant) {
-        self.now = now;
+        self.watch_clock(now);
         self.health.handle_timeout(now, &mut self.out);
         self.keep_late(now);
         if self.reach_enabled {
@@ -486,6 +491,7 @@ impl<C: FrameClassifier, const SLOTS: usize, const FUNCTIONS: usize> BusLink
         self.out.machine.pop()
     }
 
+    // Commands use no time: the one given is not taken for the clock (a caller may pass any).
     fn handle_command(&mut self, _now: Instant, cmd: LinkCommand) {
         match cmd {
             LinkCommand::SetActive(p, m) => {
@@ -517,6 +523,7 @@ impl<C, const SLOTS: usize, const FUNCTIONS: usize> core::fmt::Debug
     }
 }
 
+mod clock;
 mod rx;
 #[cfg(test)]
 mod tests;

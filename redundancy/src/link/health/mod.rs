@@ -50,7 +50,7 @@ pub use config::{cause_index, HealthConfig, HealthCounters, ERROR_CAUSES};
 use crate::link::events::{LinkEvent, LinkEventKind, PortReason};
 use crate::link::outbox::Outbox;
 use core::fmt;
-use duocan::frame::instant::earliest_of;
+use duocan::frame::instant::{earliest_of, shift_back};
 use duocan::machine::{ErrorCause, PortRequest, PortStatus};
 use duocan::{Duration, Instant};
 
@@ -202,6 +202,30 @@ impl PortHealth {
     pub fn lagging(&self) -> Option<Duration> {
         self.lagging
     }
+    fn step_back(&mut self, by: Duration) {
+        self.since = self.since - by;
+        match &mut self.cond {
+            Condition::Failed { reinit_at, .. } => *reinit_at = *reinit_at - by,
+            Condition::Recovering { probation_from } => shift_back(probation_from, by),
+            Condition::Ok | Condition::Suspect => {}
+        }
+        for t in [
+            &mut self.silence_ref,
+            &mut self.first_missed,
+            &mut self.last_error,
+            &mut self.last_sent,
+            &mut self.overtaken,
+            &mut self.counters.last_rx,
+        ] {
+            shift_back(t, by);
+        }
+        if let Some((t, _)) = &mut self.counters.last_error {
+            *t = *t - by;
+        }
+        for t in self.outstanding.iter_mut() {
+            *t = *t - by;
+        }
+    }
     /// Failed, and traffic would revive it (not after a transmit stall).
     fn revives_on_traffic(&self) -> bool {
         matches!(
@@ -257,6 +281,14 @@ impl Health {
     /// True if transmissions may go to `p` (not failed).
     pub fn usable(&self, p: usize) -> bool {
         self.ports[p].state() != PortState::Failed
+    }
+
+    /// The caller's clock stepped back `by` (the clock contract, see [`crate::link`]): every
+    /// time held moves back with it, counters' last times included.
+    pub(crate) fn step_back(&mut self, by: Duration) {
+        for port in &mut self.ports {
+            port.step_back(by);
+        }
     }
 
     /// The merge window changed (a lagging port): the time a twin may take.

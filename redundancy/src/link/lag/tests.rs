@@ -180,3 +180,35 @@ fn the_other_port_is_silent_once_the_lagging_one_has_caught_up_with_it_or_after_
     assert!(m.other_silent(at(140), 1, Some(at(80))));
     assert!(m.other_silent(at(125), 1, None));
 }
+
+#[test]
+fn a_step_back_moves_the_periods_and_a_jump_ahead_costs_three_rounds_at_most() {
+    const HOUR: Duration = Duration::from_secs(3600);
+    let mut m = meter();
+    let mut out = Outbox::new();
+    let t0 = Instant::ZERO + HOUR;
+    // Periods of 100 ms: the samples fall in the one ending at 1 h + 100 ms.
+    m.sample(t0 + ms(10), 1, ms(20), &mut out);
+    assert!(m.sample(t0 + ms(30), 1, ms(20), &mut out));
+    assert_eq!(m.poll_timeout(), Some(t0 + ms(100)));
+    // At 1 h + 30 ms the clock steps back to 80 ms: the period still has 70 ms to run.
+    m.step_back(HOUR - ms(50));
+    assert_eq!(m.poll_timeout(), Some(at(150)));
+    m.handle_timeout(at(150), &mut out);
+    assert_eq!(m.lag(1), ms(20), "held for the next period");
+    // An hour ahead: forgotten at the end of the next period, once.
+    events(&mut out);
+    let ahead = at(150) + HOUR;
+    assert_eq!(m.handle_timeout(ahead, &mut out), Some(at(250)));
+    assert_eq!(
+        events(&mut out),
+        [(at(250), LinkEventKind::LagCleared { port: 1 })]
+    );
+    assert_eq!(m.poll_timeout(), None);
+    // New samples there, on the same grid; at the end of time nothing stays due.
+    m.sample(ahead + ms(10), 1, ms(20), &mut out);
+    m.sample(ahead + ms(20), 1, ms(20), &mut out);
+    assert_eq!(m.poll_timeout(), Some(ahead + ms(100)));
+    m.handle_timeout(Instant::MAX, &mut out);
+    assert_eq!(m.poll_timeout(), None);
+}

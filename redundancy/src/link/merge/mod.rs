@@ -382,8 +382,25 @@ impl<const SLOTS: usize> Merger<SLOTS> {
         }
     }
 
-    /// A frame arrived on `port` (0 or 1) at `now`. Times must not go backwards; if they do,
-    /// the merger stays consistent but may match across the jump.
+    /// The caller's clock stepped back `by` (the clock contract, see [`crate::link`]): every
+    /// record's arrival time moves back with it, so that a record keeps the time its window
+    /// (and its horizon) still has to run. A record older than the new time line's origin
+    /// arrived at the origin. Runs through the whole ring: rare, not on the frame path.
+    #[cold]
+    pub fn step_back(&mut self, by: Duration) {
+        let by = by.as_micros();
+        for r in self.ring.iter_mut() {
+            r.at = r.at.saturating_sub(by);
+        }
+        for k in self.keep_late.iter_mut().flatten() {
+            *k = k.saturating_sub(by);
+        }
+    }
+
+    /// A frame arrived on `port` (0 or 1) at `now`. Times must not go backwards: a caller whose
+    /// clock steps back says so first ([`Merger::step_back`]); otherwise the merger stays
+    /// consistent but records from before the step keep their window until the clock is back
+    /// where it was.
     #[inline]
     pub fn arrive(&mut self, now: Instant, port: usize, frame: &Frame) -> Verdict {
         self.arrive_inner::<false>(now, port, frame).0

@@ -338,3 +338,29 @@ fn late_copies_of_a_key_on_both_ports_keep_the_newer_side() {
     assert_eq!(m.arrive(t(130_000), 1, &f(1, 1)), Verdict::Duplicate);
     assert_eq!(m.stats().late, 1);
 }
+
+#[test]
+fn a_step_back_keeps_each_record_s_window_and_horizon() {
+    const HOUR: Duration = Duration::from_secs(3600);
+    let mut m: Merger<16> = Merger::with_horizon(W, Duration::from_millis(80));
+    let t0 = Instant::ZERO + HOUR;
+    assert_eq!(m.arrive(t0, 0, &f(1, 1)), Verdict::Deliver);
+    assert_eq!(m.arrive(t0 + W, 0, &f(2, 1)), Verdict::Deliver);
+    // The caller's clock steps back an hour 1 ms after the second arrival.
+    m.step_back(HOUR - Duration::from_millis(1));
+    // The first record left its window 10 ms after its arrival (now at 1 ms): its twin 30 ms
+    // after it is late, seen as such, not matched in the window.
+    let (v, twin) = m.arrive_measured(t(31_000), 1, &f(1, 1));
+    assert_eq!(v, Verdict::Deliver);
+    assert_eq!(
+        twin,
+        Some(Twin {
+            lag: Some(Duration::from_millis(30)),
+            late: true
+        })
+    );
+    // The second one (now at 11 ms) is late too, and matched once its port may match late ones.
+    m.set_late_match(1, true);
+    assert_eq!(m.arrive(t(40_000), 1, &f(2, 1)), Verdict::Duplicate);
+    assert_eq!(m.stats().late, 1);
+}

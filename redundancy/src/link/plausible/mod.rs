@@ -76,7 +76,6 @@
 //! needs `alloc` anyway).
 
 use crate::pair::MAX_MEMBERS;
-use duocan::frame::instant::TimeWatch;
 use duocan::{Duration, Id, Instant, NodeId};
 use heapless::Vec;
 
@@ -220,9 +219,6 @@ pub struct Plausibility {
     /// A change could not be handed up (the machine queue was full): retried at the next input.
     unsynced: bool,
     refused: u32,
-    /// Notices the caller's clock stepping back (the clock contract): every time held moves back
-    /// with it, so that a step back is no burst of heartbeats.
-    clock: TimeWatch,
 }
 
 impl Plausibility {
@@ -236,7 +232,6 @@ impl Plausibility {
             next: None,
             unsynced: false,
             refused: 0,
-            clock: TimeWatch::new(),
         }
     }
 
@@ -356,18 +351,12 @@ impl Plausibility {
         self.next.filter(|t| *t != NEVER).map(Instant::from_micros)
     }
 
-    /// The clock contract ([`duocan::frame::instant`]): on every input, a step back of the
-    /// caller's clock moves every time held back by the step.
-    #[inline]
-    fn watch_clock(&mut self, now: Instant) {
-        if let Some(by) = self.clock.step_back(now) {
-            self.step_back(by.as_micros());
-        }
-    }
-
-    /// Moves every time held back by `by` µs.
+    /// The caller's clock stepped back `by` (the clock contract, see [`crate::link`]): every
+    /// time held moves back with it, the buckets too, so that a step back is no burst of
+    /// heartbeats.
     #[cold]
-    fn step_back(&mut self, by: u64) {
+    pub(crate) fn step_back(&mut self, by: Duration) {
+        let by = by.as_micros();
         let back = |t: &mut u64| {
             if *t != NEVER {
                 *t = t.saturating_sub(by);

@@ -2,6 +2,7 @@ use super::*;
 use crate::link::events::{LinkEvent, LinkEventKind, Suspicion};
 use crate::link::health::{Health, HealthConfig};
 use crate::link::outbox::{Outbox, MACHINE_QUEUE};
+use duocan::frame::instant::TimeWatch;
 use duocan::machine::LinkRequest;
 use duocan::Frame;
 use std::vec::Vec;
@@ -26,6 +27,8 @@ struct Rig {
     p: Plausibility,
     health: Health,
     out: Outbox,
+    /// What the layer does for its parts: notices the clock stepping back.
+    clock: TimeWatch,
 }
 
 impl Rig {
@@ -38,11 +41,18 @@ impl Rig {
             p,
             health: Health::new(HealthConfig::default(), Duration::from_millis(10)),
             out: Outbox::new(),
+            clock: TimeWatch::new(),
+        }
+    }
+    fn notice(&mut self, now: Instant) {
+        if let Some(by) = self.clock.step_back(now) {
+            self.p.step_back(by);
         }
     }
     /// Runs the deadlines up to `t`, then hands the heartbeat over; true if dropped.
     fn beat(&mut self, t: Instant, port: usize, node: u8, state: u8) -> bool {
         self.run(t);
+        self.notice(t);
         self.p.on_heartbeat(
             t,
             port,
@@ -54,6 +64,7 @@ impl Rig {
     }
     fn run(&mut self, until: Instant) {
         while let Some(d) = self.p.poll_timeout().filter(|d| *d <= until) {
+            self.notice(d);
             self.p.handle_timeout(d, &self.health, &mut self.out);
         }
     }
