@@ -58,7 +58,20 @@ impl Outbox {
     /// The next frame for a driver. A port's frames wait while a request to that port is
     /// pending: a driver may drain frames before requests, and frames handed after a decision
     /// to re-initialise are meant for the re-initialised port, not to be flushed by it.
+    #[inline]
     pub fn pop_frame(&mut self) -> Option<(usize, Frame)> {
+        if self.requests.is_empty() {
+            // The usual case, on every drain: no port waits for a request.
+            if let Some(f) = self.frames[0].pop() {
+                return Some((0, f));
+            }
+            return self.frames[1].pop().map(|f| (1, f));
+        }
+        self.pop_frame_past_requests()
+    }
+
+    #[inline(never)]
+    fn pop_frame_past_requests(&mut self) -> Option<(usize, Frame)> {
         for p in 0..2 {
             if self.requests.iter().any(|(q, _)| *q == p) {
                 continue;
