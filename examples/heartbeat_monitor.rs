@@ -22,7 +22,9 @@ pub async fn main() -> Result<(), NetError> {
 pub async fn monitor(net: Network, mut print: impl FnMut(String)) -> Result<(), NetError> {
     let mut events = net.events();
     for id in 1..=10 {
-        net.node(id).watch_heartbeat(Duration::from_millis(500)).await?;
+        net.node(id)
+            .watch_heartbeat(Duration::from_millis(500))
+            .await?;
     }
     while let Some(e) = events.next().await {
         let node = e.node().map_or(0, |n| n.raw());

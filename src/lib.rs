@@ -50,9 +50,9 @@ pub mod profile;
 // Layer 7 to 9: I/O around the machines.
 #[cfg(feature = "std")]
 pub mod capture;
-pub mod port;
 #[cfg(feature = "tokio")]
 pub mod net;
+pub mod port;
 #[cfg(feature = "tokio")]
 pub mod runtime;
 #[cfg(feature = "std")]

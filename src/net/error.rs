@@ -3,10 +3,10 @@
 use crate::cia301::nmt::NmtState;
 use crate::cia301::sdo::{SdoError, SdoErrorKind};
 use crate::frame::cob_id::NodeId;
-use std::time::Duration;
 use crate::od::abort::AbortCode;
 use crate::runtime::RuntimeClosed;
 use std::fmt;
+use std::time::Duration;
 
 /// What a [`NetError::Timeout`] was waiting for.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -83,7 +83,10 @@ impl NetError {
             | NetError::NotText { node, .. }
             | NetError::Timeout { node, .. } => Some(*node),
             NetError::ListenOnly { node } => *node,
-            NetError::NoSuchNode(_) | NetError::QueueFull | NetError::Port(_) | NetError::Closed => None,
+            NetError::NoSuchNode(_)
+            | NetError::QueueFull
+            | NetError::Port(_)
+            | NetError::Closed => None,
         }
     }
     /// The SDO abort code, if a transfer was aborted (by the node or by this side, a timeout

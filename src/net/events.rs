@@ -7,7 +7,7 @@ use crate::frame::cob_id::NodeId;
 use crate::frame::instant::Instant;
 use crate::machine::PortStatus;
 use crate::runtime::RuntimeEvent;
-use tokio::sync::broadcast;
+use tokio::sync::{broadcast, watch};
 
 /// One thing that happened on the network. Every variant is one level deep; the accessors
 /// ([`NetEvent::node`], [`NetEvent::at`], [`NetEvent::state`]) answer the common questions
@@ -119,13 +119,21 @@ impl NetEvent {
 /// only when the network has been closed.
 pub struct Events {
     pub(super) rx: broadcast::Receiver<RuntimeEvent<DoorEvent>>,
+    /// Turns true when the network is closed (the broadcast itself outlives the runtime).
+    pub(super) closed: watch::Receiver<bool>,
 }
 
 impl Events {
     /// The next event, or `None` once the network is closed.
     pub async fn next(&mut self) -> Option<NetEvent> {
         loop {
-            match self.rx.recv().await {
+            // Events already queued come first; then the end.
+            let r = tokio::select! {
+                biased;
+                r = self.rx.recv() => r,
+                _ = self.closed.wait_for(|c| *c) => return None,
+            };
+            match r {
                 Ok(RuntimeEvent::Device(DoorEvent::Net(e))) => return Some(e),
                 Ok(RuntimeEvent::Port { status, at, .. }) => {
                     return Some(NetEvent::Port { status, at })

@@ -60,7 +60,7 @@ use crate::port::Port;
 use crate::runtime::{Handle, Runtime};
 use door::Door;
 use std::sync::Arc;
-use tokio::sync::{Mutex, Semaphore};
+use tokio::sync::{watch, Mutex, Semaphore};
 
 /// SDO transfers in flight at once (the client's session count).
 const SESSIONS: usize = 8;
@@ -128,6 +128,8 @@ struct Shared {
     sessions: Semaphore,
     /// Simulated nodes started with the network (`open_named("sim")`), kept running.
     sim: sim::SimNodes,
+    /// Set by [`Network::close`]: ends every event stream.
+    closed: watch::Sender<bool>,
 }
 
 impl Network {
@@ -176,6 +178,7 @@ impl Network {
                 per_node: (0..128).map(|_| Mutex::new(())).collect(),
                 sessions: Semaphore::new(SESSIONS),
                 sim,
+                closed: watch::channel(false).0,
             }),
         })
     }
@@ -193,6 +196,7 @@ impl Network {
     pub fn events(&self) -> Events {
         Events {
             rx: self.shared.handle.subscribe(),
+            closed: self.shared.closed.subscribe(),
         }
     }
 
@@ -237,5 +241,6 @@ impl Network {
     pub async fn close(&self) {
         self.shared.handle.shutdown().await;
         self.shared.sim.shutdown().await;
+        self.shared.closed.send_replace(true);
     }
 }

@@ -100,7 +100,8 @@ impl RemoteNode {
     pub async fn last_boot_up(&self) -> Result<Option<Instant>, NetError> {
         let id = self.id()?;
         let h = &self.net.shared.handle;
-        Ok(h.call(move |d, _| d.boot_ups[usize::from(id.raw())]).await?)
+        Ok(h.call(move |d, _| d.boot_ups[usize::from(id.raw())])
+            .await?)
     }
 
     /// Watches the node's heartbeat: if none arrives for `timeout`, the network reports

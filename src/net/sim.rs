@@ -42,13 +42,9 @@ fn sim_node(id: NodeId) -> SimNode {
         ..Default::default()
     };
     let mut od = comm::standard_dictionary(id.raw(), ident);
-    // Both writes are to entries the standard dictionary has, with values they accept.
-    let _ = od.write_local(
-        comm::HEARTBEAT_PRODUCER,
-        0,
-        &SIM_HEARTBEAT_MS.to_le_bytes(),
-    );
-    let _ = od.insert(
+    // 0x1017 is in the standard dictionary and takes any u16.
+    let _ = od.write_local(comm::HEARTBEAT_PRODUCER, 0, &SIM_HEARTBEAT_MS.to_le_bytes());
+    od.upsert(
         ObjectDef::bytes(0x1008, 0, DataType::VisibleString, 32)
             .access(Access::Ro)
             .default(DefaultValue::Bytes(SIM_DEVICE_NAME.as_bytes()))
