@@ -115,8 +115,9 @@ impl NetEvent {
 /// The network's events, from the moment [`Network::events`](super::Network::events) was
 /// called. `next().await` yields each event; a reader that falls more than
 /// [`EVENT_QUEUE`](crate::runtime::EVENT_QUEUE) events behind gets one
-/// [`NetEvent::Lagged`] with the count it missed and carries on. The stream ends (`None`)
-/// only when the network has been closed.
+/// [`NetEvent::Lagged`] with the count it missed and carries on (the count is of the runtime's
+/// events, which include SDO transfer completions the stream does not show). The stream ends
+/// (`None`) only when the network has been closed with [`Network::close`](super::Network::close).
 pub struct Events {
     pub(super) rx: broadcast::Receiver<RuntimeEvent<DoorEvent>>,
     /// Turns true when the network is closed (the broadcast itself outlives the runtime).

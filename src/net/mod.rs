@@ -1,15 +1,23 @@
 //! The front door: a network handle and remote nodes, typed and async, for applications that
 //! talk to CANopen nodes the way python `canopen` users do.
 //!
-//! ```no_run
-//! # async fn f() -> Result<(), duocan::net::NetError> {
-//! use duocan::net::Network;
-//! let net = Network::open_named("can0")?; // or "udp", "udp:N", "sim" (simulated nodes 1–10)
-//! let vendor: u32 = net.node(5).sdo().read(0x1018, 1).await?;
-//! let name = net.node(5).sdo().read_string(0x1008, 0).await?;
-//! net.node(5).start().await?;
-//! net.node(5).wait_for_state(duocan::NmtState::Operational, std::time::Duration::from_secs(2)).await?;
-//! # Ok(()) }
+//! ```
+//! use duocan::net::{NetError, Network};
+//! use duocan::NmtState;
+//! use std::time::Duration;
+//!
+//! #[tokio::main]
+//! async fn main() -> Result<(), NetError> {
+//!     // "sim": simulated nodes 1–10; or "can0", "udp", "udp:N".
+//!     let net = Network::open_named("sim")?;
+//!     let node = net.node(5);
+//!     let vendor: u32 = node.sdo().read(0x1018, 1).await?;
+//!     assert_eq!(vendor, duocan::net::SIM_VENDOR);
+//!     assert_eq!(node.sdo().read_string(0x1008, 0).await?, "duocan simulated node");
+//!     node.start().await?;
+//!     node.wait_for_state(NmtState::Operational, Duration::from_secs(2)).await?;
+//!     Ok(())
+//! }
 //! ```
 //!
 //! | python `canopen` | duocan |
