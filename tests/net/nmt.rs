@@ -11,9 +11,12 @@ use std::time::Duration;
 async fn commands_move_the_node_and_its_state_follows() {
     let net = Network::simulated([4, 5], NetOptions::default()).unwrap();
     let n5 = net.node(5);
-    n5.wait_for_state(NmtState::PreOperational, Duration::from_secs(2))
-        .await
-        .unwrap();
+    for id in [4, 5] {
+        net.node(id)
+            .wait_for_state(NmtState::PreOperational, Duration::from_secs(2))
+            .await
+            .unwrap();
+    }
     assert_eq!(n5.state().await.unwrap(), Some(NmtState::PreOperational));
     assert_eq!(net.node(9).state().await.unwrap(), None, "never heard");
     n5.start().await.unwrap();
