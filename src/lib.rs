@@ -22,6 +22,7 @@
 //! | 7 | [`port`] | ports: SocketCAN, python-can's UDP bus, in-memory, any `embedded-can` controller |
 //! | 8 | [`capture`] · [`sim`] | candump and pcap captures; the simulated multi-bus network (virtual time) |
 //! | 9 | [`runtime`] | the tokio driver: ports and the monotonic clock around any [`Device`] |
+//! | 10 | [`net`] | the front door: a network handle and remote nodes, typed and async (SDO, NMT, events, listen-only monitor) |
 //!
 //! The redundancy crate (`duocan-redundancy`) adds its dual-bus layer as one more
 //! [`BusLink`], and its supervisor as one more [`Machine`]: the stack above a bus link does not
@@ -49,6 +50,8 @@ pub mod profile;
 // Layer 7 to 9: I/O around the machines.
 #[cfg(feature = "std")]
 pub mod capture;
+#[cfg(feature = "tokio")]
+pub mod net;
 pub mod port;
 #[cfg(feature = "tokio")]
 pub mod runtime;

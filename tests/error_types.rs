@@ -59,6 +59,7 @@ const _: () = {
     check::<duocan::runtime::StartError>();
     check::<duocan::runtime::RuntimeClosed>();
     check::<duocan::runtime::RuntimeError>();
+    check::<duocan::net::NetError>();
 };
 
 /// What a user function does: `?` on the error, nothing else.
@@ -201,4 +202,51 @@ fn runtime_errors_are_flat() {
     let e = duocan::port::PortError::new("can9", duocan::port::PortErrorKind::Closed, "closed");
     let text = e.to_string();
     assert_eq!(user(Err(e)).unwrap_err().to_string(), text);
+}
+
+#[cfg(feature = "tokio")]
+#[test]
+fn the_front_door_error_names_node_object_and_remedy() {
+    use duocan::net::{Awaited, NetError};
+    let inner = sdo_error(SdoErrorKind::Client(AbortCode::TIMEOUT));
+    let e = NetError::Sdo(inner);
+    assert_eq!(e.to_string(), inner.to_string());
+    assert_eq!(
+        e.source().and_then(|s| s.downcast_ref::<SdoError>()),
+        Some(&inner)
+    );
+    assert!(e.is_no_answer());
+    let node = NodeId::new(5).unwrap();
+    let wrong = NetError::WrongSize {
+        node,
+        index: 0x1018,
+        sub: 1,
+        expected: 2,
+        got: 4,
+    };
+    assert_eq!(
+        wrong.to_string(),
+        "node 5, object 0x1018 sub 1: the node sent 4 byte(s) but the type read needs 2: read it as a type of 4 byte(s) (see the node's EDS)"
+    );
+    let t = NetError::Timeout {
+        node,
+        awaited: Awaited::BootUp,
+        after: std::time::Duration::from_millis(1500),
+    };
+    assert!(
+        t.to_string()
+            .starts_with("node 5: no boot-up within 1500 ms: check"),
+        "{t}"
+    );
+    assert_eq!(t.node(), Some(node));
+    for e in [
+        e,
+        wrong,
+        t,
+        NetError::Closed,
+        NetError::NoSuchNode(0),
+        NetError::ListenOnly { node: None },
+    ] {
+        boxes(e);
+    }
 }

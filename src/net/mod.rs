@@ -1,0 +1,254 @@
+//! The front door: a network handle and remote nodes, typed and async, for applications that
+//! talk to CANopen nodes the way python `canopen` users do.
+//!
+//! ```
+//! use duocan::net::{NetError, Network};
+//! use duocan::NmtState;
+//! use std::time::Duration;
+//!
+//! #[tokio::main]
+//! async fn main() -> Result<(), NetError> {
+//!     // "sim": simulated nodes 1–10; or "can0", "udp", "udp:N".
+//!     let net = Network::open_named("sim")?;
+//!     let node = net.node(5);
+//!     let vendor: u32 = node.sdo().read(0x1018, 1).await?;
+//!     assert_eq!(vendor, duocan::net::SIM_VENDOR);
+//!     assert_eq!(node.sdo().read_string(0x1008, 0).await?, "duocan simulated node");
+//!     node.start().await?;
+//!     node.wait_for_state(NmtState::Operational, Duration::from_secs(2)).await?;
+//!     Ok(())
+//! }
+//! ```
+//!
+//! | python `canopen` | duocan |
+//! | --- | --- |
+//! | `network.connect(channel="can0", bustype="socketcan")` | `Network::open_named("can0")?` |
+//! | `node = network.add_node(5)` | `let node = net.node(5);` |
+//! | `node.sdo[0x1018][1].raw` | `node.sdo().read::<u32>(0x1018, 1).await?` |
+//! | `node.sdo[0x1017].raw = 100` | `node.sdo().write(0x1017, 0, 100u16).await?` |
+//! | `node.sdo.upload(0x1008, 0)` | `node.sdo().read_bytes(0x1008, 0).await?` |
+//! | `node.nmt.state = "OPERATIONAL"` | `node.start().await?` |
+//! | `node.nmt.wait_for_bootup(10)` | `node.wait_for_boot_up(Duration::from_secs(10)).await?` |
+//! | `node.nmt.wait_for_heartbeat()` / `node.nmt.state` | `node.state().await?` |
+//!
+//! Underneath is the ordinary stack on the [`runtime`](crate::runtime): a node that only
+//! observes (it tracks every node's state from boot-ups and heartbeats, consumes EMCY and the
+//! heartbeats it is told to watch) and an SDO client, behind a filter that lets only NMT
+//! commands and SDO requests onto the bus. The network handle is therefore not a node: it
+//! sends no boot-up, no heartbeat, and answers nothing (it uses node-ID 127 internally, so a
+//! node 127 on the bus is not tracked). [`Network::monitor`] sends nothing at all.
+//!
+//! Every call returns one error, [`NetError`], naming the node and object and what to do.
+//! SDO transfers to different nodes run at once; to one node they take turns (a server runs one
+//! transfer per client at a time). A future by-name layer resolves a name from a device
+//! description to the `(index, sub)` and type these calls take, so it adds methods rather than
+//! changing these.
+
+mod door;
+mod error;
+mod events;
+mod remote;
+mod sdo;
+mod sim;
+
+pub use error::{Awaited, NetError};
+pub use events::{Events, NetEvent};
+pub use remote::RemoteNode;
+pub use sdo::RemoteSdo;
+pub use sim::{SIM_DEVICE_NAME, SIM_HEARTBEAT_MS, SIM_VENDOR};
+
+use crate::cia301::nmt::{NmtCommand, NmtTarget};
+use crate::cia301::sdo::{SdoClient, SdoOptions};
+use crate::frame::cob_id::NodeId;
+use crate::frame::instant::{Duration, Instant};
+use crate::machine::{Composite, Station};
+use crate::node::NodeConfig;
+use crate::od::comm;
+use crate::port::Port;
+use crate::runtime::{Handle, Runtime};
+use door::Door;
+use std::sync::Arc;
+use tokio::sync::{watch, Mutex, Semaphore};
+
+/// SDO transfers in flight at once (the client's session count).
+const SESSIONS: usize = 8;
+/// The largest value one SDO transfer moves (a domain read or written whole).
+pub const MAX_TRANSFER: usize = 64 * 1024;
+/// The node-ID the observer uses internally (it never sends with it).
+const OBSERVER_ID: u8 = 127;
+
+/// How a [`Network`] behaves. Start from `NetOptions::default()` and change with `with_*`.
+#[derive(Clone, Copy, Debug)]
+#[non_exhaustive]
+pub struct NetOptions {
+    /// Transfer mode, timeout, block size and CRC of every SDO transfer (default: the
+    /// smallest mode that fits, 1 s timeout).
+    pub sdo: SdoOptions,
+    /// Send nothing: watch the nodes without a single frame on the bus.
+    pub listen_only: bool,
+}
+
+impl Default for NetOptions {
+    fn default() -> Self {
+        NetOptions {
+            sdo: SdoOptions::default().with_timeout(Duration::from_millis(1000)),
+            listen_only: false,
+        }
+    }
+}
+
+impl NetOptions {
+    /// The options with every SDO transfer's answer timeout set to `t`.
+    #[must_use]
+    pub fn with_sdo_timeout(mut self, t: std::time::Duration) -> Self {
+        let us = u64::try_from(t.as_micros()).unwrap_or(u64::MAX);
+        self.sdo = self.sdo.with_timeout(Duration::from_micros(us));
+        self
+    }
+    /// The options with the SDO options replaced.
+    #[must_use]
+    pub fn with_sdo(mut self, sdo: SdoOptions) -> Self {
+        self.sdo = sdo;
+        self
+    }
+    /// The options with listen-only mode set.
+    #[must_use]
+    pub fn with_listen_only(mut self, on: bool) -> Self {
+        self.listen_only = on;
+        self
+    }
+}
+
+/// A CANopen network on one port: the handle everything starts from. Cheap to clone; the
+/// network runs until [`Network::close`] or until the last clone (and every [`RemoteNode`]) is
+/// dropped.
+#[derive(Clone)]
+pub struct Network {
+    shared: Arc<Shared>,
+}
+
+struct Shared {
+    handle: Handle<Door>,
+    opts: NetOptions,
+    /// One lock per node-ID: transfers to one node take turns.
+    per_node: Vec<Mutex<()>>,
+    /// One permit per client session.
+    sessions: Semaphore,
+    /// Simulated nodes started with the network (`open_named("sim")`), kept running.
+    sim: sim::SimNodes,
+    /// Set by [`Network::close`]: ends every event stream.
+    closed: watch::Sender<bool>,
+}
+
+impl Network {
+    /// Opens the network on `port` (a SocketCAN, UDP or in-memory port) with default options.
+    /// Must be called inside a tokio runtime.
+    pub fn open<P: Port>(port: P) -> Result<Network, NetError> {
+        Self::open_with(port, NetOptions::default())
+    }
+
+    /// Opens a listen-only network on `port`: it watches boot-ups, heartbeats and EMCY and
+    /// sends nothing (no boot-up, no answer to NMT or SDO, no requests of its own).
+    pub fn monitor<P: Port>(port: P) -> Result<Network, NetError> {
+        Self::open_with(port, NetOptions::default().with_listen_only(true))
+    }
+
+    /// Opens the network on `port` with `opts`.
+    pub fn open_with<P: Port>(port: P, opts: NetOptions) -> Result<Network, NetError> {
+        Self::start(port, opts, sim::SimNodes::default())
+    }
+
+    fn start<P: Port>(port: P, opts: NetOptions, sim: sim::SimNodes) -> Result<Network, NetError> {
+        if tokio::runtime::Handle::try_current().is_err() {
+            return Err(NetError::Port(
+                "no tokio runtime: open the network from inside one (#[tokio::main])".into(),
+            ));
+        }
+        let id = NodeId::new(OBSERVER_ID).ok_or(NetError::Closed)?;
+        let od = comm::standard_dictionary(OBSERVER_ID, comm::Identity::default());
+        let mut node = crate::node::Node::new(NodeConfig::master(id), od);
+        // Booted before the clock starts: its boot-up never leaves (the door's filter).
+        node.boot(Instant::ZERO);
+        let client = SdoClient::new(MAX_TRANSFER);
+        let door = Door::new(
+            Station::single(Composite::new(node, client)),
+            opts.listen_only,
+        );
+        let handle = Runtime::new(door)
+            .name(port.name().to_owned())
+            .port(port)
+            .spawn()
+            .map_err(|e| NetError::Port(e.to_string()))?;
+        Ok(Network {
+            shared: Arc::new(Shared {
+                handle,
+                opts,
+                per_node: (0..128).map(|_| Mutex::new(())).collect(),
+                sessions: Semaphore::new(SESSIONS),
+                sim,
+                closed: watch::channel(false).0,
+            }),
+        })
+    }
+
+    /// The remote node `id` (1–127). Nothing is sent; an invalid ID is reported by the first
+    /// call on the node. The node's boot-up waits count from this moment
+    /// ([`RemoteNode::wait_for_boot_up`]).
+    #[must_use]
+    pub fn node(&self, id: u8) -> RemoteNode {
+        RemoteNode::new(self.clone(), id, self.now())
+    }
+
+    /// Every event from now on, as a stream on which lag is an item.
+    #[must_use]
+    pub fn events(&self) -> Events {
+        Events {
+            rx: self.shared.handle.subscribe(),
+            closed: self.shared.closed.subscribe(),
+        }
+    }
+
+    /// The network's clock: time since it was opened (the `at` of every event).
+    #[must_use]
+    pub fn now(&self) -> Instant {
+        self.shared.handle.now()
+    }
+
+    /// True if the network is listen-only.
+    #[must_use]
+    pub fn is_listen_only(&self) -> bool {
+        self.shared.opts.listen_only
+    }
+
+    /// Sends an NMT command to every node.
+    pub async fn nmt_all(&self, cmd: NmtCommand) -> Result<(), NetError> {
+        self.nmt(None, cmd, NmtTarget::All).await
+    }
+
+    async fn nmt(
+        &self,
+        node: Option<NodeId>,
+        cmd: NmtCommand,
+        target: NmtTarget,
+    ) -> Result<(), NetError> {
+        if self.is_listen_only() {
+            return Err(NetError::ListenOnly { node });
+        }
+        self.shared
+            .handle
+            .try_call(move |d, now| {
+                d.node()
+                    .nmt_command(now, cmd, target)
+                    .map_err(|_| NetError::QueueFull)
+            })
+            .await
+    }
+
+    /// Stops the network and waits for it; calls made afterwards fail with
+    /// [`NetError::Closed`].
+    pub async fn close(&self) {
+        self.shared.handle.shutdown().await;
+        self.shared.sim.shutdown().await;
+        self.shared.closed.send_replace(true);
+    }
+}

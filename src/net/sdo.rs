@@ -1,0 +1,139 @@
+//! A remote node's SDO server: typed values, strings and domains.
+
+use super::door::DoorEvent;
+use super::error::NetError;
+use super::remote::RemoteNode;
+use crate::cia301::sdo::{SdoOptions, TransferMode};
+use crate::od::OdValue;
+
+/// The SDO server of a [`RemoteNode`]: `node.sdo().read::<u32>(0x1018, 1).await?`.
+///
+/// Values are addressed by `(index, sub)` and typed by the Rust type asked for (any
+/// [`OdValue`]: the unsigned and signed integers, `f32`, `f64`, `bool`); a value of another
+/// size than the type is [`NetError::WrongSize`]. Strings and domains of any size up to
+/// [`MAX_TRANSFER`](super::MAX_TRANSFER) go whole, in the smallest transfer mode that fits
+/// unless the options say otherwise.
+#[derive(Clone)]
+pub struct RemoteSdo {
+    node: RemoteNode,
+    opts: SdoOptions,
+}
+
+impl RemoteSdo {
+    pub(super) fn new(node: RemoteNode, opts: SdoOptions) -> Self {
+        RemoteSdo { node, opts }
+    }
+
+    /// These transfers with other options (mode, timeout, block size, CRC).
+    #[must_use]
+    pub fn with_options(mut self, opts: SdoOptions) -> Self {
+        self.opts = opts;
+        self
+    }
+
+    /// These transfers in `mode` (expedited, segmented, block).
+    #[must_use]
+    pub fn with_mode(mut self, mode: TransferMode) -> Self {
+        self.opts = self.opts.with_mode(mode);
+        self
+    }
+
+    /// Reads a value of type `T`.
+    pub async fn read<T: OdValue>(&self, index: u16, sub: u8) -> Result<T, NetError> {
+        let data = self.transfer(index, sub, None).await?;
+        T::decode(&data).ok_or(NetError::WrongSize {
+            node: self.node.id()?,
+            index,
+            sub,
+            expected: core::mem::size_of::<T>(),
+            got: data.len(),
+        })
+    }
+
+    /// Writes a value of type `T` (its little-endian bytes, as CANopen sends them).
+    pub async fn write<T: OdValue>(&self, index: u16, sub: u8, value: T) -> Result<(), NetError> {
+        let mut buf = [0; 8];
+        let n = value.encode(&mut buf);
+        self.transfer(index, sub, Some(buf[..n].to_vec()))
+            .await
+            .map(drop)
+    }
+
+    /// Reads a VISIBLE_STRING (or any text): UTF-8, with trailing NULs some nodes pad with
+    /// removed.
+    pub async fn read_string(&self, index: u16, sub: u8) -> Result<String, NetError> {
+        let mut data = self.transfer(index, sub, None).await?;
+        while data.last() == Some(&0) {
+            data.pop();
+        }
+        match String::from_utf8(data) {
+            Ok(s) => Ok(s),
+            Err(_) => Err(NetError::NotText {
+                node: self.node.id()?,
+                index,
+                sub,
+            }),
+        }
+    }
+
+    /// Writes a string's bytes.
+    pub async fn write_string(&self, index: u16, sub: u8, text: &str) -> Result<(), NetError> {
+        self.write_bytes(index, sub, text.as_bytes()).await
+    }
+
+    /// Reads the raw bytes of any entry (a DOMAIN, an OCTET_STRING, a record's raw value).
+    pub async fn read_bytes(&self, index: u16, sub: u8) -> Result<Vec<u8>, NetError> {
+        self.transfer(index, sub, None).await
+    }
+
+    /// Writes raw bytes to any entry.
+    pub async fn write_bytes(
+        &self,
+        index: u16,
+        sub: u8,
+        data: impl Into<Vec<u8>>,
+    ) -> Result<(), NetError> {
+        self.transfer(index, sub, Some(data.into())).await.map(drop)
+    }
+
+    /// One transfer: a read when `data` is `None`. Transfers to one node take turns, and no
+    /// more start at once than the client has sessions, so neither "busy" nor "no session" is
+    /// ever the caller's problem.
+    async fn transfer(
+        &self,
+        index: u16,
+        sub: u8,
+        data: Option<Vec<u8>>,
+    ) -> Result<Vec<u8>, NetError> {
+        let node = self.node.id()?;
+        let net = self.node.network();
+        if net.is_listen_only() {
+            return Err(NetError::ListenOnly { node: Some(node) });
+        }
+        let shared = &net.shared;
+        let _turn = shared.per_node[usize::from(node.raw())].lock().await;
+        let _session = shared
+            .sessions
+            .acquire()
+            .await
+            .map_err(|_| NetError::Closed)?;
+        let opts = self.opts;
+        shared
+            .handle
+            .request(
+                move |d, now| {
+                    let c = d.client();
+                    let started = match &data {
+                        None => c.upload(now, node, index, sub, opts),
+                        Some(v) => c.download(now, node, index, sub, v, opts),
+                    };
+                    started.map_err(NetError::Sdo)
+                },
+                |id, e| match e {
+                    DoorEvent::Sdo(rid, r) if rid == id => Some(r.clone().map_err(NetError::Sdo)),
+                    _ => None,
+                },
+            )
+            .await
+    }
+}

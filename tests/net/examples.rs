@@ -1,0 +1,66 @@
+//! The starter examples, run as users run them: on the simulated nodes (no `DUOCAN_PORT`) and,
+//! for the monitor, on an in-memory bus where a node goes silent.
+
+use crate::rt::{node, single};
+use duocan::net::Network;
+use duocan::port::mem::MemBus;
+use duocan::runtime::Runtime;
+use std::sync::{Arc, Mutex};
+use std::time::Duration;
+
+#[path = "../../examples/heartbeat_monitor.rs"]
+#[allow(dead_code)]
+mod heartbeat_monitor;
+#[path = "../../examples/read_sdo.rs"]
+mod read_sdo;
+
+#[test]
+fn read_sdo_reads_node_5_of_the_simulated_bus() {
+    // Fails (Err) if node 5 did not answer with a u32.
+    read_sdo::main().unwrap();
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn heartbeat_monitor_prints_states_and_the_loss() {
+    let bus = MemBus::new("mem");
+    let net = Network::monitor(bus.port()).unwrap();
+    let lines = Arc::new(Mutex::new(Vec::<String>::new()));
+    let out = lines.clone();
+    let run = tokio::spawn(heartbeat_monitor::monitor(net.clone(), move |l| {
+        out.lock().unwrap().push(l)
+    }));
+    tokio::time::sleep(Duration::from_millis(100)).await;
+    let s = Runtime::new(single(node(3, false, 50, &[])))
+        .port(bus.port())
+        .spawn()
+        .unwrap();
+    s.boot().await.unwrap();
+    let seen = |want: &str| lines.lock().unwrap().iter().any(|l| l == want);
+    let until = |want: &'static str| {
+        let seen = &seen;
+        async move {
+            for _ in 0..300 {
+                if seen(want) {
+                    return;
+                }
+                tokio::time::sleep(Duration::from_millis(10)).await;
+            }
+            panic!("no line {want:?}");
+        }
+    };
+    until("node 3: boot-up").await;
+    until("node 3: pre-operational").await;
+    s.shutdown().await;
+    until("node 3: heartbeat lost").await;
+    net.close().await;
+    run.await.unwrap().unwrap();
+    let lines = lines.lock().unwrap().clone();
+    assert_eq!(
+        lines,
+        [
+            "node 3: boot-up",
+            "node 3: pre-operational",
+            "node 3: heartbeat lost"
+        ]
+    );
+}

@@ -1,0 +1,10 @@
+//! The front door (`duocan::net`): the network handle and remote nodes on the in-memory bus
+//! and the simulated nodes, and the starter examples built on it.
+
+mod events;
+mod examples;
+mod monitor;
+mod nmt;
+#[path = "../common/runtime.rs"]
+mod rt;
+mod sdo;

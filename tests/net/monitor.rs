@@ -1,0 +1,75 @@
+//! Listen-only: the monitor hears everything and puts nothing on the bus.
+
+use crate::rt::{node, single};
+use duocan::net::{NetError, Network};
+use duocan::port::mem::MemBus;
+use duocan::port::{Port, PortInput};
+use duocan::runtime::Runtime;
+use duocan::{NmtState, NodeId};
+use std::time::Duration;
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn the_monitor_hears_states_and_sends_nothing() {
+    let bus = MemBus::new("mem");
+    let mut wire = bus.port();
+    let net = Network::monitor(bus.port()).unwrap();
+    assert!(net.is_listen_only());
+    let s = Runtime::new(single(node(2, false, 50, &[])))
+        .port(bus.port())
+        .spawn()
+        .unwrap();
+    // Made before the node boots, so its boot-up counts for the wait below.
+    let n2 = net.node(2);
+    s.boot().await.unwrap();
+    n2.watch_heartbeat(Duration::from_millis(200))
+        .await
+        .unwrap();
+    n2.wait_for_boot_up(Duration::from_secs(2)).await.unwrap();
+    n2.wait_for_state(NmtState::PreOperational, Duration::from_secs(2))
+        .await
+        .unwrap();
+    // Whatever the user asks, nothing is sent: an error, not a frame.
+    let two = Some(NodeId::new(2).unwrap());
+    assert_eq!(
+        n2.start().await.unwrap_err(),
+        NetError::ListenOnly { node: two }
+    );
+    assert_eq!(
+        n2.sdo().read::<u32>(0x1018, 1).await.unwrap_err(),
+        NetError::ListenOnly { node: two }
+    );
+    assert_eq!(
+        net.nmt_all(duocan::NmtCommand::ResetNode)
+            .await
+            .unwrap_err(),
+        NetError::ListenOnly { node: None }
+    );
+    // An NMT command from someone else does not make the monitor answer either: the node
+    // obeys it, the monitor follows its state, and every frame on the wire is node 2's.
+    let mut master = bus.port();
+    master
+        .send(&duocan::Frame::from_array(duocan::Id::Standard(0), [1, 0]))
+        .await
+        .unwrap();
+    n2.wait_for_state(NmtState::Operational, Duration::from_secs(2))
+        .await
+        .unwrap();
+    tokio::time::sleep(Duration::from_millis(200)).await;
+    let mut ids = Vec::new();
+    while let Ok(Ok(PortInput::Frame(f))) =
+        tokio::time::timeout(Duration::from_millis(50), wire.recv()).await
+    {
+        ids.push(f.id());
+    }
+    assert!(ids.len() >= 5, "heartbeats went by: {ids:?}");
+    let foreign: Vec<_> = ids
+        .iter()
+        .filter(|id| **id != duocan::Id::Standard(0x702) && **id != duocan::Id::Standard(0))
+        .collect();
+    assert!(
+        foreign.is_empty(),
+        "only node 2 and the NMT command: {foreign:?}"
+    );
+    net.close().await;
+    s.shutdown().await;
+}
