@@ -78,8 +78,10 @@ pub enum EdsErrorKind {
     DuplicateSection,
     /// A key appears twice in a section (lenient: the last one is taken).
     DuplicateKey,
-    /// A key the format requires is missing.
+    /// A key the format requires is missing (the location names it).
     MissingKey,
+    /// A section the format requires is missing (the location names it).
+    MissingSection,
     /// A value is not a number, or not one of the forms the key allows.
     BadValue {
         /// The text found.
@@ -171,6 +173,7 @@ impl fmt::Display for EdsErrorKind {
             DuplicateSection => write!(f, "the section appears twice"),
             DuplicateKey => write!(f, "the key appears twice"),
             MissingKey => write!(f, "the key is missing"),
+            MissingSection => write!(f, "the section is missing"),
             BadValue { value, expected } => write!(f, "{value:?} is not {expected}"),
             OutOfRange { value, range } => write!(f, "{value:?} does not fit {range}"),
             OctalDigits { value } => write!(

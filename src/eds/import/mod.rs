@@ -157,6 +157,17 @@ impl<'t> Importer<'_, 't> {
         self.rep.problem(at, kind, taken)
     }
 
+    /// A key the section lacks: the location names the section's line and the key.
+    fn missing(
+        &mut self,
+        sec: &Section<'_>,
+        key: &str,
+        taken: impl core::fmt::Display,
+    ) -> Result<(), EdsError> {
+        let at = self.rep.at(sec.line, Some(sec.name), Some(key));
+        self.rep.problem(at, EdsErrorKind::MissingKey, taken)
+    }
+
     /// A string key; empty when absent.
     fn text(&self, sec: Option<&Section<'t>>, key: &str) -> String {
         sec.and_then(|s| s.get(key))
@@ -245,7 +256,7 @@ impl<'t> Importer<'_, 't> {
         if s.is_none() {
             let at = self.rep.at(0, Some("FileInfo"), None);
             self.rep
-                .problem(at, EdsErrorKind::MissingKey, "an empty [FileInfo]")?;
+                .problem(at, EdsErrorKind::MissingSection, "an empty [FileInfo]")?;
         }
         Ok(FileInfo {
             file_name: self.text(s, "FileName"),
@@ -268,7 +279,7 @@ impl<'t> Importer<'_, 't> {
         if s.is_none() {
             let at = self.rep.at(0, Some("DeviceInfo"), None);
             self.rep
-                .problem(at, EdsErrorKind::MissingKey, "an empty [DeviceInfo]")?;
+                .problem(at, EdsErrorKind::MissingSection, "an empty [DeviceInfo]")?;
         }
         let mut baud_rates = Vec::new();
         for rate in [10u16, 20, 50, 125, 250, 500, 800, 1000] {
@@ -340,14 +351,7 @@ impl<'t> Importer<'_, 't> {
                     format_args!("the {found} lines Line1..Line{found}"),
                 )?;
             }
-            None => {
-                self.problem(
-                    s,
-                    None,
-                    EdsErrorKind::MissingKey,
-                    format_args!("Lines={found}"),
-                )?;
-            }
+            None => self.missing(s, "Lines", format_args!("Lines={found}"))?,
             _ => {}
         }
         Ok(lines)
@@ -361,8 +365,8 @@ impl<'t> Importer<'_, 't> {
                     self.problem(
                         s,
                         None,
-                        EdsErrorKind::Syntax {
-                            what: "the section is spelled [DeviceComissioning] in CiA 306",
+                        EdsErrorKind::Misplaced {
+                            why: "CiA 306 spells the section [DeviceComissioning]",
                         },
                         "it as [DeviceComissioning]",
                     )?;

@@ -26,16 +26,17 @@ pub(super) struct Overrides<'t> {
     pub value: Option<Pair<'t>>,
     /// `[xxxxDenotation]`'s denotation.
     pub denotation: Option<String>,
-    /// The data type when the section has none: UNSIGNED8 for sub-index 0 of an array or
-    /// record, DOMAIN for a DOMAIN object.
-    pub default_type: Option<DataType>,
+    /// The data type when the section has none, and whether that is a warning: UNSIGNED8
+    /// for sub-index 0 of an array or record (a warning), DOMAIN for a DOMAIN object (none).
+    pub default_type: Option<(DataType, bool)>,
 }
 
 impl<'t> Importer<'_, 't> {
     /// Every object the lists name or a section describes.
     pub(super) fn objects(&mut self) -> Result<BTreeMap<u16, Object>, EdsError> {
         let ini = self.ini;
-        let mut listed: BTreeMap<u16, ()> = BTreeMap::new();
+        // Index → where it is listed.
+        let mut listed: BTreeMap<u16, (&str, Pair<'t>)> = BTreeMap::new();
         let mut any_list = false;
         for name in LISTS {
             let Some(s) = ini.named(name) else { continue };
@@ -49,7 +50,7 @@ impl<'t> Importer<'_, 't> {
                 found += 1;
                 match number::literal(number::strip_comment(p.value)) {
                     Ok(l) if (0..=0xFFFF).contains(&l.value) => {
-                        listed.insert(l.value as u16, ());
+                        listed.insert(l.value as u16, (s.name, *p));
                     }
                     _ => {
                         let kind = EdsErrorKind::BadValue {
@@ -70,10 +71,10 @@ impl<'t> Importer<'_, 't> {
             }
         }
         if !any_list {
-            let at = self.rep.at(0, None, None);
+            let at = self.rep.at(0, Some("MandatoryObjects"), None);
             self.rep.problem(
                 at,
-                EdsErrorKind::MissingKey,
+                EdsErrorKind::MissingSection,
                 "no object list ([MandatoryObjects], [OptionalObjects], [ManufacturerObjects]): every object section",
             )?;
         }
@@ -99,8 +100,8 @@ impl<'t> Importer<'_, 't> {
             let o = self.object(index, s, subs.remove(&index).unwrap_or_default())?;
             objects.insert(index, o);
         }
-        for (index, ()) in listed {
-            let at = self.rep.at(0, None, None);
+        for (index, (list, p)) in listed {
+            let at = self.rep.at(p.line, Some(list), Some(p.key));
             let kind = EdsErrorKind::ObjectList {
                 index,
                 what: "is listed but has no section",
@@ -145,12 +146,7 @@ impl<'t> Importer<'_, 't> {
             Some(p) => self.name(s, &p)?,
             None => {
                 let n = format!("{index:04X}");
-                self.problem(
-                    s,
-                    None,
-                    EdsErrorKind::MissingKey,
-                    format_args!("ParameterName={n}"),
-                )?;
+                self.missing(s, "ParameterName", format_args!("ParameterName={n}"))?;
                 n
             }
         };
@@ -200,7 +196,7 @@ impl<'t> Importer<'_, 't> {
             let over = Overrides {
                 name: Some(o.name.clone()),
                 denotation: o.denotation.clone(),
-                default_type: (code == ObjectCode::Domain).then_some(DataType::Domain),
+                default_type: (code == ObjectCode::Domain).then_some((DataType::Domain, false)),
                 ..Overrides::default()
             };
             let e = self.entry(index, 0, s, over)?;
@@ -224,25 +220,22 @@ impl<'t> Importer<'_, 't> {
         }
         subs.sort_by_key(|(sub, _)| *sub);
         let found = subs.len() as u64;
-        if sub_number != Some(found) {
-            let p = s.get("SubNumber").copied();
-            let kind = match sub_number {
-                Some(n) => EdsErrorKind::CountMismatch {
+        let taken = format!("the {found} sub-objects described");
+        match sub_number {
+            None => self.missing(s, "SubNumber", &taken)?,
+            Some(n) if n != found => {
+                let p = s.get("SubNumber").copied();
+                let kind = EdsErrorKind::CountMismatch {
                     stated: n as u32,
                     found: found as u32,
-                },
-                None => EdsErrorKind::MissingKey,
-            };
-            self.problem(
-                s,
-                p.as_ref(),
-                kind,
-                format_args!("the {found} sub-objects described"),
-            )?;
+                };
+                self.problem(s, p.as_ref(), kind, &taken)?;
+            }
+            Some(_) => {}
         }
         for (sub, sec) in subs {
             let over = Overrides {
-                default_type: (sub == 0).then_some(DataType::Unsigned8),
+                default_type: (sub == 0).then_some((DataType::Unsigned8, true)),
                 ..Overrides::default()
             };
             let e = self.entry(index, sub, sec, over)?;
@@ -293,12 +286,7 @@ impl<'t> Importer<'_, 't> {
             (None, Some(p)) => self.name(s, &p)?,
             (None, None) => {
                 let n = format!("{index:04X}sub{sub:X}");
-                self.problem(
-                    s,
-                    None,
-                    EdsErrorKind::MissingKey,
-                    format_args!("ParameterName={n}"),
-                )?;
+                self.missing(s, "ParameterName", format_args!("ParameterName={n}"))?;
                 n
             }
         };
@@ -368,16 +356,16 @@ impl<'t> Importer<'_, 't> {
     fn data_type(
         &mut self,
         s: &Section<'_>,
-        fallback: Option<DataType>,
+        fallback: Option<(DataType, bool)>,
     ) -> Result<DataType, EdsError> {
         let Some(p) = s.get("DataType").copied() else {
-            let t = fallback.unwrap_or(DataType::Domain);
-            self.problem(
-                s,
-                None,
-                EdsErrorKind::MissingKey,
-                format_args!("DataType={}", type_name(t)),
-            )?;
+            let t = match fallback {
+                // A DOMAIN object needs no DataType.
+                Some((t, false)) => return Ok(t),
+                Some((t, true)) => t,
+                None => DataType::Domain,
+            };
+            self.missing(s, "DataType", format_args!("DataType={}", type_name(t)))?;
             return Ok(t);
         };
         let code = match number::literal(number::strip_comment(p.value)) {
@@ -422,12 +410,7 @@ impl<'t> Importer<'_, 't> {
             } else {
                 AccessType::Ro
             };
-            self.problem(
-                s,
-                None,
-                EdsErrorKind::MissingKey,
-                format_args!("AccessType={}", a.as_str()),
-            )?;
+            self.missing(s, "AccessType", format_args!("AccessType={}", a.as_str()))?;
             return Ok(a);
         };
         if let Some(a) = AccessType::parse(p.value) {
