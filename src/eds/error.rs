@@ -56,6 +56,11 @@ pub enum EdsErrorKind {
         /// The cap.
         max: usize,
     },
+    /// The file has more than [`MAX_KEYS`](super::MAX_KEYS) sections and keys.
+    TooManyKeys {
+        /// The cap.
+        max: usize,
+    },
     /// The file describes more than [`MAX_ENTRIES`](super::MAX_ENTRIES) entries (sub-objects,
     /// counting those a `CompactSubObj` or `CompactPDO` implies).
     TooManyEntries {
@@ -164,6 +169,7 @@ impl fmt::Display for EdsErrorKind {
             Io { message } => write!(f, "cannot read the file: {message}"),
             FileTooLarge { max } => write!(f, "the file is larger than {max} bytes"),
             LineTooLong { max } => write!(f, "the line is longer than {max} bytes"),
+            TooManyKeys { max } => write!(f, "the file has more than {max} sections and keys"),
             TooManyEntries { max } => write!(f, "the file describes more than {max} entries"),
             ValuesTooLarge { max } => {
                 write!(f, "the names and values described pass {max} bytes")

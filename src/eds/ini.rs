@@ -217,7 +217,7 @@ pub(crate) fn parse<'t>(text: &'t str, rep: &mut Reporter) -> Result<Ini<'t>, Ed
         if items > MAX_KEYS {
             return Err(rep.error(
                 rep.at(line, section_name, None),
-                EdsErrorKind::TooManyEntries { max: MAX_KEYS },
+                EdsErrorKind::TooManyKeys { max: MAX_KEYS },
             ));
         }
         if let Some(rest) = l.strip_prefix('[') {

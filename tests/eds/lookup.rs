@@ -20,12 +20,22 @@ fn addresses_and_names_without_regard_to_case() {
         let e = d.entry(name).unwrap_or_else(|e| panic!("{name}: {e}"));
         assert_eq!((e.index, e.sub), (0x1017, 0), "{name}");
     }
-    for name in ["0x1018sub1", "1018sub1", "1018SUB0x1", "vendor-id", "Identity object.Vendor-ID"] {
+    for name in [
+        "0x1018sub1",
+        "1018sub1",
+        "1018SUB0x1",
+        "vendor-id",
+        "Identity object.Vendor-ID",
+    ] {
         let e = d.entry(name).unwrap_or_else(|e| panic!("{name}: {e}"));
         assert_eq!((e.index, e.sub), (0x1018, 1), "{name}");
     }
     assert_eq!(d.object("Identity object").unwrap().index, 0x1018);
-    assert_eq!(d.object("vendor-ID").unwrap().index, 0x1018, "an entry's name finds its object");
+    assert_eq!(
+        d.object("vendor-ID").unwrap().index,
+        0x1018,
+        "an entry's name finds its object"
+    );
     assert_eq!(d.object("0x2000").unwrap().name, "Point position");
 }
 
@@ -34,7 +44,11 @@ fn an_array_or_record_is_not_an_entry() {
     let d = clean("commissioning.dcf");
     for name in ["Identity object", "0x1018"] {
         let e = d.entry(name).unwrap_err();
-        assert_eq!(e.kind, LookupErrorKind::NotAnEntry { index: 0x1018 }, "{name}");
+        assert_eq!(
+            e.kind,
+            LookupErrorKind::NotAnEntry { index: 0x1018 },
+            "{name}"
+        );
         assert!(e.to_string().contains("1018sub1"), "{e}");
     }
 }
@@ -57,7 +71,9 @@ fn a_shared_name_is_ambiguous_and_lists_the_candidates() {
         "\"highest SUB-INDEX supported\" is ambiguous; it names 0x1018sub0 (Identity object / Highest sub-index supported), 0x1800sub0 (TPDO communication parameter / Highest sub-index supported)"
     );
     // Named within its object, it is one.
-    let s = d.entry("TPDO communication parameter.Highest sub-index supported").unwrap();
+    let s = d
+        .entry("TPDO communication parameter.Highest sub-index supported")
+        .unwrap();
     assert_eq!((s.index, s.sub), (0x1800, 0));
 }
 
@@ -65,7 +81,11 @@ fn a_shared_name_is_ambiguous_and_lists_the_candidates() {
 fn unknown_names_and_addresses() {
     let d = clean("commissioning.dcf");
     for name in ["Nothing like it", "0x9999", "1017sub1", "1018sub100", ""] {
-        assert_eq!(d.entry(name).unwrap_err().kind, LookupErrorKind::NotFound, "{name:?}");
+        assert_eq!(
+            d.entry(name).unwrap_err().kind,
+            LookupErrorKind::NotFound,
+            "{name:?}"
+        );
     }
 }
 
@@ -84,14 +104,19 @@ fn names_in_a_dictionary() {
         LookupErrorKind::NotAnEntry { index: 0x1016 }
     );
     assert_eq!(find(&od, "0x1016sub7F"), Ok((0x1016, 0x7F)));
-    assert_eq!(find(&od, "Nothing").unwrap_err().kind, LookupErrorKind::NotFound);
+    assert_eq!(
+        find(&od, "Nothing").unwrap_err().kind,
+        LookupErrorKind::NotFound
+    );
 }
 
 #[test]
 fn a_shared_name_in_a_dictionary_is_ambiguous() {
     let mut od = DynamicDictionary::new(1);
-    od.insert(ObjectDef::u8(0x2000, 0, Access::Rw, 0).named("Speed")).unwrap();
-    od.insert(ObjectDef::u8(0x2100, 0, Access::Rw, 0).named("speed")).unwrap();
+    od.insert(ObjectDef::u8(0x2000, 0, Access::Rw, 0).named("Speed"))
+        .unwrap();
+    od.insert(ObjectDef::u8(0x2100, 0, Access::Rw, 0).named("speed"))
+        .unwrap();
     od.insert_owned(ObjectDef::u8(0x2200, 0, Access::Rw, 0), "Torque", None)
         .unwrap();
     assert_eq!(
@@ -100,5 +125,9 @@ fn a_shared_name_in_a_dictionary_is_ambiguous() {
             candidates: vec!["0x2000sub0 (Speed)".into(), "0x2100sub0 (speed)".into()]
         }
     );
-    assert_eq!(find(&od, "torque"), Ok((0x2200, 0)), "a name held by the dictionary");
+    assert_eq!(
+        find(&od, "torque"),
+        Ok((0x2200, 0)),
+        "a name held by the dictionary"
+    );
 }

@@ -7,8 +7,8 @@ use duocan::eds::{
     ImportOptions, Value,
 };
 use duocan::od::{
-    comm, Access, DataType, DefaultValue, DynamicDictionary, Limit, ObjectDef,
-    ObjectDictionary, ObjectType, StaticDictionary,
+    comm, Access, DataType, DefaultValue, DynamicDictionary, Limit, ObjectDef, ObjectDictionary,
+    ObjectType, StaticDictionary,
 };
 
 /// The standard communication objects and application entries of every kind.
@@ -80,7 +80,10 @@ fn an_exported_eds_imports_strictly_as_the_same_dictionary() {
     assert_eq!(d.device_info.product_number, Some(7));
     assert_eq!(d.device_info.revision_number, Some(0x0001_0002));
     assert_eq!(d.device_info.product_name, "duocan", "0x1008's default");
-    assert_eq!(d.entry_at(0x2005, 0).unwrap().default, Some(Value::NodeIdPlus(0x4000)));
+    assert_eq!(
+        d.entry_at(0x2005, 0).unwrap().default,
+        Some(Value::NodeIdPlus(0x4000))
+    );
     assert_eq!(d.entry_at(0x2003, 0).unwrap().max_length, Some(40));
     // Another node from the same file: node-relative defaults follow.
     assert_eq!(d.dictionary(9).get_value::<u32>(0x2005, 0), Ok(0x4009));
@@ -91,7 +94,11 @@ fn export_is_a_fixed_point() {
     let od = sample(5);
     let opts = ExportOptions::default();
     let once = export_eds(&od, &opts).unwrap();
-    let twice = export_eds(&import(&once, &ImportOptions::strict()).dictionary(5), &opts).unwrap();
+    let twice = export_eds(
+        &import(&once, &ImportOptions::strict()).dictionary(5),
+        &opts,
+    )
+    .unwrap();
     assert_eq!(once, twice);
 }
 
@@ -103,12 +110,24 @@ fn a_dcf_carries_the_current_values() {
     od.write(0x2004, 0, &[1, 2, 3, 0xFF]).unwrap();
     od.write(0x2002, 0, &(-1.25f32).to_le_bytes()).unwrap();
     od.write_local(0x2005, 0, &7u32.to_le_bytes()).unwrap();
-    let text = export_dcf(&od, &ExportOptions::default().with_node_name("Right turnout").with_baud_rate(250)).unwrap();
+    let text = export_dcf(
+        &od,
+        &ExportOptions::default()
+            .with_node_name("Right turnout")
+            .with_baud_rate(250),
+    )
+    .unwrap();
     let d = import(&text, &ImportOptions::strict());
     assert_eq!(d.kind, FileKind::Dcf);
     let c = d.commissioning.as_ref().unwrap();
-    assert_eq!((c.node_id, c.node_name.as_str(), c.baud_rate), (Some(0x21), "Right turnout", Some(250)));
-    assert_eq!(d.entry_at(0x1017, 0).unwrap().value, Some(Value::Unsigned(250)));
+    assert_eq!(
+        (c.node_id, c.node_name.as_str(), c.baud_rate),
+        (Some(0x21), "Right turnout", Some(250))
+    );
+    assert_eq!(
+        d.entry_at(0x1017, 0).unwrap().value,
+        Some(Value::Unsigned(250))
+    );
     let back = d.dictionary(0x21);
     assert_eq!(difference(&od, &back), None);
     assert_eq!(back.read(0x2003, 0), Ok(&b"right turnout"[..]));
@@ -130,7 +149,9 @@ fn a_static_dictionary_round_trips_too() {
     let text = export_eds(&od, &ExportOptions::default()).unwrap();
     let d = import(&text, &ImportOptions::strict());
     assert_eq!(difference(&od, &d.dictionary(3)), None);
-    assert!(text.contains("[1016]\nParameterName=Consumer heartbeat time\nObjectType=0x8\nSubNumber=0x5\n"));
+    assert!(text.contains(
+        "[1016]\nParameterName=Consumer heartbeat time\nObjectType=0x8\nSubNumber=0x5\n"
+    ));
     assert!(text.contains("[1200sub1]\nParameterName=COB-ID client to server\nObjectType=0x7\nDataType=0x0007\nAccessType=ro\nDefaultValue=$NODEID+0x600\n"));
 }
 
@@ -145,7 +166,11 @@ fn a_difference_is_found_and_named() {
     let mut c = sample(5);
     c.upsert(ObjectDef::u32(0x2005, 0, Access::Ro, 0x4005).named("Node-relative"));
     let d = difference(&a, &c).unwrap();
-    assert_eq!((d.index, d.what), (0x2005, "default"), "node-relative or not: {d}");
+    assert_eq!(
+        (d.index, d.what),
+        (0x2005, "default"),
+        "node-relative or not: {d}"
+    );
     let mut e = sample(5);
     e.remove(0x2100, 2);
     assert_eq!(difference(&a, &e).unwrap().what, "entry");
@@ -168,9 +193,16 @@ fn what_a_file_cannot_carry_is_an_error_naming_the_entry() {
         })
     );
     let mut od = DynamicDictionary::new(1);
-    od.insert(ObjectDef::bytes(0x2000, 0, DataType::VisibleString, 8)).unwrap();
+    od.insert(ObjectDef::bytes(0x2000, 0, DataType::VisibleString, 8))
+        .unwrap();
     od.write(0x2000, 0, b"a\nb").unwrap();
-    assert!(export_eds(&od, &ExportOptions::default()).is_ok(), "an EDS has no values");
+    assert!(
+        export_eds(&od, &ExportOptions::default()).is_ok(),
+        "an EDS has no values"
+    );
     let e = export_dcf(&od, &ExportOptions::default()).unwrap_err();
-    assert_eq!(e.to_string(), "entry 0x2000sub0 cannot be written: the string holds a control character");
+    assert_eq!(
+        e.to_string(),
+        "entry 0x2000sub0 cannot be written: the string holds a control character"
+    );
 }

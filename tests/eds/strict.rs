@@ -37,14 +37,28 @@ const CASES: &[Case] = &[
         section: Some("2000"),
         key: None,
         kind: |k| *k == EdsErrorKind::DuplicateSection,
-        taken: |d| assert_eq!(d.entry_at(0x2000, 0).unwrap().high, Some(Value::Unsigned(10)), "merged"),
+        taken: |d| {
+            assert_eq!(
+                d.entry_at(0x2000, 0).unwrap().high,
+                Some(Value::Unsigned(10)),
+                "merged"
+            )
+        },
     },
     Case {
         file: "sub_number.eds",
         line: 113,
         section: Some("2000"),
         key: Some("SubNumber"),
-        kind: |k| matches!(k, EdsErrorKind::CountMismatch { stated: 3, found: 2 }),
+        kind: |k| {
+            matches!(
+                k,
+                EdsErrorKind::CountMismatch {
+                    stated: 3,
+                    found: 2
+                }
+            )
+        },
         taken: |d| assert_eq!(d.object_at(0x2000).unwrap().subs.len(), 2),
     },
     Case {
@@ -55,7 +69,10 @@ const CASES: &[Case] = &[
         kind: |k| *k == EdsErrorKind::NoSubZero,
         taken: |d| {
             let s0 = d.entry_at(0x2000, 0).unwrap();
-            assert_eq!((s0.data_type, s0.default.clone()), (DataType::Unsigned8, Some(Value::Unsigned(2))));
+            assert_eq!(
+                (s0.data_type, s0.default.clone()),
+                (DataType::Unsigned8, Some(Value::Unsigned(2)))
+            );
         },
     },
     Case {
@@ -64,7 +81,13 @@ const CASES: &[Case] = &[
         section: Some("2000"),
         key: Some("DefaultValue"),
         kind: |k| matches!(k, EdsErrorKind::OctalDigits { .. }),
-        taken: |d| assert_eq!(default(d, 0x2000), Some(Value::Unsigned(189)), "read as decimal"),
+        taken: |d| {
+            assert_eq!(
+                default(d, 0x2000),
+                Some(Value::Unsigned(189)),
+                "read as decimal"
+            )
+        },
     },
     Case {
         file: "bad_boolean.eds",
@@ -80,7 +103,13 @@ const CASES: &[Case] = &[
         section: Some("2000"),
         key: Some("DefaultValue"),
         kind: |k| matches!(k, EdsErrorKind::OutOfRange { .. }),
-        taken: |d| assert_eq!(default(d, 0x2000), Some(Value::Unsigned(300 & 0xFF)), "wrapped"),
+        taken: |d| {
+            assert_eq!(
+                default(d, 0x2000),
+                Some(Value::Unsigned(300 & 0xFF)),
+                "wrapped"
+            )
+        },
     },
     Case {
         file: "outside_limits.eds",
@@ -96,7 +125,12 @@ const CASES: &[Case] = &[
         section: Some("2000"),
         key: Some("AccessType"),
         kind: |k| matches!(k, EdsErrorKind::UnknownAccessType { value } if value == "readwrite"),
-        taken: |d| assert_eq!(d.entry_at(0x2000, 0).unwrap().access, duocan::eds::AccessType::Rw),
+        taken: |d| {
+            assert_eq!(
+                d.entry_at(0x2000, 0).unwrap().access,
+                duocan::eds::AccessType::Rw
+            )
+        },
     },
     Case {
         file: "unknown_type.eds",
@@ -167,7 +201,15 @@ const CASES: &[Case] = &[
         line: 110,
         section: Some("Comments"),
         key: Some("Lines"),
-        kind: |k| matches!(k, EdsErrorKind::CountMismatch { stated: 3, found: 2 }),
+        kind: |k| {
+            matches!(
+                k,
+                EdsErrorKind::CountMismatch {
+                    stated: 3,
+                    found: 2
+                }
+            )
+        },
         taken: |d| assert_eq!(d.comments, ["one", "two"]),
     },
     Case {
@@ -184,7 +226,13 @@ const CASES: &[Case] = &[
         section: Some("2000"),
         key: None,
         kind: |k| matches!(k, EdsErrorKind::Misplaced { .. }),
-        taken: |d| assert_eq!(d.object_at(0x2000).unwrap().subs.len(), 3, "CompactSubObj=2"),
+        taken: |d| {
+            assert_eq!(
+                d.object_at(0x2000).unwrap().subs.len(),
+                3,
+                "CompactSubObj=2"
+            )
+        },
     },
     Case {
         file: "name_too_long.eds",
@@ -216,8 +264,7 @@ const CASES: &[Case] = &[
 fn every_mistake_is_a_strict_error_naming_file_line_section_and_key() {
     for c in CASES {
         let p = path(&format!("strict/{}", c.file));
-        let e = Description::read_with(&p, &ImportOptions::strict())
-            .expect_err(c.file);
+        let e = Description::read_with(&p, &ImportOptions::strict()).expect_err(c.file);
         assert_eq!(e.at.file, p.display().to_string(), "{}", c.file);
         assert_eq!(
             (e.at.line, e.at.section.as_deref(), e.at.key.as_deref()),
@@ -240,7 +287,10 @@ fn every_mistake_is_a_lenient_warning_at_the_same_place_naming_the_value_taken()
     for c in CASES {
         let p = path(&format!("strict/{}", c.file));
         let d = Description::read(&p).unwrap_or_else(|e| panic!("{}: {e}", c.file));
-        let w = d.warnings.first().unwrap_or_else(|| panic!("{}: no warning", c.file));
+        let w = d
+            .warnings
+            .first()
+            .unwrap_or_else(|| panic!("{}: no warning", c.file));
         assert_eq!(
             (w.at.line, w.at.section.as_deref(), w.at.key.as_deref()),
             (c.line, c.section, c.key),

@@ -440,7 +440,8 @@ impl<'t> Importer<'_, 't> {
     ) -> Result<Option<Value>, EdsError> {
         let Some(p) = p else { return Ok(None) };
         if p.value.is_empty() {
-            return Ok(None);
+            // An empty string is a value; an empty number is none.
+            return Ok((!value::is_number(t)).then(|| Value::Bytes(Vec::new())));
         }
         match value::read(p.value, t, fit) {
             Ok(r) => {
