@@ -123,7 +123,7 @@ pub use model::{
 };
 pub use value::{canonical_limit, type_name, Value};
 
-/// The largest file read (4 MiB): a 2,000-entry EDS is about 0.3 MiB.
+/// The largest file read (4 MiB): a 2,000-entry EDS is about 0.2 MiB.
 pub const MAX_FILE_BYTES: usize = 4 << 20;
 /// The longest line (8 KiB): room for a 4 KiB domain default in hex.
 pub const MAX_LINE_BYTES: usize = 8 << 10;
