@@ -67,6 +67,8 @@ fn seen<D: ObjectDictionary + ?Sized>(od: &D) -> BTreeMap<(u16, u8), Seen> {
 fn limit_text(t: DataType, l: Option<Limit>) -> String {
     match l.and_then(|l| canonical_limit(t, l)) {
         None => "none".into(),
+        // Every NaN compares alike.
+        Some(Limit::Real(x)) if x.is_nan() => "NaN".into(),
         Some(Limit::Real(x)) => format!("{:#x} ({x:?})", x.to_bits()),
         Some(l) => format!("{l:?}"),
     }

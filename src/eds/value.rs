@@ -391,6 +391,15 @@ pub(crate) fn write(t: DataType, bytes: &[u8]) -> Result<String, Unwritable> {
             buf[..size].copy_from_slice(bytes);
             let raw = u64::from_le_bytes(buf);
             Ok(match t {
+                // A NaN other than the one "NaN" reads as keeps its bits.
+                Real32
+                    if f32::from_bits(raw as u32).is_nan() && raw as u32 != f32::NAN.to_bits() =>
+                {
+                    format!("0x{:08X}", raw as u32)
+                }
+                Real64 if f64::from_bits(raw).is_nan() && raw != f64::NAN.to_bits() => {
+                    format!("0x{raw:016X}")
+                }
                 Real32 => format!("{:?}", f32::from_bits(raw as u32)),
                 Real64 => format!("{:?}", f64::from_bits(raw)),
                 _ if t.is_signed() => format!("{}", sign_extend(raw as i128, size as u32 * 8)),

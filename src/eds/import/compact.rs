@@ -2,7 +2,7 @@
 //! `[xxxxValue]` and `[xxxxDenotation]` sections), the PDOs of `CompactPDO`, and
 //! `[xxxxObjectLinks]`.
 
-use super::objects::{implied, Overrides};
+use super::objects::{cut_name, implied, Overrides};
 use super::Importer;
 use crate::eds::error::{EdsError, EdsErrorKind};
 use crate::eds::ini::{Pair, Section, SectionId};
@@ -41,7 +41,7 @@ impl<'t> Importer<'_, 't> {
             let over = Overrides {
                 name: Some(match &names[i] {
                     Some(p) => self.name(self.ini.get(&SectionId::Names(index)).unwrap_or(s), p)?,
-                    None => format!("{}{sub}", o.name),
+                    None => cut_name(format!("{}{sub}", o.name)),
                 }),
                 value: values[i],
                 denotation: None,

@@ -116,24 +116,33 @@ impl<'t> Importer<'_, 't> {
         Ok(objects)
     }
 
-    /// A name, cut to [`MAX_NAME_BYTES`] (a warning).
+    /// A name without control characters, cut to [`MAX_NAME_BYTES`] (each a warning).
     pub(super) fn name(&mut self, sec: &Section<'_>, p: &Pair<'_>) -> Result<String, EdsError> {
-        let v = p.value;
+        let mut v: String = p.value.into();
+        if v.chars().any(|c| c.is_control() && c != '\t') {
+            v = v
+                .chars()
+                .filter(|c| !c.is_control() || *c == '\t')
+                .collect::<String>()
+                .trim()
+                .into();
+            let kind = EdsErrorKind::BadValue {
+                value: p.value.into(),
+                expected: "a name without control characters",
+            };
+            self.problem(sec, Some(p), kind, format_args!("{v:?}"))?;
+        }
         if v.len() <= MAX_NAME_BYTES {
-            return Ok(v.into());
+            return Ok(v);
         }
-        let mut end = MAX_NAME_BYTES;
-        while !v.is_char_boundary(end) {
-            end -= 1;
-        }
-        let cut = &v[..end];
+        let v = cut_name(v);
         self.problem(
             sec,
             Some(p),
             EdsErrorKind::NameTooLong,
-            format_args!("{cut:?}"),
+            format_args!("{v:?}"),
         )?;
-        Ok(cut.into())
+        Ok(v)
     }
 
     fn object(
@@ -506,6 +515,20 @@ fn limit_f(l: crate::od::Limit) -> Num {
         crate::od::Limit::Signed(v) => Num::Int(v as i128),
         crate::od::Limit::Real(v) => Num::Real(v),
     }
+}
+
+/// `name` cut to [`MAX_NAME_BYTES`] at a character boundary, without trailing spaces.
+pub(super) fn cut_name(mut name: String) -> String {
+    if name.len() > MAX_NAME_BYTES {
+        let mut end = MAX_NAME_BYTES;
+        while !name.is_char_boundary(end) {
+            end -= 1;
+        }
+        name.truncate(end);
+        let trimmed = name.trim_end().len();
+        name.truncate(trimmed);
+    }
+    name
 }
 
 /// An entry the file implies without describing it (`CompactSubObj`, `CompactPDO`, a missing
