@@ -151,7 +151,20 @@ impl Description {
         })
     }
 
-    /// The entry `name` names (see [the rules](self)).
+    /// The entry `name` names. A name is an address or a `ParameterName` (or a DCF's
+    /// `Denotation`), without regard to case:
+    ///
+    /// - `"0x1017"`, `"1017"`: the object; for a VAR, its entry (sub-index 0);
+    /// - `"1017sub0"`, `"0x1018sub1"`, `"1018SUB0x1"`: the entry (sub-index in hex, as section
+    ///   names write it);
+    /// - `"Producer heartbeat time"`: the object or entry so named;
+    /// - `"Identity object.Vendor-ID"`: an entry of an array or record, by both names, where
+    ///   the entry's name alone is not unique.
+    ///
+    /// A name several objects or entries share is [`LookupErrorKind::Ambiguous`], listing them
+    /// (the entries of an array that carry the array's own name do not count against it); an
+    /// array's or record's own name is [`LookupErrorKind::NotAnEntry`]. The lookup scans the
+    /// description: it is for configuration, not the frame path.
     pub fn entry(&self, name: &str) -> Result<&SubObject, LookupError> {
         let not_found = || LookupError {
             name: name.into(),
@@ -189,8 +202,9 @@ impl Description {
     }
 }
 
-/// The entry of `od` that `name` names, as (index, sub-index): entry names as the dictionary
-/// holds them (sub-index 0 of an array or record names the object).
+/// The entry of `od` that `name` names, as (index, sub-index), by the rules of
+/// [`Description::entry`]: entry names as the dictionary holds them (sub-index 0 of an array or
+/// record names the object).
 pub fn find<D: ObjectDictionary + ?Sized>(od: &D, name: &str) -> Result<(u16, u8), LookupError> {
     let err = |kind| LookupError {
         name: name.into(),

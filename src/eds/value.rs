@@ -153,7 +153,9 @@ fn text_value(text: &str, encode: impl Fn(&str) -> Vec<u8>) -> Read {
             .chars()
             .filter(|c| !c.is_control() || *c == '\t')
             .collect();
-        let v = Value::Bytes(encode(&clean));
+        // What the control characters hid is trimmed like any value.
+        let clean = clean.trim();
+        let v = Value::Bytes(encode(clean));
         return Read::noted(
             v,
             bad(text, "text without control characters"),
@@ -575,6 +577,14 @@ mod tests {
         let r = read("7", DataType::Boolean, Fit::Wrap).unwrap();
         assert_eq!(r.value, Value::Unsigned(1));
         assert!(r.note.is_some());
+    }
+
+    #[test]
+    fn control_characters_go_and_what_they_hid_is_trimmed() {
+        let r = read("\0 a\u{1}b \0", DataType::VisibleString, Fit::Wrap).unwrap();
+        assert_eq!(r.value, Value::Bytes(b"ab".to_vec()));
+        assert!(r.note.is_some());
+        assert!(write(DataType::VisibleString, b"ab").is_ok());
     }
 
     #[test]

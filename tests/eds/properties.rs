@@ -61,8 +61,11 @@ fn raw() -> impl Strategy<Value = Raw> {
         )
 }
 
-/// An object: its index offset (from 0x2000), a shape (0 VAR, 1 ARRAY, 2 RECORD) and entries.
-fn objects() -> impl Strategy<Value = Vec<(u16, u8, Vec<(u8, Raw)>)>> {
+/// An object: its index offset (from 0x2000), a shape (0 VAR, 1 ARRAY, 2 RECORD) and entries
+/// by sub-index.
+type Spec = (u16, u8, Vec<(u8, Raw)>);
+
+fn objects() -> impl Strategy<Value = Vec<Spec>> {
     proptest::collection::vec(
         (
             0u16..0xC000,
@@ -176,10 +179,7 @@ fn build(
 }
 
 /// The standard objects (for the mandatory ones) and the random ones, and the values to store.
-fn dictionary(
-    node: u8,
-    objects: &[(u16, u8, Vec<(u8, Raw)>)],
-) -> (DynamicDictionary, Vec<(u16, u8, Vec<u8>)>) {
+fn dictionary(node: u8, objects: &[Spec]) -> (DynamicDictionary, Vec<(u16, u8, Vec<u8>)>) {
     let mut od = comm::standard_dictionary(node, comm::Identity::default());
     let mut values = Vec::new();
     for (offset, shape, entries) in objects {
