@@ -204,12 +204,10 @@ pub(crate) fn parse<'t>(text: &'t str, rep: &mut Reporter) -> Result<Ini<'t>, Ed
         }
         let section_name = current.map(|i| ini.sections[i].name);
         if l.starts_with('#') {
-            rep.problem(
+            ignored(
+                rep,
                 rep.at(line, section_name, None),
-                EdsErrorKind::Syntax {
-                    what: "a '#' comment (CiA 306 comments start with ';')",
-                },
-                "the line ignored",
+                "a '#' comment (CiA 306 comments start with ';')",
             )?;
             continue;
         }
@@ -225,13 +223,7 @@ pub(crate) fn parse<'t>(text: &'t str, rep: &mut Reporter) -> Result<Ini<'t>, Ed
             continue;
         }
         let Some((k, v)) = l.split_once('=') else {
-            rep.problem(
-                rep.at(line, section_name, None),
-                EdsErrorKind::Syntax {
-                    what: "a line without '='",
-                },
-                "the line ignored",
-            )?;
+            ignored(rep, rep.at(line, section_name, None), "a line without '='")?;
             continue;
         };
         let (key, value) = (k.trim(), v.trim());
@@ -246,12 +238,10 @@ pub(crate) fn parse<'t>(text: &'t str, rep: &mut Reporter) -> Result<Ini<'t>, Ed
             continue;
         };
         if key.is_empty() {
-            rep.problem(
+            ignored(
+                rep,
                 rep.at(line, section_name, None),
-                EdsErrorKind::Syntax {
-                    what: "a line with nothing before '='",
-                },
-                "the line ignored",
+                "a line with nothing before '='",
             )?;
             continue;
         }
@@ -272,6 +262,15 @@ pub(crate) fn parse<'t>(text: &'t str, rep: &mut Reporter) -> Result<Ini<'t>, Ed
         }
     }
     Ok(ini)
+}
+
+/// A line that is no section, pair or comment: a warning, and the line is ignored.
+fn ignored(
+    rep: &mut Reporter,
+    at: super::error::Location,
+    what: &'static str,
+) -> Result<(), EdsError> {
+    rep.problem(at, EdsErrorKind::Syntax { what }, "the line ignored")
 }
 
 /// Opens the section of header line `[rest`; returns the section that keys now go to.

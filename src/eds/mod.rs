@@ -25,6 +25,9 @@
 //!   not read), `[xxxxObjectLinks]`, `[FileInfo]`, `[DeviceInfo]` (bit rates, PDO counts,
 //!   granularity, LSS), `[DummyUsage]`, `[Comments]` and `[DeviceComissioning]`.
 //!
+//! The INI layer is our own (`ini.rs`): the INI crates give no line numbers, which every error
+//! here names, and fold case and refuse duplicates differently from what vendors' files need.
+//!
 //! Export writes what import reads back as the same dictionary ([`difference`] finds none):
 //! names, object and data types, access, PDO mappability, defaults (`$NODEID+…` where
 //! node-relative), limits, capacities and, in a DCF, every current value. What no text file

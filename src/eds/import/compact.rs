@@ -2,7 +2,8 @@
 //! `[xxxxValue]` and `[xxxxDenotation]` sections), the PDOs of `CompactPDO`, and
 //! `[xxxxObjectLinks]`.
 
-use super::objects::{cut_name, implied, Overrides};
+use super::entry::{implied, Overrides};
+use super::objects::cut_name;
 use super::Importer;
 use crate::eds::error::{EdsError, EdsErrorKind};
 use crate::eds::ini::{Pair, Section, SectionId};

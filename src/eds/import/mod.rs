@@ -5,6 +5,7 @@
 //! implied ones (`CompactSubObj`, `CompactPDO`) and `ObjectLinks` in [`compact`].
 
 mod compact;
+mod entry;
 mod objects;
 
 use super::error::{EdsError, EdsErrorKind, Location, Reporter};
