@@ -1,8 +1,9 @@
 #!/bin/bash
 # Tier 3: python-can / python `canopen` as an independent peer over python-can's udp_multicast
 # bus, inside a private network namespace (no packet can leave the machine), plus the runtime
-# overhead measurement on the UDP bus (bare socket echo vs the tokio runtime), and the sdo_tool
-# example against a duocan node on the UDP bus.
+# overhead measurement on the UDP bus (bare socket echo vs the tokio runtime), the sdo_tool
+# example against a duocan node on the UDP bus, and python `canopen` reading a duocan node by the
+# names of the EDS duocan exported for it.
 #   .ci/tier-python.sh            tests + benchmark
 #   .ci/tier-python.sh --no-bench tests only
 # Installs python3-venv if missing, pip-installs the peers into $TARGET/pyenv, builds first
@@ -35,7 +36,8 @@ cargo test -p duocan-redundancy --features tokio --lib --test runtime \
   || fail "the logical network object under the runtime (memory buses)"
 
 echo "== tier-python: build (outside the namespace)"
-cargo test -p duocan-tiers --features python --test python_peer --no-run || fail "build python_peer tests"
+cargo test -p duocan-tiers --features python --test python_peer --test python_eds --no-run \
+  || fail "build python_peer and python_eds tests"
 # The sdo_tool example and its test (which runs the example's binary against a duocan node).
 cargo build -p duocan --features udp --example sdo_tool || fail "build the sdo_tool example"
 cargo test -p duocan-tiers --features python --test sdo_tool --no-run || fail "build sdo_tool tests"
@@ -51,6 +53,11 @@ unshare -n sh -ec '
   ip route add 224.0.0.0/4 dev lo
   cargo test --offline -p duocan-tiers --features python --test python_peer
 ' || fail "python peer tests"
+unshare -n sh -ec '
+  ip link set lo up
+  ip route add 224.0.0.0/4 dev lo
+  cargo test --offline -p duocan-tiers --features python --test python_eds
+' || fail "python canopen reading a duocan node by the names of its exported EDS"
 unshare -n sh -ec '
   ip link set lo up
   ip route add 224.0.0.0/4 dev lo

@@ -15,14 +15,15 @@
 //! | 0 | [`frame`] | frames and identifiers, COB-IDs and node-IDs, time as an input, bounded queues and tables (inline or heap) |
 //! | 1 | [`machine`] | the shapes: [`Machine`], [`BusLink`], [`Device`], [`Station`] |
 //! | 2 | [`od`] | the object dictionary: types, values, static and dynamic dictionaries, abort codes, the power-on image and parameter storage (0x1010/0x1011) |
-//! | 3 | [`cia301`] | the CiA 301 services, one module per object: [`nmt`], [`heartbeat`], [`guarding`], [`sync`], [`time_stamp`], [`emcy`], [`sdo`], [`pdo`] |
-//! | 4 | [`profile`] | identifier profiles: the predefined connection set, the railway 29-bit scheme |
-//! | 5 | [`node`] | [`Node`]: the services composed into one CANopen device |
-//! | 6 | [`cia302`] | the CiA 302-2 [`master`] and the master-side [PDO configuration](cia302::pdo_config) |
-//! | 7 | [`port`] | ports: SocketCAN, python-can's UDP bus, in-memory, any `embedded-can` controller |
-//! | 8 | [`capture`] · [`sim`] | candump and pcap captures; the simulated multi-bus network (virtual time) |
-//! | 9 | [`runtime`] | the tokio driver: ports and the monotonic clock around any [`Device`] |
-//! | 10 | [`net`] | the front door: a network handle and remote nodes, typed and async (SDO, NMT, events, listen-only monitor) |
+//! | 3 | [`eds`] | device descriptions (CiA 306): EDS and DCF files read into a description with name lookup and a node's dictionary; any dictionary written as an EDS or DCF |
+//! | 4 | [`cia301`] | the CiA 301 services, one module per object: [`nmt`], [`heartbeat`], [`guarding`], [`sync`], [`time_stamp`], [`emcy`], [`sdo`], [`pdo`] |
+//! | 5 | [`profile`] | identifier profiles: the predefined connection set, the railway 29-bit scheme |
+//! | 6 | [`node`] | [`Node`]: the services composed into one CANopen device |
+//! | 7 | [`cia302`] | the CiA 302-2 [`master`] and the master-side [PDO configuration](cia302::pdo_config) |
+//! | 8 | [`port`] | ports: SocketCAN, python-can's UDP bus, in-memory, any `embedded-can` controller |
+//! | 9 | [`capture`] · [`sim`] | candump and pcap captures; the simulated multi-bus network (virtual time) |
+//! | 10 | [`runtime`] | the tokio driver: ports and the monotonic clock around any [`Device`] |
+//! | 11 | [`net`] | the front door: a network handle and remote nodes, typed and async (SDO, NMT, events, listen-only monitor) |
 //!
 //! The redundancy crate (`duocan-redundancy`) adds its dual-bus layer as one more
 //! [`BusLink`], and its supervisor as one more [`Machine`]: the stack above a bus link does not
@@ -42,12 +43,15 @@ extern crate alloc;
 pub mod frame;
 pub mod machine;
 pub mod od;
-// Layer 3 to 6: the standard's services, identifier profiles, the node, the master.
+// Layer 3: device descriptions (EDS/DCF) of a dictionary.
+#[cfg(feature = "std")]
+pub mod eds;
+// Layer 4 to 7: the standard's services, identifier profiles, the node, the master.
 pub mod cia301;
 pub mod cia302;
 pub mod node;
 pub mod profile;
-// Layer 7 to 9: I/O around the machines.
+// Layer 8 to 10: I/O around the machines.
 #[cfg(feature = "std")]
 pub mod capture;
 #[cfg(feature = "tokio")]

@@ -44,6 +44,9 @@ const _: () = {
     check::<duocan::sim::SimError>();
     check::<duocan::capture::pcap::PcapError>();
     check::<duocan::capture::candump::ParseError>();
+    check::<duocan::eds::EdsError>();
+    check::<duocan::eds::ExportError>();
+    check::<duocan::eds::LookupError>();
 };
 
 #[cfg(feature = "udp")]
@@ -129,6 +132,19 @@ fn each_error_ends_a_call_in_the_question_mark() {
     boxes(ImageError::BadMagic);
     boxes(duocan::sim::SimError::PortCount { ports: 2, buses: 1 });
     boxes(duocan::capture::candump::parse_line("not a candump line").unwrap_err());
+    let eds = duocan::eds::Description::parse(
+        b"[FileInfo]\nFileName",
+        "device.eds",
+        &duocan::eds::ImportOptions::strict(),
+    );
+    boxes(eds.unwrap_err());
+    boxes(duocan::eds::ExportError::Unrepresentable {
+        index: 0x2000,
+        sub: 0,
+        why: "the string holds a control character",
+    });
+    let od = duocan::od::comm::standard_dictionary(5, Default::default());
+    boxes(duocan::eds::find(&od, "no such name").unwrap_err());
     // Not `Clone`: boxed by hand.
     let e = duocan::capture::pcap::decode_packet(&[1, 2]).unwrap_err();
     let text = e.to_string();

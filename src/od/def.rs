@@ -27,26 +27,85 @@ pub enum DataType {
     VisibleString = 0x0009,
     /// OCTET_STRING.
     OctetString = 0x000A,
+    /// UNICODE_STRING (UTF-16, little-endian code units on the wire).
+    UnicodeString = 0x000B,
+    /// TIME_OF_DAY: milliseconds after midnight (28 bits) and days since 1984-01-01 (16 bits),
+    /// six bytes on the wire.
+    TimeOfDay = 0x000C,
+    /// TIME_DIFFERENCE: milliseconds and days as in TIME_OF_DAY, six bytes.
+    TimeDifference = 0x000D,
     /// DOMAIN.
     Domain = 0x000F,
+    /// INTEGER24.
+    Integer24 = 0x0010,
     /// REAL64.
     Real64 = 0x0011,
+    /// INTEGER40.
+    Integer40 = 0x0012,
+    /// INTEGER48.
+    Integer48 = 0x0013,
+    /// INTEGER56.
+    Integer56 = 0x0014,
     /// INTEGER64.
     Integer64 = 0x0015,
+    /// UNSIGNED24.
+    Unsigned24 = 0x0016,
+    /// UNSIGNED40.
+    Unsigned40 = 0x0018,
+    /// UNSIGNED48.
+    Unsigned48 = 0x0019,
+    /// UNSIGNED56.
+    Unsigned56 = 0x001A,
     /// UNSIGNED64.
     Unsigned64 = 0x001B,
 }
 
 impl DataType {
+    /// Every data type, in the order of their type indices.
+    pub const ALL: [DataType; 25] = {
+        use DataType::*;
+        [
+            Boolean,
+            Integer8,
+            Integer16,
+            Integer32,
+            Unsigned8,
+            Unsigned16,
+            Unsigned32,
+            Real32,
+            VisibleString,
+            OctetString,
+            UnicodeString,
+            TimeOfDay,
+            TimeDifference,
+            Domain,
+            Integer24,
+            Real64,
+            Integer40,
+            Integer48,
+            Integer56,
+            Integer64,
+            Unsigned24,
+            Unsigned40,
+            Unsigned48,
+            Unsigned56,
+            Unsigned64,
+        ]
+    };
+
     /// Size in bytes of fixed-size types; `None` for strings and domains.
     pub const fn fixed_size(self) -> Option<usize> {
         use DataType::*;
         match self {
             Boolean | Integer8 | Unsigned8 => Some(1),
             Integer16 | Unsigned16 => Some(2),
+            Integer24 | Unsigned24 => Some(3),
             Integer32 | Unsigned32 | Real32 => Some(4),
+            Integer40 | Unsigned40 => Some(5),
+            Integer48 | Unsigned48 | TimeOfDay | TimeDifference => Some(6),
+            Integer56 | Unsigned56 => Some(7),
             Integer64 | Unsigned64 | Real64 => Some(8),
-            VisibleString | OctetString | Domain => None,
+            VisibleString | OctetString | UnicodeString | Domain => None,
         }
     }
     /// Size in bits, as a PDO mapping entry states it; `None` for variable-size types.
@@ -61,32 +120,32 @@ impl DataType {
     }
     /// The data type with CiA 301 type index `code`, if it is one this stack supports.
     pub const fn from_code(code: u16) -> Option<DataType> {
-        use DataType::*;
-        Some(match code {
-            0x01 => Boolean,
-            0x02 => Integer8,
-            0x03 => Integer16,
-            0x04 => Integer32,
-            0x05 => Unsigned8,
-            0x06 => Unsigned16,
-            0x07 => Unsigned32,
-            0x08 => Real32,
-            0x09 => VisibleString,
-            0x0A => OctetString,
-            0x0F => Domain,
-            0x11 => Real64,
-            0x15 => Integer64,
-            0x1B => Unsigned64,
-            _ => return None,
-        })
+        let mut i = 0;
+        while i < Self::ALL.len() {
+            if Self::ALL[i] as u16 == code {
+                return Some(Self::ALL[i]);
+            }
+            i += 1;
+        }
+        None
     }
-    pub(crate) const fn is_signed(self) -> bool {
+    /// True for the signed integer types (INTEGER8 to INTEGER64).
+    pub const fn is_signed(self) -> bool {
+        use DataType::*;
         matches!(
             self,
-            DataType::Integer8 | DataType::Integer16 | DataType::Integer32 | DataType::Integer64
+            Integer8
+                | Integer16
+                | Integer24
+                | Integer32
+                | Integer40
+                | Integer48
+                | Integer56
+                | Integer64
         )
     }
-    pub(crate) const fn is_real(self) -> bool {
+    /// True for REAL32 and REAL64.
+    pub const fn is_real(self) -> bool {
         matches!(self, DataType::Real32 | DataType::Real64)
     }
 }

@@ -16,6 +16,57 @@ struct DynEntry {
     /// The value at the last capture when it differs from the default (most entries keep
     /// their default, and cost nothing here).
     power_on: Option<Box<[u8]>>,
+    /// Name and default held here rather than in the definition (entries built at run time,
+    /// from a device description); `None` for entries from `'static` tables.
+    owned: Option<Box<Owned>>,
+}
+
+struct Owned {
+    name: Box<str>,
+    default: Option<Box<[u8]>>,
+}
+
+impl DynEntry {
+    fn new(def: ObjectDef, node_id: u8, owned: Option<Box<Owned>>) -> DynEntry {
+        let mut e = DynEntry {
+            def,
+            data: Vec::new(),
+            power_on: None,
+            owned,
+        };
+        e.data = e.default_bytes(node_id);
+        e
+    }
+
+    fn owned_default(&self) -> Option<&[u8]> {
+        self.owned.as_ref().and_then(|o| o.default.as_deref())
+    }
+
+    fn default_bytes(&self, node_id: u8) -> Vec<u8> {
+        match self.owned_default() {
+            Some(d) => d.to_vec(),
+            None => value::default_vec(&self.def, node_id),
+        }
+    }
+
+    fn is_default(&self, node_id: u8) -> bool {
+        match self.owned_default() {
+            Some(d) => self.data == d,
+            None => value::is_default(&self.def, node_id, &self.data),
+        }
+    }
+
+    fn entry(&self) -> Entry<'_> {
+        match &self.owned {
+            None => Entry::of(&self.def, &self.data),
+            Some(o) => Entry {
+                def: &self.def,
+                data: &self.data,
+                name: &o.name,
+                default_bytes: o.default.as_deref(),
+            },
+        }
+    }
 }
 
 /// A heap-backed dictionary whose entries can be inserted and removed while running.
@@ -53,30 +104,51 @@ impl DynamicDictionary {
                 sub: def.sub,
             });
         }
-        let data = default_bytes(&def, self.node_id);
-        self.map.insert(
-            k,
-            DynEntry {
-                def,
-                data,
-                power_on: None,
-            },
-        );
+        self.map.insert(k, DynEntry::new(def, self.node_id, None));
+        Ok(())
+    }
+
+    /// Inserts one entry whose name (and, for strings and domains, default value) are not
+    /// `'static`: an entry built at run time, from a device description. The dictionary keeps
+    /// them; [`Entry::name`] and [`Entry::default_bytes`] give them back, and the default is
+    /// the value after reset. `default` longer than the entry's capacity is
+    /// [`BuildError::OutOfStorage`]; a key that exists is an error.
+    pub fn insert_owned(
+        &mut self,
+        def: ObjectDef,
+        name: &str,
+        default: Option<&[u8]>,
+    ) -> Result<(), BuildError> {
+        let k = def.key();
+        if self.map.contains_key(&k) {
+            return Err(BuildError::Duplicate {
+                index: def.index,
+                sub: def.sub,
+            });
+        }
+        if let Some(d) = default {
+            if d.len() > def.storage_size() {
+                return Err(BuildError::OutOfStorage {
+                    index: def.index,
+                    sub: def.sub,
+                    capacity: def.storage_size(),
+                });
+            }
+        }
+        let owned = Owned {
+            name: name.into(),
+            default: default.map(Into::into),
+        };
+        self.map
+            .insert(k, DynEntry::new(def, self.node_id, Some(Box::new(owned))));
         Ok(())
     }
 
     /// Inserts or replaces one entry (value reset to the default, which is also its power-on
     /// value).
     pub fn upsert(&mut self, def: ObjectDef) {
-        let data = default_bytes(&def, self.node_id);
-        self.map.insert(
-            def.key(),
-            DynEntry {
-                def,
-                data,
-                power_on: None,
-            },
-        );
+        self.map
+            .insert(def.key(), DynEntry::new(def, self.node_id, None));
     }
 
     /// Inserts every definition of a table.
@@ -111,21 +183,11 @@ impl DynamicDictionary {
     }
 }
 
-fn default_bytes(def: &ObjectDef, node_id: u8) -> Vec<u8> {
-    let mut data = alloc::vec![0u8; def.storage_size()];
-    let n = value::encode_default(def, node_id, &mut data);
-    data.truncate(n);
-    data
-}
-
 impl ObjectDictionary for DynamicDictionary {
     #[inline]
     fn get(&self, index: u16, sub: u8) -> Result<Entry<'_>, AbortCode> {
         match self.map.get(&key(index, sub)) {
-            Some(e) => Ok(Entry {
-                def: &e.def,
-                data: &e.data,
-            }),
+            Some(e) => Ok(e.entry()),
             None => Err(miss(self.map.contains_key(&key(index, 0)))),
         }
     }
@@ -148,7 +210,7 @@ impl ObjectDictionary for DynamicDictionary {
             if range.contains(&e.def.index) {
                 e.data = match &e.power_on {
                     Some(v) => v.to_vec(),
-                    None => default_bytes(&e.def, node_id),
+                    None => e.default_bytes(node_id),
                 };
             }
         }
@@ -157,8 +219,7 @@ impl ObjectDictionary for DynamicDictionary {
     fn capture_power_on(&mut self) -> Result<(), StorageError> {
         let node_id = self.node_id;
         for e in self.map.values_mut() {
-            e.power_on = (!value::is_default(&e.def, node_id, &e.data))
-                .then(|| e.data.clone().into_boxed_slice());
+            e.power_on = (!e.is_default(node_id)).then(|| e.data.clone().into_boxed_slice());
         }
         Ok(())
     }
@@ -169,10 +230,7 @@ impl ObjectDictionary for DynamicDictionary {
 
     fn for_each(&self, f: &mut dyn FnMut(Entry<'_>)) {
         for e in self.map.values() {
-            f(Entry {
-                def: &e.def,
-                data: &e.data,
-            });
+            f(e.entry());
         }
     }
 

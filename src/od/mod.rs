@@ -21,6 +21,9 @@ pub use def::{key, Access, DataType, DefaultValue, Limit, ObjectDef, ObjectType,
 pub use dynamic::DynamicDictionary;
 pub use static_dict::StaticDictionary;
 pub use value::{check_value, OdValue};
+// Device descriptions write defaults exactly as the dictionary makes them.
+#[cfg(feature = "alloc")]
+pub(crate) use value::default_vec;
 
 use crate::od::abort::AbortCode;
 use core::fmt;
@@ -81,6 +84,26 @@ pub struct Entry<'a> {
     pub def: &'a ObjectDef,
     /// Current value, little-endian.
     pub data: &'a [u8],
+    /// The entry's name: the definition's, or the one a [`DynamicDictionary`] holds for an
+    /// entry built at run time (from a device description, whose names are not `'static`).
+    pub name: &'a str,
+    /// The default value's bytes when the dictionary holds them itself (a string or domain
+    /// default of an entry built at run time); `None`: the definition's
+    /// [`default`](ObjectDef::default) applies.
+    pub default_bytes: Option<&'a [u8]>,
+}
+
+impl<'a> Entry<'a> {
+    /// An entry whose name and default are its definition's.
+    #[must_use]
+    pub const fn of(def: &'a ObjectDef, data: &'a [u8]) -> Entry<'a> {
+        Entry {
+            def,
+            data,
+            name: def.name,
+            default_bytes: None,
+        }
+    }
 }
 
 /// What every dictionary provides. Required methods are the storage; the provided ones are the

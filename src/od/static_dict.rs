@@ -148,10 +148,7 @@ impl<const N: usize, const BYTES: usize, const POWER_ON: usize> ObjectDictionary
         match self.map.get(&key(index, sub)) {
             Some(s) => {
                 let start = s.offset as usize;
-                Ok(Entry {
-                    def: s.def,
-                    data: &self.arena[start..start + s.len as usize],
-                })
+                Ok(Entry::of(s.def, &self.arena[start..start + s.len as usize]))
             }
             None => Err(miss(self.map.contains_key(&key(index, 0)))),
         }
@@ -251,10 +248,7 @@ impl<const N: usize, const BYTES: usize, const POWER_ON: usize> ObjectDictionary
     fn for_each(&self, f: &mut dyn FnMut(Entry<'_>)) {
         for (_, s) in self.map.iter() {
             let start = s.offset as usize;
-            f(Entry {
-                def: s.def,
-                data: &self.arena[start..start + s.len as usize],
-            });
+            f(Entry::of(s.def, &self.arena[start..start + s.len as usize]));
         }
     }
 

@@ -101,6 +101,26 @@ pub(crate) fn is_default(def: &ObjectDef, node_id: u8, data: &[u8]) -> bool {
     }
 }
 
+/// The default of `def` for a node, as the bytes a dictionary holds after reset.
+#[cfg(feature = "alloc")]
+pub(crate) fn default_vec(def: &ObjectDef, node_id: u8) -> alloc::vec::Vec<u8> {
+    // Strings and domains: only what the default needs, not the whole capacity (a DOMAIN of a
+    // megabyte with an empty default costs nothing until written).
+    let size = match def.data_type.fixed_size() {
+        Some(n) => n,
+        None => match def.default {
+            DefaultValue::Bytes(b) => b.len(),
+            DefaultValue::Zero => 0,
+            _ => 8,
+        }
+        .min(def.capacity as usize),
+    };
+    let mut data = alloc::vec![0u8; size];
+    let n = encode_default(def, node_id, &mut data);
+    data.truncate(n);
+    data
+}
+
 fn put_int(v: u64, size: Option<usize>, out: &mut [u8]) -> usize {
     let n = size.unwrap_or(8).min(out.len());
     out[..n].copy_from_slice(&v.to_le_bytes()[..n]);

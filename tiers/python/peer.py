@@ -5,9 +5,12 @@ udp_multicast bus. Driven by tests/python_peer.rs; talks to it through stdout li
     peer.py client NODE GROUP PORT        SDO client: reads and writes NODE's dictionary
     peer.py junk GROUP PORT              python-can sends frames duocan must refuse, then one good
     peer.py storage NODE GROUP PORT       stores and restores NODE's parameters (0x1010/0x1011)
+    peer.py eds NODE FILE GROUP PORT      a RemoteNode whose dictionary is the EDS FILE: reads and
+                                          writes NODE's entries by name, as stdin asks
 Stdout: one line per event: "READY", "STATE <name>", "WRITE <index> <sub> <hex>" (a write to the
 LocalNode), "READ <index> <sub> <hex>", "WROTE <index> <sub>", "ABORT <index> <sub> <code>",
-"READ-NO-CRC …"/"WROTE-NO-CRC …" (block transfers that did not ask for CRC), "DONE", "SENT <n>", "ERROR <command> <exception>". Ends when stdin closes.
+"READ-NO-CRC …"/"WROTE-NO-CRC …" (block transfers that did not ask for CRC), "DONE", "SENT <n>",
+"VALUE\t<name>\t<value>", "NAMES <count>", "ERROR <command> <exception>". Ends when stdin closes.
 """
 import faulthandler
 import signal
@@ -213,6 +216,38 @@ def storage(node_id, group, port):
     network.disconnect()
 
 
+def by_name(node, name):
+    """An entry by name: "Record/Member" for a member of a record or array."""
+    parts = name.split("/")
+    var = node.sdo[parts[0]]
+    for p in parts[1:]:
+        var = var[int(p) if p.isdigit() else p]
+    return var
+
+
+def eds(node_id, path, group, port):
+    network = canopen.Network()
+    network.connect(interface="udp_multicast", channel=group, port=port)
+    node = network.add_node(node_id, path)
+    node.sdo.RESPONSE_TIMEOUT = 2.0
+    say("READY")
+    # The objects, less the data-type dummies python adds for [DummyUsage].
+    say("NAMES", len([i for i in node.object_dictionary.keys() if isinstance(i, int) and i >= 0x20]))
+    # Tab-separated commands: "read<TAB>name", "write<TAB>name<TAB>value".
+    for line in sys.stdin:
+        words = line.rstrip("\n").split("\t")
+        try:
+            if words[0] == "read":
+                say("VALUE\t%s\t%s" % (words[1], by_name(node, words[1]).raw))
+            elif words[0] == "write":
+                var = by_name(node, words[1])
+                var.raw = int(words[2], 0) if var.od.data_type not in (dt.VISIBLE_STRING, dt.UNICODE_STRING) else words[2]
+                say("WROTE\t%s" % words[1])
+        except Exception as e:  # the test fails with this line instead of a silent timeout
+            say("ERROR", line.strip(), repr(e))
+    network.disconnect()
+
+
 def junk(group, port):
     bus = can.Bus(interface="udp_multicast", channel=group, port=port)
     say("READY")
@@ -239,6 +274,8 @@ def main(argv):
         junk(argv[2], int(argv[3]))
     elif argv[1] == "storage":
         storage(int(argv[2], 0), argv[3], int(argv[4]))
+    elif argv[1] == "eds":
+        eds(int(argv[2], 0), argv[3], argv[4], int(argv[5]))
     else:
         raise SystemExit("unknown mode " + argv[1])
 

@@ -394,8 +394,13 @@ mod tests {
         );
         assert_eq!(
             check_entry(&od, rx, MapEntry::new(0x0010, 0, 24)),
+            Ok(()),
+            "INTEGER24 is a 24-bit dummy"
+        );
+        assert_eq!(
+            check_entry(&od, rx, MapEntry::new(0x0017, 0, 8)),
             Err(AbortCode::NOT_MAPPABLE),
-            "INTEGER24 is not a supported type"
+            "0x0017 is no data type"
         );
         assert_eq!(
             check_entry(&od, rx, MapEntry::new(0x2000, 0, 0)),
