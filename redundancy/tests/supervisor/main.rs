@@ -12,4 +12,5 @@ mod pairs;
 mod partition;
 mod queues;
 mod seen_failover;
+mod stepped;
 mod trust;
