@@ -12,5 +12,6 @@ mod pairs;
 mod partition;
 mod queues;
 mod seen_failover;
+mod step_properties;
 mod stepped;
 mod trust;

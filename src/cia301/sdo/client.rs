@@ -166,6 +166,9 @@ impl<B: TransferBuffer, const SESSIONS: usize, S: Storage> SdoClient<B, SESSIONS
         sub: u8,
         opts: SdoOptions,
     ) -> Result<RequestId, SdoError> {
+        // A transfer starts at `now`: a client that sat idle through a step of the clock must
+        // not take its first deadline for one of the old time line at its next input.
+        self.watch_clock(now);
         let i = self.take_session(node, index, sub, Direction::Upload, &opts)?;
         let s = &mut self.sessions[i];
         s.buf.clear();
@@ -198,6 +201,7 @@ impl<B: TransferBuffer, const SESSIONS: usize, S: Storage> SdoClient<B, SESSIONS
         data: &[u8],
         opts: SdoOptions,
     ) -> Result<RequestId, SdoError> {
+        self.watch_clock(now); // as in `upload`
         let err = |kind| SdoError {
             node,
             index,

@@ -215,13 +215,15 @@ impl<D: ObjectDictionary, P: IdProfile> Supervisor<D, P> {
     #[cold]
     #[inline(never)]
     fn step_back(&mut self, now: Instant, by: Duration) {
+        // What the master reports at the old time is taken in the old time line, then moved.
+        self.master.handle_timeout(now + by);
+        self.pump(now + by);
         self.pairs.step_back(by);
         self.fm.step_back(by);
         shift_back(&mut self.last_sync, by);
         if let Some((_, at)) = self.planned.as_mut() {
             *at = *at - by;
         }
-        self.master.handle_timeout(now + by);
         self.master.handle_timeout(now);
     }
 
