@@ -14,4 +14,6 @@ mod queues;
 mod seen_failover;
 mod step_properties;
 mod stepped;
+#[path = "../common/time_line.rs"]
+mod time_line;
 mod trust;

@@ -13,6 +13,7 @@
 //! taken so far. Exactly, as long as no time held is older than the steps (the runs start ten
 //! hours into the clock).
 
+use crate::time_line::{same_time_line, step_size};
 use duocan::machine::{LinkRequest, Machine};
 use duocan::master::{objects, Master, NetworkConfig};
 use duocan::od::{comm, DynamicDictionary};
@@ -237,13 +238,6 @@ fn run(ops: &[(u64, Input)], steps: &[(usize, Duration)]) -> Vec<Seen> {
     d.seen
 }
 
-fn step_size() -> impl Strategy<Value = Duration> {
-    prop_oneof![
-        3 => (1u64..20 * MS).prop_map(Duration::from_micros),
-        1 => (1u64..7200).prop_map(Duration::from_secs),
-    ]
-}
-
 #[test]
 fn instants_in_event_text_move() {
     assert_eq!(
@@ -273,19 +267,6 @@ proptest! {
         let wake_ups: Vec<_> = steps.iter().map(|(i, _)| (*i, Duration::ZERO)).collect();
         let reference = run(&ops, &wake_ups);
         let stepped = run(&ops, &steps);
-        let first_difference = reference
-            .iter()
-            .zip(&stepped)
-            .position(|(a, b)| a != b);
-        if let Some(k) = first_difference {
-            let from = k.saturating_sub(6);
-            prop_assert!(
-                false,
-                "first difference at {k}:\nreference {:#?}\nstepped   {:#?}",
-                &reference[from..=k],
-                &stepped[from..=k]
-            );
-        }
-        prop_assert_eq!(reference.len(), stepped.len());
+        same_time_line(&reference, &stepped)?;
     }
 }
