@@ -104,8 +104,9 @@ impl<B: TransferBuffer, const SESSIONS: usize, S: Storage> SdoClient<B, SESSIONS
     }
 
     /// The clock contract ([`crate::frame::instant`]): when the caller's clock stepped back,
-    /// each transfer's timeouts move back with it.
-    fn watch_clock(&mut self, now: Instant) {
+    /// each transfer's timeouts move back with it. Public for an owner that watches the clock
+    /// itself and must have the client measure the same step without anything else happening.
+    pub fn watch_clock(&mut self, now: Instant) {
         if let Some(by) = self.clock.step_back(now) {
             for s in self.sessions.iter_mut() {
                 shift_back(&mut s.deadline, by);

@@ -209,22 +209,21 @@ impl<D: ObjectDictionary, P: IdProfile> Supervisor<D, P> {
 
     /// The caller's clock stepped back `by` to `now`: every part moves the times it holds back
     /// with it. The master watches the clock itself (its node and SDO client too), so it is not
-    /// shifted here but shown the step: first the latest time this supervisor was given (a time
-    /// it may not have seen, if that input was not for it: a flying-master frame, a verdict, an
-    /// application command), then `now`, so that it measures the same step as everything else.
+    /// shifted here but shown the step ([`Master::watch_clock`], which runs no timer): first the
+    /// latest time this supervisor was given (a time it may not have seen, if that input was not
+    /// for it: a flying-master frame, a verdict, an application command), then `now`, so that it
+    /// measures the same step as everything else, once, before any part acts on the input.
     #[cold]
     #[inline(never)]
     fn step_back(&mut self, now: Instant, by: Duration) {
-        // What the master reports at the old time is taken in the old time line, then moved.
-        self.master.handle_timeout(now + by);
-        self.pump(now + by);
+        self.master.watch_clock(now + by);
         self.pairs.step_back(by);
         self.fm.step_back(by);
         shift_back(&mut self.last_sync, by);
         if let Some((_, at)) = self.planned.as_mut() {
             *at = *at - by;
         }
-        self.master.handle_timeout(now);
+        self.master.watch_clock(now);
     }
 
     /// Half a SYNC period after the last SYNC (now if there is no SYNC).

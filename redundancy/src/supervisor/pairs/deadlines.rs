@@ -46,9 +46,11 @@ impl PairSupervisor {
                 }
             }
         }
-        // Recomputed rather than shifted: a deadline that saturated at the end of time was
-        // "never" in the cached bound, and is a real one once moved back.
-        self.next = self.earliest().map(|x| x.0);
+        // The cached bound moves with the deadlines (it stays as early as it was, so the table
+        // wakes when it would have), and takes in a deadline that saturated at the end of time:
+        // "never" before, a real one once moved back.
+        let moved = self.next.map(|t| t - by);
+        self.next = earliest_of([moved, self.earliest().map(|x| x.0)]);
     }
 
     /// The earliest due item of any member: (instant, pair, member).
