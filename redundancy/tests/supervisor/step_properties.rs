@@ -252,15 +252,12 @@ fn instants_in_event_text_move() {
 proptest! {
     #![proptest_config(ProptestConfig::with_cases(64))]
 
-    // Not yet true in every run. What this property found and was fixed: the SDO client took a
-    // transfer's first deadline for one of the old time line after sitting idle through a step;
-    // the supervisor showed the master a step with `handle_timeout`, which ran its timers one
-    // extra time; cached lower bounds (the pair table's, the master's slots') were recomputed
-    // instead of moved, so a run woke at other times. Still open: in some runs a heartbeat
-    // consumer deadline of the master's node is not where the reference run has it. Run with
-    // `--ignored` to reproduce (the failing case is kept in proptest-regressions).
+    // What this property found, each fixed: the SDO client took a transfer's first deadline
+    // for one of the old time line after sitting idle through a step; the supervisor showed the
+    // master a step with `handle_timeout`, which ran its timers one extra time; cached lower
+    // bounds (the pair table's, the master's slots', the heartbeat consumer's) were recomputed
+    // instead of moved, so the stepped run woke at other times than the reference.
     #[test]
-    #[ignore = "open: a master-node heartbeat consumer deadline differs after a step in some runs"]
     fn a_step_back_changes_nothing_but_the_time_line(
         ops in prop::collection::vec(op(), 20..300),
         steps in prop::collection::vec((any::<prop::sample::Index>(), step_size()), 1..5),
