@@ -2,13 +2,16 @@
 //! master, two slave pairs, a flying-master peer) fed hostile traffic on either port or both —
 //! boot-ups, heartbeats in every state, SDO answers shaped after its requests, flying-master
 //! frames on 0x71–0x76, NMT, SYNC, TIME and EMCY frames — port statuses, the application's
-//! commands, and a clock that jumps ahead and goes backwards. No panic, bounded output per
-//! step, no deadline that stays due, a status table that always prints.
+//! commands, and the shared misbehaving clock (steps back, an hour ahead, the end of time). No
+//! panic, bounded output per step, no deadline that stays due (after every step, and at the end
+//! of time nothing is due at all), a status table that always prints.
 #![no_main]
 
 mod common;
 
-use common::{advance, drain, expire, port_status, sdo_answer, std_frame, Requests};
+use common::{
+    advance, drain, expire, misbehave, port_status, sdo_answer, std_frame, Requests,
+};
 use duocan::master::{objects, Master, NetworkConfig};
 use duocan::od::comm;
 use duocan::{Device, Duration, Frame, Id, Instant, NmtCommand, NmtTarget, NodeId};
@@ -75,7 +78,8 @@ fuzz_target!(|data: &[u8]| {
             continue;
         };
         let d: [u8; 8] = d.try_into().unwrap_or([0; 8]);
-        now = advance(now, *step);
+        // The shared misbehaving clock: steps back, an hour ahead, the end of time.
+        now = misbehave(now, *step).unwrap_or_else(|| advance(now, *step));
         expire(&mut st, now, &mut req);
         let n = node(*sel);
         let frame = match op & 0x0F {
@@ -143,4 +147,7 @@ fuzz_target!(|data: &[u8]| {
     }
     // Whatever happened, the status table prints.
     let _ = format!("{}", st.status(now));
+    // At the end of time what is due is handled once, and then nothing stays due.
+    expire(&mut st, Instant::MAX, &mut req);
+    assert_eq!(st.poll_timeout(), None, "a deadline stays due at the end of time");
 });

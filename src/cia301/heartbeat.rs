@@ -298,7 +298,14 @@ impl<const N: usize> HeartbeatConsumer<N> {
         for e in self.entries.iter_mut() {
             e.last = e.last - by;
         }
+        // The cached bound moves with the deadlines (as early as it was: the node wakes when it
+        // would have on a clock that never stepped), and takes in any it did not cover.
+        let moved = self.next.map(|t| t - by);
         self.recompute_next();
+        self.next = match (moved, self.next) {
+            (Some(a), Some(b)) => Some(a.min(b)),
+            (a, b) => a.or(b),
+        };
     }
 
     /// Monitored nodes with their consumer time and whether they are currently lost.

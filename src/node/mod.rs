@@ -329,9 +329,11 @@ impl<
     }
 
     /// The clock contract ([`crate::frame::instant`]): on every input that carries a time, a step
-    /// back of the caller's clock moves every time the node holds back with it.
+    /// back of the caller's clock moves every time the node holds back with it. Public for an
+    /// owner that watches the clock itself and must have the node measure the same step without
+    /// anything else happening (no timer runs).
     #[inline]
-    fn watch_clock(&mut self, now: Instant) {
+    pub fn watch_clock(&mut self, now: Instant) {
         if let Some(by) = self.core.clock.step_back(now) {
             self.core.step_back(by);
             self.sdo.step_back(by);

@@ -12,6 +12,7 @@
 //! taken so far. Exactly, as long as no time the layer holds is older than the steps (the runs
 //! start ten hours into the clock); a held time older than the step would land on the origin.
 
+use crate::time_line::{same_time_line, step_size};
 use duocan::machine::{BusLink, ErrorCause, LinkRequest, PortRequest, PortStatus};
 use duocan::{Duration, Frame, Id, Instant, NodeId};
 use duocan_redundancy::{
@@ -306,13 +307,6 @@ fn run(mode: u8, inputs: &[(u64, Input)], steps: &[(usize, Duration)]) -> Vec<Se
     d.seen
 }
 
-fn step_size() -> impl Strategy<Value = Duration> {
-    prop_oneof![
-        3 => (1u64..20 * MS).prop_map(Duration::from_micros),
-        1 => (1u64..7200).prop_map(Duration::from_secs),
-    ]
-}
-
 proptest! {
     #![proptest_config(ProptestConfig::with_cases(192))]
 
@@ -330,19 +324,6 @@ proptest! {
         let wake_ups: Vec<_> = steps.iter().map(|(i, _)| (*i, Duration::ZERO)).collect();
         let reference = run(mode, &inputs, &wake_ups);
         let stepped = run(mode, &inputs, &steps);
-        let first_difference = reference
-            .iter()
-            .zip(&stepped)
-            .position(|(a, b)| a != b);
-        if let Some(k) = first_difference {
-            let from = k.saturating_sub(6);
-            prop_assert!(
-                false,
-                "first difference at {k}:\nreference {:#?}\nstepped   {:#?}",
-                &reference[from..=k],
-                &stepped[from..=k]
-            );
-        }
-        prop_assert_eq!(reference.len(), stepped.len());
+        same_time_line(&reference, &stepped)?;
     }
 }

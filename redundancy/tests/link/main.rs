@@ -13,3 +13,5 @@ mod merge_properties;
 mod plausible_properties;
 mod railway;
 mod sim;
+#[path = "../common/time_line.rs"]
+mod time_line;

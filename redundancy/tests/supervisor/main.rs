@@ -12,4 +12,8 @@ mod pairs;
 mod partition;
 mod queues;
 mod seen_failover;
+mod step_properties;
+mod stepped;
+#[path = "../common/time_line.rs"]
+mod time_line;
 mod trust;

@@ -4,6 +4,7 @@
 //! that boot at 0 with no heartbeat; the active master configures 0x1017.
 #![allow(dead_code)]
 
+use crate::stepped::{ClockStep, Stepped};
 use duocan::machine::StationEvent;
 use duocan::master::{objects, Master, NetworkConfig};
 use duocan::od::{comm, DynamicDictionary};
@@ -17,7 +18,8 @@ use duocan_redundancy::{
     SupervisorConfig, SupervisorEvent,
 };
 
-pub type MasterDev = SupervisedStation<DynamicDictionary>;
+/// A master station, on a clock that may step back ([`Params::clock_step`]).
+pub type MasterDev = Stepped<SupervisedStation<DynamicDictionary>>;
 pub type SlaveDev = Station<DualBus, Node<DynamicDictionary>>;
 
 pub const STRONG: u8 = 1;
@@ -37,6 +39,9 @@ pub struct Params {
     pub bitrate: u32,
     /// Start the weak master this much later (it then finds the strong one active).
     pub weak_start: Duration,
+    /// Both masters' clocks read ahead until then, and step back (none: they read the
+    /// simulated time).
+    pub clock_step: Option<ClockStep>,
 }
 
 impl Default for Params {
@@ -53,6 +58,7 @@ impl Default for Params {
             revertive_master: false,
             bitrate: 1_000_000,
             weak_start: Duration::ZERO,
+            clock_step: None,
         }
     }
 }
@@ -79,7 +85,10 @@ fn link(p: &Params) -> DualBus {
     ))
 }
 
+/// A master built at simulated time `now` (at its clock's reading then).
 pub fn master_station(p: &Params, id: u8, now: Instant) -> MasterDev {
+    let step = p.clock_step.filter(|s| now < s.at);
+    let now = Stepped::<SupervisedStation<DynamicDictionary>>::reading(step, now);
     let nid = NodeId::must(id);
     let od = objects::master_dictionary(id, comm::Identity::default());
     let master = Master::new(nid, od, NetworkConfig::new()).unwrap();
@@ -102,7 +111,7 @@ pub fn master_station(p: &Params, id: u8, now: Instant) -> MasterDev {
         )
         .unwrap();
     }
-    SupervisedStation::new(link(p), sup).unwrap()
+    Stepped::new(SupervisedStation::new(link(p), sup).unwrap(), step)
 }
 
 pub fn slave_station(p: &Params, id: u8, now: Instant) -> SlaveDev {

@@ -104,8 +104,9 @@ impl<B: TransferBuffer, const SESSIONS: usize, S: Storage> SdoClient<B, SESSIONS
     }
 
     /// The clock contract ([`crate::frame::instant`]): when the caller's clock stepped back,
-    /// each transfer's timeouts move back with it.
-    fn watch_clock(&mut self, now: Instant) {
+    /// each transfer's timeouts move back with it. Public for an owner that watches the clock
+    /// itself and must have the client measure the same step without anything else happening.
+    pub fn watch_clock(&mut self, now: Instant) {
         if let Some(by) = self.clock.step_back(now) {
             for s in self.sessions.iter_mut() {
                 shift_back(&mut s.deadline, by);
@@ -166,6 +167,9 @@ impl<B: TransferBuffer, const SESSIONS: usize, S: Storage> SdoClient<B, SESSIONS
         sub: u8,
         opts: SdoOptions,
     ) -> Result<RequestId, SdoError> {
+        // A transfer starts at `now`: a client that sat idle through a step of the clock must
+        // not take its first deadline for one of the old time line at its next input.
+        self.watch_clock(now);
         let i = self.take_session(node, index, sub, Direction::Upload, &opts)?;
         let s = &mut self.sessions[i];
         s.buf.clear();
@@ -198,6 +202,7 @@ impl<B: TransferBuffer, const SESSIONS: usize, S: Storage> SdoClient<B, SESSIONS
         data: &[u8],
         opts: SdoOptions,
     ) -> Result<RequestId, SdoError> {
+        self.watch_clock(now); // as in `upload`
         let err = |kind| SdoError {
             node,
             index,

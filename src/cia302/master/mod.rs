@@ -294,7 +294,7 @@ impl<D: ObjectDictionary, P: IdProfile> Master<D, P> {
 
     /// Powers the master on: boots its node and, if active, the network.
     pub fn boot(&mut self, now: Instant) {
-        self.watch_clock(now);
+        self.watch_own_clock(now);
         self.booted = true;
         self.node.boot(now);
         if self.acting() {
@@ -605,7 +605,7 @@ impl<D: ObjectDictionary, P: IdProfile> Machine for Master<D, P> {
     type LinkCommand = core::convert::Infallible;
 
     fn handle_frame(&mut self, now: Instant, frame: &Frame) {
-        self.watch_clock(now);
+        self.watch_own_clock(now);
         self.node.handle_frame(now, frame);
         if !self.sdo_idle {
             self.sdo.handle_frame(now, frame);
@@ -614,7 +614,7 @@ impl<D: ObjectDictionary, P: IdProfile> Machine for Master<D, P> {
     }
 
     fn handle_timeout(&mut self, now: Instant) {
-        self.watch_clock(now);
+        self.watch_own_clock(now);
         self.node.handle_timeout(now);
         if !self.sdo_idle {
             self.sdo.handle_timeout(now);

@@ -114,12 +114,23 @@ impl<D: ObjectDictionary, P: IdProfile> Master<D, P> {
 
     /// The clock contract ([`crate::frame::instant`]): on every input that carries a time, a step
     /// back of the caller's clock moves every timer of the master back with it (its node and SDO
-    /// client watch the clock themselves).
+    /// client watch the clock themselves, on their inputs).
     #[inline]
-    pub(super) fn watch_clock(&mut self, now: Instant) {
+    pub(super) fn watch_own_clock(&mut self, now: Instant) {
         if let Some(by) = self.clock.step_back(now) {
             self.step_back(by);
         }
+    }
+
+    /// Shows the master `now` without anything else happening (no timer runs, nothing is sent):
+    /// the master, its node and its SDO client each notice a step back of the caller's clock
+    /// and move their times back with it (the clock contract, [`crate::frame::instant`]). For an
+    /// owner that watches the clock itself and does not pass every input on to the master, so
+    /// that the master measures the same step from the same latest time, once.
+    pub fn watch_clock(&mut self, now: Instant) {
+        self.watch_own_clock(now);
+        self.node.watch_clock(now);
+        self.sdo.watch_clock(now);
     }
 
     #[cold]
@@ -127,9 +138,11 @@ impl<D: ObjectDictionary, P: IdProfile> Master<D, P> {
         for s in self.slots.iter_mut() {
             s.step_back(by);
         }
-        // Recomputed rather than shifted: a timer that saturated at the end of time was "never"
-        // in the cached bound, and is a real deadline once moved back.
-        self.slot_timer = self.slot_deadline();
+        // The cached bound moves with the timers (as early as it was: the master wakes when it
+        // would have on a clock that never stepped), and takes in a timer that saturated at the
+        // end of time: "never" in the bound before, a real deadline once moved back.
+        let moved = self.slot_timer.map(|t| t - by);
+        self.slot_timer = earliest(moved, self.slot_deadline());
         if let Network::Booting { deadline, .. } = &mut self.network {
             shift_back(deadline, by);
         }

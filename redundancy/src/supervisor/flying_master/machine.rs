@@ -9,9 +9,9 @@ use super::frames::{
 };
 use super::state::{Active, Peer, State, MAX_PEERS};
 use core::fmt;
-use duocan::frame::instant::earliest_of;
+use duocan::frame::instant::{earliest_of, shift_back};
 use duocan::frame::queue::Bounded;
-use duocan::{Frame, Id, Instant, NodeId};
+use duocan::{Duration, Frame, Id, Instant, NodeId};
 use heapless::Vec;
 
 /// One master-capable device's part of the flying-master protocol.
@@ -210,6 +210,30 @@ impl FlyingMaster {
                 takeover_at: until, ..
             } => earliest_of([Some(until)]),
             State::Active(a) => earliest_of([a.detect_at, a.suspended_until, a.handback_at]),
+        }
+    }
+
+    /// The caller's clock stepped back `by` (the clock contract, see [`crate::supervisor`]):
+    /// every peer's last heartbeat and the deadlines of the phase (detection, negotiation,
+    /// takeover, the active master's detection cycle, suspension and hand-back) move back with
+    /// it, so that each keeps the time it had to run. The machine does not watch the clock
+    /// itself; its owner tells it.
+    pub fn step_back(&mut self, by: Duration) {
+        for p in self.peers.iter_mut() {
+            shift_back(&mut p.last, by);
+        }
+        match &mut self.state {
+            State::Off => {}
+            State::Detecting { until }
+            | State::Negotiating { until }
+            | State::Standby {
+                takeover_at: until, ..
+            } => *until = *until - by,
+            State::Active(a) => {
+                shift_back(&mut a.detect_at, by);
+                shift_back(&mut a.suspended_until, by);
+                shift_back(&mut a.handback_at, by);
+            }
         }
     }
 

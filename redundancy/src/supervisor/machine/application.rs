@@ -43,6 +43,7 @@ impl<D: ObjectDictionary, P: IdProfile> Supervisor<D, P> {
         a: SlaveConfig,
         b: SlaveConfig,
     ) -> Result<PairId, AddPairError> {
+        self.watch_clock(now);
         self.pairs.check(&spec)?;
         let ms = |d: Duration| d.as_millis().min(u16::MAX as u64) as u16;
         let member = |node: NodeId, mut c: SlaveConfig| {
@@ -86,6 +87,7 @@ impl<D: ObjectDictionary, P: IdProfile> Supervisor<D, P> {
     /// Adds (or replaces) a slave that is no pair member: booted, configured and started by the
     /// master as `cfg` says.
     pub fn add_slave(&mut self, now: Instant, cfg: SlaveConfig) -> Result<(), MasterError> {
+        self.watch_clock(now);
         let r = self.master.add_slave(now, cfg);
         self.pump(now);
         r
@@ -150,6 +152,7 @@ impl<D: ObjectDictionary, P: IdProfile> Supervisor<D, P> {
         cmd: NmtCommand,
         target: NmtTarget,
     ) -> Result<(), MasterError> {
+        self.watch_clock(now);
         if !self.fm.may_command(now) {
             return Err(MasterError::Standby);
         }
@@ -174,6 +177,7 @@ impl<D: ObjectDictionary, P: IdProfile> Supervisor<D, P> {
     }
     /// Sets the network time (the active master then produces TIME from it).
     pub fn set_time(&mut self, now: Instant, tod: TimeOfDay) {
+        self.watch_clock(now);
         self.master.node_mut().set_time(now, tod);
     }
     /// Makes `to` the active member of `pair` by hand (active master only).
@@ -183,6 +187,7 @@ impl<D: ObjectDictionary, P: IdProfile> Supervisor<D, P> {
         pair: PairId,
         to: Member,
     ) -> Result<(), PairsError> {
+        self.watch_clock(now);
         self.pairs.switch_over(now, pair, to)?;
         self.pump(now);
         Ok(())
@@ -190,6 +195,7 @@ impl<D: ObjectDictionary, P: IdProfile> Supervisor<D, P> {
     /// Puts this (active) master in standby by hand: the role is handed to the best live
     /// master between two SYNCs.
     pub fn set_standby(&mut self, now: Instant) -> Result<(), FlyingMasterError> {
+        self.watch_clock(now);
         if !self.fm.is_active() {
             return Err(FlyingMasterError::WrongRole(self.fm.role()));
         }
@@ -204,6 +210,7 @@ impl<D: ObjectDictionary, P: IdProfile> Supervisor<D, P> {
     }
     /// Makes this (standby) master active by hand, between two SYNCs.
     pub fn set_active(&mut self, now: Instant) -> Result<(), FlyingMasterError> {
+        self.watch_clock(now);
         if self.fm.is_active() {
             return Err(FlyingMasterError::WrongRole(self.fm.role()));
         }

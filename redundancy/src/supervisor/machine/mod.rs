@@ -86,7 +86,7 @@ use crate::supervisor::flying_master::{FlyingMaster, Rank};
 use crate::supervisor::pairs::{Authority, PairSupervisor, PairsEvent};
 use alloc::collections::VecDeque;
 use core::fmt;
-use duocan::frame::instant::earliest_of;
+use duocan::frame::instant::{earliest_of, next_on_grid, shift_back, TimeWatch};
 use duocan::frame::queue::Bounded;
 use duocan::machine::{LinkRequest, Machine};
 use duocan::master::{objects, Master, NmtStartup};
@@ -130,6 +130,8 @@ pub struct Supervisor<D, P = Predefined> {
     last_sync: Option<Instant>,
     planned: Option<(Planned, Instant)>,
     stats: SupervisorStats,
+    /// Notices the caller's clock stepping back, for every part (the clock contract).
+    clock: TimeWatch,
 }
 
 impl<D: ObjectDictionary, P: IdProfile> Supervisor<D, P> {
@@ -188,23 +190,55 @@ impl<D: ObjectDictionary, P: IdProfile> Supervisor<D, P> {
             last_sync: None,
             planned: None,
             stats: SupervisorStats::default(),
+            clock: TimeWatch::new(),
         };
+        s.watch_clock(now);
         s.pump(now);
         s
     }
 
     // ----- internals -----
 
+    /// Every input that carries a time passes it here first: one comparison.
+    #[inline]
+    fn watch_clock(&mut self, now: Instant) {
+        if let Some(by) = self.clock.step_back(now) {
+            self.step_back(now, by);
+        }
+    }
+
+    /// The caller's clock stepped back `by` to `now`: every part moves the times it holds back
+    /// with it. The master watches the clock itself (its node and SDO client too), so it is not
+    /// shifted here but shown the step ([`Master::watch_clock`], which runs no timer): first the
+    /// latest time this supervisor was given (a time it may not have seen, if that input was not
+    /// for it: a flying-master frame, a verdict, an application command), then `now`, so that it
+    /// measures the same step as everything else, once, before any part acts on the input.
+    #[cold]
+    #[inline(never)]
+    fn step_back(&mut self, now: Instant, by: Duration) {
+        self.master.watch_clock(now + by);
+        self.pairs.step_back(by);
+        self.fm.step_back(by);
+        shift_back(&mut self.last_sync, by);
+        if let Some((_, at)) = self.planned.as_mut() {
+            *at = *at - by;
+        }
+        self.master.watch_clock(now);
+    }
+
     /// Half a SYNC period after the last SYNC (now if there is no SYNC).
     fn plan(&mut self, now: Instant, what: Planned) {
         let p = self.cfg.sync_period;
         let at = match self.last_sync {
             Some(g) if !p.is_zero() => {
-                let mut t = g + Duration::from_micros(p.as_micros() / 2);
-                while t < now {
-                    t += p;
+                let t = g + Duration::from_micros(p.as_micros() / 2);
+                // The first mid-point not before `now`, computed: a SYNC heard an hour before
+                // (a jump of the clock) costs no loop over the periods in between.
+                if t >= now {
+                    t
+                } else {
+                    next_on_grid(t, p, now - Duration::from_micros(1))
                 }
-                t
             }
             _ => now,
         };
@@ -309,6 +343,7 @@ impl<D: ObjectDictionary, P: IdProfile> Machine for Supervisor<D, P> {
     type LinkCommand = LinkCommand;
 
     fn handle_frame(&mut self, now: Instant, frame: &Frame) {
+        self.watch_clock(now);
         if self.fm.handle_frame(now, frame) {
             return self.pump(now);
         }
@@ -324,6 +359,7 @@ impl<D: ObjectDictionary, P: IdProfile> Machine for Supervisor<D, P> {
     }
 
     fn handle_timeout(&mut self, now: Instant) {
+        self.watch_clock(now);
         self.fm.handle_timeout(now);
         if let Some(to) = self.fm.take_handback() {
             self.plan(now, Planned::HandOver(Some(to)));
@@ -363,6 +399,7 @@ impl<D: ObjectDictionary, P: IdProfile> Machine for Supervisor<D, P> {
     /// pre-operational) are for the master's node, which owns that state; its reactions reach
     /// the supervisor with its next input.
     fn handle_link_request(&mut self, now: Instant, req: LinkRequest) {
+        self.watch_clock(now);
         if let LinkRequest::NodeSuspect { node, suspect } = req {
             return self.verdict(now, node, suspect);
         }

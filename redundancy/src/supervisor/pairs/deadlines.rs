@@ -6,8 +6,8 @@
 use super::state::{idx, Stage};
 use super::{Authority, LossReason, MemberState, PairId, PairSupervisor, PairsEvent, RoleReason};
 use crate::pair::Member;
-use duocan::frame::instant::earliest_of;
-use duocan::{Instant, NmtCommand};
+use duocan::frame::instant::{earliest_of, shift_back};
+use duocan::{Duration, Instant, NmtCommand};
 
 impl PairSupervisor {
     /// Earliest instant at which [`PairSupervisor::handle_timeout`] has work (may be early).
@@ -28,6 +28,29 @@ impl PairSupervisor {
             self.expire(t, p, m);
         }
         self.next = self.earliest().map(|x| x.0);
+    }
+
+    /// The caller's clock stepped back `by` (the clock contract, see
+    /// [`crate::supervisor`]): every member's last heartbeat, phase start, silence deadline and
+    /// adoption instant move back with it, so that no member gains or loses time to run. The
+    /// table does not watch the clock itself; its owner tells it.
+    pub fn step_back(&mut self, by: Duration) {
+        for pair in self.pairs.iter_mut() {
+            for s in pair.members.iter_mut() {
+                shift_back(&mut s.last, by);
+                s.since = s.since - by;
+                match &mut s.stage {
+                    Stage::Joined { deadline } => *deadline = *deadline - by,
+                    Stage::Waiting { adopt_at, .. } => shift_back(adopt_at, by),
+                    Stage::Configuring => {}
+                }
+            }
+        }
+        // The cached bound moves with the deadlines (it stays as early as it was, so the table
+        // wakes when it would have), and takes in a deadline that saturated at the end of time:
+        // "never" before, a real one once moved back.
+        let moved = self.next.map(|t| t - by);
+        self.next = earliest_of([moved, self.earliest().map(|x| x.0)]);
     }
 
     /// The earliest due item of any member: (instant, pair, member).

@@ -1,0 +1,103 @@
+//! A device whose clock misbehaves: it reads `by` ahead of the simulated time until `at`, and
+//! then steps back to it (a resynchronised real-time clock). As the clock contract asks of a
+//! driver whose clock can step back, the device is told once, with `handle_timeout`, at the
+//! step: with the old clock's last reading (`at + by`), then with the new one (`at`), so that
+//! the step it measures is exactly `by`. (A machine measures a step from the latest time it
+//! was given: time that passed unseen before the step is not known to it.) Without a step it
+//! is the device itself.
+#![allow(dead_code)]
+
+use core::ops::{Deref, DerefMut};
+use duocan::machine::{Device, PortRequest, PortStatus};
+use duocan::{Duration, Frame, Instant};
+
+/// When the clock steps back, and by how much (simulated time).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct ClockStep {
+    pub at: Instant,
+    pub by: Duration,
+}
+
+pub struct Stepped<T> {
+    inner: T,
+    step: Option<ClockStep>,
+    /// The step has happened (and the device was told).
+    stepped: bool,
+}
+
+impl<T: Device> Stepped<T> {
+    /// `inner`, built at its own clock's time (`by` ahead of the simulated time until the step).
+    pub fn new(inner: T, step: Option<ClockStep>) -> Self {
+        Stepped {
+            inner,
+            step,
+            stepped: false,
+        }
+    }
+    /// The device's clock reading at simulated time `now`.
+    pub fn reading(step: Option<ClockStep>, now: Instant) -> Instant {
+        match step {
+            Some(s) if now < s.at => now + s.by,
+            _ => now,
+        }
+    }
+    fn time(&mut self, now: Instant) -> Instant {
+        match self.step {
+            Some(s) if now >= s.at && !self.stepped => {
+                self.stepped = true;
+                self.inner.handle_timeout(s.at + s.by);
+                self.inner.handle_timeout(now);
+                now
+            }
+            step => Self::reading(step, now),
+        }
+    }
+}
+
+impl<T> Deref for Stepped<T> {
+    type Target = T;
+    fn deref(&self) -> &T {
+        &self.inner
+    }
+}
+impl<T> DerefMut for Stepped<T> {
+    fn deref_mut(&mut self) -> &mut T {
+        &mut self.inner
+    }
+}
+
+impl<T: Device> Device for Stepped<T> {
+    type Event = T::Event;
+    fn port_count(&self) -> usize {
+        self.inner.port_count()
+    }
+    fn handle_rx(&mut self, now: Instant, port: usize, frame: &Frame) {
+        let t = self.time(now);
+        self.inner.handle_rx(t, port, frame);
+    }
+    fn handle_port_status(&mut self, now: Instant, port: usize, status: PortStatus) {
+        let t = self.time(now);
+        self.inner.handle_port_status(t, port, status);
+    }
+    fn handle_timeout(&mut self, now: Instant) {
+        let t = self.time(now);
+        self.inner.handle_timeout(t);
+    }
+    fn poll_transmit(&mut self) -> Option<(usize, Frame)> {
+        self.inner.poll_transmit()
+    }
+    fn poll_port_request(&mut self) -> Option<(usize, PortRequest)> {
+        self.inner.poll_port_request()
+    }
+    fn poll_timeout(&self) -> Option<Instant> {
+        let d = self.inner.poll_timeout();
+        match self.step {
+            // Before the step: the device's deadline in simulated time, and the step itself.
+            Some(s) if !self.stepped => Some(d.map_or(s.at, |d| (d - s.by).min(s.at))),
+            _ => d,
+        }
+    }
+    fn poll_event(&mut self) -> Option<T::Event> {
+        self.inner.poll_event()
+    }
+}
