@@ -22,7 +22,7 @@ pub use dynamic::DynamicDictionary;
 pub use static_dict::StaticDictionary;
 pub use value::{check_value, OdValue};
 // Device descriptions write defaults exactly as the dictionary makes them.
-#[cfg(feature = "alloc")]
+#[cfg(feature = "std")]
 pub(crate) use value::default_vec;
 
 use crate::od::abort::AbortCode;
