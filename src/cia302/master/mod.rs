@@ -80,6 +80,8 @@
 mod boot;
 mod boot_run;
 mod config;
+#[cfg(feature = "std")]
+mod dcf;
 mod error_control;
 mod events;
 mod inputs;
