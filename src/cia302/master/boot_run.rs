@@ -115,6 +115,22 @@ impl<D: ObjectDictionary, P: IdProfile> Master<D, P> {
     }
 
     pub(super) fn apply(&mut self, now: Instant, n: NodeId, out: Outcome) {
+        let refused = self
+            .slot_mut(n)
+            .process
+            .as_mut()
+            .and_then(|p| p.take_abort());
+        if let Some((index, sub, code)) = refused {
+            self.emit(
+                now,
+                MasterEventKind::ConfigWriteAborted {
+                    node: n,
+                    index,
+                    sub,
+                    code,
+                },
+            );
+        }
         match out {
             Outcome::Continue => self.issue(now, n),
             Outcome::Done => {

@@ -148,6 +148,21 @@ pub enum StartPolicy {
     Application,
 }
 
+/// What the boot process does when the slave refuses (aborts) a [`ConfigStep::Write`].
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
+pub enum WriteAborts {
+    /// The boot fails there (status J, [`super::MasterEventKind::ConfigFailed`]): the steps
+    /// were written for each other, and the slave is not started half configured.
+    #[default]
+    Stop,
+    /// The abort is reported ([`super::MasterEventKind::ConfigWriteAborted`], with the object
+    /// and the abort code) and the other steps are still written: the configuration manager's
+    /// way with a DCF, whose entries are independent values. A slave that does not answer
+    /// still fails the boot; PDO steps ([`ConfigStep::Pdo`]) still fail it as their
+    /// configurator decides.
+    Continue,
+}
+
 /// One step of a slave's configuration.
 #[derive(Clone, Debug, PartialEq, Eq)]
 pub enum ConfigStep {
@@ -193,6 +208,8 @@ pub struct SlaveConfig {
     pub steps: Vec<ConfigStep>,
     /// Who starts it.
     pub start: StartPolicy,
+    /// What a refused write does to the boot.
+    pub write_aborts: WriteAborts,
 }
 
 impl SlaveConfig {
@@ -207,6 +224,7 @@ impl SlaveConfig {
             heartbeat_consumer_ms: 0,
             steps: Vec::new(),
             start: StartPolicy::Auto,
+            write_aborts: WriteAborts::Stop,
         }
     }
     /// Mandatory: the network does not start without it.
@@ -246,6 +264,12 @@ impl SlaveConfig {
     #[must_use]
     pub fn start(mut self, policy: StartPolicy) -> SlaveConfig {
         self.start = policy;
+        self
+    }
+    /// What a refused write does to the boot.
+    #[must_use]
+    pub fn with_write_aborts(mut self, policy: WriteAborts) -> SlaveConfig {
+        self.write_aborts = policy;
         self
     }
     /// Adds an SDO write of raw bytes.

@@ -20,8 +20,11 @@
 //! their values, 0x1000 or 0x1018, for identification). The producer heartbeat time (0x1017),
 //! when it differs, becomes [`SlaveConfig::heartbeat_producer_ms`]: the master writes it
 //! after every other step, so the heartbeat starts from a configured slave.
+//!
+//! A write the slave refuses is reported per object and the others are still written
+//! ([`WriteAborts::Continue`]).
 
-use super::config::{ConfigStep, SlaveConfig};
+use super::config::{ConfigStep, SlaveConfig, WriteAborts};
 use crate::eds::{AccessType, Description, SubObject};
 use crate::frame::cob_id::NodeId;
 use crate::od::comm;
@@ -100,9 +103,11 @@ impl SlaveConfig {
     /// (values with `$NODEID` taken for this slave's node-ID), in the order of the module docs
     /// (PDOs invalid while they change, the mapping count last, the COB-ID last). The
     /// producer heartbeat time (0x1017), if it differs, sets the producer time unless one is
-    /// set already.
+    /// set already. A refused write is reported and the others are still written
+    /// ([`WriteAborts::Continue`]).
     #[must_use]
     pub fn with_dcf(mut self, dcf: &Description) -> SlaveConfig {
+        self.write_aborts = WriteAborts::Continue;
         let node = self.node.raw();
         let changed: BTreeMap<(u16, u8), Vec<u8>> = dcf
             .parameter_values()

@@ -92,6 +92,7 @@ mod slaves;
 pub use boot::{BootError, BootPhase, ErrorStatus};
 pub use config::{
     Assignment, ConfigStep, ExpectedIdentity, NetworkConfig, NmtStartup, SlaveConfig, StartPolicy,
+    WriteAborts,
 };
 pub use events::{MasterError, MasterEvent, MasterEventKind, MasterStats, SlaveView};
 

@@ -5,8 +5,9 @@
 use super::status::{BootError, ErrorStatus};
 use crate::cia301::pdo::params::MAX_PDOS;
 use crate::cia301::sdo::{SdoError, SdoErrorKind};
-use crate::cia302::master::config::{ConfigStep, ExpectedIdentity, SlaveConfig};
+use crate::cia302::master::config::{ConfigStep, ExpectedIdentity, SlaveConfig, WriteAborts};
 use crate::cia302::pdo_config::{AccessError, PdoConfigurator, SdoAccess};
+use crate::od::abort::AbortCode;
 use crate::od::comm;
 use alloc::boxed::Box;
 
@@ -58,6 +59,8 @@ pub(crate) struct Process {
     /// The configurator of the PDO step under way, and the access it asks for now (boxed: a
     /// mapping of 64 entries is large, and most of the time no PDO step runs).
     pdo: Option<Box<(PdoConfigurator, Option<SdoAccess>)>>,
+    /// The write the slave refused last, not yet reported (index, sub, code).
+    aborted: Option<(u16, u8, AbortCode)>,
 }
 
 fn expected(id: &ExpectedIdentity, sub: u8) -> u32 {
@@ -84,7 +87,14 @@ impl Process {
             step: Step::DeviceType,
             heartbeat: cfg.heartbeat_producer_ms.unwrap_or(0).to_le_bytes(),
             pdo: None,
+            aborted: None,
         }
+    }
+
+    /// The write the slave refused in the last access, once (with
+    /// [`WriteAborts::Continue`]).
+    pub(crate) fn take_abort(&mut self) -> Option<(u16, u8, AbortCode)> {
+        self.aborted.take()
     }
 
     /// True once past the identity check.
@@ -235,6 +245,14 @@ impl Process {
         let data = match result {
             Ok(d) => d,
             Err(e) => {
+                if let (Step::Config(i), SdoErrorKind::Server(code)) = (step, e.kind) {
+                    if let Some(ConfigStep::Write { index, sub, .. }) = cfg.steps.get(i) {
+                        if cfg.write_aborts == WriteAborts::Continue {
+                            self.aborted = Some((*index, *sub, code));
+                            return self.advance(cfg, id);
+                        }
+                    }
+                }
                 let status = match step {
                     Step::DeviceType => ErrorStatus::B,
                     Step::Identity(k) => identity_status(k),

@@ -238,3 +238,65 @@ fn letters_and_descriptions() {
         Some(((0x1018, 3), 0x1F87))
     );
 }
+
+#[test]
+fn refused_writes_continue_and_are_counted_when_asked_for() {
+    let refused = |index, sub| SdoError {
+        node: N,
+        index,
+        sub,
+        direction: Direction::Download,
+        kind: SdoErrorKind::Server(AbortCode::READ_ONLY),
+    };
+    let cfg = SlaveConfig::new(N)
+        .write_u8(0x2000, 0, 1)
+        .write_u8(0x2001, 0, 2)
+        .write_u8(0x2002, 0, 3)
+        .heartbeat(100, 0)
+        .with_write_aborts(crate::cia302::master::config::WriteAborts::Continue);
+    let mut p = Process::new(&cfg);
+    let id = ExpectedIdentity::default();
+    let mut seen = Vec::new();
+    let mut reported = Vec::new();
+    while let Some(a) = p.access(&cfg) {
+        let r = match a {
+            Access::Write { index, sub, .. } if index == 0x2000 || index == 0x2002 => {
+                Err(refused(index, sub))
+            }
+            Access::Write { index, sub, .. } => {
+                seen.push((index, sub));
+                Ok([0; 4])
+            }
+            Access::Read { .. } => Ok([0; 4]),
+        };
+        let out = p.handle(&cfg, &id, r.as_ref().map(|b| &b[..]).map_err(|e| *e));
+        reported.extend(p.take_abort());
+        if out != Outcome::Continue {
+            assert_eq!(out, Outcome::Done);
+            break;
+        }
+    }
+    assert_eq!(seen, [(0x2001, 0), (0x1017, 0)]);
+    assert_eq!(
+        reported,
+        [
+            (0x2000, 0, AbortCode::READ_ONLY),
+            (0x2002, 0, AbortCode::READ_ONLY)
+        ]
+    );
+    // A slave that stops answering still fails the boot, with status J.
+    let (_, out) = run(&cfg, &id, |a| match a {
+        Access::Write { index, sub, .. } => Err(SdoError {
+            kind: SdoErrorKind::Client(AbortCode::TIMEOUT),
+            ..refused(index, sub)
+        }),
+        _ => Ok([0; 4]),
+    });
+    assert!(matches!(
+        out,
+        Outcome::Failed {
+            status: ErrorStatus::J,
+            ..
+        }
+    ));
+}
