@@ -136,6 +136,26 @@ pub struct ExpectedIdentity {
     pub serial: u32,
 }
 
+/// When a slave's configuration was made (CiA 301 0x1020, CiA 302-3 0x1F26/0x1F27): a slave
+/// whose 0x1020 holds both values is configured already and is not written again; after
+/// writing a slave's configuration the master writes them to its 0x1020. Zero for both: not
+/// checked nor written.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
+pub struct ConfigurationStamp {
+    /// Days since 1984-01-01 (0x1020 sub 1, 0x1F26 sub n).
+    pub date: u32,
+    /// Milliseconds after midnight (0x1020 sub 2, 0x1F27 sub n).
+    pub time: u32,
+}
+
+impl ConfigurationStamp {
+    /// True when checked and written (either value non-zero).
+    #[must_use]
+    pub const fn is_set(self) -> bool {
+        self.date != 0 || self.time != 0
+    }
+}
+
 /// Who starts a slave once it is configured.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
 pub enum StartPolicy {
@@ -210,6 +230,11 @@ pub struct SlaveConfig {
     pub start: StartPolicy,
     /// What a refused write does to the boot.
     pub write_aborts: WriteAborts,
+    /// Its 0x1F26/0x1F27 values: the configuration's date and time.
+    pub stamp: ConfigurationStamp,
+    /// After writing the configuration (and the stamp), have the slave store it (0x1010 sub 1
+    /// "save"), so that it comes back configured after a reset or power cycle.
+    pub store: bool,
 }
 
 impl SlaveConfig {
@@ -225,6 +250,8 @@ impl SlaveConfig {
             steps: Vec::new(),
             start: StartPolicy::Auto,
             write_aborts: WriteAborts::Stop,
+            stamp: ConfigurationStamp { date: 0, time: 0 },
+            store: false,
         }
     }
     /// Mandatory: the network does not start without it.
@@ -270,6 +297,19 @@ impl SlaveConfig {
     #[must_use]
     pub fn with_write_aborts(mut self, policy: WriteAborts) -> SlaveConfig {
         self.write_aborts = policy;
+        self
+    }
+    /// The configuration's date and time (0x1F26/0x1F27): a slave whose 0x1020 holds them is
+    /// not written again; one that is configured gets them in its 0x1020.
+    #[must_use]
+    pub fn with_stamp(mut self, stamp: ConfigurationStamp) -> SlaveConfig {
+        self.stamp = stamp;
+        self
+    }
+    /// Has the slave store its configuration (0x1010 sub 1 "save") once written.
+    #[must_use]
+    pub fn with_store(mut self, store: bool) -> SlaveConfig {
+        self.store = store;
         self
     }
     /// Adds an SDO write of raw bytes.

@@ -91,8 +91,8 @@ mod slaves;
 
 pub use boot::{BootError, BootPhase, ErrorStatus};
 pub use config::{
-    Assignment, ConfigStep, ExpectedIdentity, NetworkConfig, NmtStartup, SlaveConfig, StartPolicy,
-    WriteAborts,
+    Assignment, ConfigStep, ConfigurationStamp, ExpectedIdentity, NetworkConfig, NmtStartup,
+    SlaveConfig, StartPolicy, WriteAborts,
 };
 pub use events::{MasterError, MasterEvent, MasterEventKind, MasterStats, SlaveView};
 
@@ -246,6 +246,10 @@ impl<D: ObjectDictionary, P: IdProfile> Master<D, P> {
             put(PRODUCT_CODE, n, s.identity.product)?;
             put(REVISION_NUMBER, n, s.identity.revision)?;
             put(SERIAL_NUMBER, n, s.identity.serial)?;
+            if s.stamp.is_set() {
+                put(EXPECTED_CONFIG_DATE, n, s.stamp.date)?;
+                put(EXPECTED_CONFIG_TIME, n, s.stamp.time)?;
+            }
             slots[n as usize - 1].cfg = s.clone();
         }
         let producer = |od: &D, index| {
@@ -418,7 +422,12 @@ impl<D: ObjectDictionary, P: IdProfile> Master<D, P> {
         check_slave(&cfg, self.node.id())?;
         let id = cfg.identity;
         let assignment = cfg.assignment.0;
+        let stamp = cfg.stamp;
         self.slot_mut(n).cfg = cfg;
+        if stamp.is_set() {
+            self.write_own(now, EXPECTED_CONFIG_DATE, n.raw(), stamp.date)?;
+            self.write_own(now, EXPECTED_CONFIG_TIME, n.raw(), stamp.time)?;
+        }
         for (index, v) in [
             (DEVICE_TYPE_ID, id.device_type),
             (VENDOR_ID, id.vendor),
