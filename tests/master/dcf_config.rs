@@ -8,8 +8,9 @@ use duocan::eds::{export_dcf, Description, ExportOptions, ImportOptions};
 use duocan::machine::SinglePort;
 use duocan::master::{ConfigurationStamp, MasterEventKind as K, NetworkConfig, SlaveConfig};
 use duocan::od::storage::{MemoryStorage, StoredDictionary};
-use duocan::od::{abort::AbortCode, comm, Access, DynamicDictionary, ObjectDef, ObjectDictionary};
-use duocan::pdo::params;
+use duocan::od::{
+    abort::AbortCode, comm, Access, DynamicDictionary, ObjectDef, ObjectDictionary, WriteHook,
+};
 use duocan::sim::{BusConfig, SimNetwork};
 use duocan::{Id, Instant, NmtState, Node, NodeConfig, NodeId, Station};
 
@@ -32,27 +33,14 @@ fn refuse(_: u16, _: u8, _: &[u8]) -> Result<(), AbortCode> {
 /// application entries, TPDO1 on its predefined identifier with nothing mapped. `refusing`:
 /// 0x2000 sub 3 refuses writes.
 fn device(id: u8, refusing: bool) -> DynamicDictionary {
-    let mut od = comm::standard_dictionary(id, identity(id));
-    let app3 = ObjectDef::u16(APP, 3, Access::Rw, 0).mappable();
+    let mut od = slave_dictionary(id, identity(id), refusing.then_some(refuse as WriteHook));
+    let record = duocan::od::ObjectType::Record;
     od.insert_all(&[
-        ObjectDef::u8(APP, 0, Access::Const, 3),
-        ObjectDef::u16(APP, 1, Access::Rw, 0).mappable(),
-        ObjectDef::u16(APP, 2, Access::Rw, 0).mappable(),
-        if refusing { app3.hook(refuse) } else { app3 },
-        ObjectDef::u8(0x1020, 0, Access::Const, 2).object_type(duocan::od::ObjectType::Record),
-        ObjectDef::u32(0x1020, 1, Access::Rw, 0).object_type(duocan::od::ObjectType::Record),
-        ObjectDef::u32(0x1020, 2, Access::Rw, 0).object_type(duocan::od::ObjectType::Record),
+        ObjectDef::u8(0x1020, 0, Access::Const, 2).object_type(record),
+        ObjectDef::u32(0x1020, 1, Access::Rw, 0).object_type(record),
+        ObjectDef::u32(0x1020, 2, Access::Rw, 0).object_type(record),
     ])
     .unwrap();
-    od.insert_all(&params::tpdo_comm(
-        1,
-        params::predefined_tpdo_cob(1),
-        255,
-        0,
-        0,
-    ))
-    .unwrap();
-    od.insert_all(&params::tpdo_mapping::<9>(1, &[])).unwrap();
     od
 }
 
