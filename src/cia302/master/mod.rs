@@ -14,6 +14,13 @@
 //!   boot-up arrives: reads 0x1000 and the 0x1018 entries 0x1F84–0x1F88 expect, writes the
 //!   slave's configuration steps and its heartbeat producer time, then starts it (or leaves that
 //!   to the application, [`StartPolicy::Application`]).
+//! - The configuration manager (CiA 302-3, `std`): [`SlaveConfig::from_dcf`] turns a slave's
+//!   DCF into its configuration steps (every value that differs from the device's default,
+//!   PDOs invalid while they are remapped); a refused write is reported per object
+//!   ([`MasterEventKind::ConfigWriteAborted`]) and the rest is still written
+//!   ([`WriteAborts::Continue`]). With an expected configuration date and time (0x1F26/0x1F27,
+//!   [`ConfigurationStamp`]) a slave whose 0x1020 holds them is not written again; one that is
+//!   configured gets them in its 0x1020 and, if asked for, stores its parameters (0x1010).
 //! - Mandatory slaves (0x1F81 bit 3) gate the network start within the boot time (0x1F89); then
 //!   the master enters operational itself (0x1F80 bit 2 clear) and starts the slaves, with one
 //!   broadcast (bit 1) when that cannot start a slave that is not configured.
