@@ -1,5 +1,6 @@
 //! The configuration manager (CiA 302-3): 20 slaves configured at boot from their DCFs, PDO
-//! remapping included; the expected configuration date and time (0x1F26/0x1F27) against each
+//! remapping included, each value checked in the slave's dictionary and read back over SDO; the
+//! expected configuration date and time (0x1F26/0x1F27) against each
 //! slave's 0x1020 so that a second boot writes nothing; a refused write reported per object
 //! while the rest of the configuration goes on.
 
@@ -11,8 +12,9 @@ use duocan::od::storage::{MemoryStorage, StoredDictionary};
 use duocan::od::{
     abort::AbortCode, comm, Access, DynamicDictionary, ObjectDef, ObjectDictionary, WriteHook,
 };
+use duocan::sdo::{Direction, SdoOptions};
 use duocan::sim::{BusConfig, SimNetwork};
-use duocan::{Id, Instant, NmtState, Node, NodeConfig, NodeId, Station};
+use duocan::{Duration, Id, Instant, NmtState, Node, NodeConfig, NodeId, Station};
 
 const BITRATE: u32 = 500_000;
 const STAMP: ConfigurationStamp = ConfigurationStamp {
@@ -130,6 +132,61 @@ impl Run {
         let dev = self.slaves.iter().find(|(i, _)| *i == id).unwrap().1;
         &self.sim.device(dev).machine
     }
+    /// Uploads each (node, index, sub, value) through the master's SDO client from `from` on,
+    /// and checks every answer; returns how many answered with the value.
+    fn read_back(&mut self, from: Instant, items: &[(u8, u16, u8, Vec<u8>)]) -> usize {
+        // Round-robin over the slaves, so that the transfers of one batch (one per session)
+        // are to different nodes.
+        let mut seen = std::collections::HashMap::new();
+        let mut keyed: Vec<_> = items
+            .iter()
+            .map(|item| {
+                let k = seen.entry(item.0).or_insert(0usize);
+                *k += 1;
+                ((*k, item.0), item)
+            })
+            .collect();
+        keyed.sort_by_key(|(key, _)| *key);
+        let order: Vec<&(u8, u16, u8, Vec<u8>)> = keyed.into_iter().map(|(_, i)| i).collect();
+        let sessions = self.sim.device(self.master).machine.sdo().sessions();
+        let master = self.master;
+        for (k, batch) in order.chunks(sessions).enumerate() {
+            let batch: Vec<(u8, u16, u8)> = batch.iter().map(|(n, i, s, _)| (*n, *i, *s)).collect();
+            let at = from + Duration::from_millis(10 * k as u64);
+            self.sim.at(at, move |sim| {
+                let now = sim.now();
+                for (node, index, sub) in batch {
+                    let sdo = sim.device_mut(master).machine.sdo_mut();
+                    sdo.upload(now, NodeId::must(node), index, sub, SdoOptions::default())
+                        .unwrap();
+                }
+            });
+        }
+        let end = from + Duration::from_millis(10 * order.len().div_ceil(sessions) as u64 + 50);
+        self.sim.run_until(end);
+        let events = master_events(self.sim.events(self.master));
+        let answers: Vec<_> = all(&events, |k| match k {
+            K::Sdo(e) if e.at >= from && e.direction == Direction::Upload => {
+                Some((e.node.raw(), e.index, e.sub, e.data().map(<[u8]>::to_vec)))
+            }
+            _ => None,
+        });
+        assert_eq!(answers.len(), items.len());
+        let mut matching = 0;
+        for (n, i, s, v) in items {
+            let got = answers
+                .iter()
+                .find(|(_, a)| (a.0, a.1, a.2) == (*n, *i, *s));
+            assert_eq!(
+                got.map(|(_, a)| a.3.as_deref()),
+                Some(Some(v.as_slice())),
+                "slave {n} 0x{i:04X} sub {s}"
+            );
+            matching += 1;
+        }
+        matching
+    }
+
     /// SDO requests the master sent (0x600 + node) after `from`.
     fn sdo_requests(&self, from: Instant) -> usize {
         frames(&self.sim)
@@ -146,6 +203,7 @@ fn twenty_slaves_end_with_their_dcf_values_and_a_second_boot_writes_nothing() {
     let mut run = network();
     run.sim.run_until(Instant::from_millis(500));
     let events = master_events(run.sim.events(run.master));
+    let mut read_back = vec![];
     for (id, d) in IDS.zip(&run.dcfs) {
         let s = run.slave(id);
         assert_eq!(s.nmt_state(), NmtState::Operational, "slave {id}");
@@ -161,6 +219,7 @@ fn twenty_slaves_end_with_their_dcf_values_and_a_second_boot_writes_nothing() {
             let have = s.od().read(e.index, e.sub).map(|b| b.to_vec());
             if id == REFUSING && (e.index, e.sub) == (APP, 3) {
                 assert_eq!(have, Ok(0u16.to_le_bytes().to_vec()));
+                read_back.push((id, e.index, e.sub, have.unwrap()));
                 continue;
             }
             // 0x1020 holds the stamp; reading 0x1010/0x1011 gives what storage can do.
@@ -170,7 +229,16 @@ fn twenty_slaves_end_with_their_dcf_values_and_a_second_boot_writes_nothing() {
             ) {
                 continue;
             }
-            assert_eq!(have, Ok(want), "slave {id} 0x{:04X} sub {}", e.index, e.sub);
+            assert_eq!(
+                have,
+                Ok(want.clone()),
+                "slave {id} 0x{:04X} sub {}",
+                e.index,
+                e.sub
+            );
+            if e.index != comm::HEARTBEAT_CONSUMER {
+                read_back.push((id, e.index, e.sub, want));
+            }
             checked += 1;
         }
         assert!(checked > 20, "slave {id}: {checked} entries checked");
@@ -211,16 +279,20 @@ fn twenty_slaves_end_with_their_dcf_values_and_a_second_boot_writes_nothing() {
         .map(|(_, f)| f.data().to_vec());
     assert_eq!(pdo, Some(vec![0x02, 0x01, 0x02, 0x02, 7, 0]));
     let first = run.sdo_requests(Instant::ZERO);
+    // The same values read back over SDO by the master, in parallel on its sessions.
+    let from = Instant::from_millis(500);
+    assert_eq!(run.read_back(from, &read_back), read_back.len());
+    println!("{} values read back over SDO", read_back.len());
 
     // A second boot of the master: every slave is reset (communication), reloads what it
     // stored, and holds the expected stamp: only 0x1000, the identity and 0x1020 are read.
-    let t = Instant::from_millis(1_000);
+    let t = Instant::from_millis(2_000);
     let master = run.master;
     run.sim.at(t, move |sim| {
         let now = sim.now();
         sim.device_mut(master).machine.boot(now);
     });
-    run.sim.run_until(Instant::from_millis(1_500));
+    run.sim.run_until(Instant::from_millis(2_500));
     let second = run.sdo_requests(t);
     println!("SDO requests: first boot {first}, second boot {second}");
     // 0x1000, 0x1018 sub 1–4, 0x1020 sub 1–2 per slave; the refusing slave, not stamped,
