@@ -80,11 +80,13 @@ fn pdo_block(
     let entries = changed.range((map_index, 1)..=(map_index, u8::MAX));
     let remapped = changed.contains_key(&(map_index, 0)) || entries.clone().next().is_some();
     if let (Some(count), true) = (count, remapped) {
-        out.push(write(map_index, 0, alloc::vec![0]));
+        // Zero in the count's own type (UNSIGNED8 in CiA 301; a file may say otherwise).
+        let count = count.value_bytes(node);
+        out.push(write(map_index, 0, alloc::vec![0; count.len()]));
         for ((index, sub), data) in entries {
             out.push(write(*index, *sub, data.clone()));
         }
-        out.push(write(map_index, 0, count.value_bytes(node)));
+        out.push(write(map_index, 0, count));
     }
     if let Some(cob) = cob.filter(|c| c & INVALID == 0) {
         out.push(write(comm_index, 1, cob.to_le_bytes().to_vec()));
