@@ -16,6 +16,7 @@
 //!    differ, then the count the DCF gives;
 //! 4. the COB-ID the DCF gives (valid or not), unless it is the invalid value already written.
 //!
+//! A mapping whose count the description marks read-only (a static mapping) is not written.
 //! Entries the description marks read-only or constant are not written (a DCF often carries
 //! their values, 0x1000 or 0x1018, for identification). The producer heartbeat time (0x1017),
 //! when it differs, becomes [`SlaveConfig::heartbeat_producer_ms`]: the master writes it
