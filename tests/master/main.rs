@@ -3,6 +3,7 @@
 mod boot;
 mod capacity;
 mod control;
+mod dcf_config;
 mod failures;
 mod net;
 mod pdo_config;

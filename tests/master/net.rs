@@ -5,7 +5,7 @@ use duocan::machine::{SinglePort, StationEvent};
 use duocan::master::{
     objects, ExpectedIdentity, Master, MasterEvent, MasterEventKind, NetworkConfig,
 };
-use duocan::od::{comm, Access, DynamicDictionary, ObjectDef};
+use duocan::od::{comm, Access, DynamicDictionary, ObjectDef, WriteHook};
 use duocan::pdo::params;
 use duocan::sim::{timing, BusConfig, BusId, DevId, SimNetwork, TraceRecord, TxOutcome};
 use duocan::{Duration, Frame, Id, Instant, Node, NodeConfig, NodeId, Station};
@@ -46,12 +46,26 @@ pub fn expected(id: u8) -> ExpectedIdentity {
 
 /// A slave node with the standard dictionary, `identity`, and the application entries.
 pub fn slave_node(id: u8, identity: comm::Identity) -> Node<DynamicDictionary> {
+    Node::new(
+        NodeConfig::slave(NodeId::must(id)),
+        slave_dictionary(id, identity, None),
+    )
+}
+
+/// The standard dictionary, `identity`, and the application entries; `app3` checks writes to
+/// 0x2000 sub 3.
+pub fn slave_dictionary(
+    id: u8,
+    identity: comm::Identity,
+    app3: Option<WriteHook>,
+) -> DynamicDictionary {
     let mut od = comm::standard_dictionary(id, identity);
+    let sub3 = ObjectDef::u16(APP, 3, Access::Rw, 0).mappable();
     od.insert_all(&[
         ObjectDef::u8(APP, 0, Access::Const, 3),
         ObjectDef::u16(APP, 1, Access::Rw, 0).mappable(),
         ObjectDef::u16(APP, 2, Access::Rw, 0).mappable(),
-        ObjectDef::u16(APP, 3, Access::Rw, 0).mappable(),
+        app3.map_or(sub3, |h| sub3.hook(h)),
     ])
     .unwrap();
     // TPDO1 on its predefined identifier, event-driven, nothing mapped yet.
@@ -64,7 +78,7 @@ pub fn slave_node(id: u8, identity: comm::Identity) -> Node<DynamicDictionary> {
     ))
     .unwrap();
     od.insert_all(&params::tpdo_mapping::<9>(1, &[])).unwrap();
-    Node::new(NodeConfig::slave(NodeId::must(id)), od)
+    od
 }
 
 pub fn slave(id: u8) -> SlaveDev {

@@ -22,13 +22,14 @@ impl<D: ObjectDictionary, P: IdProfile> Master<D, P> {
     /// answer it into the new transfer. Its result is dropped and the process begins then.
     pub(super) fn begin(&mut self, now: Instant, n: NodeId) {
         self.cancel(n);
+        let stamp = self.expected_stamp(n);
         let s = self.slot_mut(n);
         s.phase = BootPhase::Identifying;
         if s.request.is_some() {
             s.restart = true;
             return;
         }
-        s.process = Some(Process::new(&s.cfg));
+        s.process = Some(Process::new(&s.cfg, stamp));
         self.stats.boots_started += 1;
         self.issue(now, n);
     }
@@ -115,6 +116,22 @@ impl<D: ObjectDictionary, P: IdProfile> Master<D, P> {
     }
 
     pub(super) fn apply(&mut self, now: Instant, n: NodeId, out: Outcome) {
+        let refused = self
+            .slot_mut(n)
+            .process
+            .as_mut()
+            .and_then(|p| p.take_abort());
+        if let Some((index, sub, code)) = refused {
+            self.emit(
+                now,
+                MasterEventKind::ConfigWriteAborted {
+                    node: n,
+                    index,
+                    sub,
+                    code,
+                },
+            );
+        }
         match out {
             Outcome::Continue => self.issue(now, n),
             Outcome::Done => {

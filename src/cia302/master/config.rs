@@ -136,6 +136,26 @@ pub struct ExpectedIdentity {
     pub serial: u32,
 }
 
+/// When a slave's configuration was made (CiA 301 0x1020, CiA 302-3 0x1F26/0x1F27): a slave
+/// whose 0x1020 holds both values is configured already and is not written again; after
+/// writing a slave's configuration the master writes them to its 0x1020. Zero for both: not
+/// checked nor written.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
+pub struct ConfigurationStamp {
+    /// Days since 1984-01-01 (0x1020 sub 1, 0x1F26 sub n).
+    pub date: u32,
+    /// Milliseconds after midnight (0x1020 sub 2, 0x1F27 sub n).
+    pub time: u32,
+}
+
+impl ConfigurationStamp {
+    /// True when checked and written (either value non-zero).
+    #[must_use]
+    pub const fn is_set(self) -> bool {
+        self.date != 0 || self.time != 0
+    }
+}
+
 /// Who starts a slave once it is configured.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
 pub enum StartPolicy {
@@ -146,6 +166,21 @@ pub enum StartPolicy {
     /// [`super::MasterEventKind::SlaveConfigured`] and leaves it pre-operational. What a
     /// slave-pair supervisor uses, so that only the active member of a pair runs.
     Application,
+}
+
+/// What the boot process does when the slave refuses (aborts) a [`ConfigStep::Write`].
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
+pub enum WriteAborts {
+    /// The boot fails there (status J, [`super::MasterEventKind::ConfigFailed`]): the steps
+    /// were written for each other, and the slave is not started half configured.
+    #[default]
+    Stop,
+    /// The abort is reported ([`super::MasterEventKind::ConfigWriteAborted`], with the object
+    /// and the abort code) and the other steps are still written: the configuration manager's
+    /// way with a DCF, whose entries are independent values. A slave that does not answer
+    /// still fails the boot; PDO steps ([`ConfigStep::Pdo`]) still fail it as their
+    /// configurator decides.
+    Continue,
 }
 
 /// One step of a slave's configuration.
@@ -193,6 +228,13 @@ pub struct SlaveConfig {
     pub steps: Vec<ConfigStep>,
     /// Who starts it.
     pub start: StartPolicy,
+    /// What a refused write does to the boot.
+    pub write_aborts: WriteAborts,
+    /// Its 0x1F26/0x1F27 values: the configuration's date and time.
+    pub stamp: ConfigurationStamp,
+    /// After writing the configuration (and the stamp), have the slave store it (0x1010 sub 1
+    /// "save"), so that it comes back configured after a reset or power cycle.
+    pub store: bool,
 }
 
 impl SlaveConfig {
@@ -207,6 +249,9 @@ impl SlaveConfig {
             heartbeat_consumer_ms: 0,
             steps: Vec::new(),
             start: StartPolicy::Auto,
+            write_aborts: WriteAborts::Stop,
+            stamp: ConfigurationStamp { date: 0, time: 0 },
+            store: false,
         }
     }
     /// Mandatory: the network does not start without it.
@@ -246,6 +291,25 @@ impl SlaveConfig {
     #[must_use]
     pub fn start(mut self, policy: StartPolicy) -> SlaveConfig {
         self.start = policy;
+        self
+    }
+    /// What a refused write does to the boot.
+    #[must_use]
+    pub fn with_write_aborts(mut self, policy: WriteAborts) -> SlaveConfig {
+        self.write_aborts = policy;
+        self
+    }
+    /// The configuration's date and time (0x1F26/0x1F27): a slave whose 0x1020 holds them is
+    /// not written again; one that is configured gets them in its 0x1020.
+    #[must_use]
+    pub fn with_stamp(mut self, stamp: ConfigurationStamp) -> SlaveConfig {
+        self.stamp = stamp;
+        self
+    }
+    /// Has the slave store its configuration (0x1010 sub 1 "save") once written.
+    #[must_use]
+    pub fn with_store(mut self, store: bool) -> SlaveConfig {
+        self.store = store;
         self
     }
     /// Adds an SDO write of raw bytes.

@@ -59,6 +59,19 @@ pub enum MasterEventKind {
         /// Which access failed and how.
         reason: BootError,
     },
+    /// The slave refused one configuration write (its [`SlaveConfig`](super::SlaveConfig) has
+    /// [`WriteAborts::Continue`](super::WriteAborts::Continue)); the boot goes on with the
+    /// next step.
+    ConfigWriteAborted {
+        /// The slave.
+        node: NodeId,
+        /// The object written.
+        index: u16,
+        /// Its sub-index.
+        sub: u8,
+        /// The slave's abort code.
+        code: AbortCode,
+    },
     /// The slave's identity was checked and its configuration written; it is ready to start.
     SlaveConfigured {
         /// The slave.

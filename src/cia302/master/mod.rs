@@ -14,6 +14,13 @@
 //!   boot-up arrives: reads 0x1000 and the 0x1018 entries 0x1F84–0x1F88 expect, writes the
 //!   slave's configuration steps and its heartbeat producer time, then starts it (or leaves that
 //!   to the application, [`StartPolicy::Application`]).
+//! - The configuration manager (CiA 302-3, `std`): [`SlaveConfig::from_dcf`] turns a slave's
+//!   DCF into its configuration steps (every value that differs from the device's default,
+//!   PDOs invalid while they are remapped); a refused write is reported per object
+//!   ([`MasterEventKind::ConfigWriteAborted`]) and the rest is still written
+//!   ([`WriteAborts::Continue`]). With an expected configuration date and time (0x1F26/0x1F27,
+//!   [`ConfigurationStamp`]) a slave whose 0x1020 holds them is not written again; one that is
+//!   configured gets them in its 0x1020 and, if asked for, stores its parameters (0x1010).
 //! - Mandatory slaves (0x1F81 bit 3) gate the network start within the boot time (0x1F89); then
 //!   the master enters operational itself (0x1F80 bit 2 clear) and starts the slaves, with one
 //!   broadcast (bit 1) when that cannot start a slave that is not configured.
@@ -80,6 +87,8 @@
 mod boot;
 mod boot_run;
 mod config;
+#[cfg(feature = "std")]
+mod dcf;
 mod error_control;
 mod events;
 mod inputs;
@@ -89,7 +98,8 @@ mod slaves;
 
 pub use boot::{BootError, BootPhase, ErrorStatus};
 pub use config::{
-    Assignment, ConfigStep, ExpectedIdentity, NetworkConfig, NmtStartup, SlaveConfig, StartPolicy,
+    Assignment, ConfigStep, ConfigurationStamp, ExpectedIdentity, NetworkConfig, NmtStartup,
+    SlaveConfig, StartPolicy, WriteAborts,
 };
 pub use events::{MasterError, MasterEvent, MasterEventKind, MasterStats, SlaveView};
 
@@ -243,6 +253,10 @@ impl<D: ObjectDictionary, P: IdProfile> Master<D, P> {
             put(PRODUCT_CODE, n, s.identity.product)?;
             put(REVISION_NUMBER, n, s.identity.revision)?;
             put(SERIAL_NUMBER, n, s.identity.serial)?;
+            if s.stamp.is_set() {
+                put(EXPECTED_CONFIG_DATE, n, s.stamp.date)?;
+                put(EXPECTED_CONFIG_TIME, n, s.stamp.time)?;
+            }
             slots[n as usize - 1].cfg = s.clone();
         }
         let producer = |od: &D, index| {
@@ -415,7 +429,12 @@ impl<D: ObjectDictionary, P: IdProfile> Master<D, P> {
         check_slave(&cfg, self.node.id())?;
         let id = cfg.identity;
         let assignment = cfg.assignment.0;
+        let stamp = cfg.stamp;
         self.slot_mut(n).cfg = cfg;
+        if stamp.is_set() {
+            self.write_own(now, EXPECTED_CONFIG_DATE, n.raw(), stamp.date)?;
+            self.write_own(now, EXPECTED_CONFIG_TIME, n.raw(), stamp.time)?;
+        }
         for (index, v) in [
             (DEVICE_TYPE_ID, id.device_type),
             (VENDOR_ID, id.vendor),

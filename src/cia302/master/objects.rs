@@ -1,5 +1,6 @@
 //! Definition tables of the CiA 302-2 master objects: 0x1F80 NMT startup, 0x1F81 slave
-//! assignment, 0x1F82 request NMT, 0x1F84–0x1F88 expected identity, 0x1F89 boot time.
+//! assignment, 0x1F82 request NMT, 0x1F84–0x1F88 expected identity, 0x1F89 boot time, and
+//! the configuration manager's 0x1F26/0x1F27 expected configuration date and time.
 //!
 //! All `const`, like [`crate::od::comm`]. Arrays have sub 0 = 127 (128 for 0x1F82, whose sub 128
 //! addresses all nodes) and one entry per node-ID.
@@ -26,6 +27,16 @@ pub const REVISION_NUMBER: u16 = 0x1F87;
 pub const SERIAL_NUMBER: u16 = 0x1F88;
 /// Boot time in ms.
 pub const BOOT_TIME: u16 = 0x1F89;
+/// Expected configuration date (CiA 302-3): sub n, the date node n's 0x1020 sub 1 must hold
+/// for its configuration to count as written already (0: not checked).
+pub const EXPECTED_CONFIG_DATE: u16 = 0x1F26;
+/// Expected configuration time (CiA 302-3): sub n, for node n's 0x1020 sub 2.
+pub const EXPECTED_CONFIG_TIME: u16 = 0x1F27;
+/// A slave's verify configuration object (CiA 301): sub 1 configuration date (days since
+/// 1984-01-01), sub 2 configuration time (ms after midnight).
+pub const VERIFY_CONFIGURATION: u16 = 0x1020;
+/// The signature written to 0x1010 sub 1 to have a slave store all its parameters.
+pub const SAVE: [u8; 4] = *b"save";
 
 /// The sub-index of 0x1F82 that addresses all nodes.
 pub const REQUEST_ALL: u8 = 128;
@@ -113,11 +124,14 @@ pub fn insert_master_objects(od: &mut DynamicDictionary, startup: u32, boot_time
         node_array(PRODUCT_CODE, "Product code"),
         node_array(REVISION_NUMBER, "Revision number"),
         node_array(SERIAL_NUMBER, "Serial number"),
+        node_array(EXPECTED_CONFIG_DATE, "Expected configuration date"),
+        node_array(EXPECTED_CONFIG_TIME, "Expected configuration time"),
     ];
     let singles = startup_and_boot_time(startup, boot_time_ms);
     let requests = request_nmt();
-    let tables: [&[ObjectDef]; 8] = [
-        &arrays[0], &arrays[1], &arrays[2], &arrays[3], &arrays[4], &arrays[5], &singles, &requests,
+    let tables: [&[ObjectDef]; 10] = [
+        &arrays[0], &arrays[1], &arrays[2], &arrays[3], &arrays[4], &arrays[5], &arrays[6],
+        &arrays[7], &singles, &requests,
     ];
     for t in tables {
         for d in t {
@@ -151,6 +165,8 @@ mod tests {
             PRODUCT_CODE,
             REVISION_NUMBER,
             SERIAL_NUMBER,
+            EXPECTED_CONFIG_DATE,
+            EXPECTED_CONFIG_TIME,
         ] {
             assert_eq!(od.get_value::<u8>(index, 0), Ok(127));
             assert_eq!(od.get_value::<u32>(index, 127), Ok(0));

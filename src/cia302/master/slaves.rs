@@ -213,6 +213,16 @@ impl<D: ObjectDictionary, P: IdProfile> Master<D, P> {
             .store(objects::REQUEST_NMT, n.raw(), &[code]);
     }
 
+    /// Node `n`'s 0x1F26/0x1F27 entries (zero where the dictionary has none).
+    pub(super) fn expected_stamp(&self, n: NodeId) -> super::config::ConfigurationStamp {
+        let od = self.node.od();
+        let get = |index| od.get_u32(index, n.raw()).unwrap_or(0);
+        super::config::ConfigurationStamp {
+            date: get(objects::EXPECTED_CONFIG_DATE),
+            time: get(objects::EXPECTED_CONFIG_TIME),
+        }
+    }
+
     pub(super) fn expected_identity(&self, n: NodeId) -> ExpectedIdentity {
         let od = self.node.od();
         let get = |index| od.get_u32(index, n.raw()).unwrap_or(0);

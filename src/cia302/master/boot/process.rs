@@ -5,8 +5,12 @@
 use super::status::{BootError, ErrorStatus};
 use crate::cia301::pdo::params::MAX_PDOS;
 use crate::cia301::sdo::{SdoError, SdoErrorKind};
-use crate::cia302::master::config::{ConfigStep, ExpectedIdentity, SlaveConfig};
+use crate::cia302::master::config::{
+    ConfigStep, ConfigurationStamp, ExpectedIdentity, SlaveConfig, WriteAborts,
+};
+use crate::cia302::master::objects::{SAVE, VERIFY_CONFIGURATION};
 use crate::cia302::pdo_config::{AccessError, PdoConfigurator, SdoAccess};
+use crate::od::abort::AbortCode;
 use crate::od::comm;
 use alloc::boxed::Box;
 
@@ -22,9 +26,17 @@ enum Step {
     DeviceType,
     /// 0x1018 sub 1–4.
     Identity(u8),
+    /// 0x1020 sub 1 and 2 read, when a configuration stamp is expected.
+    VerifyDate,
+    VerifyTime,
     /// Index into the configuration steps.
     Config(usize),
     Heartbeat,
+    /// 0x1020 sub 1 and 2 written, when a stamp is expected and no write was refused.
+    StampDate,
+    StampTime,
+    /// 0x1010 sub 1 "save", when asked for and no write was refused.
+    Store,
     Done,
 }
 
@@ -58,6 +70,17 @@ pub(crate) struct Process {
     /// The configurator of the PDO step under way, and the access it asks for now (boxed: a
     /// mapping of 64 entries is large, and most of the time no PDO step runs).
     pdo: Option<Box<(PdoConfigurator, Option<SdoAccess>)>>,
+    /// The write the slave refused last, not yet reported (index, sub, code).
+    aborted: Option<(u16, u8, AbortCode)>,
+    /// How many writes the slave refused in this run: with any, the stamp is not written nor
+    /// the configuration stored, so the next boot writes it again.
+    aborts: u32,
+    /// The expected configuration stamp (0x1F26/0x1F27 when the process began).
+    stamp: ConfigurationStamp,
+    date: [u8; 4],
+    time: [u8; 4],
+    /// The slave's 0x1020 sub 1 held the expected date.
+    date_matches: bool,
 }
 
 fn expected(id: &ExpectedIdentity, sub: u8) -> u32 {
@@ -79,17 +102,32 @@ fn identity_status(sub: u8) -> ErrorStatus {
 }
 
 impl Process {
-    pub(crate) fn new(cfg: &SlaveConfig) -> Process {
+    pub(crate) fn new(cfg: &SlaveConfig, stamp: ConfigurationStamp) -> Process {
         Process {
             step: Step::DeviceType,
             heartbeat: cfg.heartbeat_producer_ms.unwrap_or(0).to_le_bytes(),
             pdo: None,
+            aborted: None,
+            aborts: 0,
+            stamp,
+            date: stamp.date.to_le_bytes(),
+            time: stamp.time.to_le_bytes(),
+            date_matches: false,
         }
+    }
+
+    /// The write the slave refused in the last access, once (with
+    /// [`WriteAborts::Continue`]).
+    pub(crate) fn take_abort(&mut self) -> Option<(u16, u8, AbortCode)> {
+        self.aborted.take()
     }
 
     /// True once past the identity check.
     pub(crate) fn configuring(&self) -> bool {
-        matches!(self.step, Step::Config(_) | Step::Heartbeat | Step::Done)
+        !matches!(
+            self.step,
+            Step::DeviceType | Step::Identity(_) | Step::VerifyDate | Step::VerifyTime
+        )
     }
 
     /// The access to do now; `None` when done.
@@ -102,6 +140,25 @@ impl Process {
             Step::Identity(sub) => Some(Access::Read {
                 index: comm::IDENTITY,
                 sub,
+            }),
+            Step::VerifyDate | Step::VerifyTime => Some(Access::Read {
+                index: VERIFY_CONFIGURATION,
+                sub: if self.step == Step::VerifyDate { 1 } else { 2 },
+            }),
+            Step::StampDate => Some(Access::Write {
+                index: VERIFY_CONFIGURATION,
+                sub: 1,
+                data: &self.date,
+            }),
+            Step::StampTime => Some(Access::Write {
+                index: VERIFY_CONFIGURATION,
+                sub: 2,
+                data: &self.time,
+            }),
+            Step::Store => Some(Access::Write {
+                index: comm::STORE_PARAMETERS,
+                sub: 1,
+                data: &SAVE,
             }),
             Step::Config(i) => match cfg.steps.get(i)? {
                 ConfigStep::Write { index, sub, data } => Some(Access::Write {
@@ -130,37 +187,41 @@ impl Process {
         }
     }
 
-    /// The step after `step`, skipping identity entries nobody checks and absent steps.
-    fn next(step: Step, cfg: &SlaveConfig, id: &ExpectedIdentity) -> Step {
+    /// The step after `step`, skipping those that do not apply.
+    fn next(&self, step: Step, cfg: &SlaveConfig, id: &ExpectedIdentity) -> Step {
         let mut s = step;
         loop {
             s = match s {
                 Step::DeviceType => Step::Identity(1),
-                Step::Identity(4) => Step::Config(0),
+                Step::Identity(4) => Step::VerifyDate,
                 Step::Identity(k) => Step::Identity(k + 1),
-                Step::Config(i) => Step::Config(i + 1),
-                Step::Heartbeat | Step::Done => Step::Done,
+                Step::VerifyDate => Step::VerifyTime,
+                Step::VerifyTime => Step::Config(0),
+                Step::Config(i) if i + 1 < cfg.steps.len() => Step::Config(i + 1),
+                Step::Config(_) => Step::Heartbeat,
+                Step::Heartbeat => Step::StampDate,
+                Step::StampDate => Step::StampTime,
+                Step::StampTime => Step::Store,
+                Step::Store | Step::Done => Step::Done,
             };
-            // Normalise: an identity step is kept only if checked, a config index only if it
-            // exists, the heartbeat only if asked for.
-            s = match s {
-                Step::Identity(k) if expected(id, k) == 0 => continue,
-                Step::Config(i) if i >= cfg.steps.len() => {
-                    if cfg.heartbeat_producer_ms.is_some() {
-                        Step::Heartbeat
-                    } else {
-                        Step::Done
-                    }
-                }
-                other => other,
+            let applies = match s {
+                Step::Identity(k) => expected(id, k) != 0,
+                Step::VerifyDate | Step::VerifyTime => self.stamp.is_set(),
+                Step::Config(i) => i < cfg.steps.len(),
+                Step::Heartbeat => cfg.heartbeat_producer_ms.is_some(),
+                Step::StampDate | Step::StampTime => self.stamp.is_set() && self.aborts == 0,
+                Step::Store => cfg.store && self.aborts == 0,
+                Step::DeviceType | Step::Done => true,
             };
-            return s;
+            if applies {
+                return s;
+            }
         }
     }
 
     /// Moves to the step after the current one; a PDO step gets its configurator.
     fn advance(&mut self, cfg: &SlaveConfig, id: &ExpectedIdentity) -> Outcome {
-        self.step = Self::next(self.step, cfg, id);
+        self.step = self.next(self.step, cfg, id);
         self.pdo = None;
         if let Step::Config(i) = self.step {
             if let Some(ConfigStep::Pdo { dir, pdo, config }) = cfg.steps.get(i) {
@@ -235,6 +296,21 @@ impl Process {
         let data = match result {
             Ok(d) => d,
             Err(e) => {
+                if let SdoErrorKind::Server(code) = e.kind {
+                    // A slave without 0x1020 (or refusing it) is configured as one that
+                    // holds another stamp.
+                    if matches!(step, Step::VerifyDate | Step::VerifyTime) {
+                        self.step = Step::VerifyTime;
+                        return self.advance(cfg, id);
+                    }
+                    if let (Some(Access::Write { index, sub, .. }), WriteAborts::Continue) =
+                        (self.access(cfg), cfg.write_aborts)
+                    {
+                        self.aborted = Some((index, sub, code));
+                        self.aborts += 1;
+                        return self.advance(cfg, id);
+                    }
+                }
                 let status = match step {
                     Step::DeviceType => ErrorStatus::B,
                     Step::Identity(k) => identity_status(k),
@@ -247,6 +323,16 @@ impl Process {
                 };
             }
         };
+        let stamp = |want: u32| <[u8; 4]>::try_from(data).ok() == Some(want.to_le_bytes());
+        match step {
+            Step::VerifyDate => self.date_matches = stamp(self.stamp.date),
+            // Configured already: nothing is written.
+            Step::VerifyTime if self.date_matches && stamp(self.stamp.time) => {
+                self.step = Step::Done;
+                return Outcome::Done;
+            }
+            _ => {}
+        }
         let check = match step {
             Step::DeviceType => Some((comm::DEVICE_TYPE, 0, id.device_type, ErrorStatus::C)),
             Step::Identity(k) => Some((comm::IDENTITY, k, expected(id, k), identity_status(k))),

@@ -14,7 +14,7 @@ fn run(
     id: &ExpectedIdentity,
     mut answer: impl FnMut(Access<'_>) -> Result<[u8; 4], SdoError>,
 ) -> (Vec<(u16, u8, bool)>, Outcome) {
-    let mut p = Process::new(cfg);
+    let mut p = Process::new(cfg, cfg.stamp);
     let mut seen = Vec::new();
     loop {
         let a = p.access(cfg).unwrap();
@@ -129,7 +129,7 @@ fn failures_map_to_letters() {
 #[test]
 fn short_identity_reply_is_refused() {
     let cfg = SlaveConfig::new(N);
-    let mut p = Process::new(&cfg);
+    let mut p = Process::new(&cfg, cfg.stamp);
     let out = p.handle(&cfg, &ExpectedIdentity::default(), Ok(&[1, 2]));
     assert_eq!(
         out,
@@ -214,7 +214,7 @@ fn pdo_number_out_of_range_fails_without_panicking() {
     use crate::cia302::pdo_config::PdoConfig;
     use crate::frame::cob_id::CobId;
     let cfg = SlaveConfig::new(N).rpdo(513, PdoConfig::new(CobId(0x209), 255));
-    let mut p = Process::new(&cfg);
+    let mut p = Process::new(&cfg, cfg.stamp);
     let out = p.handle(&cfg, &ExpectedIdentity::default(), Ok(&[0; 4]));
     assert_eq!(
         out,
@@ -236,5 +236,171 @@ fn letters_and_descriptions() {
     assert_eq!(
         ErrorStatus::N.identity_objects(),
         Some(((0x1018, 3), 0x1F87))
+    );
+}
+
+#[test]
+fn refused_writes_continue_and_are_counted_when_asked_for() {
+    let refused = |index, sub| SdoError {
+        node: N,
+        index,
+        sub,
+        direction: Direction::Download,
+        kind: SdoErrorKind::Server(AbortCode::READ_ONLY),
+    };
+    let cfg = SlaveConfig::new(N)
+        .write_u8(0x2000, 0, 1)
+        .write_u8(0x2001, 0, 2)
+        .write_u8(0x2002, 0, 3)
+        .heartbeat(100, 0)
+        .with_write_aborts(crate::cia302::master::config::WriteAborts::Continue);
+    let mut p = Process::new(&cfg, cfg.stamp);
+    let id = ExpectedIdentity::default();
+    let mut seen = Vec::new();
+    let mut reported = Vec::new();
+    while let Some(a) = p.access(&cfg) {
+        let r = match a {
+            Access::Write { index, sub, .. } if index == 0x2000 || index == 0x2002 => {
+                Err(refused(index, sub))
+            }
+            Access::Write { index, sub, .. } => {
+                seen.push((index, sub));
+                Ok([0; 4])
+            }
+            Access::Read { .. } => Ok([0; 4]),
+        };
+        let out = p.handle(&cfg, &id, r.as_ref().map(|b| &b[..]).map_err(|e| *e));
+        reported.extend(p.take_abort());
+        if out != Outcome::Continue {
+            assert_eq!(out, Outcome::Done);
+            break;
+        }
+    }
+    assert_eq!(seen, [(0x2001, 0), (0x1017, 0)]);
+    assert_eq!(
+        reported,
+        [
+            (0x2000, 0, AbortCode::READ_ONLY),
+            (0x2002, 0, AbortCode::READ_ONLY)
+        ]
+    );
+    // A slave that stops answering still fails the boot, with status J.
+    let (_, out) = run(&cfg, &id, |a| match a {
+        Access::Write { index, sub, .. } => Err(SdoError {
+            kind: SdoErrorKind::Client(AbortCode::TIMEOUT),
+            ..refused(index, sub)
+        }),
+        _ => Ok([0; 4]),
+    });
+    assert!(matches!(
+        out,
+        Outcome::Failed {
+            status: ErrorStatus::J,
+            ..
+        }
+    ));
+}
+
+#[test]
+fn a_slave_holding_the_expected_stamp_is_not_written_again() {
+    use crate::cia302::master::config::ConfigurationStamp;
+    let stamp = ConfigurationStamp {
+        date: 15_000,
+        time: 3_600_000,
+    };
+    let cfg = SlaveConfig::new(N)
+        .write_u8(0x2000, 0, 1)
+        .heartbeat(100, 0)
+        .with_stamp(stamp)
+        .with_store(true);
+    let holds = |date: u32, time: u32| {
+        move |a: Access<'_>| match a {
+            Access::Read { index: 0x1020, sub } => {
+                Ok(if sub == 1 { date } else { time }.to_le_bytes())
+            }
+            _ => Ok([0; 4]),
+        }
+    };
+    let id = ExpectedIdentity::default();
+    let (seen, out) = run(&cfg, &id, holds(15_000, 3_600_000));
+    assert_eq!(out, Outcome::Done);
+    assert_eq!(
+        seen,
+        [(0x1000, 0, false), (0x1020, 1, false), (0x1020, 2, false)]
+    );
+    // Another time (or date): configured, stamped, stored, in that order.
+    for (date, time) in [(15_000, 1), (1, 3_600_000)] {
+        let (seen, out) = run(&cfg, &id, holds(date, time));
+        assert_eq!(out, Outcome::Done);
+        assert_eq!(
+            seen,
+            [
+                (0x1000, 0, false),
+                (0x1020, 1, false),
+                (0x1020, 2, false),
+                (0x2000, 0, true),
+                (0x1017, 0, true),
+                (0x1020, 1, true),
+                (0x1020, 2, true),
+                (0x1010, 1, true),
+            ]
+        );
+    }
+}
+
+#[test]
+fn without_0x1020_the_slave_is_configured_and_a_refused_write_skips_stamp_and_store() {
+    use crate::cia302::master::config::{ConfigurationStamp, WriteAborts};
+    let cfg = SlaveConfig::new(N)
+        .write_u8(0x2000, 0, 1)
+        .write_u8(0x2001, 0, 1)
+        .with_stamp(ConfigurationStamp { date: 1, time: 2 })
+        .with_store(true)
+        .with_write_aborts(WriteAborts::Continue);
+    let refuse = |index, sub, direction| SdoError {
+        node: N,
+        index,
+        sub,
+        direction,
+        kind: SdoErrorKind::Server(AbortCode::NO_OBJECT),
+    };
+    let (seen, out) = run(&cfg, &ExpectedIdentity::default(), |a| match a {
+        Access::Read { index: 0x1020, sub } => Err(refuse(0x1020, sub, Direction::Upload)),
+        Access::Write {
+            index: 0x2000, sub, ..
+        } => Err(refuse(0x2000, sub, Direction::Download)),
+        _ => Ok([0; 4]),
+    });
+    assert_eq!(out, Outcome::Done);
+    assert_eq!(
+        seen,
+        [
+            (0x1000, 0, false),
+            (0x1020, 1, false),
+            (0x2000, 0, true),
+            (0x2001, 0, true),
+        ]
+    );
+    // The written data of the stamp and the store: the expected values and "save".
+    let cfg = cfg.with_write_aborts(WriteAborts::Stop);
+    let mut data = Vec::new();
+    let _ = run(&cfg, &ExpectedIdentity::default(), |a| {
+        if let Access::Write {
+            index,
+            sub,
+            data: d,
+        } = a
+        {
+            data.push((index, sub, d.to_vec()));
+        }
+        Ok([9; 4])
+    });
+    assert_eq!(
+        data[2..],
+        [
+            (0x1020, 1, 1u32.to_le_bytes().to_vec()),
+            (0x1020, 2, 2u32.to_le_bytes().to_vec()),
+            (0x1010, 1, b"save".to_vec()),
+        ]
     );
 }
