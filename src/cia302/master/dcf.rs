@@ -18,7 +18,9 @@
 //!
 //! A mapping whose count the description marks read-only (a static mapping) is not written.
 //! Entries the description marks read-only or constant are not written (a DCF often carries
-//! their values, 0x1000 or 0x1018, for identification). The producer heartbeat time (0x1017),
+//! their values, 0x1000 or 0x1018, for identification), nor store and restore (0x1010,
+//! 0x1011: commands, given by [`SlaveConfig::with_store`] instead) or the configuration stamp
+//! (0x1020: the master writes it after the configuration). The producer heartbeat time (0x1017),
 //! when it differs, becomes [`SlaveConfig::heartbeat_producer_ms`]: the master writes it
 //! after every other step, so the heartbeat starts from a configured slave.
 //!
@@ -45,10 +47,24 @@ fn pdo_comm(index: u16) -> Option<u16> {
     }
 }
 
+/// The slave's configuration stamp (0x1020 verify configuration): written by the master after
+/// the configuration, never from the DCF.
+const VERIFY_CONFIGURATION: u16 = 0x1020;
+
 fn writable(e: &SubObject) -> bool {
     matches!(
         e.access,
         AccessType::Rw | AccessType::Wo | AccessType::Rwr | AccessType::Rww
+    ) && !is_command(e.index)
+}
+
+/// Objects a DCF may carry values of that are commands or the master's own bookkeeping, not
+/// configuration: store and restore (a "save" written midway would store half a configuration,
+/// a "load" would undo it) and the configuration stamp (written last, by the master).
+fn is_command(index: u16) -> bool {
+    matches!(
+        index,
+        comm::STORE_PARAMETERS | comm::RESTORE_DEFAULTS | VERIFY_CONFIGURATION
     )
 }
 

@@ -81,6 +81,20 @@ fn only_values_that_differ_in_index_order_read_only_skipped() {
 }
 
 #[test]
+fn store_restore_and_the_configuration_stamp_are_never_written_from_a_dcf() {
+    // "save" (0x65766173) and "load" (0x64616F6C) in a DCF, and a stamp: a store midway would
+    // keep half a configuration, a restore would undo it, and the master writes the stamp last.
+    let d = dcf(&[
+        (0x1010, 1, 7, "rw", "1", Some("0x65766173")),
+        (0x1011, 1, 7, "rw", "1", Some("0x64616F6C")),
+        (0x1020, 1, 7, "rw", "0", Some("9000")),
+        (0x1020, 2, 7, "rw", "0", Some("3600000")),
+        (0x2000, 0, 5, "rw", "0", Some("1")),
+    ]);
+    assert_eq!(steps(&d), [w(0x2000, 0, &[1])]);
+}
+
+#[test]
 fn remapped_tpdo_invalid_first_count_zero_entries_count_then_cob_id() {
     let d = dcf(&[
         (0x1017, 0, 6, "rw", "0", Some("100")),
