@@ -127,14 +127,24 @@ def pattern(n, seed):
     return bytes(((i * 31) + seed) & 0xFF for i in range(n))
 
 
-def client(node_id, group, port):
+def remote_on_bus(node_id, group, port, description=None):
+    """A network on the UDP bus with one remote node (an empty dictionary, or the EDS at
+    `description`), its SDO client patient enough for a loaded CI machine; says READY."""
     network = canopen.Network()
     network.connect(interface="udp_multicast", channel=group, port=port)
-    remote = canopen.RemoteNode(node_id, odm.ObjectDictionary())
-    network.add_node(remote)
-    sdo = remote.sdo
-    sdo.RESPONSE_TIMEOUT = 2.0
+    if description is None:
+        remote = canopen.RemoteNode(node_id, odm.ObjectDictionary())
+        network.add_node(remote)
+    else:
+        remote = network.add_node(node_id, description)
+    remote.sdo.RESPONSE_TIMEOUT = 2.0
     say("READY")
+    return network, remote
+
+
+def client(node_id, group, port):
+    network, remote = remote_on_bus(node_id, group, port)
+    sdo = remote.sdo
     sys.stdin.readline()  # the test says when duocan's node is up
 
     def read(index, sub):
@@ -178,13 +188,8 @@ def client(node_id, group, port):
 
 
 def storage(node_id, group, port):
-    network = canopen.Network()
-    network.connect(interface="udp_multicast", channel=group, port=port)
-    remote = canopen.RemoteNode(node_id, odm.ObjectDictionary())
-    network.add_node(remote)
+    network, remote = remote_on_bus(node_id, group, port)
     sdo = remote.sdo
-    sdo.RESPONSE_TIMEOUT = 2.0
-    say("READY")
     sys.stdin.readline()  # the test says when duocan's node is up
 
     def read(index, sub):
@@ -226,11 +231,7 @@ def by_name(node, name):
 
 
 def eds(node_id, path, group, port):
-    network = canopen.Network()
-    network.connect(interface="udp_multicast", channel=group, port=port)
-    node = network.add_node(node_id, path)
-    node.sdo.RESPONSE_TIMEOUT = 2.0
-    say("READY")
+    network, node = remote_on_bus(node_id, group, port, path)
     # The objects, less the data-type dummies python adds for [DummyUsage].
     say("NAMES", len([i for i in node.object_dictionary.keys() if isinstance(i, int) and i >= 0x20]))
     # Tab-separated commands: "read<TAB>name", "write<TAB>name<TAB>value".
