@@ -63,8 +63,8 @@
 //! [`NetworkConfig`](duocan::master::NetworkConfig), the supervisor's event queue in
 //! [`SupervisorConfig`]), allocated once when they are built and never grown.
 #![cfg_attr(not(feature = "std"), no_std)]
-#![warn(missing_docs)]
-#![forbid(unsafe_code)]
+// On docs.rs, each feature-gated item says which feature it needs.
+#![cfg_attr(docsrs, feature(doc_cfg))]
 
 #[cfg(feature = "alloc")]
 extern crate alloc;
