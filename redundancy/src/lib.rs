@@ -14,7 +14,8 @@
 //! | 1 | [`link`] | the **dual-bus layer** [`DualBus`]: a [`BusLink`](duocan::BusLink) with two ports below and one logical bus above |
 //! | 2 | [`supervisor`] | slave-pair supervision, the CiA 302-2 flying master, the audit trail; [`Supervisor`] composes them with the CiA 302-2 master |
 //! | 3 | [`station`] | [`SupervisedStation`]: a supervisor on a dual bus (a [`Station`](duocan::Station)), with its status table |
-//! | 4 | [`network`] | [`LogicalNetwork`]: what the application holds per dual-bus network |
+//! | 4 | [`network`] | [`LogicalNetwork`]: what the application holds per dual-bus network, built from named settings by [`RedundantNetworkBuilder`] |
+//! | 5 | `net` | the front door (feature `tokio`): `RedundantNetwork`, the logical network on two ports as an async handle (SDO to any node, NMT, status, a flat event stream) |
 //!
 //! The dual-bus layer has one type and three policies ([`LinkMode`]):
 //!
@@ -70,6 +71,8 @@
 extern crate alloc;
 
 pub mod link;
+#[cfg(feature = "tokio")]
+pub mod net;
 #[cfg(feature = "alloc")]
 pub mod network;
 pub mod pair;
@@ -87,7 +90,12 @@ pub use link::health::{HealthConfig, PortState};
 pub use link::merge::{Merger, Verdict};
 pub use link::outbox::{Outbox, EVENT_QUEUE, FRAME_QUEUE, MACHINE_QUEUE, REQUEST_QUEUE};
 #[cfg(feature = "alloc")]
-pub use network::{LogicalNetwork, NetworkError, NetworkEvent, NetworkEventKind};
+pub use network::{
+    LogicalNetwork, NetworkError, NetworkEvent, NetworkEventKind, RedundantError,
+    RedundantNetworkBuilder, Role,
+};
+#[cfg(feature = "tokio")]
+pub use net::{RedundantEvent, RedundantEvents, RedundantNetwork, RedundantNode, RedundantSdo};
 pub use pair::{Member, PairId, PairSpec};
 #[cfg(feature = "alloc")]
 pub use station::{RedundantMaster, SupervisedStation};
