@@ -170,12 +170,15 @@ impl RedundantEvent {
             RedundantEvent::Lagged(_) => None,
         }
     }
-    /// True for a failover: a bus failed, a pair's active member handed over to the other, or
+    /// True for a failover: a bus in use failed, a pair's active member handed over to the other, or
     /// this standby master took over from the active one.
     #[must_use]
     pub fn is_failover(&self) -> bool {
         match *self {
-            RedundantEvent::Bus { to, .. } => to == PortState::Failed,
+            // A failed re-initialisation (recovering -> failed) is the same failure going on.
+            RedundantEvent::Bus { from, to, .. } => {
+                to == PortState::Failed && from != PortState::Recovering
+            }
             RedundantEvent::PairRole { from, to, .. } => from.is_some() && to.is_some() && from != to,
             RedundantEvent::MasterRole { from, to, .. } => {
                 matches!(from, MasterRole::Standby(_)) && to == MasterRole::Active

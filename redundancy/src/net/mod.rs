@@ -86,7 +86,7 @@ impl RedundantNetwork {
     }
 
     fn start<P1: Port, P2: Port>(
-        net: Net,
+        net: alloc::boxed::Box<Net>,
         ports: (P1, P2),
         sim: Option<sim::SimStation>,
     ) -> Result<RedundantNetwork, RedundantError> {
@@ -98,7 +98,7 @@ impl RedundantNetwork {
                 why: "no tokio runtime: open the network from inside one (#[tokio::main])".into(),
             });
         }
-        let handle = Runtime::new(net)
+        let handle = Runtime::boxed(net)
             .name(alloc::format!("{},{}", names[0], names[1]))
             .port(ports.0)
             .port(ports.1)
@@ -209,7 +209,7 @@ impl RedundantNetworkBuilder {
         bus1: P1,
         bus2: P2,
     ) -> Result<RedundantNetwork, RedundantError> {
-        RedundantNetwork::start(self.build()?, (bus1, bus2), None)
+        RedundantNetwork::start(self.build_boxed()?, (bus1, bus2), None)
     }
 
     /// Opens the network by name:

@@ -7,6 +7,7 @@ use super::{Net, RedundantNetwork};
 use crate::link::config::DualBusConfig;
 use crate::link::dual_bus::{DualBus, DualBusNode};
 use crate::network::{RedundantError, RedundantNetworkBuilder};
+use alloc::boxed::Box;
 use alloc::string::ToString;
 use alloc::sync::Arc;
 use alloc::vec::Vec;
@@ -70,12 +71,12 @@ fn board(id: NodeId) -> Board {
     Station::new(DualBus::new(DualBusConfig::default()), node)
 }
 
-fn spawn<D>(dev: D, name: &str, buses: &[MemBus; 2]) -> Result<Handle<D>, RedundantError>
+fn spawn<D>(dev: Box<D>, name: &str, buses: &[MemBus; 2]) -> Result<Handle<D>, RedundantError>
 where
     D: duocan::Device + Send + 'static,
     D::Event: Clone + Send + core::fmt::Debug + 'static,
 {
-    Runtime::new(dev)
+    Runtime::boxed(dev)
         .name(name)
         .port(buses[0].port())
         .port(buses[1].port())
@@ -89,7 +90,7 @@ where
 
 /// Opens `b`'s network on a simulated station (see `open_named`).
 pub(super) fn open(b: &RedundantNetworkBuilder) -> Result<RedundantNetwork, RedundantError> {
-    let net = b.build()?;
+    let net = b.build_boxed()?;
     let buses = [MemBus::new("sim-bus1"), MemBus::new("sim-bus2")];
     // This master's ports first: a port hears only what is sent after it exists.
     let (cut, cut_rx) = watch::channel(false);
@@ -104,13 +105,13 @@ pub(super) fn open(b: &RedundantNetworkBuilder) -> Result<RedundantNetwork, Redu
     let mut boards = Vec::new();
     if tokio::runtime::Handle::try_current().is_ok() {
         for &(n, _) in b.peers() {
-            let dev: Net = b.as_peer(n).build()?;
+            let dev = b.as_peer(n).build_boxed()?;
             peers.push(spawn(dev, &alloc::format!("sim master {n}"), &buses)?);
         }
         for &(a, _) in b.pairs() {
             // Checked by build(): valid node-IDs.
             if let Some(id) = NodeId::new(a) {
-                boards.push((a, spawn(board(id), &alloc::format!("sim board {a}"), &buses)?));
+                boards.push((a, spawn(Box::new(board(id)), &alloc::format!("sim board {a}"), &buses)?));
             }
         }
     }
@@ -188,7 +189,7 @@ impl Script {
         for b in core::mem::take(&mut self.later) {
             if let Some(id) = NodeId::new(b) {
                 let name = alloc::format!("sim board {b}");
-                if let Ok(h) = spawn(board(id), &name, &self.buses) {
+                if let Ok(h) = spawn(Box::new(board(id)), &name, &self.buses) {
                     self.boards.push((b, h));
                 }
             }

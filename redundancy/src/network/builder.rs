@@ -16,6 +16,7 @@ use crate::station::SupervisedStation;
 use crate::supervisor::flying_master::MAX_PEERS;
 use crate::supervisor::{Supervisor, SupervisorConfig};
 use crate::LinkMode;
+use alloc::boxed::Box;
 use alloc::vec::Vec;
 use duocan::master::{objects, Master, NetworkConfig};
 use duocan::od::{comm, DynamicDictionary};
@@ -284,9 +285,32 @@ impl RedundantNetworkBuilder {
     /// Builds the network: master, supervisor with its pairs and peers, dual-bus layer, as one
     /// sans-IO [`LogicalNetwork`] (its clock starts at [`Instant::ZERO`]).
     pub fn build(&self) -> Result<LogicalNetwork<DynamicDictionary>, RedundantError> {
+        self.build_boxed().map(|n| *n)
+    }
+
+    /// [`build`](Self::build), on the heap: the network is some 160 kB, more than a small
+    /// thread's stack wants to move around (what a runtime takes).
+    pub fn build_boxed(&self) -> Result<Box<LogicalNetwork<DynamicDictionary>>, RedundantError> {
         self.check()?;
-        // Checked above: every node-ID is valid.
-        let id = |raw: u8| NodeId::new(raw).ok_or(RedundantError::BadNodeId { role: Role::Node, id: raw });
+        let sup = self.supervisor()?;
+        let guard = self.heartbeat.min(self.pair_heartbeat);
+        let link = self
+            .link
+            .clone()
+            .unwrap_or_else(|| DualBusConfig::with_guard_period(LinkMode::ActiveActive, guard));
+        let station =
+            SupervisedStation::new(DualBus::new(link), *sup).map_err(RedundantError::Link)?;
+        Ok(Box::new(LogicalNetwork::new(station)))
+    }
+
+    /// The master and its supervisor, with the pairs and peers (settings checked).
+    fn supervisor(&self) -> Result<Box<Supervisor<DynamicDictionary>>, RedundantError> {
+        let id = |raw: u8| {
+            NodeId::new(raw).ok_or(RedundantError::BadNodeId {
+                role: Role::Node,
+                id: raw,
+            })
+        };
         let me = id(self.node_id)?;
         let od = objects::master_dictionary(self.node_id, comm::Identity::default());
         let master = Master::new(me, od, self.master.clone())
@@ -301,19 +325,12 @@ impl RedundantNetworkBuilder {
         for &(n, p) in &self.peers {
             cfg = cfg.with_peer(p, id(n)?);
         }
-        let mut sup = Supervisor::new(master, cfg, Instant::ZERO);
+        let mut sup = Box::new(Supervisor::new(master, cfg, Instant::ZERO));
         for &(a, b) in &self.pairs {
             let spec = PairSpec::new(id(a)?, id(b)?, self.pair_heartbeat, self.pair_timeout);
             sup.add_pair(Instant::ZERO, spec)
                 .map_err(RedundantError::Pair)?;
         }
-        let guard = self.heartbeat.min(self.pair_heartbeat);
-        let link = self
-            .link
-            .clone()
-            .unwrap_or_else(|| DualBusConfig::with_guard_period(LinkMode::ActiveActive, guard));
-        let station =
-            SupervisedStation::new(DualBus::new(link), sup).map_err(RedundantError::Link)?;
-        Ok(LogicalNetwork::new(station))
+        Ok(sup)
     }
 }
