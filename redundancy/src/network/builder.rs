@@ -20,6 +20,7 @@ use alloc::boxed::Box;
 use alloc::vec::Vec;
 use duocan::master::{objects, Master, NetworkConfig};
 use duocan::od::{comm, DynamicDictionary};
+use duocan::profile::Predefined;
 use duocan::{Duration, Instant, NodeId};
 
 /// This master's heartbeat unless [`RedundantNetworkBuilder::heartbeat`] says otherwise.
@@ -100,7 +101,7 @@ impl Default for RedundantNetworkBuilder {
     }
 }
 
-impl<P> LogicalNetwork<DynamicDictionary, P> {
+impl LogicalNetwork<DynamicDictionary, Predefined> {
     /// The builder of a redundant network, every setting at its default.
     pub fn builder() -> RedundantNetworkBuilder {
         RedundantNetworkBuilder::default()

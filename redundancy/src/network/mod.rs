@@ -7,6 +7,7 @@
 //!
 //! | need                         | call                                                        |
 //! |------------------------------|-------------------------------------------------------------|
+//! | building it                  | [`LogicalNetwork::builder`]: named settings with defaults, all checked ([`RedundantNetworkBuilder`]); with the `tokio` feature `.open(…)` / `.open_named(…)` give the async handle `net::RedundantNetwork` |
 //! | the object dictionary        | [`LogicalNetwork::od`], [`read`](LogicalNetwork::read), [`write`](LogicalNetwork::write) |
 //! | SDO access to any node       | [`sdo_read`](LogicalNetwork::sdo_read), [`sdo_write`](LogicalNetwork::sdo_write): a [`RequestId`] now, [`NetworkEventKind::Sdo`] when done |
 //! | NMT commands                 | [`nmt`](LogicalNetwork::nmt)                                 |
@@ -22,23 +23,21 @@
 //! event with the request id).
 //!
 //! ```
-//! use duocan::master::{objects, Master, NetworkConfig};
 //! use duocan::od::comm;
 //! use duocan::sim::{BusConfig, SimNetwork};
 //! use duocan::{Duration, Instant, Node, NodeConfig, NodeId, Station};
-//! use duocan_redundancy::PairSpec;
-//! use duocan_redundancy::{
-//!     DualBus, DualBusConfig, LogicalNetwork, NetworkEventKind, SupervisedStation, Supervisor,
-//!     SupervisorConfig,
-//! };
+//! use duocan_redundancy::{DualBus, DualBusConfig, LogicalNetwork, NetworkEventKind};
 //!
 //! let ms = Duration::from_millis;
 //! let mut sim = SimNetwork::new(1);
 //! let buses = [sim.add_bus(BusConfig::new("can1", 1_000_000)), sim.add_bus(BusConfig::new("can2", 1_000_000))];
-//! let master = Master::new(NodeId::must(1), objects::master_dictionary(1, Default::default()), NetworkConfig::new()).unwrap();
-//! let mut sup = Supervisor::new(master, SupervisorConfig::new(0, NodeId::must(1), ms(20), ms(50), ms(10)), Instant::ZERO);
-//! sup.add_pair(Instant::ZERO, PairSpec::new(NodeId::must(0x10), NodeId::must(0x50), ms(20), ms(50)))?;
-//! let net = LogicalNetwork::new(SupervisedStation::new(DualBus::new(DualBusConfig::default()), sup).unwrap());
+//! let net = LogicalNetwork::builder()
+//!     .node_id(1)
+//!     .heartbeat(ms(20))
+//!     .master_timeout(ms(50))
+//!     .sync(ms(10))
+//!     .pair(0x10, 0x50)
+//!     .build()?;
 //! let net = sim.add_device("turnout rack", net, &buses)?;
 //! for id in [0x10, 0x50] {
 //!     let mut n = Node::new(NodeConfig::slave(NodeId::must(id)), comm::standard_dictionary(id, Default::default()));
@@ -58,6 +57,12 @@
 //! println!("{}", sim.device(net).status(sim.now()));
 //! # Ok::<(), Box<dyn std::error::Error>>(())
 //! ```
+//!
+//! The builder ([`RedundantNetworkBuilder`]) names each setting and checks them all before
+//! building; the parts underneath can still be built one by one (a [`Master`](duocan::master::Master),
+//! a [`Supervisor`] with a [`SupervisorConfig`](crate::SupervisorConfig) and
+//! [`PairSpec`](crate::PairSpec)s, a [`DualBus`](crate::DualBus), a [`SupervisedStation`]) for
+//! what the builder does not cover.
 
 mod builder;
 mod error;
