@@ -53,7 +53,15 @@
 //!   machine's commands reach the link of a [`Station`](duocan::Station);
 //! - [`LogicalNetwork`] (feature `alloc`): dictionary, SDO client access to any node, NMT, PDO
 //!   values, one typed event stream, the status table and the audit export, as a sans-IO
-//!   [`Device`](duocan::Device) that the simulator and the tokio runtime drive alike.
+//!   [`Device`](duocan::Device) that the simulator and the tokio runtime drive alike; built
+//!   from named settings with defaults by [`LogicalNetwork::builder`]
+//!   ([`RedundantNetworkBuilder`]: node-ID, heartbeat, master timeout, SYNC, pairs, peers),
+//!   every bad setting a [`RedundantError`];
+//! - `net::RedundantNetwork` (feature `tokio`): the front door, the builder's network on two
+//!   ports (`open(port1, port2)`, `open_named("can0,can1")`, or `open_named("sim")`: a simulated
+//!   redundant station with a script of faults) as an async handle like the root crate's
+//!   single-bus `duocan::net::Network`: typed SDO to any node, NMT, status, and a flat event
+//!   stream of bus, pair and master failovers on which lag is an item.
 //!
 //! Everything is bounded (fixed-capacity tables and queues, counted overflow) and builds for
 //! `no_std` targets; the supervisor needs `alloc` (as the root crate's master does). The layer's
@@ -89,13 +97,13 @@ pub use link::events::{LinkEvent, LinkEventKind, PortReason, Suspicion, SwitchRe
 pub use link::health::{HealthConfig, PortState};
 pub use link::merge::{Merger, Verdict};
 pub use link::outbox::{Outbox, EVENT_QUEUE, FRAME_QUEUE, MACHINE_QUEUE, REQUEST_QUEUE};
+#[cfg(feature = "tokio")]
+pub use net::{RedundantEvent, RedundantEvents, RedundantNetwork, RedundantNode, RedundantSdo};
 #[cfg(feature = "alloc")]
 pub use network::{
     LogicalNetwork, NetworkError, NetworkEvent, NetworkEventKind, RedundantError,
     RedundantNetworkBuilder, Role,
 };
-#[cfg(feature = "tokio")]
-pub use net::{RedundantEvent, RedundantEvents, RedundantNetwork, RedundantNode, RedundantSdo};
 pub use pair::{Member, PairId, PairSpec};
 #[cfg(feature = "alloc")]
 pub use station::{RedundantMaster, SupervisedStation};

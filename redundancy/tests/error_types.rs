@@ -133,7 +133,10 @@ fn the_front_door_error_ends_a_call_in_the_question_mark_and_keeps_its_cause() {
         RedundantError::from(NetworkError::Sdo(sdo_error())),
         RedundantError::Sdo(sdo_error())
     );
-    assert_eq!(RedundantError::from(NetworkError::Closed), RedundantError::Closed);
+    assert_eq!(
+        RedundantError::from(NetworkError::Closed),
+        RedundantError::Closed
+    );
     assert_eq!(
         RedundantError::Sdo(sdo_error()).node(),
         Some(NodeId::must(0x10))

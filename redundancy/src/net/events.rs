@@ -179,7 +179,9 @@ impl RedundantEvent {
             RedundantEvent::Bus { from, to, .. } => {
                 to == PortState::Failed && from != PortState::Recovering
             }
-            RedundantEvent::PairRole { from, to, .. } => from.is_some() && to.is_some() && from != to,
+            RedundantEvent::PairRole { from, to, .. } => {
+                from.is_some() && to.is_some() && from != to
+            }
             RedundantEvent::MasterRole { from, to, .. } => {
                 matches!(from, MasterRole::Standby(_)) && to == MasterRole::Active
             }

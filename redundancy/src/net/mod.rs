@@ -132,7 +132,10 @@ impl RedundantNetwork {
     /// Every event from now on, as a stream on which lag is an item.
     #[must_use]
     pub fn events(&self) -> RedundantEvents {
-        RedundantEvents::new(self.shared.handle.subscribe(), self.shared.closed.subscribe())
+        RedundantEvents::new(
+            self.shared.handle.subscribe(),
+            self.shared.closed.subscribe(),
+        )
     }
 
     /// The network's clock: time since it was opened (the `at` of every event).
@@ -149,8 +152,10 @@ impl RedundantNetwork {
     /// The active member of every pair, in the order declared.
     pub async fn active_members(&self) -> Result<Vec<(PairId, Option<Member>)>, RedundantError> {
         let h = &self.shared.handle;
-        Ok(h.call(|n, _| n.pairs().map(|(id, p)| (id, p.active)).collect())
-            .await?)
+        Ok(
+            h.call(|n, _| n.pairs().map(|(id, p)| (id, p.active)).collect())
+                .await?,
+        )
     }
 
     /// The status table (ports, master role, pairs, slaves), as text.
@@ -173,11 +178,8 @@ impl RedundantNetwork {
     /// Makes `to` the active member of `pair` (active master only).
     pub async fn switch_over(&self, pair: PairId, to: Member) -> Result<(), RedundantError> {
         let h = &self.shared.handle;
-        h.try_call(move |n, now| {
-            n.switch_over(now, pair, to)
-                .map_err(RedundantError::from)
-        })
-        .await
+        h.try_call(move |n, now| n.switch_over(now, pair, to).map_err(RedundantError::from))
+            .await
     }
 
     /// Runs `f` on the [`LogicalNetwork`] inside the runtime, for what the handle does not

@@ -130,14 +130,15 @@ impl RedundantSdo {
         while data.last() == Some(&0) {
             data.pop();
         }
-        String::from_utf8(data).map_err(|_| RedundantError::NotText {
-            node,
-            index,
-            sub,
-        })
+        String::from_utf8(data).map_err(|_| RedundantError::NotText { node, index, sub })
     }
     /// Writes a string's bytes.
-    pub async fn write_string(&self, index: u16, sub: u8, text: &str) -> Result<(), RedundantError> {
+    pub async fn write_string(
+        &self,
+        index: u16,
+        sub: u8,
+        text: &str,
+    ) -> Result<(), RedundantError> {
         self.write_bytes(index, sub, text.as_bytes()).await
     }
     /// Reads the raw bytes of any entry.
@@ -168,7 +169,10 @@ impl RedundantSdo {
         let h = net.handle();
         let r = match data {
             None => h.sdo_read(node, index, sub, self.opts).await,
-            Some(d) => h.sdo_write(node, index, sub, d, self.opts).await.map(|()| Vec::new()),
+            Some(d) => h
+                .sdo_write(node, index, sub, d, self.opts)
+                .await
+                .map(|()| Vec::new()),
         };
         r.map_err(RedundantError::from)
     }

@@ -111,7 +111,14 @@ pub(super) fn open(b: &RedundantNetworkBuilder) -> Result<RedundantNetwork, Redu
         for &(a, _) in b.pairs() {
             // Checked by build(): valid node-IDs.
             if let Some(id) = NodeId::new(a) {
-                boards.push((a, spawn(Box::new(board(id)), &alloc::format!("sim board {a}"), &buses)?));
+                boards.push((
+                    a,
+                    spawn(
+                        Box::new(board(id)),
+                        &alloc::format!("sim board {a}"),
+                        &buses,
+                    )?,
+                ));
             }
         }
     }
@@ -234,7 +241,11 @@ struct FaultPort {
 
 impl FaultPort {
     fn down(&self) -> PortError {
-        PortError::new(self.inner.name(), PortErrorKind::InterfaceDown, "simulated fault")
+        PortError::new(
+            self.inner.name(),
+            PortErrorKind::InterfaceDown,
+            "simulated fault",
+        )
     }
     fn is_cut(&self) -> bool {
         *self.cut.borrow()
@@ -271,4 +282,3 @@ impl Port for FaultPort {
         self.inner.reopen().await
     }
 }
-

@@ -187,4 +187,3 @@ pub(super) fn typed(e: &StationEvent<LinkEvent, SupervisorEvent>) -> Option<Netw
         },
     })
 }
-

@@ -2,9 +2,9 @@
 //! timings in simulated time are the configured heartbeat and timeout arithmetic), and bad
 //! settings are errors naming the setting, never panics.
 
+use duocan::od::comm;
 use duocan::sim::{BusConfig, SimNetwork};
 use duocan::{Duration, Instant, Node, NodeConfig, NodeId, Station};
-use duocan::od::comm;
 use duocan_redundancy::supervisor::flying_master::{MasterReason, MasterRole};
 use duocan_redundancy::supervisor::pairs::RoleReason;
 use duocan_redundancy::{
@@ -27,12 +27,40 @@ fn bad_settings_are_errors_naming_the_setting() {
     let b = LogicalNetwork::builder;
     // A pair with one node twice, a node in two roles.
     let e = err(b().pair(0x10, 0x10));
-    assert!(matches!(e, RedundantError::NodeTwice { first: Role::PairMember, second: Role::PairMember, .. }), "{e}");
+    assert!(
+        matches!(
+            e,
+            RedundantError::NodeTwice {
+                first: Role::PairMember,
+                second: Role::PairMember,
+                ..
+            }
+        ),
+        "{e}"
+    );
     assert!(e.to_string().contains("0x10"), "{e}");
     let e = err(b().node_id(5).pair(0x10, 5));
-    assert!(matches!(e, RedundantError::NodeTwice { first: Role::ThisMaster, .. }), "{e}");
+    assert!(
+        matches!(
+            e,
+            RedundantError::NodeTwice {
+                first: Role::ThisMaster,
+                ..
+            }
+        ),
+        "{e}"
+    );
     let e = err(b().node_id(5).peer_master(5));
-    assert!(matches!(e, RedundantError::NodeTwice { second: Role::PeerMaster, .. }), "{e}");
+    assert!(
+        matches!(
+            e,
+            RedundantError::NodeTwice {
+                second: Role::PeerMaster,
+                ..
+            }
+        ),
+        "{e}"
+    );
     let e = err(b().pair(0x10, 0x50).pair(0x50, 0x60));
     assert!(matches!(e, RedundantError::NodeTwice { .. }), "{e}");
     // Node-IDs out of range, each named with its part.
@@ -58,19 +86,57 @@ fn bad_settings_are_errors_naming_the_setting() {
     }
     // A timeout no longer than the heartbeat it watches, a heartbeat 0x1017 cannot hold.
     let e = err(b().heartbeat(ms(50)).master_timeout(ms(50)));
-    assert!(matches!(e, RedundantError::TimeoutTooShort { setting: "master_timeout", .. }), "{e}");
+    assert!(
+        matches!(
+            e,
+            RedundantError::TimeoutTooShort {
+                setting: "master_timeout",
+                ..
+            }
+        ),
+        "{e}"
+    );
     let e = err(b().pair_heartbeat(ms(100)).pair_timeout(ms(60)));
-    assert!(matches!(e, RedundantError::TimeoutTooShort { setting: "pair_timeout", .. }), "{e}");
+    assert!(
+        matches!(
+            e,
+            RedundantError::TimeoutTooShort {
+                setting: "pair_timeout",
+                ..
+            }
+        ),
+        "{e}"
+    );
     let e = err(b().heartbeat(ms(70_000)).master_timeout(ms(80_000)));
-    assert!(matches!(e, RedundantError::TooLong { setting: "heartbeat", .. }), "{e}");
+    assert!(
+        matches!(
+            e,
+            RedundantError::TooLong {
+                setting: "heartbeat",
+                ..
+            }
+        ),
+        "{e}"
+    );
     // More peers than the flying master holds.
     let mut many = b();
     for n in 2..20 {
         many = many.peer_master(n);
     }
-    assert!(matches!(err(many), RedundantError::TooMany { what: "peer masters", .. }));
+    assert!(matches!(
+        err(many),
+        RedundantError::TooMany {
+            what: "peer masters",
+            ..
+        }
+    ));
     // And good settings build.
-    assert!(b().pair(0x10, 0x50).peer_master(2).sync(ms(10)).build().is_ok());
+    assert!(b()
+        .pair(0x10, 0x50)
+        .peer_master(2)
+        .sync(ms(10))
+        .build()
+        .is_ok());
 }
 
 /// A booted duocan board on the dual bus.
@@ -111,7 +177,9 @@ fn failovers_at_the_configured_times() {
         sim.add_bus(BusConfig::new("can1", 1_000_000)),
         sim.add_bus(BusConfig::new("can2", 1_000_000)),
     ];
-    let me = sim.add_device("master 2", mine.build().unwrap(), &buses).unwrap();
+    let me = sim
+        .add_device("master 2", mine.build().unwrap(), &buses)
+        .unwrap();
     let peer = sim
         .add_device("master 1", mine.as_peer(1).build().unwrap(), &buses)
         .unwrap();
@@ -136,9 +204,15 @@ fn failovers_at_the_configured_times() {
     };
     assert_eq!(master, NodeId::must(1));
     assert_eq!(r.at, last + master_timeout);
-    assert!(last <= Instant::from_secs(2) && Instant::from_secs(2) <= last + hb, "{r}");
+    assert!(
+        last <= Instant::from_secs(2) && Instant::from_secs(2) <= last + hb,
+        "{r}"
+    );
     // The active member A goes silent at 3 s: B takes over at A's last heartbeat + 110 ms.
-    assert_eq!(sim.device(me).pairs().next().unwrap().1.active, Some(Member::A));
+    assert_eq!(
+        sim.device(me).pairs().next().unwrap().1.active,
+        Some(Member::A)
+    );
     for bus in 0..2 {
         sim.disconnect(a.port(bus));
     }
@@ -152,5 +226,8 @@ fn failovers_at_the_configured_times() {
         panic!("{r}");
     };
     assert_eq!(r.at, last + pair_timeout);
-    assert!(last <= Instant::from_secs(3) && Instant::from_secs(3) <= last + pair_hb, "{r}");
+    assert!(
+        last <= Instant::from_secs(3) && Instant::from_secs(3) <= last + pair_hb,
+        "{r}"
+    );
 }

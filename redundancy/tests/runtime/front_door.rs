@@ -60,7 +60,11 @@ async fn the_simulated_station_plays_one_failover_of_each_kind_at_the_configured
     let lines: Vec<String> = failovers.iter().map(ToString::to_string).collect();
     assert_eq!(
         lines,
-        ["bus 1: failed", "this master: active", "pair 0x10/0x50: B active"],
+        [
+            "bus 1: failed",
+            "this master: active",
+            "pair 0x10/0x50: B active"
+        ],
         "{events:#?}"
     );
     // The bus fails when its port does.
@@ -124,7 +128,16 @@ async fn sdo_through_the_handle_to_a_pair_member_on_either_bus() {
     // The wrong type is an error naming node and object, not garbage.
     let e = b.sdo().read::<u8>(0x1018, 1).await.unwrap_err();
     assert!(
-        matches!(e, RedundantError::WrongSize { index: 0x1018, sub: 1, expected: 1, got: 4, .. }),
+        matches!(
+            e,
+            RedundantError::WrongSize {
+                index: 0x1018,
+                sub: 1,
+                expected: 1,
+                got: 4,
+                ..
+            }
+        ),
         "{e}"
     );
     assert_eq!(e.node().map(|n| n.raw()), Some(0x50));
@@ -143,7 +156,10 @@ async fn sdo_through_the_handle_to_a_pair_member_on_either_bus() {
     let e = net.node(0).sdo().read::<u32>(0x1000, 0).await.unwrap_err();
     assert!(matches!(e, RedundantError::BadNodeId { id: 0, .. }), "{e}");
     net.close().await;
-    assert_eq!(a.sdo().read::<u32>(0x1018, 2).await, Err(RedundantError::Closed));
+    assert_eq!(
+        a.sdo().read::<u32>(0x1018, 2).await,
+        Err(RedundantError::Closed)
+    );
 }
 
 #[tokio::test(start_paused = true)]
@@ -158,7 +174,12 @@ async fn a_standby_master_refuses_sdo_until_it_takes_over() {
         .unwrap();
     until_pair_active(&net).await;
     assert!(matches!(net.role().await.unwrap(), MasterRole::Standby(_)));
-    let e = net.node(0x10).sdo().read::<u32>(0x1018, 1).await.unwrap_err();
+    let e = net
+        .node(0x10)
+        .sdo()
+        .read::<u32>(0x1018, 1)
+        .await
+        .unwrap_err();
     assert_eq!(e, RedundantError::Network(NetworkError::Standby));
     assert!(e.to_string().contains("standby"), "{e}");
     // After the peer stopped, this master is active and SDO works.
@@ -178,5 +199,8 @@ async fn names_that_are_not_two_interfaces_are_errors_naming_the_port() {
     assert!(e.to_string().contains("can0,can1"), "{e}");
     // Bad settings come first, before any port is touched.
     let e = b.clone().node_id(200).open_named("sim").err().unwrap();
-    assert!(matches!(e, RedundantError::BadNodeId { id: 200, .. }), "{e}");
+    assert!(
+        matches!(e, RedundantError::BadNodeId { id: 200, .. }),
+        "{e}"
+    );
 }
