@@ -297,7 +297,6 @@ impl RedundantNetworkBuilder {
         let guard = self.heartbeat.min(self.pair_heartbeat);
         let link = self
             .link
-            .clone()
             .unwrap_or_else(|| DualBusConfig::with_guard_period(LinkMode::ActiveActive, guard));
         let station =
             SupervisedStation::new(DualBus::new(link), *sup).map_err(RedundantError::Link)?;

@@ -101,12 +101,12 @@ pub enum NetworkEventKind {
         function: u32,
     },
     /// One of the master's RPDOs was received: its values are in the dictionary
-    /// ([`LogicalNetwork::pdo_value`]).
+    /// ([`LogicalNetwork::pdo_value`](super::LogicalNetwork::pdo_value)).
     PdoReceived {
         /// The master's RPDO number.
         pdo: u16,
     },
-    /// An SDO transfer the application started ended (its [`RequestId`] inside).
+    /// An SDO transfer the application started ended (its [`RequestId`](duocan::sdo::RequestId) inside).
     Sdo(SdoEvent),
     /// Anything else (member joined or lost, boot process steps, channel switches, …).
     Other(StationEvent<LinkEvent, SupervisorEvent>),

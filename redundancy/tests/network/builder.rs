@@ -17,7 +17,7 @@ fn ms(n: u64) -> Duration {
 }
 
 fn err(b: RedundantNetworkBuilder) -> RedundantError {
-    let e = b.build().err().expect("the settings are refused");
+    let e = b.build().expect_err("the settings are refused");
     assert!(!e.to_string().is_empty());
     e
 }
