@@ -7,7 +7,9 @@
 //! use duocan_redundancy::net::{RedundantEvent, RedundantNetwork};
 //! use duocan_redundancy::RedundantError;
 //!
-//! #[tokio::main]
+//! // The simulated station runs on tokio's paused clock here (tokio's `test-util`): its
+//! // seconds pass at once and every run is the same. A plain #[tokio::main] runs it in real time.
+//! #[tokio::main(flavor = "current_thread", start_paused = true)]
 //! async fn main() -> Result<(), RedundantError> {
 //!     let ms = Duration::from_millis;
 //!     // "sim": two simulated buses with the declared pairs and peers on them; or "can0,can1".
