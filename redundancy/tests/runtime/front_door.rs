@@ -1,9 +1,9 @@
 //! The redundant network's front door on the simulated station (`open_named("sim")`), on
 //! tokio's paused clock (deterministic): the builder's settings reach the running machines
 //! (the failovers come exactly when the configured heartbeats and timeouts say), SDO goes
-//! through the handle to a pair member, and the scripted faults give one failover of each kind.
+//! and NMT go through the handle to pair members, and the scripted faults give one failover of each kind.
 
-use duocan::{Duration, Instant};
+use duocan::{Duration, Instant, NmtState};
 use duocan_redundancy::net::{
     RedundantEvent, RedundantNetwork, SIM_BUS_FAILS, SIM_END, SIM_MEMBER_FAILS, SIM_PEERS_FAIL,
 };
@@ -151,6 +151,17 @@ async fn sdo_through_the_handle_to_a_pair_member_on_either_bus() {
     assert!(status.contains("failed"), "{status}");
     let a = net.node(0x10);
     assert_eq!(a.sdo().read::<u32>(0x1018, 2).await.unwrap(), 0x10);
+    // NMT through the handle: the standby member stopped, as the master then sees it.
+    b.stop().await.unwrap();
+    let mut state = None;
+    for _ in 0..50 {
+        tokio::time::sleep(std::time::Duration::from_millis(20)).await;
+        state = b.view().await.unwrap().state;
+        if state == Some(NmtState::Stopped) {
+            break;
+        }
+    }
+    assert_eq!(state, Some(NmtState::Stopped));
     // A node-ID outside 1-127 is an error of the call.
     let e = net.node(0).sdo().read::<u32>(0x1000, 0).await.unwrap_err();
     assert!(matches!(e, RedundantError::BadNodeId { id: 0, .. }), "{e}");
