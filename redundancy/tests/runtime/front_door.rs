@@ -213,3 +213,32 @@ async fn names_that_are_not_two_interfaces_are_errors_naming_the_port() {
         "{e}"
     );
 }
+
+#[tokio::test(start_paused = true)]
+async fn open_on_two_ports_runs_the_builders_network() {
+    let buses = [
+        duocan::port::mem::MemBus::new("can1"),
+        duocan::port::mem::MemBus::new("can2"),
+    ];
+    let net = RedundantNetwork::builder()
+        .node_id(7)
+        .heartbeat(ms(20))
+        .master_timeout(ms(50))
+        .open(buses[0].port(), buses[1].port())
+        .unwrap();
+    // Alone on the buses: active after the power-on negotiation, under its own node-ID.
+    tokio::time::sleep(std::time::Duration::from_secs(2)).await;
+    assert_eq!(net.role().await.unwrap(), MasterRole::Active);
+    let status = net.status().await.unwrap();
+    assert!(status.contains("master node 0x07"), "{status}");
+    // A node nobody answers for: the SDO timeout, naming the node.
+    let e = net
+        .node(0x33)
+        .sdo()
+        .read::<u32>(0x1000, 0)
+        .await
+        .unwrap_err();
+    assert_eq!(e.node().map(|n| n.raw()), Some(0x33), "{e}");
+    net.close().await;
+    assert!(net.events().next().await.is_none());
+}
