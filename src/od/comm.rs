@@ -98,8 +98,9 @@ pub const fn communication() -> [ObjectDef; COMM_LEN] {
     ]
 }
 
-/// 0x1019 accepts 0 (no counter) or 2–240 (CiA 301: 1 and 241–255 are reserved).
-fn sync_overflow_value(_: u16, _: u8, data: &[u8]) -> Result<(), AbortCode> {
+/// The write hook of 0x1019: it accepts 0 (no counter) or 2–240 (CiA 301: 1 and 241–255 are
+/// reserved). Public so that tables made elsewhere (generated from an EDS) install it too.
+pub fn sync_overflow_value(_: u16, _: u8, data: &[u8]) -> Result<(), AbortCode> {
     match data.first() {
         Some(0) | Some(2..=240) => Ok(()),
         _ => Err(AbortCode::VALUE_RANGE),
@@ -220,7 +221,7 @@ pub const fn heartbeat_consumers<const M: usize>() -> [ObjectDef; M] {
 pub const fn error_history<const M: usize>() -> [ObjectDef; M] {
     let mut out = [ObjectDef::u32(ERROR_HISTORY, 0, Access::Ro, 0); M];
     out[0] = ObjectDef::u8(ERROR_HISTORY, 0, Access::Rw, 0)
-        .hook(only_zero)
+        .hook(error_history_clear)
         .object_type(ObjectType::Array)
         .named("Pre-defined error field");
     let mut i = 1;
@@ -233,7 +234,9 @@ pub const fn error_history<const M: usize>() -> [ObjectDef; M] {
     out
 }
 
-fn only_zero(_: u16, _: u8, data: &[u8]) -> Result<(), AbortCode> {
+/// The write hook of 0x1003 sub-index 0: only 0 may be written (it clears the history).
+/// Public so that tables made elsewhere (generated from an EDS) install it too.
+pub fn error_history_clear(_: u16, _: u8, data: &[u8]) -> Result<(), AbortCode> {
     if data.iter().all(|b| *b == 0) {
         Ok(())
     } else {

@@ -4,6 +4,7 @@
 //! warnings.
 
 mod bounds;
+mod codegen;
 mod corpus;
 pub mod generate;
 mod lookup;
