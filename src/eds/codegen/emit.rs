@@ -187,9 +187,10 @@ fn index_consts(out: &mut String, d: &Description) {
         };
         let _ = writeln!(
             out,
-            "    /// {:#06x} {}.\n    pub const {name}: u16 = {:#06x};",
+            "    /// {:#06x} `{}`.\n    pub const {name}: u16 = {:#06x};",
             o.index,
-            comment(&o.name),
+            // In code quotes: rustdoc reads nothing in a name as markup.
+            comment(&o.name).replace('`', "'"),
             o.index
         );
     }

@@ -15,23 +15,23 @@ pub const VALUE_BYTES: usize = 34;
 /// The objects' indices, named after the objects.
 #[allow(dead_code)]
 pub mod index {
-    /// 0x1000 Device type.
+    /// 0x1000 `Device type`.
     pub const DEVICE_TYPE: u16 = 0x1000;
-    /// 0x1001 Error register.
+    /// 0x1001 `Error register`.
     pub const ERROR_REGISTER: u16 = 0x1001;
-    /// 0x1018 Identity object.
+    /// 0x1018 `Identity object`.
     pub const IDENTITY_OBJECT: u16 = 0x1018;
-    /// 0x2000 Access ro.
+    /// 0x2000 `Access ro`.
     pub const ACCESS_RO: u16 = 0x2000;
-    /// 0x2001 Access wo.
+    /// 0x2001 `Access wo`.
     pub const ACCESS_WO: u16 = 0x2001;
-    /// 0x2002 Access rw.
+    /// 0x2002 `Access rw`.
     pub const ACCESS_RW: u16 = 0x2002;
-    /// 0x2003 Access rwr.
+    /// 0x2003 `Access rwr`.
     pub const ACCESS_RWR: u16 = 0x2003;
-    /// 0x2004 Access rww.
+    /// 0x2004 `Access rww`.
     pub const ACCESS_RWW: u16 = 0x2004;
-    /// 0x2005 Access const.
+    /// 0x2005 `Access const`.
     pub const ACCESS_CONST: u16 = 0x2005;
 }
 

@@ -15,17 +15,17 @@ pub const VALUE_BYTES: usize = 33;
 /// The objects' indices, named after the objects.
 #[allow(dead_code)]
 pub mod index {
-    /// 0x1000 Device type.
+    /// 0x1000 `Device type`.
     pub const DEVICE_TYPE: u16 = 0x1000;
-    /// 0x1001 Error register.
+    /// 0x1001 `Error register`.
     pub const ERROR_REGISTER: u16 = 0x1001;
-    /// 0x1017 Producer heartbeat time.
+    /// 0x1017 `Producer heartbeat time`.
     pub const PRODUCER_HEARTBEAT_TIME: u16 = 0x1017;
-    /// 0x1018 Identity object.
+    /// 0x1018 `Identity object`.
     pub const IDENTITY_OBJECT: u16 = 0x1018;
-    /// 0x1800 TPDO communication parameter.
+    /// 0x1800 `TPDO communication parameter`.
     pub const TPDO_COMMUNICATION_PARAMETER: u16 = 0x1800;
-    /// 0x2000 Point position.
+    /// 0x2000 `Point position`.
     pub const POINT_POSITION: u16 = 0x2000;
 }
 

@@ -15,23 +15,23 @@ pub const VALUE_BYTES: usize = 815;
 /// The objects' indices, named after the objects.
 #[allow(dead_code)]
 pub mod index {
-    /// 0x1000 Device type.
+    /// 0x1000 `Device type`.
     pub const DEVICE_TYPE: u16 = 0x1000;
-    /// 0x1001 Error register.
+    /// 0x1001 `Error register`.
     pub const ERROR_REGISTER: u16 = 0x1001;
-    /// 0x1018 Identity object.
+    /// 0x1018 `Identity object`.
     pub const IDENTITY_OBJECT: u16 = 0x1018;
-    /// 0x1400 RPDO communication parameter.
+    /// 0x1400 `RPDO communication parameter`.
     pub const RPDO_COMMUNICATION_PARAMETER_1400: u16 = 0x1400;
-    /// 0x1401 RPDO communication parameter.
+    /// 0x1401 `RPDO communication parameter`.
     pub const RPDO_COMMUNICATION_PARAMETER_1401: u16 = 0x1401;
-    /// 0x1600 RPDO mapping parameter.
+    /// 0x1600 `RPDO mapping parameter`.
     pub const RPDO_MAPPING_PARAMETER_1600: u16 = 0x1600;
-    /// 0x1601 RPDO mapping parameter.
+    /// 0x1601 `RPDO mapping parameter`.
     pub const RPDO_MAPPING_PARAMETER_1601: u16 = 0x1601;
-    /// 0x1800 TPDO communication parameter.
+    /// 0x1800 `TPDO communication parameter`.
     pub const TPDO_COMMUNICATION_PARAMETER: u16 = 0x1800;
-    /// 0x1a00 TPDO mapping parameter.
+    /// 0x1a00 `TPDO mapping parameter`.
     pub const TPDO_MAPPING_PARAMETER: u16 = 0x1a00;
 }
 

@@ -15,15 +15,15 @@ pub const VALUE_BYTES: usize = 43;
 /// The objects' indices, named after the objects.
 #[allow(dead_code)]
 pub mod index {
-    /// 0x1000 Device type.
+    /// 0x1000 `Device type`.
     pub const DEVICE_TYPE: u16 = 0x1000;
-    /// 0x1001 Error register.
+    /// 0x1001 `Error register`.
     pub const ERROR_REGISTER: u16 = 0x1001;
-    /// 0x1016 Consumer heartbeat time.
+    /// 0x1016 `Consumer heartbeat time`.
     pub const CONSUMER_HEARTBEAT_TIME: u16 = 0x1016;
-    /// 0x1018 Identity object.
+    /// 0x1018 `Identity object`.
     pub const IDENTITY_OBJECT: u16 = 0x1018;
-    /// 0x2000 Channel gain.
+    /// 0x2000 `Channel gain`.
     pub const CHANNEL_GAIN: u16 = 0x2000;
 }
 

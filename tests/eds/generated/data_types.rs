@@ -15,61 +15,61 @@ pub const VALUE_BYTES: usize = 4983;
 /// The objects' indices, named after the objects.
 #[allow(dead_code)]
 pub mod index {
-    /// 0x1000 Device type.
+    /// 0x1000 `Device type`.
     pub const DEVICE_TYPE: u16 = 0x1000;
-    /// 0x1001 Error register.
+    /// 0x1001 `Error register`.
     pub const ERROR_REGISTER: u16 = 0x1001;
-    /// 0x1018 Identity object.
+    /// 0x1018 `Identity object`.
     pub const IDENTITY_OBJECT: u16 = 0x1018;
-    /// 0x2001 BOOLEAN.
+    /// 0x2001 `BOOLEAN`.
     pub const BOOLEAN: u16 = 0x2001;
-    /// 0x2002 INTEGER8.
+    /// 0x2002 `INTEGER8`.
     pub const INTEGER8: u16 = 0x2002;
-    /// 0x2003 INTEGER16.
+    /// 0x2003 `INTEGER16`.
     pub const INTEGER16: u16 = 0x2003;
-    /// 0x2004 INTEGER32.
+    /// 0x2004 `INTEGER32`.
     pub const INTEGER32: u16 = 0x2004;
-    /// 0x2005 UNSIGNED8.
+    /// 0x2005 `UNSIGNED8`.
     pub const UNSIGNED8: u16 = 0x2005;
-    /// 0x2006 UNSIGNED16.
+    /// 0x2006 `UNSIGNED16`.
     pub const UNSIGNED16: u16 = 0x2006;
-    /// 0x2007 UNSIGNED32.
+    /// 0x2007 `UNSIGNED32`.
     pub const UNSIGNED32: u16 = 0x2007;
-    /// 0x2008 REAL32.
+    /// 0x2008 `REAL32`.
     pub const REAL32: u16 = 0x2008;
-    /// 0x2009 VISIBLE_STRING.
+    /// 0x2009 `VISIBLE_STRING`.
     pub const VISIBLE_STRING: u16 = 0x2009;
-    /// 0x200a OCTET_STRING.
+    /// 0x200a `OCTET_STRING`.
     pub const OCTET_STRING: u16 = 0x200a;
-    /// 0x200b UNICODE_STRING.
+    /// 0x200b `UNICODE_STRING`.
     pub const UNICODE_STRING: u16 = 0x200b;
-    /// 0x200c TIME_OF_DAY.
+    /// 0x200c `TIME_OF_DAY`.
     pub const TIME_OF_DAY: u16 = 0x200c;
-    /// 0x200d TIME_DIFFERENCE.
+    /// 0x200d `TIME_DIFFERENCE`.
     pub const TIME_DIFFERENCE: u16 = 0x200d;
-    /// 0x200f DOMAIN.
+    /// 0x200f `DOMAIN`.
     pub const DOMAIN: u16 = 0x200f;
-    /// 0x2010 INTEGER24.
+    /// 0x2010 `INTEGER24`.
     pub const INTEGER24: u16 = 0x2010;
-    /// 0x2011 REAL64.
+    /// 0x2011 `REAL64`.
     pub const REAL64: u16 = 0x2011;
-    /// 0x2012 INTEGER40.
+    /// 0x2012 `INTEGER40`.
     pub const INTEGER40: u16 = 0x2012;
-    /// 0x2013 INTEGER48.
+    /// 0x2013 `INTEGER48`.
     pub const INTEGER48: u16 = 0x2013;
-    /// 0x2014 INTEGER56.
+    /// 0x2014 `INTEGER56`.
     pub const INTEGER56: u16 = 0x2014;
-    /// 0x2015 INTEGER64.
+    /// 0x2015 `INTEGER64`.
     pub const INTEGER64: u16 = 0x2015;
-    /// 0x2016 UNSIGNED24.
+    /// 0x2016 `UNSIGNED24`.
     pub const UNSIGNED24: u16 = 0x2016;
-    /// 0x2018 UNSIGNED40.
+    /// 0x2018 `UNSIGNED40`.
     pub const UNSIGNED40: u16 = 0x2018;
-    /// 0x2019 UNSIGNED48.
+    /// 0x2019 `UNSIGNED48`.
     pub const UNSIGNED48: u16 = 0x2019;
-    /// 0x201a UNSIGNED56.
+    /// 0x201a `UNSIGNED56`.
     pub const UNSIGNED56: u16 = 0x201a;
-    /// 0x201b UNSIGNED64.
+    /// 0x201b `UNSIGNED64`.
     pub const UNSIGNED64: u16 = 0x201b;
 }
 

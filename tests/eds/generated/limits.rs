@@ -15,17 +15,17 @@ pub const VALUE_BYTES: usize = 29;
 /// The objects' indices, named after the objects.
 #[allow(dead_code)]
 pub mod index {
-    /// 0x1000 Device type.
+    /// 0x1000 `Device type`.
     pub const DEVICE_TYPE: u16 = 0x1000;
-    /// 0x1001 Error register.
+    /// 0x1001 `Error register`.
     pub const ERROR_REGISTER: u16 = 0x1001;
-    /// 0x1018 Identity object.
+    /// 0x1018 `Identity object`.
     pub const IDENTITY_OBJECT: u16 = 0x1018;
-    /// 0x2000 Speed.
+    /// 0x2000 `Speed`.
     pub const SPEED: u16 = 0x2000;
-    /// 0x2001 Offset.
+    /// 0x2001 `Offset`.
     pub const OFFSET: u16 = 0x2001;
-    /// 0x2002 Gain.
+    /// 0x2002 `Gain`.
     pub const GAIN: u16 = 0x2002;
 }
 

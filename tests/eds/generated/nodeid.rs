@@ -15,17 +15,17 @@ pub const VALUE_BYTES: usize = 36;
 /// The objects' indices, named after the objects.
 #[allow(dead_code)]
 pub mod index {
-    /// 0x1000 Device type.
+    /// 0x1000 `Device type`.
     pub const DEVICE_TYPE: u16 = 0x1000;
-    /// 0x1001 Error register.
+    /// 0x1001 `Error register`.
     pub const ERROR_REGISTER: u16 = 0x1001;
-    /// 0x1014 COB-ID EMCY.
+    /// 0x1014 `COB-ID EMCY`.
     pub const COB_ID_EMCY: u16 = 0x1014;
-    /// 0x1018 Identity object.
+    /// 0x1018 `Identity object`.
     pub const IDENTITY_OBJECT: u16 = 0x1018;
-    /// 0x1200 SDO server parameter.
+    /// 0x1200 `SDO server parameter`.
     pub const SDO_SERVER_PARAMETER: u16 = 0x1200;
-    /// 0x2000 The node-ID.
+    /// 0x2000 `The node-ID`.
     pub const THE_NODE_ID: u16 = 0x2000;
 }
 
