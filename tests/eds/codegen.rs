@@ -135,13 +135,34 @@ fn hooks_are_installed_and_must_name_an_entry() {
     let e = codegen::generate(&d, &opts.with_hook(0x2FFF, 3, "crate::hooks::none")).unwrap_err();
     assert!(matches!(e.kind, EdsErrorKind::NotGenerated { .. }));
     assert!(e.to_string().contains("0x2fffsub3"), "{e}");
-    // The stack's own, where the entries exist.
-    let d = crate::read("commissioning.dcf");
-    let src = codegen::generate(&d, &CodegenOptions::default()).unwrap();
-    assert_eq!(
-        src.matches("::duocan::od::comm::").count(),
-        usize::from(d.entry_at(0x1003, 0).is_some()) + usize::from(d.entry_at(0x1019, 0).is_some())
+    // The stack's own, where the entries exist (the gateway has 0x1019, not 0x1003); an
+    // import installs the same.
+    let gateway = concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/examples/safety_gateway/safety_gateway.eds"
     );
+    let d = Description::read(gateway).unwrap();
+    let src = codegen::generate(&d, &CodegenOptions::default()).unwrap();
+    assert_eq!(src.matches("hook: Some(").count(), 1);
+    assert_eq!(
+        src.matches("hook: Some(::duocan::od::comm::sync_overflow_value)")
+            .count(),
+        1
+    );
+    let none = CodegenOptions::default().with_standard_hooks(false);
+    assert_eq!(
+        codegen::generate(&d, &none)
+            .unwrap()
+            .matches("hook: Some(")
+            .count(),
+        0
+    );
+    let mut od = d.dictionary(20);
+    assert_eq!(
+        od.write(0x1019, 0, &[1]),
+        Err(duocan::AbortCode::VALUE_RANGE)
+    );
+    assert_eq!(od.write(0x1019, 0, &[2]), Ok(()));
 }
 
 #[test]

@@ -41,8 +41,10 @@ fn the_eds_holds_the_railway_identifiers_and_refresh_time() {
 
 #[test]
 fn the_stack_hooks_are_installed() {
+    // 0x1019: 1 is reserved (CiA 301), in the generated dictionary as in the imported one.
     let mut od = generated();
-    // 0x1019: 1 is reserved (CiA 301).
     assert_eq!(od.write(0x1019, 0, &[1]), Err(AbortCode::VALUE_RANGE));
     assert_eq!(od.write(0x1019, 0, &[2]), Ok(()));
+    let mut imported = Description::read(EDS).unwrap().dictionary(NODE_ID.raw());
+    assert_eq!(imported.write(0x1019, 0, &[1]), Err(AbortCode::VALUE_RANGE));
 }

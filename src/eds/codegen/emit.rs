@@ -4,19 +4,13 @@ use super::{CodegenOptions, Generated};
 use crate::eds::error::{EdsError, EdsErrorKind, Location};
 use crate::eds::model::{AccessType, Description, Object, SubObject};
 use crate::eds::value::{type_name, Value};
-use crate::od::{DefaultValue, Limit, ObjectDef, ObjectType};
+use crate::od::{comm, DefaultValue, Limit, ObjectDef, ObjectType};
 use alloc::boxed::Box;
 use alloc::collections::BTreeMap;
 use alloc::format;
 use alloc::string::String;
 use alloc::vec::Vec;
 use core::fmt::Write;
-
-/// The stack's own hooks, installed where the entry exists.
-const STANDARD_HOOKS: [(u16, u8, &str); 2] = [
-    (0x1003, 0, "::duocan::od::comm::error_history_clear"),
-    (0x1019, 0, "::duocan::od::comm::sync_overflow_value"),
-];
 
 /// One entry as it will be written.
 struct Row<'a> {
@@ -28,11 +22,11 @@ struct Row<'a> {
 
 /// Generates the source, or the error naming what a static table cannot hold.
 pub(super) fn source(d: &Description, opts: &CodegenOptions) -> Result<Generated, EdsError> {
-    let mut hooks: BTreeMap<(u16, u8), &str> = BTreeMap::new();
+    let mut hooks: BTreeMap<(u16, u8), String> = BTreeMap::new();
     if opts.standard_hooks {
-        for (index, sub, path) in STANDARD_HOOKS {
+        for (index, sub, _, name) in comm::HOOKS {
             if d.entry_at(index, sub).is_some() {
-                hooks.insert((index, sub), path);
+                hooks.insert((index, sub), format!("::duocan::od::comm::{name}"));
             }
         }
     }
@@ -48,7 +42,7 @@ pub(super) fn source(d: &Description, opts: &CodegenOptions) -> Result<Generated
                 ),
             ));
         }
-        hooks.insert((*index, *sub), path);
+        hooks.insert((*index, *sub), path.clone());
     }
     let mut rows = Vec::new();
     for o in d.objects.values() {
@@ -77,7 +71,7 @@ fn row<'a>(
     o: &'a Object,
     s: &'a SubObject,
     ot: ObjectType,
-    hooks: &BTreeMap<(u16, u8), &'a str>,
+    hooks: &'a BTreeMap<(u16, u8), String>,
 ) -> Result<Row<'a>, EdsError> {
     let section = if o.code.has_subs() {
         format!("{:04X}sub{:X}", s.index, s.sub)
@@ -120,7 +114,7 @@ fn row<'a>(
         def,
         name,
         bytes,
-        hook: hooks.get(&(s.index, s.sub)).copied(),
+        hook: hooks.get(&(s.index, s.sub)).map(String::as_str),
     })
 }
 

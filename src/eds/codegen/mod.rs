@@ -18,9 +18,9 @@
 //!   array or record carries the object's name); type definitions are not entries;
 //! - a DCF's `ParameterValue` becomes the entry's default: the table is that node's
 //!   configuration, as in CANopenNode's generated dictionaries;
-//! - write hooks are code, not description: the stack's own (0x1003 sub 0, 0x1019) are
-//!   installed where those entries exist, others are named with
-//!   [`CodegenOptions::with_hook`];
+//! - write hooks are code, not description: the stack's own ([`comm::HOOKS`]: 0x1003 sub 0,
+//!   0x1019) are installed where those entries exist, as an import installs them; others are
+//!   named with [`CodegenOptions::with_hook`];
 //! - the file is read strictly unless told otherwise (a build should not rest on a file a
 //!   validator refuses); a lenient read returns its warnings, which [`build_script`] prints as
 //!   cargo warnings.
@@ -109,6 +109,7 @@
 //!
 //! [`StaticDictionary`]: crate::od::StaticDictionary
 //! [`ObjectDef`]: crate::od::ObjectDef
+//! [`comm::HOOKS`]: crate::od::comm::HOOKS
 
 mod emit;
 
