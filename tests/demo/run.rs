@@ -31,7 +31,7 @@ fn the_demo_day_loses_nothing_and_keeps_every_bound() {
 }
 
 fn day() {
-    let st = crate::scenario::run();
+    let st = crate::scenario::run().unwrap();
     assert_eq!(
         st.happened.len(),
         SCRIPT.len(),
@@ -106,6 +106,16 @@ fn day() {
             "{}",
             e.status
         );
+    }
+    // Every board holds what its rack's DCF configures: the masters wrote it.
+    for r in &st.racks {
+        for p in 0..r.pairs() {
+            for m in [Member::A, Member::B] {
+                let v = |index| r.board_value(&st.sim, p, m, index);
+                assert_eq!(v(0x1015), Some(100), "{} pair {p} {m}", r.name());
+                assert_eq!(v(0x1017), Some(20), "{} pair {p} {m}", r.name());
+            }
+        }
     }
     assert_eq!(
         o.ends[crate::scenario::TURNOUT].pairs[crate::scenario::KILLED_PAIR].running,
@@ -239,7 +249,8 @@ fn a_rack_cut_off_on_both_buses_shows_as_lost_messages() {
             sim.at(Instant::from_millis(5_700), move |sim| {
                 buses.iter().for_each(|b| sim.bus_up(*b))
             });
-        });
+        })
+        .unwrap();
         let o = Analysis::new(&st).outcome();
         let turnout = &o.traffic[crate::scenario::TURNOUT].1;
         assert!(turnout.lost_total() > 0, "{turnout:?}");
