@@ -99,6 +99,12 @@ fn demo(out: PathBuf) -> ExitCode {
     }
 
     let ok = report(&outcome);
+    let (boards, holding) = scenario::devices::configured(&st);
+    println!(
+        "configuration: {holding} of {boards} boards hold their rack's DCF values (dictionaries from {})",
+        scenario::devices::BOARD_EDS.0
+    );
+    let ok = ok && holding == boards;
 
     println!("\nfinal status (the active computer's table, per rack)");
     for e in &outcome.ends {

@@ -2,13 +2,12 @@
 //! the dictionary the demo's boards always had, and each rack's DCF configures exactly the
 //! heartbeat the pair supervision uses and the EMCY inhibit time.
 
-use crate::scenario::devices::{Devices, BOARD_EDS, DIR, RACK_DCFS};
+use crate::scenario::devices::{read, Devices, BOARD_EDS, RACK_DCFS};
 use crate::scenario::BOARD_HB;
-use duocan::eds::{difference, Description, FileKind};
+use duocan::eds::{difference, EdsErrorKind, FileKind};
 use duocan::master::{ConfigStep, SlaveConfig};
 use duocan::od::{comm, Access, DefaultValue, ObjectDef, ObjectDictionary, ObjectType};
 use duocan::NodeId;
-use std::path::Path;
 
 #[test]
 fn the_boards_eds_gives_the_standard_board_dictionary() {
@@ -38,7 +37,7 @@ fn the_boards_eds_gives_the_standard_board_dictionary() {
 #[test]
 fn each_rack_dcf_configures_the_heartbeat_and_the_emcy_inhibit_time() {
     let d = Devices::load().unwrap();
-    for (dcf, name) in d.racks.iter().zip(RACK_DCFS) {
+    for (dcf, (name, _)) in d.racks.iter().zip(RACK_DCFS) {
         assert_eq!(dcf.kind, FileKind::Dcf, "{name}");
         for node in [0x11, 0x2c] {
             let cfg = SlaveConfig::from_dcf(NodeId::must(node), dcf);
@@ -61,8 +60,12 @@ fn each_rack_dcf_configures_the_heartbeat_and_the_emcy_inhibit_time() {
 }
 
 #[test]
-fn a_broken_description_is_an_error_naming_the_file() {
-    let e = Description::read(Path::new(DIR).join("missing.eds")).unwrap_err();
-    assert!(e.to_string().contains("missing.eds"), "{e}");
-    assert!(Path::new(DIR).join(BOARD_EDS).exists());
+fn a_broken_description_is_an_error_naming_file_line_section_and_key() {
+    let (name, text) = BOARD_EDS;
+    let broken = text.replacen("AccessType=rw", "AccessType=readwrite", 1);
+    let e = read((name, &broken)).err().unwrap();
+    assert!(matches!(e.kind, EdsErrorKind::UnknownAccessType { .. }));
+    assert_eq!(e.at.file, "io_board.eds");
+    assert_eq!(e.at.key.as_deref(), Some("AccessType"));
+    assert!(e.at.line > 0);
 }

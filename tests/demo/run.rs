@@ -107,16 +107,18 @@ fn day() {
             e.status
         );
     }
-    // Every board holds what its rack's DCF configures: the masters wrote it.
-    for r in &st.racks {
-        for p in 0..r.pairs() {
-            for m in [Member::A, Member::B] {
-                let v = |index| r.board_value(&st.sim, p, m, index);
-                assert_eq!(v(0x1015), Some(100), "{} pair {p} {m}", r.name());
-                assert_eq!(v(0x1017), Some(20), "{} pair {p} {m}", r.name());
-            }
-        }
-    }
+    // Every board holds what its rack's DCF configures (0x1015 100, 0x1017 20): the masters
+    // wrote it.
+    assert_eq!(crate::scenario::devices::configured(&st), (72, 72));
+    let turnout = &st.racks[crate::scenario::TURNOUT];
+    assert_eq!(
+        turnout.board_value(&st.sim, 3, Member::B, 0x1015, 0),
+        Some(100)
+    );
+    assert_eq!(
+        turnout.board_value(&st.sim, 3, Member::B, 0x1017, 0),
+        Some(20)
+    );
     assert_eq!(
         o.ends[crate::scenario::TURNOUT].pairs[crate::scenario::KILLED_PAIR].running,
         [Member::B]

@@ -10,23 +10,29 @@
 //! railway racks' boards take their 29-bit identifiers from the profile (they follow from the
 //! board's address, which no EDS expression can say), as before.
 //!
-//! The files are read strictly: a mistake in them stops the demo with an error naming the file,
-//! line, section and key.
+//! The files are compiled into the demo and read strictly when it starts: a mistake in them
+//! stops the demo with an error naming the file, line, section and key. After the day,
+//! [`configured`] checks that every board holds its rack's DCF values.
 
+use super::Station;
 use duocan::eds::{Description, EdsError, ImportOptions};
-use std::path::Path;
+use duocan_redundancy::Member;
 use std::rc::Rc;
 
-/// Where the files are.
-pub const DIR: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/examples/demo/devices");
-/// The boards' EDS.
-pub const BOARD_EDS: &str = "io_board.eds";
+/// The boards' EDS, by name and content (compiled in, so the demo runs from any directory).
+pub const BOARD_EDS: (&str, &str) = ("io_board.eds", include_str!("../devices/io_board.eds"));
 /// Each rack's DCF, in rack order (turnout, signal, track-circuit, misc).
-pub const RACK_DCFS: [&str; 4] = [
-    "turnout_rack.dcf",
-    "signal_rack.dcf",
-    "track_rack.dcf",
-    "misc_rack.dcf",
+pub const RACK_DCFS: [(&str, &str); 4] = [
+    (
+        "turnout_rack.dcf",
+        include_str!("../devices/turnout_rack.dcf"),
+    ),
+    (
+        "signal_rack.dcf",
+        include_str!("../devices/signal_rack.dcf"),
+    ),
+    ("track_rack.dcf", include_str!("../devices/track_rack.dcf")),
+    ("misc_rack.dcf", include_str!("../devices/misc_rack.dcf")),
 ];
 
 /// The descriptions, read once and shared by the racks (a revived board builds its dictionary
@@ -38,18 +44,40 @@ pub struct Devices {
     pub racks: [Rc<Description>; 4],
 }
 
-fn read(name: &str) -> Result<Rc<Description>, EdsError> {
-    Description::read_with(Path::new(DIR).join(name), &ImportOptions::strict()).map(Rc::new)
+/// Reads one description, strictly; errors name it.
+pub fn read((name, text): (&str, &str)) -> Result<Rc<Description>, EdsError> {
+    Description::parse(text.as_bytes(), name, &ImportOptions::strict()).map(Rc::new)
 }
 
 impl Devices {
     /// Reads the EDS and the four DCFs.
     pub fn load() -> Result<Devices, EdsError> {
-        let board = read(BOARD_EDS)?;
         let [a, b, c, d] = RACK_DCFS;
         Ok(Devices {
-            board,
+            board: read(BOARD_EDS)?,
             racks: [read(a)?, read(b)?, read(c)?, read(d)?],
         })
     }
+}
+
+/// After the day: (boards, boards holding every `ParameterValue` of their rack's DCF).
+pub fn configured(st: &Station) -> (usize, usize) {
+    let (mut boards, mut holding) = (0, 0);
+    for (r, dcf) in st.racks.iter().zip(&st.devices.racks) {
+        for p in 0..r.pairs() {
+            for m in [Member::A, Member::B] {
+                let node = r.board_node(p, m).raw();
+                let holds = dcf.parameter_values().all(|e| {
+                    let want = e.value_bytes(node);
+                    let mut b = [0u8; 4];
+                    let n = want.len().min(4);
+                    b[..n].copy_from_slice(&want[..n]);
+                    r.board_value(&st.sim, p, m, e.index, e.sub) == Some(u32::from_le_bytes(b))
+                });
+                boards += 1;
+                holding += usize::from(holds);
+            }
+        }
+    }
+    (boards, holding)
 }

@@ -177,6 +177,8 @@ pub struct Station {
     pub racks: Vec<Rc<dyn RackView>>,
     /// The script as it ran.
     pub happened: Vec<Happened>,
+    /// The device descriptions the boards and masters were built from.
+    pub devices: Devices,
 }
 
 /// The route schedule: per rack, the commands of the day in time order.
@@ -348,6 +350,7 @@ pub fn run_with(
         sim,
         racks,
         happened,
+        devices,
     })
 }
 

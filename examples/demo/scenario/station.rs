@@ -189,8 +189,17 @@ pub trait RackView {
     fn unanswered(&self, sim: &SimNetwork, which: usize) -> usize;
     /// A board's NMT state (what it last was if powered off).
     fn board_state(&self, sim: &SimNetwork, pair: usize, m: Member) -> NmtState;
-    /// An unsigned entry of a board's dictionary, as the board holds it now.
-    fn board_value(&self, sim: &SimNetwork, pair: usize, m: Member, index: u16) -> Option<u32>;
+    /// An unsigned entry (up to 32 bits) of a board's dictionary, as the board holds it now.
+    fn board_value(
+        &self,
+        sim: &SimNetwork,
+        pair: usize,
+        m: Member,
+        index: u16,
+        sub: u8,
+    ) -> Option<u32>;
+    /// The node-ID of a board.
+    fn board_node(&self, pair: usize, m: Member) -> NodeId;
     /// The boot-up / heartbeat identifier of `node`.
     fn heartbeat_id(&self, node: NodeId) -> Id;
     /// The NMT identifier.
@@ -258,11 +267,21 @@ impl<S: Scheme> RackView for Rack<S> {
     fn board_state(&self, sim: &SimNetwork, pair: usize, m: Member) -> NmtState {
         sim.device(self.boards[pair][m as usize]).machine.state()
     }
-    fn board_value(&self, sim: &SimNetwork, pair: usize, m: Member, index: u16) -> Option<u32> {
+    fn board_value(
+        &self,
+        sim: &SimNetwork,
+        pair: usize,
+        m: Member,
+        index: u16,
+        sub: u8,
+    ) -> Option<u32> {
         sim.device(self.boards[pair][m as usize])
             .machine
             .od()
-            .get_u32(index, 0)
+            .get_u32(index, sub)
+    }
+    fn board_node(&self, pair: usize, m: Member) -> NodeId {
+        board_node(pair, m)
     }
     fn heartbeat_id(&self, node: NodeId) -> Id {
         self.spec.scheme.heartbeat(node)
