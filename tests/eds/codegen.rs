@@ -170,3 +170,29 @@ fn names_become_index_constants() {
     assert_eq!(nodeid::index::IDENTITY_OBJECT, 0x1018);
     assert_eq!(data_types::index::DEVICE_TYPE, 0x1000);
 }
+
+#[test]
+fn index_constant_names_are_unique() {
+    let var = |index: u16, name: &str| {
+        format!(
+            "[{index:04X}]\nParameterName={name}\nDataType=0x0005\nAccessType=rw\nDefaultValue=0\n"
+        )
+    };
+    let text = format!(
+        "[OptionalObjects]\nSupportedObjects=4\n1=0x2000\n2=0x2001\n3=0x2002\n4=0x2003\n{}{}{}{}",
+        var(0x2000, "A"),
+        var(0x2001, "A"),
+        var(0x2002, "A 2000"),
+        var(0x2003, "2nd (spare)"),
+    );
+    let d = Description::parse(text.as_bytes(), "names.eds", &ImportOptions::lenient()).unwrap();
+    let src = codegen::generate(&d, &CodegenOptions::default()).unwrap();
+    for line in [
+        "pub const A_2000: u16 = 0x2000;",
+        "pub const A_2001: u16 = 0x2001;",
+        "pub const A_2000_2002: u16 = 0x2002;",
+        "pub const OBJECT_2ND_SPARE: u16 = 0x2003;",
+    ] {
+        assert!(src.contains(line), "{line}\n{src}");
+    }
+}

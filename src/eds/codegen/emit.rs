@@ -6,7 +6,7 @@ use crate::eds::model::{AccessType, Description, Object, SubObject};
 use crate::eds::value::{type_name, Value};
 use crate::od::{comm, DefaultValue, Limit, ObjectDef, ObjectType};
 use alloc::boxed::Box;
-use alloc::collections::BTreeMap;
+use alloc::collections::{BTreeMap, BTreeSet};
 use alloc::format;
 use alloc::string::String;
 use alloc::vec::Vec;
@@ -172,13 +172,18 @@ fn index_consts(out: &mut String, d: &Description) {
         .collect();
     let names: Vec<String> = objects.iter().map(|o| ident(&o.name)).collect();
     out.push_str("/// The objects' indices, named after the objects.\n#[allow(dead_code)]\npub mod index {\n");
+    let mut used = BTreeSet::new();
     for (o, name) in objects.iter().zip(&names) {
         let repeated = names.iter().filter(|n| *n == name).count() > 1;
-        let name = match (name.is_empty(), repeated) {
+        let mut name = match (name.is_empty(), repeated) {
             (true, _) => format!("OBJECT_{:04X}", o.index),
             (false, true) => format!("{name}_{:04X}", o.index),
             (false, false) => name.clone(),
         };
+        // A suffixed name may be another object's own ("A 2000"): suffix again until unique.
+        while !used.insert(name.clone()) {
+            name = format!("{name}_{:04X}", o.index);
+        }
         let _ = writeln!(
             out,
             "    /// {:#06x} `{}`.\n    pub const {name}: u16 = {:#06x};",

@@ -70,7 +70,7 @@
 //! ParameterName=Producer heartbeat time
 //! DataType=0x0006
 //! AccessType=rw
-//! DefaultValue=500
+//! DefaultValue=100
 //! [1018]
 //! ParameterName=Identity object
 //! ObjectType=0x9
@@ -90,10 +90,10 @@
 //! let source = codegen::generate(&eds, &CodegenOptions::default())?;
 //! assert!(source.contains("pub const ENTRIES: usize = 5;"));
 //! assert!(source.contains("pub const PRODUCER_HEARTBEAT_TIME: u16 = 0x1017;"));
-//! assert!(source.contains("default: DefaultValue::Unsigned(500),"));
+//! assert!(source.contains("default: DefaultValue::Unsigned(100),"));
 //!
 //! // A limit that depends on the node-ID has no static form: an error naming the entry.
-//! let bad = text.replace("DefaultValue=500", "DefaultValue=500\nHighLimit=$NODEID+0x600");
+//! let bad = text.replace("DefaultValue=100", "DefaultValue=100\nHighLimit=$NODEID+0x600");
 //! let eds = Description::parse(bad.as_bytes(), "sensor.eds", &ImportOptions::strict())?;
 //! let err = codegen::generate(&eds, &CodegenOptions::default()).unwrap_err();
 //! assert_eq!(
