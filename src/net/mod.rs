@@ -47,15 +47,18 @@
 mod door;
 mod error;
 mod events;
+mod named;
 mod remote;
 mod sdo;
 mod sim;
+mod value;
 
 pub use error::{Awaited, NetError};
 pub use events::{Events, NetEvent};
 pub use remote::RemoteNode;
 pub use sdo::RemoteSdo;
-pub use sim::{SIM_DEVICE_NAME, SIM_HEARTBEAT_MS, SIM_VENDOR};
+pub use sim::{sim_description, SIM_DEVICE_NAME, SIM_HEARTBEAT_MS, SIM_VENDOR};
+pub use value::AnyValue;
 
 use crate::cia301::nmt::{NmtCommand, NmtTarget};
 use crate::cia301::sdo::{SdoClient, SdoOptions};
@@ -66,7 +69,9 @@ use crate::node::NodeConfig;
 use crate::od::comm;
 use crate::port::Port;
 use crate::runtime::{Handle, Runtime};
+use crate::eds::Description;
 use door::Door;
+use std::collections::BTreeMap;
 use std::sync::Arc;
 use tokio::sync::{watch, Mutex, Semaphore};
 
@@ -138,6 +143,8 @@ struct Shared {
     sim: sim::SimNodes,
     /// Set by [`Network::close`]: ends every event stream.
     closed: watch::Sender<bool>,
+    /// Device descriptions attached with [`Network::add_node`], by node-ID.
+    descs: std::sync::Mutex<BTreeMap<u8, Arc<Description>>>,
 }
 
 impl Network {
@@ -187,6 +194,7 @@ impl Network {
                 sessions: Semaphore::new(SESSIONS),
                 sim,
                 closed: watch::channel(false).0,
+                descs: std::sync::Mutex::default(),
             }),
         })
     }
@@ -196,7 +204,35 @@ impl Network {
     /// ([`RemoteNode::wait_for_boot_up`]).
     #[must_use]
     pub fn node(&self, id: u8) -> RemoteNode {
-        RemoteNode::new(self.clone(), id, self.now())
+        let desc = self.descriptions().get(&id).cloned();
+        RemoteNode::new(self.clone(), id, self.now(), desc)
+    }
+
+    /// The remote node `id` with a device description, which every handle
+    /// [`Network::node`] gives for `id` from now on carries too: its names work in the by-name
+    /// calls ([`RemoteSdo::read_named`]) and name the values of its PDOs.
+    pub fn add_node(&self, id: u8, desc: impl Into<Arc<Description>>) -> RemoteNode {
+        self.descriptions().insert(id, desc.into());
+        self.node(id)
+    }
+
+    /// [`Network::add_node`] with the description read from an EDS or DCF file (leniently:
+    /// what a real file gets wrong is a warning in [`Description::warnings`]).
+    pub fn add_node_eds(
+        &self,
+        id: u8,
+        path: impl AsRef<std::path::Path>,
+    ) -> Result<RemoteNode, NetError> {
+        Ok(self.add_node(id, Description::read(path)?))
+    }
+
+    fn descriptions(&self) -> std::sync::MutexGuard<'_, BTreeMap<u8, Arc<Description>>> {
+        // A poisoned lock only means another thread panicked while inserting: the map is
+        // still whole.
+        self.shared
+            .descs
+            .lock()
+            .unwrap_or_else(std::sync::PoisonError::into_inner)
     }
 
     /// Every event from now on, as a stream on which lag is an item.
