@@ -4,6 +4,7 @@
 mod events;
 mod examples;
 mod monitor;
+mod named;
 mod nmt;
 #[path = "../common/runtime.rs"]
 mod rt;
