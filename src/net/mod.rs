@@ -48,6 +48,7 @@ mod door;
 mod error;
 mod events;
 mod named;
+mod pdo;
 mod remote;
 mod sdo;
 mod sim;
@@ -58,6 +59,7 @@ pub use events::{Events, NetEvent};
 pub use remote::RemoteNode;
 pub use sdo::RemoteSdo;
 pub use sim::{sim_description, SIM_DEVICE_NAME, SIM_HEARTBEAT_MS, SIM_VENDOR};
+pub use pdo::{PdoMap, PdoValue, PdoValues, PdoVariable, RemotePdo, MAX_LEARNED};
 pub use value::AnyValue;
 
 use crate::cia301::nmt::{NmtCommand, NmtTarget};
@@ -276,6 +278,53 @@ impl Network {
                 d.node()
                     .nmt_command(now, cmd, target)
                     .map_err(|_| NetError::QueueFull)
+            })
+            .await
+    }
+
+    /// Starts producing SYNC every `period` (python `network.sync.start(period)`): the
+    /// network's own SYNC producer (0x1005 with bit 30, 0x1006 = the period in µs), on
+    /// identifier 0x080, without a counter. Synchronous PDOs (transmission types 0–240) follow
+    /// it. A period of zero or above 4294 s is [`NetError::Argument`].
+    pub async fn start_sync(&self, period: std::time::Duration) -> Result<(), NetError> {
+        if self.is_listen_only() {
+            return Err(NetError::ListenOnly { node: None });
+        }
+        let us = u32::try_from(period.as_micros())
+            .ok()
+            .filter(|us| *us > 0)
+            .ok_or_else(|| {
+                NetError::Argument(format!(
+                    "a SYNC period of {period:?}: give 1 µs to 4294 s (stop_sync stops it)"
+                ))
+            })?;
+        self.shared
+            .handle
+            .try_call(move |d, now| {
+                d.sync_on = true;
+                let node = d.node();
+                // Off first: a running producer's period and identifier change only while off.
+                let cob = u32::from(door::SYNC_ID);
+                let r = node
+                    .write(now, comm::SYNC_COB_ID, 0, &cob.to_le_bytes())
+                    .and_then(|()| node.write(now, comm::SYNC_PERIOD, 0, &us.to_le_bytes()))
+                    .and_then(|()| {
+                        node.write(now, comm::SYNC_COB_ID, 0, &(cob | 1 << 30).to_le_bytes())
+                    });
+                r.map_err(|code| NetError::Argument(format!("the SYNC producer refused: {code}")))
+            })
+            .await
+    }
+
+    /// Stops producing SYNC.
+    pub async fn stop_sync(&self) -> Result<(), NetError> {
+        self.shared
+            .handle
+            .try_call(move |d, now| {
+                let cob = u32::from(door::SYNC_ID);
+                let r = d.node().write(now, comm::SYNC_COB_ID, 0, &cob.to_le_bytes());
+                d.sync_on = false;
+                r.map_err(|code| NetError::Argument(format!("the SYNC producer refused: {code}")))
             })
             .await
     }

@@ -210,7 +210,7 @@ impl RemoteNode {
     /// Waits at most `timeout` for `pick` to accept an event of this node, unless `now`
     /// already answers. Both run inside the runtime in one step, so nothing falls between
     /// the check and the watch.
-    async fn watch<R: Send + 'static>(
+    pub(super) async fn watch<R: Send + 'static>(
         &self,
         awaited: Awaited,
         timeout: Duration,

@@ -1,0 +1,160 @@
+//! What the network knows of the nodes' PDO mappings, inside its runtime: a node's TPDO is
+//! decoded here when its frame arrives, a node's RPDO encoded here when it is sent.
+
+use super::{PdoValue, PdoValues};
+use crate::cia301::pdo::mapping::{read_bits, write_bits, MAX_BITS};
+use crate::frame::cob_id::NodeId;
+use crate::frame::{Frame, Id};
+use crate::net::value::AnyValue;
+use crate::od::DataType;
+use std::collections::BTreeMap;
+use std::sync::Arc;
+
+/// The most PDO mappings the network keeps per direction (4 PDOs of every node twice over):
+/// learning one more is an error, never growth.
+pub const MAX_LEARNED: usize = 1024;
+
+/// One mapped entry as the network decodes or encodes it.
+#[derive(Clone, Debug)]
+pub(crate) struct Slot {
+    pub index: u16,
+    pub sub: u8,
+    pub bits: u8,
+    pub data_type: Option<DataType>,
+    pub name: Option<Arc<str>>,
+    pub dummy: bool,
+}
+
+/// A learned PDO: whose it is and what it carries.
+#[derive(Clone, Debug)]
+pub(crate) struct Learned {
+    pub node: NodeId,
+    pub pdo: u16,
+    pub id: Id,
+    pub slots: Arc<[Slot]>,
+}
+
+/// A CAN identifier as one ordered key (bit 31: 29-bit).
+fn key(id: Id) -> u32 {
+    match id {
+        Id::Standard(v) => u32::from(v),
+        Id::Extended(v) => v | 1 << 31,
+    }
+}
+
+/// The learned mappings: the nodes' TPDOs by identifier (what arrives), their RPDOs by node
+/// and number (what is sent).
+#[derive(Default)]
+pub(crate) struct PdoTable {
+    rx: BTreeMap<u32, Learned>,
+    tx: BTreeMap<(u8, u16), Learned>,
+}
+
+impl PdoTable {
+    /// Learns (or, with `learned = None`, forgets) a node's TPDO (`transmit`) or RPDO.
+    pub fn learn(
+        &mut self,
+        transmit: bool,
+        node: NodeId,
+        pdo: u16,
+        learned: Option<Learned>,
+    ) -> Result<(), ()> {
+        if transmit {
+            self.rx.retain(|_, l| (l.node, l.pdo) != (node, pdo));
+            if let Some(l) = learned {
+                if self.rx.len() >= MAX_LEARNED {
+                    return Err(());
+                }
+                self.rx.insert(key(l.id), l);
+            }
+        } else {
+            let k = (node.raw(), pdo);
+            match learned {
+                None => {
+                    self.tx.remove(&k);
+                }
+                Some(l) => {
+                    if self.tx.len() >= MAX_LEARNED && !self.tx.contains_key(&k) {
+                        return Err(());
+                    }
+                    self.tx.insert(k, l);
+                }
+            }
+        }
+        Ok(())
+    }
+
+    /// The node, PDO number and values of a frame that is a learned TPDO; `None` for any other
+    /// frame, and for one shorter than its mapping (CiA 301: such a PDO is not processed).
+    pub fn decode(&self, f: &Frame) -> Option<(NodeId, u16, PdoValues)> {
+        let l = self.rx.get(&key(f.id()))?;
+        if f.is_remote() {
+            return None;
+        }
+        let total: u32 = l.slots.iter().map(|s| u32::from(s.bits)).sum();
+        let data = f.data();
+        if data.len() * 8 < total as usize {
+            return None;
+        }
+        let mut payload = [0u8; 8];
+        payload[..data.len().min(8)].copy_from_slice(&data[..data.len().min(8)]);
+        let mut offset = 0u32;
+        let mut values = Vec::with_capacity(l.slots.len());
+        for s in l.slots.iter() {
+            let bits = u32::from(s.bits);
+            if !s.dummy {
+                let raw = read_bits(&payload, offset, bits);
+                values.push(PdoValue {
+                    index: s.index,
+                    sub: s.sub,
+                    name: s.name.clone(),
+                    value: AnyValue::from_bits(s.data_type, raw, bits),
+                });
+            }
+            offset += bits;
+        }
+        Some((l.node, l.pdo, PdoValues(values.into())))
+    }
+
+    /// The frame of a node's learned RPDO carrying `values` (one per entry that is not a
+    /// dummy, in mapping order), or why it cannot be made; `None`: the RPDO is not known.
+    pub fn encode(
+        &self,
+        node: NodeId,
+        pdo: u16,
+        values: &[AnyValue],
+    ) -> Option<Result<Frame, String>> {
+        let l = self.tx.get(&(node.raw(), pdo))?;
+        Some(encode(l, values))
+    }
+}
+
+fn encode(l: &Learned, values: &[AnyValue]) -> Result<Frame, String> {
+    let wanted = l.slots.iter().filter(|s| !s.dummy).count();
+    if values.len() != wanted {
+        return Err(format!(
+            "its mapping carries {wanted} value(s) but {} were given: give one per mapped entry, in mapping order",
+            values.len()
+        ));
+    }
+    let mut payload = [0u8; 8];
+    let mut offset = 0u32;
+    let mut given = values.iter();
+    for s in l.slots.iter() {
+        let bits = u32::from(s.bits);
+        if offset + bits > MAX_BITS {
+            return Err("its mapping is longer than 64 bits".into());
+        }
+        if !s.dummy {
+            let v = given.next().ok_or("too few values")?;
+            let raw = v.to_bits(s.data_type, bits).map_err(|why| {
+                let name = s.name.as_deref().map_or(String::new(), |n| format!(" {n:?}"));
+                format!("entry {:#06x} sub {}{name}: {why}", s.index, s.sub)
+            })?;
+            write_bits(&mut payload, offset, bits, raw);
+        }
+        offset += bits;
+    }
+    let len = offset.div_ceil(8) as usize;
+    Frame::new(l.id, &payload[..len]).map_err(|e| format!("{e:?}"))
+}
