@@ -177,7 +177,16 @@ impl Network {
         ids: impl IntoIterator<Item = u8>,
         opts: NetOptions,
     ) -> Result<Network, NetError> {
-        let bus = MemBus::new("sim");
+        Self::simulated_on(&MemBus::new("sim"), ids, opts)
+    }
+
+    /// [`Network::simulated`] on the in-memory bus `bus`: a port taken from it before the
+    /// call sees every frame (the nodes' boot-ups included), to watch the wire.
+    pub fn simulated_on(
+        bus: &MemBus,
+        ids: impl IntoIterator<Item = u8>,
+        opts: NetOptions,
+    ) -> Result<Network, NetError> {
         // The network's port first: a port hears only what is sent after it exists, and the
         // nodes' boot-ups go out as soon as they start.
         let port = bus.port();

@@ -6,6 +6,7 @@ mod examples;
 mod monitor;
 mod named;
 mod nmt;
+mod pdo;
 #[path = "../common/runtime.rs"]
 mod rt;
 mod sdo;

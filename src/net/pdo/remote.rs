@@ -67,6 +67,22 @@ impl RemoteNode {
         .await
     }
 
+    /// Waits at most `timeout` for an emergency message from the node and returns it (one
+    /// that arrived before the call does not count: watch [`Network::events`] for every one).
+    ///
+    /// [`Network::events`]: crate::net::Network::events
+    pub async fn wait_for_emcy(
+        &self,
+        timeout: Duration,
+    ) -> Result<crate::cia301::emcy::EmcyMessage, NetError> {
+        let id = self.id()?;
+        self.watch(Awaited::Emcy, timeout, |_| None, move |e| match e.emcy() {
+            Some((node, m)) if node == id => Some(m),
+            _ => None,
+        })
+        .await
+    }
+
     /// Stores the node's parameters (0x1010 sub 1, "save"), so that what was configured
     /// survives a power cycle: python `node.store()`.
     pub async fn store_parameters(&self) -> Result<(), NetError> {
