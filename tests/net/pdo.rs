@@ -190,6 +190,34 @@ async fn an_rpdo_sent_changes_the_nodes_dictionary() {
     r2.save(&m).await.unwrap();
     r2.send(&[4321u16.into()]).await.unwrap();
     assert_eq!(node.sdo().read::<u16>(0x6200, 1).await.unwrap(), 4321);
+
+    // Enabled without a COB-ID of its own, a PDO would sit on 0x000 (NMT): refused.
+    let mut blank = node.rpdo(3).blank().unwrap();
+    blank.enabled = true;
+    let e = node.rpdo(3).save(&blank).await.unwrap_err();
+    assert!(e.to_string().contains("reserved for other services"), "{e}");
+    let e = node.rpdo(3).learn(&blank).await.unwrap_err();
+    assert!(matches!(e, NetError::Pdo { .. }), "{e:?}");
+    // A map saved on another PDO than its own is refused.
+    let e = node.rpdo(3).save(&m).await.unwrap_err();
+    assert!(matches!(e, NetError::Argument(_)), "{e:?}");
+    net.close().await;
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_monitor_sends_neither_sync_nor_rpdos() {
+    let bus = MemBus::new("mon");
+    let net = Network::monitor(bus.port()).unwrap();
+    let e = net.start_sync(Duration::from_millis(10)).await.unwrap_err();
+    assert_eq!(e, NetError::ListenOnly { node: None });
+    let r1 = net.node(5).rpdo(1);
+    let mut m = r1.blank().unwrap();
+    m.cob_id = CobId(0x205);
+    m.enabled = true;
+    m.add(0x6200, 1, 16).unwrap();
+    r1.learn(&m).await.unwrap();
+    let e = r1.send(&[1u16.into()]).await.unwrap_err();
+    assert!(matches!(e, NetError::ListenOnly { .. }), "{e:?}");
     net.close().await;
 }
 

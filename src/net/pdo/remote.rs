@@ -215,6 +215,7 @@ impl RemotePdo {
     }
 
     fn config(&self, map: &PdoMap) -> Result<PdoConfig, NetError> {
+        usable_cob_id(map)?;
         let entries: Vec<MapEntry> = map.entries.iter().map(PdoVariable::entry).collect();
         if map.bits() > crate::cia301::pdo::mapping::MAX_BITS {
             return Err(map.error("the mapping is longer than 64 bits: map fewer entries"));
@@ -233,6 +234,7 @@ impl RemotePdo {
     /// the PDO.
     pub async fn learn(&self, map: &PdoMap) -> Result<(), NetError> {
         let node = self.id()?;
+        usable_cob_id(map)?;
         let transmit = self.dir == Dir::Transmit;
         let pdo = self.pdo;
         let learned = match (map.enabled, map.cob_id.can_id()) {
@@ -307,6 +309,19 @@ impl RemotePdo {
         self.id()?;
         self.node.wait_for_pdo(self.pdo, timeout).await
     }
+}
+
+/// An enabled PDO must be on an identifier a PDO may use (CiA 301 restricts NMT, SYNC, EMCY,
+/// TIME, SDO, heartbeat…): a blank map enabled without a COB-ID would otherwise be on 0x000.
+fn usable_cob_id(map: &PdoMap) -> Result<(), NetError> {
+    let cob = map.cob_id;
+    let raw = (cob.0 & 0x7FF) as u16;
+    if map.enabled && !cob.is_extended() && crate::cia301::pdo::restricted_id(raw) {
+        return Err(map.error(&format!(
+            "COB-ID {raw:#05x} is reserved for other services (NMT, SYNC, EMCY, SDO, heartbeat…): set map.cob_id to a PDO identifier, such as 0x180 + node-ID for TPDO 1"
+        )));
+    }
+    Ok(())
 }
 
 fn slot(v: &PdoVariable) -> Slot {

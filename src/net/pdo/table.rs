@@ -158,3 +158,79 @@ fn encode(l: &Learned, values: &[AnyValue]) -> Result<Frame, String> {
     let len = offset.div_ceil(8) as usize;
     Frame::new(l.id, &payload[..len]).map_err(|e| format!("{e:?}"))
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use proptest::prelude::*;
+
+    fn learned(id: Id, slots: &[(u8, Option<DataType>, bool)]) -> Learned {
+        Learned {
+            node: NodeId::must(5),
+            pdo: 1,
+            id,
+            slots: slots
+                .iter()
+                .enumerate()
+                .map(|(k, &(bits, data_type, dummy))| Slot {
+                    index: if dummy { 5 } else { 0x6000 },
+                    sub: if dummy { 0 } else { k as u8 + 1 },
+                    bits,
+                    data_type,
+                    name: None,
+                    dummy,
+                })
+                .collect::<Vec<_>>()
+                .into(),
+        }
+    }
+
+    proptest! {
+        /// Any frame on a learned identifier decodes without a panic, and only when it carries
+        /// the whole mapping; what is encoded decodes back to the same values.
+        #[test]
+        fn frames_decode_safely_and_round_trip(
+            widths in proptest::collection::vec((1u8..=16, any::<bool>(), any::<bool>()), 1..5),
+            data in proptest::collection::vec(any::<u8>(), 0..=8),
+        ) {
+            let slots: Vec<_> = widths
+                .iter()
+                .map(|&(b, signed, dummy)| {
+                    (b, Some(if signed { DataType::Integer16 } else { DataType::Unsigned16 }), dummy)
+                })
+                .collect();
+            let total: u32 = slots.iter().map(|s| u32::from(s.0)).sum();
+            let id = Id::Standard(0x185);
+            let mut t = PdoTable::default();
+            t.learn(true, NodeId::must(5), 1, Some(learned(id, &slots))).unwrap();
+            t.learn(false, NodeId::must(5), 1, Some(learned(id, &slots))).unwrap();
+            let f = Frame::new(id, &data).unwrap();
+            match t.decode(&f) {
+                Some((_, _, values)) => {
+                    prop_assert!(data.len() as u32 * 8 >= total);
+                    let given: Vec<AnyValue> = values.iter().map(|v| v.value.clone()).collect();
+                    let back = t.encode(NodeId::must(5), 1, &given).unwrap().unwrap();
+                    let again = t.decode(&back).unwrap().2;
+                    prop_assert_eq!(again, values);
+                }
+                None => prop_assert!((data.len() as u32 * 8) < total),
+            }
+            prop_assert!(t.decode(&Frame::new(Id::Standard(0x186), &data).unwrap()).is_none());
+        }
+    }
+
+    #[test]
+    fn learning_is_bounded_and_forgetting_works() {
+        let mut t = PdoTable::default();
+        for k in 0..MAX_LEARNED as u16 {
+            let l = Learned { pdo: k + 1, ..learned(Id::Standard(0x200 + k), &[(8, None, false)]) };
+            t.learn(true, NodeId::must(5), k + 1, Some(l)).unwrap();
+        }
+        let one_more = learned(Id::Extended(0x1234), &[(8, None, false)]);
+        assert_eq!(t.learn(true, NodeId::must(6), 1, Some(one_more)), Err(()));
+        let f = Frame::new(Id::Standard(0x200), &[42]).unwrap();
+        assert_eq!(t.decode(&f).unwrap().2[0].value, AnyValue::Unsigned(42));
+        t.learn(true, NodeId::must(5), 1, None).unwrap();
+        assert!(t.decode(&f).is_none());
+    }
+}
