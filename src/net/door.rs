@@ -4,7 +4,6 @@
 use super::error::NetError;
 use super::events::NetEvent;
 use super::pdo::table::PdoTable;
-use std::collections::VecDeque;
 use crate::cia301::sdo::{RequestId, SdoClient, SdoError, TransferBuffer};
 use crate::frame::instant::Instant;
 use crate::frame::{Frame, Id};
@@ -13,6 +12,7 @@ use crate::machine::{
 };
 use crate::node::{Node, NodeEventKind};
 use crate::od::DynamicDictionary;
+use std::collections::VecDeque;
 
 /// The observing node: it tracks every node's state and consumes heartbeats and EMCY.
 pub(crate) type Observer = Node<DynamicDictionary>;

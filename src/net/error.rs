@@ -1,12 +1,12 @@
 //! The one error of the front door: every call ends in `?`.
 
 use crate::cia301::nmt::NmtState;
+use crate::cia301::sdo::{SdoError, SdoErrorKind};
 use crate::cia302::pdo_config::PdoConfigError;
 use crate::eds::{EdsError, LookupError, LookupErrorKind};
-use crate::od::DataType;
-use crate::cia301::sdo::{SdoError, SdoErrorKind};
 use crate::frame::cob_id::NodeId;
 use crate::od::abort::AbortCode;
+use crate::od::DataType;
 use crate::runtime::RuntimeClosed;
 use std::fmt;
 use std::time::Duration;

@@ -24,25 +24,53 @@
 //! | --- | --- |
 //! | `network.connect(channel="can0", bustype="socketcan")` | `Network::open_named("can0")?` |
 //! | `node = network.add_node(5)` | `let node = net.node(5);` |
+//! | `node = network.add_node(5, "dev.eds")` | `let node = net.add_node_eds(5, "dev.eds")?;` |
 //! | `node.sdo[0x1018][1].raw` | `node.sdo().read::<u32>(0x1018, 1).await?` |
 //! | `node.sdo[0x1017].raw = 100` | `node.sdo().write(0x1017, 0, 100u16).await?` |
+//! | `node.sdo["Producer heartbeat time"].raw` | `node.sdo().read_named::<u16>("Producer heartbeat time").await?` |
+//! | `node.sdo["Producer heartbeat time"].raw = 100` | `node.sdo().write_named("Producer heartbeat time", 100u16).await?` |
+//! | `node.sdo["Manufacturer device name"].raw` (typed by the EDS) | `node.sdo().read_value("Manufacturer device name").await?` ([`AnyValue`]) |
 //! | `node.sdo.upload(0x1008, 0)` | `node.sdo().read_bytes(0x1008, 0).await?` |
 //! | `node.nmt.state = "OPERATIONAL"` | `node.start().await?` |
 //! | `node.nmt.wait_for_bootup(10)` | `node.wait_for_boot_up(Duration::from_secs(10)).await?` |
 //! | `node.nmt.wait_for_heartbeat()` / `node.nmt.state` | `node.state().await?` |
+//! | `node.tpdo.read()` (one map: `node.tpdo[1]`) | `let mut t1 = node.tpdo(1).read().await?;` |
+//! | `node.tpdo[1].clear()` | `t1.clear();` |
+//! | `node.tpdo[1].add_variable("Input 1")` | `t1.add_variable("Input 1")?;` (or `t1.add(0x6000, 1, 16)?`) |
+//! | `node.tpdo[1].trans_type = 1` / `.event_timer = 10` / `.enabled = True` | `t1.transmission_type = 1;` / `t1.event_timer_ms = Some(10);` / `t1.enabled = true;` |
+//! | `node.tpdo.save()` | `node.tpdo(1).save(&t1).await?` |
+//! | `node.store()` after `save()` | `node.tpdo(1).save_and_store(&t1).await?` / `node.store_parameters().await?` |
+//! | `node.tpdo[1].wait_for_reception()`, then `node.tpdo[1]["Input 1"].raw` | `node.wait_for_pdo(1, timeout).await?.get("Input 1")` |
+//! | `node.tpdo[1].add_callback(f)` | `NetEvent::Pdo { node, pdo, values, .. }` on [`Network::events`] |
+//! | `node.rpdo[1]["Output 1"].raw = 5; node.rpdo[1].transmit()` | `node.rpdo(1).send(&[5u16.into(), 0i8.into()]).await?` |
+//! | `network.sync.start(0.05)` / `network.sync.stop()` | `net.start_sync(Duration::from_millis(50)).await?` / `net.stop_sync().await?` |
+//! | `node.emcy.wait(timeout=2)` / `node.emcy.active` | `node.wait_for_emcy(timeout).await?` / `NetEvent::Emcy` ([`NetEvent::emcy`]) |
 //!
 //! Underneath is the ordinary stack on the [`runtime`](crate::runtime): a node that only
 //! observes (it tracks every node's state from boot-ups and heartbeats, consumes EMCY and the
 //! heartbeats it is told to watch) and an SDO client, behind a filter that lets only NMT
-//! commands and SDO requests onto the bus. The network handle is therefore not a node: it
-//! sends no boot-up, no heartbeat, and answers nothing (it uses node-ID 127 internally, so a
-//! node 127 on the bus is not tracked). [`Network::monitor`] sends nothing at all.
+//! commands and SDO requests onto the bus, and two things the user turns on: SYNC while the
+//! SYNC producer runs ([`Network::start_sync`]), and the RPDOs the user sends. The network
+//! handle is therefore not a node: it sends no boot-up, no heartbeat, and answers nothing (it
+//! uses node-ID 127 internally, so a node 127 on the bus is not tracked).
+//! [`Network::monitor`] sends nothing at all.
 //!
 //! Every call returns one error, [`NetError`], naming the node and object and what to do.
 //! SDO transfers to different nodes run at once; to one node they take turns (a server runs one
-//! transfer per client at a time). A future by-name layer resolves a name from a device
-//! description to the `(index, sub)` and type these calls take, so it adds methods rather than
-//! changing these.
+//! transfer per client at a time).
+//!
+//! **Names.** With a device description attached ([`Network::add_node`],
+//! [`RemoteNode::with_description`], or from an EDS/DCF file), a name resolves as
+//! [`Description::entry`] resolves it: `"Producer heartbeat time"`, `"0x1017"`, `"1017sub0"`,
+//! `"Identity object.Vendor-ID"`, without regard to case. The typed by-name calls check the
+//! Rust type against the entry's data type before anything is sent; an unknown or ambiguous
+//! name is [`NetError::Name`], listing the candidates.
+//!
+//! **PDOs** ([`RemotePdo`]: `node.tpdo(n)`, `node.rpdo(n)`): the network decodes a node's TPDO once it knows the mapping
+//! (read over SDO, saved, or given with [`RemotePdo::learn`]), inside the runtime as the frame
+//! arrives, and reports [`NetEvent::Pdo`] with the values named and typed by the description.
+//! At a high PDO rate, a reader of [`Network::events`] that falls behind gets
+//! [`NetEvent::Lagged`]; [`RemoteNode::wait_for_pdo`] never misses the PDO it waits for.
 
 mod door;
 mod error;
@@ -56,14 +84,15 @@ mod value;
 
 pub use error::{Awaited, NetError};
 pub use events::{Events, NetEvent};
+pub use pdo::{PdoMap, PdoValue, PdoValues, PdoVariable, RemotePdo, MAX_LEARNED};
 pub use remote::RemoteNode;
 pub use sdo::RemoteSdo;
 pub use sim::{sim_description, SIM_DEVICE_NAME, SIM_HEARTBEAT_MS, SIM_VENDOR};
-pub use pdo::{PdoMap, PdoValue, PdoValues, PdoVariable, RemotePdo, MAX_LEARNED};
 pub use value::AnyValue;
 
 use crate::cia301::nmt::{NmtCommand, NmtTarget};
 use crate::cia301::sdo::{SdoClient, SdoOptions};
+use crate::eds::Description;
 use crate::frame::cob_id::NodeId;
 use crate::frame::instant::{Duration, Instant};
 use crate::machine::{Composite, Station};
@@ -71,7 +100,6 @@ use crate::node::NodeConfig;
 use crate::od::comm;
 use crate::port::Port;
 use crate::runtime::{Handle, Runtime};
-use crate::eds::Description;
 use door::Door;
 use std::collections::BTreeMap;
 use std::sync::Arc;
@@ -322,7 +350,9 @@ impl Network {
             .handle
             .try_call(move |d, now| {
                 let cob = u32::from(door::SYNC_ID);
-                let r = d.node().write(now, comm::SYNC_COB_ID, 0, &cob.to_le_bytes());
+                let r = d
+                    .node()
+                    .write(now, comm::SYNC_COB_ID, 0, &cob.to_le_bytes());
                 d.sync_on = false;
                 r.map_err(|code| NetError::Argument(format!("the SYNC producer refused: {code}")))
             })

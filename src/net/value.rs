@@ -189,7 +189,10 @@ impl AnyValue {
             }
             None => match self {
                 AnyValue::Text(_) | AnyValue::Bytes(_) => Ok(self.to_bytes(t)),
-                _ => Err(format!("{} holds text or bytes, not a number", type_name(t))),
+                _ => Err(format!(
+                    "{} holds text or bytes, not a number",
+                    type_name(t)
+                )),
             },
         }
     }

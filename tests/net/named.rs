@@ -47,7 +47,10 @@ async fn names_resolve_by_name_address_and_case() {
         AnyValue::Text(duocan::net::SIM_DEVICE_NAME.into())
     );
     sdo.write_value("Input 2", -7i16).await.unwrap();
-    assert_eq!(sdo.read_value("Input 2").await.unwrap(), AnyValue::Signed(-7));
+    assert_eq!(
+        sdo.read_value("Input 2").await.unwrap(),
+        AnyValue::Signed(-7)
+    );
     assert_eq!(sdo.read::<i16>(0x6000, 2).await.unwrap(), -7);
     net.close().await;
 }
@@ -57,7 +60,12 @@ async fn wrong_type_unknown_and_ambiguous_names_are_errors() {
     let net = Network::simulated([5], quick()).unwrap();
     let bare = net.node(5);
     let e = bare.sdo().read_named::<u16>("0x1017").await.unwrap_err();
-    assert_eq!(e, NetError::NoDescription { node: duocan::NodeId::must(5) });
+    assert_eq!(
+        e,
+        NetError::NoDescription {
+            node: duocan::NodeId::must(5)
+        }
+    );
     assert!(e.to_string().contains("add_node(5"), "{e}");
 
     let node = bare.with_description(sim_description().unwrap());
@@ -67,15 +75,29 @@ async fn wrong_type_unknown_and_ambiguous_names_are_errors() {
         .await
         .unwrap_err();
     match &e {
-        NetError::WrongType { data_type, asked, index, .. } => {
-            assert_eq!((*data_type, *asked, *index), (DataType::Unsigned16, DataType::Unsigned32, 0x1017));
+        NetError::WrongType {
+            data_type,
+            asked,
+            index,
+            ..
+        } => {
+            assert_eq!(
+                (*data_type, *asked, *index),
+                (DataType::Unsigned16, DataType::Unsigned32, 0x1017)
+            );
         }
         other => panic!("{other:?}"),
     }
     let msg = e.to_string();
-    assert!(msg.contains("node 5") && msg.contains("UNSIGNED16") && msg.contains("use u16"), "{msg}");
+    assert!(
+        msg.contains("node 5") && msg.contains("UNSIGNED16") && msg.contains("use u16"),
+        "{msg}"
+    );
 
-    let e = sdo.read_named::<u16>("Producer heartbeat").await.unwrap_err();
+    let e = sdo
+        .read_named::<u16>("Producer heartbeat")
+        .await
+        .unwrap_err();
     assert!(matches!(&e, NetError::Name { error, .. } if error.kind == LookupErrorKind::NotFound));
     assert!(e.to_string().contains("\"Producer heartbeat\""), "{e}");
 
@@ -110,7 +132,10 @@ async fn a_description_from_an_eds_file() {
     let net = Network::simulated([6], quick()).unwrap();
     let node = net.add_node_eds(6, &path).unwrap();
     assert_eq!(
-        node.sdo().read_named::<u16>("Producer Heartbeat Time").await.unwrap(),
+        node.sdo()
+            .read_named::<u16>("Producer Heartbeat Time")
+            .await
+            .unwrap(),
         SIM_HEARTBEAT_MS
     );
     let e = net.add_node_eds(6, dir.join("missing.eds")).err().unwrap();

@@ -57,7 +57,13 @@ async fn a_nodes_pdo_configuration_is_read_with_names() {
     assert!(bare.read().await.is_err(), "node 6 is not on this bus");
     for n in [0, 513] {
         let e = node.tpdo(n).read().await.unwrap_err();
-        assert_eq!(e, NetError::NoSuchPdo { node: duocan::NodeId::must(5), pdo: n });
+        assert_eq!(
+            e,
+            NetError::NoSuchPdo {
+                node: duocan::NodeId::must(5),
+                pdo: n
+            }
+        );
     }
     net.close().await;
 }
@@ -137,7 +143,12 @@ async fn a_remap_is_saved_in_order_and_its_pdos_arrive_decoded() {
     let mut at = Vec::new();
     while at.len() < 4 {
         match tokio::time::timeout(T, events.next()).await.unwrap() {
-            Some(NetEvent::Pdo { node: n, pdo: 1, values, at: t }) if n.raw() == 5 => {
+            Some(NetEvent::Pdo {
+                node: n,
+                pdo: 1,
+                values,
+                at: t,
+            }) if n.raw() == 5 => {
                 assert_eq!(values, v);
                 at.push(t);
             }
@@ -166,21 +177,34 @@ async fn an_rpdo_sent_changes_the_nodes_dictionary() {
     let r1 = node.rpdo(1);
     // Unknown mapping: an error that says what to do.
     let e = r1.send(&[1u16.into(), 2i8.into()]).await.unwrap_err();
-    assert!(e.to_string().contains("read, save or learn it first"), "{e}");
+    assert!(
+        e.to_string().contains("read, save or learn it first"),
+        "{e}"
+    );
     r1.read().await.unwrap();
     node.start().await.unwrap();
     node.wait_for_state(NmtState::Operational, T).await.unwrap();
     r1.send(&[1234u16.into(), (-3i8).into()]).await.unwrap();
     assert_eq!(node.sdo().read::<u16>(0x6200, 1).await.unwrap(), 1234);
-    assert_eq!(node.sdo().read_value("Output 2").await.unwrap(), AnyValue::Signed(-3));
+    assert_eq!(
+        node.sdo().read_value("Output 2").await.unwrap(),
+        AnyValue::Signed(-3)
+    );
 
     let e = r1.send(&[1u16.into()]).await.unwrap_err();
-    assert!(matches!(e, NetError::BadValue { .. }) && e.to_string().contains("2 value(s)"), "{e}");
+    assert!(
+        matches!(e, NetError::BadValue { .. }) && e.to_string().contains("2 value(s)"),
+        "{e}"
+    );
     let e = r1.send(&[70000u32.into(), 0i8.into()]).await.unwrap_err();
     assert!(e.to_string().contains("\"Output 1\""), "{e}");
     let e = node.tpdo(1).send(&[]).await.unwrap_err();
     assert!(e.to_string().contains("use node.rpdo(n)"), "{e}");
-    assert_eq!(node.sdo().read::<u16>(0x6200, 1).await.unwrap(), 1234, "nothing else arrived");
+    assert_eq!(
+        node.sdo().read::<u16>(0x6200, 1).await.unwrap(),
+        1234,
+        "nothing else arrived"
+    );
 
     // A mapping given rather than read: RPDO 2 remapped onto Output 1 alone.
     let r2 = node.rpdo(2);
@@ -235,7 +259,10 @@ async fn sync_producer_drives_synchronous_tpdos() {
     node.start().await.unwrap();
     node.wait_for_state(NmtState::Operational, T).await.unwrap();
     let e = t2.wait(Duration::from_millis(200)).await.unwrap_err();
-    assert!(matches!(e, NetError::Timeout { .. }), "no SYNC, no TPDO 2: {e:?}");
+    assert!(
+        matches!(e, NetError::Timeout { .. }),
+        "no SYNC, no TPDO 2: {e:?}"
+    );
     assert!(e.to_string().contains("SYNC producer"), "{e}");
 
     let mut events = net.events();
@@ -243,7 +270,12 @@ async fn sync_producer_drives_synchronous_tpdos() {
     let mut at = Vec::new();
     while at.len() < 5 {
         match tokio::time::timeout(T, events.next()).await.unwrap() {
-            Some(NetEvent::Pdo { pdo: 2, values, at: t, .. }) => {
+            Some(NetEvent::Pdo {
+                pdo: 2,
+                values,
+                at: t,
+                ..
+            }) => {
                 assert_eq!(values.get("Status"), Some(&AnyValue::Unsigned(9)));
                 at.push(t);
             }
@@ -257,7 +289,10 @@ async fn sync_producer_drives_synchronous_tpdos() {
     }
     net.stop_sync().await.unwrap();
     tokio::time::sleep(Duration::from_millis(60)).await;
-    assert!(t2.wait(Duration::from_millis(200)).await.is_err(), "SYNC stopped");
+    assert!(
+        t2.wait(Duration::from_millis(200)).await.is_err(),
+        "SYNC stopped"
+    );
     let e = net.start_sync(Duration::ZERO).await.unwrap_err();
     assert!(matches!(e, NetError::Argument(_)), "{e:?}");
     net.close().await;
@@ -281,7 +316,10 @@ async fn an_rpdo_timeout_arrives_as_an_emcy_event() {
     assert_ne!(m.register & duocan::emcy::register::COMMUNICATION, 0);
     // The same message on the event stream, easy to match.
     loop {
-        let e = tokio::time::timeout(T, events.next()).await.unwrap().unwrap();
+        let e = tokio::time::timeout(T, events.next())
+            .await
+            .unwrap()
+            .unwrap();
         if let Some((n, msg)) = e.emcy() {
             assert_eq!((n.raw(), msg), (5, m));
             break;

@@ -210,7 +210,11 @@ impl PdoValues {
     pub fn get(&self, name: &str) -> Option<&AnyValue> {
         self.0
             .iter()
-            .find(|v| v.name.as_deref().is_some_and(|n| n.eq_ignore_ascii_case(name)))
+            .find(|v| {
+                v.name
+                    .as_deref()
+                    .is_some_and(|n| n.eq_ignore_ascii_case(name))
+            })
             .map(|v| &v.value)
     }
     /// The value of entry (`index`, `sub`).

@@ -4,8 +4,8 @@ use super::table::{Learned, Slot};
 use super::{label, PdoMap, PdoValues, PdoVariable};
 use crate::cia301::pdo::mapping::{Dir, MapEntry, MAX_ENTRIES};
 use crate::cia301::pdo::params::{self, sub};
-use crate::cia302::pdo_config::{AccessError, PdoConfig, PdoConfigurator, SdoAccess};
 use crate::cia301::sdo::SdoErrorKind;
+use crate::cia302::pdo_config::{AccessError, PdoConfig, PdoConfigurator, SdoAccess};
 use crate::frame::cob_id::{CobId, NodeId};
 use crate::net::error::{Awaited, NetError};
 use crate::net::events::NetEvent;
@@ -59,7 +59,10 @@ impl RemoteNode {
             |_| None,
             move |e| match e {
                 NetEvent::Pdo {
-                    node, pdo: n, values, ..
+                    node,
+                    pdo: n,
+                    values,
+                    ..
                 } if *node == id && *n == pdo => Some(values.clone()),
                 _ => None,
             },
@@ -76,10 +79,15 @@ impl RemoteNode {
         timeout: Duration,
     ) -> Result<crate::cia301::emcy::EmcyMessage, NetError> {
         let id = self.id()?;
-        self.watch(Awaited::Emcy, timeout, |_| None, move |e| match e.emcy() {
-            Some((node, m)) if node == id => Some(m),
-            _ => None,
-        })
+        self.watch(
+            Awaited::Emcy,
+            timeout,
+            |_| None,
+            move |e| match e.emcy() {
+                Some((node, m)) if node == id => Some(m),
+                _ => None,
+            },
+        )
         .await
     }
 
@@ -146,8 +154,12 @@ impl RemotePdo {
         let n = sdo.read::<u8>(mapping, 0).await?.min(MAX_ENTRIES);
         for k in 1..=n {
             let e = MapEntry::from_raw(sdo.read::<u32>(mapping, k).await?);
-            map.entries
-                .push(PdoVariable::new(e.index, e.sub, e.bits, map.desc.as_deref()));
+            map.entries.push(PdoVariable::new(
+                e.index,
+                e.sub,
+                e.bits,
+                map.desc.as_deref(),
+            ));
         }
         self.learn(&map).await?;
         Ok(map)
@@ -290,8 +302,9 @@ impl RemotePdo {
                 None => Err(NetError::Pdo {
                     node,
                     pdo: what,
-                    why: "its mapping is not known (or it is disabled): read, save or learn it first"
-                        .into(),
+                    why:
+                        "its mapping is not known (or it is disabled): read, save or learn it first"
+                            .into(),
                 }),
                 Some(Err(why)) => Err(NetError::BadValue {
                     node,

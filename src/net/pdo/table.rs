@@ -148,7 +148,10 @@ fn encode(l: &Learned, values: &[AnyValue]) -> Result<Frame, String> {
         if !s.dummy {
             let v = given.next().ok_or("too few values")?;
             let raw = v.to_bits(s.data_type, bits).map_err(|why| {
-                let name = s.name.as_deref().map_or(String::new(), |n| format!(" {n:?}"));
+                let name = s
+                    .name
+                    .as_deref()
+                    .map_or(String::new(), |n| format!(" {n:?}"));
                 format!("entry {:#06x} sub {}{name}: {why}", s.index, s.sub)
             })?;
             write_bits(&mut payload, offset, bits, raw);
@@ -223,7 +226,10 @@ mod tests {
     fn learning_is_bounded_and_forgetting_works() {
         let mut t = PdoTable::default();
         for k in 0..MAX_LEARNED as u16 {
-            let l = Learned { pdo: k + 1, ..learned(Id::Standard(0x200 + k), &[(8, None, false)]) };
+            let l = Learned {
+                pdo: k + 1,
+                ..learned(Id::Standard(0x200 + k), &[(8, None, false)])
+            };
             t.learn(true, NodeId::must(5), k + 1, Some(l)).unwrap();
         }
         let one_more = learned(Id::Extended(0x1234), &[(8, None, false)]);
