@@ -222,7 +222,7 @@ fn text_or_bytes(t: DataType, mut bytes: Vec<u8>) -> AnyValue {
                 Err(e) => AnyValue::Bytes(e.into_bytes()),
             }
         }
-        DataType::UnicodeString if bytes.len() % 2 == 0 => {
+        DataType::UnicodeString if bytes.len().is_multiple_of(2) => {
             let units: Vec<u16> = bytes
                 .chunks_exact(2)
                 .map(|c| u16::from_le_bytes([c[0], c[1]]))
