@@ -1,7 +1,7 @@
 //! PDOs through the front door on the simulated network: configuration read over SDO, a remap
 //! saved in CiA 301's order and then decoded, RPDOs sent, the SYNC producer, EMCY.
 
-use duocan::net::{sim_description, AnyValue, NetError, NetEvent, NetOptions, Network};
+use duocan::net::{sim_description, AnyValue, Events, NetError, NetOptions, Network, PdoValues};
 use duocan::od::DataType;
 use duocan::pdo::Dir;
 use duocan::port::mem::MemBus;
@@ -140,25 +140,8 @@ async fn a_remap_is_saved_in_order_and_its_pdos_arrive_decoded() {
 
     // The same PDO on the event stream, at the event timer's period.
     let mut events = net.events();
-    let mut at = Vec::new();
-    while at.len() < 4 {
-        match tokio::time::timeout(T, events.next()).await.unwrap() {
-            Some(NetEvent::Pdo {
-                node: n,
-                pdo: 1,
-                values,
-                at: t,
-            }) if n.raw() == 5 => {
-                assert_eq!(values, v);
-                at.push(t);
-            }
-            Some(_) => {}
-            None => panic!("stream ended"),
-        }
-    }
-    for w in at.windows(2) {
-        let gap = w[1].saturating_since(w[0]).as_millis();
-        assert_eq!(gap, 40, "the event timer's period");
+    for (values, _) in pdos(&mut events, 5, 1, 4, Duration::from_millis(40)).await {
+        assert_eq!(values, v);
     }
 
     // A mapping beyond 64 bits is refused before anything is sent.
@@ -168,6 +151,32 @@ async fn a_remap_is_saved_in_order_and_its_pdos_arrive_decoded() {
     assert!(e.to_string().contains("at most 64 bits (it has 56)"), "{e}");
     assert_eq!(long.bits(), 56);
     net.close().await;
+}
+
+/// The next `n` TPDOs `pdo` of node `node` on the stream, asserting they came exactly
+/// `period` apart (paused time).
+async fn pdos(
+    events: &mut Events,
+    node: u8,
+    pdo: u16,
+    n: usize,
+    period: Duration,
+) -> Vec<(PdoValues, duocan::Instant)> {
+    let mut got: Vec<(PdoValues, duocan::Instant)> = Vec::new();
+    while got.len() < n {
+        let e = tokio::time::timeout(T, events.next()).await.unwrap();
+        let e = e.expect("the stream goes on");
+        if let (Some((id, k, values)), Some(at)) = (e.pdo(), e.at()) {
+            if (id.raw(), k) == (node, pdo) {
+                if let Some((_, last)) = got.last() {
+                    let gap = at.saturating_since(*last).as_micros();
+                    assert_eq!(u128::from(gap), period.as_micros(), "PDO {pdo} period");
+                }
+                got.push((values.clone(), at));
+            }
+        }
+    }
+    got
 }
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
@@ -267,25 +276,8 @@ async fn sync_producer_drives_synchronous_tpdos() {
 
     let mut events = net.events();
     net.start_sync(Duration::from_millis(50)).await.unwrap();
-    let mut at = Vec::new();
-    while at.len() < 5 {
-        match tokio::time::timeout(T, events.next()).await.unwrap() {
-            Some(NetEvent::Pdo {
-                pdo: 2,
-                values,
-                at: t,
-                ..
-            }) => {
-                assert_eq!(values.get("Status"), Some(&AnyValue::Unsigned(9)));
-                at.push(t);
-            }
-            Some(_) => {}
-            None => panic!("stream ended"),
-        }
-    }
-    for w in at.windows(2) {
-        let gap = w[1].saturating_since(w[0]).as_micros();
-        assert_eq!(gap, 50_000, "SYNC every 50 ms");
+    for (values, _) in pdos(&mut events, 5, 2, 5, Duration::from_millis(50)).await {
+        assert_eq!(values.get("Status"), Some(&AnyValue::Unsigned(9)));
     }
     net.stop_sync().await.unwrap();
     tokio::time::sleep(Duration::from_millis(60)).await;
