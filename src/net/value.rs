@@ -314,6 +314,26 @@ pub(crate) fn rust_type(t: DataType) -> &'static str {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use proptest::prelude::*;
+
+    proptest! {
+        /// A value decoded as its fixed-size type encodes back to the same bytes (BOOLEAN
+        /// reads any non-zero byte as true; a REAL32 NaN may come back quieted).
+        #[test]
+        fn fixed_size_values_round_trip(code in 1u16..0x20, bytes in proptest::collection::vec(any::<u8>(), 0..9)) {
+            let Some(t) = DataType::from_code(code) else { return Ok(()) };
+            let Some(v) = AnyValue::decode(t, &bytes) else {
+                prop_assert!(t.fixed_size().is_some_and(|n| n != bytes.len()));
+                return Ok(());
+            };
+            if t == DataType::Boolean || matches!(v, AnyValue::Real(r) if r.is_nan()) {
+                return Ok(());
+            }
+            if t.fixed_size().is_some() {
+                prop_assert_eq!(v.encode(t), Ok(bytes));
+            }
+        }
+    }
 
     #[test]
     fn bits_round_trip_and_range() {
