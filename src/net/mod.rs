@@ -42,7 +42,7 @@
 //! | `node.store()` after `save()` | `node.tpdo(1).save_and_store(&t1).await?` / `node.store_parameters().await?` |
 //! | `node.tpdo[1].wait_for_reception()`, then `node.tpdo[1]["Input 1"].raw` | `node.wait_for_pdo(1, timeout).await?.get("Input 1")` |
 //! | `node.tpdo[1].add_callback(f)` | `NetEvent::Pdo { node, pdo, values, .. }` on [`Network::events`] |
-//! | `node.rpdo[1]["Output 1"].raw = 5; node.rpdo[1].transmit()` | `node.rpdo(1).send(&[5u16.into(), 0i8.into()]).await?` |
+//! | `node.rpdo[1]["Output 1"].raw = 5; node.rpdo[1].transmit()` | `node.rpdo(1).send_named(&[("Output 1", 5u16.into())]).await?` (all in order: `send(&[..])`) |
 //! | `network.sync.start(0.05)` / `network.sync.stop()` | `net.start_sync(Duration::from_millis(50)).await?` / `net.stop_sync().await?` |
 //! | `node.emcy.wait(timeout=2)` / `node.emcy.active` | `node.wait_for_emcy(timeout).await?` / `NetEvent::Emcy` ([`NetEvent::emcy`]) |
 //!

@@ -215,6 +215,16 @@ async fn an_rpdo_sent_changes_the_nodes_dictionary() {
         "nothing else arrived"
     );
 
+    // By name: the others keep the value last sent (python's `rpdo[1]["Output 2"].raw = 5`).
+    r1.send_named(&[("output 2", 5i8.into())]).await.unwrap();
+    assert_eq!(node.sdo().read::<u16>(0x6200, 1).await.unwrap(), 1234);
+    assert_eq!(node.sdo().read::<i8>(0x6200, 2).await.unwrap(), 5);
+    let e = r1
+        .send_named(&[("Output 3", 1u8.into())])
+        .await
+        .unwrap_err();
+    assert!(e.to_string().contains("\"Output 1\", \"Output 2\""), "{e}");
+
     // A mapping given rather than read: RPDO 2 remapped onto Output 1 alone.
     let r2 = node.rpdo(2);
     let mut m = r2.read().await.unwrap();

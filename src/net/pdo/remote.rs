@@ -1,12 +1,13 @@
 //! One PDO of a remote node: its configuration over SDO, its values on the bus.
 
-use super::table::{Learned, Slot};
+use super::table::{Learned, PdoTable, Slot};
 use super::{label, PdoMap, PdoValues, PdoVariable};
 use crate::cia301::pdo::mapping::{Dir, MapEntry, MAX_ENTRIES};
 use crate::cia301::pdo::params::{self, sub};
 use crate::cia301::sdo::SdoErrorKind;
 use crate::cia302::pdo_config::{AccessError, PdoConfig, PdoConfigurator, SdoAccess};
 use crate::frame::cob_id::{CobId, NodeId};
+use crate::frame::Frame;
 use crate::net::error::{Awaited, NetError};
 use crate::net::events::NetEvent;
 use crate::net::remote::RemoteNode;
@@ -283,22 +284,47 @@ impl RemotePdo {
         let node = self.id()?;
         let what = label(self.dir, self.pdo);
         if self.dir != Dir::Receive {
-            return Err(NetError::Pdo {
-                node,
-                pdo: what,
-                why: "the node transmits this PDO; the network sends only RPDOs: use node.rpdo(n)"
-                    .into(),
-            });
+            return Err(not_ours(node, what));
         }
+        let values = values.to_vec();
+        self.send_with(node, what, move |t, node, pdo| t.encode(node, pdo, &values))
+            .await
+    }
+
+    /// Sends the node's RPDO with the entries named in `values` set (names from the node's
+    /// description, without regard to case) and every other one as last sent (zero at
+    /// first): python `rpdo[n]["Output 1"].raw = 5; rpdo[n].transmit()`. A name the mapping
+    /// does not carry is [`NetError::BadValue`], listing the names it does.
+    pub async fn send_named(&self, values: &[(&str, AnyValue)]) -> Result<(), NetError> {
+        let node = self.id()?;
+        let what = label(self.dir, self.pdo);
+        if self.dir != Dir::Receive {
+            return Err(not_ours(node, what));
+        }
+        let named: Vec<(String, AnyValue)> = values
+            .iter()
+            .map(|(n, v)| ((*n).to_owned(), v.clone()))
+            .collect();
+        self.send_with(node, what, move |t, node, pdo| {
+            t.encode_named(node, pdo, &named)
+        })
+        .await
+    }
+
+    async fn send_with(
+        &self,
+        node: NodeId,
+        what: String,
+        make: impl FnOnce(&mut PdoTable, NodeId, u16) -> Option<Result<Frame, String>> + Send + 'static,
+    ) -> Result<(), NetError> {
         let net = self.node.network();
         if net.is_listen_only() {
             return Err(NetError::ListenOnly { node: Some(node) });
         }
         let pdo = self.pdo;
-        let values = values.to_vec();
         net.shared
             .handle
-            .try_call(move |d, _| match d.pdos.encode(node, pdo, &values) {
+            .try_call(move |d, _| match make(&mut d.pdos, node, pdo) {
                 None => Err(NetError::Pdo {
                     node,
                     pdo: what,
@@ -335,6 +361,14 @@ fn usable_cob_id(map: &PdoMap) -> Result<(), NetError> {
         )));
     }
     Ok(())
+}
+
+fn not_ours(node: NodeId, pdo: String) -> NetError {
+    NetError::Pdo {
+        node,
+        pdo,
+        why: "the node transmits this PDO; the network sends only RPDOs: use node.rpdo(n)".into(),
+    }
 }
 
 fn slot(v: &PdoVariable) -> Slot {

@@ -47,7 +47,19 @@ fn key(id: Id) -> u32 {
 #[derive(Default)]
 pub(crate) struct PdoTable {
     rx: BTreeMap<u32, Learned>,
-    tx: BTreeMap<(u8, u16), Learned>,
+    /// With the values last sent (zeros at first), for a send that names only some.
+    tx: BTreeMap<(u8, u16), (Learned, Vec<AnyValue>)>,
+}
+
+/// The zero of an entry's type: what an RPDO entry carries until a value is given for it.
+fn zero(t: Option<DataType>) -> AnyValue {
+    match t {
+        Some(DataType::Boolean) => AnyValue::Bool(false),
+        Some(t) if t.is_real() => AnyValue::Real(0.0),
+        Some(t) if t.is_signed() => AnyValue::Signed(0),
+        Some(t) if t.fixed_size().is_none() => AnyValue::Bytes(Vec::new()),
+        _ => AnyValue::Unsigned(0),
+    }
 }
 
 impl PdoTable {
@@ -77,7 +89,13 @@ impl PdoTable {
                     if self.tx.len() >= MAX_LEARNED && !self.tx.contains_key(&k) {
                         return Err(());
                     }
-                    self.tx.insert(k, l);
+                    let zeros = l
+                        .slots
+                        .iter()
+                        .filter(|s| !s.dummy)
+                        .map(|s| zero(s.data_type))
+                        .collect();
+                    self.tx.insert(k, (l, zeros));
                 }
             }
         }
@@ -119,13 +137,53 @@ impl PdoTable {
     /// The frame of a node's learned RPDO carrying `values` (one per entry that is not a
     /// dummy, in mapping order), or why it cannot be made; `None`: the RPDO is not known.
     pub fn encode(
-        &self,
+        &mut self,
         node: NodeId,
         pdo: u16,
         values: &[AnyValue],
     ) -> Option<Result<Frame, String>> {
-        let l = self.tx.get(&(node.raw(), pdo))?;
-        Some(encode(l, values))
+        let (l, last) = self.tx.get_mut(&(node.raw(), pdo))?;
+        let r = encode(l, values);
+        if r.is_ok() {
+            last.clone_from_slice(values);
+        }
+        Some(r)
+    }
+
+    /// [`PdoTable::encode`] with the entries `named` (by name, without regard to case) set
+    /// and every other one as last sent.
+    pub fn encode_named(
+        &mut self,
+        node: NodeId,
+        pdo: u16,
+        named: &[(String, AnyValue)],
+    ) -> Option<Result<Frame, String>> {
+        let (l, last) = self.tx.get(&(node.raw(), pdo))?;
+        let mut values = last.clone();
+        let names: Vec<Option<&str>> = l
+            .slots
+            .iter()
+            .filter(|s| !s.dummy)
+            .map(|s| s.name.as_deref())
+            .collect();
+        for (name, v) in named {
+            let Some(k) = names
+                .iter()
+                .position(|n| n.is_some_and(|n| n.eq_ignore_ascii_case(name)))
+            else {
+                let known: Vec<String> = names.iter().flatten().map(|n| format!("{n:?}")).collect();
+                return Some(Err(format!(
+                    "it maps no entry named {name:?}; it maps {}",
+                    if known.is_empty() {
+                        "no named entries (attach the node's description before reading the mapping)".into()
+                    } else {
+                        known.join(", ")
+                    }
+                )));
+            };
+            values[k] = v.clone();
+        }
+        self.encode(node, pdo, &values)
     }
 }
 
