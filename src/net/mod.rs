@@ -34,7 +34,7 @@
 //! | `node.nmt.state = "OPERATIONAL"` | `node.start().await?` |
 //! | `node.nmt.wait_for_bootup(10)` | `node.wait_for_boot_up(Duration::from_secs(10)).await?` |
 //! | `node.nmt.wait_for_heartbeat()` / `node.nmt.state` | `node.state().await?` |
-//! | `node.tpdo.read()` (one map: `node.tpdo[1]`) | `let mut t1 = node.tpdo(1).read().await?;` |
+//! | `node.tpdo.read()` | `node.read_pdos(Dir::Transmit).await?` (one: `let mut t1 = node.tpdo(1).read().await?;`) |
 //! | `node.tpdo[1].clear()` | `t1.clear();` |
 //! | `node.tpdo[1].add_variable("Input 1")` | `t1.add_variable("Input 1")?;` (or `t1.add(0x6000, 1, 16)?`) |
 //! | `node.tpdo[1].trans_type = 1` / `.event_timer = 10` / `.enabled = True` | `t1.transmission_type = 1;` / `t1.event_timer_ms = Some(10);` / `t1.enabled = true;` |
@@ -308,6 +308,13 @@ impl Network {
                     .map_err(|_| NetError::QueueFull)
             })
             .await
+    }
+
+    /// How many decoded PDOs the network dropped because too many were waiting for its
+    /// event queue at once (it passes them on after every frame, so this stays 0 unless the
+    /// runtime is starved).
+    pub async fn dropped_pdos(&self) -> Result<u64, NetError> {
+        Ok(self.shared.handle.call(|d, _| d.pdo_dropped).await?)
     }
 
     /// Starts producing SYNC every `period` (python `network.sync.start(period)`): the

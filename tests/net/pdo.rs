@@ -52,9 +52,25 @@ async fn a_nodes_pdo_configuration_is_read_with_names() {
     assert!(!t2.enabled && t2.entries.is_empty());
     assert_eq!(t2.cob_id, CobId(0x8000_0285));
 
-    // Without a description: the same mapping, unnamed.
-    let bare = net.node(6).tpdo(1);
-    assert!(bare.read().await.is_err(), "node 6 is not on this bus");
+    // All of them: the four each way the description has.
+    let all = node.read_pdos(Dir::Transmit).await.unwrap();
+    assert_eq!(all.iter().map(|m| m.pdo).collect::<Vec<_>>(), [1, 2, 3, 4]);
+    assert_eq!(all[0], t1);
+    // Without a description: up to the first the node does not have, unnamed.
+    let net7 = Network::simulated([7], quick()).unwrap();
+    let all = net7.node(7).read_pdos(Dir::Receive).await.unwrap();
+    assert_eq!(all.len(), 4);
+    assert_eq!(all[0].entries[1].name, None);
+    assert_eq!(
+        all[0].entries[1].entry(),
+        duocan::pdo::MapEntry::new(0x6200, 2, 8)
+    );
+    assert!(
+        net.node(6).tpdo(1).read().await.is_err(),
+        "node 6 is not on this bus"
+    );
+    assert_eq!(net.dropped_pdos().await.unwrap(), 0);
+    net7.close().await;
     for n in [0, 513] {
         let e = node.tpdo(n).read().await.unwrap_err();
         assert_eq!(

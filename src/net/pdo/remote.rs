@@ -71,6 +71,41 @@ impl RemoteNode {
         .await
     }
 
+    /// Reads every TPDO (`Dir::Transmit`) or RPDO of the node (python `node.tpdo.read()`):
+    /// those the node's description has, or without one PDO 1, 2, … up to the first the node
+    /// does not have. Each is learned as [`RemotePdo::read`] learns it.
+    pub async fn read_pdos(&self, dir: Dir) -> Result<Vec<PdoMap>, NetError> {
+        let comm = match dir {
+            Dir::Transmit => params::TPDO_COMM,
+            Dir::Receive => params::RPDO_COMM,
+        };
+        let mut maps = Vec::new();
+        for n in 1..=params::MAX_PDOS {
+            let pdo = RemotePdo {
+                node: self.clone(),
+                dir,
+                pdo: n,
+            };
+            if let Some(d) = self.description() {
+                if d.object_at(comm + (n - 1)).is_some() {
+                    maps.push(pdo.read().await?);
+                }
+                continue;
+            }
+            match pdo.read().await {
+                Ok(m) => maps.push(m),
+                // The first PDO the node does not have ends the list.
+                Err(NetError::Sdo(e))
+                    if matches!(e.kind, SdoErrorKind::Server(_)) && e.index == comm + (n - 1) =>
+                {
+                    break
+                }
+                Err(e) => return Err(e),
+            }
+        }
+        Ok(maps)
+    }
+
     /// Waits at most `timeout` for an emergency message from the node and returns it (one
     /// that arrived before the call does not count: watch [`Network::events`] for every one).
     ///
