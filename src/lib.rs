@@ -33,8 +33,8 @@
 //! compose and what a driver does with them) and, with the `std` feature, [`sim`] (the simulated
 //! multi-bus network every test and the demo run on).
 #![cfg_attr(not(feature = "std"), no_std)]
-#![warn(missing_docs)]
-#![forbid(unsafe_code)]
+// On docs.rs, each feature-gated item says which feature it needs.
+#![cfg_attr(docsrs, feature(doc_cfg))]
 
 #[cfg(feature = "alloc")]
 extern crate alloc;
