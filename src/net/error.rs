@@ -201,12 +201,18 @@ impl fmt::Display for NetError {
                     Awaited::Pdo(n) => write!(f, "TPDO {n}")?,
                     Awaited::Emcy => f.write_str("emergency message")?,
                 }
-                if let Awaited::Pdo(_) = awaited {
-                    return write!(
+                match awaited {
+                    Awaited::Pdo(_) => return write!(
                         f,
-                        " within {} ms: check that the node is operational and the PDO enabled, and its transmission type (SYNC needs a SYNC producer)",
+                        " within {} ms: check that the node is operational and the PDO enabled, that the network knows its mapping (read, save or learn it), and its transmission type (SYNC needs a SYNC producer)",
                         after.as_millis()
-                    );
+                    ),
+                    Awaited::Emcy => return write!(
+                        f,
+                        " within {} ms: a node sends one only when an error appears or goes",
+                        after.as_millis()
+                    ),
+                    _ => {}
                 }
                 write!(
                     f,
