@@ -17,6 +17,8 @@ use duocan::Duration;
 use duocan_redundancy::net::RedundantNetwork;
 use duocan_redundancy::RedundantError;
 
+/// Opens the two ports `DUOCAN_PORT` names (a simulated station by default) and runs the
+/// example.
 #[tokio::main]
 pub async fn main() -> Result<(), RedundantError> {
     let port = std::env::var("DUOCAN_PORT").unwrap_or_else(|_| "sim".into());
