@@ -336,7 +336,6 @@ impl Network {
         self.shared
             .handle
             .try_call(move |d, now| {
-                d.sync_on = true;
                 let node = d.node();
                 // Off first: a running producer's period and identifier change only while off.
                 let cob = u32::from(door::SYNC_ID);
@@ -346,6 +345,8 @@ impl Network {
                     .and_then(|()| {
                         node.write(now, comm::SYNC_COB_ID, 0, &(cob | 1 << 30).to_le_bytes())
                     });
+                // The door lets SYNC out only once the producer runs.
+                d.sync_on = r.is_ok();
                 r.map_err(|code| NetError::Argument(format!("the SYNC producer refused: {code}")))
             })
             .await
