@@ -1,4 +1,4 @@
-//! Layer 3, the CiA 301 communication services: one module per communication object, each a
+//! Layer 4, the CiA 301 communication services: one module per communication object, each a
 //! sans-IO machine or codec that the [node](crate::node) composes.
 //!
 //! | Object | Module | Identifiers (predefined set) |
