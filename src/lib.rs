@@ -26,12 +26,13 @@
 //! | 11 | [`net`] | the front door: a network handle and remote nodes, typed and async (SDO, NMT, events, listen-only monitor) |
 //!
 //! Each layer's page opens with a short example that runs as a test: a frame built and read
-//! back ([`frame`]), the machine shapes ([`machine`]), a dictionary refusing a bad write with
-//! its abort code ([`od`]), a device description read ([`eds`]), an SDO transfer driven by frames
-//! and time ([`cia301`]), the predefined identifiers ([`profile`]), a node started by NMT and its
-//! heartbeat ([`node`]), a master booting a simulated slave ([`cia302`]), two in-memory ports
-//! ([`port`]), candump and pcap written and read back ([`capture`]), two devices on the
-//! simulated buses ([`sim`]), the tokio driver ([`runtime`]) and the front door ([`net`]).
+//! back ([`frame`]), a node run by hand as a driver runs it ([`machine`]), a dictionary
+//! refusing a bad write with its abort code ([`od`]), a device description read ([`eds`]), an
+//! SDO transfer driven by frames and time ([`cia301`]), the predefined identifiers
+//! ([`profile`]), a node started by NMT and its heartbeat ([`node`]), a master booting a
+//! simulated slave ([`cia302`]), two in-memory ports ([`port`]), candump and pcap written and
+//! read back ([`capture`]), two devices on the simulated buses ([`sim`]), a node under the tokio
+//! driver ([`runtime`]) and the front door ([`net`]).
 //!
 //! The redundancy crate (`duocan-redundancy`) adds its dual-bus layer as one more
 //! [`BusLink`], and its supervisor as one more [`Machine`]: the stack above a bus link does not
