@@ -25,13 +25,53 @@
 //! | 10 | [`runtime`] | the tokio driver: ports and the monotonic clock around any [`Device`] |
 //! | 11 | [`net`] | the front door: a network handle and remote nodes, typed and async (SDO, NMT, events, listen-only monitor) |
 //!
+//! Each layer's page opens with a short example that runs as a test: a frame built and read
+//! back ([`frame`]), a node run by hand as a driver runs it ([`machine`]), a dictionary
+//! refusing a bad write with its abort code ([`od`]), a device description read ([`eds`]), an
+//! SDO transfer driven by frames and time ([`cia301`]), the predefined identifiers
+//! ([`profile`]), a node started by NMT and its heartbeat ([`node`]), a master booting a
+//! simulated slave ([`cia302`]), two in-memory ports ([`port`]), candump and pcap written and
+//! read back ([`capture`]), two devices on the simulated buses ([`sim`]), a node under the tokio
+//! driver ([`runtime`]) and the front door ([`net`]).
+//!
 //! The redundancy crate (`duocan-redundancy`) adds its dual-bus layer as one more
 //! [`BusLink`], and its supervisor as one more [`Machine`]: the stack above a bus link does not
 //! know there are two wires.
 //!
-//! Start with [`Node`] (one CANopen device on one logical bus), [`machine`] (how machines
-//! compose and what a driver does with them) and, with the `std` feature, [`sim`] (the simulated
-//! multi-bus network every test and the demo run on).
+//! ## Quick start
+//!
+//! An application that talks to nodes starts at the front door, [`net`] (feature `tokio`): a
+//! network handle on a port and remote nodes with typed SDO, NMT and events, as python
+//! `canopen` users know them. `"sim"` is an in-memory bus with simulated nodes 1–10, so this
+//! runs without hardware; `"can0"` (feature `socketcan`) or `"udp"` (feature `udp`) is a real
+//! bus.
+//!
+//! ```
+//! # #[cfg(feature = "tokio")]
+//! # #[tokio::main]
+//! # async fn main() -> Result<(), duocan::net::NetError> {
+//! use duocan::net::Network;
+//!
+//! let net = Network::open_named("sim")?;
+//! let vendor: u32 = net.node(5).sdo().read(0x1018, 1).await?;
+//! assert_eq!(vendor, duocan::net::SIM_VENDOR);
+//! # Ok(())
+//! # }
+//! # #[cfg(not(feature = "tokio"))]
+//! # fn main() {}
+//! ```
+//!
+//! The starter examples run the same way (`cargo run --example NAME`, against the simulated
+//! nodes unless `DUOCAN_PORT` names a port):
+//!
+//! - `examples/read_sdo.rs`: read 0x1018 sub 1 of node 5 and print it;
+//! - `examples/heartbeat_monitor.rs`: watch nodes 1–10 listen-only and print boot-ups, state
+//!   changes and lost heartbeats.
+//!
+//! To build a device rather than talk to one, start with [`Node`] (one CANopen device on one
+//! logical bus), [`machine`] (how machines compose and what a driver does with them) and, with
+//! the `std` feature, [`sim`] (the simulated multi-bus network every test and the demo run on);
+//! on a board without `std`, the [`embedded`](port::embedded) driver runs it.
 #![cfg_attr(not(feature = "std"), no_std)]
 // On docs.rs, each feature-gated item says which feature it needs.
 #![cfg_attr(docsrs, feature(doc_cfg))]

@@ -17,6 +17,33 @@
 //! port status, call `handle_timeout` at (or after) `poll_timeout`, drain `poll_transmit` to the
 //! ports, drain `poll_event` to the application. Every method may be called at any time;
 //! `handle_timeout` does whatever is due at `now` and nothing else.
+//!
+//! A node on one port, run by hand the way any driver runs a [`Device`]:
+//!
+//! ```
+//! use duocan::od::comm;
+//! use duocan::{Device, Frame, Id, Instant, Node, NodeConfig, NodeId, Station};
+//!
+//! let mut node = Node::new(NodeConfig::slave(NodeId::must(5)), comm::standard_dictionary(5, Default::default()));
+//! node.set(Instant::ZERO, comm::HEARTBEAT_PRODUCER, 0, 50u16)?; // a heartbeat every 50 ms
+//! node.boot(Instant::ZERO);
+//! let mut dev = Station::single(node); // the node (a Machine) on one port (a BusLink)
+//!
+//! // The driver's loop: send what is ready, sleep until the next deadline, handle it.
+//! let mut sent = Vec::new();
+//! let mut now = Instant::ZERO;
+//! while now <= Instant::from_millis(100) {
+//!     while let Some((port, frame)) = dev.poll_transmit() {
+//!         sent.push((now.as_micros() / 1000, port, frame));
+//!     }
+//!     now = dev.poll_timeout().unwrap();
+//!     dev.handle_timeout(now);
+//! }
+//! let hb = |state| Frame::from_array(Id::Standard(0x705), [state]);
+//! // The boot-up, then heartbeats saying "pre-operational" (0x7F), all on port 0.
+//! assert_eq!(sent, [(0, 0, hb(0x00)), (50, 0, hb(0x7F)), (100, 0, hb(0x7F))]);
+//! # Ok::<(), duocan::AbortCode>(())
+//! ```
 
 use crate::frame::cob_id::NodeId;
 use crate::frame::instant::{earliest, Instant};

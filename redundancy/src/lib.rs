@@ -17,6 +17,13 @@
 //! | 4 | [`network`] | [`LogicalNetwork`]: what the application holds per dual-bus network, built from named settings by [`RedundantNetworkBuilder`] |
 //! | 5 | `net` | the front door (feature `tokio`): `RedundantNetwork`, the logical network on two ports as an async handle (SDO to any node, NMT, status, a flat event stream) |
 //!
+//! Each layer's page opens with a short example that runs as a test: a pair described and
+//! handed to the layer ([`pair`]), one frame received on both buses and delivered once
+//! ([`link`]), a pair's active board losing power and the switch-over exactly the consumer time
+//! after its last heartbeat ([`supervisor`]), the status table of a redundant master with a bus
+//! cut ([`station`]), and an SDO read through the logical network ([`network`]). The last three
+//! run on duocan's simulated buses, in virtual time.
+//!
 //! The dual-bus layer has one type and three policies ([`LinkMode`]):
 //!
 //! - **Active-active** (default): transmit fan-out to every port not failed; receive
@@ -71,6 +78,17 @@
 //! (the master's PDOs, SDO sessions and queues in
 //! [`NetworkConfig`](duocan::master::NetworkConfig), the supervisor's event queue in
 //! [`SupervisorConfig`]), allocated once when they are built and never grown.
+//!
+//! ## Quick start
+//!
+//! A redundant master is the [`LogicalNetwork`] of the [`network`] page: a [`Supervisor`]
+//! (the CiA 302-2 master and its pairs) on a [`DualBus`], which the simulator or the tokio
+//! runtime drives like any other device; its example builds one with one pair of boards. To try
+//! the stack on one bus first, start at duocan's front door, `duocan::net` (feature `tokio`),
+//! and its starter examples in the root crate: `examples/read_sdo.rs` (read one object of one
+//! node) and `examples/heartbeat_monitor.rs` (watch nodes listen-only);
+//! `examples/dual_vcan_failover.rs` (feature `socketcan`) runs the dual-bus layer over two
+//! SocketCAN interfaces.
 #![cfg_attr(not(feature = "std"), no_std)]
 // On docs.rs, each feature-gated item says which feature it needs.
 #![cfg_attr(docsrs, feature(doc_cfg))]

@@ -3,6 +3,30 @@
 //!
 //! The dual-bus layer uses it to merge the process data of the two boards of a pair; the
 //! supervisor uses it to decide which board is active. Neither part imports the other for it.
+//!
+//! ```
+//! use duocan::{Duration, NodeId};
+//! use duocan_redundancy::link::same_function::PairError;
+//! use duocan_redundancy::{DualBus, DualBusConfig, Member, PairId, PairSpec};
+//!
+//! let ms = Duration::from_millis;
+//! // A turnout controller on two boards, nodes 0x10 (A) and 0x50 (B): heartbeats every 20 ms,
+//! // a member silent for 50 ms has failed; both must be generic I/O devices (0x1000).
+//! let spec = PairSpec {
+//!     device_type: 0x0001_0191,
+//!     ..PairSpec::new(NodeId::must(0x10), NodeId::must(0x50), ms(20), ms(50))
+//! };
+//! assert_eq!(spec.node(Member::A), NodeId::must(0x10));
+//! assert_eq!(spec.node(Member::A.other()), NodeId::must(0x50));
+//!
+//! // The dual-bus layer learns the pair's nodes, to deliver the active member's process data.
+//! let mut link: DualBus = DualBus::new(DualBusConfig::default());
+//! assert_eq!(link.add_pair(spec.a, spec.b, Some(Member::A))?, PairId(0));
+//! // A node belongs to one pair only.
+//! let taken = link.add_pair(spec.b, NodeId::must(0x51), None);
+//! assert_eq!(taken, Err(PairError::NodeTaken(spec.b)));
+//! # Ok::<(), Box<dyn std::error::Error>>(())
+//! ```
 
 use core::fmt;
 use duocan::{Duration, NodeId};

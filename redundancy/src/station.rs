@@ -9,6 +9,44 @@
 //! channel switches and toggles recorded in the supervisor's audit trail, and
 //! [`SupervisedStation::status`], the snapshot the application prints: ports, master role,
 //! pairs, the other slaves, and the nodes heard on one bus only.
+//!
+//! A redundant master whose pair has only board A on the buses, and bus 2 cut:
+//!
+//! ```
+//! # use duocan::master::{objects, Master, NetworkConfig};
+//! # use duocan::od::comm;
+//! # use duocan::sim::{BusConfig, SimNetwork};
+//! # use duocan::{Duration, Instant, Node, NodeConfig, NodeId, Station};
+//! # use duocan_redundancy::{DualBus, DualBusConfig, PairSpec, RedundantMaster, Supervisor, SupervisorConfig};
+//! # let ms = Duration::from_millis;
+//! # let mut sim = SimNetwork::new(1);
+//! # let buses = [sim.add_bus(BusConfig::new("can1", 1_000_000)), sim.add_bus(BusConfig::new("can2", 1_000_000))];
+//! let master = Master::new(NodeId::must(1), objects::master_dictionary(1, comm::Identity::default()), NetworkConfig::new())?;
+//! let mut sup = Supervisor::new(master, SupervisorConfig::new(0, NodeId::must(1), ms(20), ms(50), ms(10)), Instant::ZERO);
+//! sup.add_pair(Instant::ZERO, PairSpec::new(NodeId::must(0x10), NodeId::must(0x50), ms(20), ms(50)))?;
+//! let station: RedundantMaster = RedundantMaster::new(DualBus::new(DualBusConfig::default()), sup)?;
+//! let m = sim.add_device("master", station, &buses)?;
+//! # let mut a = Node::new(NodeConfig::slave(NodeId::must(0x10)), comm::standard_dictionary(0x10, Default::default()));
+//! # a.boot(Instant::ZERO);
+//! # sim.add_device("board A", Station::new(DualBus::new(DualBusConfig::default()), a), &buses)?;
+//! sim.run_until(Instant::from_millis(500));
+//! sim.bus_down(buses[1]);
+//! sim.run_until(Instant::from_secs(1));
+//!
+//! // Master role, ports, pairs (state and boot phase of each member), one-bus nodes:
+//! let table = sim.device(m).status(sim.now()).to_string();
+//! println!("{table}");
+//! let line = |start: &str| {
+//!     let l = table.lines().find(|l| l.starts_with(start)).unwrap();
+//!     l.split_whitespace().collect::<Vec<_>>()
+//! };
+//! assert_eq!(line("master"), ["master", "node", "0x01", "(0):", "active"]);
+//! assert_eq!(line("bus 1")[2], "ok");
+//! assert_ne!(line("bus 2")[2], "ok");
+//! assert_eq!(line("0 "), ["0", "A", "0x10", "operational", "joined", "0x50", "unknown", "waiting"]);
+//! assert!(table.contains("node 0x10 heard on bus 1 only"));
+//! # Ok::<(), Box<dyn std::error::Error>>(())
+//! ```
 
 use crate::link::dual_bus::DualBus;
 use crate::link::events::LinkEvent;

@@ -1,4 +1,4 @@
-//! Layer 3, the CiA 301 communication services: one module per communication object, each a
+//! Layer 4, the CiA 301 communication services: one module per communication object, each a
 //! sans-IO machine or codec that the [node](crate::node) composes.
 //!
 //! | Object | Module | Identifiers (predefined set) |
@@ -18,6 +18,37 @@
 //! Everything here sits on the [object dictionary](crate::od) and the [frame](crate::frame)
 //! primitives only: no service knows the node that composes it, and none knows about the master
 //! or the ports. The root re-exports each module, so `duocan::sdo` is `duocan::cia301::sdo`.
+//!
+//! Each service is driven the same way, here the SDO client: a request gives a frame to send,
+//! the server's answer goes in with the time it arrived, the result comes out as an event; with
+//! no answer, the deadline it reported is where it aborts.
+//!
+//! ```
+//! use duocan::sdo::{SdoClient, SdoOptions};
+//! use duocan::{AbortCode, Duration, Frame, Id, Instant, Machine, NodeId};
+//!
+//! let mut client: SdoClient = SdoClient::new(1024);
+//! let (node, opts) = (NodeId::must(5), SdoOptions::default().with_timeout(Duration::from_millis(100)));
+//! // Read 0x1018 sub 1 (vendor-ID): an expedited upload request to node 5.
+//! client.upload(Instant::ZERO, node, 0x1018, 1, opts)?;
+//! let req = client.poll_transmit().unwrap();
+//! assert_eq!((req.id(), req.data()), (Id::Standard(0x605), &[0x40, 0x18, 0x10, 1, 0, 0, 0, 0][..]));
+//! // The node answers 3 ms later with four bytes.
+//! let answer = Frame::from_array(Id::Standard(0x585), [0x43, 0x18, 0x10, 1, 0x23, 1, 0, 0]);
+//! client.handle_frame(Instant::from_millis(3), &answer);
+//! assert_eq!(client.poll_event().unwrap().data(), Some(&[0x23, 1, 0, 0][..]));
+//!
+//! // A second read that nobody answers: at its deadline the client aborts on the bus.
+//! client.upload(Instant::from_millis(10), node, 0x1000, 0, opts)?;
+//! let _request = client.poll_transmit();
+//! let deadline = client.poll_timeout().unwrap();
+//! assert_eq!(deadline, Instant::from_millis(110));
+//! client.handle_timeout(deadline);
+//! assert_eq!(client.poll_transmit().unwrap().data(), [0x80, 0, 0x10, 0, 0, 0, 4, 5]);
+//! let err = client.poll_event().unwrap().result.unwrap_err();
+//! assert_eq!(err.code(), Some(AbortCode::TIMEOUT));
+//! # Ok::<(), duocan::sdo::SdoError>(())
+//! ```
 
 pub mod emcy;
 pub mod guarding;

@@ -2,6 +2,25 @@
 //!
 //! A [`Frame`] is a 16-byte value type. Bytes beyond the DLC are always zero, so two frames that
 //! are equal on the wire compare equal and hash equal: the dual-bus merger relies on that.
+//!
+//! ```
+//! use duocan::frame::cob_id::predefined::{self, Function};
+//! use duocan::frame::FrameError;
+//! use duocan::{CobId, Frame, Id, NodeId};
+//!
+//! // TPDO1 of node 5 in the predefined connection set, as 0x1800 sub 1 would hold it.
+//! let node = NodeId::must(5);
+//! let cob = CobId::from_id(predefined::tpdo(1, node));
+//! assert_eq!(cob.can_id(), Some(Id::Standard(0x185)));
+//! assert!(!cob.with_valid(false).is_valid()); // bit 31: the PDO is switched off
+//!
+//! let f = Frame::new(cob.can_id().unwrap(), &[0x34, 0x12])?;
+//! assert_eq!((f.id().raw(), f.dlc(), f.data()), (0x185, 2, &[0x34, 0x12][..]));
+//! assert_eq!(predefined::classify(f.id()), Function::Tpdo(1, node));
+//! // Bad input is an error, not a panic: nine bytes do not fit a classic frame.
+//! assert_eq!(Frame::new(f.id(), &[0; 9]), Err(FrameError::TooLong { len: 9 }));
+//! # Ok::<(), FrameError>(())
+//! ```
 
 pub mod cob_id;
 pub mod instant;

@@ -4,6 +4,43 @@
 //! dictionary is the node's configuration: services read their parameters from it at boot and
 //! react when an entry changes (writing 0x1017 restarts the heartbeat, 0x1006 re-times SYNC, …).
 //! Every write — local or from the bus — goes through the node so that those reactions happen.
+//!
+//! ```
+//! use duocan::node::StateCause;
+//! use duocan::nmt::{command_frame, NmtCommand, NmtState, NmtTarget};
+//! use duocan::od::comm;
+//! use duocan::{Frame, Id, Instant, Machine, Node, NodeConfig, NodeEventKind, NodeId};
+//!
+//! let five = NodeId::must(5);
+//! let mut node = Node::new(NodeConfig::slave(five), comm::standard_dictionary(5, Default::default()));
+//! node.set(Instant::ZERO, comm::HEARTBEAT_PRODUCER, 0, 100u16)?; // a heartbeat every 100 ms
+//! node.boot(Instant::ZERO);
+//! assert_eq!(node.poll_transmit(), Some(Frame::from_array(Id::Standard(0x705), [0x00]))); // boot-up
+//! assert_eq!(node.nmt_state(), NmtState::PreOperational);
+//! # while node.poll_event().is_some() {}
+//!
+//! // The master starts it.
+//! let start = command_frame(Id::Standard(0x000), NmtCommand::Start, NmtTarget::Node(five));
+//! node.handle_frame(Instant::from_millis(40), &start);
+//! assert_eq!(node.nmt_state(), NmtState::Operational);
+//! let events: Vec<_> = std::iter::from_fn(|| node.poll_event()).map(|e| e.kind).collect();
+//! let started = NodeEventKind::StateChanged {
+//!     from: NmtState::PreOperational,
+//!     to: NmtState::Operational,
+//!     cause: StateCause::Command(NmtCommand::Start),
+//! };
+//! assert!(events.contains(&started));
+//!
+//! // The change is announced at once by a heartbeat saying "operational" (0x05), and the
+//! // heartbeat grid restarts from there: the next deadline is 100 ms later.
+//! let operational = Frame::from_array(Id::Standard(0x705), [0x05]);
+//! assert_eq!(node.poll_transmit(), Some(operational));
+//! let t = node.poll_timeout().unwrap();
+//! assert_eq!(t, Instant::from_millis(140));
+//! node.handle_timeout(t);
+//! assert_eq!(node.poll_transmit(), Some(operational));
+//! # Ok::<(), duocan::AbortCode>(())
+//! ```
 
 use crate::cia301::emcy::EmcyProducer;
 use crate::cia301::guarding::{GuardMaster, GuardSlave};

@@ -4,6 +4,32 @@
 //!
 //! Values are stored as the little-endian bytes that travel on the bus, so SDO and PDO copy them
 //! without conversion. Lookup is a hash on `index << 8 | sub`, independent of dictionary size.
+//!
+//! ```
+//! use duocan::od::{Access, Limit, ObjectDef, ObjectDictionary, StaticDictionary};
+//! use duocan::AbortCode;
+//!
+//! // A compile-time table: a speed limit (0..=250) and a read-only serial number.
+//! static APP: [ObjectDef; 2] = [
+//!     ObjectDef::u16(0x2000, 0, Access::Rw, 80)
+//!         .limits(Limit::Unsigned(0), Limit::Unsigned(250))
+//!         .named("Speed limit"),
+//!     ObjectDef::u32(0x2001, 0, Access::Ro, 0x0042_0017).named("Serial number"),
+//! ];
+//! let mut od = StaticDictionary::<8, 32>::new(); // room for 8 entries, 32 bytes of values
+//! od.load(5, &[&APP])?;
+//!
+//! // Writes as an SDO download would (bytes as on the bus), reads typed.
+//! od.write(0x2000, 0, &120u16.to_le_bytes())?;
+//! assert_eq!(od.get_value::<u16>(0x2000, 0), Ok(120));
+//! assert_eq!(od.get(0x2000, 0)?.name, "Speed limit");
+//! // A bad write is refused with the abort code an SDO server would send; the value stays.
+//! assert_eq!(od.write(0x2000, 0, &300u16.to_le_bytes()), Err(AbortCode::VALUE_TOO_HIGH));
+//! assert_eq!(od.write(0x2001, 0, &[0; 4]), Err(AbortCode::READ_ONLY));
+//! assert_eq!(od.read(0x2002, 0), Err(AbortCode::NO_OBJECT));
+//! assert_eq!(od.get_value::<u16>(0x2000, 0), Ok(120));
+//! # Ok::<(), Box<dyn std::error::Error>>(())
+//! ```
 
 pub mod abort;
 mod access;

@@ -10,6 +10,54 @@
 //! Implementations: `socketcan` (Linux SocketCAN, feature `socketcan`), `udp` (python-can's
 //! `udp_multicast` bus, feature `udp`), and for no_std targets the synchronous [`embedded`]
 //! adapter, which drives a [`Device`](crate::Device) over `embedded_can::nb::Can` drivers.
+//!
+//! Two ports on one in-memory bus (`mem`, feature `tokio`): what one sends the other receives,
+//! and neither hears itself. The runtime does this for a device; an application rarely calls a
+//! port itself.
+//!
+//! ```
+//! # #[cfg(feature = "tokio")]
+//! # #[tokio::main(flavor = "current_thread")]
+//! # async fn main() -> Result<(), duocan::port::PortError> {
+//! use duocan::port::mem::MemBus;
+//! use duocan::port::{Port, PortInput};
+//! use duocan::{Frame, Id};
+//!
+//! let bus = MemBus::new("mem0");
+//! let (mut a, mut b) = (bus.port(), bus.port());
+//! let heartbeat = Frame::from_array(Id::Standard(0x705), [0x05]);
+//! a.send(&heartbeat).await?;
+//! let PortInput::Frame(got) = b.recv().await? else { panic!("a frame was sent") };
+//! assert_eq!(got, heartbeat);
+//! // `a`'s next input is `b`'s answer: its own heartbeat does not come back to it.
+//! let answer = Frame::from_array(Id::Standard(0x706), [0x7F]);
+//! b.send(&answer).await?;
+//! assert!(matches!(a.recv().await?, PortInput::Frame(f) if f == answer));
+//! assert_eq!((a.counters().snapshot().tx_frames, b.counters().snapshot().rx_frames), (1, 1));
+//! # Ok(())
+//! # }
+//! # #[cfg(not(feature = "tokio"))]
+//! # fn main() {}
+//! ```
+//!
+//! A SocketCAN interface is opened by name (feature `socketcan`, Linux); a missing or down
+//! interface is an error that says how to create or raise it:
+//!
+//! ```no_run
+//! # #[cfg(all(feature = "socketcan", target_os = "linux"))]
+//! # #[tokio::main]
+//! # async fn main() -> Result<(), duocan::port::PortError> {
+//! use duocan::nmt::{command_frame, NmtCommand, NmtTarget};
+//! use duocan::port::{socketcan::SocketCanPort, Port};
+//! use duocan::Id;
+//!
+//! let mut can0 = SocketCanPort::open("can0")?;
+//! can0.send(&command_frame(Id::Standard(0), NmtCommand::Start, NmtTarget::All)).await?;
+//! # Ok(())
+//! # }
+//! # #[cfg(not(all(feature = "socketcan", target_os = "linux")))]
+//! # fn main() {}
+//! ```
 
 pub mod embedded;
 pub mod error_frame;

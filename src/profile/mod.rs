@@ -4,6 +4,21 @@
 //!
 //! The stack only ever asks a profile; the predefined connection set is one implementation and a
 //! deployment-specific scheme ([`railway`], the 29-bit layout of a published railway-depot network) is another.
+//!
+//! ```
+//! use duocan::profile::{IdProfile, Predefined, ProfileFrame};
+//! use duocan::{Id, NodeId};
+//!
+//! let (p, node) = (Predefined, NodeId::must(0x12));
+//! assert_eq!(p.nmt(), Id::Standard(0x000));
+//! assert_eq!(p.heartbeat(node), Id::Standard(0x712));
+//! assert_eq!(p.emcy(node), Id::Standard(0x092));
+//! // Back from an identifier: a guarding request is the remote frame on the heartbeat identifier.
+//! assert_eq!(p.classify(Id::Standard(0x712), false), Some(ProfileFrame::Heartbeat(node)));
+//! assert_eq!(p.classify(Id::Standard(0x712), true), Some(ProfileFrame::Guarding(node)));
+//! // SDO and PDO identifiers come from the dictionary, not from the profile.
+//! assert_eq!(p.classify(Id::Standard(0x592), false), None);
+//! ```
 
 pub mod railway;
 

@@ -19,6 +19,43 @@
 //! inside the core task ([`Handle::call`]), with typed helpers for nodes ([`NodeHost`]) and a
 //! request/response helper ([`Handle::request`]) that starts an operation and awaits the event
 //! that completes it — the shape asynchronous SDO transfers take.
+//!
+//! A node run on an in-memory bus, seen from a second port on it:
+//!
+//! ```
+//! use duocan::nmt::{command_frame, NmtCommand, NmtState, NmtTarget};
+//! use duocan::od::comm;
+//! use duocan::port::{mem::MemBus, Port, PortInput};
+//! use duocan::runtime::Runtime;
+//! use duocan::{Frame, Id, Node, NodeConfig, NodeId, Station};
+//! use std::time::Duration;
+//!
+//! /// The next input of a port (a test gives up after 5 s).
+//! async fn next(port: &mut impl Port) -> PortInput {
+//!     tokio::time::timeout(Duration::from_secs(5), port.recv()).await.expect("no frame").unwrap()
+//! }
+//!
+//! #[tokio::main]
+//! async fn main() -> Result<(), Box<dyn std::error::Error>> {
+//!     let bus = MemBus::new("mem0");
+//!     let mut tester = bus.port();
+//!     let node = Node::new(NodeConfig::slave(NodeId::must(5)), comm::standard_dictionary(5, Default::default()));
+//!     let handle = Runtime::new(Station::single(node)).port(bus.port()).spawn()?;
+//!     handle.boot().await?;
+//!     let heartbeat = |state| PortInput::Frame(Frame::from_array(Id::Standard(0x705), [state]));
+//!     assert_eq!(next(&mut tester).await, heartbeat(0x00)); // the boot-up
+//!
+//!     // A heartbeat every second, written through the handle: the first one goes out at once.
+//!     handle.write(comm::HEARTBEAT_PRODUCER, 0, 1000u16.to_le_bytes().to_vec()).await?;
+//!     assert_eq!(next(&mut tester).await, heartbeat(0x7F)); // pre-operational
+//!     // Started from the bus: the new state is announced at once too.
+//!     tester.send(&command_frame(Id::Standard(0), NmtCommand::Start, NmtTarget::All)).await?;
+//!     assert_eq!(next(&mut tester).await, heartbeat(0x05));
+//!     assert_eq!(handle.nmt_state().await?, NmtState::Operational);
+//!     handle.shutdown().await;
+//!     Ok(())
+//! }
+//! ```
 
 mod handle;
 mod node;

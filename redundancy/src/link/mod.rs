@@ -19,6 +19,28 @@
 //! Nothing here knows the supervisor: the layer is told which board of a pair is active, and
 //! that is all it knows of pairs.
 //!
+//! A frame that arrives on both buses goes up once; a frame sent on the logical bus goes out
+//! on both:
+//!
+//! ```
+//! use duocan::{BusLink, Frame, Id, Instant};
+//! use duocan_redundancy::{DualBus, DualBusConfig};
+//!
+//! let mut link: DualBus = DualBus::new(DualBusConfig::default());
+//! let t = Instant::from_millis;
+//! let tpdo = Frame::from_array(Id::Standard(0x185), [0x34, 0x12]);
+//! // Port 0 hears it first; the copy on port 1, 2 ms later, is its twin and is dropped.
+//! assert_eq!(link.handle_rx(t(10), 0, &tpdo), Some(tpdo));
+//! assert_eq!(link.handle_rx(t(12), 1, &tpdo), None);
+//! assert_eq!(link.stats().delivered, 1);
+//!
+//! // Sending fans out to every port that has not failed.
+//! let sync = Frame::from_array(Id::Standard(0x080), []);
+//! link.send(t(20), &sync);
+//! let out: Vec<_> = std::iter::from_fn(|| link.poll_transmit()).collect();
+//! assert_eq!(out, [(0, sync), (1, sync)]);
+//! ```
+//!
 //! # The clock contract
 //!
 //! The layer keeps [duocan's clock contract](duocan::frame::instant#the-clock-contract) as the

@@ -10,6 +10,51 @@
 //! The supervisor decides; the dual-bus layer below is told the outcome (which board of a pair
 //! is active) through [`LinkCommand`]s.
 //!
+//! One master, one pair of boards on two simulated buses. Board A is active; when it loses
+//! power, B takes over exactly the consumer time after A's last heartbeat:
+//!
+//! ```
+//! use duocan::machine::StationEvent;
+//! use duocan::master::{objects, Master, NetworkConfig};
+//! use duocan::od::comm;
+//! use duocan::sim::{BusConfig, SimNetwork};
+//! use duocan::{Duration, Instant, Node, NodeConfig, NodeId, Station};
+//! use duocan_redundancy::supervisor::pairs::{PairsEvent, RoleReason};
+//! use duocan_redundancy::{DualBus, DualBusConfig, Member, PairId, PairSpec};
+//! use duocan_redundancy::{SupervisedStation, Supervisor, SupervisorConfig, SupervisorEvent};
+//!
+//! let ms = Duration::from_millis;
+//! let mut sim = SimNetwork::new(1);
+//! let buses = [sim.add_bus(BusConfig::new("can1", 1_000_000)), sim.add_bus(BusConfig::new("can2", 1_000_000))];
+//! let od = objects::master_dictionary(1, comm::Identity::default());
+//! let master = Master::new(NodeId::must(1), od, NetworkConfig::new())?;
+//! // Priority 0 at node 1: a 20 ms heartbeat, 50 ms master timeout, SYNC every 10 ms.
+//! let mut sup = Supervisor::new(master, SupervisorConfig::new(0, NodeId::must(1), ms(20), ms(50), ms(10)), Instant::ZERO);
+//! // Boards 0x10 (A) and 0x50 (B) beat every 20 ms; 50 ms of silence is a failure.
+//! sup.add_pair(Instant::ZERO, PairSpec::new(NodeId::must(0x10), NodeId::must(0x50), ms(20), ms(50)))?;
+//! let m = sim.add_device("master", SupervisedStation::new(DualBus::new(DualBusConfig::default()), sup)?, &buses)?;
+//! let mut boards = Vec::new();
+//! for id in [0x10, 0x50] {
+//!     let mut n = Node::new(NodeConfig::slave(NodeId::must(id)), comm::standard_dictionary(id, Default::default()));
+//!     n.boot(Instant::ZERO);
+//!     boards.push(sim.add_device(format!("board {id:#x}"), Station::new(DualBus::new(DualBusConfig::default()), n), &buses)?);
+//! }
+//! sim.run_until(Instant::from_secs(1));
+//! let active = |sim: &SimNetwork| sim.device(m).sup().pair_supervisor().pair(PairId(0)).unwrap().active;
+//! assert_eq!(active(&sim), Some(Member::A));
+//!
+//! sim.power_off(boards[0]);
+//! sim.run_until(Instant::from_secs(2));
+//! assert_eq!(active(&sim), Some(Member::B));
+//! let switch = sim.events(m).iter().find_map(|(_, e)| match e {
+//!     StationEvent::Machine(SupervisorEvent::Pairs(PairsEvent::Role(r))) if r.to == Some(Member::B) => Some(*r),
+//!     _ => None,
+//! }).unwrap();
+//! let RoleReason::ActiveSilent { last } = switch.reason else { panic!("{switch}") };
+//! assert_eq!((switch.from, switch.at), (Some(Member::A), last + ms(50)));
+//! # Ok::<(), Box<dyn std::error::Error>>(())
+//! ```
+//!
 //! # The clock contract
 //!
 //! The supervisor keeps [duocan's clock contract](duocan::frame::instant#the-clock-contract), as
