@@ -83,7 +83,12 @@
 //!
 //! A redundant master is the [`LogicalNetwork`] of the [`network`] page: a [`Supervisor`]
 //! (the CiA 302-2 master and its pairs) on a [`DualBus`], which the simulator or the tokio
-//! runtime drives like any other device; its example builds one with one pair of boards. To try
+//! runtime drives like any other device; its example builds one with one pair of boards from
+//! [`LogicalNetwork::builder`]'s named settings. Under tokio, the same builder opens the
+//! redundant network's front door (`net::RedundantNetwork`, feature `tokio`): SDO to any node,
+//! NMT and one stream of bus, pair and master failovers, as the starter example
+//! `examples/redundant_master.rs` shows in under twenty lines (`cargo run --example
+//! redundant_master`, a simulated station, no hardware). To try
 //! the stack on one bus first, start at duocan's front door, `duocan::net` (feature `tokio`),
 //! and its starter examples in the root crate: `examples/read_sdo.rs` (read one object of one
 //! node) and `examples/heartbeat_monitor.rs` (watch nodes listen-only);

@@ -76,8 +76,9 @@ impl PortState {
 }
 
 impl fmt::Display for PortState {
+    // `pad`, not `write_str`: the status table lines its columns up with `{:<11}`.
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        f.write_str(match self {
+        f.pad(match self {
             PortState::Ok => "ok",
             PortState::Suspect => "suspect",
             PortState::Failed => "failed",
