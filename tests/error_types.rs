@@ -47,6 +47,7 @@ const _: () = {
     check::<duocan::eds::EdsError>();
     check::<duocan::eds::ExportError>();
     check::<duocan::eds::LookupError>();
+    check::<duocan::master::ConciseError>();
 };
 
 #[cfg(feature = "udp")]
@@ -114,6 +115,13 @@ fn each_error_ends_a_call_in_the_question_mark() {
         by: NodeId::must(3),
     });
     boxes(BootError::NoSuchPdo { pdo: 600 });
+    let concise = duocan::master::ConciseDcf::parse(&[1, 0]).unwrap_err();
+    assert_eq!(
+        concise.to_string(),
+        "concise DCF, at byte 0: needs 4 more bytes, 2 left"
+    );
+    boxes(concise);
+    boxes(BootError::ConciseDcf(concise));
     boxes(MasterError::Standby);
     boxes(AccessError::NoAnswer(None));
     boxes(PdoConfigError {

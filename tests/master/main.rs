@@ -2,6 +2,7 @@
 
 mod boot;
 mod capacity;
+mod concise_dcf;
 mod control;
 mod dcf_config;
 mod failures;

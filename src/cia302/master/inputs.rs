@@ -110,7 +110,7 @@ impl<D: ObjectDictionary, P: IdProfile> Master<D, P> {
         let Some(p) = s.process.as_mut() else {
             return;
         };
-        let out = p.handle(&s.cfg, &id, result);
+        let out = p.handle(s.run.as_deref().unwrap_or(&s.cfg), &id, result);
         self.apply(now, n, out);
     }
 

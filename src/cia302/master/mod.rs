@@ -86,6 +86,7 @@
 
 mod boot;
 mod boot_run;
+mod concise;
 mod config;
 #[cfg(feature = "std")]
 mod dcf;
@@ -97,6 +98,10 @@ pub mod objects;
 mod slaves;
 
 pub use boot::{BootError, BootPhase, ErrorStatus};
+pub use concise::{
+    validate as validate_concise, ConciseDcf, ConciseEntry, ConciseError, ConciseErrorKind,
+    MAX_CONCISE_BYTES, MAX_CONCISE_ENTRIES,
+};
 pub use config::{
     Assignment, ConfigStep, ConfigurationStamp, ExpectedIdentity, NetworkConfig, NmtStartup,
     SlaveConfig, StartPolicy, WriteAborts,
