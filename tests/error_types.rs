@@ -48,6 +48,8 @@ const _: () = {
     check::<duocan::eds::ExportError>();
     check::<duocan::eds::LookupError>();
     check::<duocan::master::ConciseError>();
+    check::<duocan::master::ProgramDownloadError>();
+    check::<duocan::cia302::program::FlashError>();
 };
 
 #[cfg(feature = "udp")]
@@ -122,6 +124,21 @@ fn each_error_ends_a_call_in_the_question_mark() {
     );
     boxes(concise);
     boxes(BootError::ConciseDcf(concise));
+    boxes(duocan::cia302::program::FlashError::DataFormatError);
+    let program = duocan::master::ProgramDownloadError {
+        node: NodeId::must(6),
+        step: duocan::master::ProgramStep::Download,
+        kind: duocan::master::ProgramErrorKind::Sdo(sdo_error(SdoErrorKind::Server(
+            AbortCode::CANNOT_STORE,
+        ))),
+        resumed: true,
+    };
+    let text = program.to_string();
+    assert!(text.contains("step download (0x1F50)"), "{text}");
+    assert!(text.contains("the old program runs again"), "{text}");
+    assert_eq!(program.code(), Some(AbortCode::CANNOT_STORE));
+    boxes(program);
+    boxes(MasterError::Busy(NodeId::must(6)));
     boxes(MasterError::Standby);
     boxes(AccessError::NoAnswer(None));
     boxes(PdoConfigError {

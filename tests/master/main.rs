@@ -8,6 +8,7 @@ mod dcf_config;
 mod failures;
 mod net;
 mod pdo_config;
+mod program_download;
 mod properties;
 mod queues;
 mod reboot;

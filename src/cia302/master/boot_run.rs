@@ -28,6 +28,11 @@ impl<D: ObjectDictionary, P: IdProfile> Master<D, P> {
         self.cancel(n);
         let stamp = self.expected_stamp(n);
         let s = self.slot_mut(n);
+        if s.program.is_some() {
+            // Its program is being replaced: booted when that ends.
+            s.restart = true;
+            return;
+        }
         s.phase = BootPhase::Identifying;
         if s.request.is_some() {
             s.restart = true;
@@ -74,6 +79,9 @@ impl<D: ObjectDictionary, P: IdProfile> Master<D, P> {
 
     /// Starts the current access of `n`'s process, or queues `n` for a session.
     pub(super) fn issue(&mut self, now: Instant, n: NodeId) {
+        if self.slot(n).program.is_some() {
+            return self.issue_program(now, n);
+        }
         let opts = SdoOptions {
             timeout: self.sdo_timeout,
             ..SdoOptions::default()

@@ -95,6 +95,8 @@ mod events;
 mod inputs;
 mod network;
 pub mod objects;
+mod program;
+mod program_run;
 mod slaves;
 
 pub use boot::{BootError, BootPhase, ErrorStatus};
@@ -107,6 +109,10 @@ pub use config::{
     SlaveConfig, StartPolicy, WriteAborts,
 };
 pub use events::{MasterError, MasterEvent, MasterEventKind, MasterStats, SlaveView};
+pub use program::{
+    ProgramAccess, ProgramDownload, ProgramDownloadError, ProgramErrorKind, ProgramReport,
+    ProgramStep,
+};
 
 use crate::cia301::nmt::{NmtCommand, NmtState, NmtTarget};
 use crate::cia301::pdo::Dir;
@@ -182,6 +188,8 @@ pub struct Master<D, P = Predefined> {
     sdo_timeout: Duration,
     probe_interval: Duration,
     default_consumer_ms: u16,
+    /// Program downloads under way.
+    programs: usize,
     /// Notices the caller's clock stepping back (the clock contract).
     clock: TimeWatch,
 }
@@ -297,6 +305,7 @@ impl<D: ObjectDictionary, P: IdProfile> Master<D, P> {
             sdo_timeout: config.sdo_timeout,
             probe_interval: config.probe_interval,
             default_consumer_ms: config.default_consumer_ms,
+            programs: 0,
             clock: TimeWatch::new(),
         };
         // Before boot the node reads its dictionary at boot, so plain stores suffice.

@@ -1,7 +1,7 @@
 //! Definition tables of the CiA 302-2 master objects: 0x1F80 NMT startup, 0x1F81 slave
 //! assignment, 0x1F82 request NMT, 0x1F84–0x1F88 expected identity, 0x1F89 boot time, and
 //! the configuration manager's 0x1F22 concise DCF and 0x1F26/0x1F27 expected configuration date
-//! and time.
+//! and time, and 0x1F55 expected software identification (program download).
 //!
 //! All `const`, like [`crate::od::comm`]. Arrays have sub 0 = 127 (128 for 0x1F82, whose sub 128
 //! addresses all nodes) and one entry per node-ID.
@@ -32,6 +32,9 @@ pub const BOOT_TIME: u16 = 0x1F89;
 /// ([`super::ConciseDcf`]), applied by its boot process; empty: none. A malformed one is
 /// refused with [`AbortCode::VALUE_RANGE`].
 pub const CONCISE_DCF: u16 = 0x1F22;
+/// Expected software identification (CiA 302-3): sub n, the 0x1F56 sub 1 node n must report
+/// after a program download (0: not checked).
+pub const EXPECTED_SOFTWARE: u16 = 0x1F55;
 /// Expected configuration date (CiA 302-3): sub n, the date node n's 0x1020 sub 1 must hold
 /// for its configuration to count as written already (0: not checked).
 pub const EXPECTED_CONFIG_DATE: u16 = 0x1F26;
@@ -163,13 +166,14 @@ pub fn insert_master_objects(od: &mut DynamicDictionary, startup: u32, boot_time
         node_array(SERIAL_NUMBER, "Serial number"),
         node_array(EXPECTED_CONFIG_DATE, "Expected configuration date"),
         node_array(EXPECTED_CONFIG_TIME, "Expected configuration time"),
+        node_array(EXPECTED_SOFTWARE, "Expected software identification"),
     ];
     let singles = startup_and_boot_time(startup, boot_time_ms);
     let requests = request_nmt();
     let concise = concise_dcf();
-    let tables: [&[ObjectDef]; 11] = [
+    let tables: [&[ObjectDef]; 12] = [
         &arrays[0], &arrays[1], &arrays[2], &arrays[3], &arrays[4], &arrays[5], &arrays[6],
-        &arrays[7], &singles, &requests, &concise,
+        &arrays[7], &arrays[8], &singles, &requests, &concise,
     ];
     for t in tables {
         for d in t {
@@ -205,6 +209,7 @@ mod tests {
             SERIAL_NUMBER,
             EXPECTED_CONFIG_DATE,
             EXPECTED_CONFIG_TIME,
+            EXPECTED_SOFTWARE,
         ] {
             assert_eq!(od.get_value::<u8>(index, 0), Ok(127));
             assert_eq!(od.get_value::<u32>(index, 127), Ok(0));

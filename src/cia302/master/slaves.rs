@@ -23,6 +23,8 @@ pub(super) struct Slot {
     /// The configuration the running boot process applies when it is not `cfg`: `cfg` with
     /// the node's concise DCF (0x1F22 sub n) read when the process began.
     pub(super) run: Option<alloc::boxed::Box<SlaveConfig>>,
+    /// A program download under way.
+    pub(super) program: Option<alloc::boxed::Box<super::program_run::ProgramRun>>,
     pub(super) phase: BootPhase,
     pub(super) process: Option<Process>,
     /// The SDO request in flight to the node (of the running process, or of one dropped).
@@ -49,6 +51,7 @@ impl Slot {
         Slot {
             cfg: SlaveConfig::new(n),
             run: None,
+            program: None,
             phase: BootPhase::Unassigned,
             process: None,
             request: None,
