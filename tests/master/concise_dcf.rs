@@ -16,8 +16,11 @@ use duocan::sim::DevId;
 use duocan::{AbortCode, Instant, Node, NodeConfig, NodeId, Station};
 use proptest::prelude::*;
 
+/// (index, sub, value) of every entry of one dictionary.
+type Entries = Vec<(u16, u8, Vec<u8>)>;
+
 /// Every entry of every slave's dictionary, by node.
-fn dictionaries(run: &Run) -> Vec<(u8, Vec<(u16, u8, Vec<u8>)>)> {
+fn dictionaries(run: &Run) -> Vec<(u8, Entries)> {
     IDS.map(|id| {
         let mut all = vec![];
         run.slave(id)

@@ -76,6 +76,7 @@ impl ProgramStore for Flash {
     }
 }
 
+type Outcome = Result<ProgramReport, ProgramDownloadError>;
 type Od = ProgramDictionary<DynamicDictionary, Flash>;
 type Slave = Station<SinglePort, Node<Od>>;
 
@@ -141,12 +142,7 @@ impl Rig {
             .unwrap();
     }
     /// Progress reports and the outcome, once it came.
-    fn outcome(
-        &self,
-    ) -> (
-        Vec<(usize, usize)>,
-        Option<Result<ProgramReport, ProgramDownloadError>>,
-    ) {
+    fn outcome(&self) -> (Vec<(usize, usize)>, Option<Outcome>) {
         let events = master_events(self.sim.events(self.master));
         let progress = all(&events, |k| match k {
             K::ProgramProgress { done, total, .. } => Some((*done, *total)),

@@ -20,8 +20,9 @@
 //! # Memory and overflow
 //!
 //! Parsing is bounded: at most [`MAX_CONCISE_BYTES`] of input and [`MAX_CONCISE_ENTRIES`]
-//! entries; beyond either, or on any malformed input, the error names the entry (counted from
-//! 1) and the byte offset where reading stopped ([`ConciseError`]), and nothing is returned.
+//! entries; beyond either, or on any malformed input, the error names the entry (the first is
+//! entry 1) and the byte offset where reading stopped ([`ConciseError`]), and nothing is
+//! returned.
 //! [`validate`] checks bytes without allocating: the master's 0x1F22 entries refuse a malformed
 //! download with an abort code, so the dictionary never holds half a configuration.
 //!
