@@ -5,15 +5,15 @@
 
 use super::dcf_config::{network_from, From, Run, IDS, REFUSING};
 use crate::net::*;
-use duocan::machine::{Composite, CompositeEvent, SinglePort, StationEvent};
+use duocan::machine::{CompositeEvent, StationEvent};
 use duocan::master::{
     objects::CONCISE_DCF, BootError, ConciseDcf, ConciseEntry, ConfigStep, MasterEventKind as K,
     NetworkConfig, SlaveConfig,
 };
-use duocan::od::{comm, DynamicDictionary, ObjectDictionary};
-use duocan::sdo::{SdoClient, SdoErrorKind, SdoOptions, TransferMode};
+use duocan::od::{comm, ObjectDictionary};
+use duocan::sdo::{SdoErrorKind, SdoOptions, TransferMode};
 use duocan::sim::DevId;
-use duocan::{AbortCode, Instant, Node, NodeConfig, NodeId, Station};
+use duocan::{AbortCode, Instant, NodeId};
 use proptest::prelude::*;
 
 /// (index, sub, value) of every entry of one dictionary.
@@ -88,9 +88,6 @@ fn concise_dcfs_in_0x1f22_configure_the_twenty_slaves_exactly_as_their_dcfs() {
     assert_eq!(concise.read_back(end, &items), items.len());
 }
 
-type Tool = Station<SinglePort, Composite<Node<DynamicDictionary>, SdoClient>>;
-const TOOL: NodeId = NodeId::must(0x7E);
-
 /// A master with slave 2 (nothing configured in code), slave 3 configured by the master, and
 /// a tool; booted.
 fn rig() -> (Net, DevId<Tool>) {
@@ -98,26 +95,7 @@ fn rig() -> (Net, DevId<Tool>) {
     for id in [2, 3] {
         net = net.slave(SlaveConfig::new(NodeId::must(id)).identity(expected(id)));
     }
-    let mut n = Net::new(500_000, master(net), &[2, 3]);
-    let node = Node::new(
-        NodeConfig::slave(TOOL),
-        comm::standard_dictionary(TOOL.raw(), Default::default()),
-    );
-    let client = SdoClient::new(duocan::master::MAX_CONCISE_BYTES);
-    let tool = n
-        .sim
-        .add_device(
-            "tool",
-            Station::single(Composite::new(node, client)),
-            &[n.bus],
-        )
-        .unwrap();
-    n.sim.device_mut(tool).machine.a.boot(Instant::ZERO);
-    n.boot_master();
-    n.boot_slave_at(2, Instant::from_millis(1));
-    n.boot_slave_at(3, Instant::from_millis(1));
-    n.sim.run_until(Instant::from_millis(100));
-    (n, tool)
+    with_tool(500_000, net, duocan::master::MAX_CONCISE_BYTES)
 }
 
 /// The tool downloads `bytes` into the master's 0x1F22 sub `sub` (block transfer); the result.

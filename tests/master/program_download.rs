@@ -252,11 +252,17 @@ fn an_image_the_slave_refuses_leaves_the_old_program_running() {
     assert_eq!(od.get_u32(0x1F56, 1), Some(OLD));
 }
 
-#[test]
-fn a_slave_restarting_midway_cuts_the_transfer_and_the_old_program_runs_again() {
+/// A download of a 20 kB image, started now; when.
+fn large_download() -> (Rig, Instant) {
     let mut r = rig(NEW);
     let t = r.sim.now();
     r.download(image(NEW, 20_000));
+    (r, t)
+}
+
+#[test]
+fn a_slave_restarting_midway_cuts_the_transfer_and_the_old_program_runs_again() {
+    let (mut r, t) = large_download();
     // Midway through the image (about 400 ms at 500 kbit/s), the slave's node restarts: its
     // SDO server forgot the transfer and aborts the segments that keep coming.
     let slave = r.slave;
@@ -303,9 +309,7 @@ fn a_slave_restarting_midway_cuts_the_transfer_and_the_old_program_runs_again() 
 
 #[test]
 fn a_bus_that_drops_midway_fails_the_download_and_the_old_program_stays_in_control() {
-    let mut r = rig(NEW);
-    let t = r.sim.now();
-    r.download(image(NEW, 20_000));
+    let (mut r, t) = large_download();
     let bus = r.bus;
     r.sim.at(t + Duration::from_millis(150), move |sim| {
         sim.set_bus_faults(bus, FaultRates::default().with_drop(1.0));

@@ -43,17 +43,8 @@ impl<D: ObjectDictionary, P: IdProfile> Master<D, P> {
             Err(e) => {
                 // Refused before anything is written: no half configuration.
                 let reason = BootError::ConciseDcf(e);
-                self.fail(n, ErrorStatus::J);
                 let status = ErrorStatus::J;
-                self.emit(
-                    now,
-                    MasterEventKind::ConfigFailed {
-                        node: n,
-                        status,
-                        reason,
-                    },
-                );
-                return;
+                return self.apply(now, n, Outcome::Failed { status, reason });
             }
         };
         let s = self.slot_mut(n);
