@@ -21,6 +21,11 @@
 //!   ([`WriteAborts::Continue`]). With an expected configuration date and time (0x1F26/0x1F27,
 //!   [`ConfigurationStamp`]) a slave whose 0x1020 holds them is not written again; one that is
 //!   configured gets them in its 0x1020 and, if asked for, stores its parameters (0x1010).
+//!   The same configuration as a [`ConciseDcf`] written to the master's 0x1F22 sub n is
+//!   applied at node n's boot.
+//! - Program download (CiA 302-3): [`Master::download_program`] replaces a slave's program
+//!   (stop, clear, image by block transfer, start, 0x1F56 against 0x1F55), with progress and
+//!   outcome events ([`MasterEventKind::ProgramProgress`], [`MasterEventKind::ProgramDownloaded`]).
 //! - Mandatory slaves (0x1F81 bit 3) gate the network start within the boot time (0x1F89); then
 //!   the master enters operational itself (0x1F80 bit 2 clear) and starts the slaves, with one
 //!   broadcast (bit 1) when that cannot start a slave that is not configured.
