@@ -333,6 +333,29 @@ fn a_bus_that_drops_midway_fails_the_download_and_the_old_program_stays_in_contr
 }
 
 #[test]
+fn a_master_that_becomes_standby_midway_sends_nothing_more() {
+    let (mut r, t) = large_download();
+    let master = r.master;
+    let cut = t + Duration::from_millis(150);
+    r.sim.at(cut, move |sim| {
+        let now = sim.now();
+        sim.device_mut(master).machine.set_active(now, false);
+    });
+    r.sim.run_for(Duration::from_millis(2_000));
+    let e = r.outcome().1.unwrap().unwrap_err();
+    assert_eq!((e.step, e.resumed), (ProgramStep::Download, false));
+    // Its abort of the transfer is the last frame it sends the slave.
+    let to_slave: Vec<_> = frames(&r.sim)
+        .into_iter()
+        .filter(|(at, f)| *at > cut && f.id() == Id::Standard(0x600 + SLAVE as u16))
+        .collect();
+    let last = to_slave.last().unwrap().1;
+    assert_eq!(last.data()[0], 0x80);
+    assert_eq!(last.data()[4..8], AbortCode::GENERAL.0.to_le_bytes());
+    assert_eq!(r.flash().activations, 0);
+}
+
+#[test]
 fn a_download_is_refused_while_one_runs() {
     let mut r = rig(NEW);
     r.download(image(NEW, 2_000));

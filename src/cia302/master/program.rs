@@ -89,6 +89,9 @@ pub enum ProgramErrorKind {
         /// Bytes received.
         len: usize,
     },
+    /// The master stopped managing the network (it became standby) during the step: a
+    /// standby sends nothing, so the procedure ends there.
+    Abandoned,
 }
 
 /// A program download that failed: where and how.
@@ -128,6 +131,7 @@ impl fmt::Display for ProgramDownloadError {
             ProgramErrorKind::BadReply { len } => {
                 write!(f, "0x1F56 answered with {len} bytes instead of 4")?
             }
+            ProgramErrorKind::Abandoned => f.write_str("abandoned: the master became standby")?,
         }
         if self.resumed {
             f.write_str("; the old program runs again")?;
@@ -325,6 +329,23 @@ impl ProgramDownload {
                 }
             }),
         };
+    }
+
+    /// Ends the procedure where it is, without another access (the master may send nothing
+    /// more): a step under way fails as [`ProgramErrorKind::Abandoned`]; a reset not yet
+    /// taken leaves the error that asked for it, not resumed.
+    pub fn abandon(&mut self) {
+        let error = match &self.phase {
+            Phase::Step(step) => ProgramDownloadError {
+                node: self.node,
+                step: *step,
+                kind: ProgramErrorKind::Abandoned,
+                resumed: false,
+            },
+            Phase::Resume(e, _) => *e,
+            Phase::Done(_) => return,
+        };
+        self.phase = Phase::Done(Err(error));
     }
 
     /// The outcome, once finished.

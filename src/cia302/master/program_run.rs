@@ -2,7 +2,8 @@
 //! same client sessions and queue as the boot processes, reporting progress and the outcome as
 //! [`MasterEventKind::ProgramProgress`] and [`MasterEventKind::ProgramDownloaded`]. A slave's
 //! boot process does not run while its program is replaced: one asked for meanwhile (its
-//! boot-up, say) runs when the download ends.
+//! boot-up, say) runs when the download ends. A master that becomes standby sends nothing
+//! more: the download ends where it is ([`ProgramDownload::abandon`]).
 
 use super::events::{MasterError, MasterEventKind};
 use super::objects::EXPECTED_SOFTWARE;
@@ -79,6 +80,13 @@ impl<D: ObjectDictionary, P: IdProfile> Master<D, P> {
 
     /// Starts the access `n`'s download asks for now, or queues `n` for a session.
     pub(super) fn issue_program(&mut self, now: Instant, n: NodeId) {
+        if !self.acting() {
+            // Standby now: nothing more goes out; the download ends where it is.
+            if let Some(run) = self.slot_mut(n).program.as_mut() {
+                run.job.abandon();
+            }
+            return self.program_moved(now, n);
+        }
         let timeout = self.sdo_timeout;
         let i = n.raw() as usize - 1;
         let s = &mut self.slots[i];
