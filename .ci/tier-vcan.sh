@@ -1,7 +1,8 @@
 #!/bin/bash
 # Tier 2: real SocketCAN on vcan0/vcan1/vcan2, inside a qemu VM running Debian's stock kernel
 # (the host kernel has no CAN). Installs what it needs (qemu, busybox, the kernel deb's CAN
-# modules, can-utils), runs tiers/tests/vcan.rs, tiers/tests/vcan_failover.rs and the
+# modules, can-utils), runs tiers/tests/vcan.rs, tiers/tests/vcan_failover.rs,
+# tiers/tests/vcan_redundant.rs and the
 # dual_vcan_failover example's self-test in the VM (and checks on the host that the example
 # refuses to run without its interfaces, saying how to create them), then the runtime-overhead
 # measurement (bare socketcan echo loop vs the tokio runtime, same VM).
@@ -34,6 +35,8 @@ echo "== tier-vcan: SocketCAN integration tests in the VM"
 cargo test -p duocan-tiers --features vcan --test vcan || fail "vcan tests"
 echo "== tier-vcan: the dual-bus layer (duocan-redundancy) failing over between vcan0 and vcan1"
 cargo test -p duocan-tiers --features vcan --test vcan_failover || fail "dual-bus failover on vcan"
+echo "== tier-vcan: the redundant network's front door on vcan0,vcan1 (open_named, SDO, a bus failover)"
+cargo test -p duocan-tiers --features vcan --test vcan_redundant || fail "redundant front door on vcan"
 
 echo "== tier-vcan: the dual_vcan_failover example"
 # Release build: the VM emulates its CPU (TCG, one core), and a debug build's scheduling delays

@@ -11,6 +11,7 @@
 use duocan::net::{NetError, NetEvent, Network};
 use std::time::Duration;
 
+/// Opens the port `DUOCAN_PORT` names (simulated nodes by default) and runs the example.
 #[tokio::main]
 pub async fn main() -> Result<(), NetError> {
     let port = std::env::var("DUOCAN_PORT").unwrap_or_else(|_| "sim".into());

@@ -10,6 +10,7 @@
 
 use duocan::net::{NetError, Network};
 
+/// Opens the port `DUOCAN_PORT` names (simulated nodes by default) and runs the example.
 #[tokio::main]
 pub async fn main() -> Result<(), NetError> {
     let port = std::env::var("DUOCAN_PORT").unwrap_or_else(|_| "sim".into());

@@ -15,7 +15,7 @@
 //! | 0 | [`frame`] | frames and identifiers, COB-IDs and node-IDs, time as an input, bounded queues and tables (inline or heap) |
 //! | 1 | [`machine`] | the shapes: [`Machine`], [`BusLink`], [`Device`], [`Station`] |
 //! | 2 | [`od`] | the object dictionary: types, values, static and dynamic dictionaries, abort codes, the power-on image and parameter storage (0x1010/0x1011) |
-//! | 3 | [`eds`] | device descriptions (CiA 306): EDS and DCF files read into a description with name lookup and a node's dictionary; any dictionary written as an EDS or DCF |
+//! | 3 | [`eds`] | device descriptions (CiA 306): EDS and DCF files read into a description with name lookup and a node's dictionary; any dictionary written as an EDS or DCF; a `no_std` node's static dictionary generated from an EDS at build time |
 //! | 4 | [`cia301`] | the CiA 301 services, one module per object: [`nmt`], [`heartbeat`], [`guarding`], [`sync`], [`time_stamp`], [`emcy`], [`sdo`], [`pdo`] |
 //! | 5 | [`profile`] | identifier profiles: the predefined connection set, the railway 29-bit scheme |
 //! | 6 | [`node`] | [`Node`]: the services composed into one CANopen device |
@@ -33,8 +33,8 @@
 //! compose and what a driver does with them) and, with the `std` feature, [`sim`] (the simulated
 //! multi-bus network every test and the demo run on).
 #![cfg_attr(not(feature = "std"), no_std)]
-#![warn(missing_docs)]
-#![forbid(unsafe_code)]
+// On docs.rs, each feature-gated item says which feature it needs.
+#![cfg_attr(docsrs, feature(doc_cfg))]
 
 #[cfg(feature = "alloc")]
 extern crate alloc;

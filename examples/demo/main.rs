@@ -5,7 +5,8 @@
 //! A strong and a weak interlocking computer run every rack (turnout and misc racks on the
 //! CANopen predefined connection set, signal and track-circuit racks on the railway 29-bit
 //! profile) with A/B board pairs driving point machines, signals, track circuits and level
-//! crossings. Routes are set all day while a script cuts a bus, kills an active board, kills
+//! crossings; the boards' dictionaries come from their EDS and the masters configure them from
+//! each rack's DCF (`examples/demo/devices/`). Routes are set all day while a script cuts a bus, kills an active board, kills
 //! the strong master, repairs all of it and splits a rack between the computers. The demo
 //! prints the timeline with the reaction times measured in the run, the application messages
 //! counted end to end, and each rack's final status; it writes a candump log, pcap files and
@@ -53,7 +54,13 @@ fn main() -> ExitCode {
 fn demo(out: PathBuf) -> ExitCode {
     let wall = Wall::now();
     println!("duocan demo: one station, four dual-bus racks, simulated (no hardware)\n");
-    let st = scenario::run();
+    let st = match scenario::run() {
+        Ok(st) => st,
+        Err(e) => {
+            eprintln!("demo: {e}");
+            return ExitCode::from(2);
+        }
+    };
     let analysis = Analysis::new(&st);
     let outcome = analysis.outcome();
     let chart = analysis.chart();
@@ -92,6 +99,12 @@ fn demo(out: PathBuf) -> ExitCode {
     }
 
     let ok = report(&outcome);
+    let (boards, holding) = scenario::devices::configured(&st);
+    println!(
+        "configuration: {holding} of {boards} boards hold their rack's DCF values (dictionaries from {})",
+        scenario::devices::BOARD_EDS.0
+    );
+    let ok = ok && holding == boards;
 
     println!("\nfinal status (the active computer's table, per rack)");
     for e in &outcome.ends {

@@ -1,5 +1,6 @@
 //! Every byte-level decoder: candump log lines, pcap files and packets, python-can UDP
-//! datagrams, SDO request/response/segment codecs, NMT and error-control frames, railway payloads.
+//! datagrams, SDO request/response/segment codecs, NMT and error-control frames, railway payloads,
+//! a value of any data type as the front door decodes an SDO upload.
 //! Each must answer any input with a value or an error, never a panic.
 #![no_main]
 
@@ -7,6 +8,8 @@ use duocan::capture::{candump, pcap};
 use duocan::port::udp;
 use duocan::profile::railway::Payload;
 use duocan::sdo::codec::{BlockSegment, Request, Response};
+use duocan::net::AnyValue;
+use duocan::od::DataType;
 use duocan::{nmt, Frame, Id};
 use libfuzzer_sys::fuzz_target;
 
@@ -42,6 +45,11 @@ fuzz_target!(|data: &[u8]| {
             Id::Extended(u32::from(head) << 20 | 0x1234)
         };
         let _ = Payload::decode_bytes(id, &rest[..len]);
+        if let Some(t) = DataType::from_code(u16::from(head & 0x1F)) {
+            if let Some(v) = AnyValue::decode(t, rest) {
+                let _ = v.to_string();
+            }
+        }
         if let Ok(f) = Frame::new(id, &rest[..len]) {
             let _ = nmt::parse_command(&f);
             let _ = nmt::parse_error_control(&f);

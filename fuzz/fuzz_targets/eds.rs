@@ -4,9 +4,11 @@
 //! values too) imports again as the same dictionary (warning only of what the first file got wrong and export keeps: missing
 //! mandatory objects, values outside their limits). What imports also configures a slave
 //! (the master's configuration manager): every write names a writable entry of the file, and
-//! a PDO's mapping entries are written only after its mapping count was set to 0.
+//! a PDO's mapping entries are written only after its mapping count was set to 0; and it
+//! generates a static dictionary's source with one definition per entry.
 #![no_main]
 
+use duocan::eds::codegen::{self, CodegenOptions};
 use duocan::eds::{
     difference, export_dcf, export_eds, AccessType, Description, EdsErrorKind, ExportOptions,
     ImportOptions,
@@ -48,6 +50,12 @@ fuzz_target!(|data: &[u8]| {
     }
     let od = d.dictionary(5);
     assert!(od.len() <= duocan::eds::MAX_ENTRIES);
+    // What imports generates a static table of the same entries, or names the limit that
+    // depends on the node-ID.
+    match codegen::generate(&d, &CodegenOptions::default()) {
+        Ok(src) => assert_eq!(src.matches("\n    ObjectDef {").count(), od.len()),
+        Err(e) => assert!(matches!(e.kind, EdsErrorKind::NotGenerated { .. }), "{e}"),
+    }
     // An EDS carries no values: its dictionary is the defaults.
     let mut defaults = d.dictionary(5);
     defaults.reset_range(0..=0xFFFF);

@@ -14,7 +14,8 @@
 //! | 1 | [`link`] | the **dual-bus layer** [`DualBus`]: a [`BusLink`](duocan::BusLink) with two ports below and one logical bus above |
 //! | 2 | [`supervisor`] | slave-pair supervision, the CiA 302-2 flying master, the audit trail; [`Supervisor`] composes them with the CiA 302-2 master |
 //! | 3 | [`station`] | [`SupervisedStation`]: a supervisor on a dual bus (a [`Station`](duocan::Station)), with its status table |
-//! | 4 | [`network`] | [`LogicalNetwork`]: what the application holds per dual-bus network |
+//! | 4 | [`network`] | [`LogicalNetwork`]: what the application holds per dual-bus network, built from named settings by [`RedundantNetworkBuilder`] |
+//! | 5 | `net` | the front door (feature `tokio`): `RedundantNetwork`, the logical network on two ports as an async handle (SDO to any node, NMT, status, a flat event stream) |
 //!
 //! The dual-bus layer has one type and three policies ([`LinkMode`]):
 //!
@@ -52,7 +53,15 @@
 //!   machine's commands reach the link of a [`Station`](duocan::Station);
 //! - [`LogicalNetwork`] (feature `alloc`): dictionary, SDO client access to any node, NMT, PDO
 //!   values, one typed event stream, the status table and the audit export, as a sans-IO
-//!   [`Device`](duocan::Device) that the simulator and the tokio runtime drive alike.
+//!   [`Device`](duocan::Device) that the simulator and the tokio runtime drive alike; built
+//!   from named settings with defaults by [`LogicalNetwork::builder`]
+//!   ([`RedundantNetworkBuilder`]: node-ID, heartbeat, master timeout, SYNC, pairs, peers),
+//!   every bad setting a [`RedundantError`];
+//! - `net::RedundantNetwork` (feature `tokio`): the front door, the builder's network on two
+//!   ports (`open(port1, port2)`, `open_named("can0,can1")`, or `open_named("sim")`: a simulated
+//!   redundant station with a script of faults) as an async handle like the root crate's
+//!   single-bus `duocan::net::Network`: typed SDO to any node, NMT, status, and a flat event
+//!   stream of bus, pair and master failovers on which lag is an item.
 //!
 //! Everything is bounded (fixed-capacity tables and queues, counted overflow) and builds for
 //! `no_std` targets; the supervisor needs `alloc` (as the root crate's master does). The layer's
@@ -63,13 +72,15 @@
 //! [`NetworkConfig`](duocan::master::NetworkConfig), the supervisor's event queue in
 //! [`SupervisorConfig`]), allocated once when they are built and never grown.
 #![cfg_attr(not(feature = "std"), no_std)]
-#![warn(missing_docs)]
-#![forbid(unsafe_code)]
+// On docs.rs, each feature-gated item says which feature it needs.
+#![cfg_attr(docsrs, feature(doc_cfg))]
 
 #[cfg(feature = "alloc")]
 extern crate alloc;
 
 pub mod link;
+#[cfg(feature = "tokio")]
+pub mod net;
 #[cfg(feature = "alloc")]
 pub mod network;
 pub mod pair;
@@ -86,8 +97,13 @@ pub use link::events::{LinkEvent, LinkEventKind, PortReason, Suspicion, SwitchRe
 pub use link::health::{HealthConfig, PortState};
 pub use link::merge::{Merger, Verdict};
 pub use link::outbox::{Outbox, EVENT_QUEUE, FRAME_QUEUE, MACHINE_QUEUE, REQUEST_QUEUE};
+#[cfg(feature = "tokio")]
+pub use net::{RedundantEvent, RedundantEvents, RedundantNetwork, RedundantNode, RedundantSdo};
 #[cfg(feature = "alloc")]
-pub use network::{LogicalNetwork, NetworkError, NetworkEvent, NetworkEventKind};
+pub use network::{
+    LogicalNetwork, NetworkError, NetworkEvent, NetworkEventKind, RedundantError,
+    RedundantNetworkBuilder, Role,
+};
 pub use pair::{Member, PairId, PairSpec};
 #[cfg(feature = "alloc")]
 pub use station::{RedundantMaster, SupervisedStation};

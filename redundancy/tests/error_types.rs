@@ -8,7 +8,7 @@ use duocan_redundancy::link::config::ConfigError;
 use duocan_redundancy::link::same_function::PairError;
 use duocan_redundancy::supervisor::flying_master::{FlyingMasterError, MasterRole};
 use duocan_redundancy::supervisor::pairs::PairsError;
-use duocan_redundancy::{AddPairError, JoinRefusal, NetworkError, PairId};
+use duocan_redundancy::{AddPairError, JoinRefusal, NetworkError, PairId, RedundantError, Role};
 use std::error::Error;
 
 type BoxError = Box<dyn Error + Send + Sync>;
@@ -23,6 +23,7 @@ const _: () = {
     check::<FlyingMasterError>();
     check::<JoinRefusal>();
     check::<NetworkError>();
+    check::<RedundantError>();
 };
 
 /// What a user function does: `?` on the error, nothing else.
@@ -93,4 +94,51 @@ fn a_stopped_runtime_is_a_network_error() {
         Err(duocan::runtime::RuntimeClosed)?
     }
     assert_eq!(closed(), Err(NetworkError::Closed));
+}
+
+#[test]
+fn the_front_door_error_ends_a_call_in_the_question_mark_and_keeps_its_cause() {
+    // Not `Copy` (a port's name is a string): boxed by hand.
+    for e in [
+        RedundantError::BadNodeId {
+            role: Role::PairMember,
+            id: 0,
+        },
+        RedundantError::ZeroDuration {
+            setting: "heartbeat",
+        },
+        RedundantError::Port {
+            port: 1,
+            name: "can1".into(),
+            why: "no such device".into(),
+        },
+        RedundantError::Closed,
+    ] {
+        let text = e.to_string();
+        let boxed = user(Err(e.clone())).unwrap_err();
+        assert_eq!(boxed.to_string(), text);
+        assert_eq!(boxed.downcast_ref::<RedundantError>(), Some(&e));
+    }
+    // A refusal of the network converts with `?`, its cause kept; a transfer failure is
+    // the SDO error itself.
+    fn refused() -> Result<(), RedundantError> {
+        Err(NetworkError::Standby)?
+    }
+    let e = refused().unwrap_err();
+    assert_eq!(
+        e.source().and_then(|s| s.downcast_ref::<NetworkError>()),
+        Some(&NetworkError::Standby)
+    );
+    assert_eq!(
+        RedundantError::from(NetworkError::Sdo(sdo_error())),
+        RedundantError::Sdo(sdo_error())
+    );
+    assert_eq!(
+        RedundantError::from(NetworkError::Closed),
+        RedundantError::Closed
+    );
+    assert_eq!(
+        RedundantError::Sdo(sdo_error()).node(),
+        Some(NodeId::must(0x10))
+    );
 }

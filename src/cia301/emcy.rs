@@ -68,6 +68,17 @@ impl EmcyMessage {
         let d = self.data;
         [c[0], c[1], self.register, d[0], d[1], d[2], d[3], d[4]]
     }
+    /// What the error code means, as CiA 301's table of standard codes names it (the class
+    /// for codes the table lists only by their first digits): [`code_text`].
+    #[must_use]
+    pub fn text(&self) -> &'static str {
+        code_text(self.code)
+    }
+    /// True for an error reset (code 0x0000: the node's errors are gone).
+    #[must_use]
+    pub fn is_reset(&self) -> bool {
+        self.code >> 8 == 0
+    }
     /// Decodes a received EMCY frame (exactly 8 data bytes).
     pub fn from_frame(frame: &Frame) -> Result<EmcyMessage, Malformed> {
         if frame.is_remote() {
@@ -84,6 +95,54 @@ impl EmcyMessage {
                 got: d.len() as u8,
             }),
         }
+    }
+}
+
+/// The meaning of an EMCY error code by CiA 301's table of standard codes: the exact entry
+/// where the table has one (0x8130 "life guard or heartbeat error"), else the class its high
+/// digits name (0x2310 "current, device output side"), else "device specific" (0xFFxx) or
+/// "unknown error code".
+#[must_use]
+pub const fn code_text(code: u16) -> &'static str {
+    match code {
+        0x0000..=0x00FF => "error reset or no error",
+        0x8110 => "CAN overrun (objects lost)",
+        0x8120 => "CAN in error passive mode",
+        0x8130 => "life guard or heartbeat error",
+        0x8140 => "recovered from bus off",
+        0x8150 => "CAN-ID collision",
+        0x8210 => "PDO not processed due to length error",
+        0x8220 => "PDO length exceeded",
+        0x8230 => "DAM MPDO not processed, destination object not available",
+        0x8240 => "unexpected SYNC data length",
+        0x8250 => "RPDO timeout",
+        _ => match code >> 8 {
+            0x10 => "generic error",
+            0x20 => "current",
+            0x21 => "current, device input side",
+            0x22 => "current inside the device",
+            0x23 => "current, device output side",
+            0x30 => "voltage",
+            0x31 => "mains voltage",
+            0x32 => "voltage inside the device",
+            0x33 => "output voltage",
+            0x40 => "temperature",
+            0x41 => "ambient temperature",
+            0x42 => "device temperature",
+            0x50 => "device hardware",
+            0x60 => "device software",
+            0x61 => "internal software",
+            0x62 => "user software",
+            0x63 => "data set",
+            0x70 => "additional modules",
+            0x80 => "monitoring",
+            0x81 => "communication",
+            0x82 => "protocol error",
+            0x90 => "external error",
+            0xF0 => "additional functions",
+            0xFF => "device specific",
+            _ => "unknown error code",
+        },
     }
 }
 
@@ -206,6 +265,22 @@ impl EmcyProducer {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn standard_codes_have_their_text() {
+        assert_eq!(code_text(0x8250), "RPDO timeout");
+        assert_eq!(code_text(0x2310), "current, device output side");
+        assert_eq!(code_text(0x8199), "communication");
+        assert_eq!(code_text(0xFF42), "device specific");
+        assert_eq!(code_text(0xA000), "unknown error code");
+        let m = EmcyMessage {
+            code: 0,
+            register: 0,
+            data: [0; 5],
+        };
+        assert!(m.is_reset());
+        assert_eq!(m.text(), "error reset or no error");
+    }
 
     #[test]
     fn frame_layout_byte_for_byte() {

@@ -160,6 +160,13 @@ pub enum EdsErrorKind {
         /// Why.
         why: &'static str,
     },
+    /// What a generated static dictionary cannot hold (see [`codegen`](super::codegen)): a
+    /// node-relative limit, a write hook for an entry the file does not describe, the output
+    /// that could not be written.
+    NotGenerated {
+        /// Why, naming the entry.
+        why: String,
+    },
 }
 
 impl fmt::Display for EdsErrorKind {
@@ -202,6 +209,7 @@ impl fmt::Display for EdsErrorKind {
             NameTooLong => write!(f, "the name is longer than {} bytes", super::MAX_NAME_BYTES),
             MissingMandatory { index } => write!(f, "mandatory object {index:#06x} is missing"),
             Misplaced { why } => write!(f, "{why}"),
+            NotGenerated { why } => write!(f, "cannot generate a static dictionary: {why}"),
         }
     }
 }

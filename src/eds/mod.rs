@@ -97,12 +97,14 @@
 //! # Ok::<(), Box<dyn std::error::Error>>(())
 //! ```
 //!
-//! Not yet: the configuration manager that writes a DCF's values to a slave at boot (CiA
-//! 302-3), concise DCFs (0x1F22), program download, and generating a no_std static dictionary
-//! from an EDS at build time; they build on this module.
+//! A `no_std` node's static dictionary comes from an EDS at build time: [`codegen`] writes
+//! its definition tables as Rust source for a `build.rs`.
+//!
+//! Not yet: concise DCFs (0x1F22) and program download; they build on this module.
 //!
 //! [`DynamicDictionary`]: crate::od::DynamicDictionary
 
+pub mod codegen;
 mod compare;
 mod error;
 mod export;

@@ -4,7 +4,7 @@
 use super::error::Warning;
 use super::value::{self, Value};
 use super::{DOMAIN_CAPACITY, STRING_CAPACITY};
-use crate::od::{Access, DataType, DefaultValue, DynamicDictionary, ObjectDef, ObjectType};
+use crate::od::{comm, Access, DataType, DefaultValue, DynamicDictionary, ObjectDef, ObjectType};
 use alloc::collections::BTreeMap;
 use alloc::string::String;
 use alloc::vec::Vec;
@@ -462,7 +462,9 @@ impl Description {
     /// every VAR, ARRAY and RECORD entry with its name, type, access, PDO mappability, limits
     /// and default, holding the DCF's `ParameterValue` where there is one (its default
     /// elsewhere). Type definitions (DEFTYPE, DEFSTRUCT) are not entries. Sub-index 0 of an
-    /// array or record carries the object's name, as duocan's own tables do.
+    /// array or record carries the object's name, as duocan's own tables do, and the
+    /// communication objects CiA 301 restricts get the stack's write hooks
+    /// ([`comm::HOOKS`]).
     #[must_use]
     pub fn dictionary(&self, node_id: u8) -> DynamicDictionary {
         let mut od = DynamicDictionary::new(node_id);
@@ -471,7 +473,8 @@ impl Description {
                 continue;
             };
             for s in o.subs.values() {
-                let (def, owned) = s.def(ot, node_id);
+                let (mut def, owned) = s.def(ot, node_id);
+                def.hook = comm::hook(s.index, s.sub);
                 let name = if s.sub == 0 && ot != ObjectType::Var {
                     &o.name
                 } else {

@@ -1,7 +1,9 @@
 //! The device behind a [`Network`](super::Network): an observing node and an SDO client on
 //! one port, with a filter on what reaches the wire and a record of every boot-up.
 
+use super::error::NetError;
 use super::events::NetEvent;
+use super::pdo::table::PdoTable;
 use crate::cia301::sdo::{RequestId, SdoClient, SdoError, TransferBuffer};
 use crate::frame::instant::Instant;
 use crate::frame::{Frame, Id};
@@ -10,9 +12,12 @@ use crate::machine::{
 };
 use crate::node::{Node, NodeEventKind};
 use crate::od::DynamicDictionary;
+use std::collections::VecDeque;
 
 /// The observing node: it tracks every node's state and consumes heartbeats and EMCY.
 pub(crate) type Observer = Node<DynamicDictionary>;
+/// The SYNC identifier the producer uses (0x1005's default).
+pub(crate) const SYNC_ID: u16 = 0x80;
 type Inner = Station<SinglePort, Composite<Observer, SdoClient>>;
 
 /// What the door tells the network handle: a user event, or an SDO transfer's outcome.
@@ -24,16 +29,37 @@ pub(crate) enum DoorEvent {
     Sdo(RequestId, Result<Vec<u8>, SdoError>),
 }
 
+/// Frames of the network's own (RPDOs) waiting for the port: a caller that sends faster
+/// than the port drains gets [`NetError::QueueFull`].
+const OWN_QUEUE: usize = 64;
+/// Decoded PDOs waiting for the runtime's next flush (it flushes after every frame, so one
+/// is the usual count): beyond this they are counted and dropped.
+const PDO_EVENTS: usize = 256;
+
 /// The observer node and SDO client behind a filter. The observer exists to hear the bus
 /// (states, heartbeats, EMCY); it must not *be* a node on it: python `canopen`'s network object
-/// sends no boot-up, no heartbeat and answers nothing, and neither does this. So only NMT
-/// commands (0x000) and SDO requests (0x601–0x67F) leave, and in listen-only mode nothing.
+/// sends no boot-up, no heartbeat and answers nothing, and neither does this. So of what the
+/// observer produces only NMT commands (0x000) and SDO requests (0x601–0x67F) leave, and SYNC
+/// (0x080) while the user has the SYNC producer on ([`Network::start_sync`]): the observer's
+/// SYNC service is the producer, and it produces only when told to. RPDOs are not the
+/// observer's: the door makes them itself ([`Door::send_own`]) from a mapping the user had the
+/// network learn, for a node the user named, so they pass. In listen-only mode nothing leaves.
+///
+/// [`Network::start_sync`]: super::Network::start_sync
 pub(crate) struct Door {
     pub inner: Inner,
     pub listen_only: bool,
     /// When each node's last boot-up arrived (index = node-ID), for the boot-up waits: the
     /// record is kept here, in the core, so a boot-up is never missed by a lagging reader.
     pub boot_ups: [Option<Instant>; 128],
+    /// The nodes' PDO mappings the network knows.
+    pub pdos: PdoTable,
+    /// The SYNC producer is on: SYNC frames may leave.
+    pub sync_on: bool,
+    own: VecDeque<Frame>,
+    decoded: VecDeque<NetEvent>,
+    /// Decoded PDOs dropped because [`PDO_EVENTS`] were waiting.
+    pub pdo_dropped: u64,
 }
 
 impl Door {
@@ -42,7 +68,23 @@ impl Door {
             inner,
             listen_only,
             boot_ups: [None; 128],
+            pdos: PdoTable::default(),
+            sync_on: false,
+            own: VecDeque::new(),
+            decoded: VecDeque::new(),
+            pdo_dropped: 0,
         }
+    }
+    /// Queues a frame the network itself sends (an RPDO).
+    pub fn send_own(&mut self, f: Frame) -> Result<(), NetError> {
+        if self.listen_only {
+            return Err(NetError::ListenOnly { node: None });
+        }
+        if self.own.len() >= OWN_QUEUE {
+            return Err(NetError::QueueFull);
+        }
+        self.own.push_back(f);
+        Ok(())
     }
     pub fn node(&mut self) -> &mut Observer {
         &mut self.inner.machine.a
@@ -51,7 +93,9 @@ impl Door {
         &mut self.inner.machine.b
     }
     fn may_send(&self, f: &Frame) -> bool {
-        !self.listen_only && matches!(f.id(), Id::Standard(0) | Id::Standard(0x601..=0x67F))
+        !self.listen_only
+            && (matches!(f.id(), Id::Standard(0) | Id::Standard(0x601..=0x67F))
+                || (self.sync_on && f.id() == Id::Standard(SYNC_ID)))
     }
 }
 
@@ -62,6 +106,18 @@ impl Device for Door {
         1
     }
     fn handle_rx(&mut self, now: Instant, port: usize, frame: &Frame) {
+        if let Some((node, pdo, values)) = self.pdos.decode(frame) {
+            if self.decoded.len() < PDO_EVENTS {
+                self.decoded.push_back(NetEvent::Pdo {
+                    node,
+                    pdo,
+                    values,
+                    at: now,
+                });
+            } else {
+                self.pdo_dropped += 1;
+            }
+        }
         self.inner.handle_rx(now, port, frame);
     }
     fn handle_port_status(&mut self, now: Instant, port: usize, status: PortStatus) {
@@ -71,6 +127,9 @@ impl Device for Door {
         self.inner.handle_timeout(now);
     }
     fn poll_transmit(&mut self) -> Option<(usize, Frame)> {
+        if let Some(f) = self.own.pop_front() {
+            return Some((0, f));
+        }
         loop {
             let (p, f) = self.inner.poll_transmit()?;
             if self.may_send(&f) {
@@ -85,6 +144,9 @@ impl Device for Door {
         self.inner.poll_timeout()
     }
     fn poll_event(&mut self) -> Option<DoorEvent> {
+        if let Some(e) = self.decoded.pop_front() {
+            return Some(DoorEvent::Net(e));
+        }
         loop {
             let e = match self.inner.poll_event()? {
                 StationEvent::Link(never) => match never {},

@@ -2,8 +2,11 @@
 
 use crate::cia301::nmt::NmtState;
 use crate::cia301::sdo::{SdoError, SdoErrorKind};
+use crate::cia302::pdo_config::PdoConfigError;
+use crate::eds::{EdsError, LookupError, LookupErrorKind};
 use crate::frame::cob_id::NodeId;
 use crate::od::abort::AbortCode;
+use crate::od::DataType;
 use crate::runtime::RuntimeClosed;
 use std::fmt;
 use std::time::Duration;
@@ -16,6 +19,10 @@ pub enum Awaited {
     BootUp,
     /// An NMT state.
     State(NmtState),
+    /// A PDO (the node's TPDO with this number).
+    Pdo(u16),
+    /// An emergency message.
+    Emcy,
 }
 
 /// Why a call on a [`Network`](super::Network) or [`RemoteNode`](super::RemoteNode) failed.
@@ -71,6 +78,65 @@ pub enum NetError {
     Port(String),
     /// The network has been closed (or its runtime stopped).
     Closed,
+    /// A by-name call on a node without a device description.
+    NoDescription {
+        /// The node.
+        node: NodeId,
+    },
+    /// A name that names no entry of the node's description, or several.
+    Name {
+        /// The node.
+        node: NodeId,
+        /// The lookup's error: the name, and the candidates of an ambiguous one.
+        error: LookupError,
+    },
+    /// The Rust type asked for does not match the entry's data type.
+    WrongType {
+        /// The node.
+        node: NodeId,
+        /// The name asked for.
+        name: String,
+        /// Object index.
+        index: u16,
+        /// Sub-index.
+        sub: u8,
+        /// The entry's data type (from the description).
+        data_type: DataType,
+        /// The data type of the Rust type asked for.
+        asked: DataType,
+    },
+    /// A value does not fit the entry (or PDO mapping entry) it is for.
+    BadValue {
+        /// The node.
+        node: NodeId,
+        /// The entry: its name, or its address.
+        object: String,
+        /// Why it does not fit.
+        why: String,
+    },
+    /// A device description could not be read.
+    Eds(EdsError),
+    /// A PDO number outside 1–512.
+    NoSuchPdo {
+        /// The node.
+        node: NodeId,
+        /// The number given.
+        pdo: u16,
+    },
+    /// A PDO call that cannot be made as things are (the mapping is not known, the PDO is
+    /// disabled, the mapping is too long…).
+    Pdo {
+        /// The node.
+        node: NodeId,
+        /// `"TPDO 1"`, `"RPDO 2"`.
+        pdo: String,
+        /// What is wrong and what to do.
+        why: String,
+    },
+    /// Configuring a PDO over SDO failed: which entry, and what the node did.
+    PdoConfig(PdoConfigError),
+    /// An argument outside what the call takes.
+    Argument(String),
 }
 
 impl NetError {
@@ -83,6 +149,14 @@ impl NetError {
             | NetError::NotText { node, .. }
             | NetError::Timeout { node, .. } => Some(*node),
             NetError::ListenOnly { node } => *node,
+            NetError::NoDescription { node }
+            | NetError::Name { node, .. }
+            | NetError::WrongType { node, .. }
+            | NetError::BadValue { node, .. }
+            | NetError::NoSuchPdo { node, .. }
+            | NetError::Pdo { node, .. } => Some(*node),
+            NetError::PdoConfig(e) => Some(e.node),
+            NetError::Eds(_) | NetError::Argument(_) => None,
             NetError::NoSuchNode(_)
             | NetError::QueueFull
             | NetError::Port(_)
@@ -124,6 +198,21 @@ impl fmt::Display for NetError {
                 match awaited {
                     Awaited::BootUp => f.write_str("boot-up")?,
                     Awaited::State(s) => write!(f, "heartbeat with state {s:?}")?,
+                    Awaited::Pdo(n) => write!(f, "TPDO {n}")?,
+                    Awaited::Emcy => f.write_str("emergency message")?,
+                }
+                match awaited {
+                    Awaited::Pdo(_) => return write!(
+                        f,
+                        " within {} ms: check that the node is operational and the PDO enabled, that the network knows its mapping (read, save or learn it), and its transmission type (SYNC needs a SYNC producer)",
+                        after.as_millis()
+                    ),
+                    Awaited::Emcy => return write!(
+                        f,
+                        " within {} ms: a node sends one only when an error appears or goes",
+                        after.as_millis()
+                    ),
+                    _ => {}
                 }
                 write!(
                     f,
@@ -141,6 +230,43 @@ impl fmt::Display for NetError {
             NetError::QueueFull => f.write_str("the network's transmit queue is full: send less at once"),
             NetError::Port(why) => write!(f, "the port could not be opened: {why}"),
             NetError::Closed => f.write_str("the network has been closed: open it again"),
+            NetError::NoDescription { node } => write!(
+                f,
+                "node {0} has no device description, so names mean nothing to it: attach one with Network::add_node({0}, description) or RemoteNode::with_description, or use (index, sub)",
+                node.raw()
+            ),
+            NetError::Name { node, error } => {
+                write!(f, "node {}: {error}", node.raw())?;
+                match error.kind {
+                    LookupErrorKind::Ambiguous { .. } => f.write_str(
+                        ": name one of them by its address (\"1017sub0\") or as \"Object.Entry\"",
+                    ),
+                    LookupErrorKind::NotFound => f.write_str(
+                        " in its device description: check the spelling (case does not matter) or use the address (\"0x1017\", \"1018sub1\")",
+                    ),
+                    _ => Ok(()),
+                }
+            }
+            NetError::WrongType { node, name, index, sub, data_type, asked } => write!(
+                f,
+                "node {}, {name:?} ({index:#06x} sub {sub}) is {} but was asked for as {}: use {} (or read_value)",
+                node.raw(),
+                crate::eds::type_name(*data_type),
+                crate::eds::type_name(*asked),
+                super::value::rust_type(*data_type),
+            ),
+            NetError::BadValue { node, object, why } => {
+                write!(f, "node {}, {object}: {why}: give a value of the entry's type", node.raw())
+            }
+            NetError::Eds(e) => write!(f, "the device description could not be read: {e}"),
+            NetError::NoSuchPdo { node, pdo } => write!(
+                f,
+                "node {}: there is no PDO {pdo}: PDOs are numbered 1 to 512",
+                node.raw()
+            ),
+            NetError::Pdo { node, pdo, why } => write!(f, "node {}, {pdo}: {why}", node.raw()),
+            NetError::PdoConfig(e) => fmt::Display::fmt(e, f),
+            NetError::Argument(why) => f.write_str(why),
         }
     }
 }
@@ -149,8 +275,17 @@ impl std::error::Error for NetError {
     fn source(&self) -> Option<&(dyn std::error::Error + 'static)> {
         match self {
             NetError::Sdo(e) => Some(e),
+            NetError::Name { error, .. } => Some(error),
+            NetError::Eds(e) => Some(e),
+            NetError::PdoConfig(e) => Some(e),
             _ => None,
         }
+    }
+}
+
+impl From<EdsError> for NetError {
+    fn from(e: EdsError) -> Self {
+        NetError::Eds(e)
     }
 }
 

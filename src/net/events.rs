@@ -1,6 +1,7 @@
 //! What the network reports, flat: one enum, one level, and a stream that survives lag.
 
 use super::door::DoorEvent;
+use super::pdo::PdoValues;
 use crate::cia301::emcy::EmcyMessage;
 use crate::cia301::nmt::NmtState;
 use crate::frame::cob_id::NodeId;
@@ -12,7 +13,7 @@ use tokio::sync::{broadcast, watch};
 /// One thing that happened on the network. Every variant is one level deep; the accessors
 /// ([`NetEvent::node`], [`NetEvent::at`], [`NetEvent::state`]) answer the common questions
 /// without a `match`.
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Debug, PartialEq)]
 #[non_exhaustive]
 pub enum NetEvent {
     /// A node sent its boot-up message.
@@ -58,6 +59,23 @@ pub enum NetEvent {
         /// When.
         at: Instant,
     },
+    /// A node's TPDO, decoded by the mapping the network knows ([`RemotePdo::read`],
+    /// [`RemotePdo::save`], [`RemotePdo::learn`]): its values in mapping order, named and
+    /// typed by the node's device description if one is attached.
+    ///
+    /// [`RemotePdo::read`]: super::RemotePdo::read
+    /// [`RemotePdo::save`]: super::RemotePdo::save
+    /// [`RemotePdo::learn`]: super::RemotePdo::learn
+    Pdo {
+        /// The node.
+        node: NodeId,
+        /// Its TPDO number.
+        pdo: u16,
+        /// The values.
+        values: PdoValues,
+        /// When it arrived.
+        at: Instant,
+    },
     /// The port's status changed (down, error passive, back up…).
     Port {
         /// The status.
@@ -74,25 +92,27 @@ impl NetEvent {
     /// The node the event is about, if any.
     #[must_use]
     pub fn node(&self) -> Option<NodeId> {
-        match *self {
+        match self {
             NetEvent::BootUp { node, .. }
             | NetEvent::State { node, .. }
             | NetEvent::HeartbeatLost { node, .. }
             | NetEvent::HeartbeatResumed { node, .. }
-            | NetEvent::Emcy { node, .. } => Some(node),
+            | NetEvent::Emcy { node, .. }
+            | NetEvent::Pdo { node, .. } => Some(*node),
             NetEvent::Port { .. } | NetEvent::Lagged(_) => None,
         }
     }
     /// When it happened (the network's clock, see [`Network::now`](super::Network::now)).
     #[must_use]
     pub fn at(&self) -> Option<Instant> {
-        match *self {
+        match self {
             NetEvent::BootUp { at, .. }
             | NetEvent::State { at, .. }
             | NetEvent::HeartbeatLost { at, .. }
             | NetEvent::HeartbeatResumed { at, .. }
             | NetEvent::Emcy { at, .. }
-            | NetEvent::Port { at, .. } => Some(at),
+            | NetEvent::Pdo { at, .. }
+            | NetEvent::Port { at, .. } => Some(*at),
             NetEvent::Lagged(_) => None,
         }
     }
@@ -102,6 +122,25 @@ impl NetEvent {
         match *self {
             NetEvent::State { to, .. } => Some(to),
             NetEvent::BootUp { .. } => Some(NmtState::Initialising),
+            _ => None,
+        }
+    }
+    /// The node and message of an emergency: `if let Some((node, m)) = e.emcy()`, then
+    /// `m.code`, `m.register`, `m.data` (the five vendor bytes) and `m.text()`.
+    #[must_use]
+    pub fn emcy(&self) -> Option<(NodeId, EmcyMessage)> {
+        match *self {
+            NetEvent::Emcy { node, msg, .. } => Some((node, msg)),
+            _ => None,
+        }
+    }
+    /// The node, TPDO number and values of a received PDO.
+    #[must_use]
+    pub fn pdo(&self) -> Option<(NodeId, u16, &PdoValues)> {
+        match self {
+            NetEvent::Pdo {
+                node, pdo, values, ..
+            } => Some((*node, *pdo, values)),
             _ => None,
         }
     }

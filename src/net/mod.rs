@@ -24,41 +24,75 @@
 //! | --- | --- |
 //! | `network.connect(channel="can0", bustype="socketcan")` | `Network::open_named("can0")?` |
 //! | `node = network.add_node(5)` | `let node = net.node(5);` |
+//! | `node = network.add_node(5, "dev.eds")` | `let node = net.add_node_eds(5, "dev.eds")?;` |
 //! | `node.sdo[0x1018][1].raw` | `node.sdo().read::<u32>(0x1018, 1).await?` |
 //! | `node.sdo[0x1017].raw = 100` | `node.sdo().write(0x1017, 0, 100u16).await?` |
+//! | `node.sdo["Producer heartbeat time"].raw` | `node.sdo().read_named::<u16>("Producer heartbeat time").await?` |
+//! | `node.sdo["Producer heartbeat time"].raw = 100` | `node.sdo().write_named("Producer heartbeat time", 100u16).await?` |
+//! | `node.sdo["Manufacturer device name"].raw` (typed by the EDS) | `node.sdo().read_value("Manufacturer device name").await?` ([`AnyValue`]) |
 //! | `node.sdo.upload(0x1008, 0)` | `node.sdo().read_bytes(0x1008, 0).await?` |
 //! | `node.nmt.state = "OPERATIONAL"` | `node.start().await?` |
 //! | `node.nmt.wait_for_bootup(10)` | `node.wait_for_boot_up(Duration::from_secs(10)).await?` |
 //! | `node.nmt.wait_for_heartbeat()` / `node.nmt.state` | `node.state().await?` |
+//! | `node.tpdo.read()` | `node.read_pdos(Dir::Transmit).await?` (one: `let mut t1 = node.tpdo(1).read().await?;`) |
+//! | `node.tpdo[1].clear()` | `t1.clear();` |
+//! | `node.tpdo[1].add_variable("Input 1")` | `t1.add_variable("Input 1")?;` (or `t1.add(0x6000, 1, 16)?`) |
+//! | `node.tpdo[1].trans_type = 1` / `.event_timer = 10` / `.enabled = True` | `t1.transmission_type = 1;` / `t1.event_timer_ms = Some(10);` / `t1.enabled = true;` |
+//! | `node.tpdo.save()` | `node.tpdo(1).save(&t1).await?` |
+//! | `node.store()` after `save()` | `node.tpdo(1).save_and_store(&t1).await?` / `node.store_parameters().await?` |
+//! | `node.tpdo[1].wait_for_reception()`, then `node.tpdo[1]["Input 1"].raw` | `node.wait_for_pdo(1, timeout).await?.get("Input 1")` |
+//! | `node.tpdo[1].add_callback(f)` | `NetEvent::Pdo { node, pdo, values, .. }` on [`Network::events`] |
+//! | `node.rpdo[1]["Output 1"].raw = 5; node.rpdo[1].transmit()` | `node.rpdo(1).send_named(&[("Output 1", 5u16.into())]).await?` (all in order: `send(&[..])`) |
+//! | `network.sync.start(0.05)` / `network.sync.stop()` | `net.start_sync(Duration::from_millis(50)).await?` / `net.stop_sync().await?` |
+//! | `node.emcy.wait(timeout=2)` / `node.emcy.active` | `node.wait_for_emcy(timeout).await?` / `NetEvent::Emcy` ([`NetEvent::emcy`]) |
 //!
 //! Underneath is the ordinary stack on the [`runtime`](crate::runtime): a node that only
 //! observes (it tracks every node's state from boot-ups and heartbeats, consumes EMCY and the
 //! heartbeats it is told to watch) and an SDO client, behind a filter that lets only NMT
-//! commands and SDO requests onto the bus. The network handle is therefore not a node: it
-//! sends no boot-up, no heartbeat, and answers nothing (it uses node-ID 127 internally, so a
-//! node 127 on the bus is not tracked). [`Network::monitor`] sends nothing at all.
+//! commands and SDO requests onto the bus, and two things the user turns on: SYNC while the
+//! SYNC producer runs ([`Network::start_sync`]), and the RPDOs the user sends. The network
+//! handle is therefore not a node: it sends no boot-up, no heartbeat, and answers nothing (it
+//! uses node-ID 127 internally, so a node 127 on the bus is not tracked).
+//! [`Network::monitor`] sends nothing at all.
 //!
 //! Every call returns one error, [`NetError`], naming the node and object and what to do.
 //! SDO transfers to different nodes run at once; to one node they take turns (a server runs one
-//! transfer per client at a time). A future by-name layer resolves a name from a device
-//! description to the `(index, sub)` and type these calls take, so it adds methods rather than
-//! changing these.
+//! transfer per client at a time).
+//!
+//! **Names.** With a device description attached ([`Network::add_node`],
+//! [`RemoteNode::with_description`], or from an EDS/DCF file), a name resolves as
+//! [`Description::entry`] resolves it: `"Producer heartbeat time"`, `"0x1017"`, `"1017sub0"`,
+//! `"Identity object.Vendor-ID"`, without regard to case. The typed by-name calls check the
+//! Rust type against the entry's data type before anything is sent; an unknown or ambiguous
+//! name is [`NetError::Name`], listing the candidates.
+//!
+//! **PDOs** ([`RemotePdo`]: `node.tpdo(n)`, `node.rpdo(n)`): the network decodes a node's TPDO once it knows the mapping
+//! (read over SDO, saved, or given with [`RemotePdo::learn`]), inside the runtime as the frame
+//! arrives, and reports [`NetEvent::Pdo`] with the values named and typed by the description.
+//! At a high PDO rate, a reader of [`Network::events`] that falls behind gets
+//! [`NetEvent::Lagged`]; [`RemoteNode::wait_for_pdo`] never misses the PDO it waits for.
 
 mod door;
 mod error;
 mod events;
+mod named;
+mod pdo;
 mod remote;
 mod sdo;
 mod sim;
+mod value;
 
 pub use error::{Awaited, NetError};
 pub use events::{Events, NetEvent};
+pub use pdo::{PdoMap, PdoValue, PdoValues, PdoVariable, RemotePdo, MAX_LEARNED};
 pub use remote::RemoteNode;
 pub use sdo::RemoteSdo;
-pub use sim::{SIM_DEVICE_NAME, SIM_HEARTBEAT_MS, SIM_VENDOR};
+pub use sim::{sim_description, SIM_DEVICE_NAME, SIM_HEARTBEAT_MS, SIM_VENDOR};
+pub use value::AnyValue;
 
 use crate::cia301::nmt::{NmtCommand, NmtTarget};
 use crate::cia301::sdo::{SdoClient, SdoOptions};
+use crate::eds::Description;
 use crate::frame::cob_id::NodeId;
 use crate::frame::instant::{Duration, Instant};
 use crate::machine::{Composite, Station};
@@ -67,6 +101,7 @@ use crate::od::comm;
 use crate::port::Port;
 use crate::runtime::{Handle, Runtime};
 use door::Door;
+use std::collections::BTreeMap;
 use std::sync::Arc;
 use tokio::sync::{watch, Mutex, Semaphore};
 
@@ -138,6 +173,8 @@ struct Shared {
     sim: sim::SimNodes,
     /// Set by [`Network::close`]: ends every event stream.
     closed: watch::Sender<bool>,
+    /// Device descriptions attached with [`Network::add_node`], by node-ID.
+    descs: std::sync::Mutex<BTreeMap<u8, Arc<Description>>>,
 }
 
 impl Network {
@@ -187,6 +224,7 @@ impl Network {
                 sessions: Semaphore::new(SESSIONS),
                 sim,
                 closed: watch::channel(false).0,
+                descs: std::sync::Mutex::default(),
             }),
         })
     }
@@ -196,7 +234,35 @@ impl Network {
     /// ([`RemoteNode::wait_for_boot_up`]).
     #[must_use]
     pub fn node(&self, id: u8) -> RemoteNode {
-        RemoteNode::new(self.clone(), id, self.now())
+        let desc = self.descriptions().get(&id).cloned();
+        RemoteNode::new(self.clone(), id, self.now(), desc)
+    }
+
+    /// The remote node `id` with a device description, which every handle
+    /// [`Network::node`] gives for `id` from now on carries too: its names work in the by-name
+    /// calls ([`RemoteSdo::read_named`]) and name the values of its PDOs.
+    pub fn add_node(&self, id: u8, desc: impl Into<Arc<Description>>) -> RemoteNode {
+        self.descriptions().insert(id, desc.into());
+        self.node(id)
+    }
+
+    /// [`Network::add_node`] with the description read from an EDS or DCF file (leniently:
+    /// what a real file gets wrong is a warning in [`Description::warnings`]).
+    pub fn add_node_eds(
+        &self,
+        id: u8,
+        path: impl AsRef<std::path::Path>,
+    ) -> Result<RemoteNode, NetError> {
+        Ok(self.add_node(id, Description::read(path)?))
+    }
+
+    fn descriptions(&self) -> std::sync::MutexGuard<'_, BTreeMap<u8, Arc<Description>>> {
+        // A poisoned lock only means another thread panicked while inserting: the map is
+        // still whole.
+        self.shared
+            .descs
+            .lock()
+            .unwrap_or_else(std::sync::PoisonError::into_inner)
     }
 
     /// Every event from now on, as a stream on which lag is an item.
@@ -240,6 +306,63 @@ impl Network {
                 d.node()
                     .nmt_command(now, cmd, target)
                     .map_err(|_| NetError::QueueFull)
+            })
+            .await
+    }
+
+    /// How many decoded PDOs the network dropped because too many were waiting for its
+    /// event queue at once (it passes them on after every frame, so this stays 0 unless the
+    /// runtime is starved).
+    pub async fn dropped_pdos(&self) -> Result<u64, NetError> {
+        Ok(self.shared.handle.call(|d, _| d.pdo_dropped).await?)
+    }
+
+    /// Starts producing SYNC every `period` (python `network.sync.start(period)`): the
+    /// network's own SYNC producer (0x1005 with bit 30, 0x1006 = the period in µs), on
+    /// identifier 0x080, without a counter. Synchronous PDOs (transmission types 0–240) follow
+    /// it. A period of zero or above 4294 s is [`NetError::Argument`].
+    pub async fn start_sync(&self, period: std::time::Duration) -> Result<(), NetError> {
+        if self.is_listen_only() {
+            return Err(NetError::ListenOnly { node: None });
+        }
+        let us = u32::try_from(period.as_micros())
+            .ok()
+            .filter(|us| *us > 0)
+            .ok_or_else(|| {
+                NetError::Argument(format!(
+                    "a SYNC period of {period:?}: give 1 µs to 4294 s (stop_sync stops it)"
+                ))
+            })?;
+        self.shared
+            .handle
+            .try_call(move |d, now| {
+                let node = d.node();
+                // Off first: a running producer's period and identifier change only while off.
+                let cob = u32::from(door::SYNC_ID);
+                let r = node
+                    .write(now, comm::SYNC_COB_ID, 0, &cob.to_le_bytes())
+                    .and_then(|()| node.write(now, comm::SYNC_PERIOD, 0, &us.to_le_bytes()))
+                    .and_then(|()| {
+                        node.write(now, comm::SYNC_COB_ID, 0, &(cob | 1 << 30).to_le_bytes())
+                    });
+                // The door lets SYNC out only once the producer runs.
+                d.sync_on = r.is_ok();
+                r.map_err(|code| NetError::Argument(format!("the SYNC producer refused: {code}")))
+            })
+            .await
+    }
+
+    /// Stops producing SYNC.
+    pub async fn stop_sync(&self) -> Result<(), NetError> {
+        self.shared
+            .handle
+            .try_call(move |d, now| {
+                let cob = u32::from(door::SYNC_ID);
+                let r = d
+                    .node()
+                    .write(now, comm::SYNC_COB_ID, 0, &cob.to_le_bytes());
+                d.sync_on = false;
+                r.map_err(|code| NetError::Argument(format!("the SYNC producer refused: {code}")))
             })
             .await
     }

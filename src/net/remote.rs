@@ -6,10 +6,13 @@ use super::events::NetEvent;
 use super::sdo::RemoteSdo;
 use super::Network;
 use crate::cia301::nmt::{NmtCommand, NmtState, NmtTarget};
+use crate::eds::Description;
 use crate::frame::cob_id::NodeId;
 use crate::frame::instant::Instant;
 use crate::od::comm;
 use crate::runtime::RuntimeClosed;
+use std::path::Path;
+use std::sync::Arc;
 use std::time::Duration;
 use tokio::sync::oneshot;
 
@@ -26,6 +29,7 @@ pub struct RemoteNode {
     net: Network,
     raw: u8,
     since: Instant,
+    desc: Option<Arc<Description>>,
 }
 
 /// The end of a watch: its result, or why there is none.
@@ -43,8 +47,43 @@ impl<R> From<RuntimeClosed> for Watch<R> {
 }
 
 impl RemoteNode {
-    pub(super) fn new(net: Network, raw: u8, since: Instant) -> Self {
-        RemoteNode { net, raw, since }
+    pub(super) fn new(
+        net: Network,
+        raw: u8,
+        since: Instant,
+        desc: Option<Arc<Description>>,
+    ) -> Self {
+        RemoteNode {
+            net,
+            raw,
+            since,
+            desc,
+        }
+    }
+
+    /// This node with a device description attached (for this handle and its clones; use
+    /// [`Network::add_node`] to attach it for every handle): names from it work in the by-name
+    /// calls ([`RemoteSdo::read_named`]) and name the values of received PDOs.
+    #[must_use]
+    pub fn with_description(mut self, desc: impl Into<Arc<Description>>) -> Self {
+        self.desc = Some(desc.into());
+        self
+    }
+
+    /// [`RemoteNode::with_description`] from an EDS or DCF file (read leniently: what a real
+    /// file gets wrong is a warning in [`Description::warnings`], not an error).
+    pub fn with_eds(self, path: impl AsRef<Path>) -> Result<Self, NetError> {
+        Ok(self.with_description(Description::read(path)?))
+    }
+
+    /// The device description attached, if any.
+    #[must_use]
+    pub fn description(&self) -> Option<&Description> {
+        self.desc.as_deref()
+    }
+
+    pub(super) fn description_arc(&self) -> Option<Arc<Description>> {
+        self.desc.clone()
     }
 
     /// The node-ID, or the error every call on an invalid one returns.
@@ -171,7 +210,7 @@ impl RemoteNode {
     /// Waits at most `timeout` for `pick` to accept an event of this node, unless `now`
     /// already answers. Both run inside the runtime in one step, so nothing falls between
     /// the check and the watch.
-    async fn watch<R: Send + 'static>(
+    pub(super) async fn watch<R: Send + 'static>(
         &self,
         awaited: Awaited,
         timeout: Duration,

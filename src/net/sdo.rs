@@ -24,6 +24,10 @@ impl RemoteSdo {
         RemoteSdo { node, opts }
     }
 
+    pub(super) fn remote(&self) -> &RemoteNode {
+        &self.node
+    }
+
     /// These transfers with other options (mode, timeout, block size, CRC).
     #[must_use]
     pub fn with_options(mut self, opts: SdoOptions) -> Self {

@@ -50,9 +50,95 @@ fn sim_node(id: NodeId) -> SimNode {
             .default(DefaultValue::Bytes(SIM_DEVICE_NAME.as_bytes()))
             .named("Manufacturer device name"),
     );
+    add_process_data(&mut od);
     let mut node = crate::node::Node::new(NodeConfig::slave(id), od);
     node.boot(Instant::ZERO);
     Station::single(node)
+}
+
+/// Sub-entries of the simulated nodes' input record 0x6000 (what their TPDOs carry).
+const INPUTS: [(u8, DataType, &str); 3] = [
+    (1, DataType::Unsigned16, "Input 1"),
+    (2, DataType::Integer16, "Input 2"),
+    (3, DataType::Unsigned8, "Status"),
+];
+/// Sub-entries of the output record 0x6200 (what their RPDOs write).
+const OUTPUTS: [(u8, DataType, &str); 2] = [
+    (1, DataType::Unsigned16, "Output 1"),
+    (2, DataType::Integer8, "Output 2"),
+];
+
+/// The simulated nodes' process data and PDOs: inputs 0x6000 (TPDO1 maps Input 1 and Status,
+/// sent on request, type 254), outputs 0x6200 (RPDO1 maps Output 1 and Output 2, applied at
+/// once, type 255); TPDO2–4 and RPDO2–4 exist disabled and unmapped, to be configured.
+fn add_process_data(od: &mut crate::od::DynamicDictionary) {
+    use crate::cia301::pdo::params;
+    use crate::od::ObjectType;
+    let record = |index: u16, name: &'static str, entries: &[(u8, DataType, &'static str)]| {
+        let mut defs = vec![ObjectDef::u8(index, 0, Access::Const, entries.len() as u8)
+            .object_type(ObjectType::Record)
+            .named(name)];
+        defs.extend(entries.iter().map(|&(sub, t, n)| {
+            ObjectDef::new(index, sub, t)
+                .access(Access::Rw)
+                .mappable()
+                .object_type(ObjectType::Record)
+                .named(n)
+        }));
+        defs
+    };
+    // Every key is distinct and new to the standard dictionary: the inserts cannot fail.
+    let _ = od.insert_all(&record(0x6000, "Inputs", &INPUTS));
+    let _ = od.insert_all(&record(0x6200, "Outputs", &OUTPUTS));
+    for pdo in 1..=4u16 {
+        let (tpdo_cob, rpdo_cob) = if pdo == 1 {
+            (
+                params::predefined_tpdo_cob(1),
+                params::predefined_rpdo_cob(1),
+            )
+        } else {
+            // Disabled, on their predefined identifiers.
+            let base = 0x8000_0000 + (u32::from(pdo) - 1) * 0x100;
+            (
+                DefaultValue::NodeIdPlus(base + 0x180),
+                DefaultValue::NodeIdPlus(base + 0x200),
+            )
+        };
+        let (t_map, r_map): (&[u32], &[u32]) = if pdo == 1 {
+            (&[0x6000_0110, 0x6000_0308], &[0x6200_0110, 0x6200_0208])
+        } else {
+            (&[], &[])
+        };
+        let _ = od.insert_all(&params::tpdo_comm(pdo, tpdo_cob, 254, 0, 0));
+        let _ = od.insert_all(&params::tpdo_mapping::<9>(pdo, t_map));
+        let _ = od.insert_all(&params::rpdo_comm(pdo, rpdo_cob, 255, 0));
+        let _ = od.insert_all(&params::rpdo_mapping::<9>(pdo, r_map));
+    }
+}
+
+/// The device description of the simulated nodes (the one [`Network::open_named`]`("sim")`
+/// starts): attach it to name their entries (`"Input 1"`, `"Producer heartbeat time"`) and
+/// the values of their PDOs.
+///
+/// ```
+/// # #[tokio::main] async fn main() -> Result<(), duocan::net::NetError> {
+/// use duocan::net::{sim_description, Network};
+/// let net = Network::open_named("sim")?;
+/// let node = net.add_node(5, sim_description()?);
+/// let hb: u16 = node.sdo().read_named("Producer heartbeat time").await?;
+/// assert_eq!(hb, duocan::net::SIM_HEARTBEAT_MS);
+/// # Ok(()) }
+/// ```
+pub fn sim_description() -> Result<crate::eds::Description, NetError> {
+    use crate::eds::{export_eds, Description, ExportOptions, ImportOptions};
+    let node = sim_node(NodeId::must(1));
+    let text = export_eds(node.machine.od(), &ExportOptions::default())
+        .map_err(|e| NetError::Argument(format!("the simulated nodes' EDS: {e}")))?;
+    Ok(Description::parse(
+        text.as_bytes(),
+        "duocan-sim.eds",
+        &ImportOptions::lenient(),
+    )?)
 }
 
 impl Network {
@@ -91,7 +177,16 @@ impl Network {
         ids: impl IntoIterator<Item = u8>,
         opts: NetOptions,
     ) -> Result<Network, NetError> {
-        let bus = MemBus::new("sim");
+        Self::simulated_on(&MemBus::new("sim"), ids, opts)
+    }
+
+    /// [`Network::simulated`] on the in-memory bus `bus`: a port taken from it before the
+    /// call sees every frame (the nodes' boot-ups included), to watch the wire.
+    pub fn simulated_on(
+        bus: &MemBus,
+        ids: impl IntoIterator<Item = u8>,
+        opts: NetOptions,
+    ) -> Result<Network, NetError> {
         // The network's port first: a port hears only what is sent after it exists, and the
         // nodes' boot-ups go out as soon as they start.
         let port = bus.port();

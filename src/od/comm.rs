@@ -14,7 +14,7 @@
 //! od.load(5, &[&COMM, &ID, &HB, &HIST]).unwrap();
 //! ```
 
-use super::def::{Access, DataType, DefaultValue, ObjectDef, ObjectType};
+use super::def::{Access, DataType, DefaultValue, ObjectDef, ObjectType, WriteHook};
 use crate::od::abort::AbortCode;
 
 /// Device type.
@@ -98,8 +98,26 @@ pub const fn communication() -> [ObjectDef; COMM_LEN] {
     ]
 }
 
-/// 0x1019 accepts 0 (no counter) or 2–240 (CiA 301: 1 and 241–255 are reserved).
-fn sync_overflow_value(_: u16, _: u8, data: &[u8]) -> Result<(), AbortCode> {
+/// The write hooks of the communication objects whose values CiA 301 restricts beyond their
+/// type: (index, sub-index, hook, the hook's name in this module). Dictionaries made from a
+/// device description (imported or generated at build time) install them as these tables do.
+pub const HOOKS: [(u16, u8, WriteHook, &str); 2] = [
+    (ERROR_HISTORY, 0, error_history_clear, "error_history_clear"),
+    (SYNC_OVERFLOW, 0, sync_overflow_value, "sync_overflow_value"),
+];
+
+/// The hook [`HOOKS`] gives (`index`, `sub`), if any.
+#[must_use]
+pub fn hook(index: u16, sub: u8) -> Option<WriteHook> {
+    HOOKS
+        .iter()
+        .find(|(i, s, _, _)| (*i, *s) == (index, sub))
+        .map(|h| h.2)
+}
+
+/// The write hook of 0x1019: it accepts 0 (no counter) or 2–240 (CiA 301: 1 and 241–255 are
+/// reserved).
+pub fn sync_overflow_value(_: u16, _: u8, data: &[u8]) -> Result<(), AbortCode> {
     match data.first() {
         Some(0) | Some(2..=240) => Ok(()),
         _ => Err(AbortCode::VALUE_RANGE),
@@ -220,7 +238,7 @@ pub const fn heartbeat_consumers<const M: usize>() -> [ObjectDef; M] {
 pub const fn error_history<const M: usize>() -> [ObjectDef; M] {
     let mut out = [ObjectDef::u32(ERROR_HISTORY, 0, Access::Ro, 0); M];
     out[0] = ObjectDef::u8(ERROR_HISTORY, 0, Access::Rw, 0)
-        .hook(only_zero)
+        .hook(error_history_clear)
         .object_type(ObjectType::Array)
         .named("Pre-defined error field");
     let mut i = 1;
@@ -233,7 +251,8 @@ pub const fn error_history<const M: usize>() -> [ObjectDef; M] {
     out
 }
 
-fn only_zero(_: u16, _: u8, data: &[u8]) -> Result<(), AbortCode> {
+/// The write hook of 0x1003 sub-index 0: only 0 may be written (it clears the history).
+pub fn error_history_clear(_: u16, _: u8, data: &[u8]) -> Result<(), AbortCode> {
     if data.iter().all(|b| *b == 0) {
         Ok(())
     } else {

@@ -56,6 +56,7 @@ impl DynEntry {
         }
     }
 
+    #[inline]
     fn entry(&self) -> Entry<'_> {
         match &self.owned {
             None => Entry::of(&self.def, &self.data),
@@ -184,7 +185,7 @@ impl DynamicDictionary {
 }
 
 impl ObjectDictionary for DynamicDictionary {
-    #[inline]
+    #[inline(always)]
     fn get(&self, index: u16, sub: u8) -> Result<Entry<'_>, AbortCode> {
         match self.map.get(&key(index, sub)) {
             Some(e) => Ok(e.entry()),

@@ -53,7 +53,13 @@ impl SimNetwork {
         let (bus_f, port_f) = (self.buses[b].faults, self.ports[r].faults);
         let latency = self.ports[r].latency;
         if bus_f.is_none() && port_f.is_none() {
-            self.enqueue_rx(r, wire, latency);
+            // The common case, a fault-free port with nothing waiting: straight to the device
+            // (kept apart so that it stays inlined here, the hottest path of a long soak).
+            if latency.is_zero() && self.ports[r].delayed == 0 {
+                self.rx_now(r, wire);
+            } else {
+                self.enqueue_rx(r, wire, latency);
+            }
             return;
         }
         let bf = bus_f.unwrap_or(FaultRates::NONE);

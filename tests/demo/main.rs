@@ -5,5 +5,6 @@
 #[allow(dead_code)]
 mod scenario;
 
+mod devices;
 mod report_svg;
 mod run;

@@ -31,7 +31,7 @@ fn the_demo_day_loses_nothing_and_keeps_every_bound() {
 }
 
 fn day() {
-    let st = crate::scenario::run();
+    let st = crate::scenario::run().unwrap();
     assert_eq!(
         st.happened.len(),
         SCRIPT.len(),
@@ -107,6 +107,18 @@ fn day() {
             e.status
         );
     }
+    // Every board holds what its rack's DCF configures (0x1015 100, 0x1017 20): the masters
+    // wrote it.
+    assert_eq!(crate::scenario::devices::configured(&st), (72, 72));
+    let turnout = &st.racks[crate::scenario::TURNOUT];
+    assert_eq!(
+        turnout.board_value(&st.sim, 3, Member::B, 0x1015, 0),
+        Some(100)
+    );
+    assert_eq!(
+        turnout.board_value(&st.sim, 3, Member::B, 0x1017, 0),
+        Some(20)
+    );
     assert_eq!(
         o.ends[crate::scenario::TURNOUT].pairs[crate::scenario::KILLED_PAIR].running,
         [Member::B]
@@ -239,7 +251,8 @@ fn a_rack_cut_off_on_both_buses_shows_as_lost_messages() {
             sim.at(Instant::from_millis(5_700), move |sim| {
                 buses.iter().for_each(|b| sim.bus_up(*b))
             });
-        });
+        })
+        .unwrap();
         let o = Analysis::new(&st).outcome();
         let turnout = &o.traffic[crate::scenario::TURNOUT].1;
         assert!(turnout.lost_total() > 0, "{turnout:?}");

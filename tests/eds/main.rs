@@ -1,9 +1,11 @@
 //! Device descriptions (CiA 306): the corpus of small EDS/DCF files in `files/` (one quirk
 //! each, and in `files/strict/` one mistake each), name lookup, round trips through export,
-//! random dictionaries, a generated 2,000-entry file, the memory caps and the `tracing`
-//! warnings.
+//! random dictionaries, a generated 2,000-entry file, the memory caps, the `tracing`
+//! warnings, and the static dictionaries generated from corpus files at build time
+//! (`generated/`).
 
 mod bounds;
+mod codegen;
 mod corpus;
 pub mod generate;
 mod lookup;

@@ -1,5 +1,6 @@
 //! The starter examples, run as users run them: on the simulated nodes (no `DUOCAN_PORT`) and,
-//! for the monitor, on an in-memory bus where a node goes silent.
+//! for the monitor, on an in-memory bus where a node goes silent; the redundant master on the
+//! simulated redundant station.
 
 use crate::rt::{node, single};
 use duocan::net::Network;
@@ -13,6 +14,9 @@ use std::time::Duration;
 mod heartbeat_monitor;
 #[path = "../../examples/read_sdo.rs"]
 mod read_sdo;
+#[path = "../../examples/redundant_master.rs"]
+#[allow(dead_code)]
+mod redundant_master;
 
 #[test]
 fn read_sdo_reads_node_5_of_the_simulated_bus() {
@@ -61,6 +65,24 @@ async fn heartbeat_monitor_prints_states_and_the_loss() {
             "node 3: boot-up",
             "node 3: pre-operational",
             "node 3: heartbeat lost"
+        ]
+    );
+}
+
+/// On the simulated station (tokio's paused clock: the six simulated seconds take a fraction
+/// of one), the example prints exactly one failover of each kind, in the script's order.
+#[tokio::test(start_paused = true)]
+async fn redundant_master_prints_a_bus_a_master_and_a_pair_failover() {
+    let mut lines = Vec::new();
+    redundant_master::run("sim", |l| lines.push(l))
+        .await
+        .unwrap();
+    assert_eq!(
+        lines,
+        [
+            "bus 1: failed",
+            "this master: active",
+            "pair 0x10/0x50: B active"
         ]
     );
 }

@@ -4,7 +4,9 @@
 mod events;
 mod examples;
 mod monitor;
+mod named;
 mod nmt;
+mod pdo;
 #[path = "../common/runtime.rs"]
 mod rt;
 mod sdo;

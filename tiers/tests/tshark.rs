@@ -283,7 +283,7 @@ fn tshark_decodes_the_demo_turnout_rack_as_canopen() {
 
 fn demo_pcap() {
     use scenario::analysis::Analysis;
-    let st = scenario::run();
+    let st = scenario::run().expect("the demo's device descriptions read");
     let a = Analysis::new(&st);
     let o = a.outcome();
     let dir = std::path::Path::new(env!("CARGO_TARGET_TMPDIR")).join("demo-tshark");

@@ -5,10 +5,11 @@
 
 use super::field::{Kind, Shared};
 use super::scheme::Scheme;
+use duocan::eds::Description;
 use duocan::frame::instant::earliest;
 use duocan::machine::Machine;
 use duocan::node::NodeEventKind;
-use duocan::od::{comm, DynamicDictionary};
+use duocan::od::DynamicDictionary;
 use duocan::{Frame, Instant, NmtState, Node, NodeConfig, NodeId, Station};
 use duocan_redundancy::{DualBus, DualBusConfig, LinkMode};
 use std::collections::VecDeque;
@@ -61,23 +62,17 @@ pub struct Board<S: Scheme> {
 /// A board on both buses.
 pub type BoardDev<S> = Station<DualBus<S>, Board<S>>;
 
-/// A board `id` driving `field`, powered on at `now` (it sends its boot-up and waits for the
-/// master to configure it).
+/// A board `id` driving `field`, its dictionary built from the boards' EDS `eds`, powered on
+/// at `now` (it sends its boot-up and waits for the master to configure it).
 pub fn board<S: Scheme>(
     scheme: &S,
+    eds: &Description,
     id: NodeId,
     field: Shared,
     guard: duocan::Duration,
     now: Instant,
 ) -> BoardDev<S> {
-    let identity = comm::Identity {
-        device_type: 0x0001_0191,
-        vendor: 0x0000_D0CA,
-        product: 0x10,
-        revision: 1,
-        serial: 0x1000 + id.raw() as u32,
-    };
-    let mut od = comm::standard_dictionary(id.raw(), identity);
+    let mut od = eds.dictionary(id.raw());
     scheme.fit_dictionary(&mut od, id);
     let mut node = Node::with_profile(NodeConfig::slave(id), od, scheme.clone());
     node.boot(now);
@@ -107,6 +102,10 @@ impl<S: Scheme> Board<S> {
     /// The board's NMT state.
     pub fn state(&self) -> NmtState {
         self.node.nmt_state()
+    }
+    /// The board's dictionary.
+    pub fn od(&self) -> &DynamicDictionary {
+        self.node.od()
     }
     fn kind(&self) -> Kind {
         self.field.borrow().kind

@@ -4,12 +4,13 @@
 //! One station: a strong and a weak interlocking computer, each on all four dual-bus racks
 //! (turnout and misc racks on the CANopen predefined connection set, signal and track-circuit
 //! racks on the railway 29-bit profile), A/B board pairs with point machines, signals, track
-//! circuits and level crossings. Route-setting commands run all day; faults are injected on a
-//! script ([`SCRIPT`]); [`analysis`] computes from the run what the demo prints and the test
-//! asserts; [`outputs`] writes the candump log, the pcap files and the SVG timeline.
+//! circuits and level crossings, described by EDS and DCF files ([`devices`]). Route-setting
+//! commands run all day; faults are injected on a script ([`SCRIPT`]); [`analysis`] computes
+//! from the run what the demo prints and the test asserts; [`outputs`] writes the candump log, the pcap files and the SVG timeline.
 
 pub mod analysis;
 pub mod board;
+pub mod devices;
 pub mod field;
 pub mod interlocking;
 pub mod outputs;
@@ -20,6 +21,8 @@ pub mod report;
 pub mod scheme;
 pub mod station;
 
+use devices::Devices;
+use duocan::eds::EdsError;
 use duocan::profile::railway::safety::PointPosition;
 use duocan::profile::railway::safety::{SignalAspect, TrackCircuit};
 use duocan::profile::Predefined;
@@ -174,6 +177,8 @@ pub struct Station {
     pub racks: Vec<Rc<dyn RackView>>,
     /// The script as it ran.
     pub happened: Vec<Happened>,
+    /// The device descriptions the boards and masters were built from.
+    pub devices: Devices,
 }
 
 /// The route schedule: per rack, the commands of the day in time order.
@@ -235,14 +240,18 @@ fn schedules() -> [Vec<Route>; 4] {
     s
 }
 
-/// Builds the station, runs the scripted day on it, and returns it.
-pub fn run() -> Station {
+/// Reads the device descriptions, builds the station, runs the scripted day on it, and
+/// returns it; an error if a description cannot be read.
+pub fn run() -> Result<Station, EdsError> {
     run_with(|_, _| {})
 }
 
 /// [`run`], with `extra` faults injected before the day starts (for tests that check that the
 /// analysis sees what goes wrong).
-pub fn run_with(extra: impl FnOnce(&mut SimNetwork, &[Rc<dyn RackView>])) -> Station {
+pub fn run_with(
+    extra: impl FnOnce(&mut SimNetwork, &[Rc<dyn RackView>]),
+) -> Result<Station, EdsError> {
+    let devices = Devices::load()?;
     let mut sim = SimNetwork::new(2026);
     let [turnout, signal, track, misc] = schedules().map(Rc::new);
     let fields = |kind: Kind, n: usize| (0..n).map(|_| Field::new(kind)).collect::<Vec<_>>();
@@ -262,6 +271,8 @@ pub fn run_with(extra: impl FnOnce(&mut SimNetwork, &[Rc<dyn RackView>])) -> Sta
                 kind: Kind::Point,
                 scheme: Predefined,
                 pairs: PAIRS[TURNOUT],
+                eds: devices.board.clone(),
+                dcf: devices.racks[TURNOUT].clone(),
                 schedule: turnout,
             },
             fields(Kind::Point, PAIRS[TURNOUT]),
@@ -274,6 +285,8 @@ pub fn run_with(extra: impl FnOnce(&mut SimNetwork, &[Rc<dyn RackView>])) -> Sta
                 kind: Kind::Signal,
                 scheme: scheme::railway_profile(2, nodes(PAIRS[SIGNAL])),
                 pairs: PAIRS[SIGNAL],
+                eds: devices.board.clone(),
+                dcf: devices.racks[SIGNAL].clone(),
                 schedule: signal,
             },
             fields(Kind::Signal, PAIRS[SIGNAL]),
@@ -286,6 +299,8 @@ pub fn run_with(extra: impl FnOnce(&mut SimNetwork, &[Rc<dyn RackView>])) -> Sta
                 kind: Kind::Track,
                 scheme: scheme::railway_profile(3, nodes(PAIRS[TRACK])),
                 pairs: PAIRS[TRACK],
+                eds: devices.board.clone(),
+                dcf: devices.racks[TRACK].clone(),
                 schedule: track,
             },
             fields(Kind::Track, PAIRS[TRACK]),
@@ -298,6 +313,8 @@ pub fn run_with(extra: impl FnOnce(&mut SimNetwork, &[Rc<dyn RackView>])) -> Sta
                 kind: Kind::Crossing,
                 scheme: Predefined,
                 pairs: PAIRS[MISC],
+                eds: devices.board.clone(),
+                dcf: devices.racks[MISC].clone(),
                 schedule: misc,
             },
             fields(Kind::Crossing, PAIRS[MISC]),
@@ -329,11 +346,12 @@ pub fn run_with(extra: impl FnOnce(&mut SimNetwork, &[Rc<dyn RackView>])) -> Sta
     extra(&mut sim, &racks);
     sim.run_until(END);
     let happened = happened.borrow().clone();
-    Station {
+    Ok(Station {
         sim,
         racks,
         happened,
-    }
+        devices,
+    })
 }
 
 /// Carries out one act of the script.

@@ -6,8 +6,9 @@ use super::field::{Kind, Shared};
 use super::interlocking::{IlEvent, Interlocking, Route};
 use super::scheme::Scheme;
 use super::{BITRATE, BOARD_HB, CONSUMER, MASTER_HB, MASTER_TIMEOUT, SYNC};
-use duocan::master::{objects, Master, MasterSdoClient, NetworkConfig};
-use duocan::od::comm;
+use duocan::eds::Description;
+use duocan::master::{objects, Master, MasterSdoClient, NetworkConfig, SlaveConfig};
+use duocan::od::{comm, ObjectDictionary};
 use duocan::sdo::DEFAULT_LIMIT;
 use duocan::sim::{BusConfig, BusId, DevId, DeviceRef, SimNetwork};
 use duocan::{Id, Instant, NmtState, NodeConfig, NodeId};
@@ -53,6 +54,10 @@ pub struct RackSpec<S: Scheme> {
     pub pairs: usize,
     /// The interlocking's commands to this rack.
     pub schedule: Rc<Vec<Route>>,
+    /// The boards' EDS: each board's dictionary.
+    pub eds: Rc<Description>,
+    /// The rack's DCF: how the masters configure each of its boards.
+    pub dcf: Rc<Description>,
 }
 
 /// A rack built on the network.
@@ -91,7 +96,8 @@ fn master<S: Scheme>(spec: &RackSpec<S>, which: usize, now: Instant) -> Interloc
     let mut boards = vec![];
     for p in 0..spec.pairs {
         let (a, b) = (board_node(p, Member::A), board_node(p, Member::B));
-        sup.add_pair(now, PairSpec::new(a, b, BOARD_HB, CONSUMER))
+        let cfg = |n| SlaveConfig::from_dcf(n, &spec.dcf);
+        sup.add_pair_with(now, PairSpec::new(a, b, BOARD_HB, CONSUMER), cfg(a), cfg(b))
             .expect("room for the rack's pairs");
         boards.extend([a, b]);
     }
@@ -134,7 +140,7 @@ impl<S: Scheme> Rack<S> {
                     let id = board_node(p, m);
                     sim.add_device(
                         format!("{} {m}", spec.kind.label(p)),
-                        board(&spec.scheme, id, fields[p].clone(), BOARD_HB, t0),
+                        board(&spec.scheme, &spec.eds, id, fields[p].clone(), BOARD_HB, t0),
                         &buses,
                     )
                     .expect("two ports")
@@ -183,6 +189,17 @@ pub trait RackView {
     fn unanswered(&self, sim: &SimNetwork, which: usize) -> usize;
     /// A board's NMT state (what it last was if powered off).
     fn board_state(&self, sim: &SimNetwork, pair: usize, m: Member) -> NmtState;
+    /// An unsigned entry (up to 32 bits) of a board's dictionary, as the board holds it now.
+    fn board_value(
+        &self,
+        sim: &SimNetwork,
+        pair: usize,
+        m: Member,
+        index: u16,
+        sub: u8,
+    ) -> Option<u32>;
+    /// The node-ID of a board.
+    fn board_node(&self, pair: usize, m: Member) -> NodeId;
     /// The boot-up / heartbeat identifier of `node`.
     fn heartbeat_id(&self, node: NodeId) -> Id;
     /// The NMT identifier.
@@ -250,6 +267,22 @@ impl<S: Scheme> RackView for Rack<S> {
     fn board_state(&self, sim: &SimNetwork, pair: usize, m: Member) -> NmtState {
         sim.device(self.boards[pair][m as usize]).machine.state()
     }
+    fn board_value(
+        &self,
+        sim: &SimNetwork,
+        pair: usize,
+        m: Member,
+        index: u16,
+        sub: u8,
+    ) -> Option<u32> {
+        sim.device(self.boards[pair][m as usize])
+            .machine
+            .od()
+            .get_u32(index, sub)
+    }
+    fn board_node(&self, pair: usize, m: Member) -> NodeId {
+        board_node(pair, m)
+    }
     fn heartbeat_id(&self, node: NodeId) -> Id {
         self.spec.scheme.heartbeat(node)
     }
@@ -269,6 +302,7 @@ impl<S: Scheme> RackView for Rack<S> {
     fn revive_board(&self, sim: &mut SimNetwork, pair: usize, m: Member, now: Instant) {
         let dev = board(
             &self.spec.scheme,
+            &self.spec.eds,
             board_node(pair, m),
             self.fields[pair].clone(),
             BOARD_HB,

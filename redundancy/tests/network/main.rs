@@ -1,3 +1,4 @@
 //! The logical network object (`duocan_redundancy::network`) on the simulated dual bus.
 
+mod builder;
 mod logical;

@@ -1,3 +1,4 @@
 //! The logical network object under the tokio runtime (in-memory buses).
 
+mod front_door;
 mod memory_bus;

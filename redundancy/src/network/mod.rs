@@ -7,6 +7,7 @@
 //!
 //! | need                         | call                                                        |
 //! |------------------------------|-------------------------------------------------------------|
+//! | building it                  | [`LogicalNetwork::builder`]: named settings with defaults, all checked ([`RedundantNetworkBuilder`]); with the `tokio` feature `.open(…)` / `.open_named(…)` give the async handle `net::RedundantNetwork` |
 //! | the object dictionary        | [`LogicalNetwork::od`], [`read`](LogicalNetwork::read), [`write`](LogicalNetwork::write) |
 //! | SDO access to any node       | [`sdo_read`](LogicalNetwork::sdo_read), [`sdo_write`](LogicalNetwork::sdo_write): a [`RequestId`] now, [`NetworkEventKind::Sdo`] when done |
 //! | NMT commands                 | [`nmt`](LogicalNetwork::nmt)                                 |
@@ -22,23 +23,21 @@
 //! event with the request id).
 //!
 //! ```
-//! use duocan::master::{objects, Master, NetworkConfig};
 //! use duocan::od::comm;
 //! use duocan::sim::{BusConfig, SimNetwork};
 //! use duocan::{Duration, Instant, Node, NodeConfig, NodeId, Station};
-//! use duocan_redundancy::PairSpec;
-//! use duocan_redundancy::{
-//!     DualBus, DualBusConfig, LogicalNetwork, NetworkEventKind, SupervisedStation, Supervisor,
-//!     SupervisorConfig,
-//! };
+//! use duocan_redundancy::{DualBus, DualBusConfig, LogicalNetwork, NetworkEventKind};
 //!
 //! let ms = Duration::from_millis;
 //! let mut sim = SimNetwork::new(1);
 //! let buses = [sim.add_bus(BusConfig::new("can1", 1_000_000)), sim.add_bus(BusConfig::new("can2", 1_000_000))];
-//! let master = Master::new(NodeId::must(1), objects::master_dictionary(1, Default::default()), NetworkConfig::new()).unwrap();
-//! let mut sup = Supervisor::new(master, SupervisorConfig::new(0, NodeId::must(1), ms(20), ms(50), ms(10)), Instant::ZERO);
-//! sup.add_pair(Instant::ZERO, PairSpec::new(NodeId::must(0x10), NodeId::must(0x50), ms(20), ms(50)))?;
-//! let net = LogicalNetwork::new(SupervisedStation::new(DualBus::new(DualBusConfig::default()), sup).unwrap());
+//! let net = LogicalNetwork::builder()
+//!     .node_id(1)
+//!     .heartbeat(ms(20))
+//!     .master_timeout(ms(50))
+//!     .sync(ms(10))
+//!     .pair(0x10, 0x50)
+//!     .build()?;
 //! let net = sim.add_device("turnout rack", net, &buses)?;
 //! for id in [0x10, 0x50] {
 //!     let mut n = Node::new(NodeConfig::slave(NodeId::must(id)), comm::standard_dictionary(id, Default::default()));
@@ -58,133 +57,44 @@
 //! println!("{}", sim.device(net).status(sim.now()));
 //! # Ok::<(), Box<dyn std::error::Error>>(())
 //! ```
+//!
+//! The builder ([`RedundantNetworkBuilder`]) names each setting and checks them all before
+//! building; the parts underneath can still be built one by one (a [`Master`](duocan::master::Master),
+//! a [`Supervisor`] with a [`SupervisorConfig`](crate::SupervisorConfig) and
+//! [`PairSpec`](crate::PairSpec)s, a [`DualBus`](crate::DualBus), a [`SupervisedStation`]) for
+//! what the builder does not cover.
 
-use crate::link::events::{LinkEvent, LinkEventKind, PortReason};
-use crate::link::health::PortState;
+mod builder;
+mod error;
+mod events;
+
+pub use builder::{RedundantNetworkBuilder, DEFAULT_HEARTBEAT, DEFAULT_MASTER_TIMEOUT};
+pub use error::{RedundantError, Role};
+pub use events::{NetworkEvent, NetworkEventKind};
+
 use crate::pair::{Member, PairId};
 use crate::station::{Status, SupervisedStation};
 use crate::supervisor::audit::AuditTrail;
-use crate::supervisor::flying_master::{
-    FlyingEvent, FlyingMasterError, MasterRole, MasterRoleChange,
-};
-use crate::supervisor::pairs::{PairState, PairsError, PairsEvent, RoleChange};
-use crate::supervisor::{Supervisor, SupervisorEvent};
+use crate::supervisor::flying_master::{FlyingMasterError, MasterRole};
+use crate::supervisor::pairs::{PairState, PairsError};
+use crate::supervisor::Supervisor;
 use crate::FrameClassifier;
 use core::fmt;
 use duocan::cia302::pdo_config::PdoConfig;
-use duocan::emcy::EmcyMessage;
-use duocan::machine::{Device, PortRequest, PortStatus, StationEvent};
-use duocan::master::{ErrorStatus, MasterError, MasterEventKind, SlaveView};
+use duocan::machine::{Device, PortRequest, PortStatus};
+use duocan::master::{MasterError, SlaveView};
 use duocan::nmt::NmtTarget;
-use duocan::node::NodeEventKind;
 use duocan::od::abort::AbortCode;
 use duocan::od::{DynamicDictionary, ObjectDictionary, OdValue};
-use duocan::pdo::{Dir, PdoEvent};
+use duocan::pdo::Dir;
 use duocan::profile::{IdProfile, Predefined};
-use duocan::sdo::{RequestId, SdoError, SdoEvent, SdoOptions};
-use duocan::{Frame, Instant, NmtCommand, NmtState, NodeId};
+use duocan::sdo::{RequestId, SdoError, SdoOptions};
+use duocan::{Frame, Instant, NmtCommand, NodeId};
 
 /// One dual-bus network as the application sees it: `D` is the master's dictionary, `P` the
 /// identifier profile (as for the [`SupervisedStation`] underneath).
 pub struct LogicalNetwork<D, P = Predefined> {
     station: SupervisedStation<D, P>,
-}
-
-/// Something that happened on the network, and when.
-#[derive(Clone, Debug, PartialEq)]
-pub struct NetworkEvent {
-    /// When (for timeouts: exactly the deadline).
-    pub at: Instant,
-    /// What.
-    pub kind: NetworkEventKind,
-}
-
-/// The kinds of [`NetworkEvent`]: the typed ones the application reacts to, and everything else
-/// as the station reported it.
-#[derive(Clone, Debug, PartialEq)]
-#[non_exhaustive]
-pub enum NetworkEventKind {
-    /// A port (one bus) changed health state.
-    Port {
-        /// 0 = bus 1.
-        port: u8,
-        /// Before.
-        from: PortState,
-        /// After.
-        to: PortState,
-        /// Why.
-        reason: PortReason,
-    },
-    /// The buses a node is heard on changed (heard on one bus only is a fault to report).
-    Reach {
-        /// The node.
-        node: NodeId,
-        /// Heard on bus 1, on bus 2.
-        heard: [bool; 2],
-    },
-    /// A node sent its boot-up.
-    NodeBooted {
-        /// The node.
-        node: NodeId,
-    },
-    /// A node's NMT state changed (from its heartbeat or guarding answer).
-    NodeState {
-        /// The node.
-        node: NodeId,
-        /// Known before, if anything.
-        from: Option<NmtState>,
-        /// Now.
-        to: NmtState,
-    },
-    /// Error control lost a slave: heartbeat (E), guarding (F), none after configuration (K).
-    NodeLost {
-        /// The slave.
-        node: NodeId,
-        /// E, F or K.
-        status: ErrorStatus,
-    },
-    /// A pair's active member changed (reason and members inside).
-    PairRole(RoleChange),
-    /// This master's role changed.
-    MasterRole(MasterRoleChange),
-    /// An EMCY message of a node.
-    Emcy {
-        /// The node.
-        node: NodeId,
-        /// The message.
-        msg: EmcyMessage,
-    },
-    /// A and B of a pair have carried different values of one function for longer than the
-    /// discrepancy time.
-    Discrepancy {
-        /// The pair.
-        pair: PairId,
-        /// The function (e.g. the TPDO number).
-        function: u32,
-        /// A's latest frame.
-        a: Frame,
-        /// B's latest frame.
-        b: Frame,
-        /// Since when they differ.
-        since: Instant,
-    },
-    /// A and B agree again.
-    DiscrepancyCleared {
-        /// The pair.
-        pair: PairId,
-        /// The function.
-        function: u32,
-    },
-    /// One of the master's RPDOs was received: its values are in the dictionary
-    /// ([`LogicalNetwork::pdo_value`]).
-    PdoReceived {
-        /// The master's RPDO number.
-        pdo: u16,
-    },
-    /// An SDO transfer the application started ended (its [`RequestId`] inside).
-    Sdo(SdoEvent),
-    /// Anything else (member joined or lost, boot process steps, channel switches, …).
-    Other(StationEvent<LinkEvent, SupervisorEvent>),
 }
 
 /// Why a call on the network was refused, or failed.
@@ -475,82 +385,6 @@ impl<P: IdProfile + FrameClassifier> LogicalNetwork<DynamicDictionary, P> {
     }
 }
 
-/// When a station event happened.
-fn when(e: &StationEvent<LinkEvent, SupervisorEvent>) -> Instant {
-    match e {
-        StationEvent::Link(l) => l.at,
-        StationEvent::Machine(m) => match m {
-            SupervisorEvent::Node(n) => n.at,
-            SupervisorEvent::Pairs(p) => match p {
-                PairsEvent::Role(r) => r.at,
-                PairsEvent::Joined { at, .. }
-                | PairsEvent::Lost { at, .. }
-                | PairsEvent::Missing { at, .. } => *at,
-            },
-            SupervisorEvent::FlyingMaster(FlyingEvent::Role(r)) => r.at,
-            SupervisorEvent::FlyingMaster(FlyingEvent::Suspended { at, .. }) => *at,
-            SupervisorEvent::Master(e) => e.at,
-            SupervisorEvent::Sdo(s) => s.at,
-            SupervisorEvent::NotJoined { at, .. } => *at,
-        },
-    }
-}
-
-/// The typed kind of a station event, if it has one.
-fn typed(e: &StationEvent<LinkEvent, SupervisorEvent>) -> Option<NetworkEventKind> {
-    use NetworkEventKind as K;
-    Some(match e {
-        StationEvent::Link(l) => match l.kind {
-            LinkEventKind::Port {
-                port,
-                from,
-                to,
-                reason,
-            } => K::Port {
-                port,
-                from,
-                to,
-                reason,
-            },
-            LinkEventKind::Reach { node, heard } => K::Reach { node, heard },
-            LinkEventKind::Discrepancy {
-                pair,
-                function,
-                a,
-                b,
-                since,
-            } => K::Discrepancy {
-                pair,
-                function,
-                a,
-                b,
-                since,
-            },
-            LinkEventKind::DiscrepancyCleared { pair, function } => {
-                K::DiscrepancyCleared { pair, function }
-            }
-            _ => return None,
-        },
-        StationEvent::Machine(m) => match m {
-            SupervisorEvent::Node(n) => match n.kind {
-                NodeEventKind::BootUp { node } => K::NodeBooted { node },
-                NodeEventKind::RemoteState { node, from, to } => K::NodeState { node, from, to },
-                NodeEventKind::Emcy { node, msg } => K::Emcy { node, msg },
-                NodeEventKind::Pdo(PdoEvent::RpdoReceived { pdo }) => K::PdoReceived { pdo },
-                _ => return None,
-            },
-            SupervisorEvent::Pairs(PairsEvent::Role(r)) => K::PairRole(*r),
-            SupervisorEvent::FlyingMaster(FlyingEvent::Role(r)) => K::MasterRole(*r),
-            SupervisorEvent::Master(e) => match e.kind {
-                MasterEventKind::SlaveLost { node, status } => K::NodeLost { node, status },
-                _ => return None,
-            },
-            SupervisorEvent::Sdo(s) => K::Sdo(s.clone()),
-            _ => return None,
-        },
-    })
-}
-
 impl<D: ObjectDictionary, P: IdProfile + FrameClassifier> Device for LogicalNetwork<D, P> {
     type Event = NetworkEvent;
 
@@ -577,8 +411,8 @@ impl<D: ObjectDictionary, P: IdProfile + FrameClassifier> Device for LogicalNetw
     }
     fn poll_event(&mut self) -> Option<NetworkEvent> {
         let e = self.station.poll_event()?;
-        let at = when(&e);
-        let kind = typed(&e).unwrap_or(NetworkEventKind::Other(e));
+        let at = events::when(&e);
+        let kind = events::typed(&e).unwrap_or(NetworkEventKind::Other(e));
         Some(NetworkEvent { at, kind })
     }
 }

@@ -1,0 +1,284 @@
+//! The simulated redundant station behind `open_named("sim")`: two in-memory buses, the
+//! declared pairs as simulated duocan boards, the declared peers as simulated redundant masters
+//! with the same settings, and a script of faults, so that a user sees a bus, a master and a
+//! pair failover without hardware. Under tokio's paused clock (tests) the run is deterministic.
+
+use super::{Net, RedundantNetwork};
+use crate::link::config::DualBusConfig;
+use crate::link::dual_bus::{DualBus, DualBusNode};
+use crate::network::{RedundantError, RedundantNetworkBuilder};
+use alloc::boxed::Box;
+use alloc::string::ToString;
+use alloc::sync::Arc;
+use alloc::vec::Vec;
+use duocan::frame::Frame;
+use duocan::od::{comm, DynamicDictionary};
+use duocan::port::mem::{MemBus, MemPort};
+use duocan::port::{Port, PortCounters, PortError, PortErrorKind, PortInput};
+use duocan::runtime::{Handle, Runtime};
+use duocan::{Duration, Instant, Node, NodeConfig, NodeId, Station};
+use tokio::sync::watch;
+use tokio::task::JoinHandle;
+
+/// When bus 1 of this master fails in the simulation (its port stops working: a pulled
+/// connector).
+pub const SIM_BUS_FAILS: Duration = Duration::from_millis(2000);
+/// When the simulated peer masters stop (a standby master takes over after its master
+/// timeout).
+pub const SIM_PEERS_FAIL: Duration = Duration::from_millis(3000);
+/// When the active member of every simulated pair stops (the other takes over after the pair
+/// timeout).
+pub const SIM_MEMBER_FAILS: Duration = Duration::from_millis(4000);
+/// When the simulation ends: the network closes and its event streams end.
+pub const SIM_END: Duration = Duration::from_millis(6000);
+/// How much later than member A member B boots, so that A is configured first and is the
+/// active member (the same every run).
+const B_BOOTS_LATER: Duration = Duration::from_millis(100);
+
+type Board = DualBusNode<DynamicDictionary>;
+
+/// The simulated devices' script, running while the network is open.
+pub(super) struct SimStation {
+    /// The network's "closed" signal (the script sets it at [`SIM_END`]).
+    pub(super) closed: Arc<watch::Sender<bool>>,
+    /// Asks the script to stop every simulated device now.
+    stop: watch::Sender<bool>,
+    task: std::sync::Mutex<Option<JoinHandle<()>>>,
+}
+
+impl SimStation {
+    /// Stops every simulated device.
+    pub(super) async fn shutdown(&self) {
+        self.stop.send_replace(true);
+        let task = self.task.lock().ok().and_then(|mut t| t.take());
+        if let Some(t) = task {
+            let _ = t.await;
+        }
+    }
+}
+
+/// A simulated duocan board `id`: identity with the vendor-ID `duocan::net::SIM_VENDOR` and
+/// product code = node-ID, booted (its boot-up goes out when its runtime starts).
+fn board(id: NodeId) -> Board {
+    let ident = comm::Identity {
+        vendor: duocan::net::SIM_VENDOR,
+        product: u32::from(id.raw()),
+        ..Default::default()
+    };
+    let od = comm::standard_dictionary(id.raw(), ident);
+    let mut node = Node::new(NodeConfig::slave(id), od);
+    node.boot(Instant::ZERO);
+    Station::new(DualBus::new(DualBusConfig::default()), node)
+}
+
+fn spawn<D>(dev: Box<D>, name: &str, buses: &[MemBus; 2]) -> Result<Handle<D>, RedundantError>
+where
+    D: duocan::Device + Send + 'static,
+    D::Event: Clone + Send + core::fmt::Debug + 'static,
+{
+    Runtime::boxed(dev)
+        .name(name)
+        .port(buses[0].port())
+        .port(buses[1].port())
+        .spawn()
+        .map_err(|e| RedundantError::Port {
+            port: 0,
+            name: "sim".into(),
+            why: e.to_string(),
+        })
+}
+
+/// Opens `b`'s network on a simulated station (see `open_named`).
+pub(super) fn open(b: &RedundantNetworkBuilder) -> Result<RedundantNetwork, RedundantError> {
+    let net = b.build_boxed()?;
+    let buses = [MemBus::new("sim-bus1"), MemBus::new("sim-bus2")];
+    // This master's ports first: a port hears only what is sent after it exists.
+    let (cut, cut_rx) = watch::channel(false);
+    let ports = (
+        FaultPort {
+            inner: buses[0].port(),
+            cut: cut_rx,
+        },
+        buses[1].port(),
+    );
+    let mut peers = Vec::new();
+    let mut boards = Vec::new();
+    if tokio::runtime::Handle::try_current().is_ok() {
+        for &(n, _) in b.peers() {
+            let dev = b.as_peer(n).build_boxed()?;
+            peers.push(spawn(dev, &alloc::format!("sim master {n}"), &buses)?);
+        }
+        for &(a, _) in b.pairs() {
+            // Checked by build(): valid node-IDs.
+            if let Some(id) = NodeId::new(a) {
+                boards.push((
+                    a,
+                    spawn(
+                        Box::new(board(id)),
+                        &alloc::format!("sim board {a}"),
+                        &buses,
+                    )?,
+                ));
+            }
+        }
+    }
+    let closed = Arc::new(watch::channel(false).0);
+    let (stop, stop_rx) = watch::channel(false);
+    let sim = SimStation {
+        closed: closed.clone(),
+        stop,
+        task: std::sync::Mutex::new(None),
+    };
+    let net = RedundantNetwork::start(net, ports, Some(sim))?;
+    let script = Script {
+        net: net.shared.handle.clone(),
+        buses,
+        cut,
+        peers,
+        boards,
+        later: b.pairs().iter().map(|&(_, b)| b).collect(),
+        stop: stop_rx,
+        closed,
+        start: tokio::time::Instant::now(),
+    };
+    let task = tokio::spawn(script.run());
+    if let Some(s) = &net.shared.sim {
+        if let Ok(mut t) = s.task.lock() {
+            *t = Some(task);
+        }
+    }
+    Ok(net)
+}
+
+/// The simulated devices and what happens to them.
+struct Script {
+    net: Handle<Net>,
+    buses: [MemBus; 2],
+    cut: watch::Sender<bool>,
+    peers: Vec<Handle<Net>>,
+    boards: Vec<(u8, Handle<Board>)>,
+    /// The B members, booted [`B_BOOTS_LATER`].
+    later: Vec<u8>,
+    stop: watch::Receiver<bool>,
+    closed: Arc<watch::Sender<bool>>,
+    start: tokio::time::Instant,
+}
+
+impl Script {
+    /// Waits until `t` after the start; false if asked to stop first.
+    async fn until(&mut self, t: Duration) -> bool {
+        let at = self.start + core::time::Duration::from_micros(t.as_micros());
+        tokio::select! {
+            () = tokio::time::sleep_until(at) => true,
+            _ = self.stop.wait_for(|s| *s) => false,
+        }
+    }
+
+    async fn run(mut self) {
+        let played = self.play().await;
+        for (_, h) in &self.boards {
+            h.shutdown().await;
+        }
+        for h in &self.peers {
+            h.shutdown().await;
+        }
+        if played {
+            self.net.shutdown().await;
+            self.closed.send_replace(true);
+        }
+    }
+
+    /// The script; false if it was stopped before its end.
+    async fn play(&mut self) -> bool {
+        if !self.until(B_BOOTS_LATER).await {
+            return false;
+        }
+        for b in core::mem::take(&mut self.later) {
+            if let Some(id) = NodeId::new(b) {
+                let name = alloc::format!("sim board {b}");
+                if let Ok(h) = spawn(Box::new(board(id)), &name, &self.buses) {
+                    self.boards.push((b, h));
+                }
+            }
+        }
+        if !self.until(SIM_BUS_FAILS).await {
+            return false;
+        }
+        self.cut.send_replace(true);
+        if !self.until(SIM_PEERS_FAIL).await {
+            return false;
+        }
+        for h in &self.peers {
+            h.shutdown().await;
+        }
+        if !self.until(SIM_MEMBER_FAILS).await {
+            return false;
+        }
+        let active: Vec<u8> = self
+            .net
+            .call(|n, _| {
+                n.pairs()
+                    .filter_map(|(_, p)| p.active.map(|m| p.spec.node(m).raw()))
+                    .collect()
+            })
+            .await
+            .unwrap_or_default();
+        for (id, h) in &self.boards {
+            if active.contains(id) {
+                h.shutdown().await;
+            }
+        }
+        self.until(SIM_END).await
+    }
+}
+
+/// A port on a simulated bus that stops working when told (`cut`): receiving, sending and
+/// re-opening fail with the interface down, as a pulled connector does.
+struct FaultPort {
+    inner: MemPort,
+    cut: watch::Receiver<bool>,
+}
+
+impl FaultPort {
+    fn down(&self) -> PortError {
+        PortError::new(
+            self.inner.name(),
+            PortErrorKind::InterfaceDown,
+            "simulated fault",
+        )
+    }
+    fn is_cut(&self) -> bool {
+        *self.cut.borrow()
+    }
+}
+
+impl Port for FaultPort {
+    fn name(&self) -> &str {
+        self.inner.name()
+    }
+    fn counters(&self) -> PortCounters {
+        self.inner.counters()
+    }
+    async fn recv(&mut self) -> Result<PortInput, PortError> {
+        if self.is_cut() {
+            return Err(self.down());
+        }
+        tokio::select! {
+            r = self.inner.recv() => return r,
+            _ = self.cut.wait_for(|c| *c) => {}
+        }
+        Err(self.down())
+    }
+    async fn send(&mut self, frame: &Frame) -> Result<(), PortError> {
+        if self.is_cut() {
+            return Err(self.down());
+        }
+        self.inner.send(frame).await
+    }
+    async fn reopen(&mut self) -> Result<(), PortError> {
+        if self.is_cut() {
+            return Err(self.down());
+        }
+        self.inner.reopen().await
+    }
+}

@@ -1,0 +1,336 @@
+//! Building a redundant network from named settings.
+//!
+//! [`RedundantNetworkBuilder`] gathers what a redundant master needs (its node-ID and priority,
+//! its heartbeat, the master-heartbeat timeout, the SYNC period, the board pairs and the other
+//! masters) and builds the whole stack under a [`LogicalNetwork`] in one call: the CiA 302-2
+//! master with its dictionary, the [`Supervisor`], the [`DualBus`] and the
+//! [`SupervisedStation`]. Every setting has a default; every bad one is a [`RedundantError`]
+//! naming it, found before anything is built.
+
+use super::error::{RedundantError, Role};
+use super::LogicalNetwork;
+use crate::link::config::DualBusConfig;
+use crate::link::dual_bus::DualBus;
+use crate::pair::{PairSpec, MAX_PAIRS};
+use crate::station::SupervisedStation;
+use crate::supervisor::flying_master::MAX_PEERS;
+use crate::supervisor::{Supervisor, SupervisorConfig};
+use crate::LinkMode;
+use alloc::boxed::Box;
+use alloc::vec::Vec;
+use duocan::master::{objects, Master, NetworkConfig};
+use duocan::od::{comm, DynamicDictionary};
+use duocan::profile::Predefined;
+use duocan::{Duration, Instant, NodeId};
+
+/// This master's heartbeat unless [`RedundantNetworkBuilder::heartbeat`] says otherwise.
+pub const DEFAULT_HEARTBEAT: Duration = Duration::from_millis(100);
+/// The master-heartbeat timeout unless [`RedundantNetworkBuilder::master_timeout`] says
+/// otherwise: a standby takes over when the active master was silent this long.
+pub const DEFAULT_MASTER_TIMEOUT: Duration = Duration::from_millis(300);
+
+/// The named settings of a redundant network; start with
+/// [`LogicalNetwork::builder`] (or `RedundantNetwork::builder()` with the `tokio` feature),
+/// finish with [`build`](Self::build) (the sans-IO [`LogicalNetwork`], for the simulator or an
+/// embedded driver) or, with `tokio`, `open` / `open_named` (an async handle).
+///
+/// | setting | default | what it is |
+/// | --- | --- | --- |
+/// | [`node_id`](Self::node_id) | 1 | this master's node-ID |
+/// | [`priority`](Self::priority) | 0 | its flying-master priority (lower wins; then the lower node-ID) |
+/// | [`heartbeat`](Self::heartbeat) | 100 ms | its heartbeat producer time |
+/// | [`master_timeout`](Self::master_timeout) | 300 ms | silence of the active master after which a standby takes over |
+/// | [`sync`](Self::sync) | none | SYNC period while active |
+/// | [`pair`](Self::pair) | none | an A/B board pair |
+/// | [`pair_heartbeat`](Self::pair_heartbeat) | 100 ms | heartbeat configured into every pair member |
+/// | [`pair_timeout`](Self::pair_timeout) | 300 ms | silence of a member after which it has failed |
+/// | [`peer_master`](Self::peer_master) | none | another master-capable device |
+/// | [`link`](Self::link) | active-active, guard period = the shorter heartbeat | the dual-bus layer |
+/// | [`master`](Self::master) | `NetworkConfig::new()` | the CiA 302-2 master's own settings (other slaves, SDO timeout, queues) |
+///
+/// ```
+/// use duocan::Duration;
+/// use duocan_redundancy::{LogicalNetwork, RedundantError, Role};
+///
+/// let ms = Duration::from_millis;
+/// let net = LogicalNetwork::builder()
+///     .node_id(1)
+///     .heartbeat(ms(20))
+///     .master_timeout(ms(50))
+///     .sync(ms(10))
+///     .pair(0x10, 0x50)
+///     .peer_master(2)
+///     .build()?;
+/// assert_eq!(net.pairs().count(), 1);
+/// // Bad settings are errors, found before anything is built.
+/// let e = LogicalNetwork::builder().pair(0x10, 0x10).build().unwrap_err();
+/// assert!(matches!(e, RedundantError::NodeTwice { second: Role::PairMember, .. }));
+/// # Ok::<(), RedundantError>(())
+/// ```
+#[derive(Clone, Debug)]
+#[must_use]
+pub struct RedundantNetworkBuilder {
+    node_id: u8,
+    priority: u8,
+    heartbeat: Duration,
+    master_timeout: Duration,
+    sync: Option<Duration>,
+    pair_heartbeat: Duration,
+    pair_timeout: Duration,
+    pairs: Vec<(u8, u8)>,
+    peers: Vec<(u8, u8)>,
+    link: Option<DualBusConfig>,
+    master: NetworkConfig,
+}
+
+impl Default for RedundantNetworkBuilder {
+    fn default() -> Self {
+        RedundantNetworkBuilder {
+            node_id: 1,
+            priority: 0,
+            heartbeat: DEFAULT_HEARTBEAT,
+            master_timeout: DEFAULT_MASTER_TIMEOUT,
+            sync: None,
+            pair_heartbeat: DEFAULT_HEARTBEAT,
+            pair_timeout: DEFAULT_MASTER_TIMEOUT,
+            pairs: Vec::new(),
+            peers: Vec::new(),
+            link: None,
+            master: NetworkConfig::new(),
+        }
+    }
+}
+
+impl LogicalNetwork<DynamicDictionary, Predefined> {
+    /// The builder of a redundant network, every setting at its default.
+    pub fn builder() -> RedundantNetworkBuilder {
+        RedundantNetworkBuilder::default()
+    }
+}
+
+impl RedundantNetworkBuilder {
+    /// This master's node-ID (1–127; default 1).
+    pub fn node_id(mut self, id: u8) -> Self {
+        self.node_id = id;
+        self
+    }
+    /// This master's flying-master priority (0x1F90 sub 3; lower wins, default 0).
+    pub fn priority(mut self, priority: u8) -> Self {
+        self.priority = priority;
+        self
+    }
+    /// This master's heartbeat producer time (default 100 ms).
+    pub fn heartbeat(mut self, period: Duration) -> Self {
+        self.heartbeat = period;
+        self
+    }
+    /// How long the active master may be silent before a standby takes over (default 300 ms;
+    /// longer than the heartbeat).
+    pub fn master_timeout(mut self, timeout: Duration) -> Self {
+        self.master_timeout = timeout;
+        self
+    }
+    /// The SYNC period while this master is active (default: no SYNC).
+    pub fn sync(mut self, period: Duration) -> Self {
+        self.sync = Some(period);
+        self
+    }
+    /// An A/B board pair: node `a` is member A, node `b` member B.
+    pub fn pair(mut self, a: u8, b: u8) -> Self {
+        self.pairs.push((a, b));
+        self
+    }
+    /// The heartbeat configured into every pair member (default 100 ms).
+    pub fn pair_heartbeat(mut self, period: Duration) -> Self {
+        self.pair_heartbeat = period;
+        self
+    }
+    /// How long a pair member may be silent before it has failed (default 300 ms; longer
+    /// than the pair heartbeat).
+    pub fn pair_timeout(mut self, timeout: Duration) -> Self {
+        self.pair_timeout = timeout;
+        self
+    }
+    /// Another master-capable device, with this master's priority (so the lower node-ID of
+    /// the two wins the negotiation).
+    pub fn peer_master(self, node: u8) -> Self {
+        let p = self.priority;
+        self.peer_master_with_priority(node, p)
+    }
+    /// Another master-capable device with its own priority (lower wins).
+    pub fn peer_master_with_priority(mut self, node: u8, priority: u8) -> Self {
+        self.peers.push((node, priority));
+        self
+    }
+    /// The dual-bus layer's configuration (default: active-active, health timing from the
+    /// shorter of the two heartbeats).
+    pub fn link(mut self, cfg: DualBusConfig) -> Self {
+        self.link = Some(cfg);
+        self
+    }
+    /// The CiA 302-2 master's own settings: the slaves that are no pair members, the SDO
+    /// timeout, queue sizes (default `NetworkConfig::new()`).
+    pub fn master(mut self, cfg: NetworkConfig) -> Self {
+        self.master = cfg;
+        self
+    }
+
+    /// This master's node-ID as set (checked by [`build`](Self::build)).
+    #[must_use]
+    pub fn this_node(&self) -> u8 {
+        self.node_id
+    }
+    /// The pairs declared, `(a, b)`.
+    #[must_use]
+    pub fn pairs(&self) -> &[(u8, u8)] {
+        &self.pairs
+    }
+    /// The peer masters declared, `(node, priority)`.
+    #[must_use]
+    pub fn peers(&self) -> &[(u8, u8)] {
+        &self.peers
+    }
+    /// The pair heartbeat as set.
+    #[must_use]
+    pub fn pair_heartbeat_period(&self) -> Duration {
+        self.pair_heartbeat
+    }
+
+    /// The settings of peer master `node` on the same network: the same timing and pairs,
+    /// with this master declared as its peer (what a simulated peer runs).
+    pub fn as_peer(&self, node: u8) -> Self {
+        let mut b = self.clone();
+        b.peers.clear();
+        b.peers.push((self.node_id, self.priority));
+        for &(n, p) in &self.peers {
+            if n == node {
+                b.node_id = n;
+                b.priority = p;
+            } else {
+                b.peers.push((n, p));
+            }
+        }
+        b
+    }
+
+    /// Checks every setting (the errors [`build`](Self::build) returns, without building).
+    pub fn check(&self) -> Result<(), RedundantError> {
+        let mut seen: Vec<(u8, Role)> = Vec::new();
+        let mut claim = |id: u8, role: Role| -> Result<NodeId, RedundantError> {
+            let node = NodeId::new(id).ok_or(RedundantError::BadNodeId { role, id })?;
+            if let Some(&(_, first)) = seen.iter().find(|(n, _)| *n == id) {
+                return Err(RedundantError::NodeTwice {
+                    node,
+                    first,
+                    second: role,
+                });
+            }
+            seen.push((id, role));
+            Ok(node)
+        };
+        claim(self.node_id, Role::ThisMaster)?;
+        if self.peers.len() > MAX_PEERS {
+            return Err(RedundantError::TooMany {
+                what: "peer masters",
+                max: MAX_PEERS,
+            });
+        }
+        for &(n, _) in &self.peers {
+            claim(n, Role::PeerMaster)?;
+        }
+        if self.pairs.len() > MAX_PAIRS {
+            return Err(RedundantError::TooMany {
+                what: "pairs",
+                max: MAX_PAIRS,
+            });
+        }
+        for &(a, b) in &self.pairs {
+            claim(a, Role::PairMember)?;
+            claim(b, Role::PairMember)?;
+        }
+        let periods = [
+            ("heartbeat", self.heartbeat),
+            ("master_timeout", self.master_timeout),
+            ("pair_heartbeat", self.pair_heartbeat),
+            ("pair_timeout", self.pair_timeout),
+        ];
+        for (setting, d) in periods.into_iter().chain(self.sync.map(|d| ("sync", d))) {
+            if d == Duration::ZERO {
+                return Err(RedundantError::ZeroDuration { setting });
+            }
+        }
+        for (setting, value) in [
+            ("heartbeat", self.heartbeat),
+            ("pair_heartbeat", self.pair_heartbeat),
+            ("pair_timeout", self.pair_timeout),
+        ] {
+            if value.as_millis() > u64::from(u16::MAX) || value.as_micros() % 1000 != 0 {
+                return Err(RedundantError::TooLong { setting, value });
+            }
+        }
+        for (setting, timeout, period) in [
+            ("master_timeout", self.master_timeout, self.heartbeat),
+            ("pair_timeout", self.pair_timeout, self.pair_heartbeat),
+        ] {
+            if timeout <= period {
+                return Err(RedundantError::TimeoutTooShort {
+                    setting,
+                    timeout,
+                    period,
+                });
+            }
+        }
+        Ok(())
+    }
+
+    /// Builds the network: master, supervisor with its pairs and peers, dual-bus layer, as one
+    /// sans-IO [`LogicalNetwork`] (its clock starts at [`Instant::ZERO`]).
+    pub fn build(&self) -> Result<LogicalNetwork<DynamicDictionary>, RedundantError> {
+        self.build_boxed().map(|n| *n)
+    }
+
+    /// [`build`](Self::build), on the heap: the network is some 160 kB, more than a small
+    /// thread's stack wants to move around (what a runtime takes).
+    pub fn build_boxed(&self) -> Result<Box<LogicalNetwork<DynamicDictionary>>, RedundantError> {
+        self.check()?;
+        let sup = self.supervisor()?;
+        let guard = self.heartbeat.min(self.pair_heartbeat);
+        let link = self
+            .link
+            .unwrap_or_else(|| DualBusConfig::with_guard_period(LinkMode::ActiveActive, guard));
+        let station =
+            SupervisedStation::new(DualBus::new(link), *sup).map_err(RedundantError::Link)?;
+        Ok(Box::new(LogicalNetwork::new(station)))
+    }
+
+    /// The master and its supervisor, with the pairs and peers (settings checked).
+    fn supervisor(&self) -> Result<Box<Supervisor<DynamicDictionary>>, RedundantError> {
+        let id = |raw: u8| {
+            NodeId::new(raw).ok_or(RedundantError::BadNodeId {
+                role: Role::Node,
+                id: raw,
+            })
+        };
+        let me = id(self.node_id)?;
+        let od = objects::master_dictionary(self.node_id, comm::Identity::default());
+        let master = Master::new(me, od, self.master.clone())
+            .map_err(|e| RedundantError::Network(super::NetworkError::Nmt(e)))?;
+        let mut cfg = SupervisorConfig::new(
+            self.priority,
+            me,
+            self.heartbeat,
+            self.master_timeout,
+            self.sync.unwrap_or(Duration::ZERO),
+        );
+        for &(n, p) in &self.peers {
+            cfg = cfg.with_peer(p, id(n)?);
+        }
+        let mut sup = Box::new(Supervisor::new(master, cfg, Instant::ZERO));
+        for &(a, b) in &self.pairs {
+            let spec = PairSpec::new(id(a)?, id(b)?, self.pair_heartbeat, self.pair_timeout);
+            sup.add_pair(Instant::ZERO, spec)
+                .map_err(RedundantError::Pair)?;
+        }
+        Ok(sup)
+    }
+}

@@ -1,0 +1,233 @@
+//! The one error of the redundant network's front door: bad settings in the builder, refusals
+//! of the network, failed transfers and a closed runtime, each naming the node, pair or port
+//! concerned and what to do.
+
+use super::NetworkError;
+use crate::link::same_function::PairError;
+use crate::supervisor::AddPairError;
+use alloc::string::String;
+use core::fmt;
+use duocan::sdo::SdoError;
+use duocan::{Duration, NodeId};
+
+/// The part a node-ID was given for in a [`RedundantNetworkBuilder`](super::RedundantNetworkBuilder).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[non_exhaustive]
+pub enum Role {
+    /// This master (`.node_id(…)`).
+    ThisMaster,
+    /// Another master-capable device (`.peer_master(…)`).
+    PeerMaster,
+    /// A member of a board pair (`.pair(…)`).
+    PairMember,
+    /// A node addressed by a call (`net.node(…)`).
+    Node,
+}
+
+impl fmt::Display for Role {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(match self {
+            Role::ThisMaster => "this master",
+            Role::PeerMaster => "peer master",
+            Role::PairMember => "pair member",
+            Role::Node => "node",
+        })
+    }
+}
+
+/// Why building, opening or using a redundant network failed. One flat enum for every call of
+/// the builder and of the async handle; the message names what was wrong and what to do.
+#[derive(Clone, Debug, PartialEq, Eq)]
+#[non_exhaustive]
+pub enum RedundantError {
+    /// A node-ID outside 1–127.
+    BadNodeId {
+        /// What it was given for.
+        role: Role,
+        /// The value given.
+        id: u8,
+    },
+    /// One node-ID was given twice (for this master, a peer or a pair member).
+    NodeTwice {
+        /// The node.
+        node: NodeId,
+        /// Its first part.
+        first: Role,
+        /// Its second part.
+        second: Role,
+    },
+    /// A duration setting is zero.
+    ZeroDuration {
+        /// The setting (the builder method's name).
+        setting: &'static str,
+    },
+    /// A timeout is not longer than the period it watches, so the watched device would fail
+    /// between two of its own heartbeats.
+    TimeoutTooShort {
+        /// The timeout setting.
+        setting: &'static str,
+        /// Its value.
+        timeout: Duration,
+        /// The period it must exceed.
+        period: Duration,
+    },
+    /// A duration does not fit the object it is written to (heartbeat times are whole
+    /// milliseconds up to 65 535).
+    TooLong {
+        /// The setting.
+        setting: &'static str,
+        /// Its value.
+        value: Duration,
+    },
+    /// More peers or pairs than the tables hold.
+    TooMany {
+        /// "peer masters" or "pairs".
+        what: &'static str,
+        /// The capacity.
+        max: usize,
+    },
+    /// The supervisor refused a pair.
+    Pair(AddPairError),
+    /// The dual-bus layer refused a pair.
+    Link(PairError),
+    /// The network refused a call (a standby master, a busy SDO client, an NMT or switch-over
+    /// refusal).
+    Network(NetworkError),
+    /// An SDO transfer failed (the node aborted it or did not answer); the [`SdoError`] names
+    /// node, object, direction and cause.
+    Sdo(SdoError),
+    /// The value read has another size than the type asked for.
+    WrongSize {
+        /// The node.
+        node: NodeId,
+        /// Object index.
+        index: u16,
+        /// Sub-index.
+        sub: u8,
+        /// Bytes the type needs.
+        expected: usize,
+        /// Bytes the node sent.
+        got: usize,
+    },
+    /// A string read is not UTF-8.
+    NotText {
+        /// The node.
+        node: NodeId,
+        /// Object index.
+        index: u16,
+        /// Sub-index.
+        sub: u8,
+    },
+    /// A port could not be opened.
+    Port {
+        /// 0 = bus 1.
+        port: u8,
+        /// The name given.
+        name: String,
+        /// Why.
+        why: String,
+    },
+    /// The network has been closed (or its runtime stopped).
+    Closed,
+}
+
+impl RedundantError {
+    /// The node concerned, if the error is about one.
+    #[must_use]
+    pub fn node(&self) -> Option<NodeId> {
+        match self {
+            RedundantError::NodeTwice { node, .. }
+            | RedundantError::WrongSize { node, .. }
+            | RedundantError::NotText { node, .. } => Some(*node),
+            RedundantError::Sdo(e) => Some(e.node),
+            _ => None,
+        }
+    }
+}
+
+impl From<NetworkError> for RedundantError {
+    fn from(e: NetworkError) -> Self {
+        match e {
+            NetworkError::Closed => RedundantError::Closed,
+            NetworkError::Sdo(e) => RedundantError::Sdo(e),
+            e => RedundantError::Network(e),
+        }
+    }
+}
+
+impl From<SdoError> for RedundantError {
+    fn from(e: SdoError) -> Self {
+        RedundantError::Sdo(e)
+    }
+}
+
+#[cfg(feature = "tokio")]
+impl From<duocan::runtime::RuntimeClosed> for RedundantError {
+    fn from(_: duocan::runtime::RuntimeClosed) -> Self {
+        RedundantError::Closed
+    }
+}
+
+impl core::error::Error for RedundantError {
+    fn source(&self) -> Option<&(dyn core::error::Error + 'static)> {
+        match self {
+            RedundantError::Pair(e) => Some(e),
+            RedundantError::Link(e) => Some(e),
+            RedundantError::Network(e) => Some(e),
+            RedundantError::Sdo(e) => Some(e),
+            _ => None,
+        }
+    }
+}
+
+impl fmt::Display for RedundantError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        use RedundantError as E;
+        match self {
+            E::BadNodeId { role, id } => {
+                write!(f, "{role} {id}: not a CANopen node-ID: use 1 to 127")
+            }
+            E::NodeTwice { node, first, second } => write!(
+                f,
+                "node {:#04x} is given as {first} and as {second}: every device needs its own node-ID",
+                node.raw()
+            ),
+            E::ZeroDuration { setting } => write!(
+                f,
+                "{setting}: zero is no period: give a positive duration (or leave the setting out for its default)"
+            ),
+            E::TimeoutTooShort { setting, timeout, period } => write!(
+                f,
+                "{setting} {} ms is not longer than the heartbeat it watches ({} ms): make it at least two heartbeats long",
+                timeout.as_millis(),
+                period.as_millis()
+            ),
+            E::TooLong { setting, value } => write!(
+                f,
+                "{setting} {} ms: heartbeat times are whole milliseconds up to 65535",
+                value.as_millis()
+            ),
+            E::TooMany { what, max } => write!(f, "at most {max} {what}: declare fewer"),
+            E::Pair(e) => write!(f, "{e}"),
+            E::Link(e) => write!(f, "{e}"),
+            E::Network(e) => write!(f, "{e}"),
+            E::Sdo(e) => write!(f, "{e}"),
+            E::WrongSize { node, index, sub, expected, got } => write!(
+                f,
+                "node {:#04x}, object {index:#06x} sub {sub}: the node sent {got} byte(s) but the type read needs {expected}: read it as a type of {got} byte(s) (see the node's EDS)",
+                node.raw()
+            ),
+            E::NotText { node, index, sub } => write!(
+                f,
+                "node {:#04x}, object {index:#06x} sub {sub}: the value is not UTF-8 text: read it as bytes",
+                node.raw()
+            ),
+            E::Port { port, name, why } => write!(
+                f,
+                "bus {} ({name:?}) could not be opened: {why}",
+                port + 1
+            ),
+            E::Closed => f.write_str("the redundant network has been closed: open it again"),
+        }
+    }
+}

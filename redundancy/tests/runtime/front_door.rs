@@ -1,0 +1,244 @@
+//! The redundant network's front door on the simulated station (`open_named("sim")`), on
+//! tokio's paused clock (deterministic): the builder's settings reach the running machines
+//! (the failovers come exactly when the configured heartbeats and timeouts say), SDO goes
+//! and NMT go through the handle to pair members, and the scripted faults give one failover of each kind.
+
+use duocan::{Duration, Instant, NmtState};
+use duocan_redundancy::net::{
+    RedundantEvent, RedundantNetwork, SIM_BUS_FAILS, SIM_END, SIM_MEMBER_FAILS, SIM_PEERS_FAIL,
+};
+use duocan_redundancy::supervisor::flying_master::{MasterReason, MasterRole};
+use duocan_redundancy::supervisor::pairs::RoleReason;
+use duocan_redundancy::{Member, NetworkError, RedundantError};
+
+fn ms(n: u64) -> Duration {
+    Duration::from_millis(n)
+}
+
+fn after(d: Duration) -> Instant {
+    Instant::ZERO + d
+}
+
+/// Every event until the simulation ends.
+async fn all_events(net: &RedundantNetwork) -> Vec<RedundantEvent> {
+    let mut events = net.events();
+    let mut out = vec![];
+    while let Some(e) = events.next().await {
+        out.push(e);
+    }
+    out
+}
+
+/// Waits (simulated time) until a pair has an active member.
+async fn until_pair_active(net: &RedundantNetwork) {
+    for _ in 0..400 {
+        let active = net.active_members().await.unwrap();
+        if active.iter().all(|(_, m)| m.is_some()) && !active.is_empty() {
+            return;
+        }
+        tokio::time::sleep(std::time::Duration::from_millis(10)).await;
+    }
+    panic!("no active pair member:\n{}", net.status().await.unwrap());
+}
+
+#[tokio::test(start_paused = true)]
+async fn the_simulated_station_plays_one_failover_of_each_kind_at_the_configured_times() {
+    let (hb, master_timeout, pair_hb, pair_timeout) = (ms(20), ms(50), ms(25), ms(80));
+    let net = RedundantNetwork::builder()
+        .node_id(2)
+        .heartbeat(hb)
+        .master_timeout(master_timeout)
+        .sync(ms(10))
+        .pair(0x10, 0x50)
+        .pair_heartbeat(pair_hb)
+        .pair_timeout(pair_timeout)
+        .peer_master(1)
+        .open_named("sim")
+        .unwrap();
+    let events = all_events(&net).await;
+    let failovers: Vec<&RedundantEvent> = events.iter().filter(|e| e.is_failover()).collect();
+    let lines: Vec<String> = failovers.iter().map(ToString::to_string).collect();
+    assert_eq!(
+        lines,
+        [
+            "bus 1: failed",
+            "this master: active",
+            "pair 0x10/0x50: B active"
+        ],
+        "{events:#?}"
+    );
+    // The bus fails when its port does.
+    assert_eq!(failovers[0].at(), Some(after(SIM_BUS_FAILS)));
+    // The takeover: exactly the peer's last heartbeat + the master timeout, and that last
+    // heartbeat is the one before the peer stopped (it beats every `hb`).
+    let RedundantEvent::MasterRole {
+        from: MasterRole::Standby(_),
+        reason: MasterReason::HeartbeatLost { master, last },
+        at,
+        ..
+    } = *failovers[1]
+    else {
+        panic!("{:?}", failovers[1]);
+    };
+    assert_eq!(master.raw(), 1);
+    assert_eq!(at, last + master_timeout);
+    let stopped = after(SIM_PEERS_FAIL);
+    assert!(last <= stopped && stopped <= last + hb, "last {last}");
+    // The pair: A (booted first, active) stops; B takes over exactly at A's last heartbeat
+    // + the pair timeout.
+    let RedundantEvent::PairRole {
+        from: Some(Member::A),
+        to: Some(Member::B),
+        reason: RoleReason::ActiveSilent { last },
+        at,
+        ..
+    } = *failovers[2]
+    else {
+        panic!("{:?}", failovers[2]);
+    };
+    assert_eq!(at, last + pair_timeout);
+    let stopped = after(SIM_MEMBER_FAILS);
+    assert!(last <= stopped && stopped <= last + pair_hb, "last {last}");
+    // The network closed itself at the end of the simulation.
+    assert!(net.now() >= after(SIM_END));
+    assert_eq!(net.role().await, Err(RedundantError::Closed));
+}
+
+#[tokio::test(start_paused = true)]
+async fn sdo_through_the_handle_to_a_pair_member_on_either_bus() {
+    let net = RedundantNetwork::builder()
+        .node_id(1)
+        .heartbeat(ms(20))
+        .master_timeout(ms(50))
+        .pair(0x10, 0x50)
+        .pair_heartbeat(ms(25))
+        .pair_timeout(ms(80))
+        .open_named("sim")
+        .unwrap();
+    until_pair_active(&net).await;
+    assert_eq!(net.role().await.unwrap(), MasterRole::Active);
+    // The standby member B answers like any node.
+    let b = net.node(0x50);
+    let vendor: u32 = b.sdo().read(0x1018, 1).await.unwrap();
+    assert_eq!(vendor, duocan::net::SIM_VENDOR);
+    assert_eq!(b.sdo().read::<u32>(0x1018, 2).await.unwrap(), 0x50);
+    // A write and its read-back (the producer time the master configured, changed).
+    b.sdo().write(0x1017, 0, 30u16).await.unwrap();
+    assert_eq!(b.sdo().read::<u16>(0x1017, 0).await.unwrap(), 30);
+    // The wrong type is an error naming node and object, not garbage.
+    let e = b.sdo().read::<u8>(0x1018, 1).await.unwrap_err();
+    assert!(
+        matches!(
+            e,
+            RedundantError::WrongSize {
+                index: 0x1018,
+                sub: 1,
+                expected: 1,
+                got: 4,
+                ..
+            }
+        ),
+        "{e}"
+    );
+    assert_eq!(e.node().map(|n| n.raw()), Some(0x50));
+    // An object the node does not have: the abort, with the node.
+    let e = b.sdo().read::<u32>(0x6000, 0).await.unwrap_err();
+    assert!(matches!(e, RedundantError::Sdo(_)), "{e}");
+    assert!(e.to_string().contains("0x6000"), "{e}");
+    // After bus 1 failed, SDO goes on over bus 2.
+    tokio::time::sleep(std::time::Duration::from_millis(2500)).await;
+    let status = net.status().await.unwrap();
+    assert!(status.contains("failed"), "{status}");
+    let a = net.node(0x10);
+    assert_eq!(a.sdo().read::<u32>(0x1018, 2).await.unwrap(), 0x10);
+    // NMT through the handle: the standby member stopped, as the master then sees it.
+    b.stop().await.unwrap();
+    let mut state = None;
+    for _ in 0..50 {
+        tokio::time::sleep(std::time::Duration::from_millis(20)).await;
+        state = b.view().await.unwrap().state;
+        if state == Some(NmtState::Stopped) {
+            break;
+        }
+    }
+    assert_eq!(state, Some(NmtState::Stopped));
+    // A node-ID outside 1-127 is an error of the call.
+    let e = net.node(0).sdo().read::<u32>(0x1000, 0).await.unwrap_err();
+    assert!(matches!(e, RedundantError::BadNodeId { id: 0, .. }), "{e}");
+    net.close().await;
+    assert_eq!(
+        a.sdo().read::<u32>(0x1018, 2).await,
+        Err(RedundantError::Closed)
+    );
+}
+
+#[tokio::test(start_paused = true)]
+async fn a_standby_master_refuses_sdo_until_it_takes_over() {
+    let net = RedundantNetwork::builder()
+        .node_id(2)
+        .heartbeat(ms(20))
+        .master_timeout(ms(50))
+        .pair(0x10, 0x50)
+        .peer_master(1)
+        .open_named("sim")
+        .unwrap();
+    until_pair_active(&net).await;
+    assert!(matches!(net.role().await.unwrap(), MasterRole::Standby(_)));
+    let e = net
+        .node(0x10)
+        .sdo()
+        .read::<u32>(0x1018, 1)
+        .await
+        .unwrap_err();
+    assert_eq!(e, RedundantError::Network(NetworkError::Standby));
+    assert!(e.to_string().contains("standby"), "{e}");
+    // After the peer stopped, this master is active and SDO works.
+    tokio::time::sleep(std::time::Duration::from_millis(3500)).await;
+    assert_eq!(net.role().await.unwrap(), MasterRole::Active);
+    let v: u32 = net.node(0x50).sdo().read(0x1018, 1).await.unwrap();
+    assert_eq!(v, duocan::net::SIM_VENDOR);
+    net.close().await;
+}
+
+#[tokio::test]
+async fn names_that_are_not_two_interfaces_are_errors_naming_the_port() {
+    let b = RedundantNetwork::builder();
+    let e = b.open_named("can0").err().unwrap();
+    assert!(matches!(e, RedundantError::Port { port: 0, .. }), "{e}");
+    assert!(e.to_string().contains("can0,can1"), "{e}");
+    // Bad settings come first, before any port is touched.
+    let e = b.clone().node_id(200).open_named("sim").err().unwrap();
+    assert!(
+        matches!(e, RedundantError::BadNodeId { id: 200, .. }),
+        "{e}"
+    );
+}
+
+#[tokio::test(start_paused = true)]
+async fn open_on_two_ports_runs_the_builders_network() {
+    let buses = [
+        duocan::port::mem::MemBus::new("can1"),
+        duocan::port::mem::MemBus::new("can2"),
+    ];
+    let net = RedundantNetwork::builder()
+        .node_id(7)
+        .heartbeat(ms(20))
+        .master_timeout(ms(50))
+        .open(buses[0].port(), buses[1].port())
+        .unwrap();
+    // Alone on the buses: active after the power-on negotiation, under its own node-ID.
+    tokio::time::sleep(std::time::Duration::from_secs(2)).await;
+    assert_eq!(net.role().await.unwrap(), MasterRole::Active);
+    let status = net.status().await.unwrap();
+    assert!(status.contains("master node 0x07"), "{status}");
+    // A node nobody answers for: the SDO timeout, naming the node.
+    let e = net
+        .node(0x33)
+        .sdo()
+        .read::<u32>(0x1000, 0)
+        .await
+        .unwrap_err();
+    assert_eq!(e.node().map(|n| n.raw()), Some(0x33), "{e}");
+    net.close().await;
+    assert!(net.events().next().await.is_none());
+}

@@ -1,0 +1,116 @@
+//! The redundant network's front door on two real SocketCAN interfaces:
+//! `RedundantNetwork::builder()…open_named("vcan0,vcan1")` with the two boards of a pair on
+//! both, SDO through the handle to a pair member, vcan0 set down (a bus failover on the flat
+//! event stream) and SDO going on over vcan1. Runs inside duocan's qemu VM (`.ci/tier-vcan.sh`).
+
+use duocan::od::comm;
+use duocan::port::socketcan::SocketCanPort;
+use duocan::runtime::Runtime;
+use duocan::{Duration, Instant, Node, NodeConfig, NodeId, Station};
+use duocan_redundancy::net::{RedundantEvent, RedundantNetwork};
+use duocan_redundancy::{DualBus, DualBusConfig, LinkMode, PortState};
+use std::process::Command;
+use std::time::Duration as StdDuration;
+
+/// The dual-bus layer as the VM needs it: its emulated CPU delays one port's frames behind the
+/// other's by more than the default 10 ms skew window (as for the dual_vcan_failover example).
+fn link(guard: Duration) -> DualBusConfig {
+    let mut cfg = DualBusConfig::with_guard_period(LinkMode::ActiveActive, guard);
+    cfg.skew_window = Duration::from_millis(25);
+    cfg.health.tx_stall = cfg.skew_window;
+    cfg
+}
+
+/// vcan0 down until dropped (also when the test fails).
+struct LinkDown;
+impl Drop for LinkDown {
+    fn drop(&mut self) {
+        let _ = Command::new("ip")
+            .args(["link", "set", "vcan0", "up"])
+            .status();
+    }
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn the_redundant_front_door_fails_over_between_vcan0_and_vcan1() {
+    let ms = Duration::from_millis;
+    let net = RedundantNetwork::builder()
+        .node_id(1)
+        .heartbeat(ms(50))
+        .master_timeout(ms(200))
+        .pair(0x10, 0x50)
+        .pair_heartbeat(ms(50))
+        .pair_timeout(ms(300))
+        .link(link(ms(50)))
+        .open_named("vcan0,vcan1")
+        .expect("vcan0 and vcan1 exist and are up");
+    let mut events = net.events();
+    let mut boards = vec![];
+    for id in [0x10u8, 0x50] {
+        let ident = comm::Identity {
+            product: u32::from(id),
+            ..Default::default()
+        };
+        let mut node = Node::new(
+            NodeConfig::slave(NodeId::must(id)),
+            comm::standard_dictionary(id, ident),
+        );
+        node.boot(Instant::ZERO);
+        let board = Runtime::new(Station::new(DualBus::new(link(ms(50))), node))
+            .name(format!("board {id:#x}"))
+            .port(SocketCanPort::open("vcan0").unwrap())
+            .port(SocketCanPort::open("vcan1").unwrap())
+            .spawn()
+            .unwrap();
+        boards.push(board);
+    }
+    // Active (alone: after the power-on negotiation) with a pair member running.
+    let until = tokio::time::Instant::now() + StdDuration::from_secs(30);
+    loop {
+        let active = net.active_members().await.unwrap();
+        if active.iter().all(|(_, m)| m.is_some()) {
+            break;
+        }
+        assert!(
+            tokio::time::Instant::now() < until,
+            "no active pair member in 30 s:\n{}",
+            net.status().await.unwrap()
+        );
+        tokio::time::sleep(StdDuration::from_millis(50)).await;
+    }
+    let product: u32 = net.node(0x50).sdo().read(0x1018, 2).await.unwrap();
+    assert_eq!(product, 0x50);
+
+    let st = Command::new("ip")
+        .args(["link", "set", "vcan0", "down"])
+        .status()
+        .expect("run ip");
+    assert!(st.success());
+    let down = LinkDown;
+    let failover = tokio::time::timeout(StdDuration::from_secs(10), async {
+        while let Some(e) = events.next().await {
+            if let RedundantEvent::Bus {
+                port: 0,
+                to: PortState::Failed,
+                ..
+            } = e
+            {
+                return Some(e);
+            }
+        }
+        None
+    })
+    .await
+    .expect("a bus failover within 10 s of vcan0 going down")
+    .expect("the event stream went on");
+    assert!(failover.is_failover());
+    assert_eq!(failover.to_string(), "bus 1: failed");
+    // SDO goes on over vcan1.
+    let product: u32 = net.node(0x10).sdo().read(0x1018, 2).await.unwrap();
+    assert_eq!(product, 0x10);
+    drop(down);
+    net.close().await;
+    for b in boards {
+        b.shutdown().await;
+    }
+}
