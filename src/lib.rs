@@ -19,7 +19,7 @@
 //! | 4 | [`cia301`] | the CiA 301 services, one module per object: [`nmt`], [`heartbeat`], [`guarding`], [`sync`], [`time_stamp`], [`emcy`], [`sdo`], [`pdo`] |
 //! | 5 | [`profile`] | identifier profiles: the predefined connection set, the railway 29-bit scheme |
 //! | 6 | [`node`] | [`Node`]: the services composed into one CANopen device |
-//! | 7 | [`cia302`] | the CiA 302-2 [`master`] and the master-side [PDO configuration](cia302::pdo_config) |
+//! | 7 | [`cia302`] | the CiA 302-2 [`master`] (with the CiA 302-3 configuration manager and program download), the master-side [PDO configuration](cia302::pdo_config), and [program download](cia302::program) on a node |
 //! | 8 | [`port`] | ports: SocketCAN, python-can's UDP bus, in-memory, any `embedded-can` controller |
 //! | 9 | [`capture`] · [`sim`] | candump and pcap captures; the simulated multi-bus network (virtual time) |
 //! | 10 | [`runtime`] | the tokio driver: ports and the monotonic clock around any [`Device`] |

@@ -47,6 +47,9 @@ const _: () = {
     check::<duocan::eds::EdsError>();
     check::<duocan::eds::ExportError>();
     check::<duocan::eds::LookupError>();
+    check::<duocan::master::ConciseError>();
+    check::<duocan::master::ProgramDownloadError>();
+    check::<duocan::cia302::program::FlashError>();
 };
 
 #[cfg(feature = "udp")]
@@ -114,6 +117,28 @@ fn each_error_ends_a_call_in_the_question_mark() {
         by: NodeId::must(3),
     });
     boxes(BootError::NoSuchPdo { pdo: 600 });
+    let concise = duocan::master::ConciseDcf::parse(&[1, 0]).unwrap_err();
+    assert_eq!(
+        concise.to_string(),
+        "concise DCF, at byte 0: needs 4 more bytes, 2 left"
+    );
+    boxes(concise);
+    boxes(BootError::ConciseDcf(concise));
+    boxes(duocan::cia302::program::FlashError::DataFormatError);
+    let program = duocan::master::ProgramDownloadError {
+        node: NodeId::must(6),
+        step: duocan::master::ProgramStep::Download,
+        kind: duocan::master::ProgramErrorKind::Sdo(sdo_error(SdoErrorKind::Server(
+            AbortCode::CANNOT_STORE,
+        ))),
+        resumed: true,
+    };
+    let text = program.to_string();
+    assert!(text.contains("step download (0x1F50)"), "{text}");
+    assert!(text.contains("the old program runs again"), "{text}");
+    assert_eq!(program.code(), Some(AbortCode::CANNOT_STORE));
+    boxes(program);
+    boxes(MasterError::Busy(NodeId::must(6)));
     boxes(MasterError::Standby);
     boxes(AccessError::NoAnswer(None));
     boxes(PdoConfigError {

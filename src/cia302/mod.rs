@@ -2,6 +2,8 @@
 //!
 //! - [`master`]: the CiA 302-2 NMT master: boot-up of the network, identity check, slave
 //!   configuration, mandatory slaves, boot time, request NMT (0x1F82), active/standby hooks.
+//! - [`program`]: program download on the node's side (CiA 302-3 0x1F50/0x1F51/0x1F56/0x1F57),
+//!   served by a program store the application implements.
 //! - [`pdo_config`]: configuring a slave's PDOs over SDO in CiA order, and mirroring them in the
 //!   master's own dictionary.
 //!
@@ -41,3 +43,4 @@
 #[cfg(feature = "alloc")]
 pub mod master;
 pub mod pdo_config;
+pub mod program;

@@ -7,7 +7,9 @@
 use crate::net::*;
 use duocan::eds::{export_dcf, Description, ExportOptions, ImportOptions};
 use duocan::machine::SinglePort;
-use duocan::master::{ConfigurationStamp, MasterEventKind as K, NetworkConfig, SlaveConfig};
+use duocan::master::{
+    objects, ConciseDcf, ConfigurationStamp, MasterEventKind as K, NetworkConfig, SlaveConfig,
+};
 use duocan::od::storage::{MemoryStorage, StoredDictionary};
 use duocan::od::{
     abort::AbortCode, comm, Access, DynamicDictionary, ObjectDef, ObjectDictionary, WriteHook,
@@ -22,8 +24,8 @@ const STAMP: ConfigurationStamp = ConfigurationStamp {
     time: 43_200_000,
 };
 /// The slave whose 0x2000 sub 3 refuses every write (its DCF says it is writable).
-const REFUSING: u8 = 21;
-const IDS: core::ops::RangeInclusive<u8> = 2..=21;
+pub(crate) const REFUSING: u8 = 21;
+pub(crate) const IDS: core::ops::RangeInclusive<u8> = 2..=21;
 
 type Od = StoredDictionary<DynamicDictionary, MemoryStorage<8192>, 8192>;
 
@@ -77,28 +79,56 @@ fn dcf(id: u8) -> Description {
 
 type Slave = Station<SinglePort, Node<Od>>;
 
-struct Run {
-    sim: SimNetwork,
-    master: duocan::sim::DevId<MasterDev>,
+pub(crate) struct Run {
+    pub(crate) sim: SimNetwork,
+    pub(crate) master: duocan::sim::DevId<MasterDev>,
     slaves: Vec<(u8, duocan::sim::DevId<Slave>)>,
-    dcfs: Vec<Description>,
+    pub(crate) dcfs: Vec<Description>,
+}
+
+/// Where the master takes each slave's configuration from.
+#[derive(Clone, Copy, PartialEq, Eq)]
+pub(crate) enum From {
+    /// [`SlaveConfig::from_dcf`].
+    Dcf,
+    /// The slave's concise DCF, written into the master's 0x1F22 before it boots.
+    Concise,
 }
 
 fn network() -> Run {
+    network_from(From::Dcf)
+}
+
+/// The 20 slaves and their master, configured from their DCFs either way.
+pub(crate) fn network_from(from: From) -> Run {
     let dcfs: Vec<Description> = IDS.map(dcf).collect();
     let mut net = NetworkConfig::new().default_consumer_ms(150);
     for (id, d) in IDS.zip(&dcfs) {
+        let node = NodeId::must(id);
+        let cfg = match from {
+            From::Dcf => SlaveConfig::from_dcf(node, d),
+            From::Concise => SlaveConfig::new(node),
+        };
         net = net.slave(
-            SlaveConfig::from_dcf(NodeId::must(id), d)
-                .identity(expected(id))
+            cfg.identity(expected(id))
                 .with_stamp(STAMP)
                 .with_store(true),
         );
     }
+    let mut m = master(net);
+    if from == From::Concise {
+        for (id, d) in IDS.zip(&dcfs) {
+            let bytes = ConciseDcf::from_dcf(NodeId::must(id), d).to_bytes();
+            m.node_mut()
+                .od_mut()
+                .write(objects::CONCISE_DCF, id, &bytes)
+                .unwrap();
+        }
+    }
     let mut sim = SimNetwork::new(7);
     let bus = sim.add_bus(BusConfig::new("can0", BITRATE));
     let master = sim
-        .add_device("master", Station::single(master(net)), &[bus])
+        .add_device("master", Station::single(m), &[bus])
         .unwrap();
     let slaves = IDS
         .map(|id| {
@@ -128,13 +158,13 @@ fn network() -> Run {
 }
 
 impl Run {
-    fn slave(&self, id: u8) -> &Node<Od> {
+    pub(crate) fn slave(&self, id: u8) -> &Node<Od> {
         let dev = self.slaves.iter().find(|(i, _)| *i == id).unwrap().1;
         &self.sim.device(dev).machine
     }
     /// Uploads each (node, index, sub, value) through the master's SDO client from `from` on,
     /// and checks every answer; returns how many answered with the value.
-    fn read_back(&mut self, from: Instant, items: &[(u8, u16, u8, Vec<u8>)]) -> usize {
+    pub(crate) fn read_back(&mut self, from: Instant, items: &[(u8, u16, u8, Vec<u8>)]) -> usize {
         // Round-robin over the slaves, so that the transfers of one batch (one per session)
         // are to different nodes.
         let mut seen = std::collections::HashMap::new();

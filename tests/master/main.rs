@@ -2,11 +2,13 @@
 
 mod boot;
 mod capacity;
+mod concise_dcf;
 mod control;
 mod dcf_config;
 mod failures;
 mod net;
 mod pdo_config;
+mod program_download;
 mod properties;
 mod queues;
 mod reboot;

@@ -13,6 +13,13 @@ use std::convert::Infallible;
 
 pub type MasterDev = Station<SinglePort, Master<DynamicDictionary>>;
 pub type SlaveDev = Station<SinglePort, Node<DynamicDictionary>>;
+/// A configuration tool: a node with an SDO client.
+pub type Tool = Station<
+    SinglePort,
+    duocan::machine::Composite<Node<DynamicDictionary>, duocan::sdo::SdoClient>,
+>;
+/// The tool's node-ID.
+pub const TOOL: NodeId = NodeId::must(0x7E);
 
 pub const MASTER_ID: NodeId = NodeId::must(1);
 pub const VENDOR: u32 = 0x0000_0A5E;
@@ -184,6 +191,25 @@ impl Net {
     pub fn frames(&self) -> Vec<(Instant, Frame)> {
         frames(&self.sim)
     }
+}
+
+/// A bus at `bitrate` with the master built from `config`, slaves 2 and 3 and a tool whose
+/// client carries up to `limit` bytes; all booted, run for 100 ms.
+pub fn with_tool(bitrate: u32, config: NetworkConfig, limit: usize) -> (Net, DevId<Tool>) {
+    let mut n = Net::new(bitrate, master(config), &[2, 3]);
+    let node = Node::new(
+        NodeConfig::slave(TOOL),
+        comm::standard_dictionary(TOOL.raw(), Default::default()),
+    );
+    let client = duocan::sdo::SdoClient::new(limit);
+    let station = Station::single(duocan::machine::Composite::new(node, client));
+    let tool = n.sim.add_device("tool", station, &[n.bus]).unwrap();
+    n.sim.device_mut(tool).machine.a.boot(Instant::ZERO);
+    n.boot_master();
+    n.boot_slave_at(2, Instant::from_millis(1));
+    n.boot_slave_at(3, Instant::from_millis(1));
+    n.sim.run_until(Instant::from_millis(100));
+    (n, tool)
 }
 
 pub fn master_events(log: &[(Instant, StationEvent<Infallible, MasterEvent>)]) -> Vec<MasterEvent> {

@@ -2,21 +2,14 @@
 //! an NMT command to node n (sub 128: all), and reads it for node n's state.
 
 use crate::net::*;
-use duocan::machine::{Composite, CompositeEvent, SinglePort, StationEvent};
+use duocan::machine::{CompositeEvent, StationEvent};
 use duocan::master::objects::{request, REQUEST_ALL, REQUEST_NMT};
 use duocan::master::{BootPhase, MasterEventKind as K, NetworkConfig, SlaveConfig};
-use duocan::od::{comm, DynamicDictionary};
 use duocan::sdo::{SdoClient, SdoError, SdoErrorKind, SdoOptions, TransferBuffer};
 use duocan::sim::DevId;
-use duocan::{
-    AbortCode, Duration, Instant, NmtCommand, NmtState, NmtTarget, Node, NodeConfig, NodeId,
-    Station,
-};
-
-type Tool = Station<SinglePort, Composite<Node<DynamicDictionary>, SdoClient>>;
+use duocan::{AbortCode, Duration, Instant, NmtCommand, NmtState, NmtTarget, NodeId};
 
 const BITRATE: u32 = 500_000;
-const TOOL: NodeId = NodeId::must(0x7E);
 
 struct Rig {
     n: Net,
@@ -24,24 +17,7 @@ struct Rig {
 }
 
 fn rig(config: NetworkConfig) -> Rig {
-    let mut n = Net::new(BITRATE, master(config), &[2, 3]);
-    let node = Node::new(
-        NodeConfig::slave(TOOL),
-        comm::standard_dictionary(TOOL.raw(), Default::default()),
-    );
-    let tool = n
-        .sim
-        .add_device(
-            "tool",
-            Station::single(Composite::new(node, SdoClient::new(64))),
-            &[n.bus],
-        )
-        .unwrap();
-    n.sim.device_mut(tool).machine.a.boot(Instant::ZERO);
-    n.boot_master();
-    n.boot_slave_at(2, Instant::from_millis(1));
-    n.boot_slave_at(3, Instant::from_millis(1));
-    n.sim.run_until(Instant::from_millis(100));
+    let (n, tool) = with_tool(BITRATE, config, 64);
     Rig { n, tool }
 }
 

@@ -5,6 +5,7 @@ mod clock;
 mod common;
 mod error_control;
 mod memory;
+mod program_store;
 mod properties;
 mod services;
 mod sim;

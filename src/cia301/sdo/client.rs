@@ -153,6 +153,23 @@ impl<B: TransferBuffer, const SESSIONS: usize, S: Storage> SdoClient<B, SESSIONS
     pub fn is_busy(&self, node: NodeId) -> bool {
         self.sessions.iter().any(|s| s.active() && s.node == node)
     }
+    /// How far a download in flight is: (bytes the server confirmed, bytes in all); `None` when
+    /// `request` is not a download running now. Block transfer confirms a sub-block at a time,
+    /// segmented transfer each segment; an expedited download is all or nothing.
+    pub fn progress(&self, request: RequestId) -> Option<(usize, usize)> {
+        let s = self
+            .sessions
+            .iter()
+            .find(|s| s.active() && s.request == request && s.direction == Direction::Download)?;
+        let total = s.buf.len();
+        let done = match s.state {
+            State::DownloadSegment { offset, .. } => offset,
+            State::BlockDownload { tx, .. } => tx.acked_bytes(),
+            State::BlockDownloadEnd => total,
+            _ => 0,
+        };
+        Some((done.min(total), total))
+    }
     /// The largest transfer buffer in use, in bytes (never above [`SdoClient::limit`]).
     pub fn max_buffer_len(&self) -> usize {
         self.sessions.iter().map(|s| s.buf.len()).max().unwrap_or(0)

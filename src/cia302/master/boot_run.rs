@@ -3,9 +3,12 @@
 //! applied (configured, started or left to the application, adopted, missing, failed). The
 //! process itself, a pure state machine, is in `boot/`.
 
-use super::boot::{BootPhase, ErrorStatus, Outcome, Process};
+use super::boot::{BootError, BootPhase, ErrorStatus, Outcome, Process};
+use super::concise::{ConciseDcf, ConciseError};
+use super::config::SlaveConfig;
 use super::config::{NmtStartup, StartPolicy};
 use super::events::{MasterError, MasterEventKind};
+use super::objects::CONCISE_DCF;
 use super::Master;
 use crate::cia301::nmt::{NmtCommand, NmtState};
 use crate::cia301::sdo::{SdoErrorKind, SdoOptions};
@@ -13,6 +16,7 @@ use crate::frame::cob_id::NodeId;
 use crate::frame::instant::{Duration, Instant};
 use crate::od::ObjectDictionary;
 use crate::profile::IdProfile;
+use alloc::boxed::Box;
 
 impl<D: ObjectDictionary, P: IdProfile> Master<D, P> {
     /// (Re)starts the boot process of `n` from the identity check.
@@ -24,12 +28,28 @@ impl<D: ObjectDictionary, P: IdProfile> Master<D, P> {
         self.cancel(n);
         let stamp = self.expected_stamp(n);
         let s = self.slot_mut(n);
+        if s.program.is_some() {
+            // Its program is being replaced: booted when that ends.
+            s.restart = true;
+            return;
+        }
         s.phase = BootPhase::Identifying;
         if s.request.is_some() {
             s.restart = true;
             return;
         }
-        s.process = Some(Process::new(&s.cfg, stamp));
+        let run = match self.concise_config(n) {
+            Ok(run) => run,
+            Err(e) => {
+                // Refused before anything is written: no half configuration.
+                let reason = BootError::ConciseDcf(e);
+                let status = ErrorStatus::J;
+                return self.apply(now, n, Outcome::Failed { status, reason });
+            }
+        };
+        let s = self.slot_mut(n);
+        s.run = run;
+        s.process = Some(Process::new(s.run.as_deref().unwrap_or(&s.cfg), stamp));
         self.stats.boots_started += 1;
         self.issue(now, n);
     }
@@ -50,6 +70,9 @@ impl<D: ObjectDictionary, P: IdProfile> Master<D, P> {
 
     /// Starts the current access of `n`'s process, or queues `n` for a session.
     pub(super) fn issue(&mut self, now: Instant, n: NodeId) {
+        if self.slot(n).program.is_some() {
+            return self.issue_program(now, n);
+        }
         let opts = SdoOptions {
             timeout: self.sdo_timeout,
             ..SdoOptions::default()
@@ -59,7 +82,7 @@ impl<D: ObjectDictionary, P: IdProfile> Master<D, P> {
         let Some(p) = s.process.as_ref() else {
             return;
         };
-        let Some(access) = p.access(&s.cfg) else {
+        let Some(access) = p.access(s.run.as_deref().unwrap_or(&s.cfg)) else {
             return;
         };
         self.sdo_idle = false;
@@ -90,7 +113,7 @@ impl<D: ObjectDictionary, P: IdProfile> Master<D, P> {
                 let id = self.expected_identity(n);
                 let s = &mut self.slots[i];
                 if let Some(p) = s.process.as_mut() {
-                    let out = p.handle(&s.cfg, &id, Err(e));
+                    let out = p.handle(s.run.as_deref().unwrap_or(&s.cfg), &id, Err(e));
                     self.apply(now, n, out);
                 }
             }
@@ -198,6 +221,17 @@ impl<D: ObjectDictionary, P: IdProfile> Master<D, P> {
         }
     }
 
+    /// `n`'s configuration with its concise DCF (0x1F22 sub n) when the master has one for
+    /// it; `None`: its configuration as given.
+    fn concise_config(&self, n: NodeId) -> Result<Option<Box<SlaveConfig>>, ConciseError> {
+        let bytes = match self.node.od().get(CONCISE_DCF, n.raw()) {
+            Ok(e) if !e.data.is_empty() => e.data,
+            _ => return Ok(None),
+        };
+        let dcf = ConciseDcf::parse(bytes)?;
+        Ok(Some(Box::new(self.slot(n).cfg.clone().with_concise(&dcf))))
+    }
+
     pub(super) fn fail(&mut self, n: NodeId, status: ErrorStatus) {
         let s = self.slot_mut(n);
         s.process = None;
@@ -209,9 +243,11 @@ impl<D: ObjectDictionary, P: IdProfile> Master<D, P> {
         self.guard(now, n);
         let consumer = self.consumer_ms(n);
         let startup = self.startup();
-        let beats = self
-            .slot(n)
-            .cfg
+        let s = self.slot(n);
+        let beats = s
+            .run
+            .as_deref()
+            .unwrap_or(&s.cfg)
             .heartbeat_producer_ms
             .is_some_and(|p| p > 0);
         if beats && consumer > 0 {

@@ -110,6 +110,18 @@ fn pdo_block(
     }
 }
 
+impl super::ConciseDcf {
+    /// The concise DCF of a slave's DCF: the writes of [`SlaveConfig::with_dcf`] for node
+    /// `node`, in their order, the producer heartbeat time (0x1017) last. Applied by the
+    /// master (0x1F22 sub n), it writes what [`SlaveConfig::from_dcf`] writes.
+    #[must_use]
+    pub fn from_dcf(node: NodeId, dcf: &Description) -> super::ConciseDcf {
+        let cfg = SlaveConfig::new(node).with_dcf(dcf);
+        // A DCF gives writes only: never a PDO step.
+        super::ConciseDcf::from_config(&cfg).unwrap_or_default()
+    }
+}
+
 impl SlaveConfig {
     /// A slave configured from its DCF: [`SlaveConfig::new`] with the writes of
     /// [`SlaveConfig::with_dcf`].

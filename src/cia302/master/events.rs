@@ -59,6 +59,24 @@ pub enum MasterEventKind {
         /// Which access failed and how.
         reason: BootError,
     },
+    /// How far a program download is ([`super::Master::download_program`]): bytes of the
+    /// image the slave confirmed, of `total`. Reported when it starts and as it moves.
+    ProgramProgress {
+        /// The slave.
+        node: NodeId,
+        /// Bytes confirmed.
+        done: usize,
+        /// Bytes of the image.
+        total: usize,
+    },
+    /// A program download ended: the new program runs and identifies as expected, or the
+    /// step that failed and how.
+    ProgramDownloaded {
+        /// The slave.
+        node: NodeId,
+        /// The outcome.
+        result: Result<super::ProgramReport, super::ProgramDownloadError>,
+    },
     /// The slave refused one configuration write (its [`SlaveConfig`](super::SlaveConfig) has
     /// [`WriteAborts::Continue`](super::WriteAborts::Continue)); the boot goes on with the
     /// next step.
@@ -230,6 +248,15 @@ pub enum MasterError {
         /// The count asked for.
         count: usize,
     },
+    /// The slave is being booted or has a program download under way.
+    Busy(NodeId),
+    /// A program image is larger than the master's SDO transfer limit.
+    ImageTooLarge {
+        /// Bytes of the image.
+        len: usize,
+        /// The limit.
+        limit: usize,
+    },
     /// The dictionary refused a configuration value.
     Refused {
         /// Index.
@@ -271,6 +298,14 @@ impl fmt::Display for MasterError {
                     Dir::Receive => "RPDO",
                     Dir::Transmit => "TPDO",
                 }
+            ),
+            MasterError::Busy(n) => write!(
+                f,
+                "{n} is being booted or updated: wait for the end of that first"
+            ),
+            MasterError::ImageTooLarge { len, limit } => write!(
+                f,
+                "the image has {len} bytes, above the master's SDO transfer limit of {limit}"
             ),
             MasterError::Refused { index, sub, code } => {
                 write!(f, "the master's {index:#06x}sub{sub} refused the value: {code}")

@@ -34,6 +34,7 @@ impl<D: ObjectDictionary, P: IdProfile> Master<D, P> {
                 break;
             }
         }
+        self.programs_progress(now);
     }
 
     pub(super) fn on_node_event(&mut self, e: NodeEvent) {
@@ -93,6 +94,10 @@ impl<D: ObjectDictionary, P: IdProfile> Master<D, P> {
             return;
         }
         s.request = None;
+        if s.program.is_some() {
+            self.on_program_result(now, n, e);
+            return;
+        }
         if s.process.is_none() {
             // Of a dropped process: the result means nothing now.
             if core::mem::take(&mut s.restart) {
@@ -110,7 +115,7 @@ impl<D: ObjectDictionary, P: IdProfile> Master<D, P> {
         let Some(p) = s.process.as_mut() else {
             return;
         };
-        let out = p.handle(&s.cfg, &id, result);
+        let out = p.handle(s.run.as_deref().unwrap_or(&s.cfg), &id, result);
         self.apply(now, n, out);
     }
 

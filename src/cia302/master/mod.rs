@@ -21,6 +21,11 @@
 //!   ([`WriteAborts::Continue`]). With an expected configuration date and time (0x1F26/0x1F27,
 //!   [`ConfigurationStamp`]) a slave whose 0x1020 holds them is not written again; one that is
 //!   configured gets them in its 0x1020 and, if asked for, stores its parameters (0x1010).
+//!   The same configuration as a [`ConciseDcf`] written to the master's 0x1F22 sub n is
+//!   applied at node n's boot.
+//! - Program download (CiA 302-3): [`Master::download_program`] replaces a slave's program
+//!   (stop, clear, image by block transfer, start, 0x1F56 against 0x1F55), with progress and
+//!   outcome events ([`MasterEventKind::ProgramProgress`], [`MasterEventKind::ProgramDownloaded`]).
 //! - Mandatory slaves (0x1F81 bit 3) gate the network start within the boot time (0x1F89); then
 //!   the master enters operational itself (0x1F80 bit 2 clear) and starts the slaves, with one
 //!   broadcast (bit 1) when that cannot start a slave that is not configured.
@@ -86,6 +91,7 @@
 
 mod boot;
 mod boot_run;
+mod concise;
 mod config;
 #[cfg(feature = "std")]
 mod dcf;
@@ -94,14 +100,24 @@ mod events;
 mod inputs;
 mod network;
 pub mod objects;
+mod program;
+mod program_run;
 mod slaves;
 
 pub use boot::{BootError, BootPhase, ErrorStatus};
+pub use concise::{
+    validate as validate_concise, ConciseDcf, ConciseEntry, ConciseError, ConciseErrorKind,
+    MAX_CONCISE_BYTES, MAX_CONCISE_ENTRIES,
+};
 pub use config::{
     Assignment, ConfigStep, ConfigurationStamp, ExpectedIdentity, NetworkConfig, NmtStartup,
     SlaveConfig, StartPolicy, WriteAborts,
 };
 pub use events::{MasterError, MasterEvent, MasterEventKind, MasterStats, SlaveView};
+pub use program::{
+    ProgramAccess, ProgramDownload, ProgramDownloadError, ProgramErrorKind, ProgramReport,
+    ProgramStep,
+};
 
 use crate::cia301::nmt::{NmtCommand, NmtState, NmtTarget};
 use crate::cia301::pdo::Dir;
@@ -177,6 +193,8 @@ pub struct Master<D, P = Predefined> {
     sdo_timeout: Duration,
     probe_interval: Duration,
     default_consumer_ms: u16,
+    /// Program downloads under way.
+    programs: usize,
     /// Notices the caller's clock stepping back (the clock contract).
     clock: TimeWatch,
 }
@@ -292,6 +310,7 @@ impl<D: ObjectDictionary, P: IdProfile> Master<D, P> {
             sdo_timeout: config.sdo_timeout,
             probe_interval: config.probe_interval,
             default_consumer_ms: config.default_consumer_ms,
+            programs: 0,
             clock: TimeWatch::new(),
         };
         // Before boot the node reads its dictionary at boot, so plain stores suffice.

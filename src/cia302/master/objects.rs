@@ -1,12 +1,13 @@
 //! Definition tables of the CiA 302-2 master objects: 0x1F80 NMT startup, 0x1F81 slave
 //! assignment, 0x1F82 request NMT, 0x1F84–0x1F88 expected identity, 0x1F89 boot time, and
-//! the configuration manager's 0x1F26/0x1F27 expected configuration date and time.
+//! the configuration manager's 0x1F22 concise DCF and 0x1F26/0x1F27 expected configuration date
+//! and time, and 0x1F55 expected software identification (program download).
 //!
 //! All `const`, like [`crate::od::comm`]. Arrays have sub 0 = 127 (128 for 0x1F82, whose sub 128
 //! addresses all nodes) and one entry per node-ID.
 
 use crate::od::abort::AbortCode;
-use crate::od::{comm, Access, DynamicDictionary, ObjectDef, ObjectType};
+use crate::od::{comm, Access, DataType, DynamicDictionary, ObjectDef, ObjectType};
 
 /// NMT startup.
 pub const NMT_STARTUP: u16 = 0x1F80;
@@ -27,6 +28,13 @@ pub const REVISION_NUMBER: u16 = 0x1F87;
 pub const SERIAL_NUMBER: u16 = 0x1F88;
 /// Boot time in ms.
 pub const BOOT_TIME: u16 = 0x1F89;
+/// Concise DCF (CiA 302-3): sub n, node n's configuration as a concise DCF
+/// ([`super::ConciseDcf`]), applied by its boot process; empty: none. A malformed one is
+/// refused with [`AbortCode::VALUE_RANGE`].
+pub const CONCISE_DCF: u16 = 0x1F22;
+/// Expected software identification (CiA 302-3): sub n, the 0x1F56 sub 1 node n must report
+/// after a program download (0: not checked).
+pub const EXPECTED_SOFTWARE: u16 = 0x1F55;
 /// Expected configuration date (CiA 302-3): sub n, the date node n's 0x1020 sub 1 must hold
 /// for its configuration to count as written already (0: not checked).
 pub const EXPECTED_CONFIG_DATE: u16 = 0x1F26;
@@ -73,6 +81,38 @@ pub const fn node_array(index: u16, name: &'static str) -> [ObjectDef; 128] {
         i += 1;
     }
     out
+}
+
+/// 0x1F22: sub 0 = 127, subs 1–127 rw DOMAIN of at most [`super::MAX_CONCISE_BYTES`], empty,
+/// that accept only a well-formed concise DCF (or nothing).
+pub const fn concise_dcf() -> [ObjectDef; 128] {
+    let mut out = [ObjectDef::u8(CONCISE_DCF, 0, Access::Const, 127); 128];
+    out[0] = out[0].object_type(ObjectType::Array).named("Concise DCF");
+    let mut i = 1;
+    while i < 128 {
+        out[i] = ObjectDef::bytes(
+            CONCISE_DCF,
+            i as u8,
+            DataType::Domain,
+            super::MAX_CONCISE_BYTES as u32,
+        )
+        .object_type(ObjectType::Array)
+        .hook(concise_value)
+        .named("Concise DCF");
+        i += 1;
+    }
+    out
+}
+
+/// A 0x1F22 write must be a well-formed concise DCF (or empty: no concise DCF), so that the
+/// dictionary never holds one the boot process would have to refuse halfway.
+fn concise_value(_: u16, _: u8, data: &[u8]) -> Result<(), AbortCode> {
+    if data.is_empty() {
+        return Ok(());
+    }
+    super::validate_concise(data)
+        .map(|_| ())
+        .map_err(|_| AbortCode::VALUE_RANGE)
 }
 
 /// 0x1F80 and 0x1F89.
@@ -126,12 +166,14 @@ pub fn insert_master_objects(od: &mut DynamicDictionary, startup: u32, boot_time
         node_array(SERIAL_NUMBER, "Serial number"),
         node_array(EXPECTED_CONFIG_DATE, "Expected configuration date"),
         node_array(EXPECTED_CONFIG_TIME, "Expected configuration time"),
+        node_array(EXPECTED_SOFTWARE, "Expected software identification"),
     ];
     let singles = startup_and_boot_time(startup, boot_time_ms);
     let requests = request_nmt();
-    let tables: [&[ObjectDef]; 10] = [
+    let concise = concise_dcf();
+    let tables: [&[ObjectDef]; 12] = [
         &arrays[0], &arrays[1], &arrays[2], &arrays[3], &arrays[4], &arrays[5], &arrays[6],
-        &arrays[7], &singles, &requests,
+        &arrays[7], &arrays[8], &singles, &requests, &concise,
     ];
     for t in tables {
         for d in t {
@@ -167,12 +209,15 @@ mod tests {
             SERIAL_NUMBER,
             EXPECTED_CONFIG_DATE,
             EXPECTED_CONFIG_TIME,
+            EXPECTED_SOFTWARE,
         ] {
             assert_eq!(od.get_value::<u8>(index, 0), Ok(127));
             assert_eq!(od.get_value::<u32>(index, 127), Ok(0));
             assert!(od.get(index, 128).is_err());
         }
         assert_eq!(od.get_value::<u8>(REQUEST_NMT, 0), Ok(128));
+        assert_eq!(od.get_value::<u8>(CONCISE_DCF, 0), Ok(127));
+        assert_eq!(od.read(CONCISE_DCF, 127), Ok(&[][..]));
         assert_eq!(od.get_value::<u8>(REQUEST_NMT, REQUEST_ALL), Ok(0));
         assert_eq!(od.get_value::<u32>(NMT_STARTUP, 0), Ok(0));
         assert_eq!(od.get_value::<u32>(BOOT_TIME, 0), Ok(0));
@@ -192,5 +237,18 @@ mod tests {
             );
         }
         assert_eq!(od.write(REQUEST_NMT, 0, &[5]), Err(AbortCode::READ_ONLY));
+    }
+
+    #[test]
+    fn concise_dcf_accepts_only_well_formed_ones() {
+        let mut od = master_dictionary(1, Default::default());
+        let one = [1, 0, 0, 0, 0x00, 0x20, 1, 1, 0, 0, 0, 7];
+        assert_eq!(od.write(CONCISE_DCF, 9, &one), Ok(()));
+        for bad in [&one[..11], &[1, 0, 0][..], &[0, 0, 0, 0, 1][..]] {
+            assert_eq!(od.write(CONCISE_DCF, 9, bad), Err(AbortCode::VALUE_RANGE));
+        }
+        // Refused: the well-formed one stays.
+        assert_eq!(od.read(CONCISE_DCF, 9), Ok(&one[..]));
+        assert_eq!(od.write(CONCISE_DCF, 9, &[]), Ok(()));
     }
 }

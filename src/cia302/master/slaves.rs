@@ -20,6 +20,11 @@ use crate::profile::IdProfile;
 /// Everything the master keeps per node-ID.
 pub(super) struct Slot {
     pub(super) cfg: SlaveConfig,
+    /// The configuration the running boot process applies when it is not `cfg`: `cfg` with
+    /// the node's concise DCF (0x1F22 sub n) read when the process began.
+    pub(super) run: Option<alloc::boxed::Box<SlaveConfig>>,
+    /// A program download under way.
+    pub(super) program: Option<alloc::boxed::Box<super::program_run::ProgramRun>>,
     pub(super) phase: BootPhase,
     pub(super) process: Option<Process>,
     /// The SDO request in flight to the node (of the running process, or of one dropped).
@@ -45,6 +50,8 @@ impl Slot {
     pub(super) fn new(n: NodeId) -> Slot {
         Slot {
             cfg: SlaveConfig::new(n),
+            run: None,
+            program: None,
             phase: BootPhase::Unassigned,
             process: None,
             request: None,

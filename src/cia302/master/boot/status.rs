@@ -126,6 +126,8 @@ pub enum BootError {
         /// Bytes received.
         len: usize,
     },
+    /// The node's concise DCF (0x1F22 sub n) cannot be read: nothing was written.
+    ConciseDcf(crate::cia302::master::ConciseError),
 }
 
 impl fmt::Display for BootError {
@@ -140,6 +142,7 @@ impl fmt::Display for BootError {
                 f,
                 "{index:#06x}sub{sub} answered with {len} bytes instead of 4: the device does not follow CiA 301"
             ),
+            BootError::ConciseDcf(e) => write!(f, "0x1F22: {e}"),
         }
     }
 }
@@ -149,6 +152,7 @@ impl core::error::Error for BootError {
         match self {
             BootError::Sdo(e) => Some(e),
             BootError::Pdo(e) => Some(e),
+            BootError::ConciseDcf(e) => Some(e),
             _ => None,
         }
     }
