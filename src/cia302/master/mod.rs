@@ -95,11 +95,14 @@ mod concise;
 mod config;
 #[cfg(feature = "std")]
 mod dcf;
+mod drive;
 mod error_control;
 mod events;
 mod inputs;
 mod network;
 pub mod objects;
+mod own;
+use own::check_slave;
 mod program;
 mod program_run;
 mod slaves;
@@ -520,174 +523,5 @@ impl<D: ObjectDictionary, P: IdProfile> Master<D, P> {
     /// Counters.
     pub fn stats(&self) -> MasterStats {
         self.stats
-    }
-
-    /// True if the master manages the network now: booted, active, and 0x1F80 bit 0 set.
-    fn acting(&self) -> bool {
-        self.booted && self.active && self.startup().has(NmtStartup::MASTER)
-    }
-
-    fn startup(&self) -> NmtStartup {
-        NmtStartup(self.node.od().get_u32(objects::NMT_STARTUP, 0).unwrap_or(0))
-    }
-
-    fn assignment(&self, n: NodeId) -> Assignment {
-        Assignment(
-            self.node
-                .od()
-                .get_u32(objects::SLAVE_ASSIGNMENT, n.raw())
-                .unwrap_or(0),
-        )
-    }
-
-    fn assigned(&self) -> impl Iterator<Item = NodeId> + '_ {
-        (1..=127u8)
-            .filter_map(NodeId::new)
-            .filter(|n| self.assignment(*n).is_slave())
-    }
-
-    fn slot(&self, n: NodeId) -> &Slot {
-        &self.slots[n.raw() as usize - 1]
-    }
-
-    fn slot_mut(&mut self, n: NodeId) -> &mut Slot {
-        &mut self.slots[n.raw() as usize - 1]
-    }
-
-    fn emit(&mut self, at: Instant, kind: MasterEventKind) {
-        if self.events.len() >= self.event_capacity {
-            self.stats.events_dropped = self.stats.events_dropped.saturating_add(1);
-        } else {
-            self.events.push_back(MasterEvent { at, kind });
-        }
-    }
-
-    /// The node's state: heard after the last command, else as commanded, else as last heard.
-    fn view_state(&self, n: NodeId) -> Option<NmtState> {
-        let heard = self.node.remote(n);
-        let state = match (heard, self.slot(n).commanded) {
-            (Some(v), Some((_, at))) if v.seen > at => Some(v.state),
-            (_, Some((state, _))) => state,
-            (h, None) => h.map(|v| v.state),
-        };
-        // A node that sent its boot-up is pre-operational.
-        state.map(|s| match s {
-            NmtState::Initialising => NmtState::PreOperational,
-            s => s,
-        })
-    }
-
-    /// Runs the master's own node into operational unless 0x1F80 bit 2 forbids it.
-    fn self_start(&mut self, now: Instant) {
-        if !self.startup().has(NmtStartup::NO_SELF_START)
-            && self.node.nmt_state() != NmtState::Operational
-        {
-            self.node.set_nmt_state(now, NmtState::Operational);
-        }
-    }
-
-    /// Sets or clears bit 30 of 0x1005 and 0x1012 (SYNC and TIME production) as wanted.
-    fn set_producers(&mut self, now: Instant, on: bool) {
-        for (index, wanted) in [
-            (comm::SYNC_COB_ID, self.produce_sync),
-            (comm::TIME_COB_ID, self.produce_time),
-        ] {
-            let Some(v) = self.node.od().get_u32(index, 0) else {
-                continue;
-            };
-            let bit = crate::frame::cob_id::CobId::BIT30;
-            let new = if on && wanted { v | bit } else { v & !bit };
-            if new != v {
-                let data = new.to_le_bytes();
-                if self.booted {
-                    let _ = self.node.write(now, index, 0, &data);
-                } else {
-                    let _ = self.node.od_mut().write_local(index, 0, &data);
-                }
-            }
-        }
-    }
-
-    /// Writes one of the master's own entries (with the node's reactions once booted).
-    fn write_own(&mut self, now: Instant, index: u16, sub: u8, v: u32) -> Result<(), MasterError> {
-        let data = v.to_le_bytes();
-        let r = if self.booted {
-            self.node.write(now, index, sub, &data)
-        } else {
-            self.node.od_mut().write_local(index, sub, &data)
-        };
-        r.map_err(|code| MasterError::Refused { index, sub, code })
-    }
-}
-
-/// What can be checked of a slave's configuration before it is used.
-fn check_slave(cfg: &SlaveConfig, master: NodeId) -> Result<(), MasterError> {
-    if cfg.node == master {
-        return Err(MasterError::OwnNode(cfg.node));
-    }
-    for step in &cfg.steps {
-        if let ConfigStep::Pdo { pdo, .. } = step {
-            if !(1..=crate::cia301::pdo::params::MAX_PDOS).contains(pdo) {
-                return Err(MasterError::NoSuchPdo {
-                    node: cfg.node,
-                    pdo: *pdo,
-                });
-            }
-        }
-    }
-    Ok(())
-}
-
-impl<D: ObjectDictionary, P: IdProfile> Machine for Master<D, P> {
-    type Event = MasterEvent;
-    type LinkCommand = core::convert::Infallible;
-
-    fn handle_frame(&mut self, now: Instant, frame: &Frame) {
-        self.watch_own_clock(now);
-        self.node.handle_frame(now, frame);
-        if !self.sdo_idle {
-            self.sdo.handle_frame(now, frame);
-        }
-        self.pump(now);
-    }
-
-    fn handle_timeout(&mut self, now: Instant) {
-        self.watch_own_clock(now);
-        self.node.handle_timeout(now);
-        if !self.sdo_idle {
-            self.sdo.handle_timeout(now);
-        }
-        self.pump(now);
-        self.on_timers(now);
-        self.pump(now);
-    }
-
-    fn poll_transmit(&mut self) -> Option<Frame> {
-        if let Some(f) = self.nmt_out.pop_front() {
-            return Some(f);
-        }
-        if let Some(f) = self.node.poll_transmit() {
-            return Some(f);
-        }
-        if self.sdo_idle {
-            return None;
-        }
-        let f = self.sdo.poll_transmit();
-        // Drained and nothing running: nothing can come out of it until a transfer starts.
-        self.sdo_idle = f.is_none() && self.sdo.in_flight() == 0;
-        f
-    }
-
-    fn poll_timeout(&self) -> Option<Instant> {
-        let sdo = if self.sdo_idle {
-            None
-        } else {
-            self.sdo.poll_timeout()
-        };
-        earliest_of([self.node.poll_timeout(), sdo, self.deadline()])
-    }
-
-    fn poll_event(&mut self) -> Option<MasterEvent> {
-        self.events.pop_front()
     }
 }
