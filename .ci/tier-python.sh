@@ -36,8 +36,8 @@ cargo test -p duocan-redundancy --features tokio --lib --test runtime \
   || fail "the logical network object under the runtime (memory buses)"
 
 echo "== tier-python: build (outside the namespace)"
-cargo test -p duocan-tiers --features python --test python_peer --test python_eds --no-run \
-  || fail "build python_peer and python_eds tests"
+cargo test -p duocan-tiers --features python --test python_peer --test python_eds \
+  --test python_starters --no-run || fail "build python_peer, python_eds and python_starters tests"
 # The sdo_tool example and its test (which runs the example's binary against a duocan node).
 cargo build -p duocan --features udp --example sdo_tool || fail "build the sdo_tool example"
 cargo test -p duocan-tiers --features python --test sdo_tool --no-run || fail "build sdo_tool tests"
@@ -63,6 +63,11 @@ unshare -n sh -ec '
   ip route add 224.0.0.0/4 dev lo
   cargo test --offline -p duocan-tiers --features python --test sdo_tool
 ' || fail "sdo_tool example against a duocan node on the UDP bus"
+unshare -n sh -ec '
+  ip link set lo up
+  ip route add 224.0.0.0/4 dev lo
+  cargo test --offline -p duocan-tiers --features python --test python_starters
+' || fail "the starter examples read_sdo and heartbeat_monitor against a python canopen node"
 
 if [ $BENCH = 1 ]; then
   echo "== tier-python: runtime overhead on the UDP bus (inside unshare -n)"
