@@ -22,6 +22,7 @@ mod error;
 mod request;
 mod server;
 mod session;
+mod stream;
 
 #[cfg(feature = "alloc")]
 pub use buffer::HeapBuffer;
@@ -30,3 +31,4 @@ pub use client::SdoClient;
 pub use error::{Direction, SdoError, SdoErrorKind};
 pub use request::{Channel, RequestId, SdoClientStats, SdoEvent, SdoOptions, TransferMode};
 pub use server::{SdoServer, SdoServerConfig, SdoServerStats};
+pub use stream::MIN_WINDOW;
