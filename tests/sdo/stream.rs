@@ -345,37 +345,24 @@ fn a_reader_that_does_not_read_stops_the_server_not_grows_the_buffer() {
     }
 }
 
+/// A streamed download of 100 bytes, announced.
+fn hundred(net: &mut Net) -> RequestId {
+    let opts = SdoOptions::default();
+    let now = net.now;
+    net.client
+        .download_stream(now, N, DOMAIN, 0, Some(100), 1000, opts)
+        .unwrap()
+}
+
 #[test]
 fn a_feeder_that_falls_short_of_the_size_aborts_and_too_much_is_refused() {
     let mut net = Net::new(&[5]);
-    let id = net
-        .client
-        .download_stream(
-            net.now,
-            N,
-            DOMAIN,
-            0,
-            Some(100),
-            1000,
-            SdoOptions::default(),
-        )
-        .unwrap();
+    let id = hundred(&mut net);
     assert_eq!(net.client.wants_data(id), 100, "no more than announced");
     assert_eq!(net.client.feed(net.now, id, &[1; 500], false), Some(100));
     net.finish();
     assert_eq!(net.nodes[0].od().read(DOMAIN, 0).unwrap(), [1; 100]);
-    let id = net
-        .client
-        .download_stream(
-            net.now,
-            N,
-            DOMAIN,
-            0,
-            Some(100),
-            1000,
-            SdoOptions::default(),
-        )
-        .unwrap();
+    let id = hundred(&mut net);
     assert_eq!(net.client.feed(net.now, id, &[1; 50], true), Some(50));
     let ev = net.finish();
     assert_eq!(

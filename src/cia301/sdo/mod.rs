@@ -9,9 +9,12 @@
 //!   where the standard puts it, timeouts on both sides.
 //! - Transfers are bounded by a [`TransferBuffer`]: a heap buffer with a limit (`alloc`) or an
 //!   inline array (no_std), never unbounded.
+//! - A client transfer may also stream ([`SdoClient::download_stream`],
+//!   [`SdoClient::upload_stream`]): a value of any size through a window of the buffer, with
+//!   back-pressure both ways.
 //!
 //! [`codec`] holds the frame formats, [`block`] the sub-block logic both sides share, [`crc`] the
-//! block CRC.
+//! block CRC, [`stream`] the client's streamed transfers (the rule, memory, back-pressure).
 
 pub mod block;
 mod buffer;
@@ -22,7 +25,7 @@ mod error;
 mod request;
 mod server;
 mod session;
-mod stream;
+pub mod stream;
 
 #[cfg(feature = "alloc")]
 pub use buffer::HeapBuffer;

@@ -388,9 +388,11 @@ impl<B: TransferBuffer, const SESSIONS: usize, S: Storage> SdoClient<B, SESSIONS
         Some(n)
     }
 
-    /// Feeding a download in `DownloadWait` and the like happen in [`SdoClient::feed`]; this
-    /// one names a streamed transfer whose caller has something to do (room to fill, data to
-    /// take), once per change.
+    /// A streamed transfer whose caller has something to do: a download with room to fill
+    /// (half the window free, or a segment waiting for data), an upload with data to take
+    /// (half the window full, or a request held back for room). Each such change is named
+    /// once; the caller then asks [`SdoClient::wants_data`] or calls
+    /// [`SdoClient::read_stream`].
     #[must_use]
     pub fn poll_stream(&mut self) -> Option<RequestId> {
         self.sessions.iter_mut().find_map(|s| {
