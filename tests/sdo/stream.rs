@@ -63,6 +63,7 @@ fn download(
             }
         }
         net.flush();
+        assert_eq!(net.client.progress(id), None, "whole-value progress is not for streams");
         if let Some((done, total)) = net.client.stream_progress(id) {
             assert!(done >= last_done && done <= fed, "progress {done} of {fed}");
             assert_eq!(total, size.map(|n| n as usize));
@@ -342,6 +343,24 @@ fn a_reader_that_does_not_read_stops_the_server_not_grows_the_buffer() {
             "{name}"
         );
         assert_eq!(ev[0].request, id);
+    }
+}
+
+#[test]
+fn a_feeder_that_stops_times_out_with_the_window_full() {
+    for (name, opts) in modes() {
+        let mut net = Net::new(&[5]);
+        bound(&mut net, MIN_WINDOW);
+        let id = net
+            .client
+            .download_stream(net.now, N, DOMAIN, 0, None, MIN_WINDOW, opts)
+            .unwrap();
+        let fed = net.client.feed(net.now, id, &[9; 5000], false).unwrap();
+        assert_eq!(fed, MIN_WINDOW, "{name}: one window's worth");
+        let ev = net.finish();
+        let e = ev[0].result.as_ref().unwrap_err();
+        assert_eq!(e.code(), Some(AbortCode::TIMEOUT), "{name}: {e:?}");
+        assert_eq!(net.client.feed(net.now, id, &[9; 10], true), None, "{name}: over");
     }
 }
 

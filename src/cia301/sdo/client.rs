@@ -155,12 +155,15 @@ impl<B: TransferBuffer, const SESSIONS: usize, S: Storage> SdoClient<B, SESSIONS
     }
     /// How far a download in flight is: (bytes the server confirmed, bytes in all); `None` when
     /// `request` is not a download running now. Block transfer confirms a sub-block at a time,
-    /// segmented transfer each segment; an expedited download is all or nothing.
+    /// segmented transfer each segment; an expedited download is all or nothing. A streamed
+    /// download answers [`SdoClient::stream_progress`] instead.
     pub fn progress(&self, request: RequestId) -> Option<(usize, usize)> {
-        let s = self
-            .sessions
-            .iter()
-            .find(|s| s.active() && s.request == request && s.direction == Direction::Download)?;
+        let s = self.sessions.iter().find(|s| {
+            s.active()
+                && s.request == request
+                && s.direction == Direction::Download
+                && s.stream.is_none()
+        })?;
         let total = s.buf.len();
         let done = match s.state {
             State::DownloadSegment { offset, .. } => offset,
