@@ -63,7 +63,11 @@ fn download(
             }
         }
         net.flush();
-        assert_eq!(net.client.progress(id), None, "whole-value progress is not for streams");
+        assert_eq!(
+            net.client.progress(id),
+            None,
+            "whole-value progress is not for streams"
+        );
         if let Some((done, total)) = net.client.stream_progress(id) {
             assert!(done >= last_done && done <= fed, "progress {done} of {fed}");
             assert_eq!(total, size.map(|n| n as usize));
@@ -360,7 +364,11 @@ fn a_feeder_that_stops_times_out_with_the_window_full() {
         let ev = net.finish();
         let e = ev[0].result.as_ref().unwrap_err();
         assert_eq!(e.code(), Some(AbortCode::TIMEOUT), "{name}: {e:?}");
-        assert_eq!(net.client.feed(net.now, id, &[9; 10], true), None, "{name}: over");
+        assert_eq!(
+            net.client.feed(net.now, id, &[9; 10], true),
+            None,
+            "{name}: over"
+        );
     }
 }
 
