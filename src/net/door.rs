@@ -13,6 +13,8 @@ use crate::machine::{
 use crate::node::{Node, NodeEventKind};
 use crate::od::DynamicDictionary;
 use std::collections::VecDeque;
+use std::sync::Arc;
+use tokio::sync::Notify;
 
 /// The observing node: it tracks every node's state and consumes heartbeats and EMCY.
 pub(crate) type Observer = Node<DynamicDictionary>;
@@ -60,6 +62,9 @@ pub(crate) struct Door {
     decoded: VecDeque<NetEvent>,
     /// Decoded PDOs dropped because [`PDO_EVENTS`] were waiting.
     pub pdo_dropped: u64,
+    /// Streamed transfers and whom to wake when one has room to fill or data to take
+    /// (at most one per client session: an entry goes with its transfer's result).
+    pub streams: Vec<(RequestId, Arc<Notify>)>,
 }
 
 impl Door {
@@ -73,6 +78,7 @@ impl Door {
             own: VecDeque::new(),
             decoded: VecDeque::new(),
             pdo_dropped: 0,
+            streams: Vec::new(),
         }
     }
     /// Queues a frame the network itself sends (an RPDO).
@@ -144,6 +150,13 @@ impl Device for Door {
         self.inner.poll_timeout()
     }
     fn poll_event(&mut self) -> Option<DoorEvent> {
+        // A wake-up, not an event: a stream's reader or feeder is no business of the
+        // subscribers (at a frame each, it would make them lag).
+        while let Some(id) = self.client().poll_stream() {
+            if let Some((_, n)) = self.streams.iter().find(|(r, _)| *r == id) {
+                n.notify_one();
+            }
+        }
         if let Some(e) = self.decoded.pop_front() {
             return Some(DoorEvent::Net(e));
         }
@@ -151,6 +164,7 @@ impl Device for Door {
             let e = match self.inner.poll_event()? {
                 StationEvent::Link(never) => match never {},
                 StationEvent::Machine(CompositeEvent::B(s)) => {
+                    self.streams.retain(|(r, _)| *r != s.request);
                     let r = s.result.map(|b| TransferBuffer::as_slice(&b).to_vec());
                     return Some(DoorEvent::Sdo(s.request, r));
                 }

@@ -137,6 +137,20 @@ pub enum NetError {
     PdoConfig(PdoConfigError),
     /// An argument outside what the call takes.
     Argument(String),
+    /// The local side of a streamed transfer failed: the reader a write took its data from,
+    /// or the writer a read put its data into. The transfer was aborted (the node was told).
+    Io {
+        /// The node.
+        node: NodeId,
+        /// Object index.
+        index: u16,
+        /// Sub-index.
+        sub: u8,
+        /// What kind of failure.
+        kind: std::io::ErrorKind,
+        /// The failure, as the reader or writer put it.
+        message: String,
+    },
 }
 
 impl NetError {
@@ -154,7 +168,8 @@ impl NetError {
             | NetError::WrongType { node, .. }
             | NetError::BadValue { node, .. }
             | NetError::NoSuchPdo { node, .. }
-            | NetError::Pdo { node, .. } => Some(*node),
+            | NetError::Pdo { node, .. }
+            | NetError::Io { node, .. } => Some(*node),
             NetError::PdoConfig(e) => Some(e.node),
             NetError::Eds(_) | NetError::Argument(_) => None,
             NetError::NoSuchNode(_)
@@ -267,6 +282,11 @@ impl fmt::Display for NetError {
             NetError::Pdo { node, pdo, why } => write!(f, "node {}, {pdo}: {why}", node.raw()),
             NetError::PdoConfig(e) => fmt::Display::fmt(e, f),
             NetError::Argument(why) => f.write_str(why),
+            NetError::Io { node, index, sub, message, .. } => write!(
+                f,
+                "node {}, object {index:#06x} sub {sub}: the local reader or writer failed ({message}), so the transfer was aborted: fix the file or stream and try again",
+                node.raw()
+            ),
         }
     }
 }

@@ -31,6 +31,8 @@
 //! | `node.sdo["Producer heartbeat time"].raw = 100` | `node.sdo().write_named("Producer heartbeat time", 100u16).await?` |
 //! | `node.sdo["Manufacturer device name"].raw` (typed by the EDS) | `node.sdo().read_value("Manufacturer device name").await?` ([`AnyValue`]) |
 //! | `node.sdo.upload(0x1008, 0)` | `node.sdo().read_bytes(0x1008, 0).await?` |
+//! | `with node.sdo[0x2002].open("rb") as f: shutil.copyfileobj(f, out)` | `node.sdo().read_to(0x2002, 0, out, \|p\| ..).await?` (any size, bounded memory, [`TransferProgress`]) |
+//! | `with node.sdo[0x2002].open("wb", size=n) as f: shutil.copyfileobj(src, f)` | `node.sdo().write_from(0x2002, 0, src, Some(n), \|p\| ..).await?` |
 //! | `node.nmt.state = "OPERATIONAL"` | `node.start().await?` |
 //! | `node.nmt.wait_for_bootup(10)` | `node.wait_for_boot_up(Duration::from_secs(10)).await?` |
 //! | `node.nmt.wait_for_heartbeat()` / `node.nmt.state` | `node.state().await?` |
@@ -79,6 +81,7 @@ mod named;
 mod pdo;
 mod remote;
 mod sdo;
+mod sdo_stream;
 mod sim;
 mod value;
 
@@ -87,6 +90,7 @@ pub use events::{Events, NetEvent};
 pub use pdo::{PdoMap, PdoValue, PdoValues, PdoVariable, RemotePdo, MAX_LEARNED};
 pub use remote::RemoteNode;
 pub use sdo::RemoteSdo;
+pub use sdo_stream::{TransferProgress, STREAM_WINDOW};
 pub use sim::{sim_description, SIM_DEVICE_NAME, SIM_HEARTBEAT_MS, SIM_VENDOR};
 pub use value::AnyValue;
 

@@ -4,7 +4,14 @@ use super::door::DoorEvent;
 use super::error::NetError;
 use super::remote::RemoteNode;
 use crate::cia301::sdo::{SdoOptions, TransferMode};
+use crate::frame::cob_id::NodeId;
 use crate::od::OdValue;
+
+/// A node's turn and a client session, held for one transfer.
+pub(super) type Turn<'a> = (
+    tokio::sync::MutexGuard<'a, ()>,
+    tokio::sync::SemaphorePermit<'a>,
+);
 
 /// The SDO server of a [`RemoteNode`]: `node.sdo().read::<u32>(0x1018, 1).await?`.
 ///
@@ -12,11 +19,12 @@ use crate::od::OdValue;
 /// [`OdValue`]: the unsigned and signed integers, `f32`, `f64`, `bool`); a value of another
 /// size than the type is [`NetError::WrongSize`]. Strings and domains of any size up to
 /// [`MAX_TRANSFER`](super::MAX_TRANSFER) go whole, in the smallest transfer mode that fits
-/// unless the options say otherwise.
+/// unless the options say otherwise; domains of any size stream from an `AsyncRead` or to an
+/// `AsyncWrite` ([`RemoteSdo::write_from`], [`RemoteSdo::read_to`]).
 #[derive(Clone)]
 pub struct RemoteSdo {
-    node: RemoteNode,
-    opts: SdoOptions,
+    pub(super) node: RemoteNode,
+    pub(super) opts: SdoOptions,
 }
 
 impl RemoteSdo {
@@ -100,6 +108,23 @@ impl RemoteSdo {
         self.transfer(index, sub, Some(data.into())).await.map(drop)
     }
 
+    /// Waits for this node's turn and a client session (held while the guards live).
+    pub(super) async fn turn(&self) -> Result<(NodeId, Turn<'_>), NetError> {
+        let node = self.node.id()?;
+        let net = self.node.network();
+        if net.is_listen_only() {
+            return Err(NetError::ListenOnly { node: Some(node) });
+        }
+        let shared = &net.shared;
+        let turn = shared.per_node[usize::from(node.raw())].lock().await;
+        let session = shared
+            .sessions
+            .acquire()
+            .await
+            .map_err(|_| NetError::Closed)?;
+        Ok((node, (turn, session)))
+    }
+
     /// One transfer: a read when `data` is `None`. Transfers to one node take turns, and no
     /// more start at once than the client has sessions, so neither "busy" nor "no session" is
     /// ever the caller's problem.
@@ -109,20 +134,11 @@ impl RemoteSdo {
         sub: u8,
         data: Option<Vec<u8>>,
     ) -> Result<Vec<u8>, NetError> {
-        let node = self.node.id()?;
-        let net = self.node.network();
-        if net.is_listen_only() {
-            return Err(NetError::ListenOnly { node: Some(node) });
-        }
-        let shared = &net.shared;
-        let _turn = shared.per_node[usize::from(node.raw())].lock().await;
-        let _session = shared
-            .sessions
-            .acquire()
-            .await
-            .map_err(|_| NetError::Closed)?;
+        let (node, _turn) = self.turn().await?;
         let opts = self.opts;
-        shared
+        self.node
+            .network()
+            .shared
             .handle
             .request(
                 move |d, now| {

@@ -10,3 +10,4 @@ mod pdo;
 #[path = "../common/runtime.rs"]
 mod rt;
 mod sdo;
+mod sdo_stream;

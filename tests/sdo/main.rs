@@ -6,4 +6,5 @@ mod golden;
 mod net;
 mod random;
 mod sim;
+mod stream;
 mod transfers;

@@ -1,5 +1,5 @@
 //! 100,000 random frame sequences fed to an SDO server (inside its node) and to an SDO client
-//! with transfers under way: no panic, and after every frame the memory stays bounded (transfer
+//! with transfers under way (whole and streamed, whose callers feed and read at random): no panic, and after every frame the memory stays bounded (transfer
 //! buffers within their limits, a bounded number of frames out, sessions and results within
 //! their capacity), deadlines never lie in the past once handled.
 //!
@@ -8,7 +8,7 @@
 //! the random frames hit the segment, sub-block and end states.
 
 use duocan::od::{comm, Access, DataType, DynamicDictionary, ObjectDef, ObjectDictionary};
-use duocan::sdo::{HeapBuffer, SdoClient, SdoErrorKind, SdoOptions, TransferMode};
+use duocan::sdo::{HeapBuffer, SdoClient, SdoErrorKind, SdoOptions, TransferMode, MIN_WINDOW};
 use duocan::{AbortCode, Duration, Frame, Id, Instant, Machine, Node, NodeConfig, NodeId};
 use proptest::prelude::*;
 use std::collections::BTreeSet;
@@ -93,14 +93,15 @@ fn input(r: &mut fastrand::Rng) -> Input {
     }
 }
 
-/// A case: how it starts, the client's requests (node, upload?, mode, length), the inputs.
+/// A case: how it starts, the client's requests (node, upload?, mode, length; modes 4 and 5
+/// stream, segmented and block), the inputs.
 type Case = (Option<[u8; 8]>, Vec<(u8, bool, u8, usize)>, Vec<Input>);
 
 fn case(seed: u64) -> Case {
     let mut r = fastrand::Rng::with_seed(seed);
     let start = (r.u8(0..5) != 0).then(|| PROLOGUES[r.usize(..PROLOGUES.len())]);
     let reqs = (0..r.usize(0..=3))
-        .map(|_| (r.u8(5..=7), r.bool(), r.u8(0..4), r.usize(0..1200)))
+        .map(|_| (r.u8(5..=7), r.bool(), r.u8(0..6), r.usize(0..1200)))
         .collect();
     let inputs = (0..r.usize(1..16)).map(|_| input(&mut r)).collect();
     (start, reqs, inputs)
@@ -187,20 +188,33 @@ fn drive(seed: u64, seen: &mut Seen) {
         drain_node(&mut n, seen);
     }
     let mut started = 0;
+    // Streamed transfers: request, upload?, bytes left to feed.
+    let mut streams = Vec::new();
     for (node, upload, mode, len) in reqs {
         let node = NodeId::must(node);
+        let stream = mode >= 4;
         let mode = [
             TransferMode::Auto,
             TransferMode::Expedited,
             TransferMode::Segmented,
             TransferMode::Block,
+            TransferMode::Segmented,
+            TransferMode::Block,
         ][mode as usize];
         let opts = SdoOptions::mode(mode).with_block_size(9);
-        let r = if upload {
-            c.upload(now, node, 0x2000, 0, opts)
-        } else {
-            c.download(now, node, 0x2000, 0, &vec![3u8; len], opts)
+        let w = MIN_WINDOW;
+        let r = match (upload, stream) {
+            (true, false) => c.upload(now, node, 0x2000, 0, opts),
+            (false, false) => c.download(now, node, 0x2000, 0, &vec![3u8; len], opts),
+            (true, true) => c.upload_stream(now, node, 0x2000, 0, w, opts),
+            (false, true) => {
+                let size = (len % 2 == 0).then_some(len as u32);
+                c.download_stream(now, node, 0x2000, 0, size, w, opts)
+            }
         };
+        if let (Ok(id), true) = (&r, stream) {
+            streams.push((*id, upload, len));
+        }
         started += r.is_ok() as usize;
     }
     let mut results = drain_client(&mut c, seen);
@@ -223,6 +237,19 @@ fn drive(seed: u64, seen: &mut Seen) {
             // The client sees the same bytes as answers of nodes 5–7.
             let from = 0x585 + (i.data[4] % 3) as u16;
             c.handle_frame(now, &frame(Id::Standard(from), i));
+        }
+        // The streams' callers feed and read a little at a time.
+        while c.poll_stream().is_some() {}
+        for (id, upload, left) in &mut streams {
+            let k = usize::from(i.data[5]) * 8;
+            if *upload {
+                let mut out = vec![0; k];
+                let _ = c.read_stream(now, *id, &mut out);
+            } else {
+                let k = k.min(*left).min(c.wants_data(*id));
+                let took = c.feed(now, *id, &vec![3; k], k == *left).unwrap_or(0);
+                *left -= took;
+            }
         }
         drain_node(&mut n, seen);
         results += drain_client(&mut c, seen);

@@ -66,6 +66,13 @@ impl BlockSender {
 
     /// The next segment to put on the bus, if the current sub-block is not complete yet.
     pub fn next_segment(&mut self, data: &[u8]) -> Option<[u8; 8]> {
+        self.next_segment_in(data, 0)
+    }
+
+    /// [`BlockSender::next_segment`] from a window of the data: `window` holds the bytes from
+    /// offset `start` of the transfer on (a streamed download keeps only what is not yet
+    /// confirmed, so `start` is at most [`BlockSender::acked_bytes`]).
+    pub fn next_segment_in(&mut self, window: &[u8], start: usize) -> Option<[u8; 8]> {
         if !self.sending {
             return None;
         }
@@ -75,11 +82,13 @@ impl BlockSender {
             self.sending = false;
             return None;
         }
-        let start = seg * SEGMENT_DATA;
-        let end = (start + SEGMENT_DATA).min(self.len).min(data.len());
+        let from = seg * SEGMENT_DATA;
+        let end = (from + SEGMENT_DATA)
+            .min(self.len)
+            .min(start + window.len());
         let mut bytes = [0u8; SEGMENT_DATA];
-        if start < end {
-            bytes[..end - start].copy_from_slice(&data[start..end]);
+        if from < end && from >= start {
+            bytes[..end - from].copy_from_slice(&window[from - start..end - start]);
         }
         let last = seg + 1 == total;
         let frame = BlockSegment {
@@ -93,6 +102,23 @@ impl BlockSender {
         }
         self.next_seq = self.next_seq.saturating_add(1);
         Some(frame)
+    }
+
+    /// The transfer offset of the next segment's data.
+    pub fn next_offset(&self) -> usize {
+        (self.acked + self.next_seq as usize - 1) * SEGMENT_DATA
+    }
+
+    /// The transfer's length, learnt late: a streamed download of unknown size starts with
+    /// `usize::MAX` and says how long it was once its source ended (before its last segment
+    /// goes out).
+    pub fn set_len(&mut self, len: usize) {
+        self.len = len;
+    }
+
+    /// The transfer's length (`usize::MAX` while a streamed one does not know it yet).
+    pub fn total_len(&self) -> usize {
+        self.len
     }
 
     /// True while segments of the current sub-block remain to be sent.

@@ -19,6 +19,9 @@ pub trait TransferBuffer {
     fn clear(&mut self);
     /// Appends `data`; false (and nothing appended) if that would pass the limit.
     fn extend(&mut self, data: &[u8]) -> bool;
+    /// Forgets the first `n` bytes (all of them if it holds fewer): a streamed transfer's
+    /// window moving on. Moves the rest to the front; never allocates.
+    fn consume(&mut self, n: usize);
     /// Announces that `n` bytes are coming (a heap buffer reserves them once instead of growing
     /// step by step). The caller has checked `n` against the limit.
     fn reserve(&mut self, n: usize) {
@@ -67,6 +70,11 @@ impl<const N: usize> TransferBuffer for InlineBuffer<N> {
         }
         self.data.extend_from_slice(data).is_ok()
     }
+    fn consume(&mut self, n: usize) {
+        let n = n.min(self.data.len());
+        self.data.copy_within(n.., 0);
+        self.data.truncate(self.data.len() - n);
+    }
 }
 
 /// A heap buffer that grows on demand up to its limit and keeps its allocation between transfers.
@@ -112,6 +120,9 @@ impl TransferBuffer for HeapBuffer {
         }
         self.data.extend_from_slice(data);
         true
+    }
+    fn consume(&mut self, n: usize) {
+        self.data.drain(..n.min(self.data.len()));
     }
     fn reserve(&mut self, n: usize) {
         let n = n.min(self.limit);
@@ -160,6 +171,11 @@ mod tests {
         assert_eq!(b.len(), 7);
         assert!(b.extend(&[3; 3]));
         assert_eq!(b.as_slice(), &[1, 1, 1, 1, 1, 1, 1, 3, 3, 3]);
+        b.consume(2);
+        assert_eq!(b.as_slice(), &[1, 1, 1, 1, 1, 3, 3, 3]);
+        b.consume(100);
+        assert!(b.is_empty());
+        assert!(b.extend(&[1; 10]));
         b.set_limit(5);
         assert_eq!(b.len(), 5);
         b.clear();

@@ -21,12 +21,12 @@
 use super::block::{self, Acked, BlockReceiver, BlockSender, Received};
 use super::buffer::{DefaultBuffer, TransferBuffer};
 use super::codec::{self, Init, Request, Response, MAX_BLOCK_SIZE};
-use super::crc::crc16;
 use super::error::{Direction, SdoError, SdoErrorKind};
 use super::request::{Channel, RequestId, SdoClientStats, SdoEvent, SdoOptions, TransferMode};
 use super::session::{
     next_download_segment, prepare_upload, start_download, upload_segment, Session, State,
 };
+use super::stream;
 use crate::frame::cob_id::NodeId;
 use crate::frame::instant::{earliest_of, shift_back, Instant, TimeWatch};
 use crate::frame::queue::Fifo;
@@ -47,7 +47,7 @@ pub struct SdoClient<
     const SESSIONS: usize = 8,
     S: Storage = Inline,
 > {
-    sessions: Table<Session<B>, SESSIONS, S>,
+    pub(super) sessions: Table<Session<B>, SESSIONS, S>,
     limit: usize,
     next_id: u32,
     channels: fn(NodeId) -> Channel,
@@ -155,12 +155,15 @@ impl<B: TransferBuffer, const SESSIONS: usize, S: Storage> SdoClient<B, SESSIONS
     }
     /// How far a download in flight is: (bytes the server confirmed, bytes in all); `None` when
     /// `request` is not a download running now. Block transfer confirms a sub-block at a time,
-    /// segmented transfer each segment; an expedited download is all or nothing.
+    /// segmented transfer each segment; an expedited download is all or nothing. A streamed
+    /// download answers [`SdoClient::stream_progress`] instead.
     pub fn progress(&self, request: RequestId) -> Option<(usize, usize)> {
-        let s = self
-            .sessions
-            .iter()
-            .find(|s| s.active() && s.request == request && s.direction == Direction::Download)?;
+        let s = self.sessions.iter().find(|s| {
+            s.active()
+                && s.request == request
+                && s.direction == Direction::Download
+                && s.stream.is_none()
+        })?;
         let total = s.buf.len();
         let done = match s.state {
             State::DownloadSegment { offset, .. } => offset,
@@ -268,7 +271,7 @@ impl<B: TransferBuffer, const SESSIONS: usize, S: Storage> SdoClient<B, SESSIONS
         true
     }
 
-    fn take_session(
+    pub(super) fn take_session(
         &mut self,
         node: NodeId,
         index: u16,
@@ -317,6 +320,7 @@ impl<B: TransferBuffer, const SESSIONS: usize, S: Storage> SdoClient<B, SESSIONS
         s.direction = direction;
         s.subblock_deadline = None;
         s.buf.set_limit(self.limit);
+        s.stream = None;
         Ok(i)
     }
 
@@ -347,6 +351,7 @@ impl<B: TransferBuffer, const SESSIONS: usize, S: Storage> SdoClient<B, SESSIONS
             }
         };
         s.state = State::Idle;
+        s.stream = None;
         s.deadline = None;
         s.subblock_deadline = None;
         self.events.push(SdoEvent {
@@ -361,7 +366,7 @@ impl<B: TransferBuffer, const SESSIONS: usize, S: Storage> SdoClient<B, SESSIONS
         });
     }
 
-    fn abort_session(&mut self, i: usize, now: Instant, code: AbortCode) {
+    pub(super) fn abort_session(&mut self, i: usize, now: Instant, code: AbortCode) {
         let s = &mut self.sessions[i];
         let (index, sub) = (s.index, s.sub);
         s.send(codec::abort_frame(index, sub, code));
@@ -397,10 +402,7 @@ impl<B: TransferBuffer, const SESSIONS: usize, S: Storage> SdoClient<B, SESSIONS
                             }
                             Received::Ack(ackseq) => {
                                 s.subblock_deadline = None;
-                                s.request(Request::BlockUploadAck {
-                                    ackseq,
-                                    blksize: rx.blksize(),
-                                });
+                                upload_ack(s, ackseq, rx.blksize());
                             }
                         }
                     }
@@ -423,7 +425,7 @@ impl<B: TransferBuffer, const SESSIONS: usize, S: Storage> SdoClient<B, SESSIONS
             {
                 // The server does not know block transfer: fall back.
                 self.stats.fallbacks += 1;
-                let small = (1..=4).contains(&s.buf.len());
+                let small = s.stream.is_none() && (1..=4).contains(&s.buf.len());
                 start_download(
                     s,
                     if small {
@@ -489,7 +491,7 @@ impl<B: TransferBuffer, const SESSIONS: usize, S: Storage> SdoClient<B, SESSIONS
                     Err(AbortCode::INVALID_BLOCK_SIZE)
                 } else {
                     s.state = State::BlockDownload {
-                        tx: BlockSender::new(s.buf.len(), blksize),
+                        tx: BlockSender::new(stream::send_len(s), blksize),
                         crc: crc && s.opts.crc,
                     };
                     Ok(None)
@@ -502,14 +504,16 @@ impl<B: TransferBuffer, const SESSIONS: usize, S: Storage> SdoClient<B, SESSIONS
                 Err(c) => Err(c),
                 Ok(None) => Ok(None),
                 Ok(Some(Acked::More)) => {
+                    stream::confirmed(s, tx.acked_bytes());
                     s.state = State::BlockDownload { tx, crc };
                     Ok(None)
                 }
                 Ok(Some(Acked::Done)) => {
-                    let data = s.buf.as_slice();
+                    let (len, sum) = stream::length_and_crc(s);
+                    stream::confirmed(s, len);
                     let end = Request::BlockDownloadEnd {
-                        unused: block::unused(data.len()),
-                        crc: if crc { crc16(data) } else { 0 },
+                        unused: block::unused(len),
+                        crc: if crc { sum } else { 0 },
                     };
                     s.request(end);
                     s.state = State::BlockDownloadEnd;
@@ -588,11 +592,11 @@ impl<B: TransferBuffer, const SESSIONS: usize, S: Storage> SdoClient<B, SESSIONS
             ) => match rx.finish(unused, &mut s.buf, s.bound) {
                 Err(c) => Err(c),
                 Ok(()) => {
-                    let len = s.buf.len();
+                    let (len, sum) = stream::length_and_crc(s);
                     match size {
                         Some(n) if len > n as usize => Err(AbortCode::LENGTH_TOO_HIGH),
                         Some(n) if len < n as usize => Err(AbortCode::LENGTH_TOO_LOW),
-                        _ if use_crc && crc16(s.buf.as_slice()) != crc => Err(AbortCode::CRC_ERROR),
+                        _ if use_crc && sum != crc => Err(AbortCode::CRC_ERROR),
                         _ => {
                             s.request(Request::BlockUploadEnd);
                             Ok(Some(()))
@@ -635,15 +639,14 @@ impl<B: TransferBuffer, const SESSIONS: usize, S: Storage> Machine for SdoClient
                     if rx.in_sub_block() {
                         let ackseq = rx.timeout();
                         s.state = State::BlockUpload { rx, crc, size };
-                        s.request(Request::BlockUploadAck {
-                            ackseq,
-                            blksize: rx.blksize(),
-                        });
+                        upload_ack(s, ackseq, rx.blksize());
                     }
                 }
             }
             if s.deadline.is_some_and(|t| t <= now) {
-                if matches!(s.state, State::BlockDownload { tx, .. } if tx.is_sending()) {
+                if matches!(s.state, State::BlockDownload { tx, .. } if tx.is_sending())
+                    && !stream::starved(s)
+                {
                     // The driver has not taken the whole sub-block yet (a slow bus): the server
                     // cannot have answered, so the wait starts over.
                     s.touch(now);
@@ -661,9 +664,10 @@ impl<B: TransferBuffer, const SESSIONS: usize, S: Storage> Machine for SdoClient
             let i = (self.rr + k) % n;
             let s = &mut self.sessions[i];
             let f = s.out.pop().or_else(|| match s.state {
-                State::BlockDownload { ref mut tx, .. } => tx
-                    .next_segment(s.buf.as_slice())
-                    .map(|d| Frame::from_array(s.channel.request, d)),
+                State::BlockDownload { ref mut tx, .. } => {
+                    stream::block_segment(tx, s.buf.as_slice(), s.stream.as_ref())
+                        .map(|d| Frame::from_array(s.channel.request, d))
+                }
                 _ => None,
             });
             if f.is_some() {
@@ -685,4 +689,11 @@ impl<B: TransferBuffer, const SESSIONS: usize, S: Storage> Machine for SdoClient
     fn poll_event(&mut self) -> Option<SdoEvent<B>> {
         self.events.pop()
     }
+}
+
+/// Acknowledges a sub-block of a block upload; a streamed one waits for room for the next
+/// sub-block and the held-back last segment.
+fn upload_ack<B: TransferBuffer>(s: &mut Session<B>, ackseq: u8, blksize: u8) {
+    let room = (usize::from(blksize) + 1) * codec::SEGMENT_DATA;
+    stream::request_room(s, Request::BlockUploadAck { ackseq, blksize }, room);
 }

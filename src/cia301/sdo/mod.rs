@@ -9,9 +9,12 @@
 //!   where the standard puts it, timeouts on both sides.
 //! - Transfers are bounded by a [`TransferBuffer`]: a heap buffer with a limit (`alloc`) or an
 //!   inline array (no_std), never unbounded.
+//! - A client transfer may also stream ([`SdoClient::download_stream`],
+//!   [`SdoClient::upload_stream`]): a value of any size through a window of the buffer, with
+//!   back-pressure both ways.
 //!
 //! [`codec`] holds the frame formats, [`block`] the sub-block logic both sides share, [`crc`] the
-//! block CRC.
+//! block CRC, [`stream`] the client's streamed transfers (the rule, memory, back-pressure).
 
 pub mod block;
 mod buffer;
@@ -22,6 +25,7 @@ mod error;
 mod request;
 mod server;
 mod session;
+pub mod stream;
 
 #[cfg(feature = "alloc")]
 pub use buffer::HeapBuffer;
@@ -30,3 +34,4 @@ pub use client::SdoClient;
 pub use error::{Direction, SdoError, SdoErrorKind};
 pub use request::{Channel, RequestId, SdoClientStats, SdoEvent, SdoOptions, TransferMode};
 pub use server::{SdoServer, SdoServerConfig, SdoServerStats};
+pub use stream::MIN_WINDOW;

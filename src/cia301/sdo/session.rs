@@ -5,6 +5,7 @@ use super::buffer::TransferBuffer;
 use super::codec::{Init, Request, SegmentData, SEGMENT_DATA};
 use super::error::Direction;
 use super::request::{Channel, RequestId, SdoOptions, TransferMode};
+use super::stream::{self, Stream};
 use crate::frame::cob_id::NodeId;
 use crate::frame::instant::Instant;
 use crate::frame::queue::Bounded;
@@ -21,6 +22,11 @@ pub(super) enum State {
         toggle: bool,
         offset: usize,
         last: bool,
+    },
+    /// A streamed segmented download whose next segment waits for the caller's data.
+    DownloadWait {
+        toggle: bool,
+        offset: usize,
     },
     BlockDownloadInit,
     BlockDownload {
@@ -56,6 +62,8 @@ pub(super) struct Session<B> {
     pub(super) deadline: Option<Instant>,
     pub(super) subblock_deadline: Option<Instant>,
     pub(super) out: Bounded<Frame, 4>,
+    /// Set while the transfer streams: `buf` is then a window of the value, not all of it.
+    pub(super) stream: Option<Stream>,
 }
 
 impl<B: TransferBuffer> Session<B> {
@@ -79,6 +87,7 @@ impl<B: TransferBuffer> Session<B> {
             deadline: None,
             subblock_deadline: None,
             out: Bounded::new(),
+            stream: None,
         }
     }
     pub(super) fn active(&self) -> bool {
@@ -98,7 +107,10 @@ impl<B: TransferBuffer> Session<B> {
 /// Sends the initiate frame of a download in `mode`.
 pub(super) fn start_download<B: TransferBuffer>(s: &mut Session<B>, mode: TransferMode) {
     let (index, sub) = (s.index, s.sub);
-    let len = s.buf.len();
+    let size = match &s.stream {
+        Some(st) => st.total.map(|n| n as u32),
+        None => Some(s.buf.len() as u32),
+    };
     s.mode = mode;
     match mode {
         TransferMode::Expedited => {
@@ -116,7 +128,7 @@ pub(super) fn start_download<B: TransferBuffer>(s: &mut Session<B>, mode: Transf
                 index,
                 sub,
                 crc,
-                size: Some(len as u32),
+                size,
             });
             s.state = State::BlockDownloadInit;
         }
@@ -125,9 +137,7 @@ pub(super) fn start_download<B: TransferBuffer>(s: &mut Session<B>, mode: Transf
             s.request(Request::InitiateDownload {
                 index,
                 sub,
-                init: Init::Segmented {
-                    size: Some(len as u32),
-                },
+                init: Init::Segmented { size },
             });
             s.state = State::DownloadInit { expedited: false };
         }
@@ -139,6 +149,9 @@ pub(super) fn next_download_segment<B: TransferBuffer>(
     toggle: bool,
     offset: usize,
 ) {
+    if s.stream.is_some() {
+        return stream::next_segment(s, toggle, offset);
+    }
     let len = s.buf.len();
     let end = (offset + SEGMENT_DATA).min(len);
     let data = SegmentData::from_slice(&s.buf.as_slice()[offset..end]);
@@ -161,6 +174,12 @@ pub(super) fn prepare_upload<B: TransferBuffer>(
         max: limit,
         code: AbortCode::OUT_OF_MEMORY,
     };
+    if let Some(st) = &mut s.stream {
+        // The window is the bound; the announced size is checked against the whole stream.
+        st.total = size.map(|n| n as usize);
+        s.buf.reserve(limit);
+        return Ok(());
+    }
     if let Some(n) = size {
         let n = n as usize;
         if n > limit {
@@ -190,13 +209,17 @@ pub(super) fn upload_segment<B: TransferBuffer>(
     if s.buf.len() + bytes.len() > s.bound.max || !s.buf.extend(bytes) {
         return Err(s.bound.code);
     }
+    let got = stream::received(s);
+    if size.is_some_and(|n| got > n as usize) {
+        return Err(AbortCode::LENGTH_TOO_HIGH);
+    }
     if last {
-        if size.is_some_and(|n| s.buf.len() < n as usize) {
+        if size.is_some_and(|n| got < n as usize) {
             return Err(AbortCode::LENGTH_TOO_LOW);
         }
         return Ok(Some(()));
     }
-    s.request(Request::UploadSegment { toggle: !toggle });
+    stream::request_room(s, Request::UploadSegment { toggle: !toggle }, SEGMENT_DATA);
     s.state = State::UploadSegment {
         toggle: !toggle,
         size,
