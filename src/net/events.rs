@@ -8,6 +8,7 @@ use crate::frame::cob_id::NodeId;
 use crate::frame::instant::Instant;
 use crate::machine::PortStatus;
 use crate::runtime::RuntimeEvent;
+use core::fmt;
 use tokio::sync::{broadcast, watch};
 
 /// One thing that happened on the network. Every variant is one level deep; the accessors
@@ -151,6 +152,44 @@ impl NetEvent {
     }
 }
 
+/// One line per event, as a monitor prints it: `node 0x05: boot-up`, `node 0x05: operational`,
+/// `node 0x05: heartbeat lost`, `node 0x05: heartbeat back`, `node 0x05: EMCY 0x8130 life guard
+/// or heartbeat error`, `node 0x05: TPDO 1 Input 1=7 Status=0`, `port: down (interface down)`,
+/// `12 events missed`.
+impl fmt::Display for NetEvent {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            NetEvent::BootUp { node, .. } => write!(f, "{node}: boot-up"),
+            NetEvent::State { node, to, .. } => write!(f, "{node}: {to}"),
+            NetEvent::HeartbeatLost { node, .. } => write!(f, "{node}: heartbeat lost"),
+            NetEvent::HeartbeatResumed { node, .. } => write!(f, "{node}: heartbeat back"),
+            NetEvent::Emcy { node, msg, .. } => {
+                write!(f, "{node}: EMCY {:#06x} {}", msg.code, msg.text())
+            }
+            NetEvent::Pdo {
+                node, pdo, values, ..
+            } => {
+                write!(f, "{node}: TPDO {pdo}")?;
+                for v in values.iter() {
+                    match &v.name {
+                        Some(name) => write!(f, " {name}={}", v.value)?,
+                        None => write!(f, " {:#06x}sub{}={}", v.index, v.sub, v.value)?,
+                    }
+                }
+                Ok(())
+            }
+            NetEvent::Port { status, .. } => match status {
+                PortStatus::TxOk => f.write_str("port: frame sent"),
+                PortStatus::TxFailed(c) => write!(f, "port: frame not sent ({c})"),
+                PortStatus::Error(c) => write!(f, "port: error ({c})"),
+                PortStatus::Down(c) => write!(f, "port: down ({c})"),
+                PortStatus::Up => f.write_str("port: up"),
+            },
+            NetEvent::Lagged(n) => write!(f, "{n} events missed"),
+        }
+    }
+}
+
 /// The network's events, from the moment [`Network::events`](super::Network::events) was
 /// called. `next().await` yields each event; a reader that falls more than
 /// [`EVENT_QUEUE`](crate::runtime::EVENT_QUEUE) events behind gets one
@@ -183,6 +222,74 @@ impl Events {
                 Err(broadcast::error::RecvError::Lagged(n)) => return Some(NetEvent::Lagged(n)),
                 Err(broadcast::error::RecvError::Closed) => return None,
             }
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::machine::ErrorCause;
+    use crate::net::pdo::PdoValue;
+    use crate::net::AnyValue;
+    use std::sync::Arc;
+
+    #[test]
+    fn each_event_is_one_line_naming_the_node() {
+        let node = NodeId::must(5);
+        let at = Instant::from_millis(7);
+        let emcy = EmcyMessage {
+            code: 0x8130,
+            register: 0x11,
+            data: [0; 5],
+        };
+        let values = PdoValues(Arc::from([
+            PdoValue {
+                index: 0x6000,
+                sub: 1,
+                name: Some(Arc::from("Input 1")),
+                value: AnyValue::Unsigned(7),
+            },
+            PdoValue {
+                index: 0x6000,
+                sub: 3,
+                name: None,
+                value: AnyValue::Signed(-2),
+            },
+        ]));
+        let lines = [
+            (
+                NetEvent::HeartbeatResumed { node, at },
+                "node 0x05: heartbeat back",
+            ),
+            (
+                NetEvent::Emcy {
+                    node,
+                    msg: emcy,
+                    at,
+                },
+                "node 0x05: EMCY 0x8130 life guard or heartbeat error",
+            ),
+            (
+                NetEvent::Pdo {
+                    node,
+                    pdo: 1,
+                    values,
+                    at,
+                },
+                "node 0x05: TPDO 1 Input 1=7 0x6000sub3=-2",
+            ),
+            (
+                NetEvent::Port {
+                    status: PortStatus::Down(ErrorCause::InterfaceDown),
+                    at,
+                },
+                "port: down (interface down)",
+            ),
+            (NetEvent::Lagged(12), "12 events missed"),
+        ];
+        for (event, line) in lines {
+            assert_eq!(event.to_string(), line);
         }
     }
 }

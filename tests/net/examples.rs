@@ -52,19 +52,19 @@ async fn heartbeat_monitor_prints_states_and_the_loss() {
             panic!("no line {want:?}");
         }
     };
-    until("node 3: boot-up").await;
-    until("node 3: pre-operational").await;
+    until("node 0x03: boot-up").await;
+    until("node 0x03: pre-operational").await;
     s.shutdown().await;
-    until("node 3: heartbeat lost").await;
+    until("node 0x03: heartbeat lost").await;
     net.close().await;
     run.await.unwrap().unwrap();
     let lines = lines.lock().unwrap().clone();
     assert_eq!(
         lines,
         [
-            "node 3: boot-up",
-            "node 3: pre-operational",
-            "node 3: heartbeat lost"
+            "node 0x03: boot-up",
+            "node 0x03: pre-operational",
+            "node 0x03: heartbeat lost"
         ]
     );
 }

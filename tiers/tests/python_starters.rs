@@ -65,19 +65,19 @@ async fn heartbeat_monitor_prints_the_python_nodes_boot_up_state_and_loss() {
             panic!("no line {want:?}; printed: {:?}", lines.lock().unwrap());
         }
     };
-    until("node 5: pre-operational", 5).await;
+    until("node 0x05: pre-operational", 5).await;
     peer.stop().await;
     // Silent for the monitor's 500 ms: lost.
-    until("node 5: heartbeat lost", 5).await;
+    until("node 0x05: heartbeat lost", 5).await;
     net.close().await;
     run.await.unwrap().unwrap();
     let lines = lines.lock().unwrap().clone();
     assert_eq!(
         lines,
         [
-            "node 5: boot-up",
-            "node 5: pre-operational",
-            "node 5: heartbeat lost"
+            "node 0x05: boot-up",
+            "node 0x05: pre-operational",
+            "node 0x05: heartbeat lost"
         ]
     );
 }
