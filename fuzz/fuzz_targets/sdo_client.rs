@@ -107,8 +107,10 @@ fuzz_target!(|data: &[u8]| {
     // after every timeout, nothing is left under way.
     now = common::sane(now);
     c.handle_timeout(now);
-    now += Duration::from_secs(10);
+    // Each round is long after the last: a sub-block the driver had not taken when its timeout
+    // came starts its wait over (a slow bus, not a silent server), and then times out.
     for _ in 0..8 {
+        now += Duration::from_secs(10);
         if c.poll_timeout().is_some_and(|t| t <= now) {
             c.handle_timeout(now);
         }

@@ -293,6 +293,59 @@ fn the_crc_of_a_streamed_block_upload_is_checked_over_the_chunks() {
     );
 }
 
+/// A server that announced fewer bytes than it sends in a block upload is refused with the
+/// segment that goes past the size, before a reader can take any of the excess (found by the
+/// `sdo_client` fuzz target: announced 0, then a full segment).
+#[test]
+fn a_block_upload_past_its_announced_size_is_aborted_at_once() {
+    for streamed in [true, false] {
+        let mut net = Net::new(&[]);
+        let opts = SdoOptions::mode(TransferMode::Block).with_block_size(10);
+        let id: RequestId = if streamed {
+            net.client
+                .upload_stream(net.now, N, 0x2000, 0, MIN_WINDOW, opts)
+                .unwrap()
+        } else {
+            net.client.upload(net.now, N, 0x2000, 0, opts).unwrap()
+        };
+        net.client.poll_transmit().expect("block upload initiate");
+        answer(
+            &mut net,
+            Response::BlockUploadInitiate {
+                index: 0x2000,
+                sub: 0,
+                crc: false,
+                size: Some(10),
+            }
+            .encode(),
+        );
+        expect(&mut net, Request::BlockUploadStart);
+        // 7 bytes: within the size; 14: past it, though the block is not over.
+        for seqno in 1..=2u8 {
+            let seg = BlockSegment {
+                seqno,
+                last: false,
+                data: [seqno; 7],
+            };
+            answer(&mut net, seg.encode());
+        }
+        let f = net.client.poll_transmit().expect("an abort");
+        assert_eq!(
+            f.data(),
+            [0x80, 0x00, 0x20, 0x00, 0x12, 0x00, 0x07, 0x06],
+            "abort 0x06070012, length too high"
+        );
+        let ev = net.client.poll_event().expect("the result");
+        assert_eq!(ev.request, id);
+        assert_eq!(
+            ev.result.unwrap_err().kind,
+            SdoErrorKind::Client(AbortCode::LENGTH_TOO_HIGH)
+        );
+        let mut out = [0u8; 64];
+        assert_eq!(net.client.read_stream(net.now, id, &mut out), None);
+    }
+}
+
 #[test]
 fn a_reader_that_does_not_read_stops_the_server_not_grows_the_buffer() {
     for (name, opts) in modes() {

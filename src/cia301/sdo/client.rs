@@ -392,6 +392,11 @@ impl<B: TransferBuffer, const SESSIONS: usize, S: Storage> SdoClient<B, SESSIONS
                 }
                 return match rx.segment(&d, &mut s.buf, s.bound) {
                     Err(c) => self.abort_session(i, now, c),
+                    // More than the server announced is an error at once, not at the end: a
+                    // streamed upload would otherwise hand the excess to its reader.
+                    Ok(_) if size.is_some_and(|n| stream::received(s) > n as usize) => {
+                        self.abort_session(i, now, AbortCode::LENGTH_TOO_HIGH)
+                    }
                     Ok(r) => {
                         s.state = State::BlockUpload { rx, crc, size };
                         s.touch(now);
