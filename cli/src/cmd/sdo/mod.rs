@@ -21,7 +21,7 @@ use duocan::{Duration, NodeId};
 use serde_json::{json, Value};
 use std::path::PathBuf;
 
-mod verify;
+pub(crate) mod verify;
 
 /// How a transfer travels.
 #[derive(clap::Args, Debug, Clone, Copy)]
