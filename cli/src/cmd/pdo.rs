@@ -218,7 +218,16 @@ async fn map(g: &Global, bus: &Bus, a: MapArgs) -> Result<(), Fail> {
     Ok(())
 }
 
+/// Adds one entry; what the mapping cannot take (too many bits, an unknown name) is the
+/// command line's fault: nothing was written yet.
 fn apply_add(node: &RemoteNode, m: &mut PdoMap, add: &Add) -> Result<(), Fail> {
+    add_entry(node, m, add).map_err(|f| match f {
+        Fail::Protocol(why) => Fail::Usage(why),
+        usage => usage,
+    })
+}
+
+fn add_entry(node: &RemoteNode, m: &mut PdoMap, add: &Add) -> Result<(), Fail> {
     let desc = node.description();
     match add {
         Add::At(i, s, Some(bits)) => m.add(*i, *s, *bits).map(drop)?,

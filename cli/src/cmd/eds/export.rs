@@ -191,7 +191,7 @@ async fn from_description(
         }
         match sdo.read_bytes(index, sub).await {
             Ok(data) => {
-                if od.write_local(index, sub, &data).is_ok() {
+                if od.store(index, sub, &data).is_ok() {
                     tally.read += 1;
                 } else {
                     // Longer than the description allows: keep its default, say so.
@@ -302,7 +302,7 @@ fn add(
         def.capacity = def.capacity.max(data.len() as u32);
     }
     let _ = od.insert_owned(def, &name, None);
-    let _ = od.write_local(index, sub, data);
+    let _ = od.store(index, sub, data);
 }
 
 /// A type for bytes of an entry nothing describes.
