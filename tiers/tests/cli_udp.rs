@@ -1,11 +1,14 @@
 //! The `duocan` tool against a duocan node on python-can's UDP bus. Runs inside `unshare -n`
 //! with the tool built first (`.ci/tier-python.sh` does both): `cargo build -p duocan-cli`.
 
+#[path = "common/peer.rs"]
+mod peer;
 #[path = "../../tests/common/runtime.rs"]
 mod rt;
 
 use duocan::port::udp::{UdpBusConfig, UdpPort};
 use duocan::runtime::{Handle, Runtime};
+use peer::{group, Peer};
 use rt::{sdo_node, single, TestNode};
 use std::path::PathBuf;
 use std::process::Output;
@@ -168,4 +171,82 @@ async fn failures_say_what_failed_and_exit_non_zero() {
         "nothing written"
     );
     node.shutdown().await;
+}
+
+/// `scan`, `nmt` and `pdo show` with a python `canopen` LocalNode (0x22) and a duocan node (5)
+/// on one UDP bus: the tool finds exactly the two, drives the python node's NMT state and
+/// reads its PDO configuration.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn scans_drives_and_reads_pdos_of_a_python_node() {
+    let cfg = UdpBusConfig::numbered(22);
+    let node = node_on(22).await;
+    let (g, p) = group(&cfg);
+    let mut py = Peer::spawn(&["node", "0x22", "100", &g, &p]).await;
+    py.expect("STATE PRE-OPERATIONAL", 10).await;
+    let bus = "udp:22";
+
+    let (code, out, err) = duocan(bus, &["scan", "--listen", "500"]).await;
+    assert_eq!(code, 0, "{err}");
+    let rows: Vec<Vec<&str>> = out
+        .lines()
+        .skip(1)
+        .map(|l| l.split_whitespace().collect())
+        .collect();
+    let ids: Vec<&str> = rows.iter().map(|r| r[0]).collect();
+    assert_eq!(ids, ["0x05", "0x22"], "{out}");
+    // node, state, device type, vendor, then product, revision, serial, name, description:
+    // what the python dictionary does not have is empty, not an error.
+    assert_eq!(
+        rows[1],
+        [
+            "0x22",
+            "pre-operational",
+            "0x00020192",
+            "0x0000d0ca",
+            "-",
+            "-",
+            "-",
+            "-",
+            "-"
+        ],
+        "{out}"
+    );
+    // Node 5 sends no heartbeat (and booted before the tool listened): found by its SDO
+    // answer alone.
+    assert_eq!(rows[0][1..3], ["(not", "heard)"], "{out}");
+    assert_eq!(rows[0][4], "0x00001234", "{out}");
+
+    let (code, out, err) = duocan(bus, &["nmt", "start", "0x22", "--wait"]).await;
+    assert_eq!(code, 0, "{err}");
+    assert_eq!(out, "NMT start sent to node 0x22: operational\n");
+    py.expect("STATE OPERATIONAL", 5).await;
+    let (code, out, err) = duocan(bus, &["nmt", "preop", "all"]).await;
+    assert_eq!(code, 0, "{err}");
+    assert_eq!(out, "NMT preop sent to all nodes\n");
+    py.expect("STATE PRE-OPERATIONAL", 5).await;
+
+    // The python node has TPDO 1 (0x6000, 16 bits) and no RPDO; no description: no names.
+    let (code, out, err) = duocan(bus, &["pdo", "show", "0x22"]).await;
+    assert_eq!(code, 0, "{err}");
+    let lines: Vec<&str> = out.lines().collect();
+    assert_eq!(lines.len(), 2, "{out}");
+    assert!(
+        lines[1].starts_with("0x22  TPDO 1  0x1a2   yes      254 "),
+        "{out}"
+    );
+    assert!(lines[1].ends_with("0x6000:00/16"), "{out}");
+    py.stop().await;
+    node.shutdown().await;
+}
+
+/// A bus nobody is on: exit 0 and the words, not an error.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn scan_of_an_empty_bus_says_so() {
+    let (code, out, err) = duocan(
+        "udp:23",
+        &["scan", "--listen", "100", "--probe-timeout", "20"],
+    )
+    .await;
+    assert_eq!(code, 0, "{err}");
+    assert_eq!(out, "no nodes answered\n");
 }
