@@ -296,3 +296,28 @@ async fn read_back(g: &Global, f: &Flash, path: &PathBuf, sent: u64) -> Result<b
         Err(e) => Err(f.failed("read back (0x1F50)", e).await),
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn program_numbers_and_status_words() {
+        assert_eq!(parse_program("1"), Ok(1));
+        assert_eq!(parse_program("0xFE"), Ok(254));
+        assert!(parse_program("0").is_err() && parse_program("255").is_err());
+        assert_eq!(status_text(0), "no error (flash status 0x0, code 0)");
+        assert_eq!(
+            status_text(3 << 1 | 1),
+            "data format error or checksum mismatch (flash status 0x7, code 3, in progress)"
+        );
+    }
+
+    proptest::proptest! {
+        #[test]
+        fn parsers_never_panic(s in ".*") {
+            let _ = parse_program(&s);
+            let _ = parse_id(&s);
+        }
+    }
+}

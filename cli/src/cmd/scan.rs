@@ -44,6 +44,11 @@ use std::time::Duration;
 
 /// The arguments of `duocan scan`.
 #[derive(clap::Args, Debug)]
+#[command(
+    after_help = "Nodes are found by listening for boot-ups and heartbeats and, at the same \
+time, by asking every node-ID 1-127 for 0x1000 over SDO (the requests run together, 100 ms each). \
+A full scan takes about 1.6 s on --bus sim."
+)]
 pub struct Args {
     /// Listen for boot-ups and heartbeats this long, in milliseconds
     #[arg(long, value_name = "MS", default_value = "1500", value_parser = parse_listen)]
@@ -283,4 +288,25 @@ fn print(g: &Global, bus: &Bus, found: &BTreeMap<u8, Found>) {
         t.row(row);
     }
     t.print(g.json);
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn listen_takes_zero_to_an_hour() {
+        assert_eq!(parse_listen("0"), Ok(0));
+        assert_eq!(parse_listen("3600000"), Ok(3_600_000));
+        for bad in ["3600001", "-1", "1.5", "", "1s"] {
+            assert!(parse_listen(bad).is_err(), "{bad:?}");
+        }
+    }
+
+    proptest::proptest! {
+        #[test]
+        fn listen_never_panics(s in ".*") {
+            let _ = parse_listen(&s);
+        }
+    }
 }

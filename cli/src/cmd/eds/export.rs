@@ -344,3 +344,40 @@ fn rebased(od: &DynamicDictionary) -> DynamicDictionary {
     });
     out
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn ranges_parse_strictly() {
+        assert_eq!(parse_range("0x2000-0x2FFF"), Ok((0x2000, 0x2FFF)));
+        assert_eq!(parse_range("8192-8192"), Ok((0x2000, 0x2000)));
+        for bad in [
+            "0x2000",
+            "0x3000-0x2000",
+            "0x2000-",
+            "-0x2000",
+            "0x2000-0x10000",
+            "a-b",
+        ] {
+            assert!(parse_range(bad).is_err(), "{bad:?}");
+        }
+    }
+
+    #[test]
+    fn guessed_types_follow_the_size() {
+        assert_eq!(guess(&[1]), DataType::Unsigned8);
+        assert_eq!(guess(&[1, 2, 3, 4]), DataType::Unsigned32);
+        assert_eq!(guess(b"abc"), DataType::VisibleString);
+        assert_eq!(guess(&[0, 1, 2]), DataType::Domain);
+        assert_eq!(guess(&[]), DataType::Domain);
+    }
+
+    proptest::proptest! {
+        #[test]
+        fn range_never_panics(s in ".*") {
+            let _ = parse_range(&s);
+        }
+    }
+}
