@@ -117,7 +117,7 @@ async fn listen(net: &Network, timeout_ms: u64, addr: SocketAddr) -> Result<(), 
     eprintln!("duocan gateway: listening on {bound}");
     let slots = Arc::new(tokio::sync::Semaphore::new(MAX_CLIENTS));
     loop {
-        let (mut stream, peer) = tokio::select! {
+        let (mut stream, _) = tokio::select! {
             r = listener.accept() => match r {
                 Ok(c) => c,
                 Err(e) => {
@@ -137,7 +137,6 @@ async fn listen(net: &Network, timeout_ms: u64, addr: SocketAddr) -> Result<(), 
             let (r, w) = stream.split();
             serve(&net, timeout_ms, BufReader::new(r), w, "\r\n").await;
             drop(slot);
-            let _ = peer;
         });
     }
 }
