@@ -302,6 +302,9 @@ fn listen_refuses_other_than_loopback_unless_told() {
     let r = duocan(&["--bus", "sim", "gateway", "--listen", "localhost"]);
     assert_eq!(r.code, 2);
     assert!(!r.err.contains("panicked"), "{}", r.err);
+    let r = duocan(&["--bus", "sim", "--json", "gateway"]);
+    assert_eq!(r.code, 2);
+    assert!(r.err.contains("--json does not apply"), "{}", r.err);
     // No bus: a usage error before anything is read.
     let r = duocan(&["gateway"]);
     assert_eq!(r.code, 2);

@@ -87,6 +87,11 @@ pub struct Args {
 
 /// Runs `duocan gateway`.
 pub async fn run(g: &Global, a: Args) -> Result<(), Fail> {
+    if g.json {
+        return Err(Fail::usage(
+            "gateway: the answers are CiA 309-3 text lines; --json does not apply",
+        ));
+    }
     if let Some(addr) = a.listen {
         if !addr.ip().is_loopback() && !a.allow_remote {
             return Err(Fail::usage(format!(
