@@ -1,7 +1,10 @@
 //! `duocan gateway`: CiA 309-3 requests on standard input and over TCP, against the simulated
 //! nodes of `--bus sim`.
 
+#[path = "common/base64.rs"]
+mod base64;
 mod common;
+use base64::b64;
 use common::duocan;
 use duocan::net::{SIM_DEVICE_NAME, SIM_HEARTBEAT_MS, SIM_VENDOR};
 use std::io::{BufRead, BufReader, Read, Write};
@@ -31,25 +34,6 @@ fn gateway(script: &str) -> (i32, String, String) {
         String::from_utf8_lossy(&o.stdout).into_owned(),
         String::from_utf8_lossy(&o.stderr).into_owned(),
     )
-}
-
-/// Base64 as the test writes it by hand (3 bytes to 4 characters), to check the gateway's.
-fn b64(data: &[u8]) -> String {
-    const A: &[u8] = b"ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
-    let mut s = String::new();
-    for c in data.chunks(3) {
-        let n = (u32::from(c[0]) << 16)
-            | (u32::from(*c.get(1).unwrap_or(&0)) << 8)
-            | u32::from(*c.get(2).unwrap_or(&0));
-        for i in 0..4 {
-            s.push(if i <= c.len() {
-                char::from(A[(n >> (18 - 6 * i) & 63) as usize])
-            } else {
-                '='
-            });
-        }
-    }
-    s
 }
 
 #[test]

@@ -3,9 +3,12 @@
 //! python `LocalNode`, which reports every write it takes and every NMT state it enters.
 //! Runs inside `unshare -n` with the tool built first (`.ci/tier-python.sh` does both).
 
+#[path = "../../cli/tests/common/base64.rs"]
+mod base64;
 #[path = "common/peer.rs"]
 mod peer;
 
+use base64::b64;
 use duocan::port::udp::UdpBusConfig;
 use peer::{group, Peer};
 use std::path::PathBuf;
@@ -87,25 +90,6 @@ impl Client {
             .unwrap_or_else(|| panic!("the gateway closed the connection at {line:?}"));
         resp.trim_end_matches('\r').to_string()
     }
-}
-
-/// The base64 of `data` (RFC 4648, padded), written here independently of the tool's.
-fn b64(data: &[u8]) -> String {
-    const A: &[u8] = b"ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
-    let mut s = String::new();
-    for c in data.chunks(3) {
-        let n = (u32::from(c[0]) << 16)
-            | (u32::from(*c.get(1).unwrap_or(&0)) << 8)
-            | u32::from(*c.get(2).unwrap_or(&0));
-        for i in 0..4 {
-            s.push(if i <= c.len() {
-                char::from(A[(n >> (18 - 6 * i) & 63) as usize])
-            } else {
-                '='
-            });
-        }
-    }
-    s
 }
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
