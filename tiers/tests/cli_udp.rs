@@ -250,3 +250,151 @@ async fn scan_of_an_empty_bus_says_so() {
     assert_eq!(code, 0, "{err}");
     assert_eq!(out, "no nodes answered\n");
 }
+
+/// A program store in RAM for the flash test: it keeps the FNV-1a hash of what it staged as
+/// the identification the program reports once started (0x1F56), not the image.
+#[derive(Default)]
+struct RamStore {
+    running: u32,
+    staged: Option<u32>,
+}
+
+/// 1 MiB: the image, the domain, and the node's SDO transfer limit.
+const MIB: usize = 1 << 20;
+
+fn fnv1a(data: &[u8]) -> u32 {
+    data.iter().fold(0x811C_9DC5, |h: u32, b| {
+        (h ^ u32::from(*b)).wrapping_mul(0x0100_0193)
+    })
+}
+
+impl duocan::cia302::program::ProgramStore for RamStore {
+    fn capacity(&self) -> u32 {
+        MIB as u32
+    }
+    fn stop(&mut self) {}
+    fn run(&mut self) {}
+    fn clear(&mut self) -> Result<(), duocan::cia302::program::FlashError> {
+        self.staged = None;
+        Ok(())
+    }
+    fn stage(&mut self, image: &[u8]) -> Result<(), duocan::cia302::program::FlashError> {
+        self.staged = Some(fnv1a(image));
+        Ok(())
+    }
+    fn activate(&mut self) -> Result<(), duocan::cia302::program::FlashError> {
+        self.running = self
+            .staged
+            .take()
+            .ok_or(duocan::cia302::program::FlashError::NoValidProgram)?;
+        Ok(())
+    }
+    fn identification(&self) -> u32 {
+        self.running
+    }
+}
+
+/// `flash` of a 1 MiB image to a duocan node with program download, and the same mebibyte to
+/// a DOMAIN with `sdo write --file --verify`: both with their progress lines, which this test
+/// writes to the log (uncaptured), so that the CI log shows how the transfers went.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn flashes_and_writes_a_mebibyte_with_progress_in_the_log() {
+    use duocan::cia302::program::ProgramDictionary;
+    use duocan::od::{comm, Access, DataType, ObjectDef};
+    use duocan::sdo::SdoServerConfig;
+    use duocan::{Node, NodeConfig, NodeId};
+    use std::io::Write;
+
+    let id = NodeId::new(9).unwrap();
+    let mut od = comm::standard_dictionary(9, comm::Identity::default());
+    od.upsert(
+        ObjectDef::bytes(0x2002, 0, DataType::Domain, MIB as u32)
+            .access(Access::Rw)
+            .named("Domain"),
+    );
+    let mut n = Node::new(
+        NodeConfig::slave(id),
+        ProgramDictionary::new(od, RamStore::default()),
+    );
+    n.sdo_server_mut()
+        .set_config(SdoServerConfig::default().with_max_transfer(MIB));
+    let node = Runtime::new(duocan::Station::single(n))
+        .name("flash node")
+        .port(UdpPort::open(UdpBusConfig::numbered(24)).expect("open the UDP bus"))
+        .spawn()
+        .unwrap();
+    node.boot().await.unwrap();
+
+    let dir = std::env::temp_dir().join(format!("duocan-cli-udp-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let img = dir.join("image.bin");
+    let image: Vec<u8> = (0..MIB)
+        .map(|i| (i as u32).wrapping_mul(2_654_435_761).to_le_bytes()[3])
+        .collect();
+    std::fs::write(&img, &image).unwrap();
+    let img = img.to_str().unwrap();
+    let want = format!("{:#x}", fnv1a(&image));
+
+    let (code, out, err) = duocan(
+        "udp:24",
+        &["flash", "9", img, "--verify", "--expect-id", &want],
+    )
+    .await;
+    // Uncaptured: the progress lines stand in the CI log.
+    let _ = writeln!(
+        std::io::stderr(),
+        "duocan flash, its standard error:\n{err}"
+    );
+    assert_eq!(code, 0, "{err}");
+    assert!(
+        out.starts_with("flash node 0x09 program 1: 1048576 bytes in "),
+        "{out}"
+    );
+    assert!(
+        out.contains(
+            "written, not read back (0x1F50 is write-only on this node), started; no error"
+        ),
+        "{out}"
+    );
+    for pct in ["(10%)", "(50%)", "(100%)"] {
+        assert!(err.contains(pct), "no {pct} progress line: {err}");
+    }
+    let running = node.read(0x1F56, 1).await.unwrap();
+    assert_eq!(running, fnv1a(&image).to_le_bytes(), "the new program runs");
+
+    let (code, out, err) = duocan(
+        "udp:24",
+        &[
+            "sdo", "write", "9", "0x2002", "--file", img, "--verify", "--block",
+        ],
+    )
+    .await;
+    let _ = writeln!(
+        std::io::stderr(),
+        "duocan sdo write, its standard error:\n{err}"
+    );
+    assert_eq!(code, 0, "{err}");
+    assert!(out.ends_with(", verified\n"), "{out}");
+    assert!(
+        err.contains("write node 0x09 0x2002:00: 1048576/1048576 bytes (100%)"),
+        "{err}"
+    );
+    assert!(err.contains("verify node 0x09 0x2002:00:"), "{err}");
+    assert_eq!(node.read(0x2002, 0).await.unwrap(), image);
+
+    // Too large for the node: the node's abort and its meaning, exit 1, the old program kept.
+    let big = dir.join("big.bin");
+    std::fs::write(&big, vec![0u8; MIB + 1]).unwrap();
+    let (code, _, err) = duocan("udp:24", &["-q", "flash", "9", big.to_str().unwrap()]).await;
+    assert_eq!(code, 1, "{err}");
+    assert!(
+        err.contains("download (0x1F50)") && err.contains("0x06070012"),
+        "{err}"
+    );
+    assert_eq!(
+        node.read(0x1F56, 1).await.unwrap(),
+        fnv1a(&image).to_le_bytes()
+    );
+    let _ = std::fs::remove_dir_all(&dir);
+    node.shutdown().await;
+}
