@@ -94,7 +94,7 @@ impl FaultRates {
 }
 
 /// True with probability `p`, drawing only when the outcome is in doubt.
-pub(super) fn chance(rng: &mut fastrand::Rng, p: f64) -> bool {
+pub(crate) fn chance(rng: &mut fastrand::Rng, p: f64) -> bool {
     if p <= 0.0 {
         false
     } else if p >= 1.0 {
@@ -110,7 +110,7 @@ pub(super) fn either(a: f64, b: f64) -> f64 {
 }
 
 /// The frame with one random data bit flipped, or `None` if it carries no data.
-pub(super) fn flip_bit(rng: &mut fastrand::Rng, frame: &Frame) -> Option<Frame> {
+pub(crate) fn flip_bit(rng: &mut fastrand::Rng, frame: &Frame) -> Option<Frame> {
     let len = frame.data().len();
     if len == 0 {
         return None;
