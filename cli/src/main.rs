@@ -108,6 +108,9 @@ enum Command {
     Flash(cmd::flash::Args),
     /// The CiA 309-3 ASCII gateway, on standard input or a loopback TCP port
     Gateway(cmd::gateway::Args),
+    /// The failover test kit: scenarios of faults and what must happen
+    #[command(subcommand)]
+    Kit(cmd::kit::Kit),
 }
 
 fn main() -> ExitCode {
@@ -136,6 +139,7 @@ fn main() -> ExitCode {
             Command::Eds(c) => cmd::eds::run(&g, c).await,
             Command::Flash(a) => cmd::flash::run(&g, a).await,
             Command::Gateway(a) => cmd::gateway::run(&g, a).await,
+            Command::Kit(k) => cmd::kit::run(&g, k).await,
         }
     });
     match r {
