@@ -264,6 +264,16 @@ impl Bridge {
     pub fn bus_counters(&self, bus: usize) -> Option<&MemberCounters> {
         self.buses.get(bus).map(|b| &b.counters)
     }
+    /// The random faults of bus `bus` as set.
+    #[must_use]
+    pub fn bus_faults(&self, bus: usize) -> Option<FaultRates> {
+        self.buses.get(bus).map(|b| b.odds.rates)
+    }
+    /// The random faults of member `m`'s receive side as set.
+    #[must_use]
+    pub fn port_faults(&self, m: usize) -> Option<FaultRates> {
+        self.members.get(m).map(|m| m.odds.rates)
+    }
     /// Frames waiting for member `m`.
     #[must_use]
     pub fn queued(&self, m: usize) -> usize {
@@ -373,6 +383,7 @@ impl Bridge {
             return;
         }
         let b = &mut self.buses[bus];
+        b.counters.rx += 1;
         if !b.up {
             b.counters.cut += 1;
             return;

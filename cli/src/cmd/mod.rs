@@ -1,5 +1,6 @@
 //! The commands, one module each.
 
+pub mod device;
 pub mod dump;
 pub mod eds;
 pub mod flash;

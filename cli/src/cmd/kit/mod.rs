@@ -9,6 +9,7 @@
 //! ```
 
 mod expect;
+mod run;
 mod scenario;
 
 use crate::fail::Fail;
@@ -28,6 +29,15 @@ pub enum Kit {
     Validate {
         /// The scenario (TOML)
         file: PathBuf,
+    },
+    /// Run a scenario on real interfaces: the fault bridge between its members, its devices,
+    /// its timeline; then measure its expectations on the logs
+    Run {
+        /// The scenario (TOML)
+        file: PathBuf,
+        /// Where the logs, pcaps and device outputs go
+        #[arg(long, default_value = "kit-run")]
+        out: PathBuf,
     },
     /// Measure a scenario's expectations on the candump logs of a run
     Check {
@@ -73,6 +83,63 @@ pub async fn run(g: &Global, k: Kit) -> Result<(), Fail> {
                        "expectations": s.expects.len(), "duration_ms": s.duration_ms}),
             );
             Ok(())
+        }
+        Kit::Run { file, out } => {
+            let s = load(&file)?;
+            println!(
+                "scenario {:?}: {} ms, logs in {}",
+                s.name,
+                s.duration_ms,
+                out.display()
+            );
+            let r = run::run(g, &s, &out).await?;
+            let mut t = Table::new(&[
+                "wire",
+                "rx",
+                "tx",
+                "cut",
+                "partitioned",
+                "dropped",
+                "corrupted",
+                "flipped",
+                "duplicated",
+                "delayed",
+                "babbled",
+                "overflow",
+                "tx failed",
+            ]);
+            for (name, c) in r.buses.iter().chain(&r.members) {
+                t.row(vec![
+                    name.clone().into(),
+                    c.rx.into(),
+                    c.tx.into(),
+                    c.cut.into(),
+                    c.partitioned.into(),
+                    c.dropped.into(),
+                    c.corrupted.into(),
+                    c.flipped.into(),
+                    c.duplicated.into(),
+                    c.delayed.into(),
+                    c.babbled.into(),
+                    c.overflow.into(),
+                    c.tx_failed.into(),
+                ]);
+            }
+            t.print(g.json);
+            let unasked: u64 = r
+                .members
+                .iter()
+                .map(|(_, c)| c.overflow + c.tx_failed)
+                .sum();
+            let (wires, end) = read_wires(&s, &r.dir, None)?;
+            let verdict = report(g, &s, &wires, end);
+            if unasked > 0 || r.log_errors > 0 {
+                return Err(Fail::protocol(format!(
+                    "the bridge lost {unasked} frame(s) it was not told to drop, and {} log write(s) failed",
+                    r.log_errors
+                )));
+            }
+            verdict
         }
         Kit::Check {
             file,

@@ -13,7 +13,8 @@
 //! [[device]]
 //! name = "board_a"
 //! ports = ["vs1a", "vs2a"]             # the members it is on
-//! run = ["duocan-board", "--node", "0x10", "vs1a,vs2a"]   # started by the kit (argv)
+//! run = ["{duocan}", "--bus", "vs1a,vs2a", "device", "board", "--node", "0x10"]
+//! start_ms = 0                         # when the kit starts it (argv; {duocan}: this tool)
 //!
 //! [[fault]]
 //! at_ms = 1000
@@ -70,6 +71,8 @@ struct FileDevice {
     name: String,
     ports: Vec<String>,
     run: Vec<String>,
+    #[serde(default)]
+    start_ms: u64,
     /// What stands in for the device in the simulator.
     sim: Option<String>,
 }
@@ -182,6 +185,8 @@ pub struct Device {
     pub ports: Vec<String>,
     /// Its command line.
     pub run: Vec<String>,
+    /// When it is started, ms.
+    pub start_ms: u64,
     /// What stands in for it in the simulator.
     pub sim: Option<String>,
 }
@@ -257,10 +262,14 @@ fn check(f: FileScenario) -> Result<Scenario, String> {
         if devices.iter().any(|x: &Device| x.name == d.name) {
             return Err(format!("device {:?} is named twice", d.name));
         }
+        if d.start_ms > f.duration_ms {
+            return Err(format!("device {:?} starts after the end", d.name));
+        }
         devices.push(Device {
             name: d.name,
             ports: d.ports,
             run: d.run,
+            start_ms: d.start_ms,
             sim: d.sim,
         });
     }
