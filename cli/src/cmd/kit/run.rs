@@ -25,12 +25,17 @@ use std::path::{Path, PathBuf};
 use std::sync::{Arc, Mutex};
 use tokio::process::{Child, Command};
 
+/// A wire's candump log.
+type Log = CandumpWriter<BufWriter<File>>;
+/// A bus's pcap.
+type Pcap = PcapWriter<BufWriter<File>>;
+
 /// The wires' log writers.
 struct Logs {
     epoch_us: u64,
     /// Per member: its log; per bus: its log and pcap; `bus_of[member]`.
-    members: Vec<CandumpWriter<BufWriter<File>>>,
-    buses: Vec<(CandumpWriter<BufWriter<File>>, PcapWriter<BufWriter<File>>)>,
+    members: Vec<Log>,
+    buses: Vec<(Log, Pcap)>,
     names: Vec<String>,
     bus_of: Vec<usize>,
     errors: u64,
