@@ -129,6 +129,16 @@ impl SimNetwork {
         self.buses[bus.index()].faults = (!rates.is_none()).then_some(rates);
     }
 
+    /// The random fault rates of a bus as set ([`FaultRates::NONE`] unless set).
+    pub fn bus_faults(&self, bus: BusId) -> FaultRates {
+        self.bus(bus).faults.unwrap_or(FaultRates::NONE)
+    }
+    /// The random fault rates of one receiving port as set.
+    pub fn port_faults(&self, port: PortRef) -> FaultRates {
+        self.ports[self.port_index(port)]
+            .faults
+            .unwrap_or(FaultRates::NONE)
+    }
     /// Sets the random fault rates of one receiving port.
     pub fn set_port_faults(&mut self, port: PortRef, rates: FaultRates) {
         let p = self.port_index(port);

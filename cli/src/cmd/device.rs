@@ -20,6 +20,7 @@ use duocan::od::{comm, ObjectDictionary};
 use duocan::runtime::Runtime;
 use duocan::{Duration, Instant, Node, NodeConfig, NodeId, Station};
 use duocan_redundancy::net::RedundantNetwork;
+use duocan_redundancy::RedundantNetworkBuilder;
 use duocan_redundancy::{DualBus, DualBusConfig};
 
 /// `duocan device` subcommands.
@@ -100,6 +101,51 @@ async fn until_stopped(duration_ms: Option<u64>) -> Result<(), Fail> {
     Ok(())
 }
 
+/// A duocan board: node `node`, heartbeat every `heartbeat_ms`, booted at `at`.
+pub fn board(node: NodeId, heartbeat_ms: u64, at: Instant) -> Result<Board, Fail> {
+    let ident = comm::Identity {
+        vendor: duocan::net::SIM_VENDOR,
+        product: u32::from(node.raw()),
+        ..Default::default()
+    };
+    let mut od = comm::standard_dictionary(node.raw(), ident);
+    let hb =
+        u16::try_from(heartbeat_ms).map_err(|_| Fail::usage("--heartbeat-ms: at most 65535"))?;
+    let _ = od.write_local(comm::HEARTBEAT_PRODUCER, 0, &hb.to_le_bytes());
+    let mut n = Node::new(NodeConfig::slave(node), od);
+    n.boot(at);
+    Ok(Station::new(DualBus::new(DualBusConfig::default()), n))
+}
+
+/// The builder of a duocan redundant master with these settings.
+pub fn master(
+    node: NodeId,
+    pairs: &[(u8, u8)],
+    peers: &[NodeId],
+    priority: u8,
+    heartbeat_ms: u64,
+    timeout_ms: u64,
+) -> RedundantNetworkBuilder {
+    let ms = Duration::from_millis;
+    let mut bld = RedundantNetwork::builder()
+        .node_id(node.raw())
+        .priority(priority)
+        .heartbeat(ms(heartbeat_ms))
+        .master_timeout(ms(timeout_ms))
+        .pair_heartbeat(ms(heartbeat_ms))
+        .pair_timeout(ms(timeout_ms));
+    for &(x, y) in pairs {
+        bld = bld.pair(x, y);
+    }
+    for p in peers {
+        bld = bld.peer_master(p.raw());
+    }
+    bld
+}
+
+/// A duocan board as [`board`] builds it.
+pub type Board = duocan_redundancy::DualBusNode<duocan::od::DynamicDictionary>;
+
 /// Runs `duocan device`.
 pub async fn run(g: &Global, d: Device) -> Result<(), Fail> {
     let [a, b] = two(g)?;
@@ -113,18 +159,7 @@ pub async fn run(g: &Global, d: Device) -> Result<(), Fail> {
             heartbeat_ms,
             duration_ms,
         } => {
-            let ident = comm::Identity {
-                vendor: duocan::net::SIM_VENDOR,
-                product: u32::from(node.raw()),
-                ..Default::default()
-            };
-            let mut od = comm::standard_dictionary(node.raw(), ident);
-            let hb = u16::try_from(heartbeat_ms)
-                .map_err(|_| Fail::usage("--heartbeat-ms: at most 65535"))?;
-            let _ = od.write_local(comm::HEARTBEAT_PRODUCER, 0, &hb.to_le_bytes());
-            let mut n = Node::new(NodeConfig::slave(node), od);
-            n.boot(Instant::ZERO);
-            let board = Station::new(DualBus::new(DualBusConfig::default()), n);
+            let board = board(node, heartbeat_ms, Instant::ZERO)?;
             let h = Runtime::boxed(Box::new(board))
                 .name(format!("board {:#04x}", node.raw()))
                 .port(pa)
@@ -145,20 +180,7 @@ pub async fn run(g: &Global, d: Device) -> Result<(), Fail> {
             timeout_ms,
             duration_ms,
         } => {
-            let ms = Duration::from_millis;
-            let mut bld = RedundantNetwork::builder()
-                .node_id(node.raw())
-                .priority(priority)
-                .heartbeat(ms(heartbeat_ms))
-                .master_timeout(ms(timeout_ms))
-                .pair_heartbeat(ms(heartbeat_ms))
-                .pair_timeout(ms(timeout_ms));
-            for (x, y) in pair {
-                bld = bld.pair(x, y);
-            }
-            for p in peer {
-                bld = bld.peer_master(p.raw());
-            }
+            let bld = master(node, &pair, &peer, priority, heartbeat_ms, timeout_ms);
             let net = bld.open(pa, pb).map_err(|e| Fail::usage(e.to_string()))?;
             eprintln!("master {:#04x} on {a},{b}", node.raw());
             let mut events = net.events();

@@ -11,6 +11,7 @@
 mod expect;
 mod run;
 mod scenario;
+mod sim;
 
 use crate::fail::Fail;
 use crate::out::{Cell, Table};
@@ -38,6 +39,15 @@ pub enum Kit {
         /// Where the logs, pcaps and device outputs go
         #[arg(long, default_value = "kit-run")]
         out: PathBuf,
+    },
+    /// Run a scenario in duocan's simulator (simulated time, the same faults by the same
+    /// names), then measure its expectations as on a real run
+    Sim {
+        /// The scenario (TOML)
+        file: PathBuf,
+        /// The simulated buses' bit rate
+        #[arg(long, default_value = "1000000")]
+        bitrate: u32,
     },
     /// Measure a scenario's expectations on the candump logs of a run
     Check {
@@ -140,6 +150,17 @@ pub async fn run(g: &Global, k: Kit) -> Result<(), Fail> {
                 )));
             }
             verdict
+        }
+        Kit::Sim { file, bitrate } => {
+            let s = load(&file)?;
+            if !g.json {
+                println!(
+                    "scenario {:?} in the simulator: {} ms",
+                    s.name, s.duration_ms
+                );
+            }
+            let (wires, end) = sim::run(&s, bitrate, g.json)?;
+            report(g, &s, &wires, end)
         }
         Kit::Check {
             file,
