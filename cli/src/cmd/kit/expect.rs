@@ -75,8 +75,9 @@ pub enum Expect {
         /// End of the window, µs (`None`: the end of the run).
         to: Option<u64>,
     },
-    /// No frame matching `frames` appears twice (same identifier and data) within `window` µs
-    /// on any wire of `on`.
+    /// No frame matching `frames` appears twice: with `from` (the sender's own wire), no wire
+    /// of `on` carries more of them than `from` does (each frame sent arrives at most once);
+    /// without, no two identical ones arrive within `window` µs.
     NoDuplicate {
         /// The frames.
         frames: Match,
@@ -84,6 +85,8 @@ pub enum Expect {
         on: Vec<String>,
         /// The window, µs.
         window: u64,
+        /// The sender's wire, if compared with it.
+        from: Option<String>,
     },
     /// No frame matching `frames` on any wire of `on` between `from` and `to` µs.
     Never {
@@ -201,7 +204,33 @@ pub fn measure(e: &Expect, wires: &Wires, end: u64) -> Result<Outcome, String> {
                 );
             }
         }
-        Expect::NoDuplicate { frames, on, window } => {
+        Expect::NoDuplicate {
+            frames,
+            on,
+            from: Some(from),
+            ..
+        } => {
+            let sent = wire(wires, from)?
+                .iter()
+                .filter(|(_, f)| frames.matches(f))
+                .count();
+            let _ = write!(text, "{sent} sent on {from}: ");
+            for (i, name) in on.iter().enumerate() {
+                let got = wire(wires, name)?
+                    .iter()
+                    .filter(|(_, f)| frames.matches(f))
+                    .count();
+                pass &= got <= sent;
+                let sep = if i == 0 { "" } else { ", " };
+                let _ = write!(text, "{sep}{got} on {name}");
+            }
+        }
+        Expect::NoDuplicate {
+            frames,
+            on,
+            window,
+            from: None,
+        } => {
             for (i, name) in on.iter().enumerate() {
                 let w: Vec<&(u64, Frame)> = wire(wires, name)?
                     .iter()
@@ -368,10 +397,27 @@ mod tests {
             frames: hb(0x190),
             on: vec!["bus2".into()],
             window: 1_000,
+            from: None,
         };
         let o = measure(&e, &w, 60_000).unwrap();
         assert_eq!(o.measured, "1 twin(s) on bus2, first at 50.30 ms");
         assert!(!o.pass);
+        // Against the sender's wire: three sent, three arrived; a fourth is one too many.
+        let mut w2 = w.clone();
+        w2.insert("vs".into(), w["bus2"].clone());
+        let e = Expect::NoDuplicate {
+            frames: hb(0x190),
+            on: vec!["bus2".into()],
+            window: 0,
+            from: Some("vs".into()),
+        };
+        let o = measure(&e, &w2, 60_000).unwrap();
+        assert_eq!(
+            (o.pass, o.measured.as_str()),
+            (true, "3 sent on vs: 3 on bus2")
+        );
+        w2.get_mut("bus2").unwrap().push((55_000, fr(0x190, &[1])));
+        assert!(!measure(&e, &w2, 60_000).unwrap().pass);
     }
 
     #[test]

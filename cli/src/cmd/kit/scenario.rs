@@ -23,7 +23,7 @@
 //!
 //! [[expect]]
 //! name = "standby started on both buses"
-//! kind = "within"                      # within, max_gap, no_duplicate, never
+//! kind = "within"                      # within, max_gap, no_duplicate (from or window_ms), never
 //! after = { last_id = 0x710, on = "bus1", from_ms = 1000 }   # or { at_ms = 1000 }
 //! id = 0x000
 //! data = [0x01, 0x50]
@@ -117,6 +117,7 @@ struct FileExpect {
     within_ms: Option<u64>,
     max_ms: Option<u64>,
     window_ms: Option<u64>,
+    from: Option<String>,
     from_ms: Option<u64>,
     to_ms: Option<u64>,
 }
@@ -452,10 +453,20 @@ fn expect(x: FileExpect, is_wire: &dyn Fn(&str) -> bool) -> Result<Expect, Strin
             from: us(x.from_ms.unwrap_or(0)),
             to: x.to_ms.map(us),
         },
-        "no_duplicate" => Expect::NoDuplicate {
-            frames,
-            on: x.on,
-            window: us(need(x.window_ms, "window_ms")?),
+        "no_duplicate" => match x.from {
+            Some(from) if is_wire(&from) => Expect::NoDuplicate {
+                frames,
+                on: x.on,
+                window: 0,
+                from: Some(from),
+            },
+            Some(from) => return Err(format!("from: {from:?} is neither a bus nor a member")),
+            None => Expect::NoDuplicate {
+                frames,
+                on: x.on,
+                window: us(need(x.window_ms, "window_ms")?),
+                from: None,
+            },
         },
         "never" => Expect::Never {
             frames,
