@@ -9,4 +9,6 @@ for f in /tests/scenarios/*.toml; do
   echo "=== kit sim $f (the simulator, for comparison)"
   /tests/duocan kit sim "$f" || rc=1
 done
+echo "=== kit bench: the bridge's own latency and throughput on vcan, against a bare path"
+/tests/duocan kit bench --bare kb0 --a kb1 --b kb2 --frames 5000 || rc=1
 exit $rc

@@ -8,6 +8,7 @@
 //! duocan kit check failover.toml --logs run/
 //! ```
 
+mod bench;
 mod expect;
 mod run;
 mod scenario;
@@ -48,6 +49,22 @@ pub enum Kit {
         /// The simulated buses' bit rate
         #[arg(long, default_value = "1000000")]
         bitrate: u32,
+    },
+    /// Measure the bridge itself: latency and throughput through it from one interface to
+    /// another, against a bare path on one interface, side by side
+    Bench {
+        /// The interface of the bare path (two sockets on it)
+        #[arg(long)]
+        bare: String,
+        /// The bridge's first interface (frames are sent here)
+        #[arg(long)]
+        a: String,
+        /// The bridge's second interface (frames are received here)
+        #[arg(long)]
+        b: String,
+        /// Frames per measurement
+        #[arg(long, default_value = "5000")]
+        frames: u32,
     },
     /// Measure a scenario's expectations on the candump logs of a run
     Check {
@@ -162,6 +179,7 @@ pub async fn run(g: &Global, k: Kit) -> Result<(), Fail> {
             let (wires, end) = sim::run(&s, bitrate, g.json)?;
             report(g, &s, &wires, end)
         }
+        Kit::Bench { bare, a, b, frames } => bench::run(g, &bare, &a, &b, frames.max(1)).await,
         Kit::Check {
             file,
             logs,
