@@ -82,3 +82,37 @@ fn a_bound_too_tight_fails_with_its_figure() {
     assert!(r.err.contains("/nonexistent.toml"), "{}", r.err);
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+/// The README's complete scenario reads; with duocan boards in place of the user's, it passes
+/// in the simulator.
+#[test]
+fn the_readme_scenario_reads_and_passes_with_duocan_boards() {
+    let readme =
+        std::fs::read_to_string(PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../README.md"))
+            .unwrap();
+    let start = readme
+        .find("```toml\nname = \"board A loses power")
+        .expect("the README's scenario");
+    let body = &readme[start + "```toml\n".len()..];
+    let toml = &body[..body.find("```").unwrap()];
+    let dir = std::env::temp_dir().join(format!("duocan-kit-readme-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let f = dir.join("readme.toml");
+    std::fs::write(&f, toml).unwrap();
+    let r = duocan(&["kit", "validate", f.to_str().unwrap()]);
+    assert_eq!(r.code, 0, "{}", r.err);
+    let ours = toml
+        .replace(
+            r#"["./my-board", "--node", "0x10", "vs1a", "vs2a"]"#,
+            r#"["{duocan}", "--bus", "vs1a,vs2a", "device", "board", "--node", "0x10", "--heartbeat-ms", "100"]"#,
+        )
+        .replace(
+            r#"["./my-board", "--node", "0x50", "vs1b", "vs2b"]"#,
+            r#"["{duocan}", "--bus", "vs1b,vs2b", "device", "board", "--node", "0x50", "--heartbeat-ms", "100"]"#,
+        );
+    std::fs::write(&f, ours).unwrap();
+    let r = duocan(&["kit", "sim", f.to_str().unwrap()]);
+    assert_eq!(r.code, 0, "{}{}", r.out, r.err);
+    assert_eq!(r.out.matches(" pass ").count(), 2, "{}", r.out);
+    let _ = std::fs::remove_dir_all(&dir);
+}
