@@ -55,11 +55,42 @@ impl Tap for KitTap {
         };
         let mut ok = l.members[m].write(t, &name, frame).is_ok();
         if dir == TapDirection::Rx {
+            if let Some(line) = live_line(frame) {
+                println!("{:>7} ms  {line} (from {name})", at.as_micros() / 1000);
+            }
             let b = l.bus_of[m];
             let (log, pcap) = &mut l.buses[b];
             ok &= log.write(t, &name, frame).is_ok() && pcap.write(t, frame).is_ok();
         }
         l.errors += u64::from(!ok);
+    }
+}
+
+/// The frames worth a live line while a scenario runs: NMT commands, boot-ups and the active
+/// master's announcements (what a failover is made of).
+fn live_line(f: &Frame) -> Option<String> {
+    let Id::Standard(id) = f.id() else {
+        return None;
+    };
+    match (id, f.data()) {
+        (0x000, [cs, node]) => {
+            let what = match cs {
+                0x01 => "start",
+                0x02 => "stop",
+                0x80 => "pre-operational",
+                0x81 => "reset",
+                0x82 => "reset communication",
+                _ => return None,
+            };
+            Some(if *node == 0 {
+                format!("NMT {what} all nodes")
+            } else {
+                format!("NMT {what} node {node:#04x}")
+            })
+        }
+        (0x701..=0x77F, [0]) => Some(format!("boot-up of node {:#04x}", id - 0x700)),
+        (0x071, [prio, node]) => Some(format!("active master: node {node:#04x} (priority {prio})")),
+        _ => None,
     }
 }
 
