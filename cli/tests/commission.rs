@@ -58,14 +58,14 @@ fn scan_text_lines_up_and_listening_alone_finds_the_heartbeats() {
 #[test]
 fn scan_compares_attached_descriptions_with_the_identity() {
     let dir = temp_dir("scan-desc");
-    // The sim nodes' EDS as node 3 reads it: product code 3.
-    let eds = dir.join("node3.eds");
-    let r = sim(&["eds", "export", "3", "-o", eds.to_str().unwrap()]);
+    // The sim nodes' EDS as node 6 reads it: product code 6.
+    let eds = dir.join("node6.eds");
+    let r = sim(&["eds", "export", "6", "-o", eds.to_str().unwrap()]);
     assert_eq!(r.code, 0, "{}", r.err);
-    let arg3 = format!("3={}", eds.display());
-    let arg4 = format!("4={}", eds.display());
+    let arg6 = format!("6={}", eds.display());
+    let arg7 = format!("7={}", eds.display());
     let v = json(&sim_ok(&[
-        "--eds", &arg3, "--eds", &arg4, "--json", "scan", "--listen", "200",
+        "--eds", &arg6, "--eds", &arg7, "--json", "scan", "--listen", "200",
     ]));
     let row = |id: u64| {
         v.as_array()
@@ -75,10 +75,10 @@ fn scan_compares_attached_descriptions_with_the_identity() {
             .cloned()
             .unwrap()
     };
-    assert_eq!(row(3)["description"], "node3.eds");
+    assert_eq!(row(6)["description"], "node6.eds");
     assert_eq!(
-        row(4)["description"],
-        "MISMATCH: product 0x4, file says 0x3"
+        row(7)["description"],
+        "MISMATCH: product 0x7, file says 0x6"
     );
     assert_eq!(row(5)["description"], Value::Null);
 }
@@ -321,9 +321,9 @@ fn eds_export_of_a_sim_node_validates_and_describes_it() {
     );
     assert!(text.contains("ParameterValue="), "{text}");
     // And the DCF attaches like any description: names work with it.
-    let arg = format!("9={}", dcf.display());
+    let arg = format!("6={}", dcf.display());
     assert_eq!(
-        sim_ok(&["--dcf", &arg, "sdo", "read", "9", "Producer heartbeat time"]),
+        sim_ok(&["--dcf", &arg, "sdo", "read", "6", "Producer heartbeat time"]),
         "100\n"
     );
 }
@@ -333,7 +333,7 @@ fn flash_on_a_node_without_program_download_fails_with_the_abort() {
     let dir = temp_dir("flash-none");
     let img = dir.join("img.bin");
     std::fs::write(&img, vec![0xA5u8; 4096]).unwrap();
-    let r = sim(&["flash", "5", img.to_str().unwrap()]);
+    let r = sim(&["flash", "6", img.to_str().unwrap()]);
     assert_eq!(r.code, 1, "{}", r.err);
     assert!(
         r.err.contains("stop (0x1F51 = 0)") && r.err.contains("0x06020000"),
