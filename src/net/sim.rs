@@ -201,7 +201,12 @@ impl Network {
                 nodes.push(h);
             }
         }
-        Self::start(port, opts, SimNodes(nodes))
+        Self::start(
+            Box::new(super::link::OnePort::default()),
+            port,
+            opts,
+            SimNodes(nodes),
+        )
     }
 }
 
