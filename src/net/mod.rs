@@ -80,6 +80,7 @@ mod events;
 mod link;
 mod named;
 mod pdo;
+mod program;
 mod remote;
 mod sdo;
 mod sdo_stream;
@@ -93,7 +94,7 @@ pub use pdo::{PdoMap, PdoValue, PdoValues, PdoVariable, RemotePdo, MAX_LEARNED};
 pub use remote::RemoteNode;
 pub use sdo::RemoteSdo;
 pub use sdo_stream::{TransferProgress, STREAM_WINDOW};
-pub use sim::{sim_description, SIM_DEVICE_NAME, SIM_HEARTBEAT_MS, SIM_VENDOR};
+pub use sim::{sim_description, sim_dictionary, SIM_DEVICE_NAME, SIM_HEARTBEAT_MS, SIM_VENDOR};
 pub use value::AnyValue;
 
 use crate::cia301::nmt::{NmtCommand, NmtTarget};

@@ -38,13 +38,21 @@
 //! (SDO, NMT, switch-over, status) and its events come out flat ([`RedundantEvent`]), with lag
 //! as an item. Every call returns one error, [`RedundantError`].
 
+mod dual_link;
 mod events;
 mod node;
 mod sim;
+mod sim_station;
 
+pub use dual_link::{open_dual, open_dual_named, open_dual_with, DualLink};
 pub use events::{RedundantEvent, RedundantEvents};
 pub use node::{RedundantNode, RedundantSdo};
 pub use sim::{SIM_BUS_FAILS, SIM_END, SIM_MEMBER_FAILS, SIM_PEERS_FAIL};
+pub use sim_station::{
+    sim_program_id, SIM_DOMAIN, SIM_DOMAIN_SIZE, SIM_FAULT_BUS_BACK, SIM_FAULT_BUS_CUT,
+    SIM_FAULT_MASTER_BACK, SIM_FAULT_MASTER_STOPS, SIM_FAULT_MEMBER_BACK, SIM_FAULT_MEMBER_STOPS,
+    SIM_FAULT_PERIOD, SIM_PAIRS, SIM_PROGRAM_NODE, SIM_SLAVES,
+};
 
 use crate::network::{LogicalNetwork, RedundantError, RedundantNetworkBuilder};
 use crate::pair::{Member, PairId};

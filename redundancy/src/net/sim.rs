@@ -33,9 +33,9 @@ pub const SIM_MEMBER_FAILS: Duration = Duration::from_millis(4000);
 pub const SIM_END: Duration = Duration::from_millis(6000);
 /// How much later than member A member B boots, so that A is configured first and is the
 /// active member (the same every run).
-const B_BOOTS_LATER: Duration = Duration::from_millis(100);
+pub(super) const B_BOOTS_LATER: Duration = Duration::from_millis(100);
 
-type Board = DualBusNode<DynamicDictionary>;
+pub(super) type Board = DualBusNode<DynamicDictionary>;
 
 /// The simulated devices' script, running while the network is open.
 pub(super) struct SimStation {
@@ -59,7 +59,7 @@ impl SimStation {
 
 /// A simulated duocan board `id`: identity with the vendor-ID `duocan::net::SIM_VENDOR` and
 /// product code = node-ID, booted (its boot-up goes out when its runtime starts).
-fn board(id: NodeId) -> Board {
+pub(super) fn board(id: NodeId) -> Board {
     let ident = comm::Identity {
         vendor: duocan::net::SIM_VENDOR,
         product: u32::from(id.raw()),
@@ -71,7 +71,11 @@ fn board(id: NodeId) -> Board {
     Station::new(DualBus::new(DualBusConfig::default()), node)
 }
 
-fn spawn<D>(dev: Box<D>, name: &str, buses: &[MemBus; 2]) -> Result<Handle<D>, RedundantError>
+pub(super) fn spawn<D>(
+    dev: Box<D>,
+    name: &str,
+    buses: &[MemBus; 2],
+) -> Result<Handle<D>, RedundantError>
 where
     D: duocan::Device + Send + 'static,
     D::Event: Clone + Send + core::fmt::Debug + 'static,
@@ -234,9 +238,9 @@ impl Script {
 
 /// A port on a simulated bus that stops working when told (`cut`): receiving, sending and
 /// re-opening fail with the interface down, as a pulled connector does.
-struct FaultPort {
-    inner: MemPort,
-    cut: watch::Receiver<bool>,
+pub(super) struct FaultPort {
+    pub(super) inner: MemPort,
+    pub(super) cut: watch::Receiver<bool>,
 }
 
 impl FaultPort {

@@ -1,0 +1,370 @@
+//! The simulated redundant station behind [`open_dual_named`](super::open_dual_named)`("sim")`:
+//! what a commissioning tool's `--bus sim` talks to. Two in-memory buses (`sim-bus1`,
+//! `sim-bus2`) carry:
+//!
+//! | node | what | state |
+//! | --- | --- | --- |
+//! | 0x01 | a redundant master (the [`RedundantNetworkBuilder`]'s network: supervisor, flying master) | active master |
+//! | 0x02 | its peer master, the same settings | standby master |
+//! | 0x10 / 0x50, 0x11 / 0x51 | two A/B board pairs ([`SIM_PAIRS`]) supervised by the active master | A active (operational), B standby (pre-operational) |
+//! | 0x05, 0x06, 0x07 | plain slaves ([`SIM_SLAVES`]): `duocan::net`'s simulated node ([`duocan::net::sim_dictionary`]: identity, device name, heartbeat, inputs 0x6000 with TPDO1) and a read-write DOMAIN [`SIM_DOMAIN`] of up to [`SIM_DOMAIN_SIZE`] bytes | as the master leaves them |
+//!
+//! Node [`SIM_PROGRAM_NODE`] also takes program download (CiA 302-3: 0x1F50, 0x1F51, 0x1F56,
+//! 0x1F57) of images up to [`SIM_DOMAIN_SIZE`] bytes into a store in RAM; its software
+//! identification after start is [`sim_program_id`] of the image. Every device is on both buses
+//! through its own dual-bus layer, as a redundant station's devices are; the network opened on
+//! the station attaches to both buses through [`DualLink`](super::DualLink), so its
+//! `ports()` shows both and their health.
+//!
+//! The station runs until the network is closed. With `"sim:faults"` a script repeats every
+//! [`SIM_FAULT_PERIOD`], at these offsets into each period (the same every run under tokio's
+//! paused clock):
+//!
+//! | offset | fault |
+//! | --- | --- |
+//! | [`SIM_FAULT_BUS_CUT`] | the network's connection to bus 1 is cut (a pulled connector: its port goes down) |
+//! | [`SIM_FAULT_BUS_BACK`] | it is plugged back in (the dual-bus layer re-initialises it; recovering, then ok) |
+//! | [`SIM_FAULT_MEMBER_STOPS`] | the active member of the first pair stops (the master switches to the other after the pair timeout) |
+//! | [`SIM_FAULT_MEMBER_BACK`] | it is powered again (boots, becomes the standby) |
+//! | [`SIM_FAULT_MASTER_STOPS`] | the active master stops (the standby takes over after the master timeout) |
+//! | [`SIM_FAULT_MASTER_BACK`] | it is powered again (boots, and the flying-master rules decide its role) |
+
+use super::dual_link::DualLink;
+use super::sim::{board, spawn, Board, FaultPort, B_BOOTS_LATER};
+use super::Net;
+use crate::link::config::DualBusConfig;
+use crate::link::dual_bus::DualBus;
+use crate::network::{RedundantError, RedundantNetworkBuilder};
+use alloc::boxed::Box;
+use alloc::string::ToString;
+use alloc::vec::Vec;
+use duocan::cia302::program::{FlashError, ProgramDictionary, ProgramStore};
+use duocan::net::{sim_dictionary, NetOptions, Network};
+use duocan::od::{Access, DataType, DynamicDictionary, ObjectDef, ObjectDictionary};
+use duocan::port::mem::MemBus;
+use duocan::runtime::Handle;
+use duocan::sdo::SdoServerConfig;
+use duocan::{Duration, Instant, Node, NodeConfig, NodeId, Station};
+use tokio::sync::watch;
+
+/// The station's A/B board pairs (A, B).
+pub const SIM_PAIRS: [(u8, u8); 2] = [(0x10, 0x50), (0x11, 0x51)];
+/// The station's plain slaves.
+pub const SIM_SLAVES: [u8; 3] = [0x05, 0x06, 0x07];
+/// The plain slaves' read-write DOMAIN object (sub 0).
+pub const SIM_DOMAIN: u16 = 0x2002;
+/// The largest value the plain slaves' DOMAIN, SDO servers and program store take: 1 MiB.
+pub const SIM_DOMAIN_SIZE: usize = 1 << 20;
+/// The plain slave that takes program download.
+pub const SIM_PROGRAM_NODE: u8 = 0x05;
+/// The period of the `"sim:faults"` script.
+pub const SIM_FAULT_PERIOD: Duration = Duration::from_millis(10_000);
+/// Into each period: the network's connection to bus 1 is cut.
+pub const SIM_FAULT_BUS_CUT: Duration = Duration::from_millis(2_000);
+/// Into each period: bus 1 is connected again.
+pub const SIM_FAULT_BUS_BACK: Duration = Duration::from_millis(4_000);
+/// Into each period: the active member of the first pair stops.
+pub const SIM_FAULT_MEMBER_STOPS: Duration = Duration::from_millis(5_000);
+/// Into each period: that member is powered again.
+pub const SIM_FAULT_MEMBER_BACK: Duration = Duration::from_millis(7_000);
+/// Into each period: the active master stops.
+pub const SIM_FAULT_MASTER_STOPS: Duration = Duration::from_millis(8_000);
+/// Into each period: that master is powered again.
+pub const SIM_FAULT_MASTER_BACK: Duration = Duration::from_millis(9_000);
+
+/// The software identification the simulated program store reports for `image` once it runs
+/// (0x1F56 sub 1): its 32-bit FNV-1a hash, so that a different image reads differently.
+#[must_use]
+pub fn sim_program_id(image: &[u8]) -> u32 {
+    image.iter().fold(0x811C_9DC5, |h: u32, b| {
+        (h ^ u32::from(*b)).wrapping_mul(0x0100_0193)
+    })
+}
+
+/// Whether the station runs a fault script.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(super) enum StationScript {
+    /// No faults: it runs until the network closes.
+    Quiet,
+    /// The fault script, repeating.
+    Faults,
+}
+
+/// A program store in RAM: it keeps the identification of what it staged, not the image.
+#[derive(Debug, Default)]
+struct RamStore {
+    running: u32,
+    staged: Option<u32>,
+}
+
+impl ProgramStore for RamStore {
+    fn capacity(&self) -> u32 {
+        SIM_DOMAIN_SIZE as u32
+    }
+    fn stop(&mut self) {}
+    fn run(&mut self) {}
+    fn clear(&mut self) -> Result<(), FlashError> {
+        self.staged = None;
+        Ok(())
+    }
+    fn stage(&mut self, image: &[u8]) -> Result<(), FlashError> {
+        self.staged = Some(sim_program_id(image));
+        Ok(())
+    }
+    fn activate(&mut self) -> Result<(), FlashError> {
+        self.running = self.staged.take().ok_or(FlashError::NoValidProgram)?;
+        Ok(())
+    }
+    fn identification(&self) -> u32 {
+        self.running
+    }
+}
+
+type Slave<D> = Station<DualBus, Node<D>>;
+type Flasher = Slave<ProgramDictionary<DynamicDictionary, RamStore>>;
+
+/// A plain slave's dictionary: the simulated node's, with the DOMAIN.
+fn slave_dictionary(id: NodeId) -> DynamicDictionary {
+    let mut od = sim_dictionary(id);
+    od.upsert(
+        ObjectDef::bytes(SIM_DOMAIN, 0, DataType::Domain, SIM_DOMAIN_SIZE as u32)
+            .access(Access::Rw)
+            .named("Domain"),
+    );
+    od
+}
+
+/// A plain slave on its own dual-bus layer, taking values up to [`SIM_DOMAIN_SIZE`], booted.
+fn slave<D: ObjectDictionary>(id: NodeId, od: D) -> Slave<D> {
+    let mut node = Node::new(NodeConfig::slave(id), od);
+    node.sdo_server_mut()
+        .set_config(SdoServerConfig::default().with_max_transfer(SIM_DOMAIN_SIZE));
+    node.boot(Instant::ZERO);
+    Station::new(DualBus::new(DualBusConfig::default()), node)
+}
+
+/// The masters' settings: 0x01 with its peer 0x02 and the pairs.
+fn masters() -> RedundantNetworkBuilder {
+    let mut b = RedundantNetworkBuilder::default().node_id(1).peer_master(2);
+    for (a, bb) in SIM_PAIRS {
+        b = b.pair(a, bb);
+    }
+    b
+}
+
+fn master(id: u8) -> Result<Box<Net>, RedundantError> {
+    let b = masters();
+    if id == b.this_node() {
+        b.build_boxed()
+    } else {
+        b.as_peer(id).build_boxed()
+    }
+}
+
+fn sim_error(why: impl ToString) -> RedundantError {
+    RedundantError::Port {
+        port: 0,
+        name: "sim".into(),
+        why: why.to_string(),
+    }
+}
+
+/// Opens a network on a new simulated station (see the module docs).
+pub(super) fn open(opts: NetOptions, script: StationScript) -> Result<Network, RedundantError> {
+    if tokio::runtime::Handle::try_current().is_err() {
+        return Err(sim_error(
+            "no tokio runtime: open the network from inside one (#[tokio::main])",
+        ));
+    }
+    let buses = [MemBus::new("sim-bus1"), MemBus::new("sim-bus2")];
+    // The network's ports first: a port hears only what is sent after it exists.
+    let (cut, cut_rx) = watch::channel(false);
+    let ports = (
+        FaultPort {
+            inner: buses[0].port(),
+            cut: cut_rx,
+        },
+        buses[1].port(),
+    );
+    let net = Network::open_link(Box::new(DualLink::default()), ports, opts).map_err(sim_error)?;
+    let mut masters = Vec::new();
+    for id in [1, 2] {
+        let h = spawn(master(id)?, &alloc::format!("sim master {id}"), &buses)?;
+        masters.push((id, Some(h)));
+    }
+    let mut boards = Vec::new();
+    for (a, _) in SIM_PAIRS {
+        boards.push((
+            a,
+            Some(spawn(
+                Box::new(board(NodeId::must(a))),
+                "sim board",
+                &buses,
+            )?),
+        ));
+    }
+    let mut slaves = Vec::new();
+    for id in SIM_SLAVES.into_iter().filter(|id| *id != SIM_PROGRAM_NODE) {
+        let id = NodeId::must(id);
+        let dev = Box::new(slave(id, slave_dictionary(id)));
+        slaves.push(spawn(dev, "sim slave", &buses)?);
+    }
+    let id = NodeId::must(SIM_PROGRAM_NODE);
+    let od = ProgramDictionary::new(slave_dictionary(id), RamStore::default());
+    let flasher = spawn(Box::new(slave(id, od)), "sim slave", &buses)?;
+    let (stop, stop_rx) = watch::channel(false);
+    let station = Sim {
+        buses,
+        cut,
+        masters,
+        boards,
+        slaves,
+        flasher,
+        stop: stop_rx,
+        start: tokio::time::Instant::now(),
+    };
+    let task = tokio::spawn(station.run(script));
+    net.on_close(move || async move {
+        stop.send_replace(true);
+        let _ = task.await;
+    });
+    Ok(net)
+}
+
+/// The station's devices (`None`: powered off by the script) and its script.
+struct Sim {
+    buses: [MemBus; 2],
+    cut: watch::Sender<bool>,
+    masters: Vec<(u8, Option<Handle<Net>>)>,
+    boards: Vec<(u8, Option<Handle<Board>>)>,
+    slaves: Vec<Handle<Slave<DynamicDictionary>>>,
+    flasher: Handle<Flasher>,
+    stop: watch::Receiver<bool>,
+    start: tokio::time::Instant,
+}
+
+impl Sim {
+    /// Waits until `t` after the start; false if asked to stop first.
+    async fn until(&mut self, t: Duration) -> bool {
+        let at = self.start + core::time::Duration::from_micros(t.as_micros());
+        tokio::select! {
+            () = tokio::time::sleep_until(at) => true,
+            _ = self.stop.wait_for(|s| *s) => false,
+        }
+    }
+
+    async fn run(mut self, script: StationScript) {
+        if self.until(B_BOOTS_LATER).await {
+            // B boots later than A, so that A is configured first and is the active member.
+            for (_, b) in SIM_PAIRS {
+                if let Ok(h) = spawn(Box::new(board(NodeId::must(b))), "sim board", &self.buses) {
+                    self.boards.push((b, Some(h)));
+                }
+            }
+            match script {
+                StationScript::Quiet => {
+                    let _ = self.stop.wait_for(|s| *s).await;
+                }
+                StationScript::Faults => {
+                    let mut base = Duration::ZERO;
+                    while self.faults(base).await {
+                        base = base + SIM_FAULT_PERIOD;
+                    }
+                }
+            }
+        }
+        for (_, h) in self
+            .masters
+            .iter()
+            .filter_map(|(i, h)| Some((i, h.as_ref()?)))
+        {
+            h.shutdown().await;
+        }
+        for (_, h) in self
+            .boards
+            .iter()
+            .filter_map(|(i, h)| Some((i, h.as_ref()?)))
+        {
+            h.shutdown().await;
+        }
+        for h in &self.slaves {
+            h.shutdown().await;
+        }
+        self.flasher.shutdown().await;
+    }
+
+    /// One period of the fault script from `base`; false if asked to stop.
+    async fn faults(&mut self, base: Duration) -> bool {
+        if !self.until(base + SIM_FAULT_BUS_CUT).await {
+            return false;
+        }
+        self.cut.send_replace(true);
+        if !self.until(base + SIM_FAULT_BUS_BACK).await {
+            return false;
+        }
+        self.cut.send_replace(false);
+        if !self.until(base + SIM_FAULT_MEMBER_STOPS).await {
+            return false;
+        }
+        let member = self.active_member().await;
+        if let Some((_, h)) = self.boards.iter_mut().find(|(id, _)| Some(*id) == member) {
+            if let Some(h) = h.take() {
+                h.shutdown().await;
+            }
+        }
+        if !self.until(base + SIM_FAULT_MEMBER_BACK).await {
+            return false;
+        }
+        for (id, h) in &mut self.boards {
+            if h.is_none() {
+                *h = spawn(Box::new(board(NodeId::must(*id))), "sim board", &self.buses).ok();
+            }
+        }
+        if !self.until(base + SIM_FAULT_MASTER_STOPS).await {
+            return false;
+        }
+        let active = self.active_master().await;
+        if let Some((_, h)) = self.masters.iter_mut().find(|(id, _)| Some(*id) == active) {
+            if let Some(h) = h.take() {
+                h.shutdown().await;
+            }
+        }
+        if !self.until(base + SIM_FAULT_MASTER_BACK).await {
+            return false;
+        }
+        for (id, h) in &mut self.masters {
+            if h.is_none() {
+                let name = alloc::format!("sim master {id}");
+                *h = master(*id).and_then(|m| spawn(m, &name, &self.buses)).ok();
+            }
+        }
+        true
+    }
+
+    /// The running master that is active.
+    async fn active_master(&self) -> Option<u8> {
+        for (id, h) in &self.masters {
+            if let Some(h) = h {
+                if h.call(|n, _| n.role().is_active()).await.unwrap_or(false) {
+                    return Some(*id);
+                }
+            }
+        }
+        None
+    }
+
+    /// The active member of the first pair, as the active master has it.
+    async fn active_member(&self) -> Option<u8> {
+        let m = self.active_master().await?;
+        let (_, h) = self.masters.iter().find(|(id, _)| *id == m)?;
+        h.as_ref()?
+            .call(|n, _| {
+                n.pairs()
+                    .next()
+                    .and_then(|(_, p)| p.active.map(|m| p.spec.node(m).raw()))
+            })
+            .await
+            .ok()
+            .flatten()
+    }
+}

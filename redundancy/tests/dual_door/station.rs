@@ -1,0 +1,1 @@
+//! The simulated redundant station.
