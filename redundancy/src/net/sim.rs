@@ -33,7 +33,7 @@ pub const SIM_MEMBER_FAILS: Duration = Duration::from_millis(4000);
 pub const SIM_END: Duration = Duration::from_millis(6000);
 /// How much later than member A member B boots, so that A is configured first and is the
 /// active member (the same every run).
-pub(super) const B_BOOTS_LATER: Duration = Duration::from_millis(100);
+const B_BOOTS_LATER: Duration = Duration::from_millis(100);
 
 pub(super) type Board = DualBusNode<DynamicDictionary>;
 

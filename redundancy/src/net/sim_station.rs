@@ -30,7 +30,7 @@
 //! | [`SIM_FAULT_MASTER_BACK`] | it is powered again (boots, and the flying-master rules decide its role) |
 
 use super::dual_link::DualLink;
-use super::sim::{board, spawn, Board, FaultPort, B_BOOTS_LATER};
+use super::sim::{board, spawn, Board, FaultPort};
 use super::Net;
 use crate::link::config::DualBusConfig;
 use crate::link::dual_bus::DualBus;
@@ -71,6 +71,12 @@ pub const SIM_FAULT_MEMBER_BACK: Duration = Duration::from_millis(7_000);
 pub const SIM_FAULT_MASTER_STOPS: Duration = Duration::from_millis(8_000);
 /// Into each period: that master is powered again.
 pub const SIM_FAULT_MASTER_BACK: Duration = Duration::from_millis(9_000);
+
+/// When the B members are powered: after the masters have settled which one is active and the
+/// active one has configured and started the A members (a master taking the active role
+/// resets the network, and a member that boots in that reset could be configured first), so
+/// that A is the active member of every pair, every run.
+const B_POWERED: Duration = Duration::from_millis(1_000);
 
 /// The software identification the simulated program store reports for `image` once it runs
 /// (0x1F56 sub 1): its 32-bit FNV-1a hash, so that a different image reads differently.
@@ -135,12 +141,26 @@ fn slave_dictionary(id: NodeId) -> DynamicDictionary {
 }
 
 /// A plain slave on its own dual-bus layer, taking values up to [`SIM_DOMAIN_SIZE`], booted.
-fn slave<D: ObjectDictionary>(id: NodeId, od: D) -> Slave<D> {
+// Not inlined, nor the other builders below: a device is some 100 kB, built on the stack and
+// moved to the heap here, so that no caller's frame holds one (a debug build's frame keeps a
+// slot per call site, and the test threads' stacks are 2 MiB).
+#[inline(never)]
+fn slave<D: ObjectDictionary>(id: NodeId, od: D) -> Box<Slave<D>> {
     let mut node = Node::new(NodeConfig::slave(id), od);
     node.sdo_server_mut()
         .set_config(SdoServerConfig::default().with_max_transfer(SIM_DOMAIN_SIZE));
     node.boot(Instant::ZERO);
-    Station::new(DualBus::new(DualBusConfig::default()), node)
+    Box::new(Station::new(DualBus::new(DualBusConfig::default()), node))
+}
+
+#[inline(never)]
+fn new_board(id: u8) -> Box<Board> {
+    Box::new(board(NodeId::must(id)))
+}
+
+#[inline(never)]
+fn new_link() -> Box<DualLink> {
+    Box::new(DualLink::default())
 }
 
 /// The masters' settings: 0x01 with its peer 0x02 and the pairs.
@@ -186,7 +206,7 @@ pub(super) fn open(opts: NetOptions, script: StationScript) -> Result<Network, R
         },
         buses[1].port(),
     );
-    let net = Network::open_link(Box::new(DualLink::default()), ports, opts).map_err(sim_error)?;
+    let net = Network::open_link(new_link(), ports, opts).map_err(sim_error)?;
     let mut masters = Vec::new();
     for id in [1, 2] {
         let h = spawn(master(id)?, &alloc::format!("sim master {id}"), &buses)?;
@@ -194,24 +214,16 @@ pub(super) fn open(opts: NetOptions, script: StationScript) -> Result<Network, R
     }
     let mut boards = Vec::new();
     for (a, _) in SIM_PAIRS {
-        boards.push((
-            a,
-            Some(spawn(
-                Box::new(board(NodeId::must(a))),
-                "sim board",
-                &buses,
-            )?),
-        ));
+        boards.push((a, Some(spawn(new_board(a), "sim board", &buses)?)));
     }
     let mut slaves = Vec::new();
     for id in SIM_SLAVES.into_iter().filter(|id| *id != SIM_PROGRAM_NODE) {
         let id = NodeId::must(id);
-        let dev = Box::new(slave(id, slave_dictionary(id)));
-        slaves.push(spawn(dev, "sim slave", &buses)?);
+        slaves.push(spawn(slave(id, slave_dictionary(id)), "sim slave", &buses)?);
     }
     let id = NodeId::must(SIM_PROGRAM_NODE);
     let od = ProgramDictionary::new(slave_dictionary(id), RamStore::default());
-    let flasher = spawn(Box::new(slave(id, od)), "sim slave", &buses)?;
+    let flasher = spawn(slave(id, od), "sim slave", &buses)?;
     let (stop, stop_rx) = watch::channel(false);
     let station = Sim {
         buses,
@@ -254,10 +266,10 @@ impl Sim {
     }
 
     async fn run(mut self, script: StationScript) {
-        if self.until(B_BOOTS_LATER).await {
+        if self.until(B_POWERED).await {
             // B boots later than A, so that A is configured first and is the active member.
             for (_, b) in SIM_PAIRS {
-                if let Ok(h) = spawn(Box::new(board(NodeId::must(b))), "sim board", &self.buses) {
+                if let Ok(h) = spawn(new_board(b), "sim board", &self.buses) {
                     self.boards.push((b, Some(h)));
                 }
             }
@@ -317,7 +329,7 @@ impl Sim {
         }
         for (id, h) in &mut self.boards {
             if h.is_none() {
-                *h = spawn(Box::new(board(NodeId::must(*id))), "sim board", &self.buses).ok();
+                *h = spawn(new_board(*id), "sim board", &self.buses).ok();
             }
         }
         if !self.until(base + SIM_FAULT_MASTER_STOPS).await {
