@@ -57,6 +57,18 @@
 //! uses node-ID 127 internally, so a node 127 on the bus is not tracked).
 //! [`Network::monitor`] sends nothing at all.
 //!
+//! **Links.** The observer and the client sit on a link ([`NetLink`], one trait object, so
+//! [`Network`] is one type whatever it runs on): one port ([`Network::open`]), or two ports
+//! merged by the redundancy crate's dual-bus layer (`duocan_redundancy::net::open_dual`, via
+//! [`Network::open_link`]), where every request goes out on both buses and every answer is
+//! delivered once. The stack above the link does not know how many wires there are;
+//! [`Network::ports`] (name, state, counters: [`PortView`]) and [`Network::heard_on`] (the
+//! buses a node was heard on) do, and [`NetEvent::PortState`] and [`NetEvent::Reach`] report
+//! their changes.
+//!
+//! **Program download** (CiA 302-3): [`RemoteNode::download_program`] replaces a node's
+//! program by the master's procedure, the image streamed by block transfer, with progress.
+//!
 //! Every call returns one error, [`NetError`], naming the node and object and what to do.
 //! SDO transfers to different nodes run at once; to one node they take turns (a server runs one
 //! transfer per client at a time).
@@ -163,9 +175,9 @@ impl NetOptions {
     }
 }
 
-/// A CANopen network on one port: the handle everything starts from. Cheap to clone; the
-/// network runs until [`Network::close`] or until the last clone (and every [`RemoteNode`]) is
-/// dropped.
+/// A CANopen network on one port or on two merged ones (see [`Network::open_link`]): the
+/// handle everything starts from. Cheap to clone; the network runs until [`Network::close`] or
+/// until the last clone (and every [`RemoteNode`]) is dropped.
 #[derive(Clone)]
 pub struct Network {
     shared: Arc<Shared>,

@@ -1,33 +1,10 @@
-//! The simulated redundant station behind [`open_dual_named`](super::open_dual_named)`("sim")`:
-//! what a commissioning tool's `--bus sim` talks to. Two in-memory buses (`sim-bus1`,
-//! `sim-bus2`) carry:
-//!
-//! | node | what | state |
-//! | --- | --- | --- |
-//! | 0x01 | a redundant master (the [`RedundantNetworkBuilder`]'s network: supervisor, flying master) | active master |
-//! | 0x02 | its peer master, the same settings | standby master |
-//! | 0x10 / 0x50, 0x11 / 0x51 | two A/B board pairs ([`SIM_PAIRS`]) supervised by the active master | A active (operational), B standby (pre-operational) |
-//! | 0x05, 0x06, 0x07 | plain slaves ([`SIM_SLAVES`]): `duocan::net`'s simulated node ([`duocan::net::sim_dictionary`]: identity, device name, heartbeat, inputs 0x6000 with TPDO1) and a read-write DOMAIN [`SIM_DOMAIN`] of up to [`SIM_DOMAIN_SIZE`] bytes | as the master leaves them |
-//!
-//! Node [`SIM_PROGRAM_NODE`] also takes program download (CiA 302-3: 0x1F50, 0x1F51, 0x1F56,
-//! 0x1F57) of images up to [`SIM_DOMAIN_SIZE`] bytes into a store in RAM; its software
-//! identification after start is [`sim_program_id`] of the image. Every device is on both buses
-//! through its own dual-bus layer, as a redundant station's devices are; the network opened on
-//! the station attaches to both buses through [`DualLink`](super::DualLink), so its
-//! `ports()` shows both and their health.
-//!
-//! The station runs until the network is closed. With `"sim:faults"` a script repeats every
-//! [`SIM_FAULT_PERIOD`], at these offsets into each period (the same every run under tokio's
-//! paused clock):
-//!
-//! | offset | fault |
-//! | --- | --- |
-//! | [`SIM_FAULT_BUS_CUT`] | the network's connection to bus 1 is cut (a pulled connector: its port goes down) |
-//! | [`SIM_FAULT_BUS_BACK`] | it is plugged back in (the dual-bus layer re-initialises it; recovering, then ok) |
-//! | [`SIM_FAULT_MEMBER_STOPS`] | the active member of the first pair stops (the master switches to the other after the pair timeout) |
-//! | [`SIM_FAULT_MEMBER_BACK`] | it is powered again (boots, becomes the standby) |
-//! | [`SIM_FAULT_MASTER_STOPS`] | the active master stops (the standby takes over after the master timeout) |
-//! | [`SIM_FAULT_MASTER_BACK`] | it is powered again (boots, and the flying-master rules decide its role) |
+//! The simulated redundant station behind [`open_dual_named`](super::open_dual_named)`("sim")`,
+//! what a commissioning tool's `--bus sim` talks to (what it holds and the fault script of
+//! `"sim:faults"` are tabled in the [`net`](super) module's docs). Two in-memory buses,
+//! `sim-bus1` and `sim-bus2`; every device is on both through its own dual-bus layer, and the
+//! network opened on the station attaches to both through [`DualLink`], its port to bus 1 one
+//! that the script can cut. The station runs until the network is closed; under tokio's paused
+//! clock every run is the same.
 
 use super::dual_link::DualLink;
 use super::sim::{board, spawn, Board, FaultPort};
