@@ -5,64 +5,15 @@
 use duocan::frame::Frame;
 use duocan::machine::ErrorCause;
 use duocan::net::{NetError, NetOptions, Network};
-use duocan::port::mem::{MemBus, MemPort};
-use duocan::port::{Port, PortCounters, PortError, PortErrorKind, PortInput};
+use duocan::port::mem::MemBus;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Arc;
 use std::time::Duration;
-use tokio::sync::watch;
-
-/// A port on an in-memory bus that goes down while `cut` is true.
-struct Cut {
-    inner: MemPort,
-    cut: watch::Receiver<bool>,
-}
-
-impl Cut {
-    fn down(&self) -> PortError {
-        PortError::new(self.inner.name(), PortErrorKind::InterfaceDown, "cut")
-    }
-}
-
-impl Port for Cut {
-    fn name(&self) -> &str {
-        self.inner.name()
-    }
-    fn counters(&self) -> PortCounters {
-        self.inner.counters()
-    }
-    async fn recv(&mut self) -> Result<PortInput, PortError> {
-        if *self.cut.borrow() {
-            return Err(self.down());
-        }
-        tokio::select! {
-            r = self.inner.recv() => return r,
-            _ = self.cut.wait_for(|c| *c) => {}
-        }
-        Err(self.down())
-    }
-    async fn send(&mut self, frame: &Frame) -> Result<(), PortError> {
-        if *self.cut.borrow() {
-            return Err(self.down());
-        }
-        self.inner.send(frame).await
-    }
-    async fn reopen(&mut self) -> Result<(), PortError> {
-        if *self.cut.borrow() {
-            return Err(self.down());
-        }
-        self.inner.reopen().await
-    }
-}
 
 #[tokio::test(start_paused = true)]
 async fn one_port_shows_its_counters_and_the_state_its_driver_reported() {
     let bus = MemBus::new("mem0");
-    let (cut, rx) = watch::channel(false);
-    let port = Cut {
-        inner: bus.port(),
-        cut: rx,
-    };
+    let (port, cut) = bus.plugged_port();
     let opts = NetOptions::default().with_sdo_timeout(Duration::from_millis(100));
     let net = Network::open_with(port, opts).unwrap();
     let _nodes = Network::simulated_on(&bus, [5], NetOptions::default()).unwrap();
@@ -82,7 +33,8 @@ async fn one_port_shows_its_counters_and_the_state_its_driver_reported() {
         Err(NetError::NoSuchNode(128))
     ));
 
-    cut.send_replace(true);
+    cut.pull();
+    assert!(cut.is_pulled());
     tokio::time::sleep(Duration::from_millis(50)).await;
     let p = &net.ports().await.unwrap()[0];
     assert_eq!(p.state, "down");

@@ -11,10 +11,8 @@ use alloc::boxed::Box;
 use alloc::string::ToString;
 use alloc::sync::Arc;
 use alloc::vec::Vec;
-use duocan::frame::Frame;
 use duocan::od::{comm, DynamicDictionary};
-use duocan::port::mem::{MemBus, MemPort};
-use duocan::port::{Port, PortCounters, PortError, PortErrorKind, PortInput};
+use duocan::port::mem::{Connector, MemBus};
 use duocan::runtime::{Handle, Runtime};
 use duocan::{Duration, Instant, Node, NodeConfig, NodeId, Station};
 use tokio::sync::watch;
@@ -54,6 +52,19 @@ impl SimStation {
         if let Some(t) = task {
             let _ = t.await;
         }
+    }
+}
+
+/// Waits until `t` after `start`; false if `stop` turns true first. A script's clock.
+pub(super) async fn until(
+    start: tokio::time::Instant,
+    t: Duration,
+    stop: &mut watch::Receiver<bool>,
+) -> bool {
+    let at = start + core::time::Duration::from_micros(t.as_micros());
+    tokio::select! {
+        () = tokio::time::sleep_until(at) => true,
+        _ = stop.wait_for(|s| *s) => false,
     }
 }
 
@@ -97,14 +108,8 @@ pub(super) fn open(b: &RedundantNetworkBuilder) -> Result<RedundantNetwork, Redu
     let net = b.build_boxed()?;
     let buses = [MemBus::new("sim-bus1"), MemBus::new("sim-bus2")];
     // This master's ports first: a port hears only what is sent after it exists.
-    let (cut, cut_rx) = watch::channel(false);
-    let ports = (
-        FaultPort {
-            inner: buses[0].port(),
-            cut: cut_rx,
-        },
-        buses[1].port(),
-    );
+    let (port1, cut) = buses[0].plugged_port();
+    let ports = (port1, buses[1].port());
     let mut peers = Vec::new();
     let mut boards = Vec::new();
     if tokio::runtime::Handle::try_current().is_ok() {
@@ -158,7 +163,7 @@ pub(super) fn open(b: &RedundantNetworkBuilder) -> Result<RedundantNetwork, Redu
 struct Script {
     net: Handle<Net>,
     buses: [MemBus; 2],
-    cut: watch::Sender<bool>,
+    cut: Connector,
     peers: Vec<Handle<Net>>,
     boards: Vec<(u8, Handle<Board>)>,
     /// The B members, booted [`B_BOOTS_LATER`].
@@ -171,11 +176,7 @@ struct Script {
 impl Script {
     /// Waits until `t` after the start; false if asked to stop first.
     async fn until(&mut self, t: Duration) -> bool {
-        let at = self.start + core::time::Duration::from_micros(t.as_micros());
-        tokio::select! {
-            () = tokio::time::sleep_until(at) => true,
-            _ = self.stop.wait_for(|s| *s) => false,
-        }
+        until(self.start, t, &mut self.stop).await
     }
 
     async fn run(mut self) {
@@ -208,7 +209,7 @@ impl Script {
         if !self.until(SIM_BUS_FAILS).await {
             return false;
         }
-        self.cut.send_replace(true);
+        self.cut.pull();
         if !self.until(SIM_PEERS_FAIL).await {
             return false;
         }
@@ -233,56 +234,5 @@ impl Script {
             }
         }
         self.until(SIM_END).await
-    }
-}
-
-/// A port on a simulated bus that stops working when told (`cut`): receiving, sending and
-/// re-opening fail with the interface down, as a pulled connector does.
-pub(super) struct FaultPort {
-    pub(super) inner: MemPort,
-    pub(super) cut: watch::Receiver<bool>,
-}
-
-impl FaultPort {
-    fn down(&self) -> PortError {
-        PortError::new(
-            self.inner.name(),
-            PortErrorKind::InterfaceDown,
-            "simulated fault",
-        )
-    }
-    fn is_cut(&self) -> bool {
-        *self.cut.borrow()
-    }
-}
-
-impl Port for FaultPort {
-    fn name(&self) -> &str {
-        self.inner.name()
-    }
-    fn counters(&self) -> PortCounters {
-        self.inner.counters()
-    }
-    async fn recv(&mut self) -> Result<PortInput, PortError> {
-        if self.is_cut() {
-            return Err(self.down());
-        }
-        tokio::select! {
-            r = self.inner.recv() => return r,
-            _ = self.cut.wait_for(|c| *c) => {}
-        }
-        Err(self.down())
-    }
-    async fn send(&mut self, frame: &Frame) -> Result<(), PortError> {
-        if self.is_cut() {
-            return Err(self.down());
-        }
-        self.inner.send(frame).await
-    }
-    async fn reopen(&mut self) -> Result<(), PortError> {
-        if self.is_cut() {
-            return Err(self.down());
-        }
-        self.inner.reopen().await
     }
 }

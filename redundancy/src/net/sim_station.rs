@@ -7,7 +7,7 @@
 //! clock every run is the same.
 
 use super::dual_link::DualLink;
-use super::sim::{board, spawn, Board, FaultPort};
+use super::sim::{board, spawn, until, Board};
 use super::Net;
 use crate::link::config::DualBusConfig;
 use crate::link::dual_bus::DualBus;
@@ -18,7 +18,7 @@ use alloc::vec::Vec;
 use duocan::cia302::program::{FlashError, ProgramDictionary, ProgramStore};
 use duocan::net::{sim_dictionary, NetOptions, Network};
 use duocan::od::{Access, DataType, DynamicDictionary, ObjectDef, ObjectDictionary};
-use duocan::port::mem::MemBus;
+use duocan::port::mem::{Connector, MemBus};
 use duocan::runtime::Handle;
 use duocan::sdo::SdoServerConfig;
 use duocan::{Duration, Instant, Node, NodeConfig, NodeId, Station};
@@ -175,14 +175,8 @@ pub(super) fn open(opts: NetOptions, script: StationScript) -> Result<Network, R
     }
     let buses = [MemBus::new("sim-bus1"), MemBus::new("sim-bus2")];
     // The network's ports first: a port hears only what is sent after it exists.
-    let (cut, cut_rx) = watch::channel(false);
-    let ports = (
-        FaultPort {
-            inner: buses[0].port(),
-            cut: cut_rx,
-        },
-        buses[1].port(),
-    );
+    let (port1, cut) = buses[0].plugged_port();
+    let ports = (port1, buses[1].port());
     let net = Network::open_link(new_link(), ports, opts).map_err(sim_error)?;
     let mut masters = Vec::new();
     for id in [1, 2] {
@@ -220,12 +214,38 @@ pub(super) fn open(opts: NetOptions, script: StationScript) -> Result<Network, R
     Ok(net)
 }
 
-/// The station's devices (`None`: powered off by the script) and its script.
+/// Devices by node-ID; `None`: powered off by the script.
+type Devices<D> = Vec<(u8, Option<Handle<D>>)>;
+
+/// Stops device `id` of `devices`, if it runs.
+async fn power_off<D>(devices: &mut Devices<D>, id: Option<u8>)
+where
+    D: duocan::Device + Send + 'static,
+    D::Event: Clone + Send + 'static,
+{
+    let found = devices.iter_mut().find(|(d, _)| Some(*d) == id);
+    if let Some(h) = found.and_then(|(_, h)| h.take()) {
+        h.shutdown().await;
+    }
+}
+
+/// Starts every device of `devices` that is off, anew (it boots).
+fn power_on<D>(devices: &mut Devices<D>, start: impl Fn(u8) -> Result<Handle<D>, RedundantError>)
+where
+    D: duocan::Device + Send + 'static,
+    D::Event: Clone + Send + 'static,
+{
+    for (id, h) in devices.iter_mut().filter(|(_, h)| h.is_none()) {
+        *h = start(*id).ok();
+    }
+}
+
+/// The station's devices and its script.
 struct Sim {
     buses: [MemBus; 2],
-    cut: watch::Sender<bool>,
-    masters: Vec<(u8, Option<Handle<Net>>)>,
-    boards: Vec<(u8, Option<Handle<Board>>)>,
+    cut: Connector,
+    masters: Devices<Net>,
+    boards: Devices<Board>,
     slaves: Vec<Handle<Slave<DynamicDictionary>>>,
     flasher: Handle<Flasher>,
     stop: watch::Receiver<bool>,
@@ -235,11 +255,7 @@ struct Sim {
 impl Sim {
     /// Waits until `t` after the start; false if asked to stop first.
     async fn until(&mut self, t: Duration) -> bool {
-        let at = self.start + core::time::Duration::from_micros(t.as_micros());
-        tokio::select! {
-            () = tokio::time::sleep_until(at) => true,
-            _ = self.stop.wait_for(|s| *s) => false,
-        }
+        until(self.start, t, &mut self.stop).await
     }
 
     async fn run(mut self, script: StationScript) {
@@ -287,46 +303,34 @@ impl Sim {
         if !self.until(base + SIM_FAULT_BUS_CUT).await {
             return false;
         }
-        self.cut.send_replace(true);
+        self.cut.pull();
         if !self.until(base + SIM_FAULT_BUS_BACK).await {
             return false;
         }
-        self.cut.send_replace(false);
+        self.cut.plug_in();
         if !self.until(base + SIM_FAULT_MEMBER_STOPS).await {
             return false;
         }
         let member = self.active_member().await;
-        if let Some((_, h)) = self.boards.iter_mut().find(|(id, _)| Some(*id) == member) {
-            if let Some(h) = h.take() {
-                h.shutdown().await;
-            }
-        }
+        power_off(&mut self.boards, member).await;
         if !self.until(base + SIM_FAULT_MEMBER_BACK).await {
             return false;
         }
-        for (id, h) in &mut self.boards {
-            if h.is_none() {
-                *h = spawn(new_board(*id), "sim board", &self.buses).ok();
-            }
-        }
+        let buses = self.buses.clone();
+        power_on(&mut self.boards, |id| {
+            spawn(new_board(id), "sim board", &buses)
+        });
         if !self.until(base + SIM_FAULT_MASTER_STOPS).await {
             return false;
         }
         let active = self.active_master().await;
-        if let Some((_, h)) = self.masters.iter_mut().find(|(id, _)| Some(*id) == active) {
-            if let Some(h) = h.take() {
-                h.shutdown().await;
-            }
-        }
+        power_off(&mut self.masters, active).await;
         if !self.until(base + SIM_FAULT_MASTER_BACK).await {
             return false;
         }
-        for (id, h) in &mut self.masters {
-            if h.is_none() {
-                let name = alloc::format!("sim master {id}");
-                *h = master(*id).and_then(|m| spawn(m, &name, &self.buses)).ok();
-            }
-        }
+        power_on(&mut self.masters, |id| {
+            spawn(master(id)?, &alloc::format!("sim master {id}"), &buses)
+        });
         true
     }
 

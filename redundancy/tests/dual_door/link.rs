@@ -1,60 +1,14 @@
 //! The front door on a dual link: requests fan out, answers merge exactly, port health and
 //! reach show through `ports()`, `heard_on()` and the events.
 
-use duocan::frame::Frame;
 use duocan::net::{sim_dictionary, NetEvent, NetOptions, Network, SIM_VENDOR};
 use duocan::od::DynamicDictionary;
-use duocan::port::mem::{MemBus, MemPort};
-use duocan::port::{Port, PortCounters, PortError, PortErrorKind, PortInput};
+use duocan::port::mem::{Connector, MemBus};
 use duocan::runtime::{Handle, Runtime};
 use duocan::{Instant, NmtState, Node, NodeConfig, NodeId, Station};
 use duocan_redundancy::net::open_dual;
 use duocan_redundancy::{DualBus, DualBusConfig, DualBusNode};
 use std::time::Duration;
-use tokio::sync::watch;
-
-/// A port on an in-memory bus that goes down while `cut` is true (a pulled connector).
-struct Cut {
-    inner: MemPort,
-    cut: watch::Receiver<bool>,
-}
-
-impl Cut {
-    fn down(&self) -> PortError {
-        PortError::new(self.inner.name(), PortErrorKind::InterfaceDown, "cut")
-    }
-}
-
-impl Port for Cut {
-    fn name(&self) -> &str {
-        self.inner.name()
-    }
-    fn counters(&self) -> PortCounters {
-        self.inner.counters()
-    }
-    async fn recv(&mut self) -> Result<PortInput, PortError> {
-        if *self.cut.borrow() {
-            return Err(self.down());
-        }
-        tokio::select! {
-            r = self.inner.recv() => return r,
-            _ = self.cut.wait_for(|c| *c) => {}
-        }
-        Err(self.down())
-    }
-    async fn send(&mut self, frame: &Frame) -> Result<(), PortError> {
-        if *self.cut.borrow() {
-            return Err(self.down());
-        }
-        self.inner.send(frame).await
-    }
-    async fn reopen(&mut self) -> Result<(), PortError> {
-        if *self.cut.borrow() {
-            return Err(self.down());
-        }
-        self.inner.reopen().await
-    }
-}
 
 fn booted(id: u8) -> Node<DynamicDictionary> {
     let id = NodeId::must(id);
@@ -75,22 +29,19 @@ fn on_both(id: u8, buses: &[MemBus; 2]) -> Handle<DualBusNode<DynamicDictionary>
     .unwrap()
 }
 
-/// Two buses, the network on both (bus 1 through a port that can be cut), node 5 on both.
+/// Two buses, the network on both (bus 1 through a connector that can be pulled), node 5 on
+/// both.
 struct Rig {
     buses: [MemBus; 2],
-    cut: watch::Sender<bool>,
+    cut: Connector,
     net: Network,
     node: Handle<DualBusNode<DynamicDictionary>>,
 }
 
 fn rig() -> Rig {
     let buses = [MemBus::new("bus1"), MemBus::new("bus2")];
-    let (cut, rx) = watch::channel(false);
+    let (port1, cut) = buses[0].plugged_port();
     let opts = NetOptions::default().with_sdo_timeout(Duration::from_millis(200));
-    let port1 = Cut {
-        inner: buses[0].port(),
-        cut: rx,
-    };
     let net = open_dual(port1, buses[1].port(), opts).unwrap();
     let node = on_both(5, &buses);
     Rig {
@@ -136,7 +87,7 @@ async fn sdo_works_with_bus_1_down_and_the_port_shows_failed_after_its_timeout()
     }
 
     let mut events = r.net.events();
-    r.cut.send_replace(true);
+    r.cut.pull();
     sleep_ms(400).await;
     let ports = r.net.ports().await.unwrap();
     assert_eq!((ports[0].state, ports[1].state), ("failed", "ok"));
@@ -179,7 +130,7 @@ async fn sdo_works_with_bus_1_down_and_the_port_shows_failed_after_its_timeout()
     assert_eq!(fail.to_string(), format!("bus 1: failed ({reason})"));
 
     // Plugged back: re-initialised, recovering, then ok.
-    r.cut.send_replace(false);
+    r.cut.plug_in();
     let seen = drain(&mut events, 2000).await;
     let states: Vec<&str> = seen
         .iter()

@@ -7,8 +7,8 @@ use duocan::sdo::TransferMode;
 use duocan::NmtState;
 use duocan_redundancy::net::{
     open_dual_named, sim_program_id, SIM_DOMAIN, SIM_DOMAIN_SIZE, SIM_FAULT_BUS_BACK,
-    SIM_FAULT_BUS_CUT, SIM_FAULT_MASTER_STOPS, SIM_FAULT_MEMBER_STOPS, SIM_PAIRS, SIM_PROGRAM_NODE,
-    SIM_SLAVES,
+    SIM_FAULT_BUS_CUT, SIM_FAULT_MASTER_BACK, SIM_FAULT_MASTER_STOPS, SIM_FAULT_MEMBER_STOPS,
+    SIM_FAULT_PERIOD, SIM_PAIRS, SIM_PROGRAM_NODE, SIM_SLAVES,
 };
 use duocan_redundancy::RedundantError;
 use std::time::Duration;
@@ -133,7 +133,8 @@ async fn a_program_is_downloaded_and_runs() {
 async fn sim_faults_plays_a_bus_a_member_and_a_master_failover() {
     let net = open_dual_named("sim:faults", NetOptions::default()).unwrap();
     let mut events = net.events();
-    let end = tokio::time::Instant::now() + Duration::from_millis(9_900);
+    // One period and the start of the next.
+    let end = tokio::time::Instant::now() + Duration::from_millis(12_500);
     let mut seen = Vec::new();
     while let Ok(Some(e)) = tokio::time::timeout_at(end, events.next()).await {
         seen.push(e);
@@ -172,6 +173,15 @@ async fn sim_faults_plays_a_bus_a_member_and_a_master_failover() {
     );
     let gone = gone.expect("master 0x01 gone");
     assert!((master..master + 500).contains(&at_ms(gone)), "{gone}");
+    // …and is heard again once powered.
+    let again = seen.iter().find(|e| {
+        matches!(e, NetEvent::Reach { node, heard: [true, true], .. } if node.raw() == 0x01)
+            && at_ms(e) > master
+    });
+    assert!(
+        again.is_some_and(|e| at_ms(e) > SIM_FAULT_MASTER_BACK.as_millis()),
+        "{again:?}"
+    );
     net.close().await;
 }
 
