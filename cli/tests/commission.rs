@@ -6,8 +6,9 @@ use serde_json::Value;
 use std::path::PathBuf;
 use std::time::{Duration, Instant};
 
-/// The node-IDs the simulated station has.
-const SIM_NODES: std::ops::RangeInclusive<u64> = 1..=10;
+/// The simulated redundant station: masters 0x01 and 0x02, the pairs 0x10/0x50 and 0x11/0x51,
+/// the slaves 0x05-0x07.
+const SIM_NODES: [u64; 9] = [0x01, 0x02, 0x05, 0x06, 0x07, 0x10, 0x11, 0x50, 0x51];
 
 fn json(text: &str) -> Value {
     serde_json::from_str(text).unwrap_or_else(|e| panic!("not JSON ({e}): {text}"))
@@ -28,15 +29,26 @@ fn scan_finds_exactly_the_simulated_nodes_with_their_identity() {
     let took = t.elapsed();
     let rows = v.as_array().unwrap();
     let ids: Vec<u64> = rows.iter().map(|r| r["node"].as_u64().unwrap()).collect();
-    assert_eq!(ids, SIM_NODES.collect::<Vec<_>>());
+    assert_eq!(ids, SIM_NODES);
     for r in rows {
         let id = r["node"].as_u64().unwrap();
-        assert_eq!(r["vendor"], 0x00D0_CA00, "{r}");
-        assert_eq!(r["product"], id, "{r}");
-        assert_eq!(r["name"], "duocan simulated node");
-        assert_eq!(r["state"], "pre-operational");
+        assert!(r["state"].is_string(), "heard: {r}");
+        // Two buses: every node is heard on both.
+        assert_eq!(
+            (&r["bus_1"], &r["bus_2"]),
+            (&Value::Bool(true), &Value::Bool(true)),
+            "{r}"
+        );
         // The sim's own description is not an identity claim.
         assert_eq!(r["description"], Value::Null);
+        if id <= 2 {
+            continue; // the masters: a default identity
+        }
+        assert_eq!(r["vendor"], 0x00D0_CA00, "{r}");
+        assert_eq!(r["product"], id, "{r}");
+        if (5..=7).contains(&id) {
+            assert_eq!(r["name"], "duocan simulated node");
+        }
     }
     // 127 IDs probed at once with 100 ms each, and 1.5 s of listening: under 2 s on a quiet
     // machine; a generous bound for a loaded one.
@@ -45,14 +57,36 @@ fn scan_finds_exactly_the_simulated_nodes_with_their_identity() {
 
 #[test]
 fn scan_text_lines_up_and_listening_alone_finds_the_heartbeats() {
-    let out = sim_ok(&["scan", "--no-probe", "--listen", "400"]);
+    // The B members are powered 1 s after the station starts: 1.5 s of listening hears them.
+    let out = sim_ok(&["scan", "--no-probe"]);
     let lines: Vec<&str> = out.lines().collect();
     assert!(lines[0].starts_with("node  state "), "{out}");
-    assert_eq!(lines.len(), 11, "{out}");
+    assert!(lines[0].ends_with("description  bus 1  bus 2"), "{out}");
+    assert_eq!(lines.len(), 1 + SIM_NODES.len(), "{out}");
+    let five = lines[3];
+    assert!(five.starts_with("0x05  "), "{out}");
     assert!(
-        lines[5].starts_with("0x05  pre-operational  0x00000000   0x00d0ca00  0x00000005"),
+        five.contains("  0x00000000   0x00d0ca00  0x00000005  0x00000000  0x00000000  duocan simulated node  -            yes    yes"),
         "{out}"
     );
+}
+
+#[test]
+fn scan_shows_the_bus_a_node_is_no_longer_heard_on() {
+    // sim:faults cuts the tool's connection to bus 1 from 2 s to 4 s: a scan that ends in
+    // between hears every node on bus 2 only.
+    let r = duocan(&["--bus", "sim:faults", "--json", "scan", "--listen", "3000"]);
+    assert_eq!(r.code, 0, "{}", r.err);
+    let v = json(&r.out);
+    let rows = v.as_array().unwrap();
+    assert!(rows.len() >= 7, "{v}");
+    for r in rows {
+        assert_eq!(
+            (&r["bus_1"], &r["bus_2"]),
+            (&Value::Bool(false), &Value::Bool(true)),
+            "{r}"
+        );
+    }
 }
 
 #[test]

@@ -86,6 +86,8 @@ struct Found {
     revision: Option<u32>,
     serial: Option<u32>,
     name: Option<String>,
+    /// On two ports: whether it was heard on bus 1 and on bus 2.
+    heard_on: Option<[bool; 2]>,
 }
 
 /// Runs `duocan scan`.
@@ -156,6 +158,10 @@ async fn scan(g: &Global, bus: &Bus, a: &Args) -> Result<(), Fail> {
             };
         }
     }
+    // Asked last: by now every node found has sent something on the buses it reaches.
+    for (id, f) in &mut found {
+        f.heard_on = bus.net.heard_on(*id).await?;
+    }
     print(g, bus, &found);
     Ok(())
 }
@@ -220,7 +226,8 @@ fn matched(bus: &Bus, id: u8, f: &Found) -> Cell {
 
 /// The description `--bus sim` attaches to every node-ID by itself.
 fn is_sim_own(bus: &Bus, d: &Description) -> bool {
-    bus.names == ["sim"] && d.source == "duocan-sim.eds"
+    matches!(bus.names.as_slice(), [one] if one == "sim" || one == "sim:faults")
+        && d.source == "duocan-sim.eds"
 }
 
 fn file_name(d: &Description) -> String {
@@ -265,7 +272,8 @@ fn print(g: &Global, bus: &Bus, found: &BTreeMap<u8, Found>) {
         "name",
         "description",
     ];
-    if bus.is_dual() {
+    let dual = found.values().any(|f| f.heard_on.is_some());
+    if dual {
         cols.extend(["bus 1", "bus 2"]);
     }
     let mut t = Table::new(&cols);
@@ -274,7 +282,7 @@ fn print(g: &Global, bus: &Bus, found: &BTreeMap<u8, Found>) {
             Some(s) => Cell::from(s.to_string()),
             None => Cell::new("(not heard)", serde_json::Value::Null),
         };
-        let row = vec![
+        let mut row = vec![
             node_cell(*id),
             state,
             hex32(f.device_type),
@@ -285,6 +293,9 @@ fn print(g: &Global, bus: &Bus, found: &BTreeMap<u8, Found>) {
             Cell::from(f.name.clone()),
             matched(bus, *id, f),
         ];
+        if let Some([one, two]) = f.heard_on {
+            row.extend([Cell::from(one), Cell::from(two)]);
+        }
         t.row(row);
     }
     t.print(g.json);
