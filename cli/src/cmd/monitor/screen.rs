@@ -108,7 +108,12 @@ fn on_key(s: &Session, ui: &mut Ui, k: KeyEvent) -> bool {
                 ui.filter.pop();
             }
             // A filter is a short piece of one line: longer input is ignored.
-            KeyCode::Char(c) if ui.filter.chars().count() < 40 => ui.filter.push(c),
+            KeyCode::Char(c)
+                if ui.filter.chars().count() < 40
+                    && !k.modifiers.contains(KeyModifiers::CONTROL) =>
+            {
+                ui.filter.push(c);
+            }
             _ => {}
         }
         ui.scroll = 0;
