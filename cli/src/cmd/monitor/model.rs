@@ -14,7 +14,7 @@
 //!
 //! **Memory.** At most 127 nodes (a node-ID is 1–127), [`MAX_PORTS`] ports, [`MAX_PAIRS`]
 //! pairs, and a ring of the last [`EVENTS_KEPT`] log lines: when it is full the oldest line
-//! goes and is counted ([`Model::dropped`]).
+//! goes and is counted ([`View::dropped`]).
 //!
 //! ```text
 //! let mut m = Model::new(Names::default(), vec![(0x10, 0x50)]);
@@ -172,6 +172,8 @@ pub struct View {
     pub master_info: Option<Master>,
     /// Log lines matching the filter, oldest first: `time`, `text`.
     pub events: Vec<(Instant, String)>,
+    /// Log lines the ring has dropped (the oldest, when it was full).
+    pub dropped: u64,
 }
 
 impl Model {
@@ -204,6 +206,7 @@ impl Model {
         }
     }
 
+    #[allow(dead_code)] // TEMP: fed by `Network::ports` once it is on main.
     /// The ports as the network reports them: from now on they replace the monitor's counts.
     pub fn set_ports(&mut self, ports: Vec<PortInfo>, at: Instant) {
         for (i, p) in ports.iter().take(MAX_PORTS).enumerate() {
@@ -221,6 +224,7 @@ impl Model {
         self.ports_given = true;
     }
 
+    #[allow(dead_code)] // TEMP: fed by `Network::heard_on` once it is on main.
     /// Where the named node was heard, from the network (two ports).
     pub fn set_heard_on(&mut self, node: u8, on: String) {
         if let Some(n) = self.nodes.get_mut(&node) {
@@ -228,19 +232,10 @@ impl Model {
         }
     }
 
+    #[cfg(test)]
     /// The node-IDs known.
     pub fn node_ids(&self) -> Vec<u8> {
         self.nodes.keys().copied().collect()
-    }
-
-    /// Log lines dropped from the ring.
-    pub fn dropped(&self) -> u64 {
-        self.dropped
-    }
-
-    /// The declared pairs.
-    pub fn pairs(&self) -> &[(u8, u8)] {
-        &self.pairs
     }
 
     fn node(&mut self, id: u8) -> Option<&mut NodeInfo> {
@@ -430,6 +425,7 @@ impl Model {
         (lines, missed)
     }
 
+    #[cfg(test)]
     /// The number of the last log line.
     pub fn seq(&self) -> u64 {
         self.seq
@@ -532,6 +528,7 @@ impl Model {
                 .filter(|l| matches(&l.text))
                 .map(|l| (l.at, l.text.clone()))
                 .collect(),
+            dropped: self.dropped,
         }
     }
 

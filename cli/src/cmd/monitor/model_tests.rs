@@ -252,7 +252,7 @@ fn the_log_is_a_ring_and_the_plain_output_reads_it_in_order() {
             at: ms(i),
         });
     }
-    assert_eq!(m.dropped(), 5);
+    assert_eq!(m.view(ms(0), "").dropped, 5);
     assert_eq!(m.view(ms(0), "").events.len(), EVENTS_KEPT);
     let (lines, missed) = m.log_since(0);
     assert_eq!((lines.len(), missed), (EVENTS_KEPT, 5));

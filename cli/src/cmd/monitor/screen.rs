@@ -328,10 +328,12 @@ fn draw_events(f: &mut Frame, s: &Session, ui: &mut Ui, v: &View, area: Rect) {
             ])
         })
         .collect();
-    let name = if ui.scroll > 0 {
-        format!("Events ({}, {} newer below)", v.events.len(), ui.scroll)
-    } else {
-        format!("Events ({})", v.events.len())
-    };
+    let mut name = format!("Events ({})", v.events.len());
+    if ui.scroll > 0 {
+        name.push_str(&format!(", {} newer below", ui.scroll));
+    }
+    if v.dropped > 0 {
+        name.push_str(&format!(", {} older ones dropped", v.dropped));
+    }
     f.render_widget(Paragraph::new(lines).block(title(&name)), area);
 }
