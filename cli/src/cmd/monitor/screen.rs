@@ -241,11 +241,16 @@ fn draw_nodes(f: &mut Frame, s: &Session, v: &View, area: Rect) {
         }
         Row::new(cells)
     });
-    let shown = if v.nodes.len() == v.known {
+    let mut shown = if v.nodes.len() == v.known {
         format!("Nodes ({})", v.known)
     } else {
         format!("Nodes ({} of {})", v.nodes.len(), v.known)
     };
+    // Borders and the header take three lines; rows beyond the panel are named, not lost.
+    let fit = usize::from(area.height.saturating_sub(3));
+    if v.nodes.len() > fit {
+        shown.push_str(&format!(", the first {fit} shown: / filters"));
+    }
     f.render_widget(
         Table::new(rows, widths)
             .header(Row::new(header).bold())
