@@ -193,10 +193,10 @@ fn tcp_clients_are_served_at_once_each_with_its_own_defaults() {
     let served = Served::start();
     let mut a = served.connect();
     let mut b = served.connect();
-    assert_eq!(a.ask("[1] set node 3"), "[1] OK");
-    assert_eq!(b.ask("[1] set node 4"), "[1] OK");
-    assert_eq!(a.ask("[2] r 0x1018 2 u32"), "[2] 3");
-    assert_eq!(b.ask("[2] r 0x1018 2 u32"), "[2] 4");
+    assert_eq!(a.ask("[1] set node 6"), "[1] OK");
+    assert_eq!(b.ask("[1] set node 7"), "[1] OK");
+    assert_eq!(a.ask("[2] r 0x1018 2 u32"), "[2] 6");
+    assert_eq!(b.ask("[2] r 0x1018 2 u32"), "[2] 7");
     assert_eq!(b.ask("[3] set sdo_timeout 3000"), "[3] OK");
     // Both at once, from two threads: a node that does not answer keeps B waiting, not A.
     let tb = std::thread::spawn(move || {
