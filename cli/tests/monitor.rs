@@ -1,5 +1,6 @@
 //! `duocan monitor` in plain mode (its standard output is a pipe here) against the simulated
-//! nodes of `--bus sim`: lines with the time of day, status lines, JSON, and strict arguments.
+//! redundant station of `--bus sim`: lines with the time of day, status lines, JSON, and strict
+//! arguments.
 
 mod common;
 use common::{duocan, sim};
@@ -15,20 +16,48 @@ fn is_clock(s: &str) -> bool {
         })
 }
 
+/// The nodes of the simulated station and the state each settles in: masters 0x01 (active)
+/// and 0x02, the A members 0x10 and 0x11 active, the B members 0x50 and 0x51 standby, plain
+/// slaves 0x05-0x07.
+const STATION: [(u8, &str); 9] = [
+    (0x01, "operational"),
+    (0x02, "operational"),
+    (0x05, "pre-operational"),
+    (0x06, "pre-operational"),
+    (0x07, "pre-operational"),
+    (0x10, "operational"),
+    (0x11, "operational"),
+    (0x50, "pre-operational"),
+    (0x51, "pre-operational"),
+];
+
 #[test]
-fn plain_lines_name_each_simulated_node_and_a_status_line_follows() {
-    let r = sim(&["monitor", "--duration", "1.5", "--every", "0.6"]);
+fn plain_lines_name_the_station_s_nodes_and_a_status_line_sums_up() {
+    // One status line, at 2 s: the B members are powered at 1 s.
+    let r = sim(&["monitor", "--duration", "3", "--every", "2"]);
     assert_eq!(r.code, 0, "{}", r.err);
     let lines: Vec<&str> = r.out.lines().collect();
     for line in &lines {
         let (clock, _) = line.split_at(12);
         assert!(is_clock(clock), "no time of day in {line:?}");
     }
-    // Each simulated node (1-10) is heard in its state, from its heartbeat.
-    for id in 1..=10 {
-        let want = format!("  node {id:#04x}: pre-operational");
+    // The slaves' and pair members' states come as the network's events.
+    for (id, state) in &STATION[2..] {
+        let want = format!("  node {id:#04x}: {state}");
         assert!(
             lines.iter().any(|l| l.ends_with(&want)),
+            "no {want:?} in\n{}",
+            r.out
+        );
+    }
+    // The monitor's own observations: the master from its 0x71, the pairs' active members.
+    for want in [
+        "  monitor: active master 0x01, priority 0",
+        "  monitor: pair 0x10/0x50: 0x10 active",
+        "  monitor: pair 0x11/0x51: 0x11 active",
+    ] {
+        assert!(
+            lines.iter().any(|l| l.ends_with(want)),
             "no {want:?} in\n{}",
             r.out
         );
@@ -36,22 +65,33 @@ fn plain_lines_name_each_simulated_node_and_a_status_line_follows() {
     let status: Vec<&&str> = lines.iter().filter(|l| l.contains("  status: ")).collect();
     assert_eq!(
         status.len(),
-        2,
-        "two status lines in 1.5 s every 0.6 s:\n{}",
+        1,
+        "one status line in 3 s every 2 s:\n{}",
         r.out
     );
-    let last = status[1];
+    let last = status[0];
     assert!(
-        last.contains("status: 10 nodes (10 pre-operational); port sim ok rx "),
+        last.contains("status: 9 nodes (4 operational, 5 pre-operational); "),
         "{last}"
     );
-    // The sim bus's default pairs are shown; the simulated nodes 1-10 are not in them.
+    // Both ports, ok; listen-only: the monitor sent nothing.
+    for port in ["sim-bus1", "sim-bus2"] {
+        let p = format!("port {port} ok rx ");
+        let at = last
+            .find(&p)
+            .unwrap_or_else(|| panic!("no {p:?} in {last}"));
+        let rest = &last[at + p.len()..];
+        let rx: u64 = rest.split(' ').next().unwrap().parse().unwrap();
+        assert!(rx > 0, "{last}");
+        assert!(rest.contains(" tx 0 errors 0;"), "{last}");
+    }
     assert!(
-        last.contains("; pair 0x10/0x50 not heard; pair 0x11/0x51 not heard; master -"),
+        last.contains(
+            "; pair 0x10/0x50 active 0x10 standby 0x50; pair 0x11/0x51 active 0x11 standby 0x51; \
+             master 0x01 (priority 0), heartbeat "
+        ),
         "{last}"
     );
-    // Listen-only: the monitor sent nothing.
-    assert!(last.contains(" tx 0 errors 0"), "{last}");
 }
 
 #[test]
@@ -60,9 +100,9 @@ fn json_lines_are_objects_with_a_kind_and_status_has_the_tables() {
         "--json",
         "monitor",
         "--duration",
-        "1.2",
+        "2.5",
         "--every",
-        "1",
+        "1.5",
         "--pair",
         "5,6",
     ]);
@@ -83,21 +123,28 @@ fn json_lines_are_objects_with_a_kind_and_status_has_the_tables() {
         .find(|v| v["kind"] == "status")
         .expect("a status line");
     let nodes = status["nodes"].as_array().unwrap();
-    assert_eq!(nodes.len(), 10);
-    assert_eq!(nodes[4]["node"], 5);
-    assert_eq!(nodes[4]["state"], "pre-operational");
-    assert_eq!(nodes[4]["name"], "duocan simulated node");
-    // The simulated nodes beat every 100 ms.
-    let age = nodes[4]["heartbeat_age_ms"].as_u64().unwrap();
+    let ids: Vec<u64> = nodes.iter().map(|n| n["node"].as_u64().unwrap()).collect();
+    assert_eq!(ids, STATION.map(|(id, _)| u64::from(id)));
+    let five = &nodes[2];
+    assert_eq!(five["state"], "pre-operational");
+    assert_eq!(five["name"], "duocan simulated node");
+    assert_eq!(five["emcy"], serde_json::Value::Null);
+    let age = five["heartbeat_age_ms"].as_u64().unwrap();
     assert!(age < 500, "heartbeat age {age} ms");
-    assert_eq!(status["ports"][0]["name"], "sim");
-    assert_eq!(status["ports"][0]["tx"], 0);
+    let ports = status["ports"].as_array().unwrap();
+    assert_eq!(ports.len(), 2);
+    assert_eq!(ports[1]["name"], "sim-bus2");
+    assert_eq!(ports[1]["state"], "ok");
+    assert_eq!(ports[1]["tx"], 0);
     // --pair replaces the default pairs: both members pre-operational, none active.
     assert_eq!(
         status["pairs"],
         serde_json::json!([{"members": [5, 6], "active": "none", "standby": null}])
     );
-    assert_eq!(status["master"], serde_json::Value::Null);
+    assert_eq!(
+        status["master"],
+        serde_json::json!({"node": 1, "priority": 0})
+    );
 }
 
 #[test]

@@ -122,41 +122,63 @@ fn clock(screen: &str) -> String {
         .to_string()
 }
 
+/// The simulated station's nodes and the state each settles in.
+const STATION: [(u8, &str); 9] = [
+    (0x01, "operational"),
+    (0x02, "operational"),
+    (0x05, "pre-operational"),
+    (0x06, "pre-operational"),
+    (0x07, "pre-operational"),
+    (0x10, "operational"),
+    (0x11, "operational"),
+    (0x50, "pre-operational"),
+    (0x51, "pre-operational"),
+];
+
+/// The cells of port `name`'s row in the ports panel (name, state, rx, tx, errors).
+fn port_row(screen: &str, name: &str) -> Vec<String> {
+    let line = screen
+        .lines()
+        .find(|l| l.contains(&format!("│{name} ")))
+        .unwrap_or_else(|| panic!("no row of port {name}:\n{screen}"));
+    let cell = line.rsplit('│').nth(1).unwrap_or_default();
+    cell.split_whitespace().map(String::from).collect()
+}
+
 #[test]
 fn the_monitor_in_a_real_terminal_shows_the_panels_and_obeys_the_keys() {
     let t = Tmux::start("keys", &monitor_cmd("sim"));
-    let s = t.wait_for("the ten simulated nodes", |s| {
-        node_rows(s).len() == 10 && s.contains("0x0a  pre-operational")
+    // Settled: every node in its state, the B members (powered at 1 s) standby.
+    let s = t.wait_for("the station's nodes in their states", |s| {
+        STATION
+            .iter()
+            .all(|(id, state)| s.contains(&format!("│{id:#04x}  {state} ")))
+            && node_rows(s).len() == STATION.len()
     });
-    for id in 1..=10 {
-        let row = format!("{id:#04x}  pre-operational");
-        assert!(s.contains(&row), "no row {row:?}:\n{s}");
-    }
     assert!(s.contains("duocan monitor") && s.contains("bus sim"), "{s}");
-    assert!(s.contains("Nodes (10)"), "{s}");
+    assert!(s.contains("Nodes (9)") && s.contains("Heard on"), "{s}");
     assert!(s.contains("duocan simulated node"), "the device name:\n{s}");
-    // The ports panel: the one port, its state and counters (listen-only: nothing sent).
+    // The ports panel: both buses, ok, counting (listen-only: nothing sent).
     assert!(
         s.contains("Ports") && s.contains("Rx") && s.contains("Errors"),
         "{s}"
     );
-    let port = s
-        .lines()
-        .find(|l| l.contains("│sim "))
-        .unwrap_or_else(|| panic!("no port row:\n{s}"));
-    let cells: Vec<&str> = port
-        .rsplit('│')
-        .nth(1)
-        .unwrap()
-        .split_whitespace()
-        .collect();
-    assert_eq!(cells[..2], ["sim", "ok"], "{port}");
-    assert!(cells[2].parse::<u64>().unwrap() > 0, "rx counted: {port}");
-    assert_eq!(cells[3..], ["0", "0"], "{port}");
-    // The redundancy panel: the station's pairs and the master line.
-    assert!(s.contains("Redundancy") && s.contains("Master:"), "{s}");
-    assert!(s.contains("0x10/0x50") && s.contains("0x11/0x51"), "{s}");
-    assert!(s.contains("Events ("), "{s}");
+    for name in ["sim-bus1", "sim-bus2"] {
+        let cells = port_row(&s, name);
+        assert_eq!(cells[1], "ok", "{cells:?}");
+        assert!(
+            cells[2].parse::<u64>().unwrap() > 0,
+            "rx counted: {cells:?}"
+        );
+        assert_eq!(cells[3], "0", "nothing sent: {cells:?}");
+    }
+    // The redundancy panel: the master of the 0x71 frame, the pairs' roles.
+    let s = t.wait_for("the master and both pairs' roles", |s| {
+        s.contains("Master: 0x01 (priority 0), heartbeat ")
+            && s.contains("│0x10/0x50   0x10        0x50")
+            && s.contains("│0x11/0x51   0x11        0x51")
+    });
+    assert!(s.contains("Redundancy") && s.contains("Events ("), "{s}");
     assert!(
         s.contains("q quit") && s.contains("p pause"),
         "the footer:\n{s}"
@@ -187,7 +209,7 @@ fn the_monitor_in_a_real_terminal_shows_the_panels_and_obeys_the_keys() {
     let s = t.wait_for("only node 0x05", |s| node_rows(s).len() == 1);
     assert!(node_rows(&s)[0].starts_with("0x05  pre-operational"), "{s}");
     assert!(
-        s.contains("Nodes (1 of 10)") && s.contains("filter: 0x05"),
+        s.contains("Nodes (1 of 9)") && s.contains("filter: 0x05"),
         "{s}"
     );
     let events: Vec<&str> = s
@@ -204,6 +226,31 @@ fn the_monitor_in_a_real_terminal_shows_the_panels_and_obeys_the_keys() {
     t.wait_for("no events", |s| s.contains("Events (0)"));
 
     // q: the monitor exits with 0.
+    t.keys(&["q"]);
+    t.wait_for("EXIT=0", |s| s.contains("EXIT=0"));
+}
+
+#[test]
+fn the_fault_script_s_port_failure_pair_failover_and_master_failover_show_on_screen() {
+    let t = Tmux::start("faults", &monitor_cmd("sim:faults"));
+    // 2 s into the script bus 1 is cut: its port fails, the nodes are heard on bus 2 only.
+    let s = t.wait_for("bus 1 failed", |s| {
+        s.contains("│sim-bus1 ") && port_row(s, "sim-bus1")[1] == "failed"
+    });
+    assert_eq!(port_row(&s, "sim-bus2")[1], "ok", "{s}");
+    assert!(s.contains("bus 1: failed (port down"), "the event:\n{s}");
+    // 4 s: plugged back in, ok again.
+    t.wait_for("bus 1 ok again", |s| port_row(s, "sim-bus1")[1] == "ok");
+    // 5 s: pair 0x10/0x50's active member stops; 0x50 takes over.
+    let s = t.wait_for("the pair's failover", |s| {
+        s.contains("│0x10/0x50   0x50 ")
+            && s.contains("monitor: pair 0x10/0x50: failover: 0x50 active (was 0x10)")
+    });
+    assert!(s.contains("│0x50  operational"), "{s}");
+    // 8 s: the active master stops; 0x02 takes over.
+    t.wait_for("the master's failover", |s| {
+        s.contains("Master: 0x02") && s.contains("monitor: active master now 0x02 (was 0x01)")
+    });
     t.keys(&["q"]);
     t.wait_for("EXIT=0", |s| s.contains("EXIT=0"));
 }

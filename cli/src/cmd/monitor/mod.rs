@@ -31,14 +31,16 @@ use crate::args::parse_node;
 use crate::fail::Fail;
 use crate::{bus, Global};
 use duocan::capture::recorder::{Tap, TapDirection, TapPoint};
+use duocan::net::{Network, PortView};
 use duocan::{Frame, Instant};
-use model::{Model, Names};
+use duocan_redundancy::net::SIM_PAIRS;
+use model::{Model, Names, PortInfo};
 use std::io::IsTerminal;
 use std::sync::{Arc, Mutex, PoisonError};
 use std::time::{Duration, SystemTime, UNIX_EPOCH};
 
-/// The pairs of the simulated station behind `--bus sim`, shown when no `--pair` is given.
-const SIM_PAIRS: [(u8, u8); 2] = [(0x10, 0x50), (0x11, 0x51)];
+/// How often the ports' states and counters are read.
+const PORTS_POLL: Duration = Duration::from_millis(250);
 /// The longest `--duration` or `--every`: a day.
 const MAX_SECONDS: f64 = 86_400.0;
 
@@ -140,7 +142,10 @@ impl Session {
 
 /// Runs `duocan monitor`.
 pub async fn run(g: &Global, a: Args) -> Result<(), Fail> {
-    let sim = g.bus.as_ref().is_some_and(|b| b.0 == ["sim"]);
+    let sim = g
+        .bus
+        .as_ref()
+        .is_some_and(|b| b.0 == ["sim"] || b.0 == ["sim:faults"]);
     let pairs = if a.pairs.is_empty() && sim {
         SIM_PAIRS.to_vec()
     } else {
@@ -162,13 +167,7 @@ pub async fn run(g: &Global, a: Args) -> Result<(), Fail> {
         .filter(|(_, d)| !d.device_info.product_name.is_empty())
         .map(|(id, d)| (*id, d.device_info.product_name.clone()))
         .collect();
-    {
-        let mut m = lock(&shared);
-        m.set_names(names);
-        for name in &bus.names {
-            m.add_port(name);
-        }
-    }
+    lock(&shared).set_names(names);
     let mut events = bus.net.events();
     let m = shared.clone();
     let collector = tokio::spawn(async move {
@@ -176,6 +175,7 @@ pub async fn run(g: &Global, a: Args) -> Result<(), Fail> {
             lock(&m).on_event(&e);
         }
     });
+    let poller = tokio::spawn(poll_ports(bus.net.clone(), shared.clone()));
     let since_zero =
         u64::try_from(std::time::Duration::from_micros(bus.net.now().as_micros()).as_millis())
             .unwrap_or(0);
@@ -193,7 +193,32 @@ pub async fn run(g: &Global, a: Args) -> Result<(), Fail> {
     } else {
         screen::run(&session).await
     };
+    poller.abort();
     session.bus.close().await;
     collector.abort();
     r
+}
+
+/// Reads the ports' states and counters into the model until the network closes.
+async fn poll_ports(net: Network, model: Shared) {
+    let mut every = tokio::time::interval(PORTS_POLL);
+    loop {
+        every.tick().await;
+        let Ok(ports) = net.ports().await else {
+            return;
+        };
+        lock(&model).set_ports(ports.into_iter().map(port_info).collect());
+    }
+}
+
+/// A port's row: errors are the error frames received and the sends that failed.
+fn port_info(p: PortView) -> PortInfo {
+    let c = p.counters;
+    PortInfo {
+        name: p.name,
+        state: p.state.into(),
+        rx: c.rx_frames,
+        tx: c.tx_frames,
+        errors: c.rx_error_frames + c.tx_failed,
+    }
 }

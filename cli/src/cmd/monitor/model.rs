@@ -1,31 +1,38 @@
-//! What the monitor knows about the network, without a terminal: fed the network's events and
-//! the frames its tap sees, asked for rows of text.
+//! What the monitor knows about the network, without a terminal: fed the network's events,
+//! the frames its tap sees and the ports' figures, asked for rows of text ([`View`]).
 //!
-//! **The rule.** A node's state is the one its events last told ([`NetEvent::State`], a
-//! boot-up is `initialising`); its heartbeat age is the time since its last heartbeat frame
-//! (0x700 + node-ID, one byte) on any port; a pair's active member is the one that is
-//! operational and its standby the one that is pre-operational (anything else is shown as
-//! it is: both active, none active, not heard); the active master is the node-ID in the latest
-//! CiA 302-2 active-master response (0x71: priority, node-ID).
+//! **The rule.** A node's state is the one its last heartbeat (0x700 + node-ID, one byte, the
+//! toggle bit aside; a boot-up is `initialising`) or event told. Its heartbeat age is the time
+//! since its last heartbeat on any port. It is *silent* once that age passes three of its
+//! periods, and 100 ms at least; its period is measured on each port apart (on two ports
+//! every heartbeat arrives twice, and a copy is no period) and not from a boot-up to the first
+//! heartbeat. A pair's active member is the member that is operational and not silent, its
+//! standby the one that is pre-operational; anything else is shown as it is (`both`, `none`,
+//! `not heard`). The active master is the node-ID in the latest CiA 302-2 active-master
+//! response (0x71: priority, node-ID). Ports are as the network reports them; a port's state
+//! change applies at once with its event.
 //!
 //! **Own observations.** Beside the network's events, the model logs what it concludes itself,
-//! as lines starting with `monitor:`: a pair's active member changed (a failover), the active
-//! master changed, a node's heartbeat went silent for three of its periods (and came back).
+//! as lines starting with `monitor:`: a pair's active member changed (a new one after another
+//! is a failover, even with a moment of `none` or `both` between), the active master changed, a
+//! node went silent and was heard again.
 //!
 //! **Memory.** At most 127 nodes (a node-ID is 1–127), [`MAX_PORTS`] ports, [`MAX_PAIRS`]
 //! pairs, and a ring of the last [`EVENTS_KEPT`] log lines: when it is full the oldest line
 //! goes and is counted ([`View::dropped`]).
 //!
 //! ```text
-//! let mut m = Model::new(Names::default(), vec![(0x10, 0x50)]);
-//! m.on_frame(Instant::from_millis(5), &heartbeat(0x10, 0x05));
-//! m.on_event(&NetEvent::State { node, from: None, to: Operational, at });
+//! let mut m = Model::new(Names::new(), vec![(0x10, 0x50)]);
+//! m.on_frame(Instant::from_millis(5), Some(0), true, &heartbeat(0x10, 0x05));
+//! m.on_frame(Instant::from_millis(5), Some(0), true, &heartbeat(0x50, 0x7F));
 //! let view = m.view(Instant::from_millis(105), "");
 //! assert_eq!(view.nodes[0].hb_age, "100 ms");
+//! assert_eq!((view.pairs[0].active.as_str(), view.pairs[0].standby.as_str()), ("0x10", "0x50"));
 //! ```
+//! (as `model_tests.rs` runs it)
 
 use duocan::net::NetEvent;
-use duocan::{Frame, Id, Instant, NmtState, PortStatus};
+use duocan::{Frame, Id, Instant, NmtState};
 use std::collections::{BTreeMap, VecDeque};
 
 /// Log lines kept for the events panel and the plain output.
@@ -36,24 +43,33 @@ pub const MAX_PORTS: usize = 2;
 pub const MAX_PAIRS: usize = 63;
 /// The active-master response of CiA 302-2 (priority, node-ID).
 pub const ACTIVE_MASTER_RESPONSE: u16 = 0x71;
-/// A heartbeat counts as silent after this many of the node's own periods.
+/// A heartbeat counts as silent after this many of the node's own periods…
 const SILENT_PERIODS: u64 = 3;
+/// … and at least this long (µs): a late beat of a fast heartbeat is jitter, not silence.
+const SILENT_MIN: u64 = 100_000;
 
 /// One node as last heard.
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct NodeInfo {
-    /// Its NMT state, from its events.
+    /// Its NMT state, from its heartbeats and events.
     pub state: Option<NmtState>,
-    /// Its last heartbeat (or boot-up) frame.
-    pub last_hb: Option<Instant>,
-    /// The time between its last two heartbeats: its period as heard.
-    pub period: Option<u64>,
+    /// Its last heartbeat (or boot-up) frame on each port.
+    pub last_hb: [Option<Instant>; MAX_PORTS],
+    /// The time between its last two heartbeats on each port, in µs: its period as heard.
+    pub period: [Option<u64>; MAX_PORTS],
     /// Its last emergency: code, text, when.
     pub emcy: Option<(u16, &'static str, Instant)>,
     /// True while its heartbeat is silent (logged once).
     pub silent: bool,
     /// The bus(es) it was heard on, if the network says (two ports).
     pub heard_on: Option<String>,
+}
+
+impl NodeInfo {
+    /// Its last heartbeat on any port.
+    fn last_heartbeat(&self) -> Option<Instant> {
+        self.last_hb.iter().flatten().max().copied()
+    }
 }
 
 /// One port's row.
@@ -106,11 +122,9 @@ pub type Names = BTreeMap<u8, String>;
 pub struct Model {
     names: Names,
     nodes: BTreeMap<u8, NodeInfo>,
-    /// Ports counted from the tap and the port events (single port), or as the network's
-    /// ports report them ([`Model::set_ports`]).
+    /// As the network reports them ([`Model::set_ports`]); a port state change is applied at
+    /// once from its event.
     ports: Vec<PortInfo>,
-    /// True once [`Model::set_ports`] gives the ports: the tap no longer counts.
-    ports_given: bool,
     pairs: Vec<(u8, u8)>,
     /// Each pair's active member as last seen, and the last one there was (for the failover
     /// observation).
@@ -193,43 +207,10 @@ impl Model {
         self.names = names;
     }
 
-    /// A new port (single port: counted by the monitor from the tap and the port events).
-    pub fn add_port(&mut self, name: &str) {
-        if self.ports.len() < MAX_PORTS {
-            self.ports.push(PortInfo {
-                name: name.to_owned(),
-                state: "ok".into(),
-                rx: 0,
-                tx: 0,
-                errors: 0,
-            });
-        }
-    }
-
-    #[allow(dead_code)] // TEMP: fed by `Network::ports` once it is on main.
-    /// The ports as the network reports them: from now on they replace the monitor's counts.
-    pub fn set_ports(&mut self, ports: Vec<PortInfo>, at: Instant) {
-        for (i, p) in ports.iter().take(MAX_PORTS).enumerate() {
-            if let Some(old) = self.ports.get(i) {
-                if self.ports_given && old.state != p.state {
-                    self.observe(
-                        at,
-                        None,
-                        format!("monitor: port {}: {} -> {}", p.name, old.state, p.state),
-                    );
-                }
-            }
-        }
-        self.ports = ports.into_iter().take(MAX_PORTS).collect();
-        self.ports_given = true;
-    }
-
-    #[allow(dead_code)] // TEMP: fed by `Network::heard_on` once it is on main.
-    /// Where the named node was heard, from the network (two ports).
-    pub fn set_heard_on(&mut self, node: u8, on: String) {
-        if let Some(n) = self.nodes.get_mut(&node) {
-            n.heard_on = Some(on);
-        }
+    /// The ports as the network reports them (names, states, counters).
+    pub fn set_ports(&mut self, ports: Vec<PortInfo>) {
+        self.ports = ports;
+        self.ports.truncate(MAX_PORTS);
     }
 
     #[cfg(test)]
@@ -256,22 +237,27 @@ impl Model {
             NetEvent::HeartbeatResumed { .. } => "heartbeat-back",
             NetEvent::Emcy { .. } => "emcy",
             NetEvent::Pdo { .. } => "pdo",
-            NetEvent::Port { .. } => "port",
+            NetEvent::Port { .. } | NetEvent::PortState { .. } => "port",
+            NetEvent::Reach { .. } => "reach",
             NetEvent::Lagged(_) => "lagged",
             _ => "other",
         };
         if let (Some(id), Some(state)) = (node, e.state()) {
-            if let Some(n) = self.node(id) {
-                n.state = Some(state);
-            }
+            self.set_state(id, state);
         }
         if let Some((id, msg)) = e.emcy() {
             if let Some(n) = self.node(id.raw()) {
                 n.emcy = Some((msg.code, msg.text(), at));
             }
         }
-        if let NetEvent::Port { status, .. } = e {
-            self.on_port_status(0, status);
+        match e {
+            NetEvent::PortState { port, to, .. } => {
+                if let Some(p) = self.ports.get_mut(usize::from(*port)) {
+                    p.state = (*to).into();
+                }
+            }
+            NetEvent::Reach { node, heard, .. } => self.set_heard_on(node.raw(), *heard),
+            _ => {}
         }
         self.push(at, node, kind, e.to_string());
         if e.state().is_some() {
@@ -279,39 +265,35 @@ impl Model {
         }
     }
 
-    fn on_port_status(&mut self, port: usize, status: &PortStatus) {
-        if self.ports_given {
-            return;
+    /// Where node `id` was heard (`[bus 1, bus 2]`), from the network on two ports.
+    pub fn set_heard_on(&mut self, id: u8, heard: [bool; 2]) {
+        if let Some(n) = self.node(id) {
+            n.heard_on = Some(
+                match heard {
+                    [true, true] => "bus 1+2",
+                    [true, false] => "bus 1",
+                    [false, true] => "bus 2",
+                    [false, false] => "none",
+                }
+                .into(),
+            );
         }
-        let Some(p) = self.ports.get_mut(port) else {
-            return;
-        };
-        match status {
-            PortStatus::TxOk => {}
-            PortStatus::Up => p.state = "ok".into(),
-            PortStatus::Down(_) => {
-                p.state = "down".into();
-                p.errors += 1;
+    }
+
+    /// Node `id` is in `state` (from its heartbeat or an event); true if that is a change.
+    fn set_state(&mut self, id: u8, state: NmtState) -> bool {
+        match self.node(id) {
+            Some(n) if n.state != Some(state) => {
+                n.state = Some(state);
+                true
             }
-            PortStatus::Error(_) | PortStatus::TxFailed(_) => {
-                p.state = "error".into();
-                p.errors += 1;
-            }
+            _ => false,
         }
     }
 
     /// One frame the tap saw on port `port` (`None`: above the dual-bus layer), received
     /// (`rx`) or sent.
     pub fn on_frame(&mut self, at: Instant, port: Option<usize>, rx: bool, f: &Frame) {
-        if !self.ports_given {
-            if let Some(p) = port.and_then(|i| self.ports.get_mut(i)) {
-                if rx {
-                    p.rx += 1;
-                } else {
-                    p.tx += 1;
-                }
-            }
-        }
         let Id::Standard(cob) = f.id() else {
             return;
         };
@@ -319,21 +301,33 @@ impl Model {
             return;
         }
         match (cob, f.data()) {
-            (0x701..=0x77F, [_]) => {
+            (0x701..=0x77F, [byte]) => {
                 let id = (cob - 0x700) as u8;
+                // Each port's heartbeats apart: on two ports each one arrives twice, and a
+                // copy is not a period.
+                let p = port.unwrap_or(0).min(MAX_PORTS - 1);
                 let mut back = false;
                 if let Some(n) = self.node(id) {
-                    if let Some(last) = n.last_hb {
-                        let gap = at.saturating_since(last).as_micros();
-                        // Two ports deliver each heartbeat twice: a copy is not a period.
-                        if gap > 1_000 {
-                            n.period = Some(gap);
+                    // A boot-up starts the count again: the first heartbeat follows it at no
+                    // particular time.
+                    match (n.last_hb[p], *byte) {
+                        (_, 0) => n.period = [None; MAX_PORTS],
+                        (Some(last), _) if n.state != Some(NmtState::Initialising) => {
+                            n.period[p] = Some(at.saturating_since(last).as_micros());
                         }
+                        _ => {}
                     }
-                    n.last_hb = Some(at);
+                    n.last_hb[p] = Some(at);
                     back = std::mem::take(&mut n.silent);
                 }
+                // The toggle bit (guarding) is not part of the state.
+                if let Some(state) = NmtState::from_code(byte & 0x7F) {
+                    if self.set_state(id, state) {
+                        self.check_pairs(at);
+                    }
+                }
                 if back {
+                    self.check_pairs(at);
                     self.observe(
                         at,
                         Some(id),
@@ -362,18 +356,22 @@ impl Model {
         }
     }
 
-    /// Time passes: heartbeats silent for three of their periods are logged once.
+    /// Time passes: heartbeats silent for three of their periods (100 ms at least) are logged once.
     pub fn tick(&mut self, now: Instant) {
         let mut silent = Vec::new();
         for (id, n) in &mut self.nodes {
-            let (Some(last), Some(period)) = (n.last_hb, n.period) else {
+            let (Some(last), Some(&period)) = (n.last_heartbeat(), n.period.iter().flatten().min())
+            else {
                 continue;
             };
             let age = now.saturating_since(last).as_micros();
-            if !n.silent && age > period.saturating_mul(SILENT_PERIODS) {
+            if !n.silent && age > period.saturating_mul(SILENT_PERIODS).max(SILENT_MIN) {
                 n.silent = true;
                 silent.push((*id, age));
             }
+        }
+        if !silent.is_empty() {
+            self.check_pairs(now);
         }
         for (id, age) in silent {
             self.observe(
@@ -433,7 +431,13 @@ impl Model {
 
     /// The roles of pair `i` from its members' states.
     fn roles(&self, (a, b): (u8, u8)) -> (Option<u8>, Option<u8>, bool) {
-        let state = |id| self.nodes.get(&id).and_then(|n| n.state);
+        // A silent node is no member to count on, whatever it said last.
+        let state = |id| {
+            self.nodes
+                .get(&id)
+                .filter(|n| !n.silent)
+                .and_then(|n| n.state)
+        };
         let op = |id| state(id) == Some(NmtState::Operational);
         let pre = |id| state(id) == Some(NmtState::PreOperational);
         match (op(a), op(b)) {
@@ -508,10 +512,14 @@ impl Model {
         let master = match self.master {
             None => "-".into(),
             Some(m) => {
-                let hb = self.nodes.get(&m.node).and_then(|n| n.last_hb).map_or_else(
-                    || "-".into(),
-                    |t| age_text(now.saturating_since(t).as_micros()),
-                );
+                let hb = self
+                    .nodes
+                    .get(&m.node)
+                    .and_then(NodeInfo::last_heartbeat)
+                    .map_or_else(
+                        || "-".into(),
+                        |t| age_text(now.saturating_since(t).as_micros()),
+                    );
                 format!("{:#04x} (priority {}), heartbeat {hb}", m.node, m.priority)
             }
         };
@@ -536,10 +544,12 @@ impl Model {
         let dash = || "-".to_string();
         NodeRow {
             node: id,
-            age_ms: n.last_hb.map(|t| now.saturating_since(t).as_millis()),
+            age_ms: n
+                .last_heartbeat()
+                .map(|t| now.saturating_since(t).as_millis()),
             id: format!("{id:#04x}"),
             state: n.state.map_or_else(dash, |s| s.to_string()),
-            hb_age: n.last_hb.map_or_else(dash, |t| {
+            hb_age: n.last_heartbeat().map_or_else(dash, |t| {
                 let age = age_text(now.saturating_since(t).as_micros());
                 if n.silent {
                     format!("{age} silent")

@@ -1,6 +1,5 @@
 use super::*;
 use duocan::emcy::EmcyMessage;
-use duocan::machine::ErrorCause;
 use duocan::NodeId;
 
 fn ms(t: u64) -> Instant {
@@ -175,11 +174,17 @@ fn the_master_is_the_node_of_the_latest_active_master_response() {
 }
 
 #[test]
-fn emcy_ports_and_the_filter() {
+fn emcy_ports_reach_and_the_filter() {
     let mut m = Model::new(Names::new(), vec![]);
-    m.add_port("sim");
-    m.add_port("second");
-    m.add_port("third is refused");
+    let port = |name: &str, state: &str| PortInfo {
+        name: name.into(),
+        state: state.into(),
+        rx: 10,
+        tx: 0,
+        errors: 0,
+    };
+    let three = vec![port("can0", "ok"), port("can1", "ok"), port("can2", "ok")];
+    m.set_ports(three);
     let emcy = EmcyMessage {
         code: 0x8130,
         register: 0x11,
@@ -192,16 +197,23 @@ fn emcy_ports_and_the_filter() {
         msg: emcy,
         at: ms(2),
     });
-    m.on_frame(ms(3), Some(0), true, &heartbeat(5, 5));
-    m.on_frame(ms(3), Some(0), false, &master_frame(0, 127));
-    m.on_event(&NetEvent::Port {
-        status: PortStatus::Down(ErrorCause::InterfaceDown),
+    m.on_event(&NetEvent::Reach {
+        node: NodeId::must(6),
+        heard: [false, true],
+        at: ms(3),
+    });
+    m.on_event(&NetEvent::PortState {
+        port: 0,
+        from: "ok",
+        to: "failed",
+        reason: "port down: interface down".into(),
         at: ms(4),
     });
     let v = m.view(ms(5), "emcy");
     assert_eq!(v.nodes.len(), 1);
     assert_eq!(v.nodes[0].id, "0x06");
     assert_eq!(v.nodes[0].emcy, "0x8130 life guard or heartbeat error");
+    assert_eq!(v.nodes[0].heard_on, "bus 2");
     assert_eq!(v.known, 2);
     assert_eq!(
         v.events,
@@ -213,34 +225,37 @@ fn emcy_ports_and_the_filter() {
     let v = m.view(ms(5), "0x05");
     assert_eq!(v.nodes.len(), 1);
     assert_eq!(v.events, [(ms(1), "node 0x05: operational".into())]);
-    assert_eq!(v.ports.len(), 2);
+    // At most two ports; a port's state changes at once with its event.
+    assert_eq!(v.ports, [port("can0", "failed"), port("can1", "ok")]);
     assert_eq!(
-        v.ports[0],
-        PortInfo {
-            name: "sim".into(),
-            state: "down".into(),
-            rx: 1,
-            tx: 1,
-            errors: 1
-        }
+        m.view(ms(5), "bus 1").events,
+        [(ms(4), "bus 1: failed (port down: interface down)".into())]
     );
-    // Once the network reports its ports, its figures win and a state change is observed.
-    let given = |state: &str| PortInfo {
-        name: "can0".into(),
-        state: state.into(),
-        rx: 10,
-        tx: 2,
-        errors: 0,
-    };
-    m.set_ports(vec![given("ok")], ms(6));
-    m.on_frame(ms(7), Some(0), true, &heartbeat(5, 5));
-    m.set_ports(vec![given("failed")], ms(8));
-    let v = m.view(ms(9), "");
-    assert_eq!(v.ports, [given("failed")]);
+}
+
+#[test]
+fn on_two_ports_a_heartbeats_copy_is_not_a_period() {
+    let mut m = Model::new(Names::new(), vec![]);
+    // Boot-up, then the first heartbeat 5 ms later: not a period either.
+    m.on_frame(ms(0), Some(0), true, &heartbeat(9, 0));
+    m.on_frame(ms(5), Some(0), true, &heartbeat(9, 0x7F));
+    m.on_frame(ms(5), Some(1), true, &heartbeat(9, 0x7F));
+    for t in [205, 405] {
+        m.on_frame(ms(t), Some(0), true, &heartbeat(9, 0x7F));
+        m.on_frame(ms(t + 1), Some(1), true, &heartbeat(9, 0x7F));
+    }
+    m.tick(ms(900));
+    assert!(texts(&m).is_empty(), "{:?}", texts(&m));
+    assert_eq!(m.view(ms(900), "").nodes[0].hb_age, "494 ms");
+    m.tick(ms(1_007));
     assert_eq!(
-        v.events.last().unwrap().1,
-        "monitor: port can0: ok -> failed"
+        texts(&m),
+        ["monitor: node 0x09 heartbeat silent for 601 ms"]
     );
+    // The state comes from the heartbeat itself (its toggle bit aside).
+    assert_eq!(m.view(ms(0), "").nodes[0].state, "pre-operational");
+    m.on_frame(ms(1_010), Some(1), true, &heartbeat(9, 0x85));
+    assert_eq!(m.view(ms(0), "").nodes[0].state, "operational");
 }
 
 #[test]
@@ -278,4 +293,60 @@ fn ages_and_clock_times_read_well() {
     assert_eq!(age_text(12_345_000), "12.3 s");
     assert_eq!(age_text(3_600_000_000), "60 min");
     assert_eq!(clock_text(1_700_000_000_123), "22:13:20.123");
+}
+
+#[test]
+fn the_module_doc_example() {
+    let mut m = Model::new(Names::new(), vec![(0x10, 0x50)]);
+    m.on_frame(
+        Instant::from_millis(5),
+        Some(0),
+        true,
+        &heartbeat(0x10, 0x05),
+    );
+    m.on_frame(
+        Instant::from_millis(5),
+        Some(0),
+        true,
+        &heartbeat(0x50, 0x7F),
+    );
+    let view = m.view(Instant::from_millis(105), "");
+    assert_eq!(view.nodes[0].hb_age, "100 ms");
+    assert_eq!(
+        (
+            view.pairs[0].active.as_str(),
+            view.pairs[0].standby.as_str()
+        ),
+        ("0x10", "0x50")
+    );
+}
+
+#[test]
+fn a_silent_active_member_is_no_longer_active_and_its_standby_taking_over_is_a_failover() {
+    let mut m = Model::new(Names::new(), vec![(0x10, 0x50)]);
+    for t in [0, 100, 200] {
+        m.on_frame(ms(t), Some(0), true, &heartbeat(0x10, 0x05));
+        m.on_frame(ms(t), Some(0), true, &heartbeat(0x50, 0x7F));
+    }
+    // 0x10 stops beating; 0x50 beats on.
+    m.on_frame(ms(300), Some(0), true, &heartbeat(0x50, 0x7F));
+    m.on_frame(ms(400), Some(0), true, &heartbeat(0x50, 0x7F));
+    m.tick(ms(501));
+    let v = m.view(ms(501), "");
+    assert_eq!(
+        v.nodes[0].state, "operational",
+        "its last word, shown as it is"
+    );
+    assert_eq!(v.nodes[0].hb_age, "301 ms silent");
+    assert_eq!(v.pairs[0].active, "none");
+    m.on_frame(ms(520), Some(0), true, &heartbeat(0x50, 0x05));
+    assert_eq!(
+        texts(&m),
+        [
+            "monitor: pair 0x10/0x50: 0x10 active",
+            "monitor: pair 0x10/0x50: no active member",
+            "monitor: node 0x10 heartbeat silent for 301 ms",
+            "monitor: pair 0x10/0x50: failover: 0x50 active (was 0x10)",
+        ]
+    );
 }

@@ -197,7 +197,7 @@ fn draw(f: &mut Frame, s: &Session, ui: &mut Ui, v: &View, now: Instant) {
     f.render_widget(Paragraph::new(Line::from(head)), top);
     let [nodes, side] =
         Layout::horizontal([Constraint::Percentage(62), Constraint::Fill(1)]).areas(body);
-    draw_nodes(f, s, v, nodes);
+    draw_nodes(f, v, nodes);
     let [ports, red] = Layout::vertical([
         Constraint::Length(v.ports.len() as u16 + 3),
         Constraint::Fill(1),
@@ -214,8 +214,9 @@ fn draw(f: &mut Frame, s: &Session, ui: &mut Ui, v: &View, now: Instant) {
     f.render_widget(Paragraph::new(keys).reversed(), footer);
 }
 
-fn draw_nodes(f: &mut Frame, s: &Session, v: &View, area: Rect) {
-    let dual = s.bus.is_dual();
+fn draw_nodes(f: &mut Frame, v: &View, area: Rect) {
+    // On two ports: on which bus each node is heard.
+    let dual = v.ports.len() == 2;
     let mut header = vec!["Node", "State", "Heartbeat", "Last EMCY", "Device"];
     let mut widths = vec![
         Constraint::Length(5),
