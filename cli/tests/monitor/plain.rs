@@ -1,9 +1,8 @@
-//! `duocan monitor` in plain mode (its standard output is a pipe here) against the simulated
-//! redundant station of `--bus sim`: lines with the time of day, status lines, JSON, and strict
-//! arguments.
+//! In plain mode (standard output is a pipe here): lines with the time of day, status lines,
+//! JSON, and strict arguments.
 
-mod common;
-use common::{duocan, sim};
+use super::common::{duocan, sim};
+use super::STATION;
 
 /// True for `HH:MM:SS.mmm`.
 fn is_clock(s: &str) -> bool {
@@ -15,21 +14,6 @@ fn is_clock(s: &str) -> bool {
             _ => c.is_ascii_digit(),
         })
 }
-
-/// The nodes of the simulated station and the state each settles in: masters 0x01 (active)
-/// and 0x02, the A members 0x10 and 0x11 active, the B members 0x50 and 0x51 standby, plain
-/// slaves 0x05-0x07.
-const STATION: [(u8, &str); 9] = [
-    (0x01, "operational"),
-    (0x02, "operational"),
-    (0x05, "pre-operational"),
-    (0x06, "pre-operational"),
-    (0x07, "pre-operational"),
-    (0x10, "operational"),
-    (0x11, "operational"),
-    (0x50, "pre-operational"),
-    (0x51, "pre-operational"),
-];
 
 #[test]
 fn plain_lines_name_the_station_s_nodes_and_a_status_line_sums_up() {

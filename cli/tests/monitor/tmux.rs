@@ -1,7 +1,8 @@
-//! `duocan monitor` in a real terminal: tmux runs it in a 160×50 pane, the test reads the
-//! screen (`capture-pane`), presses keys (`send-keys`) and asserts on what is shown. Without
-//! tmux the test fails (CI installs it): a terminal test that skips proves nothing.
+//! In a real terminal: tmux runs the monitor in a 160×50 pane, the test reads the screen
+//! (`capture-pane`), presses keys (`send-keys`) and asserts on what is shown. Without tmux the
+//! test fails (CI installs it): a terminal test that skips proves nothing.
 
+use super::STATION;
 use std::process::{Command, Output};
 use std::time::{Duration, Instant};
 
@@ -91,7 +92,10 @@ impl Tmux {
 
 impl Drop for Tmux {
     fn drop(&mut self) {
-        let _ = self.run(&["kill-server"]);
+        // Not through `run`: a missing tmux has already failed the test, once is enough.
+        let _ = Command::new("tmux")
+            .args(["-L", &self.socket, "kill-server"])
+            .output();
     }
 }
 
@@ -121,19 +125,6 @@ fn clock(screen: &str) -> String {
         .unwrap_or_default()
         .to_string()
 }
-
-/// The simulated station's nodes and the state each settles in.
-const STATION: [(u8, &str); 9] = [
-    (0x01, "operational"),
-    (0x02, "operational"),
-    (0x05, "pre-operational"),
-    (0x06, "pre-operational"),
-    (0x07, "pre-operational"),
-    (0x10, "operational"),
-    (0x11, "operational"),
-    (0x50, "pre-operational"),
-    (0x51, "pre-operational"),
-];
 
 /// The cells of port `name`'s row in the ports panel (name, state, rx, tx, errors).
 fn port_row(screen: &str, name: &str) -> Vec<String> {
