@@ -3,7 +3,7 @@
 
 use crate::frame::instant::Duration;
 use crate::frame::Frame;
-use crate::sim::{chance, flip_bit, FaultRates};
+use crate::sim::{chance, either, flip_bit, FaultRates};
 
 /// What happened to frames at one member (or, for bus-wide faults, on one bus). Every frame a
 /// member was to receive and did not is in exactly one of the drop counters.
@@ -56,11 +56,45 @@ pub(super) struct Fate {
 }
 
 impl Odds {
-    /// The fate of `frame`, or `None` when it is lost (counted in `c`).
-    pub fn decide(
+    /// The bus-wide part of the faults, decided once per frame for every receiver: every n-th
+    /// frame lost, and corruption (an error frame destroys a frame for everyone; an undetected
+    /// flip reaches everyone the same). `None` when the frame is lost (counted in `c`).
+    pub fn decide_bus(
         &mut self,
         rng: &mut fastrand::Rng,
         frame: &Frame,
+        c: &mut MemberCounters,
+    ) -> Option<Frame> {
+        if self.every > 0 {
+            self.count += 1;
+            if self.count >= self.every {
+                self.count = 0;
+                c.dropped += 1;
+                return None;
+            }
+        }
+        let r = &self.rates;
+        if chance(rng, r.corrupt_detected) {
+            c.corrupted += 1;
+            return None;
+        }
+        if chance(rng, r.corrupt_undetected) {
+            if let Some(f) = flip_bit(rng, frame) {
+                c.flipped += 1;
+                return Some(f);
+            }
+        }
+        Some(*frame)
+    }
+
+    /// The fate of `frame` at one receiver: its own every-n-th and corruption, and drop,
+    /// duplicate and delay at the bus's and its own rates combined as independent chances (as
+    /// the simulator combines them). `None` when the frame is lost (counted in `c`).
+    pub fn decide_port(
+        &mut self,
+        rng: &mut fastrand::Rng,
+        frame: &Frame,
+        bus: &FaultRates,
         c: &mut MemberCounters,
     ) -> Option<Fate> {
         let mut fate = Fate {
@@ -77,10 +111,10 @@ impl Odds {
             }
         }
         let r = &self.rates;
-        if r.is_none() {
+        if r.is_none() && bus.is_none() {
             return Some(fate);
         }
-        if chance(rng, r.drop) {
+        if chance(rng, either(bus.drop, r.drop)) {
             c.dropped += 1;
             return None;
         }
@@ -94,12 +128,12 @@ impl Odds {
                 c.flipped += 1;
             }
         }
-        if chance(rng, r.duplicate) {
+        if chance(rng, either(bus.duplicate, r.duplicate)) {
             fate.twice = true;
             c.duplicated += 1;
         }
-        if chance(rng, r.delay) {
-            let max = r.max_delay.as_micros().max(1);
+        if chance(rng, either(bus.delay, r.delay)) {
+            let max = bus.max_delay.max(r.max_delay).as_micros().max(1);
             fate.delay = Duration::from_micros(rng.u64(1..=max));
             c.delayed += 1;
         }

@@ -10,12 +10,16 @@
 //! [`Bridge::babble`]; plus [`Bridge::drop_every`] for a deterministic "every n-th frame".
 //!
 //! **The rule.** A frame from member `s` of bus `b` reaches member `d` of `b` (`d ≠ s`) unless
-//! `b` is down, `s` or `d` is disconnected, or they are in different partition groups; then the
-//! bus's faults are decided once for the frame (every receiver sees the same outcome: a dropped
-//! or corrupted frame is lost for all, as an error frame destroys it on a real bus), then the
-//! receiving member's own faults (drop, corrupt, duplicate, random delay, fixed latency).
-//! A *detected* corruption is what a receiver's CRC check would catch: the frame is dropped, as
-//! a controller drops it, and counted; an *undetected* one flips a data bit and delivers.
+//! `b` is down, `s` or `d` is disconnected, or they are in different partition groups. The
+//! faults apply as the simulator applies them: the bus's every-n-th drop and its corruption once
+//! for the frame (an error frame destroys it for everyone; an undetected flip reaches everyone
+//! the same), then at each receiver its own every-n-th drop and corruption, and drop, duplicate
+//! and random delay at the bus's and its own rates combined as independent chances, then its
+//! fixed latency. A *detected* corruption is what a receiver's CRC check would catch: the frame
+//! is dropped, as a controller drops it, and counted; an *undetected* one flips a data bit and
+//! delivers. Where the two differ by nature: each member has a wire of its own, so a member's
+//! detected corruption loses the frame for that member only (on the simulator's shared wire the
+//! error frame destroys it for the whole segment, and the sender sends it again).
 //!
 //! **Order.** Frames to one member leave in the order the bridge received them, whatever their
 //! delays: a frame's release time is never earlier than that of the frame before it to the same
@@ -388,9 +392,10 @@ impl Bridge {
             b.counters.cut += 1;
             return;
         }
-        let Some(on_bus) = b.odds.decide(&mut self.rng, frame, &mut b.counters) else {
+        let Some(on_bus) = b.odds.decide_bus(&mut self.rng, frame, &mut b.counters) else {
             return;
         };
+        let bus_rates = b.odds.rates;
         for i in 0..self.buses[bus].members.len() {
             let d = self.buses[bus].members[i];
             if d == src {
@@ -405,11 +410,14 @@ impl Bridge {
                 m.counters.partitioned += 1;
                 continue;
             }
-            let Some(fate) = m.odds.decide(&mut self.rng, &on_bus.frame, &mut m.counters) else {
+            let Some(fate) =
+                m.odds
+                    .decide_port(&mut self.rng, &on_bus, &bus_rates, &mut m.counters)
+            else {
                 continue;
             };
-            let at = now + on_bus.delay + fate.delay + m.latency;
-            let copies = 1 + usize::from(on_bus.twice) + usize::from(fate.twice);
+            let at = now + fate.delay + m.latency;
+            let copies = 1 + usize::from(fate.twice);
             for _ in 0..copies {
                 if m.queue.len() >= self.queue {
                     m.counters.overflow += 1;

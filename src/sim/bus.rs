@@ -117,6 +117,8 @@ pub(super) struct Bus {
     pub(super) segments: Vec<Segment>,
     pub(super) groups: u32,
     pub(super) faults: Option<FaultRates>,
+    /// Every n-th delivered frame is lost for every receiver (0: none), and the count so far.
+    pub(super) drop_every: (u32, u32),
     /// Attached ports whose own rates include detected corruption: only then does starting a
     /// frame look at every receiver.
     pub(super) detect_ports: u32,
@@ -133,6 +135,7 @@ impl Bus {
             segments: vec![Segment::default()],
             groups: 1,
             faults: None,
+            drop_every: (0, 0),
             detect_ports: 0,
             stats: BusStats::default(),
         }
@@ -159,6 +162,8 @@ pub(super) struct Port {
     /// The entry this port has in its segment's ready set.
     pub(super) ready: Option<(u32, u64)>,
     pub(super) faults: Option<FaultRates>,
+    /// Every n-th frame this port would receive is lost (0: none), and the count so far.
+    pub(super) drop_every: (u32, u32),
     /// Fixed receive latency (see [`set_port_latency`](super::SimNetwork::set_port_latency)).
     pub(super) latency: Duration,
     /// Deliveries scheduled for later and the due time of the last one: later frames queue
@@ -184,6 +189,7 @@ impl Port {
             transmitting: false,
             ready: None,
             faults: None,
+            drop_every: (0, 0),
             latency: Duration::ZERO,
             delayed: 0,
             delay_tail: Instant::ZERO,

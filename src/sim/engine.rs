@@ -1,7 +1,7 @@
 //! The event loop: what happens at one instant, in which order.
 
 use super::bus::InFlight;
-use super::fault::{chance, flip_bit};
+use super::fault::{chance, flip_bit, nth};
 use super::ids::BusId;
 use super::timing;
 use super::trace::{TraceRecord, TxOutcome, TxRecord};
@@ -309,6 +309,13 @@ impl SimNetwork {
                 }
             }
             TxOutcome::Delivered { .. } => {
+                if nth(&mut self.buses[b].drop_every) {
+                    for &r in &rx {
+                        self.drop_rx(b, r as usize, &tx.frame);
+                    }
+                    self.receivers = rx;
+                    return;
+                }
                 let bus_flip = self.buses[b].faults.map_or(0.0, |f| f.corrupt_undetected);
                 let wire = if chance(&mut self.rng, bus_flip) {
                     flip_bit(&mut self.rng, &tx.frame).unwrap_or(tx.frame)

@@ -104,8 +104,23 @@ pub(crate) fn chance(rng: &mut fastrand::Rng, p: f64) -> bool {
     }
 }
 
+/// Counts one frame against an every-n-th drop (`(n, count)`, n = 0: none); true when this
+/// frame is the n-th.
+pub(super) fn nth(every: &mut (u32, u32)) -> bool {
+    if every.0 == 0 {
+        return false;
+    }
+    every.1 += 1;
+    if every.1 >= every.0 {
+        every.1 = 0;
+        true
+    } else {
+        false
+    }
+}
+
 /// Probability that at least one of two independent chances hits.
-pub(super) fn either(a: f64, b: f64) -> f64 {
+pub(crate) fn either(a: f64, b: f64) -> f64 {
     1.0 - (1.0 - a.clamp(0.0, 1.0)) * (1.0 - b.clamp(0.0, 1.0))
 }
 
@@ -129,6 +144,18 @@ impl SimNetwork {
         self.buses[bus.index()].faults = (!rates.is_none()).then_some(rates);
     }
 
+    /// Every `n`-th frame delivered on the bus is lost for every receiver (each gets
+    /// `PortStatus::Error(ErrorCause::RxOverflow)`, as for a random drop); 0 stops it. Unlike
+    /// the random rates, nothing is drawn: the same frames are lost every run.
+    pub fn drop_every_on_bus(&mut self, bus: BusId, n: u32) {
+        self.bus(bus);
+        self.buses[bus.index()].drop_every = (n, 0);
+    }
+    /// Every `n`-th frame the port would receive is lost; 0 stops it.
+    pub fn drop_every(&mut self, port: PortRef, n: u32) {
+        let p = self.port_index(port);
+        self.ports[p].drop_every = (n, 0);
+    }
     /// The random fault rates of a bus as set ([`FaultRates::NONE`] unless set).
     pub fn bus_faults(&self, bus: BusId) -> FaultRates {
         self.bus(bus).faults.unwrap_or(FaultRates::NONE)

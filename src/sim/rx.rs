@@ -1,7 +1,7 @@
 //! The receive path: random per-receiver faults, fixed port latency, late deliveries in order,
 //! hand-over to devices.
 
-use super::fault::{chance, either, flip_bit, FaultRates};
+use super::fault::{chance, either, flip_bit, nth, FaultRates};
 use super::ids::BusId;
 use super::sched::{DelayedRx, Timed};
 use super::trace::{RxFault, RxRecord, TraceRecord};
@@ -43,6 +43,13 @@ impl SimNetwork {
         });
     }
 
+    /// Receiver `r` misses the frame (controller overflow): counted, traced, reported.
+    pub(super) fn drop_rx(&mut self, b: usize, r: usize, sent: &Frame) {
+        self.ports[r].stats.rx_dropped += 1;
+        self.record_rx(b, r, sent, RxFault::Dropped);
+        self.port_status(r, PortStatus::Error(ErrorCause::RxOverflow));
+    }
+
     /// Hands a frame that ended on the wire to receiver `r`, through its random faults.
     /// `wire` is `sent` after any bus-wide bit flip.
     pub(super) fn deliver(&mut self, b: usize, r: usize, sent: &Frame, wire: &Frame) {
@@ -52,6 +59,10 @@ impl SimNetwork {
         }
         let (bus_f, port_f) = (self.buses[b].faults, self.ports[r].faults);
         let latency = self.ports[r].latency;
+        if self.ports[r].drop_every.0 > 0 && nth(&mut self.ports[r].drop_every) {
+            self.drop_rx(b, r, sent);
+            return;
+        }
         if bus_f.is_none() && port_f.is_none() {
             // The common case, a fault-free port with nothing waiting: straight to the device
             // (kept apart so that it stays inlined here, the hottest path of a long soak).
@@ -65,9 +76,7 @@ impl SimNetwork {
         let bf = bus_f.unwrap_or(FaultRates::NONE);
         let pf = port_f.unwrap_or(FaultRates::NONE);
         if chance(&mut self.rng, either(bf.drop, pf.drop)) {
-            self.ports[r].stats.rx_dropped += 1;
-            self.record_rx(b, r, sent, RxFault::Dropped);
-            self.port_status(r, PortStatus::Error(ErrorCause::RxOverflow));
+            self.drop_rx(b, r, sent);
             return;
         }
         let mut frame = *wire;

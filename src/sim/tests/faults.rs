@@ -167,6 +167,36 @@ fn a_dropping_port_misses_the_frame_and_reports_rx_overflow() {
 }
 
 #[test]
+fn every_nth_frame_is_lost_at_the_port_or_for_the_whole_bus() {
+    let (mut sim, b) = network(1, 1, RATE);
+    let f = std_frame(0x181, &[1]);
+    sim.add_device("x", Probe::new(1).every(0, f, Instant::ZERO, MS), &[b[0]])
+        .unwrap();
+    let l1 = sim.add_device("l1", Probe::new(1), &[b[0]]).unwrap();
+    let l2 = sim.add_device("l2", Probe::new(1), &[b[0]]).unwrap();
+    // Frames at 0, 1, …, 8 ms: l1 misses the 3rd, 6th and 9th; l2 all of them.
+    sim.drop_every(l1.port(0), 3);
+    sim.run_until(Instant::from_micros(8_500));
+    assert_eq!(sim.device(l1).rx.len(), 6);
+    assert_eq!(sim.device(l2).rx.len(), 9);
+    assert_eq!(sim.port_stats(l1.port(0)).rx_dropped, 3);
+    let overflow = sim
+        .device(l1)
+        .status
+        .iter()
+        .filter(|s| s.2 == PortStatus::Error(ErrorCause::RxOverflow))
+        .count();
+    assert_eq!(overflow, 3);
+    // On the bus: every 2nd frame from now on is lost for both.
+    sim.drop_every(l1.port(0), 0);
+    sim.drop_every_on_bus(b[0], 2);
+    sim.run_until(Instant::from_micros(12_500));
+    assert_eq!(sim.device(l1).rx.len(), 8);
+    assert_eq!(sim.device(l2).rx.len(), 11);
+    assert_eq!(sim.port_stats(l2.port(0)).rx_dropped, 2);
+}
+
+#[test]
 fn a_duplicating_bus_hands_every_receiver_the_frame_twice() {
     let (mut sim, b) = network(1, 1, RATE);
     let f = std_frame(0x181, &[1]);

@@ -5,12 +5,14 @@
 //! master …` stands in as itself, built from the same arguments. A member is the port its
 //! device has on that bus. The timeline applies the same faults by the same names
 //! ([`duocan::sim::SimNetwork`]'s `bus_down`, `disconnect`, `partition`, `set_port_faults`,
-//! `set_port_latency`, `babble`, `power_off`); a device's start and `power_on` boot it afresh,
+//! `drop_every`, `set_port_latency`, `babble`, `power_off`); a device's start and `power_on` boot it afresh,
 //! as a process start does. The wires are what the simulator's trace and the devices' receive
 //! paths saw, and the expectations are measured on them exactly as on a real run's logs.
 //!
 //! Where the two differ, by nature: the simulator's babble is back-to-back (a controller stuck
-//! retransmitting), whatever `period_ms` says; a bus wire in the simulator holds the frames its
+//! retransmitting), whatever `period_ms` says; its members share one wire, so a member's detected
+//! corruption is an error frame for the whole segment (the sender sends again), where the
+//! bridge's member loses the frame alone; a bus wire in the simulator holds the frames its
 //! members put on it that the bus carried, while the bridge logs every frame it took.
 
 use super::expect::Wires;
@@ -256,10 +258,13 @@ impl Run {
                     }
                 }
             }
-            Fault::DropEvery(..) => {
-                return Err(Fail::usage(
-                    "drop_every: the simulator drops by rate only (use drop with a rate)",
-                ))
+            Fault::DropEvery(Target::Bus(b), n) => {
+                let b = self.bus(s, b);
+                self.sim.drop_every_on_bus(b, *n);
+            }
+            Fault::DropEvery(Target::Member(m), n) => {
+                let p = port(self, m)?;
+                self.sim.drop_every(p, *n);
             }
             Fault::Latency(m, ms) => {
                 let p = port(self, m)?;
