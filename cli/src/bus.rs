@@ -50,10 +50,22 @@ pub fn options(g: &Global, listen_only: bool) -> NetOptions {
 
 /// Opens the bus `--bus` names, with the descriptions attached.
 pub fn open(g: &Global, listen_only: bool) -> Result<Bus, Fail> {
+    open_tapped(g, listen_only, None)
+}
+
+/// [`open`] with `tap` told of every frame each port receives and sends.
+pub fn open_tapped(
+    g: &Global,
+    listen_only: bool,
+    tap: Option<Arc<dyn duocan::capture::recorder::Tap>>,
+) -> Result<Bus, Fail> {
     let names = g.bus.clone().ok_or_else(|| {
         Fail::usage("no bus: give --bus can0 (or can0,can1, udp, sim), or set DUOCAN_BUS")
     })?;
-    let opts = options(g, listen_only);
+    let mut opts = options(g, listen_only);
+    if let Some(tap) = tap {
+        opts = opts.with_tap(tap);
+    }
     let sim = matches!(names.0.as_slice(), [one] if one == "sim" || one == "sim:faults");
     let net = match names.0.as_slice() {
         [one] if sim => open_dual_named(one, opts).map_err(|e| Fail::usage(e.to_string()))?,
