@@ -1,8 +1,8 @@
 #!/bin/bash
 # Tier 3: python-can / python `canopen` as an independent peer over python-can's udp_multicast
 # bus, inside a private network namespace (no packet can leave the machine), plus the runtime
-# overhead measurement on the UDP bus (bare socket echo vs the tokio runtime), the sdo_tool
-# example against a duocan node on the UDP bus, and python `canopen` reading a duocan node by the
+# overhead measurement on the UDP bus (bare socket echo vs the tokio runtime), the duocan tool
+# against a duocan node on the UDP bus, and python `canopen` reading a duocan node by the
 # names of the EDS duocan exported for it.
 #   .ci/tier-python.sh            tests + benchmark
 #   .ci/tier-python.sh --no-bench tests only
@@ -38,9 +38,9 @@ cargo test -p duocan-redundancy --features tokio --lib --test runtime \
 echo "== tier-python: build (outside the namespace)"
 cargo test -p duocan-tiers --features python --test python_peer --test python_eds \
   --test python_starters --no-run || fail "build python_peer, python_eds and python_starters tests"
-# The sdo_tool example and its test (which runs the example's binary against a duocan node).
-cargo build -p duocan --features udp --example sdo_tool || fail "build the sdo_tool example"
-cargo test -p duocan-tiers --features python --test sdo_tool --no-run || fail "build sdo_tool tests"
+# The duocan tool and its test (which runs the tool's binary against a duocan node).
+cargo build -p duocan-cli || fail "build the duocan tool"
+cargo test -p duocan-tiers --features python --test cli_udp --no-run || fail "build the tool's tests"
 BENCH=1; [ "${1:-}" = "--no-bench" ] && BENCH=0
 if [ $BENCH = 1 ]; then
   cargo build --release --features udp --example rt_overhead || fail "build rt_overhead"
@@ -61,8 +61,8 @@ unshare -n sh -ec '
 unshare -n sh -ec '
   ip link set lo up
   ip route add 224.0.0.0/4 dev lo
-  cargo test --offline -p duocan-tiers --features python --test sdo_tool
-' || fail "sdo_tool example against a duocan node on the UDP bus"
+  cargo test --offline -p duocan-tiers --features python --test cli_udp
+' || fail "the duocan tool against a duocan node on the UDP bus"
 unshare -n sh -ec '
   ip link set lo up
   ip route add 224.0.0.0/4 dev lo

@@ -117,7 +117,7 @@ pub const MAX_TRANSFER: usize = 64 * 1024;
 const OBSERVER_ID: u8 = 127;
 
 /// How a [`Network`] behaves. Start from `NetOptions::default()` and change with `with_*`.
-#[derive(Clone, Copy, Debug)]
+#[derive(Clone)]
 #[non_exhaustive]
 pub struct NetOptions {
     /// Transfer mode, timeout, block size and CRC of every SDO transfer (default: the
@@ -125,6 +125,20 @@ pub struct NetOptions {
     pub sdo: SdoOptions,
     /// Send nothing: watch the nodes without a single frame on the bus.
     pub listen_only: bool,
+    /// Told of every frame each port receives and sends, as the port saw it (a
+    /// [`Recorder`](crate::capture::recorder::Recorder) writes them to a candump log or a pcap;
+    /// a tool decodes them live). `None`: no tap.
+    pub tap: Option<Arc<dyn crate::capture::recorder::Tap>>,
+}
+
+impl core::fmt::Debug for NetOptions {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        f.debug_struct("NetOptions")
+            .field("sdo", &self.sdo)
+            .field("listen_only", &self.listen_only)
+            .field("tap", &self.tap.is_some())
+            .finish()
+    }
 }
 
 impl Default for NetOptions {
@@ -132,6 +146,7 @@ impl Default for NetOptions {
         NetOptions {
             sdo: SdoOptions::default().with_timeout(Duration::from_millis(1000)),
             listen_only: false,
+            tap: None,
         }
     }
 }
@@ -154,6 +169,12 @@ impl NetOptions {
     #[must_use]
     pub fn with_listen_only(mut self, on: bool) -> Self {
         self.listen_only = on;
+        self
+    }
+    /// The options with `tap` told of every frame each port receives and sends.
+    #[must_use]
+    pub fn with_tap(mut self, tap: Arc<dyn crate::capture::recorder::Tap>) -> Self {
+        self.tap = Some(tap);
         self
     }
 }
@@ -215,11 +236,11 @@ impl Network {
             Station::single(Composite::new(node, client)),
             opts.listen_only,
         );
-        let handle = Runtime::new(door)
-            .name(port.name().to_owned())
-            .port(port)
-            .spawn()
-            .map_err(|e| NetError::Port(e.to_string()))?;
+        let mut rt = Runtime::new(door).name(port.name().to_owned()).port(port);
+        if let Some(tap) = &opts.tap {
+            rt = rt.tap(tap.clone());
+        }
+        let handle = rt.spawn().map_err(|e| NetError::Port(e.to_string()))?;
         Ok(Network {
             shared: Arc::new(Shared {
                 handle,

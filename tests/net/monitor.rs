@@ -73,3 +73,33 @@ async fn the_monitor_hears_states_and_sends_nothing() {
     net.close().await;
     s.shutdown().await;
 }
+
+/// A tap on the network's port: told of the frames the port receives and sends.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_tap_hears_what_the_port_receives_and_sends() {
+    use duocan::capture::recorder::{Tap, TapDirection, TapPoint};
+    use duocan::net::NetOptions;
+    use std::sync::{Arc, Mutex};
+
+    #[derive(Default)]
+    struct Seen(Mutex<Vec<(TapDirection, u16)>>);
+    impl Tap for Seen {
+        fn frame(&self, _: duocan::Instant, _: TapPoint, dir: TapDirection, f: &duocan::Frame) {
+            if let duocan::Id::Standard(id) = f.id() {
+                self.0.lock().unwrap().push((dir, id));
+            }
+        }
+    }
+    let seen = Arc::new(Seen::default());
+    let net = Network::simulated(
+        [5],
+        NetOptions::default().with_tap(seen.clone() as Arc<dyn Tap>),
+    )
+    .unwrap();
+    let v: u32 = net.node(5).sdo().read(0x1018, 1).await.unwrap();
+    assert_eq!(v, duocan::net::SIM_VENDOR);
+    let seen = seen.0.lock().unwrap().clone();
+    assert!(seen.contains(&(TapDirection::Tx, 0x605)), "{seen:?}");
+    assert!(seen.contains(&(TapDirection::Rx, 0x585)), "{seen:?}");
+    net.close().await;
+}

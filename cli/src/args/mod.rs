@@ -1,6 +1,6 @@
 //! The tool's arguments as text: numbers, node-IDs, values to write, how a value read shows.
 //! Strict and total: every string gives a value or an error that quotes it, never a panic
-//! (`tests/cli/` runs these functions on any string).
+//! (the tests run these functions on any string).
 //!
 //! A number is decimal digits, or `0x`/`0X` followed by hex digits; only a signed value may
 //! start with one `-`. Nothing else: no `+`, no spaces, no second sign, no `_`, no non-ASCII
@@ -26,6 +26,9 @@ pub enum Type {
     I32,
     I64,
     F32,
+    F64,
+    /// 0 or 1 (also false/true)
+    Bool,
     /// Visible string
     Str,
     /// Raw bytes
@@ -109,6 +112,24 @@ pub fn parse_timeout_ms(s: &str) -> Result<u64, String> {
 /// A decimal floating-point number: digits with an optional point and exponent, a `-` in front
 /// and a sign after the exponent's `e` only. Words like `inf` and `nan` are not numbers here.
 fn parse_f32(s: &str) -> Result<f32, String> {
+    check_decimal(s)?;
+    s.parse::<f32>()
+        .ok()
+        .filter(|v| v.is_finite())
+        .ok_or_else(|| format!("{s:?} is not a decimal number f32 holds"))
+}
+
+/// [`parse_f32`] for `f64`.
+fn parse_f64(s: &str) -> Result<f64, String> {
+    check_decimal(s)?;
+    s.parse::<f64>()
+        .ok()
+        .filter(|v| v.is_finite())
+        .ok_or_else(|| format!("{s:?} is not a decimal number f64 holds"))
+}
+
+/// Only the characters of a decimal number, signs only where one belongs.
+fn check_decimal(s: &str) -> Result<(), String> {
     let b = s.as_bytes();
     let sign_ok = |i: usize| match b[i] {
         b'-' => i == 0 || matches!(b[i - 1], b'e' | b'E'),
@@ -121,10 +142,7 @@ fn parse_f32(s: &str) -> Result<f32, String> {
     if !chars_ok || !(0..b.len()).all(sign_ok) {
         return Err(format!("{s:?} is not a decimal number"));
     }
-    s.parse::<f32>()
-        .ok()
-        .filter(|v| v.is_finite())
-        .ok_or_else(|| format!("{s:?} is not a decimal number f32 holds"))
+    Ok(())
 }
 
 /// Bytes in hex: pairs of hex digits, optionally `0x` in front and spaces between bytes.
@@ -165,6 +183,14 @@ pub fn encode(ty: Type, value: &str) -> Result<Vec<u8>, String> {
         Type::I32 => le(parse_signed(value, "i32"), i32::to_le_bytes),
         Type::I64 => le(parse_signed(value, "i64"), i64::to_le_bytes),
         Type::F32 => parse_f32(value).map(|v| v.to_le_bytes().to_vec()),
+        Type::F64 => parse_f64(value).map(|v| v.to_le_bytes().to_vec()),
+        Type::Bool => match value {
+            "0" | "false" => Ok(vec![0]),
+            "1" | "true" => Ok(vec![1]),
+            _ => Err(format!(
+                "{value:?} is not a boolean: give 0, 1, false or true"
+            )),
+        },
         Type::Str => Ok(value.as_bytes().to_vec()),
         Type::Hex | Type::Auto => parse_hex_bytes(value),
     }
@@ -209,12 +235,18 @@ pub fn show(ty: Type, data: &[u8]) -> String {
         Type::I32 => fixed::<4>(data).map_or_else(wrong, |b| i32::from_le_bytes(b).to_string()),
         Type::I64 => fixed::<8>(data).map_or_else(wrong, |b| i64::from_le_bytes(b).to_string()),
         Type::F32 => fixed::<4>(data).map_or_else(wrong, |b| f32::from_le_bytes(b).to_string()),
+        Type::F64 => fixed::<8>(data).map_or_else(wrong, |b| f64::from_le_bytes(b).to_string()),
+        Type::Bool => match data {
+            [0] => "false".into(),
+            [1] => "true".into(),
+            _ => wrong(),
+        },
         Type::Str => String::from_utf8_lossy(data).into_owned(),
         Type::Hex => hex,
     }
 }
 
-/// Where the bus is, for the UDP forms of `--port`: `udp`, `udp:N`, `udp:GROUP:PORT`.
+/// Where the bus is, for the UDP forms of `--bus`: `udp`, `udp:N`, `udp:GROUP:PORT`.
 #[derive(Clone, Debug, PartialEq, Eq)]
 pub enum UdpSpec {
     /// python-can's default bus.
@@ -225,7 +257,7 @@ pub enum UdpSpec {
     Group(std::net::Ipv4Addr, u16),
 }
 
-/// The UDP form of `--port`, or `None` if `spec` names a SocketCAN interface.
+/// The UDP form of `--bus`, or `None` if `spec` names a SocketCAN interface.
 pub fn parse_udp(spec: &str) -> Option<Result<UdpSpec, String>> {
     let rest = spec.strip_prefix("udp")?;
     if !rest.is_empty() && !rest.starts_with(':') {
@@ -248,3 +280,93 @@ pub fn parse_udp(spec: &str) -> Option<Result<UdpSpec, String>> {
         _ => Err(format!("{spec}: use udp, udp:N or udp:GROUP:PORT")),
     })
 }
+
+/// The type a value of data type `t` is written and shown as (`Hex` for the types the tool
+/// has no number for: 24- to 56-bit integers, times, domains and octet strings).
+pub fn type_of(t: duocan::od::DataType) -> Type {
+    use duocan::od::DataType as D;
+    match t {
+        D::Boolean => Type::Bool,
+        D::Integer8 => Type::I8,
+        D::Integer16 => Type::I16,
+        D::Integer32 => Type::I32,
+        D::Integer64 => Type::I64,
+        D::Unsigned8 => Type::U8,
+        D::Unsigned16 => Type::U16,
+        D::Unsigned32 => Type::U32,
+        D::Unsigned64 => Type::U64,
+        D::Real32 => Type::F32,
+        D::Real64 => Type::F64,
+        D::VisibleString | D::UnicodeString => Type::Str,
+        _ => Type::Hex,
+    }
+}
+
+/// A type by its name on the command line (`u32`, `str`…), or `None` if `s` names none.
+pub fn parse_type(s: &str) -> Option<Type> {
+    Type::from_str(s, true).ok()
+}
+
+/// Whom an NMT command is for: one node or every node.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Target {
+    /// Every node (`all`).
+    All,
+    /// One node.
+    Node(NodeId),
+}
+
+/// `all` or a node-ID.
+pub fn parse_target(s: &str) -> Result<Target, String> {
+    if s == "all" {
+        Ok(Target::All)
+    } else {
+        parse_node(s)
+            .map(Target::Node)
+            .map_err(|e| format!("{e} (or `all`)"))
+    }
+}
+
+/// A device description on the command line: `NODE=FILE`, or `FILE` alone (a DCF names its
+/// node in `[DeviceComissioning]`).
+pub fn parse_description(s: &str) -> Result<(Option<NodeId>, std::path::PathBuf), String> {
+    match s.split_once('=') {
+        Some((node, file)) if !file.is_empty() => Ok((
+            Some(parse_node(node).map_err(|e| format!("{s}: {e}"))?),
+            file.into(),
+        )),
+        Some(_) => Err(format!("{s:?}: give NODE=FILE, as in 5=device.eds")),
+        None if s.is_empty() => Err("an empty file name".into()),
+        None => Ok((None, s.into())),
+    }
+}
+
+/// The interfaces of `--bus`: one, or two joined by a comma (`can0,can1`: one logical bus on
+/// two ports). Names are checked for what a name can be, not for whether the interface exists.
+pub fn parse_bus(s: &str) -> Result<Vec<String>, String> {
+    let names: Vec<&str> = s.split(',').collect();
+    if names.len() > 2 {
+        return Err(format!("--bus {s}: at most two interfaces (can0,can1)"));
+    }
+    for n in &names {
+        if n.is_empty() {
+            return Err(format!("--bus {s:?}: an empty interface name"));
+        }
+        if let Some(Err(e)) = parse_udp(n) {
+            return Err(e);
+        }
+        if !n
+            .chars()
+            .all(|c| c.is_ascii_alphanumeric() || matches!(c, ':' | '.' | '_' | '-'))
+        {
+            return Err(format!("--bus {s:?}: {n:?} is not an interface name"));
+        }
+    }
+    if names.len() == 2 && names[0] == names[1] {
+        return Err(format!("--bus {s}: the two ports must differ"));
+    }
+    Ok(names.into_iter().map(String::from).collect())
+}
+
+#[cfg(test)]
+mod tests;

@@ -1,4 +1,4 @@
-//! `sdo_tool`'s parsers: the inputs that panicked or were misread before, the exact errors, and
+//! The tool's parsers: the inputs that panicked or were misread before, the exact errors, and
 //! property tests that no string panics and every valid number reads back.
 
 use crate::args::*;

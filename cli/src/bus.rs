@@ -1,0 +1,118 @@
+//! Opening `--bus`: one interface, two as one logical bus, python-can's UDP bus, or the
+#![allow(dead_code)] // TEMP while the commands are being built: removed once they all use it.
+//! built-in simulated station; and attaching the device descriptions of `--eds`/`--dcf`.
+//!
+//! Every command talks to the network through [`duocan::net::Network`], the library's front
+//! door: the tool is a client on the bus (NMT commands and SDO requests, nothing else; with
+//! `listen_only` not a single frame), never a node or a master of it.
+
+use crate::args::{parse_udp, UdpSpec};
+use crate::fail::Fail;
+use crate::Global;
+use duocan::eds::Description;
+use duocan::net::{NetOptions, Network};
+use duocan::port::udp::{UdpBusConfig, UdpPort};
+use std::collections::BTreeMap;
+use std::sync::Arc;
+
+/// The network a command runs on.
+pub struct Bus {
+    /// The front door.
+    pub net: Network,
+    /// The interfaces, as `--bus` named them.
+    pub names: Vec<String>,
+    /// The descriptions attached, by node-ID.
+    pub descs: BTreeMap<u8, Arc<Description>>,
+}
+
+impl Bus {
+    /// True on two ports (one logical bus).
+    pub fn is_dual(&self) -> bool {
+        self.names.len() == 2
+    }
+    /// The description attached to `node`, if any.
+    pub fn desc(&self, node: u8) -> Option<&Arc<Description>> {
+        self.descs.get(&node)
+    }
+    /// Stops the network (and the simulated station behind `sim`).
+    pub async fn close(self) {
+        self.net.close().await;
+    }
+}
+
+/// The options every network of the tool opens with.
+pub fn options(g: &Global, listen_only: bool) -> NetOptions {
+    NetOptions::default()
+        .with_sdo_timeout(std::time::Duration::from_millis(g.timeout))
+        .with_listen_only(listen_only)
+}
+
+/// Opens the bus `--bus` names, with the descriptions attached.
+pub fn open(g: &Global, listen_only: bool) -> Result<Bus, Fail> {
+    let names = g.bus.clone().ok_or_else(|| {
+        Fail::usage("no bus: give --bus can0 (or can0,can1, udp, sim), or set DUOCAN_BUS")
+    })?;
+    let opts = options(g, listen_only);
+    let net = match names.0.as_slice() {
+        [one] => open_one(g, one, opts)?,
+        [a, b] => {
+            return Err(Fail::usage(format!(
+                "--bus {a},{b}: two ports are not supported by this build yet"
+            )))
+        }
+        _ => return Err(Fail::usage("--bus names one or two interfaces")),
+    };
+    let mut descs = BTreeMap::new();
+    if names.0 == ["sim"] {
+        // The simulated nodes are all one kind of device: their names work out of the box.
+        let d = Arc::new(duocan::net::sim_description()?);
+        for id in 1..=127u8 {
+            descs.insert(id, d.clone());
+        }
+    }
+    for (node, path) in g.eds.iter().chain(&g.dcf).map(|d| (&d.0, &d.1)) {
+        let desc = Description::read(path).map_err(|e| Fail::usage(e.to_string()))?;
+        let id = match (node, desc.commissioning.as_ref().and_then(|c| c.node_id)) {
+            (Some(n), _) => n.raw(),
+            (None, Some(n)) => n,
+            (None, None) => {
+                return Err(Fail::usage(format!(
+                    "{}: which node is it for? give NODE={} (the file names no NodeID)",
+                    path.display(),
+                    path.display()
+                )))
+            }
+        };
+        descs.insert(id, Arc::new(desc));
+    }
+    for (id, d) in &descs {
+        let _ = net.add_node(*id, d.clone());
+    }
+    Ok(Bus {
+        net,
+        names: names.0,
+        descs,
+    })
+}
+
+fn open_one(g: &Global, name: &str, opts: NetOptions) -> Result<Network, Fail> {
+    if name == "sim" {
+        return Ok(Network::open_named_with("sim", opts)?);
+    }
+    match parse_udp(name) {
+        Some(spec) => {
+            let mut cfg = match spec.map_err(Fail::usage)? {
+                UdpSpec::Default => UdpBusConfig::python_can_default(),
+                UdpSpec::Numbered(n) => UdpBusConfig::numbered(n),
+                UdpSpec::Group(group, port) => UdpBusConfig::new(group, port),
+            };
+            // Loopback unless told otherwise, as the library does.
+            if let Some(addr) = g.udp_interface {
+                cfg = cfg.on_interface(addr);
+            }
+            let port = UdpPort::open(cfg).map_err(|e| Fail::usage(e.to_string()))?;
+            Ok(Network::open_with(port, opts)?)
+        }
+        None => Ok(Network::open_named_with(name, opts)?),
+    }
+}

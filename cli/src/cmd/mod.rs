@@ -1,0 +1,12 @@
+//! The commands, one module each.
+
+pub mod dump;
+pub mod eds;
+pub mod flash;
+pub mod gateway;
+pub mod monitor;
+pub mod nmt;
+pub mod pdo;
+pub mod record;
+pub mod scan;
+pub mod sdo;

@@ -1,0 +1,99 @@
+//! `duocan sdo` and `duocan nmt` against the simulated nodes of `--bus sim`.
+
+mod common;
+use common::{duocan, sim, sim_ok};
+
+#[test]
+fn reads_by_index_by_name_and_as_json() {
+    assert_eq!(
+        sim_ok(&["sdo", "read", "5", "0x1018", "1", "u32"]),
+        "13683200\n"
+    );
+    assert_eq!(
+        sim_ok(&["sdo", "read", "5", "0x1018:1", "hex"]),
+        "00 CA D0 00\n"
+    );
+    // The simulated nodes' description is attached: the type comes from it.
+    assert_eq!(
+        sim_ok(&["sdo", "read", "5", "Manufacturer device name"]),
+        "duocan simulated node\n"
+    );
+    let v: serde_json::Value =
+        serde_json::from_str(&sim_ok(&["--json", "sdo", "read", "5", "0x1018", "1"])).unwrap();
+    assert_eq!(v["value"], 13_683_200);
+    assert_eq!(v["name"], "Vendor-ID");
+    assert_eq!(
+        (v["index"].as_u64(), v["sub"].as_u64()),
+        (Some(0x1018), Some(1))
+    );
+    assert_eq!(v["hex"], "00cad000");
+}
+
+#[test]
+fn writes_and_verifies() {
+    let out = sim_ok(&["sdo", "write", "5", "0x1017", "0", "u16", "250", "--verify"]);
+    assert_eq!(out, "node 0x05 0x1017:00: written, 2 bytes, verified\n");
+    let out = sim_ok(&[
+        "sdo",
+        "write",
+        "5",
+        "Producer heartbeat time",
+        "300",
+        "--verify",
+    ]);
+    assert!(out.ends_with("verified\n"), "{out}");
+}
+
+#[test]
+fn errors_exit_1_for_the_network_and_2_for_the_command_line() {
+    let r = sim(&["sdo", "read", "5", "0x1234", "1"]);
+    assert_eq!(r.code, 1);
+    assert!(
+        r.err.contains("0x06020000 (object does not exist"),
+        "{}",
+        r.err
+    );
+    let r = sim(&["sdo", "write", "5", "0x1018", "1", "u32", "5"]);
+    assert_eq!(r.code, 1);
+    assert!(r.err.contains("read only"), "{}", r.err);
+    let r = sim(&["--timeout", "50", "sdo", "read", "99", "0x1018", "0"]);
+    assert_eq!(r.code, 1);
+    assert!(r.err.contains("hint: `duocan scan`"), "{}", r.err);
+    for bad in [
+        &["sdo", "read", "5", "0x1018", "1", "u33"][..],
+        &["sdo", "read", "0", "0x1018"],
+        &["sdo", "read", "5", "0x10000"],
+        &["sdo", "read", "5", "0x1018", "1", "u32", "extra"],
+        &["sdo", "write", "5", "0x3000", "0", "250"],
+        &["sdo", "write", "5", "0x1017", "0", "u16", "70000"],
+        &["sdo", "read", "5", "No such entry"],
+        &["nmt", "start", "all", "--wait"],
+        &["nmt", "jump", "5"],
+    ] {
+        let r = sim(bad);
+        assert_eq!(r.code, 2, "{bad:?}: {}", r.err);
+        assert!(!r.err.contains("panicked"), "{bad:?}: {}", r.err);
+    }
+    let r = duocan(&["sdo", "read", "5", "0x1000"]);
+    assert_eq!(r.code, 2);
+    assert!(r.err.contains("no bus"), "{}", r.err);
+}
+
+#[test]
+fn nmt_commands_and_their_answers() {
+    assert_eq!(
+        sim_ok(&["nmt", "start", "5", "--wait"]),
+        "NMT start sent to node 0x05: operational\n"
+    );
+    assert_eq!(
+        sim_ok(&["nmt", "reset-comm", "6", "--wait"]),
+        "NMT reset-comm sent to node 0x06: boot-up\n"
+    );
+    assert_eq!(
+        sim_ok(&["nmt", "stop", "all"]),
+        "NMT stop sent to all nodes\n"
+    );
+    let v: serde_json::Value =
+        serde_json::from_str(&sim_ok(&["--json", "nmt", "preop", "7", "--wait"])).unwrap();
+    assert_eq!(v["answer"], "pre-operational");
+}
