@@ -4,6 +4,7 @@ pub mod dump;
 pub mod eds;
 pub mod flash;
 pub mod gateway;
+pub mod live;
 pub mod monitor;
 pub mod nmt;
 pub mod pdo;
