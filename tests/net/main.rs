@@ -11,3 +11,4 @@ mod pdo;
 mod rt;
 mod sdo;
 mod sdo_stream;
+mod tap;

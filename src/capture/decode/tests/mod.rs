@@ -233,3 +233,24 @@ proptest! {
         }
     }
 }
+
+#[test]
+fn the_sdo_context_is_bounded_by_the_node_count() {
+    // 127 records, replaced by each initiate frame: what the module docs promise.
+    assert!(core::mem::size_of::<super::sdo::Tracks>() <= 4096);
+    let mut dec = Decoder::new();
+    for n in 1..=127u16 {
+        dec.decode(&std(0x600 + n, &[0x40, 0x08, 0x10, 0, 0, 0, 0, 0]));
+    }
+    assert_eq!(
+        dec.decode(&std(0x5FF, &[0x00, 1, 2, 3, 4, 5, 6, 7]))
+            .to_string(),
+        "node 127 SDO upload 0x1008:00 segment 1 (7 bytes)"
+    );
+    dec.forget_transfers();
+    assert_eq!(
+        dec.decode(&std(0x5FF, &[0x00, 1, 2, 3, 4, 5, 6, 7]))
+            .to_string(),
+        "node 127 SDO upload (transfer unknown) segment (7 bytes)"
+    );
+}
