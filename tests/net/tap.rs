@@ -5,29 +5,15 @@ use duocan::capture::candump::read_log;
 use duocan::capture::decode::Decoder;
 use duocan::capture::recorder::{Filter, Recorder};
 use duocan::net::{NetOptions, Network, SIM_VENDOR};
-use std::io::{self, Write};
-use std::sync::{Arc, Mutex};
-
-#[derive(Clone, Default)]
-struct Shared(Arc<Mutex<Vec<u8>>>);
-
-impl Write for Shared {
-    fn write(&mut self, b: &[u8]) -> io::Result<usize> {
-        self.0.lock().unwrap().extend_from_slice(b);
-        Ok(b.len())
-    }
-    fn flush(&mut self) -> io::Result<()> {
-        Ok(())
-    }
-}
+use std::sync::Arc;
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn a_tapped_network_records_what_its_port_carries() {
-    let log = Shared::default();
+    let path = std::env::temp_dir().join(format!("duocan-net-tap-{}.log", std::process::id()));
     let rec = Arc::new(
         Recorder::with_epoch(1_700_000_000_000_000)
             .port_names(["sim"])
-            .candump(Filter::All, log.clone()),
+            .candump(Filter::All, std::fs::File::create(&path).unwrap()),
     );
     let opts = NetOptions::default().with_tap(rec.clone());
     assert!(format!("{opts:?}").contains("tap: true"));
@@ -35,7 +21,8 @@ async fn a_tapped_network_records_what_its_port_carries() {
     let vendor: u32 = net.node(5).sdo().read(0x1018, 1).await.unwrap();
     assert_eq!(vendor, SIM_VENDOR);
     net.close().await;
-    let text = log.0.lock().unwrap().clone();
+    rec.flush().unwrap();
+    let text = std::fs::read(&path).unwrap();
     let mut dec = Decoder::new();
     let lines: Vec<String> = read_log("tap", &text[..])
         .map(|e| {

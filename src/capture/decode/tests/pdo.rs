@@ -1,56 +1,7 @@
 use super::*;
 
-pub(super) const EDS: &str = "\
-[OptionalObjects]
-SupportedObjects=4
-1=0x1800
-2=0x1A00
-3=0x2000
-4=0x2001
-[1800]
-ParameterName=TPDO communication parameter
-ObjectType=0x9
-SubNumber=2
-[1800sub0]
-ParameterName=Highest sub-index supported
-DataType=0x0005
-AccessType=const
-DefaultValue=1
-[1800sub1]
-ParameterName=COB-ID
-DataType=0x0007
-AccessType=rw
-DefaultValue=$NODEID+0x180
-[1A00]
-ParameterName=TPDO mapping parameter
-ObjectType=0x9
-SubNumber=3
-[1A00sub0]
-ParameterName=Number of mapped objects
-DataType=0x0005
-AccessType=rw
-DefaultValue=2
-[1A00sub1]
-ParameterName=Mapped object 1
-DataType=0x0007
-AccessType=rw
-DefaultValue=0x20000008
-[1A00sub2]
-ParameterName=Mapped object 2
-DataType=0x0007
-AccessType=rw
-DefaultValue=0x20010010
-[2000]
-ParameterName=Input 1
-DataType=0x0005
-AccessType=ro
-PDOMapping=1
-[2001]
-ParameterName=Input 2
-DataType=0x0003
-AccessType=ro
-PDOMapping=1
-";
+/// TPDO1 of node 5 maps "Input 1" (UNSIGNED8) and "Input 2" (INTEGER16).
+pub(super) const EDS: &str = include_str!("io.eds");
 
 #[test]
 fn pdo_raw_by_default_and_by_name_with_a_description() {
