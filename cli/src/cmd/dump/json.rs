@@ -8,21 +8,15 @@ use duocan::emcy::EmcyMessage;
 use duocan::{Frame, Id, NmtCommand, NmtState, NmtTarget};
 use serde_json::{json, Map, Value};
 
-fn hex(d: &[u8]) -> String {
+/// `0a0b0c`: bytes as JSON carries them.
+pub fn hex(d: &[u8]) -> String {
     d.iter().map(|b| format!("{b:02x}")).collect()
 }
 
 /// `{"time": "1700000000.000200", "timestamp_us": …, "interface": "can0", "id": 1541, …}`.
 pub fn line(timestamp_us: u64, interface: &str, frame: &Frame, d: &DecodedFrame) -> Value {
     let mut m = Map::new();
-    m.insert(
-        "time".into(),
-        json!(format!(
-            "{}.{:06}",
-            timestamp_us / 1_000_000,
-            timestamp_us % 1_000_000
-        )),
-    );
+    m.insert("time".into(), json!(time_text(timestamp_us)));
     m.insert("timestamp_us".into(), json!(timestamp_us));
     m.insert("interface".into(), json!(interface));
     m.insert("id".into(), json!(frame.id().raw()));
@@ -211,6 +205,15 @@ fn railway(m: &mut Map<String, Value>, p: &RailPayload) {
         }
         _ => {}
     }
+}
+
+/// `1700000000.000200`: seconds and microseconds since the Unix epoch, as candump writes them.
+pub fn time_text(timestamp_us: u64) -> String {
+    format!(
+        "{}.{:06}",
+        timestamp_us / 1_000_000,
+        timestamp_us % 1_000_000
+    )
 }
 
 /// The identifier as candump writes it: three hex digits, or eight for 29 bits.

@@ -157,11 +157,7 @@ impl Dump {
 
     /// Prints one record; error and CAN FD frames only without a filter.
     fn record(&mut self, timestamp_us: u64, interface: &str, record: &Record) {
-        let time = format!(
-            "{}.{:06}",
-            timestamp_us / 1_000_000,
-            timestamp_us % 1_000_000
-        );
+        let time = json::time_text(timestamp_us);
         let frame = match record {
             Record::Frame(f) => f,
             Record::Error { bits, data } if self.filter.is_open() => {
@@ -169,7 +165,7 @@ impl Dump {
                 let line = match self.out.json {
                     true => {
                         json!({"time": time, "timestamp_us": timestamp_us, "interface": interface,
-                        "kind": "error_frame", "bits": bits, "data": hex(data), "text": text})
+                        "kind": "error_frame", "bits": bits, "data": json::hex(data), "text": text})
                         .to_string()
                     }
                     false => format!("{time}  {interface:<5}  {:<8}  {text}", "error"),
@@ -181,7 +177,7 @@ impl Dump {
                 let line = match self.out.json {
                     true => {
                         json!({"time": time, "timestamp_us": timestamp_us, "interface": interface,
-                        "kind": "fd_frame", "id": id.raw(), "data": hex(data), "text": text})
+                        "kind": "fd_frame", "id": id.raw(), "data": json::hex(data), "text": text})
                         .to_string()
                     }
                     false => format!("{time}  {interface:<5}  {:<8}  {text}", json::id_text(*id)),
@@ -208,10 +204,6 @@ impl Dump {
         };
         self.out.write(&line);
     }
-}
-
-fn hex(d: &[u8]) -> String {
-    d.iter().map(|b| format!("{b:02x}")).collect()
 }
 
 /// Runs `duocan dump`.
