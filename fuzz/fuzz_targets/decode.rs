@@ -124,11 +124,14 @@ fuzz_target!(|data: &[u8]| {
         check(f, d);
     }
     let (mut second, _, _) = decoder(if log { &[] } else { rest });
-    let again: Vec<DecodedFrame> = frames.iter().map(|f| second.decode(f)).collect();
-    assert_eq!(lines, again, "the same frames decode the same way");
+    // Compared as Debug text: a REAL mapped value may be NaN, which equals nothing.
+    let text = |d: &DecodedFrame| format!("{d:?}");
+    for (f, d) in frames.iter().zip(&lines) {
+        assert_eq!(text(&second.decode(f)), text(d), "the same frames decode the same way");
+    }
     // Forgetting the transfers is a fresh start: the first frame decodes as it did first.
     first.forget_transfers();
     if let (Some(f), Some(d)) = (frames.first(), lines.first()) {
-        assert_eq!(&first.decode(f), d);
+        assert_eq!(text(&first.decode(f)), text(d));
     }
 });

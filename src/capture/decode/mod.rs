@@ -36,8 +36,8 @@
 //!
 //! # Memory
 //!
-//! Bounded by construction: one small record per node-ID (127 of them, about 4 KiB in all) for
-//! the SDO transfers, replaced by the next initiate frame. The PDO layouts grow only with what
+//! Bounded by construction: one small record per node-ID (127 of them, at most 4 KiB in all)
+//! for the SDO transfers, replaced by the next initiate frame. The PDO layouts grow only with what
 //! the caller gives ([`Decoder::add_pdo`], [`Decoder::describe`]), never with the traffic; a
 //! decoded line owns its bytes (at most 8) and names.
 //!
