@@ -29,7 +29,10 @@ fn check(frame: &Frame, d: &DecodedFrame) {
         }
     }
     if d.kind() == Kind::Sdo {
-        assert!(matches!(frame.id(), Id::Standard(0x581..=0x5FF | 0x601..=0x67F)));
+        assert!(matches!(
+            frame.id(),
+            Id::Standard(0x581..=0x5FF | 0x601..=0x67F)
+        ));
     }
 }
 
@@ -127,7 +130,11 @@ fuzz_target!(|data: &[u8]| {
     // Compared as Debug text: a REAL mapped value may be NaN, which equals nothing.
     let text = |d: &DecodedFrame| format!("{d:?}");
     for (f, d) in frames.iter().zip(&lines) {
-        assert_eq!(text(&second.decode(f)), text(d), "the same frames decode the same way");
+        assert_eq!(
+            text(&second.decode(f)),
+            text(d),
+            "the same frames decode the same way"
+        );
     }
     // Forgetting the transfers is a fresh start: the first frame decodes as it did first.
     first.forget_transfers();
