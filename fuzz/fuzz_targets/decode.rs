@@ -7,9 +7,9 @@
 #![no_main]
 
 use duocan::capture::candump;
-use duocan::capture::decode::{DecodedFrame, Decoder, Kind, PdoDir, PdoFieldDef, PdoLayout};
+use duocan::capture::decode::{DecodedFrame, Decoder, Kind, PdoFieldDef, PdoLayout};
 use duocan::od::DataType;
-use duocan::pdo::MapEntry;
+use duocan::pdo::{Dir, MapEntry};
 use duocan::profile::railway::{compose, DeviceAddress, RailFunction, RailwayProfile};
 use duocan::{Frame, Id, NodeId};
 use libfuzzer_sys::fuzz_target;
@@ -70,7 +70,7 @@ fn decoder(data: &[u8]) -> (Decoder, Vec<DeviceAddress>, &[u8]) {
     if !fields.is_empty() {
         let layout = PdoLayout {
             node: NodeId::new((id & 0x7F) as u8),
-            dir: PdoDir::Tpdo,
+            dir: Dir::Transmit,
             number: 1,
             fields,
         };

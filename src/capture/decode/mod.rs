@@ -91,9 +91,10 @@ mod services;
 
 pub use frames::{DecodedFrame, RailPayload};
 pub use kind::{FlyingMasterFrame, Kind};
-pub use pdo::{FieldValue, PdoDir, PdoField, PdoFieldDef, PdoInfo, PdoLayout};
+pub use pdo::{FieldValue, PdoField, PdoFieldDef, PdoInfo, PdoLayout};
 pub use sdo::{SdoInfo, SdoService, SdoSide, SdoStep};
 
+use crate::cia301::pdo::Dir;
 use crate::eds::Description;
 use crate::frame::cob_id::{predefined, NodeId};
 use crate::frame::{Frame, Id};
@@ -190,8 +191,8 @@ impl Decoder {
         }
         match predefined::classify(frame.id()) {
             predefined::Function::Emcy(node) => services::emcy(node, frame),
-            predefined::Function::Tpdo(k, node) => pdo::raw(node, PdoDir::Tpdo, k, frame),
-            predefined::Function::Rpdo(k, node) => pdo::raw(node, PdoDir::Rpdo, k, frame),
+            predefined::Function::Tpdo(k, node) => pdo::raw(node, Dir::Transmit, k, frame),
+            predefined::Function::Rpdo(k, node) => pdo::raw(node, Dir::Receive, k, frame),
             predefined::Function::SdoTx(node) => self.sdo.decode(node, SdoSide::Server, frame),
             predefined::Function::SdoRx(node) => self.sdo.decode(node, SdoSide::Client, frame),
             predefined::Function::ErrorControl(node) => services::error_control(node, frame),

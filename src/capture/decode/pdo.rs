@@ -4,7 +4,7 @@
 use super::frames::{DecodedFrame, Hex, N};
 use super::kind::Kind;
 use super::services::{bad, wrong_length};
-use crate::cia301::pdo::mapping::{read_bits, MapEntry, MAX_BITS};
+use crate::cia301::pdo::mapping::{read_bits, Dir, MapEntry, MAX_BITS};
 use crate::cia301::pdo::params::{RPDO_COMM, RPDO_MAPPING, TPDO_COMM, TPDO_MAPPING};
 use crate::eds::Description;
 use crate::frame::cob_id::{predefined, CobId, NodeId};
@@ -12,21 +12,15 @@ use crate::frame::{Frame, Id};
 use crate::od::DataType;
 use core::fmt;
 
-/// Transmit or receive PDO, as the node sees it.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
-pub enum PdoDir {
-    /// Sent by the node.
-    Tpdo,
-    /// Received by the node.
-    Rpdo,
-}
+/// `TPDO1`, `RPDO2`: a PDO as the lines name it.
+struct Label(Dir, u16);
 
-impl fmt::Display for PdoDir {
+impl fmt::Display for Label {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        f.write_str(match self {
-            PdoDir::Tpdo => "TPDO",
-            PdoDir::Rpdo => "RPDO",
-        })
+        match self.0 {
+            Dir::Transmit => write!(f, "TPDO{}", self.1),
+            Dir::Receive => write!(f, "RPDO{}", self.1),
+        }
     }
 }
 
@@ -71,8 +65,8 @@ impl PdoFieldDef {
 pub struct PdoLayout {
     /// The node it belongs to.
     pub node: Option<NodeId>,
-    /// Transmit or receive, from the node's side.
-    pub dir: PdoDir,
+    /// Transmit (a TPDO) or receive (an RPDO), from the node's side.
+    pub dir: Dir,
     /// The PDO's number (1-based: TPDO1 is 0x1800/0x1A00).
     pub number: u16,
     /// The mapped entries, in order.
@@ -121,8 +115,8 @@ pub struct PdoField {
 pub struct PdoInfo {
     /// The node, by the predefined COB-ID or the layout.
     pub node: Option<NodeId>,
-    /// Transmit or receive.
-    pub dir: PdoDir,
+    /// Transmit (a TPDO) or receive (an RPDO), from the node's side.
+    pub dir: Dir,
     /// 1-based number.
     pub number: u16,
     /// A remote request for the PDO.
@@ -133,13 +127,21 @@ pub struct PdoInfo {
     pub fields: Vec<PdoField>,
 }
 
+impl PdoInfo {
+    /// `TPDO1`, `RPDO2`.
+    #[must_use]
+    pub fn label(&self) -> String {
+        Label(self.dir, self.number).to_string()
+    }
+}
+
 impl fmt::Display for PdoInfo {
     /// `node 5 TPDO1 Input 1 = 17, Input 2 = -3`, `node 5 RPDO2 01 02`.
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         if let Some(n) = self.node {
             write!(f, "{} ", N(n))?;
         }
-        write!(f, "{}{}", self.dir, self.number)?;
+        write!(f, "{}", self.label())?;
         if self.remote {
             return f.write_str(" remote request");
         }
@@ -161,7 +163,7 @@ impl fmt::Display for PdoInfo {
 }
 
 /// A PDO on its predefined COB-ID: the raw bytes.
-pub(super) fn raw(node: NodeId, dir: PdoDir, number: u8, frame: &Frame) -> DecodedFrame {
+pub(super) fn raw(node: NodeId, dir: Dir, number: u8, frame: &Frame) -> DecodedFrame {
     DecodedFrame::Pdo(PdoInfo {
         node: Some(node),
         dir,
@@ -192,9 +194,8 @@ pub(super) fn decode(layout: &PdoLayout, frame: &Frame) -> DecodedFrame {
             Kind::Pdo,
             layout.node,
             format!(
-                "{}{}: {}",
-                layout.dir,
-                layout.number,
+                "{}: {}",
+                Label(layout.dir, layout.number),
                 wrong_length(frame, "its mapping", &needed.div_ceil(8).to_string()),
             ),
         );
@@ -247,8 +248,8 @@ fn number(desc: &Description, node: NodeId, index: u16, sub: u8) -> Option<u64> 
 pub(super) fn from_description(node: NodeId, desc: &Description) -> Vec<(Id, PdoLayout)> {
     let mut out = Vec::new();
     for (dir, comm, map) in [
-        (PdoDir::Tpdo, TPDO_COMM, TPDO_MAPPING),
-        (PdoDir::Rpdo, RPDO_COMM, RPDO_MAPPING),
+        (Dir::Transmit, TPDO_COMM, TPDO_MAPPING),
+        (Dir::Receive, RPDO_COMM, RPDO_MAPPING),
     ] {
         // 512 PDOs of each kind at most: the index ranges of CiA 301.
         for k in 0..512u16 {
@@ -272,8 +273,8 @@ pub(super) fn from_description(node: NodeId, desc: &Description) -> Vec<(Id, Pdo
             let id = match number(desc, node, comm + k, 1) {
                 Some(raw) => CobId(raw as u32).with_valid(true).can_id(),
                 None if k < 4 => Some(match dir {
-                    PdoDir::Tpdo => predefined::tpdo(k as u8 + 1, node),
-                    PdoDir::Rpdo => predefined::rpdo(k as u8 + 1, node),
+                    Dir::Transmit => predefined::tpdo(k as u8 + 1, node),
+                    Dir::Receive => predefined::rpdo(k as u8 + 1, node),
                 }),
                 None => None,
             };

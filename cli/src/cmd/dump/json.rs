@@ -66,7 +66,7 @@ fn value(v: FieldValue) -> Value {
 }
 
 fn pdo(m: &mut Map<String, Value>, p: &PdoInfo) {
-    m.insert("pdo".into(), json!(format!("{}{}", p.dir, p.number)));
+    m.insert("pdo".into(), json!(p.label()));
     let values: Vec<Value> = p
         .fields
         .iter()

@@ -20,7 +20,7 @@ fn pdo_raw_by_default_and_by_name_with_a_description() {
     let layout = dec.pdo(Id::Standard(0x185)).unwrap();
     assert_eq!(
         (layout.dir, layout.number, layout.fields.len()),
-        (PdoDir::Tpdo, 1, 2)
+        (crate::cia301::pdo::Dir::Transmit, 1, 2)
     );
     let d = dec.decode(&std(0x185, &[0x11, 0xFD, 0xFF]));
     assert_eq!(d.to_string(), "node 5 TPDO1 Input 1 = 17, Input 2 = -3");
@@ -48,7 +48,7 @@ fn pdo_values_by_type() {
     ];
     let layout = PdoLayout {
         node: None,
-        dir: PdoDir::Rpdo,
+        dir: crate::cia301::pdo::Dir::Receive,
         number: 9,
         fields,
     };
