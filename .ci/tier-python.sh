@@ -2,8 +2,9 @@
 # Tier 3: python-can / python `canopen` as an independent peer over python-can's udp_multicast
 # bus, inside a private network namespace (no packet can leave the machine), plus the runtime
 # overhead measurement on the UDP bus (bare socket echo vs the tokio runtime), the duocan tool
-# against a duocan node on the UDP bus, and python `canopen` reading a duocan node by the
-# names of the EDS duocan exported for it.
+# against a duocan node on the UDP bus, the tool's CiA 309-3 gateway (over TCP) driving a
+# python `canopen` node, and python `canopen` reading a duocan node by the names of the EDS
+# duocan exported for it.
 #   .ci/tier-python.sh            tests + benchmark
 #   .ci/tier-python.sh --no-bench tests only
 # Installs python3-venv if missing, pip-installs the peers into $TARGET/pyenv, builds first
@@ -40,7 +41,8 @@ cargo test -p duocan-tiers --features python --test python_peer --test python_ed
   --test python_starters --no-run || fail "build python_peer, python_eds and python_starters tests"
 # The duocan tool and its test (which runs the tool's binary against a duocan node).
 cargo build -p duocan-cli || fail "build the duocan tool"
-cargo test -p duocan-tiers --features python --test cli_udp --no-run || fail "build the tool's tests"
+cargo test -p duocan-tiers --features python --test cli_udp --test cli_gateway --test kit_udp --no-run \
+  || fail "build the tool's tests"
 BENCH=1; [ "${1:-}" = "--no-bench" ] && BENCH=0
 if [ $BENCH = 1 ]; then
   cargo build --release --features udp --example rt_overhead || fail "build rt_overhead"
@@ -63,6 +65,18 @@ unshare -n sh -ec '
   ip route add 224.0.0.0/4 dev lo
   cargo test --offline -p duocan-tiers --features python --test cli_udp
 ' || fail "the duocan tool against a duocan node on the UDP bus"
+# The failover kit for real: every shipped scenario through the fault bridge with the masters
+# and boards as processes, each member interface a UDP bus; its verdicts and figures printed.
+unshare -n sh -ec '
+  ip link set lo up
+  ip route add 224.0.0.0/4 dev lo
+  cargo test --offline -p duocan-tiers --features python --test kit_udp -- --nocapture
+' || fail "the failover kit on real processes gives the simulator's verdicts"
+unshare -n sh -ec '
+  ip link set lo up
+  ip route add 224.0.0.0/4 dev lo
+  cargo test --offline -p duocan-tiers --features python --test cli_gateway
+' || fail "a CiA 309-3 script over TCP to duocan gateway, a python canopen node on the UDP bus"
 unshare -n sh -ec '
   ip link set lo up
   ip route add 224.0.0.0/4 dev lo

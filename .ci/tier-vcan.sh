@@ -38,6 +38,16 @@ cargo test -p duocan-tiers --features vcan --test vcan_failover || fail "dual-bu
 echo "== tier-vcan: the redundant network's front door on vcan0,vcan1 (open_named, SDO, a bus failover)"
 cargo test -p duocan-tiers --features vcan --test vcan_redundant || fail "redundant front door on vcan"
 
+echo "== tier-vcan: the failover kit on vcan: every scenario through the fault bridge (masters and"
+echo "   boards as processes), the simulator's verdicts beside it, and the bridge's own overhead"
+# Release build: the VM emulates its CPU, and five processes share it.
+cargo build --release -p duocan-cli || fail "build the duocan tool"
+KTARGET=$(cargo metadata --format-version 1 --no-deps | python3 -c 'import sys,json; print(json.load(sys.stdin)["target_directory"])')
+EXTRA="$KTARGET/release/duocan:/tests/duocan"
+for f in cli/scenarios/*.toml; do EXTRA="$EXTRA $ROOT/$f:/tests/scenarios/$(basename "$f")"; done
+VCANVM_SMP=2 VCANVM_EXTRA="$EXTRA" VCANS=vm1a,vm1b,vs1a,vs1b,vm2a,vm2b,vs2a,vs2b,kb0,kb1,kb2 \
+  "$VM/vm-run.sh" "$ROOT/.ci/kit-vm.sh" || fail "the failover kit on vcan"
+
 echo "== tier-vcan: the dual_vcan_failover example"
 # Release build: the VM emulates its CPU (TCG, one core), and a debug build's scheduling delays
 # between the two port tasks approach the merger's default 10 ms skew window; the self-test

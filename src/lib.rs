@@ -93,6 +93,8 @@ pub mod node;
 pub mod profile;
 // Layer 8 to 10: I/O around the machines.
 #[cfg(feature = "std")]
+pub mod bridge;
+#[cfg(feature = "std")]
 pub mod capture;
 #[cfg(feature = "tokio")]
 pub mod net;

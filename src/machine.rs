@@ -262,6 +262,37 @@ pub trait BusLink {
     }
 }
 
+// A boxed device is a device: large machines (a redundant master) live on the heap, and a
+// simulator or runtime that owns devices by value can own the box.
+#[cfg(feature = "alloc")]
+impl<D: Device + ?Sized> Device for alloc::boxed::Box<D> {
+    type Event = D::Event;
+    fn port_count(&self) -> usize {
+        (**self).port_count()
+    }
+    fn handle_rx(&mut self, now: Instant, port: usize, frame: &Frame) {
+        (**self).handle_rx(now, port, frame);
+    }
+    fn handle_port_status(&mut self, now: Instant, port: usize, status: PortStatus) {
+        (**self).handle_port_status(now, port, status);
+    }
+    fn handle_timeout(&mut self, now: Instant) {
+        (**self).handle_timeout(now);
+    }
+    fn poll_transmit(&mut self) -> Option<(usize, Frame)> {
+        (**self).poll_transmit()
+    }
+    fn poll_port_request(&mut self) -> Option<(usize, PortRequest)> {
+        (**self).poll_port_request()
+    }
+    fn poll_timeout(&self) -> Option<Instant> {
+        (**self).poll_timeout()
+    }
+    fn poll_event(&mut self) -> Option<D::Event> {
+        (**self).poll_event()
+    }
+}
+
 /// The trivial link: one port is the logical bus. Counts what the port reports.
 #[derive(Debug, Default)]
 pub struct SinglePort {

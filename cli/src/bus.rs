@@ -8,10 +8,11 @@
 
 use crate::args::{parse_udp, UdpSpec};
 use crate::fail::Fail;
-use crate::Global;
+use crate::{ports, Global};
 use duocan::eds::Description;
 use duocan::net::{NetOptions, Network};
 use duocan::port::udp::{UdpBusConfig, UdpPort};
+use duocan_redundancy::net::{open_dual, open_dual_named, SIM_SLAVES};
 use std::collections::BTreeMap;
 use std::sync::Arc;
 
@@ -52,25 +53,34 @@ pub fn open(g: &Global, listen_only: bool) -> Result<Bus, Fail> {
     open_with(g, options(g, listen_only))
 }
 
+/// True when `--bus` names the built-in simulated station.
+pub fn is_sim(names: &[String]) -> bool {
+    matches!(names, [one] if one == "sim" || one == "sim:faults")
+}
+
 /// [`open`] with `opts` (a tap, for the commands that watch the wire).
 pub fn open_with(g: &Global, opts: NetOptions) -> Result<Bus, Fail> {
     let names = g.bus.clone().ok_or_else(|| {
         Fail::usage("no bus: give --bus can0 (or can0,can1, udp, sim), or set DUOCAN_BUS")
     })?;
+    let sim = is_sim(&names.0);
     let net = match names.0.as_slice() {
+        [one] if sim => open_dual_named(one, opts).map_err(|e| Fail::usage(e.to_string()))?,
         [one] => open_one(g, one, opts)?,
-        [a, b] => {
-            return Err(Fail::usage(format!(
-                "--bus {a},{b}: two ports are not supported by this build yet"
-            )))
-        }
+        [a, b] => open_dual(
+            ports::open(a, g.udp_interface)?,
+            ports::open(b, g.udp_interface)?,
+            opts,
+        )
+        .map_err(|e| Fail::usage(e.to_string()))?,
         _ => return Err(Fail::usage("--bus names one or two interfaces")),
     };
     let mut descs = BTreeMap::new();
-    if names.0 == ["sim"] {
-        // The simulated nodes are all one kind of device: their names work out of the box.
+    if sim {
+        // The station's plain slaves are duocan's simulated nodes: their names work out of the
+        // box.
         let d = Arc::new(duocan::net::sim_description()?);
-        for id in 1..=127u8 {
+        for id in SIM_SLAVES {
             descs.insert(id, d.clone());
         }
     }
@@ -108,9 +118,6 @@ pub fn descriptions(g: &Global) -> Result<BTreeMap<u8, Arc<Description>>, Fail> 
 }
 
 fn open_one(g: &Global, name: &str, opts: NetOptions) -> Result<Network, Fail> {
-    if name == "sim" {
-        return Ok(Network::open_named_with("sim", opts)?);
-    }
     match parse_udp(name) {
         Some(spec) => {
             let mut cfg = match spec.map_err(Fail::usage)? {

@@ -17,6 +17,7 @@ mod bus;
 mod cmd;
 mod fail;
 mod out;
+mod ports;
 mod progress;
 
 use args::{parse_bus, parse_description, parse_timeout_ms};
@@ -108,6 +109,12 @@ enum Command {
     Flash(cmd::flash::Args),
     /// The CiA 309-3 ASCII gateway, on standard input or a loopback TCP port
     Gateway(cmd::gateway::Args),
+    /// Run a duocan board or redundant master on real interfaces (for failover tests)
+    #[command(subcommand)]
+    Device(cmd::device::Device),
+    /// The failover test kit: scenarios of faults and what must happen
+    #[command(subcommand)]
+    Kit(cmd::kit::Kit),
 }
 
 fn main() -> ExitCode {
@@ -136,6 +143,8 @@ fn main() -> ExitCode {
             Command::Eds(c) => cmd::eds::run(&g, c).await,
             Command::Flash(a) => cmd::flash::run(&g, a).await,
             Command::Gateway(a) => cmd::gateway::run(&g, a).await,
+            Command::Kit(k) => cmd::kit::run(&g, k).await,
+            Command::Device(d) => cmd::device::run(&g, d).await,
         }
     });
     match r {

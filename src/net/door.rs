@@ -1,14 +1,17 @@
 //! The device behind a [`Network`](super::Network): an observing node and an SDO client on
-//! one port, with a filter on what reaches the wire and a record of every boot-up.
+//! its link (one port, or two merged), with a filter on what reaches the wire and a record of
+//! every boot-up.
 
 use super::error::NetError;
 use super::events::NetEvent;
+use super::link::{DriverState, NetLink};
 use super::pdo::table::PdoTable;
 use crate::cia301::sdo::{RequestId, SdoClient, SdoError, TransferBuffer};
 use crate::frame::instant::Instant;
 use crate::frame::{Frame, Id};
 use crate::machine::{
-    Composite, CompositeEvent, Device, PortRequest, PortStatus, SinglePort, Station, StationEvent,
+    BusLink, Composite, CompositeEvent, Device, Machine, PortRequest, PortStatus, Station,
+    StationEvent,
 };
 use crate::node::{Node, NodeEventKind};
 use crate::od::DynamicDictionary;
@@ -20,7 +23,7 @@ use tokio::sync::Notify;
 pub(crate) type Observer = Node<DynamicDictionary>;
 /// The SYNC identifier the producer uses (0x1005's default).
 pub(crate) const SYNC_ID: u16 = 0x80;
-type Inner = Station<SinglePort, Composite<Observer, SdoClient>>;
+type Inner = Station<Box<dyn NetLink>, Composite<Observer, SdoClient>>;
 
 /// What the door tells the network handle: a user event, or an SDO transfer's outcome.
 #[derive(Clone, Debug)]
@@ -65,6 +68,11 @@ pub(crate) struct Door {
     /// Streamed transfers and whom to wake when one has room to fill or data to take
     /// (at most one per client session: an entry goes with its transfer's result).
     pub streams: Vec<(RequestId, Arc<Notify>)>,
+    /// The latest instant an input carried: what the machine's frames are handed to the link
+    /// with (as a [`Station`] does).
+    now: Instant,
+    /// What each port's driver last reported (index = port).
+    pub drivers: [DriverState; 2],
 }
 
 impl Door {
@@ -79,6 +87,8 @@ impl Door {
             decoded: VecDeque::new(),
             pdo_dropped: 0,
             streams: Vec::new(),
+            now: Instant::ZERO,
+            drivers: [DriverState::default(); 2],
         }
     }
     /// Queues a frame the network itself sends (an RPDO).
@@ -109,9 +119,10 @@ impl Device for Door {
     type Event = DoorEvent;
 
     fn port_count(&self) -> usize {
-        1
+        self.inner.port_count()
     }
     fn handle_rx(&mut self, now: Instant, port: usize, frame: &Frame) {
+        self.now = now;
         if let Some((node, pdo, values)) = self.pdos.decode(frame) {
             if self.decoded.len() < PDO_EVENTS {
                 self.decoded.push_back(NetEvent::Pdo {
@@ -127,20 +138,33 @@ impl Device for Door {
         self.inner.handle_rx(now, port, frame);
     }
     fn handle_port_status(&mut self, now: Instant, port: usize, status: PortStatus) {
+        self.now = now;
+        if let Some(d) = self.drivers.get_mut(port) {
+            d.on(status);
+        }
         self.inner.handle_port_status(now, port, status);
     }
     fn handle_timeout(&mut self, now: Instant) {
+        self.now = now;
         self.inner.handle_timeout(now);
     }
     fn poll_transmit(&mut self) -> Option<(usize, Frame)> {
-        if let Some(f) = self.own.pop_front() {
-            return Some((0, f));
-        }
+        // The filter sits between the machine and the link: on two buses a frame is judged
+        // once, before the link fans it out.
         loop {
-            let (p, f) = self.inner.poll_transmit()?;
-            if self.may_send(&f) {
-                return Some((p, f));
+            if let Some(x) = self.inner.link.poll_transmit() {
+                return Some(x);
             }
+            let f = match self.own.pop_front() {
+                Some(f) => f,
+                None => loop {
+                    let f = self.inner.machine.poll_transmit()?;
+                    if self.may_send(&f) {
+                        break f;
+                    }
+                },
+            };
+            self.inner.link.send(self.now, &f);
         }
     }
     fn poll_port_request(&mut self) -> Option<(usize, PortRequest)> {
@@ -162,7 +186,7 @@ impl Device for Door {
         }
         loop {
             let e = match self.inner.poll_event()? {
-                StationEvent::Link(never) => match never {},
+                StationEvent::Link(e) => return Some(DoorEvent::Net(e)),
                 StationEvent::Machine(CompositeEvent::B(s)) => {
                     self.streams.retain(|(r, _)| *r != s.request);
                     let r = s.result.map(|b| TransferBuffer::as_slice(&b).to_vec());

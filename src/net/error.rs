@@ -2,6 +2,7 @@
 
 use crate::cia301::nmt::NmtState;
 use crate::cia301::sdo::{SdoError, SdoErrorKind};
+use crate::cia302::master::ProgramDownloadError;
 use crate::cia302::pdo_config::PdoConfigError;
 use crate::eds::{EdsError, LookupError, LookupErrorKind};
 use crate::frame::cob_id::NodeId;
@@ -135,6 +136,10 @@ pub enum NetError {
     },
     /// Configuring a PDO over SDO failed: which entry, and what the node did.
     PdoConfig(PdoConfigError),
+    /// A program download ([`RemoteNode::download_program`](super::RemoteNode::download_program))
+    /// failed in a step: which one, the abort code, and whether the node went back to the
+    /// program it had.
+    Program(ProgramDownloadError),
     /// An argument outside what the call takes.
     Argument(String),
     /// The local side of a streamed transfer failed: the reader a write took its data from,
@@ -171,6 +176,7 @@ impl NetError {
             | NetError::Pdo { node, .. }
             | NetError::Io { node, .. } => Some(*node),
             NetError::PdoConfig(e) => Some(e.node),
+            NetError::Program(e) => Some(e.node),
             NetError::Eds(_) | NetError::Argument(_) => None,
             NetError::NoSuchNode(_)
             | NetError::QueueFull
@@ -184,6 +190,7 @@ impl NetError {
     pub fn abort_code(&self) -> Option<AbortCode> {
         match self {
             NetError::Sdo(e) => e.code(),
+            NetError::Program(e) => e.code(),
             _ => None,
         }
     }
@@ -281,6 +288,7 @@ impl fmt::Display for NetError {
             ),
             NetError::Pdo { node, pdo, why } => write!(f, "node {}, {pdo}: {why}", node.raw()),
             NetError::PdoConfig(e) => fmt::Display::fmt(e, f),
+            NetError::Program(e) => fmt::Display::fmt(e, f),
             NetError::Argument(why) => f.write_str(why),
             NetError::Io { node, index, sub, message, .. } => write!(
                 f,
@@ -298,6 +306,7 @@ impl std::error::Error for NetError {
             NetError::Name { error, .. } => Some(error),
             NetError::Eds(e) => Some(e),
             NetError::PdoConfig(e) => Some(e),
+            NetError::Program(e) => Some(e),
             _ => None,
         }
     }

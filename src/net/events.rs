@@ -84,6 +84,31 @@ pub enum NetEvent {
         /// When.
         at: Instant,
     },
+    /// A port's state as the link keeps it changed (a dual bus: its port health, `"ok"`,
+    /// `"suspect"`, `"failed"`, `"recovering"`; see [`Network::ports`](super::Network::ports)).
+    /// A network on one port reports none: its driver's reports are [`NetEvent::Port`].
+    PortState {
+        /// The port (0 = bus 1).
+        port: u8,
+        /// The state before.
+        from: &'static str,
+        /// The state now.
+        to: &'static str,
+        /// Why, in words (the link's reason: "nothing received for 500 ms").
+        reason: String,
+        /// When (for a timer-driven change: exactly its deadline).
+        at: Instant,
+    },
+    /// The buses a node is heard on changed (two ports only; see
+    /// [`Network::heard_on`](super::Network::heard_on)).
+    Reach {
+        /// The node.
+        node: NodeId,
+        /// Heard on bus 1, on bus 2, within the link's reach timeout.
+        heard: [bool; 2],
+        /// When.
+        at: Instant,
+    },
     /// This reader fell behind and `n` events were dropped for it (the stream goes on with the
     /// oldest event still kept). A slow reader loses events, never the program.
     Lagged(u64),
@@ -99,8 +124,9 @@ impl NetEvent {
             | NetEvent::HeartbeatLost { node, .. }
             | NetEvent::HeartbeatResumed { node, .. }
             | NetEvent::Emcy { node, .. }
-            | NetEvent::Pdo { node, .. } => Some(*node),
-            NetEvent::Port { .. } | NetEvent::Lagged(_) => None,
+            | NetEvent::Pdo { node, .. }
+            | NetEvent::Reach { node, .. } => Some(*node),
+            NetEvent::Port { .. } | NetEvent::PortState { .. } | NetEvent::Lagged(_) => None,
         }
     }
     /// When it happened (the network's clock, see [`Network::now`](super::Network::now)).
@@ -113,7 +139,9 @@ impl NetEvent {
             | NetEvent::HeartbeatResumed { at, .. }
             | NetEvent::Emcy { at, .. }
             | NetEvent::Pdo { at, .. }
-            | NetEvent::Port { at, .. } => Some(*at),
+            | NetEvent::Port { at, .. }
+            | NetEvent::PortState { at, .. }
+            | NetEvent::Reach { at, .. } => Some(*at),
             NetEvent::Lagged(_) => None,
         }
     }
@@ -155,6 +183,7 @@ impl NetEvent {
 /// One line per event, as a monitor prints it: `node 0x05: boot-up`, `node 0x05: operational`,
 /// `node 0x05: heartbeat lost`, `node 0x05: heartbeat back`, `node 0x05: EMCY 0x8130 life guard
 /// or heartbeat error`, `node 0x05: TPDO 1 Input 1=7 Status=0`, `port: down (interface down)`,
+/// `bus 1: failed (port down: interface down)`, `node 0x05: heard on bus 2 only`,
 /// `12 events missed`.
 impl fmt::Display for NetEvent {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
@@ -184,6 +213,15 @@ impl fmt::Display for NetEvent {
                 PortStatus::Error(c) => write!(f, "port: error ({c})"),
                 PortStatus::Down(c) => write!(f, "port: down ({c})"),
                 PortStatus::Up => f.write_str("port: up"),
+            },
+            NetEvent::PortState {
+                port, to, reason, ..
+            } => write!(f, "bus {}: {to} ({reason})", u16::from(*port) + 1),
+            NetEvent::Reach { node, heard, .. } => match heard {
+                [true, true] => write!(f, "{node}: heard on both buses"),
+                [true, false] => write!(f, "{node}: heard on bus 1 only"),
+                [false, true] => write!(f, "{node}: heard on bus 2 only"),
+                [false, false] => write!(f, "{node}: heard on no bus"),
             },
             NetEvent::Lagged(n) => write!(f, "{n} events missed"),
         }
@@ -285,6 +323,24 @@ mod tests {
                     at,
                 },
                 "port: down (interface down)",
+            ),
+            (
+                NetEvent::PortState {
+                    port: 0,
+                    from: "ok",
+                    to: "failed",
+                    reason: "port down: interface down".into(),
+                    at,
+                },
+                "bus 1: failed (port down: interface down)",
+            ),
+            (
+                NetEvent::Reach {
+                    node,
+                    heard: [false, true],
+                    at,
+                },
+                "node 0x05: heard on bus 2 only",
             ),
             (NetEvent::Lagged(12), "12 events missed"),
         ];

@@ -57,6 +57,18 @@
 //! uses node-ID 127 internally, so a node 127 on the bus is not tracked).
 //! [`Network::monitor`] sends nothing at all.
 //!
+//! **Links.** The observer and the client sit on a link ([`NetLink`], one trait object, so
+//! [`Network`] is one type whatever it runs on): one port ([`Network::open`]), or two ports
+//! merged by the redundancy crate's dual-bus layer (`duocan_redundancy::net::open_dual`, via
+//! [`Network::open_link`]), where every request goes out on both buses and every answer is
+//! delivered once. The stack above the link does not know how many wires there are;
+//! [`Network::ports`] (name, state, counters: [`PortView`]) and [`Network::heard_on`] (the
+//! buses a node was heard on) do, and [`NetEvent::PortState`] and [`NetEvent::Reach`] report
+//! their changes.
+//!
+//! **Program download** (CiA 302-3): [`RemoteNode::download_program`] replaces a node's
+//! program by the master's procedure, the image streamed by block transfer, with progress.
+//!
 //! Every call returns one error, [`NetError`], naming the node and object and what to do.
 //! SDO transfers to different nodes run at once; to one node they take turns (a server runs one
 //! transfer per client at a time).
@@ -77,8 +89,10 @@
 mod door;
 mod error;
 mod events;
+mod link;
 mod named;
 mod pdo;
+mod program;
 mod remote;
 mod sdo;
 mod sdo_stream;
@@ -87,11 +101,12 @@ mod value;
 
 pub use error::{Awaited, NetError};
 pub use events::{Events, NetEvent};
+pub use link::{NetLink, NetPorts, PortView};
 pub use pdo::{PdoMap, PdoValue, PdoValues, PdoVariable, RemotePdo, MAX_LEARNED};
 pub use remote::RemoteNode;
 pub use sdo::RemoteSdo;
 pub use sdo_stream::{TransferProgress, STREAM_WINDOW};
-pub use sim::{sim_description, SIM_DEVICE_NAME, SIM_HEARTBEAT_MS, SIM_VENDOR};
+pub use sim::{sim_description, sim_dictionary, SIM_DEVICE_NAME, SIM_HEARTBEAT_MS, SIM_VENDOR};
 pub use value::AnyValue;
 
 use crate::cia301::nmt::{NmtCommand, NmtTarget};
@@ -99,13 +114,15 @@ use crate::cia301::sdo::{SdoClient, SdoOptions};
 use crate::eds::Description;
 use crate::frame::cob_id::NodeId;
 use crate::frame::instant::{Duration, Instant};
-use crate::machine::{Composite, Station};
+use crate::machine::{BusLink, Composite, Device, Station};
 use crate::node::NodeConfig;
 use crate::od::comm;
 use crate::port::Port;
 use crate::runtime::{Handle, Runtime};
 use door::Door;
 use std::collections::BTreeMap;
+use std::future::Future;
+use std::pin::Pin;
 use std::sync::Arc;
 use tokio::sync::{watch, Mutex, Semaphore};
 
@@ -179,9 +196,9 @@ impl NetOptions {
     }
 }
 
-/// A CANopen network on one port: the handle everything starts from. Cheap to clone; the
-/// network runs until [`Network::close`] or until the last clone (and every [`RemoteNode`]) is
-/// dropped.
+/// A CANopen network on one port or on two merged ones (see [`Network::open_link`]): the
+/// handle everything starts from. Cheap to clone; the network runs until [`Network::close`] or
+/// until the last clone (and every [`RemoteNode`]) is dropped.
 #[derive(Clone)]
 pub struct Network {
     shared: Arc<Shared>,
@@ -200,7 +217,12 @@ struct Shared {
     closed: watch::Sender<bool>,
     /// Device descriptions attached with [`Network::add_node`], by node-ID.
     descs: std::sync::Mutex<BTreeMap<u8, Arc<Description>>>,
+    /// What stops with the network ([`Network::on_close`]), in the order given.
+    on_close: std::sync::Mutex<Vec<OnClose>>,
 }
+
+/// A task run when the network closes.
+type OnClose = Box<dyn FnOnce() -> Pin<Box<dyn Future<Output = ()> + Send>> + Send>;
 
 impl Network {
     /// Opens the network on `port` (a SocketCAN, UDP or in-memory port) with default options.
@@ -217,10 +239,41 @@ impl Network {
 
     /// Opens the network on `port` with `opts`.
     pub fn open_with<P: Port>(port: P, opts: NetOptions) -> Result<Network, NetError> {
-        Self::start(port, opts, sim::SimNodes::default())
+        Self::start(
+            Box::new(link::OnePort::default()),
+            port,
+            opts,
+            sim::SimNodes::default(),
+        )
     }
 
-    fn start<P: Port>(port: P, opts: NetOptions, sim: sim::SimNodes) -> Result<Network, NetError> {
+    /// Opens the network on `link` (a link with two ports: the redundancy crate's dual-bus
+    /// layer) over `ports`, one per port of the link in order. The network is the same type
+    /// as on one port; [`Network::ports`] and [`Network::heard_on`] show the link's view, and
+    /// its port and reach changes come as [`NetEvent::PortState`] and [`NetEvent::Reach`].
+    /// A link whose port count differs from the ports given is [`NetError::Port`].
+    pub fn open_link(
+        link: Box<dyn NetLink>,
+        ports: impl NetPorts,
+        opts: NetOptions,
+    ) -> Result<Network, NetError> {
+        Self::start(link, ports, opts, sim::SimNodes::default())
+    }
+
+    fn start(
+        link: Box<dyn NetLink>,
+        ports: impl NetPorts,
+        opts: NetOptions,
+        sim: sim::SimNodes,
+    ) -> Result<Network, NetError> {
+        if link.port_count() != ports.count() || ports.count() > 2 {
+            return Err(NetError::Port(format!(
+                "{}: {} ports given to a link of {}",
+                ports.label(),
+                ports.count(),
+                link.port_count()
+            )));
+        }
         if tokio::runtime::Handle::try_current().is_err() {
             return Err(NetError::Port(
                 "no tokio runtime: open the network from inside one (#[tokio::main])".into(),
@@ -233,10 +286,11 @@ impl Network {
         node.boot(Instant::ZERO);
         let client = SdoClient::new(MAX_TRANSFER);
         let door = Door::new(
-            Station::single(Composite::new(node, client)),
+            Station::new(link, Composite::new(node, client)),
             opts.listen_only,
         );
-        let mut rt = Runtime::new(door).name(port.name().to_owned()).port(port);
+        let label = ports.label();
+        let mut rt = ports.attach(Runtime::new(door).name(label));
         if let Some(tap) = &opts.tap {
             rt = rt.tap(tap.clone());
         }
@@ -250,6 +304,7 @@ impl Network {
                 sim,
                 closed: watch::channel(false).0,
                 descs: std::sync::Mutex::default(),
+                on_close: std::sync::Mutex::default(),
             }),
         })
     }
@@ -392,11 +447,77 @@ impl Network {
             .await
     }
 
+    /// Its ports, in order (port 0 = bus 1): name, state and counters. On a dual bus the
+    /// state is the layer's port health (`"ok"`, `"suspect"`, `"failed"`, `"recovering"`);
+    /// on one port, what its driver last reported ([`PortView::state`]).
+    pub async fn ports(&self) -> Result<Vec<PortView>, NetError> {
+        let h = &self.shared.handle;
+        let states = h
+            .call(|d, _| {
+                (0..d.port_count())
+                    .map(|p| {
+                        let driver = d.drivers.get(p).copied().unwrap_or_default();
+                        let state = d.inner.link.port_state(p).unwrap_or(driver.state);
+                        (state, driver.last_error)
+                    })
+                    .collect::<Vec<_>>()
+            })
+            .await?;
+        Ok(states
+            .into_iter()
+            .enumerate()
+            .map(|(index, (state, last_error))| PortView {
+                index,
+                name: h.port_names().get(index).cloned().unwrap_or_default(),
+                state,
+                last_error,
+                counters: h.port_counters(index).unwrap_or_default(),
+            })
+            .collect())
+    }
+
+    /// On which of two buses node `id` was heard within the link's reach timeout
+    /// (`[bus 1, bus 2]`; `[false, false]` for a node not heard lately); `None` on one port,
+    /// where the question has no answer. A node-ID outside 1–127 is [`NetError::NoSuchNode`].
+    pub async fn heard_on(&self, id: u8) -> Result<Option<[bool; 2]>, NetError> {
+        let node = NodeId::new(id).ok_or(NetError::NoSuchNode(id))?;
+        Ok(self
+            .shared
+            .handle
+            .call(move |d, _| d.inner.link.heard_on(node))
+            .await?)
+    }
+
+    /// Runs `stop` when the network is closed ([`Network::close`]), after the network itself
+    /// has stopped: what started with the network (a simulated station) stops with it.
+    pub fn on_close<F, Fut>(&self, stop: F)
+    where
+        F: FnOnce() -> Fut + Send + 'static,
+        Fut: Future<Output = ()> + Send + 'static,
+    {
+        let task: OnClose = Box::new(move || Box::pin(stop()));
+        self.shared
+            .on_close
+            .lock()
+            .unwrap_or_else(std::sync::PoisonError::into_inner)
+            .push(task);
+    }
+
     /// Stops the network and waits for it; calls made afterwards fail with
     /// [`NetError::Closed`].
     pub async fn close(&self) {
         self.shared.handle.shutdown().await;
         self.shared.sim.shutdown().await;
+        let tasks = core::mem::take(
+            &mut *self
+                .shared
+                .on_close
+                .lock()
+                .unwrap_or_else(std::sync::PoisonError::into_inner),
+        );
+        for t in tasks {
+            t().await;
+        }
         self.shared.closed.send_replace(true);
     }
 }

@@ -32,10 +32,22 @@ impl SimNodes {
     }
 }
 
-/// A duocan slave `id` as the simulated nodes are: identity (vendor [`SIM_VENDOR`], product
-/// = node-ID), device name [`SIM_DEVICE_NAME`] at 0x1008, heartbeat every
-/// [`SIM_HEARTBEAT_MS`] ms, booted (its boot-up goes out when its runtime starts).
+/// A duocan slave `id` as the simulated nodes are ([`sim_dictionary`]), booted (its boot-up
+/// goes out when its runtime starts).
 fn sim_node(id: NodeId) -> SimNode {
+    let mut node = crate::node::Node::new(NodeConfig::slave(id), sim_dictionary(id));
+    node.boot(Instant::ZERO);
+    Station::single(node)
+}
+
+/// The dictionary of simulated node `id` (what [`Network::open_named`]`("sim")` runs, and
+/// what other simulated stations build their plain slaves from): the standard communication
+/// objects, identity (vendor [`SIM_VENDOR`], product code = node-ID), device name
+/// [`SIM_DEVICE_NAME`] at 0x1008, heartbeat every [`SIM_HEARTBEAT_MS`] ms, inputs 0x6000 (Input 1,
+/// Input 2, Status) sent by TPDO1 on request, outputs 0x6200 written by RPDO1, and TPDO2–4 and
+/// RPDO2–4 disabled and unmapped, to be configured ([`sim_description`] describes it).
+#[must_use]
+pub fn sim_dictionary(id: NodeId) -> crate::od::DynamicDictionary {
     let ident = comm::Identity {
         vendor: SIM_VENDOR,
         product: u32::from(id.raw()),
@@ -51,9 +63,7 @@ fn sim_node(id: NodeId) -> SimNode {
             .named("Manufacturer device name"),
     );
     add_process_data(&mut od);
-    let mut node = crate::node::Node::new(NodeConfig::slave(id), od);
-    node.boot(Instant::ZERO);
-    Station::single(node)
+    od
 }
 
 /// Sub-entries of the simulated nodes' input record 0x6000 (what their TPDOs carry).
@@ -201,7 +211,12 @@ impl Network {
                 nodes.push(h);
             }
         }
-        Self::start(port, opts, SimNodes(nodes))
+        Self::start(
+            Box::new(super::link::OnePort::default()),
+            port,
+            opts,
+            SimNodes(nodes),
+        )
     }
 }
 

@@ -1,5 +1,6 @@
 //! An in-process bus: ports that share frames through memory. For testing applications and the
-//! runtime without sockets; every port sees every frame the others send, in order.
+//! runtime without sockets; every port sees every frame the others send, in order. A port
+//! behind a [`Connector`] ([`MemBus::plugged_port`]) fails when the connector is pulled.
 
 use super::{Port, PortCounters, PortError, PortErrorKind, PortInput};
 use crate::frame::Frame;
@@ -92,5 +93,91 @@ impl Port for MemPort {
         self.rx = Some(self.bus.tx.subscribe());
         self.counters.reopened();
         Ok(())
+    }
+}
+
+/// A [`MemBus`] port behind a connector that can be pulled ([`MemBus::plugged_port`]): while
+/// pulled, receiving, sending and re-opening fail with the interface down, as a real port does
+/// when its cable is cut, so that what watches ports (a dual-bus layer's health, the runtime's
+/// re-initialisation) sees a port fail and come back.
+#[derive(Debug)]
+pub struct PluggedPort {
+    inner: MemPort,
+    pulled: tokio::sync::watch::Receiver<bool>,
+}
+
+/// The connector of a [`PluggedPort`]: pull it, plug it back in. Cheap to clone.
+#[derive(Clone, Debug)]
+pub struct Connector(std::sync::Arc<tokio::sync::watch::Sender<bool>>);
+
+impl Connector {
+    /// Pulls the connector: the port goes down.
+    pub fn pull(&self) {
+        self.0.send_replace(true);
+    }
+    /// Plugs it back in: the port works again once re-opened.
+    pub fn plug_in(&self) {
+        self.0.send_replace(false);
+    }
+    /// True while pulled.
+    #[must_use]
+    pub fn is_pulled(&self) -> bool {
+        *self.0.borrow()
+    }
+}
+
+impl MemBus {
+    /// A port on this bus behind a [`Connector`] (plugged in).
+    pub fn plugged_port(&self) -> (PluggedPort, Connector) {
+        let (tx, rx) = tokio::sync::watch::channel(false);
+        let port = PluggedPort {
+            inner: self.port(),
+            pulled: rx,
+        };
+        (port, Connector(std::sync::Arc::new(tx)))
+    }
+}
+
+impl PluggedPort {
+    fn down(&self) -> PortError {
+        PortError::new(
+            &self.inner.bus.name,
+            PortErrorKind::InterfaceDown,
+            "connector pulled",
+        )
+    }
+    fn is_pulled(&self) -> bool {
+        *self.pulled.borrow()
+    }
+}
+
+impl Port for PluggedPort {
+    fn name(&self) -> &str {
+        self.inner.name()
+    }
+    fn counters(&self) -> PortCounters {
+        self.inner.counters()
+    }
+    async fn recv(&mut self) -> Result<PortInput, PortError> {
+        if self.is_pulled() {
+            return Err(self.down());
+        }
+        tokio::select! {
+            r = self.inner.recv() => return r,
+            _ = self.pulled.wait_for(|c| *c) => {}
+        }
+        Err(self.down())
+    }
+    async fn send(&mut self, frame: &Frame) -> Result<(), PortError> {
+        if self.is_pulled() {
+            return Err(self.down());
+        }
+        self.inner.send(frame).await
+    }
+    async fn reopen(&mut self) -> Result<(), PortError> {
+        if self.is_pulled() {
+            return Err(self.down());
+        }
+        self.inner.reopen().await
     }
 }

@@ -94,7 +94,7 @@ impl FaultRates {
 }
 
 /// True with probability `p`, drawing only when the outcome is in doubt.
-pub(super) fn chance(rng: &mut fastrand::Rng, p: f64) -> bool {
+pub(crate) fn chance(rng: &mut fastrand::Rng, p: f64) -> bool {
     if p <= 0.0 {
         false
     } else if p >= 1.0 {
@@ -110,7 +110,7 @@ pub(super) fn either(a: f64, b: f64) -> f64 {
 }
 
 /// The frame with one random data bit flipped, or `None` if it carries no data.
-pub(super) fn flip_bit(rng: &mut fastrand::Rng, frame: &Frame) -> Option<Frame> {
+pub(crate) fn flip_bit(rng: &mut fastrand::Rng, frame: &Frame) -> Option<Frame> {
     let len = frame.data().len();
     if len == 0 {
         return None;
@@ -129,6 +129,16 @@ impl SimNetwork {
         self.buses[bus.index()].faults = (!rates.is_none()).then_some(rates);
     }
 
+    /// The random fault rates of a bus as set ([`FaultRates::NONE`] unless set).
+    pub fn bus_faults(&self, bus: BusId) -> FaultRates {
+        self.bus(bus).faults.unwrap_or(FaultRates::NONE)
+    }
+    /// The random fault rates of one receiving port as set.
+    pub fn port_faults(&self, port: PortRef) -> FaultRates {
+        self.ports[self.port_index(port)]
+            .faults
+            .unwrap_or(FaultRates::NONE)
+    }
     /// Sets the random fault rates of one receiving port.
     pub fn set_port_faults(&mut self, port: PortRef, rates: FaultRates) {
         let p = self.port_index(port);

@@ -96,6 +96,7 @@ pub use bus::{BusStats, PortStats, DEFAULT_TX_CAPACITY};
 /// [`SimNetwork::set_event_capacity`] says otherwise.
 pub const DEFAULT_EVENT_CAPACITY: usize = 16_384;
 pub use fault::FaultRates;
+pub(crate) use fault::{chance, flip_bit};
 pub use ids::{BusConfig, BusId, DevId, DeviceRef, PortRef, SimError};
 pub use trace::{RxFault, RxRecord, TraceRecord, TxOutcome, TxRecord};
 

@@ -7,6 +7,8 @@ mod monitor;
 mod named;
 mod nmt;
 mod pdo;
+mod ports;
+mod program;
 #[path = "../common/runtime.rs"]
 mod rt;
 mod sdo;

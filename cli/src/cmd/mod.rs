@@ -1,9 +1,11 @@
 //! The commands, one module each.
 
+pub mod device;
 pub mod dump;
 pub mod eds;
 pub mod flash;
 pub mod gateway;
+pub mod kit;
 pub mod live;
 pub mod monitor;
 pub mod nmt;

@@ -46,6 +46,16 @@ fn parse_count(s: &str) -> Result<u64, String> {
     }
 }
 
+/// The interface name of each port, as the log names them: what `--bus` names, and for the
+/// simulated station its two buses (the names its ports carry; the record test holds them to
+/// that).
+fn port_names(bus: &[String]) -> Vec<String> {
+    if bus::is_sim(bus) {
+        return vec!["sim-bus1".into(), "sim-bus2".into()];
+    }
+    bus.to_vec()
+}
+
 /// The pcap of port `port` (0: bus 1) when the run records `ports` ports.
 fn pcap_path(path: &Path, port: usize, ports: usize) -> PathBuf {
     if ports < 2 || port == 0 {
@@ -105,7 +115,7 @@ pub async fn run(g: &Global, a: Args) -> Result<(), Fail> {
             "record: give --candump FILE and/or --pcap FILE to write to",
         ));
     }
-    let names = g.bus.as_ref().map(|b| b.0.clone()).unwrap_or_default();
+    let names = port_names(g.bus.as_ref().map_or(&[][..], |b| &b.0[..]));
     let mut recorder = Recorder::new().port_names(names.clone());
     if let Some(p) = &a.candump {
         recorder = recorder.candump(Filter::All, create(p)?);
@@ -135,7 +145,6 @@ pub async fn run(g: &Global, a: Args) -> Result<(), Fail> {
         Some(())
     })
     .await;
-    let names = bus.names.clone();
     bus.close().await;
     let seconds = started.elapsed().as_secs_f64();
     tap.recorder

@@ -37,14 +37,40 @@
 //! Underneath is a [`LogicalNetwork`] under the duocan runtime: the handle's calls run on it
 //! (SDO, NMT, switch-over, status) and its events come out flat ([`RedundantEvent`]), with lag
 //! as an item. Every call returns one error, [`RedundantError`].
+//!
+//! A tool that must not become a master on somebody's network opens duocan's plain front door
+//! on the two buses instead: [`open_dual`] / [`open_dual_named`] ([`DualLink`], the dual-bus
+//! layer as `duocan::net::Network`'s link); `open_dual_named("sim")` runs it on a simulated
+//! redundant station:
+//!
+//! | node | what | state |
+//! | --- | --- | --- |
+//! | 0x01 | a redundant master (supervisor, flying master) | active master |
+//! | 0x02 | its peer master, the same settings | standby master |
+//! | 0x10 / 0x50, 0x11 / 0x51 | two A/B board pairs ([`SIM_PAIRS`]) | A active (operational), B standby (pre-operational) |
+//! | 0x05, 0x06, 0x07 | plain slaves ([`SIM_SLAVES`]): `duocan::net`'s simulated node and a read-write DOMAIN [`SIM_DOMAIN`] of up to [`SIM_DOMAIN_SIZE`] bytes; [`SIM_PROGRAM_NODE`] takes program download (identification after start: [`sim_program_id`] of the image) | pre-operational |
+//!
+//! `"sim:faults"` repeats a script every [`SIM_FAULT_PERIOD`]: at [`SIM_FAULT_BUS_CUT`] into
+//! it the network's connection to bus 1 is cut (back at [`SIM_FAULT_BUS_BACK`]), at
+//! [`SIM_FAULT_MEMBER_STOPS`] the active member of the first pair stops (back at
+//! [`SIM_FAULT_MEMBER_BACK`]), at [`SIM_FAULT_MASTER_STOPS`] the active master stops (back at
+//! [`SIM_FAULT_MASTER_BACK`]).
 
+mod dual_link;
 mod events;
 mod node;
 mod sim;
+mod sim_station;
 
+pub use dual_link::{open_dual, open_dual_named, open_dual_with, DualLink};
 pub use events::{RedundantEvent, RedundantEvents};
 pub use node::{RedundantNode, RedundantSdo};
 pub use sim::{SIM_BUS_FAILS, SIM_END, SIM_MEMBER_FAILS, SIM_PEERS_FAIL};
+pub use sim_station::{
+    sim_program_id, SIM_DOMAIN, SIM_DOMAIN_SIZE, SIM_FAULT_BUS_BACK, SIM_FAULT_BUS_CUT,
+    SIM_FAULT_MASTER_BACK, SIM_FAULT_MASTER_STOPS, SIM_FAULT_MEMBER_BACK, SIM_FAULT_MEMBER_STOPS,
+    SIM_FAULT_PERIOD, SIM_PAIRS, SIM_PROGRAM_NODE, SIM_SLAVES,
+};
 
 use crate::network::{LogicalNetwork, RedundantError, RedundantNetworkBuilder};
 use crate::pair::{Member, PairId};

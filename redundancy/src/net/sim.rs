@@ -11,10 +11,8 @@ use alloc::boxed::Box;
 use alloc::string::ToString;
 use alloc::sync::Arc;
 use alloc::vec::Vec;
-use duocan::frame::Frame;
 use duocan::od::{comm, DynamicDictionary};
-use duocan::port::mem::{MemBus, MemPort};
-use duocan::port::{Port, PortCounters, PortError, PortErrorKind, PortInput};
+use duocan::port::mem::{Connector, MemBus};
 use duocan::runtime::{Handle, Runtime};
 use duocan::{Duration, Instant, Node, NodeConfig, NodeId, Station};
 use tokio::sync::watch;
@@ -35,7 +33,7 @@ pub const SIM_END: Duration = Duration::from_millis(6000);
 /// active member (the same every run).
 const B_BOOTS_LATER: Duration = Duration::from_millis(100);
 
-type Board = DualBusNode<DynamicDictionary>;
+pub(super) type Board = DualBusNode<DynamicDictionary>;
 
 /// The simulated devices' script, running while the network is open.
 pub(super) struct SimStation {
@@ -57,9 +55,22 @@ impl SimStation {
     }
 }
 
+/// Waits until `t` after `start`; false if `stop` turns true first. A script's clock.
+pub(super) async fn until(
+    start: tokio::time::Instant,
+    t: Duration,
+    stop: &mut watch::Receiver<bool>,
+) -> bool {
+    let at = start + core::time::Duration::from_micros(t.as_micros());
+    tokio::select! {
+        () = tokio::time::sleep_until(at) => true,
+        _ = stop.wait_for(|s| *s) => false,
+    }
+}
+
 /// A simulated duocan board `id`: identity with the vendor-ID `duocan::net::SIM_VENDOR` and
 /// product code = node-ID, booted (its boot-up goes out when its runtime starts).
-fn board(id: NodeId) -> Board {
+pub(super) fn board(id: NodeId) -> Board {
     let ident = comm::Identity {
         vendor: duocan::net::SIM_VENDOR,
         product: u32::from(id.raw()),
@@ -71,7 +82,11 @@ fn board(id: NodeId) -> Board {
     Station::new(DualBus::new(DualBusConfig::default()), node)
 }
 
-fn spawn<D>(dev: Box<D>, name: &str, buses: &[MemBus; 2]) -> Result<Handle<D>, RedundantError>
+pub(super) fn spawn<D>(
+    dev: Box<D>,
+    name: &str,
+    buses: &[MemBus; 2],
+) -> Result<Handle<D>, RedundantError>
 where
     D: duocan::Device + Send + 'static,
     D::Event: Clone + Send + core::fmt::Debug + 'static,
@@ -93,14 +108,8 @@ pub(super) fn open(b: &RedundantNetworkBuilder) -> Result<RedundantNetwork, Redu
     let net = b.build_boxed()?;
     let buses = [MemBus::new("sim-bus1"), MemBus::new("sim-bus2")];
     // This master's ports first: a port hears only what is sent after it exists.
-    let (cut, cut_rx) = watch::channel(false);
-    let ports = (
-        FaultPort {
-            inner: buses[0].port(),
-            cut: cut_rx,
-        },
-        buses[1].port(),
-    );
+    let (port1, cut) = buses[0].plugged_port();
+    let ports = (port1, buses[1].port());
     let mut peers = Vec::new();
     let mut boards = Vec::new();
     if tokio::runtime::Handle::try_current().is_ok() {
@@ -154,7 +163,7 @@ pub(super) fn open(b: &RedundantNetworkBuilder) -> Result<RedundantNetwork, Redu
 struct Script {
     net: Handle<Net>,
     buses: [MemBus; 2],
-    cut: watch::Sender<bool>,
+    cut: Connector,
     peers: Vec<Handle<Net>>,
     boards: Vec<(u8, Handle<Board>)>,
     /// The B members, booted [`B_BOOTS_LATER`].
@@ -167,11 +176,7 @@ struct Script {
 impl Script {
     /// Waits until `t` after the start; false if asked to stop first.
     async fn until(&mut self, t: Duration) -> bool {
-        let at = self.start + core::time::Duration::from_micros(t.as_micros());
-        tokio::select! {
-            () = tokio::time::sleep_until(at) => true,
-            _ = self.stop.wait_for(|s| *s) => false,
-        }
+        until(self.start, t, &mut self.stop).await
     }
 
     async fn run(mut self) {
@@ -204,7 +209,7 @@ impl Script {
         if !self.until(SIM_BUS_FAILS).await {
             return false;
         }
-        self.cut.send_replace(true);
+        self.cut.pull();
         if !self.until(SIM_PEERS_FAIL).await {
             return false;
         }
@@ -229,56 +234,5 @@ impl Script {
             }
         }
         self.until(SIM_END).await
-    }
-}
-
-/// A port on a simulated bus that stops working when told (`cut`): receiving, sending and
-/// re-opening fail with the interface down, as a pulled connector does.
-struct FaultPort {
-    inner: MemPort,
-    cut: watch::Receiver<bool>,
-}
-
-impl FaultPort {
-    fn down(&self) -> PortError {
-        PortError::new(
-            self.inner.name(),
-            PortErrorKind::InterfaceDown,
-            "simulated fault",
-        )
-    }
-    fn is_cut(&self) -> bool {
-        *self.cut.borrow()
-    }
-}
-
-impl Port for FaultPort {
-    fn name(&self) -> &str {
-        self.inner.name()
-    }
-    fn counters(&self) -> PortCounters {
-        self.inner.counters()
-    }
-    async fn recv(&mut self) -> Result<PortInput, PortError> {
-        if self.is_cut() {
-            return Err(self.down());
-        }
-        tokio::select! {
-            r = self.inner.recv() => return r,
-            _ = self.cut.wait_for(|c| *c) => {}
-        }
-        Err(self.down())
-    }
-    async fn send(&mut self, frame: &Frame) -> Result<(), PortError> {
-        if self.is_cut() {
-            return Err(self.down());
-        }
-        self.inner.send(frame).await
-    }
-    async fn reopen(&mut self) -> Result<(), PortError> {
-        if self.is_cut() {
-            return Err(self.down());
-        }
-        self.inner.reopen().await
     }
 }

@@ -6,7 +6,8 @@
 //! extension says nothing). Without a file the live bus of `--bus` is watched, listen-only,
 //! until Ctrl-C, `--count N` lines or `--duration S`. `--eds`/`--dcf` name the PDO values of
 //! their nodes (the mappings the description configures); `--node` and `--kind` keep only the
-//! frames a commissioning engineer is after. A file that turns out bad ends the dump with
+//! frames a commissioning engineer is after. Each interface (bus) has its own decoder, so an
+//! SDO transfer seen on both buses of a dual bus is followed once per bus. A file that turns out bad ends the dump with
 //! exit 1 and an error naming the file and the line (candump) or byte offset (pcap), after the
 //! lines before it.
 
@@ -119,9 +120,16 @@ impl Out {
     }
 }
 
+/// Interfaces with a decoder of their own; the frames of any further one share the last.
+const MAX_DECODERS: usize = 8;
+
 /// Decodes, filters and prints each frame.
 struct Dump {
-    decoder: Decoder,
+    /// The decoder every interface's starts as (the descriptions' PDOs learned).
+    template: Decoder,
+    /// One decoder per interface: each bus's SDO transfers are followed on their own, so the
+    /// two copies of a frame on a dual bus are not counted as two segments.
+    decoders: Vec<(String, Decoder)>,
     filter: Filter,
     out: Out,
     count: Option<u64>,
@@ -136,7 +144,8 @@ impl Dump {
             }
         }
         Dump {
-            decoder,
+            template: decoder,
+            decoders: Vec::new(),
             filter: Filter {
                 nodes: a.node.clone(),
                 kinds: a.kind.clone(),
@@ -149,6 +158,20 @@ impl Dump {
             },
             count: a.count,
         }
+    }
+
+    /// The decoder of `interface`.
+    fn decoder(&mut self, interface: &str) -> &mut Decoder {
+        let i = match self.decoders.iter().position(|(n, _)| n == interface) {
+            Some(i) => i,
+            None if self.decoders.len() < MAX_DECODERS => {
+                self.decoders
+                    .push((interface.to_owned(), self.template.clone()));
+                self.decoders.len() - 1
+            }
+            None => MAX_DECODERS - 1,
+        };
+        &mut self.decoders[i].1
     }
 
     fn done(&self) -> bool {
@@ -190,7 +213,7 @@ impl Dump {
     }
 
     fn frame(&mut self, timestamp_us: u64, time: &str, interface: &str, frame: &Frame) {
-        let d = self.decoder.decode(frame);
+        let d = self.decoder(interface).decode(frame);
         if !self.filter.keeps(&d) {
             return;
         }
@@ -269,12 +292,17 @@ async fn live_bus(g: &Global, a: &Args) -> Result<(), Fail> {
     let (feed, mut rx) = Feed::new();
     let bus = bus::open_with(g, bus::options(g, true).with_tap(feed.clone()))?;
     let mut dump = Dump::new(g, a, &bus.descs, true);
+    // The ports' own names: `sim` is two buses, `sim-bus1` and `sim-bus2`.
+    let names: Vec<String> = match bus.net.ports().await {
+        Ok(ports) => ports.into_iter().map(|p| p.name).collect(),
+        Err(_) => bus.names.clone(),
+    };
     let deadline = a.duration.map(|d| tokio::time::Instant::now() + d);
     while !dump.done() {
         let Ok(seen) = live::until(deadline, rx.recv()).await else {
             break;
         };
-        let interface = bus.names.get(seen.port).map_or("?", String::as_str);
+        let interface = names.get(seen.port).map_or("?", String::as_str);
         dump.record(seen.timestamp_us, interface, &Record::Frame(seen.frame));
     }
     dump.out.flush();

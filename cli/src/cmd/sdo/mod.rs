@@ -50,7 +50,8 @@ pub enum Sdo {
         node: NodeId,
         /// Index (0x1018, 0x1018:1) or a name from the node's description
         object: String,
-        /// [SUB] [TYPE]: the sub-index, and u8…u64, i8…i64, f32, f64, bool, str, hex or auto
+        /// SUB and TYPE, both optional: the sub-index (default 0), and u8…u64, i8…i64, f32, f64,
+        /// bool, str, hex or auto
         rest: Vec<String>,
         /// Write the value to this file instead of printing it (any size)
         #[arg(long)]
@@ -65,7 +66,7 @@ pub enum Sdo {
         node: NodeId,
         /// Index (0x1017, 0x1017:0) or a name from the node's description
         object: String,
-        /// [SUB] [TYPE] VALUE (no VALUE with --file)
+        /// SUB and TYPE (both optional), then VALUE (none with --file)
         #[arg(allow_negative_numbers = true)]
         rest: Vec<String>,
         /// Write the value from this file (any size)

@@ -73,17 +73,21 @@ impl PortState {
     pub const fn is_trusted(self) -> bool {
         matches!(self, PortState::Ok | PortState::Suspect)
     }
+    /// Its name: `"ok"`, `"suspect"`, `"failed"` or `"recovering"` (what `Display` prints).
+    pub const fn as_str(self) -> &'static str {
+        match self {
+            PortState::Ok => "ok",
+            PortState::Suspect => "suspect",
+            PortState::Failed => "failed",
+            PortState::Recovering => "recovering",
+        }
+    }
 }
 
 impl fmt::Display for PortState {
     // `pad`, not `write_str`: the status table lines its columns up with `{:<11}`.
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        f.pad(match self {
-            PortState::Ok => "ok",
-            PortState::Suspect => "suspect",
-            PortState::Failed => "failed",
-            PortState::Recovering => "recovering",
-        })
+        f.pad(self.as_str())
     }
 }
 

@@ -1,0 +1,296 @@
+//! `duocan gateway`: CiA 309-3 requests on standard input and over TCP, against the simulated
+//! nodes of `--bus sim`.
+
+#[path = "common/base64.rs"]
+mod base64;
+mod common;
+use base64::b64;
+use common::duocan;
+use duocan::net::{SIM_DEVICE_NAME, SIM_HEARTBEAT_MS, SIM_VENDOR};
+use std::io::{BufRead, BufReader, Read, Write};
+use std::net::TcpStream;
+use std::process::{Child, Command, Stdio};
+use std::time::Duration;
+
+/// Runs `duocan --bus sim gateway` with `script` on standard input; returns exit code,
+/// standard output and standard error.
+fn gateway(script: &str) -> (i32, String, String) {
+    let mut child = Command::new(env!("CARGO_BIN_EXE_duocan"))
+        .args(["--bus", "sim", "gateway"])
+        .env_remove("DUOCAN_BUS")
+        .stdin(Stdio::piped())
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .expect("run duocan");
+    let mut stdin = child.stdin.take().expect("stdin piped");
+    stdin
+        .write_all(script.as_bytes())
+        .expect("write the script");
+    drop(stdin);
+    let o = child.wait_with_output().expect("duocan ends");
+    (
+        o.status.code().unwrap_or(-1),
+        String::from_utf8_lossy(&o.stdout).into_owned(),
+        String::from_utf8_lossy(&o.stderr).into_owned(),
+    )
+}
+
+#[test]
+fn a_script_on_standard_input_gets_one_exact_answer_per_request() {
+    let version = env!("CARGO_PKG_VERSION");
+    let mm: Vec<&str> = version.split('.').take(2).collect();
+    let mm = mm.join(".");
+    let name_b64 = b64(SIM_DEVICE_NAME.as_bytes());
+    let cases: Vec<(&str, String)> = vec![
+        ("# a CiA 309-3 session", String::new()),
+        ("", String::new()),
+        ("[1] r 0x1018 1 u32", "[1] ERROR: 105".into()),
+        ("[2] 5 read 0x1018 1 u32", format!("[2] {SIM_VENDOR}")),
+        ("[3] 5 r 0x1018 1 x32", format!("[3] 0x{SIM_VENDOR:08X}")),
+        ("[4] 1 7 r 0x1018 2 u32", "[4] 7".into()),
+        ("[5] set node 5", "[5] OK".into()),
+        ("[6] r 0x1018 2 u32", "[6] 5".into()),
+        ("[7] r 0x1008 0 vs", format!("[7] \"{SIM_DEVICE_NAME}\"")),
+        ("[8] r 0x1008 0 d", format!("[8] {name_b64}")),
+        ("[9] r 0x1017 0 u16", format!("[9] {SIM_HEARTBEAT_MS}")),
+        ("[10] w 0x1017 0 u16 250", "[10] OK".into()),
+        ("[11] r 0x1017 0", "[11] FA 00".into()),
+        (
+            "[12] W 0x6200 2 I8 -5 # upper case, a comment",
+            "[12] OK".into(),
+        ),
+        ("[13] r 0x6200 2 i8", "[13] -5".into()),
+        ("[14] w 0x6200 1 x16 0xbeef", "[14] OK".into()),
+        ("[15] r 0x6200 1 x16", "[15] 0xBEEF".into()),
+        ("[16] set sdo_block 1", "[16] OK".into()),
+        ("[17] r 0x1008 0 vs", format!("[17] \"{SIM_DEVICE_NAME}\"")),
+        ("[18] set sdo_block 0", "[18] OK".into()),
+        ("r 0x1018 1 u32", format!("{SIM_VENDOR}")),
+        ("[19] info version", format!("[19] 0 0 {mm} 0 1 3.0 {mm}")),
+        // The node's answers.
+        ("[20] r 0x1234 0 u8", "[20] ERROR: 0x06020000".into()),
+        ("[21] w 0x1018 1 u32 1", "[21] ERROR: 0x06010002".into()),
+        ("[22] r 0x1017 0 u32", "[22] ERROR: 0x06070010".into()),
+        ("[23] set sdo_timeout 200", "[23] OK".into()),
+        ("[24] 99 r 0x1000 0 u32", "[24] ERROR: 0x05040000".into()),
+        // The gateway's own.
+        ("[25] 5 enable guarding 100 3", "[25] ERROR: 100".into()),
+        ("[26] frobnicate", "[26] ERROR: 100".into()),
+        ("[27] r 0x1017 0 q7", "[27] ERROR: 101".into()),
+        ("[28] w 0x1017 0 u8 256", "[28] ERROR: 101".into()),
+        ("[x] start", "ERROR: 101".into()),
+        ("[29] 2 5 start", "[29] ERROR: 106".into()),
+        ("[30] set network 2", "[30] ERROR: 106".into()),
+        ("[31] 200 start", "[31] ERROR: 107".into()),
+        ("[32] 0 r 0x1000 0 u32", "[32] ERROR: 107".into()),
+        // NMT, seen in what the node does next: stopped, it has no SDO server.
+        ("[33] stop", "[33] OK".into()),
+        ("[34] r 0x1018 1 u32", "[34] ERROR: 0x05040000".into()),
+        ("[35] 5 preoperational", "[35] OK".into()),
+        ("[36] r 0x1018 1 u32", format!("[36] {SIM_VENDOR}")),
+        ("[37] start", "[37] OK".into()),
+        ("[38] 0 preop", "[38] OK".into()),
+        // A communication reset puts the communication parameters back, not the application's
+        // values; a node reset puts both back.
+        ("[39] reset comm", "[39] OK".into()),
+        ("[40] r 0x1017 0 u16", format!("[40] {SIM_HEARTBEAT_MS}")),
+        ("[41] r 0x6200 2 i8", "[41] -5".into()),
+        ("[42] reset node", "[42] OK".into()),
+        ("[43] r 0x6200 2 i8", "[43] 0".into()),
+    ];
+    let script: String = cases.iter().map(|(l, _)| format!("{l}\n")).collect();
+    let (code, out, err) = gateway(&script);
+    assert_eq!(code, 0, "{err}");
+    let expected: Vec<&str> = cases
+        .iter()
+        .map(|(_, a)| a.as_str())
+        .filter(|a| !a.is_empty())
+        .collect();
+    let got: Vec<&str> = out.lines().collect();
+    for (i, (g, e)) in got.iter().zip(&expected).enumerate() {
+        assert_eq!(g, e, "response {i}\nall of it:\n{out}");
+    }
+    assert_eq!(got.len(), expected.len(), "{out}");
+}
+
+#[test]
+fn help_is_comment_lines_then_ok_and_cr_lf_input_is_taken() {
+    let (code, out, err) = gateway("[1] help\r\n[2] 5 r 0x1018 2 u32\r\n[3] 5 r 0x1018 2 u32");
+    assert_eq!(code, 0, "{err}");
+    let lines: Vec<&str> = out.lines().collect();
+    let (help, last3) = lines.split_at(lines.len() - 3);
+    assert!(help.len() > 5, "{out}");
+    assert!(help.iter().all(|l| l.starts_with("# ")), "{out}");
+    assert!(out.contains("r[ead] <index> <sub>"), "{out}");
+    // The last request has no line end: it is answered all the same.
+    assert_eq!(last3, ["[1] OK", "[2] 5", "[3] 5"]);
+}
+
+/// A `duocan --bus sim gateway --listen 127.0.0.1:0` and the port it serves on.
+struct Served {
+    child: Child,
+    port: u16,
+}
+
+impl Served {
+    fn start() -> Served {
+        let mut child = Command::new(env!("CARGO_BIN_EXE_duocan"))
+            .args(["--bus", "sim", "gateway", "--listen", "127.0.0.1:0"])
+            .env_remove("DUOCAN_BUS")
+            .stdin(Stdio::null())
+            .stdout(Stdio::null())
+            .stderr(Stdio::piped())
+            .spawn()
+            .expect("run duocan");
+        let mut err = BufReader::new(child.stderr.take().expect("stderr piped"));
+        let mut line = String::new();
+        err.read_line(&mut line)
+            .expect("the gateway says where it listens");
+        let port = line
+            .trim()
+            .strip_prefix("duocan gateway: listening on 127.0.0.1:")
+            .and_then(|p| p.parse().ok())
+            .unwrap_or_else(|| panic!("not the bound address: {line:?}"));
+        Served { child, port }
+    }
+
+    fn connect(&self) -> Client {
+        let s = TcpStream::connect(("127.0.0.1", self.port)).expect("connect");
+        s.set_read_timeout(Some(Duration::from_secs(10))).unwrap();
+        Client {
+            r: BufReader::new(s.try_clone().unwrap()),
+            w: s,
+        }
+    }
+}
+
+impl Drop for Served {
+    fn drop(&mut self) {
+        let _ = self.child.kill();
+        let _ = self.child.wait();
+    }
+}
+
+struct Client {
+    r: BufReader<TcpStream>,
+    w: TcpStream,
+}
+
+impl Client {
+    /// Sends one request; returns the response line, checking it ends in CR LF.
+    fn ask(&mut self, line: &str) -> String {
+        self.w.write_all(format!("{line}\r\n").as_bytes()).unwrap();
+        let mut resp = String::new();
+        self.r.read_line(&mut resp).expect("a response");
+        assert!(resp.ends_with("\r\n"), "{resp:?}");
+        resp.trim_end().to_string()
+    }
+}
+
+#[test]
+fn tcp_clients_are_served_at_once_each_with_its_own_defaults() {
+    let served = Served::start();
+    let mut a = served.connect();
+    let mut b = served.connect();
+    assert_eq!(a.ask("[1] set node 6"), "[1] OK");
+    assert_eq!(b.ask("[1] set node 7"), "[1] OK");
+    assert_eq!(a.ask("[2] r 0x1018 2 u32"), "[2] 6");
+    assert_eq!(b.ask("[2] r 0x1018 2 u32"), "[2] 7");
+    assert_eq!(b.ask("[3] set sdo_timeout 3000"), "[3] OK");
+    // Both at once, from two threads: a node that does not answer keeps B waiting, not A.
+    let tb = std::thread::spawn(move || {
+        let r = b.ask("[4] 99 r 0x1000 0 u32");
+        (b, r)
+    });
+    std::thread::sleep(Duration::from_millis(100));
+    for i in 10..20 {
+        assert_eq!(
+            a.ask(&format!("[{i}] r 0x1018 1 x32")),
+            format!("[{i}] 0x{SIM_VENDOR:08X}")
+        );
+    }
+    assert!(!tb.is_finished(), "A was answered while B still waits");
+    let (mut b, r) = tb.join().unwrap();
+    assert_eq!(r, "[4] ERROR: 0x05040000");
+    // A new client starts with no default node, whatever the others set.
+    let mut c = served.connect();
+    assert_eq!(c.ask("[1] r 0x1018 2 u32"), "[1] ERROR: 105");
+    assert_eq!(c.ask("[2] 6 w 0x1017 0 u16 321"), "[2] OK");
+    assert_eq!(b.ask("[5] 6 r 0x1017 0 u16"), "[5] 321");
+    // A client that leaves does not stop the others.
+    drop(c);
+    assert_eq!(a.ask("[30] 5 start"), "[30] OK");
+    assert_eq!(a.ask("[31] info"), "[31] ERROR: 101");
+}
+
+#[test]
+fn a_client_past_the_limit_is_told_and_closed() {
+    let served = Served::start();
+    let mut clients: Vec<Client> = (0..16).map(|_| served.connect()).collect();
+    for (i, c) in clients.iter_mut().enumerate() {
+        assert_eq!(c.ask(&format!("[{i}] set node 1")), format!("[{i}] OK"));
+    }
+    let mut extra = served.connect();
+    let mut all = String::new();
+    extra.r.read_to_string(&mut all).unwrap();
+    assert_eq!(all, "ERROR: 102\r\n");
+    // One leaves: its place is free again (once the gateway has seen it go).
+    drop(clients.pop());
+    let deadline = std::time::Instant::now() + Duration::from_secs(5);
+    loop {
+        let mut c = served.connect();
+        c.w.write_all(b"[1] 5 r 0x1018 2 u32\r\n").unwrap();
+        let mut resp = String::new();
+        c.r.read_line(&mut resp).unwrap();
+        if resp == "[1] 5\r\n" {
+            break;
+        }
+        assert_eq!(resp, "ERROR: 102\r\n");
+        assert!(
+            std::time::Instant::now() < deadline,
+            "the slot was not freed"
+        );
+        std::thread::sleep(Duration::from_millis(50));
+    }
+}
+
+#[test]
+fn a_tcp_line_that_is_not_text_or_too_long_is_a_syntax_error() {
+    let served = Served::start();
+    let mut a = served.connect();
+    a.w.write_all(b"[1] 5 r \xff\xfe 0 u8\r\n").unwrap();
+    let mut resp = String::new();
+    a.r.read_line(&mut resp).unwrap();
+    assert_eq!(resp, "ERROR: 101\r\n");
+    let long = vec![b'1'; 200 * 1024];
+    a.w.write_all(&long).unwrap();
+    assert_eq!(a.ask(""), "ERROR: 101");
+    assert_eq!(a.ask("[2] 5 r 0x1018 2 u8"), "[2] ERROR: 0x06070010");
+    // The connection is still fine; closing it ends its session only.
+    a.w.shutdown(std::net::Shutdown::Write).unwrap();
+    let mut rest = String::new();
+    a.r.read_to_string(&mut rest).unwrap();
+    assert_eq!(rest, "");
+}
+
+#[test]
+fn listen_refuses_other_than_loopback_unless_told() {
+    let r = duocan(&["--bus", "sim", "gateway", "--listen", "0.0.0.0:0"]);
+    assert_eq!(r.code, 2, "{}", r.out);
+    assert!(r.err.contains("not a loopback address"), "{}", r.err);
+    assert!(r.err.contains("--allow-remote"), "{}", r.err);
+    let r = duocan(&["--bus", "sim", "gateway", "--allow-remote"]);
+    assert_eq!(r.code, 2);
+    assert!(r.err.contains("--listen"), "{}", r.err);
+    let r = duocan(&["--bus", "sim", "gateway", "--listen", "localhost"]);
+    assert_eq!(r.code, 2);
+    assert!(!r.err.contains("panicked"), "{}", r.err);
+    let r = duocan(&["--bus", "sim", "--json", "gateway"]);
+    assert_eq!(r.code, 2);
+    assert!(r.err.contains("--json does not apply"), "{}", r.err);
+    // No bus: a usage error before anything is read.
+    let r = duocan(&["gateway"]);
+    assert_eq!(r.code, 2);
+    assert!(r.err.contains("no bus"), "{}", r.err);
+}

@@ -1,0 +1,254 @@
+//! The dual-bus layer under duocan's plain front door: [`DualLink`] makes a [`DualBus`] a
+//! [`NetLink`], so that `duocan::net::Network` (an observer and an SDO client, which sends only
+//! NMT commands and SDO requests and is no master) runs on two buses unchanged. Requests fan out
+//! to both buses, answers are merged exactly, and the port health and per-node reach show through
+//! [`Network::ports`] and [`Network::heard_on`].
+//!
+//! This is the network a commissioning tool wants on somebody else's redundant network: it
+//! never becomes a master there (for that, see [`RedundantNetwork`](super::RedundantNetwork)).
+//!
+//! ```
+//! use duocan::net::{NetError, NetOptions};
+//! use duocan_redundancy::net::open_dual_named;
+//!
+//! # #[tokio::main(flavor = "current_thread", start_paused = true)]
+//! # async fn main() -> Result<(), Box<dyn std::error::Error>> {
+//! // "sim": a simulated redundant station on two in-memory buses; or "can0,can1", "udp:1,udp:2".
+//! let net = open_dual_named("sim", NetOptions::default())?;
+//! let vendor: u32 = net.node(5).sdo().read(0x1018, 1).await?;
+//! assert_eq!(vendor, duocan::net::SIM_VENDOR);
+//! let ports = net.ports().await?;
+//! assert_eq!(ports.len(), 2);
+//! assert_eq!(ports[0].state, "ok");
+//! net.close().await;
+//! # Ok(()) }
+//! ```
+
+use super::sim_station::{self as station, StationScript};
+use crate::link::channel::ModeKind;
+use crate::link::config::DualBusConfig;
+use crate::link::dual_bus::DualBus;
+use crate::link::events::{LinkEvent, LinkEventKind};
+use crate::network::RedundantError;
+use alloc::boxed::Box;
+use alloc::string::{String, ToString};
+use core::convert::Infallible;
+use duocan::machine::{BusLink, LinkRequest, PortRequest, PortStatus};
+use duocan::net::{NetEvent, NetLink, NetOptions, Network};
+use duocan::port::Port;
+use duocan::{Frame, Instant, NodeId};
+
+/// A [`DualBus`] as the link of a `duocan::net::Network`: its port-health and reach changes
+/// become [`NetEvent::PortState`] and [`NetEvent::Reach`]; its other reports (channel
+/// switches, discrepancies, plausibility) concern a master and are not passed on.
+#[derive(Debug)]
+pub struct DualLink {
+    bus: DualBus,
+}
+
+impl DualLink {
+    /// A link of two ports with the layer configured by `cfg`.
+    #[must_use]
+    pub fn new(cfg: DualBusConfig) -> Self {
+        DualLink {
+            bus: DualBus::new(cfg),
+        }
+    }
+    /// The layer (health, reach, merger, counters).
+    #[must_use]
+    pub fn bus(&self) -> &DualBus {
+        &self.bus
+    }
+}
+
+impl Default for DualLink {
+    fn default() -> Self {
+        DualLink::new(DualBusConfig::default())
+    }
+}
+
+/// The front door's event of a layer event, if it is one the door shows.
+fn net_event(e: LinkEvent) -> Option<NetEvent> {
+    let at = e.at;
+    Some(match e.kind {
+        LinkEventKind::Port {
+            port,
+            from,
+            to,
+            reason,
+        } => NetEvent::PortState {
+            port,
+            from: from.as_str(),
+            to: to.as_str(),
+            reason: reason.to_string(),
+            at,
+        },
+        LinkEventKind::Reach { node, heard } => NetEvent::Reach { node, heard, at },
+        _ => return None,
+    })
+}
+
+impl BusLink for DualLink {
+    type Event = NetEvent;
+    type Command = Infallible;
+    fn port_count(&self) -> usize {
+        2
+    }
+    fn handle_rx(&mut self, now: Instant, port: usize, frame: &Frame) -> Option<Frame> {
+        self.bus.handle_rx(now, port, frame)
+    }
+    fn handle_port_status(&mut self, now: Instant, port: usize, status: PortStatus) {
+        self.bus.handle_port_status(now, port, status);
+    }
+    fn send(&mut self, now: Instant, frame: &Frame) {
+        self.bus.send(now, frame);
+    }
+    fn poll_transmit(&mut self) -> Option<(usize, Frame)> {
+        self.bus.poll_transmit()
+    }
+    fn poll_port_request(&mut self) -> Option<(usize, PortRequest)> {
+        self.bus.poll_port_request()
+    }
+    fn handle_timeout(&mut self, now: Instant) {
+        self.bus.handle_timeout(now);
+    }
+    fn poll_timeout(&self) -> Option<Instant> {
+        self.bus.poll_timeout()
+    }
+    fn poll_event(&mut self) -> Option<NetEvent> {
+        loop {
+            if let Some(e) = net_event(self.bus.poll_event()?) {
+                return Some(e);
+            }
+        }
+    }
+    fn poll_machine_request(&mut self) -> Option<LinkRequest> {
+        // The layer's requests (enter pre-operational, status entries, suspect nodes) are for
+        // a node or a master on it; the front door is neither, and its observer must stay
+        // quiet: dropped.
+        while self.bus.poll_machine_request().is_some() {}
+        None
+    }
+}
+
+impl NetLink for DualLink {
+    fn port_state(&self, port: usize) -> Option<&'static str> {
+        (port < 2).then(|| self.bus.port_state(port).as_str())
+    }
+    fn heard_on(&self, node: NodeId) -> Option<[bool; 2]> {
+        // A toggling link listens to one bus at a time: reach means nothing there.
+        if self.bus.mode() == ModeKind::EcssToggle {
+            return None;
+        }
+        Some(self.bus.reach().heard(node).unwrap_or([false, false]))
+    }
+}
+
+fn port_error(port: u8, name: &str, why: impl ToString) -> RedundantError {
+    RedundantError::Port {
+        port,
+        name: name.into(),
+        why: why.to_string(),
+    }
+}
+
+/// Opens duocan's front door (`duocan::net::Network`: NMT commands and SDO requests, no
+/// master) on two ports merged by the dual-bus layer (default configuration: active-active).
+/// Port 1 is bus 1. Must be called inside a tokio runtime.
+pub fn open_dual<P1: Port, P2: Port>(
+    bus1: P1,
+    bus2: P2,
+    opts: NetOptions,
+) -> Result<Network, RedundantError> {
+    open_dual_with(bus1, bus2, DualBusConfig::default(), opts)
+}
+
+/// [`open_dual`] with the layer configured by `cfg`.
+pub fn open_dual_with<P1: Port, P2: Port>(
+    bus1: P1,
+    bus2: P2,
+    cfg: DualBusConfig,
+    opts: NetOptions,
+) -> Result<Network, RedundantError> {
+    let name = String::from(bus1.name());
+    Network::open_link(Box::new(DualLink::new(cfg)), (bus1, bus2), opts)
+        .map_err(|e| port_error(0, &name, e))
+}
+
+/// [`open_dual`] by name:
+///
+/// - `sim`: a simulated redundant station on two in-memory buses (masters 0x01 and 0x02, the
+///   pairs [`SIM_PAIRS`](super::SIM_PAIRS), the slaves [`SIM_SLAVES`](super::SIM_SLAVES); what
+///   it holds is in the `net` module's docs), running until the network is closed;
+/// - `sim:faults`: the same station with its fault script repeating every
+///   [`SIM_FAULT_PERIOD`](super::SIM_FAULT_PERIOD);
+/// - `udp:N,udp:M`: python-can's UDP test buses N and M (feature `udp`);
+/// - `A,B`: SocketCAN interfaces A (bus 1) and B (bus 2), such as `can0,can1` (feature
+///   `socketcan`, Linux).
+pub fn open_dual_named(name: &str, opts: NetOptions) -> Result<Network, RedundantError> {
+    match name {
+        "sim" => return station::open(opts, StationScript::Quiet),
+        "sim:faults" => return station::open(opts, StationScript::Faults),
+        _ => {}
+    }
+    let Some((a, b)) = name.split_once(',') else {
+        return Err(port_error(
+            0,
+            name,
+            "two ports are needed: name them as can0,can1 or udp:1,udp:2 (or use \"sim\")",
+        ));
+    };
+    let (a, b) = (a.trim(), b.trim());
+    if a.starts_with("udp") && b.starts_with("udp") {
+        return udp(a, b, opts);
+    }
+    socketcan(a, b, opts)
+}
+
+#[cfg(feature = "udp")]
+fn udp(a: &str, b: &str, opts: NetOptions) -> Result<Network, RedundantError> {
+    use duocan::port::udp::{UdpBusConfig, UdpPort};
+    let open = |port: u8, name: &str| {
+        let cfg = match name.strip_prefix("udp:").map(str::parse::<u8>) {
+            Some(Ok(n)) => UdpBusConfig::numbered(n),
+            _ => {
+                return Err(port_error(
+                    port,
+                    name,
+                    "a UDP bus of a dual network is numbered, 0 to 255, as in udp:1,udp:2",
+                ))
+            }
+        };
+        UdpPort::open(cfg).map_err(|e| port_error(port, name, e))
+    };
+    if a == b {
+        return Err(port_error(1, b, "the two buses must differ"));
+    }
+    open_dual(open(0, a)?, open(1, b)?, opts)
+}
+
+#[cfg(not(feature = "udp"))]
+fn udp(a: &str, _: &str, _: NetOptions) -> Result<Network, RedundantError> {
+    Err(port_error(
+        0,
+        a,
+        "this build has no UDP ports: enable the `udp` feature of duocan-redundancy",
+    ))
+}
+
+#[cfg(all(feature = "socketcan", target_os = "linux"))]
+fn socketcan(a: &str, b: &str, opts: NetOptions) -> Result<Network, RedundantError> {
+    use duocan::port::socketcan::SocketCanPort;
+    let open =
+        |port: u8, name: &str| SocketCanPort::open(name).map_err(|e| port_error(port, name, e));
+    open_dual(open(0, a)?, open(1, b)?, opts)
+}
+
+#[cfg(not(all(feature = "socketcan", target_os = "linux")))]
+fn socketcan(a: &str, _: &str, _: NetOptions) -> Result<Network, RedundantError> {
+    Err(port_error(
+        0,
+        a,
+        "this build has no SocketCAN: use \"sim\", or enable the `socketcan` feature of duocan-redundancy (Linux)",
+    ))
+}

@@ -1,0 +1,6 @@
+//! duocan's plain front door (`duocan::net::Network`: an observer and an SDO client, no master)
+//! on two buses through the dual-bus layer (`duocan_redundancy::net::DualLink`), and the
+//! simulated redundant station behind `open_dual_named("sim")`. On tokio's paused clock.
+
+mod link;
+mod station;

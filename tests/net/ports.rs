@@ -1,0 +1,104 @@
+//! The network's link seen from the front door on one port: `ports()` with the state the
+//! driver reported, no reach, the link and port count checked, and what closes with the
+//! network.
+
+use duocan::frame::Frame;
+use duocan::machine::ErrorCause;
+use duocan::net::{NetError, NetOptions, Network};
+use duocan::port::mem::MemBus;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::Arc;
+use std::time::Duration;
+
+#[tokio::test(start_paused = true)]
+async fn one_port_shows_its_counters_and_the_state_its_driver_reported() {
+    let bus = MemBus::new("mem0");
+    let (port, cut) = bus.plugged_port();
+    let opts = NetOptions::default().with_sdo_timeout(Duration::from_millis(100));
+    let net = Network::open_with(port, opts).unwrap();
+    let _nodes = Network::simulated_on(&bus, [5], NetOptions::default()).unwrap();
+    let vendor: u32 = net.node(5).sdo().read(0x1018, 1).await.unwrap();
+    assert_eq!(vendor, duocan::net::SIM_VENDOR);
+    let ports = net.ports().await.unwrap();
+    assert_eq!(ports.len(), 1);
+    let p = &ports[0];
+    assert_eq!((p.index, p.name.as_str(), p.state), (0, "mem0", "ok"));
+    assert_eq!(p.last_error, None);
+    assert!(p.counters.rx_frames >= 2, "boot-up and the answer: {p:?}");
+    assert!(p.counters.tx_frames >= 1, "the request: {p:?}");
+    // No reach on one port: the question has no answer.
+    assert_eq!(net.heard_on(5).await.unwrap(), None);
+    assert!(matches!(
+        net.heard_on(128).await,
+        Err(NetError::NoSuchNode(128))
+    ));
+
+    cut.pull();
+    assert!(cut.is_pulled());
+    tokio::time::sleep(Duration::from_millis(50)).await;
+    let p = &net.ports().await.unwrap()[0];
+    assert_eq!(p.state, "down");
+    assert_eq!(p.last_error, Some(ErrorCause::InterfaceDown));
+    assert!(net.node(5).sdo().read::<u32>(0x1018, 1).await.is_err());
+    net.close().await;
+    _nodes.close().await;
+}
+
+#[tokio::test(start_paused = true)]
+async fn a_link_takes_as_many_ports_as_it_has() {
+    let bus = MemBus::new("mem");
+    // Two ports for the one-port link of a plain network is refused, naming the ports.
+    let link: Box<dyn duocan::net::NetLink> = Box::new(OnePortLink::default());
+    let e = match Network::open_link(link, (bus.port(), bus.port()), NetOptions::default()) {
+        Err(e) => e,
+        Ok(_) => panic!("opened with a port too many"),
+    };
+    assert!(
+        matches!(&e, NetError::Port(why) if why.contains("2 ports given to a link of 1")),
+        "{e}"
+    );
+}
+
+#[tokio::test(start_paused = true)]
+async fn what_was_given_to_on_close_stops_with_the_network() {
+    let net = Network::simulated([3], NetOptions::default()).unwrap();
+    let stopped = Arc::new(AtomicBool::new(false));
+    let s = stopped.clone();
+    net.on_close(move || async move { s.store(true, Ordering::SeqCst) });
+    assert!(!stopped.load(Ordering::SeqCst));
+    net.close().await;
+    assert!(stopped.load(Ordering::SeqCst));
+}
+
+/// The simplest link a user could write: one port passed through.
+#[derive(Default)]
+struct OnePortLink(duocan::machine::SinglePort);
+
+impl duocan::BusLink for OnePortLink {
+    type Event = duocan::net::NetEvent;
+    type Command = core::convert::Infallible;
+    fn port_count(&self) -> usize {
+        1
+    }
+    fn handle_rx(&mut self, now: duocan::Instant, port: usize, f: &Frame) -> Option<Frame> {
+        self.0.handle_rx(now, port, f)
+    }
+    fn handle_port_status(&mut self, now: duocan::Instant, port: usize, s: duocan::PortStatus) {
+        self.0.handle_port_status(now, port, s);
+    }
+    fn send(&mut self, now: duocan::Instant, f: &Frame) {
+        self.0.send(now, f);
+    }
+    fn poll_transmit(&mut self) -> Option<(usize, Frame)> {
+        self.0.poll_transmit()
+    }
+    fn handle_timeout(&mut self, _: duocan::Instant) {}
+    fn poll_timeout(&self) -> Option<duocan::Instant> {
+        None
+    }
+    fn poll_event(&mut self) -> Option<duocan::net::NetEvent> {
+        None
+    }
+}
+
+impl duocan::net::NetLink for OnePortLink {}
