@@ -21,7 +21,7 @@
 //! | 6 | [`node`] | [`Node`]: the services composed into one CANopen device |
 //! | 7 | [`cia302`] | the CiA 302-2 [`master`] (with the CiA 302-3 configuration manager and program download), the master-side [PDO configuration](cia302::pdo_config), and [program download](cia302::program) on a node |
 //! | 8 | [`port`] | ports: SocketCAN, python-can's UDP bus, in-memory, any `embedded-can` controller |
-//! | 9 | [`capture`] · [`sim`] | candump and pcap captures; the simulated multi-bus network (virtual time) |
+//! | 9 | [`capture`] · [`sim`] | candump and pcap captures, frames decoded into CANopen-aware lines; the simulated multi-bus network (virtual time) |
 //! | 10 | [`runtime`] | the tokio driver: ports and the monotonic clock around any [`Device`] |
 //! | 11 | [`net`] | the front door: a network handle and remote nodes, typed and async (SDO, NMT, events, listen-only monitor) |
 //!

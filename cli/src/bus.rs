@@ -50,7 +50,7 @@ pub fn options(g: &Global, listen_only: bool) -> NetOptions {
 
 /// Opens the bus `--bus` names, with the descriptions attached.
 pub fn open(g: &Global, listen_only: bool) -> Result<Bus, Fail> {
-    open_tapped(g, listen_only, None)
+    open_with(g, options(g, listen_only))
 }
 
 /// [`open`] with `tap` told of every frame each port receives and sends.
@@ -59,14 +59,24 @@ pub fn open_tapped(
     listen_only: bool,
     tap: Option<Arc<dyn duocan::capture::recorder::Tap>>,
 ) -> Result<Bus, Fail> {
-    let names = g.bus.clone().ok_or_else(|| {
-        Fail::usage("no bus: give --bus can0 (or can0,can1, udp, sim), or set DUOCAN_BUS")
-    })?;
     let mut opts = options(g, listen_only);
     if let Some(tap) = tap {
         opts = opts.with_tap(tap);
     }
-    let sim = matches!(names.0.as_slice(), [one] if one == "sim" || one == "sim:faults");
+    open_with(g, opts)
+}
+
+/// True when `--bus` names the built-in simulated station.
+pub fn is_sim(names: &[String]) -> bool {
+    matches!(names, [one] if one == "sim" || one == "sim:faults")
+}
+
+/// [`open`] with `opts` (a tap, for the commands that watch the wire).
+pub fn open_with(g: &Global, opts: NetOptions) -> Result<Bus, Fail> {
+    let names = g.bus.clone().ok_or_else(|| {
+        Fail::usage("no bus: give --bus can0 (or can0,can1, udp, sim), or set DUOCAN_BUS")
+    })?;
+    let sim = is_sim(&names.0);
     let net = match names.0.as_slice() {
         [one] if sim => open_dual_named(one, opts).map_err(|e| Fail::usage(e.to_string()))?,
         [one] => open_one(g, one, opts)?,
@@ -87,6 +97,21 @@ pub fn open_tapped(
             descs.insert(id, d.clone());
         }
     }
+    descs.extend(descriptions(g)?);
+    for (id, d) in &descs {
+        let _ = net.add_node(*id, d.clone());
+    }
+    Ok(Bus {
+        net,
+        names: names.0,
+        descs,
+    })
+}
+
+/// The descriptions `--eds` and `--dcf` attach, by node-ID (without a bus: `dump FILE` names
+/// PDO values with them).
+pub fn descriptions(g: &Global) -> Result<BTreeMap<u8, Arc<Description>>, Fail> {
+    let mut descs = BTreeMap::new();
     for (node, path) in g.eds.iter().chain(&g.dcf).map(|d| (&d.0, &d.1)) {
         let desc = Description::read(path).map_err(|e| Fail::usage(e.to_string()))?;
         let id = match (node, desc.commissioning.as_ref().and_then(|c| c.node_id)) {
@@ -102,14 +127,7 @@ pub fn open_tapped(
         };
         descs.insert(id, Arc::new(desc));
     }
-    for (id, d) in &descs {
-        let _ = net.add_node(*id, d.clone());
-    }
-    Ok(Bus {
-        net,
-        names: names.0,
-        descs,
-    })
+    Ok(descs)
 }
 
 fn open_one(g: &Global, name: &str, opts: NetOptions) -> Result<Network, Fail> {

@@ -3,6 +3,8 @@
 //! - [`candump`]: can-utils log lines (`(1700000000.123456) vcan0 123#DEADBEEF`), read and write.
 //! - [`pcap`]: classic pcap with link type 227 (LINKTYPE_CAN_SOCKETCAN), read and write; what
 //!   Wireshark and `tshark` open.
+//! - [`decode`]: every frame as one CANopen-aware line (NMT, heartbeat, SDO in its transfer,
+//!   EMCY text, PDO values by name, LSS, flying master, railway 29-bit frames).
 //! - [`recorder`]: a [`Tap`](recorder::Tap) the runtime (every port) and a [`Tapped`](recorder::Tapped)
 //!   machine wrapper (the logical bus above the dual-bus layer) feed, writing to any of the above.
 //!
@@ -44,6 +46,7 @@
 //! ```
 
 pub mod candump;
+pub mod decode;
 pub mod pcap;
 pub mod recorder;
 

@@ -13,3 +13,4 @@ mod program;
 mod rt;
 mod sdo;
 mod sdo_stream;
+mod tap;

@@ -6,6 +6,7 @@ pub mod eds;
 pub mod flash;
 pub mod gateway;
 pub mod kit;
+pub mod live;
 pub mod monitor;
 pub mod nmt;
 pub mod pdo;
