@@ -1,5 +1,4 @@
 //! Opening `--bus`: one interface, two as one logical bus, python-can's UDP bus, or the
-#![allow(dead_code)] // TEMP while the commands are being built: removed once they all use it.
 //! built-in simulated station; and attaching the device descriptions of `--eds`/`--dcf`.
 //!
 //! Every command talks to the network through [`duocan::net::Network`], the library's front
@@ -27,10 +26,6 @@ pub struct Bus {
 }
 
 impl Bus {
-    /// True on two ports (one logical bus).
-    pub fn is_dual(&self) -> bool {
-        self.names.len() == 2
-    }
     /// The description attached to `node`, if any.
     pub fn desc(&self, node: u8) -> Option<&Arc<Description>> {
         self.descs.get(&node)

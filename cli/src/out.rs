@@ -1,5 +1,4 @@
 //! What the tool prints: aligned columns for a person, JSON for a script (`--json`), from the
-#![allow(dead_code)] // TEMP while the commands are being built: removed once they all use it.
 //! same rows, so the two never say different things.
 //!
 //! A [`Table`] prints as a header and lines padded to each column's widest cell, or as one JSON
