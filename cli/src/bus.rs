@@ -5,12 +5,10 @@
 //! door: the tool is a client on the bus (NMT commands and SDO requests, nothing else; with
 //! `listen_only` not a single frame), never a node or a master of it.
 
-use crate::args::{parse_udp, UdpSpec};
 use crate::fail::Fail;
 use crate::{ports, Global};
 use duocan::eds::Description;
 use duocan::net::{NetOptions, Network};
-use duocan::port::udp::{UdpBusConfig, UdpPort};
 use duocan_redundancy::net::{open_dual, open_dual_named, SIM_SLAVES};
 use std::collections::BTreeMap;
 use std::sync::Arc;
@@ -126,20 +124,9 @@ pub fn descriptions(g: &Global) -> Result<BTreeMap<u8, Arc<Description>>, Fail> 
 }
 
 fn open_one(g: &Global, name: &str, opts: NetOptions) -> Result<Network, Fail> {
-    match parse_udp(name) {
-        Some(spec) => {
-            let mut cfg = match spec.map_err(Fail::usage)? {
-                UdpSpec::Default => UdpBusConfig::python_can_default(),
-                UdpSpec::Numbered(n) => UdpBusConfig::numbered(n),
-                UdpSpec::Group(group, port) => UdpBusConfig::new(group, port),
-            };
-            // Loopback unless told otherwise, as the library does.
-            if let Some(addr) = g.udp_interface {
-                cfg = cfg.on_interface(addr);
-            }
-            let port = UdpPort::open(cfg).map_err(|e| Fail::usage(e.to_string()))?;
-            Ok(Network::open_with(port, opts)?)
-        }
-        None => Ok(Network::open_named_with(name, opts)?),
-    }
+    // Loopback unless told otherwise, as the library does.
+    Ok(Network::open_with(
+        ports::open(name, g.udp_interface)?,
+        opts,
+    )?)
 }

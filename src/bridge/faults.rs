@@ -56,6 +56,20 @@ pub(super) struct Fate {
 }
 
 impl Odds {
+    /// Counts a frame against the every-n-th drop; true when this one is the n-th.
+    fn nth(&mut self) -> bool {
+        if self.every == 0 {
+            return false;
+        }
+        self.count += 1;
+        if self.count >= self.every {
+            self.count = 0;
+            true
+        } else {
+            false
+        }
+    }
+
     /// The bus-wide part of the faults, decided once per frame for every receiver: every n-th
     /// frame lost, and corruption (an error frame destroys a frame for everyone; an undetected
     /// flip reaches everyone the same). `None` when the frame is lost (counted in `c`).
@@ -65,13 +79,9 @@ impl Odds {
         frame: &Frame,
         c: &mut MemberCounters,
     ) -> Option<Frame> {
-        if self.every > 0 {
-            self.count += 1;
-            if self.count >= self.every {
-                self.count = 0;
-                c.dropped += 1;
-                return None;
-            }
+        if self.nth() {
+            c.dropped += 1;
+            return None;
         }
         let r = &self.rates;
         if chance(rng, r.corrupt_detected) {
@@ -102,13 +112,9 @@ impl Odds {
             delay: Duration::ZERO,
             twice: false,
         };
-        if self.every > 0 {
-            self.count += 1;
-            if self.count >= self.every {
-                self.count = 0;
-                c.dropped += 1;
-                return None;
-            }
+        if self.nth() {
+            c.dropped += 1;
+            return None;
         }
         let r = &self.rates;
         if r.is_none() && bus.is_none() {

@@ -8,32 +8,18 @@ mod base64;
 #[path = "common/peer.rs"]
 mod peer;
 
+#[path = "common/tool.rs"]
+mod tool;
 use base64::b64;
 use duocan::port::udp::UdpBusConfig;
 use peer::{group, Peer};
-use std::path::PathBuf;
 use std::process::Stdio;
 use std::time::Duration;
 use tokio::io::{AsyncBufReadExt, AsyncWriteExt, BufReader, Lines};
 use tokio::net::tcp::{OwnedReadHalf, OwnedWriteHalf};
 use tokio::net::TcpStream;
 use tokio::process::{Child, Command};
-
-/// target/<profile>/duocan, next to this test's target/<profile>/deps/.
-fn tool() -> PathBuf {
-    let exe = std::env::current_exe().expect("test executable path");
-    let bin = exe
-        .parent()
-        .and_then(|deps| deps.parent())
-        .expect("target/<profile>/deps/<test>")
-        .join("duocan");
-    assert!(
-        bin.exists(),
-        "{} is missing: build it first with `cargo build -p duocan-cli`",
-        bin.display()
-    );
-    bin
-}
+use tool::tool;
 
 /// `duocan --bus <bus> gateway --listen 127.0.0.1:0`, and the port it says it serves on.
 async fn gateway(bus: &str) -> (Child, u16) {

@@ -6,30 +6,16 @@ mod peer;
 #[path = "../../tests/common/runtime.rs"]
 mod rt;
 
+#[path = "common/tool.rs"]
+mod tool;
 use duocan::port::udp::{UdpBusConfig, UdpPort};
 use duocan::runtime::{Handle, Runtime};
 use peer::{group, Peer};
 use rt::{sdo_node, single, TestNode};
-use std::path::PathBuf;
 use std::process::Output;
+use tool::tool;
 
 type Dev = duocan::Station<duocan::machine::SinglePort, TestNode>;
-
-/// target/<profile>/duocan, next to this test's target/<profile>/deps/.
-fn tool() -> PathBuf {
-    let exe = std::env::current_exe().expect("test executable path");
-    let profile_dir = exe
-        .parent()
-        .and_then(|deps| deps.parent())
-        .expect("target/<profile>/deps/<test>");
-    let bin = profile_dir.join("duocan");
-    assert!(
-        bin.exists(),
-        "{} is missing: build it first with `cargo build -p duocan-cli`",
-        bin.display()
-    );
-    bin
-}
 
 /// Runs `duocan --bus <bus> <args>`: exit code, standard output, standard error.
 async fn duocan(bus: &str, args: &[&str]) -> (i32, String, String) {

@@ -5,24 +5,11 @@
 //! with the tool built first (`.ci/tier-python.sh` does both). The VM tier runs the same files
 //! on vcan.
 
+#[path = "common/tool.rs"]
+mod tool;
 use std::path::PathBuf;
 use std::process::Command;
-
-/// target/<profile>/duocan, next to this test's target/<profile>/deps/.
-fn tool() -> PathBuf {
-    let exe = std::env::current_exe().expect("test executable path");
-    let bin = exe
-        .parent()
-        .and_then(|deps| deps.parent())
-        .expect("target/<profile>/deps/<test>")
-        .join("duocan");
-    assert!(
-        bin.exists(),
-        "{} is missing: build it first with `cargo build -p duocan-cli`",
-        bin.display()
-    );
-    bin
-}
+use tool::tool;
 
 /// The scenario's member interfaces renamed to UDP buses 60–67.
 fn on_udp(text: &str) -> String {
