@@ -36,7 +36,12 @@ async fn duocan(bus: &str, args: &[&str]) -> (i32, String, String) {
 
 /// Node 5 with the SDO test entries on UDP bus `bus`.
 async fn node_on(bus: u8) -> Handle<Dev> {
-    let h = Runtime::new(single(sdo_node(5, false, 0, &[])))
+    beating_node_on(bus, 0).await
+}
+
+/// [`node_on`] with a heartbeat every `hb_ms` (0: none).
+async fn beating_node_on(bus: u8, hb_ms: u16) -> Handle<Dev> {
+    let h = Runtime::new(single(sdo_node(5, false, hb_ms, &[])))
         .name("node5")
         .port(
             UdpPort::open(UdpBusConfig::numbered(bus))
@@ -383,4 +388,61 @@ async fn flashes_and_writes_a_mebibyte_with_progress_in_the_log() {
     );
     let _ = std::fs::remove_dir_all(&dir);
     node.shutdown().await;
+}
+
+/// The commands that watch the wire, on the UDP bus: `record` writes what a duocan node and the
+/// tool's own SDO read put on it, `dump` decodes the log, `monitor` (plain) reports the node.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn records_dumps_and_monitors_the_udp_bus() {
+    let node = beating_node_on(23, 100).await;
+    let bus = "udp:23";
+    let dir = std::env::temp_dir().join(format!("duocan-watch-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let log = dir.join("bus.log");
+    let pcap = dir.join("bus.pcap");
+    let (l, p) = (log.to_str().unwrap(), pcap.to_str().unwrap());
+    // Record for 1.5 s while an SDO read runs on the bus.
+    let recording = tokio::spawn({
+        let (l, p) = (l.to_string(), p.to_string());
+        async move {
+            duocan(
+                bus,
+                &["record", "--candump", &l, "--pcap", &p, "--duration", "1.5"],
+            )
+            .await
+        }
+    });
+    tokio::time::sleep(std::time::Duration::from_millis(400)).await;
+    let (code, _, err) = duocan(bus, &["sdo", "read", "5", "0x1018", "1", "u32"]).await;
+    assert_eq!(code, 0, "{err}");
+    let (code, out, err) = recording.await.unwrap();
+    assert_eq!(code, 0, "{err}");
+    println!("record:\n{out}");
+    let (code, out, err) = duocan(bus, &["dump", l]).await;
+    assert_eq!(code, 0, "{err}");
+    println!("dump:\n{out}");
+    assert!(
+        out.contains("node 5 SDO upload 0x1018:01 = 0x00001234"),
+        "the recorded SDO read, decoded: {out}"
+    );
+    assert!(out.contains("node 5 heartbeat"), "its heartbeats: {out}");
+    let (code, out2, _) = duocan(bus, &["dump", p]).await;
+    assert_eq!(code, 0);
+    assert_eq!(
+        out2.lines().count(),
+        out.lines().count(),
+        "the pcap holds what the log holds"
+    );
+    // The monitor, listen-only, plain: node 5's heartbeat state within its run.
+    let (code, out, err) = duocan(
+        bus,
+        &["monitor", "--plain", "--duration", "1.5", "--every", "1"],
+    )
+    .await;
+    assert_eq!(code, 0, "{err}");
+    println!("monitor:\n{out}");
+    assert!(out.contains("status: 1 nodes"), "{out}");
+    assert!(out.contains("0x05"), "{out}");
+    node.shutdown().await;
+    let _ = std::fs::remove_dir_all(&dir);
 }
