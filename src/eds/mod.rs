@@ -128,12 +128,15 @@ pub use model::{
 };
 pub use value::{canonical_limit, type_name, Value};
 
-/// The largest file read (4 MiB): a 2,000-entry EDS is about 0.2 MiB.
-pub const MAX_FILE_BYTES: usize = 4 << 20;
+/// The largest file read (16 MiB): a 2,000-entry EDS is about 0.2 MiB, and what duocan exports
+/// for the largest description it takes ([`MAX_ENTRIES`] entries, e.g. 512 PDOs fully mapped
+/// through `CompactPDO`) stays below it, so whatever imports exports and imports again.
+pub const MAX_FILE_BYTES: usize = 16 << 20;
 /// The longest line (8 KiB): room for a 4 KiB domain default in hex.
 pub const MAX_LINE_BYTES: usize = 8 << 10;
-/// The most sections and keys in a file.
-pub const MAX_KEYS: usize = 1 << 18;
+/// The most sections and keys in a file (room for the export of [`MAX_ENTRIES`] entries, about
+/// eight keys each).
+pub const MAX_KEYS: usize = 1 << 20;
 /// The most entries (sub-objects) a description holds, implied ones included.
 pub const MAX_ENTRIES: usize = 1 << 16;
 /// The longest name kept (CiA 306 allows 241 characters); longer ones are cut.

@@ -164,3 +164,26 @@ proptest! {
         }
     }
 }
+
+/// A small file can describe a large dictionary (`CompactPDO` with 512 PDOs, each with 64
+/// mapping entries): its export is megabytes, and still within the bounds, so it imports again
+/// (found by the `eds` fuzz target when the bounds were 4 MiB and 2^18 keys).
+#[test]
+fn the_export_of_a_description_at_the_bounds_imports_again() {
+    let path = concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/fuzz/seeds/eds/compact_pdo_512.eds"
+    );
+    let d = Description::parse(
+        &std::fs::read(path).unwrap(),
+        "compact_pdo_512.eds",
+        &duocan::eds::ImportOptions::lenient(),
+    )
+    .unwrap();
+    let od = d.dictionary(5);
+    let text = duocan::eds::export_dcf(&od, &duocan::eds::ExportOptions::default()).unwrap();
+    assert!(text.len() > 4 << 20, "{} bytes", text.len());
+    assert!(text.len() < MAX_FILE_BYTES);
+    let back = parse(text.as_bytes(), false).unwrap();
+    assert_eq!(back.entries().count(), d.entries().count());
+}
