@@ -97,3 +97,43 @@ fn nmt_commands_and_their_answers() {
         serde_json::from_str(&sim_ok(&["--json", "nmt", "preop", "7", "--wait"])).unwrap();
     assert_eq!(v["answer"], "pre-operational");
 }
+
+/// A mebibyte both ways on the simulated station, as the tool shows it: a domain written from
+/// a file and read back (`--verify`), and a program flashed; the progress lines (one per tenth
+/// when not on a terminal) are printed into the test log.
+#[test]
+fn a_mebibyte_domain_and_flash_with_progress_in_the_log() {
+    let dir = std::env::temp_dir().join(format!("duocan-mib-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let image: Vec<u8> = (0..1024 * 1024u32)
+        .map(|i| (i.wrapping_mul(2_654_435_761) >> 13) as u8)
+        .collect();
+    let f = dir.join("mib.bin");
+    std::fs::write(&f, &image).unwrap();
+    let f = f.to_str().unwrap();
+
+    let r = sim(&[
+        "sdo", "write", "6", "0x2002", "--file", f, "--block", "--verify",
+    ]);
+    println!("{}{}", r.err, r.out);
+    assert_eq!(r.code, 0, "{}", r.err);
+    assert!(r.out.contains("written, 1048576 bytes"), "{}", r.out);
+    assert!(r.out.ends_with("verified\n"), "{}", r.out);
+    let tenths = r
+        .err
+        .lines()
+        .filter(|l| l.contains("/1048576 bytes ("))
+        .count();
+    assert!(
+        tenths >= 10,
+        "a progress line per tenth, each way: {}",
+        r.err
+    );
+
+    let r = sim(&["flash", "5", f]);
+    println!("{}{}", r.err, r.out);
+    assert_eq!(r.code, 0, "{}", r.err);
+    assert!(r.err.contains("1048576/1048576 bytes (100%)"), "{}", r.err);
+    assert!(r.out.contains("started"), "{}", r.out);
+    let _ = std::fs::remove_dir_all(&dir);
+}

@@ -225,9 +225,10 @@ fn server_block_sub_block_timer_acknowledges_what_arrived() {
     send(&mut n, T0, [0xC6, 0x00, 0x20, 0x00, 100, 0, 0, 0]);
     send(&mut n, T0, [0x01, 1, 2, 3, 4, 5, 6, 7]);
     send(&mut n, T0, [0x02, 1, 2, 3, 4, 5, 6, 7]);
-    // Segment 3 and the rest of the sub-block are lost: 100 ms later the server says "2".
-    assert_eq!(n.poll_timeout(), Some(T0 + Duration::from_millis(100)));
-    n.handle_timeout(T0 + Duration::from_millis(100));
+    // Segment 3 and the rest of the sub-block are lost: 500 ms (the default sub-block timer)
+    // later the server says "2".
+    assert_eq!(n.poll_timeout(), Some(T0 + Duration::from_millis(500)));
+    n.handle_timeout(T0 + Duration::from_millis(500));
     assert_eq!(drain(&mut n), [[0xA2, 2, 127, 0, 0, 0, 0, 0]]);
 }
 

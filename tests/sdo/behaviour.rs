@@ -103,7 +103,7 @@ fn a_lost_end_of_sub_block_is_recovered_by_the_servers_sub_block_timer() {
     assert_eq!(
         first_ack,
         (
-            t0 + Duration::from_millis(100),
+            t0 + Duration::from_millis(500),
             [0xA2, 126, 127, 0, 0, 0, 0, 0]
         )
     );

@@ -1,10 +1,11 @@
-//! SDO server and client (`duocan::sdo`): transfers in every mode, aborts, golden frame sequences, random frame sequences, behaviour on the simulated bus.
+//! SDO server and client (`duocan::sdo`): transfers in every mode, aborts, golden frame sequences, random frame sequences, second copies, behaviour on the simulated bus.
 
 mod aborts;
 mod behaviour;
 mod golden;
 mod net;
 mod random;
+mod repeats;
 mod sim;
 mod stream;
 mod transfers;

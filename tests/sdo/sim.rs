@@ -404,9 +404,10 @@ fn a_stopped_server_stays_silent_and_the_client_times_out_exactly() {
     let _ = r.bus;
 }
 
-/// CAN can deliver a frame twice. SDO has no sequence numbers outside block transfer, so a
-/// repeated segment is what the toggle bit exists to catch: such transfers abort with a protocol
-/// code. A block transfer ignores a repeated closing segment. Nothing hangs, no entry is
+/// CAN can deliver a frame twice. A second copy that arrives before its sender's next frame is
+/// recognised by client and server (equal to the frame before it, and not what the transfer can
+/// take: the old toggle bit, a segment after the end, …) and ignored, so every transfer
+/// completes with its data; no protocol code is ever needed, nothing hangs, no entry is
 /// half-written, no upload returns wrong data.
 #[test]
 fn duplicated_frames_never_corrupt_and_never_hang() {
@@ -454,5 +455,6 @@ fn duplicated_frames_never_corrupt_and_never_hang() {
         }
     }
     println!("with duplicates: {ok} completed, {failed} aborted");
-    assert!(ok > failed && failed > 0);
+    assert!(ok > 100);
+    assert_eq!(failed, 0);
 }

@@ -117,6 +117,21 @@ fn slave_dictionary(id: NodeId) -> DynamicDictionary {
     od
 }
 
+/// The dual-bus layer of every device of the station and of the network attached to it.
+///
+/// The station's two buses are in-memory channels, each frame's two copies carried by tasks
+/// that share the machine's CPU with the tool and everything else running: under load the
+/// copies arrive a hundred milliseconds apart and more (seen on a loaded two-core machine),
+/// where two controllers on real buses see them microseconds apart. A twin later than the
+/// merger's window is a new frame by the merger's rule, and to an SDO transfer a repeated
+/// segment. The window is therefore wide here (250 ms, following a lagging bus up to 1 s): the
+/// station is for trying things, and its failovers are timed by heartbeats, not by the window.
+fn sim_link() -> DualBusConfig {
+    DualBusConfig::default()
+        .with_skew_window(Duration::from_millis(250))
+        .with_max_skew_window(Duration::from_millis(1000))
+}
+
 /// A plain slave on its own dual-bus layer, taking values up to [`SIM_DOMAIN_SIZE`], booted.
 // Not inlined, nor the other builders below: a device is some 100 kB, built on the stack and
 // moved to the heap here, so that no caller's frame holds one (a debug build's frame keeps a
@@ -127,22 +142,27 @@ fn slave<D: ObjectDictionary>(id: NodeId, od: D) -> Box<Slave<D>> {
     node.sdo_server_mut()
         .set_config(SdoServerConfig::default().with_max_transfer(SIM_DOMAIN_SIZE));
     node.boot(Instant::ZERO);
-    Box::new(Station::new(DualBus::new(DualBusConfig::default()), node))
+    Box::new(Station::new(DualBus::new(sim_link()), node))
 }
 
 #[inline(never)]
 fn new_board(id: u8) -> Box<Board> {
-    Box::new(board(NodeId::must(id)))
+    let mut b = board(NodeId::must(id));
+    b.link = DualBus::new(sim_link());
+    Box::new(b)
 }
 
 #[inline(never)]
 fn new_link() -> Box<DualLink> {
-    Box::new(DualLink::default())
+    Box::new(DualLink::new(sim_link()))
 }
 
 /// The masters' settings: 0x01 with its peer 0x02 and the pairs.
 fn masters() -> RedundantNetworkBuilder {
-    let mut b = RedundantNetworkBuilder::default().node_id(1).peer_master(2);
+    let mut b = RedundantNetworkBuilder::default()
+        .node_id(1)
+        .peer_master(2)
+        .link(sim_link());
     for (a, bb) in SIM_PAIRS {
         b = b.pair(a, bb);
     }

@@ -190,6 +190,9 @@ pub struct BlockReceiver {
     started: bool,
     /// The segment that closed the last sub-block, to recognise a second copy of it.
     closer: Option<[u8; 8]>,
+    /// The last sub-block was acknowledged by the timer: until the next one begins (its first
+    /// segment in sequence), what arrives may be the rest of the old one, still on its way.
+    resync: bool,
 }
 
 impl BlockReceiver {
@@ -203,6 +206,7 @@ impl BlockReceiver {
             complete: false,
             started: false,
             closer: None,
+            resync: false,
         }
     }
 
@@ -245,6 +249,7 @@ impl BlockReceiver {
         }
         self.started = true;
         if s.seqno == self.last_good + 1 {
+            self.resync = false;
             self.last_good = s.seqno;
             if s.last {
                 self.tail = Some(s.data);
@@ -259,8 +264,12 @@ impl BlockReceiver {
             return Ok(Received::Continue);
         }
         // Out of sequence: a segment was lost (or this one repeats). Only the segment that
-        // closes the sub-block matters: it is time to tell the sender where to resume.
-        if s.last || s.seqno == self.blksize {
+        // closes the sub-block matters: it is time to tell the sender where to resume. Not
+        // after the timer acknowledged: the old sub-block's late segments (a receiver that was
+        // not scheduled in time finds them queued) would acknowledge again, and the sender
+        // would take it for the new sub-block and send its start twice. The timer runs on, so
+        // a new sub-block that lost its first segment is still acknowledged.
+        if !self.resync && (s.last || s.seqno == self.blksize) {
             return Ok(Received::Ack(self.finish_sub_block(Some(*d))));
         }
         Ok(Received::Continue)
@@ -268,6 +277,7 @@ impl BlockReceiver {
 
     /// The sub-block timer expired: acknowledge what arrived so the sender resumes.
     pub fn timeout(&mut self) -> u8 {
+        self.resync = true;
         self.finish_sub_block(None)
     }
 
@@ -376,6 +386,44 @@ mod tests {
             (seed >> 16).is_multiple_of(3)
         });
         assert_eq!(got, want);
+    }
+
+    /// The receiver's timer acknowledges while the rest of the sub-block is still on its way
+    /// (a receiver not scheduled in time): those late segments, the closing one included, are
+    /// not acknowledged again, and the data stays exactly what was sent.
+    #[test]
+    fn late_segments_after_the_timer_acknowledged_are_not_acknowledged_again() {
+        let data: Vec<u8> = (0..200u32).map(|i| (i * 13 + 1) as u8).collect();
+        let mut tx = BlockSender::new(data.len(), 10);
+        let mut rx = BlockReceiver::new(10);
+        let mut buf = InlineBuffer::<256>::with_limit(256);
+        let first: Vec<[u8; 8]> = core::iter::from_fn(|| tx.next_segment(&data)).collect();
+        assert_eq!(first.len(), 10);
+        for f in &first[..4] {
+            assert_eq!(rx.segment(f, &mut buf, BIG), Ok(Received::Continue));
+        }
+        assert_eq!(rx.timeout(), 4);
+        for f in &first[4..] {
+            assert_eq!(
+                rx.segment(f, &mut buf, BIG),
+                Ok(Received::Continue),
+                "late {f:?}"
+            );
+        }
+        assert_eq!(tx.ack(4, 10), Ok(Some(Acked::More)));
+        loop {
+            let mut ack = None;
+            while let Some(f) = tx.next_segment(&data) {
+                if let Received::Ack(a) = rx.segment(&f, &mut buf, BIG).unwrap() {
+                    ack = Some(a);
+                }
+            }
+            if tx.ack(ack.expect("an ack per sub-block"), 10).unwrap() == Some(Acked::Done) {
+                break;
+            }
+        }
+        rx.finish(unused(data.len()), &mut buf, BIG).unwrap();
+        assert_eq!(buf.as_slice(), &data[..]);
     }
 
     #[test]

@@ -17,6 +17,17 @@
 //! // … the server's answer goes to client.handle_frame, the result comes from poll_event.
 //! # let _ = (id, TransferMode::Auto);
 //! ```
+//!
+//! # Second copies
+//!
+//! CAN may deliver a frame twice, and on a redundant network the dual-bus layer delivers a twin
+//! that arrives later than its merge window as a frame of its own. An answer equal to the one
+//! before it on its channel (across transfers on that channel) that the transfer could not
+//! take, such as a segment with the old toggle bit, is such a copy: it is ignored and counted
+//! ([`SdoClientStats::repeats`]), not aborted; so is a sub-block acknowledgement after the last
+//! one. A copy that arrives after the server's next frame can no longer be told from a new
+//! answer; the transfer then ends as the protocol says (an abort, or for block transfer the
+//! CRC).
 
 use super::block::{self, Acked, BlockReceiver, BlockSender, Received};
 use super::buffer::{DefaultBuffer, TransferBuffer};
@@ -299,10 +310,14 @@ impl<B: TransferBuffer, const SESSIONS: usize, S: Storage> SdoClient<B, SESSIONS
         if self.in_flight() + self.events.len() >= sessions {
             return Err(err(SdoErrorKind::NoSession { sessions }));
         }
+        // The session that last served this channel, if free, so that it still knows the
+        // channel's last answer (a late second copy of it must not fail the new transfer).
+        let free = |s: &Session<B>| !s.active() && s.out.is_empty();
         let Some(i) = self
             .sessions
             .iter()
-            .position(|s| !s.active() && s.out.is_empty())
+            .position(|s| free(s) && s.channel.response == channel.response)
+            .or_else(|| self.sessions.iter().position(free))
             .or_else(|| self.sessions.iter().position(|s| !s.active()))
         else {
             return Err(err(SdoErrorKind::NoSession { sessions }));
@@ -311,6 +326,9 @@ impl<B: TransferBuffer, const SESSIONS: usize, S: Storage> SdoClient<B, SESSIONS
         self.next_id = self.next_id.wrapping_add(1);
         self.stats.started += 1;
         let s = &mut self.sessions[i];
+        if s.channel.response != channel.response {
+            s.last_rx = None;
+        }
         s.request = request;
         s.node = node;
         s.index = index;
@@ -382,8 +400,15 @@ impl<B: TransferBuffer, const SESSIONS: usize, S: Storage> SdoClient<B, SESSIONS
             return;
         };
         let s = &mut self.sessions[i];
+        let repeat = s.last_rx.replace(d) == Some(d);
         if let State::BlockUpload { mut rx, crc, size } = s.state {
             if rx.is_repeat(&d) {
+                return;
+            }
+            if repeat {
+                // As in the server: two segments in a row are never equal, and the initiate
+                // answer's copy would read as a segment.
+                self.stats.repeats += 1;
                 return;
             }
             if !rx.complete() {
@@ -415,12 +440,13 @@ impl<B: TransferBuffer, const SESSIONS: usize, S: Storage> SdoClient<B, SESSIONS
             }
         }
         match Response::decode(&d) {
-            Ok(r) => self.response(i, now, r),
+            Ok(r) => self.response(i, now, r, repeat),
             Err(c) => self.abort_session(i, now, c),
         }
     }
 
-    fn response(&mut self, i: usize, now: Instant, r: Response) {
+    /// An answer to session `i`; `repeat`: it equals the answer before it on the channel.
+    fn response(&mut self, i: usize, now: Instant, r: Response, repeat: bool) {
         let s = &mut self.sessions[i];
         let (want_index, want_sub) = (s.index, s.sub);
         let mux_ok = |index: u16, sub: u8| index == want_index && sub == want_sub;
@@ -526,6 +552,12 @@ impl<B: TransferBuffer, const SESSIONS: usize, S: Storage> SdoClient<B, SESSIONS
                 }
             },
             (Response::BlockDownloadEnd, State::BlockDownloadEnd) => Ok(Some(())),
+            (Response::BlockDownloadAck { .. }, State::BlockDownloadEnd) => {
+                // The end request answered the last acknowledgement; one more comes only late
+                // (a second copy of an earlier one taken for the last): the end answer follows.
+                self.stats.repeats += 1;
+                return;
+            }
             (
                 Response::InitiateUpload { index, sub, init },
                 State::UploadInit | State::BlockUploadInit,
@@ -612,6 +644,8 @@ impl<B: TransferBuffer, const SESSIONS: usize, S: Storage> SdoClient<B, SESSIONS
             _ => Err(AbortCode::COMMAND_SPECIFIER),
         };
         match step {
+            // A second copy the transfer cannot take: the first was handled, nothing changed.
+            Err(_) if repeat => self.stats.repeats += 1,
             Err(c) => self.abort_session(i, now, c),
             Ok(Some(())) => self.finish(i, now, Ok(())),
             Ok(None) => self.sessions[i].touch(now),

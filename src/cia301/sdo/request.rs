@@ -69,6 +69,11 @@ pub struct SdoOptions {
     pub timeout: Duration,
     /// Block upload: how long to wait for the rest of a sub-block before acknowledging what
     /// arrived (recovers a lost end of a sub-block without a full timeout).
+    ///
+    /// Default 500 ms, half the answer timeout: long enough that a receiver which was not
+    /// scheduled for a while (a loaded host) does not acknowledge while the rest of the
+    /// sub-block is still on its way, which would have the sender resend what is coming
+    /// anyway; short enough that the sender still waits for the acknowledgement.
     pub subblock_timeout: Duration,
     /// Offer CRC in block transfer (used when the server supports it too).
     pub crc: bool,
@@ -141,7 +146,7 @@ impl Default for SdoOptions {
         SdoOptions {
             mode: TransferMode::Auto,
             timeout: Duration::from_millis(1000),
-            subblock_timeout: Duration::from_millis(100),
+            subblock_timeout: Duration::from_millis(500),
             crc: true,
             block_size: MAX_BLOCK_SIZE,
             pst: 0,
@@ -218,4 +223,10 @@ pub struct SdoClientStats {
     /// Results dropped because nobody polled them (cannot happen: sessions stay taken until
     /// their result is polled).
     pub events_dropped: u32,
+    /// Second copies ignored: an answer equal to the one before it on its channel that the
+    /// transfer could not take (a twin the dual-bus layer delivered late, a frame CAN delivered
+    /// twice), or a sub-block acknowledgement after the last one (see [`SdoClient`]).
+    ///
+    /// [`SdoClient`]: super::SdoClient
+    pub repeats: u32,
 }

@@ -9,6 +9,17 @@
 //!
 //! A new initiate request ends any transfer in progress: the channel has one client, and a client
 //! that starts over has given up on the old transfer (its abort may have been lost).
+//!
+//! # Second copies
+//!
+//! CAN may deliver a frame twice, and on a redundant network the dual-bus layer delivers a twin
+//! that arrives later than its merge window as a frame of its own. A request equal to the one
+//! before it (across transfers: the last request of a finished transfer counts) that the
+//! transfer could not take, such as a segment with the old toggle bit or an end request after
+//! the end, is such a copy: it is ignored and counted ([`SdoServerStats::repeats`]), not
+//! aborted. A copy that arrives after the client's next frame can no longer be told from a
+//! new request; the client's next frame then finds the transfer as the protocol leaves it (an
+//! abort, or for block transfer the CRC).
 
 use super::block::{self, Acked, BlockReceiver, BlockSender, Bound, Received};
 use super::buffer::{DefaultBuffer, TransferBuffer, DEFAULT_LIMIT};
@@ -31,6 +42,11 @@ pub struct SdoServerConfig {
     pub timeout: Duration,
     /// How long the server waits for the rest of a sub-block after a segment before it
     /// acknowledges what it has (recovers a lost end of a sub-block without a full timeout).
+    ///
+    /// Default 500 ms, half the answer timeout: long enough that a receiver which was not
+    /// scheduled for a while (a loaded host) does not acknowledge while the rest of the
+    /// sub-block is still on its way, which would have the sender resend what is coming
+    /// anyway; short enough that the sender still waits for the acknowledgement.
     pub subblock_timeout: Duration,
     /// Block transfer supported. Without it, block requests get 0x05040001 as from a server
     /// that does not know them, and clients fall back to segmented transfer.
@@ -88,7 +104,7 @@ impl Default for SdoServerConfig {
     fn default() -> Self {
         SdoServerConfig {
             timeout: Duration::from_millis(1000),
-            subblock_timeout: Duration::from_millis(100),
+            subblock_timeout: Duration::from_millis(500),
             block: true,
             crc: true,
             block_size: MAX_BLOCK_SIZE,
@@ -110,6 +126,10 @@ pub struct SdoServerStats {
     pub malformed: u32,
     /// Frames dropped because the output was not drained.
     pub tx_dropped: u32,
+    /// Second copies ignored: a request equal to the one before it that the transfer could not
+    /// take (a twin the dual-bus layer delivered late, a frame CAN delivered twice), or a
+    /// sub-block acknowledgement after the last one.
+    pub repeats: u32,
 }
 
 #[derive(Clone, Copy, Debug)]
@@ -155,6 +175,8 @@ pub struct SdoServer<B: TransferBuffer = DefaultBuffer> {
     deadline: Option<Instant>,
     subblock_deadline: Option<Instant>,
     out: Bounded<[u8; 8], 4>,
+    /// The request frame handled last, across transfers: its second copy is recognised.
+    last_rx: Option<[u8; 8]>,
     stats: SdoServerStats,
 }
 
@@ -178,6 +200,7 @@ impl<B: TransferBuffer> SdoServer<B> {
             deadline: None,
             subblock_deadline: None,
             out: Bounded::new(),
+            last_rx: None,
             stats: SdoServerStats::default(),
         }
     }
@@ -269,6 +292,16 @@ impl<B: TransferBuffer> SdoServer<B> {
         self.reset();
     }
 
+    /// Refuses a request: with an abort, unless it is a second copy of the request before it
+    /// (see the module docs), which is only counted.
+    fn refuse(&mut self, repeat: bool, code: AbortCode) {
+        if repeat {
+            self.stats.repeats += 1;
+        } else {
+            self.abort(code);
+        }
+    }
+
     fn complete(&mut self) {
         self.stats.completed += 1;
         self.reset();
@@ -305,8 +338,15 @@ impl<B: TransferBuffer> SdoServer<B> {
                 got: frame.dlc(),
             });
         };
+        let repeat = self.last_rx.replace(d) == Some(d);
         if let State::BlockDownload { rx, .. } = self.state {
             if rx.is_repeat(&d) {
+                return Ok(());
+            }
+            if repeat {
+                // Two segments in a row are never equal (sequence numbers count up, and a
+                // sub-block of one is `is_repeat`); the initiate's copy would read as a segment.
+                self.stats.repeats += 1;
                 return Ok(());
             }
             if !rx.complete() {
@@ -319,7 +359,7 @@ impl<B: TransferBuffer> SdoServer<B> {
             }
         }
         match Request::decode(&d) {
-            Ok(r) => self.request(now, r, od),
+            Ok(r) => self.request(now, r, repeat, od),
             Err(code) => {
                 if self.is_idle() {
                     self.index = u16::from_le_bytes([d[1], d[2]]);
@@ -338,7 +378,13 @@ impl<B: TransferBuffer> SdoServer<B> {
         self.reset();
     }
 
-    fn request<A: ObjectAccess + ?Sized>(&mut self, now: Instant, r: Request, od: &mut A) {
+    fn request<A: ObjectAccess + ?Sized>(
+        &mut self,
+        now: Instant,
+        r: Request,
+        repeat: bool,
+        od: &mut A,
+    ) {
         match (r, self.state) {
             (Request::Abort { .. }, _) => self.client_abort(),
             (Request::InitiateDownload { index, sub, init }, _) => {
@@ -375,13 +421,13 @@ impl<B: TransferBuffer> SdoServer<B> {
                 State::Download { toggle: t, size },
             ) => {
                 if toggle != t {
-                    return self.abort(AbortCode::TOGGLE_BIT);
+                    return self.refuse(repeat, AbortCode::TOGGLE_BIT);
                 }
                 self.download_segment(now, toggle, data, last, size, od)
             }
             (Request::UploadSegment { toggle }, State::Upload { toggle: t, offset }) => {
                 if toggle != t {
-                    return self.abort(AbortCode::TOGGLE_BIT);
+                    return self.refuse(repeat, AbortCode::TOGGLE_BIT);
                 }
                 let len = self.buf.len();
                 let end = (offset + codec::SEGMENT_DATA).min(len);
@@ -415,7 +461,7 @@ impl<B: TransferBuffer> SdoServer<B> {
             }
             (Request::BlockUploadAck { ackseq, blksize }, State::BlockUpload { mut tx, crc }) => {
                 match tx.ack(ackseq, blksize) {
-                    Err(c) => self.abort(c),
+                    Err(c) => self.refuse(repeat, c),
                     Ok(None) => {}
                     Ok(Some(Acked::More)) => {
                         self.state = State::BlockUpload { tx, crc };
@@ -434,7 +480,10 @@ impl<B: TransferBuffer> SdoServer<B> {
                 }
             }
             (Request::BlockUploadEnd, State::BlockUploadEnd) => self.complete(),
-            _ => self.abort(AbortCode::COMMAND_SPECIFIER),
+            // The end frame answered the last acknowledgement; one more comes only late (a
+            // second copy of an earlier one taken for the last): the end request follows it.
+            (Request::BlockUploadAck { .. }, State::BlockUploadEnd) => self.stats.repeats += 1,
+            _ => self.refuse(repeat, AbortCode::COMMAND_SPECIFIER),
         }
     }
 

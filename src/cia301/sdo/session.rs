@@ -64,6 +64,9 @@ pub(super) struct Session<B> {
     pub(super) out: Bounded<Frame, 4>,
     /// Set while the transfer streams: `buf` is then a window of the value, not all of it.
     pub(super) stream: Option<Stream>,
+    /// The answer handled last on `channel`, kept across transfers on it: its second copy is
+    /// recognised.
+    pub(super) last_rx: Option<[u8; 8]>,
 }
 
 impl<B: TransferBuffer> Session<B> {
@@ -88,6 +91,7 @@ impl<B: TransferBuffer> Session<B> {
             subblock_deadline: None,
             out: Bounded::new(),
             stream: None,
+            last_rx: None,
         }
     }
     pub(super) fn active(&self) -> bool {
