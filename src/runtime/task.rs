@@ -86,12 +86,36 @@ where
                 },
                 () = sleep => {}
             }
-            let now = self.now();
-            if self.device.poll_timeout().is_some_and(|t| t <= now) {
-                self.device.handle_timeout(now);
-            }
+            self.timeouts(&mut input);
         }
         tracing::info!("runtime stopped");
+    }
+
+    /// Runs the device's timeout if it is due, after the frames that were read before it: a
+    /// task that was not scheduled in time finds them queued, and a deadline must not pass for
+    /// what had already arrived (an SDO sub-block timer would acknowledge segments that were
+    /// waiting). The first input read after the deadline follows the timeout. Bounded: the
+    /// queue is.
+    fn timeouts(&mut self, input: &mut mpsc::Receiver<Arrival>) {
+        let clock = self.clock.now().max(self.last);
+        let Some(due) = self.device.poll_timeout().filter(|t| *t <= clock) else {
+            return;
+        };
+        let mut after = None;
+        while let Ok((port, x, at)) = input.try_recv() {
+            if at > due {
+                after = Some((port, x, at));
+                break;
+            }
+            self.input(port, x, at);
+        }
+        let now = self.now();
+        if self.device.poll_timeout().is_some_and(|t| t <= now) {
+            self.device.handle_timeout(now);
+        }
+        if let Some((port, x, at)) = after {
+            self.input(port, x, at);
+        }
     }
 
     /// The clock's time, as the device's next instant.
@@ -161,5 +185,84 @@ where
             // No subscriber is fine: events are then only logged.
             let _ = self.events.send(RuntimeEvent::Device(e));
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::machine::PortRequest;
+    use crate::{Duration, Frame, Id, Instant};
+
+    /// A timer that each frame pushes back by 10 ms (as an SDO sub-block timer does), and the
+    /// order in which it saw frames and its timeout.
+    struct Timer {
+        deadline: Option<Instant>,
+        seen: Vec<String>,
+    }
+
+    impl Device for Timer {
+        type Event = ();
+        fn port_count(&self) -> usize {
+            1
+        }
+        fn handle_rx(&mut self, now: Instant, _: usize, frame: &Frame) {
+            self.seen
+                .push(format!("frame {} at {now}", frame.data()[0]));
+            self.deadline = Some(now + Duration::from_millis(10));
+        }
+        fn handle_port_status(&mut self, _: Instant, _: usize, _: PortStatus) {}
+        fn handle_timeout(&mut self, now: Instant) {
+            self.seen.push(format!("timeout at {now}"));
+            self.deadline = None;
+        }
+        fn poll_transmit(&mut self) -> Option<(usize, Frame)> {
+            None
+        }
+        fn poll_port_request(&mut self) -> Option<(usize, PortRequest)> {
+            None
+        }
+        fn poll_timeout(&self) -> Option<Instant> {
+            self.deadline
+        }
+        fn poll_event(&mut self) -> Option<()> {
+            None
+        }
+    }
+
+    /// The core was not scheduled from 5 ms to 30 ms: a frame read at 8 ms was waiting when it
+    /// ran again. It goes first and pushes the deadline back, so no timeout; a frame read at
+    /// 25 ms, after the new deadline of 18 ms, comes after that timeout.
+    #[tokio::test(start_paused = true)]
+    async fn frames_read_before_a_deadline_are_handled_before_it() {
+        let clock = crate::runtime::Clock::start();
+        let mut core = Core {
+            device: Box::new(Timer {
+                deadline: Some(Instant::from_millis(10)),
+                seen: vec![],
+            }),
+            clock,
+            ports: vec![],
+            counters: vec![],
+            events: broadcast::channel(4).0,
+            tap: None,
+            watchers: vec![],
+            last: Instant::ZERO,
+        };
+        let (tx, mut rx) = mpsc::channel(8);
+        let frame = |b: u8| PortInput::Frame(Frame::new(Id::Standard(0x100), &[b]).unwrap());
+        tx.try_send((0, frame(1), Instant::from_millis(8))).unwrap();
+        tx.try_send((0, frame(2), Instant::from_millis(25)))
+            .unwrap();
+        tokio::time::advance(std::time::Duration::from_millis(30)).await;
+        core.timeouts(&mut rx);
+        assert_eq!(
+            core.device.seen,
+            [
+                "frame 1 at 0.008000s",
+                "timeout at 0.030000s",
+                "frame 2 at 0.030000s"
+            ]
+        );
     }
 }
