@@ -10,20 +10,75 @@ use tokio::sync::broadcast;
 /// Frames a slow port may fall behind before it loses some (counted as `rx_invalid`).
 pub const MEM_BUS_DEPTH: usize = 4096;
 
+/// How far ahead of real time a paced bus lets its senders run (see [`MemBus::with_bit_rate`]).
+pub const MEM_BUS_BURST: std::time::Duration = std::time::Duration::from_millis(2);
+
 /// One in-process bus.
 #[derive(Clone, Debug)]
 pub struct MemBus {
     tx: broadcast::Sender<(u64, Frame)>,
     name: String,
+    pace: Option<std::sync::Arc<Pace>>,
+}
+
+/// The bit rate of a paced bus and when the frames sent so far are through.
+#[derive(Debug)]
+struct Pace {
+    bit_ns: u64,
+    busy_until: std::sync::Mutex<Option<tokio::time::Instant>>,
+}
+
+impl Pace {
+    /// Books `frame`'s time on the bus; the instant to wait for when the senders ran more than
+    /// [`MEM_BUS_BURST`] ahead.
+    fn book(&self, frame: &Frame) -> Option<tokio::time::Instant> {
+        // The nominal length (no stuff bits): SOF to the intermission, 47 bits of frame around
+        // the data for an 11-bit identifier, 67 for a 29-bit one.
+        let overhead = if matches!(frame.id(), crate::frame::Id::Standard(_)) {
+            47
+        } else {
+            67
+        };
+        let data = if frame.is_remote() {
+            0
+        } else {
+            8 * u64::from(frame.dlc())
+        };
+        let time = std::time::Duration::from_nanos((overhead + data) * self.bit_ns);
+        let now = tokio::time::Instant::now();
+        let mut busy = self.busy_until.lock().unwrap_or_else(|p| p.into_inner());
+        let until = busy.filter(|t| *t > now).unwrap_or(now) + time;
+        *busy = Some(until);
+        (until > now + MEM_BUS_BURST).then(|| until - MEM_BUS_BURST)
+    }
 }
 
 impl MemBus {
-    /// A new, empty bus.
+    /// A new, empty bus that carries frames as fast as its ports send them.
     #[must_use]
     pub fn new(name: impl Into<String>) -> Self {
         MemBus {
             tx: broadcast::channel(MEM_BUS_DEPTH).0,
             name: name.into(),
+            pace: None,
+        }
+    }
+
+    /// A new, empty bus that carries frames at most as fast as a CAN bus of `bits_per_s` would
+    /// (each frame its nominal length, without stuff bits): a sender that runs more than
+    /// [`MEM_BUS_BURST`] ahead waits in [`Port::send`]. Without it a block transfer floods the
+    /// bus as fast as the machine can copy frames, and the receivers, tasks that share the CPU
+    /// with everything else, fall behind by as much as the flood lasts, each by its own amount:
+    /// a dual-bus layer then sees the two copies of a frame further apart than two real buses
+    /// would ever carry them. A rate of 0 is taken as 1 bit/s.
+    #[must_use]
+    pub fn with_bit_rate(name: impl Into<String>, bits_per_s: u32) -> Self {
+        MemBus {
+            pace: Some(std::sync::Arc::new(Pace {
+                bit_ns: 1_000_000_000 / u64::from(bits_per_s.max(1)),
+                busy_until: std::sync::Mutex::new(None),
+            })),
+            ..MemBus::new(name)
         }
     }
     /// A port on this bus.
@@ -84,6 +139,9 @@ impl Port for MemPort {
         }
     }
     async fn send(&mut self, frame: &Frame) -> Result<(), PortError> {
+        if let Some(t) = self.bus.pace.as_ref().and_then(|p| p.book(frame)) {
+            tokio::time::sleep_until(t).await;
+        }
         // No receivers is not an error: nobody else is on the bus.
         let _ = self.bus.tx.send((self.me, *frame));
         self.counters.tx_frames();

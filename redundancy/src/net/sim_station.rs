@@ -1,7 +1,7 @@
 //! The simulated redundant station behind [`open_dual_named`](super::open_dual_named)`("sim")`,
 //! what a commissioning tool's `--bus sim` talks to (what it holds and the fault script of
 //! `"sim:faults"` are tabled in the [`net`](super) module's docs). Two in-memory buses,
-//! `sim-bus1` and `sim-bus2`; every device is on both through its own dual-bus layer, and the
+//! `sim-bus1` and `sim-bus2`, paced at [`SIM_BIT_RATE`]; every device is on both through its own dual-bus layer, and the
 //! network opened on the station attaches to both through [`DualLink`], its port to bus 1 one
 //! that the script can cut. The station runs until the network is closed; under tokio's paused
 //! clock every run is the same.
@@ -24,6 +24,9 @@ use duocan::sdo::SdoServerConfig;
 use duocan::{Duration, Instant, Node, NodeConfig, NodeId, Station};
 use tokio::sync::watch;
 
+/// The bit rate of the station's buses: frames go no faster than on a 1 Mbit/s CAN bus, so a
+/// long transfer takes the time it would on one and the devices' receivers keep up with it.
+pub const SIM_BIT_RATE: u32 = 1_000_000;
 /// The station's A/B board pairs (A, B).
 pub const SIM_PAIRS: [(u8, u8); 2] = [(0x10, 0x50), (0x11, 0x51)];
 /// The station's plain slaves.
@@ -193,7 +196,10 @@ pub(super) fn open(opts: NetOptions, script: StationScript) -> Result<Network, R
             "no tokio runtime: open the network from inside one (#[tokio::main])",
         ));
     }
-    let buses = [MemBus::new("sim-bus1"), MemBus::new("sim-bus2")];
+    let buses = [
+        MemBus::with_bit_rate("sim-bus1", SIM_BIT_RATE),
+        MemBus::with_bit_rate("sim-bus2", SIM_BIT_RATE),
+    ];
     // The network's ports first: a port hears only what is sent after it exists.
     let (port1, cut) = buses[0].plugged_port();
     let ports = (port1, buses[1].port());
