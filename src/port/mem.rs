@@ -239,3 +239,42 @@ impl Port for PluggedPort {
         self.inner.reopen().await
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// 100 frames of 8 bytes with 11-bit identifiers are 111 bits each: at 125 kbit/s (8 µs a
+    /// bit) the bus is busy 88.8 ms, and the sender may run 2 ms ahead of it; every frame is
+    /// heard, in order.
+    #[tokio::test(start_paused = true)]
+    async fn a_paced_bus_takes_the_time_its_bit_rate_gives() {
+        let bus = MemBus::with_bit_rate("paced", 125_000);
+        let mut tx = bus.port();
+        let mut rx = bus.port();
+        let start = tokio::time::Instant::now();
+        for i in 0..100u8 {
+            let f = Frame::new(crate::frame::Id::Standard(0x181), &[i; 8]).unwrap();
+            tx.send(&f).await.unwrap();
+        }
+        let took = start.elapsed();
+        let busy = std::time::Duration::from_micros(100 * 111 * 8);
+        assert!(took >= busy - MEM_BUS_BURST && took <= busy, "{took:?}");
+        for i in 0..100u8 {
+            let PortInput::Frame(f) = rx.recv().await.unwrap() else {
+                panic!("a frame")
+            };
+            assert_eq!(f.data(), [i; 8]);
+        }
+        // An unpaced bus takes no time at all.
+        let bus = MemBus::new("free");
+        let mut tx = bus.port();
+        let start = tokio::time::Instant::now();
+        for _ in 0..100 {
+            tx.send(&Frame::new(crate::frame::Id::Standard(1), &[0; 8]).unwrap())
+                .await
+                .unwrap();
+        }
+        assert_eq!(start.elapsed(), std::time::Duration::ZERO);
+    }
+}
