@@ -1,0 +1,302 @@
+//! Fastscan on the master side: find every non-configured slave, one after another, and give
+//! each a node-ID from an [`LssPlan`].
+//!
+//! # The rule
+//!
+//! A reset step (`bit_checked` 0x80) asks every non-configured slave in waiting mode to start
+//! over; if none answers, the scan is over. Otherwise the master learns the lowest identity
+//! present, part by part (vendor, product, revision, serial) and bit by bit from bit 31 down: it
+//! sends the bits known so far with the bit under test 0, and every slave whose part agrees on
+//! bits 31 to the bit under test answers. Silence means no slave has a 0 there, so the bit is 1.
+//! A confirm step with all 32 bits (`bit_checked` 0) moves the one matching slave to the next
+//! part; after the serial number it is in configuration mode, alone. The master gives it the
+//! node-ID the plan has for it (configure node-ID, store configuration if the plan says so) and
+//! switches it back to waiting, where it is no longer non-configured; then the next reset.
+//!
+//! # Timing
+//!
+//! Several slaves may answer one step, so a step that was answered ends only when no further
+//! answer came for the *settle* time ([`LssMasterConfig::with_settle`]); an unanswered step ends
+//! at the timeout. A slave costs 1 reset + 4 × 32 bit steps + 4 confirms (133 steps), then
+//! configure node-ID (and store) and the switch back: unanswered steps are exactly the one bits
+//! of its identity, each costing one timeout.
+//!
+//! # Memory
+//!
+//! The plan holds up to `N` identities with their node-IDs and a 128-bit set of free node-IDs
+//! for the others: a fixed size, whatever the number of slaves found.
+//!
+//! [`LssMasterConfig::with_settle`]: super::master::LssMasterConfig::with_settle
+
+use super::codec::{Fastscan, LssAddress, LssMode, LssRequest, LssResponse, FASTSCAN_RESET};
+use super::error::{LssError, LssService};
+use super::master::{LssMasterConfig, LssMasterEventKind, Out};
+use crate::frame::cob_id::{NodeId, NodeSet};
+use crate::frame::instant::Instant;
+use heapless::Vec;
+
+/// Which node-ID fastscan gives which slave: by identity first, otherwise the lowest free
+/// node-ID of the plan's pool.
+#[derive(Clone, Debug, Default)]
+pub struct LssPlan<const N: usize> {
+    by_identity: Vec<(LssAddress, NodeId), N>,
+    free: NodeSet,
+    store: bool,
+}
+
+impl<const N: usize> LssPlan<N> {
+    /// An empty plan: every slave found is refused ([`LssError::NoNodeId`]).
+    #[must_use]
+    pub fn new() -> Self {
+        LssPlan {
+            by_identity: Vec::new(),
+            free: NodeSet(0),
+            store: false,
+        }
+    }
+    /// The slave with identity `address` gets `node`. Returns the plan unchanged when it is
+    /// full (`N` identities) or the identity is planned already (check with [`len`](Self::len)).
+    #[must_use]
+    pub fn with_identity(mut self, address: LssAddress, node: NodeId) -> Self {
+        if self.node_of(&address).is_none() && self.by_identity.push((address, node)).is_ok() {
+            self.free.0 &= !(1u128 << node.raw());
+        }
+        self
+    }
+    /// Slaves the plan does not name get the lowest free node-ID in `nodes` (node-IDs planned by
+    /// identity are never handed out to others).
+    #[must_use]
+    pub fn with_free(mut self, nodes: impl IntoIterator<Item = NodeId>) -> Self {
+        for n in nodes {
+            if !self.by_identity.iter().any(|(_, m)| *m == n) {
+                self.free.insert(n);
+            }
+        }
+        self
+    }
+    /// Each slave also stores its configuration (store configuration after configure node-ID).
+    #[must_use]
+    pub fn with_store(mut self, store: bool) -> Self {
+        self.store = store;
+        self
+    }
+    /// Identities planned.
+    pub fn len(&self) -> usize {
+        self.by_identity.len()
+    }
+    /// True when no identity is planned.
+    pub fn is_empty(&self) -> bool {
+        self.by_identity.is_empty()
+    }
+    /// The node-ID planned for `address`.
+    pub fn node_of(&self, address: &LssAddress) -> Option<NodeId> {
+        self.by_identity
+            .iter()
+            .find(|(a, _)| a == address)
+            .map(|(_, n)| *n)
+    }
+    /// The node-ID for a slave found: its planned one, else the lowest free one (taken).
+    fn take(&mut self, address: &LssAddress) -> Option<NodeId> {
+        if let Some(n) = self.node_of(address) {
+            return Some(n);
+        }
+        let n = self.free.iter().next()?;
+        self.free.0 &= !(1u128 << n.raw());
+        Some(n)
+    }
+}
+
+#[derive(Clone, Copy, Debug)]
+enum Step {
+    Reset,
+    Bit { sub: u8, bit: u8 },
+    Confirm { sub: u8 },
+    NodeId { address: LssAddress, node: NodeId },
+    Store { address: LssAddress, node: NodeId },
+}
+
+/// A fastscan in progress.
+#[derive(Debug)]
+pub(super) struct Scan<const N: usize> {
+    plan: LssPlan<N>,
+    step: Step,
+    id: [u32; 4],
+    pub(super) deadline: Instant,
+    heard: bool,
+    assigned: u8,
+}
+
+/// What a scan step came to.
+pub(super) enum Progress {
+    Running,
+    Finished,
+}
+
+impl<const N: usize> Scan<N> {
+    pub(super) fn start(
+        now: Instant,
+        plan: LssPlan<N>,
+        cfg: &LssMasterConfig,
+        out: &mut Out,
+    ) -> Self {
+        let mut s = Scan {
+            plan,
+            step: Step::Reset,
+            id: [0; 4],
+            deadline: now,
+            heard: false,
+            assigned: 0,
+        };
+        s.send_step(now, cfg, out);
+        s
+    }
+
+    fn scan_request(&self) -> LssRequest {
+        let (id_number, bit_checked, sub, next) = match self.step {
+            Step::Bit { sub, bit } => (self.id[sub as usize], bit, sub, sub),
+            Step::Confirm { sub } => (self.id[sub as usize], 0, sub, (sub + 1) & 3),
+            _ => (0, FASTSCAN_RESET, 0, 0),
+        };
+        LssRequest::Fastscan(Fastscan {
+            id_number,
+            bit_checked,
+            sub,
+            next,
+        })
+    }
+
+    fn send_step(&mut self, now: Instant, cfg: &LssMasterConfig, out: &mut Out) {
+        let req = match self.step {
+            Step::NodeId { node, .. } => LssRequest::ConfigureNodeId(node.raw()),
+            Step::Store { .. } => LssRequest::Store,
+            _ => self.scan_request(),
+        };
+        out.send(req);
+        self.heard = false;
+        self.deadline = now.saturating_add(cfg.timeout);
+    }
+
+    /// An answer arrived. `Err` ends the scan.
+    pub(super) fn answer(
+        &mut self,
+        now: Instant,
+        r: LssResponse,
+        cfg: &LssMasterConfig,
+        out: &mut Out,
+    ) -> Result<Progress, LssError> {
+        let wrong = |service| LssError::WrongAnswer {
+            service,
+            cs: r.cs(),
+        };
+        match (self.step, r) {
+            (Step::Reset | Step::Bit { .. } | Step::Confirm { .. }, LssResponse::IdentifySlave) => {
+                // Wait for the others answering the same step: the step ends after the quiet
+                // settle time.
+                self.heard = true;
+                self.deadline = now.saturating_add(cfg.settle);
+                Ok(Progress::Running)
+            }
+            (Step::Reset | Step::Bit { .. } | Step::Confirm { .. }, _) => {
+                Err(wrong(LssService::Fastscan))
+            }
+            (Step::NodeId { address, node }, LssResponse::NodeIdConfigured { error, spec }) => {
+                if error != 0 {
+                    let service = LssService::ConfigureNodeId;
+                    return Err(LssError::Refused {
+                        service,
+                        error,
+                        spec,
+                    });
+                }
+                if self.plan.store {
+                    self.step = Step::Store { address, node };
+                    self.send_step(now, cfg, out);
+                    return Ok(Progress::Running);
+                }
+                Ok(self.assigned(now, address, node, cfg, out))
+            }
+            (Step::NodeId { .. }, _) => Err(wrong(LssService::ConfigureNodeId)),
+            (Step::Store { address, node }, LssResponse::Stored { error, spec }) => {
+                if error != 0 {
+                    let service = LssService::Store;
+                    return Err(LssError::Refused {
+                        service,
+                        error,
+                        spec,
+                    });
+                }
+                Ok(self.assigned(now, address, node, cfg, out))
+            }
+            (Step::Store { .. }, _) => Err(wrong(LssService::Store)),
+        }
+    }
+
+    fn assigned(
+        &mut self,
+        now: Instant,
+        address: LssAddress,
+        node: NodeId,
+        cfg: &LssMasterConfig,
+        out: &mut Out,
+    ) -> Progress {
+        out.send(LssRequest::SwitchGlobal(LssMode::Waiting));
+        out.event(now, LssMasterEventKind::Assigned { address, node });
+        self.assigned = self.assigned.saturating_add(1);
+        self.step = Step::Reset;
+        self.send_step(now, cfg, out);
+        Progress::Running
+    }
+
+    /// The step's deadline passed. `Err` ends the scan.
+    pub(super) fn deadline(
+        &mut self,
+        now: Instant,
+        cfg: &LssMasterConfig,
+        out: &mut Out,
+    ) -> Result<Progress, LssError> {
+        let heard = self.heard;
+        self.step = match self.step {
+            Step::Reset if !heard => {
+                let assigned = self.assigned;
+                out.event(now, LssMasterEventKind::ScanFinished { assigned });
+                return Ok(Progress::Finished);
+            }
+            Step::Reset => {
+                self.id = [0; 4];
+                Step::Bit { sub: 0, bit: 31 }
+            }
+            Step::Bit { sub, bit } => {
+                if !heard {
+                    self.id[sub as usize] |= 1 << bit;
+                }
+                match bit {
+                    0 => Step::Confirm { sub },
+                    _ => Step::Bit { sub, bit: bit - 1 },
+                }
+            }
+            Step::Confirm { sub } if !heard => return Err(LssError::ScanLost { sub }),
+            Step::Confirm { sub } if sub < 3 => Step::Bit {
+                sub: sub + 1,
+                bit: 31,
+            },
+            Step::Confirm { .. } => {
+                let address = LssAddress::from_parts(self.id);
+                out.event(now, LssMasterEventKind::Found(address));
+                let node = self
+                    .plan
+                    .take(&address)
+                    .ok_or(LssError::NoNodeId(address))?;
+                Step::NodeId { address, node }
+            }
+            Step::NodeId { .. } => return Err(LssError::Timeout(LssService::ConfigureNodeId)),
+            Step::Store { .. } => return Err(LssError::Timeout(LssService::Store)),
+        };
+        self.send_step(now, cfg, out);
+        Ok(Progress::Running)
+    }
+
+    /// Shifts the deadline back with a clock that stepped back.
+    pub(super) fn shift(&mut self, by: crate::frame::instant::Duration) {
+        self.deadline = self.deadline - by;
+    }
+}
