@@ -19,7 +19,8 @@
 //! answer came for the *settle* time ([`LssMasterConfig::with_settle`]); an unanswered step ends
 //! at the timeout. A slave costs 1 reset + 4 × 32 bit steps + 4 confirms (133 steps), then
 //! configure node-ID (and store) and the switch back: unanswered steps are exactly the one bits
-//! of its identity, each costing one timeout.
+//! of its identity, each costing one timeout. [`fastscan_cost`] works the whole cost out for a
+//! set of identities.
 //!
 //! # Memory
 //!
@@ -32,7 +33,7 @@ use super::codec::{Fastscan, LssAddress, LssMode, LssRequest, LssResponse, FASTS
 use super::error::{LssError, LssService};
 use super::master::{LssMasterConfig, LssMasterEventKind, Out};
 use crate::frame::cob_id::{NodeId, NodeSet};
-use crate::frame::instant::Instant;
+use crate::frame::instant::{Duration, Instant};
 use heapless::Vec;
 
 /// Which node-ID fastscan gives which slave: by identity first, otherwise the lowest free
@@ -296,7 +297,73 @@ impl<const N: usize> Scan<N> {
     }
 
     /// Shifts the deadline back with a clock that stepped back.
-    pub(super) fn shift(&mut self, by: crate::frame::instant::Duration) {
+    pub(super) fn shift(&mut self, by: Duration) {
         self.deadline = self.deadline - by;
     }
+}
+
+/// What a fastscan costs: see [`fastscan_cost`].
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct FastscanCost {
+    /// Request frames of the master.
+    pub requests: u32,
+    /// Answer frames of the slaves (each slave's answer counted once: over the dual-bus layer,
+    /// once per bus on the wire and once after the merge).
+    pub answers: u32,
+    /// Steps nobody answered, each ending at the timeout.
+    pub unanswered: u32,
+    /// Steps answered, each ending after the settle time.
+    pub answered: u32,
+    /// The time spent waiting: `unanswered` timeouts plus `answered` settle times. Frame times
+    /// on the wire come on top.
+    pub waiting: Duration,
+}
+
+/// What a fastscan that configures the non-configured slaves `ids` costs, worked out from the
+/// protocol alone (for planning a commissioning and for checking a scan against it): the
+/// lowest identity present is found first; a bit step is answered by each slave still in the
+/// running (its earlier parts confirmed) whose part agrees on the bits checked; the reset by
+/// every slave left; the confirmations by the slaves whose part equals the one found. `ids`
+/// must be distinct (two boards with one identity cannot be told apart by any LSS master); it
+/// is sorted in place, nothing is allocated.
+pub fn fastscan_cost(ids: &mut [LssAddress], cfg: &LssMasterConfig, store: bool) -> FastscanCost {
+    ids.sort_unstable();
+    let mut c = FastscanCost::default();
+    let step = |answers: usize, c: &mut FastscanCost| {
+        c.requests += 1;
+        c.answers += answers as u32;
+        if answers == 0 {
+            c.unanswered += 1;
+        } else {
+            c.answered += 1;
+        }
+    };
+    for i in 0..ids.len() {
+        let left = &ids[i..];
+        step(left.len(), &mut c);
+        let target = left[0].parts();
+        for sub in 0..4 {
+            let running = || {
+                left.iter()
+                    .map(LssAddress::parts)
+                    .filter(move |p| p[..sub] == target[..sub])
+            };
+            for bit in (0..32).rev() {
+                let mask = u32::MAX << bit;
+                // The bits above `bit` as found, `bit` itself 0.
+                let probe = target[sub] & (mask << 1);
+                step(running().filter(|p| p[sub] & mask == probe).count(), &mut c);
+            }
+            step(running().filter(|p| p[sub] == target[sub]).count(), &mut c);
+        }
+        // Configure node-ID (and store), each answered; the switch back to waiting, unanswered
+        // by design (no wait).
+        c.requests += 2 + u32::from(store);
+        c.answers += 1 + u32::from(store);
+    }
+    // The last reset finds nobody.
+    step(0, &mut c);
+    c.waiting = cfg.timeout.saturating_mul(u64::from(c.unanswered))
+        + cfg.settle.saturating_mul(u64::from(c.answered));
+    c
 }

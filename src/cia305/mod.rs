@@ -55,7 +55,7 @@ pub use codec::{
     LssResponse,
 };
 pub use error::{LssError, LssService};
-pub use fastscan::LssPlan;
+pub use fastscan::{fastscan_cost, FastscanCost, LssPlan};
 pub use master::{
     LssMaster, LssMasterConfig, LssMasterEvent, LssMasterEventKind, LssMasterStats, LssOutcome,
 };

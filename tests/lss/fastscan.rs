@@ -3,62 +3,24 @@
 
 use super::wire::{addr, ans, slave, Wire};
 use duocan::cia305::{
-    LssAddress, LssError, LssMaster, LssMasterConfig, LssMasterEventKind as K, LssMode, LssPlan,
-    LssService,
+    fastscan_cost, LssAddress, LssError, LssMaster, LssMasterConfig, LssMasterEventKind as K,
+    LssMode, LssPlan, LssService,
 };
 use duocan::{Duration, Instant, Machine, NodeId};
 
-/// What a fastscan costs to configure `ids` (with `store`) when every answer arrives at the
-/// instant of its request: requests, answers, microseconds. Worked out from the protocol on its
-/// own: the lowest identity is found first; a bit step is answered by the slaves still in the
-/// running whose part agrees on the bits checked; an unanswered step costs the timeout, an
-/// answered one the settle time.
+/// The model's cost as (requests, answers, µs): answers arrive at the instant of their request
+/// here, so the time is exactly the waiting.
 pub fn cost(
     ids: &[LssAddress],
     timeout: Duration,
     settle: Duration,
     store: bool,
 ) -> (u32, u32, u64) {
-    let (to, st) = (timeout.as_micros(), settle.as_micros());
-    let mut left: Vec<LssAddress> = ids.to_vec();
-    left.sort();
-    let (mut req, mut ans, mut us) = (0u32, 0u32, 0u64);
-    while !left.is_empty() {
-        // Reset: everyone answers.
-        req += 1;
-        ans += left.len() as u32;
-        us += st;
-        let target = left[0].parts();
-        for sub in 0..4 {
-            let running: Vec<[u32; 4]> = left
-                .iter()
-                .map(|a| a.parts())
-                .filter(|p| p[..sub] == target[..sub])
-                .collect();
-            for bit in (0..32).rev() {
-                let mask = u32::MAX << bit;
-                // The bits above `bit` as found, `bit` itself 0.
-                let probe = target[sub] & (mask << 1);
-                let n = running
-                    .iter()
-                    .filter(|p| p[sub] & mask == probe & mask)
-                    .count() as u32;
-                req += 1;
-                ans += n;
-                us += if n == 0 { to } else { st };
-            }
-            let n = running.iter().filter(|p| p[sub] == target[sub]).count() as u32;
-            req += 1;
-            ans += n;
-            us += st;
-        }
-        // Configure node-ID (and store), answered at once; the switch back, unanswered.
-        req += 2 + u32::from(store);
-        ans += 1 + u32::from(store);
-        left.remove(0);
-    }
-    // The last reset finds nobody.
-    (req + 1, ans, us + to)
+    let cfg = LssMasterConfig::default()
+        .with_timeout(timeout)
+        .with_settle(settle);
+    let c = fastscan_cost(&mut ids.to_vec(), &cfg, store);
+    (c.requests, c.answers, c.waiting.as_micros())
 }
 
 fn cfg() -> LssMasterConfig {
