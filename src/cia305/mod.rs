@@ -11,8 +11,10 @@
 //! | fastscan and the assignment plan | [`fastscan`] |
 //! | the master's errors | [`error`] |
 //!
-//! Both sides are sans-IO [`Machine`](crate::Machine)s: they sit next to a node or a master in a
-//! [`Composite`](crate::machine::Composite) and ignore every frame that is not theirs. Over the
+//! Both sides are sans-IO [`Machine`](crate::Machine)s: the master sits next to a node or a
+//! master in a [`Composite`](crate::machine::Composite), the slave in front of the node it gives
+//! a node-ID to ([`LssNode`](crate::node::LssNode), which builds the node when the node-ID
+//! becomes active); each ignores every frame that is not its business. Over the
 //! dual-bus layer LSS frames are frames like any other: requests go out on both buses, answers
 //! are merged, so the answer of a slave heard on one bus only still counts.
 //!

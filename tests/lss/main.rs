@@ -4,6 +4,7 @@
 
 mod fastscan;
 mod master;
+mod node;
 mod properties;
 mod slave;
 mod wire;
