@@ -69,7 +69,7 @@ proptest! {
         let mut s = slave(addr(1, 2, 3, 4), node);
         let mut now = Instant::ZERO;
         for (id, cs, rest, len, dt) in frames {
-            now = now + Duration::from_millis(dt);
+            now += Duration::from_millis(dt);
             let mut data = [0u8; 8];
             data[0] = cs;
             data[1..].copy_from_slice(&rest);
