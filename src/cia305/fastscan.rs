@@ -36,11 +36,14 @@ use crate::frame::cob_id::{NodeId, NodeSet};
 use crate::frame::instant::{Duration, Instant};
 use heapless::Vec;
 
-/// Which node-ID fastscan gives which slave: by identity first, otherwise the lowest free
-/// node-ID of the plan's pool.
+/// Which node-ID fastscan gives which slave: by identity first (an exact address, or an
+/// expected identity whose zero parts are not checked, as CiA 302-2 reads 0x1F85–0x1F88),
+/// otherwise the lowest free node-ID of the plan's pool. Each planned entry is given once: a
+/// second board matching the same expected identity gets a node-ID from the pool, if any.
 #[derive(Clone, Debug, Default)]
 pub struct LssPlan<const N: usize> {
-    by_identity: Vec<(LssAddress, NodeId), N>,
+    /// (address or pattern, node-ID, exact).
+    by_identity: Vec<(LssAddress, NodeId, bool), N>,
     free: NodeSet,
     store: bool,
 }
@@ -56,10 +59,24 @@ impl<const N: usize> LssPlan<N> {
         }
     }
     /// The slave with identity `address` gets `node`. Returns the plan unchanged when it is
-    /// full (`N` identities) or the identity is planned already (check with [`len`](Self::len)).
+    /// full (`N` entries) or the identity or node-ID is planned already (check with
+    /// [`len`](Self::len)).
     #[must_use]
-    pub fn with_identity(mut self, address: LssAddress, node: NodeId) -> Self {
-        if self.node_of(&address).is_none() && self.by_identity.push((address, node)).is_ok() {
+    pub fn with_identity(self, address: LssAddress, node: NodeId) -> Self {
+        self.with_entry(address, node, true)
+    }
+    /// The first slave whose identity agrees with `expected` on every part that is not 0 gets
+    /// `node` (a replacement board: its serial number is not known beforehand).
+    #[must_use]
+    pub fn with_expected(self, expected: LssAddress, node: NodeId) -> Self {
+        self.with_entry(expected, node, false)
+    }
+    fn with_entry(mut self, address: LssAddress, node: NodeId, exact: bool) -> Self {
+        let taken = self
+            .by_identity
+            .iter()
+            .any(|(a, n, e)| (*a == address && *e == exact) || *n == node);
+        if !taken && self.by_identity.push((address, node, exact)).is_ok() {
             self.free.0 &= !(1u128 << node.raw());
         }
         self
@@ -69,7 +86,7 @@ impl<const N: usize> LssPlan<N> {
     #[must_use]
     pub fn with_free(mut self, nodes: impl IntoIterator<Item = NodeId>) -> Self {
         for n in nodes {
-            if !self.by_identity.iter().any(|(_, m)| *m == n) {
+            if !self.by_identity.iter().any(|(_, m, _)| *m == n) {
                 self.free.insert(n);
             }
         }
@@ -81,7 +98,7 @@ impl<const N: usize> LssPlan<N> {
         self.store = store;
         self
     }
-    /// Identities planned.
+    /// Identities planned (and not given yet).
     pub fn len(&self) -> usize {
         self.by_identity.len()
     }
@@ -89,17 +106,26 @@ impl<const N: usize> LssPlan<N> {
     pub fn is_empty(&self) -> bool {
         self.by_identity.is_empty()
     }
-    /// The node-ID planned for `address`.
+    /// The node-ID planned for `address`: its exact entry, else the first expected identity it
+    /// agrees with.
     pub fn node_of(&self, address: &LssAddress) -> Option<NodeId> {
-        self.by_identity
-            .iter()
-            .find(|(a, _)| a == address)
-            .map(|(_, n)| *n)
+        self.entry(address).map(|i| self.by_identity[i].1)
     }
-    /// The node-ID for a slave found: its planned one, else the lowest free one (taken).
+    fn entry(&self, address: &LssAddress) -> Option<usize> {
+        let agrees = |p: &LssAddress| {
+            let (a, p) = (address.parts(), p.parts());
+            (0..4).all(|i| p[i] == 0 || p[i] == a[i])
+        };
+        let list = &self.by_identity;
+        list.iter()
+            .position(|(a, _, exact)| *exact && a == address)
+            .or_else(|| list.iter().position(|(p, _, exact)| !*exact && agrees(p)))
+    }
+    /// The node-ID for a slave found: its planned one (used up), else the lowest free one
+    /// (taken).
     fn take(&mut self, address: &LssAddress) -> Option<NodeId> {
-        if let Some(n) = self.node_of(address) {
-            return Some(n);
+        if let Some(i) = self.entry(address) {
+            return Some(self.by_identity.swap_remove(i).1);
         }
         let n = self.free.iter().next()?;
         self.free.0 &= !(1u128 << n.raw());

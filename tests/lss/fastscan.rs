@@ -180,3 +180,32 @@ fn an_answer_of_another_service_during_the_scan_stops_it() {
     assert_eq!(w.take_events(), [K::ScanFinished { assigned: 0 }]);
     assert_eq!((w.log.len(), w.now), (1, Instant::from_millis(10)));
 }
+
+#[test]
+fn an_expected_identity_places_the_first_board_that_agrees_and_only_once() {
+    // Two boards of vendor 0x2A product 7, serial numbers unknown beforehand; one of vendor 9.
+    let (x, y, z) = (
+        addr(0x2A, 7, 1, 0x50),
+        addr(0x2A, 7, 2, 0x10),
+        addr(9, 7, 1, 1),
+    );
+    let mut w = Wire::new(
+        LssMaster::new(cfg()),
+        vec![slave(x, 0xFF), slave(y, 0xFF), slave(z, 0xFF)],
+    );
+    let plan = LssPlan::new()
+        .with_expected(addr(0x2A, 7, 0, 0), NodeId::must(20))
+        .with_free([NodeId::must(30), NodeId::must(31)]);
+    assert_eq!(plan.node_of(&y), Some(NodeId::must(20)));
+    assert_eq!(plan.node_of(&z), None);
+    w.master.fastscan(Instant::ZERO, plan).unwrap();
+    w.run(2000);
+    let ids: Vec<_> = w
+        .slaves
+        .iter()
+        .map(|s| s.node_id().unwrap().raw())
+        .collect();
+    // Found in identity order: vendor 9 first (pool: 30), then x (rev 1: the slot, 20), then y
+    // (the slot is used: pool, 31).
+    assert_eq!(ids, [20, 31, 30]);
+}

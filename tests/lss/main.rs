@@ -2,6 +2,7 @@
 //! timeouts and wrong answers, fastscan with its exact cost, properties, and 20 slaves found on
 //! the simulated dual bus.
 
+mod codec;
 mod fastscan;
 mod master;
 mod node;
