@@ -226,16 +226,22 @@ impl<const N: usize> Scan<N> {
             (Step::Reset | Step::Bit { .. } | Step::Confirm { .. }, _) => {
                 Err(wrong(LssService::Fastscan))
             }
-            (Step::NodeId { address, node }, LssResponse::NodeIdConfigured { error, spec }) => {
+            (Step::NodeId { address, node }, LssResponse::NodeIdConfigured { error, spec })
+            | (Step::Store { address, node }, LssResponse::Stored { error, spec }) => {
+                let storing = matches!(self.step, Step::Store { .. });
                 if error != 0 {
-                    let service = LssService::ConfigureNodeId;
+                    let service = if storing {
+                        LssService::Store
+                    } else {
+                        LssService::ConfigureNodeId
+                    };
                     return Err(LssError::Refused {
                         service,
                         error,
                         spec,
                     });
                 }
-                if self.plan.store {
+                if self.plan.store && !storing {
                     self.step = Step::Store { address, node };
                     self.send_step(now, cfg, out);
                     return Ok(Progress::Running);
@@ -243,17 +249,6 @@ impl<const N: usize> Scan<N> {
                 Ok(self.assigned(now, address, node, cfg, out))
             }
             (Step::NodeId { .. }, _) => Err(wrong(LssService::ConfigureNodeId)),
-            (Step::Store { address, node }, LssResponse::Stored { error, spec }) => {
-                if error != 0 {
-                    let service = LssService::Store;
-                    return Err(LssError::Refused {
-                        service,
-                        error,
-                        spec,
-                    });
-                }
-                Ok(self.assigned(now, address, node, cfg, out))
-            }
             (Step::Store { .. }, _) => Err(wrong(LssService::Store)),
         }
     }

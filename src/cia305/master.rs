@@ -442,10 +442,10 @@ impl<const PLAN: usize> Machine for LssMaster<PLAN> {
                 self.finish(due, Ok(o));
             }
             Job::Scan(scan) => {
-                let p = scan.deadline(due, &self.cfg, &mut self.out);
-                self.scan_result(due, p);
-                // A step whose deadline is already due again (a clock jump) waits for the next
-                // call: one step per call keeps the frames in order with the answers.
+                // The next step starts now, not at the deadline: after a late call (a jump of
+                // the clock) its slaves still get the whole timeout to answer.
+                let p = scan.deadline(now, &self.cfg, &mut self.out);
+                self.scan_result(now, p);
             }
         }
     }

@@ -281,11 +281,9 @@ impl<S: ParameterStorage> LssSlave<S> {
             }
             LssRequest::SwitchSelective { part, value } if !conf => {
                 let matches = self.address.parts()[part as usize & 3] == value;
-                self.selective = if matches && part == self.selective {
-                    part + 1
-                } else {
-                    0
-                };
+                // A vendor part always starts a new sequence.
+                let next = matches && (part == self.selective || part == 0);
+                self.selective = if next { part + 1 } else { 0 };
                 if self.selective == 4 {
                     self.selective = 0;
                     self.set_mode(now, LssMode::Configuration);
@@ -302,11 +300,8 @@ impl<S: ParameterStorage> LssSlave<S> {
                     4 => a.serial >= value,
                     _ => a.serial <= value,
                 };
-                self.identify = if ok && part == self.identify {
-                    part + 1
-                } else {
-                    0
-                };
+                let next = ok && (part == self.identify || part == 0);
+                self.identify = if next { part + 1 } else { 0 };
                 if self.identify == 6 {
                     self.identify = 0;
                     self.answer(LssResponse::IdentifySlave);

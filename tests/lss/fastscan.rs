@@ -209,3 +209,22 @@ fn an_expected_identity_places_the_first_board_that_agrees_and_only_once() {
     // (the slot is used: pool, 31).
     assert_eq!(ids, [20, 31, 30]);
 }
+
+#[test]
+fn a_late_call_still_gives_the_next_step_its_whole_timeout() {
+    let mut m: LssMaster = LssMaster::new(cfg());
+    m.fastscan(Instant::ZERO, LssPlan::new().with_free([NodeId::must(1)]))
+        .unwrap();
+    let _reset = m.poll_transmit();
+    // A slave answers the reset at 1 ms; the step would end at 2 ms (settle) ...
+    m.handle_frame(Instant::from_millis(1), &ans([0x4F, 0, 0, 0, 0, 0, 0, 0]));
+    assert_eq!(m.poll_timeout(), Some(Instant::from_millis(2)));
+    // ... but the driver calls only at 50 ms: the first bit step goes out then and waits until
+    // 60 ms, not 12 ms (which would take the silence of a slave that had no time to answer).
+    m.handle_timeout(Instant::from_millis(50));
+    assert_eq!(
+        m.poll_transmit().unwrap().data(),
+        [0x51, 0, 0, 0, 0, 31, 0, 0]
+    );
+    assert_eq!(m.poll_timeout(), Some(Instant::from_millis(60)));
+}

@@ -40,7 +40,10 @@ fn switch_selective_answers_the_fourth_part_only_in_sequence() {
     assert_eq!(s.mode(), LssMode::Waiting);
     // Serial alone does not select either.
     assert!(feed(&mut s, t, &[u32_req(0x43, A[3])]).is_empty());
-    let right: Vec<Frame> = (0..4).map(|i| u32_req(0x40 + i as u8, A[i])).collect();
+    // A vendor part in the middle starts the sequence over: vendor, product, vendor, product,
+    // revision, serial selects.
+    let mut right: Vec<Frame> = vec![u32_req(0x40, A[0]), u32_req(0x41, A[1])];
+    right.extend((0..4).map(|i| u32_req(0x40 + i as u8, A[i])));
     assert_eq!(feed(&mut s, t, &right), [[0x44, 0, 0, 0, 0, 0, 0, 0]]);
     assert_eq!(s.mode(), LssMode::Configuration);
     assert_eq!(
