@@ -50,6 +50,9 @@ const _: () = {
     check::<duocan::master::ConciseError>();
     check::<duocan::master::ProgramDownloadError>();
     check::<duocan::cia302::program::FlashError>();
+    check::<duocan::cia305::LssError>();
+    check::<duocan::cia305::LssFrameError>();
+    check::<duocan::cia305::LssStoreError>();
 };
 
 #[cfg(feature = "udp")]
@@ -149,6 +152,17 @@ fn each_error_ends_a_call_in_the_question_mark() {
         kind: PdoConfigErrorKind::BadReply { len: 0 },
     });
     boxes(MirrorError::NoMapping);
+    let lss =
+        duocan::cia305::LssResponse::decode(&Frame::new(Id::Standard(0x7E4), &[0x44]).unwrap());
+    boxes(lss.unwrap_err());
+    boxes(duocan::cia305::LssError::Timeout(
+        duocan::cia305::LssService::Store,
+    ));
+    boxes(duocan::cia305::LssError::Malformed {
+        service: duocan::cia305::LssService::Fastscan,
+        error: duocan::cia305::LssFrameError::Length(1),
+    });
+    boxes(duocan::cia305::LssStoreError::Corrupt);
     boxes(MemoryStorage::<4>::new().store(&[0; 5]).unwrap_err());
     boxes(StorageError::TooLarge {
         needed: 600,

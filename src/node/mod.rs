@@ -153,11 +153,13 @@ mod config;
 mod dispatch;
 mod error_control;
 mod events;
+pub mod lss;
 mod storage;
 
 pub use events::{
     NodeEvent, NodeEventKind, NodeStats, QueueFull, StateCause, StorageAction, Writer,
 };
+pub use lss::{LssNode, LssNodeEvent};
 
 /// Everything of a node but the SDO server: dictionary, NMT, error control, SYNC, TIME, EMCY,
 /// PDO.

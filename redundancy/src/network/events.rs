@@ -129,6 +129,8 @@ pub(super) fn when(e: &StationEvent<LinkEvent, SupervisorEvent>) -> Instant {
             SupervisorEvent::Master(e) => e.at,
             SupervisorEvent::Sdo(s) => s.at,
             SupervisorEvent::NotJoined { at, .. } => *at,
+            SupervisorEvent::Addressed(b) => b.at,
+            SupervisorEvent::Lss(l) => l.at,
         },
     }
 }

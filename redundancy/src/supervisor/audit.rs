@@ -7,11 +7,12 @@
 //! [`core::fmt::Write`].
 
 use crate::link::events::{LinkEvent, LinkEventKind};
-use crate::pair::Member;
+use crate::pair::{Member, PairId};
 use crate::supervisor::flying_master::{MasterRole, MasterRoleChange};
 use crate::supervisor::pairs::RoleChange;
 use core::fmt::{self, Write};
-use duocan::Instant;
+use duocan::cia305::LssAddress;
+use duocan::{Instant, NodeId};
 use heapless::Deque;
 
 /// Records a trail holds unless chosen otherwise.
@@ -31,6 +32,38 @@ pub enum AuditEntry {
         /// Until when.
         until: Instant,
     },
+    /// A board that arrived without a node-ID was given a pair member's node-ID by LSS.
+    Addressed(BoardAddressed),
+}
+
+/// A replacement board given a pair slot's node-ID by LSS (CiA 305): it joins through the
+/// normal boot (identity check, configuration) from there.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct BoardAddressed {
+    /// When the board took the node-ID.
+    pub at: Instant,
+    /// The pair.
+    pub pair: PairId,
+    /// The slot.
+    pub member: Member,
+    /// The node-ID it was given.
+    pub node: NodeId,
+    /// The board's identity (its serial number included).
+    pub address: LssAddress,
+}
+
+impl fmt::Display for BoardAddressed {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(
+            f,
+            "{}: pair {} member {}: a board without node-ID ({}) given {} by LSS",
+            self.at,
+            self.pair.0,
+            role(Some(self.member)),
+            self.address,
+            self.node
+        )
+    }
 }
 
 impl AuditEntry {
@@ -59,6 +92,7 @@ impl AuditEntry {
             AuditEntry::Master(_) => "master",
             AuditEntry::Link(_) => "link",
             AuditEntry::Suspended { .. } => "suspend",
+            AuditEntry::Addressed(_) => "lss",
         }
     }
 }
@@ -95,6 +129,7 @@ impl fmt::Display for AuditRecord {
                 "{}: NMT commands suspended until {until}: another active master suspected",
                 self.at
             ),
+            AuditEntry::Addressed(b) => write!(f, "{b}"),
         }
     }
 }
@@ -204,6 +239,14 @@ impl<const N: usize> AuditTrail<N> {
                 AuditEntry::Suspended { until } => {
                     write!(out, "master,active,suspended,\"until {until}\"")?
                 }
+                AuditEntry::Addressed(b) => write!(
+                    out,
+                    "pair {} ({}),none,{},\"{}\"",
+                    b.pair.0,
+                    role(Some(b.member)),
+                    b.node,
+                    Quoted(&b.address)
+                )?,
             }
             writeln!(out)?;
         }

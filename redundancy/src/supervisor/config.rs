@@ -31,6 +31,10 @@ pub struct SupervisorConfig {
     /// allocated once when the supervisor is built, never grown: an event beyond it is dropped
     /// and counted.
     pub event_queue: usize,
+    /// How often the active supervisor looks for a replacement board that arrived without a
+    /// node-ID while a pair member is missing (LSS identify non-configured, then fastscan);
+    /// `None` (the default): never, no LSS frame is sent.
+    pub lss_period: Option<Duration>,
 }
 
 // Builders: the struct is `#[non_exhaustive]` (it may gain fields), so code outside the crate
@@ -66,6 +70,12 @@ impl SupervisorConfig {
         self.time_period = time_period;
         self
     }
+    /// The configuration with [`lss_period`](Self::lss_period) set: board replacement by LSS.
+    #[must_use]
+    pub fn with_lss(mut self, period: Duration) -> Self {
+        self.lss_period = Some(period);
+        self
+    }
     /// The configuration with [`event_queue`](Self::event_queue) replaced (at least 1).
     #[must_use]
     pub fn with_event_queue(mut self, capacity: usize) -> Self {
@@ -98,6 +108,7 @@ impl SupervisorConfig {
             sync_period,
             time_period: Duration::ZERO,
             event_queue: EVENT_QUEUE,
+            lss_period: None,
         }
     }
     /// With another master-capable device.

@@ -106,6 +106,10 @@ pub enum SupervisorEvent {
     Master(MasterEvent),
     /// The result of an SDO transfer the application started ([`Supervisor::sdo_mut`](super::Supervisor::sdo_mut)).
     Sdo(SdoEvent),
+    /// A board without node-ID was given a pair slot's node-ID by LSS (it joins from there).
+    Addressed(crate::supervisor::audit::BoardAddressed),
+    /// A result of the LSS master (board replacement: identify, fastscan).
+    Lss(duocan::cia305::LssMasterEvent),
     /// A pair member was refused by the master's boot process and did not join.
     NotJoined {
         /// When.

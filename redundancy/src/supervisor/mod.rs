@@ -4,8 +4,8 @@
 //! | --- | --- |
 //! | Slave-pair supervision: the pair table, joining, per-member deadlines, switch-over | [`pairs`] |
 //! | CiA 302-2 flying master: strong/weak by priority, takeover, conflict resolution | [`flying_master`] |
-//! | The audit trail of every role change, switch and toggle | [`audit`] |
-//! | [`Supervisor`] (feature `alloc`): the machine composing them with the master | `machine` |
+//! | The audit trail of every role change, switch and toggle (and board addressed by LSS) | [`audit`] |
+//! | [`Supervisor`] (feature `alloc`): the machine composing them with the master; board replacement by LSS (CiA 305): a pair member arriving without node-ID is given its slot's ([`SupervisorConfig::with_lss`]) | `machine` |
 //!
 //! The supervisor decides; the dual-bus layer below is told the outcome (which board of a pair
 //! is active) through [`LinkCommand`]s.
@@ -98,4 +98,4 @@ pub use config::{SupervisorConfig, EVENT_QUEUE};
 #[cfg(feature = "alloc")]
 pub use events::{AddPairError, JoinRefusal, SupervisorEvent, SupervisorStats};
 #[cfg(feature = "alloc")]
-pub use machine::Supervisor;
+pub use machine::{Supervisor, LSS_SLOTS};

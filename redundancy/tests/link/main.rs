@@ -8,6 +8,7 @@ mod clock_properties;
 mod ecss;
 mod lag;
 mod lag_properties;
+mod lss;
 mod merge_memory;
 mod merge_properties;
 mod plausible_properties;

@@ -5,6 +5,7 @@ mod clock;
 mod combined;
 mod flying_master;
 mod impostor;
+mod lss;
 mod master;
 mod net;
 mod on_bus;

@@ -39,6 +39,13 @@
 //! suspect member is handled like a silent one at once; the bounds are in
 //! [`pairs`](crate::supervisor::pairs#heartbeats-that-lie).
 //!
+//! A replacement board that arrives without a node-ID (LSS, CiA 305) is found by the active
+//! supervisor when it is configured to look ([`SupervisorConfig::with_lss`]): while a pair slot
+//! is vacant it asks every period whether a non-configured board is on the bus, and gives each
+//! one found by fastscan the node-ID of the vacant slot whose expected identity (0x1F85–0x1F88,
+//! zero parts unchecked) it has ([`SupervisorEvent::Addressed`], an audit record); the board
+//! resets its communication with that node-ID and joins as above (`replacement.rs`).
+//!
 //! Which pair member is active must reach the dual-bus layer (same-function merge): the
 //! supervisor's [`Machine::LinkCommand`]s are [`LinkCommand`]s, which a
 //! [`Station`](duocan::Station) on a [`DualBus`](crate::DualBus) hands to the layer after every
@@ -86,6 +93,7 @@ use crate::supervisor::flying_master::{FlyingMaster, Rank};
 use crate::supervisor::pairs::{Authority, PairSupervisor, PairsEvent};
 use alloc::collections::VecDeque;
 use core::fmt;
+use duocan::cia305::{LssMaster, LssMasterConfig};
 use duocan::frame::instant::{earliest_of, next_on_grid, shift_back, TimeWatch};
 use duocan::frame::queue::Bounded;
 use duocan::machine::{LinkRequest, Machine};
@@ -100,6 +108,9 @@ use super::events::{SupervisorEvent, SupervisorStats};
 
 mod application;
 mod reactions;
+mod replacement;
+
+pub use replacement::LSS_SLOTS;
 
 /// Flying-master frames the supervisor itself can hold.
 pub const TX_QUEUE: usize = 64;
@@ -132,6 +143,9 @@ pub struct Supervisor<D, P = Predefined> {
     stats: SupervisorStats,
     /// Notices the caller's clock stepping back, for every part (the clock contract).
     clock: TimeWatch,
+    /// Board replacement by LSS (`replacement.rs`): the LSS master and the next look.
+    lss: LssMaster<LSS_SLOTS>,
+    lss_due: Option<Instant>,
 }
 
 impl<D: ObjectDictionary, P: IdProfile> Supervisor<D, P> {
@@ -191,6 +205,8 @@ impl<D: ObjectDictionary, P: IdProfile> Supervisor<D, P> {
             planned: None,
             stats: SupervisorStats::default(),
             clock: TimeWatch::new(),
+            lss: LssMaster::new(LssMasterConfig::default()),
+            lss_due: None,
         };
         s.watch_clock(now);
         s.pump(now);
@@ -220,6 +236,7 @@ impl<D: ObjectDictionary, P: IdProfile> Supervisor<D, P> {
         self.pairs.step_back(by);
         self.fm.step_back(by);
         shift_back(&mut self.last_sync, by);
+        shift_back(&mut self.lss_due, by);
         if let Some((_, at)) = self.planned.as_mut() {
             *at = *at - by;
         }
@@ -344,6 +361,10 @@ impl<D: ObjectDictionary, P: IdProfile> Machine for Supervisor<D, P> {
 
     fn handle_frame(&mut self, now: Instant, frame: &Frame) {
         self.watch_clock(now);
+        if frame.id() == duocan::cia305::codec::SLAVE_TO_MASTER {
+            self.lss.handle_frame(now, frame);
+            return self.lss_pump(now);
+        }
         if self.fm.handle_frame(now, frame) {
             return self.pump(now);
         }
@@ -372,13 +393,18 @@ impl<D: ObjectDictionary, P: IdProfile> Machine for Supervisor<D, P> {
         self.pump(now);
         self.master.handle_timeout(now);
         self.pump(now);
+        self.lss.handle_timeout(now);
+        self.lss_tick(now);
+        self.lss_pump(now);
     }
 
     fn poll_transmit(&mut self) -> Option<Frame> {
         if let Some(f) = self.tx.pop() {
             return Some(f);
         }
-        self.master.poll_transmit()
+        self.lss
+            .poll_transmit()
+            .or_else(|| self.master.poll_transmit())
     }
 
     fn poll_timeout(&self) -> Option<Instant> {
@@ -387,6 +413,8 @@ impl<D: ObjectDictionary, P: IdProfile> Machine for Supervisor<D, P> {
             self.pairs.poll_timeout(),
             self.master.poll_timeout(),
             self.planned.map(|p| p.1),
+            self.lss.poll_timeout(),
+            self.lss_due,
         ])
     }
 
