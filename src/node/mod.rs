@@ -155,6 +155,8 @@ mod dispatch;
 mod error_control;
 mod events;
 mod safety;
+
+pub use safety::SrdoMarkError;
 mod storage;
 
 pub use events::{

@@ -7,11 +7,12 @@
 use super::{Node, NodeEvent, NodeEventKind};
 use crate::cia301::nmt::NmtState;
 use crate::cia304::gfc;
-use crate::cia304::srdo::config::SrdoConfigError;
+use crate::cia304::srdo::config::{self, SrdoConfig, SrdoConfigError};
 use crate::cia304::srdo::{SrdoEvent, SrdoOutput, SrdoSet, SrdoStatus, NODE_SRDOS};
 use crate::frame::instant::Instant;
 use crate::frame::storage::Storage;
 use crate::frame::Frame;
+use crate::od::abort::AbortCode;
 use crate::od::ObjectDictionary;
 use crate::profile::IdProfile;
 
@@ -29,6 +30,33 @@ impl<
     pub fn srdo_check(&self) -> Result<(), SrdoConfigError> {
         let mut probe: SrdoSet<NODE_SRDOS> = SrdoSet::new();
         probe.load(&self.core.od)
+    }
+    /// Gives SRDO `n` the configuration `cfg` through the node's own write path (checks
+    /// included, outside operational only), its checksum included: what a configuration tool
+    /// writes over SDO ([`config::writes`]). Then [`Node::srdo_mark_valid`].
+    pub fn configure_srdo(
+        &mut self,
+        now: Instant,
+        n: u16,
+        cfg: &SrdoConfig,
+    ) -> Result<(), AbortCode> {
+        for w in config::writes(n, cfg) {
+            self.write(now, w.index, w.sub, w.data())?;
+        }
+        Ok(())
+    }
+    /// Marks the SRDO configuration valid (0x13FE = 0xA5), after checking it as entering
+    /// operational will: the refusal says what is wrong, and nothing is written.
+    pub fn srdo_mark_valid(&mut self, now: Instant) -> Result<(), SrdoMarkError> {
+        let mut probe: SrdoSet<NODE_SRDOS> = SrdoSet::new();
+        let w = config::mark_valid();
+        // The check of 0x13FE itself is the one thing this write changes.
+        match probe.load(&self.core.od) {
+            Err(e) if e.index != config::CONFIG_VALID => return Err(SrdoMarkError::Config(e)),
+            _ => {}
+        }
+        self.write(now, w.index, w.sub, w.data())
+            .map_err(SrdoMarkError::Write)
     }
     /// What SRDO `n` (1-based) is doing; `None` beyond [`NODE_SRDOS`].
     pub fn srdo_status(&self, n: u16) -> Option<SrdoStatus> {
@@ -77,3 +105,23 @@ impl SrdoOutput for Events<'_> {
         });
     }
 }
+
+/// Why [`Node::srdo_mark_valid`] did not mark the configuration valid.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum SrdoMarkError {
+    /// The configuration does not pass its checks.
+    Config(SrdoConfigError),
+    /// The dictionary refused the write of 0x13FE (no such object, or operational).
+    Write(AbortCode),
+}
+
+impl core::fmt::Display for SrdoMarkError {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        match self {
+            SrdoMarkError::Config(e) => write!(f, "not marked valid: {e}"),
+            SrdoMarkError::Write(code) => write!(f, "0x13FE not written: {code}"),
+        }
+    }
+}
+
+impl core::error::Error for SrdoMarkError {}

@@ -19,7 +19,7 @@ fn crc_is_ccitt_with_zero_start() {
 #[test]
 fn checksum_covers_the_parameters_in_the_order_cia_304_gives() {
     let mut n = bare(P_ID);
-    configure(&mut n, 2, 50, 10, &mapping());
+    configure(&mut n, false, 50, 10, &mapping());
     let (p, m) = config::read(n.od(), 1).unwrap().unwrap();
     // direction, SCT (LE), SRVT, COB-ID 1 (LE), COB-ID 2 (LE), count, then sub + entry (LE).
     let mut bytes = vec![2, 50, 0, 10];
@@ -86,7 +86,7 @@ fn refused(n: &mut crate::common::TestNode) -> SrdoConfigError {
 
 fn booted_consumer() -> crate::common::TestNode {
     let mut n = bare(C_ID);
-    configure(&mut n, 2, SCT_MS, SRVT_MS, &mapping());
+    configure(&mut n, false, SCT_MS, SRVT_MS, &mapping());
     n.boot(Instant::ZERO);
     n
 }
@@ -225,11 +225,38 @@ fn a_self_starting_node_with_a_bad_configuration_stays_preoperational() {
     let cfg = duocan::NodeConfig::slave(node_id(C_ID)).with_auto_start(true);
     let od = duocan::od::comm::standard_dictionary(C_ID, Default::default());
     let mut n = with_config(duocan::Node::new(cfg, od));
-    configure(&mut n, 2, SCT_MS, SRVT_MS, &mapping());
+    configure(&mut n, false, SCT_MS, SRVT_MS, &mapping());
     n.set(Instant::ZERO, config::COMM, 3, 9u8).unwrap(); // voids 0x13FE
     n.boot(Instant::ZERO);
     assert_eq!(n.nmt_state(), NmtState::PreOperational);
     let refusal = std::iter::from_fn(|| n.poll_event())
         .any(|e| matches!(e.kind, K::OperationalRefused { .. }));
     assert!(refusal);
+}
+
+#[test]
+fn marking_valid_checks_first_and_writes_nothing_on_a_bad_configuration() {
+    let mut n = bare(C_ID);
+    let cfg = config::SrdoConfig::new(false, 0, SRVT_MS, NORMAL, mapping());
+    n.configure_srdo(Instant::ZERO, 1, &cfg).unwrap();
+    let e = n.srdo_mark_valid(Instant::ZERO).unwrap_err();
+    let want = duocan::node::SrdoMarkError::Config(SrdoConfigError {
+        srdo: 1,
+        index: config::COMM,
+        sub: 2,
+        problem: SrdoProblem::CycleTime,
+    });
+    assert_eq!(e, want);
+    assert!(e.to_string().contains("refresh time / SCT is 0"), "{e}");
+    assert_eq!(n.od().get_value::<u8>(config::CONFIG_VALID, 0), Ok(0));
+    // The writes a tool would make over SDO, in order, end with the checksum.
+    let cfg = config::SrdoConfig::new(false, SCT_MS, SRVT_MS, NORMAL, mapping());
+    let w: Vec<_> = config::writes(1, &cfg).collect();
+    assert_eq!(w.len(), 6 + 1 + 4 + 1 + 1);
+    let last = w.last().unwrap();
+    assert_eq!((last.index, last.sub), (config::CHECKSUMS, 1));
+    assert_eq!(
+        last.data(),
+        signature(&cfg.params, &cfg.mapping).to_le_bytes()
+    );
 }

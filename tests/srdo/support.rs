@@ -1,7 +1,7 @@
 //! A producer node and a consumer node with one SRDO each, configured as a tool would.
 
 use crate::common::{node, TestNode, Wire};
-use duocan::cia304::srdo::config::{self, signature, SrdoMapping};
+use duocan::cia304::srdo::config::{self, signature, SrdoConfig, SrdoMapping};
 use duocan::cia304::srdo::objects;
 use duocan::od::{Access, ObjectDef};
 use duocan::pdo::MapEntry;
@@ -58,20 +58,12 @@ pub fn with_config(mut n: TestNode) -> TestNode {
     n
 }
 
-/// Writes SRDO 1 (direction, times, mapping) through the node as a tool would, then its
-/// checksum and 0xA5 last. `sct_ms` is the refresh time for a producer.
-pub fn configure(n: &mut TestNode, direction: u8, sct_ms: u16, srvt_ms: u8, m: &SrdoMapping) {
-    let t = Instant::ZERO;
-    n.set(t, config::COMM, config::sub::DIRECTION, direction)
-        .unwrap();
-    n.set(t, config::COMM, config::sub::SCT, sct_ms).unwrap();
-    n.set(t, config::COMM, config::sub::SRVT, srvt_ms).unwrap();
-    n.set(t, config::MAPPING, 0, 0u8).unwrap();
-    for (k, e) in m.entries().iter().enumerate() {
-        n.set(t, config::MAPPING, k as u8 + 1, e.raw()).unwrap();
-    }
-    n.set(t, config::MAPPING, 0, m.count()).unwrap();
-    seal(n);
+/// Gives SRDO 1 its configuration through the node as a tool would, checksum included, and
+/// marks it valid. `sct_ms` is the refresh time for a producer.
+pub fn configure(n: &mut TestNode, transmit: bool, sct_ms: u16, srvt_ms: u8, m: &SrdoMapping) {
+    let cfg = SrdoConfig::new(transmit, sct_ms, srvt_ms, NORMAL, *m);
+    n.configure_srdo(Instant::ZERO, 1, &cfg).unwrap();
+    n.srdo_mark_valid(Instant::ZERO).unwrap();
 }
 
 /// Computes SRDO 1's checksum as a tool would, writes it, then marks the configuration valid.
@@ -87,9 +79,9 @@ pub fn seal(n: &mut TestNode) {
 /// started.
 pub fn pair() -> Wire {
     let mut p = bare(P_ID);
-    configure(&mut p, 1, REFRESH_MS, SRVT_MS, &mapping());
+    configure(&mut p, true, REFRESH_MS, SRVT_MS, &mapping());
     let mut c = bare(C_ID);
-    configure(&mut c, 2, SCT_MS, SRVT_MS, &mapping());
+    configure(&mut c, false, SCT_MS, SRVT_MS, &mapping());
     let mut w = Wire::new(vec![p, c]);
     w.boot_all();
     w

@@ -487,3 +487,89 @@ pub const fn invalidates(index: u16) -> bool {
 pub const fn locked_in_operational(index: u16) -> bool {
     invalidates(index) || index == CONFIG_VALID
 }
+
+/// One write of an SRDO configuration: `data()` into `index`/`sub`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct SrdoWrite {
+    /// Object.
+    pub index: u16,
+    /// Sub-index.
+    pub sub: u8,
+    bytes: [u8; 4],
+    size: u8,
+}
+
+impl SrdoWrite {
+    const fn new(index: u16, sub: u8, value: u32, size: u8) -> SrdoWrite {
+        SrdoWrite {
+            index,
+            sub,
+            bytes: value.to_le_bytes(),
+            size,
+        }
+    }
+    /// The little-endian bytes to write (1, 2 or 4).
+    pub fn data(&self) -> &[u8] {
+        &self.bytes[..self.size as usize]
+    }
+}
+
+/// Writes that give SRDO `n` this configuration, in the order a configuration tool makes
+/// them: the communication parameters, the mapping (count 0, the entries, the count), then the
+/// checksum computed here. 0x13FE is written once after all SRDOs ([`mark_valid`]).
+pub fn writes(n: u16, cfg: &SrdoConfig) -> impl Iterator<Item = SrdoWrite> + '_ {
+    let (comm, map) = (COMM + n - 1, MAPPING + n - 1);
+    let p = &cfg.params;
+    let m = &cfg.mapping;
+    let params = [
+        SrdoWrite::new(comm, sub::DIRECTION, p.direction_code() as u32, 1),
+        SrdoWrite::new(comm, sub::SCT, p.sct_ms as u32, 2),
+        SrdoWrite::new(comm, sub::SRVT, p.srvt_ms as u32, 1),
+        SrdoWrite::new(comm, sub::TRANSMISSION_TYPE, p.transmission_type as u32, 1),
+        SrdoWrite::new(comm, sub::COB_NORMAL, p.cob_normal, 4),
+        SrdoWrite::new(comm, sub::COB_INVERTED, p.cob_inverted, 4),
+        SrdoWrite::new(map, 0, 0, 1),
+    ];
+    let entries = (m.entries().iter().enumerate())
+        .map(move |(k, e)| SrdoWrite::new(map, k as u8 + 1, e.raw(), 4));
+    let tail = [
+        SrdoWrite::new(map, 0, m.count() as u32, 1),
+        SrdoWrite::new(CHECKSUMS, n as u8, signature(p, m) as u32, 2),
+    ];
+    params.into_iter().chain(entries).chain(tail)
+}
+
+/// The write that marks the whole SRDO configuration valid (0x13FE = 0xA5), last.
+#[must_use]
+pub const fn mark_valid() -> SrdoWrite {
+    SrdoWrite::new(CONFIG_VALID, 0, VALID as u32, 1)
+}
+
+impl SrdoConfig {
+    /// A configuration on the COB-IDs `normal` and `normal + 1` with transmission type 254:
+    /// a producer (`transmit`) refreshing every `sct_ms`, or a consumer with that SCT.
+    #[must_use]
+    pub const fn new(
+        transmit: bool,
+        sct_ms: u16,
+        srvt_ms: u8,
+        normal: u16,
+        mapping: SrdoMapping,
+    ) -> Self {
+        SrdoConfig {
+            params: SrdoParams {
+                direction: if transmit {
+                    SrdoDirection::Transmit
+                } else {
+                    SrdoDirection::Receive
+                },
+                sct_ms,
+                srvt_ms,
+                transmission_type: TRANSMISSION_TYPE,
+                cob_normal: normal as u32,
+                cob_inverted: normal as u32 + 1,
+            },
+            mapping,
+        }
+    }
+}
