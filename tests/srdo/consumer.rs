@@ -103,12 +103,32 @@ fn a_short_frame_trips() {
 }
 
 #[test]
-fn two_normal_frames_in_a_row_trip() {
+fn two_different_normal_frames_in_a_row_trip() {
+    let mut c = started();
+    c.handle_frame(ms(3), &normal([1, 2]));
+    assert_eq!(
+        c.handle_frame(ms(5), &normal([1, 3])),
+        trip(SrdoCause::Sequence, 5, 2)
+    );
+}
+
+#[test]
+fn a_copy_of_the_normal_frame_is_the_same_frame_and_srvt_runs_from_the_first() {
     let mut c = started();
     c.handle_frame(ms(3), &normal([1, 2]));
     assert_eq!(
         c.handle_frame(ms(5), &normal([1, 2])),
-        trip(SrdoCause::Sequence, 5, 2)
+        Some(ConsumerStep::Held)
+    );
+    assert_eq!(c.poll_timeout(), Some(ms(13)));
+    assert_eq!(c.handle_frame(ms(12), &inverted([1, 2])), deliver([1, 2]));
+    // And it does not stretch the SRVT.
+    let mut c = started();
+    c.handle_frame(ms(3), &normal([1, 2]));
+    c.handle_frame(ms(11), &normal([1, 2]));
+    assert_eq!(
+        c.handle_frame(ms(14), &inverted([1, 2])),
+        trip(SrdoCause::Validation, 13, 10)
     );
 }
 

@@ -7,9 +7,11 @@
 //! - the inverted data equal to the bitwise inverse of the normal data, byte by byte over the
 //!   SRDO's length ([`SrdoCause::NotInverted`]); both frames at least that long
 //!   ([`SrdoCause::Length`]);
-//! - no second normal frame before the inverted one ([`SrdoCause::Sequence`]); an inverted frame
-//!   with no normal frame before it is ignored (it cannot be checked), so a swapped pair ends in
-//!   [`SrdoCause::Validation`];
+//! - no second normal frame with other data before the inverted one ([`SrdoCause::Sequence`]);
+//!   the same frame again is taken as what it is, a copy (a dual-bus layer may hand a frame over
+//!   twice after a bus recovers: a copy carries nothing new, and the SRVT still runs from the
+//!   first); an inverted frame with no normal frame before it is ignored (it cannot be checked),
+//!   so a swapped pair ends in [`SrdoCause::Validation`];
 //! - a complete pair less than SCT after the previous one, the first less than SCT after `t0`
 //!   ([`SrdoCause::CycleTime`]).
 //!
@@ -41,7 +43,7 @@ pub enum SrdoCause {
     NotInverted,
     /// A frame shorter than the SRDO's data.
     Length,
-    /// A normal frame while the previous normal frame still waited for its inverse.
+    /// A normal frame with other data while the previous one still waited for its inverse.
     Sequence,
     /// A global fail-safe command (GFC) was received.
     Gfc,
@@ -204,7 +206,10 @@ impl SrdoConsumer {
             return Some(self.trip(now, SrdoCause::Length, Duration::ZERO));
         }
         if frame.id() == Id::Standard(self.normal) {
-            if let Some((t, _)) = pending {
+            if let Some((t, held)) = pending {
+                if held[..n] == data[..n] {
+                    return Some(ConsumerStep::Held);
+                }
                 return Some(self.trip(now, SrdoCause::Sequence, now - t));
             }
             let mut held = [0u8; 8];
