@@ -6,6 +6,7 @@
 mod common;
 mod config;
 mod consumer;
+mod master;
 mod nodes;
 mod properties;
 mod support;
