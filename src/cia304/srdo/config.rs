@@ -282,21 +282,9 @@ impl fmt::Display for SrdoConfigError {
 
 impl core::error::Error for SrdoConfigError {}
 
-/// CRC-16 CCITT (polynomial 0x1021, no reflection) of `bytes`, continuing from `crc`.
-#[must_use]
-pub fn crc16_ccitt(mut crc: u16, bytes: &[u8]) -> u16 {
-    for &b in bytes {
-        crc ^= (b as u16) << 8;
-        for _ in 0..8 {
-            crc = if crc & 0x8000 != 0 {
-                (crc << 1) ^ 0x1021
-            } else {
-                crc << 1
-            };
-        }
-    }
-    crc
-}
+/// CRC-16 CCITT (polynomial 0x1021, no reflection) continuing from a CRC over more bytes: the
+/// same CRC as the SDO block transfer's, so one table serves both.
+pub use crate::cia301::sdo::crc::update as crc16_ccitt;
 
 /// The checksum CiA 304 defines over one SRDO's parameters and mapping (module doc).
 #[must_use]
