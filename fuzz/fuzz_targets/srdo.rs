@@ -1,7 +1,8 @@
 //! Random frames, time steps and application calls into an SRDO consumer alone and into a
 //! consumer node (SRDO 1 on 0x101/0x102, GFC in use): no panic; a value is delivered only as
-//! the data of the last normal frame completed by its exact inverse within SRVT; nothing is
-//! delivered in the safe state; one trip per start; bounded queues; deadlines move on.
+//! the data of a normal frame paired with its exact inverse (the held half and the frame that
+//! completes it); nothing is delivered in the safe state; one trip per start; bounded queues;
+//! deadlines move on.
 #![no_main]
 
 use duocan::cia304::srdo::config::{self, signature, SrdoMapping};
@@ -57,7 +58,8 @@ fuzz_target!(|data: &[u8]| {
     let mut node = consumer_node();
     let mut now = Instant::ZERO;
     c.start(now);
-    let mut last_normal: Option<Vec<u8>> = None;
+    // The half the consumer holds, as this harness saw it: (normal?, data).
+    let mut held: Option<(bool, Vec<u8>)> = None;
     let mut tripped = false;
     for op in data.get(1..).unwrap_or(&[]).chunks(11) {
         let [kind, step, rest @ ..] = op else { break };
@@ -74,14 +76,14 @@ fuzz_target!(|data: &[u8]| {
                 if c.acknowledge(now) {
                     assert!(was, "acknowledged without a trip");
                     tripped = false;
-                    last_normal = None;
+                    held = None;
                 }
                 node.srdo_acknowledge(now, 1);
             }
             1 => {
                 c.start(now);
                 tripped = false;
-                last_normal = None;
+                held = None;
                 node.set_nmt_state(now, duocan::NmtState::Operational);
             }
             _ => {
@@ -104,18 +106,24 @@ fuzz_target!(|data: &[u8]| {
                 match c.handle_frame(now, &f) {
                     Some(ConsumerStep::Deliver(v)) => {
                         assert!(!tripped, "delivered in the safe state");
-                        assert_eq!(id, 0x102, "delivered on a normal frame");
                         let l = len as usize;
-                        assert_eq!(last_normal.as_deref(), Some(&v[..l]), "not the normal data");
-                        assert!(f.data()[..l].iter().zip(&v[..l]).all(|(a, b)| *a == !*b));
-                        last_normal = None;
+                        let (h, data) = held.take().expect("delivered without a held half");
+                        assert_ne!(h, id == 0x101, "delivered on two halves of one kind");
+                        let this = &f.data()[..l];
+                        let (n, i) = if h {
+                            (&data[..], this)
+                        } else {
+                            (this, &data[..])
+                        };
+                        assert_eq!(&v[..l], n, "not the normal data");
+                        assert!(n.iter().zip(i).all(|(a, b)| *a == !*b), "not inverse");
                     }
                     Some(ConsumerStep::Trip(_)) => {
                         assert!(!tripped, "two trips without a restart");
                         tripped = true;
                     }
-                    Some(ConsumerStep::Held) if id == 0x101 => {
-                        last_normal = Some(f.data()[..len as usize].to_vec());
+                    Some(ConsumerStep::Held) if held.is_none() => {
+                        held = Some((id == 0x101, f.data()[..len as usize].to_vec()));
                     }
                     _ => {}
                 }

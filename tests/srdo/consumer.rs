@@ -133,21 +133,34 @@ fn a_copy_of_the_normal_frame_is_the_same_frame_and_srvt_runs_from_the_first() {
 }
 
 #[test]
-fn a_swapped_pair_is_never_delivered() {
+fn a_swapped_pair_is_checked_the_same_and_delivers_the_normal_data() {
     let mut c = started();
-    // The inverse first: nothing to check it against, ignored.
+    // The inverse first (a dual-bus layer handing over halves from two buses): it waits.
     assert_eq!(
         c.handle_frame(ms(3), &inverted([1, 2])),
         Some(ConsumerStep::Held)
     );
-    // Then the normal frame waits for an inverse that already went by.
+    assert_eq!(c.poll_timeout(), Some(ms(13)));
+    assert_eq!(c.handle_frame(ms(4), &normal([1, 2])), deliver([1, 2]));
+    // Swapped and wrong is wrong; swapped and late is late.
+    let mut c = started();
+    c.handle_frame(ms(3), &inverted([1, 2]));
     assert_eq!(
-        c.handle_frame(ms(4), &normal([1, 2])),
-        Some(ConsumerStep::Held)
+        c.handle_frame(ms(4), &normal([1, 3])),
+        trip(SrdoCause::NotInverted, 4, 1)
     );
+    let mut c = started();
+    c.handle_frame(ms(3), &inverted([1, 2]));
     assert_eq!(
-        c.handle_timeout(ms(14)),
-        trip(SrdoCause::Validation, 14, 10)
+        c.handle_frame(ms(13), &normal([1, 2])),
+        trip(SrdoCause::Validation, 13, 10)
+    );
+    // Two different inverses in a row.
+    let mut c = started();
+    c.handle_frame(ms(3), &inverted([1, 2]));
+    assert_eq!(
+        c.handle_frame(ms(5), &inverted([1, 3])),
+        trip(SrdoCause::Sequence, 5, 2)
     );
 }
 

@@ -92,10 +92,10 @@ fn oracle(s: &Schedule) -> (Vec<Vec<u8>>, (u64, SrdoCause)) {
                 _ => Some((t, true)),
             }
         });
-        // When a normal frame is held at `n`: the first deadline to pass, or the next pair's
-        // first frame before it: a second normal frame, or an inverse of other data (each
-        // pair's data differs in its first byte).
-        let held = |n: u64| {
+        // When one half (`normal` or not) is held from `n`: the first deadline to pass, or the
+        // next pair's first frame before it: the same half with other data, or the other half
+        // not its inverse (each pair's data differs in its first byte).
+        let held = |n: u64, normal: bool| {
             let first = if n >= sct {
                 return (sct, SrdoCause::CycleTime);
             } else if n + s.srvt <= sct {
@@ -104,21 +104,22 @@ fn oracle(s: &Schedule) -> (Vec<Vec<u8>>, (u64, SrdoCause)) {
                 (sct, SrdoCause::CycleTime)
             };
             match next {
-                Some((m, true)) if m < first.0 => (m, SrdoCause::Sequence),
-                Some((m, false)) if m < first.0 => (m, SrdoCause::NotInverted),
+                Some((m, half)) if m < first.0 && half == normal => (m, SrdoCause::Sequence),
+                Some((m, _)) if m < first.0 => (m, SrdoCause::NotInverted),
                 _ => first,
             }
         };
         match fault {
-            Fault::Clean if t + gap < sct => {
+            // Either order: the pair completes with its second half.
+            Fault::Clean | Fault::Swap if t + gap < sct => {
                 delivered.push(data[..s.len].to_vec());
                 last_ok = t + gap;
             }
-            Fault::Clean | Fault::Stop => return (delivered, (sct, SrdoCause::CycleTime)),
-            // The inverse alone cannot be checked: ignored.
-            Fault::DropNormal => {}
-            Fault::DropInverted | Fault::Delay(_) => return (delivered, held(t)),
-            Fault::Swap => return (delivered, held(t + gap)),
+            Fault::Clean | Fault::Swap | Fault::Stop => {
+                return (delivered, (sct, SrdoCause::CycleTime))
+            }
+            Fault::DropNormal => return (delivered, held(t + gap, false)),
+            Fault::DropInverted | Fault::Delay(_) => return (delivered, held(t, true)),
             Fault::Corrupt(..) if t + gap < sct => {
                 return (delivered, (t + gap, SrdoCause::NotInverted))
             }
@@ -208,9 +209,9 @@ proptest! {
         let (values, trip, last) = run(&s);
         prop_assert_eq!(trip, Some(want_trip));
         prop_assert_eq!(&values, &want_values);
-        // Never a value that was not sent intact: each one is a clean pair's data.
+        // Never a value that was not sent intact: each one is the data of a pair sent whole.
         for v in &values {
-            let intact = s.pairs.iter().any(|(_, d, f)| matches!(f, Fault::Clean) && d[..s.len] == v[..]);
+            let intact = s.pairs.iter().any(|(_, d, f)| matches!(f, Fault::Clean | Fault::Swap) && d[..s.len] == v[..]);
             prop_assert!(intact);
         }
         // Within the stated bound: never later than SCT after the last value delivered.

@@ -2,16 +2,20 @@
 //! bitwise inverse, and a new such pair within every SCT; anything else is its safe state.
 //!
 //! **The rule.** Started (entering operational) at `t0`, the consumer expects:
-//! - a normal frame, then the inverted frame less than SRVT after it ([`SrdoCause::Validation`]
-//!   when SRVT passes first);
+//! - the two halves of a pair, normal and inverted, less than SRVT apart
+//!   ([`SrdoCause::Validation`] when SRVT passes first after the first half);
 //! - the inverted data equal to the bitwise inverse of the normal data, byte by byte over the
 //!   SRDO's length ([`SrdoCause::NotInverted`]); both frames at least that long
 //!   ([`SrdoCause::Length`]);
-//! - no second normal frame with other data before the inverted one ([`SrdoCause::Sequence`]);
-//!   the same frame again is taken as what it is, a copy (a dual-bus layer may hand a frame over
-//!   twice after a bus recovers: a copy carries nothing new, and the SRVT still runs from the
-//!   first); an inverted frame with no normal frame before it is ignored (it cannot be checked),
-//!   so a swapped pair ends in [`SrdoCause::Validation`];
+//! - no second frame of the same half with other data before the other half
+//!   ([`SrdoCause::Sequence`]); the same frame again is taken as what it is, a copy (a dual-bus
+//!   layer may hand a frame over twice after a bus recovers: a copy carries nothing new, and the
+//!   SRVT still runs from the first);
+//! - the order of the halves is not judged: the producer sends the normal frame first, but a
+//!   dual-bus layer hands over each frame from whichever bus brought it first, and while a bus
+//!   recovers the two halves of one pair can come from different buses, swapped. Either half
+//!   waits for the other; what is checked (exact inverse, within SRVT, one value per pair) is
+//!   the same either way, and the data delivered is always the normal frame's;
 //! - a complete pair less than SCT after the previous one, the first less than SCT after `t0`
 //!   ([`SrdoCause::CycleTime`]).
 //!
@@ -20,13 +24,13 @@
 //! normal data); a half pair is held and never delivered on its own.
 //!
 //! **The safe state.** Any violation gives [`ConsumerStep::Trip`] with the cause and the time
-//! measured (from the normal frame for SRVT and inversion, from the previous pair or the start
+//! measured (from the first half for SRVT and inversion, from the previous pair or the start
 //! for SCT), and the consumer then ignores the bus: CiA 304 leaves the way back to the
 //! application, and this consumer never leaves the safe state by itself. It is left by a new
 //! start (entering operational again) or by [`SrdoConsumer::acknowledge`], after which the SCT
 //! runs from the acknowledgement and only a new intact pair delivers data again.
 //!
-//! **Memory.** The held normal frame (8 bytes) and three times: nothing grows.
+//! **Memory.** The held half of a pair (8 bytes) and three times: nothing grows.
 
 use crate::frame::instant::{Duration, Instant};
 use crate::frame::{Frame, Id};
@@ -35,15 +39,15 @@ use crate::frame::{Frame, Id};
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 #[non_exhaustive]
 pub enum SrdoCause {
-    /// No inverted frame within SRVT of the normal one.
+    /// No other half within SRVT of the first half of a pair.
     Validation,
     /// No complete pair within SCT.
     CycleTime,
-    /// The inverted data is not the bitwise inverse of the normal data.
+    /// The two halves are not each other's bitwise inverse.
     NotInverted,
     /// A frame shorter than the SRDO's data.
     Length,
-    /// A normal frame with other data while the previous one still waited for its inverse.
+    /// A half with other data while the same half still waited for the other.
     Sequence,
     /// A global fail-safe command (GFC) was received.
     Gfc,
@@ -56,8 +60,8 @@ pub struct SrdoFault {
     pub cause: SrdoCause,
     /// When: the deadline for the timeouts, the frame's arrival otherwise.
     pub at: Instant,
-    /// The time measured: from the normal frame (SRVT, inversion, sequence), from the previous
-    /// pair or the start (SCT); zero for a short frame or a GFC.
+    /// The time measured: from the first half of the pair (SRVT, inversion, sequence), from
+    /// the previous pair or the start (SCT); zero for a short frame or a GFC.
     pub measured: Duration,
 }
 
@@ -78,8 +82,9 @@ enum State {
     Running {
         /// Start, acknowledgement or the previous pair: the SCT runs from here.
         since: Instant,
-        /// The normal frame waiting for its inverse.
-        pending: Option<(Instant, [u8; 8])>,
+        /// The first half of a pair waiting for the other: when, its data, true for the
+        /// normal frame.
+        pending: Option<(Instant, [u8; 8], bool)>,
     },
     Safe(SrdoFault),
 }
@@ -147,14 +152,14 @@ impl SrdoConsumer {
     pub const fn is_running(&self) -> bool {
         matches!(self.state, State::Running { .. })
     }
-    /// The next deadline: SRVT of a held normal frame or the SCT, whichever is first.
+    /// The next deadline: SRVT of a held half or the SCT, whichever is first.
     #[must_use]
     pub fn poll_timeout(&self) -> Option<Instant> {
         match self.state {
             State::Running { since, pending } => {
                 let sct = since.saturating_add(self.sct);
                 Some(match pending {
-                    Some((t, _)) => sct.min(t.saturating_add(self.srvt)),
+                    Some((t, _, _)) => sct.min(t.saturating_add(self.srvt)),
                     None => sct,
                 })
             }
@@ -177,7 +182,7 @@ impl SrdoConsumer {
             return None;
         };
         let sct = since.saturating_add(self.sct);
-        let srvt = pending.map(|(t, _)| (t, t.saturating_add(self.srvt)));
+        let srvt = pending.map(|(t, _, _)| (t, t.saturating_add(self.srvt)));
         // The earlier deadline is the one that was missed first.
         match srvt {
             Some((t, d)) if d <= sct && now >= d => {
@@ -205,38 +210,36 @@ impl SrdoConsumer {
         if data.len() < n {
             return Some(self.trip(now, SrdoCause::Length, Duration::ZERO));
         }
-        if frame.id() == Id::Standard(self.normal) {
-            if let Some((t, held)) = pending {
-                if held[..n] == data[..n] {
-                    return Some(ConsumerStep::Held);
-                }
-                return Some(self.trip(now, SrdoCause::Sequence, now - t));
-            }
-            let mut held = [0u8; 8];
-            held[..n].copy_from_slice(&data[..n]);
+        let normal = frame.id() == Id::Standard(self.normal);
+        let mut this = [0u8; 8];
+        this[..n].copy_from_slice(&data[..n]);
+        let Some((t, held, held_normal)) = pending else {
             self.state = State::Running {
                 since,
-                pending: Some((now, held)),
+                pending: Some((now, this, normal)),
             };
             return Some(ConsumerStep::Held);
-        }
-        let Some((t, held)) = pending else {
-            return Some(ConsumerStep::Held);
         };
-        if held[..n].iter().zip(&data[..n]).any(|(a, b)| !a != *b) {
+        if held_normal == normal {
+            if held[..n] == this[..n] {
+                return Some(ConsumerStep::Held);
+            }
+            return Some(self.trip(now, SrdoCause::Sequence, now - t));
+        }
+        if held[..n].iter().zip(&this[..n]).any(|(a, b)| !a != *b) {
             return Some(self.trip(now, SrdoCause::NotInverted, now - t));
         }
         self.state = State::Running {
             since: now,
             pending: None,
         };
-        Some(ConsumerStep::Deliver(held))
+        Some(ConsumerStep::Deliver(if normal { this } else { held }))
     }
     /// The caller's clock stepped back `by`.
     pub fn step_back(&mut self, by: Duration) {
         if let State::Running { since, pending } = &mut self.state {
             *since = *since - by;
-            if let Some((t, _)) = pending {
+            if let Some((t, _, _)) = pending {
                 *t = *t - by;
             }
         }
