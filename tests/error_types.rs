@@ -31,6 +31,8 @@ const _: () = {
     check::<duocan::od::storage::FileStorageError>();
     check::<SdoError>();
     check::<PdoError>();
+    check::<duocan::cia304::srdo::config::SrdoConfigError>();
+    check::<duocan::node::SrdoMarkError>();
     check::<QueueFull>();
     check::<AddressError>();
     check::<PayloadError>();

@@ -3,8 +3,10 @@
 
 use super::{NodeCore, NodeEventKind, Writer};
 use crate::cia301::heartbeat::ConsumerSetting;
+use crate::cia301::nmt::NmtState;
 use crate::cia301::pdo::{self};
 use crate::cia301::sync::SyncConfig;
+use crate::cia304::srdo::config as srdo_config;
 use crate::frame::cob_id::CobId;
 use crate::frame::instant::{Duration, Instant};
 use crate::frame::storage::Storage;
@@ -22,6 +24,11 @@ impl<
         S: Storage,
     > NodeCore<D, P, GUARDED, TPDOS, RPDOS, S>
 {
+    /// 0x1300 holds 1: the global fail-safe command is in use.
+    pub(super) fn gfc_valid(&self) -> bool {
+        self.od.get_u32(srdo_config::GFC_PARAMETER, 0) == Some(1)
+    }
+
     pub(super) fn u16_of(&self, index: u16) -> u16 {
         self.od.get_u32(index, 0).unwrap_or(0) as u16
     }
@@ -126,6 +133,10 @@ impl<
     /// Rules of communication objects that depend on other entries or on running services.
     pub(super) fn validate_comm(&self, index: u16, sub: u8, data: &[u8]) -> Result<(), AbortCode> {
         pdo::check_write(&self.od, index, sub, data)?;
+        // CiA 304: the SRDO configuration changes only outside operational.
+        if srdo_config::locked_in_operational(index) && self.state == NmtState::Operational {
+            return Err(AbortCode::DEVICE_STATE);
+        }
         let new = || {
             let mut b = [0u8; 4];
             let n = data.len().min(4);
@@ -166,6 +177,10 @@ impl<
 
     pub(super) fn on_written(&mut self, now: Instant, index: u16, sub: u8, by: Writer) {
         self.pdo_written(now, index, sub);
+        // A changed SRDO parameter, mapping or checksum voids the "configuration valid" mark.
+        if srdo_config::invalidates(index) {
+            let _ = self.od.store(srdo_config::CONFIG_VALID, 0, &[0]);
+        }
         match index {
             comm::HEARTBEAT_PRODUCER => {
                 let period = Duration::from_millis(self.u16_of(comm::HEARTBEAT_PRODUCER) as u64);

@@ -10,6 +10,8 @@ use crate::cia301::nmt::{self, NmtCommand, NmtState};
 use crate::cia301::pdo::{self, PdoEngine};
 use crate::cia301::service::{ServiceEvent, ServiceOutput};
 use crate::cia301::sync::SyncTick;
+use crate::cia304::gfc;
+use crate::cia304::srdo::{SrdoEvent, SrdoOutput};
 use crate::frame::cob_id::NodeId;
 use crate::frame::instant::{earliest_of, Duration, Instant};
 use crate::frame::queue::Bounded;
@@ -130,6 +132,7 @@ impl<
         self.boots = self.boots.wrapping_add(1);
         let from = self.state;
         self.state = NmtState::Initialising;
+        self.srdo.stop();
         self.apply_config(now);
         let boot_up = Frame::from_array(
             self.profile.heartbeat(self.id()),
@@ -164,6 +167,12 @@ impl<
         if from == to {
             return;
         }
+        // CiA 304: no operational state on an SRDO configuration that is not valid.
+        if to == NmtState::Operational {
+            if let Err(reason) = self.srdo.load(&self.od) {
+                return self.event(now, NodeEventKind::OperationalRefused { reason });
+            }
+        }
         self.state = to;
         self.event(now, NodeEventKind::StateChanged { from, to, cause });
         if cause != StateCause::Boot {
@@ -173,8 +182,10 @@ impl<
         if to == NmtState::Operational {
             let (engine, mut io) = self.pdo_io();
             engine.start(now, &mut io);
+            self.srdo.start(now, self.cfg.node_id);
         } else if from == NmtState::Operational {
             self.pdo.stop();
+            self.srdo.stop();
         }
         self.pdo_emcy(now);
     }
@@ -350,6 +361,16 @@ impl<
             }
             return;
         }
+        if self.state == NmtState::Operational {
+            let gfc = gfc::is_gfc(frame) && self.gfc_valid();
+            let mut out = node_out!(self);
+            if self.srdo.handle_frame(now, frame, &mut self.od, &mut out) {
+                return;
+            }
+            if gfc {
+                return self.srdo.gfc(now, &mut self.od, &mut out);
+            }
+        }
         let (engine, mut io) = self.pdo_io();
         if engine.handle_frame(now, frame, &mut io) {
             self.pdo_emcy(now);
@@ -418,6 +439,7 @@ impl<
         self.sync.step_back(by);
         self.time.step_back(by);
         self.pdo.step_back(by);
+        self.srdo.step_back(by);
         self.emcy.step_back(by);
         self.nodes.step_back(by);
     }
@@ -438,6 +460,7 @@ impl<
             self.sync.poll_timeout(),
             self.time.poll_timeout(),
             self.pdo.poll_timeout(),
+            self.srdo.poll_timeout(),
             // Messages wait while the state forbids EMCY: no wake-up for them.
             self.emcy
                 .poll_timeout()
@@ -464,6 +487,7 @@ impl<
                 out = io.out;
                 out.then.pdo_emcy = true;
             }
+            Timer::Srdo => self.srdo.handle_timeout(now, &mut self.od, &mut out),
             Timer::Emcy => self.emcy.handle_timeout(now, &mut out),
         }
         let then = out.then;
@@ -506,12 +530,13 @@ enum Timer {
     Sync,
     Time,
     Pdo,
+    Srdo,
     /// Last: whatever the others raised goes out in the same call.
     Emcy,
 }
 
 impl Timer {
-    const ALL: [Timer; 8] = [
+    const ALL: [Timer; 9] = [
         Timer::Heartbeat,
         Timer::HeartbeatConsumer,
         Timer::LifeGuarding,
@@ -519,6 +544,7 @@ impl Timer {
         Timer::Sync,
         Timer::Time,
         Timer::Pdo,
+        Timer::Srdo,
         Timer::Emcy,
     ];
 }
@@ -607,5 +633,18 @@ impl<P: IdProfile> ServiceOutput for NodeOut<'_, P> {
             ServiceEvent::Pdo(e) => NodeEventKind::Pdo(e),
         };
         self.events.push(NodeEvent { at, kind });
+    }
+}
+
+impl<P: IdProfile> SrdoOutput for NodeOut<'_, P> {
+    #[inline]
+    fn transmit(&mut self, frame: Frame) {
+        ServiceOutput::send(self, frame);
+    }
+    fn srdo_event(&mut self, at: Instant, e: SrdoEvent) {
+        self.events.push(NodeEvent {
+            at,
+            kind: NodeEventKind::Srdo(e),
+        });
     }
 }

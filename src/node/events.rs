@@ -5,6 +5,8 @@ use crate::cia301::emcy::EmcyMessage;
 use crate::cia301::nmt::{NmtCommand, NmtState};
 use crate::cia301::pdo::PdoEvent;
 use crate::cia301::time_stamp::TimeOfDay;
+use crate::cia304::srdo::config::SrdoConfigError;
+use crate::cia304::srdo::SrdoEvent;
 use crate::frame::cob_id::NodeId;
 use crate::frame::instant::Instant;
 use crate::frame::Id;
@@ -150,6 +152,14 @@ pub enum NodeEventKind {
     },
     /// The PDO engine reports something.
     Pdo(PdoEvent),
+    /// The SRDOs report (CiA 304): a consumer in its safe state, a GFC received, …
+    Srdo(SrdoEvent),
+    /// The node was asked to enter operational and stays where it is: its SRDO configuration
+    /// is not marked valid (0x13FE) or does not pass its checks and checksum (0x13FF).
+    OperationalRefused {
+        /// What is wrong, and where.
+        reason: SrdoConfigError,
+    },
     /// A group's parameters were stored (0x1010 `"save"`).
     ParametersStored {
         /// The group.

@@ -50,6 +50,7 @@ use crate::cia301::pdo::{self, PdoEngine, PdoError, RpdoStatus, TpdoStatus};
 use crate::cia301::sdo::{SdoServer, SdoServerConfig};
 use crate::cia301::sync::SyncService;
 use crate::cia301::time_stamp::{TimeOfDay, TimeService};
+use crate::cia304::srdo::{SrdoSet, NODE_SRDOS};
 use crate::frame::cob_id::NodeId;
 use crate::frame::instant::{earliest, Duration, Instant, TimeWatch};
 use crate::frame::queue::Bounded;
@@ -154,6 +155,9 @@ mod dispatch;
 mod error_control;
 mod events;
 pub mod lss;
+mod safety;
+
+pub use safety::SrdoMarkError;
 mod storage;
 
 pub use events::{
@@ -185,6 +189,7 @@ pub struct NodeCore<
     history_slots: u8,
     nodes: NodeTable,
     pdo: PdoEngine<TPDOS, RPDOS, S>,
+    srdo: SrdoSet<NODE_SRDOS>,
     tx: Bounded<Frame, TX_QUEUE>,
     events: Bounded<NodeEvent, EVENT_QUEUE>,
     stats: NodeStats,
@@ -292,6 +297,7 @@ impl<
                 history_slots: 0,
                 nodes: NodeTable::default(),
                 pdo: PdoEngine::new(tpdos, rpdos),
+                srdo: SrdoSet::new(),
                 tx: Bounded::new(),
                 events: Bounded::new(),
                 stats: NodeStats::default(),

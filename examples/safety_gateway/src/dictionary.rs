@@ -15,6 +15,8 @@
 //! | 0x2001 | field timeout (ms): a track circuit not reported for this long is occupied |
 //! | 0x2100 sub *k* | the railway payload TPDO *k* sends (index, sub, code, CRC) |
 //! | 0x6000 sub *k* | the mirrored code of track circuit *k* (0x55 clear, 0xAA occupied) |
+//! | 0x6001 sub *k* | its bitwise inverse, the inverted half of the SRDO |
+//! | 0x1301, 0x1381, 0x13FE, 0x13FF | SRDO 1 (CiA 304): the four codes and their inverses every [`SRDO_REFRESH_MS`] on 0x127/0x128, configuration valid, checksum |
 
 use crate::{ADDRESS, TRACKS};
 use duocan::od::{comm, DefaultValue, ObjectDef, StaticDictionary};
@@ -78,6 +80,14 @@ pub const IMAGE: u16 = index::STATE_CHANGE_IMAGES;
 pub const IMAGE_LEN: usize = def(IMAGE, 1).capacity as usize;
 /// Mirrored track-circuit codes, sub *k* = track circuit *k* (the railway object index).
 pub const TRACK_STATES: u16 = index::TRACK_CIRCUITS;
+/// Their bitwise inverses, sub *k* = track circuit *k*: the inverted half of SRDO 1.
+pub const TRACK_STATES_INVERTED: u16 = index::TRACK_CIRCUITS_INVERTED;
+/// Refresh time of SRDO 1 (ms), the default of 0x1301 sub 2.
+pub const SRDO_REFRESH_MS: u16 = unsigned(0x1301, 2) as u16;
+/// SRVT of SRDO 1 (ms), the default of 0x1301 sub 3.
+pub const SRDO_SRVT_MS: u8 = unsigned(0x1301, 3) as u8;
+/// COB-ID of SRDO 1's normal frame (0x1301 sub 5): node 20's default, 0xFF + 2 × 20.
+pub const SRDO_NORMAL: u16 = unsigned(0x1301, 5) as u16;
 
 // The EDS agrees with the railway profile and the number of mirrors.
 const _: () = {
@@ -85,6 +95,10 @@ const _: () = {
     assert!(unsigned(TRACK_STATES, 0) == TRACKS as u64);
     assert!(unsigned(IMAGE, 0) == TRACKS as u64);
     assert!(IMAGE_LEN == 6);
+    assert!(unsigned(TRACK_STATES_INVERTED, 0) == TRACKS as u64);
+    assert!(SRDO_NORMAL == 0xFF + 2 * crate::NODE_ID.raw() as u16);
+    // The inverse of the power-on code (occupied) is the power-on inverse.
+    assert!(unsigned(TRACK_STATES_INVERTED, 1) == !(unsigned(TRACK_STATES, 1) as u8) as u64);
 };
 
 /// The identity the gateway reports in 0x1018.

@@ -5,14 +5,17 @@
 //!   field bus (CAN 3)                     interlocking network, bus 1 (CAN 1) + bus 2 (CAN 2)
 //!   track-circuit board ──state changes──▶ [mirrors] ──TPDO 1..4──▶ DualBus ══▶ interlocking
 //!     CRC + 0x55/0xAA       checked,           │                        ▲
-//!                           safe side on doubt └── 0x6000 sub k ── SDO ─┘  heartbeat, NMT
+//!                           safe side on doubt ├── 0x6000 sub k ── SDO ─┘  heartbeat, NMT
+//!                                              └── SRDO 1 (0x6000 + inverse 0x6001) ──▶
 //! ```
 //!
 //! The interlocking side is the standard stack, unchanged: a [`Node`] with a static dictionary
 //! over the railway 29-bit profile, on a [`DualBus`] in active-active mode, driven by duocan's
 //! [`EmbeddedDriver`]. The field side is a third controller the gateway reads itself.
 
-use crate::dictionary::{self, Od, FIELD_TIMEOUT, IMAGE, IMAGE_LEN, TRACK_STATES};
+use crate::dictionary::{
+    self, Od, FIELD_TIMEOUT, IMAGE, IMAGE_LEN, TRACK_STATES, TRACK_STATES_INVERTED,
+};
 use crate::mirror::{self, Changes, TrackChange, Tracks, Verdict};
 use crate::{ADDRESS, MERGE_SLOTS, NODE_ID, TRACKS};
 use core::fmt;
@@ -309,6 +312,9 @@ impl<C: Can> Gateway<C> {
         // Both entries exist by construction of the tables; a failure would leave the safe
         // default (occupied) in place.
         let _ = node.write(now, TRACK_STATES, track, &[state.code()]);
+        // The inverted half of SRDO 1, written in the same call: the producer packs both at
+        // its next refresh and sends them only if they are each other's inverse.
+        let _ = node.write(now, TRACK_STATES_INVERTED, track, &[!state.code()]);
         let _ = node.write(now, IMAGE, track, &image[..IMAGE_LEN]);
     }
 

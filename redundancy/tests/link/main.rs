@@ -14,5 +14,6 @@ mod merge_properties;
 mod plausible_properties;
 mod railway;
 mod sim;
+mod srdo;
 #[path = "../common/time_line.rs"]
 mod time_line;

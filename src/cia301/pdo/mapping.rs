@@ -182,15 +182,16 @@ impl Mapping {
         bits: 0,
     };
 
-    /// A mapping of at most [`CACHED`] entries, unchecked (tests).
-    #[cfg(test)]
+    /// A mapping of at most [`CACHED`] entries (more are cut), unchecked: for tests, and for
+    /// the SRDO, whose two halves are at most eight entries each and checked by its own rules.
     pub(crate) fn with(entries: &[MapEntry]) -> Mapping {
+        let entries = &entries[..entries.len().min(CACHED)];
         let mut m = Mapping::EMPTY;
         for (slot, e) in m.entries.iter_mut().zip(entries) {
             *slot = *e;
         }
         m.count = entries.len() as u8;
-        m.bits = entries.iter().map(|e| e.bits).sum();
+        m.bits = entries.iter().fold(0u8, |a, e| a.saturating_add(e.bits));
         m
     }
 

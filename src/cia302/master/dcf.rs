@@ -24,10 +24,16 @@
 //! when it differs, becomes [`SlaveConfig::heartbeat_producer_ms`]: the master writes it
 //! after every other step, so the heartbeat starts from a configured slave.
 //!
+//! SRDO objects (CiA 304) change the order once more: writing an SRDO's parameters, mapping or
+//! checksum (0x1301–0x1340, 0x1381–0x13C0, 0x13FF) clears the slave's "configuration valid"
+//! mark (0x13FE), so when any of them is written, 0x13FE is written after everything else with
+//! the value the DCF gives, even when that equals the default.
+//!
 //! A write the slave refuses is reported per object and the others are still written
 //! ([`WriteAborts::Continue`]).
 
 use super::config::{ConfigStep, SlaveConfig, WriteAborts};
+use crate::cia304::srdo::config as srdo_config;
 use crate::eds::{AccessType, Description, SubObject};
 use crate::frame::cob_id::NodeId;
 use crate::od::comm;
@@ -153,7 +159,13 @@ impl SlaveConfig {
             .keys()
             .map(|(index, _)| pdo_comm(*index).unwrap_or(*index))
             .collect();
+        let srdo = changed
+            .keys()
+            .any(|(index, _)| srdo_config::invalidates(*index));
         for unit in units {
+            if unit == srdo_config::CONFIG_VALID {
+                continue;
+            }
             if pdo_comm(unit).is_some() {
                 pdo_block(dcf, node, unit, &changed, &mut self.steps);
                 continue;
@@ -167,6 +179,15 @@ impl SlaveConfig {
                     }
                 }
                 self.steps.push(write(*index, *sub, data.clone()));
+            }
+        }
+        let valid = dcf
+            .parameter_values()
+            .find(|e| (e.index, e.sub) == (srdo_config::CONFIG_VALID, 0));
+        if let Some(e) = valid {
+            let data = e.value_bytes(node);
+            if srdo || data != e.default_bytes(node) {
+                self.steps.push(write(srdo_config::CONFIG_VALID, 0, data));
             }
         }
         self

@@ -106,6 +106,7 @@ use own::check_slave;
 mod program;
 mod program_run;
 mod slaves;
+mod srdo;
 
 pub use boot::{BootError, BootPhase, ErrorStatus};
 pub use concise::{

@@ -4,8 +4,11 @@
 //! frames cross the mock wires at once, so instants are exact.
 #![allow(dead_code)]
 
+use duocan::cia304::srdo::config::{SrdoConfig, SrdoMapping};
+use duocan::cia304::srdo::objects as objects_srdo;
 use duocan::machine::{Composite, CompositeEvent, StationEvent};
-use duocan::od::{comm, DynamicDictionary, ObjectDictionary};
+use duocan::od::{comm, Access, DynamicDictionary, ObjectDef, ObjectDictionary, ObjectType};
+use duocan::pdo::MapEntry;
 use duocan::port::embedded::EmbeddedDriver;
 use duocan::profile::railway::safety::{objects, FieldState, TrackCircuit};
 use duocan::profile::railway::{self, DeviceAddress, Payload, RailFunction, RailwayProfile};
@@ -119,11 +122,34 @@ fn master_device() -> MasterDev {
     let consumer = (u32::from(NODE_ID.raw()) << 16) | u32::from(CONSUMER_MS);
     od.write_local(comm::HEARTBEAT_CONSUMER, 1, &consumer.to_le_bytes())
         .unwrap();
+    // The SRDO consumer side (configured by `Bench::watch_srdo`): the gateway's four codes and
+    // their inverses land in 0x6000/0x6001 of the master.
+    od.insert_all(&objects_srdo::srdo(
+        1,
+        safety_gateway::dictionary::SRDO_NORMAL,
+    ))
+    .unwrap();
+    od.insert_all(&objects_srdo::shared::<4>()).unwrap();
+    for index in [0x6000u16, 0x6001] {
+        od.insert(ObjectDef::u8(index, 0, Access::Const, TRACKS).object_type(ObjectType::Array))
+            .unwrap();
+        for k in 1..=TRACKS {
+            od.insert(
+                ObjectDef::u8(index, k, Access::Rw, 0)
+                    .mappable()
+                    .object_type(ObjectType::Array),
+            )
+            .unwrap();
+        }
+    }
     let node = Node::with_profile(NodeConfig::master(MASTER), od, profile());
+    // No lag widening: the gateway's SRDO repeats unchanged data, whose first copies on a
+    // repaired bus would look like lagging twins (see the README's safety data section).
     let cfg = DualBusConfig::with_guard_period(
         LinkMode::ActiveActive,
         duocan::Duration::from_millis(MASTER_HB_MS as u64),
     );
+    let cfg = cfg.with_max_skew_window(cfg.skew_window);
     Station::new(
         DualBus::with_classifier(cfg, profile()),
         Composite::new(
@@ -153,6 +179,8 @@ pub struct Bench {
     next: [Option<Instant>; 2],
     pub gateway_events: Vec<Event>,
     pub master_events: Vec<(Instant, MasterEvent)>,
+    /// The gateway runs (is polled) while true; false is a power loss.
+    pub gateway_on: bool,
 }
 
 impl Bench {
@@ -178,6 +206,7 @@ impl Bench {
             next: [None; 2],
             gateway_events: Vec::new(),
             master_events: Vec::new(),
+            gateway_on: true,
         };
         b.settle();
         b
@@ -185,6 +214,18 @@ impl Bench {
 
     /// Polls everyone at `now` until no frame is in flight.
     pub fn settle(&mut self) {
+        // A gateway without power: nothing polls it, and what is sent to it stays on the wire;
+        // the master alone settles in a few rounds.
+        if !self.gateway_on {
+            self.next[0] = None;
+            for _ in 0..4 {
+                self.next[1] = self.master.poll(self.now);
+                while let Some(e) = self.master.poll_event() {
+                    self.master_events.push((self.now, e));
+                }
+            }
+            return;
+        }
         for _ in 0..64 {
             self.next[0] = self.gateway.poll(self.now);
             self.next[1] = self.master.poll(self.now);
@@ -272,6 +313,31 @@ impl Bench {
 
     pub fn master_node(&mut self) -> &mut MasterNode {
         &mut self.master.device_mut().machine.a
+    }
+
+    /// The master consumes the gateway's SRDO 1 from now on (safety cycle time `sct_ms`): it
+    /// leaves operational, configures its consumer over its own write path (checksum
+    /// included), marks it valid and is operational again, its SCT running from now.
+    pub fn watch_srdo(&mut self, sct_ms: u16) {
+        let now = self.now;
+        let pairs: Vec<_> = (1..=TRACKS)
+            .map(|k| (MapEntry::new(0x6000, k, 8), MapEntry::new(0x6001, k, 8)))
+            .collect();
+        let srdo = SrdoConfig::new(
+            false,
+            sct_ms,
+            safety_gateway::dictionary::SRDO_SRVT_MS,
+            safety_gateway::dictionary::SRDO_NORMAL,
+            SrdoMapping::pairs(&pairs),
+        );
+        let node = self.master_node();
+        node.set_nmt_state(now, duocan::NmtState::PreOperational);
+        node.configure_srdo(now, 1, &srdo)
+            .expect("SRDO configuration");
+        node.srdo_mark_valid(now)
+            .expect("a valid SRDO configuration");
+        node.set_nmt_state(now, duocan::NmtState::Operational);
+        self.settle();
     }
 
     /// NMT start of the gateway by the master.

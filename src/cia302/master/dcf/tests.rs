@@ -177,3 +177,30 @@ fn a_heartbeat_set_by_the_builder_is_kept_and_the_dcf_value_written_in_order() {
     assert_eq!(cfg.heartbeat_producer_ms, Some(200));
     assert_eq!(cfg.steps, [w(0x1017, 0, &[100, 0])]);
 }
+
+#[test]
+fn srdo_configuration_valid_is_written_last_whenever_an_srdo_object_is() {
+    // 0x13FE sorts before 0x13FF, whose write clears it on the slave: it goes last, written
+    // even though 0xA5 is its default.
+    let d = dcf(&[
+        (0x1301, 2, 6, "rw", "25", Some("40")),
+        (0x13FE, 0, 5, "rw", "0xA5", Some("0xA5")),
+        (0x13FF, 1, 6, "rw", "0", Some("0x2034")),
+        (0x2000, 0, 5, "rw", "0", Some("1")),
+    ]);
+    assert_eq!(
+        steps(&d),
+        [
+            w(0x1301, 2, &[40, 0]),
+            w(0x13FF, 1, &[0x34, 0x20]),
+            w(0x2000, 0, &[1]),
+            w(0x13FE, 0, &[0xA5]),
+        ]
+    );
+    // No SRDO object written and 0x13FE at its default: nothing.
+    let d = dcf(&[
+        (0x13FE, 0, 5, "rw", "0xA5", Some("0xA5")),
+        (0x2000, 0, 5, "rw", "0", Some("1")),
+    ]);
+    assert_eq!(steps(&d), [w(0x2000, 0, &[1])]);
+}
