@@ -99,6 +99,25 @@ fn demo(out: PathBuf) -> ExitCode {
     }
 
     let ok = report(&outcome);
+    for r in &outcome.replacements {
+        let held = r.held();
+        println!(
+            "board replacement by LSS: {} {}'s slot {}: spare given {}, booted, identity checked, configured, joined as standby: {}",
+            r.rack,
+            r.label,
+            r.member,
+            r.node(),
+            if held { "yes" } else { "NO" }
+        );
+    }
+    let replaced = st
+        .happened
+        .iter()
+        .filter(|h| matches!(h.act, scenario::Act::BoardReplaced { .. }))
+        .count();
+    let ok = ok
+        && outcome.replacements.len() == replaced
+        && outcome.replacements.iter().all(|r| r.held());
     let (boards, holding) = scenario::devices::configured(&st);
     println!(
         "configuration: {holding} of {boards} boards hold their rack's DCF values (dictionaries from {})",

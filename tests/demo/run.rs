@@ -38,7 +38,7 @@ fn day() {
         "every act of the script ran"
     );
     for h in &st.happened {
-        if matches!(h.act, Act::BoardKilled { .. } | Act::BoardBack { .. }) {
+        if matches!(h.act, Act::BoardKilled { .. } | Act::BoardReplaced { .. }) {
             assert_eq!(
                 h.member,
                 Some(Member::A),
