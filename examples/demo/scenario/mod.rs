@@ -5,8 +5,9 @@
 //! (turnout and misc racks on the CANopen predefined connection set, signal and track-circuit
 //! racks on the railway 29-bit profile), A/B board pairs with point machines, signals, track
 //! circuits and level crossings, described by EDS and DCF files ([`devices`]). Route-setting
-//! commands run all day; faults are injected on a script ([`SCRIPT`]); [`analysis`] computes
-//! from the run what the demo prints and the test asserts; [`outputs`] writes the candump log, the pcap files and the SVG timeline.
+//! commands run all day; faults are injected on a script ([`SCRIPT`]), the dead board replaced by
+//! a spare without node-ID that the active master addresses by LSS ([`replacement`]);
+//! [`analysis`] computes from the run what the demo prints and the test asserts; [`outputs`] writes the candump log, the pcap files and the SVG timeline.
 
 pub mod analysis;
 pub mod board;

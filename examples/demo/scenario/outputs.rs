@@ -206,7 +206,7 @@ impl Analysis<'_> {
                             h.member.map_or("?".into(), |m| m.to_string())
                         ),
                         Act::BoardReplaced { rack, pair } if rack == i => format!(
-                            "{}: board {} back",
+                            "{}: spare without node-ID for board {}",
                             r.kind().label(pair),
                             h.member.map_or("?".into(), |m| m.to_string())
                         ),

@@ -65,20 +65,40 @@ impl Replacement {
     pub fn node(&self) -> NodeId {
         board_node(self.pair, self.member)
     }
-    /// Whether the scene went as it must: the spare given its slot's node-ID (event and audit
-    /// record), then booted with it, its identity read, joined; at the end it has that node-ID
-    /// and is the pair's standby (pre-operational) while its partner stays active.
+    /// Whether the scene went as it must: the spare heard and given its slot's node-ID (event
+    /// and audit record), then booted with it, its identity read, joined; the fastscan took
+    /// at least the protocol's waiting time, and the LSS frames on the wire were the look that
+    /// found the spare (request and answer) and exactly the fastscan's the protocol predicts;
+    /// at the end the board has that node-ID and is the pair's standby (pre-operational) while
+    /// its partner stays active.
     pub fn held(&self) -> bool {
         let addressed = self.addressed.is_some_and(|b| {
             (b.node, b.member, b.pair.0 as usize) == (self.node(), self.member, self.pair)
         });
-        let order = match (self.addressed, self.booted, self.identity_read, self.joined) {
-            (Some(a), Some(b), Some(i), Some(j)) => a.at <= b && b <= i && i <= j,
+        let order = match (
+            self.heard,
+            self.addressed,
+            self.booted,
+            self.identity_read,
+            self.joined,
+            self.scan_end,
+        ) {
+            (Some(h), Some(a), Some(b), Some(i), Some(j), Some(e)) => {
+                self.plugged <= h
+                    && h <= a.at
+                    && a.at <= b
+                    && b <= i
+                    && i <= j
+                    && a.at <= e
+                    && e - h >= self.predicted.waiting
+            }
             _ => false,
         };
+        let p = self.predicted;
         addressed
             && self.audit.is_some()
             && order
+            && self.lss_frames == (p.requests + p.answers + 2) as usize
             && self.end == (Some(self.node()), NmtState::PreOperational)
             && self.active == Some(self.member.other())
     }
