@@ -251,7 +251,7 @@ impl Analysis<'_> {
             }
             failovers.push(Failover {
                 rack: r.name(),
-                what: format!("{label}: spare given node {} by LSS", b.node),
+                what: format!("{label}: spare given {} by LSS", b.node),
                 from: plugged,
                 at: b.at,
                 bound: None,
