@@ -6,12 +6,14 @@
 //! CANopen predefined connection set, signal and track-circuit racks on the railway 29-bit
 //! profile) with A/B board pairs driving point machines, signals, track circuits and level
 //! crossings; the boards' dictionaries come from their EDS and the masters configure them from
-//! each rack's DCF (`examples/demo/devices/`). Routes are set all day while a script cuts a bus, kills an active board, kills
-//! the strong master, repairs all of it and splits a rack between the computers. The demo
+//! each rack's DCF (`examples/demo/devices/`). Routes are set all day while a script cuts a
+//! bus, kills an active board, kills the strong master, repairs all of it and splits a rack
+//! between the computers; the dead board is replaced by a spare without node-ID, which the
+//! active master finds and addresses by LSS (CiA 305) before it joins as standby. The demo
 //! prints the timeline with the reaction times measured in the run, the application messages
 //! counted end to end, and each rack's final status; it writes a candump log, pcap files and
 //! an SVG timeline into `target/demo/` (or `--out DIR`). It exits with status 1 if a message
-//! was lost or a failover missed its bound.
+//! was lost, a failover missed its bound or the spare did not join with its slot's node-ID.
 
 mod scenario;
 
@@ -99,6 +101,26 @@ fn demo(out: PathBuf) -> ExitCode {
     }
 
     let ok = report(&outcome);
+    for r in &outcome.replacements {
+        let held = r.held();
+        println!(
+            "board replacement by LSS: {} {}'s slot {}: spare found by the {} and given {}, booted, identity checked, configured, joined as standby: {}",
+            r.rack,
+            r.label,
+            r.member,
+            MASTER_NAMES[r.master],
+            r.node(),
+            if held { "yes" } else { "NO" }
+        );
+    }
+    let replaced = st
+        .happened
+        .iter()
+        .filter(|h| matches!(h.act, scenario::Act::BoardReplaced { .. }))
+        .count();
+    let ok = ok
+        && outcome.replacements.len() == replaced
+        && outcome.replacements.iter().all(|r| r.held());
     let (boards, holding) = scenario::devices::configured(&st);
     println!(
         "configuration: {holding} of {boards} boards hold their rack's DCF values (dictionaries from {})",

@@ -13,6 +13,17 @@ use duocan::NodeId;
 fn the_boards_eds_gives_the_standard_board_dictionary() {
     let d = Devices::load().unwrap();
     assert_eq!(d.board.kind, FileKind::Eds);
+    // The boards have an LSS slave (a spare arrives without node-ID), and each rack's DCF
+    // names the identity its slots expect (the boards').
+    assert!(d.board.device_info.lss_supported);
+    for dcf in &d.racks {
+        assert!(dcf.device_info.lss_supported);
+        let i = &dcf.device_info;
+        assert_eq!(
+            (i.vendor_number, i.product_number, i.revision_number),
+            (Some(0xD0CA), Some(0x10), Some(1))
+        );
+    }
     let node = 0x12;
     let identity = comm::Identity {
         device_type: 0x0001_0191,

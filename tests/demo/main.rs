@@ -6,5 +6,6 @@
 mod scenario;
 
 mod devices;
+mod replacement;
 mod report_svg;
 mod run;

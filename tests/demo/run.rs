@@ -1,7 +1,8 @@
 //! The demo's scenario (`examples/demo`) run as a test: the numbers the demo prints are
 //! computed from the run, and here they are asserted: no application message lost or doubled,
 //! every failover within its bound, one active master per rack and one running board per pair
-//! at the end; the SVG parses and has what it claims; the candump log and the pcap files read
+//! at the end; the spare that replaces the dead board is given its slot's node-ID by LSS and
+//! joins as standby (`replacement.rs`, exact times); the SVG parses and has what it claims; the candump log and the pcap files read
 //! back as the frames of the run. A run with both buses of a rack cut shows that the analysis
 //! does count losses.
 
@@ -38,7 +39,7 @@ fn day() {
         "every act of the script ran"
     );
     for h in &st.happened {
-        if matches!(h.act, Act::BoardKilled { .. } | Act::BoardBack { .. }) {
+        if matches!(h.act, Act::BoardKilled { .. } | Act::BoardReplaced { .. }) {
             assert_eq!(
                 h.member,
                 Some(Member::A),
@@ -48,6 +49,7 @@ fn day() {
     }
     let a = Analysis::new(&st);
     let o = a.outcome();
+    crate::replacement::the_spare_is_given_its_node_id_by_lss_and_joins_as_standby(&st, &o);
 
     // Application messages end to end: everything executed once, answered, delivered once.
     let t = o.total();

@@ -14,14 +14,14 @@
 
 use super::board::BoardEvent;
 use super::interlocking::IlEvent;
+use super::replacement::Replacement;
 use super::station::{board_node, master_node, MASTER_NAMES, STRONG, WEAK};
 use super::{Act, Happened, Station, CONSUMER, DETECT_CYCLE, MASTER_TIMEOUT, SILENCE_LIMIT, SYNC};
 use duocan::sim::{DeviceRef, TraceRecord, TxOutcome};
 use duocan::{Duration, Frame, Instant, NmtState};
 use duocan_redundancy::link::health::PortState;
 use duocan_redundancy::supervisor::flying_master::{MasterReason, MasterRole};
-use duocan_redundancy::supervisor::pairs::PairsEvent;
-use duocan_redundancy::{Member, NetworkEventKind as K, SupervisorEvent};
+use duocan_redundancy::{Member, NetworkEventKind as K};
 use std::collections::HashMap;
 
 /// A computer still has to be powered this long after a message is sent to be expected to
@@ -145,6 +145,8 @@ pub struct Outcome {
     pub lines: Vec<Line>,
     /// Every measured reaction.
     pub failovers: Vec<Failover>,
+    /// Boards replaced by a spare without node-ID.
+    pub replacements: Vec<Replacement>,
     /// Per rack.
     pub traffic: Vec<(&'static str, Traffic)>,
     /// Per rack.
@@ -181,10 +183,13 @@ impl Outcome {
 
 /// A frame delivered on a bus of a rack.
 #[derive(Clone, Copy, Debug)]
-struct Wire {
-    end: Instant,
-    sender: DeviceRef,
-    frame: Frame,
+pub struct Wire {
+    /// When it ended.
+    pub end: Instant,
+    /// Who sent it.
+    pub sender: DeviceRef,
+    /// The frame.
+    pub frame: Frame,
 }
 
 fn ms(d: Duration) -> String {
@@ -310,7 +315,7 @@ impl<'a> Analysis<'a> {
             .st
             .happened
             .iter()
-            .find(|h| h.act == Act::BoardBack { rack, pair } && h.member == Some(m));
+            .find(|h| h.act == Act::BoardReplaced { rack, pair } && h.member == Some(m));
         if let Some(k) = killed {
             if k.at <= t && back.is_none_or(|b| t < b.at) {
                 return false;
@@ -436,6 +441,19 @@ impl<'a> Analysis<'a> {
             .min()
     }
 
+    /// The frames of `rack` (both buses) that `keep` accepts, ending in `[from, to]`.
+    pub(super) fn frames<'s>(
+        &'s self,
+        rack: usize,
+        from: Instant,
+        to: Instant,
+        keep: impl Fn(&Wire) -> bool + 's,
+    ) -> impl Iterator<Item = &'s Wire> + 's {
+        self.wire[rack]
+            .iter()
+            .filter(move |w| w.end >= from && w.end <= to && keep(w))
+    }
+
     fn first_after(
         &self,
         rack: usize,
@@ -470,7 +488,7 @@ impl<'a> Analysis<'a> {
         gap
     }
 
-    fn net_events(
+    pub(super) fn net_events(
         &self,
         rack: usize,
         w: usize,
@@ -520,6 +538,7 @@ impl<'a> Analysis<'a> {
         let st = self.st;
         let mut lines = Vec::new();
         let mut failovers = Vec::new();
+        let mut replacements = Vec::new();
         let mut line = |at: Instant, depth: u8, text: String| lines.push(Line { at, depth, text });
         let first_route = st
             .racks
@@ -613,49 +632,13 @@ impl<'a> Analysis<'a> {
                         failovers.push(f);
                     }
                 }
-                Act::BoardBack { rack, pair } => {
-                    let r = &st.racks[rack];
-                    let Some(m) = h.member else { continue };
-                    let node = board_node(pair, m);
-                    let label = r.kind().label(pair);
-                    line(
-                        at,
-                        0,
-                        format!(
-                            "{}: {label}'s board {m} ({node}) replaced and powered on",
-                            r.name()
-                        ),
-                    );
-                    if let Some(w) = self.in_charge(rack, at) {
-                        let joined = self.net_events(rack, w).find_map(|e| match &e.kind {
-                            K::Other(duocan::machine::StationEvent::Machine(
-                                SupervisorEvent::Pairs(PairsEvent::Joined { node: n, .. }),
-                            )) if e.at >= at && *n == node => Some(e.at),
-                            _ => None,
-                        });
-                        if let Some(t) = joined {
-                            let now_active = r.active_member(&st.sim, w, pair);
-                            let role = if now_active == Some(m.other()) {
-                                format!("{label} stays on {} (non-revertive)", m.other())
-                            } else {
-                                format!("{label} active member: {now_active:?}")
-                            };
-                            line(
-                                t,
-                                1,
-                                format!(
-                                    "{m} configured and joined as standby after {}; {role}",
-                                    ms(t - at)
-                                ),
-                            );
-                            failovers.push(Failover {
-                                rack: r.name(),
-                                what: format!("{label}: board {m} joined"),
-                                from: at,
-                                at: t,
-                                bound: None,
-                            });
+                Act::BoardReplaced { rack, pair } => {
+                    if let Some((rep, ls, fs)) = self.replacement(h, rack, pair) {
+                        for l in ls {
+                            line(l.at, l.depth, l.text);
                         }
+                        failovers.extend(fs);
+                        replacements.push(rep);
                     }
                 }
                 Act::MasterKilled(dead) => {
@@ -901,6 +884,7 @@ impl<'a> Analysis<'a> {
         Outcome {
             lines,
             failovers,
+            replacements,
             traffic,
             ends,
             frames,

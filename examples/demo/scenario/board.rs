@@ -2,17 +2,25 @@
 //! with the board's firmware on top: while operational (the active member of its pair) it
 //! executes the interlocking's commands on its field device, answers them, and reports every
 //! state change of the device; while pre-operational (standby) it only listens.
+//!
+//! Every board has an LSS slave (CiA 305, [`LssNode`]) with its identity (0x1018). A board of
+//! the station has its node-ID from the start; a spare from the shelf ([`spare`]) has none
+//! (0xFF): it sends nothing but LSS answers until the active master gives it its slot's
+//! node-ID, then it boots like any board.
 
 use super::field::{Kind, Shared};
 use super::scheme::Scheme;
+use duocan::cia305::codec::UNCONFIGURED;
+use duocan::cia305::{LssAddress, LssSlave, NoMedium};
 use duocan::eds::Description;
 use duocan::frame::instant::earliest;
 use duocan::machine::Machine;
-use duocan::node::NodeEventKind;
-use duocan::od::DynamicDictionary;
+use duocan::node::{LssNode, NodeEventKind};
+use duocan::od::{comm, Access, DynamicDictionary, ObjectDef, ObjectDictionary, ObjectType};
 use duocan::{Frame, Instant, NmtState, Node, NodeConfig, NodeId, Station};
 use duocan_redundancy::{DualBus, DualBusConfig, LinkMode};
 use std::collections::VecDeque;
+use std::rc::Rc;
 
 /// What a board did.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -59,43 +67,88 @@ pub struct Board<S: Scheme> {
     events: VecDeque<BoardEvent>,
 }
 
-/// A board on both buses.
-pub type BoardDev<S> = Station<DualBus<S>, Board<S>>;
+/// Starts a board's firmware with the node-ID it has (from the start, or from LSS) at `now`.
+pub type Firmware<S> = Box<dyn FnMut(NodeId, Instant) -> Board<S>>;
 
-/// A board `id` driving `field`, its dictionary built from the boards' EDS `eds`, powered on
-/// at `now` (it sends its boot-up and waits for the master to configure it).
-pub fn board<S: Scheme>(
-    scheme: &S,
-    eds: &Description,
-    id: NodeId,
-    field: Shared,
-    guard: duocan::Duration,
-    now: Instant,
-) -> BoardDev<S> {
-    let mut od = eds.dictionary(id.raw());
-    scheme.fit_dictionary(&mut od, id);
-    let mut node = Node::with_profile(NodeConfig::slave(id), od, scheme.clone());
-    node.boot(now);
+/// A board's controller: its LSS slave, and its firmware once it has a node-ID.
+pub type Controller<S> = LssNode<Board<S>, Firmware<S>, NoMedium>;
+
+/// A board on both buses.
+pub type BoardDev<S> = Station<DualBus<S>, Controller<S>>;
+
+/// What a board is made of: the rack's scheme, the boards' EDS and the field device it drives.
+#[derive(Clone)]
+pub struct Parts<S: Scheme> {
+    /// The rack's identifier scheme.
+    pub scheme: S,
+    /// The boards' EDS: the dictionary and the identity.
+    pub eds: Rc<Description>,
+    /// The field device.
+    pub field: Shared,
+    /// The dual-bus layer's guard period.
+    pub guard: duocan::Duration,
+}
+
+/// A board `id` of the station, powered on at `now`: it sends its boot-up and waits for the
+/// master to configure it. Its serial number is the one the EDS gives it.
+pub fn board<S: Scheme>(parts: &Parts<S>, id: NodeId, now: Instant) -> BoardDev<S> {
+    let serial = parts
+        .eds
+        .dictionary(id.raw())
+        .get_u32(comm::IDENTITY, 4)
+        .unwrap_or(0);
+    device(parts, serial, id.raw(), now)
+}
+
+/// A spare board with serial number `serial`, powered on at `now` without node-ID: it waits
+/// for an LSS master to give it one.
+pub fn spare<S: Scheme>(parts: &Parts<S>, serial: u32, now: Instant) -> BoardDev<S> {
+    device(parts, serial, UNCONFIGURED, now)
+}
+
+fn device<S: Scheme>(parts: &Parts<S>, serial: u32, node: u8, now: Instant) -> BoardDev<S> {
+    let info = &parts.eds.device_info;
+    let address = LssAddress {
+        vendor: info.vendor_number.unwrap_or(0),
+        product: info.product_number.unwrap_or(0),
+        revision: info.revision_number.unwrap_or(0),
+        serial,
+    };
+    let p = parts.clone();
+    let firmware: Firmware<S> = Box::new(move |id, at| firmware(&p, id, serial, at));
     let link = DualBus::with_classifier(
-        DualBusConfig::with_guard_period(LinkMode::ActiveActive, guard),
-        scheme.clone(),
+        DualBusConfig::with_guard_period(LinkMode::ActiveActive, parts.guard),
+        parts.scheme.clone(),
     );
-    Station::new(
-        link,
-        Board {
-            node,
-            scheme: scheme.clone(),
-            id,
-            field,
-            checked: now,
-            operational: false,
-            last: None,
-            seq: 0,
-            executed: VecDeque::new(),
-            out: VecDeque::new(),
-            events: VecDeque::new(),
-        },
-    )
+    let lss = LssSlave::new(address, node);
+    Station::new(link, LssNode::new(now, lss, firmware))
+}
+
+/// The firmware of board `id` with serial number `serial`, booted at `now`.
+fn firmware<S: Scheme>(parts: &Parts<S>, id: NodeId, serial: u32, now: Instant) -> Board<S> {
+    let mut od = parts.eds.dictionary(id.raw());
+    // The board's own serial number, which its LSS slave reports too.
+    od.upsert(
+        ObjectDef::u32(comm::IDENTITY, 4, Access::Const, serial)
+            .object_type(ObjectType::Record)
+            .named("Serial number"),
+    );
+    parts.scheme.fit_dictionary(&mut od, id);
+    let mut node = Node::with_profile(NodeConfig::slave(id), od, parts.scheme.clone());
+    node.boot(now);
+    Board {
+        node,
+        scheme: parts.scheme.clone(),
+        id,
+        field: parts.field.clone(),
+        checked: now,
+        operational: false,
+        last: None,
+        seq: 0,
+        executed: VecDeque::new(),
+        out: VecDeque::new(),
+        events: VecDeque::new(),
+    }
 }
 
 impl<S: Scheme> Board<S> {

@@ -10,6 +10,7 @@
 
 use super::field::Kind;
 use super::scheme::Scheme;
+use duocan::cia305::{LssMasterEventKind, LssOutcome};
 use duocan::frame::instant::earliest;
 use duocan::machine::{BusLink, Device, PortRequest, PortStatus};
 use duocan::od::DynamicDictionary;
@@ -220,9 +221,19 @@ impl<S: Scheme> Interlocking<S> {
                 K::Port { .. } | K::PairRole(_) | K::MasterRole(_) | K::NodeBooted { .. } => {
                     self.events.push_back(IlEvent::Net(e))
                 }
-                K::Other(duocan::machine::StationEvent::Machine(SupervisorEvent::Pairs(
-                    PairsEvent::Joined { .. } | PairsEvent::Lost { .. },
-                ))) => self.events.push_back(IlEvent::Net(e)),
+                K::Other(duocan::machine::StationEvent::Machine(
+                    SupervisorEvent::Pairs(PairsEvent::Joined { .. } | PairsEvent::Lost { .. })
+                    | SupervisorEvent::Addressed(_),
+                )) => self.events.push_back(IlEvent::Net(e)),
+                // Of LSS, what a board without node-ID met: not the looks that found none.
+                K::Other(duocan::machine::StationEvent::Machine(SupervisorEvent::Lss(l)))
+                    if !matches!(
+                        l.kind,
+                        LssMasterEventKind::Done(LssOutcome::Identified(_, false))
+                    ) =>
+                {
+                    self.events.push_back(IlEvent::Net(e))
+                }
                 _ => {}
             }
         }

@@ -5,8 +5,9 @@
 //! (turnout and misc racks on the CANopen predefined connection set, signal and track-circuit
 //! racks on the railway 29-bit profile), A/B board pairs with point machines, signals, track
 //! circuits and level crossings, described by EDS and DCF files ([`devices`]). Route-setting
-//! commands run all day; faults are injected on a script ([`SCRIPT`]); [`analysis`] computes
-//! from the run what the demo prints and the test asserts; [`outputs`] writes the candump log, the pcap files and the SVG timeline.
+//! commands run all day; faults are injected on a script ([`SCRIPT`]), the dead board replaced by
+//! a spare without node-ID that the active master addresses by LSS ([`replacement`]);
+//! [`analysis`] computes from the run what the demo prints and the test asserts; [`outputs`] writes the candump log, the pcap files and the SVG timeline.
 
 pub mod analysis;
 pub mod board;
@@ -15,6 +16,7 @@ pub mod field;
 pub mod interlocking;
 pub mod outputs;
 // The timeline chart is the demo's own report, not part of the library.
+pub mod replacement;
 #[path = "../report/mod.rs"]
 #[allow(dead_code, unused_imports)]
 pub mod report;
@@ -52,6 +54,12 @@ pub const SYNC: Duration = Duration::from_millis(20);
 pub const DETECT_CYCLE: Duration = Duration::from_millis(4000);
 /// The port silence limit of the dual-bus layer (3 heartbeat periods).
 pub const SILENCE_LIMIT: Duration = Duration::from_millis(3 * 20);
+/// While a pair slot is vacant, the active master asks this often whether a board without
+/// node-ID is on the bus (LSS identify non-configured remote slave).
+pub const LSS_PERIOD: Duration = Duration::from_millis(250);
+/// The serial number of the spare board that replaces the dead one (the station's boards have
+/// 0x1000 + node-ID).
+pub const SPARE_SERIAL: u32 = 0x0002_6001;
 
 /// The racks, in printing order.
 pub const TURNOUT: usize = 0;
@@ -98,8 +106,8 @@ pub enum Act {
         /// Pair.
         pair: usize,
     },
-    /// That board is replaced and powered on.
-    BoardBack {
+    /// That board is replaced by a spare from the shelf, powered on without node-ID.
+    BoardReplaced {
         /// Rack.
         rack: usize,
         /// Pair.
@@ -148,7 +156,7 @@ pub const SCRIPT: [(Instant, Act); 8] = [
     ),
     (
         Instant::from_millis(11_300),
-        Act::BoardBack {
+        Act::BoardReplaced {
             rack: TURNOUT,
             pair: KILLED_PAIR,
         },
@@ -373,12 +381,12 @@ fn apply(
             sim.power_off(r.board_dev(pair, m));
             return Some(m);
         }
-        Act::BoardBack { rack, pair } => {
+        Act::BoardReplaced { rack, pair } => {
             let r = &racks[rack];
             let m = [Member::A, Member::B]
                 .into_iter()
                 .find(|m| !sim.is_powered(r.board_dev(pair, *m)))?;
-            r.revive_board(sim, pair, m, at);
+            r.plug_spare(sim, pair, m, SPARE_SERIAL, at);
             return Some(m);
         }
         Act::MasterKilled(w) => {

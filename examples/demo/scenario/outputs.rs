@@ -144,7 +144,7 @@ impl Analysis<'_> {
                             .filter_map(|(t, e)| matches!(e, BoardEvent::State(_)).then_some(t)),
                     );
                 }
-                times.extend(st.happened.iter().filter(|h| matches!(h.act, Act::BoardKilled { rack, pair } | Act::BoardBack { rack, pair } if rack == i && pair == p)).map(|h| h.at));
+                times.extend(st.happened.iter().filter(|h| matches!(h.act, Act::BoardKilled { rack, pair } | Act::BoardReplaced { rack, pair } if rack == i && pair == p)).map(|h| h.at));
                 times.sort();
                 let ch: Vec<_> = times
                     .into_iter()
@@ -205,8 +205,8 @@ impl Analysis<'_> {
                             r.kind().label(pair),
                             h.member.map_or("?".into(), |m| m.to_string())
                         ),
-                        Act::BoardBack { rack, pair } if rack == i => format!(
-                            "{}: board {} back",
+                        Act::BoardReplaced { rack, pair } if rack == i => format!(
+                            "{}: spare without node-ID for board {}",
                             r.kind().label(pair),
                             h.member.map_or("?".into(), |m| m.to_string())
                         ),

@@ -1,17 +1,23 @@
 //! The station: four dual-bus racks, each with its strong and weak interlocking computer and
 //! its A/B board pairs, on one simulated network.
 
-use super::board::{board, BoardDev, BoardEvent};
+use super::board::{board, spare, BoardDev, BoardEvent, Parts};
 use super::field::{Kind, Shared};
 use super::interlocking::{IlEvent, Interlocking, Route};
 use super::scheme::Scheme;
-use super::{BITRATE, BOARD_HB, CONSUMER, MASTER_HB, MASTER_TIMEOUT, SYNC};
+use super::{BITRATE, BOARD_HB, CONSUMER, LSS_PERIOD, MASTER_HB, MASTER_TIMEOUT, SYNC};
+use duocan::cia305::LssAddress;
 use duocan::eds::Description;
-use duocan::master::{objects, Master, MasterSdoClient, NetworkConfig, SlaveConfig};
+use duocan::machine::StationEvent;
+use duocan::master::{
+    objects, ExpectedIdentity, Master, MasterSdoClient, NetworkConfig, SlaveConfig,
+};
+use duocan::node::LssNodeEvent;
 use duocan::od::{comm, ObjectDictionary};
 use duocan::sdo::DEFAULT_LIMIT;
 use duocan::sim::{BusConfig, BusId, DevId, DeviceRef, SimNetwork};
 use duocan::{Id, Instant, NmtState, NodeConfig, NodeId};
+use duocan_redundancy::supervisor::audit::AuditRecord;
 use duocan_redundancy::supervisor::flying_master::MasterRole;
 use duocan_redundancy::PairSpec;
 use duocan_redundancy::{
@@ -66,7 +72,8 @@ pub struct Rack<S: Scheme> {
     buses: [BusId; 2],
     masters: [DevId<Interlocking<S>>; 2],
     boards: Vec<[DevId<BoardDev<S>>; 2]>,
-    fields: Vec<Shared>,
+    /// What each pair's boards are made of (its field device; a spare's too).
+    parts: Vec<Parts<S>>,
 }
 
 fn master<S: Scheme>(spec: &RackSpec<S>, which: usize, now: Instant) -> Interlocking<S> {
@@ -90,13 +97,26 @@ fn master<S: Scheme>(spec: &RackSpec<S>, which: usize, now: Instant) -> Interloc
     )
     .expect("the master dictionary has the CiA 302 objects");
     let other = master_node(1 - which);
+    // Board replacement by LSS: the active master looks for a board without node-ID while a
+    // pair slot is vacant.
     let cfg = SupervisorConfig::new(which as u8, id, MASTER_HB, MASTER_TIMEOUT, SYNC)
-        .with_peer(1 - which as u8, other);
+        .with_peer(1 - which as u8, other)
+        .with_lss(LSS_PERIOD);
     let mut sup = Supervisor::new(m, cfg, now);
     let mut boards = vec![];
+    // Every slot expects a board of the DCF's vendor, product and revision, any serial number
+    // (a spare has its own); the master checks it at each boot-up, and LSS gives a board
+    // without node-ID the slot whose identity it has.
+    let info = &spec.dcf.device_info;
+    let expected = ExpectedIdentity {
+        vendor: info.vendor_number.unwrap_or(0),
+        product: info.product_number.unwrap_or(0),
+        revision: info.revision_number.unwrap_or(0),
+        ..ExpectedIdentity::default()
+    };
     for p in 0..spec.pairs {
         let (a, b) = (board_node(p, Member::A), board_node(p, Member::B));
-        let cfg = |n| SlaveConfig::from_dcf(n, &spec.dcf);
+        let cfg = |n| SlaveConfig::from_dcf(n, &spec.dcf).identity(expected);
         sup.add_pair_with(now, PairSpec::new(a, b, BOARD_HB, CONSUMER), cfg(a), cfg(b))
             .expect("room for the rack's pairs");
         boards.extend([a, b]);
@@ -134,13 +154,21 @@ impl<S: Scheme> Rack<S> {
             )
             .expect("two ports")
         });
+        let parts: Vec<Parts<S>> = fields
+            .into_iter()
+            .map(|field| Parts {
+                scheme: spec.scheme.clone(),
+                eds: spec.eds.clone(),
+                field,
+                guard: BOARD_HB,
+            })
+            .collect();
         let boards = (0..spec.pairs)
             .map(|p| {
                 [Member::A, Member::B].map(|m| {
-                    let id = board_node(p, m);
                     sim.add_device(
                         format!("{} {m}", spec.kind.label(p)),
-                        board(&spec.scheme, &spec.eds, id, fields[p].clone(), BOARD_HB, t0),
+                        board(&parts[p], board_node(p, m), t0),
                         &buses,
                     )
                     .expect("two ports")
@@ -152,8 +180,12 @@ impl<S: Scheme> Rack<S> {
             buses,
             masters,
             boards,
-            fields,
+            parts,
         })
+    }
+
+    fn board(&self, pair: usize, m: Member) -> DevId<BoardDev<S>> {
+        self.boards[pair][m as usize]
     }
 }
 
@@ -183,12 +215,17 @@ pub trait RackView {
     fn status(&self, sim: &SimNetwork, which: usize, now: Instant) -> String;
     /// A master's role.
     fn role(&self, sim: &SimNetwork, which: usize) -> MasterRole;
+    /// A master's audit trail.
+    fn audit(&self, sim: &SimNetwork, which: usize) -> Vec<AuditRecord>;
     /// The active member of `pair` in a master's table.
     fn active_member(&self, sim: &SimNetwork, which: usize, pair: usize) -> Option<Member>;
     /// Commands a master has not seen answered.
     fn unanswered(&self, sim: &SimNetwork, which: usize) -> usize;
-    /// A board's NMT state (what it last was if powered off).
+    /// A board's NMT state (what it last was if powered off; initialising while it has no
+    /// node-ID).
     fn board_state(&self, sim: &SimNetwork, pair: usize, m: Member) -> NmtState;
+    /// A board's identity as its LSS slave has it, and its node-ID (`None`: not configured).
+    fn board_lss(&self, sim: &SimNetwork, pair: usize, m: Member) -> (LssAddress, Option<NodeId>);
     /// An unsigned entry (up to 32 bits) of a board's dictionary, as the board holds it now.
     fn board_value(
         &self,
@@ -202,6 +239,8 @@ pub trait RackView {
     fn board_node(&self, pair: usize, m: Member) -> NodeId;
     /// The boot-up / heartbeat identifier of `node`.
     fn heartbeat_id(&self, node: NodeId) -> Id;
+    /// The identifier of the SDO requests to `node`.
+    fn sdo_request_id(&self, node: NodeId) -> Id;
     /// The NMT identifier.
     fn nmt_id(&self) -> Id;
     /// The SYNC identifier.
@@ -210,8 +249,9 @@ pub trait RackView {
     fn field_set(&self, pair: usize, at: Instant, code: u8);
     /// Powers a master on again as a new computer (it boots and negotiates).
     fn revive_master(&self, sim: &mut SimNetwork, which: usize, now: Instant);
-    /// Powers a board on again as a new board (it boots and is configured).
-    fn revive_board(&self, sim: &mut SimNetwork, pair: usize, m: Member, now: Instant);
+    /// Puts a spare board with serial number `serial` in a board's place, powered on without
+    /// node-ID (LSS gives it one, then it boots and is configured).
+    fn plug_spare(&self, sim: &mut SimNetwork, pair: usize, m: Member, serial: u32, now: Instant);
 }
 
 impl<S: Scheme> RackView for Rack<S> {
@@ -237,16 +277,16 @@ impl<S: Scheme> RackView for Rack<S> {
         self.masters[which].erased()
     }
     fn board_dev(&self, pair: usize, m: Member) -> DeviceRef {
-        self.boards[pair][m as usize].erased()
+        self.board(pair, m).erased()
     }
     fn master_events<'a>(&self, sim: &'a SimNetwork, which: usize) -> &'a [(Instant, IlEvent)] {
         sim.events(self.masters[which])
     }
     fn board_events(&self, sim: &SimNetwork, pair: usize, m: Member) -> Vec<(Instant, BoardEvent)> {
-        sim.events(self.boards[pair][m as usize])
+        sim.events(self.board(pair, m))
             .iter()
             .filter_map(|(at, e)| match e {
-                duocan::machine::StationEvent::Machine(b) => Some((*at, *b)),
+                StationEvent::Machine(LssNodeEvent::Node(b)) => Some((*at, *b)),
                 _ => None,
             })
             .collect()
@@ -257,6 +297,10 @@ impl<S: Scheme> RackView for Rack<S> {
     fn role(&self, sim: &SimNetwork, which: usize) -> MasterRole {
         sim.device(self.masters[which]).net.role()
     }
+    fn audit(&self, sim: &SimNetwork, which: usize) -> Vec<AuditRecord> {
+        let net = &sim.device(self.masters[which]).net;
+        net.supervisor().audit().iter().copied().collect()
+    }
     fn active_member(&self, sim: &SimNetwork, which: usize, pair: usize) -> Option<Member> {
         let net = &sim.device(self.masters[which]).net;
         net.pairs().nth(pair).and_then(|(_, p)| p.active)
@@ -265,7 +309,12 @@ impl<S: Scheme> RackView for Rack<S> {
         sim.device(self.masters[which]).unanswered()
     }
     fn board_state(&self, sim: &SimNetwork, pair: usize, m: Member) -> NmtState {
-        sim.device(self.boards[pair][m as usize]).machine.state()
+        let c = &sim.device(self.board(pair, m)).machine;
+        c.node().map_or(NmtState::Initialising, |b| b.state())
+    }
+    fn board_lss(&self, sim: &SimNetwork, pair: usize, m: Member) -> (LssAddress, Option<NodeId>) {
+        let lss = sim.device(self.board(pair, m)).machine.lss();
+        (lss.address(), lss.node_id())
     }
     fn board_value(
         &self,
@@ -275,16 +324,17 @@ impl<S: Scheme> RackView for Rack<S> {
         index: u16,
         sub: u8,
     ) -> Option<u32> {
-        sim.device(self.boards[pair][m as usize])
-            .machine
-            .od()
-            .get_u32(index, sub)
+        let c = &sim.device(self.board(pair, m)).machine;
+        c.node()?.od().get_u32(index, sub)
     }
     fn board_node(&self, pair: usize, m: Member) -> NodeId {
         board_node(pair, m)
     }
     fn heartbeat_id(&self, node: NodeId) -> Id {
         self.spec.scheme.heartbeat(node)
+    }
+    fn sdo_request_id(&self, node: NodeId) -> Id {
+        (self.spec.scheme.channels())(node).request
     }
     fn nmt_id(&self) -> Id {
         self.spec.scheme.nmt()
@@ -293,22 +343,14 @@ impl<S: Scheme> RackView for Rack<S> {
         self.spec.scheme.sync_id()
     }
     fn field_set(&self, pair: usize, at: Instant, code: u8) {
-        self.fields[pair].borrow_mut().set(at, code);
+        self.parts[pair].field.borrow_mut().set(at, code);
     }
     fn revive_master(&self, sim: &mut SimNetwork, which: usize, now: Instant) {
         let dev = master(&self.spec, which, now);
         sim.replace(self.masters[which], dev).expect("same ports");
     }
-    fn revive_board(&self, sim: &mut SimNetwork, pair: usize, m: Member, now: Instant) {
-        let dev = board(
-            &self.spec.scheme,
-            &self.spec.eds,
-            board_node(pair, m),
-            self.fields[pair].clone(),
-            BOARD_HB,
-            now,
-        );
-        sim.replace(self.boards[pair][m as usize], dev)
-            .expect("same ports");
+    fn plug_spare(&self, sim: &mut SimNetwork, pair: usize, m: Member, serial: u32, now: Instant) {
+        let dev = spare(&self.parts[pair], serial, now);
+        sim.replace(self.board(pair, m), dev).expect("same ports");
     }
 }
