@@ -93,6 +93,8 @@ enum Command {
     Nmt(cmd::nmt::Args),
     /// Find the nodes on the network and print a table
     Scan(cmd::scan::Args),
+    /// Layer setting services (CiA 305): give devices a node-ID and a bit rate by identity
+    Lss(cmd::lss::Args),
     /// A live view of the network (plain lines when not on a terminal)
     Monitor(cmd::monitor::Args),
     /// Decode a candump log, a pcap, or the live bus into CANopen-aware lines
@@ -136,6 +138,7 @@ fn main() -> ExitCode {
             Command::Sdo(c) => cmd::sdo::run(&g, c).await,
             Command::Nmt(a) => cmd::nmt::run(&g, a).await,
             Command::Scan(a) => cmd::scan::run(&g, a).await,
+            Command::Lss(a) => cmd::lss::run(&g, a).await,
             Command::Monitor(a) => cmd::monitor::run(&g, a).await,
             Command::Dump(a) => cmd::dump::run(&g, a).await,
             Command::Record(a) => cmd::record::run(&g, a).await,

@@ -90,6 +90,7 @@ mod door;
 mod error;
 mod events;
 mod link;
+mod lss;
 mod named;
 mod pdo;
 mod program;
@@ -99,9 +100,11 @@ mod sdo_stream;
 mod sim;
 mod value;
 
+pub use door::LSS_PLAN;
 pub use error::{Awaited, NetError};
 pub use events::{Events, NetEvent};
 pub use link::{NetLink, NetPorts, PortView};
+pub use lss::{FastscanReport, NetLss};
 pub use pdo::{PdoMap, PdoValue, PdoValues, PdoVariable, RemotePdo, MAX_LEARNED};
 pub use remote::RemoteNode;
 pub use sdo::RemoteSdo;
@@ -111,6 +114,7 @@ pub use value::AnyValue;
 
 use crate::cia301::nmt::{NmtCommand, NmtTarget};
 use crate::cia301::sdo::{SdoClient, SdoOptions};
+use crate::cia305::LssMasterConfig;
 use crate::eds::Description;
 use crate::frame::cob_id::NodeId;
 use crate::frame::instant::{Duration, Instant};
@@ -146,6 +150,8 @@ pub struct NetOptions {
     /// [`Recorder`](crate::capture::recorder::Recorder) writes them to a candump log or a pcap;
     /// a tool decodes them live). `None`: no tap.
     pub tap: Option<Arc<dyn crate::capture::recorder::Tap>>,
+    /// The LSS master's answer timeout and fastscan settle time ([`Network::lss`]).
+    pub lss: LssMasterConfig,
 }
 
 impl core::fmt::Debug for NetOptions {
@@ -154,6 +160,7 @@ impl core::fmt::Debug for NetOptions {
             .field("sdo", &self.sdo)
             .field("listen_only", &self.listen_only)
             .field("tap", &self.tap.is_some())
+            .field("lss", &self.lss)
             .finish()
     }
 }
@@ -164,6 +171,7 @@ impl Default for NetOptions {
             sdo: SdoOptions::default().with_timeout(Duration::from_millis(1000)),
             listen_only: false,
             tap: None,
+            lss: LssMasterConfig::default(),
         }
     }
 }
@@ -186,6 +194,12 @@ impl NetOptions {
     #[must_use]
     pub fn with_listen_only(mut self, on: bool) -> Self {
         self.listen_only = on;
+        self
+    }
+    /// The options with the LSS master's timeout and settle time.
+    #[must_use]
+    pub fn with_lss(mut self, lss: LssMasterConfig) -> Self {
+        self.lss = lss;
         self
     }
     /// The options with `tap` told of every frame each port receives and sends.
@@ -211,6 +225,8 @@ struct Shared {
     per_node: Vec<Mutex<()>>,
     /// One permit per client session.
     sessions: Semaphore,
+    /// LSS requests take turns (LSS has no addresses: one runs at a time).
+    lss_turn: Mutex<()>,
     /// Simulated nodes started with the network (`open_named("sim")`), kept running.
     sim: sim::SimNodes,
     /// Set by [`Network::close`]: ends every event stream.
@@ -285,8 +301,9 @@ impl Network {
         // Booted before the clock starts: its boot-up never leaves (the door's filter).
         node.boot(Instant::ZERO);
         let client = SdoClient::new(MAX_TRANSFER);
+        let lss = door::NetLssMaster::new(opts.lss);
         let door = Door::new(
-            Station::new(link, Composite::new(node, client)),
+            Station::new(link, Composite::new(Composite::new(node, client), lss)),
             opts.listen_only,
         );
         let label = ports.label();
@@ -301,6 +318,7 @@ impl Network {
                 opts,
                 per_node: (0..128).map(|_| Mutex::new(())).collect(),
                 sessions: Semaphore::new(SESSIONS),
+                lss_turn: Mutex::new(()),
                 sim,
                 closed: watch::channel(false).0,
                 descs: std::sync::Mutex::default(),
@@ -364,6 +382,13 @@ impl Network {
     #[must_use]
     pub fn is_listen_only(&self) -> bool {
         self.shared.opts.listen_only
+    }
+
+    /// The network's LSS master (CiA 305): find devices by identity and give them a node-ID
+    /// and a bit rate (python `canopen`'s `network.lss`). See [`NetLss`].
+    #[must_use]
+    pub fn lss(&self) -> NetLss {
+        NetLss::new(self.clone())
     }
 
     /// Sends an NMT command to every node.
