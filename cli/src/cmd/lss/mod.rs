@@ -16,8 +16,9 @@
 //! dual bus), the answers come back merged. LSS keeps a slave's mode between requests, so each
 //! command is one service, and a sequence of commands is a configuration session: the mode a
 //! `switch` or `select` set holds until the next `switch`. `--select V:P:R:S` selects the slave
-//! in the same run as inquire, set-id, set-bitrate or store (on `--bus sim`, whose station
-//! starts afresh with every run, that is the only way to reach them).
+//! in the same run as inquire, set-id, set-bitrate or store and switches every slave back to
+//! waiting at the end (on `--bus sim`, whose station starts afresh with every run, that is the
+//! only way to reach them).
 //!
 //! Every service that expects an answer waits `--answer-ms` for it (50 ms by default; identify
 //! always waits that long, since any number of slaves may answer); a fastscan step that was
@@ -26,6 +27,7 @@
 
 mod fastscan;
 pub mod parse;
+pub mod slave;
 
 use crate::args::parse_timeout_ms;
 use crate::fail::Fail;
@@ -180,14 +182,29 @@ pub async fn run(g: &Global, a: Args) -> Result<(), Fail> {
         .with_settle(ms(a.settle_ms));
     let bus = bus::open_with(g, bus::options(g, false).with_lss(cfg))?;
     let r = match a.select {
-        Some(address) => match bus.net.lss().switch_selective(address).await {
-            Ok(()) => service(g, &bus, a.cmd, &cfg).await,
-            Err(e) => Err(e.into()),
-        },
+        Some(address) => selected(g, &bus, address, a.cmd, &cfg).await,
         None => service(g, &bus, a.cmd, &cfg).await,
     };
     bus.close().await;
     r
+}
+
+/// `--select`: a configuration session in one run — the slave selected, the service, then every
+/// slave back to waiting (a slave serves switch state selective in waiting mode only, so the
+/// next run can select again; a slave that had no node-ID boots with the one just given).
+async fn selected(
+    g: &Global,
+    bus: &bus::Bus,
+    address: LssAddress,
+    cmd: Lss,
+    cfg: &LssMasterConfig,
+) -> Result<(), Fail> {
+    let lss = bus.net.lss();
+    lss.switch_selective(address).await?;
+    let r = service(g, bus, cmd, cfg).await;
+    let back = lss.switch_global(LssMode::Waiting).await;
+    r?;
+    Ok(back?)
 }
 
 async fn service(g: &Global, bus: &bus::Bus, cmd: Lss, cfg: &LssMasterConfig) -> Result<(), Fail> {
