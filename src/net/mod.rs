@@ -47,14 +47,20 @@
 //! | `node.rpdo[1]["Output 1"].raw = 5; node.rpdo[1].transmit()` | `node.rpdo(1).send_named(&[("Output 1", 5u16.into())]).await?` (all in order: `send(&[..])`) |
 //! | `network.sync.start(0.05)` / `network.sync.stop()` | `net.start_sync(Duration::from_millis(50)).await?` / `net.stop_sync().await?` |
 //! | `node.emcy.wait(timeout=2)` / `node.emcy.active` | `node.wait_for_emcy(timeout).await?` / `NetEvent::Emcy` ([`NetEvent::emcy`]) |
+//! | `network.lss.send_switch_state_global(network.lss.CONFIGURATION_STATE)` | `net.lss().switch_global(LssMode::Configuration).await?` ([`NetLss`]) |
+//! | `network.lss.send_switch_state_selective(v, p, r, s)` | `net.lss().switch_selective(address).await?` |
+//! | `network.lss.inquire_node_id()` | `net.lss().inquire(Inquiry::NodeId).await?` |
+//! | `network.lss.configure_node_id(5)` / `.store_configuration()` | `net.lss().configure_node_id(5).await?` / `.store().await?` |
+//! | `network.lss.fast_scan()` (one slave, its identity) | `net.lss().fastscan(plan).await?` (every slave, each given its node-ID: [`FastscanReport`]) |
 //!
 //! Underneath is the ordinary stack on the [`runtime`](crate::runtime): a node that only
 //! observes (it tracks every node's state from boot-ups and heartbeats, consumes EMCY and the
 //! heartbeats it is told to watch) and an SDO client, behind a filter that lets only NMT
-//! commands and SDO requests onto the bus, and two things the user turns on: SYNC while the
-//! SYNC producer runs ([`Network::start_sync`]), and the RPDOs the user sends. The network
-//! handle is therefore not a node: it sends no boot-up, no heartbeat, and answers nothing (it
-//! uses node-ID 127 internally, so a node 127 on the bus is not tracked).
+//! commands and SDO requests onto the bus, and three things the user turns on: SYNC while the
+//! SYNC producer runs ([`Network::start_sync`]), the RPDOs the user sends, and the requests of
+//! the LSS master (CiA 305, [`Network::lss`]) the user calls. The network handle is therefore
+//! not a node: it sends no boot-up, no heartbeat, and answers nothing (it uses node-ID 127
+//! internally, so a node 127 on the bus is not tracked).
 //! [`Network::monitor`] sends nothing at all.
 //!
 //! **Links.** The observer and the client sit on a link ([`NetLink`], one trait object, so
