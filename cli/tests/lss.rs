@@ -4,16 +4,8 @@
 //! errors with their exit codes.
 
 mod common;
-use common::{duocan, sim, sim_ok};
+use common::{duocan, one_station, sim, sim_ok};
 use serde_json::Value;
-
-/// One station at a time (see `commission.rs`): several at once on a loaded machine stretch the
-/// time between two slaves' answers.
-fn serial() -> std::sync::MutexGuard<'static, ()> {
-    static ONE: std::sync::Mutex<()> = std::sync::Mutex::new(());
-    ONE.lock()
-        .unwrap_or_else(std::sync::PoisonError::into_inner)
-}
 
 fn json(text: &str) -> Value {
     serde_json::from_str(text).unwrap_or_else(|e| panic!("not JSON ({e}): {text}"))
@@ -44,7 +36,7 @@ fn assigned(v: &Value) -> Vec<(u64, u64, bool)> {
 
 #[test]
 fn fastscan_gives_each_board_the_next_free_node_id_and_they_boot() {
-    let _one = serial();
+    let _one = one_station();
     let v = json(&sim_ok(&[
         "--json", "lss", "fastscan", "--assign", "0x20", SETTLE,
     ]));
@@ -70,7 +62,7 @@ fn fastscan_gives_each_board_the_next_free_node_id_and_they_boot() {
 
 #[test]
 fn fastscan_prints_a_table_and_the_cost() {
-    let _one = serial();
+    let _one = one_station();
     let out = sim_ok(&["lss", "fastscan", "--assign", "100", SETTLE]);
     let lines: Vec<&str> = out.lines().collect();
     assert_eq!(
@@ -97,7 +89,7 @@ fn fastscan_prints_a_table_and_the_cost() {
 
 #[test]
 fn fastscan_follows_a_plan_by_identity_and_by_expected_identity() {
-    let _one = serial();
+    let _one = one_station();
     let dir = std::env::temp_dir().join(format!("duocan-cli-lss-{}", std::process::id()));
     std::fs::create_dir_all(&dir).unwrap();
     let plan = dir.join("plan.txt");
@@ -143,7 +135,7 @@ fn fastscan_follows_a_plan_by_identity_and_by_expected_identity() {
 
 #[test]
 fn select_then_inquire_configure_and_store() {
-    let _one = serial();
+    let _one = one_station();
     let v = json(&sim_ok(&["--json", "lss", "--select", BOARD2, "inquire"]));
     assert_eq!(
         v.to_string(),
@@ -178,7 +170,7 @@ fn select_then_inquire_configure_and_store() {
 
 #[test]
 fn no_answer_is_exit_1_with_what_to_do() {
-    let _one = serial();
+    let _one = one_station();
     // Not in configuration mode: a slave ignores inquire.
     let r = sim(&["lss", "inquire", "node-id"]);
     assert_eq!(r.code, 1);
@@ -199,7 +191,7 @@ fn no_answer_is_exit_1_with_what_to_do() {
 
 #[test]
 fn identify_by_range_and_non_configured() {
-    let _one = serial();
+    let _one = one_station();
     let yes = |args: &[&str]| {
         let mut a = vec!["--json", "lss", "identify"];
         a.extend_from_slice(args);

@@ -52,6 +52,14 @@ impl NetLss {
         NetLss { net }
     }
 
+    /// The master's turn (held while the guard lives): LSS requests run one at a time.
+    async fn turn(&self) -> Result<tokio::sync::MutexGuard<'_, ()>, NetError> {
+        if self.net.is_listen_only() {
+            return Err(NetError::ListenOnly { node: None });
+        }
+        Ok(self.net.shared.lss_turn.lock().await)
+    }
+
     /// Runs one request: `start` starts it on the master, the master's next result ends it.
     async fn run(
         &self,
@@ -59,11 +67,8 @@ impl NetLss {
             + Send
             + 'static,
     ) -> Result<LssOutcome, NetError> {
-        if self.net.is_listen_only() {
-            return Err(NetError::ListenOnly { node: None });
-        }
+        let _turn = self.turn().await?;
         let shared = &self.net.shared;
-        let _turn = shared.lss_turn.lock().await;
         shared
             .handle
             .request(
@@ -158,11 +163,8 @@ impl NetLss {
     /// that stopped on the way ends `Ok` too, with the reason in
     /// [`FastscanReport::stopped`]: the slaves configured before stay configured.
     pub async fn fastscan(&self, plan: LssPlan<LSS_PLAN>) -> Result<FastscanReport, NetError> {
-        if self.net.is_listen_only() {
-            return Err(NetError::ListenOnly { node: None });
-        }
+        let _turn = self.turn().await?;
         let shared = &self.net.shared;
-        let _turn = shared.lss_turn.lock().await;
         let (begun, before, scan) = shared
             .handle
             .request(

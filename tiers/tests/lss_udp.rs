@@ -17,7 +17,7 @@ use std::sync::{Arc, Mutex};
 use std::time::Duration;
 use tokio::io::{AsyncBufReadExt, BufReader};
 use tokio::process::{Child, Command};
-use tool::tool;
+use tool::{duocan, tool};
 
 /// The slave's identity: duocan's vendor-ID, `device lss-slave`'s default product and revision.
 const VENDOR: u32 = 0x00D0_CA00;
@@ -86,23 +86,6 @@ fn medium(name: &str) -> std::path::PathBuf {
     let p = std::env::temp_dir().join(format!("duocan-lss-{}-{name}.bin", std::process::id()));
     let _ = std::fs::remove_file(&p);
     p
-}
-
-/// Runs `duocan --bus <bus> <args>`: exit code, standard output, standard error.
-async fn duocan(bus: &str, args: &[&str]) -> (i32, String, String) {
-    let out = Command::new(tool())
-        .arg("--bus")
-        .arg(bus)
-        .args(args)
-        .env_remove("DUOCAN_BUS")
-        .output()
-        .await
-        .expect("run duocan");
-    (
-        out.status.code().unwrap_or(-1),
-        String::from_utf8_lossy(&out.stdout).into_owned(),
-        String::from_utf8_lossy(&out.stderr).into_owned(),
-    )
 }
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
