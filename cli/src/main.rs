@@ -6,6 +6,7 @@
 //! duocan --bus can0 sdo read 5 0x1018 1 u32
 //! duocan --bus can0,can1 monitor              # two ports, one logical bus
 //! duocan --bus udp nmt start all              # python-can's UDP bus
+//! duocan --bus sim lss fastscan --assign 0x20 # LSS: boards without a node-ID get one
 //! ```
 //!
 //! Exit status: 0 done, 1 the network did not do it (an abort code and its meaning, a node

@@ -125,8 +125,15 @@ pub fn parse_plan(text: &str) -> Result<Vec<PlanLine>, String> {
         if lines.iter().any(|l: &PlanLine| l.node == node) {
             return Err(at(format!("node-ID {} is planned twice", node.raw())));
         }
+        let address = LssAddress::from_parts(parts);
+        if lines
+            .iter()
+            .any(|l| l.exact == exact && l.address == address)
+        {
+            return Err(at("this identity is planned twice".into()));
+        }
         lines.push(PlanLine {
-            address: LssAddress::from_parts(parts),
+            address,
             exact,
             node,
         });
@@ -218,6 +225,10 @@ mod tests {
         assert_eq!(
             parse_plan("1 2 3 4 5\n1 2 3 5 5\n"),
             Err("line 2: node-ID 5 is planned twice".into())
+        );
+        assert_eq!(
+            parse_plan("1 2 3 4 5\n1 2 3 4 6\n"),
+            Err("line 2: this identity is planned twice".into())
         );
         assert_eq!(
             parse_plan("* * * * 5"),
