@@ -2,8 +2,9 @@
 //! built-in simulated station; and attaching the device descriptions of `--eds`/`--dcf`.
 //!
 //! Every command talks to the network through [`duocan::net::Network`], the library's front
-//! door: the tool is a client on the bus (NMT commands and SDO requests, nothing else; with
-//! `listen_only` not a single frame), never a node or a master of it.
+//! door: the tool is a client on the bus (NMT commands, SDO requests and, for `lss`, the
+//! LSS master's requests, nothing else; with `listen_only` not a single frame), never a node or
+//! a CANopen master of it.
 
 use crate::fail::Fail;
 use crate::{ports, Global};

@@ -6,6 +6,7 @@
 //! duocan --bus can0 sdo read 5 0x1018 1 u32
 //! duocan --bus can0,can1 monitor              # two ports, one logical bus
 //! duocan --bus udp nmt start all              # python-can's UDP bus
+//! duocan --bus sim lss fastscan --assign 0x20 # LSS: boards without a node-ID get one
 //! ```
 //!
 //! Exit status: 0 done, 1 the network did not do it (an abort code and its meaning, a node
@@ -93,6 +94,8 @@ enum Command {
     Nmt(cmd::nmt::Args),
     /// Find the nodes on the network and print a table
     Scan(cmd::scan::Args),
+    /// Layer setting services (CiA 305): give devices a node-ID and a bit rate by identity
+    Lss(cmd::lss::Args),
     /// A live view of the network (plain lines when not on a terminal)
     Monitor(cmd::monitor::Args),
     /// Decode a candump log, a pcap, or the live bus into CANopen-aware lines
@@ -136,6 +139,7 @@ fn main() -> ExitCode {
             Command::Sdo(c) => cmd::sdo::run(&g, c).await,
             Command::Nmt(a) => cmd::nmt::run(&g, a).await,
             Command::Scan(a) => cmd::scan::run(&g, a).await,
+            Command::Lss(a) => cmd::lss::run(&g, a).await,
             Command::Monitor(a) => cmd::monitor::run(&g, a).await,
             Command::Dump(a) => cmd::dump::run(&g, a).await,
             Command::Record(a) => cmd::record::run(&g, a).await,

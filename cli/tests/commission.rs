@@ -1,7 +1,7 @@
 //! `duocan scan`, `pdo`, `eds` and `flash` against the simulated nodes of `--bus sim`.
 
 mod common;
-use common::{duocan, sim, sim_ok};
+use common::{duocan, one_station, sim, sim_ok};
 use serde_json::Value;
 use std::path::PathBuf;
 use std::time::{Duration, Instant};
@@ -9,16 +9,6 @@ use std::time::{Duration, Instant};
 /// The simulated redundant station: masters 0x01 and 0x02, the pairs 0x10/0x50 and 0x11/0x51,
 /// the slaves 0x05-0x07.
 const SIM_NODES: [u64; 9] = [0x01, 0x02, 0x05, 0x06, 0x07, 0x10, 0x11, 0x50, 0x51];
-
-/// One simulated station at a time from this file: each is nine devices running in real time on two
-/// buses, and on a loaded two-core machine several at once stretch the skew between the two
-/// buses past the dual-bus layer's merge window (transfers then fail: a flaky test, not a
-/// finding about the tool).
-fn serial() -> std::sync::MutexGuard<'static, ()> {
-    static ONE: std::sync::Mutex<()> = std::sync::Mutex::new(());
-    ONE.lock()
-        .unwrap_or_else(std::sync::PoisonError::into_inner)
-}
 
 fn json(text: &str) -> Value {
     serde_json::from_str(text).unwrap_or_else(|e| panic!("not JSON ({e}): {text}"))
@@ -34,7 +24,7 @@ fn temp_dir(name: &str) -> PathBuf {
 
 #[test]
 fn scan_finds_exactly_the_simulated_nodes_with_their_identity() {
-    let _one = serial();
+    let _one = one_station();
     let t = Instant::now();
     let v = json(&sim_ok(&["--json", "scan"]));
     let took = t.elapsed();
@@ -68,7 +58,7 @@ fn scan_finds_exactly_the_simulated_nodes_with_their_identity() {
 
 #[test]
 fn scan_text_lines_up_and_listening_alone_finds_the_heartbeats() {
-    let _one = serial();
+    let _one = one_station();
     // The B members are powered 1 s after the station starts: 1.5 s of listening hears them.
     let out = sim_ok(&["scan", "--no-probe"]);
     let lines: Vec<&str> = out.lines().collect();
@@ -85,7 +75,7 @@ fn scan_text_lines_up_and_listening_alone_finds_the_heartbeats() {
 
 #[test]
 fn scan_shows_the_bus_a_node_is_no_longer_heard_on() {
-    let _one = serial();
+    let _one = one_station();
     // sim:faults cuts the tool's connection to bus 1 from 2 s to 4 s: a scan that ends in
     // between hears every node on bus 2 only.
     let r = duocan(&["--bus", "sim:faults", "--json", "scan", "--listen", "3000"]);
@@ -104,7 +94,7 @@ fn scan_shows_the_bus_a_node_is_no_longer_heard_on() {
 
 #[test]
 fn scan_compares_attached_descriptions_with_the_identity() {
-    let _one = serial();
+    let _one = one_station();
     let dir = temp_dir("scan-desc");
     // The sim nodes' EDS as node 6 reads it: product code 6.
     let eds = dir.join("node6.eds");
@@ -133,7 +123,7 @@ fn scan_compares_attached_descriptions_with_the_identity() {
 
 #[test]
 fn pdo_show_lists_the_pdos_with_names() {
-    let _one = serial();
+    let _one = one_station();
     let out = sim_ok(&["pdo", "show", "5"]);
     let lines: Vec<&str> = out.lines().collect();
     assert_eq!(lines.len(), 9, "{out}");
@@ -156,7 +146,7 @@ fn pdo_show_lists_the_pdos_with_names() {
 
 #[test]
 fn pdo_map_changes_a_mapping_and_reads_it_back() {
-    let _one = serial();
+    let _one = one_station();
     let v = json(&sim_ok(&[
         "--json",
         "pdo",
@@ -216,7 +206,7 @@ fn pdo_map_changes_a_mapping_and_reads_it_back() {
 
 #[test]
 fn pdo_map_refuses_bad_requests_before_sending_and_reports_aborts() {
-    let _one = serial();
+    let _one = one_station();
     for bad in [
         &["pdo", "map", "5", "tpdo", "0"][..],
         &["pdo", "map", "5", "tpdo", "513"],
@@ -268,7 +258,7 @@ DefaultValue=2000
 
 #[test]
 fn eds_validate_names_every_problem_with_its_line() {
-    let _one = serial();
+    let _one = one_station();
     let dir = temp_dir("validate");
     let warn = dir.join("warn.eds");
     std::fs::write(&warn, WARN_EDS).unwrap();
@@ -328,7 +318,7 @@ fn eds_validate_names_every_problem_with_its_line() {
 
 #[test]
 fn eds_export_of_a_sim_node_validates_and_describes_it() {
-    let _one = serial();
+    let _one = one_station();
     let dir = temp_dir("export");
     let eds = dir.join("n5.eds");
     let r = sim(&["eds", "export", "5", "-o", eds.to_str().unwrap()]);
@@ -383,7 +373,7 @@ fn eds_export_of_a_sim_node_validates_and_describes_it() {
 
 #[test]
 fn flash_on_a_node_without_program_download_fails_with_the_abort() {
-    let _one = serial();
+    let _one = one_station();
     let dir = temp_dir("flash-none");
     let img = dir.join("img.bin");
     std::fs::write(&img, vec![0xA5u8; 4096]).unwrap();

@@ -7,6 +7,8 @@ use super::events::NetEvent;
 use super::link::{DriverState, NetLink};
 use super::pdo::table::PdoTable;
 use crate::cia301::sdo::{RequestId, SdoClient, SdoError, TransferBuffer};
+use crate::cia305::codec::MASTER_TO_SLAVE;
+use crate::cia305::{LssMaster, LssMasterEvent};
 use crate::frame::instant::Instant;
 use crate::frame::{Frame, Id};
 use crate::machine::{
@@ -23,7 +25,11 @@ use tokio::sync::Notify;
 pub(crate) type Observer = Node<DynamicDictionary>;
 /// The SYNC identifier the producer uses (0x1005's default).
 pub(crate) const SYNC_ID: u16 = 0x80;
-type Inner = Station<Box<dyn NetLink>, Composite<Observer, SdoClient>>;
+/// Identities a fastscan plan of the network holds ([`Network::lss`](super::Network::lss)).
+pub const LSS_PLAN: usize = 32;
+/// The network's LSS master.
+pub(crate) type NetLssMaster = LssMaster<LSS_PLAN>;
+type Inner = Station<Box<dyn NetLink>, Composite<Composite<Observer, SdoClient>, NetLssMaster>>;
 
 /// What the door tells the network handle: a user event, or an SDO transfer's outcome.
 #[derive(Clone, Debug)]
@@ -32,6 +38,8 @@ pub(crate) enum DoorEvent {
     Net(NetEvent),
     /// An SDO transfer ended: its request and the data read (empty for a write) or the error.
     Sdo(RequestId, Result<Vec<u8>, SdoError>),
+    /// What the LSS master reported.
+    Lss(LssMasterEvent),
 }
 
 /// Frames of the network's own (RPDOs) waiting for the port: a caller that sends faster
@@ -45,7 +53,8 @@ const PDO_EVENTS: usize = 256;
 /// (states, heartbeats, EMCY); it must not *be* a node on it: python `canopen`'s network object
 /// sends no boot-up, no heartbeat and answers nothing, and neither does this. So of what the
 /// observer produces only NMT commands (0x000) and SDO requests (0x601–0x67F) leave, and SYNC
-/// (0x080) while the user has the SYNC producer on ([`Network::start_sync`]): the observer's
+/// (0x080) while the user has the SYNC producer on ([`Network::start_sync`]), and LSS requests
+/// (0x7E5), which only the network's LSS master makes, when the user calls it. The observer's
 /// SYNC service is the producer, and it produces only when told to. RPDOs are not the
 /// observer's: the door makes them itself ([`Door::send_own`]) from a mapping the user had the
 /// network learn, for a node the user named, so they pass. In listen-only mode nothing leaves.
@@ -103,14 +112,18 @@ impl Door {
         Ok(())
     }
     pub fn node(&mut self) -> &mut Observer {
-        &mut self.inner.machine.a
+        &mut self.inner.machine.a.a
     }
     pub fn client(&mut self) -> &mut SdoClient {
+        &mut self.inner.machine.a.b
+    }
+    pub fn lss(&mut self) -> &mut NetLssMaster {
         &mut self.inner.machine.b
     }
     fn may_send(&self, f: &Frame) -> bool {
         !self.listen_only
             && (matches!(f.id(), Id::Standard(0) | Id::Standard(0x601..=0x67F))
+                || f.id() == MASTER_TO_SLAVE
                 || (self.sync_on && f.id() == Id::Standard(SYNC_ID)))
     }
 }
@@ -187,12 +200,13 @@ impl Device for Door {
         loop {
             let e = match self.inner.poll_event()? {
                 StationEvent::Link(e) => return Some(DoorEvent::Net(e)),
-                StationEvent::Machine(CompositeEvent::B(s)) => {
+                StationEvent::Machine(CompositeEvent::A(CompositeEvent::B(s))) => {
                     self.streams.retain(|(r, _)| *r != s.request);
                     let r = s.result.map(|b| TransferBuffer::as_slice(&b).to_vec());
                     return Some(DoorEvent::Sdo(s.request, r));
                 }
-                StationEvent::Machine(CompositeEvent::A(n)) => n,
+                StationEvent::Machine(CompositeEvent::B(l)) => return Some(DoorEvent::Lss(l)),
+                StationEvent::Machine(CompositeEvent::A(CompositeEvent::A(n))) => n,
             };
             let at = e.at;
             let ev = match e.kind {

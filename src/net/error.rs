@@ -4,6 +4,7 @@ use crate::cia301::nmt::NmtState;
 use crate::cia301::sdo::{SdoError, SdoErrorKind};
 use crate::cia302::master::ProgramDownloadError;
 use crate::cia302::pdo_config::PdoConfigError;
+use crate::cia305::{LssError, LssService};
 use crate::eds::{EdsError, LookupError, LookupErrorKind};
 use crate::frame::cob_id::NodeId;
 use crate::od::abort::AbortCode;
@@ -142,6 +143,9 @@ pub enum NetError {
     Program(ProgramDownloadError),
     /// An argument outside what the call takes.
     Argument(String),
+    /// An LSS request ([`Network::lss`](super::Network::lss)) failed: no slave answered, or
+    /// one refused or answered wrongly.
+    Lss(LssError),
     /// The local side of a streamed transfer failed: the reader a write took its data from,
     /// or the writer a read put its data into. The transfer was aborted (the node was told).
     Io {
@@ -177,7 +181,7 @@ impl NetError {
             | NetError::Io { node, .. } => Some(*node),
             NetError::PdoConfig(e) => Some(e.node),
             NetError::Program(e) => Some(e.node),
-            NetError::Eds(_) | NetError::Argument(_) => None,
+            NetError::Eds(_) | NetError::Argument(_) | NetError::Lss(_) => None,
             NetError::NoSuchNode(_)
             | NetError::QueueFull
             | NetError::Port(_)
@@ -290,6 +294,15 @@ impl fmt::Display for NetError {
             NetError::PdoConfig(e) => fmt::Display::fmt(e, f),
             NetError::Program(e) => fmt::Display::fmt(e, f),
             NetError::Argument(why) => f.write_str(why),
+            NetError::Lss(LssError::Timeout(s @ LssService::SwitchSelective)) => write!(
+                f,
+                "LSS, {s}: no slave with this identity answered in time: check the identity (all four parts) and that the slave is on this bus"
+            ),
+            NetError::Lss(LssError::Timeout(s)) => write!(
+                f,
+                "LSS, {s}: no slave answered in time: a slave serves it in configuration mode only (switch state global or selective first); check that it is on this bus, or wait longer"
+            ),
+            NetError::Lss(e) => write!(f, "LSS, {e}"),
             NetError::Io { node, index, sub, message, .. } => write!(
                 f,
                 "node {}, object {index:#06x} sub {sub}: the local reader or writer failed ({message}), so the transfer was aborted: fix the file or stream and try again",
@@ -307,6 +320,7 @@ impl std::error::Error for NetError {
             NetError::Eds(e) => Some(e),
             NetError::PdoConfig(e) => Some(e),
             NetError::Program(e) => Some(e),
+            NetError::Lss(e) => Some(e),
             _ => None,
         }
     }

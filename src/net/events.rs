@@ -256,7 +256,7 @@ impl Events {
                     return Some(NetEvent::Port { status, at })
                 }
                 // Transfer outcomes go to the call that started them.
-                Ok(RuntimeEvent::Device(DoorEvent::Sdo(..))) => {}
+                Ok(RuntimeEvent::Device(DoorEvent::Sdo(..) | DoorEvent::Lss(_))) => {}
                 Err(broadcast::error::RecvError::Lagged(n)) => return Some(NetEvent::Lagged(n)),
                 Err(broadcast::error::RecvError::Closed) => return None,
             }

@@ -47,14 +47,20 @@
 //! | `node.rpdo[1]["Output 1"].raw = 5; node.rpdo[1].transmit()` | `node.rpdo(1).send_named(&[("Output 1", 5u16.into())]).await?` (all in order: `send(&[..])`) |
 //! | `network.sync.start(0.05)` / `network.sync.stop()` | `net.start_sync(Duration::from_millis(50)).await?` / `net.stop_sync().await?` |
 //! | `node.emcy.wait(timeout=2)` / `node.emcy.active` | `node.wait_for_emcy(timeout).await?` / `NetEvent::Emcy` ([`NetEvent::emcy`]) |
+//! | `network.lss.send_switch_state_global(network.lss.CONFIGURATION_STATE)` | `net.lss().switch_global(LssMode::Configuration).await?` ([`NetLss`]) |
+//! | `network.lss.send_switch_state_selective(v, p, r, s)` | `net.lss().switch_selective(address).await?` |
+//! | `network.lss.inquire_node_id()` | `net.lss().inquire(Inquiry::NodeId).await?` |
+//! | `network.lss.configure_node_id(5)` / `.store_configuration()` | `net.lss().configure_node_id(5).await?` / `.store().await?` |
+//! | `network.lss.fast_scan()` (one slave, its identity) | `net.lss().fastscan(plan).await?` (every slave, each given its node-ID: [`FastscanReport`]) |
 //!
 //! Underneath is the ordinary stack on the [`runtime`](crate::runtime): a node that only
 //! observes (it tracks every node's state from boot-ups and heartbeats, consumes EMCY and the
 //! heartbeats it is told to watch) and an SDO client, behind a filter that lets only NMT
-//! commands and SDO requests onto the bus, and two things the user turns on: SYNC while the
-//! SYNC producer runs ([`Network::start_sync`]), and the RPDOs the user sends. The network
-//! handle is therefore not a node: it sends no boot-up, no heartbeat, and answers nothing (it
-//! uses node-ID 127 internally, so a node 127 on the bus is not tracked).
+//! commands and SDO requests onto the bus, and three things the user turns on: SYNC while the
+//! SYNC producer runs ([`Network::start_sync`]), the RPDOs the user sends, and the requests of
+//! the LSS master (CiA 305, [`Network::lss`]) the user calls. The network handle is therefore
+//! not a node: it sends no boot-up, no heartbeat, and answers nothing (it uses node-ID 127
+//! internally, so a node 127 on the bus is not tracked).
 //! [`Network::monitor`] sends nothing at all.
 //!
 //! **Links.** The observer and the client sit on a link ([`NetLink`], one trait object, so
@@ -90,6 +96,7 @@ mod door;
 mod error;
 mod events;
 mod link;
+mod lss;
 mod named;
 mod pdo;
 mod program;
@@ -99,9 +106,11 @@ mod sdo_stream;
 mod sim;
 mod value;
 
+pub use door::LSS_PLAN;
 pub use error::{Awaited, NetError};
 pub use events::{Events, NetEvent};
 pub use link::{NetLink, NetPorts, PortView};
+pub use lss::{FastscanReport, NetLss};
 pub use pdo::{PdoMap, PdoValue, PdoValues, PdoVariable, RemotePdo, MAX_LEARNED};
 pub use remote::RemoteNode;
 pub use sdo::RemoteSdo;
@@ -111,6 +120,7 @@ pub use value::AnyValue;
 
 use crate::cia301::nmt::{NmtCommand, NmtTarget};
 use crate::cia301::sdo::{SdoClient, SdoOptions};
+use crate::cia305::LssMasterConfig;
 use crate::eds::Description;
 use crate::frame::cob_id::NodeId;
 use crate::frame::instant::{Duration, Instant};
@@ -146,6 +156,8 @@ pub struct NetOptions {
     /// [`Recorder`](crate::capture::recorder::Recorder) writes them to a candump log or a pcap;
     /// a tool decodes them live). `None`: no tap.
     pub tap: Option<Arc<dyn crate::capture::recorder::Tap>>,
+    /// The LSS master's answer timeout and fastscan settle time ([`Network::lss`]).
+    pub lss: LssMasterConfig,
 }
 
 impl core::fmt::Debug for NetOptions {
@@ -154,6 +166,7 @@ impl core::fmt::Debug for NetOptions {
             .field("sdo", &self.sdo)
             .field("listen_only", &self.listen_only)
             .field("tap", &self.tap.is_some())
+            .field("lss", &self.lss)
             .finish()
     }
 }
@@ -164,6 +177,7 @@ impl Default for NetOptions {
             sdo: SdoOptions::default().with_timeout(Duration::from_millis(1000)),
             listen_only: false,
             tap: None,
+            lss: LssMasterConfig::default(),
         }
     }
 }
@@ -186,6 +200,12 @@ impl NetOptions {
     #[must_use]
     pub fn with_listen_only(mut self, on: bool) -> Self {
         self.listen_only = on;
+        self
+    }
+    /// The options with the LSS master's timeout and settle time.
+    #[must_use]
+    pub fn with_lss(mut self, lss: LssMasterConfig) -> Self {
+        self.lss = lss;
         self
     }
     /// The options with `tap` told of every frame each port receives and sends.
@@ -211,6 +231,8 @@ struct Shared {
     per_node: Vec<Mutex<()>>,
     /// One permit per client session.
     sessions: Semaphore,
+    /// LSS requests take turns (LSS has no addresses: one runs at a time).
+    lss_turn: Mutex<()>,
     /// Simulated nodes started with the network (`open_named("sim")`), kept running.
     sim: sim::SimNodes,
     /// Set by [`Network::close`]: ends every event stream.
@@ -285,8 +307,9 @@ impl Network {
         // Booted before the clock starts: its boot-up never leaves (the door's filter).
         node.boot(Instant::ZERO);
         let client = SdoClient::new(MAX_TRANSFER);
+        let lss = door::NetLssMaster::new(opts.lss);
         let door = Door::new(
-            Station::new(link, Composite::new(node, client)),
+            Station::new(link, Composite::new(Composite::new(node, client), lss)),
             opts.listen_only,
         );
         let label = ports.label();
@@ -301,6 +324,7 @@ impl Network {
                 opts,
                 per_node: (0..128).map(|_| Mutex::new(())).collect(),
                 sessions: Semaphore::new(SESSIONS),
+                lss_turn: Mutex::new(()),
                 sim,
                 closed: watch::channel(false).0,
                 descs: std::sync::Mutex::default(),
@@ -364,6 +388,13 @@ impl Network {
     #[must_use]
     pub fn is_listen_only(&self) -> bool {
         self.shared.opts.listen_only
+    }
+
+    /// The network's LSS master (CiA 305): find devices by identity and give them a node-ID
+    /// and a bit rate (python `canopen`'s `network.lss`). See [`NetLss`].
+    #[must_use]
+    pub fn lss(&self) -> NetLss {
+        NetLss::new(self.clone())
     }
 
     /// Sends an NMT command to every node.

@@ -231,7 +231,7 @@ impl RemoteNode {
                 }
                 match e {
                     DoorEvent::Net(e) => pick(e).map(Ok),
-                    DoorEvent::Sdo(..) => None,
+                    DoorEvent::Sdo(..) | DoorEvent::Lss(_) => None,
                 }
             },
         );

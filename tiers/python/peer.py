@@ -7,6 +7,8 @@ udp_multicast bus. Driven by tests/python_peer.rs; talks to it through stdout li
     peer.py storage NODE GROUP PORT       stores and restores NODE's parameters (0x1010/0x1011)
     peer.py eds NODE FILE GROUP PORT      a RemoteNode whose dictionary is the EDS FILE: reads and
                                           writes NODE's entries by name, as stdin asks
+    peer.py lss NODE GROUP PORT           python's LSS master: finds the non-configured slave by
+                                          fastscan, gives it NODE, stores, watches it boot
 Stdout: one line per event: "READY", "STATE <name>", "WRITE <index> <sub> <hex>" (a write to the
 LocalNode), "READ <index> <sub> <hex>", "WROTE <index> <sub>", "ABORT <index> <sub> <code>",
 "READ-NO-CRC …"/"WROTE-NO-CRC …" (block transfers that did not ask for CRC), "DONE", "SENT <n>",
@@ -266,6 +268,74 @@ def junk(group, port):
     bus.shutdown()
 
 
+def lss_master(node_id, group, port):
+    """python `canopen`'s LSS master against one non-configured slave: LSS lines on stdout
+    ("NON-CONFIGURED yes", "FASTSCAN True <4 parts hex>", "INQUIRED <what> <value>",
+    "CONFIGURED <id>", "STORED", "BOOT <id> <first NMT byte>", "SERIAL <hex>", "SELECTED",
+    "NON-CONFIGURED no", "DONE")."""
+    from canopen import lss as lssm
+    network = canopen.Network()
+    network.connect(interface="udp_multicast", channel=group, port=port)
+    lss = network.lss
+    lss.RESPONSE_TIMEOUT = 0.3  # each unanswered fastscan step costs this
+    say("READY")
+    sys.stdin.readline()  # the test says when the slave is up
+
+    answers = []
+    network.subscribe(0x7E4, lambda can_id, data, timestamp: answers.append(bytes(data)))
+
+    def non_configured():
+        # python's master sends identify non-configured without waiting for the answers (any
+        # number of slaves may give one): listen for them here. The master's own queue holds
+        # them too; its next request clears it.
+        answers.clear()
+        lss.send_identify_non_configured_remote_slave()
+        time.sleep(0.3)
+        return "yes" if any(a[0] == lssm.CS_IDENTIFY_NON_CONFIGURED_SLAVE for a in answers) else "no"
+
+    say("NON-CONFIGURED", non_configured())
+    found, ident = lss.fast_scan()  # the slave found is in configuration mode
+    say("FASTSCAN", found, *("%08X" % x for x in (ident or [])))
+    if not found:
+        return
+    say("INQUIRED", "node-id", lss.inquire_node_id())
+    for name, cs in (("vendor", lssm.CS_INQUIRE_VENDOR_ID),
+                     ("product", lssm.CS_INQUIRE_PRODUCT_CODE),
+                     ("revision", lssm.CS_INQUIRE_REVISION_NUMBER),
+                     ("serial", lssm.CS_INQUIRE_SERIAL_NUMBER)):
+        say("INQUIRED", name, "%08X" % lss.inquire_lss_address(cs))
+    lss.configure_node_id(node_id)
+    say("CONFIGURED", node_id)
+    lss.store_configuration()
+    say("STORED")
+    # Back to waiting: a slave that had no node-ID enters reset-communication by itself and
+    # boots with the new one. Watch its NMT error control identifier before switching.
+    heard = []
+    booted = threading.Event()
+
+    def on_nmt(can_id, data, timestamp):
+        heard.append(data[0])
+        booted.set()
+
+    network.subscribe(0x700 + node_id, on_nmt)
+    lss.send_switch_state_global(lss.WAITING_STATE)
+    booted.wait(5)
+    say("BOOT", node_id, heard[0] if heard else "none")
+    remote = canopen.RemoteNode(node_id, odm.ObjectDictionary())
+    network.add_node(remote)
+    remote.sdo.RESPONSE_TIMEOUT = 2.0
+    say("SERIAL", remote.sdo.upload(0x1018, 4).hex())
+    lss.send_switch_state_selective(*ident)
+    say("SELECTED")
+    say("INQUIRED", "node-id", lss.inquire_node_id())
+    lss.send_switch_state_global(lss.WAITING_STATE)
+    say("NON-CONFIGURED", non_configured())
+    say("DONE")
+    for _ in sys.stdin:
+        pass
+    network.disconnect()
+
+
 def main(argv):
     if argv[1] == "node":
         node(int(argv[2], 0), int(argv[3]), argv[4], int(argv[5]))
@@ -275,6 +345,8 @@ def main(argv):
         junk(argv[2], int(argv[3]))
     elif argv[1] == "storage":
         storage(int(argv[2], 0), argv[3], int(argv[4]))
+    elif argv[1] == "lss":
+        lss_master(int(argv[2], 0), argv[3], int(argv[4]))
     elif argv[1] == "eds":
         eds(int(argv[2], 0), argv[3], argv[4], int(argv[5]))
     else:

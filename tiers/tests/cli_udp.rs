@@ -12,27 +12,9 @@ use duocan::port::udp::{UdpBusConfig, UdpPort};
 use duocan::runtime::{Handle, Runtime};
 use peer::{group, Peer};
 use rt::{sdo_node, single, TestNode};
-use std::process::Output;
-use tool::tool;
+use tool::duocan;
 
 type Dev = duocan::Station<duocan::machine::SinglePort, TestNode>;
-
-/// Runs `duocan --bus <bus> <args>`: exit code, standard output, standard error.
-async fn duocan(bus: &str, args: &[&str]) -> (i32, String, String) {
-    let out: Output = tokio::process::Command::new(tool())
-        .arg("--bus")
-        .arg(bus)
-        .args(args)
-        .env_remove("DUOCAN_BUS")
-        .output()
-        .await
-        .expect("run duocan");
-    (
-        out.status.code().unwrap_or(-1),
-        String::from_utf8_lossy(&out.stdout).into_owned(),
-        String::from_utf8_lossy(&out.stderr).into_owned(),
-    )
-}
 
 /// Node 5 with the SDO test entries on UDP bus `bus`.
 async fn node_on(bus: u8) -> Handle<Dev> {

@@ -1,4 +1,4 @@
-//! `duocan device board|master`: a duocan device on real interfaces, until stopped — what the
+//! `duocan device board|master|lss-slave`: a duocan device on real interfaces, until stopped — what the
 //! failover kit starts as the boards and the master of a scenario, and what an integrator
 //! starts by hand beside devices that are not duocan's.
 //!
@@ -38,6 +38,9 @@ pub enum Device {
         #[arg(long, value_parser = parse_timeout_ms)]
         duration_ms: Option<u64>,
     },
+    /// A device with an LSS slave (CiA 305), without a node-ID until a master gives it one,
+    /// on one bus or two (`--bus udp`, `--bus can0,can1`)
+    LssSlave(crate::cmd::lss::slave::Args),
     /// A redundant master: CiA 302-2, A/B pair supervisor, flying master, on `--bus A,B`
     Master {
         /// Its node-ID
@@ -85,7 +88,7 @@ fn two(g: &Global) -> Result<[String; 2], Fail> {
 }
 
 /// Waits for `duration_ms`, or for SIGINT/SIGTERM.
-async fn until_stopped(duration_ms: Option<u64>) -> Result<(), Fail> {
+pub async fn until_stopped(duration_ms: Option<u64>) -> Result<(), Fail> {
     let mut term = tokio::signal::unix::signal(tokio::signal::unix::SignalKind::terminate())?;
     let timer = async {
         match duration_ms {
@@ -148,6 +151,9 @@ pub type Board = duocan_redundancy::DualBusNode<duocan::od::DynamicDictionary>;
 
 /// Runs `duocan device`.
 pub async fn run(g: &Global, d: Device) -> Result<(), Fail> {
+    if let Device::LssSlave(a) = d {
+        return crate::cmd::lss::slave::run(g, a).await;
+    }
     let [a, b] = two(g)?;
     let (pa, pb) = (
         ports::open(&a, g.udp_interface)?,
@@ -196,5 +202,6 @@ pub async fn run(g: &Global, d: Device) -> Result<(), Fail> {
             net.close().await;
             Ok(())
         }
+        Device::LssSlave(_) => Err(Fail::usage("lss-slave runs above")),
     }
 }

@@ -7,6 +7,7 @@ pub mod flash;
 pub mod gateway;
 pub mod kit;
 pub mod live;
+pub mod lss;
 pub mod monitor;
 pub mod nmt;
 pub mod pdo;

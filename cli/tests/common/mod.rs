@@ -40,3 +40,13 @@ pub fn sim(args: &[&str]) -> Run {
     all.extend_from_slice(args);
     duocan(&all)
 }
+
+/// One simulated station at a time from a test file: each is a dozen devices running in real
+/// time on two buses, and on a loaded two-core machine several at once stretch the skew between
+/// the two buses past the dual-bus layer's merge window and the time between two slaves'
+/// answers (a flaky test, not a finding about the tool). Hold the guard for the test.
+pub fn one_station() -> std::sync::MutexGuard<'static, ()> {
+    static ONE: std::sync::Mutex<()> = std::sync::Mutex::new(());
+    ONE.lock()
+        .unwrap_or_else(std::sync::PoisonError::into_inner)
+}

@@ -50,6 +50,8 @@
 //! | 0x10 / 0x50, 0x11 / 0x51 | two A/B board pairs ([`SIM_PAIRS`]) | A active (operational), B standby (pre-operational) |
 //! | 0x05, 0x06, 0x07 | plain slaves ([`SIM_SLAVES`]): `duocan::net`'s simulated node and a read-write DOMAIN [`SIM_DOMAIN`] of up to [`SIM_DOMAIN_SIZE`] bytes; [`SIM_PROGRAM_NODE`] takes program download (identification after start: [`sim_program_id`] of the image) | pre-operational |
 //!
+//! | none (0xFF) | two boards that arrive without a node-ID ([`SIM_LSS_SERIALS`], identity [`sim_lss_address`]): silent but for LSS (CiA 305) until an LSS master gives them a node-ID, then they boot as the simulated node with it | non-configured |
+//!
 //! `"sim:faults"` repeats a script every [`SIM_FAULT_PERIOD`]: at [`SIM_FAULT_BUS_CUT`] into
 //! it the network's connection to bus 1 is cut (back at [`SIM_FAULT_BUS_BACK`]), at
 //! [`SIM_FAULT_MEMBER_STOPS`] the active member of the first pair stops (back at
@@ -67,9 +69,10 @@ pub use events::{RedundantEvent, RedundantEvents};
 pub use node::{RedundantNode, RedundantSdo};
 pub use sim::{SIM_BUS_FAILS, SIM_END, SIM_MEMBER_FAILS, SIM_PEERS_FAIL};
 pub use sim_station::{
-    sim_program_id, SIM_BIT_RATE, SIM_DOMAIN, SIM_DOMAIN_SIZE, SIM_FAULT_BUS_BACK,
+    sim_lss_address, sim_program_id, SIM_BIT_RATE, SIM_DOMAIN, SIM_DOMAIN_SIZE, SIM_FAULT_BUS_BACK,
     SIM_FAULT_BUS_CUT, SIM_FAULT_MASTER_BACK, SIM_FAULT_MASTER_STOPS, SIM_FAULT_MEMBER_BACK,
-    SIM_FAULT_MEMBER_STOPS, SIM_FAULT_PERIOD, SIM_PAIRS, SIM_PROGRAM_NODE, SIM_SLAVES,
+    SIM_FAULT_MEMBER_STOPS, SIM_FAULT_PERIOD, SIM_LSS_PRODUCT, SIM_LSS_REVISION, SIM_LSS_SERIALS,
+    SIM_PAIRS, SIM_PROGRAM_NODE, SIM_SLAVES,
 };
 
 use crate::network::{LogicalNetwork, RedundantError, RedundantNetworkBuilder};

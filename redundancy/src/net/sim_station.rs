@@ -16,8 +16,10 @@ use alloc::boxed::Box;
 use alloc::string::ToString;
 use alloc::vec::Vec;
 use duocan::cia302::program::{FlashError, ProgramDictionary, ProgramStore};
-use duocan::net::{sim_dictionary, NetOptions, Network};
-use duocan::od::{Access, DataType, DynamicDictionary, ObjectDef, ObjectDictionary};
+use duocan::cia305::{LssAddress, LssSlave, NoMedium};
+use duocan::net::{sim_dictionary, NetOptions, Network, SIM_VENDOR};
+use duocan::node::LssNode;
+use duocan::od::{comm, Access, DataType, DynamicDictionary, ObjectDef, ObjectDictionary};
 use duocan::port::mem::{Connector, MemBus};
 use duocan::runtime::Handle;
 use duocan::sdo::SdoServerConfig;
@@ -37,6 +39,13 @@ pub const SIM_DOMAIN: u16 = 0x2002;
 pub const SIM_DOMAIN_SIZE: usize = 1 << 20;
 /// The plain slave that takes program download.
 pub const SIM_PROGRAM_NODE: u8 = 0x05;
+/// The product code of the station's boards that arrive without a node-ID (LSS, CiA 305).
+pub const SIM_LSS_PRODUCT: u32 = 0x0305;
+/// Their revision number.
+pub const SIM_LSS_REVISION: u32 = 1;
+/// Their serial numbers: one board each, non-configured (node-ID 0xFF) until an LSS master
+/// gives it a node-ID; then it boots as the simulated node with that node-ID.
+pub const SIM_LSS_SERIALS: [u32; 2] = [0x0001, 0x0002];
 /// The period of the `"sim:faults"` script.
 pub const SIM_FAULT_PERIOD: Duration = Duration::from_millis(10_000);
 /// Into each period: the network's connection to bus 1 is cut.
@@ -107,6 +116,10 @@ impl ProgramStore for RamStore {
 }
 
 type Slave<D> = Station<DualBus, Node<D>>;
+/// What builds an LSS board's node once it has a node-ID.
+type Build = Box<dyn FnMut(NodeId, Instant) -> Node<DynamicDictionary> + Send>;
+/// A board without a node-ID: LSS only until it has one.
+type LssBoard = Station<DualBus, LssNode<Node<DynamicDictionary>, Build, NoMedium>>;
 type Flasher = Slave<ProgramDictionary<DynamicDictionary, RamStore>>;
 
 /// A plain slave's dictionary: the simulated node's, with the DOMAIN.
@@ -146,6 +159,40 @@ fn slave<D: ObjectDictionary>(id: NodeId, od: D) -> Box<Slave<D>> {
         .set_config(SdoServerConfig::default().with_max_transfer(SIM_DOMAIN_SIZE));
     node.boot(Instant::ZERO);
     Box::new(Station::new(DualBus::new(sim_link()), node))
+}
+
+/// The LSS address of the station's non-configured board with `serial`.
+#[must_use]
+pub fn sim_lss_address(serial: u32) -> LssAddress {
+    LssAddress {
+        vendor: SIM_VENDOR,
+        product: SIM_LSS_PRODUCT,
+        revision: SIM_LSS_REVISION,
+        serial,
+    }
+}
+
+/// A board with `serial` that arrives without a node-ID: its node (the simulated node, with
+/// the board's identity in 0x1018) is built and boots when an LSS master gives it one.
+#[inline(never)]
+fn lss_board(serial: u32) -> Box<LssBoard> {
+    let address = sim_lss_address(serial);
+    let build: Build = Box::new(move |id, now| {
+        let mut od = sim_dictionary(id);
+        let device_type = od.get_u32(comm::DEVICE_TYPE, 0).unwrap_or(0);
+        let a = address;
+        for def in comm::identity(device_type, a.vendor, a.product, a.revision, a.serial) {
+            od.upsert(def);
+        }
+        let mut node = Node::new(NodeConfig::slave(id), od);
+        node.boot(now);
+        node
+    });
+    let lss = LssSlave::new(address, duocan::cia305::codec::UNCONFIGURED);
+    Box::new(Station::new(
+        DualBus::new(sim_link()),
+        LssNode::new(Instant::ZERO, lss, build),
+    ))
 }
 
 #[inline(never)]
@@ -221,6 +268,10 @@ pub(super) fn open(opts: NetOptions, script: StationScript) -> Result<Network, R
     let id = NodeId::must(SIM_PROGRAM_NODE);
     let od = ProgramDictionary::new(slave_dictionary(id), RamStore::default());
     let flasher = spawn(slave(id, od), "sim slave", &buses)?;
+    let mut lss = Vec::new();
+    for serial in SIM_LSS_SERIALS {
+        lss.push(spawn(lss_board(serial), "sim LSS board", &buses)?);
+    }
     let (stop, stop_rx) = watch::channel(false);
     let station = Sim {
         buses,
@@ -229,6 +280,7 @@ pub(super) fn open(opts: NetOptions, script: StationScript) -> Result<Network, R
         boards,
         slaves,
         flasher,
+        lss,
         stop: stop_rx,
         start: tokio::time::Instant::now(),
     };
@@ -274,6 +326,7 @@ struct Sim {
     boards: Devices<Board>,
     slaves: Vec<Handle<Slave<DynamicDictionary>>>,
     flasher: Handle<Flasher>,
+    lss: Vec<Handle<LssBoard>>,
     stop: watch::Receiver<bool>,
     start: tokio::time::Instant,
 }
@@ -322,6 +375,9 @@ impl Sim {
             h.shutdown().await;
         }
         self.flasher.shutdown().await;
+        for h in &self.lss {
+            h.shutdown().await;
+        }
     }
 
     /// One period of the fault script from `base`; false if asked to stop.

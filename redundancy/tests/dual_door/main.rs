@@ -3,4 +3,5 @@
 //! simulated redundant station behind `open_dual_named("sim")`. On tokio's paused clock.
 
 mod link;
+mod lss;
 mod station;

@@ -17,3 +17,22 @@ pub fn tool() -> PathBuf {
     );
     bin
 }
+
+/// Runs `duocan --bus <bus> <args>` (no `DUOCAN_BUS` from the environment): exit code, standard
+/// output, standard error.
+#[allow(dead_code)]
+pub async fn duocan(bus: &str, args: &[&str]) -> (i32, String, String) {
+    let out = tokio::process::Command::new(tool())
+        .arg("--bus")
+        .arg(bus)
+        .args(args)
+        .env_remove("DUOCAN_BUS")
+        .output()
+        .await
+        .expect("run duocan");
+    (
+        out.status.code().unwrap_or(-1),
+        String::from_utf8_lossy(&out.stdout).into_owned(),
+        String::from_utf8_lossy(&out.stderr).into_owned(),
+    )
+}
