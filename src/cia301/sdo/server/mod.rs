@@ -21,9 +21,9 @@
 //! new request; the client's next frame then finds the transfer as the protocol leaves it (an
 //! abort, or for block transfer the CRC).
 
-use super::block::{self, Acked, BlockReceiver, BlockSender, Bound, Received};
-use super::buffer::{DefaultBuffer, TransferBuffer, DEFAULT_LIMIT};
-use super::codec::{self, Init, Request, Response, SegmentData, MAX_BLOCK_SIZE};
+use super::block::{self, Acked, BlockReceiver, BlockSender, Bound};
+use super::buffer::{DefaultBuffer, TransferBuffer};
+use super::codec::{self, Init, Request, Response, SegmentData};
 use super::crc::crc16;
 use crate::frame::cob_id::{predefined, CobId, NodeId};
 use crate::frame::instant::{earliest, shift_back, Duration, Instant};
@@ -34,84 +34,10 @@ use crate::od::abort::AbortCode;
 use crate::od::ObjectAccess;
 use crate::od::{comm, ObjectDictionary};
 
-/// How a server behaves.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-#[non_exhaustive]
-pub struct SdoServerConfig {
-    /// How long the server waits for the client's next frame before aborting with 0x05040000.
-    pub timeout: Duration,
-    /// How long the server waits for the rest of a sub-block after a segment before it
-    /// acknowledges what it has (recovers a lost end of a sub-block without a full timeout).
-    ///
-    /// Default 500 ms, half the answer timeout: long enough that a receiver which was not
-    /// scheduled for a while (a loaded host) does not acknowledge while the rest of the
-    /// sub-block is still on its way, which would have the sender resend what is coming
-    /// anyway; short enough that the sender still waits for the acknowledgement.
-    pub subblock_timeout: Duration,
-    /// Block transfer supported. Without it, block requests get 0x05040001 as from a server
-    /// that does not know them, and clients fall back to segmented transfer.
-    pub block: bool,
-    /// CRC supported in block transfer.
-    pub crc: bool,
-    /// Segments per sub-block the server asks for in block downloads (1–127).
-    pub block_size: u8,
-    /// Largest value one transfer may carry; beyond it the server answers 0x05040005.
-    pub max_transfer: usize,
-}
+mod block_transfer;
+mod config;
 
-// Builders: the struct is `#[non_exhaustive]` (it may gain fields), so code outside the crate
-// starts from a constructor or `Default` and sets what it needs.
-impl SdoServerConfig {
-    /// The configuration with [`timeout`](Self::timeout) replaced.
-    #[must_use]
-    pub fn with_timeout(mut self, timeout: Duration) -> Self {
-        self.timeout = timeout;
-        self
-    }
-    /// The configuration with [`subblock_timeout`](Self::subblock_timeout) replaced.
-    #[must_use]
-    pub fn with_subblock_timeout(mut self, subblock_timeout: Duration) -> Self {
-        self.subblock_timeout = subblock_timeout;
-        self
-    }
-    /// The configuration with [`block`](Self::block) replaced.
-    #[must_use]
-    pub fn with_block(mut self, block: bool) -> Self {
-        self.block = block;
-        self
-    }
-    /// The configuration with [`crc`](Self::crc) replaced.
-    #[must_use]
-    pub fn with_crc(mut self, crc: bool) -> Self {
-        self.crc = crc;
-        self
-    }
-    /// The configuration with [`block_size`](Self::block_size) replaced.
-    #[must_use]
-    pub fn with_block_size(mut self, block_size: u8) -> Self {
-        self.block_size = block_size;
-        self
-    }
-    /// The configuration with [`max_transfer`](Self::max_transfer) replaced.
-    #[must_use]
-    pub fn with_max_transfer(mut self, max_transfer: usize) -> Self {
-        self.max_transfer = max_transfer;
-        self
-    }
-}
-
-impl Default for SdoServerConfig {
-    fn default() -> Self {
-        SdoServerConfig {
-            timeout: Duration::from_millis(1000),
-            subblock_timeout: Duration::from_millis(500),
-            block: true,
-            crc: true,
-            block_size: MAX_BLOCK_SIZE,
-            max_transfer: DEFAULT_LIMIT,
-        }
-    }
-}
+pub use config::SdoServerConfig;
 
 /// Counters of a server.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
@@ -629,97 +555,6 @@ impl<B: TransferBuffer> SdoServer<B> {
         }
     }
 
-    fn initiate_block_download<A: ObjectAccess + ?Sized>(
-        &mut self,
-        now: Instant,
-        index: u16,
-        sub: u8,
-        crc: bool,
-        size: Option<u32>,
-        od: &mut A,
-    ) {
-        self.begin(now, index, sub);
-        if !self.cfg.block {
-            return self.abort(AbortCode::COMMAND_SPECIFIER);
-        }
-        if let Err(c) = self.prepare_download(size, od) {
-            return self.abort(c);
-        }
-        let blksize = self.cfg.block_size.clamp(1, MAX_BLOCK_SIZE);
-        self.respond(Response::BlockDownloadInitiate {
-            index,
-            sub,
-            crc: self.cfg.crc,
-            blksize,
-        });
-        self.state = State::BlockDownload {
-            rx: BlockReceiver::new(blksize),
-            crc: crc && self.cfg.crc,
-            size,
-        };
-    }
-
-    fn block_segment(&mut self, now: Instant, d: &[u8; 8]) {
-        let State::BlockDownload { mut rx, crc, size } = self.state else {
-            return;
-        };
-        match rx.segment(d, &mut self.buf, self.bound) {
-            Err(c) => self.abort(c),
-            Ok(r) => {
-                self.state = State::BlockDownload { rx, crc, size };
-                self.touch(now);
-                match r {
-                    Received::Duplicate => {}
-                    Received::Continue => {
-                        self.subblock_deadline = Some(now + self.cfg.subblock_timeout)
-                    }
-                    Received::Ack(ackseq) => self.ack_sub_block(ackseq, rx.blksize()),
-                }
-            }
-        }
-    }
-
-    fn ack_sub_block(&mut self, ackseq: u8, blksize: u8) {
-        self.subblock_deadline = None;
-        self.respond(Response::BlockDownloadAck { ackseq, blksize });
-    }
-
-    #[allow(clippy::too_many_arguments)]
-    fn block_download_end<A: ObjectAccess + ?Sized>(
-        &mut self,
-        now: Instant,
-        mut rx: BlockReceiver,
-        unused: u8,
-        crc: u16,
-        use_crc: bool,
-        size: Option<u32>,
-        od: &mut A,
-    ) {
-        if let Err(c) = rx.finish(unused, &mut self.buf, self.bound) {
-            return self.abort(c);
-        }
-        let len = self.buf.len();
-        if let Some(s) = size {
-            if len != s as usize {
-                return self.abort(if len > s as usize {
-                    AbortCode::LENGTH_TOO_HIGH
-                } else {
-                    AbortCode::LENGTH_TOO_LOW
-                });
-            }
-        }
-        if use_crc && crc16(self.buf.as_slice()) != crc {
-            return self.abort(AbortCode::CRC_ERROR);
-        }
-        match od.write(now, self.index, self.sub, self.buf.as_slice()) {
-            Ok(()) => {
-                self.respond(Response::BlockDownloadEnd);
-                self.complete();
-            }
-            Err(c) => self.abort(c),
-        }
-    }
-
     /// Copies the value into the buffer: the upload reads this snapshot.
     fn snapshot<A: ObjectAccess + ?Sized>(&mut self, od: &A) -> Result<(), AbortCode> {
         let data = od.read(self.index, self.sub)?;
@@ -752,45 +587,6 @@ impl<B: TransferBuffer> SdoServer<B> {
         self.state = State::Upload {
             toggle: false,
             offset: 0,
-        };
-    }
-
-    /// The client's CRC bit is not consulted: CiA 301 has the end frame carry a CRC whenever
-    /// the server announces support, and clients (python `canopen` among them) check it then
-    /// even if they did not ask, so a server that sets the bit sends the real CRC.
-    fn initiate_block_upload<A: ObjectAccess + ?Sized>(
-        &mut self,
-        now: Instant,
-        index: u16,
-        sub: u8,
-        blksize: u8,
-        pst: u8,
-        od: &mut A,
-    ) {
-        self.begin(now, index, sub);
-        if !self.cfg.block {
-            return self.abort(AbortCode::COMMAND_SPECIFIER);
-        }
-        if !block::valid_block_size(blksize) {
-            return self.abort(AbortCode::INVALID_BLOCK_SIZE);
-        }
-        if let Err(c) = self.snapshot(od) {
-            return self.abort(c);
-        }
-        let len = self.buf.len();
-        // Protocol switch: small data goes faster expedited or segmented.
-        if pst != 0 && len <= pst as usize {
-            return self.start_upload();
-        }
-        self.respond(Response::BlockUploadInitiate {
-            index,
-            sub,
-            crc: self.cfg.crc,
-            size: Some(len as u32),
-        });
-        self.state = State::BlockUploadStart {
-            crc: self.cfg.crc,
-            blksize,
         };
     }
 
