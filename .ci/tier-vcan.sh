@@ -2,7 +2,7 @@
 # Tier 2: real SocketCAN on vcan0/vcan1/vcan2, inside a qemu VM running Debian's stock kernel
 # (the host kernel has no CAN). Installs what it needs (qemu, busybox, the kernel deb's CAN
 # modules, can-utils), runs tiers/tests/vcan.rs, tiers/tests/vcan_failover.rs,
-# tiers/tests/vcan_redundant.rs and the
+# tiers/tests/vcan_redundant.rs, the failover kit (.ci/kit-vm.sh), LSS (.ci/lss-vm.sh) and the
 # dual_vcan_failover example's self-test in the VM (and checks on the host that the example
 # refuses to run without its interfaces, saying how to create them), then the runtime-overhead
 # measurement (bare socketcan echo loop vs the tokio runtime, same VM).
@@ -47,6 +47,11 @@ EXTRA="$KTARGET/release/duocan:/tests/duocan"
 for f in cli/scenarios/*.toml; do EXTRA="$EXTRA $ROOT/$f:/tests/scenarios/$(basename "$f")"; done
 VCANVM_SMP=2 VCANVM_EXTRA="$EXTRA" VCANS=vm1a,vm1b,vs1a,vs1b,vm2a,vm2b,vs2a,vs2b,kb0,kb1,kb2 \
   "$VM/vm-run.sh" "$ROOT/.ci/kit-vm.sh" || fail "the failover kit on vcan"
+
+echo "== tier-vcan: LSS on vcan: the tool's LSS master configures two duocan LSS slaves (processes)"
+echo "   by fastscan on lssa,lssb, one of them on lssb only"
+VCANVM_SMP=2 VCANVM_EXTRA="$KTARGET/release/duocan:/tests/duocan" VCANS=lssa,lssb \
+  "$VM/vm-run.sh" "$ROOT/.ci/lss-vm.sh" || fail "LSS on vcan"
 
 echo "== tier-vcan: the dual_vcan_failover example"
 # Release build: the VM emulates its CPU (TCG, one core), and a debug build's scheduling delays
