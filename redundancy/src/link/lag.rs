@@ -24,6 +24,27 @@
 //! - one sample is not enough: a frame that one bus missed, whose next unchanged repeat comes
 //!   first on that bus, looks exactly like one lagging twin.
 //!
+//! # Unchanged repeats
+//!
+//! A frame repeated unchanged (cyclic data that does not change, a heartbeat) says nothing about
+//! which occurrence a copy is. When a bus comes back from an outage, its first copies of such
+//! frames find the other port's copies of *earlier* occurrences, received during the outage,
+//! and look exactly like twins lagging by a multiple of their period; so does a lagging bus
+//! whose lag is close to such a multiple. Both readings explain the copies, and the one without
+//! a lag is kept: a sample taken from the twin of a frame is **withdrawn** when a copy of the
+//! same frame arrives on the other port less than half a skew window later (that copy is the
+//! real twin, with ordinary skew). Until then the sample counts: a lag shown by two twins is
+//! known at once, as above, and is revised when the copies that contradict it come.
+//!
+//! - A port whose traffic is all unchanged repeats (SRDOs, heartbeats) is therefore never taken
+//!   for lagging after an outage, and a failure of the other bus later does not find it
+//!   distrusted.
+//! - A real lag is still measured from every frame that changes (a counter, new data): only the
+//!   samples of the repeats it cannot tell apart are withdrawn, each one exactly (samples are
+//!   tagged), and the others keep the lag.
+//! - Withdrawing takes a sample out of the two largest of its period; a smaller one it had
+//!   displaced is not brought back (the next sample that shows the lag takes its place).
+//!
 //! # The window
 //!
 //! A port lags when its lag is at least half the skew window. Its window is then the skew
@@ -77,6 +98,10 @@
 //! - A frame that repeats unchanged faster than the lag may be paired one occurrence off when the
 //!   lag appears (its newer copy is in the window, its twin already late); nothing is lost or
 //!   doubled while it keeps repeating, and one copy comes twice when it stops.
+//! - After an outage, when the repaired bus's copies of two unchanged repeats both come before
+//!   the other bus's copies of them, a lag is known for that moment (see "Unchanged repeats"):
+//!   those two repeats come twice, and the lag goes with their twins. When the other bus's
+//!   copy comes first (or between them), nothing comes twice.
 //! - Beyond the horizon a twin cannot be recognised: every copy of that bus comes twice.
 //!
 //! Nothing is lost in any of these cases: a copy is dropped only as the twin of one delivered, or,
@@ -91,7 +116,9 @@
 //!
 //! # Memory
 //!
-//! Four samples, a window and a flag per port: fixed.
+//! Four samples (with their tags), a window and a flag per port, and the samples of the last
+//! half skew window with their frames ([`recent::RECENT`] per port; a newer one takes the place
+//! of the oldest, which then stays): fixed.
 //!
 //! ```
 //! use duocan::{Duration, Instant};
@@ -113,9 +140,12 @@
 //! ```
 
 use crate::link::events::{LinkEvent, LinkEventKind};
+use crate::link::lag::recent::{Recent, RecentSamples};
 use crate::link::outbox::Outbox;
 use duocan::frame::instant::next_on_grid;
-use duocan::{Duration, Instant};
+use duocan::{Duration, Frame, Instant};
+
+pub mod recent;
 
 #[cfg(doc)]
 use crate::link::merge::Twin;
@@ -129,6 +159,9 @@ struct PortLag {
     cur: [u64; 2],
     /// The same for the previous period.
     prev: [u64; 2],
+    /// Which samples `cur` and `prev` hold: their tags (0: not withdrawable).
+    cur_tag: [u32; 2],
+    prev_tag: [u32; 2],
     /// The window as last applied and reported (µs).
     window: u64,
     distrusted: bool,
@@ -137,6 +170,8 @@ struct PortLag {
     /// The newest frame this port is known to have received, by its arrival on the other port
     /// (µs): from its own twins, and from the other port's twins of its copies.
     seen: u64,
+    /// The samples of the last half skew window, with their frames.
+    recent: RecentSamples,
 }
 
 impl PortLag {
@@ -165,6 +200,8 @@ pub struct LagMeter {
     threshold: u64,
     /// The end of the current period (µs).
     period_end: u64,
+    /// The tag of the next withdrawable sample (never 0).
+    next_tag: u32,
     ports: [PortLag; 2],
 }
 
@@ -186,6 +223,7 @@ impl LagMeter {
             hold: hold.as_micros().max(MS),
             threshold: base / 2,
             period_end: hold.as_micros().max(MS),
+            next_tag: 1,
             ports: [port; 2],
         }
     }
@@ -236,6 +274,86 @@ impl LagMeter {
     /// copy. Returns true when a window or a distrust changed (the events are queued).
     #[inline]
     pub fn sample(&mut self, now: Instant, p: usize, lag: Duration, out: &mut Outbox) -> bool {
+        self.sample_inner(now, p, lag, 0, out).1
+    }
+
+    /// As [`LagMeter::sample`], for the twin of `frame`: a sample kept is remembered for half a
+    /// skew window, during which a copy of the same frame on the other port withdraws it
+    /// ([`LagMeter::contradicted`]).
+    #[inline]
+    pub fn sample_frame(
+        &mut self,
+        now: Instant,
+        p: usize,
+        lag: Duration,
+        frame: &Frame,
+        out: &mut Outbox,
+    ) -> bool {
+        let tag = self.next_tag;
+        let (kept, changed) = self.sample_inner(now, p, lag, tag, out);
+        if kept {
+            self.next_tag = tag.checked_add(1).unwrap_or(1);
+            self.ports[p.min(1)].recent.push(Recent {
+                frame: *frame,
+                at: now.as_micros(),
+                tag,
+            });
+        }
+        changed
+    }
+
+    /// True while port `p` holds samples that a copy on the other port may still withdraw.
+    #[inline]
+    pub fn withdrawable(&self, p: usize) -> bool {
+        self.ports[p.min(1)].recent.any()
+    }
+
+    /// `frame` arrived on port `q` at `now`: if the other port took a sample from a twin of the
+    /// same frame less than half a skew window ago, that twin was an earlier repeat and this
+    /// copy is the real one, arriving with it: the sample is withdrawn. Returns true when a
+    /// window or a distrust changed (the events are queued).
+    pub fn contradicted(
+        &mut self,
+        now: Instant,
+        q: usize,
+        frame: &Frame,
+        out: &mut Outbox,
+    ) -> bool {
+        let p = 1 - q.min(1);
+        let now_us = now.as_micros();
+        let Some(r) = self.ports[p].recent.take(now_us, self.threshold, frame) else {
+            return false;
+        };
+        let mut changed = self.roll(now_us, out).is_some();
+        let port = &mut self.ports[p];
+        for (lags, tags) in [
+            (&mut port.cur, &mut port.cur_tag),
+            (&mut port.prev, &mut port.prev_tag),
+        ] {
+            if let Some(i) = tags.iter().position(|&t| t == r.tag) {
+                // Out of the two largest; the runner-up moves up (one it displaced is not
+                // brought back: the next sample that shows the lag takes its place).
+                if i == 0 {
+                    (lags[0], tags[0]) = (lags[1], tags[1]);
+                }
+                (lags[1], tags[1]) = (0, 0);
+                break;
+            }
+        }
+        changed |= self.evaluate(now_us, out);
+        changed
+    }
+
+    /// The sample: whether it was kept, and whether a window or a distrust changed.
+    #[inline]
+    fn sample_inner(
+        &mut self,
+        now: Instant,
+        p: usize,
+        lag: Duration,
+        tag: u32,
+        out: &mut Outbox,
+    ) -> (bool, bool) {
         let p = p.min(1);
         let (now_us, lag) = (now.as_micros(), lag.as_micros());
         let copy = now_us.saturating_sub(lag);
@@ -250,20 +368,23 @@ impl LagMeter {
         other.seen = other.seen.max(now_us);
         if lag < self.threshold || !in_order {
             // Ordinary skew (the frequent case), or no lag: nothing to keep.
-            return false;
+            return (false, false);
         }
-        self.keep(now_us, p, lag, out)
+        (true, self.keep(now_us, p, lag, tag, out))
     }
 
     /// A sample that shows a lag: kept, and what it changes.
     #[cold]
-    fn keep(&mut self, now_us: u64, p: usize, lag: u64, out: &mut Outbox) -> bool {
+    fn keep(&mut self, now_us: u64, p: usize, lag: u64, tag: u32, out: &mut Outbox) -> bool {
         let mut changed = self.roll(now_us, out).is_some();
-        let cur = &mut self.ports[p].cur;
+        let port = &mut self.ports[p];
+        let (cur, tags) = (&mut port.cur, &mut port.cur_tag);
         if lag > cur[0] {
             *cur = [lag, cur[0]];
+            *tags = [tag, tags[0]];
         } else if lag > cur[1] {
             cur[1] = lag;
+            tags[1] = tag;
         }
         changed |= self.evaluate(now_us, out);
         changed
@@ -288,6 +409,7 @@ impl LagMeter {
         let by = by.as_micros();
         self.period_end = self.period_end.saturating_sub(by);
         for port in &mut self.ports {
+            port.recent.step_back(by);
             port.seen = port.seen.saturating_sub(by);
             if let Some(t) = port.last_twin.as_mut() {
                 *t = t.saturating_sub(by);
@@ -313,6 +435,8 @@ impl LagMeter {
             for port in &mut self.ports {
                 port.prev = port.cur;
                 port.cur = [0, 0];
+                port.prev_tag = port.cur_tag;
+                port.cur_tag = [0, 0];
             }
             if self.evaluate(at, out) {
                 last = Some(at);

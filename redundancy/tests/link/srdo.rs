@@ -13,7 +13,7 @@ use duocan::od::{comm, Access, DynamicDictionary, ObjectDef, ObjectDictionary};
 use duocan::pdo::MapEntry;
 use duocan::sim::{BusConfig, BusId, DevId, SimNetwork, TraceRecord, TxOutcome};
 use duocan::{Duration, Id, Instant, Node, NodeConfig, NodeId, Station};
-use duocan_redundancy::{DualBus, DualBusConfig};
+use duocan_redundancy::{DualBus, DualBusConfig, LinkEventKind};
 
 type Dev = Station<DualBus, Node<DynamicDictionary>>;
 
@@ -60,16 +60,11 @@ fn station(id: u8, transmit: bool) -> Dev {
     Station::new(DualBus::new(link_config()), node)
 }
 
-/// The dual bus as SRDO traffic needs it: no lag widening (the maximum skew window is the skew
-/// window). Unchanged cyclic data is the rule for SRDOs, and after an outage the repaired bus's
-/// first copies of it look exactly like twins lagging by a multiple of the refresh time: with
-/// widening on, the layer would measure that lag, distrust the repaired bus (or widen the
-/// window past the refresh time and merge two pairs into one) and, should the other bus fail
-/// next, drop pairs the repaired bus delivers.
+/// The dual bus with its default settings, lag widening included: the first copies a repaired
+/// bus carries of the unchanged SRDO frames look like lagging twins, and the copies of the other
+/// bus arriving with them show they are not.
 fn link_config() -> DualBusConfig {
-    let c = DualBusConfig::default();
-    let skew = c.skew_window;
-    c.with_max_skew_window(skew)
+    DualBusConfig::default()
 }
 
 fn network() -> Net {
@@ -330,4 +325,73 @@ proptest! {
         // One bus at a time: never safe.
         prop_assert!(plan.iter().any(|o| o.0 == 2) || got.is_none());
     }
+}
+
+/// Bus 1 out twice, then bus 2: after each repair the repaired bus's first copies of the
+/// unchanged cyclic frames find the other bus's copies of earlier repeats, and look exactly like
+/// twins lagging by a multiple of the refresh time. The copies of the other bus arriving with
+/// them show there is no lag: none is reported, no bus is distrusted, and when bus 2 fails at
+/// last, bus 1's pairs keep the consumer running. (With the samples kept, bus 1 was distrusted
+/// for a 60 ms lag after its second repair, and the consumer tripped at 671.135 ms.)
+#[test]
+fn repeats_after_a_repair_are_no_lag_and_the_next_failure_does_not_trip() {
+    let mut net = network();
+    for (bus, down, up) in [(0, 167, 246), (0, 408, 512), (1, 622, 662)] {
+        net.sim.run_until(ms(down));
+        net.sim.bus_down(net.buses[bus]);
+        net.sim.run_until(ms(up));
+        net.sim.bus_up(net.buses[bus]);
+    }
+    net.sim.run_until(END);
+    assert!(net.srdo_events().is_empty(), "{:?}", net.srdo_events());
+    assert!(lag_reports(&net).is_empty(), "{:?}", lag_reports(&net));
+    let link = &net.sim.device(net.consumer).link;
+    assert!(!link.lag().distrusted(0) && !link.lag().distrusted(1));
+    assert_eq!(net.value(), (0x1234, !0x1234));
+}
+
+/// Bus 2 out for 125 ms; 16 ms after its repair, bus 1 fails. Bus 2's first copies after the
+/// repair have no copy on bus 1 arriving with them to show they are no lag. But the consumer's
+/// own transmissions on bus 2 had failed: the bus was cut, not slow, and what bus 1 received
+/// meanwhile was never kept for bus 2 to match. Bus 2 is not distrusted and carries every pair.
+/// (Before, it was taken for lagging 60 ms and the consumer tripped at 671.135 ms.)
+#[test]
+fn a_bus_cut_off_is_not_lagging_when_it_comes_back_even_if_the_other_one_fails_at_once() {
+    let mut net = network();
+    for (bus, down, up) in [(0, 213, 297), (1, 477, 602), (0, 618, 662)] {
+        net.sim.run_until(ms(down));
+        net.sim.bus_down(net.buses[bus]);
+        net.sim.run_until(ms(up));
+        net.sim.bus_up(net.buses[bus]);
+    }
+    net.sim.run_until(END);
+    assert!(net.srdo_events().is_empty(), "{:?}", net.srdo_events());
+    assert!(lag_reports(&net).is_empty(), "{:?}", lag_reports(&net));
+    // Every pair that ended on bus 2 after its repair completed at the consumer.
+    let after: Vec<Instant> = net
+        .delivered(1, INVERTED)
+        .into_iter()
+        .filter(|t| *t > ms(602))
+        .collect();
+    assert!(after.len() >= 19, "{after:?}");
+    assert!(after.iter().all(|t| net.completions().contains(t)));
+}
+
+/// The consumer's lag reports.
+fn lag_reports(net: &Net) -> Vec<LinkEventKind> {
+    net.sim
+        .events(net.consumer)
+        .iter()
+        .filter_map(|(_, e)| match e {
+            StationEvent::Link(l)
+                if matches!(
+                    l.kind,
+                    LinkEventKind::Lag { .. } | LinkEventKind::LagCleared { .. }
+                ) =>
+            {
+                Some(l.kind)
+            }
+            _ => None,
+        })
+        .collect()
 }

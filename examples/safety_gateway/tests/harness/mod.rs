@@ -143,13 +143,10 @@ fn master_device() -> MasterDev {
         }
     }
     let node = Node::with_profile(NodeConfig::master(MASTER), od, profile());
-    // No lag widening: the gateway's SRDO repeats unchanged data, whose first copies on a
-    // repaired bus would look like lagging twins (see the README's safety data section).
     let cfg = DualBusConfig::with_guard_period(
         LinkMode::ActiveActive,
         duocan::Duration::from_millis(MASTER_HB_MS as u64),
     );
-    let cfg = cfg.with_max_skew_window(cfg.skew_window);
     Station::new(
         DualBus::with_classifier(cfg, profile()),
         Composite::new(

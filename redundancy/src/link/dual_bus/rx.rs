@@ -3,7 +3,7 @@
 
 use super::DualBus;
 use crate::link::classify::FrameClassifier;
-use crate::link::health::RxOutcome;
+use crate::link::health::{PortState, RxOutcome};
 use crate::link::merge::{Twin, Verdict};
 use duocan::{Frame, Instant};
 
@@ -13,13 +13,19 @@ impl<C: FrameClassifier, const SLOTS: usize, const FUNCTIONS: usize> DualBus<C, 
     /// silent (see [`crate::link::lag`]).
     #[inline]
     pub(super) fn merge(&mut self, now: Instant, port: usize, frame: &Frame) -> RxOutcome {
+        if port < 2
+            && self.lag.withdrawable(1 - port)
+            && self.lag.contradicted(now, port, frame, &mut self.out)
+        {
+            self.follow_lag(now);
+        }
         if self.lag.distrusted(port) && self.health.port(1 - port).state().is_trusted() {
             return self.merge_distrusted(now, port, frame);
         }
         if self.health.trusted(port) {
             let (verdict, twin) = self.merger.arrive_measured(now, port, frame);
             if let Some(twin) = twin {
-                self.measured(now, port, twin);
+                self.measured(now, port, twin, frame);
             }
             match (verdict, twin) {
                 (Verdict::Duplicate, _) => RxOutcome::Duplicate,
@@ -37,7 +43,7 @@ impl<C: FrameClassifier, const SLOTS: usize, const FUNCTIONS: usize> DualBus<C, 
     #[cold]
     fn merge_distrusted(&mut self, now: Instant, port: usize, frame: &Frame) -> RxOutcome {
         if let Some(twin) = self.merger.match_measured(now, port, frame) {
-            self.measured(now, port, twin);
+            self.measured(now, port, twin, frame);
             return RxOutcome::Duplicate;
         }
         let other_last_rx = self.health.port(1 - port).counters().last_rx;
@@ -49,7 +55,11 @@ impl<C: FrameClassifier, const SLOTS: usize, const FUNCTIONS: usize> DualBus<C, 
     }
 
     /// Copies of a port are kept as late records only while the other port can deliver their
-    /// twins (ok or suspect): while it is failed or recovering its copies are lost, not late.
+    /// twins late: it is ok, or suspect only for its lag. Failed, recovering, or suspect for a
+    /// fault (its transmissions fail, its controller reports errors), it is cut off, not slow:
+    /// the copies it misses are lost, and when it is back, its first copies of unchanged
+    /// repeats must not be taken for late twins of the ones it missed (a lag it does not have,
+    /// distrusting it just when the other port may fail next).
     #[inline]
     pub(super) fn keep_late(&mut self, now: Instant) {
         if self.health.changes() == self.health_seen {
@@ -57,7 +67,12 @@ impl<C: FrameClassifier, const SLOTS: usize, const FUNCTIONS: usize> DualBus<C, 
         }
         self.health_seen = self.health.changes();
         for p in 0..2 {
-            let keep = self.health.port(1 - p).state().is_trusted();
+            let other = self.health.port(1 - p);
+            let keep = match other.state() {
+                PortState::Ok => true,
+                PortState::Suspect => other.lagging().is_some(),
+                PortState::Failed | PortState::Recovering => false,
+            };
             if keep != self.merger.keeps_late(p) {
                 self.merger.keep_late(p, keep, now);
             }
@@ -66,9 +81,9 @@ impl<C: FrameClassifier, const SLOTS: usize, const FUNCTIONS: usize> DualBus<C, 
 
     /// A twin matched for `port`: a lag sample.
     #[inline]
-    fn measured(&mut self, now: Instant, port: usize, twin: Twin) {
+    fn measured(&mut self, now: Instant, port: usize, twin: Twin, frame: &Frame) {
         if let Some(lag) = twin.lag {
-            if self.lag.sample(now, port, lag, &mut self.out) {
+            if self.lag.sample_frame(now, port, lag, frame, &mut self.out) {
                 self.follow_lag(now);
             }
         }

@@ -1,6 +1,7 @@
 //! The lag meter: samples, periods, windows, distrust, reports.
 
 use super::*;
+use duocan::Frame;
 
 fn ms(x: u64) -> Duration {
     Duration::from_millis(x)
@@ -211,4 +212,107 @@ fn a_step_back_moves_the_periods_and_a_jump_ahead_costs_three_rounds_at_most() {
     assert_eq!(m.poll_timeout(), Some(ahead + ms(100)));
     m.handle_timeout(Instant::MAX, &mut out);
     assert_eq!(m.poll_timeout(), None);
+}
+
+fn frame(id: u16, b: u8) -> Frame {
+    Frame::from_array(duocan::Id::Standard(id), [b])
+}
+
+#[test]
+fn a_copy_on_the_other_port_soon_after_withdraws_the_sample_of_its_repeat() {
+    let mut m = meter();
+    let mut out = Outbox::new();
+    let (normal, inverted) = (frame(0x103, 1), frame(0x104, 0xFE));
+    // Port 0 back from an outage: its copies of two unchanged repeats find port 1's copies of
+    // the occurrences 60 ms earlier. Two samples: a lag, known at once, beyond the maximum.
+    assert!(!m.sample_frame(at(521), 0, ms(60), &normal, &mut out));
+    assert!(m.sample_frame(at(521), 0, ms(60), &inverted, &mut out));
+    assert_eq!((m.lag(0), m.distrusted(0)), (ms(60), true));
+    assert!(m.withdrawable(0) && !m.withdrawable(1));
+    // Port 1's copy of another frame, or one of them on the same port, withdraws nothing.
+    assert!(!m.contradicted(at(521), 1, &frame(0x702, 5), &mut out));
+    assert!(!m.contradicted(at(521), 0, &normal, &mut out));
+    // Port 1's copies of the same frames arrive with them: no lag at all.
+    assert!(m.contradicted(at(521) + Duration::from_micros(70), 1, &normal, &mut out));
+    assert_eq!(
+        (m.lag(0), m.distrusted(0), m.window()),
+        (Duration::ZERO, false, ms(10))
+    );
+    assert!(
+        !m.contradicted(at(522), 1, &inverted, &mut out),
+        "nothing changes any more"
+    );
+    assert!(!m.withdrawable(0));
+    assert_eq!(
+        events(&mut out),
+        [
+            (at(521), lag(0, ms(60), ms(70))),
+            (
+                at(521) + Duration::from_micros(70),
+                LinkEventKind::LagCleared { port: 0 }
+            ),
+        ]
+    );
+    assert_eq!(m.poll_timeout(), None, "no sample held");
+}
+
+#[test]
+fn a_copy_half_a_skew_window_later_withdraws_nothing() {
+    let mut m = meter();
+    let mut out = Outbox::new();
+    let f = frame(0x181, 7);
+    m.sample_frame(at(100), 1, ms(15), &f, &mut out);
+    m.sample_frame(at(110), 1, ms(15), &frame(0x182, 1), &mut out);
+    assert_eq!(m.lag(1), ms(15));
+    // 5 ms after: the skew it would mean is not ordinary; the sample stays, and is forgotten.
+    assert!(!m.contradicted(at(105), 0, &f, &mut out));
+    assert_eq!(m.lag(1), ms(15));
+    assert!(!m.contradicted(at(116), 0, &frame(0x182, 1), &mut out));
+    assert!(!m.withdrawable(1), "both too old now");
+}
+
+#[test]
+fn withdrawing_a_repeat_keeps_the_lag_its_changing_frames_show() {
+    let mut m = meter();
+    let mut out = Outbox::new();
+    let repeat = frame(0x281, 0);
+    // A real 40 ms lag, shown by two changing frames; then a frame repeating every 20 ms is
+    // paired one occurrence off, with every changing one.
+    m.sample_frame(at(10), 1, ms(40), &frame(0x181, 0xA0), &mut out);
+    m.sample_frame(at(20), 1, ms(40), &frame(0x181, 0xA1), &mut out);
+    assert_eq!((m.lag(1), m.distrusted(1)), (ms(40), true));
+    for (i, t) in [30u64, 50, 70].into_iter().enumerate() {
+        m.sample_frame(at(t), 1, ms(40), &frame(0x181, i as u8), &mut out);
+        m.sample_frame(at(t), 1, ms(40), &repeat, &mut out);
+        m.contradicted(at(t + 1), 0, &repeat, &mut out);
+        assert_eq!((m.lag(1), m.distrusted(1)), (ms(40), true), "at {t} ms");
+    }
+    // The period ends: the samples of the changing frames carry it.
+    m.handle_timeout(at(100), &mut out);
+    m.sample_frame(at(110), 1, ms(40), &repeat, &mut out);
+    m.contradicted(at(111), 0, &repeat, &mut out);
+    assert_eq!(m.lag(1), ms(40));
+}
+
+#[test]
+fn a_port_remembers_its_newest_samples_and_the_clock_steps_back_with_them() {
+    let mut m = meter();
+    let mut out = Outbox::new();
+    for i in 0..5u8 {
+        m.sample_frame(
+            at(200),
+            0,
+            ms(20),
+            &frame(0x100 + u16::from(i), i),
+            &mut out,
+        );
+    }
+    // Four held: the oldest one (0x100) was replaced and cannot be withdrawn.
+    assert!(!m.contradicted(at(201), 1, &frame(0x100, 0), &mut out));
+    m.step_back(ms(150));
+    assert!(m.withdrawable(0));
+    for i in 1..5u8 {
+        m.contradicted(at(52), 1, &frame(0x100 + u16::from(i), i), &mut out);
+    }
+    assert!(!m.withdrawable(0));
 }
