@@ -48,6 +48,9 @@ pub mod code {
     pub const SYNC_LENGTH: u16 = 0x8240;
     /// RPDO timeout.
     pub const RPDO_TIMEOUT: u16 = 0x8250;
+    /// Data set error: a configuration the device needs is wrong (the SRDOs', CiA 304, when
+    /// the node refuses operational).
+    pub const DATA_SET: u16 = 0x6300;
 }
 
 /// One EMCY message: error code, error register, five manufacturer bytes.

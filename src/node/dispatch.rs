@@ -167,11 +167,15 @@ impl<
         if from == to {
             return;
         }
-        // CiA 304: no operational state on an SRDO configuration that is not valid.
+        // CiA 304: no operational state on an SRDO configuration that is not valid. The EMCY
+        // tells the master (and anyone listening) why, with the object at fault; it is cleared
+        // when the node enters operational.
         if to == NmtState::Operational {
             if let Err(reason) = self.srdo.load(&self.od) {
+                self.emcy_raise(now, emcy::code::DATA_SET, 0, reason.emcy_data());
                 return self.event(now, NodeEventKind::OperationalRefused { reason });
             }
+            self.emcy_clear(now, emcy::code::DATA_SET);
         }
         self.state = to;
         self.event(now, NodeEventKind::StateChanged { from, to, cause });

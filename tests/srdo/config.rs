@@ -260,3 +260,40 @@ fn marking_valid_checks_first_and_writes_nothing_on_a_bad_configuration() {
         signature(&cfg.params, &cfg.mapping).to_le_bytes()
     );
 }
+
+/// Every frame the node has to send now, up to the first non-EMCY one.
+fn emcys(n: &mut crate::common::TestNode) -> Vec<duocan::Frame> {
+    std::iter::from_fn(|| n.poll_transmit())
+        .filter(|f| f.id() == duocan::Id::Standard(0x80 + u16::from(C_ID)))
+        .collect()
+}
+
+#[test]
+fn the_refusal_is_an_emcy_naming_the_object_and_entering_operational_clears_it() {
+    let mut n = booted_consumer();
+    let _ = emcys(&mut n);
+    let good: u16 = n.od().get_value(config::CHECKSUMS, 1).unwrap();
+    n.set(Instant::ZERO, config::CHECKSUMS, 1, good ^ 0x0100)
+        .unwrap();
+    n.set(Instant::ZERO, config::CONFIG_VALID, 0, config::VALID)
+        .unwrap();
+    refused(&mut n);
+    // 0x6300 data set error, register generic; SRDO 1, 0x13FF sub 1, problem 11 (checksum).
+    let e = emcys(&mut n);
+    assert_eq!(e.len(), 1, "{e:?}");
+    assert_eq!(e[0].data(), [0x00, 0x63, 0x01, 1, 0xFF, 0x13, 1, 11]);
+    assert_eq!(n.od().get_value::<u8>(0x1001, 0), Ok(0x01));
+    // Asked again: refused again, no second EMCY for the same error.
+    refused(&mut n);
+    assert!(emcys(&mut n).is_empty());
+    // The right checksum: operational, and the error is reset on the bus.
+    n.set(Instant::ZERO, config::CHECKSUMS, 1, good).unwrap();
+    n.set(Instant::ZERO, config::CONFIG_VALID, 0, config::VALID)
+        .unwrap();
+    n.set_nmt_state(Instant::from_millis(2), NmtState::Operational);
+    assert_eq!(n.nmt_state(), NmtState::Operational);
+    let e = emcys(&mut n);
+    assert_eq!(e.len(), 1, "{e:?}");
+    assert_eq!(e[0].data(), [0, 0, 0, 0, 0, 0, 0, 0]);
+    assert_eq!(n.od().get_value::<u8>(0x1001, 0), Ok(0));
+}

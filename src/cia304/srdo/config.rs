@@ -250,6 +250,39 @@ pub struct SrdoConfigError {
     pub problem: SrdoProblem,
 }
 
+impl SrdoProblem {
+    /// A number for the problem, as the refusal's EMCY carries it: 1 not valid, 2 missing,
+    /// 3 direction, 4 refresh time / SCT, 5 SRVT, 6 transmission type, 7 COB-IDs, 8 mapping
+    /// count, 9 mapping entry, 10 length, 11 checksum.
+    #[must_use]
+    pub const fn number(self) -> u8 {
+        match self {
+            SrdoProblem::NotValid(_) => 1,
+            SrdoProblem::Missing(_) => 2,
+            SrdoProblem::Direction => 3,
+            SrdoProblem::CycleTime => 4,
+            SrdoProblem::ValidationTime => 5,
+            SrdoProblem::TransmissionType => 6,
+            SrdoProblem::CobId => 7,
+            SrdoProblem::MappingCount => 8,
+            SrdoProblem::Mapping(_) => 9,
+            SrdoProblem::Length => 10,
+            SrdoProblem::Checksum { .. } => 11,
+        }
+    }
+}
+
+impl SrdoConfigError {
+    /// The five manufacturer bytes of the EMCY a node sends when it refuses operational for
+    /// this: SRDO number (0 for 0x13FE; low byte), the object's index (little-endian), its
+    /// sub-index, and the problem's [`SrdoProblem::number`].
+    #[must_use]
+    pub const fn emcy_data(&self) -> [u8; 5] {
+        let [lo, hi] = self.index.to_le_bytes();
+        [self.srdo as u8, lo, hi, self.sub, self.problem.number()]
+    }
+}
+
 impl fmt::Display for SrdoConfigError {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         write!(
