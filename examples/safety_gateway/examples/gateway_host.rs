@@ -5,9 +5,9 @@
 //! cargo run -p safety-gateway --example gateway_host
 //! ```
 //!
-//! Prints what the interlocking sees of the four track circuits while the field board reports,
-//! sends a stuck-at code and a corrupted frame, bus 1 breaks and is repaired, and the field
-//! board falls silent. Exits non-zero if the interlocking ever reads a track circuit clear that
+//! Prints what the interlocking sees of the four track circuits while the field board sends
+//! them as an SRDO, sends a stuck-at code and a pair with a corrupted inverse, bus 1 breaks and
+//! is repaired, and the field board falls silent. Exits non-zero if the interlocking ever reads a track circuit clear that
 //! the field board did not report clear.
 
 #[path = "../tests/harness/mod.rs"]
@@ -15,7 +15,8 @@ mod harness;
 
 use duocan::profile::railway::safety::TrackCircuit;
 use duocan::Frame;
-use harness::{field_id, report, wires, Bench};
+use harness::{wires, Bench};
+use safety_gateway::mirror::field_pair;
 use safety_gateway::mock::{MockCan, Wire};
 use safety_gateway::{Event, Storage, TRACKS};
 use static_cell::StaticCell;
@@ -62,17 +63,19 @@ fn main() {
     b.field_set(2, 0xFF);
     show(
         &b,
-        "track 2 reported as 0xFF (stuck-at, valid CRC): occupied",
+        "track 2 sent as 0xFF (stuck-at, in an intact pair): occupied",
     );
     b.run_ms(200);
     b.field_set(2, 0x55);
-    let mut bytes = report(1, 0x55).data().to_vec();
-    bytes[5] ^= 1;
-    b.field_send(&Frame::new(field_id(), &bytes).expect("frame"));
+    let [normal, inverted] = field_pair(b.field_codes);
+    let mut bytes = inverted.data().to_vec();
+    bytes[0] ^= 1;
+    b.field_send(&normal);
+    b.field_send(&Frame::new(inverted.id(), &bytes).expect("frame"));
     b.settle();
     show(
         &b,
-        "a frame failing its CRC: which track it meant is unknown, all occupied",
+        "a pair whose inverse has a flipped bit: the SRDO trips, all occupied",
     );
     b.run_ms(100);
     show(&b, "the next field cycle restores them");
@@ -89,7 +92,7 @@ fn main() {
     b.run_ms(400);
     show(
         &b,
-        "field board silent for 400 ms (timeout 300 ms): all occupied",
+        "field board silent for 400 ms (SCT 300 ms): all occupied",
     );
 
     for e in &b.gateway_events {

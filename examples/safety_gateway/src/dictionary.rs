@@ -12,7 +12,7 @@
 //! | 0x1000–0x1200 | communication objects, with the railway identifiers as defaults (SYNC, fault report, SDO server) and a [`HEARTBEAT_MS`] heartbeat |
 //! | 0x1018 | identity |
 //! | 0x1800–0x1803, 0x1A00–0x1A03 | TPDO *k* = state change of track circuit *k* on I/O port *k*: event-driven, refreshed every [`REFRESH_MS`] |
-//! | 0x2001 | field timeout (ms): a track circuit not reported for this long is occupied |
+//! | 0x2001 | field timeout (ms): the SCT of the field board's SRDO; no intact pair for this long makes every track circuit occupied |
 //! | 0x2100 sub *k* | the railway payload TPDO *k* sends (index, sub, code, CRC) |
 //! | 0x6000 sub *k* | the mirrored code of track circuit *k* (0x55 clear, 0xAA occupied) |
 //! | 0x6001 sub *k* | its bitwise inverse, the inverted half of the SRDO |
@@ -68,8 +68,9 @@ const fn unsigned(index: u16, sub: u8) -> u64 {
 pub const HEARTBEAT_MS: u16 = unsigned(comm::HEARTBEAT_PRODUCER, 0) as u16;
 /// Cyclic refresh of every track state on the interlocking side (TPDO event timer, ms).
 pub const REFRESH_MS: u16 = unsigned(0x1800, 5) as u16;
-/// Default of 0x2001: a track circuit the field board has not reported for this long is
-/// mirrored as occupied (3 of the field board's 100 ms cycles).
+/// Default of 0x2001, the SCT of the field board's SRDO: no intact pair for this long makes
+/// every track circuit occupied (3 of the field board's 100 ms cycles). A new value applies
+/// from the next intact pair on.
 pub const FIELD_TIMEOUT_MS: u16 = unsigned(FIELD_TIMEOUT, 0) as u16;
 
 /// Field timeout (u16, ms, read-write).

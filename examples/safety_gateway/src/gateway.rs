@@ -3,10 +3,10 @@
 //!
 //! ```text
 //!   field bus (CAN 3)                     interlocking network, bus 1 (CAN 1) + bus 2 (CAN 2)
-//!   track-circuit board ──state changes──▶ [mirrors] ──TPDO 1..4──▶ DualBus ══▶ interlocking
-//!     CRC + 0x55/0xAA       checked,           │                        ▲
-//!                           safe side on doubt ├── 0x6000 sub k ── SDO ─┘  heartbeat, NMT
-//!                                              └── SRDO 1 (0x6000 + inverse 0x6001) ──▶
+//!   track-circuit board ──SRDO 0x101/0x102─▶ [mirrors] ──TPDO 1..4──▶ DualBus ══▶ interlocking
+//!     0x55/0xAA + inverse, SCT, SRVT  checked,   │                        ▲
+//!                             safe side on doubt ├── 0x6000 sub k ── SDO ─┘  heartbeat, NMT
+//!                                                └── SRDO 1 (0x6000 + inverse 0x6001) ──▶
 //! ```
 //!
 //! The interlocking side is the standard stack, unchanged: a [`Node`] with a static dictionary
@@ -17,8 +17,9 @@ use crate::dictionary::{
     self, Od, FIELD_TIMEOUT, IMAGE, IMAGE_LEN, TRACK_STATES, TRACK_STATES_INVERTED,
 };
 use crate::mirror::{self, Changes, TrackChange, Tracks, Verdict};
-use crate::{ADDRESS, MERGE_SLOTS, NODE_ID, TRACKS};
+use crate::{ADDRESS, FIELD_SRVT, MERGE_SLOTS, NODE_ID, TRACKS};
 use core::fmt;
+use duocan::cia304::srdo::consumer::SrdoFault;
 use duocan::frame::instant::earliest;
 use duocan::machine::StationEvent;
 use duocan::node::{NodeEventKind, StateCause};
@@ -81,16 +82,16 @@ pub enum Event {
 pub struct FieldStats {
     /// Frames received.
     pub frames: u32,
-    /// Valid reports.
-    pub reports: u32,
-    /// Frames that are not track-circuit reports of the field board.
+    /// Intact pairs of the field board's SRDO.
+    pub pairs: u32,
+    /// Frames that are not the field SRDO's (the board's heartbeat, other nodes).
     pub foreign: u32,
-    /// Frames of the port failing their CRC or length check.
-    pub corrupted: u32,
-    /// Reports with an invalid code.
+    /// Codes in intact pairs that are not track-circuit codes.
     pub invalid_codes: u32,
-    /// Track circuits gone stale.
-    pub timeouts: u32,
+    /// Violations of the SRDO rules (each made every track circuit occupied).
+    pub trips: u32,
+    /// The last of them: its cause, instant and measured time.
+    pub last_trip: Option<SrdoFault>,
     /// Controller errors.
     pub errors: u32,
 }
@@ -175,7 +176,11 @@ impl<C: Can> Gateway<C> {
         let mut gw = Gateway {
             driver: EmbeddedDriver::new(Station::new(link, node), [bus1, bus2]),
             field,
-            tracks: Tracks::new(),
+            tracks: Tracks::new(
+                now,
+                Duration::from_millis(u64::from(dictionary::FIELD_TIMEOUT_MS)),
+                FIELD_SRVT,
+            ),
             events: Deque::new(),
             events_dropped: 0,
             field_stats: FieldStats::default(),
@@ -189,9 +194,11 @@ impl<C: Can> Gateway<C> {
     /// latest (also call it when a controller has received a frame).
     pub fn poll(&mut self, now: Instant) -> Option<Instant> {
         self.receive_field(now);
-        let stale = self.tracks.expire(now);
-        self.field_stats.timeouts += stale.len() as u32;
-        self.publish(now, &stale);
+        let (trip, changes) = self.tracks.handle_timeout(now, self.field_timeout());
+        if let Some(f) = trip {
+            self.field_tripped(f);
+        }
+        self.publish(now, &changes);
         let mut next = self.driver.poll(now);
         // The driver re-initialises ports the dual-bus layer asks for. A reboot (power-on or NMT
         // reset) restores the dictionary's defaults: put the mirrors back and send them.
@@ -253,32 +260,40 @@ impl<C: Can> Gateway<C> {
     }
 
     fn receive_field(&mut self, now: Instant) {
-        let timeout = self.field_timeout();
+        let sct = self.field_timeout();
         for _ in 0..RX_BURST {
             let frame = match self.field.receive() {
                 Ok(f) => f,
                 Err(nb::Error::WouldBlock) => return,
                 Err(nb::Error::Other(e)) => {
                     self.field_stats.errors += 1;
-                    // A controller error is no report: the mirrors time out on their own.
+                    // A controller error is no pair: the consumer's SCT runs on.
                     let _ = status_of(e.kind());
                     continue;
                 }
             };
             self.field_stats.frames += 1;
-            let verdict = match Frame::from_embedded(&frame) {
-                Ok(f) => mirror::classify(&f),
-                Err(_) => Verdict::Foreign,
+            let Ok(frame) = Frame::from_embedded(&frame) else {
+                self.field_stats.foreign += 1;
+                continue;
             };
+            let (verdict, changes) = self.tracks.handle_frame(now, &frame, sct);
             match verdict {
                 Verdict::Foreign => self.field_stats.foreign += 1,
-                Verdict::Report { .. } => self.field_stats.reports += 1,
-                Verdict::InvalidCode { .. } => self.field_stats.invalid_codes += 1,
-                Verdict::Corrupted(_) => self.field_stats.corrupted += 1,
+                Verdict::Held => {}
+                Verdict::Pair { invalid } => {
+                    self.field_stats.pairs += 1;
+                    self.field_stats.invalid_codes += u32::from(invalid);
+                }
+                Verdict::Trip(f) => self.field_tripped(f),
             }
-            let changes = self.tracks.apply(now, verdict, timeout);
             self.publish(now, &changes);
         }
+    }
+
+    fn field_tripped(&mut self, f: SrdoFault) {
+        self.field_stats.trips += 1;
+        self.field_stats.last_trip = Some(f);
     }
 
     fn publish(&mut self, now: Instant, changes: &Changes) {

@@ -2,14 +2,16 @@
 //!
 //! A board with three CAN controllers (e.g. an STM32G474: Cortex-M4F, three FDCAN, 128 KiB
 //! SRAM). Two sit on the interlocking's dual bus; the third on a field bus where a
-//! track-circuit board reports its track circuits. The gateway mirrors them to the
-//! interlocking: every report is checked (railway CRC over identifier and content, asymmetric
-//! codes 0x55/0xAA), anything doubtful or stale becomes *occupied*, and the mirrored states go
-//! out as CRC-protected state changes on both buses, event-driven and refreshed cyclically, and
-//! together as a CiA 304 SRDO (the four codes plain on 0x127 and inverted on 0x128 every
-//! 50 ms; the configuration checked by its CRC before the node may start). On
-//! the interlocking side it is an ordinary CANopen slave of the railway 29-bit profile:
-//! boot-up, heartbeat, NMT, SDO server (0x6000 sub *k* reads a mirrored state).
+//! track-circuit board sends its track circuits as safety data: a CiA 304 SRDO, the four codes
+//! (0x55 clear, 0xAA occupied) plain and bitwise inverted, every cycle. The gateway consumes it
+//! with duocan's SRDO consumer (SCT, SRVT, exact inverse) and mirrors the track circuits to the
+//! interlocking: a code that is neither, or any SRDO violation (the board silent, a corrupted
+//! half, a half alone), makes the track circuits occupied. The mirrored states go out as
+//! CRC-protected state changes on both buses, event-driven and refreshed cyclically, and together
+//! as a CiA 304 SRDO (the four codes plain on 0x127 and inverted on 0x128 every 50 ms; the
+//! configuration checked by its CRC before the node may start). On the interlocking side it is
+//! an ordinary CANopen slave of the railway 29-bit profile: boot-up, heartbeat, NMT, SDO server
+//! (0x6000 sub *k* reads a mirrored state).
 //!
 //! Everything lives in static storage: the dictionary's definitions are `const` tables
 //! ([`dictionary`], generated at build time from the gateway's EDS, `safety_gateway.eds`), its
@@ -31,18 +33,22 @@ pub use gateway::{Board, Event, FieldStats, Gateway, GatewayDevice, SetupError, 
 pub use mirror::{Cause, TrackChange};
 
 use duocan::profile::railway::DeviceAddress;
-use duocan::NodeId;
+use duocan::{Duration, NodeId};
 
 /// The gateway's node-ID on the interlocking network.
 pub const NODE_ID: NodeId = NodeId::must(20);
 /// Its board address there: row 1, cabinet 4, layer 1, board 1 (I/O port *k* carries track
 /// circuit *k*).
 pub const ADDRESS: DeviceAddress = DeviceAddress::board_at(1, 4, 1, 1);
-/// The track-circuit board on the field bus.
-pub const FIELD_BOARD: DeviceAddress = DeviceAddress::board_at(0, 0, 1, 1);
-/// The field board's I/O port whose state changes carry the track circuits (sub-index *k* =
-/// track circuit *k*).
-pub const FIELD_PORT: u8 = 1;
+/// The track-circuit board's node-ID on the field bus.
+pub const FIELD_NODE: NodeId = NodeId::must(1);
+/// The normal frame of the field board's SRDO: CiA 304's default for SRDO 1 of node 1
+/// (0xFF + 2 × node-ID).
+pub const FIELD_NORMAL: u16 = 0xFF + 2 * FIELD_NODE.raw() as u16;
+/// Its inverted frame (0x100 + 2 × node-ID).
+pub const FIELD_INVERTED: u16 = FIELD_NORMAL + 1;
+/// The field SRDO's validation time: the inverse must follow the normal frame within it.
+pub const FIELD_SRVT: Duration = Duration::from_millis(20);
 /// Track circuits mirrored.
 pub const TRACKS: u8 = 4;
 /// Merger slots of the dual-bus layer: the gateway hears a master's heartbeats, NMT, SYNC and
@@ -53,7 +59,7 @@ pub const MERGE_SLOTS: usize = 64;
 pub const NODE_RAM_BUDGET: usize = 16 * 1024;
 /// RAM budget of the whole gateway (node, dual-bus layer, driver, mirrors, event queue):
 /// 40 KiB of the reference MCU's 128 KiB, the rest for stacks and the HAL. Measured on
-/// thumbv7em: 36,840 bytes (the node with its dictionary: 11,744; 288 of them its four SRDO slots).
+/// thumbv7em: 37,184 bytes (the node with its dictionary: 11,760; 288 of them its four SRDO slots).
 pub const GATEWAY_RAM_BUDGET: usize = 40 * 1024;
 
 // The budgets hold on the target, checked when the crate is built for it.

@@ -1,21 +1,32 @@
-//! Track-circuit mirrors: what the field board reported, checked, with the safe side taken on
-//! anything doubtful.
+//! Track-circuit mirrors: what the field board sent as its safety data (a CiA 304 SRDO),
+//! checked, with the safe side taken on anything doubtful.
 //!
-//! A report counts only if it comes from the field board's track-circuit port under the right
-//! identifier, passes the railway CRC (which covers the identifier), names a track circuit the
-//! gateway has, and carries one of the asymmetric codes (0x55 clear, 0xAA occupied). Then:
+//! The track-circuit board (node [`FIELD_NODE`](crate::FIELD_NODE) of the field bus) sends its
+//! [`TRACKS`] track circuits as one SRDO: their codes (0x55 clear, 0xAA occupied) plain on
+//! [`FIELD_NORMAL`](crate::FIELD_NORMAL) and bitwise inverted on
+//! [`FIELD_INVERTED`](crate::FIELD_INVERTED), byte *k* − 1 for track circuit *k*, every cycle.
+//! The gateway consumes it with duocan's [`SrdoConsumer`]: the SCT is the field timeout (0x2001),
+//! the SRVT [`FIELD_SRVT`](crate::FIELD_SRVT). Then:
 //!
-//! - a valid report sets the mirror and re-arms its timeout;
-//! - an invalid code (stuck-at 0x00/0xFF, flipped bits) makes that track circuit occupied;
-//! - a frame failing its CRC or length check makes **every** track circuit of the port occupied:
-//!   its sub-index is not trustworthy either, so it may have been about any of them;
-//! - no valid report for the field timeout makes the track circuit occupied.
+//! - an intact pair (the inverse within SRVT, in time) sets each mirror from its code;
+//! - a code that is neither (stuck-at 0x00/0xFF, a flipped bit the producer inverted faithfully)
+//!   makes that track circuit occupied;
+//! - any violation of the SRDO rules (no pair within SCT: the board or its bus died; a half pair
+//!   without the other within SRVT; halves that are not each other's inverse: a corrupted frame;
+//!   a short frame; a changed half) makes **every** track circuit occupied, at the instant of
+//!   the violation: the consumer's safe state.
 //!
-//! A valid report restores a mirror at once: the field board's cyclic reports are the proof.
+//! CiA 304 leaves the way out of the safe state to the application. The gateway's rule: it
+//! acknowledges the consumer at once, so that checking starts again with the SCT from that
+//! instant, and the mirrors stay occupied until the next intact pair: the field board's
+//! cyclic pairs are the proof. Frames on other identifiers (the board's heartbeat, other
+//! nodes) are not the SRDO's and are ignored.
+//!
+//! Memory: four mirrors and one consumer (its held half pair), fixed.
 
-use crate::{FIELD_BOARD, FIELD_PORT, TRACKS};
-use duocan::profile::railway::safety::{objects, FieldState, SafetyError, TrackCircuit};
-use duocan::profile::railway::{split, Payload, PayloadError, RailFunction};
+use crate::{FIELD_INVERTED, FIELD_NORMAL, TRACKS};
+use duocan::cia304::srdo::consumer::{ConsumerStep, SrdoCause, SrdoConsumer, SrdoFault};
+use duocan::profile::railway::safety::{SafetyCode, SafetyError, TrackCircuit};
 use duocan::{Duration, Frame, Instant};
 
 /// Why a mirror holds its state.
@@ -23,13 +34,16 @@ use duocan::{Duration, Frame, Instant};
 pub enum Cause {
     /// Nothing reported since power-on: occupied.
     NoReport,
-    /// The field board reported it.
+    /// The field board reported it in an intact pair.
     Report,
-    /// No valid report within the field timeout: occupied.
-    Timeout,
-    /// A frame of the port failed its CRC or length check: occupied.
-    Corrupted(PayloadError),
-    /// The report's code is not a track-circuit code: occupied.
+    /// The field board's SRDO broke a rule (no pair in time, corrupted, …): occupied.
+    Srdo {
+        /// Which rule.
+        cause: SrdoCause,
+        /// The time measured (see [`SrdoFault::measured`]).
+        measured: Duration,
+    },
+    /// The code in an intact pair is not a track-circuit code: occupied.
     InvalidCode(SafetyError),
 }
 
@@ -48,90 +62,56 @@ pub struct TrackChange {
     pub cause: Cause,
 }
 
-/// What a field frame means.
+/// What one field frame (or one instant) was.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Verdict {
-    /// Not a track-circuit report of the field board (its heartbeat, another board, another
-    /// object): ignored.
+    /// Not the field SRDO's (the board's heartbeat, another node): ignored.
     Foreign,
-    /// A valid report.
-    Report {
-        /// Track circuit.
-        track: u8,
-        /// Its state.
-        state: TrackCircuit,
+    /// Nothing decided: half a pair held, or a copy of a half.
+    Held,
+    /// An intact pair; `invalid` of its codes were not track-circuit codes.
+    Pair {
+        /// Codes that were neither clear nor occupied.
+        invalid: u8,
     },
-    /// A report of `track` whose code is invalid.
-    InvalidCode {
-        /// Track circuit.
-        track: u8,
-        /// What was wrong.
-        error: SafetyError,
-    },
-    /// A frame of the track-circuit port that fails its check.
-    Corrupted(PayloadError),
-}
-
-/// Reads one frame from the field bus.
-pub fn classify(frame: &Frame) -> Verdict {
-    let Some((code, address)) = split(frame.id()) else {
-        return Verdict::Foreign;
-    };
-    if code != RailFunction::StateChange.code()
-        || address.board_address() != FIELD_BOARD
-        || address.port() != FIELD_PORT
-    {
-        return Verdict::Foreign;
-    }
-    let payload = match Payload::decode(frame) {
-        Ok(p) => p,
-        Err(e) => return Verdict::Corrupted(e),
-    };
-    let track = payload.sub();
-    if payload.index() != objects::TRACK_CIRCUIT || !(1..=TRACKS).contains(&track) {
-        return Verdict::Foreign;
-    }
-    match FieldState::from_payload(&payload) {
-        Ok((_, FieldState::Track(state))) => Verdict::Report { track, state },
-        Ok(_) => Verdict::Foreign,
-        Err(error) => Verdict::InvalidCode { track, error },
-    }
+    /// The SRDO broke a rule: every track circuit occupied.
+    Trip(SrdoFault),
 }
 
 #[derive(Clone, Copy, Debug)]
 struct Mirror {
     state: TrackCircuit,
     cause: Cause,
-    /// When the last valid report goes stale.
-    deadline: Option<Instant>,
-}
-
-/// The mirrors of the gateway's track circuits.
-#[derive(Clone, Debug)]
-pub struct Tracks {
-    mirrors: [Mirror; TRACKS as usize],
 }
 
 /// Changes one field frame (or one instant) can cause: at most one per track circuit.
 pub type Changes = heapless::Vec<TrackChange, { TRACKS as usize }>;
 
-impl Default for Tracks {
-    fn default() -> Self {
-        Self::new()
-    }
+/// The mirrors of the gateway's track circuits and the consumer of the field SRDO.
+#[derive(Clone, Debug)]
+pub struct Tracks {
+    mirrors: [Mirror; TRACKS as usize],
+    consumer: SrdoConsumer,
+    sct: Duration,
+    srvt: Duration,
 }
 
 impl Tracks {
-    /// Every track circuit occupied, nothing reported.
+    /// Every track circuit occupied, nothing reported; the consumer checks from `now` with
+    /// SCT `sct` and SRVT `srvt`.
     #[must_use]
-    pub const fn new() -> Self {
-        Tracks {
+    pub fn new(now: Instant, sct: Duration, srvt: Duration) -> Self {
+        let mut t = Tracks {
             mirrors: [Mirror {
                 state: TrackCircuit::Occupied,
                 cause: Cause::NoReport,
-                deadline: None,
             }; TRACKS as usize],
-        }
+            consumer: consumer(sct, srvt),
+            sct,
+            srvt,
+        };
+        t.consumer.start(now);
+        t
     }
 
     /// State and cause of track circuit `track` (1-based).
@@ -140,63 +120,93 @@ impl Tracks {
         Some((m.state, m.cause))
     }
 
-    /// Applies a verdict received at `now`; `timeout` is the field timeout in force.
-    pub fn apply(&mut self, now: Instant, verdict: Verdict, timeout: Duration) -> Changes {
+    /// A field frame at `now`; `sct` is the field timeout in force. It applies from the next
+    /// intact pair or trip on (each of them starts the next SCT, so nothing else changes).
+    pub fn handle_frame(
+        &mut self,
+        now: Instant,
+        frame: &Frame,
+        sct: Duration,
+    ) -> (Verdict, Changes) {
         let mut out = Changes::new();
-        match verdict {
-            Verdict::Foreign => {}
-            Verdict::Report { track, state } => {
-                let deadline = Some(now.saturating_add(timeout));
-                self.set(now, track, state, Cause::Report, deadline, &mut out);
-            }
-            Verdict::InvalidCode { track, error } => {
-                let cause = Cause::InvalidCode(error);
-                self.set(now, track, TrackCircuit::Occupied, cause, None, &mut out);
-            }
-            Verdict::Corrupted(e) => {
-                for track in 1..=TRACKS {
-                    let cause = Cause::Corrupted(e);
-                    self.set(now, track, TrackCircuit::Occupied, cause, None, &mut out);
+        let verdict = match self.consumer.handle_frame(now, frame) {
+            None if self.consumer.accepts(frame.id()) => Verdict::Held,
+            None => Verdict::Foreign,
+            Some(ConsumerStep::Held) => Verdict::Held,
+            Some(ConsumerStep::Deliver(data)) => {
+                if sct != self.sct {
+                    self.restart(now, sct);
+                }
+                Verdict::Pair {
+                    invalid: self.pair(now, &data, &mut out),
                 }
             }
-        }
-        out
-    }
-
-    /// Track circuits whose last valid report went stale by `now` become occupied.
-    pub fn expire(&mut self, now: Instant) -> Changes {
-        let mut out = Changes::new();
-        for track in 1..=TRACKS {
-            let i = usize::from(track - 1);
-            if self.mirrors[i].deadline.is_some_and(|d| d <= now) {
-                let at = self.mirrors[i].deadline.unwrap_or(now);
-                self.set(
-                    at,
-                    track,
-                    TrackCircuit::Occupied,
-                    Cause::Timeout,
-                    None,
-                    &mut out,
-                );
+            Some(ConsumerStep::Trip(f)) => {
+                self.tripped(now, f, sct, &mut out);
+                Verdict::Trip(f)
             }
+        };
+        (verdict, out)
+    }
+
+    /// The deadlines reached by `now` (SRVT of a half pair, SCT): the trip, if one was, and
+    /// what it changed. The consumer checks again from `now` with SCT `sct`.
+    pub fn handle_timeout(&mut self, now: Instant, sct: Duration) -> (Option<SrdoFault>, Changes) {
+        let mut out = Changes::new();
+        match self.consumer.handle_timeout(now) {
+            Some(ConsumerStep::Trip(f)) => {
+                self.tripped(now, f, sct, &mut out);
+                (Some(f), out)
+            }
+            _ => (None, out),
         }
-        out
     }
 
-    /// The earliest instant a mirror goes stale.
+    /// The consumer's next deadline.
     pub fn deadline(&self) -> Option<Instant> {
-        self.mirrors.iter().filter_map(|m| m.deadline).min()
+        self.consumer.poll_timeout()
     }
 
-    fn set(
-        &mut self,
-        at: Instant,
-        track: u8,
-        to: TrackCircuit,
-        cause: Cause,
-        deadline: Option<Instant>,
-        out: &mut Changes,
-    ) {
+    /// Sets every mirror from an intact pair; returns how many codes were invalid.
+    fn pair(&mut self, now: Instant, data: &[u8; 8], out: &mut Changes) -> u8 {
+        let mut invalid = 0;
+        for track in 1..=TRACKS {
+            let code = data[usize::from(track - 1)];
+            let (state, cause) = match TrackCircuit::from_code(code) {
+                Ok(state) => (state, Cause::Report),
+                Err(e) => {
+                    invalid += 1;
+                    (TrackCircuit::Occupied, Cause::InvalidCode(e))
+                }
+            };
+            self.set(now, track, state, cause, out);
+        }
+        invalid
+    }
+
+    /// The safe state: every mirror occupied at the fault's instant (a mirror nothing was ever
+    /// reported for keeps that cause); then checking starts again (see the module doc).
+    fn tripped(&mut self, now: Instant, f: SrdoFault, sct: Duration, out: &mut Changes) {
+        let cause = Cause::Srdo {
+            cause: f.cause,
+            measured: f.measured,
+        };
+        for track in 1..=TRACKS {
+            let unreported = self.get(track).is_some_and(|m| m.1 == Cause::NoReport);
+            let c = if unreported { Cause::NoReport } else { cause };
+            self.set(f.at, track, TrackCircuit::Occupied, c, out);
+        }
+        self.restart(now, sct);
+    }
+
+    /// Checking from `now` with SCT `sct`.
+    fn restart(&mut self, now: Instant, sct: Duration) {
+        self.sct = sct;
+        self.consumer = consumer(sct, self.srvt);
+        self.consumer.start(now);
+    }
+
+    fn set(&mut self, at: Instant, track: u8, to: TrackCircuit, cause: Cause, out: &mut Changes) {
         let Some(m) = usize::from(track)
             .checked_sub(1)
             .and_then(|i| self.mirrors.get_mut(i))
@@ -204,11 +214,7 @@ impl Tracks {
             return;
         };
         let from = m.state;
-        *m = Mirror {
-            state: to,
-            cause,
-            deadline,
-        };
+        *m = Mirror { state: to, cause };
         if from != to {
             // One change per track per call: the capacity is the number of tracks.
             let _ = out.push(TrackChange {
@@ -222,89 +228,120 @@ impl Tracks {
     }
 }
 
+fn consumer(sct: Duration, srvt: Duration) -> SrdoConsumer {
+    SrdoConsumer::new(FIELD_NORMAL, FIELD_INVERTED, sct, srvt, TRACKS)
+}
+
+/// The field board's SRDO for `codes`: the normal frame and its inverse.
+#[must_use]
+pub fn field_pair(codes: [u8; TRACKS as usize]) -> [Frame; 2] {
+    let inverted = codes.map(|c| !c);
+    [
+        Frame::from_array(duocan::Id::Standard(FIELD_NORMAL), codes),
+        Frame::from_array(duocan::Id::Standard(FIELD_INVERTED), inverted),
+    ]
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
-    use duocan::profile::railway::{id, DeviceAddress};
     use duocan::Id;
 
-    const PORT_ID: Id = id(RailFunction::StateChange, FIELD_BOARD.with_port(FIELD_PORT));
-    const T: Duration = Duration::from_millis(300);
+    const SCT: Duration = Duration::from_millis(300);
+    const SRVT: Duration = Duration::from_millis(20);
 
-    fn report(track: u8, code: u8) -> Frame {
-        Payload::byte(objects::TRACK_CIRCUIT, track, code).encode(PORT_ID)
+    fn at(ms: u64) -> Instant {
+        Instant::from_millis(ms)
+    }
+
+    /// Both halves of a pair at `t`.
+    fn send(t: &mut Tracks, now: Instant, codes: [u8; 4]) -> Vec<(Verdict, Changes)> {
+        field_pair(codes)
+            .iter()
+            .map(|f| t.handle_frame(now, f, SCT))
+            .collect()
     }
 
     #[test]
-    fn only_checked_reports_of_the_field_port_count() {
-        assert_eq!(
-            classify(&report(2, 0x55)),
-            Verdict::Report {
-                track: 2,
-                state: TrackCircuit::Clear
-            }
-        );
-        // Same content under another port or board, or another object: not ours.
-        let other_port = id(RailFunction::StateChange, FIELD_BOARD.with_port(2));
-        let f = Payload::byte(objects::TRACK_CIRCUIT, 1, 0x55).encode(other_port);
-        assert_eq!(classify(&f), Verdict::Foreign);
-        let other_board = id(
-            RailFunction::StateChange,
-            DeviceAddress::board_at(0, 0, 1, 2),
-        );
-        let f = Payload::byte(objects::TRACK_CIRCUIT, 1, 0x55).encode(other_board);
-        assert_eq!(classify(&f), Verdict::Foreign);
-        assert_eq!(classify(&report(TRACKS + 1, 0x55)), Verdict::Foreign);
-        assert_eq!(
-            classify(&Frame::from_array(Id::Standard(0x181), [1])),
-            Verdict::Foreign
-        );
-        // A frame replayed from another identifier fails the CRC (it covers the identifier).
-        let mut b = report(1, 0x55).data().to_vec();
-        b[3] ^= 0xFF; // 0x55 → 0xAA without a new CRC
-        let f = Frame::new(PORT_ID, &b).unwrap();
-        assert!(matches!(
-            classify(&f),
-            Verdict::Corrupted(PayloadError::Crc { .. })
-        ));
-        assert!(matches!(
-            classify(&report(3, 0xFF)),
-            Verdict::InvalidCode { track: 3, .. }
-        ));
-    }
-
-    #[test]
-    fn safe_side_on_invalid_corrupted_and_stale() {
-        let mut t = Tracks::new();
-        let at = |ms| Instant::from_millis(ms);
+    fn an_intact_pair_sets_the_mirrors_and_a_bad_code_only_its_track() {
+        let mut t = Tracks::new(at(0), SCT, SRVT);
         assert_eq!(t.get(1), Some((TrackCircuit::Occupied, Cause::NoReport)));
-        let c = t.apply(at(10), classify(&report(1, 0x55)), T);
-        assert_eq!(c.len(), 1);
-        assert_eq!((c[0].track, c[0].to), (1, TrackCircuit::Clear));
-        t.apply(at(10), classify(&report(2, 0x55)), T);
-        assert_eq!(t.deadline(), Some(at(310)));
-        // Stuck-at code on track 2 only.
-        let c = t.apply(at(20), classify(&report(2, 0x00)), T);
-        assert_eq!(c.len(), 1);
-        assert!(matches!(c[0].cause, Cause::InvalidCode(_)));
-        assert_eq!(t.get(1).unwrap().0, TrackCircuit::Clear);
-        // A corrupted frame: every track circuit.
-        t.apply(at(30), classify(&report(2, 0x55)), T);
-        let bad = Frame::new(PORT_ID, &[0, 0x60, 1, 0x55, 0, 0]).unwrap();
-        let c = t.apply(at(40), classify(&bad), T);
-        assert_eq!(c.len(), 2, "tracks 1 and 2 were clear: {c:?}");
-        assert!((1..=TRACKS).all(|k| t.get(k).unwrap().0 == TrackCircuit::Occupied));
-        assert_eq!(t.deadline(), None);
-        // Reports restore; silence expires exactly at last report + timeout.
-        t.apply(at(50), classify(&report(4, 0x55)), T);
-        assert!(t.expire(at(349)).is_empty());
-        let c = t.expire(at(351));
-        assert_eq!(c.len(), 1);
+        let r = send(&mut t, at(10), [0x55, 0x55, 0xAA, 0xFF]);
         assert_eq!(
-            (c[0].at, c[0].track, c[0].cause),
-            (at(350), 4, Cause::Timeout)
+            r[0].0,
+            Verdict::Held,
+            "the normal half waits for its inverse"
         );
+        assert_eq!(r[1].0, Verdict::Pair { invalid: 1 });
+        let changed: Vec<u8> = r[1].1.iter().map(|c| c.track).collect();
+        assert_eq!(changed, [1, 2], "3 and 4 stay occupied");
+        assert_eq!(t.get(1), Some((TrackCircuit::Clear, Cause::Report)));
+        assert_eq!(t.get(3), Some((TrackCircuit::Occupied, Cause::Report)));
+        assert!(matches!(
+            t.get(4),
+            Some((TrackCircuit::Occupied, Cause::InvalidCode(_)))
+        ));
+        // Other identifiers are not the SRDO's.
+        let hb = Frame::from_array(Id::Standard(0x701), [5]);
+        assert_eq!(t.handle_frame(at(11), &hb, SCT).0, Verdict::Foreign);
         assert_eq!(t.get(0), None);
         assert_eq!(t.get(TRACKS + 1), None);
+    }
+
+    #[test]
+    fn a_corrupted_half_makes_every_track_occupied_until_the_next_intact_pair() {
+        let mut t = Tracks::new(at(0), SCT, SRVT);
+        send(&mut t, at(10), [0x55; 4]);
+        let [normal, _] = field_pair([0x55; 4]);
+        t.handle_frame(at(40), &normal, SCT);
+        // One bit of the inverse flipped on the wire.
+        let bad = Frame::from_array(Id::Standard(FIELD_INVERTED), [0xAA, 0xAA, 0xAB, 0xAA]);
+        let (v, c) = t.handle_frame(at(40), &bad, SCT);
+        assert!(matches!(v, Verdict::Trip(f) if f.cause == SrdoCause::NotInverted));
+        assert_eq!(c.len(), 4);
+        assert!(c
+            .iter()
+            .all(|c| c.at == at(40) && c.to == TrackCircuit::Occupied));
+        // Checking again at once: the next intact pair restores them.
+        let r = send(&mut t, at(110), [0x55; 4]);
+        assert_eq!(r[1].1.len(), 4);
+        assert_eq!(t.get(2), Some((TrackCircuit::Clear, Cause::Report)));
+    }
+
+    #[test]
+    fn silence_trips_exactly_sct_after_the_last_pair_and_a_half_pair_srvt_after_it() {
+        let mut t = Tracks::new(at(0), SCT, SRVT);
+        send(&mut t, at(50), [0x55; 4]);
+        assert_eq!(t.deadline(), Some(at(350)));
+        assert!(t.handle_timeout(at(349), SCT).0.is_none());
+        let (f, c) = t.handle_timeout(at(400), SCT);
+        let f = f.unwrap();
+        assert_eq!(
+            (f.cause, f.at, f.measured),
+            (SrdoCause::CycleTime, at(350), SCT)
+        );
+        assert!(c.iter().all(|c| c.at == at(350)));
+        let cause = Cause::Srdo {
+            cause: SrdoCause::CycleTime,
+            measured: SCT,
+        };
+        assert_eq!(t.get(1), Some((TrackCircuit::Occupied, cause)));
+        // Checking again from 400 ms. A normal half alone: SRVT later, every track occupied.
+        send(&mut t, at(450), [0x55; 4]);
+        let [normal, _] = field_pair([0xAA; 4]);
+        t.handle_frame(at(500), &normal, SCT);
+        assert_eq!(t.deadline(), Some(at(520)));
+        let (f, c) = t.handle_timeout(at(520), SCT);
+        assert_eq!(f.map(|f| f.cause), Some(SrdoCause::Validation));
+        assert_eq!(c.len(), 4, "the half pair's data was never used");
+    }
+
+    #[test]
+    fn a_track_never_reported_keeps_its_cause_through_a_trip() {
+        let mut t = Tracks::new(at(0), SCT, SRVT);
+        let (f, c) = t.handle_timeout(at(300), SCT);
+        assert_eq!(f.map(|f| f.at), Some(at(300)));
+        assert!(c.is_empty(), "occupied already");
+        assert_eq!(t.get(1), Some((TrackCircuit::Occupied, Cause::NoReport)));
     }
 }

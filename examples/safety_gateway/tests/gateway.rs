@@ -1,15 +1,16 @@
 //! The gateway against a duocan interlocking master on two mock buses and a scripted field
-//! board on a third, in simulated time.
+//! board on a third (its track circuits as an SRDO every 100 ms), in simulated time.
 
 mod harness;
 
+use duocan::cia304::srdo::consumer::SrdoCause;
 use duocan::node::NodeEventKind as K;
 use duocan::profile::railway::safety::TrackCircuit::{Clear, Occupied};
-use duocan::profile::railway::{Payload, PayloadError};
-use duocan::{AbortCode, Frame, Instant, NmtState};
+use duocan::{AbortCode, Duration, Frame, Instant, NmtState};
 use duocan_redundancy::{LinkEventKind, PortState};
-use harness::{field_id, report, view, wires, Bench};
+use harness::{view, wires, Bench};
 use safety_gateway::dictionary::{FIELD_TIMEOUT, HEARTBEAT_MS, PRODUCT, REFRESH_MS, VENDOR};
+use safety_gateway::mirror::field_pair;
 use safety_gateway::mock::{MockCan, Wire};
 use safety_gateway::{Cause, Event, Storage, TrackChange, NODE_ID, TRACKS};
 use static_cell::StaticCell;
@@ -117,7 +118,7 @@ fn the_gateway_mirrors_checked_track_states_to_the_interlocking_over_both_buses(
     assert_eq!(e.code(), Some(AbortCode::READ_ONLY), "{e}");
     assert!(e.to_string().contains("node 20"), "{e}");
 
-    // A stuck-at code with a valid CRC: that track circuit, and only it, goes occupied.
+    // A stuck-at code in an intact pair: that track circuit, and only it, goes occupied.
     b.run_until(ms(1_000));
     b.field_set(2, 0xFF);
     assert_eq!(b.interlocking().since(2, Occupied), Some(ms(1_000)));
@@ -130,11 +131,14 @@ fn the_gateway_mirrors_checked_track_states_to_the_interlocking_over_both_buses(
     b.field_set(2, 0x55);
     assert_eq!(b.interlocking().since(2, Clear), Some(ms(1_050)));
 
-    // A frame failing its CRC: every track circuit occupied at once, until the next cycle.
+    // A pair whose inverse has one bit flipped on the wire: not each other's inverse, every
+    // track circuit occupied at once, until the next cycle's intact pair.
     b.run_until(ms(1_130));
-    let mut bytes = report(1, 0x55).data().to_vec();
-    bytes[5] ^= 0x01;
-    b.field_send(&Frame::new(field_id(), &bytes).unwrap());
+    let [normal, inverted] = field_pair(b.field_codes);
+    let mut bytes = inverted.data().to_vec();
+    bytes[2] ^= 0x01;
+    b.field_send(&normal);
+    b.field_send(&Frame::new(inverted.id(), &bytes).unwrap());
     b.settle();
     for k in [1, 2, 4] {
         assert_eq!(
@@ -148,10 +152,11 @@ fn the_gateway_mirrors_checked_track_states_to_the_interlocking_over_both_buses(
         Some(ms(300)),
         "occupied all along"
     );
-    assert!(matches!(
-        b.gateway.track(1),
-        Some((Occupied, Cause::Corrupted(PayloadError::Crc { .. })))
-    ));
+    let not_inverted = Cause::Srdo {
+        cause: SrdoCause::NotInverted,
+        measured: Duration::ZERO,
+    };
+    assert_eq!(b.gateway.track(1), Some((Occupied, not_inverted)));
     // The field board's cycle (every 100 ms from 500) restores them at 1 200.
     b.run_until(ms(1_200));
     assert_eq!(b.interlocking().since(1, Clear), Some(ms(1_200)));
@@ -203,25 +208,35 @@ fn the_gateway_mirrors_checked_track_states_to_the_interlocking_over_both_buses(
     assert!(b.gateway.device().link.health().port(0).state() == PortState::Ok);
     assert!(b.wires[0].lost() > 0);
 
-    // The field board dies: every track circuit it last reported goes occupied exactly one
-    // field timeout after its last report. Then the timeout is raised over SDO.
+    // The field board dies: every track circuit goes occupied exactly one SCT (the field
+    // timeout, 300 ms) after its last pair. Then the timeout is raised over SDO.
     let last = ms(3_500);
-    assert_eq!(b.gateway.field_stats().timeouts, 0);
+    // Two trips so far: at 300 ms (no field board yet) and the corrupted pair.
+    assert_eq!(b.gateway.field_stats().trips, 2);
     b.field_stop();
     b.run_until(ms(4_000));
+    let sct = Duration::from_millis(300);
     for k in [1, 2, 4] {
         assert_eq!(
             b.interlocking().since(k, Occupied),
-            Some(last + duocan::Duration::from_millis(300)),
+            Some(last + sct),
             "track {k}"
         );
-        assert_eq!(b.gateway.track(k).unwrap().1, Cause::Timeout);
+        let silent = Cause::Srdo {
+            cause: SrdoCause::CycleTime,
+            measured: sct,
+        };
+        assert_eq!(b.gateway.track(k).unwrap().1, silent);
     }
-    assert_eq!(b.gateway.field_stats().timeouts, 3);
+    let fs = b.gateway.field_stats();
+    assert_eq!(fs.trips, 3);
+    assert_eq!(fs.last_trip.map(|f| f.at), Some(last + sct));
     b.sdo_write(FIELD_TIMEOUT, 0, &500u16.to_le_bytes())
         .unwrap();
+    // Still silent: the next trip at 4 100 checks again with the new SCT.
     b.run_until(ms(4_100));
     b.field_set(1, 0x55);
+    assert_eq!(b.interlocking().since(1, Clear), Some(ms(4_100)));
     b.field_stop();
     b.run_until(ms(5_000));
     assert_eq!(b.interlocking().since(1, Occupied), Some(ms(4_600)));
@@ -242,6 +257,8 @@ fn the_gateway_mirrors_checked_track_states_to_the_interlocking_over_both_buses(
         .any(|c| c.track == 2 && matches!(c.cause, Cause::InvalidCode(_))));
     assert_eq!(b.gateway.events_dropped(), 0);
     let fs = b.gateway.field_stats();
-    assert_eq!((fs.corrupted, fs.invalid_codes, fs.errors), (1, 1, 0));
-    assert!(Payload::decode(&report(1, 0x55)).is_ok());
+    assert_eq!((fs.trips, fs.invalid_codes, fs.errors), (5, 1, 0));
+    // Intact pairs: nine sent on a change (four at 500, then 1 000, 1 050, 2 000, 2 500 and
+    // 4 100) and thirty by the cycle (every 100 ms from 600 to 3 500); the corrupted one is not.
+    assert_eq!(fs.pairs, 9 + 30);
 }

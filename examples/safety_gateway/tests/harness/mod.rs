@@ -1,6 +1,6 @@
 //! A test bench for the gateway on the host: two mock buses to a duocan interlocking master
 //! (std, dynamic dictionary, DualBus, SDO client) and a mock field bus to a scripted
-//! track-circuit board. Time is simulated: each step jumps to the next deadline of anyone, and
+//! track-circuit board that sends its track circuits as an SRDO. Time is simulated: each step jumps to the next deadline of anyone, and
 //! frames cross the mock wires at once, so instants are exact.
 #![allow(dead_code)]
 
@@ -10,16 +10,16 @@ use duocan::machine::{Composite, CompositeEvent, StationEvent};
 use duocan::od::{comm, Access, DynamicDictionary, ObjectDef, ObjectDictionary, ObjectType};
 use duocan::pdo::MapEntry;
 use duocan::port::embedded::EmbeddedDriver;
-use duocan::profile::railway::safety::{objects, FieldState, TrackCircuit};
+use duocan::profile::railway::safety::{FieldState, TrackCircuit};
 use duocan::profile::railway::{self, DeviceAddress, Payload, RailFunction, RailwayProfile};
 use duocan::sdo::{SdoClient, SdoError, SdoEvent, SdoOptions, TransferBuffer};
 use duocan::{
-    Frame, Id, Instant, Machine, NmtCommand, NmtTarget, Node, NodeConfig, NodeEvent, NodeId,
-    Station,
+    Frame, Instant, Machine, NmtCommand, NmtTarget, Node, NodeConfig, NodeEvent, NodeId, Station,
 };
 use duocan_redundancy::{DualBus, DualBusConfig, LinkEvent, LinkMode};
+use safety_gateway::mirror::field_pair;
 use safety_gateway::mock::{MockCan, Wire};
-use safety_gateway::{Event, Gateway, Storage, ADDRESS, FIELD_BOARD, FIELD_PORT, NODE_ID, TRACKS};
+use safety_gateway::{Event, Gateway, Storage, ADDRESS, NODE_ID, TRACKS};
 use static_cell::StaticCell;
 use std::collections::BTreeMap;
 
@@ -32,7 +32,7 @@ pub const NETWORK: [(NodeId, DeviceAddress); 2] = [(MASTER, MASTER_ADDRESS), (NO
 /// Heartbeat of the master (ms); it consumes the gateway's with 3 × the gateway's period.
 pub const MASTER_HB_MS: u16 = 50;
 pub const CONSUMER_MS: u16 = 150;
-/// Cycle of the field board's reports.
+/// Cycle of the field board's SRDO.
 pub const FIELD_CYCLE_MS: u64 = 100;
 
 /// What the master's application sees of the gateway's state changes.
@@ -168,8 +168,8 @@ pub struct Bench {
     pub master: Box<EmbeddedDriver<MasterDev, MockCan<'static>, 2>>,
     pub field: MockCan<'static>,
     pub now: Instant,
-    /// Codes the field board reports every cycle (None: it says nothing about that track).
-    pub field_codes: [Option<u8>; TRACKS as usize],
+    /// Codes the field board sends every cycle (occupied until told otherwise).
+    pub field_codes: [u8; TRACKS as usize],
     /// The field board runs (reports every cycle) while true.
     pub field_on: bool,
     field_next: Option<Instant>,
@@ -197,7 +197,7 @@ impl Bench {
             master,
             field,
             now: Instant::ZERO,
-            field_codes: [None; TRACKS as usize],
+            field_codes: [0xAA; TRACKS as usize],
             field_on: false,
             field_next: None,
             next: [None; 2],
@@ -265,11 +265,14 @@ impl Bench {
         self.run_until(self.now.saturating_add(duocan::Duration::from_millis(ms)));
     }
 
-    /// The field board reports `code` for `track` now (a state change) and every cycle after.
+    /// The field board sends `code` for `track` now (an SRDO pair with all its codes, as on a
+    /// change) and every cycle after.
     pub fn field_set(&mut self, track: u8, code: u8) {
-        self.field_codes[usize::from(track - 1)] = Some(code);
+        self.field_codes[usize::from(track - 1)] = code;
         self.field_on = true;
-        self.field_send(&report(track, code));
+        for f in field_pair(self.field_codes) {
+            self.field_send(&f);
+        }
         if self.field_next.is_none() {
             self.field_next = Some(
                 self.now
@@ -292,10 +295,8 @@ impl Bench {
     }
 
     fn field_cycle(&mut self) {
-        for (i, c) in self.field_codes.into_iter().enumerate() {
-            if let Some(code) = c {
-                self.field_send(&report(i as u8 + 1, code));
-            }
+        for f in field_pair(self.field_codes) {
+            self.field_send(&f);
         }
         self.field_next = Some(
             self.now
@@ -414,16 +415,6 @@ impl Bench {
             })
             .collect()
     }
-}
-
-/// The field board's report of `track` with `code` (valid CRC).
-pub fn report(track: u8, code: u8) -> Frame {
-    Payload::byte(objects::TRACK_CIRCUIT, track, code).encode(field_id())
-}
-
-/// The identifier of the field board's track-circuit port.
-pub fn field_id() -> Id {
-    railway::id(RailFunction::StateChange, FIELD_BOARD.with_port(FIELD_PORT))
 }
 
 /// Counts per track of the interlocking's view, for messages.
