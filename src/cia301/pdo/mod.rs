@@ -23,6 +23,8 @@
 //! skipped on reception, zeros on transmission.
 
 mod dictionary;
+mod events;
+mod index;
 pub(crate) mod mapping;
 pub mod params;
 mod rpdo;
@@ -40,143 +42,13 @@ use crate::frame::storage::{BoundedVec, Inline, Storage, Table};
 use crate::frame::{Frame, Id};
 use crate::od::abort::AbortCode;
 use crate::od::{key, ObjectDictionary};
-use core::fmt;
 pub use dictionary::restricted_id;
 pub(crate) use dictionary::{check_write, classify};
 use dictionary::{map_index, read_rpdo, read_tpdo};
-use mapping::CACHED;
+pub use events::{PdoError, PdoEvent, RpdoStatus, TpdoStatus};
+use index::{equal_range, id_key, Reverse};
 use rpdo::{OnFrame, Recovered, Rpdo};
 use tpdo::{OnRtr, OnSync, Tpdo};
-
-/// What the PDO engine reports (inside the node's events: `NodeEventKind::Pdo`).
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-#[non_exhaustive]
-pub enum PdoEvent {
-    /// An RPDO's data was written into the dictionary: at reception for asynchronous RPDOs, at
-    /// the SYNC after reception for synchronous ones. One event per PDO, not per entry; can be
-    /// switched off ([`crate::node::Node::set_rpdo_events`]) at high rates.
-    RpdoReceived {
-        /// RPDO number (1 = 0x1400).
-        pdo: u16,
-    },
-    /// An RPDO with an event timer was not received in time (EMCY 0x8250 raised). Fires once per
-    /// loss, exactly at the last reception + the event timer.
-    RpdoTimeout {
-        /// RPDO number.
-        pdo: u16,
-        /// Its last reception.
-        last: Instant,
-    },
-    /// An RPDO frame shorter than its mapping was refused (EMCY 0x8210 raised). Reported once
-    /// per error episode; a correct frame ends it.
-    RpdoTooShort {
-        /// RPDO number.
-        pdo: u16,
-        /// Bytes the mapping needs.
-        expected: u8,
-        /// Bytes received.
-        got: u8,
-    },
-    /// A valid PDO's stored configuration cannot be used (a mapped entry is gone, a reserved
-    /// transmission type was stored behind the stack's back); the PDO stays silent.
-    Unusable {
-        /// Receive or transmit.
-        dir: Dir,
-        /// PDO number.
-        pdo: u16,
-        /// What is wrong, as the abort code a write of it would get.
-        reason: AbortCode,
-    },
-}
-
-/// Why an application request for a PDO was refused.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum PdoError {
-    /// The node has no such PDO (number 0 or beyond its capacity).
-    NoSuchPdo {
-        /// The number asked for.
-        pdo: u16,
-    },
-    /// The PDO is not running: invalid COB-ID, empty or unusable mapping, or the node is not
-    /// operational.
-    NotRunning {
-        /// The PDO.
-        pdo: u16,
-    },
-    /// Its transmission type does not send on application events (only 0, 254, 255 do).
-    NotEventDriven {
-        /// The PDO.
-        pdo: u16,
-        /// Its transmission type.
-        transmission_type: u8,
-    },
-}
-
-impl fmt::Display for PdoError {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        match self {
-            PdoError::NoSuchPdo { pdo } => write!(
-                f,
-                "TPDO{pdo} does not exist on this node: raise the node's TPDO capacity"
-            ),
-            PdoError::NotRunning { pdo } => write!(
-                f,
-                "TPDO{pdo} is not running: check its COB-ID (bit 31), its mapping and that the node is operational"
-            ),
-            PdoError::NotEventDriven {
-                pdo,
-                transmission_type,
-            } => write!(
-                f,
-                "TPDO{pdo} has transmission type {transmission_type}: only types 0, 254 and 255 send on request"
-            ),
-        }
-    }
-}
-
-impl core::error::Error for PdoError {}
-
-/// What a TPDO is doing.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub struct TpdoStatus {
-    /// Its identifier, if its COB-ID is valid.
-    pub id: Option<Id>,
-    /// Transmission type.
-    pub transmission_type: u8,
-    /// Sending (valid, usable, node operational).
-    pub running: bool,
-    /// Mapped length in bits.
-    pub mapped_bits: u32,
-    /// Frames sent.
-    pub sent: u32,
-    /// Last transmission.
-    pub last_sent: Option<Instant>,
-    /// Why a valid PDO is unusable.
-    pub error: Option<AbortCode>,
-}
-
-/// What an RPDO is doing.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub struct RpdoStatus {
-    /// Its identifier, if its COB-ID is valid.
-    pub id: Option<Id>,
-    /// Transmission type.
-    pub transmission_type: u8,
-    /// Receiving (valid, usable, node operational).
-    pub running: bool,
-    /// Mapped length in bits.
-    pub mapped_bits: u32,
-    /// Frames accepted.
-    pub received: u32,
-    /// Last accepted frame.
-    pub last_received: Option<Instant>,
-    /// The reception timeout expired and no frame came since.
-    pub timed_out: bool,
-    /// The last frame was too short.
-    pub length_error: bool,
-    /// Why a valid PDO is unusable.
-    pub error: Option<AbortCode>,
-}
 
 /// An EMCY the engine wants the node to raise or clear.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -199,81 +71,6 @@ impl<D, O: ServiceOutput> Io<'_, D, O> {
     }
     fn event(&mut self, at: Instant, e: PdoEvent) {
         self.out.event(at, ServiceEvent::Pdo(e));
-    }
-}
-
-/// Identifier as a sortable key: 11-bit below 29-bit.
-fn id_key(id: Id) -> u32 {
-    match id {
-        Id::Standard(r) => r as u32,
-        Id::Extended(r) => r | 1 << 31,
-    }
-}
-
-/// Sorted (key, slot) pairs: the range of slots whose key is `k`.
-fn equal_range(v: &[(u32, u16)], k: u32) -> (usize, usize) {
-    let lo = v.partition_point(|x| x.0 < k);
-    let hi = lo + v[lo..].partition_point(|x| x.0 == k);
-    (lo, hi)
-}
-
-/// Entry → event-capable TPDOs that map it, sorted by entry key. Holds 8 mappings per TPDO on
-/// average; beyond that (long bit-granular mappings) lookups fall back to scanning the TPDOs.
-struct Reverse<S: Storage, const T: usize> {
-    slots: Table<[(u32, u16); CACHED], T, S>,
-    len: usize,
-    overflow: bool,
-}
-
-impl<S: Storage, const T: usize> Reverse<S, T> {
-    fn new(tpdos: usize) -> Self {
-        Reverse {
-            slots: Table::new(tpdos, || [(0, 0); CACHED]),
-            len: 0,
-            overflow: false,
-        }
-    }
-
-    fn is_empty(&self) -> bool {
-        self.len == 0 && !self.overflow
-    }
-
-    fn pairs(&self) -> &[(u32, u16)] {
-        &self.slots.as_flattened()[..self.len]
-    }
-
-    fn rebuild<D: ObjectDictionary + ?Sized>(&mut self, tpdos: &[Tpdo], od: &D) {
-        self.len = 0;
-        self.overflow = false;
-        let flat = self.slots.as_flattened_mut();
-        'all: for (k, t) in tpdos.iter().enumerate() {
-            if !(t.p.active() && t.p.event_capable()) {
-                continue;
-            }
-            for j in 0..t.p.mapping.count() {
-                let e = t.p.mapping.entry(od, map_index(Dir::Transmit, k as u16), j);
-                if e.is_dummy() {
-                    continue;
-                }
-                let Some(slot) = flat.get_mut(self.len) else {
-                    self.overflow = true;
-                    break 'all;
-                };
-                *slot = (key(e.index, e.sub), k as u16);
-                self.len += 1;
-            }
-        }
-        let v = &mut flat[..self.len];
-        v.sort_unstable();
-        // A TPDO mapping one entry twice is triggered once.
-        let mut w = 0;
-        for r in 0..v.len() {
-            if w == 0 || v[w - 1] != v[r] {
-                v[w] = v[r];
-                w += 1;
-            }
-        }
-        self.len = w;
     }
 }
 
