@@ -335,14 +335,7 @@ proptest! {
 /// for a 60 ms lag after its second repair, and the consumer tripped at 671.135 ms.)
 #[test]
 fn repeats_after_a_repair_are_no_lag_and_the_next_failure_does_not_trip() {
-    let mut net = network();
-    for (bus, down, up) in [(0, 167, 246), (0, 408, 512), (1, 622, 662)] {
-        net.sim.run_until(ms(down));
-        net.sim.bus_down(net.buses[bus]);
-        net.sim.run_until(ms(up));
-        net.sim.bus_up(net.buses[bus]);
-    }
-    net.sim.run_until(END);
+    let net = run_outages(&[(0, 167, 246), (0, 408, 512), (1, 622, 662)]);
     assert!(net.srdo_events().is_empty(), "{:?}", net.srdo_events());
     assert!(lag_reports(&net).is_empty(), "{:?}", lag_reports(&net));
     let link = &net.sim.device(net.consumer).link;
@@ -357,14 +350,7 @@ fn repeats_after_a_repair_are_no_lag_and_the_next_failure_does_not_trip() {
 /// (Before, it was taken for lagging 60 ms and the consumer tripped at 671.135 ms.)
 #[test]
 fn a_bus_cut_off_is_not_lagging_when_it_comes_back_even_if_the_other_one_fails_at_once() {
-    let mut net = network();
-    for (bus, down, up) in [(0, 213, 297), (1, 477, 602), (0, 618, 662)] {
-        net.sim.run_until(ms(down));
-        net.sim.bus_down(net.buses[bus]);
-        net.sim.run_until(ms(up));
-        net.sim.bus_up(net.buses[bus]);
-    }
-    net.sim.run_until(END);
+    let net = run_outages(&[(0, 213, 297), (1, 477, 602), (0, 618, 662)]);
     assert!(net.srdo_events().is_empty(), "{:?}", net.srdo_events());
     assert!(lag_reports(&net).is_empty(), "{:?}", lag_reports(&net));
     // Every pair that ended on bus 2 after its repair completed at the consumer.
@@ -375,6 +361,19 @@ fn a_bus_cut_off_is_not_lagging_when_it_comes_back_even_if_the_other_one_fails_a
         .collect();
     assert!(after.len() >= 19, "{after:?}");
     assert!(after.iter().all(|t| net.completions().contains(t)));
+}
+
+/// The network run to the end with these outages, one after the other: (bus, down, up) in ms.
+fn run_outages(plan: &[(usize, u64, u64)]) -> Net {
+    let mut net = network();
+    for &(bus, down, up) in plan {
+        net.sim.run_until(ms(down));
+        net.sim.bus_down(net.buses[bus]);
+        net.sim.run_until(ms(up));
+        net.sim.bus_up(net.buses[bus]);
+    }
+    net.sim.run_until(END);
+    net
 }
 
 /// The consumer's lag reports.
