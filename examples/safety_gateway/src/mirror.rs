@@ -3,8 +3,8 @@
 //!
 //! The track-circuit board (node [`FIELD_NODE`](crate::FIELD_NODE) of the field bus) sends its
 //! [`TRACKS`] track circuits as one SRDO: their codes (0x55 clear, 0xAA occupied) plain on
-//! [`FIELD_NORMAL`](crate::FIELD_NORMAL) and bitwise inverted on
-//! [`FIELD_INVERTED`](crate::FIELD_INVERTED), byte *k* − 1 for track circuit *k*, every cycle.
+//! [`FIELD_NORMAL`] and bitwise inverted on
+//! [`FIELD_INVERTED`], byte *k* − 1 for track circuit *k*, every cycle.
 //! The gateway consumes it with duocan's [`SrdoConsumer`]: the SCT is the field timeout (0x2001),
 //! the SRVT [`FIELD_SRVT`](crate::FIELD_SRVT). Then:
 //!
