@@ -265,7 +265,11 @@ impl<D: ObjectDictionary, P: IdProfile> Master<D, P> {
         };
         put(NMT_STARTUP, 0, config.startup.0)?;
         put(BOOT_TIME, 0, config.boot_time_ms)?;
-        let mut slots: Vec<Slot> = (1..=127u8).filter_map(NodeId::new).map(Slot::new).collect();
+        // One slot per node-ID, allocated at its final size: collected through `filter_map`
+        // the vector would grow by doubling, holding half the table twice over while it does
+        // and keeping room for 128 (what a microcontroller's heap must then provide).
+        let mut slots: Vec<Slot> = Vec::with_capacity(127);
+        slots.extend((1..=127u8).filter_map(NodeId::new).map(Slot::new));
         for s in &config.slaves {
             check_slave(s, node.node_id)?;
             let n = s.node.raw();
