@@ -48,9 +48,9 @@
 //! # Ok::<(), Box<dyn std::error::Error>>(())
 //! ```
 
-use crate::link::dual_bus::DualBus;
+use crate::link::dual_bus::{DualBus, DEFAULT_MERGE_SLOTS};
 use crate::link::events::LinkEvent;
-use crate::link::same_function::PairError;
+use crate::link::same_function::{PairError, MAX_FUNCTIONS};
 use crate::pair::Member;
 use crate::supervisor::flying_master::MasterRole;
 use crate::supervisor::pairs::Phase;
@@ -67,19 +67,36 @@ use duocan::{Frame, Instant};
 
 /// A redundant master on a dual bus: a [`Station`] of a [`DualBus`] and a [`Supervisor`] (which
 /// it dereferences to: `link` and `machine`), plus its status table. `D` is the master's
-/// dictionary, `P` its identifier profile, which also classifies frames for the layer.
-pub struct SupervisedStation<D, P = Predefined> {
-    station: Station<DualBus<P>, Supervisor<D, P>>,
+/// dictionary, `P` its identifier profile, which also classifies frames for the layer;
+/// `SLOTS` and `FUNCTIONS` are the layer's merger slots and same-function table (the layer's
+/// defaults unless a small target sizes them to its network: a microcontroller master with a
+/// few pairs needs neither 1,024 merger slots nor 256 functions).
+pub struct SupervisedStation<
+    D,
+    P = Predefined,
+    const SLOTS: usize = DEFAULT_MERGE_SLOTS,
+    const FUNCTIONS: usize = MAX_FUNCTIONS,
+> {
+    station: Station<DualBus<P, SLOTS, FUNCTIONS>, Supervisor<D, P>>,
 }
 
 /// The common redundant master: a dictionary built at run time, on the predefined connection set
 /// unless `P` says otherwise.
 pub type RedundantMaster<P = Predefined> = SupervisedStation<DynamicDictionary, P>;
 
-impl<D: ObjectDictionary, P: IdProfile + FrameClassifier> SupervisedStation<D, P> {
+impl<
+        D: ObjectDictionary,
+        P: IdProfile + FrameClassifier,
+        const SLOTS: usize,
+        const FUNCTIONS: usize,
+    > SupervisedStation<D, P, SLOTS, FUNCTIONS>
+{
     /// Puts `sup` on `link`; the supervisor's pairs are configured in the layer (same
     /// identifiers), with no active member until the supervisor says so.
-    pub fn new(mut link: DualBus<P>, mut sup: Supervisor<D, P>) -> Result<Self, PairError> {
+    pub fn new(
+        mut link: DualBus<P, SLOTS, FUNCTIONS>,
+        mut sup: Supervisor<D, P>,
+    ) -> Result<Self, PairError> {
         for (id, p) in sup.pairs() {
             let got = link.add_pair(p.spec.a, p.spec.b, p.active)?;
             debug_assert_eq!(got, id);
@@ -93,12 +110,12 @@ impl<D: ObjectDictionary, P: IdProfile + FrameClassifier> SupervisedStation<D, P
     }
 
     /// The status snapshot, printable as a table.
-    pub fn status(&self, now: Instant) -> Status<'_, D, P> {
+    pub fn status(&self, now: Instant) -> Status<'_, D, P, SLOTS, FUNCTIONS> {
         Status { st: self, now }
     }
 }
 
-impl<D, P> SupervisedStation<D, P> {
+impl<D, P, const SLOTS: usize, const FUNCTIONS: usize> SupervisedStation<D, P, SLOTS, FUNCTIONS> {
     /// The supervisor.
     pub fn sup(&self) -> &Supervisor<D, P> {
         &self.station.machine
@@ -108,25 +125,35 @@ impl<D, P> SupervisedStation<D, P> {
         &mut self.station.machine
     }
     /// The station inside.
-    pub fn into_station(self) -> Station<DualBus<P>, Supervisor<D, P>> {
+    pub fn into_station(self) -> Station<DualBus<P, SLOTS, FUNCTIONS>, Supervisor<D, P>> {
         self.station
     }
 }
 
-impl<D, P> Deref for SupervisedStation<D, P> {
-    type Target = Station<DualBus<P>, Supervisor<D, P>>;
+impl<D, P, const SLOTS: usize, const FUNCTIONS: usize> Deref
+    for SupervisedStation<D, P, SLOTS, FUNCTIONS>
+{
+    type Target = Station<DualBus<P, SLOTS, FUNCTIONS>, Supervisor<D, P>>;
     fn deref(&self) -> &Self::Target {
         &self.station
     }
 }
 
-impl<D, P> DerefMut for SupervisedStation<D, P> {
+impl<D, P, const SLOTS: usize, const FUNCTIONS: usize> DerefMut
+    for SupervisedStation<D, P, SLOTS, FUNCTIONS>
+{
     fn deref_mut(&mut self) -> &mut Self::Target {
         &mut self.station
     }
 }
 
-impl<D: ObjectDictionary, P: IdProfile + FrameClassifier> Device for SupervisedStation<D, P> {
+impl<
+        D: ObjectDictionary,
+        P: IdProfile + FrameClassifier,
+        const SLOTS: usize,
+        const FUNCTIONS: usize,
+    > Device for SupervisedStation<D, P, SLOTS, FUNCTIONS>
+{
     type Event = StationEvent<LinkEvent, SupervisorEvent>;
 
     fn port_count(&self) -> usize {
@@ -162,8 +189,14 @@ impl<D: ObjectDictionary, P: IdProfile + FrameClassifier> Device for SupervisedS
 }
 
 /// A snapshot of a supervised station; `Display` prints it as a table.
-pub struct Status<'a, D, P> {
-    st: &'a SupervisedStation<D, P>,
+pub struct Status<
+    'a,
+    D,
+    P,
+    const SLOTS: usize = DEFAULT_MERGE_SLOTS,
+    const FUNCTIONS: usize = MAX_FUNCTIONS,
+> {
+    st: &'a SupervisedStation<D, P, SLOTS, FUNCTIONS>,
     now: Instant,
 }
 
@@ -175,7 +208,13 @@ fn member_word(m: Option<Member>) -> &'static str {
     }
 }
 
-impl<D: ObjectDictionary, P: IdProfile + FrameClassifier> fmt::Display for Status<'_, D, P> {
+impl<
+        D: ObjectDictionary,
+        P: IdProfile + FrameClassifier,
+        const SLOTS: usize,
+        const FUNCTIONS: usize,
+    > fmt::Display for Status<'_, D, P, SLOTS, FUNCTIONS>
+{
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         let sup = self.st.sup();
         let fm = sup.flying_master();
