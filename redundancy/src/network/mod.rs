@@ -74,13 +74,14 @@ pub use events::{NetworkEvent, NetworkEventKind};
 
 use crate::pair::{Member, PairId};
 use crate::station::{Status, SupervisedStation};
-use crate::supervisor::audit::AuditTrail;
+use crate::supervisor::audit::{AuditTrail, AUDIT_CAPACITY};
 use crate::supervisor::flying_master::{FlyingMasterError, MasterRole};
 use crate::supervisor::pairs::{PairState, PairsError};
 use crate::supervisor::Supervisor;
 use crate::FrameClassifier;
 use core::fmt;
 use duocan::cia302::pdo_config::PdoConfig;
+use duocan::frame::storage::Heap;
 use duocan::machine::{Device, PortRequest, PortStatus};
 use duocan::master::{MasterError, SlaveView};
 use duocan::nmt::NmtTarget;
@@ -343,7 +344,7 @@ impl<D: ObjectDictionary, P: IdProfile + FrameClassifier> LogicalNetwork<D, P> {
         self.station.status(now)
     }
     /// The audit trail (every role change, switch and toggle with reason and time).
-    pub fn audit(&self) -> &AuditTrail {
+    pub fn audit(&self) -> &AuditTrail<AUDIT_CAPACITY, Heap> {
         self.station.sup().audit()
     }
     /// The audit trail as CSV (`seq,time_us,kind,subject,from,to,reason`).

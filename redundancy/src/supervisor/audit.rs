@@ -12,8 +12,10 @@ use crate::supervisor::flying_master::{MasterRole, MasterRoleChange};
 use crate::supervisor::pairs::RoleChange;
 use core::fmt::{self, Write};
 use duocan::cia305::LssAddress;
+#[cfg(feature = "alloc")]
+use duocan::frame::storage::Heap;
+use duocan::frame::storage::{BoundedVec, Inline, Storage};
 use duocan::{Instant, NodeId};
-use heapless::Deque;
 
 /// Records a trail holds unless chosen otherwise.
 pub const AUDIT_CAPACITY: usize = 256;
@@ -134,9 +136,14 @@ impl fmt::Display for AuditRecord {
     }
 }
 
-/// A bounded trail of [`AuditRecord`]s.
-pub struct AuditTrail<const N: usize = AUDIT_CAPACITY> {
-    ring: Deque<AuditRecord, N>,
+/// A bounded trail of [`AuditRecord`]s, kept in `S`: inline ([`Inline`], the default: `N`
+/// records, no allocator) or on the heap ([`Heap`](duocan::frame::storage::Heap), `alloc`:
+/// the room given to [`with_capacity`](AuditTrail::with_capacity), allocated once).
+pub struct AuditTrail<const N: usize = AUDIT_CAPACITY, S: Storage = Inline> {
+    /// Filled up to `room`, then overwritten in place from `head` (the oldest record).
+    ring: S::Vec<AuditRecord, N>,
+    room: usize,
+    head: usize,
     seq: u32,
     overwritten: u32,
 }
@@ -148,11 +155,28 @@ impl<const N: usize> Default for AuditTrail<N> {
 }
 
 impl<const N: usize> AuditTrail<N> {
-    /// An empty trail.
+    /// An empty trail of `N` records.
     #[must_use]
-    pub const fn new() -> Self {
+    pub fn new() -> Self {
+        Self::build(N)
+    }
+}
+
+#[cfg(feature = "alloc")]
+impl<const N: usize> AuditTrail<N, Heap> {
+    /// An empty trail of `records` records (at least 1), allocated now, never grown.
+    #[must_use]
+    pub fn with_capacity(records: usize) -> Self {
+        Self::build(records.max(1))
+    }
+}
+
+impl<const N: usize, S: Storage> AuditTrail<N, S> {
+    fn build(room: usize) -> Self {
         AuditTrail {
-            ring: Deque::new(),
+            ring: S::vec(room),
+            room,
+            head: 0,
             seq: 0,
             overwritten: 0,
         }
@@ -165,20 +189,28 @@ impl<const N: usize> AuditTrail<N> {
             at,
             entry,
         };
-        if self.ring.is_full() {
-            self.ring.pop_front();
+        if self.ring.len() < self.room {
+            // Cannot fail: the vector was built with room for `room` records.
+            let _ = self.ring.try_push(r);
+        } else if let Some(oldest) = self.ring.get_mut(self.head) {
+            *oldest = r;
+            self.head = (self.head + 1) % self.room;
             self.overwritten = self.overwritten.saturating_add(1);
         }
-        // Cannot fail: a slot is free.
-        let _ = self.ring.push_back(r);
     }
     /// The records kept, oldest first.
     pub fn iter(&self) -> impl Iterator<Item = &AuditRecord> {
-        self.ring.iter()
+        // Until the ring is full the head stays 0: the first part is everything.
+        let (newer, older) = self.ring.split_at(self.head);
+        older.iter().chain(newer)
     }
     /// Records kept.
     pub fn len(&self) -> usize {
         self.ring.len()
+    }
+    /// Records the trail holds before it overwrites the oldest.
+    pub fn capacity(&self) -> usize {
+        self.room
     }
     /// True when nothing was recorded (or all was cleared).
     pub fn is_empty(&self) -> bool {
@@ -194,11 +226,12 @@ impl<const N: usize> AuditTrail<N> {
     }
     /// Records with a sequence number above `seq` (what an exporter has not read yet).
     pub fn since(&self, seq: u32) -> impl Iterator<Item = &AuditRecord> {
-        self.ring.iter().filter(move |r| r.seq > seq)
+        self.iter().filter(move |r| r.seq > seq)
     }
     /// Forgets every record (the counters stay).
     pub fn clear(&mut self) {
         self.ring.clear();
+        self.head = 0;
     }
 
     /// One line per record ([`AuditRecord`]'s `Display`).
@@ -254,7 +287,7 @@ impl<const N: usize> AuditTrail<N> {
     }
 }
 
-impl<const N: usize> fmt::Debug for AuditTrail<N> {
+impl<const N: usize, S: Storage> fmt::Debug for AuditTrail<N, S> {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         f.debug_struct("AuditTrail")
             .field("len", &self.ring.len())
@@ -335,6 +368,33 @@ mod tests {
             [3, 4, 5, 6]
         );
         assert_eq!(t.since(5).count(), 1);
+    }
+
+    #[cfg(feature = "alloc")]
+    #[test]
+    fn a_heap_ring_of_the_room_asked_for_keeps_the_newest_in_order() {
+        let mut t: AuditTrail<AUDIT_CAPACITY, Heap> = AuditTrail::with_capacity(3);
+        assert_eq!(t.capacity(), 3);
+        let seqs = |t: &AuditTrail<AUDIT_CAPACITY, Heap>| {
+            t.iter().map(|r| r.seq).collect::<std::vec::Vec<_>>()
+        };
+        for i in 0..8 {
+            t.record(Instant::from_millis(100 + i), change(100 + i));
+            let kept = (i + 1).min(3);
+            assert_eq!(t.len() as u64, kept);
+            // Oldest first across the wrap-around, at every position of the head.
+            let want: std::vec::Vec<u32> = ((i + 2 - kept)..=(i + 1)).map(|s| s as u32).collect();
+            assert_eq!(seqs(&t), want, "after record {}", i + 1);
+        }
+        assert_eq!((t.overwritten(), t.total()), (5, 8));
+        assert_eq!(
+            t.since(6).map(|r| r.seq).collect::<std::vec::Vec<_>>(),
+            [7, 8]
+        );
+        t.clear();
+        assert!(t.is_empty());
+        t.record(Instant::from_millis(200), change(200));
+        assert_eq!(seqs(&t), [9]);
     }
 
     #[test]

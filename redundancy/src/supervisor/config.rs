@@ -1,7 +1,9 @@
 //! How a [`Supervisor`](super::Supervisor) is set up.
 
+use crate::pair::MAX_PAIRS;
+use crate::supervisor::audit::AUDIT_CAPACITY;
 use crate::supervisor::flying_master::{FlyingMasterConfig, Rank, MAX_PEERS};
-use crate::supervisor::pairs::PairsConfig;
+use crate::supervisor::pairs::{PairsConfig, COMMAND_QUEUE};
 use duocan::{Duration, NodeId};
 use heapless::Vec;
 
@@ -31,6 +33,16 @@ pub struct SupervisorConfig {
     /// allocated once when the supervisor is built, never grown: an event beyond it is dropped
     /// and counted.
     pub event_queue: usize,
+    /// Pairs the supervisor takes (default and most [`MAX_PAIRS`]); the pair table is
+    /// allocated once for them when the supervisor is built.
+    pub pair_capacity: usize,
+    /// Commands and events the pair table holds between two drains (default
+    /// [`pairs::COMMAND_QUEUE`](crate::supervisor::pairs::COMMAND_QUEUE), enough for every
+    /// member of [`MAX_PAIRS`] pairs failing at one instant); allocated once, never grown.
+    pub pair_queue: usize,
+    /// Records the audit trail keeps before it overwrites the oldest (default
+    /// [`AUDIT_CAPACITY`]); allocated once, never grown.
+    pub audit_capacity: usize,
     /// How often the active supervisor looks for a replacement board that arrived without a
     /// node-ID while a pair member is missing (LSS identify non-configured, then fastscan);
     /// `None` (the default): never, no LSS frame is sent.
@@ -82,6 +94,25 @@ impl SupervisorConfig {
         self.event_queue = capacity;
         self
     }
+    /// The configuration with [`pair_capacity`](Self::pair_capacity) replaced (at most
+    /// [`MAX_PAIRS`]).
+    #[must_use]
+    pub fn with_pair_capacity(mut self, pairs: usize) -> Self {
+        self.pair_capacity = pairs;
+        self
+    }
+    /// The configuration with [`pair_queue`](Self::pair_queue) replaced (at least 1).
+    #[must_use]
+    pub fn with_pair_queue(mut self, capacity: usize) -> Self {
+        self.pair_queue = capacity;
+        self
+    }
+    /// The configuration with [`audit_capacity`](Self::audit_capacity) replaced (at least 1).
+    #[must_use]
+    pub fn with_audit_capacity(mut self, records: usize) -> Self {
+        self.audit_capacity = records;
+        self
+    }
 }
 
 impl SupervisorConfig {
@@ -108,6 +139,9 @@ impl SupervisorConfig {
             sync_period,
             time_period: Duration::ZERO,
             event_queue: EVENT_QUEUE,
+            pair_capacity: MAX_PAIRS,
+            pair_queue: COMMAND_QUEUE,
+            audit_capacity: AUDIT_CAPACITY,
             lss_period: None,
         }
     }

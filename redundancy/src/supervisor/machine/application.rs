@@ -5,10 +5,11 @@ use super::{Planned, Supervisor};
 use crate::link::dual_bus::LinkCommand;
 use crate::link::events::LinkEvent;
 use crate::pair::{Member, PairId, PairSpec};
-use crate::supervisor::audit::{AuditEntry, AuditTrail};
+use crate::supervisor::audit::{AuditEntry, AuditTrail, AUDIT_CAPACITY};
 use crate::supervisor::events::{AddPairError, SupervisorStats};
 use crate::supervisor::flying_master::{FlyingMaster, FlyingMasterError, MasterRole};
 use crate::supervisor::pairs::{PairState, PairSupervisor, PairsError};
+use duocan::frame::storage::Heap;
 use duocan::master::{
     objects, Assignment, Master, MasterError, MasterNode, MasterSdoClient, SlaveConfig, SlaveView,
     StartPolicy,
@@ -117,7 +118,7 @@ impl<D: ObjectDictionary, P: IdProfile> Supervisor<D, P> {
         self.pairs.pairs()
     }
     /// The pair supervision.
-    pub fn pair_supervisor(&self) -> &PairSupervisor {
+    pub fn pair_supervisor(&self) -> &PairSupervisor<Heap> {
         &self.pairs
     }
     /// The CiA 302-2 master (its view of every slave, its node, its SDO client).
@@ -164,7 +165,7 @@ impl<D: ObjectDictionary, P: IdProfile> Supervisor<D, P> {
         r
     }
     /// The audit trail.
-    pub fn audit(&self) -> &AuditTrail {
+    pub fn audit(&self) -> &AuditTrail<AUDIT_CAPACITY, Heap> {
         &self.audit
     }
     /// Counters.

@@ -88,7 +88,7 @@
 //! ```
 
 use crate::link::dual_bus::LinkCommand;
-use crate::supervisor::audit::{AuditEntry, AuditTrail};
+use crate::supervisor::audit::{AuditEntry, AuditTrail, AUDIT_CAPACITY};
 use crate::supervisor::flying_master::{FlyingMaster, Rank};
 use crate::supervisor::pairs::{Authority, PairSupervisor, PairsEvent};
 use alloc::collections::VecDeque;
@@ -96,6 +96,7 @@ use core::fmt;
 use duocan::cia305::{LssMaster, LssMasterConfig};
 use duocan::frame::instant::{earliest_of, next_on_grid, shift_back, TimeWatch};
 use duocan::frame::queue::Bounded;
+use duocan::frame::storage::Heap;
 use duocan::machine::{LinkRequest, Machine};
 use duocan::master::{objects, Master, NmtStartup};
 use duocan::nmt;
@@ -129,9 +130,9 @@ enum Planned {
 /// `D` and `P` are the [`Master`]'s dictionary and identifier profile.
 pub struct Supervisor<D, P = Predefined> {
     master: Master<D, P>,
-    pairs: PairSupervisor,
+    pairs: PairSupervisor<Heap>,
     fm: FlyingMaster,
-    audit: AuditTrail,
+    audit: AuditTrail<AUDIT_CAPACITY, Heap>,
     cfg: SupervisorConfig,
     tx: Bounded<Frame, TX_QUEUE>,
     events: VecDeque<SupervisorEvent>,
@@ -187,14 +188,14 @@ impl<D: ObjectDictionary, P: IdProfile> Supervisor<D, P> {
             let _ = fm.add_peer(*p);
         }
         fm.start(now);
-        let mut pairs = PairSupervisor::new(cfg.pairs);
+        let mut pairs = PairSupervisor::with_capacity(cfg.pairs, cfg.pair_capacity, cfg.pair_queue);
         pairs.set_authority(now, Authority::Shadow);
         let event_capacity = cfg.event_queue.max(1);
         let mut s = Supervisor {
             master,
             pairs,
             fm,
-            audit: AuditTrail::new(),
+            audit: AuditTrail::with_capacity(cfg.audit_capacity),
             cfg,
             tx: Bounded::new(),
             // Allocated once here and never grown: `emit` checks the capacity first.

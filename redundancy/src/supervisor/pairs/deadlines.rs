@@ -7,9 +7,10 @@ use super::state::{idx, Stage};
 use super::{Authority, LossReason, MemberState, PairId, PairSupervisor, PairsEvent, RoleReason};
 use crate::pair::Member;
 use duocan::frame::instant::{earliest_of, shift_back};
+use duocan::frame::storage::Storage;
 use duocan::{Duration, Instant, NmtCommand};
 
-impl PairSupervisor {
+impl<S: Storage> PairSupervisor<S> {
     /// Earliest instant at which [`PairSupervisor::handle_timeout`] has work (may be early).
     #[must_use]
     pub fn poll_timeout(&self) -> Option<Instant> {

@@ -98,9 +98,11 @@
 
 use crate::pair::{Member, PairId, PairSpec, MAX_PAIRS};
 use core::fmt;
-use duocan::frame::queue::Bounded;
+use duocan::frame::queue::Fifo;
+#[cfg(feature = "alloc")]
+use duocan::frame::storage::Heap;
+use duocan::frame::storage::{BoundedVec, Inline, Storage};
 use duocan::{Instant, NmtCommand, NmtState, NodeId};
-use heapless::Vec;
 
 mod config;
 mod deadlines;
@@ -123,17 +125,22 @@ pub const EVENT_QUEUE: usize = 256;
 
 const NONE: u8 = 0xFF;
 
-/// The pair table and its evaluation.
-pub struct PairSupervisor {
+/// The pair table and its evaluation. Its tables live in `S`: inline ([`Inline`], the
+/// default: room for [`MAX_PAIRS`] pairs and [`COMMAND_QUEUE`] / [`EVENT_QUEUE`] outputs, no
+/// allocator) or on the heap ([`Heap`](duocan::frame::storage::Heap), `alloc`: the room given
+/// to [`with_capacity`](PairSupervisor::with_capacity), allocated once).
+pub struct PairSupervisor<S: Storage = Inline> {
     cfg: PairsConfig,
     authority: Authority,
-    pairs: Vec<PairState, MAX_PAIRS>,
+    pairs: S::Vec<PairState, MAX_PAIRS>,
+    /// Pairs the table takes (`pairs` never grows beyond it).
+    room: usize,
     /// node-ID → pair index · 2 + member index.
     index: [u8; 128],
     /// A lower bound of every member's next deadline (recomputed when reached).
     next: Option<Instant>,
-    commands: Bounded<PairCommand, COMMAND_QUEUE>,
-    events: Bounded<PairsEvent, EVENT_QUEUE>,
+    commands: S::Fifo<PairCommand, COMMAND_QUEUE>,
+    events: S::Fifo<PairsEvent, EVENT_QUEUE>,
     /// Node-IDs (bits) whose heartbeats the dual-bus layer finds implausible.
     suspect: u128,
     /// Node-IDs (bits) the application started through this table's master.
@@ -144,14 +151,33 @@ impl PairSupervisor {
     /// An empty table, commanding.
     #[must_use]
     pub fn new(cfg: PairsConfig) -> Self {
+        Self::build(cfg, MAX_PAIRS, COMMAND_QUEUE, EVENT_QUEUE)
+    }
+}
+
+#[cfg(feature = "alloc")]
+impl PairSupervisor<Heap> {
+    /// An empty table, commanding, with room for `pairs` pairs (at most [`MAX_PAIRS`]) and
+    /// `queue` commands and as many events between two drains (at least 1), allocated now
+    /// and never grown: a master with a few pairs spends what they need.
+    #[must_use]
+    pub fn with_capacity(cfg: PairsConfig, pairs: usize, queue: usize) -> Self {
+        let queue = queue.max(1);
+        Self::build(cfg, pairs.min(MAX_PAIRS), queue, queue)
+    }
+}
+
+impl<S: Storage> PairSupervisor<S> {
+    fn build(cfg: PairsConfig, pairs: usize, commands: usize, events: usize) -> Self {
         PairSupervisor {
             cfg,
             authority: Authority::Command,
-            pairs: Vec::new(),
+            pairs: S::vec(pairs),
+            room: pairs,
             index: [NONE; 128],
             next: None,
-            commands: Bounded::new(),
-            events: Bounded::new(),
+            commands: S::fifo(commands),
+            events: S::fifo(events),
             suspect: 0,
             by_application: 0,
         }
@@ -176,7 +202,7 @@ impl PairSupervisor {
                 return Err(PairsError::NodeTaken(n));
             }
         }
-        if self.pairs.is_full() {
+        if self.pairs.len() >= self.room {
             return Err(PairsError::Full);
         }
         Ok(())
@@ -187,7 +213,7 @@ impl PairSupervisor {
         self.check(&spec)?;
         let p = self.pairs.len();
         self.pairs
-            .push(PairState {
+            .try_push(PairState {
                 spec,
                 active: None,
                 members: [
@@ -229,6 +255,10 @@ impl PairSupervisor {
     /// Number of pairs.
     pub fn len(&self) -> usize {
         self.pairs.len()
+    }
+    /// Pairs the table has room for.
+    pub fn capacity(&self) -> usize {
+        self.room
     }
     /// True if no pair is configured.
     pub fn is_empty(&self) -> bool {
@@ -349,7 +379,7 @@ impl PairSupervisor {
     }
 }
 
-impl fmt::Debug for PairSupervisor {
+impl<S: Storage> fmt::Debug for PairSupervisor<S> {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         f.debug_struct("PairSupervisor")
             .field("authority", &self.authority)

@@ -6,9 +6,10 @@
 use super::state::{idx, Stage};
 use super::{Authority, LossReason, PairCommand, PairSupervisor, PairsEvent, Phase, RoleReason};
 use crate::pair::Member;
+use duocan::frame::storage::Storage;
 use duocan::{Instant, NmtCommand, NmtState, NodeId};
 
-impl PairSupervisor {
+impl<S: Storage> PairSupervisor<S> {
     /// A node's boot-up message (heartbeat with state initialising) at `now`.
     pub fn boot_up(&mut self, now: Instant, node: NodeId) {
         let Some((pair, m)) = self.locate(node) else {

@@ -10,9 +10,10 @@ use super::{
     Stage,
 };
 use crate::pair::Member;
+use duocan::frame::storage::Storage;
 use duocan::{Instant, NmtCommand, NmtState};
 
-impl PairSupervisor {
+impl<S: Storage> PairSupervisor<S> {
     pub(super) fn join(&mut self, now: Instant, p: usize, m: Member) {
         let spec = self.pairs[p].spec;
         let suspect = self.is_suspect(spec.node(m));

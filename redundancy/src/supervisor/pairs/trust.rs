@@ -3,6 +3,7 @@
 
 use super::state::Stage;
 use super::{Member, PairSupervisor};
+use duocan::frame::storage::Storage;
 use duocan::{Instant, NmtCommand, NodeId};
 
 /// The bit of `node` in a node-ID set.
@@ -10,7 +11,7 @@ pub(super) const fn bit(node: NodeId) -> u128 {
     1 << node.raw()
 }
 
-impl PairSupervisor {
+impl<S: Storage> PairSupervisor<S> {
     /// The application sent `cmd` to `target` (0: all nodes) through this table's master: a
     /// standby it starts may run beside the active member (a test, a comparison of both); any
     /// other command to it, or one of this table's own, ends that.
