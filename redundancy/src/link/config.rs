@@ -20,6 +20,7 @@
 
 use crate::link::channel::{Cia3026Config, EcssConfig, EcssRole};
 use crate::link::health::HealthConfig;
+use crate::pair::MAX_MEMBERS;
 use core::fmt;
 #[cfg(doc)]
 use duocan::machine::LinkRequest;
@@ -65,6 +66,11 @@ pub struct DualBusConfig {
     /// entries (ECSS Bdefault and Ctoggle, the CiA 302-6 channel error counter) up to date
     /// through [`LinkRequest::SetStatus`].
     pub od_layout: OdLayout,
+    /// Nodes whose heartbeats the layer judges at most ([`crate::link::plausible`]: the
+    /// supervisor watches every pair member); the table is allocated for them at the first
+    /// watch (default [`MAX_MEMBERS`], every node-ID; a master with a few pairs needs twice
+    /// their number).
+    pub watch_capacity: usize,
 }
 
 // Builders: the struct is `#[non_exhaustive]` (it may gain fields), so code outside the crate
@@ -112,6 +118,13 @@ impl DualBusConfig {
         self.od_layout = od_layout;
         self
     }
+    /// The configuration with [`watch_capacity`](Self::watch_capacity) replaced (at most
+    /// [`MAX_MEMBERS`]).
+    #[must_use]
+    pub fn with_watch_capacity(mut self, nodes: usize) -> Self {
+        self.watch_capacity = nodes;
+        self
+    }
 }
 
 impl Default for DualBusConfig {
@@ -138,6 +151,7 @@ impl DualBusConfig {
             reach_timeout: health.silence_limit,
             discrepancy_time: Duration::from_millis(100),
             od_layout: OdLayout::default(),
+            watch_capacity: MAX_MEMBERS,
         }
     }
 }

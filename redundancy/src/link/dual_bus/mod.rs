@@ -178,7 +178,10 @@ impl<C: FrameClassifier, const SLOTS: usize, const FUNCTIONS: usize> DualBus<C, 
             reach: Reach::new(cfg.reach_timeout, cfg.skew_window),
             reach_enabled,
             // Rule 2 needs both buses listened to, as reachability does.
-            plausible: Plausibility::new(reach_enabled.then_some(cfg.reach_timeout)),
+            plausible: Plausibility::with_capacity(
+                reach_enabled.then_some(cfg.reach_timeout),
+                cfg.watch_capacity,
+            ),
             pairs: SameFunction::new(cfg.discrepancy_time),
             out: Outbox::new(),
             stats: LinkStats::default(),

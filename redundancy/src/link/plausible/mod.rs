@@ -69,15 +69,17 @@
 //!
 //! # Memory
 //!
-//! One entry per watched node, room for every node-ID ([`MAX_MEMBERS`]), indexed by node-ID:
-//! about 13 KiB, allocated once at the first watch and never grown, so that a layer that watches
-//! nothing (a node's) carries only a pointer. Nothing per frame. Without the `alloc` feature
+//! One entry per watched node, indexed by node-ID, room for as many as the layer was
+//! configured for ([`DualBusConfig::watch_capacity`](crate::DualBusConfig::watch_capacity);
+//! by default every node-ID, [`MAX_MEMBERS`]: about 13 KiB on a 32-bit target), allocated once
+//! at the first watch and never grown, so that a layer that watches nothing (a node's) carries
+//! only a pointer. Nothing per frame. Without the `alloc` feature
 //! there is no table and watches are refused (counted; the supervisor, the only one to watch,
 //! needs `alloc` anyway).
 
 use crate::pair::MAX_MEMBERS;
+use duocan::frame::storage::BoundedVec;
 use duocan::{Duration, Id, Instant, NodeId};
-use heapless::Vec;
 
 /// Extra heartbeats a node may send in one burst on one bus (see rule 1).
 pub const BURST: u64 = 4;
@@ -169,8 +171,15 @@ impl Watch {
 struct Table {
     /// node-ID → position in `watched` (`NONE`: not watched).
     index: [u8; 128],
-    watched: Vec<Watch, MAX_MEMBERS>,
+    watched: Watched,
 }
+
+/// The entries: allocated for the capacity asked for (`alloc`); without an allocator the
+/// table never exists.
+#[cfg(feature = "alloc")]
+type Watched = alloc::vec::Vec<Watch>;
+#[cfg(not(feature = "alloc"))]
+type Watched = heapless::Vec<Watch, 0>;
 
 pub(super) const NONE: u8 = u8::MAX;
 
@@ -179,17 +188,17 @@ pub(super) const NONE: u8 = u8::MAX;
 #[cfg(feature = "alloc")]
 type Holder = alloc::boxed::Box<Table>;
 #[cfg(feature = "alloc")]
-fn allocate() -> Option<Holder> {
+fn allocate(capacity: usize) -> Option<Holder> {
     Some(alloc::boxed::Box::new(Table {
         index: [NONE; 128],
-        watched: Vec::new(),
+        watched: alloc::vec::Vec::with_capacity(capacity),
     }))
 }
 #[cfg(not(feature = "alloc"))]
 #[derive(Clone, Debug)]
 enum Holder {}
 #[cfg(not(feature = "alloc"))]
-fn allocate() -> Option<Holder> {
+fn allocate(_: usize) -> Option<Holder> {
     None
 }
 #[cfg(not(feature = "alloc"))]
@@ -219,12 +228,21 @@ pub struct Plausibility {
     /// A change could not be handed up (the machine queue was full): retried at the next input.
     unsynced: bool,
     refused: u32,
+    /// Nodes the table takes.
+    capacity: usize,
 }
 
 impl Plausibility {
-    /// An empty table; rule 2 with window `one_bus` (`None`: off).
+    /// An empty table for every node-ID; rule 2 with window `one_bus` (`None`: off).
     #[must_use]
     pub fn new(one_bus: Option<Duration>) -> Self {
+        Plausibility::with_capacity(one_bus, MAX_MEMBERS)
+    }
+
+    /// An empty table for `nodes` watched nodes at most ([`MAX_MEMBERS`] at most), allocated
+    /// at the first watch; rule 2 with window `one_bus` (`None`: off).
+    #[must_use]
+    pub fn with_capacity(one_bus: Option<Duration>, nodes: usize) -> Self {
         Plausibility {
             window: one_bus.filter(|w| !w.is_zero()).map(Duration::as_micros),
             table: None,
@@ -232,11 +250,12 @@ impl Plausibility {
             next: None,
             unsynced: false,
             refused: 0,
+            capacity: nodes.min(MAX_MEMBERS),
         }
     }
 
     /// Watches `node`, whose producer time is `period` (zero: stops watching it). False if the
-    /// table is full ([`MAX_MEMBERS`] nodes) or there is no allocator (counted in
+    /// table is full (the capacity it was built with) or there is no allocator (counted in
     /// [`Plausibility::refused`]).
     // Configuration, not the frame path: kept out of the callers so that they stay small.
     #[inline(never)]
@@ -255,7 +274,7 @@ impl Plausibility {
             return true;
         }
         if self.table.is_none() {
-            self.table = allocate();
+            self.table = allocate(self.capacity);
         }
         let Some(t) = self.table.as_deref_mut() else {
             self.refused = self.refused.saturating_add(1);
@@ -286,7 +305,7 @@ impl Plausibility {
             checked: NEVER,
             quiet: false,
         };
-        if t.watched.push(w).is_err() {
+        if t.watched.len() >= self.capacity || t.watched.try_push(w).is_err() {
             self.refused = self.refused.saturating_add(1);
             return false;
         }

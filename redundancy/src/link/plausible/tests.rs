@@ -369,3 +369,20 @@ fn the_table_is_bounded_and_watches_can_end() {
     assert_eq!(p.is_suspect(n(6)), Some(false));
     assert_eq!(p.iter().count(), 126);
 }
+
+#[test]
+fn a_table_sized_for_a_few_members_takes_them_and_refuses_one_more() {
+    let mut p = Plausibility::with_capacity(None, 2);
+    assert!(p.watch(n(0x10), T) && p.watch(n(0x50), T));
+    assert!(
+        p.watch(n(0x10), T.saturating_mul(2)),
+        "a new period is no new entry"
+    );
+    assert!(!p.watch(n(0x11), T));
+    assert_eq!(p.refused(), 1);
+    assert_eq!(p.iter().count(), 2);
+    // A watch that ends frees its room.
+    assert!(p.watch(n(0x50), Duration::ZERO));
+    assert!(p.watch(n(0x11), T));
+    assert_eq!(p.refused(), 1);
+}
