@@ -262,36 +262,48 @@ pub trait BusLink {
     }
 }
 
+/// A device behind a pointer is a device: the methods are the pointee's.
+macro_rules! forward_device {
+    ($($ptr:tt)*) => {
+        impl<D: Device + ?Sized> Device for $($ptr)* {
+            type Event = D::Event;
+            fn port_count(&self) -> usize {
+                (**self).port_count()
+            }
+            fn handle_rx(&mut self, now: Instant, port: usize, frame: &Frame) {
+                (**self).handle_rx(now, port, frame);
+            }
+            fn handle_port_status(&mut self, now: Instant, port: usize, status: PortStatus) {
+                (**self).handle_port_status(now, port, status);
+            }
+            fn handle_timeout(&mut self, now: Instant) {
+                (**self).handle_timeout(now);
+            }
+            fn poll_transmit(&mut self) -> Option<(usize, Frame)> {
+                (**self).poll_transmit()
+            }
+            fn poll_port_request(&mut self) -> Option<(usize, PortRequest)> {
+                (**self).poll_port_request()
+            }
+            fn poll_timeout(&self) -> Option<Instant> {
+                (**self).poll_timeout()
+            }
+            fn poll_event(&mut self) -> Option<D::Event> {
+                (**self).poll_event()
+            }
+        }
+    };
+}
+
 // A boxed device is a device: large machines (a redundant master) live on the heap, and a
 // simulator or runtime that owns devices by value can own the box.
 #[cfg(feature = "alloc")]
-impl<D: Device + ?Sized> Device for alloc::boxed::Box<D> {
-    type Event = D::Event;
-    fn port_count(&self) -> usize {
-        (**self).port_count()
-    }
-    fn handle_rx(&mut self, now: Instant, port: usize, frame: &Frame) {
-        (**self).handle_rx(now, port, frame);
-    }
-    fn handle_port_status(&mut self, now: Instant, port: usize, status: PortStatus) {
-        (**self).handle_port_status(now, port, status);
-    }
-    fn handle_timeout(&mut self, now: Instant) {
-        (**self).handle_timeout(now);
-    }
-    fn poll_transmit(&mut self) -> Option<(usize, Frame)> {
-        (**self).poll_transmit()
-    }
-    fn poll_port_request(&mut self) -> Option<(usize, PortRequest)> {
-        (**self).poll_port_request()
-    }
-    fn poll_timeout(&self) -> Option<Instant> {
-        (**self).poll_timeout()
-    }
-    fn poll_event(&mut self) -> Option<D::Event> {
-        (**self).poll_event()
-    }
-}
+forward_device!(alloc::boxed::Box<D>);
+
+// A borrowed device is a device: on a microcontroller a large one (a redundant master's
+// station, tens of kilobytes) lives in a `static` built in place, and the driver borrows it
+// for good (`&'static mut`) rather than having it copied through the stack into itself.
+forward_device!(&mut D);
 
 /// The trivial link: one port is the logical bus. Counts what the port reports.
 #[derive(Debug, Default)]

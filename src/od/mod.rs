@@ -265,6 +265,67 @@ pub trait ObjectDictionary {
     }
 }
 
+/// A dictionary kept somewhere else and lent to its node: on a microcontroller the dictionary
+/// of a CiA 302-2 master is tens of kilobytes (an index entry for every node-ID of its arrays),
+/// and a node that owns it carries it through every constructor it is moved through, each move a
+/// copy on the stack. Kept in a `static` of its own (a [`StaticDictionary`] is `const`-built and
+/// loaded in place) and lent as `&'static mut`, it is built once where it lives and the node
+/// holds a pointer. Every method is the dictionary's own.
+impl<D: ObjectDictionary + ?Sized> ObjectDictionary for &mut D {
+    #[inline]
+    fn get(&self, index: u16, sub: u8) -> Result<Entry<'_>, AbortCode> {
+        (**self).get(index, sub)
+    }
+    #[inline]
+    fn store(&mut self, index: u16, sub: u8, data: &[u8]) -> Result<(), AbortCode> {
+        (**self).store(index, sub, data)
+    }
+    fn reset_range(&mut self, range: RangeInclusive<u16>) {
+        (**self).reset_range(range);
+    }
+    fn capture_power_on(&mut self) -> Result<(), StorageError> {
+        (**self).capture_power_on()
+    }
+    fn node_id(&self) -> u8 {
+        (**self).node_id()
+    }
+    fn for_each(&self, f: &mut dyn FnMut(Entry<'_>)) {
+        (**self).for_each(f);
+    }
+    fn len(&self) -> usize {
+        (**self).len()
+    }
+    fn is_empty(&self) -> bool {
+        (**self).is_empty()
+    }
+    fn storage_capabilities(&self) -> u32 {
+        (**self).storage_capabilities()
+    }
+    fn store_parameters(&mut self, group: ParameterGroup) -> Result<(), StorageError> {
+        (**self).store_parameters(group)
+    }
+    fn restore_defaults(&mut self, group: ParameterGroup) -> Result<(), StorageError> {
+        (**self).restore_defaults(group)
+    }
+    fn load_parameters(&mut self, range: RangeInclusive<u16>) -> Result<LoadReport, StorageError> {
+        (**self).load_parameters(range)
+    }
+    #[inline]
+    fn read(&self, index: u16, sub: u8) -> Result<&[u8], AbortCode> {
+        (**self).read(index, sub)
+    }
+    fn write(&mut self, index: u16, sub: u8, data: &[u8]) -> Result<(), AbortCode> {
+        (**self).write(index, sub, data)
+    }
+    fn write_local(&mut self, index: u16, sub: u8, data: &[u8]) -> Result<(), AbortCode> {
+        (**self).write_local(index, sub, data)
+    }
+    #[inline]
+    fn get_u32(&self, index: u16, sub: u8) -> Option<u32> {
+        (**self).get_u32(index, sub)
+    }
+}
+
 /// Shared lookup-miss logic: which abort code a missing (index, sub) deserves.
 pub(crate) fn miss(has_index: bool) -> AbortCode {
     if has_index {

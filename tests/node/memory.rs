@@ -25,3 +25,40 @@ fn no_std_slave_fits_in_16_kib() {
     println!("no_std slave node incl. dictionary: {total} bytes of static RAM");
     assert!(total <= 16 * 1024, "{total} bytes > 16 KiB");
 }
+
+#[test]
+fn a_node_on_a_borrowed_dictionary_carries_a_pointer_and_writes_through_it() {
+    use duocan::od::ObjectDictionary;
+    use duocan::Instant;
+    let mut od = SlaveOd::new();
+    od.load(5, &[&COMM, &IDENT, &HB, &HIST])
+        .expect("tables fit");
+    let owning: Slave = Node::with_profile(
+        NodeConfig::slave(NodeId::must(5)),
+        SlaveOd::new(),
+        Predefined,
+    );
+    {
+        let mut node: Node<&mut SlaveOd, Predefined, 0> =
+            Node::with_profile(NodeConfig::slave(NodeId::must(5)), &mut od, Predefined);
+        // The dictionary's kilobytes stay where they are.
+        let saved = std::mem::size_of_val(&owning) - std::mem::size_of_val(&node);
+        assert_eq!(
+            saved + std::mem::size_of::<usize>(),
+            std::mem::size_of::<SlaveOd>()
+        );
+        node.boot(Instant::ZERO);
+        node.set(Instant::ZERO, comm::HEARTBEAT_PRODUCER, 0, 250u16)
+            .expect("the node writes its producer time");
+        assert_eq!(
+            node.od().get_value::<u16>(comm::HEARTBEAT_PRODUCER, 0),
+            Ok(250)
+        );
+        // Checks and hooks are the dictionary's own: a const entry stays read-only.
+        assert!(node
+            .od_mut()
+            .write_local(comm::IDENTITY, 1, &[9, 0, 0, 0])
+            .is_err());
+    }
+    assert_eq!(od.get_value::<u16>(comm::HEARTBEAT_PRODUCER, 0), Ok(250));
+}
