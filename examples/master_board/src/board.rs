@@ -1,0 +1,214 @@
+//! The redundant master as the firmware runs it: the station (dual-bus layer, CiA 302-2
+//! master, supervisor), built with capacities sized to the board's network, and the
+//! [`MasterBoard`] that drives it over two `embedded-can` controllers.
+
+use crate::dictionary::{self, Od};
+use crate::{Computer, PAIRS};
+use core::fmt;
+use duocan::master::{Master, MasterError, NetworkConfig};
+use duocan::od::{BuildError, ObjectDictionary};
+use duocan::port::embedded::{EmbeddedDriver, EmbeddedPortStats};
+use duocan::profile::Predefined;
+use duocan::{Duration, Instant, NodeId};
+use duocan_redundancy::link::same_function::PairError;
+use duocan_redundancy::supervisor::flying_master::MasterRole;
+use duocan_redundancy::{
+    AddPairError, DualBus, DualBusConfig, LinkMode, PairSpec, PortState, SupervisedStation,
+    Supervisor, SupervisorConfig,
+};
+use embedded_can::nb::Can;
+
+/// Merger slots of the dual-bus layer: the merger holds the frames of one skew window (10 ms)
+/// until their twins arrive; the network carries a few per window (eight heartbeats every
+/// 50 ms, SYNC every 20 ms, the pair boards' PDOs), far below the 48 the slots take.
+pub const MERGE_SLOTS: usize = 64;
+/// (pair, function) values the same-function merge compares: four TPDOs per pair.
+pub const FUNCTIONS: usize = 16;
+/// The station the firmware runs: the supervisor and its master on the dual-bus layer. The
+/// master's dictionary is lent to it ([`Od`] in a `static` of its own): built where it lives,
+/// it never travels through the constructors.
+pub type Station = SupervisedStation<&'static mut Od, Predefined, MERGE_SLOTS, FUNCTIONS>;
+/// The CAN controllers of the dual bus.
+pub const PORTS: usize = 2;
+
+/// This master's heartbeat.
+pub const HEARTBEAT: Duration = Duration::from_millis(50);
+/// Silence of the active master after which the standby takes over.
+pub const MASTER_TIMEOUT: Duration = Duration::from_millis(150);
+/// The interlocking cycle: SYNC while active.
+pub const SYNC_PERIOD: Duration = Duration::from_millis(20);
+/// The heartbeat configured into every pair member.
+pub const PAIR_HEARTBEAT: Duration = Duration::from_millis(50);
+/// Silence of a pair member after which it has failed.
+pub const PAIR_TIMEOUT: Duration = Duration::from_millis(150);
+
+/// The master's own settings, sized for the board: queues for a handful of slaves rather than
+/// a station's (the library's defaults hold a thousand events), no PDOs of its own, two SDO
+/// sessions (the members boot two at a time; the rest wait their turn).
+pub fn network_config() -> NetworkConfig {
+    NetworkConfig::new()
+        .event_queue(32)
+        .nmt_queue(16)
+        .with_tpdos(0)
+        .with_rpdos(0)
+        .with_sdo_sessions(2)
+}
+
+/// The supervisor's settings for `computer`: the other computer is its peer, tables and
+/// queues sized to [`PAIRS`].
+pub fn supervisor_config(computer: Computer) -> SupervisorConfig {
+    let other = computer.other();
+    SupervisorConfig::new(0, computer.node(), HEARTBEAT, MASTER_TIMEOUT, SYNC_PERIOD)
+        .with_peer(0, other.node())
+        .with_event_queue(32)
+        .with_pair_capacity(PAIRS.len())
+        .with_pair_queue(16)
+        .with_audit_capacity(32)
+}
+
+/// The dual-bus layer's settings: active-active, port silence judged on the heartbeat period,
+/// the heartbeats of the pair members (and only theirs: the supervisor watches no one else)
+/// judged for plausibility.
+pub fn link_config() -> DualBusConfig {
+    DualBusConfig::with_guard_period(LinkMode::ActiveActive, HEARTBEAT.min(PAIR_HEARTBEAT))
+        .with_watch_capacity(2 * PAIRS.len())
+}
+
+/// Why the station could not be built (a table that does not fit the board's sizes).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum BoardError {
+    /// The dictionary tables do not fit [`Od`].
+    Dictionary(BuildError),
+    /// The master refused its dictionary or settings.
+    Master(MasterError),
+    /// The supervisor refused a pair.
+    Pair(AddPairError),
+    /// The dual-bus layer refused a pair.
+    Link(PairError),
+}
+
+impl fmt::Display for BoardError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            BoardError::Dictionary(e) => {
+                write!(f, "master dictionary: {e:?}: raise OD_ENTRIES or OD_BYTES")
+            }
+            BoardError::Master(e) => write!(f, "master: {e}"),
+            BoardError::Pair(e) => write!(f, "pair table: {e}"),
+            BoardError::Link(e) => write!(f, "dual-bus layer: {e}"),
+        }
+    }
+}
+
+impl core::error::Error for BoardError {
+    fn source(&self) -> Option<&(dyn core::error::Error + 'static)> {
+        match self {
+            BoardError::Dictionary(e) => Some(e),
+            BoardError::Master(e) => Some(e),
+            BoardError::Pair(e) => Some(e),
+            BoardError::Link(e) => Some(e),
+        }
+    }
+}
+
+/// Builds the station of `computer` on the empty dictionary `od` and boots its master at
+/// `now`: the dictionary's tables loaded, the master, the supervisor with [`PAIRS`] and the
+/// other computer as peer, the dual-bus layer. Everything it allocates is allocated here, once
+/// (the master's queues, SDO sessions and slave table; the supervisor's pair table, audit
+/// trail and event queue).
+///
+/// The values built here are tens of kilobytes, each move of one a copy on the stack, which on
+/// the board is what the statics leave of its RAM: the dictionary is lent, not moved, and this
+/// function is not inlined, so that the caller can have the station written straight into its
+/// static storage (`StaticCell::init_with`). (Splitting it further made the stack deeper: the
+/// compiler then keeps each function's result and its copy.)
+#[inline(never)]
+pub fn build(computer: Computer, od: &'static mut Od, now: Instant) -> Result<Station, BoardError> {
+    dictionary::load(od, computer.node().raw()).map_err(BoardError::Dictionary)?;
+    let master = Master::new(computer.node(), od, network_config()).map_err(BoardError::Master)?;
+    let mut sup = Supervisor::new(master, supervisor_config(computer), now);
+    for (a, b) in PAIRS {
+        let spec = PairSpec::new(a, b, PAIR_HEARTBEAT, PAIR_TIMEOUT);
+        sup.add_pair(now, spec).map_err(BoardError::Pair)?;
+    }
+    let link = DualBus::with_classifier(link_config(), Predefined);
+    SupervisedStation::new(link, sup).map_err(BoardError::Link)
+}
+
+/// What the board shows on its front panel.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct Indication {
+    /// This computer is the active master (it commands the network).
+    pub active: bool,
+    /// Bus 1, bus 2 carry traffic (port health ok).
+    pub bus_ok: [bool; PORTS],
+    /// Pairs with a running (active) member.
+    pub pairs_running: u8,
+}
+
+/// What the panel shows for `station` now.
+pub fn indication<D: ObjectDictionary, const S: usize, const F: usize>(
+    station: &SupervisedStation<D, Predefined, S, F>,
+) -> Indication {
+    let sup = station.sup();
+    Indication {
+        active: sup.flying_master().role() == MasterRole::Active,
+        bus_ok: core::array::from_fn(|p| station.link.port(p).state() == PortState::Ok),
+        pairs_running: sup.pairs().filter(|(_, p)| p.active.is_some()).count() as u8,
+    }
+}
+
+/// The board: the station on its two CAN controllers ([`EmbeddedDriver`]), and the count of
+/// events the application drained (they are also in the supervisor's audit trail). The
+/// station is borrowed for good: on the board it lives in a `static` of its own, built there
+/// by [`build`], so that its tens of kilobytes never pass through the stack again.
+pub struct MasterBoard<C: Can> {
+    driver: EmbeddedDriver<&'static mut Station, C, PORTS>,
+    events: u32,
+}
+
+impl<C: Can> MasterBoard<C> {
+    /// The board running `station` on `cans` = [bus 1, bus 2].
+    pub fn new(station: &'static mut Station, cans: [C; PORTS]) -> Self {
+        MasterBoard {
+            driver: EmbeddedDriver::new(station, cans),
+            events: 0,
+        }
+    }
+
+    /// One pass of the main loop: everything due at `now`. Returns when to call again at the
+    /// latest (call it also when a controller has received a frame or freed a mailbox).
+    pub fn poll(&mut self, now: Instant) -> Option<Instant> {
+        let next = self.driver.poll(now);
+        while self.driver.poll_event().is_some() {
+            self.events = self.events.wrapping_add(1);
+        }
+        next
+    }
+
+    /// What the front panel shows.
+    pub fn indication(&self) -> Indication {
+        indication(self.driver.device())
+    }
+    /// The station (supervisor, master, dual-bus layer).
+    pub fn station(&self) -> &Station {
+        self.driver.device()
+    }
+    /// Events drained so far.
+    pub fn events(&self) -> u32 {
+        self.events
+    }
+    /// Counters of controller `port` (0: bus 1, 1: bus 2).
+    pub fn bus_stats(&self, port: usize) -> Option<EmbeddedPortStats> {
+        self.driver.stats(port)
+    }
+    /// Controller `port`, to restart it.
+    pub fn bus_mut(&mut self, port: usize) -> Option<&mut C> {
+        self.driver.port_mut(port)
+    }
+}
+
+/// The node-ID of `n` (the pair table's constants are valid node-IDs).
+pub(crate) const fn node(n: u8) -> NodeId {
+    NodeId::must(n)
+}
