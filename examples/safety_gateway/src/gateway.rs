@@ -160,6 +160,11 @@ impl<C: Can> Gateway<C> {
         cans: [C; 3],
         now: Instant,
     ) -> Result<Self, SetupError> {
+        Ok(Self::build(profile, Self::dictionary(profile)?, cans, now))
+    }
+
+    /// The dictionary, loaded, if `profile` holds the gateway where it must be.
+    fn dictionary(profile: &RailwayProfile) -> Result<Od, SetupError> {
         if profile.address(NODE_ID) != Some(ADDRESS) {
             return Err(SetupError::NotInProfile {
                 node: NODE_ID,
@@ -169,6 +174,15 @@ impl<C: Can> Gateway<C> {
         let mut od = Od::new();
         od.load(NODE_ID.raw(), &dictionary::TABLES)
             .map_err(SetupError::Dictionary)?;
+        Ok(od)
+    }
+
+    /// The gateway, booted: what cannot fail, apart from what can. Not inlined and without a
+    /// `Result` around it, so that [`Storage::install`] has it written straight into static
+    /// storage: every copy of the gateway's 37 kB on the way would be stack, and a 128 KiB
+    /// part has little to spare.
+    #[inline(never)]
+    fn build(profile: &'static RailwayProfile, od: Od, cans: [C; 3], now: Instant) -> Self {
         let node: Board = Node::with_profile(NodeConfig::slave(NODE_ID), od, profile);
         let cfg = link_config();
         let link = DualBus::with_classifier(cfg, profile);
@@ -187,7 +201,7 @@ impl<C: Can> Gateway<C> {
         };
         gw.node_mut().boot(now);
         gw.publish_all(now);
-        Ok(gw)
+        gw
     }
 
     /// One pass of the main loop: everything due at `now`. Returns when to call again at the
@@ -425,10 +439,11 @@ impl<C: Can> Storage<C> {
             .profile
             .try_init(profile)
             .ok_or(SetupError::AlreadyInstalled)?;
+        let od = Gateway::<C>::dictionary(profile)?;
         let slot = self
             .gateway
             .try_uninit()
             .ok_or(SetupError::AlreadyInstalled)?;
-        Ok(slot.write(Gateway::new(profile, cans, now)?))
+        Ok(slot.write(Gateway::build(profile, od, cans, now)))
     }
 }
