@@ -6,8 +6,9 @@
 //! is not counted) and keeps each station's high-water mark, which must fit the heap the
 //! firmware gives its allocator, [`master_board::HEAP_BYTES`], with a margin.
 //!
-//! `cargo test -p master-board --test heap -- --nocapture` prints the figures (CI does, and
-//! puts them beside the images' sizes).
+//! `cargo test -p master-board --test heap -- --nocapture` prints the figures; the mark also
+//! goes to `target/tmp/master-heap-high-water`, where CI's firmware step reads it to put it
+//! beside the images' sizes.
 
 // A global allocator is `unsafe impl GlobalAlloc`; the crate denies unsafe code elsewhere.
 #![allow(unsafe_code)]
@@ -258,6 +259,9 @@ fn the_heap_high_water_of_boot_failovers_and_takeover_fits_the_firmware_heap() {
     println!("heap high-water, computer 2: {p2} bytes in {b2} blocks");
     let high = p1.max(p2);
     println!("heap-high-water-bytes: {high}");
+    // For CI's firmware step, which puts it beside the images' sizes (`.ci/firmware.sh`).
+    let figure = std::path::Path::new(env!("CARGO_TARGET_TMPDIR")).join("master-heap-high-water");
+    std::fs::write(&figure, high.to_string()).expect("the target directory is writable");
     println!("firmware heap (HEAP_BYTES): {HEAP_BYTES}");
     assert!(high > 0, "the stations allocate (the meter works)");
     // The host's figure bounds the target's from above (its pointers and sizes are twice as

@@ -1,0 +1,51 @@
+#!/usr/bin/env bash
+# The firmware images (firmware/: a workspace of their own, bare-metal only): lint, build both in
+# release for the STM32F413, and print and check their figures against their budgets (flash,
+# static RAM, the master's heap high-water mark measured on the host, the start-up stack).
+#
+# What it needs on a fresh Debian with rustup: the thumbv7em target, rustup's llvm-tools (for
+# llvm-objdump, the stack figure) and python3. FIRMWARE_HEAP_FROM_TESTS=1 takes the master's
+# heap figure from the workspace's test run that just happened (.ci/run does; the test writes
+# target/tmp/master-heap-high-water), otherwise the heap test runs here.
+set -euo pipefail
+cd "$(dirname "$0")/.."
+
+# The budgets: each the measured figure (README, "Firmware images") plus the stated margin,
+# 4 KiB of flash and 2 KiB of RAM, so that growth shows here before it reaches the part.
+KIB=1024
+GATEWAY_FLASH=$((84 * KIB))
+GATEWAY_RAM=$((39 * KIB))
+MASTER_FLASH=$((200 * KIB))
+MASTER_RAM=$((112 * KIB))
+
+rustup target add thumbv7em-none-eabihf >/dev/null
+rustup component add llvm-tools >/dev/null \
+  || { echo "cannot install rustup's llvm-tools (llvm-objdump: the stack figure)"; exit 1; }
+objdump=$(ls "$(rustc --print sysroot)"/lib/rustlib/*/bin/llvm-objdump 2>/dev/null | head -n1)
+[ -x "$objdump" ] || { echo "llvm-objdump not found in the toolchain's llvm-tools"; exit 1; }
+
+figure=target/tmp/master-heap-high-water
+if [ "${FIRMWARE_HEAP_FROM_TESTS:-}" != 1 ] || [ ! -f "$figure" ]; then
+  cargo test -q -p master-board --test heap >/dev/null
+fi
+heap=$(cat "$figure")
+
+# Each image on its own: built together, cargo would unify duocan's features and give the
+# gateway, which has no allocator, the master's `alloc`.
+(
+  cd firmware
+  cargo fmt --all --check
+  cargo clippy -q --release -p duocan-board -p gateway-firmware -- -D warnings
+  cargo clippy -q --release -p master-firmware -- -D warnings
+  cargo build -q --release -p gateway-firmware
+  cargo build -q --release -p master-firmware
+)
+
+elf=target/thumbv7em-none-eabihf/release
+status=0
+python3 .ci/firmware-figures.py gateway "$elf/gateway-firmware" --objdump "$objdump" \
+  --flash-budget "$GATEWAY_FLASH" --ram-budget "$GATEWAY_RAM" || status=1
+python3 .ci/firmware-figures.py master "$elf/master-firmware" --objdump "$objdump" \
+  --flash-budget "$MASTER_FLASH" --ram-budget "$MASTER_RAM" \
+  --heap-symbol HEAP_MEM --heap-high-water "$heap" || status=1
+exit $status

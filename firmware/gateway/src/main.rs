@@ -1,0 +1,87 @@
+//! # The safety gateway's firmware image
+//!
+//! The `safety-gateway` crate's [`Gateway`] on the STM32F413 board ([`duocan_board`]): CAN1
+//! and CAN2 are the interlocking's dual bus, CAN3 the field bus where the track-circuit board
+//! reports. No allocator exists in this image: the gateway lives in a `static` ([`STORAGE`]),
+//! its dictionary in `const` tables and a fixed arena.
+//!
+//! The main loop is the board's ([`duocan_board::Board::run`]): it polls the gateway (whose
+//! interlocking side is duocan's `EmbeddedDriver` over CAN1 and CAN2) whenever a frame
+//! arrives, a mailbox frees or the deadline the gateway returned comes, and sleeps otherwise.
+//! The panel: green while the node is operational, blue while both buses carry traffic, red
+//! after a panic.
+//!
+//! A panic leaves the board silent ([`fail_silent`]): the gateway's safe outputs are its
+//! messages to the interlocking (the track circuits' states as SRDO and TPDOs), and the safe
+//! thing for them after a fault is to stop, never to send one more. The interlocking's SRDO
+//! consumer reaches its safe state when the refresh time passes without a valid SRDO, and its
+//! heartbeat consumer reports the gateway lost: every track circuit behind it counts as
+//! occupied there.
+#![no_std]
+#![no_main]
+
+use cortex_m_rt::entry;
+use duocan::profile::railway::DeviceAddress;
+use duocan::{Instant, NmtState, NodeId};
+use duocan_board::can::Port;
+use duocan_board::safe::{fail_silent, Panel};
+use duocan_board::App;
+use duocan_redundancy::PortState;
+use safety_gateway::{Gateway, Storage, ADDRESS, NODE_ID};
+
+/// The interlocking network as the gateway's identifier profile knows it: the two
+/// interlocking computers and the gateway.
+const NETWORK: [(NodeId, DeviceAddress); 3] = [
+    (NodeId::must(1), DeviceAddress::board_at(0, 0, 0, 1)),
+    (NodeId::must(2), DeviceAddress::board_at(0, 0, 0, 2)),
+    (NODE_ID, ADDRESS),
+];
+
+/// The gateway and its network table: static storage, no heap.
+static STORAGE: Storage<Port> = Storage::new();
+
+/// The gateway as the board's main loop runs it.
+struct Image(&'static mut Gateway<Port>);
+
+impl App for Image {
+    fn acknowledge(&mut self) {
+        for p in 0..2 {
+            if let Some(port) = self.0.bus_mut(p) {
+                port.acknowledge();
+            }
+        }
+        self.0.field_mut().acknowledge();
+    }
+
+    fn poll(&mut self, now: Instant, panel: &mut Panel) -> Option<Instant> {
+        let next = self.0.poll(now);
+        // The events are the application's to log; this image has nowhere to put them, and
+        // the gateway's outputs do not depend on them being read.
+        while self.0.poll_event().is_some() {}
+        let link = &self.0.device().link;
+        let buses_ok = (0..2).all(|p| link.port(p).state() == PortState::Ok);
+        panel.show(self.0.node().nmt_state() == NmtState::Operational, buses_ok);
+        next
+    }
+}
+
+#[entry]
+fn main() -> ! {
+    let Some((mut board, ports)) = duocan_board::init(true) else {
+        fail_silent()
+    };
+    let ([bus1, bus2], Some(field)) = (ports.buses, ports.field) else {
+        fail_silent()
+    };
+    let now = board.now();
+    let Ok(gateway) = STORAGE.install(&NETWORK, [bus1, bus2, field], now) else {
+        fail_silent()
+    };
+    board.run(&mut Image(gateway))
+}
+
+/// A panic stops the gateway where it stands, off the buses (see the crate docs).
+#[panic_handler]
+fn panic(_: &core::panic::PanicInfo) -> ! {
+    fail_silent()
+}
