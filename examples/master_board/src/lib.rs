@@ -14,7 +14,7 @@
 //! - the dual-bus layer's capacities are sized to the network ([`MERGE_SLOTS`](board::MERGE_SLOTS),
 //!   [`FUNCTIONS`](board::FUNCTIONS)), and so are the master's and the supervisor's queues and
 //!   tables ([`network_config`](board::network_config),
-//!   [`supervisor_config`](board::supervisor_config)): allocated once by [`build`](board::build),
+//!   [`supervisor_config`](board::supervisor_config)): allocated once by [`build`],
 //!   from a heap of [`HEAP_BYTES`], never grown.
 //!
 //! The same code runs on the host: this crate's `tests/heap.rs` drives both computers' stations

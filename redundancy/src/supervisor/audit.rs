@@ -137,7 +137,7 @@ impl fmt::Display for AuditRecord {
 }
 
 /// A bounded trail of [`AuditRecord`]s, kept in `S`: inline ([`Inline`], the default: `N`
-/// records, no allocator) or on the heap ([`Heap`](duocan::frame::storage::Heap), `alloc`:
+/// records, no allocator) or on the heap ([`Heap`], `alloc`:
 /// the room given to [`with_capacity`](AuditTrail::with_capacity), allocated once).
 pub struct AuditTrail<const N: usize = AUDIT_CAPACITY, S: Storage = Inline> {
     /// Filled up to `room`, then overwritten in place from `head` (the oldest record).

@@ -127,7 +127,7 @@ const NONE: u8 = 0xFF;
 
 /// The pair table and its evaluation. Its tables live in `S`: inline ([`Inline`], the
 /// default: room for [`MAX_PAIRS`] pairs and [`COMMAND_QUEUE`] / [`EVENT_QUEUE`] outputs, no
-/// allocator) or on the heap ([`Heap`](duocan::frame::storage::Heap), `alloc`: the room given
+/// allocator) or on the heap ([`Heap`], `alloc`: the room given
 /// to [`with_capacity`](PairSupervisor::with_capacity), allocated once).
 pub struct PairSupervisor<S: Storage = Inline> {
     cfg: PairsConfig,
