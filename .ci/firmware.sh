@@ -13,8 +13,8 @@ cd "$(dirname "$0")/.."
 # The budgets: each the measured figure (README, "Firmware images") plus the stated margin,
 # 4 KiB of flash and 2 KiB of RAM, so that growth shows here before it reaches the part.
 KIB=1024
-GATEWAY_FLASH=$((87 * KIB))
-GATEWAY_RAM=$((39 * KIB))
+GATEWAY_FLASH=$((88 * KIB))
+GATEWAY_RAM=$((40 * KIB))
 MASTER_FLASH=$((200 * KIB))
 MASTER_RAM=$((112 * KIB))
 

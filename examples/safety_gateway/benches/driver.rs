@@ -2,9 +2,9 @@
 //! runs (duocan's `EmbeddedDriver` on the interlocking's two buses, the field bus read by the
 //! gateway itself), on the in-memory controllers of [`safety_gateway::mock`]. Each iteration
 //! is a millisecond of bus time: the interlocking master's heartbeat arrives on both buses and
-//! the track-circuit board reports its four track circuits on the field bus (six frames), the
-//! gateway polls once (receive, merge, check, mirror, its TPDOs, SRDO and heartbeat when due)
-//! and what it sent is drained. The figure is per received frame.
+//! the track-circuit board's SRDO (its four codes plain and inverted) on the field bus (four
+//! frames), the gateway polls once (receive, merge, check, mirror, its TPDOs, SRDO and heartbeat
+//! when due) and what it sent is drained. The figure is per received frame.
 //!
 //! ```text
 //! cargo bench -p safety-gateway --bench driver
@@ -18,7 +18,8 @@ use duocan::profile::railway::RailwayProfile;
 use duocan::profile::IdProfile;
 use duocan::{Frame, Instant, NmtState};
 use embedded_can::nb::Can;
-use harness::{report, MASTER, NETWORK};
+use harness::{MASTER, NETWORK};
+use safety_gateway::mirror::field_pair;
 use safety_gateway::mock::{MockCan, Wire};
 use safety_gateway::{Gateway, Storage, NODE_ID, TRACKS};
 use std::hint::black_box;
@@ -50,7 +51,7 @@ impl Rig {
             buses: [m1, m2],
             field,
             heartbeat: Frame::new(profile.heartbeat(MASTER), &[0x05]).expect("heartbeat"),
-            reports: (1..=TRACKS).map(|k| report(k, 0x55)).collect(),
+            reports: field_pair([0x55; TRACKS as usize]).to_vec(),
             now: 0,
         };
         // NMT start of the gateway from the master, on both buses.
@@ -90,7 +91,7 @@ fn gateway_driver(c: &mut Criterion) {
         "the gateway runs"
     );
     let mut g = c.benchmark_group("gateway_driver");
-    g.throughput(Throughput::Elements(2 + u64::from(TRACKS)));
+    g.throughput(Throughput::Elements(2 + rig.reports.len() as u64));
     g.bench_function("per_frame", |b| b.iter(|| black_box(rig.step())));
     g.finish();
 }
