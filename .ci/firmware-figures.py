@@ -116,7 +116,7 @@ def deepest(funcs, root):
             return memo[fn]
         frame, callees, _ = funcs.get(fn, (0, set(), 0))
         best = (0, [])
-        for c in callees:
+        for c in sorted(callees):
             if c in seen or c not in funcs:
                 continue
             got = walk(c, seen | {c})
