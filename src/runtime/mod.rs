@@ -233,7 +233,13 @@ where
             counters.push(c);
             spawns.push(spawn);
         }
-        let state = task::State::new(self.device, clock, counters.clone(), ev_tx.clone(), self.tap);
+        let state = task::State::new(
+            self.device,
+            clock,
+            counters.clone(),
+            ev_tx.clone(),
+            self.tap,
+        );
         let shared = Arc::new(task::Shared {
             state: std::sync::Mutex::new(state),
             core: Notify::new(),
@@ -457,33 +463,5 @@ mod tests {
             [("mem0".to_string(), boot(1)), ("mem0".to_string(), boot(5))],
             "the master's own boot-up (sent) and the slave's (received)"
         );
-    }
-}
-#[cfg(test)]
-mod dbg_tests {
-    use super::*;
-    use crate::port::mem::MemBus;
-    use crate::port::{Port, PortInput};
-    use crate::{Node, NodeConfig, NodeId, Station};
-    use crate::od::comm;
-    #[tokio::test(start_paused = true)]
-    async fn dbg_heartbeats_paused() {
-        let bus = MemBus::new("m");
-        let mut tester = bus.port();
-        let mut od = comm::standard_dictionary(5, comm::Identity::default());
-        use crate::od::ObjectDictionary;
-        od.write_local(comm::HEARTBEAT_PRODUCER, 0, &25u16.to_le_bytes()).unwrap();
-        let mut node = Node::new(NodeConfig::slave(NodeId::must(5)), od);
-        node.boot(crate::Instant::ZERO);
-        let h = Runtime::new(Station::single(node)).port(bus.port()).spawn().unwrap();
-        let start = tokio::time::Instant::now();
-        let mut n = 0;
-        while let Ok(Ok(PortInput::Frame(f))) = tokio::time::timeout(std::time::Duration::from_millis(200), tester.recv()).await {
-            n += 1;
-            eprintln!("{:?} {f}", start.elapsed());
-            if n > 6 { break; }
-        }
-        h.shutdown().await;
-        assert!(n > 5, "{n}");
     }
 }

@@ -307,8 +307,10 @@ where
 }
 
 /// The core task: commands from handles and the device's deadlines.
-pub(crate) async fn run<D>(shared: Arc<Shared<D>>, mut commands: mpsc::UnboundedReceiver<Command<D>>)
-where
+pub(crate) async fn run<D>(
+    shared: Arc<Shared<D>>,
+    mut commands: mpsc::UnboundedReceiver<Command<D>>,
+) where
     D: Device + Send + 'static,
     D::Event: Send + std::fmt::Debug,
 {
