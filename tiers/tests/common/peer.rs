@@ -20,10 +20,15 @@ pub struct Peer {
 
 impl Peer {
     pub async fn spawn(args: &[&str]) -> Peer {
+        Self::spawn_script("peer.py", args).await
+    }
+
+    /// A peer running `script` of `tiers/python/` (`peer.py`, `bench.py`).
+    pub async fn spawn_script(script: &str, args: &[&str]) -> Peer {
         let python = std::env::var("DUOCAN_PYTHON").unwrap_or_else(|_| {
             panic!("DUOCAN_PYTHON is not set: point it at a python with python-can, canopen and msgpack (.ci/tier-python.sh does)")
         });
-        let script = concat!(env!("CARGO_MANIFEST_DIR"), "/python/peer.py");
+        let script = format!("{}/python/{script}", env!("CARGO_MANIFEST_DIR"));
         let mut child = Command::new(&python)
             .arg(script)
             .args(args)
