@@ -91,6 +91,24 @@ impl Peer {
         }
     }
 
+    /// Waits for a line starting with `prefix` (`Ok`) or `ERROR` (`Err`: the peer could not
+    /// carry out a command, and goes on).
+    pub async fn result(&mut self, prefix: &str, secs: u64) -> Result<String, String> {
+        let r = tokio::time::timeout(Duration::from_secs(secs), async {
+            while let Some(l) = self.out.next_line().await.expect("peer stdout") {
+                if l.starts_with(prefix) {
+                    return Ok(l);
+                }
+                if l.starts_with("ERROR") {
+                    return Err(l);
+                }
+            }
+            Err("the peer exited".into())
+        })
+        .await;
+        r.unwrap_or_else(|_| Err(format!("no {prefix:?} within {secs} s")))
+    }
+
     pub async fn send_line(&mut self, line: &str) {
         use tokio::io::AsyncWriteExt;
         let stdin = self.child.stdin.as_mut().expect("stdin piped");
