@@ -231,12 +231,8 @@ fn compare(
     n: u64,
     rounds: usize,
 ) -> Result<(), String> {
-    // Two workers, as `#[tokio::main]` gives on this project's CI machines.
-    let rt = tokio::runtime::Builder::new_multi_thread()
-        .worker_threads(2)
-        .enable_all()
-        .build()
-        .map_err(|e| e.to_string())?;
+    // As `#[tokio::main]` gives: one worker per CPU.
+    let rt = tokio::runtime::Runtime::new().map_err(|e| e.to_string())?;
     let mut all = Vec::new();
     for _ in 0..rounds {
         all.push(round(&rt, open, start, n)?);

@@ -324,13 +324,12 @@ pub(crate) async fn run<D>(
     let sleep = tokio::time::sleep_until(clock.to_tokio(crate::Instant::MAX));
     tokio::pin!(sleep);
     let mut set_for: Option<Option<crate::Instant>> = None;
-    loop {
-        let Some(deadline) = shared.with(|st| {
-            st.armed = st.device.poll_timeout();
-            st.armed
-        }) else {
-            break;
-        };
+    // Each turn sets the timer for the device's deadline as it is now (`None`: the lock is
+    // poisoned, a closure panicked in it: the runtime is over).
+    while let Some(deadline) = shared.with(|st| {
+        st.armed = st.device.poll_timeout();
+        st.armed
+    }) {
         if set_for != Some(deadline) {
             sleep
                 .as_mut()
