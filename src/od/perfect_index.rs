@@ -7,12 +7,13 @@
 //! into the base. Buckets are placed largest first, each with the first displacement that puts
 //! all its keys on free slots. A build that finds no displacement for some bucket starts again
 //! with another seed; after [`SEEDS`] seeds (never seen with a table up to three quarters full)
-//! the index falls back to a scan in load order, which is slow but correct. Tables of fewer than
+//! the index falls back to a scan, which is slow but correct. Tables of fewer than
 //! [`SMALL`] slots are always scanned: a handful of comparisons beats any hash.
 //!
 //! Everything lives in fixed arrays sized by the capacity `N` (a power of two): the entries at
-//! their slots, each beside its key (one read finds both), the displacements, the
-//! load order (iteration follows it) and the build's scratch. No heap, `no_std`.
+//! their slots, each beside its key (one read finds both), the displacements and the build's
+//! scratch. No heap, `no_std`. Iteration goes in slot order (a dictionary's `for_each` promises
+//! no order).
 
 /// Marks a slot without an entry (keys are `index << 8 | sub`: 24 bits).
 const EMPTY: u32 = 1 << 24;
@@ -41,13 +42,11 @@ struct Cell<T> {
     entry: Option<T>,
 }
 
-/// A perfect-hash index of at most `N` entries of type `T`, in load order.
+/// A perfect-hash index of at most `N` entries of type `T`.
 pub(crate) struct PerfectIndex<T: Copy, const N: usize> {
     cells: [Cell<T>; N],
     /// The first `N / 2` are the buckets' displacements; the rest is scratch while building.
     disp: [u16; N],
-    /// Slot of each entry in load order.
-    order: [u16; N],
     /// While building: the entries' slots grouped by bucket.
     scratch: [u16; N],
     len: usize,
@@ -64,7 +63,6 @@ impl<T: Copy, const N: usize> PerfectIndex<T, N> {
                 entry: None,
             }; N],
             disp: [0; N],
-            order: [0; N],
             scratch: [0; N],
             len: 0,
             seed: 0,
@@ -99,10 +97,7 @@ impl<T: Copy, const N: usize> PerfectIndex<T, N> {
             let slot = (base ^ self.disp[b] as usize) & Self::MASK;
             return (self.cells[slot].key == key).then_some(slot);
         }
-        self.order[..self.len]
-            .iter()
-            .map(|&s| s as usize)
-            .find(|&s| self.cells[s].key == key)
+        self.cells.iter().position(|c| c.key == key)
     }
 
     /// Whether `key` is in the index.
@@ -143,17 +138,14 @@ impl<T: Copy, const N: usize> PerfectIndex<T, N> {
             key,
             entry: Some(entry),
         };
-        self.order[self.len] = slot as u16;
         self.len += 1;
         self.perfect = false;
         Ok(())
     }
 
-    /// Entries in load order.
+    /// Every entry (slot order).
     pub fn values(&self) -> impl Iterator<Item = &T> + '_ {
-        self.order[..self.len]
-            .iter()
-            .filter_map(|&s| self.cells[s as usize].entry.as_ref())
+        self.cells.iter().filter_map(|c| c.entry.as_ref())
     }
 
     /// Every entry, to change it (slot order).
@@ -185,8 +177,8 @@ impl<T: Copy, const N: usize> PerfectIndex<T, N> {
         // Group the entries' slots by bucket (a counting sort into `scratch`): `ends[k]` is
         // where bucket k's members end, and the previous bucket's end where they start.
         ends.iter_mut().for_each(|e| *e = 0);
-        for &s in &self.order[..self.len] {
-            let (k, _) = Self::place(self.cells[s as usize].key, seed);
+        for c in self.cells.iter().filter(|c| c.key != EMPTY) {
+            let (k, _) = Self::place(c.key, seed);
             ends[k] += 1;
         }
         let mut start = 0u16;
@@ -197,9 +189,9 @@ impl<T: Copy, const N: usize> PerfectIndex<T, N> {
             *e = start;
             start += n;
         }
-        for &s in &self.order[..self.len] {
-            let (k, _) = Self::place(self.cells[s as usize].key, seed);
-            self.scratch[ends[k] as usize] = s;
+        for (s, c) in self.cells.iter().enumerate().filter(|(_, c)| c.key != EMPTY) {
+            let (k, _) = Self::place(c.key, seed);
+            self.scratch[ends[k] as usize] = s as u16;
             ends[k] += 1;
         }
         if largest > BUCKET_MAX {
@@ -247,16 +239,12 @@ impl<T: Copy, const N: usize> PerfectIndex<T, N> {
     }
 
     /// Moves every entry to its slot under the new hash (in place, one swap per misplaced
-    /// entry) and records the load order's new slots.
+    /// entry).
     fn settle(&mut self) {
         let target = |key: u32, disp: &[u16]| {
             let (b, base) = Self::place(key, self.seed);
             (base ^ disp[b] as usize) & Self::MASK
         };
-        for k in 0..self.len {
-            let s = self.order[k] as usize;
-            self.order[k] = target(self.cells[s].key, &self.disp) as u16;
-        }
         for s in 0..N {
             while self.cells[s].key != EMPTY {
                 let t = target(self.cells[s].key, &self.disp);
@@ -292,8 +280,10 @@ mod tests {
             }
             assert_eq!(ix.get(key(n as u32)), None);
             assert_eq!(ix.get(0x0000_1234), None);
-            // Load order survives the build.
-            assert!(ix.values().copied().eq(0..n as u32));
+            // Every entry once.
+            let mut all: std::vec::Vec<u32> = ix.values().copied().collect();
+            all.sort_unstable();
+            assert!(all.into_iter().eq(0..n as u32));
         }
     }
 
@@ -337,6 +327,8 @@ mod tests {
         for i in 0..180 {
             assert_eq!(ix.get(key(i)), Some(&i));
         }
-        assert!(ix.values().copied().eq(0..180));
+        let mut all: std::vec::Vec<u32> = ix.values().copied().collect();
+        all.sort_unstable();
+        assert!(all.into_iter().eq(0..180));
     }
 }

@@ -27,7 +27,7 @@
 //!         }
 //!     }
 //!     // SDO to any node, through whichever bus works.
-//!     let vendor: u32 = net.node(0x50).sdo().read(0x1018, 1).await?;
+//!     let vendor: u32 = net.node(0x10).sdo().read(0x1018, 1).await?;
 //!     assert_eq!(vendor, duocan::net::SIM_VENDOR);
 //!     net.close().await;
 //!     Ok(())
