@@ -189,7 +189,12 @@ impl<T: Copy, const N: usize> PerfectIndex<T, N> {
             *e = start;
             start += n;
         }
-        for (s, c) in self.cells.iter().enumerate().filter(|(_, c)| c.key != EMPTY) {
+        for (s, c) in self
+            .cells
+            .iter()
+            .enumerate()
+            .filter(|(_, c)| c.key != EMPTY)
+        {
             let (k, _) = Self::place(c.key, seed);
             self.scratch[ends[k] as usize] = s as u16;
             ends[k] += 1;
