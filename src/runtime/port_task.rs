@@ -237,15 +237,7 @@ mod tests {
             self.inputs.send((port, x, at)).is_ok()
         }
         fn take(&self, _: usize, into: &mut Outbox) -> bool {
-            let mut q = self.queue.lock().unwrap();
-            while !into.is_full() {
-                match q.pop_front() {
-                    Some(c) => {
-                        let _ = into.push_back(c);
-                    }
-                    None => break,
-                }
-            }
+            super::super::task::move_into(&mut self.queue.lock().unwrap(), into);
             true
         }
     }

@@ -293,16 +293,21 @@ where
             return false;
         }
         if let Some(q) = st.queues.get_mut(port) {
-            while !into.is_full() {
-                match q.pop_front() {
-                    Some(c) => {
-                        let _ = into.push_back(c);
-                    }
-                    None => break,
-                }
-            }
+            move_into(q, into);
         }
         true
+    }
+}
+
+/// Moves the oldest of `q` into `into`, as many as it has room for.
+pub(crate) fn move_into(q: &mut VecDeque<PortCmd>, into: &mut Outbox) {
+    while !into.is_full() {
+        match q.pop_front() {
+            Some(c) => {
+                let _ = into.push_back(c);
+            }
+            None => break,
+        }
     }
 }
 
