@@ -1,7 +1,8 @@
 #!/bin/bash
 # Tier 3: python-can / python `canopen` as an independent peer over python-can's udp_multicast
 # bus, inside a private network namespace (no packet can leave the machine), plus the runtime
-# overhead measurement on the UDP bus (bare socket echo vs the tokio runtime), the duocan tool
+# overhead measurement on the UDP bus (bare socket echo vs the tokio runtime), duocan and python
+# `canopen` side by side on one UDP bus (tiers/tests/python_bench.rs), the duocan tool
 # against a duocan node on the UDP bus, the tool's CiA 309-3 gateway (over TCP) driving a
 # python `canopen` node, and python `canopen` reading a duocan node by the names of the EDS
 # duocan exported for it.
@@ -47,6 +48,8 @@ cargo test -p duocan-tiers --features python --test cli_udp --test cli_gateway -
 BENCH=1; [ "${1:-}" = "--no-bench" ] && BENCH=0
 if [ $BENCH = 1 ]; then
   cargo build --release --features udp --example rt_overhead || fail "build rt_overhead"
+  cargo test --release -p duocan-tiers --features python --test python_bench --no-run \
+    || fail "build the side-by-side benchmark"
 fi
 
 echo "== tier-python: tests inside unshare -n"
@@ -94,7 +97,13 @@ if [ $BENCH = 1 ]; then
   unshare -n sh -ec '
     ip link set lo up
     ip route add 224.0.0.0/4 dev lo
-    "$0"/release/examples/rt_overhead udp 20000
+    "$0"/release/examples/rt_overhead udp 20000 5
   ' "$TARGET" || fail "rt_overhead udp"
+  echo "== tier-python: duocan and python canopen side by side on the UDP bus (inside unshare -n)"
+  unshare -n sh -ec '
+    ip link set lo up
+    ip route add 224.0.0.0/4 dev lo
+    cargo test --release --offline -p duocan-tiers --features python --test python_bench -- --nocapture
+  ' || fail "the side-by-side benchmark"
 fi
 echo "tier-python: OK"

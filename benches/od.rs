@@ -1,5 +1,6 @@
-//! Dictionary lookup of a random existing entry in a 1,500-entry dictionary (the seed master's
-//! size): static and dynamic dictionaries, and the seed's own hash table for comparison.
+//! Dictionary lookup of a random existing entry in a 1,500-entry dictionary (the published
+//! embedded master's size): static and dynamic dictionaries, and that master's own hash table
+//! for comparison. The static dictionary's perfect hash should be the fastest of the three.
 
 use criterion::{criterion_group, criterion_main, Criterion};
 use duocan::od::{DataType, DynamicDictionary, ObjectDef, ObjectDictionary, StaticDictionary};
@@ -122,10 +123,12 @@ fn lookup(c: &mut Criterion) {
     let d = per_lookup(&|x, y| dy.get(x, y).is_ok());
     let h = per_lookup(&|x, y| seed.get(x, y).is_some());
     println!(
-        "lookup in 1,500 entries: static {s:.2} ns, dynamic {d:.2} ns, seed table {h:.2} ns; \
-         seed/static = {:.2}, seed/dynamic = {:.2} (above 1: duocan is faster)",
+        "lookup in 1,500 entries: static {s:.2} ns, dynamic {d:.2} ns, the published design's \
+         512-bucket table {h:.2} ns; published/static = {:.2}, published/dynamic = {:.2} (above 1: \
+         duocan is faster), dynamic/static = {:.2} (above 1: the static one is the fastest)",
         h / s,
-        h / d
+        h / d,
+        d / s
     );
 }
 

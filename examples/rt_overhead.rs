@@ -1,13 +1,17 @@
-//! Runtime overhead: frames/s through the tokio runtime against a bare socket loop, same run.
+//! Runtime overhead: the tokio runtime against a bare socket loop, side by side in one run.
 //!
-//! An echo device answers every frame 0x100 with 0x101 (same data). A driver keeps a window of
-//! 16 frames in flight and counts echoes. First the echo is a bare blocking loop on the socket
-//! (read, re-encode, write), then the same echo runs as a machine under the runtime on a duocan
-//! port. The ratio runtime/bare is the runtime's cost.
+//! An echo device answers every frame 0x100 with 0x101 (same data). A driver sends pings and
+//! counts echoes, twice per round: with one frame in flight (the round trip, what an SDO
+//! transfer waits for) and with a window of 16 (throughput). The echo is first a bare blocking
+//! loop on the socket (read, re-encode, write), then the same echo as a machine under the
+//! runtime on a duocan port. The echo side's CPU time (its threads' own clocks) is divided by
+//! the frames it echoed. Several rounds alternate bare and runtime; the table gives each
+//! ratio's median and spread (min–max), which is what to read on a machine shared with other
+//! work.
 //!
 //! ```text
-//! rt_overhead vcan N   # needs vcan0 (inside .ci/vcanvm), feature `socketcan`
-//! rt_overhead udp N    # needs loopback multicast (inside `unshare -n`), feature `udp`
+//! rt_overhead vcan N [ROUNDS]  # needs vcan0 (inside .ci/vcanvm), feature `socketcan`
+//! rt_overhead udp N [ROUNDS]   # needs loopback multicast (inside `unshare -n`), feature `udp`
 //! ```
 
 // Built without `udp` and `socketcan` (a plain `cargo test` enables only `tokio`), the example
@@ -66,12 +70,13 @@ fn ping(i: u64) -> Frame {
     Frame::new(Id::Standard(PING), &i.to_le_bytes()).unwrap_or_else(|_| unreachable!())
 }
 
-/// Sends `n` pings with a window and waits for every pong; returns frames/s through the echo.
-fn drive(w: &mut dyn Wire, n: u64) -> Result<f64, String> {
+/// Sends `n` pings keeping `window` in flight and waits for every pong; returns frames/s
+/// through the echo.
+fn drive(w: &mut dyn Wire, n: u64, window: u64) -> Result<f64, String> {
     let start = StdInstant::now();
     let mut sent = 0;
     let mut got = 0;
-    while sent < WINDOW.min(n) {
+    while sent < window.min(n) {
         w.send(&ping(sent))?;
         sent += 1;
     }
@@ -91,8 +96,39 @@ fn drive(w: &mut dyn Wire, n: u64) -> Result<f64, String> {
     Ok(n as f64 / start.elapsed().as_secs_f64())
 }
 
-fn bare_echo(mut w: Box<dyn Wire>, n: u64) -> std::thread::JoinHandle<()> {
+/// CPU time of one thread of this process, from the kernel's scheduler statistics (ns).
+fn thread_cpu(task: &str) -> u64 {
+    std::fs::read_to_string(format!("/proc/self/task/{task}/schedstat"))
+        .ok()
+        .and_then(|s| s.split_whitespace().next()?.parse().ok())
+        .unwrap_or(0)
+}
+
+/// This thread's id (the driver's, whose CPU is not the echo's).
+fn own_tid() -> String {
+    std::fs::read_link("/proc/thread-self")
+        .ok()
+        .and_then(|p| p.file_name().map(|n| n.to_string_lossy().into_owned()))
+        .unwrap_or_default()
+}
+
+/// CPU time of every thread of this process but `except` (ns): the runtime's workers.
+fn others_cpu(except: &str) -> u64 {
+    let Ok(dir) = std::fs::read_dir("/proc/self/task") else {
+        return 0;
+    };
+    dir.filter_map(Result::ok)
+        .map(|e| e.file_name().to_string_lossy().into_owned())
+        .filter(|t| t != except)
+        .map(|t| thread_cpu(&t))
+        .sum()
+}
+
+/// The bare echo of `n` frames on its own thread; it returns the CPU time it used (ns).
+fn bare_echo(mut w: Box<dyn Wire>, n: u64) -> std::thread::JoinHandle<u64> {
     std::thread::spawn(move || {
+        let me = own_tid();
+        let start = thread_cpu(&me);
         let mut done = 0;
         while done < n {
             match w.recv() {
@@ -103,17 +139,175 @@ fn bare_echo(mut w: Box<dyn Wire>, n: u64) -> std::thread::JoinHandle<()> {
                     done += 1;
                 }
                 Ok(Some(_)) => {}
-                Ok(None) | Err(_) => return,
+                Ok(None) | Err(_) => break,
             }
         }
+        thread_cpu(&me) - start
     })
 }
 
-fn report(medium: &str, n: u64, bare: f64, rt: f64) {
-    println!("{medium}: {n} frames echoed, window {WINDOW}");
-    println!("  bare socket loop : {bare:>10.0} frames/s");
-    println!("  tokio runtime    : {rt:>10.0} frames/s");
-    println!("  ratio runtime/bare: {:.2}", rt / bare);
+/// One measurement: frames/s through the echo and its CPU time per frame (µs).
+#[derive(Clone, Copy)]
+struct Run {
+    rate: f64,
+    cpu_us: f64,
+}
+
+/// Everything a round measures, bare and through the runtime.
+#[derive(Clone, Copy)]
+struct Round {
+    rtt: [Run; 2],
+    flow: [Run; 2],
+}
+
+/// Opens the driver's (and the bare echo's) blocking socket.
+type Open<'a> = dyn Fn() -> Result<Box<dyn Wire>, String> + 'a;
+
+/// Starts the echo machine under the runtime on the medium.
+type Start<'a> = dyn Fn() -> Result<duocan::runtime::Handle<Station<duocan::machine::SinglePort, Echo>>, String>
+    + 'a;
+
+/// Round trips (window 1) and throughput (window 16), bare then through the runtime.
+fn round(
+    rt: &tokio::runtime::Runtime,
+    open: &Open<'_>,
+    start: &Start<'_>,
+    n: u64,
+) -> Result<Round, String> {
+    let me = own_tid();
+    let mut out = Round {
+        rtt: [Run {
+            rate: 0.0,
+            cpu_us: 0.0,
+        }; 2],
+        flow: [Run {
+            rate: 0.0,
+            cpu_us: 0.0,
+        }; 2],
+    };
+    for (window, slot) in [(1, 0), (WINDOW, 1)] {
+        let frames = if window == 1 { n / 4 } else { n };
+        let echo = bare_echo(open()?, frames);
+        let rate = drive(&mut *open()?, frames, window)?;
+        let cpu = echo.join().map_err(|_| "bare echo panicked")?;
+        let bare = Run {
+            rate,
+            cpu_us: cpu as f64 / 1e3 / frames as f64,
+        };
+        let handle = {
+            let _in_rt = rt.enter();
+            start()?
+        };
+        std::thread::sleep(Duration::from_millis(50));
+        let mut w = open()?;
+        let before = others_cpu(&me);
+        let rate = drive(&mut *w, frames, window)?;
+        let cpu = others_cpu(&me) - before;
+        rt.block_on(handle.shutdown());
+        let through = Run {
+            rate,
+            cpu_us: cpu as f64 / 1e3 / frames as f64,
+        };
+        let runs = if slot == 0 {
+            &mut out.rtt
+        } else {
+            &mut out.flow
+        };
+        *runs = [bare, through];
+    }
+    Ok(out)
+}
+
+/// Median and spread of `xs`.
+fn stats(mut xs: Vec<f64>) -> (f64, f64, f64) {
+    xs.sort_by(f64::total_cmp);
+    (xs[xs.len() / 2], xs[0], xs[xs.len() - 1])
+}
+
+fn compare(
+    medium: &str,
+    open: &Open<'_>,
+    start: &Start<'_>,
+    n: u64,
+    rounds: usize,
+) -> Result<(), String> {
+    // As `#[tokio::main]` gives: one worker per CPU.
+    let rt = tokio::runtime::Runtime::new().map_err(|e| e.to_string())?;
+    let mut all = Vec::new();
+    for _ in 0..rounds {
+        all.push(round(&rt, open, start, n)?);
+    }
+    println!(
+        "{medium}: echo, {rounds} rounds of {} round trips and {n} frames in a window of {WINDOW}",
+        n / 4
+    );
+    println!(
+        "  {:<34} {:>12} {:>12} {:>22}",
+        "", "bare", "runtime", "ratio median (spread)"
+    );
+    let line = |what: &str,
+                unit: &str,
+                pick: &dyn Fn(&Round) -> (f64, f64),
+                ratio: &dyn Fn(f64, f64) -> f64| {
+        let b = stats(all.iter().map(|r| pick(r).0).collect()).0;
+        let t = stats(all.iter().map(|r| pick(r).1).collect()).0;
+        let (m, lo, hi) = stats(
+            all.iter()
+                .map(|r| {
+                    let (b, t) = pick(r);
+                    ratio(b, t)
+                })
+                .collect(),
+        );
+        println!(
+            "  {:<34} {:>12} {:>12} {:>9.2} ({lo:.2}–{hi:.2})",
+            format!("{what} ({unit})"),
+            fmt(b),
+            fmt(t),
+            m
+        );
+    };
+    let over = |b: f64, t: f64| t / b;
+    line(
+        "round trip",
+        "µs",
+        &|r| (1e6 / r.rtt[0].rate, 1e6 / r.rtt[1].rate),
+        &over,
+    );
+    line(
+        "throughput",
+        "frames/s",
+        &|r| (r.flow[0].rate, r.flow[1].rate),
+        &over,
+    );
+    line(
+        "echo CPU per frame, window 16",
+        "µs",
+        &|r| (r.flow[0].cpu_us, r.flow[1].cpu_us),
+        &over,
+    );
+    line(
+        "echo CPU per frame, window 1",
+        "µs",
+        &|r| (r.rtt[0].cpu_us, r.rtt[1].cpu_us),
+        &over,
+    );
+    let (m, ..) = stats(
+        all.iter()
+            .map(|r| r.flow[1].rate / r.flow[0].rate)
+            .collect(),
+    );
+    // The one line earlier versions printed (CI logs compare it).
+    println!("  ratio runtime/bare: {m:.2}");
+    Ok(())
+}
+
+fn fmt(x: f64) -> String {
+    if x >= 100.0 {
+        format!("{x:.0}")
+    } else {
+        format!("{x:.2}")
+    }
 }
 
 #[cfg(all(feature = "socketcan", target_os = "linux"))]
@@ -152,24 +346,17 @@ mod vcan {
         }
     }
 
-    pub fn run(n: u64) -> Result<(), Box<dyn std::error::Error>> {
-        let echo = bare_echo(Box::new(Can::open("vcan0")?), n);
-        let bare = drive(&mut Can::open("vcan0")?, n)?;
-        let _ = echo.join();
-        let rt = tokio::runtime::Runtime::new()?;
-        let handle = rt.block_on(async {
-            let port = SocketCanPort::open("vcan0")?;
-            let echo = Runtime::new(Station::single(Echo::default()))
+    pub fn run(n: u64, rounds: usize) -> Result<(), String> {
+        let open = || Ok(Box::new(Can::open("vcan0")?) as Box<dyn Wire>);
+        let start = || {
+            let port = SocketCanPort::open("vcan0").map_err(|e| e.to_string())?;
+            Runtime::new(Station::single(Echo::default()))
                 .name("echo")
                 .port(port)
-                .spawn()?;
-            Ok::<_, Box<dyn std::error::Error>>(echo)
-        })?;
-        std::thread::sleep(Duration::from_millis(50));
-        let through = drive(&mut Can::open("vcan0")?, n)?;
-        rt.block_on(handle.shutdown());
-        report("vcan0", n, bare, through);
-        Ok(())
+                .spawn()
+                .map_err(|e| e.to_string())
+        };
+        compare("vcan0", &open, &start, n, rounds)
     }
 }
 
@@ -241,38 +428,32 @@ mod udp {
         }
     }
 
-    pub fn run(n: u64) -> Result<(), Box<dyn std::error::Error>> {
+    pub fn run(n: u64, rounds: usize) -> Result<(), String> {
         let cfg = UdpBusConfig::numbered(7);
-        let echo = bare_echo(Box::new(Udp::open(&cfg)?), n);
-        let bare = drive(&mut Udp::open(&cfg)?, n)?;
-        let _ = echo.join();
-        let rt = tokio::runtime::Runtime::new()?;
-        let handle = rt.block_on(async {
-            let port = UdpPort::open(cfg.clone())?;
-            let echo = Runtime::new(Station::single(Echo::default()))
+        let open = || Ok(Box::new(Udp::open(&cfg)?) as Box<dyn Wire>);
+        let start = || {
+            let port = UdpPort::open(cfg.clone()).map_err(|e| e.to_string())?;
+            Runtime::new(Station::single(Echo::default()))
                 .name("echo")
                 .port(port)
-                .spawn()?;
-            Ok::<_, Box<dyn std::error::Error>>(echo)
-        })?;
-        std::thread::sleep(Duration::from_millis(50));
-        let through = drive(&mut Udp::open(&cfg)?, n)?;
-        rt.block_on(handle.shutdown());
-        report(&format!("udp {}", cfg.name()), n, bare, through);
-        Ok(())
+                .spawn()
+                .map_err(|e| e.to_string())
+        };
+        compare(&format!("udp {}", cfg.name()), &open, &start, n, rounds)
     }
 }
 
 fn main() {
     let args: Vec<String> = std::env::args().collect();
     let n: u64 = args.get(2).and_then(|s| s.parse().ok()).unwrap_or(20_000);
-    let r: Result<(), Box<dyn std::error::Error>> = match args.get(1).map(String::as_str) {
+    let rounds: usize = args.get(3).and_then(|s| s.parse().ok()).unwrap_or(5).max(1);
+    let r: Result<(), String> = match args.get(1).map(String::as_str) {
         #[cfg(all(feature = "socketcan", target_os = "linux"))]
-        Some("vcan") => vcan::run(n),
+        Some("vcan") => vcan::run(n, rounds),
         #[cfg(feature = "udp")]
-        Some("udp") => udp::run(n),
+        Some("udp") => udp::run(n, rounds),
         _ => Err(
-            "usage: rt_overhead vcan|udp [FRAMES] (vcan needs feature socketcan, udp feature udp)"
+            "usage: rt_overhead vcan|udp [FRAMES] [ROUNDS] (vcan needs feature socketcan, udp feature udp)"
                 .into(),
         ),
     };

@@ -37,6 +37,7 @@ pub mod comm;
 mod def;
 #[cfg(feature = "alloc")]
 mod dynamic;
+mod perfect_index;
 mod static_dict;
 pub mod storage;
 mod value;

@@ -1,14 +1,13 @@
 //! The static dictionary: definitions in `'static` tables (flash), values in a fixed byte arena,
-//! index in a fixed-capacity hash map, the power-on image in a fixed record area. No heap; sized
-//! by three const parameters.
+//! index a perfect hash built when the tables are loaded (one probe per lookup, whatever the
+//! key), the power-on image in a fixed record area. No heap; sized by three const parameters.
 
 use super::def::{key, ObjectDef};
+use super::perfect_index::PerfectIndex;
 use super::storage::{self, StorageError};
-use super::{miss, value, BuildError, Entry, KeyHasher, ObjectDictionary};
+use super::{miss, value, BuildError, Entry, ObjectDictionary};
 use crate::od::abort::AbortCode;
 use core::ops::RangeInclusive;
-use hash32::BuildHasherDefault;
-use heapless::index_map::IndexMap;
 
 #[derive(Clone, Copy)]
 struct Slot {
@@ -46,7 +45,7 @@ pub struct StaticDictionary<
     const BYTES: usize,
     const POWER_ON: usize = POWER_ON_BYTES,
 > {
-    map: IndexMap<u32, Slot, BuildHasherDefault<KeyHasher>, N>,
+    map: PerfectIndex<Slot, N>,
     arena: [u8; BYTES],
     used: usize,
     node_id: u8,
@@ -70,7 +69,7 @@ impl<const N: usize, const BYTES: usize, const POWER_ON: usize>
     #[must_use]
     pub const fn new() -> Self {
         StaticDictionary {
-            map: IndexMap::new(),
+            map: PerfectIndex::new(),
             arena: [0; BYTES],
             used: 0,
             node_id: 0,
@@ -83,17 +82,18 @@ impl<const N: usize, const BYTES: usize, const POWER_ON: usize>
     /// partial effects on the failing entry if capacity runs out or a key repeats.
     pub fn load(&mut self, node_id: u8, tables: &[&'static [ObjectDef]]) -> Result<(), BuildError> {
         self.node_id = node_id;
-        for table in tables {
-            for def in table.iter() {
-                self.add(def)?;
-            }
-        }
-        Ok(())
+        let added = tables
+            .iter()
+            .flat_map(|t| t.iter())
+            .try_for_each(|def| self.add(def));
+        // What was added, all of it on success, is indexed for lookups either way.
+        self.map.build();
+        added
     }
 
     fn add(&mut self, def: &'static ObjectDef) -> Result<(), BuildError> {
         let k = def.key();
-        if self.map.contains_key(&k) {
+        if self.map.contains_key(k) {
             return Err(BuildError::Duplicate {
                 index: def.index,
                 sub: def.sub,
@@ -115,7 +115,7 @@ impl<const N: usize, const BYTES: usize, const POWER_ON: usize>
             len: len as u32,
         };
         self.map
-            .insert(k, slot)
+            .push(k, slot)
             .map_err(|_| BuildError::TooManyEntries { capacity: N })?;
         self.used += size;
         Ok(())
@@ -145,18 +145,18 @@ impl<const N: usize, const BYTES: usize, const POWER_ON: usize> ObjectDictionary
 {
     #[inline]
     fn get(&self, index: u16, sub: u8) -> Result<Entry<'_>, AbortCode> {
-        match self.map.get(&key(index, sub)) {
+        match self.map.get(key(index, sub)) {
             Some(s) => {
                 let start = s.offset as usize;
                 Ok(Entry::of(s.def, &self.arena[start..start + s.len as usize]))
             }
-            None => Err(miss(self.map.contains_key(&key(index, 0)))),
+            None => Err(miss(self.map.contains_key(key(index, 0)))),
         }
     }
 
     fn store(&mut self, index: u16, sub: u8, data: &[u8]) -> Result<(), AbortCode> {
-        let Some(s) = self.map.get_mut(&key(index, sub)) else {
-            return Err(miss(self.map.contains_key(&key(index, 0))));
+        let Some(s) = self.map.get_mut(key(index, sub)) else {
+            return Err(miss(self.map.contains_key(key(index, 0))));
         };
         if data.len() > s.def.storage_size() {
             return Err(AbortCode::LENGTH_TOO_HIGH);
@@ -169,7 +169,7 @@ impl<const N: usize, const BYTES: usize, const POWER_ON: usize> ObjectDictionary
 
     fn reset_range(&mut self, range: RangeInclusive<u16>) {
         let node_id = self.node_id;
-        for (_, s) in self.map.iter_mut() {
+        for s in self.map.values_mut() {
             if range.contains(&s.def.index) {
                 let start = s.offset as usize;
                 let size = s.def.storage_size();
@@ -191,7 +191,7 @@ impl<const N: usize, const BYTES: usize, const POWER_ON: usize> ObjectDictionary
             // Taken from the entry itself, so it fits; checked all the same.
             if let Some(s) = self
                 .map
-                .get_mut(&key(index, sub))
+                .get_mut(key(index, sub))
                 .filter(|s| len <= s.def.storage_size())
             {
                 let start = s.offset as usize;
@@ -246,7 +246,7 @@ impl<const N: usize, const BYTES: usize, const POWER_ON: usize> ObjectDictionary
     }
 
     fn for_each(&self, f: &mut dyn FnMut(Entry<'_>)) {
-        for (_, s) in self.map.iter() {
+        for s in self.map.values() {
             let start = s.offset as usize;
             f(Entry::of(s.def, &self.arena[start..start + s.len as usize]));
         }

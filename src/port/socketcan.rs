@@ -48,6 +48,13 @@ impl TokioCanSocket {
             .async_io(Interest::READABLE | Interest::ERROR, |s| s.read_frame())
             .await
     }
+    /// A frame if one is queued, through tokio's readiness: `WouldBlock` without a system call
+    /// when the last read found the socket empty and nothing arrived since, and a read that
+    /// finds it empty clears the readiness (a direct read would leave it set, and the next
+    /// wait would begin with one more read that finds nothing).
+    fn try_read_frame(&self) -> io::Result<CanFrame> {
+        self.0.try_io(Interest::READABLE, |s| s.read_frame())
+    }
     async fn write_frame(&self, f: CanFrame) -> io::Result<()> {
         self.0
             .async_io(Interest::WRITABLE | Interest::ERROR, |s| s.write_frame(&f))
@@ -311,8 +318,7 @@ impl Port for SocketCanPort {
             if !self.pending.is_empty() {
                 return Some(Ok(PortInput::Status(self.pending.remove(0))));
             }
-            // The socket is non-blocking: a direct read takes what is queued, if anything.
-            match self.socket.as_ref()?.0.get_ref().read_frame() {
+            match self.socket.as_ref()?.try_read_frame() {
                 Ok(raw) => {
                     if let Some(x) = self.accept(&raw) {
                         return Some(Ok(x));

@@ -1,20 +1,25 @@
 //! The tokio runtime: drives a [`Device`] from real ports and the monotonic clock.
 //!
 //! ```text
-//!   port task 0 ──(frames, status)──┐                 ┌──> broadcast: RuntimeEvent
-//!   port task 1 ──────────────────┐ │                 │
-//!                                 ▼ ▼                 │
-//!                     core task: the Device ──────────┘
-//!                        ▲   waits on: port input, commands, the device's next deadline
-//!   Handle ──(closures)──┘
+//!   port task 0 ──(read: handle, answer)──┐      ┌──> broadcast: RuntimeEvent
+//!   port task 1 ───────────────────────┐  │      │
+//!                                      ▼  ▼      │
+//!                          the Device, behind a lock ─┘
+//!                                      ▲
+//!   Handle ──(closures)──> core task ──┘  waits on: commands, the device's next deadline
 //! ```
 //!
-//! The core task owns the device and sleeps until whichever comes first: input from a port, a
-//! command from a [`Handle`], or the device's [`poll_timeout`](Device::poll_timeout). There is
-//! no fixed tick. Each port runs in its own task, so a slow or failed port never holds up the
+//! Each port runs in its own task. What a port reads its task hands to the device at once, and
+//! what the device answers on that port the same task writes right after: a frame in and its
+//! answer out cost no hand-off between tasks, so the runtime adds little to the transport's
+//! own round trip. Frames for the other port wait in that port's bounded queue (a full queue
+//! drops and counts, it never stalls the device), so a slow or failed port never holds up the
 //! other; a failed port reports [`PortStatus::Down`](crate::PortStatus), is re-opened with
-//! backoff, and reports `Up` when it works again.
-//!
+//! backoff, and reports `Up` when it works again. The core task runs the commands of
+//! [`Handle`]s and sleeps until the device's [`poll_timeout`](Device::poll_timeout): there is
+//! no fixed tick, and a deadline that fell before a frame was read is handled before that
+//! frame, at its own instant. Nothing on the way of a frame allocates.
+
 //! Everything the application does goes through the [`Handle`] as a closure run on the device
 //! inside the core task ([`Handle::call`]), with typed helpers for nodes ([`NodeHost`]) and a
 //! request/response helper ([`Handle::request`]) that starts an operation and awaits the event
@@ -73,13 +78,11 @@ use crate::machine::{Device, PortStatus};
 use crate::port::{Port, PortCounters};
 use std::fmt;
 use std::sync::Arc;
-use tokio::sync::{broadcast, mpsc};
+use tokio::sync::{broadcast, mpsc, Notify};
 use tracing::Instrument;
 
 /// Capacity of each port's outgoing queue (frames the device produced, not yet written).
 pub const PORT_TX_QUEUE: usize = 256;
-/// Capacity of the queue from all ports into the core task.
-pub const RX_QUEUE: usize = 1024;
 /// Capacity of the event broadcast: a subscriber lagging further misses events (and is told).
 pub const EVENT_QUEUE: usize = 1024;
 
@@ -220,38 +223,39 @@ where
             });
         }
         let clock = Clock::start();
-        let (in_tx, in_rx) = mpsc::channel(RX_QUEUE);
         let (cmd_tx, cmd_rx) = mpsc::unbounded_channel();
         let (ev_tx, _) = broadcast::channel(EVENT_QUEUE);
-        let mut port_txs = Vec::with_capacity(given);
         let mut names = Vec::with_capacity(given);
         let mut counters = Vec::with_capacity(given);
-        for (index, (name, c, spawn)) in self.ports.into_iter().enumerate() {
-            let (tx, rx) = mpsc::channel(PORT_TX_QUEUE);
+        let mut spawns = Vec::with_capacity(given);
+        for (name, c, spawn) in self.ports {
+            names.push(name);
+            counters.push(c);
+            spawns.push(spawn);
+        }
+        let state = task::State::new(
+            self.device,
+            clock,
+            counters.clone(),
+            ev_tx.clone(),
+            self.tap,
+        );
+        let shared = Arc::new(task::Shared {
+            state: std::sync::Mutex::new(state),
+            core: Notify::new(),
+            ports: (0..given).map(|_| Arc::new(Notify::new())).collect(),
+        });
+        for (index, spawn) in spawns.into_iter().enumerate() {
             spawn(port_task::Wiring {
                 index,
                 net: self.name.clone(),
                 clock,
-                to_core: in_tx.clone(),
-                from_core: rx,
+                hub: shared.clone(),
+                wake: shared.ports[index].clone(),
             });
-            port_txs.push(tx);
-            names.push(name);
-            counters.push(c);
         }
-        drop(in_tx);
         let span = tracing::info_span!("net", net = %self.name);
-        let core = task::Core {
-            device: self.device,
-            clock,
-            ports: port_txs,
-            counters: counters.clone(),
-            events: ev_tx.clone(),
-            tap: self.tap,
-            watchers: Vec::new(),
-            last: crate::frame::instant::Instant::ZERO,
-        };
-        let task = tokio::spawn(core.run(cmd_rx, in_rx).instrument(span));
+        let task = tokio::spawn(task::run(shared, cmd_rx).instrument(span));
         Ok(Handle::new(cmd_tx, ev_tx, clock, names, counters, task))
     }
 }

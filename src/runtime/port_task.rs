@@ -1,32 +1,25 @@
-//! One task per port: reads, writes, and re-opens after failures.
+//! One task per port: reads and hands what it read to the device, writes what the device
+//! queued for its port, and re-opens the port after failures.
 
-use crate::frame::instant::Instant;
-use crate::frame::Frame;
+use super::task::{Hub, Outbox, PortCmd};
 use crate::machine::{ErrorCause, PortRequest, PortStatus};
 use crate::port::{Port, PortErrorKind, PortInput};
+use std::sync::Arc;
 use std::time::Duration;
-use tokio::sync::mpsc;
+use tokio::sync::Notify;
 
 /// First wait before re-opening a failed port; doubles up to [`BACKOFF_MAX`].
 pub const BACKOFF_MIN: Duration = Duration::from_millis(20);
 /// Longest wait between re-open attempts.
 pub const BACKOFF_MAX: Duration = Duration::from_millis(500);
 
-pub(crate) enum PortCmd {
-    Send(Frame),
-    Request(PortRequest),
-}
-
-/// What a port task hands the core: the port, the input, and when it was read (so that the
-/// merger measures the skew between the buses, not the core's backlog).
-pub(crate) type Arrival = (usize, PortInput, Instant);
-
 pub(crate) struct Wiring {
     pub index: usize,
     pub net: String,
     pub clock: super::Clock,
-    pub to_core: mpsc::Sender<Arrival>,
-    pub from_core: mpsc::Receiver<PortCmd>,
+    pub hub: Arc<dyn Hub>,
+    /// Notified when something is queued for this port (or the runtime stops).
+    pub wake: Arc<Notify>,
 }
 
 enum Step {
@@ -36,36 +29,36 @@ enum Step {
     Stop,
 }
 
-/// Inputs (or outgoing frames) moved per wake-up without waiting again.
+/// Inputs read per wake-up without waiting again (then the queue gets its turn).
 const BURST: usize = 32;
 
-pub(crate) async fn run<P: Port>(mut port: P, mut w: Wiring) {
+pub(crate) async fn run<P: Port>(mut port: P, w: Wiring) {
+    let mut out = Outbox::new();
     loop {
         let step = tokio::select! {
-            cmd = w.from_core.recv() => match cmd {
-                None => Step::Stop,
-                Some(cmd) => {
-                    let mut step = command(&mut port, &w, cmd).await;
-                    for _ in 1..BURST {
-                        if !matches!(step, Step::Continue) {
-                            break;
-                        }
-                        match w.from_core.try_recv() {
-                            Ok(cmd) => step = command(&mut port, &w, cmd).await,
-                            Err(_) => break,
-                        }
-                    }
-                    step
-                }
-            },
+            () = w.wake.notified() => serve(&mut port, &w, &mut out).await,
             r = port.recv() => {
-                let mut step = input(&w, r).await;
-                for _ in 1..BURST {
-                    if !matches!(step, Step::Continue) {
+                let mut r = r;
+                let mut step = Step::Continue;
+                // Each input is handed over and answered before the next is looked for: the
+                // answer to a frame does not wait for a look at an empty socket.
+                for n in 1..=BURST {
+                    step = match r {
+                        Ok(x) if w.hub.input(w.index, x, w.clock.now()) => {
+                            serve(&mut port, &w, &mut out).await
+                        }
+                        Ok(_) => Step::Stop,
+                        Err(e) => {
+                            tracing::warn!(error = %e, "receive failed");
+                            report(&w, PortStatus::Down(e.cause()));
+                            Step::Failed(e.cause())
+                        }
+                    };
+                    if n == BURST || !matches!(step, Step::Continue) {
                         break;
                     }
                     match port.try_recv() {
-                        Some(r) => step = input(&w, r).await,
+                        Some(next) => r = next,
                         None => break,
                     }
                 }
@@ -76,7 +69,7 @@ pub(crate) async fn run<P: Port>(mut port: P, mut w: Wiring) {
             Step::Continue => {}
             Step::Stop => return,
             Step::Failed(cause) => {
-                if !recover(&mut port, &mut w, cause).await {
+                if !recover(&mut port, &w, &mut out, cause).await {
                     return;
                 }
             }
@@ -84,19 +77,20 @@ pub(crate) async fn run<P: Port>(mut port: P, mut w: Wiring) {
     }
 }
 
-async fn input(w: &Wiring, r: Result<PortInput, crate::port::PortError>) -> Step {
-    match r {
-        Ok(x) => {
-            if w.to_core.send((w.index, x, w.clock.now())).await.is_err() {
-                Step::Stop
-            } else {
-                Step::Continue
-            }
+/// Does what is queued for the port, in order, until the queue is empty.
+async fn serve<P: Port>(port: &mut P, w: &Wiring, out: &mut Outbox) -> Step {
+    loop {
+        if !w.hub.take(w.index, out) {
+            return Step::Stop;
         }
-        Err(e) => {
-            tracing::warn!(error = %e, "receive failed");
-            report(w, PortStatus::Down(e.cause())).await;
-            Step::Failed(e.cause())
+        if out.is_empty() {
+            return Step::Continue;
+        }
+        while let Some(cmd) = out.pop_front() {
+            let step = command(port, w, cmd).await;
+            if !matches!(step, Step::Continue) {
+                return step;
+            }
         }
     }
 }
@@ -114,51 +108,66 @@ async fn command<P: Port>(port: &mut P, w: &Wiring, cmd: PortCmd) -> Step {
                         | PortErrorKind::Closed
                 );
                 if down {
-                    report(w, PortStatus::Down(e.cause())).await;
+                    report(w, PortStatus::Down(e.cause()));
                     Step::Failed(e.cause())
                 } else {
-                    report(w, PortStatus::TxFailed(e.cause())).await;
+                    report(w, PortStatus::TxFailed(e.cause()));
                     Step::Continue
                 }
             }
         },
         PortCmd::Request(PortRequest::Reinit) => match port.reopen().await {
             Ok(()) => {
-                report(w, PortStatus::Up).await;
+                report(w, PortStatus::Up);
                 Step::Continue
             }
             Err(e) => {
                 tracing::warn!(error = %e, "re-init failed");
-                report(w, PortStatus::Down(e.cause())).await;
+                report(w, PortStatus::Down(e.cause()));
                 Step::Failed(e.cause())
             }
         },
     }
 }
 
-async fn report(w: &Wiring, s: PortStatus) {
-    let _ = w
-        .to_core
-        .send((w.index, PortInput::Status(s), w.clock.now()))
-        .await;
+/// Hands the port's status to the device.
+fn report(w: &Wiring, s: PortStatus) {
+    let _ = w.hub.input(w.index, PortInput::Status(s), w.clock.now());
 }
 
 /// Re-opens with backoff; frames the device sends meanwhile are dropped and counted, and a
 /// re-initialisation the device asks for meanwhile is answered with the port still down (so
-/// that it does not count on a port that cannot carry anything yet).
+/// that it does not count on a port that cannot carry anything yet). What was queued before
+/// the failure goes the same way.
 /// Returns false when the runtime is shutting down.
-async fn recover<P: Port>(port: &mut P, w: &mut Wiring, cause: ErrorCause) -> bool {
+async fn recover<P: Port>(port: &mut P, w: &Wiring, out: &mut Outbox, cause: ErrorCause) -> bool {
     let counters = port.counters();
     let mut wait = BACKOFF_MIN;
     let mut attempts = 0u32;
+    // Refuses what is queued; false when the runtime stopped.
+    let refuse = |out: &mut Outbox| loop {
+        while let Some(cmd) = out.pop_front() {
+            match cmd {
+                PortCmd::Send(_) => counters.tx_dropped(),
+                PortCmd::Request(_) => report(w, PortStatus::Down(cause)),
+            }
+        }
+        if !w.hub.take(w.index, out) {
+            return false;
+        }
+        if out.is_empty() {
+            return true;
+        }
+    };
+    if !refuse(out) {
+        return false;
+    }
     loop {
         let until = tokio::time::Instant::now() + wait;
         loop {
             tokio::select! {
-                cmd = w.from_core.recv() => match cmd {
-                    None => return false,
-                    Some(PortCmd::Send(_)) => counters.tx_dropped(),
-                    Some(PortCmd::Request(_)) => report(w, PortStatus::Down(cause)).await,
+                () = w.wake.notified() => if !refuse(out) {
+                    return false;
                 },
                 () = tokio::time::sleep_until(until) => break,
             }
@@ -167,7 +176,7 @@ async fn recover<P: Port>(port: &mut P, w: &mut Wiring, cause: ErrorCause) -> bo
         match port.reopen().await {
             Ok(()) => {
                 tracing::info!(attempts, "port re-opened");
-                report(w, PortStatus::Up).await;
+                report(w, PortStatus::Up);
                 return true;
             }
             Err(e) => {
@@ -183,6 +192,7 @@ async fn recover<P: Port>(port: &mut P, w: &mut Wiring, cause: ErrorCause) -> bo
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::frame::Frame;
     use crate::port::{PortCounters, PortError};
     use crate::{Id, Instant};
 
@@ -215,21 +225,45 @@ mod tests {
         }
     }
 
+    /// The device's side, as the port task sees it: what is queued for the port, and what the
+    /// port handed over.
+    struct FakeHub {
+        queue: std::sync::Mutex<std::collections::VecDeque<PortCmd>>,
+        inputs: tokio::sync::mpsc::UnboundedSender<(usize, PortInput, Instant)>,
+    }
+
+    impl Hub for FakeHub {
+        fn input(&self, port: usize, x: PortInput, at: Instant) -> bool {
+            self.inputs.send((port, x, at)).is_ok()
+        }
+        fn take(&self, _: usize, into: &mut Outbox) -> bool {
+            super::super::task::move_into(&mut self.queue.lock().unwrap(), into);
+            true
+        }
+    }
+
     #[tokio::test]
     async fn a_re_init_request_while_the_port_is_down_is_answered_with_down() {
-        let (to_core, mut inputs) = mpsc::channel::<Arrival>(16);
-        let (cmds, from_core) = mpsc::channel(16);
+        let (to_test, mut inputs) = tokio::sync::mpsc::unbounded_channel();
+        let hub = Arc::new(FakeHub {
+            queue: Default::default(),
+            inputs: to_test,
+        });
+        let wake = Arc::new(Notify::new());
         let wiring = Wiring {
             index: 1,
             net: "test".into(),
             clock: super::super::Clock::start(),
-            to_core,
-            from_core,
+            hub: hub.clone(),
+            wake: wake.clone(),
         };
         tokio::spawn(run(DeadPort(PortCounters::new()), wiring));
-        let f = Frame::from_array(Id::Standard(0x705), [5]);
-        cmds.send(PortCmd::Send(f)).await.unwrap();
-        let down = |x: Option<Arrival>| {
+        let queue = |c: PortCmd| {
+            hub.queue.lock().unwrap().push_back(c);
+            wake.notify_one();
+        };
+        queue(PortCmd::Send(Frame::from_array(Id::Standard(0x705), [5])));
+        let down = |x: Option<(usize, PortInput, Instant)>| {
             matches!(
                 x,
                 Some((1, PortInput::Status(PortStatus::Down(ErrorCause::InterfaceDown)), at))
@@ -242,9 +276,7 @@ mod tests {
         );
         // While it keeps trying to re-open, the device asks for a re-initialisation: it hears
         // at once that the port is still down (not silence, which it would take for success).
-        cmds.send(PortCmd::Request(PortRequest::Reinit))
-            .await
-            .unwrap();
+        queue(PortCmd::Request(PortRequest::Reinit));
         assert!(down(inputs.recv().await));
     }
 }

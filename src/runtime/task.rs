@@ -1,12 +1,21 @@
-//! The core task: the only owner of the device.
+//! The device's state, shared by the core task (commands, the device's deadlines) and the port
+//! tasks (what the ports read, what they write).
+//!
+//! A port task that reads a frame hands it to the device itself, under the state's lock, and
+//! writes what the device answers on its own port right after: a frame in, its answer out, with
+//! no task hand-off between. Frames for another port are queued for that port's task (bounded:
+//! a full queue drops and counts), which is woken. The core task waits for commands from
+//! handles and for the device's next deadline, and runs them under the same lock; port tasks
+//! wake it only when the device's deadline moved earlier than the one it waits for.
 
-use super::port_task::{Arrival, PortCmd};
-use super::{Clock, RuntimeEvent};
+use super::{Clock, RuntimeEvent, PORT_TX_QUEUE};
 use crate::capture::recorder::{Tap, TapDirection, TapPoint};
-use crate::machine::{Device, PortStatus};
+use crate::frame::Frame;
+use crate::machine::{Device, PortRequest, PortStatus};
 use crate::port::{PortCounters, PortInput};
-use std::sync::Arc;
-use tokio::sync::{broadcast, mpsc};
+use std::collections::VecDeque;
+use std::sync::{Arc, Mutex};
+use tokio::sync::{broadcast, mpsc, Notify};
 
 /// A closure run on the device inside the core task.
 pub(crate) type Call<D> = Box<dyn FnOnce(&mut D, crate::Instant) + Send>;
@@ -23,13 +32,34 @@ pub(crate) enum Command<D: Device> {
     Shutdown,
 }
 
-/// Port inputs handled per wake-up before the device's outputs are flushed.
-const RX_BATCH: usize = 64;
+/// What a port task does besides reading: write a frame, re-initialise the port.
+#[derive(Debug)]
+pub(crate) enum PortCmd {
+    Send(Frame),
+    Request(PortRequest),
+}
 
-pub(crate) struct Core<D: Device> {
+/// Timeouts a device may have due at one instant before the runtime moves on: a device whose
+/// deadline stays in the past after its timeout ran must not hold a port task forever.
+const TIMEOUTS_PER_INPUT: usize = 64;
+
+/// What the port tasks see of the device: the one interface they need, not its type.
+pub(crate) trait Hub: Send + Sync + 'static {
+    /// Hands `x`, read from `port` at `at`, to the device (after any deadline that fell before
+    /// it) and moves what the device has to the ports. False when the runtime has stopped.
+    fn input(&self, port: usize, x: PortInput, at: crate::Instant) -> bool;
+    /// Moves what is queued for `port`, oldest first, into `into` as far as it has room. False
+    /// when the runtime has stopped.
+    fn take(&self, port: usize, into: &mut Outbox) -> bool;
+}
+
+/// A port task's batch of work taken from its queue (fixed size: no allocation per frame).
+pub(crate) type Outbox = heapless::Deque<PortCmd, 32>;
+
+/// Everything the lock guards.
+pub(crate) struct State<D: Device> {
     pub device: Box<D>,
     pub clock: Clock,
-    pub ports: Vec<mpsc::Sender<PortCmd>>,
     pub counters: Vec<PortCounters>,
     pub events: broadcast::Sender<RuntimeEvent<D::Event>>,
     pub tap: Option<Arc<dyn Tap>>,
@@ -37,89 +67,55 @@ pub(crate) struct Core<D: Device> {
     /// The latest instant handed to the device: inputs stamped earlier (read before the
     /// device's last call) are handed over at this instant, so that its time never goes back.
     pub last: crate::Instant,
+    /// Per port, what its task is to do, in order; never longer than [`PORT_TX_QUEUE`] (the
+    /// room is taken once, when the runtime starts).
+    pub queues: Vec<VecDeque<PortCmd>>,
+    /// The deadline the core task's timer is set for.
+    pub armed: Option<crate::Instant>,
+    /// The core task has stopped: port tasks stop too.
+    pub closed: bool,
 }
 
-impl<D> Core<D>
-where
-    D: Device + Send + 'static,
-    D::Event: Clone + Send + std::fmt::Debug + 'static,
-{
-    pub async fn run(
-        mut self,
-        mut commands: mpsc::UnboundedReceiver<Command<D>>,
-        mut input: mpsc::Receiver<Arrival>,
-    ) {
-        tracing::info!(ports = self.ports.len(), "runtime started");
-        loop {
-            self.flush();
-            let deadline = self.device.poll_timeout();
-            let sleep = async {
-                match deadline {
-                    Some(t) => tokio::time::sleep_until(self.clock.to_tokio(t)).await,
-                    None => std::future::pending().await,
-                }
-            };
-            tokio::select! {
-                cmd = commands.recv() => match cmd {
-                    Some(Command::Call(f)) => {
-                        let now = self.now();
-                        f(&mut *self.device, now)
-                    }
-                    Some(Command::Watch(start)) => {
-                        let now = self.now();
-                        if let Some(w) = start(&mut *self.device, now) {
-                            self.watchers.push(w);
-                        }
-                    }
-                    Some(Command::Shutdown) | None => break,
-                },
-                first = input.recv() => {
-                    if let Some((port, x, at)) = first {
-                        self.input(port, x, at);
-                        for _ in 1..RX_BATCH {
-                            match input.try_recv() {
-                                Ok((port, x, at)) => self.input(port, x, at),
-                                Err(_) => break,
-                            }
-                        }
-                    }
-                },
-                () = sleep => {}
-            }
-            self.timeouts(&mut input);
-        }
-        tracing::info!("runtime stopped");
-    }
+/// The state and the wake-ups around it.
+pub(crate) struct Shared<D: Device> {
+    pub state: Mutex<State<D>>,
+    /// Wakes the core task: the device's deadline moved earlier than its timer.
+    pub core: Notify,
+    /// Wakes each port's task: something was queued for it, or the runtime stopped.
+    pub ports: Vec<Arc<Notify>>,
+}
 
-    /// Runs the device's timeout if it is due, after the frames that were read before it: a
-    /// task that was not scheduled in time finds them queued, and a deadline must not pass for
-    /// what had already arrived (an SDO sub-block timer would acknowledge segments that were
-    /// waiting). The first input read after the deadline follows the timeout. Bounded: the
-    /// queue is.
-    fn timeouts(&mut self, input: &mut mpsc::Receiver<Arrival>) {
-        let clock = self.clock.now().max(self.last);
-        let Some(due) = self.device.poll_timeout().filter(|t| *t <= clock) else {
-            return;
-        };
-        let mut after = None;
-        while let Ok((port, x, at)) = input.try_recv() {
-            if at > due {
-                after = Some((port, x, at));
-                break;
-            }
-            self.input(port, x, at);
-        }
-        let now = self.now();
-        if self.device.poll_timeout().is_some_and(|t| t <= now) {
-            self.device.handle_timeout(now);
-        }
-        if let Some((port, x, at)) = after {
-            self.input(port, x, at);
+impl<D: Device> State<D>
+where
+    D::Event: std::fmt::Debug,
+{
+    /// A state with room taken for every queue.
+    pub fn new(
+        device: Box<D>,
+        clock: Clock,
+        counters: Vec<PortCounters>,
+        events: broadcast::Sender<RuntimeEvent<D::Event>>,
+        tap: Option<Arc<dyn Tap>>,
+    ) -> Self {
+        let queues = (0..counters.len())
+            .map(|_| VecDeque::with_capacity(PORT_TX_QUEUE))
+            .collect();
+        State {
+            device,
+            clock,
+            counters,
+            events,
+            tap,
+            watchers: Vec::new(),
+            last: crate::Instant::ZERO,
+            queues,
+            armed: None,
+            closed: false,
         }
     }
 
     /// The clock's time, as the device's next instant.
-    fn now(&mut self) -> crate::Instant {
+    pub fn now(&mut self) -> crate::Instant {
         self.at(self.clock.now())
     }
 
@@ -129,7 +125,29 @@ where
         self.last
     }
 
-    fn input(&mut self, port: usize, x: PortInput, read_at: crate::Instant) {
+    /// Runs the device's timeouts due by `t`, each at the instant it fell due (or the device's
+    /// last instant, if later).
+    pub fn timeouts(&mut self, t: crate::Instant) {
+        self.due_before(t, true);
+    }
+
+    /// Runs the timeouts due before `t` (`t` itself too if `inclusive`): a deadline that
+    /// passed before an input was read is handled before that input, at its own instant; one
+    /// that falls at the very instant of the input comes after it, as the input arrived in time.
+    fn due_before(&mut self, t: crate::Instant, inclusive: bool) {
+        for _ in 0..TIMEOUTS_PER_INPUT {
+            match self.device.poll_timeout() {
+                Some(due) if due < t || (inclusive && due == t) => {
+                    let now = self.at(due);
+                    self.device.handle_timeout(now);
+                }
+                _ => return,
+            }
+        }
+    }
+
+    pub fn input(&mut self, port: usize, x: PortInput, read_at: crate::Instant) {
+        self.due_before(read_at, false);
         let now = self.at(read_at);
         match x {
             PortInput::Frame(f) => {
@@ -155,37 +173,207 @@ where
         }
     }
 
-    /// Moves everything the device has to the ports and the subscribers.
-    fn flush(&mut self) {
-        let now = self.clock.now();
+    /// Queues `cmd` for `port`; false if the port has no room (or does not exist).
+    fn queue(&mut self, port: usize, cmd: PortCmd) -> bool {
+        match self.queues.get_mut(port) {
+            Some(q) if q.len() < PORT_TX_QUEUE => {
+                q.push_back(cmd);
+                true
+            }
+            _ => false,
+        }
+    }
+
+    /// Moves everything the device has to the port queues and the subscribers; returns the
+    /// ports that got work, one bit each (all bits from 63 on for ports past 62).
+    pub fn flush(&mut self) -> u64 {
+        let bit = |port: usize| 1u64 << port.min(63);
+        let mut woken = 0;
+        // Only the tap needs the time: read the clock once, and only for it.
+        let mut now = None;
         while let Some((port, f)) = self.device.poll_transmit() {
-            let Some(tx) = self.ports.get(port) else {
+            if port >= self.queues.len() {
                 tracing::error!(port, "device sent on a port it does not have");
                 continue;
-            };
-            if let Some(t) = &self.tap {
-                t.frame(now, TapPoint::Port(port), TapDirection::Tx, &f);
             }
-            if tx.try_send(PortCmd::Send(f)).is_err() {
+            if let Some(t) = &self.tap {
+                let at = *now.get_or_insert_with(|| self.clock.now());
+                t.frame(at, TapPoint::Port(port), TapDirection::Tx, &f);
+            }
+            if self.queue(port, PortCmd::Send(f)) {
+                woken |= bit(port);
+            } else {
                 // The port cannot keep up (or is down): drop rather than stall the device.
                 self.counters[port].tx_dropped();
                 tracing::debug!(port, frame = %f, "port queue full, frame dropped");
             }
         }
         while let Some((port, req)) = self.device.poll_port_request() {
-            if let Some(tx) = self.ports.get(port) {
-                tracing::info!(port, ?req, "port request");
-                let _ = tx.try_send(PortCmd::Request(req));
+            tracing::info!(port, ?req, "port request");
+            if self.queue(port, PortCmd::Request(req)) {
+                woken |= bit(port);
             }
         }
         while let Some(e) = self.device.poll_event() {
             tracing::debug!(event = ?e, "event");
             // Watchers see every event, losslessly, before subscribers (who may lag).
             self.watchers.retain_mut(|w| !w(&e));
-            // No subscriber is fine: events are then only logged.
-            let _ = self.events.send(RuntimeEvent::Device(e));
+            // No subscriber is fine: events are then only logged (and not stored).
+            if self.events.receiver_count() > 0 {
+                let _ = self.events.send(RuntimeEvent::Device(e));
+            }
+        }
+        woken
+    }
+}
+
+impl<D: Device + Send + 'static> Shared<D>
+where
+    D::Event: Send + std::fmt::Debug,
+{
+    /// Wakes the tasks of the ports in `woken` but `own` (a port task serves its own queue
+    /// right after), and the core task if the device's deadline is now earlier than its timer.
+    fn wake(&self, st: &State<D>, woken: u64, own: Option<usize>) {
+        if woken != 0 {
+            for (i, n) in self.ports.iter().enumerate() {
+                if Some(i) != own && woken & (1u64 << i.min(63)) != 0 {
+                    n.notify_one();
+                }
+            }
+        }
+        if let Some(t) = st.device.poll_timeout() {
+            if st.armed.is_none_or(|a| t < a) {
+                self.core.notify_one();
+            }
         }
     }
+
+    /// Runs `f` on the state, then flushes and wakes whoever got work.
+    pub fn with<R>(&self, f: impl FnOnce(&mut State<D>) -> R) -> Option<R> {
+        let mut st = self.state.lock().ok()?;
+        let r = f(&mut st);
+        let woken = st.flush();
+        self.wake(&st, woken, None);
+        Some(r)
+    }
+
+    /// Stops the port tasks.
+    pub fn close(&self) {
+        if let Ok(mut st) = self.state.lock() {
+            st.closed = true;
+        }
+        for n in &self.ports {
+            n.notify_one();
+        }
+    }
+}
+
+impl<D: Device + Send + 'static> Hub for Shared<D>
+where
+    D::Event: Send + std::fmt::Debug,
+{
+    fn input(&self, port: usize, x: PortInput, at: crate::Instant) -> bool {
+        let Ok(mut st) = self.state.lock() else {
+            return false;
+        };
+        if st.closed {
+            return false;
+        }
+        st.input(port, x, at);
+        let woken = st.flush();
+        self.wake(&st, woken, Some(port));
+        true
+    }
+
+    fn take(&self, port: usize, into: &mut Outbox) -> bool {
+        let Ok(mut st) = self.state.lock() else {
+            return false;
+        };
+        if st.closed {
+            return false;
+        }
+        if let Some(q) = st.queues.get_mut(port) {
+            move_into(q, into);
+        }
+        true
+    }
+}
+
+/// Moves the oldest of `q` into `into`, as many as it has room for.
+pub(crate) fn move_into(q: &mut VecDeque<PortCmd>, into: &mut Outbox) {
+    while !into.is_full() {
+        match q.pop_front() {
+            Some(c) => {
+                let _ = into.push_back(c);
+            }
+            None => break,
+        }
+    }
+}
+
+/// The core task: commands from handles and the device's deadlines.
+pub(crate) async fn run<D>(
+    shared: Arc<Shared<D>>,
+    mut commands: mpsc::UnboundedReceiver<Command<D>>,
+) where
+    D: Device + Send + 'static,
+    D::Event: Send + std::fmt::Debug,
+{
+    tracing::info!(ports = shared.ports.len(), "runtime started");
+    let clock = match shared.state.lock() {
+        Ok(st) => st.clock,
+        Err(_) => return,
+    };
+    // One timer for the task's life, moved only when the device's deadline changes: setting a
+    // timer on every wake-up would cost a trip through tokio's timer wheel each time.
+    let sleep = tokio::time::sleep_until(clock.to_tokio(crate::Instant::MAX));
+    tokio::pin!(sleep);
+    let mut set_for: Option<Option<crate::Instant>> = None;
+    // Each turn sets the timer for the device's deadline as it is now (`None`: the lock is
+    // poisoned, a closure panicked in it: the runtime is over).
+    while let Some(deadline) = shared.with(|st| {
+        st.armed = st.device.poll_timeout();
+        st.armed
+    }) {
+        if set_for != Some(deadline) {
+            sleep
+                .as_mut()
+                .reset(clock.to_tokio(deadline.unwrap_or(crate::Instant::MAX)));
+            set_for = Some(deadline);
+        }
+        tokio::select! {
+            cmd = commands.recv() => {
+                let stop = shared.with(|st| match cmd {
+                    Some(Command::Call(f)) => {
+                        let now = st.now();
+                        f(&mut *st.device, now);
+                        false
+                    }
+                    Some(Command::Watch(start)) => {
+                        let now = st.now();
+                        if let Some(w) = start(&mut *st.device, now) {
+                            st.watchers.push(w);
+                        }
+                        false
+                    }
+                    Some(Command::Shutdown) | None => true,
+                });
+                if stop != Some(false) {
+                    break;
+                }
+            }
+            () = shared.core.notified() => {}
+            () = &mut sleep, if deadline.is_some() => {
+                // Set the timer again next time round, even for the same deadline.
+                set_for = None;
+                if shared.with(|st| { let now = st.now(); st.timeouts(now) }).is_none() {
+                    break;
+                }
+            }
+        }
+    }
+    shared.close();
+    tracing::info!("runtime stopped");
 }
 
 #[cfg(test)]
@@ -230,38 +418,31 @@ mod tests {
         }
     }
 
-    /// The core was not scheduled from 5 ms to 30 ms: a frame read at 8 ms was waiting when it
-    /// ran again. It goes first and pushes the deadline back, so no timeout; a frame read at
-    /// 25 ms, after the new deadline of 18 ms, comes after that timeout.
+    /// A frame read at 8 ms, before the deadline of 10 ms, goes first and pushes the deadline
+    /// to 18 ms; a frame read at 25 ms comes after the timeout, which runs at its own 18 ms
+    /// (not at the 25 ms when the port task found it due), and at 30 ms nothing more is due.
     #[tokio::test(start_paused = true)]
-    async fn frames_read_before_a_deadline_are_handled_before_it() {
-        let clock = crate::runtime::Clock::start();
-        let mut core = Core {
-            device: Box::new(Timer {
+    async fn a_deadline_falls_between_the_frames_read_before_and_after_it() {
+        let mut st = State::new(
+            Box::new(Timer {
                 deadline: Some(Instant::from_millis(10)),
                 seen: vec![],
             }),
-            clock,
-            ports: vec![],
-            counters: vec![],
-            events: broadcast::channel(4).0,
-            tap: None,
-            watchers: vec![],
-            last: Instant::ZERO,
-        };
-        let (tx, mut rx) = mpsc::channel(8);
+            crate::runtime::Clock::start(),
+            vec![],
+            broadcast::channel(4).0,
+            None,
+        );
         let frame = |b: u8| PortInput::Frame(Frame::new(Id::Standard(0x100), &[b]).unwrap());
-        tx.try_send((0, frame(1), Instant::from_millis(8))).unwrap();
-        tx.try_send((0, frame(2), Instant::from_millis(25)))
-            .unwrap();
-        tokio::time::advance(std::time::Duration::from_millis(30)).await;
-        core.timeouts(&mut rx);
+        st.input(0, frame(1), Instant::from_millis(8));
+        st.input(0, frame(2), Instant::from_millis(25));
+        st.timeouts(Instant::from_millis(30));
         assert_eq!(
-            core.device.seen,
+            st.device.seen,
             [
                 "frame 1 at 0.008000s",
-                "timeout at 0.030000s",
-                "frame 2 at 0.030000s"
+                "timeout at 0.018000s",
+                "frame 2 at 0.025000s"
             ]
         );
     }

@@ -7,6 +7,7 @@ mod control;
 mod dcf_config;
 mod failures;
 mod net;
+mod network_boot;
 mod pdo_config;
 mod program_download;
 mod properties;

@@ -1,6 +1,7 @@
 //! The front door (`duocan::net`): the network handle and remote nodes on the in-memory bus
 //! and the simulated nodes, and the starter examples built on it.
 
+mod concurrent_sdo;
 mod events;
 mod examples;
 mod monitor;

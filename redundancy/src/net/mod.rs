@@ -27,7 +27,7 @@
 //!         }
 //!     }
 //!     // SDO to any node, through whichever bus works.
-//!     let vendor: u32 = net.node(0x50).sdo().read(0x1018, 1).await?;
+//!     let vendor: u32 = net.node(0x10).sdo().read(0x1018, 1).await?;
 //!     assert_eq!(vendor, duocan::net::SIM_VENDOR);
 //!     net.close().await;
 //!     Ok(())
@@ -67,7 +67,7 @@ mod sim_station;
 pub use dual_link::{open_dual, open_dual_named, open_dual_with, DualLink};
 pub use events::{RedundantEvent, RedundantEvents};
 pub use node::{RedundantNode, RedundantSdo};
-pub use sim::{SIM_BUS_FAILS, SIM_END, SIM_MEMBER_FAILS, SIM_PEERS_FAIL};
+pub use sim::{SIM_BUS_FAILS, SIM_B_BOOTS, SIM_END, SIM_MEMBER_FAILS, SIM_PEERS_FAIL};
 pub use sim_station::{
     sim_lss_address, sim_program_id, SIM_BIT_RATE, SIM_DOMAIN, SIM_DOMAIN_SIZE, SIM_FAULT_BUS_BACK,
     SIM_FAULT_BUS_CUT, SIM_FAULT_MASTER_BACK, SIM_FAULT_MASTER_STOPS, SIM_FAULT_MEMBER_BACK,

@@ -29,9 +29,11 @@ pub const SIM_PEERS_FAIL: Duration = Duration::from_millis(3000);
 pub const SIM_MEMBER_FAILS: Duration = Duration::from_millis(4000);
 /// When the simulation ends: the network closes and its event streams end.
 pub const SIM_END: Duration = Duration::from_millis(6000);
-/// How much later than member A member B boots, so that A is configured first and is the
-/// active member (the same every run).
-const B_BOOTS_LATER: Duration = Duration::from_millis(100);
+/// How much later than member A member B boots: after the masters' power-on negotiation, so
+/// that the active master configures A alone and A is the active member, the same every run
+/// (booted together, the two would be configured in the same instant and the first reply to
+/// come back would decide).
+pub const SIM_B_BOOTS: Duration = Duration::from_millis(1000);
 
 pub(super) type Board = DualBusNode<DynamicDictionary>;
 
@@ -166,7 +168,7 @@ struct Script {
     cut: Connector,
     peers: Vec<Handle<Net>>,
     boards: Vec<(u8, Handle<Board>)>,
-    /// The B members, booted [`B_BOOTS_LATER`].
+    /// The B members, booted [`SIM_B_BOOTS`].
     later: Vec<u8>,
     stop: watch::Receiver<bool>,
     closed: Arc<watch::Sender<bool>>,
@@ -195,7 +197,7 @@ impl Script {
 
     /// The script; false if it was stopped before its end.
     async fn play(&mut self) -> bool {
-        if !self.until(B_BOOTS_LATER).await {
+        if !self.until(SIM_B_BOOTS).await {
             return false;
         }
         for b in core::mem::take(&mut self.later) {

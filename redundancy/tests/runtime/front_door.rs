@@ -5,7 +5,8 @@
 
 use duocan::{Duration, Instant, NmtState};
 use duocan_redundancy::net::{
-    RedundantEvent, RedundantNetwork, SIM_BUS_FAILS, SIM_END, SIM_MEMBER_FAILS, SIM_PEERS_FAIL,
+    RedundantEvent, RedundantNetwork, SIM_BUS_FAILS, SIM_B_BOOTS, SIM_END, SIM_MEMBER_FAILS,
+    SIM_PEERS_FAIL,
 };
 use duocan_redundancy::supervisor::flying_master::{MasterReason, MasterRole};
 use duocan_redundancy::supervisor::pairs::RoleReason;
@@ -117,6 +118,11 @@ async fn sdo_through_the_handle_to_a_pair_member_on_either_bus() {
         .unwrap();
     until_pair_active(&net).await;
     assert_eq!(net.role().await.unwrap(), MasterRole::Active);
+    // B boots later than A (so that A is the active member); then it is configured too.
+    tokio::time::sleep(std::time::Duration::from_micros(
+        SIM_B_BOOTS.as_micros() + 100_000,
+    ))
+    .await;
     // The standby member B answers like any node.
     let b = net.node(0x50);
     let vendor: u32 = b.sdo().read(0x1018, 1).await.unwrap();
@@ -145,8 +151,9 @@ async fn sdo_through_the_handle_to_a_pair_member_on_either_bus() {
     let e = b.sdo().read::<u32>(0x6000, 0).await.unwrap_err();
     assert!(matches!(e, RedundantError::Sdo(_)), "{e}");
     assert!(e.to_string().contains("0x6000"), "{e}");
-    // After bus 1 failed, SDO goes on over bus 2.
-    tokio::time::sleep(std::time::Duration::from_millis(2500)).await;
+    // After bus 1 failed, SDO goes on over bus 2 (at about 2.3 s: bus 1 fails at 2 s, A stops
+    // at 4 s).
+    tokio::time::sleep(std::time::Duration::from_millis(2500) - SIM_B_BOOTS.into()).await;
     let status = net.status().await.unwrap();
     assert!(status.contains("failed"), "{status}");
     let a = net.node(0x10);

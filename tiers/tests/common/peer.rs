@@ -20,10 +20,15 @@ pub struct Peer {
 
 impl Peer {
     pub async fn spawn(args: &[&str]) -> Peer {
+        Self::spawn_script("peer.py", args).await
+    }
+
+    /// A peer running `script` of `tiers/python/` (`peer.py`, `bench.py`).
+    pub async fn spawn_script(script: &str, args: &[&str]) -> Peer {
         let python = std::env::var("DUOCAN_PYTHON").unwrap_or_else(|_| {
             panic!("DUOCAN_PYTHON is not set: point it at a python with python-can, canopen and msgpack (.ci/tier-python.sh does)")
         });
-        let script = concat!(env!("CARGO_MANIFEST_DIR"), "/python/peer.py");
+        let script = format!("{}/python/{script}", env!("CARGO_MANIFEST_DIR"));
         let mut child = Command::new(&python)
             .arg(script)
             .args(args)
@@ -84,6 +89,24 @@ impl Peer {
                 stderr()
             ),
         }
+    }
+
+    /// Waits for a line starting with `prefix` (`Ok`) or `ERROR` (`Err`: the peer could not
+    /// carry out a command, and goes on).
+    pub async fn result(&mut self, prefix: &str, secs: u64) -> Result<String, String> {
+        let r = tokio::time::timeout(Duration::from_secs(secs), async {
+            while let Some(l) = self.out.next_line().await.expect("peer stdout") {
+                if l.starts_with(prefix) {
+                    return Ok(l);
+                }
+                if l.starts_with("ERROR") {
+                    return Err(l);
+                }
+            }
+            Err("the peer exited".into())
+        })
+        .await;
+        r.unwrap_or_else(|_| Err(format!("no {prefix:?} within {secs} s")))
     }
 
     pub async fn send_line(&mut self, line: &str) {

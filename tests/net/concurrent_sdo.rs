@@ -1,0 +1,60 @@
+//! Twenty nodes read at once through one handle, on a simulated 1 Mbit/s bus (tokio's paused
+//! clock: the time is the bus's, exactly): the transfers share the bus rather than wait for
+//! each other, so together they take the bus time of their frames, twenty times one read's, and
+//! nothing more. (On a real transport the round trips overlap too: the UDP figure is the python
+//! tier's.)
+
+use duocan::net::{NetOptions, Network, SIM_DEVICE_NAME};
+use duocan::port::mem::{MemBus, MEM_BUS_BURST};
+use std::time::Duration;
+
+/// Bus time of one 8-byte frame with an 11-bit identifier at 1 Mbit/s (nominal, as the paced
+/// in-memory bus counts it: 47 bits around 64 bits of data).
+const FRAME: Duration = Duration::from_micros(111);
+
+/// A segmented upload of the 21-byte device name: initiate and three segments, each a request
+/// and an answer.
+const FRAMES_PER_READ: u32 = 8;
+
+#[tokio::test(start_paused = true)]
+async fn twenty_nodes_read_at_once_take_the_bus_time_of_their_frames() {
+    let bus = MemBus::with_bit_rate("sim", 1_000_000);
+    let net = Network::simulated_on(&bus, 1..=20, NetOptions::default()).unwrap();
+    // Boot-ups and first heartbeats out of the way.
+    tokio::time::sleep(Duration::from_millis(50)).await;
+
+    // One read alone: its frames fit in what the paced bus lets a sender run ahead, so it
+    // takes no simulated time; its bus time is what it costs.
+    assert_eq!(
+        net.node(1).sdo().read_string(0x1008, 0).await.unwrap(),
+        SIM_DEVICE_NAME
+    );
+    let one = FRAME * FRAMES_PER_READ;
+    tokio::time::sleep(Duration::from_millis(10)).await;
+
+    let start = tokio::time::Instant::now();
+    let mut reads = tokio::task::JoinSet::new();
+    for id in 1..=20u8 {
+        let sdo = net.node(id).sdo();
+        reads.spawn(async move { sdo.read_string(0x1008, 0).await });
+    }
+    while let Some(r) = reads.join_next().await {
+        assert_eq!(r.unwrap().unwrap(), SIM_DEVICE_NAME);
+    }
+    let twenty = start.elapsed();
+    let bus_time = FRAME * FRAMES_PER_READ * 20;
+    println!(
+        "one read: {one:?} of bus time; twenty at once: {twenty:?} ({:.1}× one), the bus time \
+         of their {} frames being {bus_time:?} ({:.3}× it)",
+        twenty.as_secs_f64() / one.as_secs_f64(),
+        FRAMES_PER_READ * 20,
+        twenty.as_secs_f64() / bus_time.as_secs_f64(),
+    );
+    // Twenty take the bus time of their frames (senders may run MEM_BUS_BURST ahead of the
+    // bus), not twenty times a round trip plus the time between them.
+    assert!(
+        twenty <= bus_time && twenty + MEM_BUS_BURST + FRAME * 2 >= bus_time,
+        "{twenty:?} for a bus time of {bus_time:?}"
+    );
+    net.close().await;
+}
