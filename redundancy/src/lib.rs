@@ -118,7 +118,11 @@ pub mod pair;
 pub mod station;
 pub mod supervisor;
 
-pub use link::channel::{Cia3026Config, EcssConfig, EcssRole, ModeKind};
+#[cfg(feature = "cia302-6")]
+pub use link::channel::Cia3026Config;
+pub use link::channel::ModeKind;
+#[cfg(feature = "ecss")]
+pub use link::channel::{EcssConfig, EcssRole};
 pub use link::classify::FrameClassifier;
 pub use link::dual_bus::{
     DualBus, DualBusConfig, DualBusNode, LinkCommand, LinkMode, LinkStats, DEFAULT_MERGE_SLOTS,

@@ -94,25 +94,62 @@ impl<
     /// Puts `sup` on `link`; the supervisor's pairs are configured in the layer (same
     /// identifiers), with no active member until the supervisor says so.
     pub fn new(
-        mut link: DualBus<P, SLOTS, FUNCTIONS>,
-        mut sup: Supervisor<D, P>,
+        link: DualBus<P, SLOTS, FUNCTIONS>,
+        sup: Supervisor<D, P>,
     ) -> Result<Self, PairError> {
-        for (id, p) in sup.pairs() {
+        let mut st = Self::unlinked(|| link, || sup);
+        st.link_pairs()?;
+        Ok(st)
+    }
+
+    /// The supervisor `make_sup` builds on the layer `make_link` builds, their pairs not yet
+    /// configured in the layer: what [`new`](Self::new) does in two steps, for building the
+    /// station in place. The two are called as the station is written, so that constructors
+    /// that are not inlined write them straight into it (on a microcontroller every move of
+    /// these tens of kilobytes is a copy on the stack); [`link_pairs`](Self::link_pairs) then
+    /// does the rest where the station stands.
+    #[must_use]
+    #[inline(never)]
+    pub fn unlinked(
+        make_link: impl FnOnce() -> DualBus<P, SLOTS, FUNCTIONS>,
+        make_sup: impl FnOnce() -> Supervisor<D, P>,
+    ) -> Self {
+        // One level of nesting per function that is not inlined: the compiler writes a
+        // call's result straight into the caller's result, but not through two levels.
+        SupervisedStation {
+            station: station(make_link, make_sup),
+        }
+    }
+
+    /// Configures the supervisor's pairs in the layer (same identifiers), with no active
+    /// member until the supervisor says so, and hands over what either decided while they were
+    /// built: the second step of [`new`](Self::new), once, after the supervisor has its pairs.
+    pub fn link_pairs(&mut self) -> Result<(), PairError> {
+        let Station { link, machine, .. } = &mut self.station;
+        for (id, p) in machine.pairs() {
             let got = link.add_pair(p.spec.a, p.spec.b, p.active)?;
             debug_assert_eq!(got, id);
         }
         // What either decided while they were built applies before the first input.
-        forward_requests(Instant::ZERO, &mut link, &mut sup);
-        forward_commands(Instant::ZERO, &mut sup, &mut link);
-        Ok(SupervisedStation {
-            station: Station::new(link, sup),
-        })
+        forward_requests(Instant::ZERO, link, machine);
+        forward_commands(Instant::ZERO, machine, link);
+        Ok(())
     }
 
     /// The status snapshot, printable as a table.
     pub fn status(&self, now: Instant) -> Status<'_, D, P, SLOTS, FUNCTIONS> {
         Status { st: self, now }
     }
+}
+
+/// The station of [`SupervisedStation::unlinked`], built where the caller wants it.
+#[inline(never)]
+fn station<L, M>(make_link: impl FnOnce() -> L, make_sup: impl FnOnce() -> M) -> Station<L, M>
+where
+    L: duocan::machine::BusLink,
+    M: duocan::Machine,
+{
+    Station::new(make_link(), make_sup())
 }
 
 impl<D, P, const SLOTS: usize, const FUNCTIONS: usize> SupervisedStation<D, P, SLOTS, FUNCTIONS> {

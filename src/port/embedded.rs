@@ -76,11 +76,24 @@ impl<D: Device, C: Can, const PORTS: usize> EmbeddedDriver<D, C, PORTS> {
     /// A driver for `device` on `ports` (port `i` of the device is `ports[i]`).
     #[must_use]
     pub fn new(device: D, ports: [C; PORTS]) -> Self {
+        Self::with_device(|| device, ports)
+    }
+
+    /// A driver for the device `make` builds, on `ports`: the same as [`new`](Self::new), but
+    /// `make` is called last, so that a constructor that is not inlined writes the device
+    /// straight into the driver. On a microcontroller the device is tens of kilobytes and
+    /// every move of it a copy on the stack.
+    #[must_use]
+    #[inline]
+    pub fn with_device(make: impl FnOnce() -> D, ports: [C; PORTS]) -> Self {
+        // Everything else first: a loop between the call and the move would keep the copy.
+        let backlog = [const { Deque::new() }; PORTS];
+        let stats = [EmbeddedPortStats::default(); PORTS];
         EmbeddedDriver {
-            device,
+            device: make(),
             ports,
-            backlog: core::array::from_fn(|_| Deque::new()),
-            stats: [EmbeddedPortStats::default(); PORTS],
+            backlog,
+            stats,
             reinit: None,
             clock: TimeWatch::new(),
         }

@@ -25,8 +25,8 @@ pub const MERGE_SLOTS: usize = 64;
 /// (pair, function) values the same-function merge compares: four TPDOs per pair.
 pub const FUNCTIONS: usize = 16;
 /// The station the firmware runs: the supervisor and its master on the dual-bus layer. The
-/// master's dictionary is lent to it ([`Od`] in a `static` of its own): built where it lives,
-/// it never travels through the constructors.
+/// master's dictionary is lent to it ([`Od`] kept by the caller: in the firmware a local of
+/// `main`): built where it lives, it never travels through the constructors.
 pub type Station = SupervisedStation<&'static mut Od, Predefined, MERGE_SLOTS, FUNCTIONS>;
 /// The CAN controllers of the dual bus.
 pub const PORTS: usize = 2;
@@ -42,11 +42,13 @@ pub const PAIR_HEARTBEAT: Duration = Duration::from_millis(50);
 /// Silence of a pair member after which it has failed.
 pub const PAIR_TIMEOUT: Duration = Duration::from_millis(150);
 
-/// The master's own settings, sized for the board: queues for a handful of slaves rather than
-/// a station's (the library's defaults hold a thousand events), no PDOs of its own, two SDO
-/// sessions (the members boot two at a time; the rest wait their turn).
+/// The master's own settings, sized for the board: slots for the pair members only (the
+/// library's default keeps one for each of the 127 node-IDs, 31 KB), queues for a handful of
+/// slaves rather than a station's (the library's defaults hold a thousand events), no PDOs of
+/// its own, two SDO sessions (the members boot two at a time; the rest wait their turn).
 pub fn network_config() -> NetworkConfig {
     NetworkConfig::new()
+        .max_slaves(2 * PAIRS.len())
         .event_queue(32)
         .nmt_queue(16)
         .with_tpdos(0)
@@ -115,24 +117,69 @@ impl core::error::Error for BoardError {
 /// `now`: the dictionary's tables loaded, the master, the supervisor with [`PAIRS`] and the
 /// other computer as peer, the dual-bus layer. Everything it allocates is allocated here, once
 /// (the master's queues, SDO sessions and slave table; the supervisor's pair table, audit
-/// trail and event queue).
-///
-/// The values built here are tens of kilobytes, each move of one a copy on the stack, which on
-/// the board is what the statics leave of its RAM: the dictionary is lent, not moved, and this
-/// function is not inlined, so that the caller can have the station written straight into its
-/// static storage (`StaticCell::init_with`). (Splitting it further made the stack deeper: the
-/// compiler then keeps each function's result and its copy.)
-#[inline(never)]
+/// trail and event queue). [`unstarted`] and [`start`] in one, the station returned by value:
+/// for a host; the firmware builds it where it lives with those two.
 pub fn build(computer: Computer, od: &'static mut Od, now: Instant) -> Result<Station, BoardError> {
+    let mut station = unstarted(computer, od)?;
+    start(&mut station, now)?;
+    Ok(station)
+}
+
+/// The station of `computer` on the empty dictionary `od`, built and not started: the
+/// dictionary's tables loaded, the master, the supervisor and the dual-bus layer; nothing
+/// booted, no pair added. [`start`] it at once.
+///
+/// The values built here are tens of kilobytes, each move of one a copy on the stack. So the
+/// dictionary is lent, not moved; this function is not inlined and its result is written by
+/// the caller's call straight where the caller keeps it (a local of a function that never
+/// returns, such as the firmware's `main`: a `static` the compiler fills through a copy on
+/// the stack); and the parts are built by constructors that are not inlined either, each
+/// straight into its place ([`SupervisedStation::unlinked`], [`Supervisor::unstarted`]). The
+/// one copy left is the master's (11 kB): [`Master::new`] returns it in a `Result`.
+#[inline(never)]
+pub fn unstarted(computer: Computer, od: &'static mut Od) -> Result<Station, BoardError> {
     dictionary::load(od, computer.node().raw()).map_err(BoardError::Dictionary)?;
-    let master = Master::new(computer.node(), od, network_config()).map_err(BoardError::Master)?;
-    let mut sup = Supervisor::new(master, supervisor_config(computer), now);
+    let master = new_master(computer, od).map_err(BoardError::Master)?;
+    Ok(SupervisedStation::unlinked(new_link, || {
+        new_supervisor(master, computer)
+    }))
+}
+
+/// Starts the station [`unstarted`] built at `now`: boots its master, adds [`PAIRS`] to the
+/// supervisor and configures them in the dual-bus layer.
+pub fn start(station: &mut Station, now: Instant) -> Result<(), BoardError> {
+    let sup = station.sup_mut();
+    sup.start(now);
     for (a, b) in PAIRS {
         let spec = PairSpec::new(a, b, PAIR_HEARTBEAT, PAIR_TIMEOUT);
         sup.add_pair(now, spec).map_err(BoardError::Pair)?;
     }
-    let link = DualBus::with_classifier(link_config(), Predefined);
-    SupervisedStation::new(link, sup).map_err(BoardError::Link)
+    station.link_pairs().map_err(BoardError::Link)
+}
+
+/// The master, built where the caller wants it (not inlined: see [`unstarted`]).
+#[inline(never)]
+fn new_master(
+    computer: Computer,
+    od: &'static mut Od,
+) -> Result<Master<&'static mut Od>, MasterError> {
+    Master::new(computer.node(), od, network_config())
+}
+
+/// The dual-bus layer, built where the caller wants it (not inlined: see [`unstarted`]).
+#[inline(never)]
+fn new_link() -> DualBus<Predefined, MERGE_SLOTS, FUNCTIONS> {
+    DualBus::with_classifier(link_config(), Predefined)
+}
+
+/// The supervisor on `master`, not started, built where the caller wants it (not inlined:
+/// see [`unstarted`]).
+#[inline(never)]
+fn new_supervisor(
+    master: Master<&'static mut Od>,
+    computer: Computer,
+) -> Supervisor<&'static mut Od> {
+    Supervisor::unstarted(|| master, supervisor_config(computer))
 }
 
 /// What the board shows on its front panel.
@@ -160,8 +207,9 @@ pub fn indication<D: ObjectDictionary, const S: usize, const F: usize>(
 
 /// The board: the station on its two CAN controllers ([`EmbeddedDriver`]), and the count of
 /// events the application drained (they are also in the supervisor's audit trail). The
-/// station is borrowed for good: on the board it lives in a `static` of its own, built there
-/// by [`build`], so that its tens of kilobytes never pass through the stack again.
+/// station is borrowed for good: on the board it lives in the frame of `main`, which never
+/// returns, built there by [`unstarted`], so that its tens of kilobytes never pass through the
+/// stack again.
 pub struct MasterBoard<C: Can> {
     driver: EmbeddedDriver<&'static mut Station, C, PORTS>,
     events: u32,

@@ -29,7 +29,9 @@ extern crate alloc;
 pub mod board;
 pub mod dictionary;
 
-pub use board::{build, indication, BoardError, Indication, MasterBoard, Station};
+pub use board::{
+    build, indication, start, unstarted, BoardError, Indication, MasterBoard, Station,
+};
 
 use board::node;
 use duocan::NodeId;
@@ -42,14 +44,15 @@ pub const PAIRS: [(NodeId, NodeId); 3] = [
 ];
 
 /// The heap the firmware gives its allocator: the high-water mark measured on the host
-/// (`tests/heap.rs`: 42,823 bytes, computer 1 through boot, a bus failure and a pair failover
+/// (`tests/heap.rs`: 13,063 bytes, computer 1 through boot, a bus failure and a pair failover
 /// before it dies; computer 2 stays 24 bytes below it through the same and its takeover and a
-/// failover after) plus a quarter, which the test asserts. Most of it is the master's table of
-/// the 127 node-IDs (31.5 KB) and the supervisor's audit trail, pair table and queues. The
-/// host's pointers are twice as wide as the target's, so the figure bounds the target's need
-/// from above; the margin covers the allocator's per-block overhead and paths the run did not
-/// take.
-pub const HEAP_BYTES: usize = 54 * 1024;
+/// failover after) plus a quarter, which the test asserts. It is the master's slots for the six
+/// pair members (`max_slaves` in [`board::network_config`]: the library's default of one for
+/// each of the 127 node-IDs was 31.5 KB), its queues, and the supervisor's audit trail, pair
+/// table and queues. The host's pointers are twice as wide as the target's, so the figure bounds
+/// the target's need from above; the margin covers the allocator's per-block overhead and paths
+/// the run did not take.
+pub const HEAP_BYTES: usize = 16 * 1024;
 
 /// Which of the two interlocking computers the board is (the firmware reads it from a strap
 /// pin, as an A/B board learns its role).

@@ -27,7 +27,9 @@ use duocan::od::{BuildError, ObjectDictionary};
 use duocan::port::embedded::{status_of, EmbeddedDriver, EmbeddedPortStats, RX_BURST};
 use duocan::profile::railway::safety::{FieldState, SafetyCode, TrackCircuit};
 use duocan::profile::railway::{DeviceAddress, RailwayProfile};
-use duocan::{CobId, Duration, Frame, Instant, Node, NodeConfig, NodeEvent, NodeId, Station};
+use duocan::{
+    CobId, Duration, Frame, Instant, NmtState, Node, NodeConfig, NodeEvent, NodeId, Station,
+};
 use duocan_redundancy::{DualBus, DualBusConfig, LinkEvent, LinkMode};
 use embedded_can::nb::Can;
 use embedded_can::Error as _;
@@ -112,6 +114,8 @@ pub enum SetupError {
     Dictionary(BuildError),
     /// [`Storage::install`] was called before: there is one gateway per storage.
     AlreadyInstalled,
+    /// [`Gateway::start`] was called before: the gateway runs already.
+    AlreadyStarted,
 }
 
 impl fmt::Display for SetupError {
@@ -127,6 +131,9 @@ impl fmt::Display for SetupError {
             }
             SetupError::AlreadyInstalled => {
                 f.write_str("the gateway storage is in use: install once, keep the reference")
+            }
+            SetupError::AlreadyStarted => {
+                f.write_str("the gateway was started before: start it once")
             }
         }
     }
@@ -160,35 +167,26 @@ impl<C: Can> Gateway<C> {
         cans: [C; 3],
         now: Instant,
     ) -> Result<Self, SetupError> {
-        Ok(Self::build(profile, Self::dictionary(profile)?, cans, now))
+        let mut gw = Self::unstarted(profile, cans, now);
+        gw.start(now)?;
+        Ok(gw)
     }
 
-    /// The dictionary, loaded, if `profile` holds the gateway where it must be.
-    fn dictionary(profile: &RailwayProfile) -> Result<Od, SetupError> {
-        if profile.address(NODE_ID) != Some(ADDRESS) {
-            return Err(SetupError::NotInProfile {
-                node: NODE_ID,
-                address: ADDRESS,
-            });
-        }
-        let mut od = Od::new();
-        od.load(NODE_ID.raw(), &dictionary::TABLES)
-            .map_err(SetupError::Dictionary)?;
-        Ok(od)
-    }
-
-    /// The gateway, booted: what cannot fail, apart from what can. Not inlined and without a
-    /// `Result` around it, so that [`Storage::install`] has it written straight into static
-    /// storage: every copy of the gateway's 37 kB on the way would be stack, and a 128 KiB
-    /// part has little to spare.
+    /// The gateway on `cans` = [bus 1, bus 2, field bus], not started: its dictionary empty,
+    /// its node not booted, nothing sent. [`start`](Self::start) it before polling it.
+    ///
+    /// This is how a microcontroller builds it without copies: `let mut gw =
+    /// Gateway::unstarted(…)` in a function that never returns (the main loop's) has the
+    /// gateway written straight into that function's frame, its parts straight into it (each
+    /// constructor not inlined and given nothing large by value). Every move of the gateway's
+    /// 37 kB on the way would be another copy on the stack, and a `static` cannot be written
+    /// that way: the compiler copies into one through the stack.
     #[inline(never)]
-    fn build(profile: &'static RailwayProfile, od: Od, cans: [C; 3], now: Instant) -> Self {
-        let node: Board = Node::with_profile(NodeConfig::slave(NODE_ID), od, profile);
-        let cfg = link_config();
-        let link = DualBus::with_classifier(cfg, profile);
+    #[must_use]
+    pub fn unstarted(profile: &'static RailwayProfile, cans: [C; 3], now: Instant) -> Self {
         let [bus1, bus2, field] = cans;
-        let mut gw = Gateway {
-            driver: EmbeddedDriver::new(Station::new(link, node), [bus1, bus2]),
+        Gateway {
+            driver: new_driver(profile, [bus1, bus2]),
             field,
             tracks: Tracks::new(
                 now,
@@ -198,10 +196,24 @@ impl<C: Can> Gateway<C> {
             events: Deque::new(),
             events_dropped: 0,
             field_stats: FieldStats::default(),
-        };
-        gw.node_mut().boot(now);
-        gw.publish_all(now);
-        gw
+        }
+    }
+
+    /// Starts an [`unstarted`](Self::unstarted) gateway at `now`: checks that its profile holds
+    /// it at [`ADDRESS`], loads the dictionary, boots the node and sends the mirrors. A
+    /// gateway that was started before stays as it is ([`SetupError::AlreadyStarted`]).
+    pub fn start(&mut self, now: Instant) -> Result<(), SetupError> {
+        if self.node().nmt_state() != NmtState::Initialising {
+            return Err(SetupError::AlreadyStarted);
+        }
+        check_profile(self.node().profile())?;
+        self.node_mut()
+            .od_mut()
+            .load(NODE_ID.raw(), &dictionary::TABLES)
+            .map_err(SetupError::Dictionary)?;
+        self.node_mut().boot(now);
+        self.publish_all(now);
+        Ok(())
     }
 
     /// One pass of the main loop: everything due at `now`. Returns when to call again at the
@@ -429,21 +441,60 @@ impl<C: Can> Storage<C> {
         now: Instant,
     ) -> Result<&'static mut Gateway<C>, SetupError> {
         let profile = RailwayProfile::with(network).map_err(SetupError::Table)?;
-        if profile.address(NODE_ID) != Some(ADDRESS) {
-            return Err(SetupError::NotInProfile {
-                node: NODE_ID,
-                address: ADDRESS,
-            });
-        }
+        check_profile(&profile)?;
         let profile: &'static RailwayProfile = self
             .profile
             .try_init(profile)
             .ok_or(SetupError::AlreadyInstalled)?;
-        let od = Gateway::<C>::dictionary(profile)?;
         let slot = self
             .gateway
             .try_uninit()
             .ok_or(SetupError::AlreadyInstalled)?;
-        Ok(slot.write(Gateway::build(profile, od, cans, now)))
+        let gw = slot.write(Gateway::unstarted(profile, cans, now));
+        gw.start(now)?;
+        Ok(gw)
+    }
+}
+
+/// The driver with its device, built where the caller wants it (not inlined: see
+/// [`Gateway::unstarted`]).
+#[inline(never)]
+fn new_driver<C: Can>(
+    profile: &'static RailwayProfile,
+    ports: [C; PORTS],
+) -> EmbeddedDriver<GatewayDevice, C, PORTS> {
+    EmbeddedDriver::with_device(|| new_device(profile), ports)
+}
+
+/// The device (node on the dual-bus layer), built where the caller wants it (not inlined: see
+/// [`Gateway::unstarted`]).
+#[inline(never)]
+fn new_device(profile: &'static RailwayProfile) -> GatewayDevice {
+    Station::new(new_link(profile), new_board(profile))
+}
+
+/// The dual-bus layer, built where the caller wants it (not inlined: see
+/// [`Gateway::unstarted`]).
+#[inline(never)]
+fn new_link(profile: &'static RailwayProfile) -> Link {
+    DualBus::with_classifier(link_config(), profile)
+}
+
+/// The node with an empty dictionary, built where the caller wants it (not inlined: see
+/// [`Gateway::unstarted`]).
+#[inline(never)]
+fn new_board(profile: &'static RailwayProfile) -> Board {
+    Node::with_profile(NodeConfig::slave(NODE_ID), Od::new(), profile)
+}
+
+/// The profile holds the gateway where it must be.
+fn check_profile(profile: &RailwayProfile) -> Result<(), SetupError> {
+    if profile.address(NODE_ID) == Some(ADDRESS) {
+        Ok(())
+    } else {
+        Err(SetupError::NotInProfile {
+            node: NODE_ID,
+            address: ADDRESS,
+        })
     }
 }

@@ -2,8 +2,12 @@
 //!
 //! The `safety-gateway` crate's [`Gateway`] on the STM32F413 board ([`duocan_board`]): CAN1
 //! and CAN2 are the interlocking's dual bus, CAN3 the field bus where the track-circuit board
-//! reports. No allocator exists in this image: the gateway lives in a `static` ([`STORAGE`]),
-//! its dictionary in `const` tables and a fixed arena.
+//! reports. No allocator exists in this image: the gateway lives in the frame of `main`, which
+//! never returns, built there in place ([`Gateway::unstarted`]: no copy of its 37 kB on the
+//! stack on the way); its dictionary's definitions are `const` tables, its values a fixed arena
+//! inside the gateway; the network table is a `static` ([`PROFILE`]). So the RAM the image
+//! needs is its static RAM plus its stack, and the stack at start-up is the gateway and a few
+//! kilobytes of construction, hardly more than the main loop needs.
 //!
 //! The main loop is the board's ([`duocan_board::Board::run`]): it polls the gateway (whose
 //! interlocking side is duocan's `EmbeddedDriver` over CAN1 and CAN2) whenever a frame
@@ -21,13 +25,14 @@
 #![no_main]
 
 use cortex_m_rt::entry;
-use duocan::profile::railway::DeviceAddress;
+use duocan::profile::railway::{DeviceAddress, RailwayProfile};
 use duocan::{Instant, NmtState, NodeId};
 use duocan_board::can::Port;
 use duocan_board::safe::{fail_silent, Panel};
 use duocan_board::App;
 use duocan_redundancy::PortState;
-use safety_gateway::{Gateway, Storage, ADDRESS, NODE_ID};
+use safety_gateway::{Gateway, ADDRESS, NODE_ID};
+use static_cell::StaticCell;
 
 /// The interlocking network as the gateway's identifier profile knows it: the two
 /// interlocking computers and the gateway.
@@ -37,13 +42,13 @@ const NETWORK: [(NodeId, DeviceAddress); 3] = [
     (NODE_ID, ADDRESS),
 ];
 
-/// The gateway and its network table: static storage, no heap.
-static STORAGE: Storage<Port> = Storage::new();
+/// The network table as the gateway's identifier profile: static storage, no heap.
+static PROFILE: StaticCell<RailwayProfile> = StaticCell::new();
 
 /// The gateway as the board's main loop runs it.
-struct Image(&'static mut Gateway<Port>);
+struct Image<'a>(&'a mut Gateway<Port>);
 
-impl App for Image {
+impl App for Image<'_> {
     fn acknowledge(&mut self) {
         for p in 0..2 {
             if let Some(port) = self.0.bus_mut(p) {
@@ -73,11 +78,17 @@ fn main() -> ! {
     let ([bus1, bus2], Some(field)) = (ports.buses, ports.field) else {
         fail_silent()
     };
-    let now = board.now();
-    let Ok(gateway) = STORAGE.install(&NETWORK, [bus1, bus2, field], now) else {
+    let Ok(profile) = RailwayProfile::with(&NETWORK) else {
         fail_silent()
     };
-    board.run(&mut Image(gateway))
+    let profile = PROFILE.init(profile);
+    let now = board.now();
+    // Built in this frame, which never ends: see the crate docs.
+    let mut gateway = Gateway::unstarted(profile, [bus1, bus2, field], now);
+    if gateway.start(now).is_err() {
+        fail_silent()
+    }
+    board.run(&mut Image(&mut gateway))
 }
 
 /// A panic stops the gateway where it stands, off the buses (see the crate docs).

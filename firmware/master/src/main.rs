@@ -5,8 +5,9 @@
 //! the flying master run on them. The computer strap (PF12) says which interlocking computer
 //! the board is: computer 1 (node 1, the strong master) or computer 2 (node 2, the standby).
 //!
-//! Memory: the station (dual-bus layer, master, supervisor, static dictionary) lives in a
-//! `static`; what the master and the supervisor allocate when they are built (their queues,
+//! Memory: the station (dual-bus layer, master, supervisor) and its static dictionary live in
+//! the frame of `main`, which never returns, built there in place (`master_board::unstarted`:
+//! a `static` would be filled through copies on the stack, tens of kilobytes each); what the master and the supervisor allocate when they are built (their queues,
 //! the slave table, the pair table, the audit trail, the SDO sessions) comes from a heap of
 //! [`HEAP_BYTES`] given to `embedded-alloc`, sized from the host run that measures its
 //! high-water mark (`examples/master_board/tests/heap.rs`). Nothing grows after start-up.
@@ -32,26 +33,16 @@ use duocan_board::safe::{fail_silent, Panel};
 use duocan_board::App;
 use embedded_alloc::LlffHeap;
 use master_board::dictionary::Od;
-use master_board::{build, BoardError, Computer, MasterBoard, Station, HEAP_BYTES};
-use static_cell::StaticCell;
+use master_board::{start, unstarted, Computer, MasterBoard, Station, HEAP_BYTES};
 
 /// The heap: what the master and the supervisor allocate when they are built.
 #[global_allocator]
 static HEAP: LlffHeap = LlffHeap::empty();
 
-/// The master's dictionary: static storage, built in place and lent to the master.
-static OD: StaticCell<Od> = StaticCell::new();
-/// The station (dual-bus layer, master, supervisor), or why it could not be built: static
-/// storage, written by the constructor in place (tens of kilobytes must not be copied
-/// through the stack).
-static STATION: StaticCell<Result<Station, BoardError>> = StaticCell::new();
-/// The board: the station on the two controllers.
-static BOARD: StaticCell<MasterBoard<Port>> = StaticCell::new();
-
 /// The board as the main loop runs it.
-struct Image(&'static mut MasterBoard<Port>);
+struct Image<'a>(&'a mut MasterBoard<Port>);
 
-impl App for Image {
+impl App for Image<'_> {
     fn acknowledge(&mut self) {
         for p in 0..2 {
             if let Some(port) = self.0.bus_mut(p) {
@@ -85,12 +76,40 @@ fn main() -> ! {
         Computer::One
     };
     let now = board.now();
-    let od = OD.init_with(Od::new);
-    let Ok(station) = STATION.init_with(|| build(computer, od, now)) else {
+    // The dictionary and the station live in this frame, which never ends, built there in
+    // place (see the crate docs): a `static` would be filled through copies on the stack.
+    let mut od = Od::new();
+    // SAFETY: `od` is a local of `main`, which never returns (see `forever`).
+    #[allow(unsafe_code)]
+    let od = unsafe { forever(&mut od) };
+    // Matched by reference: moving the station out of the `Result` would copy it.
+    let mut built = unstarted(computer, od);
+    let Ok(station) = &mut built else {
         fail_silent()
     };
-    let master = BOARD.init(MasterBoard::new(station, ports.buses));
-    board.run(&mut Image(master))
+    if start(station, now).is_err() {
+        fail_silent()
+    }
+    // SAFETY: `station` lives in `built`, a local of `main`, which never returns (see
+    // `forever`).
+    #[allow(unsafe_code)]
+    let station: &'static mut Station = unsafe { forever(station) };
+    let mut master = MasterBoard::new(station, ports.buses);
+    board.run(&mut Image(&mut master))
+}
+
+/// A local of `main` for good.
+///
+/// # Safety
+///
+/// `local` must be a local of `main` (or of another function that never returns and never
+/// unwinds): `main` diverges and the image aborts on a panic (`panic = "abort"`, the panic
+/// handler diverges too), so its frame is never popped and what lives in it lasts until
+/// reset; the local stays mutably borrowed, so the returned reference is the only way to it.
+#[allow(unsafe_code)]
+unsafe fn forever<T>(local: &mut T) -> &'static mut T {
+    // SAFETY: the caller's promise: the memory is valid for the rest of the program.
+    unsafe { &mut *core::ptr::from_mut(local) }
 }
 
 /// A panic stops the master where it stands, off the buses (see the crate docs).

@@ -18,7 +18,10 @@
 //! assert_eq!(c.eval_power_on, duocan::Duration::from_millis(500));
 //! ```
 
-use crate::link::channel::{Cia3026Config, EcssConfig, EcssRole};
+#[cfg(feature = "cia302-6")]
+use crate::link::channel::Cia3026Config;
+#[cfg(feature = "ecss")]
+use crate::link::channel::{EcssConfig, EcssRole};
 use crate::link::health::HealthConfig;
 use crate::pair::MAX_MEMBERS;
 use core::fmt;
@@ -35,9 +38,11 @@ pub enum LinkMode {
     /// Both buses carry everything; receive merge exactly once (the railway default).
     #[default]
     ActiveActive,
-    /// CiA 302-6 active-standby.
+    /// CiA 302-6 active-standby (feature `cia302-6`, on by default).
+    #[cfg(feature = "cia302-6")]
     Cia302_6(Cia3026Config),
-    /// ECSS-E-ST-50-15C bus toggling.
+    /// ECSS-E-ST-50-15C bus toggling (feature `ecss`, on by default).
+    #[cfg(feature = "ecss")]
     EcssToggle(EcssConfig),
 }
 
@@ -306,6 +311,7 @@ fn consumer_entry(v: u32) -> Option<(NodeId, Duration)> {
     Some((n, Duration::from_millis((v & 0xFFFF) as u64)))
 }
 
+#[cfg(feature = "cia302-6")]
 impl Cia3026Config {
     /// Reads 0x1F60 (at `index`) subs 1–4 and the producers of 0x1016.
     pub fn from_od<D: ObjectDictionary>(od: &D, index: u16) -> Result<Self, ConfigError> {
@@ -326,6 +332,7 @@ impl Cia3026Config {
     }
 }
 
+#[cfg(feature = "ecss")]
 impl EcssConfig {
     /// Reads the bus-toggle object at `index` and the redundancy master from 0x1016 sub 1 (a
     /// device without a valid entry there is the master).
@@ -361,9 +368,9 @@ impl DualBusConfig {
     /// neither is set.
     pub fn from_od<D: ObjectDictionary>(od: &D, layout: &OdLayout) -> Result<Self, ConfigError> {
         let mode = if has_object(od, layout.redundancy) {
-            LinkMode::Cia302_6(Cia3026Config::from_od(od, layout.redundancy)?)
+            cia302_6_mode(od, layout.redundancy)?
         } else if has_object(od, layout.toggle) {
-            LinkMode::EcssToggle(EcssConfig::from_od(od, layout.toggle)?)
+            ecss_mode(od, layout.toggle)?
         } else {
             LinkMode::ActiveActive
         };
@@ -377,6 +384,39 @@ impl DualBusConfig {
             ..DualBusConfig::with_guard_period(mode, Duration::from_millis(period as u64))
         })
     }
+}
+
+/// The CiA 302-6 mode the redundancy object at `index` describes; an error naming the object
+/// in a build that leaves the policy out.
+fn cia302_6_mode<D: ObjectDictionary>(od: &D, index: u16) -> Result<LinkMode, ConfigError> {
+    #[cfg(feature = "cia302-6")]
+    return Ok(LinkMode::Cia302_6(Cia3026Config::from_od(od, index)?));
+    #[cfg(not(feature = "cia302-6"))]
+    left_out(
+        od,
+        index,
+        "CiA 302-6: this build leaves the policy out (feature cia302-6)",
+    )
+}
+
+/// The ECSS mode the bus-toggle object at `index` describes; an error naming the object in a
+/// build that leaves the policy out.
+fn ecss_mode<D: ObjectDictionary>(od: &D, index: u16) -> Result<LinkMode, ConfigError> {
+    #[cfg(feature = "ecss")]
+    return Ok(LinkMode::EcssToggle(EcssConfig::from_od(od, index)?));
+    #[cfg(not(feature = "ecss"))]
+    left_out(
+        od,
+        index,
+        "ECSS bus toggling: this build leaves the policy out (feature ecss)",
+    )
+}
+
+/// The dictionary's object at `index` asks for a policy this build leaves out.
+#[cfg(not(all(feature = "cia302-6", feature = "ecss")))]
+fn left_out<D>(_: &D, index: u16, what: &'static str) -> Result<LinkMode, ConfigError> {
+    let sub = 0;
+    Err(ConfigError::Invalid { index, sub, what })
 }
 
 #[cfg(test)]

@@ -8,9 +8,12 @@
 //!   redundancy master's heartbeat is lost.
 
 pub mod active_active;
+#[cfg(feature = "cia302-6")]
 pub mod cia302_6;
+#[cfg(feature = "ecss")]
 pub mod ecss;
 
+#[cfg(any(feature = "cia302-6", feature = "ecss"))]
 use crate::link::events::{LinkEvent, LinkEventKind, SwitchReason};
 use crate::link::health::Health;
 use crate::link::outbox::Outbox;
@@ -19,7 +22,9 @@ use duocan::machine::PortStatus;
 use duocan::{Duration, Frame, Instant, NodeId};
 
 pub use active_active::ActiveActive;
+#[cfg(feature = "cia302-6")]
 pub use cia302_6::{Cia3026, Cia3026Config};
+#[cfg(feature = "ecss")]
 pub use ecss::{Ecss, EcssConfig, EcssRole};
 
 /// Ports a frame goes out on: bit `p` set for port `p`.
@@ -118,8 +123,10 @@ pub enum Policy {
     /// Both buses active.
     ActiveActive(ActiveActive),
     /// CiA 302-6.
+    #[cfg(feature = "cia302-6")]
     Cia302_6(Cia3026),
     /// ECSS bus toggling.
+    #[cfg(feature = "ecss")]
     EcssToggle(Ecss),
 }
 
@@ -128,21 +135,27 @@ impl Policy {
     pub fn kind(&self) -> ModeKind {
         match self {
             Policy::ActiveActive(_) => ModeKind::ActiveActive,
+            #[cfg(feature = "cia302-6")]
             Policy::Cia302_6(_) => ModeKind::Cia302_6,
+            #[cfg(feature = "ecss")]
             Policy::EcssToggle(_) => ModeKind::EcssToggle,
         }
     }
     fn inner(&mut self) -> &mut dyn ChannelPolicy {
         match self {
             Policy::ActiveActive(p) => p,
+            #[cfg(feature = "cia302-6")]
             Policy::Cia302_6(p) => p,
+            #[cfg(feature = "ecss")]
             Policy::EcssToggle(p) => p,
         }
     }
     fn inner_ref(&self) -> &dyn ChannelPolicy {
         match self {
             Policy::ActiveActive(p) => p,
+            #[cfg(feature = "cia302-6")]
             Policy::Cia302_6(p) => p,
+            #[cfg(feature = "ecss")]
             Policy::EcssToggle(p) => p,
         }
     }
@@ -189,7 +202,8 @@ impl ChannelPolicy for Policy {
     }
 }
 
-/// Reports a channel change.
+/// Reports a channel change (the policies with one active channel).
+#[cfg(any(feature = "cia302-6", feature = "ecss"))]
 pub(crate) fn switched(
     out: &mut Outbox,
     at: Instant,

@@ -19,7 +19,11 @@
 //! assert_eq!(duocan::Device::port_count(&station), 2);
 //! ```
 
-use crate::link::channel::{ChannelPolicy, Cia3026, Ecss, FrameInfo, ModeKind, Policy, RxRoute};
+#[cfg(feature = "cia302-6")]
+use crate::link::channel::Cia3026;
+#[cfg(feature = "ecss")]
+use crate::link::channel::Ecss;
+use crate::link::channel::{ChannelPolicy, FrameInfo, ModeKind, Policy, RxRoute};
 use crate::link::classify::FrameClassifier;
 use crate::link::config::{ConfigError, OdLayout};
 pub use crate::link::config::{DualBusConfig, LinkMode};
@@ -124,6 +128,24 @@ pub struct DualBus<
     shown: Status,
 }
 
+/// The status entries of `policy`'s mode.
+fn status_of(policy: &Policy) -> Status {
+    match policy {
+        #[cfg(feature = "cia302-6")]
+        Policy::Cia302_6(c) => Status {
+            counter: c.error_counter(),
+            ..Status::default()
+        },
+        #[cfg(feature = "ecss")]
+        Policy::EcssToggle(e) => Status {
+            bdefault: e.bdefault(),
+            ctoggle: e.ctoggle(),
+            ..Status::default()
+        },
+        Policy::ActiveActive(_) => Status::default(),
+    }
+}
+
 /// The mode's status entries, as last shown in the dictionary.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 struct Status {
@@ -149,15 +171,18 @@ impl<C: FrameClassifier, const SLOTS: usize, const FUNCTIONS: usize> DualBus<C, 
     /// A layer with a custom frame classifier (identifier scheme).
     #[must_use]
     pub fn with_classifier(cfg: DualBusConfig, classifier: C) -> Self {
+        #[cfg_attr(not(any(feature = "cia302-6", feature = "ecss")), allow(unused_mut))]
         let mut health = cfg.health;
         let (policy, reach_enabled) = match cfg.mode {
             LinkMode::ActiveActive => (Policy::ActiveActive(Default::default()), true),
+            #[cfg(feature = "cia302-6")]
             LinkMode::Cia302_6(c) => {
                 // One channel carries the traffic: flushing it would lose frames (302-6 has
                 // its own transmit-delay rule).
                 health.tx_stall = Duration::ZERO;
                 (Policy::Cia302_6(Cia3026::new(c)), true)
             }
+            #[cfg(feature = "ecss")]
             LinkMode::EcssToggle(c) => {
                 // The inactive bus is quiet by design: silence and reachability mean nothing.
                 health.silence_detection = false;
@@ -168,7 +193,9 @@ impl<C: FrameClassifier, const SLOTS: usize, const FUNCTIONS: usize> DualBus<C, 
         // A lag is forgotten after the silence limit: the time in which a port hears something
         // anyway.
         let lag = LagMeter::new(cfg.skew_window, cfg.max_skew_window, health.silence_limit);
-        let mut l = DualBus {
+        // The dictionary starts with the configured values: only changes are written.
+        let shown = status_of(&policy);
+        DualBus {
             classifier,
             policy,
             merger: Merger::with_horizon(cfg.skew_window, lag.horizon()),
@@ -187,26 +214,12 @@ impl<C: FrameClassifier, const SLOTS: usize, const FUNCTIONS: usize> DualBus<C, 
             stats: LinkStats::default(),
             clock: TimeWatch::new(),
             layout: cfg.od_layout,
-            shown: Status::default(),
-        };
-        // The dictionary starts with the configured values: only changes are written.
-        l.shown = l.status();
-        l
+            shown,
+        }
     }
 
     fn status(&self) -> Status {
-        match &self.policy {
-            Policy::Cia302_6(c) => Status {
-                counter: c.error_counter(),
-                ..Status::default()
-            },
-            Policy::EcssToggle(e) => Status {
-                bdefault: e.bdefault(),
-                ctoggle: e.ctoggle(),
-                ..Status::default()
-            },
-            Policy::ActiveActive(_) => Status::default(),
-        }
+        status_of(&self.policy)
     }
 
     /// Queues a [`LinkRequest::SetStatus`] for every status value that changed.
@@ -246,6 +259,7 @@ impl<C: FrameClassifier, const SLOTS: usize, const FUNCTIONS: usize> DualBus<C, 
         &self.policy
     }
     /// The CiA 302-6 policy (error counter, evaluation), in that mode.
+    #[cfg(feature = "cia302-6")]
     pub fn cia302_6(&self) -> Option<&Cia3026> {
         match &self.policy {
             Policy::Cia302_6(p) => Some(p),
@@ -253,6 +267,7 @@ impl<C: FrameClassifier, const SLOTS: usize, const FUNCTIONS: usize> DualBus<C, 
         }
     }
     /// The ECSS policy (Bdefault, Ctoggle), in that mode.
+    #[cfg(feature = "ecss")]
     pub fn ecss(&self) -> Option<&Ecss> {
         match &self.policy {
             Policy::EcssToggle(p) => Some(p),

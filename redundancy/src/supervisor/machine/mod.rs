@@ -147,6 +147,8 @@ pub struct Supervisor<D, P = Predefined> {
     /// Board replacement by LSS (`replacement.rs`): the LSS master and the next look.
     lss: LssMaster<LSS_SLOTS>,
     lss_due: Option<Instant>,
+    /// [`Supervisor::start`] ran.
+    started: bool,
 }
 
 impl<D: ObjectDictionary, P: IdProfile> Supervisor<D, P> {
@@ -155,7 +157,61 @@ impl<D: ObjectDictionary, P: IdProfile> Supervisor<D, P> {
     /// TIME consumer (so that a takeover continues the time base), sets 0x1F80 bits 0 (NMT
     /// master) and 5 (flying master), boots it at `now` and starts the flying-master detection.
     #[must_use]
-    pub fn new(mut master: Master<D, P>, cfg: SupervisorConfig, now: Instant) -> Self {
+    pub fn new(master: Master<D, P>, cfg: SupervisorConfig, now: Instant) -> Self {
+        let mut s = Self::unstarted(|| master, cfg);
+        s.start(now);
+        s
+    }
+
+    /// A supervisor on the master `make` builds (not booted), not started: what
+    /// [`new`](Self::new) does in two steps, for building it in place. `make` is called last,
+    /// after everything else is ready, so that a constructor that is not inlined writes the
+    /// master straight into the supervisor (on a microcontroller every move of these tens of
+    /// kilobytes is a copy on the stack); [`start`](Self::start) then does the rest where the
+    /// supervisor stands. Nothing is sent, no timer runs until it is started.
+    #[must_use]
+    #[inline]
+    pub fn unstarted(make: impl FnOnce() -> Master<D, P>, cfg: SupervisorConfig) -> Self {
+        let mut fm = FlyingMaster::new(cfg.flying);
+        for p in &cfg.peers {
+            let _ = fm.add_peer(*p);
+        }
+        let pairs = PairSupervisor::with_capacity(cfg.pairs, cfg.pair_capacity, cfg.pair_queue);
+        let audit = AuditTrail::with_capacity(cfg.audit_capacity);
+        // Allocated once here and never grown: `emit` checks the capacity first.
+        let events = VecDeque::with_capacity(cfg.event_queue.max(1));
+        let (tx, link) = (Bounded::new(), Bounded::new());
+        let lss = LssMaster::new(LssMasterConfig::default());
+        Supervisor {
+            master: make(),
+            pairs,
+            fm,
+            audit,
+            cfg,
+            tx,
+            events,
+            events_dropped: 0,
+            link,
+            last_sync: None,
+            planned: None,
+            stats: SupervisorStats::default(),
+            clock: TimeWatch::new(),
+            lss,
+            lss_due: None,
+            started: false,
+        }
+    }
+
+    /// Starts an [`unstarted`](Self::unstarted) supervisor at `now`: everything
+    /// [`new`](Self::new) describes, on the master where it stands. A second call does
+    /// nothing (the master is booted once).
+    pub fn start(&mut self, now: Instant) {
+        if self.started {
+            return;
+        }
+        self.started = true;
+        let cfg = &self.cfg;
+        let master = &mut self.master;
         master.set_active(now, false);
         let hb = cfg.heartbeat.as_millis().min(u16::MAX as u64) as u16;
         let node = master.node_mut();
@@ -183,35 +239,10 @@ impl<D: ObjectDictionary, P: IdProfile> Supervisor<D, P> {
             .write_local(objects::NMT_STARTUP, 0, &startup.0.to_le_bytes());
         master.set_production(now, !cfg.sync_period.is_zero(), true);
         master.boot(now);
-        let mut fm = FlyingMaster::new(cfg.flying);
-        for p in &cfg.peers {
-            let _ = fm.add_peer(*p);
-        }
-        fm.start(now);
-        let mut pairs = PairSupervisor::with_capacity(cfg.pairs, cfg.pair_capacity, cfg.pair_queue);
-        pairs.set_authority(now, Authority::Shadow);
-        let event_capacity = cfg.event_queue.max(1);
-        let mut s = Supervisor {
-            master,
-            pairs,
-            fm,
-            audit: AuditTrail::with_capacity(cfg.audit_capacity),
-            cfg,
-            tx: Bounded::new(),
-            // Allocated once here and never grown: `emit` checks the capacity first.
-            events: VecDeque::with_capacity(event_capacity),
-            events_dropped: 0,
-            link: Bounded::new(),
-            last_sync: None,
-            planned: None,
-            stats: SupervisorStats::default(),
-            clock: TimeWatch::new(),
-            lss: LssMaster::new(LssMasterConfig::default()),
-            lss_due: None,
-        };
-        s.watch_clock(now);
-        s.pump(now);
-        s
+        self.fm.start(now);
+        self.pairs.set_authority(now, Authority::Shadow);
+        self.watch_clock(now);
+        self.pump(now);
     }
 
     // ----- internals -----
