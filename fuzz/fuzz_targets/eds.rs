@@ -53,7 +53,7 @@ fuzz_target!(|data: &[u8]| {
     // What imports generates a static table of the same entries, or names the limit that
     // depends on the node-ID.
     match codegen::generate(&d, &CodegenOptions::default()) {
-        Ok(src) => assert_eq!(src.matches("\n    ObjectDef {").count(), od.len()),
+        Ok(src) => assert_eq!(src.matches("\n    ObjectDef::new(").count(), od.len()),
         Err(e) => assert!(matches!(e.kind, EdsErrorKind::NotGenerated { .. }), "{e}"),
     }
     // An EDS carries no values: its dictionary is the defaults.

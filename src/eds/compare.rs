@@ -139,13 +139,13 @@ where
             ),
             (
                 "low limit",
-                limit_text(t, p.low),
-                limit_text(q.data_type, q.low),
+                limit_text(t, p.low()),
+                limit_text(q.data_type, q.low()),
             ),
             (
                 "high limit",
-                limit_text(t, p.high),
-                limit_text(q.data_type, q.high),
+                limit_text(t, p.high()),
+                limit_text(q.data_type, q.high()),
             ),
             (
                 "value",

@@ -387,7 +387,7 @@ fn entry(
     let _ = writeln!(out, "ParameterName={}", text(name, d.index, d.sub)?);
     let _ = writeln!(out, "ObjectType=0x7\nDataType=0x{:04X}", t as u16);
     let _ = writeln!(out, "AccessType={}", AccessType::of(d.access).as_str());
-    let default = match d.default {
+    let default = match d.default_value() {
         DefaultValue::NodeIdPlus(x) if s.default.is_none() && t.fixed_size().is_some() => {
             alloc::format!("$NODEID+0x{x:X}")
         }
@@ -395,7 +395,7 @@ fn entry(
     };
     let _ = writeln!(out, "DefaultValue={default}");
     let _ = writeln!(out, "PDOMapping={}", d.pdo_mappable as u8);
-    for (key, limit) in [("LowLimit", d.low), ("HighLimit", d.high)] {
+    for (key, limit) in [("LowLimit", d.low()), ("HighLimit", d.high())] {
         if let Some(text) = limit.and_then(|l| value::write_limit(t, l)) {
             let _ = writeln!(out, "{key}={text}");
         }

@@ -358,10 +358,12 @@ impl SubObject {
             .object_type(object_type);
         def.pdo_mappable = self.pdo_mapping;
         def.capacity = self.capacity();
-        def.low = self.low.as_ref().and_then(|v| v.to_limit(t, node_id));
-        def.high = self.high.as_ref().and_then(|v| v.to_limit(t, node_id));
+        def = def.bounds(
+            self.low.as_ref().and_then(|v| v.to_limit(t, node_id)),
+            self.high.as_ref().and_then(|v| v.to_limit(t, node_id)),
+        );
         let mut owned = None;
-        def.default = match &self.default {
+        let default = match &self.default {
             None => DefaultValue::Zero,
             Some(Value::Unsigned(v)) => DefaultValue::Unsigned(*v),
             Some(Value::Signed(v)) => DefaultValue::Signed(*v),
@@ -379,6 +381,7 @@ impl SubObject {
                 DefaultValue::Zero
             }
         };
+        def = def.default(default);
         (def, owned)
     }
 }

@@ -3,9 +3,10 @@
 
 use crate::od::abort::AbortCode;
 
-/// CiA 301 data types (the numbers are the type indices of 0x0001–0x001B).
+/// CiA 301 data types (the numbers are the type indices of 0x0001–0x001B; `as u16` gives
+/// them; one byte each in a definition).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
-#[repr(u16)]
+#[repr(u8)]
 pub enum DataType {
     /// BOOLEAN (1 byte on the wire, 0 or 1).
     Boolean = 0x0001,
@@ -220,8 +221,65 @@ pub enum Limit {
 /// `no_std`; reactions to accepted writes are events ([`crate::node::NodeEvent`]), not callbacks.
 pub type WriteHook = fn(index: u16, sub: u8, data: &[u8]) -> Result<(), AbortCode>;
 
+/// A number's 64 bits as two halves: a `u64` in a definition would make every definition
+/// 8-aligned and pad it (a dictionary of a thousand entries is that many definitions in flash).
+#[derive(Clone, Copy, PartialEq)]
+struct Bits([u32; 2]);
+
+impl Bits {
+    const ZERO: Bits = Bits([0; 2]);
+    const fn of(v: u64) -> Bits {
+        Bits([v as u32, (v >> 32) as u32])
+    }
+    const fn get(self) -> u64 {
+        self.0[0] as u64 | (self.0[1] as u64) << 32
+    }
+}
+
+/// A [`DefaultValue`] as a definition holds it: 4-aligned, 12 bytes instead of 16.
+#[derive(Clone, Copy)]
+enum StoredDefault {
+    Zero,
+    Unsigned(Bits),
+    Signed(Bits),
+    Real(Bits),
+    Bytes(&'static [u8]),
+    NodeIdPlus(u32),
+}
+
+/// The kind of a limit in [`ObjectDef::limit_kinds`]: two bits each, low then high.
+const NO_LIMIT: u8 = 0;
+const UNSIGNED: u8 = 1;
+const SIGNED: u8 = 2;
+const REAL: u8 = 3;
+
+const fn limit_parts(l: Option<Limit>) -> (u8, Bits) {
+    match l {
+        None => (NO_LIMIT, Bits::ZERO),
+        Some(Limit::Unsigned(v)) => (UNSIGNED, Bits::of(v)),
+        Some(Limit::Signed(v)) => (SIGNED, Bits::of(v as u64)),
+        Some(Limit::Real(v)) => (REAL, Bits::of(v.to_bits())),
+    }
+}
+
+const fn limit_of(kind: u8, bits: Bits) -> Option<Limit> {
+    match kind & 3 {
+        UNSIGNED => Some(Limit::Unsigned(bits.get())),
+        SIGNED => Some(Limit::Signed(bits.get() as i64)),
+        REAL => Some(Limit::Real(f64::from_bits(bits.get()))),
+        _ => None,
+    }
+}
+
 /// The definition of one dictionary entry (index, sub-index).
-#[derive(Clone, Copy, Debug)]
+///
+/// Built with `const` constructors and builders ([`ObjectDef::u32`], [`ObjectDef::new`],
+/// [`access`](ObjectDef::access), [`default`](ObjectDef::default),
+/// [`limits`](ObjectDef::limits), …), so that a table of them lives in flash. The default and
+/// the limits are kept compactly (no 8-byte alignment: 52 bytes a definition on a 32-bit
+/// target) and read through [`default_value`](ObjectDef::default_value),
+/// [`low`](ObjectDef::low) and [`high`](ObjectDef::high).
+#[derive(Clone, Copy)]
 pub struct ObjectDef {
     /// Object index.
     pub index: u16,
@@ -235,18 +293,39 @@ pub struct ObjectDef {
     pub access: Access,
     /// May be mapped into a PDO.
     pub pdo_mappable: bool,
+    /// The kinds of the low (bits 0–1) and high (bits 2–3) limits.
+    limit_kinds: u8,
     /// Value after reset.
-    pub default: DefaultValue,
-    /// Lowest accepted value (numeric types).
-    pub low: Option<Limit>,
-    /// Highest accepted value (numeric types).
-    pub high: Option<Limit>,
+    default: StoredDefault,
+    /// Lowest accepted value (numeric types), as its kind says.
+    low: Bits,
+    /// Highest accepted value (numeric types), as its kind says.
+    high: Bits,
     /// Largest size in bytes for strings and domains (fixed types ignore it).
     pub capacity: u32,
     /// Human-readable name (EDS `ParameterName`).
     pub name: &'static str,
     /// Optional veto on writes.
     pub hook: Option<WriteHook>,
+}
+
+impl core::fmt::Debug for ObjectDef {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        f.debug_struct("ObjectDef")
+            .field("index", &self.index)
+            .field("sub", &self.sub)
+            .field("object_type", &self.object_type)
+            .field("data_type", &self.data_type)
+            .field("access", &self.access)
+            .field("pdo_mappable", &self.pdo_mappable)
+            .field("default", &self.default_value())
+            .field("low", &self.low())
+            .field("high", &self.high())
+            .field("capacity", &self.capacity)
+            .field("name", &self.name)
+            .field("hook", &self.hook)
+            .finish()
+    }
 }
 
 impl ObjectDef {
@@ -260,9 +339,10 @@ impl ObjectDef {
             data_type,
             access: Access::Rw,
             pdo_mappable: false,
-            default: DefaultValue::Zero,
-            low: None,
-            high: None,
+            limit_kinds: 0,
+            default: StoredDefault::Zero,
+            low: Bits::ZERO,
+            high: Bits::ZERO,
             capacity: 0,
             name: "",
             hook: None,
@@ -292,9 +372,7 @@ impl ObjectDef {
     /// A string or domain entry holding at most `capacity` bytes.
     #[must_use]
     pub const fn bytes(index: u16, sub: u8, data_type: DataType, capacity: u32) -> ObjectDef {
-        let mut d = ObjectDef::new(index, sub, data_type);
-        d.capacity = capacity;
-        d
+        ObjectDef::new(index, sub, data_type).capacity(capacity)
     }
     /// Sets the access right.
     #[must_use]
@@ -305,7 +383,14 @@ impl ObjectDef {
     /// Sets the default value.
     #[must_use]
     pub const fn default(mut self, default: DefaultValue) -> ObjectDef {
-        self.default = default;
+        self.default = match default {
+            DefaultValue::Zero => StoredDefault::Zero,
+            DefaultValue::Unsigned(v) => StoredDefault::Unsigned(Bits::of(v)),
+            DefaultValue::Signed(v) => StoredDefault::Signed(Bits::of(v as u64)),
+            DefaultValue::Real(v) => StoredDefault::Real(Bits::of(v.to_bits())),
+            DefaultValue::Bytes(b) => StoredDefault::Bytes(b),
+            DefaultValue::NodeIdPlus(v) => StoredDefault::NodeIdPlus(v),
+        };
         self
     }
     /// Marks the entry PDO-mappable.
@@ -322,9 +407,23 @@ impl ObjectDef {
     }
     /// Sets the accepted range.
     #[must_use]
-    pub const fn limits(mut self, low: Limit, high: Limit) -> ObjectDef {
-        self.low = Some(low);
-        self.high = Some(high);
+    pub const fn limits(self, low: Limit, high: Limit) -> ObjectDef {
+        self.bounds(Some(low), Some(high))
+    }
+    /// Sets the lowest and the highest accepted value, each optional (`None`: no limit).
+    #[must_use]
+    pub const fn bounds(mut self, low: Option<Limit>, high: Option<Limit>) -> ObjectDef {
+        let (lk, lb) = limit_parts(low);
+        let (hk, hb) = limit_parts(high);
+        self.limit_kinds = lk | hk << 2;
+        self.low = lb;
+        self.high = hb;
+        self
+    }
+    /// Sets the largest size in bytes of a string or domain value.
+    #[must_use]
+    pub const fn capacity(mut self, capacity: u32) -> ObjectDef {
+        self.capacity = capacity;
         self
     }
     /// Sets the name.
@@ -338,6 +437,35 @@ impl ObjectDef {
     pub const fn hook(mut self, hook: WriteHook) -> ObjectDef {
         self.hook = Some(hook);
         self
+    }
+    /// Installs or removes a write veto hook.
+    #[must_use]
+    pub const fn with_hook(mut self, hook: Option<WriteHook>) -> ObjectDef {
+        self.hook = hook;
+        self
+    }
+    /// The value after reset.
+    pub const fn default_value(&self) -> DefaultValue {
+        match self.default {
+            StoredDefault::Zero => DefaultValue::Zero,
+            StoredDefault::Unsigned(b) => DefaultValue::Unsigned(b.get()),
+            StoredDefault::Signed(b) => DefaultValue::Signed(b.get() as i64),
+            StoredDefault::Real(b) => DefaultValue::Real(f64::from_bits(b.get())),
+            StoredDefault::Bytes(b) => DefaultValue::Bytes(b),
+            StoredDefault::NodeIdPlus(v) => DefaultValue::NodeIdPlus(v),
+        }
+    }
+    /// The lowest accepted value (numeric types), if limited.
+    pub const fn low(&self) -> Option<Limit> {
+        limit_of(self.limit_kinds, self.low)
+    }
+    /// The highest accepted value (numeric types), if limited.
+    pub const fn high(&self) -> Option<Limit> {
+        limit_of(self.limit_kinds >> 2, self.high)
+    }
+    /// True if the entry has a low or a high limit.
+    pub const fn is_limited(&self) -> bool {
+        self.limit_kinds != 0
     }
     /// The dictionary key: `index << 8 | sub`.
     pub const fn key(&self) -> u32 {
@@ -357,3 +485,12 @@ impl ObjectDef {
 pub const fn key(index: u16, sub: u8) -> u32 {
     ((index as u32) << 8) | sub as u32
 }
+
+// What keeps a thousand-entry dictionary in flash small: a definition stays 52 bytes on a
+// 32-bit target (it was 72 with 8-aligned defaults and limits).
+#[cfg(target_pointer_width = "32")]
+const _: () = assert!(core::mem::size_of::<ObjectDef>() <= 52);
+
+#[cfg(test)]
+#[path = "def_tests.rs"]
+mod tests;

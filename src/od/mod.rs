@@ -336,7 +336,7 @@ pub(crate) fn miss(has_index: bool) -> AbortCode {
     }
 }
 
-/// A multiplicative hasher for the 32-bit keys: one multiply, no per-lookup seed. The keys are
+/// A multiplicative hasher for the 32-bit keys: one multiply, no per-lookup salt. The keys are
 /// dictionary addresses chosen by the application, not attacker input, so DoS resistance buys
 /// nothing here and costs a third of the lookup time.
 #[derive(Default, Clone, Copy)]

@@ -6,7 +6,7 @@
 //! slots) and a base slot; the bucket's displacement, chosen when the index is built, is XORed
 //! into the base. Buckets are placed largest first, each with the first displacement that puts
 //! all its keys on free slots. A build that finds no displacement for some bucket starts again
-//! with another seed; after [`SEEDS`] seeds (never seen with a table up to three quarters full)
+//! with another salt; after [`SALTS`] salts (never seen with a table up to three quarters full)
 //! the index falls back to a scan, which is slow but correct. Tables of fewer than
 //! [`SMALL`] slots are always scanned: a handful of comparisons beats any hash.
 //!
@@ -19,19 +19,19 @@
 const EMPTY: u32 = 1 << 24;
 /// Marks a slot taken while a bucket is being placed (above any key's 24 bits).
 const TAKEN: u32 = 1 << 31;
-/// Seeds a build tries before it falls back to scanning.
-const SEEDS: u32 = 32;
+/// Salts a build tries before it falls back to scanning.
+const SALTS: u32 = 32;
 /// Below this capacity the index scans.
 const SMALL: usize = 16;
-/// Keys one bucket may hold (a seed that puts more in one is passed over).
+/// Keys one bucket may hold (a salt that puts more in one is passed over).
 const BUCKET_MAX: usize = 16;
 
-/// The key's 64-bit hash for `seed`: one multiplication by an odd multiplier the seed picks. The
+/// The key's 64-bit hash for `salt`: one multiplication by an odd multiplier the salt picks. The
 /// bucket is taken from the top bits of the product and the base slot from the bits below the
 /// middle, both of which every key bit reaches.
 #[inline(always)]
-fn hash(key: u32, seed: u32) -> u64 {
-    let m = 0x9E37_79B9_7F4A_7C15u64 ^ (u64::from(seed).wrapping_mul(0xD6E8_FEB8_6659_FD93) << 1);
+fn hash(key: u32, salt: u32) -> u64 {
+    let m = 0x9E37_79B9_7F4A_7C15u64 ^ (u64::from(salt).wrapping_mul(0xD6E8_FEB8_6659_FD93) << 1);
     u64::from(key).wrapping_mul(m | 1)
 }
 
@@ -50,7 +50,7 @@ pub(crate) struct PerfectIndex<T: Copy, const N: usize> {
     /// While building: the entries' slots grouped by bucket.
     scratch: [u16; N],
     len: usize,
-    seed: u32,
+    salt: u32,
     perfect: bool,
 }
 
@@ -65,7 +65,7 @@ impl<T: Copy, const N: usize> PerfectIndex<T, N> {
             disp: [0; N],
             scratch: [0; N],
             len: 0,
-            seed: 0,
+            salt: 0,
             perfect: false,
         }
     }
@@ -81,10 +81,10 @@ impl<T: Copy, const N: usize> PerfectIndex<T, N> {
     const BUCKET_BITS: u32 = if N >= 4 { (N / 2).ilog2() } else { 0 };
     const BUCKETS: usize = 1 << Self::BUCKET_BITS;
 
-    /// The bucket and base slot of `key` under `seed`.
+    /// The bucket and base slot of `key` under `salt`.
     #[inline(always)]
-    fn place(key: u32, seed: u32) -> (usize, usize) {
-        let h = hash(key, seed);
+    fn place(key: u32, salt: u32) -> (usize, usize) {
+        let h = hash(key, salt);
         let bucket = (h >> (63 - Self::BUCKET_BITS) >> 1) as usize;
         (bucket, (h >> 24) as usize & Self::MASK)
     }
@@ -93,7 +93,7 @@ impl<T: Copy, const N: usize> PerfectIndex<T, N> {
     #[inline(always)]
     fn find(&self, key: u32) -> Option<usize> {
         if self.perfect {
-            let (b, base) = Self::place(key, self.seed);
+            let (b, base) = Self::place(key, self.salt);
             let slot = (base ^ self.disp[b] as usize) & Self::MASK;
             return (self.cells[slot].key == key).then_some(slot);
         }
@@ -111,7 +111,7 @@ impl<T: Copy, const N: usize> PerfectIndex<T, N> {
     pub fn get(&self, key: u32) -> Option<&T> {
         if self.perfect {
             // The lookup proper, written out: one cell read for key and entry together.
-            let (b, base) = Self::place(key, self.seed);
+            let (b, base) = Self::place(key, self.salt);
             let cell = &self.cells[(base ^ self.disp[b] as usize) & Self::MASK];
             return if cell.key == key {
                 cell.entry.as_ref()
@@ -159,10 +159,10 @@ impl<T: Copy, const N: usize> PerfectIndex<T, N> {
         if N < SMALL || self.len == 0 || N > u16::MAX as usize {
             return;
         }
-        for attempt in 0..SEEDS {
-            let seed = self.seed.wrapping_add(attempt + 1);
-            if self.try_seed(seed) {
-                self.seed = seed;
+        for attempt in 0..SALTS {
+            let salt = self.salt.wrapping_add(attempt + 1);
+            if self.try_salt(salt) {
+                self.salt = salt;
                 self.settle();
                 self.perfect = true;
                 return;
@@ -170,15 +170,15 @@ impl<T: Copy, const N: usize> PerfectIndex<T, N> {
         }
     }
 
-    /// Tries to place every bucket under `seed`; on success the displacements are set.
-    fn try_seed(&mut self, seed: u32) -> bool {
+    /// Tries to place every bucket under `salt`; on success the displacements are set.
+    fn try_salt(&mut self, salt: u32) -> bool {
         let b = Self::BUCKETS;
         let (disp, ends) = self.disp.split_at_mut(b);
         // Group the entries' slots by bucket (a counting sort into `scratch`): `ends[k]` is
         // where bucket k's members end, and the previous bucket's end where they start.
         ends.iter_mut().for_each(|e| *e = 0);
         for c in self.cells.iter().filter(|c| c.key != EMPTY) {
-            let (k, _) = Self::place(c.key, seed);
+            let (k, _) = Self::place(c.key, salt);
             ends[k] += 1;
         }
         let mut start = 0u16;
@@ -195,7 +195,7 @@ impl<T: Copy, const N: usize> PerfectIndex<T, N> {
             .enumerate()
             .filter(|(_, c)| c.key != EMPTY)
         {
-            let (k, _) = Self::place(c.key, seed);
+            let (k, _) = Self::place(c.key, salt);
             self.scratch[ends[k] as usize] = s as u16;
             ends[k] += 1;
         }
@@ -213,7 +213,7 @@ impl<T: Copy, const N: usize> PerfectIndex<T, N> {
                 let mut bases = heapless::Vec::<usize, BUCKET_MAX>::new();
                 for &s in &self.scratch[from..from + size] {
                     // (A key whose slot an earlier bucket claimed carries the mark.)
-                    let base = Self::place(self.cells[s as usize].key & !TAKEN, seed).1;
+                    let base = Self::place(self.cells[s as usize].key & !TAKEN, salt).1;
                     // Two keys of a bucket on one base: no displacement separates them.
                     if bases.contains(&base) || bases.push(base).is_err() {
                         ok = false;
@@ -247,7 +247,7 @@ impl<T: Copy, const N: usize> PerfectIndex<T, N> {
     /// entry).
     fn settle(&mut self) {
         let target = |key: u32, disp: &[u16]| {
-            let (b, base) = Self::place(key, self.seed);
+            let (b, base) = Self::place(key, self.salt);
             (base ^ disp[b] as usize) & Self::MASK
         };
         for s in 0..N {

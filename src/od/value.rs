@@ -66,7 +66,7 @@ pub(crate) fn compatible(want: DataType, have: DataType) -> bool {
 /// Writes the default of `def` for a node into `out`, returning the length.
 pub(crate) fn encode_default(def: &ObjectDef, node_id: u8, out: &mut [u8]) -> usize {
     let size = def.data_type.fixed_size();
-    let n = match def.default {
+    let n = match def.default_value() {
         DefaultValue::Zero => size.unwrap_or(0),
         DefaultValue::Unsigned(v) => put_int(v, size, out),
         DefaultValue::Signed(v) => put_int(v as u64, size, out),
@@ -77,7 +77,7 @@ pub(crate) fn encode_default(def: &ObjectDef, node_id: u8, out: &mut [u8]) -> us
         },
         DefaultValue::Bytes(b) => copy(b, out),
     };
-    if matches!(def.default, DefaultValue::Zero) {
+    if matches!(def.default_value(), DefaultValue::Zero) {
         let n = n.min(out.len());
         out[..n].fill(0);
         return n;
@@ -89,7 +89,7 @@ pub(crate) fn encode_default(def: &ObjectDef, node_id: u8, out: &mut [u8]) -> us
 /// size: power-on captures compare every entry).
 pub(crate) fn is_default(def: &ObjectDef, node_id: u8, data: &[u8]) -> bool {
     let size = def.storage_size();
-    match def.default {
+    match def.default_value() {
         DefaultValue::Bytes(b) => data == &b[..b.len().min(size)],
         DefaultValue::Zero if def.data_type.fixed_size().is_none() => data.is_empty(),
         // Numbers: at most eight bytes, whatever the type.
@@ -108,7 +108,7 @@ pub(crate) fn default_vec(def: &ObjectDef, node_id: u8) -> alloc::vec::Vec<u8> {
     // megabyte with an empty default costs nothing until written).
     let size = match def.data_type.fixed_size() {
         Some(n) => n,
-        None => match def.default {
+        None => match def.default_value() {
             DefaultValue::Bytes(b) => b.len(),
             DefaultValue::Zero => 0,
             _ => 8,
@@ -145,7 +145,7 @@ pub fn check_value(def: &ObjectDef, data: &[u8]) -> Result<(), AbortCode> {
     if def.data_type == DataType::Boolean && data[0] > 1 {
         return Err(AbortCode::VALUE_RANGE);
     }
-    if def.low.is_some() || def.high.is_some() {
+    if def.low().is_some() || def.high().is_some() {
         check_limits(def, data)?;
     }
     if let Some(hook) = def.hook {
@@ -191,12 +191,12 @@ fn check_limits(def: &ObjectDef, data: &[u8]) -> Result<(), AbortCode> {
             raw.cmp(&l)
         }
     };
-    if let Some(low) = def.low {
+    if let Some(low) = def.low() {
         if cmp(low).is_lt() {
             return Err(AbortCode::VALUE_TOO_LOW);
         }
     }
-    if let Some(high) = def.high {
+    if let Some(high) = def.high() {
         if cmp(high).is_gt() {
             return Err(AbortCode::VALUE_TOO_HIGH);
         }

@@ -131,7 +131,7 @@ fn hooks_are_installed_and_must_name_an_entry() {
     let d = Description::read_with(path("data_types.eds"), &ImportOptions::strict()).unwrap();
     let opts = CodegenOptions::default().with_hook(0x2001, 0, "crate::hooks::check");
     let src = codegen::generate(&d, &opts).unwrap();
-    assert_eq!(src.matches("hook: Some(crate::hooks::check)").count(), 1);
+    assert_eq!(src.matches(".hook(crate::hooks::check)").count(), 1);
     let e = codegen::generate(&d, &opts.with_hook(0x2FFF, 3, "crate::hooks::none")).unwrap_err();
     assert!(matches!(e.kind, EdsErrorKind::NotGenerated { .. }));
     assert!(e.to_string().contains("0x2fffsub3"), "{e}");
@@ -143,9 +143,9 @@ fn hooks_are_installed_and_must_name_an_entry() {
     );
     let d = Description::read(gateway).unwrap();
     let src = codegen::generate(&d, &CodegenOptions::default()).unwrap();
-    assert_eq!(src.matches("hook: Some(").count(), 1);
+    assert_eq!(src.matches(".hook(").count(), 1);
     assert_eq!(
-        src.matches("hook: Some(::duocan::od::comm::sync_overflow_value)")
+        src.matches(".hook(::duocan::od::comm::sync_overflow_value)")
             .count(),
         1
     );
@@ -153,7 +153,7 @@ fn hooks_are_installed_and_must_name_an_entry() {
     assert_eq!(
         codegen::generate(&d, &none)
             .unwrap()
-            .matches("hook: Some(")
+            .matches(".hook(")
             .count(),
         0
     );

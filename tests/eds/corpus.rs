@@ -352,7 +352,10 @@ fn limits_are_checked_by_the_dictionary() {
         od.write(0x2001, 0, &101i8.to_le_bytes()),
         Err(AbortCode::VALUE_TOO_HIGH)
     );
-    assert_eq!(od.get(0x2002, 0).unwrap().def.high, Some(Limit::Real(1.5)));
+    assert_eq!(
+        od.get(0x2002, 0).unwrap().def.high(),
+        Some(Limit::Real(1.5))
+    );
     assert_eq!(
         od.write(0x2002, 0, &1.75f32.to_le_bytes()),
         Err(AbortCode::VALUE_TOO_HIGH)

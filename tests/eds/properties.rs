@@ -148,31 +148,32 @@ fn build(
     if integer && r.node_relative {
         // A node-relative default (what CiA 301 COB-IDs are); a sum beyond the type wraps
         // alike on both sides.
-        def.default = DefaultValue::NodeIdPlus(r.bits.0 as u32);
+        def = def.default(DefaultValue::NodeIdPlus(r.bits.0 as u32));
         return (def, r.name.clone(), None, value);
     }
-    def.default = match t {
+    def = def.default(match t {
         DataType::Real32 => {
             DefaultValue::Real(f32::from_le_bytes(default[..].try_into().unwrap()) as f64)
         }
         DataType::Real64 => DefaultValue::Real(f64::from_le_bytes(default[..].try_into().unwrap())),
         _ if t.is_signed() => DefaultValue::Signed(widen(t, &default) as i64),
         _ => DefaultValue::Unsigned(widen(t, &default) as u64),
-    };
+    });
     if r.spread > 0 && t != DataType::Boolean {
         // Limits around the default; the value is the default, within them.
-        def.low = Some(match def.default {
+        let low = Some(match def.default_value() {
             DefaultValue::Real(x) => Limit::Real(x - r.spread as f64),
             DefaultValue::Signed(x) => Limit::Signed(x.saturating_sub(r.spread as i64)),
             DefaultValue::Unsigned(x) => Limit::Unsigned(x.saturating_sub(r.spread as u64)),
             _ => unreachable!(),
         });
-        def.high = Some(match def.default {
+        let high = Some(match def.default_value() {
             DefaultValue::Real(x) => Limit::Real(x + r.spread as f64),
             DefaultValue::Signed(x) => Limit::Signed(x.saturating_add(r.spread as i64)),
             DefaultValue::Unsigned(x) => Limit::Unsigned(x.saturating_add(r.spread as u64)),
             _ => unreachable!(),
         });
+        def = def.bounds(low, high);
         value = default;
     }
     (def, r.name.clone(), None, value)

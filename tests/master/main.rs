@@ -14,4 +14,5 @@ mod properties;
 mod queues;
 mod reboot;
 mod request_nmt;
+mod slots;
 mod standby;

@@ -83,7 +83,7 @@ pub const ENTRIES: usize = comm::COMM_LEN + 6 + CONSUMERS + 9 + 2 + 6 * 128 + 12
 const _: () = assert!(ENTRIES <= OD_ENTRIES);
 
 /// Loads the tables into `od` (empty: a new [`Od`]) for the master with node-ID `node`. In
-/// place: the firmware keeps the dictionary in a `static` and lends it to the master.
+/// place: the firmware keeps the dictionary in `main`'s frame and lends it to the master.
 pub fn load(od: &mut Od, node: u8) -> Result<(), BuildError> {
     od.load(node, &TABLES)
 }

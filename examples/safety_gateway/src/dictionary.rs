@@ -57,7 +57,7 @@ const fn def(index: u16, sub: u8) -> &'static ObjectDef {
 
 /// The default of an unsigned entry, at compile time.
 const fn unsigned(index: u16, sub: u8) -> u64 {
-    match def(index, sub).default {
+    match def(index, sub).default_value() {
         DefaultValue::Unsigned(v) => v,
         DefaultValue::Zero => 0,
         _ => panic!("safety_gateway.eds: a figure the gateway uses is not an unsigned number"),

@@ -77,8 +77,9 @@ impl<D: ObjectDictionary, P: IdProfile> Master<D, P> {
             timeout: self.sdo_timeout,
             ..SdoOptions::default()
         };
-        let i = n.raw() as usize - 1;
-        let s = &mut self.slots[i];
+        let Some(s) = self.slots.get_mut(n) else {
+            return;
+        };
         let Some(p) = s.process.as_ref() else {
             return;
         };
@@ -111,7 +112,7 @@ impl<D: ObjectDictionary, P: IdProfile> Master<D, P> {
             }
             Err(e) => {
                 let id = self.expected_identity(n);
-                let s = &mut self.slots[i];
+                let s = self.slot_mut(n);
                 if let Some(p) = s.process.as_mut() {
                     let out = p.handle(s.run.as_deref().unwrap_or(&s.cfg), &id, Err(e));
                     self.apply(now, n, out);

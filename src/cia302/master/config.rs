@@ -240,11 +240,17 @@ pub struct SlaveConfig {
 impl SlaveConfig {
     /// An optional slave, identity unchecked, nothing configured, started by the master.
     #[must_use]
-    pub fn new(node: NodeId) -> SlaveConfig {
+    pub const fn new(node: NodeId) -> SlaveConfig {
         SlaveConfig {
             node,
             assignment: Assignment::slave(),
-            identity: ExpectedIdentity::default(),
+            identity: ExpectedIdentity {
+                device_type: 0,
+                vendor: 0,
+                product: 0,
+                revision: 0,
+                serial: 0,
+            },
             heartbeat_producer_ms: None,
             heartbeat_consumer_ms: 0,
             steps: Vec::new(),
@@ -397,6 +403,13 @@ pub struct NetworkConfig {
     /// in its queue, and how many transfers the application can run beside them (default
     /// [`SESSIONS`](super::SESSIONS), at least 1); allocated once, never grown.
     pub sdo_sessions: usize,
+    /// Nodes the master keeps a slot for (its configuration, boot process and timers, about
+    /// 250 bytes each), at most 127 (the default: every node-ID, slave or not). Below, only
+    /// slaves get one, and a slave beyond it is refused ([`MasterError::TooManySlaves`]);
+    /// allocated once when the master is built, never grown.
+    ///
+    /// [`MasterError::TooManySlaves`]: super::MasterError::TooManySlaves
+    pub max_slaves: usize,
 }
 
 impl Default for NetworkConfig {
@@ -414,6 +427,7 @@ impl Default for NetworkConfig {
             tpdos: super::TPDOS,
             rpdos: super::RPDOS,
             sdo_sessions: super::SESSIONS,
+            max_slaves: 127,
         }
     }
 }
@@ -488,6 +502,13 @@ impl NetworkConfig {
     #[must_use]
     pub fn with_sdo_sessions(mut self, sessions: usize) -> NetworkConfig {
         self.sdo_sessions = sessions;
+        self
+    }
+    /// Sets how many nodes the master keeps a slot for (at most 127): the slaves a small
+    /// master runs, so that its heap holds no slots for node-IDs it never uses.
+    #[must_use]
+    pub fn max_slaves(mut self, slots: usize) -> NetworkConfig {
+        self.max_slaves = slots;
         self
     }
     /// Adds (or replaces) a slave.

@@ -154,6 +154,15 @@ pub enum MasterEventKind {
         /// Why the dictionary refused it.
         code: AbortCode,
     },
+    /// A write to 0x1F81 made a node a slave while every slot of the master was taken
+    /// ([`NetworkConfig::max_slaves`](super::NetworkConfig::max_slaves)): the entry was set back
+    /// to 0 (not a slave).
+    TooManySlaves {
+        /// The node.
+        node: NodeId,
+        /// The master's slots.
+        capacity: usize,
+    },
 }
 
 /// What the master knows of one node.
@@ -257,6 +266,15 @@ pub enum MasterError {
         /// The limit.
         limit: usize,
     },
+    /// The master has a slot for `capacity` nodes
+    /// ([`NetworkConfig::max_slaves`](super::NetworkConfig::max_slaves)), all taken: `node` cannot
+    /// be a slave (or get a program download).
+    TooManySlaves {
+        /// The node refused.
+        node: NodeId,
+        /// The master's slots.
+        capacity: usize,
+    },
     /// The dictionary refused a configuration value.
     Refused {
         /// Index.
@@ -306,6 +324,10 @@ impl fmt::Display for MasterError {
             MasterError::ImageTooLarge { len, limit } => write!(
                 f,
                 "the image has {len} bytes, above the master's SDO transfer limit of {limit}"
+            ),
+            MasterError::TooManySlaves { node, capacity } => write!(
+                f,
+                "{node} needs a slot, and all {capacity} of the master's are taken: raise NetworkConfig::max_slaves"
             ),
             MasterError::Refused { index, sub, code } => {
                 write!(f, "the master's {index:#06x}sub{sub} refused the value: {code}")

@@ -190,7 +190,18 @@ impl<D: ObjectDictionary, P: IdProfile> Master<D, P> {
     }
 
     pub(super) fn on_assignment(&mut self, now: Instant, n: NodeId) {
-        let a = self.assignment(n);
+        let mut a = self.assignment(n);
+        if a.is_slave() && self.slots.give(n).is_none() {
+            // No slot left for it: the entry goes back to "not a slave", so that the
+            // dictionary says what the master does, and the writer is told by the event.
+            let _ =
+                self.node
+                    .od_mut()
+                    .store(objects::SLAVE_ASSIGNMENT, n.raw(), &0u32.to_le_bytes());
+            let capacity = self.slots.capacity();
+            self.emit(now, MasterEventKind::TooManySlaves { node: n, capacity });
+            a = self.assignment(n);
+        }
         if let Err(MasterError::Refused { code, .. }) = self.set_consumer(now, n, a.is_slave()) {
             self.emit(
                 now,

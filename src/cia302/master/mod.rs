@@ -106,6 +106,7 @@ use own::check_slave;
 mod program;
 mod program_run;
 mod slaves;
+mod slot_table;
 mod srdo;
 
 pub use boot::{BootError, BootPhase, ErrorStatus};
@@ -135,9 +136,8 @@ use crate::node::{Node, NodeConfig, ALL_NODES};
 use crate::od::{comm, ObjectDictionary};
 use crate::profile::{IdProfile, Predefined};
 use alloc::collections::VecDeque;
-use alloc::vec::Vec;
 use network::Network;
-use slaves::Slot;
+use slot_table::SlotTable;
 
 /// NMT commands the master holds before the driver drains them, by default
 /// ([`NetworkConfig::nmt_queue`]).
@@ -179,7 +179,8 @@ pub struct Master<D, P = Predefined> {
     /// The client has no transfer running and nothing to send: it is left out of the frame
     /// path (a master of a hundred slaves mostly hears heartbeats).
     sdo_idle: bool,
-    slots: Vec<Slot>,
+    /// Per-node state, [`NetworkConfig::max_slaves`] slots at most.
+    slots: SlotTable,
     /// A lower bound of every slot's timers (probe, keep-alive wait, K watchdog).
     slot_timer: Option<Instant>,
     network: Network,
@@ -265,11 +266,8 @@ impl<D: ObjectDictionary, P: IdProfile> Master<D, P> {
         };
         put(NMT_STARTUP, 0, config.startup.0)?;
         put(BOOT_TIME, 0, config.boot_time_ms)?;
-        // One slot per node-ID, allocated at its final size: collected through `filter_map`
-        // the vector would grow by doubling, holding half the table twice over while it does
-        // and keeping room for 128 (what a microcontroller's heap must then provide).
-        let mut slots: Vec<Slot> = Vec::with_capacity(127);
-        slots.extend((1..=127u8).filter_map(NodeId::new).map(Slot::new));
+        // The slots, allocated once at their final size (`slot_table.rs`).
+        let mut slots = SlotTable::new(config.max_slaves);
         for s in &config.slaves {
             check_slave(s, node.node_id)?;
             let n = s.node.raw();
@@ -283,7 +281,7 @@ impl<D: ObjectDictionary, P: IdProfile> Master<D, P> {
                 put(EXPECTED_CONFIG_DATE, n, s.stamp.date)?;
                 put(EXPECTED_CONFIG_TIME, n, s.stamp.time)?;
             }
-            slots[n as usize - 1].cfg = s.clone();
+            slots.claim(s.node)?.cfg = s.clone();
         }
         let producer = |od: &D, index| {
             od.get_u32(index, 0)
@@ -324,6 +322,9 @@ impl<D: ObjectDictionary, P: IdProfile> Master<D, P> {
         // Before boot the node reads its dictionary at boot, so plain stores suffice.
         for n in (1..=127u8).filter_map(NodeId::new) {
             if m.assignment(n).is_slave() {
+                // Slaves the dictionary assigns that the configuration does not name need
+                // their slot too.
+                m.slots.claim(n)?;
                 m.set_consumer(Instant::ZERO, n, true)?;
             }
         }
@@ -454,6 +455,7 @@ impl<D: ObjectDictionary, P: IdProfile> Master<D, P> {
         use objects::*;
         let n = cfg.node;
         check_slave(&cfg, self.node.id())?;
+        self.slots.claim(n)?;
         let id = cfg.identity;
         let assignment = cfg.assignment.0;
         let stamp = cfg.stamp;
@@ -501,9 +503,11 @@ impl<D: ObjectDictionary, P: IdProfile> Master<D, P> {
         self.assigned().map(|n| self.slave(n))
     }
 
-    /// The master's configuration of a slave.
-    pub fn slave_config(&self, node: NodeId) -> &SlaveConfig {
-        &self.slot(node).cfg
+    /// The master's configuration of a node, if it has a slot: every node-ID with
+    /// [`NetworkConfig::max_slaves`] at 127 (the default, a blank configuration for the nodes
+    /// not configured), else the slaves only.
+    pub fn slave_config(&self, node: NodeId) -> Option<&SlaveConfig> {
+        self.slots.get(node).map(|s| &s.cfg)
     }
 
     /// The master's own node.

@@ -29,12 +29,18 @@ impl<D: ObjectDictionary, P: IdProfile> Master<D, P> {
             .filter(|n| self.assignment(*n).is_slave())
     }
 
-    pub(super) fn slot(&self, n: NodeId) -> &Slot {
-        &self.slots[n.raw() as usize - 1]
+    /// `n`'s slot, or a blank one if it has none (`slot_table.rs`).
+    pub(super) fn slot(&self, n: NodeId) -> &super::slaves::Slot {
+        self.slots.read(n)
     }
 
-    pub(super) fn slot_mut(&mut self, n: NodeId) -> &mut Slot {
-        &mut self.slots[n.raw() as usize - 1]
+    /// `n`'s slot: given now to a slave that has none (assigned in the dictionary behind the
+    /// master's back) while the table has room; else a scratch slot whose writes go nowhere.
+    pub(super) fn slot_mut(&mut self, n: NodeId) -> &mut super::slaves::Slot {
+        if self.slots.get(n).is_none() && self.assignment(n).is_slave() {
+            let _ = self.slots.give(n);
+        }
+        self.slots.write(n)
     }
 
     pub(super) fn emit(&mut self, at: Instant, kind: MasterEventKind) {

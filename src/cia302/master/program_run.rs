@@ -54,6 +54,8 @@ impl<D: ObjectDictionary, P: IdProfile> Master<D, P> {
         if s.program.is_some() || s.process.is_some() || s.request.is_some() {
             return Err(MasterError::Busy(node));
         }
+        // The download lives in the node's slot, slave or not.
+        self.slots.claim(node)?;
         let expected = self
             .node
             .od()
@@ -88,8 +90,9 @@ impl<D: ObjectDictionary, P: IdProfile> Master<D, P> {
             return self.program_moved(now, n);
         }
         let timeout = self.sdo_timeout;
-        let i = n.raw() as usize - 1;
-        let s = &mut self.slots[i];
+        let Some(s) = self.slots.get_mut(n) else {
+            return;
+        };
         let Some(run) = s.program.as_ref() else {
             return;
         };

@@ -47,7 +47,7 @@ pub(super) struct Slot {
 }
 
 impl Slot {
-    pub(super) fn new(n: NodeId) -> Slot {
+    pub(super) const fn new(n: NodeId) -> Slot {
         Slot {
             cfg: SlaveConfig::new(n),
             run: None,
@@ -108,7 +108,7 @@ impl<D: ObjectDictionary, P: IdProfile> Master<D, P> {
         earliest(net, self.slot_timer)
     }
 
-    /// The earliest timer of any slot, computed (127 slots: not on every poll).
+    /// The earliest timer of any slot, computed (up to 127 slots: not on every poll).
     fn slot_deadline(&self) -> Option<Instant> {
         earliest_of(self.slots.iter().map(|s| s.deadline()))
     }
@@ -181,15 +181,12 @@ impl<D: ObjectDictionary, P: IdProfile> Master<D, P> {
             return;
         }
         for i in 0..self.slots.len() {
-            let Some(n) = NodeId::new(i as u8 + 1) else {
-                continue;
-            };
-            let s = &mut self.slots[i];
+            let (n, s) = self.slots.at_mut(i);
             if s.wait_until.is_some_and(|t| t <= now) {
                 s.wait_until = None;
                 self.decide_keep_alive(now, n);
             }
-            let s = &mut self.slots[i];
+            let (_, s) = self.slots.at_mut(i);
             if s.probe_at.is_some_and(|t| t <= now) {
                 s.probe_at = None;
                 if s.phase == BootPhase::WaitBootUp && self.acting() {
@@ -197,7 +194,7 @@ impl<D: ObjectDictionary, P: IdProfile> Master<D, P> {
                     self.begin(now, n);
                 }
             }
-            let s = &mut self.slots[i];
+            let (_, s) = self.slots.at_mut(i);
             if let Some((armed, due)) = s.hb_check {
                 if due <= now {
                     s.hb_check = None;

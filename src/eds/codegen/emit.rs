@@ -4,7 +4,7 @@ use super::{CodegenOptions, Generated};
 use crate::eds::error::{EdsError, EdsErrorKind, Location};
 use crate::eds::model::{AccessType, Description, Object, SubObject};
 use crate::eds::value::{type_name, Value};
-use crate::od::{comm, DefaultValue, Limit, ObjectDef, ObjectType};
+use crate::od::{comm, Access, DefaultValue, Limit, ObjectDef, ObjectType};
 use alloc::boxed::Box;
 use alloc::collections::{BTreeMap, BTreeSet};
 use alloc::format;
@@ -241,24 +241,39 @@ fn table(out: &mut String, rows: &[Row<'_>]) {
             type_name(d.data_type),
             AccessType::of(d.access).as_str()
         );
-        let _ = writeln!(
+        // The definition's builders, one a line, each only where it differs from `new`'s.
+        let _ = write!(
             out,
-            "    ObjectDef {{ index: {:#06x}, sub: {}, object_type: ObjectType::{:?}, \
-             data_type: DataType::{:?}, access: Access::{:?}, pdo_mappable: {}, \
-             default: {}, low: {}, high: {}, capacity: {}, name: {:?}, hook: {} }},",
-            d.index,
-            d.sub,
-            d.object_type,
-            d.data_type,
-            d.access,
-            d.pdo_mappable,
-            default(d.default, r.bytes.as_deref()),
-            limit(d.low),
-            limit(d.high),
-            d.capacity,
-            r.name,
-            r.hook.map_or("None".into(), |h| format!("Some({h})")),
+            "    ObjectDef::new({:#06x}, {}, DataType::{:?})",
+            d.index, d.sub, d.data_type
         );
+        let mut call = |text: String| {
+            let _ = write!(out, "\n        .{text}");
+        };
+        if d.object_type != ObjectType::Var {
+            call(format!("object_type(ObjectType::{:?})", d.object_type));
+        }
+        if d.access != Access::Rw {
+            call(format!("access(Access::{:?})", d.access));
+        }
+        if d.pdo_mappable {
+            call("mappable()".into());
+        }
+        let value = d.default_value();
+        if r.bytes.is_some() || !matches!(value, DefaultValue::Zero) {
+            call(format!("default({})", default(value, r.bytes.as_deref())));
+        }
+        if d.is_limited() {
+            call(format!("bounds({}, {})", limit(d.low()), limit(d.high())));
+        }
+        if d.capacity != 0 {
+            call(format!("capacity({})", d.capacity));
+        }
+        call(format!("named({:?})", r.name));
+        if let Some(h) = r.hook {
+            call(format!("hook({h})"));
+        }
+        out.push_str(",\n");
     }
     out.push_str("];\n");
 }

@@ -13,7 +13,8 @@
 //! from the same file ([`difference`](super::difference) finds nothing between the two):
 //!
 //! - one [`ObjectDef`] per entry of every VAR, ARRAY and RECORD, by index and sub-index, as a
-//!   struct literal: object and data type, access, PDO mappability, default (`$NODEID+…` stays
+//!   chain of its `const` builders (`ObjectDef::new(..)` then each one that differs from its
+//!   start, a line each): object and data type, access, PDO mappability, default (`$NODEID+…` stays
 //!   node-relative: one table serves every node-ID), limits, capacity, name (sub-index 0 of an
 //!   array or record carries the object's name); type definitions are not entries;
 //! - a DCF's `ParameterValue` becomes the entry's default: the table is that node's
@@ -90,7 +91,7 @@
 //! let source = codegen::generate(&eds, &CodegenOptions::default())?;
 //! assert!(source.contains("pub const ENTRIES: usize = 5;"));
 //! assert!(source.contains("pub const PRODUCER_HEARTBEAT_TIME: u16 = 0x1017;"));
-//! assert!(source.contains("default: DefaultValue::Unsigned(100),"));
+//! assert!(source.contains(".default(DefaultValue::Unsigned(100))"));
 //!
 //! // A limit that depends on the node-ID has no static form: an error naming the entry.
 //! let bad = text.replace("DefaultValue=100", "DefaultValue=100\nHighLimit=$NODEID+0x600");

@@ -164,7 +164,7 @@ fn sdo_channel_and_dictionary_defaults_are_29_bit() {
     let defs = RailwayProfile::comm_objects(A);
     assert!(defs
         .iter()
-        .all(|d| !matches!(d.default, DefaultValue::NodeIdPlus(_))));
+        .all(|d| !matches!(d.default_value(), DefaultValue::NodeIdPlus(_))));
 }
 
 proptest! {

@@ -39,29 +39,74 @@ pub mod index {
 #[allow(dead_code)]
 pub static OBJECTS: [ObjectDef; ENTRIES] = [
     // 0x1000sub0 Device type (UNSIGNED32, ro)
-    ObjectDef { index: 0x1000, sub: 0, object_type: ObjectType::Var, data_type: DataType::Unsigned32, access: Access::Ro, pdo_mappable: false, default: DefaultValue::Unsigned(0x191), low: None, high: None, capacity: 0, name: "Device type", hook: None },
+    ObjectDef::new(0x1000, 0, DataType::Unsigned32)
+        .access(Access::Ro)
+        .default(DefaultValue::Unsigned(0x191))
+        .named("Device type"),
     // 0x1001sub0 Error register (UNSIGNED8, ro)
-    ObjectDef { index: 0x1001, sub: 0, object_type: ObjectType::Var, data_type: DataType::Unsigned8, access: Access::Ro, pdo_mappable: true, default: DefaultValue::Unsigned(0), low: None, high: None, capacity: 0, name: "Error register", hook: None },
+    ObjectDef::new(0x1001, 0, DataType::Unsigned8)
+        .access(Access::Ro)
+        .mappable()
+        .default(DefaultValue::Unsigned(0))
+        .named("Error register"),
     // 0x1018sub0 Identity object (UNSIGNED8, const)
-    ObjectDef { index: 0x1018, sub: 0, object_type: ObjectType::Record, data_type: DataType::Unsigned8, access: Access::Const, pdo_mappable: false, default: DefaultValue::Unsigned(4), low: None, high: None, capacity: 0, name: "Identity object", hook: None },
+    ObjectDef::new(0x1018, 0, DataType::Unsigned8)
+        .object_type(ObjectType::Record)
+        .access(Access::Const)
+        .default(DefaultValue::Unsigned(4))
+        .named("Identity object"),
     // 0x1018sub1 Vendor-ID (UNSIGNED32, ro)
-    ObjectDef { index: 0x1018, sub: 1, object_type: ObjectType::Record, data_type: DataType::Unsigned32, access: Access::Ro, pdo_mappable: false, default: DefaultValue::Unsigned(0xd0ca), low: None, high: None, capacity: 0, name: "Vendor-ID", hook: None },
+    ObjectDef::new(0x1018, 1, DataType::Unsigned32)
+        .object_type(ObjectType::Record)
+        .access(Access::Ro)
+        .default(DefaultValue::Unsigned(0xd0ca))
+        .named("Vendor-ID"),
     // 0x1018sub2 Product code (UNSIGNED32, ro)
-    ObjectDef { index: 0x1018, sub: 2, object_type: ObjectType::Record, data_type: DataType::Unsigned32, access: Access::Ro, pdo_mappable: false, default: DefaultValue::Unsigned(1), low: None, high: None, capacity: 0, name: "Product code", hook: None },
+    ObjectDef::new(0x1018, 2, DataType::Unsigned32)
+        .object_type(ObjectType::Record)
+        .access(Access::Ro)
+        .default(DefaultValue::Unsigned(1))
+        .named("Product code"),
     // 0x1018sub3 Revision number (UNSIGNED32, ro)
-    ObjectDef { index: 0x1018, sub: 3, object_type: ObjectType::Record, data_type: DataType::Unsigned32, access: Access::Ro, pdo_mappable: false, default: DefaultValue::Unsigned(0x10001), low: None, high: None, capacity: 0, name: "Revision number", hook: None },
+    ObjectDef::new(0x1018, 3, DataType::Unsigned32)
+        .object_type(ObjectType::Record)
+        .access(Access::Ro)
+        .default(DefaultValue::Unsigned(0x10001))
+        .named("Revision number"),
     // 0x1018sub4 Serial number (UNSIGNED32, ro)
-    ObjectDef { index: 0x1018, sub: 4, object_type: ObjectType::Record, data_type: DataType::Unsigned32, access: Access::Ro, pdo_mappable: false, default: DefaultValue::Unsigned(0), low: None, high: None, capacity: 0, name: "Serial number", hook: None },
+    ObjectDef::new(0x1018, 4, DataType::Unsigned32)
+        .object_type(ObjectType::Record)
+        .access(Access::Ro)
+        .default(DefaultValue::Unsigned(0))
+        .named("Serial number"),
     // 0x2000sub0 Access ro (UNSIGNED16, ro)
-    ObjectDef { index: 0x2000, sub: 0, object_type: ObjectType::Var, data_type: DataType::Unsigned16, access: Access::Ro, pdo_mappable: true, default: DefaultValue::Unsigned(0), low: None, high: None, capacity: 0, name: "Access ro", hook: None },
+    ObjectDef::new(0x2000, 0, DataType::Unsigned16)
+        .access(Access::Ro)
+        .mappable()
+        .default(DefaultValue::Unsigned(0))
+        .named("Access ro"),
     // 0x2001sub0 Access wo (UNSIGNED16, wo)
-    ObjectDef { index: 0x2001, sub: 0, object_type: ObjectType::Var, data_type: DataType::Unsigned16, access: Access::Wo, pdo_mappable: false, default: DefaultValue::Unsigned(0), low: None, high: None, capacity: 0, name: "Access wo", hook: None },
+    ObjectDef::new(0x2001, 0, DataType::Unsigned16)
+        .access(Access::Wo)
+        .default(DefaultValue::Unsigned(0))
+        .named("Access wo"),
     // 0x2002sub0 Access rw (UNSIGNED16, rw)
-    ObjectDef { index: 0x2002, sub: 0, object_type: ObjectType::Var, data_type: DataType::Unsigned16, access: Access::Rw, pdo_mappable: false, default: DefaultValue::Unsigned(0), low: None, high: None, capacity: 0, name: "Access rw", hook: None },
+    ObjectDef::new(0x2002, 0, DataType::Unsigned16)
+        .default(DefaultValue::Unsigned(0))
+        .named("Access rw"),
     // 0x2003sub0 Access rwr (UNSIGNED16, rw)
-    ObjectDef { index: 0x2003, sub: 0, object_type: ObjectType::Var, data_type: DataType::Unsigned16, access: Access::Rw, pdo_mappable: true, default: DefaultValue::Unsigned(0), low: None, high: None, capacity: 0, name: "Access rwr", hook: None },
+    ObjectDef::new(0x2003, 0, DataType::Unsigned16)
+        .mappable()
+        .default(DefaultValue::Unsigned(0))
+        .named("Access rwr"),
     // 0x2004sub0 Access rww (UNSIGNED16, rw)
-    ObjectDef { index: 0x2004, sub: 0, object_type: ObjectType::Var, data_type: DataType::Unsigned16, access: Access::Rw, pdo_mappable: true, default: DefaultValue::Unsigned(0), low: None, high: None, capacity: 0, name: "Access rww", hook: None },
+    ObjectDef::new(0x2004, 0, DataType::Unsigned16)
+        .mappable()
+        .default(DefaultValue::Unsigned(0))
+        .named("Access rww"),
     // 0x2005sub0 Access const (UNSIGNED16, const)
-    ObjectDef { index: 0x2005, sub: 0, object_type: ObjectType::Var, data_type: DataType::Unsigned16, access: Access::Const, pdo_mappable: false, default: DefaultValue::Unsigned(0), low: None, high: None, capacity: 0, name: "Access const", hook: None },
+    ObjectDef::new(0x2005, 0, DataType::Unsigned16)
+        .access(Access::Const)
+        .default(DefaultValue::Unsigned(0))
+        .named("Access const"),
 ];

@@ -39,429 +39,880 @@ pub mod index {
 #[allow(dead_code)]
 pub static OBJECTS: [ObjectDef; ENTRIES] = [
     // 0x1000sub0 Device type (UNSIGNED32, ro)
-    ObjectDef { index: 0x1000, sub: 0, object_type: ObjectType::Var, data_type: DataType::Unsigned32, access: Access::Ro, pdo_mappable: false, default: DefaultValue::Unsigned(0x191), low: None, high: None, capacity: 0, name: "Device type", hook: None },
+    ObjectDef::new(0x1000, 0, DataType::Unsigned32)
+        .access(Access::Ro)
+        .default(DefaultValue::Unsigned(0x191))
+        .named("Device type"),
     // 0x1001sub0 Error register (UNSIGNED8, ro)
-    ObjectDef { index: 0x1001, sub: 0, object_type: ObjectType::Var, data_type: DataType::Unsigned8, access: Access::Ro, pdo_mappable: true, default: DefaultValue::Unsigned(0), low: None, high: None, capacity: 0, name: "Error register", hook: None },
+    ObjectDef::new(0x1001, 0, DataType::Unsigned8)
+        .access(Access::Ro)
+        .mappable()
+        .default(DefaultValue::Unsigned(0))
+        .named("Error register"),
     // 0x1018sub0 Identity object (UNSIGNED8, const)
-    ObjectDef { index: 0x1018, sub: 0, object_type: ObjectType::Record, data_type: DataType::Unsigned8, access: Access::Const, pdo_mappable: false, default: DefaultValue::Unsigned(4), low: None, high: None, capacity: 0, name: "Identity object", hook: None },
+    ObjectDef::new(0x1018, 0, DataType::Unsigned8)
+        .object_type(ObjectType::Record)
+        .access(Access::Const)
+        .default(DefaultValue::Unsigned(4))
+        .named("Identity object"),
     // 0x1018sub1 Vendor-ID (UNSIGNED32, ro)
-    ObjectDef { index: 0x1018, sub: 1, object_type: ObjectType::Record, data_type: DataType::Unsigned32, access: Access::Ro, pdo_mappable: false, default: DefaultValue::Unsigned(0xd0ca), low: None, high: None, capacity: 0, name: "Vendor-ID", hook: None },
+    ObjectDef::new(0x1018, 1, DataType::Unsigned32)
+        .object_type(ObjectType::Record)
+        .access(Access::Ro)
+        .default(DefaultValue::Unsigned(0xd0ca))
+        .named("Vendor-ID"),
     // 0x1018sub2 Product code (UNSIGNED32, ro)
-    ObjectDef { index: 0x1018, sub: 2, object_type: ObjectType::Record, data_type: DataType::Unsigned32, access: Access::Ro, pdo_mappable: false, default: DefaultValue::Unsigned(1), low: None, high: None, capacity: 0, name: "Product code", hook: None },
+    ObjectDef::new(0x1018, 2, DataType::Unsigned32)
+        .object_type(ObjectType::Record)
+        .access(Access::Ro)
+        .default(DefaultValue::Unsigned(1))
+        .named("Product code"),
     // 0x1018sub3 Revision number (UNSIGNED32, ro)
-    ObjectDef { index: 0x1018, sub: 3, object_type: ObjectType::Record, data_type: DataType::Unsigned32, access: Access::Ro, pdo_mappable: false, default: DefaultValue::Unsigned(0x10001), low: None, high: None, capacity: 0, name: "Revision number", hook: None },
+    ObjectDef::new(0x1018, 3, DataType::Unsigned32)
+        .object_type(ObjectType::Record)
+        .access(Access::Ro)
+        .default(DefaultValue::Unsigned(0x10001))
+        .named("Revision number"),
     // 0x1018sub4 Serial number (UNSIGNED32, ro)
-    ObjectDef { index: 0x1018, sub: 4, object_type: ObjectType::Record, data_type: DataType::Unsigned32, access: Access::Ro, pdo_mappable: false, default: DefaultValue::Unsigned(0), low: None, high: None, capacity: 0, name: "Serial number", hook: None },
+    ObjectDef::new(0x1018, 4, DataType::Unsigned32)
+        .object_type(ObjectType::Record)
+        .access(Access::Ro)
+        .default(DefaultValue::Unsigned(0))
+        .named("Serial number"),
     // 0x1400sub0 RPDO communication parameter (UNSIGNED8, const)
-    ObjectDef { index: 0x1400, sub: 0, object_type: ObjectType::Record, data_type: DataType::Unsigned8, access: Access::Const, pdo_mappable: false, default: DefaultValue::Unsigned(2), low: None, high: None, capacity: 0, name: "RPDO communication parameter", hook: None },
+    ObjectDef::new(0x1400, 0, DataType::Unsigned8)
+        .object_type(ObjectType::Record)
+        .access(Access::Const)
+        .default(DefaultValue::Unsigned(2))
+        .named("RPDO communication parameter"),
     // 0x1400sub1 COB-ID used by RPDO (UNSIGNED32, rw)
-    ObjectDef { index: 0x1400, sub: 1, object_type: ObjectType::Record, data_type: DataType::Unsigned32, access: Access::Rw, pdo_mappable: false, default: DefaultValue::NodeIdPlus(0x200), low: None, high: None, capacity: 0, name: "COB-ID used by RPDO", hook: None },
+    ObjectDef::new(0x1400, 1, DataType::Unsigned32)
+        .object_type(ObjectType::Record)
+        .default(DefaultValue::NodeIdPlus(0x200))
+        .named("COB-ID used by RPDO"),
     // 0x1400sub2 Transmission type (UNSIGNED8, rw)
-    ObjectDef { index: 0x1400, sub: 2, object_type: ObjectType::Record, data_type: DataType::Unsigned8, access: Access::Rw, pdo_mappable: false, default: DefaultValue::Unsigned(1), low: None, high: None, capacity: 0, name: "Transmission type", hook: None },
+    ObjectDef::new(0x1400, 2, DataType::Unsigned8)
+        .object_type(ObjectType::Record)
+        .default(DefaultValue::Unsigned(1))
+        .named("Transmission type"),
     // 0x1401sub0 RPDO communication parameter (UNSIGNED8, const)
-    ObjectDef { index: 0x1401, sub: 0, object_type: ObjectType::Record, data_type: DataType::Unsigned8, access: Access::Const, pdo_mappable: false, default: DefaultValue::Unsigned(5), low: None, high: None, capacity: 0, name: "RPDO communication parameter", hook: None },
+    ObjectDef::new(0x1401, 0, DataType::Unsigned8)
+        .object_type(ObjectType::Record)
+        .access(Access::Const)
+        .default(DefaultValue::Unsigned(5))
+        .named("RPDO communication parameter"),
     // 0x1401sub1 COB-ID used by RPDO (UNSIGNED32, rw)
-    ObjectDef { index: 0x1401, sub: 1, object_type: ObjectType::Record, data_type: DataType::Unsigned32, access: Access::Rw, pdo_mappable: false, default: DefaultValue::NodeIdPlus(0x300), low: None, high: None, capacity: 0, name: "COB-ID used by RPDO", hook: None },
+    ObjectDef::new(0x1401, 1, DataType::Unsigned32)
+        .object_type(ObjectType::Record)
+        .default(DefaultValue::NodeIdPlus(0x300))
+        .named("COB-ID used by RPDO"),
     // 0x1401sub2 Transmission type (UNSIGNED8, rw)
-    ObjectDef { index: 0x1401, sub: 2, object_type: ObjectType::Record, data_type: DataType::Unsigned8, access: Access::Rw, pdo_mappable: false, default: DefaultValue::Unsigned(255), low: None, high: None, capacity: 0, name: "Transmission type", hook: None },
+    ObjectDef::new(0x1401, 2, DataType::Unsigned8)
+        .object_type(ObjectType::Record)
+        .default(DefaultValue::Unsigned(255))
+        .named("Transmission type"),
     // 0x1401sub5 Event timer (UNSIGNED16, rw)
-    ObjectDef { index: 0x1401, sub: 5, object_type: ObjectType::Record, data_type: DataType::Unsigned16, access: Access::Rw, pdo_mappable: false, default: DefaultValue::Zero, low: None, high: None, capacity: 0, name: "Event timer", hook: None },
+    ObjectDef::new(0x1401, 5, DataType::Unsigned16)
+        .object_type(ObjectType::Record)
+        .named("Event timer"),
     // 0x1600sub0 RPDO mapping parameter (UNSIGNED8, rw)
-    ObjectDef { index: 0x1600, sub: 0, object_type: ObjectType::Record, data_type: DataType::Unsigned8, access: Access::Rw, pdo_mappable: false, default: DefaultValue::Zero, low: None, high: None, capacity: 0, name: "RPDO mapping parameter", hook: None },
+    ObjectDef::new(0x1600, 0, DataType::Unsigned8)
+        .object_type(ObjectType::Record)
+        .named("RPDO mapping parameter"),
     // 0x1600sub1 Application object 1 (UNSIGNED32, rw)
-    ObjectDef { index: 0x1600, sub: 1, object_type: ObjectType::Record, data_type: DataType::Unsigned32, access: Access::Rw, pdo_mappable: false, default: DefaultValue::Zero, low: None, high: None, capacity: 0, name: "Application object 1", hook: None },
+    ObjectDef::new(0x1600, 1, DataType::Unsigned32)
+        .object_type(ObjectType::Record)
+        .named("Application object 1"),
     // 0x1600sub2 Application object 2 (UNSIGNED32, rw)
-    ObjectDef { index: 0x1600, sub: 2, object_type: ObjectType::Record, data_type: DataType::Unsigned32, access: Access::Rw, pdo_mappable: false, default: DefaultValue::Zero, low: None, high: None, capacity: 0, name: "Application object 2", hook: None },
+    ObjectDef::new(0x1600, 2, DataType::Unsigned32)
+        .object_type(ObjectType::Record)
+        .named("Application object 2"),
     // 0x1600sub3 Application object 3 (UNSIGNED32, rw)
-    ObjectDef { index: 0x1600, sub: 3, object_type: ObjectType::Record, data_type: DataType::Unsigned32, access: Access::Rw, pdo_mappable: false, default: DefaultValue::Zero, low: None, high: None, capacity: 0, name: "Application object 3", hook: None },
+    ObjectDef::new(0x1600, 3, DataType::Unsigned32)
+        .object_type(ObjectType::Record)
+        .named("Application object 3"),
     // 0x1600sub4 Application object 4 (UNSIGNED32, rw)
-    ObjectDef { index: 0x1600, sub: 4, object_type: ObjectType::Record, data_type: DataType::Unsigned32, access: Access::Rw, pdo_mappable: false, default: DefaultValue::Zero, low: None, high: None, capacity: 0, name: "Application object 4", hook: None },
+    ObjectDef::new(0x1600, 4, DataType::Unsigned32)
+        .object_type(ObjectType::Record)
+        .named("Application object 4"),
     // 0x1600sub5 Application object 5 (UNSIGNED32, rw)
-    ObjectDef { index: 0x1600, sub: 5, object_type: ObjectType::Record, data_type: DataType::Unsigned32, access: Access::Rw, pdo_mappable: false, default: DefaultValue::Zero, low: None, high: None, capacity: 0, name: "Application object 5", hook: None },
+    ObjectDef::new(0x1600, 5, DataType::Unsigned32)
+        .object_type(ObjectType::Record)
+        .named("Application object 5"),
     // 0x1600sub6 Application object 6 (UNSIGNED32, rw)
-    ObjectDef { index: 0x1600, sub: 6, object_type: ObjectType::Record, data_type: DataType::Unsigned32, access: Access::Rw, pdo_mappable: false, default: DefaultValue::Zero, low: None, high: None, capacity: 0, name: "Application object 6", hook: None },
+    ObjectDef::new(0x1600, 6, DataType::Unsigned32)
+        .object_type(ObjectType::Record)
+        .named("Application object 6"),
     // 0x1600sub7 Application object 7 (UNSIGNED32, rw)
-    ObjectDef { index: 0x1600, sub: 7, object_type: ObjectType::Record, data_type: DataType::Unsigned32, access: Access::Rw, pdo_mappable: false, default: DefaultValue::Zero, low: None, high: None, capacity: 0, name: "Application object 7", hook: None },
+    ObjectDef::new(0x1600, 7, DataType::Unsigned32)
+        .object_type(ObjectType::Record)
+        .named("Application object 7"),
     // 0x1600sub8 Application object 8 (UNSIGNED32, rw)
-    ObjectDef { index: 0x1600, sub: 8, object_type: ObjectType::Record, data_type: DataType::Unsigned32, access: Access::Rw, pdo_mappable: false, default: DefaultValue::Zero, low: None, high: None, capacity: 0, name: "Application object 8", hook: None },
+    ObjectDef::new(0x1600, 8, DataType::Unsigned32)
+        .object_type(ObjectType::Record)
+        .named("Application object 8"),
     // 0x1600sub9 Application object 9 (UNSIGNED32, rw)
-    ObjectDef { index: 0x1600, sub: 9, object_type: ObjectType::Record, data_type: DataType::Unsigned32, access: Access::Rw, pdo_mappable: false, default: DefaultValue::Zero, low: None, high: None, capacity: 0, name: "Application object 9", hook: None },
+    ObjectDef::new(0x1600, 9, DataType::Unsigned32)
+        .object_type(ObjectType::Record)
+        .named("Application object 9"),
     // 0x1600sub10 Application object 10 (UNSIGNED32, rw)
-    ObjectDef { index: 0x1600, sub: 10, object_type: ObjectType::Record, data_type: DataType::Unsigned32, access: Access::Rw, pdo_mappable: false, default: DefaultValue::Zero, low: None, high: None, capacity: 0, name: "Application object 10", hook: None },
+    ObjectDef::new(0x1600, 10, DataType::Unsigned32)
+        .object_type(ObjectType::Record)
+        .named("Application object 10"),
     // 0x1600sub11 Application object 11 (UNSIGNED32, rw)
-    ObjectDef { index: 0x1600, sub: 11, object_type: ObjectType::Record, data_type: DataType::Unsigned32, access: Access::Rw, pdo_mappable: false, default: DefaultValue::Zero, low: None, high: None, capacity: 0, name: "Application object 11", hook: None },
+    ObjectDef::new(0x1600, 11, DataType::Unsigned32)
+        .object_type(ObjectType::Record)
+        .named("Application object 11"),
     // 0x1600sub12 Application object 12 (UNSIGNED32, rw)
-    ObjectDef { index: 0x1600, sub: 12, object_type: ObjectType::Record, data_type: DataType::Unsigned32, access: Access::Rw, pdo_mappable: false, default: DefaultValue::Zero, low: None, high: None, capacity: 0, name: "Application object 12", hook: None },
+    ObjectDef::new(0x1600, 12, DataType::Unsigned32)
+        .object_type(ObjectType::Record)
+        .named("Application object 12"),
     // 0x1600sub13 Application object 13 (UNSIGNED32, rw)
-    ObjectDef { index: 0x1600, sub: 13, object_type: ObjectType::Record, data_type: DataType::Unsigned32, access: Access::Rw, pdo_mappable: false, default: DefaultValue::Zero, low: None, high: None, capacity: 0, name: "Application object 13", hook: None },
+    ObjectDef::new(0x1600, 13, DataType::Unsigned32)
+        .object_type(ObjectType::Record)
+        .named("Application object 13"),
     // 0x1600sub14 Application object 14 (UNSIGNED32, rw)
-    ObjectDef { index: 0x1600, sub: 14, object_type: ObjectType::Record, data_type: DataType::Unsigned32, access: Access::Rw, pdo_mappable: false, default: DefaultValue::Zero, low: None, high: None, capacity: 0, name: "Application object 14", hook: None },
+    ObjectDef::new(0x1600, 14, DataType::Unsigned32)
+        .object_type(ObjectType::Record)
+        .named("Application object 14"),
     // 0x1600sub15 Application object 15 (UNSIGNED32, rw)
-    ObjectDef { index: 0x1600, sub: 15, object_type: ObjectType::Record, data_type: DataType::Unsigned32, access: Access::Rw, pdo_mappable: false, default: DefaultValue::Zero, low: None, high: None, capacity: 0, name: "Application object 15", hook: None },
+    ObjectDef::new(0x1600, 15, DataType::Unsigned32)
+        .object_type(ObjectType::Record)
+        .named("Application object 15"),
     // 0x1600sub16 Application object 16 (UNSIGNED32, rw)
-    ObjectDef { index: 0x1600, sub: 16, object_type: ObjectType::Record, data_type: DataType::Unsigned32, access: Access::Rw, pdo_mappable: false, default: DefaultValue::Zero, low: None, high: None, capacity: 0, name: "Application object 16", hook: None },
+    ObjectDef::new(0x1600, 16, DataType::Unsigned32)
+        .object_type(ObjectType::Record)
+        .named("Application object 16"),
     // 0x1600sub17 Application object 17 (UNSIGNED32, rw)
-    ObjectDef { index: 0x1600, sub: 17, object_type: ObjectType::Record, data_type: DataType::Unsigned32, access: Access::Rw, pdo_mappable: false, default: DefaultValue::Zero, low: None, high: None, capacity: 0, name: "Application object 17", hook: None },
+    ObjectDef::new(0x1600, 17, DataType::Unsigned32)
+        .object_type(ObjectType::Record)
+        .named("Application object 17"),
     // 0x1600sub18 Application object 18 (UNSIGNED32, rw)
-    ObjectDef { index: 0x1600, sub: 18, object_type: ObjectType::Record, data_type: DataType::Unsigned32, access: Access::Rw, pdo_mappable: false, default: DefaultValue::Zero, low: None, high: None, capacity: 0, name: "Application object 18", hook: None },
+    ObjectDef::new(0x1600, 18, DataType::Unsigned32)
+        .object_type(ObjectType::Record)
+        .named("Application object 18"),
     // 0x1600sub19 Application object 19 (UNSIGNED32, rw)
-    ObjectDef { index: 0x1600, sub: 19, object_type: ObjectType::Record, data_type: DataType::Unsigned32, access: Access::Rw, pdo_mappable: false, default: DefaultValue::Zero, low: None, high: None, capacity: 0, name: "Application object 19", hook: None },
+    ObjectDef::new(0x1600, 19, DataType::Unsigned32)
+        .object_type(ObjectType::Record)
+        .named("Application object 19"),
     // 0x1600sub20 Application object 20 (UNSIGNED32, rw)
-    ObjectDef { index: 0x1600, sub: 20, object_type: ObjectType::Record, data_type: DataType::Unsigned32, access: Access::Rw, pdo_mappable: false, default: DefaultValue::Zero, low: None, high: None, capacity: 0, name: "Application object 20", hook: None },
+    ObjectDef::new(0x1600, 20, DataType::Unsigned32)
+        .object_type(ObjectType::Record)
+        .named("Application object 20"),
     // 0x1600sub21 Application object 21 (UNSIGNED32, rw)
-    ObjectDef { index: 0x1600, sub: 21, object_type: ObjectType::Record, data_type: DataType::Unsigned32, access: Access::Rw, pdo_mappable: false, default: DefaultValue::Zero, low: None, high: None, capacity: 0, name: "Application object 21", hook: None },
+    ObjectDef::new(0x1600, 21, DataType::Unsigned32)
+        .object_type(ObjectType::Record)
+        .named("Application object 21"),
     // 0x1600sub22 Application object 22 (UNSIGNED32, rw)
-    ObjectDef { index: 0x1600, sub: 22, object_type: ObjectType::Record, data_type: DataType::Unsigned32, access: Access::Rw, pdo_mappable: false, default: DefaultValue::Zero, low: None, high: None, capacity: 0, name: "Application object 22", hook: None },
+    ObjectDef::new(0x1600, 22, DataType::Unsigned32)
+        .object_type(ObjectType::Record)
+        .named("Application object 22"),
     // 0x1600sub23 Application object 23 (UNSIGNED32, rw)
-    ObjectDef { index: 0x1600, sub: 23, object_type: ObjectType::Record, data_type: DataType::Unsigned32, access: Access::Rw, pdo_mappable: false, default: DefaultValue::Zero, low: None, high: None, capacity: 0, name: "Application object 23", hook: None },
+    ObjectDef::new(0x1600, 23, DataType::Unsigned32)
+        .object_type(ObjectType::Record)
+        .named("Application object 23"),
     // 0x1600sub24 Application object 24 (UNSIGNED32, rw)
-    ObjectDef { index: 0x1600, sub: 24, object_type: ObjectType::Record, data_type: DataType::Unsigned32, access: Access::Rw, pdo_mappable: false, default: DefaultValue::Zero, low: None, high: None, capacity: 0, name: "Application object 24", hook: None },
+    ObjectDef::new(0x1600, 24, DataType::Unsigned32)
+        .object_type(ObjectType::Record)
+        .named("Application object 24"),
     // 0x1600sub25 Application object 25 (UNSIGNED32, rw)
-    ObjectDef { index: 0x1600, sub: 25, object_type: ObjectType::Record, data_type: DataType::Unsigned32, access: Access::Rw, pdo_mappable: false, default: DefaultValue::Zero, low: None, high: None, capacity: 0, name: "Application object 25", hook: None },
+    ObjectDef::new(0x1600, 25, DataType::Unsigned32)
+        .object_type(ObjectType::Record)
+        .named("Application object 25"),
     // 0x1600sub26 Application object 26 (UNSIGNED32, rw)
-    ObjectDef { index: 0x1600, sub: 26, object_type: ObjectType::Record, data_type: DataType::Unsigned32, access: Access::Rw, pdo_mappable: false, default: DefaultValue::Zero, low: None, high: None, capacity: 0, name: "Application object 26", hook: None },
+    ObjectDef::new(0x1600, 26, DataType::Unsigned32)
+        .object_type(ObjectType::Record)
+        .named("Application object 26"),
     // 0x1600sub27 Application object 27 (UNSIGNED32, rw)
-    ObjectDef { index: 0x1600, sub: 27, object_type: ObjectType::Record, data_type: DataType::Unsigned32, access: Access::Rw, pdo_mappable: false, default: DefaultValue::Zero, low: None, high: None, capacity: 0, name: "Application object 27", hook: None },
+    ObjectDef::new(0x1600, 27, DataType::Unsigned32)
+        .object_type(ObjectType::Record)
+        .named("Application object 27"),
     // 0x1600sub28 Application object 28 (UNSIGNED32, rw)
-    ObjectDef { index: 0x1600, sub: 28, object_type: ObjectType::Record, data_type: DataType::Unsigned32, access: Access::Rw, pdo_mappable: false, default: DefaultValue::Zero, low: None, high: None, capacity: 0, name: "Application object 28", hook: None },
+    ObjectDef::new(0x1600, 28, DataType::Unsigned32)
+        .object_type(ObjectType::Record)
+        .named("Application object 28"),
     // 0x1600sub29 Application object 29 (UNSIGNED32, rw)
-    ObjectDef { index: 0x1600, sub: 29, object_type: ObjectType::Record, data_type: DataType::Unsigned32, access: Access::Rw, pdo_mappable: false, default: DefaultValue::Zero, low: None, high: None, capacity: 0, name: "Application object 29", hook: None },
+    ObjectDef::new(0x1600, 29, DataType::Unsigned32)
+        .object_type(ObjectType::Record)
+        .named("Application object 29"),
     // 0x1600sub30 Application object 30 (UNSIGNED32, rw)
-    ObjectDef { index: 0x1600, sub: 30, object_type: ObjectType::Record, data_type: DataType::Unsigned32, access: Access::Rw, pdo_mappable: false, default: DefaultValue::Zero, low: None, high: None, capacity: 0, name: "Application object 30", hook: None },
+    ObjectDef::new(0x1600, 30, DataType::Unsigned32)
+        .object_type(ObjectType::Record)
+        .named("Application object 30"),
     // 0x1600sub31 Application object 31 (UNSIGNED32, rw)
-    ObjectDef { index: 0x1600, sub: 31, object_type: ObjectType::Record, data_type: DataType::Unsigned32, access: Access::Rw, pdo_mappable: false, default: DefaultValue::Zero, low: None, high: None, capacity: 0, name: "Application object 31", hook: None },
+    ObjectDef::new(0x1600, 31, DataType::Unsigned32)
+        .object_type(ObjectType::Record)
+        .named("Application object 31"),
     // 0x1600sub32 Application object 32 (UNSIGNED32, rw)
-    ObjectDef { index: 0x1600, sub: 32, object_type: ObjectType::Record, data_type: DataType::Unsigned32, access: Access::Rw, pdo_mappable: false, default: DefaultValue::Zero, low: None, high: None, capacity: 0, name: "Application object 32", hook: None },
+    ObjectDef::new(0x1600, 32, DataType::Unsigned32)
+        .object_type(ObjectType::Record)
+        .named("Application object 32"),
     // 0x1600sub33 Application object 33 (UNSIGNED32, rw)
-    ObjectDef { index: 0x1600, sub: 33, object_type: ObjectType::Record, data_type: DataType::Unsigned32, access: Access::Rw, pdo_mappable: false, default: DefaultValue::Zero, low: None, high: None, capacity: 0, name: "Application object 33", hook: None },
+    ObjectDef::new(0x1600, 33, DataType::Unsigned32)
+        .object_type(ObjectType::Record)
+        .named("Application object 33"),
     // 0x1600sub34 Application object 34 (UNSIGNED32, rw)
-    ObjectDef { index: 0x1600, sub: 34, object_type: ObjectType::Record, data_type: DataType::Unsigned32, access: Access::Rw, pdo_mappable: false, default: DefaultValue::Zero, low: None, high: None, capacity: 0, name: "Application object 34", hook: None },
+    ObjectDef::new(0x1600, 34, DataType::Unsigned32)
+        .object_type(ObjectType::Record)
+        .named("Application object 34"),
     // 0x1600sub35 Application object 35 (UNSIGNED32, rw)
-    ObjectDef { index: 0x1600, sub: 35, object_type: ObjectType::Record, data_type: DataType::Unsigned32, access: Access::Rw, pdo_mappable: false, default: DefaultValue::Zero, low: None, high: None, capacity: 0, name: "Application object 35", hook: None },
+    ObjectDef::new(0x1600, 35, DataType::Unsigned32)
+        .object_type(ObjectType::Record)
+        .named("Application object 35"),
     // 0x1600sub36 Application object 36 (UNSIGNED32, rw)
-    ObjectDef { index: 0x1600, sub: 36, object_type: ObjectType::Record, data_type: DataType::Unsigned32, access: Access::Rw, pdo_mappable: false, default: DefaultValue::Zero, low: None, high: None, capacity: 0, name: "Application object 36", hook: None },
+    ObjectDef::new(0x1600, 36, DataType::Unsigned32)
+        .object_type(ObjectType::Record)
+        .named("Application object 36"),
     // 0x1600sub37 Application object 37 (UNSIGNED32, rw)
-    ObjectDef { index: 0x1600, sub: 37, object_type: ObjectType::Record, data_type: DataType::Unsigned32, access: Access::Rw, pdo_mappable: false, default: DefaultValue::Zero, low: None, high: None, capacity: 0, name: "Application object 37", hook: None },
+    ObjectDef::new(0x1600, 37, DataType::Unsigned32)
+        .object_type(ObjectType::Record)
+        .named("Application object 37"),
     // 0x1600sub38 Application object 38 (UNSIGNED32, rw)
-    ObjectDef { index: 0x1600, sub: 38, object_type: ObjectType::Record, data_type: DataType::Unsigned32, access: Access::Rw, pdo_mappable: false, default: DefaultValue::Zero, low: None, high: None, capacity: 0, name: "Application object 38", hook: None },
+    ObjectDef::new(0x1600, 38, DataType::Unsigned32)
+        .object_type(ObjectType::Record)
+        .named("Application object 38"),
     // 0x1600sub39 Application object 39 (UNSIGNED32, rw)
-    ObjectDef { index: 0x1600, sub: 39, object_type: ObjectType::Record, data_type: DataType::Unsigned32, access: Access::Rw, pdo_mappable: false, default: DefaultValue::Zero, low: None, high: None, capacity: 0, name: "Application object 39", hook: None },
+    ObjectDef::new(0x1600, 39, DataType::Unsigned32)
+        .object_type(ObjectType::Record)
+        .named("Application object 39"),
     // 0x1600sub40 Application object 40 (UNSIGNED32, rw)
-    ObjectDef { index: 0x1600, sub: 40, object_type: ObjectType::Record, data_type: DataType::Unsigned32, access: Access::Rw, pdo_mappable: false, default: DefaultValue::Zero, low: None, high: None, capacity: 0, name: "Application object 40", hook: None },
+    ObjectDef::new(0x1600, 40, DataType::Unsigned32)
+        .object_type(ObjectType::Record)
+        .named("Application object 40"),
     // 0x1600sub41 Application object 41 (UNSIGNED32, rw)
-    ObjectDef { index: 0x1600, sub: 41, object_type: ObjectType::Record, data_type: DataType::Unsigned32, access: Access::Rw, pdo_mappable: false, default: DefaultValue::Zero, low: None, high: None, capacity: 0, name: "Application object 41", hook: None },
+    ObjectDef::new(0x1600, 41, DataType::Unsigned32)
+        .object_type(ObjectType::Record)
+        .named("Application object 41"),
     // 0x1600sub42 Application object 42 (UNSIGNED32, rw)
-    ObjectDef { index: 0x1600, sub: 42, object_type: ObjectType::Record, data_type: DataType::Unsigned32, access: Access::Rw, pdo_mappable: false, default: DefaultValue::Zero, low: None, high: None, capacity: 0, name: "Application object 42", hook: None },
+    ObjectDef::new(0x1600, 42, DataType::Unsigned32)
+        .object_type(ObjectType::Record)
+        .named("Application object 42"),
     // 0x1600sub43 Application object 43 (UNSIGNED32, rw)
-    ObjectDef { index: 0x1600, sub: 43, object_type: ObjectType::Record, data_type: DataType::Unsigned32, access: Access::Rw, pdo_mappable: false, default: DefaultValue::Zero, low: None, high: None, capacity: 0, name: "Application object 43", hook: None },
+    ObjectDef::new(0x1600, 43, DataType::Unsigned32)
+        .object_type(ObjectType::Record)
+        .named("Application object 43"),
     // 0x1600sub44 Application object 44 (UNSIGNED32, rw)
-    ObjectDef { index: 0x1600, sub: 44, object_type: ObjectType::Record, data_type: DataType::Unsigned32, access: Access::Rw, pdo_mappable: false, default: DefaultValue::Zero, low: None, high: None, capacity: 0, name: "Application object 44", hook: None },
+    ObjectDef::new(0x1600, 44, DataType::Unsigned32)
+        .object_type(ObjectType::Record)
+        .named("Application object 44"),
     // 0x1600sub45 Application object 45 (UNSIGNED32, rw)
-    ObjectDef { index: 0x1600, sub: 45, object_type: ObjectType::Record, data_type: DataType::Unsigned32, access: Access::Rw, pdo_mappable: false, default: DefaultValue::Zero, low: None, high: None, capacity: 0, name: "Application object 45", hook: None },
+    ObjectDef::new(0x1600, 45, DataType::Unsigned32)
+        .object_type(ObjectType::Record)
+        .named("Application object 45"),
     // 0x1600sub46 Application object 46 (UNSIGNED32, rw)
-    ObjectDef { index: 0x1600, sub: 46, object_type: ObjectType::Record, data_type: DataType::Unsigned32, access: Access::Rw, pdo_mappable: false, default: DefaultValue::Zero, low: None, high: None, capacity: 0, name: "Application object 46", hook: None },
+    ObjectDef::new(0x1600, 46, DataType::Unsigned32)
+        .object_type(ObjectType::Record)
+        .named("Application object 46"),
     // 0x1600sub47 Application object 47 (UNSIGNED32, rw)
-    ObjectDef { index: 0x1600, sub: 47, object_type: ObjectType::Record, data_type: DataType::Unsigned32, access: Access::Rw, pdo_mappable: false, default: DefaultValue::Zero, low: None, high: None, capacity: 0, name: "Application object 47", hook: None },
+    ObjectDef::new(0x1600, 47, DataType::Unsigned32)
+        .object_type(ObjectType::Record)
+        .named("Application object 47"),
     // 0x1600sub48 Application object 48 (UNSIGNED32, rw)
-    ObjectDef { index: 0x1600, sub: 48, object_type: ObjectType::Record, data_type: DataType::Unsigned32, access: Access::Rw, pdo_mappable: false, default: DefaultValue::Zero, low: None, high: None, capacity: 0, name: "Application object 48", hook: None },
+    ObjectDef::new(0x1600, 48, DataType::Unsigned32)
+        .object_type(ObjectType::Record)
+        .named("Application object 48"),
     // 0x1600sub49 Application object 49 (UNSIGNED32, rw)
-    ObjectDef { index: 0x1600, sub: 49, object_type: ObjectType::Record, data_type: DataType::Unsigned32, access: Access::Rw, pdo_mappable: false, default: DefaultValue::Zero, low: None, high: None, capacity: 0, name: "Application object 49", hook: None },
+    ObjectDef::new(0x1600, 49, DataType::Unsigned32)
+        .object_type(ObjectType::Record)
+        .named("Application object 49"),
     // 0x1600sub50 Application object 50 (UNSIGNED32, rw)
-    ObjectDef { index: 0x1600, sub: 50, object_type: ObjectType::Record, data_type: DataType::Unsigned32, access: Access::Rw, pdo_mappable: false, default: DefaultValue::Zero, low: None, high: None, capacity: 0, name: "Application object 50", hook: None },
+    ObjectDef::new(0x1600, 50, DataType::Unsigned32)
+        .object_type(ObjectType::Record)
+        .named("Application object 50"),
     // 0x1600sub51 Application object 51 (UNSIGNED32, rw)
-    ObjectDef { index: 0x1600, sub: 51, object_type: ObjectType::Record, data_type: DataType::Unsigned32, access: Access::Rw, pdo_mappable: false, default: DefaultValue::Zero, low: None, high: None, capacity: 0, name: "Application object 51", hook: None },
+    ObjectDef::new(0x1600, 51, DataType::Unsigned32)
+        .object_type(ObjectType::Record)
+        .named("Application object 51"),
     // 0x1600sub52 Application object 52 (UNSIGNED32, rw)
-    ObjectDef { index: 0x1600, sub: 52, object_type: ObjectType::Record, data_type: DataType::Unsigned32, access: Access::Rw, pdo_mappable: false, default: DefaultValue::Zero, low: None, high: None, capacity: 0, name: "Application object 52", hook: None },
+    ObjectDef::new(0x1600, 52, DataType::Unsigned32)
+        .object_type(ObjectType::Record)
+        .named("Application object 52"),
     // 0x1600sub53 Application object 53 (UNSIGNED32, rw)
-    ObjectDef { index: 0x1600, sub: 53, object_type: ObjectType::Record, data_type: DataType::Unsigned32, access: Access::Rw, pdo_mappable: false, default: DefaultValue::Zero, low: None, high: None, capacity: 0, name: "Application object 53", hook: None },
+    ObjectDef::new(0x1600, 53, DataType::Unsigned32)
+        .object_type(ObjectType::Record)
+        .named("Application object 53"),
     // 0x1600sub54 Application object 54 (UNSIGNED32, rw)
-    ObjectDef { index: 0x1600, sub: 54, object_type: ObjectType::Record, data_type: DataType::Unsigned32, access: Access::Rw, pdo_mappable: false, default: DefaultValue::Zero, low: None, high: None, capacity: 0, name: "Application object 54", hook: None },
+    ObjectDef::new(0x1600, 54, DataType::Unsigned32)
+        .object_type(ObjectType::Record)
+        .named("Application object 54"),
     // 0x1600sub55 Application object 55 (UNSIGNED32, rw)
-    ObjectDef { index: 0x1600, sub: 55, object_type: ObjectType::Record, data_type: DataType::Unsigned32, access: Access::Rw, pdo_mappable: false, default: DefaultValue::Zero, low: None, high: None, capacity: 0, name: "Application object 55", hook: None },
+    ObjectDef::new(0x1600, 55, DataType::Unsigned32)
+        .object_type(ObjectType::Record)
+        .named("Application object 55"),
     // 0x1600sub56 Application object 56 (UNSIGNED32, rw)
-    ObjectDef { index: 0x1600, sub: 56, object_type: ObjectType::Record, data_type: DataType::Unsigned32, access: Access::Rw, pdo_mappable: false, default: DefaultValue::Zero, low: None, high: None, capacity: 0, name: "Application object 56", hook: None },
+    ObjectDef::new(0x1600, 56, DataType::Unsigned32)
+        .object_type(ObjectType::Record)
+        .named("Application object 56"),
     // 0x1600sub57 Application object 57 (UNSIGNED32, rw)
-    ObjectDef { index: 0x1600, sub: 57, object_type: ObjectType::Record, data_type: DataType::Unsigned32, access: Access::Rw, pdo_mappable: false, default: DefaultValue::Zero, low: None, high: None, capacity: 0, name: "Application object 57", hook: None },
+    ObjectDef::new(0x1600, 57, DataType::Unsigned32)
+        .object_type(ObjectType::Record)
+        .named("Application object 57"),
     // 0x1600sub58 Application object 58 (UNSIGNED32, rw)
-    ObjectDef { index: 0x1600, sub: 58, object_type: ObjectType::Record, data_type: DataType::Unsigned32, access: Access::Rw, pdo_mappable: false, default: DefaultValue::Zero, low: None, high: None, capacity: 0, name: "Application object 58", hook: None },
+    ObjectDef::new(0x1600, 58, DataType::Unsigned32)
+        .object_type(ObjectType::Record)
+        .named("Application object 58"),
     // 0x1600sub59 Application object 59 (UNSIGNED32, rw)
-    ObjectDef { index: 0x1600, sub: 59, object_type: ObjectType::Record, data_type: DataType::Unsigned32, access: Access::Rw, pdo_mappable: false, default: DefaultValue::Zero, low: None, high: None, capacity: 0, name: "Application object 59", hook: None },
+    ObjectDef::new(0x1600, 59, DataType::Unsigned32)
+        .object_type(ObjectType::Record)
+        .named("Application object 59"),
     // 0x1600sub60 Application object 60 (UNSIGNED32, rw)
-    ObjectDef { index: 0x1600, sub: 60, object_type: ObjectType::Record, data_type: DataType::Unsigned32, access: Access::Rw, pdo_mappable: false, default: DefaultValue::Zero, low: None, high: None, capacity: 0, name: "Application object 60", hook: None },
+    ObjectDef::new(0x1600, 60, DataType::Unsigned32)
+        .object_type(ObjectType::Record)
+        .named("Application object 60"),
     // 0x1600sub61 Application object 61 (UNSIGNED32, rw)
-    ObjectDef { index: 0x1600, sub: 61, object_type: ObjectType::Record, data_type: DataType::Unsigned32, access: Access::Rw, pdo_mappable: false, default: DefaultValue::Zero, low: None, high: None, capacity: 0, name: "Application object 61", hook: None },
+    ObjectDef::new(0x1600, 61, DataType::Unsigned32)
+        .object_type(ObjectType::Record)
+        .named("Application object 61"),
     // 0x1600sub62 Application object 62 (UNSIGNED32, rw)
-    ObjectDef { index: 0x1600, sub: 62, object_type: ObjectType::Record, data_type: DataType::Unsigned32, access: Access::Rw, pdo_mappable: false, default: DefaultValue::Zero, low: None, high: None, capacity: 0, name: "Application object 62", hook: None },
+    ObjectDef::new(0x1600, 62, DataType::Unsigned32)
+        .object_type(ObjectType::Record)
+        .named("Application object 62"),
     // 0x1600sub63 Application object 63 (UNSIGNED32, rw)
-    ObjectDef { index: 0x1600, sub: 63, object_type: ObjectType::Record, data_type: DataType::Unsigned32, access: Access::Rw, pdo_mappable: false, default: DefaultValue::Zero, low: None, high: None, capacity: 0, name: "Application object 63", hook: None },
+    ObjectDef::new(0x1600, 63, DataType::Unsigned32)
+        .object_type(ObjectType::Record)
+        .named("Application object 63"),
     // 0x1600sub64 Application object 64 (UNSIGNED32, rw)
-    ObjectDef { index: 0x1600, sub: 64, object_type: ObjectType::Record, data_type: DataType::Unsigned32, access: Access::Rw, pdo_mappable: false, default: DefaultValue::Zero, low: None, high: None, capacity: 0, name: "Application object 64", hook: None },
+    ObjectDef::new(0x1600, 64, DataType::Unsigned32)
+        .object_type(ObjectType::Record)
+        .named("Application object 64"),
     // 0x1601sub0 RPDO mapping parameter (UNSIGNED8, rw)
-    ObjectDef { index: 0x1601, sub: 0, object_type: ObjectType::Record, data_type: DataType::Unsigned8, access: Access::Rw, pdo_mappable: false, default: DefaultValue::Zero, low: None, high: None, capacity: 0, name: "RPDO mapping parameter", hook: None },
+    ObjectDef::new(0x1601, 0, DataType::Unsigned8)
+        .object_type(ObjectType::Record)
+        .named("RPDO mapping parameter"),
     // 0x1601sub1 Application object 1 (UNSIGNED32, rw)
-    ObjectDef { index: 0x1601, sub: 1, object_type: ObjectType::Record, data_type: DataType::Unsigned32, access: Access::Rw, pdo_mappable: false, default: DefaultValue::Zero, low: None, high: None, capacity: 0, name: "Application object 1", hook: None },
+    ObjectDef::new(0x1601, 1, DataType::Unsigned32)
+        .object_type(ObjectType::Record)
+        .named("Application object 1"),
     // 0x1601sub2 Application object 2 (UNSIGNED32, rw)
-    ObjectDef { index: 0x1601, sub: 2, object_type: ObjectType::Record, data_type: DataType::Unsigned32, access: Access::Rw, pdo_mappable: false, default: DefaultValue::Zero, low: None, high: None, capacity: 0, name: "Application object 2", hook: None },
+    ObjectDef::new(0x1601, 2, DataType::Unsigned32)
+        .object_type(ObjectType::Record)
+        .named("Application object 2"),
     // 0x1601sub3 Application object 3 (UNSIGNED32, rw)
-    ObjectDef { index: 0x1601, sub: 3, object_type: ObjectType::Record, data_type: DataType::Unsigned32, access: Access::Rw, pdo_mappable: false, default: DefaultValue::Zero, low: None, high: None, capacity: 0, name: "Application object 3", hook: None },
+    ObjectDef::new(0x1601, 3, DataType::Unsigned32)
+        .object_type(ObjectType::Record)
+        .named("Application object 3"),
     // 0x1601sub4 Application object 4 (UNSIGNED32, rw)
-    ObjectDef { index: 0x1601, sub: 4, object_type: ObjectType::Record, data_type: DataType::Unsigned32, access: Access::Rw, pdo_mappable: false, default: DefaultValue::Zero, low: None, high: None, capacity: 0, name: "Application object 4", hook: None },
+    ObjectDef::new(0x1601, 4, DataType::Unsigned32)
+        .object_type(ObjectType::Record)
+        .named("Application object 4"),
     // 0x1601sub5 Application object 5 (UNSIGNED32, rw)
-    ObjectDef { index: 0x1601, sub: 5, object_type: ObjectType::Record, data_type: DataType::Unsigned32, access: Access::Rw, pdo_mappable: false, default: DefaultValue::Zero, low: None, high: None, capacity: 0, name: "Application object 5", hook: None },
+    ObjectDef::new(0x1601, 5, DataType::Unsigned32)
+        .object_type(ObjectType::Record)
+        .named("Application object 5"),
     // 0x1601sub6 Application object 6 (UNSIGNED32, rw)
-    ObjectDef { index: 0x1601, sub: 6, object_type: ObjectType::Record, data_type: DataType::Unsigned32, access: Access::Rw, pdo_mappable: false, default: DefaultValue::Zero, low: None, high: None, capacity: 0, name: "Application object 6", hook: None },
+    ObjectDef::new(0x1601, 6, DataType::Unsigned32)
+        .object_type(ObjectType::Record)
+        .named("Application object 6"),
     // 0x1601sub7 Application object 7 (UNSIGNED32, rw)
-    ObjectDef { index: 0x1601, sub: 7, object_type: ObjectType::Record, data_type: DataType::Unsigned32, access: Access::Rw, pdo_mappable: false, default: DefaultValue::Zero, low: None, high: None, capacity: 0, name: "Application object 7", hook: None },
+    ObjectDef::new(0x1601, 7, DataType::Unsigned32)
+        .object_type(ObjectType::Record)
+        .named("Application object 7"),
     // 0x1601sub8 Application object 8 (UNSIGNED32, rw)
-    ObjectDef { index: 0x1601, sub: 8, object_type: ObjectType::Record, data_type: DataType::Unsigned32, access: Access::Rw, pdo_mappable: false, default: DefaultValue::Zero, low: None, high: None, capacity: 0, name: "Application object 8", hook: None },
+    ObjectDef::new(0x1601, 8, DataType::Unsigned32)
+        .object_type(ObjectType::Record)
+        .named("Application object 8"),
     // 0x1601sub9 Application object 9 (UNSIGNED32, rw)
-    ObjectDef { index: 0x1601, sub: 9, object_type: ObjectType::Record, data_type: DataType::Unsigned32, access: Access::Rw, pdo_mappable: false, default: DefaultValue::Zero, low: None, high: None, capacity: 0, name: "Application object 9", hook: None },
+    ObjectDef::new(0x1601, 9, DataType::Unsigned32)
+        .object_type(ObjectType::Record)
+        .named("Application object 9"),
     // 0x1601sub10 Application object 10 (UNSIGNED32, rw)
-    ObjectDef { index: 0x1601, sub: 10, object_type: ObjectType::Record, data_type: DataType::Unsigned32, access: Access::Rw, pdo_mappable: false, default: DefaultValue::Zero, low: None, high: None, capacity: 0, name: "Application object 10", hook: None },
+    ObjectDef::new(0x1601, 10, DataType::Unsigned32)
+        .object_type(ObjectType::Record)
+        .named("Application object 10"),
     // 0x1601sub11 Application object 11 (UNSIGNED32, rw)
-    ObjectDef { index: 0x1601, sub: 11, object_type: ObjectType::Record, data_type: DataType::Unsigned32, access: Access::Rw, pdo_mappable: false, default: DefaultValue::Zero, low: None, high: None, capacity: 0, name: "Application object 11", hook: None },
+    ObjectDef::new(0x1601, 11, DataType::Unsigned32)
+        .object_type(ObjectType::Record)
+        .named("Application object 11"),
     // 0x1601sub12 Application object 12 (UNSIGNED32, rw)
-    ObjectDef { index: 0x1601, sub: 12, object_type: ObjectType::Record, data_type: DataType::Unsigned32, access: Access::Rw, pdo_mappable: false, default: DefaultValue::Zero, low: None, high: None, capacity: 0, name: "Application object 12", hook: None },
+    ObjectDef::new(0x1601, 12, DataType::Unsigned32)
+        .object_type(ObjectType::Record)
+        .named("Application object 12"),
     // 0x1601sub13 Application object 13 (UNSIGNED32, rw)
-    ObjectDef { index: 0x1601, sub: 13, object_type: ObjectType::Record, data_type: DataType::Unsigned32, access: Access::Rw, pdo_mappable: false, default: DefaultValue::Zero, low: None, high: None, capacity: 0, name: "Application object 13", hook: None },
+    ObjectDef::new(0x1601, 13, DataType::Unsigned32)
+        .object_type(ObjectType::Record)
+        .named("Application object 13"),
     // 0x1601sub14 Application object 14 (UNSIGNED32, rw)
-    ObjectDef { index: 0x1601, sub: 14, object_type: ObjectType::Record, data_type: DataType::Unsigned32, access: Access::Rw, pdo_mappable: false, default: DefaultValue::Zero, low: None, high: None, capacity: 0, name: "Application object 14", hook: None },
+    ObjectDef::new(0x1601, 14, DataType::Unsigned32)
+        .object_type(ObjectType::Record)
+        .named("Application object 14"),
     // 0x1601sub15 Application object 15 (UNSIGNED32, rw)
-    ObjectDef { index: 0x1601, sub: 15, object_type: ObjectType::Record, data_type: DataType::Unsigned32, access: Access::Rw, pdo_mappable: false, default: DefaultValue::Zero, low: None, high: None, capacity: 0, name: "Application object 15", hook: None },
+    ObjectDef::new(0x1601, 15, DataType::Unsigned32)
+        .object_type(ObjectType::Record)
+        .named("Application object 15"),
     // 0x1601sub16 Application object 16 (UNSIGNED32, rw)
-    ObjectDef { index: 0x1601, sub: 16, object_type: ObjectType::Record, data_type: DataType::Unsigned32, access: Access::Rw, pdo_mappable: false, default: DefaultValue::Zero, low: None, high: None, capacity: 0, name: "Application object 16", hook: None },
+    ObjectDef::new(0x1601, 16, DataType::Unsigned32)
+        .object_type(ObjectType::Record)
+        .named("Application object 16"),
     // 0x1601sub17 Application object 17 (UNSIGNED32, rw)
-    ObjectDef { index: 0x1601, sub: 17, object_type: ObjectType::Record, data_type: DataType::Unsigned32, access: Access::Rw, pdo_mappable: false, default: DefaultValue::Zero, low: None, high: None, capacity: 0, name: "Application object 17", hook: None },
+    ObjectDef::new(0x1601, 17, DataType::Unsigned32)
+        .object_type(ObjectType::Record)
+        .named("Application object 17"),
     // 0x1601sub18 Application object 18 (UNSIGNED32, rw)
-    ObjectDef { index: 0x1601, sub: 18, object_type: ObjectType::Record, data_type: DataType::Unsigned32, access: Access::Rw, pdo_mappable: false, default: DefaultValue::Zero, low: None, high: None, capacity: 0, name: "Application object 18", hook: None },
+    ObjectDef::new(0x1601, 18, DataType::Unsigned32)
+        .object_type(ObjectType::Record)
+        .named("Application object 18"),
     // 0x1601sub19 Application object 19 (UNSIGNED32, rw)
-    ObjectDef { index: 0x1601, sub: 19, object_type: ObjectType::Record, data_type: DataType::Unsigned32, access: Access::Rw, pdo_mappable: false, default: DefaultValue::Zero, low: None, high: None, capacity: 0, name: "Application object 19", hook: None },
+    ObjectDef::new(0x1601, 19, DataType::Unsigned32)
+        .object_type(ObjectType::Record)
+        .named("Application object 19"),
     // 0x1601sub20 Application object 20 (UNSIGNED32, rw)
-    ObjectDef { index: 0x1601, sub: 20, object_type: ObjectType::Record, data_type: DataType::Unsigned32, access: Access::Rw, pdo_mappable: false, default: DefaultValue::Zero, low: None, high: None, capacity: 0, name: "Application object 20", hook: None },
+    ObjectDef::new(0x1601, 20, DataType::Unsigned32)
+        .object_type(ObjectType::Record)
+        .named("Application object 20"),
     // 0x1601sub21 Application object 21 (UNSIGNED32, rw)
-    ObjectDef { index: 0x1601, sub: 21, object_type: ObjectType::Record, data_type: DataType::Unsigned32, access: Access::Rw, pdo_mappable: false, default: DefaultValue::Zero, low: None, high: None, capacity: 0, name: "Application object 21", hook: None },
+    ObjectDef::new(0x1601, 21, DataType::Unsigned32)
+        .object_type(ObjectType::Record)
+        .named("Application object 21"),
     // 0x1601sub22 Application object 22 (UNSIGNED32, rw)
-    ObjectDef { index: 0x1601, sub: 22, object_type: ObjectType::Record, data_type: DataType::Unsigned32, access: Access::Rw, pdo_mappable: false, default: DefaultValue::Zero, low: None, high: None, capacity: 0, name: "Application object 22", hook: None },
+    ObjectDef::new(0x1601, 22, DataType::Unsigned32)
+        .object_type(ObjectType::Record)
+        .named("Application object 22"),
     // 0x1601sub23 Application object 23 (UNSIGNED32, rw)
-    ObjectDef { index: 0x1601, sub: 23, object_type: ObjectType::Record, data_type: DataType::Unsigned32, access: Access::Rw, pdo_mappable: false, default: DefaultValue::Zero, low: None, high: None, capacity: 0, name: "Application object 23", hook: None },
+    ObjectDef::new(0x1601, 23, DataType::Unsigned32)
+        .object_type(ObjectType::Record)
+        .named("Application object 23"),
     // 0x1601sub24 Application object 24 (UNSIGNED32, rw)
-    ObjectDef { index: 0x1601, sub: 24, object_type: ObjectType::Record, data_type: DataType::Unsigned32, access: Access::Rw, pdo_mappable: false, default: DefaultValue::Zero, low: None, high: None, capacity: 0, name: "Application object 24", hook: None },
+    ObjectDef::new(0x1601, 24, DataType::Unsigned32)
+        .object_type(ObjectType::Record)
+        .named("Application object 24"),
     // 0x1601sub25 Application object 25 (UNSIGNED32, rw)
-    ObjectDef { index: 0x1601, sub: 25, object_type: ObjectType::Record, data_type: DataType::Unsigned32, access: Access::Rw, pdo_mappable: false, default: DefaultValue::Zero, low: None, high: None, capacity: 0, name: "Application object 25", hook: None },
+    ObjectDef::new(0x1601, 25, DataType::Unsigned32)
+        .object_type(ObjectType::Record)
+        .named("Application object 25"),
     // 0x1601sub26 Application object 26 (UNSIGNED32, rw)
-    ObjectDef { index: 0x1601, sub: 26, object_type: ObjectType::Record, data_type: DataType::Unsigned32, access: Access::Rw, pdo_mappable: false, default: DefaultValue::Zero, low: None, high: None, capacity: 0, name: "Application object 26", hook: None },
+    ObjectDef::new(0x1601, 26, DataType::Unsigned32)
+        .object_type(ObjectType::Record)
+        .named("Application object 26"),
     // 0x1601sub27 Application object 27 (UNSIGNED32, rw)
-    ObjectDef { index: 0x1601, sub: 27, object_type: ObjectType::Record, data_type: DataType::Unsigned32, access: Access::Rw, pdo_mappable: false, default: DefaultValue::Zero, low: None, high: None, capacity: 0, name: "Application object 27", hook: None },
+    ObjectDef::new(0x1601, 27, DataType::Unsigned32)
+        .object_type(ObjectType::Record)
+        .named("Application object 27"),
     // 0x1601sub28 Application object 28 (UNSIGNED32, rw)
-    ObjectDef { index: 0x1601, sub: 28, object_type: ObjectType::Record, data_type: DataType::Unsigned32, access: Access::Rw, pdo_mappable: false, default: DefaultValue::Zero, low: None, high: None, capacity: 0, name: "Application object 28", hook: None },
+    ObjectDef::new(0x1601, 28, DataType::Unsigned32)
+        .object_type(ObjectType::Record)
+        .named("Application object 28"),
     // 0x1601sub29 Application object 29 (UNSIGNED32, rw)
-    ObjectDef { index: 0x1601, sub: 29, object_type: ObjectType::Record, data_type: DataType::Unsigned32, access: Access::Rw, pdo_mappable: false, default: DefaultValue::Zero, low: None, high: None, capacity: 0, name: "Application object 29", hook: None },
+    ObjectDef::new(0x1601, 29, DataType::Unsigned32)
+        .object_type(ObjectType::Record)
+        .named("Application object 29"),
     // 0x1601sub30 Application object 30 (UNSIGNED32, rw)
-    ObjectDef { index: 0x1601, sub: 30, object_type: ObjectType::Record, data_type: DataType::Unsigned32, access: Access::Rw, pdo_mappable: false, default: DefaultValue::Zero, low: None, high: None, capacity: 0, name: "Application object 30", hook: None },
+    ObjectDef::new(0x1601, 30, DataType::Unsigned32)
+        .object_type(ObjectType::Record)
+        .named("Application object 30"),
     // 0x1601sub31 Application object 31 (UNSIGNED32, rw)
-    ObjectDef { index: 0x1601, sub: 31, object_type: ObjectType::Record, data_type: DataType::Unsigned32, access: Access::Rw, pdo_mappable: false, default: DefaultValue::Zero, low: None, high: None, capacity: 0, name: "Application object 31", hook: None },
+    ObjectDef::new(0x1601, 31, DataType::Unsigned32)
+        .object_type(ObjectType::Record)
+        .named("Application object 31"),
     // 0x1601sub32 Application object 32 (UNSIGNED32, rw)
-    ObjectDef { index: 0x1601, sub: 32, object_type: ObjectType::Record, data_type: DataType::Unsigned32, access: Access::Rw, pdo_mappable: false, default: DefaultValue::Zero, low: None, high: None, capacity: 0, name: "Application object 32", hook: None },
+    ObjectDef::new(0x1601, 32, DataType::Unsigned32)
+        .object_type(ObjectType::Record)
+        .named("Application object 32"),
     // 0x1601sub33 Application object 33 (UNSIGNED32, rw)
-    ObjectDef { index: 0x1601, sub: 33, object_type: ObjectType::Record, data_type: DataType::Unsigned32, access: Access::Rw, pdo_mappable: false, default: DefaultValue::Zero, low: None, high: None, capacity: 0, name: "Application object 33", hook: None },
+    ObjectDef::new(0x1601, 33, DataType::Unsigned32)
+        .object_type(ObjectType::Record)
+        .named("Application object 33"),
     // 0x1601sub34 Application object 34 (UNSIGNED32, rw)
-    ObjectDef { index: 0x1601, sub: 34, object_type: ObjectType::Record, data_type: DataType::Unsigned32, access: Access::Rw, pdo_mappable: false, default: DefaultValue::Zero, low: None, high: None, capacity: 0, name: "Application object 34", hook: None },
+    ObjectDef::new(0x1601, 34, DataType::Unsigned32)
+        .object_type(ObjectType::Record)
+        .named("Application object 34"),
     // 0x1601sub35 Application object 35 (UNSIGNED32, rw)
-    ObjectDef { index: 0x1601, sub: 35, object_type: ObjectType::Record, data_type: DataType::Unsigned32, access: Access::Rw, pdo_mappable: false, default: DefaultValue::Zero, low: None, high: None, capacity: 0, name: "Application object 35", hook: None },
+    ObjectDef::new(0x1601, 35, DataType::Unsigned32)
+        .object_type(ObjectType::Record)
+        .named("Application object 35"),
     // 0x1601sub36 Application object 36 (UNSIGNED32, rw)
-    ObjectDef { index: 0x1601, sub: 36, object_type: ObjectType::Record, data_type: DataType::Unsigned32, access: Access::Rw, pdo_mappable: false, default: DefaultValue::Zero, low: None, high: None, capacity: 0, name: "Application object 36", hook: None },
+    ObjectDef::new(0x1601, 36, DataType::Unsigned32)
+        .object_type(ObjectType::Record)
+        .named("Application object 36"),
     // 0x1601sub37 Application object 37 (UNSIGNED32, rw)
-    ObjectDef { index: 0x1601, sub: 37, object_type: ObjectType::Record, data_type: DataType::Unsigned32, access: Access::Rw, pdo_mappable: false, default: DefaultValue::Zero, low: None, high: None, capacity: 0, name: "Application object 37", hook: None },
+    ObjectDef::new(0x1601, 37, DataType::Unsigned32)
+        .object_type(ObjectType::Record)
+        .named("Application object 37"),
     // 0x1601sub38 Application object 38 (UNSIGNED32, rw)
-    ObjectDef { index: 0x1601, sub: 38, object_type: ObjectType::Record, data_type: DataType::Unsigned32, access: Access::Rw, pdo_mappable: false, default: DefaultValue::Zero, low: None, high: None, capacity: 0, name: "Application object 38", hook: None },
+    ObjectDef::new(0x1601, 38, DataType::Unsigned32)
+        .object_type(ObjectType::Record)
+        .named("Application object 38"),
     // 0x1601sub39 Application object 39 (UNSIGNED32, rw)
-    ObjectDef { index: 0x1601, sub: 39, object_type: ObjectType::Record, data_type: DataType::Unsigned32, access: Access::Rw, pdo_mappable: false, default: DefaultValue::Zero, low: None, high: None, capacity: 0, name: "Application object 39", hook: None },
+    ObjectDef::new(0x1601, 39, DataType::Unsigned32)
+        .object_type(ObjectType::Record)
+        .named("Application object 39"),
     // 0x1601sub40 Application object 40 (UNSIGNED32, rw)
-    ObjectDef { index: 0x1601, sub: 40, object_type: ObjectType::Record, data_type: DataType::Unsigned32, access: Access::Rw, pdo_mappable: false, default: DefaultValue::Zero, low: None, high: None, capacity: 0, name: "Application object 40", hook: None },
+    ObjectDef::new(0x1601, 40, DataType::Unsigned32)
+        .object_type(ObjectType::Record)
+        .named("Application object 40"),
     // 0x1601sub41 Application object 41 (UNSIGNED32, rw)
-    ObjectDef { index: 0x1601, sub: 41, object_type: ObjectType::Record, data_type: DataType::Unsigned32, access: Access::Rw, pdo_mappable: false, default: DefaultValue::Zero, low: None, high: None, capacity: 0, name: "Application object 41", hook: None },
+    ObjectDef::new(0x1601, 41, DataType::Unsigned32)
+        .object_type(ObjectType::Record)
+        .named("Application object 41"),
     // 0x1601sub42 Application object 42 (UNSIGNED32, rw)
-    ObjectDef { index: 0x1601, sub: 42, object_type: ObjectType::Record, data_type: DataType::Unsigned32, access: Access::Rw, pdo_mappable: false, default: DefaultValue::Zero, low: None, high: None, capacity: 0, name: "Application object 42", hook: None },
+    ObjectDef::new(0x1601, 42, DataType::Unsigned32)
+        .object_type(ObjectType::Record)
+        .named("Application object 42"),
     // 0x1601sub43 Application object 43 (UNSIGNED32, rw)
-    ObjectDef { index: 0x1601, sub: 43, object_type: ObjectType::Record, data_type: DataType::Unsigned32, access: Access::Rw, pdo_mappable: false, default: DefaultValue::Zero, low: None, high: None, capacity: 0, name: "Application object 43", hook: None },
+    ObjectDef::new(0x1601, 43, DataType::Unsigned32)
+        .object_type(ObjectType::Record)
+        .named("Application object 43"),
     // 0x1601sub44 Application object 44 (UNSIGNED32, rw)
-    ObjectDef { index: 0x1601, sub: 44, object_type: ObjectType::Record, data_type: DataType::Unsigned32, access: Access::Rw, pdo_mappable: false, default: DefaultValue::Zero, low: None, high: None, capacity: 0, name: "Application object 44", hook: None },
+    ObjectDef::new(0x1601, 44, DataType::Unsigned32)
+        .object_type(ObjectType::Record)
+        .named("Application object 44"),
     // 0x1601sub45 Application object 45 (UNSIGNED32, rw)
-    ObjectDef { index: 0x1601, sub: 45, object_type: ObjectType::Record, data_type: DataType::Unsigned32, access: Access::Rw, pdo_mappable: false, default: DefaultValue::Zero, low: None, high: None, capacity: 0, name: "Application object 45", hook: None },
+    ObjectDef::new(0x1601, 45, DataType::Unsigned32)
+        .object_type(ObjectType::Record)
+        .named("Application object 45"),
     // 0x1601sub46 Application object 46 (UNSIGNED32, rw)
-    ObjectDef { index: 0x1601, sub: 46, object_type: ObjectType::Record, data_type: DataType::Unsigned32, access: Access::Rw, pdo_mappable: false, default: DefaultValue::Zero, low: None, high: None, capacity: 0, name: "Application object 46", hook: None },
+    ObjectDef::new(0x1601, 46, DataType::Unsigned32)
+        .object_type(ObjectType::Record)
+        .named("Application object 46"),
     // 0x1601sub47 Application object 47 (UNSIGNED32, rw)
-    ObjectDef { index: 0x1601, sub: 47, object_type: ObjectType::Record, data_type: DataType::Unsigned32, access: Access::Rw, pdo_mappable: false, default: DefaultValue::Zero, low: None, high: None, capacity: 0, name: "Application object 47", hook: None },
+    ObjectDef::new(0x1601, 47, DataType::Unsigned32)
+        .object_type(ObjectType::Record)
+        .named("Application object 47"),
     // 0x1601sub48 Application object 48 (UNSIGNED32, rw)
-    ObjectDef { index: 0x1601, sub: 48, object_type: ObjectType::Record, data_type: DataType::Unsigned32, access: Access::Rw, pdo_mappable: false, default: DefaultValue::Zero, low: None, high: None, capacity: 0, name: "Application object 48", hook: None },
+    ObjectDef::new(0x1601, 48, DataType::Unsigned32)
+        .object_type(ObjectType::Record)
+        .named("Application object 48"),
     // 0x1601sub49 Application object 49 (UNSIGNED32, rw)
-    ObjectDef { index: 0x1601, sub: 49, object_type: ObjectType::Record, data_type: DataType::Unsigned32, access: Access::Rw, pdo_mappable: false, default: DefaultValue::Zero, low: None, high: None, capacity: 0, name: "Application object 49", hook: None },
+    ObjectDef::new(0x1601, 49, DataType::Unsigned32)
+        .object_type(ObjectType::Record)
+        .named("Application object 49"),
     // 0x1601sub50 Application object 50 (UNSIGNED32, rw)
-    ObjectDef { index: 0x1601, sub: 50, object_type: ObjectType::Record, data_type: DataType::Unsigned32, access: Access::Rw, pdo_mappable: false, default: DefaultValue::Zero, low: None, high: None, capacity: 0, name: "Application object 50", hook: None },
+    ObjectDef::new(0x1601, 50, DataType::Unsigned32)
+        .object_type(ObjectType::Record)
+        .named("Application object 50"),
     // 0x1601sub51 Application object 51 (UNSIGNED32, rw)
-    ObjectDef { index: 0x1601, sub: 51, object_type: ObjectType::Record, data_type: DataType::Unsigned32, access: Access::Rw, pdo_mappable: false, default: DefaultValue::Zero, low: None, high: None, capacity: 0, name: "Application object 51", hook: None },
+    ObjectDef::new(0x1601, 51, DataType::Unsigned32)
+        .object_type(ObjectType::Record)
+        .named("Application object 51"),
     // 0x1601sub52 Application object 52 (UNSIGNED32, rw)
-    ObjectDef { index: 0x1601, sub: 52, object_type: ObjectType::Record, data_type: DataType::Unsigned32, access: Access::Rw, pdo_mappable: false, default: DefaultValue::Zero, low: None, high: None, capacity: 0, name: "Application object 52", hook: None },
+    ObjectDef::new(0x1601, 52, DataType::Unsigned32)
+        .object_type(ObjectType::Record)
+        .named("Application object 52"),
     // 0x1601sub53 Application object 53 (UNSIGNED32, rw)
-    ObjectDef { index: 0x1601, sub: 53, object_type: ObjectType::Record, data_type: DataType::Unsigned32, access: Access::Rw, pdo_mappable: false, default: DefaultValue::Zero, low: None, high: None, capacity: 0, name: "Application object 53", hook: None },
+    ObjectDef::new(0x1601, 53, DataType::Unsigned32)
+        .object_type(ObjectType::Record)
+        .named("Application object 53"),
     // 0x1601sub54 Application object 54 (UNSIGNED32, rw)
-    ObjectDef { index: 0x1601, sub: 54, object_type: ObjectType::Record, data_type: DataType::Unsigned32, access: Access::Rw, pdo_mappable: false, default: DefaultValue::Zero, low: None, high: None, capacity: 0, name: "Application object 54", hook: None },
+    ObjectDef::new(0x1601, 54, DataType::Unsigned32)
+        .object_type(ObjectType::Record)
+        .named("Application object 54"),
     // 0x1601sub55 Application object 55 (UNSIGNED32, rw)
-    ObjectDef { index: 0x1601, sub: 55, object_type: ObjectType::Record, data_type: DataType::Unsigned32, access: Access::Rw, pdo_mappable: false, default: DefaultValue::Zero, low: None, high: None, capacity: 0, name: "Application object 55", hook: None },
+    ObjectDef::new(0x1601, 55, DataType::Unsigned32)
+        .object_type(ObjectType::Record)
+        .named("Application object 55"),
     // 0x1601sub56 Application object 56 (UNSIGNED32, rw)
-    ObjectDef { index: 0x1601, sub: 56, object_type: ObjectType::Record, data_type: DataType::Unsigned32, access: Access::Rw, pdo_mappable: false, default: DefaultValue::Zero, low: None, high: None, capacity: 0, name: "Application object 56", hook: None },
+    ObjectDef::new(0x1601, 56, DataType::Unsigned32)
+        .object_type(ObjectType::Record)
+        .named("Application object 56"),
     // 0x1601sub57 Application object 57 (UNSIGNED32, rw)
-    ObjectDef { index: 0x1601, sub: 57, object_type: ObjectType::Record, data_type: DataType::Unsigned32, access: Access::Rw, pdo_mappable: false, default: DefaultValue::Zero, low: None, high: None, capacity: 0, name: "Application object 57", hook: None },
+    ObjectDef::new(0x1601, 57, DataType::Unsigned32)
+        .object_type(ObjectType::Record)
+        .named("Application object 57"),
     // 0x1601sub58 Application object 58 (UNSIGNED32, rw)
-    ObjectDef { index: 0x1601, sub: 58, object_type: ObjectType::Record, data_type: DataType::Unsigned32, access: Access::Rw, pdo_mappable: false, default: DefaultValue::Zero, low: None, high: None, capacity: 0, name: "Application object 58", hook: None },
+    ObjectDef::new(0x1601, 58, DataType::Unsigned32)
+        .object_type(ObjectType::Record)
+        .named("Application object 58"),
     // 0x1601sub59 Application object 59 (UNSIGNED32, rw)
-    ObjectDef { index: 0x1601, sub: 59, object_type: ObjectType::Record, data_type: DataType::Unsigned32, access: Access::Rw, pdo_mappable: false, default: DefaultValue::Zero, low: None, high: None, capacity: 0, name: "Application object 59", hook: None },
+    ObjectDef::new(0x1601, 59, DataType::Unsigned32)
+        .object_type(ObjectType::Record)
+        .named("Application object 59"),
     // 0x1601sub60 Application object 60 (UNSIGNED32, rw)
-    ObjectDef { index: 0x1601, sub: 60, object_type: ObjectType::Record, data_type: DataType::Unsigned32, access: Access::Rw, pdo_mappable: false, default: DefaultValue::Zero, low: None, high: None, capacity: 0, name: "Application object 60", hook: None },
+    ObjectDef::new(0x1601, 60, DataType::Unsigned32)
+        .object_type(ObjectType::Record)
+        .named("Application object 60"),
     // 0x1601sub61 Application object 61 (UNSIGNED32, rw)
-    ObjectDef { index: 0x1601, sub: 61, object_type: ObjectType::Record, data_type: DataType::Unsigned32, access: Access::Rw, pdo_mappable: false, default: DefaultValue::Zero, low: None, high: None, capacity: 0, name: "Application object 61", hook: None },
+    ObjectDef::new(0x1601, 61, DataType::Unsigned32)
+        .object_type(ObjectType::Record)
+        .named("Application object 61"),
     // 0x1601sub62 Application object 62 (UNSIGNED32, rw)
-    ObjectDef { index: 0x1601, sub: 62, object_type: ObjectType::Record, data_type: DataType::Unsigned32, access: Access::Rw, pdo_mappable: false, default: DefaultValue::Zero, low: None, high: None, capacity: 0, name: "Application object 62", hook: None },
+    ObjectDef::new(0x1601, 62, DataType::Unsigned32)
+        .object_type(ObjectType::Record)
+        .named("Application object 62"),
     // 0x1601sub63 Application object 63 (UNSIGNED32, rw)
-    ObjectDef { index: 0x1601, sub: 63, object_type: ObjectType::Record, data_type: DataType::Unsigned32, access: Access::Rw, pdo_mappable: false, default: DefaultValue::Zero, low: None, high: None, capacity: 0, name: "Application object 63", hook: None },
+    ObjectDef::new(0x1601, 63, DataType::Unsigned32)
+        .object_type(ObjectType::Record)
+        .named("Application object 63"),
     // 0x1601sub64 Application object 64 (UNSIGNED32, rw)
-    ObjectDef { index: 0x1601, sub: 64, object_type: ObjectType::Record, data_type: DataType::Unsigned32, access: Access::Rw, pdo_mappable: false, default: DefaultValue::Zero, low: None, high: None, capacity: 0, name: "Application object 64", hook: None },
+    ObjectDef::new(0x1601, 64, DataType::Unsigned32)
+        .object_type(ObjectType::Record)
+        .named("Application object 64"),
     // 0x1800sub0 TPDO communication parameter (UNSIGNED8, const)
-    ObjectDef { index: 0x1800, sub: 0, object_type: ObjectType::Record, data_type: DataType::Unsigned8, access: Access::Const, pdo_mappable: false, default: DefaultValue::Unsigned(5), low: None, high: None, capacity: 0, name: "TPDO communication parameter", hook: None },
+    ObjectDef::new(0x1800, 0, DataType::Unsigned8)
+        .object_type(ObjectType::Record)
+        .access(Access::Const)
+        .default(DefaultValue::Unsigned(5))
+        .named("TPDO communication parameter"),
     // 0x1800sub1 COB-ID used by TPDO (UNSIGNED32, rw)
-    ObjectDef { index: 0x1800, sub: 1, object_type: ObjectType::Record, data_type: DataType::Unsigned32, access: Access::Rw, pdo_mappable: false, default: DefaultValue::NodeIdPlus(0x180), low: None, high: None, capacity: 0, name: "COB-ID used by TPDO", hook: None },
+    ObjectDef::new(0x1800, 1, DataType::Unsigned32)
+        .object_type(ObjectType::Record)
+        .default(DefaultValue::NodeIdPlus(0x180))
+        .named("COB-ID used by TPDO"),
     // 0x1800sub2 Transmission type (UNSIGNED8, rw)
-    ObjectDef { index: 0x1800, sub: 2, object_type: ObjectType::Record, data_type: DataType::Unsigned8, access: Access::Rw, pdo_mappable: false, default: DefaultValue::Unsigned(255), low: None, high: None, capacity: 0, name: "Transmission type", hook: None },
+    ObjectDef::new(0x1800, 2, DataType::Unsigned8)
+        .object_type(ObjectType::Record)
+        .default(DefaultValue::Unsigned(255))
+        .named("Transmission type"),
     // 0x1800sub5 Event timer (UNSIGNED16, rw)
-    ObjectDef { index: 0x1800, sub: 5, object_type: ObjectType::Record, data_type: DataType::Unsigned16, access: Access::Rw, pdo_mappable: false, default: DefaultValue::Zero, low: None, high: None, capacity: 0, name: "Event timer", hook: None },
+    ObjectDef::new(0x1800, 5, DataType::Unsigned16)
+        .object_type(ObjectType::Record)
+        .named("Event timer"),
     // 0x1a00sub0 TPDO mapping parameter (UNSIGNED8, rw)
-    ObjectDef { index: 0x1a00, sub: 0, object_type: ObjectType::Record, data_type: DataType::Unsigned8, access: Access::Rw, pdo_mappable: false, default: DefaultValue::Zero, low: None, high: None, capacity: 0, name: "TPDO mapping parameter", hook: None },
+    ObjectDef::new(0x1a00, 0, DataType::Unsigned8)
+        .object_type(ObjectType::Record)
+        .named("TPDO mapping parameter"),
     // 0x1a00sub1 Application object 1 (UNSIGNED32, rw)
-    ObjectDef { index: 0x1a00, sub: 1, object_type: ObjectType::Record, data_type: DataType::Unsigned32, access: Access::Rw, pdo_mappable: false, default: DefaultValue::Zero, low: None, high: None, capacity: 0, name: "Application object 1", hook: None },
+    ObjectDef::new(0x1a00, 1, DataType::Unsigned32)
+        .object_type(ObjectType::Record)
+        .named("Application object 1"),
     // 0x1a00sub2 Application object 2 (UNSIGNED32, rw)
-    ObjectDef { index: 0x1a00, sub: 2, object_type: ObjectType::Record, data_type: DataType::Unsigned32, access: Access::Rw, pdo_mappable: false, default: DefaultValue::Zero, low: None, high: None, capacity: 0, name: "Application object 2", hook: None },
+    ObjectDef::new(0x1a00, 2, DataType::Unsigned32)
+        .object_type(ObjectType::Record)
+        .named("Application object 2"),
     // 0x1a00sub3 Application object 3 (UNSIGNED32, rw)
-    ObjectDef { index: 0x1a00, sub: 3, object_type: ObjectType::Record, data_type: DataType::Unsigned32, access: Access::Rw, pdo_mappable: false, default: DefaultValue::Zero, low: None, high: None, capacity: 0, name: "Application object 3", hook: None },
+    ObjectDef::new(0x1a00, 3, DataType::Unsigned32)
+        .object_type(ObjectType::Record)
+        .named("Application object 3"),
     // 0x1a00sub4 Application object 4 (UNSIGNED32, rw)
-    ObjectDef { index: 0x1a00, sub: 4, object_type: ObjectType::Record, data_type: DataType::Unsigned32, access: Access::Rw, pdo_mappable: false, default: DefaultValue::Zero, low: None, high: None, capacity: 0, name: "Application object 4", hook: None },
+    ObjectDef::new(0x1a00, 4, DataType::Unsigned32)
+        .object_type(ObjectType::Record)
+        .named("Application object 4"),
     // 0x1a00sub5 Application object 5 (UNSIGNED32, rw)
-    ObjectDef { index: 0x1a00, sub: 5, object_type: ObjectType::Record, data_type: DataType::Unsigned32, access: Access::Rw, pdo_mappable: false, default: DefaultValue::Zero, low: None, high: None, capacity: 0, name: "Application object 5", hook: None },
+    ObjectDef::new(0x1a00, 5, DataType::Unsigned32)
+        .object_type(ObjectType::Record)
+        .named("Application object 5"),
     // 0x1a00sub6 Application object 6 (UNSIGNED32, rw)
-    ObjectDef { index: 0x1a00, sub: 6, object_type: ObjectType::Record, data_type: DataType::Unsigned32, access: Access::Rw, pdo_mappable: false, default: DefaultValue::Zero, low: None, high: None, capacity: 0, name: "Application object 6", hook: None },
+    ObjectDef::new(0x1a00, 6, DataType::Unsigned32)
+        .object_type(ObjectType::Record)
+        .named("Application object 6"),
     // 0x1a00sub7 Application object 7 (UNSIGNED32, rw)
-    ObjectDef { index: 0x1a00, sub: 7, object_type: ObjectType::Record, data_type: DataType::Unsigned32, access: Access::Rw, pdo_mappable: false, default: DefaultValue::Zero, low: None, high: None, capacity: 0, name: "Application object 7", hook: None },
+    ObjectDef::new(0x1a00, 7, DataType::Unsigned32)
+        .object_type(ObjectType::Record)
+        .named("Application object 7"),
     // 0x1a00sub8 Application object 8 (UNSIGNED32, rw)
-    ObjectDef { index: 0x1a00, sub: 8, object_type: ObjectType::Record, data_type: DataType::Unsigned32, access: Access::Rw, pdo_mappable: false, default: DefaultValue::Zero, low: None, high: None, capacity: 0, name: "Application object 8", hook: None },
+    ObjectDef::new(0x1a00, 8, DataType::Unsigned32)
+        .object_type(ObjectType::Record)
+        .named("Application object 8"),
     // 0x1a00sub9 Application object 9 (UNSIGNED32, rw)
-    ObjectDef { index: 0x1a00, sub: 9, object_type: ObjectType::Record, data_type: DataType::Unsigned32, access: Access::Rw, pdo_mappable: false, default: DefaultValue::Zero, low: None, high: None, capacity: 0, name: "Application object 9", hook: None },
+    ObjectDef::new(0x1a00, 9, DataType::Unsigned32)
+        .object_type(ObjectType::Record)
+        .named("Application object 9"),
     // 0x1a00sub10 Application object 10 (UNSIGNED32, rw)
-    ObjectDef { index: 0x1a00, sub: 10, object_type: ObjectType::Record, data_type: DataType::Unsigned32, access: Access::Rw, pdo_mappable: false, default: DefaultValue::Zero, low: None, high: None, capacity: 0, name: "Application object 10", hook: None },
+    ObjectDef::new(0x1a00, 10, DataType::Unsigned32)
+        .object_type(ObjectType::Record)
+        .named("Application object 10"),
     // 0x1a00sub11 Application object 11 (UNSIGNED32, rw)
-    ObjectDef { index: 0x1a00, sub: 11, object_type: ObjectType::Record, data_type: DataType::Unsigned32, access: Access::Rw, pdo_mappable: false, default: DefaultValue::Zero, low: None, high: None, capacity: 0, name: "Application object 11", hook: None },
+    ObjectDef::new(0x1a00, 11, DataType::Unsigned32)
+        .object_type(ObjectType::Record)
+        .named("Application object 11"),
     // 0x1a00sub12 Application object 12 (UNSIGNED32, rw)
-    ObjectDef { index: 0x1a00, sub: 12, object_type: ObjectType::Record, data_type: DataType::Unsigned32, access: Access::Rw, pdo_mappable: false, default: DefaultValue::Zero, low: None, high: None, capacity: 0, name: "Application object 12", hook: None },
+    ObjectDef::new(0x1a00, 12, DataType::Unsigned32)
+        .object_type(ObjectType::Record)
+        .named("Application object 12"),
     // 0x1a00sub13 Application object 13 (UNSIGNED32, rw)
-    ObjectDef { index: 0x1a00, sub: 13, object_type: ObjectType::Record, data_type: DataType::Unsigned32, access: Access::Rw, pdo_mappable: false, default: DefaultValue::Zero, low: None, high: None, capacity: 0, name: "Application object 13", hook: None },
+    ObjectDef::new(0x1a00, 13, DataType::Unsigned32)
+        .object_type(ObjectType::Record)
+        .named("Application object 13"),
     // 0x1a00sub14 Application object 14 (UNSIGNED32, rw)
-    ObjectDef { index: 0x1a00, sub: 14, object_type: ObjectType::Record, data_type: DataType::Unsigned32, access: Access::Rw, pdo_mappable: false, default: DefaultValue::Zero, low: None, high: None, capacity: 0, name: "Application object 14", hook: None },
+    ObjectDef::new(0x1a00, 14, DataType::Unsigned32)
+        .object_type(ObjectType::Record)
+        .named("Application object 14"),
     // 0x1a00sub15 Application object 15 (UNSIGNED32, rw)
-    ObjectDef { index: 0x1a00, sub: 15, object_type: ObjectType::Record, data_type: DataType::Unsigned32, access: Access::Rw, pdo_mappable: false, default: DefaultValue::Zero, low: None, high: None, capacity: 0, name: "Application object 15", hook: None },
+    ObjectDef::new(0x1a00, 15, DataType::Unsigned32)
+        .object_type(ObjectType::Record)
+        .named("Application object 15"),
     // 0x1a00sub16 Application object 16 (UNSIGNED32, rw)
-    ObjectDef { index: 0x1a00, sub: 16, object_type: ObjectType::Record, data_type: DataType::Unsigned32, access: Access::Rw, pdo_mappable: false, default: DefaultValue::Zero, low: None, high: None, capacity: 0, name: "Application object 16", hook: None },
+    ObjectDef::new(0x1a00, 16, DataType::Unsigned32)
+        .object_type(ObjectType::Record)
+        .named("Application object 16"),
     // 0x1a00sub17 Application object 17 (UNSIGNED32, rw)
-    ObjectDef { index: 0x1a00, sub: 17, object_type: ObjectType::Record, data_type: DataType::Unsigned32, access: Access::Rw, pdo_mappable: false, default: DefaultValue::Zero, low: None, high: None, capacity: 0, name: "Application object 17", hook: None },
+    ObjectDef::new(0x1a00, 17, DataType::Unsigned32)
+        .object_type(ObjectType::Record)
+        .named("Application object 17"),
     // 0x1a00sub18 Application object 18 (UNSIGNED32, rw)
-    ObjectDef { index: 0x1a00, sub: 18, object_type: ObjectType::Record, data_type: DataType::Unsigned32, access: Access::Rw, pdo_mappable: false, default: DefaultValue::Zero, low: None, high: None, capacity: 0, name: "Application object 18", hook: None },
+    ObjectDef::new(0x1a00, 18, DataType::Unsigned32)
+        .object_type(ObjectType::Record)
+        .named("Application object 18"),
     // 0x1a00sub19 Application object 19 (UNSIGNED32, rw)
-    ObjectDef { index: 0x1a00, sub: 19, object_type: ObjectType::Record, data_type: DataType::Unsigned32, access: Access::Rw, pdo_mappable: false, default: DefaultValue::Zero, low: None, high: None, capacity: 0, name: "Application object 19", hook: None },
+    ObjectDef::new(0x1a00, 19, DataType::Unsigned32)
+        .object_type(ObjectType::Record)
+        .named("Application object 19"),
     // 0x1a00sub20 Application object 20 (UNSIGNED32, rw)
-    ObjectDef { index: 0x1a00, sub: 20, object_type: ObjectType::Record, data_type: DataType::Unsigned32, access: Access::Rw, pdo_mappable: false, default: DefaultValue::Zero, low: None, high: None, capacity: 0, name: "Application object 20", hook: None },
+    ObjectDef::new(0x1a00, 20, DataType::Unsigned32)
+        .object_type(ObjectType::Record)
+        .named("Application object 20"),
     // 0x1a00sub21 Application object 21 (UNSIGNED32, rw)
-    ObjectDef { index: 0x1a00, sub: 21, object_type: ObjectType::Record, data_type: DataType::Unsigned32, access: Access::Rw, pdo_mappable: false, default: DefaultValue::Zero, low: None, high: None, capacity: 0, name: "Application object 21", hook: None },
+    ObjectDef::new(0x1a00, 21, DataType::Unsigned32)
+        .object_type(ObjectType::Record)
+        .named("Application object 21"),
     // 0x1a00sub22 Application object 22 (UNSIGNED32, rw)
-    ObjectDef { index: 0x1a00, sub: 22, object_type: ObjectType::Record, data_type: DataType::Unsigned32, access: Access::Rw, pdo_mappable: false, default: DefaultValue::Zero, low: None, high: None, capacity: 0, name: "Application object 22", hook: None },
+    ObjectDef::new(0x1a00, 22, DataType::Unsigned32)
+        .object_type(ObjectType::Record)
+        .named("Application object 22"),
     // 0x1a00sub23 Application object 23 (UNSIGNED32, rw)
-    ObjectDef { index: 0x1a00, sub: 23, object_type: ObjectType::Record, data_type: DataType::Unsigned32, access: Access::Rw, pdo_mappable: false, default: DefaultValue::Zero, low: None, high: None, capacity: 0, name: "Application object 23", hook: None },
+    ObjectDef::new(0x1a00, 23, DataType::Unsigned32)
+        .object_type(ObjectType::Record)
+        .named("Application object 23"),
     // 0x1a00sub24 Application object 24 (UNSIGNED32, rw)
-    ObjectDef { index: 0x1a00, sub: 24, object_type: ObjectType::Record, data_type: DataType::Unsigned32, access: Access::Rw, pdo_mappable: false, default: DefaultValue::Zero, low: None, high: None, capacity: 0, name: "Application object 24", hook: None },
+    ObjectDef::new(0x1a00, 24, DataType::Unsigned32)
+        .object_type(ObjectType::Record)
+        .named("Application object 24"),
     // 0x1a00sub25 Application object 25 (UNSIGNED32, rw)
-    ObjectDef { index: 0x1a00, sub: 25, object_type: ObjectType::Record, data_type: DataType::Unsigned32, access: Access::Rw, pdo_mappable: false, default: DefaultValue::Zero, low: None, high: None, capacity: 0, name: "Application object 25", hook: None },
+    ObjectDef::new(0x1a00, 25, DataType::Unsigned32)
+        .object_type(ObjectType::Record)
+        .named("Application object 25"),
     // 0x1a00sub26 Application object 26 (UNSIGNED32, rw)
-    ObjectDef { index: 0x1a00, sub: 26, object_type: ObjectType::Record, data_type: DataType::Unsigned32, access: Access::Rw, pdo_mappable: false, default: DefaultValue::Zero, low: None, high: None, capacity: 0, name: "Application object 26", hook: None },
+    ObjectDef::new(0x1a00, 26, DataType::Unsigned32)
+        .object_type(ObjectType::Record)
+        .named("Application object 26"),
     // 0x1a00sub27 Application object 27 (UNSIGNED32, rw)
-    ObjectDef { index: 0x1a00, sub: 27, object_type: ObjectType::Record, data_type: DataType::Unsigned32, access: Access::Rw, pdo_mappable: false, default: DefaultValue::Zero, low: None, high: None, capacity: 0, name: "Application object 27", hook: None },
+    ObjectDef::new(0x1a00, 27, DataType::Unsigned32)
+        .object_type(ObjectType::Record)
+        .named("Application object 27"),
     // 0x1a00sub28 Application object 28 (UNSIGNED32, rw)
-    ObjectDef { index: 0x1a00, sub: 28, object_type: ObjectType::Record, data_type: DataType::Unsigned32, access: Access::Rw, pdo_mappable: false, default: DefaultValue::Zero, low: None, high: None, capacity: 0, name: "Application object 28", hook: None },
+    ObjectDef::new(0x1a00, 28, DataType::Unsigned32)
+        .object_type(ObjectType::Record)
+        .named("Application object 28"),
     // 0x1a00sub29 Application object 29 (UNSIGNED32, rw)
-    ObjectDef { index: 0x1a00, sub: 29, object_type: ObjectType::Record, data_type: DataType::Unsigned32, access: Access::Rw, pdo_mappable: false, default: DefaultValue::Zero, low: None, high: None, capacity: 0, name: "Application object 29", hook: None },
+    ObjectDef::new(0x1a00, 29, DataType::Unsigned32)
+        .object_type(ObjectType::Record)
+        .named("Application object 29"),
     // 0x1a00sub30 Application object 30 (UNSIGNED32, rw)
-    ObjectDef { index: 0x1a00, sub: 30, object_type: ObjectType::Record, data_type: DataType::Unsigned32, access: Access::Rw, pdo_mappable: false, default: DefaultValue::Zero, low: None, high: None, capacity: 0, name: "Application object 30", hook: None },
+    ObjectDef::new(0x1a00, 30, DataType::Unsigned32)
+        .object_type(ObjectType::Record)
+        .named("Application object 30"),
     // 0x1a00sub31 Application object 31 (UNSIGNED32, rw)
-    ObjectDef { index: 0x1a00, sub: 31, object_type: ObjectType::Record, data_type: DataType::Unsigned32, access: Access::Rw, pdo_mappable: false, default: DefaultValue::Zero, low: None, high: None, capacity: 0, name: "Application object 31", hook: None },
+    ObjectDef::new(0x1a00, 31, DataType::Unsigned32)
+        .object_type(ObjectType::Record)
+        .named("Application object 31"),
     // 0x1a00sub32 Application object 32 (UNSIGNED32, rw)
-    ObjectDef { index: 0x1a00, sub: 32, object_type: ObjectType::Record, data_type: DataType::Unsigned32, access: Access::Rw, pdo_mappable: false, default: DefaultValue::Zero, low: None, high: None, capacity: 0, name: "Application object 32", hook: None },
+    ObjectDef::new(0x1a00, 32, DataType::Unsigned32)
+        .object_type(ObjectType::Record)
+        .named("Application object 32"),
     // 0x1a00sub33 Application object 33 (UNSIGNED32, rw)
-    ObjectDef { index: 0x1a00, sub: 33, object_type: ObjectType::Record, data_type: DataType::Unsigned32, access: Access::Rw, pdo_mappable: false, default: DefaultValue::Zero, low: None, high: None, capacity: 0, name: "Application object 33", hook: None },
+    ObjectDef::new(0x1a00, 33, DataType::Unsigned32)
+        .object_type(ObjectType::Record)
+        .named("Application object 33"),
     // 0x1a00sub34 Application object 34 (UNSIGNED32, rw)
-    ObjectDef { index: 0x1a00, sub: 34, object_type: ObjectType::Record, data_type: DataType::Unsigned32, access: Access::Rw, pdo_mappable: false, default: DefaultValue::Zero, low: None, high: None, capacity: 0, name: "Application object 34", hook: None },
+    ObjectDef::new(0x1a00, 34, DataType::Unsigned32)
+        .object_type(ObjectType::Record)
+        .named("Application object 34"),
     // 0x1a00sub35 Application object 35 (UNSIGNED32, rw)
-    ObjectDef { index: 0x1a00, sub: 35, object_type: ObjectType::Record, data_type: DataType::Unsigned32, access: Access::Rw, pdo_mappable: false, default: DefaultValue::Zero, low: None, high: None, capacity: 0, name: "Application object 35", hook: None },
+    ObjectDef::new(0x1a00, 35, DataType::Unsigned32)
+        .object_type(ObjectType::Record)
+        .named("Application object 35"),
     // 0x1a00sub36 Application object 36 (UNSIGNED32, rw)
-    ObjectDef { index: 0x1a00, sub: 36, object_type: ObjectType::Record, data_type: DataType::Unsigned32, access: Access::Rw, pdo_mappable: false, default: DefaultValue::Zero, low: None, high: None, capacity: 0, name: "Application object 36", hook: None },
+    ObjectDef::new(0x1a00, 36, DataType::Unsigned32)
+        .object_type(ObjectType::Record)
+        .named("Application object 36"),
     // 0x1a00sub37 Application object 37 (UNSIGNED32, rw)
-    ObjectDef { index: 0x1a00, sub: 37, object_type: ObjectType::Record, data_type: DataType::Unsigned32, access: Access::Rw, pdo_mappable: false, default: DefaultValue::Zero, low: None, high: None, capacity: 0, name: "Application object 37", hook: None },
+    ObjectDef::new(0x1a00, 37, DataType::Unsigned32)
+        .object_type(ObjectType::Record)
+        .named("Application object 37"),
     // 0x1a00sub38 Application object 38 (UNSIGNED32, rw)
-    ObjectDef { index: 0x1a00, sub: 38, object_type: ObjectType::Record, data_type: DataType::Unsigned32, access: Access::Rw, pdo_mappable: false, default: DefaultValue::Zero, low: None, high: None, capacity: 0, name: "Application object 38", hook: None },
+    ObjectDef::new(0x1a00, 38, DataType::Unsigned32)
+        .object_type(ObjectType::Record)
+        .named("Application object 38"),
     // 0x1a00sub39 Application object 39 (UNSIGNED32, rw)
-    ObjectDef { index: 0x1a00, sub: 39, object_type: ObjectType::Record, data_type: DataType::Unsigned32, access: Access::Rw, pdo_mappable: false, default: DefaultValue::Zero, low: None, high: None, capacity: 0, name: "Application object 39", hook: None },
+    ObjectDef::new(0x1a00, 39, DataType::Unsigned32)
+        .object_type(ObjectType::Record)
+        .named("Application object 39"),
     // 0x1a00sub40 Application object 40 (UNSIGNED32, rw)
-    ObjectDef { index: 0x1a00, sub: 40, object_type: ObjectType::Record, data_type: DataType::Unsigned32, access: Access::Rw, pdo_mappable: false, default: DefaultValue::Zero, low: None, high: None, capacity: 0, name: "Application object 40", hook: None },
+    ObjectDef::new(0x1a00, 40, DataType::Unsigned32)
+        .object_type(ObjectType::Record)
+        .named("Application object 40"),
     // 0x1a00sub41 Application object 41 (UNSIGNED32, rw)
-    ObjectDef { index: 0x1a00, sub: 41, object_type: ObjectType::Record, data_type: DataType::Unsigned32, access: Access::Rw, pdo_mappable: false, default: DefaultValue::Zero, low: None, high: None, capacity: 0, name: "Application object 41", hook: None },
+    ObjectDef::new(0x1a00, 41, DataType::Unsigned32)
+        .object_type(ObjectType::Record)
+        .named("Application object 41"),
     // 0x1a00sub42 Application object 42 (UNSIGNED32, rw)
-    ObjectDef { index: 0x1a00, sub: 42, object_type: ObjectType::Record, data_type: DataType::Unsigned32, access: Access::Rw, pdo_mappable: false, default: DefaultValue::Zero, low: None, high: None, capacity: 0, name: "Application object 42", hook: None },
+    ObjectDef::new(0x1a00, 42, DataType::Unsigned32)
+        .object_type(ObjectType::Record)
+        .named("Application object 42"),
     // 0x1a00sub43 Application object 43 (UNSIGNED32, rw)
-    ObjectDef { index: 0x1a00, sub: 43, object_type: ObjectType::Record, data_type: DataType::Unsigned32, access: Access::Rw, pdo_mappable: false, default: DefaultValue::Zero, low: None, high: None, capacity: 0, name: "Application object 43", hook: None },
+    ObjectDef::new(0x1a00, 43, DataType::Unsigned32)
+        .object_type(ObjectType::Record)
+        .named("Application object 43"),
     // 0x1a00sub44 Application object 44 (UNSIGNED32, rw)
-    ObjectDef { index: 0x1a00, sub: 44, object_type: ObjectType::Record, data_type: DataType::Unsigned32, access: Access::Rw, pdo_mappable: false, default: DefaultValue::Zero, low: None, high: None, capacity: 0, name: "Application object 44", hook: None },
+    ObjectDef::new(0x1a00, 44, DataType::Unsigned32)
+        .object_type(ObjectType::Record)
+        .named("Application object 44"),
     // 0x1a00sub45 Application object 45 (UNSIGNED32, rw)
-    ObjectDef { index: 0x1a00, sub: 45, object_type: ObjectType::Record, data_type: DataType::Unsigned32, access: Access::Rw, pdo_mappable: false, default: DefaultValue::Zero, low: None, high: None, capacity: 0, name: "Application object 45", hook: None },
+    ObjectDef::new(0x1a00, 45, DataType::Unsigned32)
+        .object_type(ObjectType::Record)
+        .named("Application object 45"),
     // 0x1a00sub46 Application object 46 (UNSIGNED32, rw)
-    ObjectDef { index: 0x1a00, sub: 46, object_type: ObjectType::Record, data_type: DataType::Unsigned32, access: Access::Rw, pdo_mappable: false, default: DefaultValue::Zero, low: None, high: None, capacity: 0, name: "Application object 46", hook: None },
+    ObjectDef::new(0x1a00, 46, DataType::Unsigned32)
+        .object_type(ObjectType::Record)
+        .named("Application object 46"),
     // 0x1a00sub47 Application object 47 (UNSIGNED32, rw)
-    ObjectDef { index: 0x1a00, sub: 47, object_type: ObjectType::Record, data_type: DataType::Unsigned32, access: Access::Rw, pdo_mappable: false, default: DefaultValue::Zero, low: None, high: None, capacity: 0, name: "Application object 47", hook: None },
+    ObjectDef::new(0x1a00, 47, DataType::Unsigned32)
+        .object_type(ObjectType::Record)
+        .named("Application object 47"),
     // 0x1a00sub48 Application object 48 (UNSIGNED32, rw)
-    ObjectDef { index: 0x1a00, sub: 48, object_type: ObjectType::Record, data_type: DataType::Unsigned32, access: Access::Rw, pdo_mappable: false, default: DefaultValue::Zero, low: None, high: None, capacity: 0, name: "Application object 48", hook: None },
+    ObjectDef::new(0x1a00, 48, DataType::Unsigned32)
+        .object_type(ObjectType::Record)
+        .named("Application object 48"),
     // 0x1a00sub49 Application object 49 (UNSIGNED32, rw)
-    ObjectDef { index: 0x1a00, sub: 49, object_type: ObjectType::Record, data_type: DataType::Unsigned32, access: Access::Rw, pdo_mappable: false, default: DefaultValue::Zero, low: None, high: None, capacity: 0, name: "Application object 49", hook: None },
+    ObjectDef::new(0x1a00, 49, DataType::Unsigned32)
+        .object_type(ObjectType::Record)
+        .named("Application object 49"),
     // 0x1a00sub50 Application object 50 (UNSIGNED32, rw)
-    ObjectDef { index: 0x1a00, sub: 50, object_type: ObjectType::Record, data_type: DataType::Unsigned32, access: Access::Rw, pdo_mappable: false, default: DefaultValue::Zero, low: None, high: None, capacity: 0, name: "Application object 50", hook: None },
+    ObjectDef::new(0x1a00, 50, DataType::Unsigned32)
+        .object_type(ObjectType::Record)
+        .named("Application object 50"),
     // 0x1a00sub51 Application object 51 (UNSIGNED32, rw)
-    ObjectDef { index: 0x1a00, sub: 51, object_type: ObjectType::Record, data_type: DataType::Unsigned32, access: Access::Rw, pdo_mappable: false, default: DefaultValue::Zero, low: None, high: None, capacity: 0, name: "Application object 51", hook: None },
+    ObjectDef::new(0x1a00, 51, DataType::Unsigned32)
+        .object_type(ObjectType::Record)
+        .named("Application object 51"),
     // 0x1a00sub52 Application object 52 (UNSIGNED32, rw)
-    ObjectDef { index: 0x1a00, sub: 52, object_type: ObjectType::Record, data_type: DataType::Unsigned32, access: Access::Rw, pdo_mappable: false, default: DefaultValue::Zero, low: None, high: None, capacity: 0, name: "Application object 52", hook: None },
+    ObjectDef::new(0x1a00, 52, DataType::Unsigned32)
+        .object_type(ObjectType::Record)
+        .named("Application object 52"),
     // 0x1a00sub53 Application object 53 (UNSIGNED32, rw)
-    ObjectDef { index: 0x1a00, sub: 53, object_type: ObjectType::Record, data_type: DataType::Unsigned32, access: Access::Rw, pdo_mappable: false, default: DefaultValue::Zero, low: None, high: None, capacity: 0, name: "Application object 53", hook: None },
+    ObjectDef::new(0x1a00, 53, DataType::Unsigned32)
+        .object_type(ObjectType::Record)
+        .named("Application object 53"),
     // 0x1a00sub54 Application object 54 (UNSIGNED32, rw)
-    ObjectDef { index: 0x1a00, sub: 54, object_type: ObjectType::Record, data_type: DataType::Unsigned32, access: Access::Rw, pdo_mappable: false, default: DefaultValue::Zero, low: None, high: None, capacity: 0, name: "Application object 54", hook: None },
+    ObjectDef::new(0x1a00, 54, DataType::Unsigned32)
+        .object_type(ObjectType::Record)
+        .named("Application object 54"),
     // 0x1a00sub55 Application object 55 (UNSIGNED32, rw)
-    ObjectDef { index: 0x1a00, sub: 55, object_type: ObjectType::Record, data_type: DataType::Unsigned32, access: Access::Rw, pdo_mappable: false, default: DefaultValue::Zero, low: None, high: None, capacity: 0, name: "Application object 55", hook: None },
+    ObjectDef::new(0x1a00, 55, DataType::Unsigned32)
+        .object_type(ObjectType::Record)
+        .named("Application object 55"),
     // 0x1a00sub56 Application object 56 (UNSIGNED32, rw)
-    ObjectDef { index: 0x1a00, sub: 56, object_type: ObjectType::Record, data_type: DataType::Unsigned32, access: Access::Rw, pdo_mappable: false, default: DefaultValue::Zero, low: None, high: None, capacity: 0, name: "Application object 56", hook: None },
+    ObjectDef::new(0x1a00, 56, DataType::Unsigned32)
+        .object_type(ObjectType::Record)
+        .named("Application object 56"),
     // 0x1a00sub57 Application object 57 (UNSIGNED32, rw)
-    ObjectDef { index: 0x1a00, sub: 57, object_type: ObjectType::Record, data_type: DataType::Unsigned32, access: Access::Rw, pdo_mappable: false, default: DefaultValue::Zero, low: None, high: None, capacity: 0, name: "Application object 57", hook: None },
+    ObjectDef::new(0x1a00, 57, DataType::Unsigned32)
+        .object_type(ObjectType::Record)
+        .named("Application object 57"),
     // 0x1a00sub58 Application object 58 (UNSIGNED32, rw)
-    ObjectDef { index: 0x1a00, sub: 58, object_type: ObjectType::Record, data_type: DataType::Unsigned32, access: Access::Rw, pdo_mappable: false, default: DefaultValue::Zero, low: None, high: None, capacity: 0, name: "Application object 58", hook: None },
+    ObjectDef::new(0x1a00, 58, DataType::Unsigned32)
+        .object_type(ObjectType::Record)
+        .named("Application object 58"),
     // 0x1a00sub59 Application object 59 (UNSIGNED32, rw)
-    ObjectDef { index: 0x1a00, sub: 59, object_type: ObjectType::Record, data_type: DataType::Unsigned32, access: Access::Rw, pdo_mappable: false, default: DefaultValue::Zero, low: None, high: None, capacity: 0, name: "Application object 59", hook: None },
+    ObjectDef::new(0x1a00, 59, DataType::Unsigned32)
+        .object_type(ObjectType::Record)
+        .named("Application object 59"),
     // 0x1a00sub60 Application object 60 (UNSIGNED32, rw)
-    ObjectDef { index: 0x1a00, sub: 60, object_type: ObjectType::Record, data_type: DataType::Unsigned32, access: Access::Rw, pdo_mappable: false, default: DefaultValue::Zero, low: None, high: None, capacity: 0, name: "Application object 60", hook: None },
+    ObjectDef::new(0x1a00, 60, DataType::Unsigned32)
+        .object_type(ObjectType::Record)
+        .named("Application object 60"),
     // 0x1a00sub61 Application object 61 (UNSIGNED32, rw)
-    ObjectDef { index: 0x1a00, sub: 61, object_type: ObjectType::Record, data_type: DataType::Unsigned32, access: Access::Rw, pdo_mappable: false, default: DefaultValue::Zero, low: None, high: None, capacity: 0, name: "Application object 61", hook: None },
+    ObjectDef::new(0x1a00, 61, DataType::Unsigned32)
+        .object_type(ObjectType::Record)
+        .named("Application object 61"),
     // 0x1a00sub62 Application object 62 (UNSIGNED32, rw)
-    ObjectDef { index: 0x1a00, sub: 62, object_type: ObjectType::Record, data_type: DataType::Unsigned32, access: Access::Rw, pdo_mappable: false, default: DefaultValue::Zero, low: None, high: None, capacity: 0, name: "Application object 62", hook: None },
+    ObjectDef::new(0x1a00, 62, DataType::Unsigned32)
+        .object_type(ObjectType::Record)
+        .named("Application object 62"),
     // 0x1a00sub63 Application object 63 (UNSIGNED32, rw)
-    ObjectDef { index: 0x1a00, sub: 63, object_type: ObjectType::Record, data_type: DataType::Unsigned32, access: Access::Rw, pdo_mappable: false, default: DefaultValue::Zero, low: None, high: None, capacity: 0, name: "Application object 63", hook: None },
+    ObjectDef::new(0x1a00, 63, DataType::Unsigned32)
+        .object_type(ObjectType::Record)
+        .named("Application object 63"),
     // 0x1a00sub64 Application object 64 (UNSIGNED32, rw)
-    ObjectDef { index: 0x1a00, sub: 64, object_type: ObjectType::Record, data_type: DataType::Unsigned32, access: Access::Rw, pdo_mappable: false, default: DefaultValue::Zero, low: None, high: None, capacity: 0, name: "Application object 64", hook: None },
+    ObjectDef::new(0x1a00, 64, DataType::Unsigned32)
+        .object_type(ObjectType::Record)
+        .named("Application object 64"),
 ];

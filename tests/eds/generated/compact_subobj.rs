@@ -31,35 +31,94 @@ pub mod index {
 #[allow(dead_code)]
 pub static OBJECTS: [ObjectDef; ENTRIES] = [
     // 0x1000sub0 Device type (UNSIGNED32, ro)
-    ObjectDef { index: 0x1000, sub: 0, object_type: ObjectType::Var, data_type: DataType::Unsigned32, access: Access::Ro, pdo_mappable: false, default: DefaultValue::Unsigned(0x191), low: None, high: None, capacity: 0, name: "Device type", hook: None },
+    ObjectDef::new(0x1000, 0, DataType::Unsigned32)
+        .access(Access::Ro)
+        .default(DefaultValue::Unsigned(0x191))
+        .named("Device type"),
     // 0x1001sub0 Error register (UNSIGNED8, ro)
-    ObjectDef { index: 0x1001, sub: 0, object_type: ObjectType::Var, data_type: DataType::Unsigned8, access: Access::Ro, pdo_mappable: true, default: DefaultValue::Unsigned(0), low: None, high: None, capacity: 0, name: "Error register", hook: None },
+    ObjectDef::new(0x1001, 0, DataType::Unsigned8)
+        .access(Access::Ro)
+        .mappable()
+        .default(DefaultValue::Unsigned(0))
+        .named("Error register"),
     // 0x1016sub0 Consumer heartbeat time (UNSIGNED8, ro)
-    ObjectDef { index: 0x1016, sub: 0, object_type: ObjectType::Array, data_type: DataType::Unsigned8, access: Access::Ro, pdo_mappable: false, default: DefaultValue::Unsigned(4), low: None, high: None, capacity: 0, name: "Consumer heartbeat time", hook: None },
+    ObjectDef::new(0x1016, 0, DataType::Unsigned8)
+        .object_type(ObjectType::Array)
+        .access(Access::Ro)
+        .default(DefaultValue::Unsigned(4))
+        .named("Consumer heartbeat time"),
     // 0x1016sub1 Heartbeat of node 2 (UNSIGNED32, rw)
-    ObjectDef { index: 0x1016, sub: 1, object_type: ObjectType::Array, data_type: DataType::Unsigned32, access: Access::Rw, pdo_mappable: false, default: DefaultValue::Unsigned(0), low: None, high: None, capacity: 0, name: "Heartbeat of node 2", hook: None },
+    ObjectDef::new(0x1016, 1, DataType::Unsigned32)
+        .object_type(ObjectType::Array)
+        .default(DefaultValue::Unsigned(0))
+        .named("Heartbeat of node 2"),
     // 0x1016sub2 Consumer heartbeat time2 (UNSIGNED32, rw)
-    ObjectDef { index: 0x1016, sub: 2, object_type: ObjectType::Array, data_type: DataType::Unsigned32, access: Access::Rw, pdo_mappable: false, default: DefaultValue::Unsigned(0), low: None, high: None, capacity: 0, name: "Consumer heartbeat time2", hook: None },
+    ObjectDef::new(0x1016, 2, DataType::Unsigned32)
+        .object_type(ObjectType::Array)
+        .default(DefaultValue::Unsigned(0))
+        .named("Consumer heartbeat time2"),
     // 0x1016sub3 Heartbeat of node 4 (UNSIGNED32, rw)
-    ObjectDef { index: 0x1016, sub: 3, object_type: ObjectType::Array, data_type: DataType::Unsigned32, access: Access::Rw, pdo_mappable: false, default: DefaultValue::Unsigned(0), low: None, high: None, capacity: 0, name: "Heartbeat of node 4", hook: None },
+    ObjectDef::new(0x1016, 3, DataType::Unsigned32)
+        .object_type(ObjectType::Array)
+        .default(DefaultValue::Unsigned(0))
+        .named("Heartbeat of node 4"),
     // 0x1016sub4 Consumer heartbeat time4 (UNSIGNED32, rw)
-    ObjectDef { index: 0x1016, sub: 4, object_type: ObjectType::Array, data_type: DataType::Unsigned32, access: Access::Rw, pdo_mappable: false, default: DefaultValue::Unsigned(0), low: None, high: None, capacity: 0, name: "Consumer heartbeat time4", hook: None },
+    ObjectDef::new(0x1016, 4, DataType::Unsigned32)
+        .object_type(ObjectType::Array)
+        .default(DefaultValue::Unsigned(0))
+        .named("Consumer heartbeat time4"),
     // 0x1018sub0 Identity object (UNSIGNED8, const)
-    ObjectDef { index: 0x1018, sub: 0, object_type: ObjectType::Record, data_type: DataType::Unsigned8, access: Access::Const, pdo_mappable: false, default: DefaultValue::Unsigned(4), low: None, high: None, capacity: 0, name: "Identity object", hook: None },
+    ObjectDef::new(0x1018, 0, DataType::Unsigned8)
+        .object_type(ObjectType::Record)
+        .access(Access::Const)
+        .default(DefaultValue::Unsigned(4))
+        .named("Identity object"),
     // 0x1018sub1 Vendor-ID (UNSIGNED32, ro)
-    ObjectDef { index: 0x1018, sub: 1, object_type: ObjectType::Record, data_type: DataType::Unsigned32, access: Access::Ro, pdo_mappable: false, default: DefaultValue::Unsigned(0xd0ca), low: None, high: None, capacity: 0, name: "Vendor-ID", hook: None },
+    ObjectDef::new(0x1018, 1, DataType::Unsigned32)
+        .object_type(ObjectType::Record)
+        .access(Access::Ro)
+        .default(DefaultValue::Unsigned(0xd0ca))
+        .named("Vendor-ID"),
     // 0x1018sub2 Product code (UNSIGNED32, ro)
-    ObjectDef { index: 0x1018, sub: 2, object_type: ObjectType::Record, data_type: DataType::Unsigned32, access: Access::Ro, pdo_mappable: false, default: DefaultValue::Unsigned(1), low: None, high: None, capacity: 0, name: "Product code", hook: None },
+    ObjectDef::new(0x1018, 2, DataType::Unsigned32)
+        .object_type(ObjectType::Record)
+        .access(Access::Ro)
+        .default(DefaultValue::Unsigned(1))
+        .named("Product code"),
     // 0x1018sub3 Revision number (UNSIGNED32, ro)
-    ObjectDef { index: 0x1018, sub: 3, object_type: ObjectType::Record, data_type: DataType::Unsigned32, access: Access::Ro, pdo_mappable: false, default: DefaultValue::Unsigned(0x10001), low: None, high: None, capacity: 0, name: "Revision number", hook: None },
+    ObjectDef::new(0x1018, 3, DataType::Unsigned32)
+        .object_type(ObjectType::Record)
+        .access(Access::Ro)
+        .default(DefaultValue::Unsigned(0x10001))
+        .named("Revision number"),
     // 0x1018sub4 Serial number (UNSIGNED32, ro)
-    ObjectDef { index: 0x1018, sub: 4, object_type: ObjectType::Record, data_type: DataType::Unsigned32, access: Access::Ro, pdo_mappable: false, default: DefaultValue::Unsigned(0), low: None, high: None, capacity: 0, name: "Serial number", hook: None },
+    ObjectDef::new(0x1018, 4, DataType::Unsigned32)
+        .object_type(ObjectType::Record)
+        .access(Access::Ro)
+        .default(DefaultValue::Unsigned(0))
+        .named("Serial number"),
     // 0x2000sub0 Channel gain (UNSIGNED8, ro)
-    ObjectDef { index: 0x2000, sub: 0, object_type: ObjectType::Array, data_type: DataType::Unsigned8, access: Access::Ro, pdo_mappable: false, default: DefaultValue::Unsigned(3), low: None, high: None, capacity: 0, name: "Channel gain", hook: None },
+    ObjectDef::new(0x2000, 0, DataType::Unsigned8)
+        .object_type(ObjectType::Array)
+        .access(Access::Ro)
+        .default(DefaultValue::Unsigned(3))
+        .named("Channel gain"),
     // 0x2000sub1 Channel gain1 (UNSIGNED8, rw)
-    ObjectDef { index: 0x2000, sub: 1, object_type: ObjectType::Array, data_type: DataType::Unsigned8, access: Access::Rw, pdo_mappable: true, default: DefaultValue::Unsigned(7), low: None, high: None, capacity: 0, name: "Channel gain1", hook: None },
+    ObjectDef::new(0x2000, 1, DataType::Unsigned8)
+        .object_type(ObjectType::Array)
+        .mappable()
+        .default(DefaultValue::Unsigned(7))
+        .named("Channel gain1"),
     // 0x2000sub2 Channel gain2 (UNSIGNED8, rw)
-    ObjectDef { index: 0x2000, sub: 2, object_type: ObjectType::Array, data_type: DataType::Unsigned8, access: Access::Rw, pdo_mappable: true, default: DefaultValue::Unsigned(7), low: None, high: None, capacity: 0, name: "Channel gain2", hook: None },
+    ObjectDef::new(0x2000, 2, DataType::Unsigned8)
+        .object_type(ObjectType::Array)
+        .mappable()
+        .default(DefaultValue::Unsigned(7))
+        .named("Channel gain2"),
     // 0x2000sub3 Channel gain3 (UNSIGNED8, rw)
-    ObjectDef { index: 0x2000, sub: 3, object_type: ObjectType::Array, data_type: DataType::Unsigned8, access: Access::Rw, pdo_mappable: true, default: DefaultValue::Unsigned(7), low: None, high: None, capacity: 0, name: "Channel gain3", hook: None },
+    ObjectDef::new(0x2000, 3, DataType::Unsigned8)
+        .object_type(ObjectType::Array)
+        .mappable()
+        .default(DefaultValue::Unsigned(7))
+        .named("Channel gain3"),
 ];

@@ -77,67 +77,148 @@ pub mod index {
 #[allow(dead_code)]
 pub static OBJECTS: [ObjectDef; ENTRIES] = [
     // 0x1000sub0 Device type (UNSIGNED32, ro)
-    ObjectDef { index: 0x1000, sub: 0, object_type: ObjectType::Var, data_type: DataType::Unsigned32, access: Access::Ro, pdo_mappable: false, default: DefaultValue::Unsigned(0x191), low: None, high: None, capacity: 0, name: "Device type", hook: None },
+    ObjectDef::new(0x1000, 0, DataType::Unsigned32)
+        .access(Access::Ro)
+        .default(DefaultValue::Unsigned(0x191))
+        .named("Device type"),
     // 0x1001sub0 Error register (UNSIGNED8, ro)
-    ObjectDef { index: 0x1001, sub: 0, object_type: ObjectType::Var, data_type: DataType::Unsigned8, access: Access::Ro, pdo_mappable: true, default: DefaultValue::Unsigned(0), low: None, high: None, capacity: 0, name: "Error register", hook: None },
+    ObjectDef::new(0x1001, 0, DataType::Unsigned8)
+        .access(Access::Ro)
+        .mappable()
+        .default(DefaultValue::Unsigned(0))
+        .named("Error register"),
     // 0x1018sub0 Identity object (UNSIGNED8, const)
-    ObjectDef { index: 0x1018, sub: 0, object_type: ObjectType::Record, data_type: DataType::Unsigned8, access: Access::Const, pdo_mappable: false, default: DefaultValue::Unsigned(4), low: None, high: None, capacity: 0, name: "Identity object", hook: None },
+    ObjectDef::new(0x1018, 0, DataType::Unsigned8)
+        .object_type(ObjectType::Record)
+        .access(Access::Const)
+        .default(DefaultValue::Unsigned(4))
+        .named("Identity object"),
     // 0x1018sub1 Vendor-ID (UNSIGNED32, ro)
-    ObjectDef { index: 0x1018, sub: 1, object_type: ObjectType::Record, data_type: DataType::Unsigned32, access: Access::Ro, pdo_mappable: false, default: DefaultValue::Unsigned(0xd0ca), low: None, high: None, capacity: 0, name: "Vendor-ID", hook: None },
+    ObjectDef::new(0x1018, 1, DataType::Unsigned32)
+        .object_type(ObjectType::Record)
+        .access(Access::Ro)
+        .default(DefaultValue::Unsigned(0xd0ca))
+        .named("Vendor-ID"),
     // 0x1018sub2 Product code (UNSIGNED32, ro)
-    ObjectDef { index: 0x1018, sub: 2, object_type: ObjectType::Record, data_type: DataType::Unsigned32, access: Access::Ro, pdo_mappable: false, default: DefaultValue::Unsigned(1), low: None, high: None, capacity: 0, name: "Product code", hook: None },
+    ObjectDef::new(0x1018, 2, DataType::Unsigned32)
+        .object_type(ObjectType::Record)
+        .access(Access::Ro)
+        .default(DefaultValue::Unsigned(1))
+        .named("Product code"),
     // 0x1018sub3 Revision number (UNSIGNED32, ro)
-    ObjectDef { index: 0x1018, sub: 3, object_type: ObjectType::Record, data_type: DataType::Unsigned32, access: Access::Ro, pdo_mappable: false, default: DefaultValue::Unsigned(0x10001), low: None, high: None, capacity: 0, name: "Revision number", hook: None },
+    ObjectDef::new(0x1018, 3, DataType::Unsigned32)
+        .object_type(ObjectType::Record)
+        .access(Access::Ro)
+        .default(DefaultValue::Unsigned(0x10001))
+        .named("Revision number"),
     // 0x1018sub4 Serial number (UNSIGNED32, ro)
-    ObjectDef { index: 0x1018, sub: 4, object_type: ObjectType::Record, data_type: DataType::Unsigned32, access: Access::Ro, pdo_mappable: false, default: DefaultValue::Unsigned(0), low: None, high: None, capacity: 0, name: "Serial number", hook: None },
+    ObjectDef::new(0x1018, 4, DataType::Unsigned32)
+        .object_type(ObjectType::Record)
+        .access(Access::Ro)
+        .default(DefaultValue::Unsigned(0))
+        .named("Serial number"),
     // 0x2001sub0 BOOLEAN (BOOLEAN, rw)
-    ObjectDef { index: 0x2001, sub: 0, object_type: ObjectType::Var, data_type: DataType::Boolean, access: Access::Rw, pdo_mappable: false, default: DefaultValue::Unsigned(1), low: None, high: None, capacity: 0, name: "BOOLEAN", hook: None },
+    ObjectDef::new(0x2001, 0, DataType::Boolean)
+        .default(DefaultValue::Unsigned(1))
+        .named("BOOLEAN"),
     // 0x2002sub0 INTEGER8 (INTEGER8, rw)
-    ObjectDef { index: 0x2002, sub: 0, object_type: ObjectType::Var, data_type: DataType::Integer8, access: Access::Rw, pdo_mappable: false, default: DefaultValue::Signed(-8), low: None, high: None, capacity: 0, name: "INTEGER8", hook: None },
+    ObjectDef::new(0x2002, 0, DataType::Integer8)
+        .default(DefaultValue::Signed(-8))
+        .named("INTEGER8"),
     // 0x2003sub0 INTEGER16 (INTEGER16, rw)
-    ObjectDef { index: 0x2003, sub: 0, object_type: ObjectType::Var, data_type: DataType::Integer16, access: Access::Rw, pdo_mappable: false, default: DefaultValue::Signed(-16), low: None, high: None, capacity: 0, name: "INTEGER16", hook: None },
+    ObjectDef::new(0x2003, 0, DataType::Integer16)
+        .default(DefaultValue::Signed(-16))
+        .named("INTEGER16"),
     // 0x2004sub0 INTEGER32 (INTEGER32, rw)
-    ObjectDef { index: 0x2004, sub: 0, object_type: ObjectType::Var, data_type: DataType::Integer32, access: Access::Rw, pdo_mappable: false, default: DefaultValue::Signed(-32), low: None, high: None, capacity: 0, name: "INTEGER32", hook: None },
+    ObjectDef::new(0x2004, 0, DataType::Integer32)
+        .default(DefaultValue::Signed(-32))
+        .named("INTEGER32"),
     // 0x2005sub0 UNSIGNED8 (UNSIGNED8, rw)
-    ObjectDef { index: 0x2005, sub: 0, object_type: ObjectType::Var, data_type: DataType::Unsigned8, access: Access::Rw, pdo_mappable: false, default: DefaultValue::Unsigned(8), low: None, high: None, capacity: 0, name: "UNSIGNED8", hook: None },
+    ObjectDef::new(0x2005, 0, DataType::Unsigned8)
+        .default(DefaultValue::Unsigned(8))
+        .named("UNSIGNED8"),
     // 0x2006sub0 UNSIGNED16 (UNSIGNED16, rw)
-    ObjectDef { index: 0x2006, sub: 0, object_type: ObjectType::Var, data_type: DataType::Unsigned16, access: Access::Rw, pdo_mappable: false, default: DefaultValue::Unsigned(22), low: None, high: None, capacity: 0, name: "UNSIGNED16", hook: None },
+    ObjectDef::new(0x2006, 0, DataType::Unsigned16)
+        .default(DefaultValue::Unsigned(22))
+        .named("UNSIGNED16"),
     // 0x2007sub0 UNSIGNED32 (UNSIGNED32, rw)
-    ObjectDef { index: 0x2007, sub: 0, object_type: ObjectType::Var, data_type: DataType::Unsigned32, access: Access::Rw, pdo_mappable: false, default: DefaultValue::Unsigned(50), low: None, high: None, capacity: 0, name: "UNSIGNED32", hook: None },
+    ObjectDef::new(0x2007, 0, DataType::Unsigned32)
+        .default(DefaultValue::Unsigned(50))
+        .named("UNSIGNED32"),
     // 0x2008sub0 REAL32 (REAL32, rw)
-    ObjectDef { index: 0x2008, sub: 0, object_type: ObjectType::Var, data_type: DataType::Real32, access: Access::Rw, pdo_mappable: false, default: DefaultValue::Real(f64::from_bits(0x3fe0000000000000)), low: None, high: None, capacity: 0, name: "REAL32", hook: None },
+    ObjectDef::new(0x2008, 0, DataType::Real32)
+        .default(DefaultValue::Real(f64::from_bits(0x3fe0000000000000)))
+        .named("REAL32"),
     // 0x2009sub0 VISIBLE_STRING (VISIBLE_STRING, rw)
-    ObjectDef { index: 0x2009, sub: 0, object_type: ObjectType::Var, data_type: DataType::VisibleString, access: Access::Rw, pdo_mappable: false, default: DefaultValue::Bytes(b"visible"), low: None, high: None, capacity: 256, name: "VISIBLE_STRING", hook: None },
+    ObjectDef::new(0x2009, 0, DataType::VisibleString)
+        .default(DefaultValue::Bytes(b"visible"))
+        .capacity(256)
+        .named("VISIBLE_STRING"),
     // 0x200asub0 OCTET_STRING (OCTET_STRING, rw)
-    ObjectDef { index: 0x200a, sub: 0, object_type: ObjectType::Var, data_type: DataType::OctetString, access: Access::Rw, pdo_mappable: false, default: DefaultValue::Bytes(b"\x01\x02"), low: None, high: None, capacity: 256, name: "OCTET_STRING", hook: None },
+    ObjectDef::new(0x200a, 0, DataType::OctetString)
+        .default(DefaultValue::Bytes(b"\x01\x02"))
+        .capacity(256)
+        .named("OCTET_STRING"),
     // 0x200bsub0 UNICODE_STRING (UNICODE_STRING, rw)
-    ObjectDef { index: 0x200b, sub: 0, object_type: ObjectType::Var, data_type: DataType::UnicodeString, access: Access::Rw, pdo_mappable: false, default: DefaultValue::Bytes(b"G\x00r\x00\xfc\x00\xdf\x00e\x00"), low: None, high: None, capacity: 256, name: "UNICODE_STRING", hook: None },
+    ObjectDef::new(0x200b, 0, DataType::UnicodeString)
+        .default(DefaultValue::Bytes(b"G\x00r\x00\xfc\x00\xdf\x00e\x00"))
+        .capacity(256)
+        .named("UNICODE_STRING"),
     // 0x200csub0 TIME_OF_DAY (TIME_OF_DAY, rw)
-    ObjectDef { index: 0x200c, sub: 0, object_type: ObjectType::Var, data_type: DataType::TimeOfDay, access: Access::Rw, pdo_mappable: false, default: DefaultValue::Unsigned(0x1000000001), low: None, high: None, capacity: 0, name: "TIME_OF_DAY", hook: None },
+    ObjectDef::new(0x200c, 0, DataType::TimeOfDay)
+        .default(DefaultValue::Unsigned(0x1000000001))
+        .named("TIME_OF_DAY"),
     // 0x200dsub0 TIME_DIFFERENCE (TIME_DIFFERENCE, rw)
-    ObjectDef { index: 0x200d, sub: 0, object_type: ObjectType::Var, data_type: DataType::TimeDifference, access: Access::Rw, pdo_mappable: false, default: DefaultValue::Unsigned(0x2000000002), low: None, high: None, capacity: 0, name: "TIME_DIFFERENCE", hook: None },
+    ObjectDef::new(0x200d, 0, DataType::TimeDifference)
+        .default(DefaultValue::Unsigned(0x2000000002))
+        .named("TIME_DIFFERENCE"),
     // 0x200fsub0 DOMAIN (DOMAIN, rw)
-    ObjectDef { index: 0x200f, sub: 0, object_type: ObjectType::Var, data_type: DataType::Domain, access: Access::Rw, pdo_mappable: false, default: DefaultValue::Bytes(b"\n\x0b"), low: None, high: None, capacity: 4096, name: "DOMAIN", hook: None },
+    ObjectDef::new(0x200f, 0, DataType::Domain)
+        .default(DefaultValue::Bytes(b"\n\x0b"))
+        .capacity(4096)
+        .named("DOMAIN"),
     // 0x2010sub0 INTEGER24 (INTEGER24, rw)
-    ObjectDef { index: 0x2010, sub: 0, object_type: ObjectType::Var, data_type: DataType::Integer24, access: Access::Rw, pdo_mappable: false, default: DefaultValue::Signed(-24), low: None, high: None, capacity: 0, name: "INTEGER24", hook: None },
+    ObjectDef::new(0x2010, 0, DataType::Integer24)
+        .default(DefaultValue::Signed(-24))
+        .named("INTEGER24"),
     // 0x2011sub0 REAL64 (REAL64, rw)
-    ObjectDef { index: 0x2011, sub: 0, object_type: ObjectType::Var, data_type: DataType::Real64, access: Access::Rw, pdo_mappable: false, default: DefaultValue::Real(f64::from_bits(0xbfd0000000000000)), low: None, high: None, capacity: 0, name: "REAL64", hook: None },
+    ObjectDef::new(0x2011, 0, DataType::Real64)
+        .default(DefaultValue::Real(f64::from_bits(0xbfd0000000000000)))
+        .named("REAL64"),
     // 0x2012sub0 INTEGER40 (INTEGER40, rw)
-    ObjectDef { index: 0x2012, sub: 0, object_type: ObjectType::Var, data_type: DataType::Integer40, access: Access::Rw, pdo_mappable: false, default: DefaultValue::Signed(-40), low: None, high: None, capacity: 0, name: "INTEGER40", hook: None },
+    ObjectDef::new(0x2012, 0, DataType::Integer40)
+        .default(DefaultValue::Signed(-40))
+        .named("INTEGER40"),
     // 0x2013sub0 INTEGER48 (INTEGER48, rw)
-    ObjectDef { index: 0x2013, sub: 0, object_type: ObjectType::Var, data_type: DataType::Integer48, access: Access::Rw, pdo_mappable: false, default: DefaultValue::Signed(-48), low: None, high: None, capacity: 0, name: "INTEGER48", hook: None },
+    ObjectDef::new(0x2013, 0, DataType::Integer48)
+        .default(DefaultValue::Signed(-48))
+        .named("INTEGER48"),
     // 0x2014sub0 INTEGER56 (INTEGER56, rw)
-    ObjectDef { index: 0x2014, sub: 0, object_type: ObjectType::Var, data_type: DataType::Integer56, access: Access::Rw, pdo_mappable: false, default: DefaultValue::Signed(-56), low: None, high: None, capacity: 0, name: "INTEGER56", hook: None },
+    ObjectDef::new(0x2014, 0, DataType::Integer56)
+        .default(DefaultValue::Signed(-56))
+        .named("INTEGER56"),
     // 0x2015sub0 INTEGER64 (INTEGER64, rw)
-    ObjectDef { index: 0x2015, sub: 0, object_type: ObjectType::Var, data_type: DataType::Integer64, access: Access::Rw, pdo_mappable: false, default: DefaultValue::Signed(-64), low: None, high: None, capacity: 0, name: "INTEGER64", hook: None },
+    ObjectDef::new(0x2015, 0, DataType::Integer64)
+        .default(DefaultValue::Signed(-64))
+        .named("INTEGER64"),
     // 0x2016sub0 UNSIGNED24 (UNSIGNED24, rw)
-    ObjectDef { index: 0x2016, sub: 0, object_type: ObjectType::Var, data_type: DataType::Unsigned24, access: Access::Rw, pdo_mappable: false, default: DefaultValue::Unsigned(36), low: None, high: None, capacity: 0, name: "UNSIGNED24", hook: None },
+    ObjectDef::new(0x2016, 0, DataType::Unsigned24)
+        .default(DefaultValue::Unsigned(36))
+        .named("UNSIGNED24"),
     // 0x2018sub0 UNSIGNED40 (UNSIGNED40, rw)
-    ObjectDef { index: 0x2018, sub: 0, object_type: ObjectType::Var, data_type: DataType::Unsigned40, access: Access::Rw, pdo_mappable: false, default: DefaultValue::Unsigned(64), low: None, high: None, capacity: 0, name: "UNSIGNED40", hook: None },
+    ObjectDef::new(0x2018, 0, DataType::Unsigned40)
+        .default(DefaultValue::Unsigned(64))
+        .named("UNSIGNED40"),
     // 0x2019sub0 UNSIGNED48 (UNSIGNED48, rw)
-    ObjectDef { index: 0x2019, sub: 0, object_type: ObjectType::Var, data_type: DataType::Unsigned48, access: Access::Rw, pdo_mappable: false, default: DefaultValue::Unsigned(72), low: None, high: None, capacity: 0, name: "UNSIGNED48", hook: None },
+    ObjectDef::new(0x2019, 0, DataType::Unsigned48)
+        .default(DefaultValue::Unsigned(72))
+        .named("UNSIGNED48"),
     // 0x201asub0 UNSIGNED56 (UNSIGNED56, rw)
-    ObjectDef { index: 0x201a, sub: 0, object_type: ObjectType::Var, data_type: DataType::Unsigned56, access: Access::Rw, pdo_mappable: false, default: DefaultValue::Unsigned(86), low: None, high: None, capacity: 0, name: "UNSIGNED56", hook: None },
+    ObjectDef::new(0x201a, 0, DataType::Unsigned56)
+        .default(DefaultValue::Unsigned(86))
+        .named("UNSIGNED56"),
     // 0x201bsub0 UNSIGNED64 (UNSIGNED64, rw)
-    ObjectDef { index: 0x201b, sub: 0, object_type: ObjectType::Var, data_type: DataType::Unsigned64, access: Access::Rw, pdo_mappable: false, default: DefaultValue::Unsigned(100), low: None, high: None, capacity: 0, name: "UNSIGNED64", hook: None },
+    ObjectDef::new(0x201b, 0, DataType::Unsigned64)
+        .default(DefaultValue::Unsigned(100))
+        .named("UNSIGNED64"),
 ];

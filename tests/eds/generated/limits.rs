@@ -33,23 +33,59 @@ pub mod index {
 #[allow(dead_code)]
 pub static OBJECTS: [ObjectDef; ENTRIES] = [
     // 0x1000sub0 Device type (UNSIGNED32, ro)
-    ObjectDef { index: 0x1000, sub: 0, object_type: ObjectType::Var, data_type: DataType::Unsigned32, access: Access::Ro, pdo_mappable: false, default: DefaultValue::Unsigned(0x191), low: None, high: None, capacity: 0, name: "Device type", hook: None },
+    ObjectDef::new(0x1000, 0, DataType::Unsigned32)
+        .access(Access::Ro)
+        .default(DefaultValue::Unsigned(0x191))
+        .named("Device type"),
     // 0x1001sub0 Error register (UNSIGNED8, ro)
-    ObjectDef { index: 0x1001, sub: 0, object_type: ObjectType::Var, data_type: DataType::Unsigned8, access: Access::Ro, pdo_mappable: true, default: DefaultValue::Unsigned(0), low: None, high: None, capacity: 0, name: "Error register", hook: None },
+    ObjectDef::new(0x1001, 0, DataType::Unsigned8)
+        .access(Access::Ro)
+        .mappable()
+        .default(DefaultValue::Unsigned(0))
+        .named("Error register"),
     // 0x1018sub0 Identity object (UNSIGNED8, const)
-    ObjectDef { index: 0x1018, sub: 0, object_type: ObjectType::Record, data_type: DataType::Unsigned8, access: Access::Const, pdo_mappable: false, default: DefaultValue::Unsigned(4), low: None, high: None, capacity: 0, name: "Identity object", hook: None },
+    ObjectDef::new(0x1018, 0, DataType::Unsigned8)
+        .object_type(ObjectType::Record)
+        .access(Access::Const)
+        .default(DefaultValue::Unsigned(4))
+        .named("Identity object"),
     // 0x1018sub1 Vendor-ID (UNSIGNED32, ro)
-    ObjectDef { index: 0x1018, sub: 1, object_type: ObjectType::Record, data_type: DataType::Unsigned32, access: Access::Ro, pdo_mappable: false, default: DefaultValue::Unsigned(0xd0ca), low: None, high: None, capacity: 0, name: "Vendor-ID", hook: None },
+    ObjectDef::new(0x1018, 1, DataType::Unsigned32)
+        .object_type(ObjectType::Record)
+        .access(Access::Ro)
+        .default(DefaultValue::Unsigned(0xd0ca))
+        .named("Vendor-ID"),
     // 0x1018sub2 Product code (UNSIGNED32, ro)
-    ObjectDef { index: 0x1018, sub: 2, object_type: ObjectType::Record, data_type: DataType::Unsigned32, access: Access::Ro, pdo_mappable: false, default: DefaultValue::Unsigned(1), low: None, high: None, capacity: 0, name: "Product code", hook: None },
+    ObjectDef::new(0x1018, 2, DataType::Unsigned32)
+        .object_type(ObjectType::Record)
+        .access(Access::Ro)
+        .default(DefaultValue::Unsigned(1))
+        .named("Product code"),
     // 0x1018sub3 Revision number (UNSIGNED32, ro)
-    ObjectDef { index: 0x1018, sub: 3, object_type: ObjectType::Record, data_type: DataType::Unsigned32, access: Access::Ro, pdo_mappable: false, default: DefaultValue::Unsigned(0x10001), low: None, high: None, capacity: 0, name: "Revision number", hook: None },
+    ObjectDef::new(0x1018, 3, DataType::Unsigned32)
+        .object_type(ObjectType::Record)
+        .access(Access::Ro)
+        .default(DefaultValue::Unsigned(0x10001))
+        .named("Revision number"),
     // 0x1018sub4 Serial number (UNSIGNED32, ro)
-    ObjectDef { index: 0x1018, sub: 4, object_type: ObjectType::Record, data_type: DataType::Unsigned32, access: Access::Ro, pdo_mappable: false, default: DefaultValue::Unsigned(0), low: None, high: None, capacity: 0, name: "Serial number", hook: None },
+    ObjectDef::new(0x1018, 4, DataType::Unsigned32)
+        .object_type(ObjectType::Record)
+        .access(Access::Ro)
+        .default(DefaultValue::Unsigned(0))
+        .named("Serial number"),
     // 0x2000sub0 Speed (UNSIGNED16, rw)
-    ObjectDef { index: 0x2000, sub: 0, object_type: ObjectType::Var, data_type: DataType::Unsigned16, access: Access::Rw, pdo_mappable: false, default: DefaultValue::Unsigned(100), low: Some(Limit::Unsigned(10)), high: Some(Limit::Unsigned(0x3e8)), capacity: 0, name: "Speed", hook: None },
+    ObjectDef::new(0x2000, 0, DataType::Unsigned16)
+        .default(DefaultValue::Unsigned(100))
+        .bounds(Some(Limit::Unsigned(10)), Some(Limit::Unsigned(0x3e8)))
+        .named("Speed"),
     // 0x2001sub0 Offset (INTEGER8, rw)
-    ObjectDef { index: 0x2001, sub: 0, object_type: ObjectType::Var, data_type: DataType::Integer8, access: Access::Rw, pdo_mappable: false, default: DefaultValue::Signed(0), low: Some(Limit::Signed(-100)), high: Some(Limit::Signed(100)), capacity: 0, name: "Offset", hook: None },
+    ObjectDef::new(0x2001, 0, DataType::Integer8)
+        .default(DefaultValue::Signed(0))
+        .bounds(Some(Limit::Signed(-100)), Some(Limit::Signed(100)))
+        .named("Offset"),
     // 0x2002sub0 Gain (REAL32, rw)
-    ObjectDef { index: 0x2002, sub: 0, object_type: ObjectType::Var, data_type: DataType::Real32, access: Access::Rw, pdo_mappable: false, default: DefaultValue::Real(f64::from_bits(0x3ff0000000000000)), low: Some(Limit::Real(f64::from_bits(0xbff8000000000000))), high: Some(Limit::Real(f64::from_bits(0x3ff8000000000000))), capacity: 0, name: "Gain", hook: None },
+    ObjectDef::new(0x2002, 0, DataType::Real32)
+        .default(DefaultValue::Real(f64::from_bits(0x3ff0000000000000)))
+        .bounds(Some(Limit::Real(f64::from_bits(0xbff8000000000000))), Some(Limit::Real(f64::from_bits(0x3ff8000000000000))))
+        .named("Gain"),
 ];

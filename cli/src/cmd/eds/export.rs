@@ -331,11 +331,11 @@ fn rebased(od: &DynamicDictionary) -> DynamicDictionary {
                 let mut b = [0u8; 8];
                 let n = n.min(8).min(e.data.len());
                 b[..n].copy_from_slice(&e.data[..n]);
-                def.default = DefaultValue::Unsigned(u64::from_le_bytes(b));
+                def = def.default(DefaultValue::Unsigned(u64::from_le_bytes(b)));
                 None
             }
             None => {
-                def.default = DefaultValue::Zero;
+                def = def.default(DefaultValue::Zero);
                 def.capacity = def.capacity.max(e.data.len() as u32);
                 Some(e.data)
             }
