@@ -96,12 +96,41 @@ fn drive(w: &mut dyn Wire, n: u64, window: u64) -> Result<f64, String> {
     Ok(n as f64 / start.elapsed().as_secs_f64())
 }
 
-/// CPU time of one thread of this process, from the kernel's scheduler statistics (ns).
-fn thread_cpu(task: &str) -> u64 {
-    std::fs::read_to_string(format!("/proc/self/task/{task}/schedstat"))
-        .ok()
-        .and_then(|s| s.split_whitespace().next()?.parse().ok())
-        .unwrap_or(0)
+/// CPU time of one thread of this process (ns) and the times it was put on a CPU, from the
+/// kernel's scheduler statistics.
+fn thread_cpu(task: &str) -> Cpu {
+    let s =
+        std::fs::read_to_string(format!("/proc/self/task/{task}/schedstat")).unwrap_or_default();
+    let mut f = s.split_whitespace().map(|x| x.parse().unwrap_or(0));
+    let ns = f.next().unwrap_or(0);
+    let slices = f.nth(1).unwrap_or(0);
+    Cpu { ns, slices }
+}
+
+/// CPU time (ns) and times put on a CPU (each a wake-up or a preemption: a context switch).
+#[derive(Clone, Copy, Default)]
+struct Cpu {
+    ns: u64,
+    slices: u64,
+}
+
+impl std::ops::Sub for Cpu {
+    type Output = Cpu;
+    fn sub(self, o: Cpu) -> Cpu {
+        Cpu {
+            ns: self.ns.saturating_sub(o.ns),
+            slices: self.slices.saturating_sub(o.slices),
+        }
+    }
+}
+
+impl std::iter::Sum for Cpu {
+    fn sum<I: Iterator<Item = Cpu>>(it: I) -> Cpu {
+        it.fold(Cpu::default(), |a, b| Cpu {
+            ns: a.ns + b.ns,
+            slices: a.slices + b.slices,
+        })
+    }
 }
 
 /// This thread's id (the driver's, whose CPU is not the echo's).
@@ -112,10 +141,10 @@ fn own_tid() -> String {
         .unwrap_or_default()
 }
 
-/// CPU time of every thread of this process but `except` (ns): the runtime's workers.
-fn others_cpu(except: &str) -> u64 {
+/// CPU time of every thread of this process but `except`: the runtime's threads.
+fn others_cpu(except: &str) -> Cpu {
     let Ok(dir) = std::fs::read_dir("/proc/self/task") else {
-        return 0;
+        return Cpu::default();
     };
     dir.filter_map(Result::ok)
         .map(|e| e.file_name().to_string_lossy().into_owned())
@@ -125,7 +154,7 @@ fn others_cpu(except: &str) -> u64 {
 }
 
 /// The bare echo of `n` frames on its own thread; it returns the CPU time it used (ns).
-fn bare_echo(mut w: Box<dyn Wire>, n: u64) -> std::thread::JoinHandle<u64> {
+fn bare_echo(mut w: Box<dyn Wire>, n: u64) -> std::thread::JoinHandle<Cpu> {
     std::thread::spawn(move || {
         let me = own_tid();
         let start = thread_cpu(&me);
@@ -151,6 +180,8 @@ fn bare_echo(mut w: Box<dyn Wire>, n: u64) -> std::thread::JoinHandle<u64> {
 struct Run {
     rate: f64,
     cpu_us: f64,
+    /// Times the echo's threads were put on a CPU, per frame.
+    switches: f64,
 }
 
 /// Everything a round measures, bare and through the runtime.
@@ -179,10 +210,12 @@ fn round(
         rtt: [Run {
             rate: 0.0,
             cpu_us: 0.0,
+            switches: 0.0,
         }; 2],
         flow: [Run {
             rate: 0.0,
             cpu_us: 0.0,
+            switches: 0.0,
         }; 2],
     };
     for (window, slot) in [(1, 0), (WINDOW, 1)] {
@@ -192,7 +225,8 @@ fn round(
         let cpu = echo.join().map_err(|_| "bare echo panicked")?;
         let bare = Run {
             rate,
-            cpu_us: cpu as f64 / 1e3 / frames as f64,
+            cpu_us: cpu.ns as f64 / 1e3 / frames as f64,
+            switches: cpu.slices as f64 / frames as f64,
         };
         let handle = {
             let _in_rt = rt.enter();
@@ -206,7 +240,8 @@ fn round(
         rt.block_on(handle.shutdown());
         let through = Run {
             rate,
-            cpu_us: cpu as f64 / 1e3 / frames as f64,
+            cpu_us: cpu.ns as f64 / 1e3 / frames as f64,
+            switches: cpu.slices as f64 / frames as f64,
         };
         let runs = if slot == 0 {
             &mut out.rtt
@@ -290,6 +325,12 @@ fn compare(
         "echo CPU per frame, window 1",
         "µs",
         &|r| (r.rtt[0].cpu_us, r.rtt[1].cpu_us),
+        &over,
+    );
+    line(
+        "echo switches per frame, window 16",
+        "n",
+        &|r| (r.flow[0].switches, r.flow[1].switches),
         &over,
     );
     let (m, ..) = stats(

@@ -126,4 +126,27 @@ pub trait Port: Send + 'static {
     fn send(&mut self, frame: &Frame) -> impl Future<Output = Result<(), PortError>> + Send;
     /// Re-opens the port after a failure (or on request: after bus-off, to reset the socket).
     fn reopen(&mut self) -> impl Future<Output = Result<(), PortError>> + Send;
+    /// Hands the port's reading to a thread of its own, if the port can read by blocking: the
+    /// runtime then reads through the returned [`PortReader`] (as a bare socket loop does: one
+    /// system call per frame, no readiness wait) and no longer calls [`Port::recv`]; `send`
+    /// stays usable and must not wait for room while holding up its caller. `None` (the
+    /// default) keeps the port on `recv`. After [`Port::reopen`] the port reads through `recv`
+    /// again until this is called again.
+    fn reader(&mut self) -> Option<Box<dyn PortReader>> {
+        None
+    }
+}
+
+/// How long a [`PortReader`] waits at most in one call: the reader thread looks this often
+/// whether it is to stop.
+pub const READER_WAIT: std::time::Duration = std::time::Duration::from_millis(50);
+
+/// The blocking side of a port, used by a thread of its own (see [`Port::reader`]).
+pub trait PortReader: Send {
+    /// The next frame or status, waiting at most [`READER_WAIT`]: `Ok(None)` when nothing came
+    /// in that time. An `Err` means the port is unusable until it is re-opened.
+    fn read(&mut self) -> Result<Option<PortInput>, PortError>;
+    /// Sends one frame, waiting at most [`READER_WAIT`] for room: `Ok(false)` when there was
+    /// none in that time (the caller tries again or gives up).
+    fn write(&mut self, frame: &Frame) -> Result<bool, PortError>;
 }

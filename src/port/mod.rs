@@ -76,4 +76,4 @@ mod asynch;
 #[cfg(feature = "tokio")]
 pub mod mem;
 #[cfg(feature = "tokio")]
-pub use asynch::{Port, PortError, PortErrorKind, PortInput};
+pub use asynch::{Port, PortError, PortErrorKind, PortInput, PortReader, READER_WAIT};

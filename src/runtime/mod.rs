@@ -19,6 +19,13 @@
 //! [`Handle`]s and sleeps until the device's [`poll_timeout`](Device::poll_timeout): there is
 //! no fixed tick, and a deadline that fell before a frame was read is handled before that
 //! frame, at its own instant. Nothing on the way of a frame allocates.
+//!
+//! A port that can read by blocking ([`Port::reader`]: SocketCAN ports) is read by a thread of
+//! its own instead, which waits in the socket's `read` as a bare loop does (one system call per
+//! frame, where a readiness wait adds an `epoll_wait` and a `read` that finds the socket empty)
+//! and does the same: hands the frame to the device under the lock and writes the answer. The
+//! port's task then only sends what the device queued on timers and commands, and re-opens the
+//! port; a writer lock between the two keeps the queue's order on the wire.
 
 //! Everything the application does goes through the [`Handle`] as a closure run on the device
 //! inside the core task ([`Handle::call`]), with typed helpers for nodes ([`NodeHost`]) and a
@@ -65,6 +72,7 @@
 mod handle;
 mod node;
 mod port_task;
+mod reader;
 mod sdo;
 mod task;
 
@@ -121,12 +129,29 @@ impl Clock {
         let d = self.origin.elapsed();
         Instant::from_micros(u64::try_from(d.as_micros()).unwrap_or(u64::MAX))
     }
+    /// The clock as a reader thread reads it: from the standard library's clock, which is
+    /// tokio's outside a runtime (and cheaper to read there).
+    pub(crate) fn on_thread(&self) -> ThreadClock {
+        ThreadClock(self.origin.into_std())
+    }
     /// The tokio instant of `t` (far future for [`Instant::MAX`]).
     pub fn to_tokio(&self, t: Instant) -> tokio::time::Instant {
         let far = self.origin + std::time::Duration::from_secs(86_400 * 365 * 30);
         self.origin
             .checked_add(std::time::Duration::from_micros(t.as_micros()))
             .map_or(far, |x| x.min(far))
+    }
+}
+
+/// [`Clock`] for a thread outside the tokio runtime.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct ThreadClock(std::time::Instant);
+
+impl ThreadClock {
+    /// Current time, as [`Clock::now`] gives it.
+    pub(crate) fn now(&self) -> Instant {
+        let d = self.0.elapsed();
+        Instant::from_micros(u64::try_from(d.as_micros()).unwrap_or(u64::MAX))
     }
 }
 

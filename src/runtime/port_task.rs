@@ -22,7 +22,7 @@ pub(crate) struct Wiring {
     pub wake: Arc<Notify>,
 }
 
-enum Step {
+pub(super) enum Step {
     Continue,
     /// The port is unusable, for this reason (reported already).
     Failed(ErrorCause),
@@ -33,7 +33,15 @@ enum Step {
 const BURST: usize = 32;
 
 pub(crate) async fn run<P: Port>(mut port: P, w: Wiring) {
-    let mut out = Outbox::new();
+    if let Some(reader) = port.reader() {
+        return super::reader::run(port, reader, w).await;
+    }
+    run_async(port, w, Outbox::new()).await;
+}
+
+/// The port's task reading through the port's `recv` (`out`: what is left to do first).
+pub(super) async fn run_async<P: Port>(mut port: P, w: Wiring, mut out: Outbox) {
+    w.wake.notify_one();
     loop {
         let step = tokio::select! {
             () = w.wake.notified() => serve(&mut port, &w, &mut out).await,
@@ -65,14 +73,8 @@ pub(crate) async fn run<P: Port>(mut port: P, w: Wiring) {
                 step
             }
         };
-        match step {
-            Step::Continue => {}
-            Step::Stop => return,
-            Step::Failed(cause) => {
-                if !recover(&mut port, &w, &mut out, cause).await {
-                    return;
-                }
-            }
+        if !settle(&mut port, &w, &mut out, step).await {
+            return;
         }
     }
 }
@@ -95,19 +97,13 @@ async fn serve<P: Port>(port: &mut P, w: &Wiring, out: &mut Outbox) -> Step {
     }
 }
 
-async fn command<P: Port>(port: &mut P, w: &Wiring, cmd: PortCmd) -> Step {
+pub(super) async fn command<P: Port>(port: &mut P, w: &Wiring, cmd: PortCmd) -> Step {
     match cmd {
         PortCmd::Send(f) => match port.send(&f).await {
             Ok(()) => Step::Continue,
             Err(e) => {
                 tracing::warn!(error = %e, "send failed");
-                let down = matches!(
-                    e.kind,
-                    PortErrorKind::InterfaceDown
-                        | PortErrorKind::NoSuchInterface
-                        | PortErrorKind::Closed
-                );
-                if down {
+                if is_down(e.kind) {
                     report(w, PortStatus::Down(e.cause()));
                     Step::Failed(e.cause())
                 } else {
@@ -130,8 +126,30 @@ async fn command<P: Port>(port: &mut P, w: &Wiring, cmd: PortCmd) -> Step {
     }
 }
 
+/// Goes on after `step`: re-opens a failed port (with backoff). False when the task is to end.
+pub(super) async fn settle<P: Port>(
+    port: &mut P,
+    w: &Wiring,
+    out: &mut Outbox,
+    step: Step,
+) -> bool {
+    match step {
+        Step::Continue => true,
+        Step::Stop => false,
+        Step::Failed(cause) => recover(port, w, out, cause).await,
+    }
+}
+
+/// A send failed because the port is gone (not only this frame).
+pub(super) fn is_down(kind: PortErrorKind) -> bool {
+    matches!(
+        kind,
+        PortErrorKind::InterfaceDown | PortErrorKind::NoSuchInterface | PortErrorKind::Closed
+    )
+}
+
 /// Hands the port's status to the device.
-fn report(w: &Wiring, s: PortStatus) {
+pub(super) fn report(w: &Wiring, s: PortStatus) {
     let _ = w.hub.input(w.index, PortInput::Status(s), w.clock.now());
 }
 
@@ -140,7 +158,12 @@ fn report(w: &Wiring, s: PortStatus) {
 /// that it does not count on a port that cannot carry anything yet). What was queued before
 /// the failure goes the same way.
 /// Returns false when the runtime is shutting down.
-async fn recover<P: Port>(port: &mut P, w: &Wiring, out: &mut Outbox, cause: ErrorCause) -> bool {
+pub(super) async fn recover<P: Port>(
+    port: &mut P,
+    w: &Wiring,
+    out: &mut Outbox,
+    cause: ErrorCause,
+) -> bool {
     let counters = port.counters();
     let mut wait = BACKOFF_MIN;
     let mut attempts = 0u32;
@@ -238,6 +261,15 @@ mod tests {
         }
         fn take(&self, _: usize, into: &mut Outbox) -> bool {
             super::super::task::move_into(&mut self.queue.lock().unwrap(), into);
+            true
+        }
+        fn take_frames(&self, _: usize, _: &mut Outbox) -> Option<bool> {
+            unreachable!("the dead port has no reader thread")
+        }
+        fn input_take(&self, _: usize, _: PortInput, _: Instant, _: &mut Outbox) -> Option<bool> {
+            unreachable!("the dead port has no reader thread")
+        }
+        fn is_open(&self) -> bool {
             true
         }
     }

@@ -51,6 +51,21 @@ pub(crate) trait Hub: Send + Sync + 'static {
     /// Moves what is queued for `port`, oldest first, into `into` as far as it has room. False
     /// when the runtime has stopped.
     fn take(&self, port: usize, into: &mut Outbox) -> bool;
+    /// Moves the frames at the head of `port`'s queue, up to its first other command, into
+    /// `into` as far as it has room: what a reader thread writes itself. `Some(true)` when
+    /// something is left in the queue, `None` when the runtime has stopped.
+    fn take_frames(&self, port: usize, into: &mut Outbox) -> Option<bool>;
+    /// [`Hub::input`], then [`Hub::take_frames`] for the same port, under one lock: what a
+    /// reader thread does with each frame (holding the port's writer lock).
+    fn input_take(
+        &self,
+        port: usize,
+        x: PortInput,
+        at: crate::Instant,
+        into: &mut Outbox,
+    ) -> Option<bool>;
+    /// The runtime still runs.
+    fn is_open(&self) -> bool;
 }
 
 /// A port task's batch of work taken from its queue (fixed size: no allocation per frame).
@@ -187,6 +202,13 @@ where
     /// Moves everything the device has to the port queues and the subscribers; returns the
     /// ports that got work, one bit each (all bits from 63 on for ports past 62).
     pub fn flush(&mut self) -> u64 {
+        self.flush_into(None)
+    }
+
+    /// [`State::flush`], but frames for the port of `direct` go straight into its outbox while
+    /// that port's queue is empty and the outbox has room (a reader thread writing its answers:
+    /// no trip through the queue, and the order is kept, as the queue is taken after).
+    pub fn flush_into(&mut self, mut direct: Option<(usize, &mut Outbox)>) -> u64 {
         let bit = |port: usize| 1u64 << port.min(63);
         let mut woken = 0;
         // Only the tap needs the time: read the clock once, and only for it.
@@ -200,7 +222,16 @@ where
                 let at = *now.get_or_insert_with(|| self.clock.now());
                 t.frame(at, TapPoint::Port(port), TapDirection::Tx, &f);
             }
-            if self.queue(port, PortCmd::Send(f)) {
+            let cmd = match &mut direct {
+                Some((own, into)) if *own == port && self.queues[port].is_empty() => {
+                    match into.push_back(PortCmd::Send(f)) {
+                        Ok(()) => continue,
+                        Err(cmd) => cmd,
+                    }
+                }
+                _ => PortCmd::Send(f),
+            };
+            if self.queue(port, cmd) {
                 woken |= bit(port);
             } else {
                 // The port cannot keep up (or is down): drop rather than stall the device.
@@ -297,6 +328,46 @@ where
         }
         true
     }
+
+    fn take_frames(&self, port: usize, into: &mut Outbox) -> Option<bool> {
+        let mut st = self.state.lock().ok()?;
+        if st.closed {
+            return None;
+        }
+        take_frames(st.queues.get_mut(port)?, into)
+    }
+
+    fn input_take(
+        &self,
+        port: usize,
+        x: PortInput,
+        at: crate::Instant,
+        into: &mut Outbox,
+    ) -> Option<bool> {
+        let mut st = self.state.lock().ok()?;
+        if st.closed {
+            return None;
+        }
+        st.input(port, x, at);
+        let woken = st.flush_into(Some((port, into)));
+        self.wake(&st, woken, Some(port));
+        take_frames(st.queues.get_mut(port)?, into)
+    }
+
+    fn is_open(&self) -> bool {
+        self.state.lock().is_ok_and(|st| !st.closed)
+    }
+}
+
+/// Moves the frames at the head of `q` (up to its first other command) into `into`, as many as
+/// it has room for; true when something is left in `q`.
+fn take_frames(q: &mut VecDeque<PortCmd>, into: &mut Outbox) -> Option<bool> {
+    while !into.is_full() && matches!(q.front(), Some(PortCmd::Send(_))) {
+        if let Some(c) = q.pop_front() {
+            let _ = into.push_back(c);
+        }
+    }
+    Some(!q.is_empty())
 }
 
 /// Moves the oldest of `q` into `into`, as many as it has room for.

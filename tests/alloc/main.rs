@@ -6,6 +6,7 @@
 //! is the runtime's own work: the port task reading, the device handling the frame and queuing
 //! its answer, the port task writing it.
 
+mod reader;
 mod wire;
 
 use duocan::od::comm;
@@ -21,6 +22,9 @@ use wire::{pair, LoopPort};
 static GLOBAL: &StatsAlloc<System> = &INSTRUMENTED_SYSTEM;
 
 const NODE: u8 = 0x22;
+
+/// The heap is counted for the whole process: one test at a time.
+static SERIAL: std::sync::Mutex<()> = std::sync::Mutex::new(());
 
 /// An expedited upload request of 0x1018:1 (the vendor-ID).
 fn read_vendor() -> Frame {
@@ -46,25 +50,35 @@ async fn reads(tester: &mut LoopPort, n: usize) {
     }
 }
 
-#[test]
-fn the_runtime_path_allocates_nothing_per_frame() {
-    // Two workers, as `#[tokio::main]` gives on a two-core machine: the port task and the
-    // tester may run on different threads.
-    let rt = tokio::runtime::Builder::new_multi_thread()
+/// Two workers, as `#[tokio::main]` gives on a two-core machine: the port task and the tester
+/// may run on different threads.
+fn two_workers() -> tokio::runtime::Runtime {
+    tokio::runtime::Builder::new_multi_thread()
         .worker_threads(2)
         .enable_all()
         .build()
-        .unwrap();
+        .unwrap()
+}
+
+/// The slave whose vendor ID (0x1018:1 = 0x1234) every read asks for.
+fn slave() -> Node<duocan::od::DynamicDictionary> {
+    let od = comm::standard_dictionary(
+        NODE,
+        comm::Identity {
+            vendor: 0x1234,
+            ..Default::default()
+        },
+    );
+    Node::new(NodeConfig::slave(NodeId::must(NODE)), od)
+}
+
+#[test]
+fn the_runtime_path_allocates_nothing_per_frame() {
+    let _alone = SERIAL.lock().unwrap_or_else(|e| e.into_inner());
+    let rt = two_workers();
     rt.block_on(async {
         let (mut tester, port) = pair();
-        let od = comm::standard_dictionary(
-            NODE,
-            comm::Identity {
-                vendor: 0x1234,
-                ..Default::default()
-            },
-        );
-        let node = Node::new(NodeConfig::slave(NodeId::must(NODE)), od);
+        let node = slave();
         let handle = Runtime::new(Station::single(node))
             .port(port)
             .spawn()

@@ -11,12 +11,20 @@
 //! [`Port::reopen`], which waits for nothing: it checks the interface and opens a new socket, or
 //! fails again (the runtime retries with backoff).
 //!
+//! Under the runtime the port reads by blocking, on a thread of its own ([`Port::reader`]), as a
+//! bare socket loop does: one `read` per frame, which wakes when the frame arrives, where a
+//! readiness wait costs an `epoll_wait` and a `read` that finds the socket empty besides. The
+//! runtime's task still sends on it, without waiting (`MSG_DONTWAIT`), what the device sends on
+//! a timer or a command.
+//!
 //! Frame conversions between [`Frame`] and the socketcan crate's frame types live here too:
 //! lossless both ways for classic data and remote frames; error and FD frames are refused with
 //! [`FrameError::NotClassic`].
 
+mod blocking;
+
 use super::error_frame::{self, ErrorStatuses};
-use super::{Port, PortCounters, PortError, PortErrorKind, PortInput};
+use super::{Port, PortCounters, PortError, PortErrorKind, PortInput, PortReader};
 use crate::frame::{Frame, FrameError, Id};
 use socketcan::{
     CanAnyFrame, CanDataFrame, CanErrorFrame, CanFrame, CanRemoteFrame, EmbeddedFrame, Socket,
@@ -36,8 +44,11 @@ impl TokioCanSocket {
         s.set_nonblocking(true)?;
         // `AsyncFd::new` is deprecated for types that may not own their descriptor; `CanSocket`
         // owns it (closes it on drop) and the AsyncFd owns the socket, so this use is sound.
+        // Readable only: with writable interest too, every frame sent (its buffer freed once
+        // the interface took it) would wake the runtime's epoll for nothing. Sends try the
+        // socket directly (`write_waiting`).
         #[allow(deprecated)]
-        let fd = AsyncFd::new(s)?;
+        let fd = AsyncFd::with_interest(s, Interest::READABLE)?;
         Ok(TokioCanSocket(fd))
     }
     fn set_error_filter_accept_all(&self) -> io::Result<()> {
@@ -56,9 +67,22 @@ impl TokioCanSocket {
         self.0.try_io(Interest::READABLE, |s| s.read_frame())
     }
     async fn write_frame(&self, f: CanFrame) -> io::Result<()> {
-        self.0
-            .async_io(Interest::WRITABLE | Interest::ERROR, |s| s.write_frame(&f))
-            .await
+        write_waiting(|| self.0.get_ref().write_frame(&f)).await
+    }
+}
+
+/// How long a send waits before it tries again when the socket's buffer is full.
+const ROOM_RETRY: std::time::Duration = std::time::Duration::from_millis(1);
+
+/// Runs `write` until it does not find the socket's buffer full, waiting [`ROOM_RETRY`] between
+/// tries: a full buffer is rare (a bus that takes no frames) and not worth a readiness
+/// registration that would wake the runtime once per frame sent.
+async fn write_waiting(write: impl Fn() -> io::Result<()>) -> io::Result<()> {
+    loop {
+        match write() {
+            Err(e) if e.kind() == io::ErrorKind::WouldBlock => tokio::time::sleep(ROOM_RETRY).await,
+            r => return r,
+        }
     }
 }
 
@@ -182,13 +206,20 @@ pub fn link_state(ifname: &str) -> LinkState {
     }
 }
 
+/// The port's socket: read through tokio, or by a reader thread.
+#[derive(Debug)]
+enum Sock {
+    Async(TokioCanSocket),
+    /// Blocking, read by the [`PortReader`] that shares it; sends from the port do not wait.
+    Blocking(std::sync::Arc<socketcan::CanSocket>),
+}
+
 /// A SocketCAN port on one interface.
 #[derive(Debug)]
 pub struct SocketCanPort {
     ifname: String,
-    socket: Option<TokioCanSocket>,
-    pending: ErrorStatuses,
-    counters: PortCounters,
+    socket: Option<Sock>,
+    rx: RxState,
 }
 
 impl SocketCanPort {
@@ -200,9 +231,11 @@ impl SocketCanPort {
         let socket = open_socket(ifname)?;
         Ok(SocketCanPort {
             ifname: ifname.to_owned(),
-            socket: Some(socket),
-            pending: ErrorStatuses::new(),
-            counters: PortCounters::new(),
+            socket: Some(Sock::Async(socket)),
+            rx: RxState {
+                counters: PortCounters::new(),
+                pending: ErrorStatuses::new(),
+            },
         })
     }
 
@@ -210,14 +243,15 @@ impl SocketCanPort {
     pub fn ifname(&self) -> &str {
         &self.ifname
     }
+}
 
-    fn closed(&self) -> PortError {
-        PortError::new(
-            &self.ifname,
-            PortErrorKind::Closed,
-            "socket closed after a failure; re-open the port",
-        )
-    }
+/// The error of a port whose socket was closed after a failure.
+fn closed(ifname: &str) -> PortError {
+    PortError::new(
+        ifname,
+        PortErrorKind::Closed,
+        "socket closed after a failure; re-open the port",
+    )
 }
 
 fn open_socket(ifname: &str) -> Result<TokioCanSocket, PortError> {
@@ -254,15 +288,23 @@ fn open_socket(ifname: &str) -> Result<TokioCanSocket, PortError> {
     Ok(socket)
 }
 
-impl SocketCanPort {
+/// What a port has read besides frames: its counters, and the statuses of the last error
+/// frame not yet handed on.
+#[derive(Debug)]
+struct RxState {
+    counters: PortCounters,
+    pending: ErrorStatuses,
+}
+
+impl RxState {
     /// Classifies a received frame: a frame to hand on, or `None` (error frame queued as status,
     /// invalid frame counted).
-    fn accept(&mut self, raw: &CanFrame) -> Option<PortInput> {
+    fn accept(&mut self, ifname: &str, raw: &CanFrame) -> Option<PortInput> {
         match raw {
             CanFrame::Error(ef) => {
                 self.counters.rx_error_frames();
                 self.pending = decode_error_frame(ef);
-                tracing::debug!(port = %self.ifname, bits = ef.error_bits(), "error frame");
+                tracing::debug!(port = %ifname, bits = ef.error_bits(), "error frame");
                 None
             }
             other => match Frame::try_from(other) {
@@ -272,16 +314,35 @@ impl SocketCanPort {
                 }
                 Err(e) => {
                     self.counters.rx_invalid();
-                    tracing::warn!(port = %self.ifname, error = %e, "frame refused");
+                    tracing::warn!(port = %ifname, error = %e, "frame refused");
                     None
                 }
             },
         }
     }
 
-    fn read_failed(&mut self, e: io::Error) -> PortError {
-        self.socket = None;
-        PortError::io(&self.ifname, "read failed", e)
+    /// The oldest status of the last error frame not yet handed on.
+    fn status(&mut self) -> Option<PortInput> {
+        (!self.pending.is_empty()).then(|| PortInput::Status(self.pending.remove(0)))
+    }
+
+    /// Counts a send's outcome; a failure that means the interface is gone closes the socket.
+    fn sent(&self, ifname: &str, r: io::Result<()>) -> Result<(), (PortError, bool)> {
+        match r {
+            Ok(()) => {
+                self.counters.tx_frames();
+                Ok(())
+            }
+            Err(e) => {
+                self.counters.tx_failed();
+                let err = PortError::io(ifname, "write failed", e);
+                let gone = matches!(
+                    err.kind,
+                    PortErrorKind::InterfaceDown | PortErrorKind::NoSuchInterface
+                );
+                Err((err, gone))
+            }
+        }
     }
 }
 
@@ -291,75 +352,97 @@ impl Port for SocketCanPort {
     }
 
     fn counters(&self) -> PortCounters {
-        self.counters.clone()
+        self.rx.counters.clone()
     }
 
     async fn recv(&mut self) -> Result<PortInput, PortError> {
         loop {
-            if !self.pending.is_empty() {
-                return Ok(PortInput::Status(self.pending.remove(0)));
+            if let Some(x) = self.rx.status() {
+                return Ok(x);
             }
-            let Some(sock) = self.socket.as_ref() else {
-                return Err(self.closed());
+            let sock = match self.socket.as_ref() {
+                Some(Sock::Async(s)) => s,
+                // Its reader thread reads: nothing comes here until the port is re-opened.
+                Some(Sock::Blocking(_)) => return std::future::pending().await,
+                None => return Err(closed(&self.ifname)),
             };
             match sock.read_frame().await {
                 Ok(raw) => {
-                    if let Some(x) = self.accept(&raw) {
+                    if let Some(x) = self.rx.accept(&self.ifname, &raw) {
                         return Ok(x);
                     }
                 }
-                Err(e) => return Err(self.read_failed(e)),
+                Err(e) => {
+                    self.socket = None;
+                    return Err(PortError::io(&self.ifname, "read failed", e));
+                }
             }
         }
     }
 
     fn try_recv(&mut self) -> Option<Result<PortInput, PortError>> {
         loop {
-            if !self.pending.is_empty() {
-                return Some(Ok(PortInput::Status(self.pending.remove(0))));
+            if let Some(x) = self.rx.status() {
+                return Some(Ok(x));
             }
-            match self.socket.as_ref()?.try_read_frame() {
+            let Some(Sock::Async(sock)) = self.socket.as_ref() else {
+                return None;
+            };
+            match sock.try_read_frame() {
                 Ok(raw) => {
-                    if let Some(x) = self.accept(&raw) {
+                    if let Some(x) = self.rx.accept(&self.ifname, &raw) {
                         return Some(Ok(x));
                     }
                 }
                 Err(e) if e.kind() == io::ErrorKind::WouldBlock => return None,
-                Err(e) => return Some(Err(self.read_failed(e))),
+                Err(e) => {
+                    self.socket = None;
+                    return Some(Err(PortError::io(&self.ifname, "read failed", e)));
+                }
             }
         }
     }
 
     async fn send(&mut self, frame: &Frame) -> Result<(), PortError> {
-        let Some(sock) = self.socket.as_ref() else {
-            self.counters.tx_dropped();
-            return Err(self.closed());
+        let r = match self.socket.as_ref() {
+            Some(Sock::Async(s)) => s.write_frame(CanFrame::from(frame)).await,
+            Some(Sock::Blocking(s)) => write_waiting(|| blocking::send_now(s, frame)).await,
+            None => {
+                self.rx.counters.tx_dropped();
+                return Err(closed(&self.ifname));
+            }
         };
-        match sock.write_frame(CanFrame::from(frame)).await {
-            Ok(()) => {
-                self.counters.tx_frames();
-                Ok(())
+        self.rx.sent(&self.ifname, r).map_err(|(err, gone)| {
+            if gone {
+                self.socket = None;
             }
-            Err(e) => {
-                self.counters.tx_failed();
-                let err = PortError::io(&self.ifname, "write failed", e);
-                if matches!(
-                    err.kind,
-                    PortErrorKind::InterfaceDown | PortErrorKind::NoSuchInterface
-                ) {
-                    self.socket = None;
-                }
-                Err(err)
-            }
-        }
+            err
+        })
     }
 
     async fn reopen(&mut self) -> Result<(), PortError> {
         self.socket = None;
-        self.pending.clear();
-        self.socket = Some(open_socket(&self.ifname)?);
-        self.counters.reopened();
+        self.rx.pending.clear();
+        self.socket = Some(Sock::Async(open_socket(&self.ifname)?));
+        self.rx.counters.reopened();
         Ok(())
+    }
+
+    fn reader(&mut self) -> Option<Box<dyn PortReader>> {
+        let Some(Sock::Async(s)) = self.socket.take() else {
+            return None;
+        };
+        match blocking::Reader::new(&self.ifname, s, &mut self.rx) {
+            Ok((reader, shared)) => {
+                self.socket = Some(Sock::Blocking(shared));
+                Some(Box::new(reader))
+            }
+            Err((s, e)) => {
+                tracing::warn!(port = %self.ifname, error = %e, "cannot read by blocking, reading through readiness");
+                self.socket = Some(Sock::Async(s));
+                None
+            }
+        }
     }
 }
 

@@ -1,0 +1,278 @@
+//! A port read by a thread of its own (`Port::reader`, as SocketCAN ports are): every frame in
+//! order, answers written by the thread, frames the device sends on a command written by the
+//! task in their own order, a failed port re-opened with a new thread only after the old one
+//! stopped, a re-initialisation the device asks for done the same way, and the thread gone
+//! after a shutdown.
+
+use duocan::machine::{Device, PortRequest, PortStatus};
+use duocan::port::{
+    Port, PortCounters, PortError, PortErrorKind, PortInput, PortReader, READER_WAIT,
+};
+use duocan::runtime::{Handle, Runtime, RuntimeEvent};
+use duocan::{Frame, Id, Instant};
+use std::collections::VecDeque;
+use std::sync::atomic::{AtomicUsize, Ordering};
+use std::sync::mpsc::{channel, Receiver, RecvTimeoutError, Sender};
+use std::sync::{Arc, Mutex};
+use std::time::Duration;
+
+const PING: u16 = 0x100;
+const PONG: u16 = 0x101;
+const MARK: u16 = 0x200;
+
+/// Answers every ping with a pong of the same data; a command queues marks and re-inits.
+#[derive(Default)]
+struct Echo {
+    out: VecDeque<Frame>,
+    reinit: bool,
+}
+
+impl Device for Echo {
+    type Event = ();
+    fn port_count(&self) -> usize {
+        1
+    }
+    fn handle_rx(&mut self, _: Instant, _: usize, f: &Frame) {
+        if f.id() == Id::Standard(PING) {
+            self.out
+                .push_back(Frame::new(Id::Standard(PONG), f.data()).unwrap());
+        }
+    }
+    fn handle_port_status(&mut self, _: Instant, _: usize, _: PortStatus) {}
+    fn handle_timeout(&mut self, _: Instant) {}
+    fn poll_transmit(&mut self) -> Option<(usize, Frame)> {
+        self.out.pop_front().map(|f| (0, f))
+    }
+    fn poll_port_request(&mut self) -> Option<(usize, PortRequest)> {
+        std::mem::take(&mut self.reinit).then_some((0, PortRequest::Reinit))
+    }
+    fn poll_timeout(&self) -> Option<Instant> {
+        None
+    }
+    fn poll_event(&mut self) -> Option<()> {
+        None
+    }
+}
+
+/// What the test sees of the port: frames written (and by whom), readers made and alive.
+#[derive(Default)]
+struct Seen {
+    written: Mutex<Vec<(Frame, &'static str)>>,
+    readers: AtomicUsize,
+    alive: AtomicUsize,
+    /// Most readers alive at once.
+    most: AtomicUsize,
+    reopened: AtomicUsize,
+}
+
+/// Inputs for the port: a frame, or a failure of the port.
+type Feed = Result<Frame, ()>;
+
+struct ThreadedPort {
+    counters: PortCounters,
+    feed: Arc<Mutex<Receiver<Feed>>>,
+    seen: Arc<Seen>,
+    lent: bool,
+}
+
+struct Reader {
+    feed: Arc<Mutex<Receiver<Feed>>>,
+    seen: Arc<Seen>,
+}
+
+impl Drop for Reader {
+    fn drop(&mut self) {
+        self.seen.alive.fetch_sub(1, Ordering::SeqCst);
+    }
+}
+
+impl PortReader for Reader {
+    fn read(&mut self) -> Result<Option<PortInput>, PortError> {
+        match self.feed.lock().unwrap().recv_timeout(READER_WAIT) {
+            Ok(Ok(f)) => Ok(Some(PortInput::Frame(f))),
+            Ok(Err(())) => Err(PortError::new("thr0", PortErrorKind::InterfaceDown, "read")),
+            Err(RecvTimeoutError::Timeout | RecvTimeoutError::Disconnected) => Ok(None),
+        }
+    }
+    fn write(&mut self, f: &Frame) -> Result<bool, PortError> {
+        self.seen.written.lock().unwrap().push((*f, "thread"));
+        Ok(true)
+    }
+}
+
+impl Port for ThreadedPort {
+    fn name(&self) -> &str {
+        "thr0"
+    }
+    fn counters(&self) -> PortCounters {
+        self.counters.clone()
+    }
+    async fn recv(&mut self) -> Result<PortInput, PortError> {
+        panic!("a port read by its thread is not read through recv")
+    }
+    async fn send(&mut self, f: &Frame) -> Result<(), PortError> {
+        self.seen.written.lock().unwrap().push((*f, "task"));
+        Ok(())
+    }
+    async fn reopen(&mut self) -> Result<(), PortError> {
+        self.seen.reopened.fetch_add(1, Ordering::SeqCst);
+        self.lent = false;
+        Ok(())
+    }
+    fn reader(&mut self) -> Option<Box<dyn PortReader>> {
+        if std::mem::replace(&mut self.lent, true) {
+            return None;
+        }
+        self.seen.readers.fetch_add(1, Ordering::SeqCst);
+        let alive = self.seen.alive.fetch_add(1, Ordering::SeqCst) + 1;
+        self.seen.most.fetch_max(alive, Ordering::SeqCst);
+        Some(Box::new(Reader {
+            feed: self.feed.clone(),
+            seen: self.seen.clone(),
+        }))
+    }
+}
+
+fn start() -> (Handle<Echo>, Sender<Feed>, Arc<Seen>) {
+    let (tx, rx) = channel();
+    let seen = Arc::new(Seen::default());
+    let port = ThreadedPort {
+        counters: PortCounters::new(),
+        feed: Arc::new(Mutex::new(rx)),
+        seen: seen.clone(),
+        lent: false,
+    };
+    let handle = Runtime::new(Echo::default()).port(port).spawn().unwrap();
+    (handle, tx, seen)
+}
+
+fn ping(i: u32) -> Frame {
+    Frame::new(Id::Standard(PING), &i.to_le_bytes()).unwrap()
+}
+
+/// Waits (5 s at most) until `n` frames were written; returns them.
+async fn written(seen: &Seen, n: usize) -> Vec<(Frame, &'static str)> {
+    for _ in 0..500 {
+        if seen.written.lock().unwrap().len() >= n {
+            break;
+        }
+        tokio::time::sleep(Duration::from_millis(10)).await;
+    }
+    seen.written.lock().unwrap().clone()
+}
+
+/// The numbers carried by the written frames of `id`, in the order written.
+fn numbers(w: &[(Frame, &'static str)], id: u16) -> Vec<u32> {
+    w.iter()
+        .filter(|(f, _)| f.id() == Id::Standard(id))
+        .map(|(f, _)| u32::from_le_bytes(f.data()[..4].try_into().unwrap()))
+        .collect()
+}
+
+/// The port was re-opened once, read by a new thread that started after the old one stopped.
+fn re_opened_once_one_reader_at_a_time(seen: &Seen) {
+    assert_eq!(seen.reopened.load(Ordering::SeqCst), 1);
+    assert_eq!(seen.readers.load(Ordering::SeqCst), 2);
+    assert_eq!(
+        seen.most.load(Ordering::SeqCst),
+        1,
+        "never two readers at once"
+    );
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn every_frame_is_answered_in_order_by_the_reader_thread() {
+    let (handle, feed, seen) = start();
+    for i in 0..2000u32 {
+        feed.send(Ok(ping(i))).unwrap();
+        if i % 100 == 0 {
+            // A frame the device sends on a command: the task writes it.
+            handle
+                .call(move |d, _| {
+                    d.out
+                        .push_back(Frame::new(Id::Standard(MARK), &i.to_le_bytes()).unwrap())
+                })
+                .await
+                .unwrap();
+        }
+    }
+    let w = written(&seen, 2020).await;
+    assert_eq!(w.len(), 2020, "every ping answered, every mark sent, once");
+    assert_eq!(numbers(&w, PONG), (0..2000).collect::<Vec<_>>());
+    assert_eq!(
+        numbers(&w, MARK),
+        (0..2000).step_by(100).collect::<Vec<_>>()
+    );
+    let by_thread = w.iter().filter(|(_, by)| *by == "thread").count();
+    assert!(
+        by_thread >= 1900,
+        "answers go out from the thread that read: {by_thread} of 2020"
+    );
+    handle.shutdown().await;
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_failed_port_gets_a_new_thread_after_the_old_one_stopped() {
+    let (handle, feed, seen) = start();
+    let mut events = handle.subscribe();
+    feed.send(Ok(ping(1))).unwrap();
+    assert_eq!(numbers(&written(&seen, 1).await, PONG), [1]);
+    feed.send(Err(())).unwrap();
+    let mut statuses = Vec::new();
+    while statuses.len() < 2 {
+        match tokio::time::timeout(Duration::from_secs(5), events.recv()).await {
+            Ok(Ok(RuntimeEvent::Port { status, .. })) => statuses.push(status),
+            Ok(_) => {}
+            Err(_) => panic!("no port status after the failure: {statuses:?}"),
+        }
+    }
+    assert!(matches!(statuses[0], PortStatus::Down(_)), "{statuses:?}");
+    assert_eq!(statuses[1], PortStatus::Up);
+    feed.send(Ok(ping(2))).unwrap();
+    assert_eq!(numbers(&written(&seen, 2).await, PONG), [1, 2]);
+    re_opened_once_one_reader_at_a_time(&seen);
+    handle.shutdown().await;
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_re_initialisation_stops_the_thread_before_the_port_is_re_opened() {
+    let (handle, feed, seen) = start();
+    feed.send(Ok(ping(1))).unwrap();
+    written(&seen, 1).await;
+    // The re-init, then a mark queued behind it: the mark goes out on the re-opened port.
+    handle.call(|d, _| d.reinit = true).await.unwrap();
+    handle
+        .call(|d, _| {
+            d.out
+                .push_back(Frame::new(Id::Standard(MARK), &7u32.to_le_bytes()).unwrap())
+        })
+        .await
+        .unwrap();
+    let w = written(&seen, 2).await;
+    assert_eq!(numbers(&w, MARK), [7]);
+    feed.send(Ok(ping(2))).unwrap();
+    assert_eq!(numbers(&written(&seen, 3).await, PONG), [1, 2]);
+    re_opened_once_one_reader_at_a_time(&seen);
+    handle.shutdown().await;
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn the_reader_thread_stops_with_the_runtime() {
+    let (handle, feed, seen) = start();
+    feed.send(Ok(ping(1))).unwrap();
+    written(&seen, 1).await;
+    assert_eq!(seen.alive.load(Ordering::SeqCst), 1);
+    handle.shutdown().await;
+    // It looks every READER_WAIT whether the runtime still runs.
+    for _ in 0..100 {
+        if seen.alive.load(Ordering::SeqCst) == 0 {
+            break;
+        }
+        tokio::time::sleep(READER_WAIT / 5).await;
+    }
+    assert_eq!(seen.alive.load(Ordering::SeqCst), 0, "the thread is gone");
+    // What comes after is read by nobody.
+    let _ = feed.send(Ok(ping(2)));
+    tokio::time::sleep(READER_WAIT * 2).await;
+    assert_eq!(numbers(&seen.written.lock().unwrap(), PONG), [1]);
+}
