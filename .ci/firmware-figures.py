@@ -1,7 +1,7 @@
 #!/usr/bin/env python3
 """The firmware images' figures, read from their ELF files, checked against their budgets.
 
-    firmware-figures.py NAME ELF --flash-budget BYTES --ram-budget BYTES
+    firmware-figures.py NAME ELF --flash-budget BYTES --ram-budget BYTES --stack-budget BYTES
                         [--heap-symbol SUBSTRING --heap-high-water BYTES] [--objdump PATH]
 
 Prints, for one image:
@@ -14,9 +14,13 @@ Prints, for one image:
   static RAM without the arena plus the high-water mark, and the arena must hold the mark;
 - the stack: the deepest chain of stack frames from the reset handler through direct calls, read
   from the disassembly (each function's pushes and stack-pointer subtractions; calls through
-  pointers are listed, not followed), and what the part's RAM leaves for it.
+  pointers are listed, not followed), and what the part's RAM leaves for it; the same from the
+  board's main loop (`Board::run`), so that what start-up needs beyond it shows;
+- the RAM the image needs with its stack: the RAM above plus the deepest stack (an image may
+  keep its largest value in the frame of `main`, which never returns, rather than in a static).
 
-Exits 1 if a budget is exceeded, the arena is smaller than the mark, or the stack does not fit.
+Exits 1 if a budget is exceeded (flash, RAM with the stack, the start-up stack), the arena is smaller than the
+mark, or the stack does not fit.
 No dependency beyond Python and llvm-objdump (rustup's llvm-tools component).
 """
 import argparse
@@ -152,6 +156,7 @@ def main():
     ap.add_argument("elf")
     ap.add_argument("--flash-budget", type=int, required=True)
     ap.add_argument("--ram-budget", type=int, required=True)
+    ap.add_argument("--stack-budget", type=int, required=True)
     ap.add_argument("--heap-symbol")
     ap.add_argument("--heap-high-water", type=int)
     ap.add_argument("--objdump", default="llvm-objdump")
@@ -179,9 +184,6 @@ def main():
         print(f"{a.name}: RAM needed, static without the arena + high-water mark: {kib(need)}")
         if mark > arena:
             failed.append(f"heap high-water {mark:,} > arena {arena:,}")
-    if need > a.ram_budget:
-        failed.append(f"RAM {need:,} > budget {a.ram_budget:,}")
-    print(f"{a.name}: RAM budget {kib(a.ram_budget)}: {'ok' if need <= a.ram_budget else 'EXCEEDED'}")
 
     funcs = functions(a.elf, a.objdump)
     # cortex-m-rt's reset handler (`Reset`, `__stext` in its assembly start-up).
@@ -194,8 +196,25 @@ def main():
     indirect = sum(f[2] for f in funcs.values())
     print(f"{a.name}: deepest stack through direct calls {kib(depth)} ({top}); "
           f"{indirect} calls through pointers not followed; room for the stack {kib(room)}")
+    # The main loop: the board's `run`, called from `main` (whose frame both share).
+    run = next((fn for fn in funcs if short(fn).endswith("Board::run")), None)
+    if run is not None:
+        main = next((fn for fn, _ in chain if short(fn).endswith("__cortex_m_rt_main")), None)
+        loop = deepest(funcs, run)[0] + (funcs[main][0] if main else 0)
+        print(f"{a.name}: the main loop's stack {kib(loop)} (main's frame and Board::run's deepest); "
+              f"start-up needs {kib(max(depth - loop, 0))} beyond it")
     if depth > room:
         failed.append(f"stack {depth:,} > room {room:,}")
+    if depth > a.stack_budget:
+        failed.append(f"stack {depth:,} > budget {a.stack_budget:,}")
+    print(f"{a.name}: stack budget {kib(a.stack_budget)}: {'ok' if depth <= a.stack_budget else 'EXCEEDED'}")
+    # The RAM budget counts the stack: the images build their machines in `main`'s frame, so
+    # statics alone would leave out most of what the board must hold.
+    total = need + depth
+    print(f"{a.name}: RAM needed with the stack, {kib(need)} + the deepest stack: {kib(total)}")
+    if total > a.ram_budget:
+        failed.append(f"RAM with the stack {total:,} > budget {a.ram_budget:,}")
+    print(f"{a.name}: RAM budget {kib(a.ram_budget)}: {'ok' if total <= a.ram_budget else 'EXCEEDED'}")
 
     for f in failed:
         print(f"{a.name}: FAILED: {f}")

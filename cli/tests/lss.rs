@@ -15,8 +15,10 @@ const VENDOR: u64 = 0x00D0_CA00;
 const BOARD1: &str = "0xD0CA00:0x305:1:1";
 const BOARD2: &str = "0xD0CA00:0x305:1:2";
 /// The settle time of the fastscans here: two simulated boards' answers to one step are two
-/// tasks apart on a loaded machine, not microseconds as on a wire.
-const SETTLE: &str = "--settle-ms=10";
+/// tasks apart on a loaded machine, not microseconds as on a wire. 10 ms was too short with
+/// the machine's two cores busy (a board's confirmation came after the step had ended: 1 run
+/// in 3 failed beside four busy loops); 30 ms held in every run.
+const SETTLE: &str = "--settle-ms=30";
 
 /// (serial, node, booted) of each row of a fastscan's JSON.
 fn assigned(v: &Value) -> Vec<(u64, u64, bool)> {

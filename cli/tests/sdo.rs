@@ -1,10 +1,11 @@
 //! `duocan sdo` and `duocan nmt` against the simulated nodes of `--bus sim`.
 
 mod common;
-use common::{duocan, sim, sim_ok};
+use common::{duocan, one_station, sim, sim_ok};
 
 #[test]
 fn reads_by_index_by_name_and_as_json() {
+    let _one = one_station();
     assert_eq!(
         sim_ok(&["sdo", "read", "5", "0x1018", "1", "u32"]),
         "13683200\n"
@@ -31,6 +32,7 @@ fn reads_by_index_by_name_and_as_json() {
 
 #[test]
 fn writes_and_verifies() {
+    let _one = one_station();
     let out = sim_ok(&["sdo", "write", "5", "0x1017", "0", "u16", "250", "--verify"]);
     assert_eq!(out, "node 0x05 0x1017:00: written, 2 bytes, verified\n");
     let out = sim_ok(&[
@@ -46,6 +48,7 @@ fn writes_and_verifies() {
 
 #[test]
 fn errors_exit_1_for_the_network_and_2_for_the_command_line() {
+    let _one = one_station();
     let r = sim(&["sdo", "read", "5", "0x1234", "1"]);
     assert_eq!(r.code, 1);
     assert!(
@@ -81,6 +84,7 @@ fn errors_exit_1_for_the_network_and_2_for_the_command_line() {
 
 #[test]
 fn nmt_commands_and_their_answers() {
+    let _one = one_station();
     assert_eq!(
         sim_ok(&["nmt", "start", "5", "--wait"]),
         "NMT start sent to node 0x05: operational\n"
@@ -104,6 +108,7 @@ fn nmt_commands_and_their_answers() {
 /// program flashed; the progress lines (one per tenth when not on a terminal) go to the log.
 #[test]
 fn a_domain_and_a_program_by_block_transfer_with_progress_in_the_log() {
+    let _one = one_station();
     const LEN: usize = 256 * 1024;
     let dir = std::env::temp_dir().join(format!("duocan-qmib-{}", std::process::id()));
     std::fs::create_dir_all(&dir).unwrap();
