@@ -2,14 +2,18 @@
 //! the master's view of it.
 
 use super::RedundantNetwork;
-use crate::network::{RedundantError, Role};
+use crate::network::{NetworkError, RedundantError, Role};
 use alloc::string::String;
 use alloc::vec::Vec;
 use duocan::master::SlaveView;
 use duocan::nmt::NmtTarget;
 use duocan::od::OdValue;
-use duocan::sdo::{SdoOptions, TransferMode};
+use duocan::sdo::{SdoErrorKind, SdoOptions, TransferMode};
 use duocan::{NmtCommand, NodeId};
+
+/// How often a transfer that found the node's SDO client busy with the network's own transfer
+/// tries again: a few frames' time on a busy bus, short beside any SDO timeout.
+const BUSY_RETRY: core::time::Duration = core::time::Duration::from_millis(5);
 
 /// One node of a [`RedundantNetwork`], by node-ID; get it with [`RedundantNetwork::node`].
 /// The same calls as the single-bus `duocan::net::RemoteNode`; the frames go out on both buses
@@ -155,8 +159,13 @@ impl RedundantSdo {
         self.transfer(index, sub, Some(data.into())).await.map(drop)
     }
 
-    /// One transfer (a read when `data` is `None`); transfers to one node take turns so that
-    /// "busy" is never the caller's problem.
+    /// One transfer (a read when `data` is `None`). Transfers from this handle to one node take
+    /// turns, but the network's own processes share the client with it: the supervisor checks
+    /// and configures a pair member as it boots, over SDO. A transfer they have running makes a
+    /// start "busy" (or leaves no session free); the call waits for it, trying again every
+    /// [`BUSY_RETRY`] until the transfer's own timeout has passed, so that "busy" is never the
+    /// caller's problem. Only the start is tried again: a transfer that ran and failed is the
+    /// answer.
     async fn transfer(
         &self,
         index: u16,
@@ -167,13 +176,24 @@ impl RedundantSdo {
         let net = &self.node.net;
         let _turn = net.turn(node.raw()).lock().await;
         let h = net.handle();
-        let r = match data {
-            None => h.sdo_read(node, index, sub, self.opts).await,
-            Some(d) => h
-                .sdo_write(node, index, sub, d, self.opts)
-                .await
-                .map(|()| Vec::new()),
-        };
-        r.map_err(RedundantError::from)
+        let give_up = tokio::time::Instant::now() + core::time::Duration::from(self.opts.timeout);
+        loop {
+            let r = match &data {
+                None => h.sdo_read(node, index, sub, self.opts).await,
+                Some(d) => h
+                    .sdo_write(node, index, sub, d.clone(), self.opts)
+                    .await
+                    .map(|()| Vec::new()),
+            };
+            match r {
+                Err(NetworkError::Sdo(e))
+                    if matches!(e.kind, SdoErrorKind::Busy | SdoErrorKind::NoSession { .. })
+                        && tokio::time::Instant::now() + BUSY_RETRY <= give_up =>
+                {
+                    tokio::time::sleep(BUSY_RETRY).await;
+                }
+                r => return r.map_err(RedundantError::from),
+            }
+        }
     }
 }

@@ -3,14 +3,16 @@
 //! (the failovers come exactly when the configured heartbeats and timeouts say), SDO goes
 //! and NMT go through the handle to pair members, and the scripted faults give one failover of each kind.
 
-use duocan::{Duration, Instant, NmtState};
+use duocan::od::DynamicDictionary;
+use duocan::sdo::{SdoErrorKind, SdoOptions};
+use duocan::{AbortCode, Duration, Instant, NmtState, NodeId};
 use duocan_redundancy::net::{
     RedundantEvent, RedundantNetwork, SIM_BUS_FAILS, SIM_B_BOOTS, SIM_END, SIM_MEMBER_FAILS,
     SIM_PEERS_FAIL,
 };
 use duocan_redundancy::supervisor::flying_master::{MasterReason, MasterRole};
 use duocan_redundancy::supervisor::pairs::RoleReason;
-use duocan_redundancy::{Member, NetworkError, RedundantError};
+use duocan_redundancy::{LogicalNetwork, Member, NetworkError, RedundantError};
 
 fn ms(n: u64) -> Duration {
     Duration::from_millis(n)
@@ -248,4 +250,103 @@ async fn open_on_two_ports_runs_the_builders_network() {
     assert_eq!(e.node().map(|n| n.raw()), Some(0x33), "{e}");
     net.close().await;
     assert!(net.events().next().await.is_none());
+}
+
+/// The supervisor shares the SDO client with the front door (it checks and configures pair
+/// members over SDO): a front-door call that finds the node's client busy waits for the
+/// running transfer instead of failing with "busy".
+#[tokio::test(start_paused = true)]
+async fn a_call_waits_for_the_networks_own_transfer_to_the_node() {
+    let net = RedundantNetwork::builder()
+        .node_id(1)
+        .heartbeat(ms(20))
+        .master_timeout(ms(50))
+        .pair(0x10, 0x50)
+        .open_named("sim")
+        .unwrap();
+    until_pair_active(&net).await;
+    // Member B is silent until it boots, and the supervisor probes it meanwhile: the client
+    // is busy with its transfers to B.
+    let b = NodeId::must(0x50);
+    let start = move |n: &mut LogicalNetwork<DynamicDictionary>, now| n.sdo_read(now, b, 0x1018, 1);
+    let busy = |r: &Result<_, NetworkError>| matches!(r, Err(NetworkError::Sdo(e)) if e.kind == SdoErrorKind::Busy);
+    assert!(net.now() < after(SIM_B_BOOTS));
+    assert!(busy(&net.with(start).await.unwrap()));
+    // Once B has booted, the supervisor checks and configures it over SDO: find an instant
+    // when one of its transfers runs.
+    tokio::time::sleep(std::time::Duration::from(
+        SIM_B_BOOTS - (net.now() - Instant::ZERO),
+    ))
+    .await;
+    while !busy(&net.with(start).await.unwrap()) {
+        assert!(net.now() < after(SIM_B_BOOTS + ms(200)), "{}", net.now());
+        tokio::time::sleep(std::time::Duration::from_micros(100)).await;
+    }
+    // A call in that same instant waits for it, then runs: B answers.
+    let product: u32 = net.node(0x50).sdo().read(0x1018, 2).await.unwrap();
+    assert_eq!(product, 0x50);
+    net.close().await;
+}
+
+/// The wait is bounded by the call's own SDO timeout: a node whose client stays busy longer
+/// is the "busy" error at that timeout, not a call that hangs.
+#[tokio::test(start_paused = true)]
+async fn the_wait_for_a_busy_client_ends_at_the_calls_timeout() {
+    let buses = [
+        duocan::port::mem::MemBus::new("can1"),
+        duocan::port::mem::MemBus::new("can2"),
+    ];
+    let net = RedundantNetwork::builder()
+        .node_id(7)
+        .heartbeat(ms(20))
+        .master_timeout(ms(50))
+        .open(buses[0].port(), buses[1].port())
+        .unwrap();
+    tokio::time::sleep(std::time::Duration::from_secs(2)).await;
+    assert_eq!(net.role().await.unwrap(), MasterRole::Active);
+    // Nobody answers for 0x33: a transfer with a 1 s timeout holds its client for 1 s.
+    let silent = NodeId::must(0x33);
+    let long = SdoOptions::default().with_timeout(ms(1000));
+    net.with(move |n, now| n.sdo_read_with(now, silent, 0x1000, 0, long))
+        .await
+        .unwrap()
+        .unwrap();
+    let node = net.node(0x33);
+    // A call with a 100 ms timeout gives up after exactly that long.
+    let t0 = tokio::time::Instant::now();
+    let e = node
+        .sdo()
+        .with_options(SdoOptions::default().with_timeout(ms(100)))
+        .read::<u32>(0x1000, 0)
+        .await
+        .unwrap_err();
+    let waited = t0.elapsed();
+    assert!(
+        matches!(e, RedundantError::Sdo(s) if s.kind == SdoErrorKind::Busy),
+        "{e}"
+    );
+    assert!(
+        waited >= std::time::Duration::from_millis(100)
+            && waited < std::time::Duration::from_millis(105),
+        "{waited:?}"
+    );
+    // A call with a 2 s timeout outlasts it: once the first transfer has timed out (1 s after
+    // it started), the call runs its own, which times out in turn (nobody answers).
+    let e = node
+        .sdo()
+        .with_options(SdoOptions::default().with_timeout(ms(2000)))
+        .read::<u32>(0x1000, 0)
+        .await
+        .unwrap_err();
+    let waited = t0.elapsed();
+    assert!(
+        matches!(e, RedundantError::Sdo(s) if s.kind == SdoErrorKind::Client(AbortCode::TIMEOUT)),
+        "{e}"
+    );
+    assert!(
+        waited >= std::time::Duration::from_millis(3000)
+            && waited < std::time::Duration::from_millis(3010),
+        "{waited:?}"
+    );
+    net.close().await;
 }
