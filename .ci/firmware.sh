@@ -21,8 +21,8 @@ GATEWAY_FLASH=$((79 * KIB))
 GATEWAY_RAM=$((47 * KIB))
 GATEWAY_STACK=$((46 * KIB))
 MASTER_FLASH=$((179 * KIB))
-MASTER_RAM=$((135 * KIB))
-MASTER_STACK=$((122 * KIB))
+MASTER_RAM=$((85 * KIB))
+MASTER_STACK=$((49 * KIB))
 
 rustup target add thumbv7em-none-eabihf >/dev/null
 rustup component add llvm-tools >/dev/null \

@@ -15,9 +15,13 @@
 //! scratch. No heap, `no_std`. Iteration goes in slot order (a dictionary's `for_each` promises
 //! no order).
 
-/// Marks a slot without an entry (keys are `index << 8 | sub`: 24 bits).
-const EMPTY: u32 = 1 << 24;
-/// Marks a slot taken while a bucket is being placed (above any key's 24 bits).
+/// Marks a slot without an entry: zero, so that an empty index is all zeros (the `static` of
+/// an empty dictionary goes in .bss: no start-up code, no image in flash).
+const EMPTY: u32 = 0;
+/// Set in every key the index holds (keys are `index << 8 | sub`: 24 bits), so that no key is
+/// [`EMPTY`], not even 0x0000sub0.
+const PRESENT: u32 = 1 << 24;
+/// Marks a slot taken while a bucket is being placed (above any key's bits).
 const TAKEN: u32 = 1 << 31;
 /// Salts a build tries before it falls back to scanning.
 const SALTS: u32 = 32;
@@ -92,6 +96,7 @@ impl<T: Copy, const N: usize> PerfectIndex<T, N> {
     /// The slot of `key`, if it is in the index.
     #[inline(always)]
     fn find(&self, key: u32) -> Option<usize> {
+        let key = key | PRESENT;
         if self.perfect {
             let (b, base) = Self::place(key, self.salt);
             let slot = (base ^ self.disp[b] as usize) & Self::MASK;
@@ -109,6 +114,7 @@ impl<T: Copy, const N: usize> PerfectIndex<T, N> {
     /// The entry of `key`.
     #[inline(always)]
     pub fn get(&self, key: u32) -> Option<&T> {
+        let key = key | PRESENT;
         if self.perfect {
             // The lookup proper, written out: one cell read for key and entry together.
             let (b, base) = Self::place(key, self.salt);
@@ -135,7 +141,7 @@ impl<T: Copy, const N: usize> PerfectIndex<T, N> {
             return Err(entry);
         };
         self.cells[slot] = Cell {
-            key,
+            key: key | PRESENT,
             entry: Some(entry),
         };
         self.len += 1;
@@ -315,6 +321,28 @@ mod tests {
             small.values().copied().collect::<heapless::Vec<u32, 8>>(),
             [4]
         );
+    }
+
+    /// An empty slot is a zero key, so key 0 (index 0x0000, sub 0) must still be a key, found
+    /// as any other, scanning and perfect.
+    #[test]
+    fn key_zero_is_a_key_like_any_other() {
+        let mut ix = PerfectIndex::<u32, 64>::new();
+        assert_eq!(ix.get(0), None);
+        ix.push(0, 7).unwrap();
+        assert_eq!(ix.get(0), Some(&7));
+        for i in 1..40 {
+            ix.push(key(i), i).unwrap();
+        }
+        ix.build();
+        assert!(ix.perfect);
+        assert_eq!(ix.get(0), Some(&7));
+        assert!(ix.contains_key(0));
+        assert_eq!(ix.len(), 40);
+        assert_eq!(ix.values().count(), 40);
+        let mut empty = PerfectIndex::<u32, 64>::new();
+        empty.build();
+        assert_eq!(empty.get(0), None);
     }
 
     #[test]

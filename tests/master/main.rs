@@ -16,3 +16,4 @@ mod reboot;
 mod request_nmt;
 mod slots;
 mod standby;
+mod two_step;

@@ -5,10 +5,12 @@
 use crate::dictionary::{self, Od};
 use crate::{Computer, PAIRS};
 use core::fmt;
-use duocan::master::{Master, MasterError, NetworkConfig};
+use duocan::master::{Master, MasterError, MasterSdoClient, NetworkConfig};
+use duocan::node::NodeConfig;
 use duocan::od::{BuildError, ObjectDictionary};
 use duocan::port::embedded::{EmbeddedDriver, EmbeddedPortStats};
 use duocan::profile::Predefined;
+use duocan::sdo::DEFAULT_LIMIT;
 use duocan::{Duration, Instant, NodeId};
 use duocan_redundancy::link::same_function::PairError;
 use duocan_redundancy::supervisor::flying_master::MasterRole;
@@ -126,29 +128,32 @@ pub fn build(computer: Computer, od: &'static mut Od, now: Instant) -> Result<St
 }
 
 /// The station of `computer` on the empty dictionary `od`, built and not started: the
-/// dictionary's tables loaded, the master, the supervisor and the dual-bus layer; nothing
-/// booted, no pair added. [`start`] it at once.
+/// dictionary's tables loaded, the master (its network configuration not yet written), the
+/// supervisor and the dual-bus layer; nothing booted, no pair added. [`start`] it at once.
 ///
 /// The values built here are tens of kilobytes, each move of one a copy on the stack. So the
 /// dictionary is lent, not moved; this function is not inlined and its result is written by
 /// the caller's call straight where the caller keeps it (a local of a function that never
 /// returns, such as the firmware's `main`: a `static` the compiler fills through a copy on
 /// the stack); and the parts are built by constructors that are not inlined either, each
-/// straight into its place ([`SupervisedStation::unlinked`], [`Supervisor::unstarted`]). The
-/// one copy left is the master's (11 kB): [`Master::new`] returns it in a `Result`.
+/// straight into its place ([`SupervisedStation::unlinked`], [`Supervisor::unstarted`],
+/// [`Master::unconfigured`]: [`Master::new`] would return the master in a `Result`, a copy of
+/// 11 kB, so its fallible part, [`Master::configure`], waits for [`start`]).
 #[inline(never)]
 pub fn unstarted(computer: Computer, od: &'static mut Od) -> Result<Station, BoardError> {
     dictionary::load(od, computer.node().raw()).map_err(BoardError::Dictionary)?;
-    let master = new_master(computer, od).map_err(BoardError::Master)?;
     Ok(SupervisedStation::unlinked(new_link, || {
-        new_supervisor(master, computer)
+        new_supervisor(computer, od)
     }))
 }
 
-/// Starts the station [`unstarted`] built at `now`: boots its master, adds [`PAIRS`] to the
-/// supervisor and configures them in the dual-bus layer.
+/// Starts the station [`unstarted`] built at `now`: writes the master's network
+/// configuration, boots it, adds [`PAIRS`] to the supervisor and configures them in the
+/// dual-bus layer.
 pub fn start(station: &mut Station, now: Instant) -> Result<(), BoardError> {
     let sup = station.sup_mut();
+    sup.configure_master(network_config())
+        .map_err(BoardError::Master)?;
     sup.start(now);
     for (a, b) in PAIRS {
         let spec = PairSpec::new(a, b, PAIR_HEARTBEAT, PAIR_TIMEOUT);
@@ -157,13 +162,14 @@ pub fn start(station: &mut Station, now: Instant) -> Result<(), BoardError> {
     station.link_pairs().map_err(BoardError::Link)
 }
 
-/// The master, built where the caller wants it (not inlined: see [`unstarted`]).
+/// The master, not configured yet ([`start`] does that), built where the caller wants it
+/// (not inlined: see [`unstarted`]).
 #[inline(never)]
-fn new_master(
-    computer: Computer,
-    od: &'static mut Od,
-) -> Result<Master<&'static mut Od>, MasterError> {
-    Master::new(computer.node(), od, network_config())
+fn new_master(computer: Computer, od: &'static mut Od) -> Master<&'static mut Od> {
+    let config = network_config();
+    let sdo = MasterSdoClient::with_sessions(DEFAULT_LIMIT, config.sdo_sessions);
+    let node = NodeConfig::master(computer.node());
+    Master::unconfigured(node, od, Predefined, sdo, &config)
 }
 
 /// The dual-bus layer, built where the caller wants it (not inlined: see [`unstarted`]).
@@ -175,11 +181,8 @@ fn new_link() -> DualBus<Predefined, MERGE_SLOTS, FUNCTIONS> {
 /// The supervisor on `master`, not started, built where the caller wants it (not inlined:
 /// see [`unstarted`]).
 #[inline(never)]
-fn new_supervisor(
-    master: Master<&'static mut Od>,
-    computer: Computer,
-) -> Supervisor<&'static mut Od> {
-    Supervisor::unstarted(|| master, supervisor_config(computer))
+fn new_supervisor(computer: Computer, od: &'static mut Od) -> Supervisor<&'static mut Od> {
+    Supervisor::unstarted(|| new_master(computer, od), supervisor_config(computer))
 }
 
 /// What the board shows on its front panel.

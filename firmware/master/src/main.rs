@@ -5,11 +5,13 @@
 //! the flying master run on them. The computer strap (PF12) says which interlocking computer
 //! the board is: computer 1 (node 1, the strong master) or computer 2 (node 2, the standby).
 //!
-//! Memory: the station (dual-bus layer, master, supervisor) and its static dictionary live in
-//! the frame of `main`, which never returns, built there in place (`master_board::unstarted`:
-//! a `static` would be filled through copies on the stack, tens of kilobytes each); what the master and the supervisor allocate when they are built (their queues,
-//! the slave table, the pair table, the audit trail, the SDO sessions) comes from a heap of
-//! [`HEAP_BYTES`] given to `embedded-alloc`, sized from the host run that measures its
+//! Memory: the static dictionary is a `static` whose empty state is a constant (in .bss: no
+//! start-up code, no copy), loaded at start-up; the station (dual-bus layer, master,
+//! supervisor) lives in the frame of `main`, which never returns, built there in place
+//! (`master_board::unstarted`: a `static` would be filled through copies on the stack, tens
+//! of kilobytes each); what the master and the supervisor allocate when they are built (their
+//! queues, the slave table, the pair table, the audit trail, the SDO sessions) comes from a
+//! heap of [`HEAP_BYTES`] given to `embedded-alloc`, sized from the host run that measures its
 //! high-water mark (`examples/master_board/tests/heap.rs`). Nothing grows after start-up.
 //!
 //! The main loop is the board's ([`duocan_board::Board::run`]): it polls the board (duocan's
@@ -34,6 +36,10 @@ use duocan_board::App;
 use embedded_alloc::LlffHeap;
 use master_board::dictionary::Od;
 use master_board::{start, unstarted, Computer, MasterBoard, Station, HEAP_BYTES};
+use static_cell::ConstStaticCell;
+
+/// The dictionary: its empty state is a constant, so the `static` needs no start-up code.
+static OD: ConstStaticCell<Od> = ConstStaticCell::new(Od::new());
 
 /// The heap: what the master and the supervisor allocate when they are built.
 #[global_allocator]
@@ -76,12 +82,12 @@ fn main() -> ! {
         Computer::One
     };
     let now = board.now();
-    // The dictionary and the station live in this frame, which never ends, built there in
-    // place (see the crate docs): a `static` would be filled through copies on the stack.
-    let mut od = Od::new();
-    // SAFETY: `od` is a local of `main`, which never returns (see `forever`).
-    #[allow(unsafe_code)]
-    let od = unsafe { forever(&mut od) };
+    // The dictionary is a `static` (all zeros until loaded: in .bss, nothing built at run time,
+    // no copy); the station lives in this frame, which never ends, built there in place (see
+    // the crate docs): a `static` would be filled through copies on the stack.
+    let Some(od) = OD.try_take() else {
+        fail_silent()
+    };
     // Matched by reference: moving the station out of the `Result` would copy it.
     let mut built = unstarted(computer, od);
     let Ok(station) = &mut built else {

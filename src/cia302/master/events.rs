@@ -284,6 +284,9 @@ pub enum MasterError {
         /// Why.
         code: AbortCode,
     },
+    /// [`Master::configure`](super::Master::configure) after the master booted: its
+    /// configuration is written before boot, once.
+    AlreadyBooted,
 }
 
 impl fmt::Display for MasterError {
@@ -329,6 +332,9 @@ impl fmt::Display for MasterError {
                 f,
                 "{node} needs a slot, and all {capacity} of the master's are taken: raise NetworkConfig::max_slaves"
             ),
+            MasterError::AlreadyBooted => {
+                f.write_str("the master has booted: its network configuration is written before boot")
+            }
             MasterError::Refused { index, sub, code } => {
                 write!(f, "the master's {index:#06x}sub{sub} refused the value: {code}")
             }

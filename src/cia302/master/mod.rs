@@ -227,84 +227,55 @@ impl<D: ObjectDictionary, P: IdProfile> Master<D, P> {
     /// another size is built anew with the same limit and channels).
     pub fn with_parts(
         node: NodeConfig,
-        mut od: D,
+        od: D,
         profile: P,
         sdo: MasterSdoClient,
         config: NetworkConfig,
     ) -> Result<Self, MasterError> {
-        use objects::*;
-        for (index, sub) in [
-            (NMT_STARTUP, 0),
-            (BOOT_TIME, 0),
-            (SLAVE_ASSIGNMENT, 127),
-            (REQUEST_NMT, REQUEST_ALL),
-            (DEVICE_TYPE_ID, 127),
-            (VENDOR_ID, 127),
-            (PRODUCT_CODE, 127),
-            (REVISION_NUMBER, 127),
-            (SERIAL_NUMBER, 127),
-        ] {
-            if od.get(index, sub).is_err() {
-                return Err(MasterError::MissingObject { index, sub });
-            }
-        }
-        let mut put = |index: u16, sub: u8, v: u32| {
-            od.write_local(index, sub, &v.to_le_bytes())
-                .map_err(|code| MasterError::Refused { index, sub, code })
-        };
-        let max = crate::cia301::pdo::params::MAX_PDOS as usize;
-        for (dir, count) in [(Dir::Transmit, config.tpdos), (Dir::Receive, config.rpdos)] {
-            if count > max {
-                return Err(MasterError::TooManyPdos { dir, count });
-            }
-        }
+        let mut m = Master::unconfigured(node, od, profile, sdo, &config);
+        m.configure(config)?;
+        Ok(m)
+    }
+
+    /// [`Master::with_parts`] in two steps: the master with `config`'s capacities (queues,
+    /// slots, SDO sessions, PDO tables) and settings (active, timeouts), nothing checked or
+    /// written yet; [`Master::configure`] does the rest, before boot.
+    ///
+    /// Why two: this step cannot fail, so it returns the master itself, not a `Result`, and a
+    /// caller can build it where it is to live. On a microcontroller a master is tens of
+    /// kilobytes, and every move of it out of a `Result` is a copy on the stack at start-up;
+    /// built in place inside its supervisor, there is none.
+    pub fn unconfigured(
+        node: NodeConfig,
+        od: D,
+        profile: P,
+        sdo: MasterSdoClient,
+        config: &NetworkConfig,
+    ) -> Self {
         let sessions = config.sdo_sessions.max(1);
         let sdo = if sdo.sessions() == sessions {
             sdo
         } else {
             MasterSdoClient::with_sessions(sdo.limit(), sessions).with_channels(sdo.channels())
         };
-        put(NMT_STARTUP, 0, config.startup.0)?;
-        put(BOOT_TIME, 0, config.boot_time_ms)?;
-        // The slots, allocated once at their final size (`slot_table.rs`).
-        let mut slots = SlotTable::new(config.max_slaves);
-        for s in &config.slaves {
-            check_slave(s, node.node_id)?;
-            let n = s.node.raw();
-            put(SLAVE_ASSIGNMENT, n, s.assignment.0)?;
-            put(DEVICE_TYPE_ID, n, s.identity.device_type)?;
-            put(VENDOR_ID, n, s.identity.vendor)?;
-            put(PRODUCT_CODE, n, s.identity.product)?;
-            put(REVISION_NUMBER, n, s.identity.revision)?;
-            put(SERIAL_NUMBER, n, s.identity.serial)?;
-            if s.stamp.is_set() {
-                put(EXPECTED_CONFIG_DATE, n, s.stamp.date)?;
-                put(EXPECTED_CONFIG_TIME, n, s.stamp.time)?;
-            }
-            slots.claim(s.node)?.cfg = s.clone();
-        }
-        let producer = |od: &D, index| {
-            od.get_u32(index, 0)
-                .is_some_and(|v| v & crate::frame::cob_id::CobId::BIT30 != 0)
-        };
-        let produce_sync = producer(&od, comm::SYNC_COB_ID);
-        let produce_time = producer(&od, comm::TIME_COB_ID);
         let node_cfg = NodeConfig {
             auto_start: false,
             accept_nmt: false,
             ..node
         };
-        let mut m = Master {
+        Master {
+            // More PDOs than CiA 301 has are cut to its maximum here; `configure` refuses them.
             node: MasterNode::with_pdo_capacity(node_cfg, od, profile, config.tpdos, config.rpdos),
             sdo,
             sdo_idle: false,
-            slots,
+            // The slots, allocated once at their final size (`slot_table.rs`).
+            slots: SlotTable::new(config.max_slaves),
             slot_timer: None,
             network: Network::Idle,
             active: config.active,
             booted: false,
-            produce_sync,
-            produce_time,
+            produce_sync: false,
+            produce_time: false,
             waiting: VecDeque::with_capacity(127),
             // Allocated once here; the queues check their capacity before every push, so they
             // never grow (bounded memory on a heap-backed master too).
@@ -318,20 +289,93 @@ impl<D: ObjectDictionary, P: IdProfile> Master<D, P> {
             default_consumer_ms: config.default_consumer_ms,
             programs: 0,
             clock: TimeWatch::new(),
-        };
-        // Before boot the node reads its dictionary at boot, so plain stores suffice.
-        for n in (1..=127u8).filter_map(NodeId::new) {
-            if m.assignment(n).is_slave() {
-                // Slaves the dictionary assigns that the configuration does not name need
-                // their slot too.
-                m.slots.claim(n)?;
-                m.set_consumer(Instant::ZERO, n, true)?;
+        }
+    }
+
+    /// Checks `config` and writes it into the master's dictionary, once, before boot: the
+    /// master objects must be there, the PDO counts within CiA 301's; the NMT start-up, boot
+    /// time and each slave's assignment, expected identity and configuration stamp are
+    /// written, and each slave gets its slot, as do the slaves the dictionary assigns (0x1F81)
+    /// that `config` does not name, with their heartbeat consumers. `config` is the one given
+    /// to [`Master::unconfigured`]: its capacities and settings were taken there.
+    ///
+    /// Everything that can be checked without writing is checked first (objects, PDO counts,
+    /// each slave); a dictionary that then refuses a value, or a slave beyond the slots
+    /// ([`MasterError::Refused`]) leaves what was written before it: build the master anew.
+    /// After boot: [`MasterError::AlreadyBooted`].
+    pub fn configure(&mut self, config: NetworkConfig) -> Result<(), MasterError> {
+        use objects::*;
+        if self.booted {
+            return Err(MasterError::AlreadyBooted);
+        }
+        for (index, sub) in [
+            (NMT_STARTUP, 0),
+            (BOOT_TIME, 0),
+            (SLAVE_ASSIGNMENT, 127),
+            (REQUEST_NMT, REQUEST_ALL),
+            (DEVICE_TYPE_ID, 127),
+            (VENDOR_ID, 127),
+            (PRODUCT_CODE, 127),
+            (REVISION_NUMBER, 127),
+            (SERIAL_NUMBER, 127),
+        ] {
+            if self.node.od().get(index, sub).is_err() {
+                return Err(MasterError::MissingObject { index, sub });
             }
         }
-        if !m.active {
-            m.set_producers(Instant::ZERO, false);
+        let max = crate::cia301::pdo::params::MAX_PDOS as usize;
+        for (dir, count) in [(Dir::Transmit, config.tpdos), (Dir::Receive, config.rpdos)] {
+            if count > max {
+                return Err(MasterError::TooManyPdos { dir, count });
+            }
         }
-        Ok(m)
+        let own = self.node.id();
+        for s in &config.slaves {
+            check_slave(s, own)?;
+        }
+        let od = self.node.od_mut();
+        let mut put = |index: u16, sub: u8, v: u32| {
+            od.write_local(index, sub, &v.to_le_bytes())
+                .map_err(|code| MasterError::Refused { index, sub, code })
+        };
+        put(NMT_STARTUP, 0, config.startup.0)?;
+        put(BOOT_TIME, 0, config.boot_time_ms)?;
+        for s in &config.slaves {
+            let n = s.node.raw();
+            put(SLAVE_ASSIGNMENT, n, s.assignment.0)?;
+            put(DEVICE_TYPE_ID, n, s.identity.device_type)?;
+            put(VENDOR_ID, n, s.identity.vendor)?;
+            put(PRODUCT_CODE, n, s.identity.product)?;
+            put(REVISION_NUMBER, n, s.identity.revision)?;
+            put(SERIAL_NUMBER, n, s.identity.serial)?;
+            if s.stamp.is_set() {
+                put(EXPECTED_CONFIG_DATE, n, s.stamp.date)?;
+                put(EXPECTED_CONFIG_TIME, n, s.stamp.time)?;
+            }
+        }
+        for s in config.slaves {
+            let n = s.node;
+            self.slots.claim(n)?.cfg = s;
+        }
+        let producer = |od: &D, index| {
+            od.get_u32(index, 0)
+                .is_some_and(|v| v & crate::frame::cob_id::CobId::BIT30 != 0)
+        };
+        self.produce_sync = producer(self.node.od(), comm::SYNC_COB_ID);
+        self.produce_time = producer(self.node.od(), comm::TIME_COB_ID);
+        // Before boot the node reads its dictionary at boot, so plain stores suffice.
+        for n in (1..=127u8).filter_map(NodeId::new) {
+            if self.assignment(n).is_slave() {
+                // Slaves the dictionary assigns that the configuration does not name need
+                // their slot too.
+                self.slots.claim(n)?;
+                self.set_consumer(Instant::ZERO, n, true)?;
+            }
+        }
+        if !self.active {
+            self.set_producers(Instant::ZERO, false);
+        }
+        Ok(())
     }
 
     /// Powers the master on: boots its node and, if active, the network.

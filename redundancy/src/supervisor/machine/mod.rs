@@ -202,6 +202,17 @@ impl<D: ObjectDictionary, P: IdProfile> Supervisor<D, P> {
         }
     }
 
+    /// Writes the network configuration into a master built with
+    /// [`Master::unconfigured`] (for building it in place, see [`unstarted`](Self::unstarted)):
+    /// [`Master::configure`], before [`start`](Self::start) boots the master; after it,
+    /// [`MasterError::AlreadyBooted`](duocan::master::MasterError::AlreadyBooted).
+    pub fn configure_master(
+        &mut self,
+        config: duocan::master::NetworkConfig,
+    ) -> Result<(), duocan::master::MasterError> {
+        self.master.configure(config)
+    }
+
     /// Starts an [`unstarted`](Self::unstarted) supervisor at `now`: everything
     /// [`new`](Self::new) describes, on the master where it stands. A second call does
     /// nothing (the master is booted once).
