@@ -141,7 +141,9 @@ impl core::error::Error for FrameError {}
 /// One classic CAN frame.
 #[derive(Clone, Copy, PartialEq, Eq, Hash)]
 pub struct Frame {
-    id: Id,
+    /// The identifier packed into one word ([`pack`]): 16 bytes a frame instead of 20, in
+    /// every queue, merge slot and event that holds frames.
+    id: u32,
     rtr: bool,
     dlc: u8,
     data: [u8; 8],
@@ -156,7 +158,7 @@ impl Frame {
         let mut buf = [0u8; 8];
         buf[..data.len()].copy_from_slice(data);
         Ok(Frame {
-            id,
+            id: pack(id),
             rtr: false,
             dlc: data.len() as u8,
             data: buf,
@@ -174,7 +176,7 @@ impl Frame {
             i += 1;
         }
         Frame {
-            id,
+            id: pack(id),
             rtr: false,
             dlc: N as u8,
             data: buf,
@@ -187,7 +189,7 @@ impl Frame {
             return Err(FrameError::TooLong { len: dlc as usize });
         }
         Ok(Frame {
-            id,
+            id: pack(id),
             rtr: true,
             dlc,
             data: [0; 8],
@@ -196,7 +198,7 @@ impl Frame {
 
     /// The identifier.
     pub const fn id(&self) -> Id {
-        self.id
+        unpack(self.id)
     }
     /// True for a remote (RTR) frame.
     pub const fn is_remote(&self) -> bool {
@@ -216,7 +218,28 @@ impl Frame {
     }
     /// Priority key for bus arbitration: lower wins (see [`Id::arbitration_key`]).
     pub const fn arbitration_key(&self) -> u64 {
-        self.id.arbitration_key(self.rtr)
+        self.id().arbitration_key(self.rtr)
+    }
+}
+
+/// Marks an extended identifier in a packed one: above the 29 bits of any valid identifier.
+const EXTENDED: u32 = 1 << 31;
+
+/// `id` in one word: its raw value, with [`EXTENDED`] set for an extended one. (An extended
+/// value with bit 31 set is no CAN identifier; it loses that bit.)
+const fn pack(id: Id) -> u32 {
+    match id {
+        Id::Standard(raw) => raw as u32,
+        Id::Extended(raw) => raw | EXTENDED,
+    }
+}
+
+/// The identifier [`pack`] packed.
+const fn unpack(packed: u32) -> Id {
+    if packed & EXTENDED != 0 {
+        Id::Extended(packed & !EXTENDED)
+    } else {
+        Id::Standard(packed as u16)
     }
 }
 
@@ -229,7 +252,7 @@ impl fmt::Debug for Frame {
 /// candump-like text: `0x701 [1] 05` or `0x701 [1] remote`.
 impl fmt::Display for Frame {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        write!(f, "{} [{}]", self.id, self.dlc)?;
+        write!(f, "{} [{}]", self.id(), self.dlc)?;
         if self.rtr {
             return f.write_str(" remote");
         }
@@ -279,7 +302,7 @@ impl Frame {
 
     /// Lossless conversion to any `embedded_can::Frame`; `None` if the driver type refuses it.
     pub fn to_embedded<F: embedded_can::Frame>(&self) -> Option<F> {
-        let id: embedded_can::Id = self.id.into();
+        let id: embedded_can::Id = self.id().into();
         if self.rtr {
             F::new_remote(id, self.dlc as usize)
         } else {
@@ -297,13 +320,13 @@ impl embedded_can::Frame for Frame {
         Frame::remote(Id::from(id.into()), u8::try_from(dlc).ok()?).ok()
     }
     fn is_extended(&self) -> bool {
-        self.id.is_extended()
+        self.id().is_extended()
     }
     fn is_remote_frame(&self) -> bool {
         self.rtr
     }
     fn id(&self) -> embedded_can::Id {
-        self.id.into()
+        self.id().into()
     }
     fn dlc(&self) -> usize {
         self.dlc as usize

@@ -34,16 +34,16 @@ use duocan_redundancy::{DualBus, DualBusConfig, LinkEvent, LinkMode};
 use embedded_can::nb::Can;
 use embedded_can::Error as _;
 use heapless::Deque;
-use static_cell::StaticCell;
+use static_cell::{ConstStaticCell, StaticCell};
 
 /// The dual-bus layer of the interlocking side, classifying by the shared railway profile. The
 /// gateway supervises no A/B pairs, so its same-function table is the smallest there is.
 pub type Link = DualBus<&'static RailwayProfile, MERGE_SLOTS, FUNCTIONS>;
 /// Room of the same-function table: the least there is, no pair being supervised.
 pub const FUNCTIONS: usize = 2;
-/// The slave node: static dictionary, railway profile, no node guarding of others, one TPDO
-/// per track circuit, no RPDO.
-pub type Board = Node<Od, &'static RailwayProfile, GUARDED, TPDOS, RPDOS>;
+/// The slave node: its static dictionary (lent: a `static`, see [`Gateway::unstarted`]),
+/// railway profile, no node guarding of others, one TPDO per track circuit, no RPDO.
+pub type Board = Node<&'static mut Od, &'static RailwayProfile, GUARDED, TPDOS, RPDOS>;
 /// Nodes the board guards: none (it is a slave).
 pub const GUARDED: usize = 0;
 /// TPDOs of the board: one per track circuit.
@@ -160,33 +160,44 @@ pub struct Gateway<C: Can> {
 }
 
 impl<C: Can> Gateway<C> {
-    /// Builds the gateway on `cans` = [bus 1, bus 2, field bus] and boots its node at `now`.
-    /// `profile` is the interlocking network's table; it must hold the gateway at [`ADDRESS`].
+    /// Builds the gateway on `cans` = [bus 1, bus 2, field bus] with the empty dictionary `od`
+    /// and boots its node at `now`. `profile` is the interlocking network's table; it must
+    /// hold the gateway at [`ADDRESS`].
     pub fn new(
         profile: &'static RailwayProfile,
+        od: &'static mut Od,
         cans: [C; 3],
         now: Instant,
     ) -> Result<Self, SetupError> {
-        let mut gw = Self::unstarted(profile, cans, now);
+        let mut gw = Self::unstarted(profile, od, cans, now);
         gw.start(now)?;
         Ok(gw)
     }
 
-    /// The gateway on `cans` = [bus 1, bus 2, field bus], not started: its dictionary empty,
-    /// its node not booted, nothing sent. [`start`](Self::start) it before polling it.
+    /// The gateway on `cans` = [bus 1, bus 2, field bus] with the empty dictionary `od`, not
+    /// started: its dictionary empty, its node not booted, nothing sent.
+    /// [`start`](Self::start) it before polling it.
     ///
     /// This is how a microcontroller builds it without copies: `let mut gw =
     /// Gateway::unstarted(…)` in a function that never returns (the main loop's) has the
     /// gateway written straight into that function's frame, its parts straight into it (each
     /// constructor not inlined and given nothing large by value). Every move of the gateway's
-    /// 37 kB on the way would be another copy on the stack, and a `static` cannot be written
-    /// that way: the compiler copies into one through the stack.
+    /// 30 kB on the way would be another copy on the stack, and a `static` cannot be written
+    /// that way: the compiler copies into one through the stack. The dictionary is the
+    /// exception: empty, it is a constant of zeros, so a `static` of it needs no writing at
+    /// all (it lies in `.bss`), and the node borrows it; built inside the node, it was built
+    /// in a temporary and copied.
     #[inline(never)]
     #[must_use]
-    pub fn unstarted(profile: &'static RailwayProfile, cans: [C; 3], now: Instant) -> Self {
+    pub fn unstarted(
+        profile: &'static RailwayProfile,
+        od: &'static mut Od,
+        cans: [C; 3],
+        now: Instant,
+    ) -> Self {
         let [bus1, bus2, field] = cans;
         Gateway {
-            driver: new_driver(profile, [bus1, bus2]),
+            driver: new_driver(profile, od, [bus1, bus2]),
             field,
             tracks: Tracks::new(
                 now,
@@ -413,6 +424,7 @@ impl<C: Can> Gateway<C> {
 /// ```
 pub struct Storage<C: Can> {
     profile: StaticCell<RailwayProfile>,
+    od: ConstStaticCell<Od>,
     gateway: StaticCell<Gateway<C>>,
 }
 
@@ -428,6 +440,7 @@ impl<C: Can> Storage<C> {
     pub const fn new() -> Self {
         Storage {
             profile: StaticCell::new(),
+            od: ConstStaticCell::new(Od::new()),
             gateway: StaticCell::new(),
         }
     }
@@ -446,11 +459,12 @@ impl<C: Can> Storage<C> {
             .profile
             .try_init(profile)
             .ok_or(SetupError::AlreadyInstalled)?;
+        let od = self.od.try_take().ok_or(SetupError::AlreadyInstalled)?;
         let slot = self
             .gateway
             .try_uninit()
             .ok_or(SetupError::AlreadyInstalled)?;
-        let gw = slot.write(Gateway::unstarted(profile, cans, now));
+        let gw = slot.write(Gateway::unstarted(profile, od, cans, now));
         gw.start(now)?;
         Ok(gw)
     }
@@ -461,16 +475,17 @@ impl<C: Can> Storage<C> {
 #[inline(never)]
 fn new_driver<C: Can>(
     profile: &'static RailwayProfile,
+    od: &'static mut Od,
     ports: [C; PORTS],
 ) -> EmbeddedDriver<GatewayDevice, C, PORTS> {
-    EmbeddedDriver::with_device(|| new_device(profile), ports)
+    EmbeddedDriver::with_device(|| new_device(profile, od), ports)
 }
 
 /// The device (node on the dual-bus layer), built where the caller wants it (not inlined: see
 /// [`Gateway::unstarted`]).
 #[inline(never)]
-fn new_device(profile: &'static RailwayProfile) -> GatewayDevice {
-    Station::new(new_link(profile), new_board(profile))
+fn new_device(profile: &'static RailwayProfile, od: &'static mut Od) -> GatewayDevice {
+    Station::new(new_link(profile), new_board(profile, od))
 }
 
 /// The dual-bus layer, built where the caller wants it (not inlined: see
@@ -480,11 +495,11 @@ fn new_link(profile: &'static RailwayProfile) -> Link {
     DualBus::with_classifier(link_config(), profile)
 }
 
-/// The node with an empty dictionary, built where the caller wants it (not inlined: see
+/// The node on the empty dictionary `od`, built where the caller wants it (not inlined: see
 /// [`Gateway::unstarted`]).
 #[inline(never)]
-fn new_board(profile: &'static RailwayProfile) -> Board {
-    Node::with_profile(NodeConfig::slave(NODE_ID), Od::new(), profile)
+fn new_board(profile: &'static RailwayProfile, od: &'static mut Od) -> Board {
+    Node::with_profile(NodeConfig::slave(NODE_ID), od, profile)
 }
 
 /// The profile holds the gateway where it must be.

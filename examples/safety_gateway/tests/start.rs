@@ -4,7 +4,7 @@
 use duocan::od::ObjectDictionary;
 use duocan::profile::railway::{DeviceAddress, RailwayProfile};
 use duocan::{Instant, NmtState, NodeId};
-use safety_gateway::dictionary::FIELD_TIMEOUT;
+use safety_gateway::dictionary::{Od, FIELD_TIMEOUT};
 use safety_gateway::mock::{MockCan, Wire};
 use safety_gateway::{Gateway, SetupError, ADDRESS, NODE_ID};
 
@@ -18,7 +18,8 @@ fn unstarted(
         end
     });
     let profile = Box::leak(Box::new(RailwayProfile::with(network).unwrap()));
-    (Gateway::unstarted(profile, ends, Instant::ZERO), w)
+    let od = Box::leak(Box::new(Od::new()));
+    (Gateway::unstarted(profile, od, ends, Instant::ZERO), w)
 }
 
 #[test]

@@ -3,11 +3,12 @@
 //! The `safety-gateway` crate's [`Gateway`] on the STM32F413 board ([`duocan_board`]): CAN1
 //! and CAN2 are the interlocking's dual bus, CAN3 the field bus where the track-circuit board
 //! reports. No allocator exists in this image: the gateway lives in the frame of `main`, which
-//! never returns, built there in place ([`Gateway::unstarted`]: no copy of its 37 kB on the
+//! never returns, built there in place ([`Gateway::unstarted`]: no copy of its 30 kB on the
 //! stack on the way); its dictionary's definitions are `const` tables, its values a fixed arena
-//! inside the gateway; the network table is a `static` ([`PROFILE`]). So the RAM the image
-//! needs is its static RAM plus its stack, and the stack at start-up is the gateway and a few
-//! kilobytes of construction, hardly more than the main loop needs.
+//! in a `static` ([`OD`]: all zeros until loaded, so in `.bss`) that the gateway's node
+//! borrows; the network table is a `static` too ([`PROFILE`]). So the RAM the image needs is
+//! its static RAM plus its stack, and the stack at start-up is the gateway and a few kilobytes
+//! of construction, hardly more than the main loop needs.
 //!
 //! The main loop is the board's ([`duocan_board::Board::run`]): it polls the gateway (whose
 //! interlocking side is duocan's `EmbeddedDriver` over CAN1 and CAN2) whenever a frame
@@ -31,8 +32,9 @@ use duocan_board::can::Port;
 use duocan_board::safe::{fail_silent, Panel};
 use duocan_board::App;
 use duocan_redundancy::PortState;
+use safety_gateway::dictionary::Od;
 use safety_gateway::{Gateway, ADDRESS, NODE_ID};
-use static_cell::StaticCell;
+use static_cell::{ConstStaticCell, StaticCell};
 
 /// The interlocking network as the gateway's identifier profile knows it: the two
 /// interlocking computers and the gateway.
@@ -44,6 +46,9 @@ const NETWORK: [(NodeId, DeviceAddress); 3] = [
 
 /// The network table as the gateway's identifier profile: static storage, no heap.
 static PROFILE: StaticCell<RailwayProfile> = StaticCell::new();
+/// The dictionary: its empty state is a constant of zeros, so the `static` is in `.bss` and
+/// needs no start-up code; the gateway's node borrows it.
+static OD: ConstStaticCell<Od> = ConstStaticCell::new(Od::new());
 
 /// The gateway as the board's main loop runs it.
 struct Image<'a>(&'a mut Gateway<Port>);
@@ -82,9 +87,12 @@ fn main() -> ! {
         fail_silent()
     };
     let profile = PROFILE.init(profile);
+    let Some(od) = OD.try_take() else {
+        fail_silent()
+    };
     let now = board.now();
     // Built in this frame, which never ends: see the crate docs.
-    let mut gateway = Gateway::unstarted(profile, [bus1, bus2, field], now);
+    let mut gateway = Gateway::unstarted(profile, od, [bus1, bus2, field], now);
     if gateway.start(now).is_err() {
         fail_silent()
     }
