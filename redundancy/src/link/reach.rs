@@ -15,10 +15,12 @@ use duocan::{Duration, Instant, NodeId};
 const NEVER: u64 = u64::MAX;
 const NODES: usize = 128;
 
+/// A node's state: not heard yet, heard and waiting for its first report (due at its entry of
+/// `due`, kept apart so that this is two bytes), or reported with the ports it is heard on.
 #[derive(Clone, Copy, PartialEq, Eq, Debug)]
 enum Status {
     Unknown,
-    Pending { due: u64 },
+    Pending,
     Reported { mask: u8 },
 }
 
@@ -29,6 +31,8 @@ pub struct Reach {
     settle: u64,
     last: [[u64; 2]; NODES],
     status: [Status; NODES],
+    /// When a pending node is reported (meaningless for the others).
+    due: [u64; NODES],
     next_check: Option<u64>,
 }
 
@@ -42,6 +46,7 @@ impl Reach {
             settle: settle.as_micros(),
             last: [[NEVER; 2]; NODES],
             status: [Status::Unknown; NODES],
+            due: [NEVER; NODES],
             next_check: None,
         }
     }
@@ -65,8 +70,8 @@ impl Reach {
         for t in self.last.iter_mut().flatten() {
             back(t);
         }
-        for s in self.status.iter_mut() {
-            if let Status::Pending { due } = s {
+        for (s, due) in self.status.iter().zip(self.due.iter_mut()) {
+            if *s == Status::Pending {
                 back(due);
             }
         }
@@ -107,10 +112,11 @@ impl Reach {
         match self.status[n] {
             Status::Unknown | Status::Reported { mask: 0 } => {
                 let due = t.saturating_add(self.settle);
-                self.status[n] = Status::Pending { due };
+                self.status[n] = Status::Pending;
+                self.due[n] = due;
                 self.wake(due);
             }
-            Status::Pending { .. } => {}
+            Status::Pending => {}
             Status::Reported { mask } => {
                 if mask & (1 << p) == 0 {
                     let mask = mask | (1 << p);
@@ -157,7 +163,8 @@ impl Reach {
             };
             match self.status[n] {
                 Status::Unknown | Status::Reported { mask: 0 } => {}
-                Status::Pending { due } => {
+                Status::Pending => {
+                    let due = self.due[n];
                     if due <= t {
                         let mask = self.mask_at(n, due);
                         self.status[n] = Status::Reported { mask };
@@ -168,7 +175,7 @@ impl Reach {
                 Status::Reported { .. } => self.report_falls(n, node, t, out),
             }
             let due = match self.status[n] {
-                Status::Pending { due } => Some(due),
+                Status::Pending => Some(self.due[n]),
                 Status::Reported { mask } => (0..2)
                     .filter(|p| mask & (1 << p) != 0)
                     .map(|p| self.last[n][p].saturating_add(self.timeout))
