@@ -42,7 +42,7 @@ cargo test -p duocan-tiers --features python --test python_peer --test python_ed
   --test python_starters --no-run || fail "build python_peer, python_eds and python_starters tests"
 # The duocan tool and its test (which runs the tool's binary against a duocan node).
 cargo build -p duocan-cli || fail "build the duocan tool"
-cargo test -p duocan-tiers --features python --test cli_udp --test cli_gateway --test kit_udp \
+cargo test -p duocan-tiers --features python --test cli_udp --test cli_gateway --test kit_udp --test udp_reader \
   --test lss_udp --no-run \
   || fail "build the tool's tests"
 BENCH=1; [ "${1:-}" = "--no-bench" ] && BENCH=0
@@ -74,6 +74,11 @@ unshare -n sh -ec '
   ip route add 224.0.0.0/4 dev lo
   cargo test --offline -p duocan-tiers --features python --test lss_udp
 ' || fail "python canopen's LSS master and duocan lss configure a duocan LSS slave on the UDP bus"
+unshare -n sh -ec '
+  ip link set lo up
+  ip route add 224.0.0.0/4 dev lo
+  cargo test --offline -p duocan-tiers --features python --test udp_reader
+' || fail "the UDP port read by a thread of its own"
 # The failover kit for real: every shipped scenario through the fault bridge with the masters
 # and boards as processes, each member interface a UDP bus; its verdicts and figures printed.
 unshare -n sh -ec '

@@ -22,12 +22,20 @@
 //! of its identity, each costing one timeout. [`fastscan_cost`] works the whole cost out for a
 //! set of identities.
 //!
+//! # Answers that are not the step's
+//!
+//! An answer of another service stops the scan ([`LssError::WrongAnswer`]), except the answer
+//! to the scan's own configure or store step arriving while a later step waits: on a dual bus
+//! that is the other bus's copy, delivered past the merge window by a slow host. It is counted
+//! ([`LssMasterStats::late`]) and dropped.
+//!
 //! # Memory
 //!
 //! The plan holds up to `N` identities with their node-IDs and a 128-bit set of free node-IDs
 //! for the others: a fixed size, whatever the number of slaves found.
 //!
 //! [`LssMasterConfig::with_settle`]: super::master::LssMasterConfig::with_settle
+//! [`LssMasterStats::late`]: super::master::LssMasterStats::late
 
 use super::codec::{Fastscan, LssAddress, LssMode, LssRequest, LssResponse, FASTSCAN_RESET};
 use super::error::{LssError, LssService};
@@ -221,6 +229,16 @@ impl<const N: usize> Scan<N> {
                 // settle time.
                 self.heard = true;
                 self.deadline = now.saturating_add(cfg.settle);
+                Ok(Progress::Running)
+            }
+            // The answer to this scan's own configure or store step, come late: a second copy
+            // the other bus delivered past the merge window. Counted and dropped; any other
+            // answer is not the scan's.
+            (
+                Step::Reset | Step::Bit { .. } | Step::Confirm { .. },
+                LssResponse::NodeIdConfigured { .. } | LssResponse::Stored { .. },
+            ) => {
+                out.late();
                 Ok(Progress::Running)
             }
             (Step::Reset | Step::Bit { .. } | Step::Confirm { .. }, _) => {

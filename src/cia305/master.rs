@@ -135,6 +135,9 @@ pub struct LssMasterStats {
     pub answers: u32,
     /// Frames on 0x7E4 while no request waited.
     pub unsolicited: u32,
+    /// Answers to a configure or store step of a fastscan that came while a later step waited
+    /// (on a dual bus: the other bus's copy, delivered past the merge window): dropped.
+    pub late: u32,
 }
 
 /// The master's output queues, shared with the fastscan.
@@ -152,6 +155,10 @@ impl Out {
     }
     pub(super) fn event(&mut self, at: Instant, kind: LssMasterEventKind) {
         self.events.push(LssMasterEvent { at, kind });
+    }
+    /// Counts an answer a fastscan dropped as late ([`LssMasterStats::late`]).
+    pub(super) fn late(&mut self) {
+        self.stats.late = self.stats.late.saturating_add(1);
     }
 }
 

@@ -228,3 +228,29 @@ fn a_late_call_still_gives_the_next_step_its_whole_timeout() {
     );
     assert_eq!(m.poll_timeout(), Some(Instant::from_millis(60)));
 }
+
+/// On a dual bus a slow host can deliver the other bus's copy of the configure answer after
+/// the merge window, while the scan's next reset waits: it is the scan's own answer come late,
+/// counted and dropped, and the scan goes on.
+#[test]
+fn a_late_copy_of_the_scans_own_configure_answer_is_dropped() {
+    let mut m: LssMaster = LssMaster::new(cfg());
+    let t = Instant::ZERO;
+    m.fastscan(t, LssPlan::new().with_free([NodeId::must(1)]))
+        .unwrap();
+    assert_eq!(
+        m.poll_transmit().unwrap().data(),
+        [0x51, 0, 0, 0, 0, 0x80, 0, 0]
+    );
+    // Configure node-ID and store answers (no error) while the reset waits.
+    m.handle_frame(t, &ans([0x11, 0, 0, 0, 0, 0, 0, 0]));
+    m.handle_frame(t, &ans([0x17, 0, 0, 0, 0, 0, 0, 0]));
+    assert_eq!(m.poll_event(), None);
+    assert_eq!(m.stats().late, 2);
+    // Nobody answers the reset: the scan ends at its timeout, as without them.
+    m.handle_timeout(Instant::from_millis(10));
+    assert_eq!(
+        m.poll_event().unwrap().kind,
+        K::ScanFinished { assigned: 0 }
+    );
+}

@@ -15,11 +15,12 @@
 //! bytes after the frame, CAN FD, error frames) are counted in [`PortCounters::rx_invalid`](super::PortCounters) and logged; frames this port
 //! sent itself come back through multicast loopback and are dropped silently.
 
+mod blocking;
 mod codec;
 
 pub use codec::{decode, encode, DecodeError};
 
-use super::{Port, PortCounters, PortError, PortErrorKind, PortInput};
+use super::{Port, PortCounters, PortError, PortErrorKind, PortInput, PortReader};
 use crate::frame::Frame;
 use socket2::{Domain, Protocol, Socket, Type};
 use std::net::{Ipv4Addr, SocketAddr, SocketAddrV4};
@@ -136,7 +137,8 @@ pub struct UdpPort {
 
 #[derive(Debug)]
 struct Sockets {
-    rx: UdpSocket,
+    /// `None` while a reader thread has it ([`Port::reader`]).
+    rx: Option<UdpSocket>,
     tx: UdpSocket,
     /// Our send socket's address: datagrams from it are our own, looped back.
     own: SocketAddr,
@@ -168,6 +170,26 @@ fn open_sockets(cfg: &UdpBusConfig, name: &str) -> Result<Sockets, PortError> {
         let what = what.to_owned();
         move |e| PortError::io(name, what, e)
     };
+    let rx = open_rx(cfg, name)?;
+    rx.set_nonblocking(true).map_err(io("non-blocking"))?;
+    let (tx, own) = open_tx(cfg, name)?;
+    tx.set_nonblocking(true).map_err(io("non-blocking"))?;
+    let rx = UdpSocket::from_std(rx).map_err(io("register with tokio"))?;
+    let tx = UdpSocket::from_std(tx).map_err(io("register with tokio"))?;
+    Ok(Sockets {
+        rx: Some(rx),
+        tx,
+        own,
+        dest: SocketAddrV4::new(cfg.group, cfg.port).into(),
+    })
+}
+
+/// The bus's receive socket: bound to the group, joined on the configured interface.
+fn open_rx(cfg: &UdpBusConfig, name: &str) -> Result<std::net::UdpSocket, PortError> {
+    let io = |what: &str| {
+        let what = what.to_owned();
+        move |e| PortError::io(name, what, e)
+    };
     let rx = Socket::new(Domain::IPV4, Type::DGRAM, Some(Protocol::UDP)).map_err(io("socket"))?;
     rx.set_reuse_address(true).map_err(io("SO_REUSEADDR"))?;
     rx.set_reuse_port(true).map_err(io("SO_REUSEPORT"))?;
@@ -184,8 +206,16 @@ fn open_sockets(cfg: &UdpBusConfig, name: &str) -> Result<Sockets, PortError> {
             e,
         )
     })?;
-    rx.set_nonblocking(true).map_err(io("non-blocking"))?;
+    Ok(rx.into())
+}
 
+/// A send socket for the bus, with its address (datagrams from it come back through multicast
+/// loopback: the receiver drops them as its own).
+fn open_tx(cfg: &UdpBusConfig, name: &str) -> Result<(std::net::UdpSocket, SocketAddr), PortError> {
+    let io = |what: &str| {
+        let what = what.to_owned();
+        move |e| PortError::io(name, what, e)
+    };
     let tx = Socket::new(Domain::IPV4, Type::DGRAM, Some(Protocol::UDP)).map_err(io("socket"))?;
     tx.set_multicast_if_v4(&cfg.interface)
         .map_err(io("IP_MULTICAST_IF"))?;
@@ -195,20 +225,20 @@ fn open_sockets(cfg: &UdpBusConfig, name: &str) -> Result<Sockets, PortError> {
         .map_err(io("IP_MULTICAST_LOOP"))?;
     tx.bind(&SocketAddrV4::new(cfg.interface, 0).into())
         .map_err(io("bind the send socket"))?;
-    tx.set_nonblocking(true).map_err(io("non-blocking"))?;
     let own = tx
         .local_addr()
         .ok()
         .and_then(|a| a.as_socket())
         .ok_or_else(|| PortError::new(name, PortErrorKind::Io, "send socket has no address"))?;
-    let rx = UdpSocket::from_std(rx.into()).map_err(io("register with tokio"))?;
-    let tx = UdpSocket::from_std(tx.into()).map_err(io("register with tokio"))?;
-    Ok(Sockets {
-        rx,
-        tx,
-        own,
-        dest: SocketAddrV4::new(cfg.group, cfg.port).into(),
-    })
+    Ok((tx.into(), own))
+}
+
+/// python-can's timestamp: seconds since the Unix epoch.
+fn timestamp() -> f64 {
+    SystemTime::now()
+        .duration_since(UNIX_EPOCH)
+        .map(|d| d.as_secs_f64())
+        .unwrap_or(0.0)
 }
 
 impl UdpPort {
@@ -250,7 +280,11 @@ impl Port for UdpPort {
             let Some(s) = self.sockets.as_ref() else {
                 return Err(PortError::new(&self.name, PortErrorKind::Closed, "closed"));
             };
-            match s.rx.recv_from(&mut self.buf).await {
+            // A reader thread reads the port: nothing comes here until it is re-opened.
+            let Some(rx) = s.rx.as_ref() else {
+                return std::future::pending().await;
+            };
+            match rx.recv_from(&mut self.buf).await {
                 Ok((n, from)) => {
                     if let Some(x) = self.accept(n, from) {
                         return Ok(x);
@@ -263,7 +297,13 @@ impl Port for UdpPort {
 
     fn try_recv(&mut self) -> Option<Result<PortInput, PortError>> {
         loop {
-            match self.sockets.as_ref()?.rx.try_recv_from(&mut self.buf) {
+            match self
+                .sockets
+                .as_ref()?
+                .rx
+                .as_ref()?
+                .try_recv_from(&mut self.buf)
+            {
                 Ok((n, from)) => {
                     if let Some(x) = self.accept(n, from) {
                         return Some(Ok(x));
@@ -280,11 +320,7 @@ impl Port for UdpPort {
             self.counters.tx_dropped();
             return Err(PortError::new(&self.name, PortErrorKind::Closed, "closed"));
         };
-        let ts = SystemTime::now()
-            .duration_since(UNIX_EPOCH)
-            .map(|d| d.as_secs_f64())
-            .unwrap_or(0.0);
-        let bytes = encode(frame, ts, self.cfg.channel.as_deref());
+        let bytes = encode(frame, timestamp(), self.cfg.channel.as_deref());
         match s.tx.send_to(&bytes, s.dest).await {
             Ok(_) => {
                 self.counters.tx_frames();
@@ -302,6 +338,38 @@ impl Port for UdpPort {
         self.sockets = Some(open_sockets(&self.cfg, &self.name)?);
         self.counters.reopened();
         Ok(())
+    }
+
+    /// The group's datagrams read by a thread of its own, which answers on a send socket of
+    /// its own (see `blocking.rs`); `send` goes on without waiting on the port's.
+    fn reader(&mut self) -> Option<Box<dyn PortReader>> {
+        let s = self.sockets.as_mut()?;
+        let rx = match s.rx.take()?.into_std() {
+            Ok(rx) => rx,
+            Err(e) => {
+                // The socket is gone with the error: closed, the port's next `recv` fails and
+                // the runtime re-opens it.
+                tracing::warn!(port = %self.name, error = %e, "cannot take the receive socket out of tokio");
+                self.sockets = None;
+                return None;
+            }
+        };
+        let started = blocking::Reader::new(
+            &self.cfg,
+            &self.name,
+            rx,
+            s.own,
+            s.dest,
+            self.counters.clone(),
+        );
+        match started {
+            Ok(r) => Some(Box::new(r)),
+            Err((rx, e)) => {
+                tracing::warn!(port = %self.name, error = %e, "cannot read by blocking, reading through readiness");
+                s.rx = blocking::back_to_async(rx).ok();
+                None
+            }
+        }
     }
 }
 
