@@ -141,6 +141,16 @@ pub trait Port: Send + 'static {
 /// whether it is to stop.
 pub const READER_WAIT: std::time::Duration = std::time::Duration::from_millis(50);
 
+/// A [`PortReader`]'s socket wait ran out (`SO_RCVTIMEO`/`SO_SNDTIMEO`, set to
+/// [`READER_WAIT`]) or a signal interrupted it: nothing came, try again.
+#[cfg(any(feature = "udp", all(feature = "socketcan", target_os = "linux")))]
+pub(crate) fn timed_out(e: &io::Error) -> bool {
+    matches!(
+        e.kind(),
+        io::ErrorKind::WouldBlock | io::ErrorKind::TimedOut | io::ErrorKind::Interrupted
+    )
+}
+
 /// The blocking side of a port, used by a thread of its own (see [`Port::reader`]).
 pub trait PortReader: Send {
     /// The next frame or status, waiting at most [`READER_WAIT`]: `Ok(None)` when nothing came

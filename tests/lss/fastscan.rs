@@ -150,16 +150,21 @@ fn a_slave_that_leaves_mid_scan_is_lost_at_its_confirmation() {
     assert_eq!(w.take_events(), [K::Failed(LssError::ScanLost { sub: 0 })]);
 }
 
-#[test]
-fn an_answer_of_another_service_during_the_scan_stops_it() {
+/// A fastscan for one node-ID started at 0, its reset step sent.
+fn scan_waiting_for_its_reset() -> LssMaster {
     let mut m: LssMaster = LssMaster::new(cfg());
-    let t = Instant::ZERO;
-    m.fastscan(t, LssPlan::new().with_free([NodeId::must(1)]))
+    m.fastscan(Instant::ZERO, LssPlan::new().with_free([NodeId::must(1)]))
         .unwrap();
     assert_eq!(
         m.poll_transmit().unwrap().data(),
         [0x51, 0, 0, 0, 0, 0x80, 0, 0]
     );
+    m
+}
+
+#[test]
+fn an_answer_of_another_service_during_the_scan_stops_it() {
+    let (mut m, t) = (scan_waiting_for_its_reset(), Instant::ZERO);
     m.handle_frame(t, &ans([0x50, 0, 0, 0, 0, 0, 0, 0]));
     let e = m.poll_event().unwrap().kind;
     assert_eq!(
@@ -234,14 +239,7 @@ fn a_late_call_still_gives_the_next_step_its_whole_timeout() {
 /// counted and dropped, and the scan goes on.
 #[test]
 fn a_late_copy_of_the_scans_own_configure_answer_is_dropped() {
-    let mut m: LssMaster = LssMaster::new(cfg());
-    let t = Instant::ZERO;
-    m.fastscan(t, LssPlan::new().with_free([NodeId::must(1)]))
-        .unwrap();
-    assert_eq!(
-        m.poll_transmit().unwrap().data(),
-        [0x51, 0, 0, 0, 0, 0x80, 0, 0]
-    );
+    let (mut m, t) = (scan_waiting_for_its_reset(), Instant::ZERO);
     // Configure node-ID and store answers (no error) while the reset waits.
     m.handle_frame(t, &ans([0x11, 0, 0, 0, 0, 0, 0, 0]));
     m.handle_frame(t, &ans([0x17, 0, 0, 0, 0, 0, 0, 0]));

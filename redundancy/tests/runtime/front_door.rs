@@ -223,8 +223,9 @@ async fn names_that_are_not_two_interfaces_are_errors_naming_the_port() {
     );
 }
 
-#[tokio::test(start_paused = true)]
-async fn open_on_two_ports_runs_the_builders_network() {
+/// Master 7 opened on two in-memory buses with nobody else on them: active after the power-on
+/// negotiation (2 s on the paused clock).
+async fn alone_on_two_buses() -> RedundantNetwork {
     let buses = [
         duocan::port::mem::MemBus::new("can1"),
         duocan::port::mem::MemBus::new("can2"),
@@ -235,9 +236,14 @@ async fn open_on_two_ports_runs_the_builders_network() {
         .master_timeout(ms(50))
         .open(buses[0].port(), buses[1].port())
         .unwrap();
-    // Alone on the buses: active after the power-on negotiation, under its own node-ID.
     tokio::time::sleep(std::time::Duration::from_secs(2)).await;
     assert_eq!(net.role().await.unwrap(), MasterRole::Active);
+    net
+}
+
+#[tokio::test(start_paused = true)]
+async fn open_on_two_ports_runs_the_builders_network() {
+    let net = alone_on_two_buses().await;
     let status = net.status().await.unwrap();
     assert!(status.contains("master node 0x07"), "{status}");
     // A node nobody answers for: the SDO timeout, naming the node.
@@ -292,18 +298,7 @@ async fn a_call_waits_for_the_networks_own_transfer_to_the_node() {
 /// is the "busy" error at that timeout, not a call that hangs.
 #[tokio::test(start_paused = true)]
 async fn the_wait_for_a_busy_client_ends_at_the_calls_timeout() {
-    let buses = [
-        duocan::port::mem::MemBus::new("can1"),
-        duocan::port::mem::MemBus::new("can2"),
-    ];
-    let net = RedundantNetwork::builder()
-        .node_id(7)
-        .heartbeat(ms(20))
-        .master_timeout(ms(50))
-        .open(buses[0].port(), buses[1].port())
-        .unwrap();
-    tokio::time::sleep(std::time::Duration::from_secs(2)).await;
-    assert_eq!(net.role().await.unwrap(), MasterRole::Active);
+    let net = alone_on_two_buses().await;
     // Nobody answers for 0x33: a transfer with a 1 s timeout holds its client for 1 s.
     let silent = NodeId::must(0x33);
     let long = SdoOptions::default().with_timeout(ms(1000));

@@ -3,7 +3,7 @@
 
 use super::{PortInput, PortReader, RxState, TokioCanSocket};
 use crate::frame::{Frame, Id};
-use crate::port::asynch::READER_WAIT;
+use crate::port::asynch::{timed_out, READER_WAIT};
 use crate::port::PortError;
 use nix::sys::socket::{send, MsgFlags};
 use socketcan::{CanFrame, Socket};
@@ -49,14 +49,6 @@ impl Reader {
         };
         Ok((reader, socket))
     }
-}
-
-/// A socket's wait ran out (`SO_RCVTIMEO`/`SO_SNDTIMEO`).
-fn timed_out(e: &io::Error) -> bool {
-    matches!(
-        e.kind(),
-        io::ErrorKind::WouldBlock | io::ErrorKind::TimedOut | io::ErrorKind::Interrupted
-    )
 }
 
 impl PortReader for Reader {

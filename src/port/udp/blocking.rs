@@ -9,7 +9,7 @@
 //! either, as the port drops its own.
 
 use super::{decode, encode, open_tx, timestamp, UdpBusConfig};
-use crate::port::asynch::READER_WAIT;
+use crate::port::asynch::{timed_out, READER_WAIT};
 use crate::port::{PortCounters, PortError, PortInput, PortReader};
 use crate::Frame;
 use std::io;
@@ -66,14 +66,6 @@ impl Reader {
             buf: vec![0; super::MAX_DATAGRAM],
         })
     }
-}
-
-/// A socket's wait ran out (`SO_RCVTIMEO`/`SO_SNDTIMEO`) or a signal interrupted it.
-fn timed_out(e: &io::Error) -> bool {
-    matches!(
-        e.kind(),
-        io::ErrorKind::WouldBlock | io::ErrorKind::TimedOut | io::ErrorKind::Interrupted
-    )
 }
 
 impl PortReader for Reader {
