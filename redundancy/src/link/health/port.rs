@@ -1,0 +1,197 @@
+//! One port's health: its state with what only that state knows, its counters, and the
+//! records the rules of the parent module ([`super`]) keep per port.
+
+use super::{HealthConfig, HealthCounters};
+use core::fmt;
+use duocan::frame::instant::shift_back;
+use duocan::machine::ErrorCause;
+use duocan::{Duration, Instant};
+
+/// The health of a port.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum PortState {
+    /// Working.
+    Ok,
+    /// Errors reported, silent for a while, or lagging beyond the maximum skew window; still
+    /// used (a lagging one only to match twins while the other port delivers).
+    Suspect,
+    /// Not used for transmission; waiting for re-initialisation.
+    Failed,
+    /// Re-initialised or receiving again; used for transmission, not yet trusted for delivery.
+    Recovering,
+}
+
+impl PortState {
+    /// Ok or suspect: frames from it are delivered.
+    pub const fn is_trusted(self) -> bool {
+        matches!(self, PortState::Ok | PortState::Suspect)
+    }
+    /// Its name: `"ok"`, `"suspect"`, `"failed"` or `"recovering"` (what `Display` prints).
+    pub const fn as_str(self) -> &'static str {
+        match self {
+            PortState::Ok => "ok",
+            PortState::Suspect => "suspect",
+            PortState::Failed => "failed",
+            PortState::Recovering => "recovering",
+        }
+    }
+}
+
+impl fmt::Display for PortState {
+    // `pad`, not `write_str`: the status table lines its columns up with `{:<11}`.
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.pad(self.as_str())
+    }
+}
+
+/// Causes that make a port unusable at once.
+pub(super) const fn is_fatal(c: ErrorCause) -> bool {
+    matches!(
+        c,
+        ErrorCause::BusOff | ErrorCause::InterfaceDown | ErrorCause::Transceiver
+    )
+}
+
+/// A port's state with what only that state knows.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(super) enum Condition {
+    Ok,
+    Suspect,
+    Failed {
+        /// The back-off ends: the port is re-initialised.
+        reinit_at: Instant,
+        /// Traffic (a frame, the driver's "up") revives it; not after a transmit stall, where
+        /// only the back-off re-initialisation does.
+        revive_on_rx: bool,
+    },
+    Recovering {
+        /// Its first frame since it recovers: the probation runs from there.
+        probation_from: Option<Instant>,
+    },
+}
+
+impl Condition {
+    pub(super) const fn state(self) -> PortState {
+        match self {
+            Condition::Ok => PortState::Ok,
+            Condition::Suspect => PortState::Suspect,
+            Condition::Failed { .. } => PortState::Failed,
+            Condition::Recovering { .. } => PortState::Recovering,
+        }
+    }
+}
+
+/// State and counters of one port.
+#[derive(Clone, Debug)]
+pub struct PortHealth {
+    /// The state, with the data of that state.
+    pub(super) cond: Condition,
+    pub(super) since: Instant,
+    /// Start of the current silence: last frame, entry into recovering, or start of observation.
+    pub(super) silence_ref: Option<Instant>,
+    /// First first-copy on the other port since this port's last frame.
+    pub(super) first_missed: Option<Instant>,
+    pub(super) last_error: Option<Instant>,
+    pub(super) attempt: u32,
+    pub(super) backoff: Duration,
+    /// Lagging beyond the maximum window (the figure that made it so): suspect for that, and
+    /// not ok again on traffic until the lag is within the maximum again.
+    pub(super) lagging: Option<Duration>,
+    /// Hand-over times of frames without an outcome yet, oldest first.
+    pub(super) outstanding: heapless::Deque<Instant, OUTSTANDING>,
+    /// Hand-over time of the newest frame confirmed sent (`TxOk`).
+    pub(super) last_sent: Option<Instant>,
+    /// When the other port was first seen to have sent a frame handed over no earlier than this
+    /// port's oldest waiting one: the stall rule's reference (twins must follow within the
+    /// window). Cleared whenever that oldest frame changes.
+    pub(super) overtaken: Option<Instant>,
+    /// The driver confirms successful transmissions (`TxOk`); only then can silence about a
+    /// handed-over frame mean a stall.
+    pub(super) reports_outcomes: bool,
+    pub(super) counters: HealthCounters,
+}
+
+/// Transmissions tracked per port for the stall rule.
+pub(super) const OUTSTANDING: usize = 64;
+
+impl PortHealth {
+    pub(super) fn new(cfg: &HealthConfig) -> Self {
+        PortHealth {
+            cond: Condition::Ok,
+            since: Instant::ZERO,
+            silence_ref: None,
+            first_missed: None,
+            last_error: None,
+            attempt: 0,
+            backoff: cfg.reinit_first,
+            lagging: None,
+            outstanding: heapless::Deque::new(),
+            last_sent: None,
+            overtaken: None,
+            reports_outcomes: false,
+            counters: HealthCounters::default(),
+        }
+    }
+    /// Current state.
+    pub fn state(&self) -> PortState {
+        self.cond.state()
+    }
+    /// When it entered the current state.
+    pub fn since(&self) -> Instant {
+        self.since
+    }
+    /// Counters.
+    pub fn counters(&self) -> &HealthCounters {
+        &self.counters
+    }
+    /// Re-initialisation attempts since the port was last ok.
+    pub fn attempts(&self) -> u32 {
+        self.attempt
+    }
+    /// When the next re-initialisation is due (failed ports).
+    pub fn next_reinit(&self) -> Option<Instant> {
+        match self.cond {
+            Condition::Failed { reinit_at, .. } => Some(reinit_at),
+            _ => None,
+        }
+    }
+    /// The lag that makes it suspect: it lags beyond the maximum skew window
+    /// (see [`crate::link::lag`]).
+    pub fn lagging(&self) -> Option<Duration> {
+        self.lagging
+    }
+    pub(super) fn step_back(&mut self, by: Duration) {
+        self.since = self.since - by;
+        match &mut self.cond {
+            Condition::Failed { reinit_at, .. } => *reinit_at = *reinit_at - by,
+            Condition::Recovering { probation_from } => shift_back(probation_from, by),
+            Condition::Ok | Condition::Suspect => {}
+        }
+        for t in [
+            &mut self.silence_ref,
+            &mut self.first_missed,
+            &mut self.last_error,
+            &mut self.last_sent,
+            &mut self.overtaken,
+            &mut self.counters.last_rx,
+        ] {
+            shift_back(t, by);
+        }
+        if let Some((t, _)) = &mut self.counters.last_error {
+            *t = *t - by;
+        }
+        for t in self.outstanding.iter_mut() {
+            *t = *t - by;
+        }
+    }
+    /// Failed, and traffic would revive it (not after a transmit stall).
+    pub(super) fn revives_on_traffic(&self) -> bool {
+        matches!(
+            self.cond,
+            Condition::Failed {
+                revive_on_rx: true,
+                ..
+            }
+        )
+    }
+}
