@@ -84,6 +84,7 @@ impl<
         let (gt, lf) = self.guard_params();
         self.guard.configure(now, gt, lf);
         self.sync.reset(now, self.sync_config());
+        #[cfg(feature = "time")]
         self.time.configure(
             now,
             CobId(
@@ -204,6 +205,7 @@ impl<
             comm::SYNC_COB_ID | comm::SYNC_PERIOD | comm::SYNC_WINDOW | comm::SYNC_OVERFLOW => {
                 self.sync.configure(now, self.sync_config())
             }
+            #[cfg(feature = "time")]
             comm::TIME_COB_ID => self.time.configure(
                 now,
                 CobId(self.od.get_u32(index, 0).unwrap_or(CobId::INVALID)),

@@ -355,6 +355,7 @@ impl<
             }
             return;
         }
+        #[cfg(feature = "time")]
         if Some(id) == self.time.id() {
             if !services.time {
                 return;
@@ -441,6 +442,7 @@ impl<
         self.guard.step_back(by);
         self.guard_master.step_back(by);
         self.sync.step_back(by);
+        #[cfg(feature = "time")]
         self.time.step_back(by);
         self.pdo.step_back(by);
         self.srdo.step_back(by);
@@ -462,7 +464,7 @@ impl<
             self.guard.poll_timeout(),
             self.guard_master.poll_timeout(),
             self.sync.poll_timeout(),
-            self.time.poll_timeout(),
+            self.time_deadline(),
             self.pdo.poll_timeout(),
             self.srdo.poll_timeout(),
             // Messages wait while the state forbids EMCY: no wake-up for them.
@@ -470,6 +472,17 @@ impl<
                 .poll_timeout()
                 .filter(|_| self.state.services().emcy),
         ])
+    }
+
+    /// The next periodic TIME (this node the producer).
+    #[cfg(feature = "time")]
+    fn time_deadline(&self) -> Option<Instant> {
+        self.time.poll_timeout()
+    }
+    /// Never: no TIME service in this build.
+    #[cfg(not(feature = "time"))]
+    fn time_deadline(&self) -> Option<Instant> {
+        None
     }
 
     /// Runs one timed service at `now`, then what its output asks of the rest of the node.
@@ -481,7 +494,10 @@ impl<
             Timer::LifeGuarding => self.guard.handle_timeout(now, &mut out),
             Timer::NodeGuarding => self.guard_master.handle_timeout(now, &mut out),
             Timer::Sync => self.sync.handle_timeout(now, &mut out),
+            #[cfg(feature = "time")]
             Timer::Time => self.time.handle_timeout(now, &mut out),
+            #[cfg(not(feature = "time"))]
+            Timer::Time => {}
             Timer::Pdo => {
                 let mut io = pdo::Io {
                     od: &mut self.od,
