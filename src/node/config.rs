@@ -46,6 +46,7 @@ impl<
         }
     }
 
+    #[cfg(feature = "guarding")]
     pub(super) fn guard_params(&self) -> (Duration, u8) {
         (
             Duration::from_millis(self.u16_of(comm::GUARD_TIME) as u64),
@@ -80,9 +81,12 @@ impl<
                 let _ = self.consumer.configure(sub, ConsumerSetting::from_u32(v));
             }
         }
-        self.guard.reset();
-        let (gt, lf) = self.guard_params();
-        self.guard.configure(now, gt, lf);
+        #[cfg(feature = "guarding")]
+        {
+            self.guard.reset();
+            let (gt, lf) = self.guard_params();
+            self.guard.configure(now, gt, lf);
+        }
         self.sync.reset(now, self.sync_config());
         #[cfg(feature = "time")]
         self.time.configure(
@@ -198,6 +202,7 @@ impl<
                 // A reconfigured entry starts over: a loss it reported is gone.
                 self.monitoring_changed(now, None);
             }
+            #[cfg(feature = "guarding")]
             comm::GUARD_TIME | comm::LIFE_TIME_FACTOR => {
                 let (gt, lf) = self.guard_params();
                 self.guard.configure(now, gt, lf);

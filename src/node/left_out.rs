@@ -1,10 +1,14 @@
-//! What a node built without an optional service does (the crate features `sdo-block` and
-//! `time`): it answers as a CiA 301 device without that service, and never panics. Run by
+//! What a node built without an optional service does (the crate features `sdo-block`,
+//! `time` and `guarding`): it answers as a CiA 301 device without that service, and never panics. Run by
 //! `cargo test -p duocan --no-default-features --features std --lib left_out` (CI's feature
 //! matrix); a default build compiles none of these.
 
 /// A started slave on the standard dictionary, its boot-up and events drained.
-#[cfg(any(not(feature = "sdo-block"), not(feature = "time")))]
+#[cfg(any(
+    not(feature = "sdo-block"),
+    not(feature = "time"),
+    not(feature = "guarding")
+))]
 fn slave() -> crate::Node<crate::od::DynamicDictionary> {
     use crate::od::comm;
     use crate::{Instant, Machine, Node, NodeConfig, NodeId};
@@ -98,4 +102,35 @@ fn left_out_time_is_neither_produced_nor_consumed() {
         Some(tod),
         "the local clock is the one set"
     );
+}
+
+#[cfg(not(feature = "guarding"))]
+#[test]
+fn left_out_guarding_requests_go_unanswered_and_life_guarding_never_runs() {
+    use crate::node::NodeEventKind;
+    use crate::od::{comm, ObjectDictionary};
+    use crate::{Frame, Id, Instant, Machine};
+    let mut node = slave();
+    let t0 = Instant::from_millis(1);
+    // Guard time 100 ms × 3: a build with guarding would lose its life at 300 ms unpolled.
+    node.set(t0, comm::GUARD_TIME, 0, 100u16).unwrap();
+    node.set(t0, comm::LIFE_TIME_FACTOR, 0, 3u8).unwrap();
+    let before = node.stats().unhandled;
+    for k in 1..=3 {
+        let at = Instant::from_millis(100 * k);
+        node.handle_frame(at, &Frame::remote(Id::Standard(0x705), 1).unwrap());
+        assert_eq!(node.poll_transmit(), None, "no guarding answer");
+    }
+    assert_eq!(node.stats().unhandled, before + 3);
+    // No life guarding deadline; time passing loses nothing.
+    assert_eq!(node.poll_timeout(), None);
+    node.handle_timeout(Instant::from_millis(5_000));
+    assert!(core::iter::from_fn(|| node.poll_event()).all(|e| !matches!(
+        e.kind,
+        NodeEventKind::LifeGuardingLost | NodeEventKind::LifeGuardingResumed
+    )));
+    assert_eq!(node.poll_transmit(), None, "no EMCY");
+    // The entries stay plain entries: what was written reads back.
+    assert_eq!(node.od().get_u32(comm::GUARD_TIME, 0), Some(100));
+    assert_eq!(node.od().get_u32(comm::LIFE_TIME_FACTOR, 0), Some(3));
 }
