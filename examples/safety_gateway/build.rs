@@ -6,10 +6,13 @@
 use duocan::eds::codegen::{build_script, CodegenOptions};
 
 fn main() {
+    // The objects' names only with the feature `names` (default): the firmware image, which
+    // never shows them, leaves them out of its flash.
+    let names = std::env::var_os("CARGO_FEATURE_NAMES").is_some();
     if let Err(e) = build_script(
         "safety_gateway.eds",
         "dictionary.rs",
-        &CodegenOptions::default(),
+        &CodegenOptions::default().with_names(names),
     ) {
         eprintln!("error: {e}");
         std::process::exit(1);

@@ -124,7 +124,7 @@ impl Duration {
     }
     /// Length in whole milliseconds (rounded down).
     pub const fn as_millis(self) -> u64 {
-        self.0 / 1_000
+        div_u64(self.0, 1_000)
     }
     /// True for the zero duration (CiA 301 uses 0 to mean "disabled").
     pub const fn is_zero(self) -> bool {
@@ -250,8 +250,46 @@ pub fn next_on_grid(due: Instant, period: Duration, now: Instant) -> Instant {
         return next;
     }
     let p = period.as_micros().max(1);
-    let behind = (now - due).as_micros() / p;
+    let behind = div_u64((now - due).as_micros(), p);
     due + Duration::from_micros(p).saturating_mul(behind + 1)
+}
+
+/// `n / d` for `d > 0`, exact. A 64-bit target divides; a 32-bit one (a microcontroller, whose
+/// processor divides 32-bit numbers at most) divides in 32 bits when both fit and otherwise by
+/// shifting and subtracting ([`div_u64_by_shifts`]), which keeps the general 64-bit division
+/// routine (almost 1 KB of code) out of the image. Each use is off the per-frame path.
+#[inline]
+const fn div_u64(n: u64, d: u64) -> u64 {
+    if cfg!(target_pointer_width = "64") {
+        n / d
+    } else if n >> 32 == 0 && d >> 32 == 0 {
+        (n as u32 / d as u32) as u64
+    } else {
+        div_u64_by_shifts(n, d)
+    }
+}
+
+/// `n / d` for `d > 0` by long division in base 2: one step per bit of the quotient.
+const fn div_u64_by_shifts(n: u64, d: u64) -> u64 {
+    if d > n {
+        return 0;
+    }
+    // `d` aligned under the highest bit of `n`; the quotient has `shift + 1` bits.
+    let shift = d.leading_zeros() - n.leading_zeros();
+    let mut d = d << shift;
+    let mut r = n;
+    let mut q = 0;
+    let mut i = 0;
+    while i <= shift {
+        q <<= 1;
+        if r >= d {
+            r -= d;
+            q |= 1;
+        }
+        d >>= 1;
+        i += 1;
+    }
+    q
 }
 
 /// Notices the caller's clock stepping back: a machine keeps one and asks it on every input that
@@ -296,6 +334,36 @@ pub fn shift_back(t: &mut Option<Instant>, by: Duration) {
 
 #[cfg(test)]
 mod tests {
+    #[test]
+    fn division_by_shifts_is_exact() {
+        use super::div_u64_by_shifts as div;
+        let edges = [
+            1,
+            2,
+            3,
+            7,
+            999,
+            1_000,
+            1_001,
+            u32::MAX as u64,
+            1 << 32,
+            u64::MAX / 3,
+        ];
+        let mut rng = fastrand::Rng::with_seed(11);
+        for _ in 0..20_000 {
+            // Every size of dividend and divisor, from one bit to 64.
+            let n = rng.u64(..) >> rng.u32(0..64);
+            let d = (rng.u64(..) >> rng.u32(0..64)).max(1);
+            assert_eq!(div(n, d), n / d, "{n} / {d}");
+        }
+        for &d in &edges {
+            for n in [0, 1, d - 1, d, d + 1, u64::MAX - 1, u64::MAX] {
+                assert_eq!(div(n, d), n / d, "{n} / {d}");
+            }
+        }
+        assert_eq!(super::div_u64(u64::MAX, 1_000), u64::MAX / 1_000);
+    }
+
     use super::*;
 
     #[test]

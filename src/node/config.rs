@@ -46,6 +46,7 @@ impl<
         }
     }
 
+    #[cfg(feature = "guarding")]
     pub(super) fn guard_params(&self) -> (Duration, u8) {
         (
             Duration::from_millis(self.u16_of(comm::GUARD_TIME) as u64),
@@ -80,10 +81,14 @@ impl<
                 let _ = self.consumer.configure(sub, ConsumerSetting::from_u32(v));
             }
         }
-        self.guard.reset();
-        let (gt, lf) = self.guard_params();
-        self.guard.configure(now, gt, lf);
+        #[cfg(feature = "guarding")]
+        {
+            self.guard.reset();
+            let (gt, lf) = self.guard_params();
+            self.guard.configure(now, gt, lf);
+        }
         self.sync.reset(now, self.sync_config());
+        #[cfg(feature = "time")]
         self.time.configure(
             now,
             CobId(
@@ -197,6 +202,7 @@ impl<
                 // A reconfigured entry starts over: a loss it reported is gone.
                 self.monitoring_changed(now, None);
             }
+            #[cfg(feature = "guarding")]
             comm::GUARD_TIME | comm::LIFE_TIME_FACTOR => {
                 let (gt, lf) = self.guard_params();
                 self.guard.configure(now, gt, lf);
@@ -204,6 +210,7 @@ impl<
             comm::SYNC_COB_ID | comm::SYNC_PERIOD | comm::SYNC_WINDOW | comm::SYNC_OVERFLOW => {
                 self.sync.configure(now, self.sync_config())
             }
+            #[cfg(feature = "time")]
             comm::TIME_COB_ID => self.time.configure(
                 now,
                 CobId(self.od.get_u32(index, 0).unwrap_or(CobId::INVALID)),

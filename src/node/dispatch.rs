@@ -308,6 +308,9 @@ impl<
         }
     }
 
+    /// A node guarding request for this node: answered with the state and the toggle bit, and
+    /// life guarding runs on it.
+    #[cfg(feature = "guarding")]
     pub(super) fn guard_request(&mut self, now: Instant, frame: &Frame) {
         if !frame.is_remote() {
             return self.malformed(now, frame.id(), Malformed::UnexpectedData);
@@ -319,6 +322,13 @@ impl<
             ..FollowUp::default()
         };
         self.follow_up(now, life);
+    }
+
+    /// A node guarding request for this node, which has no node guarding (the crate feature
+    /// `guarding`): unanswered, as by a CiA 301 device without it, and counted as unhandled.
+    #[cfg(not(feature = "guarding"))]
+    pub(super) fn guard_request(&mut self, _now: Instant, _frame: &Frame) {
+        self.stats.unhandled += 1;
     }
 
     pub(super) fn handle_frame(&mut self, now: Instant, frame: &Frame) {
@@ -355,6 +365,7 @@ impl<
             }
             return;
         }
+        #[cfg(feature = "time")]
         if Some(id) == self.time.id() {
             if !services.time {
                 return;
@@ -438,9 +449,11 @@ impl<
     pub(super) fn step_back(&mut self, by: Duration) {
         self.hb.step_back(by);
         self.consumer.step_back(by);
+        #[cfg(feature = "guarding")]
         self.guard.step_back(by);
         self.guard_master.step_back(by);
         self.sync.step_back(by);
+        #[cfg(feature = "time")]
         self.time.step_back(by);
         self.pdo.step_back(by);
         self.srdo.step_back(by);
@@ -459,10 +472,10 @@ impl<
         earliest_of([
             self.hb.poll_timeout(),
             self.consumer.poll_timeout(),
-            self.guard.poll_timeout(),
+            self.life_guarding_deadline(),
             self.guard_master.poll_timeout(),
             self.sync.poll_timeout(),
-            self.time.poll_timeout(),
+            self.time_deadline(),
             self.pdo.poll_timeout(),
             self.srdo.poll_timeout(),
             // Messages wait while the state forbids EMCY: no wake-up for them.
@@ -472,16 +485,44 @@ impl<
         ])
     }
 
+    /// When life guarding (this node guarded by a master) times out.
+    #[cfg(feature = "guarding")]
+    fn life_guarding_deadline(&self) -> Option<Instant> {
+        self.guard.poll_timeout()
+    }
+    /// Never: no node guarding in this build.
+    #[cfg(not(feature = "guarding"))]
+    fn life_guarding_deadline(&self) -> Option<Instant> {
+        None
+    }
+
+    /// The next periodic TIME (this node the producer).
+    #[cfg(feature = "time")]
+    fn time_deadline(&self) -> Option<Instant> {
+        self.time.poll_timeout()
+    }
+    /// Never: no TIME service in this build.
+    #[cfg(not(feature = "time"))]
+    fn time_deadline(&self) -> Option<Instant> {
+        None
+    }
+
     /// Runs one timed service at `now`, then what its output asks of the rest of the node.
     fn run(&mut self, now: Instant, timer: Timer) {
         let mut out = node_out!(self);
         match timer {
             Timer::Heartbeat => self.hb.handle_timeout(now, &mut out),
             Timer::HeartbeatConsumer => self.consumer.handle_timeout(now, &mut out),
+            #[cfg(feature = "guarding")]
             Timer::LifeGuarding => self.guard.handle_timeout(now, &mut out),
+            #[cfg(not(feature = "guarding"))]
+            Timer::LifeGuarding => {}
             Timer::NodeGuarding => self.guard_master.handle_timeout(now, &mut out),
             Timer::Sync => self.sync.handle_timeout(now, &mut out),
+            #[cfg(feature = "time")]
             Timer::Time => self.time.handle_timeout(now, &mut out),
+            #[cfg(not(feature = "time"))]
+            Timer::Time => {}
             Timer::Pdo => {
                 let mut io = pdo::Io {
                     od: &mut self.od,

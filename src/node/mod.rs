@@ -154,6 +154,8 @@ mod config;
 mod dispatch;
 mod error_control;
 mod events;
+#[cfg(test)]
+mod left_out;
 pub mod lss;
 mod safety;
 
@@ -531,7 +533,9 @@ impl<
         self.core.time.base().map(|b| b.at(now))
     }
     /// Sends TIME now (producer only). Returns false if this node is not the producer, has no
-    /// clock or is in a state without TIME.
+    /// clock or is in a state without TIME. A build without the crate feature `time` has no
+    /// TIME service: it never produces or consumes TIME (0x1012 is a plain entry there), so
+    /// this is always false; the local clock ([`Node::set_time`]) still runs.
     pub fn send_time(&mut self, now: Instant) -> bool {
         if !self.core.state.services().time {
             return false;

@@ -262,7 +262,10 @@ impl<T: Copy, const N: usize> PerfectIndex<T, N> {
                 if t == s {
                     break;
                 }
-                self.cells.swap(s, t);
+                // Two distinct cells (`t != s`), swapped as such: `slice::swap` allows them
+                // to be one and copies through the general overlapping copy.
+                let (lo, hi) = self.cells.split_at_mut(s.max(t));
+                core::mem::swap(&mut lo[s.min(t)], &mut hi[0]);
             }
         }
     }

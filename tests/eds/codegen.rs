@@ -149,6 +149,17 @@ fn hooks_are_installed_and_must_name_an_entry() {
             .count(),
         1
     );
+    // Names: the file's, or none at all (a small target's flash).
+    assert_eq!(
+        src.matches(".named(\"Producer heartbeat time\")").count(),
+        1
+    );
+    let nameless = codegen::generate(&d, &CodegenOptions::default().with_names(false)).unwrap();
+    assert_eq!(nameless.matches(".named(").count(), 0);
+    assert_eq!(
+        nameless.lines().count(),
+        src.lines().count() - src.matches(".named(").count()
+    );
     let none = CodegenOptions::default().with_standard_hooks(false);
     assert_eq!(
         codegen::generate(&d, &none)

@@ -455,7 +455,11 @@ impl LagMeter {
             let (window, distrusted) = if lag < self.threshold {
                 (self.base, false)
             } else {
-                let wanted = self.base.saturating_add(lag / MS * MS);
+                // Whole milliseconds: `as_millis` divides without the 64-bit division routine
+                // on a microcontroller.
+                let wanted = self
+                    .base
+                    .saturating_add(Duration::from_micros(lag).as_millis() * MS);
                 if wanted <= self.max {
                     (wanted, false)
                 } else if other_distrusted {

@@ -191,14 +191,14 @@ impl<const T: usize, const R: usize, S: Storage> PdoEngine<T, R, S> {
                 let _ = self.rx_index.try_push((id_key(id), k as u16));
             }
         }
-        self.rx_index.sort_unstable();
+        index::sort_pairs(&mut self.rx_index);
         self.tx_index.clear();
         for (k, t) in self.tpdos.iter().enumerate() {
             if let (true, Some(id)) = (t.p.active(), t.p.id) {
                 let _ = self.tx_index.try_push((id_key(id), k as u16));
             }
         }
-        self.tx_index.sort_unstable();
+        index::sort_pairs(&mut self.tx_index);
         self.reverse.rebuild(&self.tpdos, od);
     }
 

@@ -57,7 +57,7 @@ pub(super) fn source(d: &Description, opts: &CodegenOptions) -> Result<Generated
     let mut out = String::new();
     header(&mut out, d, rows.len(), value_bytes);
     index_consts(&mut out, d);
-    table(&mut out, &rows);
+    table(&mut out, &rows, opts.names);
     Ok(Generated {
         source: out,
         entries: rows.len(),
@@ -223,7 +223,7 @@ fn comment(name: &str) -> String {
         .collect()
 }
 
-fn table(out: &mut String, rows: &[Row<'_>]) {
+fn table(out: &mut String, rows: &[Row<'_>], names: bool) {
     let _ = writeln!(
         out,
         "/// Every entry, by index and sub-index: the tables `StaticDictionary::load` takes.\n\
@@ -269,7 +269,9 @@ fn table(out: &mut String, rows: &[Row<'_>]) {
         if d.capacity != 0 {
             call(format!("capacity({})", d.capacity));
         }
-        call(format!("named({:?})", r.name));
+        if names {
+            call(format!("named({:?})", r.name));
+        }
         if let Some(h) = r.hook {
             call(format!("hook({h})"));
         }

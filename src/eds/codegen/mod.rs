@@ -134,6 +134,10 @@ pub struct CodegenOptions {
     /// Further hooks: (index, sub-index, the path of a
     /// [`WriteHook`](crate::od::WriteHook) function as the generated code names it).
     pub hooks: Vec<(u16, u8, String)>,
+    /// Give each definition the file's `ParameterName` (default: yes). Without, every name is
+    /// empty: a small target that never shows them (its tools read the names from the EDS)
+    /// keeps their bytes out of its flash.
+    pub names: bool,
 }
 
 impl Default for CodegenOptions {
@@ -142,6 +146,7 @@ impl Default for CodegenOptions {
             import: ImportOptions::strict(),
             standard_hooks: true,
             hooks: Vec::new(),
+            names: true,
         }
     }
 }
@@ -164,6 +169,12 @@ impl CodegenOptions {
     #[must_use]
     pub fn with_standard_hooks(mut self, on: bool) -> Self {
         self.standard_hooks = on;
+        self
+    }
+    /// Sets whether the definitions carry the objects' names.
+    #[must_use]
+    pub fn with_names(mut self, on: bool) -> Self {
+        self.names = on;
         self
     }
 }

@@ -71,9 +71,17 @@ impl Table {
         }
         self.remove(node);
         let entry = address.raw() << 7 | node.raw() as u32;
-        let at = self.by_address.partition_point(|e| *e < entry);
         // 127 node-IDs, 127 slots, and the node's old entry is gone: there is room.
-        if self.by_address.insert(at, entry).is_ok() {
+        if self.by_address.push(entry).is_ok() {
+            // Into its place from the end, one swap at a time: what `insert` does, without
+            // the general overlapping copy (1.5 KB of code in an image that needs it nowhere
+            // else).
+            let v = &mut self.by_address[..];
+            let mut i = v.len() - 1;
+            while i > 0 && v[i - 1] > v[i] {
+                v.swap(i - 1, i);
+                i -= 1;
+            }
             self.by_node[node.raw() as usize] = address.raw();
         }
         Ok(())
@@ -86,7 +94,12 @@ impl Table {
         }
         let entry = raw << 7 | node.raw() as u32;
         if let Ok(i) = self.by_address.binary_search(&entry) {
-            self.by_address.remove(i);
+            // To the end, one swap at a time, and off it (what `remove` does; see `add`).
+            let v = &mut self.by_address[..];
+            for j in i + 1..v.len() {
+                v.swap(j - 1, j);
+            }
+            self.by_address.pop();
         }
         DeviceAddress::from_raw(raw).ok()
     }

@@ -19,7 +19,9 @@ pub struct SdoServerConfig {
     /// anyway; short enough that the sender still waits for the acknowledgement.
     pub subblock_timeout: Duration,
     /// Block transfer supported. Without it, block requests get 0x05040001 as from a server
-    /// that does not know them, and clients fall back to segmented transfer.
+    /// that does not know them, and clients fall back to segmented transfer. A build without
+    /// the crate feature `sdo-block` has no block transfer in the server: this is `false` by
+    /// default there, and block requests are refused so whatever it says.
     pub block: bool,
     /// CRC supported in block transfer.
     pub crc: bool,
@@ -75,7 +77,7 @@ impl Default for SdoServerConfig {
         SdoServerConfig {
             timeout: Duration::from_millis(1000),
             subblock_timeout: Duration::from_millis(500),
-            block: true,
+            block: cfg!(feature = "sdo-block"),
             crc: true,
             block_size: MAX_BLOCK_SIZE,
             max_transfer: DEFAULT_LIMIT,

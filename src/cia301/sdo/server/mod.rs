@@ -21,9 +21,12 @@
 //! new request; the client's next frame then finds the transfer as the protocol leaves it (an
 //! abort, or for block transfer the CRC).
 
-use super::block::{self, Acked, BlockReceiver, BlockSender, Bound};
+use super::block::Bound;
+#[cfg(feature = "sdo-block")]
+use super::block::{self, Acked, BlockReceiver, BlockSender};
 use super::buffer::{DefaultBuffer, TransferBuffer};
 use super::codec::{self, Init, Request, Response, SegmentData};
+#[cfg(feature = "sdo-block")]
 use super::crc::crc16;
 use crate::frame::cob_id::{predefined, CobId, NodeId};
 use crate::frame::instant::{earliest, shift_back, Duration, Instant};
@@ -34,6 +37,7 @@ use crate::od::abort::AbortCode;
 use crate::od::ObjectAccess;
 use crate::od::{comm, ObjectDictionary};
 
+#[cfg(feature = "sdo-block")]
 mod block_transfer;
 mod config;
 
@@ -69,6 +73,7 @@ enum State {
         toggle: bool,
         offset: usize,
     },
+    #[cfg(feature = "sdo-block")]
     BlockDownload {
         rx: BlockReceiver,
         crc: bool,
@@ -76,14 +81,17 @@ enum State {
     },
     // Block upload: `crc` is whether the end frame carries the real CRC; it follows the bit
     // the server announced, not the client's request.
+    #[cfg(feature = "sdo-block")]
     BlockUploadStart {
         crc: bool,
         blksize: u8,
     },
+    #[cfg(feature = "sdo-block")]
     BlockUpload {
         tx: BlockSender,
         crc: bool,
     },
+    #[cfg(feature = "sdo-block")]
     BlockUploadEnd,
 }
 
@@ -99,6 +107,7 @@ pub struct SdoServer<B: TransferBuffer = DefaultBuffer> {
     buf: B,
     bound: Bound,
     deadline: Option<Instant>,
+    #[cfg(feature = "sdo-block")]
     subblock_deadline: Option<Instant>,
     out: Bounded<[u8; 8], 4>,
     /// The request frame handled last, across transfers: its second copy is recognised.
@@ -124,6 +133,7 @@ impl<B: TransferBuffer> SdoServer<B> {
                 code: AbortCode::OUT_OF_MEMORY,
             },
             deadline: None,
+            #[cfg(feature = "sdo-block")]
             subblock_deadline: None,
             out: Bounded::new(),
             last_rx: None,
@@ -204,7 +214,10 @@ impl<B: TransferBuffer> SdoServer<B> {
         self.sub = 0;
         self.buf.clear();
         self.deadline = None;
-        self.subblock_deadline = None;
+        #[cfg(feature = "sdo-block")]
+        {
+            self.subblock_deadline = None;
+        }
     }
 
     fn respond(&mut self, r: Response) {
@@ -265,6 +278,7 @@ impl<B: TransferBuffer> SdoServer<B> {
             });
         };
         let repeat = self.last_rx.replace(d) == Some(d);
+        #[cfg(feature = "sdo-block")]
         if let State::BlockDownload { rx, .. } = self.state {
             if rx.is_repeat(&d) {
                 return Ok(());
@@ -323,6 +337,7 @@ impl<B: TransferBuffer> SdoServer<B> {
                 }
                 self.start_upload();
             }
+            #[cfg(feature = "sdo-block")]
             (
                 Request::BlockDownloadInitiate {
                     index,
@@ -332,6 +347,7 @@ impl<B: TransferBuffer> SdoServer<B> {
                 },
                 _,
             ) => self.initiate_block_download(now, index, sub, crc, size, od),
+            #[cfg(feature = "sdo-block")]
             (
                 Request::BlockUploadInitiate {
                     index,
@@ -342,6 +358,17 @@ impl<B: TransferBuffer> SdoServer<B> {
                 },
                 _,
             ) => self.initiate_block_upload(now, index, sub, blksize, pst, od),
+            // Without block transfer: what a server configured without it answers (the
+            // command specifier is unknown to it), naming the entry asked for.
+            #[cfg(not(feature = "sdo-block"))]
+            (
+                Request::BlockDownloadInitiate { index, sub, .. }
+                | Request::BlockUploadInitiate { index, sub, .. },
+                _,
+            ) => {
+                self.begin(now, index, sub);
+                self.abort(AbortCode::COMMAND_SPECIFIER)
+            }
             (
                 Request::DownloadSegment { toggle, data, last },
                 State::Download { toggle: t, size },
@@ -370,6 +397,7 @@ impl<B: TransferBuffer> SdoServer<B> {
                     self.touch(now);
                 }
             }
+            #[cfg(feature = "sdo-block")]
             (
                 Request::BlockDownloadEnd { unused, crc },
                 State::BlockDownload {
@@ -378,6 +406,7 @@ impl<B: TransferBuffer> SdoServer<B> {
                     size,
                 },
             ) => self.block_download_end(now, rx, unused, crc, use_crc, size, od),
+            #[cfg(feature = "sdo-block")]
             (Request::BlockUploadStart, State::BlockUploadStart { crc, blksize }) => {
                 self.state = State::BlockUpload {
                     tx: BlockSender::new(self.buf.len(), blksize),
@@ -385,6 +414,7 @@ impl<B: TransferBuffer> SdoServer<B> {
                 };
                 self.touch(now);
             }
+            #[cfg(feature = "sdo-block")]
             (Request::BlockUploadAck { ackseq, blksize }, State::BlockUpload { mut tx, crc }) => {
                 match tx.ack(ackseq, blksize) {
                     Err(c) => self.refuse(repeat, c),
@@ -405,9 +435,11 @@ impl<B: TransferBuffer> SdoServer<B> {
                     }
                 }
             }
+            #[cfg(feature = "sdo-block")]
             (Request::BlockUploadEnd, State::BlockUploadEnd) => self.complete(),
             // The end frame answered the last acknowledgement; one more comes only late (a
             // second copy of an earlier one taken for the last): the end request follows it.
+            #[cfg(feature = "sdo-block")]
             (Request::BlockUploadAck { .. }, State::BlockUploadEnd) => self.stats.repeats += 1,
             _ => self.refuse(repeat, AbortCode::COMMAND_SPECIFIER),
         }
@@ -592,6 +624,7 @@ impl<B: TransferBuffer> SdoServer<B> {
 
     /// Time passed: acknowledge an incomplete sub-block, or abort a transfer the client left.
     pub fn handle_timeout(&mut self, now: Instant) {
+        #[cfg(feature = "sdo-block")]
         if self.subblock_deadline.is_some_and(|t| t <= now) {
             self.subblock_deadline = None;
             if let State::BlockDownload { mut rx, crc, size } = self.state {
@@ -603,6 +636,7 @@ impl<B: TransferBuffer> SdoServer<B> {
             }
         }
         if self.deadline.is_some_and(|t| t <= now) {
+            #[cfg(feature = "sdo-block")]
             if matches!(self.state, State::BlockUpload { tx, .. } if tx.is_sending()) {
                 // The driver has not taken the whole sub-block yet (a slow bus): the client
                 // cannot have answered, so the wait starts over.
@@ -615,12 +649,24 @@ impl<B: TransferBuffer> SdoServer<B> {
     /// Earliest instant `handle_timeout` has work.
     #[must_use]
     pub fn poll_timeout(&self) -> Option<Instant> {
-        earliest(self.deadline, self.subblock_deadline)
+        earliest(self.deadline, self.subblock_deadline())
+    }
+
+    /// When an incomplete sub-block is acknowledged.
+    #[cfg(feature = "sdo-block")]
+    fn subblock_deadline(&self) -> Option<Instant> {
+        self.subblock_deadline
+    }
+    /// Never: no block transfer.
+    #[cfg(not(feature = "sdo-block"))]
+    fn subblock_deadline(&self) -> Option<Instant> {
+        None
     }
 
     /// The caller's clock stepped back `by` (the clock contract, [`crate::frame::instant`]).
     pub fn step_back(&mut self, by: Duration) {
         shift_back(&mut self.deadline, by);
+        #[cfg(feature = "sdo-block")]
         shift_back(&mut self.subblock_deadline, by);
     }
 
@@ -631,6 +677,7 @@ impl<B: TransferBuffer> SdoServer<B> {
         if let Some(d) = self.out.pop() {
             return Some(Frame::from_array(id, d));
         }
+        #[cfg(feature = "sdo-block")]
         if let State::BlockUpload { ref mut tx, .. } = self.state {
             return tx
                 .next_segment(self.buf.as_slice())

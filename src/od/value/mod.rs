@@ -3,6 +3,8 @@
 use super::def::{DataType, DefaultValue, Limit, ObjectDef};
 use crate::od::abort::AbortCode;
 
+mod real_bits;
+
 /// A Rust type that maps onto a fixed-size CiA 301 data type.
 pub trait OdValue: Sized + Copy {
     /// The data type it corresponds to.
@@ -72,7 +74,7 @@ pub(crate) fn encode_default(def: &ObjectDef, node_id: u8, out: &mut [u8]) -> us
         DefaultValue::Signed(v) => put_int(v as u64, size, out),
         DefaultValue::NodeIdPlus(v) => put_int(v as u64 + node_id as u64, size, out),
         DefaultValue::Real(v) => match def.data_type {
-            DataType::Real32 => copy(&(v as f32).to_le_bytes(), out),
+            DataType::Real32 => copy(&real_bits::f64_to_f32(v.to_bits()).to_le_bytes(), out),
             _ => copy(&v.to_le_bytes(), out),
         },
         DefaultValue::Bytes(b) => copy(b, out),
@@ -160,33 +162,35 @@ fn check_limits(def: &ObjectDef, data: &[u8]) -> Result<(), AbortCode> {
     let n = data.len().min(8);
     buf[..n].copy_from_slice(&data[..n]);
     let raw = u64::from_le_bytes(buf);
+    // Real numbers are compared on their bits (`real_bits`): the results of `as f64`,
+    // `partial_cmp` and `as i64`/`as u64`, exactly, without software double precision.
     let cmp = |lim: Limit| -> core::cmp::Ordering {
         if t.is_real() {
             let v = if t == DataType::Real32 {
-                f32::from_le_bytes([buf[0], buf[1], buf[2], buf[3]]) as f64
+                real_bits::f32_to_f64(u32::from_le_bytes([buf[0], buf[1], buf[2], buf[3]]))
             } else {
-                f64::from_bits(raw)
+                raw
             };
             let l = match lim {
-                Limit::Real(x) => x,
-                Limit::Signed(x) => x as f64,
-                Limit::Unsigned(x) => x as f64,
+                Limit::Real(x) => x.to_bits(),
+                Limit::Signed(x) => real_bits::i64_to_f64(x),
+                Limit::Unsigned(x) => real_bits::u64_to_f64(x),
             };
-            v.partial_cmp(&l).unwrap_or(core::cmp::Ordering::Greater)
+            real_bits::cmp(v, l).unwrap_or(core::cmp::Ordering::Greater)
         } else if t.is_signed() {
             let shift = 64 - 8 * n as u32;
             let v = ((raw << shift) as i64) >> shift;
             let l = match lim {
                 Limit::Signed(x) => x,
                 Limit::Unsigned(x) => i64::try_from(x).unwrap_or(i64::MAX),
-                Limit::Real(x) => x as i64,
+                Limit::Real(x) => real_bits::f64_to_i64(x.to_bits()),
             };
             v.cmp(&l)
         } else {
             let l = match lim {
                 Limit::Unsigned(x) => x,
                 Limit::Signed(x) => u64::try_from(x).unwrap_or(0),
-                Limit::Real(x) => x as u64,
+                Limit::Real(x) => real_bits::f64_to_u64(x.to_bits()),
             };
             raw.cmp(&l)
         }
