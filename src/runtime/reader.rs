@@ -72,10 +72,12 @@ impl Drop for Turn<'_> {
 
 impl WriterLock {
     fn try_take(&self) -> Option<Turn<'_>> {
+        // `then`, not `then_some`: a `Turn` made eagerly for a failed try would be dropped at
+        // once, and its drop gives the lock back, freeing it under its holder.
         self.busy
             .compare_exchange(false, true, Ordering::SeqCst, Ordering::Relaxed)
             .is_ok()
-            .then_some(Turn(self))
+            .then(|| Turn(self))
     }
 
     /// For the task.
@@ -360,5 +362,22 @@ impl Thread {
                 }
             }
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::WriterLock;
+
+    /// A try that fails must leave the lock with its holder (a guard made for the failed try
+    /// and dropped would give it back: two writers at once, frames out of order).
+    #[test]
+    fn a_failed_try_leaves_the_lock_with_its_holder() {
+        let lock = WriterLock::default();
+        let held = lock.try_take().expect("a free lock is taken");
+        assert!(lock.try_take().is_none());
+        assert!(lock.try_take().is_none(), "still held after a failed try");
+        drop(held);
+        assert!(lock.try_take().is_some());
     }
 }
