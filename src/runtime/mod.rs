@@ -269,6 +269,7 @@ where
             state: std::sync::Mutex::new(state),
             core: Notify::new(),
             ports: (0..given).map(|_| Arc::new(Notify::new())).collect(),
+            drained: Notify::new(),
         });
         for (index, spawn) in spawns.into_iter().enumerate() {
             spawn(port_task::Wiring {

@@ -33,10 +33,21 @@ pub(super) enum Step {
 const BURST: usize = 32;
 
 pub(crate) async fn run<P: Port>(mut port: P, w: Wiring) {
+    // However the task ends (also aborted with its runtime), the shutdown stops waiting for it.
+    let _finished = Finished(w.hub.clone(), w.index);
     if let Some(reader) = port.reader() {
         return super::reader::run(port, reader, w).await;
     }
     run_async(port, w, Outbox::new()).await;
+}
+
+/// Tells the hub the port's task has ended, when dropped.
+struct Finished(Arc<dyn Hub>, usize);
+
+impl Drop for Finished {
+    fn drop(&mut self) {
+        self.0.finished(self.1);
+    }
 }
 
 /// The port's task reading through the port's `recv` (`out`: what is left to do first).
@@ -55,7 +66,11 @@ pub(super) async fn run_async<P: Port>(mut port: P, w: Wiring, mut out: Outbox) 
                         Ok(x) if w.hub.input(w.index, x, w.clock.now()) => {
                             serve(&mut port, &w, &mut out).await
                         }
-                        Ok(_) => Step::Stop,
+                        // The runtime stopped: what is left in the queue still goes out.
+                        Ok(_) => match serve(&mut port, &w, &mut out).await {
+                            Step::Continue => Step::Stop,
+                            other => other,
+                        },
                         Err(e) => {
                             tracing::warn!(error = %e, "receive failed");
                             report(&w, PortStatus::Down(e.cause()));
@@ -263,6 +278,7 @@ mod tests {
             super::super::task::move_into(&mut self.queue.lock().unwrap(), into);
             true
         }
+        fn finished(&self, _: usize) {}
         fn take_frames(&self, _: usize, _: &mut Outbox) -> Option<bool> {
             unreachable!("the dead port has no reader thread")
         }

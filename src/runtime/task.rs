@@ -43,14 +43,20 @@ pub(crate) enum PortCmd {
 /// deadline stays in the past after its timeout ran must not hold a port task forever.
 const TIMEOUTS_PER_INPUT: usize = 64;
 
+/// How long a shutdown waits at most for the port tasks to write what was queued before it.
+const DRAIN_GRACE: std::time::Duration = std::time::Duration::from_millis(250);
+
 /// What the port tasks see of the device: the one interface they need, not its type.
 pub(crate) trait Hub: Send + Sync + 'static {
     /// Hands `x`, read from `port` at `at`, to the device (after any deadline that fell before
     /// it) and moves what the device has to the ports. False when the runtime has stopped.
     fn input(&self, port: usize, x: PortInput, at: crate::Instant) -> bool;
     /// Moves what is queued for `port`, oldest first, into `into` as far as it has room. False
-    /// when the runtime has stopped.
+    /// when the runtime has stopped and nothing is left for the port; after the stop only
+    /// frames are moved (a port task writes them and takes again until this says false).
     fn take(&self, port: usize, into: &mut Outbox) -> bool;
+    /// `port`'s task has ended: the runtime's shutdown no longer waits for it.
+    fn finished(&self, port: usize);
     /// Moves the frames at the head of `port`'s queue, up to its first other command, into
     /// `into` as far as it has room: what a reader thread writes itself. `Some(true)` when
     /// something is left in the queue, `None` when the runtime has stopped.
@@ -87,8 +93,11 @@ pub(crate) struct State<D: Device> {
     pub queues: Vec<VecDeque<PortCmd>>,
     /// The deadline the core task's timer is set for.
     pub armed: Option<crate::Instant>,
-    /// The core task has stopped: port tasks stop too.
+    /// The core task has stopped: port tasks write what is left in their queues, then stop.
     pub closed: bool,
+    /// Per port, one bit: its task has written what was left when the runtime stopped (or
+    /// has ended).
+    pub drained: u64,
 }
 
 /// The state and the wake-ups around it.
@@ -98,6 +107,8 @@ pub(crate) struct Shared<D: Device> {
     pub core: Notify,
     /// Wakes each port's task: something was queued for it, or the runtime stopped.
     pub ports: Vec<Arc<Notify>>,
+    /// Notified when a port task has drained its queue after the runtime stopped.
+    pub drained: Notify,
 }
 
 impl<D: Device> State<D>
@@ -126,6 +137,7 @@ where
             queues,
             armed: None,
             closed: false,
+            drained: 0,
         }
     }
 
@@ -288,7 +300,7 @@ where
         Some(r)
     }
 
-    /// Stops the port tasks.
+    /// Stops the port tasks: each writes what is left in its queue first.
     pub fn close(&self) {
         if let Ok(mut st) = self.state.lock() {
             st.closed = true;
@@ -296,6 +308,35 @@ where
         for n in &self.ports {
             n.notify_one();
         }
+    }
+
+    /// Waits until every port task has written what was left in its queue when the runtime
+    /// stopped (or has ended), at most `grace`: a port that cannot send does not hold up the
+    /// shutdown for longer.
+    pub async fn drain(&self, grace: std::time::Duration) {
+        let all = match self.ports.len() {
+            0 => return,
+            n => u64::MAX >> (64 - n.min(64)),
+        };
+        let _ = tokio::time::timeout(grace, async {
+            loop {
+                let freed = self.drained.notified();
+                tokio::pin!(freed);
+                freed.as_mut().enable();
+                match self.state.lock() {
+                    Ok(st) if st.drained & all != all => {}
+                    _ => return,
+                }
+                freed.await;
+            }
+        })
+        .await;
+    }
+
+    /// Marks `port`'s task as drained.
+    fn mark_drained(&self, st: &mut State<D>, port: usize) {
+        st.drained |= 1u64 << port.min(63);
+        self.drained.notify_one();
     }
 }
 
@@ -321,12 +362,35 @@ where
             return false;
         };
         if st.closed {
-            return false;
+            // What was queued before the stop still goes out (the NMT command a tool sends
+            // just before it exits): the frames, not requests to re-initialise the port.
+            if let Some(q) = st.queues.get_mut(port) {
+                while !into.is_full() {
+                    match q.pop_front() {
+                        Some(c @ PortCmd::Send(_)) => {
+                            let _ = into.push_back(c);
+                        }
+                        Some(PortCmd::Request(_)) => {}
+                        None => break,
+                    }
+                }
+            }
+            if into.is_empty() {
+                self.mark_drained(&mut st, port);
+                return false;
+            }
+            return true;
         }
         if let Some(q) = st.queues.get_mut(port) {
             move_into(q, into);
         }
         true
+    }
+
+    fn finished(&self, port: usize) {
+        if let Ok(mut st) = self.state.lock() {
+            self.mark_drained(&mut st, port);
+        }
     }
 
     fn take_frames(&self, port: usize, into: &mut Outbox) -> Option<bool> {
@@ -444,6 +508,7 @@ pub(crate) async fn run<D>(
         }
     }
     shared.close();
+    shared.drain(DRAIN_GRACE).await;
     tracing::info!("runtime stopped");
 }
 

@@ -4,3 +4,4 @@ mod memory_bus;
 mod reader_thread;
 #[path = "../common/runtime.rs"]
 mod rt;
+mod shutdown;
