@@ -157,6 +157,20 @@ pub trait PortReader: Send {
     /// in that time. An `Err` means the port is unusable until it is re-opened.
     fn read(&mut self) -> Result<Option<PortInput>, PortError>;
     /// Sends one frame, waiting at most [`READER_WAIT`] for room: `Ok(false)` when there was
-    /// none in that time (the caller tries again or gives up).
+    /// none in that time (the caller tries again or gives up). A reader may keep it to send
+    /// with the next ones: [`PortReader::flush`] sends what it kept.
     fn write(&mut self, frame: &Frame) -> Result<bool, PortError>;
+    /// The next input already read (with an earlier one, in one system call), without waiting
+    /// or asking the system: the caller hands these on before it flushes. `None` (the default)
+    /// when there is none.
+    fn read_ready(&mut self) -> Option<PortInput> {
+        None
+    }
+    /// Sends what [`PortReader::write`] kept, in order, waiting at most [`READER_WAIT`] for
+    /// room: `Ok(false)` when some is left (the caller tries again or gives up). An `Err` is
+    /// the failure of one frame, which is dropped; the rest stay for the next call. Nothing
+    /// kept (the default): `Ok(true)`.
+    fn flush(&mut self) -> Result<bool, PortError> {
+        Ok(true)
+    }
 }

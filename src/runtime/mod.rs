@@ -126,8 +126,7 @@ impl Clock {
     }
     /// Current time.
     pub fn now(&self) -> Instant {
-        let d = self.origin.elapsed();
-        Instant::from_micros(u64::try_from(d.as_micros()).unwrap_or(u64::MAX))
+        micros(self.origin.elapsed())
     }
     /// The clock as a reader thread reads it: from the standard library's clock, which is
     /// tokio's outside a runtime (and cheaper to read there).
@@ -150,9 +149,18 @@ pub(crate) struct ThreadClock(std::time::Instant);
 impl ThreadClock {
     /// Current time, as [`Clock::now`] gives it.
     pub(crate) fn now(&self) -> Instant {
-        let d = self.0.elapsed();
-        Instant::from_micros(u64::try_from(d.as_micros()).unwrap_or(u64::MAX))
+        micros(self.0.elapsed())
     }
+}
+
+/// `d` as an instant after the clock's origin, in whole microseconds: seconds and the
+/// sub-second part apart (`as_micros` divides 128 bits, a library call on every frame).
+fn micros(d: std::time::Duration) -> Instant {
+    Instant::from_micros(
+        d.as_secs()
+            .saturating_mul(1_000_000)
+            .saturating_add(u64::from(d.subsec_micros())),
+    )
 }
 
 /// The runtime could not start.
@@ -289,6 +297,18 @@ where
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    proptest::proptest! {
+        /// The clock's microseconds are the standard library's, without its 128-bit division.
+        #[test]
+        fn micros_are_the_standard_librarys(secs in 0u64..1 << 40, nanos in 0u32..1_000_000_000) {
+            let d = std::time::Duration::new(secs, nanos);
+            proptest::prop_assert_eq!(
+                micros(d),
+                Instant::from_micros(u64::try_from(d.as_micros()).unwrap())
+            );
+        }
+    }
     use crate::machine::{Station, StationEvent};
     use crate::node::{NodeEvent, NodeEventKind};
     use crate::od::{comm, DynamicDictionary};

@@ -1,6 +1,9 @@
 //! A port read by a thread of its own ([`Port::reader`]): the thread waits in the socket's own
 //! `read`, as a bare loop does, hands each input to the device under the state's lock and
-//! writes the device's answers on its port right after. The port's task serves what others
+//! writes the device's answers on its port right after. Inputs the port read together (one
+//! system call, [`PortReader::read_ready`]) are handed on one by one in one turn of the writer
+//! lock, and what the port kept of their answers is sent at the end of it
+//! ([`PortReader::flush`]). The port's task serves what others
 //! queued for the port (the device's timers, commands, the other port's frames), sends without
 //! waiting, and re-opens the port after failures.
 //!
@@ -272,13 +275,23 @@ impl Thread {
                     if self.ctl.stopped() {
                         return;
                     }
-                    let at = self.clock.now();
                     // The writer lock first, then the state's: the order the task takes them in.
                     let _turn = self.writer.take_blocking();
-                    let Some(left) = self.hub.input_take(self.index, x, at, &mut out) else {
-                        return;
-                    };
-                    if !self.write_answers(&mut **reader, &mut out, left) {
+                    // What the port read with this input in the same system call is handed on
+                    // under the same turn, and the answers to all of them sent together.
+                    // They were read at one instant: the clock is read once for them all.
+                    let at = self.clock.now();
+                    let mut next = Some(x);
+                    while let Some(x) = next {
+                        let Some(left) = self.hub.input_take(self.index, x, at, &mut out) else {
+                            return;
+                        };
+                        if !self.write_answers(&mut **reader, &mut out, left) {
+                            return;
+                        }
+                        next = reader.read_ready();
+                    }
+                    if !self.flush(&mut **reader) {
                         return;
                     }
                 }
@@ -336,6 +349,41 @@ impl Thread {
         }
     }
 
+    /// Sends what the reader kept of the frames written, waiting for room as long as the
+    /// runtime runs; false when the thread is to stop (the port failed, or the runtime
+    /// stopped).
+    fn flush(&self, reader: &mut dyn PortReader) -> bool {
+        loop {
+            match reader.flush() {
+                Ok(true) => return true,
+                Ok(false) => {
+                    if self.ctl.stopped() || !self.hub.is_open() {
+                        return false;
+                    }
+                }
+                Err(e) => {
+                    if !self.failed_send(&e) {
+                        return false;
+                    }
+                }
+            }
+        }
+    }
+
+    /// Reports a failed send; false when the thread is to stop.
+    fn failed_send(&self, e: &crate::port::PortError) -> bool {
+        tracing::warn!(error = %e, "send failed");
+        if is_down(e.kind) {
+            self.fail(e.cause());
+            return false;
+        }
+        let failed = PortInput::Status(PortStatus::TxFailed(e.cause()));
+        let open = self.hub.input(self.index, failed, self.clock.now());
+        // What the device queued for this port on hearing it is the task's to send.
+        self.wake.notify_one();
+        open
+    }
+
     /// Writes one frame, waiting for room as long as the runtime runs; false when the thread
     /// is to stop (the port failed, or the runtime stopped).
     fn write(&self, reader: &mut dyn PortReader, f: &crate::Frame) -> bool {
@@ -348,18 +396,7 @@ impl Thread {
                         return false;
                     }
                 }
-                Err(e) => {
-                    tracing::warn!(error = %e, "send failed");
-                    if is_down(e.kind) {
-                        self.fail(e.cause());
-                        return false;
-                    }
-                    let failed = PortInput::Status(PortStatus::TxFailed(e.cause()));
-                    let open = self.hub.input(self.index, failed, self.clock.now());
-                    // What the device queued for this port on hearing it is the task's to send.
-                    self.wake.notify_one();
-                    return open;
-                }
+                Err(e) => return self.failed_send(&e),
             }
         }
     }

@@ -63,6 +63,8 @@ struct Seen {
     /// Most readers alive at once.
     most: AtomicUsize,
     reopened: AtomicUsize,
+    /// Flushes of a batching reader that sent something.
+    flushes: AtomicUsize,
 }
 
 /// Inputs for the port: a frame, or a failure of the port.
@@ -73,11 +75,17 @@ struct ThreadedPort {
     feed: Arc<Mutex<Receiver<Feed>>>,
     seen: Arc<Seen>,
     lent: bool,
+    batched: bool,
 }
 
 struct Reader {
     feed: Arc<Mutex<Receiver<Feed>>>,
     seen: Arc<Seen>,
+    /// Reads what is queued in one go and keeps what is written until a flush, as the
+    /// SocketCAN port's `recvmmsg` and `sendmmsg` do.
+    batched: bool,
+    ready: VecDeque<Frame>,
+    kept: Vec<Frame>,
 }
 
 impl Drop for Reader {
@@ -88,16 +96,57 @@ impl Drop for Reader {
 
 impl PortReader for Reader {
     fn read(&mut self) -> Result<Option<PortInput>, PortError> {
-        match self.feed.lock().unwrap().recv_timeout(READER_WAIT) {
-            Ok(Ok(f)) => Ok(Some(PortInput::Frame(f))),
-            Ok(Err(())) => Err(PortError::new("thr0", PortErrorKind::InterfaceDown, "read")),
-            Err(RecvTimeoutError::Timeout | RecvTimeoutError::Disconnected) => Ok(None),
+        if let Some(f) = self.ready.pop_front() {
+            return Ok(Some(PortInput::Frame(f)));
         }
+        let feed = self.feed.lock().unwrap();
+        let first = match feed.recv_timeout(READER_WAIT) {
+            Ok(Ok(f)) => f,
+            Ok(Err(())) => {
+                return Err(PortError::new("thr0", PortErrorKind::InterfaceDown, "read"))
+            }
+            Err(RecvTimeoutError::Timeout | RecvTimeoutError::Disconnected) => return Ok(None),
+        };
+        // A failure queued behind is left for the next read, as a batch ends at an error.
+        while self.batched && self.ready.len() < 16 {
+            match feed.try_recv() {
+                Ok(Ok(f)) => self.ready.push_back(f),
+                Ok(Err(())) => {
+                    drop(feed);
+                    self.feed = Arc::new(Mutex::new(failed_feed()));
+                    break;
+                }
+                Err(_) => break,
+            }
+        }
+        Ok(Some(PortInput::Frame(first)))
+    }
+    fn read_ready(&mut self) -> Option<PortInput> {
+        self.ready.pop_front().map(PortInput::Frame)
     }
     fn write(&mut self, f: &Frame) -> Result<bool, PortError> {
-        self.seen.written.lock().unwrap().push((*f, "thread"));
+        if self.batched {
+            self.kept.push(*f);
+        } else {
+            self.seen.written.lock().unwrap().push((*f, "thread"));
+        }
         Ok(true)
     }
+    fn flush(&mut self) -> Result<bool, PortError> {
+        if !self.kept.is_empty() {
+            let mut w = self.seen.written.lock().unwrap();
+            w.extend(self.kept.drain(..).map(|f| (f, "thread")));
+            self.seen.flushes.fetch_add(1, Ordering::SeqCst);
+        }
+        Ok(true)
+    }
+}
+
+/// A feed that has only a failure in it.
+fn failed_feed() -> Receiver<Feed> {
+    let (tx, rx) = channel();
+    tx.send(Err(())).unwrap();
+    rx
 }
 
 impl Port for ThreadedPort {
@@ -129,11 +178,18 @@ impl Port for ThreadedPort {
         Some(Box::new(Reader {
             feed: self.feed.clone(),
             seen: self.seen.clone(),
+            batched: self.batched,
+            ready: VecDeque::new(),
+            kept: Vec::new(),
         }))
     }
 }
 
 fn start() -> (Handle<Echo>, Sender<Feed>, Arc<Seen>) {
+    start_with(false)
+}
+
+fn start_with(batched: bool) -> (Handle<Echo>, Sender<Feed>, Arc<Seen>) {
     let (tx, rx) = channel();
     let seen = Arc::new(Seen::default());
     let port = ThreadedPort {
@@ -141,6 +197,7 @@ fn start() -> (Handle<Echo>, Sender<Feed>, Arc<Seen>) {
         feed: Arc::new(Mutex::new(rx)),
         seen: seen.clone(),
         lent: false,
+        batched,
     };
     let handle = Runtime::new(Echo::default()).port(port).spawn().unwrap();
     (handle, tx, seen)
@@ -183,6 +240,24 @@ fn re_opened_once_one_reader_at_a_time(seen: &Seen) {
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn every_frame_is_answered_in_order_by_the_reader_thread() {
     let (handle, feed, seen) = start();
+    answered_in_order(&handle, &feed, &seen).await;
+}
+
+/// A port that reads several frames per system call and sends their answers together: the
+/// same frames in the same order, the task's marks never inside a batch's answers, and the
+/// answers sent in fewer flushes than frames.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_batching_port_answers_every_frame_in_order() {
+    let (handle, feed, seen) = start_with(true);
+    answered_in_order(&handle, &feed, &seen).await;
+    let flushes = seen.flushes.load(Ordering::SeqCst);
+    assert!(
+        (1..2000).contains(&flushes),
+        "{flushes} flushes for 2000 answers"
+    );
+}
+
+async fn answered_in_order(handle: &Handle<Echo>, feed: &Sender<Feed>, seen: &Seen) {
     for i in 0..2000u32 {
         feed.send(Ok(ping(i))).unwrap();
         if i % 100 == 0 {
@@ -196,7 +271,7 @@ async fn every_frame_is_answered_in_order_by_the_reader_thread() {
                 .unwrap();
         }
     }
-    let w = written(&seen, 2020).await;
+    let w = written(seen, 2020).await;
     assert_eq!(w.len(), 2020, "every ping answered, every mark sent, once");
     assert_eq!(numbers(&w, PONG), (0..2000).collect::<Vec<_>>());
     assert_eq!(
@@ -208,6 +283,28 @@ async fn every_frame_is_answered_in_order_by_the_reader_thread() {
         by_thread >= 1900,
         "answers go out from the thread that read: {by_thread} of 2020"
     );
+    handle.shutdown().await;
+}
+
+/// A failed port with a batching reader: the frames read before the failure are answered, and
+/// the re-opened port's thread answers the next.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_batching_port_fails_and_comes_back() {
+    let (handle, feed, seen) = start_with(true);
+    for i in 0..5 {
+        feed.send(Ok(ping(i))).unwrap();
+    }
+    feed.send(Err(())).unwrap();
+    assert_eq!(numbers(&written(&seen, 5).await, PONG), [0, 1, 2, 3, 4]);
+    for _ in 0..500 {
+        if seen.reopened.load(Ordering::SeqCst) == 1 {
+            break;
+        }
+        tokio::time::sleep(Duration::from_millis(10)).await;
+    }
+    feed.send(Ok(ping(5))).unwrap();
+    assert_eq!(numbers(&written(&seen, 6).await, PONG), [0, 1, 2, 3, 4, 5]);
+    re_opened_once_one_reader_at_a_time(&seen);
     handle.shutdown().await;
 }
 

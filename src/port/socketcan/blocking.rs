@@ -1,21 +1,65 @@
-//! The port's blocking side: a reader thread reads the socket as a bare loop does, and writes
-//! the device's answers on it; the port's task sends on the same socket without waiting.
+//! The port's blocking side: a reader thread reads the socket, and writes the device's answers
+//! on it; the port's task sends on the same socket without waiting.
+//!
+//! Why `recvmmsg` and `sendmmsg`: one system call takes every frame already queued on the
+//! socket (up to [`BATCH`]), waiting only for the first, and one sends the answers to all of
+//! them. A bare loop pays a `read` and a `write` per frame; under load, when frames queue up,
+//! the reader pays one of each per batch, and with a single frame waiting it does what the bare
+//! loop does. The frames are handed on one by one, in the order the kernel queued them, and the
+//! answers go out in the order they were written: the runtime sees exactly what a `read` loop
+//! would, and the bus what a `write` loop would.
 
 use super::{PortInput, PortReader, RxState, TokioCanSocket};
 use crate::frame::{Frame, Id};
 use crate::port::asynch::{timed_out, READER_WAIT};
 use crate::port::PortError;
-use nix::sys::socket::{send, MsgFlags};
-use socketcan::{CanFrame, Socket};
-use std::io;
+use nix::sys::socket::{recvmmsg, send, sendmmsg, MsgFlags, MultiHeaders};
+use socketcan::Socket;
+use std::io::{self, IoSlice, IoSliceMut};
 use std::os::fd::AsRawFd;
 use std::sync::Arc;
+
+/// Frames taken from the socket per system call at most.
+const BATCH: usize = 16;
+/// The size of the kernel's `struct can_frame` (`CAN_MTU`).
+const CAN_MTU: usize = 16;
+
+std::thread_local! {
+    /// The message headers of `recvmmsg` and of `sendmmsg`, made once per reader thread (no
+    /// allocation per read). Per thread, not per reader: they hold raw pointers, so they
+    /// cannot move to another thread with the reader.
+    static HEADERS: core::cell::RefCell<Option<[MultiHeaders<()>; 2]>> =
+        const { core::cell::RefCell::new(None) };
+}
+
+/// Runs `f` with this thread's receive and send headers.
+fn with_headers<R>(f: impl FnOnce(&mut [MultiHeaders<()>; 2]) -> R) -> R {
+    HEADERS.with_borrow_mut(|h| {
+        f(h.get_or_insert_with(|| {
+            [
+                MultiHeaders::preallocate(BATCH, None),
+                MultiHeaders::preallocate(BATCH, None),
+            ]
+        }))
+    })
+}
 
 /// Reads (and writes answers) by blocking, each call waiting at most [`READER_WAIT`].
 pub(super) struct Reader {
     ifname: String,
     socket: Arc<socketcan::CanSocket>,
     rx: RxState,
+    /// The last batch: the kernel's frames and each one's length in bytes.
+    raw: [[u8; CAN_MTU]; BATCH],
+    len: [usize; BATCH],
+    /// Frames of the batch handed on so far, and in it.
+    next: usize,
+    got: usize,
+    /// Frames written and not yet sent (as the kernel takes them), and how many of them are
+    /// sent already.
+    tx: [[u8; CAN_MTU]; BATCH],
+    tx_len: usize,
+    tx_sent: usize,
 }
 
 impl Reader {
@@ -46,38 +90,145 @@ impl Reader {
                 counters: rx.counters.clone(),
                 pending: core::mem::take(&mut rx.pending),
             },
+            raw: [[0; CAN_MTU]; BATCH],
+            len: [0; BATCH],
+            next: 0,
+            got: 0,
+            tx: [[0; CAN_MTU]; BATCH],
+            tx_len: 0,
+            tx_sent: 0,
         };
         Ok((reader, socket))
+    }
+
+    /// Takes what is queued on the socket (at least one frame, waiting for it at most
+    /// [`READER_WAIT`]) into the batch.
+    fn fill(&mut self) -> io::Result<()> {
+        let fd = self.socket.as_raw_fd();
+        let (raw, lens) = (&mut self.raw, &mut self.len);
+        let n = with_headers(|[h, _]| {
+            let mut slices = raw.each_mut().map(|b| [IoSliceMut::new(b)]);
+            let got = recvmmsg(fd, h, slices.iter_mut(), MsgFlags::MSG_WAITFORONE, None)
+                .map_err(io::Error::from)?;
+            let mut n = 0;
+            for (len, m) in lens.iter_mut().zip(got) {
+                *len = m.bytes;
+                n += 1;
+            }
+            Ok::<_, io::Error>(n)
+        })?;
+        self.next = 0;
+        self.got = n;
+        Ok(())
+    }
+
+    /// Sends the written frames not sent yet, from the first: how many the kernel took.
+    fn send_batch(&mut self) -> io::Result<usize> {
+        let fd = self.socket.as_raw_fd();
+        let frames = &self.tx[self.tx_sent..self.tx_len];
+        with_headers(|[_, h]| {
+            let slices: heapless::Vec<[IoSlice<'_>; 1], BATCH> =
+                frames.iter().map(|b| [IoSlice::new(b)]).collect();
+            let addrs = [None::<()>; BATCH];
+            let sent =
+                sendmmsg(fd, h, &slices, addrs, [], MsgFlags::empty()).map_err(io::Error::from)?;
+            Ok(sent.count())
+        })
+    }
+
+    /// The next input of the last batch, if one is left.
+    fn next_in_batch(&mut self) -> Option<PortInput> {
+        loop {
+            if let Some(x) = self.rx.status() {
+                return Some(x);
+            }
+            if self.next >= self.got {
+                return None;
+            }
+            let i = self.next;
+            self.next += 1;
+            if let Some(x) = self
+                .rx
+                .accept_kernel(&self.ifname, &self.raw[i][..self.len[i]])
+            {
+                return Some(x);
+            }
+        }
+    }
+}
+
+impl Drop for Reader {
+    fn drop(&mut self) {
+        // Frames kept and never sent (the thread stopped first) are counted, not forgotten.
+        for _ in self.tx_sent..self.tx_len {
+            self.rx.counters.tx_dropped();
+        }
     }
 }
 
 impl PortReader for Reader {
     fn read(&mut self) -> Result<Option<PortInput>, PortError> {
         loop {
-            if let Some(x) = self.rx.status() {
+            if let Some(x) = self.next_in_batch() {
                 return Ok(Some(x));
             }
-            match self.socket.read_frame() {
-                Ok(raw) => {
-                    if let Some(x) = self.rx.accept(&self.ifname, &raw) {
-                        return Ok(Some(x));
-                    }
-                }
+            match self.fill() {
+                Ok(()) => {}
                 Err(e) if timed_out(&e) => return Ok(None),
                 Err(e) => return Err(PortError::io(&self.ifname, "read failed", e)),
             }
         }
     }
 
+    fn read_ready(&mut self) -> Option<PortInput> {
+        self.next_in_batch()
+    }
+
     fn write(&mut self, frame: &Frame) -> Result<bool, PortError> {
-        match self.socket.write_frame(&CanFrame::from(frame)) {
-            Err(e) if timed_out(&e) => Ok(false),
-            r => self
-                .rx
-                .sent(&self.ifname, r)
-                .map(|()| true)
-                .map_err(|(e, _)| e),
+        if self.tx_len == BATCH && !self.flush()? {
+            return Ok(false);
         }
+        self.tx[self.tx_len] = can_frame_bytes(frame);
+        self.tx_len += 1;
+        Ok(true)
+    }
+
+    fn flush(&mut self) -> Result<bool, PortError> {
+        while self.tx_sent < self.tx_len {
+            match self.send_batch() {
+                Ok(0) => return Ok(false),
+                Ok(n) => {
+                    let n = n.min(self.tx_len - self.tx_sent);
+                    for _ in 0..n {
+                        let _ = self.rx.sent(&self.ifname, Ok(()));
+                    }
+                    self.tx_sent += n;
+                }
+                Err(e) if timed_out(&e) => return Ok(false),
+                Err(e) => {
+                    // The frame the kernel refused is dropped; the rest are tried next time,
+                    // unless the interface is gone.
+                    self.tx_sent += 1;
+                    let Err((e, gone)) = self.rx.sent(&self.ifname, Err(e)) else {
+                        continue;
+                    };
+                    if gone {
+                        for _ in self.tx_sent..self.tx_len {
+                            self.rx.counters.tx_dropped();
+                        }
+                        self.tx_sent = self.tx_len;
+                    }
+                    if self.tx_sent == self.tx_len {
+                        self.tx_len = 0;
+                        self.tx_sent = 0;
+                    }
+                    return Err(e);
+                }
+            }
+        }
+        self.tx_len = 0;
+        self.tx_sent = 0;
+        Ok(true)
     }
 }
 
@@ -117,7 +268,7 @@ fn can_frame_bytes(f: &Frame) -> [u8; 16] {
 mod tests {
     use super::*;
     use proptest::prelude::*;
-    use socketcan::{EmbeddedFrame, Frame as _};
+    use socketcan::{CanFrame, EmbeddedFrame, Frame as _};
 
     proptest! {
         /// The bytes sent without waiting are the socketcan crate's own frame, field by field.
@@ -129,5 +280,50 @@ mod tests {
             prop_assert_eq!(usize::from(b[4]), c.dlc());
             prop_assert_eq!(&b[8..8 + f.data().len()], EmbeddedFrame::data(&c));
         }
+
+        /// A frame read in a batch is the frame sent, counted as one.
+        #[test]
+        fn a_kernel_frame_reads_back_as_the_frame(f in crate::frame::tests::any_frame()) {
+            let mut rx = rx();
+            prop_assert_eq!(
+                rx.accept_kernel("vcan0", &can_frame_bytes(&f)),
+                Some(PortInput::Frame(f))
+            );
+            prop_assert_eq!(rx.counters.snapshot().rx_frames, 1);
+        }
+
+        /// An error frame read in a batch gives the statuses the socketcan crate's own error
+        /// frame gives, and no frame.
+        #[test]
+        fn a_kernel_error_frame_reads_as_the_crates(bits in 0u32..0x200, data in any::<[u8; 8]>()) {
+            let mut raw = [0u8; 16];
+            raw[..4].copy_from_slice(&(bits | crate::port::error_frame::CAN_ERR_FLAG).to_ne_bytes());
+            raw[4] = 8;
+            raw[8..].copy_from_slice(&data);
+            let mut rx = rx();
+            prop_assert_eq!(rx.accept_kernel("vcan0", &raw), None);
+            let want = super::super::decode_error_frame(
+                &socketcan::CanErrorFrame::new_error(bits, &data).unwrap(),
+            );
+            prop_assert_eq!(&rx.pending, &want);
+            prop_assert_eq!(rx.counters.snapshot().rx_error_frames, 1);
+        }
+    }
+
+    fn rx() -> RxState {
+        RxState {
+            counters: crate::port::PortCounters::new(),
+            pending: Default::default(),
+        }
+    }
+
+    /// What is not a classic frame's 16 bytes (a CAN FD frame's 72) is counted, not read.
+    #[test]
+    fn a_kernel_frame_of_another_size_is_refused() {
+        let mut rx = rx();
+        assert_eq!(rx.accept_kernel("vcan0", &[0u8; 72]), None);
+        assert_eq!(rx.accept_kernel("vcan0", &[0u8; 15]), None);
+        assert_eq!(rx.counters.snapshot().rx_invalid, 2);
+        assert_eq!(rx.counters.snapshot().rx_frames, 0);
     }
 }

@@ -321,6 +321,50 @@ impl RxState {
         }
     }
 
+    /// [`RxState::accept`] for a frame as the kernel wrote it (`struct can_frame`: identifier
+    /// with its flags, length, three reserved bytes, eight data bytes); anything not of that
+    /// size is counted invalid.
+    fn accept_kernel(&mut self, ifname: &str, raw: &[u8]) -> Option<PortInput> {
+        const EFF: u32 = 0x8000_0000;
+        const RTR: u32 = 0x4000_0000;
+        let Ok(raw) = <&[u8; 16]>::try_from(raw) else {
+            self.counters.rx_invalid();
+            tracing::warn!(port = %ifname, len = raw.len(), "frame of an unexpected size refused");
+            return None;
+        };
+        let word = u32::from_ne_bytes([raw[0], raw[1], raw[2], raw[3]]);
+        let mut data = [0u8; 8];
+        data.copy_from_slice(&raw[8..]);
+        if word & error_frame::CAN_ERR_FLAG != 0 {
+            self.counters.rx_error_frames();
+            self.pending = error_frame::decode(word & error_frame::CAN_ERR_MASK, &data);
+            tracing::debug!(port = %ifname, bits = word & error_frame::CAN_ERR_MASK, "error frame");
+            return None;
+        }
+        let id = if word & EFF != 0 {
+            Id::Extended(word & error_frame::CAN_ERR_MASK)
+        } else {
+            Id::Standard((word & 0x7FF) as u16)
+        };
+        let len = raw[4].min(8);
+        let f = if word & RTR != 0 {
+            Frame::remote(id, len)
+        } else {
+            Frame::new(id, &data[..usize::from(len)])
+        };
+        match f {
+            Ok(f) => {
+                self.counters.rx_frames();
+                Some(PortInput::Frame(f))
+            }
+            Err(e) => {
+                self.counters.rx_invalid();
+                tracing::warn!(port = %ifname, error = %e, "frame refused");
+                None
+            }
+        }
+    }
+
     /// The oldest status of the last error frame not yet handed on.
     fn status(&mut self) -> Option<PortInput> {
         (!self.pending.is_empty()).then(|| PortInput::Status(self.pending.remove(0)))
