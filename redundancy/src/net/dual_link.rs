@@ -27,7 +27,7 @@
 use super::sim_station::{self as station, StationScript};
 use crate::link::channel::ModeKind;
 use crate::link::config::DualBusConfig;
-use crate::link::dual_bus::DualBus;
+use crate::link::dual_bus::{DualBus, DEFAULT_MERGE_SLOTS};
 use crate::link::events::{LinkEvent, LinkEventKind};
 use crate::network::RedundantError;
 use alloc::boxed::Box;
@@ -36,27 +36,39 @@ use core::convert::Infallible;
 use duocan::machine::{BusLink, LinkRequest, PortRequest, PortStatus};
 use duocan::net::{NetEvent, NetLink, NetOptions, Network};
 use duocan::port::Port;
+use duocan::profile::Predefined;
 use duocan::{Frame, Instant, NodeId};
 
 /// A [`DualBus`] as the link of a `duocan::net::Network`: its port-health and reach changes
 /// become [`NetEvent::PortState`] and [`NetEvent::Reach`]; its other reports (channel
 /// switches, discrepancies, plausibility) concern a master and are not passed on.
+///
+/// `SLOTS` is the merger's slot count (see [`DualBus`]); the default suits real buses.
 #[derive(Debug)]
-pub struct DualLink {
-    bus: DualBus,
+pub struct DualLink<const SLOTS: usize = DEFAULT_MERGE_SLOTS> {
+    bus: DualBus<Predefined, SLOTS>,
 }
 
 impl DualLink {
     /// A link of two ports with the layer configured by `cfg`.
     #[must_use]
     pub fn new(cfg: DualBusConfig) -> Self {
+        DualLink::with_slots(cfg)
+    }
+}
+
+impl<const SLOTS: usize> DualLink<SLOTS> {
+    /// A link whose merger has `SLOTS` slots (a power of two), for buses whose two copies of a
+    /// frame can arrive further apart than real buses carry them.
+    #[must_use]
+    pub fn with_slots(cfg: DualBusConfig) -> Self {
         DualLink {
-            bus: DualBus::new(cfg),
+            bus: DualBus::with_classifier(cfg, Predefined),
         }
     }
     /// The layer (health, reach, merger, counters).
     #[must_use]
-    pub fn bus(&self) -> &DualBus {
+    pub fn bus(&self) -> &DualBus<Predefined, SLOTS> {
         &self.bus
     }
 }
@@ -88,7 +100,7 @@ fn net_event(e: LinkEvent) -> Option<NetEvent> {
     })
 }
 
-impl BusLink for DualLink {
+impl<const SLOTS: usize> BusLink for DualLink<SLOTS> {
     type Event = NetEvent;
     type Command = Infallible;
     fn port_count(&self) -> usize {
@@ -131,7 +143,7 @@ impl BusLink for DualLink {
     }
 }
 
-impl NetLink for DualLink {
+impl<const SLOTS: usize> NetLink for DualLink<SLOTS> {
     fn port_state(&self, port: usize) -> Option<&'static str> {
         (port < 2).then(|| self.bus.port_state(port).as_str())
     }

@@ -21,6 +21,7 @@ use duocan::net::{sim_dictionary, NetOptions, Network, SIM_VENDOR};
 use duocan::node::LssNode;
 use duocan::od::{comm, Access, DataType, DynamicDictionary, ObjectDef, ObjectDictionary};
 use duocan::port::mem::{Connector, MemBus};
+use duocan::profile::Predefined;
 use duocan::runtime::Handle;
 use duocan::sdo::SdoServerConfig;
 use duocan::{Duration, Instant, Node, NodeConfig, NodeId, Station};
@@ -29,6 +30,10 @@ use tokio::sync::watch;
 /// The bit rate of the station's buses: frames go no faster than on a 1 Mbit/s CAN bus, so a
 /// long transfer takes the time it would on one and the devices' receivers keep up with it.
 pub const SIM_BIT_RATE: u32 = 1_000_000;
+/// The merger slots of the network's link and of the plain slaves: 3,072 frames waiting for
+/// their twins, 400 ms of a block transfer at the buses' rate, where the default's 768 hold
+/// 100 ms (a block transfer on a loaded machine saw one bus's task 150 ms behind the other's).
+pub const SIM_MERGE_SLOTS: usize = 4096;
 /// The station's A/B board pairs (A, B).
 pub const SIM_PAIRS: [(u8, u8); 2] = [(0x10, 0x50), (0x11, 0x51)];
 /// The station's plain slaves.
@@ -115,7 +120,7 @@ impl ProgramStore for RamStore {
     }
 }
 
-type Slave<D> = Station<DualBus, Node<D>>;
+type Slave<D> = Station<DualBus<Predefined, SIM_MERGE_SLOTS>, Node<D>>;
 /// What builds an LSS board's node once it has a node-ID.
 type Build = Box<dyn FnMut(NodeId, Instant) -> Node<DynamicDictionary> + Send>;
 /// A board without a node-ID: LSS only until it has one.
@@ -142,6 +147,8 @@ fn slave_dictionary(id: NodeId) -> DynamicDictionary {
 /// merger's window is a new frame by the merger's rule, and to an SDO transfer a repeated
 /// segment. The window is therefore wide here (250 ms, following a lagging bus up to 1 s): the
 /// station is for trying things, and its failovers are timed by heartbeats, not by the window.
+/// A wide window needs room for what it waits for: the devices that carry long transfers (the
+/// network's link and the plain slaves) have [`SIM_MERGE_SLOTS`].
 fn sim_link() -> DualBusConfig {
     DualBusConfig::default()
         .with_skew_window(Duration::from_millis(250))
@@ -158,7 +165,10 @@ fn slave<D: ObjectDictionary>(id: NodeId, od: D) -> Box<Slave<D>> {
     node.sdo_server_mut()
         .set_config(SdoServerConfig::default().with_max_transfer(SIM_DOMAIN_SIZE));
     node.boot(Instant::ZERO);
-    Box::new(Station::new(DualBus::new(sim_link()), node))
+    Box::new(Station::new(
+        DualBus::with_classifier(sim_link(), Predefined),
+        node,
+    ))
 }
 
 /// The LSS address of the station's non-configured board with `serial`.
@@ -203,8 +213,8 @@ fn new_board(id: u8) -> Box<Board> {
 }
 
 #[inline(never)]
-fn new_link() -> Box<DualLink> {
-    Box::new(DualLink::new(sim_link()))
+fn new_link() -> Box<DualLink<SIM_MERGE_SLOTS>> {
+    Box::new(DualLink::with_slots(sim_link()))
 }
 
 /// The masters' settings: 0x01 with its peer 0x02 and the pairs.
