@@ -105,6 +105,13 @@ impl Bench {
             .await
             .unwrap();
     }
+
+    /// Queues `marks` and waits until the port is sending the first of them.
+    async fn sending(&self, marks: std::ops::RangeInclusive<u8>) {
+        let entered = self.entered.notified();
+        self.queue(marks).await;
+        entered.await;
+    }
 }
 
 /// Mark 1 is being sent when marks 2 to 40 are queued and the runtime is shut down: the
@@ -112,9 +119,7 @@ impl Bench {
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn frames_queued_before_a_shutdown_are_written_before_it_returns() {
     let b = start();
-    let entered = b.entered.notified();
-    b.queue(1..=1).await;
-    entered.await;
+    b.sending(1..=1).await;
     b.queue(2..=40).await;
     let handle = b.handle.clone();
     let shutdown = tokio::spawn(async move { handle.shutdown().await });
@@ -133,9 +138,7 @@ async fn frames_queued_before_a_shutdown_are_written_before_it_returns() {
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn a_port_that_cannot_send_does_not_hold_the_shutdown() {
     let b = start();
-    let entered = b.entered.notified();
-    b.queue(1..=5).await;
-    entered.await;
+    b.sending(1..=5).await;
     let t0 = std::time::Instant::now();
     tokio::time::timeout(Duration::from_secs(2), b.handle.shutdown())
         .await

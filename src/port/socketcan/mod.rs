@@ -307,17 +307,22 @@ impl RxState {
                 tracing::debug!(port = %ifname, bits = ef.error_bits(), "error frame");
                 None
             }
-            other => match Frame::try_from(other) {
-                Ok(f) => {
-                    self.counters.rx_frames();
-                    Some(PortInput::Frame(f))
-                }
-                Err(e) => {
-                    self.counters.rx_invalid();
-                    tracing::warn!(port = %ifname, error = %e, "frame refused");
-                    None
-                }
-            },
+            other => self.frame(ifname, Frame::try_from(other)),
+        }
+    }
+
+    /// Counts a received frame, or a refused one.
+    fn frame(&mut self, ifname: &str, f: Result<Frame, FrameError>) -> Option<PortInput> {
+        match f {
+            Ok(f) => {
+                self.counters.rx_frames();
+                Some(PortInput::Frame(f))
+            }
+            Err(e) => {
+                self.counters.rx_invalid();
+                tracing::warn!(port = %ifname, error = %e, "frame refused");
+                None
+            }
         }
     }
 
@@ -327,6 +332,7 @@ impl RxState {
     fn accept_kernel(&mut self, ifname: &str, raw: &[u8]) -> Option<PortInput> {
         const EFF: u32 = 0x8000_0000;
         const RTR: u32 = 0x4000_0000;
+        const EFF_MASK: u32 = 0x1FFF_FFFF;
         let Ok(raw) = <&[u8; 16]>::try_from(raw) else {
             self.counters.rx_invalid();
             tracing::warn!(port = %ifname, len = raw.len(), "frame of an unexpected size refused");
@@ -342,7 +348,7 @@ impl RxState {
             return None;
         }
         let id = if word & EFF != 0 {
-            Id::Extended(word & error_frame::CAN_ERR_MASK)
+            Id::Extended(word & EFF_MASK)
         } else {
             Id::Standard((word & 0x7FF) as u16)
         };
@@ -352,17 +358,7 @@ impl RxState {
         } else {
             Frame::new(id, &data[..usize::from(len)])
         };
-        match f {
-            Ok(f) => {
-                self.counters.rx_frames();
-                Some(PortInput::Frame(f))
-            }
-            Err(e) => {
-                self.counters.rx_invalid();
-                tracing::warn!(port = %ifname, error = %e, "frame refused");
-                None
-            }
-        }
+        self.frame(ifname, f)
     }
 
     /// The oldest status of the last error frame not yet handed on.
