@@ -126,6 +126,18 @@ impl Reader {
     fn send_batch(&mut self) -> io::Result<usize> {
         let fd = self.socket.as_raw_fd();
         let frames = &self.tx[self.tx_sent..self.tx_len];
+        if let [one] = frames {
+            // One frame (a lone request's answer): a plain send is the kernel's shorter path.
+            let n = send(fd, one, MsgFlags::empty()).map_err(io::Error::from)?;
+            return if n == CAN_MTU {
+                Ok(1)
+            } else {
+                Err(io::Error::new(
+                    io::ErrorKind::WriteZero,
+                    format!("short write: {n} of {CAN_MTU} bytes"),
+                ))
+            };
+        }
         with_headers(|[_, h]| {
             let slices: heapless::Vec<[IoSlice<'_>; 1], BATCH> =
                 frames.iter().map(|b| [IoSlice::new(b)]).collect();
