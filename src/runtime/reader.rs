@@ -284,6 +284,9 @@ impl Thread {
                     let mut next = Some(x);
                     while let Some(x) = next {
                         let Some(left) = self.hub.input_take(self.index, x, at, &mut out) else {
+                            // The runtime stopped: the answers to the batch's earlier inputs
+                            // still go out, as what was queued before a shutdown does.
+                            self.flush(&mut **reader);
                             return;
                         };
                         if !self.write_answers(&mut **reader, &mut out, left) {
