@@ -174,8 +174,14 @@ impl Sub for Duration {
 }
 
 impl From<core::time::Duration> for Duration {
+    /// Whole microseconds (saturating): seconds and the sub-second part apart, as `as_micros`
+    /// would divide 128 bits, a library call on every frame of a runtime reading its clock.
     fn from(d: core::time::Duration) -> Self {
-        Duration(u64::try_from(d.as_micros()).unwrap_or(u64::MAX))
+        Duration(
+            d.as_secs()
+                .saturating_mul(1_000_000)
+                .saturating_add(u64::from(d.subsec_micros())),
+        )
     }
 }
 impl From<Duration> for core::time::Duration {
@@ -327,6 +333,27 @@ pub fn shift_back(t: &mut Option<Instant>, by: Duration) {
 
 #[cfg(test)]
 mod tests {
+    /// A standard duration is its whole microseconds, saturating, as `as_micros` gives them.
+    #[test]
+    fn a_std_duration_is_its_whole_microseconds() {
+        let max_secs = u64::MAX / 1_000_000;
+        for (secs, nanos) in [
+            (0, 0),
+            (0, 999),
+            (0, 1_000),
+            (1, 1_999),
+            (3, 999_999_999),
+            (max_secs, 551_615_999),
+            (max_secs, 551_616_000),
+            (max_secs, 999_999_999),
+            (u64::MAX, 999_999_999),
+        ] {
+            let d = core::time::Duration::new(secs, nanos);
+            let want = u64::try_from(d.as_micros()).unwrap_or(u64::MAX);
+            assert_eq!(super::Duration::from(d).as_micros(), want, "{d:?}");
+        }
+    }
+
     #[test]
     fn division_by_shifts_is_exact() {
         use super::div_u64_by_shifts as div;

@@ -153,14 +153,9 @@ impl ThreadClock {
     }
 }
 
-/// `d` as an instant after the clock's origin, in whole microseconds: seconds and the
-/// sub-second part apart (`as_micros` divides 128 bits, a library call on every frame).
+/// `d` as an instant after the clock's origin, in whole microseconds.
 fn micros(d: std::time::Duration) -> Instant {
-    Instant::from_micros(
-        d.as_secs()
-            .saturating_mul(1_000_000)
-            .saturating_add(u64::from(d.subsec_micros())),
-    )
+    Instant::ZERO + crate::Duration::from(d)
 }
 
 /// The runtime could not start.

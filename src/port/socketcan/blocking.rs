@@ -9,7 +9,7 @@
 //! answers go out in the order they were written: the runtime sees exactly what a `read` loop
 //! would, and the bus what a `write` loop would.
 
-use super::{PortInput, PortReader, RxState, TokioCanSocket};
+use super::{PortInput, PortReader, RxState, TokioCanSocket, CAN_EFF_FLAG, CAN_RTR_FLAG};
 use crate::frame::{Frame, Id};
 use crate::port::asynch::{timed_out, READER_WAIT};
 use crate::port::PortError;
@@ -260,14 +260,12 @@ pub(super) fn send_now(s: &socketcan::CanSocket, f: &Frame) -> io::Result<()> {
 /// The kernel's `struct can_frame` for `f`: identifier with its flags, length, three reserved
 /// bytes, eight data bytes.
 fn can_frame_bytes(f: &Frame) -> [u8; 16] {
-    const EFF: u32 = 0x8000_0000;
-    const RTR: u32 = 0x4000_0000;
     let mut id = match f.id() {
         Id::Standard(x) => u32::from(x),
-        Id::Extended(x) => x | EFF,
+        Id::Extended(x) => x | CAN_EFF_FLAG,
     };
     if f.is_remote() {
-        id |= RTR;
+        id |= CAN_RTR_FLAG;
     }
     let mut out = [0u8; 16];
     out[..4].copy_from_slice(&id.to_ne_bytes());

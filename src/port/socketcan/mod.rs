@@ -172,6 +172,12 @@ pub fn decode_error_frame(f: &CanErrorFrame) -> ErrorStatuses {
 
 const IFF_UP: u32 = 0x1;
 
+/// The flags and mask of the identifier word of the kernel's `struct can_frame`: extended
+/// frame, remote request, and the 29 identifier bits.
+const CAN_EFF_FLAG: u32 = 0x8000_0000;
+const CAN_RTR_FLAG: u32 = 0x4000_0000;
+const CAN_EFF_MASK: u32 = 0x1FFF_FFFF;
+
 /// Link state of a network interface as sysfs shows it.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum LinkState {
@@ -330,9 +336,6 @@ impl RxState {
     /// with its flags, length, three reserved bytes, eight data bytes); anything not of that
     /// size is counted invalid.
     fn accept_kernel(&mut self, ifname: &str, raw: &[u8]) -> Option<PortInput> {
-        const EFF: u32 = 0x8000_0000;
-        const RTR: u32 = 0x4000_0000;
-        const EFF_MASK: u32 = 0x1FFF_FFFF;
         let Ok(raw) = <&[u8; 16]>::try_from(raw) else {
             self.counters.rx_invalid();
             tracing::warn!(port = %ifname, len = raw.len(), "frame of an unexpected size refused");
@@ -347,13 +350,13 @@ impl RxState {
             tracing::debug!(port = %ifname, bits = word & error_frame::CAN_ERR_MASK, "error frame");
             return None;
         }
-        let id = if word & EFF != 0 {
-            Id::Extended(word & EFF_MASK)
+        let id = if word & CAN_EFF_FLAG != 0 {
+            Id::Extended(word & CAN_EFF_MASK)
         } else {
             Id::Standard((word & 0x7FF) as u16)
         };
         let len = raw[4].min(8);
-        let f = if word & RTR != 0 {
+        let f = if word & CAN_RTR_FLAG != 0 {
             Frame::remote(id, len)
         } else {
             Frame::new(id, &data[..usize::from(len)])
