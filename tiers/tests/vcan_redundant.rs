@@ -31,6 +31,31 @@ impl Drop for LinkDown {
     }
 }
 
+/// The product code (0x1018:2) of `node`; on failure, the network's status with the error (its
+/// SDO and dual-bus counters tell a lost answer from a late copy).
+async fn product(net: &RedundantNetwork, node: u8) -> u32 {
+    match net.node(node).sdo().read(0x1018, 2).await {
+        Ok(p) => p,
+        Err(e) => {
+            let counters = net
+                .with(|n, _| {
+                    let st = n.station();
+                    format!(
+                        "{:?}\n{:?}\n{:?}",
+                        st.link.stats(),
+                        st.link.merger().stats(),
+                        n.supervisor().master().sdo().stats()
+                    )
+                })
+                .await;
+            panic!(
+                "reading {node:#x}'s product code: {e}\n{}\n{counters:?}",
+                net.status().await.unwrap_or_else(|e| e.to_string())
+            )
+        }
+    }
+}
+
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn the_redundant_front_door_fails_over_between_vcan0_and_vcan1() {
     let ms = Duration::from_millis;
@@ -78,8 +103,7 @@ async fn the_redundant_front_door_fails_over_between_vcan0_and_vcan1() {
         );
         tokio::time::sleep(StdDuration::from_millis(50)).await;
     }
-    let product: u32 = net.node(0x50).sdo().read(0x1018, 2).await.unwrap();
-    assert_eq!(product, 0x50);
+    assert_eq!(product(&net, 0x50).await, 0x50);
 
     let st = Command::new("ip")
         .args(["link", "set", "vcan0", "down"])
@@ -106,8 +130,7 @@ async fn the_redundant_front_door_fails_over_between_vcan0_and_vcan1() {
     assert!(failover.is_failover());
     assert_eq!(failover.to_string(), "bus 1: failed");
     // SDO goes on over vcan1.
-    let product: u32 = net.node(0x10).sdo().read(0x1018, 2).await.unwrap();
-    assert_eq!(product, 0x10);
+    assert_eq!(product(&net, 0x10).await, 0x10);
     drop(down);
     net.close().await;
     for b in boards {

@@ -229,4 +229,9 @@ pub struct SdoClientStats {
     ///
     /// [`SdoClient`]: super::SdoClient
     pub repeats: u32,
+    /// Initiate answers ignored because they name another object than the transfer's: an
+    /// answer to an earlier request on the channel, delivered late (a lagging bus's twin). A
+    /// transfer that gets no answer of its own after one ends at its timeout with 0x06040043
+    /// (general parameter incompatibility), as it would have at once.
+    pub stale: u32,
 }

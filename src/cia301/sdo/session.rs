@@ -67,6 +67,9 @@ pub(super) struct Session<B> {
     /// The answer handled last on `channel`, kept across transfers on it: its second copy is
     /// recognised.
     pub(super) last_rx: Option<[u8; 8]>,
+    /// An initiate answer about another object came during this transfer: when no answer of
+    /// its own follows, that is what the timeout reports.
+    pub(super) stale: bool,
 }
 
 impl<B: TransferBuffer> Session<B> {
@@ -92,6 +95,7 @@ impl<B: TransferBuffer> Session<B> {
             out: Bounded::new(),
             stream: None,
             last_rx: None,
+            stale: false,
         }
     }
     pub(super) fn active(&self) -> bool {

@@ -75,8 +75,13 @@ impl<B: TransferBuffer, const SESSIONS: usize, S: Storage> SdoClient<B, SESSIONS
     /// An answer to session `i`; `repeat`: it equals the answer before it on the channel.
     fn response(&mut self, i: usize, now: Instant, r: Response, repeat: bool) {
         let s = &mut self.sessions[i];
-        let (want_index, want_sub) = (s.index, s.sub);
-        let mux_ok = |index: u16, sub: u8| index == want_index && sub == want_sub;
+        if named_object(&r).is_some_and(|o| o != (s.index, s.sub)) {
+            // An initiate answer about another object answers an earlier request on the
+            // channel (see the client's module docs): not this transfer's business.
+            s.stale = true;
+            self.stats.stale += 1;
+            return;
+        }
         let step: Result<Option<()>, AbortCode> = match (r, s.state) {
             (Response::Abort { code, .. }, State::BlockDownloadInit)
                 if code == AbortCode::COMMAND_SPECIFIER =>
@@ -107,10 +112,8 @@ impl<B: TransferBuffer, const SESSIONS: usize, S: Storage> SdoClient<B, SESSIONS
             (Response::Abort { code, .. }, _) => {
                 return self.finish(i, now, Err(SdoErrorKind::Server(code)));
             }
-            (Response::InitiateDownload { index, sub }, State::DownloadInit { expedited }) => {
-                if !mux_ok(index, sub) {
-                    Err(AbortCode::PARAMETER_INCOMPATIBLE)
-                } else if expedited {
+            (Response::InitiateDownload { .. }, State::DownloadInit { expedited }) => {
+                if expedited {
                     Ok(Some(()))
                 } else {
                     next_download_segment(s, false, 0);
@@ -134,18 +137,8 @@ impl<B: TransferBuffer, const SESSIONS: usize, S: Storage> SdoClient<B, SESSIONS
                     Ok(None)
                 }
             }
-            (
-                Response::BlockDownloadInitiate {
-                    index,
-                    sub,
-                    crc,
-                    blksize,
-                },
-                State::BlockDownloadInit,
-            ) => {
-                if !mux_ok(index, sub) {
-                    Err(AbortCode::PARAMETER_INCOMPATIBLE)
-                } else if !block::valid_block_size(blksize) {
+            (Response::BlockDownloadInitiate { crc, blksize, .. }, State::BlockDownloadInit) => {
+                if !block::valid_block_size(blksize) {
                     Err(AbortCode::INVALID_BLOCK_SIZE)
                 } else {
                     s.state = State::BlockDownload {
@@ -185,34 +178,24 @@ impl<B: TransferBuffer, const SESSIONS: usize, S: Storage> SdoClient<B, SESSIONS
                 self.stats.repeats += 1;
                 return;
             }
-            (
-                Response::InitiateUpload { index, sub, init },
-                State::UploadInit | State::BlockUploadInit,
-            ) => {
-                if !mux_ok(index, sub) {
-                    Err(AbortCode::PARAMETER_INCOMPATIBLE)
-                } else {
-                    match init {
-                        Init::Expedited { data, len } => {
-                            s.mode = TransferMode::Expedited;
-                            let n = len.unwrap_or(4) as usize;
-                            let _ = s.buf.extend(&data[..n.min(4)]);
-                            Ok(Some(()))
-                        }
-                        Init::Segmented { size } => {
-                            s.mode = TransferMode::Segmented;
-                            match prepare_upload(s, size) {
-                                Err(c) => Err(c),
-                                Ok(()) => {
-                                    s.request(Request::UploadSegment { toggle: false });
-                                    s.state = State::UploadSegment {
-                                        toggle: false,
-                                        size,
-                                    };
-                                    Ok(None)
-                                }
-                            }
-                        }
+            (Response::InitiateUpload { init, .. }, State::UploadInit | State::BlockUploadInit) => {
+                match init {
+                    Init::Expedited { data, len } => {
+                        s.mode = TransferMode::Expedited;
+                        let n = len.unwrap_or(4) as usize;
+                        let _ = s.buf.extend(&data[..n.min(4)]);
+                        Ok(Some(()))
+                    }
+                    Init::Segmented { size } => {
+                        s.mode = TransferMode::Segmented;
+                        prepare_upload(s, size).map(|()| {
+                            s.request(Request::UploadSegment { toggle: false });
+                            s.state = State::UploadSegment {
+                                toggle: false,
+                                size,
+                            };
+                            None
+                        })
                     }
                 }
             }
@@ -220,31 +203,16 @@ impl<B: TransferBuffer, const SESSIONS: usize, S: Storage> SdoClient<B, SESSIONS
                 Response::UploadSegment { toggle, data, last },
                 State::UploadSegment { toggle: t, size },
             ) => upload_segment(s, toggle, t, data, last, size),
-            (
-                Response::BlockUploadInitiate {
-                    index,
-                    sub,
-                    crc,
-                    size,
-                },
-                State::BlockUploadInit,
-            ) => {
-                if !mux_ok(index, sub) {
-                    Err(AbortCode::PARAMETER_INCOMPATIBLE)
-                } else {
-                    match prepare_upload(s, size) {
-                        Err(c) => Err(c),
-                        Ok(()) => {
-                            s.request(Request::BlockUploadStart);
-                            s.state = State::BlockUpload {
-                                rx: BlockReceiver::new(s.opts.block_size.clamp(1, MAX_BLOCK_SIZE)),
-                                crc: crc && s.opts.crc,
-                                size,
-                            };
-                            Ok(None)
-                        }
-                    }
-                }
+            (Response::BlockUploadInitiate { crc, size, .. }, State::BlockUploadInit) => {
+                prepare_upload(s, size).map(|()| {
+                    s.request(Request::BlockUploadStart);
+                    s.state = State::BlockUpload {
+                        rx: BlockReceiver::new(s.opts.block_size.clamp(1, MAX_BLOCK_SIZE)),
+                        crc: crc && s.opts.crc,
+                        size,
+                    };
+                    None
+                })
             }
             (
                 Response::BlockUploadEnd { unused, crc },
@@ -277,6 +245,19 @@ impl<B: TransferBuffer, const SESSIONS: usize, S: Storage> SdoClient<B, SESSIONS
             Ok(Some(())) => self.finish(i, now, Ok(())),
             Ok(None) => self.sessions[i].touch(now),
         }
+    }
+}
+
+/// The object an initiate answer names; other answers name none (an abort does, but a server
+/// may fill it from an earlier transfer when it could not read the request, so an abort is
+/// always the transfer's).
+fn named_object(r: &Response) -> Option<(u16, u8)> {
+    match *r {
+        Response::InitiateUpload { index, sub, .. }
+        | Response::InitiateDownload { index, sub }
+        | Response::BlockDownloadInitiate { index, sub, .. }
+        | Response::BlockUploadInitiate { index, sub, .. } => Some((index, sub)),
+        _ => None,
     }
 }
 

@@ -28,6 +28,17 @@
 //! one. A copy that arrives after the server's next frame can no longer be told from a new
 //! answer; the transfer then ends as the protocol says (an abort, or for block transfer the
 //! CRC).
+//!
+//! # Late answers
+//!
+//! A bus that starts to lag hands over a run of copies after their window, so the answer to an
+//! *earlier* transfer on the channel can come while the next one waits for its first answer.
+//! Initiate answers name their object: one that names another object than the transfer's is
+//! not its answer. It is ignored and counted ([`SdoClientStats::stale`]), and the transfer
+//! waits on for its own. Only when none comes does it end, at its timeout, with 0x06040043
+//! (general parameter incompatibility): what a server that names the wrong object gets, only
+//! later. An abort ends the transfer whatever object it names: a server that could not read
+//! the request may fill in the object of an earlier one.
 
 use super::buffer::{DefaultBuffer, TransferBuffer};
 use super::codec::{self, Request, MAX_BLOCK_SIZE};
@@ -338,6 +349,7 @@ impl<B: TransferBuffer, const SESSIONS: usize, S: Storage> SdoClient<B, SESSIONS
         s.opts = *opts;
         s.direction = direction;
         s.subblock_deadline = None;
+        s.stale = false;
         s.buf.set_limit(self.limit);
         s.stream = None;
         Ok(i)
@@ -431,7 +443,12 @@ impl<B: TransferBuffer, const SESSIONS: usize, S: Storage> Machine for SdoClient
                     s.touch(now);
                     continue;
                 }
-                self.abort_session(i, now, AbortCode::TIMEOUT);
+                let code = if s.stale {
+                    AbortCode::PARAMETER_INCOMPATIBLE
+                } else {
+                    AbortCode::TIMEOUT
+                };
+                self.abort_session(i, now, code);
             }
         }
     }
