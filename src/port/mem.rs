@@ -13,6 +13,10 @@ pub const MEM_BUS_DEPTH: usize = 4096;
 /// How far ahead of real time a paced bus lets its senders run (see [`MemBus::with_bit_rate`]).
 pub const MEM_BUS_BURST: std::time::Duration = std::time::Duration::from_millis(2);
 
+/// How much bus time a paced bus with a backlog makes up when its senders come back late (see
+/// [`MemBus::with_bit_rate`]).
+pub const MEM_BUS_CATCH_UP: std::time::Duration = std::time::Duration::from_millis(100);
+
 /// One in-process bus.
 #[derive(Clone, Debug)]
 pub struct MemBus {
@@ -21,11 +25,19 @@ pub struct MemBus {
     pace: Option<std::sync::Arc<Pace>>,
 }
 
-/// The bit rate of a paced bus and when the frames sent so far are through.
+/// The bit rate of a paced bus and its schedule.
 #[derive(Debug)]
 struct Pace {
     bit_ns: u64,
-    busy_until: std::sync::Mutex<Option<tokio::time::Instant>>,
+    booked: std::sync::Mutex<Booked>,
+}
+
+/// When the frames sent so far are through, and whether the bus has a backlog: a sender was
+/// made to wait and the schedule has not caught up with real time since.
+#[derive(Debug, Default)]
+struct Booked {
+    until: Option<tokio::time::Instant>,
+    backlog: bool,
 }
 
 impl Pace {
@@ -46,10 +58,21 @@ impl Pace {
         };
         let time = std::time::Duration::from_nanos((overhead + data) * self.bit_ns);
         let now = tokio::time::Instant::now();
-        let mut busy = self.busy_until.lock().unwrap_or_else(|p| p.into_inner());
-        let until = busy.filter(|t| *t > now).unwrap_or(now) + time;
-        *busy = Some(until);
-        (until > now + MEM_BUS_BURST).then(|| until - MEM_BUS_BURST)
+        let mut b = self.booked.lock().unwrap_or_else(|p| p.into_inner());
+        // With a backlog, frames follow each other on the bus without a gap, also when their
+        // sender was made to wait and woke late (a loaded machine): the time it overslept is
+        // made up, not lost. Lost, it would add up differently on each of two buses that carry
+        // the same frames, and a device would get its two copies of a frame further and
+        // further apart. A schedule more than MEM_BUS_CATCH_UP behind was idle: from now.
+        let start = match b.until {
+            Some(t) if t > now || (b.backlog && t + MEM_BUS_CATCH_UP >= now) => t,
+            _ => now,
+        };
+        let until = start + time;
+        let wait = until > now + MEM_BUS_BURST;
+        b.until = Some(until);
+        b.backlog = wait || (b.backlog && until < now);
+        wait.then(|| until - MEM_BUS_BURST)
     }
 }
 
@@ -70,13 +93,17 @@ impl MemBus {
     /// bus as fast as the machine can copy frames, and the receivers, tasks that share the CPU
     /// with everything else, fall behind by as much as the flood lasts, each by its own amount:
     /// a dual-bus layer then sees the two copies of a frame further apart than two real buses
-    /// would ever carry them. A rate of 0 is taken as 1 bit/s.
+    /// would ever carry them. While the bus has a backlog, a sender that wakes late from its
+    /// wait (a loaded machine) does not cost the bus time: the frames it then sends go out at
+    /// once until the bus is back on its schedule (when it is at most [`MEM_BUS_CATCH_UP`] behind), so two
+    /// paced buses that carry the same frames stay as close together as their senders'
+    /// wake-ups. A rate of 0 is taken as 1 bit/s.
     #[must_use]
     pub fn with_bit_rate(name: impl Into<String>, bits_per_s: u32) -> Self {
         MemBus {
             pace: Some(std::sync::Arc::new(Pace {
                 bit_ns: 1_000_000_000 / u64::from(bits_per_s.max(1)),
-                busy_until: std::sync::Mutex::new(None),
+                booked: std::sync::Mutex::new(Booked::default()),
             })),
             ..MemBus::new(name)
         }
@@ -276,5 +303,39 @@ mod tests {
                 .unwrap();
         }
         assert_eq!(start.elapsed(), std::time::Duration::ZERO);
+    }
+
+    /// A sender with a backlog that comes back 30 ms late (held up on a loaded machine): the
+    /// bus makes the 30 ms up, so 200 frames still take their bus time, not 30 ms more. A bus
+    /// idle for longer than it makes up starts again from its idle time.
+    #[tokio::test(start_paused = true)]
+    async fn a_paced_bus_makes_up_for_a_late_sender() {
+        let bus = MemBus::with_bit_rate("paced", 125_000);
+        let mut tx = bus.port();
+        let f = Frame::new(crate::frame::Id::Standard(0x181), &[0; 8]).unwrap();
+        let busy = |n: u32| std::time::Duration::from_micros(u64::from(n) * 111 * 8);
+        let start = tokio::time::Instant::now();
+        for i in 0..200 {
+            if i == 100 {
+                tokio::time::advance(std::time::Duration::from_millis(30)).await;
+            }
+            tx.send(&f).await.unwrap();
+        }
+        let took = start.elapsed();
+        assert!(
+            took >= busy(200) - MEM_BUS_BURST && took <= busy(200),
+            "{took:?}"
+        );
+        // Idle for a second: nothing to make up, the next 100 frames take their own bus time.
+        tokio::time::advance(std::time::Duration::from_secs(1)).await;
+        let start = tokio::time::Instant::now();
+        for _ in 0..100 {
+            tx.send(&f).await.unwrap();
+        }
+        let took = start.elapsed();
+        assert!(
+            took >= busy(100) - MEM_BUS_BURST && took <= busy(100),
+            "{took:?}"
+        );
     }
 }
