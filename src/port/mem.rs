@@ -95,9 +95,9 @@ impl MemBus {
     /// a dual-bus layer then sees the two copies of a frame further apart than two real buses
     /// would ever carry them. While the bus has a backlog, a sender that wakes late from its
     /// wait (a loaded machine) does not cost the bus time: the frames it then sends go out at
-    /// once until the bus is back on its schedule (when it is at most [`MEM_BUS_CATCH_UP`] behind), so two
-    /// paced buses that carry the same frames stay as close together as their senders'
-    /// wake-ups. A rate of 0 is taken as 1 bit/s.
+    /// once until the bus is back on its schedule (when it is at most [`MEM_BUS_CATCH_UP`]
+    /// behind), so two paced buses that carry the same frames stay as close together as their
+    /// senders' wake-ups. A rate of 0 is taken as 1 bit/s.
     #[must_use]
     pub fn with_bit_rate(name: impl Into<String>, bits_per_s: u32) -> Self {
         MemBus {

@@ -2,7 +2,9 @@
 //! accesses (frame by frame), the client's answers to bad responses, timeouts on both sides. An
 //! aborted download never changes the dictionary.
 
-use crate::net::{server, Net, TestNode, DOMAIN, HOOKED, SMALL_DOMAIN, STRING, VALUES, VETO, WIDE};
+use crate::net::{
+    booted_server, Net, TestNode, DOMAIN, HOOKED, SMALL_DOMAIN, STRING, VALUES, VETO, WIDE,
+};
 use duocan::od::{comm, ObjectDictionary};
 use duocan::sdo::{SdoClient, SdoErrorKind, SdoEvent, SdoOptions, SdoServerConfig, TransferMode};
 use duocan::{AbortCode, Duration, Frame, Id, Instant, Machine, NodeId};
@@ -11,10 +13,7 @@ const N: NodeId = NodeId::must(5);
 const T0: Instant = Instant::from_millis(10);
 
 fn slave() -> TestNode {
-    let mut n = server(5);
-    n.boot(Instant::ZERO);
-    while n.poll_transmit().is_some() {}
-    n
+    booted_server(5)
 }
 
 /// Hands the server one request; returns its answers.

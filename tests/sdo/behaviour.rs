@@ -406,10 +406,7 @@ fn custom_channels_with_29_bit_identifiers() {
 // ----- server internals seen from the bus -----
 
 fn slave() -> TestNode {
-    let mut n = server(5);
-    n.boot(Instant::ZERO);
-    while n.poll_transmit().is_some() {}
-    n
+    crate::net::booted_server(5)
 }
 
 fn send(n: &mut TestNode, id: u16, d: &[u8]) -> Vec<Vec<u8>> {

@@ -61,6 +61,14 @@ pub fn server(id: u8) -> TestNode {
     Node::new(NodeConfig::slave(NodeId::new(id).unwrap()), od)
 }
 
+/// [`server`] booted, its boot-up taken off the bus: ready for requests frame by frame.
+pub fn booted_server(id: u8) -> TestNode {
+    let mut n = server(id);
+    n.boot(Instant::ZERO);
+    while n.poll_transmit().is_some() {}
+    n
+}
+
 pub type Lose = Box<dyn FnMut(&Frame) -> bool>;
 pub type Check = Box<dyn FnMut(&SdoClient, &[TestNode])>;
 

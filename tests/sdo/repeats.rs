@@ -5,7 +5,7 @@
 //! it carries: every transfer in every mode completes with the data sent, and the copies the
 //! machines could not take are counted as repeats, never aborted.
 
-use crate::net::{server, TestNode, DOMAIN};
+use crate::net::{booted_server, TestNode, DOMAIN};
 use duocan::od::ObjectDictionary;
 use duocan::sdo::{SdoClient, SdoEvent, SdoOptions, TransferMode};
 use duocan::{Frame, Instant, Machine, NodeId};
@@ -35,12 +35,9 @@ struct Pair {
 
 impl Pair {
     fn new() -> Self {
-        let mut node = server(5);
-        node.boot(Instant::ZERO);
-        while node.poll_transmit().is_some() {}
         Pair {
             client: SdoClient::new(duocan::sdo::DEFAULT_LIMIT + 16),
-            node,
+            node: booted_server(5),
             to_server: Wire::default(),
             to_client: Wire::default(),
             events: vec![],

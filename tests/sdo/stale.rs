@@ -5,7 +5,7 @@
 //! another object is not the transfer's: in every mode and direction the transfer goes on and
 //! completes with its data, and the late answer is counted.
 
-use crate::net::{server, TestNode, DOMAIN, STRING};
+use crate::net::{booted_server, TestNode, DOMAIN, STRING};
 use duocan::od::ObjectDictionary;
 use duocan::sdo::{Channel, SdoClient, SdoEvent, SdoOptions, TransferMode};
 use duocan::{Frame, Instant, Machine, NodeId};
@@ -22,12 +22,9 @@ struct Bus {
 
 impl Bus {
     fn new() -> Self {
-        let mut node = server(5);
-        node.boot(Instant::ZERO);
-        while node.poll_transmit().is_some() {}
         Bus {
             client: SdoClient::new(4096),
-            node,
+            node: booted_server(5),
             events: vec![],
             answers: vec![],
         }

@@ -47,9 +47,10 @@ async fn product(net: &RedundantNetwork, node: u8) -> u32 {
                         n.supervisor().master().sdo().stats()
                     )
                 })
-                .await;
+                .await
+                .unwrap_or_else(|e| e.to_string());
             panic!(
-                "reading {node:#x}'s product code: {e}\n{}\n{counters:?}",
+                "reading {node:#x}'s product code: {e}\n{}\n{counters}",
                 net.status().await.unwrap_or_else(|e| e.to_string())
             )
         }
