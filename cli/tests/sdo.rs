@@ -105,13 +105,8 @@ fn nmt_commands_and_their_answers() {
 /// 64 KiB both ways on the simulated station (its buses run at 1 Mbit/s; the mebibyte runs in
 /// the python tier over the UDP bus), as the tool shows it: a domain written from a file by
 /// block transfer and read back (`--verify`), and a program flashed; the progress lines (one
-/// per tenth when not on a terminal) go to the log.
-///
-/// Not more here, to keep the suite short: the station runs its buses at a real bus's rate.
-/// Its two in-memory buses are carried by tasks that a loaded machine can hold 150 ms apart
-/// while a block transfer streams some 7,000 frames a second, which is why the station's
-/// links have room for 3,072 frames waiting for their twins (`SIM_MERGE_SLOTS`; with the
-/// default 768 a quarter mebibyte read back once failed in CI, "length too high").
+/// per tenth when not on a terminal) go to the log. Not more here, to keep the suite short:
+/// the station carries its buses at a real bus's rate.
 #[test]
 fn a_domain_and_a_program_by_block_transfer_with_progress_in_the_log() {
     let _one = one_station();

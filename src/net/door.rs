@@ -17,6 +17,7 @@ use crate::machine::{
 };
 use crate::node::{Node, NodeEventKind};
 use crate::od::DynamicDictionary;
+use crate::port::PortInput;
 use std::collections::VecDeque;
 use std::sync::Arc;
 use tokio::sync::Notify;
@@ -120,21 +121,8 @@ impl Door {
     pub fn lss(&mut self) -> &mut NetLssMaster {
         &mut self.inner.machine.b
     }
-    fn may_send(&self, f: &Frame) -> bool {
-        !self.listen_only
-            && (matches!(f.id(), Id::Standard(0) | Id::Standard(0x601..=0x67F))
-                || f.id() == MASTER_TO_SLAVE
-                || (self.sync_on && f.id() == Id::Standard(SYNC_ID)))
-    }
-}
-
-impl Device for Door {
-    type Event = DoorEvent;
-
-    fn port_count(&self) -> usize {
-        self.inner.port_count()
-    }
-    fn handle_rx(&mut self, now: Instant, port: usize, frame: &Frame) {
+    /// A frame from `port`.
+    fn rx(&mut self, now: Instant, port: usize, frame: &Frame) {
         self.now = now;
         if let Some((node, pdo, values)) = self.pdos.decode(frame) {
             if self.decoded.len() < PDO_EVENTS {
@@ -150,16 +138,49 @@ impl Device for Door {
         }
         self.inner.handle_rx(now, port, frame);
     }
-    fn handle_port_status(&mut self, now: Instant, port: usize, status: PortStatus) {
+    /// A status of `port`'s driver.
+    fn port_status(&mut self, now: Instant, port: usize, status: PortStatus) {
         self.now = now;
         if let Some(d) = self.drivers.get_mut(port) {
             d.on(status);
         }
         self.inner.handle_port_status(now, port, status);
     }
+    /// What the link produced itself, each as it came from its port ([`NetLink::poll_input`]).
+    fn link_inputs(&mut self, now: Instant) {
+        while let Some((port, input)) = self.inner.link.poll_input() {
+            match input {
+                PortInput::Frame(f) => self.rx(now, port, &f),
+                PortInput::Status(s) => self.port_status(now, port, s),
+            }
+        }
+    }
+    fn may_send(&self, f: &Frame) -> bool {
+        !self.listen_only
+            && (matches!(f.id(), Id::Standard(0) | Id::Standard(0x601..=0x67F))
+                || f.id() == MASTER_TO_SLAVE
+                || (self.sync_on && f.id() == Id::Standard(SYNC_ID)))
+    }
+}
+
+impl Device for Door {
+    type Event = DoorEvent;
+
+    fn port_count(&self) -> usize {
+        self.inner.port_count()
+    }
+    fn handle_rx(&mut self, now: Instant, port: usize, frame: &Frame) {
+        self.rx(now, port, frame);
+        self.link_inputs(now);
+    }
+    fn handle_port_status(&mut self, now: Instant, port: usize, status: PortStatus) {
+        self.port_status(now, port, status);
+        self.link_inputs(now);
+    }
     fn handle_timeout(&mut self, now: Instant) {
         self.now = now;
         self.inner.handle_timeout(now);
+        self.link_inputs(now);
     }
     fn poll_transmit(&mut self) -> Option<(usize, Frame)> {
         // The filter sits between the machine and the link: on two buses a frame is judged

@@ -22,7 +22,7 @@ use crate::frame::Frame;
 use crate::machine::{
     BusLink, Device, ErrorCause, LinkRequest, PortRequest, PortStatus, SinglePort,
 };
-use crate::port::{Port, PortCountersSnapshot};
+use crate::port::{Port, PortCountersSnapshot, PortInput};
 use crate::runtime::Runtime;
 use core::convert::Infallible;
 use core::fmt;
@@ -42,6 +42,14 @@ pub trait NetLink: BusLink<Event = NetEvent, Command = Infallible> + Send + 'sta
     /// link does not tell (one port, or a dual-bus mode that listens to one bus at a time).
     fn heard_on(&self, node: NodeId) -> Option<[bool; 2]> {
         let _ = node;
+        None
+    }
+    /// The next input the link produced itself, as the driver of `port` would have handed it
+    /// over: a frame that port read, or the port's status. The network takes these after every
+    /// input and timeout of its own and handles each as it came from the port, so that a link
+    /// carrying a segment of its own (a simulated station run in the network's own task, its
+    /// two buses unable to drift apart) is seen through the same path as real ports.
+    fn poll_input(&mut self) -> Option<(usize, PortInput)> {
         None
     }
 }

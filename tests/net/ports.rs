@@ -102,3 +102,72 @@ impl duocan::BusLink for OnePortLink {
 }
 
 impl duocan::net::NetLink for OnePortLink {}
+
+/// A link that carries a bus of its own (as the redundancy crate's simulated station does)
+/// hands what its port read to the network itself ([`NetLink::poll_input`]): an SDO server's
+/// answer made by the link, and a status of its port, reach the network as a port's would.
+#[tokio::test(start_paused = true)]
+async fn what_a_link_reads_itself_reaches_the_network_as_its_ports_input() {
+    let bus = MemBus::new("quiet");
+    let link: Box<dyn duocan::net::NetLink> = Box::new(Answering::default());
+    let net = Network::open_link(link, bus.port(), NetOptions::default()).unwrap();
+    let v: u32 = net.node(5).sdo().read(0x1018, 1).await.unwrap();
+    assert_eq!(v, 0x0102_0304);
+    let p = &net.ports().await.unwrap()[0];
+    assert_eq!(p.state, "error warning");
+    assert_eq!(p.last_error, Some(ErrorCause::ErrorWarning));
+    net.close().await;
+}
+
+/// Answers every SDO upload request to node 5 with 0x01020304 itself, and reports its port
+/// at the error-warning level when it does.
+#[derive(Default)]
+struct Answering {
+    link: OnePortLink,
+    inputs: std::collections::VecDeque<(usize, duocan::port::PortInput)>,
+    now: duocan::Instant,
+}
+
+impl duocan::BusLink for Answering {
+    type Event = duocan::net::NetEvent;
+    type Command = core::convert::Infallible;
+    fn port_count(&self) -> usize {
+        1
+    }
+    fn handle_rx(&mut self, now: duocan::Instant, port: usize, f: &Frame) -> Option<Frame> {
+        self.link.handle_rx(now, port, f)
+    }
+    fn handle_port_status(&mut self, now: duocan::Instant, port: usize, s: duocan::PortStatus) {
+        self.link.handle_port_status(now, port, s);
+    }
+    fn send(&mut self, now: duocan::Instant, f: &Frame) {
+        use duocan::port::PortInput;
+        self.now = now;
+        let d = f.data();
+        if f.id() == duocan::Id::Standard(0x605) && d[0] == 0x40 {
+            let answer = [0x43, d[1], d[2], d[3], 0x04, 0x03, 0x02, 0x01];
+            let answer = Frame::new(duocan::Id::Standard(0x585), &answer).unwrap();
+            let warning = duocan::PortStatus::Error(ErrorCause::ErrorWarning);
+            self.inputs.push_back((0, PortInput::Status(warning)));
+            self.inputs.push_back((0, PortInput::Frame(answer)));
+        }
+    }
+    fn poll_transmit(&mut self) -> Option<(usize, Frame)> {
+        None
+    }
+    fn handle_timeout(&mut self, now: duocan::Instant) {
+        self.now = now;
+    }
+    fn poll_timeout(&self) -> Option<duocan::Instant> {
+        (!self.inputs.is_empty()).then_some(self.now)
+    }
+    fn poll_event(&mut self) -> Option<duocan::net::NetEvent> {
+        None
+    }
+}
+
+impl duocan::net::NetLink for Answering {
+    fn poll_input(&mut self) -> Option<(usize, duocan::port::PortInput)> {
+        self.inputs.pop_front()
+    }
+}

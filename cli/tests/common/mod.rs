@@ -41,10 +41,10 @@ pub fn sim(args: &[&str]) -> Run {
     duocan(&all)
 }
 
-/// One simulated station at a time from a test file: each is a dozen devices running in real
-/// time on two buses, and on a loaded two-core machine several at once stretch the skew between
-/// the two buses past the dual-bus layer's merge window and the time between two slaves'
-/// answers (a flaky test, not a finding about the tool). Hold the guard for the test.
+/// One simulated station at a time from a test file: each is a dozen devices carrying two
+/// buses at a real bus's rate in the tool's debug build, and several at once on a two-core
+/// machine would each fall behind the clock (a slow test, or one whose waits run out, not a
+/// finding about the tool). Hold the guard for the test.
 pub fn one_station() -> std::sync::MutexGuard<'static, ()> {
     static ONE: std::sync::Mutex<()> = std::sync::Mutex::new(());
     ONE.lock()

@@ -13,7 +13,7 @@
 //!
 //! # #[tokio::main(flavor = "current_thread", start_paused = true)]
 //! # async fn main() -> Result<(), Box<dyn std::error::Error>> {
-//! // "sim": a simulated redundant station on two in-memory buses; or "can0,can1", "udp:1,udp:2".
+//! // "sim": a simulated redundant station on two simulated buses; or "can0,can1", "udp:1,udp:2".
 //! let net = open_dual_named("sim", NetOptions::default())?;
 //! let vendor: u32 = net.node(5).sdo().read(0x1018, 1).await?;
 //! assert_eq!(vendor, duocan::net::SIM_VENDOR);
@@ -189,7 +189,7 @@ pub fn open_dual_with<P1: Port, P2: Port>(
 
 /// [`open_dual`] by name:
 ///
-/// - `sim`: a simulated redundant station on two in-memory buses (masters 0x01 and 0x02, the
+/// - `sim`: a simulated redundant station on two simulated buses (masters 0x01 and 0x02, the
 ///   pairs [`SIM_PAIRS`](super::SIM_PAIRS), the slaves [`SIM_SLAVES`](super::SIM_SLAVES); what
 ///   it holds is in the `net` module's docs), running until the network is closed;
 /// - `sim:faults`: the same station with its fault script repeating every

@@ -49,7 +49,6 @@
 //! | 0x02 | its peer master, the same settings | standby master |
 //! | 0x10 / 0x50, 0x11 / 0x51 | two A/B board pairs ([`SIM_PAIRS`]) | A active (operational), B standby (pre-operational) |
 //! | 0x05, 0x06, 0x07 | plain slaves ([`SIM_SLAVES`]): `duocan::net`'s simulated node and a read-write DOMAIN [`SIM_DOMAIN`] of up to [`SIM_DOMAIN_SIZE`] bytes; [`SIM_PROGRAM_NODE`] takes program download (identification after start: [`sim_program_id`] of the image) | pre-operational |
-//!
 //! | none (0xFF) | two boards that arrive without a node-ID ([`SIM_LSS_SERIALS`], identity [`sim_lss_address`]): silent but for LSS (CiA 305) until an LSS master gives them a node-ID, then they boot as the simulated node with it | non-configured |
 //!
 //! `"sim:faults"` repeats a script every [`SIM_FAULT_PERIOD`]: at [`SIM_FAULT_BUS_CUT`] into
@@ -57,6 +56,11 @@
 //! [`SIM_FAULT_MEMBER_STOPS`] the active member of the first pair stops (back at
 //! [`SIM_FAULT_MEMBER_BACK`]), at [`SIM_FAULT_MASTER_STOPS`] the active master stops (back at
 //! [`SIM_FAULT_MASTER_BACK`]).
+//!
+//! The station runs inside the network's own task, on its clock: its buses carry each frame
+//! for its wire time at [`SIM_BIT_RATE`], and the two copies of a frame reach every device
+//! together, however loaded the machine (two simulated devices each run by tasks of their own
+//! would see them as far apart as the tasks were scheduled).
 
 mod dual_link;
 mod events;
@@ -72,7 +76,7 @@ pub use sim_station::{
     sim_lss_address, sim_program_id, SIM_BIT_RATE, SIM_DOMAIN, SIM_DOMAIN_SIZE, SIM_FAULT_BUS_BACK,
     SIM_FAULT_BUS_CUT, SIM_FAULT_MASTER_BACK, SIM_FAULT_MASTER_STOPS, SIM_FAULT_MEMBER_BACK,
     SIM_FAULT_MEMBER_STOPS, SIM_FAULT_PERIOD, SIM_LSS_PRODUCT, SIM_LSS_REVISION, SIM_LSS_SERIALS,
-    SIM_MERGE_SLOTS, SIM_PAIRS, SIM_PROGRAM_NODE, SIM_SLAVES,
+    SIM_PAIRS, SIM_PROGRAM_NODE, SIM_SLAVES,
 };
 
 use crate::network::{LogicalNetwork, RedundantError, RedundantNetworkBuilder};
