@@ -185,7 +185,13 @@ fn start(
         ctl: ctl.clone(),
         writer: writer.clone(),
     };
-    let name = format!("duocan-rx{}", w.index);
+    // Named after the runtime's worker that starts it when the application named its workers
+    // (tokio's builder), so that per-thread accounting (`top -H`, /proc/<pid>/task) puts the
+    // port's reading with the runtime it works for.
+    let name = match std::thread::current().name() {
+        Some(n) if !n.starts_with("tokio-runtime") => format!("{n}-rx{}", w.index),
+        _ => format!("duocan-rx{}", w.index),
+    };
     match std::thread::Builder::new()
         .name(name)
         .spawn(move || t.run(reader))

@@ -1,7 +1,8 @@
 //! `duocan kit`: the failover test kit. A scenario file (`scenario`) gives the buses, the
 //! devices, a timeline of faults and the expectations; `kit check` measures the expectations
 //! on the candump logs of a run, one log per wire (`<member>.log`, `<bus>.log`), and prints
-//! each with its figure and verdict: exit 0 if all pass, 1 if any fails.
+//! each with its figure and verdict: exit 0 if all pass, 1 if any fails. The expectations' times
+//! are read on the timeline as the run applied it ([`timeline`]).
 //!
 //! ```text
 //! duocan kit validate failover.toml
@@ -13,6 +14,7 @@ mod expect;
 mod run;
 mod scenario;
 mod sim;
+mod timeline;
 
 use crate::fail::Fail;
 use crate::out::{Cell, Table};
@@ -23,6 +25,7 @@ use expect::{measure, Wires};
 use scenario::Scenario;
 use serde_json::json;
 use std::path::{Path, PathBuf};
+use timeline::Timeline;
 
 /// `duocan kit` subcommands.
 #[derive(clap::Subcommand, Debug)]
@@ -159,7 +162,7 @@ pub async fn run(g: &Global, k: Kit) -> Result<(), Fail> {
                 .map(|(_, c)| c.overflow + c.tx_failed)
                 .sum();
             let (wires, end) = read_wires(&s, &r.dir, None)?;
-            let verdict = report(g, &s, &wires, end);
+            let verdict = report(g, &s, &wires, end, &r.timeline);
             if unasked > 0 || r.log_errors > 0 {
                 return Err(Fail::protocol(format!(
                     "the bridge lost {unasked} frame(s) it was not told to drop, and {} log write(s) failed",
@@ -177,7 +180,7 @@ pub async fn run(g: &Global, k: Kit) -> Result<(), Fail> {
                 );
             }
             let (wires, end) = sim::run(&s, bitrate, g.json)?;
-            report(g, &s, &wires, end)
+            report(g, &s, &wires, end, &Timeline::default())
         }
         Kit::Bench { bare, a, b, frames } => bench::run(g, &bare, &a, &b, frames.max(1)).await,
         Kit::Check {
@@ -187,7 +190,8 @@ pub async fn run(g: &Global, k: Kit) -> Result<(), Fail> {
         } => {
             let s = load(&file)?;
             let (wires, end) = read_wires(&s, &logs, start_us)?;
-            report(g, &s, &wires, end)
+            let applied = Timeline::read_from(&logs).map_err(Fail::usage)?;
+            report(g, &s, &wires, end, &applied)
         }
     }
 }
@@ -239,12 +243,19 @@ fn read_wires(s: &Scenario, dir: &Path, start_us: Option<u64>) -> Result<(Wires,
     Ok((wires, end))
 }
 
-/// Prints every expectation with its figure and verdict; an error if any failed.
-fn report(g: &Global, s: &Scenario, wires: &Wires, end: u64) -> Result<(), Fail> {
+/// Prints every expectation, its times read on the timeline as `applied`, with its figure and
+/// verdict; an error if any failed.
+fn report(
+    g: &Global,
+    s: &Scenario,
+    wires: &Wires,
+    end: u64,
+    applied: &Timeline,
+) -> Result<(), Fail> {
     let mut t = Table::new(&["expectation", "result", "measured"]);
     let mut failed = 0;
     for (name, e) in &s.expects {
-        let o = measure(e, wires, end).map_err(Fail::usage)?;
+        let o = measure(&applied.read(e), wires, end).map_err(Fail::usage)?;
         failed += usize::from(!o.pass);
         t.row(vec![
             name.clone().into(),

@@ -5,9 +5,11 @@
 //! member, what its interface carried (`<member>.log`: what its device sent and what the bridge
 //! sent it) and, for each bus, every frame the bridge took from its members (`<bus>.log`, and
 //! `<bus>.pcap` for Wireshark). `start_us` holds the run's time zero (µs since the Unix epoch,
-//! as the logs count). Devices' output goes to `<device>.out`.
+//! as the logs count). Devices' output goes to `<device>.out`; when each step of the timeline
+//! was applied, to `timeline` (see [`super::timeline`]).
 
 use super::scenario::{Fault, Rate, Scenario, Target};
+use super::timeline::Timeline;
 use crate::fail::Fail;
 use crate::ports;
 use crate::Global;
@@ -211,6 +213,8 @@ pub struct RunResult {
     pub buses: Vec<(String, MemberCounters)>,
     /// Log writes that failed.
     pub log_errors: u64,
+    /// When each step of the timeline was applied.
+    pub timeline: Timeline,
 }
 
 /// Runs `s` on the real interfaces its members name, logging into `dir`.
@@ -272,8 +276,11 @@ pub async fn run(g: &Global, s: &Scenario, dir: &Path) -> Result<RunResult, Fail
     timeline.sort_by_key(|(t, _)| *t);
     timeline.extend(s.timeline.iter().cloned());
     timeline.sort_by_key(|(t, _)| *t);
+    let mut applied = Timeline::default();
     for (at, f) in &timeline {
         tokio::time::sleep_until(t0 + std::time::Duration::from_millis(*at)).await;
+        let elapsed = || u64::try_from(t0.elapsed().as_micros()).unwrap_or(u64::MAX);
+        let mut when = elapsed();
         match f {
             Fault::PowerOff(d) => {
                 if let Some(mut c) = devices.remove(d) {
@@ -287,19 +294,26 @@ pub async fn run(g: &Global, s: &Scenario, dir: &Path) -> Result<RunResult, Fail
                         let _ = old.start_kill();
                         let _ = old.wait().await;
                     }
+                    when = elapsed();
                     devices.insert(d.clone(), start(dir, d, &dev.run)?);
                 }
             }
             _ => {
                 let (s2, f2) = (s.clone(), f.clone());
-                handle
-                    .call(move |b, _| apply(b, &s2, &f2))
+                // When the bridge applied it, on its clock (the logs' too).
+                when = handle
+                    .call(move |b, now| {
+                        apply(b, &s2, &f2);
+                        now.as_micros()
+                    })
                     .await
                     .map_err(|_| Fail::protocol("the bridge stopped"))?;
             }
         }
-        println!("{:>7} ms  {}", t0.elapsed().as_millis(), describe(f));
+        applied.push(at.saturating_mul(1000), when);
+        println!("{:>7} ms  {}", when / 1000, describe(f));
     }
+    applied.write(dir)?;
     tokio::time::sleep_until(t0 + std::time::Duration::from_millis(s.duration_ms)).await;
     for (name, mut c) in devices {
         if let Ok(Some(status)) = c.try_wait() {
@@ -332,6 +346,7 @@ pub async fn run(g: &Global, s: &Scenario, dir: &Path) -> Result<RunResult, Fail
             .zip(bus_counters)
             .collect(),
         log_errors,
+        timeline: applied,
     })
 }
 
