@@ -197,9 +197,21 @@ def storage(node_id, group, port):
     def read(index, sub):
         say("READ", "%04X" % index, sub, sdo.upload(index, sub).hex())
 
+    # python canopen's wait_for_bootup listens only from when it is called: a boot-up that came
+    # first (duocan's node answers a reset within a millisecond) is missed. Listen before asking.
+    booted = threading.Event()
+
+    def on_boot_up(can_id, data, timestamp):
+        if data[:1] == b"\x00":
+            booted.set()
+
+    network.subscribe(0x700 + node_id, on_boot_up)
+
     def reset(command):
+        booted.clear()
         remote.nmt.send_command(command)
-        remote.nmt.wait_for_bootup(5)
+        if not booted.wait(5):
+            raise RuntimeError("no boot-up within 5 s of NMT command 0x%02X" % command)
         say("BOOTED")
 
     read(0x1010, 2)                                   # the capability: stores on command
