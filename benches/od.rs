@@ -36,18 +36,19 @@ fn probes(defs: &[ObjectDef]) -> Vec<(u16, u8)> {
         .collect()
 }
 
-/// The seed's table: 512 buckets, hash ((index·1438) >> 2) + sub mod 512, chained overflow.
-struct SeedTable {
+/// The published embedded master's table: 512 buckets, hash ((index·1438) >> 2) + sub mod 512,
+/// chained overflow.
+struct PublishedTable {
     heads: Vec<Option<usize>>,
     nodes: Vec<(u16, u8, u32, Option<usize>)>,
 }
 
-impl SeedTable {
+impl PublishedTable {
     fn hash(index: u16, sub: u8) -> usize {
         ((((index as u32) * 1438) >> 2) + sub as u32) as usize % 512
     }
     fn new(defs: &[ObjectDef]) -> Self {
-        let mut t = SeedTable {
+        let mut t = PublishedTable {
             heads: vec![None; 512],
             nodes: Vec::new(),
         };
@@ -78,7 +79,7 @@ fn lookup(c: &mut Criterion) {
     let mut st: Box<StaticDictionary<2048, 8192>> = Box::new(StaticDictionary::new());
     st.load(1, &[leaked]).expect("static dictionary fits");
     let dy = DynamicDictionary::from_tables(1, &[&defs]).expect("dynamic dictionary builds");
-    let seed = SeedTable::new(&defs);
+    let published = PublishedTable::new(&defs);
     assert_eq!(st.len(), ENTRIES);
     assert_eq!(dy.len(), ENTRIES);
 
@@ -98,11 +99,11 @@ fn lookup(c: &mut Criterion) {
             black_box(dy.get(black_box(x), black_box(s)).is_ok())
         })
     });
-    g.bench_function("seed_hash_512", |b| {
+    g.bench_function("published_hash_512", |b| {
         b.iter(|| {
             i = (i + 1) & 4095;
             let (x, s) = keys[i];
-            black_box(seed.get(black_box(x), black_box(s)).is_some())
+            black_box(published.get(black_box(x), black_box(s)).is_some())
         })
     });
     g.finish();
@@ -121,7 +122,7 @@ fn lookup(c: &mut Criterion) {
     };
     let s = per_lookup(&|x, y| st.get(x, y).is_ok());
     let d = per_lookup(&|x, y| dy.get(x, y).is_ok());
-    let h = per_lookup(&|x, y| seed.get(x, y).is_some());
+    let h = per_lookup(&|x, y| published.get(x, y).is_some());
     println!(
         "lookup in 1,500 entries: static {s:.2} ns, dynamic {d:.2} ns, the published design's \
          512-bucket table {h:.2} ns; published/static = {:.2}, published/dynamic = {:.2} (above 1: \

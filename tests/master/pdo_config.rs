@@ -1,5 +1,5 @@
 //! Master-side PDO configuration: the configurator job against a slave's bus-side dictionary
-//! access (the rules its SDO server applies), the seed's fallback for devices that refuse to be
+//! access (the rules its SDO server applies), the published designs' fallback for devices that refuse to be
 //! disabled, and, on the simulated bus, configuration over SDO followed by the master's mirrored
 //! PDOs exchanging data both ways at a 10 ms SYNC.
 

@@ -1,5 +1,5 @@
-//! Slave-pair supervision on the simulated dual bus, with the NMT frames on the wire: the seed's
-//! cases at exact instants. Slaves beat every 20 ms; consumer time 50 ms; 1 Mbit/s.
+//! Slave-pair supervision on the simulated dual bus, with the NMT frames on the wire: the published
+//! design's cases at exact instants. Slaves beat every 20 ms; consumer time 50 ms; 1 Mbit/s.
 
 use crate::net::*;
 use duocan::{Duration, Instant, NmtCommand};
