@@ -1,7 +1,7 @@
 //! Master-side PDO configuration: the configurator job against a slave's bus-side dictionary
-//! access (the rules its SDO server applies), the published designs' fallback for devices that refuse to be
-//! disabled, and, on the simulated bus, configuration over SDO followed by the master's mirrored
-//! PDOs exchanging data both ways at a 10 ms SYNC.
+//! access (the rules its SDO server applies), the published design's fallback for devices that
+//! refuse to be disabled, and, on the simulated bus, configuration over SDO followed by the
+//! master's mirrored PDOs exchanging data both ways at a 10 ms SYNC.
 
 use duocan::cia302::pdo_config::{
     mirror, AccessError, Local, Mirror, MirrorError, PdoConfig, PdoConfigErrorKind,

@@ -222,8 +222,8 @@ pub fn generate_file(
 /// For a `build.rs`: generates the static dictionary of the EDS at `eds` (relative to the
 /// package's directory) into `OUT_DIR/out_name`, tells cargo to run the script again when the
 /// EDS changes and prints the warnings of a lenient read as cargo warnings. The crate then
-/// includes it in a module of its own (as `examples/safety_gateway` does; `OUT_DIR` exists only
-/// in a crate with a build script, so this line is shown as text):
+/// includes it in a module of its own, as `examples/safety_gateway` does (shown as text, not
+/// compiled here: `OUT_DIR` exists only in a crate with a build script):
 ///
 /// ```text
 /// mod generated {
