@@ -200,6 +200,15 @@ pub trait Device {
     fn port_count(&self) -> usize;
     /// A frame arrived on `port`.
     fn handle_rx(&mut self, now: Instant, port: usize, frame: &Frame);
+    /// A frame that arrived on `port` at `at`, handled at `now` (`at <= now`): `at` is its
+    /// receive timestamp, taken where the frame arrived (the controller, the kernel's socket,
+    /// the simulator's wire), not when a task got to it. A device that merges two ports tells
+    /// a frame's two copies apart by these times even when a port's reader ran late; one that
+    /// has no use for them (the default) handles the frame as [`Device::handle_rx`] at `now`.
+    fn handle_rx_at(&mut self, now: Instant, port: usize, frame: &Frame, at: Instant) {
+        let _ = at;
+        self.handle_rx(now, port, frame);
+    }
     /// The driver of `port` reports something.
     fn handle_port_status(&mut self, now: Instant, port: usize, status: PortStatus);
     /// Time passed; do what is due at `now`.
@@ -231,6 +240,19 @@ pub trait BusLink {
     fn port_count(&self) -> usize;
     /// A frame from `port`; returns the logical frame to deliver upward, if any.
     fn handle_rx(&mut self, now: Instant, port: usize, frame: &Frame) -> Option<Frame>;
+    /// A frame from `port` that arrived at `at`, its receive timestamp (see
+    /// [`Device::handle_rx_at`]), handled at `now`. The default ignores the timestamp: a layer
+    /// with one port has no twins to tell apart.
+    fn handle_rx_at(
+        &mut self,
+        now: Instant,
+        port: usize,
+        frame: &Frame,
+        at: Instant,
+    ) -> Option<Frame> {
+        let _ = at;
+        self.handle_rx(now, port, frame)
+    }
     /// Port driver status.
     fn handle_port_status(&mut self, now: Instant, port: usize, status: PortStatus);
     /// A logical frame to send.
@@ -272,6 +294,9 @@ macro_rules! forward_device {
             }
             fn handle_rx(&mut self, now: Instant, port: usize, frame: &Frame) {
                 (**self).handle_rx(now, port, frame);
+            }
+            fn handle_rx_at(&mut self, now: Instant, port: usize, frame: &Frame, at: Instant) {
+                (**self).handle_rx_at(now, port, frame, at);
             }
             fn handle_port_status(&mut self, now: Instant, port: usize, status: PortStatus) {
                 (**self).handle_port_status(now, port, status);
@@ -415,6 +440,15 @@ where
         forward_requests(now, &mut self.link, &mut self.machine);
         forward_commands(now, &mut self.machine, &mut self.link);
     }
+    /// What the link made of a received frame: its requests, then the frame it delivers, to
+    /// the machine.
+    fn received(&mut self, now: Instant, f: Option<Frame>) {
+        self.forward(now);
+        if let Some(f) = f {
+            self.machine.handle_frame(now, &f);
+            self.forward(now);
+        }
+    }
 }
 
 impl<L: BusLink, M: Machine> Device for Station<L, M>
@@ -429,11 +463,12 @@ where
     fn handle_rx(&mut self, now: Instant, port: usize, frame: &Frame) {
         self.now = now;
         let f = self.link.handle_rx(now, port, frame);
-        self.forward(now);
-        if let Some(f) = f {
-            self.machine.handle_frame(now, &f);
-            self.forward(now);
-        }
+        self.received(now, f);
+    }
+    fn handle_rx_at(&mut self, now: Instant, port: usize, frame: &Frame, at: Instant) {
+        self.now = now;
+        let f = self.link.handle_rx_at(now, port, frame, at);
+        self.received(now, f);
     }
     fn handle_port_status(&mut self, now: Instant, port: usize, status: PortStatus) {
         self.now = now;

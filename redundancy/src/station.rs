@@ -199,6 +199,9 @@ impl<
     fn handle_rx(&mut self, now: Instant, port: usize, frame: &Frame) {
         self.station.handle_rx(now, port, frame);
     }
+    fn handle_rx_at(&mut self, now: Instant, port: usize, frame: &Frame, at: Instant) {
+        self.station.handle_rx_at(now, port, frame, at);
+    }
     fn handle_port_status(&mut self, now: Instant, port: usize, status: PortStatus) {
         self.station.handle_port_status(now, port, status);
     }

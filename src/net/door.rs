@@ -122,7 +122,8 @@ impl Door {
         &mut self.inner.machine.b
     }
     /// A frame from `port`.
-    fn rx(&mut self, now: Instant, port: usize, frame: &Frame) {
+    /// A frame from `port`, with its receive timestamp if its driver gives one.
+    fn rx(&mut self, now: Instant, port: usize, frame: &Frame, at: Option<Instant>) {
         self.now = now;
         if let Some((node, pdo, values)) = self.pdos.decode(frame) {
             if self.decoded.len() < PDO_EVENTS {
@@ -136,7 +137,10 @@ impl Door {
                 self.pdo_dropped += 1;
             }
         }
-        self.inner.handle_rx(now, port, frame);
+        match at {
+            Some(at) => self.inner.handle_rx_at(now, port, frame, at),
+            None => self.inner.handle_rx(now, port, frame),
+        }
     }
     /// A status of `port`'s driver.
     fn port_status(&mut self, now: Instant, port: usize, status: PortStatus) {
@@ -150,7 +154,7 @@ impl Door {
     fn link_inputs(&mut self, now: Instant) {
         while let Some((port, input)) = self.inner.link.poll_input() {
             match input {
-                PortInput::Frame(f) => self.rx(now, port, &f),
+                PortInput::Frame(f) => self.rx(now, port, &f, None),
                 PortInput::Status(s) => self.port_status(now, port, s),
             }
         }
@@ -170,7 +174,11 @@ impl Device for Door {
         self.inner.port_count()
     }
     fn handle_rx(&mut self, now: Instant, port: usize, frame: &Frame) {
-        self.rx(now, port, frame);
+        self.rx(now, port, frame, None);
+        self.link_inputs(now);
+    }
+    fn handle_rx_at(&mut self, now: Instant, port: usize, frame: &Frame, at: Instant) {
+        self.rx(now, port, frame, Some(at));
         self.link_inputs(now);
     }
     fn handle_port_status(&mut self, now: Instant, port: usize, status: PortStatus) {

@@ -64,6 +64,15 @@ impl BusLink for Box<dyn NetLink> {
     fn handle_rx(&mut self, now: Instant, port: usize, frame: &Frame) -> Option<Frame> {
         (**self).handle_rx(now, port, frame)
     }
+    fn handle_rx_at(
+        &mut self,
+        now: Instant,
+        port: usize,
+        frame: &Frame,
+        at: Instant,
+    ) -> Option<Frame> {
+        (**self).handle_rx_at(now, port, frame, at)
+    }
     fn handle_port_status(&mut self, now: Instant, port: usize, status: PortStatus) {
         (**self).handle_port_status(now, port, status);
     }

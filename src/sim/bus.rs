@@ -166,6 +166,9 @@ pub(super) struct Port {
     pub(super) drop_every: (u32, u32),
     /// Fixed receive latency (see [`set_port_latency`](super::SimNetwork::set_port_latency)).
     pub(super) latency: Duration,
+    /// Frames are handed over with their wire time as receive timestamp (the default), or
+    /// with the hand-over time (see [`set_port_stamps`](super::SimNetwork::set_port_stamps)).
+    pub(super) stamps: bool,
     /// Deliveries scheduled for later and the due time of the last one: later frames queue
     /// behind them so a port never sees frames out of order.
     pub(super) delayed: u32,
@@ -191,6 +194,7 @@ impl Port {
             faults: None,
             drop_every: (0, 0),
             latency: Duration::ZERO,
+            stamps: true,
             delayed: 0,
             delay_tail: Instant::ZERO,
             stats: PortStats::default(),

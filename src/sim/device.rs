@@ -12,6 +12,7 @@ use std::sync::Arc;
 /// The `Device` interface without the event type, plus the downcast back to the typed slot.
 pub(super) trait ErasedDevice {
     fn handle_rx(&mut self, now: Instant, port: usize, frame: &Frame);
+    fn handle_rx_at(&mut self, now: Instant, port: usize, frame: &Frame, at: Instant);
     fn handle_port_status(&mut self, now: Instant, port: usize, status: PortStatus);
     fn handle_timeout(&mut self, now: Instant);
     #[must_use]
@@ -41,6 +42,9 @@ where
 {
     fn handle_rx(&mut self, now: Instant, port: usize, frame: &Frame) {
         self.device.handle_rx(now, port, frame);
+    }
+    fn handle_rx_at(&mut self, now: Instant, port: usize, frame: &Frame, at: Instant) {
+        self.device.handle_rx_at(now, port, frame, at);
     }
     fn handle_port_status(&mut self, now: Instant, port: usize, status: PortStatus) {
         self.device.handle_port_status(now, port, status);

@@ -194,6 +194,15 @@ impl SimNetwork {
         self.ports[p].latency = latency;
     }
 
+    /// Whether the port hands frames to its device with their wire time as receive timestamp
+    /// (`true`, the default: a controller or driver that stamps frames as they arrive, as
+    /// SocketCAN's kernel timestamps do) or with the time they are handed over (`false`: a
+    /// driver without timestamps, whose device sees a late frame as a late arrival).
+    pub fn set_port_stamps(&mut self, port: PortRef, stamps: bool) {
+        let p = self.port_index(port);
+        self.ports[p].stamps = stamps;
+    }
+
     /// The fixed receive latency of a port (zero unless set).
     pub fn port_latency(&self, port: PortRef) -> Duration {
         self.ports[self.port_index(port)].latency

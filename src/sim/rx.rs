@@ -24,7 +24,7 @@ impl SimNetwork {
             self.ports[p].delayed = self.ports[p].delayed.saturating_sub(1);
             // A closed interface loses what its driver still held.
             if self.ports[p].iface_up {
-                self.rx_now(p, &item.frame);
+                self.rx_now(p, &item.frame, item.wire);
             }
         }
     }
@@ -67,7 +67,7 @@ impl SimNetwork {
             // The common case, a fault-free port with nothing waiting: straight to the device
             // (kept apart so that it stays inlined here, the hottest path of a long soak).
             if latency.is_zero() && self.ports[r].delayed == 0 {
-                self.rx_now(r, wire);
+                self.rx_now(r, wire, self.now);
             } else {
                 self.enqueue_rx(r, wire, latency);
             }
@@ -123,7 +123,7 @@ impl SimNetwork {
 
     fn enqueue_rx(&mut self, r: usize, frame: &Frame, delay: Duration) {
         if delay.is_zero() && self.ports[r].delayed == 0 {
-            self.rx_now(r, frame);
+            self.rx_now(r, frame, self.now);
             return;
         }
         let at = self.delivery_time(r, delay);
@@ -139,15 +139,24 @@ impl SimNetwork {
                 port: r as u32,
                 generation,
                 frame: *frame,
+                wire: self.now,
             },
         });
     }
 
-    fn rx_now(&mut self, r: usize, frame: &Frame) {
+    /// Hands a frame that ended on the wire at `wire` to receiver `r` now, stamped with its
+    /// wire time unless the port hands frames over without one.
+    fn rx_now(&mut self, r: usize, frame: &Frame, wire: Instant) {
         let port = &mut self.ports[r];
         port.stats.rx += 1;
         let (d, local) = (port.dev as usize, port.local as usize);
-        self.devices[d].dev.handle_rx(self.now, local, frame);
+        if port.stamps {
+            self.devices[d]
+                .dev
+                .handle_rx_at(self.now, local, frame, wire);
+        } else {
+            self.devices[d].dev.handle_rx(self.now, local, frame);
+        }
         self.flush(d);
     }
 }

@@ -36,6 +36,8 @@ pub(super) struct DelayedRx {
     /// Receiver's generation when scheduled: a power-off meanwhile discards it.
     pub(super) generation: u32,
     pub(super) frame: Frame,
+    /// When the frame ended on the wire: its receive timestamp.
+    pub(super) wire: Instant,
 }
 
 /// A scheduled closure (see [`SimNetwork::at`]).

@@ -333,6 +333,11 @@ impl<S: Scheme> Device for Interlocking<S> {
         self.drain();
         self.commands(now);
     }
+    fn handle_rx_at(&mut self, now: Instant, port: usize, frame: &Frame, at: Instant) {
+        self.net.handle_rx_at(now, port, frame, at);
+        self.drain();
+        self.commands(now);
+    }
     fn handle_port_status(&mut self, now: Instant, port: usize, status: PortStatus) {
         self.net.handle_port_status(now, port, status);
         self.drain();

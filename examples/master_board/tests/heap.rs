@@ -133,6 +133,9 @@ impl<D: Device> Device for Metered<D> {
     fn handle_rx(&mut self, now: Instant, port: usize, frame: &Frame) {
         metered(self.meter, || self.dev.handle_rx(now, port, frame));
     }
+    fn handle_rx_at(&mut self, now: Instant, port: usize, frame: &Frame, at: Instant) {
+        metered(self.meter, || self.dev.handle_rx_at(now, port, frame, at));
+    }
     fn handle_port_status(&mut self, now: Instant, port: usize, status: PortStatus) {
         metered(self.meter, || {
             self.dev.handle_port_status(now, port, status)

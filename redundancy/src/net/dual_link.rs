@@ -109,6 +109,15 @@ impl<const SLOTS: usize> BusLink for DualLink<SLOTS> {
     fn handle_rx(&mut self, now: Instant, port: usize, frame: &Frame) -> Option<Frame> {
         self.bus.handle_rx(now, port, frame)
     }
+    fn handle_rx_at(
+        &mut self,
+        now: Instant,
+        port: usize,
+        frame: &Frame,
+        at: Instant,
+    ) -> Option<Frame> {
+        self.bus.handle_rx_at(now, port, frame, at)
+    }
     fn handle_port_status(&mut self, now: Instant, port: usize, status: PortStatus) {
         self.bus.handle_port_status(now, port, status);
     }

@@ -289,17 +289,18 @@ pub(crate) fn lagging(r: &mut Rig, from: Instant, n: u64, k0: u8, lag: Duration)
     k0.wrapping_add(n as u8)
 }
 
+/// Bus 2 hands its frames over 15 ms late without timestamps: corrected. The clock steps back
+/// an hour, then bus 2 keeps pace: its corrected copies come 14.8 ms early, and the second fresh
+/// frame that shows it (a counter at 280 ms in the new time line) undoes the correction.
 #[test]
-fn a_lag_is_forgotten_on_time_after_a_step_back() {
-    // Lag periods are the silence limit (300 ms); a lag is forgotten when its period and the
-    // next one are over.
+fn a_correction_survives_a_step_back_and_is_undone_by_what_follows() {
     let mut r = Rig::new(DualBusConfig::default());
     let t0 = Instant::ZERO + HOUR;
     r.run(t0);
-    // Bus 2 lags 15 ms for 250 ms (its last lagging twin at 1 h + 255 ms, in the period that
-    // ends at 1 h + 300 ms), then the clock steps back an hour and bus 2 keeps pace.
     let k = lagging(&mut r, t0, 25, 0, d(15));
+    assert_eq!(r.l.lag().lag(1), d(15));
     r.step(t0 + d(260), ms(260));
+    assert_eq!(r.l.lag().lag(1), d(15));
     lagging(&mut r, ms(270), 60, k, Duration::from_micros(200));
     r.run(ms(1000));
     let lag = r.kinds_where(|k| {
@@ -310,7 +311,7 @@ fn a_lag_is_forgotten_on_time_after_a_step_back() {
     });
     assert_eq!(
         lag.last(),
-        Some(&(ms(600), LinkEventKind::LagCleared { port: 1 })),
+        Some(&(us(280_200), LinkEventKind::LagCleared { port: 1 })),
         "{lag:?}"
     );
     assert_eq!(r.l.lag().window(), d(10));

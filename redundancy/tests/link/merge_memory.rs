@@ -2,13 +2,23 @@
 //!
 //! A master sends SYNC every 10 ms; 20 nodes answer with a TPDO carrying a counter, and send a
 //! heartbeat every 100 ms (a frame that repeats unchanged). Bus 2 is dead: every arrival is
-//! unmatched and must expire by the window, never by eviction.
+//! unmatched and, with nobody telling the merger, kept until the horizon (eight windows), never
+//! evicted; once the layer says the other port is failed, not kept at all.
 
 use duocan::{Duration, Frame, Id, Instant};
-use duocan_redundancy::link::merge::{Merger, Verdict};
+use duocan_redundancy::link::merge::{Merger, Trust, Verdict};
 
 #[test]
 fn one_bus_dead_for_an_hour_keeps_memory_constant() {
+    one_bus_dead(Trust::Trusted);
+}
+
+#[test]
+fn one_bus_known_dead_for_an_hour_keeps_nothing() {
+    one_bus_dead(Trust::Sole);
+}
+
+fn one_bus_dead(trust: Trust) {
     const WINDOW: Duration = Duration::from_millis(10);
     let mut m: Merger<1024> = Merger::new(WINDOW);
     let sync = Frame::from_array(Id::Standard(0x80), []);
@@ -21,7 +31,8 @@ fn one_bus_dead_for_an_hour_keeps_memory_constant() {
         let t0 = cycle * 10_000;
         let mut arrive = |t: u64, f: &Frame| {
             sent += 1;
-            if m.arrive(Instant::from_micros(t), 0, f) == Verdict::Deliver {
+            let t = Instant::from_micros(t);
+            if m.arrive_at(t, t, 0, f, trust).0 == Verdict::Deliver {
                 delivered += 1;
             }
             peak = peak.max(m.len());
@@ -47,19 +58,21 @@ fn one_bus_dead_for_an_hour_keeps_memory_constant() {
     let s = m.stats();
     assert_eq!(
         s.evicted, 0,
-        "records leave by the window, never by overflow"
+        "records leave at the horizon, never by overflow"
     );
     assert_eq!(s.duplicates, 0);
-    // 10 ms of traffic: 1 SYNC + 20 TPDOs + 2 heartbeats, plus the ones on the window's edge.
-    assert!(s.high_water <= 24, "high water {}", s.high_water);
+    // 80 ms of traffic: 8 SYNCs + 160 TPDOs + 16 heartbeats, plus the ones on the edge.
+    let most = if trust == Trust::Sole { 0 } else { 8 * 23 + 1 };
+    assert!(s.high_water <= most, "high water {}", s.high_water);
     assert_eq!(peak_per_minute.len(), 60);
     let first = peak_per_minute[0];
     assert!(
         peak_per_minute.iter().all(|p| *p == first),
         "occupancy is the same every minute: {peak_per_minute:?}"
     );
-    // Everything still held expires one window after the last arrival.
-    m.expire(Instant::from_micros(cycles as u64 * 10_000 + 10_000));
+    // Everything still held is forgotten at the horizon after the last arrival.
+    m.expire(Instant::from_micros(cycles as u64 * 10_000 + 80_000));
     assert_eq!((m.len(), m.keys()), (0, 0));
-    assert_eq!(m.stats().expired, sent);
+    let kept = if trust == Trust::Sole { 0 } else { sent };
+    assert_eq!(m.stats().forgotten, kept);
 }

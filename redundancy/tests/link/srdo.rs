@@ -339,7 +339,7 @@ fn repeats_after_a_repair_are_no_lag_and_the_next_failure_does_not_trip() {
     assert!(net.srdo_events().is_empty(), "{:?}", net.srdo_events());
     assert!(lag_reports(&net).is_empty(), "{:?}", lag_reports(&net));
     let link = &net.sim.device(net.consumer).link;
-    assert!(!link.lag().distrusted(0) && !link.lag().distrusted(1));
+    assert!(!link.lag().lagging(0) && !link.lag().lagging(1));
     assert_eq!(net.value(), (0x1234, !0x1234));
 }
 

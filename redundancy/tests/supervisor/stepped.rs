@@ -75,6 +75,13 @@ impl<T: Device> Device for Stepped<T> {
         let t = self.time(now);
         self.inner.handle_rx(t, port, frame);
     }
+    fn handle_rx_at(&mut self, now: Instant, port: usize, frame: &Frame, at: Instant) {
+        let t = self.time(now);
+        // The receive timestamp read on the device's clock: ahead until the step, never later
+        // than the time the frame is handled.
+        let at = Self::reading(self.step.filter(|_| !self.stepped), at).min(t);
+        self.inner.handle_rx_at(t, port, frame, at);
+    }
     fn handle_port_status(&mut self, now: Instant, port: usize, status: PortStatus) {
         let t = self.time(now);
         self.inner.handle_port_status(t, port, status);

@@ -1,8 +1,10 @@
-//! Active-active: every logical frame goes out on every port that is not failed; every received
-//! frame goes through the exactly-once merger. No channel to switch.
+//! Active-active: every logical frame goes out on every port that is not failed (and on both
+//! when neither is known to reach anyone); a failed port still carries the node's own
+//! heartbeats, one at a time, as probes; every received frame goes through the exactly-once
+//! merger. No channel to switch.
 
 use super::{ChannelPolicy, FrameInfo, PortMask, RxRoute, BOTH};
-use crate::link::health::Health;
+use crate::link::health::{Health, PortState};
 use crate::link::outbox::Outbox;
 use duocan::machine::PortStatus;
 use duocan::{Duration, Frame, Instant};
@@ -16,18 +18,30 @@ impl ChannelPolicy for ActiveActive {
         &mut self,
         _: Instant,
         _: &Frame,
-        _: &FrameInfo,
+        info: &FrameInfo,
         h: &Health,
         _: &mut Outbox,
     ) -> PortMask {
-        // A failed port gets nothing until it has recovered, unless no port is known to work
-        // (ok or suspect): then both get everything, because a recovering port is unproven,
-        // sending nowhere is certain silence, and a port marked failed may still reach someone
-        // (a node that only stopped hearing a silent peer).
-        if !h.port(0).state().is_trusted() && !h.port(1).state().is_trusted() {
+        // No port is known to reach anyone (none ok or suspect, or the one that is has just
+        // had a frame go unacknowledged: a cut next to this node): both get everything,
+        // because sending nowhere is certain silence, and a port marked failed may reach
+        // someone again (its bus repaired the moment the other one was cut).
+        if !h.port(0).proven() && !h.port(1).proven() {
             return BOTH;
         }
-        (h.usable(0) as u8) | (h.usable(1) as u8) << 1
+        let mut mask = (h.usable(0) as u8) | (h.usable(1) as u8) << 1;
+        // A failed port still carries this node's own heartbeats, one at a time: so that the
+        // peers hear at once that its bus works again, and use it, whatever back-off their
+        // own re-initialisation of that port runs (the other bus may fail the next instant).
+        if info.heartbeat.is_some() {
+            for p in 0..2 {
+                let port = h.port(p);
+                if port.state() == PortState::Failed && port.in_flight().is_none_or(|n| n == 0) {
+                    mask |= 1 << p;
+                }
+            }
+        }
+        mask
     }
     fn on_rx(&mut self, _: Instant, _: usize, _: &Frame, _: &FrameInfo, _: &mut Outbox) -> RxRoute {
         RxRoute::Merge

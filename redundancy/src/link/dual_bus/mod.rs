@@ -23,18 +23,18 @@
 use crate::link::channel::Cia3026;
 #[cfg(feature = "ecss")]
 use crate::link::channel::Ecss;
-use crate::link::channel::{ChannelPolicy, FrameInfo, ModeKind, Policy, RxRoute};
+use crate::link::channel::{ChannelPolicy, FrameInfo, ModeKind, Policy};
 use crate::link::classify::FrameClassifier;
 use crate::link::config::{ConfigError, OdLayout};
 pub use crate::link::config::{DualBusConfig, LinkMode};
 use crate::link::events::LinkEvent;
-use crate::link::health::{Health, PortHealth, PortState, RxOutcome};
+use crate::link::health::{Health, PortHealth, PortState};
 use crate::link::lag::LagMeter;
 use crate::link::merge::Merger;
 use crate::link::outbox::Outbox;
 use crate::link::plausible::Plausibility;
 use crate::link::reach::Reach;
-use crate::link::same_function::{PairError, PairVerdict, SameFunction, MAX_FUNCTIONS};
+use crate::link::same_function::{PairError, SameFunction, MAX_FUNCTIONS};
 use crate::pair::{Member, PairId};
 use duocan::frame::instant::{earliest_of, TimeWatch};
 use duocan::machine::{BusLink, LinkRequest, PortRequest, PortStatus};
@@ -111,8 +111,8 @@ pub struct DualBus<
     merger: Merger<SLOTS>,
     lag: LagMeter,
     health: Health,
-    /// Port health's state changes the merger's late records were last set for.
-    health_seen: u32,
+    /// Per port: its frames come with receive timestamps (`handle_rx_at`).
+    stamped: [bool; 2],
     reach: Reach,
     reach_enabled: bool,
     plausible: Plausibility,
@@ -201,7 +201,7 @@ impl<C: FrameClassifier, const SLOTS: usize, const FUNCTIONS: usize> DualBus<C, 
             merger: Merger::with_horizon(cfg.skew_window, lag.horizon()),
             lag,
             health: Health::new(health, cfg.skew_window),
-            health_seen: 0,
+            stamped: [true; 2],
             reach: Reach::new(cfg.reach_timeout, cfg.skew_window),
             reach_enabled,
             // Rule 2 needs both buses listened to, as reachability does.
@@ -300,8 +300,7 @@ impl<C: FrameClassifier, const SLOTS: usize, const FUNCTIONS: usize> DualBus<C, 
     pub fn merger(&self) -> &Merger<SLOTS> {
         &self.merger
     }
-    /// Each port's lag, the merge window it needs and the port distrusted for lagging beyond
-    /// the maximum.
+    /// Each port's measured lag and the correction the merger's stamps get.
     pub fn lag(&self) -> &LagMeter {
         &self.lag
     }
@@ -374,62 +373,18 @@ impl<C: FrameClassifier, const SLOTS: usize, const FUNCTIONS: usize> BusLink
     }
 
     fn handle_rx(&mut self, now: Instant, port: usize, frame: &Frame) -> Option<Frame> {
-        self.watch_clock(now);
-        if port > 1 {
-            self.stats.bad_port += 1;
-            return None;
-        }
-        if self.reach_enabled {
-            if let Some(n) = self.classifier.sender(frame) {
-                self.reach.on_heard(now, n, port, &mut self.out);
-            }
-        }
-        let info = self.info(frame);
-        if let Some(n) = info.heartbeat.filter(|_| !self.plausible.is_empty()) {
-            // A bus carrying this node's heartbeats far too fast: neither the policy, the
-            // merger nor the stack above sees them.
-            if self
-                .plausible
-                .on_heartbeat(now, port, n, frame, &self.health, &mut self.out)
-            {
-                self.stats.implausible += 1;
-                self.health
-                    .on_rx(now, port, RxOutcome::Ignored, &mut self.out);
-                return None;
-            }
-        }
-        let route = self.policy.on_rx(now, port, frame, &info, &mut self.out);
-        self.show_status();
-        let outcome = match route {
-            RxRoute::Ignore => RxOutcome::Ignored,
-            RxRoute::Direct => RxOutcome::Direct,
-            RxRoute::Merge => self.merge(now, port, frame),
-        };
-        self.health.on_rx(now, port, outcome, &mut self.out);
-        self.keep_late(now);
-        if !matches!(
-            outcome,
-            RxOutcome::Delivered | RxOutcome::Direct | RxOutcome::Slipped
-        ) {
-            return None;
-        }
-        if !self.pairs.is_empty() {
-            if let Some((node, function)) = self.classifier.function(frame) {
-                let classifier = &self.classifier;
-                if self
-                    .pairs
-                    .on_frame_by(now, node, function, frame, &mut self.out, |a, b| {
-                        classifier.same_value(a, b)
-                    })
-                    == PairVerdict::Standby
-                {
-                    self.stats.standby += 1;
-                    return None;
-                }
-            }
-        }
-        self.stats.delivered += 1;
-        Some(*frame)
+        // A driver without receive timestamps: the frame is stamped now.
+        self.rx(now, port, frame, now, false)
+    }
+
+    fn handle_rx_at(
+        &mut self,
+        now: Instant,
+        port: usize,
+        frame: &Frame,
+        at: Instant,
+    ) -> Option<Frame> {
+        self.rx(now, port, frame, at, true)
     }
 
     fn handle_port_status(&mut self, now: Instant, port: usize, status: PortStatus) {
@@ -438,7 +393,6 @@ impl<C: FrameClassifier, const SLOTS: usize, const FUNCTIONS: usize> BusLink
             return;
         }
         self.health.on_status(now, port, status, &mut self.out);
-        self.keep_late(now);
         self.policy.on_status(now, port, status, &mut self.out);
         self.show_status();
     }
@@ -470,7 +424,6 @@ impl<C: FrameClassifier, const SLOTS: usize, const FUNCTIONS: usize> BusLink
     fn handle_timeout(&mut self, now: Instant) {
         self.watch_clock(now);
         self.health.handle_timeout(now, &mut self.out);
-        self.keep_late(now);
         if self.reach_enabled {
             self.reach.handle_timeout(now, &mut self.out);
         }
@@ -479,9 +432,6 @@ impl<C: FrameClassifier, const SLOTS: usize, const FUNCTIONS: usize> BusLink
         self.policy.handle_timeout(now, &mut self.out);
         self.show_status();
         self.pairs.handle_timeout(now, &mut self.out);
-        if let Some(at) = self.lag.handle_timeout(now, &mut self.out) {
-            self.follow_lag(at);
-        }
         self.merger.expire(now);
     }
 
@@ -497,7 +447,6 @@ impl<C: FrameClassifier, const SLOTS: usize, const FUNCTIONS: usize> BusLink
             self.policy.poll_timeout(),
             self.pairs.poll_timeout(),
             self.plausible.poll_timeout(),
-            self.lag.poll_timeout(),
         ])
     }
 

@@ -1,111 +1,137 @@
-//! The receive path into the merger: trusted, untrusted and lagging ports, and what the lag
-//! meter changes.
+//! The receive path into the merger: stamps corrected by the measured lag, trusted and
+//! unproven ports, and what the lag meter changes.
 
 use super::DualBus;
+use crate::link::channel::{ChannelPolicy, RxRoute};
 use crate::link::classify::FrameClassifier;
 use crate::link::health::{PortState, RxOutcome};
-use crate::link::merge::{Twin, Verdict};
+use crate::link::merge::{Trust, Verdict};
+use crate::link::same_function::PairVerdict;
 use duocan::{Frame, Instant};
 
 impl<C: FrameClassifier, const SLOTS: usize, const FUNCTIONS: usize> DualBus<C, SLOTS, FUNCTIONS> {
-    /// A frame for the merger: through it on a trusted port, only as a twin on an untrusted
-    /// one, and on a port lagging beyond the maximum only as a twin unless the other port is
-    /// silent (see [`crate::link::lag`]).
+    /// A frame from `port` stamped `at` (`stamped`: a receive timestamp; otherwise the time
+    /// it was handed over), handled at `now`: the layer's receive path.
+    pub(super) fn rx(
+        &mut self,
+        now: Instant,
+        port: usize,
+        frame: &Frame,
+        at: Instant,
+        stamped: bool,
+    ) -> Option<Frame> {
+        self.watch_clock(now);
+        if port > 1 {
+            self.stats.bad_port += 1;
+            return None;
+        }
+        if self.stamped[port] != stamped {
+            self.stamped[port] = stamped;
+            self.merger.set_stamped(port, stamped);
+        }
+        // When the frame was on the bus: what heartbeat rates and the merger judge by (a
+        // reader that ran late changes neither). Reachability and port health judge silence by
+        // when frames reach this node, so that a port whose reader runs behind is not silent.
+        let at = at.min(now);
+        if self.reach_enabled {
+            if let Some(n) = self.classifier.sender(frame) {
+                self.reach.on_heard(now, n, port, &mut self.out);
+            }
+        }
+        let info = self.info(frame);
+        if let Some(n) = info.heartbeat.filter(|_| !self.plausible.is_empty()) {
+            // A bus carrying this node's heartbeats far too fast: neither the policy, the
+            // merger nor the stack above sees them.
+            if self
+                .plausible
+                .on_heartbeat(at, port, n, frame, &self.health, &mut self.out)
+            {
+                self.stats.implausible += 1;
+                self.health
+                    .on_rx(now, port, RxOutcome::Ignored, &mut self.out);
+                return None;
+            }
+        }
+        let route = self.policy.on_rx(now, port, frame, &info, &mut self.out);
+        self.show_status();
+        let outcome = match route {
+            RxRoute::Ignore => RxOutcome::Ignored,
+            RxRoute::Direct => RxOutcome::Direct,
+            RxRoute::Merge => self.merge(now, at, port, frame),
+        };
+        self.health.rx_delay(port, now.saturating_since(at));
+        self.health.on_rx(now, port, outcome, &mut self.out);
+        if !matches!(
+            outcome,
+            RxOutcome::Delivered | RxOutcome::Direct | RxOutcome::Slipped
+        ) {
+            return None;
+        }
+        if !self.pairs.is_empty() {
+            if let Some((node, function)) = self.classifier.function(frame) {
+                let classifier = &self.classifier;
+                if self
+                    .pairs
+                    .on_frame_by(now, node, function, frame, &mut self.out, |a, b| {
+                        classifier.same_value(a, b)
+                    })
+                    == PairVerdict::Standby
+                {
+                    self.stats.standby += 1;
+                    return None;
+                }
+            }
+        }
+        self.stats.delivered += 1;
+        Some(*frame)
+    }
+
+    /// A frame stamped `at` on `port`, handled at `now`, through the merger: a port failed or
+    /// recovering while the other one works is not proven yet (see
+    /// [`crate::link::merge`]).
     #[inline]
-    pub(super) fn merge(&mut self, now: Instant, port: usize, frame: &Frame) -> RxOutcome {
-        if port < 2
-            && self.lag.withdrawable(1 - port)
-            && self.lag.contradicted(now, port, frame, &mut self.out)
-        {
-            self.follow_lag(now);
-        }
-        if self.lag.distrusted(port) && self.health.port(1 - port).state().is_trusted() {
-            return self.merge_distrusted(now, port, frame);
-        }
-        if self.health.trusted(port) {
-            let (verdict, twin) = self.merger.arrive_measured(now, port, frame);
-            if let Some(twin) = twin {
-                self.measured(now, port, twin, frame);
-            }
-            match (verdict, twin) {
-                (Verdict::Duplicate, _) => RxOutcome::Duplicate,
-                (Verdict::Deliver, Some(_)) => RxOutcome::Slipped,
-                (Verdict::Deliver, None) => RxOutcome::Delivered,
-            }
-        } else if self.merger.match_only(now, port, frame) {
-            RxOutcome::Duplicate
+    pub(super) fn merge(
+        &mut self,
+        now: Instant,
+        at: Instant,
+        port: usize,
+        frame: &Frame,
+    ) -> RxOutcome {
+        let s = self.lag.correct(port, at);
+        let trust = if !self.health.trusted(port) {
+            Trust::Unproven
+        } else if self.health.port(1 - port).state() == PortState::Failed {
+            Trust::Sole
         } else {
-            RxOutcome::Untrusted
-        }
-    }
-
-    /// A frame on a port lagging beyond the maximum while the other port works.
-    #[cold]
-    fn merge_distrusted(&mut self, now: Instant, port: usize, frame: &Frame) -> RxOutcome {
-        if let Some(twin) = self.merger.match_measured(now, port, frame) {
-            self.measured(now, port, twin, frame);
-            return RxOutcome::Duplicate;
-        }
-        let other_last_rx = self.health.port(1 - port).counters().last_rx;
-        if self.lag.other_silent(now, port, other_last_rx) {
-            // Not recorded: the other port, silent, has no copy to come.
-            return RxOutcome::Delivered;
-        }
-        RxOutcome::Untrusted
-    }
-
-    /// Copies of a port are kept as late records only while the other port can deliver their
-    /// twins late: it is ok, or suspect only for its lag. Failed, recovering, or suspect for a
-    /// fault (its transmissions fail, its controller reports errors), it is cut off, not slow:
-    /// the copies it misses are lost, and when it is back, its first copies of unchanged
-    /// repeats must not be taken for late twins of the ones it missed (a lag it does not have,
-    /// distrusting it just when the other port may fail next).
-    #[inline]
-    pub(super) fn keep_late(&mut self, now: Instant) {
-        if self.health.changes() == self.health_seen {
-            return;
-        }
-        self.health_seen = self.health.changes();
-        for p in 0..2 {
-            let other = self.health.port(1 - p);
-            let keep = match other.state() {
-                PortState::Ok => true,
-                PortState::Suspect => other.lagging().is_some(),
-                PortState::Failed | PortState::Recovering => false,
-            };
-            if keep != self.merger.keeps_late(p) {
-                self.merger.keep_late(p, keep, now);
-            }
-        }
-    }
-
-    /// A twin matched for `port`: a lag sample.
-    #[inline]
-    fn measured(&mut self, now: Instant, port: usize, twin: Twin, frame: &Frame) {
-        if let Some(lag) = twin.lag {
-            if self.lag.sample_frame(now, port, lag, frame, &mut self.out) {
+            Trust::Trusted
+        };
+        let (verdict, sample) = self.merger.arrive_at(now, s, port, frame, trust);
+        if let Some(sample) = sample {
+            let before = [self.lag.lag(0), self.lag.lag(1)];
+            if self.lag.sample(now, port, sample, &mut self.out) {
+                for (p, was) in before.into_iter().enumerate() {
+                    let by = self.lag.lag(p).as_micros() as i64 - was.as_micros() as i64;
+                    self.merger.shift(p, by);
+                }
                 self.follow_lag(now);
             }
         }
+        match verdict {
+            Verdict::Deliver if sample.is_some_and(|s| s.late) => RxOutcome::Slipped,
+            Verdict::Deliver => RxOutcome::Delivered,
+            Verdict::Duplicate => RxOutcome::Duplicate,
+            Verdict::Late | Verdict::Unproven => RxOutcome::Stale,
+        }
     }
 
-    /// The lag meter changed a window or a distrust: the merger, port health and the ports'
-    /// states follow.
+    /// The lag meter changed its correction: port health, reachability and the ports' states
+    /// follow (the merger gets corrected stamps and keeps its window).
     pub(super) fn follow_lag(&mut self, at: Instant) {
         let window = self.lag.window();
-        self.merger.set_window(window);
         self.health.set_window(window);
         self.reach.set_settle(window);
         for p in 0..2 {
-            // A port known to lag matches the other port's late copies: its twins. What it
-            // delivered before as first copies were twins too: forgotten, so that no later
-            // repeat on the other port is taken for their twin.
-            let lagging = self.lag.lagging(p);
-            if lagging && !self.merger.late_match(p) {
-                self.merger.forget(p);
-            }
-            self.merger.set_late_match(p, lagging);
-            let (lag, beyond) = (self.lag.lag(p), self.lag.distrusted(p));
+            let (lag, beyond) = (self.lag.lag(p), self.lag.beyond(p));
             self.health.set_lagging(at, p, lag, beyond, &mut self.out);
         }
     }

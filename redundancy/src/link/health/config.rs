@@ -141,8 +141,10 @@ pub struct HealthCounters {
     pub delivered: u64,
     /// Received frames dropped as twins.
     pub duplicates: u64,
-    /// Received frames dropped because the port was not trusted and no twin was pending.
-    pub untrusted: u64,
+    /// Received frames dropped without a twin: older than the merger remembers (a reader that
+    /// ran further behind than the horizon), or from a port not proven yet at a time the other
+    /// port had already passed (a frame a repaired bus carried from before its fault).
+    pub stale: u64,
     /// Frames handed to the port.
     pub tx: u64,
     /// Transmissions the driver confirmed.

@@ -147,6 +147,12 @@ impl Health {
         }
     }
 
+    /// Port `p`'s last frame was handed over `delay` after its receive timestamp: its twins
+    /// take that much longer (see the silence rule).
+    pub(crate) fn rx_delay(&mut self, p: usize, delay: Duration) {
+        self.ports[p].rx_delay = delay;
+    }
+
     /// A frame was handed to port `p` at `now`.
     pub(crate) fn count_tx(&mut self, now: Instant, p: usize) {
         let port = &mut self.ports[p];
@@ -203,14 +209,15 @@ impl Health {
             match outcome {
                 RxOutcome::Delivered | RxOutcome::Direct | RxOutcome::Slipped => c.delivered += 1,
                 RxOutcome::Duplicate => c.duplicates += 1,
-                RxOutcome::Untrusted => c.untrusted += 1,
+                RxOutcome::Stale => c.stale += 1,
                 RxOutcome::Ignored => {}
             }
         }
         let port = &mut self.ports[p];
         port.silence_ref = Some(now);
         port.first_missed = None;
-        if matches!(outcome, RxOutcome::Delivered | RxOutcome::Untrusted) {
+        port.unacknowledged = false;
+        if outcome == RxOutcome::Delivered {
             let other = &mut self.ports[o];
             other.first_missed.get_or_insert(now);
             // Observation of the other port starts with the first traffic seen at all.
@@ -273,6 +280,13 @@ impl Health {
             PortStatus::TxOk => {
                 port.counters.tx_ok += 1;
                 port.reports_outcomes = true;
+                port.unacknowledged = false;
+                // Someone on its bus acknowledged the frame: the bus works again, whatever the
+                // back-off says (as a received frame shows).
+                if port.revives_on_traffic() {
+                    self.set(now, p, PortState::Recovering, PortReason::Traffic, out);
+                }
+                let port = &mut self.ports[p];
                 if let Some(handed) = port.outstanding.pop_front() {
                     self.front_moved(now, p);
                     self.sent(now, p, handed);
@@ -338,6 +352,7 @@ impl Health {
             port.counters.errors[cause_index(c)].saturating_add(1);
         port.counters.last_error = Some((now, c));
         port.last_error = Some(now);
+        port.unacknowledged |= c == ErrorCause::NoAck;
         if is_fatal(c) {
             self.fail(now, p, reason, out);
         } else if port.cond == Condition::Ok {
@@ -424,7 +439,7 @@ impl Health {
         };
         let missed = port.first_missed?;
         let reference = port.silence_ref?;
-        Some((reference + threshold).max(missed + self.window))
+        Some((reference + threshold).max(missed + self.window + port.rx_delay))
     }
 
     fn stall_deadline(&self, p: usize) -> Option<Instant> {
@@ -507,8 +522,9 @@ pub(crate) enum RxOutcome {
     Delivered,
     /// Twin of a delivered frame.
     Duplicate,
-    /// From an untrusted port, no twin pending: dropped (the other port should deliver it).
-    Untrusted,
+    /// Dropped without a twin: older than the merger remembers, or, from a port not proven
+    /// yet, at a time the other port has already passed (it delivered that time's frames).
+    Stale,
     /// Delivered, although a late copy of the other port was pending: a lagging twin not yet
     /// known as such, or a repeat of a frame the other port missed, whose own copy comes after.
     /// Either way the other port has its copy: nothing missed.

@@ -108,6 +108,12 @@ pub struct PortHealth {
     /// The driver confirms successful transmissions (`TxOk`); only then can silence about a
     /// handed-over frame mean a stall.
     pub(super) reports_outcomes: bool,
+    /// Its last transmission was not acknowledged (no-ack) and it has neither sent nor
+    /// received a frame since: nobody is reached through it now.
+    pub(super) unacknowledged: bool,
+    /// How long after its receive timestamp its last frame was handed over: a reader that
+    /// runs behind hands over the twins of the other port's first copies that much later.
+    pub(super) rx_delay: Duration,
     pub(super) counters: HealthCounters,
 }
 
@@ -129,6 +135,8 @@ impl PortHealth {
             last_sent: None,
             overtaken: None,
             reports_outcomes: false,
+            unacknowledged: false,
+            rx_delay: Duration::ZERO,
             counters: HealthCounters::default(),
         }
     }
@@ -154,6 +162,21 @@ impl PortHealth {
             Condition::Failed { reinit_at, .. } => Some(reinit_at),
             _ => None,
         }
+    }
+    /// Its last transmission was not acknowledged and it has neither sent nor received a
+    /// frame since: nobody is reached through it now (a cut cable next to this node).
+    pub fn unacknowledged(&self) -> bool {
+        self.unacknowledged
+    }
+    /// Whether frames sent through it are known to reach someone: it works (ok or suspect) and
+    /// its last transmission was not left unacknowledged.
+    pub fn proven(&self) -> bool {
+        self.state().is_trusted() && !self.unacknowledged
+    }
+    /// How many frames handed to it wait for an outcome (its driver reports outcomes), or
+    /// `None` if its driver does not report them.
+    pub fn in_flight(&self) -> Option<usize> {
+        self.reports_outcomes.then_some(self.outstanding.len())
     }
     /// The lag that makes it suspect: it lags beyond the maximum skew window
     /// (see [`crate::link::lag`]).

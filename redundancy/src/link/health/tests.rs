@@ -25,18 +25,11 @@ fn traffic(h: &mut Health, out: &mut Outbox, from: u64, cut: u64, end: u64) {
         if let Some(d) = h.poll_timeout().filter(|d| *d < ms(t)) {
             h.handle_timeout(d, out);
         }
-        let first = if h.trusted(0) {
-            RxOutcome::Delivered
-        } else {
-            RxOutcome::Untrusted
-        };
-        h.on_rx(ms(t), 0, first, out);
+        // Port 0's copy comes first: delivered whether or not port 0 is proven (port 1 has
+        // not reached its time yet); port 1's is its twin.
+        h.on_rx(ms(t), 0, RxOutcome::Delivered, out);
         if t < cut {
-            let o = if h.trusted(1) {
-                RxOutcome::Duplicate
-            } else {
-                RxOutcome::Untrusted
-            };
+            let o = RxOutcome::Duplicate;
             h.on_rx(ms(t) + Duration::from_micros(200), 1, o, out);
         }
         t += 10;
@@ -300,7 +293,7 @@ fn transmit_stall_flushes_and_fails_and_only_reinit_revives() {
         )]
     );
     // Receiving (a babbler's frames) does not revive it; the back-off re-initialisation does.
-    h.on_rx(ms(50), 0, RxOutcome::Untrusted, &mut out);
+    h.on_rx(ms(50), 0, RxOutcome::Stale, &mut out);
     assert_eq!(h.port(0).state(), PortState::Failed);
     h.handle_timeout(ms(144), &mut out);
     assert_eq!(h.port(0).state(), PortState::Recovering);

@@ -271,6 +271,17 @@ impl<L: NetLink> BusLink for StationLink<L> {
         self.now = now;
         self.link.handle_rx(now, port, frame)
     }
+    fn handle_rx_at(
+        &mut self,
+        now: Instant,
+        port: usize,
+        frame: &Frame,
+        at: Instant,
+    ) -> Option<Frame> {
+        // A frame this link handed to the network (poll_input), back on its way up.
+        self.now = now;
+        self.link.handle_rx_at(now, port, frame, at)
+    }
     fn handle_port_status(&mut self, now: Instant, port: usize, status: PortStatus) {
         self.now = now;
         self.link.handle_port_status(now, port, status);

@@ -222,8 +222,34 @@ fn sim_error(why: impl ToString) -> RedundantError {
     }
 }
 
+/// Stack for building the station: some thirty devices with a dual-bus layer each (about a
+/// hundred kilobytes), each built and then boxed, which in a debug build passes through more
+/// stack than a thread of the caller's may have (tokio's workers have 2 MiB).
+const BUILD_STACK: usize = 16 << 20;
+
 /// Opens a network on a new simulated station (see the module docs).
 pub(super) fn open(opts: NetOptions, script: StationScript) -> Result<Network, RedundantError> {
+    let ports = [StationPort::new("sim-bus1"), StationPort::new("sim-bus2")];
+    let tap = opts.tap.clone();
+    let link = std::thread::scope(|scope| {
+        std::thread::Builder::new()
+            .name("duocan-sim-build".into())
+            .stack_size(BUILD_STACK)
+            .spawn_scoped(scope, || build(script, &ports, tap))
+            .map_err(sim_error)?
+            .join()
+            .map_err(|_| sim_error("building the simulated station failed"))?
+    })?;
+    let [bus1, bus2] = ports;
+    Network::open_link(link, (bus1, bus2), opts).map_err(sim_error)
+}
+
+/// The station's devices on their backplane, and the network's link to it.
+fn build(
+    script: StationScript,
+    ports: &[StationPort; 2],
+    tap: Option<std::sync::Arc<dyn duocan::capture::recorder::Tap>>,
+) -> Result<Box<SimLink>, RedundantError> {
     let mut station = Backplane::new(SIM_BIT_RATE);
     for id in [1, 2] {
         station.power_on(id, master(id)?);
@@ -241,17 +267,14 @@ pub(super) fn open(opts: NetOptions, script: StationScript) -> Result<Network, R
     for serial in SIM_LSS_SERIALS {
         station.power_on(NO_NODE_ID, lss_board(serial));
     }
-    let ports = [StationPort::new("sim-bus1"), StationPort::new("sim-bus2")];
     let script = Script::new(script == StationScript::Faults);
-    let link = SimLink::new(
+    Ok(Box::new(SimLink::new(
         DualLink::default(),
         station,
         script,
-        &ports,
-        opts.tap.clone(),
-    );
-    let [bus1, bus2] = ports;
-    Network::open_link(Box::new(link), (bus1, bus2), opts).map_err(sim_error)
+        ports,
+        tap,
+    )))
 }
 
 /// The tag on the backplane of the boards that arrive without a node-ID.

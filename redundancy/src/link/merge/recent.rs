@@ -1,0 +1,130 @@
+//! What the merger remembers of keys beyond their records: when each was seen last, to tell a
+//! *fresh* occurrence (its content not seen on either port within the horizon) from an
+//! unchanged repeat, and when one of its unmatched copies was *forgotten* with its twin still
+//! possible.
+//!
+//! - Only a fresh occurrence can measure a lag: the twin of a repeat may be paired with a
+//!   neighbouring occurrence, one period off, and a lag measured from it would be the true lag
+//!   modulo the period.
+//! - A copy of the other port that comes after its twin was forgotten (a reader further behind
+//!   than the horizon) is known for what it is by its key, not by a time alone: frames of other
+//!   keys that only its bus carried meanwhile (one bus flooded, the other carrying the traffic)
+//!   are not taken for late twins.
+//!
+//! The table is two-way set-associative, indexed by the key's hash: a key takes the older line
+//! of its set, so two keys that repeat side by side keep their lines. A key whose line a third
+//! key took since is taken for fresh and forgotten nothing (at worst a lag sample more, checked
+//! by the other conditions a sample needs, or a late copy delivered twice). The merger has as
+//! many lines as slots; times are kept in microseconds, wrapping every 71 minutes (a key last
+//! seen a multiple of that ago may be taken for a repeat: no sample, no harm): 16 bytes a line.
+
+#[derive(Clone, Copy, Default)]
+struct Line {
+    hash: u32,
+    /// Microseconds (wrapping) of the key's latest arrival, plus one: 0 is an empty line.
+    at: u32,
+    /// Microseconds (wrapping) of the newest copy of the key forgotten, plus one (0: none).
+    forgot: u32,
+    /// The port whose copy was forgotten.
+    forgot_side: u8,
+}
+
+pub(super) struct Recent<const LINES: usize> {
+    lines: [Line; LINES],
+}
+
+impl<const LINES: usize> Recent<LINES> {
+    /// Sets of two lines; a power of two (the merger's slot count is one).
+    const SHIFT: u32 = 64 - (LINES / 2).trailing_zeros();
+
+    pub(super) fn new() -> Self {
+        Recent {
+            lines: [Line::default(); LINES],
+        }
+    }
+
+    /// The two lines `hash` may be in.
+    #[inline]
+    fn set(&mut self, hash: u32) -> &mut [Line] {
+        // Multiplicative hashing: the top bits are the best mixed.
+        let set = ((hash as u64).wrapping_mul(0x9E37_79B9_7F4A_7C15) >> Self::SHIFT) as usize;
+        &mut self.lines[2 * set..2 * set + 2]
+    }
+
+    /// The line of `hash`, taking the empty or older line of its set if it has none.
+    #[inline]
+    fn line(&mut self, hash: u32, now: u32) -> (&mut Line, bool) {
+        let age = |l: &Line| now.wrapping_sub(l.at.wrapping_sub(1));
+        let pair = self.set(hash);
+        match pair.iter().position(|l| l.at != 0 && l.hash == hash) {
+            Some(i) => (&mut pair[i], true),
+            None => {
+                let i = usize::from(
+                    pair[0].at != 0 && (pair[1].at == 0 || age(&pair[1]) > age(&pair[0])),
+                );
+                pair[i] = Line {
+                    hash,
+                    ..Line::default()
+                };
+                (&mut pair[i], false)
+            }
+        }
+    }
+
+    /// A copy of the key `hash` arrived at `at_us`: returns whether no copy of the key arrived
+    /// (on either port) within `horizon_us` before it, and remembers this one.
+    #[inline]
+    pub(super) fn observe(&mut self, hash: u32, at_us: u64, horizon_us: u64) -> bool {
+        let now = at_us as u32;
+        let (line, known) = self.line(hash, now);
+        let fresh = !known || u64::from(now.wrapping_sub(line.at.wrapping_sub(1))) > horizon_us;
+        line.at = now.wrapping_add(1).max(1);
+        fresh
+    }
+
+    /// A copy of the key `hash` on port `side`, stamped `at_us`, was forgotten while its twin
+    /// could still come.
+    pub(super) fn forgot(&mut self, hash: u32, side: usize, at_us: u64) {
+        let stamp = at_us as u32;
+        let (line, known) = self.line(hash, stamp);
+        if !known {
+            line.at = stamp.wrapping_add(1).max(1);
+        }
+        line.forgot = stamp.wrapping_add(1).max(1);
+        line.forgot_side = side as u8;
+    }
+
+    /// Whether a copy of the key `hash` stamped `at_us` on port `port` may be the twin of a copy
+    /// the other port forgot: one was forgotten less than `window_us` after this one's stamp.
+    #[inline]
+    pub(super) fn twin_forgotten(
+        &mut self,
+        hash: u32,
+        port: usize,
+        at_us: u64,
+        window_us: u64,
+    ) -> bool {
+        let now = at_us as u32;
+        let Some(line) = self.set(hash).iter().find(|l| l.at != 0 && l.hash == hash) else {
+            return false;
+        };
+        if line.forgot == 0 || usize::from(line.forgot_side) == port {
+            return false;
+        }
+        // How far this copy's stamp lies before the forgotten one's, wrapping: "before" is
+        // anything up to half the wrap.
+        let forgot = line.forgot.wrapping_sub(1);
+        let before = forgot.wrapping_sub(now);
+        before < 1 << 31 || u64::from(now.wrapping_sub(forgot)) < window_us
+    }
+
+    /// The caller's clock stepped back `by_us`: every time held moves back with it.
+    pub(super) fn step_back(&mut self, by_us: u64) {
+        for l in self.lines.iter_mut().filter(|l| l.at != 0) {
+            l.at = l.at.wrapping_sub(by_us as u32);
+            if l.forgot != 0 {
+                l.forgot = l.forgot.wrapping_sub(by_us as u32);
+            }
+        }
+    }
+}
