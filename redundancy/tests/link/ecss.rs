@@ -168,9 +168,10 @@ fn without_a_master_slaves_toggle_n_times_then_stay_and_report_until_it_returns(
                 tg(1, 1, 0, 2),
                 tg(2, 0, 1, 3),
                 tg(3, 1, 0, 4),
-                // The fifth toggle would exceed Ntoggle: stay on bus 1 and say so.
+                // The fourth toggle is the last: "no master" at its instant, and bus 1, where
+                // the search ended, is the default.
                 (
-                    last + P + P + (P + P).saturating_mul(4),
+                    tg(3, 1, 0, 4).0,
                     LinkEventKind::NoMaster { bus: 0, ctoggle: 4 }
                 ),
                 (back, LinkEventKind::MasterFound { master: M, bus: 0 }),
