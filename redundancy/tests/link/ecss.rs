@@ -3,7 +3,7 @@
 
 use crate::sim::*;
 use duocan::od::ObjectDictionary;
-use duocan::sim::TxOutcome;
+use duocan::sim::{FaultRates, RxFault, TraceRecord, TxOutcome};
 use duocan::{Duration, Frame, Id, Instant, NmtCommand, NmtState, NmtTarget, NodeId};
 use duocan_redundancy::{DualBusConfig, EcssConfig, LinkEventKind, LinkMode, SwitchReason};
 use std::cell::RefCell;
@@ -263,4 +263,162 @@ fn losing_the_master_puts_the_slave_in_pre_operational_and_0x2000_shows_the_togg
     assert_eq!(seen.into_iter().collect::<Vec<_>>(), [0, 1, 2, 3, 4]);
     // Read over SDO-visible state at the end: the master is back on bus 1, Ctoggle stays 4.
     assert_eq!(samples.last().map(|x| (x.2, x.3)), Some((0, 4)));
+}
+
+/// The instants at which `node` received a heartbeat of the master on `bus`: delivered on the
+/// wire and not dropped at `node`'s port (whether the layer listened to that bus or not).
+fn heard(net: &Net, node: u8, bus: usize) -> Vec<Instant> {
+    let me = net.dev(node).erased();
+    let mut v: Vec<Instant> = vec![];
+    for r in net.sim.trace() {
+        match r {
+            TraceRecord::Tx(x)
+                if x.bus == net.buses[bus]
+                    && x.frame.id() == Id::Standard(0x700 + MASTER as u16)
+                    && !x.babble
+                    && matches!(x.outcome, TxOutcome::Delivered { .. }) =>
+            {
+                v.push(x.end)
+            }
+            // A receiver's fault follows its frame's record.
+            TraceRecord::Rx(x)
+                if x.bus == net.buses[bus]
+                    && x.port.device == me
+                    && x.fault == RxFault::Dropped
+                    && x.frame.id() == Id::Standard(0x700 + MASTER as u16) =>
+            {
+                assert_eq!(v.pop(), Some(x.at));
+            }
+            _ => {}
+        }
+    }
+    v
+}
+
+/// The last of `times` at or before `t`.
+fn last_by(times: &[Instant], t: Instant) -> Instant {
+    times[times.partition_point(|x| *x <= t) - 1]
+}
+
+/// The first of `times` after `t`.
+fn first_after(times: &[Instant], t: Instant) -> Instant {
+    times[times.partition_point(|x| *x <= t)]
+}
+
+#[test]
+fn a_flaky_default_bus_does_not_make_the_slaves_oscillate() {
+    let slaves = 4;
+    let stop = Instant::from_millis(30_000);
+    let mut net = network_with(24, slaves, cfg, stop);
+    let (a, m) = (net.buses[0], net.dev(MASTER));
+    let s = Instant::from_millis;
+    // 0.5–3.5 s: bus 1 loses every seventh frame, the master's heartbeats among them.
+    net.sim.at(s(500), move |sim| sim.drop_every_on_bus(a, 7));
+    net.sim.at(s(3_500), move |sim| sim.drop_every_on_bus(a, 0));
+    // Two outages of bus 1: one longer than a whole search (1.5 s), one shorter (0.5 s).
+    for (down, up) in [(4_000, 5_500), (7_000, 7_500)] {
+        net.sim.at(s(down), move |sim| sim.bus_down(a));
+        net.sim.at(s(up), move |sim| sim.bus_up(a));
+    }
+    // 9 s: the master is moved to bus 2. From 10 s on, bus 1 flaps every 300 ms and loses
+    // half of what it carries: the slaves must not follow it.
+    let moved = s(9_000);
+    net.sim.at(moved, move |sim| {
+        assert!(sim.device_mut(m).link.select_channel(moved, 1));
+    });
+    net.sim.at(s(10_000), move |sim| {
+        sim.set_bus_faults(a, FaultRates::NONE.with_drop(0.5))
+    });
+    for k in 0..33u64 {
+        let t = s(10_000 + 600 * k);
+        net.sim.at(t, move |sim| sim.bus_down(a));
+        net.sim
+            .at(t + Duration::from_millis(300), move |sim| sim.bus_up(a));
+    }
+    net.sim.run_until(stop);
+
+    // The master moved once, when told to.
+    assert_eq!(
+        toggles(&net, MASTER),
+        [(
+            moved,
+            LinkEventKind::Channel {
+                from: 0,
+                to: 1,
+                reason: SwitchReason::Command
+            }
+        )]
+    );
+    let tg = |at, from, to, ctoggle| (at, LinkEventKind::Toggle { from, to, ctoggle });
+    let lost = |at, bus| (at, LinkEventKind::MasterLost { master: M, bus });
+    let found = |at, bus| (at, LinkEventKind::MasterFound { master: M, bus });
+    for node in 2..=slaves + 1 {
+        let (on_1, on_2) = (heard(&net, node, 0), heard(&net, node, 1));
+        // The drops did hit the master's heartbeats, but never for a consumer time.
+        let early = |v: &[Instant]| -> Vec<Instant> {
+            v.iter()
+                .copied()
+                .filter(|t| *t >= s(400) && *t <= s(3_600))
+                .collect()
+        };
+        let (sent, got) = (early(&master_heartbeats(&net, 0)), early(&on_1));
+        assert!(
+            got.len() + 4 < sent.len(),
+            "node {node}: {} of {}",
+            got.len(),
+            sent.len()
+        );
+        assert!(got.windows(2).all(|w| w[1] - w[0] < P), "node {node}");
+
+        // The long outage: four toggles, "no master" with the fourth, back on bus 1 (the
+        // default again) when the master is heard there.
+        let h1 = last_by(&on_1, s(4_000));
+        let p = |n: u64| P.saturating_mul(n);
+        let f1 = first_after(&on_1, s(5_500));
+        // The short one: found on bus 1 when the second toggle brings the slave back. (The
+        // toggles fall on the heartbeat grid: a heartbeat ending at a toggle's instant reaches
+        // the slave just before it toggles, on the bus it leaves.)
+        let h2 = last_by(&on_1, s(7_000));
+        let f2 = first_after(&on_1, h2 + p(4));
+        // The move: found on bus 2 at the first toggle; that bus is the default.
+        let h3 = last_by(&on_1, moved);
+        let f3 = first_after(&on_2, h3 + p(2));
+        assert_eq!(
+            toggles(&net, node),
+            [
+                lost(h1 + p(1), 0),
+                tg(h1 + p(2), 0, 1, 1),
+                tg(h1 + p(4), 1, 0, 2),
+                tg(h1 + p(6), 0, 1, 3),
+                tg(h1 + p(8), 1, 0, 4),
+                (h1 + p(8), LinkEventKind::NoMaster { bus: 0, ctoggle: 4 }),
+                found(f1, 0),
+                lost(h2 + p(1), 0),
+                tg(h2 + p(2), 0, 1, 1),
+                tg(h2 + p(4), 1, 0, 2),
+                found(f2, 0),
+                lost(h3 + p(1), 0),
+                tg(h3 + p(2), 0, 1, 1),
+                found(f3, 1),
+            ],
+            "node {node}"
+        );
+        assert!(
+            f3 < s(9_500),
+            "node {node}: settled on bus 2 before bus 1 began to flap"
+        );
+        let st = net.station(node);
+        let ecss = st.link.ecss().unwrap();
+        assert_eq!(
+            (ecss.active_bus(), ecss.bdefault(), ecss.ctoggle()),
+            (1, 1, 1),
+            "node {node}"
+        );
+        let od = st.machine.a.od();
+        assert_eq!(
+            (od.get_u32(0x2000, 1), od.get_u32(0x2000, 4)),
+            (Some(1), Some(1)),
+            "node {node}"
+        );
+    }
 }
