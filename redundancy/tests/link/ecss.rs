@@ -422,3 +422,123 @@ fn a_flaky_default_bus_does_not_make_the_slaves_oscillate() {
         );
     }
 }
+
+/// How one search for the master ended.
+#[derive(Debug, Default)]
+struct Searches {
+    /// Found after this many toggles (index 0 to Ntoggle − 1).
+    found_after: [usize; 4],
+    /// Ended with "no master" (then found, or not, later).
+    no_master: usize,
+}
+
+/// Checks `node`'s events against the rule, search by search, with the instants taken from the
+/// heartbeats it actually received: every loss exactly `P` after the last heartbeat heard on
+/// the active bus, the k-th toggle `(2k − 1)·P` after the loss, at most 4, "no master" with the
+/// fourth and only then, the master found at the first heartbeat heard on the bus the slave is
+/// on, and nothing between searches.
+fn check_searches(net: &Net, node: u8) -> Searches {
+    let on = [heard(net, node, 0), heard(net, node, 1)];
+    let ev = toggles(net, node);
+    let mut out = Searches::default();
+    let (mut i, mut bus) = (0, 0u8);
+    while i < ev.len() {
+        let (at, kind) = ev[i];
+        assert_eq!(
+            kind,
+            LinkEventKind::MasterLost { master: M, bus },
+            "node {node} at {at}"
+        );
+        assert_eq!(
+            last_by(&on[bus as usize], at) + P,
+            at,
+            "node {node}: loss at {at}"
+        );
+        let (lost, mut last) = (at, at);
+        i += 1;
+        let mut k = 0u8;
+        while let Some((at, LinkEventKind::Toggle { from, to, ctoggle })) = ev.get(i).copied() {
+            k += 1;
+            assert_eq!(at, lost + P.saturating_mul(2 * k as u64 - 1), "node {node}");
+            assert_eq!(
+                (from, to, ctoggle),
+                (bus, 1 - bus, k),
+                "node {node} at {at}"
+            );
+            (bus, last) = (to, at);
+            i += 1;
+        }
+        assert!(k <= 4, "node {node}: {k} toggles after the loss at {lost}");
+        if k == 4 {
+            let no_master = LinkEventKind::NoMaster { bus, ctoggle: 4 };
+            assert_eq!(ev.get(i), Some(&(last, no_master)), "node {node}");
+            out.no_master += 1;
+            i += 1;
+        }
+        let Some(&(at, kind)) = ev.get(i) else {
+            break;
+        };
+        assert_eq!(
+            kind,
+            LinkEventKind::MasterFound { master: M, bus },
+            "node {node}"
+        );
+        assert_eq!(at, first_after(&on[bus as usize], last), "node {node}");
+        if k < 4 {
+            // Before the next toggle was due (one due at the same instant comes after it).
+            let next = lost + P.saturating_mul(2 * k as u64 + 1);
+            assert!(
+                at <= next,
+                "node {node}: found at {at} after a toggle due at {next}"
+            );
+            out.found_after[k as usize] += 1;
+        }
+        i += 1;
+    }
+    out
+}
+
+#[test]
+fn under_random_losses_of_the_masters_heartbeat_every_search_is_exact_and_bounded() {
+    let slaves = 4;
+    let stop = Instant::from_millis(60_000);
+    let mut net = network_with(25, slaves, cfg, stop);
+    let a = net.buses[0];
+    // From 1 s on, each receiver of bus 1, where the master stays, loses each frame with
+    // probability 0.6: three heartbeats in a row are lost now and then, and so is the master.
+    net.sim.at(Instant::from_millis(1_000), move |sim| {
+        sim.set_bus_faults(a, FaultRates::NONE.with_drop(0.6))
+    });
+    net.sim.run_until(stop);
+
+    assert_eq!(
+        toggles(&net, MASTER),
+        [],
+        "the master never moves by itself"
+    );
+    let mut total = Searches::default();
+    for node in 2..=slaves + 1 {
+        let s = check_searches(&net, node);
+        for k in 0..4 {
+            total.found_after[k] += s.found_after[k];
+        }
+        total.no_master += s.no_master;
+        // Bounded: at most Ntoggle toggles per loss, however long the run.
+        let count =
+            |f: fn(&LinkEventKind) -> bool| toggles(&net, node).iter().filter(|e| f(&e.1)).count();
+        let losses = count(|k| matches!(k, LinkEventKind::MasterLost { .. }));
+        let toggled = count(|k| matches!(k, LinkEventKind::Toggle { .. }));
+        assert!(
+            toggled <= 4 * losses,
+            "node {node}: {toggled} toggles, {losses} losses"
+        );
+    }
+    // The run went through every way a search can end here: the master found before the first
+    // toggle, after the second (back on bus 1), or "no master". Never after an odd number: the
+    // master stays on bus 1.
+    assert!(
+        total.found_after[0] > 0 && total.found_after[2] > 0 && total.no_master > 0,
+        "{total:?}"
+    );
+    assert_eq!((total.found_after[1], total.found_after[3]), (0, 0));
+}
