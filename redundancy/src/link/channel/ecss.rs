@@ -24,7 +24,7 @@
 //! `P` stands for the master's heartbeat period: the consumer time is the only period a slave
 //! knows. A Ttoggle of zero turns toggling off: the slave stays on Bdefault and this policy
 //! reports nothing (the node's own heartbeat consumer still sees the loss). An Ntoggle of zero
-//! gives one toggle, as one would have been counted before the comparison.
+//! gives one toggle: the count is compared after the toggle.
 //!
 //! The dual-bus layer writes Bdefault (sub 1) and Ctoggle (sub 4) into the node's dictionary as
 //! they change (`LinkRequest::SetStatus`), so a master reads them over SDO, and a device that
