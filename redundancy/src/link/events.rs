@@ -69,7 +69,8 @@ pub enum LinkEventKind {
         /// Toggle counter (0x2000 sub 4) after this toggle.
         ctoggle: u8,
     },
-    /// ECSS: Ntoggle toggles without finding the master; the layer stays on `bus`.
+    /// ECSS: Ntoggle toggles without finding the master; the layer stays on `bus`, which
+    /// becomes the default bus (0x2000 sub 1). Reported with the last toggle, once per loss.
     NoMaster {
         /// The bus it stays on.
         bus: u8,

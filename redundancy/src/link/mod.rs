@@ -67,7 +67,7 @@
 //!   instant (the events carry it), in a bounded number of rounds whatever the jump: port
 //!   health takes at most its two silence steps per call, the lag meter at most three period
 //!   ends before it computes the period of the new time, the CiA 302-6 redundancy window is
-//!   computed, the ECSS slave toggles at most Ntoggle times.
+//!   computed, the ECSS slave toggles at most Ntoggle times (once for zero).
 //! - **At [`Instant::MAX`](duocan::Instant::MAX)** no deadline is reported, so nothing stays
 //!   due; a frame heard then counts as heard a microsecond before (the tables use the end of
 //!   time for "never heard").

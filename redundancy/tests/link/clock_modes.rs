@@ -109,11 +109,108 @@ fn the_ecss_toggle_keeps_its_timing_after_a_step_back() {
             toggle(240, 1, 0, 2),
             toggle(340, 0, 1, 3),
             toggle(440, 1, 0, 4),
-            (ms(540), LinkEventKind::NoMaster { bus: 0, ctoggle: 4 }),
+            // The fourth toggle is the last: "no master" comes with it.
+            (ms(440), LinkEventKind::NoMaster { bus: 0, ctoggle: 4 }),
         ],
         "lost 50 ms after its last heartbeat at 40 ms in the new time line"
     );
     assert_eq!(r.machine.first(), Some(&LinkRequest::EnterPreOperational));
+}
+
+/// A slave of master 1 (heartbeat expected every 50 ms) toggling every 2 periods, 3 times: the
+/// search ends on bus 2.
+fn ecss_slave() -> Rig {
+    let ecss = EcssConfig::slave(NodeId::must(1), d(50)).with_ntoggle(3);
+    Rig::new(DualBusConfig::default().with_mode(LinkMode::EcssToggle(ecss)))
+}
+
+#[test]
+fn an_ecss_search_keeps_its_instants_after_a_step_back_in_the_middle() {
+    let mut r = ecss_slave();
+    let t0 = Instant::ZERO + HOUR;
+    r.send(t0, heartbeat(5, 0));
+    r.rx(t0 + d(40), 0, heartbeat(1, 5));
+    // Lost at 1 h + 90 ms, first toggle at 1 h + 140 ms; the clock steps back an hour at
+    // 1 h + 200 ms, between the first and the second toggle (due at 1 h + 240 ms).
+    r.step(t0 + d(200), ms(200));
+    r.run(ms(10_000));
+    let toggle = |at, from, to, ctoggle| (ms(at), LinkEventKind::Toggle { from, to, ctoggle });
+    let lost = LinkEventKind::MasterLost {
+        master: NodeId::must(1),
+        bus: 0,
+    };
+    assert_eq!(
+        r.kinds(),
+        [
+            // Reported before the step, at their instants in the old time line.
+            (t0 + d(90), lost),
+            (
+                t0 + d(140),
+                LinkEventKind::Toggle {
+                    from: 0,
+                    to: 1,
+                    ctoggle: 1
+                }
+            ),
+            // 40 ms after the step, as they were 40 ms after it in the old time line.
+            toggle(240, 1, 0, 2),
+            toggle(340, 0, 1, 3),
+            (ms(340), LinkEventKind::NoMaster { bus: 1, ctoggle: 3 }),
+        ]
+    );
+    let ecss = r.l.ecss().unwrap();
+    assert_eq!((ecss.bdefault(), ecss.ctoggle()), (1, 3));
+    // The dictionary is told: Ctoggle at each toggle, and with the last one Bdefault bus 2
+    // (the layer writes sub 1 before sub 4).
+    let status: Vec<_> = r
+        .machine
+        .iter()
+        .filter_map(|m| match m {
+            LinkRequest::SetStatus { sub, value, .. } => Some((*sub, *value)),
+            _ => None,
+        })
+        .collect();
+    assert_eq!(status, [(4, 1), (4, 2), (1, 1), (4, 3)]);
+}
+
+#[test]
+fn a_jump_ahead_over_an_ecss_search_reports_each_step_once_at_its_instant() {
+    let mut r = ecss_slave();
+    r.send(ms(0), heartbeat(5, 0));
+    r.rx(ms(40), 0, heartbeat(1, 5));
+    // The driver sleeps through the whole search and wakes up a day later: one call.
+    r.l.handle_timeout(ms(86_400_000));
+    r.drain();
+    assert_eq!(r.l.poll_timeout(), None, "nothing left due");
+    let toggle = |at, from, to, ctoggle| (ms(at), LinkEventKind::Toggle { from, to, ctoggle });
+    assert_eq!(
+        r.kinds(),
+        [
+            (
+                ms(90),
+                LinkEventKind::MasterLost {
+                    master: NodeId::must(1),
+                    bus: 0
+                }
+            ),
+            toggle(140, 0, 1, 1),
+            toggle(240, 1, 0, 2),
+            toggle(340, 0, 1, 3),
+            (ms(340), LinkEventKind::NoMaster { bus: 1, ctoggle: 3 }),
+        ]
+    );
+    // The master heard on bus 2 a day later ends it there.
+    r.rx(ms(86_400_010), 1, heartbeat(1, 5));
+    assert_eq!(
+        r.kinds().last(),
+        Some(&(
+            ms(86_400_010),
+            LinkEventKind::MasterFound {
+                master: NodeId::must(1),
+                bus: 1
+            }
+        ))
+    );
 }
 
 /// Every mode with something held, taken to the end of time and back.
