@@ -28,7 +28,7 @@ fn ms(x: u64) -> Instant {
 }
 
 /// Sends `frame` on every port, every `period` from `start` (once if `period` is zero).
-struct Injector {
+pub(crate) struct Injector {
     ports: usize,
     frame: Frame,
     next: Option<Instant>,
@@ -62,7 +62,7 @@ impl Device for Injector {
     }
 }
 
-fn inject(
+pub(crate) fn inject(
     n: &mut SupNet,
     buses: &[BusId],
     frame: Frame,
@@ -79,7 +79,7 @@ fn inject(
     n.sim.add_device("impostor", dev, buses).unwrap()
 }
 
-fn heartbeat(node: u8, state: u8) -> Frame {
+pub(crate) fn heartbeat(node: u8, state: u8) -> Frame {
     Frame::from_array(Id::Standard(0x700 + node as u16), [state])
 }
 
@@ -328,14 +328,15 @@ fn impostor_on_one_bus_only_is_suspect_one_window_after_the_other_bus_lost_the_n
 
 #[test]
 fn two_devices_sharing_a_node_id_are_reported_and_the_standby_takes_over() {
-    // A second device beats 0x710 [7F] (pre-operational) every 20 ms on both buses from 1007
-    // ms, between the real board's heartbeats (which say operational).
+    // A second device beats 0x710 [05] (operational, as the real board does) every 20 ms on
+    // both buses from 1007 ms, between the real board's heartbeats. (One saying another state
+    // is the active member not running, replaced at that heartbeat: `not_operational.rs`.)
     let mut n = SupNet::new(Params::default());
     let buses = n.buses;
     inject(
         &mut n,
         &buses,
-        heartbeat(a(0), 0x7F),
+        heartbeat(a(0), 0x05),
         Some(ms(1007)),
         PERIOD,
     );

@@ -8,6 +8,7 @@ mod impostor;
 mod lss;
 mod master;
 mod net;
+mod not_operational;
 mod on_bus;
 mod pairs;
 mod partition;

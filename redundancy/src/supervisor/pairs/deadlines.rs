@@ -8,7 +8,7 @@ use super::{Authority, LossReason, MemberState, PairId, PairSupervisor, PairsEve
 use crate::pair::Member;
 use duocan::frame::instant::{earliest_of, shift_back};
 use duocan::frame::storage::Storage;
-use duocan::{Duration, Instant, NmtCommand};
+use duocan::{Duration, Instant, NmtCommand, NmtState};
 
 impl<S: Storage> PairSupervisor<S> {
     /// Earliest instant at which [`PairSupervisor::handle_timeout`] has work (may be early).
@@ -117,8 +117,27 @@ impl<S: Storage> PairSupervisor<S> {
             .map_or(t, |d| d - self.pairs[p].spec.consumer_time);
         let o = m.other();
         let other_alive = self.alive(p, o, t);
+        let consumer = self.pairs[p].spec.consumer_time;
+        // Heard within the consumer time, but not running: the active member that stopped,
+        // or was never heard running after its start (a deadline only operational heartbeats
+        // move; see `heartbeat`).
+        let stopped = match s.nmt {
+            Some(st @ (NmtState::PreOperational | NmtState::Stopped))
+                if self.pairs[p].active == Some(m)
+                    && !self.is_held(s.node)
+                    && s.last.is_some_and(|l| l + consumer > t) =>
+            {
+                Some(st)
+            }
+            _ => None,
+        };
         let (why, loss) = if self.is_suspect(s.node) {
             (Some(RoleReason::ActiveSuspect), LossReason::Suspect)
+        } else if let Some(state) = stopped {
+            (
+                Some(RoleReason::ActiveNotOperational { state }),
+                LossReason::NotOperational { state },
+            )
         } else {
             (None, LossReason::Silent { last })
         };
