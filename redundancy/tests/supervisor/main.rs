@@ -5,6 +5,7 @@ mod clock;
 mod combined;
 mod flying_master;
 mod impostor;
+mod impostor_idle;
 mod lss;
 mod master;
 mod net;

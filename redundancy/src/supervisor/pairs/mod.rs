@@ -72,7 +72,7 @@
 //! | --- | --- |
 //! | A controller babbling the heartbeat on one bus | at its 6th frame at the latest (0.4 ms at 1 Mbit/s) |
 //! | Two devices with the same node-ID beating at the producer time | within 8 producer periods of both beating |
-//! | An impostor beating on one bus only | the real node's last heartbeat on the other bus + the reachability window (3 guarding periods by default): consumer time + 1 ms + (window − consumer time) |
+//! | An impostor beating on one bus only (any node-ID) | the real node's last heartbeat on the other bus + the reachability window (3 guarding periods by default): consumer time + 1 ms + (window − consumer time), once the other bus was seen idle (a gap longer than the frame time) after the real heartbeat was due there; else at the impostor's first heartbeat after that |
 //!
 //! A standby heard becoming operational while the active member is alive was started by
 //! someone else (a rogue NMT start-all): it is sent back to pre-operational at that heartbeat.
