@@ -6,6 +6,7 @@ mod combined;
 mod flying_master;
 mod impostor;
 mod impostor_idle;
+mod jump;
 mod lss;
 mod master;
 mod net;

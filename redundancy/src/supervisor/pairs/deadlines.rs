@@ -54,6 +54,32 @@ impl<S: Storage> PairSupervisor<S> {
         self.next = earliest_of([moved, self.earliest().map(|x| x.0)]);
     }
 
+    /// The caller's clock jumped ahead (or its driver stalled): the table was given nothing
+    /// between `from` (the latest time it was given) and `to` (the clock contract, see
+    /// [`crate::supervisor`]). Whatever fell due in between was not watched: the frames that
+    /// would have met it were not seen. Every joined member whose deadline is after `from` is
+    /// observed again: its deadline becomes at least `to` + its pair's consumer time, so that it
+    /// is judged silent (or not running) only if it stays so for its consumer time after the
+    /// jump; a member heard without a boot-up is adopted at the earliest `to` + the hold-off.
+    /// What was due by `from` was watched and stays due. Deadlines only move later.
+    pub fn jumped(&mut self, from: Instant, to: Instant) {
+        let holdoff = self.cfg.holdoff;
+        for pair in self.pairs.iter_mut() {
+            let consumer = pair.spec.consumer_time;
+            for s in pair.members.iter_mut() {
+                match &mut s.stage {
+                    Stage::Joined { deadline } if *deadline > from => {
+                        *deadline = (*deadline).max(to + consumer);
+                    }
+                    Stage::Waiting {
+                        adopt_at: Some(at), ..
+                    } if *at > from => *at = (*at).max(to + holdoff),
+                    _ => {}
+                }
+            }
+        }
+    }
+
     /// The earliest due item of any member: (instant, pair, member).
     fn earliest(&self) -> Option<(Instant, usize, Member)> {
         let mut best: Option<(Instant, usize, Member)> = None;
