@@ -76,6 +76,13 @@ pub struct DualBusConfig {
     /// watch (default [`MAX_MEMBERS`], every node-ID; a master with a few pairs needs twice
     /// their number).
     pub watch_capacity: usize,
+    /// The longest a frame with its intermission occupies a bus (160 bit times at the bit rate:
+    /// 0.16 ms at 1 Mbit/s, 1.28 ms at 125 kbit/s), plus the jitter of the receive times the
+    /// layer is given: a longer gap between two frames on a bus is time it was idle, rule 2's
+    /// witness that a heartbeat missing there was not starved ([`crate::link::plausible`]).
+    /// Default 2 ms ([`DEFAULT_FRAME_TIME`](crate::link::plausible::DEFAULT_FRAME_TIME): from
+    /// 125 kbit/s up); slower buses need more; zero: no idle witness.
+    pub frame_time: Duration,
 }
 
 // Builders: the struct is `#[non_exhaustive]` (it may gain fields), so code outside the crate
@@ -123,6 +130,12 @@ impl DualBusConfig {
         self.od_layout = od_layout;
         self
     }
+    /// The configuration with [`frame_time`](Self::frame_time) replaced.
+    #[must_use]
+    pub fn with_frame_time(mut self, frame_time: Duration) -> Self {
+        self.frame_time = frame_time;
+        self
+    }
     /// The configuration with [`watch_capacity`](Self::watch_capacity) replaced (at most
     /// [`MAX_MEMBERS`]).
     #[must_use]
@@ -157,6 +170,7 @@ impl DualBusConfig {
             discrepancy_time: Duration::from_millis(100),
             od_layout: OdLayout::default(),
             watch_capacity: MAX_MEMBERS,
+            frame_time: crate::link::plausible::DEFAULT_FRAME_TIME,
         }
     }
 }

@@ -54,7 +54,7 @@
 //!   times, the hand-over times of waiting frames and the transmit-stall references
 //!   (`last_sent`, `overtaken`), back-off and probation, the counters' last times; the merger's
 //!   records (their window and horizon keep the time they had to run); the lag meter's periods
-//!   and twins; reachability's last frames; plausibility's buckets and last heartbeats; the
+//!   and twins; reachability's last frames; plausibility's buckets, last heartbeats and each bus's last frame and idle instant; the
 //!   same-function values and their discrepancy clocks; the CiA 302-6 evaluation windows and
 //!   transmit delays; the ECSS heartbeat deadline and toggle instants. A bus that dies right
 //!   after the step fails exactly the silence limit after its last frame, as measured in the

@@ -74,9 +74,24 @@
 //!   after a step is failed over exactly when it would have been on a clock that never stepped,
 //!   in the new time line. The [audit trail](audit) keeps the instants things happened at, as
 //!   reported, like events already queued.
-//! - **A jump ahead** is time that passed: what is due in between is handled once (a pair
-//!   member's silence, the flying master's detection cycle on its grid, a planned switch on the
-//!   SYNC grid computed rather than stepped through).
+//! - **A jump ahead** shorter than the jump threshold is time that passed: what is due in
+//!   between is handled once (a pair member's silence, the flying master's detection cycle on
+//!   its grid, a planned switch on the SYNC grid computed rather than stepped through).
+//! - **A jump ahead** of the threshold or more — an input at least
+//!   [`PairsConfig::clock_jump`](pairs::PairsConfig::clock_jump) (1 s by default; never less
+//!   than twice this master's heartbeat period, since its own heartbeat calls for an input every
+//!   period) after the latest time the supervisor was given — is not taken for time the
+//!   supervisor watched: the network ran on, and the frames that would have met the deadlines in
+//!   between were not seen (a clock set forward, or a driver that stalled). Every pair member
+//!   whose deadline falls after that latest time is observed again
+//!   ([`PairSupervisor::jumped`](pairs::PairSupervisor::jumped)): it is judged silent (or not
+//!   running) only if it stays so for its consumer time after the jump, so a board that is alive
+//!   is not reset, and one that died is replaced at the jump's end (the first input after it) +
+//!   its consumer time, its standby's start on the bus within 1 ms more. The other masters are
+//!   observed again likewise ([`FlyingMaster::jumped`](flying_master::FlyingMaster::jumped)): one
+//!   heard before the jump is no master returning from a loss, a standby takes over at the
+//!   earliest the master timeout after the jump. What was due before that latest time was
+//!   watched and is handled as always.
 //! - **At [`Instant::MAX`](duocan::Instant::MAX)** no deadline is reported, so nothing stays
 //!   due.
 

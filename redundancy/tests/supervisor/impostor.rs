@@ -28,7 +28,7 @@ fn ms(x: u64) -> Instant {
 }
 
 /// Sends `frame` on every port, every `period` from `start` (once if `period` is zero).
-struct Injector {
+pub(crate) struct Injector {
     ports: usize,
     frame: Frame,
     next: Option<Instant>,
@@ -62,7 +62,7 @@ impl Device for Injector {
     }
 }
 
-fn inject(
+pub(crate) fn inject(
     n: &mut SupNet,
     buses: &[BusId],
     frame: Frame,
@@ -79,7 +79,7 @@ fn inject(
     n.sim.add_device("impostor", dev, buses).unwrap()
 }
 
-fn heartbeat(node: u8, state: u8) -> Frame {
+pub(crate) fn heartbeat(node: u8, state: u8) -> Frame {
     Frame::from_array(Id::Standard(0x700 + node as u16), [state])
 }
 
@@ -90,7 +90,7 @@ fn running(n: &SupNet, id: u8) -> bool {
 
 /// Ends of the frames with identifier `id` delivered on bus `bus` (whoever sent them, babbling
 /// controllers included): when each reached the masters.
-fn arrivals(n: &SupNet, bus: usize, id: u16) -> Vec<Instant> {
+pub(crate) fn arrivals(n: &SupNet, bus: usize, id: u16) -> Vec<Instant> {
     n.sim
         .trace()
         .iter()
@@ -131,7 +131,7 @@ fn rate_after(arrivals: &[Instant], v: Instant) -> u32 {
     count * 50
 }
 
-fn link_events(n: &SupNet, id: u8) -> Vec<LinkEvent> {
+pub(crate) fn link_events(n: &SupNet, id: u8) -> Vec<LinkEvent> {
     n.sim
         .events(n.master(id))
         .iter()
@@ -328,14 +328,15 @@ fn impostor_on_one_bus_only_is_suspect_one_window_after_the_other_bus_lost_the_n
 
 #[test]
 fn two_devices_sharing_a_node_id_are_reported_and_the_standby_takes_over() {
-    // A second device beats 0x710 [7F] (pre-operational) every 20 ms on both buses from 1007
-    // ms, between the real board's heartbeats (which say operational).
+    // A second device beats 0x710 [05] (operational, as the real board does) every 20 ms on
+    // both buses from 1007 ms, between the real board's heartbeats. (One saying another state
+    // is the active member not running, replaced at that heartbeat: `not_operational.rs`.)
     let mut n = SupNet::new(Params::default());
     let buses = n.buses;
     inject(
         &mut n,
         &buses,
-        heartbeat(a(0), 0x7F),
+        heartbeat(a(0), 0x05),
         Some(ms(1007)),
         PERIOD,
     );
@@ -528,7 +529,27 @@ fn rogue_start_the_master_does_not_hear_is_undone_at_the_standbys_first_operatio
         SupervisorEvent::FlyingMaster(FlyingEvent::Suspended { .. })
     )));
     let nmt = nmt_after(&n, ms(1001));
-    assert_eq!(nmt.len(), 4, "{nmt:?}");
+    // Then each B board, heard on bus 2 only while bus 1 is idle between frames, is suspect
+    // one window after its last heartbeat on bus 1 and reset: a board cut off one bus looks
+    // as one an impostor beats for on the other (`impostor_idle.rs`). Nothing else is sent.
+    assert_eq!(nmt.len(), 8, "{nmt:?}");
+    for i in 0..4 {
+        let h = n
+            .delivered()
+            .into_iter()
+            .filter(|(t, bus, s, f)| {
+                *t < ms(1000) && *bus == 0 && *s == b(i) && *f == heartbeat(b(i), 0x7F)
+            })
+            .map(|x| x.0)
+            .max()
+            .unwrap();
+        let reset = nmt[4..].iter().find(|x| x.2 == b(i)).unwrap();
+        assert_eq!(reset.1, NmtCommand::ResetNode);
+        assert!(
+            reset.0 > h + WINDOW && reset.0 <= h + WINDOW + ONE_MS,
+            "{reset:?} vs {h}"
+        );
+    }
     for i in 0..4 {
         // Its first heartbeat saying operational, as the masters got it (bus 2).
         let seen_running = n

@@ -4,7 +4,7 @@
 //! that boot at 0 with no heartbeat; the active master configures 0x1017.
 #![allow(dead_code)]
 
-use crate::stepped::{ClockStep, Stepped};
+use crate::stepped::{ClockJump, ClockStep, Stepped};
 use duocan::machine::StationEvent;
 use duocan::master::{objects, Master, NetworkConfig};
 use duocan::od::{comm, DynamicDictionary};
@@ -18,7 +18,8 @@ use duocan_redundancy::{
     SupervisorConfig, SupervisorEvent,
 };
 
-/// A master station, on a clock that may step back ([`Params::clock_step`]).
+/// A master station, on a clock that may step back ([`Params::clock_step`]) or jump ahead
+/// ([`Params::clock_jump`]).
 pub type MasterDev = Stepped<SupervisedStation<DynamicDictionary>>;
 pub type SlaveDev = Station<DualBus, Node<DynamicDictionary>>;
 
@@ -42,6 +43,8 @@ pub struct Params {
     /// Both masters' clocks read ahead until then, and step back (none: they read the
     /// simulated time).
     pub clock_step: Option<ClockStep>,
+    /// This master's clock (node-ID) jumps ahead then (none: it reads the simulated time).
+    pub clock_jump: Option<(u8, ClockJump)>,
 }
 
 impl Default for Params {
@@ -59,6 +62,7 @@ impl Default for Params {
             bitrate: 1_000_000,
             weak_start: Duration::ZERO,
             clock_step: None,
+            clock_jump: None,
         }
     }
 }
@@ -88,6 +92,10 @@ fn link(p: &Params) -> DualBus {
 /// A master built at simulated time `now` (at its clock's reading then).
 pub fn master_station(p: &Params, id: u8, now: Instant) -> MasterDev {
     let step = p.clock_step.filter(|s| now < s.at);
+    let jump = p
+        .clock_jump
+        .filter(|j| j.0 == id && now < j.1.at)
+        .map(|j| j.1);
     let now = Stepped::<SupervisedStation<DynamicDictionary>>::reading(step, now);
     let nid = NodeId::must(id);
     let od = objects::master_dictionary(id, comm::Identity::default());
@@ -111,7 +119,11 @@ pub fn master_station(p: &Params, id: u8, now: Instant) -> MasterDev {
         )
         .unwrap();
     }
-    Stepped::new(SupervisedStation::new(link(p), sup).unwrap(), step)
+    let station = SupervisedStation::new(link(p), sup).unwrap();
+    match jump {
+        Some(j) => Stepped::jumping(station, j),
+        None => Stepped::new(station, step),
+    }
 }
 
 pub fn slave_station(p: &Params, id: u8, now: Instant) -> SlaveDev {

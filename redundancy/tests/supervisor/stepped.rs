@@ -18,11 +18,22 @@ pub struct ClockStep {
     pub by: Duration,
 }
 
+/// A clock that jumps ahead: it reads the simulated time until `at`, and `by` ahead of it from
+/// then on (an RTC set forward while the network ran). The device is woken at the jump, as a
+/// driver whose clock moved past its deadline is.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct ClockJump {
+    pub at: Instant,
+    pub by: Duration,
+}
+
 pub struct Stepped<T> {
     inner: T,
     step: Option<ClockStep>,
     /// The step has happened (and the device was told).
     stepped: bool,
+    jump: Option<ClockJump>,
+    jumped: bool,
 }
 
 impl<T: Device> Stepped<T> {
@@ -32,6 +43,15 @@ impl<T: Device> Stepped<T> {
             inner,
             step,
             stepped: false,
+            jump: None,
+            jumped: false,
+        }
+    }
+    /// `inner` on a clock that jumps ahead (and never steps back).
+    pub fn jumping(inner: T, jump: ClockJump) -> Self {
+        Stepped {
+            jump: Some(jump),
+            ..Self::new(inner, None)
         }
     }
     /// The device's clock reading at simulated time `now`.
@@ -42,6 +62,10 @@ impl<T: Device> Stepped<T> {
         }
     }
     fn time(&mut self, now: Instant) -> Instant {
+        if let Some(j) = self.jump {
+            self.jumped |= now >= j.at;
+            return if self.jumped { now + j.by } else { now };
+        }
         match self.step {
             Some(s) if now >= s.at && !self.stepped => {
                 self.stepped = true;
@@ -98,6 +122,14 @@ impl<T: Device> Device for Stepped<T> {
     }
     fn poll_timeout(&self) -> Option<Instant> {
         let d = self.inner.poll_timeout();
+        if let Some(j) = self.jump {
+            // Before the jump: the deadline, or the jump itself; after it, in simulated time.
+            return if self.jumped {
+                d.map(|d| d - j.by)
+            } else {
+                Some(d.map_or(j.at, |d| d.min(j.at)))
+            };
+        }
         match self.step {
             // Before the step: the device's deadline in simulated time, and the step itself.
             Some(s) if !self.stepped => Some(d.map_or(s.at, |d| (d - s.by).min(s.at))),

@@ -208,7 +208,8 @@ impl<C: FrameClassifier, const SLOTS: usize, const FUNCTIONS: usize> DualBus<C, 
             plausible: Plausibility::with_capacity(
                 reach_enabled.then_some(cfg.reach_timeout),
                 cfg.watch_capacity,
-            ),
+            )
+            .with_frame_time(cfg.frame_time),
             pairs: SameFunction::new(cfg.discrepancy_time),
             out: Outbox::new(),
             stats: LinkStats::default(),
@@ -393,6 +394,7 @@ impl<C: FrameClassifier, const SLOTS: usize, const FUNCTIONS: usize> BusLink
             return;
         }
         self.health.on_status(now, port, status, &mut self.out);
+        self.plausible.on_status(now, port, status);
         self.policy.on_status(now, port, status, &mut self.out);
         self.show_status();
     }
@@ -414,6 +416,7 @@ impl<C: FrameClassifier, const SLOTS: usize, const FUNCTIONS: usize> BusLink
     fn poll_transmit(&mut self) -> Option<(usize, Frame)> {
         let (p, f) = self.out.pop_frame()?;
         self.health.count_tx(self.clock.latest(), p);
+        self.plausible.on_handed(self.clock.latest(), p);
         Some((p, f))
     }
 

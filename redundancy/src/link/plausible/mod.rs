@@ -41,12 +41,20 @@
 //! A watched node whose heartbeats were heard on both buses (since its last boot-up) and then,
 //! for the reachability timeout `W` ([`DualBusConfig::reach_timeout`](crate::DualBusConfig)), on
 //! one bus only, is suspect at the instant its last heartbeat on the silent bus is `W` old
-//! (exactly), provided the silent bus is *healthy for it*: the port is ok and carried, more than
-//! one and a half periods after that last heartbeat, the heartbeat of another watched node of
-//! **lower priority** (a higher identifier). Neither a cut nor a babbler can then be what keeps
-//! the node's heartbeat off that bus: a cut stops every frame, and a babbler blocks every
-//! identifier of lower priority than its own. Without such a witness at the deadline the rule is
-//! checked again at each of the node's heartbeats (so within one period of a witness). The
+//! (exactly), provided the silent bus is *healthy for it*: the port is ok and, after the node's
+//! heartbeat was due there (one and a half periods after that last heartbeat), the bus was
+//! **seen idle**, or carried the heartbeat of another watched node of **lower priority** (a
+//! higher identifier). Neither a cut nor a babbler can then be what keeps the node's heartbeat
+//! off that bus: a cut stops every frame; CAN arbitration lets a frame wait only while the bus
+//! is busy (a heartbeat queued when the bus goes idle is sent at once), and a babbler blocks
+//! only identifiers of lower priority than its own. The bus is seen idle when two consecutive
+//! frames on it (received, or this layer's own, `idle.rs`) are more than the frame time `F`
+//! apart ([`DualBusConfig::frame_time`](crate::DualBusConfig::frame_time): the longest frame at
+//! the bit rate plus the jitter of the times the layer is given, 2 ms by default): idle at
+//! `t − F` at the latest, `t` being the later frame's time. That witness depends on no other
+//! node: the highest node-ID of the network, which no heartbeat of lower priority can witness
+//! for, is judged like every other. Without a witness at the deadline the rule is checked again
+//! at each of the node's heartbeats (so within one period of a witness). The
 //! deadline is armed by the node's first heartbeat on the other bus that finds the silent bus
 //! late (more than 1.5 periods without it), so a node heard on both buses costs no timer; the
 //! instant is exact when that heartbeat comes before the deadline, i.e. when `W` exceeds about
@@ -54,7 +62,9 @@
 //! period), and otherwise it is that heartbeat. The node is trusted again when it is heard on
 //! the other bus, when it boots (boot-up frame), or when it is heard nowhere for `W` (its silence
 //! is then for the consumers to judge). The rule applies in the modes that listen on both buses
-//! (active-active, CiA 302-6), not in ECSS toggling.
+//! (active-active, CiA 302-6), not in ECSS toggling. A board cut off one bus by a split of that
+//! bus (a partition between it and this master) is, seen from here, what an impostor on the
+//! other bus would be: it is suspect too.
 //!
 //! # Verdicts
 //!
@@ -69,7 +79,8 @@
 //!
 //! # Memory
 //!
-//! One entry per watched node, indexed by node-ID, room for as many as the layer was
+//! A few words per bus for the idle witness, and one entry per watched node, indexed by
+//! node-ID, room for as many as the layer was
 //! configured for ([`DualBusConfig::watch_capacity`](crate::DualBusConfig::watch_capacity);
 //! by default every node-ID, [`MAX_MEMBERS`]: about 13 KiB on a 32-bit target), allocated once
 //! at the first watch and never grown, so that a layer that watches nothing (a node's) carries
@@ -83,6 +94,10 @@ use duocan::{Duration, Id, Instant, NodeId};
 
 /// Extra heartbeats a node may send in one burst on one bus (see rule 1).
 pub const BURST: u64 = 4;
+/// The frame time of rule 2's idle witness by default: the longest classic frame with its
+/// intermission (160 bit times) at 125 kbit/s, 1.28 ms, and 0.72 ms of jitter in the times the
+/// layer is given.
+pub const DEFAULT_FRAME_TIME: Duration = Duration::from_millis(2);
 /// A rate measured above this many times the producer rate is a babbling identifier; up to it,
 /// devices sharing a node-ID.
 pub const BABBLE_FACTOR: u64 = 4;
@@ -223,6 +238,11 @@ pub struct Plausibility {
     table: Option<Holder>,
     /// Last watched heartbeat on each bus (µs): what rule 2's witnesses can have changed.
     last_any: [u64; 2],
+    /// Each bus as a whole: when it was last known idle (rule 2's idle witness, `idle.rs`).
+    buses: [idle::Bus; 2],
+    /// The frame time `F` (µs): a gap between frames longer than this is idle bus; 0: the
+    /// idle witness is off.
+    frame_time: u64,
     /// A lower bound of the next deadline.
     next: Option<u64>,
     /// A change could not be handed up (the machine queue was full): retried at the next input.
@@ -247,11 +267,21 @@ impl Plausibility {
             window: one_bus.filter(|w| !w.is_zero()).map(Duration::as_micros),
             table: None,
             last_any: [NEVER; 2],
+            buses: [idle::Bus::NEW; 2],
+            frame_time: DEFAULT_FRAME_TIME.as_micros(),
             next: None,
             unsynced: false,
             refused: 0,
             capacity: nodes.min(MAX_MEMBERS),
         }
+    }
+
+    /// The table with rule 2's idle witness judging gaps by the frame time `f` (see
+    /// [`DualBusConfig::frame_time`](crate::DualBusConfig::frame_time); zero: no idle witness).
+    #[must_use]
+    pub fn with_frame_time(mut self, f: Duration) -> Self {
+        self.frame_time = f.as_micros().min(1 << 40);
+        self
     }
 
     /// Watches `node`, whose producer time is `period` (zero: stops watching it). False if the
@@ -384,6 +414,9 @@ impl Plausibility {
         for v in self.last_any.iter_mut() {
             back(v);
         }
+        for b in self.buses.iter_mut() {
+            b.step_back(by);
+        }
         if let Some(n) = self.next.as_mut() {
             back(n);
         }
@@ -400,6 +433,7 @@ impl Plausibility {
     }
 }
 
+mod idle;
 mod rules;
 #[cfg(test)]
 mod tests;

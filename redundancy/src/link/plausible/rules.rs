@@ -194,11 +194,14 @@ impl Plausibility {
         }) else {
             return false;
         };
-        if w.checked != NEVER && self.last_any[q] <= w.checked {
+        // Its heartbeat was due on the silent bus by then at the latest.
+        let after = w.ports[q].last.saturating_add(w.period + w.period / 2);
+        // The bus idle after that: the heartbeat was not waiting for it (`idle.rs`).
+        let idle = self.buses[q].idle > after;
+        if !idle && w.checked != NEVER && self.last_any[q] <= w.checked {
             return false; // nothing new on the silent bus since the last failed check
         }
-        let after = w.ports[q].last.saturating_add(w.period + w.period / 2);
-        let ok = health.port(q).state() == PortState::Ok && self.witnessed(i, q, after);
+        let ok = health.port(q).state() == PortState::Ok && (idle || self.witnessed(i, q, after));
         self.at(i).checked = if ok { NEVER } else { t };
         ok
     }

@@ -257,7 +257,8 @@ fn rule_two_one_bus_only_with_a_witness_on_the_other() {
 #[test]
 fn rule_two_needs_a_lower_priority_witness_an_ok_port_and_a_pairing() {
     // The witness must have a lower priority: 0x50 stopping on bus 2 while 0x10 goes on there is
-    // no evidence against 0x50 (a babbler between 0x710 and 0x750 would do the same).
+    // no evidence against 0x50 (a babbler between 0x710 and 0x750 would do the same). Here the
+    // heartbeats are not shown as frames, so bus 2 is never seen idle (that witness is below).
     let mut r = Rig::new();
     beats(
         &mut r,
@@ -385,4 +386,111 @@ fn a_table_sized_for_a_few_members_takes_them_and_refuses_one_more() {
     assert!(p.watch(n(0x50), Duration::ZERO));
     assert!(p.watch(n(0x11), T));
     assert_eq!(p.refused(), 1);
+}
+
+/// What else a bus carries, every 100 µs tick: nothing, a frame received, or one of the layer's
+/// own frames handed over (not confirmed).
+#[derive(Clone, Copy, PartialEq)]
+enum Other {
+    None,
+    Received,
+    Handed,
+}
+
+/// 0x10 and 0x50 beating every 12 ms on both buses from `from` to `until` (ms), as the layer
+/// sees them: each heartbeat is a frame on its bus too (rule 2's idle witness); 0x50 stops on
+/// bus 2 at 244 ms; `other` adds frames that are no watched heartbeat.
+fn with_frames(r: &mut Rig, (from, until): (u64, u64), other: impl Fn(u64, usize) -> Other) {
+    let mut t = from * 1000;
+    while t <= until * 1000 {
+        for port in 0..2 {
+            match other(t, port) {
+                Other::Received => r.p.on_frame(us(t), port),
+                Other::Handed => r.p.on_handed(us(t), port),
+                Other::None => {}
+            }
+            for (node, state, lag) in [(0x10, 5, 0), (0x50, 0x7F, 300)] {
+                let silent = node == 0x50 && port == 1 && t >= 244_000;
+                if t % 12_000 == lag && !silent {
+                    r.run(us(t));
+                    r.p.on_frame(us(t), port);
+                    r.beat(us(t), port, node, state);
+                }
+            }
+        }
+        t += 100;
+    }
+    r.run(us(t));
+}
+
+#[test]
+fn rule_two_for_the_highest_node_id_the_other_bus_seen_idle_is_the_witness() {
+    // 0x50 has no lower-priority heartbeat to witness for it. It stops on bus 2 after
+    // 240.3 ms; bus 2 goes on carrying 0x10 every 12 ms, gaps far longer than the frame time
+    // (2 ms): idle after 0x50's heartbeat was due there (1.5 periods after its last: 258.3 ms),
+    // before 0x10's heartbeat at 264 ms. Suspect at its last heartbeat there + W, exactly.
+    let mut r = Rig::new();
+    with_frames(&mut r, (96, 400), |_, _| Other::None);
+    let e: Vec<_> = r
+        .events()
+        .into_iter()
+        .filter(|e| matches!(e.kind, LinkEventKind::Suspect { .. }))
+        .map(|e| (e.at, e.kind))
+        .collect();
+    assert_eq!(
+        e,
+        [(
+            us(240_300) + W,
+            LinkEventKind::Suspect {
+                node: n(0x50),
+                why: Suspicion::OneBus { heard: 0 }
+            }
+        )]
+    );
+    assert_eq!(r.requests(), [(0x50, true)]);
+    // The last gap, 384 → 396 ms: idle until the frame time before 396 ms at least.
+    assert_eq!(r.p.idle_seen(1), Some(us(394_000)));
+}
+
+#[test]
+fn a_bus_never_idle_is_no_witness_nor_are_gaps_the_layers_own_frames_may_fill() {
+    // Bus 2 carries a frame every 1.9 ms besides the heartbeats (a higher-priority load that
+    // could starve 0x750): never a gap longer than the frame time, no verdict.
+    let busy = |t: u64, p: usize| p == 1 && t.is_multiple_of(1_900);
+    let mut r = Rig::new();
+    with_frames(&mut r, (96, 400), |t, p| {
+        if busy(t, p) {
+            Other::Received
+        } else {
+            Other::None
+        }
+    });
+    assert!(r.requests().is_empty());
+    assert_eq!(r.p.idle_seen(1), None);
+
+    // The same gaps filled with this layer's own frames, which its driver does not confirm:
+    // each is taken to use the bus for the frame time from its hand-over. No verdict either.
+    let mut r = Rig::new();
+    with_frames(&mut r, (96, 400), |t, p| {
+        if busy(t, p) {
+            Other::Handed
+        } else {
+            Other::None
+        }
+    });
+    assert!(r.requests().is_empty());
+    assert_eq!(r.p.idle_seen(1), None);
+
+    // A driver that confirms: a gap that closes while an own frame is unconfirmed does not
+    // count (the frame may be in it); confirmed, the frame is one seen on the bus.
+    let mut r = Rig::new();
+    r.p.on_frame(ms(100), 1);
+    r.p.on_handed(ms(100), 1);
+    r.p.on_status(ms(101), 1, duocan::machine::PortStatus::TxOk);
+    r.p.on_handed(ms(101), 1);
+    r.p.on_frame(ms(110), 1);
+    assert_eq!(r.p.idle_seen(1), None);
+    r.p.on_status(ms(111), 1, duocan::machine::PortStatus::TxOk);
+    r.p.on_frame(ms(120), 1);
+    assert_eq!(r.p.idle_seen(1), Some(ms(118)));
 }

@@ -237,6 +237,26 @@ impl FlyingMaster {
         }
     }
 
+    /// The caller's clock jumped ahead from `from` to `to` without this machine being given
+    /// anything in between (the clock contract, see [`crate::supervisor`]): the other masters
+    /// are observed again rather than judged on time nobody watched. A peer heard within the
+    /// master timeout before `from` counts as heard at `to` (not lost, its next heartbeat no
+    /// return from a loss); a standby's takeover falls at the earliest `to` + the timeout. The
+    /// active master's own timers run as for time that passed.
+    pub fn jumped(&mut self, from: Instant, to: Instant) {
+        let timeout = self.cfg.master_timeout;
+        for p in self.peers.iter_mut() {
+            if let Some(l) = p.last.filter(|l| *l + timeout > from) {
+                p.last = Some(l.max(to));
+            }
+        }
+        if let State::Standby { takeover_at, .. } = &mut self.state {
+            if *takeover_at > from {
+                *takeover_at = (*takeover_at).max(to + timeout);
+            }
+        }
+    }
+
     /// Does what is due at `now`.
     pub fn handle_timeout(&mut self, now: Instant) {
         match self.state {

@@ -258,12 +258,36 @@ impl<D: ObjectDictionary, P: IdProfile> Supervisor<D, P> {
 
     // ----- internals -----
 
-    /// Every input that carries a time passes it here first: one comparison.
+    /// Every input that carries a time passes it here first: two comparisons.
     #[inline]
     fn watch_clock(&mut self, now: Instant) {
+        let latest = self.clock.latest();
         if let Some(by) = self.clock.step_back(now) {
             self.step_back(now, by);
+        } else if now.saturating_since(latest) >= self.jump_threshold() {
+            self.jumped(latest, now);
         }
+    }
+
+    /// An input this long after the latest one is a jump ahead: the pair policy's
+    /// [`clock_jump`](crate::supervisor::pairs::PairsConfig::clock_jump), at least twice this
+    /// master's heartbeat period (its own heartbeat calls for an input every period); zero
+    /// (both zero): no jump is ever seen.
+    fn jump_threshold(&self) -> Duration {
+        let jump = self.pairs.config().clock_jump;
+        match jump.max(self.cfg.heartbeat.saturating_mul(2)) {
+            Duration::ZERO => Duration::MAX,
+            j => j,
+        }
+    }
+
+    /// The clock jumped ahead from `latest` to `now` (or the driver stalled): the pair members
+    /// and the other masters are observed again before they are judged (the clock contract).
+    #[cold]
+    #[inline(never)]
+    fn jumped(&mut self, latest: Instant, now: Instant) {
+        self.fm.jumped(latest, now);
+        self.pairs.jumped(latest, now);
     }
 
     /// The caller's clock stepped back `by` to `now`: every part moves the times it holds back

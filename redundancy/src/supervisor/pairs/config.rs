@@ -1,6 +1,6 @@
 //! The policy of the whole pair table ([`PairsConfig`]): revertive or not, adoption of members
 //! heard without a boot-up and its hold-off, the boot timeout, how a shadow table learns that a
-//! member was configured.
+//! member was configured, what a jump of the clock is.
 
 use duocan::Duration;
 
@@ -23,6 +23,11 @@ pub struct PairsConfig {
     /// the active master's SDO confirmations and clears this
     /// ([`configuration_observed`](super::PairSupervisor::configuration_observed)).
     pub shadow_join_on_heartbeat: bool,
+    /// An input this long or more after the latest one the supervisor was given is a jump of
+    /// the clock ahead (or a driver that stalled), not time the table watched: the members are
+    /// observed again before they are judged ([`PairSupervisor::jumped`](super::PairSupervisor::jumped);
+    /// the supervisor takes at least twice its heartbeat period). Default 1 s.
+    pub clock_jump: Duration,
 }
 
 // Builders: the struct is `#[non_exhaustive]` (it may gain fields), so code outside the crate
@@ -52,6 +57,12 @@ impl PairsConfig {
         self.boot_timeout = boot_timeout;
         self
     }
+    /// The configuration with [`clock_jump`](Self::clock_jump) replaced.
+    #[must_use]
+    pub fn with_clock_jump(mut self, clock_jump: Duration) -> Self {
+        self.clock_jump = clock_jump;
+        self
+    }
     /// The configuration with [`shadow_join_on_heartbeat`](Self::shadow_join_on_heartbeat) replaced.
     #[must_use]
     pub fn with_shadow_join_on_heartbeat(mut self, shadow_join_on_heartbeat: bool) -> Self {
@@ -68,6 +79,7 @@ impl Default for PairsConfig {
             holdoff: Duration::from_millis(200),
             boot_timeout: Duration::from_secs(5),
             shadow_join_on_heartbeat: true,
+            clock_jump: Duration::from_secs(1),
         }
     }
 }

@@ -8,7 +8,7 @@ use super::{Authority, LossReason, MemberState, PairId, PairSupervisor, PairsEve
 use crate::pair::Member;
 use duocan::frame::instant::{earliest_of, shift_back};
 use duocan::frame::storage::Storage;
-use duocan::{Duration, Instant, NmtCommand};
+use duocan::{Duration, Instant, NmtCommand, NmtState};
 
 impl<S: Storage> PairSupervisor<S> {
     /// Earliest instant at which [`PairSupervisor::handle_timeout`] has work (may be early).
@@ -52,6 +52,32 @@ impl<S: Storage> PairSupervisor<S> {
         // "never" before, a real one once moved back.
         let moved = self.next.map(|t| t - by);
         self.next = earliest_of([moved, self.earliest().map(|x| x.0)]);
+    }
+
+    /// The caller's clock jumped ahead (or its driver stalled): the table was given nothing
+    /// between `from` (the latest time it was given) and `to` (the clock contract, see
+    /// [`crate::supervisor`]). Whatever fell due in between was not watched: the frames that
+    /// would have met it were not seen. Every joined member whose deadline is after `from` is
+    /// observed again: its deadline becomes at least `to` + its pair's consumer time, so that it
+    /// is judged silent (or not running) only if it stays so for its consumer time after the
+    /// jump; a member heard without a boot-up is adopted at the earliest `to` + the hold-off.
+    /// What was due by `from` was watched and stays due. Deadlines only move later.
+    pub fn jumped(&mut self, from: Instant, to: Instant) {
+        let holdoff = self.cfg.holdoff;
+        for pair in self.pairs.iter_mut() {
+            let consumer = pair.spec.consumer_time;
+            for s in pair.members.iter_mut() {
+                match &mut s.stage {
+                    Stage::Joined { deadline } if *deadline > from => {
+                        *deadline = (*deadline).max(to + consumer);
+                    }
+                    Stage::Waiting {
+                        adopt_at: Some(at), ..
+                    } if *at > from => *at = (*at).max(to + holdoff),
+                    _ => {}
+                }
+            }
+        }
     }
 
     /// The earliest due item of any member: (instant, pair, member).
@@ -117,8 +143,27 @@ impl<S: Storage> PairSupervisor<S> {
             .map_or(t, |d| d - self.pairs[p].spec.consumer_time);
         let o = m.other();
         let other_alive = self.alive(p, o, t);
+        let consumer = self.pairs[p].spec.consumer_time;
+        // Heard within the consumer time, but not running: the active member that stopped,
+        // or was never heard running after its start (a deadline only operational heartbeats
+        // move; see `heartbeat`).
+        let stopped = match s.nmt {
+            Some(st @ (NmtState::PreOperational | NmtState::Stopped))
+                if self.pairs[p].active == Some(m)
+                    && !self.is_held(s.node)
+                    && s.last.is_some_and(|l| l + consumer > t) =>
+            {
+                Some(st)
+            }
+            _ => None,
+        };
         let (why, loss) = if self.is_suspect(s.node) {
             (Some(RoleReason::ActiveSuspect), LossReason::Suspect)
+        } else if let Some(state) = stopped {
+            (
+                Some(RoleReason::ActiveNotOperational { state }),
+                LossReason::NotOperational { state },
+            )
         } else {
             (None, LossReason::Silent { last })
         };

@@ -2,7 +2,7 @@
 
 use crate::pair::{Member, PairId, MAX_PAIRS};
 use core::fmt;
-use duocan::{Duration, Instant, NmtCommand, NodeId};
+use duocan::{Duration, Instant, NmtCommand, NmtState, NodeId};
 
 /// What the supervisor asks of the master and the dual-bus layer.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -68,6 +68,13 @@ pub enum RoleReason {
     /// The active member's heartbeats became implausible (an impostor on one bus, a babbling
     /// identifier, a duplicate node-ID): handled as if it were silent.
     ActiveSuspect,
+    /// The active member reported itself not operational (pre-operational or stopped: its
+    /// application or its error behaviour, CiA 301 0x1029, put it there) without a command of
+    /// this master: handled as if it were silent.
+    ActiveNotOperational {
+        /// The state it reported.
+        state: NmtState,
+    },
 }
 
 impl fmt::Display for RoleReason {
@@ -89,6 +96,9 @@ impl fmt::Display for RoleReason {
             RoleReason::ActiveSuspect => f.write_str(
                 "active member's heartbeats implausible (impostor, babbling identifier or duplicate node-ID)",
             ),
+            RoleReason::ActiveNotOperational { state } => {
+                write!(f, "active member {state} without a command of this master")
+            }
         }
     }
 }
@@ -150,6 +160,12 @@ pub enum LossReason {
     ResetObserved,
     /// Its heartbeats became implausible; it was reset, as a silent member is.
     Suspect,
+    /// It was the active member and reported itself not operational without a command of this
+    /// master; it was reset, as a silent member is.
+    NotOperational {
+        /// The state it reported.
+        state: NmtState,
+    },
 }
 
 /// What the pair supervisor reports.

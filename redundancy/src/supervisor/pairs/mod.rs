@@ -25,6 +25,22 @@
 //!   Both silent is the last two cases in a row (with one deadline each). Members reset are no
 //!   longer joined; the start of the new active is emitted first, at the deadline, so it is on
 //!   the bus within the consumer time + one frame.
+//! - **Not operational.** The active member is expected to run. Once it has been heard
+//!   operational in its role, a heartbeat of it saying pre-operational or stopped (its
+//!   application or its error behaviour, CiA 301 0x1029, put it there; or a device beating with
+//!   its node-ID says so) is a failure *at that heartbeat*, handled as a silence is at its
+//!   deadline: a live standby is started first (on the bus within one frame) and becomes active,
+//!   the member is reset ([`RoleReason::ActiveNotOperational`], [`LossReason::NotOperational`]);
+//!   without a live standby it is reset and the pair has no active member. Until it is heard
+//!   operational (a heartbeat in flight when it was started may still say pre-operational) only
+//!   operational heartbeats move its deadline, which its start pushed to the start + the consumer
+//!   time: a member that never runs after its start fails then. Not failures: a member the
+//!   application sent to pre-operational or stopped through this table's master
+//!   ([`PairSupervisor::application_nmt`], [`PairSupervisor::is_held`]) stays active, not
+//!   running, until it or this table starts it again (its silence is still judged); a member
+//!   booting or being configured is not joined; a standby is pre-operational by design; the table
+//!   never sends its own active member to pre-operational or stopped (a planned switch does so
+//!   to the member it is leaving). A shadow table follows, as below.
 //! - **Non-revertive** by default: a member that rejoins after a failover is standby. With
 //!   [`PairsConfig::revertive`], member A takes the role back when it rejoins (a planned
 //!   switch: A started, B sent to pre-operational).
@@ -56,7 +72,7 @@
 //! | --- | --- |
 //! | A controller babbling the heartbeat on one bus | at its 6th frame at the latest (0.4 ms at 1 Mbit/s) |
 //! | Two devices with the same node-ID beating at the producer time | within 8 producer periods of both beating |
-//! | An impostor beating on one bus only | the real node's last heartbeat on the other bus + the reachability window (3 guarding periods by default): consumer time + 1 ms + (window − consumer time) |
+//! | An impostor beating on one bus only (any node-ID) | the real node's last heartbeat on the other bus + the reachability window (3 guarding periods by default): consumer time + 1 ms + (window − consumer time), once the other bus was seen idle (a gap longer than the frame time) after the real heartbeat was due there; else at the impostor's first heartbeat after that |
 //!
 //! A standby heard becoming operational while the active member is alive was started by
 //! someone else (a rogue NMT start-all): it is sent back to pre-operational at that heartbeat.
@@ -145,6 +161,12 @@ pub struct PairSupervisor<S: Storage = Inline> {
     suspect: u128,
     /// Node-IDs (bits) the application started through this table's master.
     by_application: u128,
+    /// Node-IDs (bits) the application sent to pre-operational or stopped through this
+    /// table's master: not running is what was asked of them.
+    held: u128,
+    /// Node-IDs (bits) of active members heard operational since they became active: a
+    /// heartbeat of theirs saying otherwise is a failure.
+    running: u128,
 }
 
 impl PairSupervisor {
@@ -180,6 +202,8 @@ impl<S: Storage> PairSupervisor<S> {
             events: S::fifo(events),
             suspect: 0,
             by_application: 0,
+            held: 0,
+            running: 0,
         }
     }
 
@@ -366,6 +390,7 @@ impl<S: Storage> PairSupervisor<S> {
         if self.authority == Authority::Command {
             // This table decides again what it runs.
             self.by_application &= !bit(node);
+            self.held &= !bit(node);
             self.cmd(PairCommand::Nmt { cmd, node });
         }
     }

@@ -4,6 +4,7 @@
 //! follows for the roles is in `roles.rs`.
 
 use super::state::{idx, Stage};
+use super::trust::bit;
 use super::{Authority, LossReason, PairCommand, PairSupervisor, PairsEvent, Phase, RoleReason};
 use crate::pair::Member;
 use duocan::frame::storage::Storage;
@@ -65,6 +66,15 @@ impl<S: Storage> PairSupervisor<S> {
         let shadow = self.authority == Authority::Shadow;
         let on_heartbeat = shadow && self.cfg.shadow_join_on_heartbeat;
         let (adopt, holdoff) = (self.cfg.adopt, self.cfg.holdoff);
+        let active = self.pairs[p].active == Some(m);
+        let operational = state == NmtState::Operational;
+        if active && operational {
+            self.running |= bit(node);
+        }
+        // The active member is expected to run unless the application stopped it: a heartbeat
+        // saying otherwise is no sign of a working board (see "Not operational").
+        let expected = active && self.authority == Authority::Command && !self.is_held(node);
+        let failed = expected && !operational && self.running & bit(node) != 0;
         let s = self.pairs[p].member_mut(m);
         let was = s.nmt;
         let first_after_boot = was == Some(NmtState::Initialising);
@@ -75,8 +85,13 @@ impl<S: Storage> PairSupervisor<S> {
         match &mut s.stage {
             Stage::Joined { deadline } => {
                 s.heartbeats = s.heartbeats.saturating_add(1);
-                // Deadlines only move later: the cached lower bound stays valid.
-                *deadline = now + consumer;
+                if failed {
+                    // Due now: handled below as a silence is, in deadline order.
+                    *deadline = now;
+                } else if operational || !expected {
+                    // Deadlines only move later: the cached lower bound stays valid.
+                    *deadline = now + consumer;
+                }
             }
             // The active master configured it (it beats now): joined as it says.
             Stage::Configuring => join = on_heartbeat && first_after_boot,
@@ -94,6 +109,11 @@ impl<S: Storage> PairSupervisor<S> {
         }
         if let Some(t) = adopt_at {
             self.lower_next(t);
+        }
+        if failed {
+            self.lower_next(now);
+            self.handle_timeout(now);
+            return;
         }
         if self.authority != Authority::Command {
             self.follow_state(now, p, m, state);

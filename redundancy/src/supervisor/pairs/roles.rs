@@ -95,19 +95,28 @@ impl<S: Storage> PairSupervisor<S> {
         }
         self.pairs[p].active = to;
         let spec = self.pairs[p].spec;
+        if let Some(m) = from {
+            self.running &= !bit(spec.node(m));
+        }
         if let Some(m) = to {
             // Running it is this table's decision from now on.
-            self.by_application &= !bit(spec.node(m));
-        }
-        if self.authority == Authority::Command {
-            if let Some(m) = to {
+            let node = spec.node(m);
+            self.by_application &= !bit(node);
+            self.held &= !bit(node);
+            // Heard running already (adopted operational, followed from its heartbeat): it is
+            // expected to go on. Otherwise from its first operational heartbeat on: until then
+            // a heartbeat in flight when it was started may still say pre-operational.
+            if self.pairs[p].member(m).nmt == Some(NmtState::Operational) {
+                self.running |= bit(node);
+            } else if self.authority == Authority::Command && !self.is_suspect(node) {
                 // A member already running (adopted) needs no start; nor does a suspect one,
                 // which the same instant's timeout replaces (a start would wake a board the
-                // table is about to reset).
-                if self.pairs[p].member(m).nmt != Some(NmtState::Operational)
-                    && !self.is_suspect(spec.node(m))
-                {
-                    self.nmt(NmtCommand::Start, spec.node(m));
+                // table is about to reset). Started, it has the consumer time from now to be
+                // heard running.
+                self.nmt(NmtCommand::Start, node);
+                let consumer = spec.consumer_time;
+                if let Stage::Joined { deadline } = &mut self.pairs[p].member_mut(m).stage {
+                    *deadline = (*deadline).max(t + consumer);
                 }
             }
         }
@@ -186,8 +195,10 @@ impl<S: Storage> PairSupervisor<S> {
                 if !self.pairs[p].member(m).joined() {
                     self.join(now, p, m);
                 }
-                self.pairs[p].member_mut(m).nmt = Some(NmtState::Operational);
+                // The role first: the member is heard running at its next heartbeat, not
+                // at the command.
                 self.set_role(now, p, Some(m), RoleReason::Observed);
+                self.pairs[p].member_mut(m).nmt = Some(NmtState::Operational);
             }
             NmtCommand::EnterPreOperational | NmtCommand::Stop => {
                 self.pairs[p].member_mut(m).nmt = Some(cmd.resulting_state());

@@ -14,17 +14,36 @@ pub(super) const fn bit(node: NodeId) -> u128 {
 impl<S: Storage> PairSupervisor<S> {
     /// The application sent `cmd` to `target` (0: all nodes) through this table's master: a
     /// standby it starts may run beside the active member (a test, a comparison of both); any
-    /// other command to it, or one of this table's own, ends that.
+    /// other command to it, or one of this table's own, ends that. An active member it sends to
+    /// pre-operational or stopped is left so, still active ([`PairSupervisor::is_held`]), until
+    /// it or this table starts it again.
     pub fn application_nmt(&mut self, cmd: NmtCommand, target: u8) {
         let targets = match NodeId::new(target) {
             Some(n) => bit(n),
             None => u128::MAX,
         };
-        if cmd == NmtCommand::Start {
-            self.by_application |= targets;
-        } else {
-            self.by_application &= !targets;
+        match cmd {
+            NmtCommand::Start => {
+                self.by_application |= targets;
+                self.held &= !targets;
+            }
+            NmtCommand::Stop | NmtCommand::EnterPreOperational => {
+                self.by_application &= !targets;
+                self.held |= targets;
+            }
+            // A reset ends in a boot-up: the member is joined and decided on afresh.
+            NmtCommand::ResetNode | NmtCommand::ResetCommunication => {
+                self.by_application &= !targets;
+                self.held &= !targets;
+            }
         }
+    }
+
+    /// Whether the application sent `node` to pre-operational or stopped through this table's
+    /// master ([`PairSupervisor::application_nmt`]) and nothing started it since: an active
+    /// member not running is then what was asked for, no failure.
+    pub fn is_held(&self, node: NodeId) -> bool {
+        self.held & bit(node) != 0
     }
 
     /// Whether the dual-bus layer finds `node`'s heartbeats implausible
