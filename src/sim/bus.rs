@@ -75,6 +75,8 @@ pub(super) struct InFlight {
     /// Sender's generation at start: a reboot meanwhile makes the attempt the old device's.
     pub(super) generation: u32,
     pub(super) frame: Frame,
+    /// The frame's serial; none for a babbling controller's.
+    pub(super) serial: Option<u64>,
     pub(super) bits: u32,
     pub(super) babble: bool,
     /// Decided at start, because an error frame lasts longer than a good one.
@@ -155,7 +157,8 @@ pub(super) struct Port {
     pub(super) connected: bool,
     /// False while the interface is down (socket closed).
     pub(super) iface_up: bool,
-    pub(super) queue: VecDeque<Frame>,
+    /// Frames waiting, with their serial (see [`TxRecord::serial`](super::TxRecord)).
+    pub(super) queue: VecDeque<(Frame, u64)>,
     pub(super) capacity: usize,
     pub(super) babble: Option<Frame>,
     pub(super) transmitting: bool,
@@ -203,6 +206,6 @@ impl Port {
     /// The frame this port would put on the wire next: a babbling controller repeats its frame
     /// and holds the queue back.
     pub(super) fn head(&self) -> Option<&Frame> {
-        self.babble.as_ref().or(self.queue.front())
+        self.babble.as_ref().or(self.queue.front().map(|(f, _)| f))
     }
 }

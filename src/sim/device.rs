@@ -97,7 +97,9 @@ pub(super) struct DeviceState {
     pub(super) touched: bool,
     /// A frame pulled from the device whose port queue was full: it goes first once there is
     /// room, and until then no further frame is pulled (back-pressure).
-    pub(super) held: Option<(usize, Frame)>,
+    pub(super) held: Option<(usize, Frame, u64)>,
+    /// Frames taken from the device so far: the next one's serial.
+    pub(super) pulled: u64,
     /// Instant and count of `handle_timeout` calls there, to stop a device that keeps asking
     /// for the instant it was just given from spinning forever.
     pub(super) spin_at: Instant,
@@ -161,6 +163,7 @@ impl SimNetwork {
             deadline: None,
             touched: false,
             held: None,
+            pulled: 0,
             spin_at: Instant::ZERO,
             spins: 0,
             misaddressed: 0,

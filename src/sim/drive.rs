@@ -32,15 +32,17 @@ impl SimNetwork {
         let now = self.now;
         let mut rounds = 0;
         loop {
-            if let Some((port, frame)) = self.devices[d].held.take() {
-                if !self.enqueue_tx(d, port, frame) {
-                    self.devices[d].held = Some((port, frame));
+            if let Some((port, frame, serial)) = self.devices[d].held.take() {
+                if !self.enqueue_tx(d, port, frame, serial) {
+                    self.devices[d].held = Some((port, frame, serial));
                 }
             }
             if self.devices[d].held.is_none() {
                 while let Some((port, frame)) = self.devices[d].dev.poll_transmit() {
-                    if !self.enqueue_tx(d, port, frame) {
-                        self.devices[d].held = Some((port, frame));
+                    let serial = self.devices[d].pulled;
+                    self.devices[d].pulled += 1;
+                    if !self.enqueue_tx(d, port, frame, serial) {
+                        self.devices[d].held = Some((port, frame, serial));
                         break;
                     }
                 }
@@ -89,7 +91,7 @@ impl SimNetwork {
 
     /// Hands a frame to a port controller. False when the queue is full: the caller holds the
     /// frame and stops pulling until a slot frees.
-    fn enqueue_tx(&mut self, d: usize, local: usize, frame: Frame) -> bool {
+    fn enqueue_tx(&mut self, d: usize, local: usize, frame: Frame, serial: u64) -> bool {
         let dev = &mut self.devices[d];
         if local >= dev.ports as usize {
             dev.misaddressed += 1;
@@ -107,7 +109,7 @@ impl SimNetwork {
             port.stats.tx_blocked += 1;
             return false;
         }
-        port.queue.push_back(frame);
+        port.queue.push_back((frame, serial));
         if port.queue.len() == 1 {
             self.refresh_port(p);
         }

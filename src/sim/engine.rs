@@ -169,15 +169,15 @@ impl SimNetwork {
 
     fn start_tx(&mut self, b: usize, s: usize, p: usize) {
         let port = &mut self.ports[p];
-        let (frame, babble) = match (port.babble, port.queue.front()) {
-            (Some(f), _) => (f, true),
-            (None, Some(&f)) => {
+        let (frame, serial, babble) = match (port.babble, port.queue.front()) {
+            (Some(f), _) => (f, None, true),
+            (None, Some(&(f, serial))) => {
                 port.queue.pop_front();
                 let owner = port.dev;
                 if self.devices[owner as usize].held.is_some() {
                     self.refill.push(owner);
                 }
-                (f, false)
+                (f, Some(serial), false)
             }
             (None, None) => {
                 self.refresh_port(p);
@@ -202,6 +202,7 @@ impl SimNetwork {
             sender: p as u32,
             generation,
             frame,
+            serial,
             bits,
             babble,
             error,
@@ -264,8 +265,8 @@ impl SimNetwork {
                 receivers: rx.len() as u32,
             }
         };
-        if outcome == TxOutcome::ErrorFrame && !tx.babble {
-            self.ports[p].queue.push_front(tx.frame);
+        if let (TxOutcome::ErrorFrame, Some(serial)) = (outcome, tx.serial) {
+            self.ports[p].queue.push_front((tx.frame, serial));
         }
         self.refresh_port(p);
 
@@ -322,8 +323,9 @@ impl SimNetwork {
                 } else {
                     tx.frame
                 };
+                let from = (p as u32, tx.serial);
                 for &r in &rx {
-                    self.deliver(b, r as usize, &tx.frame, &wire);
+                    self.deliver(b, r as usize, &tx.frame, &wire, from);
                 }
             }
             _ => {}
@@ -341,8 +343,8 @@ impl SimNetwork {
             let p = tx.sender as usize;
             self.ports[p].transmitting = false;
             let d = self.ports[p].dev as usize;
-            if !tx.babble && self.devices[d].generation == tx.generation {
-                self.ports[p].queue.push_front(tx.frame);
+            if let (Some(serial), true) = (tx.serial, self.devices[d].generation == tx.generation) {
+                self.ports[p].queue.push_front((tx.frame, serial));
             }
             self.refresh_port(p);
             let stats = &mut self.buses[b].stats;
@@ -367,6 +369,7 @@ impl SimNetwork {
             sender,
             sender_name: name,
             frame: tx.frame,
+            serial: tx.serial,
             babble: tx.babble,
             outcome,
         }));

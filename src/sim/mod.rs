@@ -101,6 +101,7 @@ pub use ids::{BusConfig, BusId, DevId, DeviceRef, PortRef, SimError};
 pub use trace::{RxFault, RxRecord, TraceRecord, TxOutcome, TxRecord};
 
 use crate::frame::instant::{Duration, Instant};
+use crate::frame::Frame;
 use crate::machine::PortStatus;
 use bus::{Bus, Port};
 use core::cmp::Reverse;
@@ -135,7 +136,28 @@ pub struct SimNetwork {
     statuses: Vec<(usize, PortStatus)>,
     receivers: Vec<u32>,
     in_action: bool,
+    rx_hook: Option<RxHook>,
 }
+
+/// A frame handed to a device's port, as the receive hook sees it
+/// ([`SimNetwork::set_rx_hook`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct RxNote {
+    /// When the frame ended on the wire (its receive timestamp).
+    pub wire: Instant,
+    /// The receiving port.
+    pub receiver: PortRef,
+    /// The sending port.
+    pub sender: PortRef,
+    /// The frame's serial among its sender's (see [`TxRecord::serial`]); `None` for a
+    /// babbling controller's frames.
+    pub serial: Option<u64>,
+    /// The frame as received.
+    pub frame: Frame,
+}
+
+/// What [`SimNetwork::set_rx_hook`] takes.
+pub type RxHook = Box<dyn FnMut(&RxNote)>;
 
 impl SimNetwork {
     /// An empty network at time zero; `seed` decides every random fault.
@@ -159,7 +181,21 @@ impl SimNetwork {
             statuses: Vec::new(),
             receivers: Vec::new(),
             in_action: false,
+            rx_hook: None,
         }
+    }
+
+    /// How many frames the simulator has taken from `dev` so far (across its replacements):
+    /// the serial its next frame gets (see [`TxRecord::serial`]).
+    pub fn frames_taken(&self, dev: impl Into<DeviceRef>) -> u64 {
+        self.devices[dev.into().index()].pulled
+    }
+
+    /// Calls `hook` for every frame handed to a device's port, just before the device gets it
+    /// (`None` removes it): which transmission of which sender each copy is, for a test's
+    /// oracle. Unlike the trace, it keeps nothing.
+    pub fn set_rx_hook(&mut self, hook: Option<RxHook>) {
+        self.rx_hook = hook;
     }
 
     /// The random seed the network was created with.
@@ -346,7 +382,7 @@ impl SimNetwork {
         d.first_port as usize + port.port
     }
 
-    fn port_ref(&self, p: usize) -> PortRef {
+    pub(super) fn port_ref(&self, p: usize) -> PortRef {
         let port = &self.ports[p];
         DeviceRef(port.dev).port(port.local as usize)
     }

@@ -5,7 +5,7 @@ use super::fault::{chance, either, flip_bit, nth, FaultRates};
 use super::ids::BusId;
 use super::sched::{DelayedRx, Timed};
 use super::trace::{RxFault, RxRecord, TraceRecord};
-use super::SimNetwork;
+use super::{RxNote, SimNetwork};
 use crate::frame::instant::{Duration, Instant};
 use crate::frame::Frame;
 use crate::machine::{ErrorCause, PortStatus};
@@ -24,7 +24,7 @@ impl SimNetwork {
             self.ports[p].delayed = self.ports[p].delayed.saturating_sub(1);
             // A closed interface loses what its driver still held.
             if self.ports[p].iface_up {
-                self.rx_now(p, &item.frame, item.wire);
+                self.rx_now(p, &item.frame, item.wire, item.from);
             }
         }
     }
@@ -51,8 +51,15 @@ impl SimNetwork {
     }
 
     /// Hands a frame that ended on the wire to receiver `r`, through its random faults.
-    /// `wire` is `sent` after any bus-wide bit flip.
-    pub(super) fn deliver(&mut self, b: usize, r: usize, sent: &Frame, wire: &Frame) {
+    /// `wire` is `sent` after any bus-wide bit flip; `from` its sending port and serial.
+    pub(super) fn deliver(
+        &mut self,
+        b: usize,
+        r: usize,
+        sent: &Frame,
+        wire: &Frame,
+        from: (u32, Option<u64>),
+    ) {
         if wire != sent {
             self.ports[r].stats.rx_corrupted += 1;
             self.record_rx(b, r, sent, RxFault::Corrupted { delivered: *wire });
@@ -67,9 +74,9 @@ impl SimNetwork {
             // The common case, a fault-free port with nothing waiting: straight to the device
             // (kept apart so that it stays inlined here, the hottest path of a long soak).
             if latency.is_zero() && self.ports[r].delayed == 0 {
-                self.rx_now(r, wire, self.now);
+                self.rx_now(r, wire, self.now, from);
             } else {
-                self.enqueue_rx(r, wire, latency);
+                self.enqueue_rx(r, wire, latency, from);
             }
             return;
         }
@@ -104,9 +111,9 @@ impl SimNetwork {
             self.ports[r].stats.rx_duplicated += 1;
             self.record_rx(b, r, sent, RxFault::Duplicated);
         }
-        self.enqueue_rx(r, &frame, delay);
+        self.enqueue_rx(r, &frame, delay, from);
         if twice {
-            self.enqueue_rx(r, &frame, delay);
+            self.enqueue_rx(r, &frame, delay, from);
         }
     }
 
@@ -121,9 +128,9 @@ impl SimNetwork {
         }
     }
 
-    fn enqueue_rx(&mut self, r: usize, frame: &Frame, delay: Duration) {
+    fn enqueue_rx(&mut self, r: usize, frame: &Frame, delay: Duration, from: (u32, Option<u64>)) {
         if delay.is_zero() && self.ports[r].delayed == 0 {
-            self.rx_now(r, frame, self.now);
+            self.rx_now(r, frame, self.now, from);
             return;
         }
         let at = self.delivery_time(r, delay);
@@ -140,13 +147,27 @@ impl SimNetwork {
                 generation,
                 frame: *frame,
                 wire: self.now,
+                from,
             },
         });
     }
 
-    /// Hands a frame that ended on the wire at `wire` to receiver `r` now, stamped with its
-    /// wire time unless the port hands frames over without one.
-    fn rx_now(&mut self, r: usize, frame: &Frame, wire: Instant) {
+    /// Hands a frame that ended on the wire at `wire`, sent by `from`, to receiver `r` now,
+    /// stamped with its wire time unless the port hands frames over without one.
+    fn rx_now(&mut self, r: usize, frame: &Frame, wire: Instant, from: (u32, Option<u64>)) {
+        if self.rx_hook.is_some() {
+            let (receiver, sender) = (self.port_ref(r), self.port_ref(from.0 as usize));
+            let note = RxNote {
+                wire,
+                receiver,
+                sender,
+                serial: from.1,
+                frame: *frame,
+            };
+            if let Some(hook) = self.rx_hook.as_mut() {
+                hook(&note);
+            }
+        }
         let port = &mut self.ports[r];
         port.stats.rx += 1;
         let (d, local) = (port.dev as usize, port.local as usize);

@@ -38,6 +38,8 @@ pub(super) struct DelayedRx {
     pub(super) frame: Frame,
     /// When the frame ended on the wire: its receive timestamp.
     pub(super) wire: Instant,
+    /// The sending port and the frame's serial (see the receive hook).
+    pub(super) from: (u32, Option<u64>),
 }
 
 /// A scheduled closure (see [`SimNetwork::at`]).

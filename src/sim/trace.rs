@@ -32,6 +32,10 @@ pub struct TxRecord {
     pub sender_name: Arc<str>,
     /// The frame as sent.
     pub frame: Frame,
+    /// Which frame of its sender it is: the sender device's frames are numbered from 0 in the
+    /// order its `poll_transmit` handed them over (on any port); a retransmission keeps the
+    /// number. `None` for a babbling controller's frames.
+    pub serial: Option<u64>,
     /// Whether a babbling controller sent it rather than the device.
     pub babble: bool,
     /// What became of it.

@@ -52,13 +52,16 @@ pub enum LinkMode {
 pub struct DualBusConfig {
     /// The scheme.
     pub mode: LinkMode,
-    /// Skew window of the merger (default 10 ms): longer than the worst inter-bus skew, shorter
-    /// than the shortest repetition period that matters.
+    /// Skew window of the merger (default 5 ms): longer than the worst inter-bus skew of a
+    /// frame's two receive timestamps, shorter than the shortest repetition period that
+    /// matters (half the 10 ms SYNC of an interlocking cycle: a SYNC one bus lost is not taken
+    /// for the twin of the next). With timestamps taken where the frames arrive, the skew is the
+    /// wires' (each bus arbitrates alike), well under a millisecond.
     pub skew_window: Duration,
-    /// Widest the merge window grows to follow a bus that lags (default 4 × the skew window:
-    /// 40 ms); a bus lagging further is distrusted, and a lag up to twice this is measured at
-    /// all (see [`crate::link::lag`]). Not below the skew window (a smaller value is taken as
-    /// the skew window: no widening).
+    /// The largest lag between the buses that is corrected without calling the lagging bus
+    /// suspect (default 40 ms); a lag up to twice this is corrected and measured at all, and
+    /// that is how long the merger keeps an unmatched copy for a reader that runs behind (see
+    /// [`crate::link::lag`]). Not below the skew window.
     pub max_skew_window: Duration,
     /// Port health timing.
     pub health: HealthConfig,
@@ -156,7 +159,7 @@ impl DualBusConfig {
     /// heartbeat) period: silence limit 3 periods.
     #[must_use]
     pub fn with_guard_period(mode: LinkMode, period: Duration) -> Self {
-        let skew_window = Duration::from_millis(10);
+        let skew_window = Duration::from_millis(5);
         let health = HealthConfig {
             tx_stall: skew_window,
             ..HealthConfig::from_guard_period(period)
@@ -164,7 +167,7 @@ impl DualBusConfig {
         DualBusConfig {
             mode,
             skew_window,
-            max_skew_window: skew_window.saturating_mul(4),
+            max_skew_window: Duration::from_millis(40),
             health,
             reach_timeout: health.silence_limit,
             discrepancy_time: Duration::from_millis(100),

@@ -20,8 +20,11 @@ pub const MACHINE_QUEUE: usize = 8;
 /// The output queues a layer's parts (health, reachability, channel policies) write to.
 #[derive(Debug, Default)]
 pub struct Outbox {
-    /// Per port, so that one port's frames can wait for its re-initialisation.
-    pub(crate) frames: [Bounded<Frame, FRAME_QUEUE>; 2],
+    /// Per port, so that one port's frames can wait for its re-initialisation; each with the
+    /// number of the logical frame it is a copy of.
+    pub(crate) frames: [Bounded<(Frame, u32), FRAME_QUEUE>; 2],
+    /// The number of the logical frame being sent (see [`Outbox::next_frame`]).
+    seq: u32,
     pub(crate) events: Bounded<LinkEvent, EVENT_QUEUE>,
     pub(crate) requests: Bounded<(usize, PortRequest), REQUEST_QUEUE>,
     pub(crate) machine: Bounded<LinkRequest, MACHINE_QUEUE>,
@@ -49,10 +52,16 @@ impl Outbox {
     pub fn machine(&mut self, r: LinkRequest) {
         self.machine.push(r);
     }
+    /// The frames queued from now on are copies of the next logical frame: both ports' copies
+    /// of one frame share a number, and a later frame has a later one (see port health's stall
+    /// rule).
+    pub fn next_frame(&mut self) {
+        self.seq = self.seq.wrapping_add(1);
+    }
     /// Queues a frame for `port` (0 or 1; others are ignored).
     pub fn frame(&mut self, port: usize, f: Frame) {
         if let Some(q) = self.frames.get_mut(port) {
-            q.push(f);
+            q.push((f, self.seq));
         }
     }
     /// The next frame for a driver. A port's frames wait while a request to that port is
@@ -60,24 +69,29 @@ impl Outbox {
     /// to re-initialise are meant for the re-initialised port, not to be flushed by it.
     #[inline]
     pub fn pop_frame(&mut self) -> Option<(usize, Frame)> {
+        self.pop_numbered().map(|(p, f, _)| (p, f))
+    }
+    /// As [`Outbox::pop_frame`], with the number of the logical frame.
+    #[inline]
+    pub fn pop_numbered(&mut self) -> Option<(usize, Frame, u32)> {
         if self.requests.is_empty() {
             // The usual case, on every drain: no port waits for a request.
-            if let Some(f) = self.frames[0].pop() {
-                return Some((0, f));
+            if let Some((f, n)) = self.frames[0].pop() {
+                return Some((0, f, n));
             }
-            return self.frames[1].pop().map(|f| (1, f));
+            return self.frames[1].pop().map(|(f, n)| (1, f, n));
         }
         self.pop_frame_past_requests()
     }
 
     #[inline(never)]
-    fn pop_frame_past_requests(&mut self) -> Option<(usize, Frame)> {
+    fn pop_frame_past_requests(&mut self) -> Option<(usize, Frame, u32)> {
         for p in 0..2 {
             if self.requests.iter().any(|(q, _)| *q == p) {
                 continue;
             }
-            if let Some(f) = self.frames[p].pop() {
-                return Some((p, f));
+            if let Some((f, n)) = self.frames[p].pop() {
+                return Some((p, f, n));
             }
         }
         None

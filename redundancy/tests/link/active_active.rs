@@ -199,19 +199,19 @@ fn babbling_port_floods_bus_1_the_other_bus_carries_the_traffic_in_bounded_memor
     assert!(flooded > 5_000, "the flood ran: {flooded} frames");
     for node in 1..=SLAVES + 1 {
         let link = &net.station(node).link;
-        // Bus 1 could not carry this station's frames. It was flushed and failed exactly 10 ms
-        // (the window) after bus 2 sent a frame handed over after bus 1's oldest waiting one
-        // (so its twin was late), within a cycle and the window of the flood's start;
+        // Bus 1 could not carry this station's frames. It was flushed and failed exactly 5 ms
+        // (the window) after bus 2 sent the twin of bus 1's oldest waiting frame (or a later
+        // frame: the twin would be late), within a cycle and the window of the flood's start;
         // re-initialised after 100, 200, 400 ms, each time failing again the same way, until
         // the flood was over.
         let ev = net.port_events(node, 0);
         let ms = Duration::from_millis;
-        let stalled = PortReason::TxStalled { waited: ms(10) };
+        let stalled = PortReason::TxStalled { waited: ms(5) };
         let overtaken = |from: Instant, failed: Instant| {
-            let twin = failed - ms(10);
+            let twin = failed - ms(5);
             assert!(
-                net.sent_from(node, 1, from).contains(&twin) && twin < from + ms(21),
-                "node {node}: no frame sent on bus 2 10 ms before the stall at {failed:?}"
+                net.sent_from(node, 1, from).contains(&twin) && twin < from + ms(16),
+                "node {node}: no frame sent on bus 2 5 ms before the stall at {failed:?}"
             );
         };
         let mut want = vec![];
@@ -253,10 +253,12 @@ fn babbling_port_floods_bus_1_the_other_bus_carries_the_traffic_in_bounded_memor
         assert_eq!(link.port_state(0), PortState::Ok, "node {node} recovered");
         assert!(net.port_events(node, 1).is_empty(), "node {node}");
         // The flood passed through this station's merger without growing it.
+        // (Unmatched copies wait for the other bus up to the horizon, 80 ms: the babbler's own
+        // station, which does not hear its flood, keeps its bus-2 copies that long.)
         let m = link.merger().stats();
         assert_eq!(m.evicted, 0, "node {node}");
         assert!(
-            m.high_water < 400,
+            m.high_water < 500,
             "node {node}: high water {}",
             m.high_water
         );

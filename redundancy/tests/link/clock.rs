@@ -254,8 +254,9 @@ fn the_transmit_stall_rule_keeps_its_time_after_a_step_back() {
     r.status(ms(41), 1, PortStatus::TxOk);
     r.run(ms(100));
     assert!(r.port_events(0).is_empty() && r.port_events(1).is_empty());
-    // A real stall: bus 1 sends two frames, bus 2 neither. Overtaken at bus 1's second outcome
-    // (103 ms), flushed and failed a window (10 ms) later.
+    // A real stall: bus 1 sends two frames, bus 2 neither. Overtaken at bus 1's first outcome
+    // (102 ms: the twin of bus 2's oldest frame is out), flushed and failed a window (5 ms)
+    // later.
     r.send(ms(100), f(2));
     r.send(ms(101), f(3));
     r.status(ms(102), 0, PortStatus::TxOk);
@@ -264,9 +265,9 @@ fn the_transmit_stall_rule_keeps_its_time_after_a_step_back() {
     assert_eq!(
         r.port_events(1),
         [(
-            ms(113),
+            ms(107),
             PortState::Failed,
-            PortReason::TxStalled { waited: d(10) }
+            PortReason::TxStalled { waited: d(5) }
         )]
     );
     assert_eq!(r.requests, [(1, PortRequest::Reinit)]);
@@ -314,7 +315,7 @@ fn a_correction_survives_a_step_back_and_is_undone_by_what_follows() {
         Some(&(us(280_200), LinkEventKind::LagCleared { port: 1 })),
         "{lag:?}"
     );
-    assert_eq!(r.l.lag().window(), d(10));
+    assert_eq!(r.l.lag().window(), d(5));
 }
 
 #[test]

@@ -2,23 +2,14 @@
 //!
 //! A master sends SYNC every 10 ms; 20 nodes answer with a TPDO carrying a counter, and send a
 //! heartbeat every 100 ms (a frame that repeats unchanged). Bus 2 is dead: every arrival is
-//! unmatched and, with nobody telling the merger, kept until the horizon (eight windows), never
-//! evicted; once the layer says the other port is failed, not kept at all.
+//! unmatched and kept until the horizon (eight windows), never evicted.
 
 use duocan::{Duration, Frame, Id, Instant};
 use duocan_redundancy::link::merge::{Merger, Trust, Verdict};
 
 #[test]
 fn one_bus_dead_for_an_hour_keeps_memory_constant() {
-    one_bus_dead(Trust::Trusted);
-}
-
-#[test]
-fn one_bus_known_dead_for_an_hour_keeps_nothing() {
-    one_bus_dead(Trust::Sole);
-}
-
-fn one_bus_dead(trust: Trust) {
+    let trust = Trust::Trusted;
     const WINDOW: Duration = Duration::from_millis(10);
     let mut m: Merger<1024> = Merger::new(WINDOW);
     let sync = Frame::from_array(Id::Standard(0x80), []);
@@ -62,8 +53,7 @@ fn one_bus_dead(trust: Trust) {
     );
     assert_eq!(s.duplicates, 0);
     // 80 ms of traffic: 8 SYNCs + 160 TPDOs + 16 heartbeats, plus the ones on the edge.
-    let most = if trust == Trust::Sole { 0 } else { 8 * 23 + 1 };
-    assert!(s.high_water <= most, "high water {}", s.high_water);
+    assert!(s.high_water <= 8 * 23 + 1, "high water {}", s.high_water);
     assert_eq!(peak_per_minute.len(), 60);
     let first = peak_per_minute[0];
     assert!(
@@ -73,6 +63,5 @@ fn one_bus_dead(trust: Trust) {
     // Everything still held is forgotten at the horizon after the last arrival.
     m.expire(Instant::from_micros(cycles as u64 * 10_000 + 80_000));
     assert_eq!((m.len(), m.keys()), (0, 0));
-    let kept = if trust == Trust::Sole { 0 } else { sent };
-    assert_eq!(m.stats().forgotten, kept);
+    assert_eq!(m.stats().forgotten, sent);
 }

@@ -4,7 +4,7 @@
 //! merger. No channel to switch.
 
 use super::{ChannelPolicy, FrameInfo, PortMask, RxRoute, BOTH};
-use crate::link::health::{Health, PortState};
+use crate::link::health::Health;
 use crate::link::outbox::Outbox;
 use duocan::machine::PortStatus;
 use duocan::{Duration, Frame, Instant};
@@ -33,10 +33,12 @@ impl ChannelPolicy for ActiveActive {
         // A failed port still carries this node's own heartbeats, one at a time: so that the
         // peers hear at once that its bus works again, and use it, whatever back-off their
         // own re-initialisation of that port runs (the other bus may fail the next instant).
+        // Not a port failed for a transmit stall (a babbling controller holds its bus): a
+        // probe would wait behind the babble and come out stale when it ends.
         if info.heartbeat.is_some() {
             for p in 0..2 {
                 let port = h.port(p);
-                if port.state() == PortState::Failed && port.in_flight().is_none_or(|n| n == 0) {
+                if port.revives_on_traffic() && port.in_flight().is_none_or(|n| n == 0) {
                     mask |= 1 << p;
                 }
             }

@@ -402,6 +402,7 @@ impl<C: FrameClassifier, const SLOTS: usize, const FUNCTIONS: usize> BusLink
     fn send(&mut self, now: Instant, frame: &Frame) {
         self.watch_clock(now);
         let info = self.info(frame);
+        self.out.next_frame();
         let mask = self
             .policy
             .route_tx(now, frame, &info, &self.health, &mut self.out);
@@ -414,8 +415,8 @@ impl<C: FrameClassifier, const SLOTS: usize, const FUNCTIONS: usize> BusLink
     }
 
     fn poll_transmit(&mut self) -> Option<(usize, Frame)> {
-        let (p, f) = self.out.pop_frame()?;
-        self.health.count_tx(self.clock.latest(), p);
+        let (p, f, n) = self.out.pop_numbered()?;
+        self.health.count_tx(self.clock.latest(), p, n);
         self.plausible.on_handed(self.clock.latest(), p);
         Some((p, f))
     }

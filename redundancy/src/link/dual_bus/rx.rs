@@ -4,7 +4,7 @@
 use super::DualBus;
 use crate::link::channel::{ChannelPolicy, RxRoute};
 use crate::link::classify::FrameClassifier;
-use crate::link::health::{PortState, RxOutcome};
+use crate::link::health::RxOutcome;
 use crate::link::merge::{Trust, Verdict};
 use crate::link::same_function::PairVerdict;
 use duocan::{Frame, Instant};
@@ -100,12 +100,10 @@ impl<C: FrameClassifier, const SLOTS: usize, const FUNCTIONS: usize> DualBus<C, 
         frame: &Frame,
     ) -> RxOutcome {
         let s = self.lag.correct(port, at);
-        let trust = if !self.health.trusted(port) {
-            Trust::Unproven
-        } else if self.health.port(1 - port).state() == PortState::Failed {
-            Trust::Sole
-        } else {
+        let trust = if self.health.trusted(port) {
             Trust::Trusted
+        } else {
+            Trust::Unproven
         };
         let (verdict, sample) = self.merger.arrive_at(now, s, port, frame, trust);
         if let Some(sample) = sample {

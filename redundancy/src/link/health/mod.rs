@@ -5,43 +5,54 @@
 //!   ok ──────────────────────▶ suspect ────────────────────────────────▶ failed
 //!    ▲  ◀── frame, no error for        ◀──┐                               │ back-off elapsed:
 //!    │       the hold time                │                               │ PortRequest::Reinit
-//!    │                                    │ silence limit                 ▼   (or Up, or a frame)
-//!    └──────── frames for the probation ─ recovering ◀────────────────────┘
+//!    │                                    │ silence limit                 ▼   (or Up, a frame,
+//!    └──────── frames for the probation ─ recovering ◀────────────────────┘    a TxOk)
 //! ```
 //!
 //! - **Silence.** A port is silent when it has received nothing while the other port received
 //!   *first copies* (frames the merger delivered, whose twins this port should have seen within
 //!   the skew window). Twins do not count, so a network that simply goes quiet fails nobody. A
 //!   port silent for `suspect_after` becomes suspect, for `silence_limit` failed; the instant is
-//!   exact: last frame + limit (or first missed frame + window, if later).
+//!   exact: last frame + limit (or first missed frame + window + the port's receive delay, if
+//!   later: a port whose reader runs behind hands its twins over that much later).
 //! - **Controller reports.** Bus-off, interface down and transceiver faults fail the port at
 //!   once; other errors (error passive, CRC, no-ack, …) make an ok port suspect.
+//! - **Traffic is proof.** A failed port that receives a frame, or whose driver confirms a
+//!   transmission (someone on its bus acknowledged it), is recovering at once, whatever its
+//!   back-off: the bus works (and the other one may fail the next instant).
 //! - **Re-initialisation.** A failed port is re-initialised (`PortRequest::Reinit`) after a
 //!   back-off that doubles on every failed attempt up to a maximum, and is reset when the port
-//!   is ok again. It is then *recovering*: the transmit fan-out includes it again (so that peers
-//!   that also marked the bus failed hear traffic once it is repaired), and it returns to ok
-//!   after receiving frames for the probation time, or fails again after the silence limit.
+//!   is ok again. It is then *recovering*: the transmit fan-out includes it again, and it
+//!   returns to ok after receiving frames for the probation time, or fails again after the
+//!   silence limit.
+//! - **Reaching anyone.** A port is *proven* while it is ok or suspect and its last
+//!   transmission was not left unacknowledged (no-ack: nobody on its bus, a cut next to this
+//!   node). With no port proven, the transmit fan-out sends on both; and a failed port still
+//!   carries the node's own heartbeats, one at a time (see
+//!   [`crate::link::channel::active_active`]), so that peers hear at once that its bus works
+//!   again.
 //! - **Transmit stall** (active-active, drivers that report transmit outcomes). A frame that
 //!   reaches the receivers more than the skew window after its twin on the other bus is not
-//!   matched with it, i.e. arrives as a duplicate. So when the other port has sent a frame
-//!   handed over no earlier than this port's oldest waiting one (the twin is on the wire) and
-//!   this port still has no outcome for it `tx_stall` (the window) later, the port is
-//!   re-initialised at once (flushing its queue) and failed; such a port comes back only through
+//!   matched with it, i.e. arrives as a duplicate. So when the other port has sent the twin of
+//!   this port's oldest waiting frame, or a later frame (the layer numbers its logical frames:
+//!   a SYNC and the heartbeat due with it are handed over in the same instant), and this port
+//!   still has no outcome for it `tx_stall` (the window) later, the port is re-initialised at
+//!   once (flushing its queue) and failed; such a port comes back only through
 //!   re-initialisation, not because it receives (a babbling controller fills the bus with
 //!   frames while nobody else can send). Waiting alone is no stall: a low-priority frame can
 //!   lose arbitration for longer than the window on a busy network, and then it waits on both
 //!   buses alike and its twins still match. Nor is a port judged while the other port sends
 //!   nothing (failed, or its driver never confirms): without a twin there is no duplicate.
-//! - **Trust.** Arrivals on a failed or recovering port are *match-only* while the other port is
-//!   ok or suspect: they may consume a twin but are never delivered themselves. A repaired
-//!   segment can first flush frames that were queued before the fault; those are older than the
-//!   skew window and would otherwise be delivered a second time. The other port delivers every
-//!   occurrence meanwhile, so nothing is lost unless both buses fail at once.
-//! - **Lag.** A port whose frames lag the other port's beyond the maximum skew window (measured
-//!   by [`crate::link::lag`]) is suspect for that (reason `Lag`), and not ok again on traffic
-//!   until its lag is within the maximum (reason `LagWithin`); meanwhile its frames only match
-//!   twins while the other port delivers. Silence counts the merge window in force (a lagging
-//!   port's twins take that long).
+//! - **Trust.** A failed or recovering port, while the other port is ok or suspect, is not
+//!   proven yet for delivery: the merger delivers its copies only where the other port has not
+//!   already passed their time (see [`crate::link::merge`]). A repaired segment can first flush
+//!   frames that were queued before the fault; the other port delivers every occurrence
+//!   meanwhile, so they are dropped, and when the other port fails the instant this one
+//!   returns, its first frames are delivered.
+//! - **Lag.** A port whose copies come later than the other port's by more than the maximum
+//!   skew window even after the correction (measured by [`crate::link::lag`]) is suspect for
+//!   that (reason `Lag`), and not ok again on traffic until its lag is within the maximum
+//!   (reason `LagWithin`).
 
 mod config;
 mod port;
@@ -49,7 +60,7 @@ mod port;
 pub use config::{cause_index, HealthConfig, HealthCounters, ERROR_CAUSES};
 pub use port::{PortHealth, PortState};
 
-use port::{is_fatal, Condition};
+use port::{is_fatal, Condition, Handed};
 
 use crate::link::events::{LinkEvent, LinkEventKind, PortReason};
 use crate::link::outbox::Outbox;
@@ -153,40 +164,48 @@ impl Health {
         self.ports[p].rx_delay = delay;
     }
 
-    /// A frame was handed to port `p` at `now`.
-    pub(crate) fn count_tx(&mut self, now: Instant, p: usize) {
+    /// A copy of the layer's logical frame number `seq` was handed to port `p` at `now`.
+    pub(crate) fn count_tx(&mut self, now: Instant, p: usize, seq: u32) {
         let port = &mut self.ports[p];
         port.counters.tx += 1;
         let moved = port.outstanding.is_empty() || port.outstanding.is_full();
         if port.outstanding.is_full() {
             port.outstanding.pop_front();
         }
-        let _ = port.outstanding.push_back(now);
+        let _ = port.outstanding.push_back(Handed { at: now, seq });
         if moved {
             self.front_moved(now, p);
         }
     }
 
     /// Port `p`'s oldest waiting frame is another one: the stall rule's reference starts over,
-    /// from now if the other port already sent a frame handed over after it (it did so at some
-    /// moment up to now; the later bound never fails a port early).
+    /// from now if the other port already sent this frame's twin or a later frame (it did so
+    /// at some moment up to now; the later bound never fails a port early).
     fn front_moved(&mut self, now: Instant, p: usize) {
         let other_sent = self.ports[1 - p].last_sent;
         let port = &mut self.ports[p];
         port.overtaken = match (port.outstanding.front(), other_sent) {
-            (Some(f), Some(s)) if s > *f => Some(now),
+            (Some(f), Some(s)) if f.no_later_than(s) => Some(now),
             _ => None,
         };
     }
 
-    /// Port `p` confirmed a frame handed over at `handed`: the other port's oldest waiting
-    /// frame, if handed over before it, is overtaken now. Only strictly before: frames handed
-    /// over in the same instant cannot be told apart, and ports send in the order they were
-    /// given, so a later one sent means every earlier one was.
-    fn sent(&mut self, now: Instant, p: usize, handed: Instant) {
+    /// Port `p` confirmed a frame: the other port's oldest waiting frame, if it is that
+    /// frame's twin or an earlier frame, is overtaken now (ports send in the order they were
+    /// given, so a frame sent means every earlier one was). The frames are told apart by their
+    /// number, not their hand-over time: a SYNC and the heartbeat due with it are handed over
+    /// in the same instant. (By time, the rule waited for a frame handed over later, a cycle
+    /// on; the frames waiting behind a babble that long came out later than the window when
+    /// it ended.)
+    fn sent(&mut self, now: Instant, p: usize, handed: Handed) {
         self.ports[p].last_sent = Some(handed);
         let other = &mut self.ports[1 - p];
-        if other.overtaken.is_none() && other.outstanding.front().is_some_and(|f| *f < handed) {
+        if other.overtaken.is_none()
+            && other
+                .outstanding
+                .front()
+                .is_some_and(|f| f.no_later_than(handed))
+        {
             other.overtaken = Some(now);
         }
     }

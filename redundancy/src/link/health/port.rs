@@ -97,10 +97,10 @@ pub struct PortHealth {
     /// Lagging beyond the maximum window (the figure that made it so): suspect for that, and
     /// not ok again on traffic until the lag is within the maximum again.
     pub(super) lagging: Option<Duration>,
-    /// Hand-over times of frames without an outcome yet, oldest first.
-    pub(super) outstanding: heapless::Deque<Instant, OUTSTANDING>,
-    /// Hand-over time of the newest frame confirmed sent (`TxOk`).
-    pub(super) last_sent: Option<Instant>,
+    /// Frames without an outcome yet, oldest first.
+    pub(super) outstanding: heapless::Deque<Handed, OUTSTANDING>,
+    /// The newest frame confirmed sent (`TxOk`).
+    pub(super) last_sent: Option<Handed>,
     /// When the other port was first seen to have sent a frame handed over no earlier than this
     /// port's oldest waiting one: the stall rule's reference (twins must follow within the
     /// window). Cleared whenever that oldest frame changes.
@@ -115,6 +115,22 @@ pub struct PortHealth {
     /// runs behind hands over the twins of the other port's first copies that much later.
     pub(super) rx_delay: Duration,
     pub(super) counters: HealthCounters,
+}
+
+/// A frame handed to a port: when, and which logical frame it is a copy of (the layer numbers
+/// them as they are sent: both ports' copies of one frame have the same number, and a later
+/// frame a later one, also within an instant).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(super) struct Handed {
+    pub(super) at: Instant,
+    pub(super) seq: u32,
+}
+
+impl Handed {
+    /// Handed over no later than `other` (sequence numbers wrap).
+    pub(super) fn no_later_than(self, other: Handed) -> bool {
+        other.seq.wrapping_sub(self.seq) < 1 << 31
+    }
 }
 
 /// Transmissions tracked per port for the stall rule.
@@ -194,7 +210,6 @@ impl PortHealth {
             &mut self.silence_ref,
             &mut self.first_missed,
             &mut self.last_error,
-            &mut self.last_sent,
             &mut self.overtaken,
             &mut self.counters.last_rx,
         ] {
@@ -203,12 +218,13 @@ impl PortHealth {
         if let Some((t, _)) = &mut self.counters.last_error {
             *t = *t - by;
         }
-        for t in self.outstanding.iter_mut() {
-            *t = *t - by;
+        for h in self.outstanding.iter_mut().chain(self.last_sent.as_mut()) {
+            h.at = h.at - by;
         }
     }
-    /// Failed, and traffic would revive it (not after a transmit stall).
-    pub(super) fn revives_on_traffic(&self) -> bool {
+    /// Failed, and traffic would revive it (not after a transmit stall, which only its
+    /// re-initialisation ends).
+    pub fn revives_on_traffic(&self) -> bool {
         matches!(
             self.cond,
             Condition::Failed {

@@ -243,50 +243,49 @@ fn transmit_stall_flushes_and_fails_and_only_reinit_revives() {
     };
     // A driver that never confirmed a success is not judged, even with its twin long sent
     // (embedded-can drivers report failures but cannot confirm successes).
-    h.count_tx(ms(0), 0);
-    h.count_tx(ms(0), 1);
+    h.count_tx(ms(0), 0, 0);
+    h.count_tx(ms(0), 1, 0);
     ok(&mut h, 1, 1);
     assert_eq!(h.poll_timeout(), None);
     let mut only_failures = Health::new(cfg, W);
-    only_failures.count_tx(ms(0), 0);
+    only_failures.count_tx(ms(0), 0, 0);
     only_failures.on_status(
         ms(0),
         0,
         PortStatus::TxFailed(ErrorCause::Bit),
         &mut Outbox::new(),
     );
-    only_failures.count_tx(ms(1), 0);
+    only_failures.count_tx(ms(1), 0, 1);
     assert_eq!(only_failures.stall_deadline(0), None);
     ok(&mut h, 1, 0);
     // Two frames handed to both ports, waiting on both alike (lost arbitration on two busy
     // buses): no stall however long, their twins still match.
     for t in [2, 3] {
-        h.count_tx(ms(t), 0);
-        h.count_tx(ms(t), 1);
+        h.count_tx(ms(t), 0, t as u32);
+        h.count_tx(ms(t), 1, t as u32);
     }
     assert_eq!(h.poll_timeout(), None);
-    // Bus 2 sends the first at 30 ms: bus 1 waits on the same frame.
+    // Bus 2 sends the first at 30 ms: its twin on bus 1 has the window to follow.
     ok(&mut h, 30, 1);
-    assert_eq!(h.poll_timeout(), None);
-    // Bus 2 sends the second at 31 ms: bus 1 has the window to follow.
-    ok(&mut h, 31, 1);
-    assert_eq!(h.stall_deadline(0), Some(ms(41)));
+    assert_eq!(h.stall_deadline(0), Some(ms(40)));
     assert_eq!(h.stall_deadline(1), None);
-    // It follows with the first at 32 ms. Bus 2's newest frame sent was handed over in the
-    // same instant as bus 1's oldest now (3 ms), and frames handed over in one instant look
-    // alike, so that one is judged only once bus 2 sends a later frame: at 34 ms.
+    ok(&mut h, 31, 1);
+    assert_eq!(h.stall_deadline(0), Some(ms(40)));
+    // It follows at 32 ms; the second's twin went out at 31 ms: the window from now. Frames
+    // are told apart by the layer's numbers, not by their hand-over times (a SYNC and a
+    // heartbeat are handed over in one instant).
     ok(&mut h, 32, 0);
-    assert_eq!(h.poll_timeout(), None);
-    h.count_tx(ms(33), 0);
-    h.count_tx(ms(33), 1);
+    assert_eq!(h.stall_deadline(0), Some(ms(42)));
+    h.count_tx(ms(33), 0, 33);
+    h.count_tx(ms(33), 1, 33);
     ok(&mut h, 34, 1);
-    assert_eq!(h.poll_timeout(), Some(ms(44)));
-    h.handle_timeout(ms(44), &mut out);
+    assert_eq!(h.poll_timeout(), Some(ms(42)));
+    h.handle_timeout(ms(42), &mut out);
     assert_eq!(out.requests.pop(), Some((0, PortRequest::Reinit)));
     assert_eq!(
         port_events(&mut out),
         [(
-            ms(44),
+            ms(42),
             0,
             PortState::Failed,
             PortReason::TxStalled { waited: W }
@@ -299,20 +298,20 @@ fn transmit_stall_flushes_and_fails_and_only_reinit_revives() {
     assert_eq!(h.port(0).state(), PortState::Recovering);
     assert_eq!(h.port(0).counters().reinits, 2);
     // A refused hand-over (queue full) concerns the newest frame: the oldest, handed at
-    // 150 ms, still waits when bus 2 sends the next frame's twin.
-    h.count_tx(ms(150), 0);
-    h.count_tx(ms(151), 0);
+    // 150 ms, still waits when bus 2 sends its twin at 152 ms.
+    h.count_tx(ms(150), 0, 150);
+    h.count_tx(ms(151), 0, 151);
     h.on_status(
         ms(151),
         0,
         PortStatus::TxFailed(ErrorCause::TxTimeout),
         &mut out,
     );
-    h.count_tx(ms(150), 1);
-    h.count_tx(ms(151), 1);
+    h.count_tx(ms(150), 1, 150);
+    h.count_tx(ms(151), 1, 151);
     ok(&mut h, 152, 1);
     ok(&mut h, 153, 1);
-    assert_eq!(h.stall_deadline(0), Some(ms(163)));
+    assert_eq!(h.stall_deadline(0), Some(ms(162)));
     // Bus 2 gone: a frame bus 1 cannot send has no twin to be late for; it is not judged.
     h.on_status(
         ms(153),
@@ -321,7 +320,7 @@ fn transmit_stall_flushes_and_fails_and_only_reinit_revives() {
         &mut out,
     );
     h.on_status(ms(154), 0, PortStatus::TxOk, &mut out);
-    h.count_tx(ms(155), 0);
+    h.count_tx(ms(155), 0, 155);
     assert_eq!(h.stall_deadline(0), None);
 }
 

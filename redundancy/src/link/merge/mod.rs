@@ -76,8 +76,9 @@
 //! oldest end of its key's chain: O(1) per arrival, plus one step per record it skips. A `Merger<SLOTS>` holds at most [`Merger::capacity`] = ¾·SLOTS
 //! records. Records leave the ring from its front once matched, once the other port has passed
 //! them, or at the horizon: with one bus dead, the occupancy is the live bus's rate × horizon,
-//! ~320 records at 4,000 frames/s and the default 80 ms; once the layer knows that bus is
-//! failed ([`Trust::Sole`]), none.
+//! ~320 records at 4,000 frames/s and the default 80 ms. (They are kept even once port health
+//! calls that bus failed: a failed port may still receive, a babbled one for instance, and the
+//! first copies of a port coming back must find their twins.)
 //!
 //! # Overflow
 //!
@@ -142,10 +143,6 @@ pub enum Verdict {
 pub enum Trust {
     /// Working: its first copies are delivered.
     Trusted,
-    /// Working, and the other port is failed: its first copies are delivered and not kept,
-    /// as no twin is to come (what the other port carries when it is back is judged by the
-    /// stamps, see "A port not trusted yet").
-    Sole,
     /// Back from a fault and not proven yet, while the other port works.
     Unproven,
 }
@@ -475,7 +472,7 @@ impl<const SLOTS: usize> Merger<SLOTS> {
         }
         // Kept while its twin may come; a fresh copy also when the other port seems past it:
         // stamps corrected for a lag that changed come early, and only a kept copy shows it.
-        if trust != Trust::Sole && (fresh || self.frontier[other] < s.saturating_add(self.window)) {
+        if fresh || self.frontier[other] < s.saturating_add(self.window) {
             self.record(found, hi, lo, hash, port, s, fresh);
         }
         (Verdict::Deliver, sample)

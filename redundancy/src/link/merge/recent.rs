@@ -16,17 +16,31 @@
 //! key took since is taken for fresh and forgotten nothing (at worst a lag sample more, checked
 //! by the other conditions a sample needs, or a late copy delivered twice). The merger has as
 //! many lines as slots; times are kept in microseconds, wrapping every 71 minutes (a key last
-//! seen a multiple of that ago may be taken for a repeat: no sample, no harm): 16 bytes a line.
+//! seen a multiple of that ago may be taken for a repeat: no sample, no harm): 12 bytes a line
+//! (the two low bits of the hash it keeps say whether a copy of the key was forgotten, and on
+//! which port).
 
 #[derive(Clone, Copy, Default)]
 struct Line {
-    hash: u32,
+    /// The key's hash with its two low bits taken by [`FORGOT`] and [`SIDE`].
+    tag: u32,
     /// Microseconds (wrapping) of the key's latest arrival, plus one: 0 is an empty line.
     at: u32,
-    /// Microseconds (wrapping) of the newest copy of the key forgotten, plus one (0: none).
+    /// Microseconds (wrapping) of the newest copy of the key forgotten (valid with
+    /// [`FORGOT`]).
     forgot: u32,
-    /// The port whose copy was forgotten.
-    forgot_side: u8,
+}
+
+/// A copy of the key was forgotten.
+const FORGOT: u32 = 1;
+/// On port 1 (else port 0).
+const SIDE: u32 = 2;
+const FLAGS: u32 = FORGOT | SIDE;
+
+impl Line {
+    fn is(&self, hash: u32) -> bool {
+        self.at != 0 && (self.tag ^ hash) & !FLAGS == 0
+    }
 }
 
 pub(super) struct Recent<const LINES: usize> {
@@ -56,14 +70,14 @@ impl<const LINES: usize> Recent<LINES> {
     fn line(&mut self, hash: u32, now: u32) -> (&mut Line, bool) {
         let age = |l: &Line| now.wrapping_sub(l.at.wrapping_sub(1));
         let pair = self.set(hash);
-        match pair.iter().position(|l| l.at != 0 && l.hash == hash) {
+        match pair.iter().position(|l| l.is(hash)) {
             Some(i) => (&mut pair[i], true),
             None => {
                 let i = usize::from(
                     pair[0].at != 0 && (pair[1].at == 0 || age(&pair[1]) > age(&pair[0])),
                 );
                 pair[i] = Line {
-                    hash,
+                    tag: hash & !FLAGS,
                     ..Line::default()
                 };
                 (&mut pair[i], false)
@@ -90,8 +104,8 @@ impl<const LINES: usize> Recent<LINES> {
         if !known {
             line.at = stamp.wrapping_add(1).max(1);
         }
-        line.forgot = stamp.wrapping_add(1).max(1);
-        line.forgot_side = side as u8;
+        line.forgot = stamp;
+        line.tag = (line.tag & !FLAGS) | FORGOT | if side == 1 { SIDE } else { 0 };
     }
 
     /// Whether a copy of the key `hash` stamped `at_us` on port `port` may be the twin of a copy
@@ -105,15 +119,16 @@ impl<const LINES: usize> Recent<LINES> {
         window_us: u64,
     ) -> bool {
         let now = at_us as u32;
-        let Some(line) = self.set(hash).iter().find(|l| l.at != 0 && l.hash == hash) else {
+        let Some(line) = self.set(hash).iter().find(|l| l.is(hash)) else {
             return false;
         };
-        if line.forgot == 0 || usize::from(line.forgot_side) == port {
+        let side = usize::from(line.tag & SIDE != 0);
+        if line.tag & FORGOT == 0 || side == port {
             return false;
         }
         // How far this copy's stamp lies before the forgotten one's, wrapping: "before" is
         // anything up to half the wrap.
-        let forgot = line.forgot.wrapping_sub(1);
+        let forgot = line.forgot;
         let before = forgot.wrapping_sub(now);
         before < 1 << 31 || u64::from(now.wrapping_sub(forgot)) < window_us
     }
@@ -122,9 +137,7 @@ impl<const LINES: usize> Recent<LINES> {
     pub(super) fn step_back(&mut self, by_us: u64) {
         for l in self.lines.iter_mut().filter(|l| l.at != 0) {
             l.at = l.at.wrapping_sub(by_us as u32);
-            if l.forgot != 0 {
-                l.forgot = l.forgot.wrapping_sub(by_us as u32);
-            }
+            l.forgot = l.forgot.wrapping_sub(by_us as u32);
         }
     }
 }
