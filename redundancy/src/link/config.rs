@@ -161,7 +161,10 @@ impl DualBusConfig {
     pub fn with_guard_period(mode: LinkMode, period: Duration) -> Self {
         let skew_window = Duration::from_millis(5);
         let health = HealthConfig {
-            tx_stall: skew_window,
+            // Half the window: a copy the stall rule lets go at its last moment may still be
+            // on the wire for a frame's time after it, and must reach the receivers within the
+            // window of its twin.
+            tx_stall: Duration::from_micros(skew_window.as_micros() / 2),
             ..HealthConfig::from_guard_period(period)
         };
         DualBusConfig {

@@ -58,6 +58,10 @@ impl Outbox {
     pub fn next_frame(&mut self) {
         self.seq = self.seq.wrapping_add(1);
     }
+    /// The number of the logical frame being sent (see [`Outbox::next_frame`]).
+    pub fn frame_number(&self) -> u32 {
+        self.seq
+    }
     /// Queues a frame for `port` (0 or 1; others are ignored).
     pub fn frame(&mut self, port: usize, f: Frame) {
         if let Some(q) = self.frames.get_mut(port) {

@@ -4,7 +4,7 @@
 
 use crate::sim::*;
 use duocan::{Duration, Frame, Id, Instant};
-use duocan_redundancy::{LinkEventKind, Member, PortReason, PortState};
+use duocan_redundancy::{DualBusConfig, LinkEventKind, Member, PortReason, PortState};
 
 const SILENCE_LIMIT: Duration = Duration::from_millis(150);
 const SUSPECT_AFTER: Duration = Duration::from_millis(50);
@@ -199,19 +199,22 @@ fn babbling_port_floods_bus_1_the_other_bus_carries_the_traffic_in_bounded_memor
     assert!(flooded > 5_000, "the flood ran: {flooded} frames");
     for node in 1..=SLAVES + 1 {
         let link = &net.station(node).link;
-        // Bus 1 could not carry this station's frames. It was flushed and failed exactly 5 ms
-        // (the window) after bus 2 sent the twin of bus 1's oldest waiting frame (or a later
-        // frame: the twin would be late), within a cycle and the window of the flood's start;
+        // Bus 1 could not carry this station's frames. It was flushed and failed exactly the
+        // stall time (2.5 ms, half the window) after bus 2 sent the twin of bus 1's oldest
+        // waiting frame (or a later frame: the twin would be late), within a cycle and the
+        // window of the flood's start;
         // re-initialised after 100, 200, 400 ms, each time failing again the same way, until
         // the flood was over.
         let ev = net.port_events(node, 0);
         let ms = Duration::from_millis;
-        let stalled = PortReason::TxStalled { waited: ms(5) };
+        let stall = DualBusConfig::default().health.tx_stall;
+        assert_eq!(stall, Duration::from_micros(2_500));
+        let stalled = PortReason::TxStalled { waited: stall };
         let overtaken = |from: Instant, failed: Instant| {
-            let twin = failed - ms(5);
+            let twin = failed - stall;
             assert!(
                 net.sent_from(node, 1, from).contains(&twin) && twin < from + ms(16),
-                "node {node}: no frame sent on bus 2 5 ms before the stall at {failed:?}"
+                "node {node}: no frame sent on bus 2 the stall time before the stall at {failed:?}"
             );
         };
         let mut want = vec![];

@@ -255,8 +255,8 @@ fn the_transmit_stall_rule_keeps_its_time_after_a_step_back() {
     r.run(ms(100));
     assert!(r.port_events(0).is_empty() && r.port_events(1).is_empty());
     // A real stall: bus 1 sends two frames, bus 2 neither. Overtaken at bus 1's first outcome
-    // (102 ms: the twin of bus 2's oldest frame is out), flushed and failed a window (5 ms)
-    // later.
+    // (102 ms: the twin of bus 2's oldest frame is out), flushed and failed the stall time
+    // (2.5 ms, half the window) later.
     r.send(ms(100), f(2));
     r.send(ms(101), f(3));
     r.status(ms(102), 0, PortStatus::TxOk);
@@ -265,9 +265,11 @@ fn the_transmit_stall_rule_keeps_its_time_after_a_step_back() {
     assert_eq!(
         r.port_events(1),
         [(
-            ms(107),
+            ms(102) + Duration::from_micros(2_500),
             PortState::Failed,
-            PortReason::TxStalled { waited: d(5) }
+            PortReason::TxStalled {
+                waited: Duration::from_micros(2_500)
+            }
         )]
     );
     assert_eq!(r.requests, [(1, PortRequest::Reinit)]);

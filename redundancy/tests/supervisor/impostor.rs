@@ -108,18 +108,48 @@ pub(crate) fn arrivals(n: &SupNet, bus: usize, id: u16) -> Vec<Instant> {
 }
 
 /// Rule 1 restated: the first arrival that ends a span `s` holding more than `5 + 4s/(3T)`
-/// heartbeats.
-fn too_fast_at(arrivals: &[Instant], period: Duration) -> Option<Instant> {
+/// heartbeats, the span starting no earlier than the last boot-up that began a new life (one
+/// that came at least two periods after the previous such instant, as a leaky bucket of its
+/// own reckons it).
+fn too_fast_at(beats: &[(Instant, bool)], period: Duration) -> Option<Instant> {
     let t = period.as_micros() as i128;
-    (0..arrivals.len()).find_map(|j| {
-        (j.saturating_sub(200)..=j)
+    let d = 2 * t;
+    let (mut boots, mut life) = (0i128, 0usize);
+    (0..beats.len()).find_map(|j| {
+        let (at, boot_up) = (beats[j].0.as_micros() as i128, beats[j].1);
+        if boot_up {
+            let next = boots.max(at) + d;
+            if next - at <= d {
+                life = j;
+            }
+            boots = next.min(at + 2 * d);
+        }
+        (j.saturating_sub(200).max(life)..=j)
             .any(|i| {
                 let count = (j - i + 1) as i128;
-                let span = (arrivals[j] - arrivals[i]).as_micros() as i128;
+                let span = (beats[j].0 - beats[i].0).as_micros() as i128;
                 3 * t * (count - 5) > 4 * span
             })
-            .then_some(arrivals[j])
+            .then_some(beats[j].0)
     })
+}
+
+/// The heartbeats of identifier `id` on `bus`: when each ended, and whether it was a boot-up.
+fn heartbeats(n: &SupNet, bus: usize, id: u16) -> Vec<(Instant, bool)> {
+    n.sim
+        .trace()
+        .iter()
+        .filter_map(|r| match r {
+            TraceRecord::Tx(x)
+                if x.bus == n.buses[bus]
+                    && x.frame.id() == Id::Standard(id)
+                    && matches!(x.outcome, TxOutcome::Delivered { .. }) =>
+            {
+                Some((x.end, x.frame.data().first() == Some(&0)))
+            }
+            _ => None,
+        })
+        .collect()
 }
 
 /// Heartbeats per second measured over the period from a verdict at `v`, `[v, v + T)`.
@@ -206,7 +236,7 @@ fn babbling_impostor_heartbeat_starts_the_standby_within_six_babble_frames() {
     n.kill_slave_at(a(0), ms(1003));
     n.sim.run_until(ms(1500));
 
-    let on_bus1 = arrivals(&n, 0, 0x710);
+    let on_bus1 = heartbeats(&n, 0, 0x710);
     let v = too_fast_at(&on_bus1, PERIOD).unwrap();
     let babble: Vec<Instant> = n
         .sim
@@ -250,7 +280,7 @@ fn babbling_impostor_heartbeat_starts_the_standby_within_six_babble_frames() {
             _ => None,
         })
         .expect("a babbling report");
-    let rate = rate_after(&on_bus1, v);
+    let rate = rate_after(&on_bus1.iter().map(|b| b.0).collect::<Vec<_>>(), v);
     assert_eq!(
         report,
         (v + PERIOD, a(0), Id::Standard(0x710), 0, rate, 50, v)
@@ -287,7 +317,7 @@ fn babble_beginning_after_the_power_loss_cuts_the_silence_short() {
         .at(ms(1030), move |sim| sim.babble(dev.port(0), Some(hb)));
     n.sim.run_until(ms(1500));
     let silent_at = n.last_heartbeat(a(0), ms(1003)) + Duration::from_millis(50);
-    let v = too_fast_at(&arrivals(&n, 0, 0x710), PERIOD).unwrap();
+    let v = too_fast_at(&heartbeats(&n, 0, 0x710), PERIOD).unwrap();
     assert!(v > ms(1030) && v < silent_at, "{v} vs {silent_at}");
     assert_failover_at(&n, v);
 }
@@ -342,9 +372,8 @@ fn two_devices_sharing_a_node_id_are_reported_and_the_standby_takes_over() {
     );
     n.sim.run_until(ms(2000));
     let per_bus: Vec<Vec<Instant>> = (0..2).map(|b| arrivals(&n, b, 0x710)).collect();
-    let v: Vec<Instant> = per_bus
-        .iter()
-        .map(|a| too_fast_at(a, PERIOD).unwrap())
+    let v: Vec<Instant> = (0..2)
+        .map(|b| too_fast_at(&heartbeats(&n, b, 0x710), PERIOD).unwrap())
         .collect();
     // Within 8 periods of both beating.
     assert!(
@@ -587,10 +616,8 @@ fn a_second_board_set_to_the_same_node_id_is_reported_and_never_started() {
         (last.from, last.to, last.reason),
         (Some(Member::A), Some(Member::B), RoleReason::ActiveRebooted)
     );
-    let per_bus: Vec<Vec<Instant>> = (0..2).map(|b| arrivals(&n, b, 0x710)).collect();
-    let v: Vec<Instant> = per_bus
-        .iter()
-        .map(|a| too_fast_at(a, PERIOD).unwrap())
+    let v: Vec<Instant> = (0..2)
+        .map(|b| too_fast_at(&heartbeats(&n, b, 0x710), PERIOD).unwrap())
         .collect();
     let mut want = vec![
         (v[0], Suspicion::TooFast { port: 0 }),

@@ -1,5 +1,5 @@
 //! Active-active: every logical frame goes out on every port that is not failed (and on both
-//! when neither is known to reach anyone); a failed port still carries the node's own
+//! when neither is known to reach anyone, unless one is held by a babble); a failed port still carries the node's own
 //! heartbeats, one at a time, as probes; every received frame goes through the exactly-once
 //! merger. No channel to switch.
 
@@ -26,8 +26,14 @@ impl ChannelPolicy for ActiveActive {
         // had a frame go unacknowledged: a cut next to this node): both get everything,
         // because sending nowhere is certain silence, and a port marked failed may reach
         // someone again (its bus repaired the moment the other one was cut).
+        // Except a port failed for a transmit stall while the other is not: what it is handed
+        // waits behind the babble and comes out, stale, when the babble ends.
         if !h.port(0).proven() && !h.port(1).proven() {
-            return BOTH;
+            return match [h.port(0).stalled(), h.port(1).stalled()] {
+                [true, false] => 0b10,
+                [false, true] => 0b01,
+                _ => BOTH,
+            };
         }
         let mut mask = (h.usable(0) as u8) | (h.usable(1) as u8) << 1;
         // A failed port still carries this node's own heartbeats, one at a time: so that the

@@ -341,6 +341,21 @@ impl<C: FrameClassifier, const SLOTS: usize, const FUNCTIONS: usize> DualBus<C, 
     pub fn forget_member(&mut self, pair: PairId, member: Member) {
         self.pairs.forget(pair, member);
     }
+    /// The number of the logical frame the latest [`send`](BusLink::send) queued copies of
+    /// (wrapping): each send takes the next number, and every copy of it has that number.
+    pub fn frame_number(&self) -> u32 {
+        self.out.frame_number()
+    }
+    /// As [`BusLink::poll_transmit`], with the number of the logical frame the copy is of (see
+    /// [`frame_number`](Self::frame_number)): a copy a port's pending re-initialisation held
+    /// back comes out after later frames' copies for the other port, and the number tells
+    /// whose it is.
+    pub fn poll_numbered(&mut self) -> Option<(usize, Frame, u32)> {
+        let (p, f, n) = self.out.pop_numbered()?;
+        self.health.count_tx(self.clock.latest(), p, n);
+        self.plausible.on_handed(self.clock.latest(), p);
+        Some((p, f, n))
+    }
     /// The classifier.
     pub fn classifier(&self) -> &C {
         &self.classifier
@@ -415,10 +430,7 @@ impl<C: FrameClassifier, const SLOTS: usize, const FUNCTIONS: usize> BusLink
     }
 
     fn poll_transmit(&mut self) -> Option<(usize, Frame)> {
-        let (p, f, n) = self.out.pop_numbered()?;
-        self.health.count_tx(self.clock.latest(), p, n);
-        self.plausible.on_handed(self.clock.latest(), p);
-        Some((p, f))
+        self.poll_numbered().map(|(p, f, _)| (p, f))
     }
 
     fn poll_port_request(&mut self) -> Option<(usize, PortRequest)> {

@@ -42,7 +42,9 @@
 //!   frames while nobody else can send). Waiting alone is no stall: a low-priority frame can
 //!   lose arbitration for longer than the window on a busy network, and then it waits on both
 //!   buses alike and its twins still match. Nor is a port judged while the other port sends
-//!   nothing (failed, or its driver never confirms): without a twin there is no duplicate.
+//!   nothing (failed, or its driver never confirms): without a twin there is no duplicate. A
+//!   port is judged once either port's driver has confirmed a transmission (both ports have
+//!   the same kind of driver; a port held by a babble from the start never confirms one).
 //! - **Trust.** A failed or recovering port, while the other port is ok or suspect, is not
 //!   proven yet for delivery: the merger delivers its copies only where the other port has not
 //!   already passed their time (see [`crate::link::merge`]). A repaired segment can first flush
@@ -397,6 +399,19 @@ impl Health {
         }
         self.changes = self.changes.wrapping_add(1);
         port.since = at;
+        match to {
+            PortState::Failed => port.lossy = true,
+            PortState::Suspect
+                if !matches!(reason, PortReason::Silence { .. } | PortReason::Lag { .. }) =>
+            {
+                port.lossy = true
+            }
+            PortState::Ok if port.lossy => {
+                port.lossy = false;
+                port.back = at;
+            }
+            _ => {}
+        }
         port.cond = match to {
             PortState::Ok => {
                 port.attempt = 0;
@@ -464,7 +479,7 @@ impl Health {
     fn stall_deadline(&self, p: usize) -> Option<Instant> {
         let port = &self.ports[p];
         if self.cfg.tx_stall.is_zero()
-            || !port.reports_outcomes
+            || !(port.reports_outcomes || self.ports[1 - p].reports_outcomes)
             || port.state() == PortState::Failed
         {
             return None;

@@ -87,6 +87,9 @@ pub struct PortHealth {
     /// The state, with the data of that state.
     pub(super) cond: Condition,
     pub(super) since: Instant,
+    /// In a state entered for a fault that may have lost frames (see [`PortHealth::back`]).
+    pub(super) lossy: bool,
+    pub(super) back: Instant,
     /// Start of the current silence: last frame, entry into recovering, or start of observation.
     pub(super) silence_ref: Option<Instant>,
     /// First first-copy on the other port since this port's last frame.
@@ -141,6 +144,8 @@ impl PortHealth {
         PortHealth {
             cond: Condition::Ok,
             since: Instant::ZERO,
+            lossy: false,
+            back: Instant::ZERO,
             silence_ref: None,
             first_missed: None,
             last_error: None,
@@ -163,6 +168,12 @@ impl PortHealth {
     /// When it entered the current state.
     pub fn since(&self) -> Instant {
         self.since
+    }
+    /// When it last came back to ok from a fault that may have lost frames (it failed, or a
+    /// transmission or its controller failed); a suspicion for silence or lag alone does not
+    /// count. Frames sent on its bus before then may be lost, not late.
+    pub fn back(&self) -> Instant {
+        self.back
     }
     /// Counters.
     pub fn counters(&self) -> &HealthCounters {
@@ -201,6 +212,7 @@ impl PortHealth {
     }
     pub(super) fn step_back(&mut self, by: Duration) {
         self.since = self.since - by;
+        self.back = self.back - by;
         match &mut self.cond {
             Condition::Failed { reinit_at, .. } => *reinit_at = *reinit_at - by,
             Condition::Recovering { probation_from } => shift_back(probation_from, by),
@@ -229,6 +241,17 @@ impl PortHealth {
             self.cond,
             Condition::Failed {
                 revive_on_rx: true,
+                ..
+            }
+        )
+    }
+    /// Failed for a transmit stall (a babbling controller holds its bus): what it is handed
+    /// waits behind the babble and comes out stale when it ends.
+    pub fn stalled(&self) -> bool {
+        matches!(
+            self.cond,
+            Condition::Failed {
+                revive_on_rx: false,
                 ..
             }
         )

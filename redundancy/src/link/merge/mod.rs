@@ -50,11 +50,14 @@
 //!
 //! A bus that comes back (repaired, re-initialised) may first carry frames that were queued
 //! before the fault, older than any twin; the layer says which port is not trusted yet
-//! ([`Trust::Unproven`]). Such a copy that finds no twin is delivered only if the other port
-//! has not yet received anything stamped as late as it ([`Verdict::Unproven`] otherwise): when
-//! the other bus fails at the very moment this one returns, its frames are delivered from their
-//! first one, and while the other bus works, what it has already passed is not taken from the
-//! returning one.
+//! ([`Trust::Unproven`]). Such a copy is judged like any other while its stamp is recent
+//! enough that every record of the other port it could match is still held (less than the
+//! horizon minus a window ago): no twin among them proves the other bus never carried it (a
+//! node cut from that bus, say), however late this port's reader hands it over. An older copy
+//! that finds no twin is delivered only if the other port has not yet received anything
+//! stamped as late as it ([`Verdict::Unproven`] otherwise): when the other bus fails at the
+//! very moment this one returns, its frames are delivered from their first one, and while the
+//! other bus works, what it has already passed is not taken from the returning one.
 //!
 //! # Lag
 //!
@@ -426,6 +429,14 @@ impl<const SLOTS: usize> Merger<SLOTS> {
             return (Verdict::Deliver, None);
         }
         let s = at.min(now).as_micros();
+        let trust = match trust {
+            // Every record of the other port stamped from a window before this copy is still
+            // held: that no twin is among them proves the other bus did not carry it.
+            Trust::Unproven if now.as_micros() - s < self.horizon.saturating_sub(self.window) => {
+                Trust::Trusted
+            }
+            t => t,
+        };
         let (verdict, sample) = self.judge(s, port, frame, trust);
         if self.frontier[port] < s {
             self.frontier[port] = s;

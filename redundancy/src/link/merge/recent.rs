@@ -15,18 +15,19 @@
 //! of its set, so two keys that repeat side by side keep their lines. A key whose line a third
 //! key took since is taken for fresh and forgotten nothing (at worst a lag sample more, checked
 //! by the other conditions a sample needs, or a late copy delivered twice). The merger has as
-//! many lines as slots; times are kept in microseconds, wrapping every 71 minutes (a key last
-//! seen a multiple of that ago may be taken for a repeat: no sample, no harm): 12 bytes a line
-//! (the two low bits of the hash it keeps say whether a copy of the key was forgotten, and on
-//! which port).
+//! many lines as slots, 12 bytes each (the two low bits of the hash a line keeps say whether a
+//! copy of the key was forgotten, and on which port). Times are kept in microseconds from a
+//! base, in 32 bits: when a time runs half their range (35 minutes) past the base, everything
+//! is forgotten and the base moves there (nothing that old is recent, nor a twin still coming),
+//! so a jump of the clock is never read as a small age.
 
 #[derive(Clone, Copy, Default)]
 struct Line {
     /// The key's hash with its two low bits taken by [`FORGOT`] and [`SIDE`].
     tag: u32,
-    /// Microseconds (wrapping) of the key's latest arrival, plus one: 0 is an empty line.
+    /// Microseconds from the base of the key's latest arrival, plus one: 0 is an empty line.
     at: u32,
-    /// Microseconds (wrapping) of the newest copy of the key forgotten (valid with
+    /// Microseconds from the base of the newest copy of the key forgotten (valid with
     /// [`FORGOT`]).
     forgot: u32,
 }
@@ -36,6 +37,8 @@ const FORGOT: u32 = 1;
 /// On port 1 (else port 0).
 const SIDE: u32 = 2;
 const FLAGS: u32 = FORGOT | SIDE;
+/// Times run this far past the base at most (half the 32-bit range).
+const SPAN: u64 = 1 << 31;
 
 impl Line {
     fn is(&self, hash: u32) -> bool {
@@ -45,6 +48,8 @@ impl Line {
 
 pub(super) struct Recent<const LINES: usize> {
     lines: [Line; LINES],
+    /// The time (µs) the lines count from.
+    base: u64,
 }
 
 impl<const LINES: usize> Recent<LINES> {
@@ -54,7 +59,20 @@ impl<const LINES: usize> Recent<LINES> {
     pub(super) fn new() -> Self {
         Recent {
             lines: [Line::default(); LINES],
+            base: 0,
         }
+    }
+
+    /// `at_us` from the base, if the lines can count it (forgetting everything and moving the
+    /// base when it is too far past); `None` for a time before the base.
+    fn rel(&mut self, at_us: u64) -> Option<u32> {
+        let d = at_us.checked_sub(self.base)?;
+        if d >= SPAN {
+            self.lines = [Line::default(); LINES];
+            self.base = at_us;
+            return Some(0);
+        }
+        Some(d as u32)
     }
 
     /// The two lines `hash` may be in.
@@ -67,15 +85,13 @@ impl<const LINES: usize> Recent<LINES> {
 
     /// The line of `hash`, taking the empty or older line of its set if it has none.
     #[inline]
-    fn line(&mut self, hash: u32, now: u32) -> (&mut Line, bool) {
-        let age = |l: &Line| now.wrapping_sub(l.at.wrapping_sub(1));
+    fn line(&mut self, hash: u32) -> (&mut Line, bool) {
         let pair = self.set(hash);
         match pair.iter().position(|l| l.is(hash)) {
             Some(i) => (&mut pair[i], true),
             None => {
-                let i = usize::from(
-                    pair[0].at != 0 && (pair[1].at == 0 || age(&pair[1]) > age(&pair[0])),
-                );
+                let i =
+                    usize::from(pair[0].at != 0 && (pair[1].at == 0 || pair[1].at < pair[0].at));
                 pair[i] = Line {
                     tag: hash & !FLAGS,
                     ..Line::default()
@@ -89,27 +105,33 @@ impl<const LINES: usize> Recent<LINES> {
     /// (on either port) within `horizon_us` before it, and remembers this one.
     #[inline]
     pub(super) fn observe(&mut self, hash: u32, at_us: u64, horizon_us: u64) -> bool {
-        let now = at_us as u32;
-        let (line, known) = self.line(hash, now);
-        let fresh = !known || u64::from(now.wrapping_sub(line.at.wrapping_sub(1))) > horizon_us;
-        line.at = now.wrapping_add(1).max(1);
+        let Some(now) = self.rel(at_us) else {
+            return true;
+        };
+        let (line, known) = self.line(hash);
+        let last = line.at.wrapping_sub(1);
+        let fresh = !known || now < last || u64::from(now - last) > horizon_us;
+        line.at = line.at.max(now + 1);
         fresh
     }
 
     /// A copy of the key `hash` on port `side`, stamped `at_us`, was forgotten while its twin
     /// could still come.
     pub(super) fn forgot(&mut self, hash: u32, side: usize, at_us: u64) {
-        let stamp = at_us as u32;
-        let (line, known) = self.line(hash, stamp);
+        let Some(stamp) = self.rel(at_us) else {
+            return;
+        };
+        let (line, known) = self.line(hash);
         if !known {
-            line.at = stamp.wrapping_add(1).max(1);
+            line.at = stamp + 1;
         }
         line.forgot = stamp;
         line.tag = (line.tag & !FLAGS) | FORGOT | if side == 1 { SIDE } else { 0 };
     }
 
     /// Whether a copy of the key `hash` stamped `at_us` on port `port` may be the twin of a copy
-    /// the other port forgot: one was forgotten less than `window_us` after this one's stamp.
+    /// the other port forgot: its stamp is no later than the newest forgotten one's plus
+    /// `window_us`.
     #[inline]
     pub(super) fn twin_forgotten(
         &mut self,
@@ -118,26 +140,24 @@ impl<const LINES: usize> Recent<LINES> {
         at_us: u64,
         window_us: u64,
     ) -> bool {
-        let now = at_us as u32;
+        let Some(now) = self.rel(at_us) else {
+            return false;
+        };
         let Some(line) = self.set(hash).iter().find(|l| l.is(hash)) else {
             return false;
         };
         let side = usize::from(line.tag & SIDE != 0);
-        if line.tag & FORGOT == 0 || side == port {
-            return false;
-        }
-        // How far this copy's stamp lies before the forgotten one's, wrapping: "before" is
-        // anything up to half the wrap.
-        let forgot = line.forgot;
-        let before = forgot.wrapping_sub(now);
-        before < 1 << 31 || u64::from(now.wrapping_sub(forgot)) < window_us
+        line.tag & FORGOT != 0
+            && side != port
+            && u64::from(now) < u64::from(line.forgot) + window_us
     }
 
     /// The caller's clock stepped back `by_us`: every time held moves back with it.
     pub(super) fn step_back(&mut self, by_us: u64) {
-        for l in self.lines.iter_mut().filter(|l| l.at != 0) {
-            l.at = l.at.wrapping_sub(by_us as u32);
-            l.forgot = l.forgot.wrapping_sub(by_us as u32);
+        match self.base.checked_sub(by_us) {
+            Some(b) => self.base = b,
+            // Older than the origin: nothing held can be placed.
+            None => *self = Recent::new(),
         }
     }
 }

@@ -15,7 +15,9 @@
 //! `BURST + 1 + s / (3T/4)` of them, i.e. `5 + 4s/(3T)` with [`BURST`] = 4. A node may thus beat
 //! up to a third faster than its producer time for ever (clock tolerance) and add up to four
 //! extra heartbeats at once (its boot-up, the heartbeat a node sends at once on a state change
-//! or a new producer time). Implemented as a leaky bucket (GCRA): one `u64` per node and bus, in
+//! or a new producer time). A boot-up starts a new life with an empty bucket (a board a master
+//! resets twice within a few periods is no babbler), at most one boot-up per two periods: a
+//! babble of boot-ups is flagged like any other. Implemented as a leaky bucket (GCRA): one `u64` per node and bus, in
 //! quarter microseconds so that the drain of `3T/4` per heartbeat is exact.
 //!
 //! - A babbling controller repeating the heartbeat back to back is flagged at its **sixth frame**
@@ -42,7 +44,9 @@
 //! for the reachability timeout `W` ([`DualBusConfig::reach_timeout`](crate::DualBusConfig)), on
 //! one bus only, is suspect at the instant its last heartbeat on the silent bus is `W` old
 //! (exactly), provided the silent bus is *healthy for it*: the port is ok and, after the node's
-//! heartbeat was due there (one and a half periods after that last heartbeat), the bus was
+//! heartbeat was due there (one and a half periods after that last heartbeat, or after the
+//! port last came back to ok from a failure or a transmit error if later: a heartbeat sent
+//! while the bus was cut is lost, so a flapping bus is no evidence), the bus was
 //! **seen idle**, or carried the heartbeat of another watched node of **lower priority** (a
 //! higher identifier). Neither a cut nor a babbler can then be what keeps the node's heartbeat
 //! off that bus: a cut stops every frame; CAN arbitration lets a frame wait only while the bus
@@ -119,6 +123,8 @@ struct Track {
     measuring: bool,
     /// Rule 1 holds: its heartbeats here are dropped.
     fast: bool,
+    /// Theoretical arrival time of the boot-ups' own bucket, in quarter microseconds.
+    boots: u64,
 }
 
 impl Track {
@@ -129,6 +135,7 @@ impl Track {
         count: 0,
         measuring: false,
         fast: false,
+        boots: 0,
     };
     fn fast(&self) -> bool {
         self.fast
@@ -427,6 +434,7 @@ impl Plausibility {
                     back(&mut tr.last);
                     back(&mut tr.since);
                     tr.tat = tr.tat.saturating_sub(by.saturating_mul(4));
+                    tr.boots = tr.boots.saturating_sub(by.saturating_mul(4));
                 }
             }
         }

@@ -93,9 +93,22 @@ impl Plausibility {
         // Rule 1: the leaky bucket, in quarter microseconds.
         let (drain, limit, period, late_after) = (w.drain, w.limit, w.period, w.late);
         let tq = t.saturating_mul(4);
+        let boot_up = frame.data().first() == Some(&0);
         let tr = &mut w.ports[p];
         let before = tr.last;
         tr.last = t;
+        if boot_up {
+            // A new life: what it sent before is not this life's burst (a board reset twice
+            // in a few periods, by a failover and its repair). At most one boot-up per two
+            // periods empties the bucket, so a babble of boot-ups is flagged like any other.
+            let d = period.saturating_mul(8);
+            let boots = tr.boots.max(tq).saturating_add(d);
+            // Not while a verdict holds: a babble on that bus goes on whoever boots.
+            if boots - tq <= d && !tr.fast {
+                tr.tat = tr.tat.min(tq);
+            }
+            tr.boots = boots.min(tq.saturating_add(2 * d));
+        }
         if tr.tat <= tq {
             // Drained: a verdict ended at `tat` (the sweep normally saw to it on time).
             tr.fast = false;
@@ -126,7 +139,6 @@ impl Plausibility {
         if let Some(win) = window {
             let heard = |l: u64| l != NEVER && t < l.saturating_add(win);
             let other = w.ports[1 - p].last;
-            let boot_up = frame.data().first() == Some(&0);
             if boot_up || !(heard(before) || heard(other)) {
                 // A boot-up, or heard nowhere for a window: a new life, judged afresh once
                 // heard on both buses again.
@@ -194,8 +206,14 @@ impl Plausibility {
         }) else {
             return false;
         };
-        // Its heartbeat was due on the silent bus by then at the latest.
-        let after = w.ports[q].last.saturating_add(w.period + w.period / 2);
+        // Its heartbeat was due on the silent bus by then at the latest: 1.5 periods after
+        // the later of its last heartbeat there and the port's return from a fault that may
+        // lose frames (a heartbeat sent while the bus was cut is lost, not waiting).
+        let since = health.port(q).back().as_micros();
+        let after = w.ports[q]
+            .last
+            .max(since)
+            .saturating_add(w.period + w.period / 2);
         // The bus idle after that: the heartbeat was not waiting for it (`idle.rs`).
         let idle = self.buses[q].idle > after;
         if !idle && w.checked != NEVER && self.last_any[q] <= w.checked {

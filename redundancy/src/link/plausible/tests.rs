@@ -1,9 +1,9 @@
 use super::*;
 use crate::link::events::{LinkEvent, LinkEventKind, Suspicion};
-use crate::link::health::{Health, HealthConfig};
+use crate::link::health::{Health, HealthConfig, PortState, RxOutcome};
 use crate::link::outbox::{Outbox, MACHINE_QUEUE};
 use duocan::frame::instant::TimeWatch;
-use duocan::machine::LinkRequest;
+use duocan::machine::{LinkRequest, PortStatus};
 use duocan::Frame;
 use std::vec::Vec;
 
@@ -493,4 +493,77 @@ fn a_bus_never_idle_is_no_witness_nor_are_gaps_the_layers_own_frames_may_fill() 
     r.p.on_status(ms(111), 1, duocan::machine::PortStatus::TxOk);
     r.p.on_frame(ms(120), 1);
     assert_eq!(r.p.idle_seen(1), Some(ms(118)));
+}
+
+#[test]
+fn a_board_reset_twice_in_a_few_periods_is_no_babbler_a_boot_up_babble_is() {
+    // Reset at 100 ms and again five periods later (two masters, or a failover and its
+    // repair): each time the heartbeat of the state it leaves, its boot-up, the
+    // pre-operational and the operational heartbeat at once; its periodic heartbeats between.
+    // Twelve heartbeats in 61 ms: one more than a bucket that kept the first life would take.
+    let mut r = Rig::new();
+    let mut dropped = 0;
+    for start in [100_000, 160_000] {
+        for (k, state) in [5u8, 0, 0x7F, 5].into_iter().enumerate() {
+            dropped += r.beat(us(start + k as u64 * 300), 0, 0x10, state) as usize;
+        }
+        if start == 100_000 {
+            for k in 1..5 {
+                dropped += r.beat(us(start + 900 + k * 12_000), 0, 0x10, 5) as usize;
+            }
+        }
+    }
+    assert_eq!(dropped, 0);
+    assert!(r.requests().is_empty());
+    // A controller repeating the boot-up back to back: flagged at its sixth frame, like any
+    // babble (only its first boot-up empties the bucket).
+    let mut r = Rig::new();
+    let flagged = (0..12).position(|k| r.beat(us(100_000 + k * 100), 0, 0x10, 0));
+    assert_eq!(flagged, Some(5), "flagged at the sixth frame");
+    assert_eq!(r.requests(), [(0x10, true)]);
+}
+
+#[test]
+fn rule_two_counts_the_silence_from_the_ports_return_to_ok() {
+    // Bus 2 cut from 254 to 300 ms while 0x10 and 0x50 beat every 12 ms (0x50 just before
+    // 0x10): the heartbeats sent meanwhile are lost; port health calls the port suspect at the
+    // first frame of this station's that goes unacknowledged (a suspicion for silence alone
+    // would not do: a bus with little traffic is often silent for a while).
+    let mut r = Rig::new();
+    r.health = Health::new(
+        HealthConfig::from_guard_period(Duration::from_millis(20)),
+        Duration::from_millis(10),
+    );
+    let cut = |t: u64, port: usize| port == 1 && (254..300).contains(&t);
+    let mut t = 100;
+    while t <= 340 {
+        for (dt, port, node) in [(0, 0, 0x50), (0, 1, 0x50), (300, 0, 0x10), (400, 1, 0x10)] {
+            let at = ms(t) + Duration::from_micros(dt);
+            r.health.handle_timeout(at, &mut r.out);
+            if t == 256 && port == 1 && node == 0x50 {
+                // This station's own frame on bus 2 goes unacknowledged: the cut.
+                let nack = PortStatus::TxFailed(duocan::machine::ErrorCause::NoAck);
+                r.health.on_status(at, 1, nack, &mut r.out);
+            }
+            if !cut(t, port) {
+                r.beat(at, port, node, 5);
+                r.health.on_rx(at, port, RxOutcome::Delivered, &mut r.out);
+            }
+        }
+        t += 12;
+    }
+    let states: Vec<_> = r
+        .events()
+        .into_iter()
+        .filter_map(|e| match e.kind {
+            LinkEventKind::Port { port: 1, to, .. } => Some(to),
+            _ => None,
+        })
+        .collect();
+    assert_eq!(states, [PortState::Suspect, PortState::Ok]);
+    // 0x10's last heartbeat on bus 2 before the cut at 242 ms, W = 36 ms. At 302 ms 0x50 shows
+    // bus 2 back and ok, and 0x10 is heard on bus 1: its heartbeat on bus 2 is not late, it
+    // comes 400 µs after 0x50's. The silence was the cut's: no verdict.
+    assert!(r.requests().is_empty());
+    assert_eq!(r.p.one_bus(n(0x10)), None);
 }

@@ -1,0 +1,622 @@
+//! The fault classes a plant suffers, each applied at an instant for a while, and a seeded
+//! generator that composes them over time, in sequence and overlapping.
+
+use crate::plant::*;
+use crate::run::Run;
+use duocan::sim::PortRef;
+use duocan::{Device, Duration, Frame, Id, Instant, NmtState, PortStatus};
+use std::collections::BTreeMap;
+
+/// A fault class and its parameters.
+#[derive(Clone, Copy, Debug)]
+pub enum Fault {
+    /// Bus `bus` cut for `dur`.
+    Cut { bus: usize, dur: Duration },
+    /// Bus `first` cut for `dur`; the other bus cut from `dur − overlap` after (overlap
+    /// negative: a gap; zero: at the instant the first is repaired) for `second`.
+    Sequence {
+        first: usize,
+        dur: Duration,
+        overlap: i64,
+        second: Duration,
+    },
+    /// Bus `bus` down and up every `half` for `dur`.
+    Flap {
+        bus: usize,
+        half: Duration,
+        dur: Duration,
+    },
+    /// A device's port hands its frames over late: a fixed `lag` for `dur`.
+    Lag {
+        node: u8,
+        port: usize,
+        lag: Duration,
+        dur: Duration,
+    },
+    /// The same, the lag growing by a millisecond every `step` up to `top` and back.
+    GrowingLag {
+        node: u8,
+        port: usize,
+        top: u64,
+        step: Duration,
+    },
+    /// The same, switching between 0 and `lag` every `every`, `times` times.
+    SwitchingLag {
+        node: u8,
+        port: usize,
+        lag: Duration,
+        every: Duration,
+        times: u32,
+    },
+    /// A board's port babbles for `dur`.
+    Babble {
+        node: u8,
+        port: usize,
+        dur: Duration,
+    },
+    /// A board's port unplugged for `dur`.
+    Unplug {
+        node: u8,
+        port: usize,
+        dur: Duration,
+    },
+    /// A pair's board dies (power off) and an impostor beats its heartbeat on `bus` for `dur`;
+    /// then the board comes back.
+    Impostor { node: u8, bus: usize, dur: Duration },
+    /// A board puts itself in `state` (its application, its error behaviour).
+    Stops { node: u8, state: NmtState },
+    /// A board dies for `dur`, then boots again.
+    BoardDies { node: u8, dur: Duration },
+    /// A master dies for `dur`, then boots again.
+    MasterDies { id: u8, dur: Duration },
+    /// A master's clock steps back by `by`.
+    StepBack { id: u8, by: Duration },
+    /// A master's clock jumps ahead by `by`.
+    JumpAhead { id: u8, by: Duration },
+}
+
+impl Fault {
+    /// The class, for the coverage report.
+    pub fn class(&self) -> &'static str {
+        match self {
+            Fault::Cut { .. } => "bus cut",
+            Fault::Sequence { overlap, .. } if *overlap == 0 => "buses in sequence, no overlap",
+            Fault::Sequence { overlap, .. } if *overlap > 0 => "buses in sequence, overlapping",
+            Fault::Sequence { .. } => "buses in sequence, with a gap",
+            Fault::Flap { .. } => "flapping bus",
+            Fault::Lag { .. } => "fixed lag",
+            Fault::GrowingLag { .. } => "growing lag",
+            Fault::SwitchingLag { .. } => "switching lag",
+            Fault::Babble { .. } => "babbling port",
+            Fault::Unplug { .. } => "port unplugged",
+            Fault::Impostor { .. } => "impostor heartbeat",
+            Fault::Stops { .. } => "board stops by itself",
+            Fault::BoardDies { .. } => "board dies",
+            Fault::MasterDies { .. } => "master dies",
+            Fault::StepBack { .. } => "clock step back",
+            Fault::JumpAhead { .. } => "clock jump ahead",
+        }
+    }
+
+    /// How long it lasts from its start (its effects may last longer).
+    pub fn span(&self) -> Duration {
+        let ms = Duration::from_millis;
+        match *self {
+            Fault::Cut { dur, .. }
+            | Fault::Flap { dur, .. }
+            | Fault::Lag { dur, .. }
+            | Fault::Babble { dur, .. }
+            | Fault::Unplug { dur, .. }
+            | Fault::Impostor { dur, .. }
+            | Fault::BoardDies { dur, .. }
+            | Fault::MasterDies { dur, .. } => dur,
+            Fault::Sequence {
+                dur,
+                overlap,
+                second,
+                ..
+            } => {
+                Duration::from_micros((dur.as_micros() as i64 - overlap * 1_000).max(0) as u64)
+                    + second
+            }
+            Fault::GrowingLag { top, step, .. } => step.saturating_mul(2 * top),
+            Fault::SwitchingLag { every, times, .. } => every.saturating_mul(times as u64),
+            Fault::Stops { .. } | Fault::StepBack { .. } | Fault::JumpAhead { .. } => ms(0),
+        }
+    }
+
+    /// Whether it takes a connection away (at most one such at a time, so that every two devices
+    /// keep a bus between them, except what a sequence with overlap does on purpose).
+    pub fn connectivity(&self) -> bool {
+        matches!(
+            self,
+            Fault::Cut { .. }
+                | Fault::Sequence { .. }
+                | Fault::Flap { .. }
+                | Fault::Babble { .. }
+                | Fault::Unplug { .. }
+                | Fault::Impostor { .. }
+        )
+    }
+}
+
+fn port_of(run: &Run, node: u8, port: usize) -> PortRef {
+    if node == STRONG || node == WEAK {
+        run.plant.master(node).port(port)
+    } else {
+        run.plant.slave(node).0.port(port)
+    }
+}
+
+fn dev_index(run: &Run, node: u8) -> usize {
+    run.timeline
+        .devs
+        .iter()
+        .position(|d| d.node_id == node)
+        .unwrap()
+}
+
+fn cut(run: &mut Run, bus: usize, down: bool) {
+    let (t, b) = (run.now(), run.plant.buses[bus]);
+    if down {
+        run.plant.sim.bus_down(b);
+        run.timeline.cut[bus].start(t);
+    } else {
+        run.plant.sim.bus_up(b);
+        run.timeline.cut[bus].end(t);
+    }
+}
+
+fn set_lag(run: &mut Run, node: u8, port: usize, lag: Duration) {
+    let p = port_of(run, node, port);
+    run.plant.sim.set_port_latency(p, lag);
+    let (t, d) = (run.now(), dev_index(run, node));
+    let slow = &mut run.timeline.devs[d].slow[port];
+    if lag > crate::timeline::LAG_SLACK {
+        slow.start(t);
+    } else {
+        slow.end(t);
+    }
+}
+
+/// A device that beats `node`'s heartbeat (operational) on one bus every 20 ms.
+pub struct Impostor {
+    frame: Frame,
+    next: Option<Instant>,
+    out: Option<Frame>,
+}
+
+impl Device for Impostor {
+    type Event = ();
+    fn port_count(&self) -> usize {
+        1
+    }
+    fn handle_rx(&mut self, _: Instant, _: usize, _: &Frame) {}
+    fn handle_port_status(&mut self, _: Instant, _: usize, _: PortStatus) {}
+    fn handle_timeout(&mut self, now: Instant) {
+        while let Some(t) = self.next.filter(|t| *t <= now) {
+            self.out = Some(self.frame);
+            self.next = Some(t + SLAVE_HB);
+        }
+    }
+    fn poll_transmit(&mut self) -> Option<(usize, Frame)> {
+        self.out.take().map(|f| (0, f))
+    }
+    fn poll_timeout(&self) -> Option<Instant> {
+        self.next
+    }
+    fn poll_event(&mut self) -> Option<()> {
+        None
+    }
+}
+
+/// Applies `f` from now on (its end scheduled).
+pub fn apply(run: &mut Run, f: Fault) {
+    let now = run.now();
+    match f {
+        Fault::Cut { bus, dur } => {
+            cut(run, bus, true);
+            run.at(now + dur, move |r| cut(r, bus, false));
+        }
+        Fault::Sequence {
+            first,
+            dur,
+            overlap,
+            second,
+        } => {
+            cut(run, first, true);
+            run.at(now + dur, move |r| cut(r, first, false));
+            let other = 1 - first;
+            let start = Instant::from_micros(
+                (now + dur)
+                    .as_micros()
+                    .saturating_add_signed(-overlap * 1_000),
+            );
+            run.at(start, move |r| cut(r, other, true));
+            run.at(start + second, move |r| cut(r, other, false));
+        }
+        Fault::Flap { bus, half, dur } => {
+            let mut t = now;
+            let mut down = true;
+            while t < now + dur {
+                run.at(t, move |r| cut(r, bus, down));
+                down = !down;
+                t += half;
+            }
+            run.at(t, move |r| cut(r, bus, false));
+        }
+        Fault::Lag {
+            node,
+            port,
+            lag,
+            dur,
+        } => {
+            set_lag(run, node, port, lag);
+            run.at(now + dur, move |r| set_lag(r, node, port, Duration::ZERO));
+        }
+        Fault::GrowingLag {
+            node,
+            port,
+            top,
+            step,
+        } => {
+            for k in 0..=2 * top {
+                let lag = if k <= top { k } else { 2 * top - k };
+                run.at(now + step.saturating_mul(k), move |r| {
+                    set_lag(r, node, port, Duration::from_millis(lag))
+                });
+            }
+        }
+        Fault::SwitchingLag {
+            node,
+            port,
+            lag,
+            every,
+            times,
+        } => {
+            for k in 0..=times {
+                let l = if k % 2 == 0 && k < times {
+                    lag
+                } else {
+                    Duration::ZERO
+                };
+                run.at(now + every.saturating_mul(k as u64), move |r| {
+                    set_lag(r, node, port, l)
+                });
+            }
+        }
+        Fault::Babble { node, port, dur } => {
+            let p = port_of(run, node, port);
+            let flood = Frame::from_array(Id::Standard(0x001), [0xFF; 8]);
+            run.plant.sim.babble(p, Some(flood));
+            run.timeline.babbled[port].start(now);
+            run.at(now + dur, move |r| {
+                r.plant.sim.babble(p, None);
+                let t = r.now();
+                r.timeline.babbled[port].end(t);
+            });
+        }
+        Fault::Unplug { node, port, dur } => {
+            let p = port_of(run, node, port);
+            let d = dev_index(run, node);
+            run.plant.sim.disconnect(p);
+            run.timeline.devs[d].unplugged[port].start(now);
+            run.at(now + dur, move |r| {
+                r.plant.sim.reconnect(p);
+                let t = r.now();
+                r.timeline.devs[d].unplugged[port].end(t);
+            });
+        }
+        Fault::Impostor { node, bus, dur } => {
+            board_off(run, node);
+            let frame = Frame::from_array(
+                Id::Standard(0x700 + node as u16),
+                [NmtState::Operational as u8],
+            );
+            let imp = Impostor {
+                frame,
+                next: Some(now + SLAVE_HB),
+                out: None,
+            };
+            let b = run.plant.buses[bus];
+            let d = run
+                .plant
+                .sim
+                .add_device(format!("impostor{node:#x}"), imp, &[b])
+                .unwrap();
+            let mut spans = crate::timeline::Spans::default();
+            spans.start(now);
+            run.timeline.impostors.push((node, spans));
+            run.at(now + dur, move |r| {
+                r.plant.sim.power_off(d);
+                let t = r.now();
+                if let Some(x) = r.timeline.impostors.iter_mut().rev().find(|x| x.0 == node) {
+                    x.1.end(t);
+                }
+                board_on(r, node);
+            });
+        }
+        Fault::Stops { node, state } => {
+            let (d, _) = run.plant.slave(node);
+            if run.plant.sim.is_powered(d) {
+                run.plant
+                    .sim
+                    .device_mut(d)
+                    .inner
+                    .machine
+                    .set_nmt_state(now, state);
+            }
+        }
+        Fault::BoardDies { node, dur } => {
+            board_off(run, node);
+            run.at(now + dur, move |r| board_on(r, node));
+        }
+        Fault::MasterDies { id, dur } => {
+            let d = run.plant.master(id);
+            let i = dev_index(run, id);
+            run.plant.sim.power_off(d);
+            run.timeline.devs[i].off.start(now);
+            run.at(now + dur, move |r| {
+                let t = r.now();
+                r.plant.reboot_master(id);
+                r.timeline.devs[i].off.end(t);
+                r.timeline.devs[i].reboots.push(t);
+                for s in r.settle_from.iter_mut() {
+                    *s = t;
+                }
+            });
+        }
+        Fault::StepBack { id, by } => {
+            let d = run.plant.master(id);
+            if !run.plant.sim.is_powered(d) {
+                return;
+            }
+            let by = by.as_micros() as i64;
+            run.plant.sim.device_mut(d).shift(now, -by);
+            run.plant.oracle.borrow_mut().clock[(id - 1) as usize] -= by;
+            for s in run.settle_from.iter_mut() {
+                *s = now;
+            }
+        }
+        Fault::JumpAhead { id, by } => {
+            let d = run.plant.master(id);
+            if !run.plant.sim.is_powered(d) {
+                return;
+            }
+            let by = by.as_micros() as i64;
+            run.plant.sim.device_mut(d).shift(now, by);
+            run.plant.oracle.borrow_mut().clock[(id - 1) as usize] += by;
+            for s in run.settle_from.iter_mut() {
+                *s = now;
+            }
+        }
+    }
+}
+
+fn pair_of(node: u8) -> usize {
+    ((node & 0x3F) - 0x10) as usize
+}
+
+fn board_off(run: &mut Run, node: u8) {
+    let (d, _) = run.plant.slave(node);
+    let i = dev_index(run, node);
+    let now = run.now();
+    run.plant.sim.power_off(d);
+    run.timeline.devs[i].off.start(now);
+}
+
+fn board_on(run: &mut Run, node: u8) {
+    let i = dev_index(run, node);
+    let t = run.now();
+    if run.plant.sim.is_powered(run.plant.slave(node).0) {
+        return;
+    }
+    run.plant.reboot_slave(node);
+    run.timeline.devs[i].off.end(t);
+    run.timeline.devs[i].reboots.push(t);
+    run.settle_from[pair_of(node)] = t;
+}
+
+/// xorshift: the campaign's own generator, so that a seed means the same schedule everywhere.
+pub struct Rng(pub u64);
+
+impl Rng {
+    pub fn next(&mut self) -> u64 {
+        self.0 ^= self.0 << 13;
+        self.0 ^= self.0 >> 7;
+        self.0 ^= self.0 << 17;
+        self.0
+    }
+    pub fn below(&mut self, n: u64) -> u64 {
+        self.next() % n.max(1)
+    }
+    pub fn ms(&mut self, lo: u64, hi: u64) -> Duration {
+        Duration::from_millis(lo + self.below(hi - lo))
+    }
+}
+
+/// A random fault for a plant of `pairs` pairs.
+pub fn random(rng: &mut Rng, pairs: u8, connectivity_free: bool) -> Fault {
+    loop {
+        let k = rng.below(KINDS as u64) as usize;
+        let f = draw(rng, pairs, k);
+        if connectivity_free || !f.connectivity() {
+            return f;
+        }
+    }
+}
+
+/// How many kinds of fault [`draw`] knows (every class, some in two shapes).
+pub const KINDS: usize = 18;
+
+/// A fault of kind `k` (below [`KINDS`]), its parameters drawn from `rng`.
+pub fn draw(rng: &mut Rng, pairs: u8, k: usize) -> Fault {
+    let board = |rng: &mut Rng| {
+        let i = rng.below(pairs as u64) as u8;
+        if rng.below(2) == 0 {
+            a(i)
+        } else {
+            b(i)
+        }
+    };
+    let any_node = |rng: &mut Rng| match rng.below(4) {
+        0 => [STRONG, WEAK][rng.below(2) as usize],
+        1 => OBSERVER,
+        _ => board(rng),
+    };
+    {
+        match k {
+            0 => Fault::Cut {
+                bus: rng.below(2) as usize,
+                dur: rng.ms(200, 4_000),
+            },
+            1 | 16 | 17 => Fault::Sequence {
+                first: rng.below(2) as usize,
+                dur: rng.ms(300, 4_000),
+                overlap: match k {
+                    1 => 0,
+                    16 => 30,
+                    _ => -40,
+                },
+                second: rng.ms(300, 3_000),
+            },
+            2 => Fault::Flap {
+                bus: rng.below(2) as usize,
+                half: Duration::from_millis([1, 5, 50][rng.below(3) as usize]),
+                dur: rng.ms(200, 1_500),
+            },
+            3 => Fault::Lag {
+                node: any_node(rng),
+                port: rng.below(2) as usize,
+                lag: rng.ms(5, 75),
+                dur: rng.ms(500, 4_000),
+            },
+            4 => Fault::GrowingLag {
+                node: any_node(rng),
+                port: rng.below(2) as usize,
+                top: 5 + rng.below(66),
+                step: rng.ms(10, 60),
+            },
+            5 => Fault::SwitchingLag {
+                node: any_node(rng),
+                port: rng.below(2) as usize,
+                lag: rng.ms(10, 60),
+                every: rng.ms(50, 300),
+                times: 2 + rng.below(10) as u32,
+            },
+            6 => Fault::Babble {
+                node: board(rng),
+                port: rng.below(2) as usize,
+                dur: rng.ms(100, 800),
+            },
+            7 => Fault::Unplug {
+                node: any_node(rng),
+                port: rng.below(2) as usize,
+                dur: rng.ms(200, 3_000),
+            },
+            8 => Fault::Impostor {
+                node: board(rng),
+                bus: rng.below(2) as usize,
+                dur: rng.ms(300, 2_000),
+            },
+            9 => Fault::Stops {
+                node: board(rng),
+                state: if rng.below(2) == 0 {
+                    NmtState::PreOperational
+                } else {
+                    NmtState::Stopped
+                },
+            },
+            10 => Fault::BoardDies {
+                node: board(rng),
+                dur: rng.ms(100, 3_000),
+            },
+            11 => Fault::MasterDies {
+                id: [STRONG, WEAK][rng.below(2) as usize],
+                dur: rng.ms(200, 3_000),
+            },
+            12 => Fault::StepBack {
+                id: [STRONG, WEAK][rng.below(2) as usize],
+                by: Duration::from_millis([1, 50, 1_000, 3_600_000][rng.below(4) as usize]),
+            },
+            13 => Fault::JumpAhead {
+                id: [STRONG, WEAK][rng.below(2) as usize],
+                by: Duration::from_millis([70, 1_000, 60_000, 3_600_000][rng.below(4) as usize]),
+            },
+            14 => Fault::Lag {
+                node: any_node(rng),
+                port: rng.below(2) as usize,
+                lag: rng.ms(20, 60),
+                dur: rng.ms(50, 200),
+            },
+            _ => Fault::Cut {
+                bus: rng.below(2) as usize,
+                dur: rng.ms(20, 300),
+            },
+        }
+    }
+}
+
+/// Which classes ran, alone and together with which others.
+#[derive(Default, Debug)]
+pub struct Coverage {
+    pub classes: BTreeMap<&'static str, u32>,
+    pub pairs: BTreeMap<(&'static str, &'static str), u32>,
+}
+
+impl Coverage {
+    pub fn add(&mut self, f: &Fault, overlapping: &[&'static str]) {
+        *self.classes.entry(f.class()).or_default() += 1;
+        for o in overlapping {
+            let (x, y) = if f.class() <= *o {
+                (f.class(), *o)
+            } else {
+                (*o, f.class())
+            };
+            *self.pairs.entry((x, y)).or_default() += 1;
+        }
+    }
+    pub fn merge(&mut self, other: &Coverage) {
+        for (k, v) in &other.classes {
+            *self.classes.entry(k).or_default() += v;
+        }
+        for (k, v) in &other.pairs {
+            *self.pairs.entry(*k).or_default() += v;
+        }
+    }
+}
+
+/// Composes random faults on `run` until `end`: one every 0.3 to 3 s, at most one taking a
+/// connection away at a time (two buses in sequence with overlap aside), any number of the
+/// others overlapping; the first of kind `lead` if given. Returns the coverage.
+pub fn compose(
+    run: &mut Run,
+    rng: &mut Rng,
+    start: Instant,
+    end: Instant,
+    lead: Option<usize>,
+) -> Coverage {
+    let mut cov = Coverage::default();
+    let mut active: Vec<(Instant, Fault)> = vec![];
+    let mut t = start;
+    let mut lead = lead;
+    while t < end {
+        run.run_until(t);
+        active.retain(|(until, _)| *until > t);
+        let free = !active.iter().any(|(_, f)| f.connectivity());
+        let f = match lead.take() {
+            Some(k) => draw(rng, run.plant.p.pairs, k),
+            None => random(rng, run.plant.p.pairs, free),
+        };
+        let classes: Vec<&'static str> = active.iter().map(|(_, f)| f.class()).collect();
+        cov.add(&f, &classes);
+        if std::env::var("CAMPAIGN_VERBOSE").is_ok() {
+            eprintln!("{t}: {f:?}");
+        }
+        // A fault's effects (a board rebooting, a master negotiating) outlast it a little.
+        active.push((t + f.span() + Duration::from_millis(300), f));
+        apply(run, f);
+        t += rng.ms(300, 3_000);
+    }
+    cov
+}

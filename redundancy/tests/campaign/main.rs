@@ -1,0 +1,187 @@
+//! The fault campaign: a seeded, randomized composition of the faults a plant suffers, on a
+//! supervised dual-bus network with the cyclic traffic CANopen really carries, in simulated
+//! time, with every invariant of the redundancy checked every millisecond.
+//!
+//! - `plant`: the network (masters, A/B board pairs sending unchanged TPDOs on every SYNC and
+//!   every 10 ms, heartbeats, an observer node);
+//! - `tap` and `oracle`: which copy of which frame every device got, and whether every frame
+//!   occurrence reached every device it could reach exactly once;
+//! - `timeline`: what the faults did to the wiring (the oracle's "could it have arrived?");
+//! - `faults`: the fault classes and the generator that composes them;
+//! - `run`: the other invariants (a running board per pair, one active master, SYNC gaps,
+//!   bounded memory).
+//!
+//! `cargo test -p duocan-redundancy --test campaign` runs a fixed budget (the seeds below) and
+//! every seed that ever failed (`REGRESSIONS`). A longer run on demand: `CAMPAIGN_SEEDS=200
+//! CAMPAIGN_SECONDS=60 CAMPAIGN_FIRST=1000 cargo test --release -p duocan-redundancy --test
+//! campaign fixed_budget` (the budget test takes its seeds and length from there).
+
+mod faults;
+mod oracle;
+mod plant;
+mod run;
+mod tap;
+mod timeline;
+
+use duocan::{Duration, Instant};
+use faults::{compose, Coverage, Rng};
+use plant::Params;
+use run::Run;
+
+/// Seeds that once failed: each is run again, every time.
+const REGRESSIONS: &[u64] = &[];
+
+/// The budget CI runs: seeds and simulated seconds each. Seed `k` leads with a fault of kind
+/// `k mod KINDS`, so that the budget reaches every class whatever the draws.
+const SEEDS: u64 = faults::KINDS as u64;
+const SECONDS: u64 = 12;
+
+/// Runs seed `seed` for `secs` simulated seconds of composed faults; the coverage, or what
+/// failed.
+fn campaign(seed: u64, secs: u64) -> Result<Coverage, String> {
+    let mut run = Run::new(Params { seed, pairs: 3 });
+    let mut rng = Rng(seed.wrapping_mul(0x9E37_79B9_7F4A_7C15) | 1);
+    // Let the network come up: both masters, every pair configured and running.
+    let start = Instant::from_secs(2);
+    let end = start + Duration::from_secs(secs);
+    let lead = (seed % faults::KINDS as u64) as usize;
+    let cov = compose(&mut run, &mut rng, start, end, Some(lead));
+    // Quiet at the end: every fault over, everything judged.
+    run.run_until(end + Duration::from_secs(6));
+    debug_events(&run);
+    let r = run.finish();
+    if std::env::var("CAMPAIGN_VERBOSE").is_ok() {
+        let o = run.plant.oracle.borrow();
+        eprintln!(
+            "seed {seed}: {} occurrences judged, {} checks, {} foreign; worst {:?}",
+            o.judged, o.checks, o.foreign, run.worst
+        );
+    }
+    r.map(|()| cov).map_err(|e| {
+        format!(
+            "seed {seed:#x}: {e}worst: pair without a board {}, two masters {}, SYNC gap {}\n",
+            run.worst[0], run.worst[1], run.worst[2]
+        )
+    })
+}
+
+/// `CAMPAIGN_DEBUG=from_ms,to_ms`: every device's link events and the masters' supervisor
+/// events in that window, on stderr.
+fn debug_events(run: &Run) {
+    let Some((from, to)) = std::env::var("CAMPAIGN_DEBUG").ok().and_then(|v| {
+        let (a, b) = v.split_once(',')?;
+        Some((
+            Instant::from_millis(a.parse().ok()?),
+            Instant::from_millis(b.parse().ok()?),
+        ))
+    }) else {
+        return;
+    };
+    let sim = &run.plant.sim;
+    for (k, d) in run.plant.masters.iter().enumerate() {
+        for (t, e) in sim.events(*d) {
+            let t = *t;
+            if t >= from && t <= to {
+                eprintln!("{t} m{}: {e:?}", k + 1);
+            }
+        }
+    }
+    for (id, d, _) in &run.plant.slaves {
+        for (t, e) in sim.events(*d) {
+            if *t >= from && *t <= to {
+                eprintln!("{t} s{id:#x}: {e:?}");
+            }
+        }
+    }
+}
+
+fn on_big_stack<T: Send + 'static>(f: impl FnOnce() -> T + Send + 'static) -> T {
+    // Supervised stations are large; debug builds copy them through the stack.
+    std::thread::Builder::new()
+        .stack_size(64 << 20)
+        .spawn(f)
+        .unwrap()
+        .join()
+        .unwrap()
+}
+
+fn seeds(first: u64, n: u64, secs: u64) -> (Coverage, Vec<String>) {
+    let mut cov = Coverage::default();
+    let mut failed = vec![];
+    for seed in first..first + n {
+        match on_big_stack(move || campaign(seed, secs)) {
+            Ok(c) => cov.merge(&c),
+            Err(e) => failed.push(e),
+        }
+    }
+    (cov, failed)
+}
+
+fn report(cov: &Coverage) -> String {
+    let mut s = String::from("fault classes reached:\n");
+    for (k, v) in &cov.classes {
+        s += &format!("  {v:4} {k}\n");
+    }
+    s += &format!(
+        "{} combinations of two classes overlapping\n",
+        cov.pairs.len()
+    );
+    s
+}
+
+/// Every class the generator knows, which a fixed budget must reach.
+const CLASSES: &[&str] = &[
+    "bus cut",
+    "buses in sequence, no overlap",
+    "buses in sequence, overlapping",
+    "buses in sequence, with a gap",
+    "flapping bus",
+    "fixed lag",
+    "growing lag",
+    "switching lag",
+    "babbling port",
+    "port unplugged",
+    "impostor heartbeat",
+    "board stops by itself",
+    "board dies",
+    "master dies",
+    "clock step back",
+    "clock jump ahead",
+];
+
+#[test]
+fn the_fixed_budget_keeps_every_invariant_and_reaches_every_class() {
+    let env = |k: &str, d: u64| {
+        std::env::var(k)
+            .ok()
+            .and_then(|v| v.parse().ok())
+            .unwrap_or(d)
+    };
+    let (first, n, secs) = (
+        env("CAMPAIGN_FIRST", 1),
+        env("CAMPAIGN_SEEDS", SEEDS),
+        env("CAMPAIGN_SECONDS", SECONDS),
+    );
+    let (cov, failed) = seeds(first, n, secs);
+    eprintln!("{}", report(&cov));
+    assert!(failed.is_empty(), "{}", failed.join("\n"));
+    let missing: Vec<_> = CLASSES
+        .iter()
+        .filter(|c| !cov.classes.contains_key(**c))
+        .collect();
+    assert!(
+        missing.is_empty(),
+        "classes the budget did not reach: {missing:?}"
+    );
+}
+
+#[test]
+fn every_seed_that_once_failed_passes() {
+    let mut failed = vec![];
+    for &seed in REGRESSIONS {
+        if let Err(e) = on_big_stack(move || campaign(seed, SECONDS)) {
+            failed.push(e);
+        }
+    }
+    assert!(failed.is_empty(), "{}", failed.join("\n"));
+}

@@ -1,0 +1,251 @@
+//! The oracle: every frame occurrence exactly once at every device it could reach.
+//!
+//! Every logical frame a tapped device's stack sends is an *occurrence*, numbered; every copy
+//! of it that its link hands to a port is known (see [`crate::tap`]), and so is every copy the
+//! simulator hands to a receiver (its receive hook) and whether the receiver's link delivered
+//! it. An occurrence is judged at each other tapped device once it is old enough:
+//!
+//! - a copy of it reached the device: it was delivered exactly once (none: lost; more:
+//!   duplicated);
+//! - none did: if a bus connected the two devices when it was sent (the campaign's timeline
+//!   says so, with a margin around every change of the wiring), it is lost: the sender did
+//!   not put it where it would have arrived.
+//!
+//! Frames that are not the promise's (an impostor's, a babbler's, a pair's process data at a
+//! master, which delivers only the active member's by design) are left out, each for a reason
+//! the campaign states when it adds the device or the fault.
+
+use duocan::{Frame, Id, Instant};
+use std::collections::VecDeque;
+
+/// Most tapped devices.
+pub const MAX_NODES: usize = 24;
+
+/// How long after it was sent an occurrence is judged: every copy has arrived by then (the
+/// largest receive latency of the campaign plus the wire, with room).
+pub const JUDGE_AFTER: duocan::Duration = duocan::Duration::from_millis(400);
+
+#[derive(Clone, Copy, Debug)]
+struct Occurrence {
+    sender: usize,
+    at: Instant,
+    frame: Frame,
+    reached: [u8; MAX_NODES],
+    delivered: [u8; MAX_NODES],
+}
+
+/// What went wrong with an occurrence at a receiver.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Fault {
+    /// A copy reached it and none was delivered.
+    Dropped,
+    /// No copy reached it although a bus connected the two.
+    NeverArrived,
+    /// Delivered more than once.
+    Duplicated(u8),
+}
+
+/// One violation, for the report.
+#[derive(Clone, Copy, Debug)]
+pub struct Violation {
+    pub sender: usize,
+    pub receiver: usize,
+    pub at: Instant,
+    pub frame: Frame,
+    pub fault: Fault,
+}
+
+/// A tapped device as the oracle knows it.
+#[derive(Clone, Debug, Default)]
+pub struct NodeInfo {
+    pub name: String,
+    /// Its simulator device index.
+    pub device: usize,
+    /// Occurrence of each copy it handed over, by the simulator's serial (`None`: the link's
+    /// own frame).
+    copies: Vec<Option<u64>>,
+    /// A master (the pair members' process data it receives are not judged).
+    pub master: bool,
+}
+
+/// Whether two devices were connected by a bus, around an instant: what the fault timeline
+/// answers.
+pub trait Wiring {
+    /// `Some(true)`: a bus connected them all through `[t − margin, t + margin]`; `Some(false)`:
+    /// none did at any time of it; `None`: the wiring changed meanwhile (not judged).
+    fn connected(&self, sender: usize, receiver: usize, t: Instant) -> Option<bool>;
+    /// Whether `sender`'s occurrence `frame` at `t` is left out of the promise (an impostor's
+    /// target, a receiver rebooting meanwhile, …).
+    fn excluded(&self, sender: usize, receiver: usize, t: Instant, frame: &Frame) -> bool;
+}
+
+#[derive(Default)]
+pub struct Oracle {
+    pub nodes: Vec<NodeInfo>,
+    /// Occurrences not judged yet, numbered from `base`.
+    pending: VecDeque<Occurrence>,
+    base: u64,
+    /// The copy being handed to a device now: (receiver node, occurrence).
+    current: Option<(usize, Option<u64>)>,
+    pub violations: Vec<Violation>,
+    /// Occurrences judged, and (occurrence, receiver) judgements made.
+    pub judged: u64,
+    pub checks: u64,
+    /// Deliveries of frames the oracle does not know (a babbler's, an impostor's).
+    pub foreign: u64,
+    /// Pair members' node-IDs (their process data at masters is not judged).
+    pub members: Vec<u8>,
+    /// The node whose SYNCs are followed ([`Oracle::syncs`]).
+    pub sync_node: Option<usize>,
+    /// When each SYNC that node's link delivered was sent, not yet taken by the run.
+    pub syncs: std::collections::BTreeSet<Instant>,
+    /// Per node: how far its clock reads ahead of the simulated time (µs; the campaign steps
+    /// and jumps masters' clocks), to put its occurrences on the simulated time line.
+    pub clock: [i64; MAX_NODES],
+}
+
+impl Oracle {
+    /// Adds a tapped device: its node index.
+    pub fn add(&mut self, name: &str, device: usize, master: bool) -> usize {
+        assert!(self.nodes.len() < MAX_NODES);
+        self.nodes.push(NodeInfo {
+            name: name.into(),
+            device,
+            copies: vec![],
+            master,
+        });
+        self.nodes.len() - 1
+    }
+
+    /// Node `node` was rebuilt: its new link's copies continue after the simulator's serial
+    /// `taken`.
+    pub fn rebuilt(&mut self, node: usize, taken: u64) {
+        self.nodes[node].copies.resize(taken as usize, None);
+    }
+
+    /// Node `node`'s stack sent `frame` at `now`: a new occurrence.
+    pub fn sent(&mut self, node: usize, now: Instant, frame: &Frame) -> u64 {
+        let at = Instant::from_micros(now.as_micros().saturating_add_signed(-self.clock[node]));
+        self.pending.push_back(Occurrence {
+            sender: node,
+            at,
+            frame: *frame,
+            reached: [0; MAX_NODES],
+            delivered: [0; MAX_NODES],
+        });
+        self.base + self.pending.len() as u64 - 1
+    }
+
+    /// Node `node`'s link handed a copy of occurrence `of` (or a frame of its own) to a port.
+    pub fn copy(&mut self, node: usize, of: Option<u64>, _port: usize) {
+        self.nodes[node].copies.push(of);
+    }
+
+    /// The simulator hands device `receiver`'s port the copy `serial` of device `sender`.
+    pub fn arriving(&mut self, receiver: usize, sender: usize, serial: Option<u64>) {
+        let node = |d: usize| self.nodes.iter().position(|n| n.device == d);
+        let (Some(r), Some(s)) = (node(receiver), node(sender)) else {
+            self.current = None;
+            return;
+        };
+        let of = serial.and_then(|k| self.nodes[s].copies.get(k as usize).copied().flatten());
+        if let Some(o) = of.and_then(|o| self.occ(o)) {
+            o.reached[r] = o.reached[r].saturating_add(1);
+        }
+        self.current = Some((r, of));
+    }
+
+    /// Node `node`'s link delivered `frame` (the copy being handed to it).
+    pub fn delivered(&mut self, node: usize, now: Instant, frame: &Frame) {
+        if frame.id() == Id::Standard(0x80) && self.sync_node == Some(node) {
+            // When it was sent: a port's receive lag (a fault of the plant) delays SYNCs, and
+            // one bus lagging behind the other hands some over late and out of order; what
+            // the masters promise is the SYNCs they sent, every one delivered.
+            let sent = match self.current {
+                Some((r, Some(of))) if r == node => self.occ(of).map(|o| o.at),
+                _ => None,
+            };
+            let at = sent.unwrap_or_else(|| {
+                Instant::from_micros(now.as_micros().saturating_add_signed(-self.clock[node]))
+            });
+            self.syncs.insert(at);
+        }
+        match self.current {
+            Some((r, Some(of))) if r == node => {
+                if let Some(o) = self.occ(of) {
+                    o.delivered[r] = o.delivered[r].saturating_add(1);
+                }
+            }
+            _ => self.foreign += 1,
+        }
+    }
+
+    fn occ(&mut self, id: u64) -> Option<&mut Occurrence> {
+        let i = id.checked_sub(self.base)?;
+        self.pending.get_mut(i as usize)
+    }
+
+    /// Judges every occurrence sent before `now − JUDGE_AFTER`.
+    pub fn judge(&mut self, now: Instant, wiring: &dyn Wiring, powered: &dyn Fn(usize) -> bool) {
+        while let Some(o) = self.pending.front() {
+            if o.at + JUDGE_AFTER > now {
+                break;
+            }
+            let o = self.pending.pop_front().unwrap();
+            self.base += 1;
+            self.judged += 1;
+            for r in 0..self.nodes.len() {
+                if r == o.sender || !powered(r) {
+                    continue;
+                }
+                if self.nodes[r].master && self.is_member_pdo(&o.frame) {
+                    continue;
+                }
+                if wiring.excluded(o.sender, r, o.at, &o.frame) {
+                    continue;
+                }
+                self.checks += 1;
+                let fault = match (o.reached[r], o.delivered[r]) {
+                    (_, d) if d > 1 => Some(Fault::Duplicated(d)),
+                    (0, 0) => match wiring.connected(o.sender, r, o.at) {
+                        Some(true) => Some(Fault::NeverArrived),
+                        _ => None,
+                    },
+                    (_, 0) => Some(Fault::Dropped),
+                    _ => None,
+                };
+                if let Some(fault) = fault {
+                    self.violations.push(Violation {
+                        sender: o.sender,
+                        receiver: r,
+                        at: o.at,
+                        frame: o.frame,
+                        fault,
+                    });
+                }
+            }
+        }
+    }
+
+    fn is_member_pdo(&self, f: &Frame) -> bool {
+        match f.id() {
+            Id::Standard(id @ 0x180..=0x57F) => self.members.contains(&((id & 0x7F) as u8)),
+            _ => false,
+        }
+    }
+
+    /// The violations, one line each (at most `n`).
+    pub fn report(&self, n: usize) -> String {
+        let mut s = String::new();
+        for v in self.violations.iter().take(n) {
+            s += &format!(
+                "  {} from {} at {}: {} {:?}\n",
+                self.nodes[v.receiver].name, self.nodes[v.sender].name, v.at, v.frame, v.fault
+            );
+        }
+        if self.violations.len() > n {
+            s += &format!("  … {} more\n", self.violations.len() - n);
+        }
+        s
+    }
+}

@@ -1,0 +1,354 @@
+//! The plant: a supervised dual-bus network with the cyclic traffic CANopen really carries.
+//!
+//! Two masters (strong 0x01, weak 0x02; heartbeat 20 ms, master timeout 50 ms, SYNC every
+//! 10 ms and TIME every 100 ms from the active one), `pairs` A/B board pairs (A = 0x10 + i,
+//! B = 0x50 + i; heartbeat 20 ms once configured, consumer time 50 ms), each board answering
+//! every SYNC with TPDO1 and sending TPDO2 every 10 ms, both with data that never changes (only
+//! the running board of a pair sends them), and an observer node 0x7A on both buses, in no
+//! pair, that checks what a plain slave receives. Every device's link is tapped for the oracle
+//! ([`crate::tap`]); every device's clock can be stepped or jumped ([`Clocked`]).
+
+use crate::oracle::Oracle;
+use crate::tap::Tap;
+use duocan::machine::PortRequest;
+use duocan::master::{objects, Master, NetworkConfig};
+use duocan::od::{comm, Access, DynamicDictionary, ObjectDef};
+use duocan::pdo::params;
+use duocan::sim::{BusConfig, BusId, DevId, SimNetwork};
+use duocan::{Device, Duration, Frame, Instant, Node, NodeConfig, NodeId, PortStatus, Station};
+use duocan_redundancy::{
+    DualBus, DualBusConfig, LinkMode, PairSpec, SupervisedStation, Supervisor, SupervisorConfig,
+};
+use std::cell::RefCell;
+use std::rc::Rc;
+
+pub const STRONG: u8 = 1;
+pub const WEAK: u8 = 2;
+pub const OBSERVER: u8 = 0x7A;
+pub const SLAVE_HB: Duration = Duration::from_millis(20);
+pub const CONSUMER: Duration = Duration::from_millis(50);
+pub const MASTER_HB: Duration = Duration::from_millis(20);
+pub const MASTER_TIMEOUT: Duration = Duration::from_millis(50);
+pub const SYNC: Duration = Duration::from_millis(10);
+/// Masters' clocks read this far ahead of the simulated time from their start, so that the
+/// campaign can step them back by hours.
+pub const MASTER_CLOCK: Duration = Duration::from_secs(10 * 3600);
+/// The application object the boards map into their TPDOs: values that never change.
+const APP: u16 = 0x2000;
+
+pub fn a(i: u8) -> u8 {
+    0x10 + i
+}
+pub fn b(i: u8) -> u8 {
+    0x50 + i
+}
+
+pub type MasterStation = Station<Tap, Supervisor<DynamicDictionary>>;
+pub type SlaveStation = Station<Tap, Node<DynamicDictionary>>;
+pub type MasterDev = Clocked<MasterStation>;
+pub type SlaveDev = Clocked<SlaveStation>;
+
+/// A device whose clock reads the simulated time plus an offset the campaign may change: a step
+/// back (the offset falls) or a jump ahead (it rises). The device is told at once, with a
+/// timeout at its new reading, as a driver that notices its clock changed does.
+///
+/// A frame that arrived before the change and is handed over after it keeps its timestamp as
+/// the layer keeps its own times: moved back with a step back (the new clock's reading of that
+/// moment), unmoved by a jump ahead (a jump is time that passed).
+pub struct Clocked<T> {
+    pub inner: T,
+    offset: i64,
+    /// The latest simulated time it was given.
+    last: Instant,
+    /// The last jump ahead: when (simulated time), and the offset before it.
+    jumped: Option<(Instant, i64)>,
+}
+
+impl<T: Device> Clocked<T> {
+    /// `inner`, on a clock `ahead` of the simulated time.
+    pub fn new(inner: T, ahead: Duration) -> Self {
+        Clocked {
+            inner,
+            offset: ahead.as_micros() as i64,
+            last: Instant::ZERO,
+            jumped: None,
+        }
+    }
+    fn read(&self, t: Instant) -> Instant {
+        Instant::from_micros(t.as_micros().saturating_add_signed(self.offset))
+    }
+    fn back(&self, t: Instant) -> Instant {
+        Instant::from_micros(t.as_micros().saturating_add_signed(-self.offset))
+    }
+    /// The clock moves by `by` µs (negative: back) at simulated time `now`.
+    pub fn shift(&mut self, now: Instant, by: i64) {
+        if by > 0 {
+            self.jumped = Some((now, self.offset));
+        }
+        self.offset += by;
+        self.last = now;
+        let t = self.read(now);
+        self.inner.handle_timeout(t);
+    }
+}
+
+impl<T: Device> Device for Clocked<T> {
+    type Event = T::Event;
+    fn port_count(&self) -> usize {
+        self.inner.port_count()
+    }
+    fn handle_rx(&mut self, now: Instant, port: usize, frame: &Frame) {
+        self.last = now;
+        let t = self.read(now);
+        self.inner.handle_rx(t, port, frame);
+    }
+    fn handle_rx_at(&mut self, now: Instant, port: usize, frame: &Frame, at: Instant) {
+        self.last = now;
+        let offset = match self.jumped {
+            Some((j, before)) if at < j => before,
+            _ => self.offset,
+        };
+        let t = self.read(now);
+        let at = Instant::from_micros(at.as_micros().saturating_add_signed(offset)).min(t);
+        self.inner.handle_rx_at(t, port, frame, at);
+    }
+    fn handle_port_status(&mut self, now: Instant, port: usize, status: PortStatus) {
+        self.last = now;
+        let t = self.read(now);
+        self.inner.handle_port_status(t, port, status);
+    }
+    fn handle_timeout(&mut self, now: Instant) {
+        self.last = now;
+        let t = self.read(now);
+        self.inner.handle_timeout(t);
+    }
+    fn poll_transmit(&mut self) -> Option<(usize, Frame)> {
+        self.inner.poll_transmit()
+    }
+    fn poll_port_request(&mut self) -> Option<(usize, PortRequest)> {
+        self.inner.poll_port_request()
+    }
+    fn poll_timeout(&self) -> Option<Instant> {
+        // A deadline its clock put before now (a step back) is due now.
+        self.inner
+            .poll_timeout()
+            .map(|d| self.back(d).max(self.last))
+    }
+    fn poll_event(&mut self) -> Option<T::Event> {
+        self.inner.poll_event()
+    }
+}
+
+/// The plant's settings.
+#[derive(Clone, Copy, Debug)]
+pub struct Params {
+    pub seed: u64,
+    pub pairs: u8,
+}
+
+impl Default for Params {
+    fn default() -> Self {
+        Params { seed: 1, pairs: 3 }
+    }
+}
+
+pub struct Plant {
+    pub p: Params,
+    pub sim: SimNetwork,
+    pub buses: [BusId; 2],
+    pub oracle: Rc<RefCell<Oracle>>,
+    pub masters: [DevId<MasterDev>; 2],
+    /// (node-ID, device, oracle node).
+    pub slaves: Vec<(u8, DevId<SlaveDev>, usize)>,
+    pub master_nodes: [usize; 2],
+}
+
+fn link() -> DualBus {
+    DualBus::new(DualBusConfig::with_guard_period(
+        LinkMode::ActiveActive,
+        SLAVE_HB,
+    ))
+}
+
+/// A master station built at simulated time `at`.
+pub fn master_station(
+    p: &Params,
+    id: u8,
+    at: Instant,
+    node: usize,
+    oracle: &Rc<RefCell<Oracle>>,
+) -> MasterDev {
+    let now = at + MASTER_CLOCK;
+    oracle.borrow_mut().clock[node] = MASTER_CLOCK.as_micros() as i64;
+    let nid = NodeId::must(id);
+    let od = objects::master_dictionary(id, comm::Identity::default());
+    let master = Master::new(nid, od, NetworkConfig::new()).unwrap();
+    let peer = if id == STRONG { WEAK } else { STRONG };
+    let mut cfg = SupervisorConfig::new(id - 1, nid, MASTER_HB, MASTER_TIMEOUT, SYNC)
+        .with_peer(peer - 1, NodeId::must(peer));
+    cfg.time_period = Duration::from_millis(100);
+    let mut sup = Supervisor::new(master, cfg, now);
+    for i in 0..p.pairs {
+        sup.add_pair(
+            now,
+            PairSpec::new(NodeId::must(a(i)), NodeId::must(b(i)), SLAVE_HB, CONSUMER),
+        )
+        .unwrap();
+    }
+    let st = SupervisedStation::new(link(), sup).unwrap().into_station();
+    Clocked::new(
+        Station::new(Tap::new(st.link, node, oracle.clone()), st.machine),
+        MASTER_CLOCK,
+    )
+}
+
+/// A board's dictionary: the standard one, two constants, TPDO1 on SYNC and TPDO2 every 10 ms.
+fn board_dictionary(id: u8) -> DynamicDictionary {
+    let mut od = comm::standard_dictionary(id, comm::Identity::default());
+    od.insert_all(&[
+        ObjectDef::u8(APP, 0, Access::Const, 2),
+        ObjectDef::u16(APP, 1, Access::Rw, 0x5AA5).mappable(),
+        ObjectDef::u16(APP, 2, Access::Rw, 0x0FF0 + id as u16).mappable(),
+    ])
+    .unwrap();
+    od.insert_all(&params::tpdo_comm(
+        1,
+        params::predefined_tpdo_cob(1),
+        1,
+        0,
+        0,
+    ))
+    .unwrap();
+    od.insert_all(&params::tpdo_mapping::<9>(1, &[0x2000_0110]))
+        .unwrap();
+    od.insert_all(&params::tpdo_comm(
+        2,
+        params::predefined_tpdo_cob(2),
+        255,
+        0,
+        10,
+    ))
+    .unwrap();
+    od.insert_all(&params::tpdo_mapping::<9>(2, &[0x2000_0210]))
+        .unwrap();
+    od
+}
+
+/// A board (or the observer) built and booted at `now`.
+pub fn slave_station(id: u8, now: Instant, node: usize, oracle: &Rc<RefCell<Oracle>>) -> SlaveDev {
+    let mut n = Node::new(NodeConfig::slave(NodeId::must(id)), board_dictionary(id));
+    if id == OBSERVER {
+        // Not configured by the masters: it beats by itself.
+        n.set(
+            now,
+            comm::HEARTBEAT_PRODUCER,
+            0,
+            SLAVE_HB.as_millis() as u16,
+        )
+        .unwrap();
+    }
+    n.boot(now);
+    Clocked::new(
+        Station::new(Tap::new(link(), node, oracle.clone()), n),
+        Duration::ZERO,
+    )
+}
+
+impl Plant {
+    pub fn new(p: Params) -> Plant {
+        let mut sim = SimNetwork::new(p.seed);
+        sim.set_recording(false);
+        let buses = [
+            sim.add_bus(BusConfig::new("can1", 1_000_000)),
+            sim.add_bus(BusConfig::new("can2", 1_000_000)),
+        ];
+        let oracle = Rc::new(RefCell::new(Oracle::default()));
+        let mut masters = vec![];
+        let mut master_nodes = [0; 2];
+        for (k, id) in [STRONG, WEAK].into_iter().enumerate() {
+            let dev_index = sim.device_count();
+            let node = oracle.borrow_mut().add(&format!("m{id}"), dev_index, true);
+            master_nodes[k] = node;
+            let d = sim
+                .add_device(
+                    format!("m{id}"),
+                    master_station(&p, id, Instant::ZERO, node, &oracle),
+                    &buses,
+                )
+                .unwrap();
+            masters.push(d);
+        }
+        let mut slaves = vec![];
+        let ids: Vec<u8> = (0..p.pairs)
+            .flat_map(|i| [a(i), b(i)])
+            .chain([OBSERVER])
+            .collect();
+        for id in ids {
+            let dev_index = sim.device_count();
+            let node = oracle
+                .borrow_mut()
+                .add(&format!("s{id:#x}"), dev_index, false);
+            if id != OBSERVER {
+                oracle.borrow_mut().members.push(id);
+            }
+            let d = sim
+                .add_device(
+                    format!("s{id:#x}"),
+                    slave_station(id, Instant::ZERO, node, &oracle),
+                    &buses,
+                )
+                .unwrap();
+            slaves.push((id, d, node));
+        }
+        let o = oracle.clone();
+        sim.set_rx_hook(Some(Box::new(move |note| {
+            o.borrow_mut().arriving(
+                note.receiver.device.index(),
+                note.sender.device.index(),
+                note.serial,
+            );
+        })));
+        Plant {
+            p,
+            sim,
+            buses,
+            oracle,
+            masters: [masters[0], masters[1]],
+            slaves,
+            master_nodes,
+        }
+    }
+
+    pub fn slave(&self, id: u8) -> (DevId<SlaveDev>, usize) {
+        let s = self.slaves.iter().find(|s| s.0 == id).expect("a slave");
+        (s.1, s.2)
+    }
+    pub fn master(&self, id: u8) -> DevId<MasterDev> {
+        self.masters[(id - 1) as usize]
+    }
+    pub fn sup(&self, id: u8) -> &Supervisor<DynamicDictionary> {
+        &self.sim.device(self.master(id)).inner.machine
+    }
+
+    /// Rebuilds (reboots) master `id` at the current instant.
+    pub fn reboot_master(&mut self, id: u8) {
+        let d = self.master(id);
+        let node = self.master_nodes[(id - 1) as usize];
+        let now = self.sim.now();
+        self.oracle
+            .borrow_mut()
+            .rebuilt(node, self.sim.frames_taken(d));
+        let st = master_station(&self.p, id, now, node, &self.oracle);
+        self.sim.replace(d, st).unwrap();
+    }
+    /// Rebuilds (reboots) slave `id` at the current instant.
+    pub fn reboot_slave(&mut self, id: u8) {
+        let (d, node) = self.slave(id);
+        let now = self.sim.now();
+        self.oracle
+            .borrow_mut()
+            .rebuilt(node, self.sim.frames_taken(d));
+        let st = slave_station(id, now, node, &self.oracle);
+        self.sim.replace(d, st).unwrap();
+    }
+}

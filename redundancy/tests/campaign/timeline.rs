@@ -1,0 +1,128 @@
+//! What the faults did to the wiring, over time: the oracle's answer to "could this frame have
+//! arrived?" ([`crate::oracle::Wiring`]).
+
+use crate::oracle::Wiring;
+use duocan::{Duration, Frame, Id, Instant};
+
+/// Around a change of the wiring, frames are not judged lost: what was on the wire or queued at
+/// the cut, and the copies a sender put on a bus in the instant before it learnt it was cut.
+pub const MARGIN: Duration = Duration::from_millis(20);
+
+/// A receive lag up to this keeps a device's timing: a heartbeat consumer (50 ms for a 20 ms
+/// producer) still sees the heartbeats in time when the lag appears on its only working bus.
+/// Beyond it, the device's view of time-critical traffic is late (as on any single bus): the
+/// redundancy cannot hand over a frame before the port's reader does.
+pub const LAG_SLACK: Duration = Duration::from_millis(25);
+
+/// Intervals `[from, to)` during which something held (`to` = `Instant::MAX`: still holds).
+#[derive(Clone, Debug, Default)]
+pub struct Spans(pub Vec<(Instant, Instant)>);
+
+impl Spans {
+    pub fn start(&mut self, t: Instant) {
+        if self.0.last().is_none_or(|s| s.1 != Instant::MAX) {
+            self.0.push((t, Instant::MAX));
+        }
+    }
+    pub fn end(&mut self, t: Instant) {
+        if let Some(s) = self.0.last_mut().filter(|s| s.1 == Instant::MAX) {
+            s.1 = t;
+        }
+    }
+    /// Holds at any time of `[from, to]`.
+    pub fn any(&self, from: Instant, to: Instant) -> bool {
+        self.0.iter().any(|s| s.0 <= to && s.1 > from)
+    }
+    /// Holds at every time of `[from, to]`.
+    pub fn all(&self, from: Instant, to: Instant) -> bool {
+        self.0.iter().any(|s| s.0 <= from && s.1 > to)
+    }
+    pub fn at(&self, t: Instant) -> bool {
+        self.any(t, t)
+    }
+}
+
+/// One device as the timeline knows it: its oracle node, node-ID, and what happened to it.
+#[derive(Clone, Debug, Default)]
+pub struct Dev {
+    pub node_id: u8,
+    /// Per port: unplugged.
+    pub unplugged: [Spans; 2],
+    /// Per port: its receive lag exceeds [`LAG_SLACK`].
+    pub slow: [Spans; 2],
+    pub off: Spans,
+    /// Instants it was rebuilt (rebooted).
+    pub reboots: Vec<Instant>,
+}
+
+#[derive(Clone, Debug, Default)]
+pub struct Timeline {
+    /// Per bus: cut.
+    pub cut: [Spans; 2],
+    /// Per bus: a babbling controller holds it.
+    pub babbled: [Spans; 2],
+    /// By oracle node.
+    pub devs: Vec<Dev>,
+    /// (target node-ID, span): an impostor beats for it.
+    pub impostors: Vec<(u8, Spans)>,
+}
+
+impl Timeline {
+    fn path(&self, s: usize, r: usize, bus: usize, from: Instant, to: Instant) -> (bool, bool) {
+        let (ds, dr) = (&self.devs[s], &self.devs[r]);
+        let broken = |f: Instant, t: Instant| {
+            (
+                self.cut[bus].any(f, t)
+                    || self.babbled[bus].any(f, t)
+                    || ds.unplugged[bus].any(f, t)
+                    || dr.unplugged[bus].any(f, t)
+                    || ds.off.any(f, t)
+                    || dr.off.any(f, t),
+                self.cut[bus].all(f, t)
+                    || self.babbled[bus].all(f, t)
+                    || ds.unplugged[bus].all(f, t)
+                    || dr.unplugged[bus].all(f, t)
+                    || ds.off.all(f, t)
+                    || dr.off.all(f, t),
+            )
+        };
+        let (ever, always) = broken(from, to);
+        (!ever, always)
+    }
+}
+
+impl Wiring for Timeline {
+    fn connected(&self, s: usize, r: usize, t: Instant) -> Option<bool> {
+        let (from, to) = (t - MARGIN, t + MARGIN);
+        let paths = [self.path(s, r, 0, from, to), self.path(s, r, 1, from, to)];
+        if paths.iter().any(|p| p.0) {
+            Some(true)
+        } else if paths.iter().all(|p| p.1) {
+            Some(false)
+        } else {
+            None
+        }
+    }
+
+    fn excluded(&self, s: usize, r: usize, t: Instant, frame: &Frame) -> bool {
+        let (from, to) = (t - MARGIN, t + crate::oracle::JUDGE_AFTER);
+        // A device rebooted meanwhile: its two lives are not one receiver.
+        let rebooted = |d: &Dev| d.reboots.iter().any(|b| *b >= from && *b <= to);
+        if rebooted(&self.devs[r]) || rebooted(&self.devs[s]) {
+            return true;
+        }
+        if self.devs[r].off.any(from, to) {
+            return true;
+        }
+        // The heartbeats of a node an impostor beats for: the layer judges them implausible on
+        // a bus and drops that bus's copies (as it must).
+        if let Id::Standard(id @ 0x701..=0x77F) = frame.id() {
+            let node = (id & 0x7F) as u8;
+            return self
+                .impostors
+                .iter()
+                .any(|(n, sp)| *n == node && sp.any(from, to));
+        }
+        false
+    }
+}
