@@ -5,6 +5,7 @@ mod cia302_6;
 mod clock;
 mod clock_modes;
 mod clock_properties;
+mod cyclic_lag;
 mod ecss;
 mod lag;
 mod lag_properties;
@@ -13,6 +14,7 @@ mod merge_memory;
 mod merge_properties;
 mod plausible_properties;
 mod railway;
+mod sequence;
 mod sim;
 mod srdo;
 #[path = "../common/time_line.rs"]

@@ -16,6 +16,7 @@ mod pairs;
 mod partition;
 mod queues;
 mod seen_failover;
+mod sequence;
 mod step_properties;
 mod stepped;
 #[path = "../common/time_line.rs"]
