@@ -15,5 +15,6 @@ mod plausible_properties;
 mod railway;
 mod sim;
 mod srdo;
+mod sticky_properties;
 #[path = "../common/time_line.rs"]
 mod time_line;

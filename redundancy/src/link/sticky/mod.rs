@@ -23,8 +23,15 @@
 //! - **Losses.** A frame the bound bus misses is lost, unless that bus then carries nothing of
 //!   the stream for a timeout: at a switch, what is lost is what the other bus carried of the
 //!   stream within one timeout after its last frame on the old bus. Every loss lies within one
-//!   timeout after the stream's last frame on the bus it was bound to; a stream on a bus that
-//!   misses nothing loses nothing.
+//!   timeout after the stream's last frame on the bus it was bound to; a stream never switched
+//!   away from a bus that misses nothing loses nothing.
+//! - **Pauses.** With both buses working, a stream whose frames never pause for longer than the
+//!   timeout less the skew between the buses never switches. One that pauses longer switches to
+//!   the bus that brings its next frame first, without loss, unless the pause ends within about
+//!   a skew of the timeout and frames follow closer than the skew: the new bus's copies stamped
+//!   before the timeout ran out are dropped, the old bus's come after the switch, and those
+//!   frames are lost. Keep the timeout away from the streams' periods (40 ms, between the usual
+//!   10, 20, 50 and 100 ms, does).
 //!
 //! The rule is the one the redundant transports of OpenCyphal apply per source node: they stay
 //! with the interface a node's transfers came from and move to another one only when it has
