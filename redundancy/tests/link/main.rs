@@ -15,6 +15,7 @@ mod plausible_properties;
 mod railway;
 mod sim;
 mod srdo;
+mod sticky;
 mod sticky_properties;
 #[path = "../common/time_line.rs"]
 mod time_line;

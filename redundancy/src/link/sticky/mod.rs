@@ -11,15 +11,18 @@
 //! delivered and the stream is bound to that bus from then on ([`StickyVerdict::Switched`]). A
 //! stream's first frame binds it to the bus that brought it. The stamps are those the exact merge
 //! uses (taken where the frame arrived, see
-//! [`Device::handle_rx_at`](duocan::Device::handle_rx_at)), so a port whose reader runs behind
-//! does not look silent to the rule: only what was on the wire counts. Nothing is matched and
-//! nothing is kept per frame.
+//! [`Device::handle_rx_at`](duocan::Device::handle_rx_at)). Nothing is matched and nothing is
+//! kept per frame.
 //!
 //! - **Never a duplicate**, whatever the frames carry (unchanged repeats: SYNC, heartbeats,
 //!   cyclic PDOs need no care), however late a port's reader hands frames over, as long as a
 //!   frame's two copies are stamped less than the timeout apart: the other bus's copy of an
 //!   occurrence the bound bus delivered is stamped at most that much after it, so it cannot
 //!   switch the stream. (And as long as a bus does not repeat a frame itself.)
+//! - **A late reader.** The rule judges each frame when it is handed over: a bound port whose
+//!   reader runs behind the other's by more than the timeout less the gap between a stream's
+//!   frames shows that stream silent for the timeout, and the stream switches (losing as at any
+//!   switch). Its stamps keep it from doubling anything.
 //! - **Losses.** A frame the bound bus misses is lost, unless that bus then carries nothing of
 //!   the stream for a timeout: at a switch, what is lost is what the other bus carried of the
 //!   stream within one timeout after its last frame on the old bus. Every loss lies within one
@@ -90,11 +93,14 @@
 //! one bus misses is taken from the other at once, and a dead bus costs nothing. It needs the
 //! twins' stamps within the skew window, or a lag it measures from frames whose content changes;
 //! until it has, a lag beyond the window can bring copies twice, and a repeat may be paired one
-//! occurrence off when a bus misses frames and then dies. The sticky merge never delivers a copy
-//! twice, whatever the content, with any lag below the timeout and any reader delay, and keeps
+//! occurrence off when a bus misses frames and then dies; a reader running behind costs
+//! nothing up to its horizon. The sticky merge never delivers a copy twice, whatever the
+//! content, with any lag of the stamps below the timeout and any reader delay, and keeps
 //! nothing per frame; it pays with losses: a frame its bound bus misses, and up to a timeout of
-//! a stream at each switch. Choose it where a duplicate is worse than a short gap (commands,
-//! counters a consumer cannot deduplicate) or where the buses' lag is large or unknown.
+//! a stream at each switch (after a fault, a reader that fell behind, or a pause of about the
+//! timeout). Choose it where a duplicate is worse than a short gap (commands, counters a
+//! consumer cannot deduplicate) or where the lag between the buses is large or not measurable
+//! (no frames whose content changes).
 //!
 //! ```
 //! use duocan::{Duration, Instant, NodeId};
