@@ -6,20 +6,28 @@ use super::{StreamKey, ID_STREAMS};
 /// No port: a stream not bound yet.
 pub(super) const UNBOUND: u8 = 2;
 
-/// One stream: the port it is bound to and its newest stamp there.
+/// One stream in 8 bytes: its newest stamp (µs) on the port it is bound to in the low 62 bits
+/// (146,000 years), that port (0, 1, or [`UNBOUND`]) in the top two. Small, because the layer
+/// is moved around whole by value.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub(super) struct Stream {
-    /// Newest stamp (µs) of the stream's frames on the bound port.
-    pub(super) last: u64,
-    /// 0, 1, or [`UNBOUND`].
-    pub(super) bound: u8,
-}
+pub(super) struct Stream(u64);
+
+const STAMP: u64 = (1 << 62) - 1;
 
 impl Stream {
-    pub(super) const FREE: Stream = Stream {
-        last: 0,
-        bound: UNBOUND,
-    };
+    pub(super) const FREE: Stream = Stream::new(0, UNBOUND);
+
+    pub(super) const fn new(last: u64, bound: u8) -> Self {
+        Stream((last & STAMP) | ((bound as u64) << 62))
+    }
+    /// Newest stamp (µs) of the stream's frames on the bound port.
+    pub(super) const fn last(self) -> u64 {
+        self.0 & STAMP
+    }
+    /// 0, 1, or [`UNBOUND`].
+    pub(super) const fn bound(self) -> u8 {
+        (self.0 >> 62) as u8
+    }
 }
 
 /// The key of an identifier stream: the identifier, the extended and the remote bits.
@@ -70,7 +78,7 @@ impl IdTable {
     pub(super) fn oldest(&self) -> Option<usize> {
         (0..self.len).min_by_key(|i| {
             let s = self.streams[*i];
-            (s.bound != UNBOUND, s.last)
+            (s.bound() != UNBOUND, s.last())
         })
     }
     /// Forgets entry `i` (the last entry takes its place).
