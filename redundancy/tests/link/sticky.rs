@@ -287,3 +287,29 @@ fn a_bus_lagging_below_the_timeout_without_timestamps_costs_nothing() {
         }
     }
 }
+
+/// The policy is the active-active mode's: the other modes keep the exact merge for what they
+/// merge. Under it the transmit-stall rule waits the timeout; a timeout below the skew window
+/// is the skew window.
+#[test]
+fn the_sticky_merge_is_the_active_active_modes_only() {
+    use duocan_redundancy::{Cia3026Config, DualBus, EcssConfig, LinkMode};
+    let sticky = config();
+    assert_eq!(DualBusConfig::default().merge, MergePolicy::Exact);
+    let l = DualBus::new(sticky);
+    assert_eq!(l.sticky().unwrap().timeout(), TIMEOUT);
+    assert_eq!(l.health().config().tx_stall, TIMEOUT);
+    assert_eq!(sticky.health.tx_stall, Duration::from_millis(10));
+    for mode in [
+        LinkMode::Cia302_6(Cia3026Config::default()),
+        LinkMode::EcssToggle(EcssConfig::master()),
+    ] {
+        let l = DualBus::new(sticky.with_mode(mode));
+        assert!(l.sticky().is_none(), "{mode:?}");
+    }
+    let short = sticky.with_merge(MergePolicy::Sticky {
+        timeout: Duration::from_millis(1),
+    });
+    let l = DualBus::new(short);
+    assert_eq!(l.sticky().unwrap().timeout(), short.skew_window);
+}

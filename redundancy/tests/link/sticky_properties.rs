@@ -121,12 +121,15 @@ fn check(
     Ok(())
 }
 
-/// Cuts: (bus, from, length) in µs; arrivals on a cut bus are lost.
-fn cuts() -> impl Strategy<Value = Vec<(usize, u64, u64)>> {
+/// (bus, from, length) in µs: arrivals on the cut bus are lost.
+type Cut = (usize, u64, u64);
+
+/// Cuts of either bus.
+fn cuts() -> impl Strategy<Value = Vec<Cut>> {
     prop::collection::vec((0..2usize, 0u64..130_000, 1_000u64..60_000), 1..4)
 }
 
-fn cut(mut s: Schedule, cuts: &[(usize, u64, u64)]) -> Schedule {
+fn cut(mut s: Schedule, cuts: &[Cut]) -> Schedule {
     for arr in &mut s.arrivals {
         for (bus, from, len) in cuts {
             if arr[*bus].is_some_and(|t| t >= *from && t < from + len) {
@@ -276,9 +279,12 @@ proptest! {
     }
 }
 
+/// (send time, identifier index, delay on each bus).
+type IdSent = (u64, u16, [u64; 2]);
+
 /// Frames of many identifiers without a known sender, more than the identifier table holds,
-/// on buses cut and repaired at random: (send time, identifier index, delay on each bus).
-fn id_traffic() -> impl Strategy<Value = (Vec<(u64, u16, [u64; 2])>, Vec<(usize, u64, u64)>)> {
+/// on buses cut and repaired at random.
+fn id_traffic() -> impl Strategy<Value = (Vec<IdSent>, Vec<Cut>)> {
     (
         prop::collection::vec((1u64..200, 0u16..150, 0..W, 0..W), 1..600),
         cuts(),
