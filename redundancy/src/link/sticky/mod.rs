@@ -17,8 +17,8 @@
 //! - **Never a duplicate**, whatever the frames carry (unchanged repeats: SYNC, heartbeats,
 //!   cyclic PDOs need no care), however late a port's reader hands frames over, as long as a
 //!   frame's two copies are stamped less than the timeout apart: the other bus's copy of an
-//!   occurrence the bound bus delivered is stamped at most that much after it, so it cannot
-//!   switch the stream. (And as long as a bus does not repeat a frame itself.)
+//!   occurrence the bound bus delivered is stamped less than a timeout after the stream's newest
+//!   frame there, so it cannot switch the stream. (And as long as a bus does not repeat a frame itself.)
 //! - **A late reader.** The rule judges each frame when it is handed over: a bound port whose
 //!   reader runs behind the other's by more than the timeout less the gap between a stream's
 //!   frames shows that stream silent for the timeout, and the stream switches (losing as at any
