@@ -125,7 +125,8 @@ pub use link::channel::ModeKind;
 pub use link::channel::{EcssConfig, EcssRole};
 pub use link::classify::FrameClassifier;
 pub use link::dual_bus::{
-    DualBus, DualBusConfig, DualBusNode, LinkCommand, LinkMode, LinkStats, DEFAULT_MERGE_SLOTS,
+    DualBus, DualBusConfig, DualBusNode, LinkCommand, LinkMode, LinkStats, MergePolicy,
+    DEFAULT_MERGE_SLOTS,
 };
 pub use link::events::{LinkEvent, LinkEventKind, PortReason, Suspicion, SwitchReason};
 pub use link::health::{HealthConfig, PortState};

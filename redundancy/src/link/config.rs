@@ -86,6 +86,47 @@ pub struct DualBusConfig {
     /// Default 2 ms ([`DEFAULT_FRAME_TIME`](crate::link::plausible::DEFAULT_FRAME_TIME): from
     /// 125 kbit/s up); slower buses need more; zero: no idle witness.
     pub frame_time: Duration,
+    /// How the active-active mode merges the two buses' receptions (default
+    /// [`MergePolicy::Exact`]); the CiA 302-6 and ECSS modes keep the exact merge for what
+    /// they merge (heartbeats heard on both channels).
+    pub merge: MergePolicy,
+}
+
+/// How the active-active mode merges the two buses' receptions into one.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
+pub enum MergePolicy {
+    /// Every occurrence exactly once, twins matched by their receive timestamps
+    /// ([`crate::link::merge`]).
+    #[default]
+    Exact,
+    /// Each sender's frames from one bus, switching to the other after `timeout` of silence
+    /// ([`crate::link::sticky`]): never a duplicate while a frame's two copies are stamped less
+    /// than `timeout` apart; up to `timeout` of a sender's frames lost at a switch. A timeout
+    /// below the skew window is taken as the skew window. Under this policy the transmit-stall
+    /// rule of port health waits the timeout (not the skew window): a frame that reaches the
+    /// receivers later than that after its copy on the other bus is a lag the rule no longer
+    /// covers.
+    Sticky {
+        /// Silence of a sender on its bus after which it switches: above the largest lag
+        /// between the buses' stamps.
+        timeout: Duration,
+    },
+}
+
+impl MergePolicy {
+    /// The sticky merge's default timeout, 40 ms: the default maximum skew window, the largest
+    /// lag between the buses the layer takes for normal (beyond it a port is suspect). With
+    /// receive timestamps the copies are stamped far closer (the skew on the wires); a port
+    /// whose driver has none, or a bus behind a bridge, needs its lag below this.
+    pub const STICKY_TIMEOUT: Duration = Duration::from_millis(40);
+
+    /// The sticky merge with the default timeout ([`MergePolicy::STICKY_TIMEOUT`]).
+    #[must_use]
+    pub const fn sticky() -> Self {
+        MergePolicy::Sticky {
+            timeout: Self::STICKY_TIMEOUT,
+        }
+    }
 }
 
 // Builders: the struct is `#[non_exhaustive]` (it may gain fields), so code outside the crate
@@ -139,6 +180,12 @@ impl DualBusConfig {
         self.frame_time = frame_time;
         self
     }
+    /// The configuration with [`merge`](Self::merge) replaced.
+    #[must_use]
+    pub fn with_merge(mut self, merge: MergePolicy) -> Self {
+        self.merge = merge;
+        self
+    }
     /// The configuration with [`watch_capacity`](Self::watch_capacity) replaced (at most
     /// [`MAX_MEMBERS`]).
     #[must_use]
@@ -177,6 +224,7 @@ impl DualBusConfig {
             od_layout: OdLayout::default(),
             watch_capacity: MAX_MEMBERS,
             frame_time: crate::link::plausible::DEFAULT_FRAME_TIME,
+            merge: MergePolicy::Exact,
         }
     }
 }

@@ -6,6 +6,7 @@
 //! | --- | --- |
 //! | The layer itself: ports below, logical bus above, one of three policies | [`dual_bus`] |
 //! | Exact duplicate merge of the two ports' receptions (active-active) | [`merge`] |
+//! | Sticky merge, the alternative: each sender from one bus, switching after a silence | [`sticky`] |
 //! | Each port's lag from matched twins: the merge window, distrust beyond the maximum | [`lag`] |
 //! | Port health: counters, error causes, ok / suspect / failed / recovering, re-initialisation | [`health`] |
 //! | Per-node, per-bus reachability | [`reach`] |
@@ -84,3 +85,4 @@ pub mod outbox;
 pub mod plausible;
 pub mod reach;
 pub mod same_function;
+pub mod sticky;

@@ -33,21 +33,22 @@ const WINDOW: u64 = 5 * MS;
 
 /// A stretch of time during which `port` lags by `lag` µs and the other port not at all.
 #[derive(Clone, Copy, Debug)]
-struct Segment {
+pub(crate) struct Segment {
     len: u64,
     port: usize,
     lag: u64,
 }
 
+// The runs are shared with the sticky merge's properties (`sticky_properties.rs`).
 #[derive(Clone, Debug)]
-struct Run {
+pub(crate) struct Run {
     /// (send time, sender, frame), in send order.
-    sent: Vec<(u64, usize, Frame)>,
+    pub(crate) sent: Vec<(u64, usize, Frame)>,
     /// (hand-over time, port, index into `sent`, receive timestamp), in hand-over order.
-    arrivals: Vec<(u64, usize, usize, u64)>,
-    segments: Vec<Segment>,
+    pub(crate) arrivals: Vec<(u64, usize, usize, u64)>,
+    pub(crate) segments: Vec<Segment>,
     /// The ports stamp frames on arrival (the lag is a late reader), or on hand-over.
-    stamped: bool,
+    pub(crate) stamped: bool,
 }
 
 fn lag_at(segments: &[Segment], t: u64, port: usize) -> u64 {
@@ -107,7 +108,7 @@ fn segments(one_port: bool, most: u64) -> impl Strategy<Value = Vec<Segment>> {
     )
 }
 
-fn run(one_port: bool, stamped: bool) -> impl Strategy<Value = Run> {
+pub(crate) fn run(one_port: bool, stamped: bool) -> impl Strategy<Value = Run> {
     let most = if stamped { 70 } else { 35 };
     (
         segments(one_port, most),

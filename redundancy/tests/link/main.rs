@@ -17,5 +17,7 @@ mod railway;
 mod sequence;
 mod sim;
 mod srdo;
+mod sticky;
+mod sticky_properties;
 #[path = "../common/time_line.rs"]
 mod time_line;

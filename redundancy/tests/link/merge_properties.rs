@@ -11,28 +11,30 @@ use duocan_redundancy::link::merge::{Merger, Verdict};
 use proptest::prelude::*;
 use std::collections::HashMap;
 
-const W: u64 = 10_000; // µs
+pub(crate) const W: u64 = 10_000; // µs
 const MAX_DELAY: u64 = W - 1;
 
+// The schedules are shared with the sticky merge's properties (`sticky_properties.rs`).
+
 #[derive(Clone, Debug)]
-struct Sent {
-    sender: usize,
-    frame: Frame,
-    at: u64,
+pub(crate) struct Sent {
+    pub(crate) sender: usize,
+    pub(crate) frame: Frame,
+    pub(crate) at: u64,
 }
 
 #[derive(Clone, Debug)]
-struct Schedule {
-    sent: Vec<Sent>,
+pub(crate) struct Schedule {
+    pub(crate) sent: Vec<Sent>,
     /// Arrival time of each sent frame on bus 0 and bus 1 (`None`: dropped).
-    arrivals: Vec<[Option<u64>; 2]>,
+    pub(crate) arrivals: Vec<[Option<u64>; 2]>,
     /// Random tie-breakers per arrival.
-    ties: Vec<[u32; 2]>,
+    pub(crate) ties: Vec<[u32; 2]>,
 }
 
 /// How the second (lossy) bus behaves relative to the complete one.
 #[derive(Clone, Copy, Debug)]
-enum Lossy {
+pub(crate) enum Lossy {
     /// Delivers everything too.
     Complete,
     /// Drops with the given probability (percent), random skew either way.
@@ -63,7 +65,7 @@ prop_compose! {
     }
 }
 
-fn schedule(lossy: Lossy) -> impl Strategy<Value = (Schedule, bool)> {
+pub(crate) fn schedule(lossy: Lossy) -> impl Strategy<Value = (Schedule, bool)> {
     (1usize..=5)
         .prop_flat_map(|n| (0..n).map(sender_traffic).collect::<Vec<_>>())
         .prop_flat_map(move |per_sender| (Just(per_sender), any::<bool>()))

@@ -20,6 +20,9 @@ impl<C: FrameClassifier, const SLOTS: usize, const FUNCTIONS: usize> DualBus<C, 
     fn step_back(&mut self, by: Duration) {
         self.policy.step_back(by);
         self.merger.step_back(by);
+        if let Some(s) = &mut self.sticky {
+            s.step_back(by);
+        }
         self.lag.step_back(by);
         self.health.step_back(by);
         self.reach.step_back(by);

@@ -26,7 +26,7 @@ use crate::link::channel::Ecss;
 use crate::link::channel::{ChannelPolicy, FrameInfo, ModeKind, Policy};
 use crate::link::classify::FrameClassifier;
 use crate::link::config::{ConfigError, OdLayout};
-pub use crate::link::config::{DualBusConfig, LinkMode};
+pub use crate::link::config::{DualBusConfig, LinkMode, MergePolicy};
 use crate::link::events::LinkEvent;
 use crate::link::health::{Health, PortHealth, PortState};
 use crate::link::lag::LagMeter;
@@ -35,6 +35,7 @@ use crate::link::outbox::Outbox;
 use crate::link::plausible::Plausibility;
 use crate::link::reach::Reach;
 use crate::link::same_function::{PairError, SameFunction, MAX_FUNCTIONS};
+use crate::link::sticky::StickyMerger;
 use crate::pair::{Member, PairId};
 use duocan::frame::instant::{earliest_of, TimeWatch};
 use duocan::machine::{BusLink, LinkRequest, PortRequest, PortStatus};
@@ -109,6 +110,8 @@ pub struct DualBus<
     classifier: C,
     policy: Policy,
     merger: Merger<SLOTS>,
+    /// The sticky merge, when configured (active-active only): it judges instead of `merger`.
+    sticky: Option<StickyMerger>,
     lag: LagMeter,
     health: Health,
     /// Per port: its frames come with receive timestamps (`handle_rx_at`).
@@ -171,7 +174,6 @@ impl<C: FrameClassifier, const SLOTS: usize, const FUNCTIONS: usize> DualBus<C, 
     /// A layer with a custom frame classifier (identifier scheme).
     #[must_use]
     pub fn with_classifier(cfg: DualBusConfig, classifier: C) -> Self {
-        #[cfg_attr(not(any(feature = "cia302-6", feature = "ecss")), allow(unused_mut))]
         let mut health = cfg.health;
         let (policy, reach_enabled) = match cfg.mode {
             LinkMode::ActiveActive => (Policy::ActiveActive(Default::default()), true),
@@ -190,6 +192,19 @@ impl<C: FrameClassifier, const SLOTS: usize, const FUNCTIONS: usize> DualBus<C, 
                 (Policy::EcssToggle(Ecss::new(c)), false)
             }
         };
+        let sticky = match (cfg.mode, cfg.merge) {
+            (LinkMode::ActiveActive, MergePolicy::Sticky { timeout }) => {
+                // Copies stamped within the skew window are the layer's premise anyway.
+                let timeout = timeout.max(cfg.skew_window);
+                // A frame stalled on one port reaches the receivers late: the sticky merge
+                // stands a lag up to its timeout, not more.
+                if !health.tx_stall.is_zero() {
+                    health.tx_stall = health.tx_stall.max(timeout);
+                }
+                Some(StickyMerger::new(timeout))
+            }
+            _ => None,
+        };
         // A lag is forgotten after the silence limit: the time in which a port hears something
         // anyway.
         let lag = LagMeter::new(cfg.skew_window, cfg.max_skew_window, health.silence_limit);
@@ -199,6 +214,7 @@ impl<C: FrameClassifier, const SLOTS: usize, const FUNCTIONS: usize> DualBus<C, 
             classifier,
             policy,
             merger: Merger::with_horizon(cfg.skew_window, lag.horizon()),
+            sticky,
             lag,
             health: Health::new(health, cfg.skew_window),
             stamped: [true; 2],
@@ -297,9 +313,13 @@ impl<C: FrameClassifier, const SLOTS: usize, const FUNCTIONS: usize> DualBus<C, 
     pub fn port_state(&self, p: usize) -> PortState {
         self.health.port(p).state()
     }
-    /// The receive merger.
+    /// The receive merger (the exact merge: idle when the sticky merge is configured).
     pub fn merger(&self) -> &Merger<SLOTS> {
         &self.merger
+    }
+    /// The sticky merge, if configured ([`MergePolicy::Sticky`], active-active mode).
+    pub fn sticky(&self) -> Option<&StickyMerger> {
+        self.sticky.as_ref()
     }
     /// Each port's measured lag and the correction the merger's stamps get.
     pub fn lag(&self) -> &LagMeter {
@@ -500,6 +520,7 @@ impl<C, const SLOTS: usize, const FUNCTIONS: usize> core::fmt::Debug
                 &[self.health.port(0).state(), self.health.port(1).state()],
             )
             .field("merger", &self.merger)
+            .field("sticky", &self.sticky)
             .field("lag", &[self.lag.lag(0), self.lag.lag(1)])
             .field("stats", &self.stats)
             .finish_non_exhaustive()

@@ -1,12 +1,13 @@
 //! The receive path into the merger: stamps corrected by the measured lag, trusted and
-//! unproven ports, and what the lag meter changes.
+//! unproven ports, and what the lag meter changes; or into the sticky merge, if configured.
 
 use super::DualBus;
 use crate::link::channel::{ChannelPolicy, RxRoute};
 use crate::link::classify::FrameClassifier;
-use crate::link::health::RxOutcome;
+use crate::link::health::{PortState, RxOutcome};
 use crate::link::merge::{Trust, Verdict};
 use crate::link::same_function::PairVerdict;
+use crate::link::sticky::{StickyVerdict, StreamKey};
 use duocan::{Frame, Instant};
 
 impl<C: FrameClassifier, const SLOTS: usize, const FUNCTIONS: usize> DualBus<C, SLOTS, FUNCTIONS> {
@@ -59,6 +60,7 @@ impl<C: FrameClassifier, const SLOTS: usize, const FUNCTIONS: usize> DualBus<C, 
         let outcome = match route {
             RxRoute::Ignore => RxOutcome::Ignored,
             RxRoute::Direct => RxOutcome::Direct,
+            RxRoute::Merge if self.sticky.is_some() => self.stick(now, at, port, frame),
             RxRoute::Merge => self.merge(now, at, port, frame),
         };
         self.health.rx_delay(port, now.saturating_since(at));
@@ -100,11 +102,7 @@ impl<C: FrameClassifier, const SLOTS: usize, const FUNCTIONS: usize> DualBus<C, 
         frame: &Frame,
     ) -> RxOutcome {
         let s = self.lag.correct(port, at);
-        let trust = if self.health.trusted(port) {
-            Trust::Trusted
-        } else {
-            Trust::Unproven
-        };
+        let trust = self.trust(port);
         let (verdict, sample) = self.merger.arrive_at(now, s, port, frame, trust);
         if let Some(sample) = sample {
             let before = [self.lag.lag(0), self.lag.lag(1)];
@@ -121,6 +119,37 @@ impl<C: FrameClassifier, const SLOTS: usize, const FUNCTIONS: usize> DualBus<C, 
             Verdict::Deliver => RxOutcome::Delivered,
             Verdict::Duplicate => RxOutcome::Duplicate,
             Verdict::Late | Verdict::Unproven => RxOutcome::Stale,
+        }
+    }
+
+    /// Whether the merge may take a first copy from `port`: not while it is failed or
+    /// recovering and the other port works (see [`crate::link::merge`]).
+    #[inline]
+    fn trust(&self, port: usize) -> Trust {
+        if self.health.trusted(port) {
+            Trust::Trusted
+        } else {
+            Trust::Unproven
+        }
+    }
+
+    /// A frame stamped `at` on `port`, handled at `now`, through the sticky merge: its stream
+    /// is its sender's, or its identifier's (see [`crate::link::sticky`]). Stamps are taken as
+    /// they come: the sticky merge stands any lag below its timeout, and measures none.
+    #[inline]
+    fn stick(&mut self, now: Instant, at: Instant, port: usize, frame: &Frame) -> RxOutcome {
+        let key = StreamKey::of(frame, self.classifier.sender(frame));
+        let trust = self.trust(port);
+        let other_failed = self.health.port(1 - port).state() == PortState::Failed;
+        let Some(sticky) = self.sticky.as_mut() else {
+            return RxOutcome::Ignored;
+        };
+        sticky.set_failed(1 - port, other_failed);
+        match sticky.arrive_at(now, at, port, key, trust) {
+            StickyVerdict::Deliver | StickyVerdict::Switched => RxOutcome::Delivered,
+            // The other bus's copy: as a twin is for the exact merge (the port is not silent).
+            StickyVerdict::Dropped => RxOutcome::Duplicate,
+            StickyVerdict::Unproven => RxOutcome::Stale,
         }
     }
 
