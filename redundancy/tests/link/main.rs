@@ -7,6 +7,7 @@ mod clock_modes;
 mod clock_properties;
 mod cyclic_lag;
 mod ecss;
+mod flapping;
 mod lag;
 mod lag_properties;
 mod lss;
