@@ -20,9 +20,11 @@ use duocan_redundancy::{
 };
 use embedded_can::nb::Can;
 
-/// Merger slots of the dual-bus layer: the merger holds the frames of one skew window (10 ms)
-/// until their twins arrive; the network carries a few per window (eight heartbeats every
-/// 50 ms, SYNC every 20 ms, the pair boards' PDOs), far below the 48 the slots take.
+/// Merger slots of the dual-bus layer: while both buses work the merger holds a frame until its
+/// twin arrives, within the skew window (5 ms); the network carries a few per window (eight
+/// heartbeats every 50 ms, SYNC every 20 ms, the pair boards' PDOs), far below the 48 records
+/// the slots take. With a bus dead, records wait for the horizon and the oldest are evicted
+/// first (counted): harmless, their twins never come.
 pub const MERGE_SLOTS: usize = 64;
 /// (pair, function) values the same-function merge compares: four TPDOs per pair.
 pub const FUNCTIONS: usize = 16;

@@ -54,7 +54,8 @@ pub const FIELD_SRVT: Duration = Duration::from_millis(20);
 /// Track circuits mirrored.
 pub const TRACKS: u8 = 4;
 /// Merger slots of the dual-bus layer: the gateway hears a master's heartbeats, NMT, SYNC and
-/// SDO, a few frames per 10 ms window.
+/// SDO, a few frames per 5 ms skew window (with a bus dead, the oldest records are evicted
+/// first, counted: their twins never come).
 pub const MERGE_SLOTS: usize = 64;
 
 /// RAM budget of the slave node with its dictionary (issue 2's no_std slave): 16 KiB.

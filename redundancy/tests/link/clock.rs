@@ -225,7 +225,7 @@ fn merge_records_move_back_with_the_clock() {
     r.step(t0 + d(5), ms(5));
     // The twin 2 ms after its copy in the new time line: a duplicate, dropped once.
     assert!(!r.rx(ms(6), 1, tpdo(5, 2)));
-    // The first frame again, 20 ms after its copy (beyond the 10 ms window) and on bus 2 only
+    // The first frame again, 20 ms after its copy (beyond the 5 ms window) and on bus 2 only
     // (bus 1 missed this one): a new occurrence. Had its old record stayed an hour in the
     // future, it would never have expired and this frame would be lost as its twin.
     assert!(r.rx(ms(20), 1, tpdo(5, 1)));

@@ -27,7 +27,7 @@ fn ms(x: u64) -> Duration {
     Duration::from_millis(x)
 }
 
-/// The default active-active timing for a 50 ms heartbeat: skew window 10 ms, maximum 40 ms,
+/// The default active-active timing for a 50 ms heartbeat: skew window 5 ms, maximum 40 ms,
 /// silence limit (and lag period) 150 ms.
 fn config() -> DualBusConfig {
     DualBusConfig::with_guard_period(LinkMode::ActiveActive, ms(HB_MS as u64))

@@ -29,7 +29,7 @@
 //! and a repeat that follows a copy one bus missed within the window may be paired one
 //! occurrence off: the count stays right while both buses work; if the other bus then dies
 //! before the repeats pause for a window, one occurrence is taken for a twin. With stamps the
-//! skew is that of the wires (the buses arbitrate alike), well below the 10 ms default.
+//! skew is that of the wires (the buses arbitrate alike), well below the 5 ms default.
 //!
 //! # How long a copy is kept
 //!
