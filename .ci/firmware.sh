@@ -6,7 +6,7 @@
 # What it needs on a fresh Debian with rustup: the thumbv7em target, rustup's llvm-tools (for
 # llvm-objdump, the stack figure) and python3. FIRMWARE_HEAP_FROM_TESTS=1 takes the master's
 # heap figure from the workspace's test run that just happened (.ci/run does; the test writes
-# target/tmp/master-heap-high-water), otherwise the heap test runs here.
+# tmp/master-heap-high-water in the target directory), otherwise the heap test runs here.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 
@@ -33,7 +33,7 @@ rustup component add llvm-tools >/dev/null \
 objdump=$(ls "$(rustc --print sysroot)"/lib/rustlib/*/bin/llvm-objdump 2>/dev/null | head -n1)
 [ -x "$objdump" ] || { echo "llvm-objdump not found in the toolchain's llvm-tools"; exit 1; }
 
-figure=target/tmp/master-heap-high-water
+figure=${CARGO_TARGET_DIR:-target}/tmp/master-heap-high-water
 if [ "${FIRMWARE_HEAP_FROM_TESTS:-}" != 1 ] || [ ! -f "$figure" ]; then
   cargo test -q -p master-board --test heap >/dev/null
 fi
@@ -50,7 +50,7 @@ heap=$(cat "$figure")
   cargo build -q --release -p master-firmware
 )
 
-elf=target/thumbv7em-none-eabihf/release
+elf=${CARGO_TARGET_DIR:-target}/thumbv7em-none-eabihf/release
 status=0
 python3 .ci/firmware-figures.py gateway "$elf/gateway-firmware" --objdump "$objdump" \
   --flash-budget "$GATEWAY_FLASH" --ram-budget "$GATEWAY_RAM" --stack-budget "$GATEWAY_STACK" \
