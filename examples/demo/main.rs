@@ -6,14 +6,16 @@
 //! CANopen predefined connection set, signal and track-circuit racks on the railway 29-bit
 //! profile) with A/B board pairs driving point machines, signals, track circuits and level
 //! crossings; the boards' dictionaries come from their EDS and the masters configure them from
-//! each rack's DCF (`examples/demo/devices/`). Routes are set all day while a script cuts a
-//! bus, kills an active board, kills the strong master, repairs all of it and splits a rack
-//! between the computers; the dead board is replaced by a spare without node-ID, which the
+//! each rack's DCF (`examples/demo/devices/`). Routes are set all day while a script hands a
+//! rack over from one bus to the other, cuts a bus, kills an active board, kills the strong
+//! master, makes an active board stop by itself, repairs all of it and splits a rack between
+//! the computers; the dead board is replaced by a spare without node-ID, which the
 //! active master finds and addresses by LSS (CiA 305) before it joins as standby. The demo
 //! prints the timeline with the reaction times measured in the run, the application messages
 //! counted end to end, and each rack's final status; it writes a candump log, pcap files and
 //! an SVG timeline into `target/demo/` (or `--out DIR`). It exits with status 1 if a message
-//! was lost, a failover missed its bound or the spare did not join with its slot's node-ID.
+//! was lost, a failover missed its bound, the spare did not join with its slot's node-ID, or
+//! the hand-over or the stopped board broke one of their invariants.
 
 mod scenario;
 
@@ -118,9 +120,13 @@ fn demo(out: PathBuf) -> ExitCode {
         .iter()
         .filter(|h| matches!(h.act, scenario::Act::BoardReplaced { .. }))
         .count();
-    let ok = ok
+    let mut ok = ok
         && outcome.replacements.len() == replaced
         && outcome.replacements.iter().all(|r| r.held());
+    for (text, held) in outcome.verdicts(&st) {
+        println!("{text}: {}", if held { "yes" } else { "NO" });
+        ok &= held;
+    }
     let (boards, holding) = scenario::devices::configured(&st);
     println!(
         "configuration: {holding} of {boards} boards hold their rack's DCF values (dictionaries from {})",

@@ -6,6 +6,8 @@
 mod scenario;
 
 mod devices;
+mod handover;
 mod replacement;
 mod report_svg;
 mod run;
+mod stopped;

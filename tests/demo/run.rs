@@ -2,12 +2,15 @@
 //! computed from the run, and here they are asserted: no application message lost or doubled,
 //! every failover within its bound, one active master per rack and one running board per pair
 //! at the end; the spare that replaces the dead board is given its slot's node-ID by LSS and
-//! joins as standby (`replacement.rs`, exact times); the SVG parses and has what it claims; the candump log and the pcap files read
-//! back as the frames of the run. A run with both buses of a rack cut shows that the analysis
-//! does count losses.
+//! joins as standby (`replacement.rs`, exact times); the turnout rack's buses are handed over
+//! without a frame lost, a role change or a switch-over (`handover.rs`, exact times); the board
+//! that stops by itself is replaced at the heartbeat that shows it (`stopped.rs`, exact times);
+//! the SVG parses and has what it claims; the candump log and the pcap files read
+//! back as the frames of the run. A run with both buses of a rack cut and a pair's standby off
+//! shows that the analysis does count losses and fails the hand-over's and the stop's verdicts.
 
 use crate::scenario::analysis::Analysis;
-use crate::scenario::{Act, CONSUMER, MASTER_TIMEOUT, SCRIPT};
+use crate::scenario::{Act, CONSUMER, MASTER_TIMEOUT, SCRIPT, STOPPED_PAIR};
 use duocan::capture::candump;
 use duocan::capture::pcap::PcapReader;
 use duocan::sim::{TraceRecord, TxOutcome};
@@ -50,6 +53,13 @@ fn day() {
     let a = Analysis::new(&st);
     let o = a.outcome();
     crate::replacement::the_spare_is_given_its_node_id_by_lss_and_joins_as_standby(&st, &o);
+    crate::handover::the_turnout_buses_are_handed_over_without_loss(&st, &o);
+    crate::stopped::the_board_that_stops_by_itself_is_replaced_at_its_heartbeat(&st, &o);
+    assert!(
+        o.verdicts(&st).iter().all(|v| v.1),
+        "{:#?}",
+        o.verdicts(&st)
+    );
 
     // Application messages end to end: everything executed once, answered, delivered once.
     let t = o.total();
@@ -89,8 +99,16 @@ fn day() {
             f.took() >= MASTER_TIMEOUT && f.took() <= MASTER_TIMEOUT + Duration::from_millis(1)
         );
     }
-    assert_eq!(find("SYNC gap").len(), 4);
-    assert_eq!(find("bus 1 failed").len(), 2);
+    assert_eq!(find("SYNC gap over the takeover").len(), 4);
+    // The signal rack's bus 1 cut, and the turnout rack's buses handed over: bus 2, then bus 1.
+    assert_eq!(find("bus 1 failed").len(), 4);
+    assert_eq!(find("bus 2 failed").len(), 2);
+    assert_eq!(find("bus 2 in use again").len(), 2);
+    assert_eq!(find("SYNC gap over the hand-over").len(), 1);
+    assert_eq!(
+        find("T9: board B started after A's heartbeat saying").len(),
+        1
+    );
     assert_eq!(find("strong master active after the weak").len(), 1);
     assert_eq!(find("stepped down after the heal").len(), 1);
 
@@ -187,13 +205,17 @@ fn day() {
         .filter(|(_, a)| !matches!(a, Act::MasterKilled(_) | Act::MasterBack(_)))
         .count();
     assert_eq!(faults, own + 4 * 2);
-    let bus1_has = |rack: usize, state: &str| {
+    let bus_has = |rack: usize, bus: &str, state: &str| {
         networks[rack]
             .descendants()
-            .filter(|n| class(n, "lane") && n.attribute("data-label") == Some("bus 1"))
+            .filter(|n| class(n, "lane") && n.attribute("data-label") == Some(bus))
             .any(|l| l.descendants().any(|n| class(&n, state)))
     };
+    let bus1_has = |rack: usize, state: &str| bus_has(rack, "bus 1", state);
+    assert!(bus_has(crate::scenario::TURNOUT, "bus 2", "state-failed"));
+    assert!(!bus_has(crate::scenario::SIGNAL, "bus 2", "state-failed"));
     assert!(bus1_has(crate::scenario::SIGNAL, "state-failed"));
+    assert!(bus1_has(crate::scenario::TURNOUT, "state-failed"));
     assert!(bus1_has(crate::scenario::MISC, "state-suspect"));
     assert!(!bus1_has(crate::scenario::TRACK, "state-failed"));
 
@@ -242,9 +264,10 @@ fn day() {
 }
 
 #[test]
-fn a_rack_cut_off_on_both_buses_shows_as_lost_messages() {
+fn a_rack_cut_off_on_both_buses_and_a_pair_without_standby_show_as_failures() {
     big_stack(|| {
-        // Both turnout buses cut while P7 and P8 finish their throw (reports at 5.4 s).
+        // Both turnout buses cut while P7 and P8 finish their throw (reports at 5.4 s), in the
+        // middle of the scripted hand-over; T9's standby B off before its A stops by itself.
         let st = crate::scenario::run_with(|sim, racks| {
             let buses = racks[crate::scenario::TURNOUT].buses();
             sim.at(Instant::from_millis(5_390), move |sim| {
@@ -253,11 +276,18 @@ fn a_rack_cut_off_on_both_buses_shows_as_lost_messages() {
             sim.at(Instant::from_millis(5_700), move |sim| {
                 buses.iter().for_each(|b| sim.bus_up(*b))
             });
+            let standby = racks[crate::scenario::TRACK].board_dev(STOPPED_PAIR, Member::B);
+            sim.at(Instant::from_millis(9_000), move |sim| {
+                sim.power_off(standby)
+            });
         })
         .unwrap();
         let o = Analysis::new(&st).outcome();
         let turnout = &o.traffic[crate::scenario::TURNOUT].1;
         assert!(turnout.lost_total() > 0, "{turnout:?}");
+        crate::handover::a_hand_over_with_both_buses_down_loses_frames(&o);
+        crate::stopped::a_stop_with_no_standby_fails(&o);
+        assert!(o.verdicts(&st).iter().any(|v| !v.1));
         // The other racks are untouched.
         assert_eq!(o.traffic[crate::scenario::SIGNAL].1.lost_total(), 0);
     });

@@ -13,9 +13,11 @@
 //! must reach that computer exactly once, and no computer may get it twice.
 
 use super::board::BoardEvent;
+use super::handover::HandOver;
 use super::interlocking::IlEvent;
 use super::replacement::Replacement;
 use super::station::{board_node, master_node, MASTER_NAMES, STRONG, WEAK};
+use super::stopped::Stopped;
 use super::{Act, Happened, Station, CONSUMER, DETECT_CYCLE, MASTER_TIMEOUT, SILENCE_LIMIT, SYNC};
 use duocan::sim::{DeviceRef, TraceRecord, TxOutcome};
 use duocan::{Duration, Frame, Instant, NmtState};
@@ -147,6 +149,10 @@ pub struct Outcome {
     pub failovers: Vec<Failover>,
     /// Boards replaced by a spare without node-ID.
     pub replacements: Vec<Replacement>,
+    /// Buses handed over by a maintainer.
+    pub hand_overs: Vec<HandOver>,
+    /// Active boards that stopped by themselves.
+    pub stops: Vec<Stopped>,
     /// Per rack.
     pub traffic: Vec<(&'static str, Traffic)>,
     /// Per rack.
@@ -158,6 +164,28 @@ pub struct Outcome {
 }
 
 impl Outcome {
+    /// The verdicts of the scenes that have their own invariants (the hand-overs, the boards
+    /// that stopped by themselves), and whether each held; a scripted scene the run did not show
+    /// is a failed verdict.
+    pub fn verdicts(&self, st: &Station) -> Vec<(String, bool)> {
+        let mut v: Vec<(String, bool)> = self
+            .hand_overs
+            .iter()
+            .map(|h| (h.summary(), h.held()))
+            .chain(self.stops.iter().map(|s| (s.summary(), s.held())))
+            .collect();
+        let scripted = |f: fn(&Act) -> bool| st.happened.iter().filter(|h| f(&h.act)).count();
+        if scripted(|a| matches!(a, Act::HandOver { .. })) != self.hand_overs.len()
+            || scripted(|a| matches!(a, Act::BoardStops { .. })) != self.stops.len()
+        {
+            v.push((
+                "every scripted hand-over and stop shown in the run".into(),
+                false,
+            ));
+        }
+        v
+    }
+
     /// Sum over the racks.
     pub fn total(&self) -> Traffic {
         let mut t = Traffic::default();
@@ -272,7 +300,7 @@ impl<'a> Analysis<'a> {
             .collect()
     }
 
-    fn active_at(&self, rack: usize, w: usize, t: Instant) -> bool {
+    pub(super) fn active_at(&self, rack: usize, w: usize, t: Instant) -> bool {
         self.powered(w, t)
             && self
                 .roles(rack, w)
@@ -335,10 +363,17 @@ impl<'a> Analysis<'a> {
 
     /// The application messages of one rack.
     pub fn traffic(&self, rack: usize) -> Traffic {
+        self.traffic_between(rack, Instant::ZERO, self.st.sim.now())
+    }
+
+    /// The application messages of one rack due or sent in `[from, to]` (commands by their due
+    /// time, state changes by the time the board sent them).
+    pub fn traffic_between(&self, rack: usize, from: Instant, to: Instant) -> Traffic {
         let r = &self.st.racks[rack];
         let sim = &self.st.sim;
+        let during = |at: Instant| from <= at && at <= to;
         let mut t = Traffic {
-            commands: r.schedule().len(),
+            commands: r.schedule().iter().filter(|c| during(c.at)).count(),
             ..Traffic::default()
         };
         // What each computer received: (board, seq) → instants.
@@ -351,13 +386,13 @@ impl<'a> Analysis<'a> {
                         reports[w].entry((from.raw(), *seq)).or_default().push(*at)
                     }
                     IlEvent::Answer { seq, .. } => answers[w].entry(*seq).or_default().push(*at),
-                    IlEvent::Sent { attempt, .. } => {
+                    IlEvent::Sent { attempt, .. } if during(*at) => {
                         t.sends += 1;
                         if *attempt > 1 {
                             t.resends += 1;
                         }
                     }
-                    IlEvent::Rejected { .. } => t.rejected += 1,
+                    IlEvent::Rejected { .. } if during(*at) => t.rejected += 1,
                     _ => {}
                 }
             }
@@ -368,7 +403,7 @@ impl<'a> Analysis<'a> {
                 let node = board_node(pair, m).raw();
                 for (at, e) in r.board_events(sim, pair, m) {
                     match e {
-                        BoardEvent::Reported { seq, .. } => {
+                        BoardEvent::Reported { seq, .. } if during(at) => {
                             t.reports += 1;
                             let within = |v: Option<&Vec<Instant>>| {
                                 v.map_or(0, |v| {
@@ -393,6 +428,9 @@ impl<'a> Analysis<'a> {
             }
         }
         for (i, route) in r.schedule().iter().enumerate() {
+            if !during(route.at) {
+                continue;
+            }
             let seq = i as u16 + 1;
             let ex = executions.get(&seq).map_or(&[][..], |v| v.as_slice());
             match ex.len() {
@@ -454,7 +492,7 @@ impl<'a> Analysis<'a> {
             .filter(move |w| w.end >= from && w.end <= to && keep(w))
     }
 
-    fn first_after(
+    pub(super) fn first_after(
         &self,
         rack: usize,
         t: Instant,
@@ -467,7 +505,7 @@ impl<'a> Analysis<'a> {
     }
 
     /// The largest gap between SYNCs (first copies) of `rack` in `[from, to]`.
-    fn sync_gap(&self, rack: usize, from: Instant, to: Instant) -> Duration {
+    pub(super) fn sync_gap(&self, rack: usize, from: Instant, to: Instant) -> Duration {
         let id = self.st.racks[rack].sync_id();
         let mut last: Option<Instant> = None;
         let mut gap = Duration::ZERO;
@@ -502,7 +540,7 @@ impl<'a> Analysis<'a> {
             })
     }
 
-    fn port_event(
+    pub(super) fn port_event(
         &self,
         rack: usize,
         w: usize,
@@ -539,6 +577,8 @@ impl<'a> Analysis<'a> {
         let mut lines = Vec::new();
         let mut failovers = Vec::new();
         let mut replacements = Vec::new();
+        let mut hand_overs = Vec::new();
+        let mut stops = Vec::new();
         let mut line = |at: Instant, depth: u8, text: String| lines.push(Line { at, depth, text });
         let first_route = st
             .racks
@@ -639,6 +679,23 @@ impl<'a> Analysis<'a> {
                         }
                         failovers.extend(fs);
                         replacements.push(rep);
+                    }
+                }
+                Act::HandOver { rack, repaired } => {
+                    let (ho, ls, fs) = self.hand_over(h, rack, repaired);
+                    for l in ls {
+                        line(l.at, l.depth, l.text);
+                    }
+                    failovers.extend(fs);
+                    hand_overs.push(ho);
+                }
+                Act::BoardStops { rack, pair, state } => {
+                    if let Some((s, ls, fs)) = self.stopped(h, rack, pair, state) {
+                        for l in ls {
+                            line(l.at, l.depth, l.text);
+                        }
+                        failovers.extend(fs);
+                        stops.push(s);
                     }
                 }
                 Act::MasterKilled(dead) => {
@@ -885,6 +942,8 @@ impl<'a> Analysis<'a> {
             lines,
             failovers,
             replacements,
+            hand_overs,
+            stops,
             traffic,
             ends,
             frames,

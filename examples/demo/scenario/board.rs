@@ -156,6 +156,12 @@ impl<S: Scheme> Board<S> {
     pub fn state(&self) -> NmtState {
         self.node.nmt_state()
     }
+    /// The board's application changes its NMT state (a self-test failed, its error behaviour
+    /// acted): the node announces it at once.
+    pub fn set_state(&mut self, now: Instant, state: NmtState) {
+        self.node.set_nmt_state(now, state);
+        self.check(now);
+    }
     /// The board's dictionary.
     pub fn od(&self) -> &DynamicDictionary {
         self.node.od()

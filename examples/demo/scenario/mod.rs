@@ -6,13 +6,16 @@
 //! racks on the railway 29-bit profile), A/B board pairs with point machines, signals, track
 //! circuits and level crossings, described by EDS and DCF files ([`devices`]). Route-setting
 //! commands run all day; faults are injected on a script ([`SCRIPT`]), the dead board replaced by
-//! a spare without node-ID that the active master addresses by LSS ([`replacement`]);
+//! a spare without node-ID that the active master addresses by LSS ([`replacement`]), a rack's
+//! buses handed over by a maintainer ([`handover`]), a board that stops by itself
+//! ([`stopped`]);
 //! [`analysis`] computes from the run what the demo prints and the test asserts; [`outputs`] writes the candump log, the pcap files and the SVG timeline.
 
 pub mod analysis;
 pub mod board;
 pub mod devices;
 pub mod field;
+pub mod handover;
 pub mod interlocking;
 pub mod outputs;
 // The timeline chart is the demo's own report, not part of the library.
@@ -22,6 +25,7 @@ pub mod replacement;
 pub mod report;
 pub mod scheme;
 pub mod station;
+pub mod stopped;
 
 use devices::Devices;
 use duocan::eds::EdsError;
@@ -29,7 +33,7 @@ use duocan::profile::railway::safety::PointPosition;
 use duocan::profile::railway::safety::{SignalAspect, TrackCircuit};
 use duocan::profile::Predefined;
 use duocan::sim::SimNetwork;
-use duocan::{Duration, Instant};
+use duocan::{Duration, Instant, NmtState};
 use duocan_redundancy::Member;
 use field::{Field, Kind, BARRIERS_DOWN, BARRIERS_UP};
 use interlocking::Route;
@@ -127,15 +131,61 @@ pub enum Act {
         /// Rack.
         rack: usize,
     },
+    /// A maintainer's hand-over: bus `repaired` works again and, in the same instant, the other
+    /// bus of the rack is cut (no overlap: one bus works at every instant).
+    HandOver {
+        /// Rack.
+        rack: usize,
+        /// The bus repaired (0 = bus 1); the other is cut.
+        repaired: usize,
+    },
+    /// The active board of a pair stops running by itself (its application, or its CiA 301
+    /// error behaviour, puts it in `state`) and goes on beating, saying so.
+    BoardStops {
+        /// Rack.
+        rack: usize,
+        /// Pair.
+        pair: usize,
+        /// Pre-operational or stopped.
+        state: NmtState,
+    },
 }
 
+/// The pair whose active board stops by itself (T9 on the track-circuit rack, 10 ms before a
+/// train enters it).
+pub const STOPPED_PAIR: usize = 8;
+
 /// The scripted day. Some faults come just before a command to the device they hit (P2 at
-/// 7.0 s, a signal at 8.45 s, a level crossing at 14.0 s), so that commands meet failovers.
-pub const SCRIPT: [(Instant, Act); 8] = [
+/// 7.0 s, a signal at 8.45 s, a level crossing at 14.0 s) or a train on the track circuit (T9
+/// at 9.7 s), so that commands and state changes meet failovers. The turnout rack's buses are
+/// handed over while points are thrown (3.0 to 6.0 s): bus 2 cut, then repaired in the instant
+/// bus 1 is cut, then bus 1 repaired.
+pub const SCRIPT: [(Instant, Act); 12] = [
+    (
+        Instant::from_millis(2_600),
+        Act::BusCut {
+            rack: TURNOUT,
+            bus: 1,
+        },
+    ),
     (
         Instant::from_millis(4_250),
         Act::BusCut {
             rack: SIGNAL,
+            bus: 0,
+        },
+    ),
+    (
+        Instant::from_millis(4_600),
+        Act::HandOver {
+            rack: TURNOUT,
+            repaired: 1,
+        },
+    ),
+    (
+        Instant::from_millis(6_200),
+        Act::BusRestored {
+            rack: TURNOUT,
             bus: 0,
         },
     ),
@@ -147,6 +197,14 @@ pub const SCRIPT: [(Instant, Act); 8] = [
         },
     ),
     (Instant::from_millis(8_430), Act::MasterKilled(STRONG)),
+    (
+        Instant::from_millis(9_690),
+        Act::BoardStops {
+            rack: TRACK,
+            pair: STOPPED_PAIR,
+            state: NmtState::PreOperational,
+        },
+    ),
     (
         Instant::from_millis(10_400),
         Act::BusRestored {
@@ -362,6 +420,13 @@ pub fn run_with(
     })
 }
 
+/// The board running a pair's field device now (the active member).
+fn running(sim: &SimNetwork, rack: &Rc<dyn RackView>, pair: usize) -> Option<Member> {
+    [Member::A, Member::B]
+        .into_iter()
+        .find(|m| rack.board_state(sim, pair, *m) == NmtState::Operational)
+}
+
 /// Carries out one act of the script.
 fn apply(
     sim: &mut SimNetwork,
@@ -373,12 +438,18 @@ fn apply(
         Act::BusCut { rack, bus } => sim.bus_down(racks[rack].buses()[bus]),
         Act::BusRestored { rack, bus } => sim.bus_up(racks[rack].buses()[bus]),
         Act::BoardKilled { rack, pair } => {
-            // The board running the field device now (the active member).
-            let r = &racks[rack];
-            let m = [Member::A, Member::B]
-                .into_iter()
-                .find(|m| r.board_state(sim, pair, *m) == duocan::NmtState::Operational)?;
-            sim.power_off(r.board_dev(pair, m));
+            let m = running(sim, &racks[rack], pair)?;
+            sim.power_off(racks[rack].board_dev(pair, m));
+            return Some(m);
+        }
+        Act::HandOver { rack, repaired } => {
+            let buses = racks[rack].buses();
+            sim.bus_up(buses[repaired]);
+            sim.bus_down(buses[1 - repaired]);
+        }
+        Act::BoardStops { rack, pair, state } => {
+            let m = running(sim, &racks[rack], pair)?;
+            racks[rack].stop_board(sim, pair, m, state, at);
             return Some(m);
         }
         Act::BoardReplaced { rack, pair } => {

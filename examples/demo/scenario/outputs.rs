@@ -124,6 +124,12 @@ impl Analysis<'_> {
                         Act::BusRestored { rack, bus: b } if rack == i && b == bus => {
                             ch.push((h.at, State::Ok, String::new()))
                         }
+                        Act::HandOver { rack, repaired } if rack == i && repaired == bus => {
+                            ch.push((h.at, State::Ok, String::new()))
+                        }
+                        Act::HandOver { rack, .. } if rack == i => {
+                            ch.push((h.at, State::Failed, "cut".into()))
+                        }
                         Act::Partition { rack } if rack == i => {
                             ch.push((h.at, State::Suspect, "split".into()))
                         }
@@ -207,6 +213,16 @@ impl Analysis<'_> {
                         ),
                         Act::BoardReplaced { rack, pair } if rack == i => format!(
                             "{}: spare without node-ID for board {}",
+                            r.kind().label(pair),
+                            h.member.map_or("?".into(), |m| m.to_string())
+                        ),
+                        Act::HandOver { rack, repaired } if rack == i => format!(
+                            "bus {} repaired, bus {} cut in the same instant",
+                            repaired + 1,
+                            2 - repaired
+                        ),
+                        Act::BoardStops { rack, pair, state } if rack == i => format!(
+                            "{}: active board {} stops by itself ({state})",
                             r.kind().label(pair),
                             h.member.map_or("?".into(), |m| m.to_string())
                         ),

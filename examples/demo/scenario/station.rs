@@ -249,6 +249,16 @@ pub trait RackView {
     fn field_set(&self, pair: usize, at: Instant, code: u8);
     /// Powers a master on again as a new computer (it boots and negotiates).
     fn revive_master(&self, sim: &mut SimNetwork, which: usize, now: Instant);
+    /// A board stops running by itself: its application puts it in `state` (it announces it
+    /// in a heartbeat at once and goes on beating).
+    fn stop_board(
+        &self,
+        sim: &mut SimNetwork,
+        pair: usize,
+        m: Member,
+        state: NmtState,
+        now: Instant,
+    );
     /// Puts a spare board with serial number `serial` in a board's place, powered on without
     /// node-ID (LSS gives it one, then it boots and is configured).
     fn plug_spare(&self, sim: &mut SimNetwork, pair: usize, m: Member, serial: u32, now: Instant);
@@ -348,6 +358,18 @@ impl<S: Scheme> RackView for Rack<S> {
     fn revive_master(&self, sim: &mut SimNetwork, which: usize, now: Instant) {
         let dev = master(&self.spec, which, now);
         sim.replace(self.masters[which], dev).expect("same ports");
+    }
+    fn stop_board(
+        &self,
+        sim: &mut SimNetwork,
+        pair: usize,
+        m: Member,
+        state: NmtState,
+        now: Instant,
+    ) {
+        if let Some(b) = sim.device_mut(self.board(pair, m)).machine.node_mut() {
+            b.set_state(now, state);
+        }
     }
     fn plug_spare(&self, sim: &mut SimNetwork, pair: usize, m: Member, serial: u32, now: Instant) {
         let dev = spare(&self.parts[pair], serial, now);
