@@ -14,9 +14,11 @@
 //!
 //! A twin measures the lag only if the merger can stand behind the pairing ([`Sample`]): a
 //! **fresh** occurrence (no copy of the same content on either port within the horizon before
-//! it) that was the only unmatched copy of its key. An unchanged repeat (SYNC, a heartbeat, a
-//! cyclic PDO whose values do not change) is never a sample: its copy may be paired with the
-//! neighbouring occurrence, and a lag measured from it would be the true lag modulo its period.
+//! it, nor before what the other port has handed over so far: a reader running behind has not
+//! shown its latest repeats yet) that was the only unmatched copy of its key. An unchanged
+//! repeat (SYNC, a heartbeat, a cyclic PDO whose values do not change) is never a sample: its
+//! copy may be paired with the neighbouring occurrence, and a lag measured from it would be the
+//! true lag modulo its period.
 //! Frames whose content changes (a TIME stamp, a counter, SDO traffic, new process data) measure
 //! it. So a network that carries only repeats is never thought to lag.
 //!

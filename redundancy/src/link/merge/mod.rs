@@ -65,11 +65,15 @@
 //! the wire* later (a bridge in its path), or a port whose driver has no timestamps (its stamps
 //! are the hand-over times), shows a lag between twins: the layer measures it
 //! ([`crate::link::lag`]) and gives the merger stamps corrected by it. The merger reports the
-//! samples it can stand behind ([`Sample`]): only from a **fresh** occurrence (its content not
-//! seen on either port within the horizon before), and only when it was the one unmatched copy
-//! of its key, so a repeat paired one period off is never a sample; a twin beyond the window
-//! only when this port received frames stamped after the other's copy before it (a port back
-//! from an outage has nothing in between: what it missed was lost, not late).
+//! samples it can stand behind ([`Sample`]): only from a **fresh** occurrence, and only when it
+//! was the one unmatched copy of its key, so a repeat paired one period off is never a sample;
+//! a twin beyond the window only when this port received frames stamped after the other's copy
+//! before it (a port back from an outage has nothing in between: what it missed was lost, not
+//! late). Fresh means its content was not seen on either port within the horizon before the
+//! older of its stamp and how far the other port has handed over its copies. How far a port
+//! has handed over: its newest stamp, or, quiet since, the present less how far behind its
+//! reader ran at its newest copy. A reader running behind has not shown its latest copies yet:
+//! they may be repeats of the same content, which make the copy no fresh occurrence.
 //!
 //! # Memory
 //!
@@ -246,6 +250,9 @@ pub struct Merger<const SLOTS: usize> {
     table: Table<SLOTS>,
     /// Per port: the newest stamp it received (µs).
     frontier: [u64; 2],
+    /// Per port: how long after its stamp its newest copy was handed over (µs): how far behind
+    /// its reader runs (see [`Merger::shown`]).
+    behind: [u64; 2],
     /// Per port: its stamps are receive timestamps (see [`Merger::set_stamped`]).
     stamped: [bool; 2],
     recent: Recent<SLOTS>,
@@ -285,6 +292,7 @@ impl<const SLOTS: usize> Merger<SLOTS> {
             len: 0,
             table: Table::new(),
             frontier: [0; 2],
+            behind: [0; 2],
             stamped: [true; 2],
             recent: Recent::new(),
             stats: MergeStats::default(),
@@ -329,6 +337,7 @@ impl<const SLOTS: usize> Merger<SLOTS> {
     pub fn shift(&mut self, p: usize, by: i64) {
         if let Some(f) = self.frontier.get_mut(p) {
             *f = f.saturating_add_signed(-by);
+            self.behind[p] = self.behind[p].saturating_add_signed(by);
         }
     }
     /// Counters.
@@ -437,10 +446,11 @@ impl<const SLOTS: usize> Merger<SLOTS> {
             }
             t => t,
         };
-        let (verdict, sample) = self.judge(s, port, frame, trust);
+        let (verdict, sample) = self.judge(now.as_micros(), s, port, frame, trust);
         if self.frontier[port] < s {
             self.frontier[port] = s;
         }
+        self.behind[port] = now.as_micros() - s;
         match verdict {
             Verdict::Deliver => self.stats.delivered += 1,
             Verdict::Duplicate => self.stats.duplicates += 1,
@@ -450,9 +460,19 @@ impl<const SLOTS: usize> Merger<SLOTS> {
         (verdict, sample)
     }
 
+    /// How far port `p` has handed over its copies at `now` (µs), as far as the merger can
+    /// tell: its newest stamp, or, if it has been quiet since, `now` less how far behind its
+    /// reader ran at its newest copy. A port whose reader runs behind may still hold copies
+    /// stamped after that: it has not shown them yet.
+    #[inline]
+    fn shown(&self, p: usize, now: u64) -> u64 {
+        self.frontier[p].max(now.saturating_sub(self.behind[p]))
+    }
+
     #[inline]
     fn judge(
         &mut self,
+        now: u64,
         s: u64,
         port: usize,
         frame: &Frame,
@@ -461,7 +481,8 @@ impl<const SLOTS: usize> Merger<SLOTS> {
         let other = 1 - port;
         let (hi, lo) = key(frame);
         let hash = hash(hi, lo);
-        let fresh = self.recent.observe(hash, s, self.horizon);
+        let shown = self.shown(other, now);
+        let fresh = self.recent.observe(hash, s, shown, self.horizon);
         let found = self.table.find(hi, lo, hash);
         let (mut sample, mut skipped) = (None, false);
         if let Some(slot) = found {
