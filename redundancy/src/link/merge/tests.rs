@@ -305,6 +305,42 @@ fn a_repeat_a_late_reader_still_holds_back_measures_no_lag() {
 }
 
 #[test]
+fn a_frame_one_bus_missed_behind_a_late_reader_measures_no_lag() {
+    // Window 5 ms, horizon 80 ms. A heartbeat every 20 ms with a new state from 349 ms on, on
+    // bus 0 only until its sender's port on bus 1 is back (409 ms); port 0's reader hands its
+    // copies over 52 ms late; port 1 also hears a SYNC every 10 ms. Port 1's copy of 409 ms
+    // comes before port 0's of 369 and 389 ms: the record of 349 ms is no lagging twin of it
+    // (port 0 has not handed over what it holds up to 409 ms yet), and no lag shows.
+    let mut m: Merger<256> =
+        Merger::with_horizon(Duration::from_millis(5), Duration::from_millis(80));
+    let (hb, sync) = (f(0x711, 0x7F), Frame::from_array(Id::Standard(0x80), []));
+    // (handed over, stamp, port, frame)
+    let mut arrivals = vec![];
+    for k in 0..20u64 {
+        let at = ms(300 + 10 * k);
+        arrivals.push((at + Duration::from_millis(52), at, 0, sync));
+        arrivals.push((at, at, 1, sync));
+    }
+    for k in 0..6u64 {
+        let at = ms(349 + 20 * k);
+        arrivals.push((at + Duration::from_millis(52), at, 0, hb));
+        if at >= ms(409) {
+            arrivals.push((at, at, 1, hb));
+        }
+    }
+    arrivals.sort_by_key(|a| a.0);
+    for (now, at, p, fr) in arrivals {
+        let (v, sample) = m.arrive_at(now, at, p, &fr, Trust::Trusted);
+        assert_eq!(
+            sample.filter(|s| s.late),
+            None,
+            "{fr:?} at {at} on {p}: {v:?}"
+        );
+    }
+    assert_eq!(m.stats().delivered, 20 + 6);
+}
+
+#[test]
 fn a_step_back_keeps_what_each_record_has_left() {
     let mut m: Merger<16> = Merger::new(W);
     arr(&mut m, ms(1_000), ms(1_000), 0, &f(1, 1));
