@@ -14,11 +14,13 @@
 //!
 //! A twin measures the lag only if the merger can stand behind the pairing ([`Sample`]): a
 //! **fresh** occurrence (no copy of the same content on either port within the horizon before
-//! it) that was the only unmatched copy of its key. An unchanged repeat (SYNC, a heartbeat, a
-//! cyclic PDO whose values do not change) is never a sample: its copy may be paired with the
-//! neighbouring occurrence, and a lag measured from it would be the true lag modulo its period.
-//! Frames whose content changes (a TIME stamp, a counter, SDO traffic, new process data) measure
-//! it. So a network that carries only repeats is never thought to lag.
+//! it, nor before what the other port has handed over so far: a reader running behind has not
+//! shown its latest repeats yet) that was the only unmatched copy of its key (among what the
+//! other port has handed over up to it). An unchanged repeat (SYNC, a heartbeat, a cyclic PDO
+//! whose values do not change) is never a sample: its copy may be paired with the neighbouring
+//! occurrence, and a lag measured from it would be the true lag modulo its period. Frames whose
+//! content changes (a TIME stamp, a counter, SDO traffic, new process data) measure it. So a
+//! network that carries only repeats is never thought to lag.
 //!
 //! - A sample that shows at least half the skew window (from a matched twin, or from a fresh
 //!   twin beyond the window, whose copy is delivered: it cannot be told from a new occurrence
@@ -28,6 +30,15 @@
 //!   frame of a queue that drained at once (without timestamps its hand-over time says
 //!   nothing). A lag that grows slowly is followed in steps of half the window. A correction
 //!   left below half the window is none (ordinary skew, not carried into the next lag).
+//! - A late sample whose copy on this port is stamped *earlier* than its twin on the other
+//!   port (the other port handed its copy over first although it was on the wire later: this
+//!   port's reader runs behind, or its correction is too large) only shrinks this port's
+//!   correction, to none at most. It cannot be told from a frame the other bus missed (its
+//!   sender's port on that bus not back yet) whose repeat came first on that bus while this
+//!   port's reader handed its copies over late; and several senders miss frames at once after
+//!   a bus fault, so two such samples can agree. A lag of the other port shows from its own
+//!   copies, which come after this port's (with this port's reader further behind than that
+//!   lag, only once it catches up).
 //!
 //! # What comes twice
 //!
@@ -159,11 +170,18 @@ impl LagMeter {
     /// The merger measured `sample` for an arrival on port `p` at `now`. Returns true when the
     /// correction changed (the events are queued).
     pub fn sample(&mut self, now: Instant, p: usize, sample: Sample, out: &mut Outbox) -> bool {
-        let d = if p.min(1) == 1 {
-            sample.skew
-        } else {
-            -sample.skew
-        };
+        let p = p.min(1);
+        let mut d = if p == 1 { sample.skew } else { -sample.skew };
+        if sample.late && sample.skew < 0 {
+            // This port's copy came after the other port's, stamped a window or more later:
+            // its reader runs behind, or its correction is too large. Only the correction can
+            // shrink (to none at most); a lag of the other port shows from its own copies.
+            let own = self.lag_us(p) as i64;
+            if own == 0 {
+                return false;
+            }
+            d = if p == 1 { d.max(-own) } else { d.min(own) };
+        }
         let half = (self.base / 2) as i64;
         let now = now.as_micros();
         if !sample.late && d.abs() < half {

@@ -11,6 +11,13 @@
 //!   says so, with a margin around every change of the wiring), it is lost: the sender did
 //!   not put it where it would have arrived.
 //!
+//! Two occurrences of the same frame from the same sender sent within the skew window of each
+//! other cannot be told apart by any receiver: when one bus missed the first (its sender's port
+//! on it not back yet), a receiver pairs the second's copy on that bus with the first's on the
+//! other, and delivers the second's other copy (the count stays right; the merger's rule says
+//! so). Such a pair is judged by its count: one occurrence delivered twice and its twin none
+//! is each delivered once.
+//!
 //! Frames that are not the promise's (an impostor's, a babbler's, a pair's process data at a
 //! master, which delivers only the active member's by design) are left out, each for a reason
 //! the campaign states when it adds the device or the fault.
@@ -24,6 +31,10 @@ pub const MAX_NODES: usize = 24;
 /// How long after it was sent an occurrence is judged: every copy has arrived by then (the
 /// largest receive latency of the campaign plus the wire, with room).
 pub const JUDGE_AFTER: duocan::Duration = duocan::Duration::from_millis(400);
+
+/// The layers' skew window: identical frames of one sender sent closer than this are one
+/// count (see the module documentation).
+pub const SKEW_WINDOW: duocan::Duration = duocan::Duration::from_millis(5);
 
 #[derive(Clone, Copy, Debug)]
 struct Occurrence {
@@ -191,9 +202,10 @@ impl Oracle {
             if o.at + JUDGE_AFTER > now {
                 break;
             }
-            let o = self.pending.pop_front().unwrap();
+            let mut o = self.pending.pop_front().unwrap();
             self.base += 1;
             self.judged += 1;
+            self.indistinguishable(&mut o);
             for r in 0..self.nodes.len() {
                 if r == o.sender || !powered(r) {
                     continue;
@@ -223,6 +235,27 @@ impl Oracle {
                         fault,
                     });
                 }
+            }
+        }
+    }
+
+    /// Evens out the deliveries of `o` (about to be judged) and the next occurrence of the same
+    /// frame from the same sender, if it was sent within the skew window: at a receiver that
+    /// got a copy of each, one delivered twice and the other none is one each.
+    fn indistinguishable(&mut self, o: &mut Occurrence) {
+        let Some(next) = self.pending.iter_mut().find(|n| {
+            n.sender == o.sender && n.frame == o.frame && n.at.saturating_since(o.at) < SKEW_WINDOW
+        }) else {
+            return;
+        };
+        for r in 0..MAX_NODES {
+            if o.reached[r] == 0 || next.reached[r] == 0 {
+                continue;
+            }
+            match (o.delivered[r], next.delivered[r]) {
+                (0, 2) => (o.delivered[r], next.delivered[r]) = (1, 1),
+                (2, 0) => (o.delivered[r], next.delivered[r]) = (1, 1),
+                _ => {}
             }
         }
     }

@@ -85,3 +85,59 @@ fn modes_and_commands() {
     assert_eq!(drain(&mut l), [(1, f)]);
     assert_eq!(l.ecss().map(|e| e.active_bus()), Some(1));
 }
+
+#[test]
+fn frames_one_bus_missed_after_its_fault_measure_no_lag_behind_a_late_reader() {
+    // A 20 ms guarding period: window 5 ms, horizon 80 ms. After a fault of bus 1, two boards'
+    // ports on it come back late: their heartbeats in a new state (0x11, 0x12 from 349 ms;
+    // 0x51, 0x52 from 355 ms) go on bus 0 only, then from 409 and 395 ms on both. This
+    // node's port 0 reader hands everything over 52 ms late; a SYNC every 10 ms on both buses.
+    // Port 1's copies of the state come before port 0's: neither their first copies (port 0
+    // still holds repeats) nor port 0's older ones (its reader is behind, not bus 1) are twins
+    // beyond the window, and each heartbeat is delivered once.
+    let mut l = DualBus::new(DualBusConfig::with_guard_period(
+        LinkMode::ActiveActive,
+        Duration::from_millis(20),
+    ));
+    let us = Duration::from_micros;
+    let mut sent = vec![];
+    for k in 0..40u64 {
+        sent.push((
+            ms(300 + 10 * k),
+            [true, true],
+            Frame::from_array(Id::Standard(0x80), []),
+        ));
+    }
+    for (id, state, first, both) in [
+        (0x711, 0x7F, us(349_000), 409),
+        (0x712, 0x7F, us(349_300), 409),
+        (0x751, 0x05, us(355_100), 395),
+        (0x752, 0x05, us(355_400), 395),
+    ] {
+        for k in 0..8u64 {
+            let at = Instant::ZERO + first + Duration::from_millis(20 * k);
+            let f = Frame::from_array(Id::Standard(id), [state]);
+            sent.push((at, [true, at >= ms(both)], f));
+        }
+    }
+    // (handed over, stamp, port, frame)
+    let mut arrivals = vec![];
+    for (at, on, f) in &sent {
+        arrivals.push((*at + Duration::from_millis(52), *at, 0, *f));
+        if on[1] {
+            arrivals.push((*at, *at, 1, *f));
+        }
+    }
+    arrivals.sort_by_key(|a| a.0);
+    let mut delivered = 0;
+    for (now, at, p, f) in arrivals {
+        l.handle_timeout(now);
+        delivered += usize::from(l.handle_rx_at(now, p, &f, at).is_some());
+        assert_eq!(
+            [l.lag().lag(0), l.lag().lag(1)],
+            [Duration::ZERO; 2],
+            "at {now}"
+        );
+    }
+    assert_eq!(delivered, sent.len());
+}

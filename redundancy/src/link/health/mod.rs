@@ -37,14 +37,16 @@
 //!   this port's oldest waiting frame, or a later frame (the layer numbers its logical frames:
 //!   a SYNC and the heartbeat due with it are handed over in the same instant), and this port
 //!   still has no outcome for it `tx_stall` (the window) later, the port is re-initialised at
-//!   once (flushing its queue) and failed; such a port comes back only through
-//!   re-initialisation, not because it receives (a babbling controller fills the bus with
-//!   frames while nobody else can send). Waiting alone is no stall: a low-priority frame can
-//!   lose arbitration for longer than the window on a busy network, and then it waits on both
-//!   buses alike and its twins still match. Nor is a port judged while the other port sends
-//!   nothing (failed, or its driver never confirms): without a twin there is no duplicate. A
-//!   port is judged once either port's driver has confirmed a transmission (both ports have
-//!   the same kind of driver; a port held by a babble from the start never confirms one).
+//!   once (flushing its queue) and failed; such a port comes back through re-initialisation, or
+//!   when it receives the twin of a frame the other port delivered (its bus carries the
+//!   network's traffic again), not because it merely receives (a babbling controller fills the
+//!   bus with frames while nobody else can send, on that bus only). Waiting alone is no stall:
+//!   a low-priority frame can lose arbitration for longer than the window on a busy network,
+//!   and then it waits on both buses alike and its twins still match. Nor is a port judged
+//!   while the other port sends nothing (failed, or its driver never confirms): without a twin
+//!   there is no duplicate. A port is judged once either port's driver has confirmed a
+//!   transmission (both ports have the same kind of driver; a port held by a babble from the
+//!   start never confirms one).
 //! - **Trust.** A failed or recovering port, while the other port is ok or suspect, is not
 //!   proven yet for delivery: the merger delivers its copies only where the other port has not
 //!   already passed their time (see [`crate::link::merge`]). A repaired segment can first flush
@@ -256,9 +258,11 @@ impl Health {
                     self.set(now, p, PortState::Ok, PortReason::Traffic, out);
                 }
             }
-            Condition::Failed {
-                revive_on_rx: true, ..
-            } => {
+            // After a transmit stall, only the twin of a frame the other port delivered: the
+            // network's traffic, which a babble's flood of one bus is not.
+            Condition::Failed { revive_on_rx, .. }
+                if *revive_on_rx || outcome == RxOutcome::Duplicate =>
+            {
                 self.set(now, p, PortState::Recovering, PortReason::Traffic, out);
                 self.ports[p].cond = Condition::Recovering {
                     probation_from: Some(now),

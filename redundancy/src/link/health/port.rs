@@ -61,7 +61,8 @@ pub(super) enum Condition {
         /// The back-off ends: the port is re-initialised.
         reinit_at: Instant,
         /// Traffic (a frame, the driver's "up") revives it; not after a transmit stall, where
-        /// only the back-off re-initialisation does.
+        /// only the back-off re-initialisation or the twin of a frame the other port delivered
+        /// does.
         revive_on_rx: bool,
     },
     Recovering {
@@ -235,7 +236,7 @@ impl PortHealth {
         }
     }
     /// Failed, and traffic would revive it (not after a transmit stall, which only its
-    /// re-initialisation ends).
+    /// re-initialisation or a twin of the other port's traffic ends).
     pub fn revives_on_traffic(&self) -> bool {
         matches!(
             self.cond,

@@ -325,6 +325,46 @@ fn transmit_stall_flushes_and_fails_and_only_reinit_revives() {
 }
 
 #[test]
+fn a_stalled_port_comes_back_on_a_twin_of_the_other_ports_traffic() {
+    let cfg = HealthConfig {
+        tx_stall: W,
+        ..HealthConfig::default()
+    };
+    let mut h = Health::new(cfg, W);
+    let mut out = Outbox::new();
+    // Port 0's frame waits behind a babble while port 1 sends its twin: stalled at 12 ms.
+    h.on_status(ms(0), 1, PortStatus::TxOk, &mut out);
+    h.count_tx(ms(1), 0, 1);
+    h.count_tx(ms(1), 1, 1);
+    h.on_status(ms(2), 1, PortStatus::TxOk, &mut out);
+    h.handle_timeout(ms(12), &mut out);
+    assert!(h.port(0).stalled());
+    // The babbler's flood (first copies, or stale ones) does not revive it...
+    h.on_rx(ms(20), 0, RxOutcome::Delivered, &mut out);
+    h.on_rx(ms(21), 0, RxOutcome::Stale, &mut out);
+    assert!(h.port(0).stalled());
+    // ...the twin of a frame port 1 delivered does, long before the back-off (112 ms): its
+    // bus carries the network's traffic again. Probation as for any return.
+    h.on_rx(ms(30), 1, RxOutcome::Delivered, &mut out);
+    h.on_rx(ms(30), 0, RxOutcome::Duplicate, &mut out);
+    assert_eq!(h.port(0).state(), PortState::Recovering);
+    h.on_rx(ms(130), 0, RxOutcome::Duplicate, &mut out);
+    assert_eq!(
+        port_events(&mut out),
+        [
+            (
+                ms(12),
+                0,
+                PortState::Failed,
+                PortReason::TxStalled { waited: W }
+            ),
+            (ms(30), 0, PortState::Recovering, PortReason::Traffic),
+            (ms(130), 0, PortState::Ok, PortReason::Traffic),
+        ]
+    );
+}
+
+#[test]
 fn a_port_lagging_beyond_the_maximum_is_suspect_until_its_lag_is_within_again() {
     let mut h = Health::new(HealthConfig::default(), W);
     let mut out = Outbox::new();

@@ -135,6 +135,26 @@ fn the_lag_changes_sides_and_stays_within_the_horizon() {
 }
 
 #[test]
+fn a_copy_stamped_before_its_twin_only_shrinks_this_ports_own_correction() {
+    let mut m = meter();
+    let mut out = Outbox::new();
+    // Port 0's copies come after port 1's stamped 40 ms later, twice: port 0's reader runs
+    // behind and bus 1 missed two frames (their senders' ports back only for the repeat).
+    // Port 0 has no correction to shrink: no lag of port 1.
+    assert!(!m.sample(at(0), 0, late(-40), &mut out));
+    assert!(!m.sample(at(1), 0, late(-40), &mut out));
+    assert_eq!((m.lag(0), m.lag(1)), (Duration::ZERO, Duration::ZERO));
+    // Port 1 corrected by 30 ms; its copies now come 40 ms early: the correction goes, and
+    // port 0 is not made to lag for the rest.
+    m.sample(at(10), 1, late(30), &mut out);
+    assert!(m.sample(at(11), 1, late(30), &mut out));
+    assert_eq!(m.lag(1), ms(30));
+    assert!(!m.sample(at(20), 1, late(-40), &mut out));
+    assert!(m.sample(at(21), 1, late(-40), &mut out));
+    assert_eq!((m.lag(0), m.lag(1)), (Duration::ZERO, Duration::ZERO));
+}
+
+#[test]
 fn a_step_back_keeps_a_held_sample_waiting() {
     let mut m = meter();
     let mut out = Outbox::new();

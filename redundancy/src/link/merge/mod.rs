@@ -65,11 +65,19 @@
 //! the wire* later (a bridge in its path), or a port whose driver has no timestamps (its stamps
 //! are the hand-over times), shows a lag between twins: the layer measures it
 //! ([`crate::link::lag`]) and gives the merger stamps corrected by it. The merger reports the
-//! samples it can stand behind ([`Sample`]): only from a **fresh** occurrence (its content not
-//! seen on either port within the horizon before), and only when it was the one unmatched copy
-//! of its key, so a repeat paired one period off is never a sample; a twin beyond the window
-//! only when this port received frames stamped after the other's copy before it (a port back
-//! from an outage has nothing in between: what it missed was lost, not late).
+//! samples it can stand behind ([`Sample`]): only from a **fresh** occurrence, and only when it
+//! was the one unmatched copy of its key, so a repeat paired one period off is never a sample;
+//! a twin beyond the window only when this port received frames stamped after the other's copy
+//! before it (a port back from an outage has nothing in between: what it missed was lost, not
+//! late), and when the other port holds nothing back (its reader ran at most a window behind at
+//! its newest copy) or has handed over its copies up to a window before this one. Fresh means
+//! its content was not seen on either port within the horizon before the older of its stamp and
+//! how far the other port has handed over its copies. How far a port has handed over: its
+//! newest stamp, or, quiet since, the present less how far behind its reader ran at its newest
+//! copy. A reader running behind has not shown its latest copies yet: they may be repeats of
+//! the same content (a frame one bus missed while its sender's port on it was not back, whose
+//! repeats the other bus carried), which make the copy no fresh occurrence, nor the one
+//! unmatched copy of its key.
 //!
 //! # Memory
 //!
@@ -246,6 +254,11 @@ pub struct Merger<const SLOTS: usize> {
     table: Table<SLOTS>,
     /// Per port: the newest stamp it received (µs).
     frontier: [u64; 2],
+    /// Per port: how long after its stamp its newest copy was handed over (µs): how far behind
+    /// its reader runs (see [`Merger::shown`]), and the correction its stamps get (µs, the sum
+    /// of [`Merger::shift`]).
+    behind: [u64; 2],
+    corrected: [u64; 2],
     /// Per port: its stamps are receive timestamps (see [`Merger::set_stamped`]).
     stamped: [bool; 2],
     recent: Recent<SLOTS>,
@@ -285,6 +298,8 @@ impl<const SLOTS: usize> Merger<SLOTS> {
             len: 0,
             table: Table::new(),
             frontier: [0; 2],
+            behind: [0; 2],
+            corrected: [0; 2],
             stamped: [true; 2],
             recent: Recent::new(),
             stats: MergeStats::default(),
@@ -329,6 +344,7 @@ impl<const SLOTS: usize> Merger<SLOTS> {
     pub fn shift(&mut self, p: usize, by: i64) {
         if let Some(f) = self.frontier.get_mut(p) {
             *f = f.saturating_add_signed(-by);
+            self.corrected[p] = self.corrected[p].saturating_add_signed(by);
         }
     }
     /// Counters.
@@ -339,6 +355,7 @@ impl<const SLOTS: usize> Merger<SLOTS> {
     pub fn clear(&mut self) {
         *self = Merger {
             stats: self.stats,
+            corrected: self.corrected,
             ..Merger::with_horizon(self.window(), self.horizon())
         };
     }
@@ -437,10 +454,14 @@ impl<const SLOTS: usize> Merger<SLOTS> {
             }
             t => t,
         };
-        let (verdict, sample) = self.judge(s, port, frame, trust);
+        let (verdict, sample) = self.judge(now.as_micros(), s, port, frame, trust);
         if self.frontier[port] < s {
             self.frontier[port] = s;
         }
+        // Its reader's delay: from the stamp as taken, before the correction.
+        self.behind[port] = now
+            .as_micros()
+            .saturating_sub(s.saturating_add(self.corrected[port]));
         match verdict {
             Verdict::Deliver => self.stats.delivered += 1,
             Verdict::Duplicate => self.stats.duplicates += 1,
@@ -450,9 +471,27 @@ impl<const SLOTS: usize> Merger<SLOTS> {
         (verdict, sample)
     }
 
+    /// How far port `p` has handed over its copies at `now` (µs, corrected stamps), as far as
+    /// the merger can tell: its newest stamp, or, if it has been quiet since, `now` less how
+    /// far behind its reader ran at its newest copy (and less its correction). A port whose
+    /// reader runs behind may still hold copies stamped after that: it has not shown them yet.
+    #[inline]
+    fn shown(&self, p: usize, now: u64) -> u64 {
+        let reached = now.saturating_sub(self.behind[p] + self.corrected[p]);
+        self.frontier[p].max(reached)
+    }
+
+    /// Whether port `p`'s reader holds back copies that were on its bus by now: it ran more
+    /// than a window behind at its newest copy.
+    #[inline]
+    fn holds_back(&self, p: usize) -> bool {
+        self.behind[p] > self.window
+    }
+
     #[inline]
     fn judge(
         &mut self,
+        now: u64,
         s: u64,
         port: usize,
         frame: &Frame,
@@ -461,11 +500,12 @@ impl<const SLOTS: usize> Merger<SLOTS> {
         let other = 1 - port;
         let (hi, lo) = key(frame);
         let hash = hash(hi, lo);
-        let fresh = self.recent.observe(hash, s, self.horizon);
+        let shown = self.shown(other, now);
+        let fresh = self.recent.observe(hash, s, shown, self.horizon);
         let found = self.table.find(hi, lo, hash);
         let (mut sample, mut skipped) = (None, false);
         if let Some(slot) = found {
-            match self.twin(slot, port, s) {
+            match self.twin(slot, port, s, shown) {
                 Twin::Found(t) => return (Verdict::Duplicate, t),
                 Twin::None { skipped: k, seen } => (skipped, sample) = (k, seen),
             }
@@ -490,9 +530,10 @@ impl<const SLOTS: usize> Merger<SLOTS> {
     }
 
     /// Looks for the twin of a copy stamped `s` on `port` among the other port's unmatched
-    /// records of `slot` (consumed if found).
+    /// records of `slot` (consumed if found); the other port has handed over its copies up to
+    /// `shown` ([`Merger::shown`]).
     #[inline]
-    fn twin(&mut self, slot: usize, port: usize, s: u64) -> Twin {
+    fn twin(&mut self, slot: usize, port: usize, s: u64, shown: u64) -> Twin {
         let sl = self.table.slots[slot];
         if sl.unmatched == 0 || sl.side as usize == port {
             return Twin::None {
@@ -515,7 +556,16 @@ impl<const SLOTS: usize> Merger<SLOTS> {
             }
             // A lagging twin, not the repeat of one this port lost in an outage: this port
             // was receiving after the record's time (an outage leaves it nothing in between).
-            if only && r.fresh && s - r.at < self.horizon && self.frontier[port] > r.at {
+            // And the record is the one copy of its key the other port carried up to this
+            // copy: that port holds nothing back, or has handed over everything stamped up to
+            // a window before it (a reader running behind may still hold repeats, sent on its
+            // bus only while this bus missed them).
+            if only
+                && r.fresh
+                && s - r.at < self.horizon
+                && self.frontier[port] > r.at
+                && (!self.holds_back(1 - port) || shown.saturating_add(self.window) >= s)
+            {
                 seen = Some(Sample {
                     skew: (s - r.at) as i64,
                     late: true,

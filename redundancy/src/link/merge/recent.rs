@@ -1,5 +1,6 @@
 //! What the merger remembers of keys beyond their records: when each was seen last, to tell a
-//! *fresh* occurrence (its content not seen on either port within the horizon) from an
+//! *fresh* occurrence (its content not seen on either port within the horizon, counted back
+//! from the older of its stamp and how far the other port has handed over its copies) from an
 //! unchanged repeat, and when one of its unmatched copies was *forgotten* with its twin still
 //! possible.
 //!
@@ -101,16 +102,28 @@ impl<const LINES: usize> Recent<LINES> {
         }
     }
 
-    /// A copy of the key `hash` arrived at `at_us`: returns whether no copy of the key arrived
-    /// (on either port) within `horizon_us` before it, and remembers this one.
+    /// A copy of the key `hash` stamped `at_us` arrived while the other port has handed over
+    /// its copies stamped up to `reported_us`: returns whether no copy of the key arrived (on
+    /// either port) within `horizon_us` before the earlier of the two, and remembers this one.
+    /// (A port whose reader runs behind has not shown its copies of the last moments yet: a
+    /// repeat it holds back must not make this copy look fresh.)
     #[inline]
-    pub(super) fn observe(&mut self, hash: u32, at_us: u64, horizon_us: u64) -> bool {
+    pub(super) fn observe(
+        &mut self,
+        hash: u32,
+        at_us: u64,
+        reported_us: u64,
+        horizon_us: u64,
+    ) -> bool {
         let Some(now) = self.rel(at_us) else {
             return true;
         };
+        let base = self.base;
         let (line, known) = self.line(hash);
         let last = line.at.wrapping_sub(1);
-        let fresh = !known || now < last || u64::from(now - last) > horizon_us;
+        // What both ports have shown, counted from the base (nothing yet: the base itself).
+        let shown = u64::from(now).min(reported_us.saturating_sub(base));
+        let fresh = !known || now < last || shown.saturating_sub(u64::from(last)) > horizon_us;
         line.at = line.at.max(now + 1);
         fresh
     }

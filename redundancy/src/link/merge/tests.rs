@@ -266,6 +266,81 @@ fn only_a_fresh_single_copy_measures_a_lag() {
 }
 
 #[test]
+fn a_repeat_a_late_reader_still_holds_back_measures_no_lag() {
+    // The layer's timing: window 5 ms, horizon 80 ms. Two unchanged TPDOs every 10 ms; port
+    // 1's reader hands its copies over 71 ms late (stamps on time); bus 0 is back at 336 ms
+    // after an outage. Port 0's first copies of the TPDOs look fresh by what has arrived (port
+    // 1 has shown copies only up to 269 ms, the last one 80.1 ms before), but port 1 still
+    // holds their repeats: a copy of port 1 stamped 70 ms before one of port 0 is no twin
+    // lagging 70 ms, and nothing here is a lag (taken for one, it had port 1's copies of 270
+    // to 330 ms, which bus 0 never carried, matched with port 0's of 340 to 400 and dropped).
+    let mut m: Merger<256> =
+        Merger::with_horizon(Duration::from_millis(5), Duration::from_millis(80));
+    let pdos = [f(0x190, 0xA5), f(0x191, 0xA5)];
+    let hb = f(0x77A, 5);
+    // (handed over, stamp, port, frame)
+    let mut arrivals = vec![(ms(336), ms(336), 0, hb)];
+    for k in 0..60u64 {
+        for (i, pdo) in pdos.iter().enumerate() {
+            let at = ms(10 * k) + Duration::from_micros(100 + 60 * i as u64);
+            arrivals.push((at + Duration::from_millis(71), at, 1, *pdo));
+            // Bus 0 carries it 100 µs later (arbitration).
+            let at0 = at + Duration::from_micros(100);
+            if at0 >= ms(336) {
+                arrivals.push((at0, at0, 0, *pdo));
+            }
+        }
+    }
+    arrivals.sort_by_key(|a| a.0);
+    for (now, at, p, fr) in arrivals {
+        let (v, sample) = m.arrive_at(now, at, p, &fr, Trust::Trusted);
+        assert_eq!(
+            sample.filter(|s| s.late || s.skew != 0),
+            None,
+            "{fr:?} at {at} on {p}: {v:?}"
+        );
+    }
+    // Every occurrence once.
+    assert_eq!(m.stats().delivered, 121);
+}
+
+#[test]
+fn a_frame_one_bus_missed_behind_a_late_reader_measures_no_lag() {
+    // Window 5 ms, horizon 80 ms. A heartbeat every 20 ms with a new state from 349 ms on, on
+    // bus 0 only until its sender's port on bus 1 is back (409 ms); port 0's reader hands its
+    // copies over 52 ms late; port 1 also hears a SYNC every 10 ms. Port 1's copy of 409 ms
+    // comes before port 0's of 369 and 389 ms: the record of 349 ms is no lagging twin of it
+    // (port 0 has not handed over what it holds up to 409 ms yet), and no lag shows.
+    let mut m: Merger<256> =
+        Merger::with_horizon(Duration::from_millis(5), Duration::from_millis(80));
+    let (hb, sync) = (f(0x711, 0x7F), Frame::from_array(Id::Standard(0x80), []));
+    // (handed over, stamp, port, frame)
+    let mut arrivals = vec![];
+    for k in 0..20u64 {
+        let at = ms(300 + 10 * k);
+        arrivals.push((at + Duration::from_millis(52), at, 0, sync));
+        arrivals.push((at, at, 1, sync));
+    }
+    for k in 0..6u64 {
+        let at = ms(349 + 20 * k);
+        arrivals.push((at + Duration::from_millis(52), at, 0, hb));
+        if at >= ms(409) {
+            arrivals.push((at, at, 1, hb));
+        }
+    }
+    arrivals.sort_by_key(|a| a.0);
+    for (now, at, p, fr) in arrivals {
+        let (v, sample) = m.arrive_at(now, at, p, &fr, Trust::Trusted);
+        assert_eq!(
+            sample.filter(|s| s.late),
+            None,
+            "{fr:?} at {at} on {p}: {v:?}"
+        );
+    }
+    assert_eq!(m.stats().delivered, 20 + 6);
+}
+
+#[test]
 fn a_step_back_keeps_what_each_record_has_left() {
     let mut m: Merger<16> = Merger::new(W);
     arr(&mut m, ms(1_000), ms(1_000), 0, &f(1, 1));
