@@ -51,6 +51,10 @@
 //!   frames that were queued before the fault; the other port delivers every occurrence
 //!   meanwhile, so they are dropped, and when the other port fails the instant this one
 //!   returns, its first frames are delivered.
+//! - **Intact.** Since when frames on a port's bus have reached it, as far as its health
+//!   knows: since it was last ok after being failed, recovering, or suspect for anything but
+//!   a lag (for silence: with receive timestamps only). A lag sample across a port's return
+//!   is no lag (see [`crate::link::lag`]).
 //! - **Lag.** A port whose copies come later than the other port's by more than the maximum
 //!   skew window even after the correction (measured by [`crate::link::lag`]) is suspect for
 //!   that (reason `Lag`), and not ok again on traffic until its lag is within the maximum
@@ -411,6 +415,15 @@ impl Health {
                 port.back = at;
             }
             _ => {}
+        }
+        // Intact: no state since `at` in which frames on its bus may not have reached it (a
+        // silence counts, a lag does not).
+        match to {
+            PortState::Ok => {
+                port.intact.get_or_insert(at);
+            }
+            PortState::Suspect if matches!(reason, PortReason::Lag { .. }) => {}
+            _ => port.intact = None,
         }
         port.cond = match to {
             PortState::Ok => {
