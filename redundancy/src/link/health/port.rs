@@ -106,6 +106,8 @@ pub struct PortHealth {
     pub(super) outstanding: heapless::Deque<Handed, OUTSTANDING>,
     /// The newest frame confirmed sent (`TxOk`).
     pub(super) last_sent: Option<Handed>,
+    /// When its driver last confirmed a transmission (`TxOk`): its bus worked then.
+    pub(super) confirmed: Option<Instant>,
     /// When the other port was first seen to have sent a frame handed over no earlier than this
     /// port's oldest waiting one: the stall rule's reference (twins must follow within the
     /// window). Cleared whenever that oldest frame changes.
@@ -157,6 +159,7 @@ impl PortHealth {
             lagging: None,
             outstanding: heapless::Deque::new(),
             last_sent: None,
+            confirmed: None,
             overtaken: None,
             reports_outcomes: false,
             unacknowledged: false,
@@ -238,6 +241,7 @@ impl PortHealth {
             &mut self.last_error,
             &mut self.overtaken,
             &mut self.intact,
+            &mut self.confirmed,
             &mut self.counters.last_rx,
         ] {
             shift_back(t, by);
