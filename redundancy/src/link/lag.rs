@@ -22,6 +22,15 @@
 //! content changes (a TIME stamp, a counter, SDO traffic, new process data) measure it. So a
 //! network that carries only repeats is never thought to lag.
 //!
+//! A late sample (a twin beyond the window) is taken only if the port of the later copy was
+//! intact from the earlier copy's stamp on: ok or suspect for a lag alone, and not since
+//! failed, recovering, nor suspect for errors or (if it has receive timestamps) for silence
+//! (see [`crate::link::health`]). Otherwise that port may have lost the earlier occurrence,
+//! and its copy be a later one of the same content: when a bus is repaired while the other
+//! port's reader runs behind, that reader hands over, after the repair, frames from before
+//! it, which the repaired bus never carried. (Without timestamps, a port whose copies come
+//! late looks silent until its lag is measured: its silence is the lag to measure.)
+//!
 //! - A sample that shows at least half the skew window (from a matched twin, or from a fresh
 //!   twin beyond the window, whose copy is delivered: it cannot be told from a new occurrence
 //!   that the other bus missed) is held; a second one within `hold` that agrees within half a

@@ -44,6 +44,14 @@ const REGRESSIONS: &[(u64, u64)] = &[
     // network's traffic again: the other bus cut meanwhile, the node was heard by nobody.
     (1455, 9),
     (1457, 29),
+    // A bus repaired behind a lagging reader of the other: a lag measured across the repair.
+    (1083, 28),
+    (1096, 15),
+    (1117, 12),
+    (1165, 12),
+    (1238, 14),
+    // A receive path stalled beyond the silence limit, its transmissions acknowledged.
+    (1356, 28),
 ];
 
 /// The budget CI runs: seeds and simulated seconds each. Seed `k` leads with a fault of kind

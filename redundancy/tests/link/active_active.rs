@@ -20,8 +20,8 @@ fn run_to_end(net: &mut Net) {
 }
 
 /// The port of every station on `bus` goes suspect (at its first failed transmission, or after
-/// 50 ms of silence) and failed exactly the silence limit after the last frame it received; it
-/// returns to ok after the repair; the other port sees no event at all.
+/// 50 ms of silence) and failed exactly the silence limit after the last frame it received or
+/// had acknowledged; it returns to ok after the repair; the other port sees no event at all.
 fn assert_bus_failed_and_recovered(net: &Net, bus: usize) {
     for node in 1..=SLAVES + 1 {
         let last = net.last_rx(node, bus, CUT);
@@ -45,14 +45,15 @@ fn assert_bus_failed_and_recovered(net: &Net, bus: usize) {
             }
             r => panic!("node {node}: suspect because {r:?}"),
         }
+        let failed = net.last_heard(node, bus, CUT) + SILENCE_LIMIT;
         assert_eq!(
             ev[1],
             (
-                last + SILENCE_LIMIT,
+                failed,
                 PortState::Suspect,
                 PortState::Failed,
                 PortReason::Silence {
-                    silent: SILENCE_LIMIT
+                    silent: failed.saturating_since(last)
                 }
             ),
             "node {node}"
@@ -68,17 +69,17 @@ fn assert_bus_failed_and_recovered(net: &Net, bus: usize) {
             cycle,
             [
                 (
-                    last + ms(250),
+                    failed + ms(100),
                     PortState::Recovering,
                     PortReason::Reinit { attempt: 1 }
                 ),
-                (last + ms(400), PortState::Failed, silence),
+                (failed + ms(250), PortState::Failed, silence),
                 (
-                    last + ms(600),
+                    failed + ms(450),
                     PortState::Recovering,
                     PortReason::Reinit { attempt: 2 }
                 ),
-                (last + ms(750), PortState::Failed, silence),
+                (failed + ms(600), PortState::Failed, silence),
             ],
             "node {node}"
         );
@@ -152,8 +153,9 @@ fn single_port_unplugged_is_failed_at_its_node_and_reported_by_the_others() {
 
     net.assert_application_exact();
     net.assert_no_heartbeat_lost();
-    // The node's own port fails exactly at the silence limit, and recovers after the repair.
-    let last = net.last_rx(NODE, 0, CUT);
+    // The node's own port fails exactly at the silence limit (after the last frame it
+    // received or had acknowledged), and recovers after the repair.
+    let last = net.last_heard(NODE, 0, CUT);
     let ev = net.port_events(NODE, 0);
     assert_eq!(ev[1].0, last + SILENCE_LIMIT);
     assert_eq!(ev[1].2, PortState::Failed);

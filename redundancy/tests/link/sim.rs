@@ -180,6 +180,26 @@ impl Net {
             .max()
             .expect("something was received")
     }
+    /// The end of the last frame on `bus` up to `t` that `node` received or sent (delivered:
+    /// its driver confirmed it): the last sign, at that node, that its bus worked.
+    pub fn last_heard(&self, node: u8, bus: usize, t: Instant) -> Instant {
+        self.sim
+            .trace()
+            .iter()
+            .filter_map(|r| match r {
+                TraceRecord::Tx(x)
+                    if x.bus == self.buses[bus]
+                        && !x.babble
+                        && x.end <= t
+                        && matches!(x.outcome, TxOutcome::Delivered { .. }) =>
+                {
+                    Some(x.end)
+                }
+                _ => None,
+            })
+            .max()
+            .unwrap_or(self.last_rx(node, bus, t))
+    }
     /// `node`'s own frames delivered on `bus` (not a babbling controller's), in time order.
     fn delivered_by(&self, node: u8, bus: usize) -> impl Iterator<Item = &TxRecord> + '_ {
         let me = self.dev(node).erased();

@@ -156,8 +156,8 @@ fn cut(bus: usize) -> (Net, usize) {
     net.assert_no_heartbeat_lost();
     for node in 1..=SLAVES + 1 {
         // Port health as with the exact merge: the cut bus fails exactly the silence limit
-        // after the last frame it brought, and is ok again after the repair.
-        let last = net.last_rx(node, bus, FAULT);
+        // after the last frame it brought or acknowledged, and is ok again after the repair.
+        let last = net.last_heard(node, bus, FAULT);
         let ev = net.port_events(node, bus as u8);
         let failed = ev.iter().find(|e| e.2 == PortState::Failed).unwrap();
         assert_eq!(failed.0, last + SILENCE_LIMIT, "node {node}");

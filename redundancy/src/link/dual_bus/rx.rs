@@ -5,7 +5,7 @@ use super::DualBus;
 use crate::link::channel::{ChannelPolicy, RxRoute};
 use crate::link::classify::FrameClassifier;
 use crate::link::health::{PortState, RxOutcome};
-use crate::link::merge::{Trust, Verdict};
+use crate::link::merge::{Sample, Trust, Verdict};
 use crate::link::same_function::PairVerdict;
 use crate::link::sticky::{StickyVerdict, StreamKey};
 use duocan::{Frame, Instant};
@@ -104,6 +104,7 @@ impl<C: FrameClassifier, const SLOTS: usize, const FUNCTIONS: usize> DualBus<C, 
         let s = self.lag.correct(port, at);
         let trust = self.trust(port);
         let (verdict, sample) = self.merger.arrive_at(now, s, port, frame, trust);
+        let sample = sample.filter(|m| !m.late || self.intact_between(port, s, m));
         if let Some(sample) = sample {
             let before = [self.lag.lag(0), self.lag.lag(1)];
             if self.lag.sample(now, port, sample, &mut self.out) {
@@ -151,6 +152,25 @@ impl<C: FrameClassifier, const SLOTS: usize, const FUNCTIONS: usize> DualBus<C, 
             StickyVerdict::Dropped => RxOutcome::Duplicate,
             StickyVerdict::Unproven => RxOutcome::Stale,
         }
+    }
+
+    /// Whether a late sample of a copy stamped `s` on `port` can be a lag: the port of the
+    /// later of the two copies was intact from the earlier one's stamp on (see
+    /// [`crate::link::lag`]). If that port came back since from a state in which frames may
+    /// not have reached it, it may have lost the earlier occurrence, and its copy be a later
+    /// one of the same content.
+    fn intact_between(&self, port: usize, s: Instant, m: &Sample) -> bool {
+        let (later, earlier) = if m.skew > 0 {
+            (port, s.as_micros().saturating_sub(m.skew as u64))
+        } else {
+            (1 - port, s.as_micros())
+        };
+        // Without receive timestamps a port whose copies come late looks silent until its lag
+        // is measured: its silence is that lag, not frames lost.
+        self.health
+            .port(later)
+            .intact_since(self.stamped[later])
+            .is_some_and(|t| t.as_micros() <= earlier)
     }
 
     /// The lag meter changed its correction: port health, reachability and the ports' states

@@ -14,7 +14,11 @@
 //!   the skew window). Twins do not count, so a network that simply goes quiet fails nobody. A
 //!   port silent for `suspect_after` becomes suspect, for `silence_limit` failed; the instant is
 //!   exact: last frame + limit (or first missed frame + window + the port's receive delay, if
-//!   later: a port whose reader runs behind hands its twins over that much later).
+//!   later: a port whose reader runs behind hands its twins over that much later). A port
+//!   whose driver confirms its transmissions (someone on its bus acknowledged them) is failed
+//!   for silence only once it has had none confirmed for the silence limit either: its bus
+//!   works and its frames reach the peers there, only its receive path is silent or behind;
+//!   failed, it would carry nothing but probes.
 //! - **Controller reports.** Bus-off, interface down and transceiver faults fail the port at
 //!   once; other errors (error passive, CRC, no-ack, …) make an ok port suspect.
 //! - **Traffic is proof.** A failed port that receives a frame, or whose driver confirms a
@@ -53,6 +57,10 @@
 //!   frames that were queued before the fault; the other port delivers every occurrence
 //!   meanwhile, so they are dropped, and when the other port fails the instant this one
 //!   returns, its first frames are delivered.
+//! - **Intact.** Since when frames on a port's bus have reached it, as far as its health
+//!   knows: since it was last ok after being failed, recovering, or suspect for anything but
+//!   a lag (for silence: with receive timestamps only). A lag sample across a port's return
+//!   is no lag (see [`crate::link::lag`]).
 //! - **Lag.** A port whose copies come later than the other port's by more than the maximum
 //!   skew window even after the correction (measured by [`crate::link::lag`]) is suspect for
 //!   that (reason `Lag`), and not ok again on traffic until its lag is within the maximum
@@ -305,6 +313,7 @@ impl Health {
             PortStatus::TxOk => {
                 port.counters.tx_ok += 1;
                 port.reports_outcomes = true;
+                port.confirmed = Some(now);
                 port.unacknowledged = false;
                 // Someone on its bus acknowledged the frame: the bus works again, whatever the
                 // back-off says (as a received frame shows).
@@ -416,6 +425,15 @@ impl Health {
             }
             _ => {}
         }
+        // Intact: no state since `at` in which frames on its bus may not have reached it (a
+        // silence counts, a lag does not).
+        match to {
+            PortState::Ok => {
+                port.intact.get_or_insert(at);
+            }
+            PortState::Suspect if matches!(reason, PortReason::Lag { .. }) => {}
+            _ => port.intact = None,
+        }
         port.cond = match to {
             PortState::Ok => {
                 port.attempt = 0;
@@ -476,7 +494,13 @@ impl Health {
             _ => self.cfg.silence_limit,
         };
         let missed = port.first_missed?;
-        let reference = port.silence_ref?;
+        let mut reference = port.silence_ref?;
+        if threshold == self.cfg.silence_limit {
+            // Failing it takes its transmissions' silence too: frames acknowledged on its bus
+            // show that the bus works and reaches peers (only its receive path is silent or
+            // behind), and a failed port would no longer carry them.
+            reference = reference.max(port.confirmed.unwrap_or(reference));
+        }
         Some((reference + threshold).max(missed + self.window + port.rx_delay))
     }
 

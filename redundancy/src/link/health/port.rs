@@ -91,6 +91,8 @@ pub struct PortHealth {
     /// In a state entered for a fault that may have lost frames (see [`PortHealth::back`]).
     pub(super) lossy: bool,
     pub(super) back: Instant,
+    /// See [`PortHealth::intact_since`].
+    pub(super) intact: Option<Instant>,
     /// Start of the current silence: last frame, entry into recovering, or start of observation.
     pub(super) silence_ref: Option<Instant>,
     /// First first-copy on the other port since this port's last frame.
@@ -105,6 +107,8 @@ pub struct PortHealth {
     pub(super) outstanding: heapless::Deque<Handed, OUTSTANDING>,
     /// The newest frame confirmed sent (`TxOk`).
     pub(super) last_sent: Option<Handed>,
+    /// When its driver last confirmed a transmission (`TxOk`): its bus worked then.
+    pub(super) confirmed: Option<Instant>,
     /// When the other port was first seen to have sent a frame handed over no earlier than this
     /// port's oldest waiting one: the stall rule's reference (twins must follow within the
     /// window). Cleared whenever that oldest frame changes.
@@ -147,6 +151,7 @@ impl PortHealth {
             since: Instant::ZERO,
             lossy: false,
             back: Instant::ZERO,
+            intact: Some(Instant::ZERO),
             silence_ref: None,
             first_missed: None,
             last_error: None,
@@ -155,6 +160,7 @@ impl PortHealth {
             lagging: None,
             outstanding: heapless::Deque::new(),
             last_sent: None,
+            confirmed: None,
             overtaken: None,
             reports_outcomes: false,
             unacknowledged: false,
@@ -175,6 +181,17 @@ impl PortHealth {
     /// count. Frames sent on its bus before then may be lost, not late.
     pub fn back(&self) -> Instant {
         self.back
+    }
+    /// Since when frames sent on its bus have reached it, as far as its health knows: since
+    /// it was last ok after a state in which they may not have (failed, recovering, suspect
+    /// for errors, and with `silence` for silence; not for a lag alone); `None` while it is in
+    /// such a state.
+    pub(crate) fn intact_since(&self, silence: bool) -> Option<Instant> {
+        if silence {
+            self.intact
+        } else {
+            (!self.lossy).then_some(self.back)
+        }
     }
     /// Counters.
     pub fn counters(&self) -> &HealthCounters {
@@ -224,6 +241,8 @@ impl PortHealth {
             &mut self.first_missed,
             &mut self.last_error,
             &mut self.overtaken,
+            &mut self.intact,
+            &mut self.confirmed,
             &mut self.counters.last_rx,
         ] {
             shift_back(t, by);

@@ -420,3 +420,52 @@ fn a_port_lagging_beyond_the_maximum_is_suspect_until_its_lag_is_within_again() 
         (ms(1_200), 1, PortState::Suspect, PortReason::Lag { lag })
     );
 }
+
+#[test]
+fn a_port_whose_frames_are_acknowledged_is_not_failed_for_silence() {
+    // Port 1 hears nothing after 1000 ms (its receive path stalls), while its own frames, one
+    // every 10 ms until 1500 ms, are acknowledged: its bus works. Suspect for the silence, but
+    // failed (out of the fan-out) only when its frames have not been confirmed for the
+    // silence limit either.
+    let mut h = Health::new(HealthConfig::default(), W);
+    let mut out = Outbox::new();
+    let mut seq = 0;
+    let mut t = 0;
+    while t < 2000 {
+        while let Some(d) = h.poll_timeout().filter(|d| *d < ms(t)) {
+            h.handle_timeout(d, &mut out);
+        }
+        h.on_rx(ms(t), 0, RxOutcome::Delivered, &mut out);
+        if t < 1000 {
+            let o = RxOutcome::Duplicate;
+            h.on_rx(ms(t) + Duration::from_micros(200), 1, o, &mut out);
+        }
+        if t < 1500 {
+            seq += 1;
+            h.count_tx(ms(t) + Duration::from_micros(300), 1, seq);
+            h.on_status(
+                ms(t) + Duration::from_micros(500),
+                1,
+                PortStatus::TxOk,
+                &mut out,
+            );
+        }
+        t += 10;
+    }
+    let last_rx = ms(990) + Duration::from_micros(200);
+    let last_ok = ms(1490) + Duration::from_micros(500);
+    let silence = |d: Instant| PortReason::Silence {
+        silent: d.saturating_since(last_rx),
+    };
+    let at = [
+        last_rx + Duration::from_millis(100),
+        last_ok + Duration::from_millis(300),
+    ];
+    assert_eq!(
+        port_events(&mut out)[..2],
+        [
+            (at[0], 1, PortState::Suspect, silence(at[0])),
+            (at[1], 1, PortState::Failed, silence(at[1])),
+        ]
+    );
+}
