@@ -105,7 +105,8 @@ pub enum MergePolicy {
     /// below the skew window is taken as the skew window. Under this policy the transmit-stall
     /// rule of port health waits the timeout (not the skew window): a frame that reaches the
     /// receivers later than that after its copy on the other bus is a lag the rule no longer
-    /// covers.
+    /// covers. (Feature `sticky`, on by default.)
+    #[cfg(feature = "sticky")]
     Sticky {
         /// Silence of a sender on its bus after which it switches: above the largest lag
         /// between the buses' stamps.
@@ -113,6 +114,7 @@ pub enum MergePolicy {
     },
 }
 
+#[cfg(feature = "sticky")]
 impl MergePolicy {
     /// The sticky merge's default timeout, 40 ms: the default maximum skew window, the largest
     /// lag between the buses the layer takes for normal (beyond it a port is suspect). With

@@ -92,7 +92,9 @@ pub enum LinkEventKind {
         counter: u8,
     },
     /// The A and B members of a pair have carried different values for one function for longer
-    /// than the discrepancy time.
+    /// than the discrepancy time. The event's time is the instant the discrepancy time ran out:
+    /// the values started to differ that long before. (Not repeated here: every event of the
+    /// layer's queue, in every device, would be 8 bytes larger.)
     Discrepancy {
         /// The pair.
         pair: PairId,
@@ -102,8 +104,6 @@ pub enum LinkEventKind {
         a: Frame,
         /// The latest frame of member B.
         b: Frame,
-        /// When the values started to differ.
-        since: Instant,
     },
     /// A reported discrepancy ended: the two members agree again.
     DiscrepancyCleared {
@@ -381,10 +381,9 @@ impl fmt::Display for LinkEvent {
                 function,
                 a,
                 b,
-                since,
             } => write!(
                 f,
-                "pair {} function {function}: A sends {a}, B sends {b} (since {since})",
+                "pair {} function {function}: A sends {a}, B sends {b}",
                 pair.0
             ),
             LinkEventKind::DiscrepancyCleared { pair, function } => {

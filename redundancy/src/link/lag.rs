@@ -101,6 +101,12 @@ use crate::link::merge::MergeStats;
 
 const MS: u64 = 1_000;
 
+/// Whole milliseconds of a lag (µs, bounded by the horizon): in 32 bits, as a 64-bit division
+/// would bring the general division routine (almost 1 KB) into a 32-bit device's image.
+fn whole_ms(us: u64) -> u32 {
+    us.min(u64::from(u32::MAX)) as u32 / MS as u32
+}
+
 /// The lag between the two ports' stamps and its correction (see the module documentation).
 #[derive(Clone, Debug)]
 pub struct LagMeter {
@@ -226,7 +232,7 @@ impl LagMeter {
                 }
                 LinkEventKind::LagCleared { port: p as u8 }
             } else {
-                if lag / MS == was / MS {
+                if whole_ms(lag) == whole_ms(was) {
                     continue;
                 }
                 LinkEventKind::Lag {

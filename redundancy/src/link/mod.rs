@@ -85,4 +85,5 @@ pub mod outbox;
 pub mod plausible;
 pub mod reach;
 pub mod same_function;
+#[cfg(feature = "sticky")]
 pub mod sticky;

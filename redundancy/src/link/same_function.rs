@@ -320,7 +320,6 @@ impl<const FUNCTIONS: usize> SameFunction<FUNCTIONS> {
                             function,
                             a,
                             b,
-                            since,
                         },
                     });
                 }
@@ -412,7 +411,6 @@ mod tests {
                     function: 1,
                     a: tpdo(0x10, 3),
                     b: tpdo(0x11, 2),
-                    since: ms(100)
                 }
             })
         );

@@ -80,7 +80,7 @@ pub enum NetworkEventKind {
         msg: EmcyMessage,
     },
     /// A and B of a pair have carried different values of one function for longer than the
-    /// discrepancy time.
+    /// discrepancy time (the event's time is when it ran out).
     Discrepancy {
         /// The pair.
         pair: PairId,
@@ -90,8 +90,6 @@ pub enum NetworkEventKind {
         a: Frame,
         /// B's latest frame.
         b: Frame,
-        /// Since when they differ.
-        since: Instant,
     },
     /// A and B agree again.
     DiscrepancyCleared {
@@ -157,13 +155,11 @@ pub(super) fn typed(e: &StationEvent<LinkEvent, SupervisorEvent>) -> Option<Netw
                 function,
                 a,
                 b,
-                since,
             } => K::Discrepancy {
                 pair,
                 function,
                 a,
                 b,
-                since,
             },
             LinkEventKind::DiscrepancyCleared { pair, function } => {
                 K::DiscrepancyCleared { pair, function }

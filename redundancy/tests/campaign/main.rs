@@ -52,6 +52,10 @@ const REGRESSIONS: &[(u64, u64)] = &[
     (1238, 14),
     // A receive path stalled beyond the silence limit, its transmissions acknowledged.
     (1356, 28),
+    // A clock jump of an hour behind a reader running late: copies stamped before the jump
+    // came after it, when the merger's memory of keys had forgotten their twins.
+    (3235, 17),
+    (5188, 32),
 ];
 
 /// The budget CI runs: seeds and simulated seconds each. Seed `k` leads with a fault of kind
@@ -192,8 +196,9 @@ fn the_fixed_budget_keeps_every_invariant_and_reaches_every_class() {
         .iter()
         .filter(|c| !cov.classes.contains_key(**c))
         .collect();
+    // Any KINDS consecutive seeds lead with every kind; fewer (a seed run on its own) cannot.
     assert!(
-        missing.is_empty(),
+        missing.is_empty() || n < faults::KINDS as u64,
         "classes the budget did not reach: {missing:?}"
     );
 }

@@ -328,14 +328,13 @@ fn a_pair_is_one_stream_from_its_active_member_and_discrepancies_are_reported() 
                 function,
                 a,
                 b,
-                since,
-            } => Some((e.at, p, function, a.data()[0], b.data()[0], since)),
+            } => Some((e.at, p, function, a.data()[0], b.data()[0])),
             _ => None,
         })
         .collect();
     assert_eq!(
         disc,
-        [(b_first + Duration::from_millis(100), pair, 2, 2, 3, b_first)]
+        [(b_first + Duration::from_millis(100), pair, 2, 2, 3)]
     );
 }
 

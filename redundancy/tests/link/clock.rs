@@ -341,7 +341,6 @@ fn a_discrepancy_keeps_its_time_after_a_step_back() {
                 function: 1,
                 a: tpdo(0x10, 1),
                 b: tpdo(0x11, 2),
-                since: ms(0)
             }
         )]
     );

@@ -18,7 +18,9 @@ mod railway;
 mod sequence;
 mod sim;
 mod srdo;
+#[cfg(feature = "sticky")]
 mod sticky;
+#[cfg(feature = "sticky")]
 mod sticky_properties;
 #[path = "../common/time_line.rs"]
 mod time_line;

@@ -556,8 +556,7 @@ fn stack_and_dual_bus_run_unchanged_over_the_railway_profile() {
                 function,
                 a,
                 b,
-                since,
-            } => Some((e.at, pair.0, function, a, b, since)),
+            } => Some((e.at, pair.0, function, a, b)),
             _ => None,
         })
         .collect();
@@ -576,7 +575,6 @@ fn stack_and_dual_bus_run_unchanged_over_the_railway_profile() {
             state_function(POINT_PORT, objects::POINT, 1),
             a_latest,
             moving,
-            first_moving
         )]
     );
 

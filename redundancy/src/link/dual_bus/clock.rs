@@ -20,6 +20,7 @@ impl<C: FrameClassifier, const SLOTS: usize, const FUNCTIONS: usize> DualBus<C, 
     fn step_back(&mut self, by: Duration) {
         self.policy.step_back(by);
         self.merger.step_back(by);
+        #[cfg(feature = "sticky")]
         if let Some(s) = &mut self.sticky {
             s.step_back(by);
         }

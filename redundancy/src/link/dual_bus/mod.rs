@@ -35,6 +35,7 @@ use crate::link::outbox::Outbox;
 use crate::link::plausible::Plausibility;
 use crate::link::reach::Reach;
 use crate::link::same_function::{PairError, SameFunction, MAX_FUNCTIONS};
+#[cfg(feature = "sticky")]
 use crate::link::sticky::StickyMerger;
 use crate::pair::{Member, PairId};
 use duocan::frame::instant::{earliest_of, TimeWatch};
@@ -112,6 +113,7 @@ pub struct DualBus<
     policy: Policy,
     merger: Merger<SLOTS>,
     /// The sticky merge, when configured (active-active only): it judges instead of `merger`.
+    #[cfg(feature = "sticky")]
     sticky: Option<StickyMerger>,
     lag: LagMeter,
     health: Health,
@@ -175,6 +177,11 @@ impl<C: FrameClassifier, const SLOTS: usize, const FUNCTIONS: usize> DualBus<C, 
     /// A layer with a custom frame classifier (identifier scheme).
     #[must_use]
     pub fn with_classifier(cfg: DualBusConfig, classifier: C) -> Self {
+        // Each mode and merge policy may adjust the port-health rules.
+        #[cfg_attr(
+            not(any(feature = "cia302-6", feature = "ecss", feature = "sticky")),
+            allow(unused_mut)
+        )]
         let mut health = cfg.health;
         let (policy, reach_enabled) = match cfg.mode {
             LinkMode::ActiveActive => (Policy::ActiveActive(Default::default()), true),
@@ -193,6 +200,7 @@ impl<C: FrameClassifier, const SLOTS: usize, const FUNCTIONS: usize> DualBus<C, 
                 (Policy::EcssToggle(Ecss::new(c)), false)
             }
         };
+        #[cfg(feature = "sticky")]
         let sticky = match (cfg.mode, cfg.merge) {
             (LinkMode::ActiveActive, MergePolicy::Sticky { timeout }) => {
                 // Copies stamped within the skew window are the layer's premise anyway.
@@ -215,6 +223,7 @@ impl<C: FrameClassifier, const SLOTS: usize, const FUNCTIONS: usize> DualBus<C, 
             classifier,
             policy,
             merger: Merger::with_horizon(cfg.skew_window, lag.horizon()),
+            #[cfg(feature = "sticky")]
             sticky,
             lag,
             health: Health::new(health, cfg.skew_window),
@@ -319,6 +328,7 @@ impl<C: FrameClassifier, const SLOTS: usize, const FUNCTIONS: usize> DualBus<C, 
         &self.merger
     }
     /// The sticky merge, if configured ([`MergePolicy::Sticky`], active-active mode).
+    #[cfg(feature = "sticky")]
     pub fn sticky(&self) -> Option<&StickyMerger> {
         self.sticky.as_ref()
     }
@@ -513,15 +523,16 @@ impl<C, const SLOTS: usize, const FUNCTIONS: usize> core::fmt::Debug
     for DualBus<C, SLOTS, FUNCTIONS>
 {
     fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
-        f.debug_struct("DualBus")
-            .field("mode", &self.policy.kind())
+        let mut d = f.debug_struct("DualBus");
+        #[cfg(feature = "sticky")]
+        d.field("sticky", &self.sticky);
+        d.field("mode", &self.policy.kind())
             .field("active", &self.policy.active())
             .field(
                 "ports",
                 &[self.health.port(0).state(), self.health.port(1).state()],
             )
             .field("merger", &self.merger)
-            .field("sticky", &self.sticky)
             .field("lag", &[self.lag.lag(0), self.lag.lag(1)])
             .field("stats", &self.stats)
             .finish_non_exhaustive()

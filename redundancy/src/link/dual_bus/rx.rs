@@ -4,9 +4,10 @@
 use super::DualBus;
 use crate::link::channel::{ChannelPolicy, RxRoute};
 use crate::link::classify::FrameClassifier;
-use crate::link::health::{PortState, RxOutcome};
+use crate::link::health::RxOutcome;
 use crate::link::merge::{Sample, Trust, Verdict};
 use crate::link::same_function::PairVerdict;
+#[cfg(feature = "sticky")]
 use crate::link::sticky::{StickyVerdict, StreamKey};
 use duocan::{Frame, Instant};
 
@@ -60,6 +61,7 @@ impl<C: FrameClassifier, const SLOTS: usize, const FUNCTIONS: usize> DualBus<C, 
         let outcome = match route {
             RxRoute::Ignore => RxOutcome::Ignored,
             RxRoute::Direct => RxOutcome::Direct,
+            #[cfg(feature = "sticky")]
             RxRoute::Merge if self.sticky.is_some() => self.stick(now, at, port, frame),
             RxRoute::Merge => self.merge(now, at, port, frame),
         };
@@ -137,11 +139,13 @@ impl<C: FrameClassifier, const SLOTS: usize, const FUNCTIONS: usize> DualBus<C, 
     /// A frame stamped `at` on `port`, handled at `now`, through the sticky merge: its stream
     /// is its sender's, or its identifier's (see [`crate::link::sticky`]). Stamps are taken as
     /// they come: the sticky merge stands any lag below its timeout, and measures none.
+    #[cfg(feature = "sticky")]
     #[inline]
     fn stick(&mut self, now: Instant, at: Instant, port: usize, frame: &Frame) -> RxOutcome {
         let key = StreamKey::of(frame, self.classifier.sender(frame));
         let trust = self.trust(port);
-        let other_failed = self.health.port(1 - port).state() == PortState::Failed;
+        let other_failed =
+            self.health.port(1 - port).state() == crate::link::health::PortState::Failed;
         let Some(sticky) = self.sticky.as_mut() else {
             return RxOutcome::Ignored;
         };

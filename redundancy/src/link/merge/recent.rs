@@ -18,9 +18,10 @@
 //! by the other conditions a sample needs, or a late copy delivered twice). The merger has as
 //! many lines as slots, 12 bytes each (the two low bits of the hash a line keeps say whether a
 //! copy of the key was forgotten, and on which port). Times are kept in microseconds from a
-//! base, in 32 bits: when a time runs half their range (35 minutes) past the base, everything
-//! is forgotten and the base moves there (nothing that old is recent, nor a twin still coming),
-//! so a jump of the clock is never read as a small age.
+//! base, in 32 bits: when a time runs the whole of half their range (35 minutes) past the base,
+//! the base moves forward to a quarter of the range before it, and every time held moves with
+//! it, those older landing on the base: a jump of the clock is never read as a small age, and a
+//! copy stamped before a jump that comes after it still finds the mark of its forgotten twin.
 
 #[derive(Clone, Copy, Default)]
 struct Line {
@@ -64,16 +65,36 @@ impl<const LINES: usize> Recent<LINES> {
         }
     }
 
-    /// `at_us` from the base, if the lines can count it (forgetting everything and moving the
-    /// base when it is too far past); `None` for a time before the base.
+    /// `at_us` from the base, moving the base first when it is too far past (see
+    /// [`Recent::rebase`]); `None` for a time before the base.
     fn rel(&mut self, at_us: u64) -> Option<u32> {
         let d = at_us.checked_sub(self.base)?;
         if d >= SPAN {
-            self.lines = [Line::default(); LINES];
-            self.base = at_us;
-            return Some(0);
+            self.rebase(at_us - SPAN / 2);
+            return Some((SPAN / 2) as u32);
         }
         Some(d as u32)
+    }
+
+    /// As [`Recent::rel`], a time before the base counting as the base: older than anything
+    /// held, which is what a forgotten copy's mark and the copies it covers need.
+    fn rel_or_base(&mut self, at_us: u64) -> u32 {
+        self.rel(at_us).unwrap_or(0)
+    }
+
+    /// Moves the base forward to `base`: every time held moves with it, those before it landing
+    /// on it (a line stays taken, a mark stays set: a copy stamped before the jump that comes
+    /// after it is still known for a late twin). Runs through the table: once per half the
+    /// 32-bit range of time, or at a jump of the clock.
+    #[cold]
+    fn rebase(&mut self, base: u64) {
+        let by = base - self.base;
+        let back = |t: u32| u32::try_from(u64::from(t).saturating_sub(by)).unwrap_or(0);
+        for l in self.lines.iter_mut().filter(|l| l.at != 0) {
+            l.at = back(l.at).max(1);
+            l.forgot = back(l.forgot);
+        }
+        self.base = base;
     }
 
     /// The two lines `hash` may be in.
@@ -131,9 +152,7 @@ impl<const LINES: usize> Recent<LINES> {
     /// A copy of the key `hash` on port `side`, stamped `at_us`, was forgotten while its twin
     /// could still come.
     pub(super) fn forgot(&mut self, hash: u32, side: usize, at_us: u64) {
-        let Some(stamp) = self.rel(at_us) else {
-            return;
-        };
+        let stamp = self.rel_or_base(at_us);
         let (line, known) = self.line(hash);
         if !known {
             line.at = stamp + 1;
@@ -153,9 +172,7 @@ impl<const LINES: usize> Recent<LINES> {
         at_us: u64,
         window_us: u64,
     ) -> bool {
-        let Some(now) = self.rel(at_us) else {
-            return false;
-        };
+        let now = self.rel_or_base(at_us);
         let Some(line) = self.set(hash).iter().find(|l| l.is(hash)) else {
             return false;
         };

@@ -355,3 +355,29 @@ fn a_bad_port_is_delivered_and_counted() {
     assert_eq!(m.stats().bad_port, 1);
     assert!(m.is_empty());
 }
+
+#[test]
+fn a_copy_stamped_before_a_jump_of_the_clock_is_known_for_a_late_twin_after_it() {
+    let mut m: Merger<64> = Merger::new(W);
+    let hour = 3_600_000;
+    let hb = f(0x70, 5);
+    // Port 1 delivers a heartbeat at 1 s; port 0's reader runs 30 ms behind.
+    assert_eq!(arr(&mut m, ms(1000), ms(1000), 1, &hb), Verdict::Deliver);
+    // The clock jumps an hour ahead: the record is forgotten (its horizon passed), and a frame
+    // stamped after the jump comes first, far beyond what the merger's memory of keys counts.
+    assert_eq!(
+        arr(&mut m, ms(hour + 1010), ms(hour + 1010), 1, &f(0x71, 1)),
+        Verdict::Deliver
+    );
+    assert_eq!(m.stats().forgotten, 1);
+    // Port 0's copy of the heartbeat, stamped before the jump, handed over after it: late.
+    assert_eq!(
+        arr(&mut m, ms(hour + 1030), ms(1000), 0, &hb),
+        Verdict::Late
+    );
+    // A copy of it stamped after the jump is a new occurrence.
+    assert_eq!(
+        arr(&mut m, ms(hour + 1040), ms(hour + 1040), 0, &hb),
+        Verdict::Deliver
+    );
+}
