@@ -17,7 +17,10 @@ fn frame(id: u16, i: u16) -> Frame {
 fn next(reader: &mut dyn PortReader) -> Option<Frame> {
     for _ in 0..20 {
         match reader.read().unwrap() {
-            Some(PortInput::Frame(f)) => return Some(f),
+            Some(PortInput::Frame(f, at)) => {
+                assert!(at.is_some(), "a UDP frame comes with its receive timestamp");
+                return Some(f);
+            }
             Some(other) => panic!("not a frame: {other:?}"),
             None => {}
         }
@@ -45,7 +48,7 @@ async fn the_reader_reads_in_order_answers_and_never_reads_its_own() {
     let heard = tokio::time::timeout(Duration::from_secs(3), async {
         let mut heard = vec![];
         while heard.len() < 2 {
-            if let PortInput::Frame(f) = peer.recv().await.unwrap() {
+            if let PortInput::Frame(f, _) = peer.recv().await.unwrap() {
                 heard.push(f);
             }
         }
@@ -74,5 +77,5 @@ async fn the_reader_reads_in_order_answers_and_never_reads_its_own() {
         .await
         .expect("the re-opened port receives")
         .unwrap();
-    assert!(matches!(again, PortInput::Frame(f) if f == frame(0x181, 1000)));
+    assert!(matches!(again, PortInput::Frame(f, Some(_)) if f == frame(0x181, 1000)));
 }
