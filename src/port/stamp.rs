@@ -12,9 +12,11 @@
 //!
 //! - **never after the read** (`mono`): a stamp ahead of the wall clock is no later than the
 //!   read that returned it;
-//! - **never before the floor**: the monotonic time of the last read that found the socket
-//!   empty ([`KernelClock::drained`]), since everything read after that arrived after it, or
-//!   until then the time the socket was opened ([`KernelClock::new`]).
+//! - **never before the floor**: when the last read that found the socket empty began
+//!   ([`KernelClock::drained`]), since everything read after it arrived after that, or until
+//!   then the time the socket was opened ([`KernelClock::new`]). When it *began*: a clock read
+//!   after the call returned may be late by as long as the thread was held up in between, and
+//!   a floor that late would pull the stamps of frames that arrived meanwhile up to it.
 //!
 //! **A step of the wall clock.** The conversion holds while the wall clock runs with the
 //! monotonic one between a frame's arrival and its read (NTP *slewing*, a few hundred parts per
@@ -24,6 +26,10 @@
 //! stamps for that read); a step forward makes it older, at most back to the floor (the reader
 //! was behind by no more than that). Frames that arrive after the step convert right again: the
 //! clocks are read afresh for every read, so a step spoils at most what was queued across it.
+//!
+//! **Reading the clocks.** A thread held up between reading the two clocks would shift every
+//! stamp of that read by the hold-up; the monotonic clock is read between two readings of the
+//! wall clock, and a bracket wider than a few microseconds is tried again ([`KernelClock::read`]).
 //!
 //! **Memory.** The floor, one instant; a reading is three. No allocation.
 
@@ -55,6 +61,12 @@ pub(crate) fn of_message<S>(m: &RecvMsg<'_, '_, S>) -> Option<Duration> {
     })
 }
 
+/// Brackets of the two clocks tried at most per reading (see [`KernelClock::read`]).
+const TRIES: usize = 4;
+/// A bracket this tight is taken at once: three clock reads take well under a microsecond
+/// when the thread is not held up.
+const TIGHT: Duration = Duration::from_micros(20);
+
 /// A socket's side of the conversion: the floor (the last read that found it empty, or when
 /// it was opened).
 #[derive(Clone, Copy, Debug)]
@@ -70,19 +82,39 @@ impl KernelClock {
         }
     }
     /// Both clocks, read now: call it right after a read returned.
+    ///
+    /// The two are read one after the other, and a thread held up in between (a loaded
+    /// machine) would see them that far apart: every stamp of the read would be off by as
+    /// much. So the monotonic clock is read between two readings of the wall clock, up to
+    /// [`TRIES`] times, and the tightest bracket kept (its wall time the middle of the two).
     pub(crate) fn read(&self) -> Reading {
-        let mono = Instant::now();
-        let wall = SystemTime::now()
-            .duration_since(UNIX_EPOCH)
-            .unwrap_or(Duration::ZERO);
+        let wall = || {
+            SystemTime::now()
+                .duration_since(UNIX_EPOCH)
+                .unwrap_or(Duration::ZERO)
+        };
+        let mut best: Option<(Duration, Duration, Instant)> = None;
+        for _ in 0..TRIES {
+            let before = wall();
+            let mono = Instant::now();
+            let after = wall();
+            let gap = after.saturating_sub(before);
+            if best.is_none_or(|(g, _, _)| gap < g) {
+                best = Some((gap, before + gap / 2, mono));
+            }
+            if gap <= TIGHT {
+                break;
+            }
+        }
+        let (_, wall, mono) = best.unwrap_or((Duration::ZERO, wall(), Instant::now()));
         Reading {
             wall,
             mono,
             floor: self.floor,
         }
     }
-    /// A read at `at` (a [`Reading::mono`]) found the socket empty: later reads return only
-    /// frames that arrived after it.
+    /// A read that began at `at` found the socket empty: later reads return only frames that
+    /// arrived after that.
     pub(crate) fn drained(&mut self, at: Instant) {
         self.floor = self.floor.max(at);
     }

@@ -12,7 +12,7 @@
 //! Each frame of a batch carries the kernel's receive timestamp (a control message of its own
 //! in the batch), put on the monotonic clock with the clocks read once per batch, right after
 //! the call returned (see `port::stamp`). A batch of fewer than [`BATCH`] frames found the
-//! socket empty: the next batch's frames arrived after it.
+//! socket empty: the next batch's frames arrived after the call began.
 
 use super::{PortInput, PortReader, RxState, TokioCanSocket, CAN_EFF_FLAG, CAN_MTU, CAN_RTR_FLAG};
 use crate::frame::{Frame, Id};
@@ -126,6 +126,10 @@ impl Reader {
         let (raw, lens, ats, clock) = (&mut self.raw, &mut self.len, &mut self.at, &mut self.clock);
         let (n, unstamped) = with_headers(|[h, _]| {
             let mut slices = raw.each_mut().map(|b| [IoSliceMut::new(b)]);
+            // Taken before the call: should it find the socket empty (fewer than a batch),
+            // what comes after it arrived after this (a reading taken after the call returns
+            // may be late by as long as the thread is held up in between).
+            let called = std::time::Instant::now();
             let got = recvmmsg(fd, h, slices.iter_mut(), MsgFlags::MSG_WAITFORONE, None)
                 .map_err(io::Error::from)?;
             let reading = clock.read();
@@ -137,7 +141,7 @@ impl Reader {
                 n += 1;
             }
             if n < BATCH {
-                clock.drained(reading.mono);
+                clock.drained(called);
             }
             Ok::<_, io::Error>((n, unstamped))
         })?;

@@ -104,6 +104,7 @@ impl Received {
     fn recv(&mut self, s: &socketcan::CanSocket) -> io::Result<()> {
         let mut iov = [IoSliceMut::new(&mut self.raw)];
         let flags = MsgFlags::empty();
+        let called = std::time::Instant::now();
         match recvmsg::<()>(s.as_raw_fd(), &mut iov, Some(&mut self.control), flags) {
             Ok(m) => {
                 let reading = self.clock.read();
@@ -112,8 +113,8 @@ impl Received {
                 Ok(())
             }
             Err(Errno::EAGAIN) => {
-                // Found empty: what comes next arrived after now.
-                self.clock.drained(std::time::Instant::now());
+                // Found empty: what comes next arrived after the call began.
+                self.clock.drained(called);
                 Err(io::ErrorKind::WouldBlock.into())
             }
             Err(e) => Err(e.into()),

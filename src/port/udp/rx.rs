@@ -48,6 +48,7 @@ mod imp {
         ) -> io::Result<super::Datagram> {
             let mut iov = [IoSliceMut::new(buf)];
             let fd = socket.as_raw_fd();
+            let called = Instant::now();
             match recvmsg::<SockaddrIn>(fd, &mut iov, Some(&mut self.control), MsgFlags::empty()) {
                 Ok(m) => {
                     let reading = self.clock.read();
@@ -57,8 +58,8 @@ mod imp {
                 Err(e) => {
                     if e == Errno::EAGAIN {
                         // Found empty (or nothing came until the timeout): what comes next
-                        // arrived after now.
-                        self.clock.drained(Instant::now());
+                        // arrived after the call began.
+                        self.clock.drained(called);
                     }
                     Err(e.into())
                 }
