@@ -93,26 +93,36 @@ impl KernelClock {
                 .duration_since(UNIX_EPOCH)
                 .unwrap_or(Duration::ZERO)
         };
+        self.read_with(wall, Instant::now)
+    }
+
+    /// [`KernelClock::read`] with the clocks given.
+    fn read_with(
+        &self,
+        mut wall: impl FnMut() -> Duration,
+        mut mono: impl FnMut() -> Instant,
+    ) -> Reading {
         let mut best: Option<(Duration, Duration, Instant)> = None;
         for _ in 0..TRIES {
             let before = wall();
-            let mono = Instant::now();
+            let m = mono();
             let after = wall();
             let gap = after.saturating_sub(before);
             if best.is_none_or(|(g, _, _)| gap < g) {
-                best = Some((gap, before + gap / 2, mono));
+                best = Some((gap, before + gap / 2, m));
             }
             if gap <= TIGHT {
                 break;
             }
         }
-        let (_, wall, mono) = best.unwrap_or((Duration::ZERO, wall(), Instant::now()));
+        let (_, wall, mono) = best.unwrap_or_else(|| (Duration::ZERO, wall(), mono()));
         Reading {
             wall,
             mono,
             floor: self.floor,
         }
     }
+
     /// A read that began at `at` found the socket empty: later reads return only frames that
     /// arrived after that.
     pub(crate) fn drained(&mut self, at: Instant) {
@@ -222,6 +232,28 @@ mod tests {
         assert!(
             now.wall >= Duration::from_secs(1_600_000_000),
             "wall clock since 1970"
+        );
+    }
+
+    /// A thread held up between the clock reads (the first bracket 5 ms wide, the second 2 ms)
+    /// is read again; the tight third bracket is taken, its wall time the middle of the two.
+    #[test]
+    fn a_wide_bracket_is_read_again() {
+        let base = Instant::now();
+        let walls = [0, 5_000, 10_000, 12_000, 20_000, 20_010, 99_999];
+        let mut w = walls.iter().map(|us| WALL + Duration::from_micros(*us));
+        let mut m = (1..).map(|k| base + k * MS);
+        let r = KernelClock::new().read_with(|| w.next().unwrap(), || m.next().unwrap());
+        assert_eq!(r.mono, base + 3 * MS);
+        assert_eq!(r.wall, WALL + Duration::from_micros(20_005));
+        // Four wide brackets: the tightest of them.
+        let walls = [0, 9_000, 10_000, 12_000, 20_000, 30_000, 40_000, 47_000];
+        let mut w = walls.iter().map(|us| WALL + Duration::from_micros(*us));
+        let mut m = (1..).map(|k| base + k * MS);
+        let r = KernelClock::new().read_with(|| w.next().unwrap(), || m.next().unwrap());
+        assert_eq!(
+            (r.mono, r.wall),
+            (base + 2 * MS, WALL + Duration::from_millis(11))
         );
     }
 }
