@@ -15,7 +15,8 @@
 //! own round trip. Frames for the other port wait in that port's bounded queue (a full queue
 //! drops and counts, it never stalls the device), so a slow or failed port never holds up the
 //! other; a failed port reports [`PortStatus::Down`](crate::PortStatus), is re-opened with
-//! backoff, and reports `Up` when it works again. The core task runs the commands of
+//! backoff ([`BACKOFF_MIN`] doubling up to [`BACKOFF_MAX`]), and reports `Up` when it works
+//! again. The core task runs the commands of
 //! [`Handle`]s and sleeps until the device's [`poll_timeout`](Device::poll_timeout): there is
 //! no fixed tick, and a deadline that fell before a frame was read is handled before that
 //! frame, at its own instant. Nothing on the way of a frame allocates.
@@ -87,6 +88,7 @@ mod task;
 
 pub use handle::{Handle, RuntimeClosed, RuntimeError};
 pub use node::{LocalNode, NodeHost};
+pub use port_task::{BACKOFF_MAX, BACKOFF_MIN};
 pub use sdo::{SdoEvents, SdoHost, SdoStart};
 
 use crate::capture::recorder::Tap;
