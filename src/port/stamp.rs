@@ -27,6 +27,11 @@
 //! was behind by no more than that). Frames that arrive after the step convert right again: the
 //! clocks are read afresh for every read, so a step spoils at most what was queued across it.
 //!
+//! **The first stamps.** The kernel stamps on arrival once some socket has asked for stamps;
+//! the very first request on a system only schedules that switch (a deferred work item), and a
+//! frame read before it ran is stamped as it is read: its time is its read time, as without
+//! stamps.
+//!
 //! **Reading the clocks.** A thread held up between reading the two clocks would shift every
 //! stamp of that read by the hold-up; the monotonic clock is read between two readings of the
 //! wall clock, and a bracket wider than a few microseconds is tried again ([`KernelClock::read`]).

@@ -109,10 +109,39 @@ fn arrived_when_sent(
     );
 }
 
+/// Makes sure the kernel stamps datagrams as they arrive. It does once some socket has asked
+/// for stamps, but the first request of all only schedules the switch (a deferred work item):
+/// until it has run, a datagram is stamped when it is read. A port kept open for the whole run
+/// keeps the switch on, and probes show when it is: a datagram read 20 ms after it was sent
+/// carries a stamp at least 15 ms before its read.
+async fn kernel_stamps_on_arrival() {
+    static KEEPER: tokio::sync::OnceCell<Mutex<(UdpPort, Box<dyn PortReader>)>> =
+        tokio::sync::OnceCell::const_new();
+    KEEPER
+        .get_or_init(|| async {
+            let cfg = UdpBusConfig::numbered(33);
+            let mut keeper = UdpPort::open(cfg.clone()).expect("open the UDP bus");
+            let mut reader = keeper.reader().expect("a UDP port reads by blocking");
+            let mut probe = UdpPort::open(cfg).unwrap();
+            for i in 0..100u16 {
+                probe.send(&frame(0x7FF, i)).await.unwrap();
+                std::thread::sleep(Duration::from_millis(20));
+                while let Some(PortInput::Frame(_, Some(at))) = reader.read().unwrap() {
+                    if at.elapsed() >= Duration::from_millis(15) {
+                        return Mutex::new((keeper, reader));
+                    }
+                }
+            }
+            panic!("the kernel never stamped a datagram on arrival");
+        })
+        .await;
+}
+
 /// A reader held up 150 ms after three frames arrived reads them with their arrival times, not
 /// its read time; so does the port's own `recv` (the async path) after a re-open.
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn a_frame_read_late_keeps_the_time_it_arrived() {
+    kernel_stamps_on_arrival().await;
     let cfg = UdpBusConfig::numbered(31);
     let open = || UdpPort::open(cfg.clone()).expect("open the UDP bus (inside unshare -n?)");
     let (mut port, mut peer) = (open(), open());
@@ -198,6 +227,7 @@ impl Device for Slow {
 /// stamped at the hand-over, a few microseconds apart.
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn through_the_runtime_a_held_up_reader_hands_frames_over_with_their_arrival_times() {
+    kernel_stamps_on_arrival().await;
     let cfg = UdpBusConfig::numbered(32);
     let open = || UdpPort::open(cfg.clone()).expect("open the UDP bus (inside unshare -n?)");
     let seen: Seen = Arc::default();
