@@ -18,10 +18,15 @@
 //! machine is set up (with the 208 KiB default a reader held up 35 ms at a full bus loses
 //! frames in the kernel, on both buses alike, before any layer sees them).
 //!
+//! The load under test is the guest's: a host busy with other work holds the whole VM up (its
+//! emulated CPU not scheduled), and a receiver frozen longer than the merger keeps its copies is
+//! beyond what the layer is built for. A thread at nice -20 that sleeps a millisecond at a time
+//! measures that; a run in which the host held the VM up is printed and not judged, and run
+//! again, up to three times (the test fails saying so if none was clean).
+//!
 //! Each run prints what it saw: the verdict, the merger's counters, how late the frames were
-//! handed over (the receiver's hold-ups), how long the VM itself was held up by its host (a
-//! thread at nice -20 that sleeps a millisecond at a time), the CPU the sender and the receiver
-//! used. Runs inside duocan's qemu VM (`.ci/tier-vcan.sh`), one test at a time, built with
+//! handed over (the receiver's hold-ups), how the host held the VM up, the CPU the sender and
+//! the receiver used. Runs inside duocan's qemu VM (`.ci/tier-vcan.sh`), one test at a time, built with
 //! `--release` (the VM emulates its CPU: a debug receiver at nice 10 cannot keep up with
 //! 10,000 frames a second there, and what it then loses in the kernel no layer can give back).
 
@@ -261,13 +266,30 @@ impl Drop for Load {
 }
 
 /// Watches the VM itself: a thread at nice -20 (it preempts the busy loops at once) that
-/// sleeps 1 ms at a time; oversleeping means the whole VM was held up (by its host: qemu's
-/// thread not scheduled), not its threads by each other. The longest hold-up, and the time
-/// lost in hold-ups longer than 20 ms.
-struct Watchdog(
-    Arc<AtomicBool>,
-    Option<std::thread::JoinHandle<(Duration, Duration)>>,
-);
+/// sleeps a millisecond at a time; oversleeping means the whole VM was held up by its host
+/// (qemu's thread not scheduled: other work on the host), not its threads by each other.
+struct Watchdog(Arc<AtomicBool>, Option<std::thread::JoinHandle<HeldUp>>);
+
+/// How the host held the VM up during a run.
+#[derive(Clone, Copy, Debug, Default)]
+struct HeldUp {
+    /// The longest hold-up.
+    longest: Duration,
+    /// The time lost in hold-ups over 2 ms (timer slack is less), and the time watched.
+    lost: Duration,
+    watched: Duration,
+}
+
+impl HeldUp {
+    /// The VM ran as a machine of its own would: no hold-up longer than half the merger's
+    /// horizon (a receiver frozen longer by its host is a stall beyond what the layer is built
+    /// for, not the load under test), and at most 10 % of the time lost (on a quiet host the
+    /// VM loses 1-4 %; on a host busy with other work, 15-70 %, and its receiver falls
+    /// hundreds of milliseconds behind).
+    fn clean(&self, horizon: Duration) -> bool {
+        self.longest <= horizon / 2 && self.lost * 10 <= self.watched
+    }
+}
 
 impl Watchdog {
     fn start() -> Self {
@@ -275,21 +297,23 @@ impl Watchdog {
         let s = stop.clone();
         let t = std::thread::spawn(move || {
             nice_this_thread(-20);
-            let (mut longest, mut lost) = (Duration::ZERO, Duration::ZERO);
+            let start = std::time::Instant::now();
+            let mut h = HeldUp::default();
             while !s.load(Ordering::Relaxed) {
                 let t = std::time::Instant::now();
                 std::thread::sleep(Duration::from_millis(1));
                 let over = t.elapsed().saturating_sub(Duration::from_millis(1));
-                longest = longest.max(over);
-                if over > Duration::from_millis(20) {
-                    lost += over;
+                h.longest = h.longest.max(over);
+                if over > Duration::from_millis(2) {
+                    h.lost += over;
                 }
             }
-            (longest, lost)
+            h.watched = start.elapsed();
+            h
         });
         Watchdog(stop, Some(t))
     }
-    fn stop(mut self) -> (Duration, Duration) {
+    fn stop(mut self) -> HeldUp {
         self.0.store(true, Ordering::Relaxed);
         self.1
             .take()
@@ -335,8 +359,8 @@ struct Run {
     /// Per port, the longest time from a frame's arrival to its hand-over, and how many were
     /// handed over later than the merger's horizon after they arrived.
     late: [(duocan::Duration, u64); 2],
-    /// The VM held up by its host: the longest, and in all (hold-ups over 20 ms).
-    held: (Duration, Duration),
+    /// How the host held the VM up.
+    held: HeldUp,
     /// The layer's events but reachability (port states, lags).
     events: Vec<String>,
 }
@@ -509,13 +533,55 @@ fn run(n: u32, rate: u32, flapping: bool) -> Run {
     }
 }
 
+/// Runs until a run in which the host did not hold the VM up ([`HeldUp::clean`]), at most
+/// [`ATTEMPTS`] times, and judges that run: every occurrence exactly once. Every run is
+/// printed; when the host held the VM up in every one, the test fails saying so (it could not
+/// judge the layer under the load it is about).
 fn check(n: u32, rate: u32, flapping: bool) {
-    let r = run(n, rate, flapping);
+    let link: DualBus = DualBus::new(DualBusConfig::default());
+    let horizon = link.merger().horizon();
+    drop(link);
+    let horizon = Duration::from_micros(horizon.as_micros());
+    let mut held = vec![];
+    for attempt in 1..=ATTEMPTS {
+        let r = run(n, rate, flapping);
+        print(n, rate, flapping, &r);
+        if !r.held.clean(horizon) {
+            println!("  (attempt {attempt}: the host held the VM up, not judged)");
+            held.push(r.held);
+            continue;
+        }
+        if r.verdict != Verdict::default() {
+            for e in &r.events {
+                println!("  {e}");
+            }
+        }
+        assert_eq!(
+            r.verdict,
+            Verdict::default(),
+            "every occurrence exactly once"
+        );
+        let all = n as usize;
+        if flapping {
+            assert!(r.on_bus0 < all, "vcan0 was down for some frames");
+        } else {
+            assert_eq!(r.on_bus0, all);
+        }
+        assert_eq!(r.received[1], u64::from(n), "vcan1 read every frame");
+        return;
+    }
+    panic!("the host held the VM up in each of {ATTEMPTS} runs ({held:?}): not judged");
+}
+
+/// Runs a test makes at most, for one its host did not hold up.
+const ATTEMPTS: usize = 3;
+
+fn print(n: u32, rate: u32, flapping: bool, r: &Run) {
     let ms = |d: Duration| d.as_secs_f64() * 1e3;
     println!(
         "{n} frames at {rate}/s{}: {:?}; sent in {:.1} s ({} on vcan0), read {:?}; \
          handed over late at most {} / {} ({} / {} beyond the horizon); VM held up by its host \
-         {:.1} ms at most ({:.0} ms in hold-ups over 20 ms); CPU sender {:.2} s, receiver {:.2} s\n  {}",
+         {:.1} ms at most, {:.0} ms of {:.1} s in all; CPU sender {:.2} s, receiver {:.2} s\n  {}",
         if flapping { ", vcan0 flapping" } else { "" },
         r.verdict,
         r.took.as_secs_f64(),
@@ -525,29 +591,13 @@ fn check(n: u32, rate: u32, flapping: bool) {
         r.late[1].0,
         r.late[0].1,
         r.late[1].1,
-        ms(r.held.0),
-        ms(r.held.1),
+        ms(r.held.longest),
+        ms(r.held.lost),
+        r.held.watched.as_secs_f64(),
         r.cpu[0].as_secs_f64(),
         r.cpu[1].as_secs_f64(),
         r.layer,
     );
-    if r.verdict != Verdict::default() {
-        for e in &r.events {
-            println!("  {e}");
-        }
-    }
-    assert_eq!(
-        r.verdict,
-        Verdict::default(),
-        "every occurrence exactly once"
-    );
-    let all = n as usize;
-    if flapping {
-        assert!(r.on_bus0 < all, "vcan0 was down for some frames");
-    } else {
-        assert_eq!(r.on_bus0, all);
-    }
-    assert_eq!(r.received[1], u64::from(n), "vcan1 read every frame");
 }
 
 #[test]
