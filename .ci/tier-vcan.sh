@@ -42,13 +42,6 @@ echo "== tier-vcan: a port that disappears comes back: vcan1 deleted and created
 echo "   with and without the driver's restart report"
 cargo test -p duocan-tiers --features vcan --test vcan_reopen -- --nocapture \
   || fail "ports re-opened and used again on vcan"
-echo "== tier-vcan: exactly once under CPU load: a busy loop per vCPU, the receiver (DualBus under"
-echo "   the runtime) at nice 10, 20,000 frames at 1,000/s and at 5,000/s, and with vcan0 flapping"
-# Release build: the VM emulates its CPU, and a debug receiver at nice 10 cannot keep up with
-# 10,000 frames a second there.
-cargo test --release -p duocan-tiers --features vcan --test vcan_load -- --nocapture \
-  || fail "exactly once under load on vcan"
-
 echo "== tier-vcan: the failover kit on vcan: every scenario through the fault bridge (masters and"
 echo "   boards as processes), the simulator's verdicts beside it, and the bridge's own overhead"
 # Release build: the VM emulates its CPU, and five processes share it.
@@ -63,6 +56,13 @@ echo "== tier-vcan: LSS on vcan: the tool's LSS master configures two duocan LSS
 echo "   by fastscan on lssa,lssb, one of them on lssb only"
 VCANVM_SMP=2 VCANVM_EXTRA="$KTARGET/release/duocan:/tests/duocan" VCANS=lssa,lssb \
   "$VM/vm-run.sh" "$ROOT/.ci/lss-vm.sh" || fail "LSS on vcan"
+
+echo "== tier-vcan: exactly once under CPU load: a busy loop per vCPU, the receiver (DualBus under"
+echo "   the runtime) at nice 10, 20,000 frames at 1,000/s and at 5,000/s, and with vcan0 flapping"
+# Release build (after the tool's, whose dependencies it shares): the VM emulates its CPU, and
+# a debug receiver at nice 10 cannot keep up with 10,000 frames a second there.
+cargo test --release -p duocan-tiers --features vcan --test vcan_load -- --nocapture \
+  || fail "exactly once under load on vcan"
 
 echo "== tier-vcan: the dual_vcan_failover example"
 # Release build: the VM emulates its CPU (TCG, one core), and a debug build's scheduling delays
