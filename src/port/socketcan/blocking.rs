@@ -50,7 +50,8 @@ fn with_headers<R>(f: impl FnOnce(&mut [MultiHeaders<()>; 2]) -> R) -> R {
 
 /// Makes this thread's headers afresh at the next call. The kernel writes back into each
 /// header the room its message's control data took, and `recvmmsg` offers that room the next
-/// time: a message that came without a stamp would leave its header no room for one.
+/// time: a message that came without a stamp leaves its header no room for one, and the next
+/// stamp in it is cut off (`MSG_CTRUNC`).
 #[cold]
 fn renew_headers() {
     HEADERS.with_borrow_mut(|h| *h = None);
@@ -124,7 +125,7 @@ impl Reader {
     fn fill(&mut self) -> io::Result<()> {
         let fd = self.socket.as_raw_fd();
         let (raw, lens, ats, clock) = (&mut self.raw, &mut self.len, &mut self.at, &mut self.clock);
-        let (n, unstamped) = with_headers(|[h, _]| {
+        let (n, cut) = with_headers(|[h, _]| {
             let mut slices = raw.each_mut().map(|b| [IoSliceMut::new(b)]);
             // Taken before the call: should it find the socket empty (fewer than a batch),
             // what comes after it arrived after this (a reading taken after the call returns
@@ -133,19 +134,19 @@ impl Reader {
             let got = recvmmsg(fd, h, slices.iter_mut(), MsgFlags::MSG_WAITFORONE, None)
                 .map_err(io::Error::from)?;
             let reading = clock.read();
-            let (mut n, mut unstamped) = (0, false);
+            let (mut n, mut cut) = (0, false);
             for ((len, at), m) in lens.iter_mut().zip(ats.iter_mut()).zip(got) {
                 *len = m.bytes;
                 *at = stamp::of_message(&m).map(|t| reading.convert(t));
-                unstamped |= at.is_none();
+                cut |= m.flags.contains(MsgFlags::MSG_CTRUNC);
                 n += 1;
             }
             if n < BATCH {
                 clock.drained(called);
             }
-            Ok::<_, io::Error>((n, unstamped))
+            Ok::<_, io::Error>((n, cut))
         })?;
-        if unstamped {
+        if cut {
             renew_headers();
         }
         self.next = 0;

@@ -5,6 +5,9 @@
 //! (EPOLLERR), which a plain readable-interest wait (as in `socketcan::tokio`) never wakes for,
 //! so a port on a downed interface that only listens would never notice.
 //!
+//! Every frame comes with the kernel's receive timestamp (`SO_TIMESTAMPNS`: when it entered the
+//! network stack), put on the monotonic clock (see the [port module](super)).
+//!
 //! Error frames are enabled and decoded into [`PortStatus`](crate::PortStatus) (bus-off, error passive, no-ack, …).
 //! Opening checks the interface first, so a missing or down interface gives an error that says
 //! so and how to fix it, instead of a bare errno. After a failure the runtime calls
