@@ -38,16 +38,17 @@ use duocan::{Frame, Id, Instant};
 use duocan_redundancy::{DualBus, DualBusConfig};
 use std::collections::HashMap;
 use std::process::Command;
-use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
 use std::sync::{Arc, Mutex};
 use std::time::Duration;
 
 /// The receiver: the layer and the recorder, and per port how late frames were handed over
 /// (the instant handled at minus the stamp): the longest, and how many more than the merger's
-/// horizon late.
+/// horizon late; and how many frames came without a stamp (none should).
 struct Receiver {
     station: Station<DualBus, Recorder>,
     late: Arc<Mutex<[(duocan::Duration, u64); 2]>>,
+    unstamped: Arc<AtomicUsize>,
 }
 
 impl duocan::Device for Receiver {
@@ -56,6 +57,7 @@ impl duocan::Device for Receiver {
         2
     }
     fn handle_rx(&mut self, now: Instant, port: usize, frame: &Frame) {
+        self.unstamped.fetch_add(1, Ordering::Relaxed);
         self.station.handle_rx(now, port, frame);
     }
     fn handle_rx_at(&mut self, now: Instant, port: usize, frame: &Frame, at: Instant) {
@@ -359,6 +361,8 @@ struct Run {
     /// Per port, the longest time from a frame's arrival to its hand-over, and how many were
     /// handed over later than the merger's horizon after they arrived.
     late: [(duocan::Duration, u64); 2],
+    /// Frames handed to the layer without a receive timestamp.
+    unstamped: usize,
     /// How the host held the VM up.
     held: HeldUp,
     /// The layer's events but reachability (port states, lags).
@@ -414,6 +418,8 @@ fn run(n: u32, rate: u32, flapping: bool) -> Run {
     let d = delivered.clone();
     let late: Arc<Mutex<[(duocan::Duration, u64); 2]>> = Arc::default();
     let late2 = late.clone();
+    let unstamped = Arc::new(AtomicUsize::new(0));
+    let unstamped2 = unstamped.clone();
     // The receiver: its own thread at nice 10, its runtime's workers and reader threads too.
     let receiver = std::thread::spawn(move || {
         nice_this_thread(10);
@@ -430,6 +436,7 @@ fn run(n: u32, rate: u32, flapping: bool) -> Run {
             let h = Runtime::new(Receiver {
                 station: Station::new(link, Recorder(d)),
                 late: late2,
+                unstamped: unstamped2,
             })
             .name("receiver")
             .port(bus0)
@@ -528,6 +535,7 @@ fn run(n: u32, rate: u32, flapping: bool) -> Run {
         cpu: [sender_cpu, cpu],
         layer,
         late,
+        unstamped: unstamped.load(Ordering::Relaxed),
         held,
         events,
     }
@@ -568,6 +576,10 @@ fn check(n: u32, rate: u32, flapping: bool) {
             assert_eq!(r.on_bus0, all);
         }
         assert_eq!(r.received[1], u64::from(n), "vcan1 read every frame");
+        assert_eq!(
+            r.unstamped, 0,
+            "every frame handed over with its kernel stamp"
+        );
         return;
     }
     panic!("the host held the VM up in each of {ATTEMPTS} runs ({held:?}): not judged");
