@@ -179,6 +179,48 @@ fn a_copy_older_than_what_is_remembered_is_late_and_dropped() {
     assert_eq!(m.stats().delivered, 10);
 }
 
+/// A receiver held up as a whole (both reader threads starved on a loaded machine) hands over
+/// copies stamped 150 ms earlier, three horizons; port 1's come 10 ms after port 0's. A copy is
+/// kept for the horizon after it was handed over, so each finds its twin, unchanged repeats
+/// too (kept for the horizon after its stamp, each would be forgotten as it arrived, its twin
+/// left to the memory of forgotten keys). A copy whose twin never comes is forgotten one
+/// horizon after it was handed over.
+#[test]
+fn a_receiver_held_up_as_a_whole_still_finds_every_twin() {
+    let mut m: Merger<256> = Merger::with_horizon(W, Duration::from_millis(50));
+    let sync = Frame::from_array(Id::Standard(0x80), []);
+    let us = Duration::from_micros;
+    for (p, handed) in [(0, ms(150)), (1, ms(160))] {
+        let want = [Verdict::Deliver, Verdict::Duplicate][p];
+        for k in 0..20u64 {
+            let now = handed + us(10 * k);
+            assert_eq!(
+                arr(&mut m, now, ms(k), p, &sync),
+                want,
+                "SYNC {k}, port {p}"
+            );
+            let counter = f(2, k as u8);
+            assert_eq!(arr(&mut m, now, ms(k) + us(300), p, &counter), want);
+        }
+    }
+    let s = m.stats();
+    assert_eq!((s.delivered, s.duplicates, s.late), (40, 40, 0));
+    assert_eq!((s.forgotten, s.expired, s.slipped), (0, 0, 0));
+    arr(&mut m, ms(300), ms(200), 0, &f(3, 3));
+    m.expire(ms(349));
+    assert_eq!(m.unmatched(&f(3, 3)), Some((0, 1)));
+    m.expire(ms(350));
+    assert_eq!(m.unmatched(&f(3, 3)), None);
+    assert_eq!(m.stats().forgotten, 1);
+}
+
+/// A record is 16 bytes, as the module documentation says: how late it was handed over fits in
+/// what its alignment leaves.
+#[test]
+fn a_record_is_16_bytes() {
+    assert_eq!(core::mem::size_of::<Record>(), 16);
+}
+
 #[test]
 fn an_unproven_port_gives_only_what_the_other_port_has_not_passed() {
     let mut m: Merger<64> = Merger::new(W);
