@@ -58,7 +58,8 @@
 //! before the fault, older than any twin; the layer says which port is not trusted yet
 //! ([`Trust::Unproven`]). Such a copy is judged like any other while its stamp is recent
 //! enough that every record of the other port it could match is still held (less than the
-//! horizon minus a window ago): no twin among them proves the other bus never carried it (a
+//! horizon minus a window ago; a record is kept at least the horizon after its stamp, since it
+//! was handed over no earlier): no twin among them proves the other bus never carried it (a
 //! node cut from that bus, say), however late this port's reader hands it over. An older copy
 //! that finds no twin is delivered only if the other port has not yet received anything
 //! stamped as late as it ([`Verdict::Unproven`] otherwise): when the other bus fails at the
@@ -236,6 +237,11 @@ impl Record {
     /// When it was handed over (µs), as far as it is kept (up to a millisecond later).
     fn handed(&self) -> u64 {
         self.at.saturating_add(u64::from(self.late_ms) * 1_000)
+    }
+
+    /// How late a copy stamped `at` and handed over at `handed` (µs) was, as a record keeps it.
+    fn late_ms(at: u64, handed: u64) -> u16 {
+        u16::try_from(handed.saturating_sub(at).div_ceil(1_000)).unwrap_or(u16::MAX)
     }
 
     const EMPTY: Record = Record {
@@ -422,14 +428,19 @@ impl<const SLOTS: usize> Merger<SLOTS> {
     }
 
     /// The caller's clock stepped back `by` (the clock contract, see [`crate::link`]): every
-    /// stamp held moves back with it, so that a record keeps the time it still has to run. A
+    /// stamp held moves back with it, and the time each record was handed over, so that a
+    /// record keeps the time it still has to run. A
     /// stamp older than the new time line's origin lands on the origin. Runs through the whole
     /// ring: rare, not on the frame path.
     #[cold]
     pub fn step_back(&mut self, by: Duration) {
         let by = by.as_micros();
         for r in self.ring.iter_mut() {
+            // Its hand-over moves back too: a stamp that lands on the origin must not carry the
+            // old distance to it (the record would be kept longer than it has left).
+            let handed = r.handed().saturating_sub(by);
             r.at = r.at.saturating_sub(by);
+            r.late_ms = Record::late_ms(r.at, handed);
         }
         for f in &mut self.frontier {
             *f = f.saturating_sub(by);
@@ -467,7 +478,8 @@ impl<const SLOTS: usize> Merger<SLOTS> {
         let s = at.min(now).as_micros();
         let trust = match trust {
             // Every record of the other port stamped from a window before this copy is still
-            // held: that no twin is among them proves the other bus did not carry it.
+            // held (each is kept at least the horizon after its stamp: it was handed over no
+            // earlier): that no twin is among them proves the other bus did not carry it.
             Trust::Unproven if now.as_micros() - s < self.horizon.saturating_sub(self.window) => {
                 Trust::Trusted
             }
@@ -669,7 +681,7 @@ impl<const SLOTS: usize> Merger<SLOTS> {
         slot.last = tail as u16;
         self.ring[tail] = Record {
             at,
-            late_ms: u16::try_from(handed.saturating_sub(at).div_ceil(1_000)).unwrap_or(u16::MAX),
+            late_ms: Record::late_ms(at, handed),
             slot: s as u16,
             next: Self::NONE,
             fresh,
