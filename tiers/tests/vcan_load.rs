@@ -354,6 +354,8 @@ struct Run {
     on_bus0: usize,
     /// How long the sender took.
     took: Duration,
+    /// How far apart the sender put a frame's copies.
+    apart: Apart,
     /// Frames each port of the receiver read.
     received: [u64; 2],
     /// CPU time the sender's and the receiver's threads used.
@@ -372,13 +374,16 @@ struct Run {
 }
 
 /// Sends `n` frames at `rate` frames/s, each on vcan0 then vcan1 (on vcan0 only while it is
-/// up): what was sent, how many on vcan0, how long it took.
-async fn send(n: u32, rate: u32) -> (Vec<Frame>, usize, Duration) {
+/// up): what was sent, how many on vcan0, how long it took, and how far apart a frame's two
+/// copies went out (see [`Apart`]).
+async fn send(n: u32, rate: u32) -> (Vec<Frame>, usize, Duration, Apart) {
     let mut bus0 = SocketCanPort::open("vcan0").unwrap();
     let mut bus1 = SocketCanPort::open("vcan1").unwrap();
     let mut sent = Vec::with_capacity(n as usize);
     let mut on_bus0 = 0;
     let mut bus0_ok = true;
+    let mut apart = Apart::default();
+    let window = Duration::from_micros(DualBusConfig::default().skew_window.as_micros());
     let start = std::time::Instant::now();
     let mut k = 0;
     while k < n {
@@ -395,16 +400,34 @@ async fn send(n: u32, rate: u32) -> (Vec<Frame>, usize, Duration) {
             if !bus0_ok {
                 bus0_ok = bus0.reopen().await.is_ok();
             }
+            let first = std::time::Instant::now();
             if bus0_ok {
                 bus0_ok = bus0.send(&f).await.is_ok();
                 on_bus0 += usize::from(bus0_ok);
             }
             bus1.send(&f).await.expect("vcan1 never fails");
+            if bus0_ok {
+                let d = first.elapsed();
+                apart.longest = apart.longest.max(d);
+                apart.beyond_window += usize::from(d > window);
+            }
             sent.push(f);
             k += 1;
         }
     }
-    (sent, on_bus0, start.elapsed())
+    (sent, on_bus0, start.elapsed(), apart)
+}
+
+/// How far apart the sender put a frame's two copies on the wires: from before its write to
+/// vcan0 to after its write to vcan1 (the kernel stamps each copy within that), the longest,
+/// and how many frames had more than the layer's default skew window. Printed, not judged: the
+/// layer pairs copies stamped within the window, so a copy further from its twin than that
+/// (the VM's emulated CPU holding the sender up between its two writes) is a new occurrence to
+/// it, and a run with such frames shows duplicates the layer does not promise to avoid.
+#[derive(Clone, Copy, Debug, Default)]
+struct Apart {
+    longest: Duration,
+    beyond_window: usize,
 }
 
 /// Sends `n` frames at `rate` frames/s, each on vcan0 then vcan1, with a busy loop on every
@@ -495,14 +518,14 @@ fn run(n: u32, rate: u32, flapping: bool) -> Run {
     // The sender: another node, not the one under load. At nice -10 the busy loops do not
     // come between its two copies of a frame (they would be as far apart on the wires as a
     // time slice, beyond the skew two real buses show), and it keeps its schedule.
-    let (sent, on_bus0, took, sender_cpu) = std::thread::spawn(move || {
+    let (sent, on_bus0, took, apart, sender_cpu) = std::thread::spawn(move || {
         nice_this_thread(-10);
         let rt = tokio::runtime::Builder::new_current_thread()
             .enable_all()
             .build()
             .unwrap();
-        let (sent, on_bus0, took) = rt.block_on(send(n, rate));
-        (sent, on_bus0, took, cpu_at_nice("-10"))
+        let (sent, on_bus0, took, apart) = rt.block_on(send(n, rate));
+        (sent, on_bus0, took, apart, cpu_at_nice("-10"))
     })
     .join()
     .unwrap();
@@ -533,6 +556,7 @@ fn run(n: u32, rate: u32, flapping: bool) -> Run {
         verdict: judge(&sent, &delivered),
         on_bus0,
         took,
+        apart,
         received,
         cpu: [sender_cpu, cpu],
         layer,
@@ -661,13 +685,15 @@ fn a_test_fails_when_no_run_could_be_judged() {
 fn print(n: u32, rate: u32, flapping: bool, r: &Run) {
     let ms = |d: Duration| d.as_secs_f64() * 1e3;
     println!(
-        "{n} frames at {rate}/s{}: {:?}; sent in {:.1} s ({} on vcan0), read {:?}; \
-         handed over late at most {} / {} ({} / {} beyond the horizon); VM held up by its host \
+        "{n} frames at {rate}/s{}: {:?}; sent in {:.1} s ({} on vcan0, copies up to {:.1} ms \
+         apart, {} beyond the skew window), read {:?}; handed over late at most {} / {} ({} / {} beyond the horizon); VM held up by its host \
          {:.1} ms at most, {:.0} ms of {:.1} s in all; CPU sender {:.2} s, receiver {:.2} s\n  {}",
         if flapping { ", vcan0 flapping" } else { "" },
         r.verdict,
         r.took.as_secs_f64(),
         r.on_bus0,
+        ms(r.apart.longest),
+        r.apart.beyond_window,
         r.received,
         r.late[0].0,
         r.late[1].0,
