@@ -2,8 +2,9 @@
 # Tier 2: real SocketCAN on vcan0/vcan1/vcan2, inside a qemu VM running Debian's stock kernel
 # (the host kernel has no CAN). Installs what it needs (qemu, busybox, the kernel deb's CAN
 # modules, can-utils), runs tiers/tests/vcan.rs, tiers/tests/vcan_failover.rs,
-# tiers/tests/vcan_redundant.rs, the failover kit (.ci/kit-vm.sh), LSS (.ci/lss-vm.sh) and the
-# dual_vcan_failover example's self-test in the VM (and checks on the host that the example
+# tiers/tests/vcan_redundant.rs, tiers/tests/vcan_reopen.rs, tiers/tests/vcan_load.rs, the
+# failover kit (.ci/kit-vm.sh), LSS (.ci/lss-vm.sh) and the dual_vcan_failover example's
+# self-test in the VM (and checks on the host that the example
 # refuses to run without its interfaces, saying how to create them), then the runtime-overhead
 # measurement (bare socketcan echo loop vs the tokio runtime, same VM).
 #   .ci/tier-vcan.sh            tests + benchmark
@@ -37,7 +38,10 @@ echo "== tier-vcan: the dual-bus layer (duocan-redundancy) failing over between 
 cargo test -p duocan-tiers --features vcan --test vcan_failover || fail "dual-bus failover on vcan"
 echo "== tier-vcan: the redundant network's front door on vcan0,vcan1 (open_named, SDO, a bus failover)"
 cargo test -p duocan-tiers --features vcan --test vcan_redundant || fail "redundant front door on vcan"
-
+echo "== tier-vcan: a port that disappears comes back: vcan1 deleted and created again, bus-off"
+echo "   with and without the driver's restart report"
+cargo test -p duocan-tiers --features vcan --test vcan_reopen -- --nocapture \
+  || fail "ports re-opened and used again on vcan"
 echo "== tier-vcan: the failover kit on vcan: every scenario through the fault bridge (masters and"
 echo "   boards as processes), the simulator's verdicts beside it, and the bridge's own overhead"
 # Release build: the VM emulates its CPU, and five processes share it.
@@ -53,10 +57,18 @@ echo "   by fastscan on lssa,lssb, one of them on lssb only"
 VCANVM_SMP=2 VCANVM_EXTRA="$KTARGET/release/duocan:/tests/duocan" VCANS=lssa,lssb \
   "$VM/vm-run.sh" "$ROOT/.ci/lss-vm.sh" || fail "LSS on vcan"
 
+echo "== tier-vcan: exactly once under CPU load: a busy loop per vCPU, the receiver (DualBus under"
+echo "   the runtime) at nice 10, 20,000 frames at 1,000/s and at 5,000/s, and with vcan0 flapping"
+# Release build (after the tool's, whose dependencies it shares): the VM emulates its CPU, and
+# a debug receiver at nice 10 cannot keep up with 10,000 frames a second there.
+cargo test --release -p duocan-tiers --features vcan --test vcan_load -- --nocapture \
+  || fail "exactly once under load on vcan"
+
 echo "== tier-vcan: the dual_vcan_failover example"
 # Release build: the VM emulates its CPU (TCG, one core), and a debug build's scheduling delays
-# between the two port tasks approach the merger's default 10 ms skew window; the self-test
-# runs with a 25 ms window for the same reason (a real machine needs neither).
+# between the two port tasks (a frame's two copies sent that far apart) exceed the merger's
+# default 5 ms skew window; the self-test runs with a 25 ms window for the same reason (a real
+# machine needs neither).
 cargo build --release --features socketcan --example dual_vcan_failover || fail "build dual_vcan_failover"
 TARGET=$(cargo metadata --format-version 1 --no-deps | python3 -c 'import sys,json; print(json.load(sys.stdin)["target_directory"])')
 EX="$TARGET/release/examples/dual_vcan_failover"

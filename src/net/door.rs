@@ -121,7 +121,6 @@ impl Door {
     pub fn lss(&mut self) -> &mut NetLssMaster {
         &mut self.inner.machine.b
     }
-    /// A frame from `port`.
     /// A frame from `port`, with its receive timestamp if its driver gives one.
     fn rx(&mut self, now: Instant, port: usize, frame: &Frame, at: Option<Instant>) {
         self.now = now;
@@ -154,7 +153,8 @@ impl Door {
     fn link_inputs(&mut self, now: Instant) {
         while let Some((port, input)) = self.inner.link.poll_input() {
             match input {
-                PortInput::Frame(f) => self.rx(now, port, &f, None),
+                // No later than now: a link's stamp must not run ahead of its input.
+                PortInput::Frame(f, at) => self.rx(now, port, &f, at.map(|a| a.min(now))),
                 PortInput::Status(s) => self.port_status(now, port, s),
             }
         }

@@ -48,8 +48,10 @@ pub trait NetLink: BusLink<Event = NetEvent, Command = Infallible> + Send + 'sta
     /// over: a frame that port read, or the port's status. The network takes these after every
     /// input and timeout of its own and handles each as it came from the port, so that a link
     /// carrying a segment of its own (a simulated station run in the network's own task, its
-    /// two buses unable to drift apart) is seen through the same path as real ports.
-    fn poll_input(&mut self) -> Option<(usize, PortInput)> {
+    /// two buses unable to drift apart) is seen through the same path as real ports. A frame's
+    /// stamp is on the network's clock (the instants the link is given): when the frame was on
+    /// the segment's wire, no later than the input or timeout after which it is taken.
+    fn poll_input(&mut self) -> Option<(usize, PortInput<Instant>)> {
         None
     }
 }

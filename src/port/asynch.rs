@@ -8,12 +8,34 @@ use std::future::Future;
 use std::io;
 
 /// What a port delivers.
+///
+/// A frame comes with its **receive timestamp** when the port takes one: when the frame arrived
+/// where it was received (the kernel's socket, a simulated wire), not when a task got to it.
+/// The runtime hands a stamped frame to the device with
+/// [`Device::handle_rx_at`](crate::Device::handle_rx_at), so that a reader that ran late does
+/// not make the frame late (a dual-bus layer tells a frame's two copies apart by these times),
+/// and one without a stamp with [`Device::handle_rx`](crate::Device::handle_rx). `T` is the
+/// stamp's clock: a port's is the standard library's monotonic clock ([`std::time::Instant`]);
+/// a link that carries a simulated segment in the network's own task stamps with the network's
+/// [`Instant`](crate::Instant) ([`NetLink::poll_input`](crate::net::NetLink::poll_input)).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum PortInput {
-    /// A classic CAN frame from the bus.
-    Frame(Frame),
+pub enum PortInput<T = std::time::Instant> {
+    /// A classic CAN frame from the bus, with its receive timestamp (`None`: the port takes
+    /// none).
+    Frame(Frame, Option<T>),
     /// Controller status: a decoded error frame, a state change.
     Status(PortStatus),
+}
+
+impl<T> PortInput<T> {
+    /// The frame, if this is one (whatever its stamp).
+    #[must_use]
+    pub fn frame(&self) -> Option<&Frame> {
+        match self {
+            PortInput::Frame(f, _) => Some(f),
+            PortInput::Status(_) => None,
+        }
+    }
 }
 
 /// What kind of failure a [`PortError`] is.

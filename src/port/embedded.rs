@@ -13,6 +13,12 @@
 //! and the device is told the port is up again (or down, if the hook failed). A layer waiting for
 //! its re-initialisation is therefore never left waiting by an application that forgot it.
 //!
+//! Frames are handed to the device without receive timestamps ([`Device::handle_rx`], at the
+//! `now` of the `poll` that read them): `embedded_can` frames carry none. A dual-bus layer then
+//! stamps each frame with the time it is handed over and measures what lag that shows between
+//! its ports; call `poll` promptly after a frame arrives (from the receive interrupt) so that
+//! the hand-over is close to the frame's time on the bus.
+//!
 //! A hardware timer may wrap or be resynchronised: `poll` notices a time earlier than the last one
 //! and hands it to the device with one `handle_timeout`, so the device re-anchors its timers as
 //! the clock contract says ([`crate::frame::instant`]) even with no frame arriving.

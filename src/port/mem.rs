@@ -1,6 +1,12 @@
 //! An in-process bus: ports that share frames through memory. For testing applications and the
 //! runtime without sockets; every port sees every frame the others send, in order. A port
 //! behind a [`Connector`] ([`MemBus::plugged_port`]) fails when the connector is pulled.
+//!
+//! Every frame is received with a stamp: the instant it went onto the bus (tokio's clock, so a
+//! paused test clock stamps in its own time). On a paced bus ([`MemBus::with_bit_rate`]) that is
+//! the end of the frame's time on the bus as the schedule books it, but never later than the
+//! instant it was handed to the receivers: a sender that wakes late with a backlog puts its
+//! frames on the bus at their booked times, which are earlier than the wake-up.
 
 use super::{Port, PortCounters, PortError, PortErrorKind, PortInput};
 use crate::frame::Frame;
@@ -20,7 +26,7 @@ pub const MEM_BUS_CATCH_UP: std::time::Duration = std::time::Duration::from_mill
 /// One in-process bus.
 #[derive(Clone, Debug)]
 pub struct MemBus {
-    tx: broadcast::Sender<(u64, Frame)>,
+    tx: broadcast::Sender<(u64, Frame, std::time::Instant)>,
     name: String,
     pace: Option<std::sync::Arc<Pace>>,
 }
@@ -41,9 +47,9 @@ struct Booked {
 }
 
 impl Pace {
-    /// Books `frame`'s time on the bus; the instant to wait for when the senders ran more than
-    /// [`MEM_BUS_BURST`] ahead.
-    fn book(&self, frame: &Frame) -> Option<tokio::time::Instant> {
+    /// Books `frame`'s time on the bus: the instant to wait for when the senders ran more than
+    /// [`MEM_BUS_BURST`] ahead, and the instant the frame is through.
+    fn book(&self, frame: &Frame) -> (Option<tokio::time::Instant>, tokio::time::Instant) {
         // The nominal length (no stuff bits): SOF to the intermission, 47 bits of frame around
         // the data for an 11-bit identifier, 67 for a 29-bit one.
         let overhead = if matches!(frame.id(), crate::frame::Id::Standard(_)) {
@@ -72,7 +78,7 @@ impl Pace {
         let wait = until > now + MEM_BUS_BURST;
         b.until = Some(until);
         b.backlog = wait || (b.backlog && until < now);
-        wait.then(|| until - MEM_BUS_BURST)
+        (wait.then(|| until - MEM_BUS_BURST), until)
     }
 }
 
@@ -124,7 +130,7 @@ impl MemBus {
 #[derive(Debug)]
 pub struct MemPort {
     bus: MemBus,
-    rx: Option<broadcast::Receiver<(u64, Frame)>>,
+    rx: Option<broadcast::Receiver<(u64, Frame, std::time::Instant)>>,
     me: u64,
     counters: PortCounters,
 }
@@ -146,10 +152,10 @@ impl Port for MemPort {
                 ));
             };
             match rx.recv().await {
-                Ok((from, _)) if from == self.me => {}
-                Ok((_, f)) => {
+                Ok((from, _, _)) if from == self.me => {}
+                Ok((_, f, at)) => {
                     self.counters.rx_frames();
-                    return Ok(PortInput::Frame(f));
+                    return Ok(PortInput::Frame(f, Some(at)));
                 }
                 Err(broadcast::error::RecvError::Lagged(n)) => {
                     for _ in 0..n {
@@ -166,11 +172,20 @@ impl Port for MemPort {
         }
     }
     async fn send(&mut self, frame: &Frame) -> Result<(), PortError> {
-        if let Some(t) = self.bus.pace.as_ref().and_then(|p| p.book(frame)) {
-            tokio::time::sleep_until(t).await;
-        }
+        let through = match self.bus.pace.as_ref().map(|p| p.book(frame)) {
+            Some((wait, through)) => {
+                if let Some(t) = wait {
+                    tokio::time::sleep_until(t).await;
+                }
+                Some(through)
+            }
+            None => None,
+        };
+        // On the wire when it is through, but not after the receivers get it.
+        let now = tokio::time::Instant::now();
+        let at = through.map_or(now, |t| t.min(now)).into_std();
         // No receivers is not an error: nobody else is on the bus.
-        let _ = self.bus.tx.send((self.me, *frame));
+        let _ = self.bus.tx.send((self.me, *frame, at));
         self.counters.tx_frames();
         Ok(())
     }
@@ -288,7 +303,7 @@ mod tests {
         let busy = std::time::Duration::from_micros(100 * 111 * 8);
         assert!(took >= busy - MEM_BUS_BURST && took <= busy, "{took:?}");
         for i in 0..100u8 {
-            let PortInput::Frame(f) = rx.recv().await.unwrap() else {
+            let PortInput::Frame(f, _) = rx.recv().await.unwrap() else {
                 panic!("a frame")
             };
             assert_eq!(f.data(), [i; 8]);
@@ -336,6 +351,48 @@ mod tests {
         assert!(
             took >= busy(100) - MEM_BUS_BURST && took <= busy(100),
             "{took:?}"
+        );
+    }
+
+    /// A frame read late keeps the instant it went onto the bus. On a paced bus, a sender with a
+    /// backlog that comes back 30 ms late puts its next frame on the bus at its booked time
+    /// (the bus made up the 30 ms): stamped so, before the instant it was sent.
+    #[tokio::test(start_paused = true)]
+    async fn a_frame_is_stamped_with_its_time_on_the_bus() {
+        let f = Frame::new(crate::frame::Id::Standard(0x181), &[0; 8]).unwrap();
+        let stamp = |x: PortInput| match x {
+            PortInput::Frame(_, at) => at.expect("a memory bus stamps every frame"),
+            other => panic!("{other:?}"),
+        };
+        let bus = MemBus::new("free");
+        let (mut tx, mut rx) = (bus.port(), bus.port());
+        let sent = tokio::time::Instant::now();
+        tx.send(&f).await.unwrap();
+        tokio::time::advance(std::time::Duration::from_millis(30)).await;
+        assert_eq!(stamp(rx.recv().await.unwrap()), sent.into_std());
+
+        let bus = MemBus::with_bit_rate("paced", 125_000);
+        let (mut tx, mut rx) = (bus.port(), bus.port());
+        let start = tokio::time::Instant::now();
+        for i in 0..101 {
+            if i == 100 {
+                tokio::time::advance(std::time::Duration::from_millis(30)).await;
+            }
+            tx.send(&f).await.unwrap();
+        }
+        let sent = tokio::time::Instant::now();
+        let mut stamps = vec![];
+        for _ in 0..101 {
+            stamps.push(stamp(rx.recv().await.unwrap()));
+        }
+        assert!(stamps.windows(2).all(|w| w[0] <= w[1]), "in order");
+        // 111 bits of 8 µs each: the 101st frame is through 101 × 888 µs after the start.
+        let booked = start + std::time::Duration::from_micros(101 * 888);
+        assert_eq!(stamps[100], booked.into_std());
+        assert!(
+            sent - booked >= std::time::Duration::from_millis(25),
+            "{:?}",
+            sent - booked
         );
     }
 }

@@ -7,6 +7,14 @@
 //! stop the runtime. An `Err` from a port means the port itself is unusable (interface down,
 //! socket closed) and the runtime reports it as [`PortStatus::Down`](crate::PortStatus::Down) and starts re-opening it.
 //!
+//! A received frame comes with its receive timestamp where the port takes one
+//! (`PortInput::Frame`): SocketCAN and UDP ports read the kernel's (`SO_TIMESTAMPNS`, taken as
+//! the frame entered the network stack, on the wall clock, and put on the monotonic clock at
+//! each read: a step of the wall clock between a frame's arrival and its read moves that frame,
+//! never past its read time nor before the last read that found the socket empty); the
+//! in-memory bus stamps a frame with the time it went onto the bus. The `embedded` adapter
+//! hands frames over without stamps (`embedded_can` frames carry none).
+//!
 //! Implementations: `socketcan` (Linux SocketCAN, feature `socketcan`), `udp` (python-can's
 //! `udp_multicast` bus, feature `udp`), and for no_std targets the synchronous [`embedded`]
 //! adapter, which drives a [`Device`](crate::Device) over `embedded_can::nb::Can` drivers.
@@ -27,12 +35,12 @@
 //! let (mut a, mut b) = (bus.port(), bus.port());
 //! let heartbeat = Frame::from_array(Id::Standard(0x705), [0x05]);
 //! a.send(&heartbeat).await?;
-//! let PortInput::Frame(got) = b.recv().await? else { panic!("a frame was sent") };
+//! let PortInput::Frame(got, _stamp) = b.recv().await? else { panic!("a frame was sent") };
 //! assert_eq!(got, heartbeat);
 //! // `a`'s next input is `b`'s answer: its own heartbeat does not come back to it.
 //! let answer = Frame::from_array(Id::Standard(0x706), [0x7F]);
 //! b.send(&answer).await?;
-//! assert!(matches!(a.recv().await?, PortInput::Frame(f) if f == answer));
+//! assert_eq!(a.recv().await?.frame(), Some(&answer));
 //! assert_eq!((a.counters().snapshot().tx_frames, b.counters().snapshot().rx_frames), (1, 1));
 //! # Ok(())
 //! # }
@@ -75,5 +83,10 @@ pub use counters::{PortCounters, PortCountersSnapshot};
 mod asynch;
 #[cfg(feature = "tokio")]
 pub mod mem;
+#[cfg(any(
+    all(feature = "udp", target_os = "linux"),
+    all(feature = "socketcan", target_os = "linux")
+))]
+mod stamp;
 #[cfg(feature = "tokio")]
 pub use asynch::{Port, PortError, PortErrorKind, PortInput, PortReader, READER_WAIT};

@@ -15,7 +15,8 @@
 //! own round trip. Frames for the other port wait in that port's bounded queue (a full queue
 //! drops and counts, it never stalls the device), so a slow or failed port never holds up the
 //! other; a failed port reports [`PortStatus::Down`](crate::PortStatus), is re-opened with
-//! backoff, and reports `Up` when it works again. The core task runs the commands of
+//! backoff ([`BACKOFF_MIN`] doubling up to [`BACKOFF_MAX`]), and reports `Up` when it works
+//! again. The core task runs the commands of
 //! [`Handle`]s and sleeps until the device's [`poll_timeout`](Device::poll_timeout): there is
 //! no fixed tick, and a deadline that fell before a frame was read is handled before that
 //! frame, at its own instant. Nothing on the way of a frame allocates.
@@ -26,6 +27,12 @@
 //! and does the same: hands the frame to the device under the lock and writes the answer. The
 //! port's task then only sends what the device queued on timers and commands, and re-opens the
 //! port; a writer lock between the two keeps the queue's order on the wire.
+//!
+//! A frame a port hands over with its receive timestamp ([`PortInput::Frame`](crate::port::PortInput)) goes to the
+//! device with it ([`Device::handle_rx_at`]: the stamp on the runtime's clock, never later than
+//! the instant the frame is handled at), one without through [`Device::handle_rx`], at the
+//! instant it was read. So a reader the scheduler held up hands its frames over late, but they
+//! keep the time they arrived; a tap records received frames at that time too.
 
 //! Everything the application does goes through the [`Handle`] as a closure run on the device
 //! inside the core task ([`Handle::call`]), with typed helpers for nodes ([`NodeHost`]) and a
@@ -42,9 +49,12 @@
 //! use duocan::{Frame, Id, Node, NodeConfig, NodeId, Station};
 //! use std::time::Duration;
 //!
-//! /// The next input of a port (a test gives up after 5 s).
-//! async fn next(port: &mut impl Port) -> PortInput {
-//!     tokio::time::timeout(Duration::from_secs(5), port.recv()).await.expect("no frame").unwrap()
+//! /// The next frame a port received (a test gives up after 5 s).
+//! async fn next(port: &mut impl Port) -> Frame {
+//!     match tokio::time::timeout(Duration::from_secs(5), port.recv()).await.expect("no frame") {
+//!         Ok(PortInput::Frame(f, _stamp)) => f,
+//!         other => panic!("{other:?}"),
+//!     }
 //! }
 //!
 //! #[tokio::main]
@@ -54,7 +64,7 @@
 //!     let node = Node::new(NodeConfig::slave(NodeId::must(5)), comm::standard_dictionary(5, Default::default()));
 //!     let handle = Runtime::new(Station::single(node)).port(bus.port()).spawn()?;
 //!     handle.boot().await?;
-//!     let heartbeat = |state| PortInput::Frame(Frame::from_array(Id::Standard(0x705), [state]));
+//!     let heartbeat = |state| Frame::from_array(Id::Standard(0x705), [state]);
 //!     assert_eq!(next(&mut tester).await, heartbeat(0x00)); // the boot-up
 //!
 //!     // A heartbeat every second, written through the handle: the first one goes out at once.
@@ -78,6 +88,7 @@ mod task;
 
 pub use handle::{Handle, RuntimeClosed, RuntimeError};
 pub use node::{LocalNode, NodeHost};
+pub use port_task::{BACKOFF_MAX, BACKOFF_MIN};
 pub use sdo::{SdoEvents, SdoHost, SdoStart};
 
 use crate::capture::recorder::Tap;
@@ -127,6 +138,11 @@ impl Clock {
     /// Current time.
     pub fn now(&self) -> Instant {
         micros(self.origin.elapsed())
+    }
+    /// A receive timestamp (the standard library's monotonic clock) on this clock: its time
+    /// since the clock started, [`Instant::ZERO`] if it came before.
+    pub fn instant_of(&self, t: std::time::Instant) -> Instant {
+        micros(t.saturating_duration_since(self.origin.into_std()))
     }
     /// The clock as a reader thread reads it: from the standard library's clock, which is
     /// tokio's outside a runtime (and cheaper to read there).

@@ -173,15 +173,27 @@ where
         }
     }
 
+    /// Hands `x`, read from `port` at `read_at`, to the device: a frame with its receive
+    /// timestamp through [`Device::handle_rx_at`] (the stamp on the runtime's clock, never
+    /// after the instant it is handled at), one without through [`Device::handle_rx`].
     pub fn input(&mut self, port: usize, x: PortInput, read_at: crate::Instant) {
         self.due_before(read_at, false);
         let now = self.at(read_at);
         match x {
-            PortInput::Frame(f) => {
+            PortInput::Frame(f, stamp) => {
+                let at = stamp.map(|s| self.clock.instant_of(s).min(now));
                 if let Some(t) = &self.tap {
-                    t.frame(now, TapPoint::Port(port), TapDirection::Rx, &f);
+                    t.frame(
+                        at.unwrap_or(now),
+                        TapPoint::Port(port),
+                        TapDirection::Rx,
+                        &f,
+                    );
                 }
-                self.device.handle_rx(now, port, &f);
+                match at {
+                    Some(at) => self.device.handle_rx_at(now, port, &f, at),
+                    None => self.device.handle_rx(now, port, &f),
+                }
             }
             PortInput::Status(status) => {
                 match status {
@@ -535,6 +547,10 @@ mod tests {
                 .push(format!("frame {} at {now}", frame.data()[0]));
             self.deadline = Some(now + Duration::from_millis(10));
         }
+        fn handle_rx_at(&mut self, now: Instant, _: usize, frame: &Frame, at: Instant) {
+            self.seen
+                .push(format!("frame {} at {now} stamped {at}", frame.data()[0]));
+        }
         fn handle_port_status(&mut self, _: Instant, _: usize, _: PortStatus) {}
         fn handle_timeout(&mut self, now: Instant) {
             self.seen.push(format!("timeout at {now}"));
@@ -569,7 +585,7 @@ mod tests {
             broadcast::channel(4).0,
             None,
         );
-        let frame = |b: u8| PortInput::Frame(Frame::new(Id::Standard(0x100), &[b]).unwrap());
+        let frame = |b: u8| PortInput::Frame(Frame::new(Id::Standard(0x100), &[b]).unwrap(), None);
         st.input(0, frame(1), Instant::from_millis(8));
         st.input(0, frame(2), Instant::from_millis(25));
         st.timeouts(Instant::from_millis(30));
@@ -579,6 +595,41 @@ mod tests {
                 "frame 1 at 0.008000s",
                 "timeout at 0.018000s",
                 "frame 2 at 0.025000s"
+            ]
+        );
+    }
+
+    /// A frame with a receive timestamp reaches the device through `handle_rx_at`, the stamp
+    /// on the runtime's clock (time since the clock started): read 35 ms after it arrived, it
+    /// keeps its arrival time. A stamp later than the instant it is handled at (a clock the
+    /// port read after the runtime's) is that instant; a frame without one goes through
+    /// `handle_rx`.
+    #[tokio::test(start_paused = true)]
+    async fn a_stamped_frame_keeps_its_arrival_time() {
+        let clock = crate::runtime::Clock::start();
+        let origin = tokio::time::Instant::now().into_std();
+        let mut st = State::new(
+            Box::new(Timer {
+                deadline: None,
+                seen: vec![],
+            }),
+            clock,
+            vec![],
+            broadcast::channel(4).0,
+            None,
+        );
+        let ms = std::time::Duration::from_millis;
+        let frame =
+            |b: u8, at| PortInput::Frame(Frame::new(Id::Standard(0x100), &[b]).unwrap(), at);
+        st.input(0, frame(1, Some(origin + ms(5))), Instant::from_millis(40));
+        st.input(0, frame(2, Some(origin + ms(90))), Instant::from_millis(50));
+        st.input(0, frame(3, None), Instant::from_millis(60));
+        assert_eq!(
+            st.device.seen,
+            [
+                "frame 1 at 0.040000s stamped 0.005000s",
+                "frame 2 at 0.050000s stamped 0.050000s",
+                "frame 3 at 0.060000s"
             ]
         );
     }

@@ -42,7 +42,7 @@ async fn reads(tester: &mut LoopPort, n: usize) {
             .await
             .expect("the node answers")
             .unwrap();
-        let duocan::port::PortInput::Frame(f) = answer else {
+        let duocan::port::PortInput::Frame(f, _) = answer else {
             panic!("a frame, not {answer:?}")
         };
         assert_eq!(f.id(), Id::Standard(0x580 + NODE as u16));

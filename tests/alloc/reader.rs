@@ -21,7 +21,9 @@ impl PortReader for Reader {
             .from_test
             .recv_timeout(READER_WAIT)
             .ok()
-            .map(PortInput::Frame))
+            // Stamped, as a SocketCAN port's frames are: the stamped path allocates nothing
+            // either.
+            .map(|f| PortInput::Frame(f, Some(std::time::Instant::now()))))
     }
     fn write(&mut self, f: &Frame) -> Result<bool, PortError> {
         Ok(self.to_test.send(*f).is_ok())

@@ -58,7 +58,8 @@ impl Port for LoopPort {
     fn try_recv(&mut self) -> Option<Result<PortInput, PortError>> {
         let f = self.rx.frames.lock().unwrap().pop_front()?;
         self.counters.rx_frames();
-        Some(Ok(PortInput::Frame(f)))
+        // Stamped, as a SocketCAN or UDP port's frames are.
+        Some(Ok(PortInput::Frame(f, Some(std::time::Instant::now()))))
     }
     async fn send(&mut self, frame: &Frame) -> Result<(), PortError> {
         let mut q = self.tx.frames.lock().unwrap();

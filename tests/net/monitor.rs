@@ -56,7 +56,7 @@ async fn the_monitor_hears_states_and_sends_nothing() {
         .unwrap();
     tokio::time::sleep(Duration::from_millis(200)).await;
     let mut ids = Vec::new();
-    while let Ok(Ok(PortInput::Frame(f))) =
+    while let Ok(Ok(PortInput::Frame(f, _))) =
         tokio::time::timeout(Duration::from_millis(50), wire.recv()).await
     {
         ids.push(f.id());

@@ -87,7 +87,7 @@ async fn a_nodes_pdo_configuration_is_read_with_names() {
 /// (command byte, index, sub, value) of every SDO request to node 5 on the wire.
 async fn sdo_requests(wire: &mut impl Port) -> Vec<(u8, u16, u8, u32)> {
     let mut out = Vec::new();
-    while let Ok(Ok(PortInput::Frame(f))) =
+    while let Ok(Ok(PortInput::Frame(f, _))) =
         tokio::time::timeout(Duration::from_millis(100), wire.recv()).await
     {
         let d = f.data();

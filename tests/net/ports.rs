@@ -109,10 +109,15 @@ impl duocan::net::NetLink for OnePortLink {}
 #[tokio::test(start_paused = true)]
 async fn what_a_link_reads_itself_reaches_the_network_as_its_ports_input() {
     let bus = MemBus::new("quiet");
-    let link: Box<dyn duocan::net::NetLink> = Box::new(Answering::default());
+    let answering = Answering::default();
+    let stamps = answering.stamps.clone();
+    let link: Box<dyn duocan::net::NetLink> = Box::new(answering);
     let net = Network::open_link(link, bus.port(), NetOptions::default()).unwrap();
     let v: u32 = net.node(5).sdo().read(0x1018, 1).await.unwrap();
     assert_eq!(v, 0x0102_0304);
+    // The answer reached the link with the stamp the link gave it, not as a stamp-less frame.
+    let (stamped, unstamped) = *stamps.lock().unwrap();
+    assert_eq!((stamped, unstamped), (1, 0));
     let p = &net.ports().await.unwrap()[0];
     assert_eq!(p.state, "error warning");
     assert_eq!(p.last_error, Some(ErrorCause::ErrorWarning));
@@ -124,8 +129,12 @@ async fn what_a_link_reads_itself_reaches_the_network_as_its_ports_input() {
 #[derive(Default)]
 struct Answering {
     link: OnePortLink,
-    inputs: std::collections::VecDeque<(usize, duocan::port::PortInput)>,
+    inputs: std::collections::VecDeque<(usize, duocan::port::PortInput<duocan::Instant>)>,
     now: duocan::Instant,
+    /// Frames received with the stamp this link gave them, and received without a stamp.
+    stamps: std::sync::Arc<std::sync::Mutex<(usize, usize)>>,
+    /// The stamp of the last answer.
+    stamp: duocan::Instant,
 }
 
 impl duocan::BusLink for Answering {
@@ -135,6 +144,19 @@ impl duocan::BusLink for Answering {
         1
     }
     fn handle_rx(&mut self, now: duocan::Instant, port: usize, f: &Frame) -> Option<Frame> {
+        self.stamps.lock().unwrap().1 += 1;
+        self.link.handle_rx(now, port, f)
+    }
+    fn handle_rx_at(
+        &mut self,
+        now: duocan::Instant,
+        port: usize,
+        f: &Frame,
+        at: duocan::Instant,
+    ) -> Option<Frame> {
+        if at == self.stamp {
+            self.stamps.lock().unwrap().0 += 1;
+        }
         self.link.handle_rx(now, port, f)
     }
     fn handle_port_status(&mut self, now: duocan::Instant, port: usize, s: duocan::PortStatus) {
@@ -149,7 +171,10 @@ impl duocan::BusLink for Answering {
             let answer = Frame::new(duocan::Id::Standard(0x585), &answer).unwrap();
             let warning = duocan::PortStatus::Error(ErrorCause::ErrorWarning);
             self.inputs.push_back((0, PortInput::Status(warning)));
-            self.inputs.push_back((0, PortInput::Frame(answer)));
+            // Stamped with the instant the request went out: the answer was on the wire then.
+            self.stamp = now;
+            self.inputs
+                .push_back((0, PortInput::Frame(answer, Some(now))));
         }
     }
     fn poll_transmit(&mut self) -> Option<(usize, Frame)> {
@@ -167,7 +192,7 @@ impl duocan::BusLink for Answering {
 }
 
 impl duocan::net::NetLink for Answering {
-    fn poll_input(&mut self) -> Option<(usize, duocan::port::PortInput)> {
+    fn poll_input(&mut self) -> Option<(usize, duocan::port::PortInput<duocan::Instant>)> {
         self.inputs.pop_front()
     }
 }

@@ -97,7 +97,7 @@ impl Drop for Reader {
 impl PortReader for Reader {
     fn read(&mut self) -> Result<Option<PortInput>, PortError> {
         if let Some(f) = self.ready.pop_front() {
-            return Ok(Some(PortInput::Frame(f)));
+            return Ok(Some(PortInput::Frame(f, None)));
         }
         let feed = self.feed.lock().unwrap();
         let first = match feed.recv_timeout(READER_WAIT) {
@@ -119,10 +119,10 @@ impl PortReader for Reader {
                 Err(_) => break,
             }
         }
-        Ok(Some(PortInput::Frame(first)))
+        Ok(Some(PortInput::Frame(first, None)))
     }
     fn read_ready(&mut self) -> Option<PortInput> {
-        self.ready.pop_front().map(PortInput::Frame)
+        self.ready.pop_front().map(|f| PortInput::Frame(f, None))
     }
     fn write(&mut self, f: &Frame) -> Result<bool, PortError> {
         if self.batched {

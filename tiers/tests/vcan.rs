@@ -39,11 +39,21 @@ impl Drop for LinkDown {
     }
 }
 
+/// The next input of `p`. A frame must come with the kernel's receive timestamp, no later than
+/// now; it is returned without it (`None`), to be compared.
 async fn recv_input(p: &mut SocketCanPort) -> PortInput {
-    tokio::time::timeout(Duration::from_secs(2), p.recv())
+    let x = tokio::time::timeout(Duration::from_secs(2), p.recv())
         .await
         .expect("frame within 2 s")
-        .expect("port works")
+        .expect("port works");
+    match x {
+        PortInput::Frame(f, at) => {
+            let at = at.expect("a SocketCAN frame comes with its receive timestamp");
+            assert!(at <= std::time::Instant::now(), "stamped in the future");
+            PortInput::Frame(f, None)
+        }
+        status => status,
+    }
 }
 
 #[tokio::test]
@@ -61,7 +71,7 @@ async fn socketcan_port_sends_and_receives_every_frame_kind() {
         a.send(f).await.expect("send");
     }
     for f in &frames {
-        assert_eq!(recv_input(&mut b).await, PortInput::Frame(*f));
+        assert_eq!(recv_input(&mut b).await, PortInput::Frame(*f, None));
     }
     let ca = a.counters().snapshot();
     let cb = b.counters().snapshot();
@@ -135,7 +145,7 @@ async fn missing_or_down_interfaces_give_clear_errors_and_reopen_works() {
         .unwrap();
     assert_eq!(
         recv_input(&mut p).await,
-        PortInput::Frame(Frame::from_array(Id::Standard(0x42), [1]))
+        PortInput::Frame(Frame::from_array(Id::Standard(0x42), [1]), None)
     );
     assert_eq!(p.counters().snapshot().reopened, 1);
 }
@@ -378,7 +388,7 @@ async fn candump_logs_interoperate_with_can_utils() {
         .expect("canplayer from can-utils (the tier script adds it to the VM)");
     assert!(st.success());
     for f in &frames {
-        assert_eq!(recv_input(&mut rx).await, PortInput::Frame(*f));
+        assert_eq!(recv_input(&mut rx).await, PortInput::Frame(*f, None));
     }
     // Our port sends, candump -L logs, duocan reads the log.
     let dump = Command::new("candump")

@@ -12,8 +12,10 @@ use duocan_redundancy::{DualBus, DualBusConfig, LinkMode, PortState};
 use std::process::Command;
 use std::time::Duration as StdDuration;
 
-/// The dual-bus layer as the VM needs it: its emulated CPU delays one port's frames behind the
-/// other's by more than the default 10 ms skew window (as for the dual_vcan_failover example).
+/// The dual-bus layer as the VM needs it: its emulated CPU can hold a sender up between its two
+/// copies of a frame (the boards', and the master's), so that they are on the wires, and
+/// stamped, further apart than the default 5 ms skew window (as for the dual_vcan_failover
+/// example).
 fn link(guard: Duration) -> DualBusConfig {
     let mut cfg = DualBusConfig::with_guard_period(LinkMode::ActiveActive, guard);
     cfg.skew_window = Duration::from_millis(25);

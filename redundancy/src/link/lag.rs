@@ -142,8 +142,8 @@ impl LagMeter {
         }
     }
 
-    /// The longest lag corrected, and how long the merger keeps an unmatched copy: twice the
-    /// maximum.
+    /// The longest lag corrected, and how long the merger keeps an unmatched copy after it was
+    /// handed over: twice the maximum.
     pub fn horizon(&self) -> Duration {
         Duration::from_micros(self.horizon)
     }

@@ -8,10 +8,16 @@
 //! loop does. The frames are handed on one by one, in the order the kernel queued them, and the
 //! answers go out in the order they were written: the runtime sees exactly what a `read` loop
 //! would, and the bus what a `write` loop would.
+//!
+//! Each frame of a batch carries the kernel's receive timestamp (a control message of its own
+//! in the batch), put on the monotonic clock with the clocks read once per batch, right after
+//! the call returned (see `port::stamp`). A batch of fewer than [`BATCH`] frames found the
+//! socket empty: the next batch's frames arrived after the call began.
 
-use super::{PortInput, PortReader, RxState, TokioCanSocket, CAN_EFF_FLAG, CAN_RTR_FLAG};
+use super::{PortInput, PortReader, RxState, TokioCanSocket, CAN_EFF_FLAG, CAN_MTU, CAN_RTR_FLAG};
 use crate::frame::{Frame, Id};
 use crate::port::asynch::{timed_out, READER_WAIT};
+use crate::port::stamp::{self, KernelClock};
 use crate::port::PortError;
 use nix::sys::socket::{recvmmsg, send, sendmmsg, MsgFlags, MultiHeaders};
 use socketcan::Socket;
@@ -21,13 +27,11 @@ use std::sync::Arc;
 
 /// Frames taken from the socket per system call at most.
 const BATCH: usize = 16;
-/// The size of the kernel's `struct can_frame` (`CAN_MTU`).
-const CAN_MTU: usize = 16;
 
 std::thread_local! {
-    /// The message headers of `recvmmsg` and of `sendmmsg`, made once per reader thread (no
-    /// allocation per read). Per thread, not per reader: they hold raw pointers, so they
-    /// cannot move to another thread with the reader.
+    /// The message headers of `recvmmsg` (with room for each frame's stamp) and of
+    /// `sendmmsg`, made once per reader thread (no allocation per read). Per thread, not per
+    /// reader: they hold raw pointers, so they cannot move to another thread with the reader.
     static HEADERS: core::cell::RefCell<Option<[MultiHeaders<()>; 2]>> =
         const { core::cell::RefCell::new(None) };
 }
@@ -37,11 +41,20 @@ fn with_headers<R>(f: impl FnOnce(&mut [MultiHeaders<()>; 2]) -> R) -> R {
     HEADERS.with_borrow_mut(|h| {
         f(h.get_or_insert_with(|| {
             [
-                MultiHeaders::preallocate(BATCH, None),
+                MultiHeaders::preallocate(BATCH, Some(stamp::control_space())),
                 MultiHeaders::preallocate(BATCH, None),
             ]
         }))
     })
+}
+
+/// Makes this thread's headers afresh at the next call. The kernel writes back into each
+/// header the room its message's control data took, and `recvmmsg` offers that room the next
+/// time: a message that came without a stamp leaves its header no room for one, and the next
+/// stamp in it is cut off (`MSG_CTRUNC`).
+#[cold]
+fn renew_headers() {
+    HEADERS.with_borrow_mut(|h| *h = None);
 }
 
 /// Reads (and writes answers) by blocking, each call waiting at most [`READER_WAIT`].
@@ -49,9 +62,12 @@ pub(super) struct Reader {
     ifname: String,
     socket: Arc<socketcan::CanSocket>,
     rx: RxState,
-    /// The last batch: the kernel's frames and each one's length in bytes.
+    /// The last batch: the kernel's frames, each one's length in bytes and receive timestamp.
     raw: [[u8; CAN_MTU]; BATCH],
     len: [usize; BATCH],
+    at: [Option<std::time::Instant>; BATCH],
+    /// Puts the kernel's stamps on the monotonic clock.
+    clock: KernelClock,
     /// Frames of the batch handed on so far, and in it.
     next: usize,
     got: usize,
@@ -64,13 +80,14 @@ pub(super) struct Reader {
 
 impl Reader {
     /// Turns the port's socket into a blocking one shared with the reader; the reader hands on
-    /// the statuses the port had not handed on yet. On failure the socket comes back as it
-    /// was.
+    /// the statuses the port had not handed on yet, and converts stamps from where the port's
+    /// `clock` is. On failure the socket comes back as it was.
     #[allow(clippy::type_complexity)]
     pub(super) fn new(
         ifname: &str,
         s: TokioCanSocket,
         rx: &mut RxState,
+        clock: KernelClock,
     ) -> Result<(Reader, Arc<socketcan::CanSocket>), (TokioCanSocket, io::Error)> {
         let set = |s: &socketcan::CanSocket| {
             s.set_read_timeout(READER_WAIT)?;
@@ -92,6 +109,8 @@ impl Reader {
             },
             raw: [[0; CAN_MTU]; BATCH],
             len: [0; BATCH],
+            at: [None; BATCH],
+            clock,
             next: 0,
             got: 0,
             tx: [[0; CAN_MTU]; BATCH],
@@ -105,18 +124,31 @@ impl Reader {
     /// [`READER_WAIT`]) into the batch.
     fn fill(&mut self) -> io::Result<()> {
         let fd = self.socket.as_raw_fd();
-        let (raw, lens) = (&mut self.raw, &mut self.len);
-        let n = with_headers(|[h, _]| {
+        let (raw, lens, ats, clock) = (&mut self.raw, &mut self.len, &mut self.at, &mut self.clock);
+        let (n, cut) = with_headers(|[h, _]| {
             let mut slices = raw.each_mut().map(|b| [IoSliceMut::new(b)]);
+            // Taken before the call: should it find the socket empty (fewer than a batch),
+            // what comes after it arrived after this (a reading taken after the call returns
+            // may be late by as long as the thread is held up in between).
+            let called = std::time::Instant::now();
             let got = recvmmsg(fd, h, slices.iter_mut(), MsgFlags::MSG_WAITFORONE, None)
                 .map_err(io::Error::from)?;
-            let mut n = 0;
-            for (len, m) in lens.iter_mut().zip(got) {
+            let reading = clock.read();
+            let (mut n, mut cut) = (0, false);
+            for ((len, at), m) in lens.iter_mut().zip(ats.iter_mut()).zip(got) {
                 *len = m.bytes;
+                *at = stamp::of_message(&m).map(|t| reading.convert(t));
+                cut |= m.flags.contains(MsgFlags::MSG_CTRUNC);
                 n += 1;
             }
-            Ok::<_, io::Error>(n)
+            if n < BATCH {
+                clock.drained(called);
+            }
+            Ok::<_, io::Error>((n, cut))
         })?;
+        if cut {
+            renew_headers();
+        }
         self.next = 0;
         self.got = n;
         Ok(())
@@ -159,10 +191,8 @@ impl Reader {
             }
             let i = self.next;
             self.next += 1;
-            if let Some(x) = self
-                .rx
-                .accept_kernel(&self.ifname, &self.raw[i][..self.len[i]])
-            {
+            let raw = &self.raw[i][..self.len[i].min(CAN_MTU)];
+            if let Some(x) = self.rx.accept_kernel(&self.ifname, raw, self.at[i]) {
                 return Some(x);
             }
         }
@@ -296,8 +326,8 @@ mod tests {
         fn a_kernel_frame_reads_back_as_the_frame(f in crate::frame::tests::any_frame()) {
             let mut rx = rx();
             prop_assert_eq!(
-                rx.accept_kernel("vcan0", &can_frame_bytes(&f)),
-                Some(PortInput::Frame(f))
+                rx.accept_kernel("vcan0", &can_frame_bytes(&f), None),
+                Some(PortInput::Frame(f, None))
             );
             prop_assert_eq!(rx.counters.snapshot().rx_frames, 1);
         }
@@ -311,7 +341,7 @@ mod tests {
             raw[4] = 8;
             raw[8..].copy_from_slice(&data);
             let mut rx = rx();
-            prop_assert_eq!(rx.accept_kernel("vcan0", &raw), None);
+            prop_assert_eq!(rx.accept_kernel("vcan0", &raw, None), None);
             let want = super::super::decode_error_frame(
                 &socketcan::CanErrorFrame::new_error(bits, &data).unwrap(),
             );
@@ -331,8 +361,8 @@ mod tests {
     #[test]
     fn a_kernel_frame_of_another_size_is_refused() {
         let mut rx = rx();
-        assert_eq!(rx.accept_kernel("vcan0", &[0u8; 72]), None);
-        assert_eq!(rx.accept_kernel("vcan0", &[0u8; 15]), None);
+        assert_eq!(rx.accept_kernel("vcan0", &[0u8; 72], None), None);
+        assert_eq!(rx.accept_kernel("vcan0", &[0u8; 15], None), None);
         assert_eq!(rx.counters.snapshot().rx_invalid, 2);
         assert_eq!(rx.counters.snapshot().rx_frames, 0);
     }

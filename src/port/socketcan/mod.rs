@@ -5,6 +5,9 @@
 //! (EPOLLERR), which a plain readable-interest wait (as in `socketcan::tokio`) never wakes for,
 //! so a port on a downed interface that only listens would never notice.
 //!
+//! Every frame comes with the kernel's receive timestamp (`SO_TIMESTAMPNS`: when it entered the
+//! network stack), put on the monotonic clock (see the [port module](super)).
+//!
 //! Error frames are enabled and decoded into [`PortStatus`](crate::PortStatus) (bus-off, error passive, no-ack, …).
 //! Opening checks the interface first, so a missing or down interface gives an error that says
 //! so and how to fix it, instead of a bare errno. After a failure the runtime calls
@@ -24,13 +27,17 @@
 mod blocking;
 
 use super::error_frame::{self, ErrorStatuses};
+use super::stamp::{self, KernelClock};
 use super::{Port, PortCounters, PortError, PortErrorKind, PortInput, PortReader};
 use crate::frame::{Frame, FrameError, Id};
+use nix::errno::Errno;
+use nix::sys::socket::{recvmsg, MsgFlags};
 use socketcan::{
     CanAnyFrame, CanDataFrame, CanErrorFrame, CanFrame, CanRemoteFrame, EmbeddedFrame, Socket,
     SocketOptions,
 };
-use std::io;
+use std::io::{self, IoSliceMut};
+use std::os::fd::AsRawFd;
 use tokio::io::unix::AsyncFd;
 use tokio::io::Interest;
 
@@ -54,20 +61,70 @@ impl TokioCanSocket {
     fn set_error_filter_accept_all(&self) -> io::Result<()> {
         self.0.get_ref().set_error_filter_accept_all()
     }
-    async fn read_frame(&self) -> io::Result<CanFrame> {
+    /// The next frame as the kernel wrote it, with its length and its receive timestamp.
+    async fn read_frame(&self, rx: &mut Received) -> io::Result<()> {
         self.0
-            .async_io(Interest::READABLE | Interest::ERROR, |s| s.read_frame())
+            .async_io(Interest::READABLE | Interest::ERROR, |s| rx.recv(s))
             .await
     }
     /// A frame if one is queued, through tokio's readiness: `WouldBlock` without a system call
     /// when the last read found the socket empty and nothing arrived since, and a read that
     /// finds it empty clears the readiness (a direct read would leave it set, and the next
     /// wait would begin with one more read that finds nothing).
-    fn try_read_frame(&self) -> io::Result<CanFrame> {
-        self.0.try_io(Interest::READABLE, |s| s.read_frame())
+    fn try_read_frame(&self, rx: &mut Received) -> io::Result<()> {
+        self.0.try_io(Interest::READABLE, |s| rx.recv(s))
     }
     async fn write_frame(&self, f: CanFrame) -> io::Result<()> {
         write_waiting(|| self.0.get_ref().write_frame(&f)).await
+    }
+}
+
+/// The size of the kernel's `struct can_frame` (`CAN_MTU`).
+const CAN_MTU: usize = 16;
+
+/// What the port read last through tokio: the frame as the kernel wrote it, its length, its
+/// receive timestamp on the monotonic clock, and what the stamps are converted with.
+#[derive(Debug)]
+struct Received {
+    raw: [u8; CAN_MTU],
+    len: usize,
+    at: Option<std::time::Instant>,
+    control: Vec<u8>,
+    clock: KernelClock,
+}
+
+impl Received {
+    fn new() -> Self {
+        Received {
+            raw: [0; CAN_MTU],
+            len: 0,
+            at: None,
+            control: stamp::control_space(),
+            clock: KernelClock::new(),
+        }
+    }
+    /// Reads one frame from the non-blocking socket `s` (`WouldBlock` when none is queued).
+    fn recv(&mut self, s: &socketcan::CanSocket) -> io::Result<()> {
+        let mut iov = [IoSliceMut::new(&mut self.raw)];
+        let flags = MsgFlags::empty();
+        let called = std::time::Instant::now();
+        match recvmsg::<()>(s.as_raw_fd(), &mut iov, Some(&mut self.control), flags) {
+            Ok(m) => {
+                let reading = self.clock.read();
+                self.len = m.bytes;
+                self.at = stamp::of_message(&m).map(|t| reading.convert(t));
+                Ok(())
+            }
+            Err(Errno::EAGAIN) => {
+                // Found empty: what comes next arrived after the call began.
+                self.clock.drained(called);
+                Err(io::ErrorKind::WouldBlock.into())
+            }
+            Err(e) => Err(e.into()),
+        }
+    }
+    fn frame(&self) -> &[u8] {
+        &self.raw[..self.len.min(CAN_MTU)]
     }
 }
 
@@ -226,6 +283,7 @@ pub struct SocketCanPort {
     ifname: String,
     socket: Option<Sock>,
     rx: RxState,
+    read: Received,
 }
 
 impl SocketCanPort {
@@ -234,6 +292,8 @@ impl SocketCanPort {
     /// Fails with [`PortErrorKind::NoSuchInterface`] or [`PortErrorKind::InterfaceDown`] (and a
     /// hint how to create or raise it) before touching any socket.
     pub fn open(ifname: &str) -> Result<Self, PortError> {
+        // Made before the socket: nothing it reads arrived earlier.
+        let read = Received::new();
         let socket = open_socket(ifname)?;
         Ok(SocketCanPort {
             ifname: ifname.to_owned(),
@@ -242,6 +302,7 @@ impl SocketCanPort {
                 counters: PortCounters::new(),
                 pending: ErrorStatuses::new(),
             },
+            read,
         })
     }
 
@@ -291,6 +352,10 @@ fn open_socket(ifname: &str) -> Result<TokioCanSocket, PortError> {
     socket
         .set_error_filter_accept_all()
         .map_err(|e| PortError::io(ifname, "cannot enable error frames", e))?;
+    if let Err(e) = stamp::enable(socket.0.get_ref()) {
+        // Frames then come without stamps: the device takes them as handed over.
+        tracing::warn!(port = %ifname, error = %e, "no receive timestamps (SO_TIMESTAMPNS)");
+    }
     Ok(socket)
 }
 
@@ -303,26 +368,17 @@ struct RxState {
 }
 
 impl RxState {
-    /// Classifies a received frame: a frame to hand on, or `None` (error frame queued as status,
-    /// invalid frame counted).
-    fn accept(&mut self, ifname: &str, raw: &CanFrame) -> Option<PortInput> {
-        match raw {
-            CanFrame::Error(ef) => {
-                self.counters.rx_error_frames();
-                self.pending = decode_error_frame(ef);
-                tracing::debug!(port = %ifname, bits = ef.error_bits(), "error frame");
-                None
-            }
-            other => self.frame(ifname, Frame::try_from(other)),
-        }
-    }
-
-    /// Counts a received frame, or a refused one.
-    fn frame(&mut self, ifname: &str, f: Result<Frame, FrameError>) -> Option<PortInput> {
+    /// Counts a received frame (stamped `at`), or a refused one.
+    fn frame(
+        &mut self,
+        ifname: &str,
+        f: Result<Frame, FrameError>,
+        at: Option<std::time::Instant>,
+    ) -> Option<PortInput> {
         match f {
             Ok(f) => {
                 self.counters.rx_frames();
-                Some(PortInput::Frame(f))
+                Some(PortInput::Frame(f, at))
             }
             Err(e) => {
                 self.counters.rx_invalid();
@@ -332,10 +388,16 @@ impl RxState {
         }
     }
 
-    /// [`RxState::accept`] for a frame as the kernel wrote it (`struct can_frame`: identifier
-    /// with its flags, length, three reserved bytes, eight data bytes); anything not of that
-    /// size is counted invalid.
-    fn accept_kernel(&mut self, ifname: &str, raw: &[u8]) -> Option<PortInput> {
+    /// Classifies a frame as the kernel wrote it (`struct can_frame`: identifier with its
+    /// flags, length, three reserved bytes, eight data bytes), received at `at`: a frame to
+    /// hand on, or `None` (error frame queued as status; anything not of that size counted
+    /// invalid).
+    fn accept_kernel(
+        &mut self,
+        ifname: &str,
+        raw: &[u8],
+        at: Option<std::time::Instant>,
+    ) -> Option<PortInput> {
         let Ok(raw) = <&[u8; 16]>::try_from(raw) else {
             self.counters.rx_invalid();
             tracing::warn!(port = %ifname, len = raw.len(), "frame of an unexpected size refused");
@@ -361,7 +423,7 @@ impl RxState {
         } else {
             Frame::new(id, &data[..usize::from(len)])
         };
-        self.frame(ifname, f)
+        self.frame(ifname, f, at)
     }
 
     /// The oldest status of the last error frame not yet handed on.
@@ -409,9 +471,10 @@ impl Port for SocketCanPort {
                 Some(Sock::Blocking(_)) => return std::future::pending().await,
                 None => return Err(closed(&self.ifname)),
             };
-            match sock.read_frame().await {
-                Ok(raw) => {
-                    if let Some(x) = self.rx.accept(&self.ifname, &raw) {
+            match sock.read_frame(&mut self.read).await {
+                Ok(()) => {
+                    let (raw, at) = (self.read.frame(), self.read.at);
+                    if let Some(x) = self.rx.accept_kernel(&self.ifname, raw, at) {
                         return Ok(x);
                     }
                 }
@@ -431,9 +494,10 @@ impl Port for SocketCanPort {
             let Some(Sock::Async(sock)) = self.socket.as_ref() else {
                 return None;
             };
-            match sock.try_read_frame() {
-                Ok(raw) => {
-                    if let Some(x) = self.rx.accept(&self.ifname, &raw) {
+            match sock.try_read_frame(&mut self.read) {
+                Ok(()) => {
+                    let (raw, at) = (self.read.frame(), self.read.at);
+                    if let Some(x) = self.rx.accept_kernel(&self.ifname, raw, at) {
                         return Some(Ok(x));
                     }
                 }
@@ -466,6 +530,8 @@ impl Port for SocketCanPort {
     async fn reopen(&mut self) -> Result<(), PortError> {
         self.socket = None;
         self.rx.pending.clear();
+        // A new socket: no read has found it empty yet.
+        self.read.clock = KernelClock::new();
         self.socket = Some(Sock::Async(open_socket(&self.ifname)?));
         self.rx.counters.reopened();
         Ok(())
@@ -475,7 +541,7 @@ impl Port for SocketCanPort {
         let Some(Sock::Async(s)) = self.socket.take() else {
             return None;
         };
-        match blocking::Reader::new(&self.ifname, s, &mut self.rx) {
+        match blocking::Reader::new(&self.ifname, s, &mut self.rx, self.read.clock) {
             Ok((reader, shared)) => {
                 self.socket = Some(Sock::Blocking(shared));
                 Some(Box::new(reader))

@@ -6,8 +6,10 @@
 //! Why a second send socket: the blocking one waits at most [`READER_WAIT`] for room, while
 //! the task's must never wait, and a socket's blocking mode is shared by every handle of it.
 //! Both sockets' datagrams come back through multicast loopback; the reader drops those of
-//! either, as the port drops its own.
+//! either, as the port drops its own. Each frame comes with its datagram's receive timestamp,
+//! as the port's own reads give it (see `rx.rs`).
 
+use super::rx::Stamps;
 use super::{decode, encode, open_tx, timestamp, UdpBusConfig};
 use crate::port::asynch::{timed_out, READER_WAIT};
 use crate::port::{PortCounters, PortError, PortInput, PortReader};
@@ -26,11 +28,12 @@ pub(super) struct Reader {
     dest: SocketAddr,
     counters: PortCounters,
     buf: Vec<u8>,
+    stamps: Stamps,
 }
 
 impl Reader {
     /// A reader on the port's receive socket `rx` (made blocking) with a new blocking send
-    /// socket; `own` is the port's send socket's address.
+    /// socket; `own` is the port's send socket's address, `stamps` the port's conversion.
     pub(super) fn new(
         cfg: &UdpBusConfig,
         name: &str,
@@ -38,6 +41,7 @@ impl Reader {
         own: SocketAddr,
         dest: SocketAddr,
         counters: PortCounters,
+        stamps: Stamps,
     ) -> Result<Reader, (UdpSocket, PortError)> {
         let io = |what: &str, e| PortError::io(name, what, e);
         let blocking = |s: &UdpSocket| {
@@ -64,6 +68,7 @@ impl Reader {
             dest,
             counters,
             buf: vec![0; super::MAX_DATAGRAM],
+            stamps,
         })
     }
 }
@@ -71,22 +76,22 @@ impl Reader {
 impl PortReader for Reader {
     fn read(&mut self) -> Result<Option<PortInput>, PortError> {
         loop {
-            let (n, from) = match self.rx.recv_from(&mut self.buf) {
+            let (n, from, at) = match self.stamps.recv(&self.rx, &mut self.buf) {
                 Ok(x) => x,
                 Err(e) if timed_out(&e) => return Ok(None),
                 Err(e) => return Err(PortError::io(&self.name, "receive failed", e)),
             };
-            if self.own.contains(&from) {
+            if from.is_some_and(|a| self.own.contains(&a)) {
                 continue;
             }
-            match decode(&self.buf[..n]) {
+            match decode(self.buf.get(..n).unwrap_or_default()) {
                 Ok((f, _)) => {
                     self.counters.rx_frames();
-                    return Ok(Some(PortInput::Frame(f)));
+                    return Ok(Some(PortInput::Frame(f, at)));
                 }
                 Err(e) => {
                     self.counters.rx_invalid();
-                    tracing::warn!(port = %self.name, %from, len = n, error = %e, "datagram refused");
+                    tracing::warn!(port = %self.name, ?from, len = n, error = %e, "datagram refused");
                 }
             }
         }

@@ -14,9 +14,14 @@
 //! Datagrams that are not classic CAN frames (garbage, truncated, nested deeper than a frame,
 //! bytes after the frame, CAN FD, error frames) are counted in [`PortCounters::rx_invalid`](super::PortCounters) and logged; frames this port
 //! sent itself come back through multicast loopback and are dropped silently.
+//!
+//! On Linux every frame comes with the kernel's receive timestamp of its datagram
+//! (`SO_TIMESTAMPNS`, put on the monotonic clock at each read), not the `timestamp` field,
+//! which is the sender's wall clock when it sent.
 
 mod blocking;
 mod codec;
+mod rx;
 
 pub use codec::{decode, encode, DecodeError};
 
@@ -25,6 +30,7 @@ use crate::frame::Frame;
 use socket2::{Domain, Protocol, Socket, Type};
 use std::net::{Ipv4Addr, SocketAddr, SocketAddrV4};
 use std::time::{SystemTime, UNIX_EPOCH};
+use tokio::io::Interest;
 use tokio::net::UdpSocket;
 
 /// python-can's default IPv4 group.
@@ -133,6 +139,7 @@ pub struct UdpPort {
     sockets: Option<Sockets>,
     counters: PortCounters,
     buf: Vec<u8>,
+    stamps: rx::Stamps,
 }
 
 #[derive(Debug)]
@@ -150,6 +157,8 @@ impl UdpPort {
     pub fn open(cfg: UdpBusConfig) -> Result<Self, PortError> {
         cfg.validate()?;
         let name = cfg.name();
+        // Made before the sockets: nothing they read arrived earlier.
+        let stamps = rx::Stamps::new();
         let sockets = open_sockets(&cfg, &name)?;
         Ok(UdpPort {
             cfg,
@@ -157,6 +166,7 @@ impl UdpPort {
             sockets: Some(sockets),
             counters: PortCounters::new(),
             buf: vec![0; MAX_DATAGRAM],
+            stamps,
         })
     }
     /// The configuration.
@@ -206,6 +216,10 @@ fn open_rx(cfg: &UdpBusConfig, name: &str) -> Result<std::net::UdpSocket, PortEr
             e,
         )
     })?;
+    if let Err(e) = rx::Stamps::enable(&rx) {
+        // Frames then come without stamps: the device takes them as handed over.
+        tracing::warn!(port = %name, error = %e, "no receive timestamps (SO_TIMESTAMPNS)");
+    }
     Ok(rx.into())
 }
 
@@ -242,19 +256,20 @@ fn timestamp() -> f64 {
 }
 
 impl UdpPort {
-    /// Decodes the datagram in the buffer: a frame, or `None` (our own, or refused and counted).
-    fn accept(&mut self, n: usize, from: SocketAddr) -> Option<PortInput> {
-        if self.sockets.as_ref().is_some_and(|s| s.own == from) {
+    /// Decodes the datagram in the buffer, received from `from` at `at`: a frame, or `None`
+    /// (our own, or refused and counted).
+    fn accept(&mut self, (n, from, at): rx::Datagram) -> Option<PortInput> {
+        if self.sockets.as_ref().is_some_and(|s| Some(s.own) == from) {
             return None;
         }
-        match decode(&self.buf[..n]) {
+        match decode(self.buf.get(..n)?) {
             Ok((f, _)) => {
                 self.counters.rx_frames();
-                Some(PortInput::Frame(f))
+                Some(PortInput::Frame(f, at))
             }
             Err(e) => {
                 self.counters.rx_invalid();
-                tracing::warn!(port = %self.name, %from, len = n, error = %e, "datagram refused");
+                tracing::warn!(port = %self.name, ?from, len = n, error = %e, "datagram refused");
                 None
             }
         }
@@ -284,9 +299,13 @@ impl Port for UdpPort {
             let Some(rx) = s.rx.as_ref() else {
                 return std::future::pending().await;
             };
-            match rx.recv_from(&mut self.buf).await {
-                Ok((n, from)) => {
-                    if let Some(x) = self.accept(n, from) {
+            let (stamps, buf) = (&mut self.stamps, &mut self.buf);
+            let got = rx
+                .async_io(Interest::READABLE, || stamps.recv(rx, buf))
+                .await;
+            match got {
+                Ok(d) => {
+                    if let Some(x) = self.accept(d) {
                         return Ok(x);
                     }
                 }
@@ -297,15 +316,11 @@ impl Port for UdpPort {
 
     fn try_recv(&mut self) -> Option<Result<PortInput, PortError>> {
         loop {
-            match self
-                .sockets
-                .as_ref()?
-                .rx
-                .as_ref()?
-                .try_recv_from(&mut self.buf)
-            {
-                Ok((n, from)) => {
-                    if let Some(x) = self.accept(n, from) {
+            let rx = self.sockets.as_ref()?.rx.as_ref()?;
+            let (stamps, buf) = (&mut self.stamps, &mut self.buf);
+            match rx.try_io(Interest::READABLE, || stamps.recv(rx, buf)) {
+                Ok(d) => {
+                    if let Some(x) = self.accept(d) {
                         return Some(Ok(x));
                     }
                 }
@@ -335,6 +350,8 @@ impl Port for UdpPort {
 
     async fn reopen(&mut self) -> Result<(), PortError> {
         self.sockets = None;
+        // A new socket: no read has found it empty yet.
+        self.stamps = rx::Stamps::new();
         self.sockets = Some(open_sockets(&self.cfg, &self.name)?);
         self.counters.reopened();
         Ok(())
@@ -361,6 +378,7 @@ impl Port for UdpPort {
             s.own,
             s.dest,
             self.counters.clone(),
+            self.stamps.clone(),
         );
         match started {
             Ok(r) => Some(Box::new(r)),
@@ -402,12 +420,13 @@ mod tests {
             sockets: None,
             counters: PortCounters::new(),
             buf: vec![0; MAX_DATAGRAM],
+            stamps: rx::Stamps::new(),
         }
     }
 
     fn feed(port: &mut UdpPort, datagram: &[u8]) -> Option<PortInput> {
         port.buf[..datagram.len()].copy_from_slice(datagram);
-        port.accept(datagram.len(), "127.0.0.1:9".parse().unwrap())
+        port.accept((datagram.len(), "127.0.0.1:9".parse().ok(), None))
     }
 
     /// The datagram that overflowed the stack of a debug build (`cargo test` is one): a full
@@ -431,7 +450,7 @@ mod tests {
         assert_eq!(port.counters.snapshot().rx_invalid, 3);
         assert_eq!(
             feed(&mut port, &encode(&good, 0.0, None)),
-            Some(PortInput::Frame(good))
+            Some(PortInput::Frame(good, None))
         );
         assert_eq!(port.counters.snapshot().rx_frames, 1);
     }

@@ -30,7 +30,7 @@ async fn recv_frame<P: Port>(p: &mut P, timeout: Duration) -> Result<Frame, Fail
         match tokio::time::timeout(timeout, p.recv()).await {
             Err(_) => return Err(Fail::protocol("bench: a frame did not arrive within 1 s")),
             Ok(Err(e)) => return Err(Fail::protocol(format!("bench: {e}"))),
-            Ok(Ok(PortInput::Frame(f))) => return Ok(f),
+            Ok(Ok(PortInput::Frame(f, _))) => return Ok(f),
             Ok(Ok(_)) => {}
         }
     }

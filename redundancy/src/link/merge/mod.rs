@@ -35,9 +35,15 @@
 //!
 //! Not for a fixed window of processing time: a port whose reader runs behind (a scheduling
 //! stall, a gateway queue) hands its copies over late, with their old stamps. An unmatched copy
-//! is kept until the **horizon** of processing time after its stamp (memory is bounded), unless
-//! a copy of the other port skips it first (see above). So a port whose receive path runs up to
-//! the horizon behind still finds every twin.
+//! is kept for the **horizon** of processing time after it was *handed over* (memory is
+//! bounded), unless a copy of the other port skips it first (see above) or the other port has
+//! passed it. So a port whose receive path runs up to the horizon behind the other port's still
+//! finds every twin, however late the two hand their copies over: a receiver held up as a whole
+//! (a loaded machine that starves both its reader threads) hands over copies older than the
+//! horizon, and they still meet. Kept from its stamp instead, such a copy would be forgotten
+//! the moment it arrived, and its twin left to the memory of forgotten keys below, which is not
+//! exact: a key whose line another key took meanwhile is delivered twice, and a repeat that
+//! follows a forgotten copy within the window is taken for its twin.
 //!
 //! A copy that comes later than that may find its twin forgotten. The merger remembers, per
 //! key, the newest stamp of a copy forgotten with its twin still possible; a copy of the other
@@ -52,7 +58,8 @@
 //! before the fault, older than any twin; the layer says which port is not trusted yet
 //! ([`Trust::Unproven`]). Such a copy is judged like any other while its stamp is recent
 //! enough that every record of the other port it could match is still held (less than the
-//! horizon minus a window ago): no twin among them proves the other bus never carried it (a
+//! horizon minus a window ago; a record is kept at least the horizon after its stamp, since it
+//! was handed over no earlier): no twin among them proves the other bus never carried it (a
 //! node cut from that bus, say), however late this port's reader hands it over. An older copy
 //! that finds no twin is delivered only if the other port has not yet received anything
 //! stamped as late as it ([`Verdict::Unproven`] otherwise): when the other bus fails at the
@@ -84,12 +91,13 @@
 //! Records live in one ring in arrival order, keys in a fixed arena found through an
 //! open-addressing index; a key's unmatched records are chained oldest first, so a twin is found
 //! without a search of the ring, and a record is consumed, skipped or expired only from the
-//! oldest end of its key's chain: O(1) per arrival, plus one step per record it skips. A `Merger<SLOTS>` holds at most [`Merger::capacity`] = ¾·SLOTS
-//! records. Records leave the ring from its front once matched, once the other port has passed
-//! them, or at the horizon: with one bus dead, the occupancy is the live bus's rate × horizon,
-//! ~320 records at 4,000 frames/s and the default 80 ms. (They are kept even once port health
-//! calls that bus failed: a failed port may still receive, a babbled one for instance, and the
-//! first copies of a port coming back must find their twins.)
+//! oldest end of its key's chain: O(1) per arrival, plus one step per record it skips. A
+//! `Merger<SLOTS>` holds at most [`Merger::capacity`] = ¾·SLOTS records (16 bytes each).
+//! Records leave the ring from its front once matched, once the other port has passed them, or
+//! the horizon after they were handed over: with one bus dead, the occupancy is the live bus's
+//! rate × horizon, ~320 records at 4,000 frames/s and the default 80 ms. (They are kept even
+//! once port health calls that bus failed: a failed port may still receive, a babbled one for
+//! instance, and the first copies of a port coming back must find their twins.)
 //!
 //! # Overflow
 //!
@@ -213,6 +221,10 @@ enum Twin {
 struct Record {
     /// Its stamp (µs).
     at: u64,
+    /// How late it was handed over after its stamp, in whole milliseconds rounded up
+    /// (saturating at 65 s): it is kept the horizon after it was handed over at most. Kept in
+    /// what the record's alignment left free, so a record stays 16 bytes.
+    late_ms: u16,
     slot: u16,
     /// Ring position of the key's next record (valid while this one is unmatched and not the
     /// newest).
@@ -222,8 +234,19 @@ struct Record {
 }
 
 impl Record {
+    /// When it was handed over (µs), as far as it is kept (up to a millisecond later).
+    fn handed(&self) -> u64 {
+        self.at.saturating_add(u64::from(self.late_ms) * 1_000)
+    }
+
+    /// How late a copy stamped `at` and handed over at `handed` (µs) was, as a record keeps it.
+    fn late_ms(at: u64, handed: u64) -> u16 {
+        u16::try_from(handed.saturating_sub(at).div_ceil(1_000)).unwrap_or(u16::MAX)
+    }
+
     const EMPTY: Record = Record {
         at: 0,
+        late_ms: 0,
         slot: 0,
         next: 0,
         fresh: false,
@@ -283,8 +306,8 @@ impl<const SLOTS: usize> Merger<SLOTS> {
     }
 
     /// An empty merger matching twins stamped up to `window` apart, keeping an unmatched copy
-    /// up to `horizon` after its stamp (at least the window): how far behind a port's receive
-    /// path may run.
+    /// up to `horizon` after it was handed over (at least the window): how far behind the other
+    /// port's a port's receive path may run.
     #[must_use]
     pub fn with_horizon(window: Duration, horizon: Duration) -> Self {
         #[allow(clippy::let_unit_value)]
@@ -330,7 +353,7 @@ impl<const SLOTS: usize> Merger<SLOTS> {
     pub fn set_window(&mut self, window: Duration) {
         self.window = window.as_micros();
     }
-    /// How long after its stamp an unmatched copy is kept at most.
+    /// How long after it was handed over an unmatched copy is kept at most.
     pub fn horizon(&self) -> Duration {
         Duration::from_micros(self.horizon)
     }
@@ -362,8 +385,8 @@ impl<const SLOTS: usize> Merger<SLOTS> {
 
     /// Drops the records that are done at `now`: matched ones at the front of the ring, and
     /// unmatched ones whose twin cannot come (the other port, stamping on arrival, has passed
-    /// them) or that reached the horizon (forgotten, unless the other port has passed them:
-    /// then their twin was lost, not late).
+    /// them) or that were handed over the horizon before `now` (forgotten, unless the other
+    /// port has passed them: then their twin was lost, not late).
     ///
     /// A port without receive timestamps stamps its copies when it hands them over, so its
     /// stamps run ahead of its copies until its lag is measured, and the measure needs the
@@ -378,7 +401,9 @@ impl<const SLOTS: usize> Merger<SLOTS> {
             if slot.unmatched > 0 && slot.first as usize == pos {
                 let side = slot.side as usize;
                 let passed = self.frontier[1 - side] >= r.at.saturating_add(self.window);
-                if !(passed && self.stamped[1 - side]) && now.saturating_sub(r.at) < self.horizon {
+                if !(passed && self.stamped[1 - side])
+                    && now.saturating_sub(r.handed()) < self.horizon
+                {
                     break;
                 }
                 self.unlink_first(s);
@@ -403,14 +428,19 @@ impl<const SLOTS: usize> Merger<SLOTS> {
     }
 
     /// The caller's clock stepped back `by` (the clock contract, see [`crate::link`]): every
-    /// stamp held moves back with it, so that a record keeps the time it still has to run. A
+    /// stamp held moves back with it, and the time each record was handed over, so that a
+    /// record keeps the time it still has to run. A
     /// stamp older than the new time line's origin lands on the origin. Runs through the whole
     /// ring: rare, not on the frame path.
     #[cold]
     pub fn step_back(&mut self, by: Duration) {
         let by = by.as_micros();
         for r in self.ring.iter_mut() {
+            // Its hand-over moves back too: a stamp that lands on the origin must not carry the
+            // old distance to it (the record would be kept longer than it has left).
+            let handed = r.handed().saturating_sub(by);
             r.at = r.at.saturating_sub(by);
+            r.late_ms = Record::late_ms(r.at, handed);
         }
         for f in &mut self.frontier {
             *f = f.saturating_sub(by);
@@ -448,7 +478,8 @@ impl<const SLOTS: usize> Merger<SLOTS> {
         let s = at.min(now).as_micros();
         let trust = match trust {
             // Every record of the other port stamped from a window before this copy is still
-            // held: that no twin is among them proves the other bus did not carry it.
+            // held (each is kept at least the horizon after its stamp: it was handed over no
+            // earlier): that no twin is among them proves the other bus did not carry it.
             Trust::Unproven if now.as_micros() - s < self.horizon.saturating_sub(self.window) => {
                 Trust::Trusted
             }
@@ -524,7 +555,7 @@ impl<const SLOTS: usize> Merger<SLOTS> {
         // Kept while its twin may come; a fresh copy also when the other port seems past it:
         // stamps corrected for a lag that changed come early, and only a kept copy shows it.
         if fresh || self.frontier[other] < s.saturating_add(self.window) {
-            self.record(found, hi, lo, hash, port, s, fresh);
+            self.record(found, hi, lo, hash, port, s, now, fresh);
         }
         (Verdict::Deliver, sample)
     }
@@ -617,6 +648,7 @@ impl<const SLOTS: usize> Merger<SLOTS> {
         hash: u32,
         port: usize,
         at: u64,
+        handed: u64,
         fresh: bool,
     ) {
         if self.len == Self::CAP {
@@ -649,6 +681,7 @@ impl<const SLOTS: usize> Merger<SLOTS> {
         slot.last = tail as u16;
         self.ring[tail] = Record {
             at,
+            late_ms: Record::late_ms(at, handed),
             slot: s as u16,
             next: Self::NONE,
             fresh,

@@ -179,6 +179,90 @@ fn a_copy_older_than_what_is_remembered_is_late_and_dropped() {
     assert_eq!(m.stats().delivered, 10);
 }
 
+/// A receiver held up as a whole (both reader threads starved on a loaded machine) hands over
+/// copies stamped 150 ms earlier, three horizons; port 1's come 10 ms after port 0's. A copy is
+/// kept for the horizon after it was handed over, so each finds its twin, unchanged repeats
+/// too (kept for the horizon after its stamp, each would be forgotten as it arrived, its twin
+/// left to the memory of forgotten keys). A copy whose twin never comes is forgotten one
+/// horizon after it was handed over.
+#[test]
+fn a_receiver_held_up_as_a_whole_still_finds_every_twin() {
+    let mut m: Merger<256> = Merger::with_horizon(W, Duration::from_millis(50));
+    let sync = Frame::from_array(Id::Standard(0x80), []);
+    let us = Duration::from_micros;
+    for (p, handed) in [(0, ms(150)), (1, ms(160))] {
+        let want = [Verdict::Deliver, Verdict::Duplicate][p];
+        for k in 0..20u64 {
+            let now = handed + us(10 * k);
+            assert_eq!(
+                arr(&mut m, now, ms(k), p, &sync),
+                want,
+                "SYNC {k}, port {p}"
+            );
+            let counter = f(2, k as u8);
+            assert_eq!(arr(&mut m, now, ms(k) + us(300), p, &counter), want);
+        }
+    }
+    let s = m.stats();
+    assert_eq!((s.delivered, s.duplicates, s.late), (40, 40, 0));
+    assert_eq!((s.forgotten, s.expired, s.slipped), (0, 0, 0));
+    arr(&mut m, ms(300), ms(200), 0, &f(3, 3));
+    m.expire(ms(349));
+    assert_eq!(m.unmatched(&f(3, 3)), Some((0, 1)));
+    m.expire(ms(350));
+    assert_eq!(m.unmatched(&f(3, 3)), None);
+    assert_eq!(m.stats().forgotten, 1);
+}
+
+/// The same with many keys at once: 400 counter frames, each its own content, stamped 100 µs
+/// apart, handed over 150 ms later by port 0 and 10 ms after that by port 1. Each finds its twin
+/// among the records: every occurrence delivered once. (Kept from their stamps, the copies
+/// would be forgotten as they arrived and their twins left to the memory of forgotten keys,
+/// whose sets of two lines do not hold 400 keys: some would be delivered twice.)
+#[test]
+fn a_receiver_held_up_as_a_whole_delivers_many_keys_once() {
+    let mut m: Merger<1024> = Merger::with_horizon(W, Duration::from_millis(50));
+    let counter = |k: u64| Frame::from_array(Id::Standard(0x281), (k as u32).to_le_bytes());
+    for (p, handed) in [(0, ms(150)), (1, ms(160))] {
+        for k in 0..400u64 {
+            arr(
+                &mut m,
+                handed + Duration::from_micros(k),
+                t(100 * k),
+                p,
+                &counter(k),
+            );
+        }
+    }
+    let s = m.stats();
+    assert_eq!((s.delivered, s.duplicates, s.late), (400, 400, 0));
+    assert_eq!((s.forgotten, s.evicted), (0, 0));
+}
+
+/// A receiver held up as a whole, and a heartbeat's repeat 3 ms after it that only port 1
+/// carried (port 0's bus missed it): port 1's first copy finds its twin held, the repeat none,
+/// and is delivered. (Kept from its stamp, port 0's copy would be forgotten before port 1's
+/// came, and both of those taken for late twins of it: an occurrence lost.)
+#[test]
+fn a_repeat_one_bus_missed_behind_a_receiver_held_up_as_a_whole_is_delivered() {
+    let mut m: Merger<64> = Merger::with_horizon(W, Duration::from_millis(50));
+    let hb = f(0x70, 5);
+    let got = [(150, 0, 0), (160, 0, 1), (160, 3, 1)]
+        .map(|(now, at, p)| arr(&mut m, ms(now), ms(at), p, &hb));
+    assert_eq!(
+        got,
+        [Verdict::Deliver, Verdict::Duplicate, Verdict::Deliver]
+    );
+    assert_eq!(m.stats().delivered, 2);
+}
+
+/// A record is 16 bytes, as the module documentation says: how late it was handed over fits in
+/// what its alignment leaves.
+#[test]
+fn a_record_is_16_bytes() {
+    assert_eq!(core::mem::size_of::<Record>(), 16);
+}
+
 #[test]
 fn an_unproven_port_gives_only_what_the_other_port_has_not_passed() {
     let mut m: Merger<64> = Merger::new(W);
@@ -346,6 +430,21 @@ fn a_step_back_keeps_what_each_record_has_left() {
     arr(&mut m, ms(1_000), ms(1_000), 0, &f(1, 1));
     m.step_back(Duration::from_millis(990));
     assert_eq!(arr(&mut m, ms(15), ms(15), 1, &f(1, 1)), Verdict::Duplicate);
+}
+
+/// A record stamped long before it was handed over keeps the horizon from its hand-over through
+/// a step back that puts its stamp before the new origin.
+#[test]
+fn a_step_back_keeps_what_a_late_record_has_left() {
+    let mut m: Merger<16> = Merger::with_horizon(W, Duration::from_millis(50));
+    // Stamped at 100 ms, handed over at 1 s: kept until 1.05 s.
+    arr(&mut m, ms(1_000), ms(100), 0, &f(1, 1));
+    m.step_back(Duration::from_millis(990));
+    // Its stamp on the origin, its hand-over at 10 ms: kept until 60 ms.
+    m.expire(ms(59));
+    assert_eq!(m.unmatched(&f(1, 1)), Some((0, 1)));
+    m.expire(ms(60));
+    assert_eq!(m.unmatched(&f(1, 1)), None);
 }
 
 #[test]

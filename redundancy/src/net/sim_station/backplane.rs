@@ -8,6 +8,8 @@
 //! too ([`Backplane::poll_out`]). The bus is then busy for the frame's exact wire time at the
 //! station's bit rate, so frames come no faster than the bus carries them. (Received as it
 //! takes the bus rather than as it ends: one frame time early, which no device here can tell.)
+//! That instant is each copy's receive timestamp: the members get it with the frame
+//! ([`Device::handle_rx_at`]), and so does the outside.
 //!
 //! Everything runs in the caller's task, on the caller's clock. So the two copies of a frame a
 //! member sends on both buses take them at the same instant and reach every other member together,
@@ -66,7 +68,8 @@ const OUTSIDE: u32 = 0;
 
 /// A device on the backplane: [`Device`] without its event type.
 pub(super) trait Member: Send {
-    fn handle_rx(&mut self, now: Instant, port: usize, frame: &Frame);
+    /// A frame that took bus `port` at `now`: stamped with that instant.
+    fn handle_rx_at(&mut self, now: Instant, port: usize, frame: &Frame);
     fn handle_timeout(&mut self, now: Instant);
     fn poll_transmit(&mut self) -> Option<(usize, Frame)>;
     fn poll_timeout(&self) -> Option<Instant>;
@@ -76,8 +79,8 @@ pub(super) trait Member: Send {
 }
 
 impl<D: Device + Send + 'static> Member for D {
-    fn handle_rx(&mut self, now: Instant, port: usize, frame: &Frame) {
-        Device::handle_rx(self, now, port, frame);
+    fn handle_rx_at(&mut self, now: Instant, port: usize, frame: &Frame) {
+        Device::handle_rx_at(self, now, port, frame, now);
     }
     fn handle_timeout(&mut self, now: Instant) {
         Device::handle_timeout(self, now);
@@ -157,8 +160,9 @@ pub(super) struct Backplane {
     next_serial: u32,
     bit_rate: u32,
     buses: [Bus; 2],
-    /// Frames members sent that a bus carried, for the outside.
-    out: VecDeque<(usize, Frame)>,
+    /// Frames members sent that a bus carried, for the outside, with the instant the bus took
+    /// each.
+    out: VecDeque<(usize, Frame, Instant)>,
     /// The instant handled last: no member is given an earlier one.
     t: Instant,
     stats: BackplaneStats,
@@ -250,8 +254,9 @@ impl Backplane {
         );
     }
 
-    /// The next frame a member sent that a bus carried, with the bus.
-    pub(super) fn poll_out(&mut self) -> Option<(usize, Frame)> {
+    /// The next frame a member sent that a bus carried, with the bus and the instant it took
+    /// the bus (on the caller's clock: up to [`LEAD`] ahead of it).
+    pub(super) fn poll_out(&mut self) -> Option<(usize, Frame, Instant)> {
         self.out.pop_front()
     }
 
@@ -337,12 +342,12 @@ impl Backplane {
         bus.free = t + frame_duration(&s.frame, self.bit_rate);
         self.stats.carried += 1;
         if s.from != OUTSIDE {
-            self.out.push_back((p, s.frame));
+            self.out.push_back((p, s.frame, t));
         }
         for i in 0..self.members.len() {
             if self.members[i].serial != s.from {
                 let local = self.members[i].local(t);
-                self.members[i].dev.handle_rx(local, p, &s.frame);
+                self.members[i].dev.handle_rx_at(local, p, &s.frame);
                 self.sent_by(i);
             }
         }

@@ -139,8 +139,9 @@ pub(super) struct StationLink<L> {
     cut: bool,
     /// The counters of the network's two [`StationPort`]s.
     counters: [PortCounters; 2],
-    /// What the ports read and reported, for the network ([`NetLink::poll_input`]).
-    inputs: VecDeque<(usize, PortInput)>,
+    /// What the ports read and reported, for the network ([`NetLink::poll_input`]): frames
+    /// stamped with the instant their bus took them.
+    inputs: VecDeque<(usize, PortInput<Instant>)>,
     /// Told of every frame the ports carry, as the runtime tells it of real ports' frames.
     tap: Option<Arc<dyn Tap>>,
     now: Instant,
@@ -305,14 +306,16 @@ impl<L: NetLink> BusLink for StationLink<L> {
         self.link.handle_timeout(now);
         self.play(now);
         self.station.advance(now);
-        while let Some((p, f)) = self.station.poll_out() {
+        while let Some((p, f, wire)) = self.station.poll_out() {
             if p == 0 && self.cut {
                 continue;
             }
             if let Some(c) = self.counters.get(p) {
                 c.rx_frames();
-                self.tap(now, p, TapDirection::Rx, &f);
-                self.inputs.push_back((p, PortInput::Frame(f)));
+                // The backplane runs up to its lead ahead: a frame is not received before now.
+                let at = wire.min(now);
+                self.tap(at, p, TapDirection::Rx, &f);
+                self.inputs.push_back((p, PortInput::Frame(f, Some(at))));
             }
         }
         self.route_out(now);
@@ -343,7 +346,7 @@ impl<L: NetLink> NetLink for StationLink<L> {
     fn heard_on(&self, node: NodeId) -> Option<[bool; 2]> {
         self.link.heard_on(node)
     }
-    fn poll_input(&mut self) -> Option<(usize, PortInput)> {
+    fn poll_input(&mut self) -> Option<(usize, PortInput<Instant>)> {
         self.inputs.pop_front()
     }
 }

@@ -19,6 +19,9 @@ struct Probe {
     outbox: Vec<(usize, Frame)>,
     due: Option<Instant>,
     timeouts: Vec<Instant>,
+    /// Frames handed over without a receive timestamp, and stamps other than the instant.
+    unstamped: usize,
+    misstamped: usize,
 }
 
 impl Device for Probe {
@@ -27,6 +30,12 @@ impl Device for Probe {
         2
     }
     fn handle_rx(&mut self, now: Instant, port: usize, frame: &Frame) {
+        self.unstamped += 1;
+        self.heard.push((now, port, *frame));
+        self.inputs.push(now);
+    }
+    fn handle_rx_at(&mut self, now: Instant, port: usize, frame: &Frame, at: Instant) {
+        self.misstamped += usize::from(at != now);
         self.heard.push((now, port, *frame));
         self.inputs.push(now);
     }
@@ -60,7 +69,9 @@ fn heard(bp: &mut Backplane, tag: u8) -> Vec<(Instant, usize, Frame)> {
 }
 
 fn out(bp: &mut Backplane) -> Vec<(usize, Frame)> {
-    core::iter::from_fn(|| bp.poll_out()).collect()
+    core::iter::from_fn(|| bp.poll_out())
+        .map(|(p, f, _)| (p, f))
+        .collect()
 }
 
 /// A member's frame on both buses takes them at the same instant and reaches every other
@@ -77,6 +88,12 @@ fn both_copies_of_a_frame_arrive_together() {
     assert_eq!(t[0].0, t[1].0, "the twins at one instant");
     assert_eq!((t[0].1, t[1].1), (0, 1));
     assert!(heard(&mut bp, 1).is_empty(), "not its own frames");
+    let stamps = bp.with::<Probe, _>(2, |p| (p.unstamped, p.misstamped));
+    assert_eq!(
+        stamps,
+        Some((0, 0)),
+        "stamped with the instant the bus took them"
+    );
     assert_eq!(out(&mut bp), [(0, frame(1)), (1, frame(1))]);
 }
 
@@ -101,7 +118,15 @@ fn a_burst_takes_the_bus_a_wire_time_apart() {
     assert!(t.len() < 40 && t.len() >= 10, "{} frames in 2 ms", t.len());
     bp.advance(Instant::from_millis(100));
     assert_eq!(heard(&mut bp, 2).len(), 40);
-    assert_eq!(out(&mut bp).len(), 40);
+    // The outside gets each frame stamped with the instant the bus took it, also those carried
+    // in a later call than their bus time.
+    let mut at = Instant::ZERO;
+    let stamped: Vec<_> = core::iter::from_fn(|| bp.poll_out()).collect();
+    assert_eq!(stamped.len(), 40);
+    for (i, (p, f, wire)) in stamped.into_iter().enumerate() {
+        assert_eq!((p, f, wire), (0, frame(i as u8), at));
+        at += frame_duration(&f, RATE);
+    }
 }
 
 /// A frame from outside reaches every member on its bus, once, and is not sent back out.

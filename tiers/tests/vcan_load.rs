@@ -1,0 +1,756 @@
+//! Exactly once under CPU load, on two real SocketCAN buses: a sender puts each frame on vcan0
+//! and then on vcan1 (as a dual-port node does); the receiver is the dual-bus layer
+//! (`DualBus`, default settings) under duocan's runtime. Every (v)CPU runs a busy loop and the
+//! receiver's threads run at nice 10, so its reader threads are held up as the scheduler
+//! likes, each its own way, the two copies of a frame handed over far apart (in the emulated
+//! VM up to ~100 ms after they arrived). Every occurrence must still be delivered exactly once:
+//! none twice, none lost. Also with vcan0 going down and up every half second meanwhile.
+//!
+//! The traffic is what a network carries: a cyclic PDO whose data does not change (every
+//! other frame), SYNC every 10 ms and a heartbeat every 100 ms (unchanged repeats too), and
+//! frames with a counter in between. Repeats are counted by occurrence: a content sent k times
+//! must be delivered k times, each counter frame once.
+//!
+//! The sender is another node, not the one under load: it runs at nice -10, so that the busy
+//! loops do not come between its two copies of a frame (they would be a time slice apart on
+//! the wires, beyond the skew of two real buses), and it sends no faster than a 1 Mbit/s bus
+//! carries frames. The VM's socket receive buffers are 4 MiB, as a dual-bus master on a loaded
+//! machine is set up (with the 208 KiB default a reader held up 35 ms at a full bus loses
+//! frames in the kernel, on both buses alike, before any layer sees them).
+//!
+//! The load under test is the guest's: a host busy with other work holds the whole VM up (its
+//! emulated CPU not scheduled), and a receiver frozen longer than the merger keeps its copies is
+//! beyond what the layer is built for. A thread at nice -20 that sleeps a millisecond at a time
+//! measures that; a run in which the host held the VM up (a hold-up longer than half the
+//! merger's horizon, or more than a tenth of the time lost) is printed and not judged, and run
+//! again, up to three times: the test fails saying so if none was clean, never passes without a
+//! judged run.
+//!
+//! Each run prints what it saw: the verdict, the merger's counters, how late the frames were
+//! handed over (the receiver's hold-ups), how the host held the VM up, the CPU the sender and
+//! the receiver used. Runs inside duocan's qemu VM (`.ci/tier-vcan.sh`), one test at a time, built with
+//! `--release` (the VM emulates its CPU: a debug receiver at nice 10 cannot keep up with
+//! 10,000 frames a second there, and what it then loses in the kernel no layer can give back).
+
+use duocan::machine::{Machine, Station};
+use duocan::port::socketcan::SocketCanPort;
+use duocan::port::Port;
+use duocan::runtime::Runtime;
+use duocan::{Frame, Id, Instant};
+use duocan_redundancy::{DualBus, DualBusConfig};
+use std::collections::HashMap;
+use std::process::Command;
+use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
+use std::sync::{Arc, Mutex};
+use std::time::Duration;
+
+/// The receiver: the layer and the recorder, and per port how late frames were handed over
+/// (the instant handled at minus the stamp): the longest, and how many more than the merger's
+/// horizon late; and how many frames came without a stamp (none should).
+struct Receiver {
+    station: Station<DualBus, Recorder>,
+    late: Arc<Mutex<[(duocan::Duration, u64); 2]>>,
+    unstamped: Arc<AtomicUsize>,
+}
+
+impl duocan::Device for Receiver {
+    type Event = duocan::machine::StationEvent<duocan_redundancy::LinkEvent, ()>;
+    fn port_count(&self) -> usize {
+        2
+    }
+    fn handle_rx(&mut self, now: Instant, port: usize, frame: &Frame) {
+        self.unstamped.fetch_add(1, Ordering::Relaxed);
+        self.station.handle_rx(now, port, frame);
+    }
+    fn handle_rx_at(&mut self, now: Instant, port: usize, frame: &Frame, at: Instant) {
+        if let (Ok(mut l), Some(p)) = (self.late.lock(), port.checked_sub(0).filter(|p| *p < 2)) {
+            let d = now.saturating_since(at);
+            l[p].0 = l[p].0.max(d);
+            l[p].1 += u64::from(d > self.station.link.merger().horizon());
+        }
+        self.station.handle_rx_at(now, port, frame, at);
+    }
+    fn handle_port_status(&mut self, now: Instant, port: usize, status: duocan::PortStatus) {
+        self.station.handle_port_status(now, port, status);
+    }
+    fn handle_timeout(&mut self, now: Instant) {
+        self.station.handle_timeout(now);
+    }
+    fn poll_transmit(&mut self) -> Option<(usize, Frame)> {
+        self.station.poll_transmit()
+    }
+    fn poll_port_request(&mut self) -> Option<(usize, duocan::machine::PortRequest)> {
+        self.station.poll_port_request()
+    }
+    fn poll_timeout(&self) -> Option<Instant> {
+        self.station.poll_timeout()
+    }
+    fn poll_event(&mut self) -> Option<Self::Event> {
+        self.station.poll_event()
+    }
+}
+
+/// Frames a 1 Mbit/s bus carries in a millisecond (8-byte frames with 11-bit identifiers and
+/// some stuff bits: 125 µs each): vcan carries frames as fast as they are written, a bus no
+/// faster than this.
+const BUS_FRAMES_PER_MS: u32 = 8;
+
+/// Socket receive buffers the VM's kernel gives (`net.core.rmem_default`, `rmem_max`): 4 MiB,
+/// as a dual-bus master on a loaded machine is set up (the 208 KiB default holds ~270 frames:
+/// 35 ms of a full bus, and a reader held up longer loses frames in the kernel, on both
+/// buses alike, before any layer can see them).
+const RCVBUF: u32 = 4 << 20;
+
+/// Sets the kernel's socket receive buffers to [`RCVBUF`] (sockets opened after this).
+fn rcvbuf() {
+    for knob in ["rmem_max", "rmem_default"] {
+        std::fs::write(format!("/proc/sys/net/core/{knob}"), RCVBUF.to_string())
+            .unwrap_or_else(|e| panic!("net.core.{knob}: {e}"));
+    }
+}
+
+/// Records every frame the layer delivers.
+struct Recorder(Arc<Mutex<Vec<Frame>>>);
+
+impl Machine for Recorder {
+    type Event = ();
+    type LinkCommand = std::convert::Infallible;
+    fn handle_frame(&mut self, _: Instant, frame: &Frame) {
+        if let Ok(mut v) = self.0.lock() {
+            v.push(*frame);
+        }
+    }
+    fn handle_timeout(&mut self, _: Instant) {}
+    fn poll_transmit(&mut self) -> Option<Frame> {
+        None
+    }
+    fn poll_timeout(&self) -> Option<Instant> {
+        None
+    }
+    fn poll_event(&mut self) -> Option<()> {
+        None
+    }
+}
+
+/// Frame `k` of a run at `rate` frames/s: in every 10 ms, a heartbeat (each 10th time) or a
+/// SYNC first, then counter frames and the unchanged PDO by turns.
+fn content(k: u32, rate: u32) -> Frame {
+    let per_10ms = (rate / 100).max(2);
+    let slot = k % per_10ms;
+    if slot == 0 {
+        if (k / per_10ms).is_multiple_of(10) {
+            Frame::from_array(Id::Standard(0x705), [0x05])
+        } else {
+            Frame::new(Id::Standard(0x080), &[]).unwrap()
+        }
+    } else if slot % 2 == 1 {
+        let mut d = [0u8; 8];
+        d[..4].copy_from_slice(&k.to_le_bytes());
+        d[4..].copy_from_slice(&rate.to_le_bytes());
+        Frame::from_array(Id::Standard(0x281), d)
+    } else {
+        Frame::from_array(Id::Standard(0x181), [0x11, 0x22, 0x33, 0x44])
+    }
+}
+
+/// A counter frame's number.
+fn counter(f: &Frame) -> Option<u32> {
+    (f.id() == Id::Standard(0x281)).then(|| u32::from_le_bytes(f.data()[..4].try_into().unwrap()))
+}
+
+/// Duplicates and losses, comparing what was `delivered` with what was `sent`.
+#[derive(Debug, Default, PartialEq, Eq)]
+struct Verdict {
+    duplicates: usize,
+    lost: usize,
+}
+
+/// Occurrence by occurrence, per content: each sending must be delivered once, so the
+/// deliveries of a content must number its sendings (a repeat counted as often as it was sent,
+/// each counter frame once). More is a duplicate, fewer a loss.
+fn judge(sent: &[Frame], delivered: &[Frame]) -> Verdict {
+    let mut count: HashMap<Frame, (usize, usize)> = HashMap::new();
+    for f in sent {
+        count.entry(*f).or_default().0 += 1;
+    }
+    for f in delivered {
+        count.entry(*f).or_default().1 += 1;
+    }
+    let mut v = Verdict::default();
+    for (want, got) in count.into_values() {
+        v.duplicates += got.saturating_sub(want);
+        v.lost += want.saturating_sub(got);
+    }
+    v
+}
+
+/// CPU time (user + system) the threads at nice 10 (the receiver's) have used so far.
+fn receiver_cpu() -> Duration {
+    cpu_at_nice("10")
+}
+
+/// CPU time (user + system) the threads at nice `nice` have used so far.
+fn cpu_at_nice(nice: &str) -> Duration {
+    let mut ticks = 0u64;
+    for t in std::fs::read_dir("/proc/self/task").unwrap().flatten() {
+        let Ok(stat) = std::fs::read_to_string(t.path().join("stat")) else {
+            continue;
+        };
+        let rest: Vec<&str> = stat[stat.rfind(')').unwrap() + 2..].split(' ').collect();
+        if rest[16] == nice {
+            ticks += rest[11].parse::<u64>().unwrap() + rest[12].parse::<u64>().unwrap();
+        }
+    }
+    // USER_HZ is 100 on Linux.
+    Duration::from_millis(ticks * 10)
+}
+
+/// This thread's id (`/proc/thread-self` is `PID/task/TID`).
+fn tid() -> u32 {
+    let link = std::fs::read_link("/proc/thread-self").expect("/proc/thread-self");
+    let s = link.to_string_lossy();
+    s.rsplit('/')
+        .next()
+        .and_then(|t| t.parse().ok())
+        .expect("a thread id")
+}
+
+/// The nice value of thread `tid` (field 19 of its `stat`).
+fn nice_of(tid: u32) -> i32 {
+    let stat = std::fs::read_to_string(format!("/proc/self/task/{tid}/stat")).unwrap();
+    // The name (field 2) is in parentheses and may hold spaces: count after its end.
+    let rest = &stat[stat.rfind(')').unwrap() + 2..];
+    rest.split(' ').nth(16).unwrap().parse().unwrap()
+}
+
+/// Makes the calling thread nice `n` (from 0): threads it starts inherit it (the receiver's
+/// runtime workers, which start its reader threads).
+fn nice_this_thread(n: i32) {
+    let t = tid();
+    let st = Command::new("renice")
+        .args(["-n", &n.to_string(), "-p", &t.to_string()])
+        .stdout(std::process::Stdio::null())
+        .status()
+        .expect("run renice");
+    assert!(st.success(), "renice failed");
+    assert_eq!(nice_of(t), n, "thread {t} at nice {n}");
+}
+
+/// One busy loop per (v)CPU, at the default nice, until dropped.
+struct Load(Arc<AtomicBool>, Vec<std::thread::JoinHandle<()>>);
+
+impl Load {
+    fn start() -> Self {
+        let stop = Arc::new(AtomicBool::new(false));
+        let cpus = std::thread::available_parallelism().map_or(1, |n| n.get());
+        let spin = (0..cpus)
+            .map(|_| {
+                let stop = stop.clone();
+                std::thread::spawn(move || {
+                    let mut x = 0u64;
+                    while !stop.load(Ordering::Relaxed) {
+                        x = std::hint::black_box(
+                            x.wrapping_mul(6364136223846793005).wrapping_add(1),
+                        );
+                    }
+                })
+            })
+            .collect();
+        Load(stop, spin)
+    }
+}
+
+impl Drop for Load {
+    fn drop(&mut self) {
+        self.0.store(true, Ordering::Relaxed);
+        for t in self.1.drain(..) {
+            let _ = t.join();
+        }
+    }
+}
+
+/// Watches the VM itself: a thread at nice -20 (it preempts the busy loops at once) that
+/// sleeps a millisecond at a time; oversleeping means the whole VM was held up by its host
+/// (qemu's thread not scheduled: other work on the host), not its threads by each other.
+struct Watchdog(Arc<AtomicBool>, Option<std::thread::JoinHandle<HeldUp>>);
+
+/// How the host held the VM up during a run.
+#[derive(Clone, Copy, Debug, Default)]
+struct HeldUp {
+    /// The longest hold-up.
+    longest: Duration,
+    /// The time lost in hold-ups over 2 ms (timer slack is less), and the time watched.
+    lost: Duration,
+    watched: Duration,
+}
+
+impl HeldUp {
+    /// The VM ran as a machine of its own would: no hold-up longer than half the merger's
+    /// horizon (a receiver frozen longer by its host is a stall beyond what the layer is built
+    /// for, not the load under test), and at most 10 % of the time lost (on a quiet host the
+    /// VM loses 1-4 %; on a host busy with other work, 15-70 %, and its receiver falls
+    /// hundreds of milliseconds behind).
+    fn clean(&self, horizon: Duration) -> bool {
+        self.longest <= horizon / 2 && self.lost * 10 <= self.watched
+    }
+}
+
+impl Watchdog {
+    fn start() -> Self {
+        let stop = Arc::new(AtomicBool::new(false));
+        let s = stop.clone();
+        let t = std::thread::spawn(move || {
+            nice_this_thread(-20);
+            let start = std::time::Instant::now();
+            let mut h = HeldUp::default();
+            while !s.load(Ordering::Relaxed) {
+                let t = std::time::Instant::now();
+                std::thread::sleep(Duration::from_millis(1));
+                let over = t.elapsed().saturating_sub(Duration::from_millis(1));
+                h.longest = h.longest.max(over);
+                if over > Duration::from_millis(2) {
+                    h.lost += over;
+                }
+            }
+            h.watched = start.elapsed();
+            h
+        });
+        Watchdog(stop, Some(t))
+    }
+    fn stop(mut self) -> HeldUp {
+        self.0.store(true, Ordering::Relaxed);
+        self.1
+            .take()
+            .map_or_else(Default::default, |t| t.join().unwrap())
+    }
+}
+
+/// vcan0 goes down and up again every `down` + `up` until told to stop (and is left up).
+fn flap(stop: Arc<AtomicBool>, down: Duration, up: Duration) -> std::thread::JoinHandle<u32> {
+    let ip = |state: &str| {
+        let st = Command::new("ip")
+            .args(["link", "set", "vcan0", state])
+            .status();
+        assert!(st.is_ok_and(|s| s.success()), "ip link set vcan0 {state}");
+    };
+    std::thread::spawn(move || {
+        let mut flaps = 0;
+        while !stop.load(Ordering::Relaxed) {
+            std::thread::sleep(up);
+            ip("down");
+            flaps += 1;
+            std::thread::sleep(down);
+            ip("up");
+        }
+        flaps
+    })
+}
+
+/// What a run did.
+#[derive(Debug)]
+struct Run {
+    verdict: Verdict,
+    /// Frames the sender put on vcan0 (the others it could not: the bus was down).
+    on_bus0: usize,
+    /// How long the sender took.
+    took: Duration,
+    /// How far apart the sender put a frame's copies.
+    apart: Apart,
+    /// Frames each port of the receiver read.
+    received: [u64; 2],
+    /// CPU time the sender's and the receiver's threads used.
+    cpu: [Duration; 2],
+    /// The layer's counters and port states at the end.
+    layer: String,
+    /// Per port, the longest time from a frame's arrival to its hand-over, and how many were
+    /// handed over later than the merger's horizon after they arrived.
+    late: [(duocan::Duration, u64); 2],
+    /// Frames handed to the layer without a receive timestamp.
+    unstamped: usize,
+    /// How the host held the VM up.
+    held: HeldUp,
+    /// The layer's events but reachability (port states, lags).
+    events: Vec<String>,
+}
+
+/// Sends `n` frames at `rate` frames/s, each on vcan0 then vcan1 (on vcan0 only while it is
+/// up): what was sent, how many on vcan0, how long it took, and how far apart a frame's two
+/// copies went out (see [`Apart`]).
+async fn send(n: u32, rate: u32) -> (Vec<Frame>, usize, Duration, Apart) {
+    let mut bus0 = SocketCanPort::open("vcan0").unwrap();
+    let mut bus1 = SocketCanPort::open("vcan1").unwrap();
+    let mut sent = Vec::with_capacity(n as usize);
+    let mut on_bus0 = 0;
+    let mut bus0_ok = true;
+    let mut apart = Apart::default();
+    let window = Duration::from_micros(DualBusConfig::default().skew_window.as_micros());
+    let start = std::time::Instant::now();
+    let mut k = 0;
+    while k < n {
+        // Every millisecond what is due by then, but no more than a 1 Mbit/s bus carries in a
+        // millisecond: a sender held up catches up at the bus's pace, as a controller's queue
+        // drains.
+        std::thread::sleep(Duration::from_millis(1));
+        let now = std::time::Instant::now();
+        for _ in 0..BUS_FRAMES_PER_MS {
+            if k == n || start + Duration::from_secs(1) * k / rate > now {
+                break;
+            }
+            let f = content(k, rate);
+            if !bus0_ok {
+                bus0_ok = bus0.reopen().await.is_ok();
+            }
+            let first = std::time::Instant::now();
+            if bus0_ok {
+                bus0_ok = bus0.send(&f).await.is_ok();
+                on_bus0 += usize::from(bus0_ok);
+            }
+            bus1.send(&f).await.expect("vcan1 never fails");
+            if bus0_ok {
+                let d = first.elapsed();
+                apart.longest = apart.longest.max(d);
+                apart.beyond_window += usize::from(d > window);
+            }
+            sent.push(f);
+            k += 1;
+        }
+    }
+    (sent, on_bus0, start.elapsed(), apart)
+}
+
+/// How far apart the sender put a frame's two copies on the wires: from before its write to
+/// vcan0 to after its write to vcan1 (the kernel stamps each copy within that), the longest,
+/// and how many frames had more than the layer's default skew window. Printed, not judged: the
+/// layer pairs copies stamped within the window, so a copy further from its twin than that
+/// (the VM's emulated CPU holding the sender up between its two writes) is a new occurrence to
+/// it, and a run with such frames shows duplicates the layer does not promise to avoid.
+#[derive(Clone, Copy, Debug, Default)]
+struct Apart {
+    longest: Duration,
+    beyond_window: usize,
+}
+
+/// Sends `n` frames at `rate` frames/s, each on vcan0 then vcan1, with a busy loop on every
+/// CPU and the receiver at nice 10 (vcan0 flapping if `flapping`); what the layer delivered,
+/// judged.
+fn run(n: u32, rate: u32, flapping: bool) -> Run {
+    rcvbuf();
+    let watchdog = Watchdog::start();
+    let load = Load::start();
+    let delivered = Arc::new(Mutex::new(Vec::with_capacity(n as usize + 64)));
+    let (to_sender, ready) = std::sync::mpsc::channel::<[duocan::port::PortCounters; 2]>();
+    let (stop_tx, stop_rx) = std::sync::mpsc::channel::<()>();
+    let d = delivered.clone();
+    let late: Arc<Mutex<[(duocan::Duration, u64); 2]>> = Arc::default();
+    let late2 = late.clone();
+    let unstamped = Arc::new(AtomicUsize::new(0));
+    let unstamped2 = unstamped.clone();
+    // The receiver: its own thread at nice 10, its runtime's workers and reader threads too.
+    let receiver = std::thread::spawn(move || {
+        nice_this_thread(10);
+        let rt = tokio::runtime::Builder::new_multi_thread()
+            .worker_threads(2)
+            .enable_all()
+            .build()
+            .unwrap();
+        rt.block_on(async move {
+            let link = DualBus::new(DualBusConfig::default());
+            let bus0 = SocketCanPort::open("vcan0").unwrap();
+            let bus1 = SocketCanPort::open("vcan1").unwrap();
+            let read = [bus0.counters(), bus1.counters()];
+            let h = Runtime::new(Receiver {
+                station: Station::new(link, Recorder(d)),
+                late: late2,
+                unstamped: unstamped2,
+            })
+            .name("receiver")
+            .port(bus0)
+            .port(bus1)
+            .spawn()
+            .unwrap();
+            let mut events = h.subscribe();
+            to_sender.send(read).unwrap();
+            // Until the sender is done and what it sent has been read.
+            tokio::task::spawn_blocking(move || stop_rx.recv())
+                .await
+                .unwrap()
+                .unwrap();
+            let received = [0, 1].map(|p| h.port_counters(p).unwrap().rx_frames);
+            let layer = h
+                .call(|d, _| {
+                    format!(
+                        "merger {:?}, lag {:?}/{:?}, health {:?}",
+                        d.station.link.merger().stats(),
+                        d.station.link.lag().lag(0),
+                        d.station.link.lag().lag(1),
+                        [
+                            d.station.link.health().port(0).state(),
+                            d.station.link.health().port(1).state()
+                        ]
+                    )
+                })
+                .await
+                .unwrap();
+            let mut changes = vec![];
+            while let Ok(e) = events.try_recv() {
+                if let duocan::runtime::RuntimeEvent::Device(duocan::machine::StationEvent::Link(
+                    l,
+                )) = e
+                {
+                    if !matches!(l.kind, duocan_redundancy::LinkEventKind::Reach { .. }) {
+                        changes.push(format!("{l:?}"));
+                    }
+                }
+            }
+            h.shutdown().await;
+            (received, layer, changes)
+        })
+    });
+    let read = ready.recv().unwrap();
+    let stop_flap = Arc::new(AtomicBool::new(false));
+    let flapper = flapping.then(|| {
+        flap(
+            stop_flap.clone(),
+            Duration::from_millis(200),
+            Duration::from_millis(300),
+        )
+    });
+    // The sender: another node, not the one under load. At nice -10 the busy loops do not
+    // come between its two copies of a frame (they would be as far apart on the wires as a
+    // time slice, beyond the skew two real buses show), and it keeps its schedule.
+    let (sent, on_bus0, took, apart, sender_cpu) = std::thread::spawn(move || {
+        nice_this_thread(-10);
+        let rt = tokio::runtime::Builder::new_current_thread()
+            .enable_all()
+            .build()
+            .unwrap();
+        let (sent, on_bus0, took, apart) = rt.block_on(send(n, rate));
+        (sent, on_bus0, took, apart, cpu_at_nice("-10"))
+    })
+    .join()
+    .unwrap();
+    stop_flap.store(true, Ordering::Relaxed);
+    if let Some(f) = flapper {
+        let flaps = f.join().unwrap();
+        assert!(flaps >= 3, "vcan0 flapped {flaps} times");
+    }
+    // What is in the sockets' queues is read: vcan1 (never down) up to its last frame, vcan0
+    // until it reads no more (the loaded VM may take seconds).
+    let until = std::time::Instant::now() + Duration::from_secs(60);
+    while read[1].snapshot().rx_frames < u64::from(n) && std::time::Instant::now() < until {
+        std::thread::sleep(Duration::from_millis(50));
+    }
+    let mut last = u64::MAX;
+    while read[0].snapshot().rx_frames != last && std::time::Instant::now() < until {
+        last = read[0].snapshot().rx_frames;
+        std::thread::sleep(Duration::from_millis(300));
+    }
+    let cpu = receiver_cpu();
+    stop_tx.send(()).unwrap();
+    let (received, layer, events) = receiver.join().unwrap();
+    drop(load);
+    let held = watchdog.stop();
+    let delivered = delivered.lock().unwrap().clone();
+    let late = *late.lock().unwrap();
+    Run {
+        verdict: judge(&sent, &delivered),
+        on_bus0,
+        took,
+        apart,
+        received,
+        cpu: [sender_cpu, cpu],
+        layer,
+        late,
+        unstamped: unstamped.load(Ordering::Relaxed),
+        held,
+        events,
+    }
+}
+
+/// Runs until a run in which the host did not hold the VM up ([`HeldUp::clean`]), at most
+/// [`ATTEMPTS`] times, and judges that run: every occurrence exactly once. Every run is
+/// printed. A run the host held up is not judged (what it shows is printed, not asserted); when
+/// the host held the VM up in every one, the test fails saying so: it could not judge the layer
+/// under the load it is about, and a test that passes without judging would prove nothing.
+fn check(n: u32, rate: u32, flapping: bool) {
+    let link: DualBus = DualBus::new(DualBusConfig::default());
+    let horizon = link.merger().horizon();
+    drop(link);
+    let horizon = Duration::from_micros(horizon.as_micros());
+    let run = first_clean(
+        |attempt| {
+            let r = run(n, rate, flapping);
+            print(n, rate, flapping, &r);
+            // Stamps do not depend on the host: asserted in every run, judged or not.
+            assert_eq!(
+                r.unstamped, 0,
+                "every frame handed over with its kernel stamp"
+            );
+            if !r.held.clean(horizon) {
+                println!(
+                    "  (attempt {attempt}: the host held the VM up, not judged; it showed {:?})",
+                    r.verdict
+                );
+            }
+            r
+        },
+        |r| r.held.clean(horizon),
+    );
+    let r = run.unwrap_or_else(|held| {
+        let held: Vec<_> = held.iter().map(|r| (r.held, &r.verdict)).collect();
+        panic!("the host held the VM up in each of {ATTEMPTS} runs ({held:?}): none judged")
+    });
+    if r.verdict != Verdict::default() {
+        for e in &r.events {
+            println!("  {e}");
+        }
+    }
+    assert_eq!(
+        r.verdict,
+        Verdict::default(),
+        "every occurrence exactly once"
+    );
+    let all = n as usize;
+    if flapping {
+        assert!(r.on_bus0 < all, "vcan0 was down for some frames");
+    } else {
+        assert_eq!(r.on_bus0, all);
+    }
+    assert_eq!(r.received[1], u64::from(n), "vcan1 read every frame");
+}
+
+/// Runs a test makes at most, for one its host did not hold up.
+const ATTEMPTS: usize = 3;
+
+/// Calls `run` (with the attempt's number, from 1) until `clean` says a run counts, at most
+/// [`ATTEMPTS`] times: that run, or every run made when none counted (the caller fails then).
+fn first_clean<R>(
+    mut run: impl FnMut(usize) -> R,
+    clean: impl Fn(&R) -> bool,
+) -> Result<R, Vec<R>> {
+    let mut not = vec![];
+    for attempt in 1..=ATTEMPTS {
+        let r = run(attempt);
+        if clean(&r) {
+            return Ok(r);
+        }
+        not.push(r);
+    }
+    Err(not)
+}
+
+/// The rule for runs the host held up: the first clean run is the one judged, none is made
+/// after it, and when no run is clean the check gets every run back to fail with, after
+/// exactly [`ATTEMPTS`] of them (never a pass without a judged run).
+#[test]
+fn a_test_fails_when_no_run_could_be_judged() {
+    let mut calls = 0;
+    let r = first_clean(
+        |a| {
+            calls += 1;
+            a
+        },
+        |a| *a == 2,
+    );
+    assert_eq!((r, calls), (Ok(2), 2));
+    let mut calls = 0;
+    let r = first_clean(
+        |a| {
+            calls += 1;
+            a
+        },
+        |_| false,
+    );
+    assert_eq!((r, calls), (Err(vec![1, 2, 3]), ATTEMPTS));
+    let held = HeldUp {
+        longest: Duration::from_millis(41),
+        lost: Duration::ZERO,
+        watched: Duration::from_secs(20),
+    };
+    let horizon = Duration::from_millis(80);
+    assert!(!held.clean(horizon), "a hold-up over half the horizon");
+    let lost = HeldUp {
+        longest: Duration::from_millis(40),
+        lost: Duration::from_millis(2_001),
+        ..held
+    };
+    assert!(!lost.clean(horizon), "over a tenth of the time lost");
+    let quiet = HeldUp {
+        lost: Duration::from_millis(2_000),
+        ..lost
+    };
+    assert!(quiet.clean(horizon));
+}
+
+fn print(n: u32, rate: u32, flapping: bool, r: &Run) {
+    let ms = |d: Duration| d.as_secs_f64() * 1e3;
+    println!(
+        "{n} frames at {rate}/s{}: {:?}; sent in {:.1} s ({} on vcan0, copies up to {:.1} ms \
+         apart, {} beyond the skew window), read {:?}; handed over late at most {} / {} ({} / {} beyond the horizon); VM held up by its host \
+         {:.1} ms at most, {:.0} ms of {:.1} s in all; CPU sender {:.2} s, receiver {:.2} s\n  {}",
+        if flapping { ", vcan0 flapping" } else { "" },
+        r.verdict,
+        r.took.as_secs_f64(),
+        r.on_bus0,
+        ms(r.apart.longest),
+        r.apart.beyond_window,
+        r.received,
+        r.late[0].0,
+        r.late[1].0,
+        r.late[0].1,
+        r.late[1].1,
+        ms(r.held.longest),
+        ms(r.held.lost),
+        r.held.watched.as_secs_f64(),
+        r.cpu[0].as_secs_f64(),
+        r.cpu[1].as_secs_f64(),
+        r.layer,
+    );
+}
+
+#[test]
+fn exactly_once_at_1000_frames_per_second_under_load() {
+    check(20_000, 1_000, false);
+}
+
+#[test]
+fn exactly_once_at_5000_frames_per_second_under_load() {
+    check(20_000, 5_000, false);
+}
+
+#[test]
+fn exactly_once_with_one_bus_flapping_under_load() {
+    check(20_000, 5_000, true);
+}
+
+/// The judge counts what it is meant to: a counter frame or a repeat delivered twice, one
+/// lost, a frame never sent; repeats counted by occurrence.
+#[test]
+fn the_judge_counts_duplicates_and_losses() {
+    let sent: Vec<Frame> = (0..200).map(|k| content(k, 1_000)).collect();
+    assert_eq!(judge(&sent, &sent), Verdict::default());
+    let pdo = content(2, 1_000);
+    assert_eq!(pdo, content(4, 1_000), "a repeat");
+    assert_eq!(counter(&sent[49]), Some(49));
+    let mut twice = sent.clone();
+    twice.insert(50, sent[49]);
+    twice.insert(60, pdo);
+    assert_eq!(
+        judge(&sent, &twice),
+        Verdict {
+            duplicates: 2,
+            lost: 0
+        }
+    );
+    let mut lost = sent.clone();
+    lost.retain(|f| !matches!(counter(f), Some(3 | 5 | 101)));
+    lost.remove(lost.iter().position(|f| *f == pdo).unwrap());
+    lost.push(content(1_001, 1_000));
+    assert_eq!(
+        judge(&sent, &lost),
+        Verdict {
+            duplicates: 1,
+            lost: 4
+        }
+    );
+}
