@@ -56,6 +56,11 @@ const REGRESSIONS: &[(u64, u64)] = &[
     // came after it, when the merger's memory of keys had forgotten their twins.
     (3235, 17),
     (5188, 32),
+    // A master's clock stepped back 1 s while a port's reader ran 60 ms behind: the layer
+    // measured the step from its last input (short by the time since), the campaign moved
+    // the stamps of the frames in flight by all of it, and their twins were delivered twice
+    // (the harness's fault: the device is now told the old clock's reading first).
+    (5242, 10),
 ];
 
 /// The budget CI runs: seeds and simulated seconds each. Seed `k` leads with a fault of kind

@@ -82,6 +82,13 @@ impl<T: Device> Clocked<T> {
     }
     /// The clock moves by `by` µs (negative: back) at simulated time `now`.
     pub fn shift(&mut self, now: Instant, by: i64) {
+        // The old clock's reading of this instant first: the device measures a step back
+        // from the latest time it was given, so it measures all of it, as the stamps of the
+        // frames in flight are moved (by all of it). Told only after its last input, it would
+        // take the time since then off the step, and those stamps would disagree with every
+        // time it holds by that much.
+        let before = self.read(now);
+        self.inner.handle_timeout(before);
         if by > 0 {
             self.jumped = Some((now, self.offset));
         }
