@@ -383,6 +383,8 @@ pub fn apply(run: &mut Run, f: Fault) {
             if !run.plant.sim.is_powered(d) {
                 return;
             }
+            let i = dev_index(run, id);
+            run.timeline.devs[i].jumps.push((now, by));
             let by = by.as_micros() as i64;
             run.plant.sim.device_mut(d).shift(now, by);
             run.plant.oracle.borrow_mut().clock[(id - 1) as usize] += by;

@@ -4,12 +4,14 @@
 //!
 //! - `plant`: the network (masters, A/B board pairs sending unchanged TPDOs on every SYNC and
 //!   every 10 ms, heartbeats, an observer node);
+//! - `sdo`: the active master's SDO reads of the slaves, and each transfer's end;
 //! - `tap` and `oracle`: which copy of which frame every device got, and whether every frame
 //!   occurrence reached every device it could reach exactly once;
 //! - `timeline`: what the faults did to the wiring (the oracle's "could it have arrived?");
 //! - `faults`: the fault classes and the generator that composes them;
 //! - `run`: the other invariants (a running board per pair, one active master, SYNC gaps,
-//!   bounded memory).
+//!   every SDO transfer ended in time and no timeout a bus could have prevented, bounded
+//!   memory).
 //!
 //! `cargo test -p duocan-redundancy --test campaign` runs a fixed budget (the seeds below) and
 //! every seed that ever failed (`REGRESSIONS`). A longer run on demand: `CAMPAIGN_SEEDS=200
@@ -20,6 +22,7 @@ mod faults;
 mod oracle;
 mod plant;
 mod run;
+mod sdo;
 mod tap;
 mod timeline;
 
@@ -84,9 +87,20 @@ fn campaign(seed: u64, secs: u64) -> Result<Coverage, String> {
     let r = run.finish();
     if std::env::var("CAMPAIGN_VERBOSE").is_ok() {
         let o = run.plant.oracle.borrow();
+        let l = run.plant.sdo.borrow();
         eprintln!(
-            "seed {seed}: {} occurrences judged, {} checks, {} foreign; worst {:?}",
-            o.judged, o.checks, o.foreign, run.worst
+            "seed {seed}: {} occurrences judged, {} checks, {} foreign; worst {:?}; SDO {} \
+             completed, {} aborted, {} timed out (explained), {} gone with their master, {} \
+             refused",
+            o.judged,
+            o.checks,
+            o.foreign,
+            run.worst,
+            l.completed,
+            l.aborted,
+            l.timeouts,
+            l.lost,
+            l.refused
         );
     }
     r.map(|()| cov).map_err(|e| {

@@ -51,6 +51,11 @@ pub struct Dev {
     /// Per port: its receive lag exceeds [`LAG_SLACK`].
     pub slow: [Spans; 2],
     pub off: Spans,
+    /// Its NMT state one in which its SDO server does not answer (stopped, or booting), as
+    /// the run sees it every millisecond.
+    pub stopped: Spans,
+    /// Its clock's jumps ahead: when, and by how much.
+    pub jumps: Vec<(Instant, Duration)>,
     /// Instants it was rebuilt (rebooted).
     pub reboots: Vec<Instant>,
 }
@@ -88,6 +93,14 @@ impl Timeline {
         };
         let (ever, always) = broken(from, to);
         (!ever, always)
+    }
+}
+
+impl Timeline {
+    /// Whether a bus connected the two devices all through `[from, to]`: nothing the faults
+    /// did broke it (cut, babbled, a port unplugged, either device off).
+    pub fn intact(&self, s: usize, r: usize, from: Instant, to: Instant) -> bool {
+        (0..2).any(|b| self.path(s, r, b, from, to).0)
     }
 }
 
