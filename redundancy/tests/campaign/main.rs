@@ -64,6 +64,15 @@ const REGRESSIONS: &[(u64, u64)] = &[
     // the stamps of the frames in flight by all of it, and their twins were delivered twice
     // (the harness's fault: the device is now told the old clock's reading first).
     (5242, 10),
+    // A babble on bus 1 for 793 ms, bus 2 cut 321 ms after it ended: every port on bus 1
+    // failed for the transmit stall and waiting for its re-initialisation (back-off 800 ms
+    // by then), none sending; the promise does not say how soon a bus is used after a
+    // babble, and the oracle now knows those ports send nothing until re-initialised.
+    (3116, 18),
+    // A master's SDO request repeated three times within half a millisecond, one bus
+    // flapping, a reader 6 ms behind on the other: 0, 1 and 2 deliveries of the three
+    // (the count right; the oracle now judges such a run by its count, not only pairs).
+    (194, 19),
 ];
 
 /// The budget CI runs: seeds and simulated seconds each. Seed `k` leads with a fault of kind

@@ -11,12 +11,12 @@
 //!   says so, with a margin around every change of the wiring), it is lost: the sender did
 //!   not put it where it would have arrived.
 //!
-//! Two occurrences of the same frame from the same sender sent within the skew window of each
+//! Occurrences of the same frame from the same sender sent within the skew window of each
 //! other cannot be told apart by any receiver: when one bus missed the first (its sender's port
 //! on it not back yet), a receiver pairs the second's copy on that bus with the first's on the
 //! other, and delivers the second's other copy (the count stays right; the merger's rule says
-//! so). Such a pair is judged by its count: one occurrence delivered twice and its twin none
-//! is each delivered once.
+//! so). Such a run (each within the window of the one before) is judged by its count: as many
+//! deliveries as occurrences are one each, however they fell.
 //!
 //! Frames that are not the promise's (an impostor's, a babbler's, a pair's process data at a
 //! master, which delivers only the active member's by design) are left out, each for a reason
@@ -239,23 +239,40 @@ impl Oracle {
         }
     }
 
-    /// Evens out the deliveries of `o` (about to be judged) and the next occurrence of the same
-    /// frame from the same sender, if it was sent within the skew window: at a receiver that
-    /// got a copy of each, one delivered twice and the other none is one each.
+    /// Evens out the deliveries of `o` (about to be judged) and the occurrences of the same
+    /// frame from the same sender that follow it each within the skew window of the one
+    /// before (a master's SDO request repeated back to back: three within half a
+    /// millisecond): at a receiver that got a copy of each, as many deliveries as
+    /// occurrences are one each, however they fell.
     fn indistinguishable(&mut self, o: &mut Occurrence) {
-        let Some(next) = self.pending.iter_mut().find(|n| {
-            n.sender == o.sender && n.frame == o.frame && n.at.saturating_since(o.at) < SKEW_WINDOW
-        }) else {
-            return;
-        };
-        for r in 0..MAX_NODES {
-            if o.reached[r] == 0 || next.reached[r] == 0 {
-                continue;
+        let mut group = vec![];
+        let mut last = o.at;
+        for (i, n) in self.pending.iter().enumerate() {
+            if n.at.saturating_since(last) >= SKEW_WINDOW {
+                break;
             }
-            match (o.delivered[r], next.delivered[r]) {
-                (0, 2) => (o.delivered[r], next.delivered[r]) = (1, 1),
-                (2, 0) => (o.delivered[r], next.delivered[r]) = (1, 1),
-                _ => {}
+            if n.sender == o.sender && n.frame == o.frame {
+                group.push(i);
+                last = n.at;
+            }
+        }
+        if group.is_empty() {
+            return;
+        }
+        let size = group.len() + 1;
+        for r in 0..MAX_NODES {
+            let all_reached =
+                o.reached[r] > 0 && group.iter().all(|&i| self.pending[i].reached[r] > 0);
+            let total = o.delivered[r] as usize
+                + group
+                    .iter()
+                    .map(|&i| self.pending[i].delivered[r] as usize)
+                    .sum::<usize>();
+            if all_reached && total == size {
+                o.delivered[r] = 1;
+                for &i in &group {
+                    self.pending[i].delivered[r] = 1;
+                }
             }
         }
     }

@@ -173,6 +173,8 @@ impl Run {
                 && !self.timeline.cut[b].at(t)
                 && !self.timeline.babbled[b].at(t)
                 && !ds.unplugged[b].at(t)
+                && !ds.stalled[b].at(t)
+                && !dr.stalled[b].at(t)
                 && !dr.unplugged[b].at(t)
                 && !ds.off.at(t)
                 && !dr.off.at(t)

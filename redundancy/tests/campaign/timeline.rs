@@ -48,6 +48,14 @@ pub struct Dev {
     pub node_id: u8,
     /// Per port: unplugged.
     pub unplugged: [Spans; 2],
+    /// Per port: failed for a transmit stall behind a babble that has ended, until its
+    /// re-initialisation (its back-off, doubled at every attempt the babble defeated). Such a
+    /// port sends nothing, not even probes (they would have waited behind the babble and
+    /// come out stale), and the other devices' ports on that bus are most often in the same
+    /// state: the bus carries nothing of this device's meanwhile. The promise does not say
+    /// how soon a bus is used again after a babble ends; a cut of the other bus meanwhile is
+    /// an outage.
+    pub stalled: [Spans; 2],
     /// Per port: its receive lag exceeds [`LAG_SLACK`].
     pub slow: [Spans; 2],
     pub off: Spans,
@@ -80,12 +88,14 @@ impl Timeline {
                 self.cut[bus].any(f, t)
                     || self.babbled[bus].any(f, t)
                     || ds.unplugged[bus].any(f, t)
+                    || ds.stalled[bus].any(f, t)
                     || dr.unplugged[bus].any(f, t)
                     || ds.off.any(f, t)
                     || dr.off.any(f, t),
                 self.cut[bus].all(f, t)
                     || self.babbled[bus].all(f, t)
                     || ds.unplugged[bus].all(f, t)
+                    || ds.stalled[bus].all(f, t)
                     || dr.unplugged[bus].all(f, t)
                     || ds.off.all(f, t)
                     || dr.off.all(f, t),
