@@ -73,6 +73,11 @@ const REGRESSIONS: &[(u64, u64)] = &[
     // flapping, a reader 6 ms behind on the other: 0, 1 and 2 deliveries of the three
     // (the count right; the oracle now judges such a run by its count, not only pairs).
     (194, 19),
+    // A board just rebooted, silent, its own bus-2 port babbling: that port failed for
+    // silence, not for a stall; the heartbeat it then carried as a probe waited behind the
+    // babble and came out 29 ms late, a second heartbeat at every node. A failed port's
+    // probe is now judged by the stall rule and flushed.
+    (3299, 27),
 ];
 
 /// The budget CI runs: seeds and simulated seconds each. Seed `k` leads with a fault of kind
