@@ -107,10 +107,11 @@ impl Timeline {
 }
 
 impl Timeline {
-    /// Whether a bus connected the two devices all through `[from, to]`: nothing the faults
-    /// did broke it (cut, babbled, a port unplugged, either device off).
+    /// Whether a bus connected the two devices both ways all through `[from, to]`: nothing
+    /// the faults did broke it (cut, babbled, a port unplugged or left stalled by a babble,
+    /// either device off).
     pub fn intact(&self, s: usize, r: usize, from: Instant, to: Instant) -> bool {
-        (0..2).any(|b| self.path(s, r, b, from, to).0)
+        (0..2).any(|b| self.path(s, r, b, from, to).0 && self.path(r, s, b, from, to).0)
     }
 }
 
