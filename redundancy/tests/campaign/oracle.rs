@@ -16,7 +16,10 @@
 //! on it not back yet), a receiver pairs the second's copy on that bus with the first's on the
 //! other, and delivers the second's other copy (the count stays right; the merger's rule says
 //! so). Such a run (each within the window of the one before) is judged by its count: as many
-//! deliveries as occurrences are one each, however they fell.
+//! deliveries as occurrences are one each, however they fell. When the wiring changed around
+//! it (a bus cut as the other is repaired), one occurrence may have gone on one bus only and
+//! the next on the other only: to every receiver that is one frame on both, and one of them
+//! dropped as the other's twin is not judged.
 //!
 //! Frames that are not the promise's (an impostor's, a babbler's, a pair's process data at a
 //! master, which delivers only the active member's by design) are left out, each for a reason
@@ -43,6 +46,9 @@ struct Occurrence {
     frame: Frame,
     reached: [u8; MAX_NODES],
     delivered: [u8; MAX_NODES],
+    /// One of a run of identical frames of its sender, each within the skew window of the
+    /// one before.
+    in_run: bool,
 }
 
 /// What went wrong with an occurrence at a receiver.
@@ -143,6 +149,7 @@ impl Oracle {
             frame: *frame,
             reached: [0; MAX_NODES],
             delivered: [0; MAX_NODES],
+            in_run: false,
         });
         self.base + self.pending.len() as u64 - 1
     }
@@ -223,6 +230,11 @@ impl Oracle {
                         Some(true) => Some(Fault::NeverArrived),
                         _ => None,
                     },
+                    // A run straddling a change of the wiring (a bus cut as the other is
+                    // repaired): the first occurrence only on one bus, the next only on the
+                    // other, is one frame on both to any receiver; its copy delivered, the
+                    // other's dropped as its twin (the merger's rule, see above).
+                    (_, 0) if o.in_run && wiring.connected(o.sender, r, o.at).is_none() => None,
                     (_, 0) => Some(Fault::Dropped),
                     _ => None,
                 };
@@ -258,6 +270,10 @@ impl Oracle {
         }
         if group.is_empty() {
             return;
+        }
+        o.in_run = true;
+        for &i in &group {
+            self.pending[i].in_run = true;
         }
         let size = group.len() + 1;
         for r in 0..MAX_NODES {
