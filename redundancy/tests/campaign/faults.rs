@@ -294,6 +294,7 @@ pub fn apply(run: &mut Run, f: Fault) {
                 r.plant.sim.babble(p, None);
                 let t = r.now();
                 r.timeline.babbled[port].end(t);
+                stalled_after_babble(r, port);
             });
         }
         Fault::Unplug { node, port, dur } => {
@@ -383,12 +384,47 @@ pub fn apply(run: &mut Run, f: Fault) {
             if !run.plant.sim.is_powered(d) {
                 return;
             }
+            let i = dev_index(run, id);
+            run.timeline.devs[i].jumps.push((now, by));
             let by = by.as_micros() as i64;
             run.plant.sim.device_mut(d).shift(now, by);
             run.plant.oracle.borrow_mut().clock[(id - 1) as usize] += by;
             for s in run.settle_from.iter_mut() {
                 *s = now;
             }
+        }
+    }
+}
+
+/// The ports on bus `port` that a babble, just ended, left failed for a transmit stall: each
+/// sends nothing until its re-initialisation (see [`crate::timeline::Dev::stalled`]).
+fn stalled_after_babble(run: &mut Run, port: usize) {
+    let now = run.now();
+    let sim = &run.plant.sim;
+    let mut spans = vec![];
+    for (k, d) in run.plant.masters.iter().enumerate() {
+        if sim.is_powered(*d) {
+            let h = sim.device(*d).inner.link.inner.health().port(port);
+            let clock = run.plant.oracle.borrow().clock[k];
+            let at = h.next_reinit().filter(|_| h.stalled());
+            spans.push((dev_index(run, k as u8 + 1), at, clock));
+        }
+    }
+    for (id, d, _) in &run.plant.slaves {
+        if sim.is_powered(*d) {
+            let h = sim.device(*d).inner.link.inner.health().port(port);
+            let at = h.next_reinit().filter(|_| h.stalled());
+            spans.push((dev_index(run, *id), at, 0));
+        }
+    }
+    for (i, at, clock) in spans {
+        let Some(at) = at else { continue };
+        // On the simulated time line.
+        let until = Instant::from_micros(at.as_micros().saturating_add_signed(-clock));
+        if until > now {
+            let sp = &mut run.timeline.devs[i].stalled[port];
+            sp.start(now);
+            sp.end(until);
         }
     }
 }

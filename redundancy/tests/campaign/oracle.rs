@@ -11,12 +11,15 @@
 //!   says so, with a margin around every change of the wiring), it is lost: the sender did
 //!   not put it where it would have arrived.
 //!
-//! Two occurrences of the same frame from the same sender sent within the skew window of each
+//! Occurrences of the same frame from the same sender sent within the skew window of each
 //! other cannot be told apart by any receiver: when one bus missed the first (its sender's port
 //! on it not back yet), a receiver pairs the second's copy on that bus with the first's on the
 //! other, and delivers the second's other copy (the count stays right; the merger's rule says
-//! so). Such a pair is judged by its count: one occurrence delivered twice and its twin none
-//! is each delivered once.
+//! so). Such a run (each within the window of the one before) is judged by its count: as many
+//! deliveries as occurrences are one each, however they fell. When the wiring changed around
+//! it (a bus cut as the other is repaired), one occurrence may have gone on one bus only and
+//! the next on the other only: to every receiver that is one frame on both, and one of them
+//! dropped as the other's twin is not judged.
 //!
 //! Frames that are not the promise's (an impostor's, a babbler's, a pair's process data at a
 //! master, which delivers only the active member's by design) are left out, each for a reason
@@ -43,6 +46,9 @@ struct Occurrence {
     frame: Frame,
     reached: [u8; MAX_NODES],
     delivered: [u8; MAX_NODES],
+    /// One of a run of identical frames of its sender, each within the skew window of the
+    /// one before.
+    in_run: bool,
 }
 
 /// What went wrong with an occurrence at a receiver.
@@ -143,6 +149,7 @@ impl Oracle {
             frame: *frame,
             reached: [0; MAX_NODES],
             delivered: [0; MAX_NODES],
+            in_run: false,
         });
         self.base + self.pending.len() as u64 - 1
     }
@@ -223,6 +230,11 @@ impl Oracle {
                         Some(true) => Some(Fault::NeverArrived),
                         _ => None,
                     },
+                    // A run straddling a change of the wiring (a bus cut as the other is
+                    // repaired): the first occurrence only on one bus, the next only on the
+                    // other, is one frame on both to any receiver; its copy delivered, the
+                    // other's dropped as its twin (the merger's rule, see above).
+                    (_, 0) if o.in_run && wiring.connected(o.sender, r, o.at).is_none() => None,
                     (_, 0) => Some(Fault::Dropped),
                     _ => None,
                 };
@@ -239,23 +251,44 @@ impl Oracle {
         }
     }
 
-    /// Evens out the deliveries of `o` (about to be judged) and the next occurrence of the same
-    /// frame from the same sender, if it was sent within the skew window: at a receiver that
-    /// got a copy of each, one delivered twice and the other none is one each.
+    /// Evens out the deliveries of `o` (about to be judged) and the occurrences of the same
+    /// frame from the same sender that follow it each within the skew window of the one
+    /// before (a master's SDO request repeated back to back: three within half a
+    /// millisecond): at a receiver that got a copy of each, as many deliveries as
+    /// occurrences are one each, however they fell.
     fn indistinguishable(&mut self, o: &mut Occurrence) {
-        let Some(next) = self.pending.iter_mut().find(|n| {
-            n.sender == o.sender && n.frame == o.frame && n.at.saturating_since(o.at) < SKEW_WINDOW
-        }) else {
-            return;
-        };
-        for r in 0..MAX_NODES {
-            if o.reached[r] == 0 || next.reached[r] == 0 {
-                continue;
+        let mut group = vec![];
+        let mut last = o.at;
+        for (i, n) in self.pending.iter().enumerate() {
+            if n.at.saturating_since(last) >= SKEW_WINDOW {
+                break;
             }
-            match (o.delivered[r], next.delivered[r]) {
-                (0, 2) => (o.delivered[r], next.delivered[r]) = (1, 1),
-                (2, 0) => (o.delivered[r], next.delivered[r]) = (1, 1),
-                _ => {}
+            if n.sender == o.sender && n.frame == o.frame {
+                group.push(i);
+                last = n.at;
+            }
+        }
+        if group.is_empty() {
+            return;
+        }
+        o.in_run = true;
+        for &i in &group {
+            self.pending[i].in_run = true;
+        }
+        let size = group.len() + 1;
+        for r in 0..MAX_NODES {
+            let all_reached =
+                o.reached[r] > 0 && group.iter().all(|&i| self.pending[i].reached[r] > 0);
+            let total = o.delivered[r] as usize
+                + group
+                    .iter()
+                    .map(|&i| self.pending[i].delivered[r] as usize)
+                    .sum::<usize>();
+            if all_reached && total == size {
+                o.delivered[r] = 1;
+                for &i in &group {
+                    self.pending[i].delivered[r] = 1;
+                }
             }
         }
     }

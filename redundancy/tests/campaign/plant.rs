@@ -5,14 +5,16 @@
 //! B = 0x50 + i; heartbeat 20 ms once configured, consumer time 50 ms), each board answering
 //! every SYNC with TPDO1 and sending TPDO2 every 10 ms, both with data that never changes (only
 //! the running board of a pair sends them), and an observer node 0x7A on both buses, in no
-//! pair, that checks what a plain slave receives. Every device's link is tapped for the oracle
+//! pair, that checks what a plain slave receives. The active master reads the slaves' dictionaries
+//! by SDO meanwhile ([`crate::sdo`]). Every device's link is tapped for the oracle
 //! ([`crate::tap`]); every device's clock can be stepped or jumped ([`Clocked`]).
 
 use crate::oracle::Oracle;
+use crate::sdo::{Ledger, Sdo, SEGMENTED, STRING};
 use crate::tap::Tap;
 use duocan::machine::PortRequest;
 use duocan::master::{objects, Master, NetworkConfig};
-use duocan::od::{comm, Access, DynamicDictionary, ObjectDef};
+use duocan::od::{comm, Access, DataType, DefaultValue, DynamicDictionary, ObjectDef};
 use duocan::pdo::params;
 use duocan::sim::{BusConfig, BusId, DevId, SimNetwork};
 use duocan::{Device, Duration, Frame, Instant, Node, NodeConfig, NodeId, PortStatus, Station};
@@ -45,7 +47,8 @@ pub fn b(i: u8) -> u8 {
 
 pub type MasterStation = Station<Tap, Supervisor<DynamicDictionary>>;
 pub type SlaveStation = Station<Tap, Node<DynamicDictionary>>;
-pub type MasterDev = Clocked<MasterStation>;
+/// A master: its station on its clock, with the SDO application ([`crate::sdo`]).
+pub type MasterDev = Sdo;
 pub type SlaveDev = Clocked<SlaveStation>;
 
 /// A device whose clock reads the simulated time plus an offset the campaign may change: a step
@@ -74,7 +77,8 @@ impl<T: Device> Clocked<T> {
             jumped: None,
         }
     }
-    fn read(&self, t: Instant) -> Instant {
+    /// Its clock's reading at simulated time `t`.
+    pub fn read(&self, t: Instant) -> Instant {
         Instant::from_micros(t.as_micros().saturating_add_signed(self.offset))
     }
     fn back(&self, t: Instant) -> Instant {
@@ -82,6 +86,13 @@ impl<T: Device> Clocked<T> {
     }
     /// The clock moves by `by` µs (negative: back) at simulated time `now`.
     pub fn shift(&mut self, now: Instant, by: i64) {
+        // The old clock's reading of this instant first: the device measures a step back
+        // from the latest time it was given, so it measures all of it, as the stamps of the
+        // frames in flight are moved (by all of it). Told only after its last input, it would
+        // take the time since then off the step, and those stamps would disagree with every
+        // time it holds by that much.
+        let before = self.read(now);
+        self.inner.handle_timeout(before);
         if by > 0 {
             self.jumped = Some((now, self.offset));
         }
@@ -157,6 +168,8 @@ pub struct Plant {
     pub sim: SimNetwork,
     pub buses: [BusId; 2],
     pub oracle: Rc<RefCell<Oracle>>,
+    /// The masters' SDO transfers.
+    pub sdo: Rc<RefCell<Ledger>>,
     pub masters: [DevId<MasterDev>; 2],
     /// (node-ID, device, oracle node).
     pub slaves: Vec<(u8, DevId<SlaveDev>, usize)>,
@@ -177,6 +190,7 @@ pub fn master_station(
     at: Instant,
     node: usize,
     oracle: &Rc<RefCell<Oracle>>,
+    ledger: &Rc<RefCell<Ledger>>,
 ) -> MasterDev {
     let now = at + MASTER_CLOCK;
     oracle.borrow_mut().clock[node] = MASTER_CLOCK.as_micros() as i64;
@@ -196,10 +210,12 @@ pub fn master_station(
         .unwrap();
     }
     let st = SupervisedStation::new(link(), sup).unwrap().into_station();
-    Clocked::new(
+    let dev = Clocked::new(
         Station::new(Tap::new(st.link, node, oracle.clone()), st.machine),
         MASTER_CLOCK,
-    )
+    );
+    let slaves = (0..p.pairs).flat_map(|i| [a(i), b(i)]).chain([OBSERVER]);
+    Sdo::new(dev, id, slaves.collect(), at, ledger)
 }
 
 /// A board's dictionary: the standard one, two constants, TPDO1 on SYNC and TPDO2 every 10 ms.
@@ -209,6 +225,10 @@ fn board_dictionary(id: u8) -> DynamicDictionary {
         ObjectDef::u8(APP, 0, Access::Const, 2),
         ObjectDef::u16(APP, 1, Access::Rw, 0x5AA5).mappable(),
         ObjectDef::u16(APP, 2, Access::Rw, 0x0FF0 + id as u16).mappable(),
+        // Read by the masters' segmented SDO uploads.
+        ObjectDef::bytes(SEGMENTED.0, SEGMENTED.1, DataType::VisibleString, 32)
+            .access(Access::Const)
+            .default(DefaultValue::Bytes(STRING)),
     ])
     .unwrap();
     od.insert_all(&params::tpdo_comm(
@@ -263,6 +283,7 @@ impl Plant {
             sim.add_bus(BusConfig::new("can2", 1_000_000)),
         ];
         let oracle = Rc::new(RefCell::new(Oracle::default()));
+        let sdo = Rc::new(RefCell::new(Ledger::default()));
         let mut masters = vec![];
         let mut master_nodes = [0; 2];
         for (k, id) in [STRONG, WEAK].into_iter().enumerate() {
@@ -272,7 +293,7 @@ impl Plant {
             let d = sim
                 .add_device(
                     format!("m{id}"),
-                    master_station(&p, id, Instant::ZERO, node, &oracle),
+                    master_station(&p, id, Instant::ZERO, node, &oracle, &sdo),
                     &buses,
                 )
                 .unwrap();
@@ -313,6 +334,7 @@ impl Plant {
             sim,
             buses,
             oracle,
+            sdo,
             masters: [masters[0], masters[1]],
             slaves,
             master_nodes,
@@ -338,7 +360,8 @@ impl Plant {
         self.oracle
             .borrow_mut()
             .rebuilt(node, self.sim.frames_taken(d));
-        let st = master_station(&self.p, id, now, node, &self.oracle);
+        self.sdo.borrow_mut().lives[(id - 1) as usize] += 1;
+        let st = master_station(&self.p, id, now, node, &self.oracle, &self.sdo);
         self.sim.replace(d, st).unwrap();
     }
     /// Rebuilds (reboots) slave `id` at the current instant.

@@ -15,10 +15,19 @@
 //!   while a live master can reach it, and from within [`SYNC_AFTER_OUTAGE`] of its being
 //!   reached again after no master could (judged by when they were sent: a receive lag the
 //!   campaign injects delays them all alike);
+//! - **SDO** ([`crate::sdo`]): every transfer a master starts ends, completed with the right
+//!   data or aborted with a reason, within [`crate::sdo::SDO_BOUND`]; none times out while a
+//!   bus connected the master and the server for the whole transfer (from
+//!   [`crate::timeline::MARGIN`] before its start), unless the fault schedule explains it: the
+//!   server off, rebooted or not answering SDO (stopped) meanwhile, or the master's clock
+//!   jumped ahead by the rest of its timeout (a jump is time that passed). A transfer whose
+//!   master died or rebooted is gone with it;
 //! - **bounded memory**: no layer's merger overflows, no queue drops.
 
 use crate::oracle::JUDGE_AFTER;
 use crate::plant::*;
+use crate::sdo::{End, Transfer, SDO_BOUND};
+use crate::timeline::MARGIN;
 use crate::timeline::{Dev, Timeline};
 use duocan::{Duration, Instant, NmtState};
 use duocan_redundancy::supervisor::flying_master::MasterRole;
@@ -164,6 +173,8 @@ impl Run {
                 && !self.timeline.cut[b].at(t)
                 && !self.timeline.babbled[b].at(t)
                 && !ds.unplugged[b].at(t)
+                && !ds.stalled[b].at(t)
+                && !dr.stalled[b].at(t)
                 && !dr.unplugged[b].at(t)
                 && !ds.off.at(t)
                 && !dr.off.at(t)
@@ -252,6 +263,114 @@ impl Run {
             mark(&mut self.no_master, t);
         }
         self.judge_syncs(t);
+        self.note_stopped(t);
+        self.judge_sdo(t);
+    }
+
+    /// Which slaves' SDO servers do not answer now (stopped, booting).
+    fn note_stopped(&mut self, t: Instant) {
+        for k in 0..self.plant.slaves.len() {
+            let (_, d, node) = self.plant.slaves[k];
+            let sim = &self.plant.sim;
+            let mute = sim.is_powered(d)
+                && matches!(
+                    sim.device(d).inner.machine.nmt_state(),
+                    NmtState::Stopped | NmtState::Initialising
+                );
+            let sp = &mut self.timeline.devs[node].stopped;
+            if mute {
+                sp.start(t);
+            } else {
+                sp.end(t);
+            }
+        }
+    }
+
+    /// The SDO transfers that ended, or should have by now.
+    fn judge_sdo(&mut self, t: Instant) {
+        let ledger = self.plant.sdo.clone();
+        let mut l = ledger.borrow_mut();
+        let lives = l.lives;
+        let mut done = vec![];
+        for (k, x) in l.open.iter().enumerate() {
+            let m = (x.master - 1) as usize;
+            let on = self.plant.sim.is_powered(self.plant.masters[m]);
+            if x.life != lives[m] || !on {
+                done.push((k, None));
+                continue;
+            }
+            match x.end {
+                Some((e, end)) => done.push((k, Some((e, end)))),
+                None if t.saturating_since(x.start) > SDO_BOUND => {
+                    self.problem(
+                        t,
+                        format!(
+                            "SDO transfer m{} to {:#x} started at {} did not end",
+                            x.master, x.server, x.start
+                        ),
+                    );
+                    done.push((k, None));
+                }
+                None => {}
+            }
+        }
+        for (k, end) in done.into_iter().rev() {
+            let x = l.open.remove(k);
+            let Some((e, end)) = end else {
+                l.lost += 1;
+                continue;
+            };
+            match end {
+                End::Done => l.completed += 1,
+                End::Aborted(code) => {
+                    l.aborted += 1;
+                    if std::env::var("CAMPAIGN_VERBOSE").is_ok() {
+                        eprintln!(
+                            "{e}: SDO m{} from {:#x} (segmented {}) started at {} aborted: {code:?}",
+                            x.master, x.server, x.segmented, x.start
+                        );
+                    }
+                }
+                End::WrongData => {
+                    self.problem(
+                        e,
+                        format!(
+                            "SDO m{} from {:#x} started at {}: wrong data",
+                            x.master, x.server, x.start
+                        ),
+                    );
+                }
+                End::Timeout => {
+                    l.timeouts += 1;
+                    if let Some(why) = self.sdo_unexplained(&x, e) {
+                        self.problem(
+                            e,
+                            format!(
+                                "SDO m{} from {:#x} (segmented {}) started at {} timed out: {why}",
+                                x.master, x.server, x.segmented, x.start
+                            ),
+                        );
+                    }
+                }
+            }
+        }
+    }
+
+    /// Why a timeout of `x` at `e` breaks the promise, if it does.
+    fn sdo_unexplained(&self, x: &Transfer, e: Instant) -> Option<&'static str> {
+        let (m, s) = (self.oracle_node(x.master), self.oracle_node(x.server));
+        let from = x.start.saturating_sub(MARGIN);
+        let tl = &self.timeline;
+        let server = &tl.devs[s];
+        let jumped = tl.devs[m].jumps.iter().any(|(j, by)| {
+            *j >= x.start && *j <= e && *by + e.saturating_since(x.start) >= crate::sdo::TIMEOUT
+        });
+        let explained = !tl.intact(m, s, from, e)
+            || server.off.any(from, e)
+            || server.reboots.iter().any(|b| *b >= from && *b <= e)
+            || server.stopped.any(from, e)
+            || jumped;
+        (!explained).then_some("a bus connected them all along")
     }
 
     /// The observer's SYNCs sent before `t − JUDGE_AFTER` (all their copies have arrived):

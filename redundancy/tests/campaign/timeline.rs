@@ -48,9 +48,22 @@ pub struct Dev {
     pub node_id: u8,
     /// Per port: unplugged.
     pub unplugged: [Spans; 2],
+    /// Per port: failed for a transmit stall behind a babble that has ended, until its
+    /// re-initialisation (its back-off, doubled at every attempt the babble defeated). Such a
+    /// port sends nothing, not even probes (they would have waited behind the babble and
+    /// come out stale), and the other devices' ports on that bus are most often in the same
+    /// state: the bus carries nothing of this device's meanwhile. The promise does not say
+    /// how soon a bus is used again after a babble ends; a cut of the other bus meanwhile is
+    /// an outage.
+    pub stalled: [Spans; 2],
     /// Per port: its receive lag exceeds [`LAG_SLACK`].
     pub slow: [Spans; 2],
     pub off: Spans,
+    /// Its NMT state one in which its SDO server does not answer (stopped, or booting), as
+    /// the run sees it every millisecond.
+    pub stopped: Spans,
+    /// Its clock's jumps ahead: when, and by how much.
+    pub jumps: Vec<(Instant, Duration)>,
     /// Instants it was rebuilt (rebooted).
     pub reboots: Vec<Instant>,
 }
@@ -75,12 +88,14 @@ impl Timeline {
                 self.cut[bus].any(f, t)
                     || self.babbled[bus].any(f, t)
                     || ds.unplugged[bus].any(f, t)
+                    || ds.stalled[bus].any(f, t)
                     || dr.unplugged[bus].any(f, t)
                     || ds.off.any(f, t)
                     || dr.off.any(f, t),
                 self.cut[bus].all(f, t)
                     || self.babbled[bus].all(f, t)
                     || ds.unplugged[bus].all(f, t)
+                    || ds.stalled[bus].all(f, t)
                     || dr.unplugged[bus].all(f, t)
                     || ds.off.all(f, t)
                     || dr.off.all(f, t),
@@ -88,6 +103,15 @@ impl Timeline {
         };
         let (ever, always) = broken(from, to);
         (!ever, always)
+    }
+}
+
+impl Timeline {
+    /// Whether a bus connected the two devices both ways all through `[from, to]`: nothing
+    /// the faults did broke it (cut, babbled, a port unplugged or left stalled by a babble,
+    /// either device off).
+    pub fn intact(&self, s: usize, r: usize, from: Instant, to: Instant) -> bool {
+        (0..2).any(|b| self.path(s, r, b, from, to).0 && self.path(r, s, b, from, to).0)
     }
 }
 

@@ -272,6 +272,73 @@ fn babbling_port_floods_bus_1_the_other_bus_carries_the_traffic_in_bounded_memor
     }
 }
 
+/// A station that sends nothing while its own port babbles fails that port for silence, not
+/// for a stall; its heartbeat then goes there as a probe and waits behind the flood. Held past
+/// the stall time after its twin went out on the other bus, the probe is flushed (and the
+/// port counted stalled): every frame of the station on bus 1 has its twin on bus 2 within
+/// the window, none comes out stale when the flood ends (which every other station would take
+/// for a frame of its own).
+#[test]
+fn a_probe_held_behind_a_babble_is_flushed_not_sent_stale() {
+    const NODE: u8 = 5;
+    let mut net = network(5, SLAVES, active_active(), STOP);
+    let d = net.dev(NODE);
+    let port = d.port(0);
+    let flood = Frame::from_array(Id::Standard(0x001), [0xFF; 8]);
+    let beat = move |sim: &mut duocan::sim::SimNetwork, t: Instant, ms: u16| {
+        sim.device_mut(d)
+            .machine
+            .a
+            .set(t, duocan::od::comm::HEARTBEAT_PRODUCER, 0, ms)
+            .unwrap();
+    };
+    // Quiet (no application frames, no heartbeat) as its flood starts; beating again once its
+    // bus-1 port has failed for silence (150 ms), the flood over before that port's first
+    // re-initialisation (100 ms after it failed) would have flushed it.
+    net.sim.device_mut(d).machine.b.stop_at = Instant::ZERO;
+    net.sim.at(CUT, move |sim| {
+        beat(sim, CUT, 0);
+        sim.babble(port, Some(flood));
+    });
+    let again = CUT + Duration::from_millis(160);
+    net.sim.at(again, move |sim| beat(sim, again, HB_MS));
+    let over = CUT + Duration::from_millis(200);
+    net.sim.at(over, move |sim| sim.babble(port, None));
+    run_to_end(&mut net);
+
+    let ev = net.port_events(NODE, 0);
+    assert!(
+        matches!(
+            ev[..2],
+            [
+                (_, _, PortState::Suspect, PortReason::Silence { .. }),
+                (_, _, PortState::Failed, PortReason::Silence { .. })
+            ]
+        ),
+        "{ev:?}"
+    );
+    let mine = |bus| -> Vec<(Instant, Frame)> {
+        net.wire(bus)
+            .into_iter()
+            .filter(|w| w.1 == NODE && w.0 > again)
+            .filter(|w| matches!(w.3, duocan::sim::TxOutcome::Delivered { .. }))
+            .map(|w| (w.0, w.2))
+            .collect()
+    };
+    let (bus1, bus2) = (mine(0), mine(1));
+    assert!(bus2.len() > 20, "it beats on bus 2: {bus2:?}");
+    let window = DualBusConfig::default().skew_window;
+    for (t, f) in &bus1 {
+        assert!(
+            bus2.iter().any(|(u, g)| g == f
+                && t.saturating_since(*u) <= window
+                && u.saturating_since(*t) <= window),
+            "{f:?} on bus 1 at {t:?} without its twin on bus 2 within the window: {bus2:?}"
+        );
+    }
+    net.assert_application_exact();
+}
+
 #[test]
 fn a_pair_is_one_stream_from_its_active_member_and_discrepancies_are_reported() {
     let switch = Instant::from_millis(1_500);

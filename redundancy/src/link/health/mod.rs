@@ -50,7 +50,9 @@
 //!   while the other port sends nothing (failed, or its driver never confirms): without a twin
 //!   there is no duplicate. A port is judged once either port's driver has confirmed a
 //!   transmission (both ports have the same kind of driver; a port held by a babble from the
-//!   start never confirms one).
+//!   start never confirms one). A port failed for silence is judged too: the heartbeat it
+//!   carries as a probe waits behind a babble that began while the port sent nothing, and is
+//!   flushed like any frame (the port then counts as failed for the stall).
 //! - **Trust.** A failed or recovering port, while the other port is ok or suspect, is not
 //!   proven yet for delivery: the merger delivers its copies only where the other port has not
 //!   already passed their time (see [`crate::link::merge`]). A repaired segment can first flush
@@ -506,9 +508,11 @@ impl Health {
 
     fn stall_deadline(&self, p: usize) -> Option<Instant> {
         let port = &self.ports[p];
+        // A failed port is judged too while it carries probes (failed for silence): a probe
+        // held behind a babble that started while the port sent nothing would come out stale.
         if self.cfg.tx_stall.is_zero()
             || !(port.reports_outcomes || self.ports[1 - p].reports_outcomes)
-            || port.state() == PortState::Failed
+            || port.stalled()
         {
             return None;
         }
