@@ -241,7 +241,10 @@ impl Record {
 
     /// How late a copy stamped `at` and handed over at `handed` (µs) was, as a record keeps it.
     fn late_ms(at: u64, handed: u64) -> u16 {
-        u16::try_from(handed.saturating_sub(at).div_ceil(1_000)).unwrap_or(u16::MAX)
+        // In 32 bits: a 64-bit division would bring the general division routine (almost
+        // 1 KB) into a 32-bit device's image. Clamped where the result saturates anyway.
+        let us = handed.saturating_sub(at).min(u64::from(u16::MAX) * 1_000) as u32;
+        us.div_ceil(1_000) as u16
     }
 
     const EMPTY: Record = Record {
