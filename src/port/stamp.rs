@@ -37,19 +37,57 @@
 //! wall clock, and a bracket wider than a few microseconds is tried again ([`KernelClock::read`]).
 //!
 //! **Memory.** The floor, one instant; a reading is three. No allocation.
+//!
+//! **The queue behind the reader.** The same control messages carry the socket's count of
+//! frames the kernel dropped because its receive queue was full (`SO_RXQ_OVFL`): a reader that
+//! fell that far behind lost them, and the port counts them
+//! ([`PortCountersSnapshot::rx_overrun`](crate::port::PortCountersSnapshot)) instead of losing
+//! them silently. The queue is made [`RX_QUEUE`] bytes long ([`enlarge_queue`]): the kernel's
+//! default (about 208 KiB, some 250 datagrams of a UDP bus) fills in a few milliseconds when a
+//! bus runs unthrottled, as python-can's UDP bus does on loopback, and in 30 ms of a full
+//! 1 Mbit/s CAN bus.
 
-use nix::sys::socket::{setsockopt, sockopt, ControlMessageOwned, RecvMsg};
+use nix::sys::socket::{getsockopt, setsockopt, sockopt, ControlMessageOwned, RecvMsg};
 use std::os::fd::AsFd;
 use std::time::{Duration, Instant, SystemTime, UNIX_EPOCH};
 
-/// Asks the kernel for a receive timestamp with every frame read from `socket`.
+/// Asks the kernel for a receive timestamp with every frame read from `socket`, and for its
+/// count of frames dropped on a full queue (best effort: without it, none are counted).
 pub(crate) fn enable(socket: &impl AsFd) -> std::io::Result<()> {
+    let _ = setsockopt(socket, sockopt::RxqOvfl, &1);
     setsockopt(socket, sockopt::ReceiveTimestampns, &true).map_err(std::io::Error::from)
 }
 
-/// The room a read's control messages need for the stamp (`struct timespec` in a `cmsghdr`).
+/// The receive queue a port asks for, in bytes of kernel memory (a frame takes several hundred):
+/// a reader the scheduler holds up for a while finds what arrived meanwhile still queued.
+pub(crate) const RX_QUEUE: usize = 4 << 20;
+
+/// Makes `socket`'s receive queue [`RX_QUEUE`] bytes long: within the system's limit
+/// (`net.core.rmem_max`) as anyone may, past it where the process may (`CAP_NET_ADMIN`).
+/// Returns the length the kernel granted.
+pub(crate) fn enlarge_queue(socket: &impl AsFd) -> usize {
+    let granted = |s| getsockopt(s, sockopt::RcvBuf).unwrap_or(0);
+    let _ = setsockopt(socket, sockopt::RcvBuf, &RX_QUEUE);
+    // The kernel doubles what it is asked for (its bookkeeping) and reports that.
+    if granted(socket) < RX_QUEUE {
+        let _ = setsockopt(socket, sockopt::RcvBufForce, &RX_QUEUE);
+    }
+    granted(socket)
+}
+
+/// The room a read's control messages need: the stamp (`struct timespec` in a `cmsghdr`) and
+/// the drop count (a `u32` in another).
 pub(crate) fn control_space() -> Vec<u8> {
-    nix::cmsg_space!(nix::sys::time::TimeSpec)
+    nix::cmsg_space!(nix::sys::time::TimeSpec, u32)
+}
+
+/// The socket's count of frames dropped on a full queue since it was opened, as of the frame
+/// read (absent while it is zero).
+pub(crate) fn dropped<S>(m: &RecvMsg<'_, '_, S>) -> Option<u32> {
+    m.cmsgs().ok()?.find_map(|c| match c {
+        ControlMessageOwned::RxqOvfl(n) => Some(n),
+        _ => None,
+    })
 }
 
 /// The kernel's receive timestamp of a message read (since the Unix epoch on the wall clock),

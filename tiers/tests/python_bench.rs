@@ -348,6 +348,12 @@ fn duocan_and_python_canopen_side_by_side() {
         }
     }
     ctl.block_on(py.stop());
+    eprintln!(
+        "overruns: server {:?}, python's server {:?}, client {:?}",
+        server.port_counters(0).map(|c| c.rx_overrun),
+        py_server.port_counters(0).map(|c| c.rx_overrun),
+        client.port_counters(0).map(|c| c.rx_overrun),
+    );
 
     // Twenty duocan nodes on the bus, read at once through the one client handle, against one.
     let nodes: Vec<_> = (0..CONCURRENT)

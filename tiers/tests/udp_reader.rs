@@ -276,3 +276,46 @@ async fn through_the_runtime_a_held_up_reader_hands_frames_over_with_their_arriv
     );
     rt.shutdown().await;
 }
+
+/// A port whose reader falls behind a flood loses what its socket's queue cannot hold, and
+/// counts every frame lost: what it reads and what it counts as overrun add up to what was
+/// sent (the kernel tells the count with the next frame queued after the loss). The queue holds
+/// the first few thousand frames (a reader held up by the scheduler finds them still there);
+/// the kernel's default queue held about 250.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_reader_behind_a_flood_counts_every_frame_it_lost() {
+    const SENT: u16 = 40_000;
+    let cfg = UdpBusConfig::numbered(34);
+    let open = || UdpPort::open(cfg.clone()).expect("open the UDP bus (inside unshare -n?)");
+    let (mut port, mut peer) = (open(), open());
+    for i in 0..SENT {
+        peer.send(&frame(0x181, i)).await.unwrap();
+        if i % 200 == 199 {
+            // Paced, so that loopback's own backlog (1,000 packets) never overflows: every
+            // loss is the receiving socket's.
+            tokio::time::sleep(Duration::from_millis(1)).await;
+        }
+    }
+    let mut read = 0u64;
+    let mut last = None;
+    while let Ok(Ok(x)) = tokio::time::timeout(Duration::from_millis(200), port.recv()).await {
+        let f = *x.frame().expect("only frames");
+        // In the order sent, with gaps where frames were lost.
+        let i = u16::from_le_bytes([f.data()[0], f.data()[1]]);
+        assert!(last.is_none_or(|l| i > l), "{i} after {last:?}");
+        last = Some(i);
+        read += 1;
+    }
+    // The kernel tells a socket's losses with the next frame it queues after them.
+    peer.send(&frame(0x181, SENT)).await.unwrap();
+    let after = tokio::time::timeout(Duration::from_secs(3), port.recv()).await;
+    assert_eq!(after.unwrap().unwrap().frame(), Some(&frame(0x181, SENT)));
+    let c = port.counters().snapshot();
+    assert_eq!(c.rx_frames, read + 1);
+    assert!(
+        c.rx_overrun > 0 && read >= 2_000,
+        "the queue held {read} frames, {} overrun",
+        c.rx_overrun
+    );
+    assert_eq!(read + c.rx_overrun, u64::from(SENT), "{c:?}");
+}

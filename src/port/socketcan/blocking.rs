@@ -125,6 +125,7 @@ impl Reader {
     fn fill(&mut self) -> io::Result<()> {
         let fd = self.socket.as_raw_fd();
         let (raw, lens, ats, clock) = (&mut self.raw, &mut self.len, &mut self.at, &mut self.clock);
+        let counters = &self.rx.counters;
         let (n, cut) = with_headers(|[h, _]| {
             let mut slices = raw.each_mut().map(|b| [IoSliceMut::new(b)]);
             // Taken before the call: should it find the socket empty (fewer than a batch),
@@ -138,6 +139,9 @@ impl Reader {
             for ((len, at), m) in lens.iter_mut().zip(ats.iter_mut()).zip(got) {
                 *len = m.bytes;
                 *at = stamp::of_message(&m).map(|t| reading.convert(t));
+                if let Some(d) = stamp::dropped(&m) {
+                    counters.rx_overrun_total(d);
+                }
                 cut |= m.flags.contains(MsgFlags::MSG_CTRUNC);
                 n += 1;
             }

@@ -89,6 +89,8 @@ struct Received {
     raw: [u8; CAN_MTU],
     len: usize,
     at: Option<std::time::Instant>,
+    /// The socket's count of frames dropped on its full queue, as of the last frame read.
+    dropped: Option<u32>,
     control: Vec<u8>,
     clock: KernelClock,
 }
@@ -99,6 +101,7 @@ impl Received {
             raw: [0; CAN_MTU],
             len: 0,
             at: None,
+            dropped: None,
             control: stamp::control_space(),
             clock: KernelClock::new(),
         }
@@ -113,6 +116,7 @@ impl Received {
                 let reading = self.clock.read();
                 self.len = m.bytes;
                 self.at = stamp::of_message(&m).map(|t| reading.convert(t));
+                self.dropped = stamp::dropped(&m);
                 Ok(())
             }
             Err(Errno::EAGAIN) => {
@@ -352,6 +356,7 @@ fn open_socket(ifname: &str) -> Result<TokioCanSocket, PortError> {
     socket
         .set_error_filter_accept_all()
         .map_err(|e| PortError::io(ifname, "cannot enable error frames", e))?;
+    stamp::enlarge_queue(socket.0.get_ref());
     if let Err(e) = stamp::enable(socket.0.get_ref()) {
         // Frames then come without stamps: the device takes them as handed over.
         tracing::warn!(port = %ifname, error = %e, "no receive timestamps (SO_TIMESTAMPNS)");
@@ -473,6 +478,9 @@ impl Port for SocketCanPort {
             };
             match sock.read_frame(&mut self.read).await {
                 Ok(()) => {
+                    if let Some(d) = self.read.dropped {
+                        self.rx.counters.rx_overrun_total(d);
+                    }
                     let (raw, at) = (self.read.frame(), self.read.at);
                     if let Some(x) = self.rx.accept_kernel(&self.ifname, raw, at) {
                         return Ok(x);
@@ -496,6 +504,9 @@ impl Port for SocketCanPort {
             };
             match sock.try_read_frame(&mut self.read) {
                 Ok(()) => {
+                    if let Some(d) = self.read.dropped {
+                        self.rx.counters.rx_overrun_total(d);
+                    }
                     let (raw, at) = (self.read.frame(), self.read.at);
                     if let Some(x) = self.rx.accept_kernel(&self.ifname, raw, at) {
                         return Some(Ok(x));

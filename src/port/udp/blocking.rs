@@ -76,11 +76,14 @@ impl Reader {
 impl PortReader for Reader {
     fn read(&mut self) -> Result<Option<PortInput>, PortError> {
         loop {
-            let (n, from, at) = match self.stamps.recv(&self.rx, &mut self.buf) {
+            let (n, from, at, dropped) = match self.stamps.recv(&self.rx, &mut self.buf) {
                 Ok(x) => x,
                 Err(e) if timed_out(&e) => return Ok(None),
                 Err(e) => return Err(PortError::io(&self.name, "receive failed", e)),
             };
+            if let Some(d) = dropped {
+                self.counters.rx_overrun_total(d);
+            }
             if from.is_some_and(|a| self.own.contains(&a)) {
                 continue;
             }

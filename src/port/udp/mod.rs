@@ -258,7 +258,10 @@ fn timestamp() -> f64 {
 impl UdpPort {
     /// Decodes the datagram in the buffer, received from `from` at `at`: a frame, or `None`
     /// (our own, or refused and counted).
-    fn accept(&mut self, (n, from, at): rx::Datagram) -> Option<PortInput> {
+    fn accept(&mut self, (n, from, at, dropped): rx::Datagram) -> Option<PortInput> {
+        if let Some(d) = dropped {
+            self.counters.rx_overrun_total(d);
+        }
         if self.sockets.as_ref().is_some_and(|s| Some(s.own) == from) {
             return None;
         }
@@ -426,7 +429,7 @@ mod tests {
 
     fn feed(port: &mut UdpPort, datagram: &[u8]) -> Option<PortInput> {
         port.buf[..datagram.len()].copy_from_slice(datagram);
-        port.accept((datagram.len(), "127.0.0.1:9".parse().ok(), None))
+        port.accept((datagram.len(), "127.0.0.1:9".parse().ok(), None, None))
     }
 
     /// The datagram that overflowed the stack of a debug build (`cargo test` is one): a full

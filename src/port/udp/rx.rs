@@ -35,8 +35,10 @@ mod imp {
             }
         }
 
-        /// Asks the kernel to stamp what `socket` receives.
+        /// Asks the kernel to stamp what `socket` receives and to count what it drops, and
+        /// gives the socket a long receive queue.
         pub(crate) fn enable(socket: &impl AsFd) -> io::Result<()> {
+            stamp::enlarge_queue(socket);
             stamp::enable(socket)
         }
 
@@ -53,7 +55,8 @@ mod imp {
                 Ok(m) => {
                     let reading = self.clock.read();
                     let at = stamp::of_message(&m).map(|t| reading.convert(t));
-                    Ok((m.bytes, m.address.map(SocketAddr::from), at))
+                    let dropped = stamp::dropped(&m);
+                    Ok((m.bytes, m.address.map(SocketAddr::from), at, dropped))
                 }
                 Err(e) => {
                     if e == Errno::EAGAIN {
@@ -108,13 +111,13 @@ mod imp {
         ) -> io::Result<super::Datagram> {
             socket
                 .recv_from_now(buf)
-                .map(|(n, from)| (n, Some(from), None))
+                .map(|(n, from)| (n, Some(from), None, None))
         }
     }
 }
 
 pub(super) use imp::Stamps;
 
-/// A datagram received: its length, its sender (`None`: not an IPv4 address, so none of ours)
-/// and its receive time.
-pub(super) type Datagram = (usize, Option<SocketAddr>, Option<Instant>);
+/// A datagram received: its length, its sender (`None`: not an IPv4 address, so none of ours),
+/// its receive time and the socket's count of datagrams dropped on a full queue so far.
+pub(super) type Datagram = (usize, Option<SocketAddr>, Option<Instant>, Option<u32>);
