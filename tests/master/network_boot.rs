@@ -115,10 +115,11 @@ fn one_hundred_and_twenty_six_slaves_boot_in_parallel_at_the_bus_limit() {
     assert!(ratio <= 1.05, "{ratio:.3}× the bus time");
     // And it carries what the boot needs, little more: per slave two boot-ups (power-on, then
     // after the reset-communication broadcast), 14 SDO accesses of 2 frames (identity 5, TPDO1
-    // 8, heartbeat 1) and a heartbeat or so once configured.
+    // 8, heartbeat 1) and a heartbeat or so once configured; for a third of them a request
+    // the reset-communication broadcast ended (its abort, and the access again).
     let per_slave = frames as f64 / IDS.count() as f64;
     assert!(
-        (30.0..=36.0).contains(&per_slave),
+        (30.0..=37.0).contains(&per_slave),
         "{per_slave:.1} frames per slave"
     );
 }

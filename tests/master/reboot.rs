@@ -219,3 +219,44 @@ fn keep_alive_slave_is_adopted_not_reset_and_rebooted_when_it_boots_again() {
     assert!(started - t < Duration::from_millis(6));
     configured(&n, 5);
 }
+
+/// A transfer to a slave is gone when the slave boots (here one read while it was missing): the application's is
+/// ended at the boot-up (`0800 0022`, the device state), not left to time out, and the slave's
+/// boot process does not wait for it (one channel per server): it is configured and started as
+/// fast as after any power cycle. It used to wait out the application's SDO timeout.
+#[test]
+fn a_transfer_to_a_slave_that_boots_ends_at_its_boot_up_and_does_not_hold_up_its_boot() {
+    let mut n = running(&[2, 3]);
+    let off = Instant::from_millis(520);
+    let dev = n.slave_dev(2);
+    n.sim.at(off, move |sim| sim.power_off(dev));
+    // Lost (a consumer time after its last heartbeat): an operator's read of it meanwhile.
+    n.sim.run_until(Instant::from_millis(700));
+    assert!(n.m().slave(NodeId::must(2)).missing);
+    let at = n.sim.now();
+    let opts = duocan::sdo::SdoOptions::default().with_timeout(Duration::from_millis(500));
+    let req = n
+        .m_mut()
+        .sdo_mut()
+        .upload(at, NodeId::must(2), APP, 1, opts)
+        .unwrap();
+    let back = Instant::from_millis(750);
+    n.power_cycle_at(2, back);
+    n.sim.run_until(Instant::from_millis(1_100));
+    let (boot_up, _, started) = reboot_times(&n, 2, back);
+    let ended = all(&n.events(), |k| match k {
+        K::Sdo(e) if e.request == req => Some(e.result.clone().map(|_| ()).map_err(|e| e.kind)),
+        _ => None,
+    });
+    assert_eq!(
+        ended,
+        [(
+            boot_up,
+            Err(duocan::sdo::SdoErrorKind::Client(
+                duocan::AbortCode::DEVICE_STATE
+            ))
+        )]
+    );
+    assert!(started - back < Duration::from_millis(6), "{}", ms(started));
+    configured(&n, 2);
+}

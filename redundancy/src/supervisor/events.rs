@@ -26,9 +26,11 @@ pub enum JoinRefusal {
         /// What the member has.
         actual: u32,
     },
-    /// A step of its boot process failed. If the member did not answer, it is reset, to boot
-    /// and be configured again; if it refused (an abort code, a PDO it will not take), it is
-    /// left alone like a wrong identity: a reset would not change its answer.
+    /// A step of its boot process failed. If the member did not answer (or its answer was an
+    /// abort of the SDO protocol itself: another client on its channel, a disturbed frame), it
+    /// is reset, to boot and be configured again; if it refused (an abort code about the object
+    /// or the device, a PDO it will not take), it is left alone like a wrong identity: a reset
+    /// would not change its answer.
     Config {
         /// The CiA 302-2 error status (B: no answer, J: a configuration write failed).
         status: ErrorStatus,
@@ -40,8 +42,8 @@ pub enum JoinRefusal {
 }
 
 impl JoinRefusal {
-    /// True if the member did not answer (worth a reset and another try); false if it answered
-    /// and refused, or is another device.
+    /// True if the member did not answer or its transfer was disturbed (worth a reset and
+    /// another try); false if it answered and refused, or is another device.
     pub fn is_transient(&self) -> bool {
         use duocan::cia302::pdo_config::PdoConfigErrorKind;
         use duocan::sdo::SdoErrorKind;
@@ -49,7 +51,14 @@ impl JoinRefusal {
             JoinRefusal::Config {
                 reason: BootError::Sdo(e),
                 ..
-            } => !matches!(e.kind, SdoErrorKind::Server(_)),
+            } => match e.kind {
+                // An abort of the transfer itself (a toggle bit, an unknown command specifier,
+                // a block out of sequence, a timeout at the server) is no answer to the
+                // configuration: another client on the same channel (a second master for a
+                // moment) or a disturbed frame. The next try is likely to pass.
+                SdoErrorKind::Server(code) => is_sdo_protocol(code),
+                _ => true,
+            },
             JoinRefusal::Config {
                 reason: BootError::Pdo(e),
                 ..
@@ -57,6 +66,12 @@ impl JoinRefusal {
             _ => false,
         }
     }
+}
+
+/// True for the abort codes of the SDO protocol itself (CiA 301: toggle bit `0503 0000`, the
+/// `0504 xxxx` family), as opposed to the server's answer about the object or the device.
+fn is_sdo_protocol(code: duocan::AbortCode) -> bool {
+    code.0 == 0x0503_0000 || code.0 >> 16 == 0x0504
 }
 
 impl fmt::Display for JoinRefusal {

@@ -85,6 +85,20 @@ const REGRESSIONS: &[(u64, u64)] = &[
     // Two identical SDO requests 0.4 ms apart as bus 1 was repaired and bus 2 cut: the first
     // on bus 2 only, the second on bus 1 only; every receiver took them for one frame.
     (1427, 21),
+    // A board rebooting while a master's SDO transfer to it was in flight (the application's,
+    // or its own boot process's probe of the silent board): the board's configuration waited
+    // for that transfer's 500 ms timeout, the pair without a running board 401 ms. A boot-up
+    // now ends a transfer to the board at once.
+    (504, 10),
+    (553, 30),
+    (764, 30),
+    (776, 30),
+    (1227, 30),
+    // Two masters at once for a moment (one's clock jumped ahead), both reading from the same
+    // board: the boot process's upload collided with the other's and the board answered with
+    // the SDO protocol's abort; the board was taken for one that refuses its configuration,
+    // left out, and not taken back when the master's next try configured it.
+    (176, 12),
 ];
 
 /// The budget CI runs: seeds and simulated seconds each. Seed `k` leads with a fault of kind

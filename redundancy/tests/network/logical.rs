@@ -25,10 +25,13 @@ use duocan_redundancy::{
 
 type Net = LogicalNetwork<DynamicDictionary>;
 
-/// A board's node whose SDO answers can be muted (a board that hears but does not answer).
+/// A board's node whose SDO answers can be muted (a board that hears but does not answer), or
+/// turned into aborts of the SDO protocol (`0504 0001`, as a server answers a request that
+/// collided with another client's on its channel).
 struct Quiet {
     node: Node<DynamicDictionary>,
     mute_sdo: bool,
+    collide_sdo: bool,
 }
 
 impl Machine for Quiet {
@@ -44,6 +47,11 @@ impl Machine for Quiet {
         loop {
             let f = self.node.poll_transmit()?;
             let sdo = matches!(f.id(), Id::Standard(0x581..=0x5FF));
+            if sdo && self.collide_sdo {
+                let d = f.data();
+                let abort = [0x80, d[1], d[2], d[3], 0x01, 0x00, 0x04, 0x05];
+                return Some(duocan::Frame::from_array(f.id(), abort));
+            }
             if !(self.mute_sdo && sdo) {
                 return Some(f);
             }
@@ -119,6 +127,7 @@ fn board(id: u8, vendor: u32, hb_ms: u16, now: Instant) -> SlaveDev {
         Quiet {
             node,
             mute_sdo: false,
+            collide_sdo: false,
         },
     )
 }
@@ -791,4 +800,44 @@ fn a_member_that_does_not_answer_is_reset_and_joins_once_it_answers() {
     assert_eq!(p.active, Some(Member::A));
     assert_eq!(w.node(B).nmt_state(), NmtState::PreOperational);
     assert_eq!(w.node(B).od().get_value::<u32>(0x1A00, 1), Ok(0x2000_0110));
+}
+
+/// A member whose configuration transfers collide with another client's (its server answers
+/// with the SDO protocol's abort `0504 0001`, as when a second master used its channel for a
+/// moment) is not what a wrong or refusing board is: it is reset and tried again, and joins
+/// once its transfers pass. (It was left out as rejected until its next boot-up.)
+#[test]
+fn a_member_whose_transfers_collide_is_reset_and_joins_once_they_pass() {
+    let mut w = World::new(VENDOR);
+    let b = w.slave(B);
+    w.sim.device_mut(b).machine.collide_sdo = true;
+    w.sim.at(ms(1_500), move |sim| {
+        sim.device_mut(b).machine.collide_sdo = false
+    });
+    w.sim.run_until(ms(2_500));
+    let refusals = not_joined(&w);
+    assert!(!refusals.is_empty(), "{refusals:?}");
+    for (_, why) in &refusals {
+        assert!(why.is_transient(), "{why}");
+        assert!(
+            matches!(
+                why,
+                JoinRefusal::Config {
+                    reason: duocan::master::BootError::Sdo(e),
+                    ..
+                } if e.kind == duocan::sdo::SdoErrorKind::Server(duocan::AbortCode(0x0504_0001))
+            ),
+            "{why}"
+        );
+    }
+    let resets = w
+        .wire()
+        .iter()
+        .filter(|(_, s, f)| s == "strong" && f.id() == Id::Standard(0) && f.data() == [0x81, B])
+        .count();
+    assert_eq!(resets, refusals.len(), "each collision resets B");
+    let p = *w.net(STRONG).pairs().next().unwrap().1;
+    assert!(p.member(Member::B).joined() && !p.member(Member::B).is_rejected());
+    assert_eq!(p.active, Some(Member::A));
+    assert_eq!(w.node(B).nmt_state(), NmtState::PreOperational);
 }

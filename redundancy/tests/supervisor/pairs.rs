@@ -94,6 +94,35 @@ fn first_configured_becomes_active_and_is_started_the_other_stays_standby() {
     assert_eq!(st.member(Member::B).deadline(), Some(ms(56)));
 }
 
+/// A member left out as rejected (a check of its boot process failed) joins when the master's
+/// boot process passes after all (tried again without a boot-up in between), and is no longer
+/// marked rejected; a failed try leaves it out.
+#[test]
+fn a_rejected_member_configured_after_all_joins() {
+    let (mut s, p) = table(PairsConfig::default());
+    s.boot_up(ms(0), A);
+    s.boot_up(ms(0), B);
+    s.configured(ms(5), A, true);
+    s.rejected(ms(6), B);
+    events(&mut s);
+    assert!(s.pair(p).unwrap().member(Member::B).is_rejected());
+    s.configured(ms(900), B, false);
+    assert!(!s.pair(p).unwrap().member(Member::B).joined());
+    s.configured(ms(1_006), B, true);
+    let b = s.pair(p).unwrap().member(Member::B);
+    assert!(b.joined() && !b.is_rejected());
+    assert_eq!(
+        events(&mut s),
+        [PairsEvent::Joined {
+            at: ms(1_006),
+            pair: p,
+            member: Member::B,
+            node: B
+        }]
+    );
+    assert_eq!(s.pair(p).unwrap().active, Some(Member::A));
+}
+
 #[test]
 fn active_silent_standby_started_exactly_at_the_consumer_time_active_reset() {
     let (mut s, p) = running();

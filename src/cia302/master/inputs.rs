@@ -13,6 +13,7 @@ use crate::frame::cob_id::NodeId;
 use crate::frame::instant::Instant;
 use crate::machine::Machine;
 use crate::node::{NodeEvent, NodeEventKind};
+use crate::od::abort::AbortCode;
 use crate::od::{comm, ObjectDictionary};
 use crate::profile::IdProfile;
 
@@ -130,6 +131,22 @@ impl<D: ObjectDictionary, P: IdProfile> Master<D, P> {
             return;
         }
         self.emit(now, MasterEventKind::SlaveBootUp { node: n });
+        let s = self.slot(n);
+        if s.program.is_none() {
+            // A transfer with it (this master's boot process's, begun while it was silent or
+            // before a reset, or the application's) went with the server's state at the boot:
+            // it could only time out, and would hold up the node's boot process (one channel
+            // per server) until it did. Ended now, as the device state ended it; the server is
+            // told, so that a request of it still on its way is not answered into the next.
+            match s.request {
+                Some(r) => {
+                    self.sdo.abort(now, r, AbortCode::DEVICE_STATE);
+                }
+                None => {
+                    self.sdo.abort_node(now, n, AbortCode::DEVICE_STATE);
+                }
+            }
+        }
         if !self.acting() {
             self.slot_mut(n).phase = BootPhase::Observed;
             return;

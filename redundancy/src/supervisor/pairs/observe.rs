@@ -162,10 +162,17 @@ impl<S: Storage> PairSupervisor<S> {
 
     /// The configuration of `node` finished (`ok`) or failed (it is reset, to boot and be
     /// configured again). Ignored unless `node` is a pair member being configured.
+    ///
+    /// A member left out as rejected that the master configured after all (its boot process
+    /// tried again and passed the checks that had failed) joins too.
     pub fn configured(&mut self, now: Instant, node: NodeId, ok: bool) {
-        let Some((p, m)) = self.configuring(node) else {
+        let Some((p, m)) = self
+            .configuring(node)
+            .or_else(|| self.rejected_member(node, ok))
+        else {
             return;
         };
+        self.pairs[p].member_mut(m).rejected = false;
         if ok && self.is_suspect(node) {
             // Configured while its heartbeats are in doubt: it waits, unstarted and not reset,
             // until they are trusted and it is adopted again.
@@ -198,6 +205,14 @@ impl<S: Storage> PairSupervisor<S> {
     /// True if `node` is a pair member whose configuration was asked for and has not ended.
     pub fn is_configuring(&self, node: NodeId) -> bool {
         self.configuring(node).is_some()
+    }
+
+    /// The pair index and member of `node` if it was left out as rejected and is now `ok`.
+    fn rejected_member(&self, node: NodeId, ok: bool) -> Option<(usize, Member)> {
+        let (pair, m) = self.locate(node)?;
+        let p = pair.0 as usize;
+        let s = self.pairs[p].member(m);
+        (ok && s.rejected && s.phase() == Phase::Waiting).then_some((p, m))
     }
 
     /// The pair index and member of `node` if it is being configured.

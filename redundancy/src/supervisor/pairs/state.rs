@@ -85,7 +85,7 @@ pub struct MemberState {
     /// Life cycle, with the data of its phase.
     pub(super) stage: Stage,
     /// Found not to be what the configuration expects; not adopted until it boots again. Not
-    /// part of the phase: only a boot-up clears it, whatever happened in between.
+    /// part of the phase: only a boot-up, or a configuration that passes after all, clears it.
     pub(super) rejected: bool,
 }
 

@@ -294,6 +294,19 @@ impl<B: TransferBuffer, const SESSIONS: usize, S: Storage> SdoClient<B, SESSIONS
         true
     }
 
+    /// Aborts the transfer running with `node`, if any, with `code` (the server is told), and
+    /// returns its request: for a server that rebooted, whose side of the transfer is gone (it
+    /// could only time out).
+    pub fn abort_node(&mut self, now: Instant, node: NodeId, code: AbortCode) -> Option<RequestId> {
+        let i = self
+            .sessions
+            .iter()
+            .position(|s| s.active() && s.node == node)?;
+        let request = self.sessions[i].request;
+        self.abort_session(i, now, code);
+        Some(request)
+    }
+
     pub(super) fn take_session(
         &mut self,
         node: NodeId,
