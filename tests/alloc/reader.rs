@@ -1,7 +1,7 @@
 //! The same for a port read by a thread of its own (`Port::reader`, as SocketCAN ports are):
 //! the thread hands each frame to the device and writes the answer without allocating.
 
-use super::{read_vendor, slave, two_workers, GLOBAL, NODE, SERIAL};
+use super::{read_vendor, slave, two_workers, GLOBAL, NODE};
 use duocan::port::{Port, PortCounters, PortError, PortInput, PortReader, READER_WAIT};
 use duocan::runtime::Runtime;
 use duocan::{Frame, Id, Station};
@@ -55,9 +55,7 @@ impl Port for ThreadedPort {
     }
 }
 
-#[test]
-fn the_reader_thread_allocates_nothing_per_frame() {
-    let _alone = SERIAL.lock().unwrap_or_else(|e| e.into_inner());
+pub fn the_reader_thread_allocates_nothing_per_frame() {
     let rt = two_workers();
     let (to_port, from_test) = sync_channel(64);
     let (to_test, from_port) = sync_channel(64);
