@@ -146,7 +146,10 @@ fn main() {
     let mut failed = Vec::new();
     for (name, case) in chosen {
         let outcome = std::panic::catch_unwind(case);
-        println!("test {name} ... {}", if outcome.is_ok() { "ok" } else { "FAILED" });
+        println!(
+            "test {name} ... {}",
+            if outcome.is_ok() { "ok" } else { "FAILED" }
+        );
         if outcome.is_err() {
             failed.push(*name);
         }
