@@ -359,6 +359,13 @@ pub fn apply(run: &mut Run, f: Fault) {
             run.timeline.devs[i].off.start(now);
             run.at(now + dur, move |r| {
                 let t = r.now();
+                // Rebooted while the other master is off (also when this one was up again
+                // already: an outage overlapping another ends in a power cycle): nobody holds
+                // the network at this instant, and this master starts cold.
+                let other = r.plant.master(if id == STRONG { WEAK } else { STRONG });
+                if !r.plant.sim.is_powered(other) {
+                    r.no_master_at(t);
+                }
                 r.plant.reboot_master(id);
                 r.timeline.devs[i].off.end(t);
                 r.timeline.devs[i].reboots.push(t);

@@ -99,6 +99,18 @@ const REGRESSIONS: &[(u64, u64)] = &[
     // the SDO protocol's abort; the board was taken for one that refuses its configuration,
     // left out, and not taken back when the master's next try configured it.
     (176, 12),
+    // A master whose only working port ran 62 ms behind started a board; when the other bus
+    // came back, the board's last pre-operational heartbeats, sent before the start, came over
+    // the lagging port after its operational ones over the other: the master took them for a
+    // board that stopped by itself and reset it at every heartbeat, until the boot-ups came so
+    // fast that both masters suspected an impostor and dropped the board's heartbeats. A
+    // watched node's heartbeat older than one already handed up is now superseded.
+    (357, 30),
+    // A master power-cycled (an outage overlapping another of the same master) while the
+    // other master was dead: nobody held the network, and its cold-start negotiation (2 s)
+    // was judged against the SYNC bound of a running master. The oracle now knows a cold
+    // start.
+    (455, 30),
 ];
 
 /// The budget CI runs: seeds and simulated seconds each. Seed `k` leads with a fault of kind

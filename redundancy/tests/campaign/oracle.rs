@@ -21,6 +21,11 @@
 //! the next on the other only: to every receiver that is one frame on both, and one of them
 //! dropped as the other's twin is not judged.
 //!
+//! A heartbeat that reached a receiver only after a newer heartbeat or boot-up of the same
+//! sender had been delivered there (over a bus lagging behind the other) may be dropped: it
+//! reports a state the node has left, and a master's layer drops such heartbeats of the nodes
+//! it watches (superseded).
+//!
 //! Frames that are not the promise's (an impostor's, a babbler's, a pair's process data at a
 //! master, which delivers only the active member's by design) are left out, each for a reason
 //! the campaign states when it adds the device or the fault.
@@ -49,6 +54,19 @@ struct Occurrence {
     /// One of a run of identical frames of its sender, each within the skew window of the
     /// one before.
     in_run: bool,
+    /// A heartbeat whose first copy reached the receiver after a newer one of its sender was
+    /// delivered there (see the module documentation).
+    superseded: [bool; MAX_NODES],
+}
+
+/// A heartbeat (not a boot-up): what may be superseded.
+fn is_heartbeat(f: &Frame) -> bool {
+    matches!(f.id(), Id::Standard(0x701..=0x77F)) && f.data().len() == 1 && f.data()[0] != 0
+}
+
+/// A heartbeat or a boot-up.
+fn is_error_control(f: &Frame) -> bool {
+    matches!(f.id(), Id::Standard(0x701..=0x77F)) && f.data().len() == 1
 }
 
 /// What went wrong with an occurrence at a receiver.
@@ -119,6 +137,8 @@ pub struct Oracle {
     /// Per node: how far its clock reads ahead of the simulated time (µs; the campaign steps
     /// and jumps masters' clocks), to put its occurrences on the simulated time line.
     pub clock: [i64; MAX_NODES],
+    /// Per receiver and sender: when the newest heartbeat or boot-up delivered there was sent.
+    newest: Vec<[Option<Instant>; MAX_NODES]>,
 }
 
 impl Oracle {
@@ -150,6 +170,7 @@ impl Oracle {
             reached: [0; MAX_NODES],
             delivered: [0; MAX_NODES],
             in_run: false,
+            superseded: [false; MAX_NODES],
         });
         self.base + self.pending.len() as u64 - 1
     }
@@ -167,7 +188,14 @@ impl Oracle {
             return;
         };
         let of = serial.and_then(|k| self.nodes[s].copies.get(k as usize).copied().flatten());
+        let newest = self.newest.get(r).and_then(|n| n[s]);
         if let Some(o) = of.and_then(|o| self.occ(o)) {
+            if o.reached[r] == 0
+                && is_heartbeat(&o.frame)
+                && newest.is_some_and(|n| o.at + SKEW_WINDOW < n)
+            {
+                o.superseded[r] = true;
+            }
             o.reached[r] = o.reached[r].saturating_add(1);
         }
         self.current = Some((r, of));
@@ -190,8 +218,17 @@ impl Oracle {
         }
         match self.current {
             Some((r, Some(of))) if r == node => {
+                let mut sent = None;
                 if let Some(o) = self.occ(of) {
                     o.delivered[r] = o.delivered[r].saturating_add(1);
+                    sent = is_error_control(&o.frame).then_some((o.sender, o.at));
+                }
+                if let Some((s, at)) = sent {
+                    if self.newest.len() <= r {
+                        self.newest.resize(r + 1, [None; MAX_NODES]);
+                    }
+                    let n = &mut self.newest[r][s];
+                    *n = Some(n.map_or(at, |n| n.max(at)));
                 }
             }
             _ => self.foreign += 1,
@@ -235,6 +272,7 @@ impl Oracle {
                     // other, is one frame on both to any receiver; its copy delivered, the
                     // other's dropped as its twin (the merger's rule, see above).
                     (_, 0) if o.in_run && wiring.connected(o.sender, r, o.at).is_none() => None,
+                    (_, 0) if o.superseded[r] => None,
                     (_, 0) => Some(Fault::Dropped),
                     _ => None,
                 };

@@ -415,6 +415,12 @@ impl Run {
         }
     }
 
+    /// No master holds the network at `t` (the last one alive was power-cycled): the next
+    /// negotiates from a cold start.
+    pub fn no_master_at(&mut self, t: Instant) {
+        mark(&mut self.no_master, t);
+    }
+
     pub fn problem(&mut self, t: Instant, what: String) {
         if self.problems.len() < 50 {
             self.problems.push(format!("{t}: {what}"));

@@ -22,5 +22,6 @@ mod srdo;
 mod sticky;
 #[cfg(feature = "sticky")]
 mod sticky_properties;
+mod superseded;
 #[path = "../common/time_line.rs"]
 mod time_line;

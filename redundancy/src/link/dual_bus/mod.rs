@@ -96,6 +96,9 @@ pub struct LinkStats {
     /// Error-control frames dropped because their bus carried the node's heartbeats far faster
     /// than its period allows ([plausibility](crate::link::plausible), rule 1).
     pub implausible: u64,
+    /// Heartbeats of watched nodes the merge delivered after a newer one of the same node and
+    /// not handed up ([plausibility](crate::link::plausible), "Order").
+    pub superseded: u64,
     /// Watches refused because the plausibility table was full.
     pub watch_refused: u32,
 }

@@ -73,6 +73,16 @@ impl<C: FrameClassifier, const SLOTS: usize, const FUNCTIONS: usize> DualBus<C, 
         ) {
             return None;
         }
+        if let Some(n) = info.heartbeat.filter(|_| !self.plausible.is_empty()) {
+            // A heartbeat older than one already handed up: a state the node has left.
+            let s = self.lag.correct(port, at);
+            let boot = frame.data().first() == Some(&0);
+            let margin = self.merger.window();
+            if !self.plausible.current(n, s, boot, margin) {
+                self.stats.superseded += 1;
+                return None;
+            }
+        }
         if !self.pairs.is_empty() {
             if let Some((node, function)) = self.classifier.function(frame) {
                 let classifier = &self.classifier;

@@ -81,6 +81,21 @@
 //!
 //! [req]: duocan::machine::LinkRequest::NodeSuspect
 //!
+//! # Order
+//!
+//! A bus that hands its frames over later than the other (a reader running behind, a lag on
+//! the wire) can deliver a node's heartbeat after a newer one that came over the other bus:
+//! the merge delivers each exactly once, but the late one reports a state the node has left
+//! (pre-operational after its start, say), and the master above would take it for a board that
+//! stopped by itself, reset it, and do so again at every heartbeat while the lag lasts. So a
+//! watched node's heartbeat that the merge delivered is handed up only if it is not older, by
+//! more than the merge's skew window, than one of that node's heartbeats or boot-ups already
+//! handed up (stamps as the merge judged them: receive times, corrected by the measured lag).
+//! Otherwise it is superseded: counted ([`LinkStats::superseded`](crate::LinkStats)) and
+//! dropped. A boot-up is never superseded (the node lost its state then, whatever came after),
+//! and the margin keeps the heartbeat a node sends right after another (at a state change)
+//! whichever bus brought it first.
+//!
 //! # Memory
 //!
 //! A few words per bus for the idle witness, and one entry per watched node, indexed by
@@ -166,6 +181,8 @@ struct Watch {
     one_bus: Option<u8>,
     /// What the machine above was last told.
     told: bool,
+    /// Stamp (µs) of the newest of its heartbeats handed up, `NEVER` (see "Order").
+    newest: u64,
     /// Rule 2 failed for want of a witness at this instant: checked again once the silent bus
     /// carried another watched heartbeat.
     checked: u64,
@@ -339,6 +356,7 @@ impl Plausibility {
             paired: false,
             one_bus: None,
             told: false,
+            newest: NEVER,
             checked: NEVER,
             quiet: false,
         };
@@ -355,6 +373,33 @@ impl Plausibility {
     pub fn is_empty(&self) -> bool {
         self.table.is_none()
     }
+    /// A heartbeat or boot-up (`boot`) of `node` that the merge delivered, stamped `at`:
+    /// false if it is superseded, older than one already handed up by more than `margin` (see
+    /// "Order"). Nodes not watched are never superseded.
+    #[inline]
+    pub(crate) fn current(
+        &mut self,
+        node: NodeId,
+        at: Instant,
+        boot: bool,
+        margin: Duration,
+    ) -> bool {
+        let Some(i) = self.find(node) else {
+            return true;
+        };
+        let w = self.at(i);
+        let t = at.as_micros();
+        if w.newest == NEVER {
+            w.newest = t;
+            return true;
+        }
+        if !boot && t.saturating_add(margin.as_micros()) < w.newest {
+            return false;
+        }
+        w.newest = w.newest.max(t);
+        true
+    }
+
     /// Whether `node` is suspect now (`None`: not watched).
     pub fn is_suspect(&self, node: NodeId) -> Option<bool> {
         self.entry(node).map(Watch::suspect)
@@ -430,6 +475,7 @@ impl Plausibility {
         if let Some(t) = self.table.as_deref_mut() {
             for w in t.watched.iter_mut() {
                 back(&mut w.checked);
+                back(&mut w.newest);
                 for tr in w.ports.iter_mut() {
                     back(&mut tr.last);
                     back(&mut tr.since);
