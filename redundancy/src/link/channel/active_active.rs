@@ -97,8 +97,9 @@ mod tests {
         assert_eq!(h.port(1).state(), crate::PortState::Recovering);
         assert_eq!(p.route_tx(t, &f, &info, &h, &mut out), 0b11);
         // Once a port is proven again, a failed one gets nothing.
-        h.on_rx(t, 1, crate::link::health::RxOutcome::Delivered, &mut out);
+        h.on_rx(t, t, 1, crate::link::health::RxOutcome::Delivered, &mut out);
         h.on_rx(
+            t + Duration::from_millis(200),
             t + Duration::from_millis(200),
             1,
             crate::link::health::RxOutcome::Delivered,

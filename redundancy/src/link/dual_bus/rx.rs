@@ -52,7 +52,7 @@ impl<C: FrameClassifier, const SLOTS: usize, const FUNCTIONS: usize> DualBus<C, 
             {
                 self.stats.implausible += 1;
                 self.health
-                    .on_rx(now, port, RxOutcome::Ignored, &mut self.out);
+                    .on_rx(now, at, port, RxOutcome::Ignored, &mut self.out);
                 return None;
             }
         }
@@ -66,7 +66,7 @@ impl<C: FrameClassifier, const SLOTS: usize, const FUNCTIONS: usize> DualBus<C, 
             RxRoute::Merge => self.merge(now, at, port, frame),
         };
         self.health.rx_delay(port, now.saturating_since(at));
-        self.health.on_rx(now, port, outcome, &mut self.out);
+        self.health.on_rx(now, at, port, outcome, &mut self.out);
         if !matches!(
             outcome,
             RxOutcome::Delivered | RxOutcome::Direct | RxOutcome::Slipped

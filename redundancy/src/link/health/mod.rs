@@ -31,7 +31,9 @@
 //!   silence limit.
 //! - **Reaching anyone.** A port is *proven* while it is ok or suspect and its last
 //!   transmission was not left unacknowledged (no-ack: nobody on its bus, a cut next to this
-//!   node). With no port proven, the transmit fan-out sends on both; and a failed port still
+//!   node) with no frame on its bus since: a frame its reader hands over later but that was on
+//!   the bus before the no-ack (its receive timestamp says so) is no such news. With no port
+//!   proven, the transmit fan-out sends on both; and a failed port still
 //!   carries the node's own heartbeats, one at a time (see
 //!   [`crate::link::channel::active_active`]), so that peers hear at once that its bus works
 //!   again.
@@ -231,9 +233,16 @@ impl Health {
         port.overtaken = None;
     }
 
-    /// A frame arrived on `p`; `first_copy` if it was delivered (its twin is due on the other
-    /// port), `delivered`/`duplicate` for the counters.
-    pub(crate) fn on_rx(&mut self, now: Instant, p: usize, outcome: RxOutcome, out: &mut Outbox) {
+    /// A frame arrived on `p` at `now`, on its bus at `at` (its receive timestamp); `outcome`:
+    /// what the merge made of it.
+    pub(crate) fn on_rx(
+        &mut self,
+        now: Instant,
+        at: Instant,
+        p: usize,
+        outcome: RxOutcome,
+        out: &mut Outbox,
+    ) {
         let o = 1 - p;
         {
             let c = &mut self.ports[p].counters;
@@ -249,7 +258,8 @@ impl Health {
         let port = &mut self.ports[p];
         port.silence_ref = Some(now);
         port.first_missed = None;
-        port.unacknowledged = false;
+        // A frame from before the unacknowledged transmission says nothing of the bus now.
+        port.unacknowledged &= at < port.unacknowledged_at;
         if outcome == RxOutcome::Delivered {
             let other = &mut self.ports[o];
             other.first_missed.get_or_insert(now);
@@ -388,7 +398,10 @@ impl Health {
             port.counters.errors[cause_index(c)].saturating_add(1);
         port.counters.last_error = Some((now, c));
         port.last_error = Some(now);
-        port.unacknowledged |= c == ErrorCause::NoAck;
+        if c == ErrorCause::NoAck {
+            port.unacknowledged = true;
+            port.unacknowledged_at = now;
+        }
         if is_fatal(c) {
             self.fail(now, p, reason, out);
         } else if port.cond == Condition::Ok {

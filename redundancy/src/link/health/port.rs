@@ -119,6 +119,10 @@ pub struct PortHealth {
     /// Its last transmission was not acknowledged (no-ack) and it has neither sent nor
     /// received a frame since: nobody is reached through it now.
     pub(super) unacknowledged: bool,
+    /// When that was reported: only a frame on its bus later than this (by its receive
+    /// timestamp) is news that the bus works; a reader running behind still hands over frames
+    /// from before the cut.
+    pub(super) unacknowledged_at: Instant,
     /// How long after its receive timestamp its last frame was handed over: a reader that
     /// runs behind hands over the twins of the other port's first copies that much later.
     pub(super) rx_delay: Duration,
@@ -166,6 +170,7 @@ impl PortHealth {
             overtaken: None,
             reports_outcomes: false,
             unacknowledged: false,
+            unacknowledged_at: Instant::ZERO,
             rx_delay: Duration::ZERO,
             counters: HealthCounters::default(),
         }
@@ -233,6 +238,7 @@ impl PortHealth {
     pub(super) fn step_back(&mut self, by: Duration) {
         self.since = self.since - by;
         self.back = self.back - by;
+        self.unacknowledged_at = self.unacknowledged_at - by;
         match &mut self.cond {
             Condition::Failed { reinit_at, .. } => *reinit_at = *reinit_at - by,
             Condition::Recovering { probation_from } => shift_back(probation_from, by),

@@ -27,10 +27,16 @@ fn traffic(h: &mut Health, out: &mut Outbox, from: u64, cut: u64, end: u64) {
         }
         // Port 0's copy comes first: delivered whether or not port 0 is proven (port 1 has
         // not reached its time yet); port 1's is its twin.
-        h.on_rx(ms(t), 0, RxOutcome::Delivered, out);
+        h.on_rx(ms(t), ms(t), 0, RxOutcome::Delivered, out);
         if t < cut {
             let o = RxOutcome::Duplicate;
-            h.on_rx(ms(t) + Duration::from_micros(200), 1, o, out);
+            h.on_rx(
+                ms(t) + Duration::from_micros(200),
+                ms(t) + Duration::from_micros(200),
+                1,
+                o,
+                out,
+            );
         }
         t += 10;
     }
@@ -60,7 +66,7 @@ fn a_repaired_port_in_a_quiet_network_is_not_failed_again_for_an_old_miss() {
     );
     // A frame port 0 delivers and port 1 misses counts again: port 1 has been silent for
     // longer than the limit, so it fails when the twin is overdue (one window later).
-    h.on_rx(ms(5_000), 0, RxOutcome::Delivered, &mut out);
+    h.on_rx(ms(5_000), ms(5_000), 0, RxOutcome::Delivered, &mut out);
     let d = h.poll_timeout().unwrap();
     assert_eq!(d, ms(5_000) + W);
     h.handle_timeout(d, &mut out);
@@ -75,7 +81,7 @@ fn a_quiet_port_is_not_judged_next_to_a_failed_one() {
     // silent master): port 0 hears nothing more, and must stay usable.
     traffic(&mut h, &mut out, 0, 1000, 1000);
     // Port 0 missed the last frame port 1 heard before it went down.
-    h.on_rx(ms(995), 1, RxOutcome::Delivered, &mut out);
+    h.on_rx(ms(995), ms(995), 1, RxOutcome::Delivered, &mut out);
     h.on_status(
         ms(1000),
         1,
@@ -195,9 +201,9 @@ fn controller_reports() {
     h.on_status(ms(1), 0, PortStatus::Error(ErrorCause::Crc), &mut out);
     assert_eq!(h.port(0).state(), PortState::Suspect);
     // A frame within the hold time keeps it suspect; after it, ok.
-    h.on_rx(ms(50), 0, RxOutcome::Delivered, &mut out);
+    h.on_rx(ms(50), ms(50), 0, RxOutcome::Delivered, &mut out);
     assert_eq!(h.port(0).state(), PortState::Suspect);
-    h.on_rx(ms(101), 0, RxOutcome::Delivered, &mut out);
+    h.on_rx(ms(101), ms(101), 0, RxOutcome::Delivered, &mut out);
     assert_eq!(h.port(0).state(), PortState::Ok);
     h.on_status(
         ms(200),
@@ -228,6 +234,31 @@ fn controller_reports() {
     assert_eq!(c.errors_of(ErrorCause::Crc), 1);
     assert_eq!(c.errors_of(ErrorCause::BusOff), 1);
     assert_eq!(c.tx_failed, 1);
+}
+
+/// A transmission left unacknowledged (a cut next to this node) says nobody is reached through
+/// the port; frames its reader hands over afterwards that were on the bus before (a reader
+/// running behind) do not say otherwise, a frame from after does (found by the fault
+/// campaign, seed 974: a master sent its boot process's request only on the port whose bus
+/// had just been cut, its reader 56 ms behind, and waited for the SDO timeout).
+#[test]
+fn frames_from_before_an_unacknowledged_transmission_do_not_prove_the_port() {
+    let mut h = Health::new(HealthConfig::default(), W);
+    let mut out = Outbox::new();
+    h.on_rx(ms(10), ms(10), 0, RxOutcome::Delivered, &mut out);
+    assert!(h.port(0).proven());
+    h.on_status(
+        ms(100),
+        0,
+        PortStatus::TxFailed(ErrorCause::NoAck),
+        &mut out,
+    );
+    assert!(!h.port(0).proven());
+    // Read at 105 ms, on the bus at 45 ms.
+    h.on_rx(ms(105), ms(45), 0, RxOutcome::Delivered, &mut out);
+    assert!(!h.port(0).proven(), "a frame from before the cut");
+    h.on_rx(ms(110), ms(101), 0, RxOutcome::Delivered, &mut out);
+    assert!(h.port(0).proven(), "a frame from after it");
 }
 
 #[test]
@@ -292,7 +323,7 @@ fn transmit_stall_flushes_and_fails_and_only_reinit_revives() {
         )]
     );
     // Receiving (a babbler's frames) does not revive it; the back-off re-initialisation does.
-    h.on_rx(ms(50), 0, RxOutcome::Stale, &mut out);
+    h.on_rx(ms(50), ms(50), 0, RxOutcome::Stale, &mut out);
     assert_eq!(h.port(0).state(), PortState::Failed);
     h.handle_timeout(ms(144), &mut out);
     assert_eq!(h.port(0).state(), PortState::Recovering);
@@ -340,15 +371,15 @@ fn a_stalled_port_comes_back_on_a_twin_of_the_other_ports_traffic() {
     h.handle_timeout(ms(12), &mut out);
     assert!(h.port(0).stalled());
     // The babbler's flood (first copies, or stale ones) does not revive it...
-    h.on_rx(ms(20), 0, RxOutcome::Delivered, &mut out);
-    h.on_rx(ms(21), 0, RxOutcome::Stale, &mut out);
+    h.on_rx(ms(20), ms(20), 0, RxOutcome::Delivered, &mut out);
+    h.on_rx(ms(21), ms(21), 0, RxOutcome::Stale, &mut out);
     assert!(h.port(0).stalled());
     // ...the twin of a frame port 1 delivered does, long before the back-off (112 ms): its
     // bus carries the network's traffic again. Probation as for any return.
-    h.on_rx(ms(30), 1, RxOutcome::Delivered, &mut out);
-    h.on_rx(ms(30), 0, RxOutcome::Duplicate, &mut out);
+    h.on_rx(ms(30), ms(30), 1, RxOutcome::Delivered, &mut out);
+    h.on_rx(ms(30), ms(30), 0, RxOutcome::Duplicate, &mut out);
     assert_eq!(h.port(0).state(), PortState::Recovering);
-    h.on_rx(ms(130), 0, RxOutcome::Duplicate, &mut out);
+    h.on_rx(ms(130), ms(130), 0, RxOutcome::Duplicate, &mut out);
     assert_eq!(
         port_events(&mut out),
         [
@@ -372,7 +403,7 @@ fn a_port_lagging_beyond_the_maximum_is_suspect_until_its_lag_is_within_again() 
     h.set_lagging(ms(10), 1, lag, true, &mut out);
     assert_eq!(h.port(1).lagging(), Some(lag));
     // Frames received do not make it ok while it lags, nor does the lag report repeat.
-    h.on_rx(ms(500), 1, RxOutcome::Duplicate, &mut out);
+    h.on_rx(ms(500), ms(500), 1, RxOutcome::Duplicate, &mut out);
     h.set_lagging(ms(600), 1, lag, true, &mut out);
     assert_eq!(h.port(1).state(), PortState::Suspect);
     let within = Duration::from_millis(20);
@@ -400,7 +431,7 @@ fn a_port_lagging_beyond_the_maximum_is_suspect_until_its_lag_is_within_again() 
     h.set_lagging(ms(810), 0, lag, true, &mut out);
     h.set_lagging(ms(850), 0, Duration::ZERO, false, &mut out);
     assert_eq!(h.port(0).state(), PortState::Suspect);
-    h.on_rx(ms(900), 0, RxOutcome::Delivered, &mut out);
+    h.on_rx(ms(900), ms(900), 0, RxOutcome::Delivered, &mut out);
     assert_eq!(h.port(0).state(), PortState::Ok);
     // A port that fails and recovers while it lags comes back suspect for the lag.
     h.set_lagging(ms(1_000), 1, lag, true, &mut out);
@@ -411,8 +442,8 @@ fn a_port_lagging_beyond_the_maximum_is_suspect_until_its_lag_is_within_again() 
         &mut out,
     );
     h.on_status(ms(1_050), 1, PortStatus::Up, &mut out);
-    h.on_rx(ms(1_060), 1, RxOutcome::Duplicate, &mut out);
-    h.on_rx(ms(1_200), 1, RxOutcome::Duplicate, &mut out);
+    h.on_rx(ms(1_060), ms(1_060), 1, RxOutcome::Duplicate, &mut out);
+    h.on_rx(ms(1_200), ms(1_200), 1, RxOutcome::Duplicate, &mut out);
     assert_eq!(h.port(1).state(), PortState::Suspect);
     let last = port_events(&mut out).pop().unwrap();
     assert_eq!(
@@ -435,10 +466,16 @@ fn a_port_whose_frames_are_acknowledged_is_not_failed_for_silence() {
         while let Some(d) = h.poll_timeout().filter(|d| *d < ms(t)) {
             h.handle_timeout(d, &mut out);
         }
-        h.on_rx(ms(t), 0, RxOutcome::Delivered, &mut out);
+        h.on_rx(ms(t), ms(t), 0, RxOutcome::Delivered, &mut out);
         if t < 1000 {
             let o = RxOutcome::Duplicate;
-            h.on_rx(ms(t) + Duration::from_micros(200), 1, o, &mut out);
+            h.on_rx(
+                ms(t) + Duration::from_micros(200),
+                ms(t) + Duration::from_micros(200),
+                1,
+                o,
+                &mut out,
+            );
         }
         if t < 1500 {
             seq += 1;

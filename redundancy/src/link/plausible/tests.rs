@@ -547,7 +547,8 @@ fn rule_two_counts_the_silence_from_the_ports_return_to_ok() {
             }
             if !cut(t, port) {
                 r.beat(at, port, node, 5);
-                r.health.on_rx(at, port, RxOutcome::Delivered, &mut r.out);
+                r.health
+                    .on_rx(at, at, port, RxOutcome::Delivered, &mut r.out);
             }
         }
         t += 12;
