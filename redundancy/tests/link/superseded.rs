@@ -37,6 +37,16 @@ fn layer() -> DualBus {
     l
 }
 
+/// The layer after A's heartbeats at 0, 20 and 40 ms on both buses (each handed up once).
+fn beating_on_both() -> DualBus {
+    let mut l = layer();
+    for t in [0, 20, 40] {
+        assert_eq!(arrive(&mut l, ms(t), 0, &hb(PRE_OP), ms(t)), Some(PRE_OP));
+        assert_eq!(arrive(&mut l, ms(t), 1, &hb(PRE_OP), ms(t)), None);
+    }
+    l
+}
+
 /// Hands `frame` (on the bus at `at`) over on `port` at `now`, after the layer's deadlines;
 /// the state byte of what it handed up.
 fn arrive(l: &mut DualBus, now: Instant, port: usize, frame: &Frame, at: Instant) -> Option<u8> {
@@ -94,11 +104,7 @@ fn a_heartbeat_older_than_one_handed_up_is_not_handed_up() {
 /// A boot-up is never superseded: the node lost its state then, whatever was heard after.
 #[test]
 fn a_late_boot_up_is_handed_up() {
-    let mut l = layer();
-    for t in [0, 20, 40] {
-        assert_eq!(arrive(&mut l, ms(t), 0, &hb(PRE_OP), ms(t)), Some(PRE_OP));
-        assert_eq!(arrive(&mut l, ms(t), 1, &hb(PRE_OP), ms(t)), None);
-    }
+    let mut l = beating_on_both();
     // A boot-up on bus 2 only, at 50 ms, handed over 40 ms late; the heartbeat it was
     // followed by came over bus 1 first.
     assert_eq!(arrive(&mut l, ms(60), 0, &hb(PRE_OP), ms(60)), Some(PRE_OP));
@@ -111,11 +117,7 @@ fn a_late_boot_up_is_handed_up() {
 /// is handed up even when its copy on the other bus was there before the older one's.
 #[test]
 fn a_newer_heartbeat_on_the_wire_first_is_handed_up() {
-    let mut l = layer();
-    for t in [0, 20, 40] {
-        assert_eq!(arrive(&mut l, ms(t), 0, &hb(PRE_OP), ms(t)), Some(PRE_OP));
-        assert_eq!(arrive(&mut l, ms(t), 1, &hb(PRE_OP), ms(t)), None);
-    }
+    let mut l = beating_on_both();
     let us = Instant::from_micros;
     // Pre-operational sent at 60.0 ms waits on bus 1 until 61.0; operational, sent at 60.3,
     // is on bus 2 at 60.4, whose reader hands it over at 62.0.
