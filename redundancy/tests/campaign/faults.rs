@@ -3,7 +3,7 @@
 
 use crate::plant::*;
 use crate::run::Run;
-use duocan::sim::PortRef;
+use duocan::sim::{FaultRates, PortRef};
 use duocan::{Device, Duration, Frame, Id, Instant, NmtState, PortStatus};
 use std::collections::BTreeMap;
 
@@ -73,6 +73,22 @@ pub enum Fault {
     StepBack { id: u8, by: Duration },
     /// A master's clock jumps ahead by `by`.
     JumpAhead { id: u8, by: Duration },
+    /// Noise on bus `bus` for `dur`: a frame is hit by an error (every port on the bus sees the
+    /// error frame, nobody receives it, its sender sends it again) with probability
+    /// `permille`/1000: retransmissions, their delays, and a stream of error reports.
+    Noise {
+        bus: usize,
+        permille: u16,
+        dur: Duration,
+    },
+    /// A device's controller on `port` overruns for `dur`: it misses a frame with probability
+    /// `permille`/1000 (and reports the overflow), the other devices get it.
+    Overrun {
+        node: u8,
+        port: usize,
+        permille: u16,
+        dur: Duration,
+    },
 }
 
 impl Fault {
@@ -95,6 +111,8 @@ impl Fault {
             Fault::MasterDies { .. } => "master dies",
             Fault::StepBack { .. } => "clock step back",
             Fault::JumpAhead { .. } => "clock jump ahead",
+            Fault::Noise { .. } => "noisy bus",
+            Fault::Overrun { .. } => "controller overrun",
         }
     }
 
@@ -109,7 +127,9 @@ impl Fault {
             | Fault::Unplug { dur, .. }
             | Fault::Impostor { dur, .. }
             | Fault::BoardDies { dur, .. }
-            | Fault::MasterDies { dur, .. } => dur,
+            | Fault::MasterDies { dur, .. }
+            | Fault::Noise { dur, .. }
+            | Fault::Overrun { dur, .. } => dur,
             Fault::Sequence {
                 dur,
                 overlap,
@@ -136,6 +156,8 @@ impl Fault {
                 | Fault::Babble { .. }
                 | Fault::Unplug { .. }
                 | Fault::Impostor { .. }
+                | Fault::Noise { .. }
+                | Fault::Overrun { .. }
         )
     }
 }
@@ -214,6 +236,34 @@ impl Device for Impostor {
 pub fn apply(run: &mut Run, f: Fault) {
     let now = run.now();
     match f {
+        Fault::Noise { bus, permille, dur } => {
+            let b = run.plant.buses[bus];
+            let rates = FaultRates::NONE.with_corrupt_detected(f64::from(permille) / 1000.0);
+            run.plant.sim.set_bus_faults(b, rates);
+            run.timeline.noisy[bus].start(now);
+            run.at(now + dur, move |r| {
+                r.plant.sim.set_bus_faults(b, FaultRates::NONE);
+                let t = r.now();
+                r.timeline.noisy[bus].end(t);
+            });
+        }
+        Fault::Overrun {
+            node,
+            port,
+            permille,
+            dur,
+        } => {
+            let p = port_of(run, node, port);
+            let d = dev_index(run, node);
+            let rates = FaultRates::NONE.with_drop(f64::from(permille) / 1000.0);
+            run.plant.sim.set_port_faults(p, rates);
+            run.timeline.devs[d].overrun[port].start(now);
+            run.at(now + dur, move |r| {
+                r.plant.sim.set_port_faults(p, FaultRates::NONE);
+                let t = r.now();
+                r.timeline.devs[d].overrun[port].end(t);
+            });
+        }
         Fault::Cut { bus, dur } => {
             cut(run, bus, true);
             run.at(now + dur, move |r| cut(r, bus, false));
@@ -478,10 +528,10 @@ impl Rng {
     }
 }
 
-/// A random fault for a plant of `pairs` pairs.
-pub fn random(rng: &mut Rng, pairs: u8, connectivity_free: bool) -> Fault {
+/// A random fault of the first `kinds` kinds for a plant of `pairs` pairs.
+pub fn random(rng: &mut Rng, pairs: u8, connectivity_free: bool, kinds: usize) -> Fault {
     loop {
-        let k = rng.below(KINDS as u64) as usize;
+        let k = rng.below(kinds as u64) as usize;
         let f = draw(rng, pairs, k);
         if connectivity_free || !f.connectivity() {
             return f;
@@ -490,7 +540,11 @@ pub fn random(rng: &mut Rng, pairs: u8, connectivity_free: bool) -> Fault {
 }
 
 /// How many kinds of fault [`draw`] knows (every class, some in two shapes).
-pub const KINDS: usize = 18;
+pub const KINDS: usize = 20;
+
+/// The kinds the campaign knew before noise and overruns: the seeds in `REGRESSIONS` draw from
+/// these, so that each still plays the schedule it once failed with.
+pub const KINDS_BEFORE_NOISE: usize = 18;
 
 /// A fault of kind `k` (below [`KINDS`]), its parameters drawn from `rng`.
 pub fn draw(rng: &mut Rng, pairs: u8, k: usize) -> Fault {
@@ -586,6 +640,17 @@ pub fn draw(rng: &mut Rng, pairs: u8, k: usize) -> Fault {
                 id: [STRONG, WEAK][rng.below(2) as usize],
                 by: Duration::from_millis([70, 1_000, 60_000, 3_600_000][rng.below(4) as usize]),
             },
+            18 => Fault::Noise {
+                bus: rng.below(2) as usize,
+                permille: [10, 100, 300][rng.below(3) as usize],
+                dur: rng.ms(200, 3_000),
+            },
+            19 => Fault::Overrun {
+                node: any_node(rng),
+                port: rng.below(2) as usize,
+                permille: [10, 100, 500][rng.below(3) as usize],
+                dur: rng.ms(200, 3_000),
+            },
             14 => Fault::Lag {
                 node: any_node(rng),
                 port: rng.below(2) as usize,
@@ -631,13 +696,15 @@ impl Coverage {
 
 /// Composes random faults on `run` until `end`: one every 0.3 to 3 s, at most one taking a
 /// connection away at a time (two buses in sequence with overlap aside), any number of the
-/// others overlapping; the first of kind `lead` if given. Returns the coverage.
+/// others overlapping; the first of kind `lead` if given; drawn from the first `kinds` kinds.
+/// Returns the coverage.
 pub fn compose(
     run: &mut Run,
     rng: &mut Rng,
     start: Instant,
     end: Instant,
     lead: Option<usize>,
+    kinds: usize,
 ) -> Coverage {
     let mut cov = Coverage::default();
     let mut active: Vec<(Instant, Fault)> = vec![];
@@ -649,7 +716,7 @@ pub fn compose(
         let free = !active.iter().any(|(_, f)| f.connectivity());
         let f = match lead.take() {
             Some(k) => draw(rng, run.plant.p.pairs, k),
-            None => random(rng, run.plant.p.pairs, free),
+            None => random(rng, run.plant.p.pairs, free, kinds),
         };
         let classes: Vec<&'static str> = active.iter().map(|(_, f)| f.class()).collect();
         cov.add(&f, &classes);

@@ -58,6 +58,8 @@ pub struct Dev {
     pub stalled: [Spans; 2],
     /// Per port: its receive lag exceeds [`LAG_SLACK`].
     pub slow: [Spans; 2],
+    /// Per port: its controller overruns (misses frames now and then).
+    pub overrun: [Spans; 2],
     pub off: Spans,
     /// Its NMT state one in which its SDO server does not answer (stopped, or booting), as
     /// the run sees it every millisecond.
@@ -74,6 +76,8 @@ pub struct Timeline {
     pub cut: [Spans; 2],
     /// Per bus: a babbling controller holds it.
     pub babbled: [Spans; 2],
+    /// Per bus: noise hits frames (error frames, retransmissions).
+    pub noisy: [Spans; 2],
     /// By oracle node.
     pub devs: Vec<Dev>,
     /// (target node-ID, span): an impostor beats for it.
@@ -87,6 +91,8 @@ impl Timeline {
             (
                 self.cut[bus].any(f, t)
                     || self.babbled[bus].any(f, t)
+                    || self.noisy[bus].any(f, t)
+                    || dr.overrun[bus].any(f, t)
                     || ds.unplugged[bus].any(f, t)
                     || ds.stalled[bus].any(f, t)
                     || dr.unplugged[bus].any(f, t)

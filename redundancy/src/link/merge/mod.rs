@@ -37,15 +37,22 @@
 //! stall, a gateway queue) hands its copies over late, with their old stamps. An unmatched copy
 //! is kept for the **horizon** of processing time after it was *handed over* (memory is
 //! bounded), unless a copy of the other port skips it first (see above) or the other port has
-//! passed it. So a port whose receive path runs up to the horizon behind the other port's still
-//! finds every twin, however late the two hand their copies over: a receiver held up as a whole
-//! (a loaded machine that starves both its reader threads) hands over copies older than the
-//! horizon, and they still meet. Kept from its stamp instead, such a copy would be forgotten
-//! the moment it arrived, and its twin left to the memory of forgotten keys below, which is not
-//! exact: a key whose line another key took meanwhile is delivered twice, and a repeat that
-//! follows a forgotten copy within the window is taken for its twin.
+//! passed it; and beyond the horizon for as long as the other port's reader, running behind,
+//! has not shown its copies up to this one's twin: until the present, less how far behind that
+//! reader ran at its newest copy, passes the copy's stamp by a window. So a port whose receive
+//! path runs behind the other port's, by up to the horizon or by any amount while it keeps
+//! handing copies over, still finds every twin (memory allowing: see *Overflow*), however late
+//! the two hand their copies over: a receiver held up as a whole (a loaded machine that starves
+//! both its reader threads) hands over copies older than the horizon, and they still meet.
+//! Kept from its stamp instead, such a copy would be forgotten the moment it arrived, and its
+//! twin left to the memory of forgotten keys below, which is not exact: a key whose line
+//! another key took meanwhile is delivered twice, and a repeat that follows a forgotten copy
+//! within the window is taken for its twin.
 //!
-//! A copy that comes later than that may find its twin forgotten. The merger remembers, per
+//! A reader that stops handing copies over altogether (a thread not scheduled, frozen) cannot
+//! be told from a bus that stopped carrying frames, until it hands over again: the copies of
+//! the other port are kept the horizon past how far behind it ran before it stopped. A copy
+//! that comes later than that may find its twin forgotten. The merger remembers, per
 //! key, the newest stamp of a copy forgotten with its twin still possible; a copy of the other
 //! port with the same content stamped no later than that (plus the window) is dropped
 //! ([`Verdict::Late`]): it is that copy's twin, or an older one's. Frames of other contents are
@@ -94,8 +101,9 @@
 //! oldest end of its key's chain: O(1) per arrival, plus one step per record it skips. A
 //! `Merger<SLOTS>` holds at most [`Merger::capacity`] = ¾·SLOTS records (16 bytes each).
 //! Records leave the ring from its front once matched, once the other port has passed them, or
-//! the horizon after they were handed over: with one bus dead, the occupancy is the live bus's
-//! rate × horizon, ~320 records at 4,000 frames/s and the default 80 ms. (They are kept even
+//! the horizon after they were handed over (later behind a reader running behind, see above):
+//! with one bus dead, the occupancy is the live bus's rate × horizon, ~320 records at 4,000
+//! frames/s and the default 80 ms; behind a reader running late, its rate × how late. (They are kept even
 //! once port health calls that bus failed: a failed port may still receive, a babbled one for
 //! instance, and the first copies of a port coming back must find their twins.)
 //!
@@ -223,7 +231,7 @@ struct Record {
     /// Its stamp (µs).
     at: u64,
     /// How late it was handed over after its stamp, in whole milliseconds rounded up
-    /// (saturating at 65 s): it is kept the horizon after it was handed over at most. Kept in
+    /// (saturating at 65 s): it is kept at least the horizon after it was handed over. Kept in
     /// what the record's alignment left free, so a record stays 16 bytes.
     late_ms: u16,
     slot: u16,
@@ -389,8 +397,9 @@ impl<const SLOTS: usize> Merger<SLOTS> {
 
     /// Drops the records that are done at `now`: matched ones at the front of the ring, and
     /// unmatched ones whose twin cannot come (the other port, stamping on arrival, has passed
-    /// them) or that were handed over the horizon before `now` (forgotten, unless the other
-    /// port has passed them: then their twin was lost, not late).
+    /// them) or that were handed over the horizon before `now` and the other port's reader,
+    /// as far as the merger can tell, is not still behind them (see the module documentation):
+    /// forgotten, unless the other port has passed them (then their twin was lost, not late).
     ///
     /// A port without receive timestamps stamps its copies when it hands them over, so its
     /// stamps run ahead of its copies until its lag is measured, and the measure needs the
@@ -404,9 +413,13 @@ impl<const SLOTS: usize> Merger<SLOTS> {
             let slot = &self.table.slots[s];
             if slot.unmatched > 0 && slot.first as usize == pos {
                 let side = slot.side as usize;
-                let passed = self.frontier[1 - side] >= r.at.saturating_add(self.window);
+                let due = r.at.saturating_add(self.window);
+                let passed = self.frontier[1 - side] >= due;
+                // Kept the horizon after it was handed over, and longer while the other port's
+                // reader, running behind, has not shown its copies up to this one's twin.
                 if !(passed && self.stamped[1 - side])
-                    && now.saturating_sub(r.handed()) < self.horizon
+                    && (now.saturating_sub(r.handed()) < self.horizon
+                        || self.shown(1 - side, now) < due)
                 {
                     break;
                 }

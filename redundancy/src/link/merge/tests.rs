@@ -184,7 +184,8 @@ fn a_copy_older_than_what_is_remembered_is_late_and_dropped() {
 /// kept for the horizon after it was handed over, so each finds its twin, unchanged repeats
 /// too (kept for the horizon after its stamp, each would be forgotten as it arrived, its twin
 /// left to the memory of forgotten keys). A copy whose twin never comes is forgotten one
-/// horizon after it was handed over.
+/// horizon after it was handed over, or later while the other port's reader runs further
+/// behind than that: until it would have shown the twin.
 #[test]
 fn a_receiver_held_up_as_a_whole_still_finds_every_twin() {
     let mut m: Merger<256> = Merger::with_horizon(W, Duration::from_millis(50));
@@ -209,9 +210,45 @@ fn a_receiver_held_up_as_a_whole_still_finds_every_twin() {
     arr(&mut m, ms(300), ms(200), 0, &f(3, 3));
     m.expire(ms(349));
     assert_eq!(m.unmatched(&f(3, 3)), Some((0, 1)));
+    // Port 1's reader ran 140.89 ms behind at its newest copy (stamped 19.3 ms, handed over at
+    // 160.19 ms): a twin stamped up to 210 ms (the stamp plus the window) may come from it until
+    // 350.89 ms, past the horizon (350 ms).
     m.expire(ms(350));
+    assert_eq!(m.unmatched(&f(3, 3)), Some((0, 1)));
+    m.expire(ms(350) + us(890));
     assert_eq!(m.unmatched(&f(3, 3)), None);
     assert_eq!(m.stats().forgotten, 1);
+}
+
+/// One port's reader falls behind the other's, by a quarter of a millisecond every
+/// millisecond, to 200 ms (four horizons), handing its copies over all along: SYNC every
+/// millisecond (a repeat ten times faster than the window) and a counter frame between. The other port's copies are kept until that reader has shown their
+/// twins, so every copy finds its own: none given up, none dropped as late, none twice. A
+/// horizon after they were handed over, they would be forgotten long before their twins came.
+#[test]
+fn a_reader_far_behind_while_it_hands_over_finds_every_twin() {
+    let mut m: Merger<1024> = Merger::with_horizon(W, Duration::from_millis(50));
+    let sync = Frame::from_array(Id::Standard(0x80), []);
+    let mut arrivals = vec![];
+    for k in 0..2_000u64 {
+        let (s, c) = (ms(k), ms(k) + Duration::from_micros(400));
+        let behind = Duration::from_micros((k * 250).min(200_000));
+        let counter = Frame::from_array(Id::Standard(0x281), (k as u32).to_le_bytes());
+        arrivals.extend([(s, 0, s, sync), (c, 0, c, counter)]);
+        arrivals.extend([(s + behind, 1, s, sync), (c + behind, 1, c, counter)]);
+    }
+    arrivals.sort_by_key(|a| (a.0, a.1));
+    for (now, p, at, fr) in arrivals {
+        let want = [Verdict::Deliver, Verdict::Duplicate][p];
+        assert_eq!(
+            arr(&mut m, now, at, p, &fr),
+            want,
+            "{fr:?} stamped {at}, port {p}"
+        );
+    }
+    let s = m.stats();
+    assert_eq!((s.delivered, s.duplicates), (4_000, 4_000));
+    assert_eq!((s.late, s.forgotten, s.evicted), (0, 0, 0));
 }
 
 /// The same with many keys at once: 400 counter frames, each its own content, stamped 100 µs
