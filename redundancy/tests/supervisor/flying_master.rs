@@ -472,3 +472,117 @@ fn a_hand_back_that_became_due_is_not_given_after_the_role_is_gone() {
     assert_eq!(fm.role(), MasterRole::Detecting);
     assert_eq!(fm.take_handback(), None);
 }
+
+/// What device `i` sent (not delivered) and its role changes, recorded.
+fn take(w: &mut Wire, i: usize) -> Vec<Frame> {
+    let mut out = vec![];
+    while let Some(f) = w.devs[i].fm.poll_transmit() {
+        out.push(f);
+    }
+    while let Some(e) = w.devs[i].fm.poll_event() {
+        if let FlyingEvent::Role(r) = e {
+            w.devs[i].roles.push((r.at, r.to, r.reason));
+        }
+    }
+    out
+}
+
+/// Two claims that cross: the weak master stops hearing the strong one (its only working port
+/// runs behind), takes over and announces itself; the strong one, which heard it all along,
+/// steps down for it (a planned take-over, as far as it can tell); the strong one's assertion,
+/// sent just before, reaches the weak one after it became active, and it steps down too. Each
+/// follows the other. Each then asks for the active master (its requests reach a standby:
+/// nobody answers), and at the detection timeout they negotiate: the strong one is active
+/// 100 + 510 ms after the crossing. Before, each followed the other, both beating, and the
+/// network had no active master until one of them died.
+#[test]
+fn claims_that_cross_end_in_a_negotiation_not_in_two_standbys() {
+    let mut w = Wire::new(&[(0, 1), (1, 2)], |c| c);
+    w.start(0, ms(0));
+    w.start(1, ms(0));
+    w.run_until(ms(1000));
+    assert_eq!(w.actives(), [0]);
+    let (strong, weak) = (Rank::new(0, NodeId::must(1)), Rank::new(1, NodeId::must(2)));
+    // From 1000 ms the weak master hears nothing of the strong one, which hears its heartbeats.
+    let mut t = ms(1000);
+    for k in 1.. {
+        t = ms(1000 + k);
+        if k % 20 == 0 {
+            w.devs[0].fm.heartbeat(t, NodeId::must(2), false);
+        }
+        for i in 0..2 {
+            if w.devs[i].fm.poll_timeout().is_some_and(|x| x <= t) {
+                w.devs[i].fm.handle_timeout(t);
+            }
+        }
+        take(&mut w, 0);
+        if w.devs[1].fm.is_active() {
+            break;
+        }
+        take(&mut w, 1);
+    }
+    let claim = take(&mut w, 1);
+    w.devs[0].fm.foreign_activity(t);
+    let assertion = take(&mut w, 0);
+    assert!(!claim.is_empty() && !assertion.is_empty());
+    for f in &claim {
+        w.devs[0].fm.handle_frame(t, f);
+    }
+    let strong_asks = take(&mut w, 0);
+    for f in &assertion {
+        w.devs[1].fm.handle_frame(t, f);
+    }
+    let weak_asks = take(&mut w, 1);
+    assert_eq!(
+        w.devs[0].roles.last(),
+        Some(&(
+            t,
+            MasterRole::Standby(Some(weak)),
+            MasterReason::ConflictLost(weak)
+        ))
+    );
+    assert_eq!(
+        w.devs[1].roles.last(),
+        Some(&(
+            t,
+            MasterRole::Standby(Some(strong)),
+            MasterReason::ConflictLost(strong)
+        ))
+    );
+    for f in &strong_asks {
+        w.devs[1].fm.handle_frame(t, f);
+    }
+    for f in &weak_asks {
+        w.devs[0].fm.handle_frame(t, f);
+    }
+    assert!(
+        take(&mut w, 0).is_empty() && take(&mut w, 1).is_empty(),
+        "a standby answers"
+    );
+    assert_eq!(w.actives(), Vec::<usize>::new());
+    // From here the wire works both ways again.
+    w.now = t;
+    w.run_until(t + Duration::from_millis(2000));
+    let roles = &w.devs[0].roles;
+    assert_eq!(
+        roles[roles.len() - 2..],
+        [
+            (
+                t + Duration::from_millis(100),
+                MasterRole::Negotiating,
+                MasterReason::NoActiveMaster
+            ),
+            (
+                t + Duration::from_millis(610),
+                MasterRole::Active,
+                MasterReason::NegotiationWon
+            ),
+        ]
+    );
+    assert_eq!(w.actives(), [0]);
+    assert_eq!(
+        w.devs[1].fm.role(),
+        MasterRole::Standby(Some(strong)),
+        "the weak one follows"
+    );
+}

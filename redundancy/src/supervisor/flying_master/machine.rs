@@ -18,6 +18,11 @@ use heapless::Vec;
 pub struct FlyingMaster {
     cfg: FlyingMasterConfig,
     state: State,
+    /// Standby after losing a conflict: the master followed must show it is active (answer a
+    /// request for the active master) by then, or a negotiation starts. Two active masters
+    /// whose claims cross (each one's message reaching the other after it had stepped down, a
+    /// port running behind) would otherwise each follow the other, and nobody be active.
+    confirm_by: Option<Instant>,
     peers: Vec<Peer, MAX_PEERS>,
     tx: Bounded<Frame, 16>,
     events: Bounded<FlyingEvent, 16>,
@@ -30,6 +35,7 @@ impl FlyingMaster {
         FlyingMaster {
             cfg,
             state: State::Off,
+            confirm_by: None,
             peers: Vec::new(),
             tx: Bounded::new(),
             events: Bounded::new(),
@@ -204,11 +210,10 @@ impl FlyingMaster {
     pub fn poll_timeout(&self) -> Option<Instant> {
         match self.state {
             State::Off => None,
-            State::Detecting { until }
-            | State::Negotiating { until }
-            | State::Standby {
+            State::Detecting { until } | State::Negotiating { until } => Some(until),
+            State::Standby {
                 takeover_at: until, ..
-            } => earliest_of([Some(until)]),
+            } => earliest_of([Some(until), self.confirm_by]),
             State::Active(a) => earliest_of([a.detect_at, a.suspended_until, a.handback_at]),
         }
     }
@@ -222,6 +227,7 @@ impl FlyingMaster {
         for p in self.peers.iter_mut() {
             shift_back(&mut p.last, by);
         }
+        shift_back(&mut self.confirm_by, by);
         match &mut self.state {
             State::Off => {}
             State::Detecting { until }
@@ -255,10 +261,21 @@ impl FlyingMaster {
                 *takeover_at = (*takeover_at).max(to + timeout);
             }
         }
+        if let Some(c) = self.confirm_by.filter(|c| *c > from) {
+            self.confirm_by = Some(c.max(to + self.cfg.detection_timeout));
+        }
     }
 
     /// Does what is due at `now`.
     pub fn handle_timeout(&mut self, now: Instant) {
+        if let (State::Standby { .. }, Some(t)) = (self.state, self.confirm_by) {
+            if t <= now {
+                // The master followed did not answer: nobody may be active. Negotiate.
+                self.confirm_by = None;
+                self.send(NEGOTIATION_REQUEST, &[]);
+                return self.negotiate(t, MasterReason::NoActiveMaster);
+            }
+        }
         match self.state {
             State::Off => {}
             State::Active(a) => self.active_timers(now, a),
@@ -334,7 +351,7 @@ impl FlyingMaster {
                     .iter()
                     .any(|p| p.rank == r && p.continuous && !p.lost);
                 if r < self.cfg.rank || planned {
-                    self.follow(now, r, MasterReason::ConflictLost(r));
+                    self.yield_to(now, r);
                 } else {
                     // A worse master claims the role: assert ours.
                     self.send(FORCE_NEGOTIATION, &self.cfg.rank.payload());
@@ -342,25 +359,42 @@ impl FlyingMaster {
                 }
             }
             State::Off => {}
-            _ => self.follow(now, r, MasterReason::ActiveMasterFound(r)),
+            _ => {
+                // An active master announced itself: whatever was to be confirmed is.
+                self.confirm_by = None;
+                self.follow(now, r, MasterReason::ActiveMasterFound(r));
+            }
         }
+    }
+
+    /// Steps down for `r` after a conflict, and asks for the active master: `r` answers if
+    /// it still is (its claim may have crossed one of this device's, and it may have stepped
+    /// down for it meanwhile).
+    fn yield_to(&mut self, now: Instant, r: Rank) {
+        self.follow(now, r, MasterReason::ConflictLost(r));
+        self.send(ACTIVE_MASTER_REQUEST, &[]);
+        self.confirm_by = Some(now + self.cfg.detection_timeout);
     }
 
     fn on_force(&mut self, now: Instant, r: Rank) {
         match self.state {
             State::Active(_) => {
                 if r < self.cfg.rank {
-                    self.follow(now, r, MasterReason::ConflictLost(r));
+                    self.yield_to(now, r);
                 } else {
                     // We rank better: tell the other one (and everyone) who is active.
                     self.announce();
                 }
             }
-            // The periodic detection of the master followed, or of a worse one (which the
-            // better one will deal with).
+            // The periodic detection of the master followed (which shows it active), or of a
+            // worse one (which the better one will deal with).
             State::Standby {
                 master: Some(m), ..
-            } if m <= r => {}
+            } if m <= r => {
+                if m == r {
+                    self.confirm_by = None;
+                }
+            }
             State::Off => {}
             _ => self.follow(now, r, MasterReason::ActiveMasterFound(r)),
         }
@@ -513,6 +547,9 @@ impl FlyingMaster {
     /// again only re-times its deadline).
     fn change(&mut self, at: Instant, to: State, reason: MasterReason) {
         let from = self.role();
+        if !matches!(to, State::Standby { .. }) {
+            self.confirm_by = None;
+        }
         self.state = to;
         let to = self.role();
         if from == to {
