@@ -51,6 +51,15 @@
 //! *suspend* its NMT commands until the detection timeout has passed without a conflict: during
 //! the overlap no two masters command the slaves.
 //!
+//! Two claims can cross: the weak master stops hearing the strong one (its only working port
+//! running behind past the master timeout), takes over and announces itself; the strong one,
+//! which heard it all along, steps down for it (as for a manual take-over, below); and the
+//! strong one's 0x76, sent just before, reaches the weak one after that, which steps down too.
+//! Each would follow the other, both beating, and nobody be active. So a master that steps down
+//! after a conflict asks for the active master (0x73): the one it follows must answer (0x71) or
+//! send its 0x76 within the detection timeout, else this device starts a negotiation (0x72),
+//! which the best one alive wins.
+//!
 //! # Planned hand-over
 //!
 //! [`FlyingMaster::hand_over`] announces a successor on 0x71 (its rank, not this device's):
