@@ -65,9 +65,9 @@ VCANVM_SMP=2 VCANVM_EXTRA="$KTARGET/release/duocan:/tests/duocan" VCANS=lssa,lss
   "$VM/vm-run.sh" "$ROOT/.ci/lss-vm.sh" || fail "LSS on vcan"
 
 echo "== tier-vcan: exactly once under CPU load: a busy loop per vCPU, the receiver (DualBus under"
-echo "   the runtime) at nice 10, 20,000 frames at 1,000/s and at 5,000/s, and with vcan0 flapping"
+echo "   the runtime) at nice 5, 20,000 frames at 1,000/s and at 5,000/s, and with vcan0 flapping"
 # Release build (after the tool's, whose dependencies it shares): the VM emulates its CPU, and
-# a debug receiver at nice 10 cannot keep up with 10,000 frames a second there.
+# a debug receiver, niced, cannot keep up with 10,000 frames a second there.
 cargo test --release -p duocan-tiers --features vcan --test vcan_load -- --nocapture \
   || fail "exactly once under load on vcan"
 

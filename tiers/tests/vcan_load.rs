@@ -514,7 +514,7 @@ struct Apart {
 }
 
 /// Sends `n` frames at `rate` frames/s, each on vcan0 then vcan1, with a busy loop on every
-/// CPU and the receiver at nice 10 (vcan0 flapping if `flapping`); what the layer delivered,
+/// CPU and the receiver niced ([`RECEIVER_NICE`]) (vcan0 flapping if `flapping`); what the layer delivered,
 /// judged.
 fn run(n: u32, rate: u32, flapping: bool) -> Run {
     let watchdog = Watchdog::start();
@@ -532,7 +532,7 @@ fn run(n: u32, rate: u32, flapping: bool) -> Run {
         ..HandOvers::default()
     });
     let handed2 = handed.clone();
-    // The receiver: its own thread at nice 10, its runtime's workers and reader threads too.
+    // The receiver: its own thread at [`RECEIVER_NICE`], its runtime's workers and reader threads too.
     let receiver = std::thread::spawn(move || {
         nice_this_thread(RECEIVER_NICE);
         let rt = tokio::runtime::Builder::new_multi_thread()
@@ -635,7 +635,7 @@ fn run(n: u32, rate: u32, flapping: bool) -> Run {
         std::thread::sleep(Duration::from_millis(300));
     }
     // And every frame read is handed to the layer: the reader threads count a frame when they
-    // read it, the runtime's worker (at nice 10 too) hands it over later, and a frame still on
+    // read it, the runtime's worker (niced too) hands it over later, and a frame still on
     // its way when the runtime stops would count as lost.
     let read_all = || [read[0].snapshot().rx_frames, read[1].snapshot().rx_frames];
     while handed.frames() != read_all() && std::time::Instant::now() < until {
