@@ -60,17 +60,9 @@ impl Wire {
         self.devs[i].next_hb = t;
         self.flush(i);
     }
+    /// Delivers what device `i` sent to every device that hears it, recursively.
     fn flush(&mut self, i: usize) {
-        let mut out = vec![];
-        while let Some(f) = self.devs[i].fm.poll_transmit() {
-            out.push(f);
-        }
-        while let Some(e) = self.devs[i].fm.poll_event() {
-            if let FlyingEvent::Role(r) = e {
-                self.devs[i].roles.push((r.at, r.to, r.reason));
-            }
-        }
-        for f in out {
+        for f in take(self, i) {
             self.log.push((self.now, i, f));
             for j in 0..self.devs.len() {
                 if j != i && self.devs[j].alive && self.devs[j].group == self.devs[i].group {
