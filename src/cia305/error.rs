@@ -85,7 +85,8 @@ pub enum LssError {
         error: LssFrameError,
     },
     /// Fastscan lost the slave it was confirming (`sub`: the identity part, 0 vendor … 3
-    /// serial): it left the bus or another master interfered.
+    /// serial) in every attempt, the first and [`RESTARTS`](super::fastscan::RESTARTS) more:
+    /// it keeps leaving the bus, or another master or stray answers keep interfering.
     ScanLost {
         /// The identity part whose confirmation went unanswered.
         sub: u8,
@@ -102,7 +103,11 @@ impl fmt::Display for LssError {
                 write!(f, "node-ID {n} is outside 1-127 (0xFF means none)")
             }
             LssError::Timeout(s) => write!(f, "{s}: no LSS slave answered in time"),
-            LssError::Refused { service, error, spec } => {
+            LssError::Refused {
+                service,
+                error,
+                spec,
+            } => {
                 let why = match (service, error) {
                     (LssService::Store, 1) => "not supported",
                     (LssService::Store, 2) => "the storage medium failed",
@@ -110,7 +115,10 @@ impl fmt::Display for LssError {
                     (_, 0xFF) => "manufacturer-specific error",
                     _ => "reserved error code",
                 };
-                write!(f, "{service}: the slave refused with code {error} ({why}, spec {spec})")
+                write!(
+                    f,
+                    "{service}: the slave refused with code {error} ({why}, spec {spec})"
+                )
             }
             LssError::WrongAnswer { service, cs } => {
                 write!(f, "{service}: a slave answered with command {cs:#04x}")
@@ -118,10 +126,20 @@ impl fmt::Display for LssError {
             LssError::Malformed { service, error } => {
                 write!(f, "{service}: a slave's answer is malformed: {error}")
             }
-            LssError::ScanLost { sub } => write!(
-                f,
-                "fastscan: the slave did not confirm identity part {sub} (it left, or another master interfered)"
-            ),
+            LssError::ScanLost { sub } => {
+                let part = [
+                    "vendor-ID",
+                    "product code",
+                    "revision number",
+                    "serial number",
+                ];
+                let part = part.get(usize::from(*sub)).unwrap_or(&"part");
+                write!(
+                    f,
+                    "fastscan: the slave's {part} went unconfirmed in {} attempts (the slave keeps leaving, or another master or stray answers interfere)",
+                    super::fastscan::RESTARTS + 1
+                )
+            }
             LssError::NoNodeId(a) => write!(f, "fastscan: the plan has no node-ID for {a}"),
         }
     }

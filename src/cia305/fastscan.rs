@@ -25,9 +25,25 @@
 //! # Answers that are not the step's
 //!
 //! An answer of another service stops the scan ([`LssError::WrongAnswer`]), except the answer
-//! to the scan's own configure or store step arriving while a later step waits: on a dual bus
-//! that is the other bus's copy, delivered past the merge window by a slow host. It is counted
+//! to the scan's own configure or store step arriving while a later step waits, or a scan
+//! answer arriving while the configure or store step waits: on a dual bus that is the other
+//! bus's copy, delivered past the merge window because its sender wrote the two copies that far
+//! apart (a slave's host busy between its two writes). It is counted
 //! ([`LssMasterStats::late`]) and dropped.
+//!
+//! # Starting over
+//!
+//! A scan answer carries no data, so a late copy that arrives during a *later* bit step cannot
+//! be told from an answer to it: the step is taken as answered and the bit as 0. The protocol
+//! shows the mistake itself: no slave has the part found, so its confirmation goes unanswered
+//! (or, after a false confirmation of the serial number, nobody is in configuration mode to
+//! answer the configure node-ID step). The scan then starts over at its reset, switching every
+//! slave back to waiting first, and reports [`LssMasterEventKind::ScanRestarted`]: up to
+//! [`RESTARTS`] times for one slave, then it stops with [`LssError::ScanLost`] (a slave that
+//! keeps leaving, or a bus that keeps lying). A slave that left for good is simply not found
+//! by the new reset. What the attempts given up cost is counted
+//! ([`LssMasterStats::restarts`], [`LssMasterStats::abandoned`]), so that a scan can still be
+//! checked against [`fastscan_cost`]: requests = the cost + `abandoned`.
 //!
 //! # Memory
 //!
@@ -36,6 +52,9 @@
 //!
 //! [`LssMasterConfig::with_settle`]: super::master::LssMasterConfig::with_settle
 //! [`LssMasterStats::late`]: super::master::LssMasterStats::late
+//! [`LssMasterStats::restarts`]: super::master::LssMasterStats::restarts
+//! [`LssMasterStats::abandoned`]: super::master::LssMasterStats::abandoned
+//! [`LssMasterEventKind::ScanRestarted`]: super::master::LssMasterEventKind::ScanRestarted
 
 use super::codec::{Fastscan, LssAddress, LssMode, LssRequest, LssResponse, FASTSCAN_RESET};
 use super::error::{LssError, LssService};
@@ -129,15 +148,24 @@ impl<const N: usize> LssPlan<N> {
             .position(|(a, _, exact)| *exact && a == address)
             .or_else(|| list.iter().position(|(p, _, exact)| !*exact && agrees(p)))
     }
-    /// The node-ID for a slave found: its planned one (used up), else the lowest free one
-    /// (taken).
-    fn take(&mut self, address: &LssAddress) -> Option<NodeId> {
-        if let Some(i) = self.entry(address) {
-            return Some(self.by_identity.swap_remove(i).1);
+    /// The node-ID for a slave found: its planned one, else the lowest free one. Nothing is
+    /// used up: [`take`](Self::take) does that once the slave took it.
+    fn choose(&self, address: &LssAddress) -> Option<NodeId> {
+        match self.entry(address) {
+            Some(i) => Some(self.by_identity[i].1),
+            None => self.free.iter().next(),
         }
-        let n = self.free.iter().next()?;
-        self.free.0 &= !(1u128 << n.raw());
-        Some(n)
+    }
+    /// Uses up what [`choose`](Self::choose) gives for `address`.
+    fn take(&mut self, address: &LssAddress) {
+        if let Some(i) = self.entry(address) {
+            self.by_identity.swap_remove(i);
+            return;
+        }
+        let first = self.free.iter().next();
+        if let Some(n) = first {
+            self.free.0 &= !(1u128 << n.raw());
+        }
     }
 }
 
@@ -150,6 +178,10 @@ enum Step {
     Store { address: LssAddress, node: NodeId },
 }
 
+/// Times a fastscan starts over for one slave before it stops with [`LssError::ScanLost`]
+/// (see [Starting over](self#starting-over)).
+pub const RESTARTS: u8 = 3;
+
 /// A fastscan in progress.
 #[derive(Debug)]
 pub(super) struct Scan<const N: usize> {
@@ -159,6 +191,10 @@ pub(super) struct Scan<const N: usize> {
     pub(super) deadline: Instant,
     heard: bool,
     assigned: u8,
+    /// Restarts for the slave being scanned.
+    restarts: u8,
+    /// The master's request count when this attempt's reset was sent.
+    attempt_from: u32,
 }
 
 /// What a scan step came to.
@@ -181,6 +217,8 @@ impl<const N: usize> Scan<N> {
             deadline: now,
             heard: false,
             assigned: 0,
+            restarts: 0,
+            attempt_from: out.stats.requests,
         };
         s.send_step(now, cfg, out);
         s
@@ -237,7 +275,8 @@ impl<const N: usize> Scan<N> {
             (
                 Step::Reset | Step::Bit { .. } | Step::Confirm { .. },
                 LssResponse::NodeIdConfigured { .. } | LssResponse::Stored { .. },
-            ) => {
+            )
+            | (Step::NodeId { .. } | Step::Store { .. }, LssResponse::IdentifySlave) => {
                 out.late();
                 Ok(Progress::Running)
             }
@@ -279,12 +318,38 @@ impl<const N: usize> Scan<N> {
         cfg: &LssMasterConfig,
         out: &mut Out,
     ) -> Progress {
+        self.plan.take(&address);
         out.send(LssRequest::SwitchGlobal(LssMode::Waiting));
         out.event(now, LssMasterEventKind::Assigned { address, node });
         self.assigned = self.assigned.saturating_add(1);
+        self.restarts = 0;
         self.step = Step::Reset;
+        self.attempt_from = out.stats.requests;
         self.send_step(now, cfg, out);
         Progress::Running
+    }
+
+    /// This attempt went wrong at part `sub`: starts over at the reset, or gives up.
+    fn restart(
+        &mut self,
+        now: Instant,
+        sub: u8,
+        cfg: &LssMasterConfig,
+        out: &mut Out,
+    ) -> Result<Progress, LssError> {
+        if self.restarts >= RESTARTS {
+            return Err(LssError::ScanLost { sub });
+        }
+        self.restarts += 1;
+        // A slave a false confirmation left in a later part, or in configuration mode, takes
+        // part in the reset again only from waiting.
+        out.send(LssRequest::SwitchGlobal(LssMode::Waiting));
+        out.restarted(out.stats.requests.wrapping_sub(self.attempt_from));
+        out.event(now, LssMasterEventKind::ScanRestarted { sub });
+        self.attempt_from = out.stats.requests;
+        self.step = Step::Reset;
+        self.send_step(now, cfg, out);
+        Ok(Progress::Running)
     }
 
     /// The step's deadline passed. `Err` ends the scan.
@@ -314,7 +379,7 @@ impl<const N: usize> Scan<N> {
                     _ => Step::Bit { sub, bit: bit - 1 },
                 }
             }
-            Step::Confirm { sub } if !heard => return Err(LssError::ScanLost { sub }),
+            Step::Confirm { sub } if !heard => return self.restart(now, sub, cfg, out),
             Step::Confirm { sub } if sub < 3 => Step::Bit {
                 sub: sub + 1,
                 bit: 31,
@@ -324,11 +389,12 @@ impl<const N: usize> Scan<N> {
                 out.event(now, LssMasterEventKind::Found(address));
                 let node = self
                     .plan
-                    .take(&address)
+                    .choose(&address)
                     .ok_or(LssError::NoNodeId(address))?;
                 Step::NodeId { address, node }
             }
-            Step::NodeId { .. } => return Err(LssError::Timeout(LssService::ConfigureNodeId)),
+            // Nobody in configuration mode: the serial number was confirmed falsely.
+            Step::NodeId { .. } => return self.restart(now, 3, cfg, out),
             Step::Store { .. } => return Err(LssError::Timeout(LssService::Store)),
         };
         self.send_step(now, cfg, out);

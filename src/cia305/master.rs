@@ -119,6 +119,14 @@ pub enum LssMasterEventKind {
         /// Its node-ID.
         node: NodeId,
     },
+    /// Fastscan starts over at its reset: the confirmation of identity part `sub` (0 vendor …
+    /// 3 serial) went unanswered, or nobody took the node-ID after the serial number was
+    /// confirmed. A late or stray answer misled a bit, or the slave left (see
+    /// [the fastscan](super::fastscan#starting-over)).
+    ScanRestarted {
+        /// The identity part whose confirmation went wrong.
+        sub: u8,
+    },
     /// Fastscan found no further non-configured slave.
     ScanFinished {
         /// Slaves configured by this scan.
@@ -136,8 +144,15 @@ pub struct LssMasterStats {
     /// Frames on 0x7E4 while no request waited.
     pub unsolicited: u32,
     /// Answers to a configure or store step of a fastscan that came while a later step waited
-    /// (on a dual bus: the other bus's copy, delivered past the merge window): dropped.
+    /// (on a dual bus: the other bus's copy, delivered past the merge window), or scan answers
+    /// that came while the configure or store step waited: dropped.
     pub late: u32,
+    /// Times a fastscan started over ([`LssMasterEventKind::ScanRestarted`]).
+    pub restarts: u32,
+    /// Requests of the fastscan attempts given up (the switch back to waiting of each restart
+    /// included): a scan's requests are what [`fastscan_cost`](super::fastscan_cost) predicts
+    /// plus these.
+    pub abandoned: u32,
 }
 
 /// The master's output queues, shared with the fastscan.
@@ -145,7 +160,7 @@ pub struct LssMasterStats {
 pub(super) struct Out {
     tx: Bounded<Frame, 8>,
     events: Bounded<LssMasterEvent, 16>,
-    stats: LssMasterStats,
+    pub(super) stats: LssMasterStats,
 }
 
 impl Out {
@@ -159,6 +174,11 @@ impl Out {
     /// Counts an answer a fastscan dropped as late ([`LssMasterStats::late`]).
     pub(super) fn late(&mut self) {
         self.stats.late = self.stats.late.saturating_add(1);
+    }
+    /// Counts a fastscan restart and the requests of the attempt given up.
+    pub(super) fn restarted(&mut self, requests: u32) {
+        self.stats.restarts = self.stats.restarts.saturating_add(1);
+        self.stats.abandoned = self.stats.abandoned.saturating_add(requests);
     }
 }
 

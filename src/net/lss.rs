@@ -36,6 +36,12 @@ pub struct FastscanReport {
     pub requests: u32,
     /// Answers the master received (after the merge, on two buses).
     pub answers: u32,
+    /// Times the scan started over after a confirmation went wrong (a stray or late answer,
+    /// or a slave that left: see [the fastscan](crate::cia305::fastscan#starting-over)).
+    pub restarts: u32,
+    /// Requests of the attempts given up: `requests` less these is what
+    /// [`fastscan_cost`](crate::cia305::fastscan_cost) predicts for the slaves found.
+    pub abandoned: u32,
     /// From the first request to the end, on the network's clock.
     pub took: Duration,
 }
@@ -202,6 +208,8 @@ impl NetLss {
             stopped,
             requests: after.requests.wrapping_sub(before.requests),
             answers: after.answers.wrapping_sub(before.answers),
+            restarts: after.restarts.wrapping_sub(before.restarts),
+            abandoned: after.abandoned.wrapping_sub(before.abandoned),
             took: end - begun,
         })
     }

@@ -112,6 +112,8 @@ pub async fn run(g: &Global, net: &Network, a: Args, cfg: &LssMasterConfig) -> R
             "assigned": t.to_json(),
             "requests": report.requests,
             "answers": report.answers,
+            "restarts": report.restarts,
+            "abandoned": report.abandoned,
             "took_ms": took_ms,
             "protocol": bound.map(|b| json!({
                 "requests": b.requests,
@@ -132,6 +134,12 @@ pub async fn run(g: &Global, net: &Network, a: Args, cfg: &LssMasterConfig) -> R
             report.requests,
             report.answers,
         );
+        if report.restarts > 0 {
+            line.push_str(&format!(
+                ", {} restarts ({} requests given up)",
+                report.restarts, report.abandoned
+            ));
+        }
         if let Some(b) = bound {
             line.push_str(&format!(
                 " (the protocol: {} requests, {} answers, {:.1} ms of waiting plus the frames)",
