@@ -388,8 +388,10 @@ fn a_jump_ahead_is_time_that_passed_once() {
         let t0 = Instant::ZERO + HOUR;
         r.run(t0);
         lagging(r, t0, 25, 0, d(15));
-        // Bus 2 dies: one frame on bus 1 only.
-        r.rx(t0 + d(300), 0, tpdo(5, 99));
+        // Bus 2 dies: a PDO every 50 ms on bus 1 only.
+        for k in 0..9 {
+            r.rx(t0 + d(300 + 50 * k), 0, tpdo(5, 99));
+        }
     };
     let mut jumped = Rig::new(DualBusConfig::default());
     scenario(&mut jumped);

@@ -1,6 +1,7 @@
 //! LSS over the dual-bus layer: 20 non-configured boards on two simulated buses found by
 //! fastscan and configured, with the frames on each bus and the simulated time against what
-//! the protocol predicts; a board heard on one bus only still counts.
+//! the protocol predicts; a board heard on one bus only still counts, and fails no port in
+//! the quiet steps between.
 
 use duocan::cia305::{
     fastscan_cost, LssAddress, LssMaster, LssMasterConfig, LssMasterEvent, LssMasterEventKind as K,
@@ -9,7 +10,7 @@ use duocan::cia305::{
 use duocan::machine::StationEvent;
 use duocan::sim::{timing, BusConfig, BusId, DevId, SimNetwork, TraceRecord, TxOutcome};
 use duocan::{Duration, Instant, NodeId, Station};
-use duocan_redundancy::{DualBus, DualBusConfig};
+use duocan_redundancy::{DualBus, DualBusConfig, LinkEventKind, PortState};
 
 type MasterDev = Station<DualBus, LssMaster<32>>;
 type SlaveDev = Station<DualBus, LssSlave>;
@@ -204,4 +205,62 @@ fn a_board_heard_on_one_bus_only_is_configured_all_the_same() {
         cost.answers
     );
     assert!(net.delivered(1, 0x7E4) < net.delivered(0, 0x7E4));
+}
+
+/// As the vcan tier runs it: the answer timeout 300 ms, two boards whose serial numbers differ,
+/// the second on bus 2 only. Many steps are answered by both boards (two answers on bus 2, one
+/// on bus 1: bus 1 misses a frame bus 2 carries) and followed by steps nobody answers (both
+/// buses quiet for the timeout). A quiet network fails no port: bus 1 stays in use for the
+/// requests, and every answer is delivered once. (The same pattern behind a late reader:
+/// `lag::a_node_on_one_bus_answering_beside_one_on_both_is_no_lag`.)
+#[test]
+fn a_board_on_one_bus_and_long_quiet_steps_fail_no_port() {
+    let id = |serial| LssAddress {
+        vendor: 0x00d0_ca00,
+        product: 0x305,
+        revision: 1,
+        serial,
+    };
+    let boards = [id(7), id(8)];
+    let mut net = network(&boards);
+    let slow = LssMasterConfig::default()
+        .with_timeout(Duration::from_millis(300))
+        .with_settle(Duration::from_millis(30));
+    net.sim.device_mut(net.master).machine = LssMaster::new(slow);
+    let port = net.slaves[1].port(0);
+    net.sim.disconnect(port);
+    let events = net.run(LssPlan::new().with_free((0x30..=0x31).map(NodeId::must)));
+    assert!(matches!(
+        events.last().unwrap().kind,
+        K::ScanFinished { assigned: 2 }
+    ));
+    let cost = fastscan_cost(&mut boards.to_vec(), &slow, false);
+    let stats = net.sim.device(net.master).machine.stats();
+    assert_eq!(
+        (stats.requests, stats.answers, stats.restarts),
+        (cost.requests, cost.answers, 0)
+    );
+    // Every request on both buses: bus 1 was never failed.
+    assert_eq!(net.delivered(0, 0x7E5), cost.requests);
+    assert_eq!(net.delivered(1, 0x7E5), cost.requests);
+    let wrong: Vec<_> = net
+        .sim
+        .events(net.master)
+        .iter()
+        .filter_map(|(_, e)| match e {
+            StationEvent::Link(l) => Some(l.kind),
+            _ => None,
+        })
+        .filter(|k| {
+            matches!(
+                k,
+                LinkEventKind::Lag { .. }
+                    | LinkEventKind::Port {
+                        to: PortState::Failed,
+                        ..
+                    }
+            )
+        })
+        .collect();
+    assert!(wrong.is_empty(), "{wrong:?}");
 }

@@ -14,7 +14,13 @@
 //!   the skew window). Twins do not count, so a network that simply goes quiet fails nobody. A
 //!   port silent for `suspect_after` becomes suspect, for `silence_limit` failed; the instant is
 //!   exact: last frame + limit (or first missed frame + window + the port's receive delay, if
-//!   later: a port whose reader runs behind hands its twins over that much later). A port
+//!   later: a port whose reader runs behind hands its twins over that much later). Failing
+//!   also takes that the other port received a first copy within the last `suspect_after` (a
+//!   third of the limit without the suspect step) before that instant; otherwise the port
+//!   fails at the next first copy, if still silent. So a network that goes quiet right after a
+//!   frame only the other bus carried (a node cut from this bus, answering what nobody else
+//!   answers: LSS fastscan steps) does not fail this port; with cyclic traffic on a dead bus
+//!   the instant is unchanged. A port
 //!   whose driver confirms its transmissions (someone on its bus acknowledged them) is failed
 //!   for silence only once it has had none confirmed for the silence limit either: its bus
 //!   works and its frames reach the peers there, only its receive path is silent or behind;
@@ -258,11 +264,13 @@ impl Health {
         let port = &mut self.ports[p];
         port.silence_ref = Some(now);
         port.first_missed = None;
+        port.last_missed = None;
         // A frame from before the unacknowledged transmission says nothing of the bus now.
         port.unacknowledged &= at < port.unacknowledged_at;
         if outcome == RxOutcome::Delivered {
             let other = &mut self.ports[o];
             other.first_missed.get_or_insert(now);
+            other.last_missed = Some(now);
             // Observation of the other port starts with the first traffic seen at all.
             other.silence_ref.get_or_insert(now);
         }
@@ -465,6 +473,7 @@ impl Health {
                 // network a stale miss from before the repair would fail it again and again).
                 port.silence_ref = Some(at);
                 port.first_missed = None;
+                port.last_missed = None;
                 Condition::Recovering {
                     probation_from: None,
                 }
@@ -475,6 +484,7 @@ impl Health {
             // What this port heard no longer says anything about the other one.
             let other = &mut self.ports[1 - p];
             other.first_missed = None;
+            other.last_missed = None;
             other.silence_ref = None;
         }
         out.event(LinkEvent {
@@ -510,13 +520,32 @@ impl Health {
         };
         let missed = port.first_missed?;
         let mut reference = port.silence_ref?;
-        if threshold == self.cfg.silence_limit {
-            // Failing it takes its transmissions' silence too: frames acknowledged on its bus
-            // show that the bus works and reaches peers (only its receive path is silent or
-            // behind), and a failed port would no longer carry them.
-            reference = reference.max(port.confirmed.unwrap_or(reference));
+        if threshold != self.cfg.silence_limit {
+            return Some((reference + threshold).max(missed + self.window + port.rx_delay));
         }
-        Some((reference + threshold).max(missed + self.window + port.rx_delay))
+        // Failing it takes its transmissions' silence too: frames acknowledged on its bus
+        // show that the bus works and reaches peers (only its receive path is silent or
+        // behind), and a failed port would no longer carry them.
+        reference = reference.max(port.confirmed.unwrap_or(reference));
+        let due = (reference + threshold).max(missed + self.window + port.rx_delay);
+        // And the other port still hears what this one does not: a frame it missed no longer
+        // than the quiet span before the instant. A network that goes quiet right after a frame
+        // this port missed (a node on the other bus only, answering a request nobody else
+        // answers) fails nobody: the next frame this port misses re-arms the rule, and the
+        // port fails then.
+        let last = port.last_missed.unwrap_or(missed);
+        (last + self.quiet() >= due).then(|| due.max(last))
+    }
+
+    /// How recent a frame this port missed must be for its silence to fail it: one guarding
+    /// period (the suspect step), or a third of the limit without that step.
+    fn quiet(&self) -> Duration {
+        let c = &self.cfg;
+        if !c.suspect_after.is_zero() && c.suspect_after < c.silence_limit {
+            c.suspect_after
+        } else {
+            Duration::from_micros(c.silence_limit.as_micros() / 3)
+        }
     }
 
     fn stall_deadline(&self, p: usize) -> Option<Instant> {

@@ -97,6 +97,8 @@ pub struct PortHealth {
     pub(super) silence_ref: Option<Instant>,
     /// First first-copy on the other port since this port's last frame.
     pub(super) first_missed: Option<Instant>,
+    /// Newest first-copy on the other port since this port's last frame.
+    pub(super) last_missed: Option<Instant>,
     pub(super) last_error: Option<Instant>,
     pub(super) attempt: u32,
     pub(super) backoff: Duration,
@@ -160,6 +162,7 @@ impl PortHealth {
             intact: Some(Instant::ZERO),
             silence_ref: None,
             first_missed: None,
+            last_missed: None,
             last_error: None,
             attempt: 0,
             backoff: cfg.reinit_first,
@@ -247,6 +250,7 @@ impl PortHealth {
         for t in [
             &mut self.silence_ref,
             &mut self.first_missed,
+            &mut self.last_missed,
             &mut self.last_error,
             &mut self.overtaken,
             &mut self.intact,

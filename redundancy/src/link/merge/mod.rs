@@ -86,7 +86,9 @@
 //! late), and when the other port holds nothing back (its reader ran at most a window behind at
 //! its newest copy) or has handed over its copies up to a window before this one. Fresh means
 //! its content was not seen on either port within the horizon before the older of its stamp and
-//! how far the other port has handed over its copies. How far a port has handed over: its
+//! how far the other port has handed over its copies, nor stamped after it (what came before a
+//! copy stamped earlier than the newest one seen is not known: it may be a repeat, as a node on
+//! one bus only sends one beside the twin of another node's identical frame). How far a port has handed over: its
 //! newest stamp, or, quiet since, the present less how far behind its reader ran at its newest
 //! copy. A reader running behind has not shown its latest copies yet: they may be repeats of
 //! the same content (a frame one bus missed while its sender's port on it was not back, whose

@@ -125,7 +125,8 @@ impl<const LINES: usize> Recent<LINES> {
 
     /// A copy of the key `hash` stamped `at_us` arrived while the other port has handed over
     /// its copies stamped up to `reported_us`: returns whether no copy of the key arrived (on
-    /// either port) within `horizon_us` before the earlier of the two, and remembers this one.
+    /// either port) within `horizon_us` before the earlier of the two, nor stamped after it
+    /// (the line keeps the newest stamp only), and remembers this one.
     /// (A port whose reader runs behind has not shown its copies of the last moments yet: a
     /// repeat it holds back must not make this copy look fresh.)
     #[inline]
@@ -144,7 +145,11 @@ impl<const LINES: usize> Recent<LINES> {
         let last = line.at.wrapping_sub(1);
         // What both ports have shown, counted from the base (nothing yet: the base itself).
         let shown = u64::from(now).min(reported_us.saturating_sub(base));
-        let fresh = !known || now < last || shown.saturating_sub(u64::from(last)) > horizon_us;
+        // A copy stamped before the newest one seen is no fresh occurrence either: what came
+        // before it is not known (the line keeps the newest stamp only), and it may well be a
+        // repeat (a node heard on one bus only, answering beside a node on both, just after
+        // the twin of the other's answer).
+        let fresh = !known || (now >= last && shown.saturating_sub(u64::from(last)) > horizon_us);
         line.at = line.at.max(now + 1);
         fresh
     }
