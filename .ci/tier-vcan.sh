@@ -3,7 +3,7 @@
 # (the host kernel has no CAN). Installs what it needs (qemu, busybox, the kernel deb's CAN
 # modules, can-utils), runs tiers/tests/vcan.rs, tiers/tests/vcan_failover.rs,
 # tiers/tests/vcan_redundant.rs, tiers/tests/vcan_reopen.rs, tiers/tests/vcan_load.rs, the
-# failover kit (.ci/kit-vm.sh), LSS (.ci/lss-vm.sh) and the dual_vcan_failover example's
+# failover kit (.ci/kit-vm.sh), LSS (.ci/lss-vm.sh), both through .ci/vm-script.sh, and the dual_vcan_failover example's
 # self-test in the VM (and checks on the host that the example
 # refuses to run without its interfaces, saying how to create them), then the runtime-overhead
 # measurement (bare socketcan echo loop vs the tokio runtime, same VM).
@@ -53,16 +53,11 @@ echo "== tier-vcan: the failover kit on vcan: every scenario through the fault b
 echo "   boards as processes), the simulator's verdicts beside it, and the bridge's own overhead"
 # Release build: the VM emulates its CPU, and five processes share it.
 cargo build --release -p duocan-cli || fail "build the duocan tool"
-KTARGET=$(cargo metadata --format-version 1 --no-deps | python3 -c 'import sys,json; print(json.load(sys.stdin)["target_directory"])')
-EXTRA="$KTARGET/release/duocan:/tests/duocan"
-for f in cli/scenarios/*.toml; do EXTRA="$EXTRA $ROOT/$f:/tests/scenarios/$(basename "$f")"; done
-VCANVM_SMP=2 VCANVM_EXTRA="$EXTRA" VCANS=vm1a,vm1b,vs1a,vs1b,vm2a,vm2b,vs2a,vs2b,kb0,kb1,kb2 \
-  "$VM/vm-run.sh" "$ROOT/.ci/kit-vm.sh" || fail "the failover kit on vcan"
+.ci/vm-script.sh kit || fail "the failover kit on vcan"
 
 echo "== tier-vcan: LSS on vcan: the tool's LSS master configures two duocan LSS slaves (processes)"
 echo "   by fastscan on lssa,lssb, one of them on lssb only"
-VCANVM_SMP=2 VCANVM_EXTRA="$KTARGET/release/duocan:/tests/duocan" VCANS=lssa,lssb \
-  "$VM/vm-run.sh" "$ROOT/.ci/lss-vm.sh" || fail "LSS on vcan"
+.ci/vm-script.sh lss || fail "LSS on vcan"
 
 echo "== tier-vcan: exactly once under CPU load: a busy loop per vCPU, the receiver (DualBus under"
 echo "   the runtime) at nice 5, 20,000 frames at 1,000/s and at 5,000/s, and with vcan0 flapping"
