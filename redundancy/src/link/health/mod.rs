@@ -16,7 +16,7 @@
 //!   exact: last frame + limit (or first missed frame + window + the port's receive delay, if
 //!   later: a port whose reader runs behind hands its twins over that much later). Failing
 //!   also takes that the other port received a first copy within the last `suspect_after` (a
-//!   third of the limit without the suspect step) before that instant; otherwise the port
+//!   quarter of the limit without the suspect step) before that instant; otherwise the port
 //!   fails at the next first copy, if still silent. So a network that goes quiet right after a
 //!   frame only the other bus carried (a node cut from this bus, answering what nobody else
 //!   answers: LSS fastscan steps) does not fail this port; with cyclic traffic on a dead bus
@@ -508,44 +508,42 @@ impl Health {
         if self.ports[1 - p].state() == PortState::Failed {
             return None;
         }
-        let threshold = match port.state() {
+        let c = &self.cfg;
+        // The suspect step: silent for a guarding period.
+        let step = !c.suspect_after.is_zero() && c.suspect_after < c.silence_limit;
+        let suspect = match port.state() {
             PortState::Failed => return None,
-            PortState::Ok
-                if !self.cfg.suspect_after.is_zero()
-                    && self.cfg.suspect_after < self.cfg.silence_limit =>
-            {
-                self.cfg.suspect_after
-            }
-            _ => self.cfg.silence_limit,
+            PortState::Ok => step,
+            _ => false,
         };
         let missed = port.first_missed?;
         let mut reference = port.silence_ref?;
-        if threshold != self.cfg.silence_limit {
-            return Some((reference + threshold).max(missed + self.window + port.rx_delay));
-        }
-        // Failing it takes its transmissions' silence too: frames acknowledged on its bus
-        // show that the bus works and reaches peers (only its receive path is silent or
-        // behind), and a failed port would no longer carry them.
-        reference = reference.max(port.confirmed.unwrap_or(reference));
-        let due = (reference + threshold).max(missed + self.window + port.rx_delay);
-        // And the other port still hears what this one does not: a frame it missed no longer
-        // than the quiet span before the instant. A network that goes quiet right after a frame
-        // this port missed (a node on the other bus only, answering a request nobody else
-        // answers) fails nobody: the next frame this port misses re-arms the rule, and the
-        // port fails then.
-        let last = port.last_missed.unwrap_or(missed);
-        (last + self.quiet() >= due).then(|| due.max(last))
-    }
-
-    /// How recent a frame this port missed must be for its silence to fail it: one guarding
-    /// period (the suspect step), or a third of the limit without that step.
-    fn quiet(&self) -> Duration {
-        let c = &self.cfg;
-        if !c.suspect_after.is_zero() && c.suspect_after < c.silence_limit {
+        let threshold = if suspect {
             c.suspect_after
         } else {
-            Duration::from_micros(c.silence_limit.as_micros() / 3)
+            // Failing it takes its transmissions' silence too: frames acknowledged on its bus
+            // show that the bus works and reaches peers (only its receive path is silent or
+            // behind), and a failed port would no longer carry them.
+            reference = reference.max(port.confirmed.unwrap_or(reference));
+            c.silence_limit
+        };
+        let due = (reference + threshold).max(missed + self.window + port.rx_delay);
+        if suspect {
+            return Some(due);
         }
+        // And the other port still hears what this one does not: a frame this port missed no
+        // longer than a guarding period before the instant (a quarter of the limit without the
+        // suspect step: a shift, no 64-bit division on a microcontroller without one). A
+        // network that goes quiet right after a frame this port missed (a node on the other
+        // bus only, answering a request nobody else answers) fails nobody: the next frame this
+        // port misses re-arms the rule, and the port fails then.
+        let quiet = if step {
+            c.suspect_after
+        } else {
+            Duration::from_micros(c.silence_limit.as_micros() >> 2)
+        };
+        let last = port.last_missed?;
+        (last + quiet >= due).then(|| due.max(last))
     }
 
     fn stall_deadline(&self, p: usize) -> Option<Instant> {
