@@ -54,6 +54,10 @@ use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
 use std::sync::{Arc, Mutex};
 use std::time::Duration;
 
+#[path = "common/apart.rs"]
+mod apart;
+use apart::Apart;
+
 /// The receiver: the layer and the recorder, and per port how late frames were handed over
 /// (the instant handled at minus the stamp): the longest, and how many more than the merger's
 /// horizon late; and how many frames came without a stamp (none should).
@@ -461,7 +465,6 @@ async fn send(n: u32, rate: u32) -> (Vec<Frame>, usize, Duration, Apart) {
     let mut on_bus0 = 0;
     let mut bus0_ok = true;
     let mut apart = Apart::default();
-    let window = Duration::from_micros(DualBusConfig::default().skew_window.as_micros());
     let start = std::time::Instant::now();
     let mut k = 0;
     while k < n {
@@ -487,30 +490,13 @@ async fn send(n: u32, rate: u32) -> (Vec<Frame>, usize, Duration, Apart) {
             }
             bus1.send(&f).await.expect("vcan1 never fails");
             if bus0_ok {
-                let d = first.elapsed();
-                apart.longest = apart.longest.max(d);
-                if d > window {
-                    apart.beyond_window.push(f);
-                }
+                apart.note(&f, first);
             }
             sent.push(f);
             k += 1;
         }
     }
     (sent, on_bus0, start.elapsed(), apart)
-}
-
-/// How far apart the sender put a frame's two copies on the wires: from before its write to
-/// vcan0 to after its write to vcan1 (the kernel stamps each copy within that), the longest,
-/// and the frames whose copies were further apart than the layer's default skew window. The
-/// layer pairs copies stamped within the window, so a copy further from its twin than that
-/// (the VM's emulated CPU holding the sender up between its two writes) is a new occurrence to
-/// it: the judge takes such a frame delivered once or twice (see [`judge`]).
-#[derive(Clone, Debug, Default)]
-struct Apart {
-    longest: Duration,
-    /// The frames sent so (each once per such sending).
-    beyond_window: Vec<Frame>,
 }
 
 /// Sends `n` frames at `rate` frames/s, each on vcan0 then vcan1, with a busy loop on every

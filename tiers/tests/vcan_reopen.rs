@@ -25,6 +25,10 @@ use std::sync::atomic::{AtomicBool, AtomicU32, Ordering};
 use std::sync::Arc;
 use std::time::Duration;
 
+#[path = "common/apart.rs"]
+mod apart;
+use apart::Apart;
+
 // The root crate's helpers for runtime tests (waiting on events).
 #[path = "../../tests/common/runtime.rs"]
 mod rt;
@@ -76,10 +80,8 @@ async fn receiver() -> (Handle<Dev>, Arc<AtomicU32>) {
 /// controller, would go on handing it frames.
 ///
 /// `apart` counts the frames whose two copies went out further apart than the layer's skew
-/// window (from before the write to vcan0 to after the write to vcan1: the kernel stamps each
-/// copy within that): the emulated CPU holds this debug-built thread up between its two writes
-/// now and then (3 of the first 21 frames in one CI run), and such a frame is two occurrences
-/// to the layer by its documented rule, delivered once or twice.
+/// window (see [`Apart`]): the emulated CPU holds this debug-built thread up between its two
+/// writes now and then (3 of the first 21 frames in one CI run).
 struct Sender {
     stop: Arc<AtomicBool>,
     quiet1: Arc<AtomicBool>,
@@ -92,7 +94,6 @@ impl Sender {
         let quiet1 = Arc::new(AtomicBool::new(false));
         let apart = Arc::new(AtomicU32::new(0));
         let (s, q, a) = (stop.clone(), quiet1.clone(), apart.clone());
-        let window = Duration::from_micros(DualBusConfig::default().skew_window.as_micros());
         std::thread::spawn(move || {
             let rt = tokio::runtime::Builder::new_current_thread()
                 .enable_all()
@@ -122,7 +123,7 @@ impl Sender {
                             }
                         }
                     }
-                    if sent == 2 && first.elapsed() > window {
+                    if sent == 2 && Apart::default().note(&f, first) {
                         a.fetch_add(1, Ordering::Relaxed);
                     }
                     k += 1;
