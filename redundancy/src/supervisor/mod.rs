@@ -74,14 +74,18 @@
 //!   after a step is failed over exactly when it would have been on a clock that never stepped,
 //!   in the new time line. The [audit trail](audit) keeps the instants things happened at, as
 //!   reported, like events already queued.
-//! - **A jump ahead** shorter than the jump threshold is time that passed: what is due in
-//!   between is handled once (a pair member's silence, the flying master's detection cycle on
-//!   its grid, a planned switch on the SYNC grid computed rather than stepped through).
-//! - **A jump ahead** of the threshold or more — an input at least
+//! - **A short jump ahead** is time that passed: what is due in between is handled once (a
+//!   pair member's silence, the flying master's detection cycle on its grid, a planned switch
+//!   on the SYNC grid computed rather than stepped through).
+//! - **A jump ahead the supervisor did not watch** — an input at least
 //!   [`PairsConfig::clock_jump`](pairs::PairsConfig::clock_jump) (1 s by default; never less
 //!   than twice this master's heartbeat period, since its own heartbeat calls for an input every
-//!   period) after the latest time the supervisor was given — is not taken for time the
-//!   supervisor watched: the network ran on, and the frames that would have met the deadlines in
+//!   period) after the latest time the supervisor was given, or one later than the earliest
+//!   deadline it reported by at least the smallest slack of its timeouts (a pair's consumer time
+//!   less its producer time, the master timeout less this master's heartbeat period; at least
+//!   1 ms): its driver was to call it at that deadline, and a span that long can hold every
+//!   heartbeat a watched node sent within its timeout — is not taken for time the supervisor
+//!   watched: the network ran on, and the frames that would have met the deadlines in
 //!   between were not seen (a clock set forward, or a driver that stalled). Every pair member
 //!   whose deadline falls after that latest time is observed again
 //!   ([`PairSupervisor::jumped`](pairs::PairSupervisor::jumped)): it is judged silent (or not

@@ -71,9 +71,16 @@ fn a_jump_ahead_during_a_pair_switch_over_resets_no_live_board() {
         .find(|r| r.to == Some(Member::B))
         .unwrap();
     // The jump: 200 µs after B's start was handed over, before B is heard running; an hour,
-    // and the least that is a jump (the default threshold, 1 s).
+    // the default threshold (1 s), and jumps shorter than it that still hide a member's
+    // consumer time: 70 ms, and 45 ms (its deadline came before and is 35 ms overdue: more than
+    // the slack of 30 ms, consumer time less producer time).
     let at = fail.at + Duration::from_micros(200);
-    for by in [HOUR, Duration::from_secs(1)] {
+    for by in [
+        HOUR,
+        Duration::from_secs(1),
+        Duration::from_millis(70),
+        Duration::from_millis(45),
+    ] {
         switch_over_jumped(run(Some(ClockJump { at, by })), fail.at, at);
     }
 }
@@ -111,8 +118,15 @@ fn a_jump_ahead_during_a_master_takeover_resets_no_live_board() {
         .unwrap();
     // Just after the takeover (the table commanding), and just before it (it takes over at the
     // jump: the dead master's heartbeat is overdue too).
-    for at in [take.at + Duration::from_micros(200), take.at - ONE_MS] {
-        let n = run(Some(ClockJump { at, by: HOUR }));
+    for (at, by) in [
+        (take.at + Duration::from_micros(200), HOUR),
+        (take.at - ONE_MS, HOUR),
+        (
+            take.at + Duration::from_micros(200),
+            Duration::from_millis(70),
+        ),
+    ] {
+        let n = run(Some(ClockJump { at, by }));
         assert_eq!(n.role(WEAK), MasterRole::Active, "jump at {at}");
         nothing_alive_reset(&n, at, ms(2000), &[]);
         for i in 0..n.p.pairs {

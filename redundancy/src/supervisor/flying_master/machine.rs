@@ -370,8 +370,20 @@ impl FlyingMaster {
     /// Steps down for `r` after a conflict, and asks for the active master: `r` answers if
     /// it still is (its claim may have crossed one of this device's, and it may have stepped
     /// down for it meanwhile).
+    ///
+    /// Stepping down for a better master, it also hands the role to it (an announcement of
+    /// `r`'s rank, which `r` takes only if it is no longer active). Claims cross when this
+    /// device took over because `r`'s heartbeats stopped reaching it (both buses down for a
+    /// moment) while `r` lived: `r`, having heard this one all along, may have taken the claim
+    /// for a take-over by hand and stepped down for it. Without the hand-over both would follow
+    /// the other until the confirmation ran out and a negotiation ended (600 ms without a
+    /// master). Only the worse of the two hands over, so the two cannot pass the role back and
+    /// forth.
     fn yield_to(&mut self, now: Instant, r: Rank) {
         self.follow(now, r, MasterReason::ConflictLost(r));
+        if r < self.cfg.rank {
+            self.send(ACTIVE_MASTER_RESPONSE, &r.payload());
+        }
         self.send(ACTIVE_MASTER_REQUEST, &[]);
         self.confirm_by = Some(now + self.cfg.detection_timeout);
     }

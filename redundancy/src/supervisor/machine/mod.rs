@@ -149,6 +149,8 @@ pub struct Supervisor<D, P = Predefined> {
     lss_due: Option<Instant>,
     /// [`Supervisor::start`] ran.
     started: bool,
+    /// The least lateness that is a jump ([`Supervisor::unwatched`]).
+    late: Duration,
 }
 
 impl<D: ObjectDictionary, P: IdProfile> Supervisor<D, P> {
@@ -199,6 +201,7 @@ impl<D: ObjectDictionary, P: IdProfile> Supervisor<D, P> {
             lss,
             lss_due: None,
             started: false,
+            late: Duration::MAX,
         }
     }
 
@@ -253,20 +256,49 @@ impl<D: ObjectDictionary, P: IdProfile> Supervisor<D, P> {
         self.fm.start(now);
         self.pairs.set_authority(now, Authority::Shadow);
         self.watch_clock(now);
+        self.measure_late();
         self.pump(now);
     }
 
     // ----- internals -----
 
-    /// Every input that carries a time passes it here first: two comparisons.
+    /// Every input that carries a time passes it here first: two comparisons, unless it comes
+    /// at least [`late`](Self::measure_late) after the latest one.
     #[inline]
     fn watch_clock(&mut self, now: Instant) {
         let latest = self.clock.latest();
         if let Some(by) = self.clock.step_back(now) {
             self.step_back(now, by);
-        } else if now.saturating_since(latest) >= self.jump_threshold() {
+        } else if now.saturating_since(latest) >= self.late && self.unwatched(latest, now) {
             self.jumped(latest, now);
         }
+    }
+
+    /// Whether the time from `latest` to `now` went by unwatched: an input the jump threshold
+    /// after the latest one, or one at least `late` after the earliest deadline this supervisor
+    /// reported (its driver was to call it then: had it, the frames of that span would have
+    /// come as inputs). A span that long can hold every heartbeat a watched node sent within its
+    /// timeout; a shorter one cannot, and is time that passed.
+    fn unwatched(&self, latest: Instant, now: Instant) -> bool {
+        now.saturating_since(latest) >= self.jump_threshold()
+            || self
+                .poll_timeout()
+                .is_some_and(|due| now.saturating_since(due) >= self.late)
+    }
+
+    /// The least lateness that is a jump: the smallest slack a timeout is judged with (a
+    /// pair's consumer time less its producer time; the master timeout less this master's
+    /// heartbeat period, the masters beating alike), at least 1 ms and at most the jump
+    /// threshold. Measured when the supervisor starts and when a pair is added.
+    pub(super) fn measure_late(&mut self) {
+        let threshold = self.jump_threshold();
+        let fm = self.cfg.flying.master_timeout - self.cfg.heartbeat;
+        let slack = self.pairs.slack().map_or(fm, |p| p.min(fm));
+        self.late = if threshold == Duration::MAX {
+            threshold
+        } else {
+            slack.max(Duration::from_millis(1)).min(threshold)
+        };
     }
 
     /// An input this long after the latest one is a jump ahead: the pair policy's

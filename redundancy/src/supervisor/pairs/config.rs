@@ -26,7 +26,10 @@ pub struct PairsConfig {
     /// An input this long or more after the latest one the supervisor was given is a jump of
     /// the clock ahead (or a driver that stalled), not time the table watched: the members are
     /// observed again before they are judged ([`PairSupervisor::jumped`](super::PairSupervisor::jumped);
-    /// the supervisor takes at least twice its heartbeat period). Default 1 s.
+    /// the supervisor takes at least twice its heartbeat period). Default 1 s. A shorter jump
+    /// is caught too when the input comes later than the supervisor's earliest deadline by the
+    /// smallest slack of its timeouts (see [the clock contract](crate::supervisor)); zero
+    /// turns both off.
     pub clock_jump: Duration,
 }
 

@@ -80,6 +80,17 @@ impl<S: Storage> PairSupervisor<S> {
         }
     }
 
+    /// The least slack a member's silence is judged with: its pair's consumer time less its
+    /// producer time (the span of missed heartbeats that runs a consumer time out); `None`
+    /// without pairs.
+    #[must_use]
+    pub fn slack(&self) -> Option<Duration> {
+        self.pairs
+            .iter()
+            .map(|p| p.spec.consumer_time - p.spec.producer_time)
+            .min()
+    }
+
     /// The earliest due item of any member: (instant, pair, member).
     fn earliest(&self) -> Option<(Instant, usize, Member)> {
         let mut best: Option<(Instant, usize, Member)> = None;
