@@ -6,61 +6,27 @@
 use super::fastscan::{cfg, cost, counts};
 use super::wire::{addr, ans, slave, Wire};
 use duocan::cia305::{
-    fastscan::RESTARTS, LssError, LssMaster, LssMasterEventKind as K, LssMode, LssPlan,
+    fastscan::RESTARTS, LssAddress, LssError, LssMaster, LssMasterEventKind as K, LssMode, LssPlan,
 };
-use duocan::{Instant, Machine, NodeId};
+use duocan::{Instant, NodeId};
 
 /// A slave's scan answer that no slave sent for this step.
 fn stray() -> duocan::Frame {
     ans([0x4F, 0, 0, 0, 0, 0, 0, 0])
 }
 
-/// Moves every frame as [`Wire::exchange`] does, but right after the master writes a request
-/// that `inject` picks (by its data bytes), and before any slave answers it, the master gets a
-/// stray scan answer at the same instant. Strays are not logged.
-fn exchange(w: &mut Wire, inject: &mut impl FnMut(&[u8]) -> bool) {
-    loop {
-        let mut moved = false;
-        while let Some(f) = w.master.poll_transmit() {
-            moved = true;
-            w.log.push((w.now.as_micros(), f));
-            for s in &mut w.slaves {
-                s.handle_frame(w.now, &f);
-            }
-            if inject(f.data()) {
-                w.master.handle_frame(w.now, &stray());
-            }
-        }
-        for i in 0..w.slaves.len() {
-            while let Some(f) = w.slaves[i].poll_transmit() {
-                moved = true;
-                w.log.push((w.now.as_micros(), f));
-                w.master.handle_frame(w.now, &f);
-            }
-        }
-        w.events
-            .extend(std::iter::from_fn(|| w.master.poll_event()));
-        if !moved {
-            return;
-        }
-    }
+/// An unconfigured slave (serial 0x100) and a fastscan for the one node-ID 1, started at 0.
+fn one_slave_scan() -> (Wire, LssAddress) {
+    let a = addr(0x2A, 7, 1, 0x100);
+    let mut w = Wire::new(LssMaster::new(cfg()), vec![slave(a, 0xFF)]);
+    let plan = LssPlan::new().with_free([NodeId::must(1)]);
+    w.master.fastscan(Instant::ZERO, plan).unwrap();
+    (w, a)
 }
 
-/// Runs the scan to its end with strays where `inject` says.
+/// Runs the scan to its end with a stray after each request `inject` picks.
 fn run(w: &mut Wire, mut inject: impl FnMut(&[u8]) -> bool) {
-    exchange(w, &mut inject);
-    for _ in 0..5000 {
-        let Some(at) = w.master.poll_timeout() else {
-            return;
-        };
-        w.now = w.now.max(at);
-        w.master.handle_timeout(w.now);
-        for s in &mut w.slaves {
-            s.handle_timeout(w.now);
-        }
-        exchange(w, &mut inject);
-    }
-    panic!("the scan did not end");
+    w.run_with(5000, |d| inject(d).then(stray));
 }
 
 /// The fastscan request testing bit `bit` of identity part `sub`.
@@ -123,11 +89,8 @@ fn a_false_confirmation_of_the_serial_number_is_caught_at_the_configure_step() {
     // Serial 0x100: bit 0 is 0 (answered), bit 1 is 0 ... the stray in the step of bit 8 (a
     // one, unanswered) makes it 0, the later bits all ones: serial 0x0FF, whose confirmation a
     // second stray answers. Nobody is in configuration mode to take the node-ID.
-    let a = addr(0x2A, 7, 1, 0x100);
-    let mut w = Wire::new(LssMaster::new(cfg()), vec![slave(a, 0xFF)]);
     // One node-ID only: the false find must not use it up.
-    let plan = LssPlan::new().with_free([NodeId::must(1)]);
-    w.master.fastscan(Instant::ZERO, plan).unwrap();
+    let (mut w, a) = one_slave_scan();
     let (mut bit, mut confirm) = (true, true);
     run(&mut w, |d| {
         if bit && bit_step(d, 3, 8) {
@@ -165,11 +128,7 @@ fn a_false_confirmation_of_the_serial_number_is_caught_at_the_configure_step() {
 
 #[test]
 fn strays_in_every_attempt_stop_the_scan_after_its_restarts() {
-    let a = addr(0x2A, 7, 1, 0x100);
-    let mut w = Wire::new(LssMaster::new(cfg()), vec![slave(a, 0xFF)]);
-    w.master
-        .fastscan(Instant::ZERO, LssPlan::new().with_free([NodeId::must(1)]))
-        .unwrap();
+    let (mut w, _) = one_slave_scan();
     run(&mut w, |d| bit_step(d, 1, 1));
     let mut want = vec![K::ScanRestarted { sub: 1 }; usize::from(RESTARTS)];
     want.push(K::Failed(LssError::ScanLost { sub: 1 }));
@@ -181,11 +140,7 @@ fn strays_in_every_attempt_stop_the_scan_after_its_restarts() {
 
 #[test]
 fn a_late_scan_answer_while_the_configure_step_waits_is_dropped() {
-    let a = addr(0x2A, 7, 1, 0x100);
-    let mut w = Wire::new(LssMaster::new(cfg()), vec![slave(a, 0xFF)]);
-    w.master
-        .fastscan(Instant::ZERO, LssPlan::new().with_free([NodeId::must(1)]))
-        .unwrap();
+    let (mut w, a) = one_slave_scan();
     // The stray reaches the master after its configure node-ID request, before the answer.
     run(&mut w, |d| d[0] == 0x11);
     assert_eq!(w.master.stats().late, 1);

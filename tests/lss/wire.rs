@@ -46,6 +46,13 @@ impl Wire {
 
     /// Moves every frame written to every other machine, at `now`.
     pub fn exchange(&mut self) {
+        self.exchange_with(&mut |_| None);
+    }
+
+    /// [`Wire::exchange`], but right after the master writes a request, and before any slave
+    /// answers it, the master gets the frame `inject` makes of it (by its data bytes), if any,
+    /// at the same instant (a stray: not logged).
+    pub fn exchange_with(&mut self, inject: &mut dyn FnMut(&[u8]) -> Option<Frame>) {
         loop {
             let mut moved = false;
             while let Some(f) = self.master.poll_transmit() {
@@ -53,6 +60,9 @@ impl Wire {
                 self.log.push((self.now.as_micros(), f));
                 for s in &mut self.slaves {
                     s.handle_frame(self.now, &f);
+                }
+                if let Some(stray) = inject(f.data()) {
+                    self.master.handle_frame(self.now, &stray);
                 }
             }
             for i in 0..self.slaves.len() {
@@ -93,7 +103,12 @@ impl Wire {
 
     /// Runs until no machine has anything left to do (at most `limit` deadlines).
     pub fn run(&mut self, limit: usize) {
-        self.exchange();
+        self.run_with(limit, |_| None);
+    }
+
+    /// [`Wire::run`], with strays where `inject` makes them ([`Wire::exchange_with`]).
+    pub fn run_with(&mut self, limit: usize, mut inject: impl FnMut(&[u8]) -> Option<Frame>) {
+        self.exchange_with(&mut inject);
         for _ in 0..limit {
             let Some(at) = self.deadline() else { return };
             self.now = self.now.max(at);
@@ -101,7 +116,7 @@ impl Wire {
             for s in &mut self.slaves {
                 s.handle_timeout(self.now);
             }
-            self.exchange();
+            self.exchange_with(&mut inject);
         }
         panic!("still running after {limit} deadlines");
     }
