@@ -193,6 +193,7 @@ fn set_lag(run: &mut Run, node: u8, port: usize, lag: Duration) {
     let p = port_of(run, node, port);
     run.plant.sim.set_port_latency(p, lag);
     let (t, d) = (run.now(), dev_index(run, node));
+    run.timeline.devs[d].lags[port].push((t, lag));
     let slow = &mut run.timeline.devs[d].slow[port];
     if lag > crate::timeline::LAG_SLACK {
         slow.start(t);

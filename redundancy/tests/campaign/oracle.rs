@@ -21,6 +21,11 @@
 //! the next on the other only: to every receiver that is one frame on both, and one of them
 //! dropped as the other's twin is not judged.
 //!
+//! Identical frames of two senders (two masters active for a moment, their SYNCs), each
+//! reaching a receiver on one bus only and within the skew window of each other, are one frame
+//! on both buses to it (a CAN frame names no sender): one delivered is right, the other is not
+//! judged.
+//!
 //! A heartbeat that reached a receiver only after a newer heartbeat or boot-up of the same
 //! sender had been delivered there (over a bus lagging behind the other) may be dropped: it
 //! reports a state the node has left, and a master's layer drops such heartbeats of the nodes
@@ -57,6 +62,10 @@ struct Occurrence {
     /// A heartbeat whose first copy reached the receiver after a newer one of its sender was
     /// delivered there (see the module documentation).
     superseded: [bool; MAX_NODES],
+    /// Reached the receiver on one bus only, as an identical frame of another sender did on
+    /// the other within the skew window, and one of the two was delivered (see the module
+    /// documentation).
+    crossed: [bool; MAX_NODES],
 }
 
 /// A heartbeat (not a boot-up): what may be superseded.
@@ -171,6 +180,7 @@ impl Oracle {
             delivered: [0; MAX_NODES],
             in_run: false,
             superseded: [false; MAX_NODES],
+            crossed: [false; MAX_NODES],
         });
         self.base + self.pending.len() as u64 - 1
     }
@@ -250,6 +260,7 @@ impl Oracle {
             self.base += 1;
             self.judged += 1;
             self.indistinguishable(&mut o);
+            self.crossing(&mut o);
             for r in 0..self.nodes.len() {
                 if r == o.sender || !powered(r) {
                     continue;
@@ -272,7 +283,7 @@ impl Oracle {
                     // other, is one frame on both to any receiver; its copy delivered, the
                     // other's dropped as its twin (the merger's rule, see above).
                     (_, 0) if o.in_run && wiring.connected(o.sender, r, o.at).is_none() => None,
-                    (_, 0) if o.superseded[r] => None,
+                    (_, 0) if o.superseded[r] || o.crossed[r] => None,
                     (_, 0) => Some(Fault::Dropped),
                     _ => None,
                 };
@@ -284,6 +295,32 @@ impl Oracle {
                         frame: o.frame,
                         fault,
                     });
+                }
+            }
+        }
+    }
+
+    /// Marks where `o` (about to be judged) and an identical frame of another sender sent
+    /// within the skew window after it were one frame to a receiver: each reached it on one bus
+    /// only (two masters active for a moment, each on the one bus it had: their SYNCs), and
+    /// one of them was delivered. No receiver can tell them apart (a CAN frame names no sender):
+    /// the merger pairs them as twins, and the other is not judged.
+    fn crossing(&mut self, o: &mut Occurrence) {
+        for n in self.pending.iter_mut() {
+            if n.at.saturating_since(o.at) >= SKEW_WINDOW {
+                break;
+            }
+            if n.sender == o.sender || n.frame != o.frame {
+                continue;
+            }
+            for r in 0..MAX_NODES {
+                if o.reached[r] != 1 || n.reached[r] != 1 || o.delivered[r] + n.delivered[r] != 1 {
+                    continue;
+                }
+                if o.delivered[r] == 0 {
+                    o.crossed[r] = true;
+                } else {
+                    n.crossed[r] = true;
                 }
             }
         }

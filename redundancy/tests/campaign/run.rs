@@ -45,7 +45,9 @@ pub const TWO_MASTERS_BOUND: Duration = Duration::from_millis(100);
 /// a detect cycle (4 s by default) and a negotiation.
 pub const SPLIT_ALLOWANCE: Duration = Duration::from_millis(4_700);
 /// The largest SYNC gap at the observer while a live master reaches it: the SYNC period plus
-/// the master timeout (the active master dies, the other takes over) plus a frame.
+/// the master timeout (the active master dies, the other takes over) plus a frame. A master
+/// whose port hands its frames over late (a receive lag) learns of the other's death that much
+/// later: the bound grows by the largest lag a master's port had during the gap.
 pub const SYNC_BOUND: Duration = Duration::from_millis(61);
 /// After a time when no live master reached the observer (both buses cut between them), SYNC
 /// is back within this: the masters' detection timeout (both may have gone active and one
@@ -404,7 +406,15 @@ impl Run {
                 } else {
                     let gap = h.saturating_since(l);
                     self.worst[2] = self.worst[2].max(gap);
-                    if gap > SYNC_BOUND {
+                    let lag = self
+                        .timeline
+                        .devs
+                        .iter()
+                        .filter(|d| d.node_id == STRONG || d.node_id == WEAK)
+                        .map(|d| d.lag(l, h))
+                        .max()
+                        .unwrap_or(Duration::ZERO);
+                    if gap > SYNC_BOUND + lag {
                         self.problem(h, format!("SYNC gap {gap} at the observer after {l}"));
                     }
                 }

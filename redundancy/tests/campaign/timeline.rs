@@ -58,6 +58,8 @@ pub struct Dev {
     pub stalled: [Spans; 2],
     /// Per port: its receive lag exceeds [`LAG_SLACK`].
     pub slow: [Spans; 2],
+    /// Per port: every receive lag it was given, from when.
+    pub lags: [Vec<(Instant, Duration)>; 2],
     /// Per port: its controller overruns (misses frames now and then).
     pub overrun: [Spans; 2],
     pub off: Spans,
@@ -68,6 +70,23 @@ pub struct Dev {
     pub jumps: Vec<(Instant, Duration)>,
     /// Instants it was rebuilt (rebooted).
     pub reboots: Vec<Instant>,
+}
+
+impl Dev {
+    /// The largest receive lag any of its ports had at some time of `[from, to]`.
+    pub fn lag(&self, from: Instant, to: Instant) -> Duration {
+        let mut worst = Duration::ZERO;
+        for lags in &self.lags {
+            // The lag in force at `from`, and every one given after it until `to`.
+            let start = lags.iter().rposition(|(t, _)| *t <= from).unwrap_or(0);
+            for (t, l) in &lags[start..] {
+                if *t <= to {
+                    worst = worst.max(*l);
+                }
+            }
+        }
+        worst
+    }
 }
 
 #[derive(Clone, Debug, Default)]

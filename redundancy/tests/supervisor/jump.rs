@@ -208,3 +208,34 @@ fn the_table_observes_again_what_fell_due_in_the_jump_and_acts_on_what_was_due_b
     assert_eq!(nmts(&mut s), []);
     assert_eq!(s.pair(p).unwrap().active, Some(Member::A));
 }
+
+#[test]
+fn a_receive_path_running_behind_for_a_moment_is_no_silence() {
+    // A master hears one bus only (its port on bus 2 unplugged at 1000 ms); from 1200 ms that
+    // port hands its frames over 46 ms after they were on the wire (a reader held up, a gateway
+    // queue), on time again from 1500 ms. At the onset it hears nothing at all for 46 ms, then
+    // everything at once: handed over, the other master's heartbeat and every board's come
+    // 66 ms apart, past the 50 ms timeouts. Before, the weak master behind that path took over
+    // and reset every board; the strong one behind it reset every board too. Now the silence of
+    // the whole network is observed again (30 ms, the smallest slack: 50 ms less 20 ms), and
+    // the frames that come after it show every node alive.
+    for m in [STRONG, WEAK] {
+        let mut n = SupNet::new(Params::default());
+        let port = |k| n.master(m).port(k);
+        let (p0, p1) = (port(0), port(1));
+        n.sim.run_until(ms(1000));
+        assert_eq!(n.role(STRONG), MasterRole::Active);
+        n.sim.disconnect(p1);
+        n.sim.run_until(ms(1200));
+        n.sim.set_port_latency(p0, Duration::from_millis(46));
+        n.sim.run_until(ms(1500));
+        n.sim.set_port_latency(p0, Duration::ZERO);
+        n.sim.run_until(ms(2000));
+        assert_eq!(n.role(STRONG), MasterRole::Active, "master {m} behind");
+        assert_eq!(
+            n.master_roles(WEAK).last().map(|r| r.at < ms(1000)),
+            Some(true)
+        );
+        nothing_alive_reset(&n, ms(1000), ms(2000), &[]);
+    }
+}

@@ -151,6 +151,13 @@ pub struct Supervisor<D, P = Predefined> {
     started: bool,
     /// The least lateness that is a jump ([`Supervisor::unwatched`]).
     late: Duration,
+    /// When the layer last handed a frame over ([`Supervisor::watch_clock`]).
+    heard: Option<Instant>,
+    /// No silence is observed again before then: what the last observation re-armed is judged
+    /// first, so a network that is often quiet cannot put a judgment off again and again.
+    observed_until: Instant,
+    /// The longest timeout a node is judged with (a pair's consumer time, the master timeout).
+    hold: Duration,
 }
 
 impl<D: ObjectDictionary, P: IdProfile> Supervisor<D, P> {
@@ -202,6 +209,9 @@ impl<D: ObjectDictionary, P: IdProfile> Supervisor<D, P> {
             lss_due: None,
             started: false,
             late: Duration::MAX,
+            heard: None,
+            observed_until: Instant::ZERO,
+            hold: Duration::ZERO,
         }
     }
 
@@ -262,8 +272,16 @@ impl<D: ObjectDictionary, P: IdProfile> Supervisor<D, P> {
 
     // ----- internals -----
 
-    /// Every input that carries a time passes it here first: two comparisons, unless it comes
-    /// at least [`late`](Self::measure_late) after the latest one.
+    /// Every input that carries a time passes it here first: three comparisons, unless it
+    /// comes at least [`late`](Self::measure_late) after the latest one.
+    ///
+    /// A network heard in total silence for `late` is observed again too: with a dozen nodes
+    /// beating, nothing at all from any of them is a receive path that ran behind (a reader
+    /// held up, a port queue or gateway lagging) or a cut at this master's own connector, not
+    /// every node dead at once. Judged from the handing-over, the frames stuck behind would
+    /// make every watched node look silent, and a standby take over and reset the boards of a
+    /// network whose master is alive. A node that really died is found one timeout later: after
+    /// an observation, none for the longest timeout (`hold`), so what it re-armed is judged.
     #[inline]
     fn watch_clock(&mut self, now: Instant) {
         let latest = self.clock.latest();
@@ -271,6 +289,11 @@ impl<D: ObjectDictionary, P: IdProfile> Supervisor<D, P> {
             self.step_back(now, by);
         } else if now.saturating_since(latest) >= self.late && self.unwatched(latest, now) {
             self.jumped(latest, now);
+        } else if let Some(h) = self
+            .heard
+            .filter(|h| now >= self.observed_until && now.saturating_since(*h) >= self.late)
+        {
+            self.jumped(h, now);
         }
     }
 
@@ -294,6 +317,8 @@ impl<D: ObjectDictionary, P: IdProfile> Supervisor<D, P> {
         let threshold = self.jump_threshold();
         let fm = self.cfg.flying.master_timeout - self.cfg.heartbeat;
         let slack = self.pairs.slack().map_or(fm, |p| p.min(fm));
+        let longest = self.pairs.longest_consumer().unwrap_or(Duration::ZERO);
+        self.hold = longest.max(self.cfg.flying.master_timeout);
         self.late = if threshold == Duration::MAX {
             threshold
         } else {
@@ -318,6 +343,7 @@ impl<D: ObjectDictionary, P: IdProfile> Supervisor<D, P> {
     #[cold]
     #[inline(never)]
     fn jumped(&mut self, latest: Instant, now: Instant) {
+        self.observed_until = now + self.hold + Duration::from_micros(1);
         self.fm.jumped(latest, now);
         self.pairs.jumped(latest, now);
     }
@@ -335,6 +361,8 @@ impl<D: ObjectDictionary, P: IdProfile> Supervisor<D, P> {
         self.pairs.step_back(by);
         self.fm.step_back(by);
         shift_back(&mut self.last_sync, by);
+        shift_back(&mut self.heard, by);
+        self.observed_until = self.observed_until - by;
         shift_back(&mut self.lss_due, by);
         if let Some((_, at)) = self.planned.as_mut() {
             *at = *at - by;
@@ -460,6 +488,7 @@ impl<D: ObjectDictionary, P: IdProfile> Machine for Supervisor<D, P> {
 
     fn handle_frame(&mut self, now: Instant, frame: &Frame) {
         self.watch_clock(now);
+        self.heard = Some(now);
         if frame.id() == duocan::cia305::codec::SLAVE_TO_MASTER {
             self.lss.handle_frame(now, frame);
             return self.lss_pump(now);

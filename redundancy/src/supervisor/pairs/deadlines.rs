@@ -91,6 +91,12 @@ impl<S: Storage> PairSupervisor<S> {
             .min()
     }
 
+    /// The longest consumer time of any pair; `None` without pairs.
+    #[must_use]
+    pub fn longest_consumer(&self) -> Option<Duration> {
+        self.pairs.iter().map(|p| p.spec.consumer_time).max()
+    }
+
     /// The earliest due item of any member: (instant, pair, member).
     fn earliest(&self) -> Option<(Instant, usize, Member)> {
         let mut best: Option<(Instant, usize, Member)> = None;
