@@ -143,6 +143,15 @@ const REGRESSIONS_ALL_KINDS: &[(u64, u64)] = &[
     // it heard nothing for 46 ms, took over and reset every board. A silence of the whole
     // network is now observed again before anyone is judged.
     (422, 22),
+    // A master died while the other heard it only over a port running behind (a growing lag):
+    // it learnt of the death that much later, and the SYNC gap passed the bound of a master
+    // that hears in time. The bound now grows by the masters' port lag.
+    (921, 14),
+    (1577, 11),
+    (2807, 22),
+    // Two masters active for a moment, each on the one bus it had: their SYNCs, 1.7 ms apart,
+    // were one frame to every receiver (a CAN frame names no sender), one delivered.
+    (2638, 30),
 ];
 
 /// The budget CI runs: seeds and simulated seconds each. Seed `k` leads with a fault of kind
