@@ -255,7 +255,9 @@ fn duocan_and_python_canopen_side_by_side() {
     ));
     let node = NodeId::must(SERVER);
     let blob = rt::pattern(SIZE, 3);
-    // Uploads read what is there: the 64 KiB first, on both servers.
+    // Uploads read what is there: the 64 KiB first, on both servers. A failure says how long
+    // the write ran and what every duocan port counted (drops on a full socket queue, refused
+    // datagrams), so that a flake here shows its cause.
     for id in [SERVER, PY_SERVER] {
         let write = client.sdo_write(
             NodeId::must(id),
@@ -264,7 +266,16 @@ fn duocan_and_python_canopen_side_by_side() {
             blob.clone(),
             SdoOptions::default(),
         );
-        cli.block_on(write).unwrap();
+        let t0 = StdInstant::now();
+        if let Err(e) = cli.block_on(write) {
+            panic!(
+                "writing the 64 KiB to node {id:#x}: {e:?} after {:?}; ports: client {:?}, server {:?}, python's server {:?}",
+                t0.elapsed(),
+                client.port_counters(0),
+                server.port_counters(0),
+                py_server.port_counters(0),
+            );
+        }
     }
 
     let mut duocan = vec![Vec::new(); Op::ALL.len()];

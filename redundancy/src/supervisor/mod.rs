@@ -96,6 +96,11 @@
 //!   heard before the jump is no master returning from a loss, a standby takes over at the
 //!   earliest the master timeout after the jump. What was due before that latest time was
 //!   watched and is handled as always.
+//! - **A silence of the whole network** as long as that slack — no frame handed over from
+//!   anyone — is observed again in the same way, once per longest timeout: with every node
+//!   beating, nothing at all is a receive path that ran behind (a reader held up, a port queue
+//!   behind) or a cut at this master's own connector, not every node dead at once. A node that
+//!   really died meanwhile is found one timeout later.
 //! - **At [`Instant::MAX`](duocan::Instant::MAX)** no deadline is reported, so nothing stays
 //!   due.
 
