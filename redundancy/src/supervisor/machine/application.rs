@@ -74,7 +74,7 @@ impl<D: ObjectDictionary, P: IdProfile> Supervisor<D, P> {
             return Err(AddPairError::Master(spec.b, e));
         }
         let id = self.pairs.add_pair(now, spec)?;
-        self.measure_late();
+        self.measure_timeouts();
         // The layer judges the members' heartbeats against the producer time they get.
         for node in [spec.a, spec.b] {
             self.link.push(LinkCommand::Watch {

@@ -266,14 +266,14 @@ impl<D: ObjectDictionary, P: IdProfile> Supervisor<D, P> {
         self.fm.start(now);
         self.pairs.set_authority(now, Authority::Shadow);
         self.watch_clock(now);
-        self.measure_late();
+        self.measure_timeouts();
         self.pump(now);
     }
 
     // ----- internals -----
 
     /// Every input that carries a time passes it here first: three comparisons, unless it
-    /// comes at least [`late`](Self::measure_late) after the latest one.
+    /// comes at least [`late`](Self::measure_timeouts) after the latest one.
     ///
     /// A network heard in total silence for `late` is observed again too: with a dozen nodes
     /// beating, nothing at all from any of them is a receive path that ran behind (a reader
@@ -309,11 +309,12 @@ impl<D: ObjectDictionary, P: IdProfile> Supervisor<D, P> {
                 .is_some_and(|due| now.saturating_since(due) >= self.late)
     }
 
-    /// The least lateness that is a jump: the smallest slack a timeout is judged with (a
+    /// `late`, the least lateness that is a jump: the smallest slack a timeout is judged with (a
     /// pair's consumer time less its producer time; the master timeout less this master's
     /// heartbeat period, the masters beating alike), at least 1 ms and at most the jump
-    /// threshold. Measured when the supervisor starts and when a pair is added.
-    pub(super) fn measure_late(&mut self) {
+    /// threshold; and `hold`, the longest timeout. Measured when the supervisor starts and when
+    /// a pair is added.
+    pub(super) fn measure_timeouts(&mut self) {
         let threshold = self.jump_threshold();
         let fm = self.cfg.flying.master_timeout - self.cfg.heartbeat;
         let slack = self.pairs.slack().map_or(fm, |p| p.min(fm));
