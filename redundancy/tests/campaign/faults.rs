@@ -363,7 +363,7 @@ pub fn apply(run: &mut Run, f: Fault) {
             board_off(run, node);
             let frame = Frame::from_array(
                 Id::Standard(0x700 + node as u16),
-                [NmtState::Operational as u8],
+                [NmtState::Operational.code()],
             );
             let imp = Impostor {
                 frame,

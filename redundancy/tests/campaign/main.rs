@@ -152,6 +152,20 @@ const REGRESSIONS_ALL_KINDS: &[(u64, u64)] = &[
     // Two masters active for a moment, each on the one bus it had: their SYNCs, 1.7 ms apart,
     // were one frame to every receiver (a CAN frame names no sender), one delivered.
     (2638, 30),
+    // The impostor of the campaign beat a valid heartbeat (before, a state byte no node
+    // sends, which every layer dropped as malformed: the one-bus rule was never exercised).
+    // The active member dead, the impostor on one bus kept it "alive": the other bus was never
+    // seen idle again, for the count of its own frames waiting held frames a flush had
+    // discarded (a babble earlier), or because every gap ended with the master's own SYNC.
+    (205, 27),
+    (237, 25),
+    (254, 33),
+    (1491, 7),
+    // A standby rebooted while a device beat its heartbeat on one bus: the duplicate made it
+    // suspect although the other bus carried its own, and when the active member died the
+    // pair had no board to run for 1.4 s. A member is now suspect for a bus too fast only
+    // while the other bus does not speak for it.
+    (3007, 10),
 ];
 
 /// The budget CI runs: seeds and simulated seconds each. Seed `k` leads with a fault of kind

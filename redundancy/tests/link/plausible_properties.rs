@@ -6,7 +6,9 @@
 //!   lost now and then but never twice in a row on one bus, groups of up to three extra
 //!   heartbeats at least twelve periods apart) is never suspect.
 //! - A babble burst on one bus (consecutive frames less than `3T/20` apart) is flagged at its
-//!   sixth frame at the latest, whatever came before, and its frames are dropped from then on.
+//!   sixth frame at the latest, whatever came before, and its frames are dropped from then on;
+//!   the node is suspect only while the other bus does not speak for it (no heartbeat there
+//!   for 1.5 periods).
 //! - Rule 1 is exactly the span rule the docs state: the first verdict is the first arrival
 //!   that ends a span `s` holding more than `5 + 4s/(3T)` heartbeats.
 //! - An impostor left alone on one bus is suspect exactly one reachability window after the
@@ -47,42 +49,38 @@ fn layer(t_us: u64) -> DualBus {
     l
 }
 
-/// What the layer said, in order: (instant, node, suspect), each arrival it dropped as
-/// implausible (instant, port), and the burst index at which node A was first suspect.
+/// What the layer said, in order: (instant, node, suspect), and each arrival it dropped as
+/// implausible (instant, port).
 #[derive(Debug, Default)]
 struct Outcome {
     verdicts: Vec<(u64, u8, bool)>,
     dropped: Vec<(u64, usize)>,
-    first_suspect_burst_index: Option<Option<usize>>,
 }
 
 /// Feeds `arrivals` (sorted by time) to the layer, running its deadlines on time.
 fn drive(l: &mut DualBus, arrivals: &[Arrival]) -> Outcome {
     let mut o = Outcome::default();
-    let collect = |l: &mut DualBus, now: u64, burst: Option<usize>, o: &mut Outcome| {
+    let collect = |l: &mut DualBus, now: u64, o: &mut Outcome| {
         while let Some(r) = l.poll_machine_request() {
             if let LinkRequest::NodeSuspect { node, suspect } = r {
                 o.verdicts.push((now, node.raw(), suspect));
-                if node.raw() == A && suspect && o.first_suspect_burst_index.is_none() {
-                    o.first_suspect_burst_index = Some(burst);
-                }
             }
         }
         while l.poll_transmit().is_some() {}
         while l.poll_event().is_some() {}
     };
-    for (t, port, f, burst) in arrivals {
+    for (t, port, f, _) in arrivals {
         let now = Instant::from_micros(*t);
         while let Some(d) = l.poll_timeout().filter(|d| *d <= now) {
             l.handle_timeout(d);
-            collect(l, d.as_micros(), None, &mut o);
+            collect(l, d.as_micros(), &mut o);
         }
         let before = l.stats().implausible;
         let _ = l.handle_rx(now, *port, f);
         if l.stats().implausible > before {
             o.dropped.push((*t, *port));
         }
-        collect(l, *t, *burst, &mut o);
+        collect(l, *t, &mut o);
     }
     o
 }
@@ -212,14 +210,17 @@ proptest! {
         let f = Frame::from_array(Id::Standard(0x700 + A as u16), [state]);
         arrivals.extend((0..len).map(|i| (b0 + i as u64 * spacing, port, f, Some(i))));
         let mut l = layer(t_us);
-        let o = drive(&mut l, &sorted(arrivals));
-        // Suspect at the sixth babbled frame at the latest (earlier if the node's own
-        // heartbeats or extras had filled the bucket: then at a frame of its own or the burst).
-        let first = o.first_suspect_burst_index.expect("a babbler is always flagged");
-        prop_assert!(first.is_none_or(|i| i <= 5), "flagged at burst frame {first:?}");
-        let verdict = o.verdicts.iter().find(|v| v.1 == A && v.2).unwrap().0;
+        let o = drive(&mut l, &sorted(arrivals.clone()));
+        // The bus is found too fast at the sixth babbled frame at the latest (earlier if the
+        // node's own heartbeats or extras had filled the bucket), and from then on the burst's
+        // frames are dropped on that bus.
+        let verdict = o
+            .dropped
+            .iter()
+            .find(|d| d.1 == port)
+            .expect("a babbler is always flagged")
+            .0;
         prop_assert!(verdict <= b0 + 5 * spacing);
-        // From the verdict on, the burst's frames are dropped on that bus.
         let burst_after: Vec<u64> = (0..len)
             .map(|i| b0 + i as u64 * spacing)
             .filter(|t| *t >= verdict)
@@ -227,6 +228,20 @@ proptest! {
         prop_assert!(burst_after
             .iter()
             .all(|t| o.dropped.contains(&(*t, port))));
+        // The node itself is suspect only while the other bus does not speak for it: none of
+        // its heartbeats there for 1.5 periods (a lost copy).
+        let other: Vec<u64> = arrivals
+            .iter()
+            .filter(|a| a.1 != port && a.3.is_none() && a.2.id() == hb(A, 5).id())
+            .map(|a| a.0)
+            .collect();
+        for v in o.verdicts.iter().filter(|v| v.1 == A && v.2) {
+            let last = other.iter().copied().filter(|t| *t <= v.0).max();
+            prop_assert!(
+                last.is_some_and(|l| v.0 > l + t_us * 3 / 2),
+                "suspect at {} with the other bus's last heartbeat at {last:?}", v.0
+            );
+        }
         prop_assert!(l.stats().implausible >= burst_after.len() as u64);
     }
 

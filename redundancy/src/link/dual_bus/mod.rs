@@ -443,7 +443,7 @@ impl<C: FrameClassifier, const SLOTS: usize, const FUNCTIONS: usize> BusLink
             return;
         }
         self.health.on_status(now, port, status, &mut self.out);
-        self.plausible.on_status(now, port, status);
+        self.plausible.on_status(now, port, status, &self.health);
         self.policy.on_status(now, port, status, &mut self.out);
         self.show_status();
     }

@@ -42,7 +42,7 @@ impl<C: FrameClassifier, const SLOTS: usize, const FUNCTIONS: usize> DualBus<C, 
         }
         let info = self.info(frame);
         // Every frame: when each bus was idle (rule 2's witness).
-        self.plausible.on_frame(at, port);
+        self.plausible.on_frame(at, port, &self.health);
         if let Some(n) = info.heartbeat.filter(|_| !self.plausible.is_empty()) {
             // A bus carrying this node's heartbeats far too fast: neither the policy, the
             // merger nor the stack above sees them.

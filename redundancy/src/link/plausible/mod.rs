@@ -29,7 +29,14 @@
 //! While a bus is too fast for a node, that node's error-control frames from that bus are
 //! dropped before the merge (counted in [`LinkStats::implausible`](crate::LinkStats)): neither
 //! the stack above nor the merger's twin matching sees them, so the node's heartbeats on the
-//! other bus, if any, are delivered as they are. The verdict ends when the bucket has drained:
+//! other bus, if any, are delivered as they are. The node itself is suspect by this rule only
+//! while the other bus does not *speak* for it: that bus is too fast for it as well, or carried
+//! none of its heartbeats for 1.5 periods (suspect 1.5 T + 1 µs after its last one there,
+//! exactly). A board alive on both buses whose heartbeat a second device also sends on one bus
+//! thus stays in service, heard over its clean bus (taking it out of service would leave its
+//! pair without a board to run should the other member die); a babble on one bus after the
+//! board died makes it suspect 1.5 periods after its last heartbeat on the other bus, before
+//! its consumer time runs out. A bus's verdict ends when the bucket has drained:
 //! at the latest `(BURST + 2) · 3T/4` after the last excess frame while nothing else arrives.
 //! One period after the verdict the rate measured over `[verdict, verdict + T)` is reported:
 //! [`Babbling`](crate::LinkEventKind::Babbling) (identifier, bus, frames/s) when it is more
@@ -181,6 +188,8 @@ struct Watch {
     one_bus: Option<u8>,
     /// What the machine above was last told.
     told: bool,
+    /// Rule 1 holds for the node ([`Watch::too_fast_at`]) as last judged.
+    fast_verdict: bool,
     /// Stamp (µs) of the newest of its heartbeats handed up, `NEVER` (see "Order").
     newest: u64,
     /// Rule 2 failed for want of a witness at this instant: checked again once the silent bus
@@ -200,8 +209,33 @@ impl Watch {
             && self.checked == NEVER
             && !self.ports.iter().any(|tr| tr.fast || tr.measuring);
     }
+    /// Rule 1's verdict at `t`: a bus too fast for the node, and the other bus not speaking
+    /// for it (see "Verdicts"); the fast bus, if so.
+    fn too_fast_at(&self, t: u64) -> Option<u8> {
+        (0..2)
+            .find(|&p| self.ports[p].fast && !self.speaks(1 - p, t))
+            .map(|p| p as u8)
+    }
+    /// Bus `q` carried the node's heartbeat within 1.5 periods of `t` and is not too fast.
+    fn speaks(&self, q: usize, t: u64) -> bool {
+        let tr = &self.ports[q];
+        !tr.fast && tr.last != NEVER && t <= tr.last.saturating_add(self.late)
+    }
+    /// While one bus is too fast and the other speaks: when the other falls silent.
+    fn speaks_until(&self, t: u64) -> Option<u64> {
+        (0..2)
+            .find(|&p| self.ports[p].fast && self.speaks(1 - p, t))
+            .map(|p| self.ports[1 - p].last.saturating_add(self.late) + 1)
+    }
+    /// Judges rule 1 at `t`; the fast bus if its verdict begins now.
+    fn judge_fast(&mut self, t: u64) -> Option<u8> {
+        let v = self.too_fast_at(t);
+        let onset = v.filter(|_| !self.fast_verdict);
+        self.fast_verdict = v.is_some();
+        onset
+    }
     fn suspect(&self) -> bool {
-        self.one_bus.is_some() || self.ports.iter().any(Track::fast)
+        self.one_bus.is_some() || self.fast_verdict
     }
 }
 
@@ -356,6 +390,7 @@ impl Plausibility {
             paired: false,
             one_bus: None,
             told: false,
+            fast_verdict: false,
             newest: NEVER,
             checked: NEVER,
             quiet: false,

@@ -120,8 +120,8 @@ impl Plausibility {
         if tr.measuring && t > tr.since && t < tr.since.saturating_add(period) {
             tr.count = tr.count.saturating_add(1);
         }
-        let mut onset = None;
-        if excess && !tr.fast {
+        let started = excess && !tr.fast;
+        if started {
             tr.fast = true;
             if !tr.measuring {
                 // The window is [t, t + T): this heartbeat and those of one period after it.
@@ -129,7 +129,6 @@ impl Plausibility {
                 tr.count = 1;
                 tr.measuring = true;
             }
-            onset = Some(Suspicion::TooFast { port: p as u8 });
         }
         let fast = tr.fast;
         let drained = tr.tat.div_ceil(4);
@@ -162,6 +161,8 @@ impl Plausibility {
             // A check that lacked a witness (or a deadline noticed late) is made at once.
             recheck = w.checked != NEVER || due.is_some_and(|d| d <= t);
         }
+        let mut onset = w.judge_fast(t).map(|port| Suspicion::TooFast { port });
+        let speaks_until = w.speaks_until(t);
         let changed = w.suspect() != w.told;
         if window.is_some() {
             self.last_any[p] = t;
@@ -172,7 +173,10 @@ impl Plausibility {
         if fast {
             self.wake(drained);
         }
-        if onset.is_some() {
+        if let Some(d) = speaks_until {
+            self.wake(d);
+        }
+        if started {
             self.wake(t.saturating_add(period));
         } else if recheck && self.one_bus_due(i, t, health) {
             self.at(i).one_bus = Some(p as u8);
@@ -274,6 +278,19 @@ impl Plausibility {
                         soonest(drained);
                     }
                 }
+            }
+            let w = self.at(i);
+            if let Some(port) = w.judge_fast(t) {
+                out.event(LinkEvent {
+                    at: now,
+                    kind: LinkEventKind::Suspect {
+                        node,
+                        why: Suspicion::TooFast { port },
+                    },
+                });
+            }
+            if let Some(d) = w.speaks_until(t) {
+                soonest(d);
             }
             if let Some(win) = self.window {
                 self.sweep_one_bus(i, t, win, health, out);

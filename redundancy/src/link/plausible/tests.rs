@@ -3,7 +3,7 @@ use crate::link::events::{LinkEvent, LinkEventKind, Suspicion};
 use crate::link::health::{Health, HealthConfig, PortState, RxOutcome};
 use crate::link::outbox::{Outbox, MACHINE_QUEUE};
 use duocan::frame::instant::TimeWatch;
-use duocan::machine::{LinkRequest, PortStatus};
+use duocan::machine::{ErrorCause, LinkRequest, PortStatus};
 use duocan::Frame;
 use std::vec::Vec;
 
@@ -61,6 +61,16 @@ impl Rig {
             &self.health,
             &mut self.out,
         )
+    }
+    /// The layer handed a frame to `port` (port health counts it waiting).
+    fn handed(&mut self, t: Instant, port: usize) {
+        self.health.count_tx(t, port, 0);
+        self.p.on_handed(t, port);
+    }
+    /// The driver reported `status` for `port`'s oldest waiting frame.
+    fn confirmed(&mut self, t: Instant, port: usize, status: PortStatus) {
+        self.health.on_status(t, port, status, &mut self.out);
+        self.p.on_status(t, port, status, &self.health);
     }
     fn run(&mut self, until: Instant) {
         while let Some(d) = self.p.poll_timeout().filter(|d| *d <= until) {
@@ -194,6 +204,68 @@ fn a_second_device_at_the_same_period_is_a_duplicate_not_a_babble() {
             }
         )
     );
+}
+
+#[test]
+fn a_duplicate_on_one_bus_while_the_other_speaks_for_the_node_is_no_verdict_until_it_falls_silent()
+{
+    // 0x10 beats on both buses every 12 ms from 100 ms; a second device beats 0x10 on bus 1
+    // only, 5 ms after each, from 400 ms; the real node stops beating on bus 2 after 796 ms.
+    let mut r = Rig::new();
+    let mut dropped = Vec::new();
+    let mut t = 100;
+    while t <= 1_000 {
+        if t <= 796 {
+            r.beat(ms(t), 1, 0x10, 5);
+        }
+        if r.beat(ms(t), 0, 0x10, 5) {
+            dropped.push(t);
+        }
+        if t >= 400 && r.beat(ms(t) + Duration::from_millis(5), 0, 0x10, 5) {
+            dropped.push(t);
+        }
+        if t == 784 {
+            // Bus 1 too fast for 0x10 (its frames dropped), bus 2 speaks for it: trusted.
+            assert!(
+                !dropped.is_empty() && dropped[0] <= 400 + 8 * 12,
+                "{dropped:?}"
+            );
+            assert!(r.p.too_fast(n(0x10), 0) && !r.p.too_fast(n(0x10), 1));
+            assert_eq!(r.p.is_suspect(n(0x10)), Some(false));
+            assert!(r.requests().is_empty());
+            assert!(!r.events().iter().any(|e| matches!(
+                e.kind,
+                LinkEventKind::Suspect { .. } | LinkEventKind::Trusted { .. }
+            )));
+        }
+        t += 12;
+    }
+    // Suspect 1.5 periods (18 ms) after its last heartbeat on bus 2, to the microsecond.
+    let v = ms(796 + 18) + Duration::from_micros(1);
+    assert_eq!(r.requests(), [(0x10, true)]);
+    let suspect: Vec<_> = r
+        .events()
+        .into_iter()
+        .filter(|e| matches!(e.kind, LinkEventKind::Suspect { .. }))
+        .map(|e| (e.at, e.kind))
+        .collect();
+    assert_eq!(
+        suspect[0],
+        (
+            v,
+            LinkEventKind::Suspect {
+                node: n(0x10),
+                why: Suspicion::TooFast { port: 0 }
+            }
+        )
+    );
+    // Heard on bus 2 again: it speaks for the node, which is trusted at once.
+    r.beat(ms(1_010), 1, 0x10, 5);
+    assert_eq!(r.requests(), [(0x10, false)]);
+    assert!(r
+        .events()
+        .iter()
+        .any(|e| e.at == ms(1_010) && matches!(e.kind, LinkEventKind::Trusted { .. })));
 }
 
 /// Every 12 ms from `from` to `until`: 0x10 beats on each bus `node` says (with the state it
@@ -405,7 +477,7 @@ fn with_frames(r: &mut Rig, (from, until): (u64, u64), other: impl Fn(u64, usize
     while t <= until * 1000 {
         for port in 0..2 {
             match other(t, port) {
-                Other::Received => r.p.on_frame(us(t), port),
+                Other::Received => r.p.on_frame(us(t), port, &r.health),
                 Other::Handed => r.p.on_handed(us(t), port),
                 Other::None => {}
             }
@@ -413,7 +485,7 @@ fn with_frames(r: &mut Rig, (from, until): (u64, u64), other: impl Fn(u64, usize
                 let silent = node == 0x50 && port == 1 && t >= 244_000;
                 if t % 12_000 == lag && !silent {
                     r.run(us(t));
-                    r.p.on_frame(us(t), port);
+                    r.p.on_frame(us(t), port, &r.health);
                     r.beat(us(t), port, node, state);
                 }
             }
@@ -484,15 +556,56 @@ fn a_bus_never_idle_is_no_witness_nor_are_gaps_the_layers_own_frames_may_fill() 
     // A driver that confirms: a gap that closes while an own frame is unconfirmed does not
     // count (the frame may be in it); confirmed, the frame is one seen on the bus.
     let mut r = Rig::new();
-    r.p.on_frame(ms(100), 1);
-    r.p.on_handed(ms(100), 1);
-    r.p.on_status(ms(101), 1, duocan::machine::PortStatus::TxOk);
-    r.p.on_handed(ms(101), 1);
-    r.p.on_frame(ms(110), 1);
+    r.p.on_frame(ms(100), 1, &r.health);
+    r.handed(ms(100), 1);
+    r.confirmed(ms(101), 1, PortStatus::TxOk);
+    r.handed(ms(101), 1);
+    r.p.on_frame(ms(110), 1, &r.health);
     assert_eq!(r.p.idle_seen(1), None);
-    r.p.on_status(ms(111), 1, duocan::machine::PortStatus::TxOk);
-    r.p.on_frame(ms(120), 1);
+    r.confirmed(ms(111), 1, PortStatus::TxOk);
+    r.p.on_frame(ms(120), 1, &r.health);
     assert_eq!(r.p.idle_seen(1), Some(ms(118)));
+    // A confirmation ends a gap (the one before a SYNC this layer sends: every gap of a
+    // cyclic network may end so) when no other own frame waits, once the next frame received
+    // is stamped after it: none of the gap was still on its way.
+    r.handed(ms(130), 1);
+    r.confirmed(us(130_100), 1, PortStatus::TxOk);
+    assert_eq!(r.p.idle_seen(1), Some(ms(118)));
+    r.p.on_frame(us(130_300), 1, &r.health);
+    assert_eq!(r.p.idle_seen(1), Some(us(128_100)));
+    // Another own frame waiting: it may have gone first, no witness.
+    r.handed(ms(140), 1);
+    r.handed(ms(140), 1);
+    r.confirmed(us(140_100), 1, PortStatus::TxOk);
+    r.confirmed(us(140_200), 1, PortStatus::TxOk);
+    r.p.on_frame(us(140_400), 1, &r.health);
+    assert_eq!(r.p.idle_seen(1), Some(us(128_100)));
+    // A receive path running 30 ms behind: the next frame received is stamped inside the gap
+    // (it was on the bus then), no witness.
+    r.handed(ms(150), 1);
+    r.confirmed(us(150_100), 1, PortStatus::TxOk);
+    r.p.on_frame(us(145_000), 1, &r.health);
+    r.p.on_frame(us(151_000), 1, &r.health);
+    assert_eq!(r.p.idle_seen(1), Some(us(128_100)));
+}
+
+#[test]
+fn own_frames_a_flush_discarded_leave_no_gap_in_doubt_for_ever() {
+    // A driver that confirms; two own frames wait when port health forgets them (the port goes
+    // down, or its queue is flushed after a stall behind a babble: the driver never confirms
+    // them). Gaps after that count again.
+    let mut r = Rig::new();
+    r.p.on_frame(ms(100), 1, &r.health);
+    r.handed(ms(100), 1);
+    r.confirmed(ms(101), 1, PortStatus::TxOk);
+    r.handed(ms(102), 1);
+    r.handed(ms(102), 1);
+    r.p.on_frame(ms(110), 1, &r.health);
+    assert_eq!(r.p.idle_seen(1), None);
+    r.health
+        .on_status(ms(111), 1, PortStatus::Down(ErrorCause::BusOff), &mut r.out);
+    r.p.on_frame(ms(130), 1, &r.health);
+    assert_eq!(r.p.idle_seen(1), Some(ms(128)));
 }
 
 #[test]

@@ -70,8 +70,9 @@
 //!
 //! | What | Verdict (detection bound) |
 //! | --- | --- |
-//! | A controller babbling the heartbeat on one bus | at its 6th frame at the latest (0.4 ms at 1 Mbit/s) |
-//! | Two devices with the same node-ID beating at the producer time | within 8 producer periods of both beating |
+//! | A controller babbling the heartbeat on one bus, the member silent on the other | at its 6th frame at the latest (0.4 ms at 1 Mbit/s), or 1.5 producer periods after the member's last heartbeat on the other bus if later |
+//! | Two devices with the same node-ID beating at the producer time on both buses | within 8 producer periods of both beating |
+//! | A second device with the member's node-ID on one bus, the member alive | none: the member is heard over the other bus; that bus's copies are dropped and reported (`DuplicateNode`) |
 //! | An impostor beating on one bus only (any node-ID) | the real node's last heartbeat on the other bus + the reachability window (3 guarding periods by default): consumer time + 1 ms + (window − consumer time), once the other bus was seen idle (a gap longer than the frame time) after the real heartbeat was due there; else at the impostor's first heartbeat after that |
 //!
 //! A standby heard becoming operational while the active member is alive was started by
