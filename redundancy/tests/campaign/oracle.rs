@@ -21,10 +21,12 @@
 //! the next on the other only: to every receiver that is one frame on both, and one of them
 //! dropped as the other's twin is not judged.
 //!
-//! Identical frames of two senders (two masters active for a moment, their SYNCs), each
-//! reaching a receiver on one bus only and within the skew window of each other, are one frame
-//! on both buses to it (a CAN frame names no sender): one delivered is right, the other is not
-//! judged.
+//! Identical frames of two senders (two masters active for a moment, their SYNCs; one of them
+//! held behind a babble and sent when it ended), reaching a receiver within the skew window of
+//! each other, the one on one bus only, are one frame on both buses to it (a CAN frame names
+//! no sender): when the other was delivered there, this one dropped is right and not judged.
+//! They are matched by when they reached the receiver, not when they were sent: a frame that
+//! waited behind a babble goes out long after.
 //!
 //! A heartbeat that reached a receiver only after a newer heartbeat or boot-up of the same
 //! sender had been delivered there (over a bus lagging behind the other) may be dropped: it
@@ -62,10 +64,8 @@ struct Occurrence {
     /// A heartbeat whose first copy reached the receiver after a newer one of its sender was
     /// delivered there (see the module documentation).
     superseded: [bool; MAX_NODES],
-    /// Reached the receiver on one bus only, as an identical frame of another sender did on
-    /// the other within the skew window, and one of the two was delivered (see the module
-    /// documentation).
-    crossed: [bool; MAX_NODES],
+    /// When its first copy reached each receiver (simulated time).
+    arrived: [Option<Instant>; MAX_NODES],
 }
 
 /// A heartbeat (not a boot-up): what may be superseded.
@@ -148,6 +148,9 @@ pub struct Oracle {
     pub clock: [i64; MAX_NODES],
     /// Per receiver and sender: when the newest heartbeat or boot-up delivered there was sent.
     newest: Vec<[Option<Instant>; MAX_NODES]>,
+    /// Per receiver: the frames delivered there lately (simulated time, sender, frame), for as
+    /// long as an occurrence that reached it meanwhile may wait to be judged.
+    recent: Vec<VecDeque<(Instant, usize, Frame)>>,
 }
 
 impl Oracle {
@@ -180,7 +183,7 @@ impl Oracle {
             delivered: [0; MAX_NODES],
             in_run: false,
             superseded: [false; MAX_NODES],
-            crossed: [false; MAX_NODES],
+            arrived: [None; MAX_NODES],
         });
         self.base + self.pending.len() as u64 - 1
     }
@@ -211,8 +214,33 @@ impl Oracle {
         self.current = Some((r, of));
     }
 
+    /// Node `node`'s link was handed the copy (at `now` on its clock), delivered or not.
+    pub fn handled(&mut self, node: usize, now: Instant) {
+        let t = self.sim_time(node, now);
+        if let Some((r, Some(of))) = self.current.filter(|c| c.0 == node) {
+            if let Some(o) = self.occ(of) {
+                o.arrived[r].get_or_insert(t);
+            }
+        }
+    }
+
+    fn sim_time(&self, node: usize, now: Instant) -> Instant {
+        Instant::from_micros(now.as_micros().saturating_add_signed(-self.clock[node]))
+    }
+
     /// Node `node`'s link delivered `frame` (the copy being handed to it).
     pub fn delivered(&mut self, node: usize, now: Instant, frame: &Frame) {
+        if self.recent.len() <= node {
+            self.recent.resize(node + 1, VecDeque::new());
+        }
+        let sender = match self.current {
+            Some((r, Some(of))) if r == node => self.occ(of).map(|o| o.sender),
+            _ => None,
+        };
+        if let Some(s) = sender {
+            let t = self.sim_time(node, now);
+            self.recent[node].push_back((t, s, *frame));
+        }
         if frame.id() == Id::Standard(0x80) && self.sync_node == Some(node) {
             // When it was sent: a port's receive lag (a fault of the plant) delays SYNCs, and
             // one bus lagging behind the other hands some over late and out of order; what
@@ -221,9 +249,7 @@ impl Oracle {
                 Some((r, Some(of))) if r == node => self.occ(of).map(|o| o.at),
                 _ => None,
             };
-            let at = sent.unwrap_or_else(|| {
-                Instant::from_micros(now.as_micros().saturating_add_signed(-self.clock[node]))
-            });
+            let at = sent.unwrap_or_else(|| self.sim_time(node, now));
             self.syncs.insert(at);
         }
         match self.current {
@@ -252,6 +278,15 @@ impl Oracle {
 
     /// Judges every occurrence sent before `now − JUDGE_AFTER`.
     pub fn judge(&mut self, now: Instant, wiring: &dyn Wiring, powered: &dyn Fn(usize) -> bool) {
+        // What an occurrence judged from now on can be matched with (see `crossed`).
+        let keep = now
+            .as_micros()
+            .saturating_sub((JUDGE_AFTER + SKEW_WINDOW).as_micros());
+        for v in self.recent.iter_mut() {
+            while v.front().is_some_and(|d| d.0.as_micros() < keep) {
+                v.pop_front();
+            }
+        }
         while let Some(o) = self.pending.front() {
             if o.at + JUDGE_AFTER > now {
                 break;
@@ -260,7 +295,6 @@ impl Oracle {
             self.base += 1;
             self.judged += 1;
             self.indistinguishable(&mut o);
-            self.crossing(&mut o);
             for r in 0..self.nodes.len() {
                 if r == o.sender || !powered(r) {
                     continue;
@@ -283,7 +317,7 @@ impl Oracle {
                     // other, is one frame on both to any receiver; its copy delivered, the
                     // other's dropped as its twin (the merger's rule, see above).
                     (_, 0) if o.in_run && wiring.connected(o.sender, r, o.at).is_none() => None,
-                    (_, 0) if o.superseded[r] || o.crossed[r] => None,
+                    (_, 0) if o.superseded[r] || self.crossed(&o, r) => None,
                     (_, 0) => Some(Fault::Dropped),
                     _ => None,
                 };
@@ -300,30 +334,19 @@ impl Oracle {
         }
     }
 
-    /// Marks where `o` (about to be judged) and an identical frame of another sender sent
-    /// within the skew window after it were one frame to a receiver: each reached it on one bus
-    /// only (two masters active for a moment, each on the one bus it had: their SYNCs), and
-    /// one of them was delivered. No receiver can tell them apart (a CAN frame names no sender):
-    /// the merger pairs them as twins, and the other is not judged.
-    fn crossing(&mut self, o: &mut Occurrence) {
-        for n in self.pending.iter_mut() {
-            if n.at.saturating_since(o.at) >= SKEW_WINDOW {
-                break;
-            }
-            if n.sender == o.sender || n.frame != o.frame {
-                continue;
-            }
-            for r in 0..MAX_NODES {
-                if o.reached[r] != 1 || n.reached[r] != 1 || o.delivered[r] + n.delivered[r] != 1 {
-                    continue;
-                }
-                if o.delivered[r] == 0 {
-                    o.crossed[r] = true;
-                } else {
-                    n.crossed[r] = true;
-                }
-            }
-        }
+    /// Whether `o` reached `r` on one bus only within the skew window of an identical frame of
+    /// another sender that was delivered there (see the module documentation).
+    fn crossed(&self, o: &Occurrence, r: usize) -> bool {
+        let (Some(t), true) = (o.arrived[r], o.reached[r] == 1) else {
+            return false;
+        };
+        self.recent.get(r).is_some_and(|v| {
+            v.iter().any(|(d, s, f)| {
+                *s != o.sender
+                    && *f == o.frame
+                    && d.as_micros().abs_diff(t.as_micros()) < SKEW_WINDOW.as_micros()
+            })
+        })
     }
 
     /// Evens out the deliveries of `o` (about to be judged) and the occurrences of the same

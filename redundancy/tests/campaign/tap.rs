@@ -60,8 +60,10 @@ impl Tap {
         }
     }
     fn delivered(&self, now: Instant, f: Option<Frame>) -> Option<Frame> {
+        let mut o = self.oracle.borrow_mut();
+        o.handled(self.node, now);
         if let Some(f) = &f {
-            self.oracle.borrow_mut().delivered(self.node, now, f);
+            o.delivered(self.node, now, f);
         }
         f
     }
