@@ -86,6 +86,13 @@ pub struct DualBusConfig {
     /// Default 2 ms ([`DEFAULT_FRAME_TIME`](crate::link::plausible::DEFAULT_FRAME_TIME): from
     /// 125 kbit/s up); slower buses need more; zero: no idle witness.
     pub frame_time: Duration,
+    /// Watched nodes may be wired to one bus only (default false). By default every pair
+    /// member has a port on each bus: one heard on one bus only while the other is healthy is
+    /// suspect even if the other bus never carried it (a master that starts while an impostor
+    /// beats a dead member's heartbeat on one bus has nothing else to go by). With true, a
+    /// node not heard on both buses since it booted is trusted, as a board on one bus by
+    /// design ([`crate::link::plausible`], rule 2).
+    pub one_bus_members: bool,
     /// How the active-active mode merges the two buses' receptions (default
     /// [`MergePolicy::Exact`]); the CiA 302-6 and ECSS modes keep the exact merge for what
     /// they merge (heartbeats heard on both channels).
@@ -182,6 +189,12 @@ impl DualBusConfig {
         self.frame_time = frame_time;
         self
     }
+    /// The configuration with [`one_bus_members`](Self::one_bus_members) replaced.
+    #[must_use]
+    pub fn with_one_bus_members(mut self, allowed: bool) -> Self {
+        self.one_bus_members = allowed;
+        self
+    }
     /// The configuration with [`merge`](Self::merge) replaced.
     #[must_use]
     pub fn with_merge(mut self, merge: MergePolicy) -> Self {
@@ -226,6 +239,7 @@ impl DualBusConfig {
             od_layout: OdLayout::default(),
             watch_capacity: MAX_MEMBERS,
             frame_time: crate::link::plausible::DEFAULT_FRAME_TIME,
+            one_bus_members: false,
             merge: MergePolicy::Exact,
         }
     }

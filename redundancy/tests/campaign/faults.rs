@@ -670,6 +670,8 @@ pub fn draw(rng: &mut Rng, pairs: u8, k: usize) -> Fault {
 #[derive(Default, Debug)]
 pub struct Coverage {
     pub classes: BTreeMap<&'static str, u32>,
+    /// Of those, how many took effect ([`crate::effects`]).
+    pub effective: BTreeMap<&'static str, u32>,
     pub pairs: BTreeMap<(&'static str, &'static str), u32>,
 }
 
@@ -688,6 +690,9 @@ impl Coverage {
     pub fn merge(&mut self, other: &Coverage) {
         for (k, v) in &other.classes {
             *self.classes.entry(k).or_default() += v;
+        }
+        for (k, v) in &other.effective {
+            *self.effective.entry(k).or_default() += v;
         }
         for (k, v) in &other.pairs {
             *self.pairs.entry(*k).or_default() += v;
@@ -726,6 +731,7 @@ pub fn compose(
         }
         // A fault's effects (a board rebooting, a master negotiating) outlast it a little.
         active.push((t + f.span() + Duration::from_millis(300), f));
+        crate::effects::watch(run, f);
         apply(run, f);
         t += rng.ms(300, 3_000);
     }

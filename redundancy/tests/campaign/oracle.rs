@@ -151,6 +151,8 @@ pub struct Oracle {
     /// Per receiver: the frames delivered there lately (simulated time, sender, frame), for as
     /// long as an occurrence that reached it meanwhile may wait to be judged.
     recent: Vec<VecDeque<(Instant, usize, Frame)>>,
+    /// Per node and port: the latest time (its clock) a frame was handed over late there.
+    pub late: [[Option<Instant>; 2]; MAX_NODES],
 }
 
 impl Oracle {
@@ -212,6 +214,11 @@ impl Oracle {
             o.reached[r] = o.reached[r].saturating_add(1);
         }
         self.current = Some((r, of));
+    }
+
+    /// Node `node`'s port `port` handed a frame over late, at `now` on its clock.
+    pub fn late(&mut self, node: usize, port: usize, now: Instant) {
+        self.late[node][port & 1] = Some(self.sim_time(node, now));
     }
 
     /// Node `node`'s link was handed the copy (at `now` on its clock), delivered or not.

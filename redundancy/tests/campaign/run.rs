@@ -82,6 +82,8 @@ pub struct Run {
     pub problems: Vec<String>,
     /// Longest seen: pair without a board, two masters, SYNC gap.
     pub worst: [Duration; 3],
+    /// Faults that took effect, by class ([`crate::effects`]).
+    pub effective: std::collections::BTreeMap<&'static str, u32>,
 }
 
 impl Run {
@@ -119,6 +121,7 @@ impl Run {
             settle_from: vec![Instant::ZERO; pairs],
             problems: vec![],
             worst: [Duration::ZERO; 3],
+            effective: Default::default(),
         }
     }
 

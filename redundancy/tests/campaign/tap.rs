@@ -20,6 +20,9 @@ use std::rc::Rc;
 /// link's own as far as the oracle knows).
 const NUMBERS: usize = 4096;
 
+/// A frame handed over this long after its receive stamp came late (a port's receive lag).
+const LATE: duocan::Duration = duocan::Duration::from_millis(1);
+
 /// A layer that reports to the oracle (`node` is the device's index in the oracle).
 pub struct Tap {
     pub inner: DualBus,
@@ -88,6 +91,9 @@ impl BusLink for Tap {
         at: Instant,
     ) -> Option<Frame> {
         self.now = now;
+        if now.saturating_since(at) > LATE {
+            self.oracle.borrow_mut().late(self.node, port, now);
+        }
         let f = self.inner.handle_rx_at(now, port, frame, at);
         self.trace(now, port, frame, at, f.is_some());
         self.delivered(now, f)

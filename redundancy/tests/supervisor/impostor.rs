@@ -717,3 +717,42 @@ fn a_live_standby_whose_heartbeat_a_second_device_sends_on_one_bus_takes_over_wh
         .any(|x| x.2 == NmtCommand::ResetNode && x.3 == b(0)));
     assert!(running(&n, b(0)));
 }
+
+#[test]
+fn a_master_that_starts_while_an_impostor_beats_on_one_bus_judges_it_from_its_first_sight() {
+    // Campaign seed 3986: the active 0x10 dies at 1003 ms while a device beats 0x710 [05] on
+    // bus 1 only; the strong master catches it and starts B. The weak master, off from 900 ms,
+    // starts again at 1200 ms: it never heard 0x10 on bus 2. At 1500 ms the strong master dies
+    // and the weak one takes over. Before, the weak master took the impostor for the active
+    // member, running, and sent the real running B back to pre-operational: no board ran.
+    let mut n = SupNet::new(Params::default());
+    let bus1 = [n.buses[0]];
+    inject(&mut n, &bus1, heartbeat(a(0), 5), Some(ms(1001)), PERIOD);
+    n.kill_slave_at(a(0), ms(1003));
+    n.kill_master_at(WEAK, ms(900));
+    n.revive_master_at(WEAK, ms(1200));
+    n.kill_master_at(STRONG, ms(1500));
+    n.sim.run_until(ms(2000));
+    // The weak master finds 0x10 suspect one window after it first heard it, on bus 1 only
+    // (bus 2 carrying 0x750, of lower priority, all along).
+    let first = *arrivals(&n, 0, 0x710)
+        .iter()
+        .find(|t| **t > ms(1200))
+        .unwrap();
+    let weak: Vec<_> = suspects(&n, WEAK)
+        .into_iter()
+        .filter(|s| s.0 > ms(1200))
+        .collect();
+    assert_eq!(
+        weak.first(),
+        Some(&(first + WINDOW, Suspicion::OneBus { heard: 0 })),
+        "{weak:?}"
+    );
+    // It takes over with B active and running; B is never sent back.
+    assert_eq!(n.active_member(WEAK, 0), Some(Member::B));
+    assert!(!n
+        .nmt_first_copies()
+        .iter()
+        .any(|x| x.0 > ms(1200) && x.1 == WEAK && x.3 == b(0) && x.2 != NmtCommand::Start));
+    assert!(running(&n, b(0)));
+}

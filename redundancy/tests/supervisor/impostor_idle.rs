@@ -35,7 +35,24 @@ fn wire(n: &SupNet, bus: usize) -> Vec<Instant> {
 
 #[test]
 fn impostor_of_the_highest_node_id_on_one_bus_is_suspect_one_window_after_the_other_bus_lost_it() {
+    highest_node_id_impostor(Duration::ZERO);
+}
+
+#[test]
+fn the_same_with_the_masters_port_on_the_other_bus_running_behind_by_more_than_a_sync_period() {
+    // Campaign seed 3928: the active master's bus 2 port hands its frames over 15 ms after they
+    // ended (their stamps say when), while its own frames there are confirmed at once. Its
+    // bus was never seen idle: every gap was measured against a later confirmation of its own
+    // SYNC, and the impostor kept the dead board "alive" for 440 ms. Frame ends are now merged
+    // in the order of the wire.
+    highest_node_id_impostor(Duration::from_millis(15));
+}
+
+/// The impostor case, with the strong master's bus 2 port handing frames over `lag` late.
+fn highest_node_id_impostor(lag: Duration) {
     let mut n = SupNet::new(Params::default());
+    let port = n.master(STRONG).port(1);
+    n.sim.set_port_latency(port, lag);
     let top = b(3);
     n.sim.run_until(ms(1000));
     // Pair 3 runs on B, the highest node-ID of the network.

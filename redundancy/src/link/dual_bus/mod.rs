@@ -238,7 +238,8 @@ impl<C: FrameClassifier, const SLOTS: usize, const FUNCTIONS: usize> DualBus<C, 
                 reach_enabled.then_some(cfg.reach_timeout),
                 cfg.watch_capacity,
             )
-            .with_frame_time(cfg.frame_time),
+            .with_frame_time(cfg.frame_time)
+            .with_one_bus_members(cfg.one_bus_members),
             pairs: SameFunction::new(cfg.discrepancy_time),
             out: Outbox::new(),
             stats: LinkStats::default(),

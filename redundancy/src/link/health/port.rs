@@ -233,6 +233,14 @@ impl PortHealth {
     pub fn in_flight(&self) -> Option<usize> {
         self.reports_outcomes.then_some(self.outstanding.len())
     }
+    /// When the oldest frame waiting for an outcome was handed to it (its driver reports
+    /// outcomes and one waits).
+    pub fn in_flight_since(&self) -> Option<Instant> {
+        self.outstanding
+            .front()
+            .filter(|_| self.reports_outcomes)
+            .map(|h| h.at)
+    }
     /// The lag that makes it suspect: it lags beyond the maximum skew window
     /// (see [`crate::link::lag`]).
     pub fn lagging(&self) -> Option<Duration> {

@@ -12,43 +12,55 @@
 //! before the later frame began: at `t − F` at the latest, `t` being the time of the later
 //! frame.
 //!
-//! The layer's own frames, with a driver that confirms them: a gap ending while one is
-//! unconfirmed does not count, and a confirmation is a frame seen. Which frames wait is port
-//! health's count ([`PortHealth::in_flight`](crate::link::health::PortHealth::in_flight)),
+//! The layer's own frames, with a driver that confirms them (`TxOk`, `TxFailed`: an attempt
+//! that ended then): each confirmation is the end of a frame on the bus, at the time the
+//! driver reports it. A receive path that runs behind hands its frames over later than their
+//! stamps, after confirmations of own frames that ended later on the wire; so the ends of the
+//! own frames wait (`OWN` at most) until the received frames have passed them, and both are
+//! merged in the order of their ends: the gaps measured are those of the wire, however far
+//! behind the receive path runs. (Measured in the order they were handed over, a receive lag
+//! longer than the SYNC period hid every gap, and an impostor of the highest node-ID of a
+//! network was never caught by the master whose port lagged; taken from a confirmation at once,
+//! the gap before it held received frames still on their way, and a lag looked like idle bus.)
+//! A gap a received frame ends does not count while an own frame handed over before it still
+//! waits for its outcome: that frame may have been on the bus in the gap. Which frames wait is
+//! port health's count ([`PortHealth::in_flight`](crate::link::health::PortHealth::in_flight)),
 //! which forgets the frames a flush or a re-initialisation discards and no driver confirms (a
-//! count kept here held them for ever after a babble: the bus was never seen idle again). A
-//! gap a confirmation ends, with no other own frame waiting, counts once the first frame
-//! received after it is stamped later than the confirmation: frames come in the order of their
-//! stamps, so none of the gap was still on its way. That is the gap before a SYNC this layer
-//! sends; on a cyclic network every gap may end so, and the SYNC producer would otherwise never
-//! see its bus idle. A receive path that runs behind delivers frames the confirmation overtook
-//! instead, and the gap is no witness.
+//! count kept here held them for ever after a babble: the bus was never seen idle again). When
+//! more own frames end than wait here before a received frame passes them (nothing received
+//! for a while), the oldest is merged without counting the gap before it.
 //!
 //! With a driver that does not confirm, each own frame is taken to occupy the bus for `F` from
 //! its hand-over, or from the end so reckoned of the one handed over before it (right while its
 //! frames are not held back by traffic of higher priority than theirs: the layer's are NMT,
 //! SYNC, SDO and process data, above every heartbeat).
 //!
-//! Memory: a few words per bus; nothing per frame but two comparisons.
+//! Memory: a few words per bus, and the ends of up to `OWN` own frames per bus in the table
+//! (allocated with the first watch); nothing per frame but a few comparisons.
 
 use super::{Plausibility, NEVER};
 use crate::link::health::Health;
 use duocan::machine::PortStatus;
 use duocan::Instant;
 
+/// Own frames' ends kept per bus until the received frames pass them: a receive path behind
+/// by up to about this many of the layer's own frames (32: 80 ms of SYNC, heartbeat and SDO
+/// traffic at a 10 ms SYNC period).
+pub(super) const OWN: usize = 32;
+
+/// The ends of a bus's own frames not merged yet (µs, in order).
+pub(super) type Ends = heapless::Deque<u64, OWN>;
+
 /// One bus as a whole.
 #[derive(Clone, Copy, Debug)]
 pub(super) struct Bus {
-    /// The latest frame seen on it, received or confirmed sent (µs); `NEVER`: none yet.
+    /// The end of the latest frame merged, received or own (µs); `NEVER`: none yet.
     seen: u64,
-    /// This layer's own frames are off the bus by then, as far as it can tell (µs).
+    /// This layer's own frames are off the bus by then, as far as it can tell (µs; a driver
+    /// that does not confirm).
     own: u64,
     /// The latest instant the bus is known to have been idle (µs); 0: never.
     pub(super) idle: u64,
-    /// A gap that a confirmation ended: idle at this instant (µs; 0: none) once the receive
-    /// path has handed over a frame stamped `upto` or later, and none before.
-    maybe: u64,
-    upto: u64,
 }
 
 impl Bus {
@@ -56,62 +68,35 @@ impl Bus {
         seen: NEVER,
         own: 0,
         idle: 0,
-        maybe: 0,
-        upto: 0,
     };
 
-    /// A frame seen at `t` would end a gap longer than `f`: the bus was idle at the instant
-    /// returned. `own`: the layer's own frames are off the bus by then (`NEVER`: one may be in
-    /// the gap).
-    fn gap(&self, t: u64, f: u64, own: u64) -> Option<u64> {
-        let from = self.seen.max(own);
-        (from != NEVER && t > from.saturating_add(f)).then(|| t - f)
-    }
-
-    fn seen_at(&mut self, t: u64) {
-        self.seen = if self.seen == NEVER {
-            t
-        } else {
-            self.seen.max(t)
-        };
-    }
-
-    /// A received frame stamped `t`.
-    fn received(&mut self, t: u64, f: u64, own: u64) {
-        if self.maybe != 0 {
-            // Frames come in the order of their stamps: the first one after the confirmation
-            // tells whether a frame of the gap was still on its way (a receive path behind).
-            if t >= self.upto {
-                self.idle = self.idle.max(self.maybe);
-            }
-            self.maybe = 0;
+    /// The next frame end, at `t`: the bus was idle before it if the gap since the later of
+    /// the last end and `busy` (`NEVER`: something may have been on the bus) is longer than
+    /// `f`.
+    fn merge(&mut self, t: u64, f: u64, busy: u64) {
+        if self.seen == NEVER {
+            self.seen = t;
+            return;
         }
-        if let Some(i) = self.gap(t, f, own) {
-            self.idle = self.idle.max(i);
+        let from = self.seen.max(busy);
+        if from != NEVER && t > from.saturating_add(f) {
+            self.idle = self.idle.max(t - f);
         }
-        self.seen_at(t);
+        self.seen = self.seen.max(t);
     }
 
-    /// An own frame confirmed at `t`; `alone`: no other own frame waits.
-    fn confirmed(&mut self, t: u64, f: u64, alone: bool) {
-        if let Some(i) = self.gap(t, f, 0).filter(|_| alone) {
-            (self.maybe, self.upto) = (i, t);
-        }
-        self.seen_at(t);
-    }
-
-    pub(super) fn step_back(&mut self, by: u64) {
+    pub(super) fn step_back(&mut self, by: u64, ends: Option<&mut Ends>) {
         if self.seen != NEVER {
             self.seen = self.seen.saturating_sub(by);
         }
         self.own = self.own.saturating_sub(by);
         // A known idle instant stays known (at least 1 µs: 0 is "never").
-        for t in [&mut self.idle, &mut self.maybe] {
-            if *t != 0 {
-                *t = t.saturating_sub(by).max(1);
-            }
+        if self.idle != 0 {
+            self.idle = self.idle.saturating_sub(by).max(1);
         }
-        self.upto = self.upto.saturating_sub(by);
+        for e in ends.into_iter().flat_map(|e| e.iter_mut()) {
+            *e = e.saturating_sub(by);
+        }
     }
 }
 
@@ -123,18 +108,32 @@ impl Plausibility {
         self.frame_time != 0 && self.window.is_some() && self.table.is_some()
     }
 
-    /// Any frame arrived on port `p` at `now` (every received frame, before its kind is known).
+    /// Any frame arrived on port `p`, stamped `at` (every received frame, before its kind is
+    /// known).
     #[inline]
-    pub(crate) fn on_frame(&mut self, now: Instant, p: usize, health: &Health) {
-        if self.idle_on() {
-            let t = now.as_micros().min(NEVER - 1);
-            let b = &mut self.buses[p & 1];
-            let own = match health.port(p & 1).in_flight() {
-                Some(n) if n > 0 => NEVER, // an own frame may be in the gap
-                _ => b.own,
-            };
-            b.received(t, self.frame_time, own);
+    pub(crate) fn on_frame(&mut self, at: Instant, p: usize, health: &Health) {
+        if !self.idle_on() {
+            return;
         }
+        let (t, f, p) = (at.as_micros().min(NEVER - 1), self.frame_time, p & 1);
+        let Some(table) = self.table.as_deref_mut() else {
+            return;
+        };
+        let b = &mut self.buses[p];
+        // The own frames that ended before this one, in order.
+        let ends = &mut table.ends[p];
+        while let Some(c) = ends.front().copied().filter(|c| *c <= t) {
+            ends.pop_front();
+            b.merge(c, f, 0);
+        }
+        let port = health.port(p);
+        let busy = match (port.in_flight(), port.in_flight_since()) {
+            // An own frame handed over before this one ended may have been in the gap.
+            (Some(_), Some(h)) if h.as_micros() < t => NEVER,
+            (Some(_), _) => 0,
+            (None, _) => b.own,
+        };
+        b.merge(t, f, busy);
     }
 
     /// This layer handed a frame to port `p` at `now`.
@@ -146,8 +145,8 @@ impl Plausibility {
         }
     }
 
-    /// The driver of port `p` reported `status` at `now` (port health has counted it): a
-    /// confirmation is a frame seen.
+    /// The driver of port `p` reported `status` at `now` (port health has counted it): an
+    /// own frame's end (a failed attempt used the bus too).
     pub(crate) fn on_status(
         &mut self,
         now: Instant,
@@ -155,30 +154,26 @@ impl Plausibility {
         status: PortStatus,
         health: &Health,
     ) {
-        if !self.idle_on() {
+        if !self.idle_on() || !matches!(status, PortStatus::TxOk | PortStatus::TxFailed(_)) {
             return;
         }
-        let in_flight = health.port(p & 1).in_flight();
-        let b = &mut self.buses[p & 1];
-        let ok = match status {
-            PortStatus::TxOk => true,
-            PortStatus::TxFailed(_) => false,
-            _ => return,
-        };
-        let t = now.as_micros().min(NEVER - 1);
-        if in_flight == Some(0) {
+        let (t, f, p) = (now.as_micros().min(NEVER - 1), self.frame_time, p & 1);
+        let b = &mut self.buses[p];
+        if health.port(p).in_flight() == Some(0) {
             // Every own frame is off the bus: the last one ended at the latest now.
             b.own = b.own.min(t);
         }
-        if ok {
-            // A frame that just ended on the bus. The gap it ends held no other own frame if
-            // none waits now (the earlier ones were confirmed before it), and no received
-            // frame if the next one received is stamped after it.
-            b.confirmed(t, self.frame_time, in_flight == Some(0));
-        } else if b.seen == NEVER || b.seen < t {
-            // A failed attempt is no frame to measure a gap by, but may have used the bus.
-            b.seen = t;
+        let Some(table) = self.table.as_deref_mut() else {
+            return;
+        };
+        let ends = &mut table.ends[p];
+        if ends.is_full() {
+            // Nothing received for a while: the oldest end is merged without its gap.
+            if let Some(c) = ends.pop_front() {
+                b.merge(c, f, NEVER);
+            }
         }
+        let _ = ends.push_back(t);
     }
 
     /// The latest instant port `p`'s bus is known to have been idle (rule 2's witness).

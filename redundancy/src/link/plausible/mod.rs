@@ -47,13 +47,22 @@
 //!
 //! # Rule 2: on one bus only
 //!
-//! A watched node whose heartbeats were heard on both buses (since its last boot-up) and then,
-//! for the reachability timeout `W` ([`DualBusConfig::reach_timeout`](crate::DualBusConfig)), on
-//! one bus only, is suspect at the instant its last heartbeat on the silent bus is `W` old
-//! (exactly), provided the silent bus is *healthy for it*: the port is ok and, after the node's
-//! heartbeat was due there (one and a half periods after that last heartbeat, or after the
-//! port last came back to ok from a failure or a transmit error if later: a heartbeat sent
-//! while the bus was cut is lost, so a flapping bus is no evidence), the bus was
+//! A watched node heard for the reachability timeout `W`
+//! ([`DualBusConfig::reach_timeout`](crate::DualBusConfig)) on one bus only is suspect at the
+//! instant the other bus has been silent for it for `W` (exactly): since its last heartbeat
+//! there or, if that bus has not carried it in this *life* (since its last boot-up, or since it
+//! was heard nowhere for `W`), since the life began. Every pair member has a port on each bus,
+//! so a node that appears on one bus only is judged too: a master that starts while an
+//! impostor beats a dead member's heartbeat on one bus has nothing else to go by. A life that
+//! began with a boot-up is judged once the node was heard on both buses in it: a board cut off
+//! one bus (suspect, and reset) is not reset again at every boot; and where members may be on
+//! one bus by design,
+//! [`DualBusConfig::one_bus_members`](crate::DualBusConfig::one_bus_members), every life is
+//! judged so. The verdict needs the silent bus
+//! *healthy for it*: the port is ok and, after the node's heartbeat was due there (one and a
+//! half periods after the silence began, or after the port last came back to ok from a failure
+//! or a transmit error if later: a heartbeat sent while the bus was cut is lost, so a flapping
+//! bus is no evidence), the bus was
 //! **seen idle**, or carried the heartbeat of another watched node of **lower priority** (a
 //! higher identifier). Neither a cut nor a babbler can then be what keeps the node's heartbeat
 //! off that bus: a cut stops every frame; CAN arbitration lets a frame wait only while the bus
@@ -182,8 +191,11 @@ struct Watch {
     /// Its heartbeat identifier, once heard.
     id: Option<Id>,
     ports: [Track; 2],
-    /// Heard on both buses within `W` since its last boot-up.
-    paired: bool,
+    /// Its first heartbeat of this life (µs): after its last boot-up, or after it was heard
+    /// nowhere for `W`; `NEVER`: heard nowhere.
+    life: u64,
+    /// The life began with a boot-up (not with a first appearance).
+    booted: bool,
     /// Rule 2 holds: heard on this port only.
     one_bus: Option<u8>,
     /// What the machine above was last told.
@@ -203,11 +215,24 @@ struct Watch {
 
 impl Watch {
     fn settle(&mut self) {
-        self.quiet = self.paired
+        self.quiet = (0..2).all(|q| self.ports[q].last != NEVER && self.ports[q].last >= self.life)
             && !self.told
             && self.one_bus.is_none()
             && self.checked == NEVER
             && !self.ports.iter().any(|tr| tr.fast || tr.measuring);
+    }
+    /// Since when bus `q` has not carried its heartbeat in this life: its last one there, or
+    /// the life's start if it carried none, unless the life began with a boot-up or nodes may
+    /// be on one bus only (`NEVER`: heard nowhere, or not judged).
+    fn silent_on(&self, q: usize, one_bus_members: bool) -> u64 {
+        let l = self.ports[q].last;
+        if l != NEVER && l >= self.life {
+            l
+        } else if one_bus_members || self.booted {
+            NEVER
+        } else {
+            self.life
+        }
     }
     /// Rule 1's verdict at `t`: a bus too fast for the node, and the other bus not speaking
     /// for it (see "Verdicts"); the fast bus, if so.
@@ -245,6 +270,8 @@ struct Table {
     /// node-ID → position in `watched` (`NONE`: not watched).
     index: [u8; 128],
     watched: Watched,
+    /// Per bus: the ends of own frames the received frames have not passed yet (`idle.rs`).
+    ends: [idle::Ends; 2],
 }
 
 /// The entries: allocated for the capacity asked for (`alloc`); without an allocator the
@@ -265,6 +292,7 @@ fn allocate(capacity: usize) -> Option<Holder> {
     Some(alloc::boxed::Box::new(Table {
         index: [NONE; 128],
         watched: alloc::vec::Vec::with_capacity(capacity),
+        ends: [idle::Ends::new(), idle::Ends::new()],
     }))
 }
 #[cfg(not(feature = "alloc"))]
@@ -308,6 +336,8 @@ pub struct Plausibility {
     refused: u32,
     /// Nodes the table takes.
     capacity: usize,
+    /// Watched nodes may be wired to one bus only: rule 2 waits until a node is heard on both.
+    one_bus_members: bool,
 }
 
 impl Plausibility {
@@ -331,7 +361,17 @@ impl Plausibility {
             unsynced: false,
             refused: 0,
             capacity: nodes.min(MAX_MEMBERS),
+            one_bus_members: false,
         }
+    }
+
+    /// The table with watched nodes allowed on one bus only (`true`: rule 2 judges a node once
+    /// it was heard on both buses in its life; see
+    /// [`DualBusConfig::one_bus_members`](crate::DualBusConfig::one_bus_members)).
+    #[must_use]
+    pub fn with_one_bus_members(mut self, allowed: bool) -> Self {
+        self.one_bus_members = allowed;
+        self
     }
 
     /// The table with rule 2's idle witness judging gaps by the frame time `f` (see
@@ -387,7 +427,8 @@ impl Plausibility {
             key: None,
             id: None,
             ports: [Track::NEW; 2],
-            paired: false,
+            life: NEVER,
+            booted: false,
             one_bus: None,
             told: false,
             fast_verdict: false,
@@ -501,8 +542,9 @@ impl Plausibility {
         for v in self.last_any.iter_mut() {
             back(v);
         }
-        for b in self.buses.iter_mut() {
-            b.step_back(by);
+        let mut ends = self.table.as_deref_mut().map(|t| &mut t.ends);
+        for (p, b) in self.buses.iter_mut().enumerate() {
+            b.step_back(by, ends.as_deref_mut().map(|e| &mut e[p]));
         }
         if let Some(n) = self.next.as_mut() {
             back(n);
@@ -511,6 +553,7 @@ impl Plausibility {
             for w in t.watched.iter_mut() {
                 back(&mut w.checked);
                 back(&mut w.newest);
+                back(&mut w.life);
                 for tr in w.ports.iter_mut() {
                     back(&mut tr.last);
                     back(&mut tr.since);

@@ -76,7 +76,7 @@ impl Plausibility {
         }
         // A heartbeat at the end of time is not "never heard".
         let t = now.as_micros().min(NEVER - 1);
-        let window = self.window;
+        let (window, one_bus_members) = (self.window, self.one_bus_members);
         let Some(table) = self.table.as_deref_mut() else {
             return false;
         };
@@ -132,31 +132,31 @@ impl Plausibility {
         }
         let fast = tr.fast;
         let drained = tr.tat.div_ceil(4);
-        // Rule 2's bookkeeping: heard on both buses (paired), on the other bus again, booted.
+        // Rule 2's bookkeeping: a new life (booted, or heard nowhere for a window), heard on
+        // the other bus again.
         let mut recheck = false;
         let mut due = None;
         if let Some(win) = window {
             let heard = |l: u64| l != NEVER && t < l.saturating_add(win);
             let other = w.ports[1 - p].last;
             if boot_up || !(heard(before) || heard(other)) {
-                // A boot-up, or heard nowhere for a window: a new life, judged afresh once
-                // heard on both buses again.
-                w.paired = false;
+                // A boot-up, or heard nowhere for a window: a new life, judged afresh (the
+                // other bus silent since it began, until it carries the node).
+                w.life = t;
+                w.booted = boot_up;
                 w.one_bus = None;
             }
-            if !boot_up && heard(other) {
-                w.paired = true;
-                if w.one_bus.is_some_and(|h| h as usize != p) {
-                    w.one_bus = None;
-                }
+            if !boot_up && heard(other) && w.one_bus.is_some_and(|h| h as usize != p) {
+                w.one_bus = None;
             }
             // The other bus's deadline is armed only once it missed a heartbeat: the frame
             // path of a node heard on both buses sets no timer.
-            let late = other != NEVER && other.saturating_add(late_after) < t;
+            let silent = w.silent_on(1 - p, one_bus_members);
+            let late = silent != NEVER && silent.saturating_add(late_after) < t;
             if w.one_bus.is_some() {
                 due = Some(t.saturating_add(win));
-            } else if w.paired && late {
-                due = Some(other.saturating_add(win));
+            } else if late {
+                due = Some(silent.saturating_add(win));
             }
             // A check that lacked a witness (or a deadline noticed late) is made at once.
             recheck = w.checked != NEVER || due.is_some_and(|d| d <= t);
@@ -200,13 +200,14 @@ impl Plausibility {
         let Some(win) = self.window else {
             return false;
         };
+        let one_bus_members = self.one_bus_members;
         let w = &self.entries()[i];
-        if !w.paired || w.one_bus.is_some() {
+        if w.life == NEVER || w.one_bus.is_some() {
             return false;
         }
         let Some(q) = (0..2).find(|&q| {
-            let (lq, lp) = (w.ports[q].last, w.ports[1 - q].last);
-            lq.saturating_add(win) <= t && lp != NEVER && t < lp.saturating_add(win)
+            let (sq, lp) = (w.silent_on(q, one_bus_members), w.ports[1 - q].last);
+            sq.saturating_add(win) <= t && lp != NEVER && t < lp.saturating_add(win)
         }) else {
             return false;
         };
@@ -214,8 +215,8 @@ impl Plausibility {
         // the later of its last heartbeat there and the port's return from a fault that may
         // lose frames (a heartbeat sent while the bus was cut is lost, not waiting).
         let since = health.port(q).back().as_micros();
-        let after = w.ports[q]
-            .last
+        let after = w
+            .silent_on(q, one_bus_members)
             .max(since)
             .saturating_add(w.period + w.period / 2);
         // The bus idle after that: the heartbeat was not waiting for it (`idle.rs`).
@@ -248,6 +249,7 @@ impl Plausibility {
         if self.next.is_none_or(|n| n > t) {
             return;
         }
+        let one_bus_members = self.one_bus_members;
         let mut next: Option<u64> = None;
         let mut soonest = |d: u64| {
             if d > t {
@@ -296,10 +298,13 @@ impl Plausibility {
                 self.sweep_one_bus(i, t, win, health, out);
                 let w = &self.entries()[i];
                 let late = |l: u64| l.saturating_add(w.late) < t;
-                for tr in w.ports.iter().filter(|tr| tr.last != NEVER) {
+                for s in (0..2)
+                    .map(|q| w.silent_on(q, one_bus_members))
+                    .filter(|s| *s != NEVER)
+                {
                     // The end of a one-bus verdict; the fall of a bus that missed a heartbeat.
-                    if w.one_bus.is_some() || (w.paired && late(tr.last)) {
-                        soonest(tr.last.saturating_add(win));
+                    if w.one_bus.is_some() || late(s) {
+                        soonest(s.saturating_add(win));
                     }
                 }
             }
@@ -311,16 +316,17 @@ impl Plausibility {
 
     /// Rule 2's deadlines for node `i` up to `t`.
     fn sweep_one_bus(&mut self, i: usize, t: u64, win: u64, health: &Health, out: &mut Outbox) {
+        let one_bus_members = self.one_bus_members;
         let w = self.at(i);
         let heard = |l: u64| l != NEVER && t < l.saturating_add(win);
         if !heard(w.ports[0].last) && !heard(w.ports[1].last) {
             // Heard nowhere: nothing left to doubt; a new appearance is judged afresh.
-            w.paired = false;
+            w.life = NEVER;
             w.one_bus = None;
             return;
         }
         let falls = (0..2)
-            .map(|q| w.ports[q].last.saturating_add(win))
+            .map(|q| w.silent_on(q, one_bus_members).saturating_add(win))
             .filter(|d| *d <= t)
             .max();
         if let Some(fall) = falls {

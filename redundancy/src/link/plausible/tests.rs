@@ -327,7 +327,7 @@ fn rule_two_one_bus_only_with_a_witness_on_the_other() {
 }
 
 #[test]
-fn rule_two_needs_a_lower_priority_witness_an_ok_port_and_a_pairing() {
+fn rule_two_needs_a_lower_priority_witness_and_an_ok_port() {
     // The witness must have a lower priority: 0x50 stopping on bus 2 while 0x10 goes on there is
     // no evidence against 0x50 (a babbler between 0x710 and 0x750 would do the same). Here the
     // heartbeats are not shown as frames, so bus 2 is never seen idle (that witness is below).
@@ -347,15 +347,37 @@ fn rule_two_needs_a_lower_priority_witness_an_ok_port_and_a_pairing() {
     beats(&mut r, (100, 400), |t, port| up(t, port).then_some(5), up);
     assert!(r.requests().is_empty());
 
-    // Never heard on bus 2: a node on one bus by design is no impostor.
+    // Never heard on bus 2, where nodes may be on one bus by design: no impostor.
+    let only_bus_1 = |_, port| (port == 0).then_some(5);
     let mut r = Rig::new();
-    beats(
-        &mut r,
-        (100, 400),
-        |_, port| (port == 0).then_some(5),
-        |_, _| true,
-    );
+    r.p = Plausibility::new(Some(W)).with_one_bus_members(true);
+    for node in [0x10, 0x50] {
+        assert!(r.p.watch(n(node), T));
+    }
+    beats(&mut r, (100, 400), only_bus_1, |_, _| true);
     assert!(r.requests().is_empty());
+
+    // Where every member has a port on each bus (the default): bus 2 silent since it was
+    // first heard (100 ms), 0x50 beating there: suspect one window later, exactly.
+    let mut r = Rig::new();
+    beats(&mut r, (100, 400), only_bus_1, |_, _| true);
+    assert_eq!(r.requests(), [(0x10, true)]);
+    let e: Vec<_> = r
+        .events()
+        .into_iter()
+        .filter(|e| matches!(e.kind, LinkEventKind::Suspect { .. }))
+        .map(|e| (e.at, e.kind))
+        .collect();
+    assert_eq!(
+        e,
+        [(
+            ms(100) + W,
+            LinkEventKind::Suspect {
+                node: n(0x10),
+                why: Suspicion::OneBus { heard: 0 }
+            }
+        )]
+    );
 }
 
 #[test]
@@ -363,7 +385,9 @@ fn a_boot_up_is_a_new_life_judged_afresh() {
     let mut r = Rig::new();
     paired_then(&mut r, 244, Some(1), 400);
     assert_eq!(r.requests(), [(0x10, true)]);
-    // It boots (a reset after its failover) and goes on on bus 1 only: not paired, trusted.
+    // It boots (a reset after its failover) and goes on on bus 1 only: a life begun with a
+    // boot-up is judged once heard on both buses, trusted (a board cut off one bus is not
+    // reset at every boot).
     r.beat(ms(405), 0, 0x10, 0);
     assert_eq!(r.requests(), [(0x10, false)]);
     beats(
@@ -373,6 +397,15 @@ fn a_boot_up_is_a_new_life_judged_afresh() {
         |_, _| true,
     );
     assert!(r.requests().is_empty());
+    // Heard nowhere for a window, it appears again on bus 1 only (no boot-up: an impostor, or
+    // a master's first sight of it): judged from its appearance.
+    beats(
+        &mut r,
+        (800, 1_000),
+        |_, port| (port == 0).then_some(0x7F),
+        |_, _| true,
+    );
+    assert_eq!(r.requests(), [(0x10, true)]);
 }
 
 #[test]
@@ -565,28 +598,51 @@ fn a_bus_never_idle_is_no_witness_nor_are_gaps_the_layers_own_frames_may_fill() 
     r.confirmed(ms(111), 1, PortStatus::TxOk);
     r.p.on_frame(ms(120), 1, &r.health);
     assert_eq!(r.p.idle_seen(1), Some(ms(118)));
-    // A confirmation ends a gap (the one before a SYNC this layer sends: every gap of a
-    // cyclic network may end so) when no other own frame waits, once the next frame received
-    // is stamped after it: none of the gap was still on its way.
+    // A confirmation ends a gap as a received frame does (the gap before a SYNC this layer
+    // sends: every gap of a cyclic network may end so), merged with the received frames in
+    // the order of their ends: counted once the received frames have passed it.
     r.handed(ms(130), 1);
     r.confirmed(us(130_100), 1, PortStatus::TxOk);
     assert_eq!(r.p.idle_seen(1), Some(ms(118)));
     r.p.on_frame(us(130_300), 1, &r.health);
     assert_eq!(r.p.idle_seen(1), Some(us(128_100)));
-    // Another own frame waiting: it may have gone first, no witness.
+    // Two own frames: their ends follow each other, the gap before the first is idle.
     r.handed(ms(140), 1);
     r.handed(ms(140), 1);
     r.confirmed(us(140_100), 1, PortStatus::TxOk);
     r.confirmed(us(140_200), 1, PortStatus::TxOk);
     r.p.on_frame(us(140_400), 1, &r.health);
-    assert_eq!(r.p.idle_seen(1), Some(us(128_100)));
-    // A receive path running 30 ms behind: the next frame received is stamped inside the gap
-    // (it was on the bus then), no witness.
+    assert_eq!(r.p.idle_seen(1), Some(us(138_100)));
+    // A receive path running 5 ms behind: its frames come after the confirmation of a frame
+    // that ended later on the wire. Merged in the order of their ends, the gaps are those of
+    // the wire: 140.4 → 145 idle, 145 → 150.1 (own) idle, 150.1 → 150.9 and on busy.
     r.handed(ms(150), 1);
     r.confirmed(us(150_100), 1, PortStatus::TxOk);
     r.p.on_frame(us(145_000), 1, &r.health);
-    r.p.on_frame(us(151_000), 1, &r.health);
-    assert_eq!(r.p.idle_seen(1), Some(us(128_100)));
+    assert_eq!(r.p.idle_seen(1), Some(us(143_000)));
+    r.p.on_frame(us(150_900), 1, &r.health);
+    assert_eq!(r.p.idle_seen(1), Some(us(148_100)));
+    // A received frame that ends a gap while an own frame handed over before it waits for its
+    // outcome: that frame may have been in the gap, no witness.
+    r.handed(ms(155), 1);
+    r.p.on_frame(ms(160), 1, &r.health);
+    assert_eq!(r.p.idle_seen(1), Some(us(148_100)));
+}
+
+#[test]
+fn own_frame_ends_wait_in_bounded_memory_for_the_received_frames() {
+    // Forty own frames every 10 ms and nothing received: 32 ends wait, the older ones are
+    // merged without their gaps (no received frame has passed them: no witness).
+    let mut r = Rig::new();
+    r.p.on_frame(ms(100), 1, &r.health);
+    for k in 0..40 {
+        r.handed(ms(105 + 10 * k), 1);
+        r.confirmed(us(105_100 + 10_000 * k), 1, PortStatus::TxOk);
+    }
+    assert_eq!(r.p.idle_seen(1), None);
+    // A received frame after them all: the 32 waiting ends merge in order, each gap idle.
+    r.p.on_frame(ms(500), 1, &r.health);
+    assert_eq!(r.p.idle_seen(1), Some(ms(498)));
 }
 
 #[test]

@@ -1,0 +1,214 @@
+//! Whether each fault took effect.
+//!
+//! A fault can reach its class in the coverage report and test nothing: the campaign's impostor
+//! once beat a heartbeat with a state byte no node sends, which every layer dropped as
+//! malformed, so the one-bus rule was never exercised while the report said "impostor
+//! heartbeat" in every budget. So each fault is judged, a second after it ends (at most five
+//! seconds after it began), by what the plant shows of it:
+//!
+//! - a bus cut, in sequence or flapping: a device's port on that bus (both, for a sequence)
+//!   left `Ok`, or failed a transmission;
+//! - a lag on a port: that device's port handed a frame over late (after its receive stamp);
+//! - a babble: a port on that bus failed for a transmit stall;
+//! - an unplugged port: that device's port left `Ok`;
+//! - an impostor: a master found the node's heartbeats implausible (suspect, duplicate,
+//!   babbling);
+//! - a board that stops: a master saw its heartbeat say so;
+//! - noise: error reports on that bus; an overrun: that controller's overflow reports;
+//! - a board or master that dies, a master's clock stepped back or jumped ahead: the device was
+//!   powered when the fault came (its effect is the simulator's or the clock's own doing).
+//!
+//! The fixed budget then asserts that every class took effect at least once.
+
+use crate::faults::Fault;
+use crate::plant::{MasterDev, SlaveDev, STRONG, WEAK};
+use crate::run::Run;
+use duocan::machine::{ErrorCause, StationEvent};
+use duocan::node::NodeEventKind;
+use duocan::{Duration, Instant};
+use duocan_redundancy::link::health::HealthCounters;
+use duocan_redundancy::{
+    DualBus, LinkEvent, LinkEventKind, PortReason, PortState, SupervisorEvent,
+};
+
+/// How long after its end a fault is judged, and the longest it is watched for.
+const AFTER: Duration = Duration::from_secs(1);
+const LONGEST: Duration = Duration::from_secs(4);
+
+/// Judges `f`, applied now, once its window has passed; counts it in `run.effective`.
+pub fn watch(run: &mut Run, f: Fault) {
+    let from = run.now();
+    let direct = match f {
+        Fault::BoardDies { node, .. } | Fault::Stops { node, .. } => {
+            run.plant.sim.is_powered(run.plant.slave(node).0)
+        }
+        Fault::MasterDies { id, .. } | Fault::StepBack { id, .. } | Fault::JumpAhead { id, .. } => {
+            run.plant.sim.is_powered(run.plant.master(id))
+        }
+        _ => true,
+    };
+    let before = counters(run);
+    let until = from + f.span().min(LONGEST) + AFTER;
+    run.at(until, move |r| {
+        let now = r.now();
+        let seen = direct && took_effect(r, f, from, now, &before);
+        if seen {
+            *r.effective.entry(f.class()).or_default() += 1;
+        }
+    });
+}
+
+/// Every device's port counters, by node (a master's id, a slave's node-ID).
+type Counters = Vec<(u8, [HealthCounters; 2])>;
+
+fn links(run: &Run) -> Vec<(u8, &DualBus)> {
+    let sim = &run.plant.sim;
+    let mut v = vec![];
+    for (k, d) in run.plant.masters.iter().enumerate() {
+        v.push((k as u8 + 1, &sim.device(*d).inner.link.inner));
+    }
+    for (id, d, _) in &run.plant.slaves {
+        v.push((*id, &sim.device(*d).inner.link.inner));
+    }
+    v
+}
+
+fn counters(run: &Run) -> Counters {
+    links(run)
+        .into_iter()
+        .map(|(n, l)| (n, [0, 1].map(|p| *l.health().port(p).counters())))
+        .collect()
+}
+
+/// The link events of device `node` (a master's id, or a slave's node-ID) in `[from, to]`.
+fn link_events(run: &Run, node: u8, from: Instant, to: Instant) -> Vec<LinkEvent> {
+    let within = |t: &Instant| *t >= from && *t <= to;
+    let sim = &run.plant.sim;
+    if node == STRONG || node == WEAK {
+        let d: duocan::sim::DevId<MasterDev> = run.plant.master(node);
+        sim.events(d)
+            .iter()
+            .filter(|(t, _)| within(t))
+            .filter_map(|(_, e)| match e {
+                StationEvent::Link(l) => Some(*l),
+                _ => None,
+            })
+            .collect()
+    } else {
+        let d: duocan::sim::DevId<SlaveDev> = run.plant.slave(node).0;
+        sim.events(d)
+            .iter()
+            .filter(|(t, _)| within(t))
+            .filter_map(|(_, e)| match e {
+                StationEvent::Link(l) => Some(*l),
+                _ => None,
+            })
+            .collect()
+    }
+}
+
+/// Every device's link events in `[from, to]`.
+fn all_link_events(run: &Run, from: Instant, to: Instant) -> Vec<LinkEvent> {
+    links(run)
+        .into_iter()
+        .flat_map(|(n, _)| link_events(run, n, from, to))
+        .collect()
+}
+
+/// Both masters' supervisor events in `[from, to]`.
+fn master_events(run: &Run, from: Instant, to: Instant) -> Vec<SupervisorEvent> {
+    let sim = &run.plant.sim;
+    run.plant
+        .masters
+        .iter()
+        .flat_map(|d| sim.events(*d).iter())
+        .filter(|(t, _)| *t >= from && *t <= to)
+        .filter_map(|(_, e)| match e {
+            StationEvent::Machine(m) => Some(m.clone()),
+            _ => None,
+        })
+        .collect()
+}
+
+/// A port on bus `bus` left `Ok` (any device).
+fn port_left_ok(events: &[LinkEvent], bus: usize) -> bool {
+    events.iter().any(|e| {
+        matches!(e.kind, LinkEventKind::Port { port, to, .. }
+            if port as usize == bus && to != PortState::Ok)
+    })
+}
+
+/// Error reports (controller errors, failed transmissions) on bus `bus` grew since `before`,
+/// at device `node` or any (`None`), counting only `cause` if given.
+fn errors_grew(
+    run: &Run,
+    before: &Counters,
+    bus: usize,
+    node: Option<u8>,
+    cause: Option<ErrorCause>,
+) -> bool {
+    let now = counters(run);
+    now.iter().zip(before).any(|((id, n), (_, b))| {
+        if node.is_some_and(|x| x != *id) {
+            return false;
+        }
+        let (n, b) = (&n[bus], &b[bus]);
+        match cause {
+            Some(c) => n.errors_of(c) > b.errors_of(c),
+            None => n.errors.iter().sum::<u32>() > b.errors.iter().sum::<u32>(),
+        }
+    })
+}
+
+fn took_effect(run: &Run, f: Fault, from: Instant, to: Instant, before: &Counters) -> bool {
+    let all = || all_link_events(run, from, to);
+    match f {
+        Fault::Cut { bus, .. } | Fault::Flap { bus, .. } => {
+            port_left_ok(&all(), bus) || errors_grew(run, before, bus, None, None)
+        }
+        Fault::Sequence { .. } => {
+            let e = all();
+            port_left_ok(&e, 0) && port_left_ok(&e, 1)
+        }
+        Fault::Lag { node, port, .. }
+        | Fault::GrowingLag { node, port, .. }
+        | Fault::SwitchingLag { node, port, .. } => {
+            let o = if node == STRONG || node == WEAK {
+                run.plant.master_nodes[node as usize - 1]
+            } else {
+                run.plant.slave(node).1
+            };
+            run.plant.oracle.borrow().late[o][port].is_some_and(|t| t >= from)
+        }
+        Fault::Babble { port, .. } => all().iter().any(|e| {
+            matches!(e.kind, LinkEventKind::Port { port: p, reason: PortReason::TxStalled { .. }, .. }
+                if p as usize == port)
+        }),
+        Fault::Unplug { node, port, .. } => {
+            port_left_ok(&link_events(run, node, from, to), port)
+        }
+        Fault::Impostor { node, .. } => {
+            let events = [STRONG, WEAK]
+                .into_iter()
+                .flat_map(|m| link_events(run, m, from, to));
+            events.into_iter().any(|e| match e.kind {
+                LinkEventKind::Suspect { node: n, .. }
+                | LinkEventKind::DuplicateNode { node: n, .. }
+                | LinkEventKind::Babbling { node: n, .. } => n.raw() == node,
+                _ => false,
+            })
+        }
+        Fault::Stops { node, state } => master_events(run, from, to).iter().any(|e| {
+            matches!(e, SupervisorEvent::Node(n) if matches!(n.kind,
+                NodeEventKind::RemoteState { node: x, to, .. } if x.raw() == node && to == state))
+        }),
+        Fault::Noise { bus, .. } => errors_grew(run, before, bus, None, None),
+        Fault::Overrun { node, port, .. } => {
+            errors_grew(run, before, port, Some(node), Some(ErrorCause::RxOverflow))
+        }
+        Fault::BoardDies { .. }
+        | Fault::MasterDies { .. }
+        | Fault::StepBack { .. }
+        | Fault::JumpAhead { .. } => true,
+    }
+}
