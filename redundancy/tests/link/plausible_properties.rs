@@ -228,18 +228,27 @@ proptest! {
         prop_assert!(burst_after
             .iter()
             .all(|t| o.dropped.contains(&(*t, port))));
-        // The node itself is suspect only while the other bus does not speak for it: none of
-        // its heartbeats there for 1.5 periods (a lost copy).
-        let other: Vec<u64> = arrivals
-            .iter()
-            .filter(|a| a.1 != port && a.3.is_none() && a.2.id() == hb(A, 5).id())
-            .map(|a| a.0)
-            .collect();
+        // The node itself is suspect only while the other bus does not speak for it (none of
+        // its heartbeats there for 1.5 periods: a lost copy), or by rule 2 (the babbled bus
+        // silent for the window after the burst and the node's last copy there).
+        let on = |bus: usize, with_burst: bool| -> Vec<u64> {
+            arrivals
+                .iter()
+                .filter(|a| a.1 == bus && (with_burst || a.3.is_none()))
+                .filter(|a| a.2.id() == hb(A, 5).id())
+                .map(|a| a.0)
+                .collect()
+        };
+        let (other, babbled) = (on(1 - port, false), on(port, true));
+        let last_before = |v: &[u64], t: u64| v.iter().copied().filter(|x| *x <= t).max();
+        let window = 3 * t_us;
         for v in o.verdicts.iter().filter(|v| v.1 == A && v.2) {
-            let last = other.iter().copied().filter(|t| *t <= v.0).max();
+            let rule_one = last_before(&other, v.0).is_some_and(|l| v.0 > l + t_us * 3 / 2);
+            let rule_two = last_before(&babbled, v.0).is_some_and(|l| v.0 >= l + window);
             prop_assert!(
-                last.is_some_and(|l| v.0 > l + t_us * 3 / 2),
-                "suspect at {} with the other bus's last heartbeat at {last:?}", v.0
+                rule_one || rule_two,
+                "suspect at {} with the other bus's last heartbeat at {:?}", v.0,
+                last_before(&other, v.0)
             );
         }
         prop_assert!(l.stats().implausible >= burst_after.len() as u64);

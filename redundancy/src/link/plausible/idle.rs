@@ -38,15 +38,16 @@
 //! Memory: a few words per bus, and the ends of up to `OWN` own frames per bus in the table
 //! (allocated with the first watch); nothing per frame but a few comparisons.
 
-use super::{Plausibility, NEVER};
+use super::{Plausibility, NEVER, ON};
 use crate::link::health::Health;
 use duocan::machine::PortStatus;
 use duocan::Instant;
 
 /// Own frames' ends kept per bus until the received frames pass them: a receive path behind
-/// by up to about this many of the layer's own frames (32: 80 ms of SYNC, heartbeat and SDO
-/// traffic at a 10 ms SYNC period).
-pub(super) const OWN: usize = 32;
+/// by up to about this many of the layer's own frames (16: some 50 ms of a master's SYNC,
+/// heartbeat and SDO traffic at a 10 ms SYNC period, beyond the largest lag a port stays
+/// trusted with, 40 ms by default; rule 2 needs the port trusted).
+pub(super) const OWN: usize = 16;
 
 /// The ends of a bus's own frames not merged yet (µs, in order).
 pub(super) type Ends = heapless::Deque<u64, OWN>;
@@ -105,7 +106,7 @@ impl Plausibility {
     /// first watch on: what went before is not known).
     #[inline]
     fn idle_on(&self) -> bool {
-        self.frame_time != 0 && self.window.is_some() && self.table.is_some()
+        ON && self.frame_time != 0 && self.window.is_some() && self.table.is_some()
     }
 
     /// Any frame arrived on port `p`, stamped `at` (every received frame, before its kind is

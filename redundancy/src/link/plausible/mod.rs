@@ -283,6 +283,10 @@ type Watched = heapless::Vec<Watch, 0>;
 
 pub(super) const NONE: u8 = u8::MAX;
 
+/// Without an allocator there is no table (nothing is watched): the entry points return at
+/// once, and a build without `alloc` (a node's firmware) carries none of the rules' code.
+pub(super) const ON: bool = cfg!(feature = "alloc");
+
 // The table is allocated once, at the first watch: a layer that watches nothing (a node's)
 // carries only the pointer. Without an allocator there is no table and watches are refused.
 #[cfg(feature = "alloc")]
@@ -460,7 +464,7 @@ impl Plausibility {
         boot: bool,
         margin: Duration,
     ) -> bool {
-        let Some(i) = self.find(node) else {
+        let Some(i) = self.find(node).filter(|_| ON) else {
             return true;
         };
         let w = self.at(i);
@@ -525,7 +529,10 @@ impl Plausibility {
     #[must_use]
     #[inline]
     pub fn poll_timeout(&self) -> Option<Instant> {
-        self.next.filter(|t| *t != NEVER).map(Instant::from_micros)
+        self.next
+            .filter(|_| ON)
+            .filter(|t| *t != NEVER)
+            .map(Instant::from_micros)
     }
 
     /// The caller's clock stepped back `by` (the clock contract, see [`crate::link`]): every
@@ -533,6 +540,9 @@ impl Plausibility {
     /// heartbeats.
     #[cold]
     pub(crate) fn step_back(&mut self, by: Duration) {
+        if !ON {
+            return;
+        }
         let by = by.as_micros();
         let back = |t: &mut u64| {
             if *t != NEVER {

@@ -1,6 +1,6 @@
 //! The two rules and the verdicts, at each heartbeat and at each deadline.
 
-use super::{Plausibility, Track, BABBLE_FACTOR, NEVER};
+use super::{Plausibility, Track, BABBLE_FACTOR, NEVER, ON};
 use crate::link::events::{LinkEvent, LinkEventKind, Suspicion};
 use crate::link::health::{Health, PortState};
 use crate::link::outbox::{Outbox, MACHINE_QUEUE};
@@ -24,6 +24,9 @@ impl Plausibility {
         health: &Health,
         out: &mut Outbox,
     ) -> bool {
+        if !ON {
+            return false;
+        }
         let t = now.as_micros();
         // Below 2^60 µs (36,000 years) no sum here can overflow: plain arithmetic.
         if let (true, false, Some(win), Some(table)) = (
@@ -242,6 +245,9 @@ impl Plausibility {
     /// Ends, reports and judges what is due at `now`, each at its own instant, and recomputes
     /// the next deadline.
     pub(crate) fn handle_timeout(&mut self, now: Instant, health: &Health, out: &mut Outbox) {
+        if !ON {
+            return;
+        }
         if self.unsynced {
             self.sync_all(now, out);
         }
