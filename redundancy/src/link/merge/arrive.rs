@@ -1,7 +1,9 @@
 //! An arrival judged: the rule of the [module documentation](super) applied to one copy — its
 //! key's records found, its twin matched or a record made, the verdict returned.
 
-use super::*;
+use super::table::{hash, key};
+use super::{Merger, Sample, Trust, Twin, Verdict};
+use duocan::{Frame, Instant};
 
 impl<const SLOTS: usize> Merger<SLOTS> {
     /// A frame arrived on `port` (0 or 1) at `now`, stamped `now`, on a trusted port: the

@@ -144,7 +144,7 @@
 //! assert_eq!(m.stats().delivered, 10);
 //! ```
 
-use duocan::{Duration, Frame, Instant};
+use duocan::{Duration, Instant};
 
 mod arrive;
 mod recent;
@@ -152,7 +152,7 @@ mod ring;
 mod table;
 
 use recent::Recent;
-use table::{hash, key, Table, MAX_SLOTS};
+use table::{Table, MAX_SLOTS};
 
 /// What to do with an arrival.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
