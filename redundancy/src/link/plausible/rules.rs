@@ -142,9 +142,10 @@ impl Plausibility {
         if let Some(win) = window {
             let heard = |l: u64| l != NEVER && t < l.saturating_add(win);
             let other = w.ports[1 - p].last;
-            if boot_up || !(heard(before) || heard(other)) {
-                // A boot-up, or heard nowhere for a window: a new life, judged afresh (the
-                // other bus silent since it began, until it carries the node).
+            if boot_up || w.life == NEVER || !(heard(before) || heard(other)) {
+                // A boot-up, or heard nowhere for a window (here, or at a deadline that came
+                // before a receive path running behind handed this over): a new life, judged
+                // afresh (the other bus silent since it began, until it carries the node).
                 w.life = t;
                 w.booted = boot_up;
                 w.one_bus = None;

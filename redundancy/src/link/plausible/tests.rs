@@ -409,6 +409,25 @@ fn a_boot_up_is_a_new_life_judged_afresh() {
 }
 
 #[test]
+fn heartbeats_a_late_receive_path_hands_over_after_a_deadline_begin_a_life() {
+    // Both nodes beat on both buses until 300 ms; 0x10 then goes on on bus 1 only, which arms
+    // a deadline at 336 ms. At it, 0x50's last heartbeats are a window old: heard nowhere, its
+    // life ends. Then a receive path running behind hands over 0x50's heartbeats stamped
+    // 312 ms on: each within a window of the one before, and yet a new life begins (before,
+    // none did: the node was never judged again until it fell silent for a window).
+    let mut r = Rig::new();
+    paired_then(&mut r, 301, Some(1), 300);
+    r.beat(ms(312), 0, 0x10, 5);
+    r.beat(ms(324), 0, 0x10, 5);
+    r.run(ms(340));
+    let life = |r: &Rig| r.p.entry(n(0x50)).unwrap().life;
+    assert_eq!(life(&r), NEVER);
+    // Stamped 312 ms, handed over now (no clock step: the stamps of a late receive path).
+    r.p.on_heartbeat(ms(312), 0, n(0x50), &hb(0x50, 0x7F), &r.health, &mut r.out);
+    assert_eq!(life(&r), 312_000);
+}
+
+#[test]
 fn heard_nowhere_ends_the_suspicion_and_the_pairing() {
     let mut r = Rig::new();
     paired_then(&mut r, 244, Some(1), 400);
