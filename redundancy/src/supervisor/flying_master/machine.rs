@@ -18,11 +18,6 @@ use heapless::Vec;
 pub struct FlyingMaster {
     cfg: FlyingMasterConfig,
     state: State,
-    /// Standby after losing a conflict: the master followed must show it is active (answer a
-    /// request for the active master) by then, or a negotiation starts. Two active masters
-    /// whose claims cross (each one's message reaching the other after it had stepped down, a
-    /// port running behind) would otherwise each follow the other, and nobody be active.
-    confirm_by: Option<Instant>,
     peers: Vec<Peer, MAX_PEERS>,
     tx: Bounded<Frame, 16>,
     events: Bounded<FlyingEvent, 16>,
@@ -35,7 +30,6 @@ impl FlyingMaster {
         FlyingMaster {
             cfg,
             state: State::Off,
-            confirm_by: None,
             peers: Vec::new(),
             tx: Bounded::new(),
             events: Bounded::new(),
@@ -152,6 +146,7 @@ impl FlyingMaster {
             self.state = State::Standby {
                 master: Some(rank),
                 takeover_at: now + timeout,
+                confirm_by: self.confirm_by(),
             };
         }
         self.plan_handback(now);
@@ -212,8 +207,10 @@ impl FlyingMaster {
             State::Off => None,
             State::Detecting { until } | State::Negotiating { until } => Some(until),
             State::Standby {
-                takeover_at: until, ..
-            } => earliest_of([Some(until), self.confirm_by]),
+                takeover_at: until,
+                confirm_by,
+                ..
+            } => earliest_of([Some(until), confirm_by]),
             State::Active(a) => earliest_of([a.detect_at, a.suspended_until, a.handback_at]),
         }
     }
@@ -227,14 +224,17 @@ impl FlyingMaster {
         for p in self.peers.iter_mut() {
             shift_back(&mut p.last, by);
         }
-        shift_back(&mut self.confirm_by, by);
         match &mut self.state {
             State::Off => {}
-            State::Detecting { until }
-            | State::Negotiating { until }
-            | State::Standby {
-                takeover_at: until, ..
-            } => *until = *until - by,
+            State::Detecting { until } | State::Negotiating { until } => *until = *until - by,
+            State::Standby {
+                takeover_at,
+                confirm_by,
+                ..
+            } => {
+                *takeover_at = *takeover_at - by;
+                shift_back(confirm_by, by);
+            }
             State::Active(a) => {
                 shift_back(&mut a.detect_at, by);
                 shift_back(&mut a.suspended_until, by);
@@ -256,25 +256,29 @@ impl FlyingMaster {
                 p.last = Some(l.max(to));
             }
         }
-        if let State::Standby { takeover_at, .. } = &mut self.state {
+        let detection = self.cfg.detection_timeout;
+        if let State::Standby {
+            takeover_at,
+            confirm_by,
+            ..
+        } = &mut self.state
+        {
             if *takeover_at > from {
                 *takeover_at = (*takeover_at).max(to + timeout);
             }
-        }
-        if let Some(c) = self.confirm_by.filter(|c| *c > from) {
-            self.confirm_by = Some(c.max(to + self.cfg.detection_timeout));
+            if let Some(c) = confirm_by.filter(|c| *c > from) {
+                *confirm_by = Some(c.max(to + detection));
+            }
         }
     }
 
     /// Does what is due at `now`.
     pub fn handle_timeout(&mut self, now: Instant) {
-        if let (State::Standby { .. }, Some(t)) = (self.state, self.confirm_by) {
-            if t <= now {
-                // The master followed did not answer: nobody may be active. Negotiate.
-                self.confirm_by = None;
-                self.send(NEGOTIATION_REQUEST, &[]);
-                return self.negotiate(t, MasterReason::NoActiveMaster);
-            }
+        if let Some(t) = self.confirm_by().filter(|t| *t <= now) {
+            // The master followed did not answer: nobody may be active. Negotiate.
+            self.set_confirm_by(None);
+            self.send(NEGOTIATION_REQUEST, &[]);
+            return self.negotiate(t, MasterReason::NoActiveMaster);
         }
         match self.state {
             State::Off => {}
@@ -289,10 +293,12 @@ impl FlyingMaster {
             State::Standby {
                 master: Some(master),
                 takeover_at: t,
+                ..
             } if t <= now => self.master_silent(t, master),
             State::Standby {
                 master: None,
                 takeover_at: t,
+                ..
             } if t <= now => {
                 // A pending takeover (better live peers had their slots first).
                 self.activate(t, MasterReason::NoActiveMaster)
@@ -361,7 +367,7 @@ impl FlyingMaster {
             State::Off => {}
             _ => {
                 // An active master announced itself: whatever was to be confirmed is.
-                self.confirm_by = None;
+                self.set_confirm_by(None);
                 self.follow(now, r, MasterReason::ActiveMasterFound(r));
             }
         }
@@ -385,7 +391,7 @@ impl FlyingMaster {
             self.send(ACTIVE_MASTER_RESPONSE, &r.payload());
         }
         self.send(ACTIVE_MASTER_REQUEST, &[]);
-        self.confirm_by = Some(now + self.cfg.detection_timeout);
+        self.set_confirm_by(Some(now + self.cfg.detection_timeout));
     }
 
     fn on_force(&mut self, now: Instant, r: Rank) {
@@ -404,7 +410,7 @@ impl FlyingMaster {
                 master: Some(m), ..
             } if m <= r => {
                 if m == r {
-                    self.confirm_by = None;
+                    self.set_confirm_by(None);
                 }
             }
             State::Off => {}
@@ -438,6 +444,7 @@ impl FlyingMaster {
             let pending = State::Standby {
                 master: None,
                 takeover_at,
+                confirm_by: self.confirm_by(),
             };
             self.change(t, pending, reason);
         }
@@ -481,6 +488,7 @@ impl FlyingMaster {
         let standby = State::Standby {
             master: Some(r),
             takeover_at: last + timeout,
+            confirm_by: self.confirm_by(),
         };
         self.change(now, standby, reason);
     }
@@ -549,6 +557,21 @@ impl FlyingMaster {
         Some(self.peers.len() - 1)
     }
 
+    /// A standby's deadline for the master it follows to show it is active (see
+    /// [`State::Standby`]).
+    fn confirm_by(&self) -> Option<Instant> {
+        match self.state {
+            State::Standby { confirm_by, .. } => confirm_by,
+            _ => None,
+        }
+    }
+
+    fn set_confirm_by(&mut self, at: Option<Instant>) {
+        if let State::Standby { confirm_by, .. } = &mut self.state {
+            *confirm_by = at;
+        }
+    }
+
     fn send(&mut self, id: u16, data: &[u8]) {
         if let Ok(f) = Frame::new(Id::Standard(id), data) {
             self.tx.push(f);
@@ -559,9 +582,6 @@ impl FlyingMaster {
     /// again only re-times its deadline).
     fn change(&mut self, at: Instant, to: State, reason: MasterReason) {
         let from = self.role();
-        if !matches!(to, State::Standby { .. }) {
-            self.confirm_by = None;
-        }
         self.state = to;
         let to = self.role();
         if from == to {

@@ -38,6 +38,12 @@ pub(super) enum State {
     Standby {
         master: Option<Rank>,
         takeover_at: Instant,
+        /// After losing a conflict: the master followed must show it is active (answer a
+        /// request for the active master) by then, or a negotiation starts. Two active
+        /// masters whose claims cross (each one's message reaching the other after it had
+        /// stepped down, a port running behind) would otherwise each follow the other, and
+        /// nobody be active.
+        confirm_by: Option<Instant>,
     },
     /// The active master, with its own timers.
     Active(Active),
