@@ -13,10 +13,12 @@
 //!   every SDO transfer ended in time and no timeout a bus could have prevented, bounded
 //!   memory).
 //!
-//! `cargo test -p duocan-redundancy --test campaign` runs a fixed budget (the seeds below) and
-//! every seed that ever failed (`REGRESSIONS`). A longer run on demand: `CAMPAIGN_SEEDS=200
+//! `cargo test -p duocan-redundancy --test campaign` runs a fixed budget (the seeds below), the
+//! same on a quiet network (no SYNC, no process data: heartbeats and SDO only), and every seed
+//! that ever failed (`REGRESSIONS`). A longer run on demand: `CAMPAIGN_SEEDS=200
 //! CAMPAIGN_SECONDS=60 CAMPAIGN_FIRST=1000 cargo test --release -p duocan-redundancy --test
-//! campaign fixed_budget` (the budget test takes its seeds and length from there).
+//! campaign fixed_budget` (or `quiet_budget`; the budget tests take their seeds and length from
+//! there).
 
 mod effects;
 mod faults;
@@ -197,8 +199,12 @@ const SECONDS: u64 = 12;
 
 /// Runs seed `seed` for `secs` simulated seconds of faults composed from the first `kinds`
 /// kinds; the coverage, or what failed.
-fn campaign(seed: u64, secs: u64, kinds: usize) -> Result<Coverage, String> {
-    let mut run = Run::new(Params { seed, pairs: 3 });
+fn campaign(seed: u64, secs: u64, kinds: usize, quiet: bool) -> Result<Coverage, String> {
+    let mut run = Run::new(Params {
+        seed,
+        pairs: 3,
+        quiet,
+    });
     let mut rng = Rng(seed.wrapping_mul(0x9E37_79B9_7F4A_7C15) | 1);
     // Let the network come up: both masters, every pair configured and running.
     let start = Instant::from_secs(2);
@@ -230,7 +236,8 @@ fn campaign(seed: u64, secs: u64, kinds: usize) -> Result<Coverage, String> {
     }
     r.map(|()| cov).map_err(|e| {
         format!(
-            "seed {seed:#x}: {e}worst: pair without a board {}, two masters {}, SYNC gap {}\n",
+            "seed {seed:#x}{}: {e}worst: pair without a board {}, two masters {}, SYNC gap {}\n",
+            if quiet { " (quiet network)" } else { "" },
             run.worst[0], run.worst[1], run.worst[2]
         )
     })
@@ -276,11 +283,11 @@ fn on_big_stack<T: Send + 'static>(f: impl FnOnce() -> T + Send + 'static) -> T 
         .unwrap()
 }
 
-fn seeds(first: u64, n: u64, secs: u64) -> (Coverage, Vec<String>) {
+fn seeds(first: u64, n: u64, secs: u64, quiet: bool) -> (Coverage, Vec<String>) {
     let mut cov = Coverage::default();
     let mut failed = vec![];
     for seed in first..first + n {
-        match on_big_stack(move || campaign(seed, secs, faults::KINDS)) {
+        match on_big_stack(move || campaign(seed, secs, faults::KINDS, quiet)) {
             Ok(c) => cov.merge(&c),
             Err(e) => failed.push(e),
         }
@@ -325,6 +332,16 @@ const CLASSES: &[&str] = &[
 
 #[test]
 fn the_fixed_budget_keeps_every_invariant_and_reaches_every_class() {
+    budget(false);
+}
+
+/// The same on a quiet network: heartbeats and SDO only (`CAMPAIGN_*` as for the budget).
+#[test]
+fn the_quiet_budget_keeps_every_invariant_and_reaches_every_class() {
+    budget(true);
+}
+
+fn budget(quiet: bool) {
     let env = |k: &str, d: u64| {
         std::env::var(k)
             .ok()
@@ -336,7 +353,7 @@ fn the_fixed_budget_keeps_every_invariant_and_reaches_every_class() {
         env("CAMPAIGN_SEEDS", SEEDS),
         env("CAMPAIGN_SECONDS", SECONDS),
     );
-    let (cov, failed) = seeds(first, n, secs);
+    let (cov, failed) = seeds(first, n, secs, quiet);
     eprintln!("{}", report(&cov));
     assert!(failed.is_empty(), "{}", failed.join("\n"));
     let missing: Vec<_> = CLASSES
@@ -365,7 +382,7 @@ fn every_seed_that_once_failed_passes() {
     let old = REGRESSIONS.iter().map(|r| (r, faults::KINDS_BEFORE_NOISE));
     let all = REGRESSIONS_ALL_KINDS.iter().map(|r| (r, faults::KINDS));
     for (&(seed, secs), kinds) in old.chain(all) {
-        if let Err(e) = on_big_stack(move || campaign(seed, secs, kinds)) {
+        if let Err(e) = on_big_stack(move || campaign(seed, secs, kinds, false)) {
             failed.push(e);
         }
     }

@@ -155,11 +155,19 @@ impl<T: Device> Device for Clocked<T> {
 pub struct Params {
     pub seed: u64,
     pub pairs: u8,
+    /// A quiet network: no SYNC, no TIME but at a takeover, no process data; heartbeats and
+    /// the masters' SDO reads only (what the lag meter, the silence rules and the one-bus
+    /// rule's idle witness must also work with).
+    pub quiet: bool,
 }
 
 impl Default for Params {
     fn default() -> Self {
-        Params { seed: 1, pairs: 3 }
+        Params {
+            seed: 1,
+            pairs: 3,
+            quiet: false,
+        }
     }
 }
 
@@ -198,9 +206,12 @@ pub fn master_station(
     let od = objects::master_dictionary(id, comm::Identity::default());
     let master = Master::new(nid, od, NetworkConfig::new()).unwrap();
     let peer = if id == STRONG { WEAK } else { STRONG };
-    let mut cfg = SupervisorConfig::new(id - 1, nid, MASTER_HB, MASTER_TIMEOUT, SYNC)
+    let sync = if p.quiet { Duration::ZERO } else { SYNC };
+    let mut cfg = SupervisorConfig::new(id - 1, nid, MASTER_HB, MASTER_TIMEOUT, sync)
         .with_peer(peer - 1, NodeId::must(peer));
-    cfg.time_period = Duration::from_millis(100);
+    if !p.quiet {
+        cfg.time_period = Duration::from_millis(100);
+    }
     let mut sup = Supervisor::new(master, cfg, now);
     for i in 0..p.pairs {
         sup.add_pair(
@@ -218,8 +229,9 @@ pub fn master_station(
     Sdo::new(dev, id, slaves.collect(), at, ledger)
 }
 
-/// A board's dictionary: the standard one, two constants, TPDO1 on SYNC and TPDO2 every 10 ms.
-fn board_dictionary(id: u8) -> DynamicDictionary {
+/// A board's dictionary: the standard one, two constants, TPDO1 on SYNC and TPDO2 every 10 ms
+/// (no TPDO on a quiet network).
+fn board_dictionary(id: u8, quiet: bool) -> DynamicDictionary {
     let mut od = comm::standard_dictionary(id, comm::Identity::default());
     od.insert_all(&[
         ObjectDef::u8(APP, 0, Access::Const, 2),
@@ -231,6 +243,9 @@ fn board_dictionary(id: u8) -> DynamicDictionary {
             .default(DefaultValue::Bytes(STRING)),
     ])
     .unwrap();
+    if quiet {
+        return od;
+    }
     od.insert_all(&params::tpdo_comm(
         1,
         params::predefined_tpdo_cob(1),
@@ -255,8 +270,17 @@ fn board_dictionary(id: u8) -> DynamicDictionary {
 }
 
 /// A board (or the observer) built and booted at `now`.
-pub fn slave_station(id: u8, now: Instant, node: usize, oracle: &Rc<RefCell<Oracle>>) -> SlaveDev {
-    let mut n = Node::new(NodeConfig::slave(NodeId::must(id)), board_dictionary(id));
+pub fn slave_station(
+    p: &Params,
+    id: u8,
+    now: Instant,
+    node: usize,
+    oracle: &Rc<RefCell<Oracle>>,
+) -> SlaveDev {
+    let mut n = Node::new(
+        NodeConfig::slave(NodeId::must(id)),
+        board_dictionary(id, p.quiet),
+    );
     if id == OBSERVER {
         // Not configured by the masters: it beats by itself.
         n.set(
@@ -315,7 +339,7 @@ impl Plant {
             let d = sim
                 .add_device(
                     format!("s{id:#x}"),
-                    slave_station(id, Instant::ZERO, node, &oracle),
+                    slave_station(&p, id, Instant::ZERO, node, &oracle),
                     &buses,
                 )
                 .unwrap();
@@ -371,7 +395,7 @@ impl Plant {
         self.oracle
             .borrow_mut()
             .rebuilt(node, self.sim.frames_taken(d));
-        let st = slave_station(id, now, node, &self.oracle);
+        let st = slave_station(&self.p, id, now, node, &self.oracle);
         self.sim.replace(d, st).unwrap();
     }
 }
