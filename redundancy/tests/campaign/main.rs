@@ -192,6 +192,14 @@ const REGRESSIONS_ALL_KINDS: &[(u64, u64)] = &[
     (3765, 26),
 ];
 
+/// Seeds that once failed on the quiet network (see [`plant::Params::quiet`]), all kinds.
+const REGRESSIONS_QUIET: &[(u64, u64)] = &[
+    // The active master's clock jumped ahead 1 s between the two copies of a slave's SDO
+    // answer, 126 µs apart on the wire: their stamps were a second apart, both delivered. The
+    // promise table states it; the oracle no longer counts it.
+    (608, 25),
+];
+
 /// The budget CI runs: seeds and simulated seconds each. Seed `k` leads with a fault of kind
 /// `k mod KINDS`, so that the budget reaches every class whatever the draws.
 const SEEDS: u64 = faults::KINDS as u64;
@@ -238,7 +246,9 @@ fn campaign(seed: u64, secs: u64, kinds: usize, quiet: bool) -> Result<Coverage,
         format!(
             "seed {seed:#x}{}: {e}worst: pair without a board {}, two masters {}, SYNC gap {}\n",
             if quiet { " (quiet network)" } else { "" },
-            run.worst[0], run.worst[1], run.worst[2]
+            run.worst[0],
+            run.worst[1],
+            run.worst[2]
         )
     })
 }
@@ -379,10 +389,15 @@ fn budget(quiet: bool) {
 #[test]
 fn every_seed_that_once_failed_passes() {
     let mut failed = vec![];
-    let old = REGRESSIONS.iter().map(|r| (r, faults::KINDS_BEFORE_NOISE));
-    let all = REGRESSIONS_ALL_KINDS.iter().map(|r| (r, faults::KINDS));
-    for (&(seed, secs), kinds) in old.chain(all) {
-        if let Err(e) = on_big_stack(move || campaign(seed, secs, kinds, false)) {
+    let old = REGRESSIONS
+        .iter()
+        .map(|r| (r, faults::KINDS_BEFORE_NOISE, false));
+    let all = REGRESSIONS_ALL_KINDS
+        .iter()
+        .map(|r| (r, faults::KINDS, false));
+    let quiet = REGRESSIONS_QUIET.iter().map(|r| (r, faults::KINDS, true));
+    for (&(seed, secs), kinds, quiet) in old.chain(all).chain(quiet) {
+        if let Err(e) = on_big_stack(move || campaign(seed, secs, kinds, quiet)) {
             failed.push(e);
         }
     }

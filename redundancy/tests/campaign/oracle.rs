@@ -28,6 +28,10 @@
 //! They are matched by when they reached the receiver, not when they were sent: a frame that
 //! waited behind a babble goes out long after.
 //!
+//! A frame whose two copies reached a receiver within the skew window of each other but on
+//! either side of a jump ahead of the receiver's clock may be delivered twice: their stamps
+//! are the jump apart (the promise table states it).
+//!
 //! A heartbeat that reached a receiver only after a newer heartbeat or boot-up of the same
 //! sender had been delivered there (over a bus lagging behind the other) may be dropped: it
 //! reports a state the node has left, and a master's layer drops such heartbeats of the nodes
@@ -64,8 +68,9 @@ struct Occurrence {
     /// A heartbeat whose first copy reached the receiver after a newer one of its sender was
     /// delivered there (see the module documentation).
     superseded: [bool; MAX_NODES],
-    /// When its first copy reached each receiver (simulated time).
+    /// When its first and its latest copy reached each receiver (simulated time).
     arrived: [Option<Instant>; MAX_NODES],
+    last_arrived: [Option<Instant>; MAX_NODES],
 }
 
 /// A heartbeat (not a boot-up): what may be superseded.
@@ -121,6 +126,8 @@ pub trait Wiring {
     /// Whether `sender`'s occurrence `frame` at `t` is left out of the promise (an impostor's
     /// target, a receiver rebooting meanwhile, …).
     fn excluded(&self, sender: usize, receiver: usize, t: Instant, frame: &Frame) -> bool;
+    /// Whether `receiver`'s clock jumped ahead in `(from, to]`.
+    fn jumped(&self, receiver: usize, from: Instant, to: Instant) -> bool;
 }
 
 #[derive(Default)]
@@ -186,6 +193,7 @@ impl Oracle {
             in_run: false,
             superseded: [false; MAX_NODES],
             arrived: [None; MAX_NODES],
+            last_arrived: [None; MAX_NODES],
         });
         self.base + self.pending.len() as u64 - 1
     }
@@ -227,6 +235,7 @@ impl Oracle {
         if let Some((r, Some(of))) = self.current.filter(|c| c.0 == node) {
             if let Some(o) = self.occ(of) {
                 o.arrived[r].get_or_insert(t);
+                o.last_arrived[r] = Some(t);
             }
         }
     }
@@ -314,6 +323,9 @@ impl Oracle {
                 }
                 self.checks += 1;
                 let fault = match (o.reached[r], o.delivered[r]) {
+                    // Its two copies on either side of a jump ahead of the receiver's clock:
+                    // their stamps are the jump apart, no twins (the promise table says so).
+                    (2, 2) if self.straddles(&o, r, wiring) => None,
                     (_, d) if d > 1 => Some(Fault::Duplicated(d)),
                     (0, 0) => match wiring.connected(o.sender, r, o.at) {
                         Some(true) => Some(Fault::NeverArrived),
@@ -338,6 +350,15 @@ impl Oracle {
                     });
                 }
             }
+        }
+    }
+
+    /// Whether `o`'s copies reached `r` within the skew window of each other on either side
+    /// of a jump ahead of `r`'s clock.
+    fn straddles(&self, o: &Occurrence, r: usize, wiring: &dyn Wiring) -> bool {
+        match (o.arrived[r], o.last_arrived[r]) {
+            (Some(a), Some(b)) => b.saturating_since(a) < SKEW_WINDOW && wiring.jumped(r, a, b),
+            _ => false,
         }
     }
 

@@ -153,6 +153,13 @@ impl Wiring for Timeline {
         }
     }
 
+    fn jumped(&self, r: usize, from: Instant, to: Instant) -> bool {
+        self.devs[r]
+            .jumps
+            .iter()
+            .any(|(t, _)| *t > from && *t <= to)
+    }
+
     fn excluded(&self, s: usize, r: usize, t: Instant, frame: &Frame) -> bool {
         let (from, to) = (t - MARGIN, t + crate::oracle::JUDGE_AFTER);
         // A device rebooted meanwhile: its two lives are not one receiver.
