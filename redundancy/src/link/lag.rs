@@ -39,6 +39,12 @@
 //!   frame of a queue that drained at once (without timestamps its hand-over time says
 //!   nothing). A lag that grows slowly is followed in steps of half the window. A correction
 //!   left below half the window is none (ordinary skew, not carried into the next lag).
+//! - A late sample held for a second one is withdrawn when its copy's own twin comes after
+//!   all, on the other port within the window ([`crate::link::dual_bus`]): the
+//!   copy it was paired with was an earlier occurrence that this bus missed and its sender
+//!   repeated. On a network whose only fresh frames are SDO, a bus that flapped every
+//!   millisecond lost the first copy of a request and of its answer, both repeated 5 ms later:
+//!   two agreeing late samples, a false lag of 5 ms, and every twin after it came twice.
 //! - A late sample whose copy on this port is stamped *earlier* than its twin on the other
 //!   port (the other port handed its copy over first although it was on the wire later: this
 //!   port's reader runs behind, or its correction is too large) only shrinks this port's
@@ -220,6 +226,12 @@ impl LagMeter {
         }
         self.report(now, out);
         true
+    }
+
+    /// The sample held (waiting for a second one that agrees) turned out to be no lag: its
+    /// copy had a twin of its own within the window ([`crate::link::dual_bus`]).
+    pub(crate) fn withdraw(&mut self) {
+        self.pending = None;
     }
 
     /// Queues the reports of a changed correction.

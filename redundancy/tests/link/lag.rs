@@ -13,7 +13,7 @@
 //! the second such frame may come twice; repeats never measure it.
 
 use super::sim::{App, Dev, Net, HB_MS, MASTER};
-use duocan::machine::Composite;
+use duocan::machine::{BusLink, Composite};
 use duocan::od::comm;
 use duocan::sim::{BusConfig, SimNetwork, TxOutcome};
 use duocan::{Duration, Frame, Id, Instant, Node, NodeConfig, NodeId, Station};
@@ -347,4 +347,51 @@ fn a_node_on_one_bus_answering_beside_one_on_both_is_no_lag() {
     while let Some(e) = duocan::machine::BusLink::poll_event(&mut l) {
         assert!(!matches!(e.kind, LinkEventKind::Lag { .. }), "{e:?}");
     }
+}
+
+/// Campaign seed 2056 (quiet network): bus 1 flapping every millisecond lost the first copy of
+/// an SDO request and of its answer; the sender of each repeated it 5 ms later on both buses.
+/// Paired with the first copies, the repeats' bus-1 copies were two fresh twins 5 ms late that
+/// agreed: a lag of 5 ms was measured, and every twin after it came twice for 200 ms. Each
+/// repeat's own twin, on bus 2 within the window, now withdraws the sample.
+#[test]
+fn a_frame_one_bus_missed_and_its_sender_repeated_is_no_lag() {
+    let mut l = DualBus::new(config());
+    let t = Instant::from_micros;
+    let hb = Frame::from_array(Id::Standard(0x705), [0x05]);
+    let req = Frame::from_array(Id::Standard(0x650), [0x40, 0, 0x20, 1, 0, 0, 0, 0]);
+    let ans = Frame::from_array(Id::Standard(0x5D0), [0x4B, 0, 0x20, 1, 0xA5, 0x5A, 0, 0]);
+    let rx = |l: &mut DualBus, at: u64, port: usize, f: &Frame| {
+        let d = l.handle_rx_at(t(at), port, f, t(at)).is_some() as u32;
+        while l.poll_event().is_some() {}
+        d
+    };
+    // Both buses carry a heartbeat every 50 ms for a second: both ports work.
+    for k in 0..20 {
+        rx(&mut l, k * 50_000, 0, &hb);
+        rx(&mut l, k * 50_000 + 20, 1, &hb);
+    }
+    // The request and its answer on bus 2 only; a heartbeat on both; both repeated 5 ms later.
+    rx(&mut l, 1_000_000, 1, &req);
+    rx(&mut l, 1_000_120, 1, &ans);
+    rx(&mut l, 1_002_000, 0, &hb);
+    rx(&mut l, 1_002_020, 1, &hb);
+    rx(&mut l, 1_005_061, 0, &req);
+    rx(&mut l, 1_005_061, 1, &req);
+    rx(&mut l, 1_005_181, 0, &ans);
+    rx(&mut l, 1_005_181, 1, &ans);
+    assert_eq!(
+        (l.lag().lag(0), l.lag().lag(1)),
+        (Duration::ZERO, Duration::ZERO)
+    );
+    // Twins after it are twins: one delivery each.
+    let mut delivered = 0;
+    for k in 0..10 {
+        let (at, f) = (
+            1_010_000 + k * 10_000,
+            Frame::from_array(Id::Standard(0x181), [k as u8]),
+        );
+        delivered += rx(&mut l, at, 0, &f) + rx(&mut l, at + 30, 1, &f);
+    }
+    assert_eq!(delivered, 10);
 }

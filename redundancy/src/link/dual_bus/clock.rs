@@ -25,6 +25,9 @@ impl<C: FrameClassifier, const SLOTS: usize, const FUNCTIONS: usize> DualBus<C, 
             s.step_back(by);
         }
         self.lag.step_back(by);
+        if let Some(l) = &mut self.late {
+            l.step_back(by);
+        }
         self.health.step_back(by);
         self.reach.step_back(by);
         self.plausible.step_back(by);

@@ -119,6 +119,8 @@ pub struct DualBus<
     #[cfg(feature = "sticky")]
     sticky: Option<StickyMerger>,
     lag: LagMeter,
+    /// A late sample waiting to be measured ([`rx::LateSample`]).
+    late: Option<rx::LateSample>,
     health: Health,
     /// Per port: its frames come with receive timestamps (`handle_rx_at`).
     stamped: [bool; 2],
@@ -229,6 +231,7 @@ impl<C: FrameClassifier, const SLOTS: usize, const FUNCTIONS: usize> DualBus<C, 
             #[cfg(feature = "sticky")]
             sticky,
             lag,
+            late: None,
             health: Health::new(health, cfg.skew_window),
             stamped: [true; 2],
             reach: Reach::new(cfg.reach_timeout, cfg.skew_window),

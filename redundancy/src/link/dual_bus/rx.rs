@@ -11,6 +11,23 @@ use crate::link::same_function::PairVerdict;
 use crate::link::sticky::{StickyVerdict, StreamKey};
 use duocan::{Frame, Instant};
 
+/// The copy of the late sample the lag meter holds, on `port`: stamped more than the window
+/// after its supposed twin on the other port; its own twin would be stamped before `until`
+/// (µs; the copy is fresh: no earlier one of its content is about) ([`DualBus::settle_late`]).
+#[derive(Clone, Copy, Debug)]
+pub(super) struct LateSample {
+    port: u8,
+    until: u64,
+    frame: Frame,
+}
+
+impl LateSample {
+    /// The caller's clock stepped back `by`.
+    pub(super) fn step_back(&mut self, by: duocan::Duration) {
+        self.until = self.until.saturating_sub(by.as_micros());
+    }
+}
+
 impl<C: FrameClassifier, const SLOTS: usize, const FUNCTIONS: usize> DualBus<C, SLOTS, FUNCTIONS> {
     /// A frame from `port` stamped `at` (`stamped`: a receive timestamp; otherwise the time
     /// it was handed over), handled at `now`: the layer's receive path.
@@ -117,14 +134,26 @@ impl<C: FrameClassifier, const SLOTS: usize, const FUNCTIONS: usize> DualBus<C, 
         let trust = self.trust(port);
         let (verdict, sample) = self.merger.arrive_at(now, s, port, frame, trust);
         let sample = sample.filter(|m| !m.late || self.intact_between(port, s, m));
-        if let Some(sample) = sample {
+        if self.late.is_some() {
+            self.settle_late(port, s, frame);
+        }
+        if let Some(m) = sample {
             let before = [self.lag.lag(0), self.lag.lag(1)];
-            if self.lag.sample(now, port, sample, &mut self.out) {
+            if self.lag.sample(now, port, m, &mut self.out) {
                 for (p, was) in before.into_iter().enumerate() {
                     let by = self.lag.lag(p).as_micros() as i64 - was.as_micros() as i64;
                     self.merger.shift(p, by);
                 }
                 self.follow_lag(now);
+            } else if m.late && m.skew > 0 {
+                // Held, later than its supposed twin by more than the window: withdrawn if
+                // its own twin comes within the window after all (below).
+                let until = s.as_micros().saturating_add(self.lag.window().as_micros());
+                self.late = Some(LateSample {
+                    port: port as u8,
+                    until,
+                    frame: *frame,
+                });
             }
         }
         match verdict {
@@ -133,6 +162,27 @@ impl<C: FrameClassifier, const SLOTS: usize, const FUNCTIONS: usize> DualBus<C, 
             Verdict::Duplicate => RxOutcome::Duplicate,
             Verdict::Late | Verdict::Unproven => RxOutcome::Stale,
         }
+    }
+
+    /// A copy `frame` on `port` stamped `s`: it settles the late sample the lag meter holds,
+    /// if any. This copy is, on the other port and within the window, that sample's copy's own
+    /// twin: the copy it was paired with was an earlier occurrence the other bus missed (its
+    /// sender repeated it: an SDO request and its answer after a flap did so 5 ms later, two
+    /// samples that agreed on a lag that was none). The sample is withdrawn. Once the other
+    /// port's copies are stamped a window past it, it stands.
+    #[cold]
+    #[inline(never)]
+    fn settle_late(&mut self, port: usize, s: Instant, frame: &Frame) {
+        let Some(l) = self.late.filter(|l| l.port as usize != port) else {
+            return;
+        };
+        if s.as_micros() < l.until {
+            if *frame != l.frame {
+                return;
+            }
+            self.lag.withdraw();
+        }
+        self.late = None;
     }
 
     /// Whether the merge may take a first copy from `port`: not while it is failed or
