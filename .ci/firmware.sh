@@ -17,13 +17,13 @@ cd "$(dirname "$0")/.."
 # dictionary); the RAM is statics (without the heap arena) + the heap's high-water mark + that
 # stack, all the board must hold. Where the margin would take a budget beyond the one the
 # images were given (gateway RAM 40 KiB, master RAM 96 KiB, gateway flash 64 KiB, master flash
-# 192 KiB), the given one applies: the gateway's flash is 64,980 bytes against its 65,536, its
-# RAM 39.6 KiB against its 40.
+# 192 KiB), the given one applies: the gateway's flash is 65,052 bytes against its 65,536, its
+# RAM 39.7 KiB against its 40.
 KIB=1024
 GATEWAY_FLASH=$((64 * KIB))
 GATEWAY_RAM=$((40 * KIB))
 GATEWAY_STACK=$((38 * KIB))
-MASTER_FLASH=$((181 * KIB))
+MASTER_FLASH=$((182 * KIB))
 MASTER_RAM=$((82 * KIB))
 MASTER_STACK=$((46 * KIB))
 

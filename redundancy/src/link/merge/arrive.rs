@@ -65,7 +65,7 @@ impl<const SLOTS: usize> Merger<SLOTS> {
     /// far behind its reader ran at its newest copy (and less its correction). A port whose
     /// reader runs behind may still hold copies stamped after that: it has not shown them yet.
     #[inline]
-    pub(crate) fn shown(&self, p: usize, now: u64) -> u64 {
+    pub(super) fn shown(&self, p: usize, now: u64) -> u64 {
         let reached = now.saturating_sub(self.behind[p] + self.corrected[p]);
         self.frontier[p].max(reached)
     }
