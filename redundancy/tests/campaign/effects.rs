@@ -21,7 +21,7 @@
 //! The fixed budget then asserts that every class took effect at least once.
 
 use crate::faults::Fault;
-use crate::plant::{MasterDev, SlaveDev, STRONG, WEAK};
+use crate::plant::{STRONG, WEAK};
 use crate::run::Run;
 use duocan::machine::{ErrorCause, StationEvent};
 use duocan::node::NodeEventKind;
@@ -82,29 +82,28 @@ fn counters(run: &Run) -> Counters {
 
 /// The link events of device `node` (a master's id, or a slave's node-ID) in `[from, to]`.
 fn link_events(run: &Run, node: u8, from: Instant, to: Instant) -> Vec<LinkEvent> {
-    let within = |t: &Instant| *t >= from && *t <= to;
     let sim = &run.plant.sim;
     if node == STRONG || node == WEAK {
-        let d: duocan::sim::DevId<MasterDev> = run.plant.master(node);
-        sim.events(d)
-            .iter()
-            .filter(|(t, _)| within(t))
-            .filter_map(|(_, e)| match e {
-                StationEvent::Link(l) => Some(*l),
-                _ => None,
-            })
-            .collect()
+        links_of(sim.events(run.plant.master(node)), from, to)
     } else {
-        let d: duocan::sim::DevId<SlaveDev> = run.plant.slave(node).0;
-        sim.events(d)
-            .iter()
-            .filter(|(t, _)| within(t))
-            .filter_map(|(_, e)| match e {
-                StationEvent::Link(l) => Some(*l),
-                _ => None,
-            })
-            .collect()
+        links_of(sim.events(run.plant.slave(node).0), from, to)
     }
+}
+
+/// The link events among a station's `events` in `[from, to]`.
+fn links_of<M>(
+    events: &[(Instant, StationEvent<LinkEvent, M>)],
+    from: Instant,
+    to: Instant,
+) -> Vec<LinkEvent> {
+    events
+        .iter()
+        .filter(|(t, _)| *t >= from && *t <= to)
+        .filter_map(|(_, e)| match e {
+            StationEvent::Link(l) => Some(*l),
+            _ => None,
+        })
+        .collect()
 }
 
 /// Every device's link events in `[from, to]`.
