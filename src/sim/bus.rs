@@ -60,6 +60,9 @@ pub struct PortStats {
     pub rx_duplicated: u64,
     /// Frames handed to the device late.
     pub rx_delayed: u64,
+    /// Frames that waited for the port's transmit latency before they could compete for the
+    /// wire.
+    pub tx_waited: u64,
     /// Frames delivered with a flipped data bit.
     pub rx_corrupted: u64,
     /// Error frames this port took part in (as sender or receiver).
@@ -157,8 +160,10 @@ pub(super) struct Port {
     pub(super) connected: bool,
     /// False while the interface is down (socket closed).
     pub(super) iface_up: bool,
-    /// Frames waiting, with their serial (see [`TxRecord::serial`](super::TxRecord)).
-    pub(super) queue: VecDeque<(Frame, u64)>,
+    /// Frames waiting, with their serial (see [`TxRecord::serial`](super::TxRecord)) and the
+    /// instant they may compete for the wire (see
+    /// [`set_port_tx_latency`](super::SimNetwork::set_port_tx_latency)).
+    pub(super) queue: VecDeque<(Frame, u64, Instant)>,
     pub(super) capacity: usize,
     pub(super) babble: Option<Frame>,
     pub(super) transmitting: bool,
@@ -169,6 +174,11 @@ pub(super) struct Port {
     pub(super) drop_every: (u32, u32),
     /// Fixed receive latency (see [`set_port_latency`](super::SimNetwork::set_port_latency)).
     pub(super) latency: Duration,
+    /// Fixed transmit latency (see
+    /// [`set_port_tx_latency`](super::SimNetwork::set_port_tx_latency)).
+    pub(super) tx_latency: Duration,
+    /// When a scheduled wake-up puts the queue's head up for arbitration (its latency over).
+    pub(super) wake: Option<Instant>,
     /// Frames are handed over with their wire time as receive timestamp (the default), or
     /// with the hand-over time (see [`set_port_stamps`](super::SimNetwork::set_port_stamps)).
     pub(super) stamps: bool,
@@ -197,6 +207,8 @@ impl Port {
             faults: None,
             drop_every: (0, 0),
             latency: Duration::ZERO,
+            tx_latency: Duration::ZERO,
+            wake: None,
             stamps: true,
             delayed: 0,
             delay_tail: Instant::ZERO,
@@ -204,8 +216,12 @@ impl Port {
         }
     }
     /// The frame this port would put on the wire next: a babbling controller repeats its frame
-    /// and holds the queue back.
-    pub(super) fn head(&self) -> Option<&Frame> {
-        self.babble.as_ref().or(self.queue.front().map(|(f, _)| f))
+    /// and holds the queue back. `Err(due)`: the next frame's transmit latency runs until `due`.
+    pub(super) fn head(&self, now: Instant) -> Result<Option<&Frame>, Instant> {
+        match (&self.babble, self.queue.front()) {
+            (Some(f), _) => Ok(Some(f)),
+            (None, Some((_, _, due))) if *due > now => Err(*due),
+            (None, q) => Ok(q.map(|(f, _, _)| f)),
+        }
     }
 }

@@ -109,7 +109,11 @@ impl SimNetwork {
             port.stats.tx_blocked += 1;
             return false;
         }
-        port.queue.push_back((frame, serial));
+        let due = self.now + port.tx_latency;
+        if due > self.now {
+            port.stats.tx_waited += 1;
+        }
+        port.queue.push_back((frame, serial, due));
         if port.queue.len() == 1 {
             self.refresh_port(p);
         }
@@ -142,11 +146,19 @@ impl SimNetwork {
     pub(super) fn refresh_port(&mut self, p: usize) {
         let port = &self.ports[p];
         let live = self.devices[port.dev as usize].powered && port.iface_up && !port.transmitting;
-        let want = if live {
-            port.head().map(|f| (port.seg, f.arbitration_key()))
-        } else {
-            None
+        let want = match port.head(self.now) {
+            Ok(head) if live => head.map(|f| (port.seg, f.arbitration_key())),
+            Err(due) if live && port.wake != Some(due) => {
+                self.ports[p].wake = Some(due);
+                self.at(due, move |s| {
+                    s.ports[p].wake = None;
+                    s.refresh_port(p);
+                });
+                None
+            }
+            _ => None,
         };
+        let port = &self.ports[p];
         if want == port.ready {
             return;
         }

@@ -171,7 +171,7 @@ impl SimNetwork {
         let port = &mut self.ports[p];
         let (frame, serial, babble) = match (port.babble, port.queue.front()) {
             (Some(f), _) => (f, None, true),
-            (None, Some(&(f, serial))) => {
+            (None, Some(&(f, serial, _))) => {
                 port.queue.pop_front();
                 let owner = port.dev;
                 if self.devices[owner as usize].held.is_some() {
@@ -266,7 +266,9 @@ impl SimNetwork {
             }
         };
         if let (TxOutcome::ErrorFrame, Some(serial)) = (outcome, tx.serial) {
-            self.ports[p].queue.push_front((tx.frame, serial));
+            self.ports[p]
+                .queue
+                .push_front((tx.frame, serial, Instant::ZERO));
         }
         self.refresh_port(p);
 
@@ -344,7 +346,9 @@ impl SimNetwork {
             self.ports[p].transmitting = false;
             let d = self.ports[p].dev as usize;
             if let (Some(serial), true) = (tx.serial, self.devices[d].generation == tx.generation) {
-                self.ports[p].queue.push_front((tx.frame, serial));
+                self.ports[p]
+                    .queue
+                    .push_front((tx.frame, serial, Instant::ZERO));
             }
             self.refresh_port(p);
             let stats = &mut self.buses[b].stats;

@@ -203,6 +203,23 @@ impl SimNetwork {
         self.ports[p].stamps = stamps;
     }
 
+    /// Gives one port a fixed transmit latency: every frame its device hands it competes for the
+    /// wire only `latency` later, in the order handed over (a frame never overtakes an older
+    /// one of the same port), like a controller whose mailboxes wait behind traffic only it
+    /// sees or a driver that batches its writes. The device learns each frame's outcome when it
+    /// ends on the wire, as always. Zero removes it; frames already waiting keep their time.
+    /// Counted in [`PortStats::tx_waited`](super::PortStats::tx_waited). The receive side of
+    /// the port is not affected.
+    pub fn set_port_tx_latency(&mut self, port: PortRef, latency: Duration) {
+        let p = self.port_index(port);
+        self.ports[p].tx_latency = latency;
+    }
+
+    /// The fixed transmit latency of a port (zero unless set).
+    pub fn port_tx_latency(&self, port: PortRef) -> Duration {
+        self.ports[self.port_index(port)].tx_latency
+    }
+
     /// The fixed receive latency of a port (zero unless set).
     pub fn port_latency(&self, port: PortRef) -> Duration {
         self.ports[self.port_index(port)].latency

@@ -32,6 +32,8 @@
 //! above, so a seed reproduces a run exactly, trace and all. See [`FaultRates`] and the methods
 //! [`bus_down`](SimNetwork::bus_down), [`disconnect`](SimNetwork::disconnect),
 //! [`set_port_latency`](SimNetwork::set_port_latency) (a fixed receive latency, not random),
+//! [`set_port_tx_latency`](SimNetwork::set_port_tx_latency) (the same for transmission: a
+//! controller that sends late),
 //! [`partition`](SimNetwork::partition), [`babble`](SimNetwork::babble),
 //! [`port_down`](SimNetwork::port_down) and [`power_off`](SimNetwork::power_off).
 //!

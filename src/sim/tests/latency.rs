@@ -1,8 +1,11 @@
-//! A fixed receive latency on one port: every frame late by exactly that much, in order.
+//! A fixed latency on one port: receiving, every frame late by exactly that much, in order;
+//! transmitting, its copies leave exactly that much after their twins, in order, and the device
+//! hears of each when it ends on the wire.
 
 use super::network;
 use super::probe::{std_frame, Probe};
 use crate::frame::instant::{Duration, Instant};
+use crate::machine::PortStatus;
 use crate::sim::{FaultRates, TraceRecord};
 
 const RATE: u32 = 500_000;
@@ -103,4 +106,74 @@ fn latency_and_random_delay_add_up() {
         );
     }
     assert_eq!(sim.port_stats(slow.port(0)).rx_delayed, 30);
+}
+
+#[test]
+fn a_slow_transmitter_sends_on_that_bus_exactly_the_latency_after_its_twin_and_in_order() {
+    let (mut sim, b) = network(1, 2, RATE);
+    let f = |i: u8| std_frame(0x181, &[i]);
+    let x = sim.add_device("x", Probe::new(2), &b).unwrap();
+    let rx = sim.add_device("rx", Probe::new(2), &b).unwrap();
+    let lag = Duration::from_millis(7);
+    sim.set_port_tx_latency(x.port(1), lag);
+    assert_eq!(sim.port_tx_latency(x.port(1)), lag);
+    assert_eq!(sim.port_tx_latency(x.port(0)), Duration::ZERO);
+    // A frame on both ports every 2 ms: three or four wait in the slow controller at a time.
+    for i in 0..20u8 {
+        sim.at(ms(2 * i as u64), move |s| {
+            let p = s.device_mut(x);
+            p.send(0, f(i));
+            p.send(1, f(i));
+        });
+    }
+    sim.run_until(ms(100));
+    let fast = sim.device(rx).rx_on(0);
+    let slow = sim.device(rx).rx_on(1);
+    assert_eq!(fast.len(), 20);
+    let shifted: Vec<_> = fast.iter().map(|(t, fr)| (*t + lag, *fr)).collect();
+    assert_eq!(slow, shifted);
+    // Each outcome when its frame ended on the wire: the slow port's the latency later.
+    let ok = |p| -> Vec<Instant> {
+        let st = sim.device(x).status_on(p);
+        st.iter()
+            .filter(|(_, s)| *s == PortStatus::TxOk)
+            .map(|(t, _)| *t)
+            .collect()
+    };
+    let shifted: Vec<_> = ok(0).iter().map(|t| *t + lag).collect();
+    assert_eq!(ok(1), shifted);
+    assert_eq!(sim.port_stats(x.port(1)).tx_waited, 20);
+    assert_eq!(sim.port_stats(x.port(0)).tx_waited, 0);
+    // The receive side of the slow port is not affected.
+    let back = sim.add_device("back", Probe::new(2), &b).unwrap();
+    sim.at(ms(100), move |s| s.device_mut(back).send(1, f(99)));
+    sim.run_until(ms(110));
+    let got = sim.device(x).rx_on(1);
+    assert_eq!(got.len(), 1);
+    assert!(got[0].0 < ms(101), "received at {}", got[0].0);
+}
+
+#[test]
+fn lowering_the_transmit_latency_never_lets_a_newer_frame_overtake() {
+    let (mut sim, b) = network(1, 1, RATE);
+    let f = |i: u8| std_frame(0x181, &[i]);
+    let x = sim.add_device("x", Probe::new(1), &[b[0]]).unwrap();
+    let rx = sim.add_device("rx", Probe::new(1), &[b[0]]).unwrap();
+    let port = x.port(0);
+    sim.set_port_tx_latency(port, Duration::from_millis(20));
+    for i in 0..10u8 {
+        sim.at(ms(5 * i as u64), move |s| s.device_mut(x).send(0, f(i)));
+    }
+    // At 22 ms the frames sent at 5..20 ms wait (due 25..40 ms); from now on no latency.
+    sim.at(ms(22), move |s| s.set_port_tx_latency(port, Duration::ZERO));
+    sim.run_until(ms(100));
+    let got = sim.device(rx).rx_on(0);
+    let order: Vec<u8> = got.iter().map(|(_, fr)| fr.data()[0]).collect();
+    assert_eq!(order, (0..10).collect::<Vec<u8>>());
+    // Frames 5.. (handed over at 25.. ms) waited behind frame 4 (due 40 ms), then went out
+    // one after the other; none before its older neighbour.
+    let t4 = got[4].0;
+    assert!(t4 >= ms(40) && t4 < ms(41), "frame 4 at {t4}");
+    assert!(got[5].0 > t4, "frame 5 at {} before frame 4", got[5].0);
+    assert_eq!(sim.port_stats(port).tx_waited, 5);
 }
