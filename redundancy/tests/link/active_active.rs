@@ -204,9 +204,9 @@ fn babbling_port_floods_bus_1_the_other_bus_carries_the_traffic_in_bounded_memor
         // Bus 1 could not carry this station's frames. It was flushed and failed exactly the
         // stall time (2.5 ms, half the window) after bus 2 sent the twin of bus 1's oldest
         // waiting frame (or a later frame: the twin would be late), within a cycle and the
-        // window of the flood's start;
-        // re-initialised after 100, 200, 400 ms, each time failing again the same way, until
-        // the flood was over.
+        // window of the flood's start; re-initialised after 100, 200, 400 ms, each time
+        // failing again the same way. Meanwhile each heartbeat went there as a probe, was
+        // flushed the same way, and the port stayed failed without a word.
         let ev = net.port_events(node, 0);
         let ms = Duration::from_millis;
         let stall = DualBusConfig::default().health.tx_stall;
@@ -230,25 +230,24 @@ fn babbling_port_floods_bus_1_the_other_bus_carries_the_traffic_in_bounded_memor
         }
         let failed = ev[want.len()].0;
         overtaken(t, failed);
-        t = failed;
-        want.push((t, PortState::Failed, stalled));
-        // The fourth attempt, 800 ms later, finds a quiet bus: ok after the 50 ms probation.
-        want.push((
-            t + ms(800),
-            PortState::Recovering,
-            PortReason::Reinit { attempt: 4 },
-        ));
+        want.push((failed, PortState::Failed, stalled));
+        // The flood over, the first probe is confirmed (in time): back at once, not at the
+        // fourth re-initialisation 800 ms later; ok after the 50 ms probation.
+        let back = net.sent_from(node, 0, REPAIR)[0];
+        assert!(
+            back < REPAIR + ms(HB_MS as u64),
+            "node {node}: back at {back:?}"
+        );
+        want.push((back, PortState::Recovering, PortReason::Traffic));
         let got: Vec<_> = ev.iter().map(|e| (e.0, e.2, e.3)).collect();
         assert_eq!(got[..8], want[..], "node {node}");
         assert_eq!(got.len(), 9, "node {node}: {got:?}");
         assert_eq!((got[8].1, got[8].2), (PortState::Ok, PortReason::Traffic));
-        // Probation runs from the first frame bus 1 brings after the re-initialisation (the
-        // other stations re-initialise on their own schedules; one may be on the wire then).
-        let reinit = want[7].0;
+        // Probation runs from the first frame bus 1 brings after that.
         let heard = (1..=SLAVES + 1)
             .filter(|n| *n != node)
-            .flat_map(|n| net.sent_from(n, 0, reinit - ms(1)))
-            .filter(|end| *end > reinit)
+            .flat_map(|n| net.sent_from(n, 0, back - ms(1)))
+            .filter(|end| *end >= back)
             .min()
             .expect("bus 1 carries traffic again");
         assert!(
@@ -443,5 +442,71 @@ fn frames_waiting_on_both_busy_buses_longer_than_the_window_are_not_a_stall() {
         for port in 0..2 {
             assert_eq!(link.port(port).counters().reinits, 0, "node {node}");
         }
+    }
+}
+
+/// A node whose controller on one bus sends late (its mailboxes behind traffic only it sees,
+/// a driver that batches): its copies there would leave after their twins. Later than the
+/// stall time, each is flushed before it could come out as a duplicate and the port fails
+/// (`TxStalled`) once; while the slowness lasts the node's heartbeats go there as probes, each
+/// flushed the same way without a word (re-initialisation retries aside), and the first probe
+/// confirmed in time after it ends brings the port back, within a heartbeat period. Either
+/// bus: at the slow node, a failed port's copies of the others' frames arrive first on bus 1
+/// and second on bus 2 (receiving says nothing of a transmitter). Slower by less than the
+/// stall time, its twins stay within the window: no event at all. Exactly once throughout.
+#[test]
+fn a_slow_transmitter_on_one_bus_is_flushed_not_duplicated_and_used_again_at_its_next_probe() {
+    const NODE: u8 = 5;
+    let ms = Duration::from_millis;
+    for (port, delay) in [(0, ms(10)), (1, ms(10)), (1, Duration::from_micros(1_500))] {
+        let mut net = network(7, SLAVES, active_active(), STOP);
+        let p = net.dev(NODE).port(port);
+        net.sim
+            .at(CUT, move |sim| sim.set_port_tx_latency(p, delay));
+        net.sim.at(REPAIR, move |sim| {
+            sim.set_port_tx_latency(p, Duration::ZERO)
+        });
+        run_to_end(&mut net);
+        net.assert_application_exact();
+        net.assert_no_heartbeat_lost();
+        let waited = net.sim.port_stats(p).tx_waited;
+        assert!(
+            waited > 10,
+            "port {port}: the fault ran ({waited} frames waited)"
+        );
+        let ev = net.port_events(NODE, port as u8);
+        let other = net.port_events(NODE, 1 - port as u8);
+        assert!(other.is_empty(), "port {port}: the other port {other:?}");
+        for node in (1..=SLAVES + 1).filter(|n| *n != NODE) {
+            assert!(net.port_events(node, 0).is_empty(), "node {node}");
+            assert!(net.port_events(node, 1).is_empty(), "node {node}");
+        }
+        if delay < DualBusConfig::default().health.tx_stall {
+            assert!(ev.is_empty(), "{delay:?} late: {ev:?}");
+            continue;
+        }
+        // Failed at its first frame after the onset; then only the re-initialisations'
+        // retries (100, 200, 400 ms: each fails again), no event for the flushed probes.
+        let stalled = PortReason::TxStalled {
+            waited: Duration::from_micros(2_500),
+        };
+        assert_eq!((ev[0].2, ev[0].3), (PortState::Failed, stalled), "{ev:?}");
+        assert!(ev[0].0 < CUT + ms(16), "{ev:?}");
+        let during: Vec<_> = ev.iter().filter(|e| e.0 < REPAIR).collect();
+        assert_eq!(during.len(), 7, "port {port}: {during:?}");
+        // Back at the first frame it sent after the end: a probe, within a heartbeat period.
+        let back = net.sent_from(NODE, port, REPAIR)[0];
+        assert!(
+            back < REPAIR + ms(HB_MS as u64),
+            "port {port}: back at {back:?}"
+        );
+        let after: Vec<_> = ev.iter().filter(|e| e.0 >= REPAIR).collect();
+        assert_eq!(
+            (after[0].0, after[0].2, after[0].3),
+            (back, PortState::Recovering, PortReason::Traffic),
+            "port {port}: {after:?}"
+        );
+        assert_eq!(after.len(), 2, "port {port}: {after:?}");
+        assert_eq!(after[1].2, PortState::Ok);
     }
 }

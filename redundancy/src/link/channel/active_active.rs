@@ -1,10 +1,10 @@
 //! Active-active: every logical frame goes out on every port that is not failed (and on both
-//! when neither is known to reach anyone, unless one is held by a babble); a failed port still carries the node's own
-//! heartbeats, one at a time, as probes; every received frame goes through the exactly-once
+//! when neither is known to reach anyone, unless one is held by a babble); a failed port still
+//! carries the node's own heartbeats, one at a time, as probes; every received frame goes through the exactly-once
 //! merger. No channel to switch.
 
 use super::{ChannelPolicy, FrameInfo, PortMask, RxRoute, BOTH};
-use crate::link::health::Health;
+use crate::link::health::{Health, PortState};
 use crate::link::outbox::Outbox;
 use duocan::machine::PortStatus;
 use duocan::{Duration, Frame, Instant};
@@ -39,12 +39,15 @@ impl ChannelPolicy for ActiveActive {
         // A failed port still carries this node's own heartbeats, one at a time: so that the
         // peers hear at once that its bus works again, and use it, whatever back-off their
         // own re-initialisation of that port runs (the other bus may fail the next instant).
-        // Not a port failed for a transmit stall (a babbling controller holds its bus): a
-        // probe would wait behind the babble and come out stale when it ends.
+        // A port failed for a transmit stall too: receiving tells nothing of its transmitter
+        // (a controller that sends late hears the network fine), so the probe is the test.
+        // The stall rule judges it like any frame: late (behind a babble, a slow
+        // controller), it is flushed before it could come out stale, and the port stays
+        // failed; confirmed in time, the port recovers.
         if info.heartbeat.is_some() {
             for p in 0..2 {
                 let port = h.port(p);
-                if port.revives_on_traffic() && port.in_flight().is_none_or(|n| n == 0) {
+                if port.state() == PortState::Failed && port.in_flight().is_none_or(|n| n == 0) {
                     mask |= 1 << p;
                 }
             }

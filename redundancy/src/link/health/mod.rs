@@ -49,10 +49,12 @@
 //!   this port's oldest waiting frame, or a later frame (the layer numbers its logical frames:
 //!   a SYNC and the heartbeat due with it are handed over in the same instant), and this port
 //!   still has no outcome for it `tx_stall` (the window) later, the port is re-initialised at
-//!   once (flushing its queue) and failed; such a port comes back through re-initialisation, or
-//!   when it receives the twin of a frame the other port delivered (its bus carries the
-//!   network's traffic again), not because it merely receives (a babbling controller fills the
-//!   bus with frames while nobody else can send, on that bus only). Waiting alone is no stall:
+//!   once (flushing its queue) and failed. Receiving says nothing of its transmitter (a
+//!   babbling controller fills its bus with frames; a controller that sends late hears the
+//!   network fine), so such a port comes back when a frame it was handed is confirmed in time
+//!   (the node's heartbeat, which goes there as a probe, one at a time, and is judged by the
+//!   same rule: late, it is flushed and the port stays failed without a new event) or through
+//!   re-initialisation. Waiting alone is no stall:
 //!   a low-priority frame can lose arbitration for longer than the window on a busy network,
 //!   and then it waits on both buses alike and its twins still match. Nor is a port judged
 //!   while the other port sends nothing (failed, or its driver never confirms): without a twin
@@ -286,11 +288,10 @@ impl Health {
                     self.set(now, p, PortState::Ok, PortReason::Traffic, out);
                 }
             }
-            // After a transmit stall, only the twin of a frame the other port delivered: the
-            // network's traffic, which a babble's flood of one bus is not.
-            Condition::Failed { revive_on_rx, .. }
-                if *revive_on_rx || outcome == RxOutcome::Duplicate =>
-            {
+            // Not after a transmit stall: receiving tells nothing of a transmitter (a slow
+            // controller hears the network fine; a babble floods its bus with frames). Its
+            // probes, or its re-initialisation, test it (see `on_status`).
+            Condition::Failed { revive_on_rx, .. } if *revive_on_rx => {
                 self.set(now, p, PortState::Recovering, PortReason::Traffic, out);
                 self.ports[p].cond = Condition::Recovering {
                     probation_from: Some(now),
@@ -336,8 +337,10 @@ impl Health {
                 port.confirmed = Some(now);
                 port.unacknowledged = false;
                 // Someone on its bus acknowledged the frame: the bus works again, whatever the
-                // back-off says (as a received frame shows).
-                if port.revives_on_traffic() {
+                // back-off says (as a received frame shows). After a transmit stall, a frame
+                // it was handed (a probe) confirmed before the stall rule flushed it: its
+                // transmitter keeps time again.
+                if port.revives_on_traffic() || (port.stalled() && !port.outstanding.is_empty()) {
                     self.set(now, p, PortState::Recovering, PortReason::Traffic, out);
                 }
                 let port = &mut self.ports[p];

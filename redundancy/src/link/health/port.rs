@@ -61,8 +61,8 @@ pub(super) enum Condition {
         /// The back-off ends: the port is re-initialised.
         reinit_at: Instant,
         /// Traffic (a frame, the driver's "up") revives it; not after a transmit stall, where
-        /// only the back-off re-initialisation or the twin of a frame the other port delivered
-        /// does.
+        /// only the back-off re-initialisation or a frame it was handed confirmed in time (a
+        /// probe) does.
         revive_on_rx: bool,
     },
     Recovering {
@@ -275,7 +275,7 @@ impl PortHealth {
         }
     }
     /// Failed, and traffic would revive it (not after a transmit stall, which only its
-    /// re-initialisation or a twin of the other port's traffic ends).
+    /// re-initialisation or a probe confirmed in time ends).
     pub fn revives_on_traffic(&self) -> bool {
         matches!(
             self.cond,
@@ -285,8 +285,8 @@ impl PortHealth {
             }
         )
     }
-    /// Failed for a transmit stall (a babbling controller holds its bus): what it is handed
-    /// waits behind the babble and comes out stale when it ends.
+    /// Failed for a transmit stall (a babbling controller holds its bus, or its own
+    /// controller sends late): what it is handed would come out stale.
     pub fn stalled(&self) -> bool {
         matches!(
             self.cond,

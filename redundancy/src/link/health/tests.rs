@@ -357,30 +357,52 @@ fn transmit_stall_flushes_and_fails_and_only_reinit_revives() {
 }
 
 #[test]
-fn a_stalled_port_comes_back_on_a_twin_of_the_other_ports_traffic() {
+fn a_stalled_port_comes_back_when_a_probe_is_confirmed_in_time() {
     let cfg = HealthConfig {
         tx_stall: W,
         ..HealthConfig::default()
     };
     let mut h = Health::new(cfg, W);
     let mut out = Outbox::new();
-    // Port 0's frame waits behind a babble while port 1 sends its twin: stalled at 12 ms.
+    // Port 0's frame waits (behind a babble, in a slow controller) while port 1 sends its
+    // twin: stalled at 12 ms.
     h.on_status(ms(0), 1, PortStatus::TxOk, &mut out);
     h.count_tx(ms(1), 0, 1);
     h.count_tx(ms(1), 1, 1);
     h.on_status(ms(2), 1, PortStatus::TxOk, &mut out);
     h.handle_timeout(ms(12), &mut out);
     assert!(h.port(0).stalled());
-    // The babbler's flood (first copies, or stale ones) does not revive it...
+    assert_eq!(out.requests.pop(), Some((0, PortRequest::Reinit)));
+    // Receiving tells nothing of its transmitter: a babbler's flood, nor the network's own
+    // traffic (a controller that sends late hears the bus fine), in either order.
     h.on_rx(ms(20), ms(20), 0, RxOutcome::Delivered, &mut out);
     h.on_rx(ms(21), ms(21), 0, RxOutcome::Stale, &mut out);
-    assert!(h.port(0).stalled());
-    // ...the twin of a frame port 1 delivered does, long before the back-off (112 ms): its
-    // bus carries the network's traffic again. Probation as for any return.
     h.on_rx(ms(30), ms(30), 1, RxOutcome::Delivered, &mut out);
     h.on_rx(ms(30), ms(30), 0, RxOutcome::Duplicate, &mut out);
+    h.on_rx(ms(31), ms(31), 0, RxOutcome::Delivered, &mut out);
+    h.on_rx(ms(31), ms(31), 1, RxOutcome::Duplicate, &mut out);
+    assert!(h.port(0).stalled());
+    // A probe (its heartbeat) on both at 40 ms; port 1 sends it at 41 ms, port 0 still
+    // waits at 51 ms: flushed, and the port stays failed without a new event.
+    h.count_tx(ms(40), 0, 40);
+    h.count_tx(ms(40), 1, 40);
+    h.on_status(ms(41), 1, PortStatus::TxOk, &mut out);
+    assert_eq!(h.stall_deadline(0), Some(ms(51)));
+    h.handle_timeout(ms(51), &mut out);
+    assert_eq!(out.requests.pop(), Some((0, PortRequest::Reinit)));
+    assert!(h.port(0).stalled());
+    // The flushed probe's confirmation, had it gone out meanwhile, proves nothing.
+    h.on_status(ms(60), 0, PortStatus::TxOk, &mut out);
+    assert!(h.port(0).stalled());
+    // The next probe is confirmed within the stall time of its twin: the transmitter keeps
+    // time again, long before the back-off (112 ms). Probation as for any return.
+    h.count_tx(ms(80), 0, 80);
+    h.count_tx(ms(80), 1, 80);
+    h.on_status(ms(81), 1, PortStatus::TxOk, &mut out);
+    h.on_status(ms(83), 0, PortStatus::TxOk, &mut out);
     assert_eq!(h.port(0).state(), PortState::Recovering);
-    h.on_rx(ms(130), ms(130), 0, RxOutcome::Duplicate, &mut out);
+    h.on_rx(ms(90), ms(90), 0, RxOutcome::Duplicate, &mut out);
+    h.on_rx(ms(190), ms(190), 0, RxOutcome::Duplicate, &mut out);
     assert_eq!(
         port_events(&mut out),
         [
@@ -390,8 +412,8 @@ fn a_stalled_port_comes_back_on_a_twin_of_the_other_ports_traffic() {
                 PortState::Failed,
                 PortReason::TxStalled { waited: W }
             ),
-            (ms(30), 0, PortState::Recovering, PortReason::Traffic),
-            (ms(130), 0, PortState::Ok, PortReason::Traffic),
+            (ms(83), 0, PortState::Recovering, PortReason::Traffic),
+            (ms(190), 0, PortState::Ok, PortReason::Traffic),
         ]
     );
 }

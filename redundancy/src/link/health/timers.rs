@@ -61,11 +61,11 @@ impl Health {
 
     pub(super) fn stall_deadline(&self, p: usize) -> Option<Instant> {
         let port = &self.ports[p];
-        // A failed port is judged too while it carries probes (failed for silence): a probe
-        // held behind a babble that started while the port sent nothing would come out stale.
+        // A failed port is judged too, as it carries probes: a probe held behind a babble or
+        // in a slow controller would come out stale (for a port failed for a stall already,
+        // the flush is all: it stays failed, with no new event).
         if self.cfg.tx_stall.is_zero()
             || !(port.reports_outcomes || self.ports[1 - p].reports_outcomes)
-            || port.stalled()
         {
             return None;
         }
