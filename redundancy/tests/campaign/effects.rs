@@ -15,6 +15,7 @@
 //!   babbling);
 //! - a board that stops: a master saw its heartbeat say so;
 //! - noise: error reports on that bus; an overrun: that controller's overflow reports;
+//! - a slow transmitter: a frame waited in that controller for its delay;
 //! - a board or master that dies, a master's clock stepped back or jumped ahead: the device was
 //!   powered when the fault came (its effect is the simulator's or the clock's own doing).
 //!
@@ -48,14 +49,30 @@ pub fn watch(run: &mut Run, f: Fault) {
         _ => true,
     };
     let before = counters(run);
+    let waited = tx_waited(run, &f);
     let until = from + f.span().min(LONGEST) + AFTER;
     run.at(until, move |r| {
         let now = r.now();
-        let seen = direct && took_effect(r, f, from, now, &before);
+        let seen = direct
+            && match f {
+                Fault::SlowTx { .. } => tx_waited(r, &f) > waited,
+                _ => took_effect(r, f, from, now, &before),
+            };
         if seen {
             *r.effective.entry(f.class()).or_default() += 1;
         }
     });
+}
+
+/// How many frames a slow transmitter's port has held back (0 for other faults).
+fn tx_waited(run: &Run, f: &Fault) -> u64 {
+    match *f {
+        Fault::SlowTx { node, port, .. } => {
+            let p = crate::faults::port_of(run, node, port);
+            run.plant.sim.port_stats(p).tx_waited
+        }
+        _ => 0,
+    }
 }
 
 /// Every device's port counters, by node (a master's id, a slave's node-ID).
@@ -206,6 +223,7 @@ fn took_effect(run: &Run, f: Fault, from: Instant, to: Instant, before: &Counter
             errors_grew(run, before, port, Some(node), Some(ErrorCause::RxOverflow))
         }
         Fault::BoardDies { .. }
+        | Fault::SlowTx { .. }
         | Fault::MasterDies { .. }
         | Fault::StepBack { .. }
         | Fault::JumpAhead { .. } => true,

@@ -1,6 +1,7 @@
 //! The fault classes a plant suffers, each applied at an instant for a while, and a seeded
 //! generator that composes them over time, in sequence and overlapping.
 
+use crate::foreign::FOREIGN;
 use crate::plant::*;
 use crate::run::Run;
 use duocan::sim::{FaultRates, PortRef};
@@ -81,6 +82,15 @@ pub enum Fault {
         permille: u16,
         dur: Duration,
     },
+    /// A device's controller on `port` sends late for `dur`: every frame it is handed competes
+    /// for the wire only `delay` later (mailboxes behind traffic only it sees, a driver that
+    /// batches), while its twin on the other bus leaves on time.
+    SlowTx {
+        node: u8,
+        port: usize,
+        delay: Duration,
+        dur: Duration,
+    },
     /// A device's controller on `port` overruns for `dur`: it misses a frame with probability
     /// `permille`/1000 (and reports the overflow), the other devices get it.
     Overrun {
@@ -113,6 +123,7 @@ impl Fault {
             Fault::JumpAhead { .. } => "clock jump ahead",
             Fault::Noise { .. } => "noisy bus",
             Fault::Overrun { .. } => "controller overrun",
+            Fault::SlowTx { .. } => "slow transmitter",
         }
     }
 
@@ -129,7 +140,8 @@ impl Fault {
             | Fault::BoardDies { dur, .. }
             | Fault::MasterDies { dur, .. }
             | Fault::Noise { dur, .. }
-            | Fault::Overrun { dur, .. } => dur,
+            | Fault::Overrun { dur, .. }
+            | Fault::SlowTx { dur, .. } => dur,
             Fault::Sequence {
                 dur,
                 overlap,
@@ -158,13 +170,17 @@ impl Fault {
                 | Fault::Impostor { .. }
                 | Fault::Noise { .. }
                 | Fault::Overrun { .. }
+                | Fault::SlowTx { .. }
         )
     }
 }
 
-fn port_of(run: &Run, node: u8, port: usize) -> PortRef {
+/// Device `node`'s port `port` (a master's id, or a slave's node-ID).
+pub fn port_of(run: &Run, node: u8, port: usize) -> PortRef {
     if node == STRONG || node == WEAK {
         run.plant.master(node).port(port)
+    } else if let Some((d, _)) = run.plant.foreign.filter(|_| node == FOREIGN) {
+        d.port(port)
     } else {
         run.plant.slave(node).0.port(port)
     }
@@ -263,6 +279,23 @@ pub fn apply(run: &mut Run, f: Fault) {
                 r.plant.sim.set_port_faults(p, FaultRates::NONE);
                 let t = r.now();
                 r.timeline.devs[d].overrun[port].end(t);
+            });
+        }
+        Fault::SlowTx {
+            node,
+            port,
+            delay,
+            dur,
+        } => {
+            let p = port_of(run, node, port);
+            let d = dev_index(run, node);
+            run.plant.sim.set_port_tx_latency(p, delay);
+            run.timeline.devs[d].slow_tx[port].start(now);
+            run.at(now + dur, move |r| {
+                r.plant.sim.set_port_tx_latency(p, Duration::ZERO);
+                let t = r.now();
+                // Frames handed over just before still wait their delay.
+                r.timeline.devs[d].slow_tx[port].end(t + delay);
             });
         }
         Fault::Cut { bus, dur } => {
@@ -477,8 +510,9 @@ fn stalled_after_babble(run: &mut Run, port: usize) {
     }
     for (i, at, clock) in spans {
         let Some(at) = at else { continue };
-        // On the simulated time line.
-        let until = Instant::from_micros(at.as_micros().saturating_add_signed(-clock));
+        // On the simulated time line; back at its next heartbeat (a probe) if sooner.
+        let until = Instant::from_micros(at.as_micros().saturating_add_signed(-clock))
+            .min(now + SLAVE_HB.max(MASTER_HB) + Duration::from_millis(2));
         if until > now {
             let sp = &mut run.timeline.devs[i].stalled[port];
             sp.start(now);
@@ -541,7 +575,11 @@ pub fn random(rng: &mut Rng, pairs: u8, connectivity_free: bool, kinds: usize) -
 }
 
 /// How many kinds of fault [`draw`] knows (every class, some in two shapes).
-pub const KINDS: usize = 20;
+pub const KINDS: usize = 21;
+
+/// The kinds the campaign knew before slow transmitters: the seeds in `REGRESSIONS_ALL_KINDS`
+/// and `REGRESSIONS_QUIET` draw from these.
+pub const KINDS_BEFORE_SLOW_TX: usize = 20;
 
 /// The kinds the campaign knew before noise and overruns: the seeds in `REGRESSIONS` draw from
 /// these, so that each still plays the schedule it once failed with.
@@ -652,6 +690,22 @@ pub fn draw(rng: &mut Rng, pairs: u8, k: usize) -> Fault {
                 permille: [10, 100, 500][rng.below(3) as usize],
                 dur: rng.ms(200, 3_000),
             },
+            20 => {
+                // Any node, or the one that is not duocan: its copies this late are within
+                // the skew window, as the network's configuration must keep them (further
+                // apart, they are two frames to every receiver: the promise table says so).
+                let (node, delays): (u8, &[u64]) = match rng.below(5) {
+                    0 => (FOREIGN, &[500, 1_000, 2_000, 3_000]),
+                    // Within the layer's transmit stall time (half the window) and beyond.
+                    _ => (any_node(rng), &[500, 2_000, 4_000, 10_000, 40_000]),
+                };
+                Fault::SlowTx {
+                    node,
+                    port: rng.below(2) as usize,
+                    delay: Duration::from_micros(delays[rng.below(delays.len() as u64) as usize]),
+                    dur: rng.ms(200, 3_000),
+                }
+            }
             14 => Fault::Lag {
                 node: any_node(rng),
                 port: rng.below(2) as usize,

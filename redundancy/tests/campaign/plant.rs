@@ -4,11 +4,13 @@
 //! 10 ms and TIME every 100 ms from the active one), `pairs` A/B board pairs (A = 0x10 + i,
 //! B = 0x50 + i; heartbeat 20 ms once configured, consumer time 50 ms), each board answering
 //! every SYNC with TPDO1 and sending TPDO2 every 10 ms, both with data that never changes (only
-//! the running board of a pair sends them), and an observer node 0x7A on both buses, in no
-//! pair, that checks what a plain slave receives. The active master reads the slaves' dictionaries
+//! the running board of a pair sends them), an observer node 0x7A on both buses, in no
+//! pair, that checks what a plain slave receives, and (in runs with slow transmitters) a node
+//! 0x7B that is not duocan ([`crate::foreign`]). The active master reads the slaves' dictionaries
 //! by SDO meanwhile ([`crate::sdo`]). Every device's link is tapped for the oracle
 //! ([`crate::tap`]); every device's clock can be stepped or jumped ([`Clocked`]).
 
+use crate::foreign::{Foreign, FOREIGN};
 use crate::oracle::Oracle;
 use crate::sdo::{Ledger, Sdo, SEGMENTED, STRING};
 use crate::tap::Tap;
@@ -159,6 +161,8 @@ pub struct Params {
     /// the masters' SDO reads only (what the lag meter, the silence rules and the one-bus
     /// rule's idle witness must also work with).
     pub quiet: bool,
+    /// With a node that is not duocan ([`crate::foreign`]).
+    pub foreign: bool,
 }
 
 impl Default for Params {
@@ -167,6 +171,7 @@ impl Default for Params {
             seed: 1,
             pairs: 3,
             quiet: false,
+            foreign: false,
         }
     }
 }
@@ -182,6 +187,8 @@ pub struct Plant {
     /// (node-ID, device, oracle node).
     pub slaves: Vec<(u8, DevId<SlaveDev>, usize)>,
     pub master_nodes: [usize; 2],
+    /// The node that is not duocan, if any: (device, oracle node).
+    pub foreign: Option<(DevId<Foreign>, usize)>,
 }
 
 fn link() -> DualBus {
@@ -345,12 +352,20 @@ impl Plant {
                 .unwrap();
             slaves.push((id, d, node));
         }
+        let foreign = p.foreign.then(|| {
+            let name = format!("f{FOREIGN:#x}");
+            let node = oracle.borrow_mut().add_foreign(&name, sim.device_count());
+            let f = Foreign::new(Instant::ZERO, node, oracle.clone(), !p.quiet);
+            (sim.add_device(name, f, &buses).unwrap(), node)
+        });
         let o = oracle.clone();
         sim.set_rx_hook(Some(Box::new(move |note| {
             o.borrow_mut().arriving(
                 note.receiver.device.index(),
                 note.sender.device.index(),
                 note.serial,
+                note.receiver.port,
+                note.wire,
             );
         })));
         Plant {
@@ -362,6 +377,7 @@ impl Plant {
             masters: [masters[0], masters[1]],
             slaves,
             master_nodes,
+            foreign,
         }
     }
 

@@ -24,6 +24,7 @@
 //!   master died or rebooted is gone with it;
 //! - **bounded memory**: no layer's merger overflows, no queue drops.
 
+use crate::foreign::FOREIGN;
 use crate::oracle::JUDGE_AFTER;
 use crate::plant::*;
 use crate::sdo::{End, Transfer, SDO_BOUND};
@@ -95,7 +96,7 @@ impl Run {
             let id = match i {
                 0 => STRONG,
                 1 => WEAK,
-                _ => plant.slaves[i - 2].0,
+                _ => plant.slaves.get(i - 2).map_or(FOREIGN, |s| s.0),
             };
             let _ = n;
             timeline.devs.push(Dev {

@@ -65,8 +65,9 @@ impl Tap {
     fn delivered(&self, now: Instant, f: Option<Frame>) -> Option<Frame> {
         let mut o = self.oracle.borrow_mut();
         o.handled(self.node, now);
-        if let Some(f) = &f {
-            o.delivered(self.node, now, f);
+        match &f {
+            Some(f) => o.delivered(self.node, now, f),
+            None => o.not_delivered(self.node, now),
         }
         f
     }

@@ -48,18 +48,19 @@ pub struct Dev {
     pub node_id: u8,
     /// Per port: unplugged.
     pub unplugged: [Spans; 2],
-    /// Per port: failed for a transmit stall behind a babble that has ended, until its
-    /// re-initialisation (its back-off, doubled at every attempt the babble defeated). Such a
-    /// port sends nothing, not even probes (they would have waited behind the babble and
-    /// come out stale), and the other devices' ports on that bus are most often in the same
-    /// state: the bus carries nothing of this device's meanwhile. The promise does not say
-    /// how soon a bus is used again after a babble ends; a cut of the other bus meanwhile is
-    /// an outage.
+    /// Per port: failed for a transmit stall behind a babble that has ended, until its next
+    /// heartbeat (a probe: confirmed in time, the port is back) or its re-initialisation,
+    /// whichever comes first. Such a port sends nothing else meanwhile: the bus carries
+    /// nothing of this device's but that probe; a cut of the other bus meanwhile is an
+    /// outage.
     pub stalled: [Spans; 2],
     /// Per port: its receive lag exceeds [`LAG_SLACK`].
     pub slow: [Spans; 2],
     /// Per port: every receive lag it was given, from when.
     pub lags: [Vec<(Instant, Duration)>; 2],
+    /// Per port: its controller sends late (a slow transmitter); the layer may fail the port
+    /// for a transmit stall meanwhile, so the bus need not carry this device's frames.
+    pub slow_tx: [Spans; 2],
     /// Per port: its controller overruns (misses frames now and then).
     pub overrun: [Spans; 2],
     pub off: Spans,
@@ -114,6 +115,7 @@ impl Timeline {
                     || dr.overrun[bus].any(f, t)
                     || ds.unplugged[bus].any(f, t)
                     || ds.stalled[bus].any(f, t)
+                    || ds.slow_tx[bus].any(f, t)
                     || dr.unplugged[bus].any(f, t)
                     || ds.off.any(f, t)
                     || dr.off.any(f, t),
