@@ -5,11 +5,14 @@ use crate::network::{NetworkEvent, NetworkEventKind};
 use crate::pair::{Member, PairId};
 use crate::supervisor::flying_master::{MasterReason, MasterRole};
 use crate::supervisor::pairs::RoleReason;
+use crate::SupervisorEvent;
 use core::fmt;
 use duocan::emcy::EmcyMessage;
+use duocan::machine::StationEvent;
+use duocan::master::{ErrorStatus, MasterEventKind};
 use duocan::node::NodeEventKind;
 use duocan::runtime::RuntimeEvent;
-use duocan::{Instant, NmtState, NodeId};
+use duocan::{Frame, Instant, NmtState, NodeId};
 use tokio::sync::{broadcast, watch};
 
 /// One thing that happened on a redundant network. Every variant is one level deep; the
@@ -99,6 +102,49 @@ pub enum RedundantEvent {
         /// When.
         at: Instant,
     },
+    /// The buses a node is heard on changed: heard on one bus only is a fault the application
+    /// does not see (the other bus carries everything) and a maintainer must.
+    Reach {
+        /// The node.
+        node: NodeId,
+        /// Heard on bus 1, on bus 2.
+        heard: [bool; 2],
+        /// When.
+        at: Instant,
+    },
+    /// A and B of a pair have carried different values of one function for longer than the
+    /// discrepancy time.
+    Discrepancy {
+        /// The pair.
+        pair: PairId,
+        /// The function (e.g. the TPDO number).
+        function: u32,
+        /// A's latest frame.
+        a: Frame,
+        /// B's latest frame.
+        b: Frame,
+        /// When the discrepancy time ran out.
+        at: Instant,
+    },
+    /// A and B of a pair agree again on a function.
+    DiscrepancyCleared {
+        /// The pair.
+        pair: PairId,
+        /// The function.
+        function: u32,
+        /// When.
+        at: Instant,
+    },
+    /// The boot process did not start a slave: it is not what 0x1F84–0x1F88 expect, or a step
+    /// of its configuration failed (the CiA 302-2 error status says which).
+    BootFailed {
+        /// The slave.
+        node: NodeId,
+        /// C, D, M, N, O (identity) or J (configuration), …
+        status: ErrorStatus,
+        /// When.
+        at: Instant,
+    },
     /// This reader fell behind and `n` events were dropped for it; the stream goes on. A slow
     /// reader loses events, never the program.
     Lagged(u64),
@@ -129,10 +175,31 @@ impl RedundantEvent {
             K::NodeBooted { node } => RedundantEvent::BootUp { node, at },
             K::NodeState { node, from, to } => RedundantEvent::State { node, from, to, at },
             K::Emcy { node, msg } => RedundantEvent::Emcy { node, msg, at },
-            K::Other(duocan::machine::StationEvent::Machine(crate::SupervisorEvent::Node(
-                ref n,
-            ))) => match n.kind {
+            K::Reach { node, heard } => RedundantEvent::Reach { node, heard, at },
+            K::Discrepancy {
+                pair,
+                function,
+                a,
+                b,
+            } => RedundantEvent::Discrepancy {
+                pair,
+                function,
+                a,
+                b,
+                at,
+            },
+            K::DiscrepancyCleared { pair, function } => {
+                RedundantEvent::DiscrepancyCleared { pair, function, at }
+            }
+            K::Other(StationEvent::Machine(SupervisorEvent::Node(ref n))) => match n.kind {
                 NodeEventKind::HeartbeatResumed { node } => RedundantEvent::SlaveBack { node, at },
+                _ => return None,
+            },
+            K::Other(StationEvent::Machine(SupervisorEvent::Master(ref m))) => match m.kind {
+                MasterEventKind::IdentityMismatch { node, status, .. }
+                | MasterEventKind::ConfigFailed { node, status, .. } => {
+                    RedundantEvent::BootFailed { node, status, at }
+                }
                 _ => return None,
             },
             _ => return None,
@@ -147,7 +214,9 @@ impl RedundantEvent {
             | RedundantEvent::SlaveBack { node, .. }
             | RedundantEvent::BootUp { node, .. }
             | RedundantEvent::State { node, .. }
-            | RedundantEvent::Emcy { node, .. } => Some(node),
+            | RedundantEvent::Emcy { node, .. }
+            | RedundantEvent::Reach { node, .. }
+            | RedundantEvent::BootFailed { node, .. } => Some(node),
             RedundantEvent::PairRole { nodes, to, .. } => to.map(|m| match m {
                 Member::A => nodes[0],
                 Member::B => nodes[1],
@@ -166,7 +235,11 @@ impl RedundantEvent {
             | RedundantEvent::SlaveBack { at, .. }
             | RedundantEvent::BootUp { at, .. }
             | RedundantEvent::State { at, .. }
-            | RedundantEvent::Emcy { at, .. } => Some(at),
+            | RedundantEvent::Emcy { at, .. }
+            | RedundantEvent::Reach { at, .. }
+            | RedundantEvent::Discrepancy { at, .. }
+            | RedundantEvent::DiscrepancyCleared { at, .. }
+            | RedundantEvent::BootFailed { at, .. } => Some(at),
             RedundantEvent::Lagged(_) => None,
         }
     }
@@ -214,6 +287,30 @@ impl fmt::Display for RedundantEvent {
             RedundantEvent::Emcy { node, msg, .. } => {
                 write!(f, "node {:#04x}: EMCY {:#06x}", node.raw(), msg.code)
             }
+            RedundantEvent::Reach { node, heard, .. } => {
+                let on = match heard {
+                    [true, true] => "both buses",
+                    [true, false] => "bus 1 only",
+                    [false, true] => "bus 2 only",
+                    [false, false] => "no bus",
+                };
+                write!(f, "node {:#04x}: heard on {on}", node.raw())
+            }
+            RedundantEvent::Discrepancy { pair, function, .. } => write!(
+                f,
+                "pair {}: A and B disagree on function {function}",
+                pair.0
+            ),
+            RedundantEvent::DiscrepancyCleared { pair, function, .. } => {
+                write!(
+                    f,
+                    "pair {}: A and B agree again on function {function}",
+                    pair.0
+                )
+            }
+            RedundantEvent::BootFailed { node, status, .. } => {
+                write!(f, "node {:#04x}: not started, {status}", node.raw())
+            }
             RedundantEvent::Lagged(n) => write!(f, "{n} events missed"),
         }
     }
@@ -259,5 +356,100 @@ impl RedundantEvents {
                 Err(broadcast::error::RecvError::Closed) => return None,
             }
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use duocan::master::{BootError, MasterEvent};
+    use duocan::Id;
+
+    fn flat(kind: NetworkEventKind) -> Option<RedundantEvent> {
+        RedundantEvent::of(&NetworkEvent {
+            at: Instant::from_millis(7),
+            kind,
+        })
+    }
+
+    #[test]
+    fn discrepancy_and_its_clearing_reach_the_flat_stream() {
+        let (a, b) = (
+            Frame::from_array(Id::Standard(0x190), [1]),
+            Frame::from_array(Id::Standard(0x1D0), [2]),
+        );
+        let e = flat(NetworkEventKind::Discrepancy {
+            pair: PairId(1),
+            function: 1,
+            a,
+            b,
+        })
+        .unwrap();
+        assert_eq!(e.at(), Some(Instant::from_millis(7)));
+        assert_eq!(e.to_string(), "pair 1: A and B disagree on function 1");
+        assert!(matches!(e, RedundantEvent::Discrepancy { a: x, b: y, .. } if x == a && y == b));
+        let e = flat(NetworkEventKind::DiscrepancyCleared {
+            pair: PairId(1),
+            function: 1,
+        })
+        .unwrap();
+        assert_eq!(e.to_string(), "pair 1: A and B agree again on function 1");
+    }
+
+    #[test]
+    fn a_slave_the_boot_process_refused_or_failed_reaches_the_flat_stream() {
+        let node = NodeId::must(0x12);
+        let master = |kind| {
+            flat(NetworkEventKind::Other(StationEvent::Machine(
+                SupervisorEvent::Master(MasterEvent {
+                    at: Instant::from_millis(7),
+                    kind,
+                }),
+            )))
+        };
+        let mismatch = master(MasterEventKind::IdentityMismatch {
+            node,
+            status: ErrorStatus::D,
+            index: 0x1018,
+            sub: 1,
+            expected: 0x1234,
+            actual: 0x4321,
+        })
+        .unwrap();
+        assert_eq!(mismatch.node(), Some(node));
+        assert!(matches!(
+            mismatch,
+            RedundantEvent::BootFailed {
+                status: ErrorStatus::D,
+                ..
+            }
+        ));
+        let failed = master(MasterEventKind::ConfigFailed {
+            node,
+            status: ErrorStatus::J,
+            reason: BootError::NoSuchPdo { pdo: 600 },
+        })
+        .unwrap();
+        assert!(
+            failed
+                .to_string()
+                .starts_with("node 0x12: not started, error status J"),
+            "{failed}"
+        );
+        assert_eq!(failed.at(), Some(Instant::from_millis(7)));
+    }
+
+    #[test]
+    fn reach_says_which_bus_in_words() {
+        let node = NodeId::must(0x7A);
+        let line = |heard| {
+            flat(NetworkEventKind::Reach { node, heard })
+                .unwrap()
+                .to_string()
+        };
+        assert_eq!(line([false, true]), "node 0x7a: heard on bus 2 only");
+        assert_eq!(line([true, false]), "node 0x7a: heard on bus 1 only");
+        assert_eq!(line([true, true]), "node 0x7a: heard on both buses");
+        assert_eq!(line([false, false]), "node 0x7a: heard on no bus");
     }
 }

@@ -72,6 +72,18 @@ async fn the_simulated_station_plays_one_failover_of_each_kind_at_the_configured
     );
     // The bus fails when its port does.
     assert_eq!(failovers[0].at(), Some(after(SIM_BUS_FAILS)));
+    // What the application does not see but a maintainer must: from the cut on, the members
+    // are heard on bus 2 only (reported once each, when their first frame misses bus 1).
+    let reach: Vec<String> = events
+        .iter()
+        .filter(|e| matches!(e, RedundantEvent::Reach { .. }))
+        .filter(|e| e.at() >= Some(after(SIM_BUS_FAILS)))
+        .map(ToString::to_string)
+        .collect();
+    for node in ["0x10", "0x50"] {
+        let line = format!("node {node}: heard on bus 2 only");
+        assert_eq!(reach.iter().filter(|l| **l == line).count(), 1, "{reach:?}");
+    }
     // The takeover: exactly the peer's last heartbeat + the master timeout, and that last
     // heartbeat is the one before the peer stopped (it beats every `hb`).
     let RedundantEvent::MasterRole {
