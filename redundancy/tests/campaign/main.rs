@@ -234,6 +234,10 @@ const REGRESSIONS_SLOW_TX: &[(u64, u64, bool, bool)] = &[
     // Oracle: copies 3 ms apart on the wire (the node that is not duocan sending late on bus
     // 2) on either side of a jump ahead, the second handed over 26 ms later (a lagging port).
     (928, 13, true, true),
+    // Oracle: a request repeated back to back, or its answers, the first copies of the run
+    // on either side of a jump ahead (70 ms): one more delivery for each that straddles it.
+    (3249, 29, true, true),
+    (3377, 56, true, true),
 ];
 
 /// The budget CI runs: seeds and simulated seconds each. Seed `k` leads with a fault of kind
