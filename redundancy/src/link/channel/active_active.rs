@@ -1,7 +1,7 @@
 //! Active-active: every logical frame goes out on every port that is not failed (and on both
 //! when neither is known to reach anyone, unless one is held by a babble); a failed port still
-//! carries the node's own heartbeats, one at a time, as probes; every received frame goes through the exactly-once
-//! merger. No channel to switch.
+//! carries the node's own heartbeats, one at a time, as probes; every received frame goes
+//! through the exactly-once merger. No channel to switch.
 
 use super::{ChannelPolicy, FrameInfo, PortMask, RxRoute, BOTH};
 use crate::link::health::{Health, PortState};
