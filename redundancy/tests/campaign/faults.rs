@@ -249,6 +249,14 @@ impl Device for Impostor {
     }
 }
 
+/// Holds a fault for `dur`: `hold(run, true)` now, `hold(run, false)` when it ends (each sets
+/// the simulator and the timeline's spans alike).
+fn for_a_while(run: &mut Run, dur: Duration, hold: impl Fn(&mut Run, bool) + 'static) {
+    hold(run, true);
+    let end = run.now() + dur;
+    run.at(end, move |r| hold(r, false));
+}
+
 /// Applies `f` from now on (its end scheduled).
 pub fn apply(run: &mut Run, f: Fault) {
     let now = run.now();
@@ -256,12 +264,11 @@ pub fn apply(run: &mut Run, f: Fault) {
         Fault::Noise { bus, permille, dur } => {
             let b = run.plant.buses[bus];
             let rates = FaultRates::NONE.with_corrupt_detected(f64::from(permille) / 1000.0);
-            run.plant.sim.set_bus_faults(b, rates);
-            run.timeline.noisy[bus].start(now);
-            run.at(now + dur, move |r| {
-                r.plant.sim.set_bus_faults(b, FaultRates::NONE);
+            for_a_while(run, dur, move |r, on| {
+                let rates = if on { rates } else { FaultRates::NONE };
+                r.plant.sim.set_bus_faults(b, rates);
                 let t = r.now();
-                r.timeline.noisy[bus].end(t);
+                r.timeline.noisy[bus].set(t, on);
             });
         }
         Fault::Overrun {
@@ -273,12 +280,11 @@ pub fn apply(run: &mut Run, f: Fault) {
             let p = port_of(run, node, port);
             let d = dev_index(run, node);
             let rates = FaultRates::NONE.with_drop(f64::from(permille) / 1000.0);
-            run.plant.sim.set_port_faults(p, rates);
-            run.timeline.devs[d].overrun[port].start(now);
-            run.at(now + dur, move |r| {
-                r.plant.sim.set_port_faults(p, FaultRates::NONE);
+            for_a_while(run, dur, move |r, on| {
+                let rates = if on { rates } else { FaultRates::NONE };
+                r.plant.sim.set_port_faults(p, rates);
                 let t = r.now();
-                r.timeline.devs[d].overrun[port].end(t);
+                r.timeline.devs[d].overrun[port].set(t, on);
             });
         }
         Fault::SlowTx {
@@ -289,13 +295,12 @@ pub fn apply(run: &mut Run, f: Fault) {
         } => {
             let p = port_of(run, node, port);
             let d = dev_index(run, node);
-            run.plant.sim.set_port_tx_latency(p, delay);
-            run.timeline.devs[d].slow_tx[port].start(now);
-            run.at(now + dur, move |r| {
-                r.plant.sim.set_port_tx_latency(p, Duration::ZERO);
-                let t = r.now();
-                // Frames handed over just before still wait their delay.
-                r.timeline.devs[d].slow_tx[port].end(t + delay);
+            for_a_while(run, dur, move |r, on| {
+                let latency = if on { delay } else { Duration::ZERO };
+                r.plant.sim.set_port_tx_latency(p, latency);
+                // At the end, frames handed over just before still wait their delay.
+                let t = r.now() + (if on { Duration::ZERO } else { delay });
+                r.timeline.devs[d].slow_tx[port].set(t, on);
             });
         }
         Fault::Cut { bus, dur } => {
@@ -372,24 +377,26 @@ pub fn apply(run: &mut Run, f: Fault) {
         Fault::Babble { node, port, dur } => {
             let p = port_of(run, node, port);
             let flood = Frame::from_array(Id::Standard(0x001), [0xFF; 8]);
-            run.plant.sim.babble(p, Some(flood));
-            run.timeline.babbled[port].start(now);
-            run.at(now + dur, move |r| {
-                r.plant.sim.babble(p, None);
+            for_a_while(run, dur, move |r, on| {
+                r.plant.sim.babble(p, on.then_some(flood));
                 let t = r.now();
-                r.timeline.babbled[port].end(t);
-                stalled_after_babble(r, port);
+                r.timeline.babbled[port].set(t, on);
+                if !on {
+                    stalled_after_babble(r, port);
+                }
             });
         }
         Fault::Unplug { node, port, dur } => {
             let p = port_of(run, node, port);
             let d = dev_index(run, node);
-            run.plant.sim.disconnect(p);
-            run.timeline.devs[d].unplugged[port].start(now);
-            run.at(now + dur, move |r| {
-                r.plant.sim.reconnect(p);
+            for_a_while(run, dur, move |r, on| {
+                if on {
+                    r.plant.sim.disconnect(p);
+                } else {
+                    r.plant.sim.reconnect(p);
+                }
                 let t = r.now();
-                r.timeline.devs[d].unplugged[port].end(t);
+                r.timeline.devs[d].unplugged[port].set(t, on);
             });
         }
         Fault::Impostor { node, bus, dur } => {

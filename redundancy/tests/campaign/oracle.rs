@@ -86,6 +86,33 @@ struct Occurrence {
     wire: [Option<Instant>; 2],
 }
 
+impl Occurrence {
+    /// When its two copies ended on the wire, the earlier first (`None` unless both did).
+    fn on_wire(&self) -> Option<(Instant, Instant)> {
+        match self.wire {
+            [Some(a), Some(b)] => Some((a.min(b), a.max(b))),
+            _ => None,
+        }
+    }
+}
+
+/// Two instants closer than the skew window.
+fn within_window(a: Instant, b: Instant) -> bool {
+    a.as_micros().abs_diff(b.as_micros()) < SKEW_WINDOW.as_micros()
+}
+
+/// Whether a receiver's record (`list`: time, sender, frame) holds `o`'s frame from another
+/// sender at a time `near` accepts.
+fn other_sender(
+    list: Option<&VecDeque<(Instant, usize, Frame)>>,
+    o: &Occurrence,
+    near: impl Fn(Instant) -> bool,
+) -> bool {
+    list.into_iter()
+        .flatten()
+        .any(|(t, s, f)| *s != o.sender && *f == o.frame && near(*t))
+}
+
 /// A heartbeat (not a boot-up): what may be superseded.
 fn is_heartbeat(f: &Frame) -> bool {
     matches!(f.id(), Id::Standard(0x701..=0x77F)) && f.data().len() == 1 && f.data()[0] != 0
@@ -414,12 +441,9 @@ impl Oracle {
     /// be matched with `o` has both its copies on the wire by the time `o` is judged.)
     fn apart(&mut self, o: &Occurrence) -> bool {
         let near = SKEW_WINDOW + HORIZON;
-        let spread = |o: &Occurrence| match o.wire {
-            [Some(a), Some(b)] => a.as_micros().abs_diff(b.as_micros()) >= SKEW_WINDOW.as_micros(),
-            _ => false,
-        };
-        if spread(o) {
-            let until = o.wire.iter().flatten().max().copied().unwrap_or(o.at) + near;
+        let spread = |o: &Occurrence| o.on_wire().filter(|(a, b)| !within_window(*a, *b));
+        if let Some((_, last)) = spread(o) {
+            let until = last + near;
             self.apart_until = Some(self.apart_until.map_or(until, |u| u.max(until)));
         }
         self.apart_until.is_some_and(|u| o.at <= u)
@@ -427,7 +451,7 @@ impl Oracle {
                 .pending
                 .iter()
                 .take_while(|n| n.at <= o.at + near)
-                .any(|n| n.sender == o.sender && spread(n))
+                .any(|n| n.sender == o.sender && spread(n).is_some())
     }
 
     /// Whether `o`'s copies left within the skew window of each other, on either side of a
@@ -436,13 +460,8 @@ impl Oracle {
     /// (quiet seeds 608, 928 and 934: behind a lagging port, the first handed over after the
     /// jump, or the second a lag later).
     fn straddles(&self, o: &Occurrence, r: usize, wiring: &dyn Wiring) -> bool {
-        match o.wire {
-            [Some(a), Some(b)] => {
-                let (a, b) = (a.min(b), a.max(b));
-                b.saturating_since(a) < SKEW_WINDOW && wiring.jumped(r, a, b)
-            }
-            _ => false,
-        }
+        o.on_wire()
+            .is_some_and(|(a, b)| within_window(a, b) && wiring.jumped(r, a, b))
     }
 
     /// Node `node`'s link was handed the copy (at `now` on its clock) and did not deliver it.
@@ -467,11 +486,9 @@ impl Oracle {
             [o.arrived[r], o.last_arrived[r]]
                 .into_iter()
                 .flatten()
-                .any(|a| a.as_micros().abs_diff(t.as_micros()) < SKEW_WINDOW.as_micros())
+                .any(|a| within_window(a, t))
         };
-        let judged = (self.passed.get(r).into_iter().flatten())
-            .any(|(t, s, f)| *s != o.sender && *f == o.frame && near(*t));
-        judged
+        other_sender(self.passed.get(r), o, near)
             || self.pending.iter().any(|n| {
                 n.sender != o.sender
                     && n.frame == o.frame
@@ -487,13 +504,7 @@ impl Oracle {
         let (Some(t), true) = (o.arrived[r], o.reached[r] == 1) else {
             return false;
         };
-        self.recent.get(r).is_some_and(|v| {
-            v.iter().any(|(d, s, f)| {
-                *s != o.sender
-                    && *f == o.frame
-                    && d.as_micros().abs_diff(t.as_micros()) < SKEW_WINDOW.as_micros()
-            })
-        })
+        other_sender(self.recent.get(r), o, |d| within_window(d, t))
     }
 
     /// Evens out the deliveries of `o` (about to be judged) and the occurrences of the same

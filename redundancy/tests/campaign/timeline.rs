@@ -29,6 +29,14 @@ impl Spans {
             s.1 = t;
         }
     }
+    /// Starts (`on`) or ends a span at `t`.
+    pub fn set(&mut self, t: Instant, on: bool) {
+        if on {
+            self.start(t);
+        } else {
+            self.end(t);
+        }
+    }
     /// Holds at any time of `[from, to]`.
     pub fn any(&self, from: Instant, to: Instant) -> bool {
         self.0.iter().any(|s| s.0 <= to && s.1 > from)
