@@ -112,6 +112,13 @@ pub enum LinkRequest {
         node: NodeId,
         /// True from the verdict on, false once every reason has ended.
         suspect: bool,
+        /// At the verdict: its heartbeats come far too fast on *both* buses, so a second
+        /// device beats with its node-ID beside it (a duplicate node-ID, a babble on both).
+        /// They tell nothing of the node then, whose own board may well run; a reset would
+        /// reach both devices. False when the evidence is that the node may be gone: one bus
+        /// too fast while the other is silent for it, or heard on one bus only. Always false
+        /// with `suspect` false.
+        duplicated: bool,
     },
 }
 

@@ -11,8 +11,8 @@
 //! - a lag on a port: that device's port handed a frame over late (after its receive stamp);
 //! - a babble: a port on that bus failed for a transmit stall;
 //! - an unplugged port: that device's port left `Ok`;
-//! - an impostor: a master found the node's heartbeats implausible (suspect, duplicate,
-//!   babbling);
+//! - an impostor, a live board's duplicate: a master found the node's heartbeats implausible
+//!   (suspect, duplicate, babbling);
 //! - a board that stops: a master saw its heartbeat say so;
 //! - noise: error reports on that bus; an overrun: that controller's overflow reports;
 //! - a slow transmitter: a frame waited in that controller for its delay;
@@ -203,7 +203,7 @@ fn took_effect(run: &Run, f: Fault, from: Instant, to: Instant, before: &Counter
         Fault::Unplug { node, port, .. } => {
             port_left_ok(&link_events(run, node, from, to), port)
         }
-        Fault::Impostor { node, .. } => {
+        Fault::Impostor { node, .. } | Fault::Duplicate { node, .. } => {
             let events = [STRONG, WEAK]
                 .into_iter()
                 .flat_map(|m| link_events(run, m, from, to));

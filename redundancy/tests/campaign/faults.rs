@@ -64,6 +64,9 @@ pub enum Fault {
     /// A pair's board dies (power off) and an impostor beats its heartbeat on `bus` for `dur`;
     /// then the board comes back.
     Impostor { node: u8, bus: usize, dur: Duration },
+    /// A second device with a live board's node-ID beats its heartbeat (operational) on both
+    /// buses for `dur` (a spare configured with the same node-ID, plugged in by mistake).
+    Duplicate { node: u8, dur: Duration },
     /// A board puts itself in `state` (its application, its error behaviour).
     Stops { node: u8, state: NmtState },
     /// A board dies for `dur`, then boots again.
@@ -124,6 +127,7 @@ impl Fault {
             Fault::Noise { .. } => "noisy bus",
             Fault::Overrun { .. } => "controller overrun",
             Fault::SlowTx { .. } => "slow transmitter",
+            Fault::Duplicate { .. } => "duplicate node-ID of a live board",
         }
     }
 
@@ -141,7 +145,8 @@ impl Fault {
             | Fault::MasterDies { dur, .. }
             | Fault::Noise { dur, .. }
             | Fault::Overrun { dur, .. }
-            | Fault::SlowTx { dur, .. } => dur,
+            | Fault::SlowTx { dur, .. }
+            | Fault::Duplicate { dur, .. } => dur,
             Fault::Sequence {
                 dur,
                 overlap,
@@ -218,28 +223,33 @@ fn set_lag(run: &mut Run, node: u8, port: usize, lag: Duration) {
     }
 }
 
-/// A device that beats `node`'s heartbeat (operational) on one bus every 20 ms.
+/// A device that beats `node`'s heartbeat (operational) every 20 ms on each of its ports (one
+/// bus, or both).
 pub struct Impostor {
     frame: Frame,
     next: Option<Instant>,
-    out: Option<Frame>,
+    ports: usize,
+    out: heapless::Deque<usize, 2>,
 }
 
 impl Device for Impostor {
     type Event = ();
     fn port_count(&self) -> usize {
-        1
+        self.ports
     }
     fn handle_rx(&mut self, _: Instant, _: usize, _: &Frame) {}
     fn handle_port_status(&mut self, _: Instant, _: usize, _: PortStatus) {}
     fn handle_timeout(&mut self, now: Instant) {
         while let Some(t) = self.next.filter(|t| *t <= now) {
-            self.out = Some(self.frame);
+            self.out.clear();
+            for p in 0..self.ports {
+                let _ = self.out.push_back(p);
+            }
             self.next = Some(t + SLAVE_HB);
         }
     }
     fn poll_transmit(&mut self) -> Option<(usize, Frame)> {
-        self.out.take().map(|f| (0, f))
+        self.out.pop_front().map(|p| (p, self.frame))
     }
     fn poll_timeout(&self) -> Option<Instant> {
         self.next
@@ -399,8 +409,17 @@ pub fn apply(run: &mut Run, f: Fault) {
                 r.timeline.devs[d].unplugged[port].set(t, on);
             });
         }
-        Fault::Impostor { node, bus, dur } => {
-            board_off(run, node);
+        Fault::Impostor { .. } | Fault::Duplicate { .. } => {
+            let impostor = matches!(f, Fault::Impostor { .. });
+            let (node, dur, buses) = match f {
+                Fault::Impostor { node, bus, dur } => {
+                    board_off(run, node);
+                    (node, dur, vec![run.plant.buses[bus]])
+                }
+                // The board stays as it is: its own faults power it on and off.
+                Fault::Duplicate { node, dur } => (node, dur, run.plant.buses.to_vec()),
+                _ => unreachable!(),
+            };
             let frame = Frame::from_array(
                 Id::Standard(0x700 + node as u16),
                 [NmtState::Operational.code()],
@@ -408,13 +427,13 @@ pub fn apply(run: &mut Run, f: Fault) {
             let imp = Impostor {
                 frame,
                 next: Some(now + SLAVE_HB),
-                out: None,
+                ports: buses.len(),
+                out: heapless::Deque::new(),
             };
-            let b = run.plant.buses[bus];
             let d = run
                 .plant
                 .sim
-                .add_device(format!("impostor{node:#x}"), imp, &[b])
+                .add_device(format!("impostor{node:#x}"), imp, &buses)
                 .unwrap();
             let mut spans = crate::timeline::Spans::default();
             spans.start(now);
@@ -425,7 +444,9 @@ pub fn apply(run: &mut Run, f: Fault) {
                 if let Some(x) = r.timeline.impostors.iter_mut().rev().find(|x| x.0 == node) {
                     x.1.end(t);
                 }
-                board_on(r, node);
+                if impostor {
+                    board_on(r, node);
+                }
             });
         }
         Fault::Stops { node, state } => {
@@ -582,7 +603,11 @@ pub fn random(rng: &mut Rng, pairs: u8, connectivity_free: bool, kinds: usize) -
 }
 
 /// How many kinds of fault [`draw`] knows (every class, some in two shapes).
-pub const KINDS: usize = 21;
+pub const KINDS: usize = 22;
+
+/// The kinds the campaign knew before a live board's duplicate: the seeds in
+/// `REGRESSIONS_SLOW_TX` draw from these.
+pub const KINDS_BEFORE_DUPLICATE: usize = 21;
 
 /// The kinds the campaign knew before slow transmitters: the seeds in `REGRESSIONS_ALL_KINDS`
 /// and `REGRESSIONS_QUIET` draw from these.
@@ -713,6 +738,10 @@ pub fn draw(rng: &mut Rng, pairs: u8, k: usize) -> Fault {
                     dur: rng.ms(200, 3_000),
                 }
             }
+            21 => Fault::Duplicate {
+                node: board(rng),
+                dur: rng.ms(300, 2_000),
+            },
             14 => Fault::Lag {
                 node: any_node(rng),
                 port: rng.below(2) as usize,

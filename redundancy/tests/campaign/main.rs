@@ -240,6 +240,22 @@ const REGRESSIONS_SLOW_TX: &[(u64, u64, bool, bool)] = &[
     (3377, 56, true, true),
 ];
 
+/// Seeds that failed once a live board's node-ID duplicated on both buses joined the kinds:
+/// the seed, the simulated seconds that reach the failure, on the quiet network (every one
+/// with the node that is not duocan).
+const REGRESSIONS_DUPLICATE: &[(u64, u64, bool)] = &[
+    // The member, suspect, was reset: the reset reached the board, its boot-up was dropped as
+    // the other device's twin, and it waited unconfigured; the other member's death meanwhile
+    // left the pair without a running board for 401 ms.
+    (127, 8, true),
+    // Stopped for a live standby that then died: nothing started it while the duplicate beat.
+    (593, 4, false),
+    // The board alone after the duplicate left, its heartbeats kept dropped while its own
+    // heartbeats drained the bucket (18 periods); a boot-up among them.
+    (5, 28, true),
+    (40, 30, true),
+];
+
 /// The budget CI runs: seeds and simulated seconds each. Seed `k` leads with a fault of kind
 /// `k mod KINDS`, so that the budget reaches every class whatever the draws.
 const SEEDS: u64 = faults::KINDS as u64;
@@ -387,6 +403,7 @@ const CLASSES: &[&str] = &[
     "noisy bus",
     "controller overrun",
     "slow transmitter",
+    "duplicate node-ID of a live board",
 ];
 
 #[test]
@@ -453,8 +470,13 @@ fn every_seed_that_once_failed_passes() {
         .map(|(r, k, q)| (*r, k, q, false));
     let slow = REGRESSIONS_SLOW_TX
         .iter()
-        .map(|&(seed, secs, quiet, foreign)| ((seed, secs), faults::KINDS, quiet, foreign));
-    for ((seed, secs), kinds, quiet, foreign) in runs.chain(slow) {
+        .map(|&(seed, secs, quiet, foreign)| {
+            ((seed, secs), faults::KINDS_BEFORE_DUPLICATE, quiet, foreign)
+        });
+    let duplicate = REGRESSIONS_DUPLICATE
+        .iter()
+        .map(|&(seed, secs, quiet)| ((seed, secs), faults::KINDS, quiet, true));
+    for ((seed, secs), kinds, quiet, foreign) in runs.chain(slow).chain(duplicate) {
         if let Err(e) = on_big_stack(move || campaign(seed, secs, kinds, quiet, foreign)) {
             failed.push(e);
         }

@@ -2,7 +2,9 @@
 //! arrived?" ([`crate::oracle::Wiring`]).
 
 use crate::oracle::Wiring;
+use crate::plant::SLAVE_HB;
 use duocan::{Duration, Frame, Id, Instant};
+use duocan_redundancy::link::plausible::CALM_WINDOWS;
 
 /// Around a change of the wiring, frames are not judged lost: what was on the wire or queued at
 /// the cut, and the copies a sender put on a bus in the instant before it learnt it was cut.
@@ -181,13 +183,15 @@ impl Wiring for Timeline {
             return true;
         }
         // The heartbeats of a node an impostor beats for: the layer judges them implausible on
-        // a bus and drops that bus's copies (as it must).
+        // a bus and drops that bus's copies (as it must), up to the rule's tail after the
+        // impostor's last heartbeat (the period it was in and two calm ones).
         if let Id::Standard(id @ 0x701..=0x77F) = frame.id() {
             let node = (id & 0x7F) as u8;
+            let tail = SLAVE_HB.saturating_mul(CALM_WINDOWS as u64 + 1);
             return self
                 .impostors
                 .iter()
-                .any(|(n, sp)| *n == node && sp.any(from, to));
+                .any(|(n, sp)| *n == node && sp.any(t - tail - MARGIN, to));
         }
         false
     }

@@ -62,7 +62,7 @@ fn drive(l: &mut DualBus, arrivals: &[Arrival]) -> Outcome {
     let mut o = Outcome::default();
     let collect = |l: &mut DualBus, now: u64, o: &mut Outcome| {
         while let Some(r) = l.poll_machine_request() {
-            if let LinkRequest::NodeSuspect { node, suspect } = r {
+            if let LinkRequest::NodeSuspect { node, suspect, .. } = r {
                 o.verdicts.push((now, node.raw(), suspect));
             }
         }

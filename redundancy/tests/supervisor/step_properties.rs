@@ -28,7 +28,7 @@ const T0: u64 = 10 * 3600 * 1_000_000;
 #[derive(Clone, Copy, Debug)]
 enum Input {
     Rx(Frame),
-    Verdict(u8, bool),
+    Verdict(u8, bool, bool),
     /// Member 0x10 + i answers the master's SDO requests from now on (or not).
     Answer(usize, bool),
 }
@@ -64,7 +64,8 @@ fn op() -> impl Strategy<Value = (u64, Input)> {
     let gap = prop_oneof![8 => 0..15 * MS, 1 => 30 * MS..300 * MS];
     let what = prop_oneof![
         12 => (any::<u8>(), any::<u8>()).prop_map(|(k, v)| Input::Rx(frame(k, v))),
-        1 => (0u8..2, any::<bool>()).prop_map(|(n, s)| Input::Verdict(0x10 + n, s)),
+        1 => (0u8..2, any::<bool>(), any::<bool>())
+            .prop_map(|(n, s, d)| Input::Verdict(0x10 + n, s, s && d)),
         1 => (0usize..2, prop::bool::weighted(0.8)).prop_map(|(m, a)| Input::Answer(m, a)),
     ];
     (gap, what)
@@ -210,10 +211,14 @@ impl Driver {
         self.latest = now;
         match input {
             Input::Rx(f) => self.s.handle_frame(now, &f),
-            Input::Verdict(node, suspect) => {
+            Input::Verdict(node, suspect, duplicated) => {
                 let node = NodeId::must(node);
-                self.s
-                    .handle_link_request(now, LinkRequest::NodeSuspect { node, suspect });
+                let req = LinkRequest::NodeSuspect {
+                    node,
+                    suspect,
+                    duplicated,
+                };
+                self.s.handle_link_request(now, req);
             }
             Input::Answer(m, on) => self.answering[m] = on,
         }

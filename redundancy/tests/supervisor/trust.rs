@@ -27,7 +27,7 @@ fn a_suspect_active_member_is_replaced_at_once_and_its_heartbeats_count_for_noth
     s.heartbeat(ms(25), A, NmtState::Operational);
     s.heartbeat(ms(26), B, NmtState::PreOperational);
     // The layer's verdict at 30 ms, well before A's deadline (75 ms).
-    s.suspect(ms(30), A, true);
+    s.suspect(ms(30), A, true, false);
     assert!(s.is_suspect(A) && !s.is_suspect(B));
     let cmds = commands(&mut s);
     let ev: Vec<_> = core::iter::from_fn(|| s.poll_event()).collect();
@@ -56,7 +56,7 @@ fn a_suspect_active_member_is_replaced_at_once_and_its_heartbeats_count_for_noth
     assert_eq!(st.member(Member::A).phase(), Phase::Waiting);
     assert_eq!(st.active, Some(Member::B));
     // Trusted again: its next heartbeat is news, adopted after the hold-off (200 ms).
-    s.suspect(ms(400), A, false);
+    s.suspect(ms(400), A, false, false);
     assert!(commands(&mut s).is_empty());
     s.heartbeat(ms(405), A, NmtState::PreOperational);
     s.handle_timeout(ms(604));
@@ -70,12 +70,12 @@ fn a_suspect_standby_is_reset_the_active_keeps_running() {
     let (mut s, p) = running();
     commands(&mut s);
     events(&mut s);
-    s.suspect(ms(30), B, true);
+    s.suspect(ms(30), B, true, false);
     assert_eq!(nmts(&mut s), [(NmtCommand::ResetNode, 0x11)]);
     assert!(roles(&mut s).is_empty());
     assert_eq!(s.pair(p).unwrap().active, Some(Member::A));
     // A verdict repeated changes nothing.
-    s.suspect(ms(31), B, true);
+    s.suspect(ms(31), B, true, false);
     assert!(commands(&mut s).is_empty());
 }
 
@@ -86,7 +86,7 @@ fn a_suspect_only_member_is_reset_and_the_pair_has_none() {
     s.configured(ms(5), A, true);
     commands(&mut s);
     events(&mut s);
-    s.suspect(ms(30), A, true);
+    s.suspect(ms(30), A, true, false);
     assert_eq!(nmts(&mut s), [(NmtCommand::ResetNode, 0x10)]);
     assert_eq!(
         roles(&mut s),
@@ -104,7 +104,7 @@ fn a_suspect_standby_never_takes_the_role_even_for_an_instant() {
     commands(&mut s);
     events(&mut s);
     s.heartbeat(ms(30), B, NmtState::PreOperational);
-    s.suspect(ms(60), B, true);
+    s.suspect(ms(60), B, true, false);
     assert_eq!(
         roles(&mut s),
         [(
@@ -122,10 +122,145 @@ fn a_suspect_standby_never_takes_the_role_even_for_an_instant() {
 }
 
 #[test]
+fn a_duplicated_active_member_is_replaced_and_sent_to_pre_operational_not_reset() {
+    // A second device beats A's heartbeat on both buses: A's own board may well run, so it is
+    // not reset (its boot-up would be dropped as the duplicate's twin); it is stopped, the
+    // standby started, and once trusted its heartbeats adopt it again without a reboot.
+    let (mut s, p) = running();
+    commands(&mut s);
+    events(&mut s);
+    s.heartbeat(ms(25), A, NmtState::Operational);
+    s.heartbeat(ms(26), B, NmtState::PreOperational);
+    s.suspect(ms(30), A, true, true);
+    assert!(s.is_duplicated(A));
+    assert_eq!(
+        nmts(&mut s),
+        [
+            (NmtCommand::Start, 0x11),
+            (NmtCommand::EnterPreOperational, 0x10)
+        ]
+    );
+    assert_eq!(
+        roles(&mut s),
+        [(
+            ms(30),
+            Some(Member::A),
+            Some(Member::B),
+            RoleReason::ActiveSuspect
+        )]
+    );
+    // The duplicate's "operational" and A's "pre-operational" count for nothing meanwhile.
+    for t in (45..400).step_by(10) {
+        s.heartbeat(ms(t), A, NmtState::Operational);
+        s.heartbeat(ms(t + 1), B, NmtState::Operational);
+        s.handle_timeout(ms(t + 1));
+    }
+    assert!(nmts(&mut s).is_empty());
+    s.suspect(ms(400), A, false, false);
+    assert!(!s.is_duplicated(A) && !s.is_suspect(A));
+    for t in (405..620).step_by(20) {
+        s.heartbeat(ms(t), A, NmtState::PreOperational);
+        s.heartbeat(ms(t + 1), B, NmtState::Operational);
+    }
+    s.handle_timeout(ms(605));
+    assert_eq!(configures(&commands(&mut s)), [0x10]);
+    events(&mut s);
+    s.configured(ms(610), A, true);
+    assert_eq!(s.pair(p).unwrap().member(Member::A).phase(), Phase::Joined);
+    // Back in its pair as the standby.
+    assert!(roles(&mut s).is_empty());
+    assert_eq!(s.pair(p).unwrap().active, Some(Member::B));
+}
+
+#[test]
+fn a_duplicated_only_member_is_started_as_the_last_resort_until_the_other_takes_over() {
+    // B is dead when A's heartbeat is duplicated: A is started, not reset (its board may be the
+    // pair's only running one), and the pair has no active member in the table. When B comes
+    // back and is started, A is sent to pre-operational: one running board.
+    let (mut s, p) = running();
+    commands(&mut s);
+    events(&mut s);
+    s.heartbeat(ms(25), A, NmtState::Operational);
+    s.handle_timeout(ms(56));
+    assert_eq!(
+        nmts(&mut s),
+        [(NmtCommand::ResetNode, 0x11)],
+        "B silent at 56 ms"
+    );
+    s.heartbeat(ms(45), A, NmtState::Operational);
+    s.suspect(ms(60), A, true, true);
+    assert_eq!(nmts(&mut s), [(NmtCommand::Start, 0x10)]);
+    assert_eq!(
+        roles(&mut s),
+        [(ms(60), Some(Member::A), None, RoleReason::ActiveSuspect)]
+    );
+    s.boot_up(ms(100), B);
+    commands(&mut s);
+    s.configured(ms(110), B, true);
+    assert_eq!(
+        nmts(&mut s),
+        [
+            (NmtCommand::Start, 0x11),
+            (NmtCommand::EnterPreOperational, 0x10)
+        ]
+    );
+    assert_eq!(s.pair(p).unwrap().active, Some(Member::B));
+}
+
+#[test]
+fn a_duplicated_member_stopped_for_a_live_standby_is_started_when_that_one_dies() {
+    let (mut s, p) = running();
+    commands(&mut s);
+    s.heartbeat(ms(25), A, NmtState::Operational);
+    s.heartbeat(ms(26), B, NmtState::PreOperational);
+    s.suspect(ms(30), A, true, true);
+    assert_eq!(
+        nmts(&mut s),
+        [
+            (NmtCommand::Start, 0x11),
+            (NmtCommand::EnterPreOperational, 0x10)
+        ]
+    );
+    s.heartbeat(ms(40), B, NmtState::Operational);
+    events(&mut s);
+    // B silent from 40 ms: its deadline at 90 ms. A is the last resort.
+    s.handle_timeout(ms(90));
+    assert_eq!(
+        nmts(&mut s),
+        [(NmtCommand::ResetNode, 0x11), (NmtCommand::Start, 0x10)]
+    );
+    assert_eq!(
+        roles(&mut s),
+        [(
+            ms(90),
+            Some(Member::B),
+            None,
+            RoleReason::OnlyMemberSilent { last: ms(40) }
+        )]
+    );
+    assert_eq!(s.pair(p).unwrap().active, None);
+}
+
+#[test]
+fn a_duplicated_standby_is_left_alone() {
+    let (mut s, p) = running();
+    commands(&mut s);
+    events(&mut s);
+    s.suspect(ms(30), B, true, true);
+    assert!(nmts(&mut s).is_empty());
+    assert!(roles(&mut s).is_empty());
+    let st = s.pair(p).unwrap();
+    assert_eq!(
+        (st.member(Member::B).phase(), st.active),
+        (Phase::Waiting, Some(Member::A))
+    );
+}
+
+#[test]
 fn a_member_configured_while_suspect_waits_unstarted_and_unreset() {
     let (mut s, p) = table(PairsConfig::default());
     s.boot_up(ms(0), A);
-    s.suspect(ms(2), A, true);
+    s.suspect(ms(2), A, true, false);
     s.configured(ms(5), A, true);
     s.handle_timeout(ms(5));
     assert!(nmts(&mut s).is_empty());
@@ -139,7 +274,7 @@ fn a_shadow_records_the_verdict_and_acts_on_it_when_it_takes_command() {
     s.set_authority(ms(20), Authority::Shadow);
     commands(&mut s);
     events(&mut s);
-    s.suspect(ms(30), A, true);
+    s.suspect(ms(30), A, true, false);
     assert!(commands(&mut s).is_empty());
     // Its heartbeats (the impostor's) no longer keep it alive in the shadow table either.
     s.heartbeat(ms(45), A, NmtState::Operational);
@@ -212,10 +347,11 @@ fn a_standby_started_by_someone_else_goes_back_at_its_first_operational_heartbea
 
 proptest! {
     /// Whatever the observations and verdicts, with a commanding table: a suspect member is
-    /// never joined nor active once the instant is handled, and no start goes to it.
+    /// never joined nor active once the instant is handled, and no start goes to it but the
+    /// last resort's (its heartbeats shared, the pair without an active member).
     #[test]
     fn a_suspect_member_never_runs_for_the_table(
-        ops in prop::collection::vec((0u8..8, any::<bool>(), 1u64..40), 1..200)
+        ops in prop::collection::vec((0u8..9, any::<bool>(), 1u64..40), 1..200)
     ) {
         let (mut s, p) = table(PairsConfig::default());
         let mut t = ms(0);
@@ -223,8 +359,9 @@ proptest! {
             t += Duration::from_millis(dt);
             let n = if which { A } else { B };
             match op {
-                5 => s.suspect(t, n, true),
-                6 => s.suspect(t, n, false),
+                5 => s.suspect(t, n, true, false),
+                6 => s.suspect(t, n, false, false),
+                8 => s.suspect(t, n, true, true),
                 op => observe(&mut s, op, n, t),
             }
             s.handle_timeout(t);
@@ -238,7 +375,12 @@ proptest! {
             }
             for c in commands(&mut s) {
                 if let PairCommand::Nmt { cmd: NmtCommand::Start, node } = c {
-                    prop_assert!(!s.is_suspect(node), "start of a suspect member");
+                    // Only the last resort starts one: a member a second device shares
+                    // heartbeats with, in a pair that has no active member.
+                    prop_assert!(
+                        !s.is_suspect(node) || (s.is_duplicated(node) && s.pair(p).unwrap().active.is_none()),
+                        "start of a suspect member"
+                    );
                 }
             }
         }

@@ -38,6 +38,12 @@
 //! board died makes it suspect 1.5 periods after its last heartbeat on the other bus, before
 //! its consumer time runs out. A bus's verdict ends when the bucket has drained:
 //! at the latest `(BURST + 2) · 3T/4` after the last excess frame while nothing else arrives.
+//! While the node beats on alone at its pace (the other device gone), each of its heartbeats
+//! drains only a quarter period, and the drain would take 18 periods, all of them dropped: so
+//! the verdict also ends, the bucket emptied, at the first heartbeat after
+//! [`CALM_WINDOWS`] whole periods in a row (counted from the verdict, by the frames' stamps)
+//! that carried one heartbeat each at most; with the other device still there each period
+//! carries two, and the verdict holds.
 //! One period after the verdict the rate measured over `[verdict, verdict + T)` is reported:
 //! [`Babbling`](crate::LinkEventKind::Babbling) (identifier, bus, frames/s) when it is more
 //! than [`BABBLE_FACTOR`] times the producer rate, [`DuplicateNode`][dup] otherwise (devices
@@ -136,6 +142,8 @@ pub const DEFAULT_FRAME_TIME: Duration = Duration::from_millis(2);
 /// A rate measured above this many times the producer rate is a babbling identifier; up to it,
 /// devices sharing a node-ID.
 pub const BABBLE_FACTOR: u64 = 4;
+/// Whole periods in a row with one heartbeat at most that end a bus's verdict (see rule 1).
+pub const CALM_WINDOWS: u8 = 2;
 const NEVER: u64 = u64::MAX;
 
 /// One bus of a watched node.
@@ -156,6 +164,11 @@ struct Track {
     fast: bool,
     /// Theoretical arrival time of the boot-ups' own bucket, in quarter microseconds.
     boots: u64,
+    /// While the verdict holds: the start (µs) of the current period-long window, its
+    /// heartbeats so far, and the whole windows in a row before it with one at most.
+    window: u64,
+    seen: u16,
+    calm: u8,
 }
 
 impl Track {
@@ -167,9 +180,34 @@ impl Track {
         measuring: false,
         fast: false,
         boots: 0,
+        window: 0,
+        seen: 0,
+        calm: 0,
     };
     fn fast(&self) -> bool {
         self.fast
+    }
+    /// While the verdict holds, a heartbeat stamped `t` (`tq` in quarter microseconds): closes
+    /// the windows it ends and counts it in its own. [`CALM_WINDOWS`] whole periods in a row
+    /// with one heartbeat at most are the node alone at its pace, which would take 18 periods
+    /// to drain the bucket (a quarter period each): the bucket is emptied, and the verdict
+    /// ends. Judged by the frames' stamps, so a bus handed over late judges the same periods.
+    fn calm_windows(&mut self, t: u64, tq: u64, period: u64) {
+        // Past the current window, every window is empty: at most `CALM_WINDOWS` + 1 turns.
+        while t >= self.window.saturating_add(period) {
+            self.window = self.window.saturating_add(period);
+            self.calm = if self.seen <= 1 {
+                self.calm.saturating_add(1)
+            } else {
+                0
+            };
+            self.seen = 0;
+            if self.calm >= CALM_WINDOWS {
+                self.tat = self.tat.min(tq);
+                return;
+            }
+        }
+        self.seen = self.seen.saturating_add(1);
     }
 }
 
@@ -567,6 +605,7 @@ impl Plausibility {
                 for tr in w.ports.iter_mut() {
                     back(&mut tr.last);
                     back(&mut tr.since);
+                    back(&mut tr.window);
                     tr.tat = tr.tat.saturating_sub(by.saturating_mul(4));
                     tr.boots = tr.boots.saturating_sub(by.saturating_mul(4));
                 }

@@ -112,6 +112,9 @@ impl Plausibility {
             }
             tr.boots = boots.min(tq.saturating_add(2 * d));
         }
+        if tr.fast {
+            tr.calm_windows(t, tq, period);
+        }
         if tr.tat <= tq {
             // Drained: a verdict ended at `tat` (the sweep normally saw to it on time).
             tr.fast = false;
@@ -126,6 +129,7 @@ impl Plausibility {
         let started = excess && !tr.fast;
         if started {
             tr.fast = true;
+            (tr.window, tr.seen, tr.calm) = (t, 1, 0);
             if !tr.measuring {
                 // The window is [t, t + T): this heartbeat and those of one period after it.
                 tr.since = t;
@@ -366,9 +370,12 @@ impl Plausibility {
             self.unsynced = true;
             return;
         }
+        // Both buses too fast, neither silent: a second device beats beside the node.
+        let duplicated = suspect && w.one_bus.is_none() && w.ports.iter().all(Track::fast);
         out.machine(LinkRequest::NodeSuspect {
             node: w.node,
             suspect,
+            duplicated,
         });
         w.told = suspect;
         if !suspect {

@@ -81,7 +81,7 @@ impl Rig {
     fn requests(&mut self) -> Vec<(u8, bool)> {
         core::iter::from_fn(|| self.out.machine.pop())
             .map(|r| match r {
-                LinkRequest::NodeSuspect { node, suspect } => (node.raw(), suspect),
+                LinkRequest::NodeSuspect { node, suspect, .. } => (node.raw(), suspect),
                 other => panic!("{other:?}"),
             })
             .collect()
@@ -204,6 +204,58 @@ fn a_second_device_at_the_same_period_is_a_duplicate_not_a_babble() {
             }
         )
     );
+}
+
+#[test]
+fn a_duplicate_on_both_buses_is_told_as_such_and_the_node_alone_after_it_is_trusted_in_two_periods()
+{
+    // A second device beats 0x10's heartbeat on both buses, 5 ms after the node's own, from
+    // 1 s to 1.3 s; the node beats on alone at its period after that.
+    let mut r = Rig::new();
+    let mut dropped = vec![];
+    let mut t = 1_000_000;
+    while t < 1_600_000 {
+        for p in 0..2 {
+            if r.beat(us(t + p as u64 * 300), p, 0x10, 5) {
+                dropped.push(t + p as u64 * 300);
+            }
+        }
+        if t < 1_300_000 {
+            for p in 0..2 {
+                r.beat(us(t + 5_000 + p as u64 * 300), p, 0x10, 5);
+            }
+        }
+        t += 12_000;
+    }
+    let reqs: Vec<_> = core::iter::from_fn(|| r.out.machine.pop()).collect();
+    assert_eq!(
+        reqs,
+        [
+            LinkRequest::NodeSuspect {
+                node: n(0x10),
+                suspect: true,
+                duplicated: true
+            },
+            LinkRequest::NodeSuspect {
+                node: n(0x10),
+                suspect: false,
+                duplicated: false
+            }
+        ]
+    );
+    // Each bus's verdict at the duplicate's heartbeat at 1,077 ms: windows of a period from
+    // there. The duplicate's last (1,293 ms) shares [1,293, 1,305) with the node's 1,300;
+    // [1,305, 1,317) and [1,317, 1,329) hold one each (1,312, 1,324, still dropped): the
+    // node's 1,336 passes, on each bus, and bus 1 speaks for it from its first. The drain
+    // alone would have held them 18 periods.
+    assert_eq!(dropped.last(), Some(&1_324_300), "{dropped:?}");
+    let trusted: Vec<_> = r
+        .events()
+        .into_iter()
+        .filter(|e| matches!(e.kind, LinkEventKind::Trusted { .. }))
+        .map(|e| e.at)
+        .collect();
+    assert_eq!(trusted, [us(1_336_000)]);
 }
 
 #[test]

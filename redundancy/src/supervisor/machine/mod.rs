@@ -436,8 +436,8 @@ impl<D: ObjectDictionary, P: IdProfile> Supervisor<D, P> {
 
     /// The dual-bus layer's verdict on a node's heartbeats: for the pair supervision.
     #[cold]
-    fn verdict(&mut self, now: Instant, node: NodeId, suspect: bool) {
-        self.pairs.suspect(now, node, suspect);
+    fn verdict(&mut self, now: Instant, node: NodeId, suspect: bool, duplicated: bool) {
+        self.pairs.suspect(now, node, suspect, duplicated);
         self.pump(now);
     }
 
@@ -557,8 +557,13 @@ impl<D: ObjectDictionary, P: IdProfile> Machine for Supervisor<D, P> {
     /// the supervisor with its next input.
     fn handle_link_request(&mut self, now: Instant, req: LinkRequest) {
         self.watch_clock(now);
-        if let LinkRequest::NodeSuspect { node, suspect } = req {
-            return self.verdict(now, node, suspect);
+        if let LinkRequest::NodeSuspect {
+            node,
+            suspect,
+            duplicated,
+        } = req
+        {
+            return self.verdict(now, node, suspect, duplicated);
         }
         self.master.node_mut().handle_link_request(now, req);
     }

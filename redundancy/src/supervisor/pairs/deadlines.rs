@@ -184,7 +184,8 @@ impl<S: Storage> PairSupervisor<S> {
         } else {
             (None, LossReason::Silent { last })
         };
-        if self.pairs[p].active == Some(m) {
+        let active = self.pairs[p].active == Some(m);
+        if active {
             if other_alive {
                 // Start first: the new active is what the reaction bound is about.
                 let why = why.unwrap_or(RoleReason::ActiveSilent { last });
@@ -195,7 +196,31 @@ impl<S: Storage> PairSupervisor<S> {
             }
         }
         self.leave(t, p, m, loss);
-        self.nmt(NmtCommand::ResetNode, s.node);
+        if !self.is_duplicated(s.node) {
+            self.nmt(NmtCommand::ResetNode, s.node);
+        } else if active && other_alive {
+            // Its board may run beside the duplicate: one running board per pair.
+            self.nmt(NmtCommand::EnterPreOperational, s.node);
+        }
+        if active && !other_alive {
+            self.last_resort(p);
+        }
+    }
+
+    /// The pair lost its active member and has no other that can run: a member whose
+    /// heartbeats a second device shares (so they cannot tell whether it runs) is started, not
+    /// made active. Its board may well run; if it does not, the start costs nothing. The member
+    /// that becomes active next sends it back to pre-operational (`set_role`).
+    fn last_resort(&mut self, p: usize) {
+        if self.authority != Authority::Command || self.pairs[p].active.is_some() {
+            return;
+        }
+        for m in [Member::A, Member::B] {
+            let node = self.pairs[p].spec.node(m);
+            if self.is_duplicated(node) && !self.is_held(node) {
+                self.nmt(NmtCommand::Start, node);
+            }
+        }
     }
 
     pub(super) fn lower_next(&mut self, t: Instant) {

@@ -66,7 +66,19 @@
 //! bus within one frame) and reset; a standby is reset; while suspect its heartbeats and
 //! boot-ups are no sign of life, it is not adopted, and a configuration that ends meanwhile
 //! leaves it waiting, unstarted. The standby is thus started, after the member's last real
-//! heartbeat, within the consumer time + 1 ms, or earlier, at the verdict:
+//! heartbeat, within the consumer time + 1 ms, or earlier, at the verdict.
+//!
+//! A member whose heartbeats come too fast on *both* buses (`duplicated`: a second device beats
+//! with its node-ID beside it) is not reset: its own board may well run, a reset would reach
+//! both devices, and its boot-up would be dropped as the duplicate's twin (the board would then
+//! wait unconfigured and unheard; a spare plugged in with a live member's node-ID took that
+//! member out of its pair for a second at a time, and the pair lost its last board when the
+//! other member failed meanwhile). An active one replaced by a live standby is sent to
+//! pre-operational; a standby is left alone. Whenever the pair loses its active member with no
+//! other that can run, such a member is started as the last resort, not made active (the pair
+//! has no active member in the table: its state cannot be read); whichever member becomes
+//! active later sends it back to pre-operational. Once trusted, its heartbeats adopt it again
+//! after the hold-off, without a reboot.
 //!
 //! | What | Verdict (detection bound) |
 //! | --- | --- |
@@ -160,6 +172,8 @@ pub struct PairSupervisor<S: Storage = Inline> {
     events: S::Fifo<PairsEvent, EVENT_QUEUE>,
     /// Node-IDs (bits) whose heartbeats the dual-bus layer finds implausible.
     suspect: u128,
+    /// The suspect node-IDs (bits) whose heartbeats a second device shares on both buses.
+    duplicated: u128,
     /// Node-IDs (bits) the application started through this table's master.
     by_application: u128,
     /// Node-IDs (bits) the application sent to pre-operational or stopped through this
@@ -202,6 +216,7 @@ impl<S: Storage> PairSupervisor<S> {
             commands: S::fifo(commands),
             events: S::fifo(events),
             suspect: 0,
+            duplicated: 0,
             by_application: 0,
             held: 0,
             running: 0,

@@ -120,6 +120,14 @@ impl<S: Storage> PairSupervisor<S> {
                 }
             }
         }
+        if let Some(m) = to.filter(|_| self.authority == Authority::Command) {
+            // A member left as it was while another device shared its heartbeats may still
+            // run: one running board per pair.
+            let other = self.pairs[p].member(m.other());
+            if self.is_duplicated(other.node) && !other.joined() {
+                self.nmt(NmtCommand::EnterPreOperational, other.node);
+            }
+        }
         let pair = PairId(p as u8);
         self.cmd(PairCommand::SetActive { pair, member: to });
         self.event(PairsEvent::Role(RoleChange {

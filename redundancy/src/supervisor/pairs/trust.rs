@@ -52,6 +52,12 @@ impl<S: Storage> PairSupervisor<S> {
         self.suspect & bit(node) != 0
     }
 
+    /// Whether `node` is suspect because a second device shares its heartbeats on both buses
+    /// ([`PairSupervisor::suspect`]'s `duplicated`).
+    pub fn is_duplicated(&self, node: NodeId) -> bool {
+        self.duplicated & bit(node) != 0
+    }
+
     /// Member `m` of pair `p` is joined, not silent at `now` and trusted: one that can run.
     pub(super) fn alive(&self, p: usize, m: Member, now: Instant) -> bool {
         let s = self.pairs[p].member(m);
@@ -62,8 +68,11 @@ impl<S: Storage> PairSupervisor<S> {
     /// bus, a babbling identifier, a duplicate node-ID) or plausible again. While suspect, its
     /// heartbeats and boot-ups are no sign of life and it is not adopted; a joined member is
     /// handled at once as if its consumer time had run out (commanding: an active member is
-    /// replaced by a live standby, the member is reset). Ignored unless `node` is a pair member.
-    pub fn suspect(&mut self, now: Instant, node: NodeId, suspect: bool) {
+    /// replaced by a live standby, the member is reset). `duplicated` (too fast on both buses:
+    /// a second device shares its heartbeat, its own board may run) spares it the reset: see
+    /// "Heartbeats that lie" in the [module docs](super). Ignored unless `node` is a pair
+    /// member.
+    pub fn suspect(&mut self, now: Instant, node: NodeId, suspect: bool, duplicated: bool) {
         let Some((pair, m)) = self.locate(node) else {
             return;
         };
@@ -71,8 +80,12 @@ impl<S: Storage> PairSupervisor<S> {
             return;
         }
         self.suspect ^= bit(node);
+        self.duplicated &= !bit(node);
         if !suspect {
             return;
+        }
+        if duplicated {
+            self.duplicated |= bit(node);
         }
         match &mut self.pairs[pair.0 as usize].member_mut(m).stage {
             Stage::Joined { deadline } => *deadline = (*deadline).min(now),
