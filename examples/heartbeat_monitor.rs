@@ -2,19 +2,20 @@
 //!
 //! ```text
 //! cargo run --example heartbeat_monitor                                       # simulated nodes
-//! DUOCAN_PORT=can0 cargo run --example heartbeat_monitor --features socketcan  # a real bus
+//! DUOCAN_BUS=can0 cargo run --example heartbeat_monitor --features socketcan   # a real bus
 //! ```
 //!
 //! The network is listen-only: it sends no boot-up, answers no NMT command and puts no frame on
-//! the bus. A node silent for 500 ms is reported lost. Stop with Ctrl-C.
+//! the bus. A node silent for 500 ms is reported lost, one not heard at all for 500 ms too.
+//! Stop with Ctrl-C.
 
 use duocan::net::{NetError, Network};
 use std::time::Duration;
 
-/// Opens the port `DUOCAN_PORT` names (simulated nodes by default) and runs the example.
+/// Opens the port `DUOCAN_BUS` names (simulated nodes by default) and runs the example.
 #[tokio::main]
 pub async fn main() -> Result<(), NetError> {
-    let port = std::env::var("DUOCAN_PORT").unwrap_or_else(|_| "sim".into());
+    let port = std::env::var("DUOCAN_BUS").unwrap_or_else(|_| "sim".into());
     monitor(Network::monitor_named(&port)?, |line| println!("{line}")).await
 }
 

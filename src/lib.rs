@@ -62,7 +62,7 @@
 //! ```
 //!
 //! The starter examples run the same way (`cargo run --example NAME`, against the simulated
-//! nodes unless `DUOCAN_PORT` names a port):
+//! nodes unless `DUOCAN_BUS` names a port):
 //!
 //! - `examples/read_sdo.rs`: read 0x1018 sub 1 of node 5 and print it;
 //! - `examples/heartbeat_monitor.rs`: watch nodes 1–10 listen-only and print boot-ups, state

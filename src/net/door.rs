@@ -9,7 +9,7 @@ use super::pdo::table::PdoTable;
 use crate::cia301::sdo::{RequestId, SdoClient, SdoError, TransferBuffer};
 use crate::cia305::codec::MASTER_TO_SLAVE;
 use crate::cia305::{LssMaster, LssMasterEvent};
-use crate::frame::instant::Instant;
+use crate::frame::instant::{Duration, Instant};
 use crate::frame::{Frame, Id};
 use crate::machine::{
     BusLink, Composite, CompositeEvent, Device, Machine, PortRequest, PortStatus, Station,
@@ -18,6 +18,7 @@ use crate::machine::{
 use crate::node::{Node, NodeEventKind};
 use crate::od::DynamicDictionary;
 use crate::port::PortInput;
+use crate::NodeId;
 use std::collections::VecDeque;
 use std::sync::Arc;
 use tokio::sync::Notify;
@@ -83,6 +84,9 @@ pub(crate) struct Door {
     now: Instant,
     /// What each port's driver last reported (index = port).
     pub drivers: [DriverState; 2],
+    /// Watched nodes not yet heard since their watch began: (node, since, due). One entry per
+    /// node at most, so 127 at most.
+    awaited: Vec<(NodeId, Instant, Instant)>,
 }
 
 impl Door {
@@ -99,6 +103,34 @@ impl Door {
             streams: Vec::new(),
             now: Instant::ZERO,
             drivers: [DriverState::default(); 2],
+            awaited: Vec::new(),
+        }
+    }
+    /// Expects a heartbeat or boot-up of `node` within `timeout` from `now` (zero: no longer):
+    /// [`NetEvent::NotHeard`] at `now + timeout` if none came.
+    pub fn await_first(&mut self, now: Instant, node: NodeId, timeout: Duration) {
+        self.awaited.retain(|a| a.0 != node);
+        if !timeout.is_zero() {
+            self.awaited.push((node, now, now + timeout));
+        }
+    }
+    /// Ends the waits a frame of the node ended, and reports those that ran out by `now`.
+    fn check_awaited(&mut self, now: Instant) {
+        let mut i = 0;
+        while let Some(&(node, since, due)) = self.awaited.get(i) {
+            let heard = self.node().remote(node).is_some_and(|v| v.seen >= since);
+            if heard || due <= now {
+                self.awaited.swap_remove(i);
+                if !heard {
+                    self.decoded.push_back(NetEvent::NotHeard {
+                        node,
+                        since,
+                        at: due,
+                    });
+                }
+            } else {
+                i += 1;
+            }
         }
     }
     /// Queues a frame the network itself sends (an RPDO).
@@ -189,6 +221,7 @@ impl Device for Door {
         self.now = now;
         self.inner.handle_timeout(now);
         self.link_inputs(now);
+        self.check_awaited(now);
     }
     fn poll_transmit(&mut self) -> Option<(usize, Frame)> {
         // The filter sits between the machine and the link: on two buses a frame is judged
@@ -213,7 +246,8 @@ impl Device for Door {
         self.inner.poll_port_request()
     }
     fn poll_timeout(&self) -> Option<Instant> {
-        self.inner.poll_timeout()
+        let awaited = self.awaited.iter().map(|a| a.2).min();
+        crate::frame::instant::earliest_of([self.inner.poll_timeout(), awaited])
     }
     fn poll_event(&mut self) -> Option<DoorEvent> {
         // A wake-up, not an event: a stream's reader or feeder is no business of the

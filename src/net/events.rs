@@ -109,6 +109,19 @@ pub enum NetEvent {
         /// When.
         at: Instant,
     },
+    /// A watched node ([`RemoteNode::watch_heartbeat`](super::RemoteNode::watch_heartbeat))
+    /// sent nothing at all (no heartbeat, no boot-up) for the watch's timeout since the watch
+    /// began: a node, or its bus, dead from the start. CiA 301 starts heartbeat monitoring at
+    /// the first heartbeat, so [`NetEvent::HeartbeatLost`] never comes for it. Once per watch;
+    /// its first heartbeat after that starts the monitoring as CiA 301 does.
+    NotHeard {
+        /// The node.
+        node: NodeId,
+        /// When the watch began.
+        since: Instant,
+        /// When (`since` + the timeout).
+        at: Instant,
+    },
     /// This reader fell behind and `n` events were dropped for it (the stream goes on with the
     /// oldest event still kept). A slow reader loses events, never the program.
     Lagged(u64),
@@ -125,7 +138,8 @@ impl NetEvent {
             | NetEvent::HeartbeatResumed { node, .. }
             | NetEvent::Emcy { node, .. }
             | NetEvent::Pdo { node, .. }
-            | NetEvent::Reach { node, .. } => Some(*node),
+            | NetEvent::Reach { node, .. }
+            | NetEvent::NotHeard { node, .. } => Some(*node),
             NetEvent::Port { .. } | NetEvent::PortState { .. } | NetEvent::Lagged(_) => None,
         }
     }
@@ -141,7 +155,8 @@ impl NetEvent {
             | NetEvent::Pdo { at, .. }
             | NetEvent::Port { at, .. }
             | NetEvent::PortState { at, .. }
-            | NetEvent::Reach { at, .. } => Some(*at),
+            | NetEvent::Reach { at, .. }
+            | NetEvent::NotHeard { at, .. } => Some(*at),
             NetEvent::Lagged(_) => None,
         }
     }
@@ -173,10 +188,13 @@ impl NetEvent {
             _ => None,
         }
     }
-    /// True for a lost heartbeat.
+    /// True for a lost heartbeat, or a watched node never heard.
     #[must_use]
     pub fn is_loss(&self) -> bool {
-        matches!(self, NetEvent::HeartbeatLost { .. })
+        matches!(
+            self,
+            NetEvent::HeartbeatLost { .. } | NetEvent::NotHeard { .. }
+        )
     }
 }
 
@@ -184,7 +202,7 @@ impl NetEvent {
 /// `node 0x05: heartbeat lost`, `node 0x05: heartbeat back`, `node 0x05: EMCY 0x8130 life guard
 /// or heartbeat error`, `node 0x05: TPDO 1 Input 1=7 Status=0`, `port: down (interface down)`,
 /// `bus 1: failed (port down: interface down)`, `node 0x05: heard on bus 2 only`,
-/// `12 events missed`.
+/// `node 0x2a: not heard for 500 ms`, `12 events missed`.
 impl fmt::Display for NetEvent {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         match self {
@@ -223,6 +241,9 @@ impl fmt::Display for NetEvent {
                 [false, true] => write!(f, "{node}: heard on bus 2 only"),
                 [false, false] => write!(f, "{node}: heard on no bus"),
             },
+            NetEvent::NotHeard { node, since, at } => {
+                write!(f, "{node}: not heard for {} ms", (*at - *since).as_millis())
+            }
             NetEvent::Lagged(n) => write!(f, "{n} events missed"),
         }
     }

@@ -145,8 +145,11 @@ impl RemoteNode {
 
     /// Watches the node's heartbeat: if none arrives for `timeout`, the network reports
     /// [`NetEvent::HeartbeatLost`] (and [`NetEvent::HeartbeatResumed`] when it comes back).
-    /// The timeout is in whole milliseconds, at most 65 535 (what the consumer entry 0x1016
-    /// holds; longer is capped); zero stops watching. Nothing is sent to the node.
+    /// A node that sends nothing at all for `timeout` from this call on is reported too, as
+    /// [`NetEvent::NotHeard`] (CiA 301 monitoring starts at the first heartbeat, so a node dead
+    /// from the start would otherwise go unnoticed). The timeout is in whole milliseconds, at
+    /// most 65 535 (what the consumer entry 0x1016 holds; longer is capped); zero stops
+    /// watching. Nothing is sent to the node.
     pub async fn watch_heartbeat(&self, timeout: Duration) -> Result<(), NetError> {
         let id = self.id()?;
         let ms = u16::try_from(timeout.as_millis()).unwrap_or(u16::MAX);
@@ -160,7 +163,9 @@ impl RemoteNode {
                     id.raw(),
                     &entry.to_le_bytes(),
                 )
-                .map_err(|_| NetError::Closed)
+                .map_err(|_| NetError::Closed)?;
+            d.await_first(now, id, crate::Duration::from_millis(u64::from(ms)));
+            Ok(())
         })
         .await
     }

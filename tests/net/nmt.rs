@@ -148,3 +148,40 @@ async fn a_watched_heartbeat_lost_is_reported_at_its_timeout() {
     );
     net.close().await;
 }
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_watched_node_never_heard_is_reported_once_at_its_timeout() {
+    // Node 3 beats every 50 ms; node 9 is not there at all. CiA 301 monitoring starts at the
+    // first heartbeat, so without this event node 9 would never be reported.
+    let bus = MemBus::new("mem");
+    let net = Network::open(bus.port()).unwrap();
+    let mut events = net.events();
+    let s = Runtime::new(single(node(3, false, 50, &[])))
+        .port(bus.port())
+        .spawn()
+        .unwrap();
+    s.boot().await.unwrap();
+    for id in [3, 9] {
+        net.node(id)
+            .watch_heartbeat(Duration::from_millis(200))
+            .await
+            .unwrap();
+    }
+    let mut not_heard = vec![];
+    let _ = tokio::time::timeout(Duration::from_millis(900), async {
+        while let Some(e) = events.next().await {
+            if let NetEvent::NotHeard { node, since, at } = e {
+                not_heard.push((node.raw(), since, at, e.to_string()));
+            }
+        }
+    })
+    .await;
+    assert_eq!(not_heard.len(), 1, "{not_heard:?}");
+    let (node, since, at, line) = &not_heard[0];
+    assert_eq!(*node, 9);
+    // Exactly the watch's timeout after it began (the network's clock).
+    assert_eq!(*at - *since, duocan::Duration::from_millis(200));
+    assert_eq!(line, "node 0x09: not heard for 200 ms");
+    s.shutdown().await;
+    net.close().await;
+}

@@ -4,7 +4,7 @@ use crate::link::health::PortState;
 use crate::network::{NetworkEvent, NetworkEventKind};
 use crate::pair::{Member, PairId};
 use crate::supervisor::flying_master::{MasterReason, MasterRole};
-use crate::supervisor::pairs::RoleReason;
+use crate::supervisor::pairs::{PairsEvent, RoleReason};
 use crate::SupervisorEvent;
 use core::fmt;
 use duocan::emcy::EmcyMessage;
@@ -145,6 +145,20 @@ pub enum RedundantEvent {
         /// When.
         at: Instant,
     },
+    /// A pair member was not heard at all within the boot timeout since the network started
+    /// or since it was reset ([`PairsConfig::boot_timeout`]): a board, or its buses, dead from
+    /// power-on. CiA 301 starts heartbeat monitoring at the first heartbeat, so nothing else
+    /// reports it. Once per wait; its first frame ends it (a boot-up, or its heartbeat).
+    ///
+    /// [`PairsConfig::boot_timeout`]: crate::supervisor::pairs::PairsConfig::boot_timeout
+    NotHeard {
+        /// The member.
+        node: NodeId,
+        /// Since when it has been awaited.
+        since: Instant,
+        /// When (`since` + the boot timeout).
+        at: Instant,
+    },
     /// This reader fell behind and `n` events were dropped for it; the stream goes on. A slow
     /// reader loses events, never the program.
     Lagged(u64),
@@ -195,6 +209,11 @@ impl RedundantEvent {
                 NodeEventKind::HeartbeatResumed { node } => RedundantEvent::SlaveBack { node, at },
                 _ => return None,
             },
+            K::Other(StationEvent::Machine(SupervisorEvent::Pairs(PairsEvent::Missing {
+                node,
+                since,
+                ..
+            }))) => RedundantEvent::NotHeard { node, since, at },
             K::Other(StationEvent::Machine(SupervisorEvent::Master(ref m))) => match m.kind {
                 MasterEventKind::IdentityMismatch { node, status, .. }
                 | MasterEventKind::ConfigFailed { node, status, .. } => {
@@ -216,7 +235,8 @@ impl RedundantEvent {
             | RedundantEvent::State { node, .. }
             | RedundantEvent::Emcy { node, .. }
             | RedundantEvent::Reach { node, .. }
-            | RedundantEvent::BootFailed { node, .. } => Some(node),
+            | RedundantEvent::BootFailed { node, .. }
+            | RedundantEvent::NotHeard { node, .. } => Some(node),
             RedundantEvent::PairRole { nodes, to, .. } => to.map(|m| match m {
                 Member::A => nodes[0],
                 Member::B => nodes[1],
@@ -239,7 +259,8 @@ impl RedundantEvent {
             | RedundantEvent::Reach { at, .. }
             | RedundantEvent::Discrepancy { at, .. }
             | RedundantEvent::DiscrepancyCleared { at, .. }
-            | RedundantEvent::BootFailed { at, .. } => Some(at),
+            | RedundantEvent::BootFailed { at, .. }
+            | RedundantEvent::NotHeard { at, .. } => Some(at),
             RedundantEvent::Lagged(_) => None,
         }
     }
@@ -311,6 +332,12 @@ impl fmt::Display for RedundantEvent {
             RedundantEvent::BootFailed { node, status, .. } => {
                 write!(f, "node {:#04x}: not started, {status}", node.raw())
             }
+            RedundantEvent::NotHeard { node, since, at } => write!(
+                f,
+                "node {:#04x}: not heard for {} ms",
+                node.raw(),
+                (at - since).as_millis()
+            ),
             RedundantEvent::Lagged(n) => write!(f, "{n} events missed"),
         }
     }
@@ -437,6 +464,34 @@ mod tests {
             "{failed}"
         );
         assert_eq!(failed.at(), Some(Instant::from_millis(7)));
+    }
+
+    #[test]
+    fn a_member_never_heard_reaches_the_flat_stream() {
+        let node = NodeId::must(0x50);
+        let e = flat(NetworkEventKind::Other(StationEvent::Machine(
+            SupervisorEvent::Pairs(PairsEvent::Missing {
+                at: Instant::from_millis(7),
+                pair: PairId(0),
+                member: Member::B,
+                node,
+                since: Instant::from_millis(2),
+            }),
+        )))
+        .unwrap();
+        assert_eq!(
+            e,
+            RedundantEvent::NotHeard {
+                node,
+                since: Instant::from_millis(2),
+                at: Instant::from_millis(7)
+            }
+        );
+        assert_eq!(
+            (e.node(), e.at()),
+            (Some(node), Some(Instant::from_millis(7)))
+        );
+        assert_eq!(e.to_string(), "node 0x50: not heard for 5 ms");
     }
 
     #[test]

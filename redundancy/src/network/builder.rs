@@ -14,6 +14,7 @@ use crate::link::dual_bus::DualBus;
 use crate::pair::{PairSpec, MAX_PAIRS};
 use crate::station::SupervisedStation;
 use crate::supervisor::flying_master::MAX_PEERS;
+use crate::supervisor::pairs::PairsConfig;
 use crate::supervisor::{Supervisor, SupervisorConfig};
 use crate::LinkMode;
 use alloc::boxed::Box;
@@ -44,6 +45,7 @@ pub const DEFAULT_MASTER_TIMEOUT: Duration = Duration::from_millis(300);
 /// | [`pair`](Self::pair) | none | an A/B board pair |
 /// | [`pair_heartbeat`](Self::pair_heartbeat) | 100 ms | heartbeat configured into every pair member |
 /// | [`pair_timeout`](Self::pair_timeout) | 300 ms | silence of a member after which it has failed |
+/// | [`boot_timeout`](Self::boot_timeout) | 5 s | a member not heard at all this long after power-on or a reset is reported (`NotHeard`) |
 /// | [`peer_master`](Self::peer_master) | none | another master-capable device |
 /// | [`link`](Self::link) | active-active, guard period = the shorter heartbeat | the dual-bus layer |
 /// | [`master`](Self::master) | `NetworkConfig::new()` | the CiA 302-2 master's own settings (other slaves, SDO timeout, queues) |
@@ -77,6 +79,7 @@ pub struct RedundantNetworkBuilder {
     sync: Option<Duration>,
     pair_heartbeat: Duration,
     pair_timeout: Duration,
+    boot_timeout: Duration,
     pairs: Vec<(u8, u8)>,
     peers: Vec<(u8, u8)>,
     link: Option<DualBusConfig>,
@@ -93,6 +96,7 @@ impl Default for RedundantNetworkBuilder {
             sync: None,
             pair_heartbeat: DEFAULT_HEARTBEAT,
             pair_timeout: DEFAULT_MASTER_TIMEOUT,
+            boot_timeout: PairsConfig::default().boot_timeout,
             pairs: Vec::new(),
             peers: Vec::new(),
             link: None,
@@ -156,6 +160,13 @@ impl RedundantNetworkBuilder {
     pub fn peer_master(self, node: u8) -> Self {
         let p = self.priority;
         self.peer_master_with_priority(node, p)
+    }
+    /// How long a pair member may stay unheard (no boot-up, no heartbeat) after power-on or
+    /// after a reset before it is reported: a board, or its buses, dead from the start, which
+    /// heartbeat monitoring (it starts at the first heartbeat) never reports.
+    pub fn boot_timeout(mut self, timeout: Duration) -> Self {
+        self.boot_timeout = timeout;
+        self
     }
     /// Another master-capable device with its own priority (lower wins).
     pub fn peer_master_with_priority(mut self, node: u8, priority: u8) -> Self {
@@ -253,6 +264,7 @@ impl RedundantNetworkBuilder {
             ("master_timeout", self.master_timeout),
             ("pair_heartbeat", self.pair_heartbeat),
             ("pair_timeout", self.pair_timeout),
+            ("boot_timeout", self.boot_timeout),
         ];
         for (setting, d) in periods.into_iter().chain(self.sync.map(|d| ("sync", d))) {
             if d == Duration::ZERO {
@@ -325,6 +337,7 @@ impl RedundantNetworkBuilder {
         for &(n, p) in &self.peers {
             cfg = cfg.with_peer(p, id(n)?);
         }
+        cfg.pairs = cfg.pairs.with_boot_timeout(self.boot_timeout);
         let mut sup = Box::new(Supervisor::new(master, cfg, Instant::ZERO));
         for &(a, b) in &self.pairs {
             let spec = PairSpec::new(id(a)?, id(b)?, self.pair_heartbeat, self.pair_timeout);

@@ -120,6 +120,48 @@ async fn the_simulated_station_plays_one_failover_of_each_kind_at_the_configured
 }
 
 #[tokio::test(start_paused = true)]
+async fn a_member_not_heard_within_the_boot_timeout_is_reported_once() {
+    // The simulated station powers member B on at `SIM_B_BOOTS` (1 s): with a boot timeout of
+    // 400 ms, B is reported at exactly 400 ms, A (heard at once) not then. A stops for good at
+    // `SIM_MEMBER_FAILS`: reset at its silence, it is not heard for 400 ms after the reset.
+    let net = RedundantNetwork::builder()
+        .node_id(2)
+        .pair(0x10, 0x50)
+        .boot_timeout(ms(400))
+        .peer_master(1)
+        .open_named("sim")
+        .unwrap();
+    let events = all_events(&net).await;
+    let not_heard: Vec<&RedundantEvent> = events
+        .iter()
+        .filter(|e| matches!(e, RedundantEvent::NotHeard { .. }))
+        .collect();
+    assert_eq!(not_heard.len(), 2, "{not_heard:#?}");
+    assert_eq!(
+        *not_heard[0],
+        RedundantEvent::NotHeard {
+            node: NodeId::must(0x50),
+            since: Instant::ZERO,
+            at: after(ms(400)),
+        }
+    );
+    assert!(ms(400) < SIM_B_BOOTS);
+    assert_eq!(not_heard[0].to_string(), "node 0x50: not heard for 400 ms");
+    let RedundantEvent::NotHeard { node, since, at } = *not_heard[1] else {
+        unreachable!()
+    };
+    let reset = events.iter().find_map(|e| match e {
+        RedundantEvent::PairRole { at, .. } if *at > after(SIM_MEMBER_FAILS) => Some(*at),
+        _ => None,
+    });
+    assert_eq!(
+        (node.raw(), Some(since), at - since),
+        (0x10, reset, ms(400)),
+        "{events:#?}"
+    );
+}
+
+#[tokio::test(start_paused = true)]
 async fn sdo_through_the_handle_to_a_pair_member_on_either_bus() {
     let net = RedundantNetwork::builder()
         .node_id(1)
