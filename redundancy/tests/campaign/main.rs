@@ -254,6 +254,13 @@ const REGRESSIONS_DUPLICATE: &[(u64, u64, bool)] = &[
     // heartbeats drained the bucket (18 periods); a boot-up among them.
     (5, 28, true),
     (40, 30, true),
+    // After the duplicate left, a master reset the board at each verdict (bus 2 flapping:
+    // no bus spoke for it), and each boot-up with the next heartbeat made a period look like
+    // two devices: the verdict never ended. A boot-up in a period is not counted.
+    (2287, 4, false),
+    // The member stopped for the standby announced pre-operational at once: with its next
+    // heartbeat, a period that looked like two devices. A new state begins a period.
+    (2520, 28, true),
 ];
 
 /// The budget CI runs: seeds and simulated seconds each. Seed `k` leads with a fault of kind

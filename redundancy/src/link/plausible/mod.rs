@@ -42,8 +42,10 @@
 //! drains only a quarter period, and the drain would take 18 periods, all of them dropped: so
 //! the verdict also ends, the bucket emptied, at the first heartbeat after
 //! [`CALM_WINDOWS`] whole periods in a row (counted from the verdict, by the frames' stamps)
-//! that carried one heartbeat each at most; with the other device still there each period
-//! carries two, and the verdict holds.
+//! that carried one heartbeat each at most (a boot-up aside, and a heartbeat saying a new
+//! state begins a period: a node announces a change at once, and a master's reset or stop must
+//! not keep the verdict); with the other device still there each period carries two, or every
+//! heartbeat changes the state, and the verdict holds.
 //! One period after the verdict the rate measured over `[verdict, verdict + T)` is reported:
 //! [`Babbling`](crate::LinkEventKind::Babbling) (identifier, bus, frames/s) when it is more
 //! than [`BABBLE_FACTOR`] times the producer rate, [`DuplicateNode`][dup] otherwise (devices
@@ -169,6 +171,10 @@ struct Track {
     window: u64,
     seen: u16,
     calm: u8,
+    /// The state its last heartbeat here said, while the verdict holds (boot-ups aside).
+    state: u8,
+    /// A boot-up arrived in the current window (one per window is not counted).
+    booted: bool,
 }
 
 impl Track {
@@ -183,16 +189,23 @@ impl Track {
         window: 0,
         seen: 0,
         calm: 0,
+        state: 0,
+        booted: false,
     };
     fn fast(&self) -> bool {
         self.fast
     }
-    /// While the verdict holds, a heartbeat stamped `t` (`tq` in quarter microseconds): closes
-    /// the windows it ends and counts it in its own. [`CALM_WINDOWS`] whole periods in a row
-    /// with one heartbeat at most are the node alone at its pace, which would take 18 periods
-    /// to drain the bucket (a quarter period each): the bucket is emptied, and the verdict
-    /// ends. Judged by the frames' stamps, so a bus handed over late judges the same periods.
-    fn calm_windows(&mut self, t: u64, tq: u64, period: u64) {
+    /// While the verdict holds, a heartbeat saying `state` stamped `t` (`tq` in quarter
+    /// microseconds): closes the windows it ends and counts it in its own. [`CALM_WINDOWS`]
+    /// whole periods in a row with one heartbeat at most are the node alone at its pace, which
+    /// would take 18 periods to drain the bucket (a quarter period each): the bucket is
+    /// emptied, and the verdict ends. What a master's command adds is the node's own: one
+    /// boot-up per window is not counted (a reset), and a heartbeat saying another state than
+    /// the one before begins a window (a node announces a change at once and beats a period
+    /// after it), while two devices saying different states change it at every heartbeat and
+    /// never complete a window. Judged by the frames' stamps, so a bus handed over late
+    /// judges the same periods.
+    fn calm_windows(&mut self, t: u64, tq: u64, period: u64, state: u8) {
         // Past the current window, every window is empty: at most `CALM_WINDOWS` + 1 turns.
         while t >= self.window.saturating_add(period) {
             self.window = self.window.saturating_add(period);
@@ -201,13 +214,19 @@ impl Track {
             } else {
                 0
             };
-            self.seen = 0;
+            (self.seen, self.booted) = (0, false);
             if self.calm >= CALM_WINDOWS {
                 self.tat = self.tat.min(tq);
                 return;
             }
         }
-        self.seen = self.seen.saturating_add(1);
+        if state == 0 && !self.booted {
+            self.booted = true;
+        } else if state != 0 && state != core::mem::replace(&mut self.state, state) {
+            (self.window, self.seen, self.booted) = (t, 1, false);
+        } else {
+            self.seen = self.seen.saturating_add(1);
+        }
     }
 }
 

@@ -96,7 +96,9 @@ impl Plausibility {
         // Rule 1: the leaky bucket, in quarter microseconds.
         let (drain, limit, period, late_after) = (w.drain, w.limit, w.period, w.late);
         let tq = t.saturating_mul(4);
-        let boot_up = frame.data().first() == Some(&0);
+        let state = frame.data().first().copied();
+        let boot_up = state == Some(0);
+        let state = state.unwrap_or(u8::MAX);
         let tr = &mut w.ports[p];
         let before = tr.last;
         tr.last = t;
@@ -113,7 +115,7 @@ impl Plausibility {
             tr.boots = boots.min(tq.saturating_add(2 * d));
         }
         if tr.fast {
-            tr.calm_windows(t, tq, period);
+            tr.calm_windows(t, tq, period, state);
         }
         if tr.tat <= tq {
             // Drained: a verdict ended at `tat` (the sweep normally saw to it on time).
@@ -129,7 +131,7 @@ impl Plausibility {
         let started = excess && !tr.fast;
         if started {
             tr.fast = true;
-            (tr.window, tr.seen, tr.calm) = (t, 1, 0);
+            (tr.window, tr.seen, tr.calm, tr.state, tr.booted) = (t, 1, 0, state, false);
             if !tr.measuring {
                 // The window is [t, t + T): this heartbeat and those of one period after it.
                 tr.since = t;

@@ -225,6 +225,12 @@ fn a_duplicate_on_both_buses_is_told_as_such_and_the_node_alone_after_it_is_trus
                 r.beat(us(t + 5_000 + p as u64 * 300), p, 0x10, 5);
             }
         }
+        if t == 1_300_000 {
+            // A master resets the node meanwhile: its boot-up is no second device.
+            for p in 0..2 {
+                r.beat(us(t + 10_000 + p as u64 * 300), p, 0x10, 0);
+            }
+        }
         t += 12_000;
     }
     let reqs: Vec<_> = core::iter::from_fn(|| r.out.machine.pop()).collect();
@@ -245,9 +251,9 @@ fn a_duplicate_on_both_buses_is_told_as_such_and_the_node_alone_after_it_is_trus
     );
     // Each bus's verdict at the duplicate's heartbeat at 1,077 ms: windows of a period from
     // there. The duplicate's last (1,293 ms) shares [1,293, 1,305) with the node's 1,300;
-    // [1,305, 1,317) and [1,317, 1,329) hold one each (1,312, 1,324, still dropped): the
-    // node's 1,336 passes, on each bus, and bus 1 speaks for it from its first. The drain
-    // alone would have held them 18 periods.
+    // [1,305, 1,317) and [1,317, 1,329) hold one each (1,312 and 1,324, still dropped; the
+    // boot-up at 1,310 is not counted, one per window): the node's 1,336 passes, on each bus,
+    // and bus 1 speaks for it from its first. The drain alone would have held them 18 periods.
     assert_eq!(dropped.last(), Some(&1_324_300), "{dropped:?}");
     let trusted: Vec<_> = r
         .events()
@@ -256,6 +262,31 @@ fn a_duplicate_on_both_buses_is_told_as_such_and_the_node_alone_after_it_is_trus
         .map(|e| e.at)
         .collect();
     assert_eq!(trusted, [us(1_336_000)]);
+}
+
+#[test]
+fn a_duplicate_saying_another_state_keeps_the_verdict_for_as_long_as_it_beats() {
+    // The node says pre-operational, the other device operational: every heartbeat changes the
+    // state, so no window completes and the verdict holds, all 40 periods.
+    let mut r = Rig::new();
+    let mut t = 1_000_000;
+    let mut passed_late = vec![];
+    for k in 0..40 {
+        for p in 0..2 {
+            if !r.beat(us(t + p as u64 * 300), p, 0x10, 0x7F) && k > 10 {
+                passed_late.push(t);
+            }
+        }
+        for p in 0..2 {
+            r.beat(us(t + 5_000 + p as u64 * 300), p, 0x10, 5);
+        }
+        t += 12_000;
+    }
+    assert!(passed_late.is_empty(), "{passed_late:?}");
+    assert!(!r
+        .events()
+        .iter()
+        .any(|e| matches!(e.kind, LinkEventKind::Trusted { .. })));
 }
 
 #[test]
