@@ -256,10 +256,10 @@ const REGRESSIONS_DUPLICATE: &[(u64, u64, bool)] = &[
     (40, 30, true),
     // After the duplicate left, a master reset the board at each verdict (bus 2 flapping:
     // no bus spoke for it), and each boot-up with the next heartbeat made a period look like
-    // two devices: the verdict never ended. A boot-up in a period is not counted.
+    // two devices: the verdict never ended. A boot-up after a heartbeat at its pace ends it.
     (2287, 4, false),
     // The member stopped for the standby announced pre-operational at once: with its next
-    // heartbeat, a period that looked like two devices. A new state begins a period.
+    // heartbeat, a period that looked like two devices. A new state counts neither way.
     (2520, 28, true),
 ];
 

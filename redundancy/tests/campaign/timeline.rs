@@ -4,7 +4,7 @@
 use crate::oracle::Wiring;
 use crate::plant::SLAVE_HB;
 use duocan::{Duration, Frame, Id, Instant};
-use duocan_redundancy::link::plausible::CALM_WINDOWS;
+use duocan_redundancy::link::plausible::CALM_BEATS;
 
 /// Around a change of the wiring, frames are not judged lost: what was on the wire or queued at
 /// the cut, and the copies a sender put on a bus in the instant before it learnt it was cut.
@@ -184,10 +184,10 @@ impl Wiring for Timeline {
         }
         // The heartbeats of a node an impostor beats for: the layer judges them implausible on
         // a bus and drops that bus's copies (as it must), up to the rule's tail after the
-        // impostor's last heartbeat (the period it was in and two calm ones).
+        // impostor's last heartbeat (the node's heartbeats until three at its pace).
         if let Id::Standard(id @ 0x701..=0x77F) = frame.id() {
             let node = (id & 0x7F) as u8;
-            let tail = SLAVE_HB.saturating_mul(CALM_WINDOWS as u64 + 1);
+            let tail = SLAVE_HB.saturating_mul(CALM_BEATS as u64);
             return self
                 .impostors
                 .iter()

@@ -40,12 +40,14 @@
 //! at the latest `(BURST + 2) · 3T/4` after the last excess frame while nothing else arrives.
 //! While the node beats on alone at its pace (the other device gone), each of its heartbeats
 //! drains only a quarter period, and the drain would take 18 periods, all of them dropped: so
-//! the verdict also ends, the bucket emptied, at the first heartbeat after
-//! [`CALM_WINDOWS`] whole periods in a row (counted from the verdict, by the frames' stamps)
-//! that carried one heartbeat each at most (a boot-up aside, and a heartbeat saying a new
-//! state begins a period: a node announces a change at once, and a master's reset or stop must
-//! not keep the verdict); with the other device still there each period carries two, or every
-//! heartbeat changes the state, and the verdict holds.
+//! the verdict also ends, the bucket emptied, at the heartbeat that makes [`CALM_BEATS`] in a
+//! row (by the frames' stamps) each at least `3T/4` after the one before, or at a boot-up
+//! after one such heartbeat (a master reset the node). Two devices beating with one node-ID at
+//! one period put a gap of at most `T/2` in every period; a heartbeat saying a new state (a
+//! boot-up among them) counts neither way otherwise, since a node announces a change at once
+//! and a master's reset or stop must not keep the verdict, while two devices saying different
+//! states change it at every heartbeat and never count one. With the other device still there,
+//! the verdict holds.
 //! One period after the verdict the rate measured over `[verdict, verdict + T)` is reported:
 //! [`Babbling`](crate::LinkEventKind::Babbling) (identifier, bus, frames/s) when it is more
 //! than [`BABBLE_FACTOR`] times the producer rate, [`DuplicateNode`][dup] otherwise (devices
@@ -144,8 +146,9 @@ pub const DEFAULT_FRAME_TIME: Duration = Duration::from_millis(2);
 /// A rate measured above this many times the producer rate is a babbling identifier; up to it,
 /// devices sharing a node-ID.
 pub const BABBLE_FACTOR: u64 = 4;
-/// Whole periods in a row with one heartbeat at most that end a bus's verdict (see rule 1).
-pub const CALM_WINDOWS: u8 = 2;
+/// Heartbeats in a row at the node's pace (each at least `3T/4` after the one before) that
+/// end a bus's verdict (see rule 1).
+pub const CALM_BEATS: u8 = 3;
 const NEVER: u64 = u64::MAX;
 
 /// One bus of a watched node.
@@ -166,15 +169,11 @@ struct Track {
     fast: bool,
     /// Theoretical arrival time of the boot-ups' own bucket, in quarter microseconds.
     boots: u64,
-    /// While the verdict holds: the start (µs) of the current period-long window, its
-    /// heartbeats so far, and the whole windows in a row before it with one at most.
-    window: u64,
-    seen: u16,
+    /// While the verdict holds: its last heartbeat here (µs), the heartbeats in a row since
+    /// at its pace, and the state the last said.
+    prev: u64,
     calm: u8,
-    /// The state its last heartbeat here said, while the verdict holds (boot-ups aside).
     state: u8,
-    /// A boot-up arrived in the current window (one per window is not counted).
-    booted: bool,
 }
 
 impl Track {
@@ -186,46 +185,36 @@ impl Track {
         measuring: false,
         fast: false,
         boots: 0,
-        window: 0,
-        seen: 0,
+        prev: 0,
         calm: 0,
         state: 0,
-        booted: false,
     };
     fn fast(&self) -> bool {
         self.fast
     }
     /// While the verdict holds, a heartbeat saying `state` stamped `t` (`tq` in quarter
-    /// microseconds): closes the windows it ends and counts it in its own. [`CALM_WINDOWS`]
-    /// whole periods in a row with one heartbeat at most are the node alone at its pace, which
-    /// would take 18 periods to drain the bucket (a quarter period each): the bucket is
-    /// emptied, and the verdict ends. What a master's command adds is the node's own: one
-    /// boot-up per window is not counted (a reset), and a heartbeat saying another state than
-    /// the one before begins a window (a node announces a change at once and beats a period
-    /// after it), while two devices saying different states change it at every heartbeat and
-    /// never complete a window. Judged by the frames' stamps, so a bus handed over late
-    /// judges the same periods.
-    fn calm_windows(&mut self, t: u64, tq: u64, period: u64, state: u8) {
-        // Past the current window, every window is empty: at most `CALM_WINDOWS` + 1 turns.
-        while t >= self.window.saturating_add(period) {
-            self.window = self.window.saturating_add(period);
-            self.calm = if self.seen <= 1 {
-                self.calm.saturating_add(1)
-            } else {
-                0
-            };
-            (self.seen, self.booted) = (0, false);
-            if self.calm >= CALM_WINDOWS {
-                self.tat = self.tat.min(tq);
-                return;
-            }
+    /// microseconds): [`CALM_BEATS`] in a row each at least `3T/4` after the one before are the
+    /// node alone at its pace, which would take 18 periods to drain the bucket (a quarter
+    /// period each): the bucket is emptied, and the verdict ends; so does a boot-up after one
+    /// such heartbeat (a master reset the node). A heartbeat saying another state than the one
+    /// before, or any other boot-up, counts neither way (see rule 1).
+    fn calm_beats(&mut self, t: u64, tq: u64, period: u64, state: u8) {
+        let gap = t.saturating_sub(core::mem::replace(&mut self.prev, t));
+        if state == 0 && self.calm > 0 {
+            // A boot-up after a heartbeat at its pace: a master reset the node, alone.
+            self.tat = self.tat.min(tq);
+            return;
         }
-        if state == 0 && !self.booted {
-            self.booted = true;
-        } else if state != 0 && state != core::mem::replace(&mut self.state, state) {
-            (self.window, self.seen, self.booted) = (t, 1, false);
+        if state == 0 || state != core::mem::replace(&mut self.state, state) {
+            return;
+        }
+        if gap.saturating_mul(4) < period.saturating_mul(3) {
+            self.calm = 0;
         } else {
-            self.seen = self.seen.saturating_add(1);
+            self.calm = self.calm.saturating_add(1);
+            if self.calm >= CALM_BEATS {
+                self.tat = self.tat.min(tq);
+            }
         }
     }
 }
@@ -624,7 +613,7 @@ impl Plausibility {
                 for tr in w.ports.iter_mut() {
                     back(&mut tr.last);
                     back(&mut tr.since);
-                    back(&mut tr.window);
+                    back(&mut tr.prev);
                     tr.tat = tr.tat.saturating_sub(by.saturating_mul(4));
                     tr.boots = tr.boots.saturating_sub(by.saturating_mul(4));
                 }

@@ -115,7 +115,7 @@ impl Plausibility {
             tr.boots = boots.min(tq.saturating_add(2 * d));
         }
         if tr.fast {
-            tr.calm_windows(t, tq, period, state);
+            tr.calm_beats(t, tq, period, state);
         }
         if tr.tat <= tq {
             // Drained: a verdict ended at `tat` (the sweep normally saw to it on time).
@@ -131,7 +131,7 @@ impl Plausibility {
         let started = excess && !tr.fast;
         if started {
             tr.fast = true;
-            (tr.window, tr.seen, tr.calm, tr.state, tr.booted) = (t, 1, 0, state, false);
+            (tr.prev, tr.calm, tr.state) = (t, 0, state);
             if !tr.measuring {
                 // The window is [t, t + T): this heartbeat and those of one period after it.
                 tr.since = t;
