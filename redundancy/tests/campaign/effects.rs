@@ -219,6 +219,12 @@ fn took_effect(run: &Run, f: Fault, from: Instant, to: Instant, before: &Counter
                 NodeEventKind::RemoteState { node: x, to, .. } if x.raw() == node && to == state))
         }),
         Fault::Noise { bus, .. } => errors_grew(run, before, bus, None, None),
+        // The others see its error flags on that bus.
+        Fault::WrongBitRate { node, port, .. } => {
+            counters(run).iter().zip(before).any(|((id, n), (_, b))| {
+                *id != node && n[port].errors.iter().sum::<u32>() > b[port].errors.iter().sum::<u32>()
+            })
+        }
         Fault::Overrun { node, port, .. } => {
             errors_grew(run, before, port, Some(node), Some(ErrorCause::RxOverflow))
         }

@@ -94,6 +94,18 @@ pub enum Fault {
         delay: Duration,
         dur: Duration,
     },
+    /// A device's controller on `port` runs at the wrong bit rate for `dur` (a board swapped
+    /// in with a misconfigured controller): it decodes nothing there and nothing it sends is a
+    /// frame to the others (so it is cut off that bus), and while error-active it flags every
+    /// frame on the bus as an error: its error counters take it passive, its own garbled
+    /// attempts take it bus-off, it recovers and starts again — modelled as bursts of
+    /// [`WRONG_RATE_BURST`] in every [`WRONG_RATE_CYCLE`] in which every frame on that bus is
+    /// destroyed and sent again, a delay for every sender's copies there at once.
+    WrongBitRate {
+        node: u8,
+        port: usize,
+        dur: Duration,
+    },
     /// A device's controller on `port` overruns for `dur`: it misses a frame with probability
     /// `permille`/1000 (and reports the overflow), the other devices get it.
     Overrun {
@@ -128,6 +140,7 @@ impl Fault {
             Fault::Overrun { .. } => "controller overrun",
             Fault::SlowTx { .. } => "slow transmitter",
             Fault::Duplicate { .. } => "duplicate node-ID of a live board",
+            Fault::WrongBitRate { .. } => "node at the wrong bit rate",
         }
     }
 
@@ -146,7 +159,8 @@ impl Fault {
             | Fault::Noise { dur, .. }
             | Fault::Overrun { dur, .. }
             | Fault::SlowTx { dur, .. }
-            | Fault::Duplicate { dur, .. } => dur,
+            | Fault::Duplicate { dur, .. }
+            | Fault::WrongBitRate { dur, .. } => dur,
             Fault::Sequence {
                 dur,
                 overlap,
@@ -176,6 +190,7 @@ impl Fault {
                 | Fault::Noise { .. }
                 | Fault::Overrun { .. }
                 | Fault::SlowTx { .. }
+                | Fault::WrongBitRate { .. }
         )
     }
 }
@@ -267,6 +282,24 @@ fn for_a_while(run: &mut Run, dur: Duration, hold: impl Fn(&mut Run, bool) + 'st
     run.at(end, move |r| hold(r, false));
 }
 
+/// Unplugs `node`'s `port` for `dur` (`noisy`: its bus has error frames meanwhile).
+fn unplug(run: &mut Run, node: u8, port: usize, dur: Duration, noisy: bool) {
+    let p = port_of(run, node, port);
+    let d = dev_index(run, node);
+    for_a_while(run, dur, move |r, on| {
+        if on {
+            r.plant.sim.disconnect(p);
+        } else {
+            r.plant.sim.reconnect(p);
+        }
+        let t = r.now();
+        r.timeline.devs[d].unplugged[port].set(t, on);
+        if noisy {
+            r.timeline.noisy[port].set(t, on);
+        }
+    });
+}
+
 /// Applies `f` from now on (its end scheduled).
 pub fn apply(run: &mut Run, f: Fault) {
     let now = run.now();
@@ -280,6 +313,24 @@ pub fn apply(run: &mut Run, f: Fault) {
                 let t = r.now();
                 r.timeline.noisy[bus].set(t, on);
             });
+        }
+        Fault::WrongBitRate { node, port, dur } => {
+            // It decodes nothing there and nothing it sends is a frame: off that bus.
+            unplug(run, node, port, dur, true);
+            let b = run.plant.buses[port];
+            // Error-active bursts: every frame on the bus flagged (as the bus's rate: the
+            // simulator's port rate is a receiver's, and this controller receives nothing).
+            let flags = FaultRates::NONE.with_corrupt_detected(1.0);
+            let end = now + dur;
+            let mut t = now;
+            while t < end {
+                run.at(t, move |r| r.plant.sim.set_bus_faults(b, flags));
+                let off = (t + WRONG_RATE_BURST).min(end);
+                run.at(off, move |r| {
+                    r.plant.sim.set_bus_faults(b, FaultRates::NONE)
+                });
+                t = t + WRONG_RATE_CYCLE;
+            }
         }
         Fault::Overrun {
             node,
@@ -396,19 +447,7 @@ pub fn apply(run: &mut Run, f: Fault) {
                 }
             });
         }
-        Fault::Unplug { node, port, dur } => {
-            let p = port_of(run, node, port);
-            let d = dev_index(run, node);
-            for_a_while(run, dur, move |r, on| {
-                if on {
-                    r.plant.sim.disconnect(p);
-                } else {
-                    r.plant.sim.reconnect(p);
-                }
-                let t = r.now();
-                r.timeline.devs[d].unplugged[port].set(t, on);
-            });
-        }
+        Fault::Unplug { node, port, dur } => unplug(run, node, port, dur, false),
         Fault::Impostor { .. } | Fault::Duplicate { .. } => {
             let impostor = matches!(f, Fault::Impostor { .. });
             let (node, dur, buses) = match f {
@@ -602,8 +641,20 @@ pub fn random(rng: &mut Rng, pairs: u8, connectivity_free: bool, kinds: usize) -
     }
 }
 
-/// How many kinds of fault [`draw`] knows (every class, some in two shapes).
+/// How many kinds of fault the campaign draws from (every class that holds, some in two
+/// shapes).
 pub const KINDS: usize = 22;
+
+/// Every kind [`draw`] knows: also a node at the wrong bit rate (kind 22), which still fails
+/// (a receiver whose other port lags delivers frames twice: the README's "known and not fixed
+/// yet"), so the budget and the sweeps leave it out unless `CAMPAIGN_KINDS=23` asks for it.
+pub const KINDS_WITH_WRONG_RATE: usize = 23;
+
+/// A controller at the wrong bit rate destroys every frame for this long (error-active: some
+/// 16 frames at 1 Mbit/s, then its own garbled attempts) ...
+pub const WRONG_RATE_BURST: Duration = Duration::from_millis(3);
+/// ... once in this (bus-off, its recovery after 128 × 11 recessive bits, error-active again).
+pub const WRONG_RATE_CYCLE: Duration = Duration::from_millis(5);
 
 /// The kinds the campaign knew before a live board's duplicate: the seeds in
 /// `REGRESSIONS_SLOW_TX` draw from these.
@@ -617,7 +668,7 @@ pub const KINDS_BEFORE_SLOW_TX: usize = 20;
 /// these, so that each still plays the schedule it once failed with.
 pub const KINDS_BEFORE_NOISE: usize = 18;
 
-/// A fault of kind `k` (below [`KINDS`]), its parameters drawn from `rng`.
+/// A fault of kind `k` (below [`KINDS_WITH_WRONG_RATE`]), its parameters drawn from `rng`.
 pub fn draw(rng: &mut Rng, pairs: u8, k: usize) -> Fault {
     let board = |rng: &mut Rng| {
         let i = rng.below(pairs as u64) as u8;
@@ -741,6 +792,11 @@ pub fn draw(rng: &mut Rng, pairs: u8, k: usize) -> Fault {
             21 => Fault::Duplicate {
                 node: board(rng),
                 dur: rng.ms(300, 2_000),
+            },
+            22 => Fault::WrongBitRate {
+                node: any_node(rng),
+                port: rng.below(2) as usize,
+                dur: rng.ms(200, 3_000),
             },
             14 => Fault::Lag {
                 node: any_node(rng),

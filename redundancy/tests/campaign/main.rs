@@ -261,6 +261,9 @@ const REGRESSIONS_DUPLICATE: &[(u64, u64, bool)] = &[
     // The member stopped for the standby announced pre-operational at once: with its next
     // heartbeat, a period that looked like two devices. A new state counts neither way.
     (2520, 28, true),
+    // Periods counted in fixed windows: the board's heartbeat jittering across a window's
+    // edge made one window hold two, and the verdict outlived the duplicate by six periods.
+    (1847, 3, false),
 ];
 
 /// The budget CI runs: seeds and simulated seconds each. Seed `k` leads with a fault of kind
@@ -367,8 +370,15 @@ fn on_big_stack<T: Send + 'static>(f: impl FnOnce() -> T + Send + 'static) -> T 
 fn seeds(first: u64, n: u64, secs: u64, quiet: bool) -> (Coverage, Vec<String>) {
     let mut cov = Coverage::default();
     let mut failed = vec![];
+    // `CAMPAIGN_KINDS=23`: the node at the wrong bit rate too (see `faults::KINDS_WITH_WRONG_RATE`).
+    let kinds = std::env::var("CAMPAIGN_KINDS")
+        .ok()
+        .and_then(|v| v.parse().ok())
+        .map_or(faults::KINDS, |k: usize| {
+            k.clamp(1, faults::KINDS_WITH_WRONG_RATE)
+        });
     for seed in first..first + n {
-        match on_big_stack(move || campaign(seed, secs, faults::KINDS, quiet, true)) {
+        match on_big_stack(move || campaign(seed, secs, kinds, quiet, true)) {
             Ok(c) => cov.merge(&c),
             Err(e) => failed.push(e),
         }
