@@ -329,7 +329,7 @@ pub fn apply(run: &mut Run, f: Fault) {
                 run.at(off, move |r| {
                     r.plant.sim.set_bus_faults(b, FaultRates::NONE)
                 });
-                t = t + WRONG_RATE_CYCLE;
+                t += WRONG_RATE_CYCLE;
             }
         }
         Fault::Overrun {
