@@ -30,7 +30,8 @@ pub const DEFAULT_HEARTBEAT: Duration = Duration::from_millis(100);
 /// otherwise: a standby takes over when the active master was silent this long.
 pub const DEFAULT_MASTER_TIMEOUT: Duration = Duration::from_millis(300);
 
-/// The named settings of a redundant network; start with
+/// The named settings of a redundant network (times as `duocan::Duration` or
+/// `std::time::Duration`, whichever the caller has); start with
 /// [`LogicalNetwork::builder`] (or `RedundantNetwork::builder()` with the `tokio` feature),
 /// finish with [`build`](Self::build) (the sans-IO [`LogicalNetwork`], for the simulator or an
 /// embedded driver) or, with `tokio`, `open` / `open_named` (an async handle).
@@ -124,19 +125,19 @@ impl RedundantNetworkBuilder {
         self
     }
     /// This master's heartbeat producer time (default 100 ms).
-    pub fn heartbeat(mut self, period: Duration) -> Self {
-        self.heartbeat = period;
+    pub fn heartbeat(mut self, period: impl Into<Duration>) -> Self {
+        self.heartbeat = period.into();
         self
     }
     /// How long the active master may be silent before a standby takes over (default 300 ms;
     /// longer than the heartbeat).
-    pub fn master_timeout(mut self, timeout: Duration) -> Self {
-        self.master_timeout = timeout;
+    pub fn master_timeout(mut self, timeout: impl Into<Duration>) -> Self {
+        self.master_timeout = timeout.into();
         self
     }
     /// The SYNC period while this master is active (default: no SYNC).
-    pub fn sync(mut self, period: Duration) -> Self {
-        self.sync = Some(period);
+    pub fn sync(mut self, period: impl Into<Duration>) -> Self {
+        self.sync = Some(period.into());
         self
     }
     /// An A/B board pair: node `a` is member A, node `b` member B.
@@ -145,14 +146,14 @@ impl RedundantNetworkBuilder {
         self
     }
     /// The heartbeat configured into every pair member (default 100 ms).
-    pub fn pair_heartbeat(mut self, period: Duration) -> Self {
-        self.pair_heartbeat = period;
+    pub fn pair_heartbeat(mut self, period: impl Into<Duration>) -> Self {
+        self.pair_heartbeat = period.into();
         self
     }
     /// How long a pair member may be silent before it has failed (default 300 ms; longer
     /// than the pair heartbeat).
-    pub fn pair_timeout(mut self, timeout: Duration) -> Self {
-        self.pair_timeout = timeout;
+    pub fn pair_timeout(mut self, timeout: impl Into<Duration>) -> Self {
+        self.pair_timeout = timeout.into();
         self
     }
     /// Another master-capable device, with this master's priority (so the lower node-ID of
@@ -164,8 +165,8 @@ impl RedundantNetworkBuilder {
     /// How long a pair member may stay unheard (no boot-up, no heartbeat) after power-on or
     /// after a reset before it is reported: a board, or its buses, dead from the start, which
     /// heartbeat monitoring (it starts at the first heartbeat) never reports.
-    pub fn boot_timeout(mut self, timeout: Duration) -> Self {
-        self.boot_timeout = timeout;
+    pub fn boot_timeout(mut self, timeout: impl Into<Duration>) -> Self {
+        self.boot_timeout = timeout.into();
         self
     }
     /// Another master-capable device with its own priority (lower wins).

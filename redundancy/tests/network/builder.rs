@@ -231,3 +231,29 @@ fn failovers_at_the_configured_times() {
         "{r}"
     );
 }
+
+#[test]
+fn times_are_taken_as_std_durations_as_well() {
+    let std_ms = std::time::Duration::from_millis;
+    let with_std = LogicalNetwork::builder()
+        .heartbeat(std_ms(20))
+        .master_timeout(std_ms(70))
+        .sync(std_ms(10))
+        .pair_heartbeat(std_ms(30))
+        .pair_timeout(std_ms(110))
+        .boot_timeout(std_ms(900));
+    let with_duocan = LogicalNetwork::builder()
+        .heartbeat(ms(20))
+        .master_timeout(ms(70))
+        .sync(ms(10))
+        .pair_heartbeat(ms(30))
+        .pair_timeout(ms(110))
+        .boot_timeout(ms(900));
+    assert_eq!(format!("{with_std:?}"), format!("{with_duocan:?}"));
+    // The same checks: a zero is refused whichever type carried it.
+    let e = err(LogicalNetwork::builder().sync(std::time::Duration::ZERO));
+    assert!(
+        matches!(e, RedundantError::ZeroDuration { setting: "sync" }),
+        "{e}"
+    );
+}
