@@ -357,11 +357,16 @@ async fn frames_flow(master: &Handle<Dev>, port: usize, n: u64) -> Result<u64, u
     }
 }
 
-async fn self_test(master: &Handle<Dev>, buses: &[String; 2]) -> Result<(), String> {
-    let mut ev = master.subscribe();
+/// `ev` and `watch` were subscribed before the slave was started: its change to operational
+/// may come before this function runs, and an event sent before a subscription is not seen.
+async fn self_test(
+    master: &Handle<Dev>,
+    buses: &[String; 2],
+    mut ev: broadcast::Receiver<Ev>,
+    mut watch: broadcast::Receiver<Ev>,
+) -> Result<(), String> {
     // Counts lost heartbeats for the whole run (a lagging watcher counts as a failure too).
     let lost = Arc::new(AtomicUsize::new(0));
-    let mut watch = master.subscribe();
     let l = lost.clone();
     tokio::spawn(async move {
         loop {
@@ -421,13 +426,14 @@ async fn run(o: Options) -> ExitCode {
     };
     print_events("master", &master, o.buses.clone());
     print_events("slave ", &slave, o.buses.clone());
+    let (ev, watch) = (master.subscribe(), master.subscribe());
     let _ = slave.boot().await;
     let _ = master.boot().await;
     let _ = master
         .nmt(NmtCommand::Start, NmtTarget::Node(NodeId::must(SLAVE)))
         .await;
     let code = if o.self_test {
-        match self_test(&master, &o.buses).await {
+        match self_test(&master, &o.buses, ev, watch).await {
             Ok(()) => {
                 println!("dual_vcan_failover: self-test OK: both buses failed and recovered, no heartbeat lost");
                 ExitCode::SUCCESS
