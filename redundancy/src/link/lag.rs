@@ -39,6 +39,13 @@
 //!   frame of a queue that drained at once (without timestamps its hand-over time says
 //!   nothing). A lag that grows slowly is followed in steps of half the window. A correction
 //!   left below half the window is none (ordinary skew, not carried into the next lag).
+//! - A twin measures the correction in force when *both* its copies were handed over: the
+//!   merger takes no sample against a copy it recorded before the correction last changed
+//!   (its stamp was corrected by the old amount). A reader running behind hands its copies
+//!   over against such records for as long as it runs behind, and each of them showed the
+//!   change once more: on a bus whose retransmissions after error frames skewed twins by 0
+//!   to 3 ms, a correction of 2.5 ms taken back was at once counted again, the other way,
+//!   and twins 3 ms apart on the wire then fell 5.5 ms apart, beyond the window.
 //! - A late sample held for a second one is withdrawn when its copy's own twin comes after
 //!   all, on the other port within the window ([`crate::link::dual_bus`]): the
 //!   copy it was paired with was an earlier occurrence that this bus missed and its sender

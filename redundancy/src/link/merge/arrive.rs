@@ -28,6 +28,7 @@ impl<const SLOTS: usize> Merger<SLOTS> {
         trust: Trust,
     ) -> (Verdict, Option<Sample>) {
         self.expire(now);
+        self.now = self.now.max(now.as_micros());
         if port > 1 {
             self.stats.bad_port += 1;
             self.stats.delivered += 1;
@@ -181,10 +182,25 @@ impl<const SLOTS: usize> Merger<SLOTS> {
         }
         let single = only && st.unmatched == 1;
         self.unlink_first(slot);
-        Twin::Found((single && r.fresh).then(|| Sample {
-            skew: s as i64 - r.at as i64,
-            late: false,
-        }))
+        Twin::Found(
+            (single && r.fresh && self.since_shift(&r, 1 - port)).then(|| Sample {
+                skew: s as i64 - r.at as i64,
+                late: false,
+            }),
+        )
+    }
+
+    /// Whether record `r` of port `p` was handed over after `p`'s correction last changed: its
+    /// stamp is corrected as `p`'s copies are now. One from before measures the change once
+    /// more (a reader running behind hands its copies over against the other port's records
+    /// made before it: after port 0's correction of 2.5 ms was taken back, two more copies of
+    /// port 1 showed the same 2.5 ms, and the correction went as far the other way). Its
+    /// hand-over time is kept rounded up to the millisecond: a record handed over within one
+    /// after the change is not taken either.
+    #[inline]
+    fn since_shift(&self, r: &super::Record, p: usize) -> bool {
+        let shifted = self.shifted[p];
+        shifted == 0 || r.handed() > shifted.saturating_add(1_000)
     }
 
     /// Unmatched records of `frame`'s key, with the port holding them.

@@ -297,6 +297,11 @@ pub struct Merger<const SLOTS: usize> {
     /// of [`Merger::shift`]).
     behind: [u64; 2],
     corrected: [u64; 2],
+    /// The newest `now` an arrival was handled at, and per port the `now` its correction last
+    /// changed ([`Merger::shift`], µs): its records handed over before that are stamped with
+    /// the correction before it, and give no lag sample (see [`crate::link::lag`]).
+    now: u64,
+    shifted: [u64; 2],
     /// Per port: its stamps are receive timestamps (see [`Merger::set_stamped`]).
     stamped: [bool; 2],
     recent: Recent<SLOTS>,
@@ -338,6 +343,8 @@ impl<const SLOTS: usize> Merger<SLOTS> {
             frontier: [0; 2],
             behind: [0; 2],
             corrected: [0; 2],
+            now: 0,
+            shifted: [0; 2],
             stamped: [true; 2],
             recent: Recent::new(),
             stats: MergeStats::default(),
@@ -383,6 +390,9 @@ impl<const SLOTS: usize> Merger<SLOTS> {
         if let Some(f) = self.frontier.get_mut(p) {
             *f = f.saturating_add_signed(-by);
             self.corrected[p] = self.corrected[p].saturating_add_signed(by);
+            if by != 0 {
+                self.shifted[p] = self.now;
+            }
         }
     }
     /// Counters.
@@ -464,6 +474,10 @@ impl<const SLOTS: usize> Merger<SLOTS> {
         }
         for f in &mut self.frontier {
             *f = f.saturating_sub(by);
+        }
+        self.now = self.now.saturating_sub(by);
+        for s in &mut self.shifted {
+            *s = s.saturating_sub(by);
         }
         self.recent.step_back(by);
     }

@@ -387,6 +387,42 @@ fn only_a_fresh_single_copy_measures_a_lag() {
 }
 
 #[test]
+fn a_record_made_before_the_correction_changed_measures_no_lag() {
+    let mut m: Merger<64> = Merger::new(W);
+    let a =
+        |m: &mut Merger<64>, now, at, p, fr: &Frame| m.arrive_at(now, at, p, fr, Trust::Trusted);
+    // Port 1's reader runs 20 ms behind. Port 0 hands over two fresh frames at 0 and 1 ms;
+    // at 3 ms the layer corrects port 0's stamps by 6 ms (port 0 is found to lag).
+    a(&mut m, ms(0), ms(0), 0, &f(1, 1));
+    a(&mut m, ms(1), ms(1), 0, &f(2, 2));
+    a(&mut m, ms(3), ms(3), 0, &f(9, 9));
+    m.shift(0, 6_000);
+    a(&mut m, ms(10), ms(4), 0, &f(3, 3));
+    // Port 1's copies of the two frames, handed over after the change, are matched; their
+    // records were stamped with the old correction, so they measure nothing: taken, they
+    // would show the 6 ms already corrected once more.
+    assert_eq!(
+        a(&mut m, ms(20), ms(6), 1, &f(1, 1)),
+        (Verdict::Duplicate, None)
+    );
+    assert_eq!(
+        a(&mut m, ms(21), ms(7), 1, &f(2, 2)),
+        (Verdict::Duplicate, None)
+    );
+    // A record made after the change (port 0's copy, handed over at 10 ms) measures again.
+    assert_eq!(
+        a(&mut m, ms(22), ms(8), 1, &f(3, 3)),
+        (
+            Verdict::Duplicate,
+            Some(Sample {
+                skew: 4_000,
+                late: false
+            })
+        )
+    );
+}
+
+#[test]
 fn a_repeat_a_late_reader_still_holds_back_measures_no_lag() {
     // The layer's timing: window 5 ms, horizon 80 ms. Two unchanged TPDOs every 10 ms; port
     // 1's reader hands its copies over 71 ms late (stamps on time); bus 0 is back at 336 ms
