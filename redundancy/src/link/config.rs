@@ -84,7 +84,10 @@ pub struct DualBusConfig {
     /// layer is given: a longer gap between two frames on a bus is time it was idle, rule 2's
     /// witness that a heartbeat missing there was not starved ([`crate::link::plausible`]).
     /// Default 2 ms ([`DEFAULT_FRAME_TIME`](crate::link::plausible::DEFAULT_FRAME_TIME): from
-    /// 125 kbit/s up); slower buses need more; zero: no idle witness.
+    /// 125 kbit/s up); slower buses need more; zero: no idle witness. The transmit-stall limit
+    /// ([`HealthConfig::tx_stall`]) is the skew window less this: a copy let go at the limit
+    /// is on its bus a frame time later at most, and must reach the receivers within the
+    /// window of its twin.
     pub frame_time: Duration,
     /// Watched nodes may be wired to one bus only (default false). By default every pair
     /// member has a port on each bus: one heard on one bus only while the other is healthy is
@@ -148,8 +151,12 @@ impl DualBusConfig {
         self
     }
     /// The configuration with [`skew_window`](Self::skew_window) replaced.
+    ///
+    /// The transmit-stall limit follows (see [`frame_time`](Self::frame_time)), unless the
+    /// health configuration was given another one.
     #[must_use]
     pub fn with_skew_window(mut self, skew_window: Duration) -> Self {
+        self.follow_stall(skew_window, self.frame_time);
         self.skew_window = skew_window;
         self
     }
@@ -184,8 +191,12 @@ impl DualBusConfig {
         self
     }
     /// The configuration with [`frame_time`](Self::frame_time) replaced.
+    ///
+    /// The transmit-stall limit follows, unless the health configuration was given another
+    /// one.
     #[must_use]
     pub fn with_frame_time(mut self, frame_time: Duration) -> Self {
+        self.follow_stall(self.skew_window, frame_time);
         self.frame_time = frame_time;
         self
     }
@@ -216,17 +227,35 @@ impl Default for DualBusConfig {
     }
 }
 
+/// The transmit-stall limit for a skew window and a frame time ([`HealthConfig::tx_stall`]):
+/// the window less the frame time, as a copy the rule lets go at its last moment is on its bus
+/// at most a frame time later and must reach the receivers within the window of its twin; at
+/// least a quarter of the window (a bus that slow needs a wider window). With the defaults
+/// (5 ms, 2 ms) 3 ms. Half the window, as the limit was, flushed copies that would have come
+/// in time: on a bus that carried a burst of the master's requests the other bus did not
+/// (its copies there flushed behind a node at the wrong bit rate), a low-priority reply waited
+/// 3 ms, and a receiver that heard only that bus never got it.
+fn stall_limit(skew_window: Duration, frame_time: Duration) -> Duration {
+    let w = skew_window.as_micros();
+    Duration::from_micros(w.saturating_sub(frame_time.as_micros()).max(w / 4))
+}
+
 impl DualBusConfig {
+    /// The stall limit follows a new window or frame time if it was the one derived from them.
+    fn follow_stall(&mut self, skew_window: Duration, frame_time: Duration) {
+        if self.health.tx_stall == stall_limit(self.skew_window, self.frame_time) {
+            self.health.tx_stall = stall_limit(skew_window, frame_time);
+        }
+    }
+
     /// `mode` with the health and reachability timing derived from the node-guarding (or
     /// heartbeat) period: silence limit 3 periods.
     #[must_use]
     pub fn with_guard_period(mode: LinkMode, period: Duration) -> Self {
         let skew_window = Duration::from_millis(5);
+        let frame_time = crate::link::plausible::DEFAULT_FRAME_TIME;
         let health = HealthConfig {
-            // Half the window: a copy the stall rule lets go at its last moment may still be
-            // on the wire for a frame's time after it, and must reach the receivers within the
-            // window of its twin.
-            tx_stall: Duration::from_micros(skew_window.as_micros() / 2),
+            tx_stall: stall_limit(skew_window, frame_time),
             ..HealthConfig::from_guard_period(period)
         };
         DualBusConfig {
@@ -238,7 +267,7 @@ impl DualBusConfig {
             discrepancy_time: Duration::from_millis(100),
             od_layout: OdLayout::default(),
             watch_capacity: MAX_MEMBERS,
-            frame_time: crate::link::plausible::DEFAULT_FRAME_TIME,
+            frame_time,
             one_bus_members: false,
             merge: MergePolicy::Exact,
         }

@@ -202,7 +202,7 @@ fn babbling_port_floods_bus_1_the_other_bus_carries_the_traffic_in_bounded_memor
     for node in 1..=SLAVES + 1 {
         let link = &net.station(node).link;
         // Bus 1 could not carry this station's frames. It was flushed and failed exactly the
-        // stall time (2.5 ms, half the window) after bus 2 sent the twin of bus 1's oldest
+        // stall time (3 ms, the window less the frame time) after bus 2 sent the twin of bus 1's oldest
         // waiting frame (or a later frame: the twin would be late), within a cycle and the
         // window of the flood's start; re-initialised after 100, 200, 400 ms, each time
         // failing again the same way. Meanwhile each heartbeat went there as a probe, was
@@ -210,7 +210,7 @@ fn babbling_port_floods_bus_1_the_other_bus_carries_the_traffic_in_bounded_memor
         let ev = net.port_events(node, 0);
         let ms = Duration::from_millis;
         let stall = DualBusConfig::default().health.tx_stall;
-        assert_eq!(stall, Duration::from_micros(2_500));
+        assert_eq!(stall, Duration::from_micros(3_000));
         let stalled = PortReason::TxStalled { waited: stall };
         let overtaken = |from: Instant, failed: Instant| {
             let twin = failed - stall;
@@ -488,7 +488,7 @@ fn a_slow_transmitter_on_one_bus_is_flushed_not_duplicated_and_used_again_at_its
         // Failed at its first frame after the onset; then only the re-initialisations'
         // retries (100, 200, 400 ms: each fails again), no event for the flushed probes.
         let stalled = PortReason::TxStalled {
-            waited: Duration::from_micros(2_500),
+            waited: Duration::from_micros(3_000),
         };
         assert_eq!((ev[0].2, ev[0].3), (PortState::Failed, stalled), "{ev:?}");
         assert!(ev[0].0 < CUT + ms(16), "{ev:?}");

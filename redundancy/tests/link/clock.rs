@@ -265,10 +265,10 @@ fn the_transmit_stall_rule_keeps_its_time_after_a_step_back() {
     assert_eq!(
         r.port_events(1),
         [(
-            ms(102) + Duration::from_micros(2_500),
+            ms(102) + Duration::from_micros(3_000),
             PortState::Failed,
             PortReason::TxStalled {
-                waited: Duration::from_micros(2_500)
+                waited: Duration::from_micros(3_000)
             }
         )]
     );

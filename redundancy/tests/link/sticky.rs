@@ -299,7 +299,7 @@ fn the_sticky_merge_is_the_active_active_modes_only() {
     let l = DualBus::new(sticky);
     assert_eq!(l.sticky().unwrap().timeout(), TIMEOUT);
     assert_eq!(l.health().config().tx_stall, TIMEOUT);
-    assert_eq!(sticky.health.tx_stall, Duration::from_micros(2_500));
+    assert_eq!(sticky.health.tx_stall, Duration::from_micros(3_000));
     for mode in [
         LinkMode::Cia302_6(Cia3026Config::default()),
         LinkMode::EcssToggle(EcssConfig::master()),

@@ -27,8 +27,10 @@ pub struct HealthConfig {
     pub silence_detection: bool,
     /// Oldest a frame handed to a port may get without a transmit outcome before the port is
     /// flushed and failed (zero: never). Applies once the port's driver has reported an outcome
-    /// (drivers that cannot tell are never judged). The dual-bus layer sets it to the skew
-    /// window in active-active mode and to zero otherwise.
+    /// (drivers that cannot tell are never judged). The dual-bus configuration sets it to the
+    /// skew window less the frame time in active-active mode (3 ms by default, see
+    /// [`DualBusConfig::frame_time`](crate::DualBusConfig::frame_time)); the layer sets it to
+    /// zero in the other modes.
     pub tx_stall: Duration,
 }
 

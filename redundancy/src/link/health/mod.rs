@@ -48,8 +48,9 @@
 //!   matched with it, i.e. arrives as a duplicate. So when the other port has sent the twin of
 //!   this port's oldest waiting frame, or a later frame (the layer numbers its logical frames:
 //!   a SYNC and the heartbeat due with it are handed over in the same instant), and this port
-//!   still has no outcome for it `tx_stall` (the window) later, the port is re-initialised at
-//!   once (flushing its queue) and failed. Receiving says nothing of its transmitter (a
+//!   still has no outcome for it `tx_stall` later (the window less a frame's time on the
+//!   bus: a copy let go then still reaches the receivers within the window of its twin), the
+//!   port is re-initialised at once (flushing its queue) and failed. Receiving says nothing of its transmitter (a
 //!   babbling controller fills its bus with frames; a controller that sends late hears the
 //!   network fine), so such a port comes back when a frame it was handed is confirmed in time
 //!   (the node's heartbeat, which goes there as a probe, one at a time, and is judged by the
