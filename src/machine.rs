@@ -456,6 +456,26 @@ where
             self.forward(now);
         }
     }
+
+    /// A frame from `port` (its receive timestamp `at`, if its driver gives one), as
+    /// [`Device::handle_rx_at`] takes it, returning what the link delivered to the machine:
+    /// once per occurrence over two buses. What watches the traffic beside the machine (a
+    /// door decoding process data) reads this, not the ports' copies.
+    pub fn handle_rx_delivered(
+        &mut self,
+        now: Instant,
+        port: usize,
+        frame: &Frame,
+        at: Option<Instant>,
+    ) -> Option<Frame> {
+        self.now = now;
+        let f = match at {
+            Some(at) => self.link.handle_rx_at(now, port, frame, at),
+            None => self.link.handle_rx(now, port, frame),
+        };
+        self.received(now, f);
+        f
+    }
 }
 
 impl<L: BusLink, M: Machine> Device for Station<L, M>

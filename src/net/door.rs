@@ -153,10 +153,14 @@ impl Door {
     pub fn lss(&mut self) -> &mut NetLssMaster {
         &mut self.inner.machine.b
     }
-    /// A frame from `port`, with its receive timestamp if its driver gives one.
+    /// A frame from `port`, with its receive timestamp if its driver gives one. Process data
+    /// is decoded from what the link delivers: over two buses a TPDO's two copies are one.
     fn rx(&mut self, now: Instant, port: usize, frame: &Frame, at: Option<Instant>) {
         self.now = now;
-        if let Some((node, pdo, values)) = self.pdos.decode(frame) {
+        let Some(frame) = self.inner.handle_rx_delivered(now, port, frame, at) else {
+            return;
+        };
+        if let Some((node, pdo, values)) = self.pdos.decode(&frame) {
             if self.decoded.len() < PDO_EVENTS {
                 self.decoded.push_back(NetEvent::Pdo {
                     node,
@@ -167,10 +171,6 @@ impl Door {
             } else {
                 self.pdo_dropped += 1;
             }
-        }
-        match at {
-            Some(at) => self.inner.handle_rx_at(now, port, frame, at),
-            None => self.inner.handle_rx(now, port, frame),
         }
     }
     /// A status of `port`'s driver.

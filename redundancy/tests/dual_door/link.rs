@@ -1,7 +1,7 @@
 //! The front door on a dual link: requests fan out, answers merge exactly, port health and
 //! reach show through `ports()`, `heard_on()` and the events.
 
-use duocan::net::{sim_dictionary, NetEvent, NetOptions, Network, SIM_VENDOR};
+use duocan::net::{sim_description, sim_dictionary, NetEvent, NetOptions, Network, SIM_VENDOR};
 use duocan::od::DynamicDictionary;
 use duocan::port::mem::{Connector, MemBus};
 use duocan::runtime::{Handle, Runtime};
@@ -183,6 +183,34 @@ async fn what_arrives_on_both_buses_is_delivered_once() {
     assert_eq!(name, "duocan simulated node");
     net.close().await;
     node.shutdown().await;
+}
+
+#[tokio::test(start_paused = true)]
+async fn a_tpdo_sent_on_both_buses_is_decoded_once() {
+    // The door decoded each port's copy before the merge: every TPDO came twice on the
+    // event stream, 0 ms apart.
+    let r = rig();
+    let node = r.net.add_node(5, sim_description().unwrap());
+    let mut t1 = node.tpdo(1).read().await.unwrap();
+    t1.event_timer_ms = Some(40);
+    node.tpdo(1).save(&t1).await.unwrap();
+    node.start().await.unwrap();
+    node.wait_for_pdo(1, Duration::from_secs(2)).await.unwrap();
+    let mut events = r.net.events();
+    let seen = drain(&mut events, 1000).await;
+    let at: Vec<_> = seen
+        .iter()
+        .filter(|e| e.pdo().is_some_and(|(n, k, _)| (n.raw(), k) == (5, 1)))
+        .filter_map(NetEvent::at)
+        .collect();
+    assert!(at.len() >= 24, "a TPDO every 40 ms for a second: {at:?}");
+    for w in at.windows(2) {
+        let gap = w[1].saturating_since(w[0]);
+        assert_eq!(gap, duocan::Duration::from_millis(40), "{at:?}");
+    }
+    assert_eq!(r.net.dropped_pdos().await.unwrap(), 0);
+    r.net.close().await;
+    r.node.shutdown().await;
 }
 
 #[tokio::test(start_paused = true)]
