@@ -37,8 +37,12 @@
 //!   skew window moves the correction by what it shows. One is not enough: a frame that one bus
 //!   missed, whose next occurrence came first on that bus, looks exactly like one, and so does a
 //!   frame of a queue that drained at once (without timestamps its hand-over time says
-//!   nothing). A lag that grows slowly is followed in steps of half the window. A correction
-//!   left below half the window is none (ordinary skew, not carried into the next lag).
+//!   nothing). Only twins beyond the window start a correction: within it, the window takes
+//!   the skew as it is (a bus whose frames are sent again after error frames skews each twin
+//!   by 0 to 3 ms; taken for a lag of 2.5 ms, the correction stayed after the errors ended
+//!   and put twins 5.5 ms apart once the other bus was the late one). A correction in force
+//!   follows the lag in steps of half the window, from matched twins too. A correction left
+//!   below half the window is none (ordinary skew, not carried into the next lag).
 //! - A twin measures the correction in force when *both* its copies were handed over: the
 //!   merger takes no sample against a copy it recorded before the correction last changed
 //!   (its stamp was corrected by the old amount). A reader running behind hands its copies
@@ -65,8 +69,8 @@
 //! # What comes twice
 //!
 //! While the lag is corrected, nothing: each copy finds its twin in the skew window. When a lag
-//! beyond the window appears (or changes by more than the window at once), the copies up to the
-//! second fresh sample that measures it may come twice ([`MergeStats::slipped`] counts them):
+//! beyond the window appears (or grows past it from none, or changes by more than the window
+//! at once), the copies up to the second fresh sample that measures it may come twice ([`MergeStats::slipped`] counts them):
 //! on a network with fresh frames, a few; on a network without any, each copy of a frame that
 //! repeats slower than twice the window, until one comes. With receive timestamps on both ports
 //! that is only a lag on the wire.
@@ -212,8 +216,12 @@ impl LagMeter {
         }
         let half = (self.base / 2) as i64;
         let now = now.as_micros();
-        if !sample.late && d.abs() < half {
-            // Ordinary skew: and no confirmation of a held sample either.
+        if !sample.late && (d.abs() < half || self.offset == 0) {
+            // Ordinary skew: and no confirmation of a held sample either. Nor does a twin
+            // within the window start a correction: the window takes it as it is, and the skew
+            // of a bus whose frames are sent again after error frames (0 to 3 ms, from frame to
+            // frame) taken for a lag put twins 5.5 ms apart once the other bus's frames were
+            // the late ones.
             return false;
         }
         // A second sample that agrees, in time: one alone may be a frame one bus missed, or a

@@ -74,23 +74,32 @@ fn ordinary_skew_is_no_lag_and_one_late_sample_is_not_enough() {
 }
 
 #[test]
-fn matched_twins_move_the_correction_by_what_they_show() {
+fn matched_twins_move_a_correction_but_never_start_one() {
     let mut m = meter();
     let mut out = Outbox::new();
-    // A lag growing slowly: twins still match; at 5 ms of skew, twice, the correction follows.
-    assert!(!m.sample(at(0), 1, matched(4), &mut out));
-    assert!(!m.sample(at(10), 1, matched(5), &mut out));
-    assert!(m.sample(at(11), 1, matched(5), &mut out));
-    assert_eq!(m.lag(1), ms(5));
-    assert_eq!(m.correct(1, at(100)), at(95));
+    // Twins within the window, however skewed and however often they agree: the window takes
+    // them as they are, no correction (a skew that changes from frame to frame, taken for a
+    // lag, put twins beyond the window once the other bus was the late one).
+    for k in 0..4 {
+        assert!(!m.sample(at(k), 1, matched(6), &mut out));
+    }
+    assert_eq!(m.lag(1), Duration::ZERO);
+    // A lag beyond the window (two late samples) is corrected...
+    assert!(!m.sample(at(10), 1, late(12), &mut out));
+    assert!(m.sample(at(11), 1, late(12), &mut out));
+    assert_eq!(m.lag(1), ms(12));
+    assert_eq!(m.correct(1, at(100)), at(88));
     assert_eq!(m.correct(0, at(100)), at(100));
-    // Corrected stamps now show what is left: another 6 ms.
+    // ...and followed by matched twins from then on: a lag that grows slowly, another 6 ms.
     assert!(!m.sample(at(20), 1, matched(6), &mut out));
     assert!(m.sample(at(21), 1, matched(6), &mut out));
-    assert_eq!(m.lag(1), ms(11));
+    assert_eq!(m.lag(1), ms(18));
     // The lag shrinks again: port 1's corrected copies come early.
-    assert!(!m.sample(at(30), 1, matched(-11), &mut out));
-    assert!(m.sample(at(31), 1, matched(-11), &mut out));
+    assert!(!m.sample(at(30), 1, matched(-9), &mut out));
+    assert!(m.sample(at(31), 1, matched(-9), &mut out));
+    assert_eq!(m.lag(1), ms(9));
+    assert!(!m.sample(at(40), 1, matched(-9), &mut out));
+    assert!(m.sample(at(41), 1, matched(-9), &mut out));
     assert_eq!(m.lag(1), Duration::ZERO);
     assert_eq!(
         events(&mut out),
@@ -99,19 +108,27 @@ fn matched_twins_move_the_correction_by_what_they_show() {
                 at(11),
                 LinkEventKind::Lag {
                     port: 1,
-                    lag: ms(5),
-                    window: ms(15)
+                    lag: ms(12),
+                    window: ms(22)
                 }
             ),
             (
                 at(21),
                 LinkEventKind::Lag {
                     port: 1,
-                    lag: ms(11),
-                    window: ms(21)
+                    lag: ms(18),
+                    window: ms(28)
                 }
             ),
-            (at(31), LinkEventKind::LagCleared { port: 1 }),
+            (
+                at(31),
+                LinkEventKind::Lag {
+                    port: 1,
+                    lag: ms(9),
+                    window: ms(19)
+                }
+            ),
+            (at(41), LinkEventKind::LagCleared { port: 1 }),
         ]
     );
 }
