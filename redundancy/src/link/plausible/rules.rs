@@ -75,7 +75,7 @@ impl Plausibility {
         out: &mut Outbox,
     ) -> bool {
         if self.unsynced {
-            self.sync_all(now, out);
+            self.sync_all(now, health, out);
         }
         // A heartbeat at the end of time is not "never heard".
         let t = now.as_micros().min(NEVER - 1);
@@ -199,7 +199,7 @@ impl Plausibility {
             });
         }
         if changed || onset.is_some() {
-            self.sync(i, now, out);
+            self.sync(i, now, health, out);
         }
         self.at(i).settle();
         fast
@@ -256,7 +256,7 @@ impl Plausibility {
             return;
         }
         if self.unsynced {
-            self.sync_all(now, out);
+            self.sync_all(now, health, out);
         }
         let t = now.as_micros();
         if self.next.is_none_or(|n| n > t) {
@@ -321,7 +321,7 @@ impl Plausibility {
                     }
                 }
             }
-            self.sync(i, now, out);
+            self.sync(i, now, health, out);
             self.at(i).settle();
         }
         self.next = next;
@@ -362,7 +362,7 @@ impl Plausibility {
 
     /// Hands node `i`'s state to the machine above if it changed (and reports the end of a
     /// suspicion); if the queue is full it is retried at the next input.
-    fn sync(&mut self, i: usize, now: Instant, out: &mut Outbox) {
+    fn sync(&mut self, i: usize, now: Instant, health: &Health, out: &mut Outbox) {
         let w = self.at(i);
         let suspect = w.suspect();
         if suspect == w.told {
@@ -372,8 +372,17 @@ impl Plausibility {
             self.unsynced = true;
             return;
         }
-        // Both buses too fast, neither silent: a second device beats beside the node.
-        let duplicated = suspect && w.one_bus.is_none() && w.ports.iter().all(Track::fast);
+        // Too fast on every bus that works (a failed port's bus may be the one cut), silent on
+        // none: a second device beats beside the node. (With one bus only by the first check,
+        // a duplicate was taken for an impostor while the other bus was cut: the member was
+        // reset, its boot-up lost among the duplicate's heartbeats, and its pair was left
+        // without a running board when the other member died.)
+        let working = |q: usize| health.port(q).state() != PortState::Failed;
+        let fast = |q: usize| w.ports[q].fast();
+        let duplicated = suspect
+            && w.one_bus.is_none()
+            && (0..2).any(fast)
+            && (0..2).all(|q| fast(q) || !working(q));
         out.machine(LinkRequest::NodeSuspect {
             node: w.node,
             suspect,
@@ -388,10 +397,10 @@ impl Plausibility {
         }
     }
 
-    fn sync_all(&mut self, now: Instant, out: &mut Outbox) {
+    fn sync_all(&mut self, now: Instant, health: &Health, out: &mut Outbox) {
         self.unsynced = false;
         for i in 0..self.entries().len() {
-            self.sync(i, now, out);
+            self.sync(i, now, health, out);
             self.at(i).settle();
         }
     }
