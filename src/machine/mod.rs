@@ -45,6 +45,10 @@
 //! # Ok::<(), duocan::AbortCode>(())
 //! ```
 
+mod health;
+
+pub use health::{PortReason, PortState};
+
 use crate::frame::cob_id::NodeId;
 use crate::frame::instant::{earliest, Instant};
 use crate::frame::queue::Bounded;

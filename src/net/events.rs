@@ -6,7 +6,7 @@ use crate::cia301::emcy::EmcyMessage;
 use crate::cia301::nmt::NmtState;
 use crate::frame::cob_id::NodeId;
 use crate::frame::instant::Instant;
-use crate::machine::PortStatus;
+use crate::machine::{PortReason, PortState, PortStatus};
 use crate::runtime::RuntimeEvent;
 use core::fmt;
 use tokio::sync::{broadcast, watch};
@@ -84,18 +84,18 @@ pub enum NetEvent {
         /// When.
         at: Instant,
     },
-    /// A port's state as the link keeps it changed (a dual bus: its port health, `"ok"`,
-    /// `"suspect"`, `"failed"`, `"recovering"`; see [`Network::ports`](super::Network::ports)).
-    /// A network on one port reports none: its driver's reports are [`NetEvent::Port`].
+    /// A port's state as the link keeps it changed (a dual bus: its port health; see
+    /// [`Network::ports`](super::Network::ports)). A network on one port reports none: its
+    /// driver's reports are [`NetEvent::Port`].
     PortState {
         /// The port (0 = bus 1).
         port: u8,
         /// The state before.
-        from: &'static str,
+        from: PortState,
         /// The state now.
-        to: &'static str,
-        /// Why, in words (the link's reason: "nothing received for 500 ms").
-        reason: String,
+        to: PortState,
+        /// Why (its `Display`: "nothing received for 500 ms").
+        reason: PortReason,
         /// When (for a timer-driven change: exactly its deadline).
         at: Instant,
     },
@@ -348,9 +348,9 @@ mod tests {
             (
                 NetEvent::PortState {
                     port: 0,
-                    from: "ok",
-                    to: "failed",
-                    reason: "port down: interface down".into(),
+                    from: PortState::Ok,
+                    to: PortState::Failed,
+                    reason: PortReason::Down(ErrorCause::InterfaceDown),
                     at,
                 },
                 "bus 1: failed (port down: interface down)",

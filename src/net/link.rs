@@ -20,7 +20,7 @@ use crate::frame::cob_id::NodeId;
 use crate::frame::instant::Instant;
 use crate::frame::Frame;
 use crate::machine::{
-    BusLink, Device, ErrorCause, LinkRequest, PortRequest, PortStatus, SinglePort,
+    BusLink, Device, ErrorCause, LinkRequest, PortRequest, PortState, PortStatus, SinglePort,
 };
 use crate::port::{Port, PortCountersSnapshot, PortInput};
 use crate::runtime::Runtime;
@@ -31,10 +31,9 @@ use core::fmt;
 /// ([`NetEvent::PortState`], [`NetEvent::Reach`]) that takes no commands, and tells the port
 /// states and the per-node reach it keeps.
 pub trait NetLink: BusLink<Event = NetEvent, Command = Infallible> + Send + 'static {
-    /// The state the link keeps for `port` (a dual bus: `"ok"`, `"suspect"`, `"failed"`,
-    /// `"recovering"`); `None` if it keeps none (the network then shows what the port's driver
-    /// last reported).
-    fn port_state(&self, port: usize) -> Option<&'static str> {
+    /// The state the link keeps for `port` (a dual bus: its port health); `None` if it keeps
+    /// none (the network then shows what the port's driver last reported).
+    fn port_state(&self, port: usize) -> Option<PortState> {
         let _ = port;
         None
     }
@@ -195,6 +194,8 @@ pub struct PortView {
     /// `"recovering"`. On one port, what its driver last reported: `"ok"` (nothing, up again,
     /// or a frame sent since), `"down"`, `"bus-off"`, `"error passive"` or `"error warning"`.
     pub state: &'static str,
+    /// On a dual bus, the layer's port health (what `state` names); `None` on one port.
+    pub health: Option<PortState>,
     /// The last error its driver reported, if any.
     pub last_error: Option<ErrorCause>,
     /// Its driver's counters (frames received and sent, failures).

@@ -124,7 +124,7 @@ use crate::cia305::LssMasterConfig;
 use crate::eds::Description;
 use crate::frame::cob_id::NodeId;
 use crate::frame::instant::{Duration, Instant};
-use crate::machine::{BusLink, Composite, Device, Station};
+use crate::machine::{BusLink, Composite, Device, PortState, Station};
 use crate::node::NodeConfig;
 use crate::od::comm;
 use crate::port::Port;
@@ -488,8 +488,7 @@ impl Network {
                 (0..d.port_count())
                     .map(|p| {
                         let driver = d.drivers.get(p).copied().unwrap_or_default();
-                        let state = d.inner.link.port_state(p).unwrap_or(driver.state);
-                        (state, driver.last_error)
+                        (d.inner.link.port_state(p), driver)
                     })
                     .collect::<Vec<_>>()
             })
@@ -497,11 +496,12 @@ impl Network {
         Ok(states
             .into_iter()
             .enumerate()
-            .map(|(index, (state, last_error))| PortView {
+            .map(|(index, (health, driver))| PortView {
                 index,
                 name: h.port_names().get(index).cloned().unwrap_or_default(),
-                state,
-                last_error,
+                state: health.map_or(driver.state, PortState::as_str),
+                health,
+                last_error: driver.last_error,
                 counters: h.port_counters(index).unwrap_or_default(),
             })
             .collect())

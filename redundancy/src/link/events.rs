@@ -7,7 +7,6 @@
 use crate::link::health::PortState;
 use crate::pair::{Member, PairId};
 use core::fmt;
-use duocan::machine::ErrorCause;
 use duocan::{Duration, Frame, Id, Instant, NodeId};
 
 /// One thing that happened in the layer.
@@ -203,48 +202,7 @@ pub enum Suspicion {
     },
 }
 
-/// Why a port changed state.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-#[non_exhaustive]
-pub enum PortReason {
-    /// Nothing received for `silent` while the other port kept receiving first copies.
-    Silence {
-        /// How long it has been silent.
-        silent: Duration,
-    },
-    /// The controller reported an error.
-    Controller(ErrorCause),
-    /// A transmission failed.
-    TxFailed(ErrorCause),
-    /// A frame handed to the port got no transmit outcome for `waited`: the port cannot send
-    /// (a babbling node holds the bus, the controller is stuck); its queue was flushed.
-    TxStalled {
-        /// How long the oldest frame waited.
-        waited: Duration,
-    },
-    /// The driver reported the port down.
-    Down(ErrorCause),
-    /// The driver reported the port up again.
-    Up,
-    /// The layer asked the driver to re-initialise the port (attempt number, from 1).
-    Reinit {
-        /// Attempt since the port last was ok.
-        attempt: u32,
-    },
-    /// Frames are received again.
-    Traffic,
-    /// Its frames arrive `lag` after their twins on the other bus, beyond the maximum skew
-    /// window: they are used only while the other bus is silent.
-    Lag {
-        /// The measured lag.
-        lag: Duration,
-    },
-    /// Its lag is within the maximum skew window again (`lag`, zero when gone): trusted again.
-    LagWithin {
-        /// The measured lag.
-        lag: Duration,
-    },
-}
+pub use duocan::machine::PortReason;
 
 /// Why the active channel changed.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -278,30 +236,6 @@ pub enum SwitchReason {
 
 fn bus(p: u8) -> u8 {
     p + 1
-}
-
-impl fmt::Display for PortReason {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        match self {
-            PortReason::Silence { silent } => write!(f, "nothing received for {silent}"),
-            PortReason::Controller(c) => write!(f, "controller reported {c}"),
-            PortReason::TxFailed(c) => write!(f, "transmission failed: {c}"),
-            PortReason::TxStalled { waited } => {
-                write!(f, "transmission stalled for {waited}: queue flushed")
-            }
-            PortReason::Down(c) => write!(f, "port down: {c}"),
-            PortReason::Up => f.write_str("port up again"),
-            PortReason::Reinit { attempt } => write!(f, "re-initialised (attempt {attempt})"),
-            PortReason::Traffic => f.write_str("frames received again"),
-            PortReason::Lag { lag } => write!(
-                f,
-                "lags {lag} behind the other bus, beyond the maximum window: used only while the other bus is silent"
-            ),
-            PortReason::LagWithin { lag } => {
-                write!(f, "lag {lag}, within the maximum window again")
-            }
-        }
-    }
 }
 
 impl fmt::Display for SwitchReason {

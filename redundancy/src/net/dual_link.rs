@@ -90,9 +90,9 @@ fn net_event(e: LinkEvent) -> Option<NetEvent> {
             reason,
         } => NetEvent::PortState {
             port,
-            from: from.as_str(),
-            to: to.as_str(),
-            reason: reason.to_string(),
+            from,
+            to,
+            reason,
             at,
         },
         LinkEventKind::Reach { node, heard } => NetEvent::Reach { node, heard, at },
@@ -153,8 +153,8 @@ impl<const SLOTS: usize> BusLink for DualLink<SLOTS> {
 }
 
 impl<const SLOTS: usize> NetLink for DualLink<SLOTS> {
-    fn port_state(&self, port: usize) -> Option<&'static str> {
-        (port < 2).then(|| self.bus.port_state(port).as_str())
+    fn port_state(&self, port: usize) -> Option<crate::PortState> {
+        (port < 2).then(|| self.bus.port_state(port))
     }
     fn heard_on(&self, node: NodeId) -> Option<[bool; 2]> {
         // A toggling link listens to one bus at a time: reach means nothing there.

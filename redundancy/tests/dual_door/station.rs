@@ -144,7 +144,7 @@ async fn sim_faults_plays_a_bus_a_member_and_a_master_failover() {
     let bus1: Vec<(u64, &str)> = seen
         .iter()
         .filter_map(|e| match e {
-            NetEvent::PortState { port: 0, to, .. } => Some((at_ms(e), *to)),
+            NetEvent::PortState { port: 0, to, .. } => Some((at_ms(e), to.as_str())),
             _ => None,
         })
         .collect();

@@ -253,7 +253,7 @@ impl Model {
         match e {
             NetEvent::PortState { port, to, .. } => {
                 if let Some(p) = self.ports.get_mut(usize::from(*port)) {
-                    p.state = (*to).into();
+                    p.state = to.as_str().into();
                 }
             }
             NetEvent::Reach { node, heard, .. } => self.set_heard_on(node.raw(), *heard),

@@ -204,9 +204,9 @@ fn emcy_ports_reach_and_the_filter() {
     });
     m.on_event(&NetEvent::PortState {
         port: 0,
-        from: "ok",
-        to: "failed",
-        reason: "port down: interface down".into(),
+        from: duocan::machine::PortState::Ok,
+        to: duocan::machine::PortState::Failed,
+        reason: duocan::machine::PortReason::Down(duocan::machine::ErrorCause::InterfaceDown),
         at: ms(4),
     });
     let v = m.view(ms(5), "emcy");

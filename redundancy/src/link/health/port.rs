@@ -2,47 +2,11 @@
 //! records the rules of the parent module ([`super`]) keep per port.
 
 use super::{HealthConfig, HealthCounters};
-use core::fmt;
 use duocan::frame::instant::shift_back;
 use duocan::machine::ErrorCause;
 use duocan::{Duration, Instant};
 
-/// The health of a port.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
-pub enum PortState {
-    /// Working.
-    Ok,
-    /// Errors reported, silent for a while, or lagging beyond the maximum skew window; still
-    /// used (a lagging one only to match twins while the other port delivers).
-    Suspect,
-    /// Not used for transmission; waiting for re-initialisation.
-    Failed,
-    /// Re-initialised or receiving again; used for transmission, not yet trusted for delivery.
-    Recovering,
-}
-
-impl PortState {
-    /// Ok or suspect: frames from it are delivered.
-    pub const fn is_trusted(self) -> bool {
-        matches!(self, PortState::Ok | PortState::Suspect)
-    }
-    /// Its name: `"ok"`, `"suspect"`, `"failed"` or `"recovering"` (what `Display` prints).
-    pub const fn as_str(self) -> &'static str {
-        match self {
-            PortState::Ok => "ok",
-            PortState::Suspect => "suspect",
-            PortState::Failed => "failed",
-            PortState::Recovering => "recovering",
-        }
-    }
-}
-
-impl fmt::Display for PortState {
-    // `pad`, not `write_str`: the status table lines its columns up with `{:<11}`.
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        f.pad(self.as_str())
-    }
-}
+pub use duocan::machine::PortState;
 
 /// Causes that make a port unusable at once.
 pub(super) const fn is_fatal(c: ErrorCause) -> bool {

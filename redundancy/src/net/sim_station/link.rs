@@ -340,7 +340,7 @@ impl<L: NetLink> BusLink for StationLink<L> {
 }
 
 impl<L: NetLink> NetLink for StationLink<L> {
-    fn port_state(&self, port: usize) -> Option<&'static str> {
+    fn port_state(&self, port: usize) -> Option<crate::PortState> {
         self.link.port_state(port)
     }
     fn heard_on(&self, node: NodeId) -> Option<[bool; 2]> {
