@@ -211,7 +211,7 @@ impl<S: Storage> PairSupervisor<S> {
     /// heartbeats a second device shares (so they cannot tell whether it runs) is started, not
     /// made active. Its board may well run; if it does not, the start costs nothing. The member
     /// that becomes active next sends it back to pre-operational (`set_role`).
-    fn last_resort(&mut self, p: usize) {
+    pub(super) fn last_resort(&mut self, p: usize) {
         if self.authority != Authority::Command || self.pairs[p].active.is_some() {
             return;
         }

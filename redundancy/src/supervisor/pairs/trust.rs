@@ -95,6 +95,14 @@ impl<S: Storage> PairSupervisor<S> {
         }
         self.lower_next(now);
         self.handle_timeout(now);
+        // A member found duplicated after it left (trusted meanwhile, the duplicate still
+        // beating: a bus cut took its verdict away) while its pair has no active member and
+        // the other cannot run: the last resort, as at its loss (its board was sent to
+        // pre-operational when the other member took over, and that one died since).
+        let p = pair.0 as usize;
+        if duplicated && !self.alive(p, m.other(), now) {
+            self.last_resort(p);
+        }
     }
 
     /// Commanding: a joined standby heard becoming operational (the caller sees the change;
