@@ -43,15 +43,16 @@ impl Tap {
             now: Instant::ZERO,
         }
     }
-    /// `CAMPAIGN_TRACE=name,id` (`s0x7a,80`): every copy of that identifier the device
-    /// named so gets, and whether its link delivered it, on stderr.
+    /// `CAMPAIGN_TRACE=name,id` (`s0x7a,80`; `*` for every identifier): every copy of that
+    /// identifier the device named so gets, and whether its link delivered it, on stderr.
     fn trace(&self, now: Instant, port: usize, frame: &Frame, at: Instant, delivered: bool) {
         let Some((name, id)) = trace() else {
             return;
         };
         let o = self.oracle.borrow();
         if o.nodes[self.node].name == name
-            && u16::from_str_radix(id, 16).is_ok_and(|i| frame.id() == duocan::Id::Standard(i))
+            && (id == "*"
+                || u16::from_str_radix(id, 16).is_ok_and(|i| frame.id() == duocan::Id::Standard(i)))
         {
             let stats = self.inner.merger().stats();
             eprintln!(

@@ -184,10 +184,12 @@ impl Wiring for Timeline {
         }
         // The heartbeats of a node an impostor beats for: the layer judges them implausible on
         // a bus and drops that bus's copies (as it must), up to the rule's tail after the
-        // impostor's last heartbeat (the node's heartbeats until three at its pace).
+        // impostor's last heartbeat (the node's heartbeats until three at its pace, and one
+        // more when the first says a new state, which counts neither way: a duplicated board
+        // the master sent to pre-operational for its standby says so as the duplicate leaves).
         if let Id::Standard(id @ 0x701..=0x77F) = frame.id() {
             let node = (id & 0x7F) as u8;
-            let tail = SLAVE_HB.saturating_mul(CALM_BEATS as u64);
+            let tail = SLAVE_HB.saturating_mul(CALM_BEATS as u64 + 1);
             return self
                 .impostors
                 .iter()
