@@ -242,6 +242,37 @@ fn a_duplicated_member_stopped_for_a_live_standby_is_started_when_that_one_dies(
 }
 
 #[test]
+fn a_member_found_duplicated_again_after_it_left_is_started_when_the_pair_has_none() {
+    // A duplicated, stopped for B; its verdict ends (the bus that carried the duplicate was
+    // cut) and it has left the pair; B dies; then A is found duplicated again (on the other
+    // bus). No member was running: A is the last resort.
+    let (mut s, p) = running();
+    commands(&mut s);
+    s.heartbeat(ms(25), A, NmtState::Operational);
+    s.heartbeat(ms(26), B, NmtState::PreOperational);
+    s.suspect(ms(30), A, true, true);
+    nmts(&mut s);
+    s.heartbeat(ms(40), B, NmtState::Operational);
+    s.suspect(ms(50), A, false, false);
+    s.handle_timeout(ms(90));
+    assert_eq!(nmts(&mut s), [(NmtCommand::ResetNode, 0x11)], "B silent");
+    assert_eq!(s.pair(p).unwrap().active, None);
+    s.suspect(ms(95), A, true, true);
+    assert_eq!(nmts(&mut s), [(NmtCommand::Start, 0x10)]);
+    // Found duplicated while B runs: nothing (B is alive).
+    let (mut s, _) = running();
+    commands(&mut s);
+    s.heartbeat(ms(25), A, NmtState::Operational);
+    s.heartbeat(ms(26), B, NmtState::PreOperational);
+    s.suspect(ms(30), A, true, true);
+    nmts(&mut s);
+    s.heartbeat(ms(40), B, NmtState::Operational);
+    s.suspect(ms(50), A, false, false);
+    s.suspect(ms(60), A, true, true);
+    assert_eq!(nmts(&mut s), []);
+}
+
+#[test]
 fn a_duplicated_standby_is_left_alone() {
     let (mut s, p) = running();
     commands(&mut s);

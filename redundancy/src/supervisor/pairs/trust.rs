@@ -87,7 +87,9 @@ impl<S: Storage> PairSupervisor<S> {
         if duplicated {
             self.duplicated |= bit(node);
         }
-        match &mut self.pairs[pair.0 as usize].member_mut(m).stage {
+        let stage = &mut self.pairs[pair.0 as usize].member_mut(m).stage;
+        let joined = matches!(stage, Stage::Joined { .. });
+        match stage {
             Stage::Joined { deadline } => *deadline = (*deadline).min(now),
             // Not adopted on an impostor's word.
             Stage::Waiting { adopt_at, .. } => *adopt_at = None,
@@ -98,9 +100,10 @@ impl<S: Storage> PairSupervisor<S> {
         // A member found duplicated after it left (trusted meanwhile, the duplicate still
         // beating: a bus cut took its verdict away) while its pair has no active member and
         // the other cannot run: the last resort, as at its loss (its board was sent to
-        // pre-operational when the other member took over, and that one died since).
+        // pre-operational when the other member took over, and that one died since). A joined
+        // one had it from its deadline, just run.
         let p = pair.0 as usize;
-        if duplicated && !self.alive(p, m.other(), now) {
+        if duplicated && !joined && !self.alive(p, m.other(), now) {
             self.last_resort(p);
         }
     }
