@@ -465,6 +465,7 @@ where
     /// [`Device::handle_rx_at`] takes it, returning what the link delivered to the machine:
     /// once per occurrence over two buses. What watches the traffic beside the machine (a
     /// door decoding process data) reads this, not the ports' copies.
+    #[inline]
     pub fn handle_rx_delivered(
         &mut self,
         now: Instant,
@@ -492,14 +493,10 @@ where
         self.link.port_count()
     }
     fn handle_rx(&mut self, now: Instant, port: usize, frame: &Frame) {
-        self.now = now;
-        let f = self.link.handle_rx(now, port, frame);
-        self.received(now, f);
+        self.handle_rx_delivered(now, port, frame, None);
     }
     fn handle_rx_at(&mut self, now: Instant, port: usize, frame: &Frame, at: Instant) {
-        self.now = now;
-        let f = self.link.handle_rx_at(now, port, frame, at);
-        self.received(now, f);
+        self.handle_rx_delivered(now, port, frame, Some(at));
     }
     fn handle_port_status(&mut self, now: Instant, port: usize, status: PortStatus) {
         self.now = now;

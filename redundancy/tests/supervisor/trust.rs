@@ -5,9 +5,9 @@
 use crate::pairs::{commands, events, ms, nmts, observe, roles, running, table, A, B};
 use duocan::{Duration, NmtCommand, NmtState, NodeId};
 use duocan_redundancy::supervisor::pairs::{
-    Authority, LossReason, PairCommand, PairsConfig, PairsEvent, Phase, RoleReason,
+    Authority, LossReason, PairCommand, PairSupervisor, PairsConfig, PairsEvent, Phase, RoleReason,
 };
-use duocan_redundancy::Member;
+use duocan_redundancy::{Member, PairId};
 use proptest::prelude::*;
 
 fn configures(cmds: &[PairCommand]) -> Vec<u8> {
@@ -17,6 +17,17 @@ fn configures(cmds: &[PairCommand]) -> Vec<u8> {
             _ => None,
         })
         .collect()
+}
+
+/// Both members running (A active, B standby, both heard), then A found duplicated at 30 ms:
+/// B started, A sent to pre-operational (the commands left to read).
+fn a_duplicated_for_b() -> (PairSupervisor, PairId) {
+    let (mut s, p) = running();
+    commands(&mut s);
+    s.heartbeat(ms(25), A, NmtState::Operational);
+    s.heartbeat(ms(26), B, NmtState::PreOperational);
+    s.suspect(ms(30), A, true, true);
+    (s, p)
 }
 
 #[test]
@@ -209,11 +220,7 @@ fn a_duplicated_only_member_is_started_as_the_last_resort_until_the_other_takes_
 
 #[test]
 fn a_duplicated_member_stopped_for_a_live_standby_is_started_when_that_one_dies() {
-    let (mut s, p) = running();
-    commands(&mut s);
-    s.heartbeat(ms(25), A, NmtState::Operational);
-    s.heartbeat(ms(26), B, NmtState::PreOperational);
-    s.suspect(ms(30), A, true, true);
+    let (mut s, p) = a_duplicated_for_b();
     assert_eq!(
         nmts(&mut s),
         [
@@ -246,11 +253,7 @@ fn a_member_found_duplicated_again_after_it_left_is_started_when_the_pair_has_no
     // A duplicated, stopped for B; its verdict ends (the bus that carried the duplicate was
     // cut) and it has left the pair; B dies; then A is found duplicated again (on the other
     // bus). No member was running: A is the last resort.
-    let (mut s, p) = running();
-    commands(&mut s);
-    s.heartbeat(ms(25), A, NmtState::Operational);
-    s.heartbeat(ms(26), B, NmtState::PreOperational);
-    s.suspect(ms(30), A, true, true);
+    let (mut s, p) = a_duplicated_for_b();
     nmts(&mut s);
     s.heartbeat(ms(40), B, NmtState::Operational);
     s.suspect(ms(50), A, false, false);
@@ -260,11 +263,7 @@ fn a_member_found_duplicated_again_after_it_left_is_started_when_the_pair_has_no
     s.suspect(ms(95), A, true, true);
     assert_eq!(nmts(&mut s), [(NmtCommand::Start, 0x10)]);
     // Found duplicated while B runs: nothing (B is alive).
-    let (mut s, _) = running();
-    commands(&mut s);
-    s.heartbeat(ms(25), A, NmtState::Operational);
-    s.heartbeat(ms(26), B, NmtState::PreOperational);
-    s.suspect(ms(30), A, true, true);
+    let (mut s, _) = a_duplicated_for_b();
     nmts(&mut s);
     s.heartbeat(ms(40), B, NmtState::Operational);
     s.suspect(ms(50), A, false, false);
