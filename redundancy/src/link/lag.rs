@@ -37,11 +37,13 @@
 //!   skew window moves the correction by what it shows. One is not enough: a frame that one bus
 //!   missed, whose next occurrence came first on that bus, looks exactly like one, and so does a
 //!   frame of a queue that drained at once (without timestamps its hand-over time says
-//!   nothing). Only twins beyond the window start a correction: within it, the window takes
-//!   the skew as it is (a bus whose frames are sent again after error frames skews each twin
-//!   by 0 to 3 ms; taken for a lag of 2.5 ms, the correction stayed after the errors ended
-//!   and put twins 5.5 ms apart once the other bus was the late one). A correction in force
-//!   follows the lag in steps of half the window, from matched twins too. A correction left
+//!   nothing). Matched twins start a correction only from three quarters of the window on:
+//!   nearer its middle the window takes the skew as it is (a bus whose frames are sent again
+//!   after error frames skews each twin by 0 to 3 ms; taken for a lag of 2.5 ms, the
+//!   correction stayed after the errors ended and put twins 5.5 ms apart once the other bus
+//!   was the late one), and a lag that drifts is still caught before it leaves the window
+//!   (only from twins beyond it, a drift of 20 ms in 8 s let 11 frames through twice). A
+//!   correction in force follows the lag in steps of half the window. A correction left
 //!   below half the window is none (ordinary skew, not carried into the next lag).
 //! - A twin measures the correction in force when *both* its copies were handed over: the
 //!   merger takes no sample against a copy it recorded before the correction last changed
@@ -216,12 +218,9 @@ impl LagMeter {
         }
         let half = (self.base / 2) as i64;
         let now = now.as_micros();
-        if !sample.late && (d.abs() < half || self.offset == 0) {
+        if !sample.late && (d.abs() < half || (self.offset == 0 && d.abs() < self.edge())) {
             // Ordinary skew: and no confirmation of a held sample either. Nor does a twin
-            // within the window start a correction: the window takes it as it is, and the skew
-            // of a bus whose frames are sent again after error frames (0 to 3 ms, from frame to
-            // frame) taken for a lag put twins 5.5 ms apart once the other bus's frames were
-            // the late ones.
+            // short of the window's edge start a correction (see the module documentation).
             return false;
         }
         // A second sample that agrees, in time: one alone may be a frame one bus missed, or a
@@ -274,6 +273,12 @@ impl LagMeter {
                 kind,
             });
         }
+    }
+
+    /// How far from its twin a matched copy must be to start a correction (µs): three
+    /// quarters of the window. Nearer, the window takes the skew as it is.
+    fn edge(&self) -> i64 {
+        (self.base - self.base / 4) as i64
     }
 
     /// The caller's clock stepped back `by` (the clock contract, see [`crate::link`]): a held

@@ -74,16 +74,23 @@ fn ordinary_skew_is_no_lag_and_one_late_sample_is_not_enough() {
 }
 
 #[test]
-fn matched_twins_move_a_correction_but_never_start_one() {
+fn matched_twins_start_a_correction_only_near_the_windows_edge() {
     let mut m = meter();
     let mut out = Outbox::new();
-    // Twins within the window, however skewed and however often they agree: the window takes
-    // them as they are, no correction (a skew that changes from frame to frame, taken for a
-    // lag, put twins beyond the window once the other bus was the late one).
+    // Twins within three quarters of the window, however skewed and however often they
+    // agree: the window takes them as they are, no correction (a skew that changes from frame
+    // to frame, taken for a lag, put twins beyond the window once the other bus was the late
+    // one).
     for k in 0..4 {
-        assert!(!m.sample(at(k), 1, matched(6), &mut out));
+        assert!(!m.sample(at(k), 1, matched(7), &mut out));
     }
     assert_eq!(m.lag(1), Duration::ZERO);
+    // Nearer the edge (a lag that drifts out of the window): corrected before it leaves.
+    let mut near = meter();
+    assert!(!near.sample(at(0), 1, matched(8), &mut out));
+    assert!(near.sample(at(1), 1, matched(8), &mut out));
+    assert_eq!(near.lag(1), ms(8));
+    out = Outbox::new();
     // A lag beyond the window (two late samples) is corrected...
     assert!(!m.sample(at(10), 1, late(12), &mut out));
     assert!(m.sample(at(11), 1, late(12), &mut out));
