@@ -218,7 +218,13 @@ impl LagMeter {
         }
         let half = (self.base / 2) as i64;
         let now = now.as_micros();
-        if !sample.late && (d.abs() < half || (self.offset == 0 && d.abs() < self.edge())) {
+        // A correction in force moves from half the window; none starts short of 3/4 of it.
+        let least = if self.offset == 0 {
+            half + half / 2
+        } else {
+            half
+        };
+        if !sample.late && d.abs() < least {
             // Ordinary skew: and no confirmation of a held sample either. Nor does a twin
             // short of the window's edge start a correction (see the module documentation).
             return false;
@@ -273,12 +279,6 @@ impl LagMeter {
                 kind,
             });
         }
-    }
-
-    /// How far from its twin a matched copy must be to start a correction (µs): three
-    /// quarters of the window. Nearer, the window takes the skew as it is.
-    fn edge(&self) -> i64 {
-        (self.base - self.base / 4) as i64
     }
 
     /// The caller's clock stepped back `by` (the clock contract, see [`crate::link`]): a held
