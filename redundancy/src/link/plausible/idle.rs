@@ -22,8 +22,13 @@
 //! longer than the SYNC period hid every gap, and an impostor of the highest node-ID of a
 //! network was never caught by the master whose port lagged; taken from a confirmation at once,
 //! the gap before it held received frames still on their way, and a lag looked like idle bus.)
-//! A gap a received frame ends does not count while an own frame handed over before it still
-//! waits for its outcome: that frame may have been on the bus in the gap. Which frames wait is
+//! A gap a received frame ends counts only up to the hand-over of an own frame that still
+//! waits for its outcome, as if that frame had ended it: it may have been on the bus from
+//! then on, not before. (Not
+//! counted at all, the gap before each SYNC was lost to the master producing it whenever its
+//! SYNC, queued at the gap's end, waited behind another frame: with cyclic traffic its bus was
+//! not seen idle for a second, and an impostor of a dead member was caught that much late.)
+//! Which frames wait is
 //! port health's count ([`PortHealth::in_flight`](crate::link::health::PortHealth::in_flight)),
 //! which forgets the frames a flush or a re-initialisation discards and no driver confirms (a
 //! count kept here held them for ever after a babble: the bus was never seen idle again). When
@@ -73,15 +78,16 @@ impl Bus {
 
     /// The next frame end, at `t`: the bus was idle before it if the gap since the later of
     /// the last end and `busy` (`NEVER`: something may have been on the bus) is longer than
-    /// `f`.
-    fn merge(&mut self, t: u64, f: u64, busy: u64) {
+    /// `f`; an own frame that may be on the bus from `until` on (`NEVER`: none) ends the gap
+    /// there if that is earlier.
+    fn merge(&mut self, t: u64, f: u64, busy: u64, until: u64) {
         if self.seen == NEVER {
             self.seen = t;
             return;
         }
-        let from = self.seen.max(busy);
-        if from != NEVER && t > from.saturating_add(f) {
-            self.idle = self.idle.max(t - f);
+        let (from, end) = (self.seen.max(busy), t.min(until));
+        if from != NEVER && end > from.saturating_add(f) {
+            self.idle = self.idle.max(end - f);
         }
         self.seen = self.seen.max(t);
     }
@@ -125,16 +131,17 @@ impl Plausibility {
         let ends = &mut table.ends[p];
         while let Some(c) = ends.front().copied().filter(|c| *c <= t) {
             ends.pop_front();
-            b.merge(c, f, 0);
+            b.merge(c, f, 0, NEVER);
         }
         let port = health.port(p);
-        let busy = match (port.in_flight(), port.in_flight_since()) {
-            // An own frame handed over before this one ended may have been in the gap.
-            (Some(_), Some(h)) if h.as_micros() < t => NEVER,
-            (Some(_), _) => 0,
-            (None, _) => b.own,
+        let (busy, until) = match (port.in_flight(), port.in_flight_since()) {
+            // An own frame waiting for its outcome may have been on the bus since it was
+            // handed over: the gap counts up to then.
+            (Some(_), Some(h)) => (0, h.as_micros()),
+            (Some(_), None) => (0, NEVER),
+            (None, _) => (b.own, NEVER),
         };
-        b.merge(t, f, busy);
+        b.merge(t, f, busy, until);
     }
 
     /// This layer handed a frame to port `p` at `now`.
@@ -171,7 +178,7 @@ impl Plausibility {
         if ends.is_full() {
             // Nothing received for a while: the oldest end is merged without its gap.
             if let Some(c) = ends.pop_front() {
-                b.merge(c, f, NEVER);
+                b.merge(c, f, NEVER, NEVER);
             }
         }
         let _ = ends.push_back(t);
