@@ -204,13 +204,17 @@ impl Health {
     }
 
     /// Port `p`'s oldest waiting frame is another one: the stall rule's reference starts over,
-    /// from now if the other port already sent this frame's twin or a later frame (it did so
-    /// at some moment up to now; the later bound never fails a port early).
+    /// from the other port's last confirmation if that port already sent this frame's twin or
+    /// a later frame (the twin was on its bus by then: a bound never early, and exact for the
+    /// twin itself). (From now, a frame that waited behind earlier ones got the whole stall
+    /// time again when they went out: a heartbeat after a boot-up came 5.3 ms after its twin,
+    /// past the window, and was delivered twice.)
     fn front_moved(&mut self, now: Instant, p: usize) {
-        let other_sent = self.ports[1 - p].last_sent;
+        let other = &self.ports[1 - p];
+        let (other_sent, since) = (other.last_sent, other.confirmed);
         let port = &mut self.ports[p];
         port.overtaken = match (port.outstanding.front(), other_sent) {
-            (Some(f), Some(s)) if f.no_later_than(s) => Some(now),
+            (Some(f), Some(s)) if f.no_later_than(s) => Some(since.unwrap_or(now)),
             _ => None,
         };
     }

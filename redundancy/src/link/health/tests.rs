@@ -303,21 +303,22 @@ fn transmit_stall_flushes_and_fails_and_only_reinit_revives() {
     assert_eq!(h.stall_deadline(1), None);
     ok(&mut h, 31, 1);
     assert_eq!(h.stall_deadline(0), Some(ms(40)));
-    // It follows at 32 ms; the second's twin went out at 31 ms: the window from now. Frames
-    // are told apart by the layer's numbers, not by their hand-over times (a SYNC and a
-    // heartbeat are handed over in one instant).
+    // It follows at 32 ms; the second's twin went out at 31 ms: the window from then (not
+    // from 32 ms: waiting behind the first does not buy it more time). Frames are told apart
+    // by the layer's numbers, not by their hand-over times (a SYNC and a heartbeat are handed
+    // over in one instant).
     ok(&mut h, 32, 0);
-    assert_eq!(h.stall_deadline(0), Some(ms(42)));
+    assert_eq!(h.stall_deadline(0), Some(ms(41)));
     h.count_tx(ms(33), 0, 33);
     h.count_tx(ms(33), 1, 33);
     ok(&mut h, 34, 1);
-    assert_eq!(h.poll_timeout(), Some(ms(42)));
-    h.handle_timeout(ms(42), &mut out);
+    assert_eq!(h.poll_timeout(), Some(ms(41)));
+    h.handle_timeout(ms(41), &mut out);
     assert_eq!(out.requests.pop(), Some((0, PortRequest::Reinit)));
     assert_eq!(
         port_events(&mut out),
         [(
-            ms(42),
+            ms(41),
             0,
             PortState::Failed,
             PortReason::TxStalled { waited: W }
