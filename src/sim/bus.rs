@@ -167,6 +167,9 @@ pub(super) struct Port {
     pub(super) capacity: usize,
     pub(super) babble: Option<Frame>,
     pub(super) transmitting: bool,
+    /// Re-initialised while a frame was on the wire: that frame is not retried should its
+    /// attempt fail (a controller reset drops what it was sending).
+    pub(super) flushed: bool,
     /// The entry this port has in its segment's ready set.
     pub(super) ready: Option<(u32, u64)>,
     pub(super) faults: Option<FaultRates>,
@@ -182,6 +185,9 @@ pub(super) struct Port {
     /// Frames are handed over with their wire time as receive timestamp (the default), or
     /// with the hand-over time (see [`set_port_stamps`](super::SimNetwork::set_port_stamps)).
     pub(super) stamps: bool,
+    /// Its timestamp clock (see
+    /// [`set_port_stamp_drift`](super::SimNetwork::set_port_stamp_drift)).
+    pub(super) clock: StampClock,
     /// Deliveries scheduled for later and the due time of the last one: later frames queue
     /// behind them so a port never sees frames out of order.
     pub(super) delayed: u32,
@@ -203,6 +209,7 @@ impl Port {
             capacity: DEFAULT_TX_CAPACITY,
             babble: None,
             transmitting: false,
+            flushed: false,
             ready: None,
             faults: None,
             drop_every: (0, 0),
@@ -210,6 +217,7 @@ impl Port {
             tx_latency: Duration::ZERO,
             wake: None,
             stamps: true,
+            clock: StampClock::EXACT,
             delayed: 0,
             delay_tail: Instant::ZERO,
             stats: PortStats::default(),
@@ -223,5 +231,33 @@ impl Port {
             (None, Some((_, _, due))) if *due > now => Err(*due),
             (None, q) => Ok(q.map(|(f, _, _)| f)),
         }
+    }
+}
+
+/// A port's timestamp clock: off by `offset` µs at `since` and running `ppm` parts per million
+/// fast (negative: slow) from then on.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(super) struct StampClock {
+    pub(super) ppm: i32,
+    pub(super) since: Instant,
+    pub(super) offset: i64,
+}
+
+impl StampClock {
+    pub(super) const EXACT: StampClock = StampClock {
+        ppm: 0,
+        since: Instant::ZERO,
+        offset: 0,
+    };
+
+    /// How far off the clock is at `t` (µs).
+    pub(super) fn offset_at(&self, t: Instant) -> i64 {
+        let run = t.saturating_since(self.since).as_micros() as i128;
+        (self.offset as i128 + run * self.ppm as i128 / 1_000_000) as i64
+    }
+
+    /// The stamp this clock gives an instant `t`.
+    pub(super) fn stamp(&self, t: Instant) -> Instant {
+        Instant::from_micros(t.as_micros().saturating_add_signed(self.offset_at(t)))
     }
 }

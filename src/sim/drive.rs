@@ -130,6 +130,7 @@ impl SimNetwork {
         match req {
             PortRequest::Reinit => {
                 self.ports[p].queue.clear();
+                self.ports[p].flushed = self.ports[p].transmitting;
                 self.refresh_port(p);
                 let port = &self.ports[p];
                 if !port.iface_up {

@@ -240,6 +240,7 @@ impl SimNetwork {
         let p = tx.sender as usize;
         let d = self.ports[p].dev as usize;
         self.ports[p].transmitting = false;
+        let flushed = core::mem::take(&mut self.ports[p].flushed);
 
         let mut rx = std::mem::take(&mut self.receivers);
         rx.clear();
@@ -265,7 +266,7 @@ impl SimNetwork {
                 receivers: rx.len() as u32,
             }
         };
-        if let (TxOutcome::ErrorFrame, Some(serial)) = (outcome, tx.serial) {
+        if let (TxOutcome::ErrorFrame, Some(serial), false) = (outcome, tx.serial, flushed) {
             self.ports[p]
                 .queue
                 .push_front((tx.frame, serial, Instant::ZERO));
@@ -344,8 +345,10 @@ impl SimNetwork {
             tx.end = self.now;
             let p = tx.sender as usize;
             self.ports[p].transmitting = false;
+            let flushed = core::mem::take(&mut self.ports[p].flushed);
             let d = self.ports[p].dev as usize;
-            if let (Some(serial), true) = (tx.serial, self.devices[d].generation == tx.generation) {
+            let alive = self.devices[d].generation == tx.generation;
+            if let (Some(serial), true, false) = (tx.serial, alive, flushed) {
                 self.ports[p]
                     .queue
                     .push_front((tx.frame, serial, Instant::ZERO));

@@ -3,7 +3,7 @@
 use super::probe::{std_frame, Probe};
 use super::{network, tx_records};
 use crate::frame::instant::{Duration, Instant};
-use crate::machine::{ErrorCause, PortStatus};
+use crate::machine::{ErrorCause, PortRequest, PortStatus};
 use crate::sim::timing::{bits_duration, error_frame_bits, frame_duration};
 use crate::sim::{FaultRates, RxFault, TraceRecord, TxOutcome};
 
@@ -288,6 +288,28 @@ fn detected_corruption_makes_error_frames_and_the_sender_retries() {
         Some(&(last.end, 0, PortStatus::TxOk))
     );
     assert_eq!(sim.bus_stats(b[0]).error_frames, errors as u64);
+}
+
+#[test]
+fn a_frame_a_reinit_flushed_while_on_the_wire_is_not_retried_after_its_error() {
+    // Every attempt is destroyed; the port is re-initialised in the middle of one: that
+    // attempt ends with its error frame, and nothing is sent after it (a controller reset
+    // drops what it was sending; retried, a frame the layer flushed came out late).
+    let (mut sim, b) = network(1, 1, RATE);
+    let f = std_frame(0x181, &[1, 2, 3]);
+    let x = sim.add_device("x", Probe::new(1), &[b[0]]).unwrap();
+    sim.add_device("l", Probe::new(1), &[b[0]]).unwrap();
+    sim.set_bus_faults(b[0], FaultRates::NONE.with_corrupt_detected(1.0));
+    sim.device_mut(x).send(0, f);
+    let err = bits_duration(error_frame_bits(&f), RATE);
+    let mid = Instant::ZERO + err.saturating_mul(3) + Duration::from_micros(err.as_micros() / 2);
+    sim.at(mid, move |s| {
+        s.device_mut(x).request(0, PortRequest::Reinit)
+    });
+    sim.run_until(ms(3));
+    let tx = tx_records(&sim);
+    assert_eq!(tx.len(), 4);
+    assert!(tx.iter().all(|t| t.outcome == TxOutcome::ErrorFrame));
 }
 
 #[test]
