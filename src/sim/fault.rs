@@ -1,6 +1,6 @@
 //! Fault injection: random per-frame faults, fixed port latency and deliberate wiring faults.
 
-use super::bus::Segment;
+use super::bus::{Segment, StampClock};
 use super::ids::{BusId, PortRef};
 use super::SimNetwork;
 use crate::frame::instant::Duration;
@@ -201,6 +201,27 @@ impl SimNetwork {
     pub fn set_port_stamps(&mut self, port: PortRef, stamps: bool) {
         let p = self.port_index(port);
         self.ports[p].stamps = stamps;
+    }
+
+    /// Makes one port's timestamp clock run `ppm` parts per million fast (negative: slow)
+    /// from now on, as two adapters stamping with their own crystals drift apart: each frame's
+    /// receive timestamp is its wire time plus the offset the clock has gathered (which a new
+    /// rate keeps and goes on from). Zero resynchronises the clock: its stamps are exact
+    /// again, at once (a driver that steps its clock back to the host's). Nothing else
+    /// changes: frames reach the device when they did. A port that hands frames over without
+    /// timestamps ([`set_port_stamps`](Self::set_port_stamps)) is not affected.
+    pub fn set_port_stamp_drift(&mut self, port: PortRef, ppm: i32) {
+        let (p, now) = (self.port_index(port), self.now);
+        let clock = &mut self.ports[p].clock;
+        *clock = if ppm == 0 {
+            StampClock::EXACT
+        } else {
+            StampClock {
+                ppm,
+                since: now,
+                offset: clock.offset_at(now),
+            }
+        };
     }
 
     /// Gives one port a fixed transmit latency: every frame its device hands it competes for the

@@ -172,9 +172,8 @@ impl SimNetwork {
         port.stats.rx += 1;
         let (d, local) = (port.dev as usize, port.local as usize);
         if port.stamps {
-            self.devices[d]
-                .dev
-                .handle_rx_at(self.now, local, frame, wire);
+            let at = port.clock.stamp(wire);
+            self.devices[d].dev.handle_rx_at(self.now, local, frame, at);
         } else {
             self.devices[d].dev.handle_rx(self.now, local, frame);
         }

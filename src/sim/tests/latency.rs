@@ -177,3 +177,39 @@ fn lowering_the_transmit_latency_never_lets_a_newer_frame_overtake() {
     assert!(got[5].0 > t4, "frame 5 at {} before frame 4", got[5].0);
     assert_eq!(sim.port_stats(port).tx_waited, 5);
 }
+
+#[test]
+fn a_drifting_stamp_clock_moves_the_stamps_not_the_frames() {
+    let (mut sim, b) = network(1, 1, RATE);
+    let f = std_frame(0x181, &[1]);
+    let x = sim.add_device("x", Probe::new(1), &[b[0]]).unwrap();
+    let d = sim.add_device("d", Probe::new(1), &[b[0]]).unwrap();
+    let port = d.port(0);
+    // 2,000 ppm fast from 10 ms, 1,000 ppm slow from 110 ms, resynchronised at 160 ms.
+    sim.at(ms(10), move |s| s.set_port_stamp_drift(port, 2_000));
+    sim.at(ms(110), move |s| s.set_port_stamp_drift(port, -1_000));
+    sim.at(ms(160), move |s| s.set_port_stamp_drift(port, 0));
+    for i in 0..5 {
+        sim.at(ms(50 * i), move |s| s.device_mut(x).send(0, f));
+    }
+    sim.run_until(ms(300));
+    let e = crate::sim::timing::frame_duration(&f, RATE).as_micros();
+    assert!(e < 500, "{e}");
+    // Frames reach the device when they end on the wire, whatever its clock.
+    let wire: Vec<u64> = (0..5).map(|i| 50_000 * i + e).collect();
+    let got: Vec<u64> = sim
+        .device(d)
+        .rx_on(0)
+        .iter()
+        .map(|r| r.0.as_micros())
+        .collect();
+    assert_eq!(got, wire);
+    // Stamps: exact before the drift; then 2 µs per ms since 10 ms (the frame's own
+    // microseconds add less than one); at 110 ms 200 µs ahead, then 1 µs per ms less;
+    // exact again after the resynchronisation.
+    let stamps: Vec<u64> = sim.device(d).stamps.iter().map(|t| t.as_micros()).collect();
+    assert_eq!(
+        stamps,
+        [wire[0], wire[1] + 80, wire[2] + 180, wire[3] + 160, wire[4]]
+    );
+}

@@ -28,6 +28,8 @@ pub struct Probe {
     /// Answer every received frame with this identifier on the same port.
     echo: Option<Id>,
     pub rx: Vec<(Instant, usize, Frame)>,
+    /// The receive timestamp of each frame in `rx`.
+    pub stamps: Vec<Instant>,
     pub status: Vec<(Instant, usize, PortStatus)>,
     pub timeouts: Vec<Instant>,
 }
@@ -46,6 +48,7 @@ impl Probe {
             events: VecDeque::new(),
             echo: None,
             rx: Vec::new(),
+            stamps: Vec::new(),
             status: Vec::new(),
             timeouts: Vec::new(),
         }
@@ -90,6 +93,10 @@ impl Device for Probe {
     type Event = ProbeEvent;
     fn port_count(&self) -> usize {
         self.ports
+    }
+    fn handle_rx_at(&mut self, now: Instant, port: usize, frame: &Frame, at: Instant) {
+        self.handle_rx(now, port, frame);
+        self.stamps.push(at);
     }
     fn handle_rx(&mut self, now: Instant, port: usize, frame: &Frame) {
         self.rx.push((now, port, *frame));
