@@ -225,6 +225,18 @@ fn took_effect(run: &Run, f: Fault, from: Instant, to: Instant, before: &Counter
                 *id != node && n[port].errors.iter().sum::<u32>() > b[port].errors.iter().sum::<u32>()
             })
         }
+        // Followed: the layer corrected the skew it made (a small one needs no correction).
+        Fault::Drift {
+            node,
+            port,
+            ppm,
+            dur,
+        } => {
+            let far = ppm.unsigned_abs() as u64 * dur.as_millis() / 1_000 >= 4_000;
+            !far || link_events(run, node, from, to).iter().any(|e| {
+                matches!(e.kind, LinkEventKind::Lag { port: p, .. } if p as usize == port)
+            })
+        }
         Fault::Overrun { node, port, .. } => {
             errors_grew(run, before, port, Some(node), Some(ErrorCause::RxOverflow))
         }
