@@ -66,7 +66,14 @@
 //!   port's reader handed its copies over late; and several senders miss frames at once after
 //!   a bus fault, so two such samples can agree. A lag of the other port shows from its own
 //!   copies, which come after this port's (with this port's reader further behind than that
-//!   lag, only once it catches up).
+//!   lag, only once it catches up). Unless the other copy's stamp is within the window before
+//!   the moment this one was handed over: the two reached this node together, where a reader
+//!   running behind would have handed its copy over that much later, so a receive clock is
+//!   off (two adapters' crystals drifting apart), and the dual-bus layer hands the sample over
+//!   as one that is not late: it moves the correction like any other. (Only shrinking, a
+//!   drift of 11 ms built up while the other bus was cut was never measured on a network whose
+//!   only fresh frames are SDO: every twin came twice for 0.3 s, until the clock was
+//!   resynchronised.)
 //!
 //! # What comes twice
 //!

@@ -418,3 +418,68 @@ fn a_lag_that_drifts_without_timestamps_is_followed_before_it_leaves_the_window(
     let lag = link.lag().lag(1);
     assert!(lag >= ms(16) && lag <= ms(20), "{lag:?}");
 }
+
+/// The master's receive clock on bus 2 runs 5,000 ppm slow (two adapters' crystals, minutes of
+/// drift in seconds) while bus 1 is cut from 0.5 s to 3 s: at the repair, bus 2's stamps are
+/// 14.5 ms behind bus 1's, though both copies of each frame reach the master together. Their
+/// two fresh frames after the repair measure it (copies that came together stamped apart
+/// are a clock off, not a reader running behind), the correction follows the drift, and when
+/// the clock is resynchronised at 6 s it is taken back: each change costs the copies up to its
+/// second measuring frame (after the repair, from the port's return on: it measures nothing
+/// on probation). (Taken for a reader running behind, the skew was never measured: every
+/// frame came twice until the resynchronisation.)
+#[test]
+fn a_receive_clock_that_drifted_while_the_other_bus_was_cut_is_measured_after_the_repair() {
+    let mut net = rig(Duration::ZERO);
+    let (port, bus) = (net.dev(MASTER).port(1), net.buses[0]);
+    net.sim
+        .at(START, move |sim| sim.set_port_stamp_drift(port, -5_000));
+    net.sim
+        .at(Instant::from_millis(500), move |sim| sim.bus_down(bus));
+    net.sim
+        .at(Instant::from_millis(3_000), move |sim| sim.bus_up(bus));
+    net.sim.at(Instant::from_millis(6_000), move |sim| {
+        sim.set_port_stamp_drift(port, 0)
+    });
+    net.sim.run_until(END);
+    let app = &net.station(MASTER).machine.b;
+    let sent = net.station(SLAVE).machine.b.sent_counter;
+    assert_eq!(sent, 500);
+    let got = app.counters_from(SLAVE);
+    let mut seen = vec![0u32; sent as usize];
+    for c in &got {
+        seen[*c as usize] += 1;
+    }
+    assert!(seen.iter().all(|n| *n >= 1), "every frame delivered");
+    // Twice: at the repair, the copies from bus 1's return until it is ok again (50 ms:
+    // no sample is taken from a port on probation) and its two measuring frames (3.06 to
+    // 3.10 s); at the resynchronisation, its two measuring frames.
+    let twice: Vec<_> = (0..sent as usize).filter(|c| seen[*c] > 1).collect();
+    assert_eq!(twice, [146, 147, 148, 149, 150, 295, 296]);
+    assert_eq!(got.len(), sent as usize + twice.len());
+    // Measured on port 1 (its copies taken 14.5 ms and more earlier) soon after the repair,
+    // followed, and cleared after the resynchronisation.
+    let lags: Vec<_> = net
+        .lag_events()
+        .into_iter()
+        .filter(|(_, e)| {
+            matches!(
+                e,
+                LinkEventKind::Lag { .. } | LinkEventKind::LagCleared { .. }
+            )
+        })
+        .collect();
+    let (t, first) = lags[0];
+    assert!(
+        t > Instant::from_millis(3_000) && t < Instant::from_millis(3_200),
+        "{t}"
+    );
+    assert!(
+        matches!(first, LinkEventKind::Lag { port: 0, lag, .. } if lag >= ms(14) && lag <= ms(16)),
+        "{first:?}"
+    );
+    assert!(
+        matches!(lags.last(), Some((t, LinkEventKind::LagCleared { port: 0 })) if *t > Instant::from_millis(6_000)),
+        "{lags:?}"
+    );
+}

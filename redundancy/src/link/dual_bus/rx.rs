@@ -138,6 +138,15 @@ impl<C: FrameClassifier, const SLOTS: usize, const FUNCTIONS: usize> DualBus<C, 
             self.settle_late(port, s, frame);
         }
         if let Some(m) = sample {
+            // Stamped a window or more before its twin, which was stamped within the window
+            // before this copy came: the two came together, a receive clock is off (see
+            // `link::lag`), and the sample is not one that may only shrink a correction.
+            let ahead = now.as_micros() as i64 - s.as_micros() as i64 + m.skew;
+            let together = m.late && m.skew < 0 && ahead < self.merger.window().as_micros() as i64;
+            let m = Sample {
+                late: m.late && !together,
+                ..m
+            };
             let before = [self.lag.lag(0), self.lag.lag(1)];
             if self.lag.sample(now, port, m, &mut self.out) {
                 for (p, was) in before.into_iter().enumerate() {
