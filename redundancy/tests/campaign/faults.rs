@@ -345,9 +345,14 @@ pub fn apply(run: &mut Run, f: Fault) {
             ppm,
             dur,
         } => {
-            let p = port_of(run, node, port);
-            run.plant.sim.set_port_stamp_drift(p, ppm);
-            run.at(now + dur, move |r| r.plant.sim.set_port_stamp_drift(p, 0));
+            let (p, d) = (port_of(run, node, port), dev_index(run, node));
+            let drift = move |r: &mut Run, ppm: i32| {
+                r.plant.sim.set_port_stamp_drift(p, ppm);
+                let t = r.now();
+                r.plant.oracle.borrow_mut().drift(d, port, ppm, t);
+            };
+            drift(run, ppm);
+            run.at(now + dur, move |r| drift(r, 0));
         }
         Fault::WrongBitRate { node, port, dur } => {
             // It decodes nothing there and nothing it sends is a frame: off that bus.

@@ -79,6 +79,9 @@ struct Occurrence {
     /// A heartbeat whose first copy reached the receiver after a newer one of its sender was
     /// delivered there (see the module documentation).
     superseded: [bool; MAX_NODES],
+    /// Delivered at the receiver while its receive clocks disagreed beyond what its layer had
+    /// measured (see [`Oracle::unmeasured`]).
+    unmeasured: [bool; MAX_NODES],
     /// When its first and its latest copy reached each receiver (simulated time).
     arrived: [Option<Instant>; MAX_NODES],
     last_arrived: [Option<Instant>; MAX_NODES],
@@ -208,6 +211,9 @@ pub struct Oracle {
     passed: Vec<VecDeque<(Instant, usize, Frame)>>,
     /// Per node and port: the latest time (its clock) a frame was handed over late there.
     pub late: [[Option<Instant>; 2]; MAX_NODES],
+    /// Per node and port: its receive clock (the simulator's, mirrored): parts per million
+    /// off since an instant, and the offset (µs) it had gathered then.
+    pub stamps: [[(i32, Instant, i64); 2]; MAX_NODES],
     /// Until when a foreign sender's frames may be matched with a copy of its that left
     /// further apart than the window (see [`Oracle::apart`]).
     apart_until: Option<Instant>,
@@ -251,6 +257,7 @@ impl Oracle {
             delivered: [0; MAX_NODES],
             in_run: false,
             superseded: [false; MAX_NODES],
+            unmeasured: [false; MAX_NODES],
             arrived: [None; MAX_NODES],
             last_arrived: [None; MAX_NODES],
             wire: [None; 2],
@@ -301,6 +308,50 @@ impl Oracle {
     /// Node `node`'s port `port` handed a frame over late, at `now` on its clock.
     pub fn late(&mut self, node: usize, port: usize, now: Instant) {
         self.late[node][port & 1] = Some(self.sim_time(node, now));
+    }
+
+    /// Node `node`'s port `port` stamps with a clock `ppm` parts per million off from `now`
+    /// (simulated time) on, keeping what it had gathered; zero resynchronises it (as
+    /// `SimNetwork::set_port_stamp_drift`).
+    pub fn drift(&mut self, node: usize, port: usize, ppm: i32, now: Instant) {
+        let off = self.stamp_offset(node, port, now);
+        self.stamps[node][port & 1] = if ppm == 0 {
+            (0, now, 0)
+        } else {
+            (ppm, now, off)
+        };
+    }
+
+    /// How far node `node`'s port `port` stamps off at `t` (µs, simulated time).
+    pub fn stamp_offset(&self, node: usize, port: usize, t: Instant) -> i64 {
+        let (ppm, since, off) = self.stamps[node][port & 1];
+        let run = t.saturating_since(since).as_micros() as i128;
+        off + (run * ppm as i128 / 1_000_000) as i64
+    }
+
+    /// Node `node`'s link delivered the copy being handed over (at `now` on its clock), its
+    /// lag corrections `lags` (µs per port) when it came; `settling`: they changed within the
+    /// window before. Its receive clocks disagreeing by more than half the skew window beyond
+    /// them, or settling after they did, a duplicate is the promise's (a lag change on the
+    /// wire: the copies up to the second frame that measures it, and those within the window
+    /// after it, may come twice): not judged.
+    pub fn unmeasured(&mut self, node: usize, now: Instant, lags: [i64; 2], settling: bool) {
+        let t = self.sim_time(node, now);
+        let off = |p: usize| self.stamp_offset(node, p, t) - lags[p];
+        let residual = off(1) - off(0);
+        // Its clocks drifting, or resynchronised lately (its correction then taken back).
+        let drifted = (0..2).any(|p| {
+            let (ppm, since, _) = self.stamps[node][p];
+            ppm != 0 || t.saturating_since(since) < HORIZON
+        });
+        if !(residual.unsigned_abs() >= SKEW_WINDOW.as_micros() / 2 || settling && drifted) {
+            return;
+        }
+        if let Some((r, Some(of))) = self.current.filter(|c| c.0 == node) {
+            if let Some(o) = self.occ(of) {
+                o.unmeasured[r] = true;
+            }
+        }
     }
 
     /// Node `node`'s link was handed the copy (at `now` on its clock), delivered or not.
@@ -402,6 +453,9 @@ impl Oracle {
                     // Its two copies on either side of a jump ahead of the receiver's clock:
                     // their stamps are the jump apart, no twins (the promise table says so).
                     (2, 2) if self.straddles(&o, r, wiring) || self.swapped(&o, r) => None,
+                    // Delivered while its receive clocks disagreed beyond the lags its layer
+                    // had measured: twice until the layer measures it (the promise table).
+                    (2, 2) if o.unmeasured[r] => None,
                     (_, d) if d > 1 => Some(Fault::Duplicated(d)),
                     (0, 0) => match wiring.connected(o.sender, r, o.at) {
                         Some(true) => Some(Fault::NeverArrived),

@@ -31,6 +31,8 @@ pub struct Tap {
     /// The occurrence of each recent frame number.
     occurrence: Vec<Option<(u32, u64)>>,
     now: Instant,
+    /// When its layer's lag correction last changed.
+    corrected: Option<Instant>,
 }
 
 impl Tap {
@@ -41,6 +43,7 @@ impl Tap {
             oracle,
             occurrence: vec![None; NUMBERS],
             now: Instant::ZERO,
+            corrected: None,
         }
     }
     /// `CAMPAIGN_TRACE=name,id` (`s0x7a,80`; `*` for every identifier): every copy of that
@@ -96,7 +99,23 @@ impl BusLink for Tap {
         if now.saturating_since(at) > LATE {
             self.oracle.borrow_mut().late(self.node, port, now);
         }
+        // The lags the layer had measured when the copy came (the one that measures a lag is
+        // delivered before it corrects it).
+        let lag = |l: &DualBus, p: usize| l.lag().lag(p).as_micros() as i64;
+        let lags = [lag(&self.inner, 0), lag(&self.inner, 1)];
         let f = self.inner.handle_rx_at(now, port, frame, at);
+        if lags != [lag(&self.inner, 0), lag(&self.inner, 1)] {
+            self.corrected = Some(now);
+        }
+        if f.is_some() {
+            // The records made before a correction changed keep their stamps: a run of
+            // identical frames right after it still meets them (for up to a window).
+            let settling = self
+                .corrected
+                .is_some_and(|c| now.saturating_since(c) < crate::oracle::SKEW_WINDOW);
+            let mut o = self.oracle.borrow_mut();
+            o.unmeasured(self.node, now, lags, settling);
+        }
         self.trace(now, port, frame, at, f.is_some());
         self.delivered(now, f)
     }
