@@ -253,7 +253,8 @@ impl StampClock {
     /// How far off the clock is at `t` (µs).
     pub(super) fn offset_at(&self, t: Instant) -> i64 {
         let run = t.saturating_since(self.since).as_micros() as i128;
-        (self.offset as i128 + run * self.ppm as i128 / 1_000_000) as i64
+        let off = self.offset as i128 + run * self.ppm as i128 / 1_000_000;
+        off.clamp(i64::MIN as i128, i64::MAX as i128) as i64
     }
 
     /// The stamp this clock gives an instant `t`.
