@@ -51,7 +51,11 @@ pub enum CoreEvent {
     Lss(LssMasterEvent),
 }
 
-/// A station a [`Network`](super::Network) runs on (see the [module](self) for the rule).
+/// A station a [`Network`](super::Network) runs on: the door (remote nodes, SDO, waits, PDO
+/// decoding, events) is written once over this trait, so the network stays one type whatever
+/// the core is. The door feeds the core every port input, a frame through [`NetCore::rx`] so
+/// that it decodes what the link delivered, and asks it only what its calls need; anything
+/// else a core offers is reached with [`Network::with_core`](super::Network::with_core).
 /// Every method is called inside the network's runtime task, with the runtime's `now`.
 pub trait NetCore: Device<Event = CoreEvent> + Send + 'static {
     /// A frame from `port` (its receive stamp `at`, if the driver gives one), returning what
