@@ -72,6 +72,10 @@
 //! buses a node was heard on) do, and [`NetEvent::PortState`] and [`NetEvent::Reach`] report
 //! their changes.
 //!
+//! **Cores.** The observer, client and LSS master are one [`NetCore`]: the door (nodes, SDO,
+//! waits, PDOs, events) is written once over that trait, and [`Network::open_core`] runs it
+//! over another core, whose own calls [`Network::with_core`] reaches.
+//!
 //! **Program download** (CiA 302-3): [`RemoteNode::download_program`] replaces a node's
 //! program by the master's procedure, the image streamed by block transfer, with progress.
 //!
