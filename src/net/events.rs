@@ -1,6 +1,6 @@
 //! What the network reports, flat: one enum, one level, and a stream that survives lag.
 
-use super::door::DoorEvent;
+use super::core::CoreEvent;
 use super::pdo::PdoValues;
 use crate::cia301::emcy::EmcyMessage;
 use crate::cia301::nmt::NmtState;
@@ -256,7 +256,7 @@ impl fmt::Display for NetEvent {
 /// events, which include SDO transfer completions the stream does not show). The stream ends
 /// (`None`) only when the network has been closed with [`Network::close`](super::Network::close).
 pub struct Events {
-    pub(super) rx: broadcast::Receiver<RuntimeEvent<DoorEvent>>,
+    pub(super) rx: broadcast::Receiver<RuntimeEvent<CoreEvent>>,
     /// Turns true when the network is closed (the broadcast itself outlives the runtime).
     pub(super) closed: watch::Receiver<bool>,
 }
@@ -272,12 +272,12 @@ impl Events {
                 _ = self.closed.wait_for(|c| *c) => return None,
             };
             match r {
-                Ok(RuntimeEvent::Device(DoorEvent::Net(e))) => return Some(e),
+                Ok(RuntimeEvent::Device(CoreEvent::Net(e))) => return Some(e),
                 Ok(RuntimeEvent::Port { status, at, .. }) => {
                     return Some(NetEvent::Port { status, at })
                 }
                 // Transfer outcomes go to the call that started them.
-                Ok(RuntimeEvent::Device(DoorEvent::Sdo(..) | DoorEvent::Lss(_))) => {}
+                Ok(RuntimeEvent::Device(_)) => {}
                 Err(broadcast::error::RecvError::Lagged(n)) => return Some(NetEvent::Lagged(n)),
                 Err(broadcast::error::RecvError::Closed) => return None,
             }

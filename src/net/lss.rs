@@ -7,7 +7,7 @@
 //! time, whoever calls. Each call returns when the master's own timeout decided
 //! ([`NetOptions::with_lss`](super::NetOptions::with_lss)).
 
-use super::door::{DoorEvent, LSS_PLAN};
+use super::core::{CoreEvent, LSS_PLAN};
 use super::error::NetError;
 use super::Network;
 use crate::cia305::{
@@ -78,9 +78,9 @@ impl NetLss {
         shared
             .handle
             .request(
-                move |d, now| start(d.lss(), now).map_err(NetError::Lss),
+                move |d, now| start(d.lss()?, now).map_err(NetError::Lss),
                 |(), e| match e {
-                    DoorEvent::Lss(e) => match e.kind {
+                    CoreEvent::Lss(e) => match e.kind {
                         LssMasterEventKind::Done(o) => Some(Ok(o)),
                         LssMasterEventKind::Failed(e) => Some(Err(NetError::Lss(e))),
                         _ => None,
@@ -175,16 +175,16 @@ impl NetLss {
             .handle
             .request(
                 move |d, now| {
-                    let before = d.lss().stats();
-                    d.lss()
-                        .fastscan(now, plan)
+                    let lss = d.lss()?;
+                    let before = lss.stats();
+                    lss.fastscan(now, plan)
                         .map(|()| (now, before))
                         .map_err(NetError::Lss)
                 },
                 {
                     let mut scan = Scan::default();
                     move |(begun, before), e| {
-                        let DoorEvent::Lss(e) = e else { return None };
+                        let CoreEvent::Lss(e) = e else { return None };
                         match e.kind {
                             LssMasterEventKind::Assigned { address, node } => {
                                 scan.assigned.push((address, node));
@@ -201,7 +201,10 @@ impl NetLss {
                 },
             )
             .await?;
-        let after = shared.handle.call(|d, _| d.lss().stats()).await?;
+        let after = shared
+            .handle
+            .try_call(|d, _| Ok::<_, NetError>(d.lss()?.stats()))
+            .await?;
         let (end, stopped) = scan.end.unwrap_or((begun, None));
         Ok(FastscanReport {
             assigned: scan.assigned,

@@ -72,6 +72,10 @@
 //! buses a node was heard on) do, and [`NetEvent::PortState`] and [`NetEvent::Reach`] report
 //! their changes.
 //!
+//! **Cores.** The observer, client and LSS master are one [`NetCore`]: the door (nodes, SDO,
+//! waits, PDOs, events) is written once over that trait, and [`Network::open_core`] runs it
+//! over another core, whose own calls [`Network::with_core`] reaches.
+//!
 //! **Program download** (CiA 302-3): [`RemoteNode::download_program`] replaces a node's
 //! program by the master's procedure, the image streamed by block transfer, with progress.
 //!
@@ -92,12 +96,14 @@
 //! At a high PDO rate, a reader of [`Network::events`] that falls behind gets
 //! [`NetEvent::Lagged`]; [`RemoteNode::wait_for_pdo`] never misses the PDO it waits for.
 
+mod core;
 mod door;
 mod error;
 mod events;
 mod link;
 mod lss;
 mod named;
+mod observer;
 mod pdo;
 mod program;
 mod remote;
@@ -106,7 +112,7 @@ mod sdo_stream;
 mod sim;
 mod value;
 
-pub use door::LSS_PLAN;
+pub use self::core::{CoreEvent, NetClient, NetCore, LSS_PLAN};
 pub use error::{Awaited, NetError};
 pub use events::{Events, NetEvent};
 pub use link::{NetLink, NetPorts, PortView};
@@ -119,14 +125,12 @@ pub use sim::{sim_description, sim_dictionary, SIM_DEVICE_NAME, SIM_HEARTBEAT_MS
 pub use value::AnyValue;
 
 use crate::cia301::nmt::{NmtCommand, NmtTarget};
-use crate::cia301::sdo::{SdoClient, SdoOptions};
+use crate::cia301::sdo::SdoOptions;
 use crate::cia305::LssMasterConfig;
 use crate::eds::Description;
 use crate::frame::cob_id::NodeId;
 use crate::frame::instant::{Duration, Instant};
-use crate::machine::{BusLink, Composite, Device, PortState, Station};
-use crate::node::NodeConfig;
-use crate::od::comm;
+use crate::machine::{Device, PortState};
 use crate::port::Port;
 use crate::runtime::{Handle, Runtime};
 use door::Door;
@@ -140,8 +144,6 @@ use tokio::sync::{watch, Mutex, Semaphore};
 const SESSIONS: usize = 8;
 /// The largest value one SDO transfer moves (a domain read or written whole).
 pub const MAX_TRANSFER: usize = 64 * 1024;
-/// The node-ID the observer uses internally (it never sends with it).
-const OBSERVER_ID: u8 = 127;
 
 /// How a [`Network`] behaves. Start from `NetOptions::default()` and change with `with_*`.
 #[derive(Clone)]
@@ -160,8 +162,8 @@ pub struct NetOptions {
     pub lss: LssMasterConfig,
 }
 
-impl core::fmt::Debug for NetOptions {
-    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+impl ::core::fmt::Debug for NetOptions {
+    fn fmt(&self, f: &mut ::core::fmt::Formatter<'_>) -> ::core::fmt::Result {
         f.debug_struct("NetOptions")
             .field("sdo", &self.sdo)
             .field("listen_only", &self.listen_only)
@@ -282,18 +284,68 @@ impl Network {
         Self::start(link, ports, opts, sim::SimNodes::default())
     }
 
+    /// Opens the network on `core` over `ports`, one per port of the core in order: the
+    /// same door (remote nodes, SDO, waits, PDOs, events) over another station, such as a
+    /// redundancy crate's supervised master. `opts.sdo` and `opts.listen_only` are the door's;
+    /// `opts.lss` is the observer's and not used here. A core whose port count differs from
+    /// the ports given is [`NetError::Port`]. Must be called inside a tokio runtime.
+    pub fn open_core(
+        core: Box<dyn NetCore>,
+        ports: impl NetPorts,
+        opts: NetOptions,
+    ) -> Result<Network, NetError> {
+        Self::start_core(core, ports, opts, sim::SimNodes::default())
+    }
+
+    /// Runs `f` on the network's core, inside its runtime, with the runtime's clock: a core's
+    /// calls that the door does not know (`C` is the type given to [`Network::open_core`]).
+    /// A core of another type is [`NetError::Argument`], naming both.
+    pub async fn with_core<C, R>(
+        &self,
+        f: impl FnOnce(&mut C, Instant) -> R + Send + 'static,
+    ) -> Result<R, NetError>
+    where
+        C: NetCore,
+        R: Send + 'static,
+    {
+        self.shared
+            .handle
+            .try_call(move |d, now| {
+                let name = d.core.type_name();
+                match d.core.as_any_mut().downcast_mut::<C>() {
+                    Some(c) => Ok(f(c, now)),
+                    None => Err(NetError::Argument(format!(
+                        "the network's core is a {name}, not a {}",
+                        ::core::any::type_name::<C>()
+                    ))),
+                }
+            })
+            .await
+    }
+
+    /// The observer core on `link`, then [`Network::start_core`].
     fn start(
         link: Box<dyn NetLink>,
         ports: impl NetPorts,
         opts: NetOptions,
         sim: sim::SimNodes,
     ) -> Result<Network, NetError> {
-        if link.port_count() != ports.count() || ports.count() > 2 {
+        let core = observer::ObserverCore::new(link, &opts)?;
+        Self::start_core(Box::new(core), ports, opts, sim)
+    }
+
+    fn start_core(
+        core: Box<dyn NetCore>,
+        ports: impl NetPorts,
+        opts: NetOptions,
+        sim: sim::SimNodes,
+    ) -> Result<Network, NetError> {
+        if core.port_count() != ports.count() || ports.count() > 2 {
             return Err(NetError::Port(format!(
                 "{}: {} ports given to a link of {}",
                 ports.label(),
                 ports.count(),
-                link.port_count()
+                core.port_count()
             )));
         }
         if tokio::runtime::Handle::try_current().is_err() {
@@ -301,17 +353,7 @@ impl Network {
                 "no tokio runtime: open the network from inside one (#[tokio::main])".into(),
             ));
         }
-        let id = NodeId::new(OBSERVER_ID).ok_or(NetError::Closed)?;
-        let od = comm::standard_dictionary(OBSERVER_ID, comm::Identity::default());
-        let mut node = crate::node::Node::new(NodeConfig::master(id), od);
-        // Booted before the clock starts: its boot-up never leaves (the door's filter).
-        node.boot(Instant::ZERO);
-        let client = SdoClient::new(MAX_TRANSFER);
-        let lss = door::NetLssMaster::new(opts.lss);
-        let door = Door::new(
-            Station::new(link, Composite::new(Composite::new(node, client), lss)),
-            opts.listen_only,
-        );
+        let door = Door::new(core);
         let label = ports.label();
         let mut rt = ports.attach(Runtime::new(door).name(label));
         if let Some(tap) = &opts.tap {
@@ -413,11 +455,7 @@ impl Network {
         }
         self.shared
             .handle
-            .try_call(move |d, now| {
-                d.node()
-                    .nmt_command(now, cmd, target)
-                    .map_err(|_| NetError::QueueFull)
-            })
+            .try_call(move |d, now| d.core.nmt(now, cmd, target))
             .await
     }
 
@@ -446,20 +484,7 @@ impl Network {
             })?;
         self.shared
             .handle
-            .try_call(move |d, now| {
-                let node = d.node();
-                // Off first: a running producer's period and identifier change only while off.
-                let cob = u32::from(door::SYNC_ID);
-                let r = node
-                    .write(now, comm::SYNC_COB_ID, 0, &cob.to_le_bytes())
-                    .and_then(|()| node.write(now, comm::SYNC_PERIOD, 0, &us.to_le_bytes()))
-                    .and_then(|()| {
-                        node.write(now, comm::SYNC_COB_ID, 0, &(cob | 1 << 30).to_le_bytes())
-                    });
-                // The door lets SYNC out only once the producer runs.
-                d.sync_on = r.is_ok();
-                r.map_err(|code| NetError::Argument(format!("the SYNC producer refused: {code}")))
-            })
+            .try_call(move |d, now| d.core.set_sync(now, Some(us)))
             .await
     }
 
@@ -467,14 +492,7 @@ impl Network {
     pub async fn stop_sync(&self) -> Result<(), NetError> {
         self.shared
             .handle
-            .try_call(move |d, now| {
-                let cob = u32::from(door::SYNC_ID);
-                let r = d
-                    .node()
-                    .write(now, comm::SYNC_COB_ID, 0, &cob.to_le_bytes());
-                d.sync_on = false;
-                r.map_err(|code| NetError::Argument(format!("the SYNC producer refused: {code}")))
-            })
+            .try_call(move |d, now| d.core.set_sync(now, None))
             .await
     }
 
@@ -488,7 +506,7 @@ impl Network {
                 (0..d.port_count())
                     .map(|p| {
                         let driver = d.drivers.get(p).copied().unwrap_or_default();
-                        (d.inner.link.port_state(p), driver)
+                        (d.core.port_state(p), driver)
                     })
                     .collect::<Vec<_>>()
             })
@@ -515,7 +533,7 @@ impl Network {
         Ok(self
             .shared
             .handle
-            .call(move |d, _| d.inner.link.heard_on(node))
+            .call(move |d, _| d.core.heard_on(node))
             .await?)
     }
 
@@ -539,7 +557,7 @@ impl Network {
     pub async fn close(&self) {
         self.shared.handle.shutdown().await;
         self.shared.sim.shutdown().await;
-        let tasks = core::mem::take(
+        let tasks = ::core::mem::take(
             &mut *self
                 .shared
                 .on_close

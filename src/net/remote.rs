@@ -1,6 +1,7 @@
 //! A remote node: its SDO server, NMT commands, its state and the waits on it.
 
-use super::door::{Door, DoorEvent};
+use super::core::CoreEvent;
+use super::door::Door;
 use super::error::{Awaited, NetError};
 use super::events::NetEvent;
 use super::sdo::RemoteSdo;
@@ -9,7 +10,6 @@ use crate::cia301::nmt::{NmtCommand, NmtState, NmtTarget};
 use crate::eds::Description;
 use crate::frame::cob_id::NodeId;
 use crate::frame::instant::Instant;
-use crate::od::comm;
 use crate::runtime::RuntimeClosed;
 use std::path::Path;
 use std::sync::Arc;
@@ -131,7 +131,7 @@ impl RemoteNode {
     pub async fn state(&self) -> Result<Option<NmtState>, NetError> {
         let id = self.id()?;
         let h = &self.net.shared.handle;
-        Ok(h.call(move |d, _| d.node().remote(id).map(|v| v.state))
+        Ok(h.call(move |d, _| d.core.remote(id).map(|(s, _)| s))
             .await?)
     }
 
@@ -153,17 +153,9 @@ impl RemoteNode {
     pub async fn watch_heartbeat(&self, timeout: Duration) -> Result<(), NetError> {
         let id = self.id()?;
         let ms = u16::try_from(timeout.as_millis()).unwrap_or(u16::MAX);
-        let entry = (u32::from(id.raw()) << 16) | u32::from(ms);
         let h = &self.net.shared.handle;
         h.try_call(move |d, now| {
-            d.node()
-                .write(
-                    now,
-                    comm::HEARTBEAT_CONSUMER,
-                    id.raw(),
-                    &entry.to_le_bytes(),
-                )
-                .map_err(|_| NetError::Closed)?;
+            d.core.watch_heartbeat(now, id, ms)?;
             d.await_first(now, id, crate::Duration::from_millis(u64::from(ms)));
             Ok(())
         })
@@ -177,7 +169,7 @@ impl RemoteNode {
         self.watch(
             Awaited::State(state),
             timeout,
-            move |d| (d.node().remote(id).map(|v| v.state) == Some(state)).then_some(()),
+            move |d| (d.core.remote(id).map(|(s, _)| s) == Some(state)).then_some(()),
             move |e| match *e {
                 NetEvent::State { node, to, .. } if node == id && to == state => Some(()),
                 _ => None,
@@ -235,8 +227,8 @@ impl RemoteNode {
                     return Some(Err(Watch::Closed));
                 }
                 match e {
-                    DoorEvent::Net(e) => pick(e).map(Ok),
-                    DoorEvent::Sdo(..) | DoorEvent::Lss(_) => None,
+                    CoreEvent::Net(e) => pick(e).map(Ok),
+                    _ => None,
                 }
             },
         );

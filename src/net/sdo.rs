@@ -1,6 +1,6 @@
 //! A remote node's SDO server: typed values, strings and domains.
 
-use super::door::DoorEvent;
+use super::core::CoreEvent;
 use super::error::NetError;
 use super::remote::RemoteNode;
 use crate::cia301::sdo::{SdoOptions, TransferMode};
@@ -142,7 +142,7 @@ impl RemoteSdo {
             .handle
             .request(
                 move |d, now| {
-                    let c = d.client();
+                    let c = d.core.client()?;
                     let started = match &data {
                         None => c.upload(now, node, index, sub, opts),
                         Some(v) => c.download(now, node, index, sub, v, opts),
@@ -150,7 +150,7 @@ impl RemoteSdo {
                     started.map_err(NetError::Sdo)
                 },
                 |id, e| match e {
-                    DoorEvent::Sdo(rid, r) if rid == id => Some(r.clone().map_err(NetError::Sdo)),
+                    CoreEvent::Sdo(rid, r) if rid == id => Some(r.clone().map_err(NetError::Sdo)),
                     _ => None,
                 },
             )

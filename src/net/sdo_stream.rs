@@ -33,7 +33,8 @@
 //! # Ok(()) }
 //! ```
 
-use super::door::{Door, DoorEvent};
+use super::core::CoreEvent;
+use super::door::Door;
 use super::error::NetError;
 use super::sdo::RemoteSdo;
 use crate::cia301::sdo::RequestId;
@@ -80,7 +81,9 @@ impl Running {
         if let Some(id) = self.id() {
             let _ = self
                 .handle
-                .call(move |d, now| d.client().abort(now, id, AbortCode::GENERAL))
+                .try_call(move |d, now| {
+                    Ok::<_, NetError>(d.core.client()?.abort(now, id, AbortCode::GENERAL))
+                })
                 .await;
             // The node may have answered the last frame before it heard the abort: that
             // answer must not meet the next transfer to it (which would take it for its own
@@ -133,11 +136,11 @@ impl RemoteSdo {
                     let Some(id) = run.id() else { continue };
                     let (back, n, total) = run
                         .handle
-                        .call(move |d, now| {
-                            let c = d.client();
+                        .try_call(move |d, now| {
+                            let c = d.core.client()?;
                             let n = c.read_stream(now, id, &mut buf).unwrap_or(0);
                             let total = c.stream_progress(id).and_then(|(_, t)| t);
-                            (buf, n, total)
+                            Ok::<_, NetError>((buf, n, total))
                         })
                         .await?;
                     buf = back;
@@ -199,7 +202,7 @@ impl RemoteSdo {
                 }
                 _ = run.wake.notified(), if room == 0 => {
                     let Some(id) = run.id() else { continue };
-                    room = run.handle.call(move |d, _| d.client().wants_data(id)).await?;
+                    room = run.handle.try_call(move |d, _| Ok::<_, NetError>(d.core.client()?.wants_data(id))).await?;
                 }
                 r = read_some(&mut input, &mut buf, room, size.map(|s| s - fed)), if room > 0 && !ended => {
                     let n = match r {
@@ -219,10 +222,10 @@ impl RemoteSdo {
                     let chunk = buf[..n].to_vec();
                     let (left, done) = run
                         .handle
-                        .call(move |d, now| {
-                            let c = d.client();
+                        .try_call(move |d, now| {
+                            let c = d.core.client()?;
                             let _ = c.feed(now, id, &chunk, ended);
-                            (c.wants_data(id), c.stream_progress(id).map(|(d, _)| d))
+                            Ok::<_, NetError>((c.wants_data(id), c.stream_progress(id).map(|(d, _)| d)))
                         })
                         .await?;
                     room = left;
@@ -269,7 +272,7 @@ impl RemoteSdo {
             handle
                 .request(
                     move |d: &mut Door, now| {
-                        let id = begin(d.client(), now).map_err(NetError::Sdo)?;
+                        let id = begin(d.core.client()?, now).map_err(NetError::Sdo)?;
                         if let Ok(mut g) = slot.lock() {
                             *g = Some(id);
                         }
@@ -279,7 +282,7 @@ impl RemoteSdo {
                         Ok(id)
                     },
                     |id, e| match e {
-                        DoorEvent::Sdo(rid, r) if rid == id => {
+                        CoreEvent::Sdo(rid, r) if rid == id => {
                             Some(r.clone().map_err(NetError::Sdo))
                         }
                         _ => None,

@@ -7,6 +7,7 @@ mod examples;
 mod monitor;
 mod named;
 mod nmt;
+mod own_core;
 mod pdo;
 mod ports;
 mod program;

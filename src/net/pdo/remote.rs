@@ -359,7 +359,7 @@ impl RemotePdo {
         let pdo = self.pdo;
         net.shared
             .handle
-            .try_call(move |d, _| match make(&mut d.pdos, node, pdo) {
+            .try_call(move |d, now| match make(&mut d.pdos, node, pdo) {
                 None => Err(NetError::Pdo {
                     node,
                     pdo: what,
@@ -372,7 +372,7 @@ impl RemotePdo {
                     object: what,
                     why,
                 }),
-                Some(Ok(f)) => d.send_own(f),
+                Some(Ok(f)) => d.send_own(now, f),
             })
             .await
     }
