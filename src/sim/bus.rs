@@ -234,13 +234,14 @@ impl Port {
     }
 }
 
-/// A port's timestamp clock: off by `offset` µs at `since` and running `ppm` parts per million
-/// fast (negative: slow) from then on.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub(super) struct StampClock {
-    pub(super) ppm: i32,
-    pub(super) since: Instant,
-    pub(super) offset: i64,
+/// A port's receive timestamp clock ([`SimNetwork::set_port_stamp_drift`](super::SimNetwork::set_port_stamp_drift)):
+/// off by some microseconds at an instant and running some parts per million fast (negative:
+/// slow) from then on. [`StampClock::default`] is exact.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct StampClock {
+    ppm: i32,
+    since: Instant,
+    offset: i64,
 }
 
 impl StampClock {
@@ -250,8 +251,30 @@ impl StampClock {
         offset: 0,
     };
 
-    /// How far off the clock is at `t` (µs).
-    pub(super) fn offset_at(&self, t: Instant) -> i64 {
+    /// Running `ppm` fast from `now` on, keeping the offset it had then; zero: exact again.
+    pub(super) fn drifting(self, ppm: i32, now: Instant) -> StampClock {
+        if ppm == 0 {
+            return StampClock::EXACT;
+        }
+        StampClock {
+            ppm,
+            since: now,
+            offset: self.offset_at(now),
+        }
+    }
+
+    /// How fast it runs (parts per million; zero: exact).
+    pub fn ppm(&self) -> i32 {
+        self.ppm
+    }
+
+    /// When its rate last changed (`Instant::ZERO` for one never set).
+    pub fn since(&self) -> Instant {
+        self.since
+    }
+
+    /// How far off the clock is at `t` (µs; positive: ahead).
+    pub fn offset_at(&self, t: Instant) -> i64 {
         let run = t.saturating_since(self.since).as_micros() as i128;
         let off = self.offset as i128 + run * self.ppm as i128 / 1_000_000;
         off.clamp(i64::MIN as i128, i64::MAX as i128) as i64

@@ -212,16 +212,13 @@ impl SimNetwork {
     /// timestamps ([`set_port_stamps`](Self::set_port_stamps)) is not affected.
     pub fn set_port_stamp_drift(&mut self, port: PortRef, ppm: i32) {
         let (p, now) = (self.port_index(port), self.now);
-        let clock = &mut self.ports[p].clock;
-        *clock = if ppm == 0 {
-            StampClock::EXACT
-        } else {
-            StampClock {
-                ppm,
-                since: now,
-                offset: clock.offset_at(now),
-            }
-        };
+        self.ports[p].clock = self.ports[p].clock.drifting(ppm, now);
+    }
+
+    /// One port's receive timestamp clock, as
+    /// [`set_port_stamp_drift`](Self::set_port_stamp_drift) left it.
+    pub fn port_stamp_clock(&self, port: PortRef) -> StampClock {
+        self.ports[self.port_index(port)].clock
     }
 
     /// Gives one port a fixed transmit latency: every frame its device hands it competes for the

@@ -92,7 +92,7 @@ mod trace;
 #[cfg(test)]
 mod tests;
 
-pub use bus::{BusStats, PortStats, DEFAULT_TX_CAPACITY};
+pub use bus::{BusStats, PortStats, StampClock, DEFAULT_TX_CAPACITY};
 
 /// Events each device's log holds while recording is off, unless
 /// [`SimNetwork::set_event_capacity`] says otherwise.

@@ -348,8 +348,8 @@ pub fn apply(run: &mut Run, f: Fault) {
             let (p, d) = (port_of(run, node, port), dev_index(run, node));
             let drift = move |r: &mut Run, ppm: i32| {
                 r.plant.sim.set_port_stamp_drift(p, ppm);
-                let t = r.now();
-                r.plant.oracle.borrow_mut().drift(d, port, ppm, t);
+                let clock = r.plant.sim.port_stamp_clock(p);
+                r.plant.oracle.borrow_mut().drift(d, port, clock);
             };
             drift(run, ppm);
             run.at(now + dur, move |r| drift(r, 0));

@@ -48,6 +48,7 @@
 //! master, which delivers only the active member's by design) are left out, each for a reason
 //! the campaign states when it adds the device or the fault.
 
+use duocan::sim::StampClock;
 use duocan::{Frame, Id, Instant};
 use std::collections::VecDeque;
 
@@ -211,9 +212,8 @@ pub struct Oracle {
     passed: Vec<VecDeque<(Instant, usize, Frame)>>,
     /// Per node and port: the latest time (its clock) a frame was handed over late there.
     pub late: [[Option<Instant>; 2]; MAX_NODES],
-    /// Per node and port: its receive clock (the simulator's, mirrored): parts per million
-    /// off since an instant, and the offset (µs) it had gathered then.
-    pub stamps: [[(i32, Instant, i64); 2]; MAX_NODES],
+    /// Per node and port: its receive clock, as the simulator last set it.
+    pub stamps: [[StampClock; 2]; MAX_NODES],
     /// Until when a foreign sender's frames may be matched with a copy of its that left
     /// further apart than the window (see [`Oracle::apart`]).
     apart_until: Option<Instant>,
@@ -310,23 +310,9 @@ impl Oracle {
         self.late[node][port & 1] = Some(self.sim_time(node, now));
     }
 
-    /// Node `node`'s port `port` stamps with a clock `ppm` parts per million off from `now`
-    /// (simulated time) on, keeping what it had gathered; zero resynchronises it (as
-    /// `SimNetwork::set_port_stamp_drift`).
-    pub fn drift(&mut self, node: usize, port: usize, ppm: i32, now: Instant) {
-        let off = self.stamp_offset(node, port, now);
-        self.stamps[node][port & 1] = if ppm == 0 {
-            (0, now, 0)
-        } else {
-            (ppm, now, off)
-        };
-    }
-
-    /// How far node `node`'s port `port` stamps off at `t` (µs, simulated time).
-    pub fn stamp_offset(&self, node: usize, port: usize, t: Instant) -> i64 {
-        let (ppm, since, off) = self.stamps[node][port & 1];
-        let run = t.saturating_since(since).as_micros() as i128;
-        off + (run * ppm as i128 / 1_000_000) as i64
+    /// Node `node`'s port `port` stamps with `clock` from now on (the simulator's).
+    pub fn drift(&mut self, node: usize, port: usize, clock: StampClock) {
+        self.stamps[node][port & 1] = clock;
     }
 
     /// Node `node`'s link delivered the copy being handed over (at `now` on its clock), its
@@ -337,12 +323,12 @@ impl Oracle {
     /// after it, may come twice): not judged.
     pub fn unmeasured(&mut self, node: usize, now: Instant, lags: [i64; 2], settling: bool) {
         let t = self.sim_time(node, now);
-        let off = |p: usize| self.stamp_offset(node, p, t) - lags[p];
+        let off = |p: usize| self.stamps[node][p].offset_at(t) - lags[p];
         let residual = off(1) - off(0);
         // Its clocks drifting, or resynchronised lately (its correction then taken back).
         let drifted = (0..2).any(|p| {
-            let (ppm, since, _) = self.stamps[node][p];
-            ppm != 0 || t.saturating_since(since) < HORIZON
+            let c = self.stamps[node][p];
+            c.ppm() != 0 || t.saturating_since(c.since()) < HORIZON
         });
         if !(residual.unsigned_abs() >= SKEW_WINDOW.as_micros() / 2 || settling && drifted) {
             return;

@@ -212,4 +212,8 @@ fn a_drifting_stamp_clock_moves_the_stamps_not_the_frames() {
         stamps,
         [wire[0], wire[1] + 80, wire[2] + 180, wire[3] + 160, wire[4]]
     );
+    assert_eq!(
+        sim.port_stamp_clock(port),
+        crate::sim::StampClock::default()
+    );
 }
