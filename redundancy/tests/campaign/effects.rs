@@ -16,7 +16,7 @@
 //! - a board that stops: a master saw its heartbeat say so;
 //! - noise: error reports on that bus; an overrun: that controller's overflow reports;
 //! - a slow transmitter: a frame waited in that controller for its delay;
-//! - a board or master that dies, a master's clock stepped back or jumped ahead: the device was
+//! - a board or master that dies (once or in a boot loop), a master's clock stepped back or jumped ahead: the device was
 //!   powered when the fault came (its effect is the simulator's or the clock's own doing).
 //!
 //! The fixed budget then asserts that every class took effect at least once.
@@ -40,9 +40,9 @@ const LONGEST: Duration = Duration::from_secs(4);
 pub fn watch(run: &mut Run, f: Fault) {
     let from = run.now();
     let direct = match f {
-        Fault::BoardDies { node, .. } | Fault::Stops { node, .. } => {
-            run.plant.sim.is_powered(run.plant.slave(node).0)
-        }
+        Fault::BoardDies { node, .. }
+        | Fault::BootLoop { node, .. }
+        | Fault::Stops { node, .. } => run.plant.sim.is_powered(run.plant.slave(node).0),
         Fault::MasterDies { id, .. } | Fault::StepBack { id, .. } | Fault::JumpAhead { id, .. } => {
             run.plant.sim.is_powered(run.plant.master(id))
         }
@@ -241,6 +241,7 @@ fn took_effect(run: &Run, f: Fault, from: Instant, to: Instant, before: &Counter
             errors_grew(run, before, port, Some(node), Some(ErrorCause::RxOverflow))
         }
         Fault::BoardDies { .. }
+        | Fault::BootLoop { .. }
         | Fault::SlowTx { .. }
         | Fault::MasterDies { .. }
         | Fault::StepBack { .. }

@@ -426,14 +426,16 @@ fn on_big_stack<T: Send + 'static>(f: impl FnOnce() -> T + Send + 'static) -> T 
 fn seeds(first: u64, n: u64, secs: u64, quiet: bool) -> (Coverage, Vec<String>) {
     let mut cov = Coverage::default();
     let mut failed = vec![];
-    // `CAMPAIGN_KINDS=n`: the first n kinds (fewer: as the campaign drew before later ones;
-    // 25: receive clocks that drift apart too, `faults::KINDS_WITH_DRIFT`).
-    let kinds = std::env::var("CAMPAIGN_KINDS")
-        .ok()
-        .and_then(|v| v.parse().ok())
-        .map_or(faults::KINDS, |k: usize| {
-            k.clamp(1, faults::KINDS_WITH_DRIFT)
-        });
+    // `CAMPAIGN_KINDS=n`: the first n kinds (fewer: as the campaign drew before later ones);
+    // `CAMPAIGN_DRIFT=1`: receive clocks that drift apart too (`faults::KINDS_WITH_DRIFT`).
+    let kinds = if std::env::var("CAMPAIGN_DRIFT").is_ok_and(|v| v == "1") {
+        faults::KINDS_WITH_DRIFT
+    } else {
+        std::env::var("CAMPAIGN_KINDS")
+            .ok()
+            .and_then(|v| v.parse().ok())
+            .map_or(faults::KINDS, |k: usize| k.clamp(1, faults::KINDS))
+    };
     for seed in first..first + n {
         match on_big_stack(move || campaign(seed, secs, kinds, quiet, true)) {
             Ok(c) => cov.merge(&c),
@@ -558,7 +560,7 @@ fn every_seed_that_once_failed_passes() {
     });
     let other = REGRESSIONS_OTHER_DUPLICATES
         .iter()
-        .map(|&(seed, secs, quiet)| ((seed, secs), faults::KINDS, quiet, true));
+        .map(|&(seed, secs, quiet)| ((seed, secs), faults::KINDS_BEFORE_BOOT_LOOP, quiet, true));
     let runs = runs
         .chain(slow)
         .chain(duplicate)

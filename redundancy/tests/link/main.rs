@@ -5,6 +5,7 @@ mod cia302_6;
 mod clock;
 mod clock_modes;
 mod clock_properties;
+mod crossed;
 mod cyclic_lag;
 mod ecss;
 mod flapping;

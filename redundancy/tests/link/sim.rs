@@ -304,6 +304,18 @@ pub fn network_with(
     cfg: impl Fn(u8) -> DualBusConfig,
     stop: Instant,
 ) -> Net {
+    network_wired(seed, slaves, cfg, &[], stop)
+}
+
+/// As [`network_with`], the nodes in `crossed` cabled crossed: their port 0 (the connector
+/// marked "bus 1") on bus 2 and their port 1 on bus 1, an installation error.
+pub fn network_wired(
+    seed: u64,
+    slaves: u8,
+    cfg: impl Fn(u8) -> DualBusConfig,
+    crossed: &[u8],
+    stop: Instant,
+) -> Net {
     let mut sim = SimNetwork::new(seed);
     let buses = [
         sim.add_bus(BusConfig::new("can1", 1_000_000)),
@@ -345,7 +357,12 @@ pub fn network_with(
         let start = Instant::from_millis(100) + Duration::from_micros(300 * id as u64);
         let app = App::new(id, start, Duration::from_millis(10), stop);
         let station = Station::new(DualBus::new(cfg(id)), Composite::new(node, app));
-        devs.push(sim.add_device(format!("n{id}"), station, &buses).unwrap());
+        let wires = if crossed.contains(&id) {
+            [buses[1], buses[0]]
+        } else {
+            buses
+        };
+        devs.push(sim.add_device(format!("n{id}"), station, &wires).unwrap());
     }
     Net { sim, buses, devs }
 }
