@@ -48,8 +48,10 @@
 //! master, which delivers only the active member's by design) are left out, each for a reason
 //! the campaign states when it adds the device or the fault.
 
+use crate::plant::SLAVE_HB;
 use duocan::sim::StampClock;
 use duocan::{Frame, Id, Instant};
+use duocan_redundancy::link::plausible::CALM_BEATS;
 use std::collections::VecDeque;
 
 /// Most tapped devices.
@@ -171,14 +173,63 @@ pub trait Wiring {
     /// none did at any time of it; `None`: the wiring changed meanwhile (not judged).
     fn connected(&self, sender: usize, receiver: usize, t: Instant) -> Option<bool>;
     /// Whether `sender`'s occurrence `frame` at `t` is left out of the promise (an impostor's
-    /// target, a receiver rebooting meanwhile, …).
-    fn excluded(&self, sender: usize, receiver: usize, t: Instant, frame: &Frame) -> bool;
+    /// target, a receiver rebooting meanwhile, …); `calm(node, end)`: when the node's own
+    /// heartbeats after `end` ended a plausibility verdict ([`Beats::calm_after`]).
+    fn excluded(
+        &self,
+        sender: usize,
+        receiver: usize,
+        t: Instant,
+        frame: &Frame,
+        calm: &dyn Fn(u8, Instant) -> Instant,
+    ) -> bool;
     /// Whether `receiver`'s clock jumped ahead in `(from, to]`.
     fn jumped(&self, receiver: usize, from: Instant, to: Instant) -> bool;
 }
 
+/// Every heartbeat each node sent: (time, state byte), by node-ID.
+#[derive(Default)]
+pub struct Beats(std::collections::BTreeMap<u8, Vec<(Instant, u8)>>);
+
+impl Beats {
+    /// When node `node`'s heartbeats after `end` ended a verdict of the layer's rule 1 (see
+    /// `link::plausible`): [`CALM_BEATS`] in a row each at least `3T/4` after the heartbeat
+    /// before and saying the state of the one before (a heartbeat saying a new state, or a
+    /// boot-up, counts neither way; a boot-up after one such heartbeat ends it too). Sent times
+    /// stand for the receive stamps. `Instant::MAX`: not yet.
+    pub fn calm_after(&self, node: u8, end: Instant) -> Instant {
+        let Some(beats) = self.0.get(&node) else {
+            return Instant::MAX;
+        };
+        let start = beats.partition_point(|b| b.0 < end);
+        let pace = SLAVE_HB.as_micros() * 3 / 4;
+        let (mut prev, mut state, mut calm) = (None::<Instant>, None, 0);
+        for &(t, st) in &beats[start..] {
+            let gap = prev.map_or(u64::MAX, |p| (t - p).as_micros());
+            prev = Some(t);
+            if st == 0 && calm > 0 {
+                return t;
+            }
+            if st == 0 || Some(st) != state.replace(st) {
+                continue;
+            }
+            if gap < pace {
+                calm = 0;
+            } else {
+                calm += 1;
+                if calm >= CALM_BEATS {
+                    return t;
+                }
+            }
+        }
+        Instant::MAX
+    }
+}
+
 #[derive(Default)]
 pub struct Oracle {
+    /// Every heartbeat each node sent.
+    pub beats: Beats,
     pub nodes: Vec<NodeInfo>,
     /// Occurrences not judged yet, numbered from `base`.
     pending: VecDeque<Occurrence>,
@@ -249,6 +300,10 @@ impl Oracle {
     /// Node `node`'s stack sent `frame` at `now`: a new occurrence.
     pub fn sent(&mut self, node: usize, now: Instant, frame: &Frame) -> u64 {
         let at = Instant::from_micros(now.as_micros().saturating_add_signed(-self.clock[node]));
+        if let (Id::Standard(id @ 0x701..=0x77F), [state]) = (frame.id(), frame.data()) {
+            let v = self.beats.0.entry((id & 0x7F) as u8).or_default();
+            v.push((at, *state));
+        }
         self.pending.push_back(Occurrence {
             sender: node,
             at,
@@ -431,7 +486,9 @@ impl Oracle {
                 if self.nodes[r].master && self.is_member_pdo(&o.frame) {
                     continue;
                 }
-                if wiring.excluded(o.sender, r, o.at, &o.frame) {
+                let beats = &self.beats;
+                let calm = |node, end| beats.calm_after(node, end);
+                if wiring.excluded(o.sender, r, o.at, &o.frame, &calm) {
                     continue;
                 }
                 self.checks += 1;

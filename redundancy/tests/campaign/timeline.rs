@@ -172,7 +172,14 @@ impl Wiring for Timeline {
             .any(|(t, _)| *t > from && *t <= to)
     }
 
-    fn excluded(&self, s: usize, r: usize, t: Instant, frame: &Frame) -> bool {
+    fn excluded(
+        &self,
+        s: usize,
+        r: usize,
+        t: Instant,
+        frame: &Frame,
+        calm: &dyn Fn(u8, Instant) -> Instant,
+    ) -> bool {
         let (from, to) = (t - MARGIN, t + crate::oracle::JUDGE_AFTER);
         // A device rebooted meanwhile: its two lives are not one receiver.
         let rebooted = |d: &Dev| d.reboots.iter().any(|b| *b >= from && *b <= to);
@@ -184,16 +191,25 @@ impl Wiring for Timeline {
         }
         // The heartbeats of a node an impostor beats for: the layer judges them implausible on
         // a bus and drops that bus's copies (as it must), up to the rule's tail after the
-        // impostor's last heartbeat (the node's heartbeats until three at its pace, and one
-        // more when the first says a new state, which counts neither way: a duplicated board
-        // the master sent to pre-operational for its standby says so as the duplicate leaves).
+        // impostor's last heartbeat: the node's heartbeats until three at its pace in one
+        // state (a heartbeat saying a new state counts neither way: a duplicated board the
+        // master sent to pre-operational for its standby says so as the duplicate leaves, and
+        // a master that starts and stops it by turns while another duplicate churns its pair
+        // leaves one such heartbeat in two periods), and at least the time those take.
         if let Id::Standard(id @ 0x701..=0x77F) = frame.id() {
             let node = (id & 0x7F) as u8;
             let tail = SLAVE_HB.saturating_mul(CALM_BEATS as u64 + 1);
-            return self
-                .impostors
-                .iter()
-                .any(|(n, sp)| *n == node && sp.any(t - tail - MARGIN, to));
+            return self.impostors.iter().any(|(n, sp)| {
+                *n == node
+                    && sp.0.iter().any(|&(from, end)| {
+                        let until = if end == Instant::MAX {
+                            end
+                        } else {
+                            (end + tail).max(calm(node, end))
+                        };
+                        from <= to && until.saturating_add(MARGIN) >= t
+                    })
+            });
         }
         false
     }

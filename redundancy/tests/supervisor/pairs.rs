@@ -360,6 +360,30 @@ fn heard_without_boot_up_is_adopted_after_the_holdoff() {
 }
 
 #[test]
+fn a_stopped_member_heard_without_boot_up_is_reset_not_configured() {
+    // A stopped board answers no SDO: configured, it would time out (a second or more without
+    // a standby). It is reset at the end of the hold-off and configured at its boot-up.
+    let (mut s, p) = table(PairsConfig::default());
+    s.heartbeat(ms(10), A, NmtState::Stopped);
+    s.handle_timeout(ms(210));
+    assert_eq!(nmts(&mut s), [(NmtCommand::ResetNode, 0x10)]);
+    // Heard stopped again (the reset lost): reset again a hold-off later, not before.
+    s.heartbeat(ms(211), A, NmtState::Stopped);
+    s.handle_timeout(ms(410));
+    assert_eq!(commands(&mut s), []);
+    s.handle_timeout(ms(411));
+    assert_eq!(nmts(&mut s), [(NmtCommand::ResetNode, 0x10)]);
+    s.boot_up(ms(420), A);
+    assert!(commands(&mut s).contains(&PairCommand::Configure {
+        node: A,
+        producer_time: PRODUCER
+    }));
+    s.configured(ms(425), A, true);
+    assert_eq!(nmts(&mut s), [(NmtCommand::Start, 0x10)]);
+    assert_eq!(s.pair(p).unwrap().active, Some(Member::A));
+}
+
+#[test]
 fn a_shadow_follows_the_active_masters_commands_and_takes_over_without_resets() {
     let (mut s, p) = table(PairsConfig::default());
     s.set_authority(ms(0), Authority::Shadow);

@@ -131,7 +131,18 @@ impl<S: Storage> PairSupervisor<S> {
         match s.stage {
             Stage::Joined { .. } => self.silent(t, p, m, s),
             Stage::Waiting { adopt_at, .. } => {
-                if adopt_at.is_some_and(|a| a <= t) && self.authority == Authority::Command {
+                let adopt =
+                    adopt_at.is_some_and(|a| a <= t) && self.authority == Authority::Command;
+                if adopt && s.nmt == Some(NmtState::Stopped) {
+                    // A stopped board answers no SDO: its configuration would only time out
+                    // (a board that stopped by itself while a duplicate hid it). Reset: it is
+                    // configured at its boot-up, as after any reset.
+                    if let Stage::Waiting { adopt_at, .. } = &mut self.pairs[p].member_mut(m).stage
+                    {
+                        *adopt_at = None;
+                    }
+                    self.nmt(NmtCommand::ResetNode, s.node);
+                } else if adopt {
                     let st = self.pairs[p].member_mut(m);
                     st.stage = Stage::Configuring;
                     st.since = t;

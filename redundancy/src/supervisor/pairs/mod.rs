@@ -52,7 +52,8 @@
 //!   partition, or a supervisor started after its slaves) are *adopted*: after
 //!   [`PairsConfig::holdoff`] without a boot-up they are configured and join like any other
 //!   member; an operational one joining a pair that has an active member is sent to
-//!   pre-operational. The hold-off gives a second master that reappeared with them (a healed
+//!   pre-operational; a stopped one, which answers no SDO, is reset instead and configured at
+//!   its boot-up. The hold-off gives a second master that reappeared with them (a healed
 //!   partition) the time to be detected before this one commands anything.
 //!
 //! # Heartbeats that lie
