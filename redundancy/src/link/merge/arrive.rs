@@ -145,7 +145,11 @@ impl<const SLOTS: usize> Merger<SLOTS> {
                 break;
             }
             // A lagging twin, not the repeat of one this port lost in an outage: this port
-            // was receiving after the record's time (an outage leaves it nothing in between).
+            // was receiving after the record's time (an outage leaves it nothing in between),
+            // and not on time: a port hands its copies over in order, so one that met a fresh
+            // twin within the window in the record's millisecond or after did not lag then (the
+            // record is the later half of a twin whose other half this port had before it
+            // listened: a board that booted between a frame's two copies).
             // And the record is the one copy of its key the other port carried up to this
             // copy: that port holds nothing back, or has handed over everything stamped up to
             // a window before it (a reader running behind may still hold repeats, sent on its
@@ -154,6 +158,7 @@ impl<const SLOTS: usize> Merger<SLOTS> {
                 && r.fresh
                 && s - r.at < self.horizon
                 && self.frontier[port] > r.at
+                && self.on_time[port] < (r.at >> 10) as u32
                 && (!self.holds_back(1 - port) || shown.saturating_add(self.window) >= s)
             {
                 seen = Some(Sample {
@@ -182,12 +187,14 @@ impl<const SLOTS: usize> Merger<SLOTS> {
         }
         let single = only && st.unmatched == 1;
         self.unlink_first(slot);
-        Twin::Found(
-            (single && r.fresh && self.since_shift(&r, 1 - port)).then(|| Sample {
-                skew: s as i64 - r.at as i64,
-                late: false,
-            }),
-        )
+        let measured = single && r.fresh && self.since_shift(&r, 1 - port);
+        if measured {
+            self.on_time[port] = (s >> 10) as u32;
+        }
+        Twin::Found(measured.then(|| Sample {
+            skew: s as i64 - r.at as i64,
+            late: false,
+        }))
     }
 
     /// Whether record `r` of port `p` was handed over after `p`'s correction last changed: its

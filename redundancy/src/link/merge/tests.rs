@@ -387,6 +387,39 @@ fn only_a_fresh_single_copy_measures_a_lag() {
 }
 
 #[test]
+fn a_port_on_time_after_a_record_measures_no_lag_from_it() {
+    // A layer that starts between a frame's two copies: port 0's copy of the cyclic frame 1
+    // (its port 1 copy came before the start) is the first; port 1 then meets a fresh twin on
+    // time (frame 2, no lag there), and its copy of frame 1's next occurrence, 15 ms after
+    // port 0's, is no late sample: a port hands its copies over in order, and it did not lag
+    // after the record's time.
+    let mut m: Merger<64> = Merger::new(W);
+    let a =
+        |m: &mut Merger<64>, now, at, p, fr: &Frame| m.arrive_at(now, at, p, fr, Trust::Trusted);
+    a(&mut m, ms(2), ms(2), 0, &f(1, 1));
+    a(&mut m, ms(3), ms(3), 0, &f(2, 2));
+    assert_eq!(a(&mut m, ms(3), ms(3), 1, &f(2, 2)).0, Verdict::Duplicate);
+    assert_eq!(
+        a(&mut m, ms(17), ms(17), 1, &f(1, 1)),
+        (Verdict::Deliver, None)
+    );
+    // Without the twin on time, the same copy is a late sample.
+    let mut m: Merger<64> = Merger::new(W);
+    a(&mut m, ms(2), ms(2), 0, &f(1, 1));
+    a(&mut m, ms(3), ms(3), 1, &f(3, 3));
+    assert_eq!(
+        a(&mut m, ms(17), ms(17), 1, &f(1, 1)),
+        (
+            Verdict::Deliver,
+            Some(Sample {
+                skew: 15_000,
+                late: true
+            })
+        )
+    );
+}
+
+#[test]
 fn a_record_made_before_the_correction_changed_measures_no_lag() {
     let mut m: Merger<64> = Merger::new(W);
     let a =
