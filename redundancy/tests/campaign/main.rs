@@ -292,9 +292,9 @@ const REGRESSIONS_WRONG_RATE: &[(u64, u64, bool)] = &[
     (2876, 6, true),
 ];
 
-/// Seeds drawn from every kind, a duplicate that beats another state or period among them,
-/// that failed and pass now: the seed, the simulated seconds that reach the failure, on the
-/// quiet network or not (every one with the node that is not duocan).
+/// Seeds drawn from every kind (before the boot loop), a duplicate that beats another state or
+/// period among them, that failed and pass now: the seed, the simulated seconds that reach the
+/// failure, on the quiet network or not (every one with the node that is not duocan).
 const REGRESSIONS_OTHER_DUPLICATES: &[(u64, u64, bool)] = &[
     // A live board's duplicate while the other bus was cut: too fast on the only bus that
     // worked was taken for an impostor, the member reset, its boot-up lost among the
@@ -320,6 +320,19 @@ const REGRESSIONS_OTHER_DUPLICATES: &[(u64, u64, bool)] = &[
     // whole stall time again when they went out, then came out after the flush (the
     // simulator retried the frame on the wire): 5.3 ms after its twin, twice.
     (2003, 15, false),
+    // Cyclic: a board rebooted between a frame's copy on bus 2 and its copy on bus 1, delayed
+    // by a node at the wrong bit rate there; paired with the next occurrence of cyclic frames,
+    // a false lag of 8 ms, and every SYNC after it was dropped as a twin.
+    (3338, 20, false),
+    // Quiet: a board that stopped by itself while a duplicate hid it was configured (SDO to a
+    // stopped board: a second's time-out) instead of reset, and its pair had no board when
+    // the other member died.
+    (3965, 8, true),
+    // Quiet (the cyclic network too): a master churned a member's state (another duplicate
+    // made its pair partner seem stopped every two periods); its heartbeats were dropped until
+    // three at its pace in one state, later than the oracle allowed (it now counts as the
+    // layer does).
+    (3572, 55, true),
 ];
 
 /// The budget CI runs: seeds and simulated seconds each. Seed `k` leads with a fault of kind
