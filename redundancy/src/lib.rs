@@ -133,7 +133,7 @@ pub use link::health::{HealthConfig, PortState};
 pub use link::merge::{Merger, Verdict};
 pub use link::outbox::{Outbox, EVENT_QUEUE, FRAME_QUEUE, MACHINE_QUEUE, REQUEST_QUEUE};
 #[cfg(feature = "tokio")]
-pub use net::{RedundantEvent, RedundantEvents, RedundantNetwork, RedundantNode, RedundantSdo};
+pub use net::{RedundantEvent, RedundantNetwork};
 #[cfg(feature = "alloc")]
 pub use network::{
     LogicalNetwork, NetworkError, NetworkEvent, NetworkEventKind, RedundantError,

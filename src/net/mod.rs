@@ -460,6 +460,10 @@ impl Network {
             .handle
             .try_call(move |d, now| d.core.nmt(now, cmd, target))
             .await
+            .map_err(|e| match e {
+                NetError::Standby { node: None } => NetError::Standby { node },
+                e => e,
+            })
     }
 
     /// How many decoded PDOs the network dropped because too many were waiting for its
