@@ -260,6 +260,16 @@ async fn a_standby_master_refuses_sdo_until_it_takes_over() {
         }
     );
     assert!(e.to_string().contains("standby"), "{e}");
+    // NMT too: to a node, and to all.
+    let e = net.node(0x10).start().await.unwrap_err();
+    assert_eq!(
+        e,
+        NetError::Standby {
+            node: NodeId::new(0x10)
+        }
+    );
+    let e = net.nmt_all(duocan::NmtCommand::Start).await.unwrap_err();
+    assert_eq!(e, NetError::Standby { node: None });
     // After the peer stopped, this master is active and SDO works.
     tokio::time::sleep(std::time::Duration::from_millis(3500)).await;
     assert_eq!(net.role().await.unwrap(), MasterRole::Active);
@@ -313,6 +323,18 @@ async fn open_on_two_ports_runs_the_builders_network() {
         .await
         .unwrap_err();
     assert_eq!(e.node().map(|n| n.raw()), Some(0x33), "{e}");
+    // The door's view of the two buses is the master's dual-bus layer's.
+    let ports = net.ports().await.unwrap();
+    let names: Vec<&str> = ports.iter().map(|p| p.name.as_str()).collect();
+    assert_eq!(names, ["can1", "can2"]);
+    assert!(ports.iter().all(|p| p.health.is_some()), "{ports:?}");
+    assert_eq!(net.heard_on(0x33).await.unwrap(), Some([false, false]));
+    // What the redundant network does not do yet is an error saying so, not a hang.
+    let e = net.node(0x33).watch_heartbeat(ms(100).into()).await;
+    assert!(
+        matches!(&e, Err(NetError::Argument(w)) if w.contains("not supported yet")),
+        "{e:?}"
+    );
     net.close().await;
     assert!(net.events().next().await.is_none());
 }
