@@ -15,7 +15,7 @@
 //! | 2 | [`supervisor`] | slave-pair supervision, the CiA 302-2 flying master, the audit trail; [`Supervisor`] composes them with the CiA 302-2 master |
 //! | 3 | [`station`] | [`SupervisedStation`]: a supervisor on a dual bus (a [`Station`](duocan::Station)), with its status table |
 //! | 4 | [`network`] | [`LogicalNetwork`]: what the application holds per dual-bus network, built from named settings by [`RedundantNetworkBuilder`] |
-//! | 5 | `net` | the front doors (feature `tokio`): `RedundantNetwork`, the logical network on two ports as an async handle (SDO to any node, NMT, status, a flat event stream); `DualLink` and `open_dual`/`open_dual_named`, duocan's plain front door (`duocan::net::Network`, no master) on two buses, with a simulated redundant station (`"sim"`, `"sim:faults"`) |
+//! | 5 | `net` | the front doors (feature `tokio`): `RedundantNetwork`, duocan's `Network` over the logical network on two ports (its SDO, NMT and flat event stream, plus role, pairs, status); `DualLink` and `open_dual`/`open_dual_named`, duocan's plain front door (`duocan::net::Network`, no master) on two buses, with a simulated redundant station (`"sim"`, `"sim:faults"`) |
 //!
 //! Each layer's page opens with a short example that runs as a test: a pair described and
 //! handed to the layer ([`pair`]), one frame received on both buses and delivered once
@@ -66,9 +66,10 @@
 //!   every bad setting a [`RedundantError`];
 //! - `net::RedundantNetwork` (feature `tokio`): the front door, the builder's network on two
 //!   ports (`open(port1, port2)`, `open_named("can0,can1")`, or `open_named("sim")`: a simulated
-//!   redundant station with a script of faults) as an async handle like the root crate's
-//!   single-bus `duocan::net::Network`: typed SDO to any node, NMT, status, and a flat event
-//!   stream of bus, pair and master failovers on which lag is an item;
+//!   redundant station with a script of faults) as the root crate's `duocan::net::Network`
+//!   itself (it dereferences to one, run over the logical network as its core): typed SDO to
+//!   any node, NMT, and one flat event stream on which lag is an item, where the bus, pair and
+//!   master failovers come too; plus the role, the pairs, the status table and a switch-over;
 //! - `net::open_dual` / `net::open_dual_named` (feature `tokio`): duocan's plain front door
 //!   (`duocan::net::Network`: an observer and an SDO client that sends only NMT commands and SDO
 //!   requests) on two buses through `net::DualLink`, for tools that must not become a master on
@@ -133,7 +134,7 @@ pub use link::health::{HealthConfig, PortState};
 pub use link::merge::{Merger, Verdict};
 pub use link::outbox::{Outbox, EVENT_QUEUE, FRAME_QUEUE, MACHINE_QUEUE, REQUEST_QUEUE};
 #[cfg(feature = "tokio")]
-pub use net::{RedundantEvent, RedundantEvents, RedundantNetwork, RedundantNode, RedundantSdo};
+pub use net::{RedundantEvent, RedundantNetwork};
 #[cfg(feature = "alloc")]
 pub use network::{
     LogicalNetwork, NetworkError, NetworkEvent, NetworkEventKind, RedundantError,

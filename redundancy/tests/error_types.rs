@@ -119,8 +119,7 @@ fn the_front_door_error_ends_a_call_in_the_question_mark_and_keeps_its_cause() {
         assert_eq!(boxed.to_string(), text);
         assert_eq!(boxed.downcast_ref::<RedundantError>(), Some(&e));
     }
-    // A refusal of the network converts with `?`, its cause kept; a transfer failure is
-    // the SDO error itself.
+    // A refusal of the network converts with `?`, its cause kept (a transfer failure too).
     fn refused() -> Result<(), RedundantError> {
         Err(NetworkError::Standby)?
     }
@@ -131,14 +130,32 @@ fn the_front_door_error_ends_a_call_in_the_question_mark_and_keeps_its_cause() {
     );
     assert_eq!(
         RedundantError::from(NetworkError::Sdo(sdo_error())),
-        RedundantError::Sdo(sdo_error())
+        RedundantError::Network(NetworkError::Sdo(sdo_error()))
     );
     assert_eq!(
         RedundantError::from(NetworkError::Closed),
         RedundantError::Closed
     );
     assert_eq!(
-        RedundantError::Sdo(sdo_error()).node(),
+        RedundantError::from(NetworkError::Sdo(sdo_error())).node(),
         Some(NodeId::must(0x10))
     );
+    // The front door's error converts with `?` too, node and cause kept; a closed network is
+    // one error whichever door says so.
+    #[cfg(feature = "tokio")]
+    {
+        use duocan::net::NetError;
+        fn door() -> Result<(), RedundantError> {
+            Err(NetError::Sdo(sdo_error()))?
+        }
+        let e = door().unwrap_err();
+        assert_eq!(e, RedundantError::Net(NetError::Sdo(sdo_error())));
+        assert_eq!(e.node(), Some(NodeId::must(0x10)));
+        assert_eq!(e.to_string(), sdo_error().to_string());
+        assert!(e.source().is_some());
+        assert_eq!(
+            RedundantError::from(NetError::Closed),
+            RedundantError::Closed
+        );
+    }
 }

@@ -23,7 +23,7 @@
 use super::error::NetError;
 use super::events::NetEvent;
 use crate::cia301::nmt::{NmtCommand, NmtTarget};
-use crate::cia301::sdo::{RequestId, SdoClient, SdoError};
+use crate::cia301::sdo::{RequestId, SdoError};
 use crate::cia305::{LssMaster, LssMasterEvent};
 use crate::frame::cob_id::NodeId;
 use crate::frame::instant::Instant;
@@ -35,9 +35,10 @@ use crate::NmtState;
 /// Identities a fastscan plan of the network holds ([`Network::lss`](super::Network::lss)).
 pub const LSS_PLAN: usize = 32;
 
-/// The SDO client a core lends the door (8 sessions, transfers up to
-/// [`MAX_TRANSFER`](super::MAX_TRANSFER)).
-pub type NetClient = SdoClient;
+/// The SDO client a core lends the door: a CiA 302 master's client (its sessions on the heap,
+/// 8 by default), so that a master core lends its own. The observer's takes transfers up to
+/// [`MAX_TRANSFER`](super::MAX_TRANSFER).
+pub type NetClient = crate::cia302::master::MasterSdoClient;
 
 /// What a core reports to the door.
 #[derive(Clone, Debug)]

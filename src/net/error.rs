@@ -2,7 +2,7 @@
 
 use crate::cia301::nmt::NmtState;
 use crate::cia301::sdo::{SdoError, SdoErrorKind};
-use crate::cia302::master::ProgramDownloadError;
+use crate::cia302::master::{MasterError, ProgramDownloadError};
 use crate::cia302::pdo_config::PdoConfigError;
 use crate::cia305::{LssError, LssService};
 use crate::eds::{EdsError, LookupError, LookupErrorKind};
@@ -72,6 +72,16 @@ pub enum NetError {
         /// The node the call was for.
         node: Option<NodeId>,
     },
+    /// The network's core is a standby master: SDO, NMT and the frames of the network's own
+    /// are the active master's (two SDO clients on one server channel would corrupt each
+    /// other's transfers).
+    Standby {
+        /// The node the call was for.
+        node: Option<NodeId>,
+    },
+    /// The core's CiA 302 master refused the call (an NMT command to its own node-ID, a
+    /// full queue…).
+    Master(MasterError),
     /// A node-ID outside 1–127 was given to [`Network::node`](super::Network::node).
     NoSuchNode(u8),
     /// The network could not send (its transmit queue was full).
@@ -171,7 +181,8 @@ impl NetError {
             NetError::WrongSize { node, .. }
             | NetError::NotText { node, .. }
             | NetError::Timeout { node, .. } => Some(*node),
-            NetError::ListenOnly { node } => *node,
+            NetError::ListenOnly { node } | NetError::Standby { node } => *node,
+            NetError::Master(e) => master_node(e),
             NetError::NoDescription { node }
             | NetError::Name { node, .. }
             | NetError::WrongType { node, .. }
@@ -252,6 +263,13 @@ impl fmt::Display for NetError {
                 }
                 f.write_str("the network is listen-only and sends nothing: open it with Network::open to talk to nodes")
             }
+            NetError::Standby { node } => {
+                if let Some(n) = node {
+                    write!(f, "node {}: ", n.raw())?;
+                }
+                f.write_str("this master is standby: SDO and NMT go through the active master (or make this one active)")
+            }
+            NetError::Master(e) => write!(f, "the master refused: {e}"),
             NetError::NoSuchNode(raw) => write!(f, "node-ID {raw} is not a CANopen node-ID: use 1 to 127"),
             NetError::QueueFull => f.write_str("the network's transmit queue is full: send less at once"),
             NetError::Port(why) => write!(f, "the port could not be opened: {why}"),
@@ -321,7 +339,31 @@ impl std::error::Error for NetError {
             NetError::PdoConfig(e) => Some(e),
             NetError::Program(e) => Some(e),
             NetError::Lss(e) => Some(e),
+            NetError::Master(e) => Some(e),
             _ => None,
+        }
+    }
+}
+
+/// The node a master's refusal names, if one.
+fn master_node(e: &MasterError) -> Option<NodeId> {
+    match *e {
+        MasterError::NotAssigned(n)
+        | MasterError::OwnNode(n)
+        | MasterError::Busy(n)
+        | MasterError::NoSuchPdo { node: n, .. }
+        | MasterError::TooManySlaves { node: n, .. } => Some(n),
+        _ => None,
+    }
+}
+
+impl From<MasterError> for NetError {
+    /// [`MasterError::Standby`] is [`NetError::Standby`]; every other refusal is
+    /// [`NetError::Master`].
+    fn from(e: MasterError) -> Self {
+        match e {
+            MasterError::Standby => NetError::Standby { node: None },
+            e => NetError::Master(e),
         }
     }
 }

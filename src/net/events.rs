@@ -1,6 +1,7 @@
 //! What the network reports, flat: one enum, one level, and a stream that survives lag.
 
 use super::core::CoreEvent;
+use super::ext::{ExtEvent, Extension};
 use super::pdo::PdoValues;
 use crate::cia301::emcy::EmcyMessage;
 use crate::cia301::nmt::NmtState;
@@ -125,6 +126,9 @@ pub enum NetEvent {
     /// This reader fell behind and `n` events were dropped for it (the stream goes on with the
     /// oldest event still kept). A slow reader loses events, never the program.
     Lagged(u64),
+    /// An event of the core's own (a redundant master's pairs, role, discrepancies…):
+    /// [`NetEvent::ext`] gives it back as its type.
+    Ext(ExtEvent),
 }
 
 impl NetEvent {
@@ -140,6 +144,7 @@ impl NetEvent {
             | NetEvent::Pdo { node, .. }
             | NetEvent::Reach { node, .. }
             | NetEvent::NotHeard { node, .. } => Some(*node),
+            NetEvent::Ext(e) => e.get().node(),
             NetEvent::Port { .. } | NetEvent::PortState { .. } | NetEvent::Lagged(_) => None,
         }
     }
@@ -157,6 +162,7 @@ impl NetEvent {
             | NetEvent::PortState { at, .. }
             | NetEvent::Reach { at, .. }
             | NetEvent::NotHeard { at, .. } => Some(*at),
+            NetEvent::Ext(e) => Some(e.get().at()),
             NetEvent::Lagged(_) => None,
         }
     }
@@ -185,6 +191,27 @@ impl NetEvent {
             NetEvent::Pdo {
                 node, pdo, values, ..
             } => Some((*node, *pdo, values)),
+            _ => None,
+        }
+    }
+    /// True for a failover: a bus in use failed (a port state going to failed, but not a
+    /// recovery that failed again: that is the same failure going on), or a core's event that
+    /// says it is one ([`Extension::is_failover`]).
+    #[must_use]
+    pub fn is_failover(&self) -> bool {
+        match self {
+            NetEvent::PortState { from, to, .. } => {
+                *to == PortState::Failed && *from != PortState::Recovering
+            }
+            NetEvent::Ext(e) => e.get().is_failover(),
+            _ => false,
+        }
+    }
+    /// The core's own event as its type `T`, if it is one.
+    #[must_use]
+    pub fn ext<T: Extension>(&self) -> Option<&T> {
+        match self {
+            NetEvent::Ext(e) => e.downcast_ref(),
             _ => None,
         }
     }
@@ -245,6 +272,7 @@ impl fmt::Display for NetEvent {
                 write!(f, "{node}: not heard for {} ms", (*at - *since).as_millis())
             }
             NetEvent::Lagged(n) => write!(f, "{n} events missed"),
+            NetEvent::Ext(e) => fmt::Display::fmt(e, f),
         }
     }
 }

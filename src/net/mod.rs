@@ -74,7 +74,8 @@
 //!
 //! **Cores.** The observer, client and LSS master are one [`NetCore`]: the door (nodes, SDO,
 //! waits, PDOs, events) is written once over that trait, and [`Network::open_core`] runs it
-//! over another core, whose own calls [`Network::with_core`] reaches.
+//! over another core, whose own calls [`Network::with_core`] reaches and whose own events
+//! come in the same stream as [`NetEvent::Ext`] ([`Extension`]).
 //!
 //! **Program download** (CiA 302-3): [`RemoteNode::download_program`] replaces a node's
 //! program by the master's procedure, the image streamed by block transfer, with progress.
@@ -100,6 +101,7 @@ mod core;
 mod door;
 mod error;
 mod events;
+mod ext;
 mod link;
 mod lss;
 mod named;
@@ -115,6 +117,7 @@ mod value;
 pub use self::core::{CoreEvent, NetClient, NetCore, LSS_PLAN};
 pub use error::{Awaited, NetError};
 pub use events::{Events, NetEvent};
+pub use ext::{ExtEvent, Extension};
 pub use link::{NetLink, NetPorts, PortView};
 pub use lss::{FastscanReport, NetLss};
 pub use pdo::{PdoMap, PdoValue, PdoValues, PdoVariable, RemotePdo, MAX_LEARNED};
@@ -457,6 +460,10 @@ impl Network {
             .handle
             .try_call(move |d, now| d.core.nmt(now, cmd, target))
             .await
+            .map_err(|e| match e {
+                NetError::Standby { node: None } => NetError::Standby { node },
+                e => e,
+            })
     }
 
     /// How many decoded PDOs the network dropped because too many were waiting for its

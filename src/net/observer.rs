@@ -6,7 +6,7 @@ use super::core::{CoreEvent, NetClient, NetCore, LSS_PLAN};
 use super::error::NetError;
 use super::events::NetEvent;
 use super::link::NetLink;
-use super::{NetOptions, MAX_TRANSFER};
+use super::{NetOptions, MAX_TRANSFER, SESSIONS};
 use crate::cia301::nmt::{NmtCommand, NmtTarget};
 use crate::cia301::sdo::TransferBuffer;
 use crate::cia305::codec::MASTER_TO_SLAVE;
@@ -64,7 +64,7 @@ impl ObserverCore {
         let mut node = Node::new(NodeConfig::master(id), od);
         // Booted before the clock starts: its boot-up never leaves (the filter).
         node.boot(Instant::ZERO);
-        let client = NetClient::new(MAX_TRANSFER);
+        let client = NetClient::with_sessions(MAX_TRANSFER, SESSIONS);
         let lss = LssMaster::new(opts.lss);
         Ok(ObserverCore {
             inner: Station::new(link, Composite::new(Composite::new(node, client), lss)),

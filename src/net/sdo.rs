@@ -3,9 +3,13 @@
 use super::core::CoreEvent;
 use super::error::NetError;
 use super::remote::RemoteNode;
-use crate::cia301::sdo::{SdoOptions, TransferMode};
+use crate::cia301::sdo::{SdoErrorKind, SdoOptions, TransferMode};
 use crate::frame::cob_id::NodeId;
 use crate::od::OdValue;
+
+/// How often a start the core's client refused as busy is tried again: a few frames' time on
+/// a busy bus, short beside any SDO timeout.
+const BUSY_RETRY: std::time::Duration = std::time::Duration::from_millis(5);
 
 /// A node's turn and a client session, held for one transfer.
 pub(super) type Turn<'a> = (
@@ -127,7 +131,10 @@ impl RemoteSdo {
 
     /// One transfer: a read when `data` is `None`. Transfers to one node take turns, and no
     /// more start at once than the client has sessions, so neither "busy" nor "no session" is
-    /// ever the caller's problem.
+    /// the caller's problem. A core may share its client with transfers of its own (a master
+    /// configuring a slave as it boots): a start refused as busy, or for want of a session, is
+    /// tried again every [`BUSY_RETRY`] until the transfer's own timeout has passed. Only the
+    /// start is tried again: a transfer that ran and failed is the answer.
     async fn transfer(
         &self,
         index: u16,
@@ -135,6 +142,32 @@ impl RemoteSdo {
         data: Option<Vec<u8>>,
     ) -> Result<Vec<u8>, NetError> {
         let (node, _turn) = self.turn().await?;
+        let opts = self.opts;
+        let give_up = tokio::time::Instant::now() + std::time::Duration::from(opts.timeout);
+        loop {
+            match self.run(node, index, sub, data.clone()).await {
+                Err(NetError::Sdo(e))
+                    if matches!(e.kind, SdoErrorKind::Busy | SdoErrorKind::NoSession { .. })
+                        && tokio::time::Instant::now() + BUSY_RETRY <= give_up =>
+                {
+                    tokio::time::sleep(BUSY_RETRY).await;
+                }
+                Err(NetError::Standby { node: None }) => {
+                    return Err(NetError::Standby { node: Some(node) })
+                }
+                r => return r,
+            }
+        }
+    }
+
+    /// Starts one transfer on the core's client and waits for its end.
+    async fn run(
+        &self,
+        node: NodeId,
+        index: u16,
+        sub: u8,
+        data: Option<Vec<u8>>,
+    ) -> Result<Vec<u8>, NetError> {
         let opts = self.opts;
         self.node
             .network()

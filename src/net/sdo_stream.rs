@@ -251,10 +251,7 @@ impl RemoteSdo {
         impl std::future::Future<Output = Result<Vec<u8>, NetError>>,
     )
     where
-        F: FnOnce(
-                &mut crate::sdo::SdoClient,
-                crate::Instant,
-            ) -> Result<RequestId, crate::sdo::SdoError>
+        F: FnOnce(&mut super::NetClient, crate::Instant) -> Result<RequestId, crate::sdo::SdoError>
             + Send
             + 'static,
     {

@@ -98,7 +98,7 @@ async fn redundant_master_prints_a_bus_a_master_and_a_pair_failover() {
     assert_eq!(
         lines,
         [
-            "bus 1: failed",
+            "bus 1: failed (port down: interface down)",
             "this master: active",
             "pair 0x10/0x50: B active"
         ]

@@ -4,6 +4,7 @@
 mod concurrent_sdo;
 mod events;
 mod examples;
+mod ext;
 mod monitor;
 mod named;
 mod nmt;

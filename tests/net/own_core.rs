@@ -30,6 +30,14 @@ async fn the_door_runs_over_a_core_of_the_users() {
     assert_eq!(node.last_boot_up().await.unwrap(), Some(at));
     assert_eq!(node.state().await.unwrap(), Some(NmtState::PreOperational));
 
+    // The core's own events reach the stream as they are, typed.
+    wire.send(&Frame::from_array(Id::Standard(0x0F0), [9]))
+        .await
+        .unwrap();
+    let e = events.next().await.unwrap();
+    assert_eq!(e, super::ext::alarm(9, true, e.at().unwrap()));
+    assert!(e.is_failover());
+
     // NMT goes to the core, and what the core transmits reaches the wire.
     net.nmt_all(NmtCommand::Start).await.unwrap();
     let got = tokio::time::timeout(Duration::from_secs(1), wire.recv()).await;
@@ -51,7 +59,7 @@ async fn the_door_runs_over_a_core_of_the_users() {
         .with_core(|c: &mut Stub, _| (c.frames, c.nmt))
         .await
         .unwrap();
-    assert_eq!((frames, nmt), (1, 1));
+    assert_eq!((frames, nmt), (2, 1));
     net.close().await;
 }
 
@@ -121,6 +129,10 @@ impl NetCore for Stub {
                 self.events
                     .push_back(CoreEvent::Net(NetEvent::BootUp { node, at: now }));
             }
+        }
+        if let (Id::Standard(0x0F0), [raw]) = (frame.id(), frame.data()) {
+            let e = super::ext::alarm(*raw, true, now);
+            self.events.push_back(CoreEvent::Net(e));
         }
         Some(*frame)
     }

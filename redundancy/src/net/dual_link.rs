@@ -26,6 +26,7 @@
 
 use super::sim_station::{self as station, StationScript};
 use crate::link::channel::ModeKind;
+use crate::link::classify::FrameClassifier;
 use crate::link::config::DualBusConfig;
 use crate::link::dual_bus::{DualBus, DEFAULT_MERGE_SLOTS};
 use crate::link::events::{LinkEvent, LinkEventKind};
@@ -157,12 +158,21 @@ impl<const SLOTS: usize> NetLink for DualLink<SLOTS> {
         (port < 2).then(|| self.bus.port_state(port))
     }
     fn heard_on(&self, node: NodeId) -> Option<[bool; 2]> {
-        // A toggling link listens to one bus at a time: reach means nothing there.
-        if self.bus.mode() == ModeKind::EcssToggle {
-            return None;
-        }
-        Some(self.bus.reach().heard(node).unwrap_or([false, false]))
+        heard_on(&self.bus, node)
     }
+}
+
+/// On which of the two buses `node` was heard lately, as the front door shows it (any core
+/// on a dual bus): `[false, false]` for a node not heard lately, `None` on a toggling link,
+/// which listens to one bus at a time (reach means nothing there).
+pub(super) fn heard_on<C: FrameClassifier, const SLOTS: usize, const FUNCTIONS: usize>(
+    bus: &DualBus<C, SLOTS, FUNCTIONS>,
+    node: NodeId,
+) -> Option<[bool; 2]> {
+    if bus.mode() == ModeKind::EcssToggle {
+        return None;
+    }
+    Some(bus.reach().heard(node).unwrap_or([false, false]))
 }
 
 fn port_error(port: u8, name: &str, why: impl ToString) -> RedundantError {

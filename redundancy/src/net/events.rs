@@ -1,38 +1,29 @@
-//! What a redundant network reports, flat: one enum, one level, and a stream that survives lag.
+//! What only a redundant network reports: [`RedundantEvent`], carried in duocan's flat event
+//! stream as [`NetEvent::Ext`](duocan::net::NetEvent::Ext).
+//!
+//! **Why.** Boot-ups, states, EMCY, reach, port health and nodes never heard are every
+//! network's, and come as duocan's own [`NetEvent`](duocan::net::NetEvent)s; pairs, the master
+//! role, error control of the master's slaves, A/B discrepancies and refused boots exist only
+//! here. `e.ext::<RedundantEvent>()` gives them back typed; `Display`, `node()`, `at()` and
+//! `is_failover()` work on the stream's event without it.
 
-use crate::link::health::PortState;
-use crate::network::{NetworkEvent, NetworkEventKind};
+use crate::network::NetworkEventKind;
 use crate::pair::{Member, PairId};
 use crate::supervisor::flying_master::{MasterReason, MasterRole};
-use crate::supervisor::pairs::{PairsEvent, RoleReason};
+use crate::supervisor::pairs::RoleReason;
 use crate::SupervisorEvent;
 use core::fmt;
-use duocan::emcy::EmcyMessage;
 use duocan::machine::StationEvent;
 use duocan::master::{ErrorStatus, MasterEventKind};
+use duocan::net::Extension;
 use duocan::node::NodeEventKind;
-use duocan::runtime::RuntimeEvent;
-use duocan::{Frame, Instant, NmtState, NodeId};
-use tokio::sync::{broadcast, watch};
+use duocan::{Frame, Instant, NodeId};
 
-/// One thing that happened on a redundant network. Every variant is one level deep; the
-/// accessors ([`node`](Self::node), [`at`](Self::at), [`is_failover`](Self::is_failover))
-/// answer the common questions without a `match`, and `Display` prints one short line.
+/// What happened on a redundant network that only redundancy knows. Every variant is one level
+/// deep; `Display` prints one short line.
 #[derive(Clone, Copy, Debug, PartialEq)]
 #[non_exhaustive]
 pub enum RedundantEvent {
-    /// A bus (one port of this master) changed health: `Failed` is a bus failover (the other
-    /// bus carries everything), `Ok` a recovery.
-    Bus {
-        /// 0 = bus 1.
-        port: u8,
-        /// Before.
-        from: PortState,
-        /// After.
-        to: PortState,
-        /// When.
-        at: Instant,
-    },
     /// A pair's active member changed.
     PairRole {
         /// The pair.
@@ -75,43 +66,6 @@ pub enum RedundantEvent {
         /// When.
         at: Instant,
     },
-    /// A node sent its boot-up.
-    BootUp {
-        /// The node.
-        node: NodeId,
-        /// When.
-        at: Instant,
-    },
-    /// A node's NMT state changed.
-    State {
-        /// The node.
-        node: NodeId,
-        /// The state before, if known.
-        from: Option<NmtState>,
-        /// Now.
-        to: NmtState,
-        /// When.
-        at: Instant,
-    },
-    /// An emergency message of a node.
-    Emcy {
-        /// The node.
-        node: NodeId,
-        /// The message.
-        msg: EmcyMessage,
-        /// When.
-        at: Instant,
-    },
-    /// The buses a node is heard on changed: heard on one bus only is a fault the application
-    /// does not see (the other bus carries everything) and a maintainer must.
-    Reach {
-        /// The node.
-        node: NodeId,
-        /// Heard on bus 1, on bus 2.
-        heard: [bool; 2],
-        /// When.
-        at: Instant,
-    },
     /// A and B of a pair have carried different values of one function for longer than the
     /// discrepancy time.
     Discrepancy {
@@ -145,32 +99,13 @@ pub enum RedundantEvent {
         /// When.
         at: Instant,
     },
-    /// A pair member was not heard at all within the boot timeout since the network started
-    /// or since it was reset ([`PairsConfig::boot_timeout`]): a board, or its buses, dead from
-    /// power-on. CiA 301 starts heartbeat monitoring at the first heartbeat, so nothing else
-    /// reports it. Once per wait; its first frame ends it (a boot-up, or its heartbeat).
-    ///
-    /// [`PairsConfig::boot_timeout`]: crate::supervisor::pairs::PairsConfig::boot_timeout
-    NotHeard {
-        /// The member.
-        node: NodeId,
-        /// Since when it has been awaited.
-        since: Instant,
-        /// When (`since` + the boot timeout).
-        at: Instant,
-    },
-    /// This reader fell behind and `n` events were dropped for it; the stream goes on. A slow
-    /// reader loses events, never the program.
-    Lagged(u64),
 }
 
 impl RedundantEvent {
-    /// The flat event of a network event, if it is one the stream shows.
-    fn of(e: &NetworkEvent) -> Option<Self> {
+    /// The event of a network event's kind at `at`, if it is one of redundancy's own.
+    pub(super) fn of(at: Instant, kind: NetworkEventKind) -> Option<Self> {
         use NetworkEventKind as K;
-        let at = e.at;
-        Some(match e.kind {
-            K::Port { port, from, to, .. } => RedundantEvent::Bus { port, from, to, at },
+        Some(match kind {
             K::PairRole(r) => RedundantEvent::PairRole {
                 pair: r.pair,
                 nodes: r.nodes,
@@ -186,10 +121,6 @@ impl RedundantEvent {
                 at,
             },
             K::NodeLost { node, .. } => RedundantEvent::SlaveLost { node, at },
-            K::NodeBooted { node } => RedundantEvent::BootUp { node, at },
-            K::NodeState { node, from, to } => RedundantEvent::State { node, from, to, at },
-            K::Emcy { node, msg } => RedundantEvent::Emcy { node, msg, at },
-            K::Reach { node, heard } => RedundantEvent::Reach { node, heard, at },
             K::Discrepancy {
                 pair,
                 function,
@@ -209,11 +140,6 @@ impl RedundantEvent {
                 NodeEventKind::HeartbeatResumed { node } => RedundantEvent::SlaveBack { node, at },
                 _ => return None,
             },
-            K::Other(StationEvent::Machine(SupervisorEvent::Pairs(PairsEvent::Missing {
-                node,
-                since,
-                ..
-            }))) => RedundantEvent::NotHeard { node, since, at },
             K::Other(StationEvent::Machine(SupervisorEvent::Master(ref m))) => match m.kind {
                 MasterEventKind::IdentityMismatch { node, status, .. }
                 | MasterEventKind::ConfigFailed { node, status, .. } => {
@@ -225,18 +151,13 @@ impl RedundantEvent {
         })
     }
 
-    /// The node the event is about, if one.
+    /// The node the event is about, if one (a pair's newly active member).
     #[must_use]
     pub fn node(&self) -> Option<NodeId> {
         match *self {
             RedundantEvent::SlaveLost { node, .. }
             | RedundantEvent::SlaveBack { node, .. }
-            | RedundantEvent::BootUp { node, .. }
-            | RedundantEvent::State { node, .. }
-            | RedundantEvent::Emcy { node, .. }
-            | RedundantEvent::Reach { node, .. }
-            | RedundantEvent::BootFailed { node, .. }
-            | RedundantEvent::NotHeard { node, .. } => Some(node),
+            | RedundantEvent::BootFailed { node, .. } => Some(node),
             RedundantEvent::PairRole { nodes, to, .. } => to.map(|m| match m {
                 Member::A => nodes[0],
                 Member::B => nodes[1],
@@ -246,33 +167,23 @@ impl RedundantEvent {
     }
     /// When it happened (the network's clock).
     #[must_use]
-    pub fn at(&self) -> Option<Instant> {
+    pub fn at(&self) -> Instant {
         match *self {
-            RedundantEvent::Bus { at, .. }
-            | RedundantEvent::PairRole { at, .. }
+            RedundantEvent::PairRole { at, .. }
             | RedundantEvent::MasterRole { at, .. }
             | RedundantEvent::SlaveLost { at, .. }
             | RedundantEvent::SlaveBack { at, .. }
-            | RedundantEvent::BootUp { at, .. }
-            | RedundantEvent::State { at, .. }
-            | RedundantEvent::Emcy { at, .. }
-            | RedundantEvent::Reach { at, .. }
             | RedundantEvent::Discrepancy { at, .. }
             | RedundantEvent::DiscrepancyCleared { at, .. }
-            | RedundantEvent::BootFailed { at, .. }
-            | RedundantEvent::NotHeard { at, .. } => Some(at),
-            RedundantEvent::Lagged(_) => None,
+            | RedundantEvent::BootFailed { at, .. } => at,
         }
     }
-    /// True for a failover: a bus in use failed, a pair's active member handed over to the other, or
-    /// this standby master took over from the active one.
+    /// True for a failover: a pair's active member handed over to the other, or this standby
+    /// master took over from the active one (a bus failover is duocan's
+    /// [`NetEvent::PortState`](duocan::net::NetEvent::PortState)).
     #[must_use]
     pub fn is_failover(&self) -> bool {
         match *self {
-            // A failed re-initialisation (recovering -> failed) is the same failure going on.
-            RedundantEvent::Bus { from, to, .. } => {
-                to == PortState::Failed && from != PortState::Recovering
-            }
             RedundantEvent::PairRole { from, to, .. } => {
                 from.is_some() && to.is_some() && from != to
             }
@@ -284,6 +195,21 @@ impl RedundantEvent {
     }
 }
 
+impl Extension for RedundantEvent {
+    fn at(&self) -> Instant {
+        RedundantEvent::at(self)
+    }
+    fn node(&self) -> Option<NodeId> {
+        RedundantEvent::node(self)
+    }
+    fn is_failover(&self) -> bool {
+        RedundantEvent::is_failover(self)
+    }
+    fn eq_dyn(&self, other: &dyn Extension) -> bool {
+        (other as &dyn core::any::Any).downcast_ref::<Self>() == Some(self)
+    }
+}
+
 impl fmt::Display for RedundantEvent {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         let member = |m: Option<Member>| match m {
@@ -292,7 +218,6 @@ impl fmt::Display for RedundantEvent {
             None => "no member",
         };
         match *self {
-            RedundantEvent::Bus { port, to, .. } => write!(f, "bus {}: {to}", port + 1),
             RedundantEvent::PairRole { nodes, to, .. } => write!(
                 f,
                 "pair {:#04x}/{:#04x}: {} active",
@@ -303,20 +228,6 @@ impl fmt::Display for RedundantEvent {
             RedundantEvent::MasterRole { to, .. } => write!(f, "this master: {to}"),
             RedundantEvent::SlaveLost { node, .. } => write!(f, "node {:#04x}: lost", node.raw()),
             RedundantEvent::SlaveBack { node, .. } => write!(f, "node {:#04x}: back", node.raw()),
-            RedundantEvent::BootUp { node, .. } => write!(f, "node {:#04x}: boot-up", node.raw()),
-            RedundantEvent::State { node, to, .. } => write!(f, "node {:#04x}: {to}", node.raw()),
-            RedundantEvent::Emcy { node, msg, .. } => {
-                write!(f, "node {:#04x}: EMCY {:#06x}", node.raw(), msg.code)
-            }
-            RedundantEvent::Reach { node, heard, .. } => {
-                let on = match heard {
-                    [true, true] => "both buses",
-                    [true, false] => "bus 1 only",
-                    [false, true] => "bus 2 only",
-                    [false, false] => "no bus",
-                };
-                write!(f, "node {:#04x}: heard on {on}", node.raw())
-            }
             RedundantEvent::Discrepancy { pair, function, .. } => write!(
                 f,
                 "pair {}: A and B disagree on function {function}",
@@ -332,56 +243,6 @@ impl fmt::Display for RedundantEvent {
             RedundantEvent::BootFailed { node, status, .. } => {
                 write!(f, "node {:#04x}: not started, {status}", node.raw())
             }
-            RedundantEvent::NotHeard { node, since, at } => write!(
-                f,
-                "node {:#04x}: not heard for {} ms",
-                node.raw(),
-                (at - since).as_millis()
-            ),
-            RedundantEvent::Lagged(n) => write!(f, "{n} events missed"),
-        }
-    }
-}
-
-/// The network's events from the moment [`RedundantNetwork::events`](super::RedundantNetwork::events)
-/// was called. `next().await` yields each one; a reader that falls more than
-/// [`EVENT_QUEUE`](duocan::runtime::EVENT_QUEUE) events behind gets one
-/// [`RedundantEvent::Lagged`] and carries on. The stream ends (`None`) only when the network
-/// is closed.
-pub struct RedundantEvents {
-    rx: broadcast::Receiver<RuntimeEvent<NetworkEvent>>,
-    closed: watch::Receiver<bool>,
-}
-
-impl RedundantEvents {
-    pub(super) fn new(
-        rx: broadcast::Receiver<RuntimeEvent<NetworkEvent>>,
-        closed: watch::Receiver<bool>,
-    ) -> Self {
-        RedundantEvents { rx, closed }
-    }
-
-    /// The next event, or `None` once the network is closed.
-    pub async fn next(&mut self) -> Option<RedundantEvent> {
-        loop {
-            let r = tokio::select! {
-                biased;
-                r = self.rx.recv() => r,
-                _ = self.closed.wait_for(|c| *c) => return None,
-            };
-            match r {
-                Ok(RuntimeEvent::Device(e)) => {
-                    if let Some(e) = RedundantEvent::of(&e) {
-                        return Some(e);
-                    }
-                }
-                // The dual-bus layer reports what a port's status means (`Bus`).
-                Ok(_) => {}
-                Err(broadcast::error::RecvError::Lagged(n)) => {
-                    return Some(RedundantEvent::Lagged(n))
-                }
-                Err(broadcast::error::RecvError::Closed) => return None,
-            }
         }
     }
 }
@@ -389,14 +250,22 @@ impl RedundantEvents {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::network::NetworkEvent;
+    use crate::supervisor::pairs::PairsEvent;
     use duocan::master::{BootError, MasterEvent};
+    use duocan::net::{CoreEvent, NetEvent};
     use duocan::Id;
 
-    fn flat(kind: NetworkEventKind) -> Option<RedundantEvent> {
-        RedundantEvent::of(&NetworkEvent {
+    /// The event of the door's stream a network event becomes.
+    fn flat(kind: NetworkEventKind) -> Option<NetEvent> {
+        let e = NetworkEvent {
             at: Instant::from_millis(7),
             kind,
-        })
+        };
+        match super::super::core::core_event(e)? {
+            CoreEvent::Net(e) => Some(e),
+            _ => None,
+        }
     }
 
     #[test]
@@ -414,7 +283,9 @@ mod tests {
         .unwrap();
         assert_eq!(e.at(), Some(Instant::from_millis(7)));
         assert_eq!(e.to_string(), "pair 1: A and B disagree on function 1");
-        assert!(matches!(e, RedundantEvent::Discrepancy { a: x, b: y, .. } if x == a && y == b));
+        assert!(
+            matches!(e.ext(), Some(RedundantEvent::Discrepancy { a: x, b: y, .. }) if *x == a && *y == b)
+        );
         let e = flat(NetworkEventKind::DiscrepancyCleared {
             pair: PairId(1),
             function: 1,
@@ -445,12 +316,13 @@ mod tests {
         .unwrap();
         assert_eq!(mismatch.node(), Some(node));
         assert!(matches!(
-            mismatch,
-            RedundantEvent::BootFailed {
+            mismatch.ext(),
+            Some(RedundantEvent::BootFailed {
                 status: ErrorStatus::D,
                 ..
-            }
+            })
         ));
+        assert!(!mismatch.is_failover());
         let failed = master(MasterEventKind::ConfigFailed {
             node,
             status: ErrorStatus::J,
@@ -481,7 +353,7 @@ mod tests {
         .unwrap();
         assert_eq!(
             e,
-            RedundantEvent::NotHeard {
+            NetEvent::NotHeard {
                 node,
                 since: Instant::from_millis(2),
                 at: Instant::from_millis(7)

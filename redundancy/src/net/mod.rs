@@ -1,6 +1,8 @@
 //! The front door of a redundant network (feature `tokio`): the network a
-//! [`RedundantNetworkBuilder`] describes, running on two ports, as one async handle that feels
-//! like the root crate's single-bus `duocan::net::Network`.
+//! [`RedundantNetworkBuilder`] describes, running on two ports, as duocan's own front door.
+//! A [`RedundantNetwork`] *is* a `duocan::net::Network` (it dereferences to one): remote nodes,
+//! SDO, NMT, states and the event stream are that network's, and this module adds only what
+//! redundancy has (the master role, the pairs, the status table, a forced switch-over).
 //!
 //! ```
 //! use duocan::Duration;
@@ -22,7 +24,7 @@
 //!     let mut events = net.events();
 //!     // Active once the power-on negotiation is over and the boards are configured.
 //!     while let Some(e) = events.next().await {
-//!         if matches!(e, RedundantEvent::PairRole { .. }) {
+//!         if matches!(e.ext(), Some(RedundantEvent::PairRole { .. })) {
 //!             break;
 //!         }
 //!     }
@@ -34,9 +36,14 @@
 //! }
 //! ```
 //!
-//! Underneath is a [`LogicalNetwork`] under the duocan runtime: the handle's calls run on it
-//! (SDO, NMT, switch-over, status) and its events come out flat ([`RedundantEvent`]), with lag
-//! as an item. Every call returns one error, [`RedundantError`].
+//! Underneath is a [`LogicalNetwork`](crate::LogicalNetwork) as the network's core (`duocan::net::NetCore`): the
+//! door's SDO transfers run on the master's own client, while this master is active (on a
+//! standby one they are `NetError::Standby`), its NMT commands go through the master, and its
+//! events come out in duocan's flat stream: boot-ups, states, EMCY, port health, reach and
+//! members never heard as duocan's `NetEvent`s, and pair and master roles, lost slaves,
+//! discrepancies and refused boots as [`RedundantEvent`]s (`NetEvent::Ext`). The door's calls
+//! fail with `duocan::net::NetError`; the builder's and this module's with [`RedundantError`],
+//! which takes a `NetError` with `?`.
 //!
 //! A tool that must not become a master on somebody's network opens duocan's plain front door
 //! on the two buses instead: [`open_dual`] / [`open_dual_named`] ([`DualLink`], the dual-bus
@@ -62,15 +69,14 @@
 //! together, however loaded the machine (two simulated devices each run by tasks of their own
 //! would see them as far apart as the tasks were scheduled).
 
+mod core;
 mod dual_link;
 mod events;
-mod node;
 mod sim;
 mod sim_station;
 
 pub use dual_link::{open_dual, open_dual_named, open_dual_with, DualLink};
-pub use events::{RedundantEvent, RedundantEvents};
-pub use node::{RedundantNode, RedundantSdo};
+pub use events::RedundantEvent;
 pub use sim::{SIM_BUS_FAILS, SIM_B_BOOTS, SIM_END, SIM_MEMBER_FAILS, SIM_PEERS_FAIL};
 pub use sim_station::{
     sim_lss_address, sim_program_id, SIM_BIT_RATE, SIM_DOMAIN, SIM_DOMAIN_SIZE, SIM_FAULT_BUS_BACK,
@@ -79,39 +85,32 @@ pub use sim_station::{
     SIM_PAIRS, SIM_PROGRAM_NODE, SIM_SLAVES,
 };
 
-use crate::network::{LogicalNetwork, RedundantError, RedundantNetworkBuilder};
+use self::core::{MasterCore, Net};
+use crate::network::{RedundantError, RedundantNetworkBuilder};
 use crate::pair::{Member, PairId};
 use crate::supervisor::flying_master::MasterRole;
+use alloc::boxed::Box;
 use alloc::string::{String, ToString};
-use alloc::sync::Arc;
 use alloc::vec::Vec;
-use duocan::nmt::NmtTarget;
-use duocan::od::DynamicDictionary;
+use duocan::master::SlaveView;
+use duocan::net::{NetError, NetOptions, Network};
 use duocan::port::Port;
-use duocan::runtime::{Handle, Runtime};
-use duocan::sdo::SdoOptions;
-use duocan::{Duration, Instant, NmtCommand};
-use tokio::sync::{watch, Mutex};
+use duocan::{Instant, NodeId};
 
-/// The device the handle runs.
-type Net = LogicalNetwork<DynamicDictionary>;
-
-/// A redundant network on two ports: the handle everything starts from. Cheap to clone; the
-/// network runs until [`RedundantNetwork::close`].
+/// A redundant network on two ports: duocan's front door ([`Network`], which it dereferences
+/// to: `net.node(5).sdo()`, `net.events()`, `net.nmt_all(…)`, `net.close()`) run by a
+/// redundant master, with what only redundancy has. Cheap to clone; the network runs until
+/// [`Network::close`].
 #[derive(Clone)]
 pub struct RedundantNetwork {
-    shared: Arc<Shared>,
+    net: Network,
 }
 
-struct Shared {
-    handle: Handle<Net>,
-    /// One lock per node-ID: transfers to one node take turns (a server runs one at a time).
-    per_node: Vec<Mutex<()>>,
-    sdo: SdoOptions,
-    /// The simulated station of `open_named("sim")`, kept running.
-    sim: Option<sim::SimStation>,
-    /// Turns true when the network is closed: ends every event stream.
-    closed: Arc<watch::Sender<bool>>,
+impl ::core::ops::Deref for RedundantNetwork {
+    type Target = Network;
+    fn deref(&self) -> &Network {
+        &self.net
+    }
 }
 
 impl RedundantNetwork {
@@ -121,120 +120,68 @@ impl RedundantNetwork {
     }
 
     fn start<P1: Port, P2: Port>(
-        net: alloc::boxed::Box<Net>,
+        net: Box<Net>,
         ports: (P1, P2),
-        sim: Option<sim::SimStation>,
     ) -> Result<RedundantNetwork, RedundantError> {
-        let names = [ports.0.name().to_string(), ports.1.name().to_string()];
-        if tokio::runtime::Handle::try_current().is_err() {
-            return Err(RedundantError::Port {
-                port: 0,
-                name: names[0].clone(),
-                why: "no tokio runtime: open the network from inside one (#[tokio::main])".into(),
-            });
+        let name = ports.0.name().to_string();
+        let core = Box::new(MasterCore::new(net));
+        match Network::open_core(core, ports, NetOptions::default()) {
+            Ok(net) => Ok(RedundantNetwork { net }),
+            Err(NetError::Port(why)) => Err(RedundantError::Port { port: 0, name, why }),
+            Err(e) => Err(e.into()),
         }
-        let handle = Runtime::boxed(net)
-            .name(alloc::format!("{},{}", names[0], names[1]))
-            .port(ports.0)
-            .port(ports.1)
-            .spawn()
-            .map_err(|e| RedundantError::Port {
-                port: 0,
-                name: names[0].clone(),
-                why: e.to_string(),
-            })?;
-        let closed = sim
-            .as_ref()
-            .map_or_else(|| Arc::new(watch::channel(false).0), |s| s.closed.clone());
-        Ok(RedundantNetwork {
-            shared: Arc::new(Shared {
-                handle,
-                per_node: (0..128).map(|_| Mutex::new(())).collect(),
-                sdo: SdoOptions::default().with_timeout(Duration::from_millis(1000)),
-                sim,
-                closed,
-            }),
-        })
     }
 
-    /// The node `id` (1–127): a pair member, a plain slave or any node on the buses. Nothing
-    /// is sent; an invalid ID is reported by the first call on the node.
-    #[must_use]
-    pub fn node(&self, id: u8) -> RedundantNode {
-        RedundantNode::new(self.clone(), id)
-    }
-
-    /// Every event from now on, as a stream on which lag is an item.
-    #[must_use]
-    pub fn events(&self) -> RedundantEvents {
-        RedundantEvents::new(
-            self.shared.handle.subscribe(),
-            self.shared.closed.subscribe(),
-        )
-    }
-
-    /// The network's clock: time since it was opened (the `at` of every event).
-    #[must_use]
-    pub fn now(&self) -> Instant {
-        self.shared.handle.now()
+    /// Runs `f` on the master inside the network's runtime.
+    async fn call<R, F>(&self, f: F) -> Result<R, RedundantError>
+    where
+        F: FnOnce(&mut Net, Instant) -> R + Send + 'static,
+        R: Send + 'static,
+    {
+        let r = self
+            .net
+            .with_core(move |c: &mut MasterCore, now| f(&mut c.net, now));
+        Ok(r.await?)
     }
 
     /// This master's role (active, standby, negotiating…).
     pub async fn role(&self) -> Result<MasterRole, RedundantError> {
-        Ok(self.shared.handle.call(|n, _| n.role()).await?)
+        self.call(|n, _| n.role()).await
     }
 
     /// The active member of every pair, in the order declared.
     pub async fn active_members(&self) -> Result<Vec<(PairId, Option<Member>)>, RedundantError> {
-        let h = &self.shared.handle;
-        Ok(
-            h.call(|n, _| n.pairs().map(|(id, p)| (id, p.active)).collect())
-                .await?,
-        )
+        self.call(|n, _| n.pairs().map(|(id, p)| (id, p.active)).collect())
+            .await
     }
 
     /// The status table (ports, master role, pairs, slaves), as text.
     pub async fn status(&self) -> Result<String, RedundantError> {
-        let h = &self.shared.handle;
-        Ok(h.call(|n, now| n.status(now).to_string()).await?)
+        self.call(|n, now| n.status(now).to_string()).await
     }
 
-    /// Sends an NMT command to every node (active master only).
-    pub async fn nmt_all(&self, cmd: NmtCommand) -> Result<(), RedundantError> {
-        self.nmt(cmd, NmtTarget::All).await
-    }
-
-    async fn nmt(&self, cmd: NmtCommand, target: NmtTarget) -> Result<(), RedundantError> {
-        let h = &self.shared.handle;
-        h.try_call(move |n, now| n.nmt(now, cmd, target).map_err(RedundantError::from))
-            .await
+    /// What the master knows of node `id` (1–127): its last state heard, whether it is lost,
+    /// its boot process. A node-ID outside 1–127 is [`NetError::NoSuchNode`].
+    pub async fn slave(&self, id: u8) -> Result<SlaveView, RedundantError> {
+        let node = NodeId::new(id).ok_or(NetError::NoSuchNode(id))?;
+        self.call(move |n, _| n.slave(node)).await
     }
 
     /// Makes `to` the active member of `pair` (active master only).
     pub async fn switch_over(&self, pair: PairId, to: Member) -> Result<(), RedundantError> {
-        let h = &self.shared.handle;
-        h.try_call(move |n, now| n.switch_over(now, pair, to).map_err(RedundantError::from))
-            .await
+        self.call(move |n, now| n.switch_over(now, pair, to))
+            .await?
+            .map_err(RedundantError::from)
     }
 
-    /// Runs `f` on the [`LogicalNetwork`] inside the runtime, for what the handle does not
+    /// Runs `f` on the [`LogicalNetwork`](crate::LogicalNetwork) inside the runtime, for what the handle does not
     /// cover (audit export, PDO values, the master's dictionary).
     pub async fn with<R, F>(&self, f: F) -> Result<R, RedundantError>
     where
         F: FnOnce(&mut Net, Instant) -> R + Send + 'static,
         R: Send + 'static,
     {
-        Ok(self.shared.handle.call(f).await?)
-    }
-
-    /// Stops the network (and the simulated station, if any) and waits for it; calls made
-    /// afterwards fail with [`RedundantError::Closed`] and event streams end.
-    pub async fn close(&self) {
-        if let Some(s) = &self.shared.sim {
-            s.shutdown().await;
-        }
-        self.shared.handle.shutdown().await;
-        self.shared.closed.send_replace(true);
+        self.call(f).await
     }
 }
 
@@ -246,9 +193,8 @@ impl RedundantNetworkBuilder {
         bus1: P1,
         bus2: P2,
     ) -> Result<RedundantNetwork, RedundantError> {
-        RedundantNetwork::start(self.build_boxed()?, (bus1, bus2), None)
+        RedundantNetwork::start(self.build_boxed()?, (bus1, bus2))
     }
-
     /// Opens the network by name:
     ///
     /// - `sim`: two simulated buses carrying the declared pairs (simulated duocan boards) and
@@ -302,17 +248,4 @@ fn socketcan(
         name: bus1.into(),
         why: "this build has no SocketCAN: use \"sim\", or enable the `socketcan` feature of duocan-redundancy (Linux)".into(),
     })
-}
-
-/// For [`RedundantNode`]: the shared parts.
-impl RedundantNetwork {
-    fn handle(&self) -> &Handle<Net> {
-        &self.shared.handle
-    }
-    fn sdo_options(&self) -> SdoOptions {
-        self.shared.sdo
-    }
-    fn turn(&self, raw: u8) -> &Mutex<()> {
-        &self.shared.per_node[usize::from(raw & 0x7F)]
-    }
 }

@@ -3,13 +3,13 @@
 //! with the same settings, and a script of faults, so that a user sees a bus, a master and a
 //! pair failover without hardware. Under tokio's paused clock (tests) the run is deterministic.
 
-use super::{Net, RedundantNetwork};
+use super::core::Net;
+use super::RedundantNetwork;
 use crate::link::config::DualBusConfig;
 use crate::link::dual_bus::{DualBus, DualBusNode};
 use crate::network::{RedundantError, RedundantNetworkBuilder};
 use alloc::boxed::Box;
 use alloc::string::ToString;
-use alloc::sync::Arc;
 use alloc::vec::Vec;
 use duocan::od::{comm, DynamicDictionary};
 use duocan::port::mem::{Connector, MemBus};
@@ -37,23 +37,19 @@ pub const SIM_B_BOOTS: Duration = Duration::from_millis(1000);
 
 pub(super) type Board = DualBusNode<DynamicDictionary>;
 
-/// The simulated devices' script, running while the network is open.
-pub(super) struct SimStation {
-    /// The network's "closed" signal (the script sets it at [`SIM_END`]).
-    pub(super) closed: Arc<watch::Sender<bool>>,
+/// The simulated devices' script, running while the network is open; the network stops it
+/// when it closes ([`Network::on_close`](duocan::net::Network::on_close)).
+struct SimStation {
     /// Asks the script to stop every simulated device now.
     stop: watch::Sender<bool>,
-    task: std::sync::Mutex<Option<JoinHandle<()>>>,
+    task: JoinHandle<()>,
 }
 
 impl SimStation {
     /// Stops every simulated device.
-    pub(super) async fn shutdown(&self) {
+    async fn shutdown(self) {
         self.stop.send_replace(true);
-        let task = self.task.lock().ok().and_then(|mut t| t.take());
-        if let Some(t) = task {
-            let _ = t.await;
-        }
+        let _ = self.task.await;
     }
 }
 
@@ -133,37 +129,30 @@ pub(super) fn open(b: &RedundantNetworkBuilder) -> Result<RedundantNetwork, Redu
             }
         }
     }
-    let closed = Arc::new(watch::channel(false).0);
+    let net = RedundantNetwork::start(net, ports)?;
     let (stop, stop_rx) = watch::channel(false);
-    let sim = SimStation {
-        closed: closed.clone(),
-        stop,
-        task: std::sync::Mutex::new(None),
-    };
-    let net = RedundantNetwork::start(net, ports, Some(sim))?;
     let script = Script {
-        net: net.shared.handle.clone(),
+        net: net.clone(),
         buses,
         cut,
         peers,
         boards,
         later: b.pairs().iter().map(|&(_, b)| b).collect(),
         stop: stop_rx,
-        closed,
         start: tokio::time::Instant::now(),
     };
-    let task = tokio::spawn(script.run());
-    if let Some(s) = &net.shared.sim {
-        if let Ok(mut t) = s.task.lock() {
-            *t = Some(task);
-        }
-    }
+    let sim = SimStation {
+        stop,
+        task: tokio::spawn(script.run()),
+    };
+    net.on_close(move || sim.shutdown());
     Ok(net)
 }
 
 /// The simulated devices and what happens to them.
 struct Script {
-    net: Handle<Net>,
+    /// The network the script closes at its end.
+    net: RedundantNetwork,
     buses: [MemBus; 2],
     cut: Connector,
     peers: Vec<Handle<Net>>,
@@ -171,7 +160,6 @@ struct Script {
     /// The B members, booted [`SIM_B_BOOTS`].
     later: Vec<u8>,
     stop: watch::Receiver<bool>,
-    closed: Arc<watch::Sender<bool>>,
     start: tokio::time::Instant,
 }
 
@@ -190,8 +178,10 @@ impl Script {
             h.shutdown().await;
         }
         if played {
-            self.net.shutdown().await;
-            self.closed.send_replace(true);
+            // Closing the network stops this script and waits for it: the close runs as a
+            // task of its own, which this one does not wait for.
+            let net = self.net.clone();
+            tokio::spawn(async move { net.close().await });
         }
     }
 
@@ -223,7 +213,7 @@ impl Script {
         }
         let active: Vec<u8> = self
             .net
-            .call(|n, _| {
+            .with(|n, _| {
                 n.pairs()
                     .filter_map(|(_, p)| p.active.map(|m| p.spec.node(m).raw()))
                     .collect()

@@ -7,7 +7,6 @@ use crate::link::same_function::PairError;
 use crate::supervisor::AddPairError;
 use alloc::string::String;
 use core::fmt;
-use duocan::sdo::SdoError;
 use duocan::{Duration, NodeId};
 
 /// The part a node-ID was given for in a [`RedundantNetworkBuilder`](super::RedundantNetworkBuilder).
@@ -20,7 +19,7 @@ pub enum Role {
     PeerMaster,
     /// A member of a board pair (`.pair(…)`).
     PairMember,
-    /// A node addressed by a call (`net.node(…)`).
+    /// A node addressed by a call.
     Node,
 }
 
@@ -93,31 +92,10 @@ pub enum RedundantError {
     /// The network refused a call (a standby master, a busy SDO client, an NMT or switch-over
     /// refusal).
     Network(NetworkError),
-    /// An SDO transfer failed (the node aborted it or did not answer); the [`SdoError`] names
-    /// node, object, direction and cause.
-    Sdo(SdoError),
-    /// The value read has another size than the type asked for.
-    WrongSize {
-        /// The node.
-        node: NodeId,
-        /// Object index.
-        index: u16,
-        /// Sub-index.
-        sub: u8,
-        /// Bytes the type needs.
-        expected: usize,
-        /// Bytes the node sent.
-        got: usize,
-    },
-    /// A string read is not UTF-8.
-    NotText {
-        /// The node.
-        node: NodeId,
-        /// Object index.
-        index: u16,
-        /// Sub-index.
-        sub: u8,
-    },
+    /// A call of the front door failed (an SDO transfer, NMT on a standby master, a closed
+    /// network…): duocan's error, which names the node and object and what to do.
+    #[cfg(feature = "tokio")]
+    Net(duocan::net::NetError),
     /// A port could not be opened.
     Port {
         /// 0 = bus 1.
@@ -136,10 +114,10 @@ impl RedundantError {
     #[must_use]
     pub fn node(&self) -> Option<NodeId> {
         match self {
-            RedundantError::NodeTwice { node, .. }
-            | RedundantError::WrongSize { node, .. }
-            | RedundantError::NotText { node, .. } => Some(*node),
-            RedundantError::Sdo(e) => Some(e.node),
+            RedundantError::NodeTwice { node, .. } => Some(*node),
+            RedundantError::Network(NetworkError::Sdo(e)) => Some(e.node),
+            #[cfg(feature = "tokio")]
+            RedundantError::Net(e) => e.node(),
             _ => None,
         }
     }
@@ -149,15 +127,20 @@ impl From<NetworkError> for RedundantError {
     fn from(e: NetworkError) -> Self {
         match e {
             NetworkError::Closed => RedundantError::Closed,
-            NetworkError::Sdo(e) => RedundantError::Sdo(e),
             e => RedundantError::Network(e),
         }
     }
 }
 
-impl From<SdoError> for RedundantError {
-    fn from(e: SdoError) -> Self {
-        RedundantError::Sdo(e)
+/// A closed network is [`RedundantError::Closed`] whichever door says so; every other error
+/// of the front door is [`RedundantError::Net`].
+#[cfg(feature = "tokio")]
+impl From<duocan::net::NetError> for RedundantError {
+    fn from(e: duocan::net::NetError) -> Self {
+        match e {
+            duocan::net::NetError::Closed => RedundantError::Closed,
+            e => RedundantError::Net(e),
+        }
     }
 }
 
@@ -174,7 +157,8 @@ impl core::error::Error for RedundantError {
             RedundantError::Pair(e) => Some(e),
             RedundantError::Link(e) => Some(e),
             RedundantError::Network(e) => Some(e),
-            RedundantError::Sdo(e) => Some(e),
+            #[cfg(feature = "tokio")]
+            RedundantError::Net(e) => Some(e),
             _ => None,
         }
     }
@@ -211,17 +195,8 @@ impl fmt::Display for RedundantError {
             E::Pair(e) => write!(f, "{e}"),
             E::Link(e) => write!(f, "{e}"),
             E::Network(e) => write!(f, "{e}"),
-            E::Sdo(e) => write!(f, "{e}"),
-            E::WrongSize { node, index, sub, expected, got } => write!(
-                f,
-                "node {:#04x}, object {index:#06x} sub {sub}: the node sent {got} byte(s) but the type read needs {expected}: read it as a type of {got} byte(s) (see the node's EDS)",
-                node.raw()
-            ),
-            E::NotText { node, index, sub } => write!(
-                f,
-                "node {:#04x}, object {index:#06x} sub {sub}: the value is not UTF-8 text: read it as bytes",
-                node.raw()
-            ),
+            #[cfg(feature = "tokio")]
+            E::Net(e) => write!(f, "{e}"),
             E::Port { port, name, why } => write!(
                 f,
                 "bus {} ({name:?}) could not be opened: {why}",

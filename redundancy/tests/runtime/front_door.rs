@@ -3,6 +3,7 @@
 //! (the failovers come exactly when the configured heartbeats and timeouts say), SDO goes
 //! and NMT go through the handle to pair members, and the scripted faults give one failover of each kind.
 
+use duocan::net::{NetError, NetEvent};
 use duocan::od::DynamicDictionary;
 use duocan::sdo::{SdoErrorKind, SdoOptions};
 use duocan::{AbortCode, Duration, Instant, NmtState, NodeId};
@@ -23,7 +24,7 @@ fn after(d: Duration) -> Instant {
 }
 
 /// Every event until the simulation ends.
-async fn all_events(net: &RedundantNetwork) -> Vec<RedundantEvent> {
+async fn all_events(net: &RedundantNetwork) -> Vec<NetEvent> {
     let mut events = net.events();
     let mut out = vec![];
     while let Some(e) = events.next().await {
@@ -59,12 +60,12 @@ async fn the_simulated_station_plays_one_failover_of_each_kind_at_the_configured
         .open_named("sim")
         .unwrap();
     let events = all_events(&net).await;
-    let failovers: Vec<&RedundantEvent> = events.iter().filter(|e| e.is_failover()).collect();
+    let failovers: Vec<&NetEvent> = events.iter().filter(|e| e.is_failover()).collect();
     let lines: Vec<String> = failovers.iter().map(ToString::to_string).collect();
     assert_eq!(
         lines,
         [
-            "bus 1: failed",
+            "bus 1: failed (port down: interface down)",
             "this master: active",
             "pair 0x10/0x50: B active"
         ],
@@ -76,7 +77,7 @@ async fn the_simulated_station_plays_one_failover_of_each_kind_at_the_configured
     // are heard on bus 2 only (reported once each, when their first frame misses bus 1).
     let reach: Vec<String> = events
         .iter()
-        .filter(|e| matches!(e, RedundantEvent::Reach { .. }))
+        .filter(|e| matches!(e, NetEvent::Reach { .. }))
         .filter(|e| e.at() >= Some(after(SIM_BUS_FAILS)))
         .map(ToString::to_string)
         .collect();
@@ -86,12 +87,12 @@ async fn the_simulated_station_plays_one_failover_of_each_kind_at_the_configured
     }
     // The takeover: exactly the peer's last heartbeat + the master timeout, and that last
     // heartbeat is the one before the peer stopped (it beats every `hb`).
-    let RedundantEvent::MasterRole {
+    let Some(&RedundantEvent::MasterRole {
         from: MasterRole::Standby(_),
         reason: MasterReason::HeartbeatLost { master, last },
         at,
         ..
-    } = *failovers[1]
+    }) = failovers[1].ext()
     else {
         panic!("{:?}", failovers[1]);
     };
@@ -101,13 +102,13 @@ async fn the_simulated_station_plays_one_failover_of_each_kind_at_the_configured
     assert!(last <= stopped && stopped <= last + hb, "last {last}");
     // The pair: A (booted first, active) stops; B takes over exactly at A's last heartbeat
     // + the pair timeout.
-    let RedundantEvent::PairRole {
+    let Some(&RedundantEvent::PairRole {
         from: Some(Member::A),
         to: Some(Member::B),
         reason: RoleReason::ActiveSilent { last },
         at,
         ..
-    } = *failovers[2]
+    }) = failovers[2].ext()
     else {
         panic!("{:?}", failovers[2]);
     };
@@ -132,14 +133,14 @@ async fn a_member_not_heard_within_the_boot_timeout_is_reported_once() {
         .open_named("sim")
         .unwrap();
     let events = all_events(&net).await;
-    let not_heard: Vec<&RedundantEvent> = events
+    let not_heard: Vec<&NetEvent> = events
         .iter()
-        .filter(|e| matches!(e, RedundantEvent::NotHeard { .. }))
+        .filter(|e| matches!(e, NetEvent::NotHeard { .. }))
         .collect();
     assert_eq!(not_heard.len(), 2, "{not_heard:#?}");
     assert_eq!(
         *not_heard[0],
-        RedundantEvent::NotHeard {
+        NetEvent::NotHeard {
             node: NodeId::must(0x50),
             since: Instant::ZERO,
             at: after(ms(400)),
@@ -147,11 +148,11 @@ async fn a_member_not_heard_within_the_boot_timeout_is_reported_once() {
     );
     assert!(ms(400) < SIM_B_BOOTS);
     assert_eq!(not_heard[0].to_string(), "node 0x50: not heard for 400 ms");
-    let RedundantEvent::NotHeard { node, since, at } = *not_heard[1] else {
+    let NetEvent::NotHeard { node, since, at } = *not_heard[1] else {
         unreachable!()
     };
-    let reset = events.iter().find_map(|e| match e {
-        RedundantEvent::PairRole { at, .. } if *at > after(SIM_MEMBER_FAILS) => Some(*at),
+    let reset = events.iter().find_map(|e| match e.ext() {
+        Some(RedundantEvent::PairRole { at, .. }) if *at > after(SIM_MEMBER_FAILS) => Some(*at),
         _ => None,
     });
     assert_eq!(
@@ -192,7 +193,7 @@ async fn sdo_through_the_handle_to_a_pair_member_on_either_bus() {
     assert!(
         matches!(
             e,
-            RedundantError::WrongSize {
+            NetError::WrongSize {
                 index: 0x1018,
                 sub: 1,
                 expected: 1,
@@ -205,7 +206,7 @@ async fn sdo_through_the_handle_to_a_pair_member_on_either_bus() {
     assert_eq!(e.node().map(|n| n.raw()), Some(0x50));
     // An object the node does not have: the abort, with the node.
     let e = b.sdo().read::<u32>(0x6000, 0).await.unwrap_err();
-    assert!(matches!(e, RedundantError::Sdo(_)), "{e}");
+    assert!(matches!(e, NetError::Sdo(_)), "{e}");
     assert!(e.to_string().contains("0x6000"), "{e}");
     // After bus 1 failed, SDO goes on over bus 2 (at about 2.3 s: bus 1 fails at 2 s, A stops
     // at 4 s).
@@ -219,7 +220,7 @@ async fn sdo_through_the_handle_to_a_pair_member_on_either_bus() {
     let mut state = None;
     for _ in 0..50 {
         tokio::time::sleep(std::time::Duration::from_millis(20)).await;
-        state = b.view().await.unwrap().state;
+        state = net.slave(0x50).await.unwrap().state;
         if state == Some(NmtState::Stopped) {
             break;
         }
@@ -227,12 +228,11 @@ async fn sdo_through_the_handle_to_a_pair_member_on_either_bus() {
     assert_eq!(state, Some(NmtState::Stopped));
     // A node-ID outside 1-127 is an error of the call.
     let e = net.node(0).sdo().read::<u32>(0x1000, 0).await.unwrap_err();
-    assert!(matches!(e, RedundantError::BadNodeId { id: 0, .. }), "{e}");
+    assert_eq!(e, NetError::NoSuchNode(0), "{e}");
+    let e = net.slave(0).await.unwrap_err();
+    assert_eq!(e, RedundantError::Net(NetError::NoSuchNode(0)), "{e}");
     net.close().await;
-    assert_eq!(
-        a.sdo().read::<u32>(0x1018, 2).await,
-        Err(RedundantError::Closed)
-    );
+    assert_eq!(a.sdo().read::<u32>(0x1018, 2).await, Err(NetError::Closed));
 }
 
 #[tokio::test(start_paused = true)]
@@ -253,8 +253,23 @@ async fn a_standby_master_refuses_sdo_until_it_takes_over() {
         .read::<u32>(0x1018, 1)
         .await
         .unwrap_err();
-    assert_eq!(e, RedundantError::Network(NetworkError::Standby));
+    assert_eq!(
+        e,
+        NetError::Standby {
+            node: NodeId::new(0x10)
+        }
+    );
     assert!(e.to_string().contains("standby"), "{e}");
+    // NMT too: to a node, and to all.
+    let e = net.node(0x10).start().await.unwrap_err();
+    assert_eq!(
+        e,
+        NetError::Standby {
+            node: NodeId::new(0x10)
+        }
+    );
+    let e = net.nmt_all(duocan::NmtCommand::Start).await.unwrap_err();
+    assert_eq!(e, NetError::Standby { node: None });
     // After the peer stopped, this master is active and SDO works.
     tokio::time::sleep(std::time::Duration::from_millis(3500)).await;
     assert_eq!(net.role().await.unwrap(), MasterRole::Active);
@@ -308,6 +323,18 @@ async fn open_on_two_ports_runs_the_builders_network() {
         .await
         .unwrap_err();
     assert_eq!(e.node().map(|n| n.raw()), Some(0x33), "{e}");
+    // The door's view of the two buses is the master's dual-bus layer's.
+    let ports = net.ports().await.unwrap();
+    let names: Vec<&str> = ports.iter().map(|p| p.name.as_str()).collect();
+    assert_eq!(names, ["can1", "can2"]);
+    assert!(ports.iter().all(|p| p.health.is_some()), "{ports:?}");
+    assert_eq!(net.heard_on(0x33).await.unwrap(), Some([false, false]));
+    // What the redundant network does not do yet is an error saying so, not a hang.
+    let e = net.node(0x33).watch_heartbeat(ms(100).into()).await;
+    assert!(
+        matches!(&e, Err(NetError::Argument(w)) if w.contains("not supported yet")),
+        "{e:?}"
+    );
     net.close().await;
     assert!(net.events().next().await.is_none());
 }
@@ -371,7 +398,7 @@ async fn the_wait_for_a_busy_client_ends_at_the_calls_timeout() {
         .unwrap_err();
     let waited = t0.elapsed();
     assert!(
-        matches!(e, RedundantError::Sdo(s) if s.kind == SdoErrorKind::Busy),
+        matches!(e, NetError::Sdo(s) if s.kind == SdoErrorKind::Busy),
         "{e}"
     );
     assert!(
@@ -389,7 +416,7 @@ async fn the_wait_for_a_busy_client_ends_at_the_calls_timeout() {
         .unwrap_err();
     let waited = t0.elapsed();
     assert!(
-        matches!(e, RedundantError::Sdo(s) if s.kind == SdoErrorKind::Client(AbortCode::TIMEOUT)),
+        matches!(e, NetError::Sdo(s) if s.kind == SdoErrorKind::Client(AbortCode::TIMEOUT)),
         "{e}"
     );
     assert!(

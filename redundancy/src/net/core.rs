@@ -1,0 +1,238 @@
+//! The redundant master as the core of duocan's front door: [`MasterCore`] makes a
+//! [`LogicalNetwork`] a [`NetCore`], so that [`RedundantNetwork`](super::RedundantNetwork) is a
+//! `duocan::net::Network` (remote nodes, SDO, events, waits written once, in duocan) and only
+//! what redundancy adds is written here.
+//!
+//! **What the door gets.** The master's own SDO client while this master is active (on a
+//! standby one, [`NetError::Standby`]: two clients on one server channel would corrupt each
+//! other's transfers); NMT through the master, so that its view of the slaves follows; the
+//! states the master's node heard; the dual-bus layer's port health and reach. The station's
+//! events become the door's ([`NetEvent`]) where the door has the word, and
+//! [`RedundantEvent`]s ([`NetEvent::Ext`]) where only redundancy has it.
+//!
+//! **Not yet.** Watching a heartbeat (the master guards its slaves itself, 0x1F81), SYNC (the
+//! builder's `.sync(…)`) and frames of the application's own (RPDOs) are refused with
+//! [`NetError::Argument`] saying so.
+
+use super::dual_link::heard_on;
+use super::events::RedundantEvent;
+use crate::network::{LogicalNetwork, NetworkError, NetworkEvent, NetworkEventKind as K};
+use crate::supervisor::pairs::PairsEvent;
+use crate::SupervisorEvent;
+use alloc::boxed::Box;
+use alloc::string::ToString;
+use duocan::machine::{Device, PortRequest, PortState, PortStatus, StationEvent};
+use duocan::net::{CoreEvent, ExtEvent, NetClient, NetCore, NetError, NetEvent};
+use duocan::nmt::NmtTarget;
+use duocan::od::DynamicDictionary;
+use duocan::runtime::SdoEvents;
+use duocan::{Frame, Instant, NmtCommand, NmtState, NodeId};
+
+/// The network the core runs.
+pub(super) type Net = LogicalNetwork<DynamicDictionary>;
+
+/// A [`LogicalNetwork`] as the core of a `duocan::net::Network` (boxed: the network is some
+/// 160 kB).
+pub(crate) struct MasterCore {
+    pub(super) net: Box<Net>,
+}
+
+impl MasterCore {
+    pub(super) fn new(net: Box<Net>) -> Self {
+        MasterCore { net }
+    }
+    fn not_yet(what: &str) -> NetError {
+        NetError::Argument(alloc::format!(
+            "{what} on the redundant network: not supported yet"
+        ))
+    }
+}
+
+/// The door's event of a network event, if the stream shows it.
+pub(super) fn core_event(e: NetworkEvent) -> Option<CoreEvent> {
+    let at = e.at;
+    let net = match e.kind {
+        K::Port {
+            port,
+            from,
+            to,
+            reason,
+        } => NetEvent::PortState {
+            port,
+            from,
+            to,
+            reason,
+            at,
+        },
+        K::Reach { node, heard } => NetEvent::Reach { node, heard, at },
+        K::NodeBooted { node } => NetEvent::BootUp { node, at },
+        K::NodeState { node, from, to } => NetEvent::State { node, from, to, at },
+        K::Emcy { node, msg } => NetEvent::Emcy { node, msg, at },
+        K::Sdo(s) => {
+            let (id, r) = s.sdo_result()?;
+            return Some(CoreEvent::Sdo(id, r));
+        }
+        K::Other(StationEvent::Machine(SupervisorEvent::Pairs(PairsEvent::Missing {
+            node,
+            since,
+            ..
+        }))) => NetEvent::NotHeard { node, since, at },
+        kind => NetEvent::Ext(ExtEvent::new(RedundantEvent::of(at, kind)?)),
+    };
+    Some(CoreEvent::Net(net))
+}
+
+impl Device for MasterCore {
+    type Event = CoreEvent;
+
+    fn port_count(&self) -> usize {
+        self.net.port_count()
+    }
+    fn handle_rx(&mut self, now: Instant, port: usize, frame: &Frame) {
+        self.net.handle_rx(now, port, frame);
+    }
+    fn handle_rx_at(&mut self, now: Instant, port: usize, frame: &Frame, at: Instant) {
+        self.net.handle_rx_at(now, port, frame, at);
+    }
+    fn handle_port_status(&mut self, now: Instant, port: usize, status: PortStatus) {
+        self.net.handle_port_status(now, port, status);
+    }
+    fn handle_timeout(&mut self, now: Instant) {
+        self.net.handle_timeout(now);
+    }
+    fn poll_transmit(&mut self) -> Option<(usize, Frame)> {
+        self.net.poll_transmit()
+    }
+    fn poll_port_request(&mut self) -> Option<(usize, PortRequest)> {
+        self.net.poll_port_request()
+    }
+    fn poll_timeout(&self) -> Option<Instant> {
+        self.net.poll_timeout()
+    }
+    fn poll_event(&mut self) -> Option<CoreEvent> {
+        loop {
+            if let Some(e) = core_event(self.net.poll_event()?) {
+                return Some(e);
+            }
+        }
+    }
+}
+
+impl NetCore for MasterCore {
+    fn rx(
+        &mut self,
+        now: Instant,
+        port: usize,
+        frame: &Frame,
+        at: Option<Instant>,
+    ) -> Option<Frame> {
+        // The supervised station is a station: what its dual-bus layer delivers, once.
+        self.net
+            .station_mut()
+            .handle_rx_delivered(now, port, frame, at)
+    }
+    fn client(&mut self) -> Result<&mut NetClient, NetError> {
+        let sup = self.net.station_mut().sup_mut();
+        if !sup.is_active() {
+            return Err(NetError::Standby { node: None });
+        }
+        Ok(sup.sdo_mut())
+    }
+    fn nmt(&mut self, now: Instant, cmd: NmtCommand, target: NmtTarget) -> Result<(), NetError> {
+        self.net.nmt(now, cmd, target).map_err(|e| match e {
+            NetworkError::Nmt(e) => NetError::from(e),
+            NetworkError::Standby => NetError::Standby { node: None },
+            e => NetError::Argument(e.to_string()),
+        })
+    }
+    fn remote(&self, node: NodeId) -> Option<(NmtState, Instant)> {
+        let v = self.net.supervisor().node().remote(node)?;
+        Some((v.state, v.seen))
+    }
+    fn watch_heartbeat(&mut self, _: Instant, _: NodeId, _: u16) -> Result<(), NetError> {
+        Err(Self::not_yet(
+            "watching a heartbeat (the master guards its slaves itself: 0x1F81, 0x1016)",
+        ))
+    }
+    fn set_sync(&mut self, _: Instant, _: Option<u32>) -> Result<(), NetError> {
+        Err(Self::not_yet(
+            "starting or stopping SYNC (set its period with the builder's sync)",
+        ))
+    }
+    fn send(&mut self, _: Instant, _: Frame) -> Result<(), NetError> {
+        Err(Self::not_yet("sending a frame of the application's own"))
+    }
+    fn may_send(&self, now: Instant) -> bool {
+        self.net.supervisor().may_command(now)
+    }
+    fn port_state(&self, port: usize) -> Option<PortState> {
+        (port < 2).then(|| self.net.station().link.port_state(port))
+    }
+    fn heard_on(&self, node: NodeId) -> Option<[bool; 2]> {
+        heard_on(&self.net.station().link, node)
+    }
+    fn type_name(&self) -> &'static str {
+        "redundant master"
+    }
+    fn as_any_mut(&mut self) -> &mut dyn core::any::Any {
+        self
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use duocan::machine::{ErrorCause, PortReason};
+
+    #[test]
+    fn a_port_change_is_the_doors_and_names_its_reason() {
+        let e = core_event(NetworkEvent {
+            at: Instant::from_millis(7),
+            kind: K::Port {
+                port: 0,
+                from: PortState::Ok,
+                to: PortState::Failed,
+                reason: PortReason::Down(ErrorCause::InterfaceDown),
+            },
+        });
+        let Some(CoreEvent::Net(e)) = e else {
+            panic!("{e:?}")
+        };
+        assert!(e.is_failover());
+        assert_eq!(e.to_string(), "bus 1: failed (port down: interface down)");
+        assert_eq!(e.at(), Some(Instant::from_millis(7)));
+    }
+
+    #[test]
+    fn a_lost_slave_is_redundancys_own_event() {
+        let node = NodeId::must(0x12);
+        let e = core_event(NetworkEvent {
+            at: Instant::from_millis(7),
+            kind: K::NodeLost {
+                node,
+                status: duocan::master::ErrorStatus::E,
+            },
+        });
+        let Some(CoreEvent::Net(e)) = e else {
+            panic!("{e:?}")
+        };
+        assert_eq!(
+            e.ext::<RedundantEvent>(),
+            Some(&RedundantEvent::SlaveLost {
+                node,
+                at: Instant::from_millis(7)
+            })
+        );
+        assert_eq!(e.node(), Some(node));
+        assert_eq!(e.to_string(), "node 0x12: lost");
+    }
+
+    #[test]
+    fn what_the_stream_does_not_show_is_dropped() {
+        let e = core_event(NetworkEvent {
+            at: Instant::ZERO,
+            kind: K::PdoReceived { pdo: 1 },
+        });
+        assert!(e.is_none(), "{e:?}");
+    }
+}
