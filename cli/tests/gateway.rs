@@ -387,3 +387,56 @@ fn listen_refuses_other_than_loopback_unless_told() {
     assert_eq!(r.code, 2);
     assert!(r.err.contains("no bus"), "{}", r.err);
 }
+
+#[test]
+fn a_local_socket_is_served_owner_only_and_a_stale_one_replaced() {
+    use std::os::unix::fs::PermissionsExt;
+    use std::os::unix::net::UnixStream;
+    let dir = std::env::temp_dir().join(format!("duocan-gw-sock-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let path = dir.join("gw.sock");
+    // A file that is not a socket is left alone.
+    std::fs::write(&path, "keep").unwrap();
+    let r = duocan(&[
+        "--bus",
+        "sim",
+        "gateway",
+        "--socket",
+        path.to_str().unwrap(),
+    ]);
+    assert_eq!(r.code, 2, "{}", r.err);
+    assert!(r.err.contains("not a socket"), "{}", r.err);
+    assert_eq!(std::fs::read_to_string(&path).unwrap(), "keep");
+    std::fs::remove_file(&path).unwrap();
+    for round in 0..2 {
+        // The second round finds the socket file the killed first one left behind.
+        let mut child = Command::new(env!("CARGO_BIN_EXE_duocan"))
+            .args(["--bus", "sim", "gateway", "--socket"])
+            .arg(&path)
+            .env_remove("DUOCAN_BUS")
+            .stdin(Stdio::null())
+            .stdout(Stdio::null())
+            .stderr(Stdio::piped())
+            .spawn()
+            .expect("run duocan");
+        let mut err = BufReader::new(child.stderr.take().unwrap());
+        let mut line = String::new();
+        err.read_line(&mut line).unwrap();
+        assert!(line.contains("listening on"), "round {round}: {line}");
+        let mode = std::fs::metadata(&path).unwrap().permissions().mode();
+        assert_eq!(mode & 0o777, 0o600);
+        let s = UnixStream::connect(&path).unwrap();
+        s.set_read_timeout(Some(Duration::from_secs(10))).unwrap();
+        let mut r = BufReader::new(s.try_clone().unwrap());
+        (&s).write_all(b"[1] 5 r 0x1018 2 u32\n\n").unwrap();
+        let mut resp = String::new();
+        r.read_line(&mut resp).unwrap();
+        assert_eq!(resp, "[1] 5\r\n");
+        resp.clear();
+        r.read_line(&mut resp).unwrap();
+        assert_eq!(resp, "\r\n", "a blank line gets an empty line");
+        let _ = child.kill();
+        let _ = child.wait();
+    }
+    let _ = std::fs::remove_dir_all(&dir);
+}

@@ -22,7 +22,7 @@
 //! 503 (bit rate), 504 (store) or 501 (its manufacturer's code).
 //!
 //! **Timing.** The answer timeout and the fastscan's settle time are the network's LSS master's
-//! ([`LssMasterConfig`]), the same for every request: the `<ms>` of `_lss_fastscan` and
+//! (`--lss-answer-ms`, `--lss-settle-ms`), the same for every request: the `<ms>` of `_lss_fastscan` and
 //! `lss_allnodes` is read (0 to 65535) but does not change them. **Scan types.** Of
 //! `lss_allnodes`' eight scan arguments only the fastscan of every part (scan types 0) is
 //! carried out; a part to ignore or to match (1, 2) is `ERROR:100`.

@@ -70,8 +70,8 @@
 //!   digits. `r32`/`r64` writes of `nan` and `inf` are refused here (a value no dictionary range
 //!   check can judge).
 //! - `b` writes take a number 0–255, as CANopenNode's; the node judges the value.
-//! - The LSS timing is the network's LSS master's: the `<ms>` of `_lss_fastscan` and
-//!   `lss_allnodes` is read but does not change it, and `lss_allnodes` carries out fastscan
+//! - The LSS timing is the network's LSS master's (`--lss-answer-ms`, `--lss-settle-ms`): the
+//!   `<ms>` of `_lss_fastscan` and `lss_allnodes` is read but does not change it, and `lss_allnodes` carries out fastscan
 //!   of every part only (scan types 1 and 2 are `ERROR:100`). `_lss_fastscan` leaves the slave
 //!   it found in configuration mode, as CANopenNode's, by selecting it again after the scan.
 //! - LED and log are CANopenNode's device's, not a gateway's: `ERROR:100`.
@@ -92,8 +92,10 @@ mod value;
 #[cfg(test)]
 mod tests;
 
+use crate::args::parse_timeout_ms;
 use crate::fail::Fail;
 use crate::{bus, Global};
+use duocan::cia305::LssMasterConfig;
 use duocan::net::Network;
 use exec::{answer, Session};
 use std::net::SocketAddr;
@@ -122,6 +124,13 @@ pub struct Args {
     /// CANopenNode's gateway does for `cocomm -s PATH` (only its owner may connect)
     #[arg(long, value_name = "PATH")]
     socket: Option<PathBuf>,
+    /// How long an LSS request waits for the slaves' answer, in milliseconds
+    #[arg(long, default_value = "50", value_parser = parse_timeout_ms, value_name = "MS")]
+    lss_answer_ms: u64,
+    /// LSS fastscan (`_lss_fastscan`, `lss_allnodes`): how long an answered step waits for
+    /// further answers, in milliseconds
+    #[arg(long, default_value = "5", value_parser = parse_timeout_ms, value_name = "MS")]
+    lss_settle_ms: u64,
 }
 
 /// Runs `duocan gateway`.
@@ -139,7 +148,11 @@ pub async fn run(g: &Global, a: Args) -> Result<(), Fail> {
             )));
         }
     }
-    let bus = bus::open(g, false)?;
+    let ms = duocan::Duration::from_millis;
+    let lss = LssMasterConfig::default()
+        .with_timeout(ms(a.lss_answer_ms))
+        .with_settle(ms(a.lss_settle_ms));
+    let bus = bus::open_with(g, bus::options(g, false).with_lss(lss))?;
     let r = match (a.listen, a.socket) {
         (Some(addr), _) => listen(&bus.net, g.timeout, addr).await,
         (None, Some(path)) => socket::listen(&bus.net, g.timeout, &path).await,
