@@ -259,6 +259,27 @@ fn lss_through_cocomm_finds_a_board_and_gives_it_a_node_id() {
              check that it is on this bus, or wait longer"
                 .into(),
         ),
+        // Every other board without a node-ID gets one: the second board, 0x40.
+        (
+            "[13] lss_allnodes 100 0x40 0",
+            format!(
+                "# node-ID 64 given to 0x{SIM_VENDOR:08X} 0x00000305 0x00000001 0x00000002\n\
+                 # 1 given a node-ID; no slave is left without one\n[13] OK"
+            ),
+        ),
+        ("[14] 0x40 r 0x1018 4 u32", "[14] 2".into()),
+        (
+            "[15] lss_allnodes",
+            "# 0 given a node-ID; no slave is left without one\n[15] OK".into(),
+        ),
+        ("[16] lss_switch_glob 1", "[16] OK".into()),
+        (
+            "[17] lss_set_node 0",
+            "[17] ERROR:102 #request not processed in the present state: LSS, node-ID 0 is \
+             outside 1-127 (0xFF means none)"
+                .into(),
+        ),
+        ("[18] lss_switch_glob 0", "[18] OK".into()),
     ];
     assert_eq!(check(&gw, &cases), 1);
 }

@@ -81,8 +81,9 @@ pub fn parse_lss(name: &str, args: &[Word]) -> Result<LssRequest, Bad> {
             serial: u32_arg(s)?,
         }),
         ("lss_switch_sel", _) => return Err(usage("<vendor> <product> <revision> <serial>")),
+        // 0 is read, as CANopenNode reads it, and refused by the LSS master (`ERROR:102`).
         ("lss_set_node", [n]) => match number_arg::<u8>(n, "a node-ID (1 to 127, 255: none)")? {
-            n @ (1..=127 | 0xFF) => LssRequest::SetNode(n),
+            n @ (0..=127 | 0xFF) => LssRequest::SetNode(n),
             n => {
                 return Err(Bad::syntax(format!(
                     "{n}: a node-ID is 1 to 127 (255: none)"
@@ -266,12 +267,12 @@ async fn all_nodes_run(net: &Network, first: u8, store: bool) -> Result<String, 
         .collect();
     match report.stopped {
         None => lines.push(format!(
-            "# {} slaves found, none left without a node-ID",
+            "# {} given a node-ID; no slave is left without one",
             report.assigned.len()
         )),
         // Node-IDs ran out (CANopenNode stops at 127 too): the rest wait for another scan.
         Some(LssError::NoNodeId(_)) => lines.push(format!(
-            "# {} slaves found; no node-ID left for the others",
+            "# {} given a node-ID; none is left for the others",
             report.assigned.len()
         )),
         Some(e) => return Err(lss_error(&NetError::Lss(e))),

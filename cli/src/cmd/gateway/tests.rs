@@ -262,6 +262,7 @@ fn the_lss_requests_of_309_3_and_canopennode() {
     );
     assert_eq!(lss("[4] lss_set_node 0x20"), L::SetNode(0x20));
     assert_eq!(lss("[5] lss_set_node 255"), L::SetNode(0xFF));
+    assert_eq!(lss("[5] lss_set_node 0"), L::SetNode(0));
     assert_eq!(
         lss("[6] lss_conf_bitrate 0 2"),
         L::ConfBitrate(BitTiming::standard(2))
