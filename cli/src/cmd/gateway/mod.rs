@@ -82,6 +82,7 @@
 //! unless `--allow-remote`, and the local socket its owner's only: the gateway has no
 //! authentication, and anyone who reaches it drives the bus.
 
+mod error;
 mod exec;
 mod help;
 mod lss;

@@ -2,7 +2,7 @@
 //!
 //! | type | text |
 //! |---|---|
-//! | `b` | 0 or 1 |
+//! | `b` | a number, one byte (CiA 301 has 0 and 1; the node judges the value, as for `u8`) |
 //! | `i8`…`i64`, `u8`…`u64` (also the 24-, 40-, 48-, 56-bit ones) | decimal; written also as `0x` hex |
 //! | `x8`, `x16`, `x32`, `x64` | `0x` and upper-case hex digits, every byte shown |
 //! | `r32`, `r64` | written: decimal, with a point and an exponent as needed; read: six significant digits, an exponent below 1e-4 and from 1e6 (C's `%g`, as CANopenNode prints them) |
