@@ -62,7 +62,11 @@
 //!   answers it with the sequence number of the request before (0 in a new session).
 //! - `help` pages are duocan's own text, as `#` lines closed by `[<sequence>] OK`; CANopenNode
 //!   sends its page as plain lines without a sequence number or `OK`.
-//! - `info version` is answered (309-3 has it); CANopenNode's gateway answers `ERROR:100`.
+//! - `info version` is answered (309-3 has it); CANopenNode's gateway answers `ERROR:100`. So
+//!   are the 309-3 types CANopenNode lacks (`i24`…`i56`, `u24`…`u56`, `t`, `td`: `ERROR:101`
+//!   there).
+//! - `set sdo_timeout` takes up to an hour, as the tool's `--timeout`; CANopenNode's gateway up
+//!   to 65535 ms.
 //! - A `vs` read shows a control character (a line feed among them) as U+FFFD, and bytes
 //!   that are not UTF-8 likewise: an answer stays one line. CANopenNode passes them through
 //!   (it drops NUL and CR, as this gateway does).
