@@ -106,29 +106,46 @@ impl Gateway {
 
     /// Sends `script` through cocomm; returns its standard output and exit code.
     fn cocomm(&self, script: &str) -> (String, i32) {
-        let mut c = Command::new(cocomm())
-            .arg("-s")
-            .arg(&self.socket)
-            .args(["-o", "flat"])
-            .stdin(Stdio::piped())
-            .stdout(Stdio::piped())
-            .stderr(Stdio::piped())
-            .spawn()
-            .expect("run cocomm");
-        c.stdin
-            .take()
-            .unwrap()
-            .write_all(script.as_bytes())
-            .unwrap();
-        let o = c.wait_with_output().unwrap();
-        let out = String::from_utf8_lossy(&o.stdout).into_owned();
-        assert!(
-            o.stderr.is_empty(),
-            "cocomm: {}",
-            String::from_utf8_lossy(&o.stderr)
-        );
-        (out, o.status.code().unwrap_or(-1))
+        let mut args = vec![std::ffi::OsString::from("-s"), self.socket.clone().into()];
+        args.extend(["-o", "flat"].map(Into::into));
+        let (out, err, code) = run_cocomm(&args, script);
+        assert!(err.is_empty(), "cocomm: {err}");
+        (out, code)
     }
+}
+
+/// Runs cocomm with `args` and `stdin`; its standard output, standard error and exit code. A
+/// cocomm that has not ended in a minute waits for an answer the gateway never sent: killed,
+/// and the test fails saying so.
+fn run_cocomm(args: &[std::ffi::OsString], stdin: &str) -> (String, String, i32) {
+    use std::io::Read;
+    let mut c = Command::new(cocomm())
+        .args(args)
+        .stdin(Stdio::piped())
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .expect("run cocomm");
+    c.stdin.take().unwrap().write_all(stdin.as_bytes()).unwrap();
+    let deadline = std::time::Instant::now() + std::time::Duration::from_secs(60);
+    let status = loop {
+        if let Some(st) = c.try_wait().unwrap() {
+            break st;
+        }
+        if std::time::Instant::now() > deadline {
+            let _ = c.kill();
+            let _ = c.wait();
+            let mut out = String::new();
+            let _ = c.stdout.take().unwrap().read_to_string(&mut out);
+            panic!("cocomm hung: an answer it waits for never came; it printed:\n{out}");
+        }
+        std::thread::sleep(std::time::Duration::from_millis(20));
+    };
+    let mut out = String::new();
+    let mut err = String::new();
+    c.stdout.take().unwrap().read_to_string(&mut out).unwrap();
+    c.stderr.take().unwrap().read_to_string(&mut err).unwrap();
+    (out, err, status.code().unwrap_or(-1))
 }
 
 impl Drop for Gateway {
@@ -282,4 +299,53 @@ fn lss_through_cocomm_finds_a_board_and_gives_it_a_node_id() {
         ("[18] lss_switch_glob 0", "[18] OK".into()),
     ];
     assert_eq!(check(&gw, &cases), 1);
+}
+
+#[test]
+fn cocomm_over_tcp_with_requests_as_arguments() {
+    let _one = common::one_station();
+    let mut gw = Command::new(env!("CARGO_BIN_EXE_duocan"))
+        .args(["--bus", "sim", "gateway", "--listen", "127.0.0.1:0"])
+        .env_remove("DUOCAN_BUS")
+        .stdin(Stdio::null())
+        .stdout(Stdio::null())
+        .stderr(Stdio::piped())
+        .spawn()
+        .expect("run duocan");
+    let mut err = BufReader::new(gw.stderr.take().unwrap());
+    let mut line = String::new();
+    err.read_line(&mut line).unwrap();
+    let port = line
+        .trim()
+        .strip_prefix("duocan gateway: listening on 127.0.0.1:")
+        .unwrap_or_else(|| panic!("{line:?}"))
+        .to_string();
+    // cocomm numbers the requests given as arguments itself ([1], [2], …), but not a comment.
+    let args: Vec<std::ffi::OsString> = [
+        "-t",
+        "127.0.0.1",
+        "-p",
+        &port,
+        "-o",
+        "flat",
+        "5 r 0x1018 2 u32",
+        "# a comment",
+        "[7] 5 r 0x1017 0 x16",
+        "help lss",
+    ]
+    .map(Into::into)
+    .to_vec();
+    let (out, err, code) = run_cocomm(&args, "");
+    let _ = gw.kill();
+    let _ = gw.wait();
+    assert_eq!(code, 0, "{out}{err}");
+    let (head, lss) = out
+        .split_once("\r\n[7] ")
+        .unwrap_or_else(|| panic!("{out}"));
+    assert_eq!(head, "[1] 5\r\n", "the comment's empty line follows");
+    let lss = lss
+        .strip_prefix(&format!("0x{SIM_HEARTBEAT_MS:04X}\r\n"))
+        .unwrap_or_else(|| panic!("{out}"));
+    assert!(lss.starts_with("# LSS requests"), "{out}");
+    assert!(lss.ends_with("\n[4] OK\r\n"), "{out}");
 }
