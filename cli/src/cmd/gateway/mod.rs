@@ -65,6 +65,9 @@
 //! - `info version` is answered (309-3 has it); CANopenNode's gateway answers `ERROR:100`. So
 //!   are the 309-3 types CANopenNode lacks (`i24`…`i56`, `u24`…`u56`, `t`, `td`: `ERROR:101`
 //!   there).
+//! - Numbers are decimal or `0x` hex, as 309-3 writes them: `010` is ten here, where
+//!   CANopenNode's gateway (reading numbers with C's `strtoul`) takes it as octal eight, and a
+//!   leading `+` is refused here.
 //! - `set sdo_timeout` takes up to an hour, as the tool's `--timeout`; CANopenNode's gateway up
 //!   to 65535 ms.
 //! - A `vs` read shows a control character (a line feed among them) as U+FFFD, and bytes

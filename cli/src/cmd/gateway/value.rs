@@ -170,10 +170,10 @@ fn int_bytes(text: &str, signed: bool, n: u8) -> Result<Vec<u8>, ValueError> {
     } else {
         (0, (1i128 << bits) - 1)
     };
-    let kind = if signed { 'i' } else { 'u' };
+    let kind = if signed { "an i" } else { "a u" };
     match parse_int(text, signed) {
         Ok(v) if (lo..=hi).contains(&v) => Ok(v.to_le_bytes()[..usize::from(n)].to_vec()),
-        _ => Err(format!("{text}: not a {kind}{bits} ({lo} to {hi})")),
+        _ => Err(format!("{text}: not {kind}{bits} ({lo} to {hi})")),
     }
 }
 
