@@ -456,9 +456,13 @@ proptest! {
                 Just("node".to_string()), Just("vs".to_string()), Just("u32".to_string()),
                 Just("\"".to_string()), Just("\"\"".to_string()), Just("#".to_string()),
                 Just("reset".to_string()), Just("-1".to_string()), Just("d".to_string()),
+                Just("lss_allnodes".to_string()), Just("_lss_fastscan".to_string()),
+                Just("lss_set_node".to_string()), Just("lss_switch_sel".to_string()),
+                Just("lss_conf_bitrate".to_string()), Just("help".to_string()),
+                Just("0".to_string()), Just("2".to_string()), Just("b".to_string()),
                 "[ -~]{0,6}",
             ],
-            0..8,
+            0..12,
         )
     ) {
         let line = words.join(" ");
