@@ -37,7 +37,8 @@
 //! is answered with an empty line (a client that waits for an answer to each line it sends,
 //! as `cocomm` does, would otherwise wait for ever). A value read whose size is not its type's
 //! shows as its bytes in hex (`r 0x1017 0 u32` of a 16-bit object: `E8 03`); `r32` and `r64`
-//! show as C's `%g`. `help` answers with `#` comment lines, then `OK`. Answers end with LF on
+//! show as C's `%g`. A `b` write takes a number (`1`, `0x1`) as one byte, and the node judges
+//! its value, as with CANopenNode's gateway. `help` answers with `#` comment lines, then `OK`. Answers end with LF on
 //! standard output and CR LF on a socket, and the lines of a longer answer are parted by LF
 //! alone: `cocomm` reads an answer up to its first CR LF. A request may end with either.
 //!
@@ -76,11 +77,11 @@
 //! - An `r64` write is parsed as a double; CANopenNode parses it as a float first, losing
 //!   digits. `r32`/`r64` writes of `nan` and `inf` are refused here (a value no dictionary range
 //!   check can judge).
-//! - `b` writes take a number 0–255, as CANopenNode's; the node judges the value.
 //! - The LSS timing is the network's LSS master's (`--lss-answer-ms`, `--lss-settle-ms`): the
-//!   `<ms>` of `_lss_fastscan` and `lss_allnodes` is read but does not change it, and `lss_allnodes` carries out fastscan
-//!   of every part only (scan types 1 and 2 are `ERROR:100`). `_lss_fastscan` leaves the slave
-//!   it found in configuration mode, as CANopenNode's, by selecting it again after the scan.
+//!   `<ms>` of `_lss_fastscan` and `lss_allnodes` is read but does not change it, and
+//!   `lss_allnodes` carries out fastscan of every part only (scan types 1 and 2 are
+//!   `ERROR:100`). `_lss_fastscan` leaves the slave it found in configuration mode, as
+//!   CANopenNode's does, by selecting it again after the scan.
 //! - LED and log are CANopenNode's device's, not a gateway's: `ERROR:100`.
 //!
 //! **Bounds.** A request line is at most [`MAX_LINE`] bytes (longer: `ERROR:101`, the line
