@@ -110,7 +110,7 @@ enum Command {
     Eds(cmd::eds::Eds),
     /// Download a program to a node (CiA 302-3), with progress
     Flash(cmd::flash::Args),
-    /// The CiA 309-3 ASCII gateway, on standard input or a loopback TCP port
+    /// The CiA 309-3 ASCII gateway, on standard input, a loopback TCP port or a local socket
     Gateway(cmd::gateway::Args),
     /// Run a duocan board or redundant master on real interfaces (for failover tests)
     #[command(subcommand)]

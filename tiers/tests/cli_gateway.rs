@@ -117,7 +117,10 @@ async fn a_309_3_script_over_tcp_reads_writes_and_drives_a_python_node() {
     assert_eq!(a.ask("[10] r 0x2002 0 d").await, format!("[10] {coded}"));
 
     // The node's aborts, as the node gave them.
-    assert_eq!(a.ask("[11] r 0x2fff 0 u8").await, "[11] ERROR: 0x06020000");
+    assert_eq!(
+        a.ask("[11] r 0x2fff 0 u8").await,
+        "[11] ERROR:0x06020000 #object does not exist in the object dictionary"
+    );
     // python's server has no block transfer: it aborts a block download (command specifier
     // unknown) and answers a block upload with a plain one; duocan's client falls back to
     // the plain transfer both ways, so `set sdo_block 1` still works with it.
@@ -132,11 +135,14 @@ async fn a_309_3_script_over_tcp_reads_writes_and_drives_a_python_node() {
 
     // A second client at once, with its own defaults.
     let mut b = Client::connect(port).await;
-    assert_eq!(b.ask("[1] r 0x1000 0 u32").await, "[1] ERROR: 105");
+    assert_eq!(
+        b.ask("[1] r 0x1000 0 u32").await,
+        "[1] ERROR:105 #no default node set"
+    );
     assert_eq!(b.ask("[2] set sdo_timeout 300").await, "[2] OK");
     assert_eq!(
         b.ask("[3] 0x23 r 0x1000 0 u32").await,
-        "[3] ERROR: 0x05040000"
+        "[3] ERROR:0x05040000 #SDO protocol timed out"
     );
     assert_eq!(b.ask("[4] 34 r 0x1017 0 u16").await, "[4] 100");
     let (ra, rb) = tokio::join!(a.ask("[16] r 0x2000 0 u32"), b.ask("[5] 34 r 0x1018 1 x32"));
@@ -153,7 +159,10 @@ async fn a_309_3_script_over_tcp_reads_writes_and_drives_a_python_node() {
         assert_eq!(a.ask(req).await, format!("[{n}] OK"));
         py.expect(state, 5).await;
     }
-    assert_eq!(a.ask("[21] enable guarding 100 3").await, "[21] ERROR: 100");
+    assert_eq!(
+        a.ask("[21] enable guarding 100 3").await,
+        "[21] ERROR:100 #request not supported: node guarding: not carried out by this gateway"
+    );
 
     let _ = tool.kill().await;
     py.stop().await;

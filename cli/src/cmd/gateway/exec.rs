@@ -1,33 +1,25 @@
-//! Carrying out a request on the network, and the one line that answers it.
+//! Carrying out a request on the network, and the answer that goes back.
 
-use super::parse::{parse_line, Code, Command, Line, Request};
-use super::value::{show_value, ValueError};
+use super::parse::{parse_line, Bad, Code, Command, Line, Request};
+use super::value::show_value;
 use duocan::net::{NetError, Network};
 use duocan::sdo::{SdoOptions, TransferMode};
 use duocan::Duration;
 
-/// The only net: a duocan gateway serves one logical bus (two ports merged are one net).
-pub const NET: u16 = 1;
-
-/// The SDO abort code answered for a value read whose size is not its type's.
-const LENGTH_MISMATCH: u32 = 0x0607_0010;
-
-/// What one client has set: its default net and node, and how its SDO transfers go. Each
+/// What one client has set: its default node, and how its SDO transfers go. Each
 /// client (standard input, or one TCP connection) has its own.
 #[derive(Clone, Debug)]
 pub struct Session {
-    net: u16,
     node: Option<u8>,
     timeout_ms: u64,
     block: bool,
 }
 
 impl Session {
-    /// A new client's settings: net 1, no default node, SDO time-out `timeout_ms`, block
+    /// A new client's settings: no default node, SDO time-out `timeout_ms`, block
     /// transfer off.
     pub fn new(timeout_ms: u64) -> Session {
         Session {
-            net: NET,
             node: None,
             timeout_ms,
             block: false,
@@ -45,18 +37,21 @@ impl Session {
     }
 }
 
-/// The answer to `line`: `None` for a blank line or a comment, else the response (lines
-/// before the last one are `#` comments: the help).
-pub async fn answer(net: &Network, session: &mut Session, line: &str) -> Option<String> {
-    let (seq, body) = match parse_line(line) {
-        Line::Empty => return None,
-        Line::Error(seq, code) => (seq, error(code)),
-        Line::Request(r) => (r.seq, execute(net, session, r).await),
-    };
-    Some(match seq {
-        Some(n) => with_sequence(n, &body),
-        None => body,
-    })
+/// The answer to `line`: empty for a blank line or a comment (CANopenNode answers those
+/// with an empty line, and `cocomm` waits for it), else the response; lines before the last
+/// one are `#` comments (the help, `lss_allnodes`).
+pub async fn answer(net: &Network, session: &mut Session, line: &str) -> String {
+    match parse_line(line) {
+        Line::Empty => String::new(),
+        // A request whose sequence number cannot be read is answered as number 0 (what
+        // CANopenNode's gateway answers before its first request).
+        Line::Error(seq, bad) => with_sequence(seq.unwrap_or(0), &error(&bad)),
+        Line::Request(r) => {
+            let seq = r.seq;
+            let body = execute(net, session, r).await;
+            with_sequence(seq, &body.unwrap_or_else(|bad| error(&bad)))
+        }
+    }
 }
 
 /// `[<n>] ` in front of the response's last line (the one a client waits for).
@@ -67,37 +62,52 @@ fn with_sequence(n: u32, body: &str) -> String {
     }
 }
 
-fn error(code: Code) -> String {
-    format!("ERROR: {}", code as u16)
+/// `ERROR:<code> #<meaning>[: <what was wrong>]`: the code as CANopenNode writes it (no space),
+/// and the comment 309-3 allows behind it, which `cocomm` users read.
+fn error(bad: &Bad) -> String {
+    let text = match &bad.why {
+        Some(why) => format!("{}: {why}", bad.code.text()),
+        None => bad.code.text().to_string(),
+    };
+    format!("ERROR:{} #{}", bad.code as u16, one_line(&text))
 }
 
-fn ok() -> String {
-    "OK".to_string()
+/// `text` with its control characters replaced: a response is one line, whatever a request
+/// quoted back holds.
+fn one_line(text: &str) -> String {
+    text.chars()
+        .map(|c| if c.is_control() { '\u{FFFD}' } else { c })
+        .collect()
 }
 
-/// The response to a network error: the SDO abort code if there is one (a time-out is the
-/// client's abort 0x05040000), else the 309-3 code closest to what happened.
-fn net_error(e: &NetError) -> String {
+/// The response to a network error: the SDO abort code and its meaning if there is one (a
+/// time-out is the client's abort 0x05040000), else the 309-3 code closest to what happened.
+fn net_error(e: &NetError) -> Result<String, Bad> {
     match e.abort_code() {
-        Some(code) => format!("ERROR: 0x{:08X}", code.0),
-        None => error(match e {
-            NetError::Timeout { .. } => Code::Timeout,
-            _ => Code::InternalState,
-        }),
+        Some(code) => Ok(format!(
+            "ERROR:0x{:08X} #{}",
+            code.0,
+            code.description().unwrap_or("not a CiA 301 abort code")
+        )),
+        None => Err(Bad::because(
+            match e {
+                NetError::Timeout { .. } => Code::Timeout,
+                _ => Code::InternalState,
+            },
+            e.to_string(),
+        )),
     }
 }
 
-async fn execute(net: &Network, s: &mut Session, r: Request) -> String {
-    // The net a request names, or the default: there is only net 1.
-    if r.net.unwrap_or(s.net) != NET && r.command != Command::NotSupported {
-        return error(Code::UnsupportedNet);
-    }
+async fn execute(net: &Network, s: &mut Session, r: Request) -> Result<String, Bad> {
+    let ok = || Ok("OK".to_string());
     match r.command {
-        Command::SetNetwork(n) if n == NET => {
-            s.net = n;
-            ok()
-        }
-        Command::SetNetwork(_) => error(Code::UnsupportedNet),
+        // A duocan gateway serves one network (two ports merged by the dual-bus layer are one)
+        // and, as CANopenNode's single-network gateway, takes any net number (0–65535) as
+        // naming it: a script written for a station whose networks are numbered runs
+        // unchanged on the network the gateway is pointed at. So the default net changes
+        // nothing, and a request's net is not checked either.
+        Command::SetNetwork(_) => ok(),
         Command::SetNode(n) => {
             s.node = Some(n);
             ok()
@@ -110,13 +120,18 @@ async fn execute(net: &Network, s: &mut Session, r: Request) -> String {
             s.block = on;
             ok()
         }
-        Command::Version => version(),
-        Command::Help => super::help::text(),
-        Command::NotSupported => error(Code::NotSupported),
+        Command::Version => Ok(version()),
+        Command::Help(page) => Ok(super::help::text(page)),
+        Command::NotSupported(what) => Err(Bad::because(
+            Code::NotSupported,
+            format!("{what}: not carried out by this gateway"),
+        )),
+        Command::Lss(l) => super::lss::execute(net, l).await,
         Command::Nmt(cmd) => {
-            let Some(node) = r.node.or(s.node) else {
-                return error(Code::NoDefaultNode);
-            };
+            let node = r
+                .node
+                .or(s.node)
+                .ok_or_else(|| Bad::code(Code::NoDefaultNode))?;
             let sent = if node == 0 {
                 net.nmt_all(cmd).await
             } else {
@@ -125,25 +140,16 @@ async fn execute(net: &Network, s: &mut Session, r: Request) -> String {
             sent.map_or_else(|e| net_error(&e), |()| ok())
         }
         Command::Read { index, sub, ty } => {
-            let sdo = match sdo_node(r.node, s) {
-                Ok(node) => net.node(node).sdo().with_options(s.sdo_options()),
-                Err(code) => return error(code),
-            };
+            let node = sdo_node(r.node, s)?;
+            let sdo = net.node(node).sdo().with_options(s.sdo_options());
             match sdo.read_bytes(index, sub).await {
-                Ok(data) => match show_value(ty, &data) {
-                    Ok(text) => text,
-                    Err(ValueError::Length | ValueError::Syntax) => {
-                        format!("ERROR: 0x{LENGTH_MISMATCH:08X}")
-                    }
-                },
+                Ok(data) => Ok(show_value(ty, &data)),
                 Err(e) => net_error(&e),
             }
         }
         Command::Write { index, sub, data } => {
-            let sdo = match sdo_node(r.node, s) {
-                Ok(node) => net.node(node).sdo().with_options(s.sdo_options()),
-                Err(code) => return error(code),
-            };
+            let node = sdo_node(r.node, s)?;
+            let sdo = net.node(node).sdo().with_options(s.sdo_options());
             match sdo.write_bytes(index, sub, data).await {
                 Ok(()) => ok(),
                 Err(e) => net_error(&e),
@@ -154,10 +160,13 @@ async fn execute(net: &Network, s: &mut Session, r: Request) -> String {
 
 /// The node an SDO request is for: the one given, else the default; 0 (all nodes) has no SDO
 /// server.
-fn sdo_node(given: Option<u8>, s: &Session) -> Result<u8, Code> {
+fn sdo_node(given: Option<u8>, s: &Session) -> Result<u8, Bad> {
     match given.or(s.node) {
-        None => Err(Code::NoDefaultNode),
-        Some(0) => Err(Code::UnsupportedNode),
+        None => Err(Bad::code(Code::NoDefaultNode)),
+        Some(0) => Err(Bad::because(
+            Code::UnsupportedNode,
+            "node 0 (all nodes) has no SDO server",
+        )),
         Some(n) => Ok(n),
     }
 }

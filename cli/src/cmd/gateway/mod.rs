@@ -1,75 +1,121 @@
-//! `duocan gateway [--listen ADDR:PORT [--allow-remote]]`: the CiA 309-3 ASCII command
-//! interface, so that scripts written for other CANopen gateways (CANopenNode's `cocomm`,
-//! commercial 309-3 gateways) drive a duocan network unchanged.
+//! `duocan gateway [--listen ADDR:PORT [--allow-remote] | --socket PATH]`: the CiA 309-3 ASCII
+//! command interface, answering as CANopenNode's gateway does, so that scripts written for it
+//! (with its client `cocomm`) or for other 309-3 gateways drive a duocan network unchanged.
 //!
 //! **What it speaks.** One request per line, on standard input (the default; until end of
-//! input) or on a TCP port (`--listen`, several clients at once):
+//! input), on a TCP port (`--listen`) or on a local socket (`--socket`, where `cocomm -s PATH`
+//! connects), several clients at once on either:
 //!
 //! ```text
-//! ["[" <sequence> "]"] [[<net>] <node>] <command>      # a comment
+//! "[" <sequence> "]" [[<net>] <node>] <command>      # a comment
 //! [1] 5 read 0x1018 1 u32          SDO upload            -> [1] 13683200
 //! [2] 5 w 0x1017 0 u16 250         SDO download          -> [2] OK
 //! [3] set node 5                   default node          -> [3] OK
 //! [4] r 0x1008 0 vs                (node 5)              -> [4] "duocan simulated node"
 //! [5] start                        NMT (node 0: all)     -> [5] OK
-//! [6] r 0x1234 0 u8                the node aborts       -> [6] ERROR: 0x06020000
+//! [6] r 0x1234 0 u8                the node aborts       -> [6] ERROR:0x06020000 #object does not exist…
+//! [7] lss_switch_glob 1            LSS                   -> [7] OK
 //! ```
 //!
 //! Commands: `r[ead]`, `w[rite]`, `start`, `stop`, `preop[erational]`, `reset node`,
 //! `reset comm[unication]`, `set network`, `set node`, `set sdo_timeout <ms>`,
-//! `set sdo_block <0|1>`, `info version`, `help`; the data types are those of 309-3
-//! (`b`, `i8`…`i64`, `u8`…`u64`, `r32`, `r64`, `vs`, `os`, `us`, `d`, `t`, `td`) with
-//! CANopenNode's `x8`…`x64` and `hex` (see `value`). Commands and types are case-insensitive;
-//! `#` starts a comment; blank lines and comments get no response.
+//! `set sdo_block <0|1>`, the LSS requests (`lss_switch_glob`, `lss_switch_sel`,
+//! `lss_set_node`, `lss_conf_bitrate`, `lss_activate_bitrate`, `lss_store`,
+//! `lss_inquire_addr`, `lss_get_node`, `_lss_fastscan`, `lss_allnodes`: see `lss`),
+//! `info version`, `help [datatype|lss]`; the data types are those of 309-3 (`b`, `i8`…`i64`,
+//! `u8`…`u64`, `r32`, `r64`, `vs`, `os`, `us`, `d`, `t`, `td`) with CANopenNode's `x8`…`x64`
+//! and `hex` (see `value`). Commands and types are case-insensitive; `#` starts a comment.
 //!
-//! **What it answers.** Exactly one line per request, in order: `OK`, the value, or
-//! `ERROR: <code>`, behind the request's `[<sequence>]` when it had one. The codes are 309-3's
+//! **What it answers.** One answer per line, in order: `OK`, the value, or
+//! `ERROR:<code> #<meaning>`, behind the request's `[<sequence>]`. The codes are 309-3's
 //! internal ones (100 request not supported, 101 syntax error, 102 not processed as things
-//! are, 103 time-out, 105 no default node, 106 unsupported net, 107 unsupported node) or the
-//! SDO abort code in hex (`ERROR: 0x06020000`; a node that does not answer in time is the
-//! client's abort `0x05040000`). `help` answers with `#` comment lines, then `OK`. Lines end
-//! with LF on standard output and CR LF on TCP, as 309-3 writes them; a request may end with
-//! either.
+//! are, 103 time-out, 105 no default node, 106 unsupported net, 107 unsupported node, 501–504
+//! LSS refusals) or the SDO abort code in hex (`ERROR:0x06020000`; a node that does not answer
+//! in time is the client's abort `0x05040000`); the `#` comment 309-3 allows behind it says
+//! what the code means and, for the gateway's own, what in the request was wrong. A request
+//! without its `[<sequence>]` is not carried out: `[0] ERROR:101`. A blank line or a comment
+//! is answered with an empty line (a client that waits for an answer to each line it sends,
+//! as `cocomm` does, would otherwise wait for ever). A value read whose size is not its type's
+//! shows as its bytes in hex (`r 0x1017 0 u32` of a 16-bit object: `E8 03`); `r32` and `r64`
+//! show as C's `%g`. A `b` write takes a number (`1`, `0x1`) as one byte, and the node judges
+//! its value, as with CANopenNode's gateway. `help` answers with `#` comment lines, then `OK`. Answers end with LF on
+//! standard output and CR LF on a socket, and the lines of a longer answer are parted by LF
+//! alone: `cocomm` reads an answer up to its first CR LF. A request may end with either.
 //!
-//! **Its state.** Each client (standard input, or one TCP connection) has its own default
-//! node (none at first: a request without a node is `ERROR: 105` until `set node`), SDO
-//! time-out (`--timeout` at first) and block-transfer switch (off). There is one net, 1: the
-//! bus of `--bus` (two ports merged by the dual-bus layer are one net); another is
-//! `ERROR: 106`.
+//! **Its state.** Each client (standard input, or one connection) has its own default node
+//! (none at first: a request without a node is `ERROR:105` until `set node`), SDO time-out
+//! (`--timeout` at first) and block-transfer switch (off). The gateway serves one network: the
+//! bus of `--bus` (two ports merged by the dual-bus layer are one network). As in
+//! CANopenNode's single-network gateway, any net number (0–65535) names it, and `set network`
+//! is taken; a net above 65535 is `ERROR:106`.
 //!
 //! **What it does not do, and says so.** Node guarding and heartbeat-consumer set-up
 //! (`enable`/`disable guarding|heartbeat`), PDO configuration and transfer (`set rpdo`,
 //! `set tpdo`, `r[ead] p[do]`, `w[rite] p[do]`), `init`, `set heartbeat`, `set id`,
-//! `set command_*`, `boot_up_indication`, the LSS requests and CANopenNode's `led` and `log`
-//! are recognised and answered `ERROR: 100`; so is any command 309-3 does not have. Nothing
-//! is sent unasked: no boot-up, EMCY or PDO indications.
+//! `set command_*`, `boot_up_indication` and CANopenNode's `led` and `log` are recognised and
+//! answered `ERROR:100`; so is any command 309-3 does not have. Nothing is sent unasked: no
+//! boot-up, EMCY or PDO indications.
 //!
-//! **Bounds.** A request line is at most [`MAX_LINE`] bytes (longer: `ERROR: 101`, the line
+//! **Where it still answers otherwise than CANopenNode's gateway, and why.**
+//! - The text behind `#` is duocan's (CiA 301's meaning of an abort code, 309-3's of its own
+//!   codes, and what was wrong), not CANopenNode's wording; the code before it is the same.
+//! - A request without a readable sequence number is answered `[0] ERROR:101`; CANopenNode
+//!   answers it with the sequence number of the request before (0 in a new session).
+//! - `help` pages are duocan's own text, as `#` lines closed by `[<sequence>] OK`; CANopenNode
+//!   sends its page as plain lines without a sequence number or `OK`.
+//! - `info version` is answered (309-3 has it); CANopenNode's gateway answers `ERROR:100`. So
+//!   are the 309-3 types CANopenNode lacks (`i24`…`i56`, `u24`…`u56`, `t`, `td`: `ERROR:101`
+//!   there).
+//! - Numbers are decimal or `0x` hex, as 309-3 writes them: `010` is ten here, where
+//!   CANopenNode's gateway (reading numbers with C's `strtoul`) takes it as octal eight, and a
+//!   leading `+` is refused here.
+//! - `set sdo_timeout` takes up to an hour, as the tool's `--timeout`; CANopenNode's gateway up
+//!   to 65535 ms.
+//! - A `vs` read shows a control character (a line feed among them) as U+FFFD, and bytes
+//!   that are not UTF-8 likewise: an answer stays one line. CANopenNode passes them through
+//!   (it drops NUL and CR, as this gateway does).
+//! - An `r64` write is parsed as a double; CANopenNode parses it as a float first, losing
+//!   digits. `r32`/`r64` writes of `nan` and `inf` are refused here (a value no dictionary range
+//!   check can judge).
+//! - The LSS timing is the network's LSS master's (`--lss-answer-ms`, `--lss-settle-ms`): the
+//!   `<ms>` of `_lss_fastscan` and `lss_allnodes` is read but does not change it, and
+//!   `lss_allnodes` carries out fastscan of every part only (scan types 1 and 2 are
+//!   `ERROR:100`). `_lss_fastscan` leaves the slave it found in configuration mode, as
+//!   CANopenNode's does, by selecting it again after the scan.
+//! - LED and log are CANopenNode's device's, not a gateway's: `ERROR:100`.
+//!
+//! **Bounds.** A request line is at most [`MAX_LINE`] bytes (longer: `ERROR:101`, the line
 //! skipped); a value at most the library's transfer limit (64 KiB); at most [`MAX_CLIENTS`]
-//! TCP clients at once (one more is told `ERROR: 102` and closed). The port is loopback-only
-//! unless `--allow-remote`: the gateway has no authentication, and anyone who reaches it
-//! drives the bus.
+//! clients at once (one more is told `ERROR:102` and closed). The TCP port is loopback-only
+//! unless `--allow-remote`, and the local socket its owner's only: the gateway has no
+//! authentication, and anyone who reaches it drives the bus.
 
+mod error;
 mod exec;
 mod help;
+mod lss;
 mod parse;
+mod socket;
 mod value;
 
 #[cfg(test)]
 mod tests;
 
+use crate::args::parse_timeout_ms;
 use crate::fail::Fail;
 use crate::{bus, Global};
+use duocan::cia305::LssMasterConfig;
 use duocan::net::Network;
 use exec::{answer, Session};
 use std::net::SocketAddr;
+use std::path::PathBuf;
 use std::sync::Arc;
-use tokio::io::{AsyncBufRead, AsyncBufReadExt, AsyncWrite, AsyncWriteExt, BufReader};
+use tokio::io::{AsyncBufRead, AsyncBufReadExt, AsyncRead, AsyncWrite, AsyncWriteExt, BufReader};
 
 /// Longest request line, in bytes: room for a 64 KiB domain in base64 and the words around it.
 pub const MAX_LINE: usize = 128 * 1024;
 
-/// Most TCP clients served at once.
+/// Most clients (TCP or local socket) served at once.
 pub const MAX_CLIENTS: usize = 16;
 
 /// The arguments of `duocan gateway`.
@@ -77,12 +123,23 @@ pub const MAX_CLIENTS: usize = 16;
 pub struct Args {
     /// Serve on this TCP address instead of standard input (127.0.0.1:PORT; port 0 picks a
     /// free one, printed on standard error)
-    #[arg(long, value_name = "ADDR:PORT")]
+    #[arg(long, value_name = "ADDR:PORT", conflicts_with = "socket")]
     listen: Option<SocketAddr>,
     /// Accept --listen on an address other than loopback (no authentication: anyone who
     /// reaches the port drives the bus)
     #[arg(long, requires = "listen")]
     allow_remote: bool,
+    /// Serve on a local (Unix domain) socket at this path instead of standard input, as
+    /// CANopenNode's gateway does for `cocomm -s PATH` (only its owner may connect)
+    #[arg(long, value_name = "PATH")]
+    socket: Option<PathBuf>,
+    /// How long an LSS request waits for the slaves' answer, in milliseconds
+    #[arg(long, default_value = "50", value_parser = parse_timeout_ms, value_name = "MS")]
+    lss_answer_ms: u64,
+    /// LSS fastscan (`_lss_fastscan`, `lss_allnodes`): how long an answered step waits for
+    /// further answers, in milliseconds
+    #[arg(long, default_value = "5", value_parser = parse_timeout_ms, value_name = "MS")]
+    lss_settle_ms: u64,
 }
 
 /// Runs `duocan gateway`.
@@ -100,14 +157,19 @@ pub async fn run(g: &Global, a: Args) -> Result<(), Fail> {
             )));
         }
     }
-    let bus = bus::open(g, false)?;
-    let r = match a.listen {
-        None => {
+    let ms = duocan::Duration::from_millis;
+    let lss = LssMasterConfig::default()
+        .with_timeout(ms(a.lss_answer_ms))
+        .with_settle(ms(a.lss_settle_ms));
+    let bus = bus::open_with(g, bus::options(g, false).with_lss(lss))?;
+    let r = match (a.listen, a.socket) {
+        (Some(addr), _) => listen(&bus.net, g.timeout, addr).await,
+        (None, Some(path)) => socket::listen(&bus.net, g.timeout, &path).await,
+        (None, None) => {
             let input = BufReader::new(tokio::io::stdin());
             serve(&bus.net, g.timeout, input, tokio::io::stdout(), "\n").await;
             Ok(())
         }
-        Some(addr) => listen(&bus.net, g.timeout, addr).await,
     };
     bus.close().await;
     r
@@ -122,7 +184,7 @@ async fn listen(net: &Network, timeout_ms: u64, addr: SocketAddr) -> Result<(), 
     eprintln!("duocan gateway: listening on {bound}");
     let slots = Arc::new(tokio::sync::Semaphore::new(MAX_CLIENTS));
     loop {
-        let (mut stream, _) = tokio::select! {
+        let (stream, _) = tokio::select! {
             r = listener.accept() => match r {
                 Ok(c) => c,
                 Err(e) => {
@@ -133,21 +195,40 @@ async fn listen(net: &Network, timeout_ms: u64, addr: SocketAddr) -> Result<(), 
             },
             _ = tokio::signal::ctrl_c() => return Ok(()),
         };
-        let Ok(slot) = slots.clone().try_acquire_owned() else {
-            let _ = stream.write_all(b"ERROR: 102\r\n").await;
-            continue;
-        };
-        let net = net.clone();
-        tokio::spawn(async move {
-            let (r, w) = stream.split();
-            serve(&net, timeout_ms, BufReader::new(r), w, "\r\n").await;
-            drop(slot);
-        });
+        client(net, timeout_ms, &slots, stream).await;
     }
 }
 
+/// Serves one accepted client in a task of its own, or tells it `ERROR:102` and closes it
+/// when [`MAX_CLIENTS`] are served already.
+async fn client<S>(
+    net: &Network,
+    timeout_ms: u64,
+    slots: &Arc<tokio::sync::Semaphore>,
+    mut stream: S,
+) where
+    S: AsyncRead + AsyncWrite + Unpin + Send + 'static,
+{
+    let Ok(slot) = slots.clone().try_acquire_owned() else {
+        let _ = stream
+            .write_all(
+                b"[0] ERROR:102 #request not processed in the present state: too many clients\r\n",
+            )
+            .await;
+        return;
+    };
+    let net = net.clone();
+    tokio::spawn(async move {
+        let (r, w) = tokio::io::split(stream);
+        serve(&net, timeout_ms, BufReader::new(r), w, "\r\n").await;
+        drop(slot);
+    });
+}
+
 /// Answers the requests of one client, line by line, until its input ends (or its output
-/// cannot be written).
+/// cannot be written). Each answer ends with `eol`, once: the lines of a longer answer (the
+/// help) are parted by LF alone, as CANopenNode's are, since `cocomm` reads an answer up to
+/// the first CR LF.
 async fn serve<R, W>(net: &Network, timeout_ms: u64, mut input: R, mut output: W, eol: &str)
 where
     R: AsyncBufRead + Unpin,
@@ -159,16 +240,16 @@ where
         let response = match read_line(&mut input, &mut buf).await {
             Ok(Some(true)) => match std::str::from_utf8(&buf) {
                 Ok(line) => answer(net, &mut session, line).await,
-                Err(_) => Some("ERROR: 101".to_string()),
+                Err(_) => "[0] ERROR:101 #syntax error: the line is not UTF-8 text".to_string(),
             },
-            Ok(Some(false)) => Some("ERROR: 101".to_string()),
+            Ok(Some(false)) => {
+                format!("[0] ERROR:101 #syntax error: a line longer than {MAX_LINE} bytes")
+            }
             Ok(None) | Err(_) => return,
         };
-        if let Some(text) = response {
-            let text = text.replace('\n', eol) + eol;
-            if output.write_all(text.as_bytes()).await.is_err() || output.flush().await.is_err() {
-                return;
-            }
+        let text = response + eol;
+        if output.write_all(text.as_bytes()).await.is_err() || output.flush().await.is_err() {
+            return;
         }
     }
 }

@@ -2,9 +2,11 @@
 //! text both ways, and the bounded line reader; property tests: no line panics, every value
 //! reads back.
 
-use super::parse::{parse_line, Code, Command, Line, Request};
-use super::value::{base64_decode, base64_encode, encode_value, show_value, DataType, Word};
+use super::lss::LssRequest;
+use super::parse::{parse_line, Code, Command, HelpPage, Line, Request};
+use super::value::{base64_decode, base64_encode, c_g, encode_value, show_value, DataType, Word};
 use super::{read_line, MAX_LINE};
+use duocan::cia305::{BitTiming, Inquiry, LssAddress};
 use duocan::NmtCommand as N;
 use proptest::prelude::*;
 
@@ -17,7 +19,7 @@ fn req(line: &str) -> Request {
 
 fn err(line: &str) -> (Option<u32>, Code) {
     match parse_line(line) {
-        Line::Error(seq, code) => (seq, code),
+        Line::Error(seq, bad) => (seq, bad.code),
         other => panic!("{line:?}: {other:?}"),
     }
 }
@@ -37,7 +39,7 @@ fn the_examples_of_the_standard_and_canopennode() {
     assert_eq!(
         req("[1] 4 read 0x1017 0 i16"),
         Request {
-            seq: Some(1),
+            seq: 1,
             net: None,
             node: Some(4),
             command: Command::Read {
@@ -48,7 +50,7 @@ fn the_examples_of_the_standard_and_canopennode() {
         }
     );
     let r = req("[2] 1 4 w 0x1017 0 u16 1000");
-    assert_eq!((r.seq, r.net, r.node), (Some(2), Some(1), Some(4)));
+    assert_eq!((r.seq, r.net, r.node), (2, Some(1), Some(4)));
     assert_eq!(
         r.command,
         Command::Write {
@@ -67,6 +69,9 @@ fn the_examples_of_the_standard_and_canopennode() {
         Command::SetSdoBlock(true)
     );
     assert_eq!(req("[6] set network 1").command, Command::SetNetwork(1));
+    // Any net names the one network served, as in CANopenNode's single-network gateway.
+    assert_eq!(req("[6] set network 2").command, Command::SetNetwork(2));
+    assert_eq!(req("[6] 2 5 start").net, Some(2));
     for (line, cmd) in [
         ("[7] 4 start", N::Start),
         ("[8] 4 stop", N::Stop),
@@ -80,10 +85,15 @@ fn the_examples_of_the_standard_and_canopennode() {
         assert_eq!(req(line).command, Command::Nmt(cmd), "{line}");
     }
     assert_eq!(req("[15] info version").command, Command::Version);
-    assert_eq!(req("help").command, Command::Help);
-    // Without a sequence number, in upper case, with a comment and a CR LF line end.
-    let r = req("4 R 0x1018 1 U32 # the vendor-ID\r");
-    assert_eq!(r.seq, None);
+    assert_eq!(req("[0] help").command, Command::Help(HelpPage::Requests));
+    assert_eq!(
+        req("[0] HELP Datatype").command,
+        Command::Help(HelpPage::DataTypes)
+    );
+    assert_eq!(req("[0] help lss").command, Command::Help(HelpPage::Lss));
+    // In upper case, with a comment and a CR LF line end.
+    let r = req("[9] 4 R 0x1018 1 U32 # the vendor-ID\r");
+    assert_eq!(r.seq, 9);
     assert_eq!(
         r.command,
         Command::Read {
@@ -122,10 +132,10 @@ fn quoted_strings_keep_spaces_quotes_and_hashes() {
     );
     // One bare word needs no quotes; an empty string does.
     assert!(
-        matches!(req("w 0x2001 0 vs word").command, Command::Write { data, .. } if data == b"word")
+        matches!(req("[2] w 0x2001 0 vs word").command, Command::Write { data, .. } if data == b"word")
     );
     assert!(
-        matches!(req(r#"w 0x2001 0 vs """#).command, Command::Write { data, .. } if data.is_empty())
+        matches!(req(r#"[3] w 0x2001 0 vs """#).command, Command::Write { data, .. } if data.is_empty())
     );
 }
 
@@ -143,7 +153,7 @@ fn each_error_has_its_code() {
         ("[8] 4 w 0x2000 0 i8 -129", Some(8), Syntax),
         ("[9] 4 w 0x2000 0 u8 -1", Some(9), Syntax),
         ("[10] 4 w 0x2000 0 u8", Some(10), Syntax),
-        ("[11] 4 w 0x2000 0 b 2", Some(11), Syntax),
+        ("[11] 4 w 0x2000 0 b 256", Some(11), Syntax),
         ("[12] 4 w 0x2000 0 r32 nan", Some(12), Syntax),
         ("[13] 4 w 0x2000 0 d Zg=", Some(13), Syntax),
         (r#"[14] 4 w 0x2000 0 vs "open"#, Some(14), Syntax),
@@ -165,6 +175,23 @@ fn each_error_has_its_code() {
         ("[28] set colour blue", Some(28), NotSupported),
         ("[29] 4 1x start", Some(29), Syntax),
         ("[30] 1 4 set node 5", Some(30), Syntax),
+        ("[31] help me", Some(31), Syntax),
+        ("[32] help datatype lss", Some(32), Syntax),
+        ("[33] lss_set_node 128", Some(33), Syntax),
+        ("[34] lss_conf_bitrate 0 5", Some(34), Syntax),
+        ("[35] lss_conf_bitrate 1 0", Some(35), Syntax),
+        ("[36] lss_switch_glob 2", Some(36), Syntax),
+        ("[37] lss_switch_sel 1 2 3", Some(37), Syntax),
+        ("[38] lss_inquire_addr 4", Some(38), Syntax),
+        ("[39] lss_store now", Some(39), Syntax),
+        ("[40] lss_allnodes 100 0 1", Some(40), Syntax),
+        (
+            "[41] lss_allnodes 100 2 1 1 0 0 0 0 0 0 0",
+            Some(41),
+            NotSupported,
+        ),
+        ("[42] lss_frob", Some(42), NotSupported),
+        ("[43] 4 5 lss_store", Some(43), Syntax),
     ] {
         assert_eq!(err(line), (seq, code), "{line}");
     }
@@ -186,13 +213,78 @@ fn requests_of_309_3_this_gateway_does_not_carry_out_are_named_not_supported() {
         "[11] set id 1",
         "[12] set command_timeout 1000",
         "[13] boot_up_indication Enable",
-        "[14] lss_switch_glob 0",
-        "[15] _lss_fastscan",
         "[16] led",
         "[17] log",
     ] {
-        assert_eq!(req(line).command, Command::NotSupported, "{line}");
+        assert!(
+            matches!(req(line).command, Command::NotSupported(_)),
+            "{line}"
+        );
     }
+}
+
+#[test]
+fn a_line_without_its_sequence_number_is_a_syntax_error_not_a_request() {
+    // CiA 309-3 writes the sequence number in every request; CANopenNode's gateway refuses a
+    // request without one, and so does this one (the old gateway carried it out).
+    for line in [
+        "4 start",
+        "r 0x1018 1 u32",
+        "help",
+        "[] start",
+        "[-1] start",
+    ] {
+        assert_eq!(err(line), (None, Code::Syntax), "{line}");
+    }
+    let Line::Error(_, bad) = parse_line("5 r 0x1018 1 u32") else {
+        unreachable!()
+    };
+    assert!(bad.why.unwrap().contains("[<sequence>]"));
+}
+
+#[test]
+fn the_lss_requests_of_309_3_and_canopennode() {
+    use LssRequest as L;
+    let lss = |line: &str| match req(line).command {
+        Command::Lss(l) => l,
+        other => panic!("{line}: {other:?}"),
+    };
+    assert_eq!(lss("[1] lss_switch_glob 1"), L::SwitchGlobal(true));
+    assert_eq!(lss("[2] 1 lss_switch_glob 0"), L::SwitchGlobal(false));
+    assert_eq!(
+        lss("[3] lss_switch_sel 0xD0CA00 0x305 1 2"),
+        L::SwitchSelective(LssAddress {
+            vendor: 0xD0_CA00,
+            product: 0x305,
+            revision: 1,
+            serial: 2
+        })
+    );
+    assert_eq!(lss("[4] lss_set_node 0x20"), L::SetNode(0x20));
+    assert_eq!(lss("[5] lss_set_node 255"), L::SetNode(0xFF));
+    assert_eq!(lss("[5] lss_set_node 0"), L::SetNode(0));
+    assert_eq!(
+        lss("[6] lss_conf_bitrate 0 2"),
+        L::ConfBitrate(BitTiming::standard(2))
+    );
+    assert_eq!(lss("[7] lss_activate_bitrate 100"), L::ActivateBitrate(100));
+    assert_eq!(lss("[8] LSS_STORE"), L::Store);
+    assert_eq!(lss("[9] lss_inquire_addr"), L::InquireAddr(None));
+    assert_eq!(
+        lss("[10] lss_inquire_addr 3"),
+        L::InquireAddr(Some(Inquiry::Serial))
+    );
+    assert_eq!(lss("[11] lss_get_node"), L::GetNode);
+    assert_eq!(lss("[12] _lss_fastscan"), L::Fastscan);
+    assert_eq!(lss("[13] _lss_fastscan 200"), L::Fastscan);
+    let all = |first, store| L::AllNodes { first, store };
+    assert_eq!(lss("[14] lss_allnodes"), all(2, true));
+    assert_eq!(lss("[15] lss_allnodes 100"), all(2, true));
+    assert_eq!(lss("[16] lss_allnodes 100 0x20 0"), all(0x20, false));
+    assert_eq!(
+        lss("[17] lss_allnodes 100 5 1 0 0 0 0 0 0 0 0"),
+        all(5, true)
+    );
 }
 
 #[test]
@@ -241,20 +333,74 @@ fn data_types_read_and_write_their_text() {
             Ok(*bytes),
             "{ty} {text:?}"
         );
-        assert_eq!(show_value(t, bytes).as_deref(), Ok(*shown), "{ty}");
+        assert_eq!(show_value(t, bytes), *shown, "{ty}");
     }
     // A visible string read shows in quotes, a quote doubled, NUL padding dropped, a control
     // character replaced: the response stays one line.
     assert_eq!(
-        show_value(DataType::Visible, b"a \"b\"\nc\0\0").unwrap(),
+        show_value(DataType::Visible, b"a \"b\"\nc\0\r\0"),
         "\"a \"\"b\"\"\u{FFFD}c\""
     );
-    // The wrong size for the type is not guessed at.
-    assert!(show_value(DataType::Uint(4), &[1, 2]).is_err());
-    assert!(show_value(DataType::Bool, &[]).is_err());
+    // A boolean is written as a byte, in any number form; the node judges its value.
+    for text in ["1", "0x1", "01"] {
+        assert_eq!(
+            encode_value(DataType::Bool, &words(&[text])).as_deref(),
+            Ok(&[1u8][..])
+        );
+    }
+    for bad in ["256", "-1", "true", ""] {
+        assert!(
+            encode_value(DataType::Bool, &words(&[bad])).is_err(),
+            "{bad}"
+        );
+    }
+    for ty in ["i8", "u8", "x8", "r32", "r64", "t", "b"] {
+        let t = DataType::parse(ty).unwrap();
+        assert!(encode_value(t, &[]).is_err(), "{ty}");
+    }
+    // A value read whose size is not its type's shows as the bytes the node sent, as
+    // CANopenNode's gateway shows it (the old gateway answered 0x06070010).
+    assert_eq!(show_value(DataType::Uint(4), &[0xE8, 0x03]), "E8 03");
+    assert_eq!(show_value(DataType::Real32, &[0x64, 0]), "64 00");
+    assert_eq!(show_value(DataType::Bool, &[]), "");
     for bad in ["x24", "u", "i0", "u128", "f32", "str", ""] {
         assert_eq!(DataType::parse(bad), None, "{bad}");
     }
+}
+
+#[test]
+fn real_numbers_read_as_c_prints_them_with_percent_g() {
+    // What glibc's printf("%g") prints for each (CANopenNode's gateway answers that text).
+    for (v, shown) in [
+        (1.5, "1.5"),
+        (-0.25, "-0.25"),
+        (100000.0, "100000"),
+        (1_000_000.0, "1e+06"),
+        (123_456_789.0, "1.23457e+08"),
+        (std::f64::consts::PI, "3.14159"),
+        (0.0001, "0.0001"),
+        (0.000_012_5, "1.25e-05"),
+        (1e-300, "1e-300"),
+        (1e300, "1e+300"),
+        (999_999.5, "1e+06"),
+        (0.0, "0"),
+        (-0.0, "-0"),
+        (f64::INFINITY, "inf"),
+        (f64::NEG_INFINITY, "-inf"),
+        (f64::NAN, "nan"),
+    ] {
+        assert_eq!(c_g(v), shown, "{v:e}");
+    }
+    // REAL32 is widened to a double first, as C passes a float to printf: 0.1f shows 0.1.
+    assert_eq!(show_value(DataType::Real32, &0.1f32.to_le_bytes()), "0.1");
+    assert_eq!(
+        show_value(DataType::Real32, &16_777_216f32.to_le_bytes()),
+        "1.67772e+07"
+    );
+    assert_eq!(
+        show_value(DataType::Real64, &(2.0f64 / 3.0).to_le_bytes()),
+        "0.666667"
+    );
 }
 
 #[test]
@@ -310,9 +456,13 @@ proptest! {
                 Just("node".to_string()), Just("vs".to_string()), Just("u32".to_string()),
                 Just("\"".to_string()), Just("\"\"".to_string()), Just("#".to_string()),
                 Just("reset".to_string()), Just("-1".to_string()), Just("d".to_string()),
+                Just("lss_allnodes".to_string()), Just("_lss_fastscan".to_string()),
+                Just("lss_set_node".to_string()), Just("lss_switch_sel".to_string()),
+                Just("lss_conf_bitrate".to_string()), Just("help".to_string()),
+                Just("0".to_string()), Just("2".to_string()), Just("b".to_string()),
                 "[ -~]{0,6}",
             ],
-            0..8,
+            0..12,
         )
     ) {
         let line = words.join(" ");
@@ -333,13 +483,13 @@ proptest! {
         let ty = DataType::Int(n);
         let bytes = encode_value(ty, &words(&[&v.to_string()])).unwrap();
         prop_assert_eq!(bytes.len(), usize::from(n));
-        prop_assert_eq!(show_value(ty, &bytes).unwrap(), v.to_string());
+        prop_assert_eq!(show_value(ty, &bytes), v.to_string());
     }
 
     #[test]
     fn visible_strings_read_back(s in "[ -~]{0,40}") {
-        let quoted = show_value(DataType::Visible, s.as_bytes()).unwrap();
-        let line = format!("w 0x2000 0 vs {quoted}");
+        let quoted = show_value(DataType::Visible, s.as_bytes());
+        let line = format!("[1] w 0x2000 0 vs {quoted}");
         prop_assert_eq!(
             req(&line).command,
             Command::Write { index: 0x2000, sub: 0, data: s.into_bytes() }

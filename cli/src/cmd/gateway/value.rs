@@ -2,17 +2,18 @@
 //!
 //! | type | text |
 //! |---|---|
-//! | `b` | 0 or 1 |
+//! | `b` | a number, one byte (CiA 301 has 0 and 1; the node judges the value, as for `u8`) |
 //! | `i8`…`i64`, `u8`…`u64` (also the 24-, 40-, 48-, 56-bit ones) | decimal; written also as `0x` hex |
 //! | `x8`, `x16`, `x32`, `x64` | `0x` and upper-case hex digits, every byte shown |
-//! | `r32`, `r64` | decimal, with a point and an exponent as needed |
+//! | `r32`, `r64` | written: decimal, with a point and an exponent as needed; read: six significant digits, an exponent below 1e-4 and from 1e6 (C's `%g`, as CANopenNode prints them) |
 //! | `vs` | in double quotes, a quote doubled (`"say ""hi"""`); one word may be written bare |
 //! | `os`, `us`, `d` | base64 (RFC 4648 alphabet, padded: what RFC 2045 MIME uses, on one line) |
 //! | `t`, `td` | two decimal numbers: days, then milliseconds (TIME_OF_DAY from 1984-01-01) |
 //! | `hex` | bytes as pairs of hex digits, space between (CANopenNode's, not in the standard) |
 //!
-//! A value read that does not have the size of its type is the gateway's error
-//! `0x06070010` (the SDO abort code for a length that does not match), never a guess.
+//! A value read whose size is not its type's is answered as its bytes in hex (as `hex`), as
+//! CANopenNode's gateway does: `r 0x1017 0 u32` of a 16-bit object shows `E8 03`, the bytes the
+//! node sent, never a number guessed from them.
 
 use crate::args::{encode, parse_hex_bytes, parse_int, Type};
 
@@ -90,15 +91,8 @@ impl DataType {
     }
 }
 
-/// What went wrong with a value: its text is not one of the type (a syntax error), or the
-/// bytes read do not have the type's size.
-#[derive(Debug, PartialEq, Eq)]
-pub enum ValueError {
-    /// The text is not a value of the type.
-    Syntax,
-    /// The bytes read are not the type's size.
-    Length,
-}
+/// Why a value's text is not one of its type: said in the error's `#` comment.
+pub type ValueError = String;
 
 /// One word of a request: its text, and whether it was in double quotes.
 #[derive(Clone, Debug, PartialEq, Eq)]
@@ -109,98 +103,100 @@ pub struct Word {
     pub quoted: bool,
 }
 
-/// The bytes to write for the words `words` as `ty`.
+/// The bytes to write for the words `words` as `ty`, or what is wrong with them.
 pub fn encode_value(ty: DataType, words: &[Word]) -> Result<Vec<u8>, ValueError> {
-    fn bare(w: &Word) -> Option<&str> {
-        (!w.quoted).then_some(w.text.as_str())
+    fn bare(w: &Word) -> Result<&str, ValueError> {
+        if w.quoted {
+            Err(format!("\"{}\": only a vs value is quoted", w.text))
+        } else {
+            Ok(w.text.as_str())
+        }
     }
     let one = || match words {
-        [w] => bare(w).ok_or(ValueError::Syntax),
-        _ => Err(ValueError::Syntax),
+        [w] => bare(w),
+        [] => Err("no value".to_string()),
+        _ => Err(format!("{} words where one value goes", words.len())),
     };
     match ty {
-        DataType::Bool => match one()? {
-            "0" => Ok(vec![0]),
-            "1" => Ok(vec![1]),
-            _ => Err(ValueError::Syntax),
-        },
+        // A BOOLEAN is one byte, written as a number (`1`, `0x1`, `01`) like CANopenNode's
+        // gateway takes it; what the byte may hold (0 and 1 in CiA 301) the node's dictionary
+        // judges, as it does for a u8, so a script gets the node's answer, not the gateway's.
+        DataType::Bool => int_bytes(one()?, false, 1),
         DataType::Int(n) => int_bytes(one()?, true, n),
         DataType::Uint(n) | DataType::Hex(n) => int_bytes(one()?, false, n),
-        DataType::Real32 => encode(Type::F32, one()?).map_err(|_| ValueError::Syntax),
-        DataType::Real64 => encode(Type::F64, one()?).map_err(|_| ValueError::Syntax),
+        DataType::Real32 => encode(Type::F32, one()?),
+        DataType::Real64 => encode(Type::F64, one()?),
         DataType::Visible => match words {
             [w] => Ok(w.text.as_bytes().to_vec()),
-            _ => Err(ValueError::Syntax),
+            _ => Err("a string of several words goes in double quotes".to_string()),
         },
-        DataType::Base64 => base64_decode(one()?).ok_or(ValueError::Syntax),
+        DataType::Base64 => {
+            let text = one()?;
+            base64_decode(text).ok_or_else(|| format!("{text}: not base64 (RFC 4648, padded)"))
+        }
         DataType::Time => match words {
             [days, ms] => {
-                let days = parse_int(bare(days).ok_or(ValueError::Syntax)?, false)
+                let days = parse_int(bare(days)?, false)
                     .ok()
                     .and_then(|v| u16::try_from(v).ok())
-                    .ok_or(ValueError::Syntax)?;
+                    .ok_or_else(|| format!("{}: days are 0 to 65535", days.text))?;
                 // 28 bits of milliseconds; a day has fewer, but a time difference may not.
-                let ms = parse_int(bare(ms).ok_or(ValueError::Syntax)?, false)
+                let ms = parse_int(bare(ms)?, false)
                     .ok()
                     .and_then(|v| u32::try_from(v).ok())
                     .filter(|v| *v < 1 << 28)
-                    .ok_or(ValueError::Syntax)?;
+                    .ok_or_else(|| format!("{}: milliseconds are 0 to 268435455", ms.text))?;
                 let mut b = ms.to_le_bytes().to_vec();
                 b.extend_from_slice(&days.to_le_bytes());
                 Ok(b)
             }
-            _ => Err(ValueError::Syntax),
+            _ => Err("a time is two numbers: days, then milliseconds".to_string()),
         },
         DataType::Bytes => {
-            if words.is_empty() || words.iter().any(|w| w.quoted) {
-                return Err(ValueError::Syntax);
+            if words.is_empty() {
+                return Err("no bytes".to_string());
             }
-            let all: Vec<&str> = words.iter().map(|w| w.text.as_str()).collect();
-            parse_hex_bytes(&all.join(" ")).map_err(|_| ValueError::Syntax)
+            let all = words.iter().map(bare).collect::<Result<Vec<_>, _>>()?;
+            parse_hex_bytes(&all.join(" "))
         }
     }
 }
 
 /// `text` as an integer of `n` bytes, little-endian.
 fn int_bytes(text: &str, signed: bool, n: u8) -> Result<Vec<u8>, ValueError> {
-    let v = parse_int(text, signed).map_err(|_| ValueError::Syntax)?;
     let bits = 8 * u32::from(n);
     let (lo, hi) = if signed {
         (-(1i128 << (bits - 1)), (1i128 << (bits - 1)) - 1)
     } else {
         (0, (1i128 << bits) - 1)
     };
-    if v < lo || v > hi {
-        return Err(ValueError::Syntax);
+    let kind = if signed { "an i" } else { "a u" };
+    match parse_int(text, signed) {
+        Ok(v) if (lo..=hi).contains(&v) => Ok(v.to_le_bytes()[..usize::from(n)].to_vec()),
+        _ => Err(format!("{text}: not {kind}{bits} ({lo} to {hi})")),
     }
-    Ok(v.to_le_bytes()[..usize::from(n)].to_vec())
 }
 
-/// The text of the bytes `data` read as `ty`.
-pub fn show_value(ty: DataType, data: &[u8]) -> Result<String, ValueError> {
+/// The text of the bytes `data` read as `ty`; bytes that are not the type's size show as `hex`.
+pub fn show_value(ty: DataType, data: &[u8]) -> String {
     if ty.size().is_some_and(|n| n != data.len()) {
-        return Err(ValueError::Length);
+        return show_value(DataType::Bytes, data);
     }
     let unsigned = || {
         let mut b = [0u8; 16];
         b[..data.len()].copy_from_slice(data);
         u128::from_le_bytes(b)
     };
-    Ok(match ty {
+    match ty {
         DataType::Bool | DataType::Uint(_) => unsigned().to_string(),
         DataType::Int(n) => {
             let shift = 128 - 8 * u32::from(n);
             (((unsigned() << shift) as i128) >> shift).to_string()
         }
         DataType::Hex(n) => format!("0x{:0w$X}", unsigned(), w = 2 * usize::from(n)),
-        DataType::Real32 => {
-            let b: [u8; 4] = data.try_into().map_err(|_| ValueError::Length)?;
-            f32::from_le_bytes(b).to_string()
-        }
-        DataType::Real64 => {
-            let b: [u8; 8] = data.try_into().map_err(|_| ValueError::Length)?;
-            f64::from_le_bytes(b).to_string()
-        }
+        // The size was checked above: four and eight bytes.
+        DataType::Real32 => c_g(f64::from(f32::from_bits(unsigned() as u32))),
+        DataType::Real64 => c_g(f64::from_bits(unsigned() as u64)),
         DataType::Visible => quote(data),
         DataType::Base64 => base64_encode(data),
         DataType::Time => {
@@ -212,15 +208,55 @@ pub fn show_value(ty: DataType, data: &[u8]) -> Result<String, ValueError> {
             .map(|b| format!("{b:02X}"))
             .collect::<Vec<_>>()
             .join(" "),
-    })
+    }
 }
 
-/// A visible string in double quotes, a quote doubled. Trailing NULs (padding some nodes
-/// send) are dropped; a byte that is not text, and any control character, shows as U+FFFD:
+/// `v` as C's `printf("%g")` shows it (six significant digits; the exponent form when the
+/// exponent is below -4 or from 6 on, with a sign and at least two digits; no trailing zeros):
+/// the text CANopenNode's gateway answers, which scripts written against it parse.
+pub fn c_g(v: f64) -> String {
+    const P: i32 = 6;
+    if v.is_nan() {
+        return if v.is_sign_negative() { "-nan" } else { "nan" }.to_string();
+    }
+    if v.is_infinite() {
+        return if v < 0.0 { "-inf" } else { "inf" }.to_string();
+    }
+    if v == 0.0 {
+        return if v.is_sign_negative() { "-0" } else { "0" }.to_string();
+    }
+    // The exponent after rounding to P digits decides the form.
+    let e_form = format!("{:.*e}", (P - 1) as usize, v);
+    let (mantissa, exp) = e_form.split_once('e').unwrap_or((&e_form, "0"));
+    let exp: i32 = exp.parse().unwrap_or(0);
+    if !(-4..P).contains(&exp) {
+        let sign = if exp < 0 { '-' } else { '+' };
+        format!("{}e{sign}{:02}", trim_zeros(mantissa), exp.unsigned_abs())
+    } else {
+        trim_zeros(&format!("{:.*}", (P - 1 - exp) as usize, v)).to_string()
+    }
+}
+
+/// A decimal without the zeros at the end of its fraction (and without a point left bare).
+fn trim_zeros(s: &str) -> &str {
+    if s.contains('.') {
+        s.trim_end_matches('0').trim_end_matches('.')
+    } else {
+        s
+    }
+}
+
+/// A visible string in double quotes, a quote doubled. NULs (padding some nodes send) and
+/// CRs are dropped; a byte that is not text, and any control character, shows as U+FFFD:
 /// a response is one line, whatever the node holds.
 fn quote(data: &[u8]) -> String {
-    let end = data.iter().rposition(|b| *b != 0).map_or(0, |i| i + 1);
-    let text = String::from_utf8_lossy(&data[..end]);
+    // NUL (padding) and CR are dropped wherever they are, as CANopenNode drops them.
+    let kept: Vec<u8> = data
+        .iter()
+        .copied()
+        .filter(|b| *b != 0 && *b != b'\r')
+        .collect();
+    let text = String::from_utf8_lossy(&kept);
     let mut s = String::with_capacity(text.len() + 2);
     s.push('"');
     for c in text.chars() {
