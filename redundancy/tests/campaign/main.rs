@@ -335,6 +335,18 @@ const REGRESSIONS_OTHER_DUPLICATES: &[(u64, u64, bool)] = &[
     (3572, 55, true),
 ];
 
+/// Seeds drawn from every kind (a board in a boot loop among them) that failed and pass now:
+/// the seed, the simulated seconds that reach the failure, on the quiet network or not (every
+/// one with the node that is not duocan).
+const REGRESSIONS_BOOT_LOOP: &[(u64, u64, bool)] = &[
+    // Cyclic: a duplicate of a live board on both buses while the master's port on bus 1 ran
+    // 72 ms behind: bus 2 was taken for silent as far as that port had not shown it, the
+    // member suspect by bus 2 alone (as behind an impostor) and reset, and the duplicate then
+    // beat alone for it: adopted as the pair's running board while its own stood in
+    // pre-operational.
+    (1526, 20, false),
+];
+
 /// The budget CI runs: seeds and simulated seconds each. Seed `k` leads with a fault of kind
 /// `k mod KINDS`, so that the budget reaches every class whatever the draws.
 const SEEDS: u64 = faults::KINDS as u64;
@@ -574,7 +586,11 @@ fn every_seed_that_once_failed_passes() {
     let other = REGRESSIONS_OTHER_DUPLICATES
         .iter()
         .map(|&(seed, secs, quiet)| ((seed, secs), faults::KINDS_BEFORE_BOOT_LOOP, quiet, true));
+    let boot_loop = REGRESSIONS_BOOT_LOOP
+        .iter()
+        .map(|&(seed, secs, quiet)| ((seed, secs), faults::KINDS, quiet, true));
     let runs = runs
+        .chain(boot_loop)
         .chain(slow)
         .chain(duplicate)
         .chain(wrong_rate)

@@ -167,6 +167,11 @@ impl PortHealth {
             (!self.lossy).then_some(self.back)
         }
     }
+    /// How long after its receive timestamp its last frame was handed over: its bus is shown
+    /// up to that long before the present.
+    pub(crate) fn rx_delay(&self) -> Duration {
+        self.rx_delay
+    }
     /// Counters.
     pub fn counters(&self) -> &HealthCounters {
         &self.counters

@@ -32,7 +32,10 @@
 //! other bus, if any, are delivered as they are. The node itself is suspect by this rule only
 //! while the other bus does not *speak* for it: that bus is too fast for it as well, or carried
 //! none of its heartbeats for 1.5 periods (suspect 1.5 T + 1 µs after its last one there,
-//! exactly). A board alive on both buses whose heartbeat a second device also sends on one bus
+//! exactly), as far as its port has shown it: a port whose reader runs behind hands over its
+//! bus only up to that far before the present, and what it has not shown yet is no silence
+//! (judged silent, a live board duplicated on both buses was suspect by the other bus alone,
+//! as behind an impostor, and reset, and the duplicate then beat alone for it). A board alive on both buses whose heartbeat a second device also sends on one bus
 //! thus stays in service, heard over its clean bus (taking it out of service would leave its
 //! pair without a board to run should the other member die); a babble on one bus after the
 //! board died makes it suspect 1.5 periods after its last heartbeat on the other bus, before
@@ -281,26 +284,36 @@ impl Watch {
         }
     }
     /// Rule 1's verdict at `t`: a bus too fast for the node, and the other bus not speaking
-    /// for it (see "Verdicts"); the fast bus, if so.
-    fn too_fast_at(&self, t: u64) -> Option<u8> {
+    /// for it (see "Verdicts"); the fast bus, if so. `behind[q]`: how far (µs) port `q`'s
+    /// reader runs behind.
+    fn too_fast_at(&self, t: u64, behind: [u64; 2]) -> Option<u8> {
         (0..2)
-            .find(|&p| self.ports[p].fast && !self.speaks(1 - p, t))
+            .find(|&p| self.ports[p].fast && !self.speaks(1 - p, t, behind))
             .map(|p| p as u8)
     }
-    /// Bus `q` carried the node's heartbeat within 1.5 periods of `t` and is not too fast.
-    fn speaks(&self, q: usize, t: u64) -> bool {
+    /// Bus `q` carried the node's heartbeat within 1.5 periods of `t`, as far as its port has
+    /// shown it (a reader running behind has handed over its bus only up to that far before
+    /// `t`: its silence since is not known), and is not too fast.
+    fn speaks(&self, q: usize, t: u64, behind: [u64; 2]) -> bool {
         let tr = &self.ports[q];
-        !tr.fast && tr.last != NEVER && t <= tr.last.saturating_add(self.late)
+        !tr.fast
+            && tr.last != NEVER
+            && t.saturating_sub(behind[q]) <= tr.last.saturating_add(self.late)
     }
     /// While one bus is too fast and the other speaks: when the other falls silent.
-    fn speaks_until(&self, t: u64) -> Option<u64> {
+    fn speaks_until(&self, t: u64, behind: [u64; 2]) -> Option<u64> {
         (0..2)
-            .find(|&p| self.ports[p].fast && self.speaks(1 - p, t))
-            .map(|p| self.ports[1 - p].last.saturating_add(self.late) + 1)
+            .find(|&p| self.ports[p].fast && self.speaks(1 - p, t, behind))
+            .map(|p| {
+                self.ports[1 - p]
+                    .last
+                    .saturating_add(self.late + behind[1 - p])
+                    + 1
+            })
     }
     /// Judges rule 1 at `t`; the fast bus if its verdict begins now.
-    fn judge_fast(&mut self, t: u64) -> Option<u8> {
-        let v = self.too_fast_at(t);
+    fn judge_fast(&mut self, t: u64, behind: [u64; 2]) -> Option<u8> {
+        let v = self.too_fast_at(t, behind);
         let onset = v.filter(|_| !self.fast_verdict);
         self.fast_verdict = v.is_some();
         onset

@@ -171,8 +171,11 @@ impl Plausibility {
             // A check that lacked a witness (or a deadline noticed late) is made at once.
             recheck = w.checked != NEVER || due.is_some_and(|d| d <= t);
         }
-        let mut onset = w.judge_fast(t).map(|port| Suspicion::TooFast { port });
-        let speaks_until = w.speaks_until(t);
+        let behind = behind(health);
+        let mut onset = w
+            .judge_fast(t, behind)
+            .map(|port| Suspicion::TooFast { port });
+        let speaks_until = w.speaks_until(t, behind);
         let changed = w.suspect() != w.told;
         if window.is_some() {
             self.last_any[p] = t;
@@ -295,7 +298,8 @@ impl Plausibility {
                 }
             }
             let w = self.at(i);
-            if let Some(port) = w.judge_fast(t) {
+            let behind = behind(health);
+            if let Some(port) = w.judge_fast(t, behind) {
                 out.event(LinkEvent {
                     at: now,
                     kind: LinkEventKind::Suspect {
@@ -304,7 +308,7 @@ impl Plausibility {
                     },
                 });
             }
-            if let Some(d) = w.speaks_until(t) {
+            if let Some(d) = w.speaks_until(t, behind) {
                 soonest(d);
             }
             if let Some(win) = self.window {
@@ -407,6 +411,12 @@ impl Plausibility {
 }
 
 /// The rate measured in the window after a too-fast verdict, as a babble or a duplicate.
+/// How far (µs) each port's reader runs behind: how long after its stamp its last frame was
+/// handed over.
+fn behind(health: &Health) -> [u64; 2] {
+    [0, 1].map(|q| health.port(q).rx_delay().as_micros())
+}
+
 fn report(node: NodeId, id: Option<Id>, p: usize, tr: &Track, period: u64, end: u64) -> LinkEvent {
     let per_s = |n: u64| (n.saturating_mul(1_000_000) / period.max(1)).min(u32::MAX as u64) as u32;
     let (rate, allowed) = (per_s(tr.count as u64), per_s(1));

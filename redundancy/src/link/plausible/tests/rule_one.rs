@@ -263,6 +263,33 @@ fn a_duplicate_on_one_bus_while_the_other_speaks_for_the_node_is_no_verdict_unti
 }
 
 #[test]
+fn a_duplicate_on_one_bus_while_the_other_ports_reader_runs_behind_is_no_verdict() {
+    // As above, with the node beating on bus 2 all along, but that port's reader 72 ms behind:
+    // it hands each heartbeat over 72 ms after its stamp, so bus 2 is shown only up to 72 ms
+    // before the present, and that is no silence. (Judged silent, the node was suspect by bus
+    // 1 alone, an impostor, not a duplicate: a master reset its board, and the duplicate then
+    // beat alone for it.)
+    let mut r = Rig::new();
+    r.health.rx_delay(1, Duration::from_millis(72));
+    let mut t = 100;
+    while t <= 1_000 {
+        r.beat(ms(t), 0, 0x10, 5);
+        if t >= 400 {
+            r.beat(ms(t) + Duration::from_millis(5), 0, 0x10, 5);
+        }
+        // What bus 2 carried 72 ms ago comes now, stamped as it was.
+        if t >= 172 {
+            let late = ms(t - 72);
+            r.p.on_heartbeat(late, 1, n(0x10), &hb(0x10, 5), &r.health, &mut r.out);
+        }
+        t += 12;
+    }
+    assert!(r.p.too_fast(n(0x10), 0) && !r.p.too_fast(n(0x10), 1));
+    assert_eq!(r.p.is_suspect(n(0x10)), Some(false));
+    assert!(r.requests().is_empty());
+}
+
+#[test]
 fn a_board_reset_twice_in_a_few_periods_is_no_babbler_a_boot_up_babble_is() {
     // Reset at 100 ms and again five periods later (two masters, or a failover and its
     // repair): each time the heartbeat of the state it leaves, its boot-up, the
