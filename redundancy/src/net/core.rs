@@ -10,9 +10,14 @@
 //! events become the door's ([`NetEvent`]) where the door has the word, and
 //! [`RedundantEvent`]s ([`NetEvent::Ext`]) where only redundancy has it.
 //!
-//! **Not yet.** Watching a heartbeat (the master guards its slaves itself, 0x1F81), SYNC (the
-//! builder's `.sync(…)`) and frames of the application's own (RPDOs) are refused with
-//! [`NetError::Argument`] saying so.
+//! **Process data.** The door decodes TPDOs from what the dual-bus layer delivers, so each
+//! arrives once whether one bus carries it or two. The application's own frames (RPDOs) go to
+//! the layer like the master's and so onto both buses, and only while this master may command:
+//! a standby master's application must not drive the outputs the active one drives
+//! ([`NetError::Standby`]).
+//!
+//! **Not yet.** Watching a heartbeat (the master guards its slaves itself, 0x1F81) and SYNC
+//! (the builder's `.sync(…)`) are refused with [`NetError::Argument`] saying so.
 
 use super::dual_link::heard_on;
 use super::events::RedundantEvent;
@@ -21,7 +26,7 @@ use crate::supervisor::pairs::PairsEvent;
 use crate::SupervisorEvent;
 use alloc::boxed::Box;
 use alloc::string::ToString;
-use duocan::machine::{Device, PortRequest, PortState, PortStatus, StationEvent};
+use duocan::machine::{BusLink, Device, PortRequest, PortState, PortStatus, StationEvent};
 use duocan::net::{CoreEvent, ExtEvent, NetClient, NetCore, NetError, NetEvent};
 use duocan::nmt::NmtTarget;
 use duocan::od::DynamicDictionary;
@@ -159,11 +164,23 @@ impl NetCore for MasterCore {
             "starting or stopping SYNC (set its period with the builder's sync)",
         ))
     }
-    fn send(&mut self, _: Instant, _: Frame) -> Result<(), NetError> {
-        Err(Self::not_yet("sending a frame of the application's own"))
+    /// The frame goes to the dual-bus layer as the master's own frames do: it fans it out
+    /// onto both buses (the healthy ones), behind what the layer already holds. Only while
+    /// this master may command (active, not suspended): a standby master's application must
+    /// not drive the outputs the active one drives. A copy a port's full queue drops is
+    /// counted by the layer (`tx_dropped`), as for every frame of the master's.
+    fn send(&mut self, now: Instant, frame: Frame) -> Result<(), NetError> {
+        if !self.may_send(now) {
+            return Err(self.send_refused());
+        }
+        self.net.station_mut().link.send(now, &frame);
+        Ok(())
     }
     fn may_send(&self, now: Instant) -> bool {
         self.net.supervisor().may_command(now)
+    }
+    fn send_refused(&self) -> NetError {
+        NetError::Standby { node: None }
     }
     fn port_state(&self, port: usize) -> Option<PortState> {
         (port < 2).then(|| self.net.station().link.port_state(port))
