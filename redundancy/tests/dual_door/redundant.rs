@@ -211,3 +211,80 @@ async fn a_standby_master_sends_no_rpdo_and_says_why() {
     assert_eq!(seen_on(&mut spy, 0x205).await, [vec![3, 0]]);
     standby.close().await;
 }
+
+#[tokio::test(start_paused = true)]
+async fn states_boot_ups_and_a_watched_heartbeat_through_the_redundant_door() {
+    let r = rig().await;
+    let node = r.net.node(5);
+    // Node 5 booted before this object was made: a wait for its boot-up waits for the next.
+    let e = node.wait_for_boot_up(Duration::from_millis(100)).await;
+    assert!(matches!(e, Err(NetError::Timeout { .. })), "{e:?}");
+    let booted = node.wait_for_boot_up_since(Instant::ZERO, T).await.unwrap();
+    assert!(booted < r.net.now(), "{booted}");
+    node.reset_communication().await.unwrap();
+    let again = node.wait_for_boot_up(T).await.unwrap();
+    assert!(again > booted, "{again} after {booted}");
+    node.wait_for_state(NmtState::PreOperational, T)
+        .await
+        .unwrap();
+    node.start().await.unwrap();
+    node.wait_for_state(NmtState::Operational, T).await.unwrap();
+    assert_eq!(node.state().await.unwrap(), Some(NmtState::Operational));
+
+    // Watched: an entry of the door's in the master's 0x1016, and a loss is the door's event.
+    let mut events = r.net.events();
+    node.watch_heartbeat(Duration::from_millis(300))
+        .await
+        .unwrap();
+    let entries = r
+        .net
+        .with(|n, _| {
+            use duocan::od::ObjectDictionary;
+            (1..=127u8)
+                .filter_map(|s| n.od().get_u32(0x1016, s))
+                .filter(|v| v >> 16 == 5)
+                .collect::<Vec<_>>()
+        })
+        .await
+        .unwrap();
+    assert_eq!(entries, [0x0005_012C]);
+    // A node never heard is reported after the watch's timeout.
+    r.net
+        .node(0x33)
+        .watch_heartbeat(Duration::from_millis(300))
+        .await
+        .unwrap();
+    sleep_ms(500).await;
+    r.node.shutdown().await;
+    let seen = drain(&mut events, 1000).await;
+    let lost: Vec<&NetEvent> = seen
+        .iter()
+        .filter(|e| matches!(e, NetEvent::HeartbeatLost { .. }))
+        .collect();
+    assert_eq!(lost.len(), 1, "{seen:#?}");
+    let NetEvent::HeartbeatLost { node: n, last, at } = *lost[0] else {
+        unreachable!()
+    };
+    assert_eq!((n.raw(), at - last), (5, ms(300)), "{seen:#?}");
+    let not_heard = seen
+        .iter()
+        .find(|e| matches!(e, NetEvent::NotHeard { .. }))
+        .unwrap_or_else(|| panic!("{seen:#?}"));
+    assert_eq!(not_heard.node(), NodeId::new(0x33));
+    // Zero stops watching: the entry is cleared.
+    node.watch_heartbeat(Duration::ZERO).await.unwrap();
+    let left = r
+        .net
+        .with(|n, _| {
+            use duocan::od::ObjectDictionary;
+            (1..=127u8).any(|s| {
+                n.od()
+                    .get_u32(0x1016, s)
+                    .is_some_and(|v| v >> 16 == 5 && v & 0xFFFF != 0)
+            })
+        })
+        .await
+        .unwrap();
+    assert!(!left, "the door's entry is cleared");
+    r.net.close().await;
+}
