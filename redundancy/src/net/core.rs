@@ -23,8 +23,9 @@
 //! is the door's [`NetEvent::HeartbeatLost`]. States and boot-up waits are the door's, over
 //! what the master's node heard.
 //!
-//! **Not yet.** Starting and stopping SYNC (the builder's `.sync(…)` sets it) is refused with
-//! [`NetError::Argument`] saying so.
+//! **SYNC.** `start_sync` and `stop_sync` change the SYNC period the builder's `.sync(…)`
+//! set, and nothing else: SYNC stays the flying master's, produced by the active master
+//! alone, so a standby master takes the period and produces at it once it takes over.
 
 use super::dual_link::heard_on;
 use super::events::RedundantEvent;
@@ -79,11 +80,6 @@ impl MasterCore {
             _ => return None,
         };
         Some(CoreEvent::Net(net))
-    }
-    fn not_yet(what: &str) -> NetError {
-        NetError::Argument(alloc::format!(
-            "{what} on the redundant network: not supported yet"
-        ))
     }
 }
 
@@ -245,10 +241,22 @@ impl NetCore for MasterCore {
         }
         Ok(())
     }
-    fn set_sync(&mut self, _: Instant, _: Option<u32>) -> Result<(), NetError> {
-        Err(Self::not_yet(
-            "starting or stopping SYNC (set its period with the builder's sync)",
-        ))
+    /// Changes the SYNC period only ([`Supervisor::set_sync_period`](crate::Supervisor::set_sync_period)):
+    /// SYNC stays the flying master's, produced by the active master alone; a standby master
+    /// takes the period and produces nothing until it takes over.
+    fn set_sync(&mut self, now: Instant, period_us: Option<u32>) -> Result<(), NetError> {
+        let period = period_us.map(|us| duocan::Duration::from_micros(u64::from(us)));
+        self.net
+            .station_mut()
+            .sup_mut()
+            .set_sync_period(now, period)
+            .map_err(|code| {
+                NetError::Master(MasterError::Refused {
+                    index: comm::SYNC_PERIOD,
+                    sub: 0,
+                    code,
+                })
+            })
     }
     /// The frame goes to the dual-bus layer as the master's own frames do: it fans it out
     /// onto both buses (the healthy ones), behind what the layer already holds. Only while

@@ -288,3 +288,84 @@ async fn states_boot_ups_and_a_watched_heartbeat_through_the_redundant_door() {
     assert!(!left, "the door's entry is cleared");
     r.net.close().await;
 }
+
+/// When SYNC frames passed on the spy's bus within `for_ms` from now (what it holds from
+/// before is dropped first).
+async fn syncs(spy: &mut MemPort, for_ms: u64) -> Vec<tokio::time::Instant> {
+    while let Ok(Ok(_)) = tokio::time::timeout(Duration::ZERO, spy.recv()).await {}
+    let mut out = vec![];
+    let end = tokio::time::Instant::now() + Duration::from_millis(for_ms);
+    while let Ok(input) = tokio::time::timeout_at(end, spy.recv()).await {
+        match input {
+            Ok(PortInput::Frame(f, _)) if f.id() == Id::Standard(0x080) => {
+                out.push(tokio::time::Instant::now());
+            }
+            Ok(_) => {}
+            Err(e) => panic!("the spy's port: {e}"),
+        }
+    }
+    out
+}
+
+fn gaps(at: &[tokio::time::Instant]) -> Vec<Duration> {
+    at.windows(2).map(|w| w[1] - w[0]).collect()
+}
+
+#[tokio::test(start_paused = true)]
+async fn start_and_stop_sync_change_the_period_on_the_wire_and_a_standby_produces_none() {
+    let buses = [MemBus::new("bus1"), MemBus::new("bus2")];
+    let open = |id: u8, peer: u8| {
+        RedundantNetwork::builder()
+            .node_id(id)
+            .heartbeat(ms(20))
+            .master_timeout(ms(50))
+            .peer_master(peer)
+            .open(buses[0].port(), buses[1].port())
+            .unwrap()
+    };
+    let (one, two) = (open(1, 2), open(2, 1));
+    sleep_ms(2500).await;
+    let (active, standby) = match (one.role().await.unwrap(), two.role().await.unwrap()) {
+        (MasterRole::Active, MasterRole::Standby(_)) => (&one, &two),
+        (MasterRole::Standby(_), MasterRole::Active) => (&two, &one),
+        r => panic!("one active master and one standby: {r:?}"),
+    };
+    let mut spy = buses[1].port();
+    assert!(syncs(&mut spy, 200).await.is_empty(), "no SYNC configured");
+    // The standby master takes a period, and produces nothing.
+    standby.start_sync(Duration::from_millis(20)).await.unwrap();
+    assert!(syncs(&mut spy, 200).await.is_empty(), "a standby's SYNC");
+    // The active one produces at the period it is given, and at the next one.
+    active.start_sync(Duration::from_millis(10)).await.unwrap();
+    let at = syncs(&mut spy, 200).await;
+    assert!(at.len() >= 19, "{at:?}");
+    assert!(
+        gaps(&at).iter().all(|g| *g == Duration::from_millis(10)),
+        "{:?}",
+        gaps(&at)
+    );
+    active.start_sync(Duration::from_millis(50)).await.unwrap();
+    sleep_ms(60).await;
+    let at = syncs(&mut spy, 500).await;
+    assert!(at.len() >= 9, "{at:?}");
+    assert!(
+        gaps(&at).iter().all(|g| *g == Duration::from_millis(50)),
+        "{:?}",
+        gaps(&at)
+    );
+    active.stop_sync().await.unwrap();
+    sleep_ms(60).await;
+    assert!(syncs(&mut spy, 300).await.is_empty(), "SYNC stopped");
+    // Taking over, the standby produces at the period it was given.
+    active.close().await;
+    sleep_ms(500).await;
+    assert_eq!(standby.role().await.unwrap(), MasterRole::Active);
+    let at = syncs(&mut spy, 200).await;
+    assert!(at.len() >= 9, "{at:?}");
+    assert!(
+        gaps(&at).iter().all(|g| *g == Duration::from_millis(20)),
+        "{:?}",
+        gaps(&at)
+    );
+    standby.close().await;
+}
