@@ -91,8 +91,15 @@ pub trait NetCore: Device<Event = CoreEvent> + Send + 'static {
     /// Queues a frame of the network's own (an RPDO) for every bus of the link, ahead of the
     /// core's next frames; [`NetError::QueueFull`] if too many wait.
     fn send(&mut self, now: Instant, frame: Frame) -> Result<(), NetError>;
-    /// True if the core may put frames of its own on the bus (false: listen-only).
+    /// True if the core may put frames of its own on the bus (false: listen-only, or a
+    /// standby master).
     fn may_send(&self, now: Instant) -> bool;
+    /// Why the core may not send now ([`NetCore::may_send`] false), as the caller's error:
+    /// [`NetError::ListenOnly`] unless the core knows better (a standby master says
+    /// [`NetError::Standby`], so that the user learns which master sends).
+    fn send_refused(&self) -> NetError {
+        NetError::ListenOnly { node: None }
+    }
     /// The state the link keeps for `port`; `None` if it keeps none (the network then shows
     /// what the port's driver last reported).
     fn port_state(&self, port: usize) -> Option<PortState> {

@@ -93,10 +93,11 @@ impl Door {
             NetError::Argument(format!("the network's core ({name}) has no LSS master"))
         })
     }
-    /// Queues a frame the network itself sends (an RPDO).
+    /// Queues a frame the network itself sends (an RPDO), if the core may send now; if not,
+    /// the core's reason ([`NetCore::send_refused`]).
     pub fn send_own(&mut self, now: Instant, f: Frame) -> Result<(), NetError> {
         if !self.core.may_send(now) {
-            return Err(NetError::ListenOnly { node: None });
+            return Err(self.core.send_refused());
         }
         self.core.send(now, f)
     }

@@ -267,7 +267,7 @@ impl fmt::Display for NetError {
                 if let Some(n) = node {
                     write!(f, "node {}: ", n.raw())?;
                 }
-                f.write_str("this master is standby: SDO and NMT go through the active master (or make this one active)")
+                f.write_str("this master is standby: SDO, NMT and RPDOs go through the active master (or make this one active)")
             }
             NetError::Master(e) => write!(f, "the master refused: {e}"),
             NetError::NoSuchNode(raw) => write!(f, "node-ID {raw} is not a CANopen node-ID: use 1 to 127"),

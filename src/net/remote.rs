@@ -149,7 +149,9 @@ impl RemoteNode {
     /// [`NetEvent::NotHeard`] (CiA 301 monitoring starts at the first heartbeat, so a node dead
     /// from the start would otherwise go unnoticed). The timeout is in whole milliseconds, at
     /// most 65 535 (what the consumer entry 0x1016 holds; longer is capped); zero stops
-    /// watching. Nothing is sent to the node.
+    /// watching. Nothing is sent to the node. On a core that guards some nodes itself (a
+    /// redundant master's slaves), watching one of those changes nothing, and its loss is
+    /// that core's own event.
     pub async fn watch_heartbeat(&self, timeout: Duration) -> Result<(), NetError> {
         let id = self.id()?;
         let ms = u16::try_from(timeout.as_millis()).unwrap_or(u16::MAX);

@@ -10,9 +10,22 @@
 //! events become the door's ([`NetEvent`]) where the door has the word, and
 //! [`RedundantEvent`]s ([`NetEvent::Ext`]) where only redundancy has it.
 //!
-//! **Not yet.** Watching a heartbeat (the master guards its slaves itself, 0x1F81), SYNC (the
-//! builder's `.sync(…)`) and frames of the application's own (RPDOs) are refused with
-//! [`NetError::Argument`] saying so.
+//! **Process data.** The door decodes TPDOs from what the dual-bus layer delivers, so each
+//! arrives once whether one bus carries it or two. The application's own frames (RPDOs) go to
+//! the layer like the master's and so onto both buses, and only while this master may command:
+//! a standby master's application must not drive the outputs the active one drives
+//! ([`NetError::Standby`]).
+//!
+//! **Heartbeats.** The master guards its slaves (0x1F81, the pair members among them) with
+//! the 0x1016 entries it configured and reports a loss as [`RedundantEvent::SlaveLost`];
+//! watching one of those through the door changes nothing. Any other node gets an entry of
+//! the door's in the master's 0x1016, on a standby master as on the active one, and its loss
+//! is the door's [`NetEvent::HeartbeatLost`]. States and boot-up waits are the door's, over
+//! what the master's node heard.
+//!
+//! **SYNC.** `start_sync` and `stop_sync` change the SYNC period the builder's `.sync(…)`
+//! set, and nothing else: SYNC stays the flying master's, produced by the active master
+//! alone, so a standby master takes the period and produces at it once it takes over.
 
 use super::dual_link::heard_on;
 use super::events::RedundantEvent;
@@ -21,11 +34,14 @@ use crate::supervisor::pairs::PairsEvent;
 use crate::SupervisorEvent;
 use alloc::boxed::Box;
 use alloc::string::ToString;
-use duocan::machine::{Device, PortRequest, PortState, PortStatus, StationEvent};
+use duocan::machine::{BusLink, Device, PortRequest, PortState, PortStatus, StationEvent};
+use duocan::master::MasterError;
 use duocan::net::{CoreEvent, ExtEvent, NetClient, NetCore, NetError, NetEvent};
 use duocan::nmt::NmtTarget;
-use duocan::od::DynamicDictionary;
+use duocan::od::{comm, DynamicDictionary, ObjectDictionary};
 use duocan::runtime::SdoEvents;
+use duocan::AbortCode;
+use duocan::NodeEventKind;
 use duocan::{Frame, Instant, NmtCommand, NmtState, NodeId};
 
 /// The network the core runs.
@@ -35,16 +51,35 @@ pub(super) type Net = LogicalNetwork<DynamicDictionary>;
 /// 160 kB).
 pub(crate) struct MasterCore {
     pub(super) net: Box<Net>,
+    /// The nodes whose 0x1016 entry the door wrote (bit n = node-ID n): their heartbeat
+    /// losses are the door's [`NetEvent::HeartbeatLost`], and only their entries does it
+    /// change again.
+    watched: u128,
 }
 
 impl MasterCore {
     pub(super) fn new(net: Box<Net>) -> Self {
-        MasterCore { net }
+        MasterCore { net, watched: 0 }
     }
-    fn not_yet(what: &str) -> NetError {
-        NetError::Argument(alloc::format!(
-            "{what} on the redundant network: not supported yet"
-        ))
+    fn is_watched(&self, node: NodeId) -> bool {
+        self.watched & (1 << node.raw()) != 0
+    }
+    /// The door's event of a heartbeat the door watches going or coming back.
+    fn watched_heartbeat(&self, e: &NetworkEvent) -> Option<CoreEvent> {
+        let K::Other(StationEvent::Machine(SupervisorEvent::Node(n))) = &e.kind else {
+            return None;
+        };
+        let at = e.at;
+        let net = match n.kind {
+            NodeEventKind::HeartbeatTimeout { node, last } if self.is_watched(node) => {
+                NetEvent::HeartbeatLost { node, last, at }
+            }
+            NodeEventKind::HeartbeatResumed { node } if self.is_watched(node) => {
+                NetEvent::HeartbeatResumed { node, at }
+            }
+            _ => return None,
+        };
+        Some(CoreEvent::Net(net))
     }
 }
 
@@ -111,7 +146,8 @@ impl Device for MasterCore {
     }
     fn poll_event(&mut self) -> Option<CoreEvent> {
         loop {
-            if let Some(e) = core_event(self.net.poll_event()?) {
+            let e = self.net.poll_event()?;
+            if let Some(e) = self.watched_heartbeat(&e).or_else(|| core_event(e)) {
                 return Some(e);
             }
         }
@@ -149,21 +185,96 @@ impl NetCore for MasterCore {
         let v = self.net.supervisor().node().remote(node)?;
         Some((v.state, v.seen))
     }
-    fn watch_heartbeat(&mut self, _: Instant, _: NodeId, _: u16) -> Result<(), NetError> {
-        Err(Self::not_yet(
-            "watching a heartbeat (the master guards its slaves itself: 0x1F81, 0x1016)",
-        ))
+    /// The master guards its slaves itself (0x1F81 bit 0: the pair members among them) with
+    /// the 0x1016 entries it configured, and reports a loss as [`RedundantEvent::SlaveLost`];
+    /// for those, and for a node another entry already names (a peer master the flying
+    /// master watches), this is `Ok` and changes nothing. For any other node the door writes
+    /// an entry of its own into the master's 0x1016 (the sub naming it, else sub node-ID if
+    /// free, else the first free one), standby or active alike: the entries the master uses
+    /// stay as they are. A table without a free entry is [`NetError::Master`].
+    fn watch_heartbeat(&mut self, now: Instant, node: NodeId, ms: u16) -> Result<(), NetError> {
+        let ours = self.is_watched(node);
+        let sup = self.net.station_mut().sup_mut();
+        if sup.master().slave(node).assignment.is_slave() {
+            return Ok(());
+        }
+        let od = sup.node().od();
+        let count = od
+            .get_u32(comm::HEARTBEAT_CONSUMER, 0)
+            .unwrap_or(0)
+            .min(127) as u8;
+        let value = |sub: u8| od.get_u32(comm::HEARTBEAT_CONSUMER, sub);
+        let naming = (1..=count).find(|s| value(*s).is_some_and(|v| (v >> 16) as u8 == node.raw()));
+        let free = |sub: u8| value(sub).is_some_and(|v| v & 0xFFFF == 0 || v >> 16 & 0xFF == 0);
+        let sub = match naming {
+            Some(_) if !ours => return Ok(()),
+            Some(s) => s,
+            None if ms == 0 => return Ok(()),
+            None => {
+                let own = (node.raw() <= count && free(node.raw())).then_some(node.raw());
+                own.or_else(|| (1..=count).find(|s| free(*s)))
+                    .ok_or(NetError::Master(MasterError::Refused {
+                        index: comm::HEARTBEAT_CONSUMER,
+                        sub: 0,
+                        code: AbortCode::NO_RESOURCE,
+                    }))?
+            }
+        };
+        let v = if ms == 0 {
+            0
+        } else {
+            (u32::from(node.raw()) << 16) | u32::from(ms)
+        };
+        sup.node_mut()
+            .write(now, comm::HEARTBEAT_CONSUMER, sub, &v.to_le_bytes())
+            .map_err(|code| {
+                NetError::Master(MasterError::Refused {
+                    index: comm::HEARTBEAT_CONSUMER,
+                    sub,
+                    code,
+                })
+            })?;
+        if ms == 0 {
+            self.watched &= !(1 << node.raw());
+        } else {
+            self.watched |= 1 << node.raw();
+        }
+        Ok(())
     }
-    fn set_sync(&mut self, _: Instant, _: Option<u32>) -> Result<(), NetError> {
-        Err(Self::not_yet(
-            "starting or stopping SYNC (set its period with the builder's sync)",
-        ))
+    /// Changes the SYNC period only ([`Supervisor::set_sync_period`](crate::Supervisor::set_sync_period)):
+    /// SYNC stays the flying master's, produced by the active master alone; a standby master
+    /// takes the period and produces nothing until it takes over.
+    fn set_sync(&mut self, now: Instant, period_us: Option<u32>) -> Result<(), NetError> {
+        let period = period_us.map(|us| duocan::Duration::from_micros(u64::from(us)));
+        self.net
+            .station_mut()
+            .sup_mut()
+            .set_sync_period(now, period)
+            .map_err(|code| {
+                NetError::Master(MasterError::Refused {
+                    index: comm::SYNC_PERIOD,
+                    sub: 0,
+                    code,
+                })
+            })
     }
-    fn send(&mut self, _: Instant, _: Frame) -> Result<(), NetError> {
-        Err(Self::not_yet("sending a frame of the application's own"))
+    /// The frame goes to the dual-bus layer as the master's own frames do: it fans it out
+    /// onto both buses (the healthy ones), behind what the layer already holds. Only while
+    /// this master may command (active, not suspended): a standby master's application must
+    /// not drive the outputs the active one drives. A copy a port's full queue drops is
+    /// counted by the layer (`tx_dropped`), as for every frame of the master's.
+    fn send(&mut self, now: Instant, frame: Frame) -> Result<(), NetError> {
+        if !self.may_send(now) {
+            return Err(self.send_refused());
+        }
+        self.net.station_mut().link.send(now, &frame);
+        Ok(())
     }
     fn may_send(&self, now: Instant) -> bool {
         self.net.supervisor().may_command(now)
+    }
+    fn send_refused(&self) -> NetError {
+        NetError::Standby { node: None }
     }
     fn port_state(&self, port: usize) -> Option<PortState> {
         (port < 2).then(|| self.net.station().link.port_state(port))

@@ -1,7 +1,9 @@
 //! duocan's plain front door (`duocan::net::Network`: an observer and an SDO client, no master)
 //! on two buses through the dual-bus layer (`duocan_redundancy::net::DualLink`), and the
-//! simulated redundant station behind `open_dual_named("sim")`. On tokio's paused clock.
+//! simulated redundant station behind `open_dual_named("sim")`; and the redundant master's
+//! door (`RedundantNetwork`) on the same kind of rig. On tokio's paused clock.
 
 mod link;
 mod lss;
+mod redundant;
 mod station;

@@ -314,7 +314,9 @@ impl RemotePdo {
     /// mapping order, each encoded as its data type (from the description) and width say:
     /// python `rpdo[n].transmit()`. The network must know the mapping ([`RemotePdo::read`],
     /// [`RemotePdo::save`] or [`RemotePdo::learn`]); a value that does not fit its entry is
-    /// [`NetError::BadValue`].
+    /// [`NetError::BadValue`]. A network that may not send refuses: listen-only
+    /// ([`NetError::ListenOnly`]), or a standby redundant master ([`NetError::Standby`]: the
+    /// active master's application drives the outputs, two would fight over them).
     pub async fn send(&self, values: &[AnyValue]) -> Result<(), NetError> {
         let node = self.id()?;
         let what = label(self.dir, self.pdo);
@@ -375,6 +377,11 @@ impl RemotePdo {
                 Some(Ok(f)) => d.send_own(now, f),
             })
             .await
+            .map_err(|e| match e {
+                NetError::Standby { node: None } => NetError::Standby { node: Some(node) },
+                NetError::ListenOnly { node: None } => NetError::ListenOnly { node: Some(node) },
+                e => e,
+            })
     }
 
     /// Waits at most `timeout` for this TPDO and returns its values

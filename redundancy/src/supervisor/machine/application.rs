@@ -15,10 +15,10 @@ use duocan::master::{
     StartPolicy,
 };
 use duocan::nmt::NmtTarget;
-use duocan::od::ObjectDictionary;
+use duocan::od::{comm, ObjectDictionary};
 use duocan::profile::IdProfile;
 use duocan::time_stamp::TimeOfDay;
-use duocan::{Duration, Instant, NmtCommand, NodeId};
+use duocan::{AbortCode, Duration, Instant, NmtCommand, NodeId};
 
 impl<D: ObjectDictionary, P: IdProfile> Supervisor<D, P> {
     /// Adds a slave pair to supervise; both members become slaves of the master with nothing
@@ -181,6 +181,31 @@ impl<D: ObjectDictionary, P: IdProfile> Supervisor<D, P> {
     pub fn set_time(&mut self, now: Instant, tod: TimeOfDay) {
         self.watch_clock(now);
         self.master.node_mut().set_time(now, tod);
+    }
+    /// Changes the SYNC period (0x1006) to `period`, or to none (`None`, or zero): SYNC
+    /// stops. Only the period changes: production stays the flying master's, so an active
+    /// master produces at the new period at once and a standby one produces nothing until it
+    /// takes over, then at this period (planned switches align to it too). The producer is
+    /// switched off while the period changes, as CiA 301 wants, and on again if it ran. A
+    /// period beyond 0x1006's 32 bits of µs (some 71 minutes) is held at that; an entry the
+    /// master's dictionary refuses is the abort code.
+    pub fn set_sync_period(
+        &mut self,
+        now: Instant,
+        period: Option<Duration>,
+    ) -> Result<(), AbortCode> {
+        self.watch_clock(now);
+        let period = period.unwrap_or(Duration::ZERO);
+        let us = period.as_micros().min(u64::from(u32::MAX)) as u32;
+        self.master.set_production(now, false, true);
+        let r = self.master.node_mut().set(now, comm::SYNC_PERIOD, 0, us);
+        if r.is_ok() {
+            self.cfg.sync_period = Duration::from_micros(u64::from(us));
+        }
+        self.master
+            .set_production(now, !self.cfg.sync_period.is_zero(), true);
+        self.pump(now);
+        r
     }
     /// Makes `to` the active member of `pair` by hand (active master only).
     pub fn switch_over(
