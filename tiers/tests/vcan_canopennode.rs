@@ -11,7 +11,8 @@
 //!   than 4 bytes, and the example dictionary has nothing longer;
 //! - NMT start, stop and pre-operational, each seen in its heartbeat; the heartbeat consumer
 //!   reports the loss when the process is killed;
-//! - a TPDO configured by SDO (mapping, transmission type, event timer) and received decoded;
+//! - PDOs configured by SDO (mapping, transmission type, event timer) both ways: its TPDO
+//!   received decoded and named by its EDS, an RPDO sent that it writes into its dictionary;
 //! - an EMCY: canopend's own heartbeat consumer, set up by SDO, times out on a node that was
 //!   heard once (0x8130), and its error history (0x1003) says the same.
 //!
@@ -413,7 +414,7 @@ async fn nmt_commands_show_in_the_heartbeat_and_its_loss_is_reported() {
 }
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
-async fn a_tpdo_configured_by_sdo_arrives_decoded() {
+async fn pdos_configured_by_sdo_go_both_ways() {
     let (net, _wire) = open();
     let _dev = boot(&net, "pdo").await;
     let node = net.node(NODE);
@@ -449,6 +450,35 @@ async fn a_tpdo_configured_by_sdo_arrives_decoded() {
         Some(u64::from(REQ)),
         "{v:?}"
     );
+
+    // The other way: RPDO1 carries the SDO client's COB-ID (0x1280:1, the one entry canopend
+    // lets an RPDO write); a value with bit 31 (not valid) is one it accepts at any time.
+    let rpdo = node.rpdo(1);
+    let mut map = rpdo.read().await.expect("read RPDO1's configuration");
+    map.clear();
+    map.add(0x1280, 1, 32).unwrap();
+    map.transmission_type = 255;
+    map.enabled = true;
+    rpdo.save(&map).await.expect("save RPDO1");
+    let before: u32 = node.sdo().read(0x1280, 1).await.expect("read 0x1280:1");
+    assert_eq!(before, 0x8000_0000);
+    let sent = 0x8000_0605u32;
+    rpdo.send_named(&[("COB-ID client to server (tx)", sent.into())])
+        .await
+        .expect("send RPDO1");
+    // canopend takes the PDO in its next cycle: read until it shows, at most 2 s.
+    let deadline = tokio::time::Instant::now() + Duration::from_secs(2);
+    loop {
+        let now: u32 = node.sdo().read(0x1280, 1).await.expect("read 0x1280:1");
+        if now == sent {
+            break;
+        }
+        assert!(
+            tokio::time::Instant::now() < deadline,
+            "0x1280:1 is {now:#010x} 2 s after RPDO1 carried {sent:#010x}"
+        );
+        tokio::time::sleep(Duration::from_millis(50)).await;
+    }
     net.close().await;
 }
 
