@@ -67,8 +67,8 @@ echo "   the tool's scan, SDO in every mode both ways, NMT in the heartbeat, its
 # repository, and goes into the VM with its EDS and the tool (release, built for the kit).
 PEERS=${DUOCAN_PEERS:-$ROOT/../shared/peers}
 CONODE=$(cargo metadata --format-version 1 --no-deps | python3 -c 'import sys,json; print(json.load(sys.stdin)["target_directory"])')/canopennode
-bash "$PEERS/canopennode/build.sh" "$CONODE" >/dev/null \
-  || fail "build CANopenNode's canopend with $PEERS/canopennode/build.sh (needs make and a static libc)"
+out=$(bash "$PEERS/canopennode/build.sh" "$CONODE" 2>&1) \
+  || fail "build CANopenNode's canopend with $PEERS/canopennode/build.sh (needs make and a static libc): $out"
 [ -x "$CONODE/canopend" ] && [ -f "$CONODE/canopend.eds" ] || fail "no canopend or canopend.eds in $CONODE"
 TOOL="$(dirname "$CONODE")/release/duocan"
 [ -x "$TOOL" ] || fail "no $TOOL (built above for the kit)"

@@ -204,13 +204,14 @@ fn abort(r: Result<impl std::fmt::Debug, NetError>) -> u32 {
     }
 }
 
-#[test]
-fn the_tools_scan_finds_canopend_with_the_identity_its_eds_gives() {
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn the_tools_scan_finds_canopend_with_the_identity_its_eds_gives() {
     let tool = file_from_env("DUOCAN_TOOL", "the duocan tool (cargo build -p duocan-cli)");
     let eds = canopend_eds();
-    let _dev = Canopend::start("scan");
-    // Its boot-up comes before the scan listens: found by the SDO probe.
-    std::thread::sleep(Duration::from_millis(500));
+    // Booted (its boot-up seen) before the scan starts: found by the scan's SDO probe.
+    let (net, _wire) = open();
+    let _dev = boot(&net, "scan").await;
+    net.close().await;
     let out = Command::new(&tool)
         .args(["--bus", "vcan0", "--json", "--eds"])
         .arg(format!("{NODE}={}", eds.display()))
