@@ -3,7 +3,9 @@
 # (the host kernel has no CAN). Installs what it needs (qemu, busybox, the kernel deb's CAN
 # modules, can-utils), runs tiers/tests/vcan.rs, tiers/tests/vcan_failover.rs,
 # tiers/tests/vcan_redundant.rs, tiers/tests/vcan_reopen.rs, tiers/tests/vcan_load.rs, the
-# failover kit (.ci/kit-vm.sh), LSS (.ci/lss-vm.sh), both through .ci/vm-script.sh, and the dual_vcan_failover example's
+# failover kit (.ci/kit-vm.sh), LSS (.ci/lss-vm.sh), both through .ci/vm-script.sh,
+# tiers/tests/vcan_canopennode.rs (CANopenNode's canopend, built on the host from
+# ../shared/peers/canopennode, as the device), and the dual_vcan_failover example's
 # self-test in the VM (and checks on the host that the example
 # refuses to run without its interfaces, saying how to create them), then the runtime-overhead
 # measurement (bare socketcan echo loop vs the tokio runtime, same VM).
@@ -58,6 +60,22 @@ cargo build --release -p duocan-cli || fail "build the duocan tool"
 echo "== tier-vcan: LSS on vcan: the tool's LSS master configures two duocan LSS slaves (processes)"
 echo "   by fastscan on lssa,lssb, one of them on lssb only"
 .ci/vm-script.sh lss || fail "LSS on vcan"
+
+echo "== tier-vcan: CANopenNode's canopend as the device (node 4 on vcan0), duocan as the master:"
+echo "   the tool's scan, SDO in every mode both ways, NMT in the heartbeat, its loss, a TPDO, an EMCY"
+# canopend is built on the host (static, a few seconds) from the sources kept beside the
+# repository, and goes into the VM with its EDS and the tool (release, built for the kit).
+PEERS=${DUOCAN_PEERS:-$ROOT/../shared/peers}
+CONODE=$(cargo metadata --format-version 1 --no-deps | python3 -c 'import sys,json; print(json.load(sys.stdin)["target_directory"])')/canopennode
+out=$(bash "$PEERS/canopennode/build.sh" "$CONODE" 2>&1) \
+  || fail "build CANopenNode's canopend with $PEERS/canopennode/build.sh (needs make and a static libc): $out"
+[ -x "$CONODE/canopend" ] && [ -f "$CONODE/canopend.eds" ] || fail "no canopend or canopend.eds in $CONODE"
+TOOL="$(dirname "$CONODE")/release/duocan"
+[ -x "$TOOL" ] || fail "no $TOOL (built above for the kit)"
+VCANVM_EXTRA="$CONODE/canopend:/tests/canopend $CONODE/canopend.eds:/tests/canopend.eds $TOOL:/tests/duocan" \
+DUOCAN_CANOPEND=/tests/canopend DUOCAN_CANOPEND_EDS=/tests/canopend.eds DUOCAN_TOOL=/tests/duocan \
+  cargo test -p duocan-tiers --features vcan --test vcan_canopennode \
+  || fail "CANopenNode's canopend on vcan"
 
 echo "== tier-vcan: exactly once under CPU load: a busy loop per vCPU, the receiver (DualBus under"
 echo "   the runtime) at nice 5, 20,000 frames at 1,000/s and at 5,000/s, and with vcan0 flapping"

@@ -1,0 +1,516 @@
+//! CANopenNode as the device, duocan as the master, on real SocketCAN (vcan0 inside duocan's
+//! qemu VM: `.ci/tier-vcan.sh`). `canopend` (CANopenNode's Linux device with its example
+//! dictionary, built statically by `../shared/peers/canopennode/build.sh` on the host) runs as
+//! node 4, a fresh process per test; duocan talks to it through its front door
+//! (`duocan::net::Network`) and, for the scan, through the `duocan` tool as a user would:
+//!
+//! - the tool's `scan` finds it, with the identity (0x1018) its EDS describes;
+//! - SDO both ways in every mode the dictionary allows, each checked on the wire (a tap on the
+//!   port): expedited, segmented download, block download and block upload with CRC, and the
+//!   server's aborts. Segmented upload cannot be asked for: the server picks it only for more
+//!   than 4 bytes, and the example dictionary has nothing longer;
+//! - NMT start, stop and pre-operational, each seen in its heartbeat; the heartbeat consumer
+//!   reports the loss when the process is killed;
+//! - PDOs configured by SDO (mapping, transmission type, event timer) both ways: its TPDO
+//!   received decoded and named by its EDS, an RPDO sent that it writes into its dictionary;
+//! - an EMCY: canopend's own heartbeat consumer, set up by SDO, times out on a node that was
+//!   heard once (0x8130), and its error history (0x1003) says the same.
+//!
+//! The environment names the files (the VM has them under /tests): `DUOCAN_CANOPEND` (the
+//! binary), `DUOCAN_CANOPEND_EDS` (its description), `DUOCAN_TOOL` (the `duocan` tool). A
+//! missing one fails the test, saying which: it is never skipped.
+
+use duocan::capture::recorder::{Tap, TapDirection, TapPoint};
+use duocan::net::{NetError, NetEvent, NetOptions, Network};
+use duocan::port::socketcan::SocketCanPort;
+use duocan::port::Port;
+use duocan::sdo::{SdoErrorKind, TransferMode};
+use duocan::{Frame, Id, Instant, NmtState};
+use std::path::PathBuf;
+use std::process::{Child, Command, Stdio};
+use std::sync::{Arc, Mutex};
+use std::time::Duration;
+
+/// canopend's node-ID.
+const NODE: u8 = 4;
+/// Its SDO server's request and answer identifiers.
+const REQ: u32 = 0x600 + NODE as u32;
+const RESP: u32 = 0x580 + NODE as u32;
+
+/// The file an environment variable names; a panic saying what to set when it is not there.
+fn file_from_env(var: &str, what: &str) -> PathBuf {
+    let p = std::env::var_os(var).unwrap_or_else(|| {
+        panic!("{var} is not set: give the path of {what} (.ci/tier-vcan.sh builds and sets it)")
+    });
+    let p = PathBuf::from(p);
+    assert!(p.is_file(), "{var}={} is not a file ({what})", p.display());
+    p
+}
+
+fn canopend_bin() -> PathBuf {
+    file_from_env(
+        "DUOCAN_CANOPEND",
+        "CANopenNode's canopend (../shared/peers/canopennode/build.sh)",
+    )
+}
+
+fn canopend_eds() -> PathBuf {
+    file_from_env(
+        "DUOCAN_CANOPEND_EDS",
+        "canopend's EDS (canopend.eds, beside the binary build.sh makes)",
+    )
+}
+
+/// A canopend process as node [`NODE`] on vcan0, with its own storage folder (so nothing one
+/// test stores reaches the next); killed on drop.
+struct Canopend {
+    child: Option<Child>,
+    dir: PathBuf,
+}
+
+impl Canopend {
+    fn start(name: &str) -> Canopend {
+        let bin = canopend_bin();
+        let dir = std::env::temp_dir().join(format!("canopend-{name}"));
+        let _ = std::fs::remove_dir_all(&dir);
+        std::fs::create_dir_all(&dir).expect("canopend's folder");
+        // Its two storage files, "empty" as canopend reads them (a '-' and one more byte: the
+        // defaults, no error). Without them it reports a storage error (EMCY 0x5000), sets the
+        // generic bit of its error register and refuses to go operational.
+        for f in ["od_comm.persist", "mainline.persist"] {
+            std::fs::write(dir.join(format!("od_{f}")), "-\n").expect("canopend's storage file");
+        }
+        let log = std::fs::File::create(dir.join("log")).expect("canopend's log");
+        let child = Command::new(&bin)
+            .args(["vcan0", "-i", &NODE.to_string(), "-s"])
+            .arg(dir.join("od_"))
+            .current_dir(&dir)
+            .stdin(Stdio::null())
+            .stdout(log.try_clone().expect("log"))
+            .stderr(log)
+            .spawn()
+            .unwrap_or_else(|e| panic!("start {}: {e}", bin.display()));
+        Canopend {
+            child: Some(child),
+            dir,
+        }
+    }
+
+    /// What it printed.
+    fn log(&self) -> String {
+        std::fs::read_to_string(self.dir.join("log")).unwrap_or_default()
+    }
+
+    /// Kills it and waits for it.
+    fn kill(&mut self) {
+        if let Some(mut c) = self.child.take() {
+            let _ = c.kill();
+            let _ = c.wait();
+        }
+    }
+
+    /// Panics if it has exited.
+    fn assert_running(&mut self) {
+        if let Some(c) = self.child.as_mut() {
+            if let Ok(Some(st)) = c.try_wait() {
+                panic!("canopend exited ({st}):\n{}", self.log());
+            }
+        }
+    }
+}
+
+impl Drop for Canopend {
+    fn drop(&mut self) {
+        self.kill();
+        if std::thread::panicking() {
+            eprintln!("canopend's output:\n{}", self.log());
+        }
+    }
+}
+
+/// Every frame on the port, in order: (sent by duocan, identifier, data).
+#[derive(Default)]
+struct Wire(Mutex<Vec<(bool, u32, Vec<u8>)>>);
+
+impl Tap for Wire {
+    fn frame(&self, _at: Instant, point: TapPoint, dir: TapDirection, f: &Frame) {
+        if point == TapPoint::Port(0) {
+            let sent = dir == TapDirection::Tx;
+            self.0
+                .lock()
+                .unwrap()
+                .push((sent, f.id().raw(), f.data().to_vec()));
+        }
+    }
+}
+
+impl Wire {
+    /// How many frames there are so far (a mark to look from).
+    fn mark(&self) -> usize {
+        self.0.lock().unwrap().len()
+    }
+
+    /// The command bytes of the SDO frames since `mark`: requests to the node, answers from it.
+    fn sdo_since(&self, mark: usize) -> (Vec<u8>, Vec<u8>) {
+        let all = self.0.lock().unwrap();
+        let mut req = vec![];
+        let mut resp = vec![];
+        for (sent, id, data) in &all[mark..] {
+            match (*sent, *id) {
+                (true, REQ) => req.push(data[0]),
+                (false, RESP) => resp.push(data[0]),
+                _ => {}
+            }
+        }
+        (req, resp)
+    }
+}
+
+/// The network on vcan0 with a tap, and node 4 with canopend's EDS attached.
+fn open() -> (Network, Arc<Wire>) {
+    let wire = Arc::new(Wire::default());
+    let port = SocketCanPort::open("vcan0").expect("open vcan0");
+    let net = Network::open_with(
+        port,
+        NetOptions::default()
+            .with_sdo_timeout(Duration::from_millis(1500))
+            .with_tap(wire.clone()),
+    )
+    .expect("open the network on vcan0");
+    net.add_node_eds(NODE, canopend_eds())
+        .expect("read canopend's EDS");
+    (net, wire)
+}
+
+/// canopend started after the network, its boot-up awaited.
+async fn boot(net: &Network, name: &str) -> Canopend {
+    let node = net.node(NODE);
+    let mut dev = Canopend::start(name);
+    if let Err(e) = node.wait_for_boot_up(Duration::from_secs(10)).await {
+        dev.assert_running();
+        panic!("no boot-up from canopend: {e}\n{}", dev.log());
+    }
+    dev
+}
+
+/// The server's abort code of a failed transfer.
+fn abort(r: Result<impl std::fmt::Debug, NetError>) -> u32 {
+    match r {
+        Err(NetError::Sdo(e)) => match e.kind {
+            SdoErrorKind::Server(c) => c.0,
+            k => panic!("not a server abort: {k:?}"),
+        },
+        other => panic!("not an SDO abort: {other:?}"),
+    }
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn the_tools_scan_finds_canopend_with_the_identity_its_eds_gives() {
+    let tool = file_from_env("DUOCAN_TOOL", "the duocan tool (cargo build -p duocan-cli)");
+    let eds = canopend_eds();
+    // Booted (its boot-up seen) before the scan starts: found by the scan's SDO probe.
+    let (net, _wire) = open();
+    let _dev = boot(&net, "scan").await;
+    net.close().await;
+    let out = Command::new(&tool)
+        .args(["--bus", "vcan0", "--json", "--eds"])
+        .arg(format!("{NODE}={}", eds.display()))
+        .args(["scan", "--listen", "300", "--probe-timeout", "300"])
+        .env_remove("DUOCAN_BUS")
+        .output()
+        .expect("run duocan scan");
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        out.status.success(),
+        "duocan scan: {}\n{stdout}{}",
+        out.status,
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let rows: serde_json::Value = serde_json::from_str(&stdout).expect("scan --json");
+    let rows = rows.as_array().expect("an array");
+    assert_eq!(rows.len(), 1, "one node on vcan0: {stdout}");
+    let r = &rows[0];
+    assert_eq!(r["node"], NODE, "{stdout}");
+    // The example dictionary's identity and device type are all zeros, as its EDS says; the
+    // description column names the EDS when the identity matches it.
+    for col in ["device_type", "vendor", "product", "revision", "serial"] {
+        assert_eq!(r[col], 0, "{col}: {stdout}");
+    }
+    assert_eq!(r["description"], "canopend.eds", "{stdout}");
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn sdo_both_ways_expedited_segmented_and_block_with_crc() {
+    let (net, wire) = open();
+    let _dev = boot(&net, "sdo").await;
+    let node = net.node(NODE);
+    let sdo = node.sdo();
+
+    // Expedited, both ways: the heartbeat period by index and by the EDS's name.
+    let m = wire.mark();
+    let dt: u32 = sdo.read(0x1000, 0).await.expect("read 0x1000");
+    assert_eq!(dt, 0);
+    sdo.clone()
+        .with_mode(TransferMode::Expedited)
+        .write(0x1017, 0, 250u16)
+        .await
+        .expect("write 0x1017");
+    let hb: u16 = sdo
+        .read_named("Producer heartbeat time")
+        .await
+        .expect("read 0x1017 by name");
+    assert_eq!(hb, 250);
+    let (req, resp) = wire.sdo_since(m);
+    // upload initiate, expedited download of 2 bytes (0x2B), upload initiate
+    assert_eq!(req, [0x40, 0x2B, 0x40], "requests {req:02x?}");
+    // expedited answers: 4 bytes (0x43), download done (0x60), 2 bytes (0x4B)
+    assert_eq!(resp, [0x43, 0x60, 0x4B], "answers {resp:02x?}");
+
+    // Segmented download of a 4-byte value (the consumer heartbeat entry 0x1016:1).
+    let m = wire.mark();
+    let watch_5 = (5u32 << 16) | 1000;
+    sdo.clone()
+        .with_mode(TransferMode::Segmented)
+        .write(0x1016, 1, watch_5)
+        .await
+        .expect("segmented write of 0x1016:1");
+    let (req, resp) = wire.sdo_since(m);
+    // initiate with the size (0x21), one last segment of 4 bytes (toggle 0, 3 unused, last:
+    // 0x07); the server's initiate answer (0x60) and the segment's (0x20).
+    assert_eq!(req, [0x21, 0x07], "requests {req:02x?}");
+    assert_eq!(resp, [0x60, 0x20], "answers {resp:02x?}");
+    // A read asked as segmented: the server answers 4 bytes expedited (its choice).
+    let back: u32 = sdo
+        .clone()
+        .with_mode(TransferMode::Segmented)
+        .read(0x1016, 1)
+        .await
+        .expect("read 0x1016:1");
+    assert_eq!(back, watch_5);
+
+    // Block download and block upload with CRC (0x1016:2).
+    let watch_6 = (6u32 << 16) | 2000;
+    let block = sdo.clone().with_mode(TransferMode::Block);
+    let m = wire.mark();
+    block
+        .write(0x1016, 2, watch_6)
+        .await
+        .expect("block write of 0x1016:2");
+    let (req, resp) = wire.sdo_since(m);
+    // initiate with CRC and size (0xC6), one segment, last (0x81), end with 0 unused bytes
+    // after the 4 (7 - 4 = 3 unused: 0xC1 | 3 << 2 = 0xCD).
+    assert_eq!(req, [0xC6, 0x81, 0xCD], "requests {req:02x?}");
+    // initiate answer with CRC (0xA4), the sub-block's acknowledgement (0xA2), end (0xA1).
+    assert_eq!(resp, [0xA4, 0xA2, 0xA1], "answers {resp:02x?}");
+    let m = wire.mark();
+    let back: u32 = block.read(0x1016, 2).await.expect("block read of 0x1016:2");
+    assert_eq!(back, watch_6);
+    let (req, resp) = wire.sdo_since(m);
+    // initiate with CRC (0xA4), start (0xA3), the sub-block's acknowledgement (0xA2), end (0xA1).
+    assert_eq!(req, [0xA4, 0xA3, 0xA2, 0xA1], "requests {req:02x?}");
+    // initiate answer with CRC and size (0xC6), the segment, last (0x81), end: 3 unused,
+    // CRC (0xCD).
+    assert_eq!(resp, [0xC6, 0x81, 0xCD], "answers {resp:02x?}");
+
+    // The server's aborts: no such object, read-only, a value of the wrong length.
+    assert_eq!(abort(sdo.read::<u32>(0x2000, 0).await), 0x0602_0000);
+    assert_eq!(abort(sdo.write(0x1000, 0, 1u32).await), 0x0601_0002);
+    assert_eq!(abort(sdo.write(0x1017, 0, 1u32).await), 0x0607_0012);
+    // After them the server still answers.
+    let hb: u16 = sdo.read(0x1017, 0).await.expect("read 0x1017 again");
+    assert_eq!(hb, 250);
+    net.close().await;
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn nmt_commands_show_in_the_heartbeat_and_its_loss_is_reported() {
+    let (net, _wire) = open();
+    let mut dev = boot(&net, "nmt").await;
+    let node = net.node(NODE);
+    let t = Duration::from_secs(3);
+    // canopend's example dictionary sends no heartbeat until 0x1017 is set.
+    node.sdo()
+        .write(0x1017, 0, 100u16)
+        .await
+        .expect("write 0x1017");
+    // It goes operational by itself once booted (its NMT start-up setting).
+    node.wait_for_state(NmtState::Operational, t)
+        .await
+        .expect("heartbeat: operational");
+    node.watch_heartbeat(Duration::from_millis(600))
+        .await
+        .expect("watch the heartbeat");
+    let mut events = net.events();
+    for (state, cmd) in [
+        (NmtState::PreOperational, "enter pre-operational"),
+        (NmtState::Operational, "start"),
+        (NmtState::Stopped, "stop"),
+        (NmtState::PreOperational, "enter pre-operational"),
+        (NmtState::Operational, "start"),
+    ] {
+        match cmd {
+            "start" => node.start().await,
+            "stop" => node.stop().await,
+            _ => node.enter_pre_operational().await,
+        }
+        .unwrap_or_else(|e| panic!("NMT {cmd}: {e}"));
+        node.wait_for_state(state, t)
+            .await
+            .unwrap_or_else(|e| panic!("after NMT {cmd}: {e}"));
+        assert_eq!(node.state().await.unwrap(), Some(state));
+    }
+    // Stopped: no SDO; operational: SDO again.
+    node.stop().await.unwrap();
+    node.wait_for_state(NmtState::Stopped, t).await.unwrap();
+    let r = node
+        .sdo()
+        .with_options(
+            duocan::sdo::SdoOptions::default().with_timeout(duocan::Duration::from_millis(300)),
+        )
+        .read::<u16>(0x1017, 0)
+        .await;
+    assert!(r.is_err(), "a stopped node answered SDO: {r:?}");
+    node.start().await.unwrap();
+    node.wait_for_state(NmtState::Operational, t).await.unwrap();
+    let hb: u16 = node
+        .sdo()
+        .read(0x1017, 0)
+        .await
+        .expect("SDO when operational");
+    assert_eq!(hb, 100);
+
+    // Killed: the loss is reported, and it is the first (the stream has every event since the
+    // watch began, so a loss during the NMT commands would come first, before the kill).
+    let killed_at = net.now();
+    dev.kill();
+    let lost = tokio::time::timeout(Duration::from_secs(5), async {
+        while let Some(e) = events.next().await {
+            match e {
+                NetEvent::HeartbeatLost { node: n, last, at } if n.raw() == NODE => {
+                    return (last, at)
+                }
+                NetEvent::HeartbeatLost { .. } | NetEvent::NotHeard { .. } => {
+                    panic!("unexpected {e:?}")
+                }
+                _ => {}
+            }
+        }
+        panic!("the event stream ended")
+    })
+    .await
+    .expect("HeartbeatLost within 5 s of the kill");
+    let (last, at) = lost;
+    assert!(
+        at >= killed_at,
+        "heartbeat reported lost at {at:?}, before the kill at {killed_at:?}"
+    );
+    // Declared at the watch's timeout after the last heartbeat (a few ms later in the VM,
+    // whose emulated CPU runs the timer late).
+    let after = at - last;
+    assert!(
+        after >= duocan::Duration::from_millis(600) && after < duocan::Duration::from_millis(1000),
+        "loss declared {after:?} after the last heartbeat; the watch's timeout is 600 ms"
+    );
+    net.close().await;
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn pdos_configured_by_sdo_go_both_ways() {
+    let (net, _wire) = open();
+    let _dev = boot(&net, "pdo").await;
+    let node = net.node(NODE);
+    let tpdo = node.tpdo(1);
+    let mut map = tpdo.read().await.expect("read TPDO1's configuration");
+    map.clear();
+    // The two things canopend's dictionary lets a TPDO carry: the SDO server's request
+    // COB-ID (0x1200:1) and the error register (0x1001).
+    map.add(0x1200, 1, 32).unwrap();
+    map.add(0x1001, 0, 8).unwrap();
+    map.transmission_type = 255;
+    map.event_timer_ms = Some(100);
+    map.enabled = true;
+    tpdo.save(&map).await.expect("save TPDO1");
+    let back = tpdo.read().await.expect("read TPDO1 back");
+    assert_eq!(back.entries.len(), 2);
+    assert_eq!(back.event_timer_ms, Some(100));
+    assert!(back.enabled);
+    node.start().await.unwrap();
+    let v = node
+        .wait_for_pdo(1, Duration::from_secs(3))
+        .await
+        .expect("TPDO1 within 3 s");
+    assert_eq!(
+        v.at(0x1200, 1).and_then(|x| x.as_u64()),
+        Some(u64::from(REQ))
+    );
+    assert_eq!(v.at(0x1001, 0).and_then(|x| x.as_u64()), Some(0));
+    // By the names of its EDS, too.
+    assert_eq!(
+        v.get("COB-ID client to server (rx)")
+            .and_then(|x| x.as_u64()),
+        Some(u64::from(REQ)),
+        "{v:?}"
+    );
+
+    // The other way: RPDO1 carries the SDO client's COB-ID (0x1280:1, the one entry canopend
+    // lets an RPDO write); a value with bit 31 (not valid) is one it accepts at any time.
+    let rpdo = node.rpdo(1);
+    let mut map = rpdo.read().await.expect("read RPDO1's configuration");
+    map.clear();
+    map.add(0x1280, 1, 32).unwrap();
+    map.transmission_type = 255;
+    map.enabled = true;
+    rpdo.save(&map).await.expect("save RPDO1");
+    let before: u32 = node.sdo().read(0x1280, 1).await.expect("read 0x1280:1");
+    assert_eq!(before, 0x8000_0000);
+    let sent = 0x8000_0605u32;
+    rpdo.send_named(&[("COB-ID client to server (tx)", sent.into())])
+        .await
+        .expect("send RPDO1");
+    // canopend takes the PDO in its next cycle: read until it shows, at most 2 s.
+    let deadline = tokio::time::Instant::now() + Duration::from_secs(2);
+    loop {
+        let now: u32 = node.sdo().read(0x1280, 1).await.expect("read 0x1280:1");
+        if now == sent {
+            break;
+        }
+        assert!(
+            tokio::time::Instant::now() < deadline,
+            "0x1280:1 is {now:#010x} 2 s after RPDO1 carried {sent:#010x}"
+        );
+        tokio::time::sleep(Duration::from_millis(50)).await;
+    }
+    net.close().await;
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn canopends_heartbeat_consumer_timeout_comes_as_an_emcy() {
+    let (net, _wire) = open();
+    let _dev = boot(&net, "emcy").await;
+    let node = net.node(NODE);
+    // canopend watches node 0x20's heartbeat, 300 ms; node 0x20 (a raw port here) sends one
+    // and goes silent.
+    node.sdo()
+        .write(0x1016, 1, (0x20u32 << 16) | 300)
+        .await
+        .expect("write 0x1016:1");
+    let mut raw = SocketCanPort::open("vcan0").expect("open vcan0");
+    let since = net.now();
+    raw.send(&Frame::from_array(Id::Standard(0x720), [0x7F]))
+        .await
+        .expect("send a heartbeat of 0x20");
+    let emcy = node
+        .wait_for_emcy(Duration::from_secs(3))
+        .await
+        .expect("canopend's EMCY within 3 s");
+    assert_eq!(emcy.code, 0x8130, "{emcy:?}");
+    // The error register: a communication error.
+    assert_eq!(emcy.register & 0x10, 0x10, "{emcy:?}");
+    assert!(net.now() - since >= duocan::Duration::from_millis(300));
+    // Its error history has it too.
+    let n: u8 = node.sdo().read(0x1003, 0).await.expect("read 0x1003:0");
+    assert!(n >= 1, "0x1003:0 = {n}");
+    let newest: u32 = node.sdo().read(0x1003, 1).await.expect("read 0x1003:1");
+    assert_eq!(newest & 0xFFFF, 0x8130, "0x1003:1 = {newest:#010x}");
+    net.close().await;
+}
