@@ -42,7 +42,8 @@ pub enum NetEvent {
         node: NodeId,
         /// Its last heartbeat.
         last: Instant,
-        /// When the loss was declared (`last` + the watch timeout).
+        /// When the loss was declared: `last` + the watch timeout on a simulated clock; on
+        /// wall-clock time, when the runtime woke for that deadline (a little later).
         at: Instant,
     },
     /// A lost heartbeat came back.
@@ -120,7 +121,7 @@ pub enum NetEvent {
         node: NodeId,
         /// When the watch began.
         since: Instant,
-        /// When (`since` + the timeout).
+        /// When (`since` + the timeout; on wall-clock time, when the runtime woke for it).
         at: Instant,
     },
     /// This reader fell behind and `n` events were dropped for it (the stream goes on with the
