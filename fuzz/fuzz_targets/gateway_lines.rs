@@ -10,7 +10,12 @@
 #[path = "../../cli/src/args/mod.rs"]
 mod args;
 
-// Side by side at the root, as in the tool's gateway module: `parse` uses `super::value`.
+// Side by side at the root, as in the tool's gateway module: `parse` uses `super::value`,
+// `super::error` and `super::lss`.
+#[path = "../../cli/src/cmd/gateway/error.rs"]
+mod error;
+#[path = "../../cli/src/cmd/gateway/lss.rs"]
+mod lss;
 #[path = "../../cli/src/cmd/gateway/parse.rs"]
 mod parse;
 #[path = "../../cli/src/cmd/gateway/value.rs"]
@@ -42,16 +47,15 @@ fuzz_target!(|data: &[u8]| {
     }
     for ty in TYPES {
         let t = DataType::parse(ty).expect("a 309-3 type");
-        if let Ok(text) = show_value(t, data) {
-            assert!(!text.contains(['\n', '\r']), "{ty}: {text:?}");
-        }
+        let text = show_value(t, data);
+        assert!(!text.contains(['\n', '\r']), "{ty}: {text:?}");
     }
     let coded = base64_encode(data);
     assert_eq!(base64_decode(&coded).as_deref(), Some(data));
     if let Ok(text) = std::str::from_utf8(data) {
         if !text.contains(|c: char| c.is_control()) && !text.ends_with('\0') {
-            let shown = show_value(DataType::Visible, data).expect("any size");
-            match parse_line(&format!("w 0x2000 0 vs {shown}")) {
+            let shown = show_value(DataType::Visible, data);
+            match parse_line(&format!("[1] w 0x2000 0 vs {shown}")) {
                 Line::Request(r) => assert_eq!(
                     r.command,
                     Command::Write {
