@@ -158,9 +158,9 @@ async fn an_rpdo_goes_out_on_both_buses_and_changes_the_nodes_dictionary() {
     r.node.shutdown().await;
 }
 
-#[tokio::test(start_paused = true)]
-async fn a_standby_master_sends_no_rpdo_and_says_why() {
-    let buses = [MemBus::new("bus1"), MemBus::new("bus2")];
+/// Masters 1 and 2 on both buses, each the other's peer, 2.5 s after they opened: the active
+/// one and the standby.
+async fn two_masters(buses: &[MemBus; 2]) -> (RedundantNetwork, RedundantNetwork) {
     let open = |id: u8, peer: u8| {
         RedundantNetwork::builder()
             .node_id(id)
@@ -172,12 +172,17 @@ async fn a_standby_master_sends_no_rpdo_and_says_why() {
     };
     let (one, two) = (open(1, 2), open(2, 1));
     sleep_ms(2500).await;
-    let roles = (one.role().await.unwrap(), two.role().await.unwrap());
-    let (active, standby) = match roles {
-        (MasterRole::Active, MasterRole::Standby(_)) => (&one, &two),
-        (MasterRole::Standby(_), MasterRole::Active) => (&two, &one),
+    match (one.role().await.unwrap(), two.role().await.unwrap()) {
+        (MasterRole::Active, MasterRole::Standby(_)) => (one, two),
+        (MasterRole::Standby(_), MasterRole::Active) => (two, one),
         r => panic!("one active master and one standby: {r:?}"),
-    };
+    }
+}
+
+#[tokio::test(start_paused = true)]
+async fn a_standby_master_sends_no_rpdo_and_says_why() {
+    let buses = [MemBus::new("bus1"), MemBus::new("bus2")];
+    let (active, standby) = two_masters(&buses).await;
     // RPDO 1 of node 5, learned (no SDO: the standby master has no client to use).
     let r1 = standby.node(5).rpdo(1);
     let mut m = r1.blank().unwrap();
@@ -314,22 +319,7 @@ fn gaps(at: &[tokio::time::Instant]) -> Vec<Duration> {
 #[tokio::test(start_paused = true)]
 async fn start_and_stop_sync_change_the_period_on_the_wire_and_a_standby_produces_none() {
     let buses = [MemBus::new("bus1"), MemBus::new("bus2")];
-    let open = |id: u8, peer: u8| {
-        RedundantNetwork::builder()
-            .node_id(id)
-            .heartbeat(ms(20))
-            .master_timeout(ms(50))
-            .peer_master(peer)
-            .open(buses[0].port(), buses[1].port())
-            .unwrap()
-    };
-    let (one, two) = (open(1, 2), open(2, 1));
-    sleep_ms(2500).await;
-    let (active, standby) = match (one.role().await.unwrap(), two.role().await.unwrap()) {
-        (MasterRole::Active, MasterRole::Standby(_)) => (&one, &two),
-        (MasterRole::Standby(_), MasterRole::Active) => (&two, &one),
-        r => panic!("one active master and one standby: {r:?}"),
-    };
+    let (active, standby) = two_masters(&buses).await;
     let mut spy = buses[1].port();
     assert!(syncs(&mut spy, 200).await.is_empty(), "no SYNC configured");
     // The standby master takes a period, and produces nothing.
