@@ -46,9 +46,10 @@
 //!   correction in force follows the lag in steps of half the window. A correction left
 //!   below half the window is none (ordinary skew, not carried into the next lag).
 //! - A late sample is not taken when the port of its later copy met a fresh twin within the
-//!   window in the earlier copy's millisecond or after it: a port hands its copies over in
-//!   order, so that port did not lag then, and the earlier copy is the later half of a twin
-//!   whose first half that port had before it listened. (A board that booted between a
+//!   window after the earlier copy's stamp: a port hands its copies over in order, so that
+//!   port did not lag then, and the earlier copy is the later half of a twin whose first half
+//!   that port had before it listened (builds with `alloc`; the bare-metal images leave this
+//!   rule out, their flash has no room). (A board that booted between a
 //!   frame's copy on one bus and its copy on the other, delayed by retransmissions, paired
 //!   that copy with the next occurrence of a cyclic frame: a false lag of 8 ms, and every
 //!   SYNC after it dropped as the twin of the one before.)

@@ -147,9 +147,9 @@ impl<const SLOTS: usize> Merger<SLOTS> {
             // A lagging twin, not the repeat of one this port lost in an outage: this port
             // was receiving after the record's time (an outage leaves it nothing in between),
             // and not on time: a port hands its copies over in order, so one that met a fresh
-            // twin within the window in the record's millisecond or after did not lag then (the
-            // record is the later half of a twin whose other half this port had before it
-            // listened: a board that booted between a frame's two copies).
+            // twin within the window after the record's stamp did not lag then (the record is
+            // the later half of a twin whose other half this port had before it listened: a
+            // board that booted between a frame's two copies). Builds with `alloc` only.
             // And the record is the one copy of its key the other port carried up to this
             // copy: that port holds nothing back, or has handed over everything stamped up to
             // a window before it (a reader running behind may still hold repeats, sent on its
@@ -158,7 +158,7 @@ impl<const SLOTS: usize> Merger<SLOTS> {
                 && r.fresh
                 && s - r.at < self.horizon
                 && self.frontier[port] > r.at
-                && self.on_time[port] < (r.at >> 10) as u32
+                && self.late_since(port, r.at)
                 && (!self.holds_back(1 - port) || shown.saturating_add(self.window) >= s)
             {
                 seen = Some(Sample {
@@ -188,8 +188,9 @@ impl<const SLOTS: usize> Merger<SLOTS> {
         let single = only && st.unmatched == 1;
         self.unlink_first(slot);
         let measured = single && r.fresh && self.since_shift(&r, 1 - port);
+        #[cfg(feature = "alloc")]
         if measured {
-            self.on_time[port] = (s >> 10) as u32;
+            self.on_time[port] = self.on_time[port].max(s);
         }
         Twin::Found(measured.then(|| Sample {
             skew: s as i64 - r.at as i64,
@@ -208,6 +209,18 @@ impl<const SLOTS: usize> Merger<SLOTS> {
     fn since_shift(&self, r: &super::Record, p: usize) -> bool {
         let shifted = self.shifted[p];
         shifted == 0 || r.handed() > shifted.saturating_add(1_000)
+    }
+
+    /// Whether port `port` met no fresh twin on time after `at` (always, without `alloc`).
+    #[inline]
+    fn late_since(&self, port: usize, at: u64) -> bool {
+        #[cfg(feature = "alloc")]
+        return self.on_time[port] <= at;
+        #[cfg(not(feature = "alloc"))]
+        {
+            let _ = (port, at);
+            true
+        }
     }
 
     /// Unmatched records of `frame`'s key, with the port holding them.

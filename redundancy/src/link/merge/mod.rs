@@ -292,12 +292,12 @@ pub struct Merger<const SLOTS: usize> {
     table: Table<SLOTS>,
     /// Per port: the newest stamp it received (µs).
     frontier: [u64; 2],
-    /// Per port: the stamp of the last of its copies that met a fresh twin within the window,
-    /// in units of 1,024 µs, in 32 bits (wrapping every 51 days: around the wrap, one late
-    /// sample may be refused): up to there it was on time. A time on the common time line: a
-    /// change of the port's correction leaves it as it is. (Narrow, so that the link does not
-    /// grow: every byte of it moves code in a 32-bit device's image.)
-    on_time: [u32; 2],
+    /// Per port: the stamp (µs) of the last of its copies that met a fresh twin within the
+    /// window: up to there it was on time. A time on the common time line: a change of the
+    /// port's correction leaves it as it is. Builds with `alloc` only: in a bare-metal image
+    /// (the safety gateway's) every byte of the link moves code, and its flash has no room.
+    #[cfg(feature = "alloc")]
+    on_time: [u64; 2],
     /// Per port: how long after its stamp its newest copy was handed over (µs): how far behind
     /// its reader runs (see [`Merger::shown`]), and the correction its stamps get (µs, the sum
     /// of [`Merger::shift`]).
@@ -347,6 +347,7 @@ impl<const SLOTS: usize> Merger<SLOTS> {
             len: 0,
             table: Table::new(),
             frontier: [0; 2],
+            #[cfg(feature = "alloc")]
             on_time: [0; 2],
             behind: [0; 2],
             corrected: [0; 2],
@@ -482,8 +483,10 @@ impl<const SLOTS: usize> Merger<SLOTS> {
         for f in &mut self.frontier {
             *f = f.saturating_sub(by);
         }
-        // Forgotten: it only ever holds a sample back.
-        self.on_time = [0; 2];
+        #[cfg(feature = "alloc")]
+        for f in &mut self.on_time {
+            *f = f.saturating_sub(by);
+        }
         self.now = self.now.saturating_sub(by);
         for s in &mut self.shifted {
             *s = s.saturating_sub(by);

@@ -387,6 +387,7 @@ fn only_a_fresh_single_copy_measures_a_lag() {
 }
 
 #[test]
+#[cfg(feature = "alloc")]
 fn a_port_on_time_after_a_record_measures_no_lag_from_it() {
     // A layer that starts between a frame's two copies: port 0's copy of the cyclic frame 1
     // (its port 1 copy came before the start) is the first; port 1 then meets a fresh twin on
