@@ -7,7 +7,7 @@ use crate::link::health::{Health, HealthConfig, PortState, RxOutcome};
 use crate::link::outbox::{Outbox, MACHINE_QUEUE};
 use duocan::frame::instant::TimeWatch;
 use duocan::machine::{ErrorCause, LinkRequest, PortStatus};
-use duocan::Frame;
+use duocan::{Frame, Id};
 use std::vec::Vec;
 
 const T: Duration = Duration::from_millis(12);
