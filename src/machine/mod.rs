@@ -295,6 +295,51 @@ pub trait BusLink {
     }
 }
 
+/// Inside `impl Device for T`: every method but `poll_event` (and the associated type) is
+/// the one of the device in `T`'s field `$field`. For a wrapper that only turns the inner
+/// device's events into its own.
+#[doc(hidden)]
+#[macro_export]
+macro_rules! forward_device_to {
+    ($field:ident) => {
+        fn port_count(&self) -> usize {
+            self.$field.port_count()
+        }
+        fn handle_rx(&mut self, now: $crate::Instant, port: usize, frame: &$crate::Frame) {
+            self.$field.handle_rx(now, port, frame);
+        }
+        fn handle_rx_at(
+            &mut self,
+            now: $crate::Instant,
+            port: usize,
+            frame: &$crate::Frame,
+            at: $crate::Instant,
+        ) {
+            self.$field.handle_rx_at(now, port, frame, at);
+        }
+        fn handle_port_status(
+            &mut self,
+            now: $crate::Instant,
+            port: usize,
+            status: $crate::machine::PortStatus,
+        ) {
+            self.$field.handle_port_status(now, port, status);
+        }
+        fn handle_timeout(&mut self, now: $crate::Instant) {
+            self.$field.handle_timeout(now);
+        }
+        fn poll_transmit(&mut self) -> Option<(usize, $crate::Frame)> {
+            self.$field.poll_transmit()
+        }
+        fn poll_port_request(&mut self) -> Option<(usize, $crate::machine::PortRequest)> {
+            self.$field.poll_port_request()
+        }
+        fn poll_timeout(&self) -> Option<$crate::Instant> {
+            self.$field.poll_timeout()
+        }
+    };
+}
+
 /// A device behind a pointer is a device: the methods are the pointee's.
 macro_rules! forward_device {
     ($($ptr:tt)*) => {

@@ -34,7 +34,7 @@ use crate::supervisor::pairs::PairsEvent;
 use crate::SupervisorEvent;
 use alloc::boxed::Box;
 use alloc::string::ToString;
-use duocan::machine::{BusLink, Device, PortRequest, PortState, PortStatus, StationEvent};
+use duocan::machine::{BusLink, Device, PortState, StationEvent};
 use duocan::master::MasterError;
 use duocan::net::{CoreEvent, ExtEvent, NetClient, NetCore, NetError, NetEvent};
 use duocan::nmt::NmtTarget;
@@ -83,10 +83,10 @@ impl MasterCore {
     }
 }
 
-/// The door's event of a network event, if the stream shows it.
-pub(super) fn core_event(e: NetworkEvent) -> Option<CoreEvent> {
-    let at = e.at;
-    let net = match e.kind {
+/// The door's event of a port's change of health or of a node's reach, from the network's
+/// event or, through `typed`, from the dual-bus layer's.
+pub(super) fn link_event(kind: &K, at: Instant) -> Option<NetEvent> {
+    Some(match *kind {
         K::Port {
             port,
             from,
@@ -100,6 +100,17 @@ pub(super) fn core_event(e: NetworkEvent) -> Option<CoreEvent> {
             at,
         },
         K::Reach { node, heard } => NetEvent::Reach { node, heard, at },
+        _ => return None,
+    })
+}
+
+/// The door's event of a network event, if the stream shows it.
+pub(super) fn core_event(e: NetworkEvent) -> Option<CoreEvent> {
+    let at = e.at;
+    if let Some(net) = link_event(&e.kind, at) {
+        return Some(CoreEvent::Net(net));
+    }
+    let net = match e.kind {
         K::NodeBooted { node } => NetEvent::BootUp { node, at },
         K::NodeState { node, from, to } => NetEvent::State { node, from, to, at },
         K::Emcy { node, msg } => NetEvent::Emcy { node, msg, at },
@@ -120,30 +131,7 @@ pub(super) fn core_event(e: NetworkEvent) -> Option<CoreEvent> {
 impl Device for MasterCore {
     type Event = CoreEvent;
 
-    fn port_count(&self) -> usize {
-        self.net.port_count()
-    }
-    fn handle_rx(&mut self, now: Instant, port: usize, frame: &Frame) {
-        self.net.handle_rx(now, port, frame);
-    }
-    fn handle_rx_at(&mut self, now: Instant, port: usize, frame: &Frame, at: Instant) {
-        self.net.handle_rx_at(now, port, frame, at);
-    }
-    fn handle_port_status(&mut self, now: Instant, port: usize, status: PortStatus) {
-        self.net.handle_port_status(now, port, status);
-    }
-    fn handle_timeout(&mut self, now: Instant) {
-        self.net.handle_timeout(now);
-    }
-    fn poll_transmit(&mut self) -> Option<(usize, Frame)> {
-        self.net.poll_transmit()
-    }
-    fn poll_port_request(&mut self) -> Option<(usize, PortRequest)> {
-        self.net.poll_port_request()
-    }
-    fn poll_timeout(&self) -> Option<Instant> {
-        self.net.poll_timeout()
-    }
+    duocan::forward_device_to!(net);
     fn poll_event(&mut self) -> Option<CoreEvent> {
         loop {
             let e = self.net.poll_event()?;

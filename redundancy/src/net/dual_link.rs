@@ -24,17 +24,19 @@
 //! # Ok(()) }
 //! ```
 
+use super::core::link_event;
 use super::sim_station::{self as station, StationScript};
 use crate::link::channel::ModeKind;
 use crate::link::classify::FrameClassifier;
 use crate::link::config::DualBusConfig;
 use crate::link::dual_bus::{DualBus, DEFAULT_MERGE_SLOTS};
-use crate::link::events::{LinkEvent, LinkEventKind};
+use crate::link::events::LinkEvent;
+use crate::network::typed;
 use crate::network::RedundantError;
 use alloc::boxed::Box;
 use alloc::string::{String, ToString};
 use core::convert::Infallible;
-use duocan::machine::{BusLink, LinkRequest, PortRequest, PortStatus};
+use duocan::machine::{BusLink, LinkRequest, PortRequest, PortStatus, StationEvent};
 use duocan::net::{NetEvent, NetLink, NetOptions, Network};
 use duocan::port::Port;
 use duocan::profile::Predefined;
@@ -83,22 +85,7 @@ impl Default for DualLink {
 /// The front door's event of a layer event, if it is one the door shows.
 fn net_event(e: LinkEvent) -> Option<NetEvent> {
     let at = e.at;
-    Some(match e.kind {
-        LinkEventKind::Port {
-            port,
-            from,
-            to,
-            reason,
-        } => NetEvent::PortState {
-            port,
-            from,
-            to,
-            reason,
-            at,
-        },
-        LinkEventKind::Reach { node, heard } => NetEvent::Reach { node, heard, at },
-        _ => return None,
-    })
+    link_event(&typed(&StationEvent::Link(e))?, at)
 }
 
 impl<const SLOTS: usize> BusLink for DualLink<SLOTS> {

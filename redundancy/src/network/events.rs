@@ -134,7 +134,7 @@ pub(super) fn when(e: &StationEvent<LinkEvent, SupervisorEvent>) -> Instant {
 }
 
 /// The typed kind of a station event, if it has one.
-pub(super) fn typed(e: &StationEvent<LinkEvent, SupervisorEvent>) -> Option<NetworkEventKind> {
+pub(crate) fn typed(e: &StationEvent<LinkEvent, SupervisorEvent>) -> Option<NetworkEventKind> {
     use NetworkEventKind as K;
     Some(match e {
         StationEvent::Link(l) => match l.kind {

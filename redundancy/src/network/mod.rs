@@ -67,6 +67,8 @@
 mod builder;
 mod error;
 mod events;
+#[cfg(feature = "tokio")]
+pub(crate) use events::typed;
 
 pub use builder::{RedundantNetworkBuilder, DEFAULT_HEARTBEAT, DEFAULT_MASTER_TIMEOUT};
 pub use error::{RedundantError, Role};
@@ -82,7 +84,7 @@ use crate::FrameClassifier;
 use core::fmt;
 use duocan::cia302::pdo_config::PdoConfig;
 use duocan::frame::storage::Heap;
-use duocan::machine::{Device, PortRequest, PortStatus};
+use duocan::machine::Device;
 use duocan::master::{MasterError, SlaveView};
 use duocan::nmt::NmtTarget;
 use duocan::od::abort::AbortCode;
@@ -90,7 +92,7 @@ use duocan::od::{DynamicDictionary, ObjectDictionary, OdValue};
 use duocan::pdo::Dir;
 use duocan::profile::{IdProfile, Predefined};
 use duocan::sdo::{RequestId, SdoError, SdoOptions};
-use duocan::{Frame, Instant, NmtCommand, NodeId};
+use duocan::{Instant, NmtCommand, NodeId};
 
 /// One dual-bus network as the application sees it: `D` is the master's dictionary, `P` the
 /// identifier profile (as for the [`SupervisedStation`] underneath).
@@ -389,30 +391,7 @@ impl<P: IdProfile + FrameClassifier> LogicalNetwork<DynamicDictionary, P> {
 impl<D: ObjectDictionary, P: IdProfile + FrameClassifier> Device for LogicalNetwork<D, P> {
     type Event = NetworkEvent;
 
-    fn port_count(&self) -> usize {
-        self.station.port_count()
-    }
-    fn handle_rx(&mut self, now: Instant, port: usize, frame: &Frame) {
-        self.station.handle_rx(now, port, frame);
-    }
-    fn handle_rx_at(&mut self, now: Instant, port: usize, frame: &Frame, at: Instant) {
-        self.station.handle_rx_at(now, port, frame, at);
-    }
-    fn handle_port_status(&mut self, now: Instant, port: usize, status: PortStatus) {
-        self.station.handle_port_status(now, port, status);
-    }
-    fn handle_timeout(&mut self, now: Instant) {
-        self.station.handle_timeout(now);
-    }
-    fn poll_transmit(&mut self) -> Option<(usize, Frame)> {
-        self.station.poll_transmit()
-    }
-    fn poll_port_request(&mut self) -> Option<(usize, PortRequest)> {
-        self.station.poll_port_request()
-    }
-    fn poll_timeout(&self) -> Option<Instant> {
-        self.station.poll_timeout()
-    }
+    duocan::forward_device_to!(station);
     fn poll_event(&mut self) -> Option<NetworkEvent> {
         let e = self.station.poll_event()?;
         let at = events::when(&e);
