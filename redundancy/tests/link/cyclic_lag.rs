@@ -43,10 +43,7 @@ fn run(net: &mut Net, stop: Instant) {
 /// called lagging anywhere; no heartbeat consumer timed out.
 fn assert_exact(net: &Net) {
     net.assert_application_exact();
-    for r in 2..=SLAVES + 1 {
-        let (produced, received) = sync_counts(net, r);
-        assert_eq!(received, produced, "SYNC at node {r}");
-    }
+    net.assert_sync_exact();
     net.assert_no_heartbeat_lost();
     for n in 1..=SLAVES + 1 {
         for e in net.link_events(n) {

@@ -246,6 +246,18 @@ impl Net {
             .collect()
     }
 
+    /// Every slave received every SYNC the master produced, exactly once; how many it produced
+    /// (for the caller's check that SYNC ran).
+    pub fn assert_sync_exact(&self) -> usize {
+        let mut produced = 0;
+        for r in 2..=self.devs.len() as u8 {
+            let (p, received) = sync_counts(self, r);
+            assert_eq!(received, p, "SYNC at node {r}");
+            produced = p;
+        }
+        produced
+    }
+
     /// Every station received every other station's application frames exactly once, in order.
     pub fn assert_application_exact(&self) {
         for r in 1..=self.devs.len() as u8 {
