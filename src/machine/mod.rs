@@ -65,6 +65,13 @@ pub trait Machine {
     type LinkCommand;
     /// A frame arrived from the (logical) bus.
     fn handle_frame(&mut self, now: Instant, frame: &Frame);
+    /// The same, with the instant its port stamped it on the bus (`at`, before `now` when the
+    /// receive path runs behind): a machine whose deadlines wait for a node's answer can allow
+    /// for the delay. By default the stamp is not used.
+    fn handle_frame_at(&mut self, now: Instant, frame: &Frame, at: Instant) {
+        let _ = at;
+        self.handle_frame(now, frame);
+    }
     /// Time passed; do what is due at `now`.
     fn handle_timeout(&mut self, now: Instant);
     /// Next frame to put on the bus.
@@ -498,10 +505,13 @@ where
     }
     /// What the link made of a received frame: its requests, then the frame it delivers, to
     /// the machine.
-    fn received(&mut self, now: Instant, f: Option<Frame>) {
+    fn received(&mut self, now: Instant, f: Option<Frame>, at: Option<Instant>) {
         self.forward(now);
         if let Some(f) = f {
-            self.machine.handle_frame(now, &f);
+            match at {
+                Some(at) => self.machine.handle_frame_at(now, &f, at),
+                None => self.machine.handle_frame(now, &f),
+            }
             self.forward(now);
         }
     }
@@ -523,7 +533,7 @@ where
             Some(at) => self.link.handle_rx_at(now, port, frame, at),
             None => self.link.handle_rx(now, port, frame),
         };
-        self.received(now, f);
+        self.received(now, f, at);
         f
     }
 }

@@ -384,6 +384,58 @@ fn a_stopped_member_heard_without_boot_up_is_reset_not_configured() {
 }
 
 #[test]
+fn a_member_started_while_the_table_hears_the_bus_late_has_as_long_again_to_run() {
+    // The table hears the bus 67 ms late (its master's only working bus handed over late):
+    // A, started at 5 ms, beats pre-operational until the start reaches it and operational
+    // from its next heartbeat on, which the table hears at 5 + 20 + 67 = 92 ms, past the start
+    // + the consumer time (55 ms). It has until 5 + 50 + 67 = 122 ms to be heard running.
+    let late = Duration::from_millis(67);
+    let started = |runs: bool| {
+        let (mut s, p) = table(PairsConfig::default());
+        s.boot_up(ms(0), A);
+        s.boot_up(ms(0), B);
+        s.heard_behind(ms(4), late);
+        s.configured(ms(5), A, true);
+        s.configured(ms(6), B, true);
+        assert_eq!(nmts(&mut s), [(NmtCommand::Start, 0x10)]);
+        for t in (12..=112).step_by(20) {
+            s.heard_behind(ms(t), late);
+            let state = if runs && t >= 92 {
+                NmtState::Operational
+            } else {
+                NmtState::PreOperational
+            };
+            s.heartbeat(ms(t), A, state);
+            s.heartbeat(ms(t + 1), B, NmtState::PreOperational);
+            s.handle_timeout(ms(t + 2));
+        }
+        events(&mut s);
+        (s, p)
+    };
+    let (mut s, p) = started(true);
+    s.handle_timeout(ms(130));
+    assert_eq!(commands(&mut s), []);
+    assert_eq!(s.pair(p).unwrap().active, Some(Member::A));
+    // One that never runs still fails, at that deadline exactly.
+    let (mut s, p) = started(false);
+    s.handle_timeout(ms(122) - Duration::from_micros(1));
+    assert_eq!(s.pair(p).unwrap().active, Some(Member::A));
+    s.handle_timeout(ms(122));
+    assert_eq!(s.pair(p).unwrap().active, Some(Member::B));
+    assert_eq!(
+        roles(&mut s),
+        [(
+            ms(122),
+            Some(Member::A),
+            Some(Member::B),
+            RoleReason::ActiveNotOperational {
+                state: NmtState::PreOperational
+            }
+        )]
+    );
+}
+
+#[test]
 fn a_shadow_follows_the_active_masters_commands_and_takes_over_without_resets() {
     let (mut s, p) = table(PairsConfig::default());
     s.set_authority(ms(0), Authority::Shadow);

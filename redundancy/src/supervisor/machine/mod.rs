@@ -487,6 +487,11 @@ impl<D: ObjectDictionary, P: IdProfile> Machine for Supervisor<D, P> {
     /// Which pair member's process data the dual-bus layer delivers.
     type LinkCommand = LinkCommand;
 
+    fn handle_frame_at(&mut self, now: Instant, frame: &Frame, at: Instant) {
+        self.pairs.heard_behind(now, now.saturating_since(at));
+        self.handle_frame(now, frame);
+    }
+
     fn handle_frame(&mut self, now: Instant, frame: &Frame) {
         self.watch_clock(now);
         self.heard = Some(now);

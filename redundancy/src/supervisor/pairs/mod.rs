@@ -34,7 +34,8 @@
 //!   without a live standby it is reset and the pair has no active member. Until it is heard
 //!   operational (a heartbeat in flight when it was started may still say pre-operational) only
 //!   operational heartbeats move its deadline, which its start pushed to the start + the consumer
-//!   time: a member that never runs after its start fails then. Not failures: a member the
+//!   time (+ how far behind the bus the table hears, [`PairSupervisor::heard_behind`]): a
+//!   member that never runs after its start fails then. Not failures: a member the
 //!   application sent to pre-operational or stopped through this table's master
 //!   ([`PairSupervisor::application_nmt`], [`PairSupervisor::is_held`]) stays active, not
 //!   running, until it or this table starts it again (its silence is still judged); a member
@@ -132,7 +133,7 @@ use duocan::frame::queue::Fifo;
 #[cfg(feature = "alloc")]
 use duocan::frame::storage::Heap;
 use duocan::frame::storage::{BoundedVec, Inline, Storage};
-use duocan::{Instant, NmtCommand, NmtState, NodeId};
+use duocan::{Duration, Instant, NmtCommand, NmtState, NodeId};
 
 mod config;
 mod deadlines;
@@ -183,6 +184,9 @@ pub struct PairSupervisor<S: Storage = Inline> {
     /// Node-IDs (bits) of active members heard operational since they became active: a
     /// heartbeat of theirs saying otherwise is a failure.
     running: u128,
+    /// How far behind the bus the observations come (see [`PairSupervisor::heard_behind`]),
+    /// and since when that is the largest delay seen.
+    behind: (Duration, Instant),
 }
 
 impl PairSupervisor {
@@ -221,6 +225,7 @@ impl<S: Storage> PairSupervisor<S> {
             by_application: 0,
             held: 0,
             running: 0,
+            behind: (Duration::ZERO, Instant::ZERO),
         }
     }
 

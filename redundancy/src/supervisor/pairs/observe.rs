@@ -8,9 +8,43 @@ use super::trust::bit;
 use super::{Authority, LossReason, PairCommand, PairSupervisor, PairsEvent, Phase, RoleReason};
 use crate::pair::Member;
 use duocan::frame::storage::Storage;
-use duocan::{Instant, NmtCommand, NmtState, NodeId};
+use duocan::{Duration, Instant, NmtCommand, NmtState, NodeId};
+
+/// How long the largest receive delay seen is kept before a smaller one replaces it (a lag
+/// that ended stops counting within this).
+const BEHIND_KEPT: Duration = Duration::from_secs(1);
+/// A receive delay this long or longer is no delay but a clock that stepped between the stamp
+/// and the hand-over: ignored.
+const BEHIND_MAX: Duration = Duration::from_secs(1);
 
 impl<S: Storage> PairSupervisor<S> {
+    /// The observations made at `now` come from a frame the bus carried `delay` earlier (its
+    /// port's reader runs behind). A member this table starts has its consumer time *plus the
+    /// largest such delay of the last second* to be heard running: its first operational
+    /// heartbeat reaches the table that much later (a master whose only working bus was handed
+    /// over 67 ms late reset each member it started 50 ms after the start, by turns, before its
+    /// operational heartbeat arrived). Silences are unaffected: a steady delay shifts every
+    /// heartbeat alike.
+    pub fn heard_behind(&mut self, now: Instant, delay: Duration) {
+        if delay >= BEHIND_MAX {
+            return;
+        }
+        let (max, since) = self.behind;
+        if delay >= max || now < since || now.saturating_since(since) >= BEHIND_KEPT {
+            self.behind = (delay, now);
+        }
+    }
+
+    /// How far behind the bus the table's observations come now (see [`Self::heard_behind`]).
+    pub(super) fn behind(&self, now: Instant) -> Duration {
+        let (max, since) = self.behind;
+        if now < since || now.saturating_since(since) >= BEHIND_KEPT {
+            Duration::ZERO
+        } else {
+            max
+        }
+    }
+
     /// A node's boot-up message (heartbeat with state initialising) at `now`.
     pub fn boot_up(&mut self, now: Instant, node: NodeId) {
         let Some((pair, m)) = self.locate(node) else {

@@ -112,9 +112,9 @@ impl<S: Storage> PairSupervisor<S> {
                 // A member already running (adopted) needs no start; nor does a suspect one,
                 // which the same instant's timeout replaces (a start would wake a board the
                 // table is about to reset). Started, it has the consumer time from now to be
-                // heard running.
+                // heard running, and as long again as the bus reaches this table late.
                 self.nmt(NmtCommand::Start, node);
-                let consumer = spec.consumer_time;
+                let consumer = spec.consumer_time + self.behind(t);
                 if let Stage::Joined { deadline } = &mut self.pairs[p].member_mut(m).stage {
                     *deadline = (*deadline).max(t + consumer);
                 }
