@@ -43,9 +43,10 @@ pub fn watch(run: &mut Run, f: Fault) {
         Fault::BoardDies { node, .. }
         | Fault::BootLoop { node, .. }
         | Fault::Stops { node, .. } => run.plant.sim.is_powered(run.plant.slave(node).0),
-        Fault::MasterDies { id, .. } | Fault::StepBack { id, .. } | Fault::JumpAhead { id, .. } => {
-            run.plant.sim.is_powered(run.plant.master(id))
-        }
+        Fault::MasterDies { id, .. }
+        | Fault::MasterBootLoop { id, .. }
+        | Fault::StepBack { id, .. }
+        | Fault::JumpAhead { id, .. } => run.plant.sim.is_powered(run.plant.master(id)),
         _ => true,
     };
     let before = counters(run);
@@ -244,6 +245,7 @@ fn took_effect(run: &Run, f: Fault, from: Instant, to: Instant, before: &Counter
         | Fault::BootLoop { .. }
         | Fault::SlowTx { .. }
         | Fault::MasterDies { .. }
+        | Fault::MasterBootLoop { .. }
         | Fault::StepBack { .. }
         | Fault::JumpAhead { .. } => true,
     }

@@ -88,6 +88,15 @@ pub enum Fault {
     },
     /// A master dies for `dur`, then boots again.
     MasterDies { id: u8, dur: Duration },
+    /// A master in a boot loop (its supply browning out, a watchdog firing during the
+    /// negotiation): `times` times, it is off for `off` and boots again, `every` apart; each
+    /// boot restarts its flying-master negotiation.
+    MasterBootLoop {
+        id: u8,
+        every: Duration,
+        off: Duration,
+        times: u32,
+    },
     /// A master's clock steps back by `by`.
     StepBack { id: u8, by: Duration },
     /// A master's clock jumps ahead by `by`.
@@ -160,6 +169,7 @@ impl Fault {
             Fault::BoardDies { .. } => "board dies",
             Fault::BootLoop { .. } => "board in a boot loop",
             Fault::MasterDies { .. } => "master dies",
+            Fault::MasterBootLoop { .. } => "master in a boot loop",
             Fault::StepBack { .. } => "clock step back",
             Fault::JumpAhead { .. } => "clock jump ahead",
             Fault::Noise { .. } => "noisy bus",
@@ -204,7 +214,9 @@ impl Fault {
                     + second
             }
             Fault::GrowingLag { top, step, .. } => step.saturating_mul(2 * top),
-            Fault::BootLoop { every, times, .. } => every.saturating_mul(times as u64),
+            Fault::BootLoop { every, times, .. } | Fault::MasterBootLoop { every, times, .. } => {
+                every.saturating_mul(times as u64)
+            }
             Fault::SwitchingLag { every, times, .. } => every.saturating_mul(times as u64),
             Fault::Stops { .. } | Fault::StepBack { .. } | Fault::JumpAhead { .. } => ms(0),
         }
@@ -569,6 +581,17 @@ pub fn apply(run: &mut Run, f: Fault) {
                 run.at(t + off, move |r| board_on(r, node));
             }
         }
+        Fault::MasterBootLoop {
+            id,
+            every,
+            off,
+            times,
+        } => {
+            for k in 0..times as u64 {
+                let dies = Fault::MasterDies { id, dur: off };
+                run.at(now + every.saturating_mul(k), move |r| apply(r, dies));
+            }
+        }
         Fault::MasterDies { id, dur } => {
             let d = run.plant.master(id);
             let i = dev_index(run, id);
@@ -709,7 +732,7 @@ pub fn random(rng: &mut Rng, pairs: u8, connectivity_free: bool, kinds: usize) -
 
 /// How many kinds of fault the campaign draws from (every class that holds, some in two
 /// shapes).
-pub const KINDS: usize = 25;
+pub const KINDS: usize = 26;
 
 /// Every kind [`draw`] knows: also receive clocks that drift apart (kind [`DRIFT`], always the
 /// last), which still fail combined with others (the README's "known and not fixed yet"), so
@@ -717,6 +740,10 @@ pub const KINDS: usize = 25;
 pub const KINDS_WITH_DRIFT: usize = KINDS + 1;
 /// The drift's kind.
 pub const DRIFT: usize = KINDS;
+
+/// The kinds the campaign knew before a master in a boot loop: the seeds in
+/// `REGRESSIONS_BOOT_LOOP` draw from these.
+pub const KINDS_BEFORE_MASTER_BOOT_LOOP: usize = 25;
 
 /// The kinds the campaign knew before a board in a boot loop: the seeds in
 /// `REGRESSIONS_OTHER_DUPLICATES` draw from these.
@@ -885,6 +912,12 @@ pub fn draw(rng: &mut Rng, pairs: u8, k: usize) -> Fault {
                 node: board(rng),
                 every: rng.ms(100, 300),
                 // Reset held for a few ms to most of the period.
+                off: rng.ms(2, 80),
+                times: 2 + rng.below(20) as u32,
+            },
+            25 => Fault::MasterBootLoop {
+                id: [STRONG, WEAK][rng.below(2) as usize],
+                every: rng.ms(100, 300),
                 off: rng.ms(2, 80),
                 times: 2 + rng.below(20) as u32,
             },

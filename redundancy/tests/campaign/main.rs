@@ -333,9 +333,15 @@ const REGRESSIONS_OTHER_DUPLICATES: &[(u64, u64, bool)] = &[
     // three at its pace in one state, later than the oracle allowed (it now counts as the
     // layer does).
     (3572, 55, true),
+    // Quiet: the master's only working bus handed over up to 69 ms late; each member it
+    // started was heard running only after the start + the consumer time, so it reset them by
+    // turns, and a 30 ms outage of both buses as they booted lost a configuration request
+    // (0.4 s without a running board). A started member now has the delay on top.
+    (3345, 13, true),
 ];
 
-/// Seeds drawn from every kind (a board in a boot loop among them) that failed and pass now:
+/// Seeds drawn from the kinds before a master in a boot loop (a board in a boot loop among
+/// them) that failed and pass now:
 /// the seed, the simulated seconds that reach the failure, on the quiet network or not (every
 /// one with the node that is not duocan).
 const REGRESSIONS_BOOT_LOOP: &[(u64, u64, bool)] = &[
@@ -586,9 +592,10 @@ fn every_seed_that_once_failed_passes() {
     let other = REGRESSIONS_OTHER_DUPLICATES
         .iter()
         .map(|&(seed, secs, quiet)| ((seed, secs), faults::KINDS_BEFORE_BOOT_LOOP, quiet, true));
-    let boot_loop = REGRESSIONS_BOOT_LOOP
-        .iter()
-        .map(|&(seed, secs, quiet)| ((seed, secs), faults::KINDS, quiet, true));
+    let boot_loop = REGRESSIONS_BOOT_LOOP.iter().map(|&(seed, secs, quiet)| {
+        let kinds = faults::KINDS_BEFORE_MASTER_BOOT_LOOP;
+        ((seed, secs), kinds, quiet, true)
+    });
     let runs = runs
         .chain(boot_loop)
         .chain(slow)
