@@ -21,7 +21,7 @@
 //!
 //! The fixed budget then asserts that every class took effect at least once.
 
-use crate::faults::Fault;
+use crate::faults::{bus_of, Fault};
 use crate::plant::{STRONG, WEAK};
 use crate::run::Run;
 use duocan::machine::{ErrorCause, StationEvent};
@@ -124,11 +124,17 @@ fn links_of<M>(
         .collect()
 }
 
-/// Every device's link events in `[from, to]`.
-fn all_link_events(run: &Run, from: Instant, to: Instant) -> Vec<LinkEvent> {
+/// Every device's link events in `[from, to]`, each with the device's port on bus 1, on
+/// bus 2 (crossed cabling swaps them).
+fn all_link_events(run: &Run, from: Instant, to: Instant) -> Vec<([usize; 2], LinkEvent)> {
     links(run)
         .into_iter()
-        .flat_map(|(n, _)| link_events(run, n, from, to))
+        .flat_map(|(n, _)| {
+            let ports = [0, 1].map(|b| bus_of(run, n, b));
+            link_events(run, n, from, to)
+                .into_iter()
+                .map(move |e| (ports, e))
+        })
         .collect()
 }
 
@@ -148,10 +154,10 @@ fn master_events(run: &Run, from: Instant, to: Instant) -> Vec<SupervisorEvent> 
 }
 
 /// A port on bus `bus` left `Ok` (any device).
-fn port_left_ok(events: &[LinkEvent], bus: usize) -> bool {
-    events.iter().any(|e| {
+fn port_left_ok(events: &[([usize; 2], LinkEvent)], bus: usize) -> bool {
+    events.iter().any(|(ports, e)| {
         matches!(e.kind, LinkEventKind::Port { port, to, .. }
-            if port as usize == bus && to != PortState::Ok)
+            if port as usize == ports[bus] && to != PortState::Ok)
     })
 }
 
@@ -169,7 +175,8 @@ fn errors_grew(
         if node.is_some_and(|x| x != *id) {
             return false;
         }
-        let (n, b) = (&n[bus], &b[bus]);
+        let port = bus_of(run, *id, bus);
+        let (n, b) = (&n[port], &b[port]);
         match cause {
             Some(c) => n.errors_of(c) > b.errors_of(c),
             None => n.errors.iter().sum::<u32>() > b.errors.iter().sum::<u32>(),
@@ -197,13 +204,17 @@ fn took_effect(run: &Run, f: Fault, from: Instant, to: Instant, before: &Counter
             };
             run.plant.oracle.borrow().late[o][port].is_some_and(|t| t >= from)
         }
-        Fault::Babble { port, .. } => all().iter().any(|e| {
-            matches!(e.kind, LinkEventKind::Port { port: p, reason: PortReason::TxStalled { .. }, .. }
-                if p as usize == port)
-        }),
-        Fault::Unplug { node, port, .. } => {
-            port_left_ok(&link_events(run, node, from, to), port)
+        Fault::Babble { node, port, .. } => {
+            let bus = bus_of(run, node, port);
+            all().iter().any(|(ports, e)| {
+                matches!(e.kind, LinkEventKind::Port { port: p, reason: PortReason::TxStalled { .. }, .. }
+                    if p as usize == ports[bus])
+            })
         }
+        Fault::Unplug { node, port, .. } => link_events(run, node, from, to).iter().any(|e| {
+            matches!(e.kind, LinkEventKind::Port { port: p, to, .. }
+                if p as usize == port && to != PortState::Ok)
+        }),
         Fault::Impostor { node, .. } | Fault::Duplicate { node, .. } => {
             let events = [STRONG, WEAK]
                 .into_iter()
@@ -222,8 +233,10 @@ fn took_effect(run: &Run, f: Fault, from: Instant, to: Instant, before: &Counter
         Fault::Noise { bus, .. } => errors_grew(run, before, bus, None, None),
         // The others see its error flags on that bus.
         Fault::WrongBitRate { node, port, .. } => {
+            let bus = bus_of(run, node, port);
             counters(run).iter().zip(before).any(|((id, n), (_, b))| {
-                *id != node && n[port].errors.iter().sum::<u32>() > b[port].errors.iter().sum::<u32>()
+                let p = bus_of(run, *id, bus);
+                *id != node && n[p].errors.iter().sum::<u32>() > b[p].errors.iter().sum::<u32>()
             })
         }
         // Followed: the layer corrected the skew it made (a small one needs no correction).
@@ -234,12 +247,13 @@ fn took_effect(run: &Run, f: Fault, from: Instant, to: Instant, before: &Counter
             dur,
         } => {
             let far = ppm.unsigned_abs() as u64 * dur.as_millis() / 1_000 >= 4_000;
-            !far || link_events(run, node, from, to).iter().any(|e| {
-                matches!(e.kind, LinkEventKind::Lag { port: p, .. } if p as usize == port)
-            })
+            !far || link_events(run, node, from, to)
+                .iter()
+                .any(|e| matches!(e.kind, LinkEventKind::Lag { port: p, .. } if p as usize == port))
         }
         Fault::Overrun { node, port, .. } => {
-            errors_grew(run, before, port, Some(node), Some(ErrorCause::RxOverflow))
+            let bus = bus_of(run, node, port);
+            errors_grew(run, before, bus, Some(node), Some(ErrorCause::RxOverflow))
         }
         Fault::BoardDies { .. }
         | Fault::BootLoop { .. }

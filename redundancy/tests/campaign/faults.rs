@@ -260,6 +260,12 @@ fn dev_index(run: &Run, node: u8) -> usize {
         .unwrap()
 }
 
+/// The bus device `node`'s port `port` is cabled to, and the other way round: its port on bus
+/// `port` (crossed cabling swaps them).
+pub fn bus_of(run: &Run, node: u8, port: usize) -> usize {
+    run.timeline.devs[dev_index(run, node)].port(port)
+}
+
 fn cut(run: &mut Run, bus: usize, down: bool) {
     let (t, b) = (run.now(), run.plant.buses[bus]);
     if down {
@@ -333,6 +339,7 @@ fn for_a_while(run: &mut Run, dur: Duration, hold: impl Fn(&mut Run, bool) + 'st
 fn unplug(run: &mut Run, node: u8, port: usize, dur: Duration, noisy: bool) {
     let p = port_of(run, node, port);
     let d = dev_index(run, node);
+    let bus = bus_of(run, node, port);
     for_a_while(run, dur, move |r, on| {
         if on {
             r.plant.sim.disconnect(p);
@@ -342,7 +349,7 @@ fn unplug(run: &mut Run, node: u8, port: usize, dur: Duration, noisy: bool) {
         let t = r.now();
         r.timeline.devs[d].unplugged[port].set(t, on);
         if noisy {
-            r.timeline.noisy[port].set(t, on);
+            r.timeline.noisy[bus].set(t, on);
         }
     });
 }
@@ -379,7 +386,7 @@ pub fn apply(run: &mut Run, f: Fault) {
         Fault::WrongBitRate { node, port, dur } => {
             // It decodes nothing there and nothing it sends is a frame: off that bus.
             unplug(run, node, port, dur, true);
-            let b = run.plant.buses[port];
+            let b = run.plant.buses[bus_of(run, node, port)];
             // Error-active bursts: every frame on the bus flagged (as the bus's rate: the
             // simulator's port rate is a receiver's, and this controller receives nothing).
             let flags = FaultRates::NONE.with_corrupt_detected(1.0);
@@ -499,13 +506,14 @@ pub fn apply(run: &mut Run, f: Fault) {
         }
         Fault::Babble { node, port, dur } => {
             let p = port_of(run, node, port);
+            let bus = bus_of(run, node, port);
             let flood = Frame::from_array(Id::Standard(0x001), [0xFF; 8]);
             for_a_while(run, dur, move |r, on| {
                 r.plant.sim.babble(p, on.then_some(flood));
                 let t = r.now();
-                r.timeline.babbled[port].set(t, on);
+                r.timeline.babbled[bus].set(t, on);
                 if !on {
-                    stalled_after_babble(r, port);
+                    stalled_after_babble(r, bus);
                 }
             });
         }
@@ -643,14 +651,15 @@ pub fn apply(run: &mut Run, f: Fault) {
     }
 }
 
-/// The ports on bus `port` that a babble, just ended, left failed for a transmit stall: each
+/// The ports on bus `bus` that a babble, just ended, left failed for a transmit stall: each
 /// sends nothing until its re-initialisation (see [`crate::timeline::Dev::stalled`]).
-fn stalled_after_babble(run: &mut Run, port: usize) {
+fn stalled_after_babble(run: &mut Run, bus: usize) {
     let now = run.now();
     let sim = &run.plant.sim;
     let mut spans = vec![];
     for (k, d) in run.plant.masters.iter().enumerate() {
         if sim.is_powered(*d) {
+            let port = run.timeline.devs[dev_index(run, k as u8 + 1)].port(bus);
             let h = sim.device(*d).inner.link.inner.health().port(port);
             let clock = run.plant.oracle.borrow().clock[k];
             let at = h.next_reinit().filter(|_| h.stalled());
@@ -659,6 +668,7 @@ fn stalled_after_babble(run: &mut Run, port: usize) {
     }
     for (id, d, _) in &run.plant.slaves {
         if sim.is_powered(*d) {
+            let port = run.timeline.devs[dev_index(run, *id)].port(bus);
             let h = sim.device(*d).inner.link.inner.health().port(port);
             let at = h.next_reinit().filter(|_| h.stalled());
             spans.push((dev_index(run, *id), at, 0));
@@ -670,6 +680,7 @@ fn stalled_after_babble(run: &mut Run, port: usize) {
         let until = Instant::from_micros(at.as_micros().saturating_add_signed(-clock))
             .min(now + SLAVE_HB.max(MASTER_HB) + Duration::from_millis(2));
         if until > now {
+            let port = run.timeline.devs[i].port(bus);
             let sp = &mut run.timeline.devs[i].stalled[port];
             sp.start(now);
             sp.end(until);

@@ -164,6 +164,8 @@ pub struct NodeInfo {
     /// Not duocan ([`crate::foreign`]): what it receives is not judged, and its copies of a
     /// frame may leave further apart than the skew window (see [`Oracle::judge`]).
     pub foreign: bool,
+    /// Cabled crossed: its port 0 on bus 2, its port 1 on bus 1.
+    pub swapped: bool,
 }
 
 /// Whether two devices were connected by a bus, around an instant: what the fault timeline
@@ -280,6 +282,7 @@ impl Oracle {
             copies: vec![],
             master,
             foreign: false,
+            swapped: false,
         });
         self.nodes.len() - 1
     }
@@ -325,7 +328,8 @@ impl Oracle {
         self.nodes[node].copies.push(of);
     }
 
-    /// The simulator hands device `receiver`'s port `port` (on bus `port`) the copy `serial`
+    /// The simulator hands device `receiver`'s port `port` (on bus `port`, the other one if it
+    /// is cabled crossed) the copy `serial`
     /// of device `sender`, which ended on the wire at `wire`.
     pub fn arriving(
         &mut self,
@@ -342,6 +346,7 @@ impl Oracle {
         };
         let of = serial.and_then(|k| self.nodes[s].copies.get(k as usize).copied().flatten());
         let newest = self.newest.get(r).and_then(|n| n[s]);
+        let bus = (port & 1) ^ usize::from(self.nodes[r].swapped);
         if let Some(o) = of.and_then(|o| self.occ(o)) {
             if o.reached[r] == 0
                 && is_heartbeat(&o.frame)
@@ -354,7 +359,7 @@ impl Oracle {
                 o.superseded[r] = true;
             }
             o.reached[r] = o.reached[r].saturating_add(1);
-            o.wire[port & 1].get_or_insert(wire);
+            o.wire[bus].get_or_insert(wire);
         }
         self.current = Some((r, of));
         self.current_wire = wire;

@@ -163,7 +163,16 @@ pub struct Params {
     pub quiet: bool,
     /// With a node that is not duocan ([`crate::foreign`]).
     pub foreign: bool,
+    /// The weak master and [`CROSSED_BOARD`] cabled crossed (an installation error: their
+    /// connector for bus 1 on bus 2 and the other way round; see [`CROSSED`]).
+    pub crossed: bool,
 }
+
+/// The board cabled crossed on a crossed plant (the B member of the first pair).
+pub const CROSSED_BOARD: u8 = 0x50;
+/// The devices cabled crossed on a crossed plant: the weak master and one board, so that a
+/// crossed device talks to straight ones and to another crossed one.
+pub const CROSSED: [u8; 2] = [WEAK, CROSSED_BOARD];
 
 impl Default for Params {
     fn default() -> Self {
@@ -172,6 +181,7 @@ impl Default for Params {
             pairs: 3,
             quiet: false,
             foreign: false,
+            crossed: false,
         }
     }
 }
@@ -314,6 +324,17 @@ impl Plant {
             sim.add_bus(BusConfig::new("can2", 1_000_000)),
         ];
         let oracle = Rc::new(RefCell::new(Oracle::default()));
+        // A device's ports in order: bus 1 and bus 2, or the other way round if it is
+        // cabled crossed (its oracle node says so, to map its ports to the buses).
+        let crossed = [buses[1], buses[0]];
+        let wires = |id: u8, node: usize| {
+            if p.crossed && CROSSED.contains(&id) {
+                oracle.borrow_mut().nodes[node].swapped = true;
+                &crossed
+            } else {
+                &buses
+            }
+        };
         let sdo = Rc::new(RefCell::new(Ledger::default()));
         let mut masters = vec![];
         let mut master_nodes = [0; 2];
@@ -325,7 +346,7 @@ impl Plant {
                 .add_device(
                     format!("m{id}"),
                     master_station(&p, id, Instant::ZERO, node, &oracle, &sdo),
-                    &buses,
+                    wires(id, node),
                 )
                 .unwrap();
             masters.push(d);
@@ -347,7 +368,7 @@ impl Plant {
                 .add_device(
                     format!("s{id:#x}"),
                     slave_station(&p, id, Instant::ZERO, node, &oracle),
-                    &buses,
+                    wires(id, node),
                 )
                 .unwrap();
             slaves.push((id, d, node));

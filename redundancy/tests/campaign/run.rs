@@ -98,9 +98,9 @@ impl Run {
                 1 => WEAK,
                 _ => plant.slaves.get(i - 2).map_or(FOREIGN, |s| s.0),
             };
-            let _ = n;
             timeline.devs.push(Dev {
                 node_id: id,
+                swapped: n.swapped,
                 ..Dev::default()
             });
         }
@@ -173,15 +173,16 @@ impl Run {
     fn linked_by(&self, s: usize, r: usize, t: Instant, timely: bool) -> bool {
         (0..2).any(|b| {
             let (ds, dr) = (&self.timeline.devs[s], &self.timeline.devs[r]);
+            let (ps, pr) = (ds.port(b), dr.port(b));
             let since = t.saturating_sub(SLOW_MEMORY);
-            let slow = timely && (ds.slow[b].any(since, t) || dr.slow[b].any(since, t));
+            let slow = timely && (ds.slow[ps].any(since, t) || dr.slow[pr].any(since, t));
             !slow
                 && !self.timeline.cut[b].at(t)
                 && !self.timeline.babbled[b].at(t)
-                && !ds.unplugged[b].at(t)
-                && !ds.stalled[b].at(t)
-                && !dr.stalled[b].at(t)
-                && !dr.unplugged[b].at(t)
+                && !ds.unplugged[ps].at(t)
+                && !ds.stalled[ps].at(t)
+                && !dr.stalled[pr].at(t)
+                && !dr.unplugged[pr].at(t)
                 && !ds.off.at(t)
                 && !dr.off.at(t)
         })

@@ -56,6 +56,9 @@ impl Spans {
 #[derive(Clone, Debug, Default)]
 pub struct Dev {
     pub node_id: u8,
+    /// Cabled crossed: its port 0 on bus 2, its port 1 on bus 1 (the per-port spans below
+    /// are by its ports; [`Dev::port`] maps a bus to one).
+    pub swapped: bool,
     /// Per port: unplugged.
     pub unplugged: [Spans; 2],
     /// Per port: failed for a transmit stall behind a babble that has ended, until its next
@@ -84,6 +87,10 @@ pub struct Dev {
 }
 
 impl Dev {
+    /// Its port on bus `bus`.
+    pub fn port(&self, bus: usize) -> usize {
+        bus ^ usize::from(self.swapped)
+    }
     /// The largest receive lag any of its ports had at some time of `[from, to]`.
     pub fn lag(&self, from: Instant, to: Instant) -> Duration {
         let mut worst = Duration::ZERO;
@@ -117,23 +124,24 @@ pub struct Timeline {
 impl Timeline {
     fn path(&self, s: usize, r: usize, bus: usize, from: Instant, to: Instant) -> (bool, bool) {
         let (ds, dr) = (&self.devs[s], &self.devs[r]);
+        let (ps, pr) = (ds.port(bus), dr.port(bus));
         let broken = |f: Instant, t: Instant| {
             (
                 self.cut[bus].any(f, t)
                     || self.babbled[bus].any(f, t)
                     || self.noisy[bus].any(f, t)
-                    || dr.overrun[bus].any(f, t)
-                    || ds.unplugged[bus].any(f, t)
-                    || ds.stalled[bus].any(f, t)
-                    || ds.slow_tx[bus].any(f, t)
-                    || dr.unplugged[bus].any(f, t)
+                    || dr.overrun[pr].any(f, t)
+                    || ds.unplugged[ps].any(f, t)
+                    || ds.stalled[ps].any(f, t)
+                    || ds.slow_tx[ps].any(f, t)
+                    || dr.unplugged[pr].any(f, t)
                     || ds.off.any(f, t)
                     || dr.off.any(f, t),
                 self.cut[bus].all(f, t)
                     || self.babbled[bus].all(f, t)
-                    || ds.unplugged[bus].all(f, t)
-                    || ds.stalled[bus].all(f, t)
-                    || dr.unplugged[bus].all(f, t)
+                    || ds.unplugged[ps].all(f, t)
+                    || ds.stalled[ps].all(f, t)
+                    || dr.unplugged[pr].all(f, t)
                     || ds.off.all(f, t)
                     || dr.off.all(f, t),
             )
