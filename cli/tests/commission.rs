@@ -372,6 +372,27 @@ fn eds_export_of_a_sim_node_validates_and_describes_it() {
 }
 
 #[test]
+fn a_file_that_is_no_description_or_an_empty_image_is_refused() {
+    let _one = one_station();
+    let dir = temp_dir("not-eds");
+    let noise = dir.join("noise.bin");
+    let bytes: Vec<u8> = (0..4096u32)
+        .map(|i| (i.wrapping_mul(2_654_435_761) >> 13) as u8)
+        .collect();
+    std::fs::write(&noise, bytes).unwrap();
+    let r = duocan(&["eds", "validate", noise.to_str().unwrap()]);
+    assert_eq!(r.code, 1, "{}", r.out);
+    assert!(r.out.contains("not a device description"), "{}", r.out);
+    let arg = format!("5={}", noise.display());
+    let r = sim(&["--eds", &arg, "sdo", "read", "5", "0x1000", "0", "u32"]);
+    assert_eq!(r.code, 2, "{}", r.err);
+    assert!(r.err.contains("not a device description"), "{}", r.err);
+    let r = sim(&["flash", "5", "/dev/null"]);
+    assert_eq!(r.code, 2, "{}", r.err);
+    assert!(r.err.contains("the image is empty"), "{}", r.err);
+}
+
+#[test]
 fn flash_on_a_node_without_program_download_fails_with_the_abort() {
     let _one = one_station();
     let dir = temp_dir("flash-none");

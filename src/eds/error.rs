@@ -87,6 +87,9 @@ pub enum EdsErrorKind {
     MissingKey,
     /// A section the format requires is missing (the location names it).
     MissingSection,
+    /// Nothing in the file is a description: no [FileInfo], no [DeviceInfo], no object (an
+    /// error in both modes: a file of another kind, or random bytes, given by mistake).
+    NotADescription,
     /// A value is not a number, or not one of the forms the key allows.
     BadValue {
         /// The text found.
@@ -187,6 +190,10 @@ impl fmt::Display for EdsErrorKind {
             DuplicateKey => write!(f, "the key appears twice"),
             MissingKey => write!(f, "the key is missing"),
             MissingSection => write!(f, "the section is missing"),
+            NotADescription => write!(
+                f,
+                "not a device description: no [FileInfo], no [DeviceInfo], no object section"
+            ),
             BadValue { value, expected } => write!(f, "{value:?} is not {expected}"),
             OutOfRange { value, range } => write!(f, "{value:?} does not fit {range}"),
             OctalDigits { value } => write!(

@@ -11,7 +11,7 @@
 use super::error::ExportError;
 use super::model::AccessType;
 use super::value::{self, unsigned_text};
-use crate::od::{default_vec, DefaultValue, ObjectDef, ObjectDictionary, ObjectType};
+use crate::od::{default_vec, DefaultValue, Limit, ObjectDef, ObjectDictionary, ObjectType};
 use alloc::collections::BTreeMap;
 use alloc::string::String;
 use alloc::vec;
@@ -323,6 +323,16 @@ fn header(
     Ok(())
 }
 
+/// Whether zero lies within the limits `low` and `high` (each absent: no bound).
+fn zero_within(low: Option<Limit>, high: Option<Limit>) -> bool {
+    let sign = |l: Limit| match l {
+        Limit::Unsigned(v) => v.cmp(&0),
+        Limit::Signed(v) => v.cmp(&0),
+        Limit::Real(v) => v.partial_cmp(&0.0).unwrap_or(core::cmp::Ordering::Equal),
+    };
+    low.is_none_or(|l| sign(l).is_le()) && high.is_none_or(|h| sign(h).is_ge())
+}
+
 fn default_bytes(s: &Snap, node_id: u8) -> Vec<u8> {
     match &s.default {
         Some(d) => d.clone(),
@@ -389,11 +399,16 @@ fn entry(
     let _ = writeln!(out, "AccessType={}", AccessType::of(d.access).as_str());
     let default = match d.default_value() {
         DefaultValue::NodeIdPlus(x) if s.default.is_none() && t.fixed_size().is_some() => {
-            alloc::format!("$NODEID+0x{x:X}")
+            Some(alloc::format!("$NODEID+0x{x:X}"))
         }
-        _ => value::write(t, &default_bytes(s, node_id)).map_err(err)?,
+        // No default given, and zero outside the limits: none written (a reader takes the
+        // entry's limits to be kept; `DefaultValue=0` made the file invalid).
+        DefaultValue::Zero if s.default.is_none() && !zero_within(d.low(), d.high()) => None,
+        _ => Some(value::write(t, &default_bytes(s, node_id)).map_err(err)?),
     };
-    let _ = writeln!(out, "DefaultValue={default}");
+    if let Some(default) = default {
+        let _ = writeln!(out, "DefaultValue={default}");
+    }
     let _ = writeln!(out, "PDOMapping={}", d.pdo_mappable as u8);
     for (key, limit) in [("LowLimit", d.low()), ("HighLimit", d.high())] {
         if let Some(text) = limit.and_then(|l| value::write_limit(t, l)) {

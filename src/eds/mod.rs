@@ -45,6 +45,16 @@
 //! [`ImportOptions::strict`] each of these is an [`EdsError`] instead: for validating a file.
 //! Either way bad input is an error or a warning, never a panic.
 //!
+//! Where other readers agree, so does this one, in both modes: a boolean (`PDOMapping`) written
+//! as any number 0 or 1 (`0x1`), an empty `LowLimit=`/`HighLimit=` (no limit, on a string as on
+//! a number). A `;` after an access type is a comment (`rw;` is `rw`, with a warning). A DCF for
+//! `NodeID=0` names no node (a warning; strict: an error). An empty `ParameterValue=` on a
+//! string whose default is not empty is the empty string (what an export of an empty string
+//! writes), where lely keeps the default: a `tracing` warning says so, and strict mode takes
+//! it. A file with no `[FileInfo]`, no `[DeviceInfo]` and no object is no description at all
+//! ([`EdsErrorKind::NotADescription`], in both modes). Export leaves out `DefaultValue` for an
+//! entry with no default whose limits exclude zero.
+//!
 //! # Memory
 //!
 //! Bounded on any input, by constants: the file is read up to [`MAX_FILE_BYTES`] (a larger one

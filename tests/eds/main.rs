@@ -9,10 +9,11 @@ mod codegen;
 mod corpus;
 pub mod generate;
 mod lookup;
+mod other_tools;
 mod properties;
 mod roundtrip;
 mod strict;
-mod warnings;
+pub mod warnings;
 
 use duocan::eds::{Description, ImportOptions};
 use std::path::PathBuf;

@@ -46,6 +46,14 @@ impl tracing::Subscriber for Capture {
     fn exit(&self, _: &Id) {}
 }
 
+/// What `f` returns, and the events it traced (level, target, message).
+pub fn traced<T>(f: impl FnOnce() -> T) -> (T, Vec<(Level, String, String)>) {
+    let seen: Seen = Arc::default();
+    let r = tracing::subscriber::with_default(Capture(seen.clone()), f);
+    let seen = seen.lock().unwrap().clone();
+    (r, seen)
+}
+
 #[test]
 fn every_warning_is_a_tracing_event() {
     let seen: Seen = Arc::default();

@@ -93,6 +93,13 @@ pub async fn run(g: &Global, a: Args) -> Result<(), Fail> {
     let size = std::fs::metadata(&a.file)
         .map_err(|e| Fail::usage(format!("{}: {e}", a.file.display())))?
         .len();
+    if size == 0 {
+        // /dev/null, a truncated build: an empty download would erase the program for nothing.
+        return Err(Fail::usage(format!(
+            "{}: the image is empty: nothing to download",
+            a.file.display()
+        )));
+    }
     let bus = bus::open(g, false)?;
     let r = flash(g, &bus, &a, size).await;
     bus.close().await;

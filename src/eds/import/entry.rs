@@ -73,6 +73,19 @@ impl<'t> Importer<'_, 't> {
         };
         let value_pair = over.value.or_else(|| s.get("ParameterValue").copied());
         e.value = self.value(s, value_pair, t, Fit::Wrap)?;
+        // An empty ParameterValue on a string whose default is not empty: the empty string
+        // (what the configuration holds, and what an export of an empty string writes), where
+        // lely reads "not configured" and keeps the default. Not a fault of the file, so not a
+        // warning strict mode refuses: a `tracing` warning says which reading was taken.
+        let default_set = matches!(&e.default, Some(Value::Bytes(b)) if !b.is_empty());
+        if let Some(p) = value_pair.filter(|p| p.value.is_empty() && default_set) {
+            let at = self.at(s, Some(&p));
+            tracing::warn!(
+                target: "duocan::eds",
+                "{at}: empty over a non-empty default: read as the empty string (lely keeps \
+                 the default)"
+            );
+        }
         let limits = [s.get("LowLimit").copied(), s.get("HighLimit").copied()];
         let max_length = s.get("MaxLength").copied();
         if value::is_number(t) {
@@ -86,7 +99,8 @@ impl<'t> Importer<'_, 't> {
                 self.problem(s, Some(&p), kind, "the key ignored")?;
             }
         } else {
-            for p in limits.into_iter().flatten() {
+            // An empty limit is none, on a string as on a number.
+            for p in limits.into_iter().flatten().filter(|p| !p.value.is_empty()) {
                 let kind = EdsErrorKind::Misplaced {
                     why: "a limit on a string or domain",
                 };
@@ -173,12 +187,14 @@ impl<'t> Importer<'_, 't> {
         if let Some(a) = AccessType::parse(p.value) {
             return Ok(a);
         }
-        // Spellings seen in files written by hand or by other tools.
-        let a = match p.value.trim().to_ascii_lowercase().as_str() {
+        // Spellings seen in files written by hand or by other tools; a trailing `;` (a
+        // comment, in the INI files other tools write) is not part of it.
+        let t = number::strip_comment(p.value).trim().to_ascii_lowercase();
+        let a = AccessType::parse(&t).unwrap_or(match t.as_str() {
             "w" | "write" | "writeonly" | "write-only" => AccessType::Wo,
             "readwrite" | "read-write" | "r/w" => AccessType::Rw,
             _ => AccessType::Ro,
-        };
+        });
         let kind = EdsErrorKind::UnknownAccessType {
             value: p.value.into(),
         };

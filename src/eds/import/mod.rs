@@ -98,6 +98,13 @@ impl Description {
         let comments = imp.comments()?;
         let commissioning = imp.commissioning()?;
         let mut objects = imp.objects()?;
+        if objects.is_empty()
+            && ini.named("fileinfo").is_none()
+            && ini.named("deviceinfo").is_none()
+        {
+            let at = imp.rep.at(0, None, None);
+            return Err(imp.rep.error(at, EdsErrorKind::NotADescription));
+        }
         imp.compact_pdo(&device_info, &mut objects)?;
         imp.links(&mut objects)?;
         for index in [0x1000, 0x1001, 0x1018] {
@@ -235,6 +242,10 @@ impl<'t> Importer<'_, 't> {
         match v {
             "" | "0" => Ok(false),
             "1" => Ok(true),
+            // 0x0, 0x1, 01: other readers take a boolean written as any number 0 or 1.
+            _ if matches!(number::literal(v).map(|l| l.value), Ok(0 | 1)) => {
+                Ok(number::literal(v).is_ok_and(|l| l.value == 1))
+            }
             _ => {
                 let b = match v.to_ascii_lowercase().as_str() {
                     "true" | "yes" => Some(true),
@@ -377,8 +388,24 @@ impl<'t> Importer<'_, 't> {
             },
         };
         let s = Some(s);
+        let node_id = match self.number(s, "NodeID", 127)? {
+            Some(0) => {
+                // A configuration for "node 0" configures nothing: say so rather than attach
+                // it to the broadcast address.
+                let p = s.and_then(|s| s.get("NodeID").copied());
+                let kind = EdsErrorKind::OutOfRange {
+                    value: "0".into(),
+                    range: "a node-ID, 1 to 127".into(),
+                };
+                if let Some(sec) = s {
+                    self.problem(sec, p.as_ref(), kind, "no node-ID")?;
+                }
+                None
+            }
+            n => n.map(|v| v as u8),
+        };
         Ok(Some(Commissioning {
-            node_id: self.number(s, "NodeID", 127)?.map(|v| v as u8),
+            node_id,
             node_name: self.text(s, "NodeName"),
             baud_rate: self.number(s, "Baudrate", 1000)?.map(|v| v as u16),
             net_number: self
