@@ -6,7 +6,7 @@ use super::error::NetError;
 use super::events::NetEvent;
 use super::link::DriverState;
 use super::pdo::table::PdoTable;
-use crate::cia301::sdo::RequestId;
+use super::starts::{Start, Starts};
 use crate::cia305::LssMaster;
 use crate::frame::instant::{Duration, Instant};
 use crate::frame::Frame;
@@ -14,8 +14,6 @@ use crate::machine::{Device, PortRequest, PortStatus};
 use crate::port::PortInput;
 use crate::NodeId;
 use std::collections::VecDeque;
-use std::sync::Arc;
-use tokio::sync::Notify;
 
 /// Decoded PDOs waiting for the runtime's next flush (it flushes after every frame, so one
 /// is the usual count): beyond this they are counted and dropped.
@@ -33,9 +31,8 @@ pub(crate) struct Door {
     decoded: VecDeque<NetEvent>,
     /// Decoded PDOs dropped because [`PDO_EVENTS`] were waiting.
     pub pdo_dropped: u64,
-    /// Streamed transfers and whom to wake when one has room to fill or data to take
-    /// (at most one per client session: an entry goes with its transfer's result).
-    pub streams: Vec<(RequestId, Arc<Notify>)>,
+    /// SDO transfers started or waiting for the client (see [`super::starts`]).
+    starts: Starts,
     /// What each port's driver last reported (index = port).
     pub drivers: [DriverState; 2],
     /// Watched nodes not yet heard since their watch began: (node, since, due). One entry per
@@ -51,7 +48,7 @@ impl Door {
             pdos: PdoTable::default(),
             decoded: VecDeque::new(),
             pdo_dropped: 0,
-            streams: Vec::new(),
+            starts: Starts::default(),
             drivers: [DriverState::default(); 2],
             awaited: Vec::new(),
         }
@@ -85,6 +82,15 @@ impl Door {
                 i += 1;
             }
         }
+    }
+    /// Starts an SDO transfer, or parks it while the client is busy ([`super::starts`]); an
+    /// error if the core has no client now or the client refuses the transfer itself.
+    pub fn sdo(&mut self, now: Instant, start: Start) -> Result<(), NetError> {
+        self.starts.submit(self.core.client(), now, start)
+    }
+    /// After every input and timeout: the parked starts try again.
+    fn retry(&mut self, now: Instant) {
+        self.starts.retry(self.core.client(), now);
     }
     /// The core's LSS master; [`NetError::Argument`] for a core without one.
     pub fn lss(&mut self) -> Result<&mut LssMaster<LSS_PLAN>, NetError> {
@@ -127,7 +133,8 @@ impl Door {
         }
         self.core.handle_port_status(now, port, status);
     }
-    /// What the link produced itself, each as it came from its port ([`NetLink::poll_input`]).
+    /// What the link produced itself, each as it came from its port ([`NetLink::poll_input`]);
+    /// then the parked SDO starts try again, as after every input and timeout.
     fn link_inputs(&mut self, now: Instant) {
         while let Some((port, input)) = self.core.poll_input() {
             match input {
@@ -136,6 +143,7 @@ impl Door {
                 PortInput::Status(s) => self.port_status(now, port, s),
             }
         }
+        self.retry(now);
     }
 }
 
@@ -170,15 +178,13 @@ impl Device for Door {
     }
     fn poll_timeout(&self) -> Option<Instant> {
         let awaited = self.awaited.iter().map(|a| a.2).min();
-        crate::frame::instant::earliest_of([self.core.poll_timeout(), awaited])
+        crate::frame::instant::earliest_of([self.core.poll_timeout(), awaited, self.starts.due()])
     }
     fn poll_event(&mut self) -> Option<CoreEvent> {
         // A wake-up, not an event: a stream's reader or feeder is no business of the
         // subscribers (at a frame each, it would make them lag).
         while let Some(id) = self.core.client().ok().and_then(|c| c.poll_stream()) {
-            if let Some((_, n)) = self.streams.iter().find(|(r, _)| *r == id) {
-                n.notify_one();
-            }
+            self.starts.wake(id);
         }
         if let Some(e) = self.decoded.pop_front() {
             return Some(CoreEvent::Net(e));
@@ -188,7 +194,7 @@ impl Device for Door {
             CoreEvent::Net(NetEvent::BootUp { node, at }) => {
                 self.boot_ups[usize::from(node.raw())] = Some(*at);
             }
-            CoreEvent::Sdo(id, _) => self.streams.retain(|(r, _)| r != id),
+            CoreEvent::Sdo(id, r) => self.starts.ended(*id, r),
             _ => {}
         }
         Some(e)

@@ -112,6 +112,7 @@ mod remote;
 mod sdo;
 mod sdo_stream;
 mod sim;
+mod starts;
 mod value;
 
 pub use self::core::{CoreEvent, NetClient, NetCore, LSS_PLAN};
@@ -141,7 +142,7 @@ use std::collections::BTreeMap;
 use std::future::Future;
 use std::pin::Pin;
 use std::sync::Arc;
-use tokio::sync::{watch, Mutex, Semaphore};
+use tokio::sync::{watch, Mutex};
 
 /// SDO transfers in flight at once (the client's session count).
 const SESSIONS: usize = 8;
@@ -234,8 +235,6 @@ struct Shared {
     opts: NetOptions,
     /// One lock per node-ID: transfers to one node take turns.
     per_node: Vec<Mutex<()>>,
-    /// One permit per client session.
-    sessions: Semaphore,
     /// LSS requests take turns (LSS has no addresses: one runs at a time).
     lss_turn: Mutex<()>,
     /// Simulated nodes started with the network (`open_named("sim")`), kept running.
@@ -368,7 +367,6 @@ impl Network {
                 handle,
                 opts,
                 per_node: (0..128).map(|_| Mutex::new(())).collect(),
-                sessions: Semaphore::new(SESSIONS),
                 lss_turn: Mutex::new(()),
                 sim,
                 closed: watch::channel(false).0,

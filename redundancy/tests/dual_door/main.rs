@@ -7,3 +7,4 @@ mod link;
 mod lss;
 mod redundant;
 mod station;
+mod stream;
