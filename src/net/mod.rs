@@ -72,8 +72,9 @@
 //! buses a node was heard on) do, and [`NetEvent::PortState`] and [`NetEvent::Reach`] report
 //! their changes.
 //!
-//! **Cores.** The observer, client and LSS master are one [`NetCore`]: the door (nodes, SDO,
-//! waits, PDOs, events) is written once over that trait, and [`Network::open_core`] runs it
+//! **Cores.** The observer and client are one [`NetCore`]: the door (nodes, SDO, waits, PDOs,
+//! events, and the LSS master, whose requests leave through the core) is written once over
+//! that trait, and [`Network::open_core`] runs it
 //! over another core, whose own calls [`Network::with_core`] reaches and whose own events
 //! come in the same stream as [`NetEvent::Ext`] ([`Extension`]).
 //!
@@ -288,8 +289,8 @@ impl Network {
 
     /// Opens the network on `core` over `ports`, one per port of the core in order: the
     /// same door (remote nodes, SDO, waits, PDOs, events) over another station, such as a
-    /// redundancy crate's supervised master. `opts.sdo` and `opts.listen_only` are the door's;
-    /// `opts.lss` is the observer's and not used here. A core whose port count differs from
+    /// redundancy crate's supervised master. `opts.sdo`, `opts.listen_only` and `opts.lss` are
+    /// the door's. A core whose port count differs from
     /// the ports given is [`NetError::Port`]. Must be called inside a tokio runtime.
     pub fn open_core(
         core: Box<dyn NetCore>,
@@ -355,7 +356,7 @@ impl Network {
                 "no tokio runtime: open the network from inside one (#[tokio::main])".into(),
             ));
         }
-        let door = Door::new(core);
+        let door = Door::new(core, opts.lss);
         let label = ports.label();
         let mut rt = ports.attach(Runtime::new(door).name(label));
         if let Some(tap) = &opts.tap {

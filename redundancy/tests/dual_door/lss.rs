@@ -1,16 +1,102 @@
-//! LSS (CiA 305) through the front door (`Network::lss`) on the simulated station's two buses:
-//! its two boards without a node-ID found by fastscan, configured, booted and answering on
-//! both buses; the single services; a listen-only network sends nothing.
+//! LSS (CiA 305) through the front door (`Network::lss`) over both doors: the plain door on the
+//! simulated station's two buses, and the redundant master's door on two buses with the same
+//! two boards without a node-ID. They are found by fastscan, configured, booted and answer on
+//! both buses; the single services; a listen-only network and a standby master send nothing.
 
-use duocan::cia305::{fastscan_cost, Inquiry, LssMasterConfig, LssMode, LssPlan};
-use duocan::net::{NetError, NetOptions, SIM_VENDOR};
-use duocan::NodeId;
-use duocan_redundancy::net::{open_dual_named, sim_lss_address, SIM_LSS_PRODUCT, SIM_LSS_SERIALS};
+use duocan::cia305::{
+    fastscan_cost, Inquiry, LssMasterConfig, LssMode, LssPlan, LssSlave, NoMedium,
+};
+use duocan::net::{sim_dictionary, NetError, NetOptions, Network, SIM_VENDOR};
+use duocan::node::LssNode;
+use duocan::od::{comm, DynamicDictionary, ObjectDictionary};
+use duocan::port::mem::MemBus;
+use duocan::runtime::{Handle, Runtime};
+use duocan::{Instant, Node, NodeConfig, NodeId, Station};
+use duocan_redundancy::net::{
+    open_dual_named, sim_lss_address, RedundantNetwork, SIM_LSS_PRODUCT, SIM_LSS_SERIALS,
+};
+use duocan_redundancy::supervisor::flying_master::MasterRole;
+use duocan_redundancy::{DualBus, DualBusConfig};
 use std::time::Duration;
+
+type Build = Box<dyn FnMut(NodeId, Instant) -> Node<DynamicDictionary> + Send>;
+type Board = Station<DualBus, LssNode<Node<DynamicDictionary>, Build, NoMedium>>;
+
+/// The simulated station's board with `serial` on both buses: no node-ID until an LSS master
+/// gives it one, then the simulated node with the board's identity, booted.
+fn board(serial: u32, buses: &[MemBus; 2]) -> Handle<Board> {
+    let address = sim_lss_address(serial);
+    let build: Build = Box::new(move |id, now| {
+        let mut od = sim_dictionary(id);
+        let device_type = od.get_u32(comm::DEVICE_TYPE, 0).unwrap_or(0);
+        let a = address;
+        for def in comm::identity(device_type, a.vendor, a.product, a.revision, a.serial) {
+            od.upsert(def);
+        }
+        let mut node = Node::new(NodeConfig::slave(id), od);
+        node.boot(now);
+        node
+    });
+    let lss = LssSlave::new(address, duocan::cia305::codec::UNCONFIGURED);
+    let station = Station::new(
+        DualBus::new(DualBusConfig::default()),
+        LssNode::new(Instant::ZERO, lss, build),
+    );
+    Runtime::new(station)
+        .port(buses[0].port())
+        .port(buses[1].port())
+        .spawn()
+        .unwrap()
+}
+
+/// Which door a test runs on.
+#[derive(Clone, Copy, Debug)]
+enum Door {
+    /// duocan's plain door over the dual link, on the simulated station.
+    Plain,
+    /// The redundant master's door (alone, so active) with the station's two LSS boards.
+    Redundant,
+}
+
+/// The network on `door`, and what must keep running with it (the boards).
+async fn open(door: Door) -> (Network, Vec<Handle<Board>>) {
+    match door {
+        Door::Plain => (
+            open_dual_named("sim", NetOptions::default()).unwrap(),
+            vec![],
+        ),
+        Door::Redundant => {
+            let buses = [MemBus::new("bus1"), MemBus::new("bus2")];
+            let net = RedundantNetwork::builder()
+                .node_id(7)
+                .heartbeat(duocan::Duration::from_millis(20))
+                .master_timeout(duocan::Duration::from_millis(50))
+                .open(buses[0].port(), buses[1].port())
+                .unwrap();
+            let boards = SIM_LSS_SERIALS.iter().map(|s| board(*s, &buses)).collect();
+            tokio::time::sleep(Duration::from_secs(2)).await;
+            assert_eq!(net.role().await.unwrap(), MasterRole::Active);
+            ((*net).clone(), boards)
+        }
+    }
+}
+
+async fn close(net: Network, boards: Vec<Handle<Board>>) {
+    net.close().await;
+    for b in boards {
+        b.shutdown().await;
+    }
+}
 
 #[tokio::test(start_paused = true)]
 async fn fastscan_configures_both_boards_and_they_boot_on_both_buses() {
-    let net = open_dual_named("sim", NetOptions::default()).unwrap();
+    for door in [Door::Plain, Door::Redundant] {
+        fastscan_configures_both_boards(door).await;
+    }
+}
+
+async fn fastscan_configures_both_boards(door: Door) {
+    let (net, running) = open(door).await;
     let lss = net.lss();
     assert!(lss.identify_non_configured().await.unwrap());
     let plan = LssPlan::new().with_free((0x20..=0x7F).filter_map(NodeId::new));
@@ -44,7 +130,7 @@ async fn fastscan_configures_both_boards_and_they_boot_on_both_buses() {
         cost.waiting
     );
     println!(
-        "fastscan of 2 boards on the simulated dual bus: {} requests, {} answers, {:?} (the protocol: {} requests, {} answers, {:?} of waiting)",
+        "fastscan of 2 boards on two buses ({door:?} door): {} requests, {} answers, {:?} (the protocol: {} requests, {} answers, {:?} of waiting)",
         report.requests, report.answers, report.took, cost.requests, cost.answers, cost.waiting
     );
     // Each boots with its node-ID and identity and is heard on both buses.
@@ -77,12 +163,18 @@ async fn fastscan_configures_both_boards_and_they_boot_on_both_buses() {
         (again.assigned.len(), again.requests, again.answers),
         (0, 1, 0)
     );
-    net.close().await;
+    close(net, running).await;
 }
 
 #[tokio::test(start_paused = true)]
 async fn select_inquire_configure_and_switch_back_boots_the_board() {
-    let net = open_dual_named("sim", NetOptions::default()).unwrap();
+    for door in [Door::Plain, Door::Redundant] {
+        select_inquire_configure_and_switch_back(door).await;
+    }
+}
+
+async fn select_inquire_configure_and_switch_back(door: Door) {
+    let (net, boards) = open(door).await;
     let lss = net.lss();
     let board = sim_lss_address(SIM_LSS_SERIALS[1]);
     // In waiting mode the board ignores inquire.
@@ -113,7 +205,7 @@ async fn select_inquire_configure_and_switch_back_boots_the_board() {
     );
     // The other board is still without a node-ID.
     assert!(lss.identify_non_configured().await.unwrap());
-    net.close().await;
+    close(net, boards).await;
 }
 
 #[tokio::test(start_paused = true)]
@@ -128,4 +220,28 @@ async fn a_listen_only_network_sends_no_lss() {
         Err(NetError::ListenOnly { node: None })
     );
     net.close().await;
+}
+
+#[tokio::test(start_paused = true)]
+async fn a_standby_master_sends_no_lss_and_says_why() {
+    let buses = [MemBus::new("bus1"), MemBus::new("bus2")];
+    let (active, standby) = crate::redundant::two_masters(&buses).await;
+    let mut spy = buses[1].port();
+    assert_eq!(
+        standby.lss().switch_global(LssMode::Configuration).await,
+        Err(NetError::Standby { node: None })
+    );
+    assert_eq!(
+        standby.lss().fastscan(LssPlan::new()).await,
+        Err(NetError::Standby { node: None })
+    );
+    assert!(
+        crate::redundant::seen_on(&mut spy, 0x7E5).await.is_empty(),
+        "nothing sent"
+    );
+    // The active master's door sends it.
+    active.lss().switch_global(LssMode::Waiting).await.unwrap();
+    assert_eq!(crate::redundant::seen_on(&mut spy, 0x7E5).await.len(), 1);
+    active.close().await;
+    standby.close().await;
 }
