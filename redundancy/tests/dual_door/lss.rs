@@ -3,6 +3,7 @@
 //! two boards without a node-ID. They are found by fastscan, configured, booted and answer on
 //! both buses; the single services; a listen-only network and a standby master send nothing.
 
+use crate::doors::{self, on_both, Door, BOTH};
 use duocan::cia305::{
     fastscan_cost, Inquiry, LssMasterConfig, LssMode, LssPlan, LssSlave, NoMedium,
 };
@@ -10,13 +11,10 @@ use duocan::net::{sim_dictionary, NetError, NetOptions, Network, SIM_VENDOR};
 use duocan::node::LssNode;
 use duocan::od::{comm, DynamicDictionary, ObjectDictionary};
 use duocan::port::mem::MemBus;
-use duocan::runtime::{Handle, Runtime};
+use duocan::runtime::Handle;
 use duocan::{Instant, Node, NodeConfig, NodeId, Station};
-use duocan_redundancy::net::{
-    open_dual_named, sim_lss_address, RedundantNetwork, SIM_LSS_PRODUCT, SIM_LSS_SERIALS,
-};
-use duocan_redundancy::supervisor::flying_master::MasterRole;
-use duocan_redundancy::{DualBus, DualBusConfig};
+use duocan_redundancy::net::{open_dual_named, sim_lss_address, SIM_LSS_PRODUCT, SIM_LSS_SERIALS};
+use duocan_redundancy::DualBus;
 use std::time::Duration;
 
 type Build = Box<dyn FnMut(NodeId, Instant) -> Node<DynamicDictionary> + Send>;
@@ -38,27 +36,11 @@ fn board(serial: u32, buses: &[MemBus; 2]) -> Handle<Board> {
         node
     });
     let lss = LssSlave::new(address, duocan::cia305::codec::UNCONFIGURED);
-    let station = Station::new(
-        DualBus::new(DualBusConfig::default()),
-        LssNode::new(Instant::ZERO, lss, build),
-    );
-    Runtime::new(station)
-        .port(buses[0].port())
-        .port(buses[1].port())
-        .spawn()
-        .unwrap()
+    on_both(LssNode::new(Instant::ZERO, lss, build), buses)
 }
 
-/// Which door a test runs on.
-#[derive(Clone, Copy, Debug)]
-enum Door {
-    /// duocan's plain door over the dual link, on the simulated station.
-    Plain,
-    /// The redundant master's door (alone, so active) with the station's two LSS boards.
-    Redundant,
-}
-
-/// The network on `door`, and what must keep running with it (the boards).
+/// The network on `door`, and what must keep running with it: the plain door on the simulated
+/// station (which has the boards), the redundant one on two buses with the two boards.
 async fn open(door: Door) -> (Network, Vec<Handle<Board>>) {
     match door {
         Door::Plain => (
@@ -67,16 +49,9 @@ async fn open(door: Door) -> (Network, Vec<Handle<Board>>) {
         ),
         Door::Redundant => {
             let buses = [MemBus::new("bus1"), MemBus::new("bus2")];
-            let net = RedundantNetwork::builder()
-                .node_id(7)
-                .heartbeat(duocan::Duration::from_millis(20))
-                .master_timeout(duocan::Duration::from_millis(50))
-                .open(buses[0].port(), buses[1].port())
-                .unwrap();
+            let net = doors::open(door, &buses).await;
             let boards = SIM_LSS_SERIALS.iter().map(|s| board(*s, &buses)).collect();
-            tokio::time::sleep(Duration::from_secs(2)).await;
-            assert_eq!(net.role().await.unwrap(), MasterRole::Active);
-            ((*net).clone(), boards)
+            (net, boards)
         }
     }
 }
@@ -90,7 +65,7 @@ async fn close(net: Network, boards: Vec<Handle<Board>>) {
 
 #[tokio::test(start_paused = true)]
 async fn fastscan_configures_both_boards_and_they_boot_on_both_buses() {
-    for door in [Door::Plain, Door::Redundant] {
+    for door in BOTH {
         fastscan_configures_both_boards(door).await;
     }
 }
@@ -168,7 +143,7 @@ async fn fastscan_configures_both_boards(door: Door) {
 
 #[tokio::test(start_paused = true)]
 async fn select_inquire_configure_and_switch_back_boots_the_board() {
-    for door in [Door::Plain, Door::Redundant] {
+    for door in BOTH {
         select_inquire_configure_and_switch_back(door).await;
     }
 }

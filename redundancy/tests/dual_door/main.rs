@@ -3,8 +3,10 @@
 //! simulated redundant station behind `open_dual_named("sim")`; and the redundant master's
 //! door (`RedundantNetwork`) on the same kind of rig. On tokio's paused clock.
 
+mod doors;
 mod link;
 mod lss;
+mod program;
 mod redundant;
 mod station;
 mod stream;

@@ -2,16 +2,14 @@
 //! the dual link and the redundant master's. The door writes the transfer once, whatever sits
 //! below: 64 KiB each way, with progress, to a node on both buses.
 
-use duocan::net::{NetOptions, Network, TransferProgress};
+use crate::doors::{on_both, open, BOTH};
+use duocan::net::{Network, TransferProgress};
 use duocan::od::{Access, DataType, DynamicDictionary, ObjectDef};
 use duocan::port::mem::MemBus;
-use duocan::runtime::{Handle, Runtime};
+use duocan::runtime::Handle;
 use duocan::sdo::SdoServerConfig;
-use duocan::{Instant, Node, NodeConfig, NodeId, Station};
-use duocan_redundancy::net::{open_dual, RedundantNetwork};
-use duocan_redundancy::supervisor::flying_master::MasterRole;
-use duocan_redundancy::{DualBus, DualBusConfig, DualBusNode};
-use std::time::Duration;
+use duocan::{Instant, Node, NodeConfig, NodeId};
+use duocan_redundancy::DualBusNode;
 
 /// A DOMAIN on the node, and the size streamed through it.
 const BIG: u16 = 0x2010;
@@ -27,11 +25,7 @@ fn big_node(buses: &[MemBus; 2]) -> Handle<DualBusNode<DynamicDictionary>> {
     n.sdo_server_mut()
         .set_config(SdoServerConfig::default().with_max_transfer(SIZE));
     n.boot(Instant::ZERO);
-    Runtime::new(Station::new(DualBus::new(DualBusConfig::default()), n))
-        .port(buses[0].port())
-        .port(buses[1].port())
-        .spawn()
-        .unwrap()
+    on_both(n, buses)
 }
 
 /// Checks a run of progress reports: never falling, ending at the size, some along the way.
@@ -66,29 +60,13 @@ async fn streams_64_kib(net: &Network) {
 }
 
 #[tokio::test(start_paused = true)]
-async fn the_plain_door_on_two_buses_streams_64_kib_each_way() {
-    let buses = [MemBus::new("bus1"), MemBus::new("bus2")];
-    let opts = NetOptions::default().with_sdo_timeout(Duration::from_millis(200));
-    let net = open_dual(buses[0].port(), buses[1].port(), opts).unwrap();
-    let node = big_node(&buses);
-    streams_64_kib(&net).await;
-    net.close().await;
-    node.shutdown().await;
-}
-
-#[tokio::test(start_paused = true)]
-async fn the_redundant_door_streams_64_kib_each_way() {
-    let buses = [MemBus::new("bus1"), MemBus::new("bus2")];
-    let net = RedundantNetwork::builder()
-        .node_id(7)
-        .heartbeat(duocan::Duration::from_millis(20))
-        .master_timeout(duocan::Duration::from_millis(50))
-        .open(buses[0].port(), buses[1].port())
-        .unwrap();
-    let node = big_node(&buses);
-    tokio::time::sleep(Duration::from_secs(2)).await;
-    assert_eq!(net.role().await.unwrap(), MasterRole::Active);
-    streams_64_kib(&net).await;
-    net.close().await;
-    node.shutdown().await;
+async fn both_doors_stream_64_kib_each_way() {
+    for door in BOTH {
+        let buses = [MemBus::new("bus1"), MemBus::new("bus2")];
+        let net = open(door, &buses).await;
+        let node = big_node(&buses);
+        streams_64_kib(&net).await;
+        net.close().await;
+        node.shutdown().await;
+    }
 }
