@@ -4,44 +4,23 @@
 //! both buses; the single services; a listen-only network and a standby master send nothing.
 
 use crate::doors::{self, on_both, Door, BOTH};
-use duocan::cia305::{
-    fastscan_cost, Inquiry, LssMasterConfig, LssMode, LssPlan, LssSlave, NoMedium,
-};
-use duocan::net::{sim_dictionary, NetError, NetOptions, Network, SIM_VENDOR};
-use duocan::node::LssNode;
-use duocan::od::{comm, DynamicDictionary, ObjectDictionary};
+use duocan::cia305::{fastscan_cost, Inquiry, LssMasterConfig, LssMode, LssPlan};
+use duocan::net::{NetError, NetOptions, Network, SIM_VENDOR};
 use duocan::port::mem::MemBus;
 use duocan::runtime::Handle;
-use duocan::{Instant, Node, NodeConfig, NodeId, Station};
-use duocan_redundancy::net::{open_dual_named, sim_lss_address, SIM_LSS_PRODUCT, SIM_LSS_SERIALS};
+use duocan::{NodeId, Station};
+use duocan_redundancy::net::{
+    open_dual_named, sim_lss_address, sim_lss_board, SimLssBoard, SIM_LSS_PRODUCT, SIM_LSS_SERIALS,
+};
 use duocan_redundancy::DualBus;
 use std::time::Duration;
 
-type Build = Box<dyn FnMut(NodeId, Instant) -> Node<DynamicDictionary> + Send>;
-type Board = Station<DualBus, LssNode<Node<DynamicDictionary>, Build, NoMedium>>;
-
-/// The simulated station's board with `serial` on both buses: no node-ID until an LSS master
-/// gives it one, then the simulated node with the board's identity, booted.
-fn board(serial: u32, buses: &[MemBus; 2]) -> Handle<Board> {
-    let address = sim_lss_address(serial);
-    let build: Build = Box::new(move |id, now| {
-        let mut od = sim_dictionary(id);
-        let device_type = od.get_u32(comm::DEVICE_TYPE, 0).unwrap_or(0);
-        let a = address;
-        for def in comm::identity(device_type, a.vendor, a.product, a.revision, a.serial) {
-            od.upsert(def);
-        }
-        let mut node = Node::new(NodeConfig::slave(id), od);
-        node.boot(now);
-        node
-    });
-    let lss = LssSlave::new(address, duocan::cia305::codec::UNCONFIGURED);
-    on_both(LssNode::new(Instant::ZERO, lss, build), buses)
-}
+/// A board of the station's without a node-ID, on both buses.
+type Board = Handle<Station<DualBus, SimLssBoard>>;
 
 /// The network on `door`, and what must keep running with it: the plain door on the simulated
 /// station (which has the boards), the redundant one on two buses with the two boards.
-async fn open(door: Door) -> (Network, Vec<Handle<Board>>) {
+async fn open(door: Door) -> (Network, Vec<Board>) {
     match door {
         Door::Plain => (
             open_dual_named("sim", NetOptions::default()).unwrap(),
@@ -50,13 +29,16 @@ async fn open(door: Door) -> (Network, Vec<Handle<Board>>) {
         Door::Redundant => {
             let buses = [MemBus::new("bus1"), MemBus::new("bus2")];
             let net = doors::open(door, &buses).await;
-            let boards = SIM_LSS_SERIALS.iter().map(|s| board(*s, &buses)).collect();
+            let boards = SIM_LSS_SERIALS
+                .iter()
+                .map(|s| on_both(sim_lss_board(*s), &buses))
+                .collect();
             (net, boards)
         }
     }
 }
 
-async fn close(net: Network, boards: Vec<Handle<Board>>) {
+async fn close(net: Network, boards: Vec<Board>) {
     net.close().await;
     for b in boards {
         b.shutdown().await;
