@@ -106,8 +106,9 @@ impl Door {
     pub fn sdo(&mut self, now: Instant, start: Start) -> Result<(), NetError> {
         self.starts.submit(self.core.client(), now, start)
     }
-    /// After every input and timeout: the parked starts try again.
-    fn retry(&mut self, now: Instant) {
+    /// After every input and timeout (and a transfer the door aborted): the parked starts try
+    /// again.
+    pub fn retry(&mut self, now: Instant) {
         self.starts.retry(self.core.client(), now);
     }
     /// Starts an LSS request with `start` if the core may make one now

@@ -79,7 +79,11 @@ impl Running {
             let _ = self
                 .handle
                 .try_call(move |d, now| {
-                    Ok::<_, NetError>(d.core.client()?.abort(now, id, AbortCode::GENERAL))
+                    d.core.client()?.abort(now, id, AbortCode::GENERAL);
+                    // Its session is free now, not at the next input: a start waiting for
+                    // one takes it.
+                    d.retry(now);
+                    Ok::<_, NetError>(())
                 })
                 .await;
             // The node may have answered the last frame before it heard the abort: that
