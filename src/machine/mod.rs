@@ -347,6 +347,100 @@ macro_rules! forward_device_to {
     };
 }
 
+/// Inside `impl BusLink for T`: the [`BusLink`] methods named are those of the link in `T`'s
+/// field (`forward_bus_link!(bus; port_count, handle_rx)`), or of the link behind the pointer
+/// `T` is (`forward_bus_link!(*; …)`). With `before = hook`, the methods that take the time
+/// call `self.hook(now)` first (a wrapper that keeps the latest instant). For a wrapper that
+/// only adds to the link below, so that the methods it does not change are written once here.
+#[doc(hidden)]
+#[macro_export]
+macro_rules! forward_bus_link {
+    ($to:tt; $($method:ident),* $(,)?) => {
+        $( $crate::forward_bus_link!(@one $method, $to, []); )*
+    };
+    ($to:tt, before = $hook:ident; $($method:ident),* $(,)?) => {
+        $( $crate::forward_bus_link!(@one $method, $to, [$hook]); )*
+    };
+    (@to $s:ident, *) => { (**$s) };
+    (@to $s:ident, $field:tt) => { $s.$field };
+    (@one port_count, $to:tt, [$($hook:ident)?]) => {
+        fn port_count(&self) -> usize {
+            $crate::forward_bus_link!(@to self, $to).port_count()
+        }
+    };
+    (@one handle_rx, $to:tt, [$($hook:ident)?]) => {
+        fn handle_rx(
+            &mut self,
+            now: $crate::Instant,
+            port: usize,
+            frame: &$crate::Frame,
+        ) -> Option<$crate::Frame> {
+            $(self.$hook(now);)?
+            $crate::forward_bus_link!(@to self, $to).handle_rx(now, port, frame)
+        }
+    };
+    (@one handle_rx_at, $to:tt, [$($hook:ident)?]) => {
+        fn handle_rx_at(
+            &mut self,
+            now: $crate::Instant,
+            port: usize,
+            frame: &$crate::Frame,
+            at: $crate::Instant,
+        ) -> Option<$crate::Frame> {
+            $(self.$hook(now);)?
+            $crate::forward_bus_link!(@to self, $to).handle_rx_at(now, port, frame, at)
+        }
+    };
+    (@one handle_port_status, $to:tt, [$($hook:ident)?]) => {
+        fn handle_port_status(
+            &mut self,
+            now: $crate::Instant,
+            port: usize,
+            status: $crate::machine::PortStatus,
+        ) {
+            $(self.$hook(now);)?
+            $crate::forward_bus_link!(@to self, $to).handle_port_status(now, port, status);
+        }
+    };
+    (@one send, $to:tt, [$($hook:ident)?]) => {
+        fn send(&mut self, now: $crate::Instant, frame: &$crate::Frame) {
+            $(self.$hook(now);)?
+            $crate::forward_bus_link!(@to self, $to).send(now, frame);
+        }
+    };
+    (@one poll_transmit, $to:tt, [$($hook:ident)?]) => {
+        fn poll_transmit(&mut self) -> Option<(usize, $crate::Frame)> {
+            $crate::forward_bus_link!(@to self, $to).poll_transmit()
+        }
+    };
+    (@one poll_port_request, $to:tt, [$($hook:ident)?]) => {
+        fn poll_port_request(&mut self) -> Option<(usize, $crate::machine::PortRequest)> {
+            $crate::forward_bus_link!(@to self, $to).poll_port_request()
+        }
+    };
+    (@one handle_timeout, $to:tt, [$($hook:ident)?]) => {
+        fn handle_timeout(&mut self, now: $crate::Instant) {
+            $(self.$hook(now);)?
+            $crate::forward_bus_link!(@to self, $to).handle_timeout(now);
+        }
+    };
+    (@one poll_timeout, $to:tt, [$($hook:ident)?]) => {
+        fn poll_timeout(&self) -> Option<$crate::Instant> {
+            $crate::forward_bus_link!(@to self, $to).poll_timeout()
+        }
+    };
+    (@one poll_event, $to:tt, [$($hook:ident)?]) => {
+        fn poll_event(&mut self) -> Option<Self::Event> {
+            $crate::forward_bus_link!(@to self, $to).poll_event()
+        }
+    };
+    (@one poll_machine_request, $to:tt, [$($hook:ident)?]) => {
+        fn poll_machine_request(&mut self) -> Option<$crate::machine::LinkRequest> {
+            $crate::forward_bus_link!(@to self, $to).poll_machine_request()
+        }
+    };
+}
+
 /// A device behind a pointer is a device: the methods are the pointee's.
 macro_rules! forward_device {
     ($($ptr:tt)*) => {

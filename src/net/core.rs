@@ -10,11 +10,13 @@
 //! **The rule.** A core is a [`Device`] whose events are [`CoreEvent`]s. The door feeds it
 //! every port input (a frame through [`NetCore::rx`], so that the door sees what the link
 //! delivered) and asks it the few things the door's calls need: an SDO client, NMT, the
-//! nodes' states, the heartbeat watch, SYNC, LSS, its own frames, the port view. Anything
+//! nodes' states, the heartbeat watch, SYNC, its own frames, the port view. Anything
 //! else a core offers is reached with [`Network::with_core`](super::Network::with_core).
 //!
 //! **Memory.** The door keeps what every core shares: the boot-up record, the PDO table, the
-//! heartbeat waits and the stream wake-ups. A core keeps only its own station.
+//! heartbeat waits, the SDO starts waiting for the client and the LSS master (CiA 305,
+//! written once: its requests leave through [`NetCore::send`]). A core keeps only its own
+//! station.
 //!
 //! **Order.** The door hands each input to the core first, then decodes what it delivered,
 //! then takes the link's own inputs ([`NetCore::poll_input`]) the same way; its own queued
@@ -24,7 +26,6 @@ use super::error::NetError;
 use super::events::NetEvent;
 use crate::cia301::nmt::{NmtCommand, NmtTarget};
 use crate::cia301::sdo::{RequestId, SdoError};
-use crate::cia305::{LssMaster, LssMasterEvent};
 use crate::frame::cob_id::NodeId;
 use crate::frame::instant::Instant;
 use crate::frame::Frame;
@@ -48,8 +49,6 @@ pub enum CoreEvent {
     Net(NetEvent),
     /// An SDO transfer ended: its request and the data read (empty for a write) or the error.
     Sdo(RequestId, Result<Vec<u8>, SdoError>),
-    /// What the core's LSS master reported.
-    Lss(LssMasterEvent),
 }
 
 /// A station a [`Network`](super::Network) runs on: the door (remote nodes, SDO, waits, PDO
@@ -84,9 +83,12 @@ pub trait NetCore: Device<Event = CoreEvent> + Send + 'static {
     fn watch_heartbeat(&mut self, now: Instant, node: NodeId, ms: u16) -> Result<(), NetError>;
     /// Produces SYNC every `period_us` µs, or stops producing it (`None`).
     fn set_sync(&mut self, now: Instant, period_us: Option<u32>) -> Result<(), NetError>;
-    /// The core's LSS master, if it has one.
-    fn lss(&mut self) -> Option<&mut LssMaster<LSS_PLAN>> {
-        None
+    /// Why the network's LSS master may not start a request now, if it may not: the core may
+    /// not send ([`NetCore::send_refused`]), or, for a core that runs an LSS master of its own
+    /// (a supervisor replacing boards), that one is busy: LSS has no addresses, so the slaves'
+    /// answers to two masters would mix.
+    fn lss_refused(&self, now: Instant) -> Option<NetError> {
+        (!self.may_send(now)).then(|| self.send_refused())
     }
     /// Queues a frame of the network's own (an RPDO) for every bus of the link, ahead of the
     /// core's next frames; [`NetError::QueueFull`] if too many wait.

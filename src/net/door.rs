@@ -6,20 +6,21 @@ use super::error::NetError;
 use super::events::NetEvent;
 use super::link::DriverState;
 use super::pdo::table::PdoTable;
-use crate::cia301::sdo::RequestId;
-use crate::cia305::LssMaster;
+use super::starts::{Start, Starts};
+use crate::cia305::{LssMaster, LssMasterConfig, LssMasterEvent};
 use crate::frame::instant::{Duration, Instant};
 use crate::frame::Frame;
-use crate::machine::{Device, PortRequest, PortStatus};
+use crate::machine::{Device, Machine, PortRequest, PortStatus};
 use crate::port::PortInput;
 use crate::NodeId;
 use std::collections::VecDeque;
-use std::sync::Arc;
-use tokio::sync::Notify;
 
 /// Decoded PDOs waiting for the runtime's next flush (it flushes after every frame, so one
 /// is the usual count): beyond this they are counted and dropped.
 const PDO_EVENTS: usize = 256;
+
+/// What waits for the LSS master's results of the request running: true once it has its end.
+pub(crate) type LssWatch = Box<dyn FnMut(&LssMasterEvent) -> bool + Send>;
 
 /// The door: the core, and what the door keeps above it for every core.
 pub(crate) struct Door {
@@ -33,27 +34,41 @@ pub(crate) struct Door {
     decoded: VecDeque<NetEvent>,
     /// Decoded PDOs dropped because [`PDO_EVENTS`] were waiting.
     pub pdo_dropped: u64,
-    /// Streamed transfers and whom to wake when one has room to fill or data to take
-    /// (at most one per client session: an entry goes with its transfer's result).
-    pub streams: Vec<(RequestId, Arc<Notify>)>,
+    /// SDO transfers started or waiting for the client (see [`super::starts`]).
+    starts: Starts,
     /// What each port's driver last reported (index = port).
     pub drivers: [DriverState; 2],
     /// Watched nodes not yet heard since their watch began: (node, since, due). One entry per
     /// node at most, so 127 at most.
     awaited: Vec<(NodeId, Instant, Instant)>,
+    /// The network's LSS master (CiA 305), one whatever the core: fed the frames the link
+    /// delivers, its requests sent as the network's own frames ([`NetCore::send`]).
+    pub lss: LssMaster<LSS_PLAN>,
+    /// The caller of the LSS request running (LSS serves one at a time).
+    lss_watch: Option<LssWatch>,
+    /// LSS requests that could not leave: the core stopped being allowed to send mid-request
+    /// (the request then times out), or its queue was full.
+    pub lss_dropped: u64,
+    /// The latest instant an input, a timeout or a call carried: what LSS requests are handed
+    /// to the core with.
+    now: Instant,
 }
 
 impl Door {
-    pub fn new(core: Box<dyn NetCore>) -> Self {
+    pub fn new(core: Box<dyn NetCore>, lss: LssMasterConfig) -> Self {
         Door {
             core,
             boot_ups: [None; 128],
             pdos: PdoTable::default(),
             decoded: VecDeque::new(),
             pdo_dropped: 0,
-            streams: Vec::new(),
+            starts: Starts::default(),
             drivers: [DriverState::default(); 2],
             awaited: Vec::new(),
+            lss: LssMaster::new(lss),
+            lss_watch: None,
+            lss_dropped: 0,
+            now: Instant::ZERO,
         }
     }
     /// Expects a heartbeat or boot-up of `node` within `timeout` from `now` (zero: no longer):
@@ -86,12 +101,32 @@ impl Door {
             }
         }
     }
-    /// The core's LSS master; [`NetError::Argument`] for a core without one.
-    pub fn lss(&mut self) -> Result<&mut LssMaster<LSS_PLAN>, NetError> {
-        let name = self.core.type_name();
-        self.core.lss().ok_or_else(|| {
-            NetError::Argument(format!("the network's core ({name}) has no LSS master"))
-        })
+    /// Starts an SDO transfer, or parks it while the client is busy ([`super::starts`]); an
+    /// error if the core has no client now or the client refuses the transfer itself.
+    pub fn sdo(&mut self, now: Instant, start: Start) -> Result<(), NetError> {
+        self.starts.submit(self.core.client(), now, start)
+    }
+    /// After every input and timeout (and a transfer the door aborted): the parked starts try
+    /// again.
+    pub fn retry(&mut self, now: Instant) {
+        self.starts.retry(self.core.client(), now);
+    }
+    /// Starts an LSS request with `start` if the core may make one now
+    /// ([`NetCore::lss_refused`]); `watch` then sees each of the master's results until it
+    /// says it has its end.
+    pub fn lss_start<T>(
+        &mut self,
+        now: Instant,
+        start: impl FnOnce(&mut LssMaster<LSS_PLAN>, Instant) -> Result<T, NetError>,
+        watch: impl FnOnce(&T) -> LssWatch,
+    ) -> Result<T, NetError> {
+        self.now = now;
+        if let Some(e) = self.core.lss_refused(now) {
+            return Err(e);
+        }
+        let t = start(&mut self.lss, now)?;
+        self.lss_watch = Some(watch(&t));
+        Ok(t)
     }
     /// Queues a frame the network itself sends (an RPDO), if the core may send now; if not,
     /// the core's reason ([`NetCore::send_refused`]).
@@ -107,6 +142,7 @@ impl Door {
         let Some(frame) = self.core.rx(now, port, frame, at) else {
             return;
         };
+        self.lss.handle_frame(now, &frame);
         if let Some((node, pdo, values)) = self.pdos.decode(&frame) {
             if self.decoded.len() < PDO_EVENTS {
                 self.decoded.push_back(NetEvent::Pdo {
@@ -127,7 +163,8 @@ impl Door {
         }
         self.core.handle_port_status(now, port, status);
     }
-    /// What the link produced itself, each as it came from its port ([`NetLink::poll_input`]).
+    /// What the link produced itself, each as it came from its port ([`NetLink::poll_input`]);
+    /// then the parked SDO starts try again, as after every input and timeout.
     fn link_inputs(&mut self, now: Instant) {
         while let Some((port, input)) = self.core.poll_input() {
             match input {
@@ -136,6 +173,7 @@ impl Door {
                 PortInput::Status(s) => self.port_status(now, port, s),
             }
         }
+        self.retry(now);
     }
 }
 
@@ -146,23 +184,36 @@ impl Device for Door {
         self.core.port_count()
     }
     fn handle_rx(&mut self, now: Instant, port: usize, frame: &Frame) {
+        self.now = now;
         self.rx(now, port, frame, None);
         self.link_inputs(now);
     }
     fn handle_rx_at(&mut self, now: Instant, port: usize, frame: &Frame, at: Instant) {
+        self.now = now;
         self.rx(now, port, frame, Some(at));
         self.link_inputs(now);
     }
     fn handle_port_status(&mut self, now: Instant, port: usize, status: PortStatus) {
+        self.now = now;
         self.port_status(now, port, status);
         self.link_inputs(now);
     }
     fn handle_timeout(&mut self, now: Instant) {
+        self.now = now;
         self.core.handle_timeout(now);
+        self.lss.handle_timeout(now);
         self.link_inputs(now);
         self.check_awaited(now);
     }
     fn poll_transmit(&mut self) -> Option<(usize, Frame)> {
+        // The LSS master's requests are the network's own frames: the core puts them on every
+        // bus, if it may send now.
+        while let Some(f) = self.lss.poll_transmit() {
+            let now = self.now;
+            if !self.core.may_send(now) || self.core.send(now, f).is_err() {
+                self.lss_dropped += 1;
+            }
+        }
         self.core.poll_transmit()
     }
     fn poll_port_request(&mut self) -> Option<(usize, PortRequest)> {
@@ -170,14 +221,23 @@ impl Device for Door {
     }
     fn poll_timeout(&self) -> Option<Instant> {
         let awaited = self.awaited.iter().map(|a| a.2).min();
-        crate::frame::instant::earliest_of([self.core.poll_timeout(), awaited])
+        crate::frame::instant::earliest_of([
+            self.core.poll_timeout(),
+            awaited,
+            self.starts.due(),
+            self.lss.poll_timeout(),
+        ])
     }
     fn poll_event(&mut self) -> Option<CoreEvent> {
         // A wake-up, not an event: a stream's reader or feeder is no business of the
         // subscribers (at a frame each, it would make them lag).
         while let Some(id) = self.core.client().ok().and_then(|c| c.poll_stream()) {
-            if let Some((_, n)) = self.streams.iter().find(|(r, _)| *r == id) {
-                n.notify_one();
+            self.starts.wake(id);
+        }
+        // The LSS master's results go to the request's caller only.
+        while let Some(e) = self.lss.poll_event() {
+            if self.lss_watch.as_mut().is_some_and(|w| w(&e)) {
+                self.lss_watch = None;
             }
         }
         if let Some(e) = self.decoded.pop_front() {
@@ -188,7 +248,7 @@ impl Device for Door {
             CoreEvent::Net(NetEvent::BootUp { node, at }) => {
                 self.boot_ups[usize::from(node.raw())] = Some(*at);
             }
-            CoreEvent::Sdo(id, _) => self.streams.retain(|(r, _)| r != id),
+            CoreEvent::Sdo(id, r) => self.starts.ended(*id, r),
             _ => {}
         }
         Some(e)

@@ -18,10 +18,7 @@
 use super::events::NetEvent;
 use crate::frame::cob_id::NodeId;
 use crate::frame::instant::Instant;
-use crate::frame::Frame;
-use crate::machine::{
-    BusLink, Device, ErrorCause, LinkRequest, PortRequest, PortState, PortStatus, SinglePort,
-};
+use crate::machine::{BusLink, Device, ErrorCause, PortState, PortStatus, SinglePort};
 use crate::port::{Port, PortCountersSnapshot, PortInput};
 use crate::runtime::Runtime;
 use core::convert::Infallible;
@@ -59,45 +56,10 @@ pub trait NetLink: BusLink<Event = NetEvent, Command = Infallible> + Send + 'sta
 impl BusLink for Box<dyn NetLink> {
     type Event = NetEvent;
     type Command = Infallible;
-    fn port_count(&self) -> usize {
-        (**self).port_count()
-    }
-    fn handle_rx(&mut self, now: Instant, port: usize, frame: &Frame) -> Option<Frame> {
-        (**self).handle_rx(now, port, frame)
-    }
-    fn handle_rx_at(
-        &mut self,
-        now: Instant,
-        port: usize,
-        frame: &Frame,
-        at: Instant,
-    ) -> Option<Frame> {
-        (**self).handle_rx_at(now, port, frame, at)
-    }
-    fn handle_port_status(&mut self, now: Instant, port: usize, status: PortStatus) {
-        (**self).handle_port_status(now, port, status);
-    }
-    fn send(&mut self, now: Instant, frame: &Frame) {
-        (**self).send(now, frame);
-    }
-    fn poll_transmit(&mut self) -> Option<(usize, Frame)> {
-        (**self).poll_transmit()
-    }
-    fn poll_port_request(&mut self) -> Option<(usize, PortRequest)> {
-        (**self).poll_port_request()
-    }
-    fn handle_timeout(&mut self, now: Instant) {
-        (**self).handle_timeout(now);
-    }
-    fn poll_timeout(&self) -> Option<Instant> {
-        (**self).poll_timeout()
-    }
-    fn poll_event(&mut self) -> Option<NetEvent> {
-        (**self).poll_event()
-    }
-    fn poll_machine_request(&mut self) -> Option<LinkRequest> {
-        (**self).poll_machine_request()
-    }
+    crate::forward_bus_link!(*;
+        port_count, handle_rx, handle_rx_at, handle_port_status, send, poll_transmit,
+        poll_port_request, handle_timeout, poll_timeout, poll_event, poll_machine_request
+    );
 }
 
 /// One port: the [`SinglePort`] pass-through, reporting nothing of its own.
@@ -110,21 +72,7 @@ impl BusLink for OnePort {
     fn port_count(&self) -> usize {
         1
     }
-    #[inline]
-    fn handle_rx(&mut self, now: Instant, port: usize, frame: &Frame) -> Option<Frame> {
-        self.0.handle_rx(now, port, frame)
-    }
-    fn handle_port_status(&mut self, now: Instant, port: usize, status: PortStatus) {
-        self.0.handle_port_status(now, port, status);
-    }
-    #[inline]
-    fn send(&mut self, now: Instant, frame: &Frame) {
-        self.0.send(now, frame);
-    }
-    #[inline]
-    fn poll_transmit(&mut self) -> Option<(usize, Frame)> {
-        self.0.poll_transmit()
-    }
+    crate::forward_bus_link!(0; handle_rx, handle_port_status, send, poll_transmit);
     fn handle_timeout(&mut self, _: Instant) {}
     fn poll_timeout(&self) -> Option<Instant> {
         None

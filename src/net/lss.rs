@@ -1,21 +1,24 @@
 //! The network's LSS master (CiA 305) as async calls: python `canopen`'s `network.lss`.
 //!
 //! The master is the library's sans-IO [`LssMaster`](crate::cia305::LssMaster), run inside the
-//! network's runtime next to the observer and the SDO client: its requests (0x7E5) leave on
-//! every bus of the link, the slaves' answers (0x7E4) come back merged like any frame, and the
+//! network's runtime by the door itself, whatever core the network runs on: its requests
+//! (0x7E5) leave as the network's own frames on every bus of the link, while the core may
+//! send (listen-only: none; a standby master: none; a master replacing a board by LSS of its
+//! own: not until that is done), the slaves' answers (0x7E4) come back merged like any frame, and the
 //! runtime gives it the time. LSS has no addresses, so calls take turns: one request runs at a
 //! time, whoever calls. Each call returns when the master's own timeout decided
 //! ([`NetOptions::with_lss`](super::NetOptions::with_lss)).
 
-use super::core::{CoreEvent, LSS_PLAN};
+use super::core::LSS_PLAN;
 use super::error::NetError;
 use super::Network;
 use crate::cia305::{
-    BitTiming, IdentifyRange, Inquiry, LssAddress, LssError, LssMasterEventKind, LssMode,
-    LssOutcome, LssPlan,
+    BitTiming, IdentifyRange, Inquiry, LssAddress, LssError, LssMaster, LssMasterEvent,
+    LssMasterEventKind, LssMode, LssOutcome, LssPlan,
 };
 use crate::frame::cob_id::NodeId;
 use crate::frame::instant::{Duration, Instant};
+use tokio::sync::oneshot;
 
 /// The LSS master of a [`Network`]: `net.lss().inquire(Inquiry::NodeId).await?`.
 #[derive(Clone)]
@@ -66,29 +69,56 @@ impl NetLss {
         Ok(self.net.shared.lss_turn.lock().await)
     }
 
+    /// Starts a request with `start` on the door's master and waits for the master's results
+    /// until `done` has the outcome; `done` sees what `start` returned. The caller holds the
+    /// turn.
+    async fn request<T, R>(
+        &self,
+        start: impl FnOnce(&mut LssMaster<LSS_PLAN>, Instant) -> Result<T, NetError> + Send + 'static,
+        mut done: impl FnMut(&T, &LssMasterEvent) -> Option<Result<R, NetError>> + Send + 'static,
+    ) -> Result<R, NetError>
+    where
+        T: Clone + Send + 'static,
+        R: Send + 'static,
+    {
+        let (tx, rx) = oneshot::channel();
+        self.net
+            .shared
+            .handle
+            .try_call(move |d, now| {
+                d.lss_start(now, start, |t| {
+                    let (t, mut tx) = (t.clone(), Some(tx));
+                    Box::new(move |e| match done(&t, e) {
+                        Some(r) => {
+                            if let Some(tx) = tx.take() {
+                                let _ = tx.send(r);
+                            }
+                            true
+                        }
+                        None => false,
+                    })
+                })
+                .map(drop)
+            })
+            .await?;
+        rx.await.unwrap_or(Err(NetError::Closed))
+    }
+
     /// Runs one request: `start` starts it on the master, the master's next result ends it.
     async fn run(
         &self,
-        start: impl FnOnce(&mut crate::cia305::LssMaster<LSS_PLAN>, Instant) -> Result<(), LssError>
-            + Send
-            + 'static,
+        start: impl FnOnce(&mut LssMaster<LSS_PLAN>, Instant) -> Result<(), LssError> + Send + 'static,
     ) -> Result<LssOutcome, NetError> {
         let _turn = self.turn().await?;
-        let shared = &self.net.shared;
-        shared
-            .handle
-            .request(
-                move |d, now| start(d.lss()?, now).map_err(NetError::Lss),
-                |(), e| match e {
-                    CoreEvent::Lss(e) => match e.kind {
-                        LssMasterEventKind::Done(o) => Some(Ok(o)),
-                        LssMasterEventKind::Failed(e) => Some(Err(NetError::Lss(e))),
-                        _ => None,
-                    },
-                    _ => None,
-                },
-            )
-            .await
+        self.request(
+            move |m, now| start(m, now).map_err(NetError::Lss),
+            |(), e| match e.kind {
+                LssMasterEventKind::Done(o) => Some(Ok(o)),
+                LssMasterEventKind::Failed(e) => Some(Err(NetError::Lss(e))),
+                _ => None,
+            },
+        )
+        .await
     }
 
     /// Switch state global: every slave to `mode` (python `send_switch_state_global`).
@@ -170,41 +200,30 @@ impl NetLss {
     /// [`FastscanReport::stopped`]: the slaves configured before stay configured.
     pub async fn fastscan(&self, plan: LssPlan<LSS_PLAN>) -> Result<FastscanReport, NetError> {
         let _turn = self.turn().await?;
-        let shared = &self.net.shared;
-        let (begun, before, scan) = shared
-            .handle
+        let mut scan = Scan::default();
+        let (begun, before, scan) = self
             .request(
-                move |d, now| {
-                    let lss = d.lss()?;
+                move |lss, now| {
                     let before = lss.stats();
                     lss.fastscan(now, plan)
                         .map(|()| (now, before))
                         .map_err(NetError::Lss)
                 },
-                {
-                    let mut scan = Scan::default();
-                    move |(begun, before), e| {
-                        let CoreEvent::Lss(e) = e else { return None };
-                        match e.kind {
-                            LssMasterEventKind::Assigned { address, node } => {
-                                scan.assigned.push((address, node));
-                            }
-                            LssMasterEventKind::ScanFinished { .. } => {
-                                scan.end = Some((e.at, None));
-                            }
-                            LssMasterEventKind::Failed(err) => scan.end = Some((e.at, Some(err))),
-                            _ => {}
+                move |&(begun, before), e| {
+                    match e.kind {
+                        LssMasterEventKind::Assigned { address, node } => {
+                            scan.assigned.push((address, node));
                         }
-                        scan.end?;
-                        Some(Ok((*begun, *before, core::mem::take(&mut scan))))
+                        LssMasterEventKind::ScanFinished { .. } => scan.end = Some((e.at, None)),
+                        LssMasterEventKind::Failed(err) => scan.end = Some((e.at, Some(err))),
+                        _ => {}
                     }
+                    scan.end?;
+                    Some(Ok((begun, before, core::mem::take(&mut scan))))
                 },
             )
             .await?;
-        let after = shared
-            .handle
-            .try_call(|d, _| Ok::<_, NetError>(d.lss()?.stats()))
-            .await?;
+        let after = self.net.shared.handle.call(|d, _| d.lss.stats()).await?;
         let (end, stopped) = scan.end.unwrap_or((begun, None));
         Ok(FastscanReport {
             assigned: scan.assigned,

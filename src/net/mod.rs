@@ -72,8 +72,9 @@
 //! buses a node was heard on) do, and [`NetEvent::PortState`] and [`NetEvent::Reach`] report
 //! their changes.
 //!
-//! **Cores.** The observer, client and LSS master are one [`NetCore`]: the door (nodes, SDO,
-//! waits, PDOs, events) is written once over that trait, and [`Network::open_core`] runs it
+//! **Cores.** The observer and client are one [`NetCore`]: the door (nodes, SDO, waits, PDOs,
+//! events, and the LSS master, whose requests leave through the core) is written once over
+//! that trait, and [`Network::open_core`] runs it
 //! over another core, whose own calls [`Network::with_core`] reaches and whose own events
 //! come in the same stream as [`NetEvent::Ext`] ([`Extension`]).
 //!
@@ -112,6 +113,7 @@ mod remote;
 mod sdo;
 mod sdo_stream;
 mod sim;
+mod starts;
 mod value;
 
 pub use self::core::{CoreEvent, NetClient, NetCore, LSS_PLAN};
@@ -141,7 +143,7 @@ use std::collections::BTreeMap;
 use std::future::Future;
 use std::pin::Pin;
 use std::sync::Arc;
-use tokio::sync::{watch, Mutex, Semaphore};
+use tokio::sync::{watch, Mutex};
 
 /// SDO transfers in flight at once (the client's session count).
 const SESSIONS: usize = 8;
@@ -234,8 +236,6 @@ struct Shared {
     opts: NetOptions,
     /// One lock per node-ID: transfers to one node take turns.
     per_node: Vec<Mutex<()>>,
-    /// One permit per client session.
-    sessions: Semaphore,
     /// LSS requests take turns (LSS has no addresses: one runs at a time).
     lss_turn: Mutex<()>,
     /// Simulated nodes started with the network (`open_named("sim")`), kept running.
@@ -289,8 +289,8 @@ impl Network {
 
     /// Opens the network on `core` over `ports`, one per port of the core in order: the
     /// same door (remote nodes, SDO, waits, PDOs, events) over another station, such as a
-    /// redundancy crate's supervised master. `opts.sdo` and `opts.listen_only` are the door's;
-    /// `opts.lss` is the observer's and not used here. A core whose port count differs from
+    /// redundancy crate's supervised master. `opts.sdo`, `opts.listen_only` and `opts.lss` are
+    /// the door's. A core whose port count differs from
     /// the ports given is [`NetError::Port`]. Must be called inside a tokio runtime.
     pub fn open_core(
         core: Box<dyn NetCore>,
@@ -356,7 +356,7 @@ impl Network {
                 "no tokio runtime: open the network from inside one (#[tokio::main])".into(),
             ));
         }
-        let door = Door::new(core);
+        let door = Door::new(core, opts.lss);
         let label = ports.label();
         let mut rt = ports.attach(Runtime::new(door).name(label));
         if let Some(tap) = &opts.tap {
@@ -368,7 +368,6 @@ impl Network {
                 handle,
                 opts,
                 per_node: (0..128).map(|_| Mutex::new(())).collect(),
-                sessions: Semaphore::new(SESSIONS),
                 lss_turn: Mutex::new(()),
                 sim,
                 closed: watch::channel(false).0,

@@ -1,16 +1,14 @@
 //! The core [`Network::open`](super::Network::open) and
-//! [`Network::open_link`](super::Network::open_link) build: an observing node, an SDO client
-//! and an LSS master on a [`NetLink`], behind a filter on what reaches the wire.
+//! [`Network::open_link`](super::Network::open_link) build: an observing node and an SDO
+//! client on a [`NetLink`], behind a filter on what reaches the wire.
 
-use super::core::{CoreEvent, NetClient, NetCore, LSS_PLAN};
+use super::core::{CoreEvent, NetClient, NetCore};
 use super::error::NetError;
 use super::events::NetEvent;
 use super::link::NetLink;
 use super::{NetOptions, MAX_TRANSFER, SESSIONS};
 use crate::cia301::nmt::{NmtCommand, NmtTarget};
 use crate::cia301::sdo::TransferBuffer;
-use crate::cia305::codec::MASTER_TO_SLAVE;
-use crate::cia305::LssMaster;
 use crate::frame::instant::Instant;
 use crate::frame::{Frame, Id};
 use crate::machine::{
@@ -25,8 +23,7 @@ use std::collections::VecDeque;
 
 /// The observing node: it tracks every node's state and consumes heartbeats and EMCY.
 type Observer = Node<DynamicDictionary>;
-type Inner =
-    Station<Box<dyn NetLink>, Composite<Composite<Observer, NetClient>, LssMaster<LSS_PLAN>>>;
+type Inner = Station<Box<dyn NetLink>, Composite<Observer, NetClient>>;
 
 /// The SYNC identifier the producer uses (0x1005's default).
 const SYNC_ID: u16 = 0x80;
@@ -36,16 +33,16 @@ const OBSERVER_ID: u8 = 127;
 /// than the port drains gets [`NetError::QueueFull`].
 const OWN_QUEUE: usize = 64;
 
-/// The observer node, SDO client and LSS master behind a filter. The observer exists to hear
+/// The observer node and SDO client behind a filter. The observer exists to hear
 /// the bus (states, heartbeats, EMCY); it must not *be* a node on it: python `canopen`'s
 /// network object sends no boot-up, no heartbeat and answers nothing, and neither does this.
 /// So of what the observer produces only NMT commands (0x000) and SDO requests (0x601–0x67F)
 /// leave, and SYNC (0x080) while the user has the SYNC producer on
-/// ([`Network::start_sync`](super::Network::start_sync)), and LSS requests (0x7E5), which
-/// only the network's LSS master makes, when the user calls it. The observer's SYNC service
-/// is the producer, and it produces only when told to. RPDOs are not the observer's: the door
-/// makes them from a mapping the user had the network learn, for a node the user named, and
-/// hands them over ([`NetCore::send`]), so they pass. In listen-only mode nothing leaves.
+/// ([`Network::start_sync`](super::Network::start_sync)). The observer's SYNC service is the
+/// producer, and it produces only when told to. RPDOs and LSS requests are not the
+/// observer's: the door makes them (from a mapping the user had the network learn, for a
+/// node the user named; from the LSS call the user made) and hands them over
+/// ([`NetCore::send`]), so they pass. In listen-only mode nothing leaves.
 pub(crate) struct ObserverCore {
     inner: Inner,
     listen_only: bool,
@@ -65,9 +62,8 @@ impl ObserverCore {
         // Booted before the clock starts: its boot-up never leaves (the filter).
         node.boot(Instant::ZERO);
         let client = NetClient::with_sessions(MAX_TRANSFER, SESSIONS);
-        let lss = LssMaster::new(opts.lss);
         Ok(ObserverCore {
-            inner: Station::new(link, Composite::new(Composite::new(node, client), lss)),
+            inner: Station::new(link, Composite::new(node, client)),
             listen_only: opts.listen_only,
             sync_on: false,
             own: VecDeque::new(),
@@ -75,12 +71,11 @@ impl ObserverCore {
         })
     }
     fn node(&mut self) -> &mut Observer {
-        &mut self.inner.machine.a.a
+        &mut self.inner.machine.a
     }
     fn passes(&self, f: &Frame) -> bool {
         !self.listen_only
             && (matches!(f.id(), Id::Standard(0) | Id::Standard(0x601..=0x67F))
-                || f.id() == MASTER_TO_SLAVE
                 || (self.sync_on && f.id() == Id::Standard(SYNC_ID)))
     }
     fn sync_refused(code: impl core::fmt::Display) -> NetError {
@@ -137,12 +132,11 @@ impl Device for ObserverCore {
         loop {
             let e = match self.inner.poll_event()? {
                 StationEvent::Link(e) => return Some(CoreEvent::Net(e)),
-                StationEvent::Machine(CompositeEvent::A(CompositeEvent::B(s))) => {
+                StationEvent::Machine(CompositeEvent::B(s)) => {
                     let r = s.result.map(|b| TransferBuffer::as_slice(&b).to_vec());
                     return Some(CoreEvent::Sdo(s.request, r));
                 }
-                StationEvent::Machine(CompositeEvent::B(l)) => return Some(CoreEvent::Lss(l)),
-                StationEvent::Machine(CompositeEvent::A(CompositeEvent::A(n))) => n,
+                StationEvent::Machine(CompositeEvent::A(n)) => n,
             };
             let at = e.at;
             let ev = match e.kind {
@@ -178,7 +172,7 @@ impl NetCore for ObserverCore {
         self.inner.link.poll_input()
     }
     fn client(&mut self) -> Result<&mut NetClient, NetError> {
-        Ok(&mut self.inner.machine.a.b)
+        Ok(&mut self.inner.machine.b)
     }
     fn nmt(&mut self, now: Instant, cmd: NmtCommand, target: NmtTarget) -> Result<(), NetError> {
         self.node()
@@ -186,7 +180,7 @@ impl NetCore for ObserverCore {
             .map_err(|_| NetError::QueueFull)
     }
     fn remote(&self, node: NodeId) -> Option<(NmtState, Instant)> {
-        let v = self.inner.machine.a.a.remote(node)?;
+        let v = self.inner.machine.a.remote(node)?;
         Some((v.state, v.seen))
     }
     fn watch_heartbeat(&mut self, now: Instant, node: NodeId, ms: u16) -> Result<(), NetError> {
@@ -216,9 +210,6 @@ impl NetCore for ObserverCore {
         // The filter lets SYNC out only once the producer runs.
         self.sync_on = period_us.is_some() && r.is_ok();
         r.map_err(Self::sync_refused)
-    }
-    fn lss(&mut self) -> Option<&mut LssMaster<LSS_PLAN>> {
-        Some(&mut self.inner.machine.b)
     }
     /// `now` is not used: own frames reach the link with the machine's, at the latest
     /// input's instant.

@@ -1,21 +1,16 @@
 //! A remote node's SDO server: typed values, strings and domains.
 
-use super::core::CoreEvent;
+use super::door::Door;
 use super::error::NetError;
 use super::remote::RemoteNode;
-use crate::cia301::sdo::{SdoErrorKind, SdoOptions, TransferMode};
+use super::starts::{Begin, Start, Stream};
+use crate::cia301::sdo::{SdoOptions, TransferMode};
 use crate::frame::cob_id::NodeId;
 use crate::od::OdValue;
+use tokio::sync::oneshot;
 
-/// How often a start the core's client refused as busy is tried again: a few frames' time on
-/// a busy bus, short beside any SDO timeout.
-const BUSY_RETRY: std::time::Duration = std::time::Duration::from_millis(5);
-
-/// A node's turn and a client session, held for one transfer.
-pub(super) type Turn<'a> = (
-    tokio::sync::MutexGuard<'a, ()>,
-    tokio::sync::SemaphorePermit<'a>,
-);
+/// A node's turn, held for one transfer.
+pub(super) type Turn<'a> = tokio::sync::MutexGuard<'a, ()>;
 
 /// The SDO server of a [`RemoteNode`]: `node.sdo().read::<u32>(0x1018, 1).await?`.
 ///
@@ -112,29 +107,20 @@ impl RemoteSdo {
         self.transfer(index, sub, Some(data.into())).await.map(drop)
     }
 
-    /// Waits for this node's turn and a client session (held while the guards live).
+    /// Waits for this node's turn (held while the guard lives).
     pub(super) async fn turn(&self) -> Result<(NodeId, Turn<'_>), NetError> {
         let node = self.node.id()?;
         let net = self.node.network();
         if net.is_listen_only() {
             return Err(NetError::ListenOnly { node: Some(node) });
         }
-        let shared = &net.shared;
-        let turn = shared.per_node[usize::from(node.raw())].lock().await;
-        let session = shared
-            .sessions
-            .acquire()
-            .await
-            .map_err(|_| NetError::Closed)?;
-        Ok((node, (turn, session)))
+        let turn = net.shared.per_node[usize::from(node.raw())].lock().await;
+        Ok((node, turn))
     }
 
-    /// One transfer: a read when `data` is `None`. Transfers to one node take turns, and no
-    /// more start at once than the client has sessions, so neither "busy" nor "no session" is
-    /// the caller's problem. A core may share its client with transfers of its own (a master
-    /// configuring a slave as it boots): a start refused as busy, or for want of a session, is
-    /// tried again every [`BUSY_RETRY`] until the transfer's own timeout has passed. Only the
-    /// start is tried again: a transfer that ran and failed is the answer.
+    /// One transfer: a read when `data` is `None`. Transfers to one node take turns; a start
+    /// the core's client refuses as busy or for want of a session waits in the door, at most
+    /// for the transfer's own timeout ([`super::starts`]).
     async fn transfer(
         &self,
         index: u16,
@@ -143,50 +129,46 @@ impl RemoteSdo {
     ) -> Result<Vec<u8>, NetError> {
         let (node, _turn) = self.turn().await?;
         let opts = self.opts;
-        let give_up = tokio::time::Instant::now() + std::time::Duration::from(opts.timeout);
-        loop {
-            match self.run(node, index, sub, data.clone()).await {
-                Err(NetError::Sdo(e))
-                    if matches!(e.kind, SdoErrorKind::Busy | SdoErrorKind::NoSession { .. })
-                        && tokio::time::Instant::now() + BUSY_RETRY <= give_up =>
-                {
-                    tokio::time::sleep(BUSY_RETRY).await;
-                }
-                Err(NetError::Standby { node: None }) => {
-                    return Err(NetError::Standby { node: Some(node) })
-                }
-                r => return r,
-            }
-        }
+        let begin: Begin = Box::new(move |c, now| match &data {
+            None => c.upload(now, node, index, sub, opts),
+            Some(v) => c.download(now, node, index, sub, v, opts),
+        });
+        self.submit(node, None, begin).await
     }
 
-    /// Starts one transfer on the core's client and waits for its end.
-    async fn run(
+    /// Hands a transfer's start to the door and waits for its outcome: the data read (empty
+    /// for a write, the data not yet taken for a stream) or the error.
+    pub(super) async fn submit(
         &self,
         node: NodeId,
-        index: u16,
-        sub: u8,
-        data: Option<Vec<u8>>,
+        stream: Option<Stream>,
+        begin: Begin,
     ) -> Result<Vec<u8>, NetError> {
-        let opts = self.opts;
-        self.node
-            .network()
-            .shared
-            .handle
-            .request(
-                move |d, now| {
-                    let c = d.core.client()?;
-                    let started = match &data {
-                        None => c.upload(now, node, index, sub, opts),
-                        Some(v) => c.download(now, node, index, sub, v, opts),
-                    };
-                    started.map_err(NetError::Sdo)
-                },
-                |id, e| match e {
-                    CoreEvent::Sdo(rid, r) if rid == id => Some(r.clone().map_err(NetError::Sdo)),
-                    _ => None,
-                },
-            )
-            .await
+        let (reply, outcome) = oneshot::channel();
+        let timeout = self.opts.timeout;
+        let handle = &self.node.network().shared.handle;
+        let started = handle
+            .try_call(move |d: &mut Door, now| {
+                let due = now + timeout;
+                d.sdo(
+                    now,
+                    Start {
+                        begin,
+                        due,
+                        reply,
+                        stream,
+                    },
+                )
+            })
+            .await;
+        let r = match started {
+            Ok(()) => outcome.await.unwrap_or(Err(NetError::Closed)),
+            Err(e) => Err(e),
+        };
+        // A standby master's refusal names the node asked.
+        r.map_err(|e| match e {
+            NetError::Standby { node: None } => NetError::Standby { node: Some(node) },
+            e => e,
+        })
     }
 }

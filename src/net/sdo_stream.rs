@@ -33,17 +33,15 @@
 //! # Ok(()) }
 //! ```
 
-use super::core::CoreEvent;
 use super::door::Door;
 use super::error::NetError;
 use super::sdo::RemoteSdo;
+use super::starts::Stream;
 use crate::cia301::sdo::RequestId;
 use crate::frame::cob_id::NodeId;
 use crate::od::abort::AbortCode;
 use crate::runtime::Handle;
-use std::sync::{Arc, Mutex};
 use tokio::io::{AsyncRead, AsyncReadExt, AsyncWrite, AsyncWriteExt};
-use tokio::sync::Notify;
 
 /// The window of a streamed transfer: what the client buffers of a value at most.
 pub const STREAM_WINDOW: usize = 4096;
@@ -64,8 +62,7 @@ pub struct TransferProgress {
 /// A streamed transfer running: its id (known once the runtime started it) and its wake-up.
 struct Running {
     handle: Handle<Door>,
-    id: Arc<Mutex<Option<RequestId>>>,
-    wake: Arc<Notify>,
+    stream: Stream,
     node: NodeId,
     index: u16,
     sub: u8,
@@ -73,7 +70,7 @@ struct Running {
 
 impl Running {
     fn id(&self) -> Option<RequestId> {
-        self.id.lock().ok().and_then(|g| *g)
+        self.stream.id.lock().ok().and_then(|g| *g)
     }
 
     /// Aborts the transfer after a local failure and names the failure.
@@ -82,7 +79,11 @@ impl Running {
             let _ = self
                 .handle
                 .try_call(move |d, now| {
-                    Ok::<_, NetError>(d.core.client()?.abort(now, id, AbortCode::GENERAL))
+                    d.core.client()?.abort(now, id, AbortCode::GENERAL);
+                    // Its session is free now, not at the next input: a start waiting for
+                    // one takes it.
+                    d.retry(now);
+                    Ok::<_, NetError>(())
                 })
                 .await;
             // The node may have answered the last frame before it heard the abort: that
@@ -132,7 +133,7 @@ impl RemoteSdo {
                     progress(TransferProgress { done: written, total: Some(written) });
                     return Ok(written);
                 }
-                _ = run.wake.notified() => {
+                _ = run.stream.wake.notified() => {
                     let Some(id) = run.id() else { continue };
                     let (back, n, total) = run
                         .handle
@@ -200,7 +201,7 @@ impl RemoteSdo {
                     progress(TransferProgress { done: fed, total: size });
                     return Ok(fed);
                 }
-                _ = run.wake.notified(), if room == 0 => {
+                _ = run.stream.wake.notified(), if room == 0 => {
                     let Some(id) = run.id() else { continue };
                     room = run.handle.try_call(move |d, _| Ok::<_, NetError>(d.core.client()?.wants_data(id))).await?;
                 }
@@ -238,8 +239,8 @@ impl RemoteSdo {
         }
     }
 
-    /// Starts a streamed transfer with `begin` inside the runtime, its wake-up registered in
-    /// the same step; returns it and the future of its outcome (the data not yet taken).
+    /// Starts a streamed transfer with `begin` (through the door, which registers its wake-up
+    /// as it starts); returns it and the future of its outcome (the data not yet taken).
     fn start<F>(
         &self,
         node: NodeId,
@@ -248,45 +249,21 @@ impl RemoteSdo {
         begin: F,
     ) -> (
         Running,
-        impl std::future::Future<Output = Result<Vec<u8>, NetError>>,
+        impl std::future::Future<Output = Result<Vec<u8>, NetError>> + '_,
     )
     where
-        F: FnOnce(&mut super::NetClient, crate::Instant) -> Result<RequestId, crate::sdo::SdoError>
+        F: FnMut(&mut super::NetClient, crate::Instant) -> Result<RequestId, crate::sdo::SdoError>
             + Send
             + 'static,
     {
-        let handle = self.node.network().shared.handle.clone();
         let run = Running {
-            handle: handle.clone(),
-            id: Arc::default(),
-            wake: Arc::new(Notify::new()),
+            handle: self.node.network().shared.handle.clone(),
+            stream: Stream::default(),
             node,
             index,
             sub,
         };
-        let (slot, wake) = (run.id.clone(), run.wake.clone());
-        let done = async move {
-            handle
-                .request(
-                    move |d: &mut Door, now| {
-                        let id = begin(d.core.client()?, now).map_err(NetError::Sdo)?;
-                        if let Ok(mut g) = slot.lock() {
-                            *g = Some(id);
-                        }
-                        d.streams.push((id, wake.clone()));
-                        // The first look: a download has room at once.
-                        wake.notify_one();
-                        Ok(id)
-                    },
-                    |id, e| match e {
-                        CoreEvent::Sdo(rid, r) if rid == id => {
-                            Some(r.clone().map_err(NetError::Sdo))
-                        }
-                        _ => None,
-                    },
-                )
-                .await
-        };
+        let done = self.submit(node, Some(run.stream.clone()), Box::new(begin));
         (run, done)
     }
 }

@@ -2,6 +2,7 @@
 //! and the simulated nodes, and the starter examples built on it.
 
 mod concurrent_sdo;
+mod door_checks;
 mod events;
 mod examples;
 mod ext;

@@ -2,7 +2,7 @@
 //! are errors naming node, name and what to do.
 
 use duocan::eds::{Description, ImportOptions, LookupErrorKind};
-use duocan::net::{sim_description, AnyValue, NetError, NetOptions, Network, SIM_HEARTBEAT_MS};
+use duocan::net::{sim_description, NetError, NetOptions, Network, SIM_HEARTBEAT_MS};
 use duocan::od::DataType;
 use std::time::Duration;
 
@@ -13,45 +13,7 @@ fn quick() -> NetOptions {
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn names_resolve_by_name_address_and_case() {
     let net = Network::simulated([5], quick()).unwrap();
-    let node = net.add_node(5, sim_description().unwrap());
-    let sdo = node.sdo();
-    for name in [
-        "Producer heartbeat time",
-        "producer HEARTBEAT time",
-        "0x1017",
-        "1017sub0",
-    ] {
-        assert_eq!(
-            sdo.read_named::<u16>(name).await.unwrap(),
-            SIM_HEARTBEAT_MS,
-            "{name}"
-        );
-    }
-    sdo.write_named("Producer heartbeat time", 300u16)
-        .await
-        .unwrap();
-    assert_eq!(sdo.read::<u16>(0x1017, 0).await.unwrap(), 300);
-    // A later handle from the network carries the description too.
-    let again = net.node(5);
-    assert_eq!(
-        again.sdo().read_named::<u32>("Vendor-ID").await.unwrap(),
-        duocan::net::SIM_VENDOR
-    );
-    // Dynamic: typed by the description.
-    assert_eq!(
-        sdo.read_value("Producer heartbeat time").await.unwrap(),
-        AnyValue::Unsigned(300)
-    );
-    assert_eq!(
-        sdo.read_value("Manufacturer device name").await.unwrap(),
-        AnyValue::Text(duocan::net::SIM_DEVICE_NAME.into())
-    );
-    sdo.write_value("Input 2", -7i16).await.unwrap();
-    assert_eq!(
-        sdo.read_value("Input 2").await.unwrap(),
-        AnyValue::Signed(-7)
-    );
-    assert_eq!(sdo.read::<i16>(0x6000, 2).await.unwrap(), -7);
+    crate::door_checks::names_resolve(&net).await;
     net.close().await;
 }
 

@@ -34,6 +34,7 @@ use crate::supervisor::pairs::PairsEvent;
 use crate::SupervisorEvent;
 use alloc::boxed::Box;
 use alloc::string::ToString;
+use duocan::cia305::LssError;
 use duocan::machine::{BusLink, Device, PortState, StationEvent};
 use duocan::master::MasterError;
 use duocan::net::{CoreEvent, ExtEvent, NetClient, NetCore, NetError, NetEvent};
@@ -263,6 +264,15 @@ impl NetCore for MasterCore {
     }
     fn send_refused(&self) -> NetError {
         NetError::Standby { node: None }
+    }
+    /// The door's LSS master waits for the supervisor's (board replacement) to finish: the
+    /// slaves answer whoever asked on the one LSS identifier, so two masters' answers would
+    /// mix.
+    fn lss_refused(&self, now: Instant) -> Option<NetError> {
+        if !self.may_send(now) {
+            return Some(self.send_refused());
+        }
+        (!self.net.supervisor().lss_idle()).then_some(NetError::Lss(LssError::Busy))
     }
     fn port_state(&self, port: usize) -> Option<PortState> {
         (port < 2).then(|| self.net.station().link.port_state(port))

@@ -36,11 +36,11 @@ use crate::network::RedundantError;
 use alloc::boxed::Box;
 use alloc::string::{String, ToString};
 use core::convert::Infallible;
-use duocan::machine::{BusLink, LinkRequest, PortRequest, PortStatus, StationEvent};
+use duocan::machine::{BusLink, LinkRequest, StationEvent};
 use duocan::net::{NetEvent, NetLink, NetOptions, Network};
 use duocan::port::Port;
 use duocan::profile::Predefined;
-use duocan::{Frame, Instant, NodeId};
+use duocan::NodeId;
 
 /// A [`DualBus`] as the link of a `duocan::net::Network`: its port-health and reach changes
 /// become [`NetEvent::PortState`] and [`NetEvent::Reach`]; its other reports (channel
@@ -94,36 +94,10 @@ impl<const SLOTS: usize> BusLink for DualLink<SLOTS> {
     fn port_count(&self) -> usize {
         2
     }
-    fn handle_rx(&mut self, now: Instant, port: usize, frame: &Frame) -> Option<Frame> {
-        self.bus.handle_rx(now, port, frame)
-    }
-    fn handle_rx_at(
-        &mut self,
-        now: Instant,
-        port: usize,
-        frame: &Frame,
-        at: Instant,
-    ) -> Option<Frame> {
-        self.bus.handle_rx_at(now, port, frame, at)
-    }
-    fn handle_port_status(&mut self, now: Instant, port: usize, status: PortStatus) {
-        self.bus.handle_port_status(now, port, status);
-    }
-    fn send(&mut self, now: Instant, frame: &Frame) {
-        self.bus.send(now, frame);
-    }
-    fn poll_transmit(&mut self) -> Option<(usize, Frame)> {
-        self.bus.poll_transmit()
-    }
-    fn poll_port_request(&mut self) -> Option<(usize, PortRequest)> {
-        self.bus.poll_port_request()
-    }
-    fn handle_timeout(&mut self, now: Instant) {
-        self.bus.handle_timeout(now);
-    }
-    fn poll_timeout(&self) -> Option<Instant> {
-        self.bus.poll_timeout()
-    }
+    duocan::forward_bus_link!(bus;
+        handle_rx, handle_rx_at, handle_port_status, send, poll_transmit, poll_port_request,
+        handle_timeout, poll_timeout
+    );
     fn poll_event(&mut self) -> Option<NetEvent> {
         loop {
             if let Some(e) = net_event(self.bus.poll_event()?) {

@@ -1,16 +1,59 @@
-//! LSS (CiA 305) through the front door (`Network::lss`) on the simulated station's two buses:
-//! its two boards without a node-ID found by fastscan, configured, booted and answering on
-//! both buses; the single services; a listen-only network sends nothing.
+//! LSS (CiA 305) through the front door (`Network::lss`) over both doors: the plain door on the
+//! simulated station's two buses, and the redundant master's door on two buses with the same
+//! two boards without a node-ID. They are found by fastscan, configured, booted and answer on
+//! both buses; the single services; a listen-only network and a standby master send nothing.
 
+use crate::doors::{self, on_both, Door, BOTH};
 use duocan::cia305::{fastscan_cost, Inquiry, LssMasterConfig, LssMode, LssPlan};
-use duocan::net::{NetError, NetOptions, SIM_VENDOR};
-use duocan::NodeId;
-use duocan_redundancy::net::{open_dual_named, sim_lss_address, SIM_LSS_PRODUCT, SIM_LSS_SERIALS};
+use duocan::net::{NetError, NetOptions, Network, SIM_VENDOR};
+use duocan::port::mem::MemBus;
+use duocan::runtime::Handle;
+use duocan::{NodeId, Station};
+use duocan_redundancy::net::{
+    open_dual_named, sim_lss_address, sim_lss_board, SimLssBoard, SIM_LSS_PRODUCT, SIM_LSS_SERIALS,
+};
+use duocan_redundancy::DualBus;
 use std::time::Duration;
+
+/// A board of the station's without a node-ID, on both buses.
+type Board = Handle<Station<DualBus, SimLssBoard>>;
+
+/// The network on `door`, and what must keep running with it: the plain door on the simulated
+/// station (which has the boards), the redundant one on two buses with the two boards.
+async fn open(door: Door) -> (Network, Vec<Board>) {
+    match door {
+        Door::Plain => (
+            open_dual_named("sim", NetOptions::default()).unwrap(),
+            vec![],
+        ),
+        Door::Redundant => {
+            let buses = [MemBus::new("bus1"), MemBus::new("bus2")];
+            let net = doors::open(door, &buses).await;
+            let boards = SIM_LSS_SERIALS
+                .iter()
+                .map(|s| on_both(sim_lss_board(*s), &buses))
+                .collect();
+            (net, boards)
+        }
+    }
+}
+
+async fn close(net: Network, boards: Vec<Board>) {
+    net.close().await;
+    for b in boards {
+        b.shutdown().await;
+    }
+}
 
 #[tokio::test(start_paused = true)]
 async fn fastscan_configures_both_boards_and_they_boot_on_both_buses() {
-    let net = open_dual_named("sim", NetOptions::default()).unwrap();
+    for door in BOTH {
+        fastscan_configures_both_boards(door).await;
+    }
+}
+
+async fn fastscan_configures_both_boards(door: Door) {
+    let (net, running) = open(door).await;
     let lss = net.lss();
     assert!(lss.identify_non_configured().await.unwrap());
     let plan = LssPlan::new().with_free((0x20..=0x7F).filter_map(NodeId::new));
@@ -44,7 +87,7 @@ async fn fastscan_configures_both_boards_and_they_boot_on_both_buses() {
         cost.waiting
     );
     println!(
-        "fastscan of 2 boards on the simulated dual bus: {} requests, {} answers, {:?} (the protocol: {} requests, {} answers, {:?} of waiting)",
+        "fastscan of 2 boards on two buses ({door:?} door): {} requests, {} answers, {:?} (the protocol: {} requests, {} answers, {:?} of waiting)",
         report.requests, report.answers, report.took, cost.requests, cost.answers, cost.waiting
     );
     // Each boots with its node-ID and identity and is heard on both buses.
@@ -77,12 +120,18 @@ async fn fastscan_configures_both_boards_and_they_boot_on_both_buses() {
         (again.assigned.len(), again.requests, again.answers),
         (0, 1, 0)
     );
-    net.close().await;
+    close(net, running).await;
 }
 
 #[tokio::test(start_paused = true)]
 async fn select_inquire_configure_and_switch_back_boots_the_board() {
-    let net = open_dual_named("sim", NetOptions::default()).unwrap();
+    for door in BOTH {
+        select_inquire_configure_and_switch_back(door).await;
+    }
+}
+
+async fn select_inquire_configure_and_switch_back(door: Door) {
+    let (net, boards) = open(door).await;
     let lss = net.lss();
     let board = sim_lss_address(SIM_LSS_SERIALS[1]);
     // In waiting mode the board ignores inquire.
@@ -113,7 +162,7 @@ async fn select_inquire_configure_and_switch_back_boots_the_board() {
     );
     // The other board is still without a node-ID.
     assert!(lss.identify_non_configured().await.unwrap());
-    net.close().await;
+    close(net, boards).await;
 }
 
 #[tokio::test(start_paused = true)]
@@ -128,4 +177,28 @@ async fn a_listen_only_network_sends_no_lss() {
         Err(NetError::ListenOnly { node: None })
     );
     net.close().await;
+}
+
+#[tokio::test(start_paused = true)]
+async fn a_standby_master_sends_no_lss_and_says_why() {
+    let buses = [MemBus::new("bus1"), MemBus::new("bus2")];
+    let (active, standby) = crate::redundant::two_masters(&buses).await;
+    let mut spy = buses[1].port();
+    assert_eq!(
+        standby.lss().switch_global(LssMode::Configuration).await,
+        Err(NetError::Standby { node: None })
+    );
+    assert_eq!(
+        standby.lss().fastscan(LssPlan::new()).await,
+        Err(NetError::Standby { node: None })
+    );
+    assert!(
+        crate::redundant::seen_on(&mut spy, 0x7E5).await.is_empty(),
+        "nothing sent"
+    );
+    // The active master's door sends it.
+    active.lss().switch_global(LssMode::Waiting).await.unwrap();
+    assert_eq!(crate::redundant::seen_on(&mut spy, 0x7E5).await.len(), 1);
+    active.close().await;
+    standby.close().await;
 }

@@ -3,7 +3,12 @@
 //! simulated redundant station behind `open_dual_named("sim")`; and the redundant master's
 //! door (`RedundantNetwork`) on the same kind of rig. On tokio's paused clock.
 
+#[path = "../../../tests/net/door_checks.rs"]
+mod door_checks;
+mod doors;
 mod link;
 mod lss;
+mod program;
 mod redundant;
 mod station;
+mod stream;

@@ -95,7 +95,7 @@ fn assert_once_every_40_ms(at: &[Instant]) {
 }
 
 /// Frames on `id` a spy on the bus saw within 100 ms.
-async fn seen_on(spy: &mut MemPort, id: u16) -> Vec<Vec<u8>> {
+pub(crate) async fn seen_on(spy: &mut MemPort, id: u16) -> Vec<Vec<u8>> {
     let mut out = vec![];
     let end = tokio::time::Instant::now() + Duration::from_millis(100);
     while let Ok(input) = tokio::time::timeout_at(end, spy.recv()).await {
@@ -160,7 +160,7 @@ async fn an_rpdo_goes_out_on_both_buses_and_changes_the_nodes_dictionary() {
 
 /// Masters 1 and 2 on both buses, each the other's peer, 2.5 s after they opened: the active
 /// one and the standby.
-async fn two_masters(buses: &[MemBus; 2]) -> (RedundantNetwork, RedundantNetwork) {
+pub(crate) async fn two_masters(buses: &[MemBus; 2]) -> (RedundantNetwork, RedundantNetwork) {
     let open = |id: u8, peer: u8| {
         RedundantNetwork::builder()
             .node_id(id)

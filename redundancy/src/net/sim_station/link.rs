@@ -19,7 +19,7 @@ use alloc::collections::VecDeque;
 use alloc::sync::Arc;
 use core::convert::Infallible;
 use duocan::capture::recorder::{Tap, TapDirection, TapPoint};
-use duocan::machine::{BusLink, ErrorCause, LinkRequest, PortRequest, PortStatus};
+use duocan::machine::{BusLink, ErrorCause, PortRequest, PortStatus};
 use duocan::net::{NetEvent, NetLink};
 use duocan::port::{Port, PortCounters, PortError, PortInput};
 use duocan::{Duration, Frame, Instant, NodeId};
@@ -148,6 +148,10 @@ pub(super) struct StationLink<L> {
 }
 
 impl<L: NetLink> StationLink<L> {
+    /// An input's instant: what the network's frames are routed out with until the next.
+    fn mark(&mut self, now: Instant) {
+        self.now = now;
+    }
     /// `link` on `station`, with the counters of the network's `ports` and the network's
     /// `tap`.
     pub(super) fn new(
@@ -267,26 +271,8 @@ impl<L: NetLink> BusLink for StationLink<L> {
     fn port_count(&self) -> usize {
         2
     }
-    fn handle_rx(&mut self, now: Instant, port: usize, frame: &Frame) -> Option<Frame> {
-        // A frame this link handed to the network (poll_input), back on its way up.
-        self.now = now;
-        self.link.handle_rx(now, port, frame)
-    }
-    fn handle_rx_at(
-        &mut self,
-        now: Instant,
-        port: usize,
-        frame: &Frame,
-        at: Instant,
-    ) -> Option<Frame> {
-        // A frame this link handed to the network (poll_input), back on its way up.
-        self.now = now;
-        self.link.handle_rx_at(now, port, frame, at)
-    }
-    fn handle_port_status(&mut self, now: Instant, port: usize, status: PortStatus) {
-        self.now = now;
-        self.link.handle_port_status(now, port, status);
-    }
+    // A frame this link handed to the network (poll_input), back on its way up; a status.
+    duocan::forward_bus_link!(link, before = mark; handle_rx, handle_rx_at, handle_port_status);
     fn send(&mut self, now: Instant, frame: &Frame) {
         self.now = now;
         self.link.send(now, frame);
@@ -331,12 +317,7 @@ impl<L: NetLink> BusLink for StationLink<L> {
             inputs,
         ])
     }
-    fn poll_event(&mut self) -> Option<NetEvent> {
-        self.link.poll_event()
-    }
-    fn poll_machine_request(&mut self) -> Option<LinkRequest> {
-        self.link.poll_machine_request()
-    }
+    duocan::forward_bus_link!(link; poll_event, poll_machine_request);
 }
 
 impl<L: NetLink> NetLink for StationLink<L> {

@@ -125,10 +125,12 @@ impl ProgramStore for RamStore {
 }
 
 type Slave<D> = Station<DualBus<Predefined>, Node<D>>;
-/// What builds an LSS board's node once it has a node-ID.
-type Build = Box<dyn FnMut(NodeId, Instant) -> Node<DynamicDictionary> + Send>;
-/// A board without a node-ID: LSS only until it has one.
-type LssBoard = Station<DualBus, LssNode<Node<DynamicDictionary>, Build, NoMedium>>;
+/// What builds an LSS board's node once it has a node-ID ([`sim_lss_board`]).
+pub type SimLssBuild = Box<dyn FnMut(NodeId, Instant) -> Node<DynamicDictionary> + Send>;
+/// A board of the station's that arrives without a node-ID ([`sim_lss_board`]).
+pub type SimLssBoard = LssNode<Node<DynamicDictionary>, SimLssBuild, NoMedium>;
+/// A board without a node-ID on its dual-bus layer: LSS only until it has one.
+type LssBoard = Station<DualBus, SimLssBoard>;
 
 /// A plain slave's dictionary: the simulated node's, with the DOMAIN.
 fn slave_dictionary(id: NodeId) -> DynamicDictionary {
@@ -168,12 +170,13 @@ pub fn sim_lss_address(serial: u32) -> LssAddress {
     }
 }
 
-/// A board with `serial` that arrives without a node-ID: its node (the simulated node, with
-/// the board's identity in 0x1018) is built and boots when an LSS master gives it one.
-#[inline(never)]
-fn lss_board(serial: u32) -> Box<LssBoard> {
+/// The station's board with `serial` that arrives without a node-ID (identity
+/// [`sim_lss_address`]), for a rig of one's own: silent but for LSS until an LSS master gives
+/// it a node-ID, then the simulated node with it (the board's identity in 0x1018), booted.
+#[must_use]
+pub fn sim_lss_board(serial: u32) -> SimLssBoard {
     let address = sim_lss_address(serial);
-    let build: Build = Box::new(move |id, now| {
+    let build: SimLssBuild = Box::new(move |id, now| {
         let mut od = sim_dictionary(id);
         let device_type = od.get_u32(comm::DEVICE_TYPE, 0).unwrap_or(0);
         let a = address;
@@ -185,9 +188,15 @@ fn lss_board(serial: u32) -> Box<LssBoard> {
         node
     });
     let lss = LssSlave::new(address, duocan::cia305::codec::UNCONFIGURED);
+    LssNode::new(Instant::ZERO, lss, build)
+}
+
+/// [`sim_lss_board`] on its own dual-bus layer.
+#[inline(never)]
+fn lss_board(serial: u32) -> Box<LssBoard> {
     Box::new(Station::new(
         DualBus::new(DualBusConfig::default()),
-        LssNode::new(Instant::ZERO, lss, build),
+        sim_lss_board(serial),
     ))
 }
 

@@ -57,6 +57,12 @@ impl<D: ObjectDictionary, P: IdProfile> Supervisor<D, P> {
             })
     }
 
+    /// True while the replacement's LSS master runs no request: another LSS master on the
+    /// network (a front door's) may then make one without the slaves' answers mixing.
+    pub fn lss_idle(&self) -> bool {
+        self.lss.is_idle()
+    }
+
     /// At each period: asks whether a board without node-ID is there, if a slot is vacant.
     pub(super) fn lss_tick(&mut self, now: Instant) {
         let Some(period) = self.cfg.lss_period else {
