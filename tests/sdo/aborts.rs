@@ -750,6 +750,34 @@ fn client_timeout_aborts_exactly() {
 }
 
 #[test]
+fn a_timed_out_transfers_abort_leaves_before_the_next_request_on_its_channel() {
+    // The abort of a transfer that timed out is still waiting to be sent when the caller, told
+    // of the time-out, starts the next transfer with the same node: the server must see the
+    // abort first (seen the other way round, it aborts the new transfer; CANopenNode did).
+    let mut c = client();
+    let opts = SdoOptions::default().with_timeout(Duration::from_millis(250));
+    // Another session busy too, so that a free session other than the old one exists.
+    c.upload(T0, NodeId::must(6), DOMAIN, 0, opts).unwrap();
+    c.upload(T0, N, DOMAIN, 0, opts).unwrap();
+    while c.poll_transmit().is_some() {}
+    let t1 = T0 + Duration::from_millis(250);
+    c.handle_timeout(t1);
+    while c.poll_event().is_some() {}
+    c.upload(t1, N, 0x1018, 1, opts).unwrap();
+    let frames: Vec<(Id, [u8; 8])> = core::iter::from_fn(|| c.poll_transmit())
+        .map(|f| (f.id(), f.data().try_into().unwrap()))
+        .filter(|(id, _)| *id == Id::Standard(0x605))
+        .collect();
+    assert_eq!(
+        frames.iter().map(|f| f.1).collect::<Vec<_>>(),
+        [
+            abort(DOMAIN, 0, AbortCode::TIMEOUT),
+            [0x40, 0x18, 0x10, 0x01, 0, 0, 0, 0]
+        ]
+    );
+}
+
+#[test]
 fn client_out_of_memory_and_length_mismatch() {
     let mut c = client();
     start_upload(&mut c);

@@ -335,13 +335,16 @@ impl<B: TransferBuffer, const SESSIONS: usize, S: Storage> SdoClient<B, SESSIONS
         if self.in_flight() + self.events.len() >= sessions {
             return Err(err(SdoErrorKind::NoSession { sessions }));
         }
-        // The session that last served this channel, if free, so that it still knows the
-        // channel's last answer (a late second copy of it must not fail the new transfer).
+        // The session that last served this channel, if idle, so that it still knows the
+        // channel's last answer (a late second copy of it must not fail the new transfer), and
+        // so that what it still has to send there (the abort of a transfer that timed out)
+        // leaves before the new request: from another session, the request could go first
+        // and the server take the abort for the new transfer's.
         let free = |s: &Session<B>| !s.active() && s.out.is_empty();
         let Some(i) = self
             .sessions
             .iter()
-            .position(|s| free(s) && s.channel.response == channel.response)
+            .position(|s| !s.active() && s.channel.response == channel.response)
             .or_else(|| self.sessions.iter().position(free))
             .or_else(|| self.sessions.iter().position(|s| !s.active()))
         else {
