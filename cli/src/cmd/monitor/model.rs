@@ -6,7 +6,9 @@
 //! since its last heartbeat on any port. It is *silent* once that age passes three of its
 //! periods, and 100 ms at least; its period is measured on each port apart (on two ports
 //! every heartbeat arrives twice, and a copy is no period) and not from a boot-up to the first
-//! heartbeat. A pair's active member is the member that is operational and not silent, its
+//! heartbeat, nor to or from a heartbeat that says a new state (CiA 301 lets a device send one
+//! at once on a change, as CANopenNode does: measured from it, a 500 ms heartbeat looked 50 ms
+//! periodic and silent after every NMT command). A pair's active member is the member that is operational and not silent, its
 //! standby the one that is pre-operational; anything else is shown as it is (`both`, `none`,
 //! `not heard`). The active master is the node-ID in the latest CiA 302-2 active-master
 //! response (0x71: priority, node-ID). Ports are as the network reports them; a port's state
@@ -55,8 +57,11 @@ pub struct NodeInfo {
     pub state: Option<NmtState>,
     /// Its last heartbeat (or boot-up) frame on each port.
     pub last_hb: [Option<Instant>; MAX_PORTS],
-    /// The time between its last two heartbeats on each port, in µs: its period as heard.
+    /// The time between its last two heartbeats on each port, in µs, both saying the state
+    /// the heartbeat before each said: its period as heard (see "The rule").
     pub period: [Option<u64>; MAX_PORTS],
+    /// Per port: the state its last heartbeat said, and whether that was a change.
+    pub said: [Option<(u8, bool)>; MAX_PORTS],
     /// Its last emergency: code, text, when.
     pub emcy: Option<(u16, &'static str, Instant)>,
     /// True while its heartbeat is silent (logged once).
@@ -310,13 +315,17 @@ impl Model {
                 if let Some(n) = self.node(id) {
                     // A boot-up starts the count again: the first heartbeat follows it at no
                     // particular time.
+                    let said = byte & 0x7F;
+                    let changed = n.said[p].is_some_and(|(s, _)| s != said);
+                    let steady = !changed && n.said[p].is_some_and(|(_, c)| !c);
                     match (n.last_hb[p], *byte) {
                         (_, 0) => n.period = [None; MAX_PORTS],
-                        (Some(last), _) if n.state != Some(NmtState::Initialising) => {
+                        (Some(last), _) if n.state != Some(NmtState::Initialising) && steady => {
                             n.period[p] = Some(at.saturating_since(last).as_micros());
                         }
                         _ => {}
                     }
+                    n.said[p] = Some((said, changed));
                     n.last_hb[p] = Some(at);
                     back = std::mem::take(&mut n.silent);
                 }

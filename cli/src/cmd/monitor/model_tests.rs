@@ -350,3 +350,28 @@ fn a_silent_active_member_is_no_longer_active_and_its_standby_taking_over_is_a_f
         ]
     );
 }
+
+#[test]
+fn a_heartbeat_sent_at_once_on_a_state_change_is_no_period() {
+    // 500 ms heartbeats in pre-operational; started at 1,020 ms, the device beats its new
+    // state at once (CiA 301 allows it; CANopenNode does), then every 500 ms from there.
+    let mut m = Model::new(Names::new(), vec![]);
+    for t in [0, 500, 1_000] {
+        m.on_frame(ms(t), Some(0), true, &heartbeat(9, 0x7F));
+    }
+    m.on_frame(ms(1_020), Some(0), true, &heartbeat(9, 0x05));
+    m.on_frame(ms(1_520), Some(0), true, &heartbeat(9, 0x05));
+    // Stopped at 1,540 ms: at once again.
+    m.on_frame(ms(1_540), Some(0), true, &heartbeat(9, 0x04));
+    // 171 ms after it, the heartbeat is not silent: its period is still 500 ms.
+    m.tick(ms(1_711));
+    m.tick(ms(3_000));
+    assert!(texts(&m).is_empty(), "{:?}", texts(&m));
+    m.tick(ms(3_041));
+    assert_eq!(
+        texts(&m).len(),
+        1,
+        "silent after three periods: {:?}",
+        texts(&m)
+    );
+}
