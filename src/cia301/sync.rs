@@ -106,6 +106,16 @@ impl SyncService {
         self.configure(now, cfg);
     }
 
+    /// A producer that knows no grid (it has neither sent nor received a SYNC since its reset)
+    /// produces the next one at `now` rather than a period later: a master taking over that
+    /// booted after the last SYNC of the one before it cannot continue that grid, and the
+    /// consumers have waited the takeover already.
+    pub fn start_at_once(&mut self, now: Instant) {
+        if self.last.is_none() && self.next.is_some_and(|t| t > now) {
+            self.next = Some(now);
+        }
+    }
+
     /// The configuration in force.
     pub fn config(&self) -> SyncConfig {
         self.cfg
@@ -229,6 +239,34 @@ mod tests {
         }
         assert_eq!(got, [1, 2, 3, 1, 2]);
         assert_eq!(t, Instant::from_millis(5));
+    }
+
+    #[test]
+    fn a_producer_without_a_grid_starts_at_once_when_asked_one_with_a_grid_keeps_it() {
+        // Became producer at 5 ms having heard no SYNC: a period later, unless asked.
+        let mut s = SyncService::default();
+        s.configure(Instant::from_millis(5), cfg(10_000, 0));
+        assert_eq!(s.poll_timeout(), Some(Instant::from_millis(15)));
+        s.start_at_once(Instant::from_millis(5));
+        assert_eq!(s.poll_timeout(), Some(Instant::from_millis(5)));
+        // A consumer that heard SYNC at 2 ms continues that grid: asking changes nothing.
+        let mut s = SyncService::default();
+        s.configure(
+            Instant::ZERO,
+            SyncConfig {
+                cob_id: CobId(0x80),
+                ..cfg(10_000, 0)
+            },
+        );
+        s.received(
+            Instant::from_millis(2),
+            &Frame::from_array(Id::Standard(0x80), []),
+        )
+        .unwrap();
+        s.configure(Instant::from_millis(5), cfg(10_000, 0));
+        assert_eq!(s.poll_timeout(), Some(Instant::from_millis(12)));
+        s.start_at_once(Instant::from_millis(5));
+        assert_eq!(s.poll_timeout(), Some(Instant::from_millis(12)));
     }
 
     #[test]

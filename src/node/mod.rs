@@ -545,6 +545,12 @@ impl<
             None => false,
         }
     }
+    /// As SYNC producer, produce the next SYNC at `now` if this node has neither sent nor
+    /// received one since its reset (a master taking over without a grid to continue); see
+    /// [`SyncService::start_at_once`].
+    pub fn sync_at_once(&mut self, now: Instant) {
+        self.core.sync.start_at_once(now);
+    }
     /// Produce TIME every `period` while producer (zero: only on request).
     pub fn set_time_period(&mut self, now: Instant, period: Duration) {
         self.core.time.set_period(now, period);

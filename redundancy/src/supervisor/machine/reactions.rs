@@ -41,8 +41,13 @@ impl<D: ObjectDictionary, P: IdProfile> Supervisor<D, P> {
                 self.audit.record(r.at, AuditEntry::Master(r));
                 if r.to.is_active() && !r.from.is_active() {
                     // The master adopts what runs, re-checks what does not, produces SYNC on
-                    // the grid it consumed and TIME from the base it consumed.
+                    // the grid it consumed and TIME from the base it consumed. Taking over
+                    // from an active master whose SYNC it never heard (it booted after the
+                    // last one), it has no grid: SYNC at once, the consumers waited already.
                     self.master.set_active(now, true);
+                    if matches!(r.from, MasterRole::Standby(Some(_))) {
+                        self.master.node_mut().sync_at_once(now);
+                    }
                     if !self.cfg.time_period.is_zero() {
                         let node = self.master.node_mut();
                         node.set_time_period(now, self.cfg.time_period);
