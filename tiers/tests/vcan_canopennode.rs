@@ -20,13 +20,20 @@
 //! binary), `DUOCAN_CANOPEND_EDS` (its description), `DUOCAN_TOOL` (the `duocan` tool). A
 //! missing one fails the test, saying which: it is never skipped.
 
+#[path = "../../cli/tests/common/cocomm.rs"]
+mod cocomm;
+
+use cocomm::{check_answers, cocomm_socket, script};
 use duocan::capture::recorder::{Tap, TapDirection, TapPoint};
-use duocan::net::{NetError, NetEvent, NetOptions, Network};
+use duocan::cia305::{
+    BitTiming, Inquiry, LssAddress, LssError, LssMasterConfig, LssMode, LssPlan, LssService,
+};
+use duocan::net::{NetError, NetEvent, NetOptions, Network, SIM_VENDOR};
 use duocan::port::socketcan::SocketCanPort;
 use duocan::port::Port;
 use duocan::sdo::{SdoErrorKind, TransferMode};
-use duocan::{Frame, Id, Instant, NmtState};
-use std::path::PathBuf;
+use duocan::{Frame, Id, Instant, NmtState, NodeId};
+use std::path::{Path, PathBuf};
 use std::process::{Child, Command, Stdio};
 use std::sync::{Arc, Mutex};
 use std::time::Duration;
@@ -61,36 +68,71 @@ fn canopend_eds() -> PathBuf {
     )
 }
 
-/// A canopend process as node [`NODE`] on vcan0, with its own storage folder (so nothing one
-/// test stores reaches the next); killed on drop.
-struct Canopend {
+fn tool_bin() -> PathBuf {
+    file_from_env("DUOCAN_TOOL", "the duocan tool (cargo build -p duocan-cli)")
+}
+
+/// A program the test started (canopend, the duocan tool), with its own folder and its output
+/// in a file there; killed on drop, its output shown when the test failed.
+struct Proc {
+    what: String,
     child: Option<Child>,
     dir: PathBuf,
 }
 
-impl Canopend {
-    fn start(name: &str) -> Canopend {
-        let bin = canopend_bin();
-        let dir = std::env::temp_dir().join(format!("canopend-{name}"));
-        let _ = std::fs::remove_dir_all(&dir);
-        std::fs::create_dir_all(&dir).expect("canopend's folder");
+/// canopend, a [`Proc`].
+type Canopend = Proc;
+
+impl Proc {
+    /// canopend as node [`NODE`] on vcan0.
+    fn start(name: &str) -> Proc {
+        Proc::canopend(name, &["-i", &NODE.to_string()])
+    }
+
+    /// canopend on vcan0 with `args` after the interface (`-i` its node-ID, `-c` its
+    /// gateway), with its own storage folder (so nothing one test stores reaches the next).
+    fn canopend(name: &str, args: &[&str]) -> Proc {
+        let dir = Proc::folder(&format!("canopend-{name}"));
         // Its two storage files, "empty" as canopend reads them (a '-' and one more byte: the
         // defaults, no error). Without them it reports a storage error (EMCY 0x5000), sets the
         // generic bit of its error register and refuses to go operational.
         for f in ["od_comm.persist", "mainline.persist"] {
             std::fs::write(dir.join(format!("od_{f}")), "-\n").expect("canopend's storage file");
         }
-        let log = std::fs::File::create(dir.join("log")).expect("canopend's log");
-        let child = Command::new(&bin)
-            .args(["vcan0", "-i", &NODE.to_string(), "-s"])
-            .arg(dir.join("od_"))
+        let storage = dir.join("od_").display().to_string();
+        let mut all = vec!["vcan0"];
+        all.extend_from_slice(args);
+        all.extend(["-s", &storage]);
+        Proc::spawn("canopend", &canopend_bin(), &all, dir)
+    }
+
+    /// The duocan tool with `args`.
+    fn tool(name: &str, args: &[&str]) -> Proc {
+        let dir = Proc::folder(&format!("duocan-{name}"));
+        Proc::spawn("duocan", &tool_bin(), args, dir)
+    }
+
+    /// A new empty folder.
+    fn folder(name: &str) -> PathBuf {
+        let dir = std::env::temp_dir().join(name);
+        let _ = std::fs::remove_dir_all(&dir);
+        std::fs::create_dir_all(&dir).expect("a test folder");
+        dir
+    }
+
+    fn spawn(what: &str, bin: &Path, args: &[&str], dir: PathBuf) -> Proc {
+        let log = std::fs::File::create(dir.join("log")).expect("the output file");
+        let child = Command::new(bin)
+            .args(args)
             .current_dir(&dir)
+            .env_remove("DUOCAN_BUS")
             .stdin(Stdio::null())
             .stdout(log.try_clone().expect("log"))
             .stderr(log)
             .spawn()
             .unwrap_or_else(|e| panic!("start {}: {e}", bin.display()));
-        Canopend {
+        Proc {
+            what: what.into(),
             child: Some(child),
             dir,
         }
@@ -99,6 +141,22 @@ impl Canopend {
     /// What it printed.
     fn log(&self) -> String {
         std::fs::read_to_string(self.dir.join("log")).unwrap_or_default()
+    }
+
+    /// Waits until it has printed `text`, at most `timeout`; panics saying what it printed
+    /// instead (or that it exited).
+    fn wait_for_output(&mut self, text: &str, timeout: Duration) {
+        let deadline = std::time::Instant::now() + timeout;
+        while !self.log().contains(text) {
+            self.assert_running();
+            assert!(
+                std::time::Instant::now() < deadline,
+                "{} did not print {text:?} within {timeout:?}; it printed:\n{}",
+                self.what,
+                self.log()
+            );
+            std::thread::sleep(Duration::from_millis(20));
+        }
     }
 
     /// Kills it and waits for it.
@@ -113,17 +171,17 @@ impl Canopend {
     fn assert_running(&mut self) {
         if let Some(c) = self.child.as_mut() {
             if let Ok(Some(st)) = c.try_wait() {
-                panic!("canopend exited ({st}):\n{}", self.log());
+                panic!("{} exited ({st}):\n{}", self.what, self.log());
             }
         }
     }
 }
 
-impl Drop for Canopend {
+impl Drop for Proc {
     fn drop(&mut self) {
         self.kill();
         if std::thread::panicking() {
-            eprintln!("canopend's output:\n{}", self.log());
+            eprintln!("{}'s output:\n{}", self.what, self.log());
         }
     }
 }
@@ -168,11 +226,16 @@ impl Wire {
 
 /// The network on vcan0 with a tap, and node 4 with canopend's EDS attached.
 fn open() -> (Network, Arc<Wire>) {
+    open_with(NetOptions::default())
+}
+
+/// [`open`] with `options` (the SDO timeout and the tap are set here).
+fn open_with(options: NetOptions) -> (Network, Arc<Wire>) {
     let wire = Arc::new(Wire::default());
     let port = SocketCanPort::open("vcan0").expect("open vcan0");
     let net = Network::open_with(
         port,
-        NetOptions::default()
+        options
             .with_sdo_timeout(Duration::from_millis(1500))
             .with_tap(wire.clone()),
     )
@@ -206,7 +269,7 @@ fn abort(r: Result<impl std::fmt::Debug, NetError>) -> u32 {
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn the_tools_scan_finds_canopend_with_the_identity_its_eds_gives() {
-    let tool = file_from_env("DUOCAN_TOOL", "the duocan tool (cargo build -p duocan-cli)");
+    let tool = tool_bin();
     let eds = canopend_eds();
     // Booted (its boot-up seen) before the scan starts: found by the scan's SDO probe.
     let (net, _wire) = open();
@@ -513,4 +576,140 @@ async fn canopends_heartbeat_consumer_timeout_comes_as_an_emcy() {
     let newest: u32 = node.sdo().read(0x1003, 1).await.expect("read 0x1003:1");
     assert_eq!(newest & 0xFFFF, 0x8130, "0x1003:1 = {newest:#010x}");
     net.close().await;
+}
+
+/// LSS on the VM's emulated CPU: each answer may take 300 ms; an answered fastscan step ends
+/// 20 ms after its last answer.
+fn lss_options() -> NetOptions {
+    let ms = duocan::Duration::from_millis;
+    NetOptions::default().with_lss(
+        LssMasterConfig::default()
+            .with_timeout(ms(300))
+            .with_settle(ms(20)),
+    )
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn duocans_lss_master_configures_a_canopend_started_without_a_node_id() {
+    let (net, _wire) = open_with(lss_options());
+    let lss = net.lss();
+    let (first, second) = (NodeId::new(0x0A).unwrap(), NodeId::new(0x0B).unwrap());
+    let node = net.node(first.raw());
+    let mut dev = Canopend::canopend("lss-master", &["-i", "0xFF"]);
+    // It sends nothing without a node-ID, and its LSS slave has no identify services
+    // (CANopenNode's CO_LSSslave.c serves switching, configuration, inquiry and fastscan
+    // only): up once it says it runs.
+    dev.wait_for_output("running", Duration::from_secs(10));
+    // Fastscan finds it by its identity (the example dictionary's: all zeros), gives it 0x0A,
+    // stores it, and switches it back to waiting: it boots with it and answers SDO there.
+    let canopend = LssAddress::default();
+    let scan = lss
+        .fastscan(LssPlan::new().with_free([first]).with_store(true))
+        .await
+        .expect("fastscan");
+    assert_eq!(scan.assigned, [(canopend, first)], "{scan:?}");
+    assert_eq!(scan.stopped, None, "{scan:?}");
+    node.wait_for_boot_up(Duration::from_secs(5))
+        .await
+        .expect("canopend's boot-up as 0x0A");
+    let serial: u32 = node.sdo().read(0x1018, 4).await.expect("SDO to 0x0A");
+    assert_eq!(serial, canopend.serial);
+
+    // Selected by its address: the node-ID inquired, a new one given and stored.
+    lss.switch_selective(canopend)
+        .await
+        .expect("switch state selective");
+    assert_eq!(lss.inquire(Inquiry::NodeId).await.unwrap(), 0x0A);
+    assert_eq!(lss.inquire(Inquiry::Serial).await.unwrap(), canopend.serial);
+    lss.configure_node_id(second.raw())
+        .await
+        .expect("configure node-ID");
+    // canopend has no bit rate to set: its program registers no bit-rate check with its LSS
+    // slave, which then drops configure bit timing unanswered (CANopenNode's CO_LSSslave.c).
+    // The master says no slave answered.
+    match lss.configure_bit_timing(BitTiming::standard(2)).await {
+        Err(NetError::Lss(LssError::Timeout(LssService::ConfigureBitTiming))) => {}
+        other => panic!("configure bit timing (500 kbit/s) of canopend: {other:?}"),
+    }
+    lss.store().await.expect("store configuration");
+    lss.switch_global(LssMode::Waiting).await.unwrap();
+    // A node that has a node-ID takes the new one at its next communication reset.
+    let moved = net.node(second.raw());
+    node.reset_communication().await.unwrap();
+    moved
+        .wait_for_boot_up(Duration::from_secs(5))
+        .await
+        .expect("canopend's boot-up as 0x0B");
+    let serial: u32 = moved.sdo().read(0x1018, 4).await.expect("SDO to 0x0B");
+    assert_eq!(serial, canopend.serial);
+    net.close().await;
+}
+
+/// canopend as node [`NODE`] with its 309-3 gateway on a local socket in its folder; the
+/// socket's path once it is there.
+fn canopend_with_gateway(name: &str) -> (Canopend, PathBuf) {
+    let sock = std::env::temp_dir()
+        .join(format!("canopend-{name}"))
+        .join("gw.sock");
+    let mut dev = Canopend::canopend(
+        name,
+        &[
+            "-i",
+            &NODE.to_string(),
+            "-c",
+            &format!("local-{}", sock.display()),
+        ],
+    );
+    let deadline = std::time::Instant::now() + Duration::from_secs(10);
+    while !sock.exists() {
+        dev.assert_running();
+        assert!(
+            std::time::Instant::now() < deadline,
+            "canopend made no gateway socket {} within 10 s",
+            sock.display()
+        );
+        std::thread::sleep(Duration::from_millis(20));
+    }
+    (dev, sock)
+}
+
+#[test]
+fn canopends_gateway_as_lss_master_configures_a_duocan_lss_slave() {
+    let (_dev, sock) = canopend_with_gateway("lss-gateway");
+    let mut slave = Proc::tool(
+        "lss-slave",
+        &["--bus", "vcan0", "device", "lss-slave", "--serial", "7"],
+    );
+    slave.wait_for_output("on vcan0", Duration::from_secs(10));
+    let address = format!("0x{SIM_VENDOR:08X} 0x00000305 0x00000001 0x00000007");
+    // CANopenNode's fastscan waits the whole timeout at every step (133 of them): 50 ms each.
+    let cases: Vec<(&str, String)> = vec![
+        ("[1] _lss_fastscan 50", format!("[1] {address}")),
+        ("[2] lss_inquire_addr", format!("[2] {address}")),
+        ("[3] lss_get_node", "[3] 0xFF".into()),
+        ("[4] lss_set_node 0x21", "[4] OK".into()),
+        ("[5] lss_conf_bitrate 0 2", "[5] OK".into()),
+        ("[6] lss_store", "[6] OK".into()),
+        ("[7] lss_switch_glob 0", "[7] OK".into()),
+        // Back to waiting, it boots with its node-ID and answers canopend's SDO client.
+        ("[8] 0x21 r 0x1018 4 u32", "[8] 7".into()),
+    ];
+    let (out, code) = cocomm_socket(&sock, &script(&cases));
+    check_answers(&out, &cases);
+    assert_eq!(code, 0, "{out}");
+    slave.wait_for_output("boot node-id 0x21", Duration::from_secs(5));
+    let log = slave.log();
+    let said: Vec<&str> = log.lines().skip(1).collect();
+    assert_eq!(
+        said,
+        [
+            "mode configuration",
+            "node-id configured 0x21",
+            "bit rate configured 500 kbit/s",
+            "stored",
+            "mode waiting",
+            "boot node-id 0x21"
+        ],
+        "{log}"
+    );
 }
