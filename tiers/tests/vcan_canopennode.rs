@@ -14,14 +14,22 @@
 //! - PDOs configured by SDO (mapping, transmission type, event timer) both ways: its TPDO
 //!   received decoded and named by its EDS, an RPDO sent that it writes into its dictionary;
 //! - an EMCY: canopend's own heartbeat consumer, set up by SDO, times out on a node that was
-//!   heard once (0x8130), and its error history (0x1003) says the same.
+//!   heard once (0x8130), and its error history (0x1003) says the same;
+//! - LSS both ways: duocan's LSS master configures a canopend started without a node-ID
+//!   (fastscan, node-ID, bit timing, store), and canopend's gateway, driven by `cocomm`,
+//!   configures a duocan LSS slave (the tool's `device lss-slave`);
+//! - the tool's `eds export` of canopend, by a scan and from its EDS, agrees with the EDS it
+//!   ships entry by entry.
 //!
 //! The environment names the files (the VM has them under /tests): `DUOCAN_CANOPEND` (the
-//! binary), `DUOCAN_CANOPEND_EDS` (its description), `DUOCAN_TOOL` (the `duocan` tool). A
-//! missing one fails the test, saying which: it is never skipped.
+//! binary), `DUOCAN_CANOPEND_EDS` (its description), `DUOCAN_COCOMM` (its gateway's client),
+//! `DUOCAN_TOOL` (the `duocan` tool). A missing one fails the test, saying which: it is never
+//! skipped.
 
 #[path = "../../cli/tests/common/cocomm.rs"]
 mod cocomm;
+#[path = "../../cli/tests/common/eds_compare.rs"]
+mod eds_compare;
 
 use cocomm::{check_answers, cocomm_socket, script};
 use duocan::capture::recorder::{Tap, TapDirection, TapPoint};
@@ -33,6 +41,7 @@ use duocan::port::socketcan::SocketCanPort;
 use duocan::port::Port;
 use duocan::sdo::{SdoErrorKind, TransferMode};
 use duocan::{Frame, Id, Instant, NmtState, NodeId};
+use eds_compare::{differences, read_eds};
 use std::path::{Path, PathBuf};
 use std::process::{Child, Command, Stdio};
 use std::sync::{Arc, Mutex};
@@ -300,6 +309,47 @@ async fn the_tools_scan_finds_canopend_with_the_identity_its_eds_gives() {
         assert_eq!(r[col], 0, "{col}: {stdout}");
     }
     assert_eq!(r["description"], "canopend.eds", "{stdout}");
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn the_tools_eds_export_of_canopend_agrees_with_the_eds_it_ships() {
+    let eds = canopend_eds();
+    let (net, _wire) = open();
+    let dev = boot(&net, "export").await;
+    net.close().await;
+    let shipped = read_eds(&eds);
+    // Read by a scan of 0x1000-0x1FFF (canopend's example dictionary has nothing beyond), and
+    // from the EDS attached: every entry the EDS lists, with its type, object type, access
+    // and default as the value read. The one difference allowed: `const` where the EDS says
+    // `ro` (0x1000, 0x1018, a record's sub-index 0), CiA 301's access in the scan's catalog;
+    // both are read-only, and SDO cannot tell them apart.
+    let attach = format!("{NODE}={}", eds.display());
+    for (how, args) in [
+        ("scan", vec![]),
+        ("description", vec!["--eds", attach.as_str()]),
+    ] {
+        let file = dev.dir.join(format!("{how}.eds"));
+        let node = NODE.to_string();
+        let mut all = vec!["--bus", "vcan0"];
+        all.extend(args);
+        all.extend(["eds", "export", &node, "-o", file.to_str().unwrap()]);
+        let out = Command::new(tool_bin())
+            .args(&all)
+            .env_remove("DUOCAN_BUS")
+            .output()
+            .expect("run duocan eds export");
+        assert!(
+            out.status.success(),
+            "duocan {all:?}: {}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+        let diff = differences(&shipped, &read_eds(&file), NODE, 0..=0xFFFF);
+        assert!(
+            diff.is_empty(),
+            "the export ({how}) differs from canopend's EDS:\n{}",
+            diff.join("\n")
+        );
+    }
 }
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
