@@ -5,8 +5,10 @@
 //! toggle bit aside; a boot-up is `initialising`) or event told. Its heartbeat age is the time
 //! since its last heartbeat on any port. It is *silent* once that age passes three of its
 //! periods, and 100 ms at least; its period is measured on each port apart (on two ports
-//! every heartbeat arrives twice, and a copy is no period) and not from a boot-up to the first
-//! heartbeat. A pair's active member is the member that is operational and not silent, its
+//! every heartbeat arrives twice, and a copy is no period), not from a boot-up to the first
+//! heartbeat, and not to or from a heartbeat whose state differs from the one before it: a
+//! device may send one at once on a state change (CiA 301 allows it; CANopenNode does), which
+//! says nothing of its period. Such a heartbeat keeps the period measured before it. A pair's active member is the member that is operational and not silent, its
 //! standby the one that is pre-operational; anything else is shown as it is (`both`, `none`,
 //! `not heard`). The active master is the node-ID in the latest CiA 302-2 active-master
 //! response (0x71: priority, node-ID). Ports are as the network reports them; a port's state
@@ -55,8 +57,13 @@ pub struct NodeInfo {
     pub state: Option<NmtState>,
     /// Its last heartbeat (or boot-up) frame on each port.
     pub last_hb: [Option<Instant>; MAX_PORTS],
-    /// The time between its last two heartbeats on each port, in µs: its period as heard.
+    /// The time between two of its heartbeats on each port, in µs: its period as heard (the
+    /// latest steady one: see the module's rule).
     pub period: [Option<u64>; MAX_PORTS],
+    /// Its last heartbeat's state code on each port, the toggle bit aside.
+    pub last_code: [Option<u8>; MAX_PORTS],
+    /// Whether that heartbeat changed the state heard before it on its port.
+    pub changed: [bool; MAX_PORTS],
     /// Its last emergency: code, text, when.
     pub emcy: Option<(u16, &'static str, Instant)>,
     /// True while its heartbeat is silent (logged once).
@@ -308,16 +315,23 @@ impl Model {
                 let p = port.unwrap_or(0).min(MAX_PORTS - 1);
                 let mut back = false;
                 if let Some(n) = self.node(id) {
+                    // A heartbeat that changes the state may have been sent at once on the
+                    // change: no period ends or starts at it.
+                    let code = byte & 0x7F;
+                    let changed = n.last_code[p].is_some_and(|c| c != code);
+                    let steady = !changed && !n.changed[p];
                     // A boot-up starts the count again: the first heartbeat follows it at no
                     // particular time.
                     match (n.last_hb[p], *byte) {
                         (_, 0) => n.period = [None; MAX_PORTS],
-                        (Some(last), _) if n.state != Some(NmtState::Initialising) => {
+                        (Some(last), _) if steady && n.state != Some(NmtState::Initialising) => {
                             n.period[p] = Some(at.saturating_since(last).as_micros());
                         }
                         _ => {}
                     }
                     n.last_hb[p] = Some(at);
+                    n.last_code[p] = Some(code);
+                    n.changed[p] = changed;
                     back = std::mem::take(&mut n.silent);
                 }
                 // The toggle bit (guarding) is not part of the state.

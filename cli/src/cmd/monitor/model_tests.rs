@@ -87,6 +87,32 @@ fn a_silent_heartbeat_is_observed_once_and_its_return_too() {
 }
 
 #[test]
+fn a_heartbeat_sent_at_once_on_a_state_change_is_no_period() {
+    // Every 500 ms; an NMT command 50 ms after a heartbeat, answered at once with the new
+    // state (as CANopenNode's canopend does), then every 500 ms again from there.
+    let mut m = Model::new(Names::new(), vec![]);
+    for t in [0, 500, 1_000] {
+        m.on_frame(ms(t), Some(0), true, &heartbeat(4, 0x7F));
+    }
+    m.on_frame(ms(1_050), Some(0), true, &heartbeat(4, 0x05));
+    m.tick(ms(1_300));
+    assert!(texts(&m).is_empty(), "{:?}", texts(&m));
+    m.on_frame(ms(1_550), Some(0), true, &heartbeat(4, 0x05));
+    // A device that keeps its own time instead: the next one 450 ms after the change.
+    m.on_frame(ms(1_600), Some(0), true, &heartbeat(4, 0x04));
+    m.on_frame(ms(2_000), Some(0), true, &heartbeat(4, 0x04));
+    m.tick(ms(2_200));
+    assert!(texts(&m).is_empty(), "{:?}", texts(&m));
+    // Its steady period is still what counts: silent after three of them.
+    m.on_frame(ms(2_500), Some(0), true, &heartbeat(4, 0x04));
+    m.tick(ms(4_001));
+    assert_eq!(
+        texts(&m),
+        ["monitor: node 0x04 heartbeat silent for 1501 ms"]
+    );
+}
+
+#[test]
 fn pair_roles_follow_the_members_states_and_a_failover_is_observed() {
     let mut m = Model::new(Names::new(), vec![(0x10, 0x50), (0x11, 0x51)]);
     m.on_event(&state(0x10, NmtState::Operational, 10));
