@@ -14,6 +14,11 @@
 //! response (0x71: priority, node-ID). Ports are as the network reports them; a port's state
 //! change applies at once with its event.
 //!
+//! **Its log.** The network's events, one line each; a state a node's heartbeat tells is
+//! logged from the heartbeat (`node 0x04: operational`), once, whether the network's event for
+//! it comes after or came before the monitor listened (a node already running when the monitor
+//! starts: its first state event may precede the subscription).
+//!
 //! **Own observations.** Beside the network's events, the model logs what it concludes itself,
 //! as lines starting with `monitor:`: a pair's active member changed (a new one after another
 //! is a failover, even with a moment of `none` or `both` between), the active master changed, a
@@ -249,8 +254,10 @@ impl Model {
             NetEvent::Lagged(_) => "lagged",
             _ => "other",
         };
+        let mut known = false;
         if let (Some(id), Some(state)) = (node, e.state()) {
-            self.set_state(id, state);
+            // A state the node's heartbeat already told is logged (see `on_frame`).
+            known = !self.set_state(id, state) && matches!(e, NetEvent::State { .. });
         }
         if let Some((id, msg)) = e.emcy() {
             if let Some(n) = self.node(id.raw()) {
@@ -266,7 +273,9 @@ impl Model {
             NetEvent::Reach { node, heard, .. } => self.set_heard_on(node.raw(), *heard),
             _ => {}
         }
-        self.push(at, node, kind, e.to_string());
+        if !known {
+            self.push(at, node, kind, e.to_string());
+        }
         if e.state().is_some() {
             self.check_pairs(at);
         }
@@ -337,6 +346,12 @@ impl Model {
                 // The toggle bit (guarding) is not part of the state.
                 if let Some(state) = NmtState::from_code(byte & 0x7F) {
                     if self.set_state(id, state) {
+                        // Logged here, as the network's state event would log it: that event
+                        // may have come before the monitor listened (a node heard at once).
+                        // A boot-up has its own event.
+                        if state != NmtState::Initialising {
+                            self.push(at, Some(id), "state", format!("node {id:#04x}: {state}"));
+                        }
                         self.check_pairs(at);
                     }
                 }
