@@ -64,7 +64,8 @@ echo "   by fastscan on lssa,lssb, one of them on lssb only"
 echo "== tier-vcan: CANopenNode's canopend as the device (node 4 on vcan0), duocan as the master:"
 echo "   the tool's scan, SDO in every mode both ways, NMT in the heartbeat, its loss, a TPDO, an EMCY;"
 echo "   LSS both ways: duocan's master configures canopend, canopend's gateway (through cocomm) a"
-echo "   duocan LSS slave; the tool's eds export of canopend against the EDS it ships"
+echo "   duocan LSS slave; the tool's eds export of canopend against the EDS it ships; the tool's"
+echo "   dump and monitor decoding its traffic"
 # canopend is built on the host (static, a few seconds) from the sources kept beside the
 # repository, and goes into the VM with its EDS, cocomm (its gateway's client) and the tool
 # (release, built for the kit).

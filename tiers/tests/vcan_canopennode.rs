@@ -19,7 +19,11 @@
 //!   (fastscan, node-ID, bit timing, store), and canopend's gateway, driven by `cocomm`,
 //!   configures a duocan LSS slave (the tool's `device lss-slave`);
 //! - the tool's `eds export` of canopend, by a scan and from its EDS, agrees with the EDS it
-//!   ships entry by entry.
+//!   ships entry by entry;
+//! - the tool's `dump` and `monitor`, listening while canopend boots, is configured by SDO,
+//!   stopped and started and sends an EMCY, decode each of those frames (boot-up, SDO,
+//!   heartbeat states, NMT, EMCY with its code), and the monitor never takes its heartbeat,
+//!   sent at once on each state change, for silent.
 //!
 //! The environment names the files (the VM has them under /tests): `DUOCAN_CANOPEND` (the
 //! binary), `DUOCAN_CANOPEND_EDS` (its description), `DUOCAN_COCOMM` (its gateway's client),
@@ -596,13 +600,11 @@ async fn pdos_configured_by_sdo_go_both_ways() {
     net.close().await;
 }
 
-#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
-async fn canopends_heartbeat_consumer_timeout_comes_as_an_emcy() {
-    let (net, _wire) = open();
-    let _dev = boot(&net, "emcy").await;
+/// canopend's heartbeat consumer made to send an EMCY (0x8130): it watches node 0x20's
+/// heartbeat, 300 ms, and node 0x20 (a raw port here) sends one and goes silent. The EMCY, and
+/// the network's time before the heartbeat.
+async fn provoke_emcy(net: &Network) -> (duocan::emcy::EmcyMessage, Instant) {
     let node = net.node(NODE);
-    // canopend watches node 0x20's heartbeat, 300 ms; node 0x20 (a raw port here) sends one
-    // and goes silent.
     node.sdo()
         .write(0x1016, 1, (0x20u32 << 16) | 300)
         .await
@@ -616,6 +618,98 @@ async fn canopends_heartbeat_consumer_timeout_comes_as_an_emcy() {
         .wait_for_emcy(Duration::from_secs(3))
         .await
         .expect("canopend's EMCY within 3 s");
+    (emcy, since)
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn the_tools_monitor_and_dump_decode_canopends_traffic() {
+    let attach = format!("{NODE}={}", canopend_eds().display());
+    let mut dump = Proc::tool("dump", &["--bus", "vcan0", "dump"]);
+    let mut monitor = Proc::tool(
+        "monitor",
+        &[
+            "--bus", "vcan0", "--eds", &attach, "monitor", "--plain", "--every", "0.5",
+        ],
+    );
+    // Both listening before canopend boots: a heartbeat of node 0x7F until each has shown it,
+    // and the monitor a status line (it reads the network's events by then).
+    let mut raw = SocketCanPort::open("vcan0").expect("open vcan0");
+    let deadline = std::time::Instant::now() + Duration::from_secs(10);
+    while !(dump.log().contains("node 127 heartbeat operational")
+        && monitor.log().contains("node 0x7f: operational")
+        && monitor.log().contains("status: "))
+    {
+        dump.assert_running();
+        monitor.assert_running();
+        assert!(
+            std::time::Instant::now() < deadline,
+            "the dump and the monitor did not show a heartbeat within 10 s"
+        );
+        raw.send(&Frame::from_array(Id::Standard(0x77F), [0x05]))
+            .await
+            .expect("send a heartbeat of 0x7F");
+        tokio::time::sleep(Duration::from_millis(50)).await;
+    }
+
+    // canopend boots, gets a 300 ms heartbeat and is read by SDO, is stopped and started,
+    // and sends an EMCY.
+    let (net, _wire) = open();
+    let _dev = boot(&net, "decoded").await;
+    let node = net.node(NODE);
+    let t = Duration::from_secs(3);
+    node.sdo()
+        .write(0x1017, 0, 300u16)
+        .await
+        .expect("write 0x1017");
+    let vendor: u32 = node.sdo().read(0x1018, 1).await.expect("read 0x1018:1");
+    assert_eq!(vendor, 0);
+    node.wait_for_state(NmtState::Operational, t).await.unwrap();
+    node.stop().await.unwrap();
+    node.wait_for_state(NmtState::Stopped, t).await.unwrap();
+    node.start().await.unwrap();
+    node.wait_for_state(NmtState::Operational, t).await.unwrap();
+    let (emcy, _) = provoke_emcy(&net).await;
+    assert_eq!(emcy.code, 0x8130, "{emcy:?}");
+    net.close().await;
+
+    // The dump: every frame decoded as what it is.
+    let w = Duration::from_secs(5);
+    for line in [
+        "704       node 4 boot-up",
+        "604       node 4 SDO download 0x1017:00",
+        "584       node 4 SDO download 0x1017:00 accepted",
+        "604       node 4 SDO upload 0x1018:01",
+        "000       NMT stop node 4",
+        "704       node 4 heartbeat stopped",
+        "000       NMT start node 4",
+        "704       node 4 heartbeat operational",
+        "084       node 4 EMCY 0x8130",
+    ] {
+        dump.wait_for_output(line, w);
+    }
+    // The monitor: the node's states and its EMCY with the code's meaning; its heartbeat,
+    // sent at once on each state change besides every 300 ms, never taken for silent.
+    for line in [
+        "node 0x04: boot-up",
+        "node 0x04: operational",
+        "node 0x04: stopped",
+        "node 0x04: EMCY 0x8130",
+    ] {
+        monitor.wait_for_output(line, w);
+    }
+    let seen = monitor.log();
+    assert!(
+        !seen.contains("node 0x04 heartbeat silent"),
+        "canopend's heartbeat never stopped:\n{seen}"
+    );
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn canopends_heartbeat_consumer_timeout_comes_as_an_emcy() {
+    let (net, _wire) = open();
+    let _dev = boot(&net, "emcy").await;
+    let node = net.node(NODE);
+    let (emcy, since) = provoke_emcy(&net).await;
     assert_eq!(emcy.code, 0x8130, "{emcy:?}");
     // The error register: a communication error.
     assert_eq!(emcy.register & 0x10, 0x10, "{emcy:?}");
