@@ -65,7 +65,7 @@ echo "== tier-vcan: CANopenNode's canopend as the device (node 4 on vcan0), duoc
 echo "   the tool's scan, SDO in every mode both ways, NMT in the heartbeat, its loss, a TPDO, an EMCY;"
 echo "   LSS both ways: duocan's master configures canopend, canopend's gateway (through cocomm) a"
 echo "   duocan LSS slave; the tool's eds export of canopend against the EDS it ships; the tool's"
-echo "   dump and monitor decoding its traffic"
+echo "   dump and monitor decoding its traffic; one cocomm script to canopend's gateway and duocan's"
 # canopend is built on the host (static, a few seconds) from the sources kept beside the
 # repository, and goes into the VM with its EDS, cocomm (its gateway's client) and the tool
 # (release, built for the kit).
