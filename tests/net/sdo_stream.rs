@@ -100,6 +100,20 @@ async fn a_mebibyte_streams_both_ways_with_progress() {
     s.shutdown().await;
 }
 
+/// The error of an input that ended before the size announced.
+fn assert_input_ended(e: &NetError) {
+    assert!(
+        matches!(
+            e,
+            NetError::Io {
+                kind: std::io::ErrorKind::UnexpectedEof,
+                ..
+            }
+        ),
+        "{e:?}"
+    );
+}
+
 /// A reader that fails after `ok` bytes.
 struct Failing {
     ok: usize,
@@ -149,16 +163,7 @@ async fn a_failing_or_short_input_is_an_error_and_the_node_is_told() {
         .write_from(BIG, 0, &[1u8; 50][..], Some(80), |_| {})
         .await
         .unwrap_err();
-    assert!(
-        matches!(
-            e,
-            NetError::Io {
-                kind: std::io::ErrorKind::UnexpectedEof,
-                ..
-            }
-        ),
-        "{e:?}"
-    );
+    assert_input_ended(&e);
     assert_eq!(sdo.read_bytes(BIG, 0).await.unwrap(), before);
     // An input longer than the size given: the size is written, the rest is not read.
     let n = sdo
@@ -244,16 +249,7 @@ async fn one_to_four_bytes_go_expedited_as_a_whole_value_does() {
         .write_from(BIG, 0, &[1u8; 2][..], Some(3), |_| {})
         .await
         .unwrap_err();
-    assert!(
-        matches!(
-            e,
-            NetError::Io {
-                kind: std::io::ErrorKind::UnexpectedEof,
-                ..
-            }
-        ),
-        "{e:?}"
-    );
+    assert_input_ended(&e);
     assert_eq!(taken(), []);
     net.close().await;
     s.shutdown().await;
