@@ -806,16 +806,11 @@ fn canopend_with_gateway(name: &str, node: u8) -> (Canopend, PathBuf) {
             &format!("local-{}", sock.display()),
         ],
     );
-    let deadline = std::time::Instant::now() + Duration::from_secs(10);
-    while !sock.exists() {
-        dev.assert_running();
-        assert!(
-            std::time::Instant::now() < deadline,
-            "canopend made no gateway socket {} within 10 s",
-            sock.display()
-        );
-        std::thread::sleep(Duration::from_millis(20));
-    }
+    // It says so once the socket is there.
+    dev.wait_for_output(
+        &format!("local socket \"{}\" started", sock.display()),
+        Duration::from_secs(10),
+    );
     (dev, sock)
 }
 
