@@ -62,18 +62,23 @@ echo "   by fastscan on lssa,lssb, one of them on lssb only"
 .ci/vm-script.sh lss || fail "LSS on vcan"
 
 echo "== tier-vcan: CANopenNode's canopend as the device (node 4 on vcan0), duocan as the master:"
-echo "   the tool's scan, SDO in every mode both ways, NMT in the heartbeat, its loss, a TPDO, an EMCY"
+echo "   the tool's scan, SDO in every mode both ways, NMT in the heartbeat, its loss, a TPDO, an EMCY;"
+echo "   LSS both ways: duocan's master configures canopend, canopend's gateway (through cocomm) a"
+echo "   duocan LSS slave; the tool's eds export of canopend against the EDS it ships; the tool's"
+echo "   dump and monitor decoding its traffic; one cocomm script to canopend's gateway and duocan's"
 # canopend is built on the host (static, a few seconds) from the sources kept beside the
-# repository, and goes into the VM with its EDS and the tool (release, built for the kit).
+# repository, and goes into the VM with its EDS, cocomm (its gateway's client) and the tool
+# (release, built for the kit).
 PEERS=${DUOCAN_PEERS:-$ROOT/../shared/peers}
 CONODE=$(cargo metadata --format-version 1 --no-deps | python3 -c 'import sys,json; print(json.load(sys.stdin)["target_directory"])')/canopennode
 out=$(bash "$PEERS/canopennode/build.sh" "$CONODE" 2>&1) \
   || fail "build CANopenNode's canopend with $PEERS/canopennode/build.sh (needs make and a static libc): $out"
-[ -x "$CONODE/canopend" ] && [ -f "$CONODE/canopend.eds" ] || fail "no canopend or canopend.eds in $CONODE"
+[ -x "$CONODE/canopend" ] && [ -x "$CONODE/cocomm" ] && [ -f "$CONODE/canopend.eds" ] \
+  || fail "no canopend, cocomm or canopend.eds in $CONODE"
 TOOL="$(dirname "$CONODE")/release/duocan"
 [ -x "$TOOL" ] || fail "no $TOOL (built above for the kit)"
-VCANVM_EXTRA="$CONODE/canopend:/tests/canopend $CONODE/canopend.eds:/tests/canopend.eds $TOOL:/tests/duocan" \
-DUOCAN_CANOPEND=/tests/canopend DUOCAN_CANOPEND_EDS=/tests/canopend.eds DUOCAN_TOOL=/tests/duocan \
+VCANVM_EXTRA="$CONODE/canopend:/tests/canopend $CONODE/canopend.eds:/tests/canopend.eds $CONODE/cocomm:/tests/cocomm $TOOL:/tests/duocan" \
+DUOCAN_CANOPEND=/tests/canopend DUOCAN_CANOPEND_EDS=/tests/canopend.eds DUOCAN_COCOMM=/tests/cocomm DUOCAN_TOOL=/tests/duocan \
   cargo test -p duocan-tiers --features vcan --test vcan_canopennode \
   || fail "CANopenNode's canopend on vcan"
 

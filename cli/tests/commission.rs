@@ -1,7 +1,10 @@
 //! `duocan scan`, `pdo`, `eds` and `flash` against the simulated nodes of `--bus sim`.
 
 mod common;
+#[path = "common/eds_compare.rs"]
+mod eds_compare;
 use common::{duocan, one_station, sim, sim_ok};
+use eds_compare::{differences, read_eds};
 use serde_json::Value;
 use std::path::PathBuf;
 use std::time::{Duration, Instant};
@@ -347,6 +350,11 @@ fn eds_export_of_a_sim_node_validates_and_describes_it() {
     let text = std::fs::read_to_string(&scanned).unwrap();
     assert!(text.contains("[1018]"), "{text}");
     assert!(text.contains("[1800]"), "{text}");
+    // Entry by entry what the export from the description has in the scanned range: the
+    // error history's slots past its count, the PDO mappings' entries past theirs, every PDO
+    // and SDO parameter writable.
+    let diff = differences(&read_eds(&eds), &read_eds(&scanned), 5, 0x1000..=0x1FFF);
+    assert!(diff.is_empty(), "the scan differs:\n{}", diff.join("\n"));
     let dcf = dir.join("n5.dcf");
     let r = sim(&[
         "eds",

@@ -27,7 +27,8 @@ type Inner = Station<Box<dyn NetLink>, Composite<Observer, NetClient>>;
 
 /// The SYNC identifier the producer uses (0x1005's default).
 const SYNC_ID: u16 = 0x80;
-/// The node-ID the observer uses internally (it never sends with it).
+/// The node-ID the observer uses internally (it never sends with it, and hears a node 127 on
+/// the bus as any other: [`NodeConfig::observer`]).
 const OBSERVER_ID: u8 = 127;
 /// Frames of the network's own (RPDOs) waiting for the port: a caller that sends faster
 /// than the port drains gets [`NetError::QueueFull`].
@@ -58,7 +59,7 @@ impl ObserverCore {
     pub fn new(link: Box<dyn NetLink>, opts: &NetOptions) -> Result<Self, NetError> {
         let id = NodeId::new(OBSERVER_ID).ok_or(NetError::Closed)?;
         let od = comm::standard_dictionary(OBSERVER_ID, comm::Identity::default());
-        let mut node = Node::new(NodeConfig::master(id), od);
+        let mut node = Node::new(NodeConfig::master(id).with_observer(true), od);
         // Booted before the clock starts: its boot-up never leaves (the filter).
         node.boot(Instant::ZERO);
         let client = NetClient::with_sessions(MAX_TRANSFER, SESSIONS);

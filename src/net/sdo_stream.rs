@@ -37,7 +37,7 @@ use super::door::Door;
 use super::error::NetError;
 use super::sdo::RemoteSdo;
 use super::starts::Stream;
-use crate::cia301::sdo::RequestId;
+use crate::cia301::sdo::{Direction, RequestId, SdoError, SdoErrorKind, TransferMode};
 use crate::frame::cob_id::NodeId;
 use crate::od::abort::AbortCode;
 use crate::runtime::Handle;
@@ -162,7 +162,10 @@ impl RemoteSdo {
     /// bytes (announced to the node; an input that ends sooner is an error, one that goes on
     /// is not read further), or everything up to the end of `input` if `None`. `progress`
     /// hears how much the node has confirmed. The client holds at most [`STREAM_WINDOW`]
-    /// bytes of it; python `canopen`'s `node.sdo[i][s].open("wb", size=n)`.
+    /// bytes of it; python `canopen`'s `node.sdo[i][s].open("wb", size=n)`. A `size` of 1 to
+    /// 4 bytes goes expedited (unless the options ask for segmented or block transfer), as
+    /// [`write_bytes`](Self::write_bytes) sends it; with [`TransferMode::Expedited`] any other
+    /// size is refused ([`SdoErrorKind::TransferMode`]).
     pub async fn write_from<R: AsyncRead + Unpin>(
         &self,
         index: u16,
@@ -182,6 +185,40 @@ impl RemoteSdo {
             Some(Ok(n)) => Some(n),
             None => None,
         };
+        // A stream is never expedited (the initiate would carry the data, not there yet):
+        // 1 to 4 bytes announced are read first and written as `write_bytes` writes them,
+        // expedited unless segmented or block transfer is asked for. Expedited asked for any
+        // other size is refused as `write_bytes` refuses it, not sent segmented.
+        match (self.opts.mode, announced) {
+            (TransferMode::Auto | TransferMode::Expedited, Some(n @ 1..=4)) => {
+                let mut data = vec![0; n as usize];
+                if let Err(e) = input.read_exact(&mut data).await {
+                    return Err(NetError::Io {
+                        node: self.node.id()?,
+                        index,
+                        sub,
+                        kind: e.kind(),
+                        message: format!("the input ended before the {n} bytes announced: {e}"),
+                    });
+                }
+                self.write_bytes(index, sub, data).await?;
+                progress(TransferProgress {
+                    done: u64::from(n),
+                    total: size,
+                });
+                return Ok(u64::from(n));
+            }
+            (TransferMode::Expedited, _) => {
+                return Err(NetError::Sdo(SdoError {
+                    node: self.node.id()?,
+                    index,
+                    sub,
+                    direction: Direction::Download,
+                    kind: SdoErrorKind::TransferMode,
+                }))
+            }
+            _ => {}
+        }
         let (node, _turn) = self.turn().await?;
         let opts = self.opts;
         let (run, done) = self.start(node, index, sub, move |c, now| {

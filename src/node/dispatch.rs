@@ -50,6 +50,11 @@ impl<
         self.cfg.node_id
     }
 
+    /// Whether a frame carrying `node` is this node's own (an observer has none on the bus).
+    fn is_own(&self, node: NodeId) -> bool {
+        node == self.id() && !self.cfg.observer
+    }
+
     pub(super) fn event(&mut self, at: Instant, kind: NodeEventKind) {
         self.events.push(NodeEvent { at, kind });
     }
@@ -262,7 +267,7 @@ impl<
     }
 
     pub(super) fn error_control_received(&mut self, now: Instant, node: NodeId, frame: &Frame) {
-        if node == self.id() {
+        if self.is_own(node) {
             // Our own identifier from someone else: a configuration fault elsewhere; not ours.
             self.stats.unhandled += 1;
             return;
@@ -396,7 +401,7 @@ impl<
             Some(ProfileFrame::Heartbeat(n)) => {
                 if frame.is_remote() {
                     // Shared identifier: a remote frame here is a guarding request.
-                    if n == self.id() {
+                    if self.is_own(n) {
                         self.guard_request(now, frame);
                     } else if !self.guard_master.observed_request(n) {
                         self.stats.unhandled += 1;
@@ -406,7 +411,7 @@ impl<
                 }
             }
             Some(ProfileFrame::Guarding(n)) => {
-                if n == self.id() {
+                if self.is_own(n) {
                     self.guard_request(now, frame);
                 } else if frame.is_remote() {
                     // Another master guarding a node this one guards too: the answer follows.
@@ -418,7 +423,7 @@ impl<
                 }
             }
             Some(ProfileFrame::Emcy(n)) => {
-                if n == self.id() || !services.emcy || !self.cfg.consume_emcy {
+                if self.is_own(n) || !services.emcy || !self.cfg.consume_emcy {
                     self.stats.unhandled += 1;
                     return;
                 }

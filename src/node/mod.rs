@@ -88,6 +88,11 @@ pub struct NodeConfig {
     pub accept_nmt: bool,
     /// Report EMCY messages of other nodes (on their default identifiers).
     pub consume_emcy: bool,
+    /// A listener that is no node on the bus (the front door's observer): it never sends with
+    /// its node-ID, so the heartbeats, boot-ups, guarding answers and EMCY that carry it are
+    /// another node's, tracked and reported as any other's. Off: they are taken for a
+    /// configuration fault elsewhere (someone else using this node's identifier) and dropped.
+    pub observer: bool,
     /// Tell the bus when a consumed heartbeat (0x1016) is lost: EMCY 0x8130 with the
     /// communication bit of 0x1001, recorded in 0x1003, and the error reset when the producer
     /// is heard again (CiA 301, what a slave does so that every master learns of it). A master
@@ -116,6 +121,12 @@ impl NodeConfig {
         self.consume_emcy = consume_emcy;
         self
     }
+    /// The configuration with [`observer`](Self::observer) replaced.
+    #[must_use]
+    pub fn with_observer(mut self, observer: bool) -> Self {
+        self.observer = observer;
+        self
+    }
     /// The configuration with [`heartbeat_loss_emcy`](Self::heartbeat_loss_emcy) replaced.
     #[must_use]
     pub fn with_heartbeat_loss_emcy(mut self, heartbeat_loss_emcy: bool) -> Self {
@@ -133,6 +144,7 @@ impl NodeConfig {
             auto_start: false,
             accept_nmt: true,
             consume_emcy: true,
+            observer: false,
             heartbeat_loss_emcy: true,
         }
     }
@@ -145,6 +157,7 @@ impl NodeConfig {
             auto_start: true,
             accept_nmt: false,
             consume_emcy: true,
+            observer: false,
             heartbeat_loss_emcy: false,
         }
     }

@@ -103,3 +103,49 @@ async fn a_tap_hears_what_the_port_receives_and_sends() {
     assert!(seen.contains(&(TapDirection::Rx, 0x585)), "{seen:?}");
     net.close().await;
 }
+
+/// The network's observer has a node-ID of its own inside (127) but is no node on the bus: a
+/// device at 127 is heard as any other (its boot-up, heartbeat states and EMCY), and
+/// answers SDO.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_node_at_127_is_heard_as_any_other() {
+    let bus = MemBus::new("mem");
+    let net = Network::open(bus.port()).unwrap();
+    let s = Runtime::new(single(node(127, false, 50, &[])))
+        .port(bus.port())
+        .spawn()
+        .unwrap();
+    let n = net.node(127);
+    s.boot().await.unwrap();
+    let t = Duration::from_secs(2);
+    n.wait_for_boot_up(t).await.expect("boot-up of 127");
+    n.wait_for_state(NmtState::PreOperational, t)
+        .await
+        .expect("127's heartbeat");
+    let vendor = n.sdo().read_bytes(0x1018, 1).await.expect("SDO to 127");
+    assert_eq!(vendor, s.read(0x1018, 1).await.unwrap());
+    let mut events = net.events();
+    let mut raw = bus.port();
+    raw.send(&duocan::Frame::from_array(
+        duocan::Id::Standard(0xFF),
+        [0x30, 0x81, 0x11, 0, 0, 0, 0, 0],
+    ))
+    .await
+    .unwrap();
+    let emcy = tokio::time::timeout(t, async {
+        loop {
+            match events.next().await {
+                Some(e) => match e.emcy() {
+                    Some((node, m)) if node.raw() == 127 => return m,
+                    _ => {}
+                },
+                None => panic!("the event stream ended"),
+            }
+        }
+    })
+    .await
+    .expect("127's EMCY");
+    assert_eq!(emcy.code, 0x8130);
+    net.close().await;
+    s.shutdown().await;
+}

@@ -6,12 +6,14 @@
 //! side (its buffer is checked against the window frame by frame in `tests/sdo/stream.rs`).
 
 use crate::rt::{pattern, sdo_node, single};
+use duocan::capture::recorder::{Tap, TapDirection, TapPoint};
 use duocan::net::{NetError, NetOptions, Network, TransferProgress};
 use duocan::od::{Access, DataType, ObjectDef};
 use duocan::port::mem::MemBus;
 use duocan::runtime::{Handle, Runtime};
 use duocan::sdo::{SdoErrorKind, SdoServerConfig, TransferMode};
 use std::pin::Pin;
+use std::sync::Arc;
 use std::task::{Context, Poll};
 use std::time::Duration;
 use tokio::io::{AsyncRead, ReadBuf};
@@ -98,6 +100,20 @@ async fn a_mebibyte_streams_both_ways_with_progress() {
     s.shutdown().await;
 }
 
+/// The error of an input that ended before the size announced.
+fn assert_input_ended(e: &NetError) {
+    assert!(
+        matches!(
+            e,
+            NetError::Io {
+                kind: std::io::ErrorKind::UnexpectedEof,
+                ..
+            }
+        ),
+        "{e:?}"
+    );
+}
+
 /// A reader that fails after `ok` bytes.
 struct Failing {
     ok: usize,
@@ -147,16 +163,7 @@ async fn a_failing_or_short_input_is_an_error_and_the_node_is_told() {
         .write_from(BIG, 0, &[1u8; 50][..], Some(80), |_| {})
         .await
         .unwrap_err();
-    assert!(
-        matches!(
-            e,
-            NetError::Io {
-                kind: std::io::ErrorKind::UnexpectedEof,
-                ..
-            }
-        ),
-        "{e:?}"
-    );
+    assert_input_ended(&e);
     assert_eq!(sdo.read_bytes(BIG, 0).await.unwrap(), before);
     // An input longer than the size given: the size is written, the rest is not read.
     let n = sdo
@@ -179,6 +186,71 @@ async fn a_failing_or_short_input_is_an_error_and_the_node_is_told() {
         matches!(e, NetError::Sdo(ref x) if matches!(x.kind, SdoErrorKind::Server(_))),
         "{e:?}"
     );
+    net.close().await;
+    s.shutdown().await;
+}
+
+/// The first bytes (command specifiers) of every SDO request to node 6 the network sent.
+#[derive(Default)]
+struct Requests(std::sync::Mutex<Vec<u8>>);
+
+impl Tap for Requests {
+    fn frame(&self, _: duocan::Instant, _: TapPoint, dir: TapDirection, f: &duocan::Frame) {
+        if dir == TapDirection::Tx && f.id() == duocan::Id::Standard(0x606) {
+            self.0.lock().unwrap().push(f.data()[0]);
+        }
+    }
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn one_to_four_bytes_go_expedited_as_a_whole_value_does() {
+    let bus = MemBus::new("mem");
+    let sent = Arc::new(Requests::default());
+    let net = Network::open_with(bus.port(), opts().with_tap(sent.clone())).unwrap();
+    let s = big_node(&bus).await;
+    let taken = || std::mem::take(&mut *sent.0.lock().unwrap());
+    // 2 bytes announced: one expedited request (0x2B: 2 bytes), as write_bytes sends them,
+    // whether the mode is left to the client or asked for.
+    for mode in [TransferMode::Auto, TransferMode::Expedited] {
+        let mut seen = Vec::new();
+        let sdo = net.node(6).sdo().with_mode(mode);
+        let n = sdo
+            .write_from(BIG, 0, &[7u8, 8][..], Some(2), |p| seen.push(p))
+            .await
+            .unwrap();
+        assert_eq!(n, 2);
+        assert_eq!(taken(), [0x2B], "{mode:?}");
+        assert_eq!(seen.last().map(|p| (p.done, p.total)), Some((2, Some(2))));
+        assert_eq!(s.read(BIG, 0).await.unwrap(), [7, 8]);
+    }
+    // Segmented asked for: segmented (initiate with the size, one segment).
+    let sdo = net.node(6).sdo().with_mode(TransferMode::Segmented);
+    sdo.write_from(BIG, 0, &[9u8, 9][..], Some(2), |_| {})
+        .await
+        .unwrap();
+    assert_eq!(taken(), [0x21, 0x0B]);
+    // Expedited cannot carry more than 4 bytes, nor a size not announced: refused unsent.
+    let sdo = net.node(6).sdo().with_mode(TransferMode::Expedited);
+    for size in [Some(5), None] {
+        let e = sdo
+            .write_from(BIG, 0, &[1u8; 5][..], size, |_| {})
+            .await
+            .unwrap_err();
+        assert!(
+            matches!(e, NetError::Sdo(ref x) if x.kind == SdoErrorKind::TransferMode),
+            "{size:?}: {e:?}"
+        );
+    }
+    assert_eq!(taken(), []);
+    // An input shorter than the few bytes announced: an error, nothing sent.
+    let e = net
+        .node(6)
+        .sdo()
+        .write_from(BIG, 0, &[1u8; 2][..], Some(3), |_| {})
+        .await
+        .unwrap_err();
+    assert_input_ended(&e);
+    assert_eq!(taken(), []);
     net.close().await;
     s.shutdown().await;
 }

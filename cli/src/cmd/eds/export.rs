@@ -12,12 +12,19 @@
 //!   are not read (a domain may be an image of megabytes) and keep the description's default.
 //! - **without one, or with `--scan`**: each index of the standard communication range
 //!   0x1000–0x1FFF and of every `--range` is asked for sub-index 0; an object that answers is
-//!   read sub by sub (sub 0 as the highest sub-index, when sub 1 exists). Names, types and
-//!   access come from CiA 301 for the objects the library's standard dictionary knows; any
-//!   other entry is named after its address, its type guessed from its size (1, 2, 4, 8 bytes:
-//!   UNSIGNED8…64; printable text: VISIBLE_STRING; else DOMAIN) and marked read-only, since SDO
-//!   cannot tell access. 0x1000–0x1FFF is 4096 requests: about a second on `--bus sim`, a few
-//!   seconds on a 500 kbit/s bus.
+//!   read sub by sub: up to sub-index 0 (the highest sub-index, when sub 1 exists), but past it
+//!   for the objects whose sub-index 0 counts instead (0x1003's recorded errors, a PDO
+//!   mapping's mapped objects), to the first sub-index the node does not have. Names, types
+//!   and access come from CiA 301 for the objects it defines (the library's standard
+//!   dictionary, the error history, every SDO server and client and PDO parameter); an entry
+//!   that answers with an abort other than "does not exist" (a history slot without an error)
+//!   is kept with that definition and its default. Any other entry is named after its
+//!   address, its type guessed from its size (1, 2, 4, 8 bytes: UNSIGNED8…64; printable text:
+//!   VISIBLE_STRING; else DOMAIN) and marked read-only, since SDO cannot tell access. CiA 301
+//!   makes some read-only entries `const` (0x1000, 0x1018, a record's sub-index 0), and so
+//!   does the export, where a device's own EDS may say `ro`: SDO cannot tell them apart
+//!   either. 0x1000–0x1FFF is 4096 requests: about a second on `--bus sim`, a few seconds on
+//!   a 500 kbit/s bus.
 //!
 //! The EDS takes the values read as its `DefaultValue`s (so that it describes the node as it
 //! is); `--as-dcf` writes the description's defaults and the values read as `ParameterValue`,
@@ -36,6 +43,7 @@ use duocan::od::{
     comm, Access, DataType, DefaultValue, DynamicDictionary, ObjectDef, ObjectDictionary,
     ObjectType,
 };
+use duocan::pdo::params;
 use duocan::sdo::SdoErrorKind;
 use duocan::{AbortCode, NodeId};
 use serde_json::json;
@@ -127,7 +135,7 @@ async fn export(g: &Global, bus: &Bus, a: &ExportArgs) -> Result<(), Fail> {
         None => "a scan".to_string(),
     };
     let summary = format!(
-        "node {id:#04x}: {} entries read ({source}), {} not on the node, {} not read (write-only or DOMAIN)",
+        "node {id:#04x}: {} entries read ({source}), {} not on the node, {} not read (write-only, DOMAIN or without a value)",
         tally.read, tally.absent, tally.not_read
     );
     let mut v = json!({
@@ -209,9 +217,83 @@ async fn from_description(
     Ok(od)
 }
 
-/// The standard objects CiA 301 names, as the library's standard dictionary defines them.
-fn catalog(id: u8) -> DynamicDictionary {
-    comm::standard_dictionary(id, comm::Identity::default())
+/// The standard objects CiA 301 names, with their definitions: the library's standard
+/// dictionary, and (one index at a time) the error history, every SDO server and client and
+/// every PDO's communication and mapping parameters.
+struct Catalog {
+    standard: DynamicDictionary,
+}
+
+impl Catalog {
+    fn new(id: u8) -> Catalog {
+        Catalog {
+            standard: comm::standard_dictionary(id, comm::Identity::default()),
+        }
+    }
+
+    /// The definition of (index, sub) and its name, if CiA 301 has it.
+    fn def(&self, index: u16, sub: u8) -> Option<(ObjectDef, String)> {
+        let zero = DefaultValue::Unsigned(0);
+        let defs: Vec<ObjectDef> = match index {
+            // The standard dictionary keeps 8 history slots; a device may have up to 254.
+            comm::ERROR_HISTORY => comm::error_history::<255>().to_vec(),
+            0x1201..=0x127F => sdo_parameter(index, false).to_vec(),
+            0x1280..=0x12FF => sdo_parameter(index, true).to_vec(),
+            0x1400..=0x15FF => params::rpdo_comm(index - 0x13FF, zero, 0, 0).to_vec(),
+            0x1600..=0x17FF => params::rpdo_mapping::<65>(index - 0x15FF, &[]).to_vec(),
+            0x1800..=0x19FF => params::tpdo_comm(index - 0x17FF, zero, 0, 0, 0).to_vec(),
+            0x1A00..=0x1BFF => params::tpdo_mapping::<65>(index - 0x19FF, &[]).to_vec(),
+            _ => {
+                let e = self.standard.get(index, sub).ok()?;
+                return Some((*e.def, e.name.to_string()));
+            }
+        };
+        let d = defs.into_iter().find(|d| d.sub == sub)?;
+        Some((d, d.name.to_string()))
+    }
+
+    /// The object type of `index`, if CiA 301 has it.
+    fn object_type(&self, index: u16) -> Option<ObjectType> {
+        self.def(index, 0).map(|(d, _)| d.object_type)
+    }
+}
+
+/// An SDO server's (0x1201–0x127F) or client's (0x1280–0x12FF) parameter record: the two
+/// COB-IDs and the node-ID of the other end, all writable.
+fn sdo_parameter(index: u16, client: bool) -> [ObjectDef; 4] {
+    let rec = |d: ObjectDef, n: &'static str| d.object_type(ObjectType::Record).named(n);
+    let (name, tx, rx, node) = if client {
+        (
+            "SDO client parameter",
+            "COB-ID client to server (tx)",
+            "COB-ID server to client (rx)",
+            "Node-ID of the SDO server",
+        )
+    } else {
+        (
+            "SDO server parameter",
+            "COB-ID client to server (rx)",
+            "COB-ID server to client (tx)",
+            "Node-ID of the SDO client",
+        )
+    };
+    [
+        rec(ObjectDef::u8(index, 0, Access::Const, 3), name),
+        rec(ObjectDef::u32(index, 1, Access::Rw, 0), tx),
+        rec(ObjectDef::u32(index, 2, Access::Rw, 0), rx),
+        rec(ObjectDef::u8(index, 3, Access::Rw, 0), node),
+    ]
+}
+
+/// CiA 301's objects whose sub-index 0 counts what the others hold (errors recorded, objects
+/// mapped) instead of naming the highest sub-index, with the highest sub-index they may have:
+/// the entries past the count exist all the same.
+fn counted(index: u16) -> Option<u8> {
+    match index {
+        comm::ERROR_HISTORY => Some(0xFE),
+        0x1600..=0x17FF | 0x1A00..=0x1BFF => Some(0x40),
+        _ => None,
+    }
 }
 
 /// A dictionary of what answers in `ranges`.
@@ -221,7 +303,7 @@ async fn scan(
     ranges: &[(u16, u16)],
     tally: &mut Tally,
 ) -> Result<DynamicDictionary, Fail> {
-    let known = catalog(id);
+    let known = Catalog::new(id);
     let mut od = DynamicDictionary::new(id);
     let mut indices: Vec<u16> = ranges.iter().flat_map(|&(a, b)| a..=b).collect();
     indices.sort_unstable();
@@ -232,27 +314,39 @@ async fn scan(
             Err(e) if answered(&e) => continue,
             Err(e) => return Err(e.into()),
         };
-        let catalog_type = known.get(index, 0).ok().map(|e| e.def.object_type);
+        let catalog_type = known.object_type(index);
         let structured = match catalog_type {
             Some(t) => t != ObjectType::Var,
             None => sub0.len() == 1 && probe(sdo, index, 1).await?,
         };
         if !structured {
-            add(&mut od, &known, index, 0, ObjectType::Var, &sub0);
+            add(&mut od, &known, index, 0, ObjectType::Var, Some(&sub0));
             tally.read += 1;
             continue;
         }
         let ot = catalog_type.unwrap_or(ObjectType::Record);
-        add(&mut od, &known, index, 0, ot, &sub0);
+        add(&mut od, &known, index, 0, ot, Some(&sub0));
         tally.read += 1;
-        for sub in 1..=sub0.first().copied().unwrap_or(0) {
+        let count = sub0.first().copied().unwrap_or(0);
+        // A counting sub-index 0: read on past the count, to the first sub-index the node
+        // does not have.
+        let last = counted(index).map_or(count, |most| most.max(count));
+        for sub in 1..=last {
             match sdo.read_bytes(index, sub).await {
                 Ok(d) => {
-                    add(&mut od, &known, index, sub, ot, &d);
+                    add(&mut od, &known, index, sub, ot, Some(&d));
                     tally.read += 1;
                 }
+                Err(e) if absent(&e) && sub > count => break,
                 Err(e) if absent(&e) => tally.absent += 1,
-                Err(e) if answered(&e) => tally.not_read += 1,
+                Err(e) if answered(&e) => {
+                    // There, but not to be read now (a history slot without an error, a
+                    // write-only entry): kept with CiA 301's definition when it has one.
+                    if known.def(index, sub).is_some() {
+                        add(&mut od, &known, index, sub, ot, None);
+                    }
+                    tally.not_read += 1;
+                }
                 Err(e) => return Err(e.into()),
             }
         }
@@ -270,20 +364,20 @@ async fn probe(sdo: &RemoteSdo, index: u16, sub: u8) -> Result<bool, Fail> {
     }
 }
 
-/// Adds an entry read by a scan: the catalog's definition if it has one, else one guessed from
-/// the bytes.
+/// Adds an entry found by a scan, with the bytes read (`None`: there but not read, its
+/// default kept): CiA 301's definition if the catalog has one, else one guessed from the bytes.
 fn add(
     od: &mut DynamicDictionary,
-    known: &DynamicDictionary,
+    known: &Catalog,
     index: u16,
     sub: u8,
     ot: ObjectType,
-    data: &[u8],
+    data: Option<&[u8]>,
 ) {
-    let (mut def, name) = match known.get(index, sub) {
-        Ok(e) => (*e.def, e.name.to_string()),
-        Err(_) => {
-            let ty = guess(data);
+    let (mut def, name) = match known.def(index, sub) {
+        Some(d) => d,
+        None => {
+            let ty = guess(data.unwrap_or_default());
             let name = if sub == 0 && ot == ObjectType::Var {
                 format!("Object {index:04X}")
             } else if sub == 0 {
@@ -298,11 +392,14 @@ fn add(
         }
     };
     def.hook = None;
+    let data = data.unwrap_or_default();
     if def.data_type.fixed_size().is_none() {
         def.capacity = def.capacity.max(data.len() as u32);
     }
     let _ = od.insert_owned(def, &name, None);
-    let _ = od.store(index, sub, data);
+    if !data.is_empty() {
+        let _ = od.store(index, sub, data);
+    }
 }
 
 /// A type for bytes of an entry nothing describes.

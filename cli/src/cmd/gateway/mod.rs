@@ -56,7 +56,9 @@
 //! answered `ERROR:100`; so is any command 309-3 does not have. Nothing is sent unasked: no
 //! boot-up, EMCY or PDO indications.
 //!
-//! **Where it still answers otherwise than CANopenNode's gateway, and why.**
+//! **Where it still answers otherwise than CANopenNode's gateway, and why.** (The vcan test
+//! tier sends one cocomm script to both, each talking to the same CANopenNode device, and fails
+//! on any difference not listed here.)
 //! - The text behind `#` is duocan's (CiA 301's meaning of an abort code, 309-3's of its own
 //!   codes, and what was wrong), not CANopenNode's wording; the code before it is the same.
 //! - A request without a readable sequence number is answered `[0] ERROR:101`; CANopenNode

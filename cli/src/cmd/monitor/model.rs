@@ -5,14 +5,19 @@
 //! toggle bit aside; a boot-up is `initialising`) or event told. Its heartbeat age is the time
 //! since its last heartbeat on any port. It is *silent* once that age passes three of its
 //! periods, and 100 ms at least; its period is measured on each port apart (on two ports
-//! every heartbeat arrives twice, and a copy is no period) and not from a boot-up to the first
-//! heartbeat, nor to or from a heartbeat that says a new state (CiA 301 lets a device send one
-//! at once on a change, as CANopenNode does: measured from it, a 500 ms heartbeat looked 50 ms
-//! periodic and silent after every NMT command). A pair's active member is the member that is operational and not silent, its
+//! every heartbeat arrives twice, and a copy is no period), not from a boot-up to the first
+//! heartbeat, and not to or from a heartbeat whose state differs from the one before it: a
+//! device may send one at once on a state change (CiA 301 allows it; CANopenNode does), which
+//! says nothing of its period. Such a heartbeat keeps the period measured before it. A pair's active member is the member that is operational and not silent, its
 //! standby the one that is pre-operational; anything else is shown as it is (`both`, `none`,
 //! `not heard`). The active master is the node-ID in the latest CiA 302-2 active-master
 //! response (0x71: priority, node-ID). Ports are as the network reports them; a port's state
 //! change applies at once with its event.
+//!
+//! **Its log.** The network's events, one line each; a state a node's heartbeat tells is
+//! logged from the heartbeat (`node 0x04: operational`), once, whether the network's event for
+//! it comes after or came before the monitor listened (a node already running when the monitor
+//! starts: its first state event may precede the subscription).
 //!
 //! **Own observations.** Beside the network's events, the model logs what it concludes itself,
 //! as lines starting with `monitor:`: a pair's active member changed (a new one after another
@@ -57,11 +62,13 @@ pub struct NodeInfo {
     pub state: Option<NmtState>,
     /// Its last heartbeat (or boot-up) frame on each port.
     pub last_hb: [Option<Instant>; MAX_PORTS],
-    /// The time between its last two heartbeats on each port, in µs, both saying the state
-    /// the heartbeat before each said: its period as heard (see "The rule").
+    /// The time between two of its heartbeats on each port, in µs: its period as heard (the
+    /// latest steady one: see the module's rule).
     pub period: [Option<u64>; MAX_PORTS],
-    /// Per port: the state its last heartbeat said, and whether that was a change.
-    pub said: [Option<(u8, bool)>; MAX_PORTS],
+    /// Its last heartbeat's state code on each port, the toggle bit aside.
+    pub last_code: [Option<u8>; MAX_PORTS],
+    /// Whether that heartbeat changed the state heard before it on its port.
+    pub changed: [bool; MAX_PORTS],
     /// Its last emergency: code, text, when.
     pub emcy: Option<(u16, &'static str, Instant)>,
     /// True while its heartbeat is silent (logged once).
@@ -247,8 +254,10 @@ impl Model {
             NetEvent::Lagged(_) => "lagged",
             _ => "other",
         };
+        let mut known = false;
         if let (Some(id), Some(state)) = (node, e.state()) {
-            self.set_state(id, state);
+            // A state the node's heartbeat already told is logged (see `on_frame`).
+            known = !self.set_state(id, state) && matches!(e, NetEvent::State { .. });
         }
         if let Some((id, msg)) = e.emcy() {
             if let Some(n) = self.node(id.raw()) {
@@ -264,7 +273,9 @@ impl Model {
             NetEvent::Reach { node, heard, .. } => self.set_heard_on(node.raw(), *heard),
             _ => {}
         }
-        self.push(at, node, kind, e.to_string());
+        if !known {
+            self.push(at, node, kind, e.to_string());
+        }
         if e.state().is_some() {
             self.check_pairs(at);
         }
@@ -313,25 +324,34 @@ impl Model {
                 let p = port.unwrap_or(0).min(MAX_PORTS - 1);
                 let mut back = false;
                 if let Some(n) = self.node(id) {
+                    // A heartbeat that changes the state may have been sent at once on the
+                    // change: no period ends or starts at it.
+                    let code = byte & 0x7F;
+                    let changed = n.last_code[p].is_some_and(|c| c != code);
+                    let steady = !changed && !n.changed[p];
                     // A boot-up starts the count again: the first heartbeat follows it at no
                     // particular time.
-                    let said = byte & 0x7F;
-                    let changed = n.said[p].is_some_and(|(s, _)| s != said);
-                    let steady = !changed && n.said[p].is_some_and(|(_, c)| !c);
                     match (n.last_hb[p], *byte) {
                         (_, 0) => n.period = [None; MAX_PORTS],
-                        (Some(last), _) if n.state != Some(NmtState::Initialising) && steady => {
+                        (Some(last), _) if steady && n.state != Some(NmtState::Initialising) => {
                             n.period[p] = Some(at.saturating_since(last).as_micros());
                         }
                         _ => {}
                     }
-                    n.said[p] = Some((said, changed));
                     n.last_hb[p] = Some(at);
+                    n.last_code[p] = Some(code);
+                    n.changed[p] = changed;
                     back = std::mem::take(&mut n.silent);
                 }
                 // The toggle bit (guarding) is not part of the state.
                 if let Some(state) = NmtState::from_code(byte & 0x7F) {
                     if self.set_state(id, state) {
+                        // Logged here, as the network's state event would log it: that event
+                        // may have come before the monitor listened (a node heard at once).
+                        // A boot-up has its own event.
+                        if state != NmtState::Initialising {
+                            self.push(at, Some(id), "state", format!("node {id:#04x}: {state}"));
+                        }
                         self.check_pairs(at);
                     }
                 }
