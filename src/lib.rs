@@ -117,3 +117,18 @@ pub use machine::{BusLink, Device, Machine, PortStatus, Station};
 pub use nmt::{NmtCommand, NmtState, NmtTarget};
 pub use node::{Node, NodeConfig, NodeEvent, NodeEventKind};
 pub use od::abort::AbortCode;
+
+/// The README's and the user guide's code blocks, compiled (and run where they can run) as
+/// doctests, so that what a newcomer copies works. Rust blocks are tested; `sh`, `toml` and
+/// `text` blocks are not.
+#[cfg(all(doctest, feature = "tokio"))]
+mod doc_examples {
+    #[doc = include_str!("../README.md")]
+    pub struct Readme;
+    #[doc = include_str!("../guide/src/getting-started.md")]
+    pub struct GettingStarted;
+    #[doc = include_str!("../guide/src/redundant-master.md")]
+    pub struct RedundantMaster;
+    #[doc = include_str!("../guide/src/device-descriptions.md")]
+    pub struct DeviceDescriptions;
+}

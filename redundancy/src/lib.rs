@@ -145,3 +145,8 @@ pub use pair::{Member, PairId, PairSpec};
 pub use station::{RedundantMaster, SupervisedStation};
 #[cfg(feature = "alloc")]
 pub use supervisor::{AddPairError, JoinRefusal, Supervisor, SupervisorConfig, SupervisorEvent};
+
+/// The crate's README code block, compiled as a doctest.
+#[cfg(all(doctest, feature = "tokio"))]
+#[doc = include_str!("../README.md")]
+pub struct ReadmeExample;
