@@ -72,6 +72,13 @@
 //! logical bus), [`machine`] (how machines compose and what a driver does with them) and, with
 //! the `std` feature, [`sim`] (the simulated multi-bus network every test and the demo run on);
 //! on a board without `std`, the [`embedded`](port::embedded) driver runs it.
+//!
+//! ## Features
+//!
+//! Read from `Cargo.toml`, so this list is the manifest's. With none, the crate is the
+//! sans-IO core for `no_std` without an allocator.
+//!
+#![doc = document_features::document_features!()]
 #![cfg_attr(not(feature = "std"), no_std)]
 // On docs.rs, each feature-gated item says which feature it needs.
 #![cfg_attr(docsrs, feature(doc_cfg))]
@@ -131,4 +138,31 @@ mod doc_examples {
     pub struct RedundantMaster;
     #[doc = include_str!("../guide/src/device-descriptions.md")]
     pub struct DeviceDescriptions;
+}
+
+#[cfg(test)]
+mod readme_features {
+    /// The features `[features]` of a manifest defines (not `default`).
+    fn features(manifest: &str) -> impl Iterator<Item = &str> {
+        let start = manifest.find("\n[features]\n").expect("a [features] table");
+        let table = &manifest[start + "\n[features]\n".len()..];
+        let table = &table[..table.find("\n[").unwrap_or(table.len())];
+        table
+            .lines()
+            .filter_map(|l| l.split_once(" = ").map(|(name, _)| name))
+            .filter(|name| !name.starts_with('#') && *name != "default")
+    }
+
+    /// The README's feature table names every feature of the manifest (the crate documentation
+    /// lists them from the manifest itself; the README's words are its own).
+    #[test]
+    fn the_readme_names_every_feature() {
+        let readme = include_str!("../README.md");
+        for f in features(include_str!("../Cargo.toml")) {
+            assert!(
+                readme.contains(&format!("`{f}`")),
+                "README.md does not name feature `{f}`"
+            );
+        }
+    }
 }
