@@ -3,7 +3,8 @@
 # headed by the machine and the date. Long (tens of minutes on two cores) and loud; it changes
 # nothing: the figures are copied into BENCHMARKS.md by hand, with the date and the machine.
 # The real-peer figures (python `canopen` side by side, vcan in the VM) need their tiers:
-# `.ci/tier-python.sh` and `.ci/tier-vcan.sh` print them.
+# `.ci/tier-python.sh` and `.ci/tier-vcan.sh` print them (the latter also the fault bridge's
+# `duocan kit bench`).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 
