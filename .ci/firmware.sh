@@ -10,7 +10,7 @@
 set -euo pipefail
 cd "$(dirname "$0")/.."
 
-# The budgets: each the measured figure (README, "Firmware images") plus the stated margin,
+# The budgets: each the measured figure (BENCHMARKS.md, "Firmware images") plus the stated margin,
 # 4 KiB of flash, 2 KiB of RAM and 2 KiB of stack, rounded up to whole KiB, so that growth shows
 # here before it reaches the part. The stack is the deepest chain from the reset handler, which
 # includes what lives in the frame of `main` (the gateway, the master's station and

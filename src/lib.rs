@@ -72,6 +72,13 @@
 //! logical bus), [`machine`] (how machines compose and what a driver does with them) and, with
 //! the `std` feature, [`sim`] (the simulated multi-bus network every test and the demo run on);
 //! on a board without `std`, the [`embedded`](port::embedded) driver runs it.
+//!
+//! ## Features
+//!
+//! Read from `Cargo.toml`, so this list is the manifest's. With none, the crate is the
+//! sans-IO core for `no_std` without an allocator.
+//!
+#![doc = document_features::document_features!()]
 #![cfg_attr(not(feature = "std"), no_std)]
 // On docs.rs, each feature-gated item says which feature it needs.
 #![cfg_attr(docsrs, feature(doc_cfg))]
@@ -117,3 +124,83 @@ pub use machine::{BusLink, Device, Machine, PortStatus, Station};
 pub use nmt::{NmtCommand, NmtState, NmtTarget};
 pub use node::{Node, NodeConfig, NodeEvent, NodeEventKind};
 pub use od::abort::AbortCode;
+
+/// The README's and every user-guide chapter's code blocks, compiled (and run where they can
+/// run) as doctests, so that what a newcomer copies works. Rust blocks are tested; `sh`, `toml`
+/// and `text` blocks are not. A chapter added to `guide/src/SUMMARY.md` is added here.
+#[cfg(all(doctest, feature = "tokio"))]
+mod doc_examples {
+    #[doc = include_str!("../README.md")]
+    pub struct Readme;
+    #[doc = include_str!("../guide/src/introduction.md")]
+    pub struct Introduction;
+    #[doc = include_str!("../guide/src/getting-started.md")]
+    pub struct GettingStarted;
+    #[doc = include_str!("../guide/src/first-real-bus.md")]
+    pub struct FirstRealBus;
+    #[doc = include_str!("../guide/src/redundant-master.md")]
+    pub struct RedundantMaster;
+    #[doc = include_str!("../guide/src/process-data.md")]
+    pub struct ProcessData;
+    #[doc = include_str!("../guide/src/device-descriptions.md")]
+    pub struct DeviceDescriptions;
+    #[doc = include_str!("../guide/src/lss.md")]
+    pub struct Lss;
+    #[doc = include_str!("../guide/src/failover-testing.md")]
+    pub struct FailoverTesting;
+    #[doc = include_str!("../guide/src/station-gateway.md")]
+    pub struct StationGateway;
+    #[doc = include_str!("../guide/src/firmware.md")]
+    pub struct Firmware;
+    #[doc = include_str!("../guide/src/tool.md")]
+    pub struct Tool;
+    #[doc = include_str!("../guide/src/troubleshooting.md")]
+    pub struct Troubleshooting;
+    #[doc = include_str!("../guide/src/interoperability.md")]
+    pub struct Interoperability;
+}
+
+#[cfg(test)]
+mod doc_sources {
+    /// The features `[features]` of a manifest defines (not `default`).
+    fn features(manifest: &str) -> impl Iterator<Item = &str> {
+        let start = manifest.find("\n[features]\n").expect("a [features] table");
+        let table = &manifest[start + "\n[features]\n".len()..];
+        let table = &table[..table.find("\n[").unwrap_or(table.len())];
+        table
+            .lines()
+            .filter_map(|l| l.split_once(" = ").map(|(name, _)| name))
+            .filter(|name| !name.starts_with('#') && *name != "default")
+    }
+
+    /// Every chapter of the user guide is among the doctests (`doc_examples`).
+    #[test]
+    fn every_guide_chapter_is_a_doctest() {
+        let summary = include_str!("../guide/src/SUMMARY.md");
+        let here = include_str!("lib.rs");
+        for chapter in summary
+            .split("](")
+            .skip(1)
+            .filter_map(|s| s.split_once(')'))
+        {
+            let path = format!("../guide/src/{}", chapter.0);
+            assert!(
+                here.contains(&path),
+                "{path} is not included in doc_examples"
+            );
+        }
+    }
+
+    /// The README's feature table names every feature of the manifest (the crate documentation
+    /// lists them from the manifest itself; the README's words are its own).
+    #[test]
+    fn the_readme_names_every_feature() {
+        let readme = include_str!("../README.md");
+        for f in features(include_str!("../Cargo.toml")) {
+            assert!(
+                readme.contains(&format!("`{f}`")),
+                "README.md does not name feature `{f}`"
+            );
+        }
+    }
+}

@@ -72,14 +72,14 @@ pub fn open_with(g: &Global, opts: NetOptions) -> Result<Bus, Fail> {
     })?;
     let sim = is_sim(&names.0);
     let net = match names.0.as_slice() {
-        [one] if sim => open_dual_named(one, opts).map_err(|e| Fail::usage(e.to_string()))?,
+        [one] if sim => open_dual_named(one, opts).map_err(|e| Fail::bus(e.to_string()))?,
         [one] => open_one(g, one, opts)?,
         [a, b] => open_dual(
             ports::open(a, g.udp_interface)?,
             ports::open(b, g.udp_interface)?,
             opts,
         )
-        .map_err(|e| Fail::usage(e.to_string()))?,
+        .map_err(|e| Fail::bus(e.to_string()))?,
         _ => return Err(Fail::usage("--bus names one or two interfaces")),
     };
     let mut descs = BTreeMap::new();

@@ -1,7 +1,9 @@
 //! The tool's one error: what went wrong, said for the person at the terminal, and the exit
 //! code it gives. 1 is the network's answer (an abort code with its meaning, a node that did
 //! not answer, with a hint); 2 is the command line's fault (a bad argument, a file that cannot
-//! be read, a bus that cannot be opened). clap's own usage errors exit with 2 as well.
+//! be read); 3 a bus that cannot be opened (an interface that does not exist or is down, a UDP
+//! socket refused), so that a script tells a missing bus from a mistyped command. clap's own
+//! usage errors exit with 2 as well.
 
 use duocan::net::NetError;
 use std::fmt;
@@ -13,6 +15,8 @@ pub enum Fail {
     Usage(String),
     /// The network or a node did not do it (exit 1).
     Protocol(String),
+    /// The bus could not be opened (exit 3).
+    Bus(String),
 }
 
 impl Fail {
@@ -21,6 +25,7 @@ impl Fail {
         match self {
             Fail::Usage(_) => 2,
             Fail::Protocol(_) => 1,
+            Fail::Bus(_) => 3,
         }
     }
 
@@ -33,12 +38,17 @@ impl Fail {
     pub fn protocol(why: impl Into<String>) -> Fail {
         Fail::Protocol(why.into())
     }
+
+    /// A bus that could not be opened.
+    pub fn bus(why: impl Into<String>) -> Fail {
+        Fail::Bus(why.into())
+    }
 }
 
 impl fmt::Display for Fail {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         match self {
-            Fail::Usage(s) | Fail::Protocol(s) => f.write_str(s),
+            Fail::Usage(s) | Fail::Protocol(s) | Fail::Bus(s) => f.write_str(s),
         }
     }
 }

@@ -10,8 +10,10 @@
 //! ```
 //!
 //! Exit status: 0 done, 1 the network did not do it (an abort code and its meaning, a node
-//! that did not answer), 2 a usage error (a bad argument, an unreadable file, a bus that cannot
-//! be opened). Every argument is parsed strictly (`args`); no input makes the tool panic.
+//! that did not answer), 2 a usage error (a bad argument, an unreadable file), 3 a bus that
+//! cannot be opened. With `--json` an error is a JSON object on standard error too
+//! (`{"error": …, "exit": …}`). Every argument is parsed strictly (`args`); no input makes the
+//! tool panic.
 
 mod args;
 mod bus;
@@ -32,7 +34,7 @@ use std::process::ExitCode;
     name = "duocan",
     version,
     about = "Commission, watch and debug a single- or dual-bus CANopen network",
-    after_help = "Exit status: 0 done, 1 a protocol error (abort code, no answer), 2 usage.\n\
+    after_help = "Exit status: 0 done, 1 a protocol error (abort code, no answer), 2 usage, 3 no bus.\n\
                   Try it without hardware: duocan --bus sim scan"
 )]
 struct Cli {
@@ -134,6 +136,7 @@ fn main() -> ExitCode {
         }
     };
     let g = cli.global;
+    let json = g.json;
     let r = rt.block_on(async move {
         match cli.command {
             Command::Sdo(c) => cmd::sdo::run(&g, c).await,
@@ -153,6 +156,11 @@ fn main() -> ExitCode {
     });
     match r {
         Ok(()) => ExitCode::SUCCESS,
+        Err(f) if json => {
+            let error = serde_json::json!({ "error": f.to_string(), "exit": f.code() });
+            eprintln!("{error}");
+            ExitCode::from(f.code())
+        }
         Err(f) => {
             eprintln!("duocan: {f}");
             ExitCode::from(f.code())

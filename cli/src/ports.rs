@@ -32,11 +32,11 @@ pub fn open(name: &str, udp_interface: Option<std::net::Ipv4Addr>) -> Result<Nam
             }
             UdpPort::open(cfg)
                 .map(NamedPort::Udp)
-                .map_err(|e| Fail::usage(e.to_string()))
+                .map_err(|e| Fail::bus(e.to_string()))
         }
         None => SocketCanPort::open(name)
             .map(NamedPort::Can)
-            .map_err(|e| Fail::usage(e.to_string())),
+            .map_err(|e| Fail::bus(e.to_string())),
     }
 }
 

@@ -83,21 +83,22 @@ fn a_bound_too_tight_fails_with_its_figure() {
     let _ = std::fs::remove_dir_all(&dir);
 }
 
-/// The README's complete scenario reads; with duocan boards in place of the user's, it passes
-/// in the simulator.
+/// The complete scenario of the user guide's failover-testing chapter reads; with duocan boards
+/// in place of the user's, it passes in the simulator.
 #[test]
-fn the_readme_scenario_reads_and_passes_with_duocan_boards() {
-    let readme =
-        std::fs::read_to_string(PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../README.md"))
-            .unwrap();
-    let start = readme
+fn the_guide_scenario_reads_and_passes_with_duocan_boards() {
+    let chapter = std::fs::read_to_string(
+        PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../guide/src/failover-testing.md"),
+    )
+    .unwrap();
+    let start = chapter
         .find("```toml\nname = \"board A loses power")
-        .expect("the README's scenario");
-    let body = &readme[start + "```toml\n".len()..];
+        .expect("the guide's scenario");
+    let body = &chapter[start + "```toml\n".len()..];
     let toml = &body[..body.find("```").unwrap()];
-    let dir = std::env::temp_dir().join(format!("duocan-kit-readme-{}", std::process::id()));
+    let dir = std::env::temp_dir().join(format!("duocan-kit-guide-{}", std::process::id()));
     std::fs::create_dir_all(&dir).unwrap();
-    let f = dir.join("readme.toml");
+    let f = dir.join("guide.toml");
     std::fs::write(&f, toml).unwrap();
     let r = duocan(&["kit", "validate", f.to_str().unwrap()]);
     assert_eq!(r.code, 0, "{}", r.err);

@@ -82,6 +82,25 @@ fn errors_exit_1_for_the_network_and_2_for_the_command_line() {
     assert!(r.err.contains("no bus"), "{}", r.err);
 }
 
+/// A bus that cannot be opened exits 3, not the usage error's 2; with `--json` the error is a
+/// JSON object on standard error.
+#[test]
+fn a_bus_that_cannot_be_opened_has_its_own_exit_code() {
+    let r = duocan(&["--bus", "dcnone0", "sdo", "read", "5", "0x1000"]);
+    assert_eq!(r.code, 3, "{}", r.err);
+    assert!(r.err.contains("dcnone0"), "{}", r.err);
+    let r = duocan(&["--bus", "dcnone0,dcnone1", "--json", "nmt", "start", "all"]);
+    assert_eq!(r.code, 3, "{}", r.err);
+    let e: serde_json::Value = serde_json::from_str(r.err.trim()).expect("a JSON error");
+    assert_eq!(e["exit"], 3, "{e}");
+    assert!(e["error"].as_str().unwrap().contains("dcnone0"), "{e}");
+    // A usage error with --json is JSON too, and still 2.
+    let r = duocan(&["--json", "sdo", "read", "5", "0x1000"]);
+    assert_eq!(r.code, 2, "{}", r.err);
+    let e: serde_json::Value = serde_json::from_str(r.err.trim()).expect("a JSON error");
+    assert!(e["error"].as_str().unwrap().contains("no bus"), "{e}");
+}
+
 #[test]
 fn nmt_commands_and_their_answers() {
     let _one = one_station();

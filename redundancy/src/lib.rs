@@ -102,6 +102,13 @@
 //! node) and `examples/heartbeat_monitor.rs` (watch nodes listen-only);
 //! `examples/dual_vcan_failover.rs` (feature `socketcan`) runs the dual-bus layer over two
 //! SocketCAN interfaces.
+//!
+//! ## Features
+//!
+//! Read from `Cargo.toml`, so this list is the manifest's. With none, the crate is the dual-bus
+//! layer for `no_std` without an allocator.
+//!
+#![doc = document_features::document_features!()]
 #![cfg_attr(not(feature = "std"), no_std)]
 // On docs.rs, each feature-gated item says which feature it needs.
 #![cfg_attr(docsrs, feature(doc_cfg))]
@@ -145,3 +152,31 @@ pub use pair::{Member, PairId, PairSpec};
 pub use station::{RedundantMaster, SupervisedStation};
 #[cfg(feature = "alloc")]
 pub use supervisor::{AddPairError, JoinRefusal, Supervisor, SupervisorConfig, SupervisorEvent};
+
+/// The crate's README code block, compiled as a doctest.
+#[cfg(all(doctest, feature = "tokio"))]
+#[doc = include_str!("../README.md")]
+pub struct ReadmeExample;
+
+#[cfg(test)]
+mod readme_features {
+    /// The crate's README names every feature of its manifest (the crate documentation lists
+    /// them from the manifest itself; the README's words are its own).
+    #[test]
+    fn the_readme_names_every_feature() {
+        let manifest = include_str!("../Cargo.toml");
+        let readme = include_str!("../README.md");
+        let start = manifest.find("\n[features]\n").expect("a [features] table");
+        let table = &manifest[start + "\n[features]\n".len()..];
+        let table = &table[..table.find("\n[").unwrap_or(table.len())];
+        let names = table
+            .lines()
+            .filter_map(|l| l.split_once(" = ").map(|(n, _)| n));
+        for f in names.filter(|n| !n.starts_with('#') && *n != "default") {
+            assert!(
+                readme.contains(&format!("`{f}`")),
+                "README.md does not name feature `{f}`"
+            );
+        }
+    }
+}

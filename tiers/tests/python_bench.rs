@@ -4,7 +4,7 @@
 //! each stack, with wall time, throughput and the CPU seconds of each side, then the ratios,
 //! over several rounds (median and spread); twenty duocan nodes read at once through one handle
 //! against one; and the bare transport's round trip, the floor any stack stands on. The
-//! README's comparison figures come from this table.
+//! comparison figures in BENCHMARKS.md come from this table.
 //!
 //! Run by `.ci/tier-python.sh` (not with `--no-bench`), inside `unshare -n`:
 //! `cargo test --release -p duocan-tiers --features python --test python_bench -- --nocapture`.

@@ -746,8 +746,9 @@ pub fn random(rng: &mut Rng, pairs: u8, connectivity_free: bool, kinds: usize) -
 pub const KINDS: usize = 26;
 
 /// Every kind [`draw`] knows: also receive clocks that drift apart (kind [`DRIFT`], always the
-/// last), which still fail combined with others (the README's "known and not fixed yet"), so
-/// the budget and the sweeps leave it out unless `CAMPAIGN_DRIFT=1` asks for it.
+/// last), which still fail combined with others (the "known and not fixed yet" of the user
+/// guide's redundant-master chapter), so the budget and the sweeps leave it out unless
+/// `CAMPAIGN_DRIFT=1` asks for it.
 pub const KINDS_WITH_DRIFT: usize = KINDS + 1;
 /// The drift's kind.
 pub const DRIFT: usize = KINDS;

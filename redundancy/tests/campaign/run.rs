@@ -1,7 +1,8 @@
 //! A run: the plant, its fault timeline, scheduled actions, and the invariants checked every
 //! millisecond of simulated time.
 //!
-//! Invariants (the promise table of the README says which fault classes each must survive):
+//! Invariants (the promise table of the user guide's redundant-master chapter says which fault
+//! classes each must survive):
 //!
 //! - **exactly once** ([`crate::oracle`]): every frame occurrence reaches every device it could
 //!   reach exactly once;
