@@ -139,7 +139,7 @@ mod doc_examples {
     #[doc = include_str!("../guide/src/first-real-bus.md")]
     pub struct FirstRealBus;
     #[doc = include_str!("../guide/src/redundant-master.md")]
-    pub struct RedundantMaster;
+    pub struct RedundantMasterChapter;
     #[doc = include_str!("../guide/src/process-data.md")]
     pub struct ProcessData;
     #[doc = include_str!("../guide/src/device-descriptions.md")]

@@ -87,7 +87,7 @@ pub enum EdsErrorKind {
     MissingKey,
     /// A section the format requires is missing (the location names it).
     MissingSection,
-    /// Nothing in the file is a description: no [FileInfo], no [DeviceInfo], no object (an
+    /// Nothing in the file is a description: no `[FileInfo]`, no `[DeviceInfo]`, no object (an
     /// error in both modes: a file of another kind, or random bytes, given by mistake).
     NotADescription,
     /// A value is not a number, or not one of the forms the key allows.
