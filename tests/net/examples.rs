@@ -17,6 +17,9 @@ mod read_sdo;
 #[path = "../../examples/redundant_master.rs"]
 #[allow(dead_code)]
 mod redundant_master;
+#[path = "../../examples/redundant_pdo.rs"]
+#[allow(dead_code)]
+mod redundant_pdo;
 
 #[test]
 fn read_sdo_reads_node_5_of_the_simulated_bus() {
@@ -103,4 +106,11 @@ async fn redundant_master_prints_a_bus_a_master_and_a_pair_failover() {
             "pair 0x10/0x50: B active"
         ]
     );
+}
+
+/// On the simulated station, the redundant master reads the active board's inputs from its
+/// TPDO and writes its outputs by RPDO; the board's dictionary shows the write.
+#[tokio::test(start_paused = true)]
+async fn redundant_pdo_reads_inputs_and_writes_outputs_of_a_pair_member() {
+    assert_eq!(redundant_pdo::run("sim").await.unwrap(), 1234);
 }

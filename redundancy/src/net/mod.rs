@@ -197,7 +197,7 @@ impl RedundantNetworkBuilder {
     }
     /// Opens the network by name:
     ///
-    /// - `sim`: two simulated buses carrying the declared pairs (simulated duocan boards) and
+    /// - `sim`: two simulated buses carrying the declared pairs (`duocan::net`'s simulated node, with its process data) and
     ///   peer masters (simulated redundant masters with the same settings), and a script of
     ///   faults: bus 1 of this master fails at [`SIM_BUS_FAILS`], the peer masters stop at
     ///   [`SIM_PEERS_FAIL`] (a standby master takes over), the active member of every pair

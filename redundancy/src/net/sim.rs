@@ -11,7 +11,7 @@ use crate::network::{RedundantError, RedundantNetworkBuilder};
 use alloc::boxed::Box;
 use alloc::string::ToString;
 use alloc::vec::Vec;
-use duocan::od::{comm, DynamicDictionary};
+use duocan::od::DynamicDictionary;
 use duocan::port::mem::{Connector, MemBus};
 use duocan::runtime::{Handle, Runtime};
 use duocan::{Duration, Instant, Node, NodeConfig, NodeId, Station};
@@ -66,15 +66,12 @@ pub(super) async fn until(
     }
 }
 
-/// A simulated duocan board `id`: identity with the vendor-ID `duocan::net::SIM_VENDOR` and
-/// product code = node-ID, booted (its boot-up goes out when its runtime starts).
+/// A simulated duocan board `id`: `duocan::net`'s simulated node (identity with the vendor-ID
+/// `duocan::net::SIM_VENDOR` and product code = node-ID; inputs 0x6000 on TPDO 1, outputs
+/// 0x6200 on RPDO 1, described by `duocan::net::sim_description`), booted (its boot-up goes out
+/// when its runtime starts).
 pub(super) fn board(id: NodeId) -> Board {
-    let ident = comm::Identity {
-        vendor: duocan::net::SIM_VENDOR,
-        product: u32::from(id.raw()),
-        ..Default::default()
-    };
-    let od = comm::standard_dictionary(id.raw(), ident);
+    let od = duocan::net::sim_dictionary(id);
     let mut node = Node::new(NodeConfig::slave(id), od);
     node.boot(Instant::ZERO);
     Station::new(DualBus::new(DualBusConfig::default()), node)

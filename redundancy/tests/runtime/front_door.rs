@@ -222,9 +222,9 @@ async fn sdo_through_the_handle_to_a_pair_member_on_either_bus() {
     );
     assert_eq!(e.node().map(|n| n.raw()), Some(0x50));
     // An object the node does not have: the abort, with the node.
-    let e = b.sdo().read::<u32>(0x6000, 0).await.unwrap_err();
+    let e = b.sdo().read::<u32>(0x6100, 0).await.unwrap_err();
     assert!(matches!(e, NetError::Sdo(_)), "{e}");
-    assert!(e.to_string().contains("0x6000"), "{e}");
+    assert!(e.to_string().contains("0x6100"), "{e}");
     // After bus 1 failed, SDO goes on over bus 2 (at about 2.3 s: bus 1 fails at 2 s, A stops
     // at 4 s).
     tokio::time::sleep(std::time::Duration::from_millis(2500) - SIM_B_BOOTS.into()).await;

@@ -1,0 +1,48 @@
+//! Process data on the redundant master: configure a pair's board's TPDO, read its inputs
+//! once (whichever bus carries them), and set its outputs by RPDO (sent on both buses).
+//!
+//! ```text
+//! cargo run --example redundant_pdo                       # a simulated station
+//! DUOCAN_BUS=can0,can1 cargo run --example redundant_pdo \
+//!     --features socketcan,duocan-redundancy/socketcan    # two real buses
+//! ```
+//!
+//! The board is pair member 0x10 with `duocan::net`'s simulated dictionary (inputs 0x6000 on
+//! TPDO 1, outputs 0x6200 on RPDO 1), as the simulated station runs it.
+
+use duocan::net::sim_description;
+use duocan_redundancy::net::RedundantNetwork;
+use duocan_redundancy::supervisor::flying_master::MasterRole;
+use std::error::Error;
+use std::time::Duration;
+
+/// Opens the ports `DUOCAN_BUS` names (a simulated station by default) and runs the example.
+#[tokio::main]
+pub async fn main() -> Result<(), Box<dyn Error>> {
+    let port = std::env::var("DUOCAN_BUS").unwrap_or_else(|_| "sim".into());
+    run(&port).await.map(|_| ())
+}
+
+/// Opens the network on `port`, waits to be the active master, prints board 0x10's inputs and
+/// sets its outputs; returns what its first output reads back.
+pub async fn run(port: &str) -> Result<u16, Box<dyn Error>> {
+    let net = RedundantNetwork::builder()
+        .node_id(2)
+        .pair(0x10, 0x50)
+        .open_named(port)?;
+    while net.role().await? != MasterRole::Active {
+        tokio::time::sleep(Duration::from_millis(50)).await;
+    }
+    let board = net.add_node(0x10, sim_description()?);
+    let mut tpdo = board.tpdo(1).read().await?;
+    tpdo.event_timer_ms = Some(100);
+    board.tpdo(1).save(&tpdo).await?;
+    let inputs = board.wait_for_pdo(1, Duration::from_secs(2)).await?;
+    println!("inputs: {inputs:?}");
+    board.rpdo(1).read().await?;
+    board.rpdo(1).send(&[1234u16.into(), (-3i8).into()]).await?;
+    let output = board.sdo().read::<u16>(0x6200, 1).await?;
+    println!("outputs: {output}");
+    net.close().await;
+    Ok(output)
+}
