@@ -256,7 +256,12 @@ impl NetCore for MasterCore {
         if !self.may_send(now) {
             return Err(self.send_refused());
         }
-        self.net.station_mut().link.send(now, &frame);
+        let station = self.net.station_mut();
+        if frame.id() == duocan::cia305::codec::MASTER_TO_SLAVE {
+            // The door's LSS request: the supervisor's board replacement waits after it.
+            station.machine.lss_heard(now);
+        }
+        station.link.send(now, &frame);
         Ok(())
     }
     fn may_send(&self, now: Instant) -> bool {

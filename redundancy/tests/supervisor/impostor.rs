@@ -69,14 +69,24 @@ pub(crate) fn inject(
     start: Option<Instant>,
     period: Duration,
 ) -> DevId<Injector> {
-    let dev = Injector {
-        ports: buses.len(),
+    let dev = injector(buses.len(), frame, start, period);
+    n.sim.add_device("impostor", dev, buses).unwrap()
+}
+
+/// An [`Injector`] on `ports` ports.
+pub(crate) fn injector(
+    ports: usize,
+    frame: Frame,
+    start: Option<Instant>,
+    period: Duration,
+) -> Injector {
+    Injector {
+        ports,
         frame,
         next: start,
         period,
         out: vec![],
-    };
-    n.sim.add_device("impostor", dev, buses).unwrap()
+    }
 }
 
 pub(crate) fn heartbeat(node: u8, state: u8) -> Frame {

@@ -30,6 +30,7 @@ fn identity(serial: u32) -> comm::Identity {
 fn run(
     lss: bool,
     replacement_vendor: u32,
+    other_lss_master: bool,
 ) -> (
     SimNetwork,
     duocan::sim::DevId<SupervisedStation<duocan::od::DynamicDictionary>>,
@@ -103,6 +104,15 @@ fn run(
     });
     sim.add_device("board B", Station::new(link(), board), &buses)
         .unwrap();
+    if other_lss_master {
+        // Another LSS master (a tool, or this station's front door) asks every 100 ms what
+        // no slave answers unless selected: "inquire vendor-ID".
+        let mut d = [0u8; 8];
+        d[0] = 0x5A;
+        let request = duocan::Frame::from_array(duocan::cia305::codec::MASTER_TO_SLAVE, d);
+        let other = crate::impostor::injector(2, request, Some(t0), ms(100));
+        sim.add_device("other LSS master", other, &buses).unwrap();
+    }
     sim.run_until(Instant::from_secs(3));
     (sim, m)
 }
@@ -122,7 +132,7 @@ fn events(
 
 #[test]
 fn a_replacement_board_without_node_id_gets_its_slot_and_joins_as_standby() {
-    let (sim, m) = run(true, VENDOR);
+    let (sim, m) = run(true, VENDOR, false);
     let ev = events(&sim, m);
     let addressed: Vec<BoardAddressed> = ev
         .iter()
@@ -199,17 +209,34 @@ fn a_replacement_board_without_node_id_gets_its_slot_and_joins_as_standby() {
 
 #[test]
 fn a_board_of_another_vendor_is_not_given_the_slot_and_without_lss_nothing_is_sent() {
-    let (sim, m) = run(true, 0x99);
+    let (sim, m) = run(true, 0x99, false);
     let ev = events(&sim, m);
     assert!(!ev
         .iter()
         .any(|e| matches!(e, SupervisorEvent::Addressed(_))));
     // It was looked for (identify non-configured answered) but the scan found no slot for it.
     assert!(ev.iter().any(|e| matches!(e, SupervisorEvent::Lss(_))));
-    let (sim, _) = run(false, VENDOR);
+    let (sim, _) = run(false, VENDOR, false);
     let lss_frames = sim.trace().iter().filter(|r| match r {
         duocan::sim::TraceRecord::Tx(x) => matches!(x.frame.id().raw(), 0x7E4 | 0x7E5),
         _ => false,
     });
     assert_eq!(lss_frames.count(), 0);
+}
+
+#[test]
+fn the_replacement_waits_while_another_lss_master_makes_requests() {
+    // The same station, with another LSS master's request on the bus every 100 ms for the
+    // whole run: the supervisor starts none of its own (each request holds it off for its
+    // period, 200 ms), so the slot stays vacant and board B without its node-ID.
+    let (sim, m) = run(true, VENDOR, true);
+    let ev = events(&sim, m);
+    assert!(
+        !ev.iter()
+            .any(|e| matches!(e, SupervisorEvent::Lss(_) | SupervisorEvent::Addressed(_))),
+        "{ev:?}"
+    );
+    let sup = sim.device(m).sup();
+    let pair = sup.pair_supervisor().pair(PairId(0)).unwrap();
+    assert!(!pair.member(Member::B).joined());
 }

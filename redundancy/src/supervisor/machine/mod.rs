@@ -499,6 +499,9 @@ impl<D: ObjectDictionary, P: IdProfile> Machine for Supervisor<D, P> {
             self.lss.handle_frame(now, frame);
             return self.lss_pump(now);
         }
+        if frame.id() == duocan::cia305::codec::MASTER_TO_SLAVE {
+            return self.lss_heard(now);
+        }
         if self.fm.handle_frame(now, frame) {
             return self.pump(now);
         }

@@ -63,6 +63,16 @@ impl<D: ObjectDictionary, P: IdProfile> Supervisor<D, P> {
         self.lss.is_idle()
     }
 
+    /// Another LSS master made a request at `now` (one heard on the bus, or this station's
+    /// front door's own): the replacement starts nothing for a period after it, so that the
+    /// two masters' requests, and the slaves' answers to them, do not mix. (The front door,
+    /// for its part, waits for [`Self::lss_idle`].)
+    pub fn lss_heard(&mut self, now: Instant) {
+        if let Some(period) = self.cfg.lss_period {
+            self.lss_due = Some(self.lss_due.map_or(now + period, |d| d.max(now + period)));
+        }
+    }
+
     /// At each period: asks whether a board without node-ID is there, if a slot is vacant.
     pub(super) fn lss_tick(&mut self, now: Instant) {
         let Some(period) = self.cfg.lss_period else {
