@@ -52,7 +52,11 @@ impl<
 
     /// Whether a frame carrying `node` is this node's own (an observer has none on the bus).
     fn is_own(&self, node: NodeId) -> bool {
-        node == self.id() && !self.cfg.observer
+        #[cfg(feature = "std")]
+        if self.cfg.observer {
+            return false;
+        }
+        node == self.id()
     }
 
     pub(super) fn event(&mut self, at: Instant, kind: NodeEventKind) {

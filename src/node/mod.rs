@@ -92,6 +92,8 @@ pub struct NodeConfig {
     /// its node-ID, so the heartbeats, boot-ups, guarding answers and EMCY that carry it are
     /// another node's, tracked and reported as any other's. Off: they are taken for a
     /// configuration fault elsewhere (someone else using this node's identifier) and dropped.
+    /// With `std` only: a bare-metal node is always a node on the bus.
+    #[cfg(feature = "std")]
     pub observer: bool,
     /// Tell the bus when a consumed heartbeat (0x1016) is lost: EMCY 0x8130 with the
     /// communication bit of 0x1001, recorded in 0x1003, and the error reset when the producer
@@ -122,6 +124,7 @@ impl NodeConfig {
         self
     }
     /// The configuration with [`observer`](Self::observer) replaced.
+    #[cfg(feature = "std")]
     #[must_use]
     pub fn with_observer(mut self, observer: bool) -> Self {
         self.observer = observer;
@@ -144,6 +147,7 @@ impl NodeConfig {
             auto_start: false,
             accept_nmt: true,
             consume_emcy: true,
+            #[cfg(feature = "std")]
             observer: false,
             heartbeat_loss_emcy: true,
         }
@@ -157,6 +161,7 @@ impl NodeConfig {
             auto_start: true,
             accept_nmt: false,
             consume_emcy: true,
+            #[cfg(feature = "std")]
             observer: false,
             heartbeat_loss_emcy: false,
         }
