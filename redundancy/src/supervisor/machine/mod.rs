@@ -500,7 +500,12 @@ impl<D: ObjectDictionary, P: IdProfile> Machine for Supervisor<D, P> {
             return self.lss_pump(now);
         }
         if frame.id() == duocan::cia305::codec::MASTER_TO_SLAVE {
-            return self.lss_heard(now);
+            // Another master's request: it matters only to an active master (a standby looks
+            // for no board), and not while its own sequence runs, which goes on regardless.
+            if self.is_active() && self.lss.is_idle() {
+                self.lss_heard(now);
+            }
+            return;
         }
         if self.fm.handle_frame(now, frame) {
             return self.pump(now);
