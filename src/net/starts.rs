@@ -3,10 +3,13 @@
 //! **The rule.** A start the client refuses as busy (a transfer of the core's own to that
 //! node runs, a master configuring a slave as it boots) or for want of a session is not the
 //! caller's problem: the door parks it and tries it again after every input and every timeout
-//! of the device, the moments a session or a node can come free. A start still refused when
-//! its own SDO timeout has passed since the call is answered with that refusal; the deadline is
-//! in the device's [`poll_timeout`](crate::machine::Device::poll_timeout), so nothing polls on
-//! a timer and the answer comes at that very instant. Only the start waits: a transfer that ran
+//! of the device, the moments a session or a node can come free. A start still refused as busy
+//! when its own SDO timeout has passed since the call is answered with that refusal; the
+//! deadline is in the device's [`poll_timeout`](crate::machine::Device::poll_timeout), so
+//! nothing polls on a timer and the answer comes at that very instant. One refused for want of
+//! a session waits on: every session frees within its own transfer's timeout, and a caller that
+//! asked for more transfers at once than there are sessions (a scan of 127 node-IDs through
+//! 8) wants each to run, not to fail while others had its turn. Only the start waits: a transfer that ran
 //! and failed is the answer. Transfers to one node still take turns above (the network's
 //! per-node lock), so a start is refused as busy only for the core's own transfers.
 //!
@@ -113,6 +116,11 @@ impl Starts {
             match (s.begin)(client, now) {
                 Ok(id) => self.started(id, s),
                 Err(e) if waits(&e) && now < s.due => self.parked.push_back(s),
+                Err(e) if matches!(e.kind, SdoErrorKind::NoSession { .. }) => {
+                    // No deadline while it waits for a session (see "The rule").
+                    s.due = Instant::MAX;
+                    self.parked.push_back(s);
+                }
                 // Refused past its due time, or refused for good.
                 Err(e) => {
                     let _ = s.reply.send(Err(NetError::Sdo(e)));

@@ -58,3 +58,31 @@ async fn twenty_nodes_read_at_once_take_the_bus_time_of_their_frames() {
     );
     net.close().await;
 }
+
+/// More reads at once than the client has sessions, most to absent node-IDs (a scan): each
+/// start waits for a session without counting the wait against its own timeout, so the present
+/// nodes answer though their reads started after others had timed out (found by the tool's
+/// scan over UDP, which missed a node whose probe waited past its 100 ms for a session).
+#[tokio::test(start_paused = true)]
+async fn reads_beyond_the_sessions_wait_for_one_without_timing_out() {
+    use duocan::sdo::SdoOptions;
+    let bus = MemBus::with_bit_rate("sim", 1_000_000);
+    let net = Network::simulated_on(&bus, 120..=127, NetOptions::default()).unwrap();
+    tokio::time::sleep(Duration::from_millis(50)).await;
+    let probe = SdoOptions::default().with_timeout(duocan::Duration::from_millis(100));
+    let mut reads = tokio::task::JoinSet::new();
+    for id in 1..=127u8 {
+        let sdo = net.node(id).sdo().with_options(probe);
+        reads.spawn(async move { (id, sdo.read::<u32>(0x1000, 0).await.is_ok()) });
+    }
+    let mut found = vec![];
+    while let Some(r) = reads.join_next().await {
+        let (id, ok) = r.unwrap();
+        if ok {
+            found.push(id);
+        }
+    }
+    found.sort_unstable();
+    assert_eq!(found, (120..=127).collect::<Vec<u8>>());
+    net.close().await;
+}
