@@ -248,7 +248,13 @@ impl Device for Door {
             CoreEvent::Net(NetEvent::BootUp { node, at }) => {
                 self.boot_ups[usize::from(node.raw())] = Some(*at);
             }
-            CoreEvent::Sdo(id, r) => self.starts.ended(*id, r),
+            CoreEvent::Sdo(id, r) => {
+                self.starts.ended(*id, r);
+                // Its session is free once its result is taken: a start waiting for one goes
+                // now, not at the next input (an idle bus may have none).
+                let now = self.now;
+                self.retry(now);
+            }
             _ => {}
         }
         Some(e)

@@ -237,45 +237,51 @@ where
         let mut woken = 0;
         // Only the tap needs the time: read the clock once, and only for it.
         let mut now = None;
-        while let Some((port, f)) = self.device.poll_transmit() {
-            if port >= self.queues.len() {
-                tracing::error!(port, "device sent on a port it does not have");
-                continue;
-            }
-            if let Some(t) = &self.tap {
-                let at = *now.get_or_insert_with(|| self.clock.now());
-                t.frame(at, TapPoint::Port(port), TapDirection::Tx, &f);
-            }
-            let cmd = match &mut direct {
-                Some((own, into)) if *own == port && self.queues[port].is_empty() => {
-                    match into.push_back(PortCmd::Send(f)) {
-                        Ok(()) => continue,
-                        Err(cmd) => cmd,
-                    }
+        // Taking an event may give the device more to send (a transfer waiting for a session
+        // starts when another's result is taken): until a round takes none.
+        let mut again = true;
+        while std::mem::take(&mut again) {
+            while let Some((port, f)) = self.device.poll_transmit() {
+                if port >= self.queues.len() {
+                    tracing::error!(port, "device sent on a port it does not have");
+                    continue;
                 }
-                _ => PortCmd::Send(f),
-            };
-            if self.queue(port, cmd) {
-                woken |= bit(port);
-            } else {
-                // The port cannot keep up (or is down): drop rather than stall the device.
-                self.counters[port].tx_dropped();
-                tracing::debug!(port, frame = %f, "port queue full, frame dropped");
+                if let Some(t) = &self.tap {
+                    let at = *now.get_or_insert_with(|| self.clock.now());
+                    t.frame(at, TapPoint::Port(port), TapDirection::Tx, &f);
+                }
+                let cmd = match &mut direct {
+                    Some((own, into)) if *own == port && self.queues[port].is_empty() => {
+                        match into.push_back(PortCmd::Send(f)) {
+                            Ok(()) => continue,
+                            Err(cmd) => cmd,
+                        }
+                    }
+                    _ => PortCmd::Send(f),
+                };
+                if self.queue(port, cmd) {
+                    woken |= bit(port);
+                } else {
+                    // The port cannot keep up (or is down): drop rather than stall the device.
+                    self.counters[port].tx_dropped();
+                    tracing::debug!(port, frame = %f, "port queue full, frame dropped");
+                }
             }
-        }
-        while let Some((port, req)) = self.device.poll_port_request() {
-            tracing::info!(port, ?req, "port request");
-            if self.queue(port, PortCmd::Request(req)) {
-                woken |= bit(port);
+            while let Some((port, req)) = self.device.poll_port_request() {
+                tracing::info!(port, ?req, "port request");
+                if self.queue(port, PortCmd::Request(req)) {
+                    woken |= bit(port);
+                }
             }
-        }
-        while let Some(e) = self.device.poll_event() {
-            tracing::debug!(event = ?e, "event");
-            // Watchers see every event, losslessly, before subscribers (who may lag).
-            self.watchers.retain_mut(|w| !w(&e));
-            // No subscriber is fine: events are then only logged (and not stored).
-            if self.events.receiver_count() > 0 {
-                let _ = self.events.send(RuntimeEvent::Device(e));
+            while let Some(e) = self.device.poll_event() {
+                again = true;
+                tracing::debug!(event = ?e, "event");
+                // Watchers see every event, losslessly, before subscribers (who may lag).
+                self.watchers.retain_mut(|w| !w(&e));
+                // No subscriber is fine: events are then only logged (and not stored).
+                if self.events.receiver_count() > 0 {
+                    let _ = self.events.send(RuntimeEvent::Device(e));
+                }
             }
         }
         woken

@@ -86,3 +86,34 @@ async fn reads_beyond_the_sessions_wait_for_one_without_timing_out() {
     assert_eq!(found, (120..=127).collect::<Vec<u8>>());
     net.close().await;
 }
+
+/// The same on a bus where nothing answers and nothing else is sent: a start waiting for a
+/// session goes when another's result is taken, with no input to wake the door, so 40 reads
+/// through 8 sessions end in 5 rounds of their timeout (they once waited for ever).
+#[tokio::test(start_paused = true)]
+async fn reads_beyond_the_sessions_end_on_a_silent_bus() {
+    use duocan::sdo::SdoOptions;
+    let bus = MemBus::with_bit_rate("silent", 1_000_000);
+    let net = Network::open(bus.port()).unwrap();
+    let probe = SdoOptions::default().with_timeout(duocan::Duration::from_millis(100));
+    let start = tokio::time::Instant::now();
+    let mut reads = tokio::task::JoinSet::new();
+    for id in 1..=40u8 {
+        let sdo = net.node(id).sdo().with_options(probe);
+        reads.spawn(async move { sdo.read::<u32>(0x1000, 0).await.is_err() });
+    }
+    let all = async {
+        while let Some(r) = reads.join_next().await {
+            assert!(r.unwrap(), "nothing answers");
+        }
+    };
+    tokio::time::timeout(Duration::from_secs(5), all)
+        .await
+        .expect("every read ends");
+    assert!(
+        start.elapsed() <= Duration::from_millis(520),
+        "{:?}",
+        start.elapsed()
+    );
+    net.close().await;
+}
