@@ -45,6 +45,7 @@
 //! # Ok::<(), duocan::AbortCode>(())
 //! ```
 
+mod forward;
 mod health;
 
 pub use health::{PortReason, PortState};
@@ -223,6 +224,14 @@ pub trait Device {
     /// the simulator's wire), not when a task got to it. A device that merges two ports tells
     /// a frame's two copies apart by these times even when a port's reader ran late; one that
     /// has no use for them (the default) handles the frame as [`Device::handle_rx`] at `now`.
+    ///
+    /// Every port of one device stamps with the clock `now` is read from: the two copies of a
+    /// frame are compared by their stamps, so a driver whose controllers keep clocks of their
+    /// own (hardware timestamps) puts them on that clock before it hands a frame over. Two
+    /// clocks that drift apart look like a bus whose frames come later and later: while both
+    /// buses carry frames the dual-bus layer measures and follows that, but not under every
+    /// other fault at once. duocan's drivers (SocketCAN and UDP: the kernel's stamps on the
+    /// monotonic clock; the simulator; `embedded-can`: the time of `poll`) all use one clock.
     fn handle_rx_at(&mut self, now: Instant, port: usize, frame: &Frame, at: Instant) {
         let _ = at;
         self.handle_rx(now, port, frame);
@@ -301,191 +310,6 @@ pub trait BusLink {
         let _ = (now, cmd);
     }
 }
-
-/// Inside `impl Device for T`: every method but `poll_event` (and the associated type) is
-/// the one of the device in `T`'s field `$field`. For a wrapper that only turns the inner
-/// device's events into its own.
-#[doc(hidden)]
-#[macro_export]
-macro_rules! forward_device_to {
-    ($field:ident) => {
-        fn port_count(&self) -> usize {
-            self.$field.port_count()
-        }
-        fn handle_rx(&mut self, now: $crate::Instant, port: usize, frame: &$crate::Frame) {
-            self.$field.handle_rx(now, port, frame);
-        }
-        fn handle_rx_at(
-            &mut self,
-            now: $crate::Instant,
-            port: usize,
-            frame: &$crate::Frame,
-            at: $crate::Instant,
-        ) {
-            self.$field.handle_rx_at(now, port, frame, at);
-        }
-        fn handle_port_status(
-            &mut self,
-            now: $crate::Instant,
-            port: usize,
-            status: $crate::machine::PortStatus,
-        ) {
-            self.$field.handle_port_status(now, port, status);
-        }
-        fn handle_timeout(&mut self, now: $crate::Instant) {
-            self.$field.handle_timeout(now);
-        }
-        fn poll_transmit(&mut self) -> Option<(usize, $crate::Frame)> {
-            self.$field.poll_transmit()
-        }
-        fn poll_port_request(&mut self) -> Option<(usize, $crate::machine::PortRequest)> {
-            self.$field.poll_port_request()
-        }
-        fn poll_timeout(&self) -> Option<$crate::Instant> {
-            self.$field.poll_timeout()
-        }
-    };
-}
-
-/// Inside `impl BusLink for T`: the [`BusLink`] methods named are those of the link in `T`'s
-/// field (`forward_bus_link!(bus; port_count, handle_rx)`), or of the link behind the pointer
-/// `T` is (`forward_bus_link!(*; …)`). With `before = hook`, the methods that take the time
-/// call `self.hook(now)` first (a wrapper that keeps the latest instant). For a wrapper that
-/// only adds to the link below, so that the methods it does not change are written once here.
-#[doc(hidden)]
-#[macro_export]
-macro_rules! forward_bus_link {
-    ($to:tt; $($method:ident),* $(,)?) => {
-        $( $crate::forward_bus_link!(@one $method, $to, []); )*
-    };
-    ($to:tt, before = $hook:ident; $($method:ident),* $(,)?) => {
-        $( $crate::forward_bus_link!(@one $method, $to, [$hook]); )*
-    };
-    (@to $s:ident, *) => { (**$s) };
-    (@to $s:ident, $field:tt) => { $s.$field };
-    (@one port_count, $to:tt, [$($hook:ident)?]) => {
-        fn port_count(&self) -> usize {
-            $crate::forward_bus_link!(@to self, $to).port_count()
-        }
-    };
-    (@one handle_rx, $to:tt, [$($hook:ident)?]) => {
-        fn handle_rx(
-            &mut self,
-            now: $crate::Instant,
-            port: usize,
-            frame: &$crate::Frame,
-        ) -> Option<$crate::Frame> {
-            $(self.$hook(now);)?
-            $crate::forward_bus_link!(@to self, $to).handle_rx(now, port, frame)
-        }
-    };
-    (@one handle_rx_at, $to:tt, [$($hook:ident)?]) => {
-        fn handle_rx_at(
-            &mut self,
-            now: $crate::Instant,
-            port: usize,
-            frame: &$crate::Frame,
-            at: $crate::Instant,
-        ) -> Option<$crate::Frame> {
-            $(self.$hook(now);)?
-            $crate::forward_bus_link!(@to self, $to).handle_rx_at(now, port, frame, at)
-        }
-    };
-    (@one handle_port_status, $to:tt, [$($hook:ident)?]) => {
-        fn handle_port_status(
-            &mut self,
-            now: $crate::Instant,
-            port: usize,
-            status: $crate::machine::PortStatus,
-        ) {
-            $(self.$hook(now);)?
-            $crate::forward_bus_link!(@to self, $to).handle_port_status(now, port, status);
-        }
-    };
-    (@one send, $to:tt, [$($hook:ident)?]) => {
-        fn send(&mut self, now: $crate::Instant, frame: &$crate::Frame) {
-            $(self.$hook(now);)?
-            $crate::forward_bus_link!(@to self, $to).send(now, frame);
-        }
-    };
-    (@one poll_transmit, $to:tt, [$($hook:ident)?]) => {
-        fn poll_transmit(&mut self) -> Option<(usize, $crate::Frame)> {
-            $crate::forward_bus_link!(@to self, $to).poll_transmit()
-        }
-    };
-    (@one poll_port_request, $to:tt, [$($hook:ident)?]) => {
-        fn poll_port_request(&mut self) -> Option<(usize, $crate::machine::PortRequest)> {
-            $crate::forward_bus_link!(@to self, $to).poll_port_request()
-        }
-    };
-    (@one handle_timeout, $to:tt, [$($hook:ident)?]) => {
-        fn handle_timeout(&mut self, now: $crate::Instant) {
-            $(self.$hook(now);)?
-            $crate::forward_bus_link!(@to self, $to).handle_timeout(now);
-        }
-    };
-    (@one poll_timeout, $to:tt, [$($hook:ident)?]) => {
-        fn poll_timeout(&self) -> Option<$crate::Instant> {
-            $crate::forward_bus_link!(@to self, $to).poll_timeout()
-        }
-    };
-    (@one poll_event, $to:tt, [$($hook:ident)?]) => {
-        fn poll_event(&mut self) -> Option<Self::Event> {
-            $crate::forward_bus_link!(@to self, $to).poll_event()
-        }
-    };
-    (@one poll_machine_request, $to:tt, [$($hook:ident)?]) => {
-        fn poll_machine_request(&mut self) -> Option<$crate::machine::LinkRequest> {
-            $crate::forward_bus_link!(@to self, $to).poll_machine_request()
-        }
-    };
-}
-
-/// A device behind a pointer is a device: the methods are the pointee's.
-macro_rules! forward_device {
-    ($($ptr:tt)*) => {
-        impl<D: Device + ?Sized> Device for $($ptr)* {
-            type Event = D::Event;
-            fn port_count(&self) -> usize {
-                (**self).port_count()
-            }
-            fn handle_rx(&mut self, now: Instant, port: usize, frame: &Frame) {
-                (**self).handle_rx(now, port, frame);
-            }
-            fn handle_rx_at(&mut self, now: Instant, port: usize, frame: &Frame, at: Instant) {
-                (**self).handle_rx_at(now, port, frame, at);
-            }
-            fn handle_port_status(&mut self, now: Instant, port: usize, status: PortStatus) {
-                (**self).handle_port_status(now, port, status);
-            }
-            fn handle_timeout(&mut self, now: Instant) {
-                (**self).handle_timeout(now);
-            }
-            fn poll_transmit(&mut self) -> Option<(usize, Frame)> {
-                (**self).poll_transmit()
-            }
-            fn poll_port_request(&mut self) -> Option<(usize, PortRequest)> {
-                (**self).poll_port_request()
-            }
-            fn poll_timeout(&self) -> Option<Instant> {
-                (**self).poll_timeout()
-            }
-            fn poll_event(&mut self) -> Option<D::Event> {
-                (**self).poll_event()
-            }
-        }
-    };
-}
-
-// A boxed device is a device: large machines (a redundant master) live on the heap, and a
-// simulator or runtime that owns devices by value can own the box.
-#[cfg(feature = "alloc")]
-forward_device!(alloc::boxed::Box<D>);
-
-// A borrowed device is a device: on a microcontroller a large one (a redundant master's
-// station, tens of kilobytes) lives in a `static` built in place, and the driver borrows it
-// for good (`&'static mut`) rather than having it copied through the stack into itself.
-forward_device!(&mut D);
 
 /// The trivial link: one port is the logical bus. Counts what the port reports.
 #[derive(Debug, Default)]

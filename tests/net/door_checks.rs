@@ -2,57 +2,25 @@
 //! redundancy crate's tests (which include this file) over the dual link and over the
 //! redundant master. The door is written once above its core, so the same checks must pass.
 
-use duocan::cia302::program::{FlashError, ProgramStore};
+use duocan::cia302::program::{image_id, FlashError, RamStore};
 use duocan::master::ProgramStep;
 use duocan::net::{sim_description, AnyValue, NetError, Network, MAX_TRANSFER};
 use duocan::net::{SIM_DEVICE_NAME, SIM_HEARTBEAT_MS, SIM_VENDOR};
 use duocan::od::DataType;
 
-/// A store keeping the length and byte sum of the image as its identification; refuses
-/// images that start with 0xFF.
-#[derive(Default)]
-pub struct Sum {
-    running: u32,
-    staged: Option<u32>,
-}
-
-/// What the store reports for `image` once it runs.
-pub fn sum(image: &[u8]) -> u32 {
-    image
-        .iter()
-        .fold(image.len() as u32, |s, b| s.wrapping_add(u32::from(*b)))
-}
-
-impl ProgramStore for Sum {
-    fn capacity(&self) -> u32 {
-        STORE as u32
-    }
-    fn stop(&mut self) {}
-    fn run(&mut self) {}
-    fn clear(&mut self) -> Result<(), FlashError> {
-        self.staged = None;
-        Ok(())
-    }
-    fn stage(&mut self, image: &[u8]) -> Result<(), FlashError> {
-        if image.first() == Some(&0xFF) {
-            return Err(FlashError::DataFormatError);
-        }
-        self.staged = Some(sum(image));
-        Ok(())
-    }
-    fn activate(&mut self) -> Result<(), FlashError> {
-        self.running = self.staged.take().ok_or(FlashError::NoValidProgram)?;
-        Ok(())
-    }
-    fn identification(&self) -> u32 {
-        self.running
-    }
+/// The store behind the checked node: in RAM, refusing images that start with 0xFF (as a
+/// device refuses a damaged image).
+pub fn store() -> RamStore {
+    RamStore::new(STORE as u32).verifying(|image| match image.first() {
+        Some(0xFF) => Err(FlashError::DataFormatError),
+        _ => Ok(()),
+    })
 }
 
 /// What the store takes, and the node's SDO server with it.
 pub const STORE: usize = 256 * 1024;
 
-/// Node `id` (a [`Sum`] store behind it): an image larger than one whole transfer of the
+/// Node `id` (a [`store`] behind it): an image larger than one whole transfer of the
 /// network streams to the node's store and runs; a store that refuses an image leaves the node
 /// on its program.
 pub async fn program_download(net: &Network, id: u8) {
@@ -64,7 +32,7 @@ pub async fn program_download(net: &Network, id: u8) {
         .await
         .unwrap();
     assert_eq!(report.bytes, image.len());
-    assert_eq!(report.identification, sum(&image));
+    assert_eq!(report.identification, image_id(&image));
     assert_eq!(done.last(), Some(&(image.len() as u64)));
     assert!(done.windows(2).all(|w| w[0] <= w[1]));
 
@@ -78,7 +46,7 @@ pub async fn program_download(net: &Network, id: u8) {
     assert!(pe.resumed, "reset to the program it had: {e}");
     assert!(e.abort_code().is_some(), "{e}");
     let id: u32 = node.sdo().read(0x1F56, 1).await.unwrap();
-    assert_eq!(id, sum(&image), "still the program downloaded before");
+    assert_eq!(id, image_id(&image), "still the program downloaded before");
 }
 
 /// Node 5 (duocan's simulated dictionary) by name with its description: names resolve by

@@ -224,48 +224,8 @@ async fn scan_of_an_empty_bus_says_so() {
     assert_eq!(out, "no nodes answered\n");
 }
 
-/// A program store in RAM for the flash test: it keeps the FNV-1a hash of what it staged as
-/// the identification the program reports once started (0x1F56), not the image.
-#[derive(Default)]
-struct RamStore {
-    running: u32,
-    staged: Option<u32>,
-}
-
 /// 1 MiB: the image, the domain, and the node's SDO transfer limit.
 const MIB: usize = 1 << 20;
-
-fn fnv1a(data: &[u8]) -> u32 {
-    data.iter().fold(0x811C_9DC5, |h: u32, b| {
-        (h ^ u32::from(*b)).wrapping_mul(0x0100_0193)
-    })
-}
-
-impl duocan::cia302::program::ProgramStore for RamStore {
-    fn capacity(&self) -> u32 {
-        MIB as u32
-    }
-    fn stop(&mut self) {}
-    fn run(&mut self) {}
-    fn clear(&mut self) -> Result<(), duocan::cia302::program::FlashError> {
-        self.staged = None;
-        Ok(())
-    }
-    fn stage(&mut self, image: &[u8]) -> Result<(), duocan::cia302::program::FlashError> {
-        self.staged = Some(fnv1a(image));
-        Ok(())
-    }
-    fn activate(&mut self) -> Result<(), duocan::cia302::program::FlashError> {
-        self.running = self
-            .staged
-            .take()
-            .ok_or(duocan::cia302::program::FlashError::NoValidProgram)?;
-        Ok(())
-    }
-    fn identification(&self) -> u32 {
-        self.running
-    }
-}
 
 /// `flash` of a 1 MiB image to a duocan node with program download, and the same mebibyte to
 /// a DOMAIN with `sdo write --file --verify`: both with their progress lines, which this test
@@ -287,7 +247,7 @@ async fn flashes_and_writes_a_mebibyte_with_progress_in_the_log() {
     );
     let mut n = Node::new(
         NodeConfig::slave(id),
-        ProgramDictionary::new(od, RamStore::default()),
+        ProgramDictionary::new(od, duocan::cia302::program::RamStore::new(MIB as u32)),
     );
     n.sdo_server_mut()
         .set_config(SdoServerConfig::default().with_max_transfer(MIB));
@@ -306,7 +266,7 @@ async fn flashes_and_writes_a_mebibyte_with_progress_in_the_log() {
         .collect();
     std::fs::write(&img, &image).unwrap();
     let img = img.to_str().unwrap();
-    let want = format!("{:#x}", fnv1a(&image));
+    let want = format!("{:#x}", duocan::cia302::program::image_id(&image));
 
     let (code, out, err) = duocan(
         "udp:24",
@@ -333,7 +293,11 @@ async fn flashes_and_writes_a_mebibyte_with_progress_in_the_log() {
         assert!(err.contains(pct), "no {pct} progress line: {err}");
     }
     let running = node.read(0x1F56, 1).await.unwrap();
-    assert_eq!(running, fnv1a(&image).to_le_bytes(), "the new program runs");
+    assert_eq!(
+        running,
+        duocan::cia302::program::image_id(&image).to_le_bytes(),
+        "the new program runs"
+    );
 
     let (code, out, err) = duocan(
         "udp:24",
@@ -366,7 +330,7 @@ async fn flashes_and_writes_a_mebibyte_with_progress_in_the_log() {
     );
     assert_eq!(
         node.read(0x1F56, 1).await.unwrap(),
-        fnv1a(&image).to_le_bytes()
+        duocan::cia302::program::image_id(&image).to_le_bytes()
     );
     let _ = std::fs::remove_dir_all(&dir);
     node.shutdown().await;

@@ -69,6 +69,11 @@
 //!   health takes at most its two silence steps per call, the lag meter at most three period
 //!   ends before it computes the period of the new time, the CiA 302-6 redundancy window is
 //!   computed, the ECSS slave toggles at most Ntoggle times (once for zero).
+//! - **One clock for both ports.** A frame's receive stamps on the two ports are compared
+//!   with each other and with the layer's time, so they are read from the clock that time
+//!   comes from ([`Device::handle_rx_at`](duocan::machine::Device::handle_rx_at)). A driver
+//!   with a clock per controller converts its stamps first: clocks that drift apart are
+//!   followed as a changing lag only while both buses carry frames and nothing else goes wrong.
 //! - **At [`Instant::MAX`](duocan::Instant::MAX)** no deadline is reported, so nothing stays
 //!   due; a frame heard then counts as heard a microsecond before (the tables use the end of
 //!   time for "never heard").

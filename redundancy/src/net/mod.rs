@@ -55,7 +55,7 @@
 //! | 0x01 | a redundant master (supervisor, flying master) | active master |
 //! | 0x02 | its peer master, the same settings | standby master |
 //! | 0x10 / 0x50, 0x11 / 0x51 | two A/B board pairs ([`SIM_PAIRS`]) | A active (operational), B standby (pre-operational) |
-//! | 0x05, 0x06, 0x07 | plain slaves ([`SIM_SLAVES`]): `duocan::net`'s simulated node and a read-write DOMAIN [`SIM_DOMAIN`] of up to [`SIM_DOMAIN_SIZE`] bytes; [`SIM_PROGRAM_NODE`] takes program download (identification after start: [`sim_program_id`] of the image) | pre-operational |
+//! | 0x05, 0x06, 0x07 | plain slaves ([`SIM_SLAVES`]): `duocan::net`'s simulated node and a read-write DOMAIN [`SIM_DOMAIN`] of up to [`SIM_DOMAIN_SIZE`] bytes; [`SIM_PROGRAM_NODE`] takes program download (identification after start: `duocan::cia302::program::image_id` of the image) | pre-operational |
 //! | none (0xFF) | two boards that arrive without a node-ID ([`SIM_LSS_SERIALS`], identity [`sim_lss_address`]): silent but for LSS (CiA 305) until an LSS master gives them a node-ID, then they boot as the simulated node with it (one on a rig of one's own: [`sim_lss_board`]) | non-configured |
 //!
 //! `"sim:faults"` repeats a script every [`SIM_FAULT_PERIOD`]: at [`SIM_FAULT_BUS_CUT`] into
@@ -79,8 +79,8 @@ pub use dual_link::{open_dual, open_dual_named, open_dual_with, DualLink};
 pub use events::RedundantEvent;
 pub use sim::{SIM_BUS_FAILS, SIM_B_BOOTS, SIM_END, SIM_MEMBER_FAILS, SIM_PEERS_FAIL};
 pub use sim_station::{
-    sim_lss_address, sim_lss_board, sim_program_id, SimLssBoard, SimLssBuild, SIM_BIT_RATE,
-    SIM_DOMAIN, SIM_DOMAIN_SIZE, SIM_FAULT_BUS_BACK, SIM_FAULT_BUS_CUT, SIM_FAULT_MASTER_BACK,
+    sim_lss_address, sim_lss_board, SimLssBoard, SimLssBuild, SIM_BIT_RATE, SIM_DOMAIN,
+    SIM_DOMAIN_SIZE, SIM_FAULT_BUS_BACK, SIM_FAULT_BUS_CUT, SIM_FAULT_MASTER_BACK,
     SIM_FAULT_MASTER_STOPS, SIM_FAULT_MEMBER_BACK, SIM_FAULT_MEMBER_STOPS, SIM_FAULT_PERIOD,
     SIM_LSS_PRODUCT, SIM_LSS_REVISION, SIM_LSS_SERIALS, SIM_PAIRS, SIM_PROGRAM_NODE, SIM_SLAVES,
 };

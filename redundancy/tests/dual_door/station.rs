@@ -2,13 +2,14 @@
 //! every node answers, the pairs are as the supervisor leaves them, a mebibyte goes to a
 //! DOMAIN and back, a program is downloaded, and `"sim:faults"` plays its script.
 
+use duocan::cia302::program::image_id;
 use duocan::net::{NetError, NetEvent, NetOptions, Network, TransferProgress, SIM_VENDOR};
 use duocan::sdo::TransferMode;
 use duocan::NmtState;
 use duocan_redundancy::net::{
-    open_dual_named, sim_program_id, SIM_DOMAIN, SIM_DOMAIN_SIZE, SIM_FAULT_BUS_BACK,
-    SIM_FAULT_BUS_CUT, SIM_FAULT_MASTER_BACK, SIM_FAULT_MASTER_STOPS, SIM_FAULT_MEMBER_STOPS,
-    SIM_FAULT_PERIOD, SIM_PAIRS, SIM_PROGRAM_NODE, SIM_SLAVES,
+    open_dual_named, SIM_DOMAIN, SIM_DOMAIN_SIZE, SIM_FAULT_BUS_BACK, SIM_FAULT_BUS_CUT,
+    SIM_FAULT_MASTER_BACK, SIM_FAULT_MASTER_STOPS, SIM_FAULT_MEMBER_STOPS, SIM_FAULT_PERIOD,
+    SIM_PAIRS, SIM_PROGRAM_NODE, SIM_SLAVES,
 };
 use duocan_redundancy::RedundantError;
 use std::time::Duration;
@@ -110,9 +111,9 @@ async fn a_program_is_downloaded_and_runs() {
         .unwrap();
     assert_eq!(report.node.raw(), SIM_PROGRAM_NODE);
     assert_eq!(report.bytes, image.len());
-    assert_eq!(report.identification, sim_program_id(&image));
+    assert_eq!(report.identification, image_id(&image));
     let id: u32 = node.sdo().read(0x1F56, 1).await.unwrap();
-    assert_eq!(id, sim_program_id(&image), "the new program runs");
+    assert_eq!(id, image_id(&image), "the new program runs");
     assert!(seen.len() > 3, "progress along the way");
     assert_eq!(seen.last().map(|p| p.done), Some(image.len() as u64));
     // A node without program download: the first step is refused, and nothing is started.

@@ -66,8 +66,10 @@
 //! ```
 
 mod dictionary;
+mod ram;
 
 pub use dictionary::ProgramDictionary;
+pub use ram::{image_id, RamStore};
 
 use core::fmt;
 

@@ -25,7 +25,7 @@ use crate::network::{RedundantError, RedundantNetworkBuilder};
 use alloc::boxed::Box;
 use alloc::string::ToString;
 use backplane::Backplane;
-use duocan::cia302::program::{FlashError, ProgramDictionary, ProgramStore};
+use duocan::cia302::program::{ProgramDictionary, RamStore};
 use duocan::cia305::{LssAddress, LssSlave, NoMedium};
 use duocan::net::{sim_dictionary, NetOptions, Network, SIM_VENDOR};
 use duocan::node::LssNode;
@@ -76,15 +76,6 @@ pub const SIM_FAULT_MASTER_BACK: Duration = Duration::from_millis(9_000);
 /// that A is the active member of every pair, every run.
 const B_POWERED: Duration = Duration::from_millis(1_000);
 
-/// The software identification the simulated program store reports for `image` once it runs
-/// (0x1F56 sub 1): its 32-bit FNV-1a hash, so that a different image reads differently.
-#[must_use]
-pub fn sim_program_id(image: &[u8]) -> u32 {
-    image.iter().fold(0x811C_9DC5, |h: u32, b| {
-        (h ^ u32::from(*b)).wrapping_mul(0x0100_0193)
-    })
-}
-
 /// Whether the station runs a fault script.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub(super) enum StationScript {
@@ -92,36 +83,6 @@ pub(super) enum StationScript {
     Quiet,
     /// The fault script, repeating.
     Faults,
-}
-
-/// A program store in RAM: it keeps the identification of what it staged, not the image.
-#[derive(Debug, Default)]
-struct RamStore {
-    running: u32,
-    staged: Option<u32>,
-}
-
-impl ProgramStore for RamStore {
-    fn capacity(&self) -> u32 {
-        SIM_DOMAIN_SIZE as u32
-    }
-    fn stop(&mut self) {}
-    fn run(&mut self) {}
-    fn clear(&mut self) -> Result<(), FlashError> {
-        self.staged = None;
-        Ok(())
-    }
-    fn stage(&mut self, image: &[u8]) -> Result<(), FlashError> {
-        self.staged = Some(sim_program_id(image));
-        Ok(())
-    }
-    fn activate(&mut self) -> Result<(), FlashError> {
-        self.running = self.staged.take().ok_or(FlashError::NoValidProgram)?;
-        Ok(())
-    }
-    fn identification(&self) -> u32 {
-        self.running
-    }
 }
 
 type Slave<D> = Station<DualBus<Predefined>, Node<D>>;
@@ -271,7 +232,10 @@ fn build(
         station.power_on(id, slave(node, slave_dictionary(node)));
     }
     let node = NodeId::must(SIM_PROGRAM_NODE);
-    let od = ProgramDictionary::new(slave_dictionary(node), RamStore::default());
+    let od = ProgramDictionary::new(
+        slave_dictionary(node),
+        RamStore::new(SIM_DOMAIN_SIZE as u32),
+    );
     station.power_on(SIM_PROGRAM_NODE, slave(node, od));
     for serial in SIM_LSS_SERIALS {
         station.power_on(NO_NODE_ID, lss_board(serial));
