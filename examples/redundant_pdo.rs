@@ -7,12 +7,11 @@
 //!     --features socketcan,duocan-redundancy/socketcan    # two real buses
 //! ```
 //!
-//! The board is pair member 0x10 with `duocan::net`'s simulated dictionary (inputs 0x6000 on
+//! The boards are pair 0x10/0x50 with `duocan::net`'s simulated dictionary (inputs 0x6000 on
 //! TPDO 1, outputs 0x6200 on RPDO 1), as the simulated station runs it.
 
 use duocan::net::sim_description;
 use duocan_redundancy::net::RedundantNetwork;
-use duocan_redundancy::supervisor::flying_master::MasterRole;
 use std::error::Error;
 use std::time::Duration;
 
@@ -23,17 +22,16 @@ pub async fn main() -> Result<(), Box<dyn Error>> {
     run(&port).await.map(|_| ())
 }
 
-/// Opens the network on `port`, waits to be the active master, prints board 0x10's inputs and
-/// sets its outputs; returns what its first output reads back.
+/// Opens the network on `port`, waits for a board of pair 0x10/0x50 to run, prints its
+/// inputs and sets its outputs; returns what its first output reads back.
 pub async fn run(port: &str) -> Result<u16, Box<dyn Error>> {
     let net = RedundantNetwork::builder()
         .node_id(2)
         .pair(0x10, 0x50)
         .open_named(port)?;
-    while net.role().await? != MasterRole::Active {
-        tokio::time::sleep(Duration::from_millis(50)).await;
-    }
-    let board = net.add_node(0x10, sim_description()?);
+    // The pair's inputs come from whichever of its boards runs.
+    let id = net.running_board(0x10, Duration::from_secs(10)).await?;
+    let board = net.add_node(id, sim_description()?);
     let mut tpdo = board.tpdo(1).read().await?;
     tpdo.event_timer_ms = Some(100);
     board.tpdo(1).save(&tpdo).await?;

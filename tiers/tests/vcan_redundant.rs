@@ -1,7 +1,9 @@
 //! The redundant network's front door on two real SocketCAN interfaces:
 //! `RedundantNetwork::builder()…open_named("vcan0,vcan1")` with the two boards of a pair on
 //! both, SDO through the handle to a pair member, vcan0 set down (a bus failover on the flat
-//! event stream) and SDO going on over vcan1. Runs inside duocan's qemu VM (`.ci/tier-vcan.sh`).
+//! event stream) and SDO going on over vcan1; and the `redundant_pdo` example as it is, on
+//! `DUOCAN_BUS=vcan0,vcan1` with a pair of boards carrying `duocan::net`'s simulated dictionary.
+//! Runs inside duocan's qemu VM (`.ci/tier-vcan.sh`).
 
 use duocan::net::NetEvent;
 use duocan::od::comm;
@@ -12,6 +14,10 @@ use duocan_redundancy::net::RedundantNetwork;
 use duocan_redundancy::{DualBus, DualBusConfig, LinkMode, PortState};
 use std::process::Command;
 use std::time::Duration as StdDuration;
+
+#[path = "../../examples/redundant_pdo.rs"]
+#[allow(dead_code)]
+mod redundant_pdo;
 
 /// The dual-bus layer as the VM needs it: its emulated CPU can hold a sender up between its two
 /// copies of a frame (the boards', and the master's), so that they are on the wires, and
@@ -139,6 +145,54 @@ async fn the_redundant_front_door_fails_over_between_vcan0_and_vcan1() {
     assert_eq!(product(&net, 0x10).await, 0x10);
     drop(down);
     net.close().await;
+    for b in boards {
+        b.shutdown().await;
+    }
+}
+
+/// The `redundant_pdo` example, unchanged, on two real buses: the master it opens configures
+/// the active board's TPDO, reads its inputs and writes its outputs by RPDO, as on the
+/// simulated station. The boards are processes' worth of runtimes on vcan0 and vcan1 with the
+/// dictionary the simulated station's boards carry (inputs on TPDO 1, outputs on RPDO 1).
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn the_redundant_pdo_example_runs_on_vcan0_and_vcan1() {
+    let ms = Duration::from_millis;
+    let mut boards = vec![];
+    for id in [0x10u8, 0x50] {
+        let mut node = Node::new(
+            NodeConfig::slave(NodeId::must(id)),
+            duocan::net::sim_dictionary(NodeId::must(id)),
+        );
+        node.boot(Instant::ZERO);
+        let board = Runtime::new(Station::new(DualBus::new(link(ms(50))), node))
+            .name(format!("board {id:#x}"))
+            .port(SocketCanPort::open("vcan0").unwrap())
+            .port(SocketCanPort::open("vcan1").unwrap())
+            .spawn()
+            .unwrap();
+        boards.push(board);
+    }
+    // What the boards said, on vcan0, for a failure's message.
+    let watch = duocan::net::Network::monitor(SocketCanPort::open("vcan0").unwrap()).unwrap();
+    let mut heard = watch.events();
+    let seen = tokio::spawn(async move {
+        let mut lines = vec![];
+        while let Some(e) = heard.next().await {
+            lines.push(e.to_string());
+        }
+        lines
+    });
+    let run = redundant_pdo::run("vcan0,vcan1");
+    let result = tokio::time::timeout(StdDuration::from_secs(60), run).await;
+    watch.close().await;
+    let seen = seen.await.unwrap().join("\n");
+    let output = result
+        .unwrap_or_else(|_| panic!("the example ends within 60 s; on vcan0:\n{seen}"))
+        .unwrap_or_else(|e| panic!("the example runs: {e}; on vcan0:\n{seen}"));
+    assert_eq!(
+        output, 1234,
+        "the output it wrote by RPDO, read back by SDO"
+    );
     for b in boards {
         b.shutdown().await;
     }

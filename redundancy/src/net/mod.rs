@@ -93,9 +93,9 @@ use alloc::boxed::Box;
 use alloc::string::{String, ToString};
 use alloc::vec::Vec;
 use duocan::master::SlaveView;
-use duocan::net::{NetError, NetOptions, Network};
+use duocan::net::{Awaited, NetError, NetOptions, Network};
 use duocan::port::Port;
-use duocan::{Instant, NodeId};
+use duocan::{Instant, NmtState, NodeId};
 
 /// A redundant network on two ports: duocan's front door ([`Network`], which it dereferences
 /// to: `net.node(5).sdo()`, `net.events()`, `net.nmt_all(…)`, `net.close()`) run by a
@@ -153,6 +153,46 @@ impl RedundantNetwork {
     pub async fn active_members(&self) -> Result<Vec<(PairId, Option<Member>)>, RedundantError> {
         self.call(|n, _| n.pairs().map(|(id, p)| (id, p.active)).collect())
             .await
+    }
+
+    /// The node-ID of the board that runs in the pair whose A member is node `a`: the member
+    /// this master (active) started and heard operational, waiting at most `timeout` for one.
+    /// A pair's process data come from whichever of its boards runs, and which one that is
+    /// depends on which booted first and on every failover since. No pair with A member `a`:
+    /// [`NetError::NoSuchNode`]; none running in time: [`NetError::Timeout`] (awaiting
+    /// operational, for node `a`).
+    pub async fn running_board(
+        &self,
+        a: u8,
+        timeout: std::time::Duration,
+    ) -> Result<u8, RedundantError> {
+        let node = NodeId::new(a).ok_or(NetError::NoSuchNode(a))?;
+        let until = tokio::time::Instant::now() + timeout;
+        loop {
+            let running = self
+                .call(move |n, _| {
+                    let (_, p) = n.pairs().find(|(_, p)| p.spec.a == node)?;
+                    Some(p.active.and_then(|m| {
+                        let s = p.member(m);
+                        (s.nmt == Some(NmtState::Operational)).then_some(s.node.raw())
+                    }))
+                })
+                .await?
+                .ok_or(NetError::NoSuchNode(a))?;
+            if let Some(id) = running {
+                return Ok(id);
+            }
+            if tokio::time::Instant::now() >= until {
+                return Err(NetError::Timeout {
+                    node,
+                    awaited: Awaited::State(NmtState::Operational),
+                    after: timeout.into(),
+                }
+                .into());
+            }
+            // The pair table changes on the boards' heartbeats: a fraction of their period.
+            tokio::time::sleep(std::time::Duration::from_millis(10)).await;
+        }
     }
 
     /// The status table (ports, master role, pairs, slaves), as text.
