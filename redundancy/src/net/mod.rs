@@ -186,7 +186,7 @@ impl RedundantNetwork {
                 return Err(NetError::Timeout {
                     node,
                     awaited: Awaited::State(NmtState::Operational),
-                    after: timeout.into(),
+                    after: timeout,
                 }
                 .into());
             }
