@@ -359,3 +359,45 @@ async fn start_and_stop_sync_change_the_period_on_the_wire_and_a_standby_produce
     );
     standby.close().await;
 }
+
+/// `running_board` names the pair member that runs: the first one this master finds (B, when
+/// A is not there yet), the other after a switch-over; a node that is no pair's A member is
+/// refused, and a pair with no board running is a time-out after exactly the time given.
+#[tokio::test(start_paused = true)]
+async fn running_board_follows_the_pair_member_that_runs() {
+    use duocan_redundancy::{Member, PairId, RedundantError};
+    let buses = [MemBus::new("bus1"), MemBus::new("bus2")];
+    let net = RedundantNetwork::builder()
+        .node_id(7)
+        .pair(0x10, 0x50)
+        .pair(0x11, 0x51)
+        .open(buses[0].port(), buses[1].port())
+        .unwrap();
+    let b = on_both(0x50, &buses);
+    assert_eq!(net.running_board(0x10, T).await.unwrap(), 0x50);
+    let a = on_both(0x10, &buses);
+    sleep_ms(2000).await;
+    assert_eq!(
+        net.running_board(0x10, T).await.unwrap(),
+        0x50,
+        "non-revertive"
+    );
+    net.switch_over(PairId(0), Member::A).await.unwrap();
+    sleep_ms(500).await;
+    assert_eq!(net.running_board(0x10, T).await.unwrap(), 0x10);
+    let e = net.running_board(0x50, T).await.unwrap_err();
+    assert!(
+        matches!(e, RedundantError::Net(NetError::NoSuchNode(0x50))),
+        "{e:?}"
+    );
+    let t0 = tokio::time::Instant::now();
+    let e = net.running_board(0x11, T).await.unwrap_err();
+    assert!(
+        matches!(e, RedundantError::Net(NetError::Timeout { .. })),
+        "{e:?}"
+    );
+    assert_eq!(tokio::time::Instant::now() - t0, T);
+    net.close().await;
+    a.shutdown().await;
+    b.shutdown().await;
+}
