@@ -7,11 +7,12 @@
 
 use duocan::net::NetEvent;
 use duocan::od::comm;
+use duocan::od::DynamicDictionary;
 use duocan::port::socketcan::SocketCanPort;
-use duocan::runtime::Runtime;
+use duocan::runtime::{Handle, Runtime};
 use duocan::{Duration, Instant, Node, NodeConfig, NodeId, Station};
 use duocan_redundancy::net::RedundantNetwork;
-use duocan_redundancy::{DualBus, DualBusConfig, LinkMode, PortState};
+use duocan_redundancy::{DualBus, DualBusConfig, DualBusNode, LinkMode, PortState};
 use std::process::Command;
 use std::time::Duration as StdDuration;
 
@@ -28,6 +29,21 @@ fn link(guard: Duration) -> DualBusConfig {
     cfg.skew_window = Duration::from_millis(25);
     cfg.health.tx_stall = cfg.skew_window;
     cfg
+}
+
+/// Board `id` with dictionary `od` on vcan0 and vcan1, booted, through its own dual-bus layer.
+fn board(id: u8, od: DynamicDictionary) -> Handle<DualBusNode<DynamicDictionary>> {
+    let mut node = Node::new(NodeConfig::slave(NodeId::must(id)), od);
+    node.boot(Instant::ZERO);
+    Runtime::new(Station::new(
+        DualBus::new(link(Duration::from_millis(50))),
+        node,
+    ))
+    .name(format!("board {id:#x}"))
+    .port(SocketCanPort::open("vcan0").unwrap())
+    .port(SocketCanPort::open("vcan1").unwrap())
+    .spawn()
+    .unwrap()
 }
 
 /// vcan0 down until dropped (also when the test fails).
@@ -80,25 +96,13 @@ async fn the_redundant_front_door_fails_over_between_vcan0_and_vcan1() {
         .open_named("vcan0,vcan1")
         .expect("vcan0 and vcan1 exist and are up");
     let mut events = net.events();
-    let mut boards = vec![];
-    for id in [0x10u8, 0x50] {
+    let boards = [0x10u8, 0x50].map(|id| {
         let ident = comm::Identity {
             product: u32::from(id),
             ..Default::default()
         };
-        let mut node = Node::new(
-            NodeConfig::slave(NodeId::must(id)),
-            comm::standard_dictionary(id, ident),
-        );
-        node.boot(Instant::ZERO);
-        let board = Runtime::new(Station::new(DualBus::new(link(ms(50))), node))
-            .name(format!("board {id:#x}"))
-            .port(SocketCanPort::open("vcan0").unwrap())
-            .port(SocketCanPort::open("vcan1").unwrap())
-            .spawn()
-            .unwrap();
-        boards.push(board);
-    }
+        board(id, comm::standard_dictionary(id, ident))
+    });
     // Active (alone: after the power-on negotiation) with a pair member running.
     let until = tokio::time::Instant::now() + StdDuration::from_secs(30);
     loop {
@@ -156,22 +160,7 @@ async fn the_redundant_front_door_fails_over_between_vcan0_and_vcan1() {
 /// dictionary the simulated station's boards carry (inputs on TPDO 1, outputs on RPDO 1).
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn the_redundant_pdo_example_runs_on_vcan0_and_vcan1() {
-    let ms = Duration::from_millis;
-    let mut boards = vec![];
-    for id in [0x10u8, 0x50] {
-        let mut node = Node::new(
-            NodeConfig::slave(NodeId::must(id)),
-            duocan::net::sim_dictionary(NodeId::must(id)),
-        );
-        node.boot(Instant::ZERO);
-        let board = Runtime::new(Station::new(DualBus::new(link(ms(50))), node))
-            .name(format!("board {id:#x}"))
-            .port(SocketCanPort::open("vcan0").unwrap())
-            .port(SocketCanPort::open("vcan1").unwrap())
-            .spawn()
-            .unwrap();
-        boards.push(board);
-    }
+    let boards = [0x10u8, 0x50].map(|id| board(id, duocan::net::sim_dictionary(NodeId::must(id))));
     // What the boards said, on vcan0, for a failure's message.
     let watch = duocan::net::Network::monitor(SocketCanPort::open("vcan0").unwrap()).unwrap();
     let mut heard = watch.events();
