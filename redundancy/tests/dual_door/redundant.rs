@@ -401,3 +401,60 @@ async fn running_board_follows_the_pair_member_that_runs() {
     a.shutdown().await;
     b.shutdown().await;
 }
+
+/// Both boards of a pair running with different inputs for longer than the discrepancy time
+/// (100 ms): a discrepancy on the door's event stream, typed and one line; cleared when they
+/// agree again.
+#[tokio::test(start_paused = true)]
+async fn a_discrepancy_between_a_and_b_reaches_the_event_stream() {
+    use duocan_redundancy::net::RedundantEvent;
+    use duocan_redundancy::PairId;
+    let buses = [MemBus::new("bus1"), MemBus::new("bus2")];
+    let net = RedundantNetwork::builder()
+        .node_id(7)
+        .pair(0x10, 0x50)
+        .open(buses[0].port(), buses[1].port())
+        .unwrap();
+    let boards = [on_both(0x10, &buses), on_both(0x50, &buses)];
+    let running = net.running_board(0x10, T).await.unwrap();
+    let other = if running == 0x10 { 0x50 } else { 0x10 };
+    for (id, input) in [(running, 1u16), (other, 2)] {
+        let node = net.add_node(id, sim_description().unwrap());
+        let mut t1 = node.tpdo(1).read().await.unwrap();
+        t1.event_timer_ms = Some(20);
+        node.tpdo(1).save(&t1).await.unwrap();
+        node.sdo().write(0x6000, 1, input).await.unwrap();
+    }
+    let mut events = net.events();
+    net.node(other).start().await.unwrap();
+    let discrepancy = |e: &NetEvent| {
+        matches!(
+            e.ext::<RedundantEvent>(),
+            Some(RedundantEvent::Discrepancy {
+                pair: PairId(0),
+                ..
+            })
+        )
+    };
+    let cleared = |e: &NetEvent| {
+        matches!(
+            e.ext::<RedundantEvent>(),
+            Some(RedundantEvent::DiscrepancyCleared {
+                pair: PairId(0),
+                ..
+            })
+        )
+    };
+    let seen = drain(&mut events, 500).await;
+    let d = seen.iter().find(|e| discrepancy(e)).unwrap_or_else(|| {
+        panic!("no discrepancy among {seen:#?}");
+    });
+    assert_eq!(d.to_string(), "pair 0: A and B disagree on function 1");
+    net.node(other).sdo().write(0x6000, 1, 1u16).await.unwrap();
+    let seen = drain(&mut events, 500).await;
+    assert!(seen.iter().any(cleared), "{seen:#?}");
+    net.close().await;
+    for b in boards {
+        b.shutdown().await;
+    }
+}
