@@ -5,7 +5,8 @@
 # tiers/tests/vcan_redundant.rs, tiers/tests/vcan_reopen.rs, tiers/tests/vcan_load.rs, the
 # failover kit (.ci/kit-vm.sh), LSS (.ci/lss-vm.sh), both through .ci/vm-script.sh,
 # tiers/tests/vcan_canopennode.rs (CANopenNode's canopend, built on the host from
-# ../shared/peers/canopennode, as the device), and the dual_vcan_failover example's
+# ../shared/peers/canopennode, as the device, and two of them as a redundant pair through the
+# failover kit), and the dual_vcan_failover example's
 # self-test in the VM (and checks on the host that the example
 # refuses to run without its interfaces, saying how to create them), then the runtime-overhead
 # measurement (bare socketcan echo loop vs the tokio runtime, same VM).
@@ -65,7 +66,9 @@ echo "== tier-vcan: CANopenNode's canopend as the device (node 4 on vcan0), duoc
 echo "   the tool's scan, SDO in every mode both ways, NMT in the heartbeat, its loss, a TPDO, an EMCY;"
 echo "   LSS both ways: duocan's master configures canopend, canopend's gateway (through cocomm) a"
 echo "   duocan LSS slave; the tool's eds export of canopend against the EDS it ships; the tool's"
-echo "   dump and monitor decoding its traffic; one cocomm script to canopend's gateway and duocan's"
+echo "   dump and monitor decoding its traffic; one cocomm script to canopend's gateway and duocan's;"
+echo "   two canopend as the A/B pair of two duocan redundant masters through the failover kit"
+echo "   (board A loses power: B started within the pair's bound, once)"
 # canopend is built on the host (static, a few seconds) from the sources kept beside the
 # repository, and goes into the VM with its EDS, cocomm (its gateway's client) and the tool
 # (release, built for the kit).
@@ -77,6 +80,10 @@ out=$(bash "$PEERS/canopennode/build.sh" "$CONODE" 2>&1) \
   || fail "no canopend, cocomm or canopend.eds in $CONODE"
 TOOL="$(dirname "$CONODE")/release/duocan"
 [ -x "$TOOL" ] || fail "no $TOOL (built above for the kit)"
+# The kit's interfaces beside vcan0 for the pair through the failover kit. One emulated CPU is
+# enough for its five processes (the release tool, canopend); a second made the whole run take
+# 64 s instead of 24 on a loaded host.
+VCANS=vcan0,vcan1,vcan2,vm1a,vm1b,vs1a,vm2a,vm2b,vs2b \
 VCANVM_EXTRA="$CONODE/canopend:/tests/canopend $CONODE/canopend.eds:/tests/canopend.eds $CONODE/cocomm:/tests/cocomm $TOOL:/tests/duocan" \
 DUOCAN_CANOPEND=/tests/canopend DUOCAN_CANOPEND_EDS=/tests/canopend.eds DUOCAN_COCOMM=/tests/cocomm DUOCAN_TOOL=/tests/duocan \
   cargo test -p duocan-tiers --features vcan --test vcan_canopennode \

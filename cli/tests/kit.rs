@@ -117,3 +117,29 @@ fn the_guide_scenario_reads_and_passes_with_duocan_boards() {
     assert_eq!(r.out.matches(" pass ").count(), 2, "{}", r.out);
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+/// The scenario with CANopenNode's canopend as both boards (`cli/scenarios/canopend/`, run on
+/// vcan by the VM tier) reads, with its two restarted boards; the simulator, which stands in
+/// only for duocan devices, refuses it naming the first device it cannot stand in for.
+#[test]
+fn the_canopend_scenario_reads_and_the_simulator_refuses_its_boards() {
+    let f =
+        PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("scenarios/canopend/board_power_loss.toml");
+    let f = f.to_str().unwrap();
+    let r = duocan(&["--json", "kit", "validate", f]);
+    assert_eq!(r.code, 0, "{}", r.err);
+    let v: serde_json::Value = serde_json::from_str(&r.out).unwrap();
+    assert_eq!(
+        (v["devices"].as_u64(), v["expectations"].as_u64()),
+        (Some(4), Some(8)),
+        "{v}"
+    );
+    let r = duocan(&["kit", "sim", f]);
+    assert_eq!(r.code, 2, "{}{}", r.out, r.err);
+    assert!(
+        r.err
+            .contains("device \"board_a\": the simulator stands in only for duocan devices"),
+        "{}",
+        r.err
+    );
+}

@@ -25,7 +25,12 @@
 //!   heartbeat states, NMT, EMCY with its code), and the monitor never takes its heartbeat,
 //!   sent at once on each state change, for silent;
 //! - the same `cocomm` requests sent to canopend's gateway and to duocan's, both talking to
-//!   the same canopend device: the answers differ only as duocan's gateway documents.
+//!   the same canopend device: the answers differ only as duocan's gateway documents;
+//! - two canopend processes as the A/B pair of two duocan redundant masters, through the
+//!   failover kit's fault bridge (the scenario `cli/scenarios/canopend/board_power_loss.toml`,
+//!   on the kit's interfaces vm1a … vs2b): board A loses power, board B is started within the
+//!   pair's bound and runs, one start, each frame once; and the kit's verdicts on that run's
+//!   logs fail when the scenario asks for what did not happen.
 //!
 //! The environment names the files (the VM has them under /tests): `DUOCAN_CANOPEND` (the
 //! binary), `DUOCAN_CANOPEND_EDS` (its description), `DUOCAN_COCOMM` (its gateway's client),
@@ -989,4 +994,170 @@ fn the_same_cocomm_requests_get_the_same_answers_from_duocans_gateway_and_canope
         "answers that differ otherwise than duocan's gateway documents:\n{}",
         differ.join("\n")
     );
+}
+
+/// The failover kit's scenario with canopend as both boards of the pair.
+const PAIR_SCENARIO: &str = include_str!("../../cli/scenarios/canopend/board_power_loss.toml");
+
+/// The kit's verdicts (the last line of its `--json` output): expectation, pass, measured.
+fn verdicts(stdout: &str) -> Vec<(String, bool, String)> {
+    let last = stdout.lines().last().unwrap_or("[]");
+    let v: serde_json::Value = serde_json::from_str(last)
+        .unwrap_or_else(|e| panic!("the kit's verdicts are not JSON ({e}):\n{stdout}"));
+    v.as_array()
+        .expect("an array of verdicts")
+        .iter()
+        .map(|r| {
+            (
+                r["expectation"].as_str().expect("its name").to_string(),
+                r["result"].as_bool().expect("its result"),
+                r["measured"].as_str().expect("its figure").to_string(),
+            )
+        })
+        .collect()
+}
+
+/// `duocan --json kit ARGS` with canopend on PATH (the scenario names it as a user would).
+fn kit(dir: &Path, args: &[&str]) -> (Option<i32>, String, String) {
+    let bin = dir.join("bin");
+    std::fs::create_dir_all(&bin).expect("a folder for PATH");
+    let link = bin.join("canopend");
+    if !link.exists() {
+        std::os::unix::fs::symlink(canopend_bin(), &link).expect("canopend on PATH");
+    }
+    let path = format!(
+        "{}:{}",
+        bin.display(),
+        std::env::var("PATH").unwrap_or_default()
+    );
+    let o = Command::new(tool_bin())
+        .args(["--json", "kit"])
+        .args(args)
+        .current_dir(dir)
+        .env("PATH", path)
+        .env_remove("DUOCAN_BUS")
+        .output()
+        .expect("run duocan kit");
+    (
+        o.status.code(),
+        String::from_utf8_lossy(&o.stdout).into_owned(),
+        String::from_utf8_lossy(&o.stderr).into_owned(),
+    )
+}
+
+#[test]
+fn a_pair_of_canopend_boards_fails_over_under_duocans_redundant_masters_through_the_kit() {
+    let dir = Proc::folder("kit-canopend-pair");
+    let file = dir.join("board_power_loss.toml");
+    std::fs::write(&file, PAIR_SCENARIO).expect("write the scenario");
+    let out = dir.join("run");
+    let (code, stdout, stderr) = kit(
+        &dir,
+        &[
+            "run",
+            file.to_str().unwrap(),
+            "--out",
+            out.to_str().unwrap(),
+        ],
+    );
+    let device_out =
+        |d: &str| std::fs::read_to_string(out.join(format!("{d}.out"))).unwrap_or_default();
+    let all = || {
+        let devices: String = ["master_a", "master_b", "board_a", "board_b"]
+            .iter()
+            .map(|d| format!("--- {d}:\n{}", device_out(d)))
+            .collect();
+        format!("{stdout}{stderr}{devices}")
+    };
+    let v = verdicts(&stdout);
+    for (e, pass, measured) in &v {
+        println!("{} {e}: {measured}", if *pass { "pass" } else { "FAIL" });
+    }
+    assert_eq!(v.len(), 8, "every expectation measured:\n{}", all());
+    let failed: Vec<_> = v.iter().filter(|(_, pass, _)| !pass).collect();
+    assert!(failed.is_empty(), "failed: {failed:?}\n{}", all());
+    assert_eq!(code, Some(0), "{}", all());
+
+    // What the devices themselves say. The active master: A active first, B after A's power
+    // loss, nothing else in between (B never took the role while A ran).
+    let master = device_out("master_a");
+    let roles: Vec<&str> = master
+        .lines()
+        .filter_map(|l| l.strip_prefix("pair 0x10/0x50: "))
+        .collect();
+    assert!(
+        roles.len() == 2 && roles[0].starts_with("A active") && roles[1].starts_with("B active"),
+        "roles {roles:?}\n{}",
+        all()
+    );
+    // canopend B's own log: it went operational by itself, the master sent it back to
+    // pre-operational (standby), and it ran again after A's loss, once started.
+    let board_b = device_out("board_b");
+    let states: Vec<&str> = board_b
+        .lines()
+        .filter_map(|l| l.split("NMT state changed to: \"").nth(1))
+        .filter_map(|l| l.split('"').next())
+        .collect();
+    let mut want = states.iter().skip_while(|s| **s != "pre-operational");
+    assert!(
+        want.next().is_some() && want.any(|s| *s == "operational"),
+        "canopend B: {states:?}\n{}",
+        all()
+    );
+
+    // The kit checks what it says it checks with these boards: the same logs, measured
+    // against a scenario asking for what did not happen, fail, each on its own figure.
+    for (what, from, to, expectation) in [
+        (
+            "the start came at the pair timeout (300 ms), not within 250 ms",
+            "within_ms = 400",
+            "within_ms = 250",
+            "after board A's last heartbeat, board B gets NMT start",
+        ),
+        (
+            "board B was started before the end",
+            "on = [\"vs2b\"]\nto_ms = 4500",
+            "on = [\"vs2b\"]\nto_ms = 6500",
+            "board B is not started while board A runs",
+        ),
+        (
+            "board B ran after the fault",
+            "from_ms = 4000\nto_ms = 4500",
+            "from_ms = 5500\nto_ms = 6000",
+            "board B waits pre-operational",
+        ),
+        (
+            "board A's power loss silenced it: the master's heartbeat did not stop, A's did",
+            "id = 0x701\non = [\"vs2b\"]",
+            "id = 0x710\non = [\"vs1a\"]",
+            "the master's heartbeat never missing",
+        ),
+    ] {
+        assert!(
+            PAIR_SCENARIO.contains(from),
+            "{from:?} is no longer in the scenario"
+        );
+        let wrong = dir.join("wrong.toml");
+        std::fs::write(&wrong, PAIR_SCENARIO.replacen(from, to, 1)).expect("write");
+        let (code, stdout, stderr) = kit(
+            &dir,
+            &[
+                "check",
+                wrong.to_str().unwrap(),
+                "--logs",
+                out.to_str().unwrap(),
+            ],
+        );
+        let v = verdicts(&stdout);
+        let failed: Vec<&str> = v
+            .iter()
+            .filter(|(_, pass, _)| !pass)
+            .map(|(e, _, _)| e.as_str())
+            .collect();
+        assert!(
+            failed.len() == 1 && failed[0].starts_with(expectation),
+            "{what}: expected only {expectation:?} to fail, failed: {failed:?}\n{stdout}{stderr}"
+        );
+        assert_eq!(code, Some(1), "{what}: {stdout}{stderr}");
+    }
 }

@@ -180,27 +180,76 @@ pub fn apply(b: &mut Bridge, s: &Scenario, f: &Fault) {
     }
 }
 
-/// A device's command line with `{duocan}` replaced by this program.
-fn command(run: &[String]) -> Command {
+/// A device's command line with `{duocan}` replaced by this program and `{out}` by the run's
+/// folder (a device that keeps files, such as a stack's stored parameters, keeps them with the
+/// run's logs rather than wherever the kit was started).
+fn command(run: &[String], dir: &Path) -> Command {
     let me = std::env::current_exe()
         .map(|p| p.display().to_string())
         .unwrap_or_else(|_| "duocan".into());
-    let argv: Vec<String> = run.iter().map(|a| a.replace("{duocan}", &me)).collect();
+    let out = dir.display().to_string();
+    let argv: Vec<String> = run
+        .iter()
+        .map(|a| a.replace("{duocan}", &me).replace("{out}", &out))
+        .collect();
     let mut c = Command::new(&argv[0]);
     c.args(&argv[1..]).kill_on_drop(true);
     c
 }
 
-fn start(dir: &Path, name: &str, run: &[String]) -> Result<Child, Fail> {
-    let out = create(dir, &format!("{name}.out"))?
-        .into_inner()
-        .map_err(|e| Fail::usage(e.to_string()))?;
+/// Starts a device, its output into `<name>.out`: a new file at its first start, added to at
+/// each start after (a power cycle, a restart), so that its whole life is there.
+fn start(dir: &Path, name: &str, run: &[String], first: bool) -> Result<Child, Fail> {
+    let p = dir.join(format!("{name}.out"));
+    let out = std::fs::OpenOptions::new()
+        .create(true)
+        .write(true)
+        .truncate(first)
+        .append(!first)
+        .open(&p)
+        .map_err(|e| Fail::usage(format!("{}: {e}", p.display())))?;
     let err = out.try_clone()?;
-    command(run)
+    command(run, dir)
         .stdout(out)
         .stderr(err)
         .spawn()
         .map_err(|e| Fail::usage(format!("device {name}: cannot start {:?}: {e}", run[0])))
+}
+
+/// Waits until `until`; meanwhile a device with `restart` whose program ended by itself is
+/// started again at once (looked at every 5 ms: a board's reboot takes longer than that).
+async fn wait_restarting(
+    until: tokio::time::Instant,
+    t0: tokio::time::Instant,
+    s: &Scenario,
+    dir: &Path,
+    devices: &mut BTreeMap<String, Child>,
+) -> Result<(), Fail> {
+    if !s.devices.iter().any(|d| d.restart) {
+        tokio::time::sleep_until(until).await;
+        return Ok(());
+    }
+    loop {
+        for d in s.devices.iter().filter(|d| d.restart) {
+            let Some(c) = devices.get_mut(&d.name) else {
+                continue;
+            };
+            if let Ok(Some(status)) = c.try_wait() {
+                let child = start(dir, &d.name, &d.run, false)?;
+                devices.insert(d.name.clone(), child);
+                println!(
+                    "{:>7} ms  restart {} (its program ended: {status})",
+                    t0.elapsed().as_millis(),
+                    d.name
+                );
+            }
+        }
+        let now = tokio::time::Instant::now();
+        if now >= until {
+            return Ok(());
+        }
+        tokio::time::sleep_until(until.min(now + std::time::Duration::from_millis(5))).await;
+    }
 }
 
 /// What a run left: where its logs are, and the bridge's counters per member and bus.
@@ -277,8 +326,10 @@ pub async fn run(g: &Global, s: &Scenario, dir: &Path) -> Result<RunResult, Fail
     timeline.extend(s.timeline.iter().cloned());
     timeline.sort_by_key(|(t, _)| *t);
     let mut applied = Timeline::default();
+    let mut started = std::collections::BTreeSet::new();
     for (at, f) in &timeline {
-        tokio::time::sleep_until(t0 + std::time::Duration::from_millis(*at)).await;
+        let until = t0 + std::time::Duration::from_millis(*at);
+        wait_restarting(until, t0, s, dir, &mut devices).await?;
         let elapsed = || u64::try_from(t0.elapsed().as_micros()).unwrap_or(u64::MAX);
         let mut when = elapsed();
         match f {
@@ -295,7 +346,8 @@ pub async fn run(g: &Global, s: &Scenario, dir: &Path) -> Result<RunResult, Fail
                         let _ = old.wait().await;
                     }
                     when = elapsed();
-                    devices.insert(d.clone(), start(dir, d, &dev.run)?);
+                    let first = started.insert(d.clone());
+                    devices.insert(d.clone(), start(dir, d, &dev.run, first)?);
                 }
             }
             _ => {
@@ -314,7 +366,8 @@ pub async fn run(g: &Global, s: &Scenario, dir: &Path) -> Result<RunResult, Fail
         println!("{:>7} ms  {}", when / 1000, describe(f));
     }
     applied.write(dir)?;
-    tokio::time::sleep_until(t0 + std::time::Duration::from_millis(s.duration_ms)).await;
+    let end = t0 + std::time::Duration::from_millis(s.duration_ms);
+    wait_restarting(end, t0, s, dir, &mut devices).await?;
     for (name, mut c) in devices {
         if let Ok(Some(status)) = c.try_wait() {
             println!("          {name} had exited: {status}");
@@ -368,5 +421,86 @@ pub fn describe(f: &Fault) -> String {
         Fault::BabbleStop(m) => format!("babble_stop {m}"),
         Fault::PowerOff(d) => format!("power_off {d}"),
         Fault::PowerOn(d) => format!("power_on {d}"),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A scenario of one device running `script` (sh), restarted or not.
+    fn one_device(script: &str, restart: bool) -> Scenario {
+        let text = format!(
+            r#"
+name = "restart"
+duration_ms = 1000
+[[bus]]
+name = "bus1"
+members = ["x0", "x1"]
+[[device]]
+name = "dev"
+ports = ["x0"]
+run = ["sh", "-c", {script:?}, "sh", "{{out}}"]
+restart = {restart}
+"#
+        );
+        Scenario::parse(&text, "test").unwrap()
+    }
+
+    fn folder(name: &str) -> PathBuf {
+        let d = std::env::temp_dir().join(format!("duocan-kit-{name}-{}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&d);
+        std::fs::create_dir_all(&d).unwrap();
+        d
+    }
+
+    /// Runs the device from its start for 300 ms as a run does; its output.
+    async fn run_for_300ms(s: &Scenario, dir: &Path) -> String {
+        let d = &s.devices[0];
+        let mut devices = BTreeMap::new();
+        devices.insert(d.name.clone(), start(dir, &d.name, &d.run, true).unwrap());
+        let t0 = tokio::time::Instant::now();
+        let end = t0 + std::time::Duration::from_millis(300);
+        wait_restarting(end, t0, s, dir, &mut devices)
+            .await
+            .unwrap();
+        for (_, mut c) in devices {
+            let _ = c.start_kill();
+            let _ = c.wait().await;
+        }
+        std::fs::read_to_string(dir.join("dev.out")).unwrap()
+    }
+
+    #[tokio::test]
+    async fn a_device_whose_program_ends_is_started_again_only_with_restart() {
+        // Each start writes a line to its output and a file into the run's folder ({out}),
+        // then ends at once: restarted, it has started many times in 300 ms (each start's
+        // output kept); not restarted, once.
+        let script = "echo started; echo x >> \"$1/starts\"";
+        let dir = folder("restart");
+        let out = run_for_300ms(&one_device(script, true), &dir).await;
+        let starts = std::fs::read_to_string(dir.join("starts")).unwrap();
+        assert!(out.lines().count() >= 3, "{out:?}");
+        assert_eq!(
+            out.lines().count(),
+            starts.lines().count(),
+            "{out:?} {starts:?}"
+        );
+
+        let dir = folder("no-restart");
+        let out = run_for_300ms(&one_device(script, false), &dir).await;
+        assert_eq!(out, "started\n");
+        assert_eq!(std::fs::read_to_string(dir.join("starts")).unwrap(), "x\n");
+    }
+
+    #[test]
+    fn a_command_names_this_tool_and_the_runs_folder() {
+        let c = command(
+            &["{duocan}".into(), "-s".into(), "{out}/a_".into()],
+            Path::new("/tmp/run"),
+        );
+        let args: Vec<_> = c.as_std().get_args().collect();
+        assert_eq!(args, ["-s", "/tmp/run/a_"]);
+        assert_ne!(c.as_std().get_program(), "{duocan}");
     }
 }

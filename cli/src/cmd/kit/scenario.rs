@@ -14,7 +14,9 @@
 //! name = "board_a"
 //! ports = ["vs1a", "vs2a"]             # the members it is on
 //! run = ["{duocan}", "--bus", "vs1a,vs2a", "device", "board", "--node", "0x10"]
-//! start_ms = 0                         # when the kit starts it (argv; {duocan}: this tool)
+//! start_ms = 0                         # when the kit starts it (argv; {duocan}: this tool,
+//!                                      # {out}: the run's folder)
+//! restart = false                      # started again when its program ends by itself
 //!
 //! [[fault]]
 //! at_ms = 1000
@@ -75,6 +77,8 @@ struct FileDevice {
     start_ms: u64,
     /// What stands in for the device in the simulator.
     sim: Option<String>,
+    #[serde(default)]
+    restart: bool,
 }
 
 #[derive(Deserialize)]
@@ -190,6 +194,10 @@ pub struct Device {
     pub start_ms: u64,
     /// What stands in for it in the simulator.
     pub sim: Option<String>,
+    /// Started again at once when its program ends by itself (not by `power_off`): a device
+    /// whose reset ends its program, as CANopenNode's `canopend` does on NMT reset node, comes
+    /// back with a boot-up as a board does.
+    pub restart: bool,
 }
 
 /// A checked scenario.
@@ -272,6 +280,7 @@ fn check(f: FileScenario) -> Result<Scenario, String> {
             run: d.run,
             start_ms: d.start_ms,
             sim: d.sim,
+            restart: d.restart,
         });
     }
     let is_device = |s: &str| devices.iter().any(|d| d.name == s);
