@@ -1,9 +1,12 @@
 //! `duocan monitor` against the simulated redundant station of `--bus sim`: plain and JSON
-//! lines (`plain`), and the full screen in a real terminal driven through tmux (`tmux`).
+//! lines (`plain`), and the full screen in a real terminal driven through tmux (`tmux`, with
+//! the `peers` feature).
 
 #[path = "../common/mod.rs"]
 mod common;
 mod plain;
+// Needs tmux: run by `.ci/run` (`--features peers`), not by `cargo test --workspace`.
+#[cfg(feature = "peers")]
 mod tmux;
 
 /// The nodes of the simulated station and the state each settles in: masters 0x01 (active)
