@@ -500,6 +500,18 @@ def runs_rows(text):
     return rows
 
 
+def shown(g, quick=False):
+    """The commands that give a group's figures, as the runs table names them (builds left out,
+    a command run several times named once with the count)."""
+    cmds = [c.replace(CRIT, "").rstrip(" -") for c in (g.quick if quick else g.commands)]
+    cmds = [c for c in cmds if not c.startswith("cargo build") and not c.endswith("--no-run")]
+    out = []
+    for c in dict.fromkeys(cmds):
+        n = cmds.count(c)
+        out.append(f"`{c}`" + (f" ({n} times)" if n > 1 else ""))
+    return ", ".join(out)
+
+
 def run_group(g, quick, log):
     crit = "--warm-up-time 0.5 --measurement-time 1 --sample-size 10" if quick else ""
     outputs = []
@@ -531,8 +543,7 @@ def main():
     if a.list:
         for g in GROUPS:
             print(f"{g.name}: {g.title}")
-            for c in g.commands:
-                print(f"    {c.replace(CRIT, '').rstrip(' -')}")
+            print(f"    {shown(g)}")
             print(f"    figures: {', '.join(g.figures)}")
         return 0
     problems = check(text)
@@ -570,11 +581,10 @@ def main():
                 failed.append(g.name)
                 continue
             values.update(got)
-            shown = (g.quick if a.quick else g.commands)[-1].replace(CRIT, "").rstrip(" -")
-            rows[g.name] = f"| {g.name} | `{shown}`{' (quick)' if a.quick else ''} | {date} | {load} |"
+            rows[g.name] = f"| {g.name} | {shown(g, a.quick)}{' (quick)' if a.quick else ''} | {date} | {load} |"
             print(f"--- {g.name}: " + "; ".join(f"{k} = {v.strip()}" for k, v in got.items() if "\n" not in v))
     values["runs"] = "\n" + RUNS_HEAD + "\n" + "\n".join(
-        rows.get(g.name, f"| {g.name} | | not run | |") for g in GROUPS) + "\n"
+        rows.get(g.name, f"| {g.name} | {shown(g)} | not run | |") for g in GROUPS) + "\n"
     new = MARKER.sub(lambda m: f"<!-- figure: {m[1]} -->{values[m[1]]}<!-- /figure -->", text)
     with open(out, "w") as f:
         f.write(new)
