@@ -103,12 +103,13 @@ def criterion(group, function, since):
 
 
 def criterion_all(group, since):
-    """Every benchmark of a criterion group that this run measured: {function: median ns}."""
+    """Every benchmark of a criterion group that this run measured: {function: median ns per
+    element of its throughput (per iteration when it has none)}."""
     out = {}
     for est in glob.glob(os.path.join(target_dir(), "criterion", group, "*", "new", "estimates.json")):
         if os.path.getmtime(est) >= since:
-            with open(est) as f:
-                out[est.split(os.sep)[-3]] = json.load(f)["median"]["point_estimate"]
+            median, elements = criterion(group, est.split(os.sep)[-3], since)
+            out[est.split(os.sep)[-3]] = median / (elements or 1)
     if not out:
         raise Missing(f"criterion {group}: no benchmark of this run")
     return out
@@ -202,9 +203,13 @@ def parse_supervisor(out, since, quick):
 
 
 def parse_driver(out, since, quick):
-    g, _ = criterion("gateway_driver", "per_frame", since)
-    m, _ = criterion("master_driver", "per_frame", since)
-    return {"driver.gateway": ns(g), "driver.master": ns(m)}
+    # One iteration is a millisecond of the board's traffic, its frames the throughput.
+    g, gn = criterion("gateway_driver", "per_frame", since)
+    m, mn = criterion("master_driver", "per_frame", since)
+    if not gn or not mn:
+        raise Missing("criterion gateway_driver/master_driver: no throughput (frames per millisecond)")
+    return {"driver.gateway": ns(g / gn), "driver.master": ns(m / mn), "driver.gateway-ms": ns(g),
+            "driver.master-ms": ns(m)}
 
 
 def parse_boot(out, since, quick):
@@ -430,7 +435,7 @@ GROUPS = [
            "firmware.master-heap"], parse_firmware, needs="the thumbv7em-none-eabihf target and llvm-tools"),
     Group("driver", "firmware path per frame on the host",
           [bench("-p safety-gateway --bench driver"), bench("-p master-board --bench driver")],
-          ["driver.gateway", "driver.master"], parse_driver),
+          ["driver.gateway", "driver.master", "driver.gateway-ms", "driver.master-ms"], parse_driver),
     Group("vcan", "the runtime on vcan in the VM", ["bash .ci/tier-vcan.sh"],
           ["vcan.throughput", "vcan.cpu16", "vcan.cpu1", "vcan.round-trip", "vcan.kit-added", "vcan.kit-rate",
            "vcan.kit-ratio"], parse_vcan,
@@ -519,7 +524,12 @@ def run_group(g, quick, log):
         cmd = c.replace(CRIT, crit)
         print(f"=== {g.name}: {cmd}", flush=True)
         log.write(f"\n=== {cmd}\n")
-        p = subprocess.Popen(cmd, shell=True, cwd=ROOT, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
+        env = dict(os.environ)
+        venv = os.path.join(target_dir(), "pyenv", "bin", "python")  # as .ci/tier-python.sh makes it
+        if "DUOCAN_PYTHON" not in env and os.path.exists(venv):
+            env["DUOCAN_PYTHON"] = venv
+        p = subprocess.Popen(cmd, shell=True, cwd=ROOT, env=env, stdout=subprocess.PIPE, stderr=subprocess.STDOUT,
+                             text=True)
         for line in p.stdout:
             sys.stdout.write(line)
             log.write(line)
@@ -527,6 +537,17 @@ def run_group(g, quick, log):
         if p.wait() != 0:
             raise Missing(f"`{cmd}` exited {p.returncode}" + (f" (needs {g.needs})" if g.needs else ""))
     return "".join(outputs)
+
+
+def write(out, text, values, rows):
+    """The page with the figures in place, written after every group (an interrupted run keeps
+    the groups it finished)."""
+    values["runs"] = "\n" + RUNS_HEAD + "\n" + "\n".join(
+        rows.get(g.name, f"| {g.name} | {shown(g)} | not run | |") for g in GROUPS) + "\n"
+    new = MARKER.sub(lambda m: f"<!-- figure: {m[1]} -->{values[m[1]]}<!-- /figure -->", text)
+    with open(out + ".tmp", "w") as f:
+        f.write(new)
+    os.replace(out + ".tmp", out)
 
 
 def main():
@@ -581,13 +602,10 @@ def main():
                 failed.append(g.name)
                 continue
             values.update(got)
+            write(out, text, values, rows)
             rows[g.name] = f"| {g.name} | {shown(g, a.quick)}{' (quick)' if a.quick else ''} | {date} | {load} |"
             print(f"--- {g.name}: " + "; ".join(f"{k} = {v.strip()}" for k, v in got.items() if "\n" not in v))
-    values["runs"] = "\n" + RUNS_HEAD + "\n" + "\n".join(
-        rows.get(g.name, f"| {g.name} | {shown(g)} | not run | |") for g in GROUPS) + "\n"
-    new = MARKER.sub(lambda m: f"<!-- figure: {m[1]} -->{values[m[1]]}<!-- /figure -->", text)
-    with open(out, "w") as f:
-        f.write(new)
+    write(out, text, values, rows)
     print(f"benchmarks: wrote {out} ({len(chosen) - len(failed)} of {len(chosen)} groups; log in "
           f"{os.path.join(target_dir(), 'benchmarks.log')})")
     if failed:
