@@ -150,7 +150,10 @@ where
     {
         // Run right here, under the state's lock, not handed to the core task: a request (an
         // SDO transfer's first frame) then costs no hop between tasks and no wake-up of the core
-        // task, whose timer moves only when the device's deadline comes earlier than it.
+        // task, whose timer moves only when the device's deadline comes earlier than it. The
+        // call still lets the tasks ready before it run first (the ports' tasks handing over
+        // what they read), as it did when it queued behind them.
+        tokio::task::yield_now().await;
         let (mut f, mut r) = (Some(f), None);
         let ran = self.device.on_device(&mut |d, now| {
             if let Some(f) = f.take() {
@@ -214,6 +217,7 @@ where
             });
             Some(w)
         });
+        tokio::task::yield_now().await;
         if !self.device.watch(start) {
             return Err(RuntimeClosed.into());
         }
