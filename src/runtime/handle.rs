@@ -1,6 +1,6 @@
 //! The application's side of a running runtime.
 
-use super::task::{Command, OnDevice, Start, Watcher};
+use super::task::{Command, Start, Watcher};
 use super::{Clock, RuntimeEvent};
 use crate::cia301::sdo::SdoError;
 use crate::frame::instant::Instant;
@@ -91,9 +91,7 @@ impl From<QueueFull> for RuntimeError {
 /// A cloneable handle to a running device. The runtime runs while any handle exists: dropping
 /// the last one stops it, as does [`Handle::shutdown`].
 pub struct Handle<D: crate::Device> {
-    commands: mpsc::UnboundedSender<Command>,
-    /// The device, run on in the caller's task.
-    device: Arc<dyn OnDevice<D>>,
+    commands: mpsc::UnboundedSender<Command<D>>,
     events: broadcast::Sender<RuntimeEvent<D::Event>>,
     clock: Clock,
     names: Arc<[String]>,
@@ -105,7 +103,6 @@ impl<D: crate::Device> Clone for Handle<D> {
     fn clone(&self) -> Self {
         Handle {
             commands: self.commands.clone(),
-            device: self.device.clone(),
             events: self.events.clone(),
             clock: self.clock,
             names: self.names.clone(),
@@ -121,8 +118,7 @@ where
     D::Event: Clone + Send + 'static,
 {
     pub(crate) fn new(
-        commands: mpsc::UnboundedSender<Command>,
-        device: Arc<dyn OnDevice<D>>,
+        commands: mpsc::UnboundedSender<Command<D>>,
         events: broadcast::Sender<RuntimeEvent<D::Event>>,
         clock: Clock,
         names: Vec<String>,
@@ -131,7 +127,6 @@ where
     ) -> Self {
         Handle {
             commands,
-            device,
             events,
             clock,
             names: names.into(),
@@ -148,22 +143,14 @@ where
         F: FnOnce(&mut D, Instant) -> R + Send + 'static,
         R: Send + 'static,
     {
-        // Run right here, under the state's lock, not handed to the core task: a request (an
-        // SDO transfer's first frame) then costs no hop between tasks and no wake-up of the core
-        // task, whose timer moves only when the device's deadline comes earlier than it. The
-        // call still lets the tasks ready before it run first (the ports' tasks handing over
-        // what they read), as it did when it queued behind them.
-        tokio::task::yield_now().await;
-        let (mut f, mut r) = (Some(f), None);
-        let ran = self.device.on_device(&mut |d, now| {
-            if let Some(f) = f.take() {
-                r = Some(f(d, now));
-            }
+        let (tx, rx) = oneshot::channel();
+        let call = Box::new(move |d: &mut D, now: Instant| {
+            let _ = tx.send(f(d, now));
         });
-        match r {
-            Some(r) if ran => Ok(r),
-            _ => Err(RuntimeClosed),
-        }
+        self.commands
+            .send(Command::Call(call))
+            .map_err(|_| RuntimeClosed)?;
+        rx.await.map_err(|_| RuntimeClosed)
     }
 
     /// [`Handle::call`] for a fallible `f`: its error and a stopped runtime come back as one
@@ -206,7 +193,7 @@ where
             let w: Watcher<D::Event> = Box::new(move |e: &D::Event| match done(&token, e) {
                 Some(r) => {
                     if let Some(tx) = tx.take() {
-                        // Woken once the runtime gives its lock back (see `defer`).
+                        // Woken once the runtime gives its locks back (see `defer`).
                         super::defer::after_unlock(move || {
                             let _ = tx.send(r);
                         });
@@ -217,10 +204,9 @@ where
             });
             Some(w)
         });
-        tokio::task::yield_now().await;
-        if !self.device.watch(start) {
-            return Err(RuntimeClosed.into());
-        }
+        self.commands
+            .send(Command::Watch(start))
+            .map_err(|_| RuntimeClosed)?;
         rx.await.map_err(|_| RuntimeClosed)?
     }
 

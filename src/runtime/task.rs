@@ -1,13 +1,12 @@
-//! The device's state, shared by the core task (the device's deadlines), the handles (calls
-//! run in the caller's task) and the port tasks (what the ports read, what they write).
+//! The device's state, shared by the core task (commands, the device's deadlines) and the port
+//! tasks (what the ports read, what they write).
 //!
 //! A port task that reads a frame hands it to the device itself, under the state's lock, and
 //! writes what the device answers on its own port right after: a frame in, its answer out, with
 //! no task hand-off between. Frames for another port are queued for that port's task (bounded:
-//! a full queue drops and counts), which is woken. A handle's call runs on the device in the
-//! caller's task under the same lock. The core task waits for the device's next deadline (and
-//! a shutdown); calls and port tasks wake it only when the device's deadline moved earlier than
-//! the one it waits for.
+//! a full queue drops and counts), which is woken. The core task waits for commands from
+//! handles and for the device's next deadline, and runs them under the same lock; port tasks
+//! wake it only when the device's deadline moved earlier than the one it waits for.
 
 use super::defer::Unlocked;
 use super::{Clock, RuntimeEvent, PORT_TX_QUEUE};
@@ -19,14 +18,18 @@ use std::collections::VecDeque;
 use std::sync::{Arc, Mutex};
 use tokio::sync::{broadcast, mpsc, Notify};
 
+/// A closure run on the device inside the core task.
+pub(crate) type Call<D> = Box<dyn FnOnce(&mut D, crate::Instant) + Send>;
+
 /// Sees every event of the device until it returns true (it got what it waited for).
 pub(crate) type Watcher<E> = Box<dyn FnMut(&E) -> bool + Send>;
 
 /// Starts something and returns the watcher that completes it, if it started.
 pub(crate) type Start<D, E> = Box<dyn FnOnce(&mut D, crate::Instant) -> Option<Watcher<E>> + Send>;
 
-/// What a handle asks of the core task (calls run in the caller's task: [`OnDevice`]).
-pub(crate) enum Command {
+pub(crate) enum Command<D: Device> {
+    Call(Call<D>),
+    Watch(Start<D, D::Event>),
     Shutdown,
 }
 
@@ -73,20 +76,6 @@ pub(crate) trait Hub: Send + Sync + 'static {
     ) -> Option<bool>;
     /// The runtime still runs.
     fn is_open(&self) -> bool;
-}
-
-/// What a handle sees of the state: the device, run on under the state's lock right in the
-/// caller's task (see [`super::Handle::call`]).
-pub(crate) trait OnDevice<D>: Send + Sync + 'static {
-    /// Runs `f` on the device at the runtime's time, then moves what it produced to the ports
-    /// and the subscribers and wakes whoever got work; false (`f` not run) when the runtime
-    /// has stopped.
-    fn on_device(&self, f: &mut dyn FnMut(&mut D, crate::Instant)) -> bool;
-    /// Runs `start` on the device and keeps the watcher it returns (see
-    /// [`super::Handle::request`]); false (not run) when the runtime has stopped.
-    fn watch(&self, start: Start<D, D::Event>) -> bool
-    where
-        D: Device;
 }
 
 /// A port task's batch of work taken from its queue (fixed size: no allocation per frame).
@@ -374,35 +363,6 @@ where
     }
 }
 
-impl<D: Device + Send + 'static> OnDevice<D> for Shared<D>
-where
-    D::Event: Send + std::fmt::Debug,
-{
-    fn on_device(&self, f: &mut dyn FnMut(&mut D, crate::Instant)) -> bool {
-        self.with(|st| {
-            if st.closed {
-                return false;
-            }
-            let now = st.now();
-            f(&mut st.device, now);
-            true
-        }) == Some(true)
-    }
-
-    fn watch(&self, start: Start<D, D::Event>) -> bool {
-        self.with(|st| {
-            if st.closed {
-                return false;
-            }
-            let now = st.now();
-            if let Some(w) = start(&mut st.device, now) {
-                st.watchers.push(w);
-            }
-            true
-        }) == Some(true)
-    }
-}
-
 impl<D: Device + Send + 'static> Hub for Shared<D>
 where
     D::Event: Send + std::fmt::Debug,
@@ -525,9 +485,11 @@ pub(crate) fn move_into(q: &mut VecDeque<PortCmd>, into: &mut Outbox) {
     }
 }
 
-/// The core task: the device's deadlines, until a shutdown or the last handle's drop.
-pub(crate) async fn run<D>(shared: Arc<Shared<D>>, mut commands: mpsc::UnboundedReceiver<Command>)
-where
+/// The core task: commands from handles and the device's deadlines.
+pub(crate) async fn run<D>(
+    shared: Arc<Shared<D>>,
+    mut commands: mpsc::UnboundedReceiver<Command<D>>,
+) where
     D: Device + Send + 'static,
     D::Event: Send + std::fmt::Debug,
 {
@@ -554,8 +516,26 @@ where
             set_for = Some(deadline);
         }
         tokio::select! {
-            // A shutdown, or the last handle gone.
-            Some(Command::Shutdown) | None = commands.recv() => break,
+            cmd = commands.recv() => {
+                let stop = shared.with(|st| match cmd {
+                    Some(Command::Call(f)) => {
+                        let now = st.now();
+                        f(&mut *st.device, now);
+                        false
+                    }
+                    Some(Command::Watch(start)) => {
+                        let now = st.now();
+                        if let Some(w) = start(&mut *st.device, now) {
+                            st.watchers.push(w);
+                        }
+                        false
+                    }
+                    Some(Command::Shutdown) | None => true,
+                });
+                if stop != Some(false) {
+                    break;
+                }
+            }
             () = shared.core.notified() => {}
             () = &mut sleep, if deadline.is_some() => {
                 // Set the timer again next time round, even for the same deadline.
