@@ -146,7 +146,12 @@ impl Starts {
         self.streams.retain(|(s, _)| *s != id);
         if let Some(i) = self.running.iter().position(|(r, _)| *r == id) {
             let (_, reply) = self.running.swap_remove(i);
-            let _ = reply.send(r.clone().map_err(NetError::Sdo));
+            let r = r.clone().map_err(NetError::Sdo);
+            // The caller is woken once the runtime gives its lock back: its next call does not
+            // find the lock held by the thread that woke it.
+            crate::runtime::after_unlock(move || {
+                let _ = reply.send(r);
+            });
         }
     }
 

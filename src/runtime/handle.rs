@@ -193,7 +193,10 @@ where
             let w: Watcher<D::Event> = Box::new(move |e: &D::Event| match done(&token, e) {
                 Some(r) => {
                     if let Some(tx) = tx.take() {
-                        let _ = tx.send(r);
+                        // Woken once the runtime gives its locks back (see `defer`).
+                        super::defer::after_unlock(move || {
+                            let _ = tx.send(r);
+                        });
                     }
                     true
                 }

@@ -19,7 +19,9 @@
 //! again. The core task runs the commands of
 //! [`Handle`]s and sleeps until the device's [`poll_timeout`](Device::poll_timeout): there is
 //! no fixed tick, and a deadline that fell before a frame was read is handled before that
-//! frame, at its own instant. Nothing on the way of a frame allocates.
+//! frame, at its own instant. Nothing on the way of a frame allocates. A task waiting for what
+//! a frame completes (a transfer's outcome) is woken once the runtime's locks are given back,
+//! so that its next call does not find them still held by the thread that woke it.
 //!
 //! A port that can read by blocking ([`Port::reader`]: SocketCAN ports) is read by a thread of
 //! its own instead, which waits in the socket's `read` as a bare loop does (one system call per
@@ -79,6 +81,7 @@
 //! }
 //! ```
 
+mod defer;
 mod handle;
 mod node;
 mod port_task;
@@ -86,6 +89,7 @@ mod reader;
 mod sdo;
 mod task;
 
+pub(crate) use defer::after_unlock;
 pub use handle::{Handle, RuntimeClosed, RuntimeError};
 pub use node::{LocalNode, NodeHost};
 pub use port_task::{BACKOFF_MAX, BACKOFF_MIN};

@@ -8,6 +8,7 @@
 //! handles and for the device's next deadline, and runs them under the same lock; port tasks
 //! wake it only when the device's deadline moved earlier than the one it waits for.
 
+use super::defer::Unlocked;
 use super::{Clock, RuntimeEvent, PORT_TX_QUEUE};
 use crate::capture::recorder::{Tap, TapDirection, TapPoint};
 use crate::frame::Frame;
@@ -51,6 +52,9 @@ pub(crate) trait Hub: Send + Sync + 'static {
     /// Hands `x`, read from `port` at `at`, to the device (after any deadline that fell before
     /// it) and moves what the device has to the ports. False when the runtime has stopped.
     fn input(&self, port: usize, x: PortInput, at: crate::Instant) -> bool;
+    /// [`Hub::input`] for a reader thread that does not hold its port's writer lock: what the
+    /// device answers on `port` too is queued for the port's task, which is woken.
+    fn input_queued(&self, port: usize, x: PortInput, at: crate::Instant) -> bool;
     /// Moves what is queued for `port`, oldest first, into `into` as far as it has room. False
     /// when the runtime has stopped and nothing is left for the port; after the stop only
     /// frames are moved (a port task writes them and takes again until this says false).
@@ -311,6 +315,7 @@ where
 
     /// Runs `f` on the state, then flushes and wakes whoever got work.
     pub fn with<R>(&self, f: impl FnOnce(&mut State<D>) -> R) -> Option<R> {
+        let _later = Unlocked::new();
         let mut st = self.state.lock().ok()?;
         let r = f(&mut st);
         let woken = st.flush();
@@ -363,6 +368,7 @@ where
     D::Event: Send + std::fmt::Debug,
 {
     fn input(&self, port: usize, x: PortInput, at: crate::Instant) -> bool {
+        let _later = Unlocked::new();
         let Ok(mut st) = self.state.lock() else {
             return false;
         };
@@ -372,6 +378,20 @@ where
         st.input(port, x, at);
         let woken = st.flush();
         self.wake(&st, woken, Some(port));
+        true
+    }
+
+    fn input_queued(&self, port: usize, x: PortInput, at: crate::Instant) -> bool {
+        let _later = Unlocked::new();
+        let Ok(mut st) = self.state.lock() else {
+            return false;
+        };
+        if st.closed {
+            return false;
+        }
+        st.input(port, x, at);
+        let woken = st.flush();
+        self.wake(&st, woken, None);
         true
     }
 
@@ -426,6 +446,7 @@ where
         at: crate::Instant,
         into: &mut Outbox,
     ) -> Option<bool> {
+        let _later = Unlocked::new();
         let mut st = self.state.lock().ok()?;
         if st.closed {
             return None;

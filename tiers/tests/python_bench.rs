@@ -3,7 +3,9 @@
 //! one runtime), and a PDO echo by
 //! each stack, with wall time, throughput and the CPU seconds of each side, then the ratios,
 //! over several rounds (median and spread); twenty duocan nodes read at once through one handle
-//! against one; and the bare transport's round trip, the floor any stack stands on. The
+//! against one; the bare transport's round trip, the floor any stack stands on; and
+//! one-at-a-time reads through the front door (`duocan::net::Network`) on one bus and the
+//! redundant door on two, as ratios of the bare ping-pong (`common/door_speed.rs`). The
 //! comparison figures in BENCHMARKS.md come from this table.
 //!
 //! Run by `.ci/tier-python.sh` (not with `--no-bench`), inside `unshare -n`:
@@ -13,6 +15,8 @@
 //! CPU time is read from the kernel's per-thread clocks: each duocan side runs on a tokio
 //! runtime of its own whose threads carry its name, and python reports its process's own.
 
+#[path = "common/door_speed.rs"]
+mod door_speed;
 #[path = "common/peer.rs"]
 mod peer;
 #[path = "../../tests/common/runtime.rs"]
@@ -452,6 +456,13 @@ fn duocan_and_python_canopen_side_by_side() {
     }
 
     let rtt = wire::round_trip(&UdpBusConfig::numbered(14), 5_000);
+    // One-at-a-time reads through the front door, on one bus and on two, against the bare
+    // ping-pong: side by side, on buses of their own.
+    let door = door_speed::measure(
+        &[55, 56, 57, 58, 59].map(UdpBusConfig::numbered),
+        5_000,
+        rounds.max(3),
+    );
     srv.block_on(server.shutdown());
     srv.block_on(py_server.shutdown());
 
@@ -527,6 +538,7 @@ fn duocan_and_python_canopen_side_by_side() {
          trip ({:.0} round trips/s, the ceiling of one-at-a-time SDO reads)",
         1e6 / rtt
     );
+    println!("{}", door.report());
     // The comparison must say something that noise cannot turn over: on a machine shared with
     // other work the wall times spread (read the medians), but on every row duocan's client
     // spends less CPU than python's for the same transfer.
