@@ -363,6 +363,17 @@ def parse_python(out, since, quick):
             "python.bare": f"{bare[1]} µs ({num(int(bare[2]))} round trips/s"}
 
 
+def parse_door(out, since, quick):
+    rounds = find(r"^one-at-a-time SDO reads through the door against the bare ping-pong, (\d+) rounds", out, "door_speed")
+    bare = find(r"^bare socket ping-pong, one bus: (\d+) round trips/s", out, "door_speed bare")
+    one = find(r"^door, one bus: (\d+) reads/s, ([\d.]+) of the ping-pong", out, "door_speed one bus")
+    two = find(r"^door, two buses \(redundant\): (\d+) reads/s, ([\d.]+) of the one-bus ping-pong", out,
+               "door_speed two buses")
+    two_bare = find(r"the redundant door ([\d.]+) of it", out, "door_speed two buses, bare")
+    return {"door.rounds": rounds[1], "door.bare": f"{num(int(bare[1]))} round trips/s",
+            "door.one": f"{one[2]} ({num(int(one[1]))} reads/s)", "door.two": two[2], "door.two-bare": two_bare[1]}
+
+
 def parse_fuzz(out, since, quick):
     done = re.findall(r"^== fuzz: (\w+): (?:#(\d+) +DONE|Done (\d+) runs)", out, re.M)
     if not done:
@@ -418,6 +429,15 @@ GROUPS = [
                               "python --test python_bench -- --nocapture")],
           needs="DUOCAN_PYTHON: a python with python-can and canopen (.ci/tier-python.sh makes one in "
                 "target/pyenv), and unshare -rn"),
+    Group("door", "one-at-a-time reads through the front door",
+          ["cargo test --release -p duocan-tiers --features python --test door_speed --no-run",
+           NETNS.format("DUOCAN_BENCH_ROUNDS=7 DUOCAN_BENCH_READS=3000 cargo test --release --offline -p duocan-tiers "
+                        "--features python --test door_speed -- --nocapture")],
+          ["door.rounds", "door.bare", "door.one", "door.two", "door.two-bare"], parse_door,
+          quick=["cargo test --release -p duocan-tiers --features python --test door_speed --no-run",
+                 NETNS.format("DUOCAN_BENCH_ROUNDS=1 DUOCAN_BENCH_READS=300 cargo test --release --offline -p "
+                              "duocan-tiers --features python --test door_speed -- --nocapture")],
+          needs="unshare -rn (a user namespace) for the private UDP networks"),
     Group("demo", "the demo",
           ["cargo build --release --example demo"]
           + ["cargo run -q --release --example demo -- --out target/demo"] * 3,
