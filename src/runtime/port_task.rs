@@ -282,9 +282,6 @@ mod tests {
         fn take_frames(&self, _: usize, _: &mut Outbox) -> Option<bool> {
             unreachable!("the dead port has no reader thread")
         }
-        fn input_queued(&self, _: usize, _: PortInput, _: Instant) -> bool {
-            unreachable!("the dead port has no reader thread")
-        }
         fn input_take(&self, _: usize, _: PortInput, _: Instant, _: &mut Outbox) -> Option<bool> {
             unreachable!("the dead port has no reader thread")
         }

@@ -48,9 +48,9 @@ impl Drop for Current {
     }
 }
 
-/// The port's writer lock, between its reader thread (which tries it for every frame it reads:
-/// one atomic swap each way, no wait machinery; it never waits for it) and its task (which
-/// takes it seldom: for what the device sends on timers and commands).
+/// The port's writer lock, between its reader thread (which takes it for every frame it reads:
+/// one atomic swap each way, no wait machinery) and its task (which takes it seldom: for what
+/// the device sends on timers and commands).
 #[derive(Default)]
 struct WriterLock {
     busy: AtomicBool,
@@ -98,6 +98,22 @@ impl WriterLock {
                 return t;
             }
             freed.await;
+        }
+    }
+
+    /// For the reader thread: the task holds the lock only while it writes a few frames.
+    fn take_blocking(&self) -> Turn<'_> {
+        let mut tries = 0u32;
+        loop {
+            if let Some(t) = self.try_take() {
+                return t;
+            }
+            tries += 1;
+            if tries < 64 {
+                std::thread::yield_now();
+            } else {
+                std::thread::sleep(std::time::Duration::from_micros(100));
+            }
         }
     }
 }
@@ -273,21 +289,10 @@ impl Thread {
                     // They were read at one instant: the clock is read once for them all.
                     let at = self.clock.now();
                     // The writer lock first, then the state's: the order the task takes them in.
-                    // The task holds it only while it writes what timers and calls queued; if
-                    // it holds it now (perhaps preempted in the middle, on a busy machine), the
-                    // batch does not wait for it: its inputs go to the device at once and
-                    // their answers join the port's queue, which the task is woken to serve in
-                    // order (an answer to the door, the usual input of a client, has none).
-                    let Some(_turn) = self.writer.try_take() else {
-                        let mut next = Some(x);
-                        while let Some(x) = next {
-                            if !self.hub.input_queued(self.index, x, at) {
-                                return;
-                            }
-                            next = reader.read_ready();
-                        }
-                        continue;
-                    };
+                    // The reader waits for it (the task holds it only while it writes what
+                    // timers and calls queued) so that the batch's answers go out from here, in
+                    // this turn, with no hand-over to the port's task.
+                    let _turn = self.writer.take_blocking();
                     // What the port read with this input in the same system call is handed on
                     // under the same turn, and the answers to all of them sent together.
                     let mut next = Some(x);

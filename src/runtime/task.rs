@@ -52,9 +52,6 @@ pub(crate) trait Hub: Send + Sync + 'static {
     /// Hands `x`, read from `port` at `at`, to the device (after any deadline that fell before
     /// it) and moves what the device has to the ports. False when the runtime has stopped.
     fn input(&self, port: usize, x: PortInput, at: crate::Instant) -> bool;
-    /// [`Hub::input`] for a reader thread that does not hold its port's writer lock: what the
-    /// device answers on `port` too is queued for the port's task, which is woken.
-    fn input_queued(&self, port: usize, x: PortInput, at: crate::Instant) -> bool;
     /// Moves what is queued for `port`, oldest first, into `into` as far as it has room. False
     /// when the runtime has stopped and nothing is left for the port; after the stop only
     /// frames are moved (a port task writes them and takes again until this says false).
@@ -378,20 +375,6 @@ where
         st.input(port, x, at);
         let woken = st.flush();
         self.wake(&st, woken, Some(port));
-        true
-    }
-
-    fn input_queued(&self, port: usize, x: PortInput, at: crate::Instant) -> bool {
-        let _later = Unlocked::new();
-        let Ok(mut st) = self.state.lock() else {
-            return false;
-        };
-        if st.closed {
-            return false;
-        }
-        st.input(port, x, at);
-        let woken = st.flush();
-        self.wake(&st, woken, None);
         true
     }
 
