@@ -17,6 +17,7 @@
 
 #[path = "common/door_speed.rs"]
 mod door_speed;
+use door_speed::runtime;
 #[path = "common/peer.rs"]
 mod peer;
 #[path = "../../tests/common/runtime.rs"]
@@ -48,16 +49,6 @@ const ECHO_WINDOW: u64 = 16;
 /// Nodes read at once through one handle, node-IDs from [`FIRST_OF_MANY`].
 const CONCURRENT: u8 = 20;
 const FIRST_OF_MANY: u8 = 0x50;
-
-/// A tokio runtime of one worker whose threads are named `name` (their CPU is counted by it).
-fn runtime(name: &str) -> tokio::runtime::Runtime {
-    tokio::runtime::Builder::new_multi_thread()
-        .worker_threads(1)
-        .thread_name(name)
-        .enable_all()
-        .build()
-        .unwrap()
-}
 
 /// CPU seconds so far of this process's threads named `name`: the runtime's workers and its
 /// ports' reader threads (named `name-rxN` after the worker that starts them).

@@ -93,7 +93,7 @@ use alloc::boxed::Box;
 use alloc::string::{String, ToString};
 use alloc::vec::Vec;
 use duocan::master::SlaveView;
-use duocan::net::{Awaited, NetError, NetOptions, Network};
+use duocan::net::{Awaited, NetError, NetEvent, NetOptions, Network};
 use duocan::port::Port;
 use duocan::{Instant, NmtState, NodeId};
 
@@ -168,6 +168,8 @@ impl RedundantNetwork {
     ) -> Result<u8, RedundantError> {
         let node = NodeId::new(a).ok_or(NetError::NoSuchNode(a))?;
         let until = tokio::time::Instant::now() + timeout;
+        // Listening before the first look: a change between the look and the wait is not missed.
+        let mut events = self.events();
         loop {
             let running = self
                 .call(move |n, _| {
@@ -182,16 +184,28 @@ impl RedundantNetwork {
             if let Some(id) = running {
                 return Ok(id);
             }
-            if tokio::time::Instant::now() >= until {
-                return Err(NetError::Timeout {
-                    node,
-                    awaited: Awaited::State(NmtState::Operational),
-                    after: timeout,
+            // The pair table changes with what also reaches the stream (a member's state, a
+            // pair's role): look again after such an event, not on a timer.
+            loop {
+                match tokio::time::timeout_at(until, events.next()).await {
+                    Err(_) => {
+                        return Err(NetError::Timeout {
+                            node,
+                            awaited: Awaited::State(NmtState::Operational),
+                            after: timeout,
+                        }
+                        .into())
+                    }
+                    Ok(None) => return Err(NetError::Closed.into()),
+                    Ok(Some(
+                        NetEvent::State { .. }
+                        | NetEvent::BootUp { .. }
+                        | NetEvent::Ext(_)
+                        | NetEvent::Lagged(_),
+                    )) => break,
+                    Ok(Some(_)) => {}
                 }
-                .into());
             }
-            // The pair table changes on the boards' heartbeats: a fraction of their period.
-            tokio::time::sleep(std::time::Duration::from_millis(10)).await;
         }
     }
 

@@ -63,7 +63,8 @@ fn round_trip_two(a: &UdpBusConfig, b: &UdpBusConfig, n: u32) -> f64 {
     per_s
 }
 
-fn runtime(name: &str) -> tokio::runtime::Runtime {
+/// A tokio runtime of one worker whose threads are named `name` (their CPU is counted by it).
+pub fn runtime(name: &str) -> tokio::runtime::Runtime {
     tokio::runtime::Builder::new_multi_thread()
         .worker_threads(1)
         .thread_name(name)
