@@ -15,7 +15,7 @@ use std::time::Duration;
 /// Opens the port `DUOCAN_BUS` names (simulated nodes by default) and runs the example.
 #[tokio::main]
 pub async fn main() -> Result<(), NetError> {
-    let port = std::env::var("DUOCAN_BUS").unwrap_or_else(|_| "sim".into());
+    let port = std::env::var("DUOCAN_BUS").unwrap_or_else(|_| "sim-nodes".into());
     monitor(Network::monitor_named(&port)?, |line| println!("{line}")).await
 }
 

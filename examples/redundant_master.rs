@@ -7,20 +7,20 @@
 //!     --features socketcan,duocan-redundancy/socketcan    # two real buses, until Ctrl-C
 //! ```
 //!
-//! `DUOCAN_BUS` names the two ports as `RedundantNetworkBuilder::open_named` takes them: `sim`
+//! `DUOCAN_BUS` names the two ports as `RedundantNetworkBuilder::open_named` takes them: `sim-pairs`
 //! (the default: two in-memory buses with boards 0x10 and 0x50 and master 1 on them, where bus 1
 //! of this master fails at 2 s, master 1 stops at 3 s and the active board at 4 s) or two
 //! SocketCAN interfaces `A,B`. This master is node 2; master 1 outranks it (same priority, lower
 //! node-ID), so it stands by until master 1 falls silent.
 
-use duocan::Duration;
 use duocan_redundancy::net::RedundantNetwork;
 use duocan_redundancy::RedundantError;
+use std::time::Duration;
 
 /// Opens the ports `DUOCAN_BUS` names (a simulated station by default) and runs the example.
 #[tokio::main]
 pub async fn main() -> Result<(), RedundantError> {
-    let port = std::env::var("DUOCAN_BUS").unwrap_or_else(|_| "sim".into());
+    let port = std::env::var("DUOCAN_BUS").unwrap_or_else(|_| "sim-pairs".into());
     run(&port, |line| println!("{line}")).await
 }
 

@@ -18,7 +18,7 @@ use std::time::Duration;
 /// Opens the ports `DUOCAN_BUS` names (a simulated station by default) and runs the example.
 #[tokio::main]
 pub async fn main() -> Result<(), Box<dyn Error>> {
-    let port = std::env::var("DUOCAN_BUS").unwrap_or_else(|_| "sim".into());
+    let port = std::env::var("DUOCAN_BUS").unwrap_or_else(|_| "sim-pairs".into());
     run(&port).await.map(|_| ())
 }
 

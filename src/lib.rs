@@ -42,7 +42,7 @@
 //!
 //! An application that talks to nodes starts at the front door, [`net`] (feature `tokio`): a
 //! network handle on a port and remote nodes with typed SDO, NMT and events, as python
-//! `canopen` users know them. `"sim"` is an in-memory bus with simulated nodes 1–10, so this
+//! `canopen` users know them. `"sim-nodes"` is an in-memory bus with simulated nodes 1–10, so this
 //! runs without hardware; `"can0"` (feature `socketcan`) or `"udp"` (feature `udp`) is a real
 //! bus.
 //!
@@ -52,7 +52,7 @@
 //! # async fn main() -> Result<(), duocan::net::NetError> {
 //! use duocan::net::Network;
 //!
-//! let net = Network::open_named("sim")?;
+//! let net = Network::open_named("sim-nodes")?;
 //! let vendor: u32 = net.node(5).sdo().read(0x1018, 1).await?;
 //! assert_eq!(vendor, duocan::net::SIM_VENDOR);
 //! # Ok(())

@@ -29,7 +29,7 @@ impl Bus {
     pub fn desc(&self, node: u8) -> Option<&Arc<Description>> {
         self.descs.get(&node)
     }
-    /// Stops the network (and the simulated station behind `sim`).
+    /// Stops the network (and the simulated nodes or station behind it).
     pub async fn close(self) {
         self.net.close().await;
     }
@@ -60,19 +60,29 @@ pub fn open_tapped(
     open_with(g, opts)
 }
 
-/// True when `--bus` names the built-in simulated station.
-pub fn is_sim(names: &[String]) -> bool {
-    matches!(names, [one] if one == "sim" || one == "sim:faults")
+/// True when `--bus` names the built-in simulated station (`sim-station`, `sim-station:faults`).
+pub fn is_sim_station(names: &[String]) -> bool {
+    matches!(names, [one] if one == "sim-station" || one == "sim-station:faults")
+}
+
+/// True when `--bus` names a built-in simulated network (the station, or `sim-nodes`: one bus
+/// with nodes 1 to 10), whose nodes carry the simulated description by themselves.
+pub fn is_simulated(names: &[String]) -> bool {
+    is_sim_station(names) || matches!(names, [one] if one == "sim-nodes")
 }
 
 /// [`open`] with `opts` (a tap, for the commands that watch the wire).
 pub fn open_with(g: &Global, opts: NetOptions) -> Result<Bus, Fail> {
     let names = g.bus.clone().ok_or_else(|| {
-        Fail::usage("no bus: give --bus can0 (or can0,can1, udp, sim), or set DUOCAN_BUS")
+        Fail::usage("no bus: give --bus can0 (or can0,can1, udp, sim-station), or set DUOCAN_BUS")
     })?;
-    let sim = is_sim(&names.0);
+    let station = is_sim_station(&names.0);
     let net = match names.0.as_slice() {
-        [one] if sim => open_dual_named(one, opts).map_err(|e| Fail::bus(e.to_string()))?,
+        [one] if station => open_dual_named(one, opts).map_err(|e| Fail::bus(e.to_string()))?,
+        // `sim-nodes`, or a name that looks simulated and is told which ones there are.
+        [one] if one == "sim" || one.starts_with("sim-") || one.starts_with("sim:") => {
+            Network::open_named_with(one, opts)?
+        }
         [one] => open_one(g, one, opts)?,
         [a, b] => open_dual(
             ports::open(a, g.udp_interface)?,
@@ -83,11 +93,16 @@ pub fn open_with(g: &Global, opts: NetOptions) -> Result<Bus, Fail> {
         _ => return Err(Fail::usage("--bus names one or two interfaces")),
     };
     let mut descs = BTreeMap::new();
-    if sim {
-        // The station's plain slaves are duocan's simulated nodes: their names work out of the
-        // box.
+    if is_simulated(&names.0) {
+        // The station's plain slaves and the nodes of `sim-nodes` are duocan's simulated
+        // nodes: their names work out of the box.
         let d = Arc::new(duocan::net::sim_description()?);
-        for id in SIM_SLAVES {
+        let ids = if station {
+            SIM_SLAVES.to_vec()
+        } else {
+            (1..=10).collect()
+        };
+        for id in ids {
             descs.insert(id, d.clone());
         }
     }

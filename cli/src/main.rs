@@ -2,11 +2,11 @@
 //! network from a terminal.
 //!
 //! ```text
-//! duocan --bus sim scan                       # the built-in simulated station
+//! duocan --bus sim-station scan               # the built-in simulated station
 //! duocan --bus can0 sdo read 5 0x1018 1 u32
 //! duocan --bus can0,can1 monitor              # two ports, one logical bus
 //! duocan --bus udp nmt start all              # python-can's UDP bus
-//! duocan --bus sim lss fastscan --assign 0x20 # LSS: boards without a node-ID get one
+//! duocan --bus sim-station lss fastscan --assign 0x20 # LSS: boards without a node-ID get one
 //! ```
 //!
 //! Exit status: 0 done, 1 the network did not do it (an abort code and its meaning, a node
@@ -35,7 +35,7 @@ use std::process::ExitCode;
     version,
     about = "Commission, watch and debug a single- or dual-bus CANopen network",
     after_help = "Exit status: 0 done, 1 a protocol error (abort code, no answer), 2 usage, 3 no bus.\n\
-                  Try it without hardware: duocan --bus sim scan"
+                  Try it without hardware: duocan --bus sim-station scan"
 )]
 struct Cli {
     #[command(flatten)]
@@ -48,7 +48,9 @@ struct Cli {
 #[derive(clap::Args, Clone, Debug)]
 pub struct Global {
     /// The bus: a SocketCAN interface (can0), two as one logical bus (can0,can1), python-can's
-    /// UDP bus (udp, udp:N, udp:GROUP:PORT), or `sim`, a built-in simulated station
+    /// UDP bus (udp, udp:N, udp:GROUP:PORT), or a built-in simulated network: `sim-station` (a
+    /// redundant station on two buses), `sim-station:faults` (the same, failing and coming back),
+    /// `sim-nodes` (one bus with nodes 1 to 10)
     #[arg(long, short, global = true, env = "DUOCAN_BUS", value_parser = bus_arg)]
     pub bus: Option<BusArg>,
     /// The address of the interface the UDP bus uses (default: loopback only)

@@ -1,4 +1,4 @@
-//! `duocan scan`, `pdo`, `eds` and `flash` against the simulated nodes of `--bus sim`.
+//! `duocan scan`, `pdo`, `eds` and `flash` against the simulated nodes of `--bus sim-station`.
 
 mod common;
 #[path = "common/eds_compare.rs"]
@@ -79,9 +79,16 @@ fn scan_text_lines_up_and_listening_alone_finds_the_heartbeats() {
 #[test]
 fn scan_shows_the_bus_a_node_is_no_longer_heard_on() {
     let _one = one_station();
-    // sim:faults cuts the tool's connection to bus 1 from 2 s to 4 s: a scan that ends in
+    // sim-station:faults cuts the tool's connection to bus 1 from 2 s to 4 s: a scan that ends in
     // between hears every node on bus 2 only.
-    let r = duocan(&["--bus", "sim:faults", "--json", "scan", "--listen", "3000"]);
+    let r = duocan(&[
+        "--bus",
+        "sim-station:faults",
+        "--json",
+        "scan",
+        "--listen",
+        "3000",
+    ]);
     assert_eq!(r.code, 0, "{}", r.err);
     let v = json(&r.out);
     let rows = v.as_array().unwrap();

@@ -306,7 +306,7 @@ fn record_on_the_simulated_bus_reads_back() {
         "{out}"
     );
     assert!(out.contains("(duration passed)"), "{out}");
-    let r = duocan(&["--bus", "sim", "record", "--count", "3"]);
+    let r = duocan(&["--bus", "sim-station", "record", "--count", "3"]);
     assert_eq!(r.code, 2, "nowhere to write");
 }
 

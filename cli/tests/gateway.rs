@@ -1,5 +1,5 @@
 //! `duocan gateway`: CiA 309-3 requests on standard input and over TCP, against the simulated
-//! nodes of `--bus sim`.
+//! nodes of `--bus sim-station`.
 
 #[path = "common/base64.rs"]
 mod base64;
@@ -12,11 +12,11 @@ use std::net::TcpStream;
 use std::process::{Child, Command, Stdio};
 use std::time::Duration;
 
-/// Runs `duocan --bus sim gateway` with `script` on standard input; returns exit code,
+/// Runs `duocan --bus sim-station gateway` with `script` on standard input; returns exit code,
 /// standard output and standard error.
 fn gateway(script: &str) -> (i32, String, String) {
     let mut child = Command::new(env!("CARGO_BIN_EXE_duocan"))
-        .args(["--bus", "sim", "gateway"])
+        .args(["--bus", "sim-station", "gateway"])
         .env_remove("DUOCAN_BUS")
         .stdin(Stdio::piped())
         .stdout(Stdio::piped())
@@ -203,7 +203,7 @@ fn help_is_comment_lines_then_ok_and_cr_lf_input_is_taken() {
         .all(|l| l.starts_with("# ") || l.starts_with('[')));
 }
 
-/// A `duocan --bus sim gateway --listen 127.0.0.1:0` and the port it serves on.
+/// A `duocan --bus sim-station gateway --listen 127.0.0.1:0` and the port it serves on.
 struct Served {
     child: Child,
     port: u16,
@@ -212,7 +212,7 @@ struct Served {
 impl Served {
     fn start() -> Served {
         let mut child = Command::new(env!("CARGO_BIN_EXE_duocan"))
-            .args(["--bus", "sim", "gateway", "--listen", "127.0.0.1:0"])
+            .args(["--bus", "sim-station", "gateway", "--listen", "127.0.0.1:0"])
             .env_remove("DUOCAN_BUS")
             .stdin(Stdio::null())
             .stdout(Stdio::null())
@@ -369,17 +369,17 @@ fn a_tcp_line_that_is_not_text_or_too_long_is_a_syntax_error() {
 
 #[test]
 fn listen_refuses_other_than_loopback_unless_told() {
-    let r = duocan(&["--bus", "sim", "gateway", "--listen", "0.0.0.0:0"]);
+    let r = duocan(&["--bus", "sim-station", "gateway", "--listen", "0.0.0.0:0"]);
     assert_eq!(r.code, 2, "{}", r.out);
     assert!(r.err.contains("not a loopback address"), "{}", r.err);
     assert!(r.err.contains("--allow-remote"), "{}", r.err);
-    let r = duocan(&["--bus", "sim", "gateway", "--allow-remote"]);
+    let r = duocan(&["--bus", "sim-station", "gateway", "--allow-remote"]);
     assert_eq!(r.code, 2);
     assert!(r.err.contains("--listen"), "{}", r.err);
-    let r = duocan(&["--bus", "sim", "gateway", "--listen", "localhost"]);
+    let r = duocan(&["--bus", "sim-station", "gateway", "--listen", "localhost"]);
     assert_eq!(r.code, 2);
     assert!(!r.err.contains("panicked"), "{}", r.err);
-    let r = duocan(&["--bus", "sim", "--json", "gateway"]);
+    let r = duocan(&["--bus", "sim-station", "--json", "gateway"]);
     assert_eq!(r.code, 2);
     assert!(r.err.contains("--json does not apply"), "{}", r.err);
     // No bus: a usage error before anything is read.
@@ -399,7 +399,7 @@ fn a_local_socket_is_served_owner_only_and_a_stale_one_replaced() {
     std::fs::write(&path, "keep").unwrap();
     let r = duocan(&[
         "--bus",
-        "sim",
+        "sim-station",
         "gateway",
         "--socket",
         path.to_str().unwrap(),
@@ -411,7 +411,7 @@ fn a_local_socket_is_served_owner_only_and_a_stale_one_replaced() {
     for round in 0..2 {
         // The second round finds the socket file the killed first one left behind.
         let mut child = Command::new(env!("CARGO_BIN_EXE_duocan"))
-            .args(["--bus", "sim", "gateway", "--socket"])
+            .args(["--bus", "sim-station", "gateway", "--socket"])
             .arg(&path)
             .env_remove("DUOCAN_BUS")
             .stdin(Stdio::null())

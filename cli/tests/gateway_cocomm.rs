@@ -18,7 +18,7 @@ use std::io::{BufRead, BufReader};
 use std::path::PathBuf;
 use std::process::{Child, Command, Stdio};
 
-/// `duocan --bus sim gateway --socket PATH`, stopped (and its socket removed) on drop.
+/// `duocan --bus sim-station gateway --socket PATH`, stopped (and its socket removed) on drop.
 struct Gateway {
     child: Child,
     dir: PathBuf,
@@ -33,7 +33,7 @@ impl Gateway {
         let mut child = Command::new(env!("CARGO_BIN_EXE_duocan"))
             .args([
                 "--bus",
-                "sim",
+                "sim-station",
                 "gateway",
                 "--lss-settle-ms",
                 "30",
@@ -208,7 +208,7 @@ fn lss_through_cocomm_finds_a_board_and_gives_it_a_node_id() {
 fn cocomm_over_tcp_with_requests_as_arguments() {
     let _one = common::one_station();
     let mut gw = Command::new(env!("CARGO_BIN_EXE_duocan"))
-        .args(["--bus", "sim", "gateway", "--listen", "127.0.0.1:0"])
+        .args(["--bus", "sim-station", "gateway", "--listen", "127.0.0.1:0"])
         .env_remove("DUOCAN_BUS")
         .stdin(Stdio::null())
         .stdout(Stdio::null())

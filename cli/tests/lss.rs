@@ -1,4 +1,4 @@
-//! `duocan lss` against the simulated station of `--bus sim`: its two boards without a node-ID
+//! `duocan lss` against the simulated station of `--bus sim-station`: its two boards without a node-ID
 //! (vendor 0x00D0CA00, product 0x305, revision 1, serials 1 and 2) found, configured and
 //! booted by fastscan; the single services with `--select`; refusals, timeouts and usage
 //! errors with their exit codes.
@@ -257,7 +257,7 @@ fn usage_errors_are_exit_2_before_anything_is_sent() {
             "/nonexistent/plan.txt",
         ),
     ] {
-        let mut all = vec!["--bus", "sim"];
+        let mut all = vec!["--bus", "sim-station"];
         all.extend_from_slice(args);
         let r = duocan(&all);
         assert_eq!(r.code, 2, "{args:?}: {}", r.err);

@@ -1,4 +1,4 @@
-//! `duocan sdo` and `duocan nmt` against the simulated nodes of `--bus sim`.
+//! `duocan sdo` and `duocan nmt` against the simulated nodes of `--bus sim-station`.
 
 mod common;
 use common::{duocan, one_station, sim, sim_ok};
@@ -80,6 +80,33 @@ fn errors_exit_1_for_the_network_and_2_for_the_command_line() {
     let r = duocan(&["sdo", "read", "5", "0x1000"]);
     assert_eq!(r.code, 2);
     assert!(r.err.contains("no bus"), "{}", r.err);
+}
+
+/// `--bus sim-nodes` is the library's one-bus simulated network (nodes 1 to 10, their names
+/// known); a bare `sim` is no network and the error names the ones there are.
+#[test]
+fn sim_nodes_is_one_bus_of_simulated_nodes_and_sim_names_none() {
+    let r = duocan(&[
+        "--bus",
+        "sim-nodes",
+        "sdo",
+        "read",
+        "10",
+        "Manufacturer device name",
+    ]);
+    assert_eq!(
+        (r.code, r.out.trim()),
+        (0, "duocan simulated node"),
+        "{}",
+        r.err
+    );
+    let r = duocan(&["--bus", "sim", "sdo", "read", "5", "0x1000"]);
+    assert_eq!(r.code, 2, "a usage error: {}", r.err);
+    assert!(
+        r.err.contains("sim-nodes") && r.err.contains("sim-station:faults"),
+        "{}",
+        r.err
+    );
 }
 
 /// A bus that cannot be opened exits 3, not the usage error's 2; with `--json` the error is a

@@ -14,14 +14,14 @@
 //! | 1 | [`link`] | the **dual-bus layer** [`DualBus`]: a [`BusLink`](duocan::BusLink) with two ports below and one logical bus above |
 //! | 2 | [`supervisor`] | slave-pair supervision, the CiA 302-2 flying master, the audit trail; [`Supervisor`] composes them with the CiA 302-2 master |
 //! | 3 | [`station`] | [`SupervisedStation`]: a supervisor on a dual bus (a [`Station`](duocan::Station)), with its status table |
-//! | 4 | [`network`] | [`LogicalNetwork`]: what the application holds per dual-bus network, built from named settings by [`RedundantNetworkBuilder`] |
-//! | 5 | `net` | the front doors (feature `tokio`): `RedundantNetwork`, duocan's `Network` over the logical network on two ports (its SDO, NMT and flat event stream, plus role, pairs, status); `DualLink` and `open_dual`/`open_dual_named`, duocan's plain front door (`duocan::net::Network`, no master) on two buses, with a simulated redundant station (`"sim"`, `"sim:faults"`) |
+//! | 4 | [`logical`] | [`LogicalNetwork`]: what the application holds per dual-bus network, built from named settings by [`RedundantNetworkBuilder`] |
+//! | 5 | `net` | the front doors (feature `tokio`): `RedundantNetwork`, duocan's `Network` over the logical network on two ports (its SDO, NMT and flat event stream, plus role, pairs, status); `DualLink` and `open_dual`/`open_dual_named`, duocan's plain front door (`duocan::net::Network`, no master) on two buses, with a simulated redundant station (`"sim-station"`, `"sim-station:faults"`) |
 //!
 //! Each layer's page opens with a short example that runs as a test: a pair described and
 //! handed to the layer ([`pair`]), one frame received on both buses and delivered once
 //! ([`link`]), a pair's active board losing power and the switch-over exactly the consumer time
 //! after its last heartbeat ([`supervisor`]), the status table of a redundant master with a bus
-//! cut ([`station`]), and an SDO read through the logical network ([`network`]). The last three
+//! cut ([`station`]), and an SDO read through the logical network ([`logical`]). The last three
 //! run on duocan's simulated buses, in virtual time.
 //!
 //! The dual-bus layer has one type and three policies ([`LinkMode`]):
@@ -65,8 +65,8 @@
 //!   ([`RedundantNetworkBuilder`]: node-ID, heartbeat, master timeout, SYNC, pairs, peers),
 //!   every bad setting a [`RedundantError`];
 //! - `net::RedundantNetwork` (feature `tokio`): the front door, the builder's network on two
-//!   ports (`open(port1, port2)`, `open_named("can0,can1")`, or `open_named("sim")`: a simulated
-//!   redundant station with a script of faults) as the root crate's `duocan::net::Network`
+//!   ports (`open(port1, port2)`, `open_named("can0,can1")`, or `open_named("sim-pairs")`: the
+//!   builder's pairs and peer masters on simulated buses, with a script of faults) as the root crate's `duocan::net::Network`
 //!   itself (it dereferences to one, run over the logical network as its core): typed SDO to
 //!   any node, NMT, and one flat event stream on which lag is an item, where the bus, pair and
 //!   master failovers come too; plus the role, the pairs, the status table and a switch-over;
@@ -74,9 +74,9 @@
 //!   (`duocan::net::Network`: an observer and an SDO client that sends only NMT commands and SDO
 //!   requests) on two buses through `net::DualLink`, for tools that must not become a master on
 //!   somebody's network: requests fan out, answers merge exactly, and `ports()` and
-//!   `heard_on()` show each bus's health and each node's reach; `"sim"` opens it on a simulated
+//!   `heard_on()` show each bus's health and each node's reach; `"sim-station"` opens it on a simulated
 //!   redundant station (two masters, two pairs, three slaves with a 1 MiB DOMAIN and program
-//!   download), `"sim:faults"` with a repeating fault script.
+//!   download), `"sim-station:faults"` with a repeating fault script.
 //!
 //! Everything is bounded (fixed-capacity tables and queues, counted overflow) and builds for
 //! `no_std` targets; the supervisor needs `alloc` (as the root crate's master does). The layer's
@@ -89,7 +89,7 @@
 //!
 //! ## Quick start
 //!
-//! A redundant master is the [`LogicalNetwork`] of the [`network`] page: a [`Supervisor`]
+//! A redundant master is the [`LogicalNetwork`] of the [`logical`] page: a [`Supervisor`]
 //! (the CiA 302-2 master and its pairs) on a [`DualBus`], which the simulator or the tokio
 //! runtime drives like any other device; its example builds one with one pair of boards from
 //! [`LogicalNetwork::builder`]'s named settings. Under tokio, the same builder opens the
@@ -117,10 +117,10 @@
 extern crate alloc;
 
 pub mod link;
+#[cfg(feature = "alloc")]
+pub mod logical;
 #[cfg(feature = "tokio")]
 pub mod net;
-#[cfg(feature = "alloc")]
-pub mod network;
 pub mod pair;
 #[cfg(feature = "alloc")]
 pub mod station;
@@ -140,13 +140,13 @@ pub use link::events::{LinkEvent, LinkEventKind, PortReason, Suspicion, SwitchRe
 pub use link::health::{HealthConfig, PortState};
 pub use link::merge::{Merger, Verdict};
 pub use link::outbox::{Outbox, EVENT_QUEUE, FRAME_QUEUE, MACHINE_QUEUE, REQUEST_QUEUE};
-#[cfg(feature = "tokio")]
-pub use net::{RedundantEvent, RedundantNetwork};
 #[cfg(feature = "alloc")]
-pub use network::{
+pub use logical::{
     LogicalNetwork, NetworkError, NetworkEvent, NetworkEventKind, RedundantError,
     RedundantNetworkBuilder, Role,
 };
+#[cfg(feature = "tokio")]
+pub use net::{RedundantEvent, RedundantNetwork};
 pub use pair::{Member, PairId, PairSpec};
 #[cfg(feature = "alloc")]
 pub use station::{RedundantMaster, SupervisedStation};

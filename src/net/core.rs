@@ -24,6 +24,7 @@
 
 use super::error::NetError;
 use super::events::NetEvent;
+use super::heard_on::HeardOn;
 use crate::cia301::nmt::{NmtCommand, NmtTarget};
 use crate::cia301::sdo::{RequestId, SdoError};
 use crate::frame::cob_id::NodeId;
@@ -108,8 +109,8 @@ pub trait NetCore: Device<Event = CoreEvent> + Send + 'static {
         let _ = port;
         None
     }
-    /// On which of two buses `node` was heard lately; `None` if the link does not tell.
-    fn heard_on(&self, node: NodeId) -> Option<[bool; 2]> {
+    /// On which of the link's buses `node` was heard lately; `None` if the link does not tell.
+    fn heard_on(&self, node: NodeId) -> Option<HeardOn> {
         let _ = node;
         None
     }

@@ -2,6 +2,7 @@
 
 use super::core::CoreEvent;
 use super::ext::{ExtEvent, Extension};
+use super::heard_on::HeardOn;
 use super::pdo::PdoValues;
 use crate::cia301::emcy::EmcyMessage;
 use crate::cia301::nmt::NmtState;
@@ -101,13 +102,13 @@ pub enum NetEvent {
         /// When (for a timer-driven change: exactly its deadline).
         at: Instant,
     },
-    /// The buses a node is heard on changed (two ports only; see
+    /// The buses a node is heard on changed (links of more than one bus; see
     /// [`Network::heard_on`](super::Network::heard_on)).
     Reach {
         /// The node.
         node: NodeId,
-        /// Heard on bus 1, on bus 2, within the link's reach timeout.
-        heard: [bool; 2],
+        /// The buses it is heard on, within the link's reach timeout.
+        heard: HeardOn,
         /// When.
         at: Instant,
     },
@@ -263,12 +264,7 @@ impl fmt::Display for NetEvent {
             NetEvent::PortState {
                 port, to, reason, ..
             } => write!(f, "bus {}: {to} ({reason})", u16::from(*port) + 1),
-            NetEvent::Reach { node, heard, .. } => match heard {
-                [true, true] => write!(f, "{node}: heard on both buses"),
-                [true, false] => write!(f, "{node}: heard on bus 1 only"),
-                [false, true] => write!(f, "{node}: heard on bus 2 only"),
-                [false, false] => write!(f, "{node}: heard on no bus"),
-            },
+            NetEvent::Reach { node, heard, .. } => write!(f, "{node}: {heard}"),
             NetEvent::NotHeard { node, since, at } => {
                 write!(f, "{node}: not heard for {} ms", (*at - *since).as_millis())
             }
@@ -387,7 +383,7 @@ mod tests {
             (
                 NetEvent::Reach {
                     node,
-                    heard: [false, true],
+                    heard: HeardOn::from([false, true]),
                     at,
                 },
                 "node 0x05: heard on bus 2 only",

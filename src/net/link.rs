@@ -16,6 +16,7 @@
 //! and reachability) and opens the network with [`Network::open_link`](super::Network::open_link).
 
 use super::events::NetEvent;
+use super::heard_on::HeardOn;
 use crate::frame::cob_id::NodeId;
 use crate::frame::instant::Instant;
 use crate::machine::{BusLink, Device, ErrorCause, PortState, PortStatus, SinglePort};
@@ -34,9 +35,9 @@ pub trait NetLink: BusLink<Event = NetEvent, Command = Infallible> + Send + 'sta
         let _ = port;
         None
     }
-    /// On which of two buses `node` was heard within the link's reach timeout; `None` if the
+    /// On which of its buses `node` was heard within the link's reach timeout; `None` if the
     /// link does not tell (one port, or a dual-bus mode that listens to one bus at a time).
-    fn heard_on(&self, node: NodeId) -> Option<[bool; 2]> {
+    fn heard_on(&self, node: NodeId) -> Option<HeardOn> {
         let _ = node;
         None
     }

@@ -8,8 +8,8 @@
 //!
 //! #[tokio::main]
 //! async fn main() -> Result<(), NetError> {
-//!     // "sim": simulated nodes 1–10; or "can0", "udp", "udp:N".
-//!     let net = Network::open_named("sim")?;
+//!     // "sim-nodes": simulated nodes 1–10; or "can0", "udp", "udp:N".
+//!     let net = Network::open_named("sim-nodes")?;
 //!     let node = net.node(5);
 //!     let vendor: u32 = node.sdo().read(0x1018, 1).await?;
 //!     assert_eq!(vendor, duocan::net::SIM_VENDOR);
@@ -103,6 +103,7 @@ mod door;
 mod error;
 mod events;
 mod ext;
+mod heard_on;
 mod link;
 mod lss;
 mod named;
@@ -120,13 +121,16 @@ pub use self::core::{CoreEvent, NetClient, NetCore, LSS_PLAN};
 pub use error::{Awaited, NetError};
 pub use events::{Events, NetEvent};
 pub use ext::{ExtEvent, Extension};
+pub use heard_on::HeardOn;
 pub use link::{NetLink, NetPorts, PortView};
 pub use lss::{FastscanReport, NetLss};
 pub use pdo::{PdoMap, PdoValue, PdoValues, PdoVariable, RemotePdo, MAX_LEARNED};
 pub use remote::RemoteNode;
 pub use sdo::RemoteSdo;
 pub use sdo_stream::{TransferProgress, STREAM_WINDOW};
-pub use sim::{sim_description, sim_dictionary, SIM_DEVICE_NAME, SIM_HEARTBEAT_MS, SIM_VENDOR};
+pub use sim::{
+    sim_description, sim_dictionary, SIM_DEVICE_NAME, SIM_HEARTBEAT_MS, SIM_NAMES, SIM_VENDOR,
+};
 pub use value::AnyValue;
 
 use crate::cia301::nmt::{NmtCommand, NmtTarget};
@@ -238,7 +242,7 @@ struct Shared {
     per_node: Vec<Mutex<()>>,
     /// LSS requests take turns (LSS has no addresses: one runs at a time).
     lss_turn: Mutex<()>,
-    /// Simulated nodes started with the network (`open_named("sim")`), kept running.
+    /// Simulated nodes started with the network (`open_named("sim-nodes")`), kept running.
     sim: sim::SimNodes,
     /// Set by [`Network::close`]: ends every event stream.
     closed: watch::Sender<bool>,
@@ -531,10 +535,10 @@ impl Network {
             .collect())
     }
 
-    /// On which of two buses node `id` was heard within the link's reach timeout
-    /// (`[bus 1, bus 2]`; `[false, false]` for a node not heard lately); `None` on one port,
-    /// where the question has no answer. A node-ID outside 1–127 is [`NetError::NoSuchNode`].
-    pub async fn heard_on(&self, id: u8) -> Result<Option<[bool; 2]>, NetError> {
+    /// On which of the link's buses node `id` was heard within its reach timeout (none for a
+    /// node not heard lately); `None` on one port, where the question has no answer. A node-ID
+    /// outside 1–127 is [`NetError::NoSuchNode`].
+    pub async fn heard_on(&self, id: u8) -> Result<Option<HeardOn>, NetError> {
         let node = NodeId::new(id).ok_or(NetError::NoSuchNode(id))?;
         Ok(self
             .shared

@@ -5,6 +5,7 @@
 use super::core::{CoreEvent, NetClient, NetCore};
 use super::error::NetError;
 use super::events::NetEvent;
+use super::heard_on::HeardOn;
 use super::link::NetLink;
 use super::{NetOptions, MAX_TRANSFER, SESSIONS};
 use crate::cia301::nmt::{NmtCommand, NmtTarget};
@@ -227,7 +228,7 @@ impl NetCore for ObserverCore {
     fn port_state(&self, port: usize) -> Option<PortState> {
         self.inner.link.port_state(port)
     }
-    fn heard_on(&self, node: NodeId) -> Option<[bool; 2]> {
+    fn heard_on(&self, node: NodeId) -> Option<HeardOn> {
         self.inner.link.heard_on(node)
     }
     fn as_any_mut(&mut self) -> &mut dyn core::any::Any {

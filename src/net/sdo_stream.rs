@@ -24,7 +24,7 @@
 //! use duocan::net::{NetError, Network};
 //!
 //! # #[tokio::main] async fn main() -> Result<(), NetError> {
-//! let net = Network::open_named("sim")?;
+//! let net = Network::open_named("sim-nodes")?;
 //! let sdo = net.node(5).sdo();
 //! let mut name = Vec::new();
 //! let n = sdo.read_to(0x1008, 0, &mut name, |p| println!("{} of {:?}", p.done, p.total)).await?;

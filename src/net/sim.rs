@@ -1,5 +1,10 @@
-//! Opening a network by name, and the simulated nodes behind the name `sim`: what lets a user
-//! try the front door without hardware.
+//! Opening a network by name, and the simulated nodes behind the name `sim-nodes`: what lets a
+//! user try the front door without hardware.
+//!
+//! Each simulated network has a name that says what it holds, the same in every door and in
+//! the tool: `sim-nodes` here (one bus, plain nodes), `sim-pairs` (a redundant network's own
+//! pairs and peer masters) and `sim-station` (a whole redundant station) in duocan-redundancy.
+//! A bare `sim` is none of them and says so ([`SIM_NAMES`]).
 
 use super::{NetError, NetOptions, Network};
 use crate::frame::cob_id::NodeId;
@@ -19,7 +24,14 @@ pub const SIM_HEARTBEAT_MS: u16 = 100;
 
 type SimNode = Station<SinglePort, crate::node::Node<crate::od::DynamicDictionary>>;
 
-/// The simulated nodes a network opened on `sim` keeps running.
+/// What a name that looks simulated but is not one of the door's names is told: the simulated
+/// networks there are, what each holds and where it opens.
+pub const SIM_NAMES: &str = "the simulated networks are sim-nodes (one bus with nodes 1 to 10: \
+duocan::net::Network::open_named), sim-pairs (two buses with a redundant network's own pairs and \
+peer masters: the redundant builder's open_named) and sim-station or sim-station:faults (a \
+redundant station on two buses: duocan_redundancy::net::open_dual_named, the tool's --bus)";
+
+/// The simulated nodes a network opened on `sim-nodes` keeps running.
 #[derive(Default)]
 pub(super) struct SimNodes(Vec<Handle<SimNode>>);
 
@@ -40,7 +52,7 @@ fn sim_node(id: NodeId) -> SimNode {
     Station::single(node)
 }
 
-/// The dictionary of simulated node `id` (what [`Network::open_named`]`("sim")` runs, and
+/// The dictionary of simulated node `id` (what [`Network::open_named`]`("sim-nodes")` runs, and
 /// what other simulated stations build their plain slaves from): the standard communication
 /// objects, identity (vendor [`SIM_VENDOR`], product code = node-ID), device name
 /// [`SIM_DEVICE_NAME`] at 0x1008, heartbeat every [`SIM_HEARTBEAT_MS`] ms, inputs 0x6000 (Input 1,
@@ -126,14 +138,14 @@ fn add_process_data(od: &mut crate::od::DynamicDictionary) {
     }
 }
 
-/// The device description of the simulated nodes (the one [`Network::open_named`]`("sim")`
+/// The device description of the simulated nodes (the one [`Network::open_named`]`("sim-nodes")`
 /// starts): attach it to name their entries (`"Input 1"`, `"Producer heartbeat time"`) and
 /// the values of their PDOs.
 ///
 /// ```
 /// # #[tokio::main] async fn main() -> Result<(), duocan::net::NetError> {
 /// use duocan::net::{sim_description, Network};
-/// let net = Network::open_named("sim")?;
+/// let net = Network::open_named("sim-nodes")?;
 /// let node = net.add_node(5, sim_description()?);
 /// let hb: u16 = node.sdo().read_named("Producer heartbeat time").await?;
 /// assert_eq!(hb, duocan::net::SIM_HEARTBEAT_MS);
@@ -154,7 +166,7 @@ pub fn sim_description() -> Result<crate::eds::Description, NetError> {
 impl Network {
     /// Opens a network by port name, with default options:
     ///
-    /// - `sim`: an in-memory bus with simulated duocan nodes 1 to 10 on it (identity with
+    /// - `sim-nodes`: an in-memory bus with simulated duocan nodes 1 to 10 on it (identity with
     ///   vendor-ID [`SIM_VENDOR`] and product code = node-ID, device name at 0x1008, heartbeat
     ///   every [`SIM_HEARTBEAT_MS`] ms), for trying things without hardware;
     /// - `udp` or `udp:N`: python-can's `udp_multicast` bus (its default group, or test bus N;
@@ -172,8 +184,13 @@ impl Network {
 
     /// [`Network::open_named`] with options.
     pub fn open_named_with(name: &str, opts: NetOptions) -> Result<Network, NetError> {
-        if name == "sim" {
+        if name == "sim-nodes" {
             return Self::simulated(1..=10, opts);
+        }
+        if name == "sim" || name.starts_with("sim-") || name.starts_with("sim:") {
+            return Err(NetError::Port(format!(
+                "{name:?} is not a port of one bus: {SIM_NAMES}"
+            )));
         }
         if name == "udp" || name.starts_with("udp:") {
             return udp(name, opts);
@@ -182,12 +199,12 @@ impl Network {
     }
 
     /// Opens a network on a new in-memory bus with simulated nodes `ids` on it (as for
-    /// [`Network::open_named`]`("sim")`); node-IDs outside 1–127 are skipped.
+    /// [`Network::open_named`]`("sim-nodes")`); node-IDs outside 1–127 are skipped.
     pub fn simulated(
         ids: impl IntoIterator<Item = u8>,
         opts: NetOptions,
     ) -> Result<Network, NetError> {
-        Self::simulated_on(&MemBus::new("sim"), ids, opts)
+        Self::simulated_on(&MemBus::new("sim-nodes"), ids, opts)
     }
 
     /// [`Network::simulated`] on the in-memory bus `bus`: a port taken from it before the
@@ -255,6 +272,6 @@ fn socketcan(name: &str, opts: NetOptions) -> Result<Network, NetError> {
 #[cfg(not(all(feature = "socketcan", target_os = "linux")))]
 fn socketcan(name: &str, _: NetOptions) -> Result<Network, NetError> {
     Err(NetError::Port(format!(
-        "{name:?}: this build has no SocketCAN: use \"sim\", or enable the `socketcan` feature (Linux)"
+        "{name:?}: this build has no SocketCAN: use \"sim-nodes\", or enable the `socketcan` feature (Linux)"
     )))
 }

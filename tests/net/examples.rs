@@ -95,7 +95,7 @@ async fn heartbeat_monitor_prints_states_and_the_loss() {
 #[tokio::test(start_paused = true)]
 async fn redundant_master_prints_a_bus_a_master_and_a_pair_failover() {
     let mut lines = Vec::new();
-    redundant_master::run("sim", |l| lines.push(l))
+    redundant_master::run("sim-pairs", |l| lines.push(l))
         .await
         .unwrap();
     assert_eq!(
@@ -112,5 +112,5 @@ async fn redundant_master_prints_a_bus_a_master_and_a_pair_failover() {
 /// TPDO and writes its outputs by RPDO; the board's dictionary shows the write.
 #[tokio::test(start_paused = true)]
 async fn redundant_pdo_reads_inputs_and_writes_outputs_of_a_pair_member() {
-    assert_eq!(redundant_pdo::run("sim").await.unwrap(), 1234);
+    assert_eq!(redundant_pdo::run("sim-pairs").await.unwrap(), 1234);
 }

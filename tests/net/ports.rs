@@ -10,6 +10,24 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Arc;
 use std::time::Duration;
 
+/// Every simulated network has a name saying what it holds; a bare `sim`, or another door's
+/// simulated network, is an error that names them all.
+#[tokio::test(start_paused = true)]
+async fn sim_nodes_is_the_one_bus_simulated_network_and_sim_names_no_port() {
+    let net = Network::open_named("sim-nodes").unwrap();
+    let vendor: u32 = net.node(10).sdo().read(0x1018, 1).await.unwrap();
+    assert_eq!(vendor, duocan::net::SIM_VENDOR);
+    assert_eq!(net.ports().await.unwrap()[0].name, "sim-nodes");
+    net.close().await;
+    for name in ["sim", "sim-station", "sim-pairs", "sim:faults"] {
+        let Err(NetError::Port(why)) = Network::open_named(name) else {
+            panic!("{name} opened");
+        };
+        assert!(why.contains("not a port of one bus"), "{name}: {why}");
+        assert!(why.contains(duocan::net::SIM_NAMES), "{name}: {why}");
+    }
+}
+
 #[tokio::test(start_paused = true)]
 async fn one_port_shows_its_counters_and_the_state_its_driver_reported() {
     let bus = MemBus::new("mem0");

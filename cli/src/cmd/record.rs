@@ -50,7 +50,7 @@ fn parse_count(s: &str) -> Result<u64, String> {
 /// simulated station its two buses (the names its ports carry; the record test holds them to
 /// that).
 fn port_names(bus: &[String]) -> Vec<String> {
-    if bus::is_sim(bus) {
+    if bus::is_sim_station(bus) {
         return vec!["sim-bus1".into(), "sim-bus2".into()];
     }
     bus.to_vec()

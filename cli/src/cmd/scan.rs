@@ -22,14 +22,14 @@
 //! one. The description attached to the node itself is named when it matches, and shown as
 //! `MISMATCH: …` (what differs) when it does not; a node with none of its own is matched
 //! against every description attached (the first whose identity fits is named); `-` when none
-//! fits. The description `--bus sim` attaches to every ID on its own is not compared (it
+//! fits. The description `--bus sim-station` attaches to every ID on its own is not compared (it
 //! describes any simulated node, whatever its product code).
 //!
 //! # Output and time
 //!
 //! A table (node, state, identity, name, description, and on two ports the bus each node was
 //! heard on), or `--json`: an array of objects. An empty network is exit 0 with "no nodes
-//! answered". On `--bus sim` a full scan (listen 1500 ms, probe 1–127) takes about 1.6 s.
+//! answered". On `--bus sim-station` a full scan (listen 1500 ms, probe 1–127) takes about 1.6 s.
 
 use crate::bus::{self, Bus};
 use crate::fail::Fail;
@@ -47,7 +47,7 @@ use std::time::Duration;
 #[command(
     after_help = "Nodes are found by listening for boot-ups and heartbeats and, at the same \
 time, by asking every node-ID 1-127 for 0x1000 over SDO (the requests run together, 100 ms each). \
-A full scan takes about 1.6 s on --bus sim."
+A full scan takes about 1.6 s on --bus sim-station."
 )]
 pub struct Args {
     /// Listen for boot-ups and heartbeats this long, in milliseconds
@@ -87,7 +87,7 @@ struct Found {
     serial: Option<u32>,
     name: Option<String>,
     /// On two ports: whether it was heard on bus 1 and on bus 2.
-    heard_on: Option<[bool; 2]>,
+    heard_on: Option<duocan::net::HeardOn>,
 }
 
 /// Runs `duocan scan`.
@@ -224,10 +224,9 @@ fn matched(bus: &Bus, id: u8, f: &Found) -> Cell {
         .map_or_else(Cell::none, |d| Cell::from(file_name(d)))
 }
 
-/// The description `--bus sim` attaches to every node-ID by itself.
+/// The description a simulated `--bus` attaches to its nodes by itself.
 fn is_sim_own(bus: &Bus, d: &Description) -> bool {
-    matches!(bus.names.as_slice(), [one] if one == "sim" || one == "sim:faults")
-        && d.source == "duocan-sim.eds"
+    crate::bus::is_simulated(&bus.names) && d.source == "duocan-sim.eds"
 }
 
 fn file_name(d: &Description) -> String {
@@ -272,10 +271,15 @@ fn print(g: &Global, bus: &Bus, found: &BTreeMap<u8, Found>) {
         "name",
         "description",
     ];
-    let dual = found.values().any(|f| f.heard_on.is_some());
-    if dual {
-        cols.extend(["bus 1", "bus 2"]);
-    }
+    // A column per bus where the link tells which buses a node is heard on.
+    let buses = found
+        .values()
+        .filter_map(|f| f.heard_on)
+        .map(|h| h.buses())
+        .max()
+        .unwrap_or(0);
+    let bus_cols: Vec<String> = (1..=buses).map(|b| format!("bus {b}")).collect();
+    cols.extend(bus_cols.iter().map(String::as_str));
     let mut t = Table::new(&cols);
     for (id, f) in found {
         let state = match f.state {
@@ -293,8 +297,8 @@ fn print(g: &Global, bus: &Bus, found: &BTreeMap<u8, Found>) {
             Cell::from(f.name.clone()),
             matched(bus, *id, f),
         ];
-        if let Some([one, two]) = f.heard_on {
-            row.extend([Cell::from(one), Cell::from(two)]);
+        if let Some(h) = f.heard_on {
+            row.extend((0..buses).map(|b| Cell::from(h.on(b))));
         }
         t.row(row);
     }

@@ -25,18 +25,18 @@ pub fn duocan(args: &[&str]) -> Run {
     }
 }
 
-/// Runs `duocan --bus sim` with `args` and expects exit 0.
+/// Runs `duocan --bus sim-station` with `args` and expects exit 0.
 pub fn sim_ok(args: &[&str]) -> String {
-    let mut all = vec!["--bus", "sim"];
+    let mut all = vec!["--bus", "sim-station"];
     all.extend_from_slice(args);
     let r = duocan(&all);
     assert_eq!(r.code, 0, "duocan {all:?} failed: {}", r.err);
     r.out
 }
 
-/// Runs `duocan --bus sim` with `args`; returns the run whatever its exit code.
+/// Runs `duocan --bus sim-station` with `args`; returns the run whatever its exit code.
 pub fn sim(args: &[&str]) -> Run {
-    let mut all = vec!["--bus", "sim"];
+    let mut all = vec!["--bus", "sim-station"];
     all.extend_from_slice(args);
     duocan(&all)
 }

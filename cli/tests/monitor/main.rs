@@ -1,4 +1,4 @@
-//! `duocan monitor` against the simulated redundant station of `--bus sim`: plain and JSON
+//! `duocan monitor` against the simulated redundant station of `--bus sim-station`: plain and JSON
 //! lines (`plain`), and the full screen in a real terminal driven through tmux (`tmux`, with
 //! the `peers` feature).
 

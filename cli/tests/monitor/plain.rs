@@ -143,7 +143,7 @@ fn bad_arguments_exit_2_naming_what_was_wrong() {
         (vec!["--every", "1e3"], "a number"),
         (vec!["--duration", "100000"], "a day"),
     ] {
-        let mut all = vec!["--bus", "sim", "monitor"];
+        let mut all = vec!["--bus", "sim-station", "monitor"];
         all.extend(args.iter());
         let r = duocan(&all);
         assert_eq!(r.code, 2, "{all:?}: {}", r.err);

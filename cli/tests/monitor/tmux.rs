@@ -138,7 +138,7 @@ fn port_row(screen: &str, name: &str) -> Vec<String> {
 
 #[test]
 fn the_monitor_in_a_real_terminal_shows_the_panels_and_obeys_the_keys() {
-    let t = Tmux::start("keys", &monitor_cmd("sim"));
+    let t = Tmux::start("keys", &monitor_cmd("sim-station"));
     // Settled: every node in its state, the B members (powered at 1 s) standby.
     let s = t.wait_for("the station's nodes in their states", |s| {
         STATION
@@ -146,7 +146,10 @@ fn the_monitor_in_a_real_terminal_shows_the_panels_and_obeys_the_keys() {
             .all(|(id, state)| s.contains(&format!("│{id:#04x}  {state} ")))
             && node_rows(s).len() == STATION.len()
     });
-    assert!(s.contains("duocan monitor") && s.contains("bus sim"), "{s}");
+    assert!(
+        s.contains("duocan monitor") && s.contains("bus sim-station"),
+        "{s}"
+    );
     assert!(s.contains("Nodes (9)") && s.contains("Heard on"), "{s}");
     assert!(s.contains("duocan simulated node"), "the device name:\n{s}");
     // The ports panel: both buses, ok, counting (listen-only: nothing sent).
@@ -223,7 +226,7 @@ fn the_monitor_in_a_real_terminal_shows_the_panels_and_obeys_the_keys() {
 
 #[test]
 fn the_fault_script_s_port_failure_pair_failover_and_master_failover_show_on_screen() {
-    let t = Tmux::start("faults", &monitor_cmd("sim:faults"));
+    let t = Tmux::start("faults", &monitor_cmd("sim-station:faults"));
     // 2 s into the script bus 1 is cut: its port fails, the nodes are heard on bus 2 only.
     let s = t.wait_for("bus 1 failed", |s| {
         s.contains("│sim-bus1 ") && port_row(s, "sim-bus1")[1] == "failed"

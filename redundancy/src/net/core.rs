@@ -29,7 +29,7 @@
 
 use super::dual_link::heard_on;
 use super::events::RedundantEvent;
-use crate::network::{LogicalNetwork, NetworkError, NetworkEvent, NetworkEventKind as K};
+use crate::logical::{LogicalNetwork, NetworkError, NetworkEvent, NetworkEventKind as K};
 use crate::supervisor::pairs::PairsEvent;
 use crate::SupervisorEvent;
 use alloc::boxed::Box;
@@ -37,7 +37,7 @@ use alloc::string::ToString;
 use duocan::cia305::LssError;
 use duocan::machine::{BusLink, Device, PortState, StationEvent};
 use duocan::master::MasterError;
-use duocan::net::{CoreEvent, ExtEvent, NetClient, NetCore, NetError, NetEvent};
+use duocan::net::{CoreEvent, ExtEvent, HeardOn, NetClient, NetCore, NetError, NetEvent};
 use duocan::nmt::NmtTarget;
 use duocan::od::{comm, DynamicDictionary, ObjectDictionary};
 use duocan::runtime::SdoEvents;
@@ -100,7 +100,11 @@ pub(super) fn link_event(kind: &K, at: Instant) -> Option<NetEvent> {
             reason,
             at,
         },
-        K::Reach { node, heard } => NetEvent::Reach { node, heard, at },
+        K::Reach { node, heard } => NetEvent::Reach {
+            node,
+            heard: heard.into(),
+            at,
+        },
         _ => return None,
     })
 }
@@ -282,7 +286,7 @@ impl NetCore for MasterCore {
     fn port_state(&self, port: usize) -> Option<PortState> {
         (port < 2).then(|| self.net.station().link.port_state(port))
     }
-    fn heard_on(&self, node: NodeId) -> Option<[bool; 2]> {
+    fn heard_on(&self, node: NodeId) -> Option<HeardOn> {
         heard_on(&self.net.station().link, node)
     }
     fn type_name(&self) -> &'static str {

@@ -13,8 +13,8 @@
 //!
 //! # #[tokio::main(flavor = "current_thread", start_paused = true)]
 //! # async fn main() -> Result<(), Box<dyn std::error::Error>> {
-//! // "sim": a simulated redundant station on two simulated buses; or "can0,can1", "udp:1,udp:2".
-//! let net = open_dual_named("sim", NetOptions::default())?;
+//! // "sim-station": a simulated redundant station on two simulated buses; or "can0,can1", "udp:1,udp:2".
+//! let net = open_dual_named("sim-station", NetOptions::default())?;
 //! let vendor: u32 = net.node(5).sdo().read(0x1018, 1).await?;
 //! assert_eq!(vendor, duocan::net::SIM_VENDOR);
 //! let ports = net.ports().await?;
@@ -31,13 +31,13 @@ use crate::link::classify::FrameClassifier;
 use crate::link::config::DualBusConfig;
 use crate::link::dual_bus::{DualBus, DEFAULT_MERGE_SLOTS};
 use crate::link::events::LinkEvent;
-use crate::network::typed;
-use crate::network::RedundantError;
+use crate::logical::typed;
+use crate::logical::RedundantError;
 use alloc::boxed::Box;
 use alloc::string::{String, ToString};
 use core::convert::Infallible;
 use duocan::machine::{BusLink, LinkRequest, StationEvent};
-use duocan::net::{NetEvent, NetLink, NetOptions, Network};
+use duocan::net::{HeardOn, NetEvent, NetLink, NetOptions, Network};
 use duocan::port::Port;
 use duocan::profile::Predefined;
 use duocan::NodeId;
@@ -118,7 +118,7 @@ impl<const SLOTS: usize> NetLink for DualLink<SLOTS> {
     fn port_state(&self, port: usize) -> Option<crate::PortState> {
         (port < 2).then(|| self.bus.port_state(port))
     }
-    fn heard_on(&self, node: NodeId) -> Option<[bool; 2]> {
+    fn heard_on(&self, node: NodeId) -> Option<HeardOn> {
         heard_on(&self.bus, node)
     }
 }
@@ -129,11 +129,11 @@ impl<const SLOTS: usize> NetLink for DualLink<SLOTS> {
 pub(super) fn heard_on<C: FrameClassifier, const SLOTS: usize, const FUNCTIONS: usize>(
     bus: &DualBus<C, SLOTS, FUNCTIONS>,
     node: NodeId,
-) -> Option<[bool; 2]> {
+) -> Option<HeardOn> {
     if bus.mode() == ModeKind::EcssToggle {
         return None;
     }
-    Some(bus.reach().heard(node).unwrap_or([false, false]))
+    Some(bus.reach().heard(node).unwrap_or([false, false]).into())
 }
 
 fn port_error(port: u8, name: &str, why: impl ToString) -> RedundantError {
@@ -169,25 +169,35 @@ pub fn open_dual_with<P1: Port, P2: Port>(
 
 /// [`open_dual`] by name:
 ///
-/// - `sim`: a simulated redundant station on two simulated buses (masters 0x01 and 0x02, the
+/// - `sim-station`: a simulated redundant station on two simulated buses (masters 0x01 and 0x02, the
 ///   pairs [`SIM_PAIRS`](super::SIM_PAIRS), the slaves [`SIM_SLAVES`](super::SIM_SLAVES); what
 ///   it holds is in the `net` module's docs), running until the network is closed;
-/// - `sim:faults`: the same station with its fault script repeating every
+/// - `sim-station:faults`: the same station with its fault script repeating every
 ///   [`SIM_FAULT_PERIOD`](super::SIM_FAULT_PERIOD);
 /// - `udp:N,udp:M`: python-can's UDP test buses N and M (feature `udp`);
 /// - `A,B`: SocketCAN interfaces A (bus 1) and B (bus 2), such as `can0,can1` (feature
 ///   `socketcan`, Linux).
 pub fn open_dual_named(name: &str, opts: NetOptions) -> Result<Network, RedundantError> {
     match name {
-        "sim" => return station::open(opts, StationScript::Quiet),
-        "sim:faults" => return station::open(opts, StationScript::Faults),
+        "sim-station" => return station::open(opts, StationScript::Quiet),
+        "sim-station:faults" => return station::open(opts, StationScript::Faults),
+        _ if name == "sim" || name.starts_with("sim-") || name.starts_with("sim:") => {
+            return Err(port_error(
+                0,
+                name,
+                alloc::format!(
+                    "the simulated station on two buses is sim-station; {}",
+                    duocan::net::SIM_NAMES
+                ),
+            ))
+        }
         _ => {}
     }
     let Some((a, b)) = name.split_once(',') else {
         return Err(port_error(
             0,
             name,
-            "two ports are needed: name them as can0,can1 or udp:1,udp:2 (or use \"sim\")",
+            "two ports are needed: name them as can0,can1 or udp:1,udp:2 (or use \"sim-station\")",
         ));
     };
     let (a, b) = (a.trim(), b.trim());
@@ -241,6 +251,6 @@ fn socketcan(a: &str, _: &str, _: NetOptions) -> Result<Network, RedundantError>
     Err(port_error(
         0,
         a,
-        "this build has no SocketCAN: use \"sim\", or enable the `socketcan` feature of duocan-redundancy (Linux)",
+        "this build has no SocketCAN: use \"sim-station\", or enable the `socketcan` feature of duocan-redundancy (Linux)",
     ))
 }

@@ -7,7 +7,7 @@
 //! here. `e.ext::<RedundantEvent>()` gives them back typed; `Display`, `node()`, `at()` and
 //! `is_failover()` work on the stream's event without it.
 
-use crate::network::NetworkEventKind;
+use crate::logical::NetworkEventKind;
 use crate::pair::{Member, PairId};
 use crate::supervisor::flying_master::{MasterReason, MasterRole};
 use crate::supervisor::pairs::RoleReason;
@@ -250,7 +250,7 @@ impl fmt::Display for RedundantEvent {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::network::NetworkEvent;
+    use crate::logical::NetworkEvent;
     use crate::supervisor::pairs::PairsEvent;
     use duocan::master::{BootError, MasterEvent};
     use duocan::net::{CoreEvent, NetEvent};

@@ -5,7 +5,7 @@
 //! redundancy has (the master role, the pairs, the status table, a forced switch-over).
 //!
 //! ```
-//! use duocan::Duration;
+//! use std::time::Duration;
 //! use duocan_redundancy::net::{RedundantEvent, RedundantNetwork};
 //! use duocan_redundancy::RedundantError;
 //!
@@ -14,13 +14,13 @@
 //! #[tokio::main(flavor = "current_thread", start_paused = true)]
 //! async fn main() -> Result<(), RedundantError> {
 //!     let ms = Duration::from_millis;
-//!     // "sim": two simulated buses with the declared pairs and peers on them; or "can0,can1".
+//!     // "sim-pairs": two simulated buses with the declared pairs and peers on them; or "can0,can1".
 //!     let net = RedundantNetwork::builder()
 //!         .node_id(1)
 //!         .heartbeat(ms(50))
 //!         .master_timeout(ms(200))
 //!         .pair(0x10, 0x50)
-//!         .open_named("sim")?;
+//!         .open_named("sim-pairs")?;
 //!     let mut events = net.events();
 //!     // Active once the power-on negotiation is over and the boards are configured.
 //!     while let Some(e) = events.next().await {
@@ -47,8 +47,8 @@
 //!
 //! A tool that must not become a master on somebody's network opens duocan's plain front door
 //! on the two buses instead: [`open_dual`] / [`open_dual_named`] ([`DualLink`], the dual-bus
-//! layer as `duocan::net::Network`'s link); `open_dual_named("sim")` runs it on a simulated
-//! redundant station:
+//! layer as `duocan::net::Network`'s link); `open_dual_named("sim-station")` runs it on a
+//! simulated redundant station:
 //!
 //! | node | what | state |
 //! | --- | --- | --- |
@@ -58,7 +58,7 @@
 //! | 0x05, 0x06, 0x07 | plain slaves ([`SIM_SLAVES`]): `duocan::net`'s simulated node and a read-write DOMAIN [`SIM_DOMAIN`] of up to [`SIM_DOMAIN_SIZE`] bytes; [`SIM_PROGRAM_NODE`] takes program download (identification after start: `duocan::cia302::program::image_id` of the image) | pre-operational |
 //! | none (0xFF) | two boards that arrive without a node-ID ([`SIM_LSS_SERIALS`], identity [`sim_lss_address`]): silent but for LSS (CiA 305) until an LSS master gives them a node-ID, then they boot as the simulated node with it (one on a rig of one's own: [`sim_lss_board`]) | non-configured |
 //!
-//! `"sim:faults"` repeats a script every [`SIM_FAULT_PERIOD`]: at [`SIM_FAULT_BUS_CUT`] into
+//! `"sim-station:faults"` repeats a script every [`SIM_FAULT_PERIOD`]: at [`SIM_FAULT_BUS_CUT`] into
 //! it the network's connection to bus 1 is cut (back at [`SIM_FAULT_BUS_BACK`]), at
 //! [`SIM_FAULT_MEMBER_STOPS`] the active member of the first pair stops (back at
 //! [`SIM_FAULT_MEMBER_BACK`]), at [`SIM_FAULT_MASTER_STOPS`] the active master stops (back at
@@ -72,12 +72,12 @@
 mod core;
 mod dual_link;
 mod events;
-mod sim;
+mod sim_pairs;
 mod sim_station;
 
 pub use dual_link::{open_dual, open_dual_named, open_dual_with, DualLink};
 pub use events::RedundantEvent;
-pub use sim::{SIM_BUS_FAILS, SIM_B_BOOTS, SIM_END, SIM_MEMBER_FAILS, SIM_PEERS_FAIL};
+pub use sim_pairs::{SIM_BUS_FAILS, SIM_B_BOOTS, SIM_END, SIM_MEMBER_FAILS, SIM_PEERS_FAIL};
 pub use sim_station::{
     sim_lss_address, sim_lss_board, SimLssBoard, SimLssBuild, SIM_BIT_RATE, SIM_DOMAIN,
     SIM_DOMAIN_SIZE, SIM_FAULT_BUS_BACK, SIM_FAULT_BUS_CUT, SIM_FAULT_MASTER_BACK,
@@ -86,7 +86,7 @@ pub use sim_station::{
 };
 
 use self::core::{MasterCore, Net};
-use crate::network::{RedundantError, RedundantNetworkBuilder};
+use crate::logical::{RedundantError, RedundantNetworkBuilder};
 use crate::pair::{Member, PairId};
 use crate::supervisor::flying_master::MasterRole;
 use alloc::boxed::Box;
@@ -251,7 +251,7 @@ impl RedundantNetworkBuilder {
     }
     /// Opens the network by name:
     ///
-    /// - `sim`: two simulated buses carrying the declared pairs (`duocan::net`'s simulated node, with its process data) and
+    /// - `sim-pairs`: two simulated buses carrying the declared pairs (`duocan::net`'s simulated node, with its process data) and
     ///   peer masters (simulated redundant masters with the same settings), and a script of
     ///   faults: bus 1 of this master fails at [`SIM_BUS_FAILS`], the peer masters stop at
     ///   [`SIM_PEERS_FAIL`] (a standby master takes over), the active member of every pair
@@ -260,14 +260,24 @@ impl RedundantNetworkBuilder {
     /// - `A,B`: SocketCAN interfaces A (bus 1) and B (bus 2), such as `can0,can1` (feature
     ///   `socketcan`, Linux).
     pub fn open_named(&self, name: &str) -> Result<RedundantNetwork, RedundantError> {
-        if name == "sim" {
-            return sim::open(self);
+        if name == "sim-pairs" {
+            return sim_pairs::open(self);
+        }
+        if name == "sim" || name.starts_with("sim-") || name.starts_with("sim:") {
+            return Err(RedundantError::Port {
+                port: 0,
+                name: name.into(),
+                why: alloc::format!(
+                    "a redundant network on simulated buses is sim-pairs; {}",
+                    duocan::net::SIM_NAMES
+                ),
+            });
         }
         let Some((a, b)) = name.split_once(',') else {
             return Err(RedundantError::Port {
                 port: 0,
                 name: name.into(),
-                why: "a redundant network needs two interfaces: name them as can0,can1 (or use \"sim\")".into(),
+                why: "a redundant network needs two interfaces: name them as can0,can1 (or use \"sim-pairs\")".into(),
             });
         };
         socketcan(self, a.trim(), b.trim())
@@ -300,6 +310,6 @@ fn socketcan(
     Err(RedundantError::Port {
         port: 0,
         name: bus1.into(),
-        why: "this build has no SocketCAN: use \"sim\", or enable the `socketcan` feature of duocan-redundancy (Linux)".into(),
+        why: "this build has no SocketCAN: use \"sim-pairs\", or enable the `socketcan` feature of duocan-redundancy (Linux)".into(),
     })
 }

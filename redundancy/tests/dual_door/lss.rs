@@ -23,7 +23,7 @@ type Board = Handle<Station<DualBus, SimLssBoard>>;
 async fn open(door: Door) -> (Network, Vec<Board>) {
     match door {
         Door::Plain => (
-            open_dual_named("sim", NetOptions::default()).unwrap(),
+            open_dual_named("sim-station", NetOptions::default()).unwrap(),
             vec![],
         ),
         Door::Redundant => {
@@ -109,7 +109,7 @@ async fn fastscan_configures_both_boards(door: Door) {
     for id in [0x20, 0x21] {
         assert_eq!(
             net.heard_on(id).await.unwrap(),
-            Some([true, true]),
+            Some([true, true].into()),
             "{id:#04x}"
         );
     }
@@ -167,7 +167,7 @@ async fn select_inquire_configure_and_switch_back(door: Door) {
 
 #[tokio::test(start_paused = true)]
 async fn a_listen_only_network_sends_no_lss() {
-    let net = open_dual_named("sim", NetOptions::default().with_listen_only(true)).unwrap();
+    let net = open_dual_named("sim-station", NetOptions::default().with_listen_only(true)).unwrap();
     assert_eq!(
         net.lss().switch_global(LssMode::Configuration).await,
         Err(NetError::ListenOnly { node: None })

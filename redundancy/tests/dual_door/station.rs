@@ -1,6 +1,6 @@
-//! The simulated redundant station behind `open_dual_named("sim")` (the tool's `--bus sim`):
+//! The simulated redundant station behind `open_dual_named("sim-station")` (the tool's `--bus sim-station`):
 //! every node answers, the pairs are as the supervisor leaves them, a mebibyte goes to a
-//! DOMAIN and back, a program is downloaded, and `"sim:faults"` plays its script.
+//! DOMAIN and back, a program is downloaded, and `"sim-station:faults"` plays its script.
 
 use duocan::cia302::program::image_id;
 use duocan::net::{NetError, NetEvent, NetOptions, Network, TransferProgress, SIM_VENDOR};
@@ -19,7 +19,7 @@ async fn sleep_ms(ms: u64) {
 }
 
 fn sim() -> Network {
-    open_dual_named("sim", NetOptions::default()).unwrap()
+    open_dual_named("sim-station", NetOptions::default()).unwrap()
 }
 
 /// A byte pattern that differs along its length.
@@ -62,7 +62,7 @@ async fn every_node_answers_and_the_pairs_are_as_the_supervisor_leaves_them() {
     for id in [0x01, 0x02, 0x10, 0x50, 0x05] {
         assert_eq!(
             net.heard_on(id).await.unwrap(),
-            Some([true, true]),
+            Some([true, true].into()),
             "{id:#04x}"
         );
     }
@@ -132,7 +132,7 @@ async fn a_program_is_downloaded_and_runs() {
 
 #[tokio::test(start_paused = true)]
 async fn sim_faults_plays_a_bus_a_member_and_a_master_failover() {
-    let net = open_dual_named("sim:faults", NetOptions::default()).unwrap();
+    let net = open_dual_named("sim-station:faults", NetOptions::default()).unwrap();
     let mut events = net.events();
     // One period and the start of the next.
     let end = tokio::time::Instant::now() + Duration::from_millis(12_500);
@@ -181,13 +181,13 @@ async fn sim_faults_plays_a_bus_a_member_and_a_master_failover() {
     // The active master 0x01 stops: heard on no bus after the reach timeout.
     let master = SIM_FAULT_MASTER_STOPS.as_millis();
     let gone = seen.iter().find(
-        |e| matches!(e, NetEvent::Reach { node, heard: [false, false], .. } if node.raw() == 0x01),
+        |e| matches!(e, NetEvent::Reach { node, heard, .. } if *heard == [false, false] && node.raw() == 0x01),
     );
     let gone = gone.expect("master 0x01 gone");
     assert!((master..master + 500).contains(&at_ms(gone)), "{gone}");
     // …and is heard again once powered.
     let again = seen.iter().find(|e| {
-        matches!(e, NetEvent::Reach { node, heard: [true, true], .. } if node.raw() == 0x01)
+        matches!(e, NetEvent::Reach { node, heard, .. } if *heard == [true, true] && node.raw() == 0x01)
             && at_ms(e) > master
     });
     assert!(
@@ -214,5 +214,22 @@ fn a_name_without_two_ports_is_an_error_naming_it() {
         assert!(e.to_string().contains("can0,can1"), "{e}");
     });
     // Outside a runtime: an error, not a panic.
-    assert!(open_dual_named("sim", NetOptions::default()).is_err());
+    assert!(open_dual_named("sim-station", NetOptions::default()).is_err());
+}
+
+/// The station is `sim-station`; a bare `sim`, or another door's simulated network, is an error
+/// that names the simulated networks there are and where each opens.
+#[test]
+fn sim_names_no_station() {
+    for name in ["sim", "sim:faults", "sim-nodes", "sim-pairs"] {
+        let Err(e) = open_dual_named(name, NetOptions::default()) else {
+            panic!("{name} opened");
+        };
+        let text = e.to_string();
+        assert!(
+            text.contains("station on two buses is sim-station")
+                && text.contains(duocan::net::SIM_NAMES),
+            "{name}: {text}"
+        );
+    }
 }

@@ -1,4 +1,4 @@
-//! The redundant network's front door on the simulated station (`open_named("sim")`), on
+//! The redundant network's front door on the simulated station (`open_named("sim-pairs")`), on
 //! tokio's paused clock (deterministic): the builder's settings reach the running machines
 //! (the failovers come exactly when the configured heartbeats and timeouts say), SDO goes
 //! and NMT go through the handle to pair members, and the scripted faults give one failover of each kind.
@@ -57,7 +57,7 @@ async fn the_simulated_station_plays_one_failover_of_each_kind_at_the_configured
         .pair_heartbeat(pair_hb)
         .pair_timeout(pair_timeout)
         .peer_master(1)
-        .open_named("sim")
+        .open_named("sim-pairs")
         .unwrap();
     let events = all_events(&net).await;
     let failovers: Vec<&NetEvent> = events.iter().filter(|e| e.is_failover()).collect();
@@ -130,7 +130,7 @@ async fn a_member_not_heard_within_the_boot_timeout_is_reported_once() {
         .pair(0x10, 0x50)
         .boot_timeout(ms(400))
         .peer_master(1)
-        .open_named("sim")
+        .open_named("sim-pairs")
         .unwrap();
     let events = all_events(&net).await;
     let not_heard: Vec<&NetEvent> = events
@@ -171,7 +171,7 @@ async fn sdo_through_the_handle_to_a_pair_member_on_either_bus() {
         .pair(0x10, 0x50)
         .pair_heartbeat(ms(25))
         .pair_timeout(ms(80))
-        .open_named("sim")
+        .open_named("sim-pairs")
         .unwrap();
     until_pair_active(&net).await;
     assert_eq!(net.role().await.unwrap(), MasterRole::Active);
@@ -260,7 +260,7 @@ async fn a_standby_master_refuses_sdo_until_it_takes_over() {
         .master_timeout(ms(50))
         .pair(0x10, 0x50)
         .peer_master(1)
-        .open_named("sim")
+        .open_named("sim-pairs")
         .unwrap();
     until_pair_active(&net).await;
     assert!(matches!(net.role().await.unwrap(), MasterRole::Standby(_)));
@@ -301,8 +301,22 @@ async fn names_that_are_not_two_interfaces_are_errors_naming_the_port() {
     let e = b.open_named("can0").err().unwrap();
     assert!(matches!(e, RedundantError::Port { port: 0, .. }), "{e}");
     assert!(e.to_string().contains("can0,can1"), "{e}");
+    // A simulated network by another door's name says which one this door opens.
+    for name in ["sim", "sim-station", "sim-nodes", "sim:faults"] {
+        let e = b.open_named(name).err().unwrap();
+        let text = e.to_string();
+        assert!(
+            text.contains("is sim-pairs") && text.contains("sim-station:faults"),
+            "{name}: {text}"
+        );
+    }
     // Bad settings come first, before any port is touched.
-    let e = b.clone().node_id(200).open_named("sim").err().unwrap();
+    let e = b
+        .clone()
+        .node_id(200)
+        .open_named("sim-pairs")
+        .err()
+        .unwrap();
     assert!(
         matches!(e, RedundantError::BadNodeId { id: 200, .. }),
         "{e}"
@@ -345,7 +359,10 @@ async fn open_on_two_ports_runs_the_builders_network() {
     let names: Vec<&str> = ports.iter().map(|p| p.name.as_str()).collect();
     assert_eq!(names, ["can1", "can2"]);
     assert!(ports.iter().all(|p| p.health.is_some()), "{ports:?}");
-    assert_eq!(net.heard_on(0x33).await.unwrap(), Some([false, false]));
+    assert_eq!(
+        net.heard_on(0x33).await.unwrap(),
+        Some([false, false].into())
+    );
     net.close().await;
     assert!(net.events().next().await.is_none());
 }
@@ -360,7 +377,7 @@ async fn a_call_waits_for_the_networks_own_transfer_to_the_node() {
         .heartbeat(ms(20))
         .master_timeout(ms(50))
         .pair(0x10, 0x50)
-        .open_named("sim")
+        .open_named("sim-pairs")
         .unwrap();
     until_pair_active(&net).await;
     // Member B is silent until it boots, and the supervisor probes it meanwhile: the client

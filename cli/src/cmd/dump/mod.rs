@@ -292,7 +292,7 @@ async fn live_bus(g: &Global, a: &Args) -> Result<(), Fail> {
     let (feed, mut rx) = Feed::new();
     let bus = bus::open_with(g, bus::options(g, true).with_tap(feed.clone()))?;
     let mut dump = Dump::new(g, a, &bus.descs, true);
-    // The ports' own names: `sim` is two buses, `sim-bus1` and `sim-bus2`.
+    // The ports' own names: `sim-station` is two buses, `sim-bus1` and `sim-bus2`.
     let names: Vec<String> = match bus.net.ports().await {
         Ok(ports) => ports.into_iter().map(|p| p.name).collect(),
         Err(_) => bus.names.clone(),

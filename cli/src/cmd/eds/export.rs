@@ -5,7 +5,7 @@
 //!
 //! CANopen has no service that lists a node's objects, so what is read is chosen here:
 //!
-//! - **with a description attached** to the node (`--eds`, `--dcf`; on `--bus sim` the
+//! - **with a description attached** to the node (`--eds`, `--dcf`; on `--bus sim-station` the
 //!   simulated nodes' own): every entry it lists, read over SDO. Names, types, access and
 //!   limits come from the description; an entry the node does not have (it aborts with "object
 //!   does not exist" or "sub-index does not exist") is left out; write-only entries and DOMAINs
@@ -23,7 +23,7 @@
 //!   VISIBLE_STRING; else DOMAIN) and marked read-only, since SDO cannot tell access. CiA 301
 //!   makes some read-only entries `const` (0x1000, 0x1018, a record's sub-index 0), and so
 //!   does the export, where a device's own EDS may say `ro`: SDO cannot tell them apart
-//!   either. 0x1000–0x1FFF is 4096 requests: about a second on `--bus sim`, a few seconds on
+//!   either. 0x1000–0x1FFF is 4096 requests: about a second on `--bus sim-station`, a few seconds on
 //!   a 500 kbit/s bus.
 //!
 //! The EDS takes the values read as its `DefaultValue`s (so that it describes the node as it

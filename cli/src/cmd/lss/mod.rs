@@ -2,13 +2,13 @@
 //! give them a node-ID and a bit rate over the bus.
 //!
 //! ```text
-//! duocan --bus sim lss fastscan --assign 0x20     # every board without a node-ID gets one
+//! duocan --bus sim-station lss fastscan --assign 0x20     # every board without a node-ID gets one
 //! duocan --bus can0 lss switch config             # every slave to configuration mode
 //! duocan --bus can0 lss select 0x2A 7 1 0x1234    # or just the one with this identity
 //! duocan --bus can0 lss inquire                   # its identity and node-ID
 //! duocan --bus can0 lss set-id 5 && duocan --bus can0 lss store
 //! duocan --bus can0 lss switch waiting            # a new node-ID takes effect (reset-comm)
-//! duocan --bus sim lss --select 0xD0CA00:0x305:1:2 inquire   # select and inquire in one run
+//! duocan --bus sim-station lss --select 0xD0CA00:0x305:1:2 inquire   # select and inquire in one run
 //! ```
 //!
 //! The master is the library's LSS master behind the network handle
@@ -17,7 +17,7 @@
 //! command is one service, and a sequence of commands is a configuration session: the mode a
 //! `switch` or `select` set holds until the next `switch`. `--select V:P:R:S` selects the slave
 //! in the same run as inquire, set-id, set-bitrate or store and switches every slave back to
-//! waiting at the end (on `--bus sim`, whose station starts afresh with every run, that is the
+//! waiting at the end (on `--bus sim-station`, whose station starts afresh with every run, that is the
 //! only way to reach them).
 //!
 //! Every service that expects an answer waits `--answer-ms` for it (50 ms by default; identify

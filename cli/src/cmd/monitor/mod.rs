@@ -48,7 +48,7 @@ const MAX_SECONDS: f64 = 86_400.0;
 #[derive(clap::Args, Debug)]
 pub struct Args {
     /// A redundant pair of slaves, A,B (node-IDs): shows which member is active (operational)
-    /// and which standby (pre-operational); repeatable. Default on `--bus sim`: the simulated
+    /// and which standby (pre-operational); repeatable. Default on `--bus sim-station`: the simulated
     /// station's pairs
     #[arg(long = "pair", value_name = "A,B", value_parser = parse_pair)]
     pairs: Vec<(u8, u8)>,
@@ -145,7 +145,7 @@ pub async fn run(g: &Global, a: Args) -> Result<(), Fail> {
     let sim = g
         .bus
         .as_ref()
-        .is_some_and(|b| b.0 == ["sim"] || b.0 == ["sim:faults"]);
+        .is_some_and(|b| crate::bus::is_sim_station(&b.0));
     let pairs = if a.pairs.is_empty() && sim {
         SIM_PAIRS.to_vec()
     } else {

@@ -38,7 +38,7 @@
 //! ```
 //! (as `model_tests.rs` runs it)
 
-use duocan::net::NetEvent;
+use duocan::net::{HeardOn, NetEvent};
 use duocan::{Frame, Id, Instant, NmtState};
 use std::collections::{BTreeMap, VecDeque};
 
@@ -87,7 +87,7 @@ impl NodeInfo {
 /// One port's row.
 #[derive(Clone, Debug, PartialEq, Eq)]
 pub struct PortInfo {
-    /// Its name (`can0`, `sim`).
+    /// Its name (`can0`, `sim-bus1`).
     pub name: String,
     /// Its state: ok, suspect, failed, recovering (two ports); ok, error, down (one).
     pub state: String,
@@ -281,18 +281,16 @@ impl Model {
         }
     }
 
-    /// Where node `id` was heard (`[bus 1, bus 2]`), from the network on two ports.
-    pub fn set_heard_on(&mut self, id: u8, heard: [bool; 2]) {
+    /// Where node `id` was heard, from a network on more than one port: `bus 1+2`, `bus 2`,
+    /// `none`.
+    pub fn set_heard_on(&mut self, id: u8, heard: HeardOn) {
         if let Some(n) = self.node(id) {
-            n.heard_on = Some(
-                match heard {
-                    [true, true] => "bus 1+2",
-                    [true, false] => "bus 1",
-                    [false, true] => "bus 2",
-                    [false, false] => "none",
-                }
-                .into(),
-            );
+            let buses: Vec<String> = heard.iter().map(|b| (b + 1).to_string()).collect();
+            n.heard_on = Some(if buses.is_empty() {
+                "none".into()
+            } else {
+                format!("bus {}", buses.join("+"))
+            });
         }
     }
 

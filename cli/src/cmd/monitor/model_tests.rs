@@ -257,7 +257,7 @@ fn emcy_ports_reach_and_the_filter() {
     });
     m.on_event(&NetEvent::Reach {
         node: NodeId::must(6),
-        heard: [false, true],
+        heard: duocan::net::HeardOn::from([false, true]),
         at: ms(3),
     });
     m.on_event(&NetEvent::PortState {

@@ -2,7 +2,7 @@
 //! dictionary, by index or by name, as a typed value or to/from a file.
 //!
 //! OBJECT is an index (`0x1018`, with the sub-index next or as `0x1018:1`) or, with a
-//! description attached (`--eds`, `--dcf`; automatic on `--bus sim`), a name as the library
+//! description attached (`--eds`, `--dcf`; automatic on `--bus sim-station`), a name as the library
 //! resolves it (`"Producer heartbeat time"`, `"Identity object.Vendor-ID"`). The type comes from
 //! the command line, else from the description, else a read shows the bytes (and the number
 //! they make) and a write asks for it. `--file` streams a value of any size to or from a file,

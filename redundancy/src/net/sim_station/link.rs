@@ -20,7 +20,7 @@ use alloc::sync::Arc;
 use core::convert::Infallible;
 use duocan::capture::recorder::{Tap, TapDirection, TapPoint};
 use duocan::machine::{BusLink, ErrorCause, PortRequest, PortStatus};
-use duocan::net::{NetEvent, NetLink};
+use duocan::net::{HeardOn, NetEvent, NetLink};
 use duocan::port::{Port, PortCounters, PortError, PortInput};
 use duocan::{Duration, Frame, Instant, NodeId};
 
@@ -324,7 +324,7 @@ impl<L: NetLink> NetLink for StationLink<L> {
     fn port_state(&self, port: usize) -> Option<crate::PortState> {
         self.link.port_state(port)
     }
-    fn heard_on(&self, node: NodeId) -> Option<[bool; 2]> {
+    fn heard_on(&self, node: NodeId) -> Option<HeardOn> {
         self.link.heard_on(node)
     }
     fn poll_input(&mut self) -> Option<(usize, PortInput<Instant>)> {

@@ -1,6 +1,6 @@
-//! The simulated redundant station behind [`open_dual_named`](super::open_dual_named)`("sim")`,
-//! what a commissioning tool's `--bus sim` talks to (what it holds and the fault script of
-//! `"sim:faults"` are tabled in the [`net`](super) module's docs).
+//! The simulated redundant station behind [`open_dual_named`](super::open_dual_named)`("sim-station")`,
+//! what a commissioning tool's `--bus sim-station` talks to (what it holds and the fault script of
+//! `"sim-station:faults"` are tabled in the [`net`](super) module's docs).
 //!
 //! Its devices are members of one [`Backplane`](backplane): two buses, `sim-bus1` and
 //! `sim-bus2`, each carrying its frames in turn at [`SIM_BIT_RATE`], every device on both
@@ -17,11 +17,11 @@ mod link;
 #[cfg(test)]
 mod tests;
 
-use super::sim::{board, Board};
+use super::sim_pairs::{board, Board};
 use super::Net;
 use crate::link::config::DualBusConfig;
 use crate::link::dual_bus::DualBus;
-use crate::network::{RedundantError, RedundantNetworkBuilder};
+use crate::logical::{RedundantError, RedundantNetworkBuilder};
 use alloc::boxed::Box;
 use alloc::string::ToString;
 use backplane::Backplane;
@@ -55,7 +55,7 @@ pub const SIM_LSS_REVISION: u32 = 1;
 /// Their serial numbers: one board each, non-configured (node-ID 0xFF) until an LSS master
 /// gives it a node-ID; then it boots as the simulated node with that node-ID.
 pub const SIM_LSS_SERIALS: [u32; 2] = [0x0001, 0x0002];
-/// The period of the `"sim:faults"` script.
+/// The period of the `"sim-station:faults"` script.
 pub const SIM_FAULT_PERIOD: Duration = Duration::from_millis(10_000);
 /// Into each period: the network's connection to bus 1 is cut.
 pub const SIM_FAULT_BUS_CUT: Duration = Duration::from_millis(2_000);
@@ -187,7 +187,7 @@ fn master(id: u8) -> Result<Box<Net>, RedundantError> {
 fn sim_error(why: impl ToString) -> RedundantError {
     RedundantError::Port {
         port: 0,
-        name: "sim".into(),
+        name: "sim-station".into(),
         why: why.to_string(),
     }
 }

@@ -1,4 +1,4 @@
-//! The simulated redundant station behind `open_named("sim")`: two in-memory buses, the
+//! The simulated network behind `open_named("sim-pairs")`: two in-memory buses, the
 //! declared pairs as simulated duocan boards, the declared peers as simulated redundant masters
 //! with the same settings, and a script of faults, so that a user sees a bus, a master and a
 //! pair failover without hardware. Under tokio's paused clock (tests) the run is deterministic.
@@ -7,7 +7,7 @@ use super::core::Net;
 use super::RedundantNetwork;
 use crate::link::config::DualBusConfig;
 use crate::link::dual_bus::{DualBus, DualBusNode};
-use crate::network::{RedundantError, RedundantNetworkBuilder};
+use crate::logical::{RedundantError, RedundantNetworkBuilder};
 use alloc::boxed::Box;
 use alloc::string::ToString;
 use alloc::vec::Vec;
@@ -93,7 +93,7 @@ where
         .spawn()
         .map_err(|e| RedundantError::Port {
             port: 0,
-            name: "sim".into(),
+            name: "sim-pairs".into(),
             why: e.to_string(),
         })
 }

@@ -1,0 +1,4 @@
+//! The logical network object (`duocan_redundancy::logical`) on the simulated dual bus.
+
+mod builder;
+mod logical;
