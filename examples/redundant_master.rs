@@ -26,12 +26,10 @@ pub async fn main() -> Result<(), RedundantError> {
 
 /// Opens the network on `port` and hands `print` one line per failover until it closes.
 pub async fn run(port: &str, mut print: impl FnMut(String)) -> Result<(), RedundantError> {
-    let ms = Duration::from_millis;
     let net = RedundantNetwork::builder()
         .node_id(2)
-        .heartbeat(ms(50))
-        .master_timeout(ms(200))
-        .sync(ms(100))
+        .heartbeat(Duration::from_millis(50))
+        .master_timeout(Duration::from_millis(200))
         .pair(0x10, 0x50)
         .peer_master(1)
         .open_named(port)?;

@@ -32,12 +32,10 @@ pub async fn run(port: &str) -> Result<u16, Box<dyn Error>> {
     // The pair's inputs come from whichever of its boards runs.
     let id = net.running_board(0x10, Duration::from_secs(10)).await?;
     let board = net.add_node(id, sim_description()?);
-    let mut tpdo = board.tpdo(1).read().await?;
-    tpdo.event_timer_ms = Some(100);
-    board.tpdo(1).save(&tpdo).await?;
+    board.tpdo(1).edit(|t| t.event_timer_ms = Some(100)).await?;
     let inputs = board.wait_for_pdo(1, Duration::from_secs(2)).await?;
     println!("inputs: {inputs:?}");
-    board.rpdo(1).read().await?;
+    // Its outputs by RPDO (the mapping is read from the board first).
     board.rpdo(1).send(&[1234u16.into(), (-3i8).into()]).await?;
     let output = board.sdo().read::<u16>(0x6200, 1).await?;
     println!("outputs: {output}");

@@ -114,3 +114,47 @@ async fn redundant_master_prints_a_bus_a_master_and_a_pair_failover() {
 async fn redundant_pdo_reads_inputs_and_writes_outputs_of_a_pair_member() {
     assert_eq!(redundant_pdo::run("sim-pairs").await.unwrap(), 1234);
 }
+
+/// Lines of code as the starter examples are measured: every line that is not blank, a
+/// comment (doc comments too), a `use` declaration or an attribute.
+fn code_lines(text: &str) -> usize {
+    text.lines()
+        .map(str::trim)
+        .filter(|l| !(l.is_empty() || l.starts_with("//") || l.starts_with("use ")))
+        .filter(|l| !l.starts_with("#["))
+        .count()
+}
+
+/// The starter examples are the measure of the front door: if one grows, the API is wrong.
+/// Each does its task within its number of lines of code.
+#[test]
+fn the_starter_examples_stay_within_their_lines() {
+    assert_eq!(
+        code_lines("use a;\n//! doc\n\n  #[x]\nfn f() {\n    g();\n}\n"),
+        3
+    );
+    for (file, text, most) in [
+        ("read_sdo", include_str!("../../examples/read_sdo.rs"), 8),
+        (
+            "heartbeat_monitor",
+            include_str!("../../examples/heartbeat_monitor.rs"),
+            15,
+        ),
+        (
+            "redundant_master",
+            include_str!("../../examples/redundant_master.rs"),
+            20,
+        ),
+        (
+            "redundant_pdo",
+            include_str!("../../examples/redundant_pdo.rs"),
+            20,
+        ),
+    ] {
+        let lines = code_lines(text);
+        assert!(
+            lines <= most,
+            "examples/{file}.rs: {lines} lines of code, at most {most}"
+        );
+    }
+}

@@ -200,13 +200,13 @@ async fn an_rpdo_sent_changes_the_nodes_dictionary() {
     let net = Network::simulated([5], quick()).unwrap();
     let node = net.add_node(5, sim_description().unwrap());
     let r1 = node.rpdo(1);
-    // Unknown mapping: an error that says what to do.
-    let e = r1.send(&[1u16.into(), 2i8.into()]).await.unwrap_err();
-    assert!(
-        e.to_string().contains("read, save or learn it first"),
-        "{e}"
-    );
-    r1.read().await.unwrap();
+    // A mapping not known yet is read from the node, then the RPDO goes out (a
+    // pre-operational node does not apply it).
+    r1.send(&[1u16.into(), 2i8.into()]).await.unwrap();
+    assert_eq!(node.sdo().read::<u16>(0x6200, 1).await.unwrap(), 0);
+    // A disabled RPDO is read too, and stays unknown: the error says why.
+    let e = node.rpdo(2).send(&[]).await.unwrap_err();
+    assert!(e.to_string().contains("disabled on the node"), "{e}");
     node.start().await.unwrap();
     node.wait_for_state(NmtState::Operational, T).await.unwrap();
     r1.send(&[1234u16.into(), (-3i8).into()]).await.unwrap();

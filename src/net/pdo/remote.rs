@@ -255,6 +255,17 @@ impl RemotePdo {
         }
     }
 
+    /// Reads the PDO's configuration ([`RemotePdo::read`]), lets `change` edit it and saves
+    /// it ([`RemotePdo::save`]): the common "set the event timer of TPDO 1" in one call.
+    /// Returns the map as saved. Nothing is written if the read fails; a save that fails
+    /// says how far it got ([`NetError::PdoConfig`]).
+    pub async fn edit(&self, change: impl FnOnce(&mut PdoMap)) -> Result<PdoMap, NetError> {
+        let mut map = self.read().await?;
+        change(&mut map);
+        self.save(&map).await?;
+        Ok(map)
+    }
+
     /// [`RemotePdo::save`], then [`RemoteNode::store_parameters`]: the configuration
     /// survives the node's power cycle.
     pub async fn save_and_store(&self, map: &PdoMap) -> Result<(), NetError> {
@@ -312,8 +323,9 @@ impl RemotePdo {
 
     /// Sends the node's RPDO with `values`, one per mapped entry that is not a dummy, in
     /// mapping order, each encoded as its data type (from the description) and width say:
-    /// python `rpdo[n].transmit()`. The network must know the mapping ([`RemotePdo::read`],
-    /// [`RemotePdo::save`] or [`RemotePdo::learn`]); a value that does not fit its entry is
+    /// python `rpdo[n].transmit()`. A mapping the network does not know yet (from
+    /// [`RemotePdo::read`], [`RemotePdo::save`] or [`RemotePdo::learn`]) is read from the node
+    /// first, once; a value that does not fit its entry is
     /// [`NetError::BadValue`]. A network that may not send refuses: listen-only
     /// ([`NetError::ListenOnly`]), or a standby redundant master ([`NetError::Standby`]: the
     /// active master's application drives the outputs, two would fight over them).
@@ -348,33 +360,55 @@ impl RemotePdo {
         .await
     }
 
+    /// Sends the frame `make` encodes from the learned mapping; a mapping not known yet is
+    /// read from the node first (once: a disabled PDO stays unknown, and says so).
     async fn send_with(
         &self,
         node: NodeId,
         what: String,
-        make: impl FnOnce(&mut PdoTable, NodeId, u16) -> Option<Result<Frame, String>> + Send + 'static,
+        make: impl Fn(&mut PdoTable, NodeId, u16) -> Option<Result<Frame, String>>
+            + Clone
+            + Send
+            + 'static,
     ) -> Result<(), NetError> {
         let net = self.node.network();
         if net.is_listen_only() {
             return Err(NetError::ListenOnly { node: Some(node) });
         }
+        if self.try_send(node, what.clone(), make.clone()).await? {
+            return Ok(());
+        }
+        self.read().await?;
+        if self.try_send(node, what.clone(), make).await? {
+            return Ok(());
+        }
+        Err(NetError::Pdo {
+            node,
+            pdo: what,
+            why: "it is disabled on the node: enable it (save a map with enabled set) first".into(),
+        })
+    }
+
+    /// Sends the frame `make` encodes; false (nothing sent) if the mapping is not known.
+    async fn try_send(
+        &self,
+        node: NodeId,
+        what: String,
+        make: impl FnOnce(&mut PdoTable, NodeId, u16) -> Option<Result<Frame, String>> + Send + 'static,
+    ) -> Result<bool, NetError> {
         let pdo = self.pdo;
-        net.shared
+        self.node
+            .network()
+            .shared
             .handle
             .try_call(move |d, now| match make(&mut d.pdos, node, pdo) {
-                None => Err(NetError::Pdo {
-                    node,
-                    pdo: what,
-                    why:
-                        "its mapping is not known (or it is disabled): read, save or learn it first"
-                            .into(),
-                }),
+                None => Ok(false),
                 Some(Err(why)) => Err(NetError::BadValue {
                     node,
                     object: what,
                     why,
                 }),
-                Some(Ok(f)) => d.send_own(now, f),
+                Some(Ok(f)) => d.send_own(now, f).map(|()| true),
             })
             .await
             .map_err(|e| match e {
