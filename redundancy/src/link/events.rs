@@ -265,8 +265,14 @@ impl fmt::Display for SwitchReason {
 /// One line, e.g. `1.250000s: node 0x12 heard on bus 2 only`.
 impl fmt::Display for LinkEvent {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        write!(f, "{}: ", self.at)?;
-        match self.kind {
+        write!(f, "{}: {}", self.at, self.kind)
+    }
+}
+
+/// One line without the time, e.g. `node 0x12 heard on bus 2 only`.
+impl fmt::Display for LinkEventKind {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match *self {
             LinkEventKind::Port {
                 port,
                 from,

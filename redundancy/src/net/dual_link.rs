@@ -25,6 +25,7 @@
 //! ```
 
 use super::core::link_event;
+use super::events::RedundantEvent;
 use super::sim_station::{self as station, StationScript};
 use crate::link::channel::ModeKind;
 use crate::link::classify::FrameClassifier;
@@ -37,14 +38,15 @@ use alloc::boxed::Box;
 use alloc::string::{String, ToString};
 use core::convert::Infallible;
 use duocan::machine::{BusLink, LinkRequest, StationEvent};
-use duocan::net::{HeardOn, NetEvent, NetLink, NetOptions, Network};
+use duocan::net::{ExtEvent, HeardOn, NetEvent, NetLink, NetOptions, Network};
 use duocan::port::Port;
 use duocan::profile::Predefined;
 use duocan::NodeId;
 
 /// A [`DualBus`] as the link of a `duocan::net::Network`: its port-health and reach changes
-/// become [`NetEvent::PortState`] and [`NetEvent::Reach`]; its other reports (channel
-/// switches, discrepancies, plausibility) concern a master and are not passed on.
+/// become [`NetEvent::PortState`] and [`NetEvent::Reach`], its other reports (discrepancies,
+/// heartbeats suspected, babbling, a bus lagging, channel switches) [`RedundantEvent::Link`]
+/// in [`NetEvent::Ext`].
 ///
 /// `SLOTS` is the merger's slot count (see [`DualBus`]); the default suits real buses.
 #[derive(Debug)]
@@ -82,10 +84,12 @@ impl Default for DualLink {
     }
 }
 
-/// The front door's event of a layer event, if it is one the door shows.
-fn net_event(e: LinkEvent) -> Option<NetEvent> {
-    let at = e.at;
-    link_event(&typed(&StationEvent::Link(e))?, at)
+/// The front door's event of a layer event: port health and reach as duocan's own events,
+/// everything else the layer reports as [`RedundantEvent::Link`].
+fn net_event(e: LinkEvent) -> NetEvent {
+    typed(&StationEvent::Link(e))
+        .and_then(|k| link_event(&k, e.at))
+        .unwrap_or_else(|| NetEvent::Ext(ExtEvent::new(RedundantEvent::Link(e))))
 }
 
 impl<const SLOTS: usize> BusLink for DualLink<SLOTS> {
@@ -99,11 +103,7 @@ impl<const SLOTS: usize> BusLink for DualLink<SLOTS> {
         handle_timeout, poll_timeout
     );
     fn poll_event(&mut self) -> Option<NetEvent> {
-        loop {
-            if let Some(e) = net_event(self.bus.poll_event()?) {
-                return Some(e);
-            }
-        }
+        self.bus.poll_event().map(net_event)
     }
     fn poll_machine_request(&mut self) -> Option<LinkRequest> {
         // The layer's requests (enter pre-operational, status entries, suspect nodes) are for

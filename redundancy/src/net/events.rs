@@ -3,54 +3,37 @@
 //!
 //! **Why.** Boot-ups, states, EMCY, reach, port health and nodes never heard are every
 //! network's, and come as duocan's own [`NetEvent`](duocan::net::NetEvent)s; pairs, the master
-//! role, error control of the master's slaves, A/B discrepancies and refused boots exist only
-//! here. `e.ext::<RedundantEvent>()` gives them back typed; `Display`, `node()`, `at()` and
+//! role, error control of the master's slaves, refused boots and everything else the dual-bus
+//! layer reports (A/B discrepancies, suspect heartbeats, a bus lagging, …) exist only here. Each
+//! carries the type its layer declares ([`RoleChange`], [`MasterRoleChange`], [`LinkEvent`]):
+//! an event kind is declared once, where it happens, and this stream is a view of them. `e.ext::<RedundantEvent>()` gives them back typed; `Display`, `node()`, `at()` and
 //! `is_failover()` work on the stream's event without it.
 
+use crate::link::events::{LinkEvent, LinkEventKind};
 use crate::logical::NetworkEventKind;
-use crate::pair::{Member, PairId};
-use crate::supervisor::flying_master::{MasterReason, MasterRole};
-use crate::supervisor::pairs::RoleReason;
+use crate::pair::Member;
+use crate::supervisor::flying_master::{MasterRole, MasterRoleChange};
+use crate::supervisor::pairs::RoleChange;
 use crate::SupervisorEvent;
 use core::fmt;
 use duocan::machine::StationEvent;
 use duocan::master::{ErrorStatus, MasterEventKind};
 use duocan::net::Extension;
 use duocan::node::NodeEventKind;
-use duocan::{Frame, Instant, NodeId};
+use duocan::{Instant, NodeId};
 
-/// What happened on a redundant network that only redundancy knows. Every variant is one level
-/// deep; `Display` prints one short line.
+/// What happened on a redundant network that only redundancy knows. The supervisor's and the
+/// dual-bus layer's own event types inside (each declared once, where it happens); `Display`
+/// prints one short line.
 #[derive(Clone, Copy, Debug, PartialEq)]
 #[non_exhaustive]
 pub enum RedundantEvent {
-    /// A pair's active member changed.
-    PairRole {
-        /// The pair.
-        pair: PairId,
-        /// Node-IDs of A and B.
-        nodes: [NodeId; 2],
-        /// The active member before.
-        from: Option<Member>,
-        /// The active member now.
-        to: Option<Member>,
-        /// Why.
-        reason: RoleReason,
-        /// When (for a silent member: exactly its last heartbeat + the pair timeout).
-        at: Instant,
-    },
-    /// This master's role changed.
-    MasterRole {
-        /// Before.
-        from: MasterRole,
-        /// After.
-        to: MasterRole,
-        /// Why.
-        reason: MasterReason,
-        /// When (for a takeover: exactly the active master's last heartbeat + the master
-        /// timeout).
-        at: Instant,
-    },
+    /// A pair's active member changed (when: for a silent member, exactly its last heartbeat +
+    /// the pair timeout).
+    PairRole(RoleChange),
+    /// This master's role changed (when: for a takeover, exactly the active master's last
+    /// heartbeat + the master timeout).
+    MasterRole(MasterRoleChange),
     /// Error control lost a slave (its heartbeat stopped, or it was never heard after its
     /// configuration).
     SlaveLost {
@@ -66,29 +49,11 @@ pub enum RedundantEvent {
         /// When.
         at: Instant,
     },
-    /// A and B of a pair have carried different values of one function for longer than the
-    /// discrepancy time.
-    Discrepancy {
-        /// The pair.
-        pair: PairId,
-        /// The function (e.g. the TPDO number).
-        function: u32,
-        /// A's latest frame.
-        a: Frame,
-        /// B's latest frame.
-        b: Frame,
-        /// When the discrepancy time ran out.
-        at: Instant,
-    },
-    /// A and B of a pair agree again on a function.
-    DiscrepancyCleared {
-        /// The pair.
-        pair: PairId,
-        /// The function.
-        function: u32,
-        /// When.
-        at: Instant,
-    },
+    /// What the dual-bus layer reports besides port health and reach (duocan's
+    /// `NetEvent::PortState` and `NetEvent::Reach`): A/B discrepancies and their end, channel
+    /// switches, heartbeats suspected, babbling identifiers, duplicate node-IDs, a bus lagging
+    /// behind the other, …
+    Link(LinkEvent),
     /// The boot process did not start a slave: it is not what 0x1F84–0x1F88 expect, or a step
     /// of its configuration failed (the CiA 302-2 error status says which).
     BootFailed {
@@ -106,36 +71,28 @@ impl RedundantEvent {
     pub(super) fn of(at: Instant, kind: NetworkEventKind) -> Option<Self> {
         use NetworkEventKind as K;
         Some(match kind {
-            K::PairRole(r) => RedundantEvent::PairRole {
-                pair: r.pair,
-                nodes: r.nodes,
-                from: r.from,
-                to: r.to,
-                reason: r.reason,
-                at,
-            },
-            K::MasterRole(r) => RedundantEvent::MasterRole {
-                from: r.from,
-                to: r.to,
-                reason: r.reason,
-                at,
-            },
+            K::PairRole(r) => RedundantEvent::PairRole(r),
+            K::MasterRole(r) => RedundantEvent::MasterRole(r),
             K::NodeLost { node, .. } => RedundantEvent::SlaveLost { node, at },
             K::Discrepancy {
                 pair,
                 function,
                 a,
                 b,
-            } => RedundantEvent::Discrepancy {
-                pair,
-                function,
-                a,
-                b,
+            } => RedundantEvent::Link(LinkEvent {
                 at,
-            },
-            K::DiscrepancyCleared { pair, function } => {
-                RedundantEvent::DiscrepancyCleared { pair, function, at }
-            }
+                kind: LinkEventKind::Discrepancy {
+                    pair,
+                    function,
+                    a,
+                    b,
+                },
+            }),
+            K::DiscrepancyCleared { pair, function } => RedundantEvent::Link(LinkEvent {
+                at,
+                kind: LinkEventKind::DiscrepancyCleared { pair, function },
+            }),
+            K::Other(StationEvent::Link(l)) => RedundantEvent::Link(l),
             K::Other(StationEvent::Machine(SupervisorEvent::Node(ref n))) => match n.kind {
                 NodeEventKind::HeartbeatResumed { node } => RedundantEvent::SlaveBack { node, at },
                 _ => return None,
@@ -158,9 +115,9 @@ impl RedundantEvent {
             RedundantEvent::SlaveLost { node, .. }
             | RedundantEvent::SlaveBack { node, .. }
             | RedundantEvent::BootFailed { node, .. } => Some(node),
-            RedundantEvent::PairRole { nodes, to, .. } => to.map(|m| match m {
-                Member::A => nodes[0],
-                Member::B => nodes[1],
+            RedundantEvent::PairRole(r) => r.to.map(|m| match m {
+                Member::A => r.nodes[0],
+                Member::B => r.nodes[1],
             }),
             _ => None,
         }
@@ -169,12 +126,11 @@ impl RedundantEvent {
     #[must_use]
     pub fn at(&self) -> Instant {
         match *self {
-            RedundantEvent::PairRole { at, .. }
-            | RedundantEvent::MasterRole { at, .. }
+            RedundantEvent::PairRole(RoleChange { at, .. })
+            | RedundantEvent::MasterRole(MasterRoleChange { at, .. })
+            | RedundantEvent::Link(LinkEvent { at, .. })
             | RedundantEvent::SlaveLost { at, .. }
             | RedundantEvent::SlaveBack { at, .. }
-            | RedundantEvent::Discrepancy { at, .. }
-            | RedundantEvent::DiscrepancyCleared { at, .. }
             | RedundantEvent::BootFailed { at, .. } => at,
         }
     }
@@ -184,10 +140,10 @@ impl RedundantEvent {
     #[must_use]
     pub fn is_failover(&self) -> bool {
         match *self {
-            RedundantEvent::PairRole { from, to, .. } => {
+            RedundantEvent::PairRole(RoleChange { from, to, .. }) => {
                 from.is_some() && to.is_some() && from != to
             }
-            RedundantEvent::MasterRole { from, to, .. } => {
+            RedundantEvent::MasterRole(MasterRoleChange { from, to, .. }) => {
                 matches!(from, MasterRole::Standby(_)) && to == MasterRole::Active
             }
             _ => false,
@@ -218,28 +174,19 @@ impl fmt::Display for RedundantEvent {
             None => "no member",
         };
         match *self {
-            RedundantEvent::PairRole { nodes, to, .. } => write!(
+            RedundantEvent::PairRole(RoleChange { nodes, to, .. }) => write!(
                 f,
                 "pair {:#04x}/{:#04x}: {} active",
                 nodes[0].raw(),
                 nodes[1].raw(),
                 member(to)
             ),
-            RedundantEvent::MasterRole { to, .. } => write!(f, "this master: {to}"),
+            RedundantEvent::MasterRole(MasterRoleChange { to, .. }) => {
+                write!(f, "this master: {to}")
+            }
+            RedundantEvent::Link(l) => fmt::Display::fmt(&l.kind, f),
             RedundantEvent::SlaveLost { node, .. } => write!(f, "node {:#04x}: lost", node.raw()),
             RedundantEvent::SlaveBack { node, .. } => write!(f, "node {:#04x}: back", node.raw()),
-            RedundantEvent::Discrepancy { pair, function, .. } => write!(
-                f,
-                "pair {}: A and B disagree on function {function}",
-                pair.0
-            ),
-            RedundantEvent::DiscrepancyCleared { pair, function, .. } => {
-                write!(
-                    f,
-                    "pair {}: A and B agree again on function {function}",
-                    pair.0
-                )
-            }
             RedundantEvent::BootFailed { node, status, .. } => {
                 write!(f, "node {:#04x}: not started, {status}", node.raw())
             }
@@ -252,9 +199,10 @@ mod tests {
     use super::*;
     use crate::logical::NetworkEvent;
     use crate::supervisor::pairs::PairsEvent;
+    use crate::PairId;
     use duocan::master::{BootError, MasterEvent};
     use duocan::net::{CoreEvent, NetEvent};
-    use duocan::Id;
+    use duocan::{Frame, Id};
 
     /// The event of the door's stream a network event becomes.
     fn flat(kind: NetworkEventKind) -> Option<NetEvent> {
@@ -282,16 +230,51 @@ mod tests {
         })
         .unwrap();
         assert_eq!(e.at(), Some(Instant::from_millis(7)));
-        assert_eq!(e.to_string(), "pair 1: A and B disagree on function 1");
-        assert!(
-            matches!(e.ext(), Some(RedundantEvent::Discrepancy { a: x, b: y, .. }) if *x == a && *y == b)
+        assert_eq!(
+            e.to_string(),
+            format!("pair 1 function 1: A sends {a}, B sends {b}")
         );
+        assert!(matches!(
+            e.ext(),
+            Some(RedundantEvent::Link(LinkEvent {
+                kind: LinkEventKind::Discrepancy { a: x, b: y, .. },
+                ..
+            })) if *x == a && *y == b
+        ));
         let e = flat(NetworkEventKind::DiscrepancyCleared {
             pair: PairId(1),
             function: 1,
         })
         .unwrap();
-        assert_eq!(e.to_string(), "pair 1: A and B agree again on function 1");
+        assert_eq!(e.to_string(), "pair 1 function 1: A and B agree again");
+    }
+
+    /// Every other report of the dual-bus layer reaches the stream too, typed as the layer
+    /// declares it, one line each.
+    #[test]
+    fn every_other_report_of_the_dual_bus_layer_reaches_the_flat_stream() {
+        let kinds = [
+            LinkEventKind::Lag {
+                port: 1,
+                lag: duocan::Duration::from_millis(12),
+                window: duocan::Duration::from_millis(14),
+            },
+            LinkEventKind::LagCleared { port: 1 },
+            LinkEventKind::Trusted {
+                node: NodeId::must(0x10),
+            },
+        ];
+        for kind in kinds {
+            let l = LinkEvent {
+                at: Instant::from_millis(7),
+                kind,
+            };
+            let e = flat(NetworkEventKind::Other(StationEvent::Link(l))).unwrap();
+            assert_eq!(e.ext(), Some(&RedundantEvent::Link(l)));
+            assert_eq!(e.to_string(), kind.to_string());
+            assert!(!e.to_string().contains('\n'));
+            assert_eq!(e.at(), Some(Instant::from_millis(7)));
+        }
     }
 
     #[test]

@@ -407,6 +407,7 @@ async fn running_board_follows_the_pair_member_that_runs() {
 /// agree again.
 #[tokio::test(start_paused = true)]
 async fn a_discrepancy_between_a_and_b_reaches_the_event_stream() {
+    use duocan_redundancy::link::events::{LinkEvent, LinkEventKind};
     use duocan_redundancy::net::RedundantEvent;
     use duocan_redundancy::PairId;
     let buses = [MemBus::new("bus1"), MemBus::new("bus2")];
@@ -430,26 +431,35 @@ async fn a_discrepancy_between_a_and_b_reaches_the_event_stream() {
     let discrepancy = |e: &NetEvent| {
         matches!(
             e.ext::<RedundantEvent>(),
-            Some(RedundantEvent::Discrepancy {
-                pair: PairId(0),
+            Some(RedundantEvent::Link(LinkEvent {
+                kind: LinkEventKind::Discrepancy {
+                    pair: PairId(0),
+                    ..
+                },
                 ..
-            })
+            }))
         )
     };
     let cleared = |e: &NetEvent| {
         matches!(
             e.ext::<RedundantEvent>(),
-            Some(RedundantEvent::DiscrepancyCleared {
-                pair: PairId(0),
+            Some(RedundantEvent::Link(LinkEvent {
+                kind: LinkEventKind::DiscrepancyCleared {
+                    pair: PairId(0),
+                    ..
+                },
                 ..
-            })
+            }))
         )
     };
     let seen = drain(&mut events, 500).await;
     let d = seen.iter().find(|e| discrepancy(e)).unwrap_or_else(|| {
         panic!("no discrepancy among {seen:#?}");
     });
-    assert_eq!(d.to_string(), "pair 0: A and B disagree on function 1");
+    assert!(
+        d.to_string().starts_with("pair 0 function 1: A sends "),
+        "{d}"
+    );
     net.node(other).sdo().write(0x6000, 1, 1u16).await.unwrap();
     let seen = drain(&mut events, 500).await;
     assert!(seen.iter().any(cleared), "{seen:#?}");

@@ -11,8 +11,8 @@ use duocan_redundancy::net::{
     RedundantEvent, RedundantNetwork, SIM_BUS_FAILS, SIM_B_BOOTS, SIM_END, SIM_MEMBER_FAILS,
     SIM_PEERS_FAIL,
 };
-use duocan_redundancy::supervisor::flying_master::{MasterReason, MasterRole};
-use duocan_redundancy::supervisor::pairs::RoleReason;
+use duocan_redundancy::supervisor::flying_master::{MasterReason, MasterRole, MasterRoleChange};
+use duocan_redundancy::supervisor::pairs::{RoleChange, RoleReason};
 use duocan_redundancy::{LogicalNetwork, Member, NetworkError, RedundantError};
 
 fn ms(n: u64) -> Duration {
@@ -87,12 +87,12 @@ async fn the_simulated_station_plays_one_failover_of_each_kind_at_the_configured
     }
     // The takeover: exactly the peer's last heartbeat + the master timeout, and that last
     // heartbeat is the one before the peer stopped (it beats every `hb`).
-    let Some(&RedundantEvent::MasterRole {
+    let Some(&RedundantEvent::MasterRole(MasterRoleChange {
         from: MasterRole::Standby(_),
         reason: MasterReason::HeartbeatLost { master, last },
         at,
         ..
-    }) = failovers[1].ext()
+    })) = failovers[1].ext()
     else {
         panic!("{:?}", failovers[1]);
     };
@@ -102,13 +102,13 @@ async fn the_simulated_station_plays_one_failover_of_each_kind_at_the_configured
     assert!(last <= stopped && stopped <= last + hb, "last {last}");
     // The pair: A (booted first, active) stops; B takes over exactly at A's last heartbeat
     // + the pair timeout.
-    let Some(&RedundantEvent::PairRole {
+    let Some(&RedundantEvent::PairRole(RoleChange {
         from: Some(Member::A),
         to: Some(Member::B),
         reason: RoleReason::ActiveSilent { last },
         at,
         ..
-    }) = failovers[2].ext()
+    })) = failovers[2].ext()
     else {
         panic!("{:?}", failovers[2]);
     };
@@ -152,7 +152,7 @@ async fn a_member_not_heard_within_the_boot_timeout_is_reported_once() {
         unreachable!()
     };
     let reset = events.iter().find_map(|e| match e.ext() {
-        Some(RedundantEvent::PairRole { at, .. }) if *at > after(SIM_MEMBER_FAILS) => Some(*at),
+        Some(RedundantEvent::PairRole(r)) if r.at > after(SIM_MEMBER_FAILS) => Some(r.at),
         _ => None,
     });
     assert_eq!(
