@@ -24,7 +24,7 @@
 //!     let mut events = net.events();
 //!     // Active once the power-on negotiation is over and the boards are configured.
 //!     while let Some(e) = events.next().await {
-//!         if matches!(e.ext(), Some(RedundantEvent::PairRole { .. })) {
+//!         if matches!(e.ext(), Some(RedundantEvent::PairRole(_))) {
 //!             break;
 //!         }
 //!     }
