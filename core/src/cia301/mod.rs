@@ -17,15 +17,16 @@
 //!
 //! Everything here sits on the [object dictionary](crate::od) and the [frame](crate::frame)
 //! primitives only: no service knows the node that composes it, and none knows about the master
-//! or the ports. The root re-exports each module, so `duocan::sdo` is `duocan::cia301::sdo`.
+//! or the ports. The crate root re-exports each module, so `duocan_core::sdo` is
+//! `duocan_core::cia301::sdo` (and `duocan::sdo` in `duocan`, which re-exports the core).
 //!
 //! Each service is driven the same way, here the SDO client: a request gives a frame to send,
 //! the server's answer goes in with the time it arrived, the result comes out as an event; with
 //! no answer, the deadline it reported is where it aborts.
 //!
 //! ```
-//! use duocan::sdo::{SdoClient, SdoOptions};
-//! use duocan::{AbortCode, Duration, Frame, Id, Instant, Machine, NodeId};
+//! use duocan_core::sdo::{SdoClient, SdoOptions};
+//! use duocan_core::{AbortCode, Duration, Frame, Id, Instant, Machine, NodeId};
 //!
 //! let mut client: SdoClient = SdoClient::new(1024);
 //! let (node, opts) = (NodeId::must(5), SdoOptions::default().with_timeout(Duration::from_millis(100)));
@@ -47,7 +48,7 @@
 //! assert_eq!(client.poll_transmit().unwrap().data(), [0x80, 0, 0x10, 0, 0, 0, 4, 5]);
 //! let err = client.poll_event().unwrap().result.unwrap_err();
 //! assert_eq!(err.code(), Some(AbortCode::TIMEOUT));
-//! # Ok::<(), duocan::sdo::SdoError>(())
+//! # Ok::<(), duocan_core::sdo::SdoError>(())
 //! ```
 
 pub mod emcy;

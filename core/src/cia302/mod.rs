@@ -10,33 +10,47 @@
 //! Both run on a [node](crate::node) and its CiA 301 services; nothing below this layer knows
 //! that a master exists.
 //!
-//! A master that boots one slave on the simulated bus: it hears the boot-up, checks the slave,
-//! writes its configuration over SDO (here a 100 ms heartbeat) and starts it.
+//! A master that boots one slave on one wire: it hears the boot-up, checks the slave, writes
+//! its configuration over SDO (here a 100 ms heartbeat) and starts it. The loop is what any
+//! driver (`duocan`'s simulator, its tokio runtime, a board's main loop) does with the two
+//! devices: what one sends the other receives, and time runs to the next deadline.
 //!
 //! ```
-//! use duocan::master::{objects, BootPhase, Master, NetworkConfig, SlaveConfig};
-//! use duocan::od::{comm, ObjectDictionary};
-//! use duocan::sim::{BusConfig, SimNetwork};
-//! use duocan::{Instant, NmtState, Node, NodeConfig, NodeId, Station};
+//! use duocan_core::master::{objects, BootPhase, Master, NetworkConfig, SlaveConfig};
+//! use duocan_core::od::{comm, ObjectDictionary};
+//! use duocan_core::{Device, Instant, NmtState, Node, NodeConfig, NodeId, Station};
+//!
+//! /// Runs two devices on one wire (port 0 of each, no delay) until `until`.
+//! fn run(a: &mut impl Device, b: &mut impl Device, mut now: Instant, until: Instant) {
+//!     while now <= until {
+//!         let mut busy = true;
+//!         while busy {
+//!             busy = false;
+//!             while let Some((_, f)) = a.poll_transmit() { b.handle_rx(now, 0, &f); busy = true; }
+//!             while let Some((_, f)) = b.poll_transmit() { a.handle_rx(now, 0, &f); busy = true; }
+//!             while a.poll_event().is_some() || b.poll_event().is_some() {}
+//!         }
+//!         let Some(next) = a.poll_timeout().into_iter().chain(b.poll_timeout()).min() else { break };
+//!         now = next;
+//!         a.handle_timeout(now);
+//!         b.handle_timeout(now);
+//!     }
+//! }
 //!
 //! let seven = NodeId::must(7);
 //! let net = NetworkConfig::new().slave(SlaveConfig::new(seven).mandatory().heartbeat(100, 250));
 //! let od = objects::master_dictionary(1, comm::Identity::default());
-//! let master = Master::new(NodeId::must(1), od, net)?;
+//! let mut master = Station::single(Master::new(NodeId::must(1), od, net)?);
 //! let slave = Node::new(NodeConfig::slave(seven), comm::standard_dictionary(7, Default::default()));
+//! let mut slave = Station::single(slave);
 //!
-//! let mut sim = SimNetwork::new(1);
-//! let bus = sim.add_bus(BusConfig::new("can0", 500_000));
-//! let m = sim.add_device("master", Station::single(master), &[bus])?;
-//! let s = sim.add_device("slave 7", Station::single(slave), &[bus])?;
-//! sim.device_mut(m).machine.boot(Instant::ZERO);
-//! sim.device_mut(s).machine.boot(Instant::ZERO);
-//! sim.run_until(Instant::from_millis(50));
+//! master.machine.boot(Instant::ZERO);
+//! slave.machine.boot(Instant::ZERO);
+//! run(&mut master, &mut slave, Instant::ZERO, Instant::from_millis(50));
 //!
-//! assert_eq!(sim.device(m).machine.slave(seven).phase, BootPhase::Started);
-//! let slave = &sim.device(s).machine;
-//! assert_eq!(slave.nmt_state(), NmtState::Operational);
-//! assert_eq!(slave.od().get_value::<u16>(comm::HEARTBEAT_PRODUCER, 0), Ok(100));
+//! assert_eq!(master.machine.slave(seven).phase, BootPhase::Started);
+//! assert_eq!(slave.machine.nmt_state(), NmtState::Operational);
+//! assert_eq!(slave.machine.od().get_value::<u16>(comm::HEARTBEAT_PRODUCER, 0), Ok(100));
 //! # Ok::<(), Box<dyn std::error::Error>>(())
 //! ```
 

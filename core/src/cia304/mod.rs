@@ -19,8 +19,8 @@
 //! A consumer on its own, with the frames on the wire:
 //!
 //! ```
-//! use duocan::cia304::srdo::consumer::{ConsumerStep, SrdoCause, SrdoConsumer};
-//! use duocan::{Duration, Frame, Id, Instant};
+//! use duocan_core::cia304::srdo::consumer::{ConsumerStep, SrdoCause, SrdoConsumer};
+//! use duocan_core::{Duration, Frame, Id, Instant};
 //!
 //! let ms = Instant::from_millis;
 //! let (sct, srvt) = (Duration::from_millis(50), Duration::from_millis(10));

@@ -21,8 +21,8 @@
 //! A master gives a non-configured slave node-ID 5, frames and time by hand:
 //!
 //! ```
-//! use duocan::cia305::{LssAddress, LssMaster, LssMasterEventKind, LssPlan, LssSlave};
-//! use duocan::{Instant, Machine, NodeId};
+//! use duocan_core::cia305::{LssAddress, LssMaster, LssMasterEventKind, LssPlan, LssSlave};
+//! use duocan_core::{Instant, Machine, NodeId};
 //!
 //! let board = LssAddress { vendor: 0x2A, product: 7, revision: 1, serial: 0x1234 };
 //! let mut slave = LssSlave::new(board, 0xFF);
@@ -42,7 +42,7 @@
 //! assert_eq!(slave.node_id(), Some(NodeId::must(5)));
 //! let kinds: Vec<_> = std::iter::from_fn(|| master.poll_event()).map(|e| e.kind).collect();
 //! assert_eq!(kinds[1], LssMasterEventKind::Assigned { address: board, node: NodeId::must(5) });
-//! # Ok::<(), duocan::cia305::LssError>(())
+//! # Ok::<(), duocan_core::cia305::LssError>(())
 //! ```
 
 pub mod codec;

@@ -66,8 +66,8 @@
 //! its capacity.
 //!
 //! ```
-//! use duocan::eds::{self, Description, ImportOptions};
-//! use duocan::od::ObjectDictionary;
+//! use duocan_core::eds::{self, Description, ImportOptions};
+//! use duocan_core::od::ObjectDictionary;
 //!
 //! let text = "\
 //! [FileInfo]

@@ -26,8 +26,8 @@
 //!   a deadline that stays due forever.
 //!
 //! ```
-//! use duocan::frame::instant::{earliest, shift_back, TimeWatch};
-//! use duocan::{Duration, Instant};
+//! use duocan_core::frame::instant::{earliest, shift_back, TimeWatch};
+//! use duocan_core::{Duration, Instant};
 //!
 //! let mut watch = TimeWatch::new();
 //! let glitch = Instant::from_secs(3600);

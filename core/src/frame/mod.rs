@@ -4,9 +4,9 @@
 //! are equal on the wire compare equal and hash equal: the dual-bus merger relies on that.
 //!
 //! ```
-//! use duocan::frame::cob_id::predefined::{self, Function};
-//! use duocan::frame::FrameError;
-//! use duocan::{CobId, Frame, Id, NodeId};
+//! use duocan_core::frame::cob_id::predefined::{self, Function};
+//! use duocan_core::frame::FrameError;
+//! use duocan_core::{CobId, Frame, Id, NodeId};
 //!
 //! // TPDO1 of node 5 in the predefined connection set, as 0x1800 sub 1 would hold it.
 //! let node = NodeId::must(5);

@@ -21,8 +21,8 @@
 //! A node on one port, run by hand the way any driver runs a [`Device`]:
 //!
 //! ```
-//! use duocan::od::comm;
-//! use duocan::{Device, Frame, Id, Instant, Node, NodeConfig, NodeId, Station};
+//! use duocan_core::od::comm;
+//! use duocan_core::{Device, Frame, Id, Instant, Node, NodeConfig, NodeId, Station};
 //!
 //! let mut node = Node::new(NodeConfig::slave(NodeId::must(5)), comm::standard_dictionary(5, Default::default()));
 //! node.set(Instant::ZERO, comm::HEARTBEAT_PRODUCER, 0, 50u16)?; // a heartbeat every 50 ms
@@ -42,7 +42,7 @@
 //! let hb = |state| Frame::from_array(Id::Standard(0x705), [state]);
 //! // The boot-up, then heartbeats saying "pre-operational" (0x7F), all on port 0.
 //! assert_eq!(sent, [(0, 0, hb(0x00)), (50, 0, hb(0x7F)), (100, 0, hb(0x7F))]);
-//! # Ok::<(), duocan::AbortCode>(())
+//! # Ok::<(), duocan_core::AbortCode>(())
 //! ```
 
 mod forward;

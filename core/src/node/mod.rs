@@ -6,10 +6,10 @@
 //! Every write — local or from the bus — goes through the node so that those reactions happen.
 //!
 //! ```
-//! use duocan::node::StateCause;
-//! use duocan::nmt::{command_frame, NmtCommand, NmtState, NmtTarget};
-//! use duocan::od::comm;
-//! use duocan::{Frame, Id, Instant, Machine, Node, NodeConfig, NodeEventKind, NodeId};
+//! use duocan_core::node::StateCause;
+//! use duocan_core::nmt::{command_frame, NmtCommand, NmtState, NmtTarget};
+//! use duocan_core::od::comm;
+//! use duocan_core::{Frame, Id, Instant, Machine, Node, NodeConfig, NodeEventKind, NodeId};
 //!
 //! let five = NodeId::must(5);
 //! let mut node = Node::new(NodeConfig::slave(five), comm::standard_dictionary(5, Default::default()));
@@ -39,7 +39,7 @@
 //! assert_eq!(t, Instant::from_millis(140));
 //! node.handle_timeout(t);
 //! assert_eq!(node.poll_transmit(), Some(operational));
-//! # Ok::<(), duocan::AbortCode>(())
+//! # Ok::<(), duocan_core::AbortCode>(())
 //! ```
 
 use crate::cia301::emcy::EmcyProducer;
@@ -227,9 +227,9 @@ pub struct NodeCore<
 /// the type so that a node needs no allocator; spell a shape once as a type alias:
 ///
 /// ```
-/// use duocan::node::{Node, ALL_NODES};
-/// use duocan::od::DynamicDictionary;
-/// use duocan::profile::Predefined;
+/// use duocan_core::node::{Node, ALL_NODES};
+/// use duocan_core::od::DynamicDictionary;
+/// use duocan_core::profile::Predefined;
 ///
 /// /// A concentrator mirroring the TPDOs of many boards.
 /// type Concentrator = Node<DynamicDictionary, Predefined, ALL_NODES, 4, 512>;

@@ -3,7 +3,7 @@
 //! All `const`, so a no_std node keeps them in flash:
 //!
 //! ```
-//! use duocan::od::{comm, ObjectDef, StaticDictionary};
+//! use duocan_core::od::{comm, ObjectDef, StaticDictionary};
 //! static COMM: [ObjectDef; comm::COMM_LEN] = comm::communication();
 //! static ID: [ObjectDef; 6] = comm::identity(0x0001_0191, 0x1234, 1, 1, 42);
 //! static HB: [ObjectDef; 5] = comm::heartbeat_consumers();

@@ -6,8 +6,8 @@
 //! without conversion. Lookup is a hash on `index << 8 | sub`, independent of dictionary size.
 //!
 //! ```
-//! use duocan::od::{Access, Limit, ObjectDef, ObjectDictionary, StaticDictionary};
-//! use duocan::AbortCode;
+//! use duocan_core::od::{Access, Limit, ObjectDef, ObjectDictionary, StaticDictionary};
+//! use duocan_core::AbortCode;
 //!
 //! // A compile-time table: a speed limit (0..=250) and a read-only serial number.
 //! static APP: [ObjectDef; 2] = [

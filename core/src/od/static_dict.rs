@@ -32,7 +32,7 @@ const RECORD_HEADER: usize = 5;
 /// application configured before boot. The defaults themselves live in flash, in the tables.
 ///
 /// ```
-/// use duocan::od::{Access, ObjectDef, ObjectDictionary, StaticDictionary};
+/// use duocan_core::od::{Access, ObjectDef, ObjectDictionary, StaticDictionary};
 /// static APP: [ObjectDef; 1] = [ObjectDef::u16(0x2000, 0, Access::Rw, 7)];
 /// // Room for 16 entries and 64 bytes of values, named where the dictionary is declared.
 /// type AppDictionary = StaticDictionary<16, 64>;

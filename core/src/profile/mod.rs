@@ -6,8 +6,8 @@
 //! deployment-specific scheme ([`railway`], the 29-bit layout of a published railway-depot network) is another.
 //!
 //! ```
-//! use duocan::profile::{IdProfile, Predefined, ProfileFrame};
-//! use duocan::{Id, NodeId};
+//! use duocan_core::profile::{IdProfile, Predefined, ProfileFrame};
+//! use duocan_core::{Id, NodeId};
 //!
 //! let (p, node) = (Predefined, NodeId::must(0x12));
 //! assert_eq!(p.nmt(), Id::Standard(0x000));

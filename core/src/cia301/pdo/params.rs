@@ -3,8 +3,8 @@
 //! [`crate::od::comm`], so a no_std node keeps them in flash:
 //!
 //! ```
-//! use duocan::od::{Access, DefaultValue, ObjectDef, StaticDictionary};
-//! use duocan::pdo::params;
+//! use duocan_core::od::{Access, DefaultValue, ObjectDef, StaticDictionary};
+//! use duocan_core::pdo::params;
 //! static APP: [ObjectDef; 1] = [ObjectDef::u16(0x6000, 1, Access::Rw, 0).mappable()];
 //! static T1: [ObjectDef; params::TPDO_COMM_LEN] =
 //!     params::tpdo_comm(1, params::predefined_tpdo_cob(1), 255, 0, 100);

@@ -26,8 +26,8 @@
 //! yet read (at most the window).
 //!
 //! ```
-//! use duocan::sdo::{SdoClient, SdoOptions};
-//! use duocan::{Instant, Machine, NodeId};
+//! use duocan_core::sdo::{SdoClient, SdoOptions};
+//! use duocan_core::{Instant, Machine, NodeId};
 //!
 //! let mut client: SdoClient = SdoClient::new(64 * 1024);
 //! let node = NodeId::must(5);

@@ -27,8 +27,8 @@
 //! download with an abort code, so the dictionary never holds half a configuration.
 //!
 //! ```
-//! use duocan::master::{ConciseDcf, SlaveConfig};
-//! use duocan::NodeId;
+//! use duocan_core::master::{ConciseDcf, SlaveConfig};
+//! use duocan_core::NodeId;
 //!
 //! let cfg = SlaveConfig::new(NodeId::must(5)).write_u16(0x2000, 1, 500).heartbeat(100, 0);
 //! let bytes = ConciseDcf::from_config(&cfg).unwrap().to_bytes();

@@ -9,8 +9,8 @@
 //! [`SlaveConfig`].
 //!
 //! ```
-//! use duocan::master::{Assignment, ExpectedIdentity, NetworkConfig, NmtStartup, SlaveConfig};
-//! use duocan::NodeId;
+//! use duocan_core::master::{Assignment, ExpectedIdentity, NetworkConfig, NmtStartup, SlaveConfig};
+//! use duocan_core::NodeId;
 //!
 //! let net = NetworkConfig::new()
 //!     .startup(NmtStartup::MASTER.with(NmtStartup::START_ALL))

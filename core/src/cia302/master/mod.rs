@@ -48,15 +48,32 @@
 //! are taken, slaves wait in a bounded FIFO ([`MasterStats::jobs_queued`]).
 //!
 //! # Example
-//! A master and one slave on the simulated bus; the slave's start is left to the application
-//! (as a slave-pair supervisor does with the members of a pair).
+//! A master and one slave on one wire, run as any driver runs them (what one sends the other
+//! receives, time runs to the next deadline); the slave's start is left to the application (as
+//! a slave-pair supervisor does with the members of a pair).
 //!
 //! ```
-//! use duocan::master::{objects, BootPhase, Master, NetworkConfig, SlaveConfig};
-//! use duocan::master::StartPolicy;
-//! use duocan::od::comm;
-//! use duocan::sim::{BusConfig, SimNetwork};
-//! use duocan::{Instant, NmtState, Node, NodeConfig, NodeId, Station};
+//! use duocan_core::master::{objects, BootPhase, Master, NetworkConfig, SlaveConfig};
+//! use duocan_core::master::StartPolicy;
+//! use duocan_core::od::comm;
+//! use duocan_core::{Device, Instant, NmtState, Node, NodeConfig, NodeId, Station};
+//!
+//! /// Runs two devices on one wire (port 0 of each, no delay) from `now` until `until`.
+//! fn run(a: &mut impl Device, b: &mut impl Device, mut now: Instant, until: Instant) {
+//!     while now <= until {
+//!         let mut busy = true;
+//!         while busy {
+//!             busy = false;
+//!             while let Some((_, f)) = a.poll_transmit() { b.handle_rx(now, 0, &f); busy = true; }
+//!             while let Some((_, f)) = b.poll_transmit() { a.handle_rx(now, 0, &f); busy = true; }
+//!             while a.poll_event().is_some() || b.poll_event().is_some() {}
+//!         }
+//!         let Some(next) = a.poll_timeout().into_iter().chain(b.poll_timeout()).min() else { break };
+//!         now = next;
+//!         a.handle_timeout(now);
+//!         b.handle_timeout(now);
+//!     }
+//! }
 //!
 //! let five = NodeId::must(5);
 //! let net = NetworkConfig::new().slave(
@@ -67,26 +84,22 @@
 //!         .start(StartPolicy::Application),
 //! );
 //! let od = objects::master_dictionary(1, comm::Identity::default());
-//! let master = Master::new(NodeId::must(1), od, net).unwrap();
+//! let mut m = Station::single(Master::new(NodeId::must(1), od, net).unwrap());
 //! let slave = Node::new(NodeConfig::slave(five), comm::standard_dictionary(5, Default::default()));
+//! let mut s = Station::single(slave);
+//! s.machine.boot(Instant::ZERO);
+//! m.machine.boot(Instant::ZERO);
+//! run(&mut m, &mut s, Instant::ZERO, Instant::from_millis(20));
 //!
-//! let mut sim = SimNetwork::new(1);
-//! let bus = sim.add_bus(BusConfig::new("can0", 500_000));
-//! let m = sim.add_device("master", Station::single(master), &[bus]).unwrap();
-//! let s = sim.add_device("slave", Station::single(slave), &[bus]).unwrap();
-//! sim.device_mut(s).machine.boot(Instant::ZERO);
-//! sim.device_mut(m).machine.boot(Instant::ZERO);
-//! sim.run_until(Instant::from_millis(20));
-//!
-//! let view = sim.device(m).machine.slave(five);
+//! let view = m.machine.slave(five);
 //! assert_eq!(view.phase, BootPhase::Ready);
 //! assert_eq!(view.state, Some(NmtState::PreOperational));
-//! assert!(sim.device(m).machine.network_started());
+//! assert!(m.machine.network_started());
 //!
-//! let now = sim.now();
-//! sim.device_mut(m).machine.start_slave(now, five).unwrap();
-//! sim.run_until(Instant::from_millis(25));
-//! assert_eq!(sim.device(s).machine.nmt_state(), NmtState::Operational);
+//! let now = Instant::from_millis(20);
+//! m.machine.start_slave(now, five).unwrap();
+//! run(&mut m, &mut s, now, Instant::from_millis(25));
+//! assert_eq!(s.machine.nmt_state(), NmtState::Operational);
 //! ```
 
 mod boot;

@@ -33,8 +33,8 @@
 //! refused with 0x06070012 before the store sees it.
 //!
 //! ```
-//! use duocan::cia302::program::{FlashError, ProgramDictionary, ProgramStore};
-//! use duocan::od::{comm, ObjectDictionary};
+//! use duocan_core::cia302::program::{FlashError, ProgramDictionary, ProgramStore};
+//! use duocan_core::od::{comm, ObjectDictionary};
 //!
 //! /// A store in RAM: the running program's identification, and a staged checksum.
 //! #[derive(Default)]

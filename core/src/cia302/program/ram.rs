@@ -17,8 +17,8 @@ pub fn image_id(image: &[u8]) -> u32 {
 /// first ([`RamStore::verifying`]), as a device checks a header or a signature.
 ///
 /// ```
-/// use duocan::cia302::program::{image_id, FlashError, ProgramDictionary, RamStore};
-/// use duocan::od::{comm, ObjectDictionary};
+/// use duocan_core::cia302::program::{image_id, FlashError, ProgramDictionary, RamStore};
+/// use duocan_core::od::{comm, ObjectDictionary};
 ///
 /// // Images that start with 0xFF are damaged, for this store.
 /// let store = RamStore::new(1024).verifying(|image| match image.first() {

@@ -3,8 +3,8 @@
 //! all SRDOs share (0x1300 GFC, 0x13FE configuration valid, 0x13FF checksums).
 //!
 //! ```
-//! use duocan::cia304::srdo::objects;
-//! use duocan::od::{ObjectDef, StaticDictionary};
+//! use duocan_core::cia304::srdo::objects;
+//! use duocan_core::od::{ObjectDef, StaticDictionary};
 //! static SRDO1: [ObjectDef; objects::SRDO_LEN] = objects::srdo(1, 0x101);
 //! static SHARED: [ObjectDef; 4] = objects::shared::<4>(); // 0x13FF with one checksum
 //! let mut od = StaticDictionary::<32, 128>::new();

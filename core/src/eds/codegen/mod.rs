@@ -41,8 +41,8 @@
 //! [`StaticDictionary`]'s, whose parameters stay the application's choice.
 //!
 //! ```
-//! use duocan::eds::codegen::{self, CodegenOptions};
-//! use duocan::eds::{Description, ImportOptions};
+//! use duocan_core::eds::codegen::{self, CodegenOptions};
+//! use duocan_core::eds::{Description, ImportOptions};
 //!
 //! let text = "\
 //! [FileInfo]
@@ -234,7 +234,7 @@ pub fn generate_file(
 /// A build script fails the build with the error (it names the file, line, section and key):
 ///
 /// ```no_run
-/// use duocan::eds::codegen::{build_script, CodegenOptions};
+/// use duocan_core::eds::codegen::{build_script, CodegenOptions};
 /// if let Err(e) = build_script("gateway.eds", "dictionary.rs", &CodegenOptions::default()) {
 ///     eprintln!("error: {e}");
 ///     std::process::exit(1);

@@ -15,9 +15,9 @@ use core::ops::RangeInclusive;
 /// each reset.
 ///
 /// ```
-/// use duocan::od::storage::{image_capacity, MemoryStorage, StoredDictionary};
-/// use duocan::od::{comm, ObjectDef, ObjectDictionary, StaticDictionary};
-/// use duocan::{Instant, Machine, Node, NodeConfig, NodeId};
+/// use duocan_core::od::storage::{image_capacity, MemoryStorage, StoredDictionary};
+/// use duocan_core::od::{comm, ObjectDef, ObjectDictionary, StaticDictionary};
+/// use duocan_core::{Instant, Machine, Node, NodeConfig, NodeId};
 ///
 /// static COMM: [ObjectDef; comm::COMM_LEN] = comm::communication();
 /// static STORE: [ObjectDef; comm::STORAGE_LEN] = comm::parameter_storage();

@@ -21,9 +21,9 @@
 //! states in them use the asymmetric codes of [`safety`].
 //!
 //! ```
-//! use duocan::profile::railway::{DeviceAddress, RailFunction, RailwayProfile};
-//! use duocan::profile::{IdProfile, ProfileFrame};
-//! use duocan::{Id, NodeId};
+//! use duocan_core::profile::railway::{DeviceAddress, RailFunction, RailwayProfile};
+//! use duocan_core::profile::{IdProfile, ProfileFrame};
+//! use duocan_core::{Id, NodeId};
 //!
 //! let mut profile = RailwayProfile::new();
 //! let turnout_a = NodeId::must(10);
@@ -36,8 +36,8 @@
 //! );
 //! // Its point machine on I/O port 2 reports state changes on 0x0201_2342.
 //! let port2 = profile.address(turnout_a).unwrap().with_port(2);
-//! assert_eq!(duocan::profile::railway::id(RailFunction::StateChange, port2).raw(), 0x0201_2342);
-//! # Ok::<(), duocan::profile::railway::TableError>(())
+//! assert_eq!(duocan_core::profile::railway::id(RailFunction::StateChange, port2).raw(), 0x0201_2342);
+//! # Ok::<(), duocan_core::profile::railway::TableError>(())
 //! ```
 
 mod address;

@@ -5,8 +5,8 @@
 //! [`SdoEvent`] carrying that id, the node, the object and either the data or an [`SdoError`].
 //!
 //! ```
-//! use duocan::sdo::{Channel, SdoClient, SdoOptions, TransferMode};
-//! use duocan::{Instant, Machine, NodeId};
+//! use duocan_core::sdo::{Channel, SdoClient, SdoOptions, TransferMode};
+//! use duocan_core::{Instant, Machine, NodeId};
 //!
 //! let mut client: SdoClient = SdoClient::new(64 * 1024);
 //! let node = NodeId::must(5);
