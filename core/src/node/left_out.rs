@@ -1,6 +1,6 @@
 //! What a node built without an optional service does (the crate features `sdo-block`,
 //! `time` and `guarding`): it answers as a CiA 301 device without that service, and never panics. Run by
-//! `cargo test -p duocan --no-default-features --features std --lib left_out` (CI's feature
+//! `cargo test -p duocan-core --no-default-features --features std --lib left_out` (CI's feature
 //! matrix); a default build compiles none of these.
 
 /// A started slave on the standard dictionary, its boot-up and events drained.
