@@ -7,8 +7,9 @@
 //!
 //! ## Layers
 //!
-//! Each folder of the crate is one layer; a module imports only from its own layer and the ones
-//! below it (`.ci/run` checks this). From the bottom up:
+//! Each module is one layer; a module imports only from its own layer and the ones below it.
+//! Layers 0 to 7 are the crate `duocan-core`, re-exported here under the same names; 8 to 11
+//! are this crate's own. From the bottom up:
 //!
 //! | Layer | Module | What it holds |
 //! | --- | --- | --- |
@@ -33,6 +34,20 @@
 //! simulated slave ([`cia302`]), two in-memory ports ([`port`]), candump and pcap written and
 //! read back ([`capture`]), two devices on the simulated buses ([`sim`]), a node under the tokio
 //! driver ([`runtime`]) and the front door ([`net`]).
+//!
+//! ## Crates
+//!
+//! The cut between `duocan-core` and `duocan` is the line the design already draws, between the
+//! machines and what drives them. Below it, the whole protocol: sans-IO and `no_std` (an
+//! allocator only for the master and the dynamic dictionary, `std` only for device description
+//! files), the same on a board, in the simulator and under tokio. Above it, what does I/O or
+//! stands in for it: ports, captures, the simulator and the fault bridge, the tokio runtime, the
+//! front door. Cargo enforces the layering between the two: `duocan-core` does not depend on
+//! `duocan`, so the core cannot name the simulator, a port or the runtime (a `compile_fail`
+//! example in its crate docs proves it); `cargo tree -p duocan --depth 1` shows `duocan-core`
+//! among this crate's dependencies. Within each crate, `.ci/check-architecture.py` checks the
+//! order of the layers. Applications add only `duocan`: every path (`duocan::frame::Frame`,
+//! `duocan::node::Node`, `duocan::Node`) is the core's item, re-exported.
 //!
 //! The redundancy crate (`duocan-redundancy`) adds its dual-bus layer as one more
 //! [`BusLink`], and its supervisor as one more [`Machine`]: the stack above a bus link does not

@@ -87,3 +87,30 @@ pub use machine::{BusLink, Device, Machine, PortStatus, Station};
 pub use nmt::{NmtCommand, NmtState, NmtTarget};
 pub use node::{Node, NodeConfig, NodeEvent, NodeEventKind};
 pub use od::abort::AbortCode;
+
+#[cfg(test)]
+mod doc_sources {
+    /// The README names every feature of the manifest (the crate documentation lists them from
+    /// the manifest itself; the README's words are its own).
+    #[test]
+    fn the_readme_names_every_feature() {
+        let readme = include_str!("../README.md");
+        let manifest = include_str!("../Cargo.toml");
+        let start = manifest.find("\n[features]\n").expect("a [features] table");
+        let table = &manifest[start + "\n[features]\n".len()..];
+        let table = &table[..table.find("\n[").unwrap_or(table.len())];
+        let features = table
+            .lines()
+            .filter_map(|l| l.split_once(" = ").map(|(name, _)| name))
+            .filter(|name| !name.starts_with('#') && *name != "default");
+        let mut n = 0;
+        for f in features {
+            assert!(
+                readme.contains(&format!("`{f}`")),
+                "README.md does not name feature `{f}`"
+            );
+            n += 1;
+        }
+        assert_eq!(n, 5, "sdo-block, guarding, time, alloc and std");
+    }
+}

@@ -89,16 +89,18 @@
 //! let mut s = Station::single(slave);
 //! s.machine.boot(Instant::ZERO);
 //! m.machine.boot(Instant::ZERO);
-//! run(&mut m, &mut s, Instant::ZERO, Instant::from_millis(20));
+//! // Configured at once on this wire without delay; the master takes the slave's state from
+//! // its first heartbeat after the configuration (0x1017 = 100 ms).
+//! run(&mut m, &mut s, Instant::ZERO, Instant::from_millis(120));
 //!
 //! let view = m.machine.slave(five);
 //! assert_eq!(view.phase, BootPhase::Ready);
 //! assert_eq!(view.state, Some(NmtState::PreOperational));
 //! assert!(m.machine.network_started());
 //!
-//! let now = Instant::from_millis(20);
+//! let now = Instant::from_millis(120);
 //! m.machine.start_slave(now, five).unwrap();
-//! run(&mut m, &mut s, now, Instant::from_millis(25));
+//! run(&mut m, &mut s, now, Instant::from_millis(125));
 //! assert_eq!(s.machine.nmt_state(), NmtState::Operational);
 //! ```
 
