@@ -1,7 +1,12 @@
 #!/usr/bin/env python3
-"""Architecture checks on the source tree (no build needed).
+"""Architecture checks on the source tree (no build needed), for what Cargo cannot check.
 
-1. Layering: no module imports from a layer above its own (the layers are in .ci/layers.toml).
+1. Layering within a crate: no module imports from a layer above its own (the layers are in
+   .ci/layers.toml). Between crates Cargo enforces it: duocan-core (layers 0 to 7) does not
+   depend on duocan (8 to 11), nor the duocan library on duocan-redundancy (a dev-dependency
+   of its tests and examples only), so an upward import across crates does not compile
+   (duocan-core's crate docs hold a `compile_fail` doctest that proves it). This script only
+   sees `crate::` paths, so it checks each crate's own modules.
 2. Names: no two public types (struct, enum, trait, type alias, union) share a name across the
    crates, so a user who reads a type name knows which type it is.
 
@@ -56,7 +61,8 @@ def check_layers(cfg):
     errors = []
     for c in cfg["crate"]:
         src = ROOT / c["src"]
-        rank = {m: i for i, layer in enumerate(c["layers"]) for m in layer}
+        # Layers are numbered across crates: a crate above another starts at `first_layer`.
+        rank = {m: i for i, layer in enumerate(c["layers"], c.get("first_layer", 0)) for m in layer}
         aliases = reexports(src)
         for name, module in aliases.items():
             if module in rank and name not in rank:

@@ -354,8 +354,8 @@ fn fmt(x: f64) -> String {
 #[cfg(all(feature = "socketcan", target_os = "linux"))]
 mod vcan {
     use super::*;
-    use duocan::port::socketcan::SocketCanPort;
-    use socketcan::{CanFrame, Socket};
+    use duocan::port::socketcan::{frame_from_socketcan, socketcan_frame, SocketCanPort};
+    use socketcan::Socket;
 
     pub struct Can(socketcan::CanSocket);
     impl Can {
@@ -370,12 +370,12 @@ mod vcan {
     impl Wire for Can {
         fn send(&mut self, f: &Frame) -> Result<(), String> {
             self.0
-                .write_frame_insist(&CanFrame::from(f))
+                .write_frame_insist(&socketcan_frame(f))
                 .map_err(|e| e.to_string())
         }
         fn recv(&mut self) -> Result<Option<Frame>, String> {
             match self.0.read_frame() {
-                Ok(f) => Ok(Frame::try_from(&f).ok()),
+                Ok(f) => Ok(frame_from_socketcan(f).ok()),
                 Err(e)
                     if e.kind() == std::io::ErrorKind::WouldBlock
                         || e.kind() == std::io::ErrorKind::TimedOut =>

@@ -7,8 +7,9 @@
 //!
 //! ## Layers
 //!
-//! Each folder of the crate is one layer; a module imports only from its own layer and the ones
-//! below it (`.ci/run` checks this). From the bottom up:
+//! Each module is one layer; a module imports only from its own layer and the ones below it.
+//! Layers 0 to 7 are the crate `duocan-core`, re-exported here under the same names; 8 to 11
+//! are this crate's own. From the bottom up:
 //!
 //! | Layer | Module | What it holds |
 //! | --- | --- | --- |
@@ -33,6 +34,20 @@
 //! simulated slave ([`cia302`]), two in-memory ports ([`port`]), candump and pcap written and
 //! read back ([`capture`]), two devices on the simulated buses ([`sim`]), a node under the tokio
 //! driver ([`runtime`]) and the front door ([`net`]).
+//!
+//! ## Crates
+//!
+//! The cut between `duocan-core` and `duocan` is the line the design already draws, between the
+//! machines and what drives them. Below it, the whole protocol: sans-IO and `no_std` (an
+//! allocator only for the master and the dynamic dictionary, `std` only for device description
+//! files), the same on a board, in the simulator and under tokio. Above it, what does I/O or
+//! stands in for it: ports, captures, the simulator and the fault bridge, the tokio runtime, the
+//! front door. Cargo enforces the layering between the two: `duocan-core` does not depend on
+//! `duocan`, so the core cannot name the simulator, a port or the runtime (a `compile_fail`
+//! example in its crate docs proves it); `cargo tree -p duocan --depth 1` shows `duocan-core`
+//! among this crate's dependencies. Within each crate, `.ci/check-architecture.py` checks the
+//! order of the layers. Applications add only `duocan`: every path (`duocan::frame::Frame`,
+//! `duocan::node::Node`, `duocan::Node`) is the core's item, re-exported.
 //!
 //! The redundancy crate (`duocan-redundancy`) adds its dual-bus layer as one more
 //! [`BusLink`], and its supervisor as one more [`Machine`]: the stack above a bus link does not
@@ -86,20 +101,14 @@
 #[cfg(feature = "alloc")]
 extern crate alloc;
 
+// Layer 0 to 7, the sans-IO protocol core, are the crate `duocan-core`, under the same names.
 // Layer 0 to 2: primitives, the machine shapes, the dictionary.
-pub mod frame;
-pub mod machine;
-pub mod od;
+pub use duocan_core::{frame, machine, od};
 // Layer 3: device descriptions (EDS/DCF) of a dictionary.
 #[cfg(feature = "std")]
-pub mod eds;
+pub use duocan_core::eds;
 // Layer 4 to 7: the standard's services, identifier profiles, the node, the master.
-pub mod cia301;
-pub mod cia302;
-pub mod cia304;
-pub mod cia305;
-pub mod node;
-pub mod profile;
+pub use duocan_core::{cia301, cia302, cia304, cia305, node, profile};
 // Layer 8 to 10: I/O around the machines.
 #[cfg(feature = "std")]
 pub mod bridge;
@@ -113,17 +122,18 @@ pub mod runtime;
 #[cfg(feature = "std")]
 pub mod sim;
 
-// Short paths for what users name most.
-pub use cia301::{emcy, guarding, heartbeat, nmt, pdo, sdo, service, sync, time_stamp};
+// Short paths for what users name most (the core's own, re-exported).
 #[cfg(feature = "alloc")]
-pub use cia302::master;
-pub use frame::cob_id::{CobId, NodeId, NodeSet};
-pub use frame::instant::{Duration, Instant};
-pub use frame::{Frame, Id};
-pub use machine::{BusLink, Device, Machine, PortStatus, Station};
-pub use nmt::{NmtCommand, NmtState, NmtTarget};
-pub use node::{Node, NodeConfig, NodeEvent, NodeEventKind};
-pub use od::abort::AbortCode;
+pub use duocan_core::master;
+pub use duocan_core::{emcy, guarding, heartbeat, nmt, pdo, sdo, service, sync, time_stamp};
+pub use duocan_core::{AbortCode, CobId, Duration, Frame, Id, Instant, NodeId, NodeSet};
+pub use duocan_core::{BusLink, Device, Machine, PortStatus, Station};
+pub use duocan_core::{NmtCommand, NmtState, NmtTarget};
+pub use duocan_core::{Node, NodeConfig, NodeEvent, NodeEventKind};
+// The forwarding macros of the machine shapes, for the wrappers above the core (the front
+// door's links, the redundancy crate's): internal to duocan, hidden as they are in the core.
+#[doc(hidden)]
+pub use duocan_core::{forward_bus_link, forward_device_to};
 
 /// The README's and every user-guide chapter's code blocks, compiled (and run where they can
 /// run) as doctests, so that what a newcomer copies works. Rust blocks are tested; `sh`, `toml`

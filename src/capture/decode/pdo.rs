@@ -4,8 +4,8 @@
 use super::frames::{DecodedFrame, Hex, N};
 use super::kind::Kind;
 use super::services::{bad, wrong_length};
-use crate::cia301::pdo::mapping::{read_bits, Dir, MapEntry, MAX_BITS};
 use crate::cia301::pdo::params::{RPDO_COMM, RPDO_MAPPING, TPDO_COMM, TPDO_MAPPING};
+use crate::cia301::pdo::{read_bits, Dir, MapEntry, MAX_BITS};
 use crate::eds::Description;
 use crate::frame::cob_id::{predefined, CobId, NodeId};
 use crate::frame::{Frame, Id};

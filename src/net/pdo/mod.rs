@@ -18,7 +18,7 @@ pub use table::MAX_LEARNED;
 
 use super::error::NetError;
 use super::value::AnyValue;
-use crate::cia301::pdo::mapping::{Dir, MapEntry, MAX_BITS, MAX_ENTRIES};
+use crate::cia301::pdo::{Dir, MapEntry, MAX_BITS, MAX_ENTRIES};
 use crate::eds::Description;
 use crate::frame::cob_id::{CobId, NodeId};
 use crate::od::DataType;

@@ -2,8 +2,8 @@
 
 use super::table::{Learned, PdoTable, Slot};
 use super::{label, PdoMap, PdoValues, PdoVariable};
-use crate::cia301::pdo::mapping::{Dir, MapEntry, MAX_ENTRIES};
 use crate::cia301::pdo::params::{self, sub};
+use crate::cia301::pdo::{Dir, MapEntry, MAX_ENTRIES};
 use crate::cia301::sdo::SdoErrorKind;
 use crate::cia302::pdo_config::{AccessError, PdoConfig, PdoConfigurator, SdoAccess};
 use crate::frame::cob_id::{CobId, NodeId};
@@ -276,7 +276,7 @@ impl RemotePdo {
     fn config(&self, map: &PdoMap) -> Result<PdoConfig, NetError> {
         usable_cob_id(map)?;
         let entries: Vec<MapEntry> = map.entries.iter().map(PdoVariable::entry).collect();
-        if map.bits() > crate::cia301::pdo::mapping::MAX_BITS {
+        if map.bits() > crate::cia301::pdo::MAX_BITS {
             return Err(map.error("the mapping is longer than 64 bits: map fewer entries"));
         }
         let mut cfg = PdoConfig::new(map.cob_id.with_valid(map.enabled), map.transmission_type)

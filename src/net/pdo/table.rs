@@ -2,7 +2,7 @@
 //! decoded here when its frame arrives, a node's RPDO encoded here when it is sent.
 
 use super::{PdoValue, PdoValues};
-use crate::cia301::pdo::mapping::{read_bits, write_bits, MAX_BITS};
+use crate::cia301::pdo::{read_bits, write_bits, MAX_BITS};
 use crate::frame::cob_id::NodeId;
 use crate::frame::{Frame, Id};
 use crate::net::value::AnyValue;

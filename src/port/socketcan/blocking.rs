@@ -312,14 +312,14 @@ fn can_frame_bytes(f: &Frame) -> [u8; 16] {
 mod tests {
     use super::*;
     use proptest::prelude::*;
-    use socketcan::{CanFrame, EmbeddedFrame, Frame as _};
+    use socketcan::{EmbeddedFrame, Frame as _};
 
     proptest! {
         /// The bytes sent without waiting are the socketcan crate's own frame, field by field.
         #[test]
-        fn the_frame_sent_without_waiting_is_the_kernels(f in crate::frame::tests::any_frame()) {
+        fn the_frame_sent_without_waiting_is_the_kernels(f in crate::port::test_frames::any_frame()) {
             let b = can_frame_bytes(&f);
-            let c = CanFrame::from(&f);
+            let c = crate::port::socketcan::socketcan_frame(&f);
             prop_assert_eq!(u32::from_ne_bytes([b[0], b[1], b[2], b[3]]), c.id_word());
             prop_assert_eq!(usize::from(b[4]), c.dlc());
             prop_assert_eq!(&b[8..8 + f.data().len()], EmbeddedFrame::data(&c));
@@ -327,7 +327,7 @@ mod tests {
 
         /// A frame read in a batch is the frame sent, counted as one.
         #[test]
-        fn a_kernel_frame_reads_back_as_the_frame(f in crate::frame::tests::any_frame()) {
+        fn a_kernel_frame_reads_back_as_the_frame(f in crate::port::test_frames::any_frame()) {
             let mut rx = rx();
             prop_assert_eq!(
                 rx.accept_kernel("vcan0", &can_frame_bytes(&f), None),

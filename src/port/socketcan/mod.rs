@@ -20,9 +20,9 @@
 //! runtime's task still sends on it, without waiting (`MSG_DONTWAIT`), what the device sends on
 //! a timer or a command.
 //!
-//! Frame conversions between [`Frame`] and the socketcan crate's frame types live here too:
-//! lossless both ways for classic data and remote frames; error and FD frames are refused with
-//! [`FrameError::NotClassic`].
+//! Frame conversions between [`Frame`] and the socketcan crate's frame types live here too
+//! ([`frame_from_socketcan`], [`socketcan_frame`]): lossless both ways for classic data and
+//! remote frames; error and FD frames are refused with [`FrameError::NotClassic`].
 
 mod blocking;
 
@@ -151,78 +151,41 @@ fn id_of(id: socketcan::Id) -> Id {
     Id::from(id)
 }
 
-impl TryFrom<&CanDataFrame> for Frame {
-    type Error = FrameError;
-    fn try_from(f: &CanDataFrame) -> Result<Frame, FrameError> {
-        Frame::new(id_of(EmbeddedFrame::id(f)), EmbeddedFrame::data(f))
-    }
-}
-
-impl TryFrom<&CanRemoteFrame> for Frame {
-    type Error = FrameError;
-    fn try_from(f: &CanRemoteFrame) -> Result<Frame, FrameError> {
-        let dlc = u8::try_from(EmbeddedFrame::dlc(f)).map_err(|_| FrameError::TooLong {
-            len: EmbeddedFrame::dlc(f),
-        })?;
-        Frame::remote(id_of(EmbeddedFrame::id(f)), dlc)
-    }
-}
-
-impl TryFrom<&CanFrame> for Frame {
-    type Error = FrameError;
-    fn try_from(f: &CanFrame) -> Result<Frame, FrameError> {
-        match f {
-            CanFrame::Data(d) => Frame::try_from(d),
-            CanFrame::Remote(r) => Frame::try_from(r),
-            CanFrame::Error(_) => Err(FrameError::NotClassic),
+/// The [`Frame`] a frame of the socketcan crate carries (a `CanFrame`, `CanDataFrame`,
+/// `CanRemoteFrame` or `CanAnyFrame`): lossless for classic data and remote frames; error and FD
+/// frames are refused with [`FrameError::NotClassic`].
+///
+/// A function rather than `TryFrom`: [`Frame`] is the protocol core's type (`duocan-core`) and
+/// the socketcan types are the socketcan crate's, so neither crate may implement the
+/// conversion as a trait here.
+pub fn frame_from_socketcan(f: impl Into<CanAnyFrame>) -> Result<Frame, FrameError> {
+    match f.into() {
+        CanAnyFrame::Normal(d) => Frame::new(id_of(EmbeddedFrame::id(&d)), EmbeddedFrame::data(&d)),
+        CanAnyFrame::Remote(r) => {
+            let dlc = u8::try_from(EmbeddedFrame::dlc(&r)).map_err(|_| FrameError::TooLong {
+                len: EmbeddedFrame::dlc(&r),
+            })?;
+            Frame::remote(id_of(EmbeddedFrame::id(&r)), dlc)
         }
+        CanAnyFrame::Error(_) | CanAnyFrame::Fd(_) => Err(FrameError::NotClassic),
     }
 }
 
-impl TryFrom<CanFrame> for Frame {
-    type Error = FrameError;
-    fn try_from(f: CanFrame) -> Result<Frame, FrameError> {
-        Frame::try_from(&f)
-    }
-}
-
-impl TryFrom<CanAnyFrame> for Frame {
-    type Error = FrameError;
-    fn try_from(f: CanAnyFrame) -> Result<Frame, FrameError> {
-        match f {
-            CanAnyFrame::Normal(d) => Frame::try_from(&d),
-            CanAnyFrame::Remote(r) => Frame::try_from(&r),
-            CanAnyFrame::Error(_) | CanAnyFrame::Fd(_) => Err(FrameError::NotClassic),
-        }
-    }
-}
-
-impl From<&Frame> for CanFrame {
-    fn from(f: &Frame) -> CanFrame {
-        // `Frame` guarantees an in-range identifier and DLC ≤ 8, which is all the socketcan
-        // constructors check; the fallbacks are unreachable but keep this total.
-        let id: socketcan::Id = f.id().into();
-        if f.is_remote() {
-            CanRemoteFrame::new_remote(id, f.dlc() as usize)
-                .map(CanFrame::Remote)
-                .unwrap_or_default()
-        } else {
-            CanDataFrame::new(id, f.data())
-                .map(CanFrame::Data)
-                .unwrap_or_default()
-        }
-    }
-}
-
-impl From<Frame> for CanFrame {
-    fn from(f: Frame) -> CanFrame {
-        CanFrame::from(&f)
-    }
-}
-
-impl From<Frame> for CanAnyFrame {
-    fn from(f: Frame) -> CanAnyFrame {
-        CanAnyFrame::from(CanFrame::from(&f))
+/// The socketcan crate's frame of a [`Frame`], lossless (a data or a remote frame); wrap it in
+/// `CanAnyFrame::from` where that type is wanted. See [`frame_from_socketcan`] for why this is
+/// not a `From`.
+pub fn socketcan_frame(f: &Frame) -> CanFrame {
+    // `Frame` guarantees an in-range identifier and DLC ≤ 8, which is all the socketcan
+    // constructors check; the fallbacks are unreachable but keep this total.
+    let id: socketcan::Id = f.id().into();
+    if f.is_remote() {
+        CanRemoteFrame::new_remote(id, f.dlc() as usize)
+            .map(CanFrame::Remote)
+            .unwrap_or_default()
+    } else {
+        CanDataFrame::new(id, f.data())
+            .map(CanFrame::Data)
+            .unwrap_or_default()
     }
 }
 
@@ -523,7 +486,7 @@ impl Port for SocketCanPort {
 
     async fn send(&mut self, frame: &Frame) -> Result<(), PortError> {
         let r = match self.socket.as_ref() {
-            Some(Sock::Async(s)) => s.write_frame(CanFrame::from(frame)).await,
+            Some(Sock::Async(s)) => s.write_frame(socketcan_frame(frame)).await,
             Some(Sock::Blocking(s)) => write_waiting(|| blocking::send_now(s, frame)).await,
             None => {
                 self.rx.counters.tx_dropped();
@@ -582,11 +545,11 @@ mod tests {
 
     proptest! {
         #[test]
-        fn socketcan_round_trip_is_lossless(f in crate::frame::tests::any_frame()) {
-            let sc = CanFrame::from(&f);
-            prop_assert_eq!(Frame::try_from(&sc).unwrap(), f);
-            let any = CanAnyFrame::from(f);
-            prop_assert_eq!(Frame::try_from(any).unwrap(), f);
+        fn socketcan_round_trip_is_lossless(f in crate::port::test_frames::any_frame()) {
+            let sc = socketcan_frame(&f);
+            prop_assert_eq!(frame_from_socketcan(sc).unwrap(), f);
+            let any = CanAnyFrame::from(socketcan_frame(&f));
+            prop_assert_eq!(frame_from_socketcan(any).unwrap(), f);
         }
     }
 
@@ -594,7 +557,7 @@ mod tests {
     fn error_frames_are_not_frames() {
         let ef = CanErrorFrame::new_error(0x40, &[0; 8]).unwrap();
         assert_eq!(
-            Frame::try_from(CanFrame::Error(ef)),
+            frame_from_socketcan(CanFrame::Error(ef)),
             Err(FrameError::NotClassic)
         );
         assert_eq!(

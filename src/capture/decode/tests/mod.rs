@@ -1,5 +1,5 @@
 use super::*;
-use crate::cia301::pdo::mapping::MapEntry;
+use crate::cia301::pdo::MapEntry;
 use crate::eds::ImportOptions;
 use crate::od::DataType;
 use crate::profile::railway::{self as rw, DeviceAddress, Payload, RailFunction};
