@@ -5,7 +5,7 @@ use duocan::cia302::pdo_config::{AccessError, MirrorError, PdoConfigError, PdoCo
 use duocan::frame::{FrameError, Malformed};
 use duocan::master::{BootError, MasterError};
 use duocan::node::QueueFull;
-use duocan::od::storage::{
+use duocan::od::parameters::{
     FileStorage, ImageError, MemoryStorage, MemoryStorageError, ParameterStorage, StorageError,
 };
 use duocan::od::BuildError;
@@ -28,7 +28,7 @@ const _: () = {
     check::<StorageError>();
     check::<ImageError>();
     check::<MemoryStorageError>();
-    check::<duocan::od::storage::FileStorageError>();
+    check::<duocan::od::parameters::FileStorageError>();
     check::<SdoError>();
     check::<PdoError>();
     check::<duocan::cia304::srdo::config::SrdoConfigError>();

@@ -6,7 +6,7 @@
 #![no_main]
 
 use duocan::cia305::{LssAddress, LssMaster, LssPlan, LssRequest, LssResponse, LssSlave};
-use duocan::od::storage::{MemoryStorage, ParameterStorage};
+use duocan::od::parameters::{MemoryStorage, ParameterStorage};
 use duocan::{Duration, Frame, Id, Instant, Machine, NodeId};
 use libfuzzer_sys::fuzz_target;
 

@@ -11,7 +11,7 @@ use common::{advance, drain, expire, sdo_answer, std_frame, Requests};
 use duocan::cia302::pdo_config::PdoConfig;
 use duocan::machine::SinglePort;
 use duocan::master::{
-    objects, Assignment, ExpectedIdentity, Master, NetworkConfig, NmtStartup, SlaveConfig,
+    objects, Assignment, ExpectedIdentity, Master, MasterConfig, NmtStartup, SlaveConfig,
     StartPolicy,
 };
 use duocan::od::{comm, DynamicDictionary};
@@ -99,7 +99,7 @@ fuzz_target!(|data: &[u8]| {
         return;
     }
     let (setup, rest) = data.split_at(3 + 8 * SLAVES.len());
-    let mut net = NetworkConfig::new()
+    let mut net = MasterConfig::new()
         .startup(NmtStartup(u32::from(setup[0] & 0x7F)))
         .boot_time_ms(u32::from(setup[1]) * 50)
         .sdo_timeout(Duration::from_millis(10 + u64::from(setup[2])));

@@ -4,7 +4,7 @@
 //! Never a panic; the dictionary keeps only values its definitions accept.
 #![no_main]
 
-use duocan::od::storage::{crc32, MemoryStorage, ParameterStorage, StoredDictionary};
+use duocan::od::parameters::{crc32, MemoryStorage, ParameterStorage, StoredDictionary};
 use duocan::od::{check_value, comm, ObjectDef, ObjectDictionary, StaticDictionary};
 use duocan::{Frame, Id, Instant, Machine, Node, NodeConfig, NodeId};
 use libfuzzer_sys::fuzz_target;

@@ -12,7 +12,7 @@ mod common;
 use common::{
     advance, drain, expire, misbehave, port_status, sdo_answer, std_frame, Requests,
 };
-use duocan::master::{objects, Master, NetworkConfig};
+use duocan::master::{objects, Master, MasterConfig};
 use duocan::od::comm;
 use duocan::{Device, Duration, Frame, Id, Instant, NmtCommand, NmtTarget, NodeId};
 use duocan_redundancy::{
@@ -30,7 +30,7 @@ fn station(weak: bool) -> RedundantMaster {
     let (me, peer) = if weak { (PEER, SELF) } else { (SELF, PEER) };
     let nid = NodeId::must(me);
     let od = objects::master_dictionary(me, comm::Identity::default());
-    let master = Master::new(nid, od, NetworkConfig::new()).expect("a valid master");
+    let master = Master::new(nid, od, MasterConfig::new()).expect("a valid master");
     let ms = Duration::from_millis;
     let cfg = SupervisorConfig::new(me - 1, nid, ms(20), ms(50), ms(10))
         .with_peer(peer - 1, NodeId::must(peer))

@@ -5,7 +5,7 @@
 //! Target: one simulated second in ≤ 10 ms of CPU on one core (≥ 100× real time).
 
 use criterion::{criterion_group, criterion_main, Criterion};
-use duocan::master::{objects, Master, NetworkConfig};
+use duocan::master::{objects, Master, MasterConfig};
 use duocan::od::comm;
 use duocan::{Device, Duration, Frame, Id, Instant, NodeId};
 use duocan_redundancy::PairSpec;
@@ -33,7 +33,7 @@ fn board(i: u8) -> u8 {
 
 fn master() -> Station {
     let od = objects::master_dictionary(1, comm::Identity::default());
-    let master = Master::new(NodeId::must(1), od, NetworkConfig::new()).unwrap();
+    let master = Master::new(NodeId::must(1), od, MasterConfig::new()).unwrap();
     let mut cfg = SupervisorConfig::new(
         0,
         NodeId::must(1),

@@ -84,7 +84,7 @@
 //! allocator; the `alloc` types above it (supervisor, station, network) are spelled with a
 //! dictionary and an identifier profile only: their capacities are configuration values
 //! (the master's PDOs, SDO sessions and queues in
-//! [`NetworkConfig`](duocan::master::NetworkConfig), the supervisor's event queue in
+//! [`MasterConfig`](duocan::master::MasterConfig), the supervisor's event queue in
 //! [`SupervisorConfig`]), allocated once when they are built and never grown.
 //!
 //! ## Quick start

@@ -13,7 +13,7 @@
 //! A redundant master whose pair has only board A on the buses, and bus 2 cut:
 //!
 //! ```
-//! # use duocan::master::{objects, Master, NetworkConfig};
+//! # use duocan::master::{objects, Master, MasterConfig};
 //! # use duocan::od::comm;
 //! # use duocan::sim::{BusConfig, SimNetwork};
 //! # use duocan::{Duration, Instant, Node, NodeConfig, NodeId, Station};
@@ -21,7 +21,7 @@
 //! # let ms = Duration::from_millis;
 //! # let mut sim = SimNetwork::new(1);
 //! # let buses = [sim.add_bus(BusConfig::new("can1", 1_000_000)), sim.add_bus(BusConfig::new("can2", 1_000_000))];
-//! let master = Master::new(NodeId::must(1), objects::master_dictionary(1, comm::Identity::default()), NetworkConfig::new())?;
+//! let master = Master::new(NodeId::must(1), objects::master_dictionary(1, comm::Identity::default()), MasterConfig::new())?;
 //! let mut sup = Supervisor::new(master, SupervisorConfig::new(0, NodeId::must(1), ms(20), ms(50), ms(10)), Instant::ZERO);
 //! sup.add_pair(Instant::ZERO, PairSpec::new(NodeId::must(0x10), NodeId::must(0x50), ms(20), ms(50)))?;
 //! let station: RedundantMaster = RedundantMaster::new(DualBus::new(DualBusConfig::default()), sup)?;

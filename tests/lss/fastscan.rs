@@ -103,8 +103,8 @@ fn a_plan_that_stores_leaves_each_node_id_on_its_board() {
     w.run(1000);
     assert_eq!(counts(&w), cost(&[a], cfg().timeout, cfg().settle, true));
     let image = w.slaves[0].storage().unwrap().image().unwrap().to_vec();
-    let mut medium = duocan::od::storage::MemoryStorage::<16>::new();
-    duocan::od::storage::ParameterStorage::store(&mut medium, &image).unwrap();
+    let mut medium = duocan::od::parameters::MemoryStorage::<16>::new();
+    duocan::od::parameters::ParameterStorage::store(&mut medium, &image).unwrap();
     let mut reborn = duocan::cia305::LssSlave::new(a, 0xFF).with_storage(medium);
     assert_eq!(reborn.load_stored().unwrap().unwrap().node_id, 33);
 }

@@ -19,7 +19,9 @@ fn to_config() -> Frame {
     req([0x04, 1, 0, 0, 0, 0, 0, 0])
 }
 
-fn events<S: duocan::od::storage::ParameterStorage>(s: &mut LssSlave<S>) -> Vec<LssSlaveEventKind> {
+fn events<S: duocan::od::parameters::ParameterStorage>(
+    s: &mut LssSlave<S>,
+) -> Vec<LssSlaveEventKind> {
     std::iter::from_fn(|| s.poll_event())
         .map(|e| e.kind)
         .collect()
@@ -236,8 +238,8 @@ fn store_writes_the_pending_configuration_and_a_new_board_loads_it() {
     // A flipped bit is noticed, nothing taken from it.
     let mut torn = medium.image().unwrap().to_vec();
     torn[4] ^= 1;
-    let mut bad = duocan::od::storage::MemoryStorage::<16>::new();
-    duocan::od::storage::ParameterStorage::store(&mut bad, &torn).unwrap();
+    let mut bad = duocan::od::parameters::MemoryStorage::<16>::new();
+    duocan::od::parameters::ParameterStorage::store(&mut bad, &torn).unwrap();
     let mut third = LssSlave::new(board(), 0xFF).with_storage(bad);
     assert_eq!(third.load_stored(), Err(LssStoreError::Corrupt));
     assert_eq!(third.node_id(), None);

@@ -3,7 +3,7 @@
 
 use duocan::cia305::{LssAddress, LssMaster, LssMasterEvent, LssSlave, LssSlaveEvent};
 use duocan::frame::instant::earliest;
-use duocan::od::storage::MemoryStorage;
+use duocan::od::parameters::MemoryStorage;
 use duocan::{Frame, Instant, Machine};
 
 pub type Slave = LssSlave<MemoryStorage<16>>;
@@ -146,7 +146,7 @@ pub fn ans(data: [u8; 8]) -> Frame {
 }
 
 /// Feeds `frames` to a lone slave at `now` and returns what it answered.
-pub fn feed<S: duocan::od::storage::ParameterStorage>(
+pub fn feed<S: duocan::od::parameters::ParameterStorage>(
     s: &mut LssSlave<S>,
     now: Instant,
     frames: &[Frame],

@@ -6,7 +6,7 @@
 use crate::net::*;
 use duocan::cia302::pdo_config::PdoConfig;
 use duocan::master::{
-    BootPhase, MasterEventKind as K, NetworkConfig, NmtStartup, SlaveConfig, StartPolicy,
+    BootPhase, MasterConfig, MasterEventKind as K, NmtStartup, SlaveConfig, StartPolicy,
 };
 use duocan::od::{comm, ObjectDictionary};
 use duocan::pdo::MapEntry;
@@ -27,8 +27,8 @@ fn tpdo1(id: u8) -> PdoConfig {
         .unwrap()
 }
 
-fn network(mandatory: bool, startup: NmtStartup) -> NetworkConfig {
-    let mut net = NetworkConfig::new().startup(startup).boot_time_ms(2_000);
+fn network(mandatory: bool, startup: NmtStartup) -> MasterConfig {
+    let mut net = MasterConfig::new().startup(startup).boot_time_ms(2_000);
     for id in IDS {
         let mut s = SlaveConfig::new(NodeId::must(id))
             .identity(expected(id))

@@ -1,10 +1,10 @@
-//! The master's own PDOs and SDO sessions: configuration values (`NetworkConfig::with_tpdos`,
+//! The master's own PDOs and SDO sessions: configuration values (`MasterConfig::with_tpdos`,
 //! `with_rpdos`, `with_sdo_sessions`), allocated once when the master is built and never grown;
 //! what does not fit is refused as it always was.
 
 use duocan::cia302::pdo_config::{mirror, Local, Mirror, MirrorError, PdoConfig};
 use duocan::master::{
-    objects, Master, MasterError, MasterEventKind, MasterSdoClient, NetworkConfig,
+    objects, Master, MasterConfig, MasterError, MasterEventKind, MasterSdoClient,
 };
 use duocan::od::{comm, DataType, DynamicDictionary, ObjectDictionary};
 use duocan::pdo::{Dir, MapEntry};
@@ -12,13 +12,13 @@ use duocan::profile::Predefined;
 use duocan::sdo::{Channel, SdoErrorKind, SdoOptions};
 use duocan::{CobId, Frame, Id, Instant, Machine, NmtState, NodeConfig, NodeId};
 
-fn build(config: NetworkConfig) -> Result<Master<DynamicDictionary>, MasterError> {
+fn build(config: MasterConfig) -> Result<Master<DynamicDictionary>, MasterError> {
     let od = objects::master_dictionary(1, comm::Identity::default());
     Master::new(NodeId::must(1), od, config)
 }
 
 /// A booted master with no slaves: it starts itself, so its PDOs run.
-fn booted(config: NetworkConfig) -> Master<DynamicDictionary> {
+fn booted(config: MasterConfig) -> Master<DynamicDictionary> {
     let mut m = build(config).expect("master");
     m.boot(Instant::ZERO);
     assert_eq!(m.node().nmt_state(), NmtState::Operational);
@@ -51,7 +51,7 @@ fn cob(k: u16) -> u32 {
 
 #[test]
 fn a_master_configured_for_100_rpdos_mirrors_100_slave_tpdos_and_refuses_the_101st() {
-    let mut m = booted(NetworkConfig::new().with_rpdos(100));
+    let mut m = booted(MasterConfig::new().with_rpdos(100));
     assert_eq!(m.node().rpdo_capacity(), 100);
     for k in 0..100u16 {
         mirror_rpdo(&mut m, k + 1, cob(k)).unwrap_or_else(|e| panic!("RPDO{}: {e}", k + 1));
@@ -94,7 +94,7 @@ fn a_master_configured_for_100_rpdos_mirrors_100_slave_tpdos_and_refuses_the_101
 
 #[test]
 fn the_default_master_keeps_4_tpdos_64_rpdos_and_8_sessions() {
-    let mut m = booted(NetworkConfig::new());
+    let mut m = booted(MasterConfig::new());
     assert_eq!(
         (
             m.node().tpdo_capacity(),
@@ -190,7 +190,7 @@ fn concurrent_uploads(m: &mut Master<DynamicDictionary>, n: u8) -> usize {
 
 #[test]
 fn a_master_configured_for_16_sessions_runs_16_transfers_at_once_and_refuses_the_17th() {
-    let mut m = booted(NetworkConfig::new().with_sdo_sessions(16));
+    let mut m = booted(MasterConfig::new().with_sdo_sessions(16));
     assert_eq!(m.sdo().sessions(), 16);
     assert_eq!(concurrent_uploads(&mut m, 17), 16);
     // And again: the sessions are free for the next round.
@@ -200,26 +200,26 @@ fn a_master_configured_for_16_sessions_runs_16_transfers_at_once_and_refuses_the
 #[test]
 fn pdo_counts_beyond_what_cia_301_numbers_are_a_configuration_error() {
     assert!(matches!(
-        build(NetworkConfig::new().with_rpdos(513)),
+        build(MasterConfig::new().with_rpdos(513)),
         Err(MasterError::TooManyPdos {
             dir: Dir::Receive,
             count: 513
         })
     ));
     assert!(matches!(
-        build(NetworkConfig::new().with_tpdos(600)),
+        build(MasterConfig::new().with_tpdos(600)),
         Err(MasterError::TooManyPdos {
             dir: Dir::Transmit,
             count: 600
         })
     ));
-    let m = build(NetworkConfig::new().with_tpdos(512).with_rpdos(512)).unwrap();
+    let m = build(MasterConfig::new().with_tpdos(512).with_rpdos(512)).unwrap();
     assert_eq!(
         (m.node().tpdo_capacity(), m.node().rpdo_capacity()),
         (512, 512)
     );
     assert_eq!(
-        build(NetworkConfig::new().with_sdo_sessions(0))
+        build(MasterConfig::new().with_sdo_sessions(0))
             .unwrap()
             .sdo()
             .sessions(),
@@ -244,7 +244,7 @@ fn a_client_given_to_with_parts_gets_the_configured_session_count_and_keeps_its_
         od,
         Predefined,
         sdo,
-        NetworkConfig::new().with_sdo_sessions(5),
+        MasterConfig::new().with_sdo_sessions(5),
     )
     .unwrap();
     let five = NodeId::must(5);

@@ -7,8 +7,8 @@ use super::dcf_config::{network_from, From, Run, IDS, REFUSING};
 use crate::net::*;
 use duocan::machine::{CompositeEvent, StationEvent};
 use duocan::master::{
-    objects::CONCISE_DCF, BootError, ConciseDcf, ConciseEntry, ConfigStep, MasterEventKind as K,
-    NetworkConfig, SlaveConfig,
+    objects::CONCISE_DCF, BootError, ConciseDcf, ConciseEntry, ConfigStep, MasterConfig,
+    MasterEventKind as K, SlaveConfig,
 };
 use duocan::od::{comm, ObjectDictionary};
 use duocan::sdo::{SdoErrorKind, SdoOptions, TransferMode};
@@ -91,7 +91,7 @@ fn concise_dcfs_in_0x1f22_configure_the_twenty_slaves_exactly_as_their_dcfs() {
 /// A master with slave 2 (nothing configured in code), slave 3 configured by the master, and
 /// a tool; booted.
 fn rig() -> (Net, DevId<Tool>) {
-    let mut net = NetworkConfig::new();
+    let mut net = MasterConfig::new();
     for id in [2, 3] {
         net = net.slave(SlaveConfig::new(NodeId::must(id)).identity(expected(id)));
     }

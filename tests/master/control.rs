@@ -4,7 +4,7 @@
 
 use crate::net::*;
 use duocan::master::{
-    BootPhase, ErrorStatus, MasterError, MasterEventKind as K, NetworkConfig, NmtStartup,
+    BootPhase, ErrorStatus, MasterConfig, MasterError, MasterEventKind as K, NmtStartup,
     SlaveConfig, StartPolicy,
 };
 use duocan::od::{comm, ObjectDictionary};
@@ -21,7 +21,7 @@ fn cfg(id: u8) -> SlaveConfig {
 
 #[test]
 fn slave_assigned_at_run_time_is_probed_configured_and_started() {
-    let mut n = Net::new(BITRATE, master(NetworkConfig::new().slave(cfg(2))), &[2, 3]);
+    let mut n = Net::new(BITRATE, master(MasterConfig::new().slave(cfg(2))), &[2, 3]);
     n.boot_master();
     n.boot_slave_at(2, Instant::from_millis(1));
     // Slave 3 runs unassigned: its boot-up is not the master's business.
@@ -67,7 +67,7 @@ fn slave_assigned_at_run_time_is_probed_configured_and_started() {
 fn boot_on_demand_reconfigures_without_reset_and_respects_the_start_policy() {
     let mut n = Net::new(
         BITRATE,
-        master(NetworkConfig::new().slave(cfg(2).start(StartPolicy::Application))),
+        master(MasterConfig::new().slave(cfg(2).start(StartPolicy::Application))),
         &[2],
     );
     n.boot_master();
@@ -139,7 +139,7 @@ fn boot_on_demand_reconfigures_without_reset_and_respects_the_start_policy() {
 }
 
 fn lose_mandatory(startup: NmtStartup) -> (Net, Instant) {
-    let net = NetworkConfig::new()
+    let net = MasterConfig::new()
         .startup(startup)
         .slave(cfg(2).mandatory())
         .slave(cfg(3));
@@ -195,7 +195,7 @@ fn guarded_slave_lost_is_error_status_f() {
     let guarded = SlaveConfig::new(NodeId::must(2))
         .identity(expected(2))
         .with_assignment(duocan::master::Assignment::slave().guarded(100, 3));
-    let mut n = Net::new(BITRATE, master(NetworkConfig::new().slave(guarded)), &[2]);
+    let mut n = Net::new(BITRATE, master(MasterConfig::new().slave(guarded)), &[2]);
     n.boot_master();
     n.boot_slave_at(2, Instant::from_millis(1));
     n.sim.run_until(Instant::from_millis(500));

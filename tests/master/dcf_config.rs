@@ -8,9 +8,9 @@ use crate::net::*;
 use duocan::eds::{export_dcf, Description, ExportOptions, ImportOptions};
 use duocan::machine::SinglePort;
 use duocan::master::{
-    objects, ConciseDcf, ConfigurationStamp, MasterEventKind as K, NetworkConfig, SlaveConfig,
+    objects, ConciseDcf, ConfigurationStamp, MasterConfig, MasterEventKind as K, SlaveConfig,
 };
-use duocan::od::storage::{MemoryStorage, StoredDictionary};
+use duocan::od::parameters::{MemoryStorage, StoredDictionary};
 use duocan::od::{
     abort::AbortCode, comm, Access, DynamicDictionary, ObjectDef, ObjectDictionary, WriteHook,
 };
@@ -102,7 +102,7 @@ fn network() -> Run {
 /// The 20 slaves and their master, configured from their DCFs either way.
 pub(crate) fn network_from(from: From) -> Run {
     let dcfs: Vec<Description> = IDS.map(dcf).collect();
-    let mut net = NetworkConfig::new().default_consumer_ms(150);
+    let mut net = MasterConfig::new().default_consumer_ms(150);
     for (id, d) in IDS.zip(&dcfs) {
         let node = NodeId::must(id);
         let cfg = match from {

@@ -4,7 +4,7 @@
 
 use crate::net::*;
 use duocan::master::{
-    BootError, BootPhase, ErrorStatus, MasterEventKind as K, NetworkConfig, NmtStartup, SlaveConfig,
+    BootError, BootPhase, ErrorStatus, MasterConfig, MasterEventKind as K, NmtStartup, SlaveConfig,
 };
 use duocan::od::{comm, ObjectDictionary};
 use duocan::sdo::SdoErrorKind;
@@ -21,7 +21,7 @@ fn slave_cfg(id: u8) -> SlaveConfig {
 
 #[test]
 fn identity_mismatch_on_an_optional_slave_the_others_start() {
-    let net = NetworkConfig::new()
+    let net = MasterConfig::new()
         .startup(NmtStartup::MASTER.with(NmtStartup::START_ALL))
         .slave(slave_cfg(2).mandatory())
         .slave(slave_cfg(3).mandatory())
@@ -108,7 +108,7 @@ fn identity_mismatch_on_an_optional_slave_the_others_start() {
 
 #[test]
 fn a_refused_configuration_write_names_the_slave_object_and_abort_code() {
-    let net = NetworkConfig::new()
+    let net = MasterConfig::new()
         .slave(slave_cfg(2))
         // 0x2000 sub 9 does not exist on the slave.
         .slave(slave_cfg(3).write_u16(APP, 9, 1));
@@ -143,8 +143,8 @@ fn a_refused_configuration_write_names_the_slave_object_and_abort_code() {
     assert_eq!(n.slave(2).nmt_state(), NmtState::Operational);
 }
 
-fn mandatory_net() -> NetworkConfig {
-    NetworkConfig::new()
+fn mandatory_net() -> MasterConfig {
+    MasterConfig::new()
         .boot_time_ms(1_000)
         .sdo_timeout(Duration::from_millis(500))
         .probe_interval(Duration::from_millis(1_000))

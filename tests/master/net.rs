@@ -3,7 +3,7 @@
 
 use duocan::machine::{SinglePort, StationEvent};
 use duocan::master::{
-    objects, ExpectedIdentity, Master, MasterEvent, MasterEventKind, NetworkConfig,
+    objects, ExpectedIdentity, Master, MasterConfig, MasterEvent, MasterEventKind,
 };
 use duocan::od::{comm, Access, DynamicDictionary, ObjectDef, WriteHook};
 use duocan::pdo::params;
@@ -93,14 +93,14 @@ pub fn slave(id: u8) -> SlaveDev {
 }
 
 /// A master (node 1) built from `config` on the master dictionary.
-pub fn master(config: NetworkConfig) -> Master<DynamicDictionary> {
+pub fn master(config: MasterConfig) -> Master<DynamicDictionary> {
     master_with(MASTER_ID, config, |_| {})
 }
 
 /// A master with node-ID `id`; `prepare` may change its dictionary first (SYNC producer, …).
 pub fn master_with(
     id: NodeId,
-    config: NetworkConfig,
+    config: MasterConfig,
     prepare: impl FnOnce(&mut DynamicDictionary),
 ) -> Master<DynamicDictionary> {
     let mut od = objects::master_dictionary(id.raw(), comm::Identity::default());
@@ -195,7 +195,7 @@ impl Net {
 
 /// A bus at `bitrate` with the master built from `config`, slaves 2 and 3 and a tool whose
 /// client carries up to `limit` bytes; all booted, run for 100 ms.
-pub fn with_tool(bitrate: u32, config: NetworkConfig, limit: usize) -> (Net, DevId<Tool>) {
+pub fn with_tool(bitrate: u32, config: MasterConfig, limit: usize) -> (Net, DevId<Tool>) {
     let mut n = Net::new(bitrate, master(config), &[2, 3]);
     let node = Node::new(
         NodeConfig::slave(TOOL),

@@ -8,7 +8,7 @@
 
 use crate::net::*;
 use duocan::cia302::pdo_config::PdoConfig;
-use duocan::master::{MasterEventKind as K, NetworkConfig, NmtStartup, SlaveConfig};
+use duocan::master::{MasterConfig, MasterEventKind as K, NmtStartup, SlaveConfig};
 use duocan::od::ObjectDictionary;
 use duocan::pdo::MapEntry;
 use duocan::{CobId, Instant, NmtState, NodeId};
@@ -25,8 +25,8 @@ fn tpdo1(id: u8) -> PdoConfig {
 
 /// The master's configuration: every slave mandatory, identity checked, heartbeat every 500 ms
 /// (the master consumes it with 1.5 s), TPDO1 configured; `sessions` boot processes at once.
-fn network(sessions: usize) -> NetworkConfig {
-    let mut net = NetworkConfig::new()
+fn network(sessions: usize) -> MasterConfig {
+    let mut net = MasterConfig::new()
         .startup(NmtStartup::MASTER.with(NmtStartup::START_ALL))
         .boot_time_ms(10_000)
         .with_sdo_sessions(sessions);

@@ -8,7 +8,7 @@ use crate::net::*;
 use duocan::cia302::program::{FlashError, ProgramDictionary, ProgramStore};
 use duocan::machine::SinglePort;
 use duocan::master::{
-    objects::EXPECTED_SOFTWARE, MasterEventKind as K, NetworkConfig, ProgramDownloadError,
+    objects::EXPECTED_SOFTWARE, MasterConfig, MasterEventKind as K, ProgramDownloadError,
     ProgramErrorKind, ProgramReport, ProgramStep, SlaveConfig,
 };
 use duocan::od::{comm, DynamicDictionary, ObjectDictionary};
@@ -101,7 +101,7 @@ struct Rig {
 /// update.
 fn rig(expected: u32) -> Rig {
     let n = NodeId::must(SLAVE);
-    let net = NetworkConfig::new().slave(SlaveConfig::new(n).identity(expected_id()));
+    let net = MasterConfig::new().slave(SlaveConfig::new(n).identity(expected_id()));
     let mut m = master(net);
     m.node_mut()
         .od_mut()

@@ -6,7 +6,7 @@
 use crate::net::*;
 use duocan::cia302::pdo_config::PdoConfig;
 use duocan::master::{
-    Master, MasterEventKind as K, NetworkConfig, NmtStartup, SlaveConfig, StartPolicy,
+    Master, MasterConfig, MasterEventKind as K, NmtStartup, SlaveConfig, StartPolicy,
 };
 use duocan::od::{comm, DynamicDictionary};
 use duocan::pdo::MapEntry;
@@ -110,7 +110,7 @@ fn slave_cfg(id: u8, variant: u8) -> SlaveConfig {
 }
 
 fn build(variants: &[u8], start_all: bool, active: bool) -> Master<DynamicDictionary> {
-    let mut net = NetworkConfig::new()
+    let mut net = MasterConfig::new()
         .boot_time_ms(300)
         .sdo_timeout(Duration::from_millis(50))
         .probe_interval(Duration::from_millis(200))

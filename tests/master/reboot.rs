@@ -4,7 +4,7 @@
 
 use crate::net::*;
 use duocan::machine::StationEvent;
-use duocan::master::{BootPhase, ErrorStatus, MasterEventKind as K, NetworkConfig, SlaveConfig};
+use duocan::master::{BootPhase, ErrorStatus, MasterConfig, MasterEventKind as K, SlaveConfig};
 use duocan::node::NodeEventKind;
 use duocan::od::{comm, ObjectDictionary};
 use duocan::{Duration, Id, Instant, NmtState, NodeId};
@@ -20,7 +20,7 @@ fn slave_cfg(id: u8) -> SlaveConfig {
 }
 
 fn running(ids: &[u8]) -> Net {
-    let mut net = NetworkConfig::new();
+    let mut net = MasterConfig::new();
     for &id in ids {
         net = net.slave(slave_cfg(id));
     }
@@ -163,7 +163,7 @@ fn slave_lost_then_back_is_reported_then_rebooted() {
 
 #[test]
 fn keep_alive_slave_is_adopted_not_reset_and_rebooted_when_it_boots_again() {
-    let net = NetworkConfig::new()
+    let net = MasterConfig::new()
         .slave(slave_cfg(2))
         .slave(slave_cfg(5).keep_alive());
     let mut n = Net::new(BITRATE, master(net), &[2, 5]);

@@ -4,7 +4,7 @@
 use crate::net::*;
 use duocan::machine::{CompositeEvent, StationEvent};
 use duocan::master::objects::{request, REQUEST_ALL, REQUEST_NMT};
-use duocan::master::{BootPhase, MasterEventKind as K, NetworkConfig, SlaveConfig};
+use duocan::master::{BootPhase, MasterConfig, MasterEventKind as K, SlaveConfig};
 use duocan::sdo::{SdoClient, SdoError, SdoErrorKind, SdoOptions, TransferBuffer};
 use duocan::sim::DevId;
 use duocan::{AbortCode, Duration, Instant, NmtCommand, NmtState, NmtTarget, NodeId};
@@ -16,13 +16,13 @@ struct Rig {
     tool: DevId<Tool>,
 }
 
-fn rig(config: NetworkConfig) -> Rig {
+fn rig(config: MasterConfig) -> Rig {
     let (n, tool) = with_tool(BITRATE, config, 64);
     Rig { n, tool }
 }
 
-fn network() -> NetworkConfig {
-    let mut net = NetworkConfig::new();
+fn network() -> MasterConfig {
+    let mut net = MasterConfig::new();
     for id in [2, 3] {
         net = net.slave(
             SlaveConfig::new(NodeId::must(id))

@@ -1,11 +1,11 @@
-//! The master's slots sized to its slaves (`NetworkConfig::max_slaves`): allocated once, only
+//! The master's slots sized to its slaves (`MasterConfig::max_slaves`): allocated once, only
 //! slaves get one, and a slave beyond them is an error (from the configuration, `add_slave`) or
 //! an event with the 0x1F81 entry set back (a write over the bus), never growth.
 
 use crate::net::*;
 use duocan::machine::{CompositeEvent, StationEvent};
 use duocan::master::objects::SLAVE_ASSIGNMENT;
-use duocan::master::{BootPhase, MasterError, MasterEventKind as K, NetworkConfig, SlaveConfig};
+use duocan::master::{BootPhase, MasterConfig, MasterError, MasterEventKind as K, SlaveConfig};
 use duocan::od::{comm, ObjectDictionary};
 use duocan::sdo::SdoOptions;
 use duocan::{Instant, NmtState, NodeId};
@@ -18,8 +18,8 @@ fn cfg(id: u8) -> SlaveConfig {
         .heartbeat(50, 150)
 }
 
-fn two_slots() -> NetworkConfig {
-    NetworkConfig::new()
+fn two_slots() -> MasterConfig {
+    MasterConfig::new()
         .max_slaves(2)
         .slave(cfg(2))
         .slave(cfg(3))
@@ -104,7 +104,7 @@ fn a_master_with_two_slots_boots_its_two_slaves_and_refuses_a_third() {
 
 #[test]
 fn the_default_keeps_a_slot_for_every_node_id() {
-    let net = NetworkConfig::new().slave(cfg(2)).slave(cfg(3));
+    let net = MasterConfig::new().slave(cfg(2)).slave(cfg(3));
     assert_eq!(net.max_slaves, 127);
     let mut n = Net::new(BITRATE, master(net), &[2, 3, 4]);
     n.boot_master();

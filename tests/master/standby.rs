@@ -6,7 +6,7 @@
 use crate::net::*;
 use duocan::machine::{SinglePort, StationEvent};
 use duocan::master::{
-    BootPhase, Master, MasterEventKind as K, NetworkConfig, SlaveConfig, StartPolicy,
+    BootPhase, Master, MasterConfig, MasterEventKind as K, SlaveConfig, StartPolicy,
 };
 use duocan::node::NodeEventKind;
 use duocan::od::{comm, DynamicDictionary, ObjectDictionary};
@@ -17,8 +17,8 @@ const BITRATE: u32 = 500_000;
 const STANDBY_ID: NodeId = NodeId::must(0x10);
 const SYNC_PERIOD_US: u32 = 10_000;
 
-fn network() -> NetworkConfig {
-    let mut net = NetworkConfig::new();
+fn network() -> MasterConfig {
+    let mut net = MasterConfig::new();
     for id in 2..=4u8 {
         net = net.slave(
             SlaveConfig::new(NodeId::must(id))
@@ -39,7 +39,7 @@ fn network() -> NetworkConfig {
 }
 
 /// A master producing SYNC every 10 ms and its heartbeat every 100 ms.
-fn producing(id: NodeId, config: NetworkConfig) -> Master<DynamicDictionary> {
+fn producing(id: NodeId, config: MasterConfig) -> Master<DynamicDictionary> {
     master_with(id, config, |od| {
         od.write(comm::SYNC_COB_ID, 0, &0x4000_0080u32.to_le_bytes())
             .unwrap();
@@ -301,7 +301,7 @@ fn standby_guards_the_guarded_slaves_beside_the_active_master() {
             .identity(expected(id))
             .with_assignment(duocan::master::Assignment::slave().guarded(100, 3))
     };
-    let net = || NetworkConfig::new().slave(guarded(2)).slave(guarded(3));
+    let net = || MasterConfig::new().slave(guarded(2)).slave(guarded(3));
     let mut n = Net::new(BITRATE, master(net()), &[2, 3]);
     let standby = n
         .sim

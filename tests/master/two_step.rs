@@ -4,20 +4,20 @@
 
 use crate::net::*;
 use duocan::master::objects::{self, SLAVE_ASSIGNMENT, VENDOR_ID};
-use duocan::master::{Master, MasterError, MasterSdoClient, NetworkConfig, SlaveConfig};
+use duocan::master::{Master, MasterConfig, MasterError, MasterSdoClient, SlaveConfig};
 use duocan::node::NodeConfig;
 use duocan::od::{comm, DynamicDictionary, ObjectDictionary};
 use duocan::profile::Predefined;
 use duocan::sdo::DEFAULT_LIMIT;
 use duocan::{Instant, NodeId};
 
-fn config() -> NetworkConfig {
+fn config() -> MasterConfig {
     let slave = |id| {
         SlaveConfig::new(NodeId::must(id))
             .identity(expected(id))
             .heartbeat(50, 150)
     };
-    NetworkConfig::new()
+    MasterConfig::new()
         .max_slaves(4)
         .slave(slave(2))
         .slave(slave(3))
@@ -27,7 +27,7 @@ fn dictionary() -> DynamicDictionary {
     objects::master_dictionary(MASTER_ID.raw(), comm::Identity::default())
 }
 
-fn unconfigured(config: &NetworkConfig) -> Master<DynamicDictionary> {
+fn unconfigured(config: &MasterConfig) -> Master<DynamicDictionary> {
     let sdo = MasterSdoClient::with_sessions(DEFAULT_LIMIT, config.sdo_sessions);
     let node = NodeConfig::master(MASTER_ID);
     Master::unconfigured(node, dictionary(), Predefined, sdo, config)

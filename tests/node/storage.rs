@@ -4,7 +4,7 @@
 //! frames a client sees.
 
 use duocan::node::{NodeEventKind as K, StorageAction, Writer};
-use duocan::od::storage::{
+use duocan::od::parameters::{
     ImageError, MemoryStorage, MemoryStorageError, ParameterGroup, ParameterStorage, StorageError,
     StoredDictionary,
 };

@@ -1,7 +1,7 @@
 //! The file medium on a real directory: atomic replacement, failures that leave the previous
 //! image, bounded reads, and a node that keeps its stored parameters across a power cycle.
 
-use duocan::od::storage::{
+use duocan::od::parameters::{
     FileStorage, FileStorageOp, ParameterGroup, ParameterStorage, StoredDictionary,
 };
 use duocan::od::{comm, DynamicDictionary, ObjectDictionary};

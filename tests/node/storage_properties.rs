@@ -9,7 +9,7 @@ use crate::storage::{
     RESET_COMMUNICATION, RESET_NODE, SAVE,
 };
 use duocan::od::comm;
-use duocan::od::storage::ParameterGroup;
+use duocan::od::parameters::ParameterGroup;
 use duocan::AbortCode;
 use proptest::prelude::*;
 

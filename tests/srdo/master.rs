@@ -4,7 +4,7 @@
 
 use crate::support::*;
 use duocan::cia304::srdo::config::{self, SrdoConfig};
-use duocan::master::{objects as master_objects, Master, NetworkConfig, SlaveConfig};
+use duocan::master::{objects as master_objects, Master, MasterConfig, SlaveConfig};
 use duocan::od::{comm, ObjectDictionary};
 use duocan::pdo::MapEntry;
 use duocan::sim::{BusConfig, SimNetwork};
@@ -18,7 +18,7 @@ fn boot(
 ) {
     let id = NodeId::must(P_ID);
     let slave_cfg = SlaveConfig::new(id).mandatory().srdo(1, cfg);
-    let net = NetworkConfig::new().slave(slave_cfg);
+    let net = MasterConfig::new().slave(slave_cfg);
     let od = master_objects::master_dictionary(1, comm::Identity::default());
     let master = Master::new(NodeId::must(1), od, net).unwrap();
     let mut slave = bare(P_ID);

@@ -345,7 +345,7 @@ async fn python_tpdo_is_consumed_by_a_duocan_rpdo() {
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn python_canopen_stores_and_restores_a_duocan_nodes_parameters() {
-    use duocan::od::storage::{MemoryStorage, StoredDictionary};
+    use duocan::od::parameters::{MemoryStorage, StoredDictionary};
     use duocan::od::{comm, ObjectDictionary};
     use duocan::Station;
     let cfg = UdpBusConfig::numbered(5);

@@ -16,7 +16,7 @@
 //! devices: what one sends the other receives, and time runs to the next deadline.
 //!
 //! ```
-//! use duocan_core::master::{objects, BootPhase, Master, NetworkConfig, SlaveConfig};
+//! use duocan_core::master::{objects, BootPhase, Master, MasterConfig, SlaveConfig};
 //! use duocan_core::od::{comm, ObjectDictionary};
 //! use duocan_core::{Device, Instant, NmtState, Node, NodeConfig, NodeId, Station};
 //!
@@ -38,7 +38,7 @@
 //! }
 //!
 //! let seven = NodeId::must(7);
-//! let net = NetworkConfig::new().slave(SlaveConfig::new(seven).mandatory().heartbeat(100, 250));
+//! let net = MasterConfig::new().slave(SlaveConfig::new(seven).mandatory().heartbeat(100, 250));
 //! let od = objects::master_dictionary(1, comm::Identity::default());
 //! let mut master = Station::single(Master::new(NodeId::must(1), od, net)?);
 //! let slave = Node::new(NodeConfig::slave(seven), comm::standard_dictionary(7, Default::default()));

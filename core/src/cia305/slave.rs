@@ -45,7 +45,7 @@ use crate::frame::instant::{earliest, shift_back, Duration, Instant, TimeWatch};
 use crate::frame::queue::Bounded;
 use crate::frame::{Frame, Id};
 use crate::machine::Machine;
-use crate::od::storage::ParameterStorage;
+use crate::od::parameters::ParameterStorage;
 use core::convert::Infallible;
 
 /// What an LSS slave tells its composer.

@@ -7,7 +7,7 @@
 //! taken from noise.
 
 use super::codec::{BitTiming, UNCONFIGURED};
-use crate::od::storage::{crc32, ParameterStorage};
+use crate::od::parameters::{crc32, ParameterStorage};
 use core::convert::Infallible;
 use core::fmt;
 

@@ -11,7 +11,7 @@ use crate::frame::cob_id::NodeId;
 use crate::frame::instant::Instant;
 use crate::frame::Id;
 use crate::frame::Malformed;
-use crate::od::storage::{LoadReport, ParameterGroup, StorageError};
+use crate::od::parameters::{LoadReport, ParameterGroup, StorageError};
 use core::fmt;
 
 /// Why the local NMT state changed.

@@ -27,7 +27,7 @@ use crate::frame::instant::{earliest, Instant};
 use crate::frame::queue::Bounded;
 use crate::frame::Frame;
 use crate::machine::{LinkRequest, Machine};
-use crate::od::storage::ParameterStorage;
+use crate::od::parameters::ParameterStorage;
 use core::convert::Infallible;
 
 /// What an [`LssNode`] reports.

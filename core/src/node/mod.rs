@@ -58,7 +58,7 @@ use crate::frame::storage::{Inline, Storage};
 use crate::frame::Frame;
 use crate::machine::{LinkRequest, Machine};
 use crate::od::abort::AbortCode;
-use crate::od::storage::{ParameterGroup, StorageError};
+use crate::od::parameters::{ParameterGroup, StorageError};
 use crate::od::{ObjectDictionary, OdValue};
 use crate::profile::{IdProfile, Predefined};
 
@@ -178,7 +178,7 @@ pub mod lss;
 mod safety;
 
 pub use safety::SrdoMarkError;
-mod storage;
+mod parameters;
 
 pub use events::{
     NodeEvent, NodeEventKind, NodeStats, QueueFull, StateCause, StorageAction, Writer,

@@ -125,7 +125,7 @@ pub fn sync_overflow_value(_: u16, _: u8, data: &[u8]) -> Result<(), AbortCode> 
 }
 
 /// 0x1010 store parameters and 0x1011 restore default parameters, sub-indices 1–4 (all,
-/// communication, application, manufacturer; see [`storage`](super::storage)). The read value
+/// communication, application, manufacturer; see [`parameters`](super::parameters)). The read value
 /// of each sub-index is set by the node at boot from what the dictionary's medium can do.
 pub const fn parameter_storage() -> [ObjectDef; STORAGE_LEN] {
     const fn command(index: u16, sub: u8, name: &'static str) -> ObjectDef {

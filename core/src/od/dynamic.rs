@@ -2,7 +2,7 @@
 //! with its own ~1,300 entries and adds a handful per slave as slaves join.
 
 use super::def::{key, ObjectDef};
-use super::storage::StorageError;
+use super::parameters::StorageError;
 use super::{miss, value, BuildError, Entry, KeyHasher, ObjectDictionary};
 use crate::od::abort::AbortCode;
 use alloc::boxed::Box;

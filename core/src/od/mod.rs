@@ -37,9 +37,9 @@ pub mod comm;
 mod def;
 #[cfg(feature = "alloc")]
 mod dynamic;
+pub mod parameters;
 mod perfect_index;
 mod static_dict;
-pub mod storage;
 mod value;
 
 pub use access::ObjectAccess;
@@ -56,7 +56,7 @@ use crate::od::abort::AbortCode;
 use core::fmt;
 use core::hash::Hasher;
 use core::ops::RangeInclusive;
-use storage::{LoadReport, ParameterGroup, StorageError};
+use parameters::{LoadReport, ParameterGroup, StorageError};
 
 /// Why a dictionary could not be built or extended.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -172,8 +172,8 @@ pub trait ObjectDictionary {
         self.len() == 0
     }
 
-    /// What a read of 0x1010/0x1011 sub 1–4 gives: the [`storage::capability`] bits. Zero unless
-    /// the dictionary has a medium ([`storage::StoredDictionary`]).
+    /// What a read of 0x1010/0x1011 sub 1–4 gives: the [`parameters::capability`] bits. Zero unless
+    /// the dictionary has a medium ([`parameters::StoredDictionary`]).
     fn storage_capabilities(&self) -> u32 {
         0
     }

@@ -3,8 +3,8 @@
 //! key), the power-on image in a fixed record area. No heap; sized by three const parameters.
 
 use super::def::{key, ObjectDef};
+use super::parameters::{self, StorageError};
 use super::perfect_index::PerfectIndex;
-use super::storage::{self, StorageError};
 use super::{miss, value, BuildError, Entry, ObjectDictionary};
 use crate::od::abort::AbortCode;
 use core::ops::RangeInclusive;
@@ -222,8 +222,8 @@ impl<const N: usize, const BYTES: usize, const POWER_ON: usize> ObjectDictionary
             .any(|d| d.len() > u16::MAX as usize);
         if needed > POWER_ON || too_long {
             return Err(StorageError::TooLarge {
-                needed: storage::bytes(needed),
-                capacity: storage::bytes(POWER_ON),
+                needed: parameters::bytes(needed),
+                capacity: parameters::bytes(POWER_ON),
             });
         }
         let mut at = 0;

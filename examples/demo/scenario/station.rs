@@ -10,7 +10,7 @@ use duocan::cia305::LssAddress;
 use duocan::eds::Description;
 use duocan::machine::StationEvent;
 use duocan::master::{
-    objects, ExpectedIdentity, Master, MasterSdoClient, NetworkConfig, SlaveConfig,
+    objects, ExpectedIdentity, Master, MasterConfig, MasterSdoClient, SlaveConfig,
 };
 use duocan::node::LssNodeEvent;
 use duocan::od::{comm, ObjectDictionary};
@@ -93,7 +93,7 @@ fn master<S: Scheme>(spec: &RackSpec<S>, which: usize, now: Instant) -> Interloc
         od,
         spec.scheme.clone(),
         sdo,
-        NetworkConfig::new(),
+        MasterConfig::new(),
     )
     .expect("the master dictionary has the CiA 302 objects");
     let other = master_node(1 - which);

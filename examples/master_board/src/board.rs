@@ -5,7 +5,7 @@
 use crate::dictionary::{self, Od};
 use crate::{Computer, PAIRS};
 use core::fmt;
-use duocan::master::{Master, MasterError, MasterSdoClient, NetworkConfig};
+use duocan::master::{Master, MasterConfig, MasterError, MasterSdoClient};
 use duocan::node::NodeConfig;
 use duocan::od::{BuildError, ObjectDictionary};
 use duocan::port::embedded::{EmbeddedDriver, EmbeddedPortStats};
@@ -50,8 +50,8 @@ pub const PAIR_TIMEOUT: Duration = Duration::from_millis(150);
 /// library's default keeps one for each of the 127 node-IDs, 31 KB), queues for a handful of
 /// slaves rather than a station's (the library's defaults hold a thousand events), no PDOs of
 /// its own, two SDO sessions (the members boot two at a time; the rest wait their turn).
-pub fn network_config() -> NetworkConfig {
-    NetworkConfig::new()
+pub fn network_config() -> MasterConfig {
+    MasterConfig::new()
         .max_slaves(2 * PAIRS.len())
         .event_queue(32)
         .nmt_queue(16)

@@ -19,7 +19,7 @@ use crate::supervisor::{Supervisor, SupervisorConfig};
 use crate::LinkMode;
 use alloc::boxed::Box;
 use alloc::vec::Vec;
-use duocan::master::{objects, Master, NetworkConfig};
+use duocan::master::{objects, Master, MasterConfig};
 use duocan::od::{comm, DynamicDictionary};
 use duocan::profile::Predefined;
 use duocan::{Duration, Instant, NodeId};
@@ -49,7 +49,7 @@ pub const DEFAULT_MASTER_TIMEOUT: Duration = Duration::from_millis(300);
 /// | [`boot_timeout`](Self::boot_timeout) | 5 s | a member not heard at all this long after power-on or a reset is reported (`NotHeard`) |
 /// | [`peer_master`](Self::peer_master) | none | another master-capable device |
 /// | [`link`](Self::link) | active-active, guard period = the shorter heartbeat | the dual-bus layer |
-/// | [`master`](Self::master) | `NetworkConfig::new()` | the CiA 302-2 master's own settings (other slaves, SDO timeout, queues) |
+/// | [`master`](Self::master) | `MasterConfig::new()` | the CiA 302-2 master's own settings (other slaves, SDO timeout, queues) |
 ///
 /// ```
 /// use duocan::Duration;
@@ -84,7 +84,7 @@ pub struct RedundantNetworkBuilder {
     pairs: Vec<(u8, u8)>,
     peers: Vec<(u8, u8)>,
     link: Option<DualBusConfig>,
-    master: NetworkConfig,
+    master: MasterConfig,
 }
 
 impl Default for RedundantNetworkBuilder {
@@ -101,7 +101,7 @@ impl Default for RedundantNetworkBuilder {
             pairs: Vec::new(),
             peers: Vec::new(),
             link: None,
-            master: NetworkConfig::new(),
+            master: MasterConfig::new(),
         }
     }
 }
@@ -181,8 +181,8 @@ impl RedundantNetworkBuilder {
         self
     }
     /// The CiA 302-2 master's own settings: the slaves that are no pair members, the SDO
-    /// timeout, queue sizes (default `NetworkConfig::new()`).
-    pub fn master(mut self, cfg: NetworkConfig) -> Self {
+    /// timeout, queue sizes (default `MasterConfig::new()`).
+    pub fn master(mut self, cfg: MasterConfig) -> Self {
         self.master = cfg;
         self
     }

@@ -13,7 +13,7 @@ pub const EVENT_QUEUE: usize = 1024;
 
 /// How a supervisor is set up. The master's own settings (0x1F80, SDO timeout, probe
 /// interval, the slaves that are no pair members) are the
-/// [`NetworkConfig`](duocan::master::NetworkConfig) it was built with.
+/// [`MasterConfig`](duocan::master::MasterConfig) it was built with.
 #[derive(Clone, Debug, PartialEq, Eq)]
 #[non_exhaustive]
 pub struct SupervisorConfig {

@@ -15,7 +15,7 @@
 //!
 //! ```
 //! use duocan::machine::StationEvent;
-//! use duocan::master::{objects, Master, NetworkConfig};
+//! use duocan::master::{objects, Master, MasterConfig};
 //! use duocan::od::comm;
 //! use duocan::sim::{BusConfig, SimNetwork};
 //! use duocan::{Duration, Instant, Node, NodeConfig, NodeId, Station};
@@ -27,7 +27,7 @@
 //! let mut sim = SimNetwork::new(1);
 //! let buses = [sim.add_bus(BusConfig::new("can1", 1_000_000)), sim.add_bus(BusConfig::new("can2", 1_000_000))];
 //! let od = objects::master_dictionary(1, comm::Identity::default());
-//! let master = Master::new(NodeId::must(1), od, NetworkConfig::new())?;
+//! let master = Master::new(NodeId::must(1), od, MasterConfig::new())?;
 //! // Priority 0 at node 1: a 20 ms heartbeat, 50 ms master timeout, SYNC every 10 ms.
 //! let mut sup = Supervisor::new(master, SupervisorConfig::new(0, NodeId::must(1), ms(20), ms(50), ms(10)), Instant::ZERO);
 //! // Boards 0x10 (A) and 0x50 (B) beat every 20 ms; 50 ms of silence is a failure.

@@ -15,7 +15,7 @@ use crate::oracle::Oracle;
 use crate::sdo::{Ledger, Sdo, SEGMENTED, STRING};
 use crate::tap::Tap;
 use duocan::machine::PortRequest;
-use duocan::master::{objects, Master, NetworkConfig};
+use duocan::master::{objects, Master, MasterConfig};
 use duocan::od::{comm, Access, DataType, DefaultValue, DynamicDictionary, ObjectDef};
 use duocan::pdo::params;
 use duocan::sim::{BusConfig, BusId, DevId, SimNetwork};
@@ -221,7 +221,7 @@ pub fn master_station(
     oracle.borrow_mut().clock[node] = MASTER_CLOCK.as_micros() as i64;
     let nid = NodeId::must(id);
     let od = objects::master_dictionary(id, comm::Identity::default());
-    let master = Master::new(nid, od, NetworkConfig::new()).unwrap();
+    let master = Master::new(nid, od, MasterConfig::new()).unwrap();
     let peer = if id == STRONG { WEAK } else { STRONG };
     let sync = if p.quiet { Duration::ZERO } else { SYNC };
     let mut cfg = SupervisorConfig::new(id - 1, nid, MASTER_HB, MASTER_TIMEOUT, sync)

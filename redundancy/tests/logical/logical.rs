@@ -6,7 +6,7 @@
 
 use duocan::cia302::pdo_config::{Local, Mirror, PdoConfig};
 use duocan::frame::cob_id::CobId;
-use duocan::master::{objects, ErrorStatus, ExpectedIdentity, Master, NetworkConfig, SlaveConfig};
+use duocan::master::{objects, ErrorStatus, ExpectedIdentity, Master, MasterConfig, SlaveConfig};
 use duocan::nmt::NmtTarget;
 use duocan::od::{comm, Access, DataType, DynamicDictionary, ObjectDef, ObjectDictionary};
 use duocan::pdo::{params, MapEntry};
@@ -164,7 +164,7 @@ enum BConfig {
 
 fn network(id: u8, b_config: BConfig) -> Net {
     let od = objects::master_dictionary(id, comm::Identity::default());
-    let slaves = NetworkConfig::new()
+    let slaves = MasterConfig::new()
         .sdo_timeout(Duration::from_millis(100))
         .slave(
             SlaveConfig::new(n(IO))

@@ -3,7 +3,7 @@
 //! (start on the device, completion by request id) and `Handle::sdo_read`, NMT through
 //! `Handle::try_call` and state queries through `Handle::call`, each with one flat error.
 
-use duocan::master::{objects, Master, NetworkConfig};
+use duocan::master::{objects, Master, MasterConfig};
 use duocan::nmt::NmtTarget;
 use duocan::od::{comm, DynamicDictionary};
 use duocan::port::mem::MemBus;
@@ -26,7 +26,7 @@ async fn the_network_object_under_the_tokio_runtime() {
     let ms = Duration::from_millis;
     let buses = [MemBus::new("can1"), MemBus::new("can2")];
     let od = objects::master_dictionary(1, comm::Identity::default());
-    let master = Master::new(n(1), od, NetworkConfig::new()).unwrap();
+    let master = Master::new(n(1), od, MasterConfig::new()).unwrap();
     // A weak peer is declared but absent: this master negotiates and becomes active.
     let cfg = SupervisorConfig::new(0, n(1), ms(20), ms(50), ms(10)).with_peer(1, n(2));
     let mut sup = Supervisor::new(master, cfg, Instant::ZERO);

@@ -3,7 +3,7 @@
 
 use duocan::cia305::{fastscan_cost, LssAddress, LssMasterConfig, LssMasterEventKind, LssSlave};
 use duocan::machine::StationEvent;
-use duocan::master::{objects, ExpectedIdentity, Master, NetworkConfig, SlaveConfig};
+use duocan::master::{objects, ExpectedIdentity, Master, MasterConfig, SlaveConfig};
 use duocan::node::LssNode;
 use duocan::od::comm;
 use duocan::sim::{BusConfig, SimNetwork};
@@ -45,7 +45,7 @@ fn run(
     let master = Master::new(
         NodeId::must(1),
         objects::master_dictionary(1, comm::Identity::default()),
-        NetworkConfig::new(),
+        MasterConfig::new(),
     )
     .unwrap();
     let mut cfg = SupervisorConfig::new(0, NodeId::must(1), ms(20), ms(50), ms(10));

@@ -6,7 +6,7 @@
 
 use crate::stepped::{ClockJump, ClockStep, Stepped};
 use duocan::machine::StationEvent;
-use duocan::master::{objects, Master, NetworkConfig};
+use duocan::master::{objects, Master, MasterConfig};
 use duocan::od::{comm, DynamicDictionary};
 use duocan::sim::{BusConfig, BusId, DevId, SimNetwork, TraceRecord, TxOutcome};
 use duocan::{Duration, Frame, Id, Instant, NmtCommand, Node, NodeConfig, NodeId, Station};
@@ -99,7 +99,7 @@ pub fn master_station(p: &Params, id: u8, now: Instant) -> MasterDev {
     let now = Stepped::<SupervisedStation<DynamicDictionary>>::reading(step, now);
     let nid = NodeId::must(id);
     let od = objects::master_dictionary(id, comm::Identity::default());
-    let master = Master::new(nid, od, NetworkConfig::new()).unwrap();
+    let master = Master::new(nid, od, MasterConfig::new()).unwrap();
     let peer = if id == STRONG { WEAK } else { STRONG };
     let mut cfg = SupervisorConfig::new(id - 1, nid, p.master_hb, p.master_timeout, p.sync)
         .with_peer(peer - 1, NodeId::must(peer));

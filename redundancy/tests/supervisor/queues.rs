@@ -2,7 +2,7 @@
 //! once; an event beyond the queue is dropped and counted, never stored, a pair beyond the
 //! table refused, an audit record beyond the trail overwrites the oldest.
 
-use duocan::master::{objects, Master, NetworkConfig};
+use duocan::master::{objects, Master, MasterConfig};
 use duocan::od::comm;
 use duocan::{Duration, Frame, Id, Instant, Machine, NodeId};
 use duocan_redundancy::{Supervisor, SupervisorConfig};
@@ -10,7 +10,7 @@ use duocan_redundancy::{Supervisor, SupervisorConfig};
 /// The events a supervisor reports for the same input, and how many it dropped.
 fn run(capacity: Option<usize>) -> (usize, u32) {
     let od = objects::master_dictionary(1, comm::Identity::default());
-    let master = Master::new(NodeId::must(1), od, NetworkConfig::new()).expect("master");
+    let master = Master::new(NodeId::must(1), od, MasterConfig::new()).expect("master");
     let ms = Duration::from_millis;
     let mut cfg = SupervisorConfig::new(0, NodeId::must(1), ms(20), ms(50), ms(10));
     if let Some(c) = capacity {
@@ -45,7 +45,7 @@ fn event_queue_capacity_is_configured_and_overflow_is_counted() {
 /// A supervisor with `cfg` on a fresh master, at 1 ms.
 fn supervisor(cfg: SupervisorConfig) -> Supervisor<duocan::od::DynamicDictionary> {
     let od = objects::master_dictionary(1, comm::Identity::default());
-    let master = Master::new(NodeId::must(1), od, NetworkConfig::new()).expect("master");
+    let master = Master::new(NodeId::must(1), od, MasterConfig::new()).expect("master");
     Supervisor::new(master, cfg, Instant::from_millis(1))
 }
 

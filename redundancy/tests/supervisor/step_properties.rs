@@ -15,7 +15,7 @@
 
 use crate::time_line::{same_time_line, step_size};
 use duocan::machine::{LinkRequest, Machine};
-use duocan::master::{objects, Master, NetworkConfig};
+use duocan::master::{objects, Master, MasterConfig};
 use duocan::od::{comm, DynamicDictionary};
 use duocan::{Duration, Frame, Id, Instant, NodeId};
 use duocan_redundancy::{LinkCommand, PairSpec, Supervisor, SupervisorConfig};
@@ -127,7 +127,7 @@ impl Driver {
         let t0 = Instant::from_micros(T0);
         let ms = Duration::from_millis;
         let od = objects::master_dictionary(1, comm::Identity::default());
-        let master = Master::new(NodeId::must(1), od, NetworkConfig::new()).unwrap();
+        let master = Master::new(NodeId::must(1), od, MasterConfig::new()).unwrap();
         let cfg = SupervisorConfig::new(0, NodeId::must(1), ms(20), ms(50), ms(10))
             .with_peer(1, NodeId::must(2));
         let mut s = Supervisor::new(master, cfg, t0);

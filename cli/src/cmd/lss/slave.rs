@@ -22,7 +22,7 @@ use crate::{ports, Global};
 use duocan::cia305::{LssAddress, LssSlave, LssSlaveEventKind};
 use duocan::machine::{SinglePort, StationEvent};
 use duocan::node::{LssNode, LssNodeEvent};
-use duocan::od::storage::{FileStorage, MemoryStorage, ParameterStorage};
+use duocan::od::parameters::{FileStorage, MemoryStorage, ParameterStorage};
 use duocan::od::{comm, ObjectDictionary};
 use duocan::runtime::{Runtime, RuntimeEvent};
 use duocan::{Instant, Node, NodeConfig, NodeId, Station};

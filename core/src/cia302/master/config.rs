@@ -9,10 +9,10 @@
 //! [`SlaveConfig`].
 //!
 //! ```
-//! use duocan_core::master::{Assignment, ExpectedIdentity, NetworkConfig, NmtStartup, SlaveConfig};
+//! use duocan_core::master::{Assignment, ExpectedIdentity, MasterConfig, NmtStartup, SlaveConfig};
 //! use duocan_core::NodeId;
 //!
-//! let net = NetworkConfig::new()
+//! let net = MasterConfig::new()
 //!     .startup(NmtStartup::MASTER.with(NmtStartup::START_ALL))
 //!     .boot_time_ms(2_000)
 //!     .slave(
@@ -368,7 +368,7 @@ impl SlaveConfig {
 /// The whole network as the master sees it.
 #[derive(Clone, Debug, PartialEq, Eq)]
 #[non_exhaustive]
-pub struct NetworkConfig {
+pub struct MasterConfig {
     /// 0x1F80.
     pub startup: NmtStartup,
     /// 0x1F89: how long mandatory slaves have to boot, in ms (0: no limit).
@@ -412,9 +412,9 @@ pub struct NetworkConfig {
     pub max_slaves: usize,
 }
 
-impl Default for NetworkConfig {
+impl Default for MasterConfig {
     fn default() -> Self {
-        NetworkConfig {
+        MasterConfig {
             startup: NmtStartup::default(),
             boot_time_ms: 0,
             active: true,
@@ -432,88 +432,88 @@ impl Default for NetworkConfig {
     }
 }
 
-impl NetworkConfig {
+impl MasterConfig {
     /// An active NMT master with no slaves (see [`Default`]).
     #[must_use]
-    pub fn new() -> NetworkConfig {
-        NetworkConfig::default()
+    pub fn new() -> MasterConfig {
+        MasterConfig::default()
     }
     /// Sets 0x1F80.
     #[must_use]
-    pub fn startup(mut self, startup: NmtStartup) -> NetworkConfig {
+    pub fn startup(mut self, startup: NmtStartup) -> MasterConfig {
         self.startup = startup;
         self
     }
     /// Sets 0x1F89.
     #[must_use]
-    pub fn boot_time_ms(mut self, ms: u32) -> NetworkConfig {
+    pub fn boot_time_ms(mut self, ms: u32) -> MasterConfig {
         self.boot_time_ms = ms;
         self
     }
     /// Starts as a standby master.
     #[must_use]
-    pub fn standby(mut self) -> NetworkConfig {
+    pub fn standby(mut self) -> MasterConfig {
         self.active = false;
         self
     }
     /// Sets the SDO timeout.
     #[must_use]
-    pub fn sdo_timeout(mut self, t: Duration) -> NetworkConfig {
+    pub fn sdo_timeout(mut self, t: Duration) -> MasterConfig {
         self.sdo_timeout = t;
         self
     }
     /// Sets the probe interval.
     #[must_use]
-    pub fn probe_interval(mut self, t: Duration) -> NetworkConfig {
+    pub fn probe_interval(mut self, t: Duration) -> MasterConfig {
         self.probe_interval = t;
         self
     }
     /// Sets the default consumer heartbeat time.
     #[must_use]
-    pub fn default_consumer_ms(mut self, ms: u16) -> NetworkConfig {
+    pub fn default_consumer_ms(mut self, ms: u16) -> MasterConfig {
         self.default_consumer_ms = ms;
         self
     }
     /// Sets the event queue's capacity (at least 1).
     #[must_use]
-    pub fn event_queue(mut self, capacity: usize) -> NetworkConfig {
+    pub fn event_queue(mut self, capacity: usize) -> MasterConfig {
         self.event_queue = capacity;
         self
     }
     /// Sets the NMT command queue's capacity (at least 1).
     #[must_use]
-    pub fn nmt_queue(mut self, capacity: usize) -> NetworkConfig {
+    pub fn nmt_queue(mut self, capacity: usize) -> MasterConfig {
         self.nmt_queue = capacity;
         self
     }
     /// Sets how many TPDOs the master's own node runs (at most 512).
     #[must_use]
-    pub fn with_tpdos(mut self, tpdos: usize) -> NetworkConfig {
+    pub fn with_tpdos(mut self, tpdos: usize) -> MasterConfig {
         self.tpdos = tpdos;
         self
     }
     /// Sets how many RPDOs the master's own node runs (at most 512).
     #[must_use]
-    pub fn with_rpdos(mut self, rpdos: usize) -> NetworkConfig {
+    pub fn with_rpdos(mut self, rpdos: usize) -> MasterConfig {
         self.rpdos = rpdos;
         self
     }
     /// Sets how many SDO transfers the master runs at once (at least 1).
     #[must_use]
-    pub fn with_sdo_sessions(mut self, sessions: usize) -> NetworkConfig {
+    pub fn with_sdo_sessions(mut self, sessions: usize) -> MasterConfig {
         self.sdo_sessions = sessions;
         self
     }
     /// Sets how many nodes the master keeps a slot for (at most 127): the slaves a small
     /// master runs, so that its heap holds no slots for node-IDs it never uses.
     #[must_use]
-    pub fn max_slaves(mut self, slots: usize) -> NetworkConfig {
+    pub fn max_slaves(mut self, slots: usize) -> MasterConfig {
         self.max_slaves = slots;
         self
     }
     /// Adds (or replaces) a slave.
     #[must_use]
-    pub fn slave(mut self, slave: SlaveConfig) -> NetworkConfig {
+    pub fn slave(mut self, slave: SlaveConfig) -> MasterConfig {
         self.slaves.retain(|s| s.node != slave.node);
         self.slaves.push(slave);
         self

@@ -155,7 +155,7 @@ pub enum MasterEventKind {
         code: AbortCode,
     },
     /// A write to 0x1F81 made a node a slave while every slot of the master was taken
-    /// ([`NetworkConfig::max_slaves`](super::NetworkConfig::max_slaves)): the entry was set back
+    /// ([`MasterConfig::max_slaves`](super::MasterConfig::max_slaves)): the entry was set back
     /// to 0 (not a slave).
     TooManySlaves {
         /// The node.
@@ -252,7 +252,7 @@ pub enum MasterError {
     /// The configuration asks for more PDOs of the master's own node than CiA 301 numbers
     /// (512 in each direction).
     TooManyPdos {
-        /// Receive ([`NetworkConfig::rpdos`](super::NetworkConfig::rpdos)) or transmit.
+        /// Receive ([`MasterConfig::rpdos`](super::MasterConfig::rpdos)) or transmit.
         dir: Dir,
         /// The count asked for.
         count: usize,
@@ -267,7 +267,7 @@ pub enum MasterError {
         limit: usize,
     },
     /// The master has a slot for `capacity` nodes
-    /// ([`NetworkConfig::max_slaves`](super::NetworkConfig::max_slaves)), all taken: `node` cannot
+    /// ([`MasterConfig::max_slaves`](super::MasterConfig::max_slaves)), all taken: `node` cannot
     /// be a slave (or get a program download).
     TooManySlaves {
         /// The node refused.
@@ -330,7 +330,7 @@ impl fmt::Display for MasterError {
             ),
             MasterError::TooManySlaves { node, capacity } => write!(
                 f,
-                "{node} needs a slot, and all {capacity} of the master's are taken: raise NetworkConfig::max_slaves"
+                "{node} needs a slot, and all {capacity} of the master's are taken: raise MasterConfig::max_slaves"
             ),
             MasterError::AlreadyBooted => {
                 f.write_str("the master has booted: its network configuration is written before boot")

@@ -53,7 +53,7 @@
 //! a slave-pair supervisor does with the members of a pair).
 //!
 //! ```
-//! use duocan_core::master::{objects, BootPhase, Master, NetworkConfig, SlaveConfig};
+//! use duocan_core::master::{objects, BootPhase, Master, MasterConfig, SlaveConfig};
 //! use duocan_core::master::StartPolicy;
 //! use duocan_core::od::comm;
 //! use duocan_core::{Device, Instant, NmtState, Node, NodeConfig, NodeId, Station};
@@ -76,7 +76,7 @@
 //! }
 //!
 //! let five = NodeId::must(5);
-//! let net = NetworkConfig::new().slave(
+//! let net = MasterConfig::new().slave(
 //!     SlaveConfig::new(five)
 //!         .mandatory()
 //!         .heartbeat(100, 250)
@@ -130,7 +130,7 @@ pub use concise::{
     MAX_CONCISE_BYTES, MAX_CONCISE_ENTRIES,
 };
 pub use config::{
-    Assignment, ConfigStep, ConfigurationStamp, ExpectedIdentity, NetworkConfig, NmtStartup,
+    Assignment, ConfigStep, ConfigurationStamp, ExpectedIdentity, MasterConfig, NmtStartup,
     SlaveConfig, StartPolicy, WriteAborts,
 };
 pub use events::{MasterError, MasterEvent, MasterEventKind, MasterStats, SlaveView};
@@ -155,29 +155,29 @@ use network::Network;
 use slot_table::SlotTable;
 
 /// NMT commands the master holds before the driver drains them, by default
-/// ([`NetworkConfig::nmt_queue`]).
+/// ([`MasterConfig::nmt_queue`]).
 pub const NMT_QUEUE: usize = 256;
 /// Events the master holds before the application drains them, by default
-/// ([`NetworkConfig::event_queue`]).
+/// ([`MasterConfig::event_queue`]).
 pub const EVENT_QUEUE: usize = 1024;
 
-/// TPDOs of a master's own node by default ([`NetworkConfig::tpdos`]).
+/// TPDOs of a master's own node by default ([`MasterConfig::tpdos`]).
 pub const TPDOS: usize = 4;
-/// RPDOs of a master's own node by default ([`NetworkConfig::rpdos`]): room for mirroring the
+/// RPDOs of a master's own node by default ([`MasterConfig::rpdos`]): room for mirroring the
 /// TPDOs of its slaves ([`crate::cia302::pdo_config::mirror`]), two for each board of a rack of
 /// sixteen.
 pub const RPDOS: usize = 64;
-/// SDO client sessions of a master by default ([`NetworkConfig::sdo_sessions`]): how many slaves
+/// SDO client sessions of a master by default ([`MasterConfig::sdo_sessions`]): how many slaves
 /// it configures at once (the others wait in its queue).
 pub const SESSIONS: usize = 8;
 
 /// The node inside a [`Master`]: it guards every node-ID (0x1F81 guard times); its PDO tables
-/// are allocated once when the master is built, [`NetworkConfig::tpdos`] TPDOs and
-/// [`NetworkConfig::rpdos`] RPDOs ([`TPDOS`] and [`RPDOS`] by default).
+/// are allocated once when the master is built, [`MasterConfig::tpdos`] TPDOs and
+/// [`MasterConfig::rpdos`] RPDOs ([`TPDOS`] and [`RPDOS`] by default).
 pub type MasterNode<D, P = Predefined> = Node<D, P, ALL_NODES, TPDOS, RPDOS, Heap>;
 
 /// The SDO client inside a [`Master`], with the default buffers: its sessions are allocated
-/// once, [`NetworkConfig::sdo_sessions`] of them ([`SESSIONS`] by default).
+/// once, [`MasterConfig::sdo_sessions`] of them ([`SESSIONS`] by default).
 pub type MasterSdoClient = SdoClient<DefaultBuffer, SESSIONS, Heap>;
 
 /// A master on the railway 29-bit identifier profile, with a dictionary built at run time.
@@ -186,7 +186,7 @@ pub type RailwayMaster =
 
 /// A CiA 302-2 NMT master on one logical bus. `D` is its dictionary, `P` its identifier profile;
 /// its node is a [`MasterNode`], its SDO client a [`MasterSdoClient`]. Their capacities are
-/// configuration values ([`NetworkConfig`]), allocated once when the master is built, so that
+/// configuration values ([`MasterConfig`]), allocated once when the master is built, so that
 /// every master, supervisor and network type is spelled with these two parameters only.
 pub struct Master<D, P = Predefined> {
     node: MasterNode<D, P>,
@@ -194,7 +194,7 @@ pub struct Master<D, P = Predefined> {
     /// The client has no transfer running and nothing to send: it is left out of the frame
     /// path (a master of a hundred slaves mostly hears heartbeats).
     sdo_idle: bool,
-    /// Per-node state, [`NetworkConfig::max_slaves`] slots at most.
+    /// Per-node state, [`MasterConfig::max_slaves`] slots at most.
     slots: SlotTable,
     /// A lower bound of every slot's timers (probe, keep-alive wait, K watchdog).
     slot_timer: Option<Instant>,
@@ -223,7 +223,7 @@ impl<D: ObjectDictionary> Master<D> {
     /// A master with node-ID `node_id` on the predefined connection set and a 64 KiB SDO
     /// transfer limit. `od` must hold the master objects ([`objects::master_dictionary`]);
     /// `config`'s values are written into it.
-    pub fn new(node_id: NodeId, od: D, config: NetworkConfig) -> Result<Self, MasterError> {
+    pub fn new(node_id: NodeId, od: D, config: MasterConfig) -> Result<Self, MasterError> {
         Master::with_parts(
             NodeConfig::master(node_id),
             od,
@@ -238,14 +238,14 @@ impl<D: ObjectDictionary, P: IdProfile> Master<D, P> {
     /// A master from its parts: the node's configuration (its `auto_start` and `accept_nmt` are
     /// overridden: the master starts itself per 0x1F80 and obeys no NMT master), dictionary,
     /// identifier profile and SDO client (its transfer limit and the channels of that profile;
-    /// its session table is allocated for [`NetworkConfig::sdo_sessions`], so a client of
+    /// its session table is allocated for [`MasterConfig::sdo_sessions`], so a client of
     /// another size is built anew with the same limit and channels).
     pub fn with_parts(
         node: NodeConfig,
         od: D,
         profile: P,
         sdo: MasterSdoClient,
-        config: NetworkConfig,
+        config: MasterConfig,
     ) -> Result<Self, MasterError> {
         let mut m = Master::unconfigured(node, od, profile, sdo, &config);
         m.configure(config)?;
@@ -265,7 +265,7 @@ impl<D: ObjectDictionary, P: IdProfile> Master<D, P> {
         od: D,
         profile: P,
         sdo: MasterSdoClient,
-        config: &NetworkConfig,
+        config: &MasterConfig,
     ) -> Self {
         let sessions = config.sdo_sessions.max(1);
         let sdo = if sdo.sessions() == sessions {
@@ -318,7 +318,7 @@ impl<D: ObjectDictionary, P: IdProfile> Master<D, P> {
     /// each slave); a dictionary that then refuses a value, or a slave beyond the slots
     /// ([`MasterError::Refused`]) leaves what was written before it: build the master anew.
     /// After boot: [`MasterError::AlreadyBooted`].
-    pub fn configure(&mut self, config: NetworkConfig) -> Result<(), MasterError> {
+    pub fn configure(&mut self, config: MasterConfig) -> Result<(), MasterError> {
         use objects::*;
         if self.booted {
             return Err(MasterError::AlreadyBooted);
@@ -563,7 +563,7 @@ impl<D: ObjectDictionary, P: IdProfile> Master<D, P> {
     }
 
     /// The master's configuration of a node, if it has a slot: every node-ID with
-    /// [`NetworkConfig::max_slaves`] at 127 (the default, a blank configuration for the nodes
+    /// [`MasterConfig::max_slaves`] at 127 (the default, a blank configuration for the nodes
     /// not configured), else the slaves only.
     pub fn slave_config(&self, node: NodeId) -> Option<&SlaveConfig> {
         self.slots.get(node).map(|s| &s.cfg)

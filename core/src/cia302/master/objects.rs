@@ -185,7 +185,7 @@ pub fn insert_master_objects(od: &mut DynamicDictionary, startup: u32, boot_time
 
 /// A master's dictionary: the standard communication objects
 /// ([`comm::standard_dictionary`]) plus every master object. Its slave-related values are
-/// written by [`super::Master::new`] from the [`super::NetworkConfig`].
+/// written by [`super::Master::new`] from the [`super::MasterConfig`].
 pub fn master_dictionary(node_id: u8, identity: comm::Identity) -> DynamicDictionary {
     let mut od = comm::standard_dictionary(node_id, identity);
     insert_master_objects(&mut od, 0, 0);

@@ -1,5 +1,5 @@
 //! The master's table of per-node slots ([`Slot`]), sized by
-//! [`NetworkConfig::max_slaves`](super::NetworkConfig::max_slaves) and allocated once when the
+//! [`MasterConfig::max_slaves`](super::MasterConfig::max_slaves) and allocated once when the
 //! master is built.
 //!
 //! A slot is about 250 bytes (the slave's configuration, its boot process, its timers): one for

@@ -6,7 +6,7 @@ use super::{
     PROGRAM_IDENTIFICATION,
 };
 use crate::od::abort::AbortCode;
-use crate::od::storage::{LoadReport, ParameterGroup, StorageError};
+use crate::od::parameters::{LoadReport, ParameterGroup, StorageError};
 use crate::od::{Access, DataType, Entry, ObjectDef, ObjectDictionary, ObjectType};
 use core::ops::RangeInclusive;
 

@@ -30,7 +30,7 @@
 //! [`SupervisorEvent::NotJoined`] says why. NMT commands go through the master
 //! ([`Master::nmt`]), so that its view of every slave follows them. Other slaves are plain
 //! slaves of the master ([`Supervisor::add_slave`], or the
-//! [`NetworkConfig`](duocan::master::NetworkConfig) the master was built with), booted and
+//! [`MasterConfig`](duocan::master::MasterConfig) the master was built with), booted and
 //! started by it.
 //!
 //! Each member's heartbeats are judged by the dual-bus layer too ([`LinkCommand::Watch`] with
@@ -57,7 +57,7 @@
 //! application calls, `reactions.rs` what the supervisor does with what its parts report.
 //!
 //! ```
-//! use duocan::master::{objects, Master, NetworkConfig};
+//! use duocan::master::{objects, Master, MasterConfig};
 //! use duocan::od::comm;
 //! use duocan::sim::{BusConfig, SimNetwork};
 //! use duocan::{Duration, Instant, Node, NodeConfig, NodeId, Station};
@@ -69,7 +69,7 @@
 //! let buses = [sim.add_bus(BusConfig::new("can1", 1_000_000)), sim.add_bus(BusConfig::new("can2", 1_000_000))];
 //! // A master alone (a weak peer, node 2, is declared but absent), one pair of boards.
 //! let od = objects::master_dictionary(1, comm::Identity::default());
-//! let master = Master::new(NodeId::must(1), od, NetworkConfig::new()).unwrap();
+//! let master = Master::new(NodeId::must(1), od, MasterConfig::new()).unwrap();
 //! let cfg = SupervisorConfig::new(0, NodeId::must(1), ms(20), ms(50), ms(10)).with_peer(1, NodeId::must(2));
 //! let mut sup = Supervisor::new(master, cfg, Instant::ZERO);
 //! sup.add_pair(Instant::ZERO, PairSpec::new(NodeId::must(0x10), NodeId::must(0x50), ms(20), ms(50)))?;
@@ -221,7 +221,7 @@ impl<D: ObjectDictionary, P: IdProfile> Supervisor<D, P> {
     /// [`MasterError::AlreadyBooted`](duocan::master::MasterError::AlreadyBooted).
     pub fn configure_master(
         &mut self,
-        config: duocan::master::NetworkConfig,
+        config: duocan::master::MasterConfig,
     ) -> Result<(), duocan::master::MasterError> {
         self.master.configure(config)
     }

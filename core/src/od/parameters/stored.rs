@@ -15,7 +15,7 @@ use core::ops::RangeInclusive;
 /// each reset.
 ///
 /// ```
-/// use duocan_core::od::storage::{image_capacity, MemoryStorage, StoredDictionary};
+/// use duocan_core::od::parameters::{image_capacity, MemoryStorage, StoredDictionary};
 /// use duocan_core::od::{comm, ObjectDef, ObjectDictionary, StaticDictionary};
 /// use duocan_core::{Instant, Machine, Node, NodeConfig, NodeId};
 ///

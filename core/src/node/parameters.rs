@@ -1,11 +1,11 @@
 //! 0x1010 store parameters and 0x1011 restore default parameters on a node, and the stored
-//! values at power-on and at each reset (the model: [`crate::od::storage`]).
+//! values at power-on and at each reset (the model: [`crate::od::parameters`]).
 
 use super::{NodeCore, NodeEventKind, StorageAction, Writer};
 use crate::frame::instant::Instant;
 use crate::frame::storage::Storage;
 use crate::od::abort::AbortCode;
-use crate::od::storage::{capability, LoadReport, ParameterGroup, StorageError, LOAD, SAVE};
+use crate::od::parameters::{capability, LoadReport, ParameterGroup, StorageError, LOAD, SAVE};
 use crate::od::{comm, ObjectDictionary};
 use crate::profile::IdProfile;
 use core::ops::RangeInclusive;
