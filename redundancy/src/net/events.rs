@@ -12,8 +12,9 @@
 use crate::link::events::{LinkEvent, LinkEventKind};
 use crate::logical::NetworkEventKind;
 use crate::pair::Member;
-use crate::supervisor::flying_master::{MasterRole, MasterRoleChange};
-use crate::supervisor::pairs::RoleChange;
+use crate::supervisor::audit::BoardAddressed;
+use crate::supervisor::flying_master::{FlyingEvent, MasterRole, MasterRoleChange};
+use crate::supervisor::pairs::{PairsEvent, RoleChange};
 use crate::SupervisorEvent;
 use core::fmt;
 use duocan::machine::StationEvent;
@@ -49,6 +50,15 @@ pub enum RedundantEvent {
         /// When.
         at: Instant,
     },
+    /// A pair member joined its pair (configured) or left it ([`PairsEvent::Joined`],
+    /// [`PairsEvent::Lost`]; a role change is [`RedundantEvent::PairRole`], a member never
+    /// heard duocan's `NetEvent::NotHeard`).
+    Member(PairsEvent),
+    /// This master suspended its NMT commands: another active master is suspected
+    /// ([`FlyingEvent::Suspended`]; a role change is [`RedundantEvent::MasterRole`]).
+    Flying(FlyingEvent),
+    /// A board without a node-ID was given a pair member's node-ID by LSS; it joins from there.
+    Addressed(BoardAddressed),
     /// What the dual-bus layer reports besides port health and reach (duocan's
     /// `NetEvent::PortState` and `NetEvent::Reach`): A/B discrepancies and their end, channel
     /// switches, heartbeats suspected, babbling identifiers, duplicate node-IDs, a bus lagging
@@ -93,6 +103,15 @@ impl RedundantEvent {
                 kind: LinkEventKind::DiscrepancyCleared { pair, function },
             }),
             K::Other(StationEvent::Link(l)) => RedundantEvent::Link(l),
+            K::Other(StationEvent::Machine(SupervisorEvent::Pairs(
+                p @ (PairsEvent::Joined { .. } | PairsEvent::Lost { .. }),
+            ))) => RedundantEvent::Member(p),
+            K::Other(StationEvent::Machine(SupervisorEvent::FlyingMaster(
+                f @ FlyingEvent::Suspended { .. },
+            ))) => RedundantEvent::Flying(f),
+            K::Other(StationEvent::Machine(SupervisorEvent::Addressed(b))) => {
+                RedundantEvent::Addressed(b)
+            }
             K::Other(StationEvent::Machine(SupervisorEvent::Node(ref n))) => match n.kind {
                 NodeEventKind::HeartbeatResumed { node } => RedundantEvent::SlaveBack { node, at },
                 _ => return None,
@@ -114,7 +133,13 @@ impl RedundantEvent {
         match *self {
             RedundantEvent::SlaveLost { node, .. }
             | RedundantEvent::SlaveBack { node, .. }
-            | RedundantEvent::BootFailed { node, .. } => Some(node),
+            | RedundantEvent::BootFailed { node, .. }
+            | RedundantEvent::Member(
+                PairsEvent::Joined { node, .. }
+                | PairsEvent::Lost { node, .. }
+                | PairsEvent::Missing { node, .. },
+            )
+            | RedundantEvent::Addressed(BoardAddressed { node, .. }) => Some(node),
             RedundantEvent::PairRole(r) => r.to.map(|m| match m {
                 Member::A => r.nodes[0],
                 Member::B => r.nodes[1],
@@ -129,6 +154,16 @@ impl RedundantEvent {
             RedundantEvent::PairRole(RoleChange { at, .. })
             | RedundantEvent::MasterRole(MasterRoleChange { at, .. })
             | RedundantEvent::Link(LinkEvent { at, .. })
+            | RedundantEvent::Member(
+                PairsEvent::Role(RoleChange { at, .. })
+                | PairsEvent::Joined { at, .. }
+                | PairsEvent::Lost { at, .. }
+                | PairsEvent::Missing { at, .. },
+            )
+            | RedundantEvent::Flying(
+                FlyingEvent::Role(MasterRoleChange { at, .. }) | FlyingEvent::Suspended { at, .. },
+            )
+            | RedundantEvent::Addressed(BoardAddressed { at, .. })
             | RedundantEvent::SlaveLost { at, .. }
             | RedundantEvent::SlaveBack { at, .. }
             | RedundantEvent::BootFailed { at, .. } => at,
@@ -185,6 +220,34 @@ impl fmt::Display for RedundantEvent {
                 write!(f, "this master: {to}")
             }
             RedundantEvent::Link(l) => fmt::Display::fmt(&l.kind, f),
+            RedundantEvent::Member(p) => match p {
+                PairsEvent::Joined {
+                    pair, member, node, ..
+                } => write!(f, "pair {} member {member} ({node}): joined", pair.0),
+                PairsEvent::Lost {
+                    pair,
+                    member,
+                    node,
+                    reason,
+                    ..
+                } => write!(f, "pair {} member {member} ({node}): lost, {reason}", pair.0),
+                PairsEvent::Missing {
+                    pair, member, node, ..
+                } => write!(f, "pair {} member {member} ({node}): not heard", pair.0),
+                PairsEvent::Role(r) => write!(f, "pair {}: {} active", r.pair.0, member(r.to)),
+            },
+            RedundantEvent::Flying(e) => match e {
+                FlyingEvent::Suspended { until, .. } => write!(
+                    f,
+                    "this master: NMT commands suspended until {until}, another active master suspected"
+                ),
+                FlyingEvent::Role(r) => write!(f, "this master: {}", r.to),
+            },
+            RedundantEvent::Addressed(b) => write!(
+                f,
+                "pair {} member {}: a board without node-ID ({}) given {} by LSS",
+                b.pair.0, b.member, b.address, b.node
+            ),
             RedundantEvent::SlaveLost { node, .. } => write!(f, "node {:#04x}: lost", node.raw()),
             RedundantEvent::SlaveBack { node, .. } => write!(f, "node {:#04x}: back", node.raw()),
             RedundantEvent::BootFailed { node, status, .. } => {
@@ -247,6 +310,68 @@ mod tests {
         })
         .unwrap();
         assert_eq!(e.to_string(), "pair 1 function 1: A and B agree again");
+    }
+
+    /// The supervisor's other reports reach the stream: a member joining and leaving its pair,
+    /// commands suspended, a replacement board addressed by LSS; typed as the supervisor
+    /// declares them, one line each.
+    #[test]
+    fn members_joining_and_leaving_suspensions_and_addressed_boards_reach_the_flat_stream() {
+        use crate::supervisor::pairs::LossReason;
+        let (at, node) = (Instant::from_millis(7), NodeId::must(0x50));
+        let sup = |e| flat(NetworkEventKind::Other(StationEvent::Machine(e))).unwrap();
+        let joined = PairsEvent::Joined {
+            at,
+            pair: PairId(0),
+            member: Member::B,
+            node,
+        };
+        let e = sup(SupervisorEvent::Pairs(joined));
+        assert_eq!(e.ext(), Some(&RedundantEvent::Member(joined)));
+        assert_eq!(e.to_string(), "pair 0 member B (node 0x50): joined");
+        assert_eq!((e.node(), e.at()), (Some(node), Some(at)));
+        let lost = PairsEvent::Lost {
+            at,
+            pair: PairId(0),
+            member: Member::B,
+            node,
+            reason: LossReason::Rebooted,
+        };
+        let e = sup(SupervisorEvent::Pairs(lost));
+        assert_eq!(
+            e.to_string(),
+            "pair 0 member B (node 0x50): lost, it booted again"
+        );
+        let until = Instant::from_millis(500);
+        let e = sup(SupervisorEvent::FlyingMaster(FlyingEvent::Suspended {
+            at,
+            until,
+        }));
+        assert_eq!(
+            e.to_string(),
+            format!("this master: NMT commands suspended until {until}, another active master suspected")
+        );
+        assert_eq!(e.at(), Some(at));
+        let address = duocan::cia305::LssAddress {
+            vendor: 0xD0CA00,
+            product: 0x305,
+            revision: 1,
+            serial: 2,
+        };
+        let b = BoardAddressed {
+            at,
+            pair: PairId(0),
+            member: Member::B,
+            node,
+            address,
+        };
+        let e = sup(SupervisorEvent::Addressed(b));
+        assert_eq!(e.ext(), Some(&RedundantEvent::Addressed(b)));
+        assert_eq!(
+            e.to_string(),
+            format!("pair 0 member B: a board without node-ID ({address}) given node 0x50 by LSS")
+        );
+        assert_eq!(e.node(), Some(node));
     }
 
     /// Every other report of the dual-bus layer reaches the stream too, typed as the layer

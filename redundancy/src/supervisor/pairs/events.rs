@@ -168,6 +168,23 @@ pub enum LossReason {
     },
 }
 
+/// Why, in words: "silent since 1.250000s", "rebooted", …
+impl fmt::Display for LossReason {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            LossReason::Silent { last } => write!(f, "silent since {last}, reset"),
+            LossReason::Rebooted => f.write_str("it booted again"),
+            LossReason::ConfigFailed => f.write_str("its configuration failed, reset"),
+            LossReason::Rejected => f.write_str("rejected (identity or configuration), left alone"),
+            LossReason::ResetObserved => f.write_str("a reset command for it was seen on the bus"),
+            LossReason::Suspect => f.write_str("its heartbeats became implausible, reset"),
+            LossReason::NotOperational { state } => {
+                write!(f, "it reported {state} without a command, reset")
+            }
+        }
+    }
+}
+
 /// What the pair supervisor reports.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 #[non_exhaustive]
