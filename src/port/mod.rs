@@ -90,6 +90,3 @@ pub mod mem;
 mod stamp;
 #[cfg(feature = "tokio")]
 pub use asynch::{Port, PortError, PortErrorKind, PortInput, PortReader, READER_WAIT};
-
-#[cfg(test)]
-pub(crate) mod test_frames;

@@ -150,7 +150,7 @@ pub fn frame_duration(frame: &Frame, bitrate: u32) -> Duration {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::port::test_frames::any_frame;
+    use crate::frame::arbitrary::any_frame;
     use proptest::prelude::*;
 
     fn std_frame(id: u16, data: &[u8]) -> Frame {

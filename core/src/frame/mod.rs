@@ -22,6 +22,8 @@
 //! # Ok::<(), FrameError>(())
 //! ```
 
+#[cfg(any(test, feature = "proptest"))]
+pub mod arbitrary;
 pub mod cob_id;
 pub mod instant;
 pub mod queue;
@@ -408,29 +410,9 @@ pub(crate) mod tests {
         assert!(Id::Extended(5).arbitration_key(false) < Id::Extended(6).arbitration_key(false));
     }
 
-    /// Any classic frame: for property tests across the crate.
-    pub(crate) fn any_frame() -> impl Strategy<Value = Frame> {
-        let id = prop_oneof![
-            (0u16..=STANDARD_ID_MAX).prop_map(Id::Standard),
-            (0u32..=EXTENDED_ID_MAX).prop_map(Id::Extended),
-        ];
-        (
-            id,
-            any::<bool>(),
-            proptest::collection::vec(any::<u8>(), 0..=8),
-        )
-            .prop_map(|(id, rtr, data)| {
-                if rtr {
-                    Frame::remote(id, data.len() as u8).unwrap()
-                } else {
-                    Frame::new(id, &data).unwrap()
-                }
-            })
-    }
-
     proptest! {
         #[test]
-        fn embedded_can_round_trip_is_lossless(f in any_frame()) {
+        fn embedded_can_round_trip_is_lossless(f in super::arbitrary::any_frame()) {
             let e: Frame = f.to_embedded().unwrap();
             prop_assert_eq!(Frame::from_embedded(&e).unwrap(), f);
         }

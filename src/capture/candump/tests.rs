@@ -243,7 +243,7 @@ fn a_one_gigabyte_line_fails_at_once_with_bounded_memory() {
 
 proptest! {
     #[test]
-    fn round_trip(f in crate::port::test_frames::any_frame(), ts in 0u64..4_000_000_000_000_000) {
+    fn round_trip(f in crate::frame::arbitrary::any_frame(), ts in 0u64..4_000_000_000_000_000) {
         let line = format_frame(ts, "vcan1", &f);
         let e = parse_line(&line).unwrap();
         prop_assert_eq!(e.timestamp_us, ts);

@@ -186,7 +186,7 @@ fn an_io_error_ends_the_reading() {
 
 proptest! {
     #[test]
-    fn round_trip(frames in proptest::collection::vec((0u64..4_000_000_000_000_000, crate::port::test_frames::any_frame()), 0..20)) {
+    fn round_trip(frames in proptest::collection::vec((0u64..4_000_000_000_000_000, crate::frame::arbitrary::any_frame()), 0..20)) {
         let b = file(&frames);
         let back: Vec<_> = PcapReader::new(&b[..]).unwrap().map(|p| p.unwrap()).collect();
         prop_assert_eq!(back.len(), frames.len());

@@ -317,7 +317,7 @@ mod tests {
     proptest! {
         /// The bytes sent without waiting are the socketcan crate's own frame, field by field.
         #[test]
-        fn the_frame_sent_without_waiting_is_the_kernels(f in crate::port::test_frames::any_frame()) {
+        fn the_frame_sent_without_waiting_is_the_kernels(f in crate::frame::arbitrary::any_frame()) {
             let b = can_frame_bytes(&f);
             let c = crate::port::socketcan::socketcan_frame(&f);
             prop_assert_eq!(u32::from_ne_bytes([b[0], b[1], b[2], b[3]]), c.id_word());
@@ -327,7 +327,7 @@ mod tests {
 
         /// A frame read in a batch is the frame sent, counted as one.
         #[test]
-        fn a_kernel_frame_reads_back_as_the_frame(f in crate::port::test_frames::any_frame()) {
+        fn a_kernel_frame_reads_back_as_the_frame(f in crate::frame::arbitrary::any_frame()) {
             let mut rx = rx();
             prop_assert_eq!(
                 rx.accept_kernel("vcan0", &can_frame_bytes(&f), None),

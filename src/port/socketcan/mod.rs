@@ -545,7 +545,7 @@ mod tests {
 
     proptest! {
         #[test]
-        fn socketcan_round_trip_is_lossless(f in crate::port::test_frames::any_frame()) {
+        fn socketcan_round_trip_is_lossless(f in crate::frame::arbitrary::any_frame()) {
             let sc = socketcan_frame(&f);
             prop_assert_eq!(frame_from_socketcan(sc).unwrap(), f);
             let any = CanAnyFrame::from(socketcan_frame(&f));

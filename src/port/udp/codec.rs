@@ -288,7 +288,7 @@ mod tests {
 
     proptest! {
         #[test]
-        fn round_trip(f in crate::port::test_frames::any_frame(), ts in 0.0f64..2e9) {
+        fn round_trip(f in crate::frame::arbitrary::any_frame(), ts in 0.0f64..2e9) {
             prop_assert_eq!(decode(&encode(&f, ts, Some("can0"))).unwrap(), (f, ts));
         }
 

@@ -1,0 +1,39 @@
+//! Strategies for property tests of code that takes frames (feature `proptest`): duocan's own
+//! decoders, captures and ports are tested with them, and an application's frame handling can
+//! be too.
+//!
+//! ```
+//! use duocan_core::frame::arbitrary::any_frame;
+//! use proptest::prelude::*;
+//!
+//! proptest! {
+//!     // `#[test]` in a test module; called by hand here.
+//!     fn at_most_eight_bytes(f in any_frame()) {
+//!         prop_assert!(f.data().len() <= 8);
+//!     }
+//! }
+//! at_most_eight_bytes();
+//! ```
+
+use super::{Frame, Id, EXTENDED_ID_MAX, STANDARD_ID_MAX};
+use proptest::prelude::*;
+
+/// Any classic frame: data or remote, 11- or 29-bit identifier, 0 to 8 bytes.
+pub fn any_frame() -> impl Strategy<Value = Frame> {
+    let id = prop_oneof![
+        (0u16..=STANDARD_ID_MAX).prop_map(Id::Standard),
+        (0u32..=EXTENDED_ID_MAX).prop_map(Id::Extended),
+    ];
+    (
+        id,
+        any::<bool>(),
+        proptest::collection::vec(any::<u8>(), 0..=8),
+    )
+        .prop_map(|(id, rtr, data)| {
+            if rtr {
+                Frame::remote(id, data.len() as u8).unwrap()
+            } else {
+                Frame::new(id, &data).unwrap()
+            }
+        })
+}
