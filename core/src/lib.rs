@@ -111,6 +111,6 @@ mod doc_sources {
             );
             n += 1;
         }
-        assert_eq!(n, 5, "sdo-block, guarding, time, alloc and std");
+        assert_eq!(n, 6, "sdo-block, guarding, time, alloc, std and proptest");
     }
 }
