@@ -5,6 +5,7 @@ use crate::foreign::FOREIGN;
 use crate::plant::*;
 use crate::run::Run;
 use duocan::sim::{FaultRates, PortRef};
+use duocan_redundancy::supervisor::flying_master::MasterRole;
 use duocan::{Device, Duration, Frame, Id, Instant, NmtState, PortStatus};
 use std::collections::BTreeMap;
 
@@ -603,6 +604,17 @@ pub fn apply(run: &mut Run, f: Fault) {
         Fault::MasterDies { id, dur } => {
             let d = run.plant.master(id);
             let i = dev_index(run, id);
+            // The other master is up but has not learned who holds the network (it is still
+            // detecting or negotiating after its own boot): nobody holds it after this death,
+            // and the next active master comes from a CiA 302-2 negotiation, not a takeover.
+            let other = if id == STRONG { WEAK } else { STRONG };
+            let learning = matches!(
+                run.plant.sup(other).role(),
+                MasterRole::Detecting | MasterRole::Negotiating | MasterRole::Standby(None)
+            );
+            if run.plant.sim.is_powered(run.plant.master(other)) && learning {
+                run.no_master_at(now);
+            }
             run.plant.sim.power_off(d);
             run.timeline.devs[i].off.start(now);
             run.at(now + dur, move |r| {
