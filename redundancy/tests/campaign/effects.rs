@@ -16,8 +16,9 @@
 //! - a board that stops: a master saw its heartbeat say so;
 //! - noise: error reports on that bus; an overrun: that controller's overflow reports;
 //! - a slow transmitter: a frame waited in that controller for its delay;
-//! - a board or master that dies (once or in a boot loop), a master's clock stepped back or jumped ahead: the device was
-//!   powered when the fault came (its effect is the simulator's or the clock's own doing).
+//! - a board or master that dies (once or in a boot loop), a master's clock stepped back or
+//!   jumped ahead, a device's clock at a wrong rate: the device was powered when the fault
+//!   came (its effect is the simulator's or the clock's own doing).
 //!
 //! The fixed budget then asserts that every class took effect at least once.
 
@@ -47,6 +48,10 @@ pub fn watch(run: &mut Run, f: Fault) {
         | Fault::MasterBootLoop { id, .. }
         | Fault::StepBack { id, .. }
         | Fault::JumpAhead { id, .. } => run.plant.sim.is_powered(run.plant.master(id)),
+        Fault::ClockRate { node, .. } if node == STRONG || node == WEAK => {
+            run.plant.sim.is_powered(run.plant.master(node))
+        }
+        Fault::ClockRate { node, .. } => run.plant.sim.is_powered(run.plant.slave(node).0),
         _ => true,
     };
     let before = counters(run);
@@ -261,6 +266,7 @@ fn took_effect(run: &Run, f: Fault, from: Instant, to: Instant, before: &Counter
         | Fault::MasterDies { .. }
         | Fault::MasterBootLoop { .. }
         | Fault::StepBack { .. }
-        | Fault::JumpAhead { .. } => true,
+        | Fault::JumpAhead { .. }
+        | Fault::ClockRate { .. } => true,
     }
 }

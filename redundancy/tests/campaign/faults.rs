@@ -5,8 +5,8 @@ use crate::foreign::FOREIGN;
 use crate::plant::*;
 use crate::run::Run;
 use duocan::sim::{FaultRates, PortRef};
-use duocan_redundancy::supervisor::flying_master::MasterRole;
 use duocan::{Device, Duration, Frame, Id, Instant, NmtState, PortStatus};
+use duocan_redundancy::supervisor::flying_master::MasterRole;
 use std::collections::BTreeMap;
 
 /// A fault class and its parameters.
@@ -102,6 +102,11 @@ pub enum Fault {
     StepBack { id: u8, by: Duration },
     /// A master's clock jumps ahead by `by`.
     JumpAhead { id: u8, by: Duration },
+    /// A device's timer clock runs `ppm` parts per million fast (negative: slow) for `dur`, then
+    /// right again, keeping what it gained or lost (a crystal off its rate, a virtual machine
+    /// whose clock is throttled): its heartbeats, SYNC, consumer times and negotiation all
+    /// stretch or shrink together, unnoticed by the device.
+    ClockRate { node: u8, ppm: i32, dur: Duration },
     /// Noise on bus `bus` for `dur`: a frame is hit by an error (every port on the bus sees the
     /// error frame, nobody receives it, its sender sends it again) with probability
     /// `permille`/1000: retransmissions, their delays, and a stream of error reports.
@@ -173,6 +178,7 @@ impl Fault {
             Fault::MasterBootLoop { .. } => "master in a boot loop",
             Fault::StepBack { .. } => "clock step back",
             Fault::JumpAhead { .. } => "clock jump ahead",
+            Fault::ClockRate { .. } => "clock at a wrong rate",
             Fault::Noise { .. } => "noisy bus",
             Fault::Overrun { .. } => "controller overrun",
             Fault::SlowTx { .. } => "slow transmitter",
@@ -204,7 +210,8 @@ impl Fault {
             | Fault::SlowTx { dur, .. }
             | Fault::Duplicate { dur, .. }
             | Fault::WrongBitRate { dur, .. }
-            | Fault::Drift { dur, .. } => dur,
+            | Fault::Drift { dur, .. }
+            | Fault::ClockRate { dur, .. } => dur,
             Fault::Sequence {
                 dur,
                 overlap,
@@ -634,6 +641,21 @@ pub fn apply(run: &mut Run, f: Fault) {
                 }
             });
         }
+        Fault::ClockRate { node, ppm, dur } => {
+            let set = move |r: &mut Run, ppm: i32| {
+                let t = r.now();
+                let i = dev_index(r, node);
+                if node == STRONG || node == WEAK {
+                    r.plant.sim.device_mut(r.plant.master(node)).run_at(t, ppm);
+                } else {
+                    r.plant.sim.device_mut(r.plant.slave(node).0).run_at(t, ppm);
+                }
+                r.plant.oracle.borrow_mut().clock[i].run_at(t, ppm);
+                r.timeline.devs[i].rates.push((t, ppm));
+            };
+            set(run, ppm);
+            run.at(now + dur, move |r| set(r, 0));
+        }
         Fault::StepBack { id, by } => {
             let d = run.plant.master(id);
             if !run.plant.sim.is_powered(d) {
@@ -641,7 +663,7 @@ pub fn apply(run: &mut Run, f: Fault) {
             }
             let by = by.as_micros() as i64;
             run.plant.sim.device_mut(d).shift(now, -by);
-            run.plant.oracle.borrow_mut().clock[(id - 1) as usize] -= by;
+            run.plant.oracle.borrow_mut().clock[(id - 1) as usize].shift(now, -by);
             for s in run.settle_from.iter_mut() {
                 *s = now;
             }
@@ -655,7 +677,7 @@ pub fn apply(run: &mut Run, f: Fault) {
             run.timeline.devs[i].jumps.push((now, by));
             let by = by.as_micros() as i64;
             run.plant.sim.device_mut(d).shift(now, by);
-            run.plant.oracle.borrow_mut().clock[(id - 1) as usize] += by;
+            run.plant.oracle.borrow_mut().clock[(id - 1) as usize].shift(now, by);
             for s in run.settle_from.iter_mut() {
                 *s = now;
             }
@@ -683,13 +705,15 @@ fn stalled_after_babble(run: &mut Run, bus: usize) {
             let port = run.timeline.devs[dev_index(run, *id)].port(bus);
             let h = sim.device(*d).inner.link.inner.health().port(port);
             let at = h.next_reinit().filter(|_| h.stalled());
-            spans.push((dev_index(run, *id), at, 0));
+            let i = dev_index(run, *id);
+            spans.push((i, at, run.plant.oracle.borrow().clock[i]));
         }
     }
     for (i, at, clock) in spans {
         let Some(at) = at else { continue };
         // On the simulated time line; back at its next heartbeat (a probe) if sooner.
-        let until = Instant::from_micros(at.as_micros().saturating_add_signed(-clock))
+        let until = clock
+            .back(at)
             .min(now + SLAVE_HB.max(MASTER_HB) + Duration::from_millis(2));
         if until > now {
             let port = run.timeline.devs[i].port(bus);
@@ -755,7 +779,7 @@ pub fn random(rng: &mut Rng, pairs: u8, connectivity_free: bool, kinds: usize) -
 
 /// How many kinds of fault the campaign draws from (every class that holds, some in two
 /// shapes).
-pub const KINDS: usize = 26;
+pub const KINDS: usize = 27;
 
 /// Every kind [`draw`] knows: also receive clocks that drift apart (kind [`DRIFT`], always the
 /// last), which still fail combined with others (the "known and not fixed yet" of the user
@@ -764,6 +788,10 @@ pub const KINDS: usize = 26;
 pub const KINDS_WITH_DRIFT: usize = KINDS + 1;
 /// The drift's kind.
 pub const DRIFT: usize = KINDS;
+
+/// The kinds the campaign knew before a clock at a wrong rate: the seeds in
+/// `REGRESSIONS_MASTER_BOOT_LOOP` draw from these.
+pub const KINDS_BEFORE_CLOCK_RATE: usize = 26;
 
 /// The kinds the campaign knew before a master in a boot loop: the seeds in
 /// `REGRESSIONS_BOOT_LOOP` draw from these.
@@ -944,6 +972,17 @@ pub fn draw(rng: &mut Rng, pairs: u8, k: usize) -> Fault {
                 every: rng.ms(100, 300),
                 off: rng.ms(2, 80),
                 times: 2 + rng.below(20) as u32,
+            },
+            26 => Fault::ClockRate {
+                node: match rng.below(2) {
+                    0 => [STRONG, WEAK][rng.below(2) as usize],
+                    _ => board(rng),
+                },
+                // A crystal (±100 ppm) to a throttled virtual machine (±10 %).
+                ppm: [
+                    -100_000, -50_000, -20_000, -100, 100, 20_000, 50_000, 100_000,
+                ][rng.below(8) as usize],
+                dur: rng.ms(1_000, 6_000),
             },
             DRIFT => Fault::Drift {
                 node: any_node(rng),

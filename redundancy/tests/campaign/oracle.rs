@@ -48,7 +48,7 @@
 //! master, which delivers only the active member's by design) are left out, each for a reason
 //! the campaign states when it adds the device or the fault.
 
-use crate::plant::SLAVE_HB;
+use crate::plant::{DeviceClock, SLAVE_HB};
 use duocan::sim::StampClock;
 use duocan::{Frame, Id, Instant};
 use duocan_redundancy::link::plausible::CALM_BEATS;
@@ -252,7 +252,7 @@ pub struct Oracle {
     pub syncs: std::collections::BTreeSet<Instant>,
     /// Per node: how far its clock reads ahead of the simulated time (µs; the campaign steps
     /// and jumps masters' clocks), to put its occurrences on the simulated time line.
-    pub clock: [i64; MAX_NODES],
+    pub clock: [DeviceClock; MAX_NODES],
     /// Per receiver and sender: when the newest heartbeat or boot-up delivered there was sent,
     /// and when its copy delivered there ended on the wire.
     newest: Vec<[Option<(Instant, Instant)>; MAX_NODES]>,
@@ -302,7 +302,7 @@ impl Oracle {
 
     /// Node `node`'s stack sent `frame` at `now`: a new occurrence.
     pub fn sent(&mut self, node: usize, now: Instant, frame: &Frame) -> u64 {
-        let at = Instant::from_micros(now.as_micros().saturating_add_signed(-self.clock[node]));
+        let at = self.clock[node].back(now);
         if let (Id::Standard(id @ 0x701..=0x77F), [state]) = (frame.id(), frame.data()) {
             let v = self.beats.0.entry((id & 0x7F) as u8).or_default();
             v.push((at, *state));
@@ -412,7 +412,7 @@ impl Oracle {
     }
 
     fn sim_time(&self, node: usize, now: Instant) -> Instant {
-        Instant::from_micros(now.as_micros().saturating_add_signed(-self.clock[node]))
+        self.clock[node].back(now)
     }
 
     /// Node `node`'s link delivered `frame` (the copy being handed to it).

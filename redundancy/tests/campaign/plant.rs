@@ -8,7 +8,8 @@
 //! pair, that checks what a plain slave receives, and (in runs with slow transmitters) a node
 //! 0x7B that is not duocan ([`crate::foreign`]). The active master reads the slaves' dictionaries
 //! by SDO meanwhile ([`crate::sdo`]). Every device's link is tapped for the oracle
-//! ([`crate::tap`]); every device's clock can be stepped or jumped ([`Clocked`]).
+//! ([`crate::tap`]); every device's clock can be stepped, jumped or run at a wrong rate
+//! ([`Clocked`], [`DeviceClock`]).
 
 use crate::foreign::{Foreign, FOREIGN};
 use crate::oracle::Oracle;
@@ -53,20 +54,94 @@ pub type SlaveStation = Station<Tap, Node<DynamicDictionary>>;
 pub type MasterDev = Sdo;
 pub type SlaveDev = Clocked<SlaveStation>;
 
-/// A device whose clock reads the simulated time plus an offset the campaign may change: a step
-/// back (the offset falls) or a jump ahead (it rises). The device is told at once, with a
-/// timeout at its new reading, as a driver that notices its clock changed does.
+/// A device's timer clock: its reading of simulated time `t` is `t` plus an offset that was
+/// `offset` µs at `since` and grows by `ppm` parts per million of the time since (a crystal off
+/// its rate, a virtual machine whose clock is throttled). The device and the oracle hold
+/// copies of it, changed together.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct DeviceClock {
+    offset: i64,
+    ppm: i32,
+    since: Instant,
+}
+
+impl DeviceClock {
+    /// A clock `by` ahead of the simulated time, at the right rate.
+    pub fn ahead(by: Duration) -> Self {
+        DeviceClock {
+            offset: by.as_micros() as i64,
+            ..DeviceClock::default()
+        }
+    }
+    fn offset_at(&self, t: Instant) -> i64 {
+        let run = t.as_micros() as i128 - self.since.as_micros() as i128;
+        (self.offset as i128 + run * self.ppm as i128 / 1_000_000) as i64
+    }
+    /// Its reading at simulated time `t`.
+    pub fn read(&self, t: Instant) -> Instant {
+        Instant::from_micros(t.as_micros().saturating_add_signed(self.offset_at(t)))
+    }
+    /// The simulated time at which it reads `l` (0 if before the simulation began).
+    pub fn back(&self, l: Instant) -> Instant {
+        // l = t + offset + (t − since)·ppm/10⁶, so t − since = (l − offset − since)·10⁶/(10⁶ + ppm).
+        let since = self.since.as_micros() as i128;
+        let x = l.as_micros() as i128 - self.offset as i128 - since;
+        let t = since + x * 1_000_000 / (1_000_000 + self.ppm as i128);
+        Instant::from_micros(t.clamp(0, u64::MAX as i128) as u64)
+    }
+    /// Moved by `by` µs (negative: back) at simulated time `now`, its rate kept.
+    pub fn shift(&mut self, now: Instant, by: i64) {
+        self.offset = self.offset_at(now) + by;
+        self.since = now;
+    }
+    /// Running `ppm` parts per million fast (negative: slow) from `now` on; zero: at the right
+    /// rate again, keeping what it gained or lost.
+    pub fn run_at(&mut self, now: Instant, ppm: i32) {
+        self.offset = self.offset_at(now);
+        self.since = now;
+        self.ppm = ppm;
+    }
+}
+
+#[test]
+fn a_device_clock_reads_back_the_instant_it_read_and_runs_at_its_rate() {
+    let t = Instant::from_secs;
+    let mut c = DeviceClock::ahead(Duration::from_secs(10));
+    c.run_at(t(2), -100_000);
+    // 10 % slow: 10 s later it has lost 1 s.
+    assert_eq!(c.read(t(12)), t(21));
+    c.shift(t(12), -500_000);
+    c.run_at(t(13), 0);
+    assert_eq!(c.read(t(14)), Instant::from_millis(22_400));
+    for ppm in [-100_000, -100, 0, 100, 50_000] {
+        let mut c = DeviceClock::ahead(Duration::from_secs(3));
+        c.run_at(t(1), ppm);
+        for us in [1_000_000, 1_234_567, 9_999_999, 60_000_000] {
+            let s = Instant::from_micros(us);
+            let back = c.back(c.read(s)).as_micros() as i64;
+            assert!(
+                (back - us as i64).abs() <= 1,
+                "{ppm} ppm at {us} µs: {back}"
+            );
+        }
+    }
+}
+
+/// A device on a [`DeviceClock`] the campaign may change: a step back (the offset falls), a
+/// jump ahead (it rises), a wrong rate. For a step or a jump the device is told at once, with a
+/// timeout at its new reading, as a driver that notices its clock changed does; a wrong rate
+/// goes unnoticed, as it does in a device.
 ///
 /// A frame that arrived before the change and is handed over after it keeps its timestamp as
 /// the layer keeps its own times: moved back with a step back (the new clock's reading of that
 /// moment), unmoved by a jump ahead (a jump is time that passed).
 pub struct Clocked<T> {
     pub inner: T,
-    offset: i64,
+    clock: DeviceClock,
     /// The latest simulated time it was given.
     last: Instant,
-    /// The last jump ahead: when (simulated time), and the offset before it.
-    jumped: Option<(Instant, i64)>,
+    /// The last jump ahead: when (simulated time), and the clock before it.
+    jumped: Option<(Instant, DeviceClock)>,
 }
 
 impl<T: Device> Clocked<T> {
@@ -74,17 +149,18 @@ impl<T: Device> Clocked<T> {
     pub fn new(inner: T, ahead: Duration) -> Self {
         Clocked {
             inner,
-            offset: ahead.as_micros() as i64,
+            clock: DeviceClock::ahead(ahead),
             last: Instant::ZERO,
             jumped: None,
         }
     }
     /// Its clock's reading at simulated time `t`.
     pub fn read(&self, t: Instant) -> Instant {
-        Instant::from_micros(t.as_micros().saturating_add_signed(self.offset))
+        self.clock.read(t)
     }
-    fn back(&self, t: Instant) -> Instant {
-        Instant::from_micros(t.as_micros().saturating_add_signed(-self.offset))
+    /// Its clock runs `ppm` parts per million off from simulated time `now` on.
+    pub fn run_at(&mut self, now: Instant, ppm: i32) {
+        self.clock.run_at(now, ppm);
     }
     /// The clock moves by `by` µs (negative: back) at simulated time `now`.
     pub fn shift(&mut self, now: Instant, by: i64) {
@@ -96,9 +172,9 @@ impl<T: Device> Clocked<T> {
         let before = self.read(now);
         self.inner.handle_timeout(before);
         if by > 0 {
-            self.jumped = Some((now, self.offset));
+            self.jumped = Some((now, self.clock));
         }
-        self.offset += by;
+        self.clock.shift(now, by);
         self.last = now;
         let t = self.read(now);
         self.inner.handle_timeout(t);
@@ -117,12 +193,12 @@ impl<T: Device> Device for Clocked<T> {
     }
     fn handle_rx_at(&mut self, now: Instant, port: usize, frame: &Frame, at: Instant) {
         self.last = now;
-        let offset = match self.jumped {
+        let clock = match self.jumped {
             Some((j, before)) if at < j => before,
-            _ => self.offset,
+            _ => self.clock,
         };
         let t = self.read(now);
-        let at = Instant::from_micros(at.as_micros().saturating_add_signed(offset)).min(t);
+        let at = clock.read(at).min(t);
         self.inner.handle_rx_at(t, port, frame, at);
     }
     fn handle_port_status(&mut self, now: Instant, port: usize, status: PortStatus) {
@@ -145,7 +221,7 @@ impl<T: Device> Device for Clocked<T> {
         // A deadline its clock put before now (a step back) is due now.
         self.inner
             .poll_timeout()
-            .map(|d| self.back(d).max(self.last))
+            .map(|d| self.clock.back(d).max(self.last))
     }
     fn poll_event(&mut self) -> Option<T::Event> {
         self.inner.poll_event()
@@ -218,7 +294,7 @@ pub fn master_station(
     ledger: &Rc<RefCell<Ledger>>,
 ) -> MasterDev {
     let now = at + MASTER_CLOCK;
-    oracle.borrow_mut().clock[node] = MASTER_CLOCK.as_micros() as i64;
+    oracle.borrow_mut().clock[node] = DeviceClock::ahead(MASTER_CLOCK);
     let nid = NodeId::must(id);
     let od = objects::master_dictionary(id, comm::Identity::default());
     let master = Master::new(nid, od, MasterConfig::new()).unwrap();
@@ -309,6 +385,7 @@ pub fn slave_station(
         .unwrap();
     }
     n.boot(now);
+    oracle.borrow_mut().clock[node] = DeviceClock::default();
     Clocked::new(
         Station::new(Tap::new(link(), node, oracle.clone()), n),
         Duration::ZERO,

@@ -237,7 +237,7 @@ impl Run {
             let allowed = if split {
                 SPLIT_ALLOWANCE
             } else {
-                TWO_MASTERS_BOUND
+                self.on_masters_clocks(TWO_MASTERS_BOUND, since, t)
             };
             let d = t.saturating_since(since);
             if !split {
@@ -420,7 +420,7 @@ impl Run {
                         .map(|d| d.lag(l, h))
                         .max()
                         .unwrap_or(Duration::ZERO);
-                    if gap > SYNC_BOUND + lag {
+                    if gap > self.on_masters_clocks(SYNC_BOUND, l, h) + lag {
                         self.problem(h, format!("SYNC gap {gap} at the observer after {l}"));
                     }
                 }
@@ -429,6 +429,19 @@ impl Run {
                 spans.retain(|(_, b)| *b >= h);
             }
         }
+    }
+
+    /// `bound`, timed by the masters' clocks over `[from, to]`: as much longer as the slower
+    /// master's clock ran slow meanwhile (a master timeout of 50 ms on a clock 10 % slow is
+    /// 55.6 ms of the simulated time).
+    fn on_masters_clocks(&self, bound: Duration, from: Instant, to: Instant) -> Duration {
+        let ppm = (self.timeline.devs.iter())
+            .filter(|d| d.node_id == STRONG || d.node_id == WEAK)
+            .map(|d| d.slowest(from, to))
+            .min()
+            .unwrap_or(0);
+        let rate = (1_000_000 + ppm as i64) as u64;
+        Duration::from_micros((bound.as_micros() * 1_000_000).div_ceil(rate))
     }
 
     /// No master holds the network at `t` (the last one alive was power-cycled): the next

@@ -84,12 +84,31 @@ pub struct Dev {
     pub jumps: Vec<(Instant, Duration)>,
     /// Instants it was rebuilt (rebooted).
     pub reboots: Vec<Instant>,
+    /// Its timer clock's rate, from when (parts per million fast; negative: slow).
+    pub rates: Vec<(Instant, i32)>,
 }
 
 impl Dev {
     /// Its port on bus `bus`.
     pub fn port(&self, bus: usize) -> usize {
         bus ^ usize::from(self.swapped)
+    }
+    /// The slowest its timer clock ran at some time of `[from, to]` (ppm, at most zero): its
+    /// timeouts and periods took that much longer on the simulated time line.
+    pub fn slowest(&self, from: Instant, to: Instant) -> i32 {
+        let start = self
+            .rates
+            .iter()
+            .rposition(|(t, _)| *t <= from)
+            .unwrap_or(0);
+        let rates = self.rates.get(start..).unwrap_or_default();
+        rates
+            .iter()
+            .filter(|(t, _)| *t <= to)
+            .map(|(_, ppm)| *ppm)
+            .min()
+            .unwrap_or(0)
+            .min(0)
     }
     /// The largest receive lag any of its ports had at some time of `[from, to]`.
     pub fn lag(&self, from: Instant, to: Instant) -> Duration {
