@@ -171,14 +171,7 @@ impl fmt::Display for MasterEventKind {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         match self {
             MasterEventKind::Node(k) => write!(f, "this master's node: {k}"),
-            MasterEventKind::Sdo(e) => match &e.result {
-                Ok(_) => write!(
-                    f,
-                    "{}: SDO {} {:#06x}sub{} done",
-                    e.node, e.direction, e.index, e.sub
-                ),
-                Err(err) => write!(f, "{}: {err}", e.node),
-            },
+            MasterEventKind::Sdo(e) => fmt::Display::fmt(e, f),
             MasterEventKind::SlaveBootUp { node } => write!(f, "{node}: boot-up, slave of this master"),
             MasterEventKind::IdentityMismatch {
                 node,
