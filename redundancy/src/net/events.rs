@@ -26,7 +26,10 @@
 //!   [`ProgramDownloaded`](MasterEventKind::ProgramDownloaded)).
 //!
 //! The rule for a new kind: it reaches the stream unless one of duocan's events or another
-//! kind here already says it, or it can come once per frame or per cycle.
+//! kind here already says it, or it can come once per frame or per cycle. A pair member the
+//! boot process refused comes twice, on purpose: the master's report says what failed, and
+//! [`RedundantEvent::NotJoined`] what the pair supervision did about it (left alone, or reset
+//! to try again).
 
 use crate::link::events::{LinkEvent, LinkEventKind};
 use crate::logical::NetworkEventKind;

@@ -224,3 +224,35 @@ impl From<PairsError> for AddPairError {
         AddPairError::Pairs(e)
     }
 }
+
+// The lines are compared as strings, which needs `alloc`.
+#[cfg(all(test, feature = "alloc"))]
+mod tests {
+    use super::*;
+    use alloc::string::ToString;
+    use duocan::node::NodeEventKind;
+
+    /// The supervisor's events print one line each, its own as it words them and the lower
+    /// layers' as they do.
+    #[test]
+    fn supervisor_events_print_one_line_each() {
+        let (at, node) = (Instant::from_millis(7), NodeId::must(0x50));
+        let refused = SupervisorEvent::NotJoined(NotJoined {
+            at,
+            pair: PairId(1),
+            member: Member::A,
+            node,
+            why: JoinRefusal::Master(MasterError::Busy(node)),
+        });
+        assert_eq!(
+            refused.to_string(),
+            "pair 1 member A (node 0x50): not joined, the master refused its boot process: \
+             node 0x50 is being booted or updated: wait for the end of that first"
+        );
+        let back = SupervisorEvent::Node(NodeEvent {
+            at,
+            kind: NodeEventKind::HeartbeatResumed { node },
+        });
+        assert_eq!(back.to_string(), "node 0x50: heartbeat back");
+    }
+}
