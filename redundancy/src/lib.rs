@@ -151,7 +151,9 @@ pub use pair::{Member, PairId, PairSpec};
 #[cfg(feature = "alloc")]
 pub use station::{RedundantMaster, SupervisedStation};
 #[cfg(feature = "alloc")]
-pub use supervisor::{AddPairError, JoinRefusal, Supervisor, SupervisorConfig, SupervisorEvent};
+pub use supervisor::{
+    AddPairError, JoinRefusal, NotJoined, Supervisor, SupervisorConfig, SupervisorEvent,
+};
 
 /// The crate's README code block, compiled as a doctest.
 #[cfg(all(doctest, feature = "tokio"))]

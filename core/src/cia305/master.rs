@@ -134,6 +134,52 @@ pub enum LssMasterEventKind {
     },
 }
 
+/// One line: `LSS: configure node-ID accepted`, `LSS fastscan: vendor 0x… given node 0x10`.
+impl core::fmt::Display for LssMasterEventKind {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        match *self {
+            LssMasterEventKind::Done(o) => match o {
+                LssOutcome::Sent(s) => write!(f, "LSS: {s} sent"),
+                LssOutcome::Selected => f.write_str("LSS: slave selected, in configuration mode"),
+                LssOutcome::NodeIdConfigured => f.write_str("LSS: configure node-ID accepted"),
+                LssOutcome::BitTimingConfigured => {
+                    f.write_str("LSS: configure bit timing accepted")
+                }
+                LssOutcome::Stored => f.write_str("LSS: configuration stored"),
+                LssOutcome::Inquired(i, v) => {
+                    write!(f, "LSS: {} answered {v:#010x}", LssService::Inquire(i))
+                }
+                LssOutcome::Identified(s, any) => {
+                    write!(
+                        f,
+                        "LSS: {s}, {}",
+                        if any { "answered" } else { "no answer" }
+                    )
+                }
+            },
+            LssMasterEventKind::Failed(e) => write!(f, "LSS: {e}"),
+            LssMasterEventKind::Found(a) => write!(f, "LSS fastscan: found {a}"),
+            LssMasterEventKind::Assigned { address, node } => {
+                write!(f, "LSS fastscan: {address} given {node}")
+            }
+            LssMasterEventKind::ScanRestarted { sub } => write!(
+                f,
+                "LSS fastscan: starting over, identity part {sub} not confirmed"
+            ),
+            LssMasterEventKind::ScanFinished { assigned } => write!(
+                f,
+                "LSS fastscan: finished, {assigned} slave(s) given a node-ID"
+            ),
+        }
+    }
+}
+
+impl core::fmt::Display for LssMasterEvent {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        core::fmt::Display::fmt(&self.kind, f)
+    }
+}
+
 /// Counters.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub struct LssMasterStats {
@@ -491,5 +537,26 @@ impl<const PLAN: usize> Machine for LssMaster<PLAN> {
 
     fn poll_event(&mut self) -> Option<LssMasterEvent> {
         self.out.events.pop()
+    }
+}
+
+#[cfg(test)]
+mod display_tests {
+    use super::*;
+
+    #[test]
+    fn lss_master_events_print_one_line_each() {
+        assert_eq!(
+            LssMasterEventKind::Done(LssOutcome::NodeIdConfigured).to_string(),
+            "LSS: configure node-ID accepted"
+        );
+        assert_eq!(
+            LssMasterEventKind::Done(LssOutcome::Inquired(Inquiry::Serial, 7)).to_string(),
+            "LSS: inquire serial number answered 0x00000007"
+        );
+        assert_eq!(
+            LssMasterEventKind::ScanFinished { assigned: 2 }.to_string(),
+            "LSS fastscan: finished, 2 slave(s) given a node-ID"
+        );
     }
 }

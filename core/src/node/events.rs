@@ -194,6 +194,115 @@ pub enum NodeEventKind {
     },
 }
 
+/// One line, as an operator reads it: `node 0x10: guarding answers again`, `this node:
+/// pre-operational -> operational (NMT start)`, `all parameters stored over SDO`.
+impl fmt::Display for NodeEventKind {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        let by = |w: &Writer| match w {
+            Writer::Local => "locally",
+            Writer::Sdo => "over SDO",
+        };
+        match self {
+            NodeEventKind::StateChanged { from, to, cause } => {
+                write!(f, "this node: {from} -> {to}")?;
+                match cause {
+                    StateCause::Boot => f.write_str(" (boot)"),
+                    StateCause::Command(c) => write!(f, " (NMT {c})"),
+                    StateCause::Local => f.write_str(" (application)"),
+                }
+            }
+            NodeEventKind::BootUp { node } => write!(f, "{node}: boot-up"),
+            NodeEventKind::RemoteState { node, to, .. } => write!(f, "{node}: {to}"),
+            NodeEventKind::HeartbeatTimeout { node, last } => {
+                write!(f, "{node}: heartbeat lost (last at {last})")
+            }
+            NodeEventKind::HeartbeatResumed { node } => write!(f, "{node}: heartbeat back"),
+            NodeEventKind::GuardingTimeout { node } => {
+                write!(f, "{node}: no guarding answer within its life time")
+            }
+            NodeEventKind::GuardingResumed { node } => write!(f, "{node}: guarding answers again"),
+            NodeEventKind::GuardToggleError { node } => {
+                write!(f, "{node}: guarding toggle bit did not alternate")
+            }
+            NodeEventKind::LifeGuardingLost => {
+                f.write_str("this node: its master stopped guarding it (life guarding event)")
+            }
+            NodeEventKind::LifeGuardingResumed => f.write_str("this node: guarded again"),
+            NodeEventKind::Sync { counter, produced } => {
+                f.write_str(if *produced {
+                    "SYNC sent"
+                } else {
+                    "SYNC received"
+                })?;
+                match counter {
+                    Some(c) => write!(f, ", counter {c}"),
+                    None => Ok(()),
+                }
+            }
+            NodeEventKind::Time { tod } => {
+                let s = tod.ms / 1000;
+                write!(
+                    f,
+                    "TIME received: day {} since 1984, {:02}:{:02}:{:02}.{:03}",
+                    tod.days,
+                    s / 3600,
+                    s / 60 % 60,
+                    s % 60,
+                    tod.ms % 1000
+                )
+            }
+            NodeEventKind::Emcy { node, msg } => {
+                write!(f, "{node}: EMCY {:#06x} {}", msg.code, msg.text())
+            }
+            NodeEventKind::ObjectWritten { index, sub, by: w } => {
+                write!(f, "{index:#06x}sub{sub} written {}", by(w))
+            }
+            NodeEventKind::NmtObserved { cmd, target } => match target {
+                0 => write!(f, "NMT {cmd} for all nodes seen"),
+                t => write!(f, "NMT {cmd} for node {t:#04x} seen"),
+            },
+            NodeEventKind::Pdo(e) => fmt::Display::fmt(e, f),
+            NodeEventKind::Srdo(e) => fmt::Display::fmt(e, f),
+            NodeEventKind::OperationalRefused { reason } => {
+                write!(f, "this node: operational refused, {reason}")
+            }
+            NodeEventKind::ParametersStored { group, by: w } => {
+                write!(f, "{group} stored {}", by(w))
+            }
+            NodeEventKind::DefaultsRestored { group, by: w } => write!(
+                f,
+                "{group}: defaults restored {}, they apply from the next reset",
+                by(w)
+            ),
+            NodeEventKind::ParametersLoaded(r) => write!(
+                f,
+                "stored parameters loaded: {} applied, {} left out",
+                r.applied, r.skipped
+            ),
+            NodeEventKind::StorageFailed { action, error } => {
+                match action {
+                    StorageAction::Store(g) => write!(f, "storing {g} failed")?,
+                    StorageAction::Restore(g) => write!(f, "restoring the defaults of {g} failed")?,
+                    StorageAction::Load => f.write_str("loading the stored parameters failed")?,
+                    StorageAction::CapturePowerOn => {
+                        f.write_str("no room for the power-on image of the parameters")?
+                    }
+                }
+                write!(f, ": {error}")
+            }
+            NodeEventKind::Malformed { id, reason } => {
+                write!(f, "malformed frame {id} refused: {reason}")
+            }
+        }
+    }
+}
+
+impl fmt::Display for NodeEvent {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        fmt::Display::fmt(&self.kind, f)
+    }
+}
+
 /// Counters a node keeps.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub struct NodeStats {
@@ -225,3 +334,58 @@ impl fmt::Display for QueueFull {
 }
 
 impl core::error::Error for QueueFull {}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Each kind is one line an operator reads.
+    #[test]
+    fn node_events_print_one_line_each() {
+        let node = NodeId::must(0x0A);
+        assert_eq!(
+            NodeEventKind::GuardingResumed { node }.to_string(),
+            "node 0x0a: guarding answers again"
+        );
+        assert_eq!(
+            NodeEventKind::StateChanged {
+                from: NmtState::PreOperational,
+                to: NmtState::Operational,
+                cause: StateCause::Command(NmtCommand::Start),
+            }
+            .to_string(),
+            format!(
+                "this node: {} -> {} (NMT start)",
+                NmtState::PreOperational,
+                NmtState::Operational
+            )
+        );
+        assert_eq!(
+            NodeEventKind::Time {
+                tod: TimeOfDay {
+                    days: 15000,
+                    ms: 3_723_004
+                }
+            }
+            .to_string(),
+            "TIME received: day 15000 since 1984, 01:02:03.004"
+        );
+        assert_eq!(
+            NodeEventKind::Pdo(PdoEvent::RpdoTooShort {
+                pdo: 2,
+                expected: 4,
+                got: 3
+            })
+            .to_string(),
+            "RPDO 2 refused: 3 bytes, its mapping needs 4"
+        );
+        assert_eq!(
+            NodeEventKind::ParametersStored {
+                group: ParameterGroup::All,
+                by: Writer::Sdo
+            }
+            .to_string(),
+            "all parameters stored over SDO"
+        );
+    }
+}

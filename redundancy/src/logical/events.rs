@@ -126,7 +126,7 @@ pub(super) fn when(e: &StationEvent<LinkEvent, SupervisorEvent>) -> Instant {
             SupervisorEvent::FlyingMaster(FlyingEvent::Suspended { at, .. }) => *at,
             SupervisorEvent::Master(e) => e.at,
             SupervisorEvent::Sdo(s) => s.at,
-            SupervisorEvent::NotJoined { at, .. } => *at,
+            SupervisorEvent::NotJoined(n) => n.at,
             SupervisorEvent::Addressed(b) => b.at,
             SupervisorEvent::Lss(l) => l.at,
         },

@@ -17,11 +17,12 @@
 //! ([`NetError::Standby`]).
 //!
 //! **Heartbeats.** The master guards its slaves (0x1F81, the pair members among them) with
-//! the 0x1016 entries it configured and reports a loss as [`RedundantEvent::SlaveLost`];
-//! watching one of those through the door changes nothing. Any other node gets an entry of
-//! the door's in the master's 0x1016, on a standby master as on the active one, and its loss
-//! is the door's [`NetEvent::HeartbeatLost`]. States and boot-up waits are the door's, over
-//! what the master's node heard.
+//! the 0x1016 entries it configured and reports a loss as [`RedundantEvent::Master`] (the
+//! master's `SlaveLost`, with its CiA 302-2 status); watching one of those through the door
+//! changes nothing. Any other node gets an entry of the door's in the master's 0x1016, on a
+//! standby master as on the active one, and its loss is the door's
+//! [`NetEvent::HeartbeatLost`]. States and boot-up waits are the door's, over what the
+//! master's node heard.
 //!
 //! **SYNC.** `start_sync` and `stop_sync` change the SYNC period the builder's `.sync(…)`
 //! set, and nothing else: SYNC stays the flying master's, produced by the active master
@@ -179,7 +180,7 @@ impl NetCore for MasterCore {
         Some((v.state, v.seen))
     }
     /// The master guards its slaves itself (0x1F81 bit 0: the pair members among them) with
-    /// the 0x1016 entries it configured, and reports a loss as [`RedundantEvent::SlaveLost`];
+    /// the 0x1016 entries it configured, and reports a loss as [`RedundantEvent::Master`];
     /// for those, and for a node another entry already names (a peer master the flying
     /// master watches), this is `Ok` and changes nothing. For any other node the door writes
     /// an entry of its own into the master's 0x1016 (the sub naming it, else sub node-ID if
@@ -336,13 +337,19 @@ mod tests {
         };
         assert_eq!(
             e.ext::<RedundantEvent>(),
-            Some(&RedundantEvent::SlaveLost {
-                node,
-                at: Instant::from_millis(7)
-            })
+            Some(&RedundantEvent::Master(duocan::master::MasterEvent {
+                at: Instant::from_millis(7),
+                kind: duocan::master::MasterEventKind::SlaveLost {
+                    node,
+                    status: duocan::master::ErrorStatus::E
+                },
+            }))
         );
         assert_eq!(e.node(), Some(node));
-        assert_eq!(e.to_string(), "node 0x12: lost");
+        assert_eq!(
+            e.to_string(),
+            "node 0x12: lost, error status E: heartbeat lost"
+        );
     }
 
     #[test]

@@ -40,8 +40,9 @@
 //! door's SDO transfers run on the master's own client, while this master is active (on a
 //! standby one they are `NetError::Standby`), its NMT commands go through the master, and its
 //! events come out in duocan's flat stream: boot-ups, states, EMCY, port health, reach and
-//! members never heard as duocan's `NetEvent`s, and pair and master roles, lost slaves,
-//! discrepancies and refused boots as [`RedundantEvent`]s (`NetEvent::Ext`). The door's calls
+//! members never heard as duocan's `NetEvent`s, and pair and master roles, the master's boot
+//! process and lost slaves, refused members, LSS and discrepancies as [`RedundantEvent`]s
+//! (`NetEvent::Ext`), each carrying its layer's own event type. The door's calls
 //! fail with `duocan::net::NetError`; the builder's and this module's with [`RedundantError`],
 //! which takes a `NetError` with `?`.
 //!

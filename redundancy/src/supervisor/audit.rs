@@ -54,17 +54,25 @@ pub struct BoardAddressed {
     pub address: LssAddress,
 }
 
-impl fmt::Display for BoardAddressed {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+impl BoardAddressed {
+    /// Its line without the time (the event streams print the time apart, the audit trail in
+    /// front of it).
+    pub(crate) fn fmt_untimed(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         write!(
             f,
-            "{}: pair {} member {}: a board without node-ID ({}) given {} by LSS",
-            self.at,
+            "pair {} member {}: a board without node-ID ({}) given {} by LSS",
             self.pair.0,
             role(Some(self.member)),
             self.address,
             self.node
         )
+    }
+}
+
+impl fmt::Display for BoardAddressed {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(f, "{}: ", self.at)?;
+        self.fmt_untimed(f)
     }
 }
 

@@ -126,18 +126,50 @@ pub enum SupervisorEvent {
     /// A result of the LSS master (board replacement: identify, fastscan).
     Lss(duocan::cia305::LssMasterEvent),
     /// A pair member was refused by the master's boot process and did not join.
-    NotJoined {
-        /// When.
-        at: Instant,
-        /// The pair.
-        pair: PairId,
-        /// The member.
-        member: Member,
-        /// Its node.
-        node: NodeId,
-        /// Why.
-        why: JoinRefusal,
-    },
+    NotJoined(NotJoined),
+}
+
+/// A pair member the master's boot process refused: it did not join
+/// ([`SupervisorEvent::NotJoined`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct NotJoined {
+    /// When.
+    pub at: Instant,
+    /// The pair.
+    pub pair: PairId,
+    /// The member.
+    pub member: Member,
+    /// Its node.
+    pub node: NodeId,
+    /// Why.
+    pub why: JoinRefusal,
+}
+
+/// One line, without the time: `pair 0 member B (node 0x50): not joined, error status D: …`.
+impl fmt::Display for NotJoined {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(
+            f,
+            "pair {} member {} ({}): not joined, {}",
+            self.pair.0, self.member, self.node, self.why
+        )
+    }
+}
+
+/// One line, without the time, each part as its layer prints it.
+impl fmt::Display for SupervisorEvent {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            SupervisorEvent::Node(e) => fmt::Display::fmt(&e.kind, f),
+            SupervisorEvent::Pairs(e) => fmt::Display::fmt(e, f),
+            SupervisorEvent::FlyingMaster(e) => fmt::Display::fmt(e, f),
+            SupervisorEvent::Master(e) => fmt::Display::fmt(&e.kind, f),
+            SupervisorEvent::Sdo(e) => fmt::Display::fmt(e, f),
+            SupervisorEvent::Addressed(b) => b.fmt_untimed(f),
+            SupervisorEvent::Lss(e) => fmt::Display::fmt(&e.kind, f),
+            SupervisorEvent::NotJoined(e) => fmt::Display::fmt(e, f),
+        }
+    }
 }
 
 /// Counters.
@@ -190,5 +222,37 @@ impl fmt::Display for AddPairError {
 impl From<PairsError> for AddPairError {
     fn from(e: PairsError) -> Self {
         AddPairError::Pairs(e)
+    }
+}
+
+// The lines are compared as strings, which needs `alloc`.
+#[cfg(all(test, feature = "alloc"))]
+mod tests {
+    use super::*;
+    use alloc::string::ToString;
+    use duocan::node::NodeEventKind;
+
+    /// The supervisor's events print one line each, its own as it words them and the lower
+    /// layers' as they do.
+    #[test]
+    fn supervisor_events_print_one_line_each() {
+        let (at, node) = (Instant::from_millis(7), NodeId::must(0x50));
+        let refused = SupervisorEvent::NotJoined(NotJoined {
+            at,
+            pair: PairId(1),
+            member: Member::A,
+            node,
+            why: JoinRefusal::Master(MasterError::Busy(node)),
+        });
+        assert_eq!(
+            refused.to_string(),
+            "pair 1 member A (node 0x50): not joined, the master refused its boot process: \
+             node 0x50 is being booted or updated: wait for the end of that first"
+        );
+        let back = SupervisorEvent::Node(NodeEvent {
+            at,
+            kind: NodeEventKind::HeartbeatResumed { node },
+        });
+        assert_eq!(back.to_string(), "node 0x50: heartbeat back");
     }
 }

@@ -120,6 +120,6 @@ pub use crate::link::dual_bus::LinkCommand;
 #[cfg(feature = "alloc")]
 pub use config::{SupervisorConfig, EVENT_QUEUE};
 #[cfg(feature = "alloc")]
-pub use events::{AddPairError, JoinRefusal, SupervisorEvent, SupervisorStats};
+pub use events::{AddPairError, JoinRefusal, NotJoined, SupervisorEvent, SupervisorStats};
 #[cfg(feature = "alloc")]
 pub use machine::{Supervisor, LSS_SLOTS};

@@ -658,12 +658,11 @@ fn a_member_with_the_wrong_identity_does_not_join_and_an_event_says_why() {
         .events(w.masters[0])
         .iter()
         .find_map(|(_, e)| match &e.kind {
-            K::Other(duocan::machine::StationEvent::Machine(SupervisorEvent::NotJoined {
-                node,
-                member,
-                why,
-                ..
-            })) if *node == n(B) => Some((*member, *why)),
+            K::Other(duocan::machine::StationEvent::Machine(SupervisorEvent::NotJoined(
+                duocan_redundancy::NotJoined {
+                    node, member, why, ..
+                },
+            ))) if *node == n(B) => Some((*member, *why)),
             _ => None,
         })
         .expect("an event says why");
@@ -724,12 +723,9 @@ fn not_joined(w: &World) -> Vec<(Instant, JoinRefusal)> {
         .events(w.masters[0])
         .iter()
         .filter_map(|(_, e)| match &e.kind {
-            K::Other(duocan::machine::StationEvent::Machine(SupervisorEvent::NotJoined {
-                at,
-                node,
-                why,
-                ..
-            })) if *node == n(B) => Some((*at, *why)),
+            K::Other(duocan::machine::StationEvent::Machine(SupervisorEvent::NotJoined(
+                duocan_redundancy::NotJoined { at, node, why, .. },
+            ))) if *node == n(B) => Some((*at, *why)),
             _ => None,
         })
         .collect()

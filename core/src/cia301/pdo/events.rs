@@ -47,6 +47,30 @@ pub enum PdoEvent {
     },
 }
 
+/// One line: `RPDO 2 not received in time (last at 1.250 s)`.
+impl fmt::Display for PdoEvent {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            PdoEvent::RpdoReceived { pdo } => write!(f, "RPDO {pdo} received"),
+            PdoEvent::RpdoTimeout { pdo, last } => {
+                write!(f, "RPDO {pdo} not received in time (last at {last})")
+            }
+            PdoEvent::RpdoTooShort { pdo, expected, got } => write!(
+                f,
+                "RPDO {pdo} refused: {got} bytes, its mapping needs {expected}"
+            ),
+            PdoEvent::Unusable { dir, pdo, reason } => write!(
+                f,
+                "{} {pdo} unusable, it stays silent: {reason}",
+                match dir {
+                    Dir::Receive => "RPDO",
+                    Dir::Transmit => "TPDO",
+                }
+            ),
+        }
+    }
+}
+
 /// Why an application request for a PDO was refused.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum PdoError {

@@ -205,6 +205,25 @@ impl<B: TransferBuffer> SdoEvent<B> {
     }
 }
 
+/// One line: `SDO request #3: upload from node 0x10 0x1018sub1, 4 bytes`, or the error's own.
+impl<B: TransferBuffer> fmt::Display for SdoEvent<B> {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match &self.result {
+            Ok(b) => write!(
+                f,
+                "{}: {} {} {:#06x}sub{}, {} bytes",
+                self.request,
+                self.direction,
+                self.node,
+                self.index,
+                self.sub,
+                b.as_slice().len()
+            ),
+            Err(e) => write!(f, "{}: {e}", self.request),
+        }
+    }
+}
+
 /// Counters of a client.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub struct SdoClientStats {

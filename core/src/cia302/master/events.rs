@@ -165,6 +165,109 @@ pub enum MasterEventKind {
     },
 }
 
+/// One line, as an operator reads it: `node 0x10: configured, the master starts it`,
+/// `node 0x10: not started, error status D: …`, `node 0x10: lost, error status E: …`.
+impl fmt::Display for MasterEventKind {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            MasterEventKind::Node(k) => write!(f, "this master's node: {k}"),
+            MasterEventKind::Sdo(e) => fmt::Display::fmt(e, f),
+            MasterEventKind::SlaveBootUp { node } => write!(f, "{node}: boot-up, slave of this master"),
+            MasterEventKind::IdentityMismatch {
+                node,
+                status,
+                index,
+                sub,
+                expected,
+                actual,
+            } => write!(
+                f,
+                "{node}: not started, {status} ({index:#06x}sub{sub} is {actual:#010x}, expected {expected:#010x})"
+            ),
+            MasterEventKind::ConfigFailed {
+                node,
+                status,
+                reason,
+            } => write!(f, "{node}: not started, {status} ({reason})"),
+            MasterEventKind::ProgramProgress { node, done, total } => {
+                write!(f, "{node}: program download, {done} of {total} bytes")
+            }
+            MasterEventKind::ProgramDownloaded { node, result } => match result {
+                Ok(r) => write!(
+                    f,
+                    "{node}: program downloaded, {} bytes, software {:#010x} runs",
+                    r.bytes, r.identification
+                ),
+                Err(e) => write!(f, "{node}: {e}"),
+            },
+            MasterEventKind::ConfigWriteAborted {
+                node,
+                index,
+                sub,
+                code,
+            } => write!(
+                f,
+                "{node}: configuration write {index:#06x}sub{sub} refused ({code}), boot goes on"
+            ),
+            MasterEventKind::SlaveConfigured { node, start } => match start {
+                StartPolicy::Auto => write!(f, "{node}: configured, the master starts it"),
+                StartPolicy::Application => {
+                    write!(f, "{node}: configured, the application starts it")
+                }
+            },
+            MasterEventKind::SlaveStarted { node, broadcast } => {
+                if *broadcast {
+                    write!(f, "{node}: started (start all nodes)")
+                } else {
+                    write!(f, "{node}: started")
+                }
+            }
+            MasterEventKind::SlaveAdopted { node, state } => {
+                write!(f, "{node}: found {state}, left as it is")
+            }
+            MasterEventKind::SlaveLost { node, status } => write!(f, "{node}: lost, {status}"),
+            MasterEventKind::MandatoryMissing { nodes } => write!(
+                f,
+                "network not started: mandatory slaves {nodes} not booted within the boot time"
+            ),
+            MasterEventKind::NetworkStarted {
+                broadcast,
+                takeover,
+            } => f.write_str(match (takeover, broadcast) {
+                (true, _) => "network found running at the takeover",
+                (false, true) => "network started (start all nodes)",
+                (false, false) => "network started",
+            }),
+            MasterEventKind::NmtRequest { target, cmd, sent } => {
+                match target {
+                    NmtTarget::All => write!(f, "request NMT {cmd} for all nodes")?,
+                    NmtTarget::Node(n) => write!(f, "request NMT {cmd} for {n}")?,
+                }
+                f.write_str(if *sent { ", sent" } else { ", not sent" })
+            }
+            MasterEventKind::ActiveChanged { active } => f.write_str(if *active {
+                "this master: active"
+            } else {
+                "this master: standby"
+            }),
+            MasterEventKind::ConsumerNotConfigured { node, code } => write!(
+                f,
+                "{node}: no heartbeat consumer entry (0x1016) for it: {code}"
+            ),
+            MasterEventKind::TooManySlaves { node, capacity } => write!(
+                f,
+                "{node}: not made a slave, all {capacity} slots of the master are taken"
+            ),
+        }
+    }
+}
+
+impl fmt::Display for MasterEvent {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        fmt::Display::fmt(&self.kind, f)
+    }
+}
+
 /// What the master knows of one node.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct SlaveView {
@@ -348,5 +451,64 @@ impl core::error::Error for MasterError {
             MasterError::Refused { code, .. } => Some(code),
             _ => None,
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Each kind is one line an operator reads: the node in hex, what happened, the CiA 302-2
+    /// status in words where there is one.
+    #[test]
+    fn master_events_print_one_line_each() {
+        let node = NodeId::must(0x10);
+        let line = |kind: MasterEventKind| kind.to_string();
+        assert_eq!(
+            line(MasterEventKind::SlaveConfigured {
+                node,
+                start: StartPolicy::Application
+            }),
+            "node 0x10: configured, the application starts it"
+        );
+        assert_eq!(
+            line(MasterEventKind::SlaveStarted {
+                node,
+                broadcast: true
+            }),
+            "node 0x10: started (start all nodes)"
+        );
+        assert_eq!(
+            line(MasterEventKind::IdentityMismatch {
+                node,
+                status: ErrorStatus::D,
+                index: 0x1018,
+                sub: 1,
+                expected: 0x1234,
+                actual: 0x4321,
+            }),
+            "node 0x10: not started, error status D: vendor-ID 0x1018 sub 1 differs from 0x1F85 \
+             (0x1018sub1 is 0x00004321, expected 0x00001234)"
+        );
+        assert_eq!(
+            line(MasterEventKind::SlaveLost {
+                node,
+                status: ErrorStatus::E
+            }),
+            "node 0x10: lost, error status E: heartbeat lost"
+        );
+        assert_eq!(
+            line(MasterEventKind::NmtRequest {
+                target: NmtTarget::Node(node),
+                cmd: NmtCommand::Stop,
+                sent: false
+            }),
+            "request NMT stop for node 0x10, not sent"
+        );
+        let mut nodes = NodeSet::EMPTY;
+        nodes.insert(node);
+        let missing = line(MasterEventKind::MandatoryMissing { nodes });
+        assert!(missing.contains("{16}"), "{missing}");
+        assert!(!missing.contains('\n'));
     }
 }

@@ -62,6 +62,38 @@ pub enum SrdoEvent {
     Gfc,
 }
 
+/// One line: `SRDO 1 in its safe state: no complete pair within SCT (measured 30 ms)`.
+impl core::fmt::Display for SrdoEvent {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        match self {
+            SrdoEvent::SafeState {
+                srdo,
+                cause,
+                measured,
+            } => write!(
+                f,
+                "SRDO {srdo} in its safe state: {} (measured {measured})",
+                match cause {
+                    SrdoCause::Validation => "no other half within SRVT",
+                    SrdoCause::CycleTime => "no complete pair within SCT",
+                    SrdoCause::NotInverted => "the halves are not each other's inverse",
+                    SrdoCause::Length => "a frame shorter than its data",
+                    SrdoCause::Sequence => "a half out of sequence",
+                    SrdoCause::Gfc => "global fail-safe command",
+                }
+            ),
+            SrdoEvent::Acknowledged { srdo } => {
+                write!(f, "SRDO {srdo}: safe state acknowledged, checking again")
+            }
+            SrdoEvent::NotInverted { srdo } => write!(
+                f,
+                "SRDO {srdo} withheld: its inverted entries are not the inverse of the normal ones"
+            ),
+            SrdoEvent::Gfc => f.write_str("global fail-safe command (GFC) received"),
+        }
+    }
+}
+
 /// What an SRDO is doing.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 #[non_exhaustive]

@@ -133,6 +133,20 @@ pub enum FlyingEvent {
     },
 }
 
+/// One line, without the time: `this master: active`, `this master: NMT commands suspended
+/// until 1.500000s, another active master suspected`.
+impl fmt::Display for FlyingEvent {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            FlyingEvent::Role(r) => write!(f, "this master: {}", r.to),
+            FlyingEvent::Suspended { until, .. } => write!(
+                f,
+                "this master: NMT commands suspended until {until}, another active master suspected"
+            ),
+        }
+    }
+}
+
 /// Why a command of the application was refused.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum FlyingMasterError {

@@ -6,7 +6,7 @@
 use super::Supervisor;
 use crate::link::dual_bus::LinkCommand;
 use crate::supervisor::audit::AuditEntry;
-use crate::supervisor::events::{JoinRefusal, SupervisorEvent};
+use crate::supervisor::events::{JoinRefusal, NotJoined, SupervisorEvent};
 use crate::supervisor::flying_master::{FlyingEvent, MasterRole};
 use crate::supervisor::pairs::{Authority, PairCommand};
 use duocan::master::{MasterEvent, MasterEventKind};
@@ -117,13 +117,13 @@ impl<D: ObjectDictionary, P: IdProfile> Supervisor<D, P> {
             configuring || joined
         };
         if changed {
-            self.emit(SupervisorEvent::NotJoined {
+            self.emit(SupervisorEvent::NotJoined(NotJoined {
                 at,
                 pair,
                 member,
                 node,
                 why,
-            });
+            }));
         }
     }
 

@@ -230,6 +230,35 @@ pub enum PairsEvent {
     },
 }
 
+/// One line, without the time: `pair 0 member B (node 0x50): joined`, `pair 0: A active`.
+impl fmt::Display for PairsEvent {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            PairsEvent::Role(r) => match r.to {
+                Some(m) => write!(f, "pair {}: {m} active", r.pair.0),
+                None => write!(f, "pair {}: no member active", r.pair.0),
+            },
+            PairsEvent::Joined {
+                pair, member, node, ..
+            } => write!(f, "pair {} member {member} ({node}): joined", pair.0),
+            PairsEvent::Lost {
+                pair,
+                member,
+                node,
+                reason,
+                ..
+            } => write!(
+                f,
+                "pair {} member {member} ({node}): lost, {reason}",
+                pair.0
+            ),
+            PairsEvent::Missing {
+                pair, member, node, ..
+            } => write!(f, "pair {} member {member} ({node}): not heard", pair.0),
+        }
+    }
+}
+
 /// Why a pair could not be added or a command was refused.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum PairsError {
