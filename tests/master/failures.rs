@@ -58,14 +58,9 @@ fn identity_mismatch_on_an_optional_slave_the_others_start() {
     let ev = n.events();
 
     let mismatches = all(&ev, |k| match *k {
-        K::IdentityMismatch {
-            node,
-            status,
-            index,
-            sub,
-            expected,
-            actual,
-        } => Some((node.raw(), status, index, sub, expected, actual)),
+        K::IdentityMismatch { node, mismatch: m } => {
+            Some((node.raw(), m.status, m.index, m.sub, m.expected, m.actual))
+        }
         _ => None,
     });
     assert_eq!(

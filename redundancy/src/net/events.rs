@@ -359,7 +359,7 @@ mod tests {
     use crate::logical::NetworkEvent;
     use crate::supervisor::pairs::PairsEvent;
     use crate::PairId;
-    use duocan::master::{BootError, ErrorStatus};
+    use duocan::master::{BootError, ErrorStatus, IdentityMismatch};
     use duocan::net::{CoreEvent, NetEvent};
     use duocan::{Frame, Id};
 
@@ -523,11 +523,13 @@ mod tests {
         let node = NodeId::must(0x12);
         let kind = MasterEventKind::IdentityMismatch {
             node,
-            status: ErrorStatus::D,
-            index: 0x1018,
-            sub: 1,
-            expected: 0x1234,
-            actual: 0x4321,
+            mismatch: IdentityMismatch {
+                status: ErrorStatus::D,
+                index: 0x1018,
+                sub: 1,
+                expected: 0x1234,
+                actual: 0x4321,
+            },
         };
         let mismatch = master(kind.clone()).unwrap();
         assert_eq!(mismatch.node(), Some(node));

@@ -5,7 +5,7 @@ use crate::pair::{Member, PairId};
 use crate::supervisor::flying_master::FlyingEvent;
 use crate::supervisor::pairs::{PairsError, PairsEvent};
 use core::fmt;
-use duocan::master::{BootError, ErrorStatus, MasterError, MasterEvent};
+use duocan::master::{BootError, ErrorStatus, IdentityMismatch, MasterError, MasterEvent};
 use duocan::sdo::SdoEvent;
 use duocan::{Instant, NodeEvent, NodeId};
 
@@ -14,18 +14,7 @@ use duocan::{Instant, NodeEvent, NodeId};
 pub enum JoinRefusal {
     /// Its identity is not what 0x1F84–0x1F88 expect: it is left alone (not reset, not
     /// adopted) until it boots again.
-    Identity {
-        /// C, D, M, N or O.
-        status: ErrorStatus,
-        /// The member's entry (0x1000 or 0x1018).
-        index: u16,
-        /// Its sub-index.
-        sub: u8,
-        /// What the master expects.
-        expected: u32,
-        /// What the member has.
-        actual: u32,
-    },
+    Identity(IdentityMismatch),
     /// A step of its boot process failed. If the member did not answer (or its answer was an
     /// abort of the SDO protocol itself: another client on its channel, a disturbed frame), it
     /// is reset, to boot and be configured again; if it refused (an abort code about the object
@@ -77,16 +66,9 @@ fn is_sdo_protocol(code: duocan::AbortCode) -> bool {
 impl fmt::Display for JoinRefusal {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         match self {
-            JoinRefusal::Identity {
-                status,
-                index,
-                sub,
-                expected,
-                actual,
-            } => write!(
-                f,
-                "{status}: {index:#06x}sub{sub} is {actual:#010x}, expected {expected:#010x}; check the board or the expected identity"
-            ),
+            JoinRefusal::Identity(m) => {
+                write!(f, "{m}; check the board or the expected identity")
+            }
             JoinRefusal::Config { status, reason } => write!(f, "{status}: {reason}"),
             JoinRefusal::Master(e) => write!(f, "the master refused its boot process: {e}"),
         }
@@ -98,7 +80,7 @@ impl fmt::Display for JoinRefusal {
 impl core::error::Error for JoinRefusal {
     fn source(&self) -> Option<&(dyn core::error::Error + 'static)> {
         match self {
-            JoinRefusal::Identity { .. } => None,
+            JoinRefusal::Identity(_) => None,
             JoinRefusal::Config { reason, .. } => Some(reason),
             JoinRefusal::Master(e) => Some(e),
         }

@@ -6,7 +6,9 @@
 
 use duocan::cia302::pdo_config::{Local, Mirror, PdoConfig};
 use duocan::frame::cob_id::CobId;
-use duocan::master::{objects, ErrorStatus, ExpectedIdentity, Master, MasterConfig, SlaveConfig};
+use duocan::master::{
+    objects, ErrorStatus, ExpectedIdentity, IdentityMismatch, Master, MasterConfig, SlaveConfig,
+};
 use duocan::nmt::NmtTarget;
 use duocan::od::{comm, Access, DataType, DynamicDictionary, ObjectDef, ObjectDictionary};
 use duocan::pdo::{params, MapEntry};
@@ -670,13 +672,13 @@ fn a_member_with_the_wrong_identity_does_not_join_and_an_event_says_why() {
         why,
         (
             Member::B,
-            JoinRefusal::Identity {
+            JoinRefusal::Identity(IdentityMismatch {
                 status: ErrorStatus::D,
                 index: 0x1018,
                 sub: 1,
                 expected: VENDOR,
                 actual: 0x0000_BAD0
-            }
+            })
         )
     );
     assert!(why.1.to_string().contains("vendor-ID"), "{}", why.1);

@@ -162,25 +162,9 @@ impl<D: ObjectDictionary, P: IdProfile> Master<D, P> {
                 self.slot_mut(n).process = None;
                 self.configured(now, n);
             }
-            Outcome::Mismatch {
-                status,
-                index,
-                sub,
-                expected,
-                actual,
-            } => {
-                self.fail(n, status);
-                self.emit(
-                    now,
-                    MasterEventKind::IdentityMismatch {
-                        node: n,
-                        status,
-                        index,
-                        sub,
-                        expected,
-                        actual,
-                    },
-                );
+            Outcome::Mismatch(mismatch) => {
+                self.fail(n, mismatch.status);
+                self.emit(now, MasterEventKind::IdentityMismatch { node: n, mismatch });
             }
             Outcome::Failed {
                 status: ErrorStatus::B,

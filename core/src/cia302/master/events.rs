@@ -1,6 +1,6 @@
 //! What the master reports: typed events with timestamps, the per-slave view, counters, errors.
 
-use super::boot::{BootError, BootPhase, ErrorStatus};
+use super::boot::{BootError, BootPhase, ErrorStatus, IdentityMismatch};
 use super::config::{Assignment, StartPolicy};
 use crate::cia301::nmt::{NmtCommand, NmtState, NmtTarget};
 use crate::cia301::pdo::Dir;
@@ -39,16 +39,8 @@ pub enum MasterEventKind {
     IdentityMismatch {
         /// The slave.
         node: NodeId,
-        /// C, D, M, N or O.
-        status: ErrorStatus,
-        /// The slave's entry (0x1000 or 0x1018).
-        index: u16,
-        /// Its sub-index.
-        sub: u8,
-        /// What the master expects.
-        expected: u32,
-        /// What the slave has.
-        actual: u32,
+        /// Which entry, what was expected and what the slave has.
+        mismatch: IdentityMismatch,
     },
     /// A step of the boot process failed; the slave is not started.
     ConfigFailed {
@@ -172,18 +164,12 @@ impl fmt::Display for MasterEventKind {
         match self {
             MasterEventKind::Node(k) => write!(f, "this master's node: {k}"),
             MasterEventKind::Sdo(e) => fmt::Display::fmt(e, f),
-            MasterEventKind::SlaveBootUp { node } => write!(f, "{node}: boot-up, slave of this master"),
-            MasterEventKind::IdentityMismatch {
-                node,
-                status,
-                index,
-                sub,
-                expected,
-                actual,
-            } => write!(
-                f,
-                "{node}: not started, {status} ({index:#06x}sub{sub} is {actual:#010x}, expected {expected:#010x})"
-            ),
+            MasterEventKind::SlaveBootUp { node } => {
+                write!(f, "{node}: boot-up, slave of this master")
+            }
+            MasterEventKind::IdentityMismatch { node, mismatch } => {
+                write!(f, "{node}: not started, {mismatch}")
+            }
             MasterEventKind::ConfigFailed {
                 node,
                 status,
@@ -481,11 +467,13 @@ mod tests {
         assert_eq!(
             line(MasterEventKind::IdentityMismatch {
                 node,
-                status: ErrorStatus::D,
-                index: 0x1018,
-                sub: 1,
-                expected: 0x1234,
-                actual: 0x4321,
+                mismatch: IdentityMismatch {
+                    status: ErrorStatus::D,
+                    index: 0x1018,
+                    sub: 1,
+                    expected: 0x1234,
+                    actual: 0x4321,
+                }
             }),
             "node 0x10: not started, error status D: vendor-ID 0x1018 sub 1 differs from 0x1F85 \
              (0x1018sub1 is 0x00004321, expected 0x00001234)"

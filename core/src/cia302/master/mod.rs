@@ -124,7 +124,7 @@ mod slaves;
 mod slot_table;
 mod srdo;
 
-pub use boot::{BootError, BootPhase, ErrorStatus};
+pub use boot::{BootError, BootPhase, ErrorStatus, IdentityMismatch};
 pub use concise::{
     validate as validate_concise, ConciseDcf, ConciseEntry, ConciseError, ConciseErrorKind,
     MAX_CONCISE_BYTES, MAX_CONCISE_ENTRIES,

@@ -135,24 +135,9 @@ impl<D: ObjectDictionary, P: IdProfile> Supervisor<D, P> {
             MasterEventKind::SlaveConfigured { node, .. } => {
                 self.pairs.configured(at, node, true);
             }
-            MasterEventKind::IdentityMismatch {
-                node,
-                status,
-                index,
-                sub,
-                expected,
-                actual,
-            } => self.refused(
-                at,
-                node,
-                JoinRefusal::Identity {
-                    status,
-                    index,
-                    sub,
-                    expected,
-                    actual,
-                },
-            ),
+            MasterEventKind::IdentityMismatch { node, mismatch } => {
+                self.refused(at, node, JoinRefusal::Identity(mismatch))
+            }
             MasterEventKind::ConfigFailed {
                 node,
                 status,

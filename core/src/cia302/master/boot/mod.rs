@@ -20,4 +20,4 @@ mod status;
 mod tests;
 
 pub(crate) use process::{Access, Outcome, Process};
-pub use status::{BootError, BootPhase, ErrorStatus};
+pub use status::{BootError, BootPhase, ErrorStatus, IdentityMismatch};

@@ -2,7 +2,7 @@
 //! (identity, configuration steps with their PDO configurators, heartbeat), and what each
 //! access's result means ([`Outcome`]).
 
-use super::status::{BootError, ErrorStatus};
+use super::status::{BootError, ErrorStatus, IdentityMismatch};
 use crate::cia301::pdo::params::MAX_PDOS;
 use crate::cia301::sdo::{SdoError, SdoErrorKind};
 use crate::cia302::master::config::{
@@ -48,13 +48,7 @@ pub(crate) enum Outcome {
     /// Identity checked and configuration written.
     Done,
     /// An identity entry holds something else.
-    Mismatch {
-        status: ErrorStatus,
-        index: u16,
-        sub: u8,
-        expected: u32,
-        actual: u32,
-    },
+    Mismatch(IdentityMismatch),
     /// An access failed.
     Failed {
         status: ErrorStatus,
@@ -353,13 +347,13 @@ impl Process {
             let actual = u32::from_le_bytes(bytes);
             if want != 0 && actual != want {
                 self.step = Step::Done;
-                return Outcome::Mismatch {
+                return Outcome::Mismatch(IdentityMismatch {
                     status,
                     index,
                     sub,
                     expected: want,
                     actual,
-                };
+                });
             }
         }
         self.advance(cfg, id)

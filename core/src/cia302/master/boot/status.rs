@@ -130,6 +130,41 @@ pub enum BootError {
     ConciseDcf(crate::cia302::master::ConciseError),
 }
 
+/// A slave whose identity entry holds something else than 0x1F84–0x1F88 expect: the one
+/// declaration of it, carried by the master's event
+/// ([`MasterEventKind::IdentityMismatch`](super::super::MasterEventKind::IdentityMismatch)) and
+/// by whatever reports a refused slave above the master.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct IdentityMismatch {
+    /// C, D, M, N or O.
+    pub status: ErrorStatus,
+    /// The slave's entry (0x1000 or 0x1018).
+    pub index: u16,
+    /// Its sub-index.
+    pub sub: u8,
+    /// What the master expects.
+    pub expected: u32,
+    /// What the slave has.
+    pub actual: u32,
+}
+
+/// `error status D: … (0x1018sub1 is 0x00004321, expected 0x00001234)`.
+impl fmt::Display for IdentityMismatch {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        let IdentityMismatch {
+            status,
+            index,
+            sub,
+            expected,
+            actual,
+        } = self;
+        write!(
+            f,
+            "{status} ({index:#06x}sub{sub} is {actual:#010x}, expected {expected:#010x})"
+        )
+    }
+}
+
 impl fmt::Display for BootError {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         match self {

@@ -82,13 +82,13 @@ fn mismatch_names_the_letter_and_both_values() {
     });
     assert_eq!(
         out,
-        Outcome::Mismatch {
+        Outcome::Mismatch(IdentityMismatch {
             status: ErrorStatus::M,
             index: 0x1018,
             sub: 2,
             expected: 5,
             actual: 6
-        }
+        })
     );
 }
 
