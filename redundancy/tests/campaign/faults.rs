@@ -5,8 +5,8 @@ use crate::foreign::FOREIGN;
 use crate::plant::*;
 use crate::run::Run;
 use duocan::sim::{FaultRates, PortRef};
-use duocan_redundancy::supervisor::flying_master::MasterRole;
 use duocan::{Device, Duration, Frame, Id, Instant, NmtState, PortStatus};
+use duocan_redundancy::supervisor::flying_master::MasterRole;
 use std::collections::BTreeMap;
 
 /// A fault class and its parameters.
