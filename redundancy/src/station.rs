@@ -2,7 +2,7 @@
 //!
 //! The composition itself is the root crate's: a [`Station`] of a [`DualBus`] and a
 //! [`Supervisor`] hands the layer's requests to the master's node and the supervisor's
-//! [`LinkCommand`](crate::LinkCommand)s to the layer after every input (so the same-function
+//! [`LinkCommand`]s to the layer after every input (so the same-function
 //! merge delivers the active member's process data from the instant the role changes).
 //! [`SupervisedStation`] wraps that station for what only a redundant master has: the
 //! supervisor's pairs configured in the layer from the start, the layer's port changes,

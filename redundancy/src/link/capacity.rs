@@ -9,7 +9,7 @@
 //! [`SameFunction<FUNCTIONS>`] (a `heapless` map of `FUNCTIONS` entries). A [`MergeCapacity`]
 //! names both: `DualBus<C, K>` holds a `K::Merger` and a `K::Functions`. [`Capacity<SLOTS,
 //! FUNCTIONS>`](Capacity) is the capacity of any two sizes, and its defaults,
-//! [`DEFAULT_MERGE_SLOTS`](crate::DEFAULT_MERGE_SLOTS) and [`MAX_FUNCTIONS`], are what a layer
+//! [`DEFAULT_MERGE_SLOTS`] and [`MAX_FUNCTIONS`], are what a layer
 //! gets when it says nothing:
 //!
 //! ```

@@ -61,7 +61,7 @@
 //! The builder ([`RedundantNetworkBuilder`]) names each setting and checks them all before
 //! building; the parts underneath can still be built one by one (a [`Master`](duocan::master::Master),
 //! a [`Supervisor`] with a [`SupervisorConfig`](crate::SupervisorConfig) and
-//! [`PairSpec`](crate::PairSpec)s, a [`DualBus`](crate::DualBus), a [`SupervisedStation`]) for
+//! [`PairSpec`](crate::PairSpec)s, a [`DualBus`], a [`SupervisedStation`]) for
 //! what the builder does not cover.
 
 mod builder;
