@@ -80,8 +80,8 @@
 //!
 //! Everything is bounded (fixed-capacity tables and queues, counted overflow) and builds for
 //! `no_std` targets; the supervisor needs `alloc` (as the root crate's master does). The layer's
-//! capacities are part of its type (`DualBus<C, SLOTS, FUNCTIONS>`) so that it needs no
-//! allocator; the `alloc` types above it (supervisor, station, network) are spelled with a
+//! capacities are part of its type (`DualBus<C, K>`, `K` a [`Capacity<SLOTS, FUNCTIONS>`](Capacity)
+//! or a board's own [`MergeCapacity`]) so that it needs no allocator; the `alloc` types above it (supervisor, station, network) are spelled with a
 //! dictionary and an identifier profile only: their capacities are configuration values
 //! (the master's PDOs, SDO sessions and queues in
 //! [`MasterConfig`](duocan::master::MasterConfig), the supervisor's event queue in
@@ -126,6 +126,7 @@ pub mod pair;
 pub mod station;
 pub mod supervisor;
 
+pub use link::capacity::{Capacity, MergeCapacity};
 #[cfg(feature = "cia302-6")]
 pub use link::channel::Cia3026Config;
 pub use link::channel::ModeKind;
@@ -149,7 +150,7 @@ pub use logical::{
 pub use net::{RedundantEvent, RedundantNetwork};
 pub use pair::{Member, PairId, PairSpec};
 #[cfg(feature = "alloc")]
-pub use station::{RedundantMaster, SupervisedStation};
+pub use station::{RedundantMaster, SupervisedLink, SupervisedStation};
 #[cfg(feature = "alloc")]
 pub use supervisor::{
     AddPairError, JoinRefusal, NotJoined, Supervisor, SupervisorConfig, SupervisorEvent,

@@ -2,7 +2,7 @@
 //!
 //! The composition itself is the root crate's: a [`Station`] of a [`DualBus`] and a
 //! [`Supervisor`] hands the layer's requests to the master's node and the supervisor's
-//! [`LinkCommand`](crate::LinkCommand)s to the layer after every input (so the same-function
+//! [`LinkCommand`]s to the layer after every input (so the same-function
 //! merge delivers the active member's process data from the instant the role changes).
 //! [`SupervisedStation`] wraps that station for what only a redundant master has: the
 //! supervisor's pairs configured in the layer from the start, the layer's port changes,
@@ -48,9 +48,10 @@
 //! # Ok::<(), Box<dyn std::error::Error>>(())
 //! ```
 
-use crate::link::dual_bus::{DualBus, DEFAULT_MERGE_SLOTS};
+use crate::link::capacity::MergeCapacity;
+use crate::link::dual_bus::{DualBus, LinkCommand};
 use crate::link::events::LinkEvent;
-use crate::link::same_function::{PairError, MAX_FUNCTIONS};
+use crate::link::same_function::PairError;
 use crate::pair::Member;
 use crate::supervisor::flying_master::MasterRole;
 use crate::supervisor::pairs::Phase;
@@ -59,44 +60,81 @@ use crate::FrameClassifier;
 use core::fmt;
 use core::ops::{Deref, DerefMut};
 use duocan::machine::{
-    forward_commands, forward_requests, Device, PortRequest, PortStatus, Station, StationEvent,
+    forward_commands, forward_requests, BusLink, Device, PortRequest, PortStatus, Station,
+    StationEvent,
 };
 use duocan::od::{DynamicDictionary, ObjectDictionary};
 use duocan::profile::{IdProfile, Predefined};
 use duocan::{Frame, Instant};
 
+/// The link a [`SupervisedStation`] runs on: a [`DualBus`], whatever its classifier and
+/// capacity (sealed: implemented by `DualBus<C, K>` only). It bundles the layer's two
+/// parameters into the one the station names, so that `SupervisedStation<D, L>` has two: the
+/// dictionary, and the link whose classifier is also the supervisor's identifier profile.
+pub trait SupervisedLink:
+    BusLink<Event = LinkEvent, Command = LinkCommand> + sealed::SealedLink
+{
+    /// The identifier profile: the layer's frame classifier and the supervisor's profile.
+    type Classifier: IdProfile + FrameClassifier;
+    /// The layer's capacity.
+    type Capacity: MergeCapacity;
+    /// The layer itself.
+    fn dual_bus(&self) -> &DualBus<Self::Classifier, Self::Capacity>;
+    /// The layer itself.
+    fn dual_bus_mut(&mut self) -> &mut DualBus<Self::Classifier, Self::Capacity>;
+}
+
+mod sealed {
+    pub trait SealedLink {}
+    impl<C, K: super::MergeCapacity> SealedLink for super::DualBus<C, K> {}
+}
+
+impl<C: IdProfile + FrameClassifier, K: MergeCapacity> SupervisedLink for DualBus<C, K> {
+    type Classifier = C;
+    type Capacity = K;
+    #[inline]
+    fn dual_bus(&self) -> &DualBus<C, K> {
+        self
+    }
+    #[inline]
+    fn dual_bus_mut(&mut self) -> &mut DualBus<C, K> {
+        self
+    }
+}
+
+/// The supervisor of a station on the link `L`: its identifier profile is the link's classifier.
+type SupOf<D, L> = Supervisor<D, <L as SupervisedLink>::Classifier>;
+
 /// A redundant master on a dual bus: a [`Station`] of a [`DualBus`] and a [`Supervisor`] (which
 /// it dereferences to: `link` and `machine`), plus its status table. `D` is the master's
-/// dictionary, `P` its identifier profile, which also classifies frames for the layer;
-/// `SLOTS` and `FUNCTIONS` are the layer's merger slots and same-function table (the layer's
-/// defaults unless a small target sizes them to its network: a microcontroller master with a
-/// few pairs needs neither 1,024 merger slots nor 256 functions).
-pub struct SupervisedStation<
-    D,
-    P = Predefined,
-    const SLOTS: usize = DEFAULT_MERGE_SLOTS,
-    const FUNCTIONS: usize = MAX_FUNCTIONS,
-> {
-    station: Station<DualBus<P, SLOTS, FUNCTIONS>, Supervisor<D, P>>,
+/// dictionary; `L` the link, a [`DualBus`] whose classifier is also the supervisor's
+/// identifier profile ([`Predefined`] by default) and whose capacity sizes the merger and the
+/// same-function table (the layer's defaults unless a small target sizes them to its network:
+/// a microcontroller master with a few pairs needs neither 1,024 merger slots nor 256
+/// functions, see [`crate::link::capacity`]):
+///
+/// ```
+/// use duocan::od::DynamicDictionary;
+/// use duocan::profile::Predefined;
+/// use duocan_redundancy::{Capacity, DualBus, SupervisedStation};
+///
+/// // A host's master: the predefined connection set and the layer's default capacity.
+/// type Host = SupervisedStation<DynamicDictionary>;
+/// // A board's: 64 merger slots, 16 same-function values.
+/// type Board = SupervisedStation<DynamicDictionary, DualBus<Predefined, Capacity<64, 16>>>;
+/// ```
+pub struct SupervisedStation<D, L: SupervisedLink = DualBus> {
+    station: Station<L, SupOf<D, L>>,
 }
 
 /// The common redundant master: a dictionary built at run time, on the predefined connection set
 /// unless `P` says otherwise.
-pub type RedundantMaster<P = Predefined> = SupervisedStation<DynamicDictionary, P>;
+pub type RedundantMaster<P = Predefined> = SupervisedStation<DynamicDictionary, DualBus<P>>;
 
-impl<
-        D: ObjectDictionary,
-        P: IdProfile + FrameClassifier,
-        const SLOTS: usize,
-        const FUNCTIONS: usize,
-    > SupervisedStation<D, P, SLOTS, FUNCTIONS>
-{
+impl<D: ObjectDictionary, L: SupervisedLink> SupervisedStation<D, L> {
     /// Puts `sup` on `link`; the supervisor's pairs are configured in the layer (same
     /// identifiers), with no active member until the supervisor says so.
-    pub fn new(
-        link: DualBus<P, SLOTS, FUNCTIONS>,
-        sup: Supervisor<D, P>,
-    ) -> Result<Self, PairError> {
+    pub fn new(link: L, sup: SupOf<D, L>) -> Result<Self, PairError> {
         let mut st = Self::unlinked(|| link, || sup);
         st.link_pairs()?;
         Ok(st)
@@ -110,10 +148,7 @@ impl<
     /// does the rest where the station stands.
     #[must_use]
     #[inline(never)]
-    pub fn unlinked(
-        make_link: impl FnOnce() -> DualBus<P, SLOTS, FUNCTIONS>,
-        make_sup: impl FnOnce() -> Supervisor<D, P>,
-    ) -> Self {
+    pub fn unlinked(make_link: impl FnOnce() -> L, make_sup: impl FnOnce() -> SupOf<D, L>) -> Self {
         // One level of nesting per function that is not inlined: the compiler writes a
         // call's result straight into the caller's result, but not through two levels.
         SupervisedStation {
@@ -127,7 +162,7 @@ impl<
     pub fn link_pairs(&mut self) -> Result<(), PairError> {
         let Station { link, machine, .. } = &mut self.station;
         for (id, p) in machine.pairs() {
-            let got = link.add_pair(p.spec.a, p.spec.b, p.active)?;
+            let got = link.dual_bus_mut().add_pair(p.spec.a, p.spec.b, p.active)?;
             debug_assert_eq!(got, id);
         }
         // What either decided while they were built applies before the first input.
@@ -137,7 +172,7 @@ impl<
     }
 
     /// The status snapshot, printable as a table.
-    pub fn status(&self, now: Instant) -> Status<'_, D, P, SLOTS, FUNCTIONS> {
+    pub fn status(&self, now: Instant) -> Status<'_, D, L> {
         Status { st: self, now }
     }
 }
@@ -152,45 +187,35 @@ where
     Station::new(make_link(), make_sup())
 }
 
-impl<D, P, const SLOTS: usize, const FUNCTIONS: usize> SupervisedStation<D, P, SLOTS, FUNCTIONS> {
+impl<D, L: SupervisedLink> SupervisedStation<D, L> {
     /// The supervisor.
-    pub fn sup(&self) -> &Supervisor<D, P> {
+    pub fn sup(&self) -> &SupOf<D, L> {
         &self.station.machine
     }
     /// The supervisor, for the application's commands (switch-over, NMT, SDO, time).
-    pub fn sup_mut(&mut self) -> &mut Supervisor<D, P> {
+    pub fn sup_mut(&mut self) -> &mut SupOf<D, L> {
         &mut self.station.machine
     }
     /// The station inside.
-    pub fn into_station(self) -> Station<DualBus<P, SLOTS, FUNCTIONS>, Supervisor<D, P>> {
+    pub fn into_station(self) -> Station<L, SupOf<D, L>> {
         self.station
     }
 }
 
-impl<D, P, const SLOTS: usize, const FUNCTIONS: usize> Deref
-    for SupervisedStation<D, P, SLOTS, FUNCTIONS>
-{
-    type Target = Station<DualBus<P, SLOTS, FUNCTIONS>, Supervisor<D, P>>;
+impl<D, L: SupervisedLink> Deref for SupervisedStation<D, L> {
+    type Target = Station<L, SupOf<D, L>>;
     fn deref(&self) -> &Self::Target {
         &self.station
     }
 }
 
-impl<D, P, const SLOTS: usize, const FUNCTIONS: usize> DerefMut
-    for SupervisedStation<D, P, SLOTS, FUNCTIONS>
-{
+impl<D, L: SupervisedLink> DerefMut for SupervisedStation<D, L> {
     fn deref_mut(&mut self) -> &mut Self::Target {
         &mut self.station
     }
 }
 
-impl<
-        D: ObjectDictionary,
-        P: IdProfile + FrameClassifier,
-        const SLOTS: usize,
-        const FUNCTIONS: usize,
-    > Device for SupervisedStation<D, P, SLOTS, FUNCTIONS>
-{
+impl<D: ObjectDictionary, L: SupervisedLink> Device for SupervisedStation<D, L> {
     type Event = StationEvent<LinkEvent, SupervisorEvent>;
 
     fn port_count(&self) -> usize {
@@ -229,14 +254,8 @@ impl<
 }
 
 /// A snapshot of a supervised station; `Display` prints it as a table.
-pub struct Status<
-    'a,
-    D,
-    P,
-    const SLOTS: usize = DEFAULT_MERGE_SLOTS,
-    const FUNCTIONS: usize = MAX_FUNCTIONS,
-> {
-    st: &'a SupervisedStation<D, P, SLOTS, FUNCTIONS>,
+pub struct Status<'a, D, L: SupervisedLink = DualBus> {
+    st: &'a SupervisedStation<D, L>,
     now: Instant,
 }
 
@@ -248,13 +267,7 @@ fn member_word(m: Option<Member>) -> &'static str {
     }
 }
 
-impl<
-        D: ObjectDictionary,
-        P: IdProfile + FrameClassifier,
-        const SLOTS: usize,
-        const FUNCTIONS: usize,
-    > fmt::Display for Status<'_, D, P, SLOTS, FUNCTIONS>
-{
+impl<D: ObjectDictionary, L: SupervisedLink> fmt::Display for Status<'_, D, L> {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         let sup = self.st.sup();
         let fm = sup.flying_master();
@@ -284,7 +297,7 @@ impl<
         }
         writeln!(f, "port  state       rx        tx        tx failed")?;
         for port in 0..2 {
-            let h = self.st.link.port(port);
+            let h = self.st.link.dual_bus().port(port);
             let c = h.counters();
             writeln!(
                 f,
@@ -357,7 +370,7 @@ impl<
             .filter(|(n, _)| !sup.master().slave(*n).assignment.is_slave())
             .count();
         writeln!(f, "other nodes heard: {others}")?;
-        for (n, heard) in self.st.link.reach().iter() {
+        for (n, heard) in self.st.link.dual_bus().reach().iter() {
             match heard {
                 [true, false] => writeln!(f, "node {:#04x} heard on bus 1 only", n.raw())?,
                 [false, true] => writeln!(f, "node {:#04x} heard on bus 2 only", n.raw())?,

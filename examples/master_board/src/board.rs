@@ -15,8 +15,8 @@ use duocan::{Duration, Instant, NodeId};
 use duocan_redundancy::link::same_function::PairError;
 use duocan_redundancy::supervisor::flying_master::MasterRole;
 use duocan_redundancy::{
-    AddPairError, DualBus, DualBusConfig, LinkMode, PairSpec, PortState, SupervisedStation,
-    Supervisor, SupervisorConfig,
+    AddPairError, Capacity, DualBus, DualBusConfig, LinkMode, PairSpec, PortState, SupervisedLink,
+    SupervisedStation, Supervisor, SupervisorConfig,
 };
 use embedded_can::nb::Can;
 
@@ -28,10 +28,13 @@ use embedded_can::nb::Can;
 pub const MERGE_SLOTS: usize = 64;
 /// (pair, function) values the same-function merge compares: four TPDOs per pair.
 pub const FUNCTIONS: usize = 16;
+/// The dual-bus layer of the board: the predefined connection set, [`MERGE_SLOTS`] merger slots
+/// and room for [`FUNCTIONS`] same-function values.
+pub type Link = DualBus<Predefined, Capacity<MERGE_SLOTS, FUNCTIONS>>;
 /// The station the firmware runs: the supervisor and its master on the dual-bus layer. The
 /// master's dictionary is lent to it ([`Od`] kept by the caller: in the firmware a local of
 /// `main`): built where it lives, it never travels through the constructors.
-pub type Station = SupervisedStation<&'static mut Od, Predefined, MERGE_SLOTS, FUNCTIONS>;
+pub type Station = SupervisedStation<&'static mut Od, Link>;
 /// The CAN controllers of the dual bus.
 pub const PORTS: usize = 2;
 
@@ -176,7 +179,7 @@ fn new_master(computer: Computer, od: &'static mut Od) -> Master<&'static mut Od
 
 /// The dual-bus layer, built where the caller wants it (not inlined: see [`unstarted`]).
 #[inline(never)]
-fn new_link() -> DualBus<Predefined, MERGE_SLOTS, FUNCTIONS> {
+fn new_link() -> Link {
     DualBus::with_classifier(link_config(), Predefined)
 }
 
@@ -199,13 +202,13 @@ pub struct Indication {
 }
 
 /// What the panel shows for `station` now.
-pub fn indication<D: ObjectDictionary, const S: usize, const F: usize>(
-    station: &SupervisedStation<D, Predefined, S, F>,
+pub fn indication<D: ObjectDictionary, L: SupervisedLink>(
+    station: &SupervisedStation<D, L>,
 ) -> Indication {
     let sup = station.sup();
     Indication {
         active: sup.flying_master().role() == MasterRole::Active,
-        bus_ok: core::array::from_fn(|p| station.link.port(p).state() == PortState::Ok),
+        bus_ok: core::array::from_fn(|p| station.link.dual_bus().port(p).state() == PortState::Ok),
         pairs_running: sup.pairs().filter(|(_, p)| p.active.is_some()).count() as u8,
     }
 }

@@ -12,7 +12,7 @@
 //! - the dictionary is `'static` tables in flash and a [`StaticDictionary`](duocan::od::StaticDictionary)
 //!   in RAM ([`dictionary`]): 945 entries, 897 of them the node-indexed arrays of CiA 302-2;
 //! - the dual-bus layer's capacities are sized to the network ([`MERGE_SLOTS`](board::MERGE_SLOTS),
-//!   [`FUNCTIONS`](board::FUNCTIONS)), and so are the master's and the supervisor's queues and
+//!   [`FUNCTIONS`](board::FUNCTIONS): one type parameter of the layer, [`Link`](board::Link)), and so are the master's and the supervisor's queues and
 //!   tables ([`network_config`](board::network_config),
 //!   [`supervisor_config`](board::supervisor_config)): allocated once by [`build`],
 //!   from a heap of [`HEAP_BYTES`], never grown.

@@ -30,7 +30,7 @@ use duocan::profile::railway::{DeviceAddress, RailwayProfile};
 use duocan::{
     CobId, Duration, Frame, Instant, NmtState, Node, NodeConfig, NodeEvent, NodeId, Station,
 };
-use duocan_redundancy::{DualBus, DualBusConfig, LinkEvent, LinkMode};
+use duocan_redundancy::{Capacity, DualBus, DualBusConfig, LinkEvent, LinkMode};
 use embedded_can::nb::Can;
 use embedded_can::Error as _;
 use heapless::Deque;
@@ -38,7 +38,7 @@ use static_cell::{ConstStaticCell, StaticCell};
 
 /// The dual-bus layer of the interlocking side, classifying by the shared railway profile. The
 /// gateway supervises no A/B pairs, so its same-function table is the smallest there is.
-pub type Link = DualBus<&'static RailwayProfile, MERGE_SLOTS, FUNCTIONS>;
+pub type Link = DualBus<&'static RailwayProfile, Capacity<MERGE_SLOTS, FUNCTIONS>>;
 /// Room of the same-function table: the least there is, no pair being supervised.
 pub const FUNCTIONS: usize = 2;
 /// The slave node: its static dictionary (lent: a `static`, see [`Gateway::unstarted`]),

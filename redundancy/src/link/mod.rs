@@ -78,6 +78,7 @@
 //!   due; a frame heard then counts as heard a microsecond before (the tables use the end of
 //!   time for "never heard").
 
+pub mod capacity;
 pub mod channel;
 pub mod classify;
 pub mod config;

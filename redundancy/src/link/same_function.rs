@@ -22,7 +22,7 @@ use duocan::{Duration, Frame, Instant, NodeId};
 use heapless::index_map::FnvIndexMap;
 
 /// (pair, function) values a layer keeps for comparison by default (a power of two). A board
-/// that supervises no pairs can use a tiny table (a `DualBus` with `FUNCTIONS` = 2): each entry
+/// that supervises no pairs can use a tiny table (a `DualBus<C, Capacity<SLOTS, 2>>`): each entry
 /// costs ~100 B.
 pub const MAX_FUNCTIONS: usize = 256;
 

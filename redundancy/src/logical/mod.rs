@@ -61,7 +61,7 @@
 //! The builder ([`RedundantNetworkBuilder`]) names each setting and checks them all before
 //! building; the parts underneath can still be built one by one (a [`Master`](duocan::master::Master),
 //! a [`Supervisor`] with a [`SupervisorConfig`](crate::SupervisorConfig) and
-//! [`PairSpec`](crate::PairSpec)s, a [`DualBus`](crate::DualBus), a [`SupervisedStation`]) for
+//! [`PairSpec`](crate::PairSpec)s, a [`DualBus`], a [`SupervisedStation`]) for
 //! what the builder does not cover.
 
 mod builder;
@@ -74,6 +74,7 @@ pub use builder::{RedundantNetworkBuilder, DEFAULT_HEARTBEAT, DEFAULT_MASTER_TIM
 pub use error::{RedundantError, Role};
 pub use events::{NetworkEvent, NetworkEventKind};
 
+use crate::link::dual_bus::DualBus;
 use crate::pair::{Member, PairId};
 use crate::station::{Status, SupervisedStation};
 use crate::supervisor::audit::{AuditTrail, AUDIT_CAPACITY};
@@ -96,8 +97,8 @@ use duocan::{Instant, NmtCommand, NodeId};
 
 /// One dual-bus network as the application sees it: `D` is the master's dictionary, `P` the
 /// identifier profile (as for the [`SupervisedStation`] underneath).
-pub struct LogicalNetwork<D, P = Predefined> {
-    station: SupervisedStation<D, P>,
+pub struct LogicalNetwork<D, P: IdProfile + FrameClassifier = Predefined> {
+    station: SupervisedStation<D, DualBus<P>>,
 }
 
 /// Why a call on the network was refused, or failed.
@@ -165,15 +166,15 @@ impl fmt::Display for NetworkError {
 impl<D: ObjectDictionary, P: IdProfile + FrameClassifier> LogicalNetwork<D, P> {
     /// The network run by `station`.
     #[must_use]
-    pub fn new(station: SupervisedStation<D, P>) -> Self {
+    pub fn new(station: SupervisedStation<D, DualBus<P>>) -> Self {
         LogicalNetwork { station }
     }
     /// The station underneath (dual-bus layer and supervisor).
-    pub fn station(&self) -> &SupervisedStation<D, P> {
+    pub fn station(&self) -> &SupervisedStation<D, DualBus<P>> {
         &self.station
     }
     /// The station underneath, for what the facade does not cover.
-    pub fn station_mut(&mut self) -> &mut SupervisedStation<D, P> {
+    pub fn station_mut(&mut self) -> &mut SupervisedStation<D, DualBus<P>> {
         &mut self.station
     }
     /// The supervisor.
@@ -342,7 +343,7 @@ impl<D: ObjectDictionary, P: IdProfile + FrameClassifier> LogicalNetwork<D, P> {
     // ----- status and audit -----
 
     /// Ports, master role, pairs, slaves: `Display` prints a table.
-    pub fn status(&self, now: Instant) -> Status<'_, D, P> {
+    pub fn status(&self, now: Instant) -> Status<'_, D, DualBus<P>> {
         self.station.status(now)
     }
     /// The audit trail (every role change, switch and toggle with reason and time).
@@ -430,7 +431,7 @@ impl duocan::runtime::SdoEvents for NetworkEvent {
     }
 }
 
-impl<D, P> fmt::Debug for LogicalNetwork<D, P> {
+impl<D, P: IdProfile + FrameClassifier> fmt::Debug for LogicalNetwork<D, P> {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         f.debug_struct("LogicalNetwork")
             .field("sup", self.station.sup())

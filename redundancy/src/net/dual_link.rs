@@ -27,6 +27,7 @@
 use super::core::link_event;
 use super::events::RedundantEvent;
 use super::sim_station::{self as station, StationScript};
+use crate::link::capacity::{Capacity, MergeCapacity};
 use crate::link::channel::ModeKind;
 use crate::link::classify::FrameClassifier;
 use crate::link::config::DualBusConfig;
@@ -51,7 +52,7 @@ use duocan::NodeId;
 /// `SLOTS` is the merger's slot count (see [`DualBus`]); the default suits real buses.
 #[derive(Debug)]
 pub struct DualLink<const SLOTS: usize = DEFAULT_MERGE_SLOTS> {
-    bus: DualBus<Predefined, SLOTS>,
+    bus: DualBus<Predefined, Capacity<SLOTS>>,
 }
 
 impl DualLink {
@@ -73,7 +74,7 @@ impl<const SLOTS: usize> DualLink<SLOTS> {
     }
     /// The layer (health, reach, merger, counters).
     #[must_use]
-    pub fn bus(&self) -> &DualBus<Predefined, SLOTS> {
+    pub fn bus(&self) -> &DualBus<Predefined, Capacity<SLOTS>> {
         &self.bus
     }
 }
@@ -126,8 +127,8 @@ impl<const SLOTS: usize> NetLink for DualLink<SLOTS> {
 /// On which of the two buses `node` was heard lately, as the front door shows it (any core
 /// on a dual bus): `[false, false]` for a node not heard lately, `None` on a toggling link,
 /// which listens to one bus at a time (reach means nothing there).
-pub(super) fn heard_on<C: FrameClassifier, const SLOTS: usize, const FUNCTIONS: usize>(
-    bus: &DualBus<C, SLOTS, FUNCTIONS>,
+pub(super) fn heard_on<C: FrameClassifier, K: MergeCapacity>(
+    bus: &DualBus<C, K>,
     node: NodeId,
 ) -> Option<HeardOn> {
     if bus.mode() == ModeKind::EcssToggle {

@@ -1,11 +1,12 @@
 //! The layer's clock contract (see [`crate::link`]): one watch for all its parts.
 
 use super::DualBus;
+use crate::link::capacity::{FunctionStorage, MergeCapacity, MergerStorage};
 use crate::link::channel::ChannelPolicy;
 use crate::link::classify::FrameClassifier;
 use duocan::{Duration, Instant};
 
-impl<C: FrameClassifier, const SLOTS: usize, const FUNCTIONS: usize> DualBus<C, SLOTS, FUNCTIONS> {
+impl<C: FrameClassifier, K: MergeCapacity> DualBus<C, K> {
     /// Every input that carries a time passes it here first: one comparison on the frame path.
     #[inline]
     pub(super) fn watch_clock(&mut self, now: Instant) {

@@ -19,6 +19,7 @@
 //! assert_eq!(duocan::Device::port_count(&station), 2);
 //! ```
 
+use crate::link::capacity::{Capacity, FunctionStorage, MergeCapacity, MergerStorage};
 #[cfg(feature = "cia302-6")]
 use crate::link::channel::Cia3026;
 #[cfg(feature = "ecss")]
@@ -30,11 +31,10 @@ pub use crate::link::config::{DualBusConfig, LinkMode, MergePolicy};
 use crate::link::events::LinkEvent;
 use crate::link::health::{Health, PortHealth, PortState};
 use crate::link::lag::LagMeter;
-use crate::link::merge::Merger;
 use crate::link::outbox::Outbox;
 use crate::link::plausible::Plausibility;
 use crate::link::reach::Reach;
-use crate::link::same_function::{PairError, SameFunction, MAX_FUNCTIONS};
+use crate::link::same_function::PairError;
 #[cfg(feature = "sticky")]
 use crate::link::sticky::StickyMerger;
 use crate::pair::{Member, PairId};
@@ -44,10 +44,7 @@ use duocan::od::ObjectDictionary;
 use duocan::profile::Predefined;
 use duocan::{Duration, Frame, Instant};
 
-/// Merger slots of a [`DualBus`] unless chosen otherwise: 768 records, enough for a saturated
-/// 1 Mbit/s bus (about 8,000 frames/s) whose twins stay missing for the horizon (80 ms: the
-/// other bus dead, or its reader that far behind).
-pub const DEFAULT_MERGE_SLOTS: usize = 1024;
+pub use crate::link::capacity::DEFAULT_MERGE_SLOTS;
 
 /// A node on a dual bus: the common redundant slave (one board of a pair), or any node that
 /// needs no supervisor.
@@ -104,17 +101,14 @@ pub struct LinkStats {
 }
 
 /// The dual-bus layer. `C` classifies frames (heartbeats, senders, functions; the predefined
-/// connection set by default); `SLOTS` is the merger's slot count, `FUNCTIONS` the room for
-/// (pair, function) values of the same-function merge. Both are part of the type so that the
-/// layer needs no allocator.
-pub struct DualBus<
-    C = Predefined,
-    const SLOTS: usize = DEFAULT_MERGE_SLOTS,
-    const FUNCTIONS: usize = MAX_FUNCTIONS,
-> {
+/// connection set by default); `K` is its capacity: the merger's slots and the room for
+/// (pair, function) values of the same-function merge, part of the type so that the layer
+/// needs no allocator ([`Capacity<SLOTS, FUNCTIONS>`](Capacity), the defaults unless a small
+/// target sizes them to its network: see [`crate::link::capacity`]).
+pub struct DualBus<C = Predefined, K: MergeCapacity = Capacity> {
     classifier: C,
     policy: Policy,
-    merger: Merger<SLOTS>,
+    merger: K::Merger,
     /// The sticky merge, when configured (active-active only): it judges instead of `merger`.
     #[cfg(feature = "sticky")]
     sticky: Option<StickyMerger>,
@@ -127,7 +121,7 @@ pub struct DualBus<
     reach: Reach,
     reach_enabled: bool,
     plausible: Plausibility,
-    pairs: SameFunction<FUNCTIONS>,
+    pairs: K::Functions,
     out: Outbox,
     stats: LinkStats,
     /// The latest instant any method was given (hand-over time of frames for the stall rule),
@@ -165,7 +159,7 @@ struct Status {
     counter: u8,
 }
 
-impl DualBus<Predefined, DEFAULT_MERGE_SLOTS> {
+impl DualBus {
     /// A layer for the predefined connection set.
     #[must_use]
     pub fn new(cfg: DualBusConfig) -> Self {
@@ -178,7 +172,7 @@ impl DualBus<Predefined, DEFAULT_MERGE_SLOTS> {
     }
 }
 
-impl<C: FrameClassifier, const SLOTS: usize, const FUNCTIONS: usize> DualBus<C, SLOTS, FUNCTIONS> {
+impl<C: FrameClassifier, K: MergeCapacity> DualBus<C, K> {
     /// A layer with a custom frame classifier (identifier scheme).
     #[must_use]
     pub fn with_classifier(cfg: DualBusConfig, classifier: C) -> Self {
@@ -227,7 +221,7 @@ impl<C: FrameClassifier, const SLOTS: usize, const FUNCTIONS: usize> DualBus<C, 
         DualBus {
             classifier,
             policy,
-            merger: Merger::with_horizon(cfg.skew_window, lag.horizon()),
+            merger: K::Merger::with_horizon(cfg.skew_window, lag.horizon()),
             #[cfg(feature = "sticky")]
             sticky,
             lag,
@@ -243,7 +237,7 @@ impl<C: FrameClassifier, const SLOTS: usize, const FUNCTIONS: usize> DualBus<C, 
             )
             .with_frame_time(cfg.frame_time)
             .with_one_bus_members(cfg.one_bus_members),
-            pairs: SameFunction::new(cfg.discrepancy_time),
+            pairs: K::Functions::new(cfg.discrepancy_time),
             out: Outbox::new(),
             stats: LinkStats::default(),
             clock: TimeWatch::new(),
@@ -331,7 +325,7 @@ impl<C: FrameClassifier, const SLOTS: usize, const FUNCTIONS: usize> DualBus<C, 
         self.health.port(p).state()
     }
     /// The receive merger (the exact merge: idle when the sticky merge is configured).
-    pub fn merger(&self) -> &Merger<SLOTS> {
+    pub fn merger(&self) -> &K::Merger {
         &self.merger
     }
     /// The sticky merge, if configured ([`MergePolicy::Sticky`], active-active mode).
@@ -358,7 +352,7 @@ impl<C: FrameClassifier, const SLOTS: usize, const FUNCTIONS: usize> DualBus<C, 
         self.plausible.watch(node, period)
     }
     /// The pair table and the members' latest values.
-    pub fn pairs(&self) -> &SameFunction<FUNCTIONS> {
+    pub fn pairs(&self) -> &K::Functions {
         &self.pairs
     }
     /// Configures an A/B pair for the same-function merge.
@@ -416,9 +410,7 @@ impl<C: FrameClassifier, const SLOTS: usize, const FUNCTIONS: usize> DualBus<C, 
     }
 }
 
-impl<C: FrameClassifier, const SLOTS: usize, const FUNCTIONS: usize> BusLink
-    for DualBus<C, SLOTS, FUNCTIONS>
-{
+impl<C: FrameClassifier, K: MergeCapacity> BusLink for DualBus<C, K> {
     type Event = LinkEvent;
     type Command = LinkCommand;
 
@@ -526,9 +518,7 @@ impl<C: FrameClassifier, const SLOTS: usize, const FUNCTIONS: usize> BusLink
     }
 }
 
-impl<C, const SLOTS: usize, const FUNCTIONS: usize> core::fmt::Debug
-    for DualBus<C, SLOTS, FUNCTIONS>
-{
+impl<C, K: MergeCapacity> core::fmt::Debug for DualBus<C, K> {
     fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
         let mut d = f.debug_struct("DualBus");
         #[cfg(feature = "sticky")]

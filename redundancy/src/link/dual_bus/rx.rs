@@ -2,6 +2,7 @@
 //! unproven ports, and what the lag meter changes; or into the sticky merge, if configured.
 
 use super::DualBus;
+use crate::link::capacity::{FunctionStorage, MergeCapacity, MergerStorage};
 use crate::link::channel::{ChannelPolicy, RxRoute};
 use crate::link::classify::FrameClassifier;
 use crate::link::health::RxOutcome;
@@ -28,7 +29,7 @@ impl LateSample {
     }
 }
 
-impl<C: FrameClassifier, const SLOTS: usize, const FUNCTIONS: usize> DualBus<C, SLOTS, FUNCTIONS> {
+impl<C: FrameClassifier, K: MergeCapacity> DualBus<C, K> {
     /// A frame from `port` stamped `at` (`stamped`: a receive timestamp; otherwise the time
     /// it was handed over), handled at `now`: the layer's receive path.
     pub(super) fn rx(
