@@ -126,7 +126,7 @@ pub mod sim;
 #[cfg(feature = "alloc")]
 pub use duocan_core::master;
 pub use duocan_core::{emcy, guarding, heartbeat, nmt, pdo, sdo, service, sync, time_stamp};
-pub use duocan_core::{AbortCode, CobId, Duration, Frame, Id, Instant, NodeId, NodeSet};
+pub use duocan_core::{AbortCode, CobId, Duration, FdFrame, Frame, Id, Instant, NodeId, NodeSet};
 pub use duocan_core::{BusLink, Device, Machine, PortStatus, Station};
 pub use duocan_core::{NmtCommand, NmtState, NmtTarget};
 pub use duocan_core::{Node, NodeConfig, NodeEvent, NodeEventKind};
