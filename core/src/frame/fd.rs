@@ -11,7 +11,7 @@
 //! (CiA 1301 asks for 0xCC in padding, but a caller chooses). CAN FD has no remote frames.
 //!
 //! ```
-//! use duocan_core::frame::fd::{dlc_for_len, len_for_dlc, padded_len, FdFrame};
+//! use duocan_core::frame::fd::{dlc_for_len, len_for_dlc, padded_len, FdFrame, FdFrameError};
 //! use duocan_core::frame::FrameError;
 //! use duocan_core::{Frame, Id};
 //!
@@ -19,12 +19,12 @@
 //! assert_eq!((f.len(), f.dlc(), f.brs(), f.esi()), (12, 9, true, false));
 //! assert_eq!((len_for_dlc(15), dlc_for_len(48), padded_len(13)), (Some(64), Some(14), Some(16)));
 //! // 13 bytes are no CAN FD length: an error naming it, or padding up to 16.
-//! assert_eq!(FdFrame::new(f.id(), &[1; 13]), Err(FrameError::NotFdLength { len: 13 }));
+//! assert_eq!(FdFrame::new(f.id(), &[1; 13]), Err(FdFrameError::NotFdLength { len: 13 }));
 //! let p = FdFrame::padded(f.id(), &[1; 13], 0xCC)?;
 //! assert_eq!((p.len(), p.data()[12], p.data()[13]), (16, 1, 0xCC));
 //! // At most 8 bytes go back to a classic frame; 12 do not.
 //! assert_eq!(Frame::try_from(&f), Err(FrameError::TooLong { len: 12 }));
-//! # Ok::<(), FrameError>(())
+//! # Ok::<(), FdFrameError>(())
 //! ```
 
 use super::{pack, unpack, Frame, FrameError, Id};
@@ -39,6 +39,42 @@ pub const FD_MAX_LEN: usize = 64;
 pub const BRS: u8 = 0x01;
 /// The error state indicator flag, as SocketCAN's `CANFD_ESI`: the sender is error passive.
 pub const ESI: u8 = 0x02;
+
+/// Why a CAN FD frame could not be built. Its own type, not [`FrameError`]: the classic
+/// path's error (and the code that formats and compares it) stays as it was.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum FdFrameError {
+    /// More than 64 data bytes.
+    TooLong {
+        /// The length that was asked for.
+        len: usize,
+    },
+    /// A payload of a length between the CAN FD steps (9–11, 13–15, …): a CAN FD frame holds
+    /// 0–8, 12, 16, 20, 24, 32, 48 or 64 bytes ([`FdFrame::padded`] rounds up).
+    NotFdLength {
+        /// The length that was asked for.
+        len: usize,
+    },
+    /// A remote frame asked for in CAN FD, which has none.
+    Remote,
+}
+
+impl fmt::Display for FdFrameError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            FdFrameError::TooLong { len } => {
+                write!(f, "CAN FD frame of {len} bytes: CAN FD carries at most 64")
+            }
+            FdFrameError::NotFdLength { len } => write!(
+                f,
+                "CAN FD payload of {len} bytes: a CAN FD frame holds 0–8, 12, 16, 20, 24, 32, 48 or 64"
+            ),
+            FdFrameError::Remote => f.write_str("CAN FD has no remote frames"),
+        }
+    }
+}
+
+impl core::error::Error for FdFrameError {}
 
 /// The payload length a DLC stands for in a CAN FD frame; `None` above 15.
 pub const fn len_for_dlc(dlc: u8) -> Option<usize> {
@@ -91,22 +127,22 @@ pub struct FdFrame {
 
 impl FdFrame {
     /// A data frame with BRS and ESI off. Fails for more than 64 bytes
-    /// ([`FrameError::TooLong`]) or a length between the CAN FD steps
-    /// ([`FrameError::NotFdLength`]: pad it with [`FdFrame::padded`]).
-    pub fn new(id: Id, data: &[u8]) -> Result<FdFrame, FrameError> {
+    /// ([`FdFrameError::TooLong`]) or a length between the CAN FD steps
+    /// ([`FdFrameError::NotFdLength`]: pad it with [`FdFrame::padded`]).
+    pub fn new(id: Id, data: &[u8]) -> Result<FdFrame, FdFrameError> {
         if data.len() > FD_MAX_LEN {
-            return Err(FrameError::TooLong { len: data.len() });
+            return Err(FdFrameError::TooLong { len: data.len() });
         }
         if dlc_for_len(data.len()).is_none() {
-            return Err(FrameError::NotFdLength { len: data.len() });
+            return Err(FdFrameError::NotFdLength { len: data.len() });
         }
         Ok(Self::fill(id, data, data.len(), 0))
     }
 
     /// A data frame of the shortest CAN FD length that holds `data`, the bytes after it set to
     /// `fill`. Fails only for more than 64 bytes.
-    pub fn padded(id: Id, data: &[u8], fill: u8) -> Result<FdFrame, FrameError> {
-        let len = padded_len(data.len()).ok_or(FrameError::TooLong { len: data.len() })?;
+    pub fn padded(id: Id, data: &[u8], fill: u8) -> Result<FdFrame, FdFrameError> {
+        let len = padded_len(data.len()).ok_or(FdFrameError::TooLong { len: data.len() })?;
         Ok(Self::fill(id, data, len, fill))
     }
 
@@ -202,12 +238,12 @@ impl FdFrame {
 ///
 /// Not the same thing on the wire: the result is sent in FD format (FDF recessive, a CRC-17
 /// and a stuff count), which a classic-only node answers with error frames. CAN FD has no
-/// remote frames, so a remote frame is [`FrameError::RemoteInFd`].
+/// remote frames, so a remote frame is [`FdFrameError::Remote`].
 impl TryFrom<Frame> for FdFrame {
-    type Error = FrameError;
-    fn try_from(f: Frame) -> Result<FdFrame, FrameError> {
+    type Error = FdFrameError;
+    fn try_from(f: Frame) -> Result<FdFrame, FdFrameError> {
         if f.is_remote() {
-            return Err(FrameError::RemoteInFd);
+            return Err(FdFrameError::Remote);
         }
         // 0–8 bytes are all CAN FD lengths.
         Ok(FdFrame::fill(f.id(), f.data(), f.data().len(), 0))
@@ -278,17 +314,17 @@ mod tests {
         let id = Id::Standard(0x100);
         assert_eq!(
             FdFrame::new(id, &[0; 65]),
-            Err(FrameError::TooLong { len: 65 })
+            Err(FdFrameError::TooLong { len: 65 })
         );
         assert_eq!(
             FdFrame::new(id, &[0; 33]),
-            Err(FrameError::NotFdLength { len: 33 })
+            Err(FdFrameError::NotFdLength { len: 33 })
         );
         assert_eq!(
             FdFrame::padded(id, &[0; 65], 0),
-            Err(FrameError::TooLong { len: 65 })
+            Err(FdFrameError::TooLong { len: 65 })
         );
-        let e = FrameError::NotFdLength { len: 33 };
+        let e = FdFrameError::NotFdLength { len: 33 };
         assert!(e.to_string().contains("33"));
     }
 
@@ -311,7 +347,7 @@ mod tests {
     #[test]
     fn remote_frames_have_no_fd_form() {
         let r = Frame::remote(Id::Standard(0x701), 1).unwrap();
-        assert_eq!(FdFrame::try_from(r), Err(FrameError::RemoteInFd));
+        assert_eq!(FdFrame::try_from(r), Err(FdFrameError::Remote));
     }
 
     proptest! {
@@ -339,8 +375,8 @@ mod tests {
         fn new_accepts_exactly_the_fd_lengths(len in 0usize..=80) {
             let r = FdFrame::new(Id::Standard(1), &std::vec![0xA5; len]);
             match (len > 64, dlc_for_len(len)) {
-                (true, _) => prop_assert_eq!(r, Err(FrameError::TooLong { len })),
-                (false, None) => prop_assert_eq!(r, Err(FrameError::NotFdLength { len })),
+                (true, _) => prop_assert_eq!(r, Err(FdFrameError::TooLong { len })),
+                (false, None) => prop_assert_eq!(r, Err(FdFrameError::NotFdLength { len })),
                 (false, Some(dlc)) => prop_assert_eq!(r.map(|f| f.dlc()), Ok(dlc)),
             }
         }
@@ -370,7 +406,7 @@ mod tests {
                 }
                 Err(e) => {
                     prop_assert!(c.is_remote());
-                    prop_assert_eq!(e, FrameError::RemoteInFd);
+                    prop_assert_eq!(e, FdFrameError::Remote);
                 }
             }
         }

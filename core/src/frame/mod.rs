@@ -2,7 +2,8 @@
 //!
 //! A classic [`Frame`] is a 16-byte value type; a CAN FD frame is an [`FdFrame`] of its own
 //! (up to 64 bytes, the BRS and ESI flags, no remote frames), so the classic path keeps its
-//! size and its code and FD costs nothing where it is not used. A classic frame converts to an
+//! size and its code (and its error type, [`FrameError`]; FD has [`fd::FdFrameError`]) and FD
+//! costs nothing where it is not used. A classic frame converts to an
 //! FD one (`FdFrame::try_from`: data frames only) and an FD frame of at most 8 bytes back. Bytes beyond the DLC are always zero, so two frames that
 //! are equal on the wire compare equal and hash equal: the dual-bus merger relies on that.
 //!
@@ -128,14 +129,6 @@ pub enum FrameError {
     },
     /// The source frame is not a classic CAN frame (CAN FD or an error frame).
     NotClassic,
-    /// A CAN FD payload of a length between the FD steps (9–11, 13–15, …): a CAN FD frame
-    /// holds 0–8, 12, 16, 20, 24, 32, 48 or 64 bytes ([`FdFrame::padded`] rounds up).
-    NotFdLength {
-        /// The length that was asked for.
-        len: usize,
-    },
-    /// A remote frame asked for in CAN FD, which has none.
-    RemoteInFd,
 }
 
 impl fmt::Display for FrameError {
@@ -148,11 +141,6 @@ impl fmt::Display for FrameError {
                 write!(f, "CAN identifier {raw:#x} does not fit 11 (or 29) bits")
             }
             FrameError::NotClassic => f.write_str("not a classic CAN data or remote frame"),
-            FrameError::NotFdLength { len } => write!(
-                f,
-                "CAN FD payload of {len} bytes: a CAN FD frame holds 0–8, 12, 16, 20, 24, 32, 48 or 64"
-            ),
-            FrameError::RemoteInFd => f.write_str("CAN FD has no remote frames"),
         }
     }
 }

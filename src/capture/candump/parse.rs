@@ -3,8 +3,8 @@
 
 use super::LogEntry;
 use crate::capture::Record;
-use crate::frame::fd::{BRS, ESI, FD_MAX_LEN};
-use crate::frame::{FdFrame, Frame, FrameError, Id, STANDARD_ID_MAX};
+use crate::frame::fd::{FdFrameError, BRS, ESI, FD_MAX_LEN};
+use crate::frame::{FdFrame, Frame, Id, STANDARD_ID_MAX};
 use crate::port::error_frame::{CAN_ERR_FLAG, CAN_ERR_MASK};
 
 /// Longest interface name accepted (Linux allows 15 characters; recorders name buses freely).
@@ -238,7 +238,7 @@ fn parse_fd(id: Id, fd: &str) -> Result<FdFrame, String> {
     FdFrame::new(id, &data)
         .map(|f| f.with_flags(flags))
         .map_err(|e| match e {
-            FrameError::NotFdLength { len } => format!(
+            FdFrameError::NotFdLength { len } => format!(
                 "CAN FD frame with {len} data bytes (a CAN FD frame holds 0–8, 12, 16, 20, 24, 32, 48 or 64)"
             ),
             e => e.to_string(),
