@@ -82,7 +82,9 @@ pub use cia301::{emcy, guarding, heartbeat, nmt, pdo, sdo, service, sync, time_s
 pub use cia302::master;
 pub use frame::cob_id::{CobId, NodeId, NodeSet};
 pub use frame::instant::{Duration, Instant};
-pub use frame::{FdFrame, Frame, Id};
+#[cfg(feature = "fd")]
+pub use frame::FdFrame;
+pub use frame::{Frame, Id};
 pub use machine::{BusLink, Device, Machine, PortStatus, Station};
 pub use nmt::{NmtCommand, NmtState, NmtTarget};
 pub use node::{Node, NodeConfig, NodeEvent, NodeEventKind};

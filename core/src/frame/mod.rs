@@ -1,11 +1,14 @@
-//! CAN frames: classic (2.0A and 2.0B, data and remote, DLC 0–8) and CAN FD ([`fd`]).
+//! CAN frames: classic (2.0A and 2.0B, data and remote, DLC 0–8) and CAN FD (`fd`).
 //!
-//! A classic [`Frame`] is a 16-byte value type; a CAN FD frame is an [`FdFrame`] of its own
-//! (up to 64 bytes, the BRS and ESI flags, no remote frames), so the classic path keeps its
-//! size and its code (and its error type, [`FrameError`]; FD has [`fd::FdFrameError`]) and FD
-//! costs nothing where it is not used. A classic frame converts to an
-//! FD one (`FdFrame::try_from`: data frames only) and an FD frame of at most 8 bytes back. Bytes beyond the DLC are always zero, so two frames that
-//! are equal on the wire compare equal and hash equal: the dual-bus merger relies on that.
+//! A classic [`Frame`] is a 16-byte value type. Bytes beyond the DLC are always zero, so two
+//! frames that are equal on the wire compare equal and hash equal: the dual-bus merger relies
+//! on that.
+//!
+//! A CAN FD frame is an `FdFrame` of its own (module `fd`, feature `fd`, on with `std`): up to
+//! 64 bytes of the CAN FD lengths, the BRS and ESI flags, no remote frames, its own error type
+//! (`fd::FdFrameError`). The classic path keeps its size, its code and [`FrameError`], and an
+//! image built without the feature is the same as before it. A classic data frame converts to
+//! an FD one (`FdFrame::try_from`) and an FD frame of at most 8 bytes back (`Frame::try_from`).
 //!
 //! ```
 //! use duocan_core::frame::cob_id::predefined::{self, Function};
@@ -29,6 +32,7 @@
 #[cfg(any(test, feature = "proptest"))]
 pub mod arbitrary;
 pub mod cob_id;
+#[cfg(feature = "fd")]
 pub mod fd;
 pub mod instant;
 pub mod queue;
@@ -36,6 +40,7 @@ pub mod storage;
 
 use core::fmt;
 
+#[cfg(feature = "fd")]
 pub use fd::FdFrame;
 
 /// Largest 11-bit identifier.
