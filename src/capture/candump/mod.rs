@@ -86,9 +86,9 @@ impl fmt::Display for ParseError {
 
 impl std::error::Error for ParseError {}
 
-/// Formats a frame as a log line (without newline).
-pub fn format_frame(timestamp_us: u64, interface: &str, frame: &Frame) -> String {
-    let mut s = String::with_capacity(48);
+/// A line's `(SECONDS.MICROS) IFACE ` in a string with room for `body` more bytes.
+fn line_start(timestamp_us: u64, interface: &str, body: usize) -> String {
+    let mut s = String::with_capacity(32 + interface.len() + body);
     let _ = write!(
         s,
         "({}.{:06}) {} ",
@@ -96,6 +96,12 @@ pub fn format_frame(timestamp_us: u64, interface: &str, frame: &Frame) -> String
         timestamp_us % 1_000_000,
         interface
     );
+    s
+}
+
+/// Formats a frame as a log line (without newline).
+pub fn format_frame(timestamp_us: u64, interface: &str, frame: &Frame) -> String {
+    let mut s = line_start(timestamp_us, interface, 26);
     match frame.id() {
         Id::Standard(r) => {
             let _ = write!(s, "{r:03X}#");
@@ -120,14 +126,7 @@ pub fn format_frame(timestamp_us: u64, interface: &str, frame: &Frame) -> String
 /// Formats a CAN FD frame as a log line (without newline): `ID##F` with the flags digit
 /// (BRS 1, ESI 2), then the data.
 pub fn format_fd_frame(timestamp_us: u64, interface: &str, frame: &FdFrame) -> String {
-    let mut s = String::with_capacity(48 + 2 * frame.len());
-    let _ = write!(
-        s,
-        "({}.{:06}) {} ",
-        timestamp_us / 1_000_000,
-        timestamp_us % 1_000_000,
-        interface
-    );
+    let mut s = line_start(timestamp_us, interface, 11 + 2 * frame.len());
     match frame.id() {
         Id::Standard(r) => {
             let _ = write!(s, "{r:03X}##{:X}", frame.flags());

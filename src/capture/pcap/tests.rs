@@ -67,6 +67,24 @@ fn with_word(mut b: Vec<u8>, at: usize, word: u32) -> Vec<u8> {
     b
 }
 
+/// The error of the second of `items`, checked to be a bad packet, record 2 at byte 49 (after
+/// a 24-byte file header and a 25-byte first record).
+fn second_is_bad_at_49(items: &[Result<Packet, PcapError>]) -> &PcapError {
+    let e = items[1].as_ref().unwrap_err();
+    assert!(
+        matches!(
+            e,
+            PcapError::BadPacket {
+                record: 2,
+                offset: 49,
+                ..
+            }
+        ),
+        "{e:?}"
+    );
+    e
+}
+
 #[test]
 fn standard_identifier_above_0x7ff_is_an_error_not_masked() {
     let frames = [
@@ -82,18 +100,7 @@ fn standard_identifier_above_0x7ff_is_an_error_not_masked() {
         items[0].as_ref().unwrap().record,
         Record::Frame(frames[0].1)
     );
-    let e = items[1].as_ref().unwrap_err();
-    assert!(
-        matches!(
-            e,
-            PcapError::BadPacket {
-                record: 2,
-                offset: 49,
-                ..
-            }
-        ),
-        "{e:?}"
-    );
+    let e = second_is_bad_at_49(&items);
     assert_eq!(
         e.to_string(),
         "pcap record 2 (byte 49): bad SocketCAN packet: identifier 0x981 above 0x7FF without the extended flag"
@@ -249,18 +256,7 @@ fn malformed_fd_records_are_errors_naming_record_and_offset() {
         b[49 + at] = value;
         let items: Vec<_> = PcapReader::new(&b[..]).unwrap().collect();
         assert_eq!(items.len(), 3);
-        let e = items[1].as_ref().unwrap_err();
-        assert!(
-            matches!(
-                e,
-                PcapError::BadPacket {
-                    record: 2,
-                    offset: 49,
-                    ..
-                }
-            ),
-            "{e:?}"
-        );
+        let e = second_is_bad_at_49(&items);
         let text = e.to_string();
         assert!(
             text.starts_with("pcap record 2 (byte 49): bad SocketCAN packet: "),
