@@ -113,6 +113,9 @@ mod doc_sources {
             );
             n += 1;
         }
-        assert_eq!(n, 7, "sdo-block, guarding, time, alloc, fd, std and proptest");
+        assert_eq!(
+            n, 7,
+            "sdo-block, guarding, time, alloc, fd, std and proptest"
+        );
     }
 }

@@ -65,7 +65,9 @@ fuzz_target!(|data: &[u8]| {
                     Ok(Some(p)) => round_trip(&p.record),
                     Ok(None) => break,
                     // A bad record is skipped; a truncated file ends.
-                    Err(pcap::PcapError::BadPacket { .. } | pcap::PcapError::BadTimestamp { .. }) => {}
+                    Err(
+                        pcap::PcapError::BadPacket { .. } | pcap::PcapError::BadTimestamp { .. },
+                    ) => {}
                     Err(_) => break,
                 }
             }
