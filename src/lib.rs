@@ -125,6 +125,8 @@ pub mod sim;
 // Short paths for what users name most (the core's own, re-exported).
 #[cfg(feature = "alloc")]
 pub use duocan_core::master;
+#[cfg(feature = "fd")]
+pub use duocan_core::FdFrame;
 pub use duocan_core::{emcy, guarding, heartbeat, nmt, pdo, sdo, service, sync, time_stamp};
 pub use duocan_core::{AbortCode, CobId, Duration, Frame, Id, Instant, NodeId, NodeSet};
 pub use duocan_core::{BusLink, Device, Machine, PortStatus, Station};

@@ -82,6 +82,8 @@ pub use cia301::{emcy, guarding, heartbeat, nmt, pdo, sdo, service, sync, time_s
 pub use cia302::master;
 pub use frame::cob_id::{CobId, NodeId, NodeSet};
 pub use frame::instant::{Duration, Instant};
+#[cfg(feature = "fd")]
+pub use frame::FdFrame;
 pub use frame::{Frame, Id};
 pub use machine::{BusLink, Device, Machine, PortStatus, Station};
 pub use nmt::{NmtCommand, NmtState, NmtTarget};
@@ -111,6 +113,9 @@ mod doc_sources {
             );
             n += 1;
         }
-        assert_eq!(n, 6, "sdo-block, guarding, time, alloc, std and proptest");
+        assert_eq!(
+            n, 7,
+            "sdo-block, guarding, time, alloc, fd, std and proptest"
+        );
     }
 }

@@ -50,7 +50,7 @@ pub mod decode;
 pub mod pcap;
 pub mod recorder;
 
-use crate::frame::Id;
+use crate::frame::FdFrame;
 
 /// One captured record: a classic frame, or what a classic frame cannot hold.
 #[derive(Clone, Debug, PartialEq, Eq)]
@@ -64,15 +64,9 @@ pub enum Record {
         /// Payload (controller and protocol details).
         data: [u8; 8],
     },
-    /// A CAN FD frame (kept, not interpreted: the stack is classic CAN).
-    Fd {
-        /// Identifier.
-        id: Id,
-        /// FD flags (BRS = 1, ESI = 2).
-        flags: u8,
-        /// Payload, up to 64 bytes.
-        data: Vec<u8>,
-    },
+    /// A CAN FD frame (kept, not yet interpreted by the CANopen layers). Boxed: a capture of
+    /// classic frames moves records of a classic frame's size, not of a 64-byte payload's.
+    Fd(Box<FdFrame>),
 }
 
 impl Record {
@@ -80,6 +74,14 @@ impl Record {
     pub fn frame(&self) -> Option<&crate::Frame> {
         match self {
             Record::Frame(f) => Some(f),
+            _ => None,
+        }
+    }
+
+    /// The CAN FD frame, if this is one.
+    pub fn fd_frame(&self) -> Option<&FdFrame> {
+        match self {
+            Record::Fd(f) => Some(f),
             _ => None,
         }
     }

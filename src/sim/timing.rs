@@ -6,9 +6,31 @@
 //! use for another frame. Durations are whole microseconds, rounded up: exact for every bit rate
 //! whose bit time is a whole number of microseconds (1 Mbit/s, 500, 250, 125, 100, 50, 20,
 //! 10 kbit/s), and never optimistic for the others.
+//!
+//! CAN FD frames ([`fd_frame_bits`], [`fd_frame_duration`]) run in two phases: the arbitration
+//! phase at the nominal bit rate and, when BRS is set, the data phase at the data bit rate.
+//! What is counted, as ISO 11898-1:2015 lays out the FD formats:
+//!
+//! - exactly: the bits from SOF to the end of the data field (base format: SOF, 11 identifier
+//!   bits, RRS, IDE, FDF, res, BRS, ESI, 4 DLC bits; extended format: SOF, 11 base bits, SRR,
+//!   IDE, 18 extension bits, RRS, FDF, res, BRS, ESI, DLC) and the dynamic stuff bits a
+//!   transmitter inserts there (one after five equal bits, the stuff bit starting the next
+//!   run, including one that falls due after the last data bit); the 4-bit stuff count (the
+//!   number of dynamic stuff bits modulo 8, gray-coded, plus a parity bit); the CRC sequence,
+//!   CRC-17 for up to 16 data bytes and CRC-21 above; the fixed stuff bits of the CRC field
+//!   (one before the stuff count and one after every four bits of stuff count and CRC: 6 with
+//!   CRC-17, 7 with CRC-21); the unstuffed trailer (CRC delimiter, ACK slot, ACK delimiter, 7
+//!   EOF bits) and the 3-bit intermission. None of these depends on the CRC's value, so no CRC
+//!   is computed.
+//! - bounded: where the bit rate switches. A controller switches at the sample point of the
+//!   BRS bit and back at the sample point of the CRC delimiter; here the BRS bit and the CRC
+//!   delimiter count whole at the nominal rate, and ESI to the last CRC bit (with their stuff
+//!   bits) at the data rate. With a data rate at least the nominal one this is never
+//!   optimistic, and too long by less than two data bits. Transceiver delay compensation and
+//!   the secondary sample point do not change the bit count and are not modelled.
 
 use crate::frame::instant::Duration;
-use crate::frame::{Frame, Id};
+use crate::frame::{FdFrame, Frame, Id};
 
 /// CRC delimiter, ACK slot, ACK delimiter and end of frame: never stuffed.
 const TRAILER_BITS: u32 = 3 + 7;
@@ -147,6 +169,161 @@ pub fn frame_duration(frame: &Frame, bitrate: u32) -> Duration {
     bits_duration(frame_bits(frame), bitrate)
 }
 
+/// The bits of a CAN FD frame in each phase (see the module documentation for what is counted).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct FdBits {
+    /// Bits at the nominal bit rate: SOF to BRS with their stuff bits, CRC delimiter to the
+    /// end of the intermission; every bit when BRS is off.
+    pub nominal: u32,
+    /// Bits at the data bit rate: ESI to the end of the CRC field, stuff bits included; 0 when
+    /// BRS is off.
+    pub data: u32,
+}
+
+impl FdBits {
+    /// Bits in all.
+    pub const fn total(self) -> u32 {
+        self.nominal + self.data
+    }
+}
+
+/// A run-length stuff counter over a bit stream fed a field at a time (an FD frame's 553
+/// bits up to the CRC field do not fit the classic path's 128-bit stream).
+#[derive(Default)]
+struct Stuffer {
+    last: Option<bool>,
+    run: u32,
+    count: u32,
+}
+
+impl Stuffer {
+    /// Feeds the `n` low bits of `value`, most significant first.
+    fn push(&mut self, value: u64, n: u32) {
+        for i in (0..n).rev() {
+            let bit = (value >> i) & 1 == 1;
+            if self.last == Some(bit) {
+                self.run += 1;
+            } else {
+                self.last = Some(bit);
+                self.run = 1;
+            }
+            if self.run == 5 {
+                self.count += 1;
+                self.last = Some(!bit);
+                self.run = 1;
+            }
+        }
+    }
+}
+
+/// The CRC length of an FD frame with `len` data bytes: CRC-17 up to 16 bytes, CRC-21 above.
+pub const fn fd_crc_bits(len: usize) -> u32 {
+    if len <= 16 {
+        17
+    } else {
+        21
+    }
+}
+
+/// Fixed stuff bits of an FD CRC field: one before the stuff count and one after every four
+/// bits of the stuff count (4) and the CRC.
+pub const fn fd_fixed_stuff_bits(len: usize) -> u32 {
+    1 + (4 + fd_crc_bits(len)) / 4
+}
+
+/// The header bits of an FD frame up to and including BRS, and those after it up to the DLC
+/// (ESI, DLC): both unstuffed.
+const fn fd_header_bits(extended: bool) -> (u32, u32) {
+    if extended {
+        (36, 5)
+    } else {
+        (17, 5)
+    }
+}
+
+/// The bits of `frame` without any dynamic stuff bit: the lower bound of [`fd_frame_bits`].
+pub fn fd_unstuffed_bits(frame: &FdFrame) -> u32 {
+    let (arb, ctl) = fd_header_bits(frame.id().is_extended());
+    let n = frame.len() as u32;
+    arb + ctl
+        + 8 * n
+        + 4
+        + fd_crc_bits(frame.len())
+        + fd_fixed_stuff_bits(frame.len())
+        + TRAILER_BITS
+        + INTERMISSION_BITS
+}
+
+/// The most dynamic stuff bits an FD frame of this format and length can have: the first after
+/// five bits, then one after every four (each stuff bit starts the next run).
+pub fn fd_worst_case_stuff_bits(extended: bool, len: usize) -> u32 {
+    let (arb, ctl) = fd_header_bits(extended);
+    let region = arb + ctl + 8 * (len.min(64) as u32);
+    (region - 1) / 4
+}
+
+/// Bits `frame` occupies the bus for, in each phase, intermission included.
+pub fn fd_frame_bits(frame: &FdFrame) -> FdBits {
+    let mut s = Stuffer::default();
+    s.push(0, 1); // SOF
+    match frame.id() {
+        Id::Standard(id) => {
+            s.push(u64::from(id), 11);
+            s.push(0, 1); // RRS: dominant
+            s.push(0, 1); // IDE: dominant for a base frame
+        }
+        Id::Extended(id) => {
+            s.push(u64::from(id >> 18), 11);
+            s.push(1, 1); // SRR: recessive
+            s.push(1, 1); // IDE: recessive
+            s.push(u64::from(id & 0x3_FFFF), 18);
+            s.push(0, 1); // RRS: dominant
+        }
+    }
+    s.push(1, 1); // FDF: recessive, an FD frame
+    s.push(0, 1); // res: dominant
+    s.push(u64::from(frame.brs()), 1);
+    let arbitration_stuff = s.count;
+    s.push(u64::from(frame.esi()), 1);
+    s.push(u64::from(frame.dlc()), 4);
+    for &b in frame.data() {
+        s.push(u64::from(b), 8);
+    }
+    let data_stuff = s.count - arbitration_stuff;
+    let (arb, ctl) = fd_header_bits(frame.id().is_extended());
+    let fast = ctl
+        + 8 * frame.len() as u32
+        + data_stuff
+        + 4
+        + fd_crc_bits(frame.len())
+        + fd_fixed_stuff_bits(frame.len());
+    let slow = arb + arbitration_stuff + TRAILER_BITS + INTERMISSION_BITS;
+    if frame.brs() {
+        FdBits {
+            nominal: slow,
+            data: fast,
+        }
+    } else {
+        FdBits {
+            nominal: slow + fast,
+            data: 0,
+        }
+    }
+}
+
+/// How long `frame` occupies a bus at `nominal` bit/s with a data phase at `data` bit/s (used
+/// only when BRS is set), intermission included; rounded up to whole microseconds. A bit rate
+/// of 0 is treated as 1 bit/s rather than dividing by zero.
+pub fn fd_frame_duration(frame: &FdFrame, nominal: u32, data: u32) -> Duration {
+    let bits = fd_frame_bits(frame);
+    let n = u128::from(nominal.max(1));
+    let d = u128::from(data.max(1));
+    // nominal_bits / n + data_bits / d seconds, over the common denominator n·d, exact.
+    let num = (u128::from(bits.nominal) * d + u128::from(bits.data) * n) * 1_000_000;
+    let micros = num.div_ceil(n * d);
+    Duration::from_micros(u64::try_from(micros).unwrap_or(u64::MAX))
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -224,6 +401,122 @@ mod tests {
             prop_assert!(bits >= unstuffed);
             prop_assert!(bits <= worst_case_bits(f.id().is_extended(), n));
             prop_assert_eq!(error_frame_bits(&f), bits + 7);
+        }
+    }
+
+    fn fd(id: Id, data: &[u8], brs: bool) -> FdFrame {
+        FdFrame::new(id, data).unwrap().with_brs(brs)
+    }
+
+    #[test]
+    fn fd_fixed_fields_follow_the_crc_length() {
+        assert_eq!((fd_crc_bits(16), fd_fixed_stuff_bits(16)), (17, 6));
+        assert_eq!((fd_crc_bits(20), fd_fixed_stuff_bits(20)), (21, 7));
+        assert_eq!((fd_crc_bits(0), fd_fixed_stuff_bits(64)), (17, 7));
+    }
+
+    /// 0x555 and 0x55 bytes alternate: no run of five, no dynamic stuff bit. By hand: SOF, 11
+    /// identifier bits, RRS, IDE, FDF, res, BRS = 17 nominal bits, plus CRC delimiter, ACK,
+    /// ACK delimiter, EOF and intermission = 13; ESI, DLC (4), 512 data bits, stuff count (4),
+    /// CRC-21 and 7 fixed stuff bits = 549 data-phase bits. At 1/5 Mbit/s: 30 µs + 109.8 µs.
+    #[test]
+    fn fd_64_bytes_at_1_and_5_mbit_by_hand() {
+        let f = fd(Id::Standard(0x555), &[0x55; 64], true);
+        assert_eq!(f.dlc(), 15);
+        assert_eq!(
+            fd_frame_bits(&f),
+            FdBits {
+                nominal: 30,
+                data: 549
+            }
+        );
+        assert_eq!(
+            fd_frame_duration(&f, 1_000_000, 5_000_000),
+            Duration::from_micros(140)
+        );
+        // Without BRS every bit is at the nominal rate; the BRS bit (now dominant) makes no run.
+        let slow = f.with_brs(false);
+        assert_eq!(
+            fd_frame_bits(&slow),
+            FdBits {
+                nominal: 579,
+                data: 0
+            }
+        );
+        assert_eq!(
+            fd_frame_duration(&slow, 1_000_000, 5_000_000),
+            Duration::from_micros(579)
+        );
+        assert_eq!(fd_unstuffed_bits(&f), 579);
+    }
+
+    /// Identifier 0 and 64 zero bytes: SOF, identifier, RRS and IDE are 14 dominant bits (stuff
+    /// bits after the 5th and 10th), then FDF 1, res 0, BRS 1, ESI 0, DLC 1111, and 512 zeros
+    /// (a stuff bit after every five: 102). Nominal 17 + 2 + 13 = 32, data 549 + 102 = 651:
+    /// 32 µs + 130.2 µs at 1/5 Mbit/s.
+    #[test]
+    fn fd_64_zero_bytes_at_1_and_5_mbit_by_hand() {
+        let f = fd(Id::Standard(0), &[0; 64], true);
+        assert_eq!(
+            fd_frame_bits(&f),
+            FdBits {
+                nominal: 32,
+                data: 651
+            }
+        );
+        assert_eq!(
+            fd_frame_duration(&f, 1_000_000, 5_000_000),
+            Duration::from_micros(163)
+        );
+        assert_eq!(
+            fd_frame_duration(&f, 1_000_000, 2_000_000),
+            Duration::from_micros(358)
+        );
+    }
+
+    /// 8 bytes of 0x55 behind 0x555 (DLC 1000, no run of five): CRC-17 and 6 fixed stuff
+    /// bits; 20 bytes: CRC-21 and 7.
+    #[test]
+    fn fd_short_frames_use_crc17() {
+        let f = fd(Id::Standard(0x555), &[0x55; 8], true);
+        // 17 + 13 nominal; ESI + DLC 5 + 64 + 4 + 17 + 6 = 96 data.
+        assert_eq!(
+            fd_frame_bits(&f),
+            FdBits {
+                nominal: 30,
+                data: 96
+            }
+        );
+        let g = fd(Id::Standard(0x555), &[0x55; 20], false);
+        // 17 + 13 + 5 + 160 + 4 + 21 + 7.
+        assert_eq!(fd_frame_bits(&g).total(), 227);
+    }
+
+    #[test]
+    fn fd_classic_length_frames_are_not_classic_frames_on_the_wire() {
+        // The same 8 bytes take a different number of bits in FD format (stuff count, CRC-17
+        // with fixed stuff bits) than in classic format.
+        let c = std_frame(0x555, &[0x55; 8]);
+        let f = FdFrame::try_from(c).unwrap();
+        assert_ne!(fd_frame_bits(&f).total(), frame_bits(&c));
+    }
+
+    proptest! {
+        #[test]
+        fn fd_length_is_between_unstuffed_and_worst_case(f in crate::frame::arbitrary::any_fd_frame()) {
+            let bits = fd_frame_bits(&f);
+            let lo = fd_unstuffed_bits(&f);
+            let hi = lo + fd_worst_case_stuff_bits(f.id().is_extended(), f.len());
+            prop_assert!(bits.total() >= lo, "{} < {}", bits.total(), lo);
+            prop_assert!(bits.total() <= hi, "{} > {}", bits.total(), hi);
+            prop_assert_eq!(bits.data == 0, !f.brs());
+            // The data phase at the nominal rate takes as long as no switch at all.
+            prop_assert_eq!(
+                fd_frame_duration(&f, 500_000, 500_000),
+                bits_duration(bits.total(), 500_000)
+            );
+            // A faster data phase never makes the frame longer.
+            prop_assert!(fd_frame_duration(&f, 500_000, 2_000_000) <= fd_frame_duration(&f, 500_000, 500_000));
         }
     }
 }

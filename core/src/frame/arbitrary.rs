@@ -15,17 +15,22 @@
 //! at_most_eight_bytes();
 //! ```
 
+use super::fd::{FdFrame, FD_LENGTHS};
 use super::{Frame, Id, EXTENDED_ID_MAX, STANDARD_ID_MAX};
 use proptest::prelude::*;
 
-/// Any classic frame: data or remote, 11- or 29-bit identifier, 0 to 8 bytes.
-pub fn any_frame() -> impl Strategy<Value = Frame> {
-    let id = prop_oneof![
+/// Any identifier, 11- or 29-bit.
+fn any_id() -> impl Strategy<Value = Id> {
+    prop_oneof![
         (0u16..=STANDARD_ID_MAX).prop_map(Id::Standard),
         (0u32..=EXTENDED_ID_MAX).prop_map(Id::Extended),
-    ];
+    ]
+}
+
+/// Any classic frame: data or remote, 11- or 29-bit identifier, 0 to 8 bytes.
+pub fn any_frame() -> impl Strategy<Value = Frame> {
     (
-        id,
+        any_id(),
         any::<bool>(),
         proptest::collection::vec(any::<u8>(), 0..=8),
     )
@@ -37,5 +42,22 @@ pub fn any_frame() -> impl Strategy<Value = Frame> {
             } else {
                 Frame::new(id, &data).ok()
             }
+        })
+}
+
+/// Any CAN FD frame: 11- or 29-bit identifier, each of the 16 lengths, BRS and ESI either way.
+pub fn any_fd_frame() -> impl Strategy<Value = FdFrame> {
+    (
+        any_id(),
+        proptest::sample::select(&FD_LENGTHS[..]),
+        proptest::collection::vec(any::<u8>(), 64),
+        any::<bool>(),
+        any::<bool>(),
+    )
+        // Every drawn length is a CAN FD length: nothing is filtered out.
+        .prop_filter_map("a valid CAN FD frame", |(id, len, bytes, brs, esi)| {
+            FdFrame::new(id, &bytes[..usize::from(len)])
+                .ok()
+                .map(|f| f.with_brs(brs).with_esi(esi))
         })
 }

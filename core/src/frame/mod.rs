@@ -1,7 +1,14 @@
-//! Classic CAN frames (2.0A and 2.0B, data and remote, DLC 0–8).
+//! CAN frames: classic (2.0A and 2.0B, data and remote, DLC 0–8) and CAN FD (`fd`).
 //!
-//! A [`Frame`] is a 16-byte value type. Bytes beyond the DLC are always zero, so two frames that
-//! are equal on the wire compare equal and hash equal: the dual-bus merger relies on that.
+//! A classic [`Frame`] is a 16-byte value type. Bytes beyond the DLC are always zero, so two
+//! frames that are equal on the wire compare equal and hash equal: the dual-bus merger relies
+//! on that.
+//!
+//! A CAN FD frame is an `FdFrame` of its own (module `fd`, feature `fd`, on with `std`): up to
+//! 64 bytes of the CAN FD lengths, the BRS and ESI flags, no remote frames, its own error type
+//! (`fd::FdFrameError`). The classic path keeps its size, its code and [`FrameError`], and an
+//! image built without the feature is the same as before it. A classic data frame converts to
+//! an FD one (`FdFrame::try_from`) and an FD frame of at most 8 bytes back (`Frame::try_from`).
 //!
 //! ```
 //! use duocan_core::frame::cob_id::predefined::{self, Function};
@@ -25,11 +32,16 @@
 #[cfg(any(test, feature = "proptest"))]
 pub mod arbitrary;
 pub mod cob_id;
+#[cfg(feature = "fd")]
+pub mod fd;
 pub mod instant;
 pub mod queue;
 pub mod storage;
 
 use core::fmt;
+
+#[cfg(feature = "fd")]
+pub use fd::FdFrame;
 
 /// Largest 11-bit identifier.
 pub const STANDARD_ID_MAX: u16 = 0x7FF;
@@ -380,6 +392,11 @@ impl core::error::Error for Malformed {}
 pub(crate) mod tests {
     use super::*;
     use proptest::prelude::*;
+
+    #[test]
+    fn classic_frame_is_16_bytes() {
+        assert_eq!(core::mem::size_of::<Frame>(), 16);
+    }
 
     #[test]
     fn payload_beyond_dlc_is_zero_so_equal_frames_hash_equal() {

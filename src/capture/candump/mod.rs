@@ -1,9 +1,29 @@
 //! can-utils candump log format: `(SECONDS.MICROS) IFACE ID#DATA`.
 //!
 //! `ID` is 3 hex digits for standard and 8 for extended identifiers; `#R` (optionally followed
-//! by the DLC digit) marks a remote frame; `##F` starts a CAN FD payload with flags nibble `F`;
-//! an 8-digit identifier with the error flag (0x20000000) is an error frame. What `candump -l`
-//! writes and `canplayer` reads.
+//! by the DLC digit) marks a remote frame; an 8-digit identifier with the error flag
+//! (0x20000000) is an error frame. What `candump -l` writes and `canplayer` reads.
+//!
+//! A CAN FD frame is `ID##F` then its data: `F` is one hex digit holding the `canfd_frame`
+//! flags (BRS 1, ESI 2), the data 0–64 bytes of a CAN FD length. The layout is the one
+//! can-utils' `lib.c` reads (`parse_canframe`: a second `#` after the identifier, one flags
+//! nibble, then hex bytes with optional dots) and writes (`sprint_canframe`, the flags as one
+//! upper-case digit). Newer can-utils may set `CANFD_FDF` (4) in the digit; it is accepted and
+//! dropped (`##` already says FD), and duocan writes BRS and ESI only. A digit with bit 8, a
+//! remote frame or a length between the FD steps is an error.
+//!
+//! ```
+//! use duocan::capture::candump::{format_fd_frame, parse_line};
+//! use duocan::{FdFrame, Id};
+//!
+//! let f = FdFrame::new(Id::Standard(0x123), &[0x11; 12])?.with_brs(true);
+//! let line = format_fd_frame(1_000_000, "can0", &f);
+//! assert_eq!(line, "(1.000000) can0 123##1111111111111111111111111");
+//! assert_eq!(parse_line(&line)?.record.fd_frame(), Some(&f));
+//! let e = parse_line("(1.0) can0 123##1112233445566778899").unwrap_err();
+//! assert!(e.to_string().contains("9 data bytes"));
+//! # Ok::<(), Box<dyn std::error::Error>>(())
+//! ```
 //!
 //! Reading is strict: every token is checked whole (no signs, no stray characters, identifier,
 //! DLC and data in range), nothing but a direction (`R`/`T`) may follow the frame, and a line
@@ -26,7 +46,7 @@ pub use parse::MAX_INTERFACE;
 pub use reader::{read_log, CandumpReader, MAX_LINE};
 
 use super::Record;
-use crate::frame::{Frame, Id};
+use crate::frame::{FdFrame, Frame, Id};
 use std::fmt::{self, Write as _};
 use std::io::{self, Write};
 
@@ -66,9 +86,9 @@ impl fmt::Display for ParseError {
 
 impl std::error::Error for ParseError {}
 
-/// Formats a frame as a log line (without newline).
-pub fn format_frame(timestamp_us: u64, interface: &str, frame: &Frame) -> String {
-    let mut s = String::with_capacity(48);
+/// A line's `(SECONDS.MICROS) IFACE ` in a string with room for `body` more bytes.
+fn line_start(timestamp_us: u64, interface: &str, body: usize) -> String {
+    let mut s = String::with_capacity(32 + interface.len() + body);
     let _ = write!(
         s,
         "({}.{:06}) {} ",
@@ -76,6 +96,12 @@ pub fn format_frame(timestamp_us: u64, interface: &str, frame: &Frame) -> String
         timestamp_us % 1_000_000,
         interface
     );
+    s
+}
+
+/// Formats a frame as a log line (without newline).
+pub fn format_frame(timestamp_us: u64, interface: &str, frame: &Frame) -> String {
+    let mut s = line_start(timestamp_us, interface, 26);
     match frame.id() {
         Id::Standard(r) => {
             let _ = write!(s, "{r:03X}#");
@@ -93,6 +119,24 @@ pub fn format_frame(timestamp_us: u64, interface: &str, frame: &Frame) -> String
         for b in frame.data() {
             let _ = write!(s, "{b:02X}");
         }
+    }
+    s
+}
+
+/// Formats a CAN FD frame as a log line (without newline): `ID##F` with the flags digit
+/// (BRS 1, ESI 2), then the data.
+pub fn format_fd_frame(timestamp_us: u64, interface: &str, frame: &FdFrame) -> String {
+    let mut s = line_start(timestamp_us, interface, 11 + 2 * frame.len());
+    match frame.id() {
+        Id::Standard(r) => {
+            let _ = write!(s, "{r:03X}##{:X}", frame.flags());
+        }
+        Id::Extended(r) => {
+            let _ = write!(s, "{r:08X}##{:X}", frame.flags());
+        }
+    }
+    for b in frame.data() {
+        let _ = write!(s, "{b:02X}");
     }
     s
 }
@@ -121,6 +165,19 @@ impl<W: Write> CandumpWriter<W> {
     /// Writes one frame.
     pub fn write(&mut self, timestamp_us: u64, interface: &str, frame: &Frame) -> io::Result<()> {
         writeln!(self.out, "{}", format_frame(timestamp_us, interface, frame))
+    }
+    /// Writes one CAN FD frame.
+    pub fn write_fd(
+        &mut self,
+        timestamp_us: u64,
+        interface: &str,
+        frame: &FdFrame,
+    ) -> io::Result<()> {
+        writeln!(
+            self.out,
+            "{}",
+            format_fd_frame(timestamp_us, interface, frame)
+        )
     }
     /// Flushes the output.
     pub fn flush(&mut self) -> io::Result<()> {

@@ -3,14 +3,12 @@
 
 use super::LogEntry;
 use crate::capture::Record;
-use crate::frame::{Frame, Id, STANDARD_ID_MAX};
+use crate::frame::fd::{FdFrameError, BRS, ESI, FD_MAX_LEN};
+use crate::frame::{FdFrame, Frame, Id, STANDARD_ID_MAX};
 use crate::port::error_frame::{CAN_ERR_FLAG, CAN_ERR_MASK};
 
 /// Longest interface name accepted (Linux allows 15 characters; recorders name buses freely).
 pub const MAX_INTERFACE: usize = 32;
-
-/// The payload lengths a CAN FD frame can have.
-const FD_LENGTHS: [usize; 16] = [0, 1, 2, 3, 4, 5, 6, 7, 8, 12, 16, 20, 24, 32, 48, 64];
 
 /// A token as it appears in a message: quoted and cut short.
 fn shown(t: &str) -> String {
@@ -183,20 +181,7 @@ fn hex_bytes(s: &str, max: usize) -> Result<Vec<u8>, String> {
 
 fn classic_or_fd(id: Id, rest: &str) -> Result<Record, String> {
     if let Some(fd) = rest.strip_prefix('#') {
-        let mut chars = fd.chars();
-        let flags = chars
-            .next()
-            .and_then(|c| c.to_digit(16))
-            .ok_or_else(|| format!("CAN FD frame {}: no flags digit after '##'", shown(rest)))?
-            as u8;
-        let data = hex_bytes(chars.as_str(), 64)?;
-        if !FD_LENGTHS.contains(&data.len()) {
-            return Err(format!(
-                "CAN FD frame with {} data bytes (a CAN FD frame holds 0–8, 12, 16, 20, 24, 32, 48 or 64)",
-                data.len()
-            ));
-        }
-        return Ok(Record::Fd { id, flags, data });
+        return parse_fd(id, fd).map(|f| Record::Fd(Box::new(f)));
     }
     if let Some(r) = rest.strip_prefix('R').or_else(|| rest.strip_prefix('r')) {
         let dlc = match r.as_bytes() {
@@ -231,4 +216,31 @@ fn classic_or_fd(id: Id, rest: &str) -> Result<Record, String> {
     Frame::new(id, &bytes)
         .map(Record::Frame)
         .map_err(|e| e.to_string())
+}
+
+/// `CANFD_FDF` in the flags nibble: newer can-utils may write it; `##` already says FD.
+const FDF: u8 = 0x04;
+
+/// The part after `ID##`: the flags nibble, then 0–64 data bytes of a CAN FD length.
+fn parse_fd(id: Id, fd: &str) -> Result<FdFrame, String> {
+    let mut chars = fd.chars();
+    let flags = chars
+        .next()
+        .and_then(|c| c.to_digit(16))
+        .ok_or_else(|| format!("CAN FD frame {}: no flags digit after '##'", shown(fd)))?
+        as u8;
+    if flags & !(BRS | ESI | FDF) != 0 {
+        return Err(format!(
+            "CAN FD flags digit {flags:X}: only BRS (1), ESI (2) and FDF (4) are defined"
+        ));
+    }
+    let data = hex_bytes(chars.as_str(), FD_MAX_LEN)?;
+    FdFrame::new(id, &data)
+        .map(|f| f.with_flags(flags))
+        .map_err(|e| match e {
+            FdFrameError::NotFdLength { len } => format!(
+                "CAN FD frame with {len} data bytes (a CAN FD frame holds 0–8, 12, 16, 20, 24, 32, 48 or 64)"
+            ),
+            e => e.to_string(),
+        })
 }

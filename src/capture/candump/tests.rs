@@ -44,11 +44,18 @@ fn parses_can_utils_variants() {
     let fd = parse_line("(1.000001) can0 123##1112233").unwrap();
     assert_eq!(
         fd.record,
-        Record::Fd {
-            id: Id::Standard(0x123),
-            flags: 1,
-            data: vec![0x11, 0x22, 0x33]
-        }
+        Record::Fd(Box::new(
+            FdFrame::new(Id::Standard(0x123), &[0x11, 0x22, 0x33])
+                .unwrap()
+                .with_brs(true)
+        ))
+    );
+    // FDF (4), as newer can-utils may write it, restates `##` and is dropped; ESI is kept.
+    let fdf = parse_line("(1.000001) 0 12345678##600").unwrap();
+    let f = fdf.record.fd_frame().unwrap();
+    assert_eq!(
+        (f.id(), f.flags(), f.data()),
+        (Id::Extended(0x1234_5678), 2, &[0][..])
     );
     let dlc = parse_line("(1.000001) can0 123#1122334455667788_E").unwrap();
     assert_eq!(dlc.record.frame().unwrap().dlc(), 8);
@@ -128,6 +135,18 @@ fn signs_and_stray_characters_are_refused_in_every_token() {
         ("(1.0) can0 123#1122334455667788_EE", "one digit 9–F"),
         ("(1.0) can0 123##", "no flags digit"),
         ("(1.0) can0 123##1112233445566778899", "9 data bytes"),
+        ("(1.0) can0 123##F", "only BRS (1), ESI (2) and FDF (4)"),
+        ("(1.0) can0 123##G00", "no flags digit"),
+        ("(1.0) can0 123##1R0", "not hexadecimal"),
+        ("(1.0) can0 123##1112", "pairs"),
+        (
+            format!("(1.0) can0 123##1{}", "00".repeat(65)).as_str(),
+            "more than 64 bytes",
+        ),
+        (
+            format!("(1.0) can0 123##0{}", "00".repeat(33)).as_str(),
+            "33 data bytes",
+        ),
         ("(1.0) can0 FFFFFFFF#", "bits above the error flag"),
         (
             "(1.0) can0 80000123#11",
@@ -159,7 +178,7 @@ fn signs_and_stray_characters_are_refused_in_every_token() {
         "(1.0) can0 123#R8",
         "(1.0) can0 123#r",
         "(1.0) can0 123#1122334455667788_9",
-        "(1.0) can0 123##F",
+        "(1.0) can0 123##7",
         "(1.0) can0 123##0112233445566778899AABBCC",
         "(1.0) can0 1FFFFFFF#",
         "(1.0) can0 3FFFFFFF#0000000000000000",
@@ -249,6 +268,24 @@ proptest! {
         prop_assert_eq!(e.timestamp_us, ts);
         prop_assert_eq!(e.interface, "vcan1");
         prop_assert_eq!(e.record, Record::Frame(f));
+    }
+
+    #[test]
+    fn fd_round_trip(f in crate::frame::arbitrary::any_fd_frame(), ts in 0u64..4_000_000_000_000_000) {
+        let line = format_fd_frame(ts, "can0", &f);
+        prop_assert!(line.len() < MAX_LINE);
+        let e = parse_line(&line).unwrap();
+        prop_assert_eq!(e.timestamp_us, ts);
+        prop_assert_eq!(e.record, Record::Fd(Box::new(f)));
+        // Through the writer and the reader, between classic lines.
+        let c = Frame::from_array(Id::Standard(0x701), [5]);
+        let mut w = CandumpWriter::new(Vec::new());
+        w.write(ts, "can0", &c).unwrap();
+        w.write_fd(ts, "can1", &f).unwrap();
+        w.write(ts, "can0", &c).unwrap();
+        let text = w.into_inner();
+        let back: Vec<_> = read_log("fd.log", &text[..]).map(|e| e.unwrap().record).collect();
+        prop_assert_eq!(back, vec![Record::Frame(c), Record::Fd(Box::new(f)), Record::Frame(c)]);
     }
 
     #[test]

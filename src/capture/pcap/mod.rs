@@ -3,9 +3,22 @@
 //! Each packet is a SocketCAN frame header — identifier word big-endian with the EFF (bit 31),
 //! RTR (bit 30) and ERR (bit 29) flags, one length byte, three reserved bytes — followed by the
 //! payload. Timestamps have microsecond resolution.
+//!
+//! CAN FD records are Linux's `struct canfd_frame` (`include/uapi/linux/can.h`): the same
+//! identifier word, the length byte (0–64), then a flags byte with `CANFD_BRS` 0x01,
+//! `CANFD_ESI` 0x02 and, since Linux 6.x and in libpcap's captures, `CANFD_FDF` 0x04, which
+//! marks an FD frame; two reserved bytes and up to 64 data bytes. Wireshark's SocketCAN
+//! dissector tells FD from classic by `CANFD_FDF` (a classic `can_frame` has a padding byte,
+//! always zero, where the flags are); older captures lack the flag and have the whole 72-byte
+//! `canfd_frame` (CANFD_MTU) as packet. The reader takes a record as FD when `CANFD_FDF`, BRS or
+//! ESI is set, the packet is 72 bytes, or the length is above 8; the writer sets `CANFD_FDF`
+//! and writes the whole 72 bytes, so readers of either kind see FD. An FD record with the RTR
+//! flag, an undefined flag bit or a length between the FD steps is an error naming the record
+//! and its byte offset.
 
 use super::Record;
-use crate::frame::{Frame, Id};
+use crate::frame::fd::{BRS, ESI};
+use crate::frame::{FdFrame, Frame, Id};
 use crate::port::error_frame::{CAN_EFF_FLAG, CAN_ERR_FLAG, CAN_ERR_MASK, CAN_RTR_FLAG};
 use std::fmt;
 use std::io::{self, Read, Write};
@@ -18,6 +31,26 @@ const MAGIC_US: u32 = 0xA1B2_C3D4;
 const MAGIC_NS: u32 = 0xA1B2_3C4D;
 /// Largest packet the reader accepts (anything bigger is a corrupt length field).
 pub const MAX_PACKET: u32 = 4096;
+
+/// `CANFD_FDF`: the flags byte's mark of a CAN FD frame.
+pub const CANFD_FDF: u8 = 0x04;
+/// Size of Linux's `struct canfd_frame`: a whole FD record.
+pub const CANFD_MTU: usize = 72;
+
+/// A CAN FD frame as a whole `canfd_frame`: identifier word big-endian, length, flags with
+/// `CANFD_FDF` set, two reserved bytes, 64 data bytes (zero beyond the length).
+pub fn encode_fd_frame(frame: &FdFrame) -> [u8; CANFD_MTU] {
+    let word = match frame.id() {
+        Id::Standard(r) => r as u32,
+        Id::Extended(r) => r | CAN_EFF_FLAG,
+    };
+    let mut b = [0u8; CANFD_MTU];
+    b[..4].copy_from_slice(&word.to_be_bytes());
+    b[4] = frame.len() as u8;
+    b[5] = frame.flags() | CANFD_FDF;
+    b[8..8 + frame.len()].copy_from_slice(frame.data());
+    b
+}
 
 /// The 8-byte SocketCAN header plus payload of one frame.
 pub fn encode_frame(frame: &Frame) -> ([u8; 16], usize) {
@@ -79,7 +112,14 @@ pub fn decode_packet(p: &[u8]) -> Result<Record, PcapError> {
                 ))
             })?
     };
+    // A classic `can_frame` has zero padding where an FD record has its flags.
+    let fd = fd_flags & (CANFD_FDF | BRS | ESI) != 0 || p.len() == CANFD_MTU;
     if word & CAN_RTR_FLAG != 0 {
+        if fd {
+            return Err(bad(format!(
+                "remote frame (RTR flag) in a CAN FD record (flags {fd_flags:#04X}): CAN FD has no remote frames"
+            )));
+        }
         return u8::try_from(len)
             .ok()
             .and_then(|dlc| Frame::remote(id, dlc).ok())
@@ -95,12 +135,19 @@ pub fn decode_packet(p: &[u8]) -> Result<Record, PcapError> {
     if len > 64 {
         return Err(bad(format!("length field {len} above 64")));
     }
-    if len > 8 || fd_flags & 0x04 != 0 {
-        return Ok(Record::Fd {
-            id,
-            flags: fd_flags & 0x03,
-            data: payload[..len].to_vec(),
-        });
+    if fd || len > 8 {
+        if fd_flags & !(CANFD_FDF | BRS | ESI) != 0 {
+            return Err(bad(format!(
+                "CAN FD flags {fd_flags:#04X}: only BRS (0x01), ESI (0x02) and FDF (0x04) are defined"
+            )));
+        }
+        return FdFrame::new(id, &payload[..len])
+            .map(|f| Record::Fd(Box::new(f.with_flags(fd_flags))))
+            .map_err(|_| {
+                bad(format!(
+                    "CAN FD length field {len}: a CAN FD frame holds 0–8, 12, 16, 20, 24, 32, 48 or 64 bytes"
+                ))
+            });
     }
     Frame::new(id, &payload[..len])
         .map(Record::Frame)
@@ -229,6 +276,17 @@ impl<W: Write> PcapWriter<W> {
         rec[12..16].copy_from_slice(&(n as u32).to_le_bytes());
         rec[16..16 + n].copy_from_slice(&b[..n]);
         self.out.write_all(&rec[..16 + n])
+    }
+    /// Writes one CAN FD frame at `timestamp_us`, as a whole 72-byte `canfd_frame`.
+    pub fn write_fd(&mut self, timestamp_us: u64, frame: &FdFrame) -> io::Result<()> {
+        let mut rec = [0u8; 16 + CANFD_MTU];
+        let secs = u32::try_from(timestamp_us / 1_000_000).unwrap_or(u32::MAX);
+        rec[0..4].copy_from_slice(&secs.to_le_bytes());
+        rec[4..8].copy_from_slice(&((timestamp_us % 1_000_000) as u32).to_le_bytes());
+        rec[8..12].copy_from_slice(&(CANFD_MTU as u32).to_le_bytes());
+        rec[12..16].copy_from_slice(&(CANFD_MTU as u32).to_le_bytes());
+        rec[16..].copy_from_slice(&encode_fd_frame(frame));
+        self.out.write_all(&rec)
     }
     /// Flushes the output.
     pub fn flush(&mut self) -> io::Result<()> {

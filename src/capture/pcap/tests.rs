@@ -67,6 +67,24 @@ fn with_word(mut b: Vec<u8>, at: usize, word: u32) -> Vec<u8> {
     b
 }
 
+/// The error of the second of `items`, checked to be a bad packet, record 2 at byte 49 (after
+/// a 24-byte file header and a 25-byte first record).
+fn second_is_bad_at_49(items: &[Result<Packet, PcapError>]) -> &PcapError {
+    let e = items[1].as_ref().unwrap_err();
+    assert!(
+        matches!(
+            e,
+            PcapError::BadPacket {
+                record: 2,
+                offset: 49,
+                ..
+            }
+        ),
+        "{e:?}"
+    );
+    e
+}
+
 #[test]
 fn standard_identifier_above_0x7ff_is_an_error_not_masked() {
     let frames = [
@@ -82,18 +100,7 @@ fn standard_identifier_above_0x7ff_is_an_error_not_masked() {
         items[0].as_ref().unwrap().record,
         Record::Frame(frames[0].1)
     );
-    let e = items[1].as_ref().unwrap_err();
-    assert!(
-        matches!(
-            e,
-            PcapError::BadPacket {
-                record: 2,
-                offset: 49,
-                ..
-            }
-        ),
-        "{e:?}"
-    );
+    let e = second_is_bad_at_49(&items);
     assert_eq!(
         e.to_string(),
         "pcap record 2 (byte 49): bad SocketCAN packet: identifier 0x981 above 0x7FF without the extended flag"
@@ -168,6 +175,101 @@ fn bad_lengths_and_timestamps_are_errors_with_the_record() {
     );
 }
 
+/// An FD frame of 12 bytes (0x11…), BRS set.
+fn fd12() -> FdFrame {
+    FdFrame::new(Id::Standard(0x185), &[0x11; 12])
+        .unwrap()
+        .with_brs(true)
+}
+
+#[test]
+fn fd_record_layout_is_a_whole_canfd_frame_with_fdf() {
+    let mut w = PcapWriter::new(Vec::new()).unwrap();
+    w.write_fd(1_000_002, &fd12()).unwrap();
+    let b = w.into_inner();
+    assert_eq!(b.len(), 24 + 16 + 72);
+    assert_eq!(u32::from_le_bytes(b[32..36].try_into().unwrap()), 72);
+    // Word 0x185, length 12, flags BRS | FDF, two reserved bytes, the data, zeros after it.
+    assert_eq!(&b[40..48], &[0, 0, 0x01, 0x85, 12, 0x05, 0, 0]);
+    assert_eq!(&b[48..60], &[0x11; 12]);
+    assert!(b[60..].iter().all(|&x| x == 0));
+    let p = PcapReader::new(&b[..]).unwrap().next().unwrap().unwrap();
+    assert_eq!(
+        (p.timestamp_us, p.record),
+        (1_000_002, Record::Fd(Box::new(fd12())))
+    );
+}
+
+#[test]
+fn fd_is_told_from_classic_by_fdf_flags_length_or_size() {
+    let classic = encode_frame(&Frame::from_array(Id::Standard(0x185), [1, 2]));
+    let classic = &classic.0[..classic.1];
+    assert!(matches!(decode_packet(classic), Ok(Record::Frame(_))));
+    // The same 10 bytes with FDF, or with only BRS (an FD flag), are an FD frame of 2 bytes.
+    for flags in [0x04, 0x01, 0x02] {
+        let mut p = classic.to_vec();
+        p[5] = flags;
+        let f = decode_packet(&p).unwrap();
+        let f = f.fd_frame().unwrap();
+        assert_eq!((f.data(), f.flags()), (&[1, 2][..], flags & 0x03));
+    }
+    // A whole 72-byte canfd_frame without FDF (kernels before 6.x) is FD.
+    let mut old = encode_fd_frame(&fd12());
+    old[5] = 0;
+    assert_eq!(
+        decode_packet(&old).unwrap(),
+        Record::Fd(Box::new(fd12().with_brs(false)))
+    );
+    // Above 8 bytes it can only be FD.
+    let mut long = old;
+    long[4] = 64;
+    assert_eq!(
+        decode_packet(&long[..72])
+            .unwrap()
+            .fd_frame()
+            .map(|f| f.len()),
+        Some(64)
+    );
+}
+
+#[test]
+fn malformed_fd_records_are_errors_naming_record_and_offset() {
+    let mut w = PcapWriter::new(Vec::new()).unwrap();
+    w.write(1, &Frame::from_array(Id::Standard(0x181), [1]))
+        .unwrap();
+    w.write_fd(2, &fd12()).unwrap();
+    w.write_fd(3, &fd12()).unwrap();
+    let good = w.into_inner();
+    // The FD records start at 24 + 25 = 49 and 49 + 88 = 137; their word 16 bytes later.
+    let cases: [(usize, u8, &str); 4] = [
+        (16 + 4, 13, "CAN FD length field 13: a CAN FD frame holds"),
+        (16 + 5, 0x0D, "CAN FD flags 0x0D: only BRS"),
+        (16, 0x40, "remote frame (RTR flag) in a CAN FD record"),
+        (
+            16 + 4,
+            65,
+            "length field 65 beyond the packet's 64 data bytes",
+        ),
+    ];
+    for (at, value, what) in cases {
+        let mut b = good.clone();
+        b[49 + at] = value;
+        let items: Vec<_> = PcapReader::new(&b[..]).unwrap().collect();
+        assert_eq!(items.len(), 3);
+        let e = second_is_bad_at_49(&items);
+        let text = e.to_string();
+        assert!(
+            text.starts_with("pcap record 2 (byte 49): bad SocketCAN packet: "),
+            "{text}"
+        );
+        assert!(text.contains(what), "{text:?} does not say {what:?}");
+        assert_eq!(
+            items[2].as_ref().unwrap().record,
+            Record::Fd(Box::new(fd12()))
+        );
+    }
+}
+
 /// An input that fails every read: the reader reports it once and stops.
 struct Failing;
 impl Read for Failing {
@@ -193,6 +295,36 @@ proptest! {
         for (p, (t, f)) in back.iter().zip(&frames) {
             prop_assert_eq!(p.timestamp_us, *t);
             prop_assert_eq!(&p.record, &Record::Frame(*f));
+        }
+    }
+
+    #[test]
+    fn fd_and_classic_round_trip(
+        frames in proptest::collection::vec(
+            (
+                0u64..4_000_000_000_000_000,
+                prop_oneof![
+                    crate::frame::arbitrary::any_frame().prop_map(Record::Frame),
+                    crate::frame::arbitrary::any_fd_frame().prop_map(|f| Record::Fd(Box::new(f))),
+                ],
+            ),
+            0..20,
+        )
+    ) {
+        let mut w = PcapWriter::new(Vec::new()).unwrap();
+        for (t, r) in &frames {
+            match r {
+                Record::Frame(f) => w.write(*t, f).unwrap(),
+                Record::Fd(f) => w.write_fd(*t, f).unwrap(),
+                Record::Error { .. } => unreachable!(),
+            }
+        }
+        let b = w.into_inner();
+        let back: Vec<_> = PcapReader::new(&b[..]).unwrap().map(|p| p.unwrap()).collect();
+        prop_assert_eq!(back.len(), frames.len());
+        for (p, (t, r)) in back.iter().zip(&frames) {
+            prop_assert_eq!(p.timestamp_us, *t);
+            prop_assert_eq!(&p.record, r);
         }
     }
 

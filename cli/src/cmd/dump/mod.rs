@@ -195,7 +195,8 @@ impl Dump {
                 };
                 return self.out.write(&line);
             }
-            Record::Fd { id, data, .. } if self.filter.is_open() => {
+            Record::Fd(f) if self.filter.is_open() => {
+                let (id, data) = (f.id(), f.data());
                 let text = format!("CAN FD frame of {} bytes (not decoded)", data.len());
                 let line = match self.out.json {
                     true => {
@@ -203,7 +204,7 @@ impl Dump {
                         "kind": "fd_frame", "id": id.raw(), "data": json::hex(data), "text": text})
                         .to_string()
                     }
-                    false => format!("{time}  {interface:<5}  {:<8}  {text}", json::id_text(*id)),
+                    false => format!("{time}  {interface:<5}  {:<8}  {text}", json::id_text(id)),
                 };
                 return self.out.write(&line);
             }
