@@ -58,10 +58,17 @@ pub type SlaveDev = Clocked<SlaveStation>;
 /// `offset` µs at `since` and grows by `ppm` parts per million of the time since (a crystal off
 /// its rate, a virtual machine whose clock is throttled). The device and the oracle hold
 /// copies of it, changed together.
+///
+/// Before `since` it ran at `before` ppm: a frame received then and handed over after a rate
+/// change (a port running behind) keeps the stamp the clock gave it when it arrived, not one
+/// the new rate would have given (seed 8115: a master's clock went 10 % slow while its port ran
+/// 67 ms behind; read at the new rate, its late copies' stamps moved 4.9 ms and missed their
+/// twins). One segment back is enough: rate changes come seconds apart, lags under 0.1 s.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub struct DeviceClock {
     offset: i64,
     ppm: i32,
+    before: i32,
     since: Instant,
 }
 
@@ -75,13 +82,15 @@ impl DeviceClock {
     }
     fn offset_at(&self, t: Instant) -> i64 {
         let run = t.as_micros() as i128 - self.since.as_micros() as i128;
-        (self.offset as i128 + run * self.ppm as i128 / 1_000_000) as i64
+        let ppm = if run < 0 { self.before } else { self.ppm };
+        (self.offset as i128 + run * ppm as i128 / 1_000_000) as i64
     }
     /// Its reading at simulated time `t`.
     pub fn read(&self, t: Instant) -> Instant {
         Instant::from_micros(t.as_micros().saturating_add_signed(self.offset_at(t)))
     }
-    /// The simulated time at which it reads `l` (0 if before the simulation began).
+    /// The simulated time at which it reads `l` (0 if before the simulation began), at its
+    /// current rate (asked for now and for deadlines, never for the past).
     pub fn back(&self, l: Instant) -> Instant {
         // l = t + offset + (t − since)·ppm/10⁶, so t − since = (l − offset − since)·10⁶/(10⁶ + ppm).
         let since = self.since.as_micros() as i128;
@@ -93,12 +102,14 @@ impl DeviceClock {
     pub fn shift(&mut self, now: Instant, by: i64) {
         self.offset = self.offset_at(now) + by;
         self.since = now;
+        self.before = self.ppm;
     }
     /// Running `ppm` parts per million fast (negative: slow) from `now` on; zero: at the right
     /// rate again, keeping what it gained or lost.
     pub fn run_at(&mut self, now: Instant, ppm: i32) {
         self.offset = self.offset_at(now);
         self.since = now;
+        self.before = self.ppm;
         self.ppm = ppm;
     }
 }
@@ -113,6 +124,11 @@ fn a_device_clock_reads_back_the_instant_it_read_and_runs_at_its_rate() {
     c.shift(t(12), -500_000);
     c.run_at(t(13), 0);
     assert_eq!(c.read(t(14)), Instant::from_millis(22_400));
+    // A moment before the last change reads as the clock read it then (10 % slow).
+    assert_eq!(
+        c.read(Instant::from_millis(12_900)),
+        Instant::from_millis(21_310)
+    );
     for ppm in [-100_000, -100, 0, 100, 50_000] {
         let mut c = DeviceClock::ahead(Duration::from_secs(3));
         c.run_at(t(1), ppm);
