@@ -1,6 +1,6 @@
 //! The application's side of a running runtime.
 
-use super::task::{Command, Start, Watcher};
+use super::task::{Command, Direct, Start, Watcher};
 use super::{Clock, RuntimeEvent};
 use crate::cia301::sdo::SdoError;
 use crate::frame::instant::Instant;
@@ -91,7 +91,8 @@ impl From<QueueFull> for RuntimeError {
 /// A cloneable handle to a running device. The runtime runs while any handle exists: dropping
 /// the last one stops it, as does [`Handle::shutdown`].
 pub struct Handle<D: crate::Device> {
-    commands: mpsc::UnboundedSender<Command<D>>,
+    commands: mpsc::UnboundedSender<Command>,
+    direct: Arc<dyn Direct<D>>,
     events: broadcast::Sender<RuntimeEvent<D::Event>>,
     clock: Clock,
     names: Arc<[String]>,
@@ -103,6 +104,7 @@ impl<D: crate::Device> Clone for Handle<D> {
     fn clone(&self) -> Self {
         Handle {
             commands: self.commands.clone(),
+            direct: self.direct.clone(),
             events: self.events.clone(),
             clock: self.clock,
             names: self.names.clone(),
@@ -118,7 +120,8 @@ where
     D::Event: Clone + Send + 'static,
 {
     pub(crate) fn new(
-        commands: mpsc::UnboundedSender<Command<D>>,
+        commands: mpsc::UnboundedSender<Command>,
+        direct: Arc<dyn Direct<D>>,
         events: broadcast::Sender<RuntimeEvent<D::Event>>,
         clock: Clock,
         names: Vec<String>,
@@ -127,6 +130,7 @@ where
     ) -> Self {
         Handle {
             commands,
+            direct,
             events,
             clock,
             names: names.into(),
@@ -135,22 +139,26 @@ where
         }
     }
 
-    /// Runs `f` on the device inside the runtime, with the current time, and returns its result.
-    /// Whatever the device queues (frames, events) is flushed right after. For a fallible `f`,
+    /// Runs `f` on the device, with the current time, and returns its result. It runs in the
+    /// caller's task, under the runtime's lock (no trip through the runtime's own task); whatever
+    /// the device queues (frames, events) is flushed right after, and the ports' tasks write it. For a fallible `f`,
     /// [`Handle::try_call`] returns one flat error instead of a result inside a result.
     pub async fn call<R, F>(&self, f: F) -> Result<R, RuntimeClosed>
     where
         F: FnOnce(&mut D, Instant) -> R + Send + 'static,
         R: Send + 'static,
     {
-        let (tx, rx) = oneshot::channel();
-        let call = Box::new(move |d: &mut D, now: Instant| {
-            let _ = tx.send(f(d, now));
+        let mut f = Some(f);
+        let mut out = None;
+        let ran = self.direct.call(&mut |d: &mut D, now: Instant| {
+            if let Some(f) = f.take() {
+                out = Some(f(d, now));
+            }
         });
-        self.commands
-            .send(Command::Call(call))
-            .map_err(|_| RuntimeClosed)?;
-        rx.await.map_err(|_| RuntimeClosed)
+        match out {
+            Some(r) if ran => Ok(r),
+            _ => Err(RuntimeClosed),
+        }
     }
 
     /// [`Handle::call`] for a fallible `f`: its error and a stopped runtime come back as one
@@ -204,9 +212,9 @@ where
             });
             Some(w)
         });
-        self.commands
-            .send(Command::Watch(start))
-            .map_err(|_| RuntimeClosed)?;
+        if !self.direct.watch(start) {
+            return Err(RuntimeClosed.into());
+        }
         rx.await.map_err(|_| RuntimeClosed)?
     }
 

@@ -5,8 +5,9 @@
 //!   port task 1 ───────────────────────┐  │      │
 //!                                      ▼  ▼      │
 //!                          the Device, behind a lock ─┘
-//!                                      ▲
-//!   Handle ──(closures)──> core task ──┘  waits on: commands, the device's next deadline
+//!                                ▲     ▲
+//!   Handle (closures, run in ────┘     └── core task: the device's next deadline, shutdown
+//!   the caller's own task)
 //! ```
 //!
 //! Each port runs in its own task. What a port reads its task hands to the device at once, and
@@ -16,9 +17,10 @@
 //! drops and counts, it never stalls the device), so a slow or failed port never holds up the
 //! other; a failed port reports [`PortStatus::Down`](crate::PortStatus), is re-opened with
 //! backoff ([`BACKOFF_MIN`] doubling up to [`BACKOFF_MAX`]), and reports `Up` when it works
-//! again. The core task runs the commands of
-//! [`Handle`]s and sleeps until the device's [`poll_timeout`](Device::poll_timeout): there is
-//! no fixed tick, and a deadline that fell before a frame was read is handled before that
+//! again. A [`Handle`] runs its closures on the device itself, in the
+//! caller's task under the same lock (a request starts without waiting for another task to be
+//! scheduled), and the core task sleeps until the device's
+//! [`poll_timeout`](Device::poll_timeout): there is no fixed tick, and a deadline that fell before a frame was read is handled before that
 //! frame, at its own instant. Nothing on the way of a frame allocates. A task waiting for what
 //! a frame completes (a transfer's outcome) is woken once the runtime's locks are given back,
 //! so that its next call does not find them still held by the thread that woke it.
@@ -37,7 +39,7 @@
 //! keep the time they arrived; a tap records received frames at that time too.
 
 //! Everything the application does goes through the [`Handle`] as a closure run on the device
-//! inside the core task ([`Handle::call`]), with typed helpers for nodes ([`NodeHost`]) and a
+//! under the runtime's lock ([`Handle::call`]), with typed helpers for nodes ([`NodeHost`]) and a
 //! request/response helper ([`Handle::request`]) that starts an operation and awaits the event
 //! that completes it — the shape asynchronous SDO transfers take.
 //!
@@ -304,8 +306,11 @@ where
             });
         }
         let span = tracing::info_span!("net", net = %self.name);
+        let direct: Arc<dyn task::Direct<D>> = shared.clone();
         let task = tokio::spawn(task::run(shared, cmd_rx).instrument(span));
-        Ok(Handle::new(cmd_tx, ev_tx, clock, names, counters, task))
+        Ok(Handle::new(
+            cmd_tx, direct, ev_tx, clock, names, counters, task,
+        ))
     }
 }
 

@@ -1,8 +1,9 @@
 //! Asynchronous SDO transfers through a [`Handle`]: `handle.sdo_read(node, …).await`.
 //!
-//! The device holds an [`SdoClient`] (usually `Composite::new(node, client)` in a station). A read or
-//! write starts the transfer inside the core task and waits for the client's [`SdoEvent`] that
-//! names its [`RequestId`] (through [`Handle::request`], so the result cannot be missed); many
+//! The device holds an [`SdoClient`] (usually `Composite::new(node, client)` in a station). A
+//! read or write starts the transfer on the device (under the runtime's lock) and waits for the
+//! client's [`SdoEvent`] that names its [`RequestId`] (through [`Handle::request`], so the
+//! result cannot be missed); many
 //! transfers can be in flight at once, to different nodes. A refusal to start, a failed
 //! transfer and a stopped runtime come back as one error (the host's [`SdoHost::Error`],
 //! [`RuntimeError`] for a plain client), so each call ends in `?`.

@@ -4,9 +4,10 @@
 //! A port task that reads a frame hands it to the device itself, under the state's lock, and
 //! writes what the device answers on its own port right after: a frame in, its answer out, with
 //! no task hand-off between. Frames for another port are queued for that port's task (bounded:
-//! a full queue drops and counts), which is woken. The core task waits for commands from
-//! handles and for the device's next deadline, and runs them under the same lock; port tasks
-//! wake it only when the device's deadline moved earlier than the one it waits for.
+//! a full queue drops and counts), which is woken. Handles run their closures under the same
+//! lock in their callers' tasks ([`Direct`]). The core task waits for the device's next
+//! deadline (and a shutdown) and runs its timeouts under the lock; port tasks and handles wake
+//! it only when the device's deadline moved earlier than the one it waits for.
 
 use super::defer::Unlocked;
 use super::{Clock, RuntimeEvent, PORT_TX_QUEUE};
@@ -18,19 +19,29 @@ use std::collections::VecDeque;
 use std::sync::{Arc, Mutex};
 use tokio::sync::{broadcast, mpsc, Notify};
 
-/// A closure run on the device inside the core task.
-pub(crate) type Call<D> = Box<dyn FnOnce(&mut D, crate::Instant) + Send>;
-
 /// Sees every event of the device until it returns true (it got what it waited for).
 pub(crate) type Watcher<E> = Box<dyn FnMut(&E) -> bool + Send>;
 
 /// Starts something and returns the watcher that completes it, if it started.
 pub(crate) type Start<D, E> = Box<dyn FnOnce(&mut D, crate::Instant) -> Option<Watcher<E>> + Send>;
 
-pub(crate) enum Command<D: Device> {
-    Call(Call<D>),
-    Watch(Start<D, D::Event>),
+/// What a handle sends the core task: the runtime is to stop. (Closures do not travel: a handle
+/// runs them on the device itself, see [`Direct`].)
+pub(crate) enum Command {
     Shutdown,
+}
+
+/// How a handle runs its closures: on the device, under the state's lock, in the caller's own
+/// task. A trip through the core task would cost a task hand-off per call (the request's start
+/// waiting for the core task to be scheduled); the lock is what the core task would take anyway,
+/// and the frames the closure queues wake their ports' tasks as they would from it.
+pub(crate) trait Direct<D: Device>: Send + Sync {
+    /// Runs `f` with the current time; false (and `f` not run) when the runtime has stopped.
+    /// Borrowed, not boxed: a call allocates nothing.
+    fn call(&self, f: &mut dyn FnMut(&mut D, crate::Instant)) -> bool;
+    /// Runs `start` with the current time and keeps the watcher it returns; false when the
+    /// runtime has stopped.
+    fn watch(&self, start: Start<D, D::Event>) -> bool;
 }
 
 /// What a port task does besides reading: write a frame, re-initialise the port.
@@ -445,6 +456,35 @@ where
     }
 }
 
+impl<D: Device + Send + 'static> Direct<D> for Shared<D>
+where
+    D::Event: Send + std::fmt::Debug,
+{
+    fn call(&self, f: &mut dyn FnMut(&mut D, crate::Instant)) -> bool {
+        self.with(|st| {
+            if st.closed {
+                return false;
+            }
+            let now = st.now();
+            f(&mut *st.device, now);
+            true
+        }) == Some(true)
+    }
+
+    fn watch(&self, start: Start<D, D::Event>) -> bool {
+        self.with(|st| {
+            if st.closed {
+                return false;
+            }
+            let now = st.now();
+            if let Some(w) = start(&mut *st.device, now) {
+                st.watchers.push(w);
+            }
+            true
+        }) == Some(true)
+    }
+}
+
 /// Moves the frames at the head of `q` (up to its first other command) into `into`, as many as
 /// it has room for; true when something is left in `q`.
 fn take_frames(q: &mut VecDeque<PortCmd>, into: &mut Outbox) -> Option<bool> {
@@ -469,10 +509,8 @@ pub(crate) fn move_into(q: &mut VecDeque<PortCmd>, into: &mut Outbox) {
 }
 
 /// The core task: commands from handles and the device's deadlines.
-pub(crate) async fn run<D>(
-    shared: Arc<Shared<D>>,
-    mut commands: mpsc::UnboundedReceiver<Command<D>>,
-) where
+pub(crate) async fn run<D>(shared: Arc<Shared<D>>, mut commands: mpsc::UnboundedReceiver<Command>)
+where
     D: Device + Send + 'static,
     D::Event: Send + std::fmt::Debug,
 {
@@ -499,26 +537,8 @@ pub(crate) async fn run<D>(
             set_for = Some(deadline);
         }
         tokio::select! {
-            cmd = commands.recv() => {
-                let stop = shared.with(|st| match cmd {
-                    Some(Command::Call(f)) => {
-                        let now = st.now();
-                        f(&mut *st.device, now);
-                        false
-                    }
-                    Some(Command::Watch(start)) => {
-                        let now = st.now();
-                        if let Some(w) = start(&mut *st.device, now) {
-                            st.watchers.push(w);
-                        }
-                        false
-                    }
-                    Some(Command::Shutdown) | None => true,
-                });
-                if stop != Some(false) {
-                    break;
-                }
-            }
+            // Only a shutdown comes this way, or the last handle gone.
+            _ = commands.recv() => break,
             () = shared.core.notified() => {}
             () = &mut sleep, if deadline.is_some() => {
                 // Set the timer again next time round, even for the same deadline.

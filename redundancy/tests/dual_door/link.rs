@@ -154,8 +154,10 @@ async fn what_arrives_on_both_buses_is_delivered_once() {
     let net = open_dual(buses[0].port(), buses[1].port(), NetOptions::default()).unwrap();
     let mut events = net.events();
     let node = on_both(6, &buses);
-    // One boot-up and ten heartbeats of node 6, each sent on both buses.
-    let seen = drain(&mut events, 1000).await;
+    // One boot-up (at 0) and ten heartbeats (100 ms apart, the tenth at 1,000 ms) of node 6,
+    // each sent on both buses: waited for until 50 ms after the tenth, not until its very
+    // instant (where the paused clock's timers fire in any order).
+    let seen = drain(&mut events, 1050).await;
     let node6: Vec<&NetEvent> = seen
         .iter()
         .filter(|e| e.node() == Some(NodeId::must(6)))
