@@ -122,6 +122,9 @@ enum Command {
     /// The failover test kit: scenarios of faults and what must happen
     #[command(subcommand)]
     Kit(cmd::kit::Kit),
+    /// A whole station from a file: its redundant networks checked, or run until stopped
+    #[command(subcommand)]
+    Station(cmd::station::Station),
 }
 
 fn main() -> ExitCode {
@@ -154,6 +157,7 @@ fn main() -> ExitCode {
             Command::Gateway(a) => cmd::gateway::run(&g, a).await,
             Command::Kit(k) => cmd::kit::run(&g, k).await,
             Command::Device(d) => cmd::device::run(&g, d).await,
+            Command::Station(s) => cmd::station::run(&g, s).await,
         }
     });
     match r {

@@ -14,3 +14,4 @@ pub mod pdo;
 pub mod record;
 pub mod scan;
 pub mod sdo;
+pub mod station;

@@ -258,18 +258,22 @@ impl RedundantNetworkBuilder {
     ///   [`SIM_PEERS_FAIL`] (a standby master takes over), the active member of every pair
     ///   stops at [`SIM_MEMBER_FAILS`] (the other one takes over), and the simulation ends at
     ///   [`SIM_END`] (the network closes, event streams end);
+    /// - `sim-pairs:quiet`: the same buses, pairs and peers without the faults, running until
+    ///   the network is closed;
     /// - `A,B`: SocketCAN interfaces A (bus 1) and B (bus 2), such as `can0,can1` (feature
     ///   `socketcan`, Linux).
     pub fn open_named(&self, name: &str) -> Result<RedundantNetwork, RedundantError> {
-        if name == "sim-pairs" {
-            return sim_pairs::open(self);
+        match name {
+            "sim-pairs" => return sim_pairs::open(self, false),
+            "sim-pairs:quiet" => return sim_pairs::open(self, true),
+            _ => {}
         }
         if name == "sim" || name.starts_with("sim-") || name.starts_with("sim:") {
             return Err(RedundantError::Port {
                 port: 0,
                 name: name.into(),
                 why: alloc::format!(
-                    "a redundant network on simulated buses is sim-pairs; {}",
+                    "a redundant network on simulated buses is sim-pairs (or sim-pairs:quiet); {}",
                     duocan::net::SIM_NAMES
                 ),
             });

@@ -1,7 +1,9 @@
 //! The simulated network behind `open_named("sim-pairs")`: two in-memory buses, the
 //! declared pairs as simulated duocan boards, the declared peers as simulated redundant masters
 //! with the same settings, and a script of faults, so that a user sees a bus, a master and a
-//! pair failover without hardware. Under tokio's paused clock (tests) the run is deterministic.
+//! pair failover without hardware. `open_named("sim-pairs:quiet")` is the same plant without
+//! the faults, running until the network closes (a station's simulated rack). Under tokio's
+//! paused clock (tests) the run is deterministic.
 
 use super::core::Net;
 use super::RedundantNetwork;
@@ -98,8 +100,12 @@ where
         })
 }
 
-/// Opens `b`'s network on a simulated station (see `open_named`).
-pub(super) fn open(b: &RedundantNetworkBuilder) -> Result<RedundantNetwork, RedundantError> {
+/// Opens `b`'s network on a simulated station (see `open_named`): with the script of faults,
+/// or `quiet` without them until the network closes.
+pub(super) fn open(
+    b: &RedundantNetworkBuilder,
+    quiet: bool,
+) -> Result<RedundantNetwork, RedundantError> {
     let net = b.build_boxed()?;
     let buses = [MemBus::new("sim-bus1"), MemBus::new("sim-bus2")];
     // This master's ports first: a port hears only what is sent after it exists.
@@ -137,6 +143,7 @@ pub(super) fn open(b: &RedundantNetworkBuilder) -> Result<RedundantNetwork, Redu
         later: b.pairs().iter().map(|&(_, b)| b).collect(),
         stop: stop_rx,
         start: tokio::time::Instant::now(),
+        quiet,
     };
     let sim = SimStation {
         stop,
@@ -158,6 +165,8 @@ struct Script {
     later: Vec<u8>,
     stop: watch::Receiver<bool>,
     start: tokio::time::Instant,
+    /// No faults: the plant runs until the network closes.
+    quiet: bool,
 }
 
 impl Script {
@@ -194,6 +203,11 @@ impl Script {
                     self.boards.push((b, h));
                 }
             }
+        }
+        if self.quiet {
+            // Until the network closes, which stops the script.
+            let _ = self.stop.wait_for(|s| *s).await;
+            return false;
         }
         if !self.until(SIM_BUS_FAILS).await {
             return false;

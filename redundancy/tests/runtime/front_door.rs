@@ -447,3 +447,52 @@ async fn the_wait_for_a_busy_client_ends_at_the_calls_timeout() {
     assert_eq!(waited, std::time::Duration::from_millis(3000));
     net.close().await;
 }
+
+/// `sim-pairs:quiet`: the same plant without the faults, running until the network is closed:
+/// past the scripted run's end (twice [`SIM_END`]) the network is still open, nothing failed
+/// over, and the pair's A member is still the active one.
+#[tokio::test(start_paused = true)]
+async fn the_quiet_simulated_station_runs_without_faults_until_closed() {
+    let net = RedundantNetwork::builder()
+        .node_id(1)
+        .heartbeat(ms(20))
+        .master_timeout(ms(50))
+        .pair(0x10, 0x50)
+        .peer_master(2)
+        .open_named("sim-pairs:quiet")
+        .unwrap();
+    let mut events = net.events();
+    let until =
+        tokio::time::Instant::now() + std::time::Duration::from_micros(2 * SIM_END.as_micros());
+    let mut seen = vec![];
+    while let Ok(Some(e)) = tokio::time::timeout_at(until, events.next()).await {
+        seen.push(e);
+    }
+    assert!(
+        tokio::time::Instant::now() >= until,
+        "the stream ended early: {seen:#?}"
+    );
+    let failovers: Vec<String> = seen
+        .iter()
+        .filter(|e| e.is_failover())
+        .map(ToString::to_string)
+        .collect();
+    // The one role change at power-on (the negotiation), no bus, master or pair failover.
+    assert!(
+        failovers.iter().all(|l| l == "this master: active"),
+        "{failovers:#?}"
+    );
+    let active = net.active_members().await.unwrap();
+    assert_eq!(active.len(), 1);
+    assert_eq!(
+        active[0].1,
+        Some(Member::A),
+        "{}",
+        net.status().await.unwrap()
+    );
+    assert_eq!(
+        net.node(0x50).sdo().read::<u32>(0x1018, 2).await.unwrap(),
+        0x50
+    );
+    net.close().await;
+}

@@ -1,0 +1,417 @@
+//! A station file: any number of logical networks, each a redundant master on two buses, read
+//! from TOML and checked whole before anything is opened.
+//!
+//! ```toml
+//! [station]
+//! name = "depot"                   # optional: the file's name without .toml
+//! audit_dir = "/var/lib/duocan/audit"   # optional: the persistent audit trail (relative:
+//!                                  # to this file's folder), one file per network
+//! audit_max_bytes = 1048576        # a file is rotated before it grows past this
+//! audit_keep = 5                   # rotated files kept per network
+//!
+//! [[network]]
+//! name = "rack-1"                  # unique in the station
+//! buses = "can0,can1"              # two interfaces as --bus names them (udp:N too), or
+//!                                  # "sim-pairs" / "sim-pairs:quiet" (simulated buses)
+//! node_id = 1                      # this master
+//! priority = 0                     # flying-master priority (lower wins)
+//! heartbeat_ms = 50                # this master's heartbeat
+//! master_timeout_ms = 150          # a silent master has failed after this long
+//! sync_ms = 10                     # optional: SYNC production
+//! boot_timeout_ms = 2000           # optional: a slave's boot process gives up after this
+//! pairs = [[0x10, 0x50], [0x11, 0x51]]   # A/B node-IDs
+//! pair_heartbeat_ms = 50
+//! pair_timeout_ms = 150
+//! peers = [{ node = 2, priority = 1 }]   # the other masters of the network
+//! on_stop = "stop"                 # NMT to all nodes when the station stops: none (default),
+//!                                  # stop, preop, reset, reset-comm
+//! ```
+//!
+//! Every error names the file, the line and column, and the key, and says what is allowed:
+//! the syntax and the keys by the TOML reader (an unknown key lists the known ones), the
+//! values by the same checks the redundant network's builder makes, placed on the key that
+//! holds the value.
+
+use duocan::nmt::NmtCommand;
+use duocan_redundancy::{RedundantError, RedundantNetwork, RedundantNetworkBuilder, Role};
+use serde::Deserialize;
+use std::ops::Range;
+use toml::Spanned;
+
+/// The simulated buses a network may name: the builder's plant with its fault script, and
+/// the same plant without faults.
+pub const SIM_BUSES: [&str; 2] = ["sim-pairs", "sim-pairs:quiet"];
+
+/// A checked station.
+#[derive(Debug)]
+pub struct Station {
+    /// Its name.
+    pub name: String,
+    /// Where its audit trail is kept, if anywhere.
+    pub audit: Option<Audit>,
+    /// Its networks, in file order.
+    pub networks: Vec<Network>,
+}
+
+/// The persistent audit trail's settings (see [`super::audit`]).
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct Audit {
+    /// The folder of the files.
+    pub dir: std::path::PathBuf,
+    /// A file is rotated before it grows past this.
+    pub max_bytes: u64,
+    /// Rotated files kept per network.
+    pub keep: u32,
+}
+
+/// [`Audit::max_bytes`] when the file does not say.
+pub const AUDIT_MAX_BYTES: u64 = 1 << 20;
+/// [`Audit::keep`] when the file does not say.
+pub const AUDIT_KEEP: u32 = 5;
+
+/// A checked network.
+#[derive(Debug)]
+pub struct Network {
+    /// Its name in the station.
+    pub name: String,
+    /// Its buses: a simulated plant's name, or two interfaces.
+    pub buses: Buses,
+    /// Its master's settings.
+    pub builder: RedundantNetworkBuilder,
+    /// What NMT command goes to all nodes when the station stops.
+    pub on_stop: Option<NmtCommand>,
+}
+
+/// Where a network runs.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub enum Buses {
+    /// One of [`SIM_BUSES`].
+    Sim(String),
+    /// Two interfaces, bus 1 first.
+    Ports([String; 2]),
+}
+
+impl std::fmt::Display for Buses {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            Buses::Sim(s) => f.write_str(s),
+            Buses::Ports([a, b]) => write!(f, "{a},{b}"),
+        }
+    }
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct File {
+    station: Option<StationTable>,
+    #[serde(default)]
+    network: Vec<Spanned<NetworkTable>>,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct StationTable {
+    name: Option<String>,
+    audit_dir: Option<Spanned<String>>,
+    audit_max_bytes: Option<Spanned<u64>>,
+    audit_keep: Option<u32>,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct NetworkTable {
+    name: Spanned<String>,
+    buses: Spanned<String>,
+    node_id: Spanned<u8>,
+    #[serde(default)]
+    priority: u8,
+    heartbeat_ms: Option<Spanned<u64>>,
+    master_timeout_ms: Option<Spanned<u64>>,
+    sync_ms: Option<Spanned<u64>>,
+    boot_timeout_ms: Option<Spanned<u64>>,
+    #[serde(default)]
+    pairs: Option<Spanned<Vec<[u8; 2]>>>,
+    pair_heartbeat_ms: Option<Spanned<u64>>,
+    pair_timeout_ms: Option<Spanned<u64>>,
+    #[serde(default)]
+    peers: Option<Spanned<Vec<Peer>>>,
+    on_stop: Option<Spanned<String>>,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct Peer {
+    node: u8,
+    #[serde(default)]
+    priority: u8,
+}
+
+/// The file's text and name, to place errors.
+struct Source<'a> {
+    name: &'a str,
+    text: &'a str,
+}
+
+impl Source<'_> {
+    /// `file:line:column: what` for the byte offset `at` (lines and columns from 1).
+    fn at(&self, at: usize, what: impl std::fmt::Display) -> String {
+        let before = &self.text[..at.min(self.text.len())];
+        let line = before.matches('\n').count() + 1;
+        let col = before.rsplit('\n').next().map_or(0, |l| l.chars().count()) + 1;
+        format!("{}:{line}:{col}: {what}", self.name)
+    }
+    fn span(&self, span: Range<usize>, key: &str, what: impl std::fmt::Display) -> String {
+        self.at(span.start, format_args!("{key}: {what}"))
+    }
+}
+
+/// Reads and checks the station in `text`; `name` (the file's path) names it in errors.
+pub fn parse(text: &str, name: &str) -> Result<Station, String> {
+    let src = Source { name, text };
+    let file: File = toml::from_str(text).map_err(|e| {
+        let at = e.span().map_or(0, |s| s.start);
+        src.at(at, e.message().trim_end())
+    })?;
+    if file.network.is_empty() {
+        return Err(format!(
+            "{name}: no [[network]]: a station runs at least one (see `duocan station --help`)"
+        ));
+    }
+    let audit = match &file.station {
+        Some(t) => audit(&src, t)?,
+        None => None,
+    };
+    let station = file
+        .station
+        .and_then(|s| s.name)
+        .unwrap_or_else(|| stem(name));
+    let mut networks: Vec<Network> = Vec::new();
+    for n in file.network {
+        let span = n.span();
+        let t = n.into_inner();
+        let (name_at, buses_at) = (t.name.span(), t.buses.span());
+        let net = network(&src, t, span)?;
+        if networks.iter().any(|o| o.name == net.name) {
+            let why = format!("{:?} names two networks: each has its own name", net.name);
+            return Err(src.span(name_at, "name", why));
+        }
+        // Two masters of one station on one interface would be two networks on one bus.
+        if let Buses::Ports(mine) = &net.buses {
+            for o in &networks {
+                if let Buses::Ports(theirs) = &o.buses {
+                    if let Some(p) = mine.iter().find(|p| theirs.contains(p)) {
+                        let why = format!("{p} is a bus of network {:?} already", o.name);
+                        return Err(src.span(buses_at, "buses", why));
+                    }
+                }
+            }
+        }
+        networks.push(net);
+    }
+    Ok(Station {
+        name: station,
+        audit,
+        networks,
+    })
+}
+
+/// The audit trail's settings of the `[station]` table, its folder relative to the file's.
+fn audit(src: &Source<'_>, t: &StationTable) -> Result<Option<Audit>, String> {
+    let Some(dir) = &t.audit_dir else {
+        if let Some(m) = &t.audit_max_bytes {
+            return Err(src.span(m.span(), "audit_max_bytes", "set audit_dir too"));
+        }
+        return Ok(None);
+    };
+    if dir.get_ref().trim().is_empty() {
+        return Err(src.span(dir.span(), "audit_dir", "a folder, or leave the key out"));
+    }
+    let max_bytes = t
+        .audit_max_bytes
+        .as_ref()
+        .map_or(AUDIT_MAX_BYTES, |m| *m.get_ref());
+    if max_bytes < 4096 {
+        let at = t.audit_max_bytes.as_ref().map_or(dir.span(), Spanned::span);
+        return Err(src.span(
+            at,
+            "audit_max_bytes",
+            "at least 4096 (a record is a line of up to some 200 bytes)",
+        ));
+    }
+    let base = std::path::Path::new(src.name)
+        .parent()
+        .unwrap_or(std::path::Path::new(""));
+    Ok(Some(Audit {
+        dir: base.join(dir.get_ref().trim()),
+        max_bytes,
+        keep: t.audit_keep.unwrap_or(AUDIT_KEEP),
+    }))
+}
+
+/// The file's name without its folder and extension.
+fn stem(path: &str) -> String {
+    std::path::Path::new(path)
+        .file_stem()
+        .map_or_else(|| path.to_string(), |s| s.to_string_lossy().into_owned())
+}
+
+/// One network's table, checked.
+fn network(src: &Source<'_>, t: NetworkTable, table: Range<usize>) -> Result<Network, String> {
+    let name = t.name.get_ref().trim().to_string();
+    if name.is_empty() {
+        return Err(src.span(t.name.span(), "name", "a network needs a name"));
+    }
+    let buses = buses(src, &t.buses)?;
+    let ms = |d: &Spanned<u64>| std::time::Duration::from_millis(*d.get_ref());
+    let mut b = RedundantNetwork::builder()
+        .node_id(*t.node_id.get_ref())
+        .priority(t.priority);
+    if let Some(d) = &t.heartbeat_ms {
+        b = b.heartbeat(ms(d));
+    }
+    if let Some(d) = &t.master_timeout_ms {
+        b = b.master_timeout(ms(d));
+    }
+    if let Some(d) = &t.sync_ms {
+        b = b.sync(ms(d));
+    }
+    if let Some(d) = &t.boot_timeout_ms {
+        b = b.boot_timeout(ms(d));
+    }
+    if let Some(d) = &t.pair_heartbeat_ms {
+        b = b.pair_heartbeat(ms(d));
+    }
+    if let Some(d) = &t.pair_timeout_ms {
+        b = b.pair_timeout(ms(d));
+    }
+    for &[a, x] in t.pairs.as_ref().map_or(&[][..], |p| p.get_ref()) {
+        b = b.pair(a, x);
+    }
+    for p in t.peers.as_ref().map_or(&[][..], |p| p.get_ref()) {
+        b = b.peer_master_with_priority(p.node, p.priority);
+    }
+    let on_stop = match &t.on_stop {
+        None => None,
+        Some(s) => on_stop(s.get_ref()).map_err(|why| src.span(s.span(), "on_stop", why))?,
+    };
+    if let Err(e) = b.check() {
+        return Err(place(src, &t, table, &name, &e));
+    }
+    Ok(Network {
+        name,
+        buses,
+        builder: b,
+        on_stop,
+    })
+}
+
+/// `buses`: a simulated plant or two distinct interfaces.
+fn buses(src: &Source<'_>, s: &Spanned<String>) -> Result<Buses, String> {
+    let text = s.get_ref().trim();
+    if SIM_BUSES.contains(&text) {
+        return Ok(Buses::Sim(text.to_string()));
+    }
+    let bad = |why: String| src.span(s.span(), "buses", why);
+    let allowed = "two interfaces as \"can0,can1\" (SocketCAN, or python-can's UDP bus: \
+                   \"udp:1,udp:2\"), or \"sim-pairs\" / \"sim-pairs:quiet\" (simulated buses)";
+    let Some((a, b)) = text.split_once(',') else {
+        return Err(bad(format!("{text:?} is not two buses: give {allowed}")));
+    };
+    let (a, b) = (a.trim(), b.trim());
+    if a.is_empty() || b.is_empty() || b.contains(',') {
+        return Err(bad(format!("{text:?} is not two buses: give {allowed}")));
+    }
+    if a == b {
+        return Err(bad(format!("{a} twice: the two buses are two interfaces")));
+    }
+    for x in [a, b] {
+        if let Some(Err(why)) = crate::args::parse_udp(x) {
+            return Err(bad(why));
+        }
+    }
+    Ok(Buses::Ports([a.to_string(), b.to_string()]))
+}
+
+/// `on_stop`'s NMT command (`none`: nothing).
+fn on_stop(s: &str) -> Result<Option<NmtCommand>, String> {
+    Ok(Some(match s {
+        "none" => return Ok(None),
+        "stop" => NmtCommand::Stop,
+        "preop" => NmtCommand::EnterPreOperational,
+        "reset" => NmtCommand::ResetNode,
+        "reset-comm" => NmtCommand::ResetCommunication,
+        other => {
+            return Err(format!(
+                "{other:?} is not an NMT command: none, stop, preop, reset or reset-comm"
+            ))
+        }
+    }))
+}
+
+/// The builder's error `e`, placed on the key that holds the value it is about (the
+/// network's table when no one key does).
+fn place(
+    src: &Source<'_>,
+    t: &NetworkTable,
+    table: Range<usize>,
+    name: &str,
+    e: &RedundantError,
+) -> String {
+    let spans = |key: &str| -> Option<Range<usize>> {
+        let d = |x: &Option<Spanned<u64>>| x.as_ref().map(Spanned::span);
+        match key {
+            "heartbeat" => d(&t.heartbeat_ms),
+            "master_timeout" => d(&t.master_timeout_ms),
+            "sync" => d(&t.sync_ms),
+            "boot_timeout" => d(&t.boot_timeout_ms),
+            "pair_heartbeat" => d(&t.pair_heartbeat_ms),
+            "pair_timeout" => d(&t.pair_timeout_ms),
+            "pairs" => t.pairs.as_ref().map(Spanned::span),
+            "peers" => t.peers.as_ref().map(Spanned::span),
+            _ => None,
+        }
+    };
+    let role_key = |r: &Role| match r {
+        Role::ThisMaster => "node_id",
+        Role::PeerMaster => "peers",
+        Role::PairMember => "pairs",
+        _ => "",
+    };
+    let of_role = |r: &Role| match role_key(r) {
+        "node_id" => Some(("node_id", Some(t.node_id.span()))),
+        k => Some((k, spans(k))),
+    };
+    let key: Option<(&str, Option<Range<usize>>)> = match e {
+        RedundantError::BadNodeId { role, .. } => of_role(role),
+        RedundantError::NodeTwice { second, .. } => of_role(second),
+        RedundantError::TooMany { what, .. } => {
+            let k = if what.contains("pair") {
+                "pairs"
+            } else {
+                "peers"
+            };
+            Some((k, spans(k)))
+        }
+        RedundantError::ZeroDuration { setting }
+        | RedundantError::TooLong { setting, .. }
+        | RedundantError::TimeoutTooShort { setting, .. } => Some((setting, spans(setting))),
+        _ => None,
+    };
+    match key {
+        Some((k, Some(span))) => {
+            // The builder names its settings; the file's durations carry their unit.
+            let key = if matches!(k, "node_id" | "pairs" | "peers") {
+                k.to_string()
+            } else {
+                format!("{k}_ms")
+            };
+            src.span(span, &key, e)
+        }
+        // A default value is wrong with the others (a timeout left at its default below a
+        // period the file sets): the network's table.
+        _ => src.at(table.start, format_args!("network {name:?}: {e}")),
+    }
+}
+
+#[cfg(test)]
+mod tests;

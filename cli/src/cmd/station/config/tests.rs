@@ -1,0 +1,135 @@
+use super::*;
+
+const GOOD: &str = r#"
+[station]
+name = "depot"
+
+[[network]]
+name = "rack-1"
+buses = "sim-pairs:quiet"
+node_id = 1
+heartbeat_ms = 50
+master_timeout_ms = 150
+pairs = [[0x10, 0x50], [0x11, 0x51]]
+peers = [{ node = 2, priority = 1 }]
+on_stop = "stop"
+
+[[network]]
+name = "rack-2"
+buses = "vcan0, udp:2"
+node_id = 1
+"#;
+
+#[test]
+fn a_good_file_gives_every_network_with_its_settings() {
+    let st = parse(GOOD, "depot.toml").unwrap();
+    assert_eq!(st.name, "depot");
+    assert_eq!(st.networks.len(), 2);
+    let [a, b] = &st.networks[..] else {
+        unreachable!()
+    };
+    assert_eq!(a.name, "rack-1");
+    assert_eq!(a.buses, Buses::Sim("sim-pairs:quiet".into()));
+    assert_eq!(a.builder.this_node(), 1);
+    assert_eq!(a.builder.pairs(), [(0x10, 0x50), (0x11, 0x51)]);
+    assert_eq!(a.builder.peers(), [(2, 1)]);
+    assert_eq!(a.on_stop, Some(NmtCommand::Stop));
+    assert_eq!(b.buses, Buses::Ports(["vcan0".into(), "udp:2".into()]));
+    assert_eq!(b.on_stop, None);
+}
+
+#[test]
+fn the_station_is_named_after_its_file_when_it_does_not_say() {
+    let st = parse(
+        "[[network]]\nname = \"a\"\nbuses = \"sim-pairs\"\nnode_id = 1\n",
+        "/etc/duocan/yard.toml",
+    )
+    .unwrap();
+    assert_eq!(st.name, "yard");
+}
+
+/// The error for `text`, which must not parse.
+fn err(text: &str) -> String {
+    match parse(text, "s.toml") {
+        Ok(st) => panic!("parsed: {st:?}"),
+        Err(e) => e,
+    }
+}
+
+const HEAD: &str = "[[network]]\nname = \"a\"\nbuses = \"sim-pairs\"\n";
+
+#[test]
+fn each_error_names_the_file_line_column_and_key() {
+    // Syntax, by the TOML reader.
+    let e = err("[[network]]\nname = \"a\nnode_id = 1\n");
+    assert!(e.starts_with("s.toml:2:"), "{e}");
+    // An unknown key: the known ones listed.
+    let e = err(&format!("{HEAD}node_id = 1\nheartbeat = 50\n"));
+    assert!(e.starts_with("s.toml:5:1:"), "{e}");
+    assert!(e.contains("heartbeat") && e.contains("heartbeat_ms"), "{e}");
+    // A value of the wrong type or out of its range.
+    let e = err(&format!("{HEAD}node_id = 300\n"));
+    assert!(e.starts_with("s.toml:4:11:"), "{e}");
+    // The builder's checks, placed on their key.
+    let e = err(&format!("{HEAD}node_id = 0\n"));
+    assert!(e.starts_with("s.toml:4:11: node_id: "), "{e}");
+    let e = err(&format!(
+        "{HEAD}node_id = 1\nheartbeat_ms = 100\nmaster_timeout_ms = 80\n"
+    ));
+    assert!(e.starts_with("s.toml:6:21: master_timeout_ms: "), "{e}");
+    let e = err(&format!("{HEAD}node_id = 1\npairs = [[0x10, 0x10]]\n"));
+    assert!(e.starts_with("s.toml:5:9: pairs: "), "{e}");
+    let e = err(&format!("{HEAD}node_id = 1\npeers = [{{ node = 1 }}]\n"));
+    assert!(e.starts_with("s.toml:5:9: peers: "), "{e}");
+    let e = err(&format!("{HEAD}node_id = 1\nsync_ms = 0\n"));
+    assert!(e.starts_with("s.toml:5:11: sync_ms: "), "{e}");
+    // The file's own keys.
+    let e = err(&format!("{HEAD}node_id = 1\non_stop = \"halt\"\n"));
+    assert!(e.starts_with("s.toml:5:11: on_stop: \"halt\""), "{e}");
+    assert!(e.contains("reset-comm"), "{e}");
+    let e = err("[[network]]\nname = \"a\"\nbuses = \"can0\"\nnode_id = 1\n");
+    assert!(
+        e.starts_with("s.toml:3:9: buses: \"can0\" is not two buses"),
+        "{e}"
+    );
+    assert!(e.contains("sim-pairs:quiet"), "{e}");
+    let e = err("[[network]]\nname = \"a\"\nbuses = \"can0,can0\"\nnode_id = 1\n");
+    assert!(e.contains("can0 twice"), "{e}");
+    let e = err("[[network]]\nname = \"a\"\nbuses = \"udp:x,can0\"\nnode_id = 1\n");
+    assert!(e.starts_with("s.toml:3:9: buses: "), "{e}");
+    let e = err("[[network]]\nname = \" \"\nbuses = \"sim-pairs\"\nnode_id = 1\n");
+    assert!(e.starts_with("s.toml:2:8: name: "), "{e}");
+}
+
+#[test]
+fn the_station_as_a_whole_is_checked() {
+    let e = err("[station]\nname = \"x\"\n");
+    assert!(e.starts_with("s.toml: no [[network]]"), "{e}");
+    let twice = format!(
+        "{HEAD}node_id = 1\n\n[[network]]\nname = \"a\"\nbuses = \"sim-pairs\"\nnode_id = 1\n"
+    );
+    let e = err(&twice);
+    assert!(
+        e.starts_with("s.toml:7:8: name: \"a\" names two networks"),
+        "{e}"
+    );
+    let shared = "[[network]]\nname = \"a\"\nbuses = \"can0,can1\"\nnode_id = 1\n\n\
+                  [[network]]\nname = \"b\"\nbuses = \"can2, can1\"\nnode_id = 1\n";
+    let e = err(shared);
+    assert!(
+        e.starts_with("s.toml:8:9: buses: can1 is a bus of network \"a\" already"),
+        "{e}"
+    );
+}
+
+/// Whatever the bytes, reading a station file gives a station or an error, never a panic.
+#[test]
+fn any_text_is_read_without_panicking() {
+    use proptest::prelude::*;
+    proptest!(|(text in "[\\[\\]a-z_ =\"0-9,{}\n.:-]{0,200}")| {
+        let _ = parse(&text, "p.toml");
+    });
+    proptest!(|(cut in 0..GOOD.len())| {
+        let _ = parse(&GOOD[..cut], "p.toml");
+    });
+}

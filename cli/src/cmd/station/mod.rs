@@ -1,0 +1,297 @@
+//! `duocan station check|run FILE`: a whole station from one file — any number of logical
+//! networks, each a redundant master (CiA 302-2, A/B pair supervisor, flying master) on two
+//! buses — checked, or run until stopped.
+//!
+//! ```text
+//! duocan station check examples/station/demo.toml
+//! duocan station run examples/station/demo.toml     # until SIGINT or SIGTERM
+//! ```
+//!
+//! `run` opens every network (none if one cannot be opened: the error names it), logs each
+//! network's events as one line each through `tracing` on standard error (warnings for
+//! failovers; `DUOCAN_LOG` filters as `RUST_LOG` does, by default the station's events and
+//! the library's warnings; without timestamps under systemd,
+//! whose journal stamps each line itself), and on SIGINT or SIGTERM sends each network's
+//! `on_stop` NMT command, closes the networks and exits 0. With an `audit_dir`, each network's
+//! audit records are appended to a file of their own as they happen, durably ([`audit`]). The
+//! file format: [`config`].
+
+pub mod audit;
+pub mod config;
+
+use crate::args::parse_timeout_ms;
+use crate::fail::Fail;
+use crate::{ports, Global};
+use audit::AuditLog;
+use config::{Buses, Network};
+use duocan_redundancy::net::RedundantNetwork;
+use std::path::{Path, PathBuf};
+
+/// `duocan station` subcommands.
+#[derive(clap::Subcommand, Debug)]
+pub enum Station {
+    /// Check a station file (every error names the file, line and key) and print what it runs
+    Check {
+        /// The station file (TOML)
+        file: PathBuf,
+    },
+    /// Run a station's networks until SIGINT or SIGTERM, logging their events
+    Run {
+        /// The station file (TOML)
+        file: PathBuf,
+        /// Stop after this long (default: run until interrupted)
+        #[arg(long, value_parser = parse_timeout_ms)]
+        duration_ms: Option<u64>,
+    },
+}
+
+/// Reads and checks the station file at `path`.
+pub fn load(path: &Path) -> Result<config::Station, Fail> {
+    let name = path.display().to_string();
+    let text = std::fs::read_to_string(path)
+        .map_err(|e| Fail::usage(format!("{name}: cannot read the station file: {e}")))?;
+    config::parse(&text, &name).map_err(Fail::usage)
+}
+
+/// Runs `duocan station`.
+pub async fn run(g: &Global, s: Station) -> Result<(), Fail> {
+    match s {
+        Station::Check { file } => {
+            let st = load(&file)?;
+            print!("{}", summary(&st));
+            Ok(())
+        }
+        Station::Run { file, duration_ms } => {
+            let st = load(&file)?;
+            logging();
+            serve(g, &st, duration_ms).await
+        }
+    }
+}
+
+/// What a checked station runs, one line per network.
+fn summary(st: &config::Station) -> String {
+    let mut out = format!("station {}: {} networks\n", st.name, st.networks.len());
+    for n in &st.networks {
+        let b = &n.builder;
+        let pairs: Vec<String> = b
+            .pairs()
+            .iter()
+            .map(|(a, x)| format!("{a:#04x}/{x:#04x}"))
+            .collect();
+        let peers: Vec<String> = b.peers().iter().map(|(p, _)| format!("{p:#04x}")).collect();
+        out += &format!(
+            "  {} on {}: master {:#04x}, pairs [{}], peer masters [{}]\n",
+            n.name,
+            n.buses,
+            b.this_node(),
+            pairs.join(" "),
+            peers.join(" ")
+        );
+    }
+    out
+}
+
+/// Logs to standard error, one line per record; `DUOCAN_LOG` filters (default: the station's
+/// events, and the library's warnings).
+fn logging() {
+    let filter = tracing_subscriber::EnvFilter::try_from_env("DUOCAN_LOG")
+        .unwrap_or_else(|_| tracing_subscriber::EnvFilter::new("warn,duocan::station=info"));
+    let fmt = tracing_subscriber::fmt()
+        .with_env_filter(filter)
+        .with_writer(std::io::stderr)
+        .with_ansi(false);
+    // systemd says so when standard error goes to its journal, which stamps every line.
+    let _ = if std::env::var_os("JOURNAL_STREAM").is_some() {
+        fmt.without_time().try_init()
+    } else {
+        fmt.try_init()
+    };
+}
+
+/// Opens network `n`.
+fn open(g: &Global, n: &Network) -> Result<RedundantNetwork, Fail> {
+    let failed = |e: &dyn std::fmt::Display| Fail::bus(format!("network {}: {e}", n.name));
+    match &n.buses {
+        Buses::Sim(name) => n.builder.open_named(name).map_err(|e| failed(&e)),
+        Buses::Ports([a, b]) => {
+            let pa = ports::open(a, g.udp_interface).map_err(|e| failed(&e))?;
+            let pb = ports::open(b, g.udp_interface).map_err(|e| failed(&e))?;
+            n.builder.open(pa, pb).map_err(|e| failed(&e))
+        }
+    }
+}
+
+/// Runs the station until stopped.
+async fn serve(g: &Global, st: &config::Station, duration_ms: Option<u64>) -> Result<(), Fail> {
+    // Taken before anything opens: a signal from now on stops the station cleanly.
+    use tokio::signal::unix::{signal, SignalKind};
+    let mut term = signal(SignalKind::terminate())?;
+    let mut int = signal(SignalKind::interrupt())?;
+    // The audit files open first: a station that cannot keep its trail does not start.
+    let mut logs_of = Vec::new();
+    for n in &st.networks {
+        logs_of.push(match &st.audit {
+            Some(a) => Some(
+                AuditLog::open(&a.dir, &n.name, a.max_bytes, a.keep).map_err(|e| {
+                    Fail::usage(format!(
+                        "network {}: audit trail in {}: {e}",
+                        n.name,
+                        a.dir.display()
+                    ))
+                })?,
+            ),
+            None => None,
+        });
+    }
+    let run = std::time::SystemTime::now()
+        .duration_since(std::time::UNIX_EPOCH)
+        .unwrap_or_default()
+        .as_millis();
+    let mut nets: Vec<(&Network, RedundantNetwork)> = Vec::new();
+    for n in &st.networks {
+        match open(g, n) {
+            Ok(net) => nets.push((n, net)),
+            Err(e) => {
+                for (_, net) in &nets {
+                    net.close().await;
+                }
+                return Err(e);
+            }
+        }
+        tracing::info!(target: "duocan::station", network = %n.name, buses = %n.buses, "started");
+    }
+    tracing::info!(target: "duocan::station", station = %st.name, networks = nets.len(), "running");
+    let mut logs = tokio::task::JoinSet::new();
+    let (stop_audit, _) = tokio::sync::watch::channel(false);
+    let mut audits = tokio::task::JoinSet::new();
+    for ((n, net), log) in nets.iter().zip(logs_of) {
+        let mut events = net.events();
+        let name = n.name.clone();
+        logs.spawn(async move {
+            while let Some(e) = events.next().await {
+                if e.is_failover() {
+                    tracing::warn!(target: "duocan::station", network = %name, "{e}");
+                } else {
+                    tracing::info!(target: "duocan::station", network = %name, "{e}");
+                }
+            }
+        });
+        if let Some(log) = log {
+            let keeper = Keeper {
+                net: net.clone(),
+                name: n.name.clone(),
+                log,
+                run,
+                next: 1,
+            };
+            audits.spawn(keeper.run(stop_audit.subscribe()));
+        }
+    }
+    let timer = async {
+        match duration_ms {
+            Some(ms) => tokio::time::sleep(std::time::Duration::from_millis(ms)).await,
+            None => std::future::pending().await,
+        }
+    };
+    let why = tokio::select! {
+        () = timer => "its time is up",
+        _ = term.recv() => "SIGTERM",
+        _ = int.recv() => "SIGINT",
+    };
+    tracing::info!(target: "duocan::station", station = %st.name, "stopping: {why}");
+    // The records up to the stop written before the networks close.
+    stop_audit.send_replace(true);
+    while audits.join_next().await.is_some() {}
+    for (n, net) in &nets {
+        if let Some(cmd) = n.on_stop {
+            if let Err(e) = net.nmt_all(cmd).await {
+                tracing::warn!(target: "duocan::station", network = %n.name, "on_stop: {e}");
+            }
+        }
+        net.close().await;
+    }
+    logs.abort_all();
+    tracing::info!(target: "duocan::station", station = %st.name, "stopped");
+    Ok(())
+}
+
+/// How often the audit keeper reads a network's new records.
+const AUDIT_EVERY: std::time::Duration = std::time::Duration::from_millis(100);
+
+/// Copies one network's new audit records into its file as they come.
+struct Keeper {
+    net: RedundantNetwork,
+    name: String,
+    log: AuditLog,
+    run: u128,
+    /// The sequence number of the next record to write.
+    next: u32,
+}
+
+impl Keeper {
+    async fn run(mut self, mut stop: tokio::sync::watch::Receiver<bool>) {
+        loop {
+            let stopping = tokio::select! {
+                () = tokio::time::sleep(AUDIT_EVERY) => false,
+                _ = stop.wait_for(|s| *s) => true,
+            };
+            // A network closed by its own plant (a simulated script's end) has no more.
+            if !self.write_new().await || stopping {
+                break;
+            }
+        }
+        tracing::info!(target: "duocan::station::audit", network = %self.name,
+            file = %self.log.path().display(), "audit closed");
+    }
+
+    /// Writes the records since the last; false when the network has closed.
+    async fn write_new(&mut self) -> bool {
+        let next = self.next;
+        let got = self
+            .net
+            .with(move |n, _| {
+                let trail = n.audit();
+                // The oldest record the trail still holds, to tell what was overwritten.
+                let oldest = trail.iter().next().map(|r| r.seq);
+                let lines: Vec<(u32, String)> = trail
+                    .since(next.saturating_sub(1))
+                    .map(|r| (r.seq, r.to_string()))
+                    .collect();
+                (oldest, lines)
+            })
+            .await;
+        let Ok((oldest, lines)) = got else {
+            return false;
+        };
+        if let Some(first) = oldest.filter(|&o| o > self.next) {
+            let lost = first - self.next;
+            tracing::warn!(target: "duocan::station::audit", network = %self.name, lost,
+                "audit records overwritten before they were written");
+            let line = format!(
+                "{} run={} {lost} records overwritten before they were written",
+                audit::wall(),
+                self.run
+            );
+            self.write(&line, None);
+        }
+        for (seq, text) in lines {
+            if seq < self.next {
+                continue;
+            }
+            let line = format!("{} run={} {text}", audit::wall(), self.run);
+            self.write(&line, Some(seq));
+            self.next = seq + 1;
+        }
+        true
+    }
+
+    fn write(&mut self, line: &str, seq: Option<u32>) {
+        match self.log.append(line) {
+            Ok(()) => tracing::debug!(target: "duocan::station::audit", network = %self.name,
+                run = self.run, seq, "written"),
+            Err(e) => tracing::error!(target: "duocan::station::audit", network = %self.name,
+                file = %self.log.path().display(), "cannot write the audit record: {e}"),
+        }
+    }
+}

@@ -1,0 +1,247 @@
+//! `duocan station`: the shipped demo file checks; a bad file is exit 2 naming file, line and
+//! key; a small station runs its networks, logs their events and stops cleanly on SIGTERM; a
+//! network whose buses cannot be opened stops the start (exit 3) naming it.
+
+mod common;
+use common::duocan;
+use std::io::{BufRead, BufReader};
+use std::path::PathBuf;
+use std::process::{Command, Stdio};
+use std::time::{Duration, Instant};
+
+fn file(rel: &str) -> String {
+    PathBuf::from(env!("CARGO_MANIFEST_DIR"))
+        .join(rel)
+        .to_string_lossy()
+        .into_owned()
+}
+
+#[test]
+fn the_shipped_demo_station_checks_with_its_four_racks() {
+    let demo = file("../examples/station/demo.toml");
+    let r = duocan(&["station", "check", &demo]);
+    assert_eq!(r.code, 0, "{}", r.err);
+    assert!(r.out.starts_with("station demo: 4 networks\n"), "{}", r.out);
+    for rack in [
+        "turnout rack",
+        "signal rack",
+        "track-circuit rack",
+        "misc rack",
+    ] {
+        assert!(
+            r.out
+                .contains(&format!("  {rack} on sim-pairs:quiet: master 0x01")),
+            "{}",
+            r.out
+        );
+    }
+    // 10 + 10 + 12 + 4 pairs, as the demo's racks.
+    assert_eq!(r.out.matches("/0x2").count(), 36, "{}", r.out);
+}
+
+#[test]
+fn a_bad_station_file_is_a_usage_error_naming_file_line_and_key() {
+    let bad = file("tests/station_files/bad_timeout.toml");
+    let r = duocan(&["station", "check", &bad]);
+    assert_eq!(r.code, 2, "{}", r.err);
+    let want = format!("duocan: {bad}:10:21: master_timeout_ms: ");
+    assert!(r.err.starts_with(&want), "{}", r.err);
+    // `run` checks the same way before it opens anything.
+    let r = duocan(&["station", "run", &bad]);
+    assert_eq!(r.code, 2, "{}", r.err);
+    assert!(r.err.starts_with(&want), "{}", r.err);
+    let r = duocan(&["station", "check", "/nonexistent/station.toml"]);
+    assert_eq!(r.code, 2);
+    assert!(
+        r.err.contains("/nonexistent/station.toml: cannot read"),
+        "{}",
+        r.err
+    );
+}
+
+#[test]
+fn a_station_whose_buses_cannot_open_does_not_start() {
+    let r = duocan(&[
+        "station",
+        "run",
+        &file("tests/station_files/no_such_bus.toml"),
+    ]);
+    assert_eq!(r.code, 3, "{}", r.err);
+    assert!(r.err.contains("network lab"), "{}", r.err);
+    assert!(r.err.contains("duocan-none0"), "{}", r.err);
+}
+
+/// Two simulated networks: both start, their pairs' A members become active, and SIGTERM
+/// stops the station cleanly (exit 0, "stopped" last).
+#[test]
+fn a_station_runs_its_networks_until_sigterm() {
+    let _one = common::one_station();
+    let mut child = Command::new(env!("CARGO_BIN_EXE_duocan"))
+        .args(["station", "run", &file("tests/station_files/two.toml")])
+        .env_remove("DUOCAN_LOG")
+        .env_remove("JOURNAL_STREAM")
+        .stdout(Stdio::null())
+        .stderr(Stdio::piped())
+        .spawn()
+        .expect("run duocan");
+    let (tx, rx) = std::sync::mpsc::channel();
+    let stderr = child.stderr.take().expect("stderr");
+    let reader = std::thread::spawn(move || {
+        for line in BufReader::new(stderr).lines().map_while(Result::ok) {
+            let _ = tx.send(line);
+        }
+    });
+    let mut lines = vec![];
+    let want = |l: &Vec<String>, net: &str| {
+        l.iter().any(|x| {
+            x.contains("pair 0x10/0x50: A active") && x.ends_with(&format!("network={net}"))
+        })
+    };
+    let end = Instant::now() + Duration::from_secs(120);
+    while !(want(&lines, "east") && want(&lines, "west")) {
+        let left = end.saturating_duration_since(Instant::now());
+        match rx.recv_timeout(left) {
+            Ok(l) => lines.push(l),
+            Err(_) => {
+                let _ = child.kill();
+                panic!(
+                    "no pair active on both networks in 120 s:\n{}",
+                    lines.join("\n")
+                );
+            }
+        }
+    }
+    let pid = child.id().to_string();
+    let killed = Command::new("kill")
+        .args(["-TERM", &pid])
+        .status()
+        .expect("kill");
+    assert!(killed.success());
+    let status = child.wait().expect("wait");
+    reader.join().expect("reader");
+    lines.extend(rx.try_iter());
+    let all = lines.join("\n");
+    assert_eq!(status.code(), Some(0), "{all}");
+    for net in ["east", "west"] {
+        assert!(
+            all.contains(&format!("started network={net} buses=sim-pairs:quiet")),
+            "{all}"
+        );
+        assert!(
+            all.contains(&format!("this master: active network={net}")),
+            "{all}"
+        );
+    }
+    assert!(all.contains("stopping: SIGTERM station=two"), "{all}");
+    assert!(
+        lines
+            .last()
+            .is_some_and(|l| l.contains("stopped station=two")),
+        "{all}"
+    );
+    // Every line is one record: a time, a level, the target.
+    assert!(
+        lines
+            .iter()
+            .all(|l| l.contains(" INFO ") || l.contains(" WARN ")),
+        "{all}"
+    );
+}
+
+/// The station's audit trail under SIGKILL: a station on two simulated networks whose plants
+/// fail (buses, masters, boards: audit records) is killed with SIGKILL after its first, third
+/// and fifth acknowledged record, and started again each time: every record acknowledged as
+/// written is in its network's file, and every line there is a whole record.
+#[test]
+fn no_acknowledged_audit_record_is_lost_when_the_station_is_killed() {
+    let _one = common::one_station();
+    let dir = std::env::temp_dir().join(format!("duocan-station-kill-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    let station = dir.join("killed.toml");
+    let net = |name: &str, id: u8| {
+        format!(
+            "[[network]]\nname = \"{name}\"\nbuses = \"sim-pairs\"\nnode_id = {id}\n\
+             heartbeat_ms = 50\nmaster_timeout_ms = 200\npairs = [[0x10, 0x50], [0x11, 0x51]]\n\
+             pair_heartbeat_ms = 50\npair_timeout_ms = 200\npeers = [{{ node = {} }}]\n\n",
+            id + 1
+        )
+    };
+    let text = format!(
+        "[station]\naudit_dir = \"trail\"\n\n{}{}",
+        net("east", 1),
+        net("west", 3)
+    );
+    std::fs::write(&station, text).unwrap();
+    let mut acked: Vec<(String, String, String)> = vec![];
+    for kill_after in [1, 3, 5] {
+        let mut child = Command::new(env!("CARGO_BIN_EXE_duocan"))
+            .args(["station", "run", station.to_str().unwrap()])
+            .env(
+                "DUOCAN_LOG",
+                "warn,duocan::station=info,duocan::station::audit=debug",
+            )
+            .env_remove("JOURNAL_STREAM")
+            .stdout(Stdio::null())
+            .stderr(Stdio::piped())
+            .spawn()
+            .expect("run duocan");
+        let stderr = BufReader::new(child.stderr.take().expect("stderr"));
+        let mut this_run = 0;
+        let mut seen = vec![];
+        for line in stderr.lines().map_while(Result::ok) {
+            seen.push(line.clone());
+            if !line.contains("duocan::station::audit: written") {
+                continue;
+            }
+            let field = |k: &str| {
+                line.split(' ')
+                    .find_map(|w| w.strip_prefix(&format!("{k}=")))
+                    .unwrap_or_else(|| panic!("no {k} in {line}"))
+                    .to_string()
+            };
+            acked.push((field("network"), field("run"), field("seq")));
+            this_run += 1;
+            if this_run == kill_after {
+                break;
+            }
+        }
+        // Killed at once after the acknowledgement it read (or after the plants' end).
+        let _ = child.kill();
+        let _ = child.wait();
+        assert_eq!(
+            this_run,
+            kill_after,
+            "fewer records than expected:\n{}",
+            seen.join("\n")
+        );
+    }
+    assert_eq!(acked.len(), 9);
+    for (network, run, seq) in &acked {
+        let file = dir.join("trail").join(format!("{network}.audit"));
+        let text = std::fs::read_to_string(&file).unwrap();
+        let want = format!(" run={run} #{seq} ");
+        assert!(
+            text.contains(&want),
+            "{want:?} not in {}:\n{text}",
+            file.display()
+        );
+    }
+    for network in ["east", "west"] {
+        let text = std::fs::read_to_string(dir.join("trail").join(format!("{network}.audit")))
+            .unwrap_or_default();
+        for line in text.lines() {
+            let mut words = line.splitn(4, ' ');
+            let (t, run, rec) = (words.next(), words.next(), words.next());
+            assert!(
+                t.is_some_and(|t| t
+                    .split_once('.')
+                    .is_some_and(|(s, ms)| { s.parse::<u64>().is_ok() && ms.len() == 3 })),
+                "{line}"
+            );
+            assert!(run.is_some_and(|r| r.starts_with("run=")), "{line}");
+            assert!(rec.is_some_and(|r| r.starts_with('#')), "{line}");
+        }
+    }
+    let _ = std::fs::remove_dir_all(&dir);
+}
