@@ -245,3 +245,109 @@ fn no_acknowledged_audit_record_is_lost_when_the_station_is_killed() {
     }
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+/// `GET path` on `addr`, with the bearer `token` if any: the status code and the body.
+fn get(addr: &str, path: &str, token: Option<&str>) -> (u16, String) {
+    use std::io::{Read, Write};
+    let mut s = std::net::TcpStream::connect(addr).expect("connect");
+    let auth = token.map_or(String::new(), |t| format!("Authorization: Bearer {t}\r\n"));
+    write!(
+        s,
+        "GET {path} HTTP/1.1\r\nHost: {addr}\r\n{auth}Connection: close\r\n\r\n"
+    )
+    .unwrap();
+    let mut text = String::new();
+    s.read_to_string(&mut text).expect("read");
+    let code = text
+        .split(' ')
+        .nth(1)
+        .and_then(|c| c.parse().ok())
+        .unwrap_or(0);
+    let body = text
+        .split_once("\r\n\r\n")
+        .map_or("", |(_, b)| b)
+        .to_string();
+    (code, body)
+}
+
+/// The station's HTTP access: with a token, none is served without it; the status JSON and
+/// the Prometheus metrics say which master is active and which board runs in each pair, and
+/// count each port's frames.
+#[test]
+fn the_station_serves_its_status_and_metrics_over_http() {
+    let _one = common::one_station();
+    let dir = std::env::temp_dir().join(format!("duocan-station-http-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    let station = dir.join("web.toml");
+    let token = "test-token-0123456789";
+    let two = std::fs::read_to_string(file("tests/station_files/two.toml")).unwrap();
+    std::fs::write(
+        &station,
+        format!("[station]\nhttp = \"127.0.0.1:0\"\nhttp_token = \"{token}\"\n\n{two}"),
+    )
+    .unwrap();
+    let mut child = Command::new(env!("CARGO_BIN_EXE_duocan"))
+        .args(["station", "run", station.to_str().unwrap()])
+        .env_remove("DUOCAN_LOG")
+        .stdout(Stdio::null())
+        .stderr(Stdio::piped())
+        .spawn()
+        .expect("run duocan");
+    let stderr = BufReader::new(child.stderr.take().expect("stderr"));
+    let mut addr = None;
+    let mut active = 0;
+    let mut seen = vec![];
+    for line in stderr.lines().map_while(Result::ok) {
+        seen.push(line.clone());
+        if let Some(a) = line.split("http listening on ").nth(1) {
+            addr = Some(a.trim().to_string());
+        }
+        if line.contains("pair 0x10/0x50: A active") {
+            active += 1;
+        }
+        if addr.is_some() && active == 2 {
+            break;
+        }
+    }
+    let Some(addr) = addr else {
+        let _ = child.kill();
+        panic!("no http address:\n{}", seen.join("\n"));
+    };
+    let (code, body) = get(&addr, "/metrics", None);
+    assert_eq!(code, 401, "{body}");
+    let (code, _) = get(&addr, "/metrics", Some("test-token-0123456788"));
+    assert_eq!(code, 401);
+    let (code, metrics) = get(&addr, "/metrics", Some(token));
+    let (jcode, json) = get(&addr, "/api/networks", Some(token));
+    let (ncode, _) = get(&addr, "/nothing", Some(token));
+    let _ = child.kill();
+    let _ = child.wait();
+    let _ = std::fs::remove_dir_all(&dir);
+    assert_eq!((code, jcode, ncode), (200, 200, 404));
+    for net in ["east", "west"] {
+        assert!(
+            metrics.contains(&format!("duocan_master_active{{network=\"{net}\"}} 1")),
+            "{metrics}"
+        );
+        assert!(
+            metrics.contains(&format!(
+                "duocan_pair_active_member{{network=\"{net}\",pair=\"0x10/0x50\"}} 1"
+            )),
+            "{metrics}"
+        );
+    }
+    let rx: Vec<u64> = metrics
+        .lines()
+        .filter(|l| l.starts_with("duocan_port_rx_frames_total{"))
+        .map(|l| l.rsplit(' ').next().unwrap().parse().unwrap())
+        .collect();
+    assert_eq!(rx.len(), 4, "{metrics}");
+    assert!(rx.iter().all(|&n| n > 0), "{metrics}");
+    let v: serde_json::Value = serde_json::from_str(&json).expect("json");
+    assert_eq!(v[0]["name"], "east");
+    assert_eq!(v[0]["role"], "active");
+    assert_eq!(v[1]["pairs"][0]["pair"], "0x10/0x50");
+    assert_eq!(v[1]["pairs"][0]["active"], "A");
+    assert_eq!(v[1]["ports"].as_array().map(Vec::len), Some(2));
+}

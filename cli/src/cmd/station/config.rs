@@ -8,6 +8,8 @@
 //!                                  # to this file's folder), one file per network
 //! audit_max_bytes = 1048576        # a file is rotated before it grows past this
 //! audit_keep = 5                   # rotated files kept per network
+//! http = "127.0.0.1:8080"          # optional: status and metrics over HTTP (port 0: any)
+//! http_token = "…"                 # needed for any address but loopback
 //!
 //! [[network]]
 //! name = "rack-1"                  # unique in the station
@@ -49,6 +51,8 @@ pub struct Station {
     pub name: String,
     /// Where its audit trail is kept, if anywhere.
     pub audit: Option<Audit>,
+    /// Where it serves HTTP, if anywhere, and the token requests must carry.
+    pub http: Option<(std::net::SocketAddr, Option<String>)>,
     /// Its networks, in file order.
     pub networks: Vec<Network>,
 }
@@ -115,6 +119,8 @@ struct StationTable {
     audit_dir: Option<Spanned<String>>,
     audit_max_bytes: Option<Spanned<u64>>,
     audit_keep: Option<u32>,
+    http: Option<Spanned<String>>,
+    http_token: Option<Spanned<String>>,
 }
 
 #[derive(Deserialize)]
@@ -177,9 +183,9 @@ pub fn parse(text: &str, name: &str) -> Result<Station, String> {
             "{name}: no [[network]]: a station runs at least one (see `duocan station --help`)"
         ));
     }
-    let audit = match &file.station {
-        Some(t) => audit(&src, t)?,
-        None => None,
+    let (audit, http) = match &file.station {
+        Some(t) => (audit(&src, t)?, http(&src, t)?),
+        None => (None, None),
     };
     let station = file
         .station
@@ -211,8 +217,42 @@ pub fn parse(text: &str, name: &str) -> Result<Station, String> {
     Ok(Station {
         name: station,
         audit,
+        http,
         networks,
     })
+}
+
+/// The HTTP address and token of the `[station]` table: any address but loopback needs a
+/// token, and a token is at least 16 characters.
+fn http(
+    src: &Source<'_>,
+    t: &StationTable,
+) -> Result<Option<(std::net::SocketAddr, Option<String>)>, String> {
+    let token = match &t.http_token {
+        Some(tk) if tk.get_ref().chars().count() < 16 => {
+            return Err(src.span(tk.span(), "http_token", "at least 16 characters"));
+        }
+        Some(tk) => Some(tk.get_ref().clone()),
+        None => None,
+    };
+    let Some(at) = &t.http else {
+        if let Some(tk) = &t.http_token {
+            return Err(src.span(tk.span(), "http_token", "set http too"));
+        }
+        return Ok(None);
+    };
+    let addr: std::net::SocketAddr = at.get_ref().trim().parse().map_err(|_| {
+        let why = format!(
+            "{:?} is not an address and port such as \"127.0.0.1:8080\"",
+            at.get_ref()
+        );
+        src.span(at.span(), "http", why)
+    })?;
+    if !addr.ip().is_loopback() && token.is_none() {
+        let why = format!("{addr} is reachable from other machines: set http_token too");
+        return Err(src.span(at.span(), "http", why));
+    }
+    Ok(Some((addr, token)))
 }
 
 /// The audit trail's settings of the `[station]` table, its folder relative to the file's.

@@ -18,6 +18,7 @@
 
 pub mod audit;
 pub mod config;
+pub mod http;
 
 use crate::args::parse_timeout_ms;
 use crate::fail::Fail;
@@ -26,6 +27,8 @@ use audit::AuditLog;
 use config::{Buses, Network};
 use duocan_redundancy::net::RedundantNetwork;
 use std::path::{Path, PathBuf};
+use std::sync::atomic::{AtomicU64, Ordering};
+use std::sync::Arc;
 
 /// `duocan station` subcommands.
 #[derive(clap::Subcommand, Debug)]
@@ -144,6 +147,16 @@ async fn serve(g: &Global, st: &config::Station, duration_ms: Option<u64>) -> Re
             None => None,
         });
     }
+    // So does its HTTP address: taken before any network opens.
+    let listener = match &st.http {
+        Some((addr, token)) => Some((
+            tokio::net::TcpListener::bind(addr)
+                .await
+                .map_err(|e| Fail::usage(format!("http: cannot listen on {addr}: {e}")))?,
+            token.clone(),
+        )),
+        None => None,
+    };
     let run = std::time::SystemTime::now()
         .duration_since(std::time::UNIX_EPOCH)
         .unwrap_or_default()
@@ -165,12 +178,23 @@ async fn serve(g: &Global, st: &config::Station, duration_ms: Option<u64>) -> Re
     let mut logs = tokio::task::JoinSet::new();
     let (stop_audit, _) = tokio::sync::watch::channel(false);
     let mut audits = tokio::task::JoinSet::new();
+    let mut watched = Vec::new();
     for ((n, net), log) in nets.iter().zip(logs_of) {
         let mut events = net.events();
         let name = n.name.clone();
+        let w = Arc::new(http::Watched {
+            name: n.name.clone(),
+            buses: n.buses.to_string(),
+            net: net.clone(),
+            events: AtomicU64::new(0),
+            failovers: AtomicU64::new(0),
+        });
+        watched.push(w.clone());
         logs.spawn(async move {
             while let Some(e) = events.next().await {
+                w.events.fetch_add(1, Ordering::Relaxed);
                 if e.is_failover() {
+                    w.failovers.fetch_add(1, Ordering::Relaxed);
                     tracing::warn!(target: "duocan::station", network = %name, "{e}");
                 } else {
                     tracing::info!(target: "duocan::station", network = %name, "{e}");
@@ -187,6 +211,16 @@ async fn serve(g: &Global, st: &config::Station, duration_ms: Option<u64>) -> Re
             };
             audits.spawn(keeper.run(stop_audit.subscribe()));
         }
+    }
+    if let Some((listener, token)) = listener {
+        let local = listener.local_addr()?;
+        tracing::info!(target: "duocan::station", "http listening on {local}");
+        let app = http::router(watched, token);
+        logs.spawn(async move {
+            if let Err(e) = axum::serve(listener, app).await {
+                tracing::error!(target: "duocan::station", "http: {e}");
+            }
+        });
     }
     let timer = async {
         match duration_ms {

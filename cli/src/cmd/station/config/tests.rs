@@ -133,3 +133,54 @@ fn any_text_is_read_without_panicking() {
         let _ = parse(&GOOD[..cut], "p.toml");
     });
 }
+
+#[test]
+fn http_is_loopback_unless_a_token_is_given() {
+    let head = "[station]\nhttp = ";
+    let net = "\n\n[[network]]\nname = \"a\"\nbuses = \"sim-pairs\"\nnode_id = 1\n";
+    let st = parse(&format!("{head}\"127.0.0.1:0\"{net}"), "s.toml").unwrap();
+    assert_eq!(st.http, Some(("127.0.0.1:0".parse().unwrap(), None)));
+    let e = err(&format!("{head}\"0.0.0.0:8080\"{net}"));
+    assert!(
+        e.starts_with("s.toml:2:8: http: 0.0.0.0:8080 is reachable from other machines"),
+        "{e}"
+    );
+    let ok = format!("{head}\"0.0.0.0:8080\"\nhttp_token = \"0123456789abcdef\"{net}");
+    let st = parse(&ok, "s.toml").unwrap();
+    assert_eq!(st.http.unwrap().1.as_deref(), Some("0123456789abcdef"));
+    let e = err(&format!(
+        "{head}\"0.0.0.0:8080\"\nhttp_token = \"short\"{net}"
+    ));
+    assert!(e.starts_with("s.toml:3:14: http_token: at least 16"), "{e}");
+    let e = err(&format!("{head}\"localhost\"{net}"));
+    assert!(
+        e.starts_with("s.toml:2:8: http: \"localhost\" is not an address"),
+        "{e}"
+    );
+    let e = err(&format!(
+        "[station]\nhttp_token = \"0123456789abcdef\"{net}"
+    ));
+    assert!(e.contains("http_token: set http too"), "{e}");
+}
+
+#[test]
+fn the_audit_folder_is_relative_to_the_file() {
+    let net = "\n[[network]]\nname = \"a\"\nbuses = \"sim-pairs\"\nnode_id = 1\n";
+    let st = parse(
+        &format!("[station]\naudit_dir = \"trail\"\n{net}"),
+        "/etc/duocan/s.toml",
+    )
+    .unwrap();
+    let a = st.audit.unwrap();
+    assert_eq!(a.dir, std::path::Path::new("/etc/duocan/trail"));
+    assert_eq!((a.max_bytes, a.keep), (AUDIT_MAX_BYTES, AUDIT_KEEP));
+    let e = err(&format!(
+        "[station]\naudit_dir = \"t\"\naudit_max_bytes = 100\n{net}"
+    ));
+    assert!(
+        e.starts_with("s.toml:3:19: audit_max_bytes: at least 4096"),
+        "{e}"
+    );
+    let e = err(&format!("[station]\naudit_max_bytes = 8192\n{net}"));
+    assert!(e.contains("audit_max_bytes: set audit_dir too"), "{e}");
+}

@@ -1,0 +1,292 @@
+//! The station's HTTP access: what each network is doing, for people and for a plant's
+//! monitoring.
+//!
+//! - `GET /api/networks`: every network as JSON — its buses, this master's role, each port's
+//!   state and counters, each pair's running board.
+//! - `GET /metrics`: the same as Prometheus metrics (text format 0.0.4): frames, error frames,
+//!   dropped frames and re-opens per port, port up, master active, running board per pair,
+//!   events and failovers per network.
+//!
+//! **Security.** The station listens on loopback unless its file names another address, and
+//! then only with a token (`http_token`): every request must carry `Authorization: Bearer
+//! TOKEN` (compared in constant time) or gets 401. Anything but these two routes is 404; a
+//! method other than GET is 405. Requests have no body to bound; at most [`MAX_CLIENTS`]
+//! requests are served at once (more wait for their turn).
+
+use axum::extract::State;
+use axum::http::{header, HeaderMap, StatusCode};
+use axum::response::{IntoResponse, Response};
+use axum::routing::get;
+use axum::Router;
+use duocan_redundancy::net::RedundantNetwork;
+use duocan_redundancy::supervisor::flying_master::MasterRole;
+use duocan_redundancy::Member;
+use serde_json::json;
+use std::fmt::Write as _;
+use std::sync::atomic::{AtomicU64, Ordering};
+use std::sync::Arc;
+use tokio::sync::Semaphore;
+
+/// Requests served at once.
+pub const MAX_CLIENTS: usize = 16;
+
+/// One network as the HTTP side sees it.
+pub struct Watched {
+    /// Its name.
+    pub name: String,
+    /// Its buses, as the file gave them.
+    pub buses: String,
+    /// The network.
+    pub net: RedundantNetwork,
+    /// Events so far.
+    pub events: AtomicU64,
+    /// Failovers so far (bus, master, pair).
+    pub failovers: AtomicU64,
+}
+
+struct Shared {
+    networks: Vec<Arc<Watched>>,
+    token: Option<String>,
+    turns: Semaphore,
+}
+
+/// The router over `networks`; with `token`, every request must carry it.
+pub fn router(networks: Vec<Arc<Watched>>, token: Option<String>) -> Router {
+    let shared = Arc::new(Shared {
+        networks,
+        token,
+        turns: Semaphore::new(MAX_CLIENTS),
+    });
+    Router::new()
+        .route("/api/networks", get(networks_json))
+        .route("/metrics", get(metrics))
+        .fallback(|| async {
+            error(
+                StatusCode::NOT_FOUND,
+                "no such page: /api/networks and /metrics are served",
+            )
+        })
+        .with_state(shared)
+}
+
+fn error(code: StatusCode, why: &str) -> Response {
+    (code, axum::Json(json!({ "error": why }))).into_response()
+}
+
+/// Whether the request may be served: the token, if the station has one.
+fn allowed(s: &Shared, headers: &HeaderMap) -> bool {
+    let Some(token) = &s.token else {
+        return true;
+    };
+    let given = headers
+        .get(header::AUTHORIZATION)
+        .and_then(|v| v.to_str().ok())
+        .and_then(|v| v.strip_prefix("Bearer "))
+        .unwrap_or("");
+    // Constant time in the token's length: a wrong guess says nothing of where it went wrong.
+    let (a, b) = (given.as_bytes(), token.as_bytes());
+    let mut diff = a.len() ^ b.len();
+    for (i, &t) in b.iter().enumerate() {
+        diff |= usize::from(a.get(i).copied().unwrap_or(0) ^ t);
+    }
+    diff == 0
+}
+
+/// What is known of one network now.
+struct View {
+    role: Option<MasterRole>,
+    ports: Vec<duocan::net::PortView>,
+    pairs: Vec<(String, Option<Member>)>,
+}
+
+async fn view(w: &Watched) -> View {
+    let role = w.net.role().await.ok();
+    let ports = w.net.ports().await.unwrap_or_default();
+    let pairs = w
+        .net
+        .with(|n, _| {
+            n.pairs()
+                .map(|(_, p)| {
+                    let (a, b) = (p.spec.node(Member::A).raw(), p.spec.node(Member::B).raw());
+                    (format!("{a:#04x}/{b:#04x}"), p.active)
+                })
+                .collect()
+        })
+        .await
+        .unwrap_or_default();
+    View { role, ports, pairs }
+}
+
+fn member(m: Option<Member>) -> &'static str {
+    match m {
+        Some(Member::A) => "A",
+        Some(Member::B) => "B",
+        None => "none",
+    }
+}
+
+async fn networks_json(State(s): State<Arc<Shared>>, headers: HeaderMap) -> Response {
+    if !allowed(&s, &headers) {
+        return error(
+            StatusCode::UNAUTHORIZED,
+            "a token is needed: Authorization: Bearer TOKEN",
+        );
+    }
+    let _turn = s.turns.acquire().await;
+    let mut out = Vec::new();
+    for w in &s.networks {
+        let v = view(w).await;
+        out.push(json!({
+            "name": w.name,
+            "buses": w.buses,
+            "role": v.role.map(|r| r.to_string()),
+            "ports": v.ports.iter().map(|p| json!({
+                "name": p.name,
+                "state": p.state,
+                "rx_frames": p.counters.rx_frames,
+                "tx_frames": p.counters.tx_frames,
+                "rx_error_frames": p.counters.rx_error_frames,
+                "tx_dropped": p.counters.tx_dropped,
+                "reopened": p.counters.reopened,
+            })).collect::<Vec<_>>(),
+            "pairs": v.pairs.iter().map(|(p, m)| json!({ "pair": p, "active": member(*m) })).collect::<Vec<_>>(),
+            "events": w.events.load(Ordering::Relaxed),
+            "failovers": w.failovers.load(Ordering::Relaxed),
+        }));
+    }
+    axum::Json(out).into_response()
+}
+
+/// One of a port's counters.
+type Counter = fn(&duocan::port::PortCountersSnapshot) -> u64;
+
+/// A label value, escaped as the text format asks.
+fn label(s: &str) -> String {
+    s.replace('\\', "\\\\")
+        .replace('"', "\\\"")
+        .replace('\n', "\\n")
+}
+
+async fn metrics(State(s): State<Arc<Shared>>, headers: HeaderMap) -> Response {
+    if !allowed(&s, &headers) {
+        return error(
+            StatusCode::UNAUTHORIZED,
+            "a token is needed: Authorization: Bearer TOKEN",
+        );
+    }
+    let _turn = s.turns.acquire().await;
+    let mut views = Vec::new();
+    for w in &s.networks {
+        views.push((w, view(w).await));
+    }
+    let mut out = String::new();
+    let port_metrics: [(&str, &str, Counter); 5] = [
+        (
+            "duocan_port_rx_frames_total",
+            "Frames received on the port",
+            |c| c.rx_frames,
+        ),
+        (
+            "duocan_port_tx_frames_total",
+            "Frames sent on the port",
+            |c| c.tx_frames,
+        ),
+        (
+            "duocan_port_rx_error_frames_total",
+            "Error frames seen on the port",
+            |c| c.rx_error_frames,
+        ),
+        (
+            "duocan_port_tx_dropped_total",
+            "Frames dropped for want of room in the port's queue",
+            |c| c.tx_dropped,
+        ),
+        (
+            "duocan_port_reopened_total",
+            "Times the port was re-opened after a failure",
+            |c| c.reopened,
+        ),
+    ];
+    for (name, help, value) in port_metrics {
+        let _ = writeln!(out, "# HELP {name} {help}.\n# TYPE {name} counter");
+        for (w, v) in &views {
+            for p in &v.ports {
+                let _ = writeln!(
+                    out,
+                    "{name}{{network=\"{}\",bus=\"{}\",port=\"{}\"}} {}",
+                    label(&w.name),
+                    p.index + 1,
+                    label(&p.name),
+                    value(&p.counters)
+                );
+            }
+        }
+    }
+    let _ = writeln!(
+        out,
+        "# HELP duocan_port_up Whether the port works (state ok).\n# TYPE duocan_port_up gauge"
+    );
+    for (w, v) in &views {
+        for p in &v.ports {
+            let up = u8::from(p.state == "ok");
+            let _ = writeln!(
+                out,
+                "duocan_port_up{{network=\"{}\",bus=\"{}\",port=\"{}\"}} {up}",
+                label(&w.name),
+                p.index + 1,
+                label(&p.name)
+            );
+        }
+    }
+    let _ = writeln!(out, "# HELP duocan_master_active Whether this station's master is the network's active one.\n# TYPE duocan_master_active gauge");
+    for (w, v) in &views {
+        let active = u8::from(v.role == Some(MasterRole::Active));
+        let _ = writeln!(
+            out,
+            "duocan_master_active{{network=\"{}\"}} {active}",
+            label(&w.name)
+        );
+    }
+    let _ = writeln!(out, "# HELP duocan_pair_active_member The pair's running board: 0 none, 1 A, 2 B.\n# TYPE duocan_pair_active_member gauge");
+    for (w, v) in &views {
+        for (pair, m) in &v.pairs {
+            let n = match m {
+                None => 0,
+                Some(Member::A) => 1,
+                Some(Member::B) => 2,
+            };
+            let _ = writeln!(
+                out,
+                "duocan_pair_active_member{{network=\"{}\",pair=\"{pair}\"}} {n}",
+                label(&w.name)
+            );
+        }
+    }
+    for (name, help, failovers) in [
+        ("duocan_events_total", "Events the network reported", false),
+        (
+            "duocan_failovers_total",
+            "Failovers (bus, master, pair) the network reported",
+            true,
+        ),
+    ] {
+        let _ = writeln!(out, "# HELP {name} {help}.\n# TYPE {name} counter");
+        for (w, _) in &views {
+            let n = if failovers { &w.failovers } else { &w.events };
+            let _ = writeln!(
+                out,
+                "{name}{{network=\"{}\"}} {}",
+                label(&w.name),
+                n.load(Ordering::Relaxed)
+            );
+        }
+    }
+    (
+        [(
+            header::CONTENT_TYPE,
+            "text/plain; version=0.0.4; charset=utf-8",
+        )],
+        out,
+    )
+        .into_response()
+}
