@@ -351,3 +351,69 @@ fn the_station_serves_its_status_and_metrics_over_http() {
     assert_eq!(v[1]["pairs"][0]["active"], "A");
     assert_eq!(v[1]["ports"].as_array().map(Vec::len), Some(2));
 }
+
+/// `GET /api/events`: the networks' events as server-sent events, each named after its
+/// network, as they happen: the simulated plants cut bus 1 two seconds after the start, and
+/// the client, connected before, reads each network's failover from the stream.
+#[test]
+fn the_station_streams_its_events_over_http() {
+    use std::io::Read;
+    let _one = common::one_station();
+    let dir = std::env::temp_dir().join(format!("duocan-station-sse-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    let station = dir.join("sse.toml");
+    let two = std::fs::read_to_string(file("tests/station_files/two.toml")).unwrap();
+    std::fs::write(
+        &station,
+        format!("[station]\nhttp = \"127.0.0.1:0\"\n\n{two}"),
+    )
+    .unwrap();
+    let mut child = Command::new(env!("CARGO_BIN_EXE_duocan"))
+        .args(["station", "run", station.to_str().unwrap()])
+        .env_remove("DUOCAN_LOG")
+        .stdout(Stdio::null())
+        .stderr(Stdio::piped())
+        .spawn()
+        .expect("run duocan");
+    let mut stderr = BufReader::new(child.stderr.take().expect("stderr")).lines();
+    let addr = loop {
+        match stderr.next() {
+            Some(Ok(l)) => {
+                if let Some(a) = l.split("http listening on ").nth(1) {
+                    break a.trim().to_string();
+                }
+            }
+            _ => {
+                let _ = child.kill();
+                panic!("no http address");
+            }
+        }
+    };
+    let drain = std::thread::spawn(move || stderr.count());
+    let mut s = std::net::TcpStream::connect(&addr).expect("connect");
+    s.set_read_timeout(Some(Duration::from_secs(60))).unwrap();
+    use std::io::Write;
+    write!(s, "GET /api/events HTTP/1.1\r\nHost: {addr}\r\n\r\n").unwrap();
+    let mut got = String::new();
+    let mut buf = [0u8; 4096];
+    let want = [
+        "event: east\ndata: bus 1: failed (port down: interface down)",
+        "event: west\ndata: bus 1: failed (port down: interface down)",
+    ];
+    while !want.iter().all(|w| got.contains(w)) {
+        match s.read(&mut buf) {
+            Ok(0) | Err(_) => break,
+            Ok(n) => got.push_str(&String::from_utf8_lossy(&buf[..n])),
+        }
+    }
+    let _ = child.kill();
+    let _ = child.wait();
+    let _ = drain.join();
+    let _ = std::fs::remove_dir_all(&dir);
+    assert!(got.starts_with("HTTP/1.1 200"), "{got}");
+    assert!(got.contains("content-type: text/event-stream"), "{got}");
+    for w in want {
+        assert!(got.contains(w), "{w:?} not in:\n{got}");
+    }
+}

@@ -6,6 +6,11 @@
 //! - `GET /metrics`: the same as Prometheus metrics (text format 0.0.4): frames, error frames,
 //!   dropped frames and re-opens per port, port up, master active, running board per pair,
 //!   events and failovers per network.
+//! - `GET /api/events`: every network's events from now on, as server-sent events: one
+//!   `event: NETWORK` with the event's one line as its data, each as it happens. A client that
+//!   falls behind the network's bounded event queue is told how many it missed (`data: missed
+//!   N events`) and goes on with the newest; at most [`MAX_STREAMS`] streams at once (more get
+//!   503).
 //!
 //! **Security.** The station listens on loopback unless its file names another address, and
 //! then only with a token (`http_token`): every request must carry `Authorization: Bearer
@@ -29,6 +34,8 @@ use tokio::sync::Semaphore;
 
 /// Requests served at once.
 pub const MAX_CLIENTS: usize = 16;
+/// Event streams open at once.
+pub const MAX_STREAMS: usize = 8;
 
 /// One network as the HTTP side sees it.
 pub struct Watched {
@@ -48,6 +55,7 @@ struct Shared {
     networks: Vec<Arc<Watched>>,
     token: Option<String>,
     turns: Semaphore,
+    streams: Arc<Semaphore>,
 }
 
 /// The router over `networks`; with `token`, every request must carry it.
@@ -56,14 +64,16 @@ pub fn router(networks: Vec<Arc<Watched>>, token: Option<String>) -> Router {
         networks,
         token,
         turns: Semaphore::new(MAX_CLIENTS),
+        streams: Arc::new(Semaphore::new(MAX_STREAMS)),
     });
     Router::new()
         .route("/api/networks", get(networks_json))
         .route("/metrics", get(metrics))
+        .route("/api/events", get(events))
         .fallback(|| async {
             error(
                 StatusCode::NOT_FOUND,
-                "no such page: /api/networks and /metrics are served",
+                "no such page: /api/networks, /api/events and /metrics are served",
             )
         })
         .with_state(shared)
@@ -288,5 +298,65 @@ async fn metrics(State(s): State<Arc<Shared>>, headers: HeaderMap) -> Response {
         )],
         out,
     )
+        .into_response()
+}
+
+async fn events(State(s): State<Arc<Shared>>, headers: HeaderMap) -> Response {
+    use axum::response::sse::{Event, KeepAlive, Sse};
+    use duocan::net::NetEvent;
+    if !allowed(&s, &headers) {
+        return error(
+            StatusCode::UNAUTHORIZED,
+            "a token is needed: Authorization: Bearer TOKEN",
+        );
+    }
+    let Ok(permit) = s.streams.clone().try_acquire_owned() else {
+        return error(
+            StatusCode::SERVICE_UNAVAILABLE,
+            "too many event streams open: try again later",
+        );
+    };
+    // One bounded queue per client: each network's stream feeds it; a full queue drops the
+    // client's oldest-to-come events and counts them, never holding a network up.
+    let (tx, rx) = tokio::sync::mpsc::channel::<(String, String)>(256);
+    let mut feeds = tokio::task::JoinSet::new();
+    for w in &s.networks {
+        let mut ev = w.net.events();
+        let (tx, name) = (tx.clone(), w.name.clone());
+        feeds.spawn(async move {
+            let mut missed = 0u64;
+            while let Some(e) = ev.next().await {
+                let line = match e {
+                    NetEvent::Lagged(n) => format!("missed {n} events"),
+                    e => e.to_string(),
+                };
+                if missed > 0
+                    && tx
+                        .try_send((name.clone(), format!("missed {missed} events")))
+                        .is_ok()
+                {
+                    missed = 0;
+                }
+                match tx.try_send((name.clone(), line)) {
+                    Ok(()) => {}
+                    Err(tokio::sync::mpsc::error::TrySendError::Full(_)) => missed += 1,
+                    Err(tokio::sync::mpsc::error::TrySendError::Closed(_)) => return,
+                }
+            }
+        });
+    }
+    drop(tx);
+    // The stream owns the feeds and the permit: both go when the client does.
+    let stream =
+        futures_util::stream::unfold((rx, feeds, permit), |(mut rx, feeds, permit)| async move {
+            let (name, line) = rx.recv().await?;
+            let event = Event::default().event(name).data(line);
+            Some((
+                Ok::<_, std::convert::Infallible>(event),
+                (rx, feeds, permit),
+            ))
+        });
+    Sse::new(stream)
+        .keep_alive(KeepAlive::default())
         .into_response()
 }
