@@ -200,7 +200,7 @@ async fn python_can_and_duocan_exchange_can_fd_frames() {
         got,
         [
             Ok(fd(Id::Standard(0x181), &twelve).with_brs(true)),
-            Ok(fd(Id::Extended(0x1A_BCDE), &[0xA5; 64]).with_esi(true)),
+            Ok(fd(Id::Extended(0x001A_BCDE), &[0xA5; 64]).with_esi(true)),
             Ok(fd(Id::Standard(0x182), &series)
                 .with_brs(true)
                 .with_esi(true)),
@@ -233,7 +233,7 @@ async fn python_can_and_duocan_exchange_can_fd_frames() {
     );
     assert_eq!(
         peer.expect("RX 12345678", 10).await,
-        format!("RX 12345678 1 1 0 1 20 {}", hex(&out[1].data()))
+        format!("RX 12345678 1 1 0 1 20 {}", hex(out[1].data()))
     );
     assert_eq!(peer.expect("RX 702", 10).await, "RX 702 0 0 0 0 1 7f");
     peer.stop().await;

@@ -81,7 +81,7 @@ async fn fd_frames_travel_between_fd_ports_on_a_vcan_at_the_fd_mtu() {
         FdFrame::new(Id::Standard(0x181), &[0xA5; 64])
             .unwrap()
             .with_brs(true),
-        FdFrame::new(Id::Extended(0x1ABC_DE), &twelve)
+        FdFrame::new(Id::Extended(0x001A_BCDE), &twelve)
             .unwrap()
             .with_esi(true),
         FdFrame::new(Id::Standard(0x182), &[])

@@ -555,7 +555,7 @@ mod fd_tests {
 
     #[test]
     fn an_fd_port_hands_fd_frames_over_and_a_classic_one_counts_them() {
-        let f = FdFrame::new(Id::Extended(0x1ABC_DE), &[0xA5; 64])
+        let f = FdFrame::new(Id::Extended(0x001A_BCDE), &[0xA5; 64])
             .unwrap()
             .with_esi(true);
         let classic = Frame::from_array(Id::Standard(0x181), [1, 2]);
