@@ -34,8 +34,8 @@ fuzz_target!(|data: &[u8]| {
     // The CAN FD decoder too: what it takes must encode back to a datagram it takes again.
     if let Ok((frame, ts)) = udp::decode_any(data) {
         let again = match frame {
-            udp::Decoded::Frame(f) => udp::encode(&f, ts, None),
-            udp::Decoded::Fd(f) => udp::encode_fd(&f, ts, None),
+            udp::UdpFrame::Frame(f) => udp::encode(&f, ts, None),
+            udp::UdpFrame::Fd(f) => udp::encode_fd(&f, ts, None),
         };
         let back = udp::decode_any(&again).map(|(f, _)| f);
         assert_eq!(back, Ok(frame), "re-encoded datagram decodes to the same frame");

@@ -47,7 +47,7 @@ pub enum DecodeError {
 
 /// A decoded frame, classic or CAN FD ([`decode_any`]).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum Decoded {
+pub enum UdpFrame {
     /// A classic data or remote frame.
     Frame(Frame),
     /// A CAN FD frame.
@@ -150,17 +150,17 @@ pub fn encode_fd(frame: &FdFrame, timestamp: f64, channel: Option<&str>) -> Vec<
 /// A CAN FD frame is [`DecodeError::Fd`]: [`decode_any`] takes those too.
 pub fn decode(datagram: &[u8]) -> Result<(Frame, f64), DecodeError> {
     match decode_with(datagram, false)? {
-        (Decoded::Frame(f), t) => Ok((f, t)),
-        (Decoded::Fd(_), _) => Err(DecodeError::Fd),
+        (UdpFrame::Frame(f), t) => Ok((f, t)),
+        (UdpFrame::Fd(_), _) => Err(DecodeError::Fd),
     }
 }
 
 /// Decodes a datagram into a classic or CAN FD frame and its timestamp.
-pub fn decode_any(datagram: &[u8]) -> Result<(Decoded, f64), DecodeError> {
+pub fn decode_any(datagram: &[u8]) -> Result<(UdpFrame, f64), DecodeError> {
     decode_with(datagram, true)
 }
 
-fn decode_with(datagram: &[u8], fd: bool) -> Result<(Decoded, f64), DecodeError> {
+fn decode_with(datagram: &[u8], fd: bool) -> Result<(UdpFrame, f64), DecodeError> {
     let mut rd = datagram;
     let v = rmpv::decode::read_value_with_max_depth(&mut rd, FRAME_DEPTH).map_err(|e| match e {
         rmpv::decode::Error::DepthLimitExceeded => DecodeError::TooDeep,
@@ -222,13 +222,13 @@ fn decode_with(datagram: &[u8], fd: bool) -> Result<(Decoded, f64), DecodeError>
             .map_err(DecodeError::InvalidFd)?
             .with_brs(flag("bitrate_switch", false)?)
             .with_esi(flag("error_state_indicator", false)?);
-        return Ok((Decoded::Fd(f), timestamp));
+        return Ok((UdpFrame::Fd(f), timestamp));
     }
     if flag("is_remote_frame", false)? {
         let dlc = u8::try_from(dlc)
             .map_err(|_| DecodeError::Invalid(crate::frame::FrameError::TooLong { len: 255 }))?;
         let f = Frame::remote(id, dlc).map_err(DecodeError::Invalid)?;
-        return Ok((Decoded::Frame(f), timestamp));
+        return Ok((UdpFrame::Frame(f), timestamp));
     }
     let mut bytes = [0u8; 8];
     let data = payload(get("data"), dlc, &mut bytes, 8).map_err(|e| {
@@ -238,7 +238,7 @@ fn decode_with(datagram: &[u8], fd: bool) -> Result<(Decoded, f64), DecodeError>
         return Err(DecodeError::Field("dlc"));
     }
     let f = Frame::new(id, data).map_err(DecodeError::Invalid)?;
-    Ok((Decoded::Frame(f), timestamp))
+    Ok((UdpFrame::Frame(f), timestamp))
 }
 
 /// A frame's `data`: binary, or a list of integers (a peer that packed without
@@ -398,13 +398,13 @@ mod tests {
         let f = fd(&data).with_brs(true);
         let py = unhex(PYTHON_FD_HEX);
         assert_eq!(encode_fd(&f, 1.5, None), py);
-        assert_eq!(decode_any(&py), Ok((Decoded::Fd(f), 1.5)));
+        assert_eq!(decode_any(&py), Ok((UdpFrame::Fd(f), 1.5)));
         // The classic decoder refuses it, naming why.
         assert_eq!(decode(&py), Err(DecodeError::Fd));
         // A classic frame through `decode_any` is a classic frame.
         assert_eq!(
             decode_any(&python_sdo()).unwrap().0,
-            Decoded::Frame(Frame::from_array(
+            UdpFrame::Frame(Frame::from_array(
                 Id::Standard(0x601),
                 [0x40, 0x18, 0x10, 1, 0, 0, 0, 0]
             ))
@@ -476,7 +476,7 @@ mod tests {
         fn fd_round_trip(f in crate::frame::arbitrary::any_fd_frame(), ts in 0.0f64..2e9) {
             prop_assert_eq!(
                 decode_any(&encode_fd(&f, ts, Some("can0"))).unwrap(),
-                (Decoded::Fd(f), ts)
+                (UdpFrame::Fd(f), ts)
             );
         }
 

@@ -29,7 +29,7 @@ mod blocking;
 mod codec;
 mod rx;
 
-pub use codec::{decode, decode_any, encode, encode_fd, DecodeError, Decoded};
+pub use codec::{decode, decode_any, encode, encode_fd, DecodeError, UdpFrame};
 
 use super::{AnyInput, Port, PortCounters, PortError, PortErrorKind, PortInput, PortReader};
 use crate::frame::{FdFrame, Frame};
@@ -311,8 +311,8 @@ impl UdpPort {
             Ok((got, _)) => {
                 self.counters.rx_frames();
                 Some(match got {
-                    Decoded::Frame(f) => AnyInput::Frame(f, at),
-                    Decoded::Fd(f) => AnyInput::Fd(f, at),
+                    UdpFrame::Frame(f) => AnyInput::Frame(f, at),
+                    UdpFrame::Fd(f) => AnyInput::Fd(f, at),
                 })
             }
             Err(e) => {
