@@ -20,6 +20,8 @@ struct FdProbe {
     /// The first data byte of every frame received, classic or FD, in order.
     arrivals: Vec<u8>,
     status: Vec<(Instant, PortStatus)>,
+    /// Says it is classic-only.
+    classic: bool,
 }
 
 impl Device for FdProbe {
@@ -28,7 +30,7 @@ impl Device for FdProbe {
         1
     }
     fn fd_capable(&self) -> bool {
-        true
+        !self.classic
     }
     fn handle_rx(&mut self, now: Instant, _: usize, frame: &Frame) {
         self.rx.push((now, *frame));
@@ -336,4 +338,70 @@ fn captures_of_the_trace_keep_fd_frames_as_fd_records() {
     let rec = crate::capture::pcap::decode_packet(&pcap[24 + 25 + 16..]).unwrap();
     assert_eq!(rec.fd_frame(), Some(&f));
     assert_eq!(tx_records(&sim)[1].capture_record().fd_frame(), Some(&f));
+}
+
+#[test]
+fn an_fd_frame_cut_short_by_a_partition_is_sent_again() {
+    let (mut sim, bus) = fd_pair(9);
+    let a = sim.add_device("a", FdProbe::default(), &[bus]).unwrap();
+    let b = sim.add_device("b", FdProbe::default(), &[bus]).unwrap();
+    let f = fd(0x181, &[0x5A; 64]);
+    sim.device_mut(a).out_fd.push_back((0, f));
+    // Partitioned and healed while the frame is on the wire (it takes well over 20 µs).
+    sim.at(Instant::from_micros(20), move |s| {
+        s.partition(bus, &[&[a.port(0)]])
+    });
+    sim.at(Instant::from_micros(30), move |s| s.heal(bus));
+    sim.run_until(Instant::from_millis(5));
+    let tx = tx_records(&sim);
+    assert_eq!(tx[0].outcome, TxOutcome::Aborted);
+    assert_eq!(tx[0].fd.as_deref(), Some(&f));
+    let last = tx.last().unwrap();
+    assert_eq!(last.outcome, TxOutcome::Delivered { receivers: 1 });
+    assert_eq!((last.fd.as_deref(), last.serial), (Some(&f), Some(0)));
+    assert_eq!(sim.device(b).rx_fd.len(), 1);
+    assert_eq!(sim.device(b).rx_fd[0].1, f);
+}
+
+#[test]
+fn replacing_an_fd_device_by_a_classic_only_one_on_an_fd_bus_is_refused() {
+    let (mut sim, bus) = fd_pair(10);
+    let x = sim.add_device("x", FdProbe::default(), &[bus]).unwrap();
+    let classic = FdProbe {
+        classic: true,
+        ..FdProbe::default()
+    };
+    let Err(e) = sim.replace(x, classic) else {
+        panic!("a classic-only device replaced one on an FD bus")
+    };
+    assert_eq!(
+        e,
+        SimError::ClassicOnFdBus {
+            bus,
+            device: "x".into()
+        }
+    );
+    // Still the FD-capable device, and an FD-capable replacement is fine.
+    assert!(sim.device(x).fd_capable());
+    sim.replace(x, FdProbe::default()).unwrap();
+}
+
+#[test]
+fn a_full_queue_holds_fd_frames_back_without_losing_or_reordering_them() {
+    let (mut sim, bus) = fd_pair(11);
+    let a = sim.add_device("a", FdProbe::default(), &[bus]).unwrap();
+    let b = sim.add_device("b", FdProbe::default(), &[bus]).unwrap();
+    sim.set_tx_capacity(a.port(0), 1);
+    let frames: Vec<FdFrame> = (0..6u8).map(|i| fd(0x100, &[i; 24])).collect();
+    for f in &frames {
+        sim.device_mut(a).out_fd.push_back((0, *f));
+    }
+    sim.device_mut(a).out.push_back((0, std_frame(0x100, &[9])));
+    sim.run_until(Instant::from_millis(10));
+    let got: Vec<FdFrame> = sim.device(b).rx_fd.iter().map(|r| r.1).collect();
+    assert_eq!(got, frames);
+    assert_eq!(sim.device(b).arrivals, [9, 0, 1, 2, 3, 4, 5]);
+    assert!(sim.port_stats(a.port(0)).tx_blocked > 0);
+    let serials: Vec<u64> = tx_records(&sim).iter().map(|t| t.serial.unwrap()).collect();
+    assert_eq!(serials, [0, 1, 2, 3, 4, 5, 6]);
 }
