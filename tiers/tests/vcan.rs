@@ -62,7 +62,7 @@ async fn socketcan_port_sends_and_receives_every_frame_kind() {
     let mut b = SocketCanPort::open("vcan0").expect("open vcan0 again");
     let frames = [
         Frame::from_array(Id::Standard(0x123), [0xDE, 0xAD, 0xBE, 0xEF]),
-        Frame::from_array(Id::Extended(0x001A_BCDEF0), [1, 2, 3, 4, 5, 6, 7, 8]),
+        Frame::from_array(Id::Extended(0x1ABC_DEF0), [1, 2, 3, 4, 5, 6, 7, 8]),
         Frame::remote(Id::Standard(0x705), 1).unwrap(),
         Frame::remote(Id::Extended(0x1F), 0).unwrap(),
         Frame::new(Id::Standard(0x000), &[]).unwrap(),
