@@ -7,8 +7,8 @@ use crate::args::{parse_udp, UdpSpec};
 use crate::fail::Fail;
 use duocan::port::socketcan::SocketCanPort;
 use duocan::port::udp::{UdpBusConfig, UdpPort};
-use duocan::port::{Port, PortCounters, PortError, PortInput};
-use duocan::Frame;
+use duocan::port::{AnyInput, Port, PortCounters, PortError, PortInput};
+use duocan::{FdFrame, Frame};
 
 /// One interface, opened by name.
 pub enum NamedPort {
@@ -69,6 +69,18 @@ impl Port for NamedPort {
         match self {
             NamedPort::Udp(p) => p.send(frame).await,
             NamedPort::Can(p) => p.send(frame).await,
+        }
+    }
+    async fn recv_any(&mut self) -> Result<AnyInput, PortError> {
+        match self {
+            NamedPort::Udp(p) => p.recv_any().await,
+            NamedPort::Can(p) => p.recv_any().await,
+        }
+    }
+    async fn send_fd(&mut self, frame: &FdFrame) -> Result<(), PortError> {
+        match self {
+            NamedPort::Udp(p) => p.send_fd(frame).await,
+            NamedPort::Can(p) => p.send_fd(frame).await,
         }
     }
     async fn reopen(&mut self) -> Result<(), PortError> {

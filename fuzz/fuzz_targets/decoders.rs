@@ -31,6 +31,15 @@ fuzz_target!(|data: &[u8]| {
         }
     }
     let _ = udp::decode(data);
+    // The CAN FD decoder too: what it takes must encode back to a datagram it takes again.
+    if let Ok((frame, ts)) = udp::decode_any(data) {
+        let again = match frame {
+            udp::UdpFrame::Frame(f) => udp::encode(&f, ts, None),
+            udp::UdpFrame::Fd(f) => udp::encode_fd(&f, ts, None),
+        };
+        let back = udp::decode_any(&again).map(|(f, _)| f);
+        assert_eq!(back, Ok(frame), "re-encoded datagram decodes to the same frame");
+    }
     if data.len() >= 8 {
         let d: [u8; 8] = data[..8].try_into().unwrap_or([0; 8]);
         let _ = Request::decode(&d);

@@ -1,7 +1,7 @@
 //! The async port interface the runtime drives.
 
 use super::PortCounters;
-use crate::frame::Frame;
+use crate::frame::{FdFrame, Frame};
 use crate::machine::{ErrorCause, PortStatus};
 use std::fmt;
 use std::future::Future;
@@ -34,6 +34,41 @@ impl<T> PortInput<T> {
         match self {
             PortInput::Frame(f, _) => Some(f),
             PortInput::Status(_) => None,
+        }
+    }
+}
+
+/// What a port delivers through [`Port::recv_any`]: [`PortInput`] and CAN FD frames.
+///
+/// A type of its own rather than a third variant of [`PortInput`]: a CAN FD frame is 72 bytes
+/// against a classic frame's 16, and every classic frame the runtime moves would grow to its
+/// size.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum AnyInput<T = std::time::Instant> {
+    /// A classic CAN frame and its receive timestamp (`None`: the port takes none).
+    Frame(Frame, Option<T>),
+    /// A CAN FD frame and its receive timestamp.
+    Fd(FdFrame, Option<T>),
+    /// Controller status.
+    Status(PortStatus),
+}
+
+impl<T> From<PortInput<T>> for AnyInput<T> {
+    fn from(input: PortInput<T>) -> Self {
+        match input {
+            PortInput::Frame(f, at) => AnyInput::Frame(f, at),
+            PortInput::Status(s) => AnyInput::Status(s),
+        }
+    }
+}
+
+impl<T> AnyInput<T> {
+    /// The CAN FD frame, if this is one.
+    #[must_use]
+    pub fn fd_frame(&self) -> Option<&FdFrame> {
+        match self {
+            AnyInput::Fd(f, _) => Some(f),
+            _ => None,
         }
     }
 }
@@ -146,6 +181,18 @@ pub trait Port: Send + 'static {
     }
     /// Sends one frame.
     fn send(&mut self, frame: &Frame) -> impl Future<Output = Result<(), PortError>> + Send;
+    /// Sends one CAN FD frame, on a port opened for CAN FD. The default is a classic port's
+    /// answer: a [`PortErrorKind::Config`] error saying so, nothing sent.
+    fn send_fd(&mut self, frame: &FdFrame) -> impl Future<Output = Result<(), PortError>> + Send {
+        let e = classic_port(self.name(), frame);
+        async move { Err(e) }
+    }
+    /// Next frame, classic or CAN FD, or status: what [`Port::recv`] hands over plus the CAN FD
+    /// frames of a port opened for them ([`Port::recv`] counts those as invalid and skips
+    /// them, as a classic port does). The default is a classic port's: [`Port::recv`].
+    fn recv_any(&mut self) -> impl Future<Output = Result<AnyInput, PortError>> + Send {
+        async move { self.recv().await.map(AnyInput::from) }
+    }
     /// Re-opens the port after a failure (or on request: after bus-off, to reset the socket).
     fn reopen(&mut self) -> impl Future<Output = Result<(), PortError>> + Send;
     /// Hands the port's reading to a thread of its own, if the port can read by blocking: the
@@ -157,6 +204,17 @@ pub trait Port: Send + 'static {
     fn reader(&mut self) -> Option<Box<dyn PortReader>> {
         None
     }
+}
+
+/// What a classic port answers to [`Port::send_fd`].
+pub(crate) fn classic_port(port: &str, frame: &FdFrame) -> PortError {
+    PortError::new(
+        port,
+        PortErrorKind::Config,
+        format!(
+            "a classic CAN port: cannot send the CAN FD frame {frame} (open the port for CAN FD)"
+        ),
+    )
 }
 
 /// How long a [`PortReader`] waits at most in one call: the reader thread looks this often

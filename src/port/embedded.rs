@@ -6,6 +6,11 @@
 //! due, hands every pending frame to the controller, and returns the next deadline to arm a timer
 //! with. No allocation: the per-port transmit backlog is a fixed `heapless` queue.
 //!
+//! Classic CAN only: `embedded_can`'s `Frame` has no CAN FD frame (no 64-byte payload, no BRS
+//! or ESI), so this driver neither asks a device for FD frames
+//! (`Device::poll_transmit_fd`) nor hands it any. A CAN FD controller needs a driver of its
+//! own.
+//!
 //! Controller errors ([`embedded_can::ErrorKind`]) are reported to the device as port status.
 //! [`PortRequest::Reinit`](crate::machine::PortRequest) is handled here: the port's backlog is
 //! flushed, the application's restart hook runs if one is installed

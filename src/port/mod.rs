@@ -15,6 +15,20 @@
 //! in-memory bus stamps a frame with the time it went onto the bus. The `embedded` adapter
 //! hands frames over without stamps (`embedded_can` frames carry none).
 //!
+//! # CAN FD
+//!
+//! A port that can carry CAN FD frames says so through two methods of its own beside the
+//! classic ones: `Port::send_fd` sends one, `Port::recv_any` hands over classic and FD frames
+//! alike (`AnyInput`). Their defaults are a classic port's: `send_fd` refuses with a
+//! configuration error, `recv_any` is `recv`. Separate methods rather than a frame enum in
+//! `send` and `PortInput`: a classic frame is 16 bytes and a CAN FD frame 72, so an enum would
+//! make every classic frame the runtime moves as large as an FD one, and every port and
+//! caller would have to handle FD; this way the classic path is as it was and a port opts in
+//! to FD when it is opened for it (SocketCAN: `SocketCanPort::open_fd`, which checks the
+//! interface's MTU; UDP: `UdpBusConfig::with_fd`). `recv` of an FD port still hands over
+//! classic frames only, counting FD ones as invalid. The `embedded` adapter stays classic:
+//! `embedded_can::Frame` has no CAN FD frame.
+//!
 //! Implementations: `socketcan` (Linux SocketCAN, feature `socketcan`), `udp` (python-can's
 //! `udp_multicast` bus, feature `udp`), and for no_std targets the synchronous [`embedded`]
 //! adapter, which drives a [`Device`](crate::Device) over `embedded_can::nb::Can` drivers.
@@ -89,4 +103,4 @@ pub mod mem;
 ))]
 mod stamp;
 #[cfg(feature = "tokio")]
-pub use asynch::{Port, PortError, PortErrorKind, PortInput, PortReader, READER_WAIT};
+pub use asynch::{AnyInput, Port, PortError, PortErrorKind, PortInput, PortReader, READER_WAIT};

@@ -2,13 +2,25 @@
 
 use super::fault::FaultRates;
 use crate::frame::instant::{Duration, Instant};
-use crate::frame::Frame;
+use crate::frame::{FdFrame, Frame};
 use std::collections::{BTreeSet, VecDeque};
 use std::sync::Arc;
 
 /// Frames a port's transmit queue holds unless [`set_tx_capacity`](super::SimNetwork::set_tx_capacity)
 /// says otherwise.
 pub const DEFAULT_TX_CAPACITY: usize = 64;
+
+/// The bit a queued frame's serial carries when the frame is a CAN FD one: the queue holds a
+/// header-only stand-in (its identifier, for arbitration) and the FD frame waits in the port's
+/// `fd_queue`, in the same order. Classic queue entries keep their size (see the module
+/// documentation of [`sim`](super)).
+pub(super) const FD_SERIAL: u64 = 1 << 63;
+
+/// The header-only classic frame standing in for `f` in a transmit queue: same identifier, so
+/// the same arbitration key (an FD frame arbitrates as a data frame of its identifier).
+pub(super) fn stand_in(f: &FdFrame) -> Frame {
+    Frame::from_array(f.id(), [])
+}
 
 /// Counters of one bus since creation or [`reset_stats`](super::SimNetwork::reset_stats).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
@@ -84,6 +96,8 @@ pub(super) struct InFlight {
     pub(super) babble: bool,
     /// Decided at start, because an error frame lasts longer than a good one.
     pub(super) error: bool,
+    /// An FD frame a classic-only receiver answered with error frames: not retransmitted.
+    pub(super) refused: bool,
 }
 
 /// A part of a bus with its own wire: the whole bus, one side of a partition, or the stub of a
@@ -95,6 +109,8 @@ pub(super) struct Segment {
     /// `(arbitration key, port)` of every member with a frame ready: the first entry wins.
     pub(super) ready: BTreeSet<(u64, u32)>,
     pub(super) busy: Option<InFlight>,
+    /// The CAN FD frame on the wire, while `busy` is one.
+    pub(super) fd: Option<FdFrame>,
 }
 
 impl Segment {
@@ -114,6 +130,10 @@ impl Segment {
 pub(super) struct Bus {
     pub(super) name: Arc<str>,
     pub(super) bitrate: u32,
+    /// The data phase's bit rate of CAN FD frames with BRS.
+    pub(super) data_bitrate: u32,
+    /// A CAN FD bus: only FD-capable devices may be attached.
+    pub(super) fd: bool,
     pub(super) up: bool,
     /// Global indices of every attached port, ascending.
     pub(super) ports: Vec<u32>,
@@ -131,10 +151,12 @@ pub(super) struct Bus {
 }
 
 impl Bus {
-    pub(super) fn new(name: &str, bitrate: u32) -> Self {
+    pub(super) fn new(name: &str, bitrate: u32, data_bitrate: Option<u32>) -> Self {
         Bus {
             name: name.into(),
             bitrate,
+            data_bitrate: data_bitrate.unwrap_or(bitrate),
+            fd: data_bitrate.is_some(),
             up: true,
             ports: Vec::new(),
             segments: vec![Segment::default()],
@@ -164,6 +186,10 @@ pub(super) struct Port {
     /// instant they may compete for the wire (see
     /// [`set_port_tx_latency`](super::SimNetwork::set_port_tx_latency)).
     pub(super) queue: VecDeque<(Frame, u64, Instant)>,
+    /// The CAN FD frames of `queue` (entries whose serial has [`FD_SERIAL`]), in order.
+    pub(super) fd_queue: VecDeque<FdFrame>,
+    /// Its device is FD-capable ([`Device::fd_capable`](crate::Device::fd_capable)).
+    pub(super) fd_capable: bool,
     pub(super) capacity: usize,
     pub(super) babble: Option<Frame>,
     pub(super) transmitting: bool,
@@ -206,6 +232,8 @@ impl Port {
             connected: true,
             iface_up: true,
             queue: VecDeque::new(),
+            fd_queue: VecDeque::new(),
+            fd_capable: false,
             capacity: DEFAULT_TX_CAPACITY,
             babble: None,
             transmitting: false,

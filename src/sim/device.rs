@@ -4,7 +4,7 @@ use super::bus::Port;
 use super::ids::{BusId, DevId, DeviceRef, SimError};
 use super::SimNetwork;
 use crate::frame::instant::Instant;
-use crate::frame::Frame;
+use crate::frame::{FdFrame, Frame};
 use crate::machine::{Device, PortRequest, PortStatus};
 use std::any::Any;
 use std::sync::Arc;
@@ -13,6 +13,9 @@ use std::sync::Arc;
 pub(super) trait ErasedDevice {
     fn handle_rx(&mut self, now: Instant, port: usize, frame: &Frame);
     fn handle_rx_at(&mut self, now: Instant, port: usize, frame: &Frame, at: Instant);
+    fn handle_rx_fd(&mut self, now: Instant, port: usize, frame: &FdFrame, at: Instant);
+    #[must_use]
+    fn poll_transmit_fd(&mut self) -> Option<(usize, FdFrame)>;
     fn handle_port_status(&mut self, now: Instant, port: usize, status: PortStatus);
     fn handle_timeout(&mut self, now: Instant);
     #[must_use]
@@ -45,6 +48,12 @@ where
     }
     fn handle_rx_at(&mut self, now: Instant, port: usize, frame: &Frame, at: Instant) {
         self.device.handle_rx_at(now, port, frame, at);
+    }
+    fn handle_rx_fd(&mut self, now: Instant, port: usize, frame: &FdFrame, at: Instant) {
+        self.device.handle_rx_fd(now, port, frame, at);
+    }
+    fn poll_transmit_fd(&mut self) -> Option<(usize, FdFrame)> {
+        self.device.poll_transmit_fd()
     }
     fn handle_port_status(&mut self, now: Instant, port: usize, status: PortStatus) {
         self.device.handle_port_status(now, port, status);
@@ -98,6 +107,10 @@ pub(super) struct DeviceState {
     /// A frame pulled from the device whose port queue was full: it goes first once there is
     /// room, and until then no further frame is pulled (back-pressure).
     pub(super) held: Option<(usize, Frame, u64)>,
+    /// The CAN FD frame `held` stands in for, when its serial has the FD bit.
+    pub(super) held_fd: Option<FdFrame>,
+    /// The device is FD-capable: only then is it asked for FD frames.
+    pub(super) fd_capable: bool,
     /// Frames taken from the device so far: the next one's serial.
     pub(super) pulled: u64,
     /// Instant and count of `handle_timeout` calls there, to stop a device that keeps asking
@@ -140,18 +153,23 @@ impl SimNetwork {
         if let Some(&b) = buses.iter().find(|b| b.index() >= self.buses.len()) {
             return Err(SimError::UnknownBus(b));
         }
+        let name = name.into();
+        let fd_capable = device.fd_capable();
+        self.check_fd(buses.iter().copied(), fd_capable, &name)?;
         let index = self.devices.len() as u32;
         let first_port = self.ports.len() as u32;
         for (local, bus) in buses.iter().enumerate() {
             let p = self.ports.len() as u32;
-            self.ports.push(Port::new(index, local as u32, bus.0));
+            let mut port = Port::new(index, local as u32, bus.0);
+            port.fd_capable = fd_capable;
+            self.ports.push(port);
             let bus = &mut self.buses[bus.index()];
             bus.ports.push(p);
             // Segment 0 is the bus, or its "everyone else" group when partitioned.
             bus.segments[0].insert_member(p);
         }
         self.devices.push(DeviceState {
-            name: Arc::from(name.into()),
+            name: Arc::from(name),
             dev: Box::new(Slot {
                 device,
                 events: Vec::new(),
@@ -163,6 +181,8 @@ impl SimNetwork {
             deadline: None,
             touched: false,
             held: None,
+            held_fd: None,
+            fd_capable,
             pulled: 0,
             spin_at: Instant::ZERO,
             spins: 0,
@@ -296,6 +316,14 @@ impl SimNetwork {
                 buses: ports,
             });
         }
+        let fd_capable = device.fd_capable();
+        let state = &self.devices[d];
+        let buses = state.port_range().map(|p| BusId(self.ports[p].bus));
+        self.check_fd(buses, fd_capable, &state.name.clone())?;
+        self.devices[d].fd_capable = fd_capable;
+        for p in self.devices[d].port_range() {
+            self.ports[p].fd_capable = fd_capable;
+        }
         let old = std::mem::replace(&mut self.slot_mut(id).device, device);
         self.forget_life(d);
         self.devices[d].powered = true;
@@ -312,12 +340,30 @@ impl SimNetwork {
         dev.generation = dev.generation.wrapping_add(1);
         dev.deadline = None;
         dev.held = None;
+        dev.held_fd = None;
         let ports = dev.port_range();
         for p in ports {
             let port = &mut self.ports[p];
             port.queue.clear();
+            port.fd_queue.clear();
             port.delayed = 0;
             self.refresh_port(p);
+        }
+    }
+
+    /// A classic-only device may not be attached to a CAN FD bus (see [`BusConfig::fd`](super::BusConfig::fd)).
+    fn check_fd(
+        &self,
+        mut buses: impl Iterator<Item = BusId>,
+        fd_capable: bool,
+        device: &str,
+    ) -> Result<(), SimError> {
+        match buses.find(|b| !fd_capable && self.buses[b.index()].fd) {
+            Some(bus) => Err(SimError::ClassicOnFdBus {
+                bus,
+                device: device.to_owned(),
+            }),
+            None => Ok(()),
         }
     }
 

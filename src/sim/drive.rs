@@ -1,9 +1,10 @@
 //! Driving one device: reporting to it, draining it into the port controllers, tracking its
 //! deadline, and keeping each port's place in its segment's arbitration.
 
+use super::bus::{stand_in, FD_SERIAL};
 use super::SimNetwork;
 use crate::frame::instant::{Duration, Instant};
-use crate::frame::Frame;
+use crate::frame::{FdFrame, Frame};
 use crate::machine::{ErrorCause, PortRequest, PortStatus};
 use core::cmp::Reverse;
 
@@ -33,19 +34,25 @@ impl SimNetwork {
         let mut rounds = 0;
         loop {
             if let Some((port, frame, serial)) = self.devices[d].held.take() {
-                if !self.enqueue_tx(d, port, frame, serial) {
+                let fd = self.devices[d].held_fd.take();
+                if !self.enqueue_tx(d, port, frame, serial, fd.as_ref()) {
                     self.devices[d].held = Some((port, frame, serial));
+                    self.devices[d].held_fd = fd;
                 }
             }
             if self.devices[d].held.is_none() {
                 while let Some((port, frame)) = self.devices[d].dev.poll_transmit() {
                     let serial = self.devices[d].pulled;
                     self.devices[d].pulled += 1;
-                    if !self.enqueue_tx(d, port, frame, serial) {
+                    if !self.enqueue_tx(d, port, frame, serial, None) {
                         self.devices[d].held = Some((port, frame, serial));
                         break;
                     }
                 }
+            }
+            // CAN FD frames: asked only of FD-capable devices, after the classic ones.
+            if self.devices[d].fd_capable && self.devices[d].held.is_none() {
+                self.pull_fd(d);
             }
             while let Some((port, req)) = self.devices[d].dev.poll_port_request() {
                 self.port_request(d, port, req);
@@ -74,6 +81,20 @@ impl SimNetwork {
         self.set_deadline(d, deadline);
     }
 
+    /// Takes the device's CAN FD frames into its port queues until one is full.
+    fn pull_fd(&mut self, d: usize) {
+        while let Some((port, fd)) = self.devices[d].dev.poll_transmit_fd() {
+            let serial = self.devices[d].pulled | FD_SERIAL;
+            self.devices[d].pulled += 1;
+            let frame = stand_in(&fd);
+            if !self.enqueue_tx(d, port, frame, serial, Some(&fd)) {
+                self.devices[d].held = Some((port, frame, serial));
+                self.devices[d].held_fd = Some(fd);
+                break;
+            }
+        }
+    }
+
     fn set_deadline(&mut self, d: usize, deadline: Option<Instant>) {
         let now = self.now;
         let dev = &mut self.devices[d];
@@ -89,9 +110,17 @@ impl SimNetwork {
         }
     }
 
-    /// Hands a frame to a port controller. False when the queue is full: the caller holds the
-    /// frame and stops pulling until a slot frees.
-    fn enqueue_tx(&mut self, d: usize, local: usize, frame: Frame, serial: u64) -> bool {
+    /// Hands a frame to a port controller (a CAN FD one: `frame` its stand-in, `serial` with
+    /// [`FD_SERIAL`]). False when the queue is full: the caller holds the frame and stops
+    /// pulling until a slot frees.
+    fn enqueue_tx(
+        &mut self,
+        d: usize,
+        local: usize,
+        frame: Frame,
+        serial: u64,
+        fd: Option<&FdFrame>,
+    ) -> bool {
         let dev = &mut self.devices[d];
         if local >= dev.ports as usize {
             dev.misaddressed += 1;
@@ -113,6 +142,9 @@ impl SimNetwork {
         if due > self.now {
             port.stats.tx_waited += 1;
         }
+        if let Some(fd) = fd {
+            port.fd_queue.push_back(*fd);
+        }
         port.queue.push_back((frame, serial, due));
         if port.queue.len() == 1 {
             self.refresh_port(p);
@@ -130,6 +162,7 @@ impl SimNetwork {
         match req {
             PortRequest::Reinit => {
                 self.ports[p].queue.clear();
+                self.ports[p].fd_queue.clear();
                 self.ports[p].flushed = self.ports[p].transmitting;
                 self.refresh_port(p);
                 let port = &self.ports[p];

@@ -1,6 +1,6 @@
 //! The event loop: what happens at one instant, in which order.
 
-use super::bus::InFlight;
+use super::bus::{InFlight, FD_SERIAL};
 use super::fault::{chance, flip_bit, nth};
 use super::ids::BusId;
 use super::timing;
@@ -169,10 +169,17 @@ impl SimNetwork {
 
     fn start_tx(&mut self, b: usize, s: usize, p: usize) {
         let port = &mut self.ports[p];
+        let mut fd = None;
         let (frame, serial, babble) = match (port.babble, port.queue.front()) {
             (Some(f), _) => (f, None, true),
             (None, Some(&(f, serial, _))) => {
                 port.queue.pop_front();
+                let serial = if serial & FD_SERIAL != 0 {
+                    fd = port.fd_queue.pop_front();
+                    serial & !FD_SERIAL
+                } else {
+                    serial
+                };
                 let owner = port.dev;
                 if self.devices[owner as usize].held.is_some() {
                     self.refill.push(owner);
@@ -188,14 +195,26 @@ impl SimNetwork {
         port.stats.tx_attempts += 1;
         let generation = self.devices[port.dev as usize].generation;
         self.refresh_port(p);
-        let error = self.draw_detected_error(b, s, p);
-        let bits = if error {
-            timing::error_frame_bits(&frame)
-        } else {
-            timing::frame_bits(&frame)
+        let mut error = self.draw_detected_error(b, s, p);
+        let mut refused = false;
+        let (bits, duration) = match &fd {
+            None => {
+                let bits = if error {
+                    timing::error_frame_bits(&frame)
+                } else {
+                    timing::frame_bits(&frame)
+                };
+                (bits, timing::bits_duration(bits, self.buses[b].bitrate))
+            }
+            Some(f) => {
+                refused = self.classic_receiver(b, s, p);
+                error |= refused;
+                self.fd_wire(b, f, error)
+            }
         };
         let bus = &mut self.buses[b];
-        let end = self.now + timing::bits_duration(bits, bus.bitrate);
+        let end = self.now + duration;
+        bus.segments[s].fd = fd;
         bus.segments[s].busy = Some(InFlight {
             start: self.now,
             end,
@@ -206,7 +225,40 @@ impl SimNetwork {
             bits,
             babble,
             error,
+            refused,
         });
+    }
+
+    /// Whether a live receiver on segment `s` is classic-only: its controller answers a CAN FD
+    /// frame with error frames (possible on a classic bus only: a CAN FD bus takes no
+    /// classic-only device).
+    fn classic_receiver(&self, b: usize, s: usize, sender: usize) -> bool {
+        self.buses[b].segments[s].members.iter().any(|&m| {
+            let port = &self.ports[m as usize];
+            m as usize != sender
+                && !port.fd_capable
+                && port.iface_up
+                && self.devices[port.dev as usize].powered
+        })
+    }
+
+    /// Bits and wire time of a CAN FD frame on bus `b`: both phases (see
+    /// [`timing::fd_frame_duration`]); an error frame, as for classic frames, 7 bits (at the
+    /// nominal rate) more than the good frame.
+    fn fd_wire(
+        &self,
+        b: usize,
+        f: &crate::frame::FdFrame,
+        error: bool,
+    ) -> (u32, crate::frame::instant::Duration) {
+        let bus = &self.buses[b];
+        let bits = timing::fd_frame_bits(f).total();
+        let good = timing::fd_frame_duration(f, bus.bitrate, bus.data_bitrate);
+        if error {
+            (bits + 7, good + timing::bits_duration(7, bus.bitrate))
+        } else {
+            (bits, good)
+        }
     }
 
     /// Whether the frame starting on segment `s` will be destroyed by a detected error.
@@ -237,6 +289,7 @@ impl SimNetwork {
         let Some(tx) = self.buses[b].segments[s].busy.take() else {
             return;
         };
+        let fd = self.buses[b].segments[s].fd.take();
         let p = tx.sender as usize;
         let d = self.ports[p].dev as usize;
         self.ports[p].transmitting = false;
@@ -266,10 +319,10 @@ impl SimNetwork {
                 receivers: rx.len() as u32,
             }
         };
-        if let (TxOutcome::ErrorFrame, Some(serial), false) = (outcome, tx.serial, flushed) {
-            self.ports[p]
-                .queue
-                .push_front((tx.frame, serial, Instant::ZERO));
+        if let (TxOutcome::ErrorFrame, Some(serial), false, false) =
+            (outcome, tx.serial, flushed, tx.refused)
+        {
+            self.requeue(p, &tx, serial, fd);
         }
         self.refresh_port(p);
 
@@ -282,9 +335,12 @@ impl SimNetwork {
             TxOutcome::ErrorFrame => stats.error_frames += 1,
             _ => stats.lost += 1,
         }
-        self.record_tx(b, s, &tx, outcome);
+        self.record_tx(b, s, &tx, fd.as_ref(), outcome);
 
         let sender_status = match outcome {
+            // Refused by a classic-only receiver: not retried (a real controller would retry
+            // until it or the classic nodes went error passive).
+            TxOutcome::ErrorFrame if tx.refused => Some(PortStatus::TxFailed(ErrorCause::Form)),
             TxOutcome::SenderOff | TxOutcome::Aborted => None,
             TxOutcome::BusDown | TxOutcome::SenderDisconnected | TxOutcome::NoAck => {
                 Some(PortStatus::TxFailed(ErrorCause::NoAck))
@@ -307,9 +363,19 @@ impl SimNetwork {
         }
         match outcome {
             TxOutcome::ErrorFrame => {
+                let cause = if tx.refused {
+                    ErrorCause::Form
+                } else {
+                    ErrorCause::Crc
+                };
                 for &r in &rx {
                     self.ports[r as usize].stats.error_frames += 1;
-                    self.port_status(r as usize, PortStatus::Error(ErrorCause::Crc));
+                    self.port_status(r as usize, PortStatus::Error(cause));
+                }
+            }
+            TxOutcome::Delivered { .. } if fd.is_some() => {
+                if let Some(fd) = &fd {
+                    self.deliver_fd_all(b, &rx, fd, (p as u32, tx.serial));
                 }
             }
             TxOutcome::Delivered { .. } => {
@@ -342,6 +408,7 @@ impl SimNetwork {
             let Some(mut tx) = self.buses[b].segments[s].busy.take() else {
                 continue;
             };
+            let fd = self.buses[b].segments[s].fd.take();
             tx.end = self.now;
             let p = tx.sender as usize;
             self.ports[p].transmitting = false;
@@ -349,20 +416,38 @@ impl SimNetwork {
             let d = self.ports[p].dev as usize;
             let alive = self.devices[d].generation == tx.generation;
             if let (Some(serial), true, false) = (tx.serial, alive, flushed) {
-                self.ports[p]
-                    .queue
-                    .push_front((tx.frame, serial, Instant::ZERO));
+                self.requeue(p, &tx, serial, fd);
             }
             self.refresh_port(p);
             let stats = &mut self.buses[b].stats;
             stats.attempts += 1;
             stats.aborted += 1;
             stats.busy_time = stats.busy_time + (tx.end - tx.start);
-            self.record_tx(b, s, &tx, TxOutcome::Aborted);
+            self.record_tx(b, s, &tx, fd.as_ref(), TxOutcome::Aborted);
         }
     }
 
-    fn record_tx(&mut self, b: usize, s: usize, tx: &InFlight, outcome: TxOutcome) {
+    /// Puts a frame whose attempt failed back at the head of its port's queue.
+    fn requeue(&mut self, p: usize, tx: &InFlight, serial: u64, fd: Option<crate::frame::FdFrame>) {
+        let port = &mut self.ports[p];
+        match fd {
+            Some(fd) => {
+                port.fd_queue.push_front(fd);
+                port.queue
+                    .push_front((tx.frame, serial | FD_SERIAL, Instant::ZERO));
+            }
+            None => port.queue.push_front((tx.frame, serial, Instant::ZERO)),
+        }
+    }
+
+    fn record_tx(
+        &mut self,
+        b: usize,
+        s: usize,
+        tx: &InFlight,
+        fd: Option<&crate::frame::FdFrame>,
+        outcome: TxOutcome,
+    ) {
         if !self.recording {
             return;
         }
@@ -376,6 +461,7 @@ impl SimNetwork {
             sender,
             sender_name: name,
             frame: tx.frame,
+            fd: fd.map(|f| Box::new(*f)),
             serial: tx.serial,
             babble: tx.babble,
             outcome,

@@ -374,6 +374,7 @@ impl SimNetwork {
         }
         self.ports[p].iface_up = false;
         self.ports[p].queue.clear();
+        self.ports[p].fd_queue.clear();
         self.refresh_port(p);
         self.port_status(p, PortStatus::Down(ErrorCause::InterfaceDown));
     }

@@ -122,6 +122,9 @@ pub struct BusConfig {
     pub name: String,
     /// Bits per second (0 is treated as 1).
     pub bitrate: u32,
+    /// A CAN FD bus's data phase bit rate (frames with BRS switch to it); `None`: a classic
+    /// bus. See [`BusConfig::fd`].
+    pub data_bitrate: Option<u32>,
 }
 
 impl BusConfig {
@@ -131,6 +134,20 @@ impl BusConfig {
         BusConfig {
             name: name.into(),
             bitrate,
+            data_bitrate: None,
+        }
+    }
+
+    /// A CAN FD bus: `bitrate` in the arbitration phase, `data_bitrate` in the data phase of
+    /// frames with BRS (pass `bitrate` again for a bus that does not switch). Every device
+    /// attached to it must be FD-capable ([`Device::fd_capable`](crate::Device::fd_capable)):
+    /// a classic-only controller answers FD frames with error frames, so the simulator refuses
+    /// one at [`add_device`](super::SimNetwork::add_device) ([`SimError::ClassicOnFdBus`]).
+    #[must_use]
+    pub fn fd(self, data_bitrate: u32) -> Self {
+        BusConfig {
+            data_bitrate: Some(data_bitrate),
+            ..self
         }
     }
 }
@@ -148,6 +165,14 @@ pub enum SimError {
     },
     /// The bus does not belong to this simulation.
     UnknownBus(BusId),
+    /// A classic-only device attached to a CAN FD bus: its controller would answer every FD
+    /// frame with error frames. FD frames belong only where every node is FD-capable.
+    ClassicOnFdBus {
+        /// The FD bus.
+        bus: BusId,
+        /// The device's name.
+        device: String,
+    },
 }
 
 impl fmt::Display for SimError {
@@ -157,6 +182,12 @@ impl fmt::Display for SimError {
                 write!(f, "device has {ports} ports but was given {buses} buses")
             }
             SimError::UnknownBus(b) => write!(f, "{b} is not a bus of this simulation"),
+            SimError::ClassicOnFdBus { bus, device } => write!(
+                f,
+                "device {device:?} is classic-only but {bus} is a CAN FD bus (its controller \
+                 would answer FD frames with error frames): FD frames only where every node is \
+                 FD-capable"
+            ),
         }
     }
 }

@@ -17,6 +17,32 @@
 //! powered, connected port of the segment; with nobody to acknowledge it the sender gets
 //! `TxFailed(NoAck)`.
 //!
+//! # CAN FD
+//!
+//! A bus built with [`BusConfig::fd`] is a CAN FD bus with a data phase bit rate; a device
+//! that says it is FD-capable ([`Device::fd_capable`](crate::Device::fd_capable)) hands CAN
+//! FD frames over with [`Device::poll_transmit_fd`](crate::Device::poll_transmit_fd) and gets
+//! them with [`Device::handle_rx_fd`](crate::Device::handle_rx_fd). An FD frame occupies its
+//! segment for [`timing::fd_frame_duration`] (the arbitration and data phases at their bit
+//! rates), arbitrates against classic frames by its identifier, meets the same faults (random
+//! and every-n-th drops, undetected bit flips in its data, delays, latency, duplicates,
+//! detected errors and retransmission, cut buses, disconnected ports, partitions), and appears
+//! in the trace ([`TxRecord::fd`]) and its captures ([`SimNetwork::write_candump`],
+//! [`SimNetwork::write_pcap`]) as an FD record.
+//!
+//! FD frames belong only where every node is FD-capable: a classic-only controller answers
+//! one with error frames. [`SimNetwork::add_device`] refuses a classic-only device on a CAN FD
+//! bus ([`SimError::ClassicOnFdBus`]), a configuration error at start. On a classic bus an FD
+//! frame that a classic-only receiver hears is an error frame (its receivers get
+//! `PortStatus::Error(ErrorCause::Form)`); the simulator does not retry it, the sender gets
+//! `TxFailed(Form)` (a real controller would retry until it or the classic nodes went error
+//! passive).
+//!
+//! The classic path is unchanged: a transmit queue holds classic frames as before and an FD
+//! frame as a header-only stand-in (its identifier, for arbitration) whose frame waits in a
+//! queue of its own; only the frame on the wire, delayed deliveries and trace records of FD
+//! frames carry the FD frame (boxed where a classic record would grow).
+//!
 //! # Order within an instant
 //!
 //! Everything due at the same instant is handled in a fixed order: delayed deliveries (in the
@@ -83,6 +109,7 @@ mod device;
 mod drive;
 mod engine;
 mod fault;
+mod fd;
 mod ids;
 mod rx;
 mod sched;
@@ -103,7 +130,7 @@ pub use ids::{BusConfig, BusId, DevId, DeviceRef, PortRef, SimError};
 pub use trace::{RxFault, RxRecord, TraceRecord, TxOutcome, TxRecord};
 
 use crate::frame::instant::{Duration, Instant};
-use crate::frame::Frame;
+use crate::frame::{FdFrame, Frame};
 use crate::machine::PortStatus;
 use bus::{Bus, Port};
 use core::cmp::Reverse;
@@ -154,8 +181,11 @@ pub struct RxNote {
     /// The frame's serial among its sender's (see [`TxRecord::serial`]); `None` for a
     /// babbling controller's frames.
     pub serial: Option<u64>,
-    /// The frame as received.
+    /// The frame as received; for a CAN FD frame its identifier with no data, the frame
+    /// itself being in `fd`.
     pub frame: Frame,
+    /// The CAN FD frame as received, if it is one.
+    pub fd: Option<FdFrame>,
 }
 
 /// What [`SimNetwork::set_rx_hook`] takes.
@@ -208,7 +238,8 @@ impl SimNetwork {
     /// Adds a bus.
     pub fn add_bus(&mut self, config: BusConfig) -> BusId {
         let id = BusId(self.buses.len() as u32);
-        self.buses.push(Bus::new(&config.name, config.bitrate));
+        self.buses
+            .push(Bus::new(&config.name, config.bitrate, config.data_bitrate));
         id
     }
 
@@ -228,6 +259,17 @@ impl SimNetwork {
     /// The bus's bit rate.
     pub fn bitrate(&self, bus: BusId) -> u32 {
         self.bus(bus).bitrate
+    }
+
+    /// The bus's data phase bit rate for CAN FD frames with BRS (its nominal bit rate on a
+    /// bus without one).
+    pub fn data_bitrate(&self, bus: BusId) -> u32 {
+        self.bus(bus).data_bitrate
+    }
+
+    /// Whether the bus is a CAN FD bus ([`BusConfig::fd`]).
+    pub fn is_fd(&self, bus: BusId) -> bool {
+        self.bus(bus).fd
     }
 
     // ----- time -----

@@ -7,7 +7,7 @@ use super::sched::{DelayedRx, Timed};
 use super::trace::{RxFault, RxRecord, TraceRecord};
 use super::{RxNote, SimNetwork};
 use crate::frame::instant::{Duration, Instant};
-use crate::frame::Frame;
+use crate::frame::{FdFrame, Frame};
 use crate::machine::{ErrorCause, PortStatus};
 
 impl SimNetwork {
@@ -24,12 +24,27 @@ impl SimNetwork {
             self.ports[p].delayed = self.ports[p].delayed.saturating_sub(1);
             // A closed interface loses what its driver still held.
             if self.ports[p].iface_up {
-                self.rx_now(p, &item.frame, item.wire, item.from);
+                match &item.fd {
+                    None => self.rx_now(p, &item.frame, item.wire, item.from),
+                    Some(fd) => self.rx_now_fd(p, fd, item.wire, item.from),
+                }
             }
         }
     }
 
     pub(super) fn record_rx(&mut self, b: usize, r: usize, frame: &Frame, fault: RxFault) {
+        self.record_rx_with(b, r, frame, None, fault);
+    }
+
+    /// Records a fault at receiver `r`; `fd` the CAN FD frame `frame` stands in for.
+    pub(super) fn record_rx_with(
+        &mut self,
+        b: usize,
+        r: usize,
+        frame: &Frame,
+        fd: Option<&FdFrame>,
+        fault: RxFault,
+    ) {
         let port = self.port_ref(r);
         let (at, frame) = (self.now, *frame);
         self.record(|| {
@@ -38,6 +53,7 @@ impl SimNetwork {
                 bus: BusId(b as u32),
                 port,
                 frame,
+                fd: fd.map(|f| Box::new(*f)),
                 fault,
             })
         });
@@ -45,8 +61,13 @@ impl SimNetwork {
 
     /// Receiver `r` misses the frame (controller overflow): counted, traced, reported.
     pub(super) fn drop_rx(&mut self, b: usize, r: usize, sent: &Frame) {
+        self.drop_rx_with(b, r, sent, None);
+    }
+
+    /// [`drop_rx`](Self::drop_rx) of a frame that may be a CAN FD one.
+    pub(super) fn drop_rx_with(&mut self, b: usize, r: usize, sent: &Frame, fd: Option<&FdFrame>) {
         self.ports[r].stats.rx_dropped += 1;
-        self.record_rx(b, r, sent, RxFault::Dropped);
+        self.record_rx_with(b, r, sent, fd, RxFault::Dropped);
         self.port_status(r, PortStatus::Error(ErrorCause::RxOverflow));
     }
 
@@ -118,7 +139,7 @@ impl SimNetwork {
     }
 
     /// When a frame delayed by `delay` reaches port `r`: never before one delayed earlier.
-    fn delivery_time(&self, r: usize, delay: Duration) -> Instant {
+    pub(super) fn delivery_time(&self, r: usize, delay: Duration) -> Instant {
         let port = &self.ports[r];
         let due = self.now + delay;
         if port.delayed > 0 {
@@ -148,6 +169,7 @@ impl SimNetwork {
                 frame: *frame,
                 wire: self.now,
                 from,
+                fd: None,
             },
         });
     }
@@ -163,6 +185,7 @@ impl SimNetwork {
                 sender,
                 serial: from.1,
                 frame: *frame,
+                fd: None,
             };
             if let Some(hook) = self.rx_hook.as_mut() {
                 hook(&note);

@@ -2,7 +2,7 @@
 
 use super::SimNetwork;
 use crate::frame::instant::Instant;
-use crate::frame::Frame;
+use crate::frame::{FdFrame, Frame};
 use core::cmp::Ordering;
 
 /// Something due at `at`; the sequence number breaks ties in insertion order.
@@ -40,6 +40,8 @@ pub(super) struct DelayedRx {
     pub(super) wire: Instant,
     /// The sending port and the frame's serial (see the receive hook).
     pub(super) from: (u32, Option<u64>),
+    /// A CAN FD frame (`frame` its stand-in); boxed, so a delayed classic frame stays small.
+    pub(super) fd: Option<Box<FdFrame>>,
 }
 
 /// A scheduled closure (see [`SimNetwork::at`]).

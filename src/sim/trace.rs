@@ -2,7 +2,7 @@
 
 use super::ids::{BusId, PortRef};
 use crate::frame::instant::Instant;
-use crate::frame::Frame;
+use crate::frame::{FdFrame, Frame};
 use core::fmt;
 use std::sync::Arc;
 
@@ -30,8 +30,12 @@ pub struct TxRecord {
     pub sender: PortRef,
     /// The sending device's name.
     pub sender_name: Arc<str>,
-    /// The frame as sent.
+    /// The frame as sent; for a CAN FD frame its identifier with no data, the frame itself
+    /// being in `fd`.
     pub frame: Frame,
+    /// The CAN FD frame as sent, if it is one (boxed: a trace of classic frames keeps its
+    /// records' size).
+    pub fd: Option<Box<FdFrame>>,
     /// Which frame of its sender it is: the sender device's frames are numbered from 0 in the
     /// order its `poll_transmit` handed them over (on any port); a retransmission keeps the
     /// number. `None` for a babbling controller's frames.
@@ -73,8 +77,11 @@ pub struct RxRecord {
     pub bus: BusId,
     /// The receiving port.
     pub port: PortRef,
-    /// The frame as sent.
+    /// The frame as sent; for a CAN FD frame its identifier with no data, the frame itself
+    /// being in `fd`.
     pub frame: Frame,
+    /// The CAN FD frame as sent, if it is one.
+    pub fd: Option<Box<FdFrame>>,
     /// What happened to it at this port.
     pub fault: RxFault,
 }
@@ -96,6 +103,24 @@ pub enum RxFault {
         /// The frame as delivered.
         delivered: Frame,
     },
+    /// A data bit of a CAN FD frame flipped without detection: the device got the frame of
+    /// the record's `fd` with data bit `bit` (0: the most significant bit of byte 0) flipped.
+    CorruptedFd {
+        /// The flipped bit.
+        bit: u16,
+    },
+}
+
+/// The frame of a record, for display: the CAN FD one if it is one.
+struct Shown<'a>(&'a Frame, Option<&'a FdFrame>);
+
+impl fmt::Display for Shown<'_> {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self.1 {
+            Some(fd) => write!(f, "{fd}"),
+            None => write!(f, "{}", self.0),
+        }
+    }
 }
 
 /// One line per record, e.g. `0.001053s bus0/0 dev1.0 "b" 0x181 [1] 01 -> Delivered { receivers: 2 }`.
@@ -110,7 +135,7 @@ impl fmt::Display for TraceRecord {
                 t.segment,
                 t.sender,
                 t.sender_name,
-                t.frame,
+                Shown(&t.frame, t.fd.as_deref()),
                 if t.babble { " (babble)" } else { "" },
                 t.outcome
             ),
@@ -118,9 +143,61 @@ impl fmt::Display for TraceRecord {
                 write!(
                     f,
                     "{} {} rx {} {}: {:?}",
-                    r.at, r.bus, r.port, r.frame, r.fault
+                    r.at,
+                    r.bus,
+                    r.port,
+                    Shown(&r.frame, r.fd.as_deref()),
+                    r.fault
                 )
             }
         }
+    }
+}
+
+impl TxRecord {
+    /// The frame as a capture record: [`Record::Fd`](crate::capture::Record::Fd) for a CAN FD
+    /// frame, so that a capture of the trace keeps it as one.
+    pub fn capture_record(&self) -> crate::capture::Record {
+        match &self.fd {
+            Some(f) => crate::capture::Record::Fd(f.clone()),
+            None => crate::capture::Record::Frame(self.frame),
+        }
+    }
+}
+
+impl super::SimNetwork {
+    /// Writes what the buses carried as a candump log: every delivered frame of the trace,
+    /// stamped with the instant it ended on the wire, its bus's name as the interface. CAN FD
+    /// frames are `##` lines.
+    pub fn write_candump(&self, out: impl std::io::Write) -> std::io::Result<()> {
+        let mut w = crate::capture::candump::CandumpWriter::new(out);
+        for t in self.delivered() {
+            let (at, name) = (t.end.as_micros(), &*self.bus(t.bus).name);
+            match &t.fd {
+                Some(f) => w.write_fd(at, name, f)?,
+                None => w.write(at, name, &t.frame)?,
+            }
+        }
+        w.flush()
+    }
+
+    /// Writes what the buses carried as a pcap file (`LINKTYPE_CAN_SOCKETCAN`), as
+    /// [`write_candump`](Self::write_candump) does: CAN FD frames are `canfd_frame` packets.
+    pub fn write_pcap(&self, out: impl std::io::Write) -> std::io::Result<()> {
+        let mut w = crate::capture::pcap::PcapWriter::new(out)?;
+        for t in self.delivered() {
+            match &t.fd {
+                Some(f) => w.write_fd(t.end.as_micros(), f)?,
+                None => w.write(t.end.as_micros(), &t.frame)?,
+            }
+        }
+        w.flush()
+    }
+
+    fn delivered(&self) -> impl Iterator<Item = &TxRecord> {
+        self.trace.iter().filter_map(|r| match r {
+            TraceRecord::Tx(t) if matches!(t.outcome, TxOutcome::Delivered { .. }) => Some(t),
+            _ => None,
+        })
     }
 }

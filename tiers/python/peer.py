@@ -9,10 +9,14 @@ udp_multicast bus. Driven by tests/python_peer.rs; talks to it through stdout li
                                           writes NODE's entries by name, as stdin asks
     peer.py lss NODE GROUP PORT           python's LSS master: finds the non-configured slave by
                                           fastscan, gives it NODE, stores, watches it boot
+    peer.py fd GROUP PORT                 python-can with fd=True: sends CAN FD frames (and one
+                                          classic), then reports every frame it receives
 Stdout: one line per event: "READY", "STATE <name>", "WRITE <index> <sub> <hex>" (a write to the
 LocalNode), "READ <index> <sub> <hex>", "WROTE <index> <sub>", "ABORT <index> <sub> <code>",
 "READ-NO-CRC …"/"WROTE-NO-CRC …" (block transfers that did not ask for CRC), "DONE", "SENT <n>",
-"VALUE\t<name>\t<value>", "NAMES <count>", "ERROR <command> <exception>". Ends when stdin closes.
+"VALUE\t<name>\t<value>", "NAMES <count>", "ERROR <command> <exception>",
+"RX <id hex> <ext> <fd> <brs> <esi> <dlc> <data hex>" (a frame the fd peer received). Ends when
+stdin closes.
 """
 import faulthandler
 import signal
@@ -280,6 +284,40 @@ def junk(group, port):
     bus.shutdown()
 
 
+def fd_peer(group, port):
+    """python-can's own CAN FD frames to duocan, and duocan's back: each received frame as an
+    RX line with its flags and bytes."""
+    bus = can.Bus(interface="udp_multicast", channel=group, port=port, fd=True)
+    say("READY")
+    sys.stdin.readline()  # the test says when its port listens
+    sent = [
+        can.Message(arbitration_id=0x181, is_extended_id=False, is_fd=True, bitrate_switch=True,
+                    data=bytes(range(12))),
+        can.Message(arbitration_id=0x1ABCDE, is_extended_id=True, is_fd=True,
+                    error_state_indicator=True, data=bytes([0xA5] * 64)),
+        can.Message(arbitration_id=0x182, is_extended_id=False, is_fd=True, bitrate_switch=True,
+                    error_state_indicator=True, data=bytes(range(100, 148))),
+        can.Message(arbitration_id=0x183, is_extended_id=False, is_fd=True, data=b""),
+        can.Message(arbitration_id=0x701, is_extended_id=False, data=[0x05]),
+    ]
+    for m in sent:
+        bus.send(m)
+    say("SENT", len(sent))
+
+    def listen():
+        while True:
+            m = bus.recv(0.1)
+            if m is None:
+                continue
+            say("RX", "%x" % m.arbitration_id, int(m.is_extended_id), int(m.is_fd),
+                int(m.bitrate_switch), int(m.error_state_indicator), m.dlc, bytes(m.data).hex() or "-")
+
+    threading.Thread(target=listen, daemon=True).start()
+    for _ in sys.stdin:
+        pass
+    bus.shutdown()
+
+
 def lss_master(node_id, group, port):
     """python `canopen`'s LSS master against one non-configured slave: LSS lines on stdout
     ("NON-CONFIGURED yes", "FASTSCAN True <4 parts hex>", "INQUIRED <what> <value>",
@@ -357,6 +395,8 @@ def main(argv):
         junk(argv[2], int(argv[3]))
     elif argv[1] == "storage":
         storage(int(argv[2], 0), argv[3], int(argv[4]))
+    elif argv[1] == "fd":
+        fd_peer(argv[2], int(argv[3]))
     elif argv[1] == "lss":
         lss_master(int(argv[2], 0), argv[3], int(argv[4]))
     elif argv[1] == "eds":

@@ -10,11 +10,11 @@ mod rt;
 
 use duocan::node::NodeEventKind as K;
 use duocan::port::udp::{encode, UdpBusConfig, UdpPort};
-use duocan::port::{Port, PortInput};
+use duocan::port::{AnyInput, Port, PortInput};
 use duocan::runtime::Runtime;
 use duocan::sdo::{SdoErrorKind, SdoOptions, TransferMode};
 use duocan::AbortCode;
-use duocan::{Frame, Id, NmtCommand, NmtState, NmtTarget, NodeId};
+use duocan::{FdFrame, Frame, Id, NmtCommand, NmtState, NmtTarget, NodeId};
 use peer::{group, Peer};
 use rt::{node, node_event, pattern, sdo_error, single, wait_for};
 use std::time::Duration;
@@ -169,6 +169,74 @@ async fn garbage_datagrams_are_counted_and_the_runtime_keeps_going() {
     );
     peer.stop().await;
     master.shutdown().await;
+}
+
+/// python-can (`fd=True`) and a duocan UDP port opened for CAN FD exchange CAN FD frames both
+/// ways: identifiers, lengths up to 64, bytes, BRS and ESI all arrive as sent.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn python_can_and_duocan_exchange_can_fd_frames() {
+    let cfg = UdpBusConfig::numbered(41).with_fd();
+    let mut port = UdpPort::open(cfg.clone()).expect("open the UDP bus (inside unshare -n?)");
+    let (g, p) = group(&cfg);
+    let mut peer = Peer::spawn(&["fd", &g, &p]).await;
+    peer.send_line("go").await;
+    peer.expect("SENT 5", 10).await;
+    let mut got = Vec::new();
+    while got.len() < 5 {
+        let x = tokio::time::timeout(Duration::from_secs(5), port.recv_any())
+            .await
+            .expect("python's frames arrive")
+            .unwrap();
+        match x {
+            AnyInput::Fd(f, Some(_)) => got.push(Ok(f)),
+            AnyInput::Frame(f, Some(_)) => got.push(Err(f)),
+            other => panic!("unexpected {other:?}"),
+        }
+    }
+    let fd = |id, data: &[u8]| FdFrame::new(id, data).unwrap();
+    let series: Vec<u8> = (100..148).collect();
+    let twelve: Vec<u8> = (0..12).collect();
+    assert_eq!(
+        got,
+        [
+            Ok(fd(Id::Standard(0x181), &twelve).with_brs(true)),
+            Ok(fd(Id::Extended(0x001A_BCDE), &[0xA5; 64]).with_esi(true)),
+            Ok(fd(Id::Standard(0x182), &series)
+                .with_brs(true)
+                .with_esi(true)),
+            Ok(fd(Id::Standard(0x183), &[])),
+            Err(Frame::from_array(Id::Standard(0x701), [0x05])),
+        ]
+    );
+    assert_eq!(port.counters().snapshot().rx_invalid, 0);
+
+    // duocan's FD frames (and a classic one) to python-can.
+    let out = [
+        fd(Id::Standard(0x281), &[0x11; 64]).with_brs(true),
+        fd(
+            Id::Extended(0x1234_5678),
+            &[
+                1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15, 16, 17, 18, 19, 20,
+            ],
+        )
+        .with_esi(true),
+    ];
+    for f in &out {
+        port.send_fd(f).await.unwrap();
+    }
+    port.send(&Frame::from_array(Id::Standard(0x702), [0x7F]))
+        .await
+        .unwrap();
+    assert_eq!(
+        peer.expect("RX 281", 10).await,
+        format!("RX 281 0 1 1 0 64 {}", "11".repeat(64))
+    );
+    assert_eq!(
+        peer.expect("RX 12345678", 10).await,
+        format!("RX 12345678 1 1 0 1 20 {}", hex(out[1].data()))
+    );
+    assert_eq!(peer.expect("RX 702", 10).await, "RX 702 0 0 0 0 1 7f");
+    peer.stop().await;
 }
 
 fn hex(b: &[u8]) -> String {

@@ -53,6 +53,8 @@ pub use health::{PortReason, PortState};
 use crate::frame::cob_id::NodeId;
 use crate::frame::instant::{earliest, Instant};
 use crate::frame::queue::Bounded;
+#[cfg(feature = "fd")]
+use crate::frame::FdFrame;
 use crate::frame::Frame;
 use core::convert::Infallible;
 use core::fmt;
@@ -254,6 +256,29 @@ pub trait Device {
     /// Next event for the application.
     #[must_use]
     fn poll_event(&mut self) -> Option<Self::Event>;
+    /// Whether every port of the device speaks CAN FD (feature `fd`): it receives FD frames
+    /// ([`Device::handle_rx_fd`]) and may send them ([`Device::poll_transmit_fd`]). The
+    /// default is a classic-only device. A classic-only controller answers an FD frame on its
+    /// bus with error frames, so FD frames belong only on a network where every node is
+    /// FD-capable: the simulator refuses a classic-only device on a bus with a data bit rate.
+    #[cfg(feature = "fd")]
+    fn fd_capable(&self) -> bool {
+        false
+    }
+    /// A CAN FD frame that arrived on `port` at `at` (its receive timestamp, as for
+    /// [`Device::handle_rx_at`]), handled at `now`. The default ignores it: FD frames are kept
+    /// apart from classic ones so that the classic path (`&Frame`, 16 bytes) stays as it was.
+    #[cfg(feature = "fd")]
+    fn handle_rx_fd(&mut self, now: Instant, port: usize, frame: &FdFrame, at: Instant) {
+        let _ = (now, port, frame, at);
+    }
+    /// Next CAN FD frame to send, with the port to send it on; a driver asks after the classic
+    /// frames of [`Device::poll_transmit`] (each kind keeps its order). The default has none.
+    #[must_use]
+    #[cfg(feature = "fd")]
+    fn poll_transmit_fd(&mut self) -> Option<(usize, FdFrame)> {
+        None
+    }
 }
 
 /// The layer between ports and a logical bus: one port passed through, or two ports merged.

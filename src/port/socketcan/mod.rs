@@ -20,6 +20,16 @@
 //! runtime's task still sends on it, without waiting (`MSG_DONTWAIT`), what the device sends on
 //! a timer or a command.
 //!
+//! # CAN FD
+//!
+//! [`SocketCanPort::open_fd`] opens the interface for CAN FD frames (`CAN_RAW_FD_FRAMES`), after
+//! checking that its MTU is the CAN FD MTU (72): an interface that carries no CAN FD frames
+//! (a vcan or CAN controller left at MTU 16) is an error naming it and saying how to switch it.
+//! [`Port::send_fd`] then sends CAN FD frames and [`Port::recv_any`] hands them over with the
+//! classic ones; `recv` counts them as invalid. Such a port reads through tokio: the blocking
+//! reader ([`Port::reader`]) reads classic frames only, so an FD port does not hand over to it.
+//! A port opened with [`SocketCanPort::open`] is classic, as before.
+//!
 //! Frame conversions between [`Frame`] and the socketcan crate's frame types live here too
 //! ([`frame_from_socketcan`], [`socketcan_frame`]): lossless both ways for classic data and
 //! remote frames; error and FD frames are refused with [`FrameError::NotClassic`].
@@ -28,8 +38,8 @@ mod blocking;
 
 use super::error_frame::{self, ErrorStatuses};
 use super::stamp::{self, KernelClock};
-use super::{Port, PortCounters, PortError, PortErrorKind, PortInput, PortReader};
-use crate::frame::{Frame, FrameError, Id};
+use super::{AnyInput, Port, PortCounters, PortError, PortErrorKind, PortInput, PortReader};
+use crate::frame::{FdFrame, Frame, FrameError, Id};
 use nix::errno::Errno;
 use nix::sys::socket::{recvmsg, MsgFlags};
 use socketcan::{
@@ -81,12 +91,25 @@ impl TokioCanSocket {
 
 /// The size of the kernel's `struct can_frame` (`CAN_MTU`).
 const CAN_MTU: usize = 16;
+/// The size of the kernel's `struct canfd_frame` (`CANFD_MTU`), and the MTU of an interface
+/// that carries CAN FD frames.
+const CANFD_MTU: usize = 72;
+/// `SOL_CAN_RAW` and its option `CAN_RAW_FD_FRAMES` (linux/can/raw.h).
+const SOL_CAN_RAW: std::ffi::c_int = 101;
+const CAN_RAW_FD_FRAMES: std::ffi::c_int = 5;
+/// `canfd_frame.flags`: bit rate switch, error state indicator, FD frame (linux/can.h).
+const CANFD_BRS: u8 = 0x01;
+const CANFD_ESI: u8 = 0x02;
+const CANFD_FDF: u8 = 0x04;
 
 /// What the port read last through tokio: the frame as the kernel wrote it, its length, its
 /// receive timestamp on the monotonic clock, and what the stamps are converted with.
 #[derive(Debug)]
 struct Received {
-    raw: [u8; CAN_MTU],
+    /// Room for a `canfd_frame`; a classic port reads into the first [`CAN_MTU`] bytes only.
+    raw: [u8; CANFD_MTU],
+    /// The socket has `CAN_RAW_FD_FRAMES`: frames are read into the whole of `raw`.
+    fd: bool,
     len: usize,
     at: Option<std::time::Instant>,
     /// The socket's count of frames dropped on its full queue, as of the last frame read.
@@ -98,7 +121,8 @@ struct Received {
 impl Received {
     fn new() -> Self {
         Received {
-            raw: [0; CAN_MTU],
+            raw: [0; CANFD_MTU],
+            fd: false,
             len: 0,
             at: None,
             dropped: None,
@@ -108,7 +132,8 @@ impl Received {
     }
     /// Reads one frame from the non-blocking socket `s` (`WouldBlock` when none is queued).
     fn recv(&mut self, s: &socketcan::CanSocket) -> io::Result<()> {
-        let mut iov = [IoSliceMut::new(&mut self.raw)];
+        let room = if self.fd { CANFD_MTU } else { CAN_MTU };
+        let mut iov = [IoSliceMut::new(&mut self.raw[..room])];
         let flags = MsgFlags::empty();
         let called = std::time::Instant::now();
         match recvmsg::<()>(s.as_raw_fd(), &mut iov, Some(&mut self.control), flags) {
@@ -128,7 +153,7 @@ impl Received {
         }
     }
     fn frame(&self) -> &[u8] {
-        &self.raw[..self.len.min(CAN_MTU)]
+        &self.raw[..self.len.min(CANFD_MTU)]
     }
 }
 
@@ -248,6 +273,8 @@ enum Sock {
 #[derive(Debug)]
 pub struct SocketCanPort {
     ifname: String,
+    /// Opened for CAN FD ([`SocketCanPort::open_fd`]).
+    fd: bool,
     socket: Option<Sock>,
     rx: RxState,
     read: Received,
@@ -260,10 +287,27 @@ impl SocketCanPort {
     /// hint how to create or raise it) before touching any socket.
     pub fn open(ifname: &str) -> Result<Self, PortError> {
         // Made before the socket: nothing it reads arrived earlier.
-        let read = Received::new();
-        let socket = open_socket(ifname)?;
+        Self::open_with(ifname, false)
+    }
+
+    /// Opens `ifname` for CAN FD frames as well as classic ones (`CAN_RAW_FD_FRAMES`), with
+    /// error frames enabled: [`Port::send_fd`] and [`Port::recv_any`] carry CAN FD frames. Must
+    /// be called inside a tokio runtime.
+    ///
+    /// Fails as [`SocketCanPort::open`] does, and with [`PortErrorKind::Config`] when the
+    /// interface's MTU is not the CAN FD MTU (72): an interface that carries no CAN FD frames.
+    pub fn open_fd(ifname: &str) -> Result<Self, PortError> {
+        Self::open_with(ifname, true)
+    }
+
+    fn open_with(ifname: &str, fd: bool) -> Result<Self, PortError> {
+        // Made before the socket: nothing it reads arrived earlier.
+        let mut read = Received::new();
+        read.fd = fd;
+        let socket = open_socket(ifname, fd)?;
         Ok(SocketCanPort {
             ifname: ifname.to_owned(),
+            fd,
             socket: Some(Sock::Async(socket)),
             rx: RxState {
                 counters: PortCounters::new(),
@@ -277,6 +321,66 @@ impl SocketCanPort {
     pub fn ifname(&self) -> &str {
         &self.ifname
     }
+
+    /// Whether the port was opened for CAN FD ([`SocketCanPort::open_fd`]).
+    pub fn is_fd(&self) -> bool {
+        self.fd
+    }
+}
+
+/// The MTU of `ifname` as sysfs shows it (`None` if it cannot be read).
+pub fn interface_mtu(ifname: &str) -> Option<usize> {
+    if link_state(ifname) == LinkState::Missing {
+        return None;
+    }
+    std::fs::read_to_string(format!("/sys/class/net/{ifname}/mtu"))
+        .ok()?
+        .trim()
+        .parse()
+        .ok()
+}
+
+/// The error of an interface that carries no CAN FD frames (its MTU is `mtu`, not 72).
+fn not_fd(ifname: &str, mtu: Option<usize>) -> PortError {
+    let mtu = mtu.map_or_else(|| "an unreadable MTU".to_owned(), |m| format!("MTU {m}"));
+    PortError::new(
+        ifname,
+        PortErrorKind::Config,
+        format!(
+            "interface {ifname} has {mtu}, not the CAN FD MTU {CANFD_MTU}: it carries no CAN FD frames \
+             (a vcan: `ip link set {ifname} mtu {CANFD_MTU}`; a CAN controller: \
+             `ip link set {ifname} type can bitrate … dbitrate … fd on`)"
+        ),
+    )
+}
+
+/// The kernel's `struct canfd_frame` of `f`.
+fn canfd_bytes(f: &FdFrame) -> [u8; CANFD_MTU] {
+    let word = match f.id() {
+        Id::Standard(r) => u32::from(r),
+        Id::Extended(r) => r | CAN_EFF_FLAG,
+    };
+    let mut raw = [0u8; CANFD_MTU];
+    raw[..4].copy_from_slice(&word.to_ne_bytes());
+    raw[4] = f.len() as u8;
+    raw[5] = CANFD_FDF | if f.brs() { CANFD_BRS } else { 0 } | if f.esi() { CANFD_ESI } else { 0 };
+    raw[8..8 + f.len()].copy_from_slice(f.data());
+    raw
+}
+
+/// The CAN FD frame of a kernel `struct canfd_frame`; an error for a length that is not a CAN
+/// FD length.
+fn fd_from_kernel(raw: &[u8; CANFD_MTU]) -> Result<FdFrame, crate::frame::fd::FdFrameError> {
+    let word = u32::from_ne_bytes([raw[0], raw[1], raw[2], raw[3]]);
+    let id = if word & CAN_EFF_FLAG != 0 {
+        Id::Extended(word & CAN_EFF_MASK)
+    } else {
+        Id::Standard((word & 0x7FF) as u16)
+    };
+    let len = usize::from(raw[4]).min(64);
+    let f = FdFrame::new(id, &raw[8..8 + len])?;
+    Ok(f.with_brs(raw[5] & CANFD_BRS != 0)
+        .with_esi(raw[5] & CANFD_ESI != 0))
 }
 
 /// The error of a port whose socket was closed after a failure.
@@ -288,7 +392,7 @@ fn closed(ifname: &str) -> PortError {
     )
 }
 
-fn open_socket(ifname: &str) -> Result<TokioCanSocket, PortError> {
+fn open_socket(ifname: &str, fd: bool) -> Result<TokioCanSocket, PortError> {
     match link_state(ifname) {
         LinkState::Missing => {
             return Err(PortError::new(
@@ -308,6 +412,12 @@ fn open_socket(ifname: &str) -> Result<TokioCanSocket, PortError> {
         }
         LinkState::Up => {}
     }
+    if fd {
+        let mtu = interface_mtu(ifname);
+        if mtu != Some(CANFD_MTU) {
+            return Err(not_fd(ifname, mtu));
+        }
+    }
     let socket = TokioCanSocket::open(ifname).map_err(|e| {
         let hint = if e.raw_os_error() == Some(97) {
             "cannot open a CAN socket: this kernel has no SocketCAN (AF_CAN) support"
@@ -319,6 +429,15 @@ fn open_socket(ifname: &str) -> Result<TokioCanSocket, PortError> {
     socket
         .set_error_filter_accept_all()
         .map_err(|e| PortError::io(ifname, "cannot enable error frames", e))?;
+    if fd {
+        socket
+            .0
+            .get_ref()
+            .set_socket_option_int(SOL_CAN_RAW, CAN_RAW_FD_FRAMES, 1)
+            .map_err(|e| {
+                PortError::io(ifname, "cannot enable CAN FD frames (CAN_RAW_FD_FRAMES)", e)
+            })?;
+    }
     stamp::enlarge_queue(socket.0.get_ref());
     if let Err(e) = stamp::enable(socket.0.get_ref()) {
         // Frames then come without stamps: the device takes them as handed over.
@@ -368,6 +487,10 @@ impl RxState {
     ) -> Option<PortInput> {
         let Ok(raw) = <&[u8; 16]>::try_from(raw) else {
             self.counters.rx_invalid();
+            if raw.len() == CANFD_MTU {
+                tracing::warn!(port = %ifname, "CAN FD frame refused by `recv` (read it with `recv_any`)");
+                return None;
+            }
             tracing::warn!(port = %ifname, len = raw.len(), "frame of an unexpected size refused");
             return None;
         };
@@ -457,6 +580,77 @@ impl Port for SocketCanPort {
         }
     }
 
+    async fn recv_any(&mut self) -> Result<AnyInput, PortError> {
+        if !self.fd {
+            return self.recv().await.map(AnyInput::from);
+        }
+        loop {
+            if let Some(x) = self.rx.status() {
+                return Ok(x.into());
+            }
+            let sock = match self.socket.as_ref() {
+                Some(Sock::Async(s)) => s,
+                // An FD port never hands its reading to a thread; this one was opened before.
+                Some(Sock::Blocking(_)) => return std::future::pending().await,
+                None => return Err(closed(&self.ifname)),
+            };
+            match sock.read_frame(&mut self.read).await {
+                Ok(()) => {
+                    if let Some(d) = self.read.dropped {
+                        self.rx.counters.rx_overrun_total(d);
+                    }
+                    let (raw, at) = (self.read.frame(), self.read.at);
+                    if let Ok(fd) = <&[u8; CANFD_MTU]>::try_from(raw) {
+                        match fd_from_kernel(fd) {
+                            Ok(f) => {
+                                self.rx.counters.rx_frames();
+                                return Ok(AnyInput::Fd(f, at));
+                            }
+                            Err(e) => {
+                                self.rx.counters.rx_invalid();
+                                tracing::warn!(port = %self.ifname, error = %e, "CAN FD frame refused");
+                            }
+                        }
+                    } else if let Some(x) = self.rx.accept_kernel(&self.ifname, raw, at) {
+                        return Ok(x.into());
+                    }
+                }
+                Err(e) => {
+                    self.socket = None;
+                    return Err(PortError::io(&self.ifname, "read failed", e));
+                }
+            }
+        }
+    }
+
+    async fn send_fd(&mut self, frame: &FdFrame) -> Result<(), PortError> {
+        if !self.fd {
+            return Err(super::asynch::classic_port(&self.ifname, frame));
+        }
+        let raw = canfd_bytes(frame);
+        let r = match self.socket.as_ref() {
+            Some(Sock::Async(s)) => {
+                let fd = s.0.get_ref().as_raw_fd();
+                write_waiting(|| {
+                    nix::sys::socket::send(fd, &raw, MsgFlags::MSG_DONTWAIT)
+                        .map(drop)
+                        .map_err(io::Error::from)
+                })
+                .await
+            }
+            Some(Sock::Blocking(_)) | None => {
+                self.rx.counters.tx_dropped();
+                return Err(closed(&self.ifname));
+            }
+        };
+        self.rx.sent(&self.ifname, r).map_err(|(err, gone)| {
+            if gone {
+                self.socket = None;
+            }
+            err
+        })
+    }
+
     fn try_recv(&mut self) -> Option<Result<PortInput, PortError>> {
         loop {
             if let Some(x) = self.rx.status() {
@@ -506,12 +700,16 @@ impl Port for SocketCanPort {
         self.rx.pending.clear();
         // A new socket: no read has found it empty yet.
         self.read.clock = KernelClock::new();
-        self.socket = Some(Sock::Async(open_socket(&self.ifname)?));
+        self.socket = Some(Sock::Async(open_socket(&self.ifname, self.fd)?));
         self.rx.counters.reopened();
         Ok(())
     }
 
     fn reader(&mut self) -> Option<Box<dyn PortReader>> {
+        // The blocking reader reads classic frames only: an FD port stays on `recv`.
+        if self.fd {
+            return None;
+        }
         let Some(Sock::Async(s)) = self.socket.take() else {
             return None;
         };
@@ -583,5 +781,40 @@ mod tests {
         assert!(err
             .to_string()
             .contains("ip link add dev duocan-nope0 type vcan"));
+    }
+}
+
+#[cfg(test)]
+mod fd_tests {
+    use super::*;
+    use proptest::prelude::*;
+
+    proptest! {
+        #[test]
+        fn canfd_frame_bytes_round_trip(f in crate::frame::arbitrary::any_fd_frame()) {
+            let raw = canfd_bytes(&f);
+            prop_assert_eq!(raw[5] & CANFD_FDF, CANFD_FDF);
+            prop_assert_eq!(fd_from_kernel(&raw).unwrap(), f);
+        }
+    }
+
+    #[test]
+    fn a_kernel_fd_frame_of_a_length_between_the_steps_is_refused() {
+        let mut raw = canfd_bytes(&FdFrame::new(Id::Standard(0x123), &[1; 12]).unwrap());
+        raw[4] = 10;
+        assert!(fd_from_kernel(&raw).is_err());
+    }
+
+    #[test]
+    fn a_missing_interface_has_no_mtu_and_open_fd_says_so() {
+        assert_eq!(interface_mtu("duocan-nope0"), None);
+        let e = not_fd("vcan9", Some(16));
+        assert_eq!(e.kind, PortErrorKind::Config);
+        let msg = e.to_string();
+        assert!(
+            msg.contains("vcan9 has MTU 16, not the CAN FD MTU 72"),
+            "{msg}"
+        );
+        assert!(msg.contains("ip link set vcan9 mtu 72"), "{msg}");
     }
 }

@@ -4,8 +4,15 @@
 //! may be an array of integers), so the decoder refuses anything nested deeper (a few hundred
 //! bytes of nested arrays would otherwise recurse until the stack runs out) and any bytes after
 //! the map.
+//!
+//! CAN FD frames travel as python-can packs them: `is_fd` true, `bitrate_switch` and
+//! `error_state_indicator` the BRS and ESI flags, `dlc` the payload's length in bytes (python-can
+//! calls the length `dlc`), up to 64. [`decode`] takes classic frames only (an FD one is
+//! [`DecodeError::Fd`]); [`decode_any`] takes both, and refuses an FD frame whose length is not
+//! a CAN FD length or above 64, or that claims to be a remote frame, naming what was wrong.
 
-use crate::frame::{Frame, Id};
+use crate::frame::fd::{FdFrameError, FD_MAX_LEN};
+use crate::frame::{FdFrame, Frame, Id};
 use rmpv::Value;
 use std::fmt;
 
@@ -33,6 +40,18 @@ pub enum DecodeError {
     Fd,
     /// Identifier, DLC or data out of range for classic CAN.
     Invalid(crate::frame::FrameError),
+    /// A CAN FD frame that is not one: more than 64 bytes, a length between the CAN FD steps,
+    /// or a remote frame.
+    InvalidFd(FdFrameError),
+}
+
+/// A decoded frame, classic or CAN FD ([`decode_any`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum UdpFrame {
+    /// A classic data or remote frame.
+    Frame(Frame),
+    /// A CAN FD frame.
+    Fd(FdFrame),
 }
 
 impl fmt::Display for DecodeError {
@@ -49,6 +68,7 @@ impl fmt::Display for DecodeError {
             DecodeError::ErrorFrame => f.write_str("error frame"),
             DecodeError::Fd => f.write_str("CAN FD frame on a classic CAN bus"),
             DecodeError::Invalid(e) => write!(f, "{e}"),
+            DecodeError::InvalidFd(e) => write!(f, "{e}"),
         }
     }
 }
@@ -57,6 +77,7 @@ impl std::error::Error for DecodeError {
     fn source(&self) -> Option<&(dyn std::error::Error + 'static)> {
         match self {
             DecodeError::Invalid(e) => Some(e),
+            DecodeError::InvalidFd(e) => Some(e),
             _ => None,
         }
     }
@@ -93,8 +114,53 @@ pub fn encode(frame: &Frame, timestamp: f64, channel: Option<&str>) -> Vec<u8> {
     buf
 }
 
+/// Encodes a CAN FD frame as python-can's `pack_message` does for a message with `is_fd`:
+/// `dlc` is the length in bytes, BRS and ESI are `bitrate_switch` and `error_state_indicator`.
+pub fn encode_fd(frame: &FdFrame, timestamp: f64, channel: Option<&str>) -> Vec<u8> {
+    let (raw, ext) = match frame.id() {
+        Id::Standard(r) => (r as u32, false),
+        Id::Extended(r) => (r, true),
+    };
+    let map = Value::Map(vec![
+        (Value::from("timestamp"), Value::F64(timestamp)),
+        (Value::from("arbitration_id"), Value::from(raw)),
+        (Value::from("is_extended_id"), Value::Boolean(ext)),
+        (Value::from("is_remote_frame"), Value::Boolean(false)),
+        (Value::from("is_error_frame"), Value::Boolean(false)),
+        (
+            Value::from("channel"),
+            channel.map(Value::from).unwrap_or(Value::Nil),
+        ),
+        (Value::from("dlc"), Value::from(frame.len())),
+        (Value::from("data"), Value::Binary(frame.data().to_vec())),
+        (Value::from("is_fd"), Value::Boolean(true)),
+        (Value::from("bitrate_switch"), Value::Boolean(frame.brs())),
+        (
+            Value::from("error_state_indicator"),
+            Value::Boolean(frame.esi()),
+        ),
+    ]);
+    let mut buf = Vec::with_capacity(224);
+    // Writing into a Vec cannot fail.
+    let _ = rmpv::encode::write_value(&mut buf, &map);
+    buf
+}
+
 /// Decodes a datagram into a classic frame and its timestamp (0.0 if absent or not a number).
+/// A CAN FD frame is [`DecodeError::Fd`]: [`decode_any`] takes those too.
 pub fn decode(datagram: &[u8]) -> Result<(Frame, f64), DecodeError> {
+    match decode_with(datagram, false)? {
+        (UdpFrame::Frame(f), t) => Ok((f, t)),
+        (UdpFrame::Fd(_), _) => Err(DecodeError::Fd),
+    }
+}
+
+/// Decodes a datagram into a classic or CAN FD frame and its timestamp.
+pub fn decode_any(datagram: &[u8]) -> Result<(UdpFrame, f64), DecodeError> {
+    decode_with(datagram, true)
+}
+
+fn decode_with(datagram: &[u8], fd: bool) -> Result<(UdpFrame, f64), DecodeError> {
     let mut rd = datagram;
     let v = rmpv::decode::read_value_with_max_depth(&mut rd, FRAME_DEPTH).map_err(|e| match e {
         rmpv::decode::Error::DepthLimitExceeded => DecodeError::TooDeep,
@@ -120,7 +186,8 @@ pub fn decode(datagram: &[u8]) -> Result<(Frame, f64), DecodeError> {
     if flag("is_error_frame", false)? {
         return Err(DecodeError::ErrorFrame);
     }
-    if flag("is_fd", false)? {
+    let is_fd = flag("is_fd", false)?;
+    if is_fd && !fd {
         return Err(DecodeError::Fd);
     }
     let raw = get("arbitration_id")
@@ -140,38 +207,65 @@ pub fn decode(datagram: &[u8]) -> Result<(Frame, f64), DecodeError> {
         .and_then(Value::as_u64)
         .ok_or(DecodeError::Field("dlc"))?;
     let timestamp = get("timestamp").and_then(Value::as_f64).unwrap_or(0.0);
+    if is_fd {
+        if flag("is_remote_frame", false)? {
+            return Err(DecodeError::InvalidFd(FdFrameError::Remote));
+        }
+        let mut bytes = [0u8; FD_MAX_LEN];
+        let data = payload(get("data"), dlc, &mut bytes, FD_MAX_LEN).map_err(|e| {
+            e.unwrap_or_else(|len| DecodeError::InvalidFd(FdFrameError::TooLong { len }))
+        })?;
+        if dlc != data.len() as u64 {
+            return Err(DecodeError::Field("dlc"));
+        }
+        let f = FdFrame::new(id, data)
+            .map_err(DecodeError::InvalidFd)?
+            .with_brs(flag("bitrate_switch", false)?)
+            .with_esi(flag("error_state_indicator", false)?);
+        return Ok((UdpFrame::Fd(f), timestamp));
+    }
     if flag("is_remote_frame", false)? {
         let dlc = u8::try_from(dlc)
             .map_err(|_| DecodeError::Invalid(crate::frame::FrameError::TooLong { len: 255 }))?;
         let f = Frame::remote(id, dlc).map_err(DecodeError::Invalid)?;
-        return Ok((f, timestamp));
+        return Ok((UdpFrame::Frame(f), timestamp));
     }
     let mut bytes = [0u8; 8];
-    let data: &[u8] = match get("data") {
-        Some(Value::Binary(b)) => b,
+    let data = payload(get("data"), dlc, &mut bytes, 8).map_err(|e| {
+        e.unwrap_or_else(|len| DecodeError::Invalid(crate::frame::FrameError::TooLong { len }))
+    })?;
+    if dlc != data.len() as u64 {
+        return Err(DecodeError::Field("dlc"));
+    }
+    let f = Frame::new(id, data).map_err(DecodeError::Invalid)?;
+    Ok((UdpFrame::Frame(f), timestamp))
+}
+
+/// A frame's `data`: binary, or a list of integers (a peer that packed without
+/// `use_bin_type`) copied into `bytes`, at most `max` of them (`Err(Err(len))` for more).
+fn payload<'a>(
+    data: Option<&'a Value>,
+    dlc: u64,
+    bytes: &'a mut [u8],
+    max: usize,
+) -> Result<&'a [u8], Result<DecodeError, usize>> {
+    match data {
+        Some(Value::Binary(b)) => Ok(b),
         Some(Value::Array(items)) => {
-            // A peer that packed a list of ints (msgpack without use_bin_type).
-            if items.len() > 8 {
-                return Err(DecodeError::Invalid(crate::frame::FrameError::TooLong {
-                    len: items.len(),
-                }));
+            if items.len() > max {
+                return Err(Err(items.len()));
             }
             for (slot, it) in bytes.iter_mut().zip(items) {
                 *slot = it
                     .as_u64()
                     .and_then(|b| u8::try_from(b).ok())
-                    .ok_or(DecodeError::Field("data"))?;
+                    .ok_or(Ok(DecodeError::Field("data")))?;
             }
-            &bytes[..items.len()]
+            Ok(&bytes[..items.len()])
         }
-        Some(Value::Nil) | None if dlc == 0 => &[],
-        _ => return Err(DecodeError::Field("data")),
-    };
-    if dlc != data.len() as u64 {
-        return Err(DecodeError::Field("dlc"));
+        Some(Value::Nil) | None if dlc == 0 => Ok(&[]),
+        _ => Err(Ok(DecodeError::Field("data"))),
     }
-    let f = Frame::new(id, data).map_err(DecodeError::Invalid)?;
-    Ok((f, timestamp))
 }
 
 #[cfg(test)]
@@ -276,6 +370,92 @@ mod tests {
         );
     }
 
+    /// Bytes python-can 4.6.1's `pack_message` produced for `Message(timestamp=1.5,
+    /// arbitration_id=0x181, is_extended_id=False, is_fd=True, bitrate_switch=True,
+    /// data=bytes(range(12)))`.
+    const PYTHON_FD_HEX: &str = concat!(
+        "8ba974696d657374616d70cb3ff8000000000000ae6172626974726174696f6e5f6964cd0181ae69",
+        "735f657874656e6465645f6964c2af69735f72656d6f74655f6672616d65c2ae69735f6572726f72",
+        "5f6672616d65c2a76368616e6e656cc0a3646c630ca464617461c40c000102030405060708090a0b",
+        "a569735f6664c3ae626974726174655f737769746368c3b56572726f725f73746174655f696e6469",
+        "6361746f72c2",
+    );
+
+    fn unhex(s: &str) -> Vec<u8> {
+        (0..s.len())
+            .step_by(2)
+            .map(|i| u8::from_str_radix(&s[i..i + 2], 16).unwrap())
+            .collect()
+    }
+
+    fn fd(data: &[u8]) -> FdFrame {
+        FdFrame::new(Id::Standard(0x181), data).unwrap()
+    }
+
+    #[test]
+    fn fd_frames_encode_byte_for_byte_like_python_can() {
+        let data: Vec<u8> = (0..12).collect();
+        let f = fd(&data).with_brs(true);
+        let py = unhex(PYTHON_FD_HEX);
+        assert_eq!(encode_fd(&f, 1.5, None), py);
+        assert_eq!(decode_any(&py), Ok((UdpFrame::Fd(f), 1.5)));
+        // The classic decoder refuses it, naming why.
+        assert_eq!(decode(&py), Err(DecodeError::Fd));
+        // A classic frame through `decode_any` is a classic frame.
+        assert_eq!(
+            decode_any(&python_sdo()).unwrap().0,
+            UdpFrame::Frame(Frame::from_array(
+                Id::Standard(0x601),
+                [0x40, 0x18, 0x10, 1, 0, 0, 0, 0]
+            ))
+        );
+    }
+
+    #[test]
+    fn malformed_fd_frames_are_errors_naming_what_was_wrong() {
+        let good = encode_fd(&fd(&[7; 12]), 0.0, None);
+        // Ten bytes: not a CAN FD length.
+        let ten = replace(
+            &replace(&good, b"dlc\x0c", b"dlc\x0a"),
+            &[b"data\xc4\x0c".as_slice(), &[7; 12]].concat(),
+            &[b"data\xc4\x0a".as_slice(), &[7; 10]].concat(),
+        );
+        let e = decode_any(&ten).unwrap_err();
+        assert_eq!(
+            e,
+            DecodeError::InvalidFd(FdFrameError::NotFdLength { len: 10 })
+        );
+        assert!(e.to_string().contains("10 bytes"), "{e}");
+        // 65 bytes as a list: too long.
+        let list: Vec<u8> = [&[0xdc, 0, 65][..], &[1; 65]].concat();
+        let long = replace(
+            &replace(&good, b"dlc\x0c", b"dlc\x41"),
+            &[b"data\xc4\x0c".as_slice(), &[7; 12]].concat(),
+            &[b"data".as_slice(), &list].concat(),
+        );
+        assert_eq!(
+            decode_any(&long),
+            Err(DecodeError::InvalidFd(FdFrameError::TooLong { len: 65 }))
+        );
+        // A remote FD frame.
+        let remote = replace(&good, b"is_remote_frame\xc2", b"is_remote_frame\xc3");
+        assert_eq!(
+            decode_any(&remote),
+            Err(DecodeError::InvalidFd(FdFrameError::Remote))
+        );
+        // DLC and data disagree; a flag of the wrong type.
+        let bad_dlc = replace(&good, b"dlc\x0c", b"dlc\x10");
+        assert_eq!(decode_any(&bad_dlc), Err(DecodeError::Field("dlc")));
+        let bad_brs = replace(&good, b"bitrate_switch\xc2", b"bitrate_switch\x01");
+        assert_eq!(
+            decode_any(&bad_brs),
+            Err(DecodeError::Field("bitrate_switch"))
+        );
+        for n in 0..good.len() {
+            assert!(decode_any(&good[..n]).is_err(), "prefix {n} decoded");
+        }
+    }
+
     fn replace(hay: &[u8], from: &[u8], to: &[u8]) -> Vec<u8> {
         let i = hay
             .windows(from.len())
@@ -290,6 +470,19 @@ mod tests {
         #[test]
         fn round_trip(f in crate::frame::arbitrary::any_frame(), ts in 0.0f64..2e9) {
             prop_assert_eq!(decode(&encode(&f, ts, Some("can0"))).unwrap(), (f, ts));
+        }
+
+        #[test]
+        fn fd_round_trip(f in crate::frame::arbitrary::any_fd_frame(), ts in 0.0f64..2e9) {
+            prop_assert_eq!(
+                decode_any(&encode_fd(&f, ts, Some("can0"))).unwrap(),
+                (UdpFrame::Fd(f), ts)
+            );
+        }
+
+        #[test]
+        fn arbitrary_bytes_never_panic_either_decoder(b in proptest::collection::vec(any::<u8>(), 0..300)) {
+            let _ = decode_any(&b);
         }
 
         #[test]

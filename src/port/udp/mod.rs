@@ -11,6 +11,12 @@
 //! names it. python-can binds its socket to the wildcard address, so keep python buses on
 //! distinct ports as well as groups. Only IPv4 groups are supported.
 //!
+//! CAN FD frames (`is_fd`, `bitrate_switch`, `error_state_indicator`, up to 64 bytes) travel on
+//! a bus opened for them ([`UdpBusConfig::with_fd`], as python-can's `fd=True`):
+//! [`Port::send_fd`] sends them and [`Port::recv_any`] hands them over. `recv`, and a port not
+//! opened for CAN FD, refuse them as below, and the blocking reader ([`Port::reader`]) reads
+//! classic frames only.
+//!
 //! Datagrams that are not classic CAN frames (garbage, truncated, nested deeper than a frame,
 //! bytes after the frame, CAN FD, error frames) are counted in [`PortCounters::rx_invalid`](super::PortCounters) and logged; frames this port
 //! sent itself come back through multicast loopback and are dropped silently.
@@ -23,10 +29,10 @@ mod blocking;
 mod codec;
 mod rx;
 
-pub use codec::{decode, encode, DecodeError};
+pub use codec::{decode, decode_any, encode, encode_fd, DecodeError, UdpFrame};
 
-use super::{Port, PortCounters, PortError, PortErrorKind, PortInput, PortReader};
-use crate::frame::Frame;
+use super::{AnyInput, Port, PortCounters, PortError, PortErrorKind, PortInput, PortReader};
+use crate::frame::{FdFrame, Frame};
 use socket2::{Domain, Protocol, Socket, Type};
 use std::net::{Ipv4Addr, SocketAddr, SocketAddrV4};
 use std::time::{SystemTime, UNIX_EPOCH};
@@ -53,6 +59,8 @@ pub struct UdpBusConfig {
     pub ttl: u32,
     /// `channel` field of sent frames (python-can shows it as `msg.channel`).
     pub channel: Option<String>,
+    /// The bus carries CAN FD frames ([`UdpBusConfig::with_fd`]).
+    pub fd: bool,
     allow_non_loopback: bool,
 }
 
@@ -66,6 +74,7 @@ impl UdpBusConfig {
             interface: Ipv4Addr::LOCALHOST,
             ttl: 1,
             channel: None,
+            fd: false,
             allow_non_loopback: false,
         }
     }
@@ -94,6 +103,14 @@ impl UdpBusConfig {
     #[must_use]
     pub fn with_channel(mut self, channel: impl Into<String>) -> Self {
         self.channel = Some(channel.into());
+        self
+    }
+    /// The bus carries CAN FD frames, as python-can's `fd=True`: [`Port::send_fd`] sends them
+    /// and [`Port::recv_any`] hands them over (without it, `send_fd` is refused and FD
+    /// datagrams are counted as invalid).
+    #[must_use]
+    pub fn with_fd(mut self) -> Self {
+        self.fd = true;
         self
     }
     /// Checks the configuration; the error says what to change.
@@ -271,9 +288,86 @@ impl UdpPort {
                 Some(PortInput::Frame(f, at))
             }
             Err(e) => {
-                self.counters.rx_invalid();
-                tracing::warn!(port = %self.name, ?from, len = n, error = %e, "datagram refused");
+                self.refused(from, n, &e);
                 None
+            }
+        }
+    }
+
+    /// [`accept`](Self::accept) for [`Port::recv_any`]: CAN FD frames too, on a bus opened
+    /// for them.
+    fn accept_any(&mut self, d: rx::Datagram) -> Option<AnyInput> {
+        if !self.cfg.fd {
+            return self.accept(d).map(AnyInput::from);
+        }
+        let (n, from, at, dropped) = d;
+        if let Some(d) = dropped {
+            self.counters.rx_overrun_total(d);
+        }
+        if self.sockets.as_ref().is_some_and(|s| Some(s.own) == from) {
+            return None;
+        }
+        match decode_any(self.buf.get(..n)?) {
+            Ok((got, _)) => {
+                self.counters.rx_frames();
+                Some(match got {
+                    UdpFrame::Frame(f) => AnyInput::Frame(f, at),
+                    UdpFrame::Fd(f) => AnyInput::Fd(f, at),
+                })
+            }
+            Err(e) => {
+                self.refused(from, n, &e);
+                None
+            }
+        }
+    }
+
+    fn refused(&self, from: Option<SocketAddr>, n: usize, e: &DecodeError) {
+        self.counters.rx_invalid();
+        tracing::warn!(port = %self.name, ?from, len = n, error = %e, "datagram refused");
+    }
+
+    /// Reads until a datagram `accept` takes.
+    async fn read<R>(
+        &mut self,
+        accept: fn(&mut Self, rx::Datagram) -> Option<R>,
+    ) -> Result<R, PortError> {
+        loop {
+            let Some(s) = self.sockets.as_ref() else {
+                return Err(PortError::new(&self.name, PortErrorKind::Closed, "closed"));
+            };
+            // A reader thread reads the port: nothing comes here until it is re-opened.
+            let Some(rx) = s.rx.as_ref() else {
+                return std::future::pending().await;
+            };
+            let (stamps, buf) = (&mut self.stamps, &mut self.buf);
+            let got = rx
+                .async_io(Interest::READABLE, || stamps.recv(rx, buf))
+                .await;
+            match got {
+                Ok(d) => {
+                    if let Some(x) = accept(self, d) {
+                        return Ok(x);
+                    }
+                }
+                Err(e) => return Err(self.failed(e)),
+            }
+        }
+    }
+
+    async fn send_bytes(&mut self, bytes: &[u8]) -> Result<(), PortError> {
+        let Some(s) = self.sockets.as_ref() else {
+            self.counters.tx_dropped();
+            return Err(PortError::new(&self.name, PortErrorKind::Closed, "closed"));
+        };
+        match s.tx.send_to(bytes, s.dest).await {
+            Ok(_) => {
+                self.counters.tx_frames();
+                Ok(())
+            }
+            Err(e) => {
+                self.counters.tx_failed();
+                Err(PortError::io(&self.name, "send failed", e))
             }
         }
     }
@@ -294,27 +388,11 @@ impl Port for UdpPort {
     }
 
     async fn recv(&mut self) -> Result<PortInput, PortError> {
-        loop {
-            let Some(s) = self.sockets.as_ref() else {
-                return Err(PortError::new(&self.name, PortErrorKind::Closed, "closed"));
-            };
-            // A reader thread reads the port: nothing comes here until it is re-opened.
-            let Some(rx) = s.rx.as_ref() else {
-                return std::future::pending().await;
-            };
-            let (stamps, buf) = (&mut self.stamps, &mut self.buf);
-            let got = rx
-                .async_io(Interest::READABLE, || stamps.recv(rx, buf))
-                .await;
-            match got {
-                Ok(d) => {
-                    if let Some(x) = self.accept(d) {
-                        return Ok(x);
-                    }
-                }
-                Err(e) => return Err(self.failed(e)),
-            }
-        }
+        self.read(Self::accept).await
+    }
+
+    async fn recv_any(&mut self) -> Result<AnyInput, PortError> {
+        self.read(Self::accept_any).await
     }
 
     fn try_recv(&mut self) -> Option<Result<PortInput, PortError>> {
@@ -334,21 +412,16 @@ impl Port for UdpPort {
     }
 
     async fn send(&mut self, frame: &Frame) -> Result<(), PortError> {
-        let Some(s) = self.sockets.as_ref() else {
-            self.counters.tx_dropped();
-            return Err(PortError::new(&self.name, PortErrorKind::Closed, "closed"));
-        };
         let bytes = encode(frame, timestamp(), self.cfg.channel.as_deref());
-        match s.tx.send_to(&bytes, s.dest).await {
-            Ok(_) => {
-                self.counters.tx_frames();
-                Ok(())
-            }
-            Err(e) => {
-                self.counters.tx_failed();
-                Err(PortError::io(&self.name, "send failed", e))
-            }
+        self.send_bytes(&bytes).await
+    }
+
+    async fn send_fd(&mut self, frame: &FdFrame) -> Result<(), PortError> {
+        if !self.cfg.fd {
+            return Err(super::asynch::classic_port(&self.name, frame));
         }
+        let bytes = encode_fd(frame, timestamp(), self.cfg.channel.as_deref());
+        self.send_bytes(&bytes).await
     }
 
     async fn reopen(&mut self) -> Result<(), PortError> {
@@ -456,5 +529,64 @@ mod tests {
             Some(PortInput::Frame(good, None))
         );
         assert_eq!(port.counters.snapshot().rx_frames, 1);
+    }
+}
+
+#[cfg(test)]
+mod fd_tests {
+    use super::*;
+    use crate::frame::Id;
+
+    fn offline(cfg: UdpBusConfig) -> UdpPort {
+        UdpPort {
+            name: cfg.name(),
+            cfg,
+            sockets: None,
+            counters: PortCounters::new(),
+            buf: vec![0; MAX_DATAGRAM],
+            stamps: rx::Stamps::new(),
+        }
+    }
+
+    fn feed(port: &mut UdpPort, datagram: &[u8]) -> Option<AnyInput> {
+        port.buf[..datagram.len()].copy_from_slice(datagram);
+        port.accept_any((datagram.len(), "127.0.0.1:9".parse().ok(), None, None))
+    }
+
+    #[test]
+    fn an_fd_port_hands_fd_frames_over_and_a_classic_one_counts_them() {
+        let f = FdFrame::new(Id::Extended(0x001A_BCDE), &[0xA5; 64])
+            .unwrap()
+            .with_esi(true);
+        let classic = Frame::from_array(Id::Standard(0x181), [1, 2]);
+        let mut fd_port = offline(UdpBusConfig::numbered(0).with_fd());
+        assert_eq!(
+            feed(&mut fd_port, &encode_fd(&f, 0.0, None)),
+            Some(AnyInput::Fd(f, None))
+        );
+        assert_eq!(
+            feed(&mut fd_port, &encode(&classic, 0.0, None)),
+            Some(AnyInput::Frame(classic, None))
+        );
+        // `recv`'s decoding stays classic.
+        fd_port.buf[..0].copy_from_slice(&[]);
+        let d = encode_fd(&f, 0.0, None);
+        fd_port.buf[..d.len()].copy_from_slice(&d);
+        assert_eq!(fd_port.accept((d.len(), None, None, None)), None);
+        assert_eq!(fd_port.counters.snapshot().rx_frames, 2);
+        assert_eq!(fd_port.counters.snapshot().rx_invalid, 1);
+
+        let mut classic_port = offline(UdpBusConfig::numbered(0));
+        assert_eq!(feed(&mut classic_port, &encode_fd(&f, 0.0, None)), None);
+        assert_eq!(classic_port.counters.snapshot().rx_invalid, 1);
+    }
+
+    #[tokio::test]
+    async fn a_classic_udp_port_refuses_to_send_fd() {
+        let mut port = offline(UdpBusConfig::numbered(0));
+        let f = FdFrame::new(Id::Standard(1), &[1; 12]).unwrap();
+        let e = port.send_fd(&f).await.unwrap_err();
+        assert_eq!(e.kind, PortErrorKind::Config);
+        assert!(e.to_string().contains("classic CAN port"), "{e}");
     }
 }

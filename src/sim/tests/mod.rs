@@ -4,6 +4,7 @@ mod basic;
 mod determinism;
 mod events;
 mod faults;
+mod fd;
 mod latency;
 mod power;
 mod probe;
