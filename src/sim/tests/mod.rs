@@ -7,6 +7,7 @@ mod faults;
 mod latency;
 mod power;
 mod probe;
+mod tx_dead;
 
 use super::{BusConfig, BusId, SimNetwork, TraceRecord, TxRecord};
 
