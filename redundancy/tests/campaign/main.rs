@@ -389,7 +389,15 @@ const REGRESSIONS_CLOCK_RATE: &[(u64, u64, bool, bool)] = &[
 /// Seeds drawn from every kind (a transceiver that cannot send among them) that failed and
 /// pass now: the seed, the simulated seconds that reach the failure, on the quiet network or
 /// not, on a plant with crossed cabling or not (every one with the node that is not duocan).
-const REGRESSIONS_EVERY_KIND: &[(u64, u64, bool, bool)] = &[];
+const REGRESSIONS_EVERY_KIND: &[(u64, u64, bool, bool)] = &[
+    // Cyclic, crossed: a board's port on bus 1 could not send for 1.8 s: its controller went
+    // bus-off 0.7 ms after every restart (1.4 ms), and the port flapped between failed and
+    // recovering at that pace (185 state changes); with a re-initialisation, a quiet
+    // (pre-operational) board's port was ok between two heartbeats, its back-off reset. A
+    // port bus-off again before it was back is now revived by neither, and its probation
+    // needs a confirmed transmission.
+    (27, 2, false, true),
+];
 
 /// The budget CI runs: seeds and simulated seconds each. Seed `k` leads with a fault of kind
 /// `k mod KINDS`, so that the budget reaches every class whatever the draws.
