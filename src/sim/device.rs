@@ -317,6 +317,9 @@ impl SimNetwork {
             let port = &mut self.ports[p];
             port.queue.clear();
             port.delayed = 0;
+            // Its controllers start afresh: error counters at zero, none bus-off.
+            port.tec = 0;
+            port.bus_off = None;
             self.refresh_port(p);
         }
     }

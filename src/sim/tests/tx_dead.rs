@@ -138,4 +138,12 @@ fn a_dead_transmitter_acknowledges_nothing_and_a_reinit_restarts_it_from_bus_off
         sim.device(x).status_on(0).last(),
         Some(&(us(1_500), PortStatus::Up))
     );
+    // A power cycle starts the controller afresh too.
+    sim.device_mut(x).send(0, fx);
+    sim.run_until(us(3_000));
+    assert!(sim.is_port_bus_off(x.port(0)));
+    sim.power_off(x);
+    sim.power_on(x);
+    assert!(!sim.is_port_bus_off(x.port(0)));
+    assert_eq!(sim.port_tx_errors(x.port(0)), 0);
 }
