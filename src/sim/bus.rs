@@ -218,6 +218,15 @@ pub(super) struct Port {
     /// behind them so a port never sees frames out of order.
     pub(super) delayed: u32,
     pub(super) delay_tail: Instant,
+    /// Its transmitter reaches nobody (see
+    /// [`set_port_tx_dead`](super::SimNetwork::set_port_tx_dead)).
+    pub(super) tx_dead: bool,
+    /// Its transmit error counter.
+    pub(super) tec: u16,
+    /// Bus-off until this instant (its automatic restart).
+    pub(super) bus_off: Option<Instant>,
+    /// When its next failing attempt ends (a dead transmitter with a frame to send).
+    pub(super) dead_wake: Option<Instant>,
     pub(super) stats: PortStats,
 }
 
@@ -248,6 +257,10 @@ impl Port {
             clock: StampClock::EXACT,
             delayed: 0,
             delay_tail: Instant::ZERO,
+            tx_dead: false,
+            tec: 0,
+            bus_off: None,
+            dead_wake: None,
             stats: PortStats::default(),
         }
     }

@@ -347,6 +347,9 @@ impl SimNetwork {
             port.queue.clear();
             port.fd_queue.clear();
             port.delayed = 0;
+            // Its controllers start afresh: error counters at zero, none bus-off.
+            port.tec = 0;
+            port.bus_off = None;
             self.refresh_port(p);
         }
     }

@@ -161,6 +161,7 @@ impl SimNetwork {
         let p = dev.first_port as usize + local;
         match req {
             PortRequest::Reinit => {
+                self.restart_now(p);
                 self.ports[p].queue.clear();
                 self.ports[p].fd_queue.clear();
                 self.ports[p].flushed = self.ports[p].transmitting;
@@ -179,9 +180,17 @@ impl SimNetwork {
     /// Puts port `p`'s entry in its segment's ready set in line with its state.
     pub(super) fn refresh_port(&mut self, p: usize) {
         let port = &self.ports[p];
-        let live = self.devices[port.dev as usize].powered && port.iface_up && !port.transmitting;
+        let live = self.devices[port.dev as usize].powered
+            && port.iface_up
+            && !port.transmitting
+            && port.bus_off.is_none();
+        // A dead transmitter never reaches the wire: its attempts fail on their own.
+        if live && port.tx_dead && matches!(port.head(self.now), Ok(Some(_))) {
+            self.arm_dead_attempt(p);
+        }
+        let port = &self.ports[p];
         let want = match port.head(self.now) {
-            Ok(head) if live => head.map(|f| (port.seg, f.arbitration_key())),
+            Ok(head) if live && !port.tx_dead => head.map(|f| (port.seg, f.arbitration_key())),
             Err(due) if live && port.wake != Some(due) => {
                 self.ports[p].wake = Some(due);
                 self.at(due, move |s| {

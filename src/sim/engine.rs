@@ -276,6 +276,7 @@ impl SimNetwork {
             let rate = port.faults.map_or(0.0, |f| f.corrupt_detected);
             if m as usize != sender
                 && port.iface_up
+                && port.bus_off.is_none()
                 && self.devices[port.dev as usize].powered
                 && chance(&mut self.rng, rate)
             {
@@ -299,10 +300,17 @@ impl SimNetwork {
         rx.clear();
         for &m in &self.buses[b].segments[s].members {
             let port = &self.ports[m as usize];
-            if m != tx.sender && port.iface_up && self.devices[port.dev as usize].powered {
+            if m != tx.sender
+                && port.iface_up
+                && port.bus_off.is_none()
+                && self.devices[port.dev as usize].powered
+            {
                 rx.push(m);
             }
         }
+        // A dead transmitter cannot acknowledge: with nobody else, the frame is not acked and
+        // its error flag destroys it for every receiver.
+        let acked = rx.iter().any(|&m| !self.ports[m as usize].tx_dead);
         let alive = self.devices[d].powered && self.devices[d].generation == tx.generation;
         let outcome = if !alive {
             TxOutcome::SenderOff
@@ -310,7 +318,7 @@ impl SimNetwork {
             TxOutcome::BusDown
         } else if !self.ports[p].connected {
             TxOutcome::SenderDisconnected
-        } else if rx.is_empty() {
+        } else if !acked {
             TxOutcome::NoAck
         } else if tx.error {
             TxOutcome::ErrorFrame
@@ -348,6 +356,9 @@ impl SimNetwork {
             TxOutcome::ErrorFrame => Some(PortStatus::Error(ErrorCause::Crc)),
             TxOutcome::Delivered { .. } => Some(PortStatus::TxOk),
         };
+        if sender_status == Some(PortStatus::TxOk) {
+            self.ports[p].tec = self.ports[p].tec.saturating_sub(1);
+        }
         if let Some(status) = sender_status {
             if outcome == TxOutcome::ErrorFrame {
                 self.ports[p].stats.error_frames += 1;

@@ -60,6 +60,8 @@
 //! [`set_port_latency`](SimNetwork::set_port_latency) (a fixed receive latency, not random),
 //! [`set_port_tx_latency`](SimNetwork::set_port_tx_latency) (the same for transmission: a
 //! controller that sends late),
+//! [`set_port_tx_dead`](SimNetwork::set_port_tx_dead) (a transmitter that reaches nobody: bit
+//! errors, error passive, bus-off and its automatic restart, while the port still receives),
 //! [`partition`](SimNetwork::partition), [`babble`](SimNetwork::babble),
 //! [`port_down`](SimNetwork::port_down) and [`power_off`](SimNetwork::power_off).
 //!
@@ -115,6 +117,7 @@ mod rx;
 mod sched;
 pub mod timing;
 mod trace;
+mod tx_dead;
 
 #[cfg(test)]
 mod tests;

@@ -15,6 +15,7 @@
 //!   (suspect, duplicate, babbling);
 //! - a board that stops: a master saw its heartbeat say so;
 //! - noise: error reports on that bus; an overrun: that controller's overflow reports;
+//! - a transceiver that cannot send: that controller reported a bus-off;
 //! - a slow transmitter: a frame waited in that controller for its delay;
 //! - a board or master that dies (once or in a boot loop), a master's clock stepped back or
 //!   jumped ahead, a device's clock at a wrong rate: the device was powered when the fault
@@ -48,10 +49,14 @@ pub fn watch(run: &mut Run, f: Fault) {
         | Fault::MasterBootLoop { id, .. }
         | Fault::StepBack { id, .. }
         | Fault::JumpAhead { id, .. } => run.plant.sim.is_powered(run.plant.master(id)),
-        Fault::ClockRate { node, .. } if node == STRONG || node == WEAK => {
+        Fault::ClockRate { node, .. } | Fault::TxDead { node, .. }
+            if node == STRONG || node == WEAK =>
+        {
             run.plant.sim.is_powered(run.plant.master(node))
         }
-        Fault::ClockRate { node, .. } => run.plant.sim.is_powered(run.plant.slave(node).0),
+        Fault::ClockRate { node, .. } | Fault::TxDead { node, .. } => {
+            run.plant.sim.is_powered(run.plant.slave(node).0)
+        }
         _ => true,
     };
     let before = counters(run);
@@ -111,6 +116,14 @@ fn link_events(run: &Run, node: u8, from: Instant, to: Instant) -> Vec<LinkEvent
     } else {
         links_of(sim.events(run.plant.slave(node).0), from, to)
     }
+}
+
+/// How many times device `node`'s port `port` changed state in `[from, to]`.
+pub fn port_changes(run: &Run, node: u8, port: usize, from: Instant, to: Instant) -> usize {
+    link_events(run, node, from, to)
+        .iter()
+        .filter(|e| matches!(e.kind, LinkEventKind::Port { port: p, .. } if p as usize == port))
+        .count()
 }
 
 /// The link events among a station's `events` in `[from, to]`.
@@ -255,6 +268,11 @@ fn took_effect(run: &Run, f: Fault, from: Instant, to: Instant, before: &Counter
             !far || link_events(run, node, from, to)
                 .iter()
                 .any(|e| matches!(e.kind, LinkEventKind::Lag { port: p, .. } if p as usize == port))
+        }
+        // Its controller went bus-off.
+        Fault::TxDead { node, port, .. } => {
+            let bus = bus_of(run, node, port);
+            errors_grew(run, before, bus, Some(node), Some(ErrorCause::BusOff))
         }
         Fault::Overrun { node, port, .. } => {
             let bus = bus_of(run, node, port);

@@ -107,6 +107,15 @@ pub enum Fault {
     /// whose clock is throttled): its heartbeats, SYNC, consumer times and negotiation all
     /// stretch or shrink together, unnoticed by the device.
     ClockRate { node: u8, ppm: i32, dur: Duration },
+    /// A device's transceiver on `port` receives but cannot send for `dur` (TXD stuck
+    /// recessive, a broken TX line): its controller's every attempt is a bit error, error
+    /// passive, bus-off, restarted, and again (see [`crate::tx_dead`]); nothing it sends
+    /// reaches that bus.
+    TxDead {
+        node: u8,
+        port: usize,
+        dur: Duration,
+    },
     /// Noise on bus `bus` for `dur`: a frame is hit by an error (every port on the bus sees the
     /// error frame, nobody receives it, its sender sends it again) with probability
     /// `permille`/1000: retransmissions, their delays, and a stream of error reports.
@@ -179,6 +188,7 @@ impl Fault {
             Fault::StepBack { .. } => "clock step back",
             Fault::JumpAhead { .. } => "clock jump ahead",
             Fault::ClockRate { .. } => "clock at a wrong rate",
+            Fault::TxDead { .. } => "transceiver that cannot send",
             Fault::Noise { .. } => "noisy bus",
             Fault::Overrun { .. } => "controller overrun",
             Fault::SlowTx { .. } => "slow transmitter",
@@ -211,7 +221,8 @@ impl Fault {
             | Fault::Duplicate { dur, .. }
             | Fault::WrongBitRate { dur, .. }
             | Fault::Drift { dur, .. }
-            | Fault::ClockRate { dur, .. } => dur,
+            | Fault::ClockRate { dur, .. }
+            | Fault::TxDead { dur, .. } => dur,
             Fault::Sequence {
                 dur,
                 overlap,
@@ -245,6 +256,7 @@ impl Fault {
                 | Fault::Overrun { .. }
                 | Fault::SlowTx { .. }
                 | Fault::WrongBitRate { .. }
+                | Fault::TxDead { .. }
         )
     }
 }
@@ -260,7 +272,7 @@ pub fn port_of(run: &Run, node: u8, port: usize) -> PortRef {
     }
 }
 
-fn dev_index(run: &Run, node: u8) -> usize {
+pub fn dev_index(run: &Run, node: u8) -> usize {
     run.timeline
         .devs
         .iter()
@@ -641,6 +653,7 @@ pub fn apply(run: &mut Run, f: Fault) {
                 }
             });
         }
+        Fault::TxDead { node, port, dur } => crate::tx_dead::apply(run, node, port, dur),
         Fault::ClockRate { node, ppm, dur } => {
             let set = move |r: &mut Run, ppm: i32| {
                 let t = r.now();
@@ -779,7 +792,7 @@ pub fn random(rng: &mut Rng, pairs: u8, connectivity_free: bool, kinds: usize) -
 
 /// How many kinds of fault the campaign draws from (every class that holds, some in two
 /// shapes).
-pub const KINDS: usize = 27;
+pub const KINDS: usize = 28;
 
 /// Every kind [`draw`] knows: also receive clocks that drift apart (kind [`DRIFT`], always the
 /// last), which still fail combined with others (the "known and not fixed yet" of the user
@@ -788,6 +801,10 @@ pub const KINDS: usize = 27;
 pub const KINDS_WITH_DRIFT: usize = KINDS + 1;
 /// The drift's kind.
 pub const DRIFT: usize = KINDS;
+
+/// The kinds the campaign knew before a transceiver that cannot send: the seeds in
+/// `REGRESSIONS_CLOCK_RATE` draw from these.
+pub const KINDS_BEFORE_TX_DEAD: usize = 27;
 
 /// The kinds the campaign knew before a clock at a wrong rate: the seeds in
 /// `REGRESSIONS_MASTER_BOOT_LOOP` draw from these.
@@ -983,6 +1000,14 @@ pub fn draw(rng: &mut Rng, pairs: u8, k: usize) -> Fault {
                     -100_000, -50_000, -20_000, -100, 100, 20_000, 50_000, 100_000,
                 ][rng.below(8) as usize],
                 dur: rng.ms(1_000, 6_000),
+            },
+            27 => Fault::TxDead {
+                node: match rng.below(2) {
+                    0 => [STRONG, WEAK][rng.below(2) as usize],
+                    _ => board(rng),
+                },
+                port: rng.below(2) as usize,
+                dur: rng.ms(500, 8_000),
             },
             DRIFT => Fault::Drift {
                 node: any_node(rng),

@@ -181,6 +181,8 @@ impl Run {
                 && !self.timeline.cut[b].at(t)
                 && !self.timeline.babbled[b].at(t)
                 && !ds.unplugged[ps].at(t)
+                && !ds.tx_dead[ps].at(t)
+                && !dr.tx_dead[pr].at(t)
                 && !ds.stalled[ps].at(t)
                 && !dr.stalled[pr].at(t)
                 && !dr.unplugged[pr].at(t)

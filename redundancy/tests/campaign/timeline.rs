@@ -74,6 +74,9 @@ pub struct Dev {
     /// Per port: its controller sends late (a slow transmitter); the layer may fail the port
     /// for a transmit stall meanwhile, so the bus need not carry this device's frames.
     pub slow_tx: [Spans; 2],
+    /// Per port: its transceiver cannot send (nothing it sends reaches that bus; it receives,
+    /// but not while its controller is bus-off).
+    pub tx_dead: [Spans; 2],
     /// Per port: its controller overruns (misses frames now and then).
     pub overrun: [Spans; 2],
     pub off: Spans,
@@ -153,6 +156,8 @@ impl Timeline {
                     || ds.unplugged[ps].any(f, t)
                     || ds.stalled[ps].any(f, t)
                     || ds.slow_tx[ps].any(f, t)
+                    || ds.tx_dead[ps].any(f, t)
+                    || dr.tx_dead[pr].any(f, t)
                     || dr.unplugged[pr].any(f, t)
                     || ds.off.any(f, t)
                     || dr.off.any(f, t),
@@ -160,6 +165,7 @@ impl Timeline {
                     || self.babbled[bus].all(f, t)
                     || ds.unplugged[ps].all(f, t)
                     || ds.stalled[ps].all(f, t)
+                    || ds.tx_dead[ps].all(f, t)
                     || dr.unplugged[pr].all(f, t)
                     || ds.off.all(f, t)
                     || dr.off.all(f, t),

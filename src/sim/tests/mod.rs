@@ -8,6 +8,7 @@ mod fd;
 mod latency;
 mod power;
 mod probe;
+mod tx_dead;
 
 use super::{BusConfig, BusId, SimNetwork, TraceRecord, TxRecord};
 

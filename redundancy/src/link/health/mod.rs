@@ -26,7 +26,16 @@
 //!   works and its frames reach the peers there, only its receive path is silent or behind;
 //!   failed, it would carry nothing but probes.
 //! - **Controller reports.** Bus-off, interface down and transceiver faults fail the port at
-//!   once; other errors (error passive, CRC, no-ack, …) make an ok port suspect.
+//!   once; other errors (error passive, CRC, no-ack, …) make an ok port suspect. Only
+//!   transmit errors take a controller bus-off, so a port that goes bus-off again before it
+//!   was back (recovering after a restart, or failed that way already) is treated like one
+//!   failed for a transmit stall: neither the controller's restart (`Up`) nor received
+//!   frames revive it (a transceiver that receives but cannot send hears the network fine,
+//!   and goes bus-off again within a millisecond of every restart), only a probe confirmed
+//!   or its re-initialisation with its back-off; and (with a driver that confirms
+//!   transmissions) its probation ends only once a transmission was confirmed too, so a
+//!   quiet node's port is not ok between two of its heartbeats. Its state no longer flaps at
+//!   the pace of the controller's restarts.
 //! - **Traffic is proof.** A failed port that receives a frame, or whose driver confirms a
 //!   transmission (someone on its bus acknowledged it), is recovering at once, whatever its
 //!   back-off: the bus works (and the other one may fail the next instant).
@@ -316,7 +325,7 @@ impl Health {
             probation_from: Some(from),
         } = self.ports[p].cond
         {
-            if now.saturating_since(from) >= self.cfg.probation {
+            if now.saturating_since(from) >= self.cfg.probation && !self.ports[p].tx_unproven {
                 // Back, but still lagging beyond the maximum: suspect for that.
                 match self.ports[p].lagging {
                     Some(lag) => self.set(now, p, PortState::Suspect, PortReason::Lag { lag }, out),
@@ -341,6 +350,7 @@ impl Health {
                 port.reports_outcomes = true;
                 port.confirmed = Some(now);
                 port.unacknowledged = false;
+                port.tx_unproven = false;
                 // Someone on its bus acknowledged the frame: the bus works again, whatever the
                 // back-off says (as a received frame shows). After a transmit stall, a frame
                 // it was handed (a probe) confirmed before the stall rule flushed it: its
@@ -426,13 +436,22 @@ impl Health {
     }
 
     fn fail(&mut self, now: Instant, p: usize, reason: PortReason, out: &mut Outbox) {
-        if self.ports[p].state() != PortState::Failed {
+        // A bus-off again before the port was back (recovering, or failed for its transmitter
+        // already): the controller's restart and its bus's frames proved nothing of its
+        // transmitter (a transceiver that receives but cannot send goes bus-off within a
+        // millisecond of every restart, and the port flapped between failed and recovering
+        // at that pace).
+        let state = self.ports[p].state();
+        let again =
+            is_bus_off(reason) && (state == PortState::Recovering || self.ports[p].stalled());
+        if state != PortState::Failed {
             self.set(now, p, PortState::Failed, reason, out);
         }
         // The latest cause decides, also for a port that had failed already.
         if let Condition::Failed { revive_on_rx, .. } = &mut self.ports[p].cond {
-            *revive_on_rx = !matches!(reason, PortReason::TxStalled { .. });
+            *revive_on_rx = !matches!(reason, PortReason::TxStalled { .. }) && !again;
         }
+        self.ports[p].tx_unproven |= again && self.ports[p].reports_outcomes;
     }
 
     fn set(&mut self, at: Instant, p: usize, to: PortState, reason: PortReason, out: &mut Outbox) {
@@ -505,6 +524,16 @@ impl Health {
             },
         });
     }
+}
+
+/// Whether `reason` is its controller's bus-off, however the driver reported it.
+fn is_bus_off(reason: PortReason) -> bool {
+    matches!(
+        reason,
+        PortReason::Down(ErrorCause::BusOff)
+            | PortReason::TxFailed(ErrorCause::BusOff)
+            | PortReason::Controller(ErrorCause::BusOff)
+    )
 }
 
 /// What became of a received frame, for the counters and the silence rule.

@@ -24,9 +24,9 @@ pub(super) enum Condition {
     Failed {
         /// The back-off ends: the port is re-initialised.
         reinit_at: Instant,
-        /// Traffic (a frame, the driver's "up") revives it; not after a transmit stall, where
-        /// only the back-off re-initialisation or a frame it was handed confirmed in time (a
-        /// probe) does.
+        /// Traffic (a frame, the driver's "up") revives it; not after a transmit stall or a
+        /// repeated bus-off, where only the back-off re-initialisation or a frame it was
+        /// handed confirmed in time (a probe) does.
         revive_on_rx: bool,
     },
     Recovering {
@@ -92,6 +92,9 @@ pub struct PortHealth {
     /// How long after its receive timestamp its last frame was handed over: a reader that
     /// runs behind hands over the twins of the other port's first copies that much later.
     pub(super) rx_delay: Duration,
+    /// Went bus-off again before it was back, and no transmission has been confirmed since:
+    /// its transmitter is not shown to work, so received frames alone end no probation.
+    pub(super) tx_unproven: bool,
     pub(super) counters: HealthCounters,
 }
 
@@ -139,6 +142,7 @@ impl PortHealth {
             unacknowledged: false,
             unacknowledged_at: Instant::ZERO,
             rx_delay: Duration::ZERO,
+            tx_unproven: false,
             counters: HealthCounters::default(),
         }
     }
@@ -255,7 +259,9 @@ impl PortHealth {
         )
     }
     /// Failed for a transmit stall (a babbling controller holds its bus, or its own
-    /// controller sends late): what it is handed would come out stale.
+    /// controller sends late): what it is handed would come out stale; or for a bus-off
+    /// again before it was back (its transmitter fails: see the controller reports in
+    /// [`super`]).
     pub fn stalled(&self) -> bool {
         matches!(
             self.cond,

@@ -530,3 +530,5 @@ fn a_port_whose_frames_are_acknowledged_is_not_failed_for_silence() {
         ]
     );
 }
+
+mod bus_off;
