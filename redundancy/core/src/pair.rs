@@ -5,9 +5,9 @@
 //! supervisor uses it to decide which board is active. Neither part imports the other for it.
 //!
 //! ```
-//! use duocan::{Duration, NodeId};
-//! use duocan_redundancy::link::same_function::PairError;
-//! use duocan_redundancy::{DualBus, DualBusConfig, Member, PairId, PairSpec};
+//! use duocan_core::{Duration, NodeId};
+//! use duocan_redundancy_core::link::same_function::PairError;
+//! use duocan_redundancy_core::{DualBus, DualBusConfig, Member, PairId, PairSpec};
 //!
 //! let ms = Duration::from_millis;
 //! // A turnout controller on two boards, nodes 0x10 (A) and 0x50 (B): heartbeats every 20 ms,
@@ -29,7 +29,7 @@
 //! ```
 
 use core::fmt;
-use duocan::{Duration, NodeId};
+use duocan_core::{Duration, NodeId};
 
 /// Pairs a layer can hold: 55 board pairs per network, rounded up.
 pub const MAX_PAIRS: usize = 64;

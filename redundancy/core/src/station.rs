@@ -13,11 +13,11 @@
 //! A redundant master whose pair has only board A on the buses, and bus 2 cut:
 //!
 //! ```
-//! # use duocan::master::{objects, Master, MasterConfig};
-//! # use duocan::od::comm;
+//! # use duocan_core::master::{objects, Master, MasterConfig};
+//! # use duocan_core::od::comm;
 //! # use duocan::sim::{BusConfig, SimNetwork};
-//! # use duocan::{Duration, Instant, Node, NodeConfig, NodeId, Station};
-//! # use duocan_redundancy::{DualBus, DualBusConfig, PairSpec, RedundantMaster, Supervisor, SupervisorConfig};
+//! # use duocan_core::{Duration, Instant, Node, NodeConfig, NodeId, Station};
+//! # use duocan_redundancy_core::{DualBus, DualBusConfig, PairSpec, RedundantMaster, Supervisor, SupervisorConfig};
 //! # let ms = Duration::from_millis;
 //! # let mut sim = SimNetwork::new(1);
 //! # let buses = [sim.add_bus(BusConfig::new("can1", 1_000_000)), sim.add_bus(BusConfig::new("can2", 1_000_000))];
@@ -59,13 +59,13 @@ use crate::supervisor::{Supervisor, SupervisorEvent};
 use crate::FrameClassifier;
 use core::fmt;
 use core::ops::{Deref, DerefMut};
-use duocan::machine::{
+use duocan_core::machine::{
     forward_commands, forward_requests, BusLink, Device, PortRequest, PortStatus, Station,
     StationEvent,
 };
-use duocan::od::{DynamicDictionary, ObjectDictionary};
-use duocan::profile::{IdProfile, Predefined};
-use duocan::{Frame, Instant};
+use duocan_core::od::{DynamicDictionary, ObjectDictionary};
+use duocan_core::profile::{IdProfile, Predefined};
+use duocan_core::{Frame, Instant};
 
 /// The link a [`SupervisedStation`] runs on: a [`DualBus`], whatever its classifier and
 /// capacity (sealed: implemented by `DualBus<C, K>` only). It bundles the layer's two
@@ -114,9 +114,9 @@ type SupOf<D, L> = Supervisor<D, <L as SupervisedLink>::Classifier>;
 /// functions, see [`crate::link::capacity`]):
 ///
 /// ```
-/// use duocan::od::DynamicDictionary;
-/// use duocan::profile::Predefined;
-/// use duocan_redundancy::{Capacity, DualBus, SupervisedStation};
+/// use duocan_core::od::DynamicDictionary;
+/// use duocan_core::profile::Predefined;
+/// use duocan_redundancy_core::{Capacity, DualBus, SupervisedStation};
 ///
 /// // A host's master: the predefined connection set and the layer's default capacity.
 /// type Host = SupervisedStation<DynamicDictionary>;
@@ -181,8 +181,8 @@ impl<D: ObjectDictionary, L: SupervisedLink> SupervisedStation<D, L> {
 #[inline(never)]
 fn station<L, M>(make_link: impl FnOnce() -> L, make_sup: impl FnOnce() -> M) -> Station<L, M>
 where
-    L: duocan::machine::BusLink,
-    M: duocan::Machine,
+    L: duocan_core::machine::BusLink,
+    M: duocan_core::Machine,
 {
     Station::new(make_link(), make_sup())
 }
@@ -387,8 +387,8 @@ impl<D: ObjectDictionary, L: SupervisedLink> fmt::Display for Status<'_, D, L> {
 /// What a status cell shows.
 enum Shown {
     Unknown,
-    State(duocan::NmtState),
-    Phase(duocan::master::BootPhase),
+    State(duocan_core::NmtState),
+    Phase(duocan_core::master::BootPhase),
 }
 
 /// A cell padded like a string (`{:<16}`), written without allocating.
@@ -396,7 +396,7 @@ struct Word(Shown);
 
 impl fmt::Display for Word {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        use duocan::master::BootPhase as B;
+        use duocan_core::master::BootPhase as B;
         let mut s = heapless::String::<24>::new();
         let _ = match &self.0 {
             Shown::Unknown => fmt::write(&mut s, format_args!("unknown")),

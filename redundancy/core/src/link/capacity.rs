@@ -13,10 +13,10 @@
 //! gets when it says nothing:
 //!
 //! ```
-//! use duocan::profile::Predefined;
-//! use duocan_redundancy::link::capacity::Capacity;
-//! use duocan_redundancy::link::merge::Merger;
-//! use duocan_redundancy::{DualBus, DualBusConfig};
+//! use duocan_core::profile::Predefined;
+//! use duocan_redundancy_core::link::capacity::Capacity;
+//! use duocan_redundancy_core::link::merge::Merger;
+//! use duocan_redundancy_core::{DualBus, DualBusConfig};
 //!
 //! // A host's layer: the defaults (1,024 merger slots, 256 functions).
 //! let host = DualBus::new(DualBusConfig::default());
@@ -32,11 +32,11 @@
 //! read as: a type that implements [`MergeCapacity`] with the tables it wants.
 //!
 //! ```
-//! use duocan::profile::Predefined;
-//! use duocan_redundancy::link::capacity::MergeCapacity;
-//! use duocan_redundancy::link::merge::Merger;
-//! use duocan_redundancy::link::same_function::SameFunction;
-//! use duocan_redundancy::{DualBus, DualBusConfig};
+//! use duocan_core::profile::Predefined;
+//! use duocan_redundancy_core::link::capacity::MergeCapacity;
+//! use duocan_redundancy_core::link::merge::Merger;
+//! use duocan_redundancy_core::link::same_function::SameFunction;
+//! use duocan_redundancy_core::{DualBus, DualBusConfig};
 //!
 //! /// Four pairs of four TPDOs, eight heartbeats every 50 ms.
 //! enum Board {}
@@ -87,7 +87,7 @@ use crate::link::merge::{Merger, Sample, Trust, Verdict};
 use crate::link::outbox::Outbox;
 use crate::link::same_function::{PairError, PairVerdict, SameFunction, MAX_FUNCTIONS};
 use crate::pair::{Member, PairId};
-use duocan::{Duration, Frame, Instant, NodeId};
+use duocan_core::{Duration, Frame, Instant, NodeId};
 
 /// Merger slots of a [`DualBus`](crate::DualBus) unless chosen otherwise: 768 records, enough
 /// for a saturated 1 Mbit/s bus (about 8,000 frames/s) whose twins stay missing for the horizon

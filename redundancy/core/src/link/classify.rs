@@ -2,11 +2,11 @@
 //! node sent it, and which process-data function it carries. The predefined connection set is
 //! one implementation; a deployment-specific identifier scheme plugs in by implementing
 //! [`FrameClassifier`], as the railway 29-bit profile
-//! ([`RailwayProfile`](duocan::profile::railway::RailwayProfile)) does here.
+//! ([`RailwayProfile`](duocan_core::profile::railway::RailwayProfile)) does here.
 
-use duocan::frame::cob_id::predefined::{self, Function};
-use duocan::profile::{IdProfile, Predefined, ProfileFrame};
-use duocan::{Frame, NodeId};
+use duocan_core::frame::cob_id::predefined::{self, Function};
+use duocan_core::profile::{IdProfile, Predefined, ProfileFrame};
+use duocan_core::{Frame, NodeId};
 
 /// Classifies frames for the dual-bus layer.
 pub trait FrameClassifier {
@@ -114,7 +114,7 @@ pub use railway::state_function;
 #[cfg(test)]
 mod tests {
     use super::*;
-    use duocan::Id;
+    use duocan_core::Id;
 
     #[test]
     fn predefined_classification() {

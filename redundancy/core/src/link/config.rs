@@ -4,9 +4,9 @@
 //! build a [`DualBusConfig`] from any [`ObjectDictionary`].
 //!
 //! ```
-//! use duocan::od::{comm, ObjectDictionary, StaticDictionary, ObjectDef};
-//! use duocan_redundancy::link::config::{self, OdLayout};
-//! use duocan_redundancy::{DualBusConfig, LinkMode};
+//! use duocan_core::od::{comm, ObjectDictionary, StaticDictionary, ObjectDef};
+//! use duocan_redundancy_core::link::config::{self, OdLayout};
+//! use duocan_redundancy_core::{DualBusConfig, LinkMode};
 //!
 //! static COMM: [ObjectDef; comm::COMM_LEN] = comm::communication();
 //! static RED: [ObjectDef; 6] = config::cia302_6_objects(config::REDUNDANCY_CONFIG);
@@ -15,7 +15,7 @@
 //! od.set_value::<u16>(0x1F60, 2, 500).unwrap();
 //! let cfg = DualBusConfig::from_od(&od, &OdLayout::default()).unwrap();
 //! let LinkMode::Cia302_6(c) = cfg.mode else { panic!() };
-//! assert_eq!(c.eval_power_on, duocan::Duration::from_millis(500));
+//! assert_eq!(c.eval_power_on, duocan_core::Duration::from_millis(500));
 //! ```
 
 #[cfg(feature = "cia302-6")]
@@ -26,11 +26,11 @@ use crate::link::health::HealthConfig;
 use crate::pair::MAX_MEMBERS;
 use core::fmt;
 #[cfg(doc)]
-use duocan::machine::LinkRequest;
-use duocan::od::abort::AbortCode;
-use duocan::od::{comm, Access, DefaultValue, Limit, ObjectDef, ObjectDictionary, ObjectType};
-use duocan::NodeSet;
-use duocan::{Duration, NodeId};
+use duocan_core::machine::LinkRequest;
+use duocan_core::od::abort::AbortCode;
+use duocan_core::od::{comm, Access, DefaultValue, Limit, ObjectDef, ObjectDictionary, ObjectType};
+use duocan_core::NodeSet;
+use duocan_core::{Duration, NodeId};
 
 /// Which redundancy scheme the layer runs.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
@@ -535,7 +535,7 @@ fn left_out<D>(_: &D, index: u16, what: &'static str) -> Result<LinkMode, Config
 #[cfg(test)]
 mod tests {
     use super::*;
-    use duocan::od::StaticDictionary;
+    use duocan_core::od::StaticDictionary;
 
     static COMM: [ObjectDef; comm::COMM_LEN] = comm::communication();
     static HB: [ObjectDef; 4] = comm::heartbeat_consumers::<4>();

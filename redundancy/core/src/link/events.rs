@@ -7,7 +7,7 @@
 use crate::link::health::PortState;
 use crate::pair::{Member, PairId};
 use core::fmt;
-use duocan::{Duration, Frame, Id, Instant, NodeId};
+use duocan_core::{Duration, Frame, Id, Instant, NodeId};
 
 /// One thing that happened in the layer.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -202,7 +202,7 @@ pub enum Suspicion {
     },
 }
 
-pub use duocan::machine::PortReason;
+pub use duocan_core::machine::PortReason;
 
 /// Why the active channel changed.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]

@@ -105,11 +105,11 @@
 //! One signed correction, one held sample, the lags last reported: fixed.
 //!
 //! ```
-//! use duocan::{Duration, Instant};
-//! use duocan_redundancy::link::lag::LagMeter;
-//! use duocan_redundancy::link::merge::Sample;
-//! use duocan_redundancy::link::outbox::Outbox;
-//! use duocan_redundancy::LinkEventKind;
+//! use duocan_core::{Duration, Instant};
+//! use duocan_redundancy_core::link::lag::LagMeter;
+//! use duocan_redundancy_core::link::merge::Sample;
+//! use duocan_redundancy_core::link::outbox::Outbox;
+//! use duocan_redundancy_core::LinkEventKind;
 //!
 //! let ms = Duration::from_millis;
 //! let mut lag = LagMeter::new(ms(10), ms(40), ms(300));
@@ -128,7 +128,7 @@
 use crate::link::events::{LinkEvent, LinkEventKind};
 use crate::link::merge::Sample;
 use crate::link::outbox::Outbox;
-use duocan::{Duration, Instant};
+use duocan_core::{Duration, Instant};
 
 #[cfg(doc)]
 use crate::link::merge::MergeStats;

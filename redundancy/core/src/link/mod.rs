@@ -1,5 +1,5 @@
 //! Layer 1, the **dual-bus abstraction layer**: [`DualBus`](dual_bus::DualBus), a sans-IO
-//! [`BusLink`](duocan::BusLink) with two ports below and one logical bus above, so that a node
+//! [`BusLink`](duocan_core::BusLink) with two ports below and one logical bus above, so that a node
 //! of the standard stack runs on top unchanged.
 //!
 //! | Part | Module |
@@ -24,8 +24,8 @@
 //! on both:
 //!
 //! ```
-//! use duocan::{BusLink, Frame, Id, Instant};
-//! use duocan_redundancy::{DualBus, DualBusConfig};
+//! use duocan_core::{BusLink, Frame, Id, Instant};
+//! use duocan_redundancy_core::{DualBus, DualBusConfig};
 //!
 //! let mut link: DualBus = DualBus::new(DualBusConfig::default());
 //! let t = Instant::from_millis;
@@ -44,10 +44,10 @@
 //!
 //! # The clock contract
 //!
-//! The layer keeps [duocan's clock contract](duocan::frame::instant#the-clock-contract) as the
+//! The layer keeps [duocan's clock contract](duocan_core::frame::instant#the-clock-contract) as the
 //! stack's machines do, for every time its parts hold:
 //!
-//! - **A step back** is noticed by one [`TimeWatch`](duocan::frame::instant::TimeWatch) in the
+//! - **A step back** is noticed by one [`TimeWatch`](duocan_core::frame::instant::TimeWatch) in the
 //!   [`DualBus`](dual_bus::DualBus), on every input that carries a time it uses (a frame, a port
 //!   status, a send, `handle_timeout`, a channel selection), and measured from the latest time the
 //!   layer was given; on the frame path that is one comparison. The layer then moves back
@@ -71,10 +71,10 @@
 //!   computed, the ECSS slave toggles at most Ntoggle times (once for zero).
 //! - **One clock for both ports.** A frame's receive stamps on the two ports are compared
 //!   with each other and with the layer's time, so they are read from the clock that time
-//!   comes from ([`Device::handle_rx_at`](duocan::machine::Device::handle_rx_at)). A driver
+//!   comes from ([`Device::handle_rx_at`](duocan_core::machine::Device::handle_rx_at)). A driver
 //!   with a clock per controller converts its stamps first: clocks that drift apart are
 //!   followed as a changing lag only while both buses carry frames and nothing else goes wrong.
-//! - **At [`Instant::MAX`](duocan::Instant::MAX)** no deadline is reported, so nothing stays
+//! - **At [`Instant::MAX`](duocan_core::Instant::MAX)** no deadline is reported, so nothing stays
 //!   due; a frame heard then counts as heard a microsecond before (the tables use the end of
 //!   time for "never heard").
 

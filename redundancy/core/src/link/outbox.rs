@@ -2,9 +2,9 @@
 //! for the application. Overflow is counted, never grown.
 
 use crate::link::events::LinkEvent;
-use duocan::frame::queue::Bounded;
-use duocan::machine::{LinkRequest, PortRequest};
-use duocan::Frame;
+use duocan_core::frame::queue::Bounded;
+use duocan_core::machine::{LinkRequest, PortRequest};
+use duocan_core::Frame;
 
 /// Frames waiting for the driver. The station drains them after every logical frame, so a few
 /// suffice (one logical frame fans out to two ports, a channel switch adds an indication).
@@ -111,7 +111,7 @@ impl Outbox {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use duocan::Id;
+    use duocan_core::Id;
 
     #[test]
     fn a_ports_frames_wait_for_its_pending_request() {

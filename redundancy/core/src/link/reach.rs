@@ -10,7 +10,7 @@
 
 use crate::link::events::{LinkEvent, LinkEventKind};
 use crate::link::outbox::Outbox;
-use duocan::{Duration, Instant, NodeId};
+use duocan_core::{Duration, Instant, NodeId};
 
 const NEVER: u64 = u64::MAX;
 const NODES: usize = 128;

@@ -17,8 +17,8 @@ use crate::link::events::{LinkEvent, LinkEventKind};
 use crate::link::outbox::Outbox;
 use crate::pair::{Member, PairId, MAX_PAIRS};
 use core::fmt;
-use duocan::frame::instant::shift_back;
-use duocan::{Duration, Frame, Instant, NodeId};
+use duocan_core::frame::instant::shift_back;
+use duocan_core::{Duration, Frame, Instant, NodeId};
 use heapless::index_map::FnvIndexMap;
 
 /// (pair, function) values a layer keeps for comparison by default (a power of two). A board
@@ -334,7 +334,7 @@ impl<const FUNCTIONS: usize> SameFunction<FUNCTIONS> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use duocan::Id;
+    use duocan_core::Id;
 
     fn ms(x: u64) -> Instant {
         Instant::from_millis(x)

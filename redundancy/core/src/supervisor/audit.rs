@@ -11,11 +11,11 @@ use crate::pair::{Member, PairId};
 use crate::supervisor::flying_master::{MasterRole, MasterRoleChange};
 use crate::supervisor::pairs::RoleChange;
 use core::fmt::{self, Write};
-use duocan::cia305::LssAddress;
+use duocan_core::cia305::LssAddress;
 #[cfg(feature = "alloc")]
-use duocan::frame::storage::Heap;
-use duocan::frame::storage::{BoundedVec, Inline, Storage};
-use duocan::{Instant, NodeId};
+use duocan_core::frame::storage::Heap;
+use duocan_core::frame::storage::{BoundedVec, Inline, Storage};
+use duocan_core::{Instant, NodeId};
 
 /// Records a trail holds unless chosen otherwise.
 pub const AUDIT_CAPACITY: usize = 256;
@@ -57,7 +57,9 @@ pub struct BoardAddressed {
 impl BoardAddressed {
     /// Its line without the time (the event streams print the time apart, the audit trail in
     /// front of it).
-    pub(crate) fn fmt_untimed(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+    /// Public for the front door of duocan-redundancy, not for applications.
+    #[doc(hidden)]
+    pub fn fmt_untimed(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         write!(
             f,
             "pair {} member {}: a board without node-ID ({}) given {} by LSS",
@@ -347,7 +349,7 @@ mod tests {
     use crate::pair::PairId;
     use crate::supervisor::flying_master::MasterReason;
     use crate::supervisor::pairs::RoleReason;
-    use duocan::NodeId;
+    use duocan_core::NodeId;
 
     fn change(at: u64) -> AuditEntry {
         AuditEntry::Pair(RoleChange {

@@ -4,7 +4,7 @@ use crate::pair::MAX_PAIRS;
 use crate::supervisor::audit::AUDIT_CAPACITY;
 use crate::supervisor::flying_master::{FlyingMasterConfig, Rank, MAX_PEERS};
 use crate::supervisor::pairs::{PairsConfig, COMMAND_QUEUE};
-use duocan::{Duration, NodeId};
+use duocan_core::{Duration, NodeId};
 use heapless::Vec;
 
 /// Events the supervisor can hold before the application drains them, by default
@@ -13,7 +13,7 @@ pub const EVENT_QUEUE: usize = 1024;
 
 /// How a supervisor is set up. The master's own settings (0x1F80, SDO timeout, probe
 /// interval, the slaves that are no pair members) are the
-/// [`MasterConfig`](duocan::master::MasterConfig) it was built with.
+/// [`MasterConfig`](duocan_core::master::MasterConfig) it was built with.
 #[derive(Clone, Debug, PartialEq, Eq)]
 #[non_exhaustive]
 pub struct SupervisorConfig {

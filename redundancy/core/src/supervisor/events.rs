@@ -5,9 +5,9 @@ use crate::pair::{Member, PairId};
 use crate::supervisor::flying_master::FlyingEvent;
 use crate::supervisor::pairs::{PairsError, PairsEvent};
 use core::fmt;
-use duocan::master::{BootError, ErrorStatus, IdentityMismatch, MasterError, MasterEvent};
-use duocan::sdo::SdoEvent;
-use duocan::{Instant, NodeEvent, NodeId};
+use duocan_core::master::{BootError, ErrorStatus, IdentityMismatch, MasterError, MasterEvent};
+use duocan_core::sdo::SdoEvent;
+use duocan_core::{Instant, NodeEvent, NodeId};
 
 /// Why a pair member did not join.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -34,8 +34,8 @@ impl JoinRefusal {
     /// True if the member did not answer or its transfer was disturbed (worth a reset and
     /// another try); false if it answered and refused, or is another device.
     pub fn is_transient(&self) -> bool {
-        use duocan::cia302::pdo_config::PdoConfigErrorKind;
-        use duocan::sdo::SdoErrorKind;
+        use duocan_core::cia302::pdo_config::PdoConfigErrorKind;
+        use duocan_core::sdo::SdoErrorKind;
         match self {
             JoinRefusal::Config {
                 reason: BootError::Sdo(e),
@@ -59,7 +59,7 @@ impl JoinRefusal {
 
 /// True for the abort codes of the SDO protocol itself (CiA 301: toggle bit `0503 0000`, the
 /// `0504 xxxx` family), as opposed to the server's answer about the object or the device.
-fn is_sdo_protocol(code: duocan::AbortCode) -> bool {
+fn is_sdo_protocol(code: duocan_core::AbortCode) -> bool {
     code.0 == 0x0503_0000 || code.0 >> 16 == 0x0504
 }
 
@@ -106,9 +106,26 @@ pub enum SupervisorEvent {
     /// A board without node-ID was given a pair slot's node-ID by LSS (it joins from there).
     Addressed(crate::supervisor::audit::BoardAddressed),
     /// A result of the LSS master (board replacement: identify, fastscan).
-    Lss(duocan::cia305::LssMasterEvent),
+    Lss(duocan_core::cia305::LssMasterEvent),
     /// A pair member was refused by the master's boot process and did not join.
     NotJoined(NotJoined),
+}
+
+impl SupervisorEvent {
+    /// When it happened.
+    #[must_use]
+    pub fn at(&self) -> Instant {
+        match self {
+            SupervisorEvent::Node(n) => n.at,
+            SupervisorEvent::Pairs(p) => p.at(),
+            SupervisorEvent::FlyingMaster(f) => f.at(),
+            SupervisorEvent::Master(e) => e.at,
+            SupervisorEvent::Sdo(s) => s.at,
+            SupervisorEvent::NotJoined(n) => n.at,
+            SupervisorEvent::Addressed(b) => b.at,
+            SupervisorEvent::Lss(l) => l.at,
+        }
+    }
 }
 
 /// A pair member the master's boot process refused: it did not join
@@ -212,7 +229,7 @@ impl From<PairsError> for AddPairError {
 mod tests {
     use super::*;
     use alloc::string::ToString;
-    use duocan::node::NodeEventKind;
+    use duocan_core::node::NodeEventKind;
 
     /// The supervisor's events print one line each, its own as it words them and the lower
     /// layers' as they do.

@@ -14,14 +14,14 @@
 //! power, B takes over exactly the consumer time after A's last heartbeat:
 //!
 //! ```
-//! use duocan::machine::StationEvent;
-//! use duocan::master::{objects, Master, MasterConfig};
-//! use duocan::od::comm;
+//! use duocan_core::machine::StationEvent;
+//! use duocan_core::master::{objects, Master, MasterConfig};
+//! use duocan_core::od::comm;
 //! use duocan::sim::{BusConfig, SimNetwork};
-//! use duocan::{Duration, Instant, Node, NodeConfig, NodeId, Station};
-//! use duocan_redundancy::supervisor::pairs::{PairsEvent, RoleReason};
-//! use duocan_redundancy::{DualBus, DualBusConfig, Member, PairId, PairSpec};
-//! use duocan_redundancy::{SupervisedStation, Supervisor, SupervisorConfig, SupervisorEvent};
+//! use duocan_core::{Duration, Instant, Node, NodeConfig, NodeId, Station};
+//! use duocan_redundancy_core::supervisor::pairs::{PairsEvent, RoleReason};
+//! use duocan_redundancy_core::{DualBus, DualBusConfig, Member, PairId, PairSpec};
+//! use duocan_redundancy_core::{SupervisedStation, Supervisor, SupervisorConfig, SupervisorEvent};
 //!
 //! let ms = Duration::from_millis;
 //! let mut sim = SimNetwork::new(1);
@@ -57,10 +57,10 @@
 //!
 //! # The clock contract
 //!
-//! The supervisor keeps [duocan's clock contract](duocan::frame::instant#the-clock-contract), as
+//! The supervisor keeps [duocan's clock contract](duocan_core::frame::instant#the-clock-contract), as
 //! the [dual-bus layer](crate::link#the-clock-contract) does:
 //!
-//! - **A step back** is noticed by one [`TimeWatch`](duocan::frame::instant::TimeWatch) in the
+//! - **A step back** is noticed by one [`TimeWatch`](duocan_core::frame::instant::TimeWatch) in the
 //!   `Supervisor`, on every input that carries a time (a frame, `handle_timeout`, a request of
 //!   the layer, an application command), measured from the latest time it was given. It then
 //!   moves back by the step every time held: the pair table's last heartbeats, phase starts,
@@ -101,7 +101,7 @@
 //!   beating, nothing at all is a receive path that ran behind (a reader held up, a port queue
 //!   behind) or a cut at this master's own connector, not every node dead at once. A node that
 //!   really died meanwhile is found one timeout later.
-//! - **At [`Instant::MAX`](duocan::Instant::MAX)** no deadline is reported, so nothing stays
+//! - **At [`Instant::MAX`](duocan_core::Instant::MAX)** no deadline is reported, so nothing stays
 //!   due.
 
 pub mod audit;

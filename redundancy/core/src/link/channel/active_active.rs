@@ -6,8 +6,8 @@
 use super::{ChannelPolicy, FrameInfo, PortMask, RxRoute, BOTH};
 use crate::link::health::{Health, PortState};
 use crate::link::outbox::Outbox;
-use duocan::machine::PortStatus;
-use duocan::{Duration, Frame, Instant};
+use duocan_core::machine::PortStatus;
+use duocan_core::{Duration, Frame, Instant};
 
 /// The active-active policy.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
@@ -75,8 +75,8 @@ impl ChannelPolicy for ActiveActive {
 mod tests {
     use super::*;
     use crate::link::health::HealthConfig;
-    use duocan::machine::ErrorCause;
-    use duocan::Id;
+    use duocan_core::machine::ErrorCause;
+    use duocan_core::Id;
 
     #[test]
     fn fan_out_skips_a_failed_port_but_never_leaves_the_node_mute() {

@@ -78,8 +78,8 @@ use super::{switched, ChannelPolicy, FrameInfo, PortMask, RxRoute};
 use crate::link::events::{LinkEvent, LinkEventKind, SwitchReason};
 use crate::link::health::Health;
 use crate::link::outbox::Outbox;
-use duocan::machine::{LinkRequest, PortStatus};
-use duocan::{Duration, Frame, Instant, NodeId};
+use duocan_core::machine::{LinkRequest, PortStatus};
+use duocan_core::{Duration, Frame, Instant, NodeId};
 
 /// What this device is in the bus-toggle scheme.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -382,7 +382,7 @@ impl ChannelPolicy for Ecss {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use duocan::Id;
+    use duocan_core::Id;
 
     fn ms(x: u64) -> Instant {
         Instant::from_millis(x)

@@ -18,8 +18,8 @@ use crate::link::events::{LinkEvent, LinkEventKind, SwitchReason};
 use crate::link::health::Health;
 use crate::link::outbox::Outbox;
 use core::fmt;
-use duocan::machine::PortStatus;
-use duocan::{Duration, Frame, Instant, NodeId};
+use duocan_core::machine::PortStatus;
+use duocan_core::{Duration, Frame, Instant, NodeId};
 
 pub use active_active::ActiveActive;
 #[cfg(feature = "cia302-6")]

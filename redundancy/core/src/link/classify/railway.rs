@@ -14,9 +14,9 @@
 //!   the bytes.
 
 use super::FrameClassifier;
-use duocan::profile::railway::{split, Payload, RailFunction, RailwayProfile};
-use duocan::profile::{IdProfile, ProfileFrame};
-use duocan::{Frame, NodeId};
+use duocan_core::profile::railway::{split, Payload, RailFunction, RailwayProfile};
+use duocan_core::profile::{IdProfile, ProfileFrame};
+use duocan_core::{Frame, NodeId};
 
 /// The function key of state changes of I/O `port`, object (`index`, `sub`): what
 /// [`DualBus::pairs`](crate::DualBus::pairs)`().latest(pair, member, key)` takes.
@@ -76,9 +76,9 @@ impl FrameClassifier for RailwayProfile {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use duocan::profile::railway::safety::{FieldState, PointPosition};
-    use duocan::profile::railway::{id, DeviceAddress};
-    use duocan::Id;
+    use duocan_core::profile::railway::safety::{FieldState, PointPosition};
+    use duocan_core::profile::railway::{id, DeviceAddress};
+    use duocan_core::Id;
 
     const A: DeviceAddress = DeviceAddress::board_at(1, 1, 1, 1);
     const B: DeviceAddress = DeviceAddress::board_at(1, 1, 1, 2);

@@ -4,7 +4,7 @@ use super::DualBus;
 use crate::link::capacity::{FunctionStorage, MergeCapacity, MergerStorage};
 use crate::link::channel::ChannelPolicy;
 use crate::link::classify::FrameClassifier;
-use duocan::{Duration, Instant};
+use duocan_core::{Duration, Instant};
 
 impl<C: FrameClassifier, K: MergeCapacity> DualBus<C, K> {
     /// Every input that carries a time passes it here first: one comparison on the frame path.

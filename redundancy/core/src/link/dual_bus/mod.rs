@@ -1,22 +1,22 @@
 //! The dual-bus abstraction layer: two CAN ports below, one logical bus above.
 //!
-//! [`DualBus`] implements [`BusLink`], so any [`Machine`](duocan::Machine) — a
-//! [`Node`](duocan::Node) of the standard stack, unchanged — runs on top of it in a
-//! [`Station`](duocan::Station). The three redundancy modes are policies behind one type, chosen
+//! [`DualBus`] implements [`BusLink`], so any [`Machine`](duocan_core::Machine) — a
+//! [`Node`](duocan_core::Node) of the standard stack, unchanged — runs on top of it in a
+//! [`Station`](duocan_core::Station). The three redundancy modes are policies behind one type, chosen
 //! by [`LinkMode`] in the [`DualBusConfig`] (from code or from the dictionary, see
 //! [`crate::link::config`]). Time is an input, and a clock that steps back, jumps ahead or
 //! reaches `Instant::MAX` is handled as the [layer's clock contract](crate::link#the-clock-contract)
 //! says.
 //!
 //! ```
-//! use duocan::{Station, Node, NodeConfig, NodeId};
-//! use duocan::od::{comm, DynamicDictionary};
-//! use duocan_redundancy::{DualBus, DualBusConfig};
+//! use duocan_core::{Station, Node, NodeConfig, NodeId};
+//! use duocan_core::od::{comm, DynamicDictionary};
+//! use duocan_redundancy_core::{DualBus, DualBusConfig};
 //!
 //! let od = comm::standard_dictionary(5, Default::default());
 //! let node = Node::new(NodeConfig::slave(NodeId::must(5)), od);
 //! let station = Station::new(DualBus::new(DualBusConfig::default()), node);
-//! assert_eq!(duocan::Device::port_count(&station), 2);
+//! assert_eq!(duocan_core::Device::port_count(&station), 2);
 //! ```
 
 use crate::link::capacity::{Capacity, FunctionStorage, MergeCapacity, MergerStorage};
@@ -38,17 +38,17 @@ use crate::link::same_function::PairError;
 #[cfg(feature = "sticky")]
 use crate::link::sticky::StickyMerger;
 use crate::pair::{Member, PairId};
-use duocan::frame::instant::{earliest_of, TimeWatch};
-use duocan::machine::{BusLink, LinkRequest, PortRequest, PortStatus};
-use duocan::od::ObjectDictionary;
-use duocan::profile::Predefined;
-use duocan::{Duration, Frame, Instant};
+use duocan_core::frame::instant::{earliest_of, TimeWatch};
+use duocan_core::machine::{BusLink, LinkRequest, PortRequest, PortStatus};
+use duocan_core::od::ObjectDictionary;
+use duocan_core::profile::Predefined;
+use duocan_core::{Duration, Frame, Instant};
 
 pub use crate::link::capacity::DEFAULT_MERGE_SLOTS;
 
 /// A node on a dual bus: the common redundant slave (one board of a pair), or any node that
 /// needs no supervisor.
-pub type DualBusNode<D, P = Predefined> = duocan::Station<DualBus<P>, duocan::Node<D, P>>;
+pub type DualBusNode<D, P = Predefined> = duocan_core::Station<DualBus<P>, duocan_core::Node<D, P>>;
 
 /// What the machine above (a redundant master's supervisor) tells the layer about the pairs of
 /// the same-function merge: the layer knows of pairs only what it is told.
@@ -62,7 +62,7 @@ pub enum LinkCommand {
     /// in 0x1017), for plausibility (zero: stop; see [`crate::link::plausible`]).
     Watch {
         /// The node.
-        node: duocan::NodeId,
+        node: duocan_core::NodeId,
         /// Its heartbeat producer time in milliseconds.
         producer_ms: u16,
     },
@@ -348,7 +348,7 @@ impl<C: FrameClassifier, K: MergeCapacity> DualBus<C, K> {
     /// Judges the heartbeats of `node`, whose producer time is `period`, for plausibility
     /// (zero: stop). False if the table is full (or the crate has no `alloc` feature). For the
     /// supervisor ([`LinkCommand::Watch`]).
-    pub fn watch(&mut self, node: duocan::NodeId, period: Duration) -> bool {
+    pub fn watch(&mut self, node: duocan_core::NodeId, period: Duration) -> bool {
         self.plausible.watch(node, period)
     }
     /// The pair table and the members' latest values.
@@ -358,8 +358,8 @@ impl<C: FrameClassifier, K: MergeCapacity> DualBus<C, K> {
     /// Configures an A/B pair for the same-function merge.
     pub fn add_pair(
         &mut self,
-        a: duocan::NodeId,
-        b: duocan::NodeId,
+        a: duocan_core::NodeId,
+        b: duocan_core::NodeId,
         active: Option<Member>,
     ) -> Result<PairId, PairError> {
         self.pairs.add_pair(a, b, active)

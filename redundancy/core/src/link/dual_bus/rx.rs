@@ -10,7 +10,7 @@ use crate::link::merge::{Sample, Trust, Verdict};
 use crate::link::same_function::PairVerdict;
 #[cfg(feature = "sticky")]
 use crate::link::sticky::{StickyVerdict, StreamKey};
-use duocan::{Frame, Instant};
+use duocan_core::{Frame, Instant};
 
 /// The copy of the late sample the lag meter holds, on `port`: stamped more than the window
 /// after its supposed twin on the other port; its own twin would be stamped before `until`
@@ -24,7 +24,7 @@ pub(super) struct LateSample {
 
 impl LateSample {
     /// The caller's clock stepped back `by`.
-    pub(super) fn step_back(&mut self, by: duocan::Duration) {
+    pub(super) fn step_back(&mut self, by: duocan_core::Duration) {
         self.until = self.until.saturating_sub(by.as_micros());
     }
 }

@@ -3,8 +3,8 @@
 use super::*;
 use crate::link::channel::EcssConfig;
 use crate::link::events::{LinkEventKind, PortReason};
-use duocan::machine::ErrorCause;
-use duocan::{Id, NodeId};
+use duocan_core::machine::ErrorCause;
+use duocan_core::{Id, NodeId};
 
 fn ms(x: u64) -> Instant {
     Instant::from_millis(x)

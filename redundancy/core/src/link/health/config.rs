@@ -1,7 +1,7 @@
 //! What port health is configured with, and what it counts.
 
-use duocan::machine::ErrorCause;
-use duocan::{Duration, Instant};
+use duocan_core::machine::ErrorCause;
+use duocan_core::{Duration, Instant};
 
 /// Timing of the health rules.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]

@@ -90,8 +90,8 @@ use port::{is_fatal, Condition, Handed};
 
 use crate::link::events::{LinkEvent, LinkEventKind, PortReason};
 use crate::link::outbox::Outbox;
-use duocan::machine::{ErrorCause, PortStatus};
-use duocan::{Duration, Instant};
+use duocan_core::machine::{ErrorCause, PortStatus};
+use duocan_core::{Duration, Instant};
 
 /// The health of both ports.
 #[derive(Clone, Debug)]

@@ -2,11 +2,11 @@
 //! records the rules of the parent module ([`super`]) keep per port.
 
 use super::{HealthConfig, HealthCounters};
-use duocan::frame::instant::shift_back;
-use duocan::machine::ErrorCause;
-use duocan::{Duration, Instant};
+use duocan_core::frame::instant::shift_back;
+use duocan_core::machine::ErrorCause;
+use duocan_core::{Duration, Instant};
 
-pub use duocan::machine::PortState;
+pub use duocan_core::machine::PortState;
 
 /// Causes that make a port unusable at once.
 pub(super) const fn is_fatal(c: ErrorCause) -> bool {

@@ -1,7 +1,7 @@
 //! Port health: every rule of the state machine, with exact instants.
 
 use super::*;
-use duocan::machine::PortRequest;
+use duocan_core::machine::PortRequest;
 
 const W: Duration = Duration::from_millis(10);
 fn ms(x: u64) -> Instant {

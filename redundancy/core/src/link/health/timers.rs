@@ -6,9 +6,9 @@ use super::port::PortState;
 use super::Health;
 use crate::link::events::PortReason;
 use crate::link::outbox::Outbox;
-use duocan::frame::instant::earliest_of;
-use duocan::machine::PortRequest;
-use duocan::{Duration, Instant};
+use duocan_core::frame::instant::earliest_of;
+use duocan_core::machine::PortRequest;
+use duocan_core::{Duration, Instant};
 
 impl Health {
     pub(super) fn silence_deadline(&self, p: usize) -> Option<Instant> {

@@ -3,7 +3,7 @@
 
 use super::table::{hash, key};
 use super::{Merger, Sample, Trust, Twin, Verdict};
-use duocan::{Frame, Instant};
+use duocan_core::{Frame, Instant};
 
 impl<const SLOTS: usize> Merger<SLOTS> {
     /// A frame arrived on `port` (0 or 1) at `now`, stamped `now`, on a trusted port: the

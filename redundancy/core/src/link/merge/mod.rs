@@ -8,7 +8,7 @@
 //! bus runs a period behind. What tells a frame's two copies apart is *when they were on the
 //! wire*: each copy comes with its **receive timestamp** (taken where it arrived: the
 //! controller, the kernel's socket, the simulator's wire; see
-//! [`Device::handle_rx_at`](duocan::Device::handle_rx_at)), and the two copies of one
+//! [`Device::handle_rx_at`](duocan_core::Device::handle_rx_at)), and the two copies of one
 //! occurrence were on their buses within the skew window of each other, however late a port's
 //! reader hands them over.
 //!
@@ -125,8 +125,8 @@
 //! (`tests/link/merge_properties.rs`) check these statements.
 //!
 //! ```
-//! use duocan::{Duration, Frame, Id, Instant};
-//! use duocan_redundancy::link::merge::{Merger, Trust, Verdict};
+//! use duocan_core::{Duration, Frame, Id, Instant};
+//! use duocan_redundancy_core::link::merge::{Merger, Trust, Verdict};
 //!
 //! let mut m: Merger<64> = Merger::new(Duration::from_millis(10));
 //! let t = Instant::from_millis;
@@ -144,7 +144,7 @@
 //! assert_eq!(m.stats().delivered, 10);
 //! ```
 
-use duocan::{Duration, Instant};
+use duocan_core::{Duration, Instant};
 
 mod arrive;
 mod recent;
@@ -271,8 +271,8 @@ impl Record {
 /// The active-active receive merger for two ports (0 and 1), with `SLOTS` slots.
 ///
 /// ```
-/// use duocan::{Duration, Frame, Id, Instant};
-/// use duocan_redundancy::link::merge::{Merger, Verdict};
+/// use duocan_core::{Duration, Frame, Id, Instant};
+/// use duocan_redundancy_core::link::merge::{Merger, Verdict};
 ///
 /// let mut m: Merger<64> = Merger::new(Duration::from_millis(10));
 /// let hb = Frame::from_array(Id::Standard(0x705), [5]);

@@ -2,7 +2,7 @@
 //! found through an open-addressing index (linear probing, backward-shift deletion), and the
 //! merge key itself.
 
-use duocan::Frame;
+use duocan_core::Frame;
 
 /// A key with records in the ring.
 #[derive(Clone, Copy)]

@@ -1,7 +1,7 @@
 //! Unit tests of the merger.
 
 use super::*;
-use duocan::{Frame, Id};
+use duocan_core::{Frame, Id};
 
 fn f(id: u16, d: u8) -> Frame {
     Frame::from_array(Id::Standard(id), [d])

@@ -45,8 +45,8 @@
 
 use super::{Plausibility, NEVER, ON};
 use crate::link::health::Health;
-use duocan::machine::PortStatus;
-use duocan::Instant;
+use duocan_core::machine::PortStatus;
+use duocan_core::Instant;
 
 /// Own frames' ends kept per bus until the received frames pass them: a receive path behind
 /// by up to about this many of the layer's own frames (16: some 50 ms of a master's SYNC,

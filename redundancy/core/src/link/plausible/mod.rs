@@ -108,7 +108,7 @@
 //! [`Trusted`](crate::LinkEventKind::Trusted). Should the machine queue be full, the change is
 //! handed up at the next input (a station drains the queue after every input).
 //!
-//! [req]: duocan::machine::LinkRequest::NodeSuspect
+//! [req]: duocan_core::machine::LinkRequest::NodeSuspect
 //!
 //! # Order
 //!
@@ -137,8 +137,8 @@
 //! needs `alloc` anyway).
 
 use crate::pair::MAX_MEMBERS;
-use duocan::frame::storage::BoundedVec;
-use duocan::{Duration, Instant, NodeId};
+use duocan_core::frame::storage::BoundedVec;
+use duocan_core::{Duration, Instant, NodeId};
 
 /// Extra heartbeats a node may send in one burst on one bus (see rule 1).
 pub const BURST: u64 = 4;

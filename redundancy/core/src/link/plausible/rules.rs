@@ -4,8 +4,8 @@ use super::{Plausibility, Track, BABBLE_FACTOR, NEVER, ON};
 use crate::link::events::{LinkEvent, LinkEventKind, Suspicion};
 use crate::link::health::{Health, PortState};
 use crate::link::outbox::{Outbox, MACHINE_QUEUE};
-use duocan::machine::LinkRequest;
-use duocan::{Frame, Id, Instant, NodeId};
+use duocan_core::machine::LinkRequest;
+use duocan_core::{Frame, Id, Instant, NodeId};
 
 impl Plausibility {
     /// An error-control frame of `node` (heartbeat or boot-up) arrived on port `p` at `now`.

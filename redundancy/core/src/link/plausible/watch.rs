@@ -4,7 +4,7 @@
 //! are judged, are in the parent module's documentation.
 
 use super::{CALM_BEATS, NEVER};
-use duocan::{Id, NodeId};
+use duocan_core::{Id, NodeId};
 
 /// One bus of a watched node.
 #[derive(Clone, Copy, Debug)]
@@ -86,7 +86,7 @@ pub(super) struct Watch {
     pub(super) limit: u64,
     /// A bus is late for it once its last heartbeat there is this old (µs): 1.5 T.
     pub(super) late: u64,
-    /// Arbitration key of its heartbeat ([`Frame::arbitration_key`](duocan::Frame::arbitration_key)),
+    /// Arbitration key of its heartbeat ([`Frame::arbitration_key`](duocan_core::Frame::arbitration_key)),
     /// once heard: higher is lower priority.
     pub(super) key: Option<u64>,
     /// Its heartbeat identifier, once heard.

@@ -11,7 +11,7 @@
 //! delivered and the stream is bound to that bus from then on ([`StickyVerdict::Switched`]). A
 //! stream's first frame binds it to the bus that brought it. The stamps are those the exact merge
 //! uses (taken where the frame arrived, see
-//! [`Device::handle_rx_at`](duocan::Device::handle_rx_at)). Nothing is matched and nothing is
+//! [`Device::handle_rx_at`](duocan_core::Device::handle_rx_at)). Nothing is matched and nothing is
 //! kept per frame.
 //!
 //! - **Never a duplicate**, whatever the frames carry (unchanged repeats: SYNC, heartbeats,
@@ -103,9 +103,9 @@
 //! (no frames whose content changes).
 //!
 //! ```
-//! use duocan::{Duration, Instant, NodeId};
-//! use duocan_redundancy::link::merge::Trust;
-//! use duocan_redundancy::link::sticky::{StickyMerger, StickyVerdict, StreamKey};
+//! use duocan_core::{Duration, Instant, NodeId};
+//! use duocan_redundancy_core::link::merge::Trust;
+//! use duocan_redundancy_core::link::sticky::{StickyMerger, StickyVerdict, StreamKey};
 //!
 //! let mut m = StickyMerger::new(Duration::from_millis(40));
 //! let t = Instant::from_millis;
@@ -129,7 +129,7 @@
 mod table;
 
 use crate::link::merge::Trust;
-use duocan::{Duration, Frame, Id, Instant, NodeId};
+use duocan_core::{Duration, Frame, Id, Instant, NodeId};
 use table::{id_key, IdTable, Stream, UNBOUND};
 
 #[cfg(doc)]

@@ -4,8 +4,8 @@
 
 use super::frames::Rank;
 use crate::link::config::{read, ConfigError};
-use duocan::od::{Access, ObjectDef, ObjectDictionary, ObjectType};
-use duocan::{Duration, NodeId};
+use duocan_core::od::{Access, ObjectDef, ObjectDictionary, ObjectType};
+use duocan_core::{Duration, NodeId};
 
 /// 0x1F90 and this implementation's additions.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -170,7 +170,7 @@ impl FlyingMasterConfig {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use duocan::od::{comm, StaticDictionary};
+    use duocan_core::od::{comm, StaticDictionary};
 
     static COMM: [ObjectDef; comm::COMM_LEN] = comm::communication();
     static STARTUP: [ObjectDef; 1] = [ObjectDef::u32(NMT_STARTUP, 0, Access::Rw, 0)];

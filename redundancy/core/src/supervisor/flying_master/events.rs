@@ -4,7 +4,7 @@
 use super::frames::Rank;
 use super::state::MAX_PEERS;
 use core::fmt;
-use duocan::{Instant, NodeId};
+use duocan_core::{Instant, NodeId};
 
 /// Where the device is.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -131,6 +131,18 @@ pub enum FlyingEvent {
         /// End of the suspension, unless the conflict resolves earlier.
         until: Instant,
     },
+}
+
+impl FlyingEvent {
+    /// When it happened.
+    #[must_use]
+    pub fn at(&self) -> Instant {
+        match self {
+            FlyingEvent::Role(MasterRoleChange { at, .. }) | FlyingEvent::Suspended { at, .. } => {
+                *at
+            }
+        }
+    }
 }
 
 /// One line, without the time: `this master: active`, `this master: NMT commands suspended

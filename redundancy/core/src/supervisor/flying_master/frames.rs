@@ -3,7 +3,7 @@
 
 use core::cmp::Ordering;
 use core::fmt;
-use duocan::NodeId;
+use duocan_core::NodeId;
 
 /// Active-master response / announcement.
 pub const ACTIVE_MASTER_RESPONSE: u16 = 0x71;

@@ -9,9 +9,9 @@ use super::frames::{
 };
 use super::state::{Active, Peer, State, MAX_PEERS};
 use core::fmt;
-use duocan::frame::instant::{earliest_of, shift_back};
-use duocan::frame::queue::Bounded;
-use duocan::{Duration, Frame, Id, Instant, NodeId};
+use duocan_core::frame::instant::{earliest_of, shift_back};
+use duocan_core::frame::queue::Bounded;
+use duocan_core::{Duration, Frame, Id, Instant, NodeId};
 use heapless::Vec;
 
 /// One master-capable device's part of the flying-master protocol.

@@ -4,7 +4,7 @@
 
 use super::events::MasterRole;
 use super::frames::Rank;
-use duocan::Instant;
+use duocan_core::Instant;
 
 /// Other master-capable devices a device keeps track of.
 pub const MAX_PEERS: usize = 8;

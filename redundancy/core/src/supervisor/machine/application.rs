@@ -9,16 +9,16 @@ use crate::supervisor::audit::{AuditEntry, AuditTrail, AUDIT_CAPACITY};
 use crate::supervisor::events::{AddPairError, SupervisorStats};
 use crate::supervisor::flying_master::{FlyingMaster, FlyingMasterError, MasterRole};
 use crate::supervisor::pairs::{PairState, PairSupervisor, PairsError};
-use duocan::frame::storage::Heap;
-use duocan::master::{
+use duocan_core::frame::storage::Heap;
+use duocan_core::master::{
     objects, Assignment, Master, MasterError, MasterNode, MasterSdoClient, SlaveConfig, SlaveView,
     StartPolicy,
 };
-use duocan::nmt::NmtTarget;
-use duocan::od::{comm, ObjectDictionary};
-use duocan::profile::IdProfile;
-use duocan::time_stamp::TimeOfDay;
-use duocan::{AbortCode, Duration, Instant, NmtCommand, NodeId};
+use duocan_core::nmt::NmtTarget;
+use duocan_core::od::{comm, ObjectDictionary};
+use duocan_core::profile::IdProfile;
+use duocan_core::time_stamp::TimeOfDay;
+use duocan_core::{AbortCode, Duration, Instant, NmtCommand, NodeId};
 
 impl<D: ObjectDictionary, P: IdProfile> Supervisor<D, P> {
     /// Adds a slave pair to supervise; both members become slaves of the master with nothing
@@ -130,7 +130,7 @@ impl<D: ObjectDictionary, P: IdProfile> Supervisor<D, P> {
     pub fn slaves(&self) -> impl Iterator<Item = SlaveView> + '_ {
         self.master.slaves()
     }
-    /// The master's node (states of every node heard: [`Node::remotes`](duocan::Node::remotes)).
+    /// The master's node (states of every node heard: [`Node::remotes`](duocan_core::Node::remotes)).
     pub fn node(&self) -> &MasterNode<D, P> {
         self.master.node()
     }

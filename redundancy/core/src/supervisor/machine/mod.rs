@@ -30,7 +30,7 @@
 //! [`SupervisorEvent::NotJoined`] says why. NMT commands go through the master
 //! ([`Master::nmt`]), so that its view of every slave follows them. Other slaves are plain
 //! slaves of the master ([`Supervisor::add_slave`], or the
-//! [`MasterConfig`](duocan::master::MasterConfig) the master was built with), booted and
+//! [`MasterConfig`](duocan_core::master::MasterConfig) the master was built with), booted and
 //! started by it.
 //!
 //! Each member's heartbeats are judged by the dual-bus layer too ([`LinkCommand::Watch`] with
@@ -48,7 +48,7 @@
 //!
 //! Which pair member is active must reach the dual-bus layer (same-function merge): the
 //! supervisor's [`Machine::LinkCommand`]s are [`LinkCommand`]s, which a
-//! [`Station`](duocan::Station) on a [`DualBus`](crate::DualBus) hands to the layer after every
+//! [`Station`](duocan_core::Station) on a [`DualBus`](crate::DualBus) hands to the layer after every
 //! input; [`SupervisedStation`](crate::station::SupervisedStation) is that station with the
 //! pairs configured in the layer from the start and a status table.
 //!
@@ -57,12 +57,12 @@
 //! application calls, `reactions.rs` what the supervisor does with what its parts report.
 //!
 //! ```
-//! use duocan::master::{objects, Master, MasterConfig};
-//! use duocan::od::comm;
+//! use duocan_core::master::{objects, Master, MasterConfig};
+//! use duocan_core::od::comm;
 //! use duocan::sim::{BusConfig, SimNetwork};
-//! use duocan::{Duration, Instant, Node, NodeConfig, NodeId, Station};
-//! use duocan_redundancy::PairSpec;
-//! use duocan_redundancy::{DualBus, DualBusConfig, Member, PairId, SupervisedStation, Supervisor, SupervisorConfig};
+//! use duocan_core::{Duration, Instant, Node, NodeConfig, NodeId, Station};
+//! use duocan_redundancy_core::PairSpec;
+//! use duocan_redundancy_core::{DualBus, DualBusConfig, Member, PairId, SupervisedStation, Supervisor, SupervisorConfig};
 //!
 //! let ms = Duration::from_millis;
 //! let mut sim = SimNetwork::new(1);
@@ -93,16 +93,16 @@ use crate::supervisor::flying_master::{FlyingMaster, Rank};
 use crate::supervisor::pairs::{Authority, PairSupervisor, PairsEvent};
 use alloc::collections::VecDeque;
 use core::fmt;
-use duocan::cia305::{LssMaster, LssMasterConfig};
-use duocan::frame::instant::{earliest_of, next_on_grid, shift_back, TimeWatch};
-use duocan::frame::queue::Bounded;
-use duocan::frame::storage::Heap;
-use duocan::machine::{LinkRequest, Machine};
-use duocan::master::{objects, Master, NmtStartup};
-use duocan::nmt;
-use duocan::od::{comm, ObjectDictionary};
-use duocan::profile::{IdProfile, Predefined, ProfileFrame};
-use duocan::{Duration, Frame, Instant, NmtState, NodeId};
+use duocan_core::cia305::{LssMaster, LssMasterConfig};
+use duocan_core::frame::instant::{earliest_of, next_on_grid, shift_back, TimeWatch};
+use duocan_core::frame::queue::Bounded;
+use duocan_core::frame::storage::Heap;
+use duocan_core::machine::{LinkRequest, Machine};
+use duocan_core::master::{objects, Master, NmtStartup};
+use duocan_core::nmt;
+use duocan_core::od::{comm, ObjectDictionary};
+use duocan_core::profile::{IdProfile, Predefined, ProfileFrame};
+use duocan_core::{Duration, Frame, Instant, NmtState, NodeId};
 
 use super::config::SupervisorConfig;
 use super::events::{SupervisorEvent, SupervisorStats};
@@ -218,11 +218,11 @@ impl<D: ObjectDictionary, P: IdProfile> Supervisor<D, P> {
     /// Writes the network configuration into a master built with
     /// [`Master::unconfigured`] (for building it in place, see [`unstarted`](Self::unstarted)):
     /// [`Master::configure`], before [`start`](Self::start) boots the master; after it,
-    /// [`MasterError::AlreadyBooted`](duocan::master::MasterError::AlreadyBooted).
+    /// [`MasterError::AlreadyBooted`](duocan_core::master::MasterError::AlreadyBooted).
     pub fn configure_master(
         &mut self,
-        config: duocan::master::MasterConfig,
-    ) -> Result<(), duocan::master::MasterError> {
+        config: duocan_core::master::MasterConfig,
+    ) -> Result<(), duocan_core::master::MasterError> {
         self.master.configure(config)
     }
 
@@ -495,11 +495,11 @@ impl<D: ObjectDictionary, P: IdProfile> Machine for Supervisor<D, P> {
     fn handle_frame(&mut self, now: Instant, frame: &Frame) {
         self.watch_clock(now);
         self.heard = Some(now);
-        if frame.id() == duocan::cia305::codec::SLAVE_TO_MASTER {
+        if frame.id() == duocan_core::cia305::codec::SLAVE_TO_MASTER {
             self.lss.handle_frame(now, frame);
             return self.lss_pump(now);
         }
-        if frame.id() == duocan::cia305::codec::MASTER_TO_SLAVE {
+        if frame.id() == duocan_core::cia305::codec::MASTER_TO_SLAVE {
             // Another master's request: it matters only to an active master (a standby looks
             // for no board), and not while its own sequence runs, which goes on regardless.
             if self.is_active() && self.lss.is_idle() {

@@ -9,12 +9,12 @@ use crate::supervisor::audit::AuditEntry;
 use crate::supervisor::events::{JoinRefusal, NotJoined, SupervisorEvent};
 use crate::supervisor::flying_master::{FlyingEvent, MasterRole};
 use crate::supervisor::pairs::{Authority, PairCommand};
-use duocan::master::{MasterEvent, MasterEventKind};
-use duocan::nmt::NmtTarget;
-use duocan::node::{NodeEventKind, Writer};
-use duocan::od::ObjectDictionary;
-use duocan::profile::IdProfile;
-use duocan::{Instant, NodeEvent, NodeId};
+use duocan_core::master::{MasterEvent, MasterEventKind};
+use duocan_core::nmt::NmtTarget;
+use duocan_core::node::{NodeEventKind, Writer};
+use duocan_core::od::ObjectDictionary;
+use duocan_core::profile::IdProfile;
+use duocan_core::{Instant, NodeEvent, NodeId};
 
 impl<D: ObjectDictionary, P: IdProfile> Supervisor<D, P> {
     /// Pair supervision commands only while this master may command, follows while another

@@ -26,12 +26,12 @@ use crate::pair::Member;
 use crate::supervisor::audit::{AuditEntry, BoardAddressed};
 use crate::supervisor::events::SupervisorEvent;
 use crate::supervisor::pairs::Phase;
-use duocan::cia305::{LssAddress, LssMasterEventKind, LssOutcome, LssPlan, LssService};
-use duocan::machine::Machine;
-use duocan::master::objects;
-use duocan::od::ObjectDictionary;
-use duocan::profile::IdProfile;
-use duocan::{Instant, NodeId};
+use duocan_core::cia305::{LssAddress, LssMasterEventKind, LssOutcome, LssPlan, LssService};
+use duocan_core::machine::Machine;
+use duocan_core::master::objects;
+use duocan_core::od::ObjectDictionary;
+use duocan_core::profile::IdProfile;
+use duocan_core::{Instant, NodeId};
 
 /// Vacant slots one fastscan can place.
 pub const LSS_SLOTS: usize = 16;

@@ -2,7 +2,7 @@
 //! heard without a boot-up and its hold-off, the boot timeout, how a shadow table learns that a
 //! member was configured, what a jump of the clock is.
 
-use duocan::Duration;
+use duocan_core::Duration;
 
 /// Policy of the whole table.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]

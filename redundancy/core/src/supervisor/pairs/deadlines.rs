@@ -6,9 +6,9 @@
 use super::state::{idx, Stage};
 use super::{Authority, LossReason, MemberState, PairId, PairSupervisor, PairsEvent, RoleReason};
 use crate::pair::Member;
-use duocan::frame::instant::{earliest_of, shift_back};
-use duocan::frame::storage::Storage;
-use duocan::{Duration, Instant, NmtCommand, NmtState};
+use duocan_core::frame::instant::{earliest_of, shift_back};
+use duocan_core::frame::storage::Storage;
+use duocan_core::{Duration, Instant, NmtCommand, NmtState};
 
 impl<S: Storage> PairSupervisor<S> {
     /// Earliest instant at which [`PairSupervisor::handle_timeout`] has work (may be early).

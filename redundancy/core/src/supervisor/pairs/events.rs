@@ -2,7 +2,7 @@
 
 use crate::pair::{Member, PairId, MAX_PAIRS};
 use core::fmt;
-use duocan::{Duration, Instant, NmtCommand, NmtState, NodeId};
+use duocan_core::{Duration, Instant, NmtCommand, NmtState, NodeId};
 
 /// What the supervisor asks of the master and the dual-bus layer.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -228,6 +228,19 @@ pub enum PairsEvent {
         /// Since when it has been awaited.
         since: Instant,
     },
+}
+
+impl PairsEvent {
+    /// When it happened (for a silent member, its deadline).
+    #[must_use]
+    pub fn at(&self) -> Instant {
+        match self {
+            PairsEvent::Role(RoleChange { at, .. })
+            | PairsEvent::Joined { at, .. }
+            | PairsEvent::Lost { at, .. }
+            | PairsEvent::Missing { at, .. } => *at,
+        }
+    }
 }
 
 /// One line, without the time: `pair 0 member B (node 0x50): joined`, `pair 0: A active`.

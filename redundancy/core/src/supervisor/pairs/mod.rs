@@ -129,11 +129,11 @@
 
 use crate::pair::{Member, PairId, PairSpec, MAX_PAIRS};
 use core::fmt;
-use duocan::frame::queue::Fifo;
+use duocan_core::frame::queue::Fifo;
 #[cfg(feature = "alloc")]
-use duocan::frame::storage::Heap;
-use duocan::frame::storage::{BoundedVec, Inline, Storage};
-use duocan::{Duration, Instant, NmtCommand, NmtState, NodeId};
+use duocan_core::frame::storage::Heap;
+use duocan_core::frame::storage::{BoundedVec, Inline, Storage};
+use duocan_core::{Duration, Instant, NmtCommand, NmtState, NodeId};
 
 mod config;
 mod deadlines;

@@ -7,8 +7,8 @@ use super::state::{idx, Stage};
 use super::trust::bit;
 use super::{Authority, LossReason, PairCommand, PairSupervisor, PairsEvent, Phase, RoleReason};
 use crate::pair::Member;
-use duocan::frame::storage::Storage;
-use duocan::{Duration, Instant, NmtCommand, NmtState, NodeId};
+use duocan_core::frame::storage::Storage;
+use duocan_core::{Duration, Instant, NmtCommand, NmtState, NodeId};
 
 /// How long the largest receive delay seen is kept before a smaller one replaces it (a lag
 /// that ended stops counting within this).

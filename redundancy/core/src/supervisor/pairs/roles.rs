@@ -10,8 +10,8 @@ use super::{
     Stage,
 };
 use crate::pair::Member;
-use duocan::frame::storage::Storage;
-use duocan::{Instant, NmtCommand, NmtState};
+use duocan_core::frame::storage::Storage;
+use duocan_core::{Instant, NmtCommand, NmtState};
 
 impl<S: Storage> PairSupervisor<S> {
     pub(super) fn join(&mut self, now: Instant, p: usize, m: Member) {

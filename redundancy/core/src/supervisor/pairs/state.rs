@@ -3,7 +3,7 @@
 
 use crate::pair::{Member, PairSpec};
 use core::fmt;
-use duocan::{Instant, NmtState, NodeId};
+use duocan_core::{Instant, NmtState, NodeId};
 
 /// Whether the table commands or follows.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]

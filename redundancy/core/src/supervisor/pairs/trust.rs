@@ -3,8 +3,8 @@
 
 use super::state::Stage;
 use super::{Member, PairSupervisor};
-use duocan::frame::storage::Storage;
-use duocan::{Instant, NmtCommand, NodeId};
+use duocan_core::frame::storage::Storage;
+use duocan_core::{Instant, NmtCommand, NodeId};
 
 /// The bit of `node` in a node-ID set.
 pub(super) const fn bit(node: NodeId) -> u128 {

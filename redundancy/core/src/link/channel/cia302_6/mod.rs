@@ -34,10 +34,10 @@ use super::{switched, ChannelPolicy, FrameInfo, PortMask, RxRoute, BOTH};
 use crate::link::events::{LinkEvent, LinkEventKind, SwitchReason};
 use crate::link::health::Health;
 use crate::link::outbox::Outbox;
-use duocan::frame::instant::{earliest, next_on_grid, shift_back};
-use duocan::machine::PortStatus;
-use duocan::NodeSet;
-use duocan::{Duration, Frame, Id, Instant, NodeId};
+use duocan_core::frame::instant::{earliest, next_on_grid, shift_back};
+use duocan_core::machine::PortStatus;
+use duocan_core::NodeSet;
+use duocan_core::{Duration, Frame, Id, Instant, NodeId};
 
 /// The "indicate active interface" identifier.
 pub const INDICATE_ACTIVE_ID: u16 = 0x7F;

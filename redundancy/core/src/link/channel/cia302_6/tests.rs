@@ -1,7 +1,7 @@
 //! The CiA 302-6 channel policy's unit tests.
 
 use super::*;
-use duocan::machine::ErrorCause;
+use duocan_core::machine::ErrorCause;
 
 fn ms(x: u64) -> Instant {
     Instant::from_millis(x)

@@ -5,9 +5,9 @@ use super::*;
 use crate::link::events::{LinkEvent, LinkEventKind, Suspicion};
 use crate::link::health::{Health, HealthConfig, PortState, RxOutcome};
 use crate::link::outbox::{Outbox, MACHINE_QUEUE};
-use duocan::frame::instant::TimeWatch;
-use duocan::machine::{ErrorCause, LinkRequest, PortStatus};
-use duocan::{Frame, Id};
+use duocan_core::frame::instant::TimeWatch;
+use duocan_core::machine::{ErrorCause, LinkRequest, PortStatus};
+use duocan_core::{Frame, Id};
 use std::vec::Vec;
 
 const T: Duration = Duration::from_millis(12);

@@ -375,7 +375,7 @@ fn rule_two_counts_the_silence_from_the_ports_return_to_ok() {
             r.health.handle_timeout(at, &mut r.out);
             if t == 256 && port == 1 && node == 0x50 {
                 // This station's own frame on bus 2 goes unacknowledged: the cut.
-                let nack = PortStatus::TxFailed(duocan::machine::ErrorCause::NoAck);
+                let nack = PortStatus::TxFailed(duocan_core::machine::ErrorCause::NoAck);
                 r.health.on_status(at, 1, nack, &mut r.out);
             }
             if !cut(t, port) {
