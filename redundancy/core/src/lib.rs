@@ -53,7 +53,7 @@
 //! builds:
 //!
 //! ```
-//! use duocan_redundancy_core::link::DualBus;
+//! use duocan_redundancy_core::link::dual_bus::DualBus;
 //! use duocan_core::node::Node;
 //! ```
 //!

@@ -1,6 +1,6 @@
 //! A redundant master as a driver runs it: the dual-bus layer below, the [`Supervisor`] above.
 //!
-//! The composition itself is the root crate's: a [`Station`] of a [`DualBus`] and a
+//! The composition itself is the protocol core's: a [`Station`] of a [`DualBus`] and a
 //! [`Supervisor`] hands the layer's requests to the master's node and the supervisor's
 //! [`LinkCommand`]s to the layer after every input (so the same-function
 //! merge delivers the active member's process data from the instant the role changes).
