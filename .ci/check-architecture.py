@@ -3,11 +3,17 @@
 
 1. Layering within a crate: no module imports from a layer above its own (the layers are in
    .ci/layers.toml). Between crates Cargo enforces it: duocan-core (layers 0 to 7) does not
-   depend on duocan (8 to 11), nor the duocan library on duocan-redundancy (a dev-dependency
-   of its tests and examples only), so an upward import across crates does not compile
-   (duocan-core's crate docs hold a `compile_fail` doctest that proves it). This script only
-   sees `crate::` paths, so it checks each crate's own modules.
-2. Names: no two public types (struct, enum, trait, type alias, union) share a name across the
+   depend on duocan (8 to 11), duocan-redundancy-core (the redundancy's layers 0 to 3) depends
+   on duocan-core alone, not on duocan-redundancy (4 and 5) nor duocan, and the duocan library
+   does not depend on duocan-redundancy (a dev-dependency of its tests and examples only), so
+   an upward import across crates does not compile (the two core crates' docs hold
+   `compile_fail` doctests that prove it). This script only sees `crate::` paths, so it checks
+   each crate's own modules.
+2. Dependencies Cargo would accept: a crate's manifest lists none of its `not_depends_on`
+   (.ci/layers.toml) among its dependencies (development dependencies, which only tests and
+   examples see, may). A dependency on a crate above would not be a cycle where that crate
+   depends on this one only for its tests, so Cargo would not refuse it.
+3. Names: no two public types (struct, enum, trait, type alias, union) share a name across the
    crates, so a user who reads a type name knows which type it is.
 
 Test code (`#[cfg(test)]` modules, `tests/` folders inside src) and comments are not checked:
@@ -88,6 +94,22 @@ def check_layers(cfg):
     return errors
 
 
+def check_dependencies(cfg):
+    errors = []
+    for c in cfg["crate"]:
+        if "not_depends_on" not in c:
+            continue
+        manifest = tomllib.loads((ROOT / c["manifest"]).read_text())
+        tables = [manifest.get("dependencies", {}), manifest.get("build-dependencies", {})]
+        tables += [t.get("dependencies", {}) for t in manifest.get("target", {}).values()]
+        for deps in tables:
+            for key, spec in deps.items():
+                name = spec.get("package", key) if isinstance(spec, dict) else key
+                if name in c["not_depends_on"]:
+                    errors.append(f"{c['manifest']}: `{c['name']}` depends on `{name}`, a crate above it")
+    return errors
+
+
 PUB_TYPE = re.compile(r"^\s*pub\s+(?:struct|enum|trait|type|union)\s+([A-Z][A-Za-z0-9_]*)")
 
 
@@ -113,13 +135,13 @@ def check_names(cfg):
 
 def main():
     cfg = tomllib.loads((ROOT / ".ci" / "layers.toml").read_text())
-    errors = check_layers(cfg) + check_names(cfg)
+    errors = check_layers(cfg) + check_dependencies(cfg) + check_names(cfg)
     for e in errors:
         print(e)
     if errors:
         print(f"architecture check: {len(errors)} problem(s)")
         return 1
-    print("architecture check: layering and public type names are clean")
+    print("architecture check: layering, dependencies and public type names are clean")
     return 0
 
 

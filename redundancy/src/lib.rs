@@ -5,8 +5,13 @@
 //!
 //! ## Layers
 //!
-//! Each folder is one layer; a module imports only from its own layer and the ones below it
-//! (`.ci/run` checks this), and everything sits on the root crate `duocan`.
+//! Each folder is one layer; a module imports only from its own layer and the ones below it.
+//! Layers 0 to 3 are the sans-IO, `no_std` crate `duocan-redundancy-core`, which this crate
+//! re-exports module by module under the same names (`duocan_redundancy::link::…`,
+//! `duocan_redundancy::DualBus`): it depends on the protocol core `duocan-core` alone, so the
+//! compiler keeps those layers from naming the runtime, the simulator or the doors above
+//! them. Layers 4 and 5 are this crate's, on the root crate `duocan` (`.ci/check-architecture.py`
+//! checks the order within each crate).
 //!
 //! | Layer | Module | What it holds |
 //! | --- | --- | --- |
@@ -116,31 +121,40 @@
 #[cfg(feature = "alloc")]
 extern crate alloc;
 
-pub mod link;
+// The sans-IO layers 0 to 3 are the core crate's, re-exported under the same names so that
+// `duocan_redundancy::link::…`, `duocan_redundancy::supervisor::…` and the rest are the paths.
+pub use duocan_redundancy_core::link;
 #[cfg(feature = "alloc")]
 pub mod logical;
 #[cfg(feature = "tokio")]
 pub mod net;
-pub mod pair;
+pub use duocan_redundancy_core::pair;
 #[cfg(feature = "alloc")]
-pub mod station;
-pub mod supervisor;
+pub use duocan_redundancy_core::station;
+pub use duocan_redundancy_core::supervisor;
 
-pub use link::capacity::{Capacity, MergeCapacity};
 #[cfg(feature = "cia302-6")]
-pub use link::channel::Cia3026Config;
-pub use link::channel::ModeKind;
-#[cfg(feature = "ecss")]
-pub use link::channel::{EcssConfig, EcssRole};
-pub use link::classify::FrameClassifier;
-pub use link::dual_bus::{
+pub use duocan_redundancy_core::Cia3026Config;
+pub use duocan_redundancy_core::FrameClassifier;
+pub use duocan_redundancy_core::ModeKind;
+#[cfg(feature = "alloc")]
+pub use duocan_redundancy_core::{
+    AddPairError, JoinRefusal, NotJoined, Supervisor, SupervisorConfig, SupervisorEvent,
+};
+pub use duocan_redundancy_core::{Capacity, MergeCapacity};
+pub use duocan_redundancy_core::{
     DualBus, DualBusConfig, DualBusNode, LinkCommand, LinkMode, LinkStats, MergePolicy,
     DEFAULT_MERGE_SLOTS,
 };
-pub use link::events::{LinkEvent, LinkEventKind, PortReason, Suspicion, SwitchReason};
-pub use link::health::{HealthConfig, PortState};
-pub use link::merge::{Merger, Verdict};
-pub use link::outbox::{Outbox, EVENT_QUEUE, FRAME_QUEUE, MACHINE_QUEUE, REQUEST_QUEUE};
+#[cfg(feature = "ecss")]
+pub use duocan_redundancy_core::{EcssConfig, EcssRole};
+pub use duocan_redundancy_core::{HealthConfig, PortState};
+pub use duocan_redundancy_core::{LinkEvent, LinkEventKind, PortReason, Suspicion, SwitchReason};
+pub use duocan_redundancy_core::{Member, PairId, PairSpec};
+pub use duocan_redundancy_core::{Merger, Verdict};
+pub use duocan_redundancy_core::{Outbox, EVENT_QUEUE, FRAME_QUEUE, MACHINE_QUEUE, REQUEST_QUEUE};
+#[cfg(feature = "alloc")]
+pub use duocan_redundancy_core::{RedundantMaster, SupervisedLink, SupervisedStation};
 #[cfg(feature = "alloc")]
 pub use logical::{
     LogicalNetwork, NetworkError, NetworkEvent, NetworkEventKind, RedundantError,
@@ -148,13 +162,6 @@ pub use logical::{
 };
 #[cfg(feature = "tokio")]
 pub use net::{RedundantEvent, RedundantNetwork};
-pub use pair::{Member, PairId, PairSpec};
-#[cfg(feature = "alloc")]
-pub use station::{RedundantMaster, SupervisedLink, SupervisedStation};
-#[cfg(feature = "alloc")]
-pub use supervisor::{
-    AddPairError, JoinRefusal, NotJoined, Supervisor, SupervisorConfig, SupervisorEvent,
-};
 
 /// The crate's README code block, compiled as a doctest.
 #[cfg(all(doctest, feature = "tokio"))]

@@ -12,9 +12,9 @@ use duocan::port::embedded::{EmbeddedDriver, EmbeddedPortStats};
 use duocan::profile::Predefined;
 use duocan::sdo::DEFAULT_LIMIT;
 use duocan::{Duration, Instant, NodeId};
-use duocan_redundancy::link::same_function::PairError;
-use duocan_redundancy::supervisor::flying_master::MasterRole;
-use duocan_redundancy::{
+use duocan_redundancy_core::link::same_function::PairError;
+use duocan_redundancy_core::supervisor::flying_master::MasterRole;
+use duocan_redundancy_core::{
     AddPairError, Capacity, DualBus, DualBusConfig, LinkMode, PairSpec, PortState, SupervisedLink,
     SupervisedStation, Supervisor, SupervisorConfig,
 };

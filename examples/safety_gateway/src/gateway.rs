@@ -30,7 +30,7 @@ use duocan::profile::railway::{DeviceAddress, RailwayProfile};
 use duocan::{
     CobId, Duration, Frame, Instant, NmtState, Node, NodeConfig, NodeEvent, NodeId, Station,
 };
-use duocan_redundancy::{Capacity, DualBus, DualBusConfig, LinkEvent, LinkMode};
+use duocan_redundancy_core::{Capacity, DualBus, DualBusConfig, LinkEvent, LinkMode};
 use embedded_can::nb::Can;
 use embedded_can::Error as _;
 use heapless::Deque;

@@ -19,7 +19,7 @@
 //! in a `static` [`Storage`] on a host, or built in place in the frame of a `main` that never
 //! returns on a microcontroller ([`Gateway::unstarted`], as `firmware/gateway` does: a
 //! `static` is filled through a copy on the stack). No allocator exists in this crate's world
-//! (`duocan` and `duocan-redundancy` without default features).
+//! (`duocan` and `duocan-redundancy-core` without default features).
 //!
 //! [`mock`] has an in-memory controller pair so that the same code runs on a host: this
 //! crate's tests and `cargo run -p safety-gateway --example gateway_host` drive the gateway

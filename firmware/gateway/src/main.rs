@@ -31,7 +31,7 @@ use duocan::{Instant, NmtState, NodeId};
 use duocan_board::can::Port;
 use duocan_board::safe::{fail_silent, Panel};
 use duocan_board::App;
-use duocan_redundancy::PortState;
+use duocan_redundancy_core::PortState;
 use safety_gateway::dictionary::Od;
 use safety_gateway::{Gateway, ADDRESS, NODE_ID};
 use static_cell::{ConstStaticCell, StaticCell};

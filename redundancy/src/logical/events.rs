@@ -114,22 +114,7 @@ pub enum NetworkEventKind {
 pub(super) fn when(e: &StationEvent<LinkEvent, SupervisorEvent>) -> Instant {
     match e {
         StationEvent::Link(l) => l.at,
-        StationEvent::Machine(m) => match m {
-            SupervisorEvent::Node(n) => n.at,
-            SupervisorEvent::Pairs(p) => match p {
-                PairsEvent::Role(r) => r.at,
-                PairsEvent::Joined { at, .. }
-                | PairsEvent::Lost { at, .. }
-                | PairsEvent::Missing { at, .. } => *at,
-            },
-            SupervisorEvent::FlyingMaster(FlyingEvent::Role(r)) => r.at,
-            SupervisorEvent::FlyingMaster(FlyingEvent::Suspended { at, .. }) => *at,
-            SupervisorEvent::Master(e) => e.at,
-            SupervisorEvent::Sdo(s) => s.at,
-            SupervisorEvent::NotJoined(n) => n.at,
-            SupervisorEvent::Addressed(b) => b.at,
-            SupervisorEvent::Lss(l) => l.at,
-        },
+        StationEvent::Machine(m) => m.at(),
     }
 }
 

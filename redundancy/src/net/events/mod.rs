@@ -199,20 +199,13 @@ impl RedundantEvent {
             RedundantEvent::PairRole(RoleChange { at, .. })
             | RedundantEvent::MasterRole(MasterRoleChange { at, .. })
             | RedundantEvent::Link(LinkEvent { at, .. })
-            | RedundantEvent::Member(
-                PairsEvent::Role(RoleChange { at, .. })
-                | PairsEvent::Joined { at, .. }
-                | PairsEvent::Lost { at, .. }
-                | PairsEvent::Missing { at, .. },
-            )
-            | RedundantEvent::Flying(
-                FlyingEvent::Role(MasterRoleChange { at, .. }) | FlyingEvent::Suspended { at, .. },
-            )
             | RedundantEvent::Addressed(BoardAddressed { at, .. })
             | RedundantEvent::Master(MasterEvent { at, .. })
             | RedundantEvent::Node(NodeEvent { at, .. })
             | RedundantEvent::NotJoined(NotJoined { at, .. })
             | RedundantEvent::Lss(LssMasterEvent { at, .. }) => *at,
+            RedundantEvent::Member(e) => e.at(),
+            RedundantEvent::Flying(e) => e.at(),
         }
     }
     /// True for a failover: a pair's active member handed over to the other, or this standby
