@@ -9,6 +9,27 @@ use std::path::PathBuf;
 use std::process::{Command, Stdio};
 use std::time::{Duration, Instant};
 
+/// The lines `child` writes on standard error, read by a thread of their own (so that the
+/// station never waits for the test to read them).
+fn stderr_lines(child: &mut std::process::Child) -> std::sync::mpsc::Receiver<String> {
+    let (tx, rx) = std::sync::mpsc::channel();
+    let stderr = child.stderr.take().expect("stderr");
+    std::thread::spawn(move || {
+        for line in BufReader::new(stderr).lines().map_while(Result::ok) {
+            if tx.send(line).is_err() {
+                return;
+            }
+        }
+    });
+    rx
+}
+
+/// The next line before `end`, if one comes.
+fn next_before(rx: &std::sync::mpsc::Receiver<String>, end: Instant) -> Option<String> {
+    rx.recv_timeout(end.saturating_duration_since(Instant::now()))
+        .ok()
+}
+
 fn file(rel: &str) -> String {
     PathBuf::from(env!("CARGO_MANIFEST_DIR"))
         .join(rel)
@@ -186,10 +207,11 @@ fn no_acknowledged_audit_record_is_lost_when_the_station_is_killed() {
             .stderr(Stdio::piped())
             .spawn()
             .expect("run duocan");
-        let stderr = BufReader::new(child.stderr.take().expect("stderr"));
+        let rx = stderr_lines(&mut child);
+        let end = Instant::now() + Duration::from_secs(120);
         let mut this_run = 0;
         let mut seen = vec![];
-        for line in stderr.lines().map_while(Result::ok) {
+        while let Some(line) = next_before(&rx, end) {
             seen.push(line.clone());
             if !line.contains("duocan::station::audit: written") {
                 continue;
@@ -294,11 +316,12 @@ fn the_station_serves_its_status_and_metrics_over_http() {
         .stderr(Stdio::piped())
         .spawn()
         .expect("run duocan");
-    let stderr = BufReader::new(child.stderr.take().expect("stderr"));
+    let rx = stderr_lines(&mut child);
+    let end = Instant::now() + Duration::from_secs(120);
     let mut addr = None;
     let mut active = 0;
     let mut seen = vec![];
-    for line in stderr.lines().map_while(Result::ok) {
+    while let Some(line) = next_before(&rx, end) {
         seen.push(line.clone());
         if let Some(a) = line.split("http listening on ").nth(1) {
             addr = Some(a.trim().to_string());
@@ -310,9 +333,12 @@ fn the_station_serves_its_status_and_metrics_over_http() {
             break;
         }
     }
-    let Some(addr) = addr else {
+    let Some(addr) = addr.filter(|_| active == 2) else {
         let _ = child.kill();
-        panic!("no http address:\n{}", seen.join("\n"));
+        panic!(
+            "no http address or no pair active in 120 s:\n{}",
+            seen.join("\n")
+        );
     };
     let (code, body) = get(&addr, "/metrics", None);
     assert_eq!(code, 401, "{body}");
@@ -378,21 +404,21 @@ fn the_station_streams_its_events_over_http() {
         .stderr(Stdio::piped())
         .spawn()
         .expect("run duocan");
-    let mut stderr = BufReader::new(child.stderr.take().expect("stderr")).lines();
+    let rx = stderr_lines(&mut child);
+    let end = Instant::now() + Duration::from_secs(120);
     let addr = loop {
-        match stderr.next() {
-            Some(Ok(l)) => {
+        match next_before(&rx, end) {
+            Some(l) => {
                 if let Some(a) = l.split("http listening on ").nth(1) {
                     break a.trim().to_string();
                 }
             }
-            _ => {
+            None => {
                 let _ = child.kill();
-                panic!("no http address");
+                panic!("no http address in 120 s");
             }
         }
     };
-    let drain = std::thread::spawn(move || stderr.count());
     let mut s = std::net::TcpStream::connect(&addr).expect("connect");
     s.set_read_timeout(Some(Duration::from_secs(5))).unwrap();
     use std::io::Write;
@@ -420,7 +446,6 @@ fn the_station_streams_its_events_over_http() {
     }
     let _ = child.kill();
     let _ = child.wait();
-    let _ = drain.join();
     let _ = std::fs::remove_dir_all(&dir);
     assert!(got.starts_with("HTTP/1.1 200"), "{got}");
     assert!(got.contains("content-type: text/event-stream"), "{got}");
