@@ -161,7 +161,12 @@ struct Source<'a> {
 impl Source<'_> {
     /// `file:line:column: what` for the byte offset `at` (lines and columns from 1).
     fn at(&self, at: usize, what: impl std::fmt::Display) -> String {
-        let before = &self.text[..at.min(self.text.len())];
+        // A span is a byte offset; one inside a character counts from the character's start.
+        let mut at = at.min(self.text.len());
+        while !self.text.is_char_boundary(at) {
+            at -= 1;
+        }
+        let before = &self.text[..at];
         let line = before.matches('\n').count() + 1;
         let col = before.rsplit('\n').next().map_or(0, |l| l.chars().count()) + 1;
         format!("{}:{line}:{col}: {what}", self.name)

@@ -126,7 +126,7 @@ fn the_station_as_a_whole_is_checked() {
 #[test]
 fn any_text_is_read_without_panicking() {
     use proptest::prelude::*;
-    proptest!(|(text in "[\\[\\]a-z_ =\"0-9,{}\n.:-]{0,200}")| {
+    proptest!(|(text in "[\\[\\]a-z_ =\"0-9,{}\n.:é€😀-]{0,200}")| {
         let _ = parse(&text, "p.toml");
     });
     proptest!(|(cut in 0..GOOD.len())| {
