@@ -395,12 +395,8 @@ impl Health {
             PortStatus::Error(c) => self.error(now, p, c, PortReason::Controller(c), out),
             PortStatus::Down(c) => {
                 self.flushed(p);
-                let port = &mut self.ports[p];
-                port.counters.errors[cause_index(c)] =
-                    port.counters.errors[cause_index(c)].saturating_add(1);
-                port.counters.last_error = Some((now, c));
-                port.last_error = Some(now);
-                self.fail(now, p, PortReason::Down(c), out);
+                self.count(now, p, c);
+                self.fail(now, p, PortReason::Down(c), c == ErrorCause::BusOff, out);
             }
             PortStatus::Up => {
                 // After a transmit stall the driver's "up" answers the flush, not the cause.
@@ -419,31 +415,44 @@ impl Health {
         reason: PortReason,
         out: &mut Outbox,
     ) {
+        self.count(now, p, c);
         let port = &mut self.ports[p];
-        port.counters.errors[cause_index(c)] =
-            port.counters.errors[cause_index(c)].saturating_add(1);
-        port.counters.last_error = Some((now, c));
-        port.last_error = Some(now);
         if c == ErrorCause::NoAck {
             port.unacknowledged = true;
             port.unacknowledged_at = now;
         }
         if is_fatal(c) {
-            self.fail(now, p, reason, out);
+            self.fail(now, p, reason, c == ErrorCause::BusOff, out);
         } else if port.cond == Condition::Ok {
             self.set(now, p, PortState::Suspect, reason, out);
         }
     }
 
-    fn fail(&mut self, now: Instant, p: usize, reason: PortReason, out: &mut Outbox) {
+    /// Counts the error `c` of port `p`.
+    fn count(&mut self, now: Instant, p: usize, c: ErrorCause) {
+        let port = &mut self.ports[p];
+        let n = &mut port.counters.errors[cause_index(c)];
+        *n = n.saturating_add(1);
+        port.counters.last_error = Some((now, c));
+        port.last_error = Some(now);
+    }
+
+    /// Fails port `p` for `reason` (`bus_off`: its controller's bus-off, however reported).
+    fn fail(
+        &mut self,
+        now: Instant,
+        p: usize,
+        reason: PortReason,
+        bus_off: bool,
+        out: &mut Outbox,
+    ) {
         // A bus-off again before the port was back (recovering, or failed for its transmitter
         // already): the controller's restart and its bus's frames proved nothing of its
         // transmitter (a transceiver that receives but cannot send goes bus-off within a
         // millisecond of every restart, and the port flapped between failed and recovering
         // at that pace).
         let state = self.ports[p].state();
-        let again =
-            is_bus_off(reason) && (state == PortState::Recovering || self.ports[p].stalled());
+        let again = bus_off && (state == PortState::Recovering || self.ports[p].stalled());
         if state != PortState::Failed {
             self.set(now, p, PortState::Failed, reason, out);
         }
@@ -524,16 +533,6 @@ impl Health {
             },
         });
     }
-}
-
-/// Whether `reason` is its controller's bus-off, however the driver reported it.
-fn is_bus_off(reason: PortReason) -> bool {
-    matches!(
-        reason,
-        PortReason::Down(ErrorCause::BusOff)
-            | PortReason::TxFailed(ErrorCause::BusOff)
-            | PortReason::Controller(ErrorCause::BusOff)
-    )
 }
 
 /// What became of a received frame, for the counters and the silence rule.

@@ -100,7 +100,7 @@ impl Health {
                 let silent = d.saturating_since(port.silence_ref.unwrap_or(d));
                 let reason = PortReason::Silence { silent };
                 if silent >= self.cfg.silence_limit {
-                    self.fail(d, p, reason, out);
+                    self.fail(d, p, reason, false, out);
                 } else {
                     self.set(d, p, PortState::Suspect, reason, out);
                 }
@@ -112,7 +112,7 @@ impl Health {
                 port.counters.reinits = port.counters.reinits.saturating_add(1);
                 out.request(p, PortRequest::Reinit);
                 let stalled = self.cfg.tx_stall;
-                self.fail(d, p, PortReason::TxStalled { waited: stalled }, out);
+                self.fail(d, p, PortReason::TxStalled { waited: stalled }, false, out);
             }
             if let Some(d) = self.ports[p].next_reinit().filter(|d| *d <= now) {
                 self.flushed(p);
