@@ -10,6 +10,11 @@
 //! audit_keep = 5                   # rotated files kept per network
 //! http = "127.0.0.1:8080"          # optional: status and metrics over HTTP (port 0: any)
 //! http_token = "…"                 # needed for any address but loopback
+//! mqtt = "127.0.0.1:1883"          # optional: report to the plant's MQTT broker (host:port)
+//! mqtt_client_id = "duocan-depot"  # default: duocan-STATION
+//! mqtt_prefix = "duocan/depot"     # every topic's first levels; default: duocan/STATION
+//! mqtt_username = "…"              # optional, with mqtt_password if the broker asks
+//! mqtt_outbox = 1024               # messages held while the broker is away
 //!
 //! [[network]]
 //! name = "rack-1"                  # unique in the station
@@ -40,6 +45,9 @@ use serde::Deserialize;
 use std::ops::Range;
 use toml::Spanned;
 
+mod mqtt;
+pub use mqtt::Mqtt;
+
 /// The simulated buses a network may name: the builder's plant with its fault script, and
 /// the same plant without faults.
 pub const SIM_BUSES: [&str; 2] = ["sim-pairs", "sim-pairs:quiet"];
@@ -53,6 +61,8 @@ pub struct Station {
     pub audit: Option<Audit>,
     /// Where it serves HTTP, if anywhere, and the token requests must carry.
     pub http: Option<(std::net::SocketAddr, Option<String>)>,
+    /// The MQTT broker it reports to, if any.
+    pub mqtt: Option<Mqtt>,
     /// Its networks, in file order.
     pub networks: Vec<Network>,
 }
@@ -121,6 +131,12 @@ struct StationTable {
     audit_keep: Option<u32>,
     http: Option<Spanned<String>>,
     http_token: Option<Spanned<String>>,
+    mqtt: Option<Spanned<String>>,
+    mqtt_client_id: Option<Spanned<String>>,
+    mqtt_prefix: Option<Spanned<String>>,
+    mqtt_username: Option<Spanned<String>>,
+    mqtt_password: Option<Spanned<String>>,
+    mqtt_outbox: Option<Spanned<usize>>,
 }
 
 #[derive(Deserialize)]
@@ -194,8 +210,14 @@ pub fn parse(text: &str, name: &str) -> Result<Station, String> {
     };
     let station = file
         .station
-        .and_then(|s| s.name)
+        .as_ref()
+        .and_then(|s| s.name.clone())
         .unwrap_or_else(|| stem(name));
+    let mqtt = match &file.station {
+        Some(t) => mqtt::mqtt(&src, t, &station)?,
+        None => None,
+    };
+    let mut names = Vec::new();
     let mut networks: Vec<Network> = Vec::new();
     for n in file.network {
         let span = n.span();
@@ -217,12 +239,17 @@ pub fn parse(text: &str, name: &str) -> Result<Station, String> {
                 }
             }
         }
+        names.push((net.name.clone(), name_at));
         networks.push(net);
+    }
+    if mqtt.is_some() {
+        mqtt::distinct_topics(&src, &names)?;
     }
     Ok(Station {
         name: station,
         audit,
         http,
+        mqtt,
         networks,
     })
 }

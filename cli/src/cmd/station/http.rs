@@ -5,7 +5,7 @@
 //!   state and counters, each pair's running board.
 //! - `GET /metrics`: the same as Prometheus metrics (text format 0.0.4): frames, error frames,
 //!   dropped frames and re-opens per port, port up, master active, running board per pair,
-//!   events and failovers per network.
+//!   events and failovers per network; with a broker, the MQTT publisher's (`duocan_mqtt_*`).
 //! - `GET /api/events`: every network's events from now on, as server-sent events: one
 //!   `event: NETWORK` with the event's one line as its data, each as it happens. A client that
 //!   falls behind the network's bounded event queue is told how many it missed (`data: missed
@@ -291,6 +291,7 @@ async fn metrics(State(s): State<Arc<Shared>>, headers: HeaderMap) -> Response {
             );
         }
     }
+    super::mqtt::metrics(&mut out);
     (
         [(
             header::CONTENT_TYPE,

@@ -13,12 +13,14 @@
 //! the library's warnings; without timestamps under systemd,
 //! whose journal stamps each line itself), and on SIGINT or SIGTERM sends each network's
 //! `on_stop` NMT command, closes the networks and exits 0. With an `audit_dir`, each network's
-//! audit records are appended to a file of their own as they happen, durably ([`audit`]). The
-//! file format: [`config`].
+//! audit records are appended to a file of their own as they happen, durably ([`audit`]). With
+//! `mqtt`, the networks' state and events go to the plant's broker ([`mqtt`]). The file format:
+//! [`config`].
 
 pub mod audit;
 pub mod config;
 pub mod http;
+pub mod mqtt;
 
 use crate::args::parse_timeout_ms;
 use crate::fail::Fail;
@@ -212,6 +214,7 @@ async fn serve(g: &Global, st: &config::Station, duration_ms: Option<u64>) -> Re
             audits.spawn(keeper.run(stop_audit.subscribe()));
         }
     }
+    let plant = st.mqtt.as_ref().map(|m| mqtt::start(m, &watched));
     if let Some((listener, token)) = listener {
         let local = listener.local_addr()?;
         tracing::info!(target: "duocan::station", "http listening on {local}");
@@ -237,6 +240,9 @@ async fn serve(g: &Global, st: &config::Station, duration_ms: Option<u64>) -> Re
     // The records up to the stop written before the networks close.
     stop_audit.send_replace(true);
     while audits.join_next().await.is_some() {}
+    if let Some(p) = plant {
+        p.stop().await;
+    }
     for (n, net) in &nets {
         if let Some(cmd) = n.on_stop {
             if let Err(e) = net.nmt_all(cmd).await {

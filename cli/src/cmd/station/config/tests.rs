@@ -184,3 +184,107 @@ fn the_audit_folder_is_relative_to_the_file() {
     let e = err(&format!("[station]\naudit_max_bytes = 8192\n{net}"));
     assert!(e.contains("audit_max_bytes: set audit_dir too"), "{e}");
 }
+
+#[test]
+fn mqtt_names_a_broker_and_defaults_the_rest_from_the_station() {
+    let net = "\n[[network]]\nname = \"a\"\nbuses = \"sim-pairs\"\nnode_id = 1\n";
+    let st = parse(
+        &format!("[station]\nname = \"yard 2\"\nmqtt = \"127.0.0.1:1883\"\n{net}"),
+        "s.toml",
+    )
+    .unwrap();
+    let m = st.mqtt.unwrap();
+    assert_eq!((m.host.as_str(), m.port), ("127.0.0.1", 1883));
+    assert_eq!(m.client_id, "duocan-yard_2");
+    assert_eq!(m.prefix, "duocan/yard_2");
+    assert_eq!((m.login, m.outbox), (None, mqtt::MQTT_OUTBOX));
+    let st = parse(
+        &format!(
+            "[station]\nmqtt = \"[::1]:8883\"\nmqtt_client_id = \"ixl-7\"\n\
+             mqtt_prefix = \"plant/ixl\"\nmqtt_username = \"u\"\nmqtt_password = \"p\"\n\
+             mqtt_outbox = 8\n{net}"
+        ),
+        "s.toml",
+    )
+    .unwrap();
+    let m = st.mqtt.unwrap();
+    assert_eq!((m.host.as_str(), m.port), ("::1", 8883));
+    assert_eq!(
+        (m.client_id.as_str(), m.prefix.as_str()),
+        ("ixl-7", "plant/ixl")
+    );
+    assert_eq!(m.login, Some(("u".into(), "p".into())));
+    assert_eq!(m.outbox, 8);
+    assert!(parse(&format!("[station]\nname = \"x\"\n{net}"), "s.toml")
+        .unwrap()
+        .mqtt
+        .is_none());
+}
+
+#[test]
+fn each_mqtt_error_names_the_file_line_column_and_key() {
+    let net = "\n[[network]]\nname = \"a\"\nbuses = \"sim-pairs\"\nnode_id = 1\n";
+    let bad = |keys: &str| err(&format!("[station]\n{keys}\n{net}"));
+    for (keys, want) in [
+        (
+            "mqtt = \"broker\"",
+            "s.toml:2:8: mqtt: \"broker\" is not a broker's host and port",
+        ),
+        ("mqtt = \"h:0\"", "s.toml:2:8: mqtt: \"h:0\" is not"),
+        ("mqtt = \"a b:1883\"", "s.toml:2:8: mqtt: "),
+        (
+            "mqtt = \"h:1\"\nmqtt_prefix = \"a/+/b\"",
+            "s.toml:3:15: mqtt_prefix: no wildcard",
+        ),
+        (
+            "mqtt = \"h:1\"\nmqtt_prefix = \"a//b\"",
+            "s.toml:3:15: mqtt_prefix: topic levels",
+        ),
+        (
+            "mqtt = \"h:1\"\nmqtt_prefix = \"a/\"",
+            "s.toml:3:15: mqtt_prefix: topic levels",
+        ),
+        (
+            "mqtt = \"h:1\"\nmqtt_prefix = \"$SYS/x\"",
+            "s.toml:3:15: mqtt_prefix: topics starting with $",
+        ),
+        (
+            "mqtt = \"h:1\"\nmqtt_client_id = \"a b\"",
+            "s.toml:3:18: mqtt_client_id: 1 to 64",
+        ),
+        (
+            "mqtt = \"h:1\"\nmqtt_password = \"p\"",
+            "s.toml:3:17: mqtt_password: set mqtt_username too",
+        ),
+        (
+            "mqtt = \"h:1\"\nmqtt_outbox = 0",
+            "s.toml:3:15: mqtt_outbox: 1 to 1048576",
+        ),
+        (
+            "mqtt_prefix = \"x\"",
+            "s.toml:2:15: mqtt_prefix: set mqtt (the broker's host:port) too",
+        ),
+        (
+            "mqtt = \"h:1\"\nmqtt_port = 1",
+            "s.toml:3:1: unknown field `mqtt_port`",
+        ),
+    ] {
+        let e = bad(keys);
+        assert!(e.starts_with(want), "{keys}: {e}");
+    }
+}
+
+#[test]
+fn with_mqtt_two_networks_may_not_share_a_topic_level() {
+    let two = "[[network]]\nname = \"rack 1\"\nbuses = \"sim-pairs\"\nnode_id = 1\n\n\
+               [[network]]\nname = \"rack/1\"\nbuses = \"sim-pairs\"\nnode_id = 1\n";
+    let e = err(&format!("[station]\nmqtt = \"h:1\"\n\n{two}"));
+    assert!(
+        e.starts_with(
+            "s.toml:10:8: name: \"rack/1\" and \"rack 1\" are both topic level \"rack_1\""
+        ),
+        "{e}"
+    );
+    // Without a broker the names are only names.
+    assert!(parse(two, "s.toml").is_ok());
+}
