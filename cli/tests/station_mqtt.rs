@@ -1,0 +1,504 @@
+//! The station's reports to the plant, against a real MQTT broker (Mosquitto, started by each
+//! test on a free port of its own): a subscriber sees a failover as it happens and the
+//! retained state after it; a broker that dies and comes back holds nothing up, gets the
+//! state again, and the events the outbox could not hold are counted.
+//!
+//! Needs `mosquitto` (Debian's package of that name: `.ci/run` installs it); feature `peers`.
+
+mod common;
+use rumqttc::{AsyncClient, Event, MqttOptions, Packet, QoS};
+use std::io::{BufRead, BufReader};
+use std::process::{Child, Command, Stdio};
+use std::sync::mpsc::Receiver;
+use std::time::{Duration, Instant};
+
+/// The Mosquitto binary: on PATH, or where Debian puts it.
+fn mosquitto() -> String {
+    if let Ok(o) = Command::new("sh")
+        .args(["-c", "command -v mosquitto"])
+        .output()
+    {
+        let p = String::from_utf8_lossy(&o.stdout).trim().to_string();
+        if !p.is_empty() {
+            return p;
+        }
+    }
+    let sbin = "/usr/sbin/mosquitto";
+    assert!(
+        std::path::Path::new(sbin).exists(),
+        "mosquitto not found: apt-get install mosquitto (.ci/run does)"
+    );
+    sbin.into()
+}
+
+/// A Mosquitto of the test's own, on loopback, killed when dropped.
+struct Broker {
+    port: u16,
+    conf: std::path::PathBuf,
+    child: Option<Child>,
+}
+
+impl Broker {
+    fn new(dir: &std::path::Path) -> Broker {
+        let port = std::net::TcpListener::bind("127.0.0.1:0")
+            .and_then(|l| l.local_addr())
+            .expect("a free port")
+            .port();
+        let conf = dir.join("mosquitto.conf");
+        std::fs::write(
+            &conf,
+            format!("listener {port} 127.0.0.1\nallow_anonymous true\npersistence false\n"),
+        )
+        .unwrap();
+        Broker {
+            port,
+            conf,
+            child: None,
+        }
+    }
+
+    /// Starts it and waits until it accepts connections (10 s at most).
+    fn start(&mut self) {
+        let child = Command::new(mosquitto())
+            .arg("-c")
+            .arg(&self.conf)
+            .stdout(Stdio::null())
+            .stderr(Stdio::null())
+            .spawn()
+            .expect("start mosquitto");
+        self.child = Some(child);
+        let end = Instant::now() + Duration::from_secs(10);
+        while std::net::TcpStream::connect(("127.0.0.1", self.port)).is_err() {
+            assert!(Instant::now() < end, "mosquitto not listening in 10 s");
+            std::thread::sleep(Duration::from_millis(20));
+        }
+    }
+
+    /// Kills it (SIGKILL: no goodbye to its clients).
+    fn kill(&mut self) {
+        if let Some(mut c) = self.child.take() {
+            let _ = c.kill();
+            let _ = c.wait();
+        }
+    }
+}
+
+impl Drop for Broker {
+    fn drop(&mut self) {
+        self.kill();
+    }
+}
+
+/// One message a subscriber got.
+#[derive(Clone, Debug)]
+struct Got {
+    topic: String,
+    text: String,
+    qos: QoS,
+    retain: bool,
+}
+
+/// A subscriber to `filter`, its messages in order.
+struct Sub {
+    rx: tokio::sync::mpsc::UnboundedReceiver<Got>,
+    seen: Vec<Got>,
+}
+
+impl Sub {
+    /// Connects and subscribes with QoS 1, waiting for the broker's acknowledgement.
+    async fn new(port: u16, id: &str, filter: &str) -> Sub {
+        let mut o = MqttOptions::new(id, "127.0.0.1", port);
+        o.set_max_packet_size(1 << 20, 1 << 20);
+        let (client, mut el) = AsyncClient::new(o, 16);
+        client.subscribe(filter, QoS::AtLeastOnce).await.unwrap();
+        let (tx, rx) = tokio::sync::mpsc::unbounded_channel();
+        let (acked, ack) = tokio::sync::oneshot::channel();
+        tokio::spawn(async move {
+            let _client = client;
+            let mut acked = Some(acked);
+            while let Ok(e) = el.poll().await {
+                match e {
+                    Event::Incoming(Packet::SubAck(_)) => {
+                        if let Some(a) = acked.take() {
+                            let _ = a.send(());
+                        }
+                    }
+                    Event::Incoming(Packet::Publish(p)) => {
+                        let got = Got {
+                            topic: p.topic.clone(),
+                            text: String::from_utf8_lossy(&p.payload).into_owned(),
+                            qos: p.qos,
+                            retain: p.retain,
+                        };
+                        if tx.send(got).is_err() {
+                            return;
+                        }
+                    }
+                    _ => {}
+                }
+            }
+        });
+        tokio::time::timeout(Duration::from_secs(10), ack)
+            .await
+            .expect("no SUBACK in 10 s")
+            .expect("subscriber gone");
+        Sub { rx, seen: vec![] }
+    }
+
+    /// The first message (seen before, or to come within `secs`) that `want` accepts.
+    async fn until(&mut self, secs: u64, what: &str, want: impl Fn(&Got) -> bool) -> Got {
+        if let Some(g) = self.seen.iter().find(|g| want(g)) {
+            return g.clone();
+        }
+        let end = tokio::time::Instant::now() + Duration::from_secs(secs);
+        loop {
+            match tokio::time::timeout_at(end, self.rx.recv()).await {
+                Ok(Some(g)) => {
+                    self.seen.push(g.clone());
+                    if want(&g) {
+                        return g;
+                    }
+                }
+                _ => panic!("{what}: not in {secs} s; got:\n{}", self.dump()),
+            }
+        }
+    }
+
+    fn dump(&self) -> String {
+        let line = |g: &Got| format!("{} q{:?} r{} {}", g.topic, g.qos, g.retain, g.text);
+        self.seen.iter().map(line).collect::<Vec<_>>().join("\n")
+    }
+}
+
+/// `duocan station run` on `file`, its standard error read line by line by a thread.
+fn station(file: &std::path::Path) -> (Child, Receiver<String>) {
+    let mut child = Command::new(env!("CARGO_BIN_EXE_duocan"))
+        .args(["station", "run", file.to_str().unwrap()])
+        .env_remove("DUOCAN_LOG")
+        .env_remove("JOURNAL_STREAM")
+        .stdout(Stdio::null())
+        .stderr(Stdio::piped())
+        .spawn()
+        .expect("run duocan");
+    let (tx, rx) = std::sync::mpsc::channel();
+    let stderr = child.stderr.take().unwrap();
+    std::thread::spawn(move || {
+        for line in BufReader::new(stderr).lines().map_while(Result::ok) {
+            if tx.send(line).is_err() {
+                return;
+            }
+        }
+    });
+    (child, rx)
+}
+
+/// Reads the station's log until a line contains `want` (within `secs`); the lines so far.
+fn log_until(rx: &Receiver<String>, log: &mut Vec<String>, secs: u64, want: &str) -> String {
+    let end = Instant::now() + Duration::from_secs(secs);
+    if let Some(l) = log.iter().find(|l| l.contains(want)) {
+        return l.clone();
+    }
+    loop {
+        match rx.recv_timeout(end.saturating_duration_since(Instant::now())) {
+            Ok(l) => {
+                log.push(l.clone());
+                if l.contains(want) {
+                    return l;
+                }
+            }
+            Err(_) => panic!("{want:?} not logged in {secs} s:\n{}", log.join("\n")),
+        }
+    }
+}
+
+fn dir(name: &str) -> std::path::PathBuf {
+    let d = std::env::temp_dir().join(format!("duocan-mqtt-{name}-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&d);
+    std::fs::create_dir_all(&d).unwrap();
+    d
+}
+
+/// A network on the simulated plant: `faulty` (bus 1 cut at 2 s, the running board of the pair
+/// stopped at 4 s, the network closed at 6 s) or quiet (until stopped).
+fn network(name: &str, faulty: bool) -> String {
+    let buses = if faulty {
+        "sim-pairs"
+    } else {
+        "sim-pairs:quiet"
+    };
+    format!(
+        "[[network]]\nname = \"{name}\"\nbuses = \"{buses}\"\nnode_id = 1\nheartbeat_ms = 50\n\
+         master_timeout_ms = 200\npairs = [[0x10, 0x50]]\npair_heartbeat_ms = 50\n\
+         pair_timeout_ms = 200\n\n"
+    )
+}
+
+fn json(text: &str) -> serde_json::Value {
+    serde_json::from_str(text).unwrap_or_else(|e| panic!("{e}: {text}"))
+}
+
+/// A subscriber from before the start sees the station come online, the bus and the board
+/// failovers as QoS 1 events, the running board go from A to B; one subscribing after sees
+/// the retained state; a stop says offline.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_subscriber_sees_a_failover_and_the_retained_state_after_it() {
+    let _one = common::one_station();
+    let d = dir("failover");
+    let mut broker = Broker::new(&d);
+    broker.start();
+    let port = broker.port;
+    let file = d.join("plant.toml");
+    std::fs::write(
+        &file,
+        format!(
+            "[station]\nname = \"plant\"\nmqtt = \"127.0.0.1:{port}\"\nmqtt_prefix = \"t/ixl\"\n\n{}",
+            network("east rack/1", true)
+        ),
+    )
+    .unwrap();
+    let mut early = Sub::new(port, "early", "t/ixl/#").await;
+    let started = Instant::now();
+    let (mut child, rx) = station(&file);
+    let on = early
+        .until(20, "status online", |g| g.topic == "t/ixl/status")
+        .await;
+    assert_eq!(on.text, "online");
+    let net = "t/ixl/east_rack_1";
+    early
+        .until(30, "pair A running", |g| {
+            g.topic == format!("{net}/pair/0x10") && g.text == "A"
+        })
+        .await;
+    for (what, line) in [
+        ("bus failover", "bus 1: failed (port down: interface down)"),
+        ("board failover", "pair 0x10/0x50: B active"),
+    ] {
+        let e = early
+            .until(30, what, |g| {
+                g.topic == format!("{net}/events") && json(&g.text)["event"] == line
+            })
+            .await;
+        assert_eq!(e.qos, QoS::AtLeastOnce, "{what}");
+        assert_eq!(json(&e.text)["failover"], true, "{what}");
+        assert!(!e.retain, "{what}: events are not retained");
+    }
+    let b = early
+        .until(30, "pair B running", |g| {
+            g.topic == format!("{net}/pair/0x10") && g.text == "B"
+        })
+        .await;
+    assert_eq!(b.qos, QoS::AtLeastOnce);
+    early
+        .until(10, "a state with B running", |g| {
+            g.topic == format!("{net}/state") && json(&g.text)["pairs"][0]["active"] == "B"
+        })
+        .await;
+    // The running board as published, in order: A, then B (after none while booting).
+    let mut boards: Vec<&str> = early
+        .seen
+        .iter()
+        .filter(|g| g.topic == format!("{net}/pair/0x10"))
+        .map(|g| g.text.as_str())
+        .collect();
+    boards.dedup();
+    assert!(boards.ends_with(&["A", "B"]), "{boards:?}");
+    // A latecomer gets the retained topics at once.
+    let mut late = Sub::new(port, "late", "t/ixl/#").await;
+    for topic in [
+        "t/ixl/status".to_string(),
+        format!("{net}/pair/0x10"),
+        format!("{net}/state"),
+    ] {
+        let g = late.until(10, &topic, |g| g.topic == topic).await;
+        assert!(g.retain, "{topic} not retained");
+        match topic.rsplit('/').next() {
+            Some("status") => assert_eq!(g.text, "online"),
+            Some("0x10") => assert_eq!(g.text, "B"),
+            _ => {
+                // Open and B running, or (the plant's script over) closed.
+                let s = json(&g.text);
+                assert_eq!(s["network"], "east rack/1");
+                assert!(s["open"] == false || s["pairs"][0]["active"] == "B", "{s}");
+            }
+        }
+    }
+    let pid = child.id().to_string();
+    assert!(Command::new("kill")
+        .args(["-TERM", &pid])
+        .status()
+        .unwrap()
+        .success());
+    let off = late
+        .until(20, "status offline", |g| {
+            g.topic == "t/ixl/status" && g.text == "offline"
+        })
+        .await;
+    assert!(!off.retain);
+    let status = child.wait().unwrap();
+    let log: Vec<String> = rx.try_iter().collect();
+    assert_eq!(status.code(), Some(0), "{}", log.join("\n"));
+    eprintln!("failover test: {:.1} s", started.elapsed().as_secs_f64());
+    let _ = std::fs::remove_dir_all(&d);
+}
+
+/// `GET /metrics` from the station at `addr`: each sample line's value by its name and labels.
+fn metrics(addr: &str) -> std::collections::BTreeMap<String, u64> {
+    use std::io::{Read, Write};
+    let mut s = std::net::TcpStream::connect(addr).expect("connect");
+    s.set_read_timeout(Some(Duration::from_secs(10))).unwrap();
+    write!(
+        s,
+        "GET /metrics HTTP/1.1\r\nHost: {addr}\r\nConnection: close\r\n\r\n"
+    )
+    .unwrap();
+    let mut text = String::new();
+    s.read_to_string(&mut text).expect("read");
+    assert!(text.starts_with("HTTP/1.1 200"), "{text}");
+    text.lines()
+        .filter(|l| l.starts_with("duocan_"))
+        .filter_map(|l| {
+            let (k, v) = l.rsplit_once(' ')?;
+            Some((k.to_string(), v.parse().ok()?))
+        })
+        .collect()
+}
+
+/// Reads the metrics until `want` accepts them (within `secs`); the ones it accepted.
+fn metrics_until(
+    addr: &str,
+    secs: u64,
+    what: &str,
+    want: impl Fn(&std::collections::BTreeMap<String, u64>) -> bool,
+) -> std::collections::BTreeMap<String, u64> {
+    let end = Instant::now() + Duration::from_secs(secs);
+    loop {
+        let m = metrics(addr);
+        if want(&m) {
+            return m;
+        }
+        assert!(Instant::now() < end, "{what}: not in {secs} s: {m:#?}");
+        std::thread::sleep(Duration::from_millis(50));
+    }
+}
+
+const STEADY_RX: &str =
+    "duocan_port_rx_frames_total{network=\"steady\",bus=\"2\",port=\"sim-bus2\"}";
+
+/// The broker away at the start (a failing plant's events overflow the outbox of 2, counted),
+/// then there (the state arrives), then killed (the station goes on: its buses' frames keep
+/// being counted) and started again, empty: the station connects again and republishes the
+/// retained state. A station killed outright is said offline by its last will.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_broker_that_goes_away_holds_nothing_up_and_gets_the_state_again() {
+    let _one = common::one_station();
+    let d = dir("away");
+    let mut broker = Broker::new(&d);
+    let port = broker.port;
+    let file = d.join("away.toml");
+    std::fs::write(
+        &file,
+        format!(
+            "[station]\nname = \"away\"\nhttp = \"127.0.0.1:0\"\nmqtt = \"127.0.0.1:{port}\"\n\
+             mqtt_outbox = 2\n\n{}{}",
+            network("steady", false),
+            network("faulty", true)
+        ),
+    )
+    .unwrap();
+    let started = Instant::now();
+    let (mut child, rx) = station(&file);
+    let mut log = vec![];
+    let addr = log_until(&rx, &mut log, 60, "http listening on ")
+        .rsplit(' ')
+        .next()
+        .unwrap()
+        .to_string();
+    // No broker yet: the failing plant's events (some tens) overflow the outbox.
+    log_until(&rx, &mut log, 60, "pair 0x10/0x50: B active network=faulty");
+    log_until(&rx, &mut log, 10, "mqtt: the outbox is full");
+    let before = metrics_until(&addr, 10, "drops counted", |m| {
+        m.get("duocan_mqtt_dropped_total").is_some_and(|&n| n > 0)
+    });
+    assert_eq!(before["duocan_mqtt_connected"], 0);
+    assert_eq!(before["duocan_mqtt_connections_total"], 0);
+
+    // The broker comes: the state is sent (the latest, whatever was dropped).
+    broker.start();
+    let mut sub = Sub::new(port, "first", "duocan/away/#").await;
+    sub.until(20, "online", |g| {
+        g.topic == "duocan/away/status" && g.text == "online"
+    })
+    .await;
+    sub.until(20, "faulty's board B", |g| {
+        g.topic == "duocan/away/faulty/pair/0x10" && g.text == "B"
+    })
+    .await;
+    sub.until(20, "steady's state", |g| {
+        g.topic == "duocan/away/steady/state" && json(&g.text)["pairs"][0]["active"] == "A"
+    })
+    .await;
+
+    // Killed: the station notices, and its buses go on.
+    broker.kill();
+    let down = metrics_until(&addr, 20, "broker lost", |m| {
+        m["duocan_mqtt_connected"] == 0
+    });
+    metrics_until(&addr, 20, "frames counted while the broker is away", |m| {
+        m[STEADY_RX] > down[STEADY_RX]
+    });
+    assert_eq!(down["duocan_mqtt_connections_total"], 1);
+
+    // Back, without its retained messages (no persistence): the station gives them again.
+    broker.start();
+    metrics_until(&addr, 20, "connected again", |m| {
+        m["duocan_mqtt_connections_total"] == 2 && m["duocan_mqtt_connected"] == 1
+    });
+    let want = [
+        ("duocan/away/status", "online"),
+        ("duocan/away/faulty/pair/0x10", "B"),
+        ("duocan/away/steady/pair/0x10", "A"),
+    ];
+    let mut again = Sub::new(port, "again", "duocan/away/#").await;
+    for (topic, text) in want {
+        again
+            .until(20, topic, |g| g.topic == topic && g.text == text)
+            .await;
+    }
+    // The broker holds them now: one more subscriber gets them as retained messages.
+    let mut last = Sub::new(port, "last", "duocan/away/#").await;
+    for (topic, text) in want {
+        let g = last.until(10, topic, |g| g.topic == topic).await;
+        assert_eq!((g.text.as_str(), g.retain), (text, true), "{topic}");
+    }
+    let state = last
+        .until(10, "steady's state", |g| {
+            g.topic == "duocan/away/steady/state"
+        })
+        .await;
+    assert!(state.retain);
+    assert_eq!(json(&state.text)["role"], "active");
+
+    // Killed outright: the broker says offline for it (the last will).
+    let _ = child.kill();
+    let _ = child.wait();
+    let will = last
+        .until(20, "the last will", |g| {
+            g.topic == "duocan/away/status" && g.text == "offline"
+        })
+        .await;
+    assert_eq!(will.qos, QoS::AtLeastOnce);
+    // Both connections logged (every line is read before the stream ends with the station).
+    let connected = |log: &Vec<String>| {
+        log.iter()
+            .filter(|l| l.contains("mqtt: connected to"))
+            .count()
+    };
+    while connected(&log) < 2 {
+        match rx.recv_timeout(Duration::from_secs(10)) {
+            Ok(l) => log.push(l),
+            Err(_) => panic!("two connections not logged:\n{}", log.join("\n")),
+        }
+    }
+    eprintln!("broker-away test: {:.1} s", started.elapsed().as_secs_f64());
+    let _ = std::fs::remove_dir_all(&d);
+}
