@@ -5,170 +5,15 @@
 //!
 //! Needs `mosquitto` (Debian's package of that name: `.ci/run` installs it); feature `peers`.
 
+#[path = "station_mqtt/broker.rs"]
+mod broker;
 mod common;
-use rumqttc::{AsyncClient, Event, MqttOptions, Packet, QoS};
+use broker::{Broker, Sub};
+use rumqttc::QoS;
 use std::io::{BufRead, BufReader};
 use std::process::{Child, Command, Stdio};
 use std::sync::mpsc::Receiver;
 use std::time::{Duration, Instant};
-
-/// The Mosquitto binary: on PATH, or where Debian puts it.
-fn mosquitto() -> String {
-    if let Ok(o) = Command::new("sh")
-        .args(["-c", "command -v mosquitto"])
-        .output()
-    {
-        let p = String::from_utf8_lossy(&o.stdout).trim().to_string();
-        if !p.is_empty() {
-            return p;
-        }
-    }
-    let sbin = "/usr/sbin/mosquitto";
-    assert!(
-        std::path::Path::new(sbin).exists(),
-        "mosquitto not found: apt-get install mosquitto (.ci/run does)"
-    );
-    sbin.into()
-}
-
-/// A Mosquitto of the test's own, on loopback, killed when dropped.
-struct Broker {
-    port: u16,
-    conf: std::path::PathBuf,
-    child: Option<Child>,
-}
-
-impl Broker {
-    fn new(dir: &std::path::Path) -> Broker {
-        let port = std::net::TcpListener::bind("127.0.0.1:0")
-            .and_then(|l| l.local_addr())
-            .expect("a free port")
-            .port();
-        let conf = dir.join("mosquitto.conf");
-        std::fs::write(
-            &conf,
-            format!("listener {port} 127.0.0.1\nallow_anonymous true\npersistence false\n"),
-        )
-        .unwrap();
-        Broker {
-            port,
-            conf,
-            child: None,
-        }
-    }
-
-    /// Starts it and waits until it accepts connections (10 s at most).
-    fn start(&mut self) {
-        let child = Command::new(mosquitto())
-            .arg("-c")
-            .arg(&self.conf)
-            .stdout(Stdio::null())
-            .stderr(Stdio::null())
-            .spawn()
-            .expect("start mosquitto");
-        self.child = Some(child);
-        let end = Instant::now() + Duration::from_secs(10);
-        while std::net::TcpStream::connect(("127.0.0.1", self.port)).is_err() {
-            assert!(Instant::now() < end, "mosquitto not listening in 10 s");
-            std::thread::sleep(Duration::from_millis(20));
-        }
-    }
-
-    /// Kills it (SIGKILL: no goodbye to its clients).
-    fn kill(&mut self) {
-        if let Some(mut c) = self.child.take() {
-            let _ = c.kill();
-            let _ = c.wait();
-        }
-    }
-}
-
-impl Drop for Broker {
-    fn drop(&mut self) {
-        self.kill();
-    }
-}
-
-/// One message a subscriber got.
-#[derive(Clone, Debug)]
-struct Got {
-    topic: String,
-    text: String,
-    qos: QoS,
-    retain: bool,
-}
-
-/// A subscriber to `filter`, its messages in order.
-struct Sub {
-    rx: tokio::sync::mpsc::UnboundedReceiver<Got>,
-    seen: Vec<Got>,
-}
-
-impl Sub {
-    /// Connects and subscribes with QoS 1, waiting for the broker's acknowledgement.
-    async fn new(port: u16, id: &str, filter: &str) -> Sub {
-        let mut o = MqttOptions::new(id, "127.0.0.1", port);
-        o.set_max_packet_size(1 << 20, 1 << 20);
-        let (client, mut el) = AsyncClient::new(o, 16);
-        client.subscribe(filter, QoS::AtLeastOnce).await.unwrap();
-        let (tx, rx) = tokio::sync::mpsc::unbounded_channel();
-        let (acked, ack) = tokio::sync::oneshot::channel();
-        tokio::spawn(async move {
-            let _client = client;
-            let mut acked = Some(acked);
-            while let Ok(e) = el.poll().await {
-                match e {
-                    Event::Incoming(Packet::SubAck(_)) => {
-                        if let Some(a) = acked.take() {
-                            let _ = a.send(());
-                        }
-                    }
-                    Event::Incoming(Packet::Publish(p)) => {
-                        let got = Got {
-                            topic: p.topic.clone(),
-                            text: String::from_utf8_lossy(&p.payload).into_owned(),
-                            qos: p.qos,
-                            retain: p.retain,
-                        };
-                        if tx.send(got).is_err() {
-                            return;
-                        }
-                    }
-                    _ => {}
-                }
-            }
-        });
-        tokio::time::timeout(Duration::from_secs(10), ack)
-            .await
-            .expect("no SUBACK in 10 s")
-            .expect("subscriber gone");
-        Sub { rx, seen: vec![] }
-    }
-
-    /// The first message (seen before, or to come within `secs`) that `want` accepts.
-    async fn until(&mut self, secs: u64, what: &str, want: impl Fn(&Got) -> bool) -> Got {
-        if let Some(g) = self.seen.iter().find(|g| want(g)) {
-            return g.clone();
-        }
-        let end = tokio::time::Instant::now() + Duration::from_secs(secs);
-        loop {
-            match tokio::time::timeout_at(end, self.rx.recv()).await {
-                Ok(Some(g)) => {
-                    self.seen.push(g.clone());
-                    if want(&g) {
-                        return g;
-                    }
-                }
-                _ => panic!("{what}: not in {secs} s; got:\n{}", self.dump()),
-            }
-        }
-    }
-
-    fn dump(&self) -> String {
-        let line = |g: &Got| format!("{} q{:?} r{} {}", g.topic, g.qos, g.retain, g.text);
-        self.seen.iter().map(line).collect::<Vec<_>>().join("\n")
-    }
-}
 
 /// `duocan station run` on `file`, its standard error read line by line by a thread.
 fn station(file: &std::path::Path) -> (Child, Receiver<String>) {
@@ -211,6 +56,15 @@ fn log_until(rx: &Receiver<String>, log: &mut Vec<String>, secs: u64, want: &str
     }
 }
 
+/// The subscribers' runtime (the test's own thread waits on the station's log).
+fn runtime() -> tokio::runtime::Runtime {
+    tokio::runtime::Builder::new_multi_thread()
+        .worker_threads(2)
+        .enable_all()
+        .build()
+        .unwrap()
+}
+
 fn dir(name: &str) -> std::path::PathBuf {
     let d = std::env::temp_dir().join(format!("duocan-mqtt-{name}-{}", std::process::id()));
     let _ = std::fs::remove_dir_all(&d);
@@ -240,9 +94,13 @@ fn json(text: &str) -> serde_json::Value {
 /// A subscriber from before the start sees the station come online, the bus and the board
 /// failovers as QoS 1 events, the running board go from A to B; one subscribing after sees
 /// the retained state; a stop says offline.
-#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
-async fn a_subscriber_sees_a_failover_and_the_retained_state_after_it() {
+#[test]
+fn a_subscriber_sees_a_failover_and_the_retained_state_after_it() {
     let _one = common::one_station();
+    runtime().block_on(failover());
+}
+
+async fn failover() {
     let d = dir("failover");
     let mut broker = Broker::new(&d);
     broker.start();
@@ -388,9 +246,13 @@ const STEADY_RX: &str =
 /// then there (the state arrives), then killed (the station goes on: its buses' frames keep
 /// being counted) and started again, empty: the station connects again and republishes the
 /// retained state. A station killed outright is said offline by its last will.
-#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
-async fn a_broker_that_goes_away_holds_nothing_up_and_gets_the_state_again() {
+#[test]
+fn a_broker_that_goes_away_holds_nothing_up_and_gets_the_state_again() {
     let _one = common::one_station();
+    runtime().block_on(away());
+}
+
+async fn away() {
     let d = dir("away");
     let mut broker = Broker::new(&d);
     let port = broker.port;

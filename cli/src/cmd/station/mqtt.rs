@@ -48,12 +48,11 @@
 //! [`BACKOFF_MAX`]; on each connection the whole retained state is republished (a restarted
 //! broker may have lost it) and `status` says `online`.
 
+mod network;
+
 use super::config::Mqtt;
 use super::http::Watched;
-use duocan::net::NetEvent;
-use duocan_redundancy::Member;
 use rumqttc::{AsyncClient, Event, LastWill, MqttOptions, Packet, QoS, Request};
-use serde_json::json;
 use std::collections::{BTreeMap, BTreeSet, VecDeque};
 use std::fmt::Write as _;
 use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
@@ -238,7 +237,7 @@ pub fn start(m: &Mqtt, networks: &[Arc<Watched>]) -> Running {
     let conn = tokio::spawn(connection(eventloop, publisher.clone(), tx, broker));
     tasks.spawn(sender(client.clone(), publisher.clone(), connected.clone()));
     for w in networks {
-        tasks.spawn(watch_network(w.clone(), publisher.clone()));
+        tasks.spawn(network::watch(w.clone(), publisher.clone()));
     }
     Running {
         prefix: m.prefix.clone(),
@@ -340,85 +339,6 @@ async fn sender(client: AsyncClient, p: Publisher, mut connected: watch::Receive
         }
         p.stats.sent.fetch_add(1, Ordering::Relaxed);
     }
-}
-
-fn member(m: Option<Member>) -> &'static str {
-    match m {
-        Some(Member::A) => "A",
-        Some(Member::B) => "B",
-        None => "none",
-    }
-}
-
-fn wall_ms() -> u128 {
-    std::time::SystemTime::now()
-        .duration_since(std::time::UNIX_EPOCH)
-        .unwrap_or_default()
-        .as_millis()
-}
-
-/// Publishes one network's events as they come and its state after them.
-async fn watch_network(w: Arc<Watched>, p: Publisher) {
-    let base = format!("{}/{}", p.prefix, super::audit::file_name(&w.name));
-    let mut events = w.net.events();
-    let mut every = tokio::time::interval(STATE_EVERY);
-    every.set_missed_tick_behavior(tokio::time::MissedTickBehavior::Delay);
-    let mut changed = true;
-    loop {
-        tokio::select! {
-            e = events.next() => {
-                let Some(e) = e else { break };
-                let body = match &e {
-                    NetEvent::Lagged(n) => json!({ "wall_ms": wall_ms(), "missed": n }),
-                    e => json!({ "wall_ms": wall_ms(), "failover": e.is_failover(), "event": e.to_string() }),
-                };
-                p.event(format!("{base}/events"), body.to_string().into_bytes());
-                changed = true;
-            }
-            _ = every.tick(), if changed => {
-                changed = false;
-                publish_state(&w, &p, &base).await;
-            }
-        }
-    }
-    let closed = json!({ "network": w.name, "buses": w.buses, "open": false });
-    p.retain(format!("{base}/state"), closed.to_string().into_bytes());
-}
-
-/// Reads the network's state (from its own task, as the HTTP status does) and sets the
-/// retained topics.
-async fn publish_state(w: &Watched, p: &Publisher, base: &str) {
-    let role = w.net.role().await.ok();
-    let ports = w.net.ports().await.unwrap_or_default();
-    let Ok(pairs) = w
-        .net
-        .with(|n, _| {
-            n.pairs()
-                .map(|(_, pr)| {
-                    let (a, b) = (pr.spec.node(Member::A).raw(), pr.spec.node(Member::B).raw());
-                    (a, b, pr.active)
-                })
-                .collect::<Vec<_>>()
-        })
-        .await
-    else {
-        return;
-    };
-    let state = json!({
-        "network": w.name,
-        "buses": w.buses,
-        "open": true,
-        "role": role.map(|r| r.to_string()),
-        "ports": ports.iter().map(|x| json!({ "bus": x.index + 1, "name": x.name, "state": x.state })).collect::<Vec<_>>(),
-        "pairs": pairs.iter().map(|(a, b, m)| json!({ "pair": format!("{a:#04x}/{b:#04x}"), "active": member(*m) })).collect::<Vec<_>>(),
-    });
-    for (a, _, m) in &pairs {
-        p.retain(
-            format!("{base}/pair/{a:#04x}"),
-            member(*m).as_bytes().to_vec(),
-        );
-    }
-    p.retain(format!("{base}/state"), state.to_string().into_bytes());
 }
 
 #[cfg(test)]
