@@ -94,6 +94,9 @@ fn summary(st: &config::Station) -> String {
             peers.join(" ")
         );
     }
+    if let Some(m) = &st.mqtt {
+        out += &format!("  mqtt: {}:{} under {}/\n", m.host, m.port, m.prefix);
+    }
     out
 }
 

@@ -23,7 +23,8 @@
 //!  "pairs": [{"pair": "0x11/0x21", "active": "A"}]}
 //! ```
 //!
-//! (`open` false, with nothing else known, once the network has closed). An event, as the log
+//! (`open` false, with nothing else known, once the network has closed; while `status` is
+//! `offline`, the state is the last one the station gave). An event, as the log
 //! line says it, with the wall-clock time in Unix milliseconds:
 //!
 //! ```json
@@ -36,8 +37,10 @@
 //!
 //! # A broker that goes away never holds the CAN side up
 //!
-//! The networks' tasks hand their messages to a bounded outbox without waiting; one task of
-//! its own sends them to the broker. While the broker is away, the outbox keeps at most
+//! The networks never see the publisher: a watcher per network reads its bounded event stream
+//! (as the log and the HTTP stream do; one that falls behind is told how many it missed, the
+//! network never waits for it) and hands messages to a bounded outbox without waiting; one task
+//! of its own sends them to the broker. While the broker is away, the outbox keeps at most
 //! `mqtt_outbox` events: each one more drops the oldest, counted
 //! (`duocan_mqtt_dropped_total` in `/metrics`, and a warning in the log). Retained state is
 //! not queued but kept, latest per topic: it is sent once the broker is back, whatever was
