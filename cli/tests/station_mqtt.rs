@@ -1,7 +1,8 @@
 //! The station's reports to the plant, against a real MQTT broker (Mosquitto, started by each
 //! test on a free port of its own): a subscriber sees a failover as it happens and the
 //! retained state after it; a broker that dies and comes back holds nothing up, gets the
-//! state again, and the events the outbox could not hold are counted.
+//! state again, and the events the outbox could not hold are counted; a broker that hangs
+//! holds nothing up either.
 //!
 //! Needs `mosquitto` (Debian's package of that name: `.ci/run` installs it); feature `peers`.
 
@@ -362,5 +363,78 @@ async fn away() {
         }
     }
     eprintln!("broker-away test: {:.1} s", started.elapsed().as_secs_f64());
+    let _ = std::fs::remove_dir_all(&d);
+}
+
+/// A broker that hangs (SIGSTOP: its connections stay open, nothing is read) holds nothing up:
+/// the failing plant's board failover happens and is logged, the HTTP status answers, and the
+/// station stops at once on SIGTERM; the broker, going on, says it offline.
+#[test]
+fn a_hung_broker_holds_nothing_up() {
+    let _one = common::one_station();
+    runtime().block_on(hung());
+}
+
+async fn hung() {
+    let d = dir("hung");
+    let mut broker = Broker::new(&d);
+    broker.start();
+    let port = broker.port;
+    let file = d.join("hung.toml");
+    std::fs::write(
+        &file,
+        format!(
+            "[station]\nname = \"hung\"\nhttp = \"127.0.0.1:0\"\nmqtt = \"127.0.0.1:{port}\"\n\n{}",
+            network("faulty", true)
+        ),
+    )
+    .unwrap();
+    let mut sub = Sub::new(port, "watcher", "duocan/hung/#").await;
+    let started = Instant::now();
+    let (mut child, rx) = station(&file);
+    let mut log = vec![];
+    let addr = log_until(&rx, &mut log, 60, "http listening on ")
+        .rsplit(' ')
+        .next()
+        .unwrap()
+        .to_string();
+    log_until(&rx, &mut log, 20, "mqtt: connected to");
+    // Hung before the plant's failures (from 2 s on).
+    broker.signal("STOP");
+    log_until(&rx, &mut log, 30, "pair 0x10/0x50: B active network=faulty");
+    let m = metrics(&addr);
+    assert!(m.contains_key("duocan_mqtt_connected"), "{m:#?}");
+    let pid = child.id().to_string();
+    let asked = Instant::now();
+    assert!(Command::new("kill")
+        .args(["-TERM", &pid])
+        .status()
+        .unwrap()
+        .success());
+    let end = asked + Duration::from_secs(10);
+    let status = loop {
+        if let Some(s) = child.try_wait().unwrap() {
+            break s;
+        }
+        assert!(
+            Instant::now() < end,
+            "the station did not stop in 10 s with its broker hung"
+        );
+        std::thread::sleep(Duration::from_millis(20));
+    };
+    let stop_took = asked.elapsed();
+    assert_eq!(status.code(), Some(0));
+    // Going on, the broker tells its subscribers the station is gone (its own goodbye, or the
+    // last will of a connection it finds broken).
+    broker.signal("CONT");
+    sub.until(20, "offline, once the broker goes on", |g| {
+        g.topic == "duocan/hung/status" && g.text == "offline"
+    })
+    .await;
+    eprintln!(
+        "hung-broker test: {:.1} s (stopped in {:.1} s)",
+        started.elapsed().as_secs_f64(),
+        stop_took.as_secs_f64()
+    );
     let _ = std::fs::remove_dir_all(&d);
 }

@@ -66,6 +66,21 @@ impl Broker {
         }
     }
 
+    /// Sends it `sig` (`STOP`: it hangs, its connections open; `CONT`: it goes on).
+    pub fn signal(&self, sig: &str) {
+        let pid = self
+            .child
+            .as_ref()
+            .expect("a running broker")
+            .id()
+            .to_string();
+        let sent = Command::new("kill")
+            .args([&format!("-{sig}"), &pid])
+            .status()
+            .expect("kill");
+        assert!(sent.success(), "kill -{sig} {pid}");
+    }
+
     /// Kills it (SIGKILL: no goodbye to its clients).
     pub fn kill(&mut self) {
         if let Some(mut c) = self.child.take() {
