@@ -70,7 +70,8 @@ async fn failover() {
     std::fs::write(
         &file,
         format!(
-            "[station]\nname = \"plant\"\nmqtt = \"127.0.0.1:{port}\"\nmqtt_prefix = \"t/ixl\"\n\n{}",
+            "[station]\nname = \"plant\"\nmqtt = \"127.0.0.1:{port}\"\n\
+             mqtt_prefix = \"t/ixl\"\n\n{}",
             network("east rack/1", true)
         ),
     )

@@ -91,13 +91,36 @@ static STATS: OnceLock<Arc<Stats>> = OnceLock::new();
 /// The MQTT lines of `/metrics` (none when the station has no broker).
 pub fn metrics(out: &mut String) {
     let Some(s) = STATS.get() else { return };
-    let lines: [(&str, &str, &str, u64); 4] = [
-        ("duocan_mqtt_connected", "gauge", "Whether the MQTT broker is connected", u64::from(s.connected.load(Ordering::Relaxed))),
-        ("duocan_mqtt_dropped_total", "counter", "MQTT messages dropped: the outbox full while the broker was away, or unacknowledged when a connection broke", s.dropped.load(Ordering::Relaxed)),
-        ("duocan_mqtt_sent_total", "counter", "MQTT messages handed to the broker's connection", s.sent.load(Ordering::Relaxed)),
-        ("duocan_mqtt_connections_total", "counter", "Connections made to the MQTT broker", s.connections.load(Ordering::Relaxed)),
+    let n = |a: &AtomicU64| a.load(Ordering::Relaxed);
+    let connected = u64::from(s.connected.load(Ordering::Relaxed));
+    let lines = [
+        (
+            "connected",
+            "gauge",
+            "Whether the MQTT broker is connected",
+            connected,
+        ),
+        (
+            "dropped_total",
+            "counter",
+            "MQTT messages dropped: outbox full, or unacknowledged on a broken connection",
+            n(&s.dropped),
+        ),
+        (
+            "sent_total",
+            "counter",
+            "MQTT messages handed to the broker's connection",
+            n(&s.sent),
+        ),
+        (
+            "connections_total",
+            "counter",
+            "Connections made to the MQTT broker",
+            n(&s.connections),
+        ),
     ];
     for (name, kind, help, v) in lines {
+        let name = format!("duocan_mqtt_{name}");
         let _ = writeln!(
             out,
             "# HELP {name} {help}.\n# TYPE {name} {kind}\n{name} {v}"

@@ -40,7 +40,11 @@ pub(super) async fn watch(w: Arc<Watched>, p: Publisher) {
                 let Some(e) = e else { break };
                 let body = match &e {
                     NetEvent::Lagged(n) => json!({ "wall_ms": wall_ms(), "missed": n }),
-                    e => json!({ "wall_ms": wall_ms(), "failover": e.is_failover(), "event": e.to_string() }),
+                    e => json!({
+                        "wall_ms": wall_ms(),
+                        "failover": e.is_failover(),
+                        "event": e.to_string(),
+                    }),
                 };
                 p.event(format!("{base}/events"), body.to_string().into_bytes());
                 changed = true;
@@ -74,13 +78,21 @@ async fn publish_state(w: &Watched, p: &Publisher, base: &str) {
     else {
         return;
     };
+    let ports: Vec<_> = ports
+        .iter()
+        .map(|x| json!({ "bus": x.index + 1, "name": x.name, "state": x.state }))
+        .collect();
+    let boards: Vec<_> = pairs
+        .iter()
+        .map(|(a, b, m)| json!({ "pair": format!("{a:#04x}/{b:#04x}"), "active": member(*m) }))
+        .collect();
     let state = json!({
         "network": w.name,
         "buses": w.buses,
         "open": true,
         "role": role.map(|r| r.to_string()),
-        "ports": ports.iter().map(|x| json!({ "bus": x.index + 1, "name": x.name, "state": x.state })).collect::<Vec<_>>(),
-        "pairs": pairs.iter().map(|(a, b, m)| json!({ "pair": format!("{a:#04x}/{b:#04x}"), "active": member(*m) })).collect::<Vec<_>>(),
+        "ports": ports,
+        "pairs": boards,
     });
     for (a, _, m) in &pairs {
         p.retain(
