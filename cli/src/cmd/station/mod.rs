@@ -18,6 +18,7 @@
 
 pub mod audit;
 pub mod config;
+pub mod dashboard;
 pub mod http;
 
 use crate::args::parse_timeout_ms;
@@ -188,11 +189,13 @@ async fn serve(g: &Global, st: &config::Station, duration_ms: Option<u64>) -> Re
             net: net.clone(),
             events: AtomicU64::new(0),
             failovers: AtomicU64::new(0),
+            recent: dashboard::Recent::default(),
         });
         watched.push(w.clone());
         logs.spawn(async move {
             while let Some(e) = events.next().await {
                 w.events.fetch_add(1, Ordering::Relaxed);
+                w.recent.push(e.to_string(), e.is_failover());
                 if e.is_failover() {
                     w.failovers.fetch_add(1, Ordering::Relaxed);
                     tracing::warn!(target: "duocan::station", network = %name, "{e}");

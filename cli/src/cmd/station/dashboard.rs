@@ -1,0 +1,135 @@
+//! The station's web dashboard: `GET /`, one page (HTML with its CSS and script inline, built
+//! into the binary: no file to install, nothing fetched from elsewhere).
+//!
+//! Per network it shows bus 1 and bus 2 (state, frames, error frames), this master's role,
+//! each A/B pair with the board that runs in it, the node table (NMT state, missing, heard on
+//! which bus, boot error status), the network's recent events as a timeline (an SVG strip of
+//! the last minute, failovers in red, and their list with times), and the live events of every
+//! network as they come. It reads `GET /api/networks` every 500 ms and the event stream
+//! `GET /api/events` (reconnecting after a second when it ends); a network whose plant has
+//! closed keeps its last state, marked closed.
+//!
+//! Every element a test or a script may look for carries a stable attribute:
+//! `data-network="NAME"` (with `data-role`, `data-open`), `data-bus="1"` (with `data-state`),
+//! `data-pair="0x11"` (the A member's node-ID, with `data-running="A"`, `"B"` or `"none"`),
+//! `data-node="0x11"` (with `data-state`, `data-heard="12"`: the buses it was heard on),
+//! `data-event` items in `#events` (live) and in each network's timeline (`data-failover`).
+//!
+//! **Security.** The page is a route like the others: with a token configured, a request
+//! without it gets 401. The 401 answer to `/` is a small page that reads the token from the
+//! address's fragment (`http://HOST:PORT/#token=TOKEN`: a fragment never leaves the browser)
+//! and asks for the dashboard again with `Authorization: Bearer TOKEN`, which the dashboard
+//! then sends with each of its own requests; it shows nothing of the station. The page can
+//! only read: it has no control. Both answers forbid framing and other origins
+//! (Content-Security-Policy) and are not cached.
+
+use axum::http::{header, StatusCode};
+use axum::response::{IntoResponse, Response};
+use duocan_redundancy::net::RedundantNetwork;
+use duocan_redundancy::{Member, SupervisedLink};
+use serde_json::{json, Value};
+use std::collections::VecDeque;
+use std::sync::Mutex;
+
+/// The page.
+const PAGE: &str = include_str!("dashboard.html");
+
+/// The 401 answer to `/` when a token is needed: fetches the page with the token of the
+/// address's fragment and shows it.
+const LOADER: &str = r#"<!doctype html><meta charset="utf-8"><title>duocan station</title>
+<p id="why">This station needs a token: open it as <code>/#token=TOKEN</code>.</p>
+<script>
+const t = new URLSearchParams(location.hash.slice(1)).get("token");
+if (t) fetch("/", { headers: { Authorization: "Bearer " + t }, cache: "no-store" })
+  .then(r => r.ok ? r.text() : Promise.reject(r.status))
+  .then(html => { document.open(); document.write(html); document.close(); })
+  .catch(() => { document.getElementById("why").textContent = "The token was refused."; });
+</script>"#;
+
+/// Inline script and style only; data from this station only; never inside a frame.
+const CSP: &str = "default-src 'none'; script-src 'unsafe-inline'; style-src 'unsafe-inline'; \
+                   connect-src 'self'; img-src 'self' data:; frame-ancestors 'none'";
+
+/// The dashboard, or with `allowed` false the 401 loader.
+pub fn page(allowed: bool) -> Response {
+    let (code, body) = if allowed {
+        (StatusCode::OK, PAGE)
+    } else {
+        (StatusCode::UNAUTHORIZED, LOADER)
+    };
+    (
+        code,
+        [
+            (header::CONTENT_TYPE, "text/html; charset=utf-8"),
+            (header::CONTENT_SECURITY_POLICY, CSP),
+            (header::CACHE_CONTROL, "no-store"),
+            (header::REFERRER_POLICY, "no-referrer"),
+            (header::X_CONTENT_TYPE_OPTIONS, "nosniff"),
+        ],
+        body,
+    )
+        .into_response()
+}
+
+/// Events kept per network for the timeline.
+pub const RECENT: usize = 64;
+
+/// A network's last [`RECENT`] events with their wall-clock times, for a page opened after
+/// them.
+#[derive(Default)]
+pub struct Recent(Mutex<VecDeque<(u64, String, bool)>>);
+
+impl Recent {
+    /// Keeps `line` (a failover if `failover`), dropping the oldest beyond [`RECENT`].
+    pub fn push(&self, line: String, failover: bool) {
+        let at = std::time::SystemTime::now()
+            .duration_since(std::time::UNIX_EPOCH)
+            .map_or(0, |d| u64::try_from(d.as_millis()).unwrap_or(u64::MAX));
+        let mut q = self.0.lock().unwrap_or_else(|e| e.into_inner());
+        if q.len() == RECENT {
+            q.pop_front();
+        }
+        q.push_back((at, line, failover));
+    }
+
+    /// Oldest first: `{"at_ms", "line", "failover"}` each.
+    pub fn json(&self) -> Vec<Value> {
+        let q = self.0.lock().unwrap_or_else(|e| e.into_inner());
+        q.iter()
+            .map(|(at, line, f)| json!({ "at_ms": at, "line": line, "failover": f }))
+            .collect()
+    }
+}
+
+/// The node table: every slave of the master, pair members included, with its NMT state,
+/// whether it is missing, the buses it was heard on lately, its boot error status.
+pub async fn nodes(net: &RedundantNetwork) -> Vec<Value> {
+    net.with(|n, _| {
+        let bus = n.station().link.dual_bus();
+        n.slaves()
+            .map(|v| {
+                let heard = bus.reach().heard(v.node);
+                let pair = n.pairs().find_map(|(_, p)| {
+                    [Member::A, Member::B]
+                        .into_iter()
+                        .find(|&m| p.spec.node(m) == v.node)
+                        .map(|m| (p.spec.node(Member::A).raw(), m, p.active == Some(m)))
+                });
+                json!({
+                    "node": format!("{:#04x}", v.node.raw()),
+                    "state": v.state.map_or("unknown".to_string(), |s| s.to_string()),
+                    "missing": v.missing,
+                    "heard": heard.map(|h| h.to_vec()),
+                    "error": v.last_error.map(|e| e.to_string()),
+                    "pair": pair.map(|(a, m, running)| json!({
+                        "a": format!("{a:#04x}"),
+                        "member": if m == Member::A { "A" } else { "B" },
+                        "running": running,
+                    })),
+                })
+            })
+            .collect()
+    })
+    .await
+    .unwrap_or_default()
+}
