@@ -133,3 +133,32 @@ pub async fn nodes(net: &RedundantNetwork) -> Vec<Value> {
     .await
     .unwrap_or_default()
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_recent_events_are_bounded_and_keep_the_newest() {
+        let r = Recent::default();
+        for i in 0..RECENT + 6 {
+            r.push(format!("event {i}"), i % 2 == 0);
+        }
+        let j = r.json();
+        assert_eq!(j.len(), RECENT);
+        assert_eq!(j[0]["line"], "event 6");
+        assert_eq!(j[0]["failover"], true);
+        assert_eq!(j[RECENT - 1]["line"], format!("event {}", RECENT + 5));
+        assert!(j[0]["at_ms"].as_u64() > Some(0));
+    }
+
+    #[test]
+    fn without_the_token_the_page_is_a_401_that_shows_nothing_of_the_station() {
+        assert_eq!(page(false).status(), StatusCode::UNAUTHORIZED);
+        assert_eq!(page(true).status(), StatusCode::OK);
+        assert!(!LOADER.contains("/api/"));
+        // Self-contained: nothing is loaded from elsewhere.
+        assert!(!PAGE.contains("http://") && !PAGE.contains("https://"));
+        assert!(!PAGE.contains(" src="));
+    }
+}

@@ -13,8 +13,9 @@
 //! the library's warnings; without timestamps under systemd,
 //! whose journal stamps each line itself), and on SIGINT or SIGTERM sends each network's
 //! `on_stop` NMT command, closes the networks and exits 0. With an `audit_dir`, each network's
-//! audit records are appended to a file of their own as they happen, durably ([`audit`]). The
-//! file format: [`config`].
+//! audit records are appended to a file of their own as they happen, durably ([`audit`]). With
+//! an `http` address, it serves its status, metrics, events and a dashboard for a browser
+//! ([`http`], [`dashboard`]). The file format: [`config`].
 
 pub mod audit;
 pub mod config;
