@@ -3,7 +3,7 @@
 //!
 //! Per network it shows bus 1 and bus 2 (state, frames, error frames), this master's role,
 //! each A/B pair with the board that runs in it, the node table (NMT state, missing, heard on
-//! which bus, boot error status), the network's recent events as a timeline (an SVG strip of
+//! which bus, boot error status, last emergency unless reset since), the network's recent events as a timeline (an SVG strip of
 //! the last minute, failovers in red, and their list with times), and the live events of every
 //! network as they come. It reads `GET /api/networks` every 500 ms and the event stream
 //! `GET /api/events` (reconnecting after a second when it ends); a network whose plant has
@@ -25,10 +25,11 @@
 
 use axum::http::{header, StatusCode};
 use axum::response::{IntoResponse, Response};
+use duocan::net::NetEvent;
 use duocan_redundancy::net::RedundantNetwork;
 use duocan_redundancy::{Member, SupervisedLink};
 use serde_json::{json, Value};
-use std::collections::VecDeque;
+use std::collections::{BTreeMap, VecDeque};
 use std::sync::Mutex;
 
 /// The page.
@@ -74,82 +75,130 @@ pub fn page(allowed: bool) -> Response {
 /// Events kept per network for the timeline.
 pub const RECENT: usize = 64;
 
-/// A network's last [`RECENT`] events with their wall-clock times, for a page opened after
-/// them.
+/// What a network's event stream told that its status does not keep: its last [`RECENT`]
+/// events with their wall-clock times (for a page opened after them), and each node's last
+/// emergency.
 #[derive(Default)]
-pub struct Recent(Mutex<VecDeque<(u64, String, bool)>>);
+pub struct Recent(Mutex<Seen>);
+
+#[derive(Default)]
+struct Seen {
+    events: VecDeque<(u64, String, bool)>,
+    /// Node-ID to its last EMCY, as text; an error reset (code 0) removes it.
+    emcy: BTreeMap<u8, String>,
+}
 
 impl Recent {
-    /// Keeps `line` (a failover if `failover`), dropping the oldest beyond [`RECENT`].
-    pub fn push(&self, line: String, failover: bool) {
+    /// Keeps `e`, dropping the oldest event beyond [`RECENT`].
+    pub fn push(&self, e: &NetEvent) {
         let at = std::time::SystemTime::now()
             .duration_since(std::time::UNIX_EPOCH)
             .map_or(0, |d| u64::try_from(d.as_millis()).unwrap_or(u64::MAX));
-        let mut q = self.0.lock().unwrap_or_else(|e| e.into_inner());
-        if q.len() == RECENT {
-            q.pop_front();
+        let mut s = self.0.lock().unwrap_or_else(|e| e.into_inner());
+        if s.events.len() == RECENT {
+            s.events.pop_front();
         }
-        q.push_back((at, line, failover));
+        s.events.push_back((at, e.to_string(), e.is_failover()));
+        if let Some((node, msg)) = e.emcy() {
+            if msg.code == 0 {
+                s.emcy.remove(&node.raw());
+            } else {
+                s.emcy
+                    .insert(node.raw(), format!("{:#06x} {}", msg.code, msg.text()));
+            }
+        }
     }
 
-    /// Oldest first: `{"at_ms", "line", "failover"}` each.
+    /// The events, oldest first: `{"at_ms", "line", "failover"}` each.
     pub fn json(&self) -> Vec<Value> {
-        let q = self.0.lock().unwrap_or_else(|e| e.into_inner());
-        q.iter()
+        let s = self.0.lock().unwrap_or_else(|e| e.into_inner());
+        s.events
+            .iter()
             .map(|(at, line, f)| json!({ "at_ms": at, "line": line, "failover": f }))
             .collect()
+    }
+
+    /// Node `id`'s last emergency, unless reset since.
+    fn emcy(&self, id: u8) -> Option<String> {
+        let s = self.0.lock().unwrap_or_else(|e| e.into_inner());
+        s.emcy.get(&id).cloned()
     }
 }
 
 /// The node table: every slave of the master, pair members included, with its NMT state,
-/// whether it is missing, the buses it was heard on lately, its boot error status.
-pub async fn nodes(net: &RedundantNetwork) -> Vec<Value> {
-    net.with(|n, _| {
-        let bus = n.station().link.dual_bus();
-        n.slaves()
-            .map(|v| {
-                let heard = bus.reach().heard(v.node);
-                let pair = n.pairs().find_map(|(_, p)| {
-                    [Member::A, Member::B]
-                        .into_iter()
-                        .find(|&m| p.spec.node(m) == v.node)
-                        .map(|m| (p.spec.node(Member::A).raw(), m, p.active == Some(m)))
-                });
-                json!({
-                    "node": format!("{:#04x}", v.node.raw()),
-                    "state": v.state.map_or("unknown".to_string(), |s| s.to_string()),
-                    "missing": v.missing,
-                    "heard": heard.map(|h| h.to_vec()),
-                    "error": v.last_error.map(|e| e.to_string()),
-                    "pair": pair.map(|(a, m, running)| json!({
-                        "a": format!("{a:#04x}"),
-                        "member": if m == Member::A { "A" } else { "B" },
-                        "running": running,
-                    })),
+/// whether it is missing, the buses it was heard on lately, its boot error status, its last
+/// emergency (from `recent`).
+pub async fn nodes(net: &RedundantNetwork, recent: &Recent) -> Vec<Value> {
+    let mut table: Vec<Value> = net
+        .with(|n, _| {
+            let bus = n.station().link.dual_bus();
+            n.slaves()
+                .map(|v| {
+                    let heard = bus.reach().heard(v.node);
+                    let pair = n.pairs().find_map(|(_, p)| {
+                        [Member::A, Member::B]
+                            .into_iter()
+                            .find(|&m| p.spec.node(m) == v.node)
+                            .map(|m| (p.spec.node(Member::A).raw(), m, p.active == Some(m)))
+                    });
+                    json!({
+                        "node": format!("{:#04x}", v.node.raw()),
+                        "state": v.state.map_or("unknown".to_string(), |s| s.to_string()),
+                        "missing": v.missing,
+                        "heard": heard.map(|h| h.to_vec()),
+                        "error": v.last_error.map(|e| e.to_string()),
+                        "pair": pair.map(|(a, m, running)| json!({
+                            "a": format!("{a:#04x}"),
+                            "member": if m == Member::A { "A" } else { "B" },
+                            "running": running,
+                        })),
+                    })
                 })
-            })
-            .collect()
-    })
-    .await
-    .unwrap_or_default()
+                .collect()
+        })
+        .await
+        .unwrap_or_default();
+    for row in &mut table {
+        let id = row["node"]
+            .as_str()
+            .and_then(|x| u8::from_str_radix(x.trim_start_matches("0x"), 16).ok());
+        row["emcy"] = json!(id.and_then(|id| recent.emcy(id)));
+    }
+    table
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
 
+    fn emcy(id: u8, code: u16) -> NetEvent {
+        NetEvent::Emcy {
+            node: duocan::NodeId::new(id).unwrap(),
+            msg: duocan::cia301::emcy::EmcyMessage {
+                code,
+                register: 1,
+                data: [0; 5],
+            },
+            at: duocan::Instant::ZERO,
+        }
+    }
+
     #[test]
     fn the_recent_events_are_bounded_and_keep_the_newest() {
         let r = Recent::default();
         for i in 0..RECENT + 6 {
-            r.push(format!("event {i}"), i % 2 == 0);
+            r.push(&emcy(5, 0x1000 + i as u16));
         }
         let j = r.json();
         assert_eq!(j.len(), RECENT);
-        assert_eq!(j[0]["line"], "event 6");
-        assert_eq!(j[0]["failover"], true);
-        assert_eq!(j[RECENT - 1]["line"], format!("event {}", RECENT + 5));
+        assert_eq!(j[0]["line"], "node 0x05: EMCY 0x1006 generic error");
+        assert_eq!(j[0]["failover"], false);
         assert!(j[0]["at_ms"].as_u64() > Some(0));
+        let last = 0x1000 + RECENT as u16 + 5;
+        assert_eq!(r.emcy(5), Some(format!("{last:#06x} generic error")));
+        // An error reset clears the node's emergency.
+        r.push(&emcy(5, 0));
+        assert_eq!(r.emcy(5), None);
     }
 
     #[test]

@@ -5,7 +5,7 @@
 //!   ([`dashboard`](super::dashboard)).
 //! - `GET /api/networks`: every network as JSON — its buses, whether it is open, this master's
 //!   role, each port's state and counters, each pair's running board, the node table (state,
-//!   heard on which bus) and its last events with their times.
+//!   heard on which bus, last EMCY) and its last events with their times.
 //! - `GET /metrics`: the same as Prometheus metrics (text format 0.0.4): frames, error frames,
 //!   dropped frames and re-opens per port, port up, master active, running board per pair,
 //!   events and failovers per network.
@@ -174,7 +174,7 @@ async fn networks_json(State(s): State<Arc<Shared>>, headers: HeaderMap) -> Resp
                 "reopened": p.counters.reopened,
             })).collect::<Vec<_>>(),
             "pairs": v.pairs.iter().map(|(p, m)| json!({ "pair": p, "active": member(*m) })).collect::<Vec<_>>(),
-            "nodes": dashboard::nodes(&w.net).await,
+            "nodes": dashboard::nodes(&w.net, &w.recent).await,
             "events": w.events.load(Ordering::Relaxed),
             "failovers": w.failovers.load(Ordering::Relaxed),
             "recent": w.recent.json(),

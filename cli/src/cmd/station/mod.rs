@@ -196,7 +196,7 @@ async fn serve(g: &Global, st: &config::Station, duration_ms: Option<u64>) -> Re
         logs.spawn(async move {
             while let Some(e) = events.next().await {
                 w.events.fetch_add(1, Ordering::Relaxed);
-                w.recent.push(e.to_string(), e.is_failover());
+                w.recent.push(&e);
                 if e.is_failover() {
                     w.failovers.fetch_add(1, Ordering::Relaxed);
                     tracing::warn!(target: "duocan::station", network = %name, "{e}");
