@@ -54,7 +54,7 @@ pub struct Watched {
     pub events: AtomicU64,
     /// Failovers so far (bus, master, pair).
     pub failovers: AtomicU64,
-    /// Its last events, for the dashboard's timeline.
+    /// Its last events and each node's last EMCY (the dashboard's timeline and node table).
     pub recent: Recent,
 }
 
