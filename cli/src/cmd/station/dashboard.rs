@@ -5,9 +5,10 @@
 //! each A/B pair with the board that runs in it, the node table (NMT state, missing, heard on
 //! which bus, boot error status, last emergency unless reset since), the network's recent events as a timeline (an SVG strip of
 //! the last minute, failovers in red, and their list with times), and the live events of every
-//! network as they come. It reads `GET /api/networks` every 500 ms and the event stream
-//! `GET /api/events` (reconnecting after a second when it ends); a network whose plant has
-//! closed keeps its last state, marked closed.
+//! network as they come. It reads `GET /api/networks` every 500 ms (an answer late by 5 s is
+//! reported at the top) and the event stream `GET /api/events` (opened again a second after it
+//! ends, or after 40 s without even a keep-alive); a network whose plant has closed keeps its
+//! last state, marked closed.
 //!
 //! Every element a test or a script may look for carries a stable attribute:
 //! `data-network="NAME"` (with `data-role`, `data-open`), `data-bus="1"` (with `data-state`),
