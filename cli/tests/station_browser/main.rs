@@ -3,7 +3,7 @@
 //! watches the page's DOM while the failover happens — the pair's running board turns from A
 //! to B, bus 1 fails, the failover shows in the live events and in the timeline, the quiet
 //! rack's board keeps running — then keeps a screenshot (its path is printed). Without the
-//! token in its address the page shows none of it.
+//! token in its address, or with a wrong one, the page shows none of it.
 //!
 //! Needs Chromium: run by `.ci/run` (`--features peers`), not by `cargo test --workspace`;
 //! without Chromium it fails, saying what to install.
@@ -186,22 +186,30 @@ fn the_dashboard_shows_a_failover_as_it_happens() {
     std::fs::write(&shot, &png).unwrap();
     eprintln!("screenshot: {} ({} bytes)", shot.display(), png.len());
 
-    // The same page without the token: the station's answer shows nothing of it.
-    let bare = b.open(&format!("http://{addr}/"), 800, 600);
-    let end = Instant::now() + Duration::from_secs(20);
-    let text = loop {
-        let text = b.eval(&bare, "document.body ? document.body.innerText : ''");
-        if text.as_str().is_some_and(|t| t.contains("needs a token")) || Instant::now() > end {
-            break text;
-        }
-        std::thread::sleep(Duration::from_millis(100));
-    };
-    assert!(
-        text.as_str().is_some_and(|t| t.contains("needs a token")),
-        "{text}"
-    );
-    let nets = b.eval(&bare, "document.querySelectorAll('[data-network]').length");
-    assert_eq!(nets, 0, "a page without the token shows networks");
+    // The same page without the token, or with a wrong one: it shows nothing of the station.
+    for (url, says) in [
+        (format!("http://{addr}/"), "needs a token"),
+        (
+            format!("http://{addr}/#token=not-{TOKEN}"),
+            "token was refused",
+        ),
+    ] {
+        let bare = b.open(&url, 800, 600);
+        let end = Instant::now() + Duration::from_secs(20);
+        let text = loop {
+            let text = b.eval(&bare, "document.body ? document.body.innerText : ''");
+            if text.as_str().is_some_and(|t| t.contains(says)) || Instant::now() > end {
+                break text;
+            }
+            std::thread::sleep(Duration::from_millis(100));
+        };
+        assert!(
+            text.as_str().is_some_and(|t| t.contains(says)),
+            "{url}: {text}"
+        );
+        let nets = b.eval(&bare, "document.querySelectorAll('[data-network]').length");
+        assert_eq!(nets, 0, "{url} shows networks");
+    }
     drop(station);
     drop(b);
     eprintln!("browser test: {:?}", t0.elapsed());

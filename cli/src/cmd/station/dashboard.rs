@@ -41,11 +41,13 @@ const PAGE: &str = include_str!("dashboard.html");
 const LOADER: &str = r#"<!doctype html><meta charset="utf-8"><title>duocan station</title>
 <p id="why">This station needs a token: open it as <code>/#token=TOKEN</code>.</p>
 <script>
-const t = new URLSearchParams(location.hash.slice(1)).get("token");
-if (t) fetch("/", { headers: { Authorization: "Bearer " + t }, cache: "no-store" })
-  .then(r => r.ok ? r.text() : Promise.reject(r.status))
-  .then(html => { document.open(); document.write(html); document.close(); })
-  .catch(() => { document.getElementById("why").textContent = "The token was refused."; });
+{ // A block: the page written over this one shares its global scope (document.open keeps it).
+  const t = new URLSearchParams(location.hash.slice(1)).get("token");
+  if (t) fetch("/", { headers: { Authorization: "Bearer " + t }, cache: "no-store" })
+    .then(r => r.ok ? r.text() : Promise.reject(r.status))
+    .then(html => { document.open(); document.write(html); document.close(); })
+    .catch(() => { document.getElementById("why").textContent = "The token was refused."; });
+}
 </script>"#;
 
 /// Inline script and style only; data from this station only; never inside a frame.
