@@ -141,8 +141,10 @@ fn the_dashboard_shows_a_failover_as_it_happens() {
         },
     );
     eprintln!(
-        "A running on the page {:?} after the start: {before}",
-        started.elapsed()
+        "A running on the page {:?} after the start: turnout rack {}, signal rack {}",
+        started.elapsed(),
+        before["turnout"],
+        before["signal"]
     );
 
     // The plant cuts bus 1 at 2 s and stops the running boards at 4 s.
@@ -171,8 +173,11 @@ fn the_dashboard_shows_a_failover_as_it_happens() {
         },
     );
     eprintln!(
-        "failover on the page {:?} after the start: {after}",
-        started.elapsed()
+        "failover on the page {:?} after the start: turnout rack {}, signal rack {}, {} live events",
+        started.elapsed(),
+        after["turnout"],
+        after["signal"],
+        after["live"].as_array().map_or(0, Vec::len)
     );
     // The quiet rack's boards kept running. (Its buses are not looked at: on a machine short
     // of CPU a simulated bus may go quiet for longer than its timeout, which the page shows as
