@@ -3,9 +3,10 @@
 //!
 //! Per network it shows bus 1 and bus 2 (state, frames, error frames), this master's role,
 //! each A/B pair with the board that runs in it, the node table (NMT state, missing, heard on
-//! which bus, boot error status, last emergency unless reset since), the network's recent events as a timeline (an SVG strip of
-//! the last minute, failovers in red, and their list with times), and the live events of every
-//! network as they come. It reads `GET /api/networks` every 500 ms (an answer late by 5 s is
+//! which bus, boot error status, last emergency unless reset since), the network's recent
+//! events as a timeline (an SVG strip of the last minute, failovers in red, and their list
+//! with times), and the live events of every network as they come. Every text from the
+//! station is escaped before it is shown. It reads `GET /api/networks` every 500 ms (an answer late by 5 s is
 //! reported at the top) and the event stream `GET /api/events` (opened again a second after it
 //! ends, or after 40 s without even a keep-alive); a network whose plant has closed keeps its
 //! last state, marked closed.
