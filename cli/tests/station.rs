@@ -270,8 +270,16 @@ fn no_acknowledged_audit_record_is_lost_when_the_station_is_killed() {
 
 /// `GET path` on `addr`, with the bearer `token` if any: the status code and the body.
 fn get(addr: &str, path: &str, token: Option<&str>) -> (u16, String) {
+    let (code, _, body) = get_with_head(addr, path, token);
+    (code, body)
+}
+
+/// `GET path` on `addr`, with the bearer `token` if any: the status code, the head (status
+/// line and headers, lower-case as the station sends them) and the body.
+fn get_with_head(addr: &str, path: &str, token: Option<&str>) -> (u16, String, String) {
     use std::io::{Read, Write};
     let mut s = std::net::TcpStream::connect(addr).expect("connect");
+    s.set_read_timeout(Some(Duration::from_secs(30))).unwrap();
     let auth = token.map_or(String::new(), |t| format!("Authorization: Bearer {t}\r\n"));
     write!(
         s,
@@ -285,10 +293,20 @@ fn get(addr: &str, path: &str, token: Option<&str>) -> (u16, String) {
         .nth(1)
         .and_then(|c| c.parse().ok())
         .unwrap_or(0);
-    let body = text
-        .split_once("\r\n\r\n")
-        .map_or("", |(_, b)| b)
-        .to_string();
+    let (head, body) = text.split_once("\r\n\r\n").unwrap_or((&text, ""));
+    (code, head.to_string(), body.to_string())
+}
+
+/// The dashboard at `/` on `addr`: its status code, and whether it came as HTML with the
+/// page's rules (no framing, not cached).
+fn dashboard(addr: &str, token: Option<&str>) -> (u16, String) {
+    let (code, head, body) = get_with_head(addr, "/", token);
+    assert!(
+        head.contains("content-type: text/html; charset=utf-8"),
+        "{head}"
+    );
+    assert!(head.contains("frame-ancestors 'none'"), "{head}");
+    assert!(head.contains("cache-control: no-store"), "{head}");
     (code, body)
 }
 
@@ -342,6 +360,17 @@ fn the_station_serves_its_status_and_metrics_over_http() {
     };
     let (code, body) = get(&addr, "/metrics", None);
     assert_eq!(code, 401, "{body}");
+    // The dashboard too: without the token, a page that only asks for it.
+    let (code, page) = dashboard(&addr, None);
+    assert_eq!(code, 401, "{page}");
+    assert!(page.contains("needs a token"), "{page}");
+    assert!(!page.contains("data-network"), "{page}");
+    let (code, page) = dashboard(&addr, Some(token));
+    assert_eq!(code, 200, "{page}");
+    assert!(
+        page.contains("data-network") && page.contains("/api/events"),
+        "{page}"
+    );
     let (code, _) = get(&addr, "/metrics", Some("test-token-0123456788"));
     assert_eq!(code, 401);
     let (code, metrics) = get(&addr, "/metrics", Some(token));
@@ -376,6 +405,35 @@ fn the_station_serves_its_status_and_metrics_over_http() {
     assert_eq!(v[1]["pairs"][0]["pair"], "0x10/0x50");
     assert_eq!(v[1]["pairs"][0]["active"], "A");
     assert_eq!(v[1]["ports"].as_array().map(Vec::len), Some(2));
+    // What the dashboard shows: the node table (both members of the pair, A running, heard on
+    // a bus) and the recent events with their times.
+    assert_eq!(v[0]["open"], true);
+    let node = |id: &str| {
+        v[0]["nodes"]
+            .as_array()
+            .and_then(|n| n.iter().find(|x| x["node"] == id))
+            .cloned()
+            .unwrap_or_else(|| panic!("no node {id} in {json}"))
+    };
+    let a = node("0x10");
+    // Started as it became the running board: operational now or in a moment.
+    assert!(
+        ["pre-operational", "operational"].contains(&a["state"].as_str().unwrap_or("")),
+        "{a}"
+    );
+    let heard = a["heard"].as_array().expect("heard on which bus");
+    assert_eq!(heard.len(), 2, "{a}");
+    assert!(heard.iter().any(|h| h == true), "{a}");
+    assert_eq!(a["pair"]["member"], "A", "{a}");
+    assert_eq!(a["pair"]["running"], true, "{a}");
+    assert_eq!(node("0x50")["pair"]["running"], false, "{json}");
+    let recent = v[0]["recent"].as_array().expect("recent");
+    assert!(
+        recent
+            .iter()
+            .any(|e| e["line"] == "pair 0x10/0x50: A active" && e["at_ms"].as_u64() > Some(0)),
+        "{json}"
+    );
 }
 
 /// `GET /api/events`: the networks' events as server-sent events, each named after its
@@ -419,6 +477,9 @@ fn the_station_streams_its_events_over_http() {
             }
         }
     };
+    // Without a token in the file, the dashboard is served to anyone on loopback.
+    let (code, page) = dashboard(&addr, None);
+    assert_eq!(code, 200, "{page}");
     let mut s = std::net::TcpStream::connect(&addr).expect("connect");
     s.set_read_timeout(Some(Duration::from_secs(5))).unwrap();
     use std::io::Write;

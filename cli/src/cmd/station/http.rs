@@ -1,8 +1,11 @@
 //! The station's HTTP access: what each network is doing, for people and for a plant's
 //! monitoring.
 //!
-//! - `GET /api/networks`: every network as JSON — its buses, this master's role, each port's
-//!   state and counters, each pair's running board.
+//! - `GET /`: the dashboard, a page for a browser that shows all of the below as it changes
+//!   ([`dashboard`](super::dashboard)).
+//! - `GET /api/networks`: every network as JSON — its buses, whether it is open, this master's
+//!   role, each port's state and counters, each pair's running board, the node table (state,
+//!   heard on which bus, last EMCY) and its last events with their times.
 //! - `GET /metrics`: the same as Prometheus metrics (text format 0.0.4): frames, error frames,
 //!   dropped frames and re-opens per port, port up, master active, running board per pair,
 //!   events and failovers per network; with a broker, the MQTT publisher's (`duocan_mqtt_*`).
@@ -14,10 +17,12 @@
 //!
 //! **Security.** The station listens on loopback unless its file names another address, and
 //! then only with a token (`http_token`): every request must carry `Authorization: Bearer
-//! TOKEN` (compared in constant time) or gets 401. Anything but these two routes is 404; a
+//! TOKEN` (compared in constant time) or gets 401 (the dashboard's 401 is a page that sends the
+//! token of its address's fragment: `/#token=TOKEN`). Anything but these routes is 404; a
 //! method other than GET is 405. Requests have no body to bound; at most [`MAX_CLIENTS`]
 //! requests are served at once (more wait for their turn).
 
+use super::dashboard::{self, Recent};
 use axum::extract::State;
 use axum::http::{header, HeaderMap, StatusCode};
 use axum::response::{IntoResponse, Response};
@@ -49,6 +54,8 @@ pub struct Watched {
     pub events: AtomicU64,
     /// Failovers so far (bus, master, pair).
     pub failovers: AtomicU64,
+    /// Its last events and each node's last EMCY (the dashboard's timeline and node table).
+    pub recent: Recent,
 }
 
 struct Shared {
@@ -67,13 +74,14 @@ pub fn router(networks: Vec<Arc<Watched>>, token: Option<String>) -> Router {
         streams: Arc::new(Semaphore::new(MAX_STREAMS)),
     });
     Router::new()
+        .route("/", get(page))
         .route("/api/networks", get(networks_json))
         .route("/metrics", get(metrics))
         .route("/api/events", get(events))
         .fallback(|| async {
             error(
                 StatusCode::NOT_FOUND,
-                "no such page: /api/networks, /api/events and /metrics are served",
+                "no such page: /, /api/networks, /api/events and /metrics are served",
             )
         })
         .with_state(shared)
@@ -135,6 +143,10 @@ fn member(m: Option<Member>) -> &'static str {
     }
 }
 
+async fn page(State(s): State<Arc<Shared>>, headers: HeaderMap) -> Response {
+    dashboard::page(allowed(&s, &headers))
+}
+
 async fn networks_json(State(s): State<Arc<Shared>>, headers: HeaderMap) -> Response {
     if !allowed(&s, &headers) {
         return error(
@@ -149,6 +161,8 @@ async fn networks_json(State(s): State<Arc<Shared>>, headers: HeaderMap) -> Resp
         out.push(json!({
             "name": w.name,
             "buses": w.buses,
+            // A closed network (a simulated plant's end) answers nothing.
+            "open": v.role.is_some(),
             "role": v.role.map(|r| r.to_string()),
             "ports": v.ports.iter().map(|p| json!({
                 "name": p.name,
@@ -160,8 +174,10 @@ async fn networks_json(State(s): State<Arc<Shared>>, headers: HeaderMap) -> Resp
                 "reopened": p.counters.reopened,
             })).collect::<Vec<_>>(),
             "pairs": v.pairs.iter().map(|(p, m)| json!({ "pair": p, "active": member(*m) })).collect::<Vec<_>>(),
+            "nodes": dashboard::nodes(&w.net, &w.recent).await,
             "events": w.events.load(Ordering::Relaxed),
             "failovers": w.failovers.load(Ordering::Relaxed),
+            "recent": w.recent.json(),
         }));
     }
     axum::Json(out).into_response()

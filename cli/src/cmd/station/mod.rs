@@ -14,11 +14,13 @@
 //! whose journal stamps each line itself), and on SIGINT or SIGTERM sends each network's
 //! `on_stop` NMT command, closes the networks and exits 0. With an `audit_dir`, each network's
 //! audit records are appended to a file of their own as they happen, durably ([`audit`]). With
-//! `mqtt`, the networks' state and events go to the plant's broker ([`mqtt`]). The file format:
-//! [`config`].
+//! an `http` address, it serves its status, metrics, events and a dashboard for a browser
+//! ([`http`], [`dashboard`]). With `mqtt`, the networks' state and events go to the plant's
+//! broker ([`mqtt`]). The file format: [`config`].
 
 pub mod audit;
 pub mod config;
+pub mod dashboard;
 pub mod http;
 pub mod mqtt;
 
@@ -193,11 +195,13 @@ async fn serve(g: &Global, st: &config::Station, duration_ms: Option<u64>) -> Re
             net: net.clone(),
             events: AtomicU64::new(0),
             failovers: AtomicU64::new(0),
+            recent: dashboard::Recent::default(),
         });
         watched.push(w.clone());
         logs.spawn(async move {
             while let Some(e) = events.next().await {
                 w.events.fetch_add(1, Ordering::Relaxed);
+                w.recent.push(&e);
                 if e.is_failover() {
                     w.failovers.fetch_add(1, Ordering::Relaxed);
                     tracing::warn!(target: "duocan::station", network = %name, "{e}");

@@ -1,0 +1,221 @@
+//! The station's dashboard in a real browser: a headless Chromium (Debian's `chromium`) opens
+//! the page of a running station whose turnout rack's simulated plant fails, and the test
+//! watches the page's DOM while the failover happens — the pair's running board turns from A
+//! to B, bus 1 fails, the failover shows in the live events and in the timeline, the quiet
+//! rack's board keeps running — then keeps a screenshot (its path is printed). Without the
+//! token in its address, or with a wrong one, the page shows none of it.
+//!
+//! Needs Chromium: run by `.ci/run` (`--features peers`), not by `cargo test --workspace`;
+//! without Chromium it fails, saying what to install.
+
+mod cdp;
+#[path = "../common/mod.rs"]
+mod common;
+
+use serde_json::Value;
+use std::io::{BufRead, BufReader};
+use std::path::PathBuf;
+use std::process::{Child, Command, Stdio};
+use std::time::{Duration, Instant};
+
+const TOKEN: &str = "browser-test-token-0123456789";
+
+/// The station, killed when dropped.
+struct Station(Child);
+
+impl Drop for Station {
+    fn drop(&mut self) {
+        let _ = self.0.kill();
+        let _ = self.0.wait();
+    }
+}
+
+/// What the page shows of the two racks, read from its DOM by their data attributes.
+const LOOK: &str = r#"(() => {
+  const net = n => document.querySelector(`[data-network="${n}"]`);
+  const look = n => {
+    const e = net(n);
+    if (!e) return null;
+    const at = (s, k) => { const x = e.querySelector(s); return x ? x.getAttribute(k) : null; };
+    return {
+      role: e.dataset.role,
+      bus1: at('[data-bus="1"]', "data-state"),
+      bus2: at('[data-bus="2"]', "data-state"),
+      pair: at('[data-pair="0x11"]', "data-running"),
+      node: at('[data-node="0x11"]', "data-state"),
+      timeline: [...e.querySelectorAll('li[data-event][data-failover="true"]')].map(l => l.textContent),
+    };
+  };
+  return {
+    turnout: look("turnout rack"),
+    signal: look("signal rack"),
+    live: [...document.querySelectorAll('#events li[data-event]')].map(l => `${l.dataset.network}: ${l.querySelector(".l").textContent}`),
+    status: document.getElementById("status")?.textContent ?? null,
+  };
+})()"#;
+
+/// Looks at the page until `done` holds, every 100 ms, for at most `limit`; panics with
+/// what the page showed last if it never does.
+fn until(
+    b: &mut cdp::Browser,
+    page: &str,
+    what: &str,
+    limit: Duration,
+    done: impl Fn(&Value) -> bool,
+) -> Value {
+    let end = Instant::now() + limit;
+    loop {
+        let v = b.eval(page, LOOK);
+        if done(&v) {
+            return v;
+        }
+        assert!(
+            Instant::now() < end,
+            "the page never showed {what} in {limit:?}; it showed:\n{v:#}"
+        );
+        std::thread::sleep(Duration::from_millis(100));
+    }
+}
+
+#[test]
+fn the_dashboard_shows_a_failover_as_it_happens() {
+    let _one = common::one_station();
+    let t0 = Instant::now();
+    let dir = PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join("station-browser");
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    // The browser first, warm before the plant's script starts its clock.
+    let mut b = cdp::Browser::start(&dir);
+    let racks = std::fs::read_to_string(
+        PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("tests/station_files/dashboard.toml"),
+    )
+    .unwrap();
+    let file = dir.join("dashboard.toml");
+    std::fs::write(
+        &file,
+        format!(
+            "[station]\nname = \"browser\"\nhttp = \"127.0.0.1:0\"\nhttp_token = \"{TOKEN}\"\n\n{racks}"
+        ),
+    )
+    .unwrap();
+    let mut child = Command::new(env!("CARGO_BIN_EXE_duocan"))
+        .args(["station", "run", file.to_str().unwrap()])
+        .env_remove("DUOCAN_LOG")
+        .env_remove("JOURNAL_STREAM")
+        .stdout(Stdio::null())
+        .stderr(Stdio::piped())
+        .spawn()
+        .expect("run duocan");
+    let started = Instant::now();
+    let (tx, rx) = std::sync::mpsc::channel();
+    let stderr = child.stderr.take().expect("stderr");
+    let station = Station(child);
+    std::thread::spawn(move || {
+        for line in BufReader::new(stderr).lines().map_while(Result::ok) {
+            if tx.send(line).is_err() {
+                return;
+            }
+        }
+    });
+    let addr = loop {
+        let line = rx
+            .recv_timeout(Duration::from_secs(60))
+            .expect("no http address from the station in 60 s");
+        if let Some(a) = line.split("http listening on ").nth(1) {
+            break a.trim().to_string();
+        }
+    };
+    let page = b.open(&format!("http://{addr}/#token={TOKEN}"), 1280, 900);
+
+    // Before the failover: both racks, this master active, each pair's A board running
+    // (the running boards stop at 4 s: the page, open from the start, must see them before).
+    let before = until(
+        &mut b,
+        &page,
+        "both racks with A running",
+        Duration::from_secs(20),
+        |v| {
+            ["turnout", "signal"].iter().all(|n| {
+                v[n]["role"] == "active" && v[n]["pair"] == "A" && v[n]["node"] == "operational"
+            })
+        },
+    );
+    eprintln!(
+        "A running on the page {:?} after the start: turnout rack {}, signal rack {}",
+        started.elapsed(),
+        before["turnout"],
+        before["signal"]
+    );
+
+    // The plant cuts bus 1 at 2 s and stops the running boards at 4 s.
+    let after = until(
+        &mut b,
+        &page,
+        "the failover",
+        Duration::from_secs(30),
+        |v| {
+            let t = &v["turnout"];
+            let live = |s: &str| {
+                v["live"]
+                    .as_array()
+                    .is_some_and(|l| l.iter().any(|e| e.as_str().is_some_and(|e| e.contains(s))))
+            };
+            let timeline = |s: &str| {
+                t["timeline"]
+                    .as_array()
+                    .is_some_and(|l| l.iter().any(|e| e.as_str().is_some_and(|e| e.contains(s))))
+            };
+            t["pair"] == "B"
+                && t["bus1"] != "ok"
+                && live("turnout rack: bus 1: failed")
+                && live("turnout rack: pair 0x11/0x21: B active")
+                && timeline("pair 0x11/0x21: B active")
+        },
+    );
+    eprintln!(
+        "failover on the page {:?} after the start: turnout rack {}, signal rack {}, {} live events",
+        started.elapsed(),
+        after["turnout"],
+        after["signal"],
+        after["live"].as_array().map_or(0, Vec::len)
+    );
+    // The quiet rack's boards kept running. (Its buses are not looked at: on a machine short
+    // of CPU a simulated bus may go quiet for longer than its timeout, which the page shows as
+    // it should.)
+    assert_eq!(after["signal"]["pair"], "A", "{after:#}");
+    assert_eq!(after["signal"]["role"], "active", "{after:#}");
+
+    let png = b.screenshot(&page);
+    assert!(png.starts_with(b"\x89PNG\r\n\x1a\n"), "not a PNG");
+    let shot = dir.join("dashboard.png");
+    std::fs::write(&shot, &png).unwrap();
+    eprintln!("screenshot: {} ({} bytes)", shot.display(), png.len());
+
+    // The same page without the token, or with a wrong one: it shows nothing of the station.
+    for (url, says) in [
+        (format!("http://{addr}/"), "needs a token"),
+        (
+            format!("http://{addr}/#token=not-{TOKEN}"),
+            "token was refused",
+        ),
+    ] {
+        let bare = b.open(&url, 800, 600);
+        let end = Instant::now() + Duration::from_secs(20);
+        let text = loop {
+            let text = b.eval(&bare, "document.body ? document.body.innerText : ''");
+            if text.as_str().is_some_and(|t| t.contains(says)) || Instant::now() > end {
+                break text;
+            }
+            std::thread::sleep(Duration::from_millis(100));
+        };
+        assert!(
+            text.as_str().is_some_and(|t| t.contains(says)),
+            "{url}: {text}"
+        );
+        let nets = b.eval(&bare, "document.querySelectorAll('[data-network]').length");
+        assert_eq!(nets, 0, "{url} shows networks");
+    }
+    drop(station);
+    drop(b);
+    eprintln!("browser test: {:?}", t0.elapsed());
+}
