@@ -12,6 +12,8 @@ mod flapping;
 mod lag;
 mod lag_properties;
 mod lss;
+#[cfg(feature = "fd")]
+mod merge_fd_properties;
 mod merge_memory;
 mod merge_properties;
 mod plausible_properties;
