@@ -8,6 +8,8 @@ mod clock_properties;
 mod crossed;
 mod cyclic_lag;
 mod ecss;
+#[cfg(feature = "fd")]
+mod fd;
 mod flapping;
 mod lag;
 mod lag_properties;
