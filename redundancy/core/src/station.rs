@@ -8,7 +8,9 @@
 //! supervisor's pairs configured in the layer from the start, the layer's port changes,
 //! channel switches and toggles recorded in the supervisor's audit trail, and
 //! [`SupervisedStation::status`], the snapshot the application prints: ports, master role,
-//! pairs, the other slaves, and the nodes heard on one bus only.
+//! pairs, the other slaves, and the nodes heard on one bus only. With the feature `fd`, a
+//! station whose layer's ports are all FD-capable runs on CAN FD buses and exchanges FD frames
+//! through its layer (see [`fd`]).
 //!
 //! A redundant master whose pair has only board A on the buses, and bus 2 cut:
 //!
@@ -125,6 +127,9 @@ type SupOf<D, L> = Supervisor<D, <L as SupervisedLink>::Classifier>;
 /// ```
 pub struct SupervisedStation<D, L: SupervisedLink = DualBus> {
     station: Station<L, SupOf<D, L>>,
+    /// CAN FD frames the layer delivered, for the application (see [`fd`]).
+    #[cfg(feature = "fd")]
+    fd_rx: duocan_core::frame::queue::Bounded<duocan_core::frame::FdFrame, { fd::FD_RX_QUEUE }>,
 }
 
 /// The common redundant master: a dictionary built at run time, on the predefined connection set
@@ -153,6 +158,8 @@ impl<D: ObjectDictionary, L: SupervisedLink> SupervisedStation<D, L> {
         // call's result straight into the caller's result, but not through two levels.
         SupervisedStation {
             station: station(make_link, make_sup),
+            #[cfg(feature = "fd")]
+            fd_rx: duocan_core::frame::queue::Bounded::new(),
         }
     }
 
@@ -242,6 +249,24 @@ impl<D: ObjectDictionary, L: SupervisedLink> Device for SupervisedStation<D, L> 
     fn poll_timeout(&self) -> Option<Instant> {
         self.station.poll_timeout()
     }
+    #[cfg(feature = "fd")]
+    fn fd_capable(&self) -> bool {
+        self.station.link.dual_bus().fd_capable()
+    }
+    #[cfg(feature = "fd")]
+    fn handle_rx_fd(
+        &mut self,
+        now: Instant,
+        port: usize,
+        frame: &duocan_core::frame::FdFrame,
+        at: Instant,
+    ) {
+        self.rx_fd(now, port, frame, at);
+    }
+    #[cfg(feature = "fd")]
+    fn poll_transmit_fd(&mut self) -> Option<(usize, duocan_core::frame::FdFrame)> {
+        self.station.link.dual_bus_mut().poll_transmit_fd()
+    }
     fn poll_event(&mut self) -> Option<Self::Event> {
         let e = self.station.poll_event()?;
         // The audit trail records the layer's switches, toggles and port changes as the
@@ -252,6 +277,9 @@ impl<D: ObjectDictionary, L: SupervisedLink> Device for SupervisedStation<D, L> 
         Some(e)
     }
 }
+
+#[cfg(feature = "fd")]
+pub mod fd;
 
 /// A snapshot of a supervised station; `Display` prints it as a table.
 pub struct Status<'a, D, L: SupervisedLink = DualBus> {

@@ -8,10 +8,14 @@ mod clock_properties;
 mod crossed;
 mod cyclic_lag;
 mod ecss;
+#[cfg(feature = "fd")]
+mod fd;
 mod flapping;
 mod lag;
 mod lag_properties;
 mod lss;
+#[cfg(feature = "fd")]
+mod merge_fd_properties;
 mod merge_memory;
 mod merge_properties;
 mod plausible_properties;

@@ -14,7 +14,8 @@ use std::collections::HashMap;
 pub(crate) const W: u64 = 10_000; // µs
 const MAX_DELAY: u64 = W - 1;
 
-// The schedules are shared with the sticky merge's properties (`sticky_properties.rs`).
+// The schedules are shared with the sticky merge's properties (`sticky_properties.rs`) and the
+// mixed classic and CAN FD streams (`merge_fd_properties.rs`).
 
 #[derive(Clone, Debug)]
 pub(crate) struct Sent {
@@ -143,7 +144,10 @@ fn counts<'a>(frames: impl Iterator<Item = &'a Frame>) -> HashMap<Frame, usize> 
 }
 
 /// Each sender's frames in the order the application got them, and as sent.
-fn per_sender(s: &Schedule, delivered: &[(u64, usize)]) -> (Vec<Vec<Frame>>, Vec<Vec<Frame>>) {
+pub(crate) fn per_sender(
+    s: &Schedule,
+    delivered: &[(u64, usize)],
+) -> (Vec<Vec<Frame>>, Vec<Vec<Frame>>) {
     let n = s.sent.iter().map(|x| x.sender + 1).max().unwrap_or(0);
     let mut got = vec![vec![]; n];
     let mut want = vec![vec![]; n];
@@ -163,7 +167,7 @@ fn per_sender(s: &Schedule, delivered: &[(u64, usize)]) -> (Vec<Vec<Frame>>, Vec
 /// record has expired there. Otherwise no merger that delivers without waiting can tell what it
 /// sees (a frame after a gap, or a twin) and the sender's order cannot be guaranteed; the count
 /// still is.
-fn order_is_observable(s: &Schedule, lossy: usize) -> bool {
+pub(crate) fn order_is_observable(s: &Schedule, lossy: usize) -> bool {
     let c = 1 - lossy;
     for (i, x) in s.sent.iter().enumerate() {
         if s.arrivals[i][lossy].is_some() {
@@ -185,7 +189,7 @@ fn order_is_observable(s: &Schedule, lossy: usize) -> bool {
     true
 }
 
-fn check_exactly_once(
+pub(crate) fn check_exactly_once(
     s: &Schedule,
     delivered: &[(u64, usize)],
     m: &Merger<1024>,

@@ -140,6 +140,16 @@ pub trait MergerStorage: sealed::SealedStorage + core::fmt::Debug {
         trust: Trust,
     ) -> (Verdict, Option<Sample>);
     #[doc(hidden)]
+    #[cfg(feature = "fd")]
+    fn arrive_fd_at(
+        &mut self,
+        now: Instant,
+        at: Instant,
+        port: usize,
+        frame: &duocan_core::frame::FdFrame,
+        trust: Trust,
+    ) -> (Verdict, Option<Sample>);
+    #[doc(hidden)]
     fn shift(&mut self, p: usize, by: i64);
     #[doc(hidden)]
     fn expire(&mut self, now: Instant);
@@ -170,6 +180,18 @@ impl<const SLOTS: usize> MergerStorage for Merger<SLOTS> {
         trust: Trust,
     ) -> (Verdict, Option<Sample>) {
         Merger::arrive_at(self, now, at, port, frame, trust)
+    }
+    #[inline]
+    #[cfg(feature = "fd")]
+    fn arrive_fd_at(
+        &mut self,
+        now: Instant,
+        at: Instant,
+        port: usize,
+        frame: &duocan_core::frame::FdFrame,
+        trust: Trust,
+    ) -> (Verdict, Option<Sample>) {
+        Merger::arrive_fd_at(self, now, at, port, frame, trust)
     }
     #[inline]
     fn shift(&mut self, p: usize, by: i64) {

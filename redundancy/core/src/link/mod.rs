@@ -16,6 +16,7 @@
 //! | Which frames carry which node's process data | [`classify`] |
 //! | Configuration ([`DualBusConfig`](config::DualBusConfig)), from code or from the dictionary (0x1F60, 0x2000) | [`config`] |
 //! | What the layer reports, and the bounded queues it reports through | [`events`], [`outbox`] |
+//! | CAN FD frames through the layer (feature `fd`): merged exactly, sent only where every port is FD-capable | `dual_bus::fd` |
 //!
 //! Nothing here knows the supervisor: the layer is told which board of a pair is active, and
 //! that is all it knows of pairs.

@@ -3,12 +3,18 @@
 
 use crate::link::events::LinkEvent;
 use duocan_core::frame::queue::Bounded;
+#[cfg(feature = "fd")]
+use duocan_core::frame::FdFrame;
 use duocan_core::machine::{LinkRequest, PortRequest};
 use duocan_core::Frame;
 
 /// Frames waiting for the driver. The station drains them after every logical frame, so a few
 /// suffice (one logical frame fans out to two ports, a channel switch adds an indication).
 pub const FRAME_QUEUE: usize = 16;
+/// CAN FD frames waiting for the driver, per port (feature `fd`): a queue of their own, so the
+/// classic queue keeps its 16-byte frames.
+#[cfg(feature = "fd")]
+pub const FD_FRAME_QUEUE: usize = 8;
 /// Events waiting for the application: room for a reachability change of every node-ID at one
 /// instant plus port and channel events.
 pub const EVENT_QUEUE: usize = 160;
@@ -23,6 +29,9 @@ pub struct Outbox {
     /// Per port, so that one port's frames can wait for its re-initialisation; each with the
     /// number of the logical frame it is a copy of.
     pub(crate) frames: [Bounded<(Frame, u32), FRAME_QUEUE>; 2],
+    /// The same for CAN FD frames (numbered from the same sequence as classic ones).
+    #[cfg(feature = "fd")]
+    pub(crate) fd_frames: [Bounded<(FdFrame, u32), FD_FRAME_QUEUE>; 2],
     /// The number of the logical frame being sent (see [`Outbox::next_frame`]).
     seq: u32,
     pub(crate) events: Bounded<LinkEvent, EVENT_QUEUE>,
@@ -100,11 +109,39 @@ impl Outbox {
         }
         None
     }
-    /// Frames dropped because the driver did not drain them.
+    /// Frames dropped because the driver did not drain them (classic and, with `fd`, FD).
     pub fn frames_dropped(&self) -> u32 {
-        self.frames[0]
+        let classic = self.frames[0]
             .dropped()
-            .saturating_add(self.frames[1].dropped())
+            .saturating_add(self.frames[1].dropped());
+        #[cfg(feature = "fd")]
+        let classic = classic
+            .saturating_add(self.fd_frames[0].dropped())
+            .saturating_add(self.fd_frames[1].dropped());
+        classic
+    }
+
+    /// Queues a CAN FD frame for `port` (0 or 1; others are ignored).
+    #[cfg(feature = "fd")]
+    pub fn fd_frame(&mut self, port: usize, f: FdFrame) {
+        if let Some(q) = self.fd_frames.get_mut(port) {
+            q.push((f, self.seq));
+        }
+    }
+
+    /// The next CAN FD frame for a driver, with its logical frame number: as
+    /// [`Outbox::pop_numbered`], a port's frames wait while a request to it is pending.
+    #[cfg(feature = "fd")]
+    pub fn pop_fd_numbered(&mut self) -> Option<(usize, FdFrame, u32)> {
+        for p in 0..2 {
+            if self.requests.iter().any(|(q, _)| *q == p) {
+                continue;
+            }
+            if let Some((f, n)) = self.fd_frames[p].pop() {
+                return Some((p, f, n));
+            }
+        }
+        None
     }
 }
 

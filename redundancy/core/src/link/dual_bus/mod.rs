@@ -6,7 +6,8 @@
 //! by [`LinkMode`] in the [`DualBusConfig`] (from code or from the dictionary, see
 //! [`crate::link::config`]). Time is an input, and a clock that steps back, jumps ahead or
 //! reaches `Instant::MAX` is handled as the [layer's clock contract](crate::link#the-clock-contract)
-//! says.
+//! says. With the feature `fd`, CAN FD frames take the same paths beside the classic ones, on
+//! a layer whose ports are all FD-capable (see [`fd`]).
 //!
 //! ```
 //! use duocan_core::{Station, Node, NodeConfig, NodeId};
@@ -45,6 +46,8 @@ use duocan_core::profile::Predefined;
 use duocan_core::{Duration, Frame, Instant};
 
 pub use crate::link::capacity::DEFAULT_MERGE_SLOTS;
+#[cfg(feature = "fd")]
+pub use fd::FdSendError;
 
 /// A node on a dual bus: the common redundant slave (one board of a pair), or any node that
 /// needs no supervisor.
@@ -131,6 +134,9 @@ pub struct DualBus<C = Predefined, K: MergeCapacity = Capacity> {
     layout: OdLayout,
     /// The status values last written to the node's dictionary.
     shown: Status,
+    /// Per port: FD-capable, as the driver says ([`DualBus::set_port_fd`]).
+    #[cfg(feature = "fd")]
+    fd: [bool; 2],
 }
 
 /// The status entries of `policy`'s mode.
@@ -243,6 +249,8 @@ impl<C: FrameClassifier, K: MergeCapacity> DualBus<C, K> {
             clock: TimeWatch::new(),
             layout: cfg.od_layout,
             shown,
+            #[cfg(feature = "fd")]
+            fd: [false; 2],
         }
     }
 
@@ -537,6 +545,8 @@ impl<C, K: MergeCapacity> core::fmt::Debug for DualBus<C, K> {
 }
 
 mod clock;
+#[cfg(feature = "fd")]
+pub mod fd;
 mod rx;
 #[cfg(test)]
 mod tests;

@@ -23,6 +23,13 @@ pub(super) struct LateSample {
 }
 
 impl LateSample {
+    /// Whether a copy on `port` stamped `s`, not of this sample's frame, settles it: of the
+    /// other port and stamped past where its own twin would be (the sample stands).
+    #[cfg(feature = "fd")]
+    pub(super) fn stands_after(&self, port: usize, s: Instant) -> bool {
+        self.port as usize != port && s.as_micros() >= self.until
+    }
+
     /// The caller's clock stepped back `by`.
     pub(super) fn step_back(&mut self, by: duocan_core::Duration) {
         self.until = self.until.saturating_sub(by.as_micros());
@@ -198,7 +205,7 @@ impl<C: FrameClassifier, K: MergeCapacity> DualBus<C, K> {
     /// Whether the merge may take a first copy from `port`: not while it is failed or
     /// recovering and the other port works (see [`crate::link::merge`]).
     #[inline]
-    fn trust(&self, port: usize) -> Trust {
+    pub(super) fn trust(&self, port: usize) -> Trust {
         if self.health.trusted(port) {
             Trust::Trusted
         } else {
@@ -211,7 +218,13 @@ impl<C: FrameClassifier, K: MergeCapacity> DualBus<C, K> {
     /// they come: the sticky merge stands any lag below its timeout, and measures none.
     #[cfg(feature = "sticky")]
     #[inline]
-    fn stick(&mut self, now: Instant, at: Instant, port: usize, frame: &Frame) -> RxOutcome {
+    pub(super) fn stick(
+        &mut self,
+        now: Instant,
+        at: Instant,
+        port: usize,
+        frame: &Frame,
+    ) -> RxOutcome {
         let key = StreamKey::of(frame, self.classifier.sender(frame));
         let trust = self.trust(port);
         let other_failed =
@@ -233,7 +246,7 @@ impl<C: FrameClassifier, K: MergeCapacity> DualBus<C, K> {
     /// [`crate::link::lag`]). If that port came back since from a state in which frames may
     /// not have reached it, it may have lost the earlier occurrence, and its copy be a later
     /// one of the same content.
-    fn intact_between(&self, port: usize, s: Instant, m: &Sample) -> bool {
+    pub(super) fn intact_between(&self, port: usize, s: Instant, m: &Sample) -> bool {
         let (later, earlier) = if m.skew > 0 {
             (port, s.as_micros().saturating_sub(m.skew as u64))
         } else {

@@ -1,7 +1,7 @@
 //! An arrival judged: the rule of the [module documentation](super) applied to one copy — its
 //! key's records found, its twin matched or a record made, the verdict returned.
 
-use super::table::{hash, key};
+use super::table::{hash, key, MergeFrame};
 use super::{Merger, Sample, Trust, Twin, Verdict};
 use duocan_core::{Frame, Instant};
 
@@ -25,6 +25,19 @@ impl<const SLOTS: usize> Merger<SLOTS> {
         at: Instant,
         port: usize,
         frame: &Frame,
+        trust: Trust,
+    ) -> (Verdict, Option<Sample>) {
+        self.arrive_any(now, at, port, frame, trust)
+    }
+
+    /// [`Merger::arrive_at`] for a frame of either kind (classic, or CAN FD with `fd`).
+    #[inline]
+    pub(super) fn arrive_any<F: MergeFrame>(
+        &mut self,
+        now: Instant,
+        at: Instant,
+        port: usize,
+        frame: &F,
         trust: Trust,
     ) -> (Verdict, Option<Sample>) {
         self.expire(now);
@@ -79,20 +92,20 @@ impl<const SLOTS: usize> Merger<SLOTS> {
     }
 
     #[inline]
-    fn judge(
+    fn judge<F: MergeFrame>(
         &mut self,
         now: u64,
         s: u64,
         port: usize,
-        frame: &Frame,
+        frame: &F,
         trust: Trust,
     ) -> (Verdict, Option<Sample>) {
         let other = 1 - port;
-        let (hi, lo) = key(frame);
-        let hash = hash(hi, lo);
+        let (hi, lo) = frame.key();
+        let hash = frame.hash(hi, lo);
         let shown = self.shown(other, now);
         let fresh = self.recent.observe(hash, s, shown, self.horizon);
-        let found = self.table.find(hi, lo, hash);
+        let found = frame.find(&self.table, hi, lo, hash);
         let (mut sample, mut skipped) = (None, false);
         if let Some(slot) = found {
             match self.twin(slot, port, s, shown) {
@@ -114,7 +127,7 @@ impl<const SLOTS: usize> Merger<SLOTS> {
         // Kept while its twin may come; a fresh copy also when the other port seems past it:
         // stamps corrected for a lag that changed come early, and only a kept copy shows it.
         if fresh || self.frontier[other] < s.saturating_add(self.window) {
-            self.record(found, hi, lo, hash, port, s, now, fresh);
+            self.record(found, frame, hi, lo, hash, port, s, now, fresh);
         }
         (Verdict::Deliver, sample)
     }

@@ -95,13 +95,40 @@
 //! repeats the other bus carried), which make the copy no fresh occurrence, nor the one
 //! unmatched copy of its key.
 //!
+//! # CAN FD frames
+//!
+//! With the feature `fd`, CAN FD frames go through the same merger
+//! ([`Merger::arrive_fd_at`]): the same rule, the same records in the same ring, the same
+//! per-port stamps and frontiers, so a bus's classic and FD frames together show how far it has
+//! handed over, and one twin search serves both. What identifies an FD frame's occurrence:
+//!
+//! - its **identifier and format** (base or extended), its **length** (DLC) and **every data
+//!   byte**, up to 64 (not the first eight only: two FD frames that differ in their last byte,
+//!   a counter say, are two occurrences);
+//! - that it is an **FD frame**: a classic frame and an FD frame with the same identifier and
+//!   bytes are different frames, never each other's twin (a sender that sends both sends two
+//!   frames; a bus does not turn one into the other);
+//! - **not BRS and not ESI.** They are link-level flags: ESI is the error state of the sender's
+//!   controller *on that bus* (error passive on one bus, active on the other is the very fault
+//!   a second bus is for), and BRS how that controller sent the data phase, which a gateway or
+//!   a bus configured without a data bit rate changes. The two copies of one occurrence may
+//!   differ in them, so a merge keyed by them would deliver such an occurrence twice. The copy
+//!   delivered is the first, with its own flags.
+//!
+//! The property tests over mixed classic and FD streams (`tests/link/merge_fd_properties.rs`)
+//! check the statements of *Order* and *Memory* below for them.
+//!
 //! # Memory
 //!
 //! Records live in one ring in arrival order, keys in a fixed arena found through an
 //! open-addressing index; a key's unmatched records are chained oldest first, so a twin is found
 //! without a search of the ring, and a record is consumed, skipped or expired only from the
 //! oldest end of its key's chain: O(1) per arrival, plus one step per record it skips. A
-//! `Merger<SLOTS>` holds at most [`Merger::capacity`] = ¾·SLOTS records (16 bytes each).
+//! `Merger<SLOTS>` holds at most [`Merger::capacity`] = ¾·SLOTS records (16 bytes each). With
+//! the feature `fd`, each key slot has a line for an FD frame's bytes 8 to 63 (56 bytes per
+//! slot, 56 KiB for the default 1,024 slots): an FD frame takes one record and one key like a
+//! classic frame, so a ring of FD frames holds as many as one of classic frames, and the
+//! classic path never reads the lines (a slot's line is only written when an FD key takes it).
 //! Records leave the ring from its front once matched, once the other port has passed them, or
 //! the horizon after they were handed over (later behind a reader running behind, see above):
 //! with one bus dead, the occupancy is the live bus's rate × horizon, ~320 records at 4,000
@@ -147,6 +174,8 @@
 use duocan_core::{Duration, Instant};
 
 mod arrive;
+#[cfg(feature = "fd")]
+mod fd;
 mod recent;
 mod ring;
 mod table;

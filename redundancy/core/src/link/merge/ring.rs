@@ -3,6 +3,7 @@
 //! (see `recent`) if its twin could still come. Each key's unmatched records are chained
 //! through the ring from its slot in the table.
 
+use super::table::MergeFrame;
 use super::{Merger, Record};
 
 impl<const SLOTS: usize> Merger<SLOTS> {
@@ -17,9 +18,10 @@ impl<const SLOTS: usize> Merger<SLOTS> {
     }
 
     #[allow(clippy::too_many_arguments)]
-    pub(super) fn record(
+    pub(super) fn record<F: MergeFrame>(
         &mut self,
         found: Option<usize>,
+        frame: &F,
         hi: u64,
         lo: u64,
         hash: u32,
@@ -33,10 +35,10 @@ impl<const SLOTS: usize> Merger<SLOTS> {
         }
         // Evicting may have freed the key's slot: look again if it had one.
         let s = match found {
-            Some(_) => self.table.find(hi, lo, hash),
+            Some(_) => frame.find(&self.table, hi, lo, hash),
             None => None,
         }
-        .unwrap_or_else(|| self.table.insert(hi, lo, hash));
+        .unwrap_or_else(|| frame.insert(&mut self.table, hi, lo, hash));
         let tail = (self.head + self.len) & Self::MASK;
         let slot = &mut self.table.slots[s];
         if slot.unmatched > 0 && slot.side as usize != port {
