@@ -356,8 +356,11 @@ fn a_standby_started_by_someone_else_goes_back_at_its_first_operational_heartbea
     s.switch_over(ms(90), p, Member::B).unwrap();
     assert_eq!(
         nmts(&mut s),
-        [(NmtCommand::EnterPreOperational, 0x10)],
-        "B runs already: no start"
+        [
+            (NmtCommand::Start, 0x11),
+            (NmtCommand::EnterPreOperational, 0x10)
+        ],
+        "B runs already, started all the same (harmless to it), first"
     );
     s.heartbeat(ms(91), A, NmtState::Operational);
     assert!(commands(&mut s).is_empty());
@@ -415,4 +418,26 @@ proptest! {
             }
         }
     }
+}
+
+#[test]
+fn a_member_made_active_is_started_even_when_a_heartbeat_says_it_runs() {
+    // A board boots and is configured while a second device with its node-ID, not yet found
+    // out, beats "operational": the board itself is pre-operational and only a start runs it
+    // (campaign seed 129: without the start the pair had no running board for 0.4 s at a
+    // time).
+    let (mut s, p) = table(PairsConfig::default());
+    s.boot_up(ms(0), A);
+    commands(&mut s);
+    s.heartbeat(ms(5), A, NmtState::Operational);
+    s.configured(ms(10), A, true);
+    assert_eq!(nmts(&mut s), [(NmtCommand::Start, 0x10)]);
+    assert_eq!(s.pair(p).unwrap().active, Some(Member::A));
+    // Its own heartbeat sent before the start arrived says pre-operational: no failure.
+    s.heartbeat(ms(20), A, NmtState::PreOperational);
+    assert!(commands(&mut s).is_empty());
+    s.heartbeat(ms(30), A, NmtState::Operational);
+    s.heartbeat(ms(50), A, NmtState::Operational);
+    assert!(commands(&mut s).is_empty());
+    assert_eq!(s.pair(p).unwrap().active, Some(Member::A));
 }

@@ -11,8 +11,10 @@
 //! - **Joining.** A member's boot-up asks for its configuration ([`PairCommand::Configure`]:
 //!   the CiA 302-2 boot process of the master, identity check, configuration, at least 0x1017);
 //!   when [`PairSupervisor::configured`] reports success it is *joined*. The first member of a
-//!   pair to be configured becomes active and is started; the other stays pre-operational as
-//!   standby. A first start and a rejoin after a fault look the same. A failed configuration
+//!   pair to be configured becomes active and is started — also when a heartbeat says it runs
+//!   already (a start is harmless to a running board, and the heartbeat may be a second
+//!   device's with its node-ID while the board itself booted pre-operational); the other stays
+//!   pre-operational as standby. A first start and a rejoin after a fault look the same. A failed configuration
 //!   resets the member (it boots and is configured again); a member that is not what the
 //!   configuration expects ([`PairSupervisor::rejected`]: wrong identity) is left alone, not
 //!   joined, until it boots again.

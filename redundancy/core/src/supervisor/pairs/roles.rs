@@ -103,21 +103,24 @@ impl<S: Storage> PairSupervisor<S> {
             let node = spec.node(m);
             self.by_application &= !bit(node);
             self.held &= !bit(node);
-            // Heard running already (adopted operational, followed from its heartbeat): it is
-            // expected to go on. Otherwise from its first operational heartbeat on: until then
-            // a heartbeat in flight when it was started may still say pre-operational.
-            if self.pairs[p].member(m).nmt == Some(NmtState::Operational) {
-                self.running |= bit(node);
-            } else if self.authority == Authority::Command && !self.is_suspect(node) {
-                // A member already running (adopted) needs no start; nor does a suspect one,
-                // which the same instant's timeout replaces (a start would wake a board the
-                // table is about to reset). Started, it has the consumer time from now to be
-                // heard running, and as long again as the bus reaches this table late.
+            // Commanding, running from its first operational heartbeat after its start on: until
+            // then a heartbeat in flight may still say pre-operational. Started even when heard
+            // running (adopted operational, followed from its heartbeat): a start is harmless
+            // to a running board, and the heartbeat that said so may be a second device's with
+            // its node-ID, not yet found out, while the board itself booted pre-operational.
+            if self.authority == Authority::Command && !self.is_suspect(node) {
+                // A suspect one is not started: the same instant's timeout replaces it (a
+                // start would wake a board the table is about to reset). Started, it has the
+                // consumer time from now to be heard running, and as long again as the bus
+                // reaches this table late.
                 self.nmt(NmtCommand::Start, node);
                 let consumer = spec.consumer_time + self.behind(t);
                 if let Stage::Joined { deadline } = &mut self.pairs[p].member_mut(m).stage {
                     *deadline = (*deadline).max(t + consumer);
                 }
+            } else if self.pairs[p].member(m).nmt == Some(NmtState::Operational) {
+                // Followed, not commanded: heard running, it is expected to go on.
+                self.running |= bit(node);
             }
         }
         if let Some(m) = to.filter(|_| self.authority == Authority::Command) {
