@@ -297,6 +297,32 @@ fn get_with_head(addr: &str, path: &str, token: Option<&str>) -> (u16, String, S
     (code, head.to_string(), body.to_string())
 }
 
+/// `POST path` on `addr` with the JSON `body`: the status code and the answer's body.
+fn post(addr: &str, path: &str, body: &str) -> (u16, String) {
+    use std::io::{Read, Write};
+    let mut s = std::net::TcpStream::connect(addr).expect("connect");
+    s.set_read_timeout(Some(Duration::from_secs(30))).unwrap();
+    write!(
+        s,
+        "POST {path} HTTP/1.1\r\nHost: {addr}\r\nContent-Length: {}\r\nConnection: close\r\n\r\n{body}",
+        body.len()
+    )
+    .unwrap();
+    let mut text = String::new();
+    s.read_to_string(&mut text).expect("read");
+    let code = text
+        .split(' ')
+        .nth(1)
+        .and_then(|c| c.parse().ok())
+        .unwrap_or(0);
+    (
+        code,
+        text.split_once("\r\n\r\n")
+            .map_or("", |(_, b)| b)
+            .to_string(),
+    )
+}
+
 /// The dashboard at `/` on `addr`: its status code, and whether it came as HTML with the
 /// page's rules (no framing, not cached).
 fn dashboard(addr: &str, token: Option<&str>) -> (u16, String) {
@@ -480,6 +506,14 @@ fn the_station_streams_its_events_over_http() {
     // Without a token in the file, the dashboard is served to anyone on loopback.
     let (code, page) = dashboard(&addr, None);
     assert_eq!(code, 200, "{page}");
+    // And nothing is controlled: the file does not turn control on.
+    let (code, body) = post(
+        &addr,
+        "/api/networks/east/nmt",
+        r#"{"command":"stop","node":0}"#,
+    );
+    assert_eq!(code, 403, "{body}");
+    assert!(body.contains("control is off"), "{body}");
     let mut s = std::net::TcpStream::connect(&addr).expect("connect");
     s.set_read_timeout(Some(Duration::from_secs(5))).unwrap();
     use std::io::Write;
