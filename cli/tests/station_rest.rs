@@ -219,6 +219,36 @@ fn sdo_nmt_and_switch_over_by_role_with_each_error() {
     );
     reader.get_until("/api/networks", 60, |v| v[1]["pairs"][0]["active"] == "B");
 
+    // LSS: no device without a node-ID on the simulated buses; a selection nobody answers is
+    // 504, and configures nothing.
+    let lss = "/api/networks/east/lss";
+    let (code, _) = reader.send(
+        "POST",
+        lss,
+        Some(r#"{"command":"identify-non-configured"}"#),
+    );
+    assert_eq!(code, 403);
+    let (code, v) = operator.send(
+        "POST",
+        lss,
+        Some(r#"{"command":"identify-non-configured"}"#),
+    );
+    assert_eq!(code, 200, "{v}");
+    assert_eq!(v, json!({"network": "east", "non_configured": false}));
+    let (code, v) = operator.send("POST", lss, Some(r#"{"command":"fastscan"}"#));
+    assert_eq!(code, 400, "{v}");
+    assert!(
+        why(&v).starts_with("command: \"fastscan\" is not an LSS command"),
+        "{v}"
+    );
+    let (code, v) = operator.send("POST", lss, Some(r#"{"command":"configure","node":48}"#));
+    assert_eq!(code, 400, "{v}");
+    assert!(why(&v).starts_with("address: "), "{v}");
+    let nobody = r#"{"command":"configure","node":48,
+        "address":{"vendor":1,"product":2,"revision":3,"serial":4}}"#;
+    let (code, v) = operator.send("POST", lss, Some(nobody));
+    assert_eq!(code, 504, "{v}");
+
     let _ = child.kill();
     let _ = child.wait();
     log.extend(rx.try_iter());
@@ -232,6 +262,7 @@ fn sdo_nmt_and_switch_over_by_role_with_each_error() {
     for what in [
         "sdo write node 0x10 0x6200:1 u16 1234: done",
         "nmt stop node 0x50: done",
+        "lss identify-non-configured: done",
     ] {
         let line = east
             .lines()
@@ -242,6 +273,13 @@ fn sdo_nmt_and_switch_over_by_role_with_each_error() {
             "{line}"
         );
     }
+    // A failed one too, with why.
+    assert!(
+        east.contains(
+            "lss configure 0x00000001:0x00000002:0x00000003:0x00000004 node 0x30: failed: "
+        ),
+        "{east}"
+    );
     // Refused requests are not actions: no write of 70000, no halt.
     assert!(!east.contains("70000") && !east.contains("halt"), "{east}");
     let west = std::fs::read_to_string(d.join("trail/west_yard.audit")).unwrap_or_default();

@@ -1,5 +1,5 @@
 //! Who may do what over the station's HTTP: the read role (status, metrics, events, SDO
-//! reads) and the control role (SDO writes, NMT, switch-overs), from the tokens of the
+//! reads) and the control role (SDO writes, NMT, switch-overs, LSS), from the tokens of the
 //! station file ([`config::Http`](super::config::Http), whose module says the rule), and the
 //! rate at which control requests are taken.
 //!

@@ -10,7 +10,7 @@
 //! audit_keep = 5                   # rotated files kept per network
 //! http = "127.0.0.1:8080"          # optional: status and metrics over HTTP (port 0: any)
 //! http_token = "…"                 # reads need it; needed for any address but loopback
-//! http_control_token = "…"         # optional: control (SDO writes, NMT, switch-overs) with it
+//! http_control_token = "…"         # optional: control (SDO writes, NMT, LSS…) with it
 //! http_control = "loopback"        # or: control open to loopback clients (default "none")
 //! mqtt = "127.0.0.1:1883"          # optional: report to the plant's MQTT broker (host:port)
 //! mqtt_client_id = "duocan-depot"  # default: duocan-STATION

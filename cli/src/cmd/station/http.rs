@@ -15,14 +15,14 @@
 //!   N events`) and goes on with the newest; at most [`MAX_STREAMS`] streams at once (more get
 //!   503).
 //!
-//! - SDO reads and writes, NMT and forced switch-overs on any network, JSON in and out
+//! - SDO reads and writes, NMT, forced switch-overs and LSS on any network, JSON in and out
 //!   ([`rest`](super::rest), which lists the routes, their roles and their errors).
 //!
 //! **Security.** The station listens on loopback unless its file names another address, and
 //! then only with a read token (`http_token`): every request must carry `Authorization: Bearer
 //! TOKEN` or gets 401 (the dashboard's 401 is a page that sends the token of its address's
-//! fragment: `/#token=TOKEN`). Control (SDO writes, NMT, switch-overs) is off unless the file
-//! gives it a token of its own (`http_control_token`) or, on loopback alone, opens it to
+//! fragment: `/#token=TOKEN`). Control (SDO writes, NMT, switch-overs, LSS) is off unless the
+//! file gives it a token of its own (`http_control_token`) or, on loopback alone, opens it to
 //! loopback clients (`http_control = "loopback"`); a read token there is 403, and control
 //! requests are bounded in rate ([`access`](super::access)). Anything but these routes is
 //! 404; another method is 405. Bodies are bounded ([`rest::MAX_BODY`](super::rest::MAX_BODY),

@@ -5,7 +5,7 @@
 //!
 //! - reads (status, metrics, events, SDO reads) need `http_token` if it is set, else are open;
 //!   any address but loopback needs `http_token`;
-//! - control (SDO writes, NMT, switch-overs) is off unless the file turns it on, with either
+//! - control (SDO writes, NMT, switch-overs, LSS) is off unless the file turns it on, with
 //!   `http_control_token` (16 characters or more, not `http_token`: requests carry it), or
 //!   `http_control = "loopback"`, which opens control to every client of a loopback address
 //!   and is refused on any other address and beside `http_token` (a station whose reads need a

@@ -1,5 +1,5 @@
 //! The station's REST access, in the spirit of CiA 309-5: SDO reads and writes with the 309
-//! data-type names, NMT and forced switch-overs, on any network of the station, JSON in and
+//! data-type names, NMT, forced switch-overs and LSS, on any network of the station, JSON in and
 //! out. A network is named by its name (URL-encoded: `signal%20rack`) or its index in the file
 //! (from 0); a node by its node-ID (`16` or `0x10`).
 //!
@@ -9,6 +9,7 @@
 //! | `PUT /api/networks/NET/nodes/ID/sdo/INDEX/SUB` | control | `{"type":"u32","value":1234}` | the same |
 //! | `POST /api/networks/NET/nmt` | control | `{"command":"stop","node":16}` (`0`: all nodes) | `{"network","node","command"}` |
 //! | `POST /api/networks/NET/pairs/ID/switch` | control | none, or `{"to":"A"}` / `{"to":"B"}` | `{"network","pair","active"}` |
+//! | `POST /api/networks/NET/lss` | control | `{"command":"identify-non-configured"}`, or `configure` ([`lss`]) | `{"network",…}` |
 //!
 //! INDEX and SUB are numbers (`0x1018`, `4120`; `1`, `0x01`); the type is a CiA 309 name
 //! ([`value`]; a read without `?type=` gets the bytes, `hex`); a value whose size is not its
@@ -23,13 +24,15 @@
 //! `abort_code` and `abort`, the code's CiA 301 text), or this station's master of the network
 //! is the standby one (the active master commands); 413 a body over [`MAX_BODY`] bytes; 429
 //! over the control rate ([`access`](super::access)); 502 the network failed otherwise; 503
-//! the network is closed; 504 the node did not answer in time (abort `0x05040000`).
+//! the network is closed; 504 the node did not answer in time (abort `0x05040000`), or no
+//! device answered an LSS request.
 //!
 //! **Accountability.** Every control request taken is logged through `tracing` (target
 //! `duocan::station::control`: network, role, client address, what and the outcome) and, with
 //! an audit trail, appended to the network's file as an `operator` line
-//! ([`audit`](super::audit)) before the answer goes out.
+//! ([`audit`]) before the answer goes out.
 
+pub mod lss;
 pub mod value;
 
 use super::access::{error, unauthorized};
@@ -64,6 +67,7 @@ pub(super) fn routes() -> Router<Arc<Shared>> {
         )
         .route("/api/networks/{net}/nmt", post(nmt))
         .route("/api/networks/{net}/pairs/{id}/switch", post(switch))
+        .route("/api/networks/{net}/lss", post(lss::lss))
         .layer(DefaultBodyLimit::max(MAX_BODY))
 }
 
@@ -125,7 +129,9 @@ fn net_error(e: &NetError) -> Response {
         return (status, axum::Json(body)).into_response();
     }
     let status = match e {
-        NetError::Timeout { .. } => StatusCode::GATEWAY_TIMEOUT,
+        NetError::Timeout { .. } | NetError::Lss(duocan::cia305::LssError::Timeout(_)) => {
+            StatusCode::GATEWAY_TIMEOUT
+        }
         NetError::Standby { .. } => StatusCode::CONFLICT,
         NetError::NoSuchNode(_) => StatusCode::NOT_FOUND,
         NetError::Closed => StatusCode::SERVICE_UNAVAILABLE,
