@@ -69,6 +69,15 @@ fn sdo_nmt_and_switch_over_by_role_with_each_error() {
              \"{CONTROL}\"\naudit_dir = \"trail\"\n"
         ),
     );
+    // `check` says who may do what.
+    let r = common::duocan(&["station", "check", file.to_str().unwrap()]);
+    assert!(
+        r.out.contains(
+            "  http: 127.0.0.1:0, reads with http_token, control with http_control_token\n"
+        ),
+        "{}",
+        r.out
+    );
     let (mut child, rx) = station(&file);
     let mut log = vec![];
     let addr = started(&rx, &mut log);
@@ -294,6 +303,13 @@ fn bodies_and_the_control_rate_are_bounded() {
     let _one = common::one_station();
     let d = dir("bounds");
     let file = station_file(&d, "http = \"127.0.0.1:0\"\nhttp_control = \"loopback\"\n");
+    let r = common::duocan(&["station", "check", file.to_str().unwrap()]);
+    assert!(
+        r.out
+            .contains("  http: 127.0.0.1:0, reads open, control open to loopback clients\n"),
+        "{}",
+        r.out
+    );
     let (mut child, rx) = station(&file);
     let mut log = vec![];
     let addr = started(&rx, &mut log);

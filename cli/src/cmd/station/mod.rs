@@ -99,6 +99,20 @@ fn summary(st: &config::Station) -> String {
             peers.join(" ")
         );
     }
+    if let Some(h) = &st.http {
+        // Who may do what, said plainly: an operator checks that control is as meant.
+        let reads = if h.token.is_some() {
+            "with http_token"
+        } else {
+            "open"
+        };
+        let control = match &h.control {
+            config::Control::Off => "off",
+            config::Control::Loopback => "open to loopback clients",
+            config::Control::Token(_) => "with http_control_token",
+        };
+        out += &format!("  http: {}, reads {reads}, control {control}\n", h.addr);
+    }
     if let Some(m) = &st.mqtt {
         out += &format!("  mqtt: {}:{} under {}/\n", m.host, m.port, m.prefix);
     }
