@@ -267,6 +267,13 @@ fn sdo_nmt_and_switch_over_by_role_with_each_error() {
         all.contains("duocan::station::control: sdo write node 0x10 0x6200:1 u16 1234: done"),
         "{all}"
     );
+    assert!(
+        all.lines().any(
+            |l| l.contains("duocan::station::control: nmt stop node 0x50: done")
+                && l.contains(" role=control-token client=127.0.0.1:")
+        ),
+        "{all}"
+    );
     let east = std::fs::read_to_string(d.join("trail/east.audit")).unwrap();
     for what in [
         "sdo write node 0x10 0x6200:1 u16 1234: done",

@@ -148,7 +148,7 @@ fn body<T: serde::de::DeserializeOwned>(b: Result<Bytes, BytesRejection>) -> Res
 
 /// Logs a control action taken and records it in the network's audit trail, if any.
 fn record(w: &Watched, who: &str, peer: SocketAddr, what: &str) {
-    tracing::info!(target: "duocan::station::control", network = %w.name, role = who,
+    tracing::info!(target: "duocan::station::control", network = %w.name, role = %who,
         client = %peer, "{what}");
     if let Some(a) = &w.audit {
         let line = format!(
@@ -292,7 +292,12 @@ async fn nmt(
     } else {
         w.net.node(id).send_nmt(action.command()).await
     };
-    let what = format!("nmt {} node {id:#04x}: {}", req.command, outcome(&r));
+    let target = if id == 0 {
+        "all nodes".to_string()
+    } else {
+        format!("node {id:#04x}")
+    };
+    let what = format!("nmt {} {target}: {}", req.command, outcome(&r));
     record(w, who, peer, &what);
     r.map_err(|e| net_error(&e))?;
     Ok(
