@@ -111,6 +111,25 @@ mod tests {
         );
     }
 
+    /// Whatever a node sends and whatever a client writes: an answer or an error, never a
+    /// panic.
+    #[test]
+    fn any_bytes_and_any_value_are_taken_without_panicking() {
+        use proptest::prelude::*;
+        const TYPES: [&str; 14] = [
+            "b", "i8", "i24", "i64", "u8", "u56", "u64", "x64", "r32", "r64", "vs", "os", "t",
+            "hex",
+        ];
+        proptest!(|(t in 0..TYPES.len(), bytes in proptest::collection::vec(any::<u8>(), 0..12),
+                    text in "[0-9a-zA-Z +=.\"-]{0,24}", n in any::<i64>(), f in any::<f64>())| {
+            let ty = data_type(TYPES[t]).unwrap();
+            let _ = from_bytes(ty, &bytes);
+            let _ = to_bytes(ty, &json!(text));
+            let _ = to_bytes(ty, &json!(n));
+            let _ = to_bytes(ty, &json!(f));
+        });
+    }
+
     #[test]
     fn bad_values_say_what_is_wrong() {
         let t = |n| data_type(n).unwrap();
