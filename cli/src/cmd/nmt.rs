@@ -25,7 +25,7 @@ pub enum Action {
 }
 
 impl Action {
-    fn command(self) -> NmtCommand {
+    pub(crate) fn command(self) -> NmtCommand {
         match self {
             Action::Start => NmtCommand::Start,
             Action::Stop => NmtCommand::Stop,

@@ -98,7 +98,7 @@ mod help;
 mod lss;
 mod parse;
 mod socket;
-mod value;
+pub(crate) mod value;
 
 #[cfg(test)]
 mod tests;

@@ -79,7 +79,7 @@ impl DataType {
     }
 
     /// The size of a value of this type, or `None` for the ones of any size.
-    fn size(self) -> Option<usize> {
+    pub(crate) fn size(self) -> Option<usize> {
         match self {
             DataType::Bool => Some(1),
             DataType::Int(n) | DataType::Uint(n) | DataType::Hex(n) => Some(usize::from(n)),

@@ -8,6 +8,13 @@
 //!
 //! (the wall-clock second of the write, the run — the station's start in Unix milliseconds —
 //! and the record as the supervisor prints it: its sequence number and the network's time).
+//! An operator's control action over HTTP ([`rest`](super::rest)) is a line of its own, written
+//! before the operator is answered: who (the role, the client's address), what, and how it
+//! ended:
+//!
+//! ```text
+//! 1765090003.500 run=1765089990000 operator role=control-token client=127.0.0.1:50712: nmt stop node 0x50: done
+//! ```
 //!
 //! **Durability.** A record is one `write` on a file opened for appending, then `fdatasync`:
 //! once [`AuditLog::append`] returned, the record survives the station being killed (SIGKILL)

@@ -9,7 +9,9 @@
 //! audit_max_bytes = 1048576        # a file is rotated before it grows past this
 //! audit_keep = 5                   # rotated files kept per network
 //! http = "127.0.0.1:8080"          # optional: status and metrics over HTTP (port 0: any)
-//! http_token = "…"                 # needed for any address but loopback
+//! http_token = "…"                 # reads need it; needed for any address but loopback
+//! http_control_token = "…"         # optional: control (SDO writes, NMT, LSS…) with it
+//! http_control = "loopback"        # or: control open to loopback clients (default "none")
 //! mqtt = "127.0.0.1:1883"          # optional: report to the plant's MQTT broker (host:port)
 //! mqtt_client_id = "duocan-depot"  # default: duocan-STATION
 //! mqtt_prefix = "duocan/depot"     # every topic's first levels; default: duocan/STATION
@@ -45,7 +47,9 @@ use serde::Deserialize;
 use std::ops::Range;
 use toml::Spanned;
 
+mod http;
 mod mqtt;
+pub use http::{Control, Http};
 pub use mqtt::Mqtt;
 
 /// The simulated buses a network may name: the builder's plant with its fault script, and
@@ -59,8 +63,8 @@ pub struct Station {
     pub name: String,
     /// Where its audit trail is kept, if anywhere.
     pub audit: Option<Audit>,
-    /// Where it serves HTTP, if anywhere, and the token requests must carry.
-    pub http: Option<(std::net::SocketAddr, Option<String>)>,
+    /// Where it serves HTTP, if anywhere, and to whom.
+    pub http: Option<Http>,
     /// The MQTT broker it reports to, if any.
     pub mqtt: Option<Mqtt>,
     /// Its networks, in file order.
@@ -131,6 +135,8 @@ struct StationTable {
     audit_keep: Option<u32>,
     http: Option<Spanned<String>>,
     http_token: Option<Spanned<String>>,
+    http_control_token: Option<Spanned<String>>,
+    http_control: Option<Spanned<String>>,
     mqtt: Option<Spanned<String>>,
     mqtt_client_id: Option<Spanned<String>>,
     mqtt_prefix: Option<Spanned<String>>,
@@ -205,7 +211,7 @@ pub fn parse(text: &str, name: &str) -> Result<Station, String> {
         ));
     }
     let (audit, http) = match &file.station {
-        Some(t) => (audit(&src, t)?, http(&src, t)?),
+        Some(t) => (audit(&src, t)?, http::http(&src, t)?),
         None => (None, None),
     };
     let station = file
@@ -252,39 +258,6 @@ pub fn parse(text: &str, name: &str) -> Result<Station, String> {
         mqtt,
         networks,
     })
-}
-
-/// The HTTP address and token of the `[station]` table: any address but loopback needs a
-/// token, and a token is at least 16 characters.
-fn http(
-    src: &Source<'_>,
-    t: &StationTable,
-) -> Result<Option<(std::net::SocketAddr, Option<String>)>, String> {
-    let token = match &t.http_token {
-        Some(tk) if tk.get_ref().chars().count() < 16 => {
-            return Err(src.span(tk.span(), "http_token", "at least 16 characters"));
-        }
-        Some(tk) => Some(tk.get_ref().clone()),
-        None => None,
-    };
-    let Some(at) = &t.http else {
-        if let Some(tk) = &t.http_token {
-            return Err(src.span(tk.span(), "http_token", "set http too"));
-        }
-        return Ok(None);
-    };
-    let addr: std::net::SocketAddr = at.get_ref().trim().parse().map_err(|_| {
-        let why = format!(
-            "{:?} is not an address and port such as \"127.0.0.1:8080\"",
-            at.get_ref()
-        );
-        src.span(at.span(), "http", why)
-    })?;
-    if !addr.ip().is_loopback() && token.is_none() {
-        let why = format!("{addr} is reachable from other machines: set http_token too");
-        return Err(src.span(at.span(), "http", why));
-    }
-    Ok(Some((addr, token)))
 }
 
 /// The audit trail's settings of the `[station]` table, its folder relative to the file's.

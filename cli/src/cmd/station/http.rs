@@ -15,13 +15,22 @@
 //!   N events`) and goes on with the newest; at most [`MAX_STREAMS`] streams at once (more get
 //!   503).
 //!
+//! - SDO reads and writes, NMT, forced switch-overs and LSS on any network, JSON in and out
+//!   ([`rest`](super::rest), which lists the routes, their roles and their errors).
+//!
 //! **Security.** The station listens on loopback unless its file names another address, and
-//! then only with a token (`http_token`): every request must carry `Authorization: Bearer
-//! TOKEN` (compared in constant time) or gets 401 (the dashboard's 401 is a page that sends the
-//! token of its address's fragment: `/#token=TOKEN`). Anything but these routes is 404; a
-//! method other than GET is 405. Requests have no body to bound; at most [`MAX_CLIENTS`]
-//! requests are served at once (more wait for their turn).
+//! then only with a read token (`http_token`): every request must carry `Authorization: Bearer
+//! TOKEN` or gets 401 (the dashboard's 401 is a page that sends the token of its address's
+//! fragment: `/#token=TOKEN`). Control (SDO writes, NMT, switch-overs, LSS) is off unless the
+//! file gives it a token of its own (`http_control_token`) or, on loopback alone, opens it to
+//! loopback clients (`http_control = "loopback"`); a read token there is 403, and control
+//! requests are bounded in rate ([`access`](super::access)). Anything but these routes is
+//! 404; another method is 405. Bodies are bounded ([`rest::MAX_BODY`](super::rest::MAX_BODY),
+//! 413 over it); at most [`MAX_CLIENTS`] requests are served at once (more wait for their
+//! turn).
 
+use super::access::{error, unauthorized, Access};
+use super::audit::AuditLog;
 use super::dashboard::{self, Recent};
 use axum::extract::State;
 use axum::http::{header, HeaderMap, StatusCode};
@@ -56,20 +65,31 @@ pub struct Watched {
     pub failovers: AtomicU64,
     /// Its last events and each node's last EMCY (the dashboard's timeline and node table).
     pub recent: Recent,
+    /// Its audit file, if the station keeps a trail: operators' actions go there too.
+    pub audit: Option<Operators>,
 }
 
-struct Shared {
-    networks: Vec<Arc<Watched>>,
-    token: Option<String>,
-    turns: Semaphore,
+/// A network's audit file as the HTTP side writes to it.
+pub struct Operators {
+    /// The file, shared with the keeper that copies the network's own records.
+    pub log: Arc<std::sync::Mutex<AuditLog>>,
+    /// The station's run (its start in Unix milliseconds).
+    pub run: u128,
+}
+
+/// What every request's handler sees.
+pub(super) struct Shared {
+    pub(super) networks: Vec<Arc<Watched>>,
+    pub(super) access: Access,
+    pub(super) turns: Semaphore,
     streams: Arc<Semaphore>,
 }
 
-/// The router over `networks`; with `token`, every request must carry it.
-pub fn router(networks: Vec<Arc<Watched>>, token: Option<String>) -> Router {
+/// The router over `networks`, under the rules of `access`.
+pub fn router(networks: Vec<Arc<Watched>>, access: Access) -> Router {
     let shared = Arc::new(Shared {
         networks,
-        token,
+        access,
         turns: Semaphore::new(MAX_CLIENTS),
         streams: Arc::new(Semaphore::new(MAX_STREAMS)),
     });
@@ -78,36 +98,15 @@ pub fn router(networks: Vec<Arc<Watched>>, token: Option<String>) -> Router {
         .route("/api/networks", get(networks_json))
         .route("/metrics", get(metrics))
         .route("/api/events", get(events))
+        .merge(super::rest::routes())
         .fallback(|| async {
             error(
                 StatusCode::NOT_FOUND,
-                "no such page: /, /api/networks, /api/events and /metrics are served",
+                "no such page: /, /api/networks (and under it each network's nodes/ID/sdo/, \
+                 nmt and pairs/ID/switch), /api/events and /metrics are served",
             )
         })
         .with_state(shared)
-}
-
-fn error(code: StatusCode, why: &str) -> Response {
-    (code, axum::Json(json!({ "error": why }))).into_response()
-}
-
-/// Whether the request may be served: the token, if the station has one.
-fn allowed(s: &Shared, headers: &HeaderMap) -> bool {
-    let Some(token) = &s.token else {
-        return true;
-    };
-    let given = headers
-        .get(header::AUTHORIZATION)
-        .and_then(|v| v.to_str().ok())
-        .and_then(|v| v.strip_prefix("Bearer "))
-        .unwrap_or("");
-    // Constant time in the token's length: a wrong guess says nothing of where it went wrong.
-    let (a, b) = (given.as_bytes(), token.as_bytes());
-    let mut diff = a.len() ^ b.len();
-    for (i, &t) in b.iter().enumerate() {
-        diff |= usize::from(a.get(i).copied().unwrap_or(0) ^ t);
-    }
-    diff == 0
 }
 
 /// What is known of one network now.
@@ -144,15 +143,12 @@ fn member(m: Option<Member>) -> &'static str {
 }
 
 async fn page(State(s): State<Arc<Shared>>, headers: HeaderMap) -> Response {
-    dashboard::page(allowed(&s, &headers))
+    dashboard::page(s.access.may_read(&headers))
 }
 
 async fn networks_json(State(s): State<Arc<Shared>>, headers: HeaderMap) -> Response {
-    if !allowed(&s, &headers) {
-        return error(
-            StatusCode::UNAUTHORIZED,
-            "a token is needed: Authorization: Bearer TOKEN",
-        );
+    if !s.access.may_read(&headers) {
+        return unauthorized();
     }
     let _turn = s.turns.acquire().await;
     let mut out = Vec::new();
@@ -194,11 +190,8 @@ fn label(s: &str) -> String {
 }
 
 async fn metrics(State(s): State<Arc<Shared>>, headers: HeaderMap) -> Response {
-    if !allowed(&s, &headers) {
-        return error(
-            StatusCode::UNAUTHORIZED,
-            "a token is needed: Authorization: Bearer TOKEN",
-        );
+    if !s.access.may_read(&headers) {
+        return unauthorized();
     }
     let _turn = s.turns.acquire().await;
     let mut views = Vec::new();
@@ -321,11 +314,8 @@ async fn metrics(State(s): State<Arc<Shared>>, headers: HeaderMap) -> Response {
 async fn events(State(s): State<Arc<Shared>>, headers: HeaderMap) -> Response {
     use axum::response::sse::{Event, KeepAlive, Sse};
     use duocan::net::NetEvent;
-    if !allowed(&s, &headers) {
-        return error(
-            StatusCode::UNAUTHORIZED,
-            "a token is needed: Authorization: Bearer TOKEN",
-        );
+    if !s.access.may_read(&headers) {
+        return unauthorized();
     }
     let Ok(permit) = s.streams.clone().try_acquire_owned() else {
         return error(

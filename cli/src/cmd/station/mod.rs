@@ -15,14 +15,17 @@
 //! `on_stop` NMT command, closes the networks and exits 0. With an `audit_dir`, each network's
 //! audit records are appended to a file of their own as they happen, durably ([`audit`]). With
 //! an `http` address, it serves its status, metrics, events and a dashboard for a browser
-//! ([`http`], [`dashboard`]). With `mqtt`, the networks' state and events go to the plant's
+//! ([`http`], [`dashboard`]), and SDO, NMT and switch-overs to the roles the file allows
+//! ([`rest`], [`access`]). With `mqtt`, the networks' state and events go to the plant's
 //! broker ([`mqtt`]). The file format: [`config`].
 
+pub mod access;
 pub mod audit;
 pub mod config;
 pub mod dashboard;
 pub mod http;
 pub mod mqtt;
+pub mod rest;
 
 use crate::args::parse_timeout_ms;
 use crate::fail::Fail;
@@ -96,6 +99,20 @@ fn summary(st: &config::Station) -> String {
             peers.join(" ")
         );
     }
+    if let Some(h) = &st.http {
+        // Who may do what, said plainly: an operator checks that control is as meant.
+        let reads = if h.token.is_some() {
+            "with http_token"
+        } else {
+            "open"
+        };
+        let control = match &h.control {
+            config::Control::Off => "off",
+            config::Control::Loopback => "open to loopback clients",
+            config::Control::Token(_) => "with http_control_token",
+        };
+        out += &format!("  http: {}, reads {reads}, control {control}\n", h.addr);
+    }
     if let Some(m) = &st.mqtt {
         out += &format!("  mqtt: {}:{} under {}/\n", m.host, m.port, m.prefix);
     }
@@ -142,7 +159,7 @@ async fn serve(g: &Global, st: &config::Station, duration_ms: Option<u64>) -> Re
     let mut logs_of = Vec::new();
     for n in &st.networks {
         logs_of.push(match &st.audit {
-            Some(a) => Some(
+            Some(a) => Some(Arc::new(std::sync::Mutex::new(
                 AuditLog::open(&a.dir, &n.name, a.max_bytes, a.keep).map_err(|e| {
                     Fail::usage(format!(
                         "network {}: audit trail in {}: {e}",
@@ -150,18 +167,17 @@ async fn serve(g: &Global, st: &config::Station, duration_ms: Option<u64>) -> Re
                         a.dir.display()
                     ))
                 })?,
-            ),
+            ))),
             None => None,
         });
     }
     // So does its HTTP address: taken before any network opens.
     let listener = match &st.http {
-        Some((addr, token)) => Some((
-            tokio::net::TcpListener::bind(addr)
+        Some(h) => Some(
+            tokio::net::TcpListener::bind(h.addr)
                 .await
-                .map_err(|e| Fail::usage(format!("http: cannot listen on {addr}: {e}")))?,
-            token.clone(),
-        )),
+                .map_err(|e| Fail::usage(format!("http: cannot listen on {}: {e}", h.addr)))?,
+        ),
         None => None,
     };
     let run = std::time::SystemTime::now()
@@ -196,6 +212,10 @@ async fn serve(g: &Global, st: &config::Station, duration_ms: Option<u64>) -> Re
             events: AtomicU64::new(0),
             failovers: AtomicU64::new(0),
             recent: dashboard::Recent::default(),
+            audit: log.as_ref().map(|log| http::Operators {
+                log: log.clone(),
+                run,
+            }),
         });
         watched.push(w.clone());
         logs.spawn(async move {
@@ -222,10 +242,12 @@ async fn serve(g: &Global, st: &config::Station, duration_ms: Option<u64>) -> Re
         }
     }
     let plant = st.mqtt.as_ref().map(|m| mqtt::start(m, &watched));
-    if let Some((listener, token)) = listener {
+    if let Some(listener) = listener {
         let local = listener.local_addr()?;
         tracing::info!(target: "duocan::station", "http listening on {local}");
-        let app = http::router(watched, token);
+        let app = http::router(watched, access::Access::new(st.http.as_ref()));
+        // Each request knows its client's address: control actions are logged with it.
+        let app = app.into_make_service_with_connect_info::<std::net::SocketAddr>();
         logs.spawn(async move {
             if let Err(e) = axum::serve(listener, app).await {
                 tracing::error!(target: "duocan::station", "http: {e}");
@@ -270,7 +292,8 @@ const AUDIT_EVERY: std::time::Duration = std::time::Duration::from_millis(100);
 struct Keeper {
     net: RedundantNetwork,
     name: String,
-    log: AuditLog,
+    /// Shared with the HTTP side, which appends operators' actions.
+    log: Arc<std::sync::Mutex<AuditLog>>,
     run: u128,
     /// The sequence number of the next record to write.
     next: u32,
@@ -288,8 +311,9 @@ impl Keeper {
                 break;
             }
         }
+        let path = self.lock().path().display().to_string();
         tracing::info!(target: "duocan::station::audit", network = %self.name,
-            file = %self.log.path().display(), "audit closed");
+            file = %path, "audit closed");
     }
 
     /// Writes the records since the last; false when the network has closed.
@@ -333,12 +357,20 @@ impl Keeper {
         true
     }
 
+    fn lock(&self) -> std::sync::MutexGuard<'_, AuditLog> {
+        // A writer that panicked left the file as it was: go on with it.
+        self.log
+            .lock()
+            .unwrap_or_else(std::sync::PoisonError::into_inner)
+    }
+
     fn write(&mut self, line: &str, seq: Option<u32>) {
-        match self.log.append(line) {
+        let mut log = self.lock();
+        match log.append(line) {
             Ok(()) => tracing::debug!(target: "duocan::station::audit", network = %self.name,
                 run = self.run, seq, "written"),
             Err(e) => tracing::error!(target: "duocan::station::audit", network = %self.name,
-                file = %self.log.path().display(), "cannot write the audit record: {e}"),
+                file = %log.path().display(), "cannot write the audit record: {e}"),
         }
     }
 }

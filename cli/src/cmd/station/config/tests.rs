@@ -139,7 +139,12 @@ fn http_is_loopback_unless_a_token_is_given() {
     let head = "[station]\nhttp = ";
     let net = "\n\n[[network]]\nname = \"a\"\nbuses = \"sim-pairs\"\nnode_id = 1\n";
     let st = parse(&format!("{head}\"127.0.0.1:0\"{net}"), "s.toml").unwrap();
-    assert_eq!(st.http, Some(("127.0.0.1:0".parse().unwrap(), None)));
+    let want = Http {
+        addr: "127.0.0.1:0".parse().unwrap(),
+        token: None,
+        control: Control::Off,
+    };
+    assert_eq!(st.http, Some(want));
     let e = err(&format!("{head}\"0.0.0.0:8080\"{net}"));
     assert!(
         e.starts_with("s.toml:2:8: http: 0.0.0.0:8080 is reachable from other machines"),
@@ -147,7 +152,7 @@ fn http_is_loopback_unless_a_token_is_given() {
     );
     let ok = format!("{head}\"0.0.0.0:8080\"\nhttp_token = \"0123456789abcdef\"{net}");
     let st = parse(&ok, "s.toml").unwrap();
-    assert_eq!(st.http.unwrap().1.as_deref(), Some("0123456789abcdef"));
+    assert_eq!(st.http.unwrap().token.as_deref(), Some("0123456789abcdef"));
     let e = err(&format!(
         "{head}\"0.0.0.0:8080\"\nhttp_token = \"short\"{net}"
     ));
@@ -161,6 +166,82 @@ fn http_is_loopback_unless_a_token_is_given() {
         "[station]\nhttp_token = \"0123456789abcdef\"{net}"
     ));
     assert!(e.contains("http_token: set http too"), "{e}");
+}
+
+/// Control is off unless the file turns it on: with a token of its own (any address), or
+/// open to loopback clients (a loopback address without a read token only).
+#[test]
+fn control_needs_its_own_token_or_an_explicit_loopback_opt_in() {
+    let net = "\n\n[[network]]\nname = \"a\"\nbuses = \"sim-pairs\"\nnode_id = 1\n";
+    let control = |keys: &str| {
+        parse(&format!("[station]\n{keys}{net}"), "s.toml").map(|s| s.http.unwrap().control)
+    };
+    let loopback = "http = \"127.0.0.1:0\"\n";
+    let anywhere = "http = \"0.0.0.0:8080\"\nhttp_token = \"read-0123456789ab\"\n";
+    assert_eq!(control(loopback), Ok(Control::Off));
+    assert_eq!(control(anywhere), Ok(Control::Off));
+    let keys = format!("{loopback}http_control = \"none\"\n");
+    assert_eq!(control(&keys), Ok(Control::Off));
+    let keys = format!("{loopback}http_control = \"loopback\"\n");
+    assert_eq!(control(&keys), Ok(Control::Loopback));
+    let keys = format!("{anywhere}http_control_token = \"ctl-0123456789abc\"\n");
+    assert_eq!(
+        control(&keys),
+        Ok(Control::Token("ctl-0123456789abc".into()))
+    );
+    let keys = format!("{loopback}http_control_token = \"ctl-0123456789abc\"\n");
+    assert_eq!(
+        control(&keys),
+        Ok(Control::Token("ctl-0123456789abc".into()))
+    );
+    // Never open to another machine.
+    let e = err(&format!(
+        "[station]\n{anywhere}http_control = \"loopback\"{net}"
+    ));
+    assert!(
+        e.starts_with("s.toml:4:16: http_control: 0.0.0.0:8080 is reachable from other machines"),
+        "{e}"
+    );
+    // Nor open beside a read token, nor beside a control token.
+    let e = err(&format!(
+        "[station]\n{loopback}http_token = \"read-0123456789ab\"\nhttp_control = \"loopback\"{net}"
+    ));
+    assert!(
+        e.starts_with("s.toml:4:16: http_control: reads need http_token"),
+        "{e}"
+    );
+    let e = err(&format!(
+        "[station]\n{loopback}http_control_token = \"ctl-0123456789abc\"\nhttp_control = \"loopback\"{net}"
+    ));
+    assert!(
+        e.starts_with("s.toml:4:16: http_control: set it or http_control_token"),
+        "{e}"
+    );
+    let e = err(&format!("[station]\n{loopback}http_control = \"all\"{net}"));
+    assert!(
+        e.starts_with("s.toml:3:16: http_control: \"all\" is not allowed"),
+        "{e}"
+    );
+    // The control token: long, and not the read token.
+    let e = err(&format!(
+        "[station]\n{loopback}http_control_token = \"short\"{net}"
+    ));
+    assert!(
+        e.starts_with("s.toml:3:22: http_control_token: at least 16"),
+        "{e}"
+    );
+    let e = err(&format!(
+        "[station]\n{anywhere}http_control_token = \"read-0123456789ab\"{net}"
+    ));
+    assert!(
+        e.starts_with("s.toml:4:22: http_control_token: the same as http_token"),
+        "{e}"
+    );
+    let e = err(&format!("[station]\nhttp_control = \"loopback\"{net}"));
+    assert!(
+        e.starts_with("s.toml:2:16: http_control: set http too"),
+        "{e}"
+    );
 }
 
 #[test]

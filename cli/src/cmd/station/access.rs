@@ -1,0 +1,200 @@
+//! Who may do what over the station's HTTP: the read role (status, metrics, events, SDO
+//! reads) and the control role (SDO writes, NMT, switch-overs, LSS), from the tokens of the
+//! station file ([`config::Http`](super::config::Http), whose module says the rule), and the
+//! rate at which control requests are taken.
+//!
+//! A token is compared in constant time in its length: a wrong guess says nothing of where it
+//! went wrong. The control token also reads. Control requests, once their role is checked,
+//! draw from a token bucket of [`CONTROL_BURST`] refilled at [`CONTROL_PER_SECOND`] a second
+//! (shared by all clients): an operator's clicks pass, a script gone wild gets 429 and
+//! changes nothing.
+
+use super::config::{Control, Http};
+use axum::http::{header, HeaderMap, StatusCode};
+use axum::response::{IntoResponse, Response};
+use serde_json::json;
+use std::sync::Mutex;
+use std::time::Instant;
+
+/// Control requests taken at once before the rate bound applies.
+pub const CONTROL_BURST: f64 = 20.0;
+/// Control requests taken a second, in the long run.
+pub const CONTROL_PER_SECOND: f64 = 2.0;
+
+/// The station's access rules.
+pub struct Access {
+    token: Option<String>,
+    control: Control,
+    /// Tokens left in the control bucket, and when it was last filled.
+    bucket: Mutex<(f64, Instant)>,
+}
+
+/// An error response: the status and a JSON body `{"error": why}`.
+pub fn error(code: StatusCode, why: &str) -> Response {
+    (code, axum::Json(json!({ "error": why }))).into_response()
+}
+
+/// The 401 of a request without the token it needs.
+pub fn unauthorized() -> Response {
+    error(
+        StatusCode::UNAUTHORIZED,
+        "a token is needed: Authorization: Bearer TOKEN",
+    )
+}
+
+fn same(given: &str, token: &str) -> bool {
+    let (a, b) = (given.as_bytes(), token.as_bytes());
+    let mut diff = a.len() ^ b.len();
+    for (i, &t) in b.iter().enumerate() {
+        diff |= usize::from(a.get(i).copied().unwrap_or(0) ^ t);
+    }
+    diff == 0
+}
+
+fn bearer(headers: &HeaderMap) -> &str {
+    headers
+        .get(header::AUTHORIZATION)
+        .and_then(|v| v.to_str().ok())
+        .and_then(|v| v.strip_prefix("Bearer "))
+        .unwrap_or("")
+}
+
+impl Access {
+    /// The rules of `http` (none: everything read, nothing controlled).
+    pub fn new(http: Option<&Http>) -> Access {
+        Access {
+            token: http.and_then(|h| h.token.clone()),
+            control: http.map_or(Control::Off, |h| h.control.clone()),
+            bucket: Mutex::new((CONTROL_BURST, Instant::now())),
+        }
+    }
+
+    fn is_control_token(&self, given: &str) -> bool {
+        matches!(&self.control, Control::Token(t) if same(given, t))
+    }
+
+    /// Whether the request may read.
+    pub fn may_read(&self, headers: &HeaderMap) -> bool {
+        let Some(token) = &self.token else {
+            return true;
+        };
+        let given = bearer(headers);
+        // Both compared, whichever matches: the time says nothing of which token it was.
+        let read = same(given, token);
+        let control = self.is_control_token(given);
+        read | control
+    }
+
+    /// Whether the request may control, and then who it is (for the logs and the audit
+    /// trail); else the response that refuses it: 401 without the token, 403 with a token
+    /// of the read role or when control is off, 429 over the rate.
+    pub fn control(&self, headers: &HeaderMap) -> Result<&'static str, Response> {
+        let who = match &self.control {
+            Control::Off => {
+                return Err(error(
+                    StatusCode::FORBIDDEN,
+                    "control is off: the station file sets neither http_control_token nor \
+                     http_control = \"loopback\"",
+                ))
+            }
+            Control::Loopback => "loopback",
+            Control::Token(_) => {
+                let given = bearer(headers);
+                if self.is_control_token(given) {
+                    "control-token"
+                } else if self.token.as_deref().is_some_and(|t| same(given, t)) {
+                    return Err(error(
+                        StatusCode::FORBIDDEN,
+                        "this token may only read: control needs the control token",
+                    ));
+                } else {
+                    return Err(unauthorized());
+                }
+            }
+        };
+        if !self.take() {
+            return Err(error(
+                StatusCode::TOO_MANY_REQUESTS,
+                "too many control requests: try again in a second",
+            ));
+        }
+        Ok(who)
+    }
+
+    /// Takes one token from the control bucket, if one is left.
+    fn take(&self) -> bool {
+        let mut b = self
+            .bucket
+            .lock()
+            .unwrap_or_else(std::sync::PoisonError::into_inner);
+        let now = Instant::now();
+        let filled = b.0 + now.duration_since(b.1).as_secs_f64() * CONTROL_PER_SECOND;
+        *b = (filled.min(CONTROL_BURST), now);
+        if b.0 >= 1.0 {
+            b.0 -= 1.0;
+            true
+        } else {
+            false
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn with(token: Option<&str>) -> HeaderMap {
+        let mut h = HeaderMap::new();
+        if let Some(t) = token {
+            h.insert(
+                header::AUTHORIZATION,
+                format!("Bearer {t}").parse().unwrap(),
+            );
+        }
+        h
+    }
+
+    #[test]
+    fn the_roles_follow_the_tokens() {
+        let http = Http {
+            addr: "0.0.0.0:1".parse().unwrap(),
+            token: Some("read-0123456789ab".into()),
+            control: Control::Token("ctl-0123456789abc".into()),
+        };
+        let a = Access::new(Some(&http));
+        assert!(!a.may_read(&with(None)));
+        assert!(a.may_read(&with(Some("read-0123456789ab"))));
+        assert!(a.may_read(&with(Some("ctl-0123456789abc"))));
+        assert!(!a.may_read(&with(Some("read-0123456789aX"))));
+        let status = |r: Result<&'static str, Response>| r.map_err(|e| e.status());
+        assert_eq!(
+            status(a.control(&with(None))),
+            Err(StatusCode::UNAUTHORIZED)
+        );
+        assert_eq!(
+            status(a.control(&with(Some("read-0123456789ab")))),
+            Err(StatusCode::FORBIDDEN)
+        );
+        assert_eq!(
+            status(a.control(&with(Some("ctl-0123456789abc")))),
+            Ok("control-token")
+        );
+        // Without a station file's say, nothing is controlled.
+        let off = Access::new(None);
+        assert!(off.may_read(&with(None)));
+        assert_eq!(status(off.control(&with(None))), Err(StatusCode::FORBIDDEN));
+    }
+
+    #[test]
+    fn control_requests_beyond_the_burst_are_refused() {
+        let http = Http {
+            addr: "127.0.0.1:1".parse().unwrap(),
+            token: None,
+            control: Control::Loopback,
+        };
+        let a = Access::new(Some(&http));
+        let taken = (0..100).filter(|_| a.control(&with(None)).is_ok()).count();
+        // The burst, and at most a few refilled while the loop ran.
+        assert!((20..25).contains(&taken), "{taken}");
+    }
+}
