@@ -30,11 +30,21 @@
 //! reader ([`Port::reader`]) reads classic frames only, so an FD port does not hand over to it.
 //! A port opened with [`SocketCanPort::open`] is classic, as before.
 //!
-//! Frame conversions between [`Frame`] and the socketcan crate's frame types live here too
-//! ([`frame_from_socketcan`], [`socketcan_frame`]): lossless both ways for classic data and
-//! remote frames; error and FD frames are refused with [`FrameError::NotClassic`].
+//! Frame conversions between [`Frame`] and the socketcan crate's frame types
+//! ([`frame_from_socketcan`], [`socketcan_frame`]; `convert.rs`): lossless both ways for classic
+//! data and remote frames; error and FD frames are refused with [`FrameError::NotClassic`].
+//! What sysfs tells of an interface ([`link_state`], [`interface_mtu`]) is in `interface.rs`.
 
 mod blocking;
+mod convert;
+mod interface;
+#[cfg(test)]
+mod tests;
+
+use convert::{canfd_bytes, fd_from_kernel, CAN_EFF_FLAG, CAN_EFF_MASK, CAN_RTR_FLAG};
+pub use convert::{decode_error_frame, frame_from_socketcan, socketcan_frame};
+use interface::not_fd;
+pub use interface::{inject_error_frame, interface_mtu, link_state, LinkState};
 
 use super::error_frame::{self, ErrorStatuses};
 use super::stamp::{self, KernelClock};
@@ -42,10 +52,7 @@ use super::{AnyInput, Port, PortCounters, PortError, PortErrorKind, PortInput, P
 use crate::frame::{FdFrame, Frame, FrameError, Id};
 use nix::errno::Errno;
 use nix::sys::socket::{recvmsg, MsgFlags};
-use socketcan::{
-    CanAnyFrame, CanDataFrame, CanErrorFrame, CanFrame, CanRemoteFrame, EmbeddedFrame, Socket,
-    SocketOptions,
-};
+use socketcan::{CanFrame, Socket, SocketOptions};
 use std::io::{self, IoSliceMut};
 use std::os::fd::AsRawFd;
 use tokio::io::unix::AsyncFd;
@@ -97,11 +104,6 @@ const CANFD_MTU: usize = 72;
 /// `SOL_CAN_RAW` and its option `CAN_RAW_FD_FRAMES` (linux/can/raw.h).
 const SOL_CAN_RAW: std::ffi::c_int = 101;
 const CAN_RAW_FD_FRAMES: std::ffi::c_int = 5;
-/// `canfd_frame.flags`: bit rate switch, error state indicator, FD frame (linux/can.h).
-const CANFD_BRS: u8 = 0x01;
-const CANFD_ESI: u8 = 0x02;
-const CANFD_FDF: u8 = 0x04;
-
 /// What the port read last through tokio: the frame as the kernel wrote it, its length, its
 /// receive timestamp on the monotonic clock, and what the stamps are converted with.
 #[derive(Debug)]
@@ -172,95 +174,6 @@ async fn write_waiting(write: impl Fn() -> io::Result<()>) -> io::Result<()> {
     }
 }
 
-fn id_of(id: socketcan::Id) -> Id {
-    Id::from(id)
-}
-
-/// The [`Frame`] a frame of the socketcan crate carries (a `CanFrame`, `CanDataFrame`,
-/// `CanRemoteFrame` or `CanAnyFrame`): lossless for classic data and remote frames; error and FD
-/// frames are refused with [`FrameError::NotClassic`].
-///
-/// A function rather than `TryFrom`: [`Frame`] is the protocol core's type (`duocan-core`) and
-/// the socketcan types are the socketcan crate's, so neither crate may implement the
-/// conversion as a trait here.
-pub fn frame_from_socketcan(f: impl Into<CanAnyFrame>) -> Result<Frame, FrameError> {
-    match f.into() {
-        CanAnyFrame::Normal(d) => Frame::new(id_of(EmbeddedFrame::id(&d)), EmbeddedFrame::data(&d)),
-        CanAnyFrame::Remote(r) => {
-            let dlc = u8::try_from(EmbeddedFrame::dlc(&r)).map_err(|_| FrameError::TooLong {
-                len: EmbeddedFrame::dlc(&r),
-            })?;
-            Frame::remote(id_of(EmbeddedFrame::id(&r)), dlc)
-        }
-        CanAnyFrame::Error(_) | CanAnyFrame::Fd(_) => Err(FrameError::NotClassic),
-    }
-}
-
-/// The socketcan crate's frame of a [`Frame`], lossless (a data or a remote frame); wrap it in
-/// `CanAnyFrame::from` where that type is wanted. See [`frame_from_socketcan`] for why this is
-/// not a `From`.
-pub fn socketcan_frame(f: &Frame) -> CanFrame {
-    // `Frame` guarantees an in-range identifier and DLC ≤ 8, which is all the socketcan
-    // constructors check; the fallbacks are unreachable but keep this total.
-    let id: socketcan::Id = f.id().into();
-    if f.is_remote() {
-        CanRemoteFrame::new_remote(id, f.dlc() as usize)
-            .map(CanFrame::Remote)
-            .unwrap_or_default()
-    } else {
-        CanDataFrame::new(id, f.data())
-            .map(CanFrame::Data)
-            .unwrap_or_default()
-    }
-}
-
-/// Decodes a SocketCAN error frame into the statuses it reports.
-pub fn decode_error_frame(f: &CanErrorFrame) -> ErrorStatuses {
-    error_frame::decode(f.error_bits(), EmbeddedFrame::data(f))
-}
-
-const IFF_UP: u32 = 0x1;
-
-/// The flags and mask of the identifier word of the kernel's `struct can_frame`: extended
-/// frame, remote request, and the 29 identifier bits.
-const CAN_EFF_FLAG: u32 = 0x8000_0000;
-const CAN_RTR_FLAG: u32 = 0x4000_0000;
-const CAN_EFF_MASK: u32 = 0x1FFF_FFFF;
-
-/// Link state of a network interface as sysfs shows it.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum LinkState {
-    /// No such interface.
-    Missing,
-    /// Present, administratively down.
-    Down,
-    /// Present and up.
-    Up,
-}
-
-/// Reads `/sys/class/net/IFNAME/flags`. Names that are not interface names are `Missing`.
-pub fn link_state(ifname: &str) -> LinkState {
-    let valid = !ifname.is_empty()
-        && ifname.len() < 16
-        && !ifname.contains('/')
-        && ifname != "."
-        && ifname != "..";
-    if !valid {
-        return LinkState::Missing;
-    }
-    match std::fs::read_to_string(format!("/sys/class/net/{ifname}/flags")) {
-        Ok(s) => {
-            let flags = u32::from_str_radix(s.trim().trim_start_matches("0x"), 16).unwrap_or(0);
-            if flags & IFF_UP != 0 {
-                LinkState::Up
-            } else {
-                LinkState::Down
-            }
-        }
-        Err(_) => LinkState::Missing,
-    }
-}
-
 /// The port's socket: read through tokio, or by a reader thread.
 #[derive(Debug)]
 enum Sock {
@@ -326,61 +239,6 @@ impl SocketCanPort {
     pub fn is_fd(&self) -> bool {
         self.fd
     }
-}
-
-/// The MTU of `ifname` as sysfs shows it (`None` if it cannot be read).
-pub fn interface_mtu(ifname: &str) -> Option<usize> {
-    if link_state(ifname) == LinkState::Missing {
-        return None;
-    }
-    std::fs::read_to_string(format!("/sys/class/net/{ifname}/mtu"))
-        .ok()?
-        .trim()
-        .parse()
-        .ok()
-}
-
-/// The error of an interface that carries no CAN FD frames (its MTU is `mtu`, not 72).
-fn not_fd(ifname: &str, mtu: Option<usize>) -> PortError {
-    let mtu = mtu.map_or_else(|| "an unreadable MTU".to_owned(), |m| format!("MTU {m}"));
-    PortError::new(
-        ifname,
-        PortErrorKind::Config,
-        format!(
-            "interface {ifname} has {mtu}, not the CAN FD MTU {CANFD_MTU}: it carries no CAN FD frames \
-             (a vcan: `ip link set {ifname} mtu {CANFD_MTU}`; a CAN controller: \
-             `ip link set {ifname} type can bitrate … dbitrate … fd on`)"
-        ),
-    )
-}
-
-/// The kernel's `struct canfd_frame` of `f`.
-fn canfd_bytes(f: &FdFrame) -> [u8; CANFD_MTU] {
-    let word = match f.id() {
-        Id::Standard(r) => u32::from(r),
-        Id::Extended(r) => r | CAN_EFF_FLAG,
-    };
-    let mut raw = [0u8; CANFD_MTU];
-    raw[..4].copy_from_slice(&word.to_ne_bytes());
-    raw[4] = f.len() as u8;
-    raw[5] = CANFD_FDF | if f.brs() { CANFD_BRS } else { 0 } | if f.esi() { CANFD_ESI } else { 0 };
-    raw[8..8 + f.len()].copy_from_slice(f.data());
-    raw
-}
-
-/// The CAN FD frame of a kernel `struct canfd_frame`; an error for a length that is not a CAN
-/// FD length.
-fn fd_from_kernel(raw: &[u8; CANFD_MTU]) -> Result<FdFrame, crate::frame::fd::FdFrameError> {
-    let word = u32::from_ne_bytes([raw[0], raw[1], raw[2], raw[3]]);
-    let id = if word & CAN_EFF_FLAG != 0 {
-        Id::Extended(word & CAN_EFF_MASK)
-    } else {
-        Id::Standard((word & 0x7FF) as u16)
-    };
-    let len = usize::from(raw[4]).min(64);
-    let f = FdFrame::new(id, &raw[8..8 + len])?;
-    Ok(f.with_brs(raw[5] & CANFD_BRS != 0)
-        .with_esi(raw[5] & CANFD_ESI != 0))
 }
 
 /// The error of a port whose socket was closed after a failure.
@@ -724,97 +582,5 @@ impl Port for SocketCanPort {
                 None
             }
         }
-    }
-}
-
-/// Writes an error frame (`bits` | `CAN_ERR_FLAG`, `data`) on `ifname`: how tests inject
-/// controller errors on a vcan interface, which has no controller of its own.
-pub fn inject_error_frame(ifname: &str, bits: u32, data: &[u8]) -> io::Result<()> {
-    let sock = socketcan::CanSocket::open(ifname)?;
-    let ef = CanErrorFrame::new_error(bits, data)
-        .map_err(|e| io::Error::new(io::ErrorKind::InvalidInput, e.to_string()))?;
-    sock.write_frame(&CanFrame::Error(ef))
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-    use proptest::prelude::*;
-
-    proptest! {
-        #[test]
-        fn socketcan_round_trip_is_lossless(f in crate::frame::arbitrary::any_frame()) {
-            let sc = socketcan_frame(&f);
-            prop_assert_eq!(frame_from_socketcan(sc).unwrap(), f);
-            let any = CanAnyFrame::from(socketcan_frame(&f));
-            prop_assert_eq!(frame_from_socketcan(any).unwrap(), f);
-        }
-    }
-
-    #[test]
-    fn error_frames_are_not_frames() {
-        let ef = CanErrorFrame::new_error(0x40, &[0; 8]).unwrap();
-        assert_eq!(
-            frame_from_socketcan(CanFrame::Error(ef)),
-            Err(FrameError::NotClassic)
-        );
-        assert_eq!(
-            decode_error_frame(&ef).as_slice(),
-            &[crate::machine::PortStatus::Down(
-                crate::machine::ErrorCause::BusOff
-            )]
-        );
-    }
-
-    #[test]
-    fn missing_interface_is_a_clear_error() {
-        assert_eq!(link_state("duocan-nope0"), LinkState::Missing);
-        assert_eq!(link_state("../etc"), LinkState::Missing);
-        let rt = tokio::runtime::Builder::new_current_thread()
-            .enable_all()
-            .build()
-            .unwrap();
-        let err = rt
-            .block_on(async { SocketCanPort::open("duocan-nope0") })
-            .unwrap_err();
-        assert_eq!(err.kind, PortErrorKind::NoSuchInterface);
-        assert!(err
-            .to_string()
-            .contains("ip link add dev duocan-nope0 type vcan"));
-    }
-}
-
-#[cfg(test)]
-mod fd_tests {
-    use super::*;
-    use proptest::prelude::*;
-
-    proptest! {
-        #[test]
-        fn canfd_frame_bytes_round_trip(f in crate::frame::arbitrary::any_fd_frame()) {
-            let raw = canfd_bytes(&f);
-            prop_assert_eq!(raw[5] & CANFD_FDF, CANFD_FDF);
-            prop_assert_eq!(fd_from_kernel(&raw).unwrap(), f);
-        }
-    }
-
-    #[test]
-    fn a_kernel_fd_frame_of_a_length_between_the_steps_is_refused() {
-        let mut raw = canfd_bytes(&FdFrame::new(Id::Standard(0x123), &[1; 12]).unwrap());
-        raw[4] = 10;
-        assert!(fd_from_kernel(&raw).is_err());
-    }
-
-    #[test]
-    fn a_missing_interface_has_no_mtu_and_open_fd_says_so() {
-        assert_eq!(interface_mtu("duocan-nope0"), None);
-        let e = not_fd("vcan9", Some(16));
-        assert_eq!(e.kind, PortErrorKind::Config);
-        let msg = e.to_string();
-        assert!(
-            msg.contains("vcan9 has MTU 16, not the CAN FD MTU 72"),
-            "{msg}"
-        );
-        assert!(msg.contains("ip link set vcan9 mtu 72"), "{msg}");
     }
 }
