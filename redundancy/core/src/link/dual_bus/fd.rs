@@ -171,14 +171,8 @@ impl<C: FrameClassifier, K: MergeCapacity> DualBus<C, K> {
         at: Instant,
         stamped: bool,
     ) -> Option<FdFrame> {
-        self.watch_clock(now);
-        if port > 1 {
-            self.stats.bad_port += 1;
+        if !self.rx_begins(now, port, stamped) {
             return None;
-        }
-        if self.stamped[port] != stamped {
-            self.stamped[port] = stamped;
-            self.merger.set_stamped(port, stamped);
         }
         let at = at.min(now);
         let stand = stand_in(frame);
@@ -198,12 +192,7 @@ impl<C: FrameClassifier, K: MergeCapacity> DualBus<C, K> {
             RxRoute::Merge if self.sticky.is_some() => self.stick(now, at, port, &stand),
             RxRoute::Merge => self.merge_fd(now, at, port, frame),
         };
-        self.health.rx_delay(port, now.saturating_since(at));
-        self.health.on_rx(now, at, port, outcome, &mut self.out);
-        if !matches!(
-            outcome,
-            RxOutcome::Delivered | RxOutcome::Direct | RxOutcome::Slipped
-        ) {
+        if !self.settled(now, at, port, outcome) {
             return None;
         }
         if !self.pairs.is_empty() {

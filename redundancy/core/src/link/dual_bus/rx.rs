@@ -37,6 +37,39 @@ impl LateSample {
 }
 
 impl<C: FrameClassifier, K: MergeCapacity> DualBus<C, K> {
+    /// The start of both receive paths (classic and FD): the clock watched, `port` checked
+    /// (false: no such port, counted) and whether it stamps noted.
+    #[inline(always)]
+    pub(super) fn rx_begins(&mut self, now: Instant, port: usize, stamped: bool) -> bool {
+        self.watch_clock(now);
+        if port > 1 {
+            self.stats.bad_port += 1;
+            return false;
+        }
+        if self.stamped[port] != stamped {
+            self.stamped[port] = stamped;
+            self.merger.set_stamped(port, stamped);
+        }
+        true
+    }
+
+    /// The route's `outcome` told to port health; true if the frame goes on up.
+    #[inline(always)]
+    pub(super) fn settled(
+        &mut self,
+        now: Instant,
+        at: Instant,
+        port: usize,
+        outcome: RxOutcome,
+    ) -> bool {
+        self.health.rx_delay(port, now.saturating_since(at));
+        self.health.on_rx(now, at, port, outcome, &mut self.out);
+        matches!(
+            outcome,
+            RxOutcome::Delivered | RxOutcome::Direct | RxOutcome::Slipped
+        )
+    }
+
     /// A frame from `port` stamped `at` (`stamped`: a receive timestamp; otherwise the time
     /// it was handed over), handled at `now`: the layer's receive path.
     pub(super) fn rx(
@@ -47,14 +80,8 @@ impl<C: FrameClassifier, K: MergeCapacity> DualBus<C, K> {
         at: Instant,
         stamped: bool,
     ) -> Option<Frame> {
-        self.watch_clock(now);
-        if port > 1 {
-            self.stats.bad_port += 1;
+        if !self.rx_begins(now, port, stamped) {
             return None;
-        }
-        if self.stamped[port] != stamped {
-            self.stamped[port] = stamped;
-            self.merger.set_stamped(port, stamped);
         }
         // When the frame was on the bus: what heartbeat rates and the merger judge by (a
         // reader that ran late changes neither). Reachability and port health judge silence by
@@ -90,12 +117,7 @@ impl<C: FrameClassifier, K: MergeCapacity> DualBus<C, K> {
             RxRoute::Merge if self.sticky.is_some() => self.stick(now, at, port, frame),
             RxRoute::Merge => self.merge(now, at, port, frame),
         };
-        self.health.rx_delay(port, now.saturating_since(at));
-        self.health.on_rx(now, at, port, outcome, &mut self.out);
-        if !matches!(
-            outcome,
-            RxOutcome::Delivered | RxOutcome::Direct | RxOutcome::Slipped
-        ) {
+        if !self.settled(now, at, port, outcome) {
             return None;
         }
         if let Some(n) = info.heartbeat.filter(|_| !self.plausible.is_empty()) {
