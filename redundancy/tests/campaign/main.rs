@@ -519,7 +519,9 @@ fn seeds(first: u64, n: u64, secs: u64, quiet: bool) -> (Coverage, Vec<String>) 
     let mut cov = Coverage::default();
     let mut failed = vec![];
     // `CAMPAIGN_KINDS=n`: the first n kinds (fewer: as the campaign drew before later ones);
-    // `CAMPAIGN_DRIFT=1`: receive clocks that drift apart too (`faults::KINDS_WITH_DRIFT`).
+    // `CAMPAIGN_DRIFT=1`: receive clocks that drift apart too (`faults::KINDS_WITH_DRIFT`);
+    // `CAMPAIGN_NO_STALL=1`: every layer without its transmit stall rule, as behind drivers
+    // that report no transmit outcomes (a diagnosis: see `plant::link`).
     let kinds = if std::env::var("CAMPAIGN_DRIFT").is_ok_and(|v| v == "1") {
         faults::KINDS_WITH_DRIFT
     } else {
