@@ -17,6 +17,8 @@
 //! - noise: error reports on that bus; an overrun: that controller's overflow reports;
 //! - a transceiver that cannot send: that controller reported a bus-off;
 //! - a slow transmitter: a frame waited in that controller for its delay;
+//! - port writes drifting apart: a frame waited in that controller, and (a duocan sender) its
+//!   layer failed the port for a transmit stall;
 //! - a board or master that dies (once or in a boot loop), a master's clock stepped back or
 //!   jumped ahead, a device's clock at a wrong rate: the device was powered when the fault
 //!   came (its effect is the simulator's or the clock's own doing).
@@ -67,6 +69,12 @@ pub fn watch(run: &mut Run, f: Fault) {
         let seen = direct
             && match f {
                 Fault::SlowTx { .. } => tx_waited(r, &f) > waited,
+                // Past the stall time: a duocan sender's layer flushed the port and failed it
+                // (the node that is not duocan has no layer: its frames waited).
+                Fault::TxDrift { node, port, .. } => {
+                    tx_waited(r, &f) > waited
+                        && (node == crate::foreign::FOREIGN || stalled(r, node, port, from, now))
+                }
                 _ => took_effect(r, f, from, now, &before),
             };
         if seen {
@@ -78,7 +86,7 @@ pub fn watch(run: &mut Run, f: Fault) {
 /// How many frames a slow transmitter's port has held back (0 for other faults).
 fn tx_waited(run: &Run, f: &Fault) -> u64 {
     match *f {
-        Fault::SlowTx { node, port, .. } => {
+        Fault::SlowTx { node, port, .. } | Fault::TxDrift { node, port, .. } => {
             let p = crate::faults::port_of(run, node, port);
             run.plant.sim.port_stats(p).tx_waited
         }
@@ -116,6 +124,14 @@ fn link_events(run: &Run, node: u8, from: Instant, to: Instant) -> Vec<LinkEvent
     } else {
         links_of(sim.events(run.plant.slave(node).0), from, to)
     }
+}
+
+/// Device `node`'s port `port` failed for a transmit stall in `[from, to]`.
+fn stalled(run: &Run, node: u8, port: usize, from: Instant, to: Instant) -> bool {
+    link_events(run, node, from, to).iter().any(|e| {
+        matches!(e.kind, LinkEventKind::Port { port: p, reason: PortReason::TxStalled { .. }, .. }
+            if p as usize == port)
+    })
 }
 
 /// How many times device `node`'s port `port` changed state in `[from, to]`.
@@ -281,6 +297,7 @@ fn took_effect(run: &Run, f: Fault, from: Instant, to: Instant, before: &Counter
         Fault::BoardDies { .. }
         | Fault::BootLoop { .. }
         | Fault::SlowTx { .. }
+        | Fault::TxDrift { .. }
         | Fault::MasterDies { .. }
         | Fault::MasterBootLoop { .. }
         | Fault::StepBack { .. }

@@ -133,6 +133,19 @@ pub enum Fault {
         delay: Duration,
         dur: Duration,
     },
+    /// A device whose writes to its two ports drift apart for `dur` (its two port-writer
+    /// tasks scheduled apart on a loaded CPU): every frame it hands `port` competes for the
+    /// wire a varying delay later, drawn from `load` in bursts ([`drift_profile`]): delays
+    /// that grow and shrink (up to 80 ms, often past the skew window), and holds in which the
+    /// port keeps every frame for up to 80 ms and then flushes the burst at once, while the
+    /// other port sends on time (so the two buses carry its frames, and other senders' frames
+    /// around them, in different orders). Each port keeps its own order.
+    TxDrift {
+        node: u8,
+        port: usize,
+        dur: Duration,
+        load: u64,
+    },
     /// A device's controller on `port` runs at the wrong bit rate for `dur` (a board swapped
     /// in with a misconfigured controller): it decodes nothing there and nothing it sends is a
     /// frame to the others (so it is cut off that bus), and while error-active it flags every
@@ -192,6 +205,7 @@ impl Fault {
             Fault::Noise { .. } => "noisy bus",
             Fault::Overrun { .. } => "controller overrun",
             Fault::SlowTx { .. } => "slow transmitter",
+            Fault::TxDrift { .. } => "port writes drifting apart",
             Fault::Duplicate { state, period, .. }
                 if *state != NmtState::Operational || *period != SLAVE_HB =>
             {
@@ -218,6 +232,7 @@ impl Fault {
             | Fault::Noise { dur, .. }
             | Fault::Overrun { dur, .. }
             | Fault::SlowTx { dur, .. }
+            | Fault::TxDrift { dur, .. }
             | Fault::Duplicate { dur, .. }
             | Fault::WrongBitRate { dur, .. }
             | Fault::Drift { dur, .. }
@@ -255,6 +270,7 @@ impl Fault {
                 | Fault::Noise { .. }
                 | Fault::Overrun { .. }
                 | Fault::SlowTx { .. }
+                | Fault::TxDrift { .. }
                 | Fault::WrongBitRate { .. }
                 | Fault::TxDead { .. }
         )
@@ -451,6 +467,31 @@ pub fn apply(run: &mut Run, f: Fault) {
                 // At the end, frames handed over just before still wait their delay.
                 let t = r.now() + (if on { Duration::ZERO } else { delay });
                 r.timeline.devs[d].slow_tx[port].set(t, on);
+            });
+        }
+        Fault::TxDrift {
+            node,
+            port,
+            dur,
+            load,
+        } => {
+            let p = port_of(run, node, port);
+            let d = dev_index(run, node);
+            let profile = drift_profile(load, now, now + dur);
+            let top = profile
+                .iter()
+                .map(|(_, l)| *l)
+                .max()
+                .unwrap_or(Duration::ZERO);
+            run.timeline.devs[d].slow_tx[port].start(now);
+            for (t, latency) in profile {
+                run.at(t, move |r| r.plant.sim.set_port_tx_latency(p, latency));
+            }
+            run.at(now + dur, move |r| {
+                r.plant.sim.set_port_tx_latency(p, Duration::ZERO);
+                // Frames handed over just before still wait their delay.
+                let t = r.now() + top;
+                r.timeline.devs[d].slow_tx[port].end(t);
             });
         }
         Fault::Cut { bus, dur } => {
@@ -790,9 +831,48 @@ pub fn random(rng: &mut Rng, pairs: u8, connectivity_free: bool, kinds: usize) -
     }
 }
 
+/// The transmit delays of a port whose writer task drifts from its twin's over `[from, to)`
+/// (see [`Fault::TxDrift`]): from when each holds, a step a millisecond. Bursts follow each
+/// other: a delay that grows to its top (1 to 80 ms) and shrinks back, over 10 to 300 ms each
+/// way; a hold of 5 to 80 ms (each frame handed over meanwhile waits until its end: the burst
+/// goes out at once); a calm of 5 to 200 ms (on time).
+pub fn drift_profile(load: u64, from: Instant, to: Instant) -> Vec<(Instant, Duration)> {
+    let mut rng = Rng(load | 1);
+    let (mut v, mut t) = (vec![], from);
+    let ms = Duration::from_millis;
+    while t < to {
+        match rng.below(3) {
+            0 => {
+                let top = [
+                    1_000u64, 3_000, 6_000, 10_000, 20_000, 40_000, 60_000, 80_000,
+                ][rng.below(8) as usize];
+                let rise = 10 + rng.below(290);
+                for k in 0..2 * rise {
+                    let up = if k <= rise { k } else { 2 * rise - k };
+                    v.push((t + ms(k), Duration::from_micros(top * up / rise)));
+                }
+                t += ms(2 * rise);
+            }
+            1 => {
+                let hold = 5 + rng.below(75);
+                for k in 0..hold {
+                    v.push((t + ms(k), ms(hold - k)));
+                }
+                t += ms(hold);
+            }
+            _ => {
+                v.push((t, Duration::ZERO));
+                t += ms(5 + rng.below(195));
+            }
+        }
+    }
+    v.retain(|(at, _)| *at < to);
+    v
+}
+
 /// How many kinds of fault the campaign draws from (every class that holds, some in two
 /// shapes).
-pub const KINDS: usize = 28;
+pub const KINDS: usize = 29;
 
 /// Every kind [`draw`] knows: also receive clocks that drift apart (kind [`DRIFT`], always the
 /// last), which still fail combined with others (the "known and not fixed yet" of the user
@@ -801,6 +881,10 @@ pub const KINDS: usize = 28;
 pub const KINDS_WITH_DRIFT: usize = KINDS + 1;
 /// The drift's kind.
 pub const DRIFT: usize = KINDS;
+
+/// The kinds the campaign knew before a sender whose port writes drift apart: the seeds in
+/// `REGRESSIONS_TX_DEAD` draw from these.
+pub const KINDS_BEFORE_TX_DRIFT: usize = 28;
 
 /// The kinds the campaign knew before a transceiver that cannot send: the seeds in
 /// `REGRESSIONS_CLOCK_RATE` draw from these.
@@ -1008,6 +1092,18 @@ pub fn draw(rng: &mut Rng, pairs: u8, k: usize) -> Fault {
                 },
                 port: rng.below(2) as usize,
                 dur: rng.ms(500, 8_000),
+            },
+            28 => Fault::TxDrift {
+                // Any node: a board, a master, the observer, or the one that is not duocan
+                // (no layer of its own: its copies further apart than the window are two
+                // frames to every receiver, as the promise table says).
+                node: match rng.below(5) {
+                    0 => FOREIGN,
+                    _ => any_node(rng),
+                },
+                port: rng.below(2) as usize,
+                dur: rng.ms(500, 8_000),
+                load: rng.next(),
             },
             DRIFT => Fault::Drift {
                 node: any_node(rng),

@@ -138,6 +138,10 @@ pub enum Fault {
     NeverArrived,
     /// Delivered more than once.
     Duplicated(u8),
+    /// A heartbeat delivered at a master after a newer heartbeat or boot-up of its sender
+    /// (sent more than the skew window later) had been: a state the node has left, taken
+    /// for its present one.
+    Stale,
 }
 
 /// One violation, for the report.
@@ -258,6 +262,9 @@ pub struct Oracle {
     newest: Vec<[Option<(Instant, Instant)>; MAX_NODES]>,
     /// When the copy being handed over now ended on the wire.
     current_wire: Instant,
+    /// Per receiver and sender: when the newest heartbeat or boot-up delivered there was sent,
+    /// and the state it said (a boot-up: 0).
+    state: Vec<[Option<(Instant, u8)>; MAX_NODES]>,
     /// Per receiver: the frames delivered there lately (simulated time, sender, frame), for as
     /// long as an occurrence that reached it meanwhile may wait to be judged.
     recent: Vec<VecDeque<(Instant, usize, Frame)>>,
@@ -442,13 +449,43 @@ impl Oracle {
         match self.current {
             Some((r, Some(of))) if r == node => {
                 let mut sent = None;
+                let mut beat = None;
+                let mut o_state = 0;
                 if let Some(o) = self.occ(of) {
+                    o_state = o.frame.data().first().copied().unwrap_or(0);
                     o.delivered[r] = o.delivered[r].saturating_add(1);
                     sent = is_error_control(&o.frame).then_some((o.sender, o.at));
+                    beat = is_heartbeat(&o.frame).then_some((o.sender, o.at, o.frame));
                 }
                 if let Some((s, at)) = sent {
                     if self.newest.len() <= r {
                         self.newest.resize(r + 1, [None; MAX_NODES]);
+                    }
+                    // A master that takes a heartbeat older than one it already took acts
+                    // on a state the node has left (the promise table: superseded).
+                    if self.state.len() <= r {
+                        self.state.resize(r + 1, [None; MAX_NODES]);
+                    }
+                    let newest = self.state[r][s];
+                    if let Some((s, at, frame)) = beat.filter(|_| self.nodes[r].master) {
+                        // Older than the newest by more than the window, in another state.
+                        let stale = newest.is_some_and(|(a, state)| {
+                            at + SKEW_WINDOW < a && state != frame.data()[0]
+                        });
+                        if stale && !self.nodes[s].foreign {
+                            self.violations.push(Violation {
+                                sender: s,
+                                receiver: r,
+                                at,
+                                frame,
+                                fault: Fault::Stale,
+                            });
+                        }
+                    }
+                    let state = o_state;
+                    let st = &mut self.state[r][s];
+                    if st.is_none_or(|(a, _)| a < at) {
+                        *st = Some((at, state));
                     }
                     let wire = self.current_wire;
                     let n = &mut self.newest[r][s];
