@@ -160,6 +160,7 @@ mod tests {
             addr: "0.0.0.0:1".parse().unwrap(),
             token: Some("read-0123456789ab".into()),
             control: Control::Token("ctl-0123456789abc".into()),
+            tls: None,
         };
         let a = Access::new(Some(&http));
         assert!(!a.may_read(&with(None)));
@@ -191,6 +192,7 @@ mod tests {
             addr: "127.0.0.1:1".parse().unwrap(),
             token: None,
             control: Control::Loopback,
+            tls: None,
         };
         let a = Access::new(Some(&http));
         let taken = (0..100).filter(|_| a.control(&with(None)).is_ok()).count();

@@ -28,6 +28,11 @@
 //! 404; another method is 405. Bodies are bounded ([`rest::MAX_BODY`](super::rest::MAX_BODY),
 //! 413 over it); at most [`MAX_CLIENTS`] requests are served at once (more wait for their
 //! turn).
+//!
+//! **TLS.** With `http_tls_cert` and `http_tls_key` the station serves all of this over HTTPS
+//! only (rustls; [`tls`](super::tls) shakes hands before a connection reaches the router, and
+//! [`config::Tls`](super::config::Tls) says what the files hold). The rules above stay as
+//! they are; the tokens travel encrypted.
 
 use super::access::{error, unauthorized, Access};
 use super::audit::AuditLog;
