@@ -1,6 +1,7 @@
 //! The station's HTTP over TLS (`http_tls_cert`, `http_tls_key`): a client that trusts the
-//! station's certificate reads its status; plain HTTP on that port gets nothing; a key that is
-//! not the certificate's is refused by `station check`.
+//! station's certificate reads its status, also while another client connects and stays
+//! silent; plain HTTP on that port gets nothing; a key that is not the certificate's is
+//! refused by `station check`.
 
 mod common;
 #[path = "station_http/log.rs"]
@@ -138,8 +139,11 @@ fn the_station_serves_https_with_its_certificate() {
         let _ = child.kill();
         panic!("no https address in 120 s:\n{}", seen.join("\n"));
     };
+    // A client that connects and says nothing holds no one else up: handshakes run side by side.
+    let silent = std::net::TcpStream::connect(&addr).expect("connect");
     let plain = get_plain(&addr);
     let (code, json) = get_tls(&addr, "/api/networks", token, &der);
+    drop(silent);
     let (unauth, _) = get_tls(&addr, "/api/networks", "test-token-0123456788", &der);
     let _ = child.kill();
     let _ = child.wait();
