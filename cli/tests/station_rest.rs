@@ -86,6 +86,10 @@ fn sdo_nmt_and_switch_over_by_role_with_each_error() {
         token: Some(READ),
     };
     let operator = reader.with(Some(CONTROL));
+    // What each token may do, as the dashboard asks it before it offers operator actions.
+    assert_eq!(reader.get("/api/role"), (200, json!({"role": "read"})));
+    assert_eq!(operator.get("/api/role"), (200, json!({"role": "control"})));
+    assert_eq!(reader.with(None).get("/api/role").0, 401);
 
     // Reads: what the simulated boards hold (vendor-ID, product code = node-ID), by network
     // name, URL-encoded name or index; the control token reads too.
@@ -324,6 +328,8 @@ fn bodies_and_the_control_rate_are_bounded() {
         addr: &addr,
         token: None,
     };
+    // Loopback control: any client of the address controls, the dashboard too.
+    assert_eq!(c.get("/api/role"), (200, json!({"role": "control"})));
     let big = format!(r#"{{"type":"vs","value":"{}"}}"#, "x".repeat(5000));
     let (code, v) = c.send("PUT", &format!("{SDO}/0x6200/1"), Some(&big));
     assert_eq!(code, 413, "{v}");

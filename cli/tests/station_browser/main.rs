@@ -3,7 +3,9 @@
 //! watches the page's DOM while the failover happens — the pair's running board turns from A
 //! to B, bus 1 fails, the failover shows in the live events and in the timeline, the quiet
 //! rack's board keeps running — then keeps a screenshot (its path is printed). Without the
-//! token in its address, or with a wrong one, the page shows none of it.
+//! token in its address, or with a wrong one, the page shows none of it. With the read token
+//! the page offers no operator action; with the control token, the quiet rack's pair is
+//! switched over from its button, confirmed on the page, and the page shows B running.
 //!
 //! Needs Chromium: run by `.ci/run` (`--features peers`), not by `cargo test --workspace`;
 //! without Chromium it fails, saying what to install.
@@ -19,6 +21,7 @@ use std::process::{Child, Command, Stdio};
 use std::time::{Duration, Instant};
 
 const TOKEN: &str = "browser-test-token-0123456789";
+const CONTROL: &str = "browser-control-token-0123456789";
 
 /// The station, killed when dropped.
 struct Station(Child);
@@ -77,6 +80,75 @@ fn until(
     }
 }
 
+/// Evaluates `js` on `page` every 100 ms until it gives `want`, for at most `limit`.
+fn until_js(b: &mut cdp::Browser, page: &str, js: &str, want: &Value, limit: Duration) {
+    let end = Instant::now() + limit;
+    loop {
+        let v = b.eval(page, js);
+        if &v == want {
+            return;
+        }
+        assert!(
+            Instant::now() < end,
+            "{js} never gave {want} in {limit:?}; it gave {v}"
+        );
+        std::thread::sleep(Duration::from_millis(100));
+    }
+}
+
+/// With the control token, the signal rack's pair is switched over from the page: the button
+/// asks first, and once confirmed the pair's running board turns from A to B.
+fn operate(b: &mut cdp::Browser, addr: &str, dir: &std::path::Path) {
+    let page = b.open(&format!("http://{addr}/#token={CONTROL}"), 1280, 900);
+    let button = r#"document.querySelector('[data-network="signal rack"] [data-pair="0x11"] button[data-action="switch"]')"#;
+    until_js(
+        b,
+        &page,
+        &format!("!!{button}"),
+        &Value::Bool(true),
+        Duration::from_secs(20),
+    );
+    let nmt = b.eval(
+        &page,
+        r#"document.querySelectorAll('[data-network="signal rack"] [data-node="0x11"] button[data-action="nmt"]').length"#,
+    );
+    assert_eq!(nmt, 4, "start, stop, preop and reset for each node");
+    let asked = b.eval(
+        &page,
+        &format!("{button}.click(); [document.getElementById('confirm').hidden, document.getElementById('ask').textContent]"),
+    );
+    assert_eq!(
+        asked,
+        serde_json::json!([false, "switch pair 0x11 of signal rack over?"]),
+        "no confirmation asked"
+    );
+    let running = |b: &mut cdp::Browser| b.eval(&page, LOOK)["signal"]["pair"].clone();
+    assert_eq!(running(b), "A", "switched before the confirmation");
+    b.eval(
+        &page,
+        r#"document.querySelector('#confirm [data-confirm="yes"]').click(); true"#,
+    );
+    let after = until(
+        b,
+        &page,
+        "the signal rack's pair switched over",
+        Duration::from_secs(20),
+        |v| v["signal"]["pair"] == "B",
+    );
+    let said = b.eval(&page, "document.getElementById('result').textContent");
+    eprintln!("switched over from the page: {} ({said})", after["signal"]);
+    until_js(
+        b,
+        &page,
+        "document.getElementById('result').textContent",
+        &Value::from("switch pair 0x11 of signal rack over: done"),
+        Duration::from_secs(20),
+    );
+    let shot = dir.join("dashboard-control.png");
+    std::fs::write(&shot, b.screenshot(&page)).unwrap();
+    eprintln!("screenshot with control: {}", shot.display());
+}
+
 #[test]
 fn the_dashboard_shows_a_failover_as_it_happens() {
     let _one = common::one_station();
@@ -94,7 +166,8 @@ fn the_dashboard_shows_a_failover_as_it_happens() {
     std::fs::write(
         &file,
         format!(
-            "[station]\nname = \"browser\"\nhttp = \"127.0.0.1:0\"\nhttp_token = \"{TOKEN}\"\n\n{racks}"
+            "[station]\nname = \"browser\"\nhttp = \"127.0.0.1:0\"\nhttp_token = \"{TOKEN}\"\n\
+             http_control_token = \"{CONTROL}\"\n\n{racks}"
         ),
     )
     .unwrap();
@@ -184,6 +257,15 @@ fn the_dashboard_shows_a_failover_as_it_happens() {
     // it should.)
     assert_eq!(after["signal"]["pair"], "A", "{after:#}");
     assert_eq!(after["signal"]["role"], "active", "{after:#}");
+
+    // The read token's page offers no action, and only a button sends one, after its
+    // confirmation on the page.
+    let buttons = b.eval(
+        &page,
+        "document.querySelectorAll('button[data-action]').length",
+    );
+    assert_eq!(buttons, 0, "the read token's page offers actions");
+    operate(&mut b, &addr, &dir);
 
     let png = b.screenshot(&page);
     assert!(png.starts_with(b"\x89PNG\r\n\x1a\n"), "not a PNG");

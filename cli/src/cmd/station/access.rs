@@ -85,6 +85,16 @@ impl Access {
         read | control
     }
 
+    /// Whether the request's role may control, the rate left aside: what the dashboard asks
+    /// (`GET /api/role`) before it offers operator actions. Takes nothing from the bucket.
+    pub fn may_control(&self, headers: &HeaderMap) -> bool {
+        match &self.control {
+            Control::Off => false,
+            Control::Loopback => true,
+            Control::Token(_) => self.is_control_token(bearer(headers)),
+        }
+    }
+
     /// Whether the request may control, and then who it is (for the logs and the audit
     /// trail); else the response that refuses it: 401 without the token, 403 with a token
     /// of the read role or when control is off, 429 over the rate.
@@ -160,6 +170,7 @@ mod tests {
             addr: "0.0.0.0:1".parse().unwrap(),
             token: Some("read-0123456789ab".into()),
             control: Control::Token("ctl-0123456789abc".into()),
+            tls: None,
         };
         let a = Access::new(Some(&http));
         assert!(!a.may_read(&with(None)));
@@ -179,10 +190,14 @@ mod tests {
             status(a.control(&with(Some("ctl-0123456789abc")))),
             Ok("control-token")
         );
+        assert!(a.may_control(&with(Some("ctl-0123456789abc"))));
+        assert!(!a.may_control(&with(Some("read-0123456789ab"))));
+        assert!(!a.may_control(&with(None)));
         // Without a station file's say, nothing is controlled.
         let off = Access::new(None);
         assert!(off.may_read(&with(None)));
         assert_eq!(status(off.control(&with(None))), Err(StatusCode::FORBIDDEN));
+        assert!(!off.may_control(&with(None)));
     }
 
     #[test]
@@ -191,6 +206,7 @@ mod tests {
             addr: "127.0.0.1:1".parse().unwrap(),
             token: None,
             control: Control::Loopback,
+            tls: None,
         };
         let a = Access::new(Some(&http));
         let taken = (0..100).filter(|_| a.control(&with(None)).is_ok()).count();

@@ -12,6 +12,8 @@
 //! http_token = "…"                 # reads need it; needed for any address but loopback
 //! http_control_token = "…"         # optional: control (SDO writes, NMT, LSS…) with it
 //! http_control = "loopback"        # or: control open to loopback clients (default "none")
+//! http_tls_cert = "tls/cert.pem"   # optional, with http_tls_key: HTTPS (PEM files, relative:
+//! http_tls_key = "tls/key.pem"     # to this file's folder)
 //! mqtt = "127.0.0.1:1883"          # optional: report to the plant's MQTT broker (host:port)
 //! mqtt_client_id = "duocan-depot"  # default: duocan-STATION
 //! mqtt_prefix = "duocan/depot"     # every topic's first levels; default: duocan/STATION
@@ -49,8 +51,10 @@ use toml::Spanned;
 
 mod http;
 mod mqtt;
+mod tls;
 pub use http::{Control, Http};
 pub use mqtt::Mqtt;
+pub use tls::{server_config, Tls};
 
 /// The simulated buses a network may name: the builder's plant with its fault script, and
 /// the same plant without faults.
@@ -137,6 +141,8 @@ struct StationTable {
     http_token: Option<Spanned<String>>,
     http_control_token: Option<Spanned<String>>,
     http_control: Option<Spanned<String>>,
+    http_tls_cert: Option<Spanned<String>>,
+    http_tls_key: Option<Spanned<String>>,
     mqtt: Option<Spanned<String>>,
     mqtt_client_id: Option<Spanned<String>>,
     mqtt_prefix: Option<Spanned<String>>,

@@ -15,14 +15,20 @@
 //! `data-network="NAME"` (with `data-role`, `data-open`), `data-bus="1"` (with `data-state`),
 //! `data-pair="0x11"` (the A member's node-ID, with `data-running="A"`, `"B"` or `"none"`),
 //! `data-node="0x11"` (with `data-state`, `data-heard="12"`: the buses it was heard on),
-//! `data-event` items in `#events` (live) and in each network's timeline (`data-failover`).
+//! `data-event` items in `#events` (live) and in each network's timeline (`data-failover`);
+//! with control, `button[data-action="switch"]` in a pair's row and
+//! `button[data-action="nmt"][data-command="stop"]` (and the others) in a node's row.
 //!
 //! **Security.** The page is a route like the others: with a token configured, a request
 //! without it gets 401. The 401 answer to `/` is a small page that reads the token from the
 //! address's fragment (`http://HOST:PORT/#token=TOKEN`: a fragment never leaves the browser)
 //! and asks for the dashboard again with `Authorization: Bearer TOKEN`, which the dashboard
-//! then sends with each of its own requests; it shows nothing of the station. The page can
-//! only read: it has no control. Both answers forbid framing and other origins
+//! then sends with each of its own requests; it shows nothing of the station. It offers
+//! operator actions (per node NMT start, stop, preop and reset; per pair a switch-over) only
+//! when `GET /api/role` says its token may control (the control token in the fragment, or
+//! `http_control = "loopback"`), and sends none before the operator confirms it in a bar on
+//! the page (`#confirm`, buttons `data-confirm="yes"`/`"no"`); the answer, or the station's
+//! error, shows at the top (`#result`). Both answers forbid framing and other origins
 //! (Content-Security-Policy) and are not cached.
 
 use axum::http::{header, StatusCode};

@@ -14,6 +14,8 @@
 //!   falls behind the network's bounded event queue is told how many it missed (`data: missed
 //!   N events`) and goes on with the newest; at most [`MAX_STREAMS`] streams at once (more get
 //!   503).
+//! - `GET /api/role`: what the request's token may do, `{"role": "read"}` or `{"role":
+//!   "control"}` (the dashboard shows operator actions to the latter only).
 //!
 //! - SDO reads and writes, NMT, forced switch-overs and LSS on any network, JSON in and out
 //!   ([`rest`](super::rest), which lists the routes, their roles and their errors).
@@ -28,6 +30,11 @@
 //! 404; another method is 405. Bodies are bounded ([`rest::MAX_BODY`](super::rest::MAX_BODY),
 //! 413 over it); at most [`MAX_CLIENTS`] requests are served at once (more wait for their
 //! turn).
+//!
+//! **TLS.** With `http_tls_cert` and `http_tls_key` the station serves all of this over HTTPS
+//! only (rustls; [`tls`](super::tls) shakes hands before a connection reaches the router, and
+//! [`config::Tls`](super::config::Tls) says what the files hold). The rules above stay as
+//! they are; the tokens travel encrypted.
 
 use super::access::{error, unauthorized, Access};
 use super::audit::AuditLog;
@@ -98,12 +105,13 @@ pub fn router(networks: Vec<Arc<Watched>>, access: Access) -> Router {
         .route("/api/networks", get(networks_json))
         .route("/metrics", get(metrics))
         .route("/api/events", get(events))
+        .route("/api/role", get(role))
         .merge(super::rest::routes())
         .fallback(|| async {
             error(
                 StatusCode::NOT_FOUND,
                 "no such page: /, /api/networks (and under it each network's nodes/ID/sdo/, \
-                 nmt and pairs/ID/switch), /api/events and /metrics are served",
+                 nmt and pairs/ID/switch), /api/events, /api/role and /metrics are served",
             )
         })
         .with_state(shared)
@@ -144,6 +152,20 @@ fn member(m: Option<Member>) -> &'static str {
 
 async fn page(State(s): State<Arc<Shared>>, headers: HeaderMap) -> Response {
     dashboard::page(s.access.may_read(&headers))
+}
+
+/// The role of the request's token: `{"role": "read"}` or `{"role": "control"}` (the
+/// dashboard offers operator actions to the latter).
+async fn role(State(s): State<Arc<Shared>>, headers: HeaderMap) -> Response {
+    if !s.access.may_read(&headers) {
+        return unauthorized();
+    }
+    let role = if s.access.may_control(&headers) {
+        "control"
+    } else {
+        "read"
+    };
+    axum::Json(json!({ "role": role })).into_response()
 }
 
 async fn networks_json(State(s): State<Arc<Shared>>, headers: HeaderMap) -> Response {

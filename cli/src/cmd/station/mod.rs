@@ -15,7 +15,7 @@
 //! `on_stop` NMT command, closes the networks and exits 0. With an `audit_dir`, each network's
 //! audit records are appended to a file of their own as they happen, durably ([`audit`]). With
 //! an `http` address, it serves its status, metrics, events and a dashboard for a browser
-//! ([`http`], [`dashboard`]), and SDO, NMT and switch-overs to the roles the file allows
+//! ([`http`], [`dashboard`]; HTTPS with `http_tls_cert` and `http_tls_key`: [`tls`]), and SDO, NMT and switch-overs to the roles the file allows
 //! ([`rest`], [`access`]). With `mqtt`, the networks' state and events go to the plant's
 //! broker ([`mqtt`]). The file format: [`config`].
 
@@ -26,6 +26,7 @@ pub mod dashboard;
 pub mod http;
 pub mod mqtt;
 pub mod rest;
+pub mod tls;
 
 use crate::args::parse_timeout_ms;
 use crate::fail::Fail;
@@ -111,7 +112,8 @@ fn summary(st: &config::Station) -> String {
             config::Control::Loopback => "open to loopback clients",
             config::Control::Token(_) => "with http_control_token",
         };
-        out += &format!("  http: {}, reads {reads}, control {control}\n", h.addr);
+        let scheme = if h.tls.is_some() { "https" } else { "http" };
+        out += &format!("  {scheme}: {}, reads {reads}, control {control}\n", h.addr);
     }
     if let Some(m) = &st.mqtt {
         out += &format!("  mqtt: {}:{} under {}/\n", m.host, m.port, m.prefix);
@@ -171,12 +173,19 @@ async fn serve(g: &Global, st: &config::Station, duration_ms: Option<u64>) -> Re
             None => None,
         });
     }
-    // So does its HTTP address: taken before any network opens.
+    // So does its HTTP address, and the certificate of HTTPS read again (it may have changed
+    // since the file was checked): taken before any network opens.
     let listener = match &st.http {
         Some(h) => Some(
             tokio::net::TcpListener::bind(h.addr)
                 .await
                 .map_err(|e| Fail::usage(format!("http: cannot listen on {}: {e}", h.addr)))?,
+        ),
+        None => None,
+    };
+    let tls = match st.http.as_ref().and_then(|h| h.tls.as_ref()) {
+        Some(t) => Some(
+            config::server_config(t).map_err(|(key, why)| Fail::usage(format!("{key}: {why}")))?,
         ),
         None => None,
     };
@@ -244,15 +253,12 @@ async fn serve(g: &Global, st: &config::Station, duration_ms: Option<u64>) -> Re
     let plant = st.mqtt.as_ref().map(|m| mqtt::start(m, &watched));
     if let Some(listener) = listener {
         let local = listener.local_addr()?;
-        tracing::info!(target: "duocan::station", "http listening on {local}");
+        let scheme = if tls.is_some() { "https" } else { "http" };
+        tracing::info!(target: "duocan::station", "{scheme} listening on {local}");
         let app = http::router(watched, access::Access::new(st.http.as_ref()));
         // Each request knows its client's address: control actions are logged with it.
         let app = app.into_make_service_with_connect_info::<std::net::SocketAddr>();
-        logs.spawn(async move {
-            if let Err(e) = axum::serve(listener, app).await {
-                tracing::error!(target: "duocan::station", "http: {e}");
-            }
-        });
+        logs.spawn(tls::serve(listener, tls, app));
     }
     let timer = async {
         match duration_ms {

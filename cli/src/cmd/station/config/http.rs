@@ -10,6 +10,9 @@
 //!   `http_control = "loopback"`, which opens control to every client of a loopback address
 //!   and is refused on any other address and beside `http_token` (a station whose reads need a
 //!   token gives control a token of its own).
+//!
+//! With `http_tls_cert` and `http_tls_key` it serves HTTPS instead ([`super::tls`]); the rule
+//! stays the same (tokens travel encrypted then).
 
 use super::{Source, StationTable};
 use toml::Spanned;
@@ -34,6 +37,8 @@ pub struct Http {
     pub token: Option<String>,
     /// Who may control.
     pub control: Control,
+    /// The certificate and key of HTTPS, if the station serves it (else plain HTTP).
+    pub tls: Option<super::Tls>,
 }
 
 /// The shortest token taken.
@@ -52,6 +57,8 @@ pub(super) fn http(src: &Source<'_>, t: &StationTable) -> Result<Option<Http>, S
                 t.http_control_token.as_ref().map(Spanned::span),
             ),
             ("http_control", t.http_control.as_ref().map(Spanned::span)),
+            ("http_tls_cert", t.http_tls_cert.as_ref().map(Spanned::span)),
+            ("http_tls_key", t.http_tls_key.as_ref().map(Spanned::span)),
         ];
         if let Some((key, Some(span))) = others.into_iter().find(|(_, s)| s.is_some()) {
             return Err(src.span(span, key, "set http too"));
@@ -116,6 +123,7 @@ pub(super) fn http(src: &Source<'_>, t: &StationTable) -> Result<Option<Http>, S
         addr,
         token,
         control,
+        tls: super::tls::tls(src, t)?,
     }))
 }
 

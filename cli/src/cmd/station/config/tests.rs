@@ -143,6 +143,7 @@ fn http_is_loopback_unless_a_token_is_given() {
         addr: "127.0.0.1:0".parse().unwrap(),
         token: None,
         control: Control::Off,
+        tls: None,
     };
     assert_eq!(st.http, Some(want));
     let e = err(&format!("{head}\"0.0.0.0:8080\"{net}"));
