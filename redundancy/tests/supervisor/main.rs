@@ -7,6 +7,7 @@ mod flying_master;
 mod impostor;
 mod impostor_idle;
 mod jump;
+mod late_start;
 mod lss;
 mod master;
 mod net;

@@ -549,8 +549,8 @@ pub fn observe(s: &mut PairSupervisor, op: u8, n: NodeId, t: Instant) {
 
 proptest! {
     /// Whatever the observations, with a commanding supervisor: at most one active member per
-    /// pair, the active member is joined, every start goes to the member that became active,
-    /// and a pair whose joined member is alive never stays without an active member.
+    /// pair, the active member is joined, every start goes to the member that became active
+    /// (or is active), and a pair whose joined member is alive never stays without an active member.
     #[test]
     fn random_observations_keep_the_table_consistent(
         ops in prop::collection::vec((0u8..6, any::<bool>(), 1u64..40), 1..200)
@@ -581,8 +581,13 @@ proptest! {
                     _ => None,
                 })
                 .collect();
+            // Or the active member started once more (its first start not seen to work).
+            let active = st.active.map(|m| if m == Member::A { A } else { B });
             for n in &starts {
-                prop_assert!(became.contains(n), "start {n} without a role change");
+                prop_assert!(
+                    became.contains(n) || active == Some(*n),
+                    "start {n} without a role change"
+                );
             }
             let alive = [Member::A, Member::B].iter().any(|m| st.member(*m).alive_at(t));
             prop_assert!(!alive || st.active.is_some(), "{st:?}");

@@ -4,6 +4,7 @@
 //! due items are handled in deadline order.
 
 use super::state::{idx, Stage};
+use super::trust::bit;
 use super::{Authority, LossReason, MemberState, PairId, PairSupervisor, PairsEvent, RoleReason};
 use crate::pair::Member;
 use duocan_core::frame::instant::{earliest_of, shift_back};
@@ -185,6 +186,25 @@ impl<S: Storage> PairSupervisor<S> {
             }
             _ => None,
         };
+        let active = self.pairs[p].active == Some(m);
+        let node = bit(s.node);
+        if stopped.is_some()
+            && active
+            && !other_alive
+            && self.running & node == 0
+            && self.restarted & node == 0
+            && !self.is_suspect(s.node)
+        {
+            // Never heard running since its start, alive, and the pair's only hope: started
+            // once more rather than reset (its start may have reached it late).
+            self.restarted |= node;
+            self.nmt(NmtCommand::Start, s.node);
+            let deadline = t + consumer + self.behind(t);
+            if let Stage::Joined { deadline: d } = &mut self.pairs[p].member_mut(m).stage {
+                *d = deadline;
+            }
+            return self.lower_next(deadline);
+        }
         let (why, loss) = if self.is_suspect(s.node) {
             (Some(RoleReason::ActiveSuspect), LossReason::Suspect)
         } else if let Some(state) = stopped {
@@ -195,7 +215,6 @@ impl<S: Storage> PairSupervisor<S> {
         } else {
             (None, LossReason::Silent { last })
         };
-        let active = self.pairs[p].active == Some(m);
         if active {
             if other_alive {
                 // Start first: the new active is what the reaction bound is about.

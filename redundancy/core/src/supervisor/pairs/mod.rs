@@ -37,7 +37,11 @@
 //!   operational (a heartbeat in flight when it was started may still say pre-operational) only
 //!   operational heartbeats move its deadline, which its start pushed to the start + the consumer
 //!   time (+ how far behind the bus the table hears, [`PairSupervisor::heard_behind`]): a
-//!   member that never runs after its start fails then. Not failures: a member the
+//!   member that never runs after its start fails then — unless the pair has no other member
+//!   that can run: heard alive but not running, it is started once more and given one more
+//!   consumer time (its start may have reached it late, behind a receive path running past the
+//!   consumer time; a reset would leave the pair without a board for a whole boot and
+//!   configuration), and fails only if it is still not running then. Not failures: a member the
 //!   application sent to pre-operational or stopped through this table's master
 //!   ([`PairSupervisor::application_nmt`], [`PairSupervisor::is_held`]) stays active, not
 //!   running, until it or this table starts it again (its silence is still judged); a member
@@ -186,6 +190,9 @@ pub struct PairSupervisor<S: Storage = Inline> {
     /// Node-IDs (bits) of active members heard operational since they became active: a
     /// heartbeat of theirs saying otherwise is a failure.
     running: u128,
+    /// Node-IDs (bits) of active members started a second time, not heard running at their
+    /// deadline with no other member that could run (see `deadlines.rs`).
+    restarted: u128,
     /// How far behind the bus the observations come (see [`PairSupervisor::heard_behind`]),
     /// and since when that is the largest delay seen.
     behind: (Duration, Instant),
@@ -227,6 +234,7 @@ impl<S: Storage> PairSupervisor<S> {
             by_application: 0,
             held: 0,
             running: 0,
+            restarted: 0,
             behind: (Duration::ZERO, Instant::ZERO),
         }
     }

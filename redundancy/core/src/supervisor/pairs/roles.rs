@@ -103,6 +103,7 @@ impl<S: Storage> PairSupervisor<S> {
             let node = spec.node(m);
             self.by_application &= !bit(node);
             self.held &= !bit(node);
+            self.restarted &= !bit(node);
             // Commanding, running from its first operational heartbeat after its start on: until
             // then a heartbeat in flight may still say pre-operational. Started even when heard
             // running (adopted operational, followed from its heartbeat): a start is harmless
