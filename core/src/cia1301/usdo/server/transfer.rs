@@ -49,8 +49,11 @@ impl<B: TransferBuffer, const SESSIONS: usize> UsdoServer<B, SESSIONS> {
         };
         // A snapshot: the client reads one consistent value even if the entry changes.
         let s = &mut self.slots[i];
+        if value.len() > s.buf.limit() {
+            return self.abort_slot(i, AbortCode::OUT_OF_MEMORY);
+        }
         s.buf.reserve(value.len());
-        if value.len() > s.buf.limit() || !s.buf.extend(value) {
+        if !s.buf.extend(value) {
             return self.abort_slot(i, AbortCode::OUT_OF_MEMORY);
         }
         s.phase = Some(Phase::Upload {
