@@ -53,6 +53,8 @@ pub struct UsdoClient<B: TransferBuffer = DefaultBuffer> {
     limit: usize,
     next_session: u8,
     t: Option<Transfer>,
+    /// The last segment answer taken in this transfer: its second copy is recognised.
+    last: Option<FdFrame>,
     buf: B,
     out: Bounded<FdFrame, 2>,
     event: Option<UsdoEvent<B>>,
@@ -69,6 +71,7 @@ impl<B: TransferBuffer> UsdoClient<B> {
             limit,
             next_session: 1,
             t: None,
+            last: None,
             buf: B::with_limit(limit),
             out: Bounded::new(),
             event: None,
@@ -119,6 +122,7 @@ impl<B: TransferBuffer> UsdoClient<B> {
             deadline,
         });
         self.buf.clear();
+        self.last = None;
         Ok(session)
     }
 
@@ -297,6 +301,18 @@ impl<B: TransferBuffer> UsdoClient<B> {
                 return;
             }
         };
+        if matches!(
+            msg,
+            Msg::DownloadSegmentAck { .. } | Msg::UploadSegmentData { .. }
+        ) {
+            // Two segment answers in a row differ (the toggle alternates): an equal one is a
+            // second copy, such as the dual-bus layer's late twin.
+            if self.last == Some(*frame) {
+                self.stats.repeats += 1;
+                return;
+            }
+            self.last = Some(*frame);
+        }
         if let Some(t) = &mut self.t {
             t.deadline = now + t.timeout;
         }

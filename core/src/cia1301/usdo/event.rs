@@ -103,4 +103,6 @@ pub struct UsdoClientStats {
     pub failed: u32,
     /// Answers ignored: another session's (late), another node's, or no transfer running.
     pub ignored: u32,
+    /// Second copies of a segment answer ignored (see the module docs).
+    pub repeats: u32,
 }

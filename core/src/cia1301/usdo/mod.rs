@@ -30,6 +30,16 @@
 //! its own identifier. A broadcast segmented write, or a broadcast read of a longer value, is
 //! refused with an abort (0x06010000, unsupported access); broadcast segments are ignored.
 //!
+//! # Second copies
+//!
+//! CAN may deliver a frame twice, and on a redundant network the dual-bus layer delivers a twin
+//! that arrives later than its merge window as a frame of its own. Two segment frames in a row
+//! of one transfer are never equal (the toggle alternates), so a segment request (server) or
+//! segment answer (client) equal to the one taken before it is such a copy: it is ignored and
+//! counted ([`UsdoServerStats::repeats`], [`UsdoClientStats::repeats`]), not aborted as a
+//! toggle error. A copy that arrives after the peer's next frame can no longer be told from a
+//! new one; the transfer then ends as the protocol says (an abort).
+//!
 //! # Memory, overflow, order
 //!
 //! The server holds `SESSIONS` transfer buffers and the client one, each bounded by the limit

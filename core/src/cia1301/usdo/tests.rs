@@ -319,6 +319,41 @@ fn a_second_session_of_the_same_client_is_busy_and_the_first_goes_on() {
     assert_eq!(net.server.stats().busy, 1);
 }
 
+#[test]
+fn a_second_copy_of_a_segment_is_ignored_on_both_sides() {
+    let mut net = Net::new();
+    net.client
+        .download(Instant::ZERO, SERVER, DOMAIN, 0, 0, &pattern(200), T)
+        .unwrap();
+    let init = net.client.poll_transmit().unwrap();
+    net.server
+        .handle_frame(Instant::from_millis(1), &init, &mut net.od)
+        .unwrap();
+    net.client.handle_frame(
+        Instant::from_millis(2),
+        &net.server.poll_transmit().unwrap(),
+    );
+    let seg = net.client.poll_transmit().unwrap();
+    for at in [3, 4] {
+        net.server
+            .handle_frame(Instant::from_millis(at), &seg, &mut net.od)
+            .unwrap();
+    }
+    let ack = net.server.poll_transmit().unwrap();
+    assert!(net.server.poll_transmit().is_none());
+    for at in [5, 6] {
+        net.client.handle_frame(Instant::from_millis(at), &ack);
+    }
+    net.now = Instant::from_millis(6);
+    let e = net.run();
+    assert!(e.result.is_ok(), "{:?}", e.result);
+    assert_eq!(net.od.read(DOMAIN, 0).unwrap(), &pattern(200)[..]);
+    assert_eq!(
+        (net.server.stats().repeats, net.client.stats().repeats),
+        (1, 1)
+    );
+}
+
 fn net_frame(u: &Usdo) -> FdFrame {
     u.encode(answer_id(SERVER))
 }

@@ -37,6 +37,8 @@ pub struct UsdoServerStats {
     pub client_aborts: u32,
     /// Frames that were no USDO message.
     pub malformed: u32,
+    /// Second copies of a segment request ignored (see the module docs).
+    pub repeats: u32,
     /// Frames dropped because the output was not drained.
     pub tx_dropped: u32,
 }
@@ -56,6 +58,8 @@ struct Slot<B> {
     /// `None`: the slot is free.
     phase: Option<Phase>,
     deadline: Option<Instant>,
+    /// The last segment request taken: its second copy is recognised.
+    last: Option<FdFrame>,
     buf: B,
 }
 
@@ -84,6 +88,7 @@ impl<B: TransferBuffer, const SESSIONS: usize> UsdoServer<B, SESSIONS> {
                 sub: 0,
                 phase: None,
                 deadline: None,
+                last: None,
                 buf: B::with_limit(limit),
             }),
             out: Bounded::new(),
@@ -203,6 +208,18 @@ impl<B: TransferBuffer, const SESSIONS: usize> UsdoServer<B, SESSIONS> {
         if u.dest != self.node.raw() && u.dest != BROADCAST {
             return Ok(());
         }
+        if let (Msg::DownloadSegment { .. } | Msg::UploadSegment { .. }, Some(i)) =
+            (u.msg, self.slot_of(client))
+        {
+            let s = &mut self.slots[i];
+            // Two segment requests in a row differ (the toggle alternates): an equal one is
+            // a second copy, such as the dual-bus layer's late twin.
+            if s.session == u.session && s.last == Some(*frame) {
+                self.stats.repeats += 1;
+                return Ok(());
+            }
+            s.last = Some(*frame);
+        }
         self.request(now, client, u, od);
         Ok(())
     }
@@ -241,6 +258,7 @@ impl<B: TransferBuffer, const SESSIONS: usize> UsdoServer<B, SESSIONS> {
         let s = &mut self.slots[i];
         (s.client, s.session, s.index, s.sub) = (client, session, index, sub);
         s.deadline = Some(now + self.timeout);
+        s.last = None;
         s.buf.clear();
         Some(i)
     }
