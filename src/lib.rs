@@ -17,7 +17,7 @@
 //! | 1 | [`machine`] | the shapes: [`Machine`], [`BusLink`], [`Device`], [`Station`] |
 //! | 2 | [`od`] | the object dictionary: types, values, static and dynamic dictionaries, abort codes, the power-on image and parameter storage (0x1010/0x1011) |
 //! | 3 | [`eds`] | device descriptions (CiA 306): EDS and DCF files read into a description with name lookup and a node's dictionary; any dictionary written as an EDS or DCF; a `no_std` node's static dictionary generated from an EDS at build time |
-//! | 4 | [`cia301`] · [`cia304`] · [`cia305`] | the CiA 301 services, one module per object: [`nmt`], [`heartbeat`], [`guarding`], [`sync`], [`time_stamp`], [`emcy`], [`sdo`], [`pdo`]; the CiA 304 safety objects (SRDO, GFC); the layer setting services (LSS, CiA 305): slave, master, fastscan |
+//! | 4 | [`cia301`] · [`cia304`] · [`cia305`] · `cia1301` (`fd`) | the CiA 301 services, one module per object: [`nmt`], [`heartbeat`], [`guarding`], [`sync`], [`time_stamp`], [`emcy`], [`sdo`], [`pdo`]; the CiA 304 safety objects (SRDO, GFC); the layer setting services (LSS, CiA 305): slave, master, fastscan; the CANopen FD services of CiA 1301 (USDO) |
 //! | 5 | [`profile`] | identifier profiles: the predefined connection set, the railway 29-bit scheme |
 //! | 6 | [`node`] | [`Node`]: the services composed into one CANopen device |
 //! | 7 | [`cia302`] | the CiA 302-2 [`master`] (with the CiA 302-3 configuration manager and program download), the master-side [PDO configuration](cia302::pdo_config), and [program download](cia302::program) on a node |
@@ -108,6 +108,8 @@ pub use duocan_core::{frame, machine, od};
 #[cfg(feature = "std")]
 pub use duocan_core::eds;
 // Layer 4 to 7: the standard's services, identifier profiles, the node, the master.
+#[cfg(feature = "fd")]
+pub use duocan_core::cia1301;
 pub use duocan_core::{cia301, cia302, cia304, cia305, node, profile};
 // Layer 8 to 10: I/O around the machines.
 #[cfg(feature = "std")]

@@ -22,7 +22,7 @@
 //! | 1 | [`machine`] | the shapes: [`Machine`], [`BusLink`], [`Device`], [`Station`] |
 //! | 2 | [`od`] | the object dictionary: types, values, static and dynamic dictionaries, abort codes, the power-on image and parameter storage (0x1010/0x1011) |
 //! | 3 | `eds` (`std`) | device descriptions (CiA 306): EDS and DCF files read into a description with name lookup and a node's dictionary; any dictionary written as an EDS or DCF; a `no_std` node's static dictionary generated from an EDS at build time |
-//! | 4 | [`cia301`] · [`cia304`] · [`cia305`] | the CiA 301 services, one module per object: [`nmt`], [`heartbeat`], [`guarding`], [`sync`], [`time_stamp`], [`emcy`], [`sdo`], [`pdo`]; the CiA 304 safety objects (SRDO, GFC); the layer setting services (LSS, CiA 305): slave, master, fastscan |
+//! | 4 | [`cia301`] · [`cia304`] · [`cia305`] · `cia1301` (`fd`) | the CiA 301 services, one module per object: [`nmt`], [`heartbeat`], [`guarding`], [`sync`], [`time_stamp`], [`emcy`], [`sdo`], [`pdo`]; the CiA 304 safety objects (SRDO, GFC); the layer setting services (LSS, CiA 305): slave, master, fastscan; the CANopen FD services of CiA 1301 (USDO) |
 //! | 5 | [`profile`] | identifier profiles: the predefined connection set, the railway 29-bit scheme |
 //! | 6 | [`node`] | [`Node`]: the services composed into one CANopen device |
 //! | 7 | [`cia302`] | the CiA 302-2 master (`alloc`, with the CiA 302-3 configuration manager and program download), the master-side PDO configuration, and program download on a node |
@@ -70,6 +70,9 @@ pub mod od;
 pub mod eds;
 // Layer 4 to 7: the standard's services, identifier profiles, the node, the master.
 pub mod cia301;
+// CiA 1301 (CANopen FD) services: on CAN FD frames, so only with them.
+#[cfg(feature = "fd")]
+pub mod cia1301;
 pub mod cia302;
 pub mod cia304;
 pub mod cia305;
