@@ -9,7 +9,7 @@ mod log;
 use common::duocan;
 use log::{file, next_before, stderr_lines};
 use std::io::{BufRead, BufReader};
-use std::process::{Command, Stdio};
+use std::process::Command;
 use std::time::{Duration, Instant};
 
 #[test]
@@ -72,12 +72,7 @@ fn a_station_whose_buses_cannot_open_does_not_start() {
 #[test]
 fn a_station_runs_its_networks_until_sigterm() {
     let _one = common::one_station();
-    let mut child = Command::new(env!("CARGO_BIN_EXE_duocan"))
-        .args(["station", "run", &file("tests/station_files/two.toml")])
-        .env_remove("DUOCAN_LOG")
-        .env_remove("JOURNAL_STREAM")
-        .stdout(Stdio::null())
-        .stderr(Stdio::piped())
+    let mut child = common::station_run(file("tests/station_files/two.toml"))
         .spawn()
         .expect("run duocan");
     let (tx, rx) = std::sync::mpsc::channel();
@@ -171,15 +166,11 @@ fn no_acknowledged_audit_record_is_lost_when_the_station_is_killed() {
     std::fs::write(&station, text).unwrap();
     let mut acked: Vec<(String, String, String)> = vec![];
     for kill_after in [1, 3, 5] {
-        let mut child = Command::new(env!("CARGO_BIN_EXE_duocan"))
-            .args(["station", "run", station.to_str().unwrap()])
+        let mut child = common::station_run(station.to_str().unwrap())
             .env(
                 "DUOCAN_LOG",
                 "warn,duocan::station=info,duocan::station::audit=debug",
             )
-            .env_remove("JOURNAL_STREAM")
-            .stdout(Stdio::null())
-            .stderr(Stdio::piped())
             .spawn()
             .expect("run duocan");
         let rx = stderr_lines(&mut child);

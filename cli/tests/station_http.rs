@@ -6,7 +6,6 @@ mod common;
 #[path = "station_http/log.rs"]
 mod log;
 use log::{file, next_before, stderr_lines};
-use std::process::{Command, Stdio};
 use std::time::{Duration, Instant};
 
 /// `GET path` on `addr`, with the bearer `token` if any: the status code and the body.
@@ -94,11 +93,7 @@ fn the_station_serves_its_status_and_metrics_over_http() {
         format!("[station]\nhttp = \"127.0.0.1:0\"\nhttp_token = \"{token}\"\n\n{two}"),
     )
     .unwrap();
-    let mut child = Command::new(env!("CARGO_BIN_EXE_duocan"))
-        .args(["station", "run", station.to_str().unwrap()])
-        .env_remove("DUOCAN_LOG")
-        .stdout(Stdio::null())
-        .stderr(Stdio::piped())
+    let mut child = common::station_run(station.to_str().unwrap())
         .spawn()
         .expect("run duocan");
     let rx = stderr_lines(&mut child);
@@ -222,11 +217,7 @@ fn the_station_streams_its_events_over_http() {
         format!("[station]\nhttp = \"127.0.0.1:0\"\n\n{faulty}"),
     )
     .unwrap();
-    let mut child = Command::new(env!("CARGO_BIN_EXE_duocan"))
-        .args(["station", "run", station.to_str().unwrap()])
-        .env_remove("DUOCAN_LOG")
-        .stdout(Stdio::null())
-        .stderr(Stdio::piped())
+    let mut child = common::station_run(station.to_str().unwrap())
         .spawn()
         .expect("run duocan");
     let rx = stderr_lines(&mut child);

@@ -9,7 +9,7 @@ mod log;
 use log::{file, next_before, stderr_lines};
 use std::io::{Read, Write};
 use std::path::Path;
-use std::process::{Command, Stdio};
+use std::process::Command;
 use std::sync::Arc;
 use std::time::{Duration, Instant};
 
@@ -117,11 +117,7 @@ fn the_station_serves_https_with_its_certificate() {
     assert!(out.status.success(), "{said}");
     assert!(said.contains("https: 127.0.0.1:0"), "{said}");
 
-    let mut child = Command::new(env!("CARGO_BIN_EXE_duocan"))
-        .args(["station", "run", station.to_str().unwrap()])
-        .env_remove("DUOCAN_LOG")
-        .stdout(Stdio::null())
-        .stderr(Stdio::piped())
+    let mut child = common::station_run(station.to_str().unwrap())
         .spawn()
         .expect("run duocan");
     let rx = stderr_lines(&mut child);

@@ -2,7 +2,7 @@
 
 #![allow(dead_code)]
 
-use std::process::{Command, Output};
+use std::process::{Command, Output, Stdio};
 
 /// What a run of the tool gave: exit code, standard output, standard error.
 pub struct Run {
@@ -49,4 +49,18 @@ pub fn one_station() -> std::sync::MutexGuard<'static, ()> {
     static ONE: std::sync::Mutex<()> = std::sync::Mutex::new(());
     ONE.lock()
         .unwrap_or_else(std::sync::PoisonError::into_inner)
+}
+
+/// `duocan station run FILE` as the station tests start it: no `DUOCAN_LOG` or
+/// `JOURNAL_STREAM` from the environment (the default log, each line with its time; a test may
+/// set `DUOCAN_LOG` again), standard output dropped, standard error piped for the test to read.
+pub fn station_run(file: impl AsRef<std::ffi::OsStr>) -> Command {
+    let mut c = Command::new(env!("CARGO_BIN_EXE_duocan"));
+    c.args(["station", "run"])
+        .arg(file)
+        .env_remove("DUOCAN_LOG")
+        .env_remove("JOURNAL_STREAM")
+        .stdout(Stdio::null())
+        .stderr(Stdio::piped());
+    c
 }

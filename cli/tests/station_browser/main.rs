@@ -17,7 +17,7 @@ mod common;
 use serde_json::Value;
 use std::io::{BufRead, BufReader};
 use std::path::PathBuf;
-use std::process::{Child, Command, Stdio};
+use std::process::Child;
 use std::time::{Duration, Instant};
 
 const TOKEN: &str = "browser-test-token-0123456789";
@@ -171,12 +171,7 @@ fn the_dashboard_shows_a_failover_as_it_happens() {
         ),
     )
     .unwrap();
-    let mut child = Command::new(env!("CARGO_BIN_EXE_duocan"))
-        .args(["station", "run", file.to_str().unwrap()])
-        .env_remove("DUOCAN_LOG")
-        .env_remove("JOURNAL_STREAM")
-        .stdout(Stdio::null())
-        .stderr(Stdio::piped())
+    let mut child = crate::common::station_run(file.to_str().unwrap())
         .spawn()
         .expect("run duocan");
     let started = Instant::now();

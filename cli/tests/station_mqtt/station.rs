@@ -1,18 +1,13 @@
 //! The station under test: its process, its log, its metrics.
 
 use std::io::{BufRead, BufReader};
-use std::process::{Child, Command, Stdio};
+use std::process::Child;
 use std::sync::mpsc::Receiver;
 use std::time::{Duration, Instant};
 
 /// `duocan station run` on `file`, its standard error read line by line by a thread.
 pub fn station(file: &std::path::Path) -> (Child, Receiver<String>) {
-    let mut child = Command::new(env!("CARGO_BIN_EXE_duocan"))
-        .args(["station", "run", file.to_str().unwrap()])
-        .env_remove("DUOCAN_LOG")
-        .env_remove("JOURNAL_STREAM")
-        .stdout(Stdio::null())
-        .stderr(Stdio::piped())
+    let mut child = crate::common::station_run(file.to_str().unwrap())
         .spawn()
         .expect("run duocan");
     let (tx, rx) = std::sync::mpsc::channel();
