@@ -52,12 +52,11 @@
 //! ```
 
 use super::DualBus;
-use crate::link::capacity::{FunctionStorage, MergeCapacity, MergerStorage};
+use crate::link::capacity::{MergeCapacity, MergerStorage};
 use crate::link::channel::{ChannelPolicy, FrameInfo, RxRoute};
 use crate::link::classify::FrameClassifier;
 use crate::link::health::RxOutcome;
 use crate::link::merge::Verdict;
-use crate::link::same_function::PairVerdict;
 use core::fmt;
 use duocan_core::frame::FdFrame;
 use duocan_core::{Frame, Instant};
@@ -195,20 +194,8 @@ impl<C: FrameClassifier, K: MergeCapacity> DualBus<C, K> {
         if !self.settled(now, at, port, outcome) {
             return None;
         }
-        if !self.pairs.is_empty() {
-            if let Some((node, function)) = self.classifier.function(&stand) {
-                let classifier = &self.classifier;
-                if self
-                    .pairs
-                    .on_frame_by(now, node, function, &stand, &mut self.out, |a, b| {
-                        classifier.same_value(a, b)
-                    })
-                    == PairVerdict::Standby
-                {
-                    self.stats.standby += 1;
-                    return None;
-                }
-            }
+        if self.held_as_standby(now, &stand) {
+            return None;
         }
         self.stats.delivered += 1;
         Some(*frame)

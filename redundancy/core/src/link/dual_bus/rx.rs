@@ -70,6 +70,29 @@ impl<C: FrameClassifier, K: MergeCapacity> DualBus<C, K> {
         )
     }
 
+    /// Whether `frame` (for an FD frame, its classic stand-in) is a slave pair's standby
+    /// member's process data, held back (counted) while the active member's goes up.
+    #[inline(always)]
+    pub(super) fn held_as_standby(&mut self, now: Instant, frame: &Frame) -> bool {
+        if self.pairs.is_empty() {
+            return false;
+        }
+        let Some((node, function)) = self.classifier.function(frame) else {
+            return false;
+        };
+        let classifier = &self.classifier;
+        let standby = self
+            .pairs
+            .on_frame_by(now, node, function, frame, &mut self.out, |a, b| {
+                classifier.same_value(a, b)
+            })
+            == PairVerdict::Standby;
+        if standby {
+            self.stats.standby += 1;
+        }
+        standby
+    }
+
     /// A frame from `port` stamped `at` (`stamped`: a receive timestamp; otherwise the time
     /// it was handed over), handled at `now`: the layer's receive path.
     pub(super) fn rx(
@@ -130,20 +153,8 @@ impl<C: FrameClassifier, K: MergeCapacity> DualBus<C, K> {
                 return None;
             }
         }
-        if !self.pairs.is_empty() {
-            if let Some((node, function)) = self.classifier.function(frame) {
-                let classifier = &self.classifier;
-                if self
-                    .pairs
-                    .on_frame_by(now, node, function, frame, &mut self.out, |a, b| {
-                        classifier.same_value(a, b)
-                    })
-                    == PairVerdict::Standby
-                {
-                    self.stats.standby += 1;
-                    return None;
-                }
-            }
+        if self.held_as_standby(now, frame) {
+            return None;
         }
         self.stats.delivered += 1;
         Some(*frame)
