@@ -1,7 +1,7 @@
 #!/bin/bash
 # Tier 2: real SocketCAN on vcan0/vcan1/vcan2, inside a qemu VM running Debian's stock kernel
 # (the host kernel has no CAN). Installs what it needs (qemu, busybox, the kernel deb's CAN
-# modules, can-utils), runs tiers/tests/vcan.rs, tiers/tests/vcan_fd.rs, tiers/tests/vcan_failover.rs,
+# modules, can-utils), runs tiers/tests/vcan.rs, tiers/tests/vcan_fd.rs, tiers/tests/vcan_echo.rs, tiers/tests/vcan_failover.rs,
 # tiers/tests/vcan_redundant.rs, tiers/tests/vcan_reopen.rs, tiers/tests/vcan_load.rs, the
 # failover kit (.ci/kit-vm.sh), LSS (.ci/lss-vm.sh), both through .ci/vm-script.sh,
 # tiers/tests/vcan_canopennode.rs (CANopenNode's canopend, built on the host from
@@ -47,6 +47,9 @@ cargo test -p duocan-tiers --features vcan --test vcan || fail "vcan tests"
 echo "== tier-vcan: CAN FD on vcan: FD frames (BRS, ESI, up to 64 bytes) between ports opened for"
 echo "   CAN FD on vcan0 (MTU 72); vcan2 at MTU 16 refused for CAN FD, naming it"
 cargo test -p duocan-tiers --features vcan --test vcan_fd || fail "CAN FD on vcan"
+echo "== tier-vcan: confirmed transmissions: vcan loaded with echo=1 (its driver echoes, as a CAN"
+echo "   controller's does once a frame was on the bus): a port's own frames come back as TxOk"
+VCANVM_ECHO=1 cargo test -p duocan-tiers --features vcan --test vcan_echo || fail "confirmed transmissions on vcan"
 echo "== tier-vcan: the dual-bus layer (duocan-redundancy) failing over between vcan0 and vcan1"
 cargo test -p duocan-tiers --features vcan --test vcan_failover || fail "dual-bus failover on vcan"
 echo "== tier-vcan: the redundant network's front door on vcan0,vcan1 (open_named, SDO, a bus failover)"

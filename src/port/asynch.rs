@@ -193,6 +193,20 @@ pub trait Port: Send + 'static {
     fn recv_any(&mut self) -> impl Future<Output = Result<AnyInput, PortError>> + Send {
         async move { self.recv().await.map(AnyInput::from) }
     }
+    /// Asks the port to confirm each frame it sends once the frame has left (SocketCAN: the
+    /// kernel's echo of the socket's own frames, which a controller driver gives when the frame
+    /// was on the bus; UDP: the port's own datagram coming back): from then on the port hands
+    /// over a [`PortStatus::TxOk`](crate::PortStatus::TxOk) for each, in the order they were
+    /// sent, and never its own frames as received ones. True if the port can (kept across
+    /// [`Port::reopen`]); false (the default, nothing changes) if it cannot.
+    ///
+    /// Who asks: the dual-bus layer, whose transmit-stall rule judges a port by the
+    /// confirmations of both (a frame that reaches the bus later than its twin's skew window
+    /// is a duplicate). A single bus does not ask: a confirmation per frame would be work for
+    /// nothing.
+    fn confirm_transmissions(&mut self) -> bool {
+        false
+    }
     /// Re-opens the port after a failure (or on request: after bus-off, to reset the socket).
     fn reopen(&mut self) -> impl Future<Output = Result<(), PortError>> + Send;
     /// Hands the port's reading to a thread of its own, if the port can read by blocking: the

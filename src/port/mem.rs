@@ -122,6 +122,19 @@ impl MemBus {
             rx: Some(self.tx.subscribe()),
             me: NEXT.fetch_add(1, std::sync::atomic::Ordering::Relaxed),
             counters: PortCounters::new(),
+            echoes: false,
+            confirm: false,
+        }
+    }
+    /// A port on this bus that can confirm its transmissions ([`Port::confirm_transmissions`]),
+    /// as a SocketCAN port on a controller that echoes does: its own frames come back from the
+    /// bus as confirmations, in order. (A plain [`MemBus::port`] cannot: the runtime's tasks
+    /// on a busy test machine would otherwise judge a dual-bus device's ports by how the
+    /// machine schedules them.)
+    pub fn confirming_port(&self) -> MemPort {
+        MemPort {
+            echoes: true,
+            ..self.port()
         }
     }
 }
@@ -133,6 +146,10 @@ pub struct MemPort {
     rx: Option<broadcast::Receiver<(u64, Frame, std::time::Instant)>>,
     me: u64,
     counters: PortCounters,
+    /// Made to confirm transmissions when asked ([`MemBus::confirming_port`]).
+    echoes: bool,
+    /// Its own frames come back as confirmations ([`Port::confirm_transmissions`]).
+    confirm: bool,
 }
 
 impl Port for MemPort {
@@ -152,7 +169,12 @@ impl Port for MemPort {
                 ));
             };
             match rx.recv().await {
-                Ok((from, _, _)) if from == self.me => {}
+                // Its own frame, back from the bus: the confirmation of its transmission.
+                Ok((from, _, _)) if from == self.me => {
+                    if self.confirm {
+                        return Ok(PortInput::Status(PortStatus::TxOk));
+                    }
+                }
                 Ok((_, f, at)) => {
                     self.counters.rx_frames();
                     return Ok(PortInput::Frame(f, Some(at)));
@@ -188,6 +210,10 @@ impl Port for MemPort {
         let _ = self.bus.tx.send((self.me, *frame, at));
         self.counters.tx_frames();
         Ok(())
+    }
+    fn confirm_transmissions(&mut self) -> bool {
+        self.confirm = self.echoes;
+        self.confirm
     }
     async fn reopen(&mut self) -> Result<(), PortError> {
         self.rx = Some(self.bus.tx.subscribe());
@@ -273,6 +299,9 @@ impl Port for PluggedPort {
             return Err(self.down());
         }
         self.inner.send(frame).await
+    }
+    fn confirm_transmissions(&mut self) -> bool {
+        self.inner.confirm_transmissions()
     }
     async fn reopen(&mut self) -> Result<(), PortError> {
         if self.is_pulled() {

@@ -244,8 +244,15 @@ where
         self
     }
     /// Adds the next port (index = number of ports added before).
+    ///
+    /// For a device with more than one port (a dual-bus layer) the port is asked to confirm
+    /// its transmissions ([`Port::confirm_transmissions`]): the layer's transmit-stall rule
+    /// judges each port by when its frames left, against their twins on the other bus.
     #[must_use]
-    pub fn port<P: Port>(mut self, port: P) -> Self {
+    pub fn port<P: Port>(mut self, mut port: P) -> Self {
+        if self.device.port_count() > 1 {
+            port.confirm_transmissions();
+        }
         let name = port.name().to_owned();
         let counters = port.counters();
         let spawn: SpawnPort = Box::new(move |w: port_task::Wiring| {

@@ -114,9 +114,14 @@ async fn serve<P: Port>(port: &mut P, w: &Wiring, out: &mut Outbox) -> Step {
 
 pub(super) async fn command<P: Port>(port: &mut P, w: &Wiring, cmd: PortCmd) -> Step {
     match cmd {
-        PortCmd::Send(f) => match port.send(&f).await {
-            Ok(()) => Step::Continue,
-            Err(e) => {
+        PortCmd::Send(f) => match sent_or_given_up(port, w, &f).await {
+            None => {
+                tracing::debug!(frame = %f, "send given up for the port's re-initialisation");
+                port.counters().tx_dropped();
+                Step::Continue
+            }
+            Some(Ok(())) => Step::Continue,
+            Some(Err(e)) => {
                 tracing::warn!(error = %e, "send failed");
                 if is_down(e.kind) {
                     report(w, PortStatus::Down(e.cause()));
@@ -138,6 +143,31 @@ pub(super) async fn command<P: Port>(port: &mut P, w: &Wiring, cmd: PortCmd) -> 
                 Step::Failed(e.cause())
             }
         },
+    }
+}
+
+/// Sends `f`, or gives it up (`None`) when a re-initialisation of the port is queued while
+/// the send waits (for room on a port whose bus takes no frames: the re-initialisation would
+/// otherwise wait behind it, and the device has given the frame up already).
+async fn sent_or_given_up<P: Port>(
+    port: &mut P,
+    w: &Wiring,
+    f: &crate::Frame,
+) -> Option<Result<(), crate::port::PortError>> {
+    let reinit = async {
+        // Each wake-up is something queued for the port; what is not a re-initialisation is
+        // served after this send, as the queue is taken again then.
+        loop {
+            w.wake.notified().await;
+            if w.hub.reinit_queued(w.index) {
+                return;
+            }
+        }
+    };
+    tokio::select! {
+        biased;
+        r = port.send(f) => Some(r),
+        () = reinit => None,
     }
 }
 
@@ -263,6 +293,28 @@ mod tests {
         }
     }
 
+    /// A port whose bus takes no frames: a send waits for room forever; re-opening works.
+    struct StuckPort(PortCounters);
+
+    impl Port for StuckPort {
+        fn name(&self) -> &str {
+            "stuck0"
+        }
+        fn counters(&self) -> PortCounters {
+            self.0.clone()
+        }
+        async fn recv(&mut self) -> Result<PortInput, PortError> {
+            std::future::pending().await
+        }
+        async fn send(&mut self, _: &Frame) -> Result<(), PortError> {
+            std::future::pending().await
+        }
+        async fn reopen(&mut self) -> Result<(), PortError> {
+            self.0.reopened();
+            Ok(())
+        }
+    }
+
     /// The device's side, as the port task sees it: what is queued for the port, and what the
     /// port handed over.
     struct FakeHub {
@@ -288,6 +340,60 @@ mod tests {
         fn is_open(&self) -> bool {
             true
         }
+        fn reinit_queued(&self, _: usize) -> bool {
+            self.queue
+                .lock()
+                .unwrap()
+                .iter()
+                .any(|c| matches!(c, PortCmd::Request(PortRequest::Reinit)))
+        }
+    }
+
+    /// A re-initialisation the device asks for while a send waits for room is not queued
+    /// behind it: the send is given up (counted as dropped) and the port re-opened.
+    #[tokio::test]
+    async fn a_re_init_request_gives_up_a_send_that_waits_for_room() {
+        let (to_test, mut inputs) = tokio::sync::mpsc::unbounded_channel();
+        let hub = Arc::new(FakeHub {
+            queue: Default::default(),
+            inputs: to_test,
+        });
+        let wake = Arc::new(Notify::new());
+        let wiring = Wiring {
+            index: 0,
+            net: "test".into(),
+            clock: super::super::Clock::start(),
+            hub: hub.clone(),
+            wake: wake.clone(),
+        };
+        let counters = PortCounters::new();
+        tokio::spawn(run(StuckPort(counters.clone()), wiring));
+        let queue = |c: PortCmd| {
+            hub.queue.lock().unwrap().push_back(c);
+            wake.notify_one();
+        };
+        queue(PortCmd::Send(Frame::from_array(Id::Standard(0x181), [1])));
+        // The task has taken the frame and waits in its send.
+        while !hub.queue.lock().unwrap().is_empty() {
+            tokio::task::yield_now().await;
+        }
+        // Something else queued does not end the wait; the re-initialisation does.
+        queue(PortCmd::Send(Frame::from_array(Id::Standard(0x182), [2])));
+        tokio::task::yield_now().await;
+        assert_eq!(
+            counters.snapshot().tx_dropped,
+            0,
+            "waits while no re-init is queued"
+        );
+        hub.queue.lock().unwrap().clear();
+        queue(PortCmd::Request(PortRequest::Reinit));
+        let up = tokio::time::timeout(std::time::Duration::from_secs(5), inputs.recv()).await;
+        assert!(
+            matches!(up, Ok(Some((0, PortInput::Status(PortStatus::Up), _)))),
+            "re-opened: {up:?}"
+        );
+        let c = counters.snapshot();
+        assert_eq!((c.tx_dropped, c.reopened), (1, 1));
     }
 
     #[tokio::test]

@@ -356,11 +356,14 @@ impl Thread {
             while let Some(cmd) = out.pop_front() {
                 // `take_frames` takes nothing else.
                 let PortCmd::Send(f) = cmd else { continue };
-                if !self.write(reader, &f) {
+                let written = self.write(reader, &f);
+                if written != Written::Yes {
                     while out.pop_front().is_some() {
                         self.counters.tx_dropped();
                     }
-                    return false;
+                    // Given up for a re-initialisation: the task's, once this turn ends.
+                    self.wake.notify_one();
+                    return written == Written::GivenUp;
                 }
             }
         }
@@ -376,6 +379,12 @@ impl Thread {
                 Ok(false) => {
                     if self.ctl.stopped() || !self.hub.is_open() {
                         return false;
+                    }
+                    // What is kept is the task's to drop: it stops this thread before it
+                    // re-opens the port, and the reader counts what it never sent.
+                    if self.hub.reinit_queued(self.index) {
+                        self.wake.notify_one();
+                        return true;
                     }
                 }
                 Err(e) => {
@@ -401,22 +410,39 @@ impl Thread {
         open
     }
 
-    /// Writes one frame, waiting for room as long as the runtime runs; false when the thread
-    /// is to stop (the port failed, or the runtime stopped).
-    fn write(&self, reader: &mut dyn PortReader, f: &crate::Frame) -> bool {
+    /// Writes one frame, waiting for room as long as the runtime runs and no re-initialisation
+    /// of the port is queued (the device gave its frames up: a port whose bus takes none
+    /// would otherwise hold the writer lock, and the task could not re-open it).
+    fn write(&self, reader: &mut dyn PortReader, f: &crate::Frame) -> Written {
         loop {
             match reader.write(f) {
-                Ok(true) => return true,
+                Ok(true) => return Written::Yes,
                 Ok(false) => {
                     if self.ctl.stopped() || !self.hub.is_open() {
                         self.counters.tx_dropped();
-                        return false;
+                        return Written::Stop;
+                    }
+                    if self.hub.reinit_queued(self.index) {
+                        self.counters.tx_dropped();
+                        return Written::GivenUp;
                     }
                 }
-                Err(e) => return self.failed_send(&e),
+                Err(e) if self.failed_send(&e) => return Written::Yes,
+                Err(_) => return Written::Stop,
             }
         }
     }
+}
+
+/// What became of a frame the reader thread wrote.
+#[derive(Clone, Copy, PartialEq, Eq)]
+enum Written {
+    /// Written (or failed alone: reported, the next one is tried).
+    Yes,
+    /// Given up, waiting for room, for a re-initialisation of the port.
+    GivenUp,
+    /// The thread is to stop (the port failed, or the runtime stopped).
+    Stop,
 }
 
 #[cfg(test)]

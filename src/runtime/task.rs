@@ -84,6 +84,9 @@ pub(crate) trait Hub: Send + Sync + 'static {
     ) -> Option<bool>;
     /// The runtime still runs.
     fn is_open(&self) -> bool;
+    /// A re-initialisation of `port` is queued: a send waiting for room on it gives up (the
+    /// device has given its frames up).
+    fn reinit_queued(&self, port: usize) -> bool;
 }
 
 /// A port task's batch of work taken from its queue (fixed size: no allocation per frame).
@@ -207,6 +210,11 @@ where
                     None => self.device.handle_rx(now, port, &f),
                 }
             }
+            // A transmission confirmed (a port asked to confirm them, one per frame sent): the
+            // device's business, no news for logs or subscribers.
+            PortInput::Status(PortStatus::TxOk) => {
+                self.device.handle_port_status(now, port, PortStatus::TxOk)
+            }
             PortInput::Status(status) => {
                 match status {
                     PortStatus::Down(_) | PortStatus::TxFailed(_) | PortStatus::Error(_) => {
@@ -222,6 +230,20 @@ where
                 });
             }
         }
+    }
+
+    /// Drops the frames queued for `port` (counted as dropped).
+    fn drop_sends(&mut self, port: usize) {
+        let (Some(q), Some(counters)) = (self.queues.get_mut(port), self.counters.get(port)) else {
+            return;
+        };
+        q.retain(|c| {
+            let send = matches!(c, PortCmd::Send(_));
+            if send {
+                counters.tx_dropped();
+            }
+            !send
+        });
     }
 
     /// Queues `cmd` for `port`; false if the port has no room (or does not exist).
@@ -281,6 +303,12 @@ where
             }
             while let Some((port, req)) = self.device.poll_port_request() {
                 tracing::info!(port, ?req, "port request");
+                // A re-initialisation flushes the port: what waits for it was given up by
+                // the device (a stalled port's frames would only come out late, as
+                // duplicates of their twins), so it does not go out before the re-opening.
+                if req == PortRequest::Reinit {
+                    self.drop_sends(port);
+                }
                 if self.queue(port, PortCmd::Request(req)) {
                     woken |= bit(port);
                 }
@@ -453,6 +481,15 @@ where
 
     fn is_open(&self) -> bool {
         self.state.lock().is_ok_and(|st| !st.closed)
+    }
+
+    fn reinit_queued(&self, port: usize) -> bool {
+        self.state.lock().is_ok_and(|st| {
+            st.queues.get(port).is_some_and(|q| {
+                q.iter()
+                    .any(|c| matches!(c, PortCmd::Request(PortRequest::Reinit)))
+            })
+        })
     }
 }
 

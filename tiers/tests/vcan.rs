@@ -80,6 +80,20 @@ async fn socketcan_port_sends_and_receives_every_frame_kind() {
     assert_eq!(cb.rx_invalid, 0);
 }
 
+/// vcan loaded without `echo=1` does not echo in its driver (no `IFF_ECHO`): the kernel's own
+/// echo would come as a frame is handed over, confirming nothing, so the port says it cannot
+/// confirm transmissions and its own frames stay away (`vcan_echo.rs` has the echoing case).
+#[tokio::test]
+async fn a_port_on_an_interface_that_does_not_echo_cannot_confirm() {
+    let mut p = SocketCanPort::open("vcan0").unwrap();
+    assert!(!p.confirm_transmissions());
+    p.send(&Frame::new(Id::Standard(0x123), &[1]).unwrap())
+        .await
+        .unwrap();
+    let x = tokio::time::timeout(Duration::from_millis(200), p.recv()).await;
+    assert!(x.is_err(), "nothing comes back: {x:?}");
+}
+
 #[tokio::test]
 async fn error_frames_become_port_status() {
     let mut b = SocketCanPort::open("vcan0").expect("open vcan0");

@@ -16,6 +16,7 @@
 
 use super::{PortInput, PortReader, RxState, TokioCanSocket, CAN_EFF_FLAG, CAN_MTU, CAN_RTR_FLAG};
 use crate::frame::{Frame, Id};
+use crate::machine::PortStatus;
 use crate::port::asynch::{timed_out, READER_WAIT};
 use crate::port::stamp::{self, KernelClock};
 use crate::port::PortError;
@@ -68,6 +69,10 @@ pub(super) struct Reader {
     at: [Option<std::time::Instant>; BATCH],
     /// Puts the kernel's stamps on the monotonic clock.
     clock: KernelClock,
+    /// Transmissions are confirmed: one frame per read, each looked at first (see
+    /// [`super::next_is_own`]); `own`: the batch's frame is the echo of one the socket sent.
+    confirm: bool,
+    own: bool,
     /// Frames of the batch handed on so far, and in it.
     next: usize,
     got: usize,
@@ -88,6 +93,7 @@ impl Reader {
         s: TokioCanSocket,
         rx: &mut RxState,
         clock: KernelClock,
+        confirm: bool,
     ) -> Result<(Reader, Arc<socketcan::CanSocket>), (TokioCanSocket, io::Error)> {
         let set = |s: &socketcan::CanSocket| {
             s.set_read_timeout(READER_WAIT)?;
@@ -111,6 +117,8 @@ impl Reader {
             len: [0; BATCH],
             at: [None; BATCH],
             clock,
+            confirm,
+            own: false,
             next: 0,
             got: 0,
             tx: [[0; CAN_MTU]; BATCH],
@@ -124,6 +132,14 @@ impl Reader {
     /// [`READER_WAIT`]) into the batch.
     fn fill(&mut self) -> io::Result<()> {
         let fd = self.socket.as_raw_fd();
+        // Confirming: the next frame is looked at (waiting for it) and taken alone, so that an
+        // echo is told from a frame of the bus.
+        let room = if self.confirm {
+            self.own = super::next_is_own(&*self.socket, MsgFlags::empty())?;
+            1
+        } else {
+            BATCH
+        };
         let (raw, lens, ats, clock) = (&mut self.raw, &mut self.len, &mut self.at, &mut self.clock);
         let counters = &self.rx.counters;
         let (n, cut) = with_headers(|[h, _]| {
@@ -132,8 +148,14 @@ impl Reader {
             // what comes after it arrived after this (a reading taken after the call returns
             // may be late by as long as the thread is held up in between).
             let called = std::time::Instant::now();
-            let got = recvmmsg(fd, h, slices.iter_mut(), MsgFlags::MSG_WAITFORONE, None)
-                .map_err(io::Error::from)?;
+            let got = recvmmsg(
+                fd,
+                h,
+                slices.iter_mut().take(room),
+                MsgFlags::MSG_WAITFORONE,
+                None,
+            )
+            .map_err(io::Error::from)?;
             let reading = clock.read();
             let (mut n, mut cut) = (0, false);
             for ((len, at), m) in lens.iter_mut().zip(ats.iter_mut()).zip(got) {
@@ -145,7 +167,7 @@ impl Reader {
                 cut |= m.flags.contains(MsgFlags::MSG_CTRUNC);
                 n += 1;
             }
-            if n < BATCH {
+            if n < room {
                 clock.drained(called);
             }
             Ok::<_, io::Error>((n, cut))
@@ -195,6 +217,9 @@ impl Reader {
             }
             let i = self.next;
             self.next += 1;
+            if self.own {
+                return Some(PortInput::Status(PortStatus::TxOk));
+            }
             let raw = &self.raw[i][..self.len[i].min(CAN_MTU)];
             if let Some(x) = self.rx.accept_kernel(&self.ifname, raw, self.at[i]) {
                 return Some(x);

@@ -42,6 +42,21 @@ pub fn link_state(ifname: &str) -> LinkState {
     }
 }
 
+/// `IFF_ECHO` (linux/if.h): the interface's driver echoes each frame once it was sent.
+const IFF_ECHO: u32 = 0x4_0000;
+
+/// Whether the driver of `ifname` echoes frames once they were on the bus (`IFF_ECHO` in
+/// `/sys/class/net/IFNAME/flags`): a CAN controller's driver does it when the frame was
+/// transmitted (acknowledged by a node on its bus); without it the kernel echoes a frame as it
+/// is handed to the driver, which confirms nothing. vcan echoes in its driver when loaded with
+/// `echo=1` (it has no bus: every frame is on it at once).
+pub(super) fn echoes(ifname: &str) -> bool {
+    std::fs::read_to_string(format!("/sys/class/net/{ifname}/flags"))
+        .ok()
+        .and_then(|s| u32::from_str_radix(s.trim().trim_start_matches("0x"), 16).ok())
+        .is_some_and(|flags| flags & IFF_ECHO != 0)
+}
+
 /// The MTU of `ifname` as sysfs shows it (`None` if it cannot be read).
 pub fn interface_mtu(ifname: &str) -> Option<usize> {
     if link_state(ifname) == LinkState::Missing {

@@ -8,7 +8,7 @@
 //! Every frame comes with the kernel's receive timestamp (`SO_TIMESTAMPNS`: when it entered the
 //! network stack), put on the monotonic clock (see the [port module](super)).
 //!
-//! Error frames are enabled and decoded into [`PortStatus`](crate::PortStatus) (bus-off, error passive, no-ack, …).
+//! Error frames are enabled and decoded into [`PortStatus`] (bus-off, error passive, no-ack, …).
 //! Opening checks the interface first, so a missing or down interface gives an error that says
 //! so and how to fix it, instead of a bare errno. After a failure the runtime calls
 //! [`Port::reopen`], which waits for nothing: it checks the interface and opens a new socket, or
@@ -19,6 +19,18 @@
 //! readiness wait costs an `epoll_wait` and a `read` that finds the socket empty besides. The
 //! runtime's task still sends on it, without waiting (`MSG_DONTWAIT`), what the device sends on
 //! a timer or a command.
+//!
+//! # Confirmed transmissions
+//!
+//! [`Port::confirm_transmissions`] (the runtime asks for it for a dual-bus device) turns on
+//! `CAN_RAW_RECV_OWN_MSGS`: the kernel hands the socket its own frames back, marked
+//! `MSG_CONFIRM`, and the port hands each over as a `TxOk` status, never as a received frame.
+//! Only where the interface's driver echoes (`IFF_ECHO`): a CAN controller's driver echoes a
+//! frame once it was on the bus (acknowledged), which is what the dual-bus layer's stall rule
+//! needs; without it the kernel echoes as it hands the frame to the driver, which confirms
+//! nothing, and the port says it cannot. Each read then looks at the frame's flags first (a
+//! peek: the `nix` crate's message flags leave `MSG_CONFIRM` out), so the reader thread takes
+//! one frame per read instead of a batch: two system calls per frame, the cost of knowing.
 //!
 //! # CAN FD
 //!
@@ -50,6 +62,7 @@ use super::error_frame::{self, ErrorStatuses};
 use super::stamp::{self, KernelClock};
 use super::{AnyInput, Port, PortCounters, PortError, PortErrorKind, PortInput, PortReader};
 use crate::frame::{FdFrame, Frame, FrameError, Id};
+use crate::machine::PortStatus;
 use nix::errno::Errno;
 use nix::sys::socket::{recvmsg, MsgFlags};
 use socketcan::{CanFrame, Socket, SocketOptions};
@@ -116,6 +129,11 @@ struct Received {
     at: Option<std::time::Instant>,
     /// The socket's count of frames dropped on its full queue, as of the last frame read.
     dropped: Option<u32>,
+    /// Transmissions are confirmed ([`Port::confirm_transmissions`]): each read looks first
+    /// whether the frame is the echo of one the socket sent.
+    confirm: bool,
+    /// The last frame read is such an echo.
+    own: bool,
     control: Vec<u8>,
     clock: KernelClock,
 }
@@ -128,6 +146,8 @@ impl Received {
             len: 0,
             at: None,
             dropped: None,
+            confirm: false,
+            own: false,
             control: stamp::control_space(),
             clock: KernelClock::new(),
         }
@@ -138,7 +158,16 @@ impl Received {
         let mut iov = [IoSliceMut::new(&mut self.raw[..room])];
         let flags = MsgFlags::empty();
         let called = std::time::Instant::now();
-        match recvmsg::<()>(s.as_raw_fd(), &mut iov, Some(&mut self.control), flags) {
+        let own = if self.confirm {
+            next_is_own(s, MsgFlags::empty())
+        } else {
+            Ok(false)
+        };
+        let read = own.map_err(|e| e.raw_os_error().map_or(Errno::EIO, Errno::from_raw));
+        match read.and_then(|own| {
+            self.own = own;
+            recvmsg::<()>(s.as_raw_fd(), &mut iov, Some(&mut self.control), flags)
+        }) {
             Ok(m) => {
                 let reading = self.clock.read();
                 self.len = m.bytes;
@@ -157,6 +186,17 @@ impl Received {
     fn frame(&self) -> &[u8] {
         &self.raw[..self.len.min(CANFD_MTU)]
     }
+}
+
+/// Whether the next frame queued on `s` is the echo of one this socket sent (`MSG_CONFIRM`,
+/// which the kernel sets on a socket's own frames with `CAN_RAW_RECV_OWN_MSGS`), peeked: the
+/// frame stays queued for the read that takes it with its stamp. Through socket2, as nix's
+/// message flags leave `MSG_CONFIRM` out. `flags`: more for the peek (`MSG_DONTWAIT`). The
+/// second system call per frame is what confirmed transmissions cost.
+fn next_is_own(s: &impl std::os::fd::AsFd, flags: MsgFlags) -> io::Result<bool> {
+    let mut msg = socket2::MsgHdrMut::new();
+    socket2::SockRef::from(s).recvmsg(&mut msg, (MsgFlags::MSG_PEEK | flags).bits())?;
+    Ok(msg.flags().is_confirm())
 }
 
 /// How long a send waits before it tries again when the socket's buffer is full.
@@ -228,6 +268,19 @@ impl SocketCanPort {
             },
             read,
         })
+    }
+
+    /// What the last read through tokio took: a confirmation of its own frame, a frame, a
+    /// status, or nothing (a frame refused, counted).
+    fn taken(&mut self) -> Option<PortInput> {
+        if let Some(d) = self.read.dropped {
+            self.rx.counters.rx_overrun_total(d);
+        }
+        if self.read.own {
+            return Some(PortInput::Status(PortStatus::TxOk));
+        }
+        let (raw, at) = (self.read.frame(), self.read.at);
+        self.rx.accept_kernel(&self.ifname, raw, at)
     }
 
     /// The interface name.
@@ -422,11 +475,7 @@ impl Port for SocketCanPort {
             };
             match sock.read_frame(&mut self.read).await {
                 Ok(()) => {
-                    if let Some(d) = self.read.dropped {
-                        self.rx.counters.rx_overrun_total(d);
-                    }
-                    let (raw, at) = (self.read.frame(), self.read.at);
-                    if let Some(x) = self.rx.accept_kernel(&self.ifname, raw, at) {
+                    if let Some(x) = self.taken() {
                         return Ok(x);
                     }
                 }
@@ -456,6 +505,9 @@ impl Port for SocketCanPort {
                 Ok(()) => {
                     if let Some(d) = self.read.dropped {
                         self.rx.counters.rx_overrun_total(d);
+                    }
+                    if self.read.own {
+                        return Ok(PortInput::Status(PortStatus::TxOk).into());
                     }
                     let (raw, at) = (self.read.frame(), self.read.at);
                     if let Ok(fd) = <&[u8; CANFD_MTU]>::try_from(raw) {
@@ -519,11 +571,7 @@ impl Port for SocketCanPort {
             };
             match sock.try_read_frame(&mut self.read) {
                 Ok(()) => {
-                    if let Some(d) = self.read.dropped {
-                        self.rx.counters.rx_overrun_total(d);
-                    }
-                    let (raw, at) = (self.read.frame(), self.read.at);
-                    if let Some(x) = self.rx.accept_kernel(&self.ifname, raw, at) {
+                    if let Some(x) = self.taken() {
                         return Some(Ok(x));
                     }
                 }
@@ -553,12 +601,40 @@ impl Port for SocketCanPort {
         })
     }
 
+    fn confirm_transmissions(&mut self) -> bool {
+        // An echo the kernel makes itself (a driver without `IFF_ECHO`) comes as the frame is
+        // handed over: it would confirm frames that never reached the bus.
+        if !interface::echoes(&self.ifname) {
+            tracing::info!(port = %self.ifname, "the interface's driver does not echo frames (IFF_ECHO): transmissions stay unconfirmed");
+            return false;
+        }
+        let set = match self.socket.as_ref() {
+            Some(Sock::Async(s)) => s.0.get_ref().set_recv_own_msgs(true),
+            Some(Sock::Blocking(s)) => s.set_recv_own_msgs(true),
+            None => Ok(()),
+        };
+        if let Err(e) = set {
+            tracing::warn!(port = %self.ifname, error = %e, "cannot receive own frames: transmissions stay unconfirmed");
+            return false;
+        }
+        self.read.confirm = true;
+        true
+    }
+
     async fn reopen(&mut self) -> Result<(), PortError> {
         self.socket = None;
         self.rx.pending.clear();
         // A new socket: no read has found it empty yet.
         self.read.clock = KernelClock::new();
-        self.socket = Some(Sock::Async(open_socket(&self.ifname, self.fd)?));
+        let socket = open_socket(&self.ifname, self.fd)?;
+        if self.read.confirm {
+            socket
+                .0
+                .get_ref()
+                .set_recv_own_msgs(true)
+                .map_err(|e| PortError::io(&self.ifname, "cannot receive own frames", e))?;
+        }
+        self.socket = Some(Sock::Async(socket));
         self.rx.counters.reopened();
         Ok(())
     }
@@ -571,7 +647,13 @@ impl Port for SocketCanPort {
         let Some(Sock::Async(s)) = self.socket.take() else {
             return None;
         };
-        match blocking::Reader::new(&self.ifname, s, &mut self.rx, self.read.clock) {
+        match blocking::Reader::new(
+            &self.ifname,
+            s,
+            &mut self.rx,
+            self.read.clock,
+            self.read.confirm,
+        ) {
             Ok((reader, shared)) => {
                 self.socket = Some(Sock::Blocking(shared));
                 Some(Box::new(reader))
