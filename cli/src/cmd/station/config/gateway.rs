@@ -148,12 +148,12 @@ fn socket(src: &Source<'_>, p: &Spanned<String>) -> Result<PathBuf, String> {
     Ok(path)
 }
 
+/// A network's `gateway_net` as the file gives it, its name, and where its name stands.
+pub(super) type GivenNet = (Option<Spanned<i64>>, String, Range<usize>);
+
 /// Each network's net number, in file order: its `gateway_net` (1 to 65535), else its place
 /// in the file from 1; no two alike.
-pub(super) fn net_numbers(
-    src: &Source<'_>,
-    tables: &[(Option<Spanned<i64>>, String, Range<usize>)],
-) -> Result<Vec<u16>, String> {
+pub(super) fn net_numbers(src: &Source<'_>, tables: &[GivenNet]) -> Result<Vec<u16>, String> {
     let mut numbers: Vec<u16> = Vec::new();
     for (i, (given, name, name_at)) in tables.iter().enumerate() {
         let n = match given {
