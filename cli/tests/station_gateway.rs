@@ -118,6 +118,8 @@ fn exercise<S: Read + Write>(c: &mut Client<S>, via: &str) {
     assert_eq!(c.ask("[6] set sdo_timeout 300"), "[6] OK", "{via}");
     let r = c.ask("[7] 1 17 r 0x1018 2 u32");
     assert!(r.starts_with("[7] ERROR:0x05040000"), "{via}: {r}");
+    // Back to a time-out no busy machine runs out of.
+    assert_eq!(c.ask("[7] set sdo_timeout 10000"), "[7] OK", "{via}");
     // Nets the station does not have.
     let r = c.ask("[8] 2 16 r 0x1018 2 u32");
     assert!(
@@ -198,7 +200,11 @@ fn the_station_serves_309_3_on_tcp_and_a_local_socket_for_both_networks() {
         check.out
     );
 
-    let mut child = common::station_run(&station).spawn().expect("run duocan");
+    // Each client's SDO time-out starts at --timeout: generous, for a busy machine.
+    let mut child = common::station_run(&station)
+        .args(["--timeout", "10000"])
+        .spawn()
+        .expect("run duocan");
     let rx = stderr_lines(&mut child);
     let end = Instant::now() + Duration::from_secs(120);
     let (mut addr, mut on_socket, mut active) = (None, false, 0);
@@ -332,5 +338,34 @@ fn a_gateway_open_to_other_machines_needs_its_key() {
         "{}",
         r.err
     );
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// A path the gateway cannot take stops the start before any network opens, naming the key;
+/// a file there that is not a socket is left as it was.
+#[test]
+fn a_station_whose_socket_path_is_taken_does_not_start() {
+    let dir = temp_dir("taken");
+    let sock = dir.join("gw.sock");
+    std::fs::write(&sock, "not a socket").unwrap();
+    let station = dir.join("gw.toml");
+    std::fs::write(
+        &station,
+        format!("[station]\ngateway_socket = \"gw.sock\"\n{NETWORKS}"),
+    )
+    .unwrap();
+    let mut run = common::station_run(&station);
+    let out = run
+        .args(["--duration-ms", "20000"])
+        .output()
+        .expect("run duocan");
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(2), "{err}");
+    assert!(
+        err.contains("gateway_socket: cannot listen on ") && err.contains("not a socket"),
+        "{err}"
+    );
+    assert!(!err.contains("started network"), "{err}");
+    assert_eq!(std::fs::read_to_string(&sock).unwrap(), "not a socket");
     let _ = std::fs::remove_dir_all(&dir);
 }
