@@ -41,6 +41,17 @@ pair_timeout_ms = 200
 gateway_net = 7
 "#;
 
+/// The station under test, killed if the test fails before it stops it (no station left
+/// running behind a failed test).
+struct Killed(std::process::Child);
+
+impl Drop for Killed {
+    fn drop(&mut self) {
+        let _ = self.0.kill();
+        let _ = self.0.wait();
+    }
+}
+
 /// A fresh folder for one test's files.
 fn temp_dir(what: &str) -> PathBuf {
     let dir = std::env::temp_dir().join(format!("duocan-gw-{what}-{}", std::process::id()));
@@ -201,11 +212,13 @@ fn the_station_serves_309_3_on_tcp_and_a_local_socket_for_both_networks() {
     );
 
     // Each client's SDO time-out starts at --timeout: generous, for a busy machine.
-    let mut child = common::station_run(&station)
-        .args(["--timeout", "10000"])
-        .spawn()
-        .expect("run duocan");
-    let rx = stderr_lines(&mut child);
+    let mut child = Killed(
+        common::station_run(&station)
+            .args(["--timeout", "10000"])
+            .spawn()
+            .expect("run duocan"),
+    );
+    let rx = stderr_lines(&mut child.0);
     let end = Instant::now() + Duration::from_secs(120);
     let (mut addr, mut on_socket, mut active) = (None, false, 0);
     let mut seen = vec![];
@@ -223,7 +236,7 @@ fn the_station_serves_309_3_on_tcp_and_a_local_socket_for_both_networks() {
         }
     }
     let Some(addr) = addr.filter(|_| on_socket && active == 2) else {
-        let _ = child.kill();
+        let _ = child.0.kill();
         panic!(
             "no gateway or no pair active in 120 s:\n{}",
             seen.join("\n")
@@ -253,7 +266,7 @@ fn the_station_serves_309_3_on_tcp_and_a_local_socket_for_both_networks() {
     let mut again = served_again(|| Client::unix(&sock));
     assert_eq!(again.ask("[2] 7 17 r 0x1018 2 u32"), "[2] 17");
 
-    let pid = child.id().to_string();
+    let pid = child.0.id().to_string();
     let killed = std::process::Command::new("kill")
         .args(["-TERM", &pid])
         .status()
@@ -265,11 +278,11 @@ fn the_station_serves_309_3_on_tcp_and_a_local_socket_for_both_networks() {
         lines.push(line);
     }
     let status = loop {
-        if let Some(s) = child.try_wait().unwrap() {
+        if let Some(s) = child.0.try_wait().unwrap() {
             break s;
         }
         if Instant::now() > end {
-            let _ = child.kill();
+            let _ = child.0.kill();
             panic!("not stopped 30 s after SIGTERM:\n{}", lines.join("\n"));
         }
         std::thread::sleep(Duration::from_millis(50));
