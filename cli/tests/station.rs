@@ -33,6 +33,15 @@ fn the_shipped_demo_station_checks_with_its_four_racks() {
     }
     // 10 + 10 + 12 + 4 pairs, as the demo's racks.
     assert_eq!(r.out.matches("/0x2").count(), 36, "{}", r.out);
+    // Its 309-3 gateway on loopback, the racks numbered by their place in the file.
+    assert!(
+        r.out.contains(
+            "  309-3 gateway: tcp 127.0.0.1:5555, at most 16 clients, nets: 1 turnout rack, \
+             2 signal rack, 3 track-circuit rack, 4 misc rack\n"
+        ),
+        "{}",
+        r.out
+    );
 }
 
 #[test]

@@ -13,7 +13,7 @@ pub enum Code {
     Timeout = 103,
     /// 105: no node given, and none set with `set node`.
     NoDefaultNode = 105,
-    /// 106: a net above 65535.
+    /// 106: a net above 65535, or one no network of the station has.
     UnsupportedNet = 106,
     /// 107: a node-ID outside 1–127 (0 is "all nodes" for NMT commands).
     UnsupportedNode = 107,

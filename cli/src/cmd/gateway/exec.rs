@@ -1,25 +1,28 @@
 //! Carrying out a request on the network, and the answer that goes back.
 
+use super::nets::GatewayNets;
 use super::parse::{parse_line, Bad, Code, Command, Line, Request};
 use super::value::show_value;
-use duocan::net::{NetError, Network};
+use duocan::net::NetError;
 use duocan::sdo::{SdoOptions, TransferMode};
 use duocan::Duration;
 
-/// What one client has set: its default node, and how its SDO transfers go. Each
-/// client (standard input, or one TCP connection) has its own.
+/// What one client has set: its default net and node, and how its SDO transfers go. Each
+/// client (standard input, or one connection) has its own.
 #[derive(Clone, Debug)]
 pub struct Session {
+    net: u16,
     node: Option<u8>,
     timeout_ms: u64,
     block: bool,
 }
 
 impl Session {
-    /// A new client's settings: no default node, SDO time-out `timeout_ms`, block
-    /// transfer off.
-    pub fn new(timeout_ms: u64) -> Session {
+    /// A new client's settings: default net `net`, no default node, SDO time-out
+    /// `timeout_ms`, block transfer off.
+    pub fn new(net: u16, timeout_ms: u64) -> Session {
         Session {
+            net,
             node: None,
             timeout_ms,
             block: false,
@@ -40,7 +43,7 @@ impl Session {
 /// The answer to `line`: empty for a blank line or a comment (CANopenNode answers those
 /// with an empty line, and `cocomm` waits for it), else the response; lines before the last
 /// one are `#` comments (the help, `lss_allnodes`).
-pub async fn answer(net: &Network, session: &mut Session, line: &str) -> String {
+pub async fn answer(nets: &GatewayNets, session: &mut Session, line: &str) -> String {
     match parse_line(line) {
         Line::Empty => String::new(),
         // A request whose sequence number cannot be read is answered as number 0 (what
@@ -48,7 +51,7 @@ pub async fn answer(net: &Network, session: &mut Session, line: &str) -> String 
         Line::Error(seq, bad) => with_sequence(seq.unwrap_or(0), &error(&bad)),
         Line::Request(r) => {
             let seq = r.seq;
-            let body = execute(net, session, r).await;
+            let body = execute(nets, session, r).await;
             with_sequence(seq, &body.unwrap_or_else(|bad| error(&bad)))
         }
     }
@@ -99,15 +102,18 @@ fn net_error(e: &NetError) -> Result<String, Bad> {
     }
 }
 
-async fn execute(net: &Network, s: &mut Session, r: Request) -> Result<String, Bad> {
+async fn execute(nets: &GatewayNets, s: &mut Session, r: Request) -> Result<String, Bad> {
     let ok = || Ok("OK".to_string());
+    // The request's net, else the client's default: which numbers name a network is the
+    // gateway's (`GatewayNets`), so the standalone gateway and the station answer alike.
+    let net_no = r.net.unwrap_or(s.net);
+    let net = || nets.get(net_no);
     match r.command {
-        // A duocan gateway serves one network (two ports merged by the dual-bus layer are one)
-        // and, as CANopenNode's single-network gateway, takes any net number (0–65535) as
-        // naming it: a script written for a station whose networks are numbered runs
-        // unchanged on the network the gateway is pointed at. So the default net changes
-        // nothing, and a request's net is not checked either.
-        Command::SetNetwork(_) => ok(),
+        Command::SetNetwork(n) => {
+            nets.get(n)?;
+            s.net = n;
+            ok()
+        }
         Command::SetNode(n) => {
             s.node = Some(n);
             ok()
@@ -126,8 +132,9 @@ async fn execute(net: &Network, s: &mut Session, r: Request) -> Result<String, B
             Code::NotSupported,
             format!("{what}: not carried out by this gateway"),
         )),
-        Command::Lss(l) => super::lss::execute(net, l).await,
+        Command::Lss(l) => super::lss::execute(net()?, l).await,
         Command::Nmt(cmd) => {
+            let net = net()?;
             let node = r
                 .node
                 .or(s.node)
@@ -140,6 +147,7 @@ async fn execute(net: &Network, s: &mut Session, r: Request) -> Result<String, B
             sent.map_or_else(|e| net_error(&e), |()| ok())
         }
         Command::Read { index, sub, ty } => {
+            let net = net()?;
             let node = sdo_node(r.node, s)?;
             let sdo = net.node(node).sdo().with_options(s.sdo_options());
             match sdo.read_bytes(index, sub).await {
@@ -148,6 +156,7 @@ async fn execute(net: &Network, s: &mut Session, r: Request) -> Result<String, B
             }
         }
         Command::Write { index, sub, data } => {
+            let net = net()?;
             let node = sdo_node(r.node, s)?;
             let sdo = net.node(node).sdo().with_options(s.sdo_options());
             match sdo.write_bytes(index, sub, data).await {

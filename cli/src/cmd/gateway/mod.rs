@@ -47,7 +47,9 @@
 //! (`--timeout` at first) and block-transfer switch (off). The gateway serves one network: the
 //! bus of `--bus` (two ports merged by the dual-bus layer are one network). As in
 //! CANopenNode's single-network gateway, any net number (0–65535) names it, and `set network`
-//! is taken; a net above 65535 is `ERROR:106`.
+//! is taken; a net above 65535 is `ERROR:106`. A station (`duocan station run`) serves the
+//! same gateway over all of its networks, each under a net number of its own ([`GatewayNets`];
+//! see `crate::cmd::station::gateway`).
 //!
 //! **What it does not do, and says so.** Node guarding and heartbeat-consumer set-up
 //! (`enable`/`disable guarding|heartbeat`), PDO configuration and transfer (`set rpdo`,
@@ -96,9 +98,14 @@ mod error;
 mod exec;
 mod help;
 mod lss;
+mod nets;
 mod parse;
-mod socket;
+mod serve;
+pub mod socket;
 pub(crate) mod value;
+
+pub use nets::GatewayNets;
+pub use serve::{accept, GatewayListener, Served};
 
 #[cfg(test)]
 mod tests;
@@ -107,12 +114,9 @@ use crate::args::parse_timeout_ms;
 use crate::fail::Fail;
 use crate::{bus, Global};
 use duocan::cia305::LssMasterConfig;
-use duocan::net::Network;
-use exec::{answer, Session};
 use std::net::SocketAddr;
 use std::path::PathBuf;
-use std::sync::Arc;
-use tokio::io::{AsyncBufRead, AsyncBufReadExt, AsyncRead, AsyncWrite, AsyncWriteExt, BufReader};
+use tokio::io::BufReader;
 
 /// Longest request line, in bytes: room for a 64 KiB domain in base64 and the words around it.
 pub const MAX_LINE: usize = 128 * 1024;
@@ -164,129 +168,54 @@ pub async fn run(g: &Global, a: Args) -> Result<(), Fail> {
         .with_timeout(ms(a.lss_answer_ms))
         .with_settle(ms(a.lss_settle_ms));
     let bus = bus::open_with(g, bus::options(g, false).with_lss(lss))?;
+    let nets = GatewayNets::single(bus.net.clone());
     let r = match (a.listen, a.socket) {
-        (Some(addr), _) => listen(&bus.net, g.timeout, addr).await,
-        (None, Some(path)) => socket::listen(&bus.net, g.timeout, &path).await,
         (None, None) => {
             let input = BufReader::new(tokio::io::stdin());
-            serve(&bus.net, g.timeout, input, tokio::io::stdout(), "\n").await;
+            serve::serve(&nets, g.timeout, input, tokio::io::stdout(), "\n").await;
             Ok(())
         }
+        (listen, socket) => listeners(nets, g.timeout, listen, socket).await,
     };
     bus.close().await;
     r
 }
 
-/// Serves TCP clients on `addr` until interrupted.
-async fn listen(net: &Network, timeout_ms: u64, addr: SocketAddr) -> Result<(), Fail> {
-    let listener = tokio::net::TcpListener::bind(addr)
-        .await
-        .map_err(|e| Fail::usage(format!("--listen {addr}: {e}")))?;
-    let bound = listener.local_addr()?;
-    eprintln!("duocan gateway: listening on {bound}");
-    let slots = Arc::new(tokio::sync::Semaphore::new(MAX_CLIENTS));
-    loop {
-        let (stream, _) = tokio::select! {
-            r = listener.accept() => match r {
-                Ok(c) => c,
-                Err(e) => {
-                    // A client that went away before it was accepted: keep serving the others.
-                    eprintln!("duocan gateway: accept: {e}");
-                    continue;
-                }
-            },
-            _ = tokio::signal::ctrl_c() => return Ok(()),
-        };
-        client(net, timeout_ms, &slots, stream).await;
-    }
-}
-
-/// Serves one accepted client in a task of its own, or tells it `ERROR:102` and closes it
-/// when [`MAX_CLIENTS`] are served already.
-async fn client<S>(
-    net: &Network,
+/// Serves clients on the TCP address or the local socket until interrupted (the socket file
+/// removed then).
+async fn listeners(
+    nets: GatewayNets,
     timeout_ms: u64,
-    slots: &Arc<tokio::sync::Semaphore>,
-    mut stream: S,
-) where
-    S: AsyncRead + AsyncWrite + Unpin + Send + 'static,
-{
-    let Ok(slot) = slots.clone().try_acquire_owned() else {
-        let _ = stream
-            .write_all(
-                b"[0] ERROR:102 #request not processed in the present state: too many clients\r\n",
-            )
-            .await;
-        return;
+    listen: Option<SocketAddr>,
+    socket: Option<PathBuf>,
+) -> Result<(), Fail> {
+    let (listener, _file) = match (listen, socket) {
+        (Some(addr), _) => {
+            let l = tokio::net::TcpListener::bind(addr)
+                .await
+                .map_err(|e| Fail::usage(format!("--listen {addr}: {e}")))?;
+            eprintln!("duocan gateway: listening on {}", l.local_addr()?);
+            (GatewayListener::Tcp(l), None)
+        }
+        (None, Some(path)) => {
+            let shown = path.display();
+            let (l, file) = socket::bind(&path, 0o600)
+                .map_err(|why| Fail::usage(format!("--socket {shown}: {why}")))?;
+            eprintln!("duocan gateway: listening on {shown}");
+            (GatewayListener::Unix(l), Some(file))
+        }
+        (None, None) => return Ok(()),
     };
-    let net = net.clone();
-    tokio::spawn(async move {
-        let (r, w) = tokio::io::split(stream);
-        serve(&net, timeout_ms, BufReader::new(r), w, "\r\n").await;
-        drop(slot);
-    });
-}
-
-/// Answers the requests of one client, line by line, until its input ends (or its output
-/// cannot be written). Each answer ends with `eol`, once: the lines of a longer answer (the
-/// help) are parted by LF alone, as CANopenNode's are, since `cocomm` reads an answer up to
-/// the first CR LF.
-async fn serve<R, W>(net: &Network, timeout_ms: u64, mut input: R, mut output: W, eol: &str)
-where
-    R: AsyncBufRead + Unpin,
-    W: AsyncWrite + Unpin,
-{
-    let mut session = Session::new(timeout_ms);
-    let mut buf = Vec::new();
-    loop {
-        let response = match read_line(&mut input, &mut buf).await {
-            Ok(Some(true)) => match std::str::from_utf8(&buf) {
-                Ok(line) => answer(net, &mut session, line).await,
-                Err(_) => "[0] ERROR:101 #syntax error: the line is not UTF-8 text".to_string(),
-            },
-            Ok(Some(false)) => {
-                format!("[0] ERROR:101 #syntax error: a line longer than {MAX_LINE} bytes")
-            }
-            Ok(None) | Err(_) => return,
-        };
-        let text = response + eol;
-        if output.write_all(text.as_bytes()).await.is_err() || output.flush().await.is_err() {
-            return;
-        }
-    }
-}
-
-/// Reads one line into `buf` (without its LF): `Some(true)`; `Some(false)` for a line longer
-/// than [`MAX_LINE`] (read to its end and dropped, never held whole); `None` at the end of
-/// input.
-async fn read_line<R: AsyncBufRead + Unpin>(
-    input: &mut R,
-    buf: &mut Vec<u8>,
-) -> std::io::Result<Option<bool>> {
-    buf.clear();
-    let mut too_long = false;
-    loop {
-        let chunk = input.fill_buf().await?;
-        if chunk.is_empty() {
-            // End of input: a last line without its LF still counts.
-            return Ok((!buf.is_empty() || too_long).then_some(!too_long));
-        }
-        let (part, done) = match chunk.iter().position(|b| *b == b'\n') {
-            Some(i) => (&chunk[..i], i + 1),
-            None => (chunk, chunk.len()),
-        };
-        if !too_long {
-            if buf.len() + part.len() > MAX_LINE {
-                too_long = true;
-                buf.clear();
-            } else {
-                buf.extend_from_slice(part);
-            }
-        }
-        let ended = done > part.len();
-        input.consume(done);
-        if ended {
-            return Ok(Some(!too_long));
-        }
-    }
+    // Not `eprintln!`, which panics when standard error is gone (a closed pipe): a note
+    // nobody can read must not stop the gateway.
+    let note = |what: &str| {
+        use std::io::Write;
+        let _ = writeln!(std::io::stderr(), "duocan gateway: {what}");
+    };
+    let served = Served::new(nets, timeout_ms, MAX_CLIENTS, note);
+    let interrupted = async {
+        let _ = tokio::signal::ctrl_c().await;
+    };
+    accept(listener, served, interrupted).await;
+    Ok(())
 }

@@ -1,43 +1,34 @@
-//! `--socket PATH`: the gateway on a local (Unix domain) stream socket, where `cocomm` looks by
-//! default (CANopenNode's gateway serves one for it).
+//! The gateway on a local (Unix domain) stream socket, where `cocomm` looks by default
+//! (CANopenNode's gateway serves one for it).
 //!
-//! The socket file is made readable and writable by its owner only: the gateway has no
-//! authentication, and whoever may connect drives the bus. A socket file left behind by a
-//! gateway that was killed is replaced; any other file at the path is left alone and refused.
-//! The file is removed when the gateway stops (interrupted).
+//! The socket file is made readable and writable by its owner only (or as the station's file
+//! says): the gateway has no authentication, and whoever may connect drives the bus. A socket
+//! file left behind by a gateway that was killed is replaced; any other file at the path is
+//! left alone and refused. The file is removed when the gateway stops ([`SocketFile`]).
 
-use super::{client, MAX_CLIENTS};
-use crate::fail::Fail;
-use duocan::net::Network;
-use std::path::Path;
-use std::sync::Arc;
+use std::path::{Path, PathBuf};
 
-/// Serves local-socket clients on `path` until interrupted.
-pub async fn listen(net: &Network, timeout_ms: u64, path: &Path) -> Result<(), Fail> {
-    let shown = path.display();
-    let fail = |e: std::io::Error| Fail::usage(format!("--socket {shown}: {e}"));
-    clear_stale(path).map_err(|why| Fail::usage(format!("--socket {shown}: {why}")))?;
-    let listener = tokio::net::UnixListener::bind(path).map_err(fail)?;
-    // Owner only, before anyone is accepted.
+/// The socket file a gateway listens on: removed when dropped, so that it goes on every way
+/// the gateway stops but a kill (and then the next start replaces it).
+#[derive(Debug)]
+pub struct SocketFile(PathBuf);
+
+impl Drop for SocketFile {
+    fn drop(&mut self) {
+        let _ = std::fs::remove_file(&self.0);
+    }
+}
+
+/// Listens on a local socket at `path` with the permission bits `mode` (set before any client
+/// is accepted); the error says why not.
+pub fn bind(path: &Path, mode: u32) -> Result<(tokio::net::UnixListener, SocketFile), String> {
+    clear_stale(path)?;
+    let listener = tokio::net::UnixListener::bind(path).map_err(|e| e.to_string())?;
+    let file = SocketFile(path.to_path_buf());
     use std::os::unix::fs::PermissionsExt;
-    std::fs::set_permissions(path, std::fs::Permissions::from_mode(0o600)).map_err(fail)?;
-    eprintln!("duocan gateway: listening on {shown}");
-    let slots = Arc::new(tokio::sync::Semaphore::new(MAX_CLIENTS));
-    let r = loop {
-        let stream = tokio::select! {
-            r = listener.accept() => match r {
-                Ok((s, _)) => s,
-                Err(e) => {
-                    eprintln!("duocan gateway: accept: {e}");
-                    continue;
-                }
-            },
-            _ = tokio::signal::ctrl_c() => break Ok(()),
-        };
-        client(net, timeout_ms, &slots, stream).await;
-    };
-    let _ = std::fs::remove_file(path);
-    r
+    std::fs::set_permissions(path, std::fs::Permissions::from_mode(mode))
+        .map_err(|e| e.to_string())?;
+    Ok((listener, file))
 }
 
 /// Removes a socket file nobody listens on (a gateway's that was killed); refuses a socket in

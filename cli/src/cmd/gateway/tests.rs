@@ -4,8 +4,9 @@
 
 use super::lss::LssRequest;
 use super::parse::{parse_line, Code, Command, HelpPage, Line, Request};
+use super::serve::read_line;
 use super::value::{base64_decode, base64_encode, c_g, encode_value, show_value, DataType, Word};
-use super::{read_line, MAX_LINE};
+use super::MAX_LINE;
 use duocan::cia305::{BitTiming, Inquiry, LssAddress};
 use duocan::NmtCommand as N;
 use proptest::prelude::*;

@@ -19,6 +19,12 @@
 //! mqtt_prefix = "duocan/depot"     # every topic's first levels; default: duocan/STATION
 //! mqtt_username = "…"              # optional, with mqtt_password if the broker asks
 //! mqtt_outbox = 1024               # messages held while the broker is away
+//! gateway = "127.0.0.1:5555"       # optional: the CiA 309-3 ASCII gateway on TCP (loopback
+//!                                  # unless gateway_allow_remote = true: 309-3 has no
+//!                                  # authentication)
+//! gateway_socket = "gateway.sock"  # optional: and on a local socket (relative: to this
+//!                                  # file's folder), mode gateway_socket_mode (0o600 or 0o660)
+//! gateway_max_clients = 16         # clients at once, TCP and socket together
 //!
 //! [[network]]
 //! name = "rack-1"                  # unique in the station
@@ -36,6 +42,8 @@
 //! peers = [{ node = 2, priority = 1 }]   # the other masters of the network
 //! on_stop = "stop"                 # NMT to all nodes when the station stops: none (default),
 //!                                  # stop, preop, reset, reset-comm
+//! gateway_net = 1                  # its 309-3 net number (default: its place in the file,
+//!                                  # from 1)
 //! ```
 //!
 //! Every error names the file, the line and column, and the key, and says what is allowed:
@@ -44,14 +52,17 @@
 //! holds the value.
 
 use duocan::nmt::NmtCommand;
-use duocan_redundancy::{RedundantError, RedundantNetwork, RedundantNetworkBuilder, Role};
+use duocan_redundancy::RedundantNetworkBuilder;
 use serde::Deserialize;
 use std::ops::Range;
 use toml::Spanned;
 
+mod gateway;
 mod http;
 mod mqtt;
+mod network;
 mod tls;
+pub use gateway::Gateway;
 pub use http::{Control, Http};
 pub use mqtt::Mqtt;
 pub use tls::{server_config, Tls};
@@ -71,6 +82,8 @@ pub struct Station {
     pub http: Option<Http>,
     /// The MQTT broker it reports to, if any.
     pub mqtt: Option<Mqtt>,
+    /// Where it serves the CiA 309-3 gateway, if anywhere.
+    pub gateway: Option<Gateway>,
     /// Its networks, in file order.
     pub networks: Vec<Network>,
 }
@@ -102,6 +115,8 @@ pub struct Network {
     pub builder: RedundantNetworkBuilder,
     /// What NMT command goes to all nodes when the station stops.
     pub on_stop: Option<NmtCommand>,
+    /// Its CiA 309-3 net number on the station's gateway.
+    pub gateway_net: u16,
 }
 
 /// Where a network runs.
@@ -149,6 +164,11 @@ struct StationTable {
     mqtt_username: Option<Spanned<String>>,
     mqtt_password: Option<Spanned<String>>,
     mqtt_outbox: Option<Spanned<usize>>,
+    gateway: Option<Spanned<String>>,
+    gateway_allow_remote: Option<Spanned<bool>>,
+    gateway_socket: Option<Spanned<String>>,
+    gateway_socket_mode: Option<Spanned<u32>>,
+    gateway_max_clients: Option<Spanned<usize>>,
 }
 
 #[derive(Deserialize)]
@@ -170,6 +190,7 @@ struct NetworkTable {
     #[serde(default)]
     peers: Option<Spanned<Vec<Peer>>>,
     on_stop: Option<Spanned<String>>,
+    gateway_net: Option<Spanned<i64>>,
 }
 
 #[derive(Deserialize)]
@@ -229,13 +250,19 @@ pub fn parse(text: &str, name: &str) -> Result<Station, String> {
         Some(t) => mqtt::mqtt(&src, t, &station)?,
         None => None,
     };
+    let gateway = match &file.station {
+        Some(t) => gateway::gateway(&src, t)?,
+        None => None,
+    };
     let mut names = Vec::new();
     let mut networks: Vec<Network> = Vec::new();
+    let mut nets = Vec::new();
     for n in file.network {
         let span = n.span();
         let t = n.into_inner();
         let (name_at, buses_at) = (t.name.span(), t.buses.span());
-        let net = network(&src, t, span)?;
+        let given_net = t.gateway_net.clone();
+        let net = network::network(&src, t, span)?;
         if networks.iter().any(|o| o.name == net.name) {
             let why = format!("{:?} names two networks: each has its own name", net.name);
             return Err(src.span(name_at, "name", why));
@@ -251,17 +278,22 @@ pub fn parse(text: &str, name: &str) -> Result<Station, String> {
                 }
             }
         }
+        nets.push((given_net, net.name.clone(), name_at.clone()));
         names.push((net.name.clone(), name_at));
         networks.push(net);
     }
     if mqtt.is_some() {
         mqtt::distinct_topics(&src, &names)?;
     }
+    for (net, number) in networks.iter_mut().zip(gateway::net_numbers(&src, &nets)?) {
+        net.gateway_net = number;
+    }
     Ok(Station {
         name: station,
         audit,
         http,
         mqtt,
+        gateway,
         networks,
     })
 }
@@ -304,164 +336,6 @@ fn stem(path: &str) -> String {
     std::path::Path::new(path)
         .file_stem()
         .map_or_else(|| path.to_string(), |s| s.to_string_lossy().into_owned())
-}
-
-/// One network's table, checked.
-fn network(src: &Source<'_>, t: NetworkTable, table: Range<usize>) -> Result<Network, String> {
-    let name = t.name.get_ref().trim().to_string();
-    if name.is_empty() {
-        return Err(src.span(t.name.span(), "name", "a network needs a name"));
-    }
-    let buses = buses(src, &t.buses)?;
-    let ms = |d: &Spanned<u64>| std::time::Duration::from_millis(*d.get_ref());
-    let mut b = RedundantNetwork::builder()
-        .node_id(*t.node_id.get_ref())
-        .priority(t.priority);
-    if let Some(d) = &t.heartbeat_ms {
-        b = b.heartbeat(ms(d));
-    }
-    if let Some(d) = &t.master_timeout_ms {
-        b = b.master_timeout(ms(d));
-    }
-    if let Some(d) = &t.sync_ms {
-        b = b.sync(ms(d));
-    }
-    if let Some(d) = &t.boot_timeout_ms {
-        b = b.boot_timeout(ms(d));
-    }
-    if let Some(d) = &t.pair_heartbeat_ms {
-        b = b.pair_heartbeat(ms(d));
-    }
-    if let Some(d) = &t.pair_timeout_ms {
-        b = b.pair_timeout(ms(d));
-    }
-    for &[a, x] in t.pairs.as_ref().map_or(&[][..], |p| p.get_ref()) {
-        b = b.pair(a, x);
-    }
-    for p in t.peers.as_ref().map_or(&[][..], |p| p.get_ref()) {
-        b = b.peer_master_with_priority(p.node, p.priority);
-    }
-    let on_stop = match &t.on_stop {
-        None => None,
-        Some(s) => on_stop(s.get_ref()).map_err(|why| src.span(s.span(), "on_stop", why))?,
-    };
-    if let Err(e) = b.check() {
-        return Err(place(src, &t, table, &name, &e));
-    }
-    Ok(Network {
-        name,
-        buses,
-        builder: b,
-        on_stop,
-    })
-}
-
-/// `buses`: a simulated plant or two distinct interfaces.
-fn buses(src: &Source<'_>, s: &Spanned<String>) -> Result<Buses, String> {
-    let text = s.get_ref().trim();
-    if SIM_BUSES.contains(&text) {
-        return Ok(Buses::Sim(text.to_string()));
-    }
-    let bad = |why: String| src.span(s.span(), "buses", why);
-    let allowed = "two interfaces as \"can0,can1\" (SocketCAN, or python-can's UDP bus: \
-                   \"udp:1,udp:2\"), or \"sim-pairs\" / \"sim-pairs:quiet\" (simulated buses)";
-    let Some((a, b)) = text.split_once(',') else {
-        return Err(bad(format!("{text:?} is not two buses: give {allowed}")));
-    };
-    let (a, b) = (a.trim(), b.trim());
-    if a.is_empty() || b.is_empty() || b.contains(',') {
-        return Err(bad(format!("{text:?} is not two buses: give {allowed}")));
-    }
-    if a == b {
-        return Err(bad(format!("{a} twice: the two buses are two interfaces")));
-    }
-    for x in [a, b] {
-        if let Some(Err(why)) = crate::args::parse_udp(x) {
-            return Err(bad(why));
-        }
-    }
-    Ok(Buses::Ports([a.to_string(), b.to_string()]))
-}
-
-/// `on_stop`'s NMT command (`none`: nothing).
-fn on_stop(s: &str) -> Result<Option<NmtCommand>, String> {
-    Ok(Some(match s {
-        "none" => return Ok(None),
-        "stop" => NmtCommand::Stop,
-        "preop" => NmtCommand::EnterPreOperational,
-        "reset" => NmtCommand::ResetNode,
-        "reset-comm" => NmtCommand::ResetCommunication,
-        other => {
-            return Err(format!(
-                "{other:?} is not an NMT command: none, stop, preop, reset or reset-comm"
-            ))
-        }
-    }))
-}
-
-/// The builder's error `e`, placed on the key that holds the value it is about (the
-/// network's table when no one key does).
-fn place(
-    src: &Source<'_>,
-    t: &NetworkTable,
-    table: Range<usize>,
-    name: &str,
-    e: &RedundantError,
-) -> String {
-    let spans = |key: &str| -> Option<Range<usize>> {
-        let d = |x: &Option<Spanned<u64>>| x.as_ref().map(Spanned::span);
-        match key {
-            "heartbeat" => d(&t.heartbeat_ms),
-            "master_timeout" => d(&t.master_timeout_ms),
-            "sync" => d(&t.sync_ms),
-            "boot_timeout" => d(&t.boot_timeout_ms),
-            "pair_heartbeat" => d(&t.pair_heartbeat_ms),
-            "pair_timeout" => d(&t.pair_timeout_ms),
-            "pairs" => t.pairs.as_ref().map(Spanned::span),
-            "peers" => t.peers.as_ref().map(Spanned::span),
-            _ => None,
-        }
-    };
-    let role_key = |r: &Role| match r {
-        Role::ThisMaster => "node_id",
-        Role::PeerMaster => "peers",
-        Role::PairMember => "pairs",
-        _ => "",
-    };
-    let of_role = |r: &Role| match role_key(r) {
-        "node_id" => Some(("node_id", Some(t.node_id.span()))),
-        k => Some((k, spans(k))),
-    };
-    let key: Option<(&str, Option<Range<usize>>)> = match e {
-        RedundantError::BadNodeId { role, .. } => of_role(role),
-        RedundantError::NodeTwice { second, .. } => of_role(second),
-        RedundantError::TooMany { what, .. } => {
-            let k = if what.contains("pair") {
-                "pairs"
-            } else {
-                "peers"
-            };
-            Some((k, spans(k)))
-        }
-        RedundantError::ZeroDuration { setting }
-        | RedundantError::TooLong { setting, .. }
-        | RedundantError::TimeoutTooShort { setting, .. } => Some((setting, spans(setting))),
-        _ => None,
-    };
-    match key {
-        Some((k, Some(span))) => {
-            // The builder names its settings; the file's durations carry their unit.
-            let key = if matches!(k, "node_id" | "pairs" | "peers") {
-                k.to_string()
-            } else {
-                format!("{k}_ms")
-            };
-            src.span(span, &key, e)
-        }
-        // A default value is wrong with the others (a timeout left at its default below a
-        // period the file sets): the network's table.
-        _ => src.at(table.start, format_args!("network {name:?}: {e}")),
-    }
 }
 
 #[cfg(test)]

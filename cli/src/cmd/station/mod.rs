@@ -17,15 +17,18 @@
 //! an `http` address, it serves its status, metrics, events and a dashboard for a browser
 //! ([`http`], [`dashboard`]; HTTPS with `http_tls_cert` and `http_tls_key`: [`tls`]), and SDO, NMT and switch-overs to the roles the file allows
 //! ([`rest`], [`access`]). With `mqtt`, the networks' state and events go to the plant's
-//! broker ([`mqtt`]). The file format: [`config`].
+//! broker ([`mqtt`]). With `gateway` or `gateway_socket`, it serves the CiA 309-3 ASCII
+//! gateway over all of its networks ([`gateway`]). The file format: [`config`].
 
 pub mod access;
 pub mod audit;
 pub mod config;
 pub mod dashboard;
+pub mod gateway;
 pub mod http;
 pub mod mqtt;
 pub mod rest;
+mod summary;
 pub mod tls;
 
 use crate::args::parse_timeout_ms;
@@ -69,7 +72,7 @@ pub async fn run(g: &Global, s: Station) -> Result<(), Fail> {
     match s {
         Station::Check { file } => {
             let st = load(&file)?;
-            print!("{}", summary(&st));
+            print!("{}", summary::summary(&st));
             Ok(())
         }
         Station::Run { file, duration_ms } => {
@@ -78,47 +81,6 @@ pub async fn run(g: &Global, s: Station) -> Result<(), Fail> {
             serve(g, &st, duration_ms).await
         }
     }
-}
-
-/// What a checked station runs, one line per network.
-fn summary(st: &config::Station) -> String {
-    let mut out = format!("station {}: {} networks\n", st.name, st.networks.len());
-    for n in &st.networks {
-        let b = &n.builder;
-        let pairs: Vec<String> = b
-            .pairs()
-            .iter()
-            .map(|(a, x)| format!("{a:#04x}/{x:#04x}"))
-            .collect();
-        let peers: Vec<String> = b.peers().iter().map(|(p, _)| format!("{p:#04x}")).collect();
-        out += &format!(
-            "  {} on {}: master {:#04x}, pairs [{}], peer masters [{}]\n",
-            n.name,
-            n.buses,
-            b.this_node(),
-            pairs.join(" "),
-            peers.join(" ")
-        );
-    }
-    if let Some(h) = &st.http {
-        // Who may do what, said plainly: an operator checks that control is as meant.
-        let reads = if h.token.is_some() {
-            "with http_token"
-        } else {
-            "open"
-        };
-        let control = match &h.control {
-            config::Control::Off => "off",
-            config::Control::Loopback => "open to loopback clients",
-            config::Control::Token(_) => "with http_control_token",
-        };
-        let scheme = if h.tls.is_some() { "https" } else { "http" };
-        out += &format!("  {scheme}: {}, reads {reads}, control {control}\n", h.addr);
-    }
-    if let Some(m) = &st.mqtt {
-        out += &format!("  mqtt: {}:{} under {}/\n", m.host, m.port, m.prefix);
-    }
-    out
 }
 
 /// Logs to standard error, one line per record; `DUOCAN_LOG` filters (default: the station's
@@ -187,6 +149,11 @@ async fn serve(g: &Global, st: &config::Station, duration_ms: Option<u64>) -> Re
         Some(t) => Some(
             config::server_config(t).map_err(|(key, why)| Fail::usage(format!("{key}: {why}")))?,
         ),
+        None => None,
+    };
+    // And the 309-3 gateway's TCP port and socket.
+    let gateway = match &st.gateway {
+        Some(gw) => Some((gateway::bind(gw).await?, gw.max_clients)),
         None => None,
     };
     let run = std::time::SystemTime::now()
@@ -260,6 +227,7 @@ async fn serve(g: &Global, st: &config::Station, duration_ms: Option<u64>) -> Re
         let app = app.into_make_service_with_connect_info::<std::net::SocketAddr>();
         logs.spawn(tls::serve(listener, tls, app));
     }
+    let gateway = gateway.map(|(bound, max)| gateway::start(bound, &nets, g.timeout, max));
     let timer = async {
         match duration_ms {
             Some(ms) => tokio::time::sleep(std::time::Duration::from_millis(ms)).await,
@@ -272,6 +240,10 @@ async fn serve(g: &Global, st: &config::Station, duration_ms: Option<u64>) -> Re
         _ = int.recv() => "SIGINT",
     };
     tracing::info!(target: "duocan::station", station = %st.name, "stopping: {why}");
+    // No more requests from outside while the networks close.
+    if let Some(gw) = gateway {
+        gw.stop().await;
+    }
     // The records up to the stop written before the networks close.
     stop_audit.send_replace(true);
     while audits.join_next().await.is_some() {}
