@@ -264,53 +264,40 @@ mod tests {
     use crate::port::{PortCounters, PortError};
     use crate::{Id, Instant};
 
-    /// A port whose interface is down: every send and re-open fails, nothing arrives.
-    struct DeadPort(PortCounters);
+    /// A port whose interface is down (`dead`: every send and re-open fails), or whose bus
+    /// takes no frames (a send waits for room forever, re-opening works); nothing arrives.
+    struct TestPort {
+        counters: PortCounters,
+        dead: bool,
+    }
 
-    impl Port for DeadPort {
-        fn name(&self) -> &str {
-            "dead0"
-        }
-        fn counters(&self) -> PortCounters {
-            self.0.clone()
-        }
-        async fn recv(&mut self) -> Result<PortInput, PortError> {
-            std::future::pending().await
-        }
-        async fn send(&mut self, _: &Frame) -> Result<(), PortError> {
-            Err(PortError::new(
-                "dead0",
-                PortErrorKind::InterfaceDown,
-                "send",
-            ))
-        }
-        async fn reopen(&mut self) -> Result<(), PortError> {
-            Err(PortError::new(
-                "dead0",
-                PortErrorKind::InterfaceDown,
-                "reopen",
-            ))
+    impl TestPort {
+        fn down(&self, what: &str) -> PortError {
+            PortError::new("test0", PortErrorKind::InterfaceDown, what)
         }
     }
 
-    /// A port whose bus takes no frames: a send waits for room forever; re-opening works.
-    struct StuckPort(PortCounters);
-
-    impl Port for StuckPort {
+    impl Port for TestPort {
         fn name(&self) -> &str {
-            "stuck0"
+            "test0"
         }
         fn counters(&self) -> PortCounters {
-            self.0.clone()
+            self.counters.clone()
         }
         async fn recv(&mut self) -> Result<PortInput, PortError> {
             std::future::pending().await
         }
         async fn send(&mut self, _: &Frame) -> Result<(), PortError> {
+            if self.dead {
+                return Err(self.down("send"));
+            }
             std::future::pending().await
         }
         async fn reopen(&mut self) -> Result<(), PortError> {
-            self.0.reopened();
+            if self.dead {
+                return Err(self.down("reopen"));
+            }
+            self.counters.reopened();
             Ok(())
         }
     }
@@ -332,10 +319,10 @@ mod tests {
         }
         fn finished(&self, _: usize) {}
         fn take_frames(&self, _: usize, _: &mut Outbox) -> Option<bool> {
-            unreachable!("the dead port has no reader thread")
+            unreachable!("the test port has no reader thread")
         }
         fn input_take(&self, _: usize, _: PortInput, _: Instant, _: &mut Outbox) -> Option<bool> {
-            unreachable!("the dead port has no reader thread")
+            unreachable!("the test port has no reader thread")
         }
         fn is_open(&self) -> bool {
             true
@@ -349,45 +336,60 @@ mod tests {
         }
     }
 
+    /// A port task running `port` as port `index`, its queue and what it hands over.
+    struct Rig {
+        hub: Arc<FakeHub>,
+        wake: Arc<Notify>,
+        inputs: tokio::sync::mpsc::UnboundedReceiver<(usize, PortInput, Instant)>,
+    }
+
+    impl Rig {
+        fn start(port: TestPort, index: usize) -> Rig {
+            let (to_test, inputs) = tokio::sync::mpsc::unbounded_channel();
+            let hub = Arc::new(FakeHub {
+                queue: Default::default(),
+                inputs: to_test,
+            });
+            let wake = Arc::new(Notify::new());
+            let wiring = Wiring {
+                index,
+                net: "test".into(),
+                clock: super::super::Clock::start(),
+                hub: hub.clone(),
+                wake: wake.clone(),
+            };
+            tokio::spawn(run(port, wiring));
+            Rig { hub, wake, inputs }
+        }
+        fn queue(&self, c: PortCmd) {
+            self.hub.queue.lock().unwrap().push_back(c);
+            self.wake.notify_one();
+        }
+    }
+
     /// A re-initialisation the device asks for while a send waits for room is not queued
     /// behind it: the send is given up (counted as dropped) and the port re-opened.
     #[tokio::test]
     async fn a_re_init_request_gives_up_a_send_that_waits_for_room() {
-        let (to_test, mut inputs) = tokio::sync::mpsc::unbounded_channel();
-        let hub = Arc::new(FakeHub {
-            queue: Default::default(),
-            inputs: to_test,
-        });
-        let wake = Arc::new(Notify::new());
-        let wiring = Wiring {
-            index: 0,
-            net: "test".into(),
-            clock: super::super::Clock::start(),
-            hub: hub.clone(),
-            wake: wake.clone(),
-        };
         let counters = PortCounters::new();
-        tokio::spawn(run(StuckPort(counters.clone()), wiring));
-        let queue = |c: PortCmd| {
-            hub.queue.lock().unwrap().push_back(c);
-            wake.notify_one();
+        let port = TestPort {
+            counters: counters.clone(),
+            dead: false,
         };
-        queue(PortCmd::Send(Frame::from_array(Id::Standard(0x181), [1])));
+        let mut rig = Rig::start(port, 0);
+        rig.queue(PortCmd::Send(Frame::from_array(Id::Standard(0x181), [1])));
         // The task has taken the frame and waits in its send.
-        while !hub.queue.lock().unwrap().is_empty() {
+        while !rig.hub.queue.lock().unwrap().is_empty() {
             tokio::task::yield_now().await;
         }
         // Something else queued does not end the wait; the re-initialisation does.
-        queue(PortCmd::Send(Frame::from_array(Id::Standard(0x182), [2])));
+        rig.queue(PortCmd::Send(Frame::from_array(Id::Standard(0x182), [2])));
         tokio::task::yield_now().await;
-        assert_eq!(
-            counters.snapshot().tx_dropped,
-            0,
-            "waits while no re-init is queued"
-        );
-        hub.queue.lock().unwrap().clear();
-        queue(PortCmd::Request(PortRequest::Reinit));
-        let up = tokio::time::timeout(std::time::Duration::from_secs(5), inputs.recv()).await;
+        let dropped = counters.snapshot().tx_dropped;
+        assert_eq!(dropped, 0, "waits while no re-init is queued");
+        rig.hub.queue.lock().unwrap().clear();
+        rig.queue(PortCmd::Request(PortRequest::Reinit));
+        let up = tokio::time::timeout(std::time::Duration::from_secs(5), rig.inputs.recv()).await;
         assert!(
             matches!(up, Ok(Some((0, PortInput::Status(PortStatus::Up), _)))),
             "re-opened: {up:?}"
@@ -398,25 +400,12 @@ mod tests {
 
     #[tokio::test]
     async fn a_re_init_request_while_the_port_is_down_is_answered_with_down() {
-        let (to_test, mut inputs) = tokio::sync::mpsc::unbounded_channel();
-        let hub = Arc::new(FakeHub {
-            queue: Default::default(),
-            inputs: to_test,
-        });
-        let wake = Arc::new(Notify::new());
-        let wiring = Wiring {
-            index: 1,
-            net: "test".into(),
-            clock: super::super::Clock::start(),
-            hub: hub.clone(),
-            wake: wake.clone(),
+        let port = TestPort {
+            counters: PortCounters::new(),
+            dead: true,
         };
-        tokio::spawn(run(DeadPort(PortCounters::new()), wiring));
-        let queue = |c: PortCmd| {
-            hub.queue.lock().unwrap().push_back(c);
-            wake.notify_one();
-        };
-        queue(PortCmd::Send(Frame::from_array(Id::Standard(0x705), [5])));
+        let mut rig = Rig::start(port, 1);
+        rig.queue(PortCmd::Send(Frame::from_array(Id::Standard(0x705), [5])));
         let down = |x: Option<(usize, PortInput, Instant)>| {
             matches!(
                 x,
@@ -425,12 +414,12 @@ mod tests {
             )
         };
         assert!(
-            down(inputs.recv().await),
+            down(rig.inputs.recv().await),
             "the failed send reports the port down"
         );
         // While it keeps trying to re-open, the device asks for a re-initialisation: it hears
         // at once that the port is still down (not silence, which it would take for success).
-        queue(PortCmd::Request(PortRequest::Reinit));
-        assert!(down(inputs.recv().await));
+        rig.queue(PortCmd::Request(PortRequest::Reinit));
+        assert!(down(rig.inputs.recv().await));
     }
 }
