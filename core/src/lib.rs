@@ -80,6 +80,8 @@ pub mod node;
 pub mod profile;
 
 // Short paths for what users name most (`duocan` re-exports the same).
+#[cfg(feature = "mpdo")]
+pub use cia301::mpdo;
 pub use cia301::{emcy, guarding, heartbeat, nmt, pdo, sdo, service, sync, time_stamp};
 #[cfg(feature = "alloc")]
 pub use cia302::master;

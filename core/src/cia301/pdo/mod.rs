@@ -26,6 +26,8 @@ mod dictionary;
 mod events;
 mod index;
 pub(crate) mod mapping;
+#[cfg(feature = "mpdo")]
+mod multiplexed;
 pub mod params;
 mod rpdo;
 mod tpdo;
@@ -49,6 +51,21 @@ pub use events::{PdoError, PdoEvent, RpdoStatus, TpdoStatus};
 use index::{equal_range, id_key, Reverse};
 use rpdo::{OnFrame, Recovered, Rpdo};
 use tpdo::{OnRtr, OnSync, Tpdo};
+
+/// Whether two parameter sets are the same kind of PDO (classic, or MPDO of one mode): a
+/// change of kind restarts the PDO.
+#[cfg(feature = "mpdo")]
+macro_rules! same_mpdo {
+    ($a:expr, $b:expr) => {
+        $a.mpdo == $b.mpdo
+    };
+}
+#[cfg(not(feature = "mpdo"))]
+macro_rules! same_mpdo {
+    ($a:expr, $b:expr) => {
+        true
+    };
+}
 
 /// An EMCY the engine wants the node to raise or clear.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -90,6 +107,8 @@ pub(crate) struct PdoEngine<const T: usize, const R: usize, S: Storage = Inline>
     emcy: Bounded<EmcyAction, 8>,
     timeouts: u16,
     shorts: u16,
+    #[cfg(feature = "mpdo")]
+    mpdo: multiplexed::MpdoState,
 }
 
 impl<const T: usize, const R: usize, S: Storage> PdoEngine<T, R, S> {
@@ -108,6 +127,8 @@ impl<const T: usize, const R: usize, S: Storage> PdoEngine<T, R, S> {
             emcy: Bounded::new(),
             timeouts: 0,
             shorts: 0,
+            #[cfg(feature = "mpdo")]
+            mpdo: multiplexed::MpdoState::default(),
         }
     }
 
@@ -242,6 +263,7 @@ impl<const T: usize, const R: usize, S: Storage> PdoEngine<T, R, S> {
                 }
                 report(io, now, dir, k, new.id, new.error);
                 let same_run = new.id == old.id
+                    && same_mpdo!(new, old)
                     && new.ttype == old.ttype
                     && new.mapping == old.mapping
                     && new.error == old.error
@@ -270,6 +292,7 @@ impl<const T: usize, const R: usize, S: Storage> PdoEngine<T, R, S> {
                 }
                 report(io, now, dir, k, new.id, new.error);
                 if new.id == old.id
+                    && same_mpdo!(new, old)
                     && new.ttype == old.ttype
                     && new.mapping == old.mapping
                     && new.error == old.error
@@ -446,6 +469,10 @@ impl<const T: usize, const R: usize, S: Storage> PdoEngine<T, R, S> {
         payload: &[u8; 8],
         io: &mut Io<'_, D, O>,
     ) {
+        #[cfg(feature = "mpdo")]
+        if self.rpdos[k].p.is_mpdo() {
+            return self.apply_mpdo(k, now, payload, io);
+        }
         let m = self.rpdos[k].p.mapping;
         let track = !self.reverse.is_empty();
         let mut keys: heapless::Vec<(u16, u8), { MAX_ENTRIES as usize }> = heapless::Vec::new();
@@ -492,6 +519,10 @@ impl<const T: usize, const R: usize, S: Storage> PdoEngine<T, R, S> {
         for i in lo..hi {
             let slot = self.rx_index[i].1 as usize;
             let pdo = slot as u16 + 1;
+            #[cfg(feature = "mpdo")]
+            if !self.mpdo_length_ok(slot, frame.data().len()) {
+                continue;
+            }
             let mut rec = Recovered::default();
             match self.rpdos[slot].frame(now, frame.data(), &mut rec) {
                 OnFrame::Ignore | OnFrame::Buffered => {}

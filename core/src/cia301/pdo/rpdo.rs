@@ -22,12 +22,23 @@ pub(crate) struct RpdoParams {
     pub timeout: Duration,
     pub mapping: Mapping,
     pub error: Option<AbortCode>,
+    /// An MPDO (mapping count 0xFE or 0xFF): it receives multiplexed frames, not its mapping.
+    #[cfg(feature = "mpdo")]
+    pub mpdo: Option<crate::cia301::mpdo::Mode>,
 }
 
 impl RpdoParams {
-    /// Valid COB-ID, usable mapping with at least one entry.
+    /// Valid COB-ID, usable mapping with at least one entry (or an MPDO).
     pub fn active(&self) -> bool {
-        self.id.is_some() && self.error.is_none() && self.mapping.count() > 0
+        self.id.is_some() && self.error.is_none() && (self.mapping.count() > 0 || self.is_mpdo())
+    }
+    /// An MPDO receiver (always false without the `mpdo` feature).
+    #[inline(always)]
+    pub fn is_mpdo(&self) -> bool {
+        #[cfg(feature = "mpdo")]
+        return self.mpdo.is_some();
+        #[cfg(not(feature = "mpdo"))]
+        false
     }
     pub fn synchronous(&self) -> bool {
         self.ttype <= 240
@@ -77,6 +88,8 @@ impl Rpdo {
                 timeout: Duration::ZERO,
                 mapping: Mapping::EMPTY,
                 error: None,
+                #[cfg(feature = "mpdo")]
+                mpdo: None,
             },
             running: false,
             buffered: None,
@@ -190,6 +203,8 @@ mod tests {
             timeout: Duration::from_millis(timeout_ms),
             mapping: Mapping::with(&[MapEntry::new(0x2000, 0, 16)]),
             error: None,
+            #[cfg(feature = "mpdo")]
+            mpdo: None,
         };
         r.start();
         r
