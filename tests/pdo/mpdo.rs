@@ -367,3 +367,25 @@ fn a_written_value_triggers_event_driven_tpdos_mapping_it() {
     assert_eq!(after.last().unwrap().1.data(), &[0x22, 0x11]);
     let _: Instant = now;
 }
+
+proptest::proptest! {
+    /// Any frames on a consumer's MPDO identifier: each is counted exactly once (written,
+    /// refused, for another node, not dispatched or malformed), nothing panics, and objects
+    /// the rules protect keep their values.
+    #[test]
+    fn every_frame_on_an_mpdo_is_counted_once(
+        frames in proptest::collection::vec(proptest::collection::vec(proptest::prelude::any::<u8>(), 0..=8), 0..40)
+    ) {
+        let mut w = wire();
+        for b in &frames {
+            w.deliver(Frame::new(Id::Standard(DAM_COB), b).unwrap());
+        }
+        let st = w.nodes[N6].mpdo_stats();
+        proptest::prop_assert_eq!(
+            st.written + st.refused + st.other_node + st.not_dispatched + st.malformed,
+            frames.len() as u32
+        );
+        proptest::prop_assert_eq!(u16_at(&w, N6, 0x2002, 0), 9);
+        proptest::prop_assert_eq!(w.nodes[N6].od().get_value::<u32>(0x2001, 0), Ok(0));
+    }
+}
