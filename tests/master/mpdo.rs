@@ -2,7 +2,7 @@
 //! durations): the master's destination-address write changes a slave's object, and a slave's
 //! source-address value reaches the master's dispatcher list, mapped to the master's own object.
 
-use crate::net::{identity, master_with, slave_dictionary, MasterDev, SlaveDev, MASTER_ID};
+use crate::net::{identity, master_with, slave_dictionary, SlaveDev, MASTER_ID};
 use duocan::master::MasterConfig;
 use duocan::mpdo::{dispatcher_list, scanner_list, DispatcherEntry, ScannerEntry};
 use duocan::od::{Access, DefaultValue, DynamicDictionary, ObjectDef, ObjectDictionary};
