@@ -169,15 +169,18 @@ pub(super) fn read_tpdo<D: ObjectDictionary + ?Sized>(od: &D, slot: u16) -> Tpdo
         #[cfg(feature = "mpdo")]
         mpdo: mpdo_mode(od, Dir::Transmit, slot),
     };
+    // An MPDO's entries are not used (and not checked).
     #[cfg(feature = "mpdo")]
-    let classic = p.mpdo.is_none();
-    #[cfg(not(feature = "mpdo"))]
-    let classic = true;
-    if classic {
+    if p.mpdo.is_none() {
         match Mapping::load(od, Dir::Transmit, map_index(Dir::Transmit, slot)) {
             Ok(m) => p.mapping = m,
             Err(e) => p.error = Some(e),
         }
+    }
+    #[cfg(not(feature = "mpdo"))]
+    match Mapping::load(od, Dir::Transmit, map_index(Dir::Transmit, slot)) {
+        Ok(m) => p.mapping = m,
+        Err(e) => p.error = Some(e),
     }
     if (241..=251).contains(&ttype) {
         p.error = Some(AbortCode::VALUE_RANGE);
@@ -200,11 +203,17 @@ pub(super) fn read_rpdo<D: ObjectDictionary + ?Sized>(od: &D, slot: u16) -> Rpdo
         #[cfg(feature = "mpdo")]
         mpdo: mpdo_mode(od, Dir::Receive, slot),
     };
-    if !p.is_mpdo() {
+    #[cfg(feature = "mpdo")]
+    if p.mpdo.is_none() {
         match Mapping::load(od, Dir::Receive, map_index(Dir::Receive, slot)) {
             Ok(m) => p.mapping = m,
             Err(e) => p.error = Some(e),
         }
+    }
+    #[cfg(not(feature = "mpdo"))]
+    match Mapping::load(od, Dir::Receive, map_index(Dir::Receive, slot)) {
+        Ok(m) => p.mapping = m,
+        Err(e) => p.error = Some(e),
     }
     if (241..=253).contains(&ttype) {
         p.error = Some(AbortCode::VALUE_RANGE);

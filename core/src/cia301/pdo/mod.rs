@@ -52,18 +52,26 @@ use index::{equal_range, id_key, Reverse};
 use rpdo::{OnFrame, Recovered, Rpdo};
 use tpdo::{OnRtr, OnSync, Tpdo};
 
-/// Whether two parameter sets are the same kind of PDO (classic, or MPDO of one mode): a
-/// change of kind restarts the PDO.
+/// Whether a PDO's new parameters let it run on as it was (else it restarts): the same
+/// identifier, transmission type, mapping and error, and (`mpdo`) the same kind, classic or
+/// MPDO of one mode. Two versions so that an image without the feature is built as it was.
 #[cfg(feature = "mpdo")]
-macro_rules! same_mpdo {
-    ($a:expr, $b:expr) => {
-        $a.mpdo == $b.mpdo
+macro_rules! same_run {
+    ($new:ident, $old:ident) => {
+        $new.id == $old.id
+            && $new.mpdo == $old.mpdo
+            && $new.ttype == $old.ttype
+            && $new.mapping == $old.mapping
+            && $new.error == $old.error
     };
 }
 #[cfg(not(feature = "mpdo"))]
-macro_rules! same_mpdo {
-    ($a:expr, $b:expr) => {
-        true
+macro_rules! same_run {
+    ($new:ident, $old:ident) => {
+        $new.id == $old.id
+            && $new.ttype == $old.ttype
+            && $new.mapping == $old.mapping
+            && $new.error == $old.error
     };
 }
 
@@ -262,12 +270,7 @@ impl<const T: usize, const R: usize, S: Storage> PdoEngine<T, R, S> {
                     return;
                 }
                 report(io, now, dir, k, new.id, new.error);
-                let same_run = new.id == old.id
-                    && same_mpdo!(new, old)
-                    && new.ttype == old.ttype
-                    && new.mapping == old.mapping
-                    && new.error == old.error
-                    && new.sync_start == old.sync_start;
+                let same_run = same_run!(new, old) && new.sync_start == old.sync_start;
                 if same_run {
                     if new.event_timer != old.event_timer {
                         t.retime(now, new);
@@ -291,12 +294,7 @@ impl<const T: usize, const R: usize, S: Storage> PdoEngine<T, R, S> {
                     return;
                 }
                 report(io, now, dir, k, new.id, new.error);
-                if new.id == old.id
-                    && same_mpdo!(new, old)
-                    && new.ttype == old.ttype
-                    && new.mapping == old.mapping
-                    && new.error == old.error
-                {
+                if same_run!(new, old) {
                     self.rpdos[k].p = new;
                 } else {
                     let rec = self.rpdos[k].stop();

@@ -28,17 +28,21 @@ pub(crate) struct RpdoParams {
 }
 
 impl RpdoParams {
-    /// Valid COB-ID, usable mapping with at least one entry (or an MPDO).
+    /// Valid COB-ID, usable mapping with at least one entry.
+    #[cfg(not(feature = "mpdo"))]
+    pub fn active(&self) -> bool {
+        self.id.is_some() && self.error.is_none() && self.mapping.count() > 0
+    }
+    /// Valid COB-ID, usable mapping with at least one entry, or an MPDO. (Two versions so that
+    /// an image without the feature is built as it was.)
+    #[cfg(feature = "mpdo")]
     pub fn active(&self) -> bool {
         self.id.is_some() && self.error.is_none() && (self.mapping.count() > 0 || self.is_mpdo())
     }
-    /// An MPDO receiver (always false without the `mpdo` feature).
-    #[inline(always)]
+    /// An MPDO receiver.
+    #[cfg(feature = "mpdo")]
     pub fn is_mpdo(&self) -> bool {
-        #[cfg(feature = "mpdo")]
-        return self.mpdo.is_some();
-        #[cfg(not(feature = "mpdo"))]
-        false
+        self.mpdo.is_some()
     }
     pub fn synchronous(&self) -> bool {
         self.ttype <= 240
