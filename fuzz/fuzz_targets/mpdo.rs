@@ -4,6 +4,8 @@
 //! the same bytes; the node never panics, counts every frame it takes on the MPDO's identifier
 //! exactly once, and writes only the objects its rules allow.
 #![no_main]
+// List entries are written in their fields' groups (block_index_sub, …), not in bytes.
+#![allow(clippy::unusual_byte_groupings)]
 
 use duocan::mpdo::{dispatcher_list, FdMpdo, Mpdo};
 use duocan::od::{comm, Access, DefaultValue, ObjectDef, ObjectDictionary};

@@ -1,6 +1,8 @@
 //! Multiplexed PDOs between nodes on a zero-latency wire: the master's destination-address
 //! writes, a node's source-address values through the master's dispatcher list, refusals and
 //! what is ignored, each counted.
+// List entries are written in their fields' groups (block_index_sub, …), not in bytes.
+#![allow(clippy::unusual_byte_groupings)]
 
 use crate::common::{node, TestNode, Wire};
 use duocan::mpdo::{dispatcher_list, scanner_list, DispatcherEntry, MpdoError, MpdoStats};

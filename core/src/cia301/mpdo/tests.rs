@@ -1,3 +1,6 @@
+// List entries are written in their fields' groups (block_index_sub, …), not in bytes.
+#![allow(clippy::unusual_byte_groupings)]
+
 use super::*;
 use crate::od::abort::AbortCode;
 use crate::od::{Access, DataType, ObjectDef, ObjectDictionary};
