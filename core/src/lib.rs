@@ -119,8 +119,8 @@ mod doc_sources {
             n += 1;
         }
         assert_eq!(
-            n, 7,
-            "sdo-block, guarding, time, alloc, fd, std and proptest"
+            n, 8,
+            "sdo-block, guarding, time, alloc, fd, mpdo, std and proptest"
         );
     }
 }
