@@ -9,7 +9,7 @@ use duocan::mpdo::{dispatcher_list, scanner_list, DispatcherEntry, MpdoError, Mp
 use duocan::node::NodeEventKind as K;
 use duocan::od::{Access, DefaultValue, ObjectDef, ObjectDictionary};
 use duocan::pdo::{params, PdoEvent};
-use duocan::{AbortCode, Frame, Id, Instant, NmtCommand, NmtState, NmtTarget};
+use duocan::{AbortCode, Frame, Id, NmtCommand, NmtState, NmtTarget};
 
 const MASTER: usize = 0;
 const N5: usize = 1;
@@ -141,7 +141,7 @@ fn a_dam_write_reaches_the_addressed_node_only() {
         .mpdo_send_dam(now, 1, 5, 0x2000, 0, &[0x34, 0x12])
         .unwrap();
     w.flush();
-    let sent = w.sent(MASTER, DAM_COB.into());
+    let sent = w.sent(MASTER, DAM_COB);
     assert_eq!(sent.len(), 1);
     assert_eq!(
         sent[0].1.data(),
@@ -236,7 +236,7 @@ fn a_sam_value_reaches_the_master_through_its_dispatcher_list() {
     w.nodes[N5].set(now, 0x6000, 2, 0xBEEFu16).unwrap();
     w.nodes[N5].mpdo_send_sam(now, 1, 0x6000, 2).unwrap();
     w.flush();
-    let sent = w.sent(N5, SAM_COB.into());
+    let sent = w.sent(N5, SAM_COB);
     assert_eq!(sent.len(), 1);
     assert_eq!(
         sent[0].1.data(),
@@ -267,7 +267,7 @@ fn only_scanned_objects_go_out_as_sam() {
         })
     );
     w.flush();
-    assert!(w.sent(N5, SAM_COB.into()).is_empty());
+    assert!(w.sent(N5, SAM_COB).is_empty());
 }
 
 #[test]
@@ -319,7 +319,7 @@ fn requests_name_an_mpdo_of_the_right_mode_while_operational() {
         Err(MpdoError::NotRunning { pdo: 1 })
     );
     w.flush();
-    assert!(w.sent(MASTER, DAM_COB.into()).is_empty());
+    assert!(w.sent(MASTER, DAM_COB).is_empty());
 }
 
 #[test]
@@ -367,7 +367,6 @@ fn a_written_value_triggers_event_driven_tpdos_mapping_it() {
     let after = w.sent(N6, 0x286);
     assert_eq!(after.len(), before + 1);
     assert_eq!(after.last().unwrap().1.data(), &[0x22, 0x11]);
-    let _: Instant = now;
 }
 
 proptest::proptest! {
