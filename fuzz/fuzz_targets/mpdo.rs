@@ -50,7 +50,7 @@ fuzz_target!(|data: &[u8]| {
         let n = usize::from(*len % 9).min(tail.len());
         let (bytes, next) = tail.split_at(n);
         rest = next;
-        now = now + duocan::Duration::from_millis(1);
+        now += duocan::Duration::from_millis(1);
         let f = Frame::new(Id::Standard(COB), bytes).unwrap();
         node.handle_frame(now, &f);
         frames += 1;
