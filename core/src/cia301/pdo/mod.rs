@@ -21,6 +21,10 @@
 //!
 //! Dummy entries (index 0x0001–0x001B of a supported fixed-size type, sub 0) are placeholders:
 //! skipped on reception, zeros on transmission.
+//!
+//! With the `mpdo` feature, a mapping count of 0xFE or 0xFF (accepted while the PDO is
+//! invalid, its entries then unused and unchecked) makes the PDO a multiplexed PDO, which the
+//! `cia301::mpdo` module describes; without it those counts are refused as any above 64.
 
 mod dictionary;
 mod events;
