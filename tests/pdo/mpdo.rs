@@ -390,3 +390,19 @@ proptest::proptest! {
         proptest::prop_assert_eq!(w.nodes[N6].od().get_value::<u32>(0x2001, 0), Ok(0));
     }
 }
+
+#[test]
+fn a_synchronous_mpdo_takes_effect_at_the_next_sync() {
+    let mut w = wire();
+    let now = w.now;
+    let n6 = &mut w.nodes[N6];
+    let mut rx = params::rpdo_comm(2, DefaultValue::Unsigned(0x301), 1, 0).to_vec();
+    rx.extend(mpdo_mapping(false, 2, 0xFF));
+    n6.od_mut().insert_all(&rx).unwrap();
+    n6.reload_pdos(now);
+    w.deliver(Frame::new(Id::Standard(0x301), &[0x86, 0x00, 0x20, 0x00, 3, 0, 0, 0]).unwrap());
+    assert_eq!(u16_at(&w, N6, 0x2000, 0), 0, "held until the SYNC");
+    w.deliver(Frame::new(Id::Standard(0x080), &[]).unwrap());
+    assert_eq!(u16_at(&w, N6, 0x2000, 0), 3);
+    assert_eq!(w.nodes[N6].mpdo_stats().written, 1);
+}
