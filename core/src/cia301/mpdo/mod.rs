@@ -97,5 +97,6 @@ pub use fd::{FdMpdo, FD_DATA_MAX};
 pub use lists::{dispatch, scanned, DispatcherEntry, ScannerEntry, DISPATCHER, SCANNER};
 pub use tables::{dispatcher_list, scanner_list, LISTS};
 
-#[cfg(test)]
+// The tests use the dynamic dictionary and proptest.
+#[cfg(all(test, feature = "std"))]
 mod tests;
