@@ -127,6 +127,8 @@ pub mod sim;
 // Short paths for what users name most (the core's own, re-exported).
 #[cfg(feature = "alloc")]
 pub use duocan_core::master;
+#[cfg(feature = "mpdo")]
+pub use duocan_core::mpdo;
 #[cfg(feature = "fd")]
 pub use duocan_core::FdFrame;
 pub use duocan_core::{emcy, guarding, heartbeat, nmt, pdo, sdo, service, sync, time_stamp};

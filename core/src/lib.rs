@@ -80,6 +80,8 @@ pub mod node;
 pub mod profile;
 
 // Short paths for what users name most (`duocan` re-exports the same).
+#[cfg(feature = "mpdo")]
+pub use cia301::mpdo;
 pub use cia301::{emcy, guarding, heartbeat, nmt, pdo, sdo, service, sync, time_stamp};
 #[cfg(feature = "alloc")]
 pub use cia302::master;
@@ -117,8 +119,8 @@ mod doc_sources {
             n += 1;
         }
         assert_eq!(
-            n, 7,
-            "sdo-block, guarding, time, alloc, fd, std and proptest"
+            n, 8,
+            "sdo-block, guarding, time, alloc, fd, mpdo, std and proptest"
         );
     }
 }

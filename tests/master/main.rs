@@ -6,6 +6,8 @@ mod concise_dcf;
 mod control;
 mod dcf_config;
 mod failures;
+#[cfg(feature = "mpdo")]
+mod mpdo;
 mod net;
 mod network_boot;
 mod pdo_config;

@@ -11,6 +11,7 @@
 //! | EMCY producer and consumer (0x1014/0x1015/0x1028) | [`emcy`] | 0x080 + node |
 //! | SDO server and client: expedited, segmented, block | [`sdo`] | 0x580/0x600 + node |
 //! | PDO engine, mapping and parameters | [`pdo`] | 0x180…0x500 + node |
+//! | Multiplexed PDOs, scanner and dispatcher lists (0x1FA0/0x1FD0; `mpdo`) | `mpdo` | a PDO's |
 //!
 //! The timed services share one shape ([`service`]): `poll_timeout` for the next deadline,
 //! `handle_timeout(now, &mut out)` writing frames and events into a [`service::ServiceOutput`].
@@ -54,6 +55,8 @@
 pub mod emcy;
 pub mod guarding;
 pub mod heartbeat;
+#[cfg(feature = "mpdo")]
+pub mod mpdo;
 pub mod nmt;
 pub mod pdo;
 pub mod sdo;

@@ -70,6 +70,8 @@ impl<
         &mut PdoEngine<TPDOS, RPDOS, S>,
         pdo::Io<'_, D, NodeOut<'_, P>>,
     ) {
+        #[cfg(feature = "mpdo")]
+        self.pdo.set_node(self.cfg.node_id.raw());
         let io = pdo::Io {
             od: &mut self.od,
             out: node_out!(self),

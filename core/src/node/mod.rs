@@ -580,6 +580,41 @@ impl<
         let (engine, mut io) = self.core.pdo_io();
         engine.request(now, pdo, &mut io)
     }
+    /// Sends a destination-address MPDO on TPDO `pdo` (1-based; its mapping count is 0xFF):
+    /// `data` (up to 4 bytes, little-endian) for (`index`, `sub`) of node `dest`, 0 for every
+    /// node ([`crate::cia301::mpdo`]).
+    #[cfg(feature = "mpdo")]
+    pub fn mpdo_send_dam(
+        &mut self,
+        now: Instant,
+        pdo: u16,
+        dest: u8,
+        index: u16,
+        sub: u8,
+        data: &[u8],
+    ) -> Result<(), crate::cia301::mpdo::MpdoError> {
+        let (engine, mut io) = self.core.pdo_io();
+        engine.send_dam(now, pdo, dest, index, sub, data, &mut io)
+    }
+    /// Sends this node's (`index`, `sub`) as a source-address MPDO on TPDO `pdo` (its mapping
+    /// count is 0xFE), if the object scanner list (0x1FA0–0x1FCF) covers it
+    /// ([`crate::cia301::mpdo`]).
+    #[cfg(feature = "mpdo")]
+    pub fn mpdo_send_sam(
+        &mut self,
+        now: Instant,
+        pdo: u16,
+        index: u16,
+        sub: u8,
+    ) -> Result<(), crate::cia301::mpdo::MpdoError> {
+        let (engine, mut io) = self.core.pdo_io();
+        engine.send_sam(now, pdo, index, sub, &mut io)
+    }
+    /// What the node's MPDO consumer did with the MPDOs it received.
+    #[cfg(feature = "mpdo")]
+    pub fn mpdo_stats(&self) -> crate::cia301::mpdo::MpdoStats {
+        self.core.pdo.mpdo_stats()
+    }
     /// TPDOs the node runs: TPDO1 up to this number (`TPDOS`, or what the heap storage was
     /// built with). It never changes.
     pub fn tpdo_capacity(&self) -> usize {

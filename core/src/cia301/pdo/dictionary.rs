@@ -73,6 +73,11 @@ pub(crate) fn check_write<D: ObjectDictionary + ?Sized>(
             return Err(AbortCode::VALUE_RANGE);
         }
         if sub == 0 {
+            // 0xFE/0xFF make the PDO an MPDO: its entries are not used, so not checked.
+            #[cfg(feature = "mpdo")]
+            if crate::cia301::mpdo::Mode::from_mapping_count(v).is_some() {
+                return Ok(());
+            }
             if v > MAX_ENTRIES as u32 {
                 return Err(AbortCode::VALUE_RANGE);
             }
@@ -161,7 +166,18 @@ pub(super) fn read_tpdo<D: ObjectDictionary + ?Sized>(od: &D, slot: u16) -> Tpdo
         sync_start: get(params::sub::SYNC_START) as u8,
         mapping: Mapping::EMPTY,
         error: None,
+        #[cfg(feature = "mpdo")]
+        mpdo: mpdo_mode(od, Dir::Transmit, slot),
     };
+    // An MPDO's entries are not used (and not checked).
+    #[cfg(feature = "mpdo")]
+    if p.mpdo.is_none() {
+        match Mapping::load(od, Dir::Transmit, map_index(Dir::Transmit, slot)) {
+            Ok(m) => p.mapping = m,
+            Err(e) => p.error = Some(e),
+        }
+    }
+    #[cfg(not(feature = "mpdo"))]
     match Mapping::load(od, Dir::Transmit, map_index(Dir::Transmit, slot)) {
         Ok(m) => p.mapping = m,
         Err(e) => p.error = Some(e),
@@ -184,7 +200,17 @@ pub(super) fn read_rpdo<D: ObjectDictionary + ?Sized>(od: &D, slot: u16) -> Rpdo
         timeout: Duration::from_millis(od.get_u32(c, params::sub::EVENT_TIMER).unwrap_or(0) as u64),
         mapping: Mapping::EMPTY,
         error: None,
+        #[cfg(feature = "mpdo")]
+        mpdo: mpdo_mode(od, Dir::Receive, slot),
     };
+    #[cfg(feature = "mpdo")]
+    if p.mpdo.is_none() {
+        match Mapping::load(od, Dir::Receive, map_index(Dir::Receive, slot)) {
+            Ok(m) => p.mapping = m,
+            Err(e) => p.error = Some(e),
+        }
+    }
+    #[cfg(not(feature = "mpdo"))]
     match Mapping::load(od, Dir::Receive, map_index(Dir::Receive, slot)) {
         Ok(m) => p.mapping = m,
         Err(e) => p.error = Some(e),
@@ -193,4 +219,14 @@ pub(super) fn read_rpdo<D: ObjectDictionary + ?Sized>(od: &D, slot: u16) -> Rpdo
         p.error = Some(AbortCode::VALUE_RANGE);
     }
     p
+}
+
+/// The MPDO mode a PDO's mapping count (0xFE, 0xFF) gives it; `None` for a classic PDO.
+#[cfg(feature = "mpdo")]
+fn mpdo_mode<D: ObjectDictionary + ?Sized>(
+    od: &D,
+    dir: Dir,
+    slot: u16,
+) -> Option<crate::cia301::mpdo::Mode> {
+    crate::cia301::mpdo::Mode::from_mapping_count(od.get_u32(map_index(dir, slot), 0)?)
 }

@@ -45,6 +45,30 @@ pub enum PdoEvent {
         /// What is wrong, as the abort code a write of it would get.
         reason: AbortCode,
     },
+    /// An MPDO's value was written into the dictionary (`mpdo` feature; switched off with the
+    /// RPDO events, [`crate::node::Node::set_rpdo_events`]).
+    #[cfg(feature = "mpdo")]
+    MpdoWritten {
+        /// RPDO number.
+        pdo: u16,
+        /// The local object written.
+        index: u16,
+        /// Its sub-index.
+        sub: u8,
+    },
+    /// An MPDO's value was refused by the local object (`mpdo` feature): missing, not
+    /// RPDO-mappable, read-only, or larger than the value.
+    #[cfg(feature = "mpdo")]
+    MpdoRefused {
+        /// RPDO number.
+        pdo: u16,
+        /// The local object.
+        index: u16,
+        /// Its sub-index.
+        sub: u8,
+        /// Why, as the abort code an RPDO mapping of it would get.
+        reason: AbortCode,
+    },
 }
 
 /// One line: `RPDO 2 not received in time (last at 1.250 s)`.
@@ -66,6 +90,20 @@ impl fmt::Display for PdoEvent {
                     Dir::Receive => "RPDO",
                     Dir::Transmit => "TPDO",
                 }
+            ),
+            #[cfg(feature = "mpdo")]
+            PdoEvent::MpdoWritten { pdo, index, sub } => {
+                write!(f, "MPDO on RPDO {pdo} wrote {index:#06x}/{sub}")
+            }
+            #[cfg(feature = "mpdo")]
+            PdoEvent::MpdoRefused {
+                pdo,
+                index,
+                sub,
+                reason,
+            } => write!(
+                f,
+                "MPDO on RPDO {pdo} refused by {index:#06x}/{sub}: {reason}"
             ),
         }
     }

@@ -21,11 +21,17 @@
 //!
 //! Dummy entries (index 0x0001–0x001B of a supported fixed-size type, sub 0) are placeholders:
 //! skipped on reception, zeros on transmission.
+//!
+//! With the `mpdo` feature, a mapping count of 0xFE or 0xFF (accepted while the PDO is
+//! invalid, its entries then unused and unchecked) makes the PDO a multiplexed PDO, which the
+//! `cia301::mpdo` module describes; without it those counts are refused as any above 64.
 
 mod dictionary;
 mod events;
 mod index;
 pub(crate) mod mapping;
+#[cfg(feature = "mpdo")]
+mod multiplexed;
 pub mod params;
 mod rpdo;
 mod tpdo;
@@ -49,6 +55,29 @@ pub use events::{PdoError, PdoEvent, RpdoStatus, TpdoStatus};
 use index::{equal_range, id_key, Reverse};
 use rpdo::{OnFrame, Recovered, Rpdo};
 use tpdo::{OnRtr, OnSync, Tpdo};
+
+/// Whether a PDO's new parameters let it run on as it was (else it restarts): the same
+/// identifier, transmission type, mapping and error, and (`mpdo`) the same kind, classic or
+/// MPDO of one mode. Two versions so that an image without the feature is built as it was.
+#[cfg(feature = "mpdo")]
+macro_rules! same_run {
+    ($new:ident, $old:ident) => {
+        $new.id == $old.id
+            && $new.mpdo == $old.mpdo
+            && $new.ttype == $old.ttype
+            && $new.mapping == $old.mapping
+            && $new.error == $old.error
+    };
+}
+#[cfg(not(feature = "mpdo"))]
+macro_rules! same_run {
+    ($new:ident, $old:ident) => {
+        $new.id == $old.id
+            && $new.ttype == $old.ttype
+            && $new.mapping == $old.mapping
+            && $new.error == $old.error
+    };
+}
 
 /// An EMCY the engine wants the node to raise or clear.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -90,6 +119,8 @@ pub(crate) struct PdoEngine<const T: usize, const R: usize, S: Storage = Inline>
     emcy: Bounded<EmcyAction, 8>,
     timeouts: u16,
     shorts: u16,
+    #[cfg(feature = "mpdo")]
+    mpdo: multiplexed::MpdoState,
 }
 
 impl<const T: usize, const R: usize, S: Storage> PdoEngine<T, R, S> {
@@ -108,6 +139,8 @@ impl<const T: usize, const R: usize, S: Storage> PdoEngine<T, R, S> {
             emcy: Bounded::new(),
             timeouts: 0,
             shorts: 0,
+            #[cfg(feature = "mpdo")]
+            mpdo: multiplexed::MpdoState::default(),
         }
     }
 
@@ -241,11 +274,7 @@ impl<const T: usize, const R: usize, S: Storage> PdoEngine<T, R, S> {
                     return;
                 }
                 report(io, now, dir, k, new.id, new.error);
-                let same_run = new.id == old.id
-                    && new.ttype == old.ttype
-                    && new.mapping == old.mapping
-                    && new.error == old.error
-                    && new.sync_start == old.sync_start;
+                let same_run = same_run!(new, old) && new.sync_start == old.sync_start;
                 if same_run {
                     if new.event_timer != old.event_timer {
                         t.retime(now, new);
@@ -269,11 +298,7 @@ impl<const T: usize, const R: usize, S: Storage> PdoEngine<T, R, S> {
                     return;
                 }
                 report(io, now, dir, k, new.id, new.error);
-                if new.id == old.id
-                    && new.ttype == old.ttype
-                    && new.mapping == old.mapping
-                    && new.error == old.error
-                {
+                if same_run!(new, old) {
                     self.rpdos[k].p = new;
                 } else {
                     let rec = self.rpdos[k].stop();
@@ -446,6 +471,10 @@ impl<const T: usize, const R: usize, S: Storage> PdoEngine<T, R, S> {
         payload: &[u8; 8],
         io: &mut Io<'_, D, O>,
     ) {
+        #[cfg(feature = "mpdo")]
+        if self.rpdos[k].p.is_mpdo() {
+            return self.apply_mpdo(k, now, payload, io);
+        }
         let m = self.rpdos[k].p.mapping;
         let track = !self.reverse.is_empty();
         let mut keys: heapless::Vec<(u16, u8), { MAX_ENTRIES as usize }> = heapless::Vec::new();
@@ -492,6 +521,10 @@ impl<const T: usize, const R: usize, S: Storage> PdoEngine<T, R, S> {
         for i in lo..hi {
             let slot = self.rx_index[i].1 as usize;
             let pdo = slot as u16 + 1;
+            #[cfg(feature = "mpdo")]
+            if !self.mpdo_length_ok(slot, frame.data().len()) {
+                continue;
+            }
             let mut rec = Recovered::default();
             match self.rpdos[slot].frame(now, frame.data(), &mut rec) {
                 OnFrame::Ignore | OnFrame::Buffered => {}

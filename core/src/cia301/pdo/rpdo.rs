@@ -22,12 +22,27 @@ pub(crate) struct RpdoParams {
     pub timeout: Duration,
     pub mapping: Mapping,
     pub error: Option<AbortCode>,
+    /// An MPDO (mapping count 0xFE or 0xFF): it receives multiplexed frames, not its mapping.
+    #[cfg(feature = "mpdo")]
+    pub mpdo: Option<crate::cia301::mpdo::Mode>,
 }
 
 impl RpdoParams {
     /// Valid COB-ID, usable mapping with at least one entry.
+    #[cfg(not(feature = "mpdo"))]
     pub fn active(&self) -> bool {
         self.id.is_some() && self.error.is_none() && self.mapping.count() > 0
+    }
+    /// Valid COB-ID, usable mapping with at least one entry, or an MPDO. (Two versions so that
+    /// an image without the feature is built as it was.)
+    #[cfg(feature = "mpdo")]
+    pub fn active(&self) -> bool {
+        self.id.is_some() && self.error.is_none() && (self.mapping.count() > 0 || self.is_mpdo())
+    }
+    /// An MPDO receiver.
+    #[cfg(feature = "mpdo")]
+    pub fn is_mpdo(&self) -> bool {
+        self.mpdo.is_some()
     }
     pub fn synchronous(&self) -> bool {
         self.ttype <= 240
@@ -77,6 +92,8 @@ impl Rpdo {
                 timeout: Duration::ZERO,
                 mapping: Mapping::EMPTY,
                 error: None,
+                #[cfg(feature = "mpdo")]
+                mpdo: None,
             },
             running: false,
             buffered: None,
@@ -190,6 +207,8 @@ mod tests {
             timeout: Duration::from_millis(timeout_ms),
             mapping: Mapping::with(&[MapEntry::new(0x2000, 0, 16)]),
             error: None,
+            #[cfg(feature = "mpdo")]
+            mpdo: None,
         };
         r.start();
         r

@@ -50,6 +50,9 @@ pub(crate) struct TpdoParams {
     pub mapping: Mapping,
     /// Why the stored configuration cannot be used, if it cannot.
     pub error: Option<AbortCode>,
+    /// An MPDO (mapping count 0xFE or 0xFF): sent by the application only, never by the engine.
+    #[cfg(feature = "mpdo")]
+    pub mpdo: Option<crate::cia301::mpdo::Mode>,
 }
 
 impl TpdoParams {
@@ -90,6 +93,8 @@ impl Tpdo {
                 sync_start: 0,
                 mapping: Mapping::EMPTY,
                 error: None,
+                #[cfg(feature = "mpdo")]
+                mpdo: None,
             },
             running: false,
             event: false,
@@ -273,6 +278,8 @@ mod tests {
             sync_start: start,
             mapping: Mapping::with(&[MapEntry::new(0x2000, 0, 8)]),
             error: None,
+            #[cfg(feature = "mpdo")]
+            mpdo: None,
         };
         t
     }
