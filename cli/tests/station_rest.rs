@@ -248,12 +248,42 @@ fn sdo_nmt_and_switch_over_by_role_with_each_error() {
     );
     assert_eq!(code, 200, "{v}");
     assert_eq!(v, json!({"network": "east", "non_configured": false}));
-    let (code, v) = operator.send("POST", lss, Some(r#"{"command":"fastscan"}"#));
+    let (code, v) = operator.send("POST", lss, Some(r#"{"command":"scan"}"#));
     assert_eq!(code, 400, "{v}");
     assert!(
-        why(&v).starts_with("command: \"fastscan\" is not an LSS command"),
+        why(&v).starts_with("command: \"scan\" is not an LSS command"),
         "{v}"
     );
+    // Fastscan: which node-IDs to give is asked for and checked; with no device without a
+    // node-ID it finds none, having asked the bus (every first request unanswered).
+    let (code, v) = operator.send("POST", lss, Some(r#"{"command":"fastscan"}"#));
+    assert_eq!(code, 400, "{v}");
+    assert!(why(&v).starts_with("assign: fastscan needs"), "{v}");
+    let (code, v) = operator.send(
+        "POST",
+        lss,
+        Some(r#"{"command":"fastscan","assign":[47,"0x20"]}"#),
+    );
+    assert_eq!(code, 400, "{v}");
+    assert!(why(&v).starts_with("assign: [47, 32] is empty"), "{v}");
+    let (code, v) = operator.send(
+        "POST",
+        lss,
+        Some(r#"{"command":"fastscan","assign":[32,200]}"#),
+    );
+    assert_eq!(code, 400, "{v}");
+    assert!(why(&v).starts_with("assign: 200 is not a node-ID"), "{v}");
+    let (code, v) = operator.send(
+        "POST",
+        lss,
+        Some(r#"{"command":"fastscan","assign":["0x20",47]}"#),
+    );
+    assert_eq!(code, 200, "{v}");
+    assert_eq!(v["network"], "east", "{v}");
+    assert_eq!(v["assigned"], json!([]), "{v}");
+    assert_eq!(v["stopped"], Value::Null, "{v}");
+    assert!(v["requests"].as_u64().is_some_and(|n| n >= 1), "{v}");
+    assert_eq!(v["answers"], 0, "{v}");
     let (code, v) = operator.send("POST", lss, Some(r#"{"command":"configure","node":48}"#));
     assert_eq!(code, 400, "{v}");
     assert!(why(&v).starts_with("address: "), "{v}");
@@ -283,6 +313,7 @@ fn sdo_nmt_and_switch_over_by_role_with_each_error() {
         "sdo write node 0x10 0x6200:1 u16 1234: done",
         "nmt stop node 0x50: done",
         "lss identify-non-configured: done",
+        "lss fastscan 0x20-0x2f: 0 assigned",
     ] {
         let line = east
             .lines()

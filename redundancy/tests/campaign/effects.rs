@@ -264,7 +264,9 @@ fn took_effect(run: &Run, f: Fault, from: Instant, to: Instant, before: &Counter
             matches!(e, SupervisorEvent::Node(n) if matches!(n.kind,
                 NodeEventKind::RemoteState { node: x, to, .. } if x.raw() == node && to == state))
         }),
-        Fault::Noise { bus, .. } => errors_grew(run, before, bus, None, None),
+        Fault::Noise { bus, .. } | Fault::Degrading { bus, .. } => {
+            errors_grew(run, before, bus, None, None)
+        }
         // The others see its error flags on that bus.
         Fault::WrongBitRate { node, port, .. } => {
             let bus = bus_of(run, node, port);

@@ -124,6 +124,17 @@ pub enum Fault {
         permille: u16,
         dur: Duration,
     },
+    /// A bus whose termination degrades (a resistor drifting, a connector corroding, a stub
+    /// that grew): errors hit its frames at a rate that climbs in ten steps over `ramp` from
+    /// nothing to `permille`/1000, stays there for `hold`, and ends at once (repaired). Slow
+    /// where [`Fault::Noise`] is sudden: for a long while the bus works, its frames later and
+    /// later by their retransmissions, every port on it reporting errors, none failing.
+    Degrading {
+        bus: usize,
+        permille: u16,
+        ramp: Duration,
+        hold: Duration,
+    },
     /// A device's controller on `port` sends late for `dur`: every frame it is handed competes
     /// for the wire only `delay` later (mailboxes behind traffic only it sees, a driver that
     /// batches), while its twin on the other bus leaves on time.
@@ -203,6 +214,7 @@ impl Fault {
             Fault::ClockRate { .. } => "clock at a wrong rate",
             Fault::TxDead { .. } => "transceiver that cannot send",
             Fault::Noise { .. } => "noisy bus",
+            Fault::Degrading { .. } => "degrading bus",
             Fault::Overrun { .. } => "controller overrun",
             Fault::SlowTx { .. } => "slow transmitter",
             Fault::TxDrift { .. } => "port writes drifting apart",
@@ -248,6 +260,7 @@ impl Fault {
                     + second
             }
             Fault::GrowingLag { top, step, .. } => step.saturating_mul(2 * top),
+            Fault::Degrading { ramp, hold, .. } => ramp + hold,
             Fault::BootLoop { every, times, .. } | Fault::MasterBootLoop { every, times, .. } => {
                 every.saturating_mul(times as u64)
             }
@@ -268,6 +281,7 @@ impl Fault {
                 | Fault::Unplug { .. }
                 | Fault::Impostor { .. }
                 | Fault::Noise { .. }
+                | Fault::Degrading { .. }
                 | Fault::Overrun { .. }
                 | Fault::SlowTx { .. }
                 | Fault::TxDrift { .. }
@@ -402,6 +416,29 @@ pub fn apply(run: &mut Run, f: Fault) {
                 r.plant.sim.set_bus_faults(b, rates);
                 let t = r.now();
                 r.timeline.noisy[bus].set(t, on);
+            });
+        }
+        Fault::Degrading {
+            bus,
+            permille,
+            ramp,
+            hold,
+        } => {
+            let b = run.plant.buses[bus];
+            run.timeline.noisy[bus].set(now, true);
+            for step in 1..=10u32 {
+                let rate = f64::from(permille) * f64::from(step) / 10_000.0;
+                let at = Duration::from_micros(ramp.as_micros() * u64::from(step - 1) / 10);
+                run.at(now + at, move |r| {
+                    r.plant
+                        .sim
+                        .set_bus_faults(b, FaultRates::NONE.with_corrupt_detected(rate));
+                });
+            }
+            run.at(now + ramp + hold, move |r| {
+                r.plant.sim.set_bus_faults(b, FaultRates::NONE);
+                let t = r.now();
+                r.timeline.noisy[bus].set(t, false);
             });
         }
         Fault::Drift {
@@ -872,7 +909,7 @@ pub fn drift_profile(load: u64, from: Instant, to: Instant) -> Vec<(Instant, Dur
 
 /// How many kinds of fault the campaign draws from (every class that holds, some in two
 /// shapes).
-pub const KINDS: usize = 29;
+pub const KINDS: usize = 30;
 
 /// Every kind [`draw`] knows: also receive clocks that drift apart (kind [`DRIFT`], always the
 /// last), which still fail combined with others (the "known and not fixed yet" of the user
@@ -881,6 +918,10 @@ pub const KINDS: usize = 29;
 pub const KINDS_WITH_DRIFT: usize = KINDS + 1;
 /// The drift's kind.
 pub const DRIFT: usize = KINDS;
+
+/// The kinds the campaign knew before a degrading bus: the seeds in `REGRESSIONS_TX_DRIFT`
+/// draw from these.
+pub const KINDS_BEFORE_DEGRADING: usize = 29;
 
 /// The kinds the campaign knew before a sender whose port writes drift apart: the seeds in
 /// `REGRESSIONS_TX_DEAD` draw from these.
@@ -1104,6 +1145,12 @@ pub fn draw(rng: &mut Rng, pairs: u8, k: usize) -> Fault {
                 port: rng.below(2) as usize,
                 dur: rng.ms(500, 8_000),
                 load: rng.next(),
+            },
+            29 => Fault::Degrading {
+                bus: rng.below(2) as usize,
+                permille: [100, 300, 700][rng.below(3) as usize],
+                ramp: rng.ms(500, 5_000),
+                hold: rng.ms(200, 3_000),
             },
             DRIFT => Fault::Drift {
                 node: any_node(rng),

@@ -213,17 +213,25 @@ impl Health {
     }
 
     /// Port `p`'s oldest waiting frame is another one: the stall rule's reference starts over,
-    /// from the other port's last confirmation if that port already sent this frame's twin or
-    /// a later frame (the twin was on its bus by then: a bound never early, and exact for the
-    /// twin itself). (From now, a frame that waited behind earlier ones got the whole stall
-    /// time again when they went out: a heartbeat after a boot-up came 5.3 ms after its twin,
-    /// past the window, and was delivered twice.)
+    /// if the other port already sent this frame's twin or a later frame, from the instant the
+    /// other port confirmed the twin (or, the twin further back than its last confirmations,
+    /// the earliest of them: a bound never early; without the `stall-log` feature, from its
+    /// last confirmation, a bound never early either, but later). (From now, a frame that waited behind
+    /// earlier ones got the whole stall time again when they went out: a heartbeat after a
+    /// boot-up came 5.3 ms after its twin, past the window, and was delivered twice. From the
+    /// other port's last confirmation, a frame that waited behind retransmissions on a noisy
+    /// bus got the time since its twin over again: an SDO request 5 ms after its twin, twice.)
     fn front_moved(&mut self, now: Instant, p: usize) {
-        let other = &self.ports[1 - p];
-        let (other_sent, since) = (other.last_sent, other.confirmed);
-        let port = &mut self.ports[p];
-        port.overtaken = match (port.outstanding.front(), other_sent) {
-            (Some(f), Some(s)) if f.no_later_than(s) => Some(since.unwrap_or(now)),
+        let [a, b] = &mut self.ports;
+        let (port, other) = if p == 0 { (a, &*b) } else { (b, &*a) };
+        port.overtaken = match (port.outstanding.front(), other.last_sent) {
+            (Some(f), Some(s)) if f.no_later_than(s) => {
+                #[cfg(feature = "stall-log")]
+                let twin = f.twin_confirmed(&other.confirmations);
+                #[cfg(not(feature = "stall-log"))]
+                let twin = None;
+                Some(twin.or(other.confirmed).unwrap_or(now))
+            }
             _ => None,
         };
     }
@@ -236,7 +244,18 @@ impl Health {
     /// on; the frames waiting behind a babble that long came out later than the window when
     /// it ended.)
     fn sent(&mut self, now: Instant, p: usize, handed: Handed) {
-        self.ports[p].last_sent = Some(handed);
+        let port = &mut self.ports[p];
+        port.last_sent = Some(handed);
+        #[cfg(feature = "stall-log")]
+        {
+            if port.confirmations.is_full() {
+                port.confirmations.pop_front();
+            }
+            let _ = port.confirmations.push_back(Handed {
+                at: now,
+                seq: handed.seq,
+            });
+        }
         let other = &mut self.ports[1 - p];
         if other.overtaken.is_none()
             && other

@@ -73,6 +73,11 @@ pub struct PortHealth {
     pub(super) outstanding: heapless::Deque<Handed, OUTSTANDING>,
     /// The newest frame confirmed sent (`TxOk`).
     pub(super) last_sent: Option<Handed>,
+    /// The last frames confirmed sent, each with the instant of its confirmation (not of its
+    /// hand-over), oldest first: when the other port's oldest waiting frame changes, its
+    /// twin's confirmation here is the stall rule's reference.
+    #[cfg(feature = "stall-log")]
+    pub(super) confirmations: heapless::Deque<Handed, CONFIRMATIONS>,
     /// When its driver last confirmed a transmission (`TxOk`): its bus worked then.
     pub(super) confirmed: Option<Instant>,
     /// When the other port was first seen to have sent a frame handed over no earlier than this
@@ -119,6 +124,24 @@ impl Handed {
 /// Transmissions tracked per port for the stall rule.
 pub(super) const OUTSTANDING: usize = 64;
 
+#[cfg(feature = "stall-log")]
+/// Confirmations remembered per port for the stall rule: a twin confirmed further back than
+/// this many frames (a port that far behind) is judged from the oldest remembered, a bound
+/// that is late, never early.
+pub(super) const CONFIRMATIONS: usize = 16;
+
+#[cfg(feature = "stall-log")]
+impl Handed {
+    /// The instant the first of `log`'s frames handed over no earlier than `self` was confirmed:
+    /// its twin's confirmation, or (the twin not in the log any more) the earliest bound known.
+    pub(super) fn twin_confirmed(
+        self,
+        log: &heapless::Deque<Handed, CONFIRMATIONS>,
+    ) -> Option<Instant> {
+        log.iter().find(|c| self.no_later_than(**c)).map(|c| c.at)
+    }
+}
+
 impl PortHealth {
     pub(super) fn new(cfg: &HealthConfig) -> Self {
         PortHealth {
@@ -135,6 +158,8 @@ impl PortHealth {
             backoff: cfg.reinit_first,
             lagging: None,
             outstanding: heapless::Deque::new(),
+            #[cfg(feature = "stall-log")]
+            confirmations: heapless::Deque::new(),
             last_sent: None,
             confirmed: None,
             overtaken: None,
@@ -244,6 +269,10 @@ impl PortHealth {
             *t = *t - by;
         }
         for h in self.outstanding.iter_mut().chain(self.last_sent.as_mut()) {
+            h.at = h.at - by;
+        }
+        #[cfg(feature = "stall-log")]
+        for h in &mut self.confirmations {
             h.at = h.at - by;
         }
     }
