@@ -70,7 +70,7 @@ echo "   by fastscan on lssa,lssb, one of them on lssb only"
 .ci/vm-script.sh lss || fail "LSS on vcan"
 
 echo "== tier-vcan: the station on vcan: examples/station/vcan.toml (two racks, each on two vcan"
-echo "   interfaces) checked and run, its six boards as processes; every pair running A, an SDO"
+echo "   interfaces) checked and run, its four boards as processes; every pair running A, an SDO"
 echo "   read through REST, board A of one pair killed and B running, SIGTERM and a clean exit"
 .ci/vm-script.sh station || fail "the station on vcan"
 
