@@ -7,8 +7,8 @@
 #   2. The station runs it (with an audit trail added): the pair of each rack has its A board
 #      running and the master is the active one; then the B boards join as standby.
 #   3. An SDO read through REST reaches a board (its product code is its node-ID).
-#   4. Board A of the turnout rack's pair is killed: that pair runs B, counted as a failover;
-#      the signal rack's pair (its own buses) keeps A.
+#   4. Board A of the turnout rack's pair is killed: that pair runs B (in the status and in the
+#      event stream), counted as a failover; the signal rack's pair (its own buses) keeps A.
 #   5. The signal rack's second bus goes down (ip link): shown failed, its pair still on A.
 #   6. SIGTERM: the station exits 0, having closed its audit trail, which holds the switch-over.
 # Every wait has a deadline; a failure names what was missing and shows the station's log.
@@ -93,10 +93,23 @@ echo "$sdo" | grep -q '"value":33' || fail "the REST SDO read did not give board
 # The rack's failovers so far (the emulated CPU's hiccups may have counted some already).
 failovers() { net "$1" | sed 's/.*"failovers":\([0-9]*\),.*/\1/'; }
 before=$(failovers "turnout rack")
+# The event stream (SSE) a dashboard reads, listened to from before the kill.
+wget -q -O /tmp/events.txt "$URL/events" 2>/dev/null &
+SSE=$!; PIDS="$PIDS $SSE"
+sleep 1
 echo "=== board 0x11 of the turnout rack (A of pair 0x11/0x21) killed ($before failovers so far)"
 kill -9 $KILLED
 until_nets 15 'has "turnout rack" "\"pair\":\"0x11/0x21\",\"active\":\"B\""' \
   "the turnout rack's pair 0x11/0x21 running B"
+# In the stream: the event named after the network, its data the switch-over.
+t0=$(date +%s)
+until grep -A1 '^event: *turnout rack' /tmp/events.txt 2>/dev/null | grep -q 'data: *pair 0x11/0x21: B active'; do
+  [ $(($(date +%s) - t0)) -lt 5 ] \
+    || fail "no 'pair 0x11/0x21: B active' for the turnout rack in /api/events: $(tail -c 600 /tmp/events.txt)"
+  sleep 0.25
+done
+echo "in /api/events: $(grep -A1 '^event: *turnout rack' /tmp/events.txt | grep 'B active')"
+kill $SSE
 after=$(failovers "turnout rack")
 [ "$after" -gt "$before" ] || fail "the switch-over is not counted as a failover ($before, then $after)"
 has "signal rack" '"pair":"0x11/0x21","active":"A"' \
