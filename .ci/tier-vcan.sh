@@ -71,7 +71,8 @@ echo "   by fastscan on lssa,lssb, one of them on lssb only"
 
 echo "== tier-vcan: the station on vcan: examples/station/vcan.toml (two racks, each on two vcan"
 echo "   interfaces) checked and run, its four boards as processes; every pair running A, an SDO"
-echo "   read through REST, board A of one pair killed and B running, SIGTERM and a clean exit"
+echo "   read through REST, board A of one pair killed and B running (status and event stream), a"
+echo "   bus taken down and shown failed, SIGTERM and a clean exit with the audit trail closed"
 .ci/vm-script.sh station || fail "the station on vcan"
 
 echo "== tier-vcan: CANopenNode's canopend as the device (node 4 on vcan0), duocan as the master:"
