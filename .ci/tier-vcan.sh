@@ -3,7 +3,8 @@
 # (the host kernel has no CAN). Installs what it needs (qemu, busybox, the kernel deb's CAN
 # modules, can-utils), runs tiers/tests/vcan.rs, tiers/tests/vcan_fd.rs, tiers/tests/vcan_echo.rs, tiers/tests/vcan_failover.rs,
 # tiers/tests/vcan_redundant.rs, tiers/tests/vcan_reopen.rs, tiers/tests/vcan_load.rs, the
-# failover kit (.ci/kit-vm.sh), LSS (.ci/lss-vm.sh), both through .ci/vm-script.sh,
+# failover kit (.ci/kit-vm.sh), LSS (.ci/lss-vm.sh), the station file for SocketCAN
+# (.ci/station-vm.sh), these three through .ci/vm-script.sh,
 # tiers/tests/vcan_canopennode.rs (CANopenNode's canopend, built on the host from
 # ../shared/peers/canopennode, as the device, and two of them as a redundant pair through the
 # failover kit), and the dual_vcan_failover example's
@@ -67,6 +68,12 @@ cargo build --release -p duocan-cli || fail "build the duocan tool"
 echo "== tier-vcan: LSS on vcan: the tool's LSS master configures two duocan LSS slaves (processes)"
 echo "   by fastscan on lssa,lssb, one of them on lssb only"
 .ci/vm-script.sh lss || fail "LSS on vcan"
+
+echo "== tier-vcan: the station on vcan: examples/station/vcan.toml (two racks, each on two vcan"
+echo "   interfaces) checked and run, its four boards as processes; every pair running A, an SDO"
+echo "   read through REST, board A of one pair killed and B running (status and event stream), a"
+echo "   bus taken down and shown failed, SIGTERM and a clean exit with the audit trail closed"
+.ci/vm-script.sh station || fail "the station on vcan"
 
 echo "== tier-vcan: CANopenNode's canopend as the device (node 4 on vcan0), duocan as the master:"
 echo "   the tool's scan, SDO in every mode both ways, NMT in the heartbeat, its loss, a TPDO, an EMCY;"

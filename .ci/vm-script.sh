@@ -5,6 +5,8 @@
 # .ci/flake-hunt (`script:kit@vm`, `script:lss@vm`), so both run the test the same way.
 #   .ci/vm-script.sh kit    the failover kit on vcan (.ci/kit-vm.sh)
 #   .ci/vm-script.sh lss    LSS fastscan on a dual vcan bus (.ci/lss-vm.sh)
+#   .ci/vm-script.sh station  examples/station/vcan.toml run by the station, its boards as
+#                             processes, a board failing (.ci/station-vm.sh)
 # VCANVM_LOAD (busy loops per vCPU beside the test) passes through to the VM.
 set -euo pipefail
 ROOT=$(cd "$(dirname "$0")/.." && pwd)
@@ -23,6 +25,10 @@ case ${1:-} in
     EXTRA="$TOOL:/tests/duocan"
     VCANS=lssa,lssb
     SCRIPT=lss-vm.sh ;;
-  *) echo "vm-script: which test? kit or lss" >&2; exit 2 ;;
+  station)
+    EXTRA="$TOOL:/tests/duocan $ROOT/examples/station/vcan.toml:/tests/vcan.toml"
+    VCANS=vcan0,vcan1,vcan2,vcan3
+    SCRIPT=station-vm.sh ;;
+  *) echo "vm-script: which test? kit, lss or station" >&2; exit 2 ;;
 esac
 VCANVM_SMP=2 VCANVM_EXTRA="$EXTRA" VCANS=$VCANS exec "$ROOT/.ci/vcanvm/vm-run.sh" "$ROOT/.ci/$SCRIPT"

@@ -44,6 +44,25 @@ fn the_shipped_demo_station_checks_with_its_four_racks() {
     );
 }
 
+/// The SocketCAN station file (run in the vcan tier's VM by .ci/station-vm.sh) checks on any
+/// machine: checking opens no interface.
+#[test]
+fn the_shipped_vcan_station_checks_with_two_racks_on_socketcan() {
+    let vcan = file("../examples/station/vcan.toml");
+    let r = duocan(&["station", "check", &vcan]);
+    assert_eq!(r.code, 0, "{}", r.err);
+    assert!(r.out.starts_with("station vcan: 2 networks\n"), "{}", r.out);
+    for rack in ["turnout rack on vcan0,vcan1", "signal rack on vcan2,vcan3"] {
+        assert!(
+            r.out.contains(&format!("  {rack}: master 0x01")),
+            "{}",
+            r.out
+        );
+    }
+    // A pair each.
+    assert_eq!(r.out.matches("/0x2").count(), 2, "{}", r.out);
+}
+
 #[test]
 fn a_bad_station_file_is_a_usage_error_naming_file_line_and_key() {
     let bad = file("tests/station_files/bad_timeout.toml");
