@@ -108,6 +108,10 @@ use tracing::Instrument;
 
 /// Capacity of each port's outgoing queue (frames the device produced, not yet written).
 pub const PORT_TX_QUEUE: usize = 256;
+/// Capacity of each port's outgoing queue of CAN FD frames, for a device that speaks CAN FD
+/// ([`Device::fd_capable`]); each of them takes a place in [`PORT_TX_QUEUE`] too, which keeps
+/// the order of classic and FD frames. A frame for a full queue is dropped and counted.
+pub const PORT_FD_TX_QUEUE: usize = 64;
 /// Capacity of the event broadcast: a subscriber lagging further misses events (and is told).
 pub const EVENT_QUEUE: usize = 1024;
 
@@ -280,6 +284,7 @@ where
             });
         }
         let clock = Clock::start();
+        let fd = self.device.fd_capable();
         let (cmd_tx, cmd_rx) = mpsc::unbounded_channel();
         let (ev_tx, _) = broadcast::channel(EVENT_QUEUE);
         let mut names = Vec::with_capacity(given);
@@ -308,6 +313,7 @@ where
                 index,
                 net: self.name.clone(),
                 clock,
+                fd,
                 hub: shared.clone(),
                 wake: shared.ports[index].clone(),
             });

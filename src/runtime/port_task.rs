@@ -3,7 +3,7 @@
 
 use super::task::{Hub, Outbox, PortCmd};
 use crate::machine::{ErrorCause, PortRequest, PortStatus};
-use crate::port::{Port, PortErrorKind, PortInput};
+use crate::port::{AnyInput, Port, PortError, PortErrorKind, PortInput};
 use std::sync::Arc;
 use std::time::Duration;
 use tokio::sync::Notify;
@@ -17,6 +17,8 @@ pub(crate) struct Wiring {
     pub index: usize,
     pub net: String,
     pub clock: super::Clock,
+    /// The device speaks CAN FD: the port is read through [`Port::recv_any`].
+    pub fd: bool,
     pub hub: Arc<dyn Hub>,
     /// Notified when something is queued for this port (or the runtime stops).
     pub wake: Arc<Notify>,
@@ -35,6 +37,11 @@ const BURST: usize = 32;
 pub(crate) async fn run<P: Port>(mut port: P, w: Wiring) {
     // However the task ends (also aborted with its runtime), the shutdown stops waiting for it.
     let _finished = Finished(w.hub.clone(), w.index);
+    // The reader thread moves classic frames only: a device that speaks CAN FD reads its
+    // ports through `recv_any`.
+    if w.fd {
+        return run_any(port, w, Outbox::new()).await;
+    }
     if let Some(reader) = port.reader() {
         return super::reader::run(port, reader, w).await;
     }
@@ -62,21 +69,8 @@ pub(super) async fn run_async<P: Port>(mut port: P, w: Wiring, mut out: Outbox) 
                 // Each input is handed over and answered before the next is looked for: the
                 // answer to a frame does not wait for a look at an empty socket.
                 for n in 1..=BURST {
-                    step = match r {
-                        Ok(x) if w.hub.input(w.index, x, w.clock.now()) => {
-                            serve(&mut port, &w, &mut out).await
-                        }
-                        // The runtime stopped: what is left in the queue still goes out.
-                        Ok(_) => match serve(&mut port, &w, &mut out).await {
-                            Step::Continue => Step::Stop,
-                            other => other,
-                        },
-                        Err(e) => {
-                            tracing::warn!(error = %e, "receive failed");
-                            report(&w, PortStatus::Down(e.cause()));
-                            Step::Failed(e.cause())
-                        }
-                    };
+                    let handed = r.map(|x| w.hub.input(w.index, x, w.clock.now()));
+                    step = answer(&mut port, &w, &mut out, handed).await;
                     if n == BURST || !matches!(step, Step::Continue) {
                         break;
                     }
@@ -94,6 +88,54 @@ pub(super) async fn run_async<P: Port>(mut port: P, w: Wiring, mut out: Outbox) 
     }
 }
 
+/// The port's task reading through the port's `recv_any`, for a device that speaks CAN FD
+/// (`out`: what is left to do first).
+async fn run_any<P: Port>(mut port: P, w: Wiring, mut out: Outbox) {
+    w.wake.notify_one();
+    loop {
+        let step = tokio::select! {
+            () = w.wake.notified() => serve(&mut port, &w, &mut out).await,
+            r = port.recv_any() => {
+                let now = w.clock.now();
+                let handed = r.map(|x| match x {
+                    AnyInput::Fd(f, stamp) => w.hub.input_fd(w.index, &f, stamp, now),
+                    AnyInput::Frame(f, stamp) => {
+                        w.hub.input(w.index, PortInput::Frame(f, stamp), now)
+                    }
+                    AnyInput::Status(s) => w.hub.input(w.index, PortInput::Status(s), now),
+                });
+                answer(&mut port, &w, &mut out, handed).await
+            }
+        };
+        if !settle(&mut port, &w, &mut out, step).await {
+            return;
+        }
+    }
+}
+
+/// After an input was read: `Ok(true)` it was handed to the device, whose answers go out now;
+/// `Ok(false)` the runtime stopped (what is left in the queue still goes out); `Err` the port
+/// failed (reported).
+async fn answer<P: Port>(
+    port: &mut P,
+    w: &Wiring,
+    out: &mut Outbox,
+    handed: Result<bool, PortError>,
+) -> Step {
+    match handed {
+        Ok(true) => serve(port, w, out).await,
+        Ok(false) => match serve(port, w, out).await {
+            Step::Continue => Step::Stop,
+            other => other,
+        },
+        Err(e) => {
+            tracing::warn!(error = %e, "receive failed");
+            report(w, PortStatus::Down(e.cause()));
+            Step::Failed(e.cause())
+        }
+    }
+}
+
 /// Does what is queued for the port, in order, until the queue is empty.
 async fn serve<P: Port>(port: &mut P, w: &Wiring, out: &mut Outbox) -> Step {
     loop {
@@ -104,7 +146,7 @@ async fn serve<P: Port>(port: &mut P, w: &Wiring, out: &mut Outbox) -> Step {
             return Step::Continue;
         }
         while let Some(cmd) = out.pop_front() {
-            let step = command(port, w, cmd).await;
+            let step = command(port, w, cmd, out).await;
             if !matches!(step, Step::Continue) {
                 return step;
             }
@@ -112,26 +154,35 @@ async fn serve<P: Port>(port: &mut P, w: &Wiring, out: &mut Outbox) -> Step {
     }
 }
 
-pub(super) async fn command<P: Port>(port: &mut P, w: &Wiring, cmd: PortCmd) -> Step {
+/// Does `cmd`, just taken from `out` (whose next CAN FD frame is a [`PortCmd::SendFd`]'s).
+pub(super) async fn command<P: Port>(
+    port: &mut P,
+    w: &Wiring,
+    cmd: PortCmd,
+    out: &mut Outbox,
+) -> Step {
     match cmd {
-        PortCmd::Send(f) => match sent_or_given_up(port, w, &f).await {
+        PortCmd::Send(f) => match sent_or_given_up(w, port.send(&f)).await {
             None => {
                 tracing::debug!(frame = %f, "send given up for the port's re-initialisation");
                 port.counters().tx_dropped();
                 Step::Continue
             }
-            Some(Ok(())) => Step::Continue,
-            Some(Err(e)) => {
-                tracing::warn!(error = %e, "send failed");
-                if is_down(e.kind) {
-                    report(w, PortStatus::Down(e.cause()));
-                    Step::Failed(e.cause())
-                } else {
-                    report(w, PortStatus::TxFailed(e.cause()));
+            Some(r) => sent(w, r),
+        },
+        PortCmd::SendFd => {
+            let Some(f) = out.pop_fd() else {
+                return Step::Continue;
+            };
+            match sent_or_given_up(w, port.send_fd(&f)).await {
+                None => {
+                    tracing::debug!(frame = %f, "send given up for the port's re-initialisation");
+                    port.counters().tx_dropped();
                     Step::Continue
                 }
+                Some(r) => sent(w, r),
             }
-        },
+        }
         PortCmd::Request(PortRequest::Reinit) => match port.reopen().await {
             Ok(()) => {
                 report(w, PortStatus::Up);
@@ -146,14 +197,31 @@ pub(super) async fn command<P: Port>(port: &mut P, w: &Wiring, cmd: PortCmd) -> 
     }
 }
 
-/// Sends `f`, or gives it up (`None`) when a re-initialisation of the port is queued while
-/// the send waits (for room on a port whose bus takes no frames: the re-initialisation would
-/// otherwise wait behind it, and the device has given the frame up already).
-async fn sent_or_given_up<P: Port>(
-    port: &mut P,
+/// What became of a send: a failure is reported (and a port gone is to be re-opened).
+fn sent(w: &Wiring, r: Result<(), PortError>) -> Step {
+    match r {
+        Ok(()) => Step::Continue,
+        Err(e) => {
+            tracing::warn!(error = %e, "send failed");
+            if is_down(e.kind) {
+                report(w, PortStatus::Down(e.cause()));
+                Step::Failed(e.cause())
+            } else {
+                report(w, PortStatus::TxFailed(e.cause()));
+                Step::Continue
+            }
+        }
+    }
+}
+
+/// Sends a frame (`send`: the port's send of it), or gives it up (`None`) when a re-initialisation of the port
+/// is queued while the send waits (for room on a port whose bus takes no frames: the
+/// re-initialisation would otherwise wait behind it, and the device has given the frame up
+/// already).
+async fn sent_or_given_up(
     w: &Wiring,
-    f: &crate::Frame,
-) -> Option<Result<(), crate::port::PortError>> {
+    send: impl std::future::Future<Output = Result<(), PortError>>,
+) -> Option<Result<(), PortError>> {
     let reinit = async {
         // Each wake-up is something queued for the port; what is not a re-initialisation is
         // served after this send, as the queue is taken again then.
@@ -166,7 +234,7 @@ async fn sent_or_given_up<P: Port>(
     };
     tokio::select! {
         biased;
-        r = port.send(f) => Some(r),
+        r = send => Some(r),
         () = reinit => None,
     }
 }
@@ -217,6 +285,10 @@ pub(super) async fn recover<P: Port>(
         while let Some(cmd) = out.pop_front() {
             match cmd {
                 PortCmd::Send(_) => counters.tx_dropped(),
+                PortCmd::SendFd => {
+                    let _ = out.pop_fd();
+                    counters.tx_dropped();
+                }
                 PortCmd::Request(_) => report(w, PortStatus::Down(cause)),
             }
         }
@@ -314,8 +386,18 @@ mod tests {
             self.inputs.send((port, x, at)).is_ok()
         }
         fn take(&self, _: usize, into: &mut Outbox) -> bool {
-            super::super::task::move_into(&mut self.queue.lock().unwrap(), into);
+            let mut no_fd = std::collections::VecDeque::new();
+            super::super::task::move_into(&mut self.queue.lock().unwrap(), &mut no_fd, into);
             true
+        }
+        fn input_fd(
+            &self,
+            _: usize,
+            _: &crate::FdFrame,
+            _: Option<std::time::Instant>,
+            _: Instant,
+        ) -> bool {
+            unreachable!("the test port is classic")
         }
         fn finished(&self, _: usize) {}
         fn take_frames(&self, _: usize, _: &mut Outbox) -> Option<bool> {
@@ -355,6 +437,7 @@ mod tests {
                 index,
                 net: "test".into(),
                 clock: super::super::Clock::start(),
+                fd: false,
                 hub: hub.clone(),
                 wake: wake.clone(),
             };

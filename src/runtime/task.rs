@@ -10,9 +10,9 @@
 //! it only when the device's deadline moved earlier than the one it waits for.
 
 use super::defer::Unlocked;
-use super::{Clock, RuntimeEvent, PORT_TX_QUEUE};
+use super::{Clock, RuntimeEvent, PORT_FD_TX_QUEUE, PORT_TX_QUEUE};
 use crate::capture::recorder::{Tap, TapDirection, TapPoint};
-use crate::frame::Frame;
+use crate::frame::{FdFrame, Frame};
 use crate::machine::{Device, PortRequest, PortStatus};
 use crate::port::{PortCounters, PortInput};
 use std::collections::VecDeque;
@@ -45,9 +45,15 @@ pub(crate) trait Direct<D: Device>: Send + Sync {
 }
 
 /// What a port task does besides reading: write a frame, re-initialise the port.
+///
+/// A CAN FD frame is not carried here: it waits in a queue of its own (72 bytes a frame), and
+/// [`PortCmd::SendFd`] only keeps its place among the other commands, so that a classic
+/// command stays as small as a classic frame.
 #[derive(Debug)]
 pub(crate) enum PortCmd {
     Send(Frame),
+    /// Send the oldest CAN FD frame of the port's FD queue (moved along with this command).
+    SendFd,
     Request(PortRequest),
 }
 
@@ -73,6 +79,15 @@ pub(crate) trait Hub: Send + Sync + 'static {
     /// `into` as far as it has room: what a reader thread writes itself. `Some(true)` when
     /// something is left in the queue, `None` when the runtime has stopped.
     fn take_frames(&self, port: usize, into: &mut Outbox) -> Option<bool>;
+    /// [`Hub::input`] for a CAN FD frame (`stamp`: its receive timestamp, if the port took one).
+    /// False when the runtime has stopped.
+    fn input_fd(
+        &self,
+        port: usize,
+        frame: &FdFrame,
+        stamp: Option<std::time::Instant>,
+        at: crate::Instant,
+    ) -> bool;
     /// [`Hub::input`], then [`Hub::take_frames`] for the same port, under one lock: what a
     /// reader thread does with each frame (holding the port's writer lock).
     fn input_take(
@@ -89,8 +104,55 @@ pub(crate) trait Hub: Send + Sync + 'static {
     fn reinit_queued(&self, port: usize) -> bool;
 }
 
-/// A port task's batch of work taken from its queue (fixed size: no allocation per frame).
-pub(crate) type Outbox = heapless::Deque<PortCmd, 32>;
+/// CAN FD frames a port task takes from its FD queue at once.
+const FD_BATCH: usize = 8;
+
+/// A port task's batch of work taken from its queue (fixed size: no allocation per frame): the
+/// commands, and the CAN FD frames their [`PortCmd::SendFd`] stand for, in the same order.
+pub(crate) struct Outbox {
+    cmds: heapless::Deque<PortCmd, 32>,
+    fd: heapless::Deque<FdFrame, FD_BATCH>,
+}
+
+impl Outbox {
+    pub const fn new() -> Self {
+        Outbox {
+            cmds: heapless::Deque::new(),
+            fd: heapless::Deque::new(),
+        }
+    }
+    pub fn is_empty(&self) -> bool {
+        self.cmds.is_empty()
+    }
+    pub fn is_full(&self) -> bool {
+        self.cmds.is_full()
+    }
+    /// Adds a command that is not [`PortCmd::SendFd`] (that one comes with its frame:
+    /// [`Outbox::push_fd`]).
+    pub fn push_back(&mut self, cmd: PortCmd) -> Result<(), PortCmd> {
+        self.cmds.push_back(cmd)
+    }
+    /// Adds a [`PortCmd::SendFd`] and its frame; the frame back if there is no room.
+    pub fn push_fd(&mut self, f: FdFrame) -> Result<(), FdFrame> {
+        if self.cmds.is_full() || self.fd.is_full() {
+            return Err(f);
+        }
+        let _ = self.fd.push_back(f);
+        let _ = self.cmds.push_back(PortCmd::SendFd);
+        Ok(())
+    }
+    /// Room for a [`PortCmd::SendFd`] and its frame.
+    fn has_fd_room(&self) -> bool {
+        !self.cmds.is_full() && !self.fd.is_full()
+    }
+    pub fn pop_front(&mut self) -> Option<PortCmd> {
+        self.cmds.pop_front()
+    }
+    /// The frame of the [`PortCmd::SendFd`] just popped.
+    pub fn pop_fd(&mut self) -> Option<FdFrame> {
+        self.fd.pop_front()
+    }
+}
 
 /// Everything the lock guards.
 pub(crate) struct State<D: Device> {
@@ -106,6 +168,9 @@ pub(crate) struct State<D: Device> {
     /// Per port, what its task is to do, in order; never longer than [`PORT_TX_QUEUE`] (the
     /// room is taken once, when the runtime starts).
     pub queues: Vec<VecDeque<PortCmd>>,
+    /// Per port, the CAN FD frames its [`PortCmd::SendFd`] commands stand for, in order; never
+    /// longer than [`PORT_FD_TX_QUEUE`]. Empty (no room taken) for a classic device.
+    pub fd_queues: Vec<VecDeque<FdFrame>>,
     /// The deadline the core task's timer is set for.
     pub armed: Option<crate::Instant>,
     /// The core task has stopped: port tasks write what is left in their queues, then stop.
@@ -141,6 +206,13 @@ where
         let queues = (0..counters.len())
             .map(|_| VecDeque::with_capacity(PORT_TX_QUEUE))
             .collect();
+        let fd_queues = if device.fd_capable() {
+            (0..counters.len())
+                .map(|_| VecDeque::with_capacity(PORT_FD_TX_QUEUE))
+                .collect()
+        } else {
+            Vec::new()
+        };
         State {
             device,
             clock,
@@ -150,6 +222,7 @@ where
             watchers: Vec::new(),
             last: crate::Instant::ZERO,
             queues,
+            fd_queues,
             armed: None,
             closed: false,
             drained: 0,
@@ -232,18 +305,37 @@ where
         }
     }
 
-    /// Drops the frames queued for `port` (counted as dropped).
+    /// Hands a CAN FD frame read from `port` at `read_at` to the device through
+    /// [`Device::handle_rx_fd`], with its receive timestamp on the runtime's clock as for a
+    /// classic frame (`stamp` none: the instant it is handled at).
+    pub fn input_fd(
+        &mut self,
+        port: usize,
+        f: &FdFrame,
+        stamp: Option<std::time::Instant>,
+        read_at: crate::Instant,
+    ) {
+        self.due_before(read_at, false);
+        let now = self.at(read_at);
+        let at = stamp.map_or(now, |s| self.clock.instant_of(s).min(now));
+        self.device.handle_rx_fd(now, port, f, at);
+    }
+
+    /// Drops the frames queued for `port` (counted as dropped), CAN FD ones too.
     fn drop_sends(&mut self, port: usize) {
         let (Some(q), Some(counters)) = (self.queues.get_mut(port), self.counters.get(port)) else {
             return;
         };
         q.retain(|c| {
-            let send = matches!(c, PortCmd::Send(_));
+            let send = matches!(c, PortCmd::Send(_) | PortCmd::SendFd);
             if send {
                 counters.tx_dropped();
             }
             !send
         });
+        if let Some(fd) = self.fd_queues.get_mut(port) {
+            fd.clear();
+        }
     }
 
     /// Queues `cmd` for `port`; false if the port has no room (or does not exist).
@@ -301,6 +393,7 @@ where
                     tracing::debug!(port, frame = %f, "port queue full, frame dropped");
                 }
             }
+            self.flush_fd(&mut woken);
             while let Some((port, req)) = self.device.poll_port_request() {
                 tracing::info!(port, ?req, "port request");
                 // A re-initialisation flushes the port: what waits for it was given up by
@@ -325,6 +418,35 @@ where
             }
         }
         woken
+    }
+}
+
+impl<D: Device> State<D> {
+    /// Moves the CAN FD frames the device has into their ports' FD queues, each with a
+    /// [`PortCmd::SendFd`] in the port's queue; a frame for a full queue (or from a device
+    /// that said it is classic) is dropped and counted.
+    fn flush_fd(&mut self, woken: &mut u64) {
+        if self.fd_queues.is_empty() {
+            return;
+        }
+        while let Some((port, f)) = self.device.poll_transmit_fd() {
+            let (Some(q), Some(fd)) = (self.queues.get_mut(port), self.fd_queues.get_mut(port))
+            else {
+                tracing::error!(
+                    port,
+                    "device sent a CAN FD frame on a port it does not have"
+                );
+                continue;
+            };
+            if q.len() < PORT_TX_QUEUE && fd.len() < PORT_FD_TX_QUEUE {
+                fd.push_back(f);
+                q.push_back(PortCmd::SendFd);
+                *woken |= 1u64 << port.min(63);
+            } else {
+                self.counters[port].tx_dropped();
+                tracing::debug!(port, frame = %f, "port queue full, CAN FD frame dropped");
+            }
+        }
     }
 }
 
@@ -417,33 +539,54 @@ where
         true
     }
 
-    fn take(&self, port: usize, into: &mut Outbox) -> bool {
+    fn input_fd(
+        &self,
+        port: usize,
+        frame: &FdFrame,
+        stamp: Option<std::time::Instant>,
+        at: crate::Instant,
+    ) -> bool {
+        let _later = Unlocked::new();
         let Ok(mut st) = self.state.lock() else {
             return false;
         };
         if st.closed {
+            return false;
+        }
+        st.input_fd(port, frame, stamp, at);
+        let woken = st.flush();
+        self.wake(&st, woken, Some(port));
+        true
+    }
+
+    fn take(&self, port: usize, into: &mut Outbox) -> bool {
+        let Ok(mut st) = self.state.lock() else {
+            return false;
+        };
+        let st = &mut *st;
+        let mut none = VecDeque::new();
+        let fd = st.fd_queues.get_mut(port).unwrap_or(&mut none);
+        let Some(q) = st.queues.get_mut(port) else {
+            return !st.closed;
+        };
+        if st.closed {
             // What was queued before the stop still goes out (the NMT command a tool sends
             // just before it exits): the frames, not requests to re-initialise the port.
-            if let Some(q) = st.queues.get_mut(port) {
-                while !into.is_full() {
-                    match q.pop_front() {
-                        Some(c @ PortCmd::Send(_)) => {
-                            let _ = into.push_back(c);
-                        }
-                        Some(PortCmd::Request(_)) => {}
-                        None => break,
-                    }
+            while matches!(q.front(), Some(PortCmd::Request(_))) {
+                q.pop_front();
+            }
+            while !q.is_empty() && move_one(q, fd, into) {
+                while matches!(q.front(), Some(PortCmd::Request(_))) {
+                    q.pop_front();
                 }
             }
             if into.is_empty() {
-                self.mark_drained(&mut st, port);
+                self.mark_drained(st, port);
                 return false;
             }
             return true;
         }
-        if let Some(q) = st.queues.get_mut(port) {
-            move_into(q, into);
-        }
+        move_into(q, fd, into);
         true
     }
 
@@ -533,14 +676,35 @@ fn take_frames(q: &mut VecDeque<PortCmd>, into: &mut Outbox) -> Option<bool> {
     Some(!q.is_empty())
 }
 
-/// Moves the oldest of `q` into `into`, as many as it has room for.
-pub(crate) fn move_into(q: &mut VecDeque<PortCmd>, into: &mut Outbox) {
-    while !into.is_full() {
-        match q.pop_front() {
-            Some(c) => {
+/// Moves the oldest of `q` into `into`, as many as it has room for; a [`PortCmd::SendFd`]
+/// takes its frame, the oldest of `fd`, along.
+pub(crate) fn move_into(q: &mut VecDeque<PortCmd>, fd: &mut VecDeque<FdFrame>, into: &mut Outbox) {
+    while move_one(q, fd, into) {}
+}
+
+/// Moves the oldest of `q` into `into` if it has room for it; false if not (or `q` is empty).
+fn move_one(q: &mut VecDeque<PortCmd>, fd: &mut VecDeque<FdFrame>, into: &mut Outbox) -> bool {
+    match q.front() {
+        None => false,
+        Some(PortCmd::SendFd) => {
+            if !into.has_fd_room() {
+                return false;
+            }
+            q.pop_front();
+            // Queued together: a command without its frame is a frame dropped already.
+            if let Some(f) = fd.pop_front() {
+                let _ = into.push_fd(f);
+            }
+            true
+        }
+        Some(_) => {
+            if into.is_full() {
+                return false;
+            }
+            if let Some(c) = q.pop_front() {
                 let _ = into.push_back(c);
             }
-            None => break,
+            true
         }
     }
 }
