@@ -10,9 +10,11 @@
 //! it only when the device's deadline moved earlier than the one it waits for.
 
 use super::defer::Unlocked;
+pub(crate) use super::outbox::{move_into, Outbox, PortCmd};
+use super::outbox::{move_one, take_frames};
 use super::{Clock, RuntimeEvent, PORT_FD_TX_QUEUE, PORT_TX_QUEUE};
 use crate::capture::recorder::{Tap, TapDirection, TapPoint};
-use crate::frame::{FdFrame, Frame};
+use crate::frame::FdFrame;
 use crate::machine::{Device, PortRequest, PortStatus};
 use crate::port::{PortCounters, PortInput};
 use std::collections::VecDeque;
@@ -42,19 +44,6 @@ pub(crate) trait Direct<D: Device>: Send + Sync {
     /// Runs `start` with the current time and keeps the watcher it returns; false when the
     /// runtime has stopped.
     fn watch(&self, start: Start<D, D::Event>) -> bool;
-}
-
-/// What a port task does besides reading: write a frame, re-initialise the port.
-///
-/// A CAN FD frame is not carried here: it waits in a queue of its own (72 bytes a frame), and
-/// [`PortCmd::SendFd`] only keeps its place among the other commands, so that a classic
-/// command stays as small as a classic frame.
-#[derive(Debug)]
-pub(crate) enum PortCmd {
-    Send(Frame),
-    /// Send the oldest CAN FD frame of the port's FD queue (moved along with this command).
-    SendFd,
-    Request(PortRequest),
 }
 
 /// Timeouts a device may have due at one instant before the runtime moves on: a device whose
@@ -102,56 +91,6 @@ pub(crate) trait Hub: Send + Sync + 'static {
     /// A re-initialisation of `port` is queued: a send waiting for room on it gives up (the
     /// device has given its frames up).
     fn reinit_queued(&self, port: usize) -> bool;
-}
-
-/// CAN FD frames a port task takes from its FD queue at once.
-const FD_BATCH: usize = 8;
-
-/// A port task's batch of work taken from its queue (fixed size: no allocation per frame): the
-/// commands, and the CAN FD frames their [`PortCmd::SendFd`] stand for, in the same order.
-pub(crate) struct Outbox {
-    cmds: heapless::Deque<PortCmd, 32>,
-    fd: heapless::Deque<FdFrame, FD_BATCH>,
-}
-
-impl Outbox {
-    pub const fn new() -> Self {
-        Outbox {
-            cmds: heapless::Deque::new(),
-            fd: heapless::Deque::new(),
-        }
-    }
-    pub fn is_empty(&self) -> bool {
-        self.cmds.is_empty()
-    }
-    pub fn is_full(&self) -> bool {
-        self.cmds.is_full()
-    }
-    /// Adds a command that is not [`PortCmd::SendFd`] (that one comes with its frame:
-    /// [`Outbox::push_fd`]).
-    pub fn push_back(&mut self, cmd: PortCmd) -> Result<(), PortCmd> {
-        self.cmds.push_back(cmd)
-    }
-    /// Adds a [`PortCmd::SendFd`] and its frame; the frame back if there is no room.
-    pub fn push_fd(&mut self, f: FdFrame) -> Result<(), FdFrame> {
-        if self.cmds.is_full() || self.fd.is_full() {
-            return Err(f);
-        }
-        let _ = self.fd.push_back(f);
-        let _ = self.cmds.push_back(PortCmd::SendFd);
-        Ok(())
-    }
-    /// Room for a [`PortCmd::SendFd`] and its frame.
-    fn has_fd_room(&self) -> bool {
-        !self.cmds.is_full() && !self.fd.is_full()
-    }
-    pub fn pop_front(&mut self) -> Option<PortCmd> {
-        self.cmds.pop_front()
-    }
-    /// The frame of the [`PortCmd::SendFd`] just popped.
-    pub fn pop_fd(&mut self) -> Option<FdFrame> {
-        self.fd.pop_front()
-    }
 }
 
 /// Everything the lock guards.
@@ -665,50 +604,6 @@ where
     }
 }
 
-/// Moves the frames at the head of `q` (up to its first other command) into `into`, as many as
-/// it has room for; true when something is left in `q`.
-fn take_frames(q: &mut VecDeque<PortCmd>, into: &mut Outbox) -> Option<bool> {
-    while !into.is_full() && matches!(q.front(), Some(PortCmd::Send(_))) {
-        if let Some(c) = q.pop_front() {
-            let _ = into.push_back(c);
-        }
-    }
-    Some(!q.is_empty())
-}
-
-/// Moves the oldest of `q` into `into`, as many as it has room for; a [`PortCmd::SendFd`]
-/// takes its frame, the oldest of `fd`, along.
-pub(crate) fn move_into(q: &mut VecDeque<PortCmd>, fd: &mut VecDeque<FdFrame>, into: &mut Outbox) {
-    while move_one(q, fd, into) {}
-}
-
-/// Moves the oldest of `q` into `into` if it has room for it; false if not (or `q` is empty).
-fn move_one(q: &mut VecDeque<PortCmd>, fd: &mut VecDeque<FdFrame>, into: &mut Outbox) -> bool {
-    match q.front() {
-        None => false,
-        Some(PortCmd::SendFd) => {
-            if !into.has_fd_room() {
-                return false;
-            }
-            q.pop_front();
-            // Queued together: a command without its frame is a frame dropped already.
-            if let Some(f) = fd.pop_front() {
-                let _ = into.push_fd(f);
-            }
-            true
-        }
-        Some(_) => {
-            if into.is_full() {
-                return false;
-            }
-            if let Some(c) = q.pop_front() {
-                let _ = into.push_back(c);
-            }
-            true
-        }
-    }
-}
-
 /// The core task: commands from handles and the device's deadlines.
 pub(crate) async fn run<D>(shared: Arc<Shared<D>>, mut commands: mpsc::UnboundedReceiver<Command>)
 where
@@ -756,112 +651,4 @@ where
 }
 
 #[cfg(test)]
-mod tests {
-    use super::*;
-    use crate::machine::PortRequest;
-    use crate::{Duration, Frame, Id, Instant};
-
-    /// A timer that each frame pushes back by 10 ms (as an SDO sub-block timer does), and the
-    /// order in which it saw frames and its timeout.
-    struct Timer {
-        deadline: Option<Instant>,
-        seen: Vec<String>,
-    }
-
-    impl Device for Timer {
-        type Event = ();
-        fn port_count(&self) -> usize {
-            1
-        }
-        fn handle_rx(&mut self, now: Instant, _: usize, frame: &Frame) {
-            self.seen
-                .push(format!("frame {} at {now}", frame.data()[0]));
-            self.deadline = Some(now + Duration::from_millis(10));
-        }
-        fn handle_rx_at(&mut self, now: Instant, _: usize, frame: &Frame, at: Instant) {
-            self.seen
-                .push(format!("frame {} at {now} stamped {at}", frame.data()[0]));
-        }
-        fn handle_port_status(&mut self, _: Instant, _: usize, _: PortStatus) {}
-        fn handle_timeout(&mut self, now: Instant) {
-            self.seen.push(format!("timeout at {now}"));
-            self.deadline = None;
-        }
-        fn poll_transmit(&mut self) -> Option<(usize, Frame)> {
-            None
-        }
-        fn poll_port_request(&mut self) -> Option<(usize, PortRequest)> {
-            None
-        }
-        fn poll_timeout(&self) -> Option<Instant> {
-            self.deadline
-        }
-        fn poll_event(&mut self) -> Option<()> {
-            None
-        }
-    }
-
-    /// A frame read at 8 ms, before the deadline of 10 ms, goes first and pushes the deadline
-    /// to 18 ms; a frame read at 25 ms comes after the timeout, which runs at its own 18 ms
-    /// (not at the 25 ms when the port task found it due), and at 30 ms nothing more is due.
-    #[tokio::test(start_paused = true)]
-    async fn a_deadline_falls_between_the_frames_read_before_and_after_it() {
-        let mut st = State::new(
-            Box::new(Timer {
-                deadline: Some(Instant::from_millis(10)),
-                seen: vec![],
-            }),
-            crate::runtime::Clock::start(),
-            vec![],
-            broadcast::channel(4).0,
-            None,
-        );
-        let frame = |b: u8| PortInput::Frame(Frame::new(Id::Standard(0x100), &[b]).unwrap(), None);
-        st.input(0, frame(1), Instant::from_millis(8));
-        st.input(0, frame(2), Instant::from_millis(25));
-        st.timeouts(Instant::from_millis(30));
-        assert_eq!(
-            st.device.seen,
-            [
-                "frame 1 at 0.008000s",
-                "timeout at 0.018000s",
-                "frame 2 at 0.025000s"
-            ]
-        );
-    }
-
-    /// A frame with a receive timestamp reaches the device through `handle_rx_at`, the stamp
-    /// on the runtime's clock (time since the clock started): read 35 ms after it arrived, it
-    /// keeps its arrival time. A stamp later than the instant it is handled at (a clock the
-    /// port read after the runtime's) is that instant; a frame without one goes through
-    /// `handle_rx`.
-    #[tokio::test(start_paused = true)]
-    async fn a_stamped_frame_keeps_its_arrival_time() {
-        let clock = crate::runtime::Clock::start();
-        let origin = tokio::time::Instant::now().into_std();
-        let mut st = State::new(
-            Box::new(Timer {
-                deadline: None,
-                seen: vec![],
-            }),
-            clock,
-            vec![],
-            broadcast::channel(4).0,
-            None,
-        );
-        let ms = std::time::Duration::from_millis;
-        let frame =
-            |b: u8, at| PortInput::Frame(Frame::new(Id::Standard(0x100), &[b]).unwrap(), at);
-        st.input(0, frame(1, Some(origin + ms(5))), Instant::from_millis(40));
-        st.input(0, frame(2, Some(origin + ms(90))), Instant::from_millis(50));
-        st.input(0, frame(3, None), Instant::from_millis(60));
-        assert_eq!(
-            st.device.seen,
-            [
-                "frame 1 at 0.040000s stamped 0.005000s",
-                "frame 2 at 0.050000s stamped 0.050000s",
-                "frame 3 at 0.060000s"
-            ]
-        );
-    }
-}
+mod tests;
