@@ -112,3 +112,78 @@ async fn a_stamped_frame_keeps_its_arrival_time() {
 fn a_port_command_is_the_size_of_a_classic_frame() {
     assert!(std::mem::size_of::<PortCmd>() <= std::mem::size_of::<Frame>() + 8);
 }
+
+/// A device that speaks CAN FD and yields what it is given, all on port 0.
+#[derive(Default)]
+struct FdOut {
+    classic: Vec<Frame>,
+    fd: Vec<crate::FdFrame>,
+    reinit: bool,
+}
+
+impl Device for FdOut {
+    type Event = ();
+    fn port_count(&self) -> usize {
+        1
+    }
+    fn handle_rx(&mut self, _: Instant, _: usize, _: &Frame) {}
+    fn handle_port_status(&mut self, _: Instant, _: usize, _: PortStatus) {}
+    fn handle_timeout(&mut self, _: Instant) {}
+    fn poll_transmit(&mut self) -> Option<(usize, Frame)> {
+        self.classic.pop().map(|f| (0, f))
+    }
+    fn poll_port_request(&mut self) -> Option<(usize, PortRequest)> {
+        std::mem::take(&mut self.reinit).then_some((0, PortRequest::Reinit))
+    }
+    fn poll_timeout(&self) -> Option<Instant> {
+        None
+    }
+    fn poll_event(&mut self) -> Option<()> {
+        None
+    }
+    fn fd_capable(&self) -> bool {
+        true
+    }
+    fn poll_transmit_fd(&mut self) -> Option<(usize, crate::FdFrame)> {
+        self.fd.pop().map(|f| (0, f))
+    }
+}
+
+/// FD frames are queued beside the port's commands and taken with them, in order; a
+/// re-initialisation drops them with the classic frames, counted.
+#[tokio::test]
+async fn fd_frames_move_with_their_commands_and_go_with_a_re_init() {
+    let fd = |b: u8| crate::FdFrame::new(Id::Standard(0x200), &[b; 20]).unwrap();
+    let counters = crate::port::PortCounters::new();
+    let mut st = State::new(
+        Box::new(FdOut {
+            classic: vec![Frame::from_array(Id::Standard(0x100), [9])],
+            fd: vec![fd(2), fd(1)],
+            reinit: false,
+        }),
+        crate::runtime::Clock::start(),
+        vec![counters.clone()],
+        broadcast::channel(4).0,
+        None,
+    );
+    assert_eq!(st.flush(), 1);
+    let mut out = Outbox::new();
+    move_into(&mut st.queues[0], &mut st.fd_queues[0], &mut out);
+    assert!(matches!(out.pop_front(), Some(PortCmd::Send(f)) if f.data() == [9]));
+    for b in [1, 2] {
+        assert!(matches!(out.pop_front(), Some(PortCmd::SendFd)));
+        assert_eq!(out.pop_fd(), Some(fd(b)));
+    }
+    assert!(out.is_empty() && st.fd_queues[0].is_empty());
+
+    st.device.fd = vec![fd(4), fd(3)];
+    st.device.classic = vec![Frame::from_array(Id::Standard(0x100), [5])];
+    st.device.reinit = true;
+    st.flush();
+    assert!(matches!(
+        st.queues[0].iter().collect::<Vec<_>>()[..],
+        [PortCmd::Request(PortRequest::Reinit)]
+    ));
+    assert!(st.fd_queues[0].is_empty());
+    assert_eq!(counters.snapshot().tx_dropped, 3);
+}
