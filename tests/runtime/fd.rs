@@ -242,3 +242,78 @@ async fn a_full_fd_queue_drops_and_counts() {
     );
     fd.shutdown().await;
 }
+
+/// FD frames the device yields just before a shutdown still go out before it returns, as
+/// classic ones do.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn fd_frames_queued_before_a_shutdown_go_out() {
+    let bus = MemBus::new("fd");
+    let mut tester = bus.port();
+    let fd = Runtime::new(Probe::new(true))
+        .port(bus.port())
+        .spawn()
+        .unwrap();
+    let (frames, _) = traffic();
+    let queued = frames.clone();
+    fd.call(move |d, _| d.out_fd.extend(queued)).await.unwrap();
+    fd.shutdown().await;
+    for f in frames {
+        assert!(matches!(next(&mut tester).await, AnyInput::Fd(got, _) if got == f));
+    }
+}
+
+/// A classic port under an FD device: what it hands over goes to the device as before, and
+/// an FD frame it cannot send is reported as a failed send (the port stays up).
+struct ClassicOnly(duocan::port::mem::MemPort);
+
+impl Port for ClassicOnly {
+    fn name(&self) -> &str {
+        self.0.name()
+    }
+    fn counters(&self) -> duocan::port::PortCounters {
+        self.0.counters()
+    }
+    async fn recv(&mut self) -> Result<duocan::port::PortInput, duocan::port::PortError> {
+        self.0.recv().await
+    }
+    async fn send(&mut self, frame: &Frame) -> Result<(), duocan::port::PortError> {
+        self.0.send(frame).await
+    }
+    async fn reopen(&mut self) -> Result<(), duocan::port::PortError> {
+        self.0.reopen().await
+    }
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn an_fd_frame_a_classic_port_cannot_send_is_reported() {
+    let bus = MemBus::new("classic");
+    let mut tester = bus.port();
+    let fd = Runtime::new(Probe::new(true))
+        .port(ClassicOnly(bus.port()))
+        .spawn()
+        .unwrap();
+    let mut events = fd.subscribe();
+    let (frames, plain) = traffic();
+    let f0 = frames[0];
+    fd.call(move |d, _| {
+        d.out_fd.push_back(f0);
+        d.out.push_back(plain);
+    })
+    .await
+    .unwrap();
+    assert!(matches!(next(&mut tester).await, AnyInput::Frame(f, _) if f == plain));
+    let failed = tokio::time::timeout(Duration::from_secs(5), async {
+        loop {
+            if let duocan::runtime::RuntimeEvent::Port { status, .. } = events.recv().await.unwrap()
+            {
+                return status;
+            }
+        }
+    })
+    .await
+    .expect("no report");
+    assert!(matches!(failed, PortStatus::TxFailed(_)), "{failed:?}");
+    tester.send(&plain).await.unwrap();
+    assert_eq!(received(&fd, 1).await, [Got::Classic(plain)]);
+    fd.shutdown().await;
+}
