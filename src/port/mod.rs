@@ -27,7 +27,14 @@
 //! to FD when it is opened for it (SocketCAN: `SocketCanPort::open_fd`, which checks the
 //! interface's MTU; UDP: `UdpBusConfig::with_fd`). `recv` of an FD port still hands over
 //! classic frames only, counting FD ones as invalid. The `embedded` adapter stays classic:
-//! `embedded_can::Frame` has no CAN FD frame.
+//! `embedded_can::Frame` has no CAN FD frame. Every port of the in-memory bus (`mem`) carries
+//! FD frames.
+//!
+//! The runtime reads the ports of a device that speaks CAN FD
+//! ([`Device::fd_capable`](crate::Device::fd_capable)) through `recv_any` and sends the FD
+//! frames it yields through `send_fd`, from a queue of their own beside the classic one (see
+//! the runtime's CAN FD section); a classic device's ports it reads through `recv` (or a
+//! reader thread) and writes through `send`, as before.
 //!
 //! Implementations: `socketcan` (Linux SocketCAN, feature `socketcan`), `udp` (python-can's
 //! `udp_multicast` bus, feature `udp`), and for no_std targets the synchronous [`embedded`]

@@ -37,6 +37,24 @@
 //! the instant the frame is handled at), one without through [`Device::handle_rx`], at the
 //! instant it was read. So a reader the scheduler held up hands its frames over late, but they
 //! keep the time they arrived; a tap records received frames at that time too.
+//!
+//! # CAN FD
+//!
+//! A device that speaks CAN FD ([`Device::fd_capable`]) has its ports read through
+//! [`Port::recv_any`]: a CAN FD frame goes to [`Device::handle_rx_fd`] with its receive
+//! timestamp on the runtime's clock as a classic frame's does (the instant it is handled at if
+//! the port took none), a classic frame and a status as above. The FD frames the device yields
+//! ([`Device::poll_transmit_fd`], asked after the classic ones) wait in a queue of their own per
+//! port ([`PORT_FD_TX_QUEUE`] frames; each also holds a place in the port's queue, which keeps
+//! the order the device yielded them in) and go out through [`Port::send_fd`]: a send that
+//! fails is reported as a classic one is ([`PortStatus::TxFailed`](crate::PortStatus), or the
+//! port down and re-opened), a frame for a full queue is dropped and counted
+//! ([`PortCounters`]' `tx_dropped`). A classic command stays the size of a classic frame: the
+//! 72 bytes of an FD frame do not travel through every port's queue. Such a device's ports are
+//! not read by a reader thread ([`Port::reader`] moves classic frames only), and the tap
+//! records its classic frames only. A classic device is driven as before: its ports are read
+//! through [`Port::recv`] (a port opened for CAN FD counts the FD frames it skips as invalid)
+//! and it is never asked for FD frames.
 
 //! Everything the application does goes through the [`Handle`] as a closure run on the device
 //! under the runtime's lock ([`Handle::call`]), with typed helpers for nodes ([`NodeHost`]) and a
@@ -86,6 +104,7 @@
 mod defer;
 mod handle;
 mod node;
+mod outbox;
 mod port_task;
 mod reader;
 mod sdo;
@@ -108,6 +127,10 @@ use tracing::Instrument;
 
 /// Capacity of each port's outgoing queue (frames the device produced, not yet written).
 pub const PORT_TX_QUEUE: usize = 256;
+/// Capacity of each port's outgoing queue of CAN FD frames, for a device that speaks CAN FD
+/// ([`Device::fd_capable`]); each of them takes a place in [`PORT_TX_QUEUE`] too, which keeps
+/// the order of classic and FD frames. A frame for a full queue is dropped and counted.
+pub const PORT_FD_TX_QUEUE: usize = 64;
 /// Capacity of the event broadcast: a subscriber lagging further misses events (and is told).
 pub const EVENT_QUEUE: usize = 1024;
 
@@ -280,6 +303,7 @@ where
             });
         }
         let clock = Clock::start();
+        let fd = self.device.fd_capable();
         let (cmd_tx, cmd_rx) = mpsc::unbounded_channel();
         let (ev_tx, _) = broadcast::channel(EVENT_QUEUE);
         let mut names = Vec::with_capacity(given);
@@ -308,6 +332,7 @@ where
                 index,
                 net: self.name.clone(),
                 clock,
+                fd,
                 hub: shared.clone(),
                 wake: shared.ports[index].clone(),
             });
@@ -322,219 +347,4 @@ where
 }
 
 #[cfg(test)]
-mod tests {
-    use super::*;
-
-    proptest::proptest! {
-        /// The clock's microseconds are the standard library's, without its 128-bit division.
-        #[test]
-        fn micros_are_the_standard_librarys(secs in 0u64..1 << 40, nanos in 0u32..1_000_000_000) {
-            let d = std::time::Duration::new(secs, nanos);
-            proptest::prop_assert_eq!(
-                micros(d),
-                Instant::from_micros(u64::try_from(d.as_micros()).unwrap())
-            );
-        }
-    }
-    use crate::machine::{Station, StationEvent};
-    use crate::node::{NodeEvent, NodeEventKind};
-    use crate::od::{comm, DynamicDictionary};
-    use crate::port::mem::MemBus;
-    use crate::{NmtCommand, NmtState, NmtTarget, Node, NodeConfig, NodeId};
-    use std::time::Duration as StdDuration;
-
-    type Dev = Station<crate::machine::SinglePort, Node<DynamicDictionary>>;
-
-    fn node(id: u8, master: bool, hb_ms: u16) -> Dev {
-        let nid = NodeId::new(id).unwrap();
-        let mut od = comm::standard_dictionary(id, comm::Identity::default());
-        use crate::od::ObjectDictionary;
-        od.write_local(comm::HEARTBEAT_PRODUCER, 0, &hb_ms.to_le_bytes())
-            .unwrap();
-        let cfg = if master {
-            NodeConfig::master(nid)
-        } else {
-            NodeConfig::slave(nid)
-        };
-        Station::single(Node::new(cfg, od))
-    }
-
-    fn node_event(
-        e: &RuntimeEvent<StationEvent<std::convert::Infallible, NodeEvent>>,
-    ) -> Option<NodeEventKind> {
-        match e {
-            RuntimeEvent::Device(StationEvent::Machine(n)) => Some(n.kind),
-            _ => None,
-        }
-    }
-
-    #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
-    async fn master_starts_a_slave_and_hears_its_heartbeat() {
-        let bus = MemBus::new("mem0");
-        let slave = Runtime::new(node(5, false, 20))
-            .name("slave")
-            .port(bus.port())
-            .spawn()
-            .unwrap();
-        let master = Runtime::new(node(1, true, 0))
-            .name("master")
-            .port(bus.port())
-            .spawn()
-            .unwrap();
-        let mut ev = master.subscribe();
-        slave.boot().await.unwrap();
-        master.boot().await.unwrap();
-        master
-            .nmt(NmtCommand::Start, NmtTarget::Node(NodeId::new(5).unwrap()))
-            .await
-            .unwrap();
-        let seen = tokio::time::timeout(StdDuration::from_secs(5), async {
-            loop {
-                let e = ev.recv().await.unwrap();
-                if let Some(NodeEventKind::RemoteState {
-                    node,
-                    to: NmtState::Operational,
-                    ..
-                }) = node_event(&e)
-                {
-                    return node;
-                }
-            }
-        })
-        .await
-        .expect("master saw the slave operational");
-        assert_eq!(seen.raw(), 5);
-        assert_eq!(slave.nmt_state().await.unwrap(), NmtState::Operational);
-        assert_eq!(slave.read(0x1017, 0).await.unwrap(), 20u16.to_le_bytes());
-        // Heartbeats come from the node's deadlines: about 1 per 20 ms, not per runtime tick.
-        let before = master.port_counters(0).unwrap().rx_frames;
-        tokio::time::sleep(StdDuration::from_millis(400)).await;
-        let n = master.port_counters(0).unwrap().rx_frames - before;
-        assert!((10..=22).contains(&n), "{n} heartbeats in 400 ms at 20 ms");
-        // A write through the handle takes effect: heartbeat off, frames stop.
-        slave
-            .write(0x1017, 0, 0u16.to_le_bytes().to_vec())
-            .await
-            .unwrap();
-        tokio::time::sleep(StdDuration::from_millis(50)).await;
-        let before = master.port_counters(0).unwrap().rx_frames;
-        tokio::time::sleep(StdDuration::from_millis(200)).await;
-        assert_eq!(master.port_counters(0).unwrap().rx_frames, before);
-        slave.shutdown().await;
-        master.shutdown().await;
-        assert!(master.nmt_state().await.is_err(), "closed runtime says so");
-    }
-
-    #[tokio::test]
-    async fn port_count_must_match() {
-        let bus = MemBus::new("m");
-        let e = Runtime::new(node(1, true, 0))
-            .port(bus.port())
-            .port(bus.port())
-            .spawn();
-        assert_eq!(
-            e.err(),
-            Some(StartError::PortCount {
-                device: 1,
-                given: 2
-            })
-        );
-    }
-
-    #[tokio::test]
-    async fn request_waits_for_the_completing_event() {
-        let bus = MemBus::new("m");
-        let master = Runtime::new(node(1, true, 0))
-            .port(bus.port())
-            .spawn()
-            .unwrap();
-        let slave = Runtime::new(node(9, false, 0))
-            .port(bus.port())
-            .spawn()
-            .unwrap();
-        slave.boot().await.unwrap();
-        // Start: boot the master; done: the event that says it is operational.
-        let r = master.request(
-            |d, now| {
-                d.machine.boot(now);
-                Ok::<_, RuntimeError>(d.machine.id())
-            },
-            |id, e| match e {
-                StationEvent::Machine(NodeEvent {
-                    kind:
-                        NodeEventKind::StateChanged {
-                            to: NmtState::Operational,
-                            ..
-                        },
-                    at,
-                }) => Some(Ok((*id, *at))),
-                _ => None,
-            },
-        );
-        let (id, _at) = tokio::time::timeout(StdDuration::from_secs(5), r)
-            .await
-            .unwrap()
-            .unwrap();
-        assert_eq!(id.raw(), 1);
-    }
-
-    #[derive(Clone, Default)]
-    struct Shared(Arc<std::sync::Mutex<Vec<u8>>>);
-    impl std::io::Write for Shared {
-        fn write(&mut self, b: &[u8]) -> std::io::Result<usize> {
-            self.0.lock().unwrap().extend_from_slice(b);
-            Ok(b.len())
-        }
-        fn flush(&mut self) -> std::io::Result<()> {
-            Ok(())
-        }
-    }
-
-    #[tokio::test]
-    async fn the_tap_records_what_each_port_sends_and_receives() {
-        use crate::capture::{
-            candump,
-            recorder::{Filter, Recorder},
-        };
-        let bus = MemBus::new("m");
-        let log = Shared::default();
-        let rec = Arc::new(
-            Recorder::with_epoch(0)
-                .port_names(["mem0"])
-                .candump(Filter::All, log.clone()),
-        );
-        let master = Runtime::new(node(1, true, 0))
-            .port(bus.port())
-            .tap(rec.clone())
-            .spawn()
-            .unwrap();
-        let slave = Runtime::new(node(5, false, 0))
-            .port(bus.port())
-            .spawn()
-            .unwrap();
-        let mut ev = master.subscribe();
-        master.boot().await.unwrap();
-        slave.boot().await.unwrap();
-        tokio::time::timeout(StdDuration::from_secs(5), async {
-            loop {
-                if let Some(NodeEventKind::BootUp { .. }) = node_event(&ev.recv().await.unwrap()) {
-                    return;
-                }
-            }
-        })
-        .await
-        .unwrap();
-        let text = String::from_utf8(log.0.lock().unwrap().clone()).unwrap();
-        let frames: Vec<_> = text
-            .lines()
-            .map(|l| candump::parse_line(l).unwrap())
-            .map(|e| (e.interface, e.record.frame().copied().unwrap()))
-            .collect();
-        let boot = |id: u16| crate::Frame::from_array(crate::Id::Standard(0x700 + id), [0]);
-        assert_eq!(
-            frames,
-            [("mem0".to_string(), boot(1)), ("mem0".to_string(), boot(5))],
-            "the master's own boot-up (sent) and the slave's (received)"
-        );
-    }
-}
+mod tests;

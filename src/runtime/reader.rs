@@ -151,7 +151,10 @@ pub(super) async fn run<P: Port>(mut port: P, first: Box<dyn PortReader>, w: Wir
             ctl.exited.notified().await;
         }
         let step = match outcome {
-            Outcome::Reinit => command(&mut port, &w, PortCmd::Request(PortRequest::Reinit)).await,
+            Outcome::Reinit => {
+                let reinit = PortCmd::Request(PortRequest::Reinit);
+                command(&mut port, &w, reinit, &mut out).await
+            }
             Outcome::Step(s) => s,
         };
         if !settle(&mut port, &w, &mut out, step).await {
@@ -230,7 +233,7 @@ async fn serve<P: Port>(
                     if matches!(cmd, PortCmd::Request(PortRequest::Reinit)) {
                         return Outcome::Reinit;
                     }
-                    let step = command(port, w, cmd).await;
+                    let step = command(port, w, cmd, out).await;
                     if !matches!(step, Step::Continue) {
                         return Outcome::Step(step);
                     }

@@ -155,6 +155,26 @@ macro_rules! forward_device {
             fn poll_event(&mut self) -> Option<D::Event> {
                 (**self).poll_event()
             }
+            // Here rather than in `forward_device_to!`, which expands in other crates: there
+            // `feature = "fd"` would be theirs, not this crate's.
+            #[cfg(feature = "fd")]
+            fn fd_capable(&self) -> bool {
+                (**self).fd_capable()
+            }
+            #[cfg(feature = "fd")]
+            fn handle_rx_fd(
+                &mut self,
+                now: $crate::Instant,
+                port: usize,
+                frame: &$crate::frame::FdFrame,
+                at: $crate::Instant,
+            ) {
+                (**self).handle_rx_fd(now, port, frame, at);
+            }
+            #[cfg(feature = "fd")]
+            fn poll_transmit_fd(&mut self) -> Option<(usize, $crate::frame::FdFrame)> {
+                (**self).poll_transmit_fd()
+            }
         }
     };
 }

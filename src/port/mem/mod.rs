@@ -7,10 +7,16 @@
 //! the end of the frame's time on the bus as the schedule books it, but never later than the
 //! instant it was handed to the receivers: a sender that wakes late with a backlog puts its
 //! frames on the bus at their booked times, which are earlier than the wake-up.
+//!
+//! The bus carries CAN FD frames too: every port sends them ([`Port::send_fd`]) and hands them
+//! over through [`Port::recv_any`], in order with the classic ones; its [`Port::recv`] counts
+//! them as invalid and skips them, as a real port opened for CAN FD does. A paced bus books an
+//! FD frame at its bit rate throughout, as if without bit rate switching.
 
-use super::{Port, PortCounters, PortError, PortErrorKind, PortInput};
-use crate::frame::Frame;
+use super::{AnyInput, Port, PortCounters, PortError, PortErrorKind, PortInput};
+use crate::frame::{FdFrame, Frame};
 use crate::machine::PortStatus;
+use std::sync::Arc;
 use tokio::sync::broadcast;
 
 /// Frames a slow port may fall behind before it loses some (counted as `rx_invalid`).
@@ -23,10 +29,21 @@ pub const MEM_BUS_BURST: std::time::Duration = std::time::Duration::from_millis(
 /// [`MemBus::with_bit_rate`]).
 pub const MEM_BUS_CATCH_UP: std::time::Duration = std::time::Duration::from_millis(100);
 
+/// What the bus carries: a classic frame as it is, a CAN FD frame shared (so that every
+/// classic frame in the bus's buffer does not take an FD frame's room).
+#[derive(Clone, Debug)]
+enum Wire {
+    Classic(Frame),
+    Fd(Arc<FdFrame>),
+}
+
+/// A frame on the bus: its sender, the frame, when it went onto the bus.
+type Carried = (u64, Wire, std::time::Instant);
+
 /// One in-process bus.
 #[derive(Clone, Debug)]
 pub struct MemBus {
-    tx: broadcast::Sender<(u64, Frame, std::time::Instant)>,
+    tx: broadcast::Sender<Carried>,
     name: String,
     pace: Option<std::sync::Arc<Pace>>,
 }
@@ -50,18 +67,28 @@ impl Pace {
     /// Books `frame`'s time on the bus: the instant to wait for when the senders ran more than
     /// [`MEM_BUS_BURST`] ahead, and the instant the frame is through.
     fn book(&self, frame: &Frame) -> (Option<tokio::time::Instant>, tokio::time::Instant) {
+        let data = if frame.is_remote() {
+            0
+        } else {
+            u64::from(frame.dlc())
+        };
+        self.book_bits(frame.id(), data)
+    }
+
+    /// [`Pace::book`] for a frame with `id` and `data` bytes.
+    fn book_bits(
+        &self,
+        id: crate::frame::Id,
+        data: u64,
+    ) -> (Option<tokio::time::Instant>, tokio::time::Instant) {
         // The nominal length (no stuff bits): SOF to the intermission, 47 bits of frame around
         // the data for an 11-bit identifier, 67 for a 29-bit one.
-        let overhead = if matches!(frame.id(), crate::frame::Id::Standard(_)) {
+        let overhead = if matches!(id, crate::frame::Id::Standard(_)) {
             47
         } else {
             67
         };
-        let data = if frame.is_remote() {
-            0
-        } else {
-            8 * u64::from(frame.dlc())
-        };
+        let data = 8 * data;
         let time = std::time::Duration::from_nanos((overhead + data) * self.bit_ns);
         let now = tokio::time::Instant::now();
         let mut b = self.booked.lock().unwrap_or_else(|p| p.into_inner());
@@ -143,7 +170,7 @@ impl MemBus {
 #[derive(Debug)]
 pub struct MemPort {
     bus: MemBus,
-    rx: Option<broadcast::Receiver<(u64, Frame, std::time::Instant)>>,
+    rx: Option<broadcast::Receiver<Carried>>,
     me: u64,
     counters: PortCounters,
     /// Made to confirm transmissions when asked ([`MemBus::confirming_port`]).
@@ -161,6 +188,50 @@ impl Port for MemPort {
     }
     async fn recv(&mut self) -> Result<PortInput, PortError> {
         loop {
+            match self.recv_wire().await? {
+                AnyInput::Frame(f, at) => return Ok(PortInput::Frame(f, at)),
+                AnyInput::Status(s) => return Ok(PortInput::Status(s)),
+                // What a classic read cannot hand over.
+                AnyInput::Fd(..) => self.counters.rx_invalid(),
+            }
+        }
+    }
+    async fn recv_any(&mut self) -> Result<AnyInput, PortError> {
+        let x = self.recv_wire().await?;
+        if let AnyInput::Fd(..) = x {
+            self.counters.rx_frames();
+        }
+        Ok(x)
+    }
+    async fn send(&mut self, frame: &Frame) -> Result<(), PortError> {
+        let booked = self.bus.pace.as_ref().map(|p| p.book(frame));
+        self.put(booked, Wire::Classic(*frame)).await;
+        Ok(())
+    }
+    async fn send_fd(&mut self, frame: &FdFrame) -> Result<(), PortError> {
+        let booked = self
+            .bus
+            .pace
+            .as_ref()
+            .map(|p| p.book_bits(frame.id(), u64::try_from(frame.len()).unwrap_or(u64::MAX)));
+        self.put(booked, Wire::Fd(Arc::new(*frame))).await;
+        Ok(())
+    }
+    fn confirm_transmissions(&mut self) -> bool {
+        self.confirm = self.echoes;
+        self.confirm
+    }
+    async fn reopen(&mut self) -> Result<(), PortError> {
+        self.rx = Some(self.bus.tx.subscribe());
+        self.counters.reopened();
+        Ok(())
+    }
+}
+
+impl MemPort {
+    /// The next input, classic or FD (a CAN FD frame not yet counted).
+    async fn recv_wire(&mut self) -> Result<AnyInput, PortError> {
+        loop {
             let Some(rx) = self.rx.as_mut() else {
                 return Err(PortError::new(
                     &self.bus.name,
@@ -172,18 +243,20 @@ impl Port for MemPort {
                 // Its own frame, back from the bus: the confirmation of its transmission.
                 Ok((from, _, _)) if from == self.me => {
                     if self.confirm {
-                        return Ok(PortInput::Status(PortStatus::TxOk));
+                        return Ok(AnyInput::Status(PortStatus::TxOk));
                     }
                 }
-                Ok((_, f, at)) => {
+                Ok((_, Wire::Classic(f), at)) => {
                     self.counters.rx_frames();
-                    return Ok(PortInput::Frame(f, Some(at)));
+                    return Ok(AnyInput::Frame(f, Some(at)));
                 }
+                // Counted by the caller: a frame for `recv_any`, invalid for `recv`.
+                Ok((_, Wire::Fd(f), at)) => return Ok(AnyInput::Fd(*f, Some(at))),
                 Err(broadcast::error::RecvError::Lagged(n)) => {
                     for _ in 0..n {
                         self.counters.rx_invalid();
                     }
-                    return Ok(PortInput::Status(PortStatus::Error(
+                    return Ok(AnyInput::Status(PortStatus::Error(
                         crate::machine::ErrorCause::RxOverflow,
                     )));
                 }
@@ -193,8 +266,14 @@ impl Port for MemPort {
             }
         }
     }
-    async fn send(&mut self, frame: &Frame) -> Result<(), PortError> {
-        let through = match self.bus.pace.as_ref().map(|p| p.book(frame)) {
+
+    /// Puts `wire` onto the bus, after the wait its booking asks for.
+    async fn put(
+        &mut self,
+        booked: Option<(Option<tokio::time::Instant>, tokio::time::Instant)>,
+        wire: Wire,
+    ) {
+        let through = match booked {
             Some((wait, through)) => {
                 if let Some(t) = wait {
                     tokio::time::sleep_until(t).await;
@@ -207,18 +286,8 @@ impl Port for MemPort {
         let now = tokio::time::Instant::now();
         let at = through.map_or(now, |t| t.min(now)).into_std();
         // No receivers is not an error: nobody else is on the bus.
-        let _ = self.bus.tx.send((self.me, *frame, at));
+        let _ = self.bus.tx.send((self.me, wire, at));
         self.counters.tx_frames();
-        Ok(())
-    }
-    fn confirm_transmissions(&mut self) -> bool {
-        self.confirm = self.echoes;
-        self.confirm
-    }
-    async fn reopen(&mut self) -> Result<(), PortError> {
-        self.rx = Some(self.bus.tx.subscribe());
-        self.counters.reopened();
-        Ok(())
     }
 }
 
@@ -300,6 +369,22 @@ impl Port for PluggedPort {
         }
         self.inner.send(frame).await
     }
+    async fn send_fd(&mut self, frame: &FdFrame) -> Result<(), PortError> {
+        if self.is_pulled() {
+            return Err(self.down());
+        }
+        self.inner.send_fd(frame).await
+    }
+    async fn recv_any(&mut self) -> Result<AnyInput, PortError> {
+        if self.is_pulled() {
+            return Err(self.down());
+        }
+        tokio::select! {
+            r = self.inner.recv_any() => return r,
+            _ = self.pulled.wait_for(|c| *c) => {}
+        }
+        Err(self.down())
+    }
     fn confirm_transmissions(&mut self) -> bool {
         self.inner.confirm_transmissions()
     }
@@ -312,116 +397,4 @@ impl Port for PluggedPort {
 }
 
 #[cfg(test)]
-mod tests {
-    use super::*;
-
-    /// 100 frames of 8 bytes with 11-bit identifiers are 111 bits each: at 125 kbit/s (8 µs a
-    /// bit) the bus is busy 88.8 ms, and the sender may run 2 ms ahead of it; every frame is
-    /// heard, in order.
-    #[tokio::test(start_paused = true)]
-    async fn a_paced_bus_takes_the_time_its_bit_rate_gives() {
-        let bus = MemBus::with_bit_rate("paced", 125_000);
-        let mut tx = bus.port();
-        let mut rx = bus.port();
-        let start = tokio::time::Instant::now();
-        for i in 0..100u8 {
-            let f = Frame::new(crate::frame::Id::Standard(0x181), &[i; 8]).unwrap();
-            tx.send(&f).await.unwrap();
-        }
-        let took = start.elapsed();
-        let busy = std::time::Duration::from_micros(100 * 111 * 8);
-        assert!(took >= busy - MEM_BUS_BURST && took <= busy, "{took:?}");
-        for i in 0..100u8 {
-            let PortInput::Frame(f, _) = rx.recv().await.unwrap() else {
-                panic!("a frame")
-            };
-            assert_eq!(f.data(), [i; 8]);
-        }
-        // An unpaced bus takes no time at all.
-        let bus = MemBus::new("free");
-        let mut tx = bus.port();
-        let start = tokio::time::Instant::now();
-        for _ in 0..100 {
-            tx.send(&Frame::new(crate::frame::Id::Standard(1), &[0; 8]).unwrap())
-                .await
-                .unwrap();
-        }
-        assert_eq!(start.elapsed(), std::time::Duration::ZERO);
-    }
-
-    /// A sender with a backlog that comes back 30 ms late (held up on a loaded machine): the
-    /// bus makes the 30 ms up, so 200 frames still take their bus time, not 30 ms more. A bus
-    /// idle for longer than it makes up starts again from its idle time.
-    #[tokio::test(start_paused = true)]
-    async fn a_paced_bus_makes_up_for_a_late_sender() {
-        let bus = MemBus::with_bit_rate("paced", 125_000);
-        let mut tx = bus.port();
-        let f = Frame::new(crate::frame::Id::Standard(0x181), &[0; 8]).unwrap();
-        let busy = |n: u32| std::time::Duration::from_micros(u64::from(n) * 111 * 8);
-        let start = tokio::time::Instant::now();
-        for i in 0..200 {
-            if i == 100 {
-                tokio::time::advance(std::time::Duration::from_millis(30)).await;
-            }
-            tx.send(&f).await.unwrap();
-        }
-        let took = start.elapsed();
-        assert!(
-            took >= busy(200) - MEM_BUS_BURST && took <= busy(200),
-            "{took:?}"
-        );
-        // Idle for a second: nothing to make up, the next 100 frames take their own bus time.
-        tokio::time::advance(std::time::Duration::from_secs(1)).await;
-        let start = tokio::time::Instant::now();
-        for _ in 0..100 {
-            tx.send(&f).await.unwrap();
-        }
-        let took = start.elapsed();
-        assert!(
-            took >= busy(100) - MEM_BUS_BURST && took <= busy(100),
-            "{took:?}"
-        );
-    }
-
-    /// A frame read late keeps the instant it went onto the bus. On a paced bus, a sender with a
-    /// backlog that comes back 30 ms late puts its next frame on the bus at its booked time
-    /// (the bus made up the 30 ms): stamped so, before the instant it was sent.
-    #[tokio::test(start_paused = true)]
-    async fn a_frame_is_stamped_with_its_time_on_the_bus() {
-        let f = Frame::new(crate::frame::Id::Standard(0x181), &[0; 8]).unwrap();
-        let stamp = |x: PortInput| match x {
-            PortInput::Frame(_, at) => at.expect("a memory bus stamps every frame"),
-            other => panic!("{other:?}"),
-        };
-        let bus = MemBus::new("free");
-        let (mut tx, mut rx) = (bus.port(), bus.port());
-        let sent = tokio::time::Instant::now();
-        tx.send(&f).await.unwrap();
-        tokio::time::advance(std::time::Duration::from_millis(30)).await;
-        assert_eq!(stamp(rx.recv().await.unwrap()), sent.into_std());
-
-        let bus = MemBus::with_bit_rate("paced", 125_000);
-        let (mut tx, mut rx) = (bus.port(), bus.port());
-        let start = tokio::time::Instant::now();
-        for i in 0..101 {
-            if i == 100 {
-                tokio::time::advance(std::time::Duration::from_millis(30)).await;
-            }
-            tx.send(&f).await.unwrap();
-        }
-        let sent = tokio::time::Instant::now();
-        let mut stamps = vec![];
-        for _ in 0..101 {
-            stamps.push(stamp(rx.recv().await.unwrap()));
-        }
-        assert!(stamps.windows(2).all(|w| w[0] <= w[1]), "in order");
-        // 111 bits of 8 µs each: the 101st frame is through 101 × 888 µs after the start.
-        let booked = start + std::time::Duration::from_micros(101 * 888);
-        assert_eq!(stamps[100], booked.into_std());
-        assert!(
-            sent - booked >= std::time::Duration::from_millis(25),
-            "{:?}",
-            sent - booked
-        );
-    }
-}
+mod tests;

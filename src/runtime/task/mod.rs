@@ -10,9 +10,11 @@
 //! it only when the device's deadline moved earlier than the one it waits for.
 
 use super::defer::Unlocked;
-use super::{Clock, RuntimeEvent, PORT_TX_QUEUE};
+pub(crate) use super::outbox::{move_into, Outbox, PortCmd};
+use super::outbox::{move_one, take_frames};
+use super::{Clock, RuntimeEvent, PORT_FD_TX_QUEUE, PORT_TX_QUEUE};
 use crate::capture::recorder::{Tap, TapDirection, TapPoint};
-use crate::frame::Frame;
+use crate::frame::FdFrame;
 use crate::machine::{Device, PortRequest, PortStatus};
 use crate::port::{PortCounters, PortInput};
 use std::collections::VecDeque;
@@ -44,13 +46,6 @@ pub(crate) trait Direct<D: Device>: Send + Sync {
     fn watch(&self, start: Start<D, D::Event>) -> bool;
 }
 
-/// What a port task does besides reading: write a frame, re-initialise the port.
-#[derive(Debug)]
-pub(crate) enum PortCmd {
-    Send(Frame),
-    Request(PortRequest),
-}
-
 /// Timeouts a device may have due at one instant before the runtime moves on: a device whose
 /// deadline stays in the past after its timeout ran must not hold a port task forever.
 const TIMEOUTS_PER_INPUT: usize = 64;
@@ -73,6 +68,15 @@ pub(crate) trait Hub: Send + Sync + 'static {
     /// `into` as far as it has room: what a reader thread writes itself. `Some(true)` when
     /// something is left in the queue, `None` when the runtime has stopped.
     fn take_frames(&self, port: usize, into: &mut Outbox) -> Option<bool>;
+    /// [`Hub::input`] for a CAN FD frame (`stamp`: its receive timestamp, if the port took one).
+    /// False when the runtime has stopped.
+    fn input_fd(
+        &self,
+        port: usize,
+        frame: &FdFrame,
+        stamp: Option<std::time::Instant>,
+        at: crate::Instant,
+    ) -> bool;
     /// [`Hub::input`], then [`Hub::take_frames`] for the same port, under one lock: what a
     /// reader thread does with each frame (holding the port's writer lock).
     fn input_take(
@@ -89,9 +93,6 @@ pub(crate) trait Hub: Send + Sync + 'static {
     fn reinit_queued(&self, port: usize) -> bool;
 }
 
-/// A port task's batch of work taken from its queue (fixed size: no allocation per frame).
-pub(crate) type Outbox = heapless::Deque<PortCmd, 32>;
-
 /// Everything the lock guards.
 pub(crate) struct State<D: Device> {
     pub device: Box<D>,
@@ -106,6 +107,9 @@ pub(crate) struct State<D: Device> {
     /// Per port, what its task is to do, in order; never longer than [`PORT_TX_QUEUE`] (the
     /// room is taken once, when the runtime starts).
     pub queues: Vec<VecDeque<PortCmd>>,
+    /// Per port, the CAN FD frames its [`PortCmd::SendFd`] commands stand for, in order; never
+    /// longer than [`PORT_FD_TX_QUEUE`]. Empty (no room taken) for a classic device.
+    pub fd_queues: Vec<VecDeque<FdFrame>>,
     /// The deadline the core task's timer is set for.
     pub armed: Option<crate::Instant>,
     /// The core task has stopped: port tasks write what is left in their queues, then stop.
@@ -141,6 +145,13 @@ where
         let queues = (0..counters.len())
             .map(|_| VecDeque::with_capacity(PORT_TX_QUEUE))
             .collect();
+        let fd_queues = if device.fd_capable() {
+            (0..counters.len())
+                .map(|_| VecDeque::with_capacity(PORT_FD_TX_QUEUE))
+                .collect()
+        } else {
+            Vec::new()
+        };
         State {
             device,
             clock,
@@ -150,6 +161,7 @@ where
             watchers: Vec::new(),
             last: crate::Instant::ZERO,
             queues,
+            fd_queues,
             armed: None,
             closed: false,
             drained: 0,
@@ -232,18 +244,37 @@ where
         }
     }
 
-    /// Drops the frames queued for `port` (counted as dropped).
+    /// Hands a CAN FD frame read from `port` at `read_at` to the device through
+    /// [`Device::handle_rx_fd`], with its receive timestamp on the runtime's clock as for a
+    /// classic frame (`stamp` none: the instant it is handled at).
+    pub fn input_fd(
+        &mut self,
+        port: usize,
+        f: &FdFrame,
+        stamp: Option<std::time::Instant>,
+        read_at: crate::Instant,
+    ) {
+        self.due_before(read_at, false);
+        let now = self.at(read_at);
+        let at = stamp.map_or(now, |s| self.clock.instant_of(s).min(now));
+        self.device.handle_rx_fd(now, port, f, at);
+    }
+
+    /// Drops the frames queued for `port` (counted as dropped), CAN FD ones too.
     fn drop_sends(&mut self, port: usize) {
         let (Some(q), Some(counters)) = (self.queues.get_mut(port), self.counters.get(port)) else {
             return;
         };
         q.retain(|c| {
-            let send = matches!(c, PortCmd::Send(_));
+            let send = matches!(c, PortCmd::Send(_) | PortCmd::SendFd);
             if send {
                 counters.tx_dropped();
             }
             !send
         });
+        if let Some(fd) = self.fd_queues.get_mut(port) {
+            fd.clear();
+        }
     }
 
     /// Queues `cmd` for `port`; false if the port has no room (or does not exist).
@@ -301,6 +332,7 @@ where
                     tracing::debug!(port, frame = %f, "port queue full, frame dropped");
                 }
             }
+            self.flush_fd(&mut woken);
             while let Some((port, req)) = self.device.poll_port_request() {
                 tracing::info!(port, ?req, "port request");
                 // A re-initialisation flushes the port: what waits for it was given up by
@@ -325,6 +357,35 @@ where
             }
         }
         woken
+    }
+}
+
+impl<D: Device> State<D> {
+    /// Moves the CAN FD frames the device has into their ports' FD queues, each with a
+    /// [`PortCmd::SendFd`] in the port's queue; a frame for a full queue (or from a device
+    /// that said it is classic) is dropped and counted.
+    fn flush_fd(&mut self, woken: &mut u64) {
+        if self.fd_queues.is_empty() {
+            return;
+        }
+        while let Some((port, f)) = self.device.poll_transmit_fd() {
+            let (Some(q), Some(fd)) = (self.queues.get_mut(port), self.fd_queues.get_mut(port))
+            else {
+                tracing::error!(
+                    port,
+                    "device sent a CAN FD frame on a port it does not have"
+                );
+                continue;
+            };
+            if q.len() < PORT_TX_QUEUE && fd.len() < PORT_FD_TX_QUEUE {
+                fd.push_back(f);
+                q.push_back(PortCmd::SendFd);
+                *woken |= 1u64 << port.min(63);
+            } else {
+                self.counters[port].tx_dropped();
+                tracing::debug!(port, frame = %f, "port queue full, CAN FD frame dropped");
+            }
+        }
     }
 }
 
@@ -417,33 +478,54 @@ where
         true
     }
 
-    fn take(&self, port: usize, into: &mut Outbox) -> bool {
+    fn input_fd(
+        &self,
+        port: usize,
+        frame: &FdFrame,
+        stamp: Option<std::time::Instant>,
+        at: crate::Instant,
+    ) -> bool {
+        let _later = Unlocked::new();
         let Ok(mut st) = self.state.lock() else {
             return false;
         };
         if st.closed {
+            return false;
+        }
+        st.input_fd(port, frame, stamp, at);
+        let woken = st.flush();
+        self.wake(&st, woken, Some(port));
+        true
+    }
+
+    fn take(&self, port: usize, into: &mut Outbox) -> bool {
+        let Ok(mut st) = self.state.lock() else {
+            return false;
+        };
+        let st = &mut *st;
+        let mut none = VecDeque::new();
+        let fd = st.fd_queues.get_mut(port).unwrap_or(&mut none);
+        let Some(q) = st.queues.get_mut(port) else {
+            return !st.closed;
+        };
+        if st.closed {
             // What was queued before the stop still goes out (the NMT command a tool sends
             // just before it exits): the frames, not requests to re-initialise the port.
-            if let Some(q) = st.queues.get_mut(port) {
-                while !into.is_full() {
-                    match q.pop_front() {
-                        Some(c @ PortCmd::Send(_)) => {
-                            let _ = into.push_back(c);
-                        }
-                        Some(PortCmd::Request(_)) => {}
-                        None => break,
-                    }
+            while matches!(q.front(), Some(PortCmd::Request(_))) {
+                q.pop_front();
+            }
+            while !q.is_empty() && move_one(q, fd, into) {
+                while matches!(q.front(), Some(PortCmd::Request(_))) {
+                    q.pop_front();
                 }
             }
             if into.is_empty() {
-                self.mark_drained(&mut st, port);
+                self.mark_drained(st, port);
                 return false;
             }
             return true;
         }
-        if let Some(q) = st.queues.get_mut(port) {
-            move_into(q, into);
-        }
+        move_into(q, fd, into);
         true
     }
 
@@ -522,29 +604,6 @@ where
     }
 }
 
-/// Moves the frames at the head of `q` (up to its first other command) into `into`, as many as
-/// it has room for; true when something is left in `q`.
-fn take_frames(q: &mut VecDeque<PortCmd>, into: &mut Outbox) -> Option<bool> {
-    while !into.is_full() && matches!(q.front(), Some(PortCmd::Send(_))) {
-        if let Some(c) = q.pop_front() {
-            let _ = into.push_back(c);
-        }
-    }
-    Some(!q.is_empty())
-}
-
-/// Moves the oldest of `q` into `into`, as many as it has room for.
-pub(crate) fn move_into(q: &mut VecDeque<PortCmd>, into: &mut Outbox) {
-    while !into.is_full() {
-        match q.pop_front() {
-            Some(c) => {
-                let _ = into.push_back(c);
-            }
-            None => break,
-        }
-    }
-}
-
 /// The core task: commands from handles and the device's deadlines.
 pub(crate) async fn run<D>(shared: Arc<Shared<D>>, mut commands: mpsc::UnboundedReceiver<Command>)
 where
@@ -592,112 +651,4 @@ where
 }
 
 #[cfg(test)]
-mod tests {
-    use super::*;
-    use crate::machine::PortRequest;
-    use crate::{Duration, Frame, Id, Instant};
-
-    /// A timer that each frame pushes back by 10 ms (as an SDO sub-block timer does), and the
-    /// order in which it saw frames and its timeout.
-    struct Timer {
-        deadline: Option<Instant>,
-        seen: Vec<String>,
-    }
-
-    impl Device for Timer {
-        type Event = ();
-        fn port_count(&self) -> usize {
-            1
-        }
-        fn handle_rx(&mut self, now: Instant, _: usize, frame: &Frame) {
-            self.seen
-                .push(format!("frame {} at {now}", frame.data()[0]));
-            self.deadline = Some(now + Duration::from_millis(10));
-        }
-        fn handle_rx_at(&mut self, now: Instant, _: usize, frame: &Frame, at: Instant) {
-            self.seen
-                .push(format!("frame {} at {now} stamped {at}", frame.data()[0]));
-        }
-        fn handle_port_status(&mut self, _: Instant, _: usize, _: PortStatus) {}
-        fn handle_timeout(&mut self, now: Instant) {
-            self.seen.push(format!("timeout at {now}"));
-            self.deadline = None;
-        }
-        fn poll_transmit(&mut self) -> Option<(usize, Frame)> {
-            None
-        }
-        fn poll_port_request(&mut self) -> Option<(usize, PortRequest)> {
-            None
-        }
-        fn poll_timeout(&self) -> Option<Instant> {
-            self.deadline
-        }
-        fn poll_event(&mut self) -> Option<()> {
-            None
-        }
-    }
-
-    /// A frame read at 8 ms, before the deadline of 10 ms, goes first and pushes the deadline
-    /// to 18 ms; a frame read at 25 ms comes after the timeout, which runs at its own 18 ms
-    /// (not at the 25 ms when the port task found it due), and at 30 ms nothing more is due.
-    #[tokio::test(start_paused = true)]
-    async fn a_deadline_falls_between_the_frames_read_before_and_after_it() {
-        let mut st = State::new(
-            Box::new(Timer {
-                deadline: Some(Instant::from_millis(10)),
-                seen: vec![],
-            }),
-            crate::runtime::Clock::start(),
-            vec![],
-            broadcast::channel(4).0,
-            None,
-        );
-        let frame = |b: u8| PortInput::Frame(Frame::new(Id::Standard(0x100), &[b]).unwrap(), None);
-        st.input(0, frame(1), Instant::from_millis(8));
-        st.input(0, frame(2), Instant::from_millis(25));
-        st.timeouts(Instant::from_millis(30));
-        assert_eq!(
-            st.device.seen,
-            [
-                "frame 1 at 0.008000s",
-                "timeout at 0.018000s",
-                "frame 2 at 0.025000s"
-            ]
-        );
-    }
-
-    /// A frame with a receive timestamp reaches the device through `handle_rx_at`, the stamp
-    /// on the runtime's clock (time since the clock started): read 35 ms after it arrived, it
-    /// keeps its arrival time. A stamp later than the instant it is handled at (a clock the
-    /// port read after the runtime's) is that instant; a frame without one goes through
-    /// `handle_rx`.
-    #[tokio::test(start_paused = true)]
-    async fn a_stamped_frame_keeps_its_arrival_time() {
-        let clock = crate::runtime::Clock::start();
-        let origin = tokio::time::Instant::now().into_std();
-        let mut st = State::new(
-            Box::new(Timer {
-                deadline: None,
-                seen: vec![],
-            }),
-            clock,
-            vec![],
-            broadcast::channel(4).0,
-            None,
-        );
-        let ms = std::time::Duration::from_millis;
-        let frame =
-            |b: u8, at| PortInput::Frame(Frame::new(Id::Standard(0x100), &[b]).unwrap(), at);
-        st.input(0, frame(1, Some(origin + ms(5))), Instant::from_millis(40));
-        st.input(0, frame(2, Some(origin + ms(90))), Instant::from_millis(50));
-        st.input(0, frame(3, None), Instant::from_millis(60));
-        assert_eq!(
-            st.device.seen,
-            [
-                "frame 1 at 0.040000s stamped 0.005000s",
-                "frame 2 at 0.050000s stamped 0.050000s",
-                "frame 3 at 0.060000s"
-            ]
-        );
-    }
-}
+mod tests;
