@@ -525,6 +525,9 @@ impl Oracle {
                 if r == o.sender || !powered(r) || self.nodes[r].foreign || excused {
                     continue;
                 }
+                if self.nodes[o.sender].foreign && self.apart_at(&o, r) {
+                    continue;
+                }
                 if self.nodes[r].master && self.is_member_pdo(&o.frame) {
                     continue;
                 }
@@ -591,6 +594,27 @@ impl Oracle {
                 .iter()
                 .take_while(|n| n.at <= o.at + near)
                 .any(|n| n.sender == o.sender && spread(n).is_some())
+    }
+
+    /// Whether `o`, of a sender that is not duocan, or one of that sender's frames after it and
+    /// near enough to be matched with it, left its copies further apart than the skew window
+    /// *as `r`'s clock reads them*: a receive stamp is that clock's reading, so a receiver whose
+    /// clock runs fast sees the copies further apart than they were (seed 401: 4.8 ms on the
+    /// wire behind retransmissions on a degrading bus, 5.04 ms to a board whose clock ran 5 %
+    /// fast). [`Oracle::apart`] judges the spread on the simulated time line.
+    fn apart_at(&self, o: &Occurrence, r: usize) -> bool {
+        let clock = &self.clock[r];
+        let spread = |n: &Occurrence| {
+            n.on_wire()
+                .is_some_and(|(a, b)| !within_window(clock.read(a), clock.read(b)))
+        };
+        let near = SKEW_WINDOW + HORIZON;
+        spread(o)
+            || self
+                .pending
+                .iter()
+                .take_while(|n| n.at <= o.at + near)
+                .any(|n| n.sender == o.sender && spread(n))
     }
 
     /// Whether `o`'s copies left within the skew window of each other, on either side of a
