@@ -1,7 +1,7 @@
 //! CAN FD frames through the runtime: a device that speaks CAN FD gets them from its ports and
 //! sends them; a classic device on the same bus stays classic.
 
-use super::rig::{next, nothing_more, received, Got, Probe};
+use super::rig::{next, nothing_more, on_bus, received, Got, Probe};
 use duocan::port::mem::MemBus;
 use duocan::port::{AnyInput, Port};
 use duocan::runtime::{Runtime, PORT_FD_TX_QUEUE};
@@ -30,14 +30,8 @@ fn traffic() -> (Vec<FdFrame>, Frame) {
 async fn fd_frames_go_both_ways_and_a_classic_device_stays_classic() {
     let bus = MemBus::new("fd");
     let mut tester = bus.port();
-    let fd = Runtime::new(Probe::new(true))
-        .port(bus.port())
-        .spawn()
-        .unwrap();
-    let classic = Runtime::new(Probe::new(false))
-        .port(bus.port())
-        .spawn()
-        .unwrap();
+    let fd = on_bus(&bus, Probe::new(true));
+    let classic = on_bus(&bus, Probe::new(false));
     let (frames, plain) = traffic();
 
     // Into the devices: the FD device gets everything in order, each FD frame with its
@@ -113,10 +107,7 @@ async fn fd_frames_go_both_ways_and_a_classic_device_stays_classic() {
 async fn a_full_fd_queue_drops_and_counts() {
     let bus = MemBus::new("fd");
     let mut tester = bus.port();
-    let fd = Runtime::new(Probe::new(true))
-        .port(bus.port())
-        .spawn()
-        .unwrap();
+    let fd = on_bus(&bus, Probe::new(true));
     let extra = 10;
     fd.call(move |d, _| {
         for i in 0..PORT_FD_TX_QUEUE + extra {
@@ -150,10 +141,7 @@ async fn a_full_fd_queue_drops_and_counts() {
 async fn fd_frames_queued_before_a_shutdown_go_out() {
     let bus = MemBus::new("fd");
     let mut tester = bus.port();
-    let fd = Runtime::new(Probe::new(true))
-        .port(bus.port())
-        .spawn()
-        .unwrap();
+    let fd = on_bus(&bus, Probe::new(true));
     let (frames, _) = traffic();
     let queued = frames.clone();
     fd.call(move |d, _| d.out_fd.extend(queued)).await.unwrap();

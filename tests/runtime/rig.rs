@@ -4,8 +4,9 @@
 #![allow(dead_code)]
 
 use duocan::machine::{Device, PortRequest, PortStatus};
+use duocan::port::mem::MemBus;
 use duocan::port::{AnyInput, Port};
-use duocan::runtime::Handle;
+use duocan::runtime::{Handle, Runtime};
 use duocan::{FdFrame, Frame, Id, Instant};
 use std::collections::VecDeque;
 use std::time::Duration;
@@ -93,6 +94,11 @@ impl Device for Probe {
     fn poll_transmit_fd(&mut self) -> Option<(usize, FdFrame)> {
         self.out_fd.pop_front().map(|f| (0, f))
     }
+}
+
+/// `probe` under the runtime, on a port of `bus`.
+pub fn on_bus(bus: &MemBus, probe: Probe) -> Handle<Probe> {
+    Runtime::new(probe).port(bus.port()).spawn().unwrap()
 }
 
 /// Has `h`'s device send `frames`, in order, queued by one command.
