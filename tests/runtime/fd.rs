@@ -1,81 +1,13 @@
 //! CAN FD frames through the runtime: a device that speaks CAN FD gets them from its ports and
 //! sends them; a classic device on the same bus stays classic.
 
-use duocan::machine::PortRequest;
+use super::rig::{next, nothing_more, on_bus, received, Got, Probe};
 use duocan::port::mem::MemBus;
 use duocan::port::{AnyInput, Port};
 use duocan::runtime::{Runtime, PORT_FD_TX_QUEUE};
 use duocan::PortStatus;
-use duocan::{Device, FdFrame, Frame, Id, Instant};
-use std::collections::VecDeque;
+use duocan::{FdFrame, Frame, Id};
 use std::time::Duration;
-
-/// What the device received: a CAN FD frame with its instants, or a classic frame.
-#[derive(Clone, Debug, PartialEq)]
-enum Got {
-    Fd {
-        frame: FdFrame,
-        now: Instant,
-        at: Instant,
-    },
-    Classic(Frame),
-}
-
-/// A one-port device that keeps what it receives and sends what it is given.
-struct Probe {
-    fd: bool,
-    got: Vec<Got>,
-    out: VecDeque<Frame>,
-    out_fd: VecDeque<FdFrame>,
-}
-
-impl Probe {
-    fn new(fd: bool) -> Self {
-        Probe {
-            fd,
-            got: Vec::new(),
-            out: VecDeque::new(),
-            out_fd: VecDeque::new(),
-        }
-    }
-}
-
-impl Device for Probe {
-    type Event = ();
-    fn port_count(&self) -> usize {
-        1
-    }
-    fn handle_rx(&mut self, _: Instant, _: usize, frame: &Frame) {
-        self.got.push(Got::Classic(*frame));
-    }
-    fn handle_port_status(&mut self, _: Instant, _: usize, _: PortStatus) {}
-    fn handle_timeout(&mut self, _: Instant) {}
-    fn poll_transmit(&mut self) -> Option<(usize, Frame)> {
-        self.out.pop_front().map(|f| (0, f))
-    }
-    fn poll_port_request(&mut self) -> Option<(usize, PortRequest)> {
-        None
-    }
-    fn poll_timeout(&self) -> Option<Instant> {
-        None
-    }
-    fn poll_event(&mut self) -> Option<()> {
-        None
-    }
-    fn fd_capable(&self) -> bool {
-        self.fd
-    }
-    fn handle_rx_fd(&mut self, now: Instant, _: usize, frame: &FdFrame, at: Instant) {
-        self.got.push(Got::Fd {
-            frame: *frame,
-            now,
-            at,
-        });
-    }
-    fn poll_transmit_fd(&mut self) -> Option<(usize, FdFrame)> {
-        self.out_fd.pop_front().map(|f| (0, f))
-    }
-}
 
 /// Three FD frames of different lengths and flags, and a classic one between them.
 fn traffic() -> (Vec<FdFrame>, Frame) {
@@ -94,41 +26,12 @@ fn traffic() -> (Vec<FdFrame>, Frame) {
     (fd, Frame::from_array(Id::Standard(0x205), [1, 2, 3]))
 }
 
-/// What `h`'s device has received so far, once it has `n` of it (a test gives up after 5 s).
-async fn received(h: &duocan::runtime::Handle<Probe>, n: usize) -> Vec<Got> {
-    tokio::time::timeout(Duration::from_secs(5), async {
-        loop {
-            let got = h.call(|d, _| d.got.clone()).await.unwrap();
-            if got.len() >= n {
-                return got;
-            }
-            tokio::time::sleep(Duration::from_millis(1)).await;
-        }
-    })
-    .await
-    .expect("the device received too little")
-}
-
-/// The next input of a tester's port (a test gives up after 5 s).
-async fn next(port: &mut impl Port) -> AnyInput {
-    tokio::time::timeout(Duration::from_secs(5), port.recv_any())
-        .await
-        .expect("nothing came")
-        .unwrap()
-}
-
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn fd_frames_go_both_ways_and_a_classic_device_stays_classic() {
     let bus = MemBus::new("fd");
     let mut tester = bus.port();
-    let fd = Runtime::new(Probe::new(true))
-        .port(bus.port())
-        .spawn()
-        .unwrap();
-    let classic = Runtime::new(Probe::new(false))
-        .port(bus.port())
-        .spawn()
-        .unwrap();
+    let fd = on_bus(&bus, Probe::new(true));
+    let classic = on_bus(&bus, Probe::new(false));
     let (frames, plain) = traffic();
 
     // Into the devices: the FD device gets everything in order, each FD frame with its
@@ -193,11 +96,7 @@ async fn fd_frames_go_both_ways_and_a_classic_device_stays_classic() {
         .await
         .unwrap();
     assert!(matches!(next(&mut tester).await, AnyInput::Frame(f, _) if f == plain));
-    assert!(
-        tokio::time::timeout(Duration::from_millis(50), tester.recv_any())
-            .await
-            .is_err()
-    );
+    nothing_more(&mut tester).await;
     fd.shutdown().await;
     classic.shutdown().await;
 }
@@ -208,10 +107,7 @@ async fn fd_frames_go_both_ways_and_a_classic_device_stays_classic() {
 async fn a_full_fd_queue_drops_and_counts() {
     let bus = MemBus::new("fd");
     let mut tester = bus.port();
-    let fd = Runtime::new(Probe::new(true))
-        .port(bus.port())
-        .spawn()
-        .unwrap();
+    let fd = on_bus(&bus, Probe::new(true));
     let extra = 10;
     fd.call(move |d, _| {
         for i in 0..PORT_FD_TX_QUEUE + extra {
@@ -235,11 +131,7 @@ async fn a_full_fd_queue_drops_and_counts() {
         (PORT_FD_TX_QUEUE as u64, extra as u64)
     );
     // Nothing else came.
-    assert!(
-        tokio::time::timeout(Duration::from_millis(50), tester.recv_any())
-            .await
-            .is_err()
-    );
+    nothing_more(&mut tester).await;
     fd.shutdown().await;
 }
 
@@ -249,10 +141,7 @@ async fn a_full_fd_queue_drops_and_counts() {
 async fn fd_frames_queued_before_a_shutdown_go_out() {
     let bus = MemBus::new("fd");
     let mut tester = bus.port();
-    let fd = Runtime::new(Probe::new(true))
-        .port(bus.port())
-        .spawn()
-        .unwrap();
+    let fd = on_bus(&bus, Probe::new(true));
     let (frames, _) = traffic();
     let queued = frames.clone();
     fd.call(move |d, _| d.out_fd.extend(queued)).await.unwrap();

@@ -3,6 +3,7 @@
 mod fd;
 mod memory_bus;
 mod reader_thread;
+mod rig;
 #[path = "../common/runtime.rs"]
 mod rt;
 mod shutdown;

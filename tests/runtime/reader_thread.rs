@@ -4,12 +4,13 @@
 //! stopped, a re-initialisation the device asks for done the same way, and the thread gone
 //! after a shutdown.
 
-use duocan::machine::{Device, PortRequest, PortStatus};
+use super::rig::{queue, Probe};
+use duocan::machine::PortStatus;
 use duocan::port::{
     Port, PortCounters, PortError, PortErrorKind, PortInput, PortReader, READER_WAIT,
 };
 use duocan::runtime::{Handle, Runtime, RuntimeEvent};
-use duocan::{Frame, Id, Instant};
+use duocan::{Frame, Id};
 use std::collections::VecDeque;
 use std::sync::atomic::{AtomicUsize, Ordering};
 use std::sync::mpsc::{channel, Receiver, RecvTimeoutError, Sender};
@@ -19,40 +20,6 @@ use std::time::Duration;
 const PING: u16 = 0x100;
 const PONG: u16 = 0x101;
 const MARK: u16 = 0x200;
-
-/// Answers every ping with a pong of the same data; a command queues marks and re-inits.
-#[derive(Default)]
-struct Echo {
-    out: VecDeque<Frame>,
-    reinit: bool,
-}
-
-impl Device for Echo {
-    type Event = ();
-    fn port_count(&self) -> usize {
-        1
-    }
-    fn handle_rx(&mut self, _: Instant, _: usize, f: &Frame) {
-        if f.id() == Id::Standard(PING) {
-            self.out
-                .push_back(Frame::new(Id::Standard(PONG), f.data()).unwrap());
-        }
-    }
-    fn handle_port_status(&mut self, _: Instant, _: usize, _: PortStatus) {}
-    fn handle_timeout(&mut self, _: Instant) {}
-    fn poll_transmit(&mut self) -> Option<(usize, Frame)> {
-        self.out.pop_front().map(|f| (0, f))
-    }
-    fn poll_port_request(&mut self) -> Option<(usize, PortRequest)> {
-        std::mem::take(&mut self.reinit).then_some((0, PortRequest::Reinit))
-    }
-    fn poll_timeout(&self) -> Option<Instant> {
-        None
-    }
-    fn poll_event(&mut self) -> Option<()> {
-        None
-    }
-}
 
 /// What the test sees of the port: frames written (and by whom), readers made and alive.
 #[derive(Default)]
@@ -185,11 +152,11 @@ impl Port for ThreadedPort {
     }
 }
 
-fn start() -> (Handle<Echo>, Sender<Feed>, Arc<Seen>) {
+fn start() -> (Handle<Probe>, Sender<Feed>, Arc<Seen>) {
     start_with(false)
 }
 
-fn start_with(batched: bool) -> (Handle<Echo>, Sender<Feed>, Arc<Seen>) {
+fn start_with(batched: bool) -> (Handle<Probe>, Sender<Feed>, Arc<Seen>) {
     let (tx, rx) = channel();
     let seen = Arc::new(Seen::default());
     let port = ThreadedPort {
@@ -199,12 +166,20 @@ fn start_with(batched: bool) -> (Handle<Echo>, Sender<Feed>, Arc<Seen>) {
         lent: false,
         batched,
     };
-    let handle = Runtime::new(Echo::default()).port(port).spawn().unwrap();
+    let handle = Runtime::new(Probe::echo(PING, PONG))
+        .port(port)
+        .spawn()
+        .unwrap();
     (handle, tx, seen)
 }
 
 fn ping(i: u32) -> Frame {
     Frame::new(Id::Standard(PING), &i.to_le_bytes()).unwrap()
+}
+
+/// A frame the device sends on a command: the task writes it.
+fn mark(i: u32) -> Frame {
+    Frame::new(Id::Standard(MARK), &i.to_le_bytes()).unwrap()
 }
 
 /// Waits (5 s at most) until `n` frames were written; returns them.
@@ -257,18 +232,12 @@ async fn a_batching_port_answers_every_frame_in_order() {
     );
 }
 
-async fn answered_in_order(handle: &Handle<Echo>, feed: &Sender<Feed>, seen: &Seen) {
+async fn answered_in_order(handle: &Handle<Probe>, feed: &Sender<Feed>, seen: &Seen) {
     for i in 0..2000u32 {
         feed.send(Ok(ping(i))).unwrap();
         if i % 100 == 0 {
             // A frame the device sends on a command: the task writes it.
-            handle
-                .call(move |d, _| {
-                    d.out
-                        .push_back(Frame::new(Id::Standard(MARK), &i.to_le_bytes()).unwrap())
-                })
-                .await
-                .unwrap();
+            queue(handle, [mark(i)]).await;
         }
     }
     let w = written(seen, 2020).await;
@@ -338,13 +307,7 @@ async fn a_re_initialisation_stops_the_thread_before_the_port_is_re_opened() {
     written(&seen, 1).await;
     // The re-init, then a mark queued behind it: the mark goes out on the re-opened port.
     handle.call(|d, _| d.reinit = true).await.unwrap();
-    handle
-        .call(|d, _| {
-            d.out
-                .push_back(Frame::new(Id::Standard(MARK), &7u32.to_le_bytes()).unwrap())
-        })
-        .await
-        .unwrap();
+    queue(&handle, [mark(7)]).await;
     let w = written(&seen, 2).await;
     assert_eq!(numbers(&w, MARK), [7]);
     feed.send(Ok(ping(2))).unwrap();

@@ -2,42 +2,13 @@
 //! lose the command's frame to its own shutdown. A port that cannot send does not hold the
 //! shutdown up for more than a moment.
 
-use duocan::machine::{Device, PortRequest, PortStatus};
+use super::rig::{queue, Probe};
 use duocan::port::{Port, PortCounters, PortError, PortInput};
 use duocan::runtime::Runtime;
-use duocan::{Frame, Id, Instant};
-use std::collections::VecDeque;
+use duocan::{Frame, Id};
 use std::sync::{Arc, Mutex};
 use std::time::Duration;
 use tokio::sync::{Notify, Semaphore};
-
-/// Sends what a command queues.
-#[derive(Default)]
-struct Sender {
-    out: VecDeque<Frame>,
-}
-
-impl Device for Sender {
-    type Event = ();
-    fn port_count(&self) -> usize {
-        1
-    }
-    fn handle_rx(&mut self, _: Instant, _: usize, _: &Frame) {}
-    fn handle_port_status(&mut self, _: Instant, _: usize, _: PortStatus) {}
-    fn handle_timeout(&mut self, _: Instant) {}
-    fn poll_transmit(&mut self) -> Option<(usize, Frame)> {
-        self.out.pop_front().map(|f| (0, f))
-    }
-    fn poll_port_request(&mut self) -> Option<(usize, PortRequest)> {
-        None
-    }
-    fn poll_timeout(&self) -> Option<Instant> {
-        None
-    }
-    fn poll_event(&mut self) -> Option<()> {
-        None
-    }
-}
 
 /// A port whose sends each wait for a permit of `gate`; `entered` is notified when a send
 /// starts waiting.
@@ -69,7 +40,7 @@ impl Port for Gated {
 }
 
 struct Bench {
-    handle: duocan::runtime::Handle<Sender>,
+    handle: duocan::runtime::Handle<Probe>,
     gate: Arc<Semaphore>,
     entered: Arc<Notify>,
     written: Arc<Mutex<Vec<u8>>>,
@@ -84,7 +55,7 @@ fn start() -> Bench {
         entered: entered.clone(),
         written: written.clone(),
     };
-    let handle = Runtime::new(Sender::default()).port(port).spawn().unwrap();
+    let handle = Runtime::new(Probe::default()).port(port).spawn().unwrap();
     Bench {
         handle,
         gate,
@@ -95,15 +66,8 @@ fn start() -> Bench {
 
 impl Bench {
     async fn queue(&self, marks: std::ops::RangeInclusive<u8>) {
-        self.handle
-            .call(move |d, _| {
-                for m in marks {
-                    d.out
-                        .push_back(Frame::new(Id::Standard(0x200), &[m]).unwrap());
-                }
-            })
-            .await
-            .unwrap();
+        let frames = marks.map(|m| Frame::new(Id::Standard(0x200), &[m]).unwrap());
+        queue(&self.handle, frames).await;
     }
 
     /// Queues `marks` and waits until the port is sending the first of them.

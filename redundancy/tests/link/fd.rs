@@ -3,81 +3,17 @@
 //! traffic as classic traffic, and a link with a classic-only port refuses to send FD; a
 //! redundant master on FD buses sends and receives FD frames through its layer.
 
+use super::fd_end::FdEnd;
 use duocan::frame::FdFrame;
 use duocan::machine::BusLink;
-use duocan::machine::{Device, PortRequest, PortStatus};
 use duocan::master::{objects, Master, MasterConfig};
 use duocan::od::comm;
 use duocan::sim::{BusConfig, BusId, DevId, SimError, SimNetwork};
 use duocan::{Frame, Id, Instant, NodeId};
 use duocan_redundancy::link::dual_bus::FdSendError;
 use duocan_redundancy::{
-    DualBus, DualBusConfig, LinkEvent, PortState, RedundantMaster, Supervisor, SupervisorConfig,
+    DualBus, DualBusConfig, PortState, RedundantMaster, Supervisor, SupervisorConfig,
 };
-
-/// A device whose two ports are a [`DualBus`]: it sends what it is given and records what
-/// the layer delivers upward.
-struct FdEnd {
-    link: DualBus,
-    got: Vec<FdFrame>,
-    got_classic: Vec<Frame>,
-}
-
-impl FdEnd {
-    fn new() -> Self {
-        let mut link = DualBus::new(DualBusConfig::default());
-        link.set_port_fd(0, true);
-        link.set_port_fd(1, true);
-        FdEnd {
-            link,
-            got: vec![],
-            got_classic: vec![],
-        }
-    }
-}
-
-impl Device for FdEnd {
-    type Event = LinkEvent;
-    fn port_count(&self) -> usize {
-        2
-    }
-    fn fd_capable(&self) -> bool {
-        self.link.fd_capable()
-    }
-    fn handle_rx(&mut self, now: Instant, port: usize, frame: &Frame) {
-        self.got_classic
-            .extend(self.link.handle_rx(now, port, frame));
-    }
-    fn handle_rx_at(&mut self, now: Instant, port: usize, frame: &Frame, at: Instant) {
-        self.got_classic
-            .extend(self.link.handle_rx_at(now, port, frame, at));
-    }
-    fn handle_rx_fd(&mut self, now: Instant, port: usize, frame: &FdFrame, at: Instant) {
-        self.got
-            .extend(self.link.handle_rx_fd_at(now, port, frame, at));
-    }
-    fn handle_port_status(&mut self, now: Instant, port: usize, status: PortStatus) {
-        self.link.handle_port_status(now, port, status);
-    }
-    fn handle_timeout(&mut self, now: Instant) {
-        self.link.handle_timeout(now);
-    }
-    fn poll_transmit(&mut self) -> Option<(usize, Frame)> {
-        self.link.poll_transmit()
-    }
-    fn poll_transmit_fd(&mut self) -> Option<(usize, FdFrame)> {
-        self.link.poll_transmit_fd()
-    }
-    fn poll_port_request(&mut self) -> Option<(usize, PortRequest)> {
-        self.link.poll_port_request()
-    }
-    fn poll_timeout(&self) -> Option<Instant> {
-        self.link.poll_timeout()
-    }
-    fn poll_event(&mut self) -> Option<LinkEvent> {
-        self.link.poll_event()
-    }
-}
 
 /// Two FD buses (500 kbit/s nominal, 2 Mbit/s data) with a sender and a receiver on both.
 fn rig() -> (SimNetwork, [BusId; 2], DevId<FdEnd>, DevId<FdEnd>) {

@@ -10,6 +10,9 @@ mod cyclic_lag;
 mod ecss;
 #[cfg(feature = "fd")]
 mod fd;
+#[cfg(feature = "fd")]
+#[path = "../common/fd_end.rs"]
+mod fd_end;
 mod flapping;
 mod lag;
 mod lag_properties;

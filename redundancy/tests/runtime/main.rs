@@ -1,6 +1,8 @@
 //! The logical network object under the tokio runtime (in-memory buses).
 
 mod fd;
+#[path = "../common/fd_end.rs"]
+mod fd_end;
 mod front_door;
 mod memory_bus;
 mod stall;

@@ -56,7 +56,7 @@ impl Hub for FakeHub {
     }
     fn take(&self, _: usize, into: &mut Outbox) -> bool {
         let mut no_fd = std::collections::VecDeque::new();
-        super::super::task::move_into(&mut self.queue.lock().unwrap(), &mut no_fd, into);
+        super::super::outbox::move_into(&mut self.queue.lock().unwrap(), &mut no_fd, into);
         true
     }
     fn input_fd(

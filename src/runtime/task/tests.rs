@@ -1,8 +1,10 @@
 //! The order of frames, deadlines and receive timestamps in the device's state.
 
 use super::*;
-use crate::machine::PortRequest;
+use crate::machine::{PortRequest, PortStatus};
+use crate::runtime::outbox::move_into;
 use crate::{Duration, Frame, Id, Instant};
+use tokio::sync::broadcast;
 
 /// A timer that each frame pushes back by 10 ms (as an SDO sub-block timer does), and the
 /// order in which it saw frames and its timeout.

@@ -34,6 +34,58 @@ const fn head(index: u16, n: usize, name: &'static str) -> ObjectDef {
         .named(name)
 }
 
+/// The entries a list is given: a scanner list's are 32-bit, a dispatcher list's 64-bit. One
+/// builder serves both kinds, so that they cannot drift apart in layout.
+#[derive(Clone, Copy)]
+enum Entries<'a> {
+    U32(&'a [u32]),
+    U64(&'a [u64]),
+}
+
+impl Entries<'_> {
+    const fn len(self) -> usize {
+        match self {
+            Entries::U32(e) => e.len(),
+            Entries::U64(e) => e.len(),
+        }
+    }
+
+    /// Entry `k` (from 0) as its sub-index's value; past the given ones 0 (unused).
+    const fn value(self, k: usize) -> u64 {
+        match self {
+            Entries::U32(e) if k < e.len() => e[k] as u64,
+            Entries::U64(e) if k < e.len() => e[k],
+            _ => 0,
+        }
+    }
+
+    const fn data_type(self) -> DataType {
+        match self {
+            Entries::U32(_) => DataType::Unsigned32,
+            Entries::U64(_) => DataType::Unsigned64,
+        }
+    }
+}
+
+/// List object `index` named `name` with `M − 1` entries, the first ones set to `entries`,
+/// the rest 0 (unused); sub 0 is `M − 1`.
+const fn list<const M: usize>(index: u16, name: &'static str, entries: Entries) -> [ObjectDef; M] {
+    assert!(M >= 2 && M <= 255 && entries.len() < M, "1..=254 entries");
+    let mut out = [head(index, M - 1, name); M];
+    let mut k = 1;
+    while k < M {
+        out[k] = entry(
+            index,
+            k as u8,
+            entries.data_type(),
+            entries.value(k - 1),
+            name,
+        );
+        k += 1;
+    }
+    out
+}
+
 /// Object scanner list `list` (0–47: 0x1FA0 + `list`) with `M − 1` entries, the first ones
 /// set to `entries` ([`super::ScannerEntry::raw`]), the rest 0 (unused); sub 0 is `M − 1`.
 ///
@@ -41,21 +93,7 @@ const fn head(index: u16, n: usize, name: &'static str) -> ObjectDef {
 /// `entries` longer than `M − 1`.
 pub const fn scanner_list<const M: usize>(list: u16, entries: &[u32]) -> [ObjectDef; M] {
     assert!(list < LISTS, "scanner lists are 0..=47 (0x1FA0..=0x1FCF)");
-    assert!(M >= 2 && M <= 255 && entries.len() < M, "1..=254 entries");
-    const NAME: &str = "Object scanner list";
-    let index = 0x1FA0 + list;
-    let mut out = [head(index, M - 1, NAME); M];
-    let mut k = 1;
-    while k < M {
-        let v = if k - 1 < entries.len() {
-            entries[k - 1]
-        } else {
-            0
-        };
-        out[k] = entry(index, k as u8, DataType::Unsigned32, v as u64, NAME);
-        k += 1;
-    }
-    out
+    self::list(0x1FA0 + list, "Object scanner list", Entries::U32(entries))
 }
 
 /// Object dispatcher list `list` (0–47: 0x1FD0 + `list`) with `M − 1` entries, the first ones
@@ -68,19 +106,9 @@ pub const fn dispatcher_list<const M: usize>(list: u16, entries: &[u64]) -> [Obj
         list < LISTS,
         "dispatcher lists are 0..=47 (0x1FD0..=0x1FFF)"
     );
-    assert!(M >= 2 && M <= 255 && entries.len() < M, "1..=254 entries");
-    const NAME: &str = "Object dispatcher list";
-    let index = 0x1FD0 + list;
-    let mut out = [head(index, M - 1, NAME); M];
-    let mut k = 1;
-    while k < M {
-        let v = if k - 1 < entries.len() {
-            entries[k - 1]
-        } else {
-            0
-        };
-        out[k] = entry(index, k as u8, DataType::Unsigned64, v, NAME);
-        k += 1;
-    }
-    out
+    self::list(
+        0x1FD0 + list,
+        "Object dispatcher list",
+        Entries::U64(entries),
+    )
 }
