@@ -268,6 +268,11 @@ impl SimNetwork {
         if chance(&mut self.rng, rate) {
             return true;
         }
+        let own = self.ports[sender].faults.map_or(0.0, |f| f.corrupt_sent);
+        if chance(&mut self.rng, own) {
+            return true;
+        }
+        let bus = &self.buses[b];
         if bus.detect_ports == 0 {
             return false;
         }

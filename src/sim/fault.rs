@@ -32,6 +32,11 @@ pub struct FaultRates {
     /// One data bit flips and nobody notices: as a bus rate every receiver gets the same wrong
     /// frame, as a port rate only that one. Frames without data are left alone.
     pub corrupt_undetected: f64,
+    /// As a port rate only: an error is detected during a frame *this port sends* (a ground
+    /// shift or a worn transceiver at its node, whose levels the others read wrong): nobody
+    /// receives it, every port on the segment gets `PortStatus::Error(ErrorCause::Crc)`, the
+    /// sender retransmits. Other senders' frames on the bus are not touched.
+    pub corrupt_sent: f64,
 }
 
 impl FaultRates {
@@ -43,6 +48,7 @@ impl FaultRates {
         max_delay: Duration::ZERO,
         corrupt_detected: 0.0,
         corrupt_undetected: 0.0,
+        corrupt_sent: 0.0,
     };
 
     /// True when no fault can happen.
@@ -52,6 +58,7 @@ impl FaultRates {
             && self.delay <= 0.0
             && self.corrupt_detected <= 0.0
             && self.corrupt_undetected <= 0.0
+            && self.corrupt_sent <= 0.0
     }
     /// With drop probability `p`.
     #[must_use]
@@ -80,6 +87,14 @@ impl FaultRates {
     pub fn with_corrupt_detected(self, p: f64) -> Self {
         FaultRates {
             corrupt_detected: p,
+            ..self
+        }
+    }
+    /// With probability `p` of an error destroying a frame the port sends (a port rate).
+    #[must_use]
+    pub fn with_corrupt_sent(self, p: f64) -> Self {
+        FaultRates {
+            corrupt_sent: p,
             ..self
         }
     }

@@ -267,6 +267,14 @@ fn took_effect(run: &Run, f: Fault, from: Instant, to: Instant, before: &Counter
         Fault::Noise { bus, .. } | Fault::Degrading { bus, .. } => {
             errors_grew(run, before, bus, None, None)
         }
+        // The others see the errors of its frames on that bus.
+        Fault::GroundShift { node, port, .. } => {
+            let bus = bus_of(run, node, port);
+            counters(run).iter().zip(before).any(|((id, n), (_, b))| {
+                let p = bus_of(run, *id, bus);
+                *id != node && n[p].errors.iter().sum::<u32>() > b[p].errors.iter().sum::<u32>()
+            })
+        }
         // The others see its error flags on that bus.
         Fault::WrongBitRate { node, port, .. } => {
             let bus = bus_of(run, node, port);

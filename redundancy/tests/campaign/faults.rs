@@ -187,6 +187,19 @@ pub enum Fault {
         permille: u16,
         dur: Duration,
     },
+    /// A ground shift at a device's transceiver on `port` (a return path through the shield,
+    /// a corroded ground pin): the others read *its* frames wrong, so an error destroys each
+    /// frame it sends there with probability `permille`/1000, and it sends it again; every
+    /// other sender's frames on that bus pass. It comes and goes with that node's load: on for
+    /// `every`, off for `every`, for `dur`. The port's errors are the bus's to every
+    /// receiver, while the bus is fine for everybody else.
+    GroundShift {
+        node: u8,
+        port: usize,
+        permille: u16,
+        every: Duration,
+        dur: Duration,
+    },
 }
 
 impl Fault {
@@ -215,6 +228,7 @@ impl Fault {
             Fault::TxDead { .. } => "transceiver that cannot send",
             Fault::Noise { .. } => "noisy bus",
             Fault::Degrading { .. } => "degrading bus",
+            Fault::GroundShift { .. } => "ground shift at one sender",
             Fault::Overrun { .. } => "controller overrun",
             Fault::SlowTx { .. } => "slow transmitter",
             Fault::TxDrift { .. } => "port writes drifting apart",
@@ -249,6 +263,7 @@ impl Fault {
             | Fault::WrongBitRate { dur, .. }
             | Fault::Drift { dur, .. }
             | Fault::ClockRate { dur, .. }
+            | Fault::GroundShift { dur, .. }
             | Fault::TxDead { dur, .. } => dur,
             Fault::Sequence {
                 dur,
@@ -282,6 +297,7 @@ impl Fault {
                 | Fault::Impostor { .. }
                 | Fault::Noise { .. }
                 | Fault::Degrading { .. }
+                | Fault::GroundShift { .. }
                 | Fault::Overrun { .. }
                 | Fault::SlowTx { .. }
                 | Fault::TxDrift { .. }
@@ -488,6 +504,34 @@ pub fn apply(run: &mut Run, f: Fault) {
                 r.plant.sim.set_port_faults(p, rates);
                 let t = r.now();
                 r.timeline.devs[d].overrun[port].set(t, on);
+            });
+        }
+        Fault::GroundShift {
+            node,
+            port,
+            permille,
+            every,
+            dur,
+        } => {
+            let p = port_of(run, node, port);
+            let d = dev_index(run, node);
+            let rates = FaultRates::NONE.with_corrupt_sent(f64::from(permille) / 1000.0);
+            let times = (dur.as_micros() / every.as_micros().max(1)).max(1);
+            for k in 0..=times {
+                let on = k % 2 == 0 && k < times;
+                run.at(now + every.saturating_mul(k), move |r| {
+                    r.plant
+                        .sim
+                        .set_port_faults(p, if on { rates } else { FaultRates::NONE });
+                });
+            }
+            // Its frames on that bus wait behind their retransmissions meanwhile; its layer
+            // may fail the port for a transmit stall, so the bus need not carry them.
+            run.timeline.devs[d].shifted[port].start(now);
+            let end = now + every.saturating_mul(times);
+            run.at(end, move |r| {
+                let t = r.now();
+                r.timeline.devs[d].shifted[port].end(t);
             });
         }
         Fault::SlowTx {
@@ -909,7 +953,7 @@ pub fn drift_profile(load: u64, from: Instant, to: Instant) -> Vec<(Instant, Dur
 
 /// How many kinds of fault the campaign draws from (every class that holds, some in two
 /// shapes).
-pub const KINDS: usize = 30;
+pub const KINDS: usize = 31;
 
 /// Every kind [`draw`] knows: also receive clocks that drift apart (kind [`DRIFT`], always the
 /// last), which still fail combined with others (the "known and not fixed yet" of the user
@@ -918,6 +962,10 @@ pub const KINDS: usize = 30;
 pub const KINDS_WITH_DRIFT: usize = KINDS + 1;
 /// The drift's kind.
 pub const DRIFT: usize = KINDS;
+
+/// The kinds the campaign knew before a ground shift at one sender: the seeds in
+/// `REGRESSIONS_DEGRADING` draw from these.
+pub const KINDS_BEFORE_GROUND_SHIFT: usize = 30;
 
 /// The kinds the campaign knew before a degrading bus: the seeds in `REGRESSIONS_TX_DRIFT`
 /// draw from these.
@@ -1151,6 +1199,16 @@ pub fn draw(rng: &mut Rng, pairs: u8, k: usize) -> Fault {
                 permille: [100, 300, 700][rng.below(3) as usize],
                 ramp: rng.ms(500, 5_000),
                 hold: rng.ms(200, 3_000),
+            },
+            30 => Fault::GroundShift {
+                node: match rng.below(5) {
+                    0 => FOREIGN,
+                    _ => any_node(rng),
+                },
+                port: rng.below(2) as usize,
+                permille: [100, 300, 700][rng.below(3) as usize],
+                every: rng.ms(30, 300),
+                dur: rng.ms(300, 5_000),
             },
             DRIFT => Fault::Drift {
                 node: any_node(rng),

@@ -79,6 +79,8 @@ pub struct Dev {
     pub tx_dead: [Spans; 2],
     /// Per port: its controller overruns (misses frames now and then).
     pub overrun: [Spans; 2],
+    /// Per port: a ground shift destroys frames it sends (see `Fault::GroundShift`).
+    pub shifted: [Spans; 2],
     pub off: Spans,
     /// Its NMT state one in which its SDO server does not answer (stopped, or booting), as
     /// the run sees it every millisecond.
@@ -156,6 +158,7 @@ impl Timeline {
                     || ds.unplugged[ps].any(f, t)
                     || ds.stalled[ps].any(f, t)
                     || ds.slow_tx[ps].any(f, t)
+                    || ds.shifted[ps].any(f, t)
                     || ds.tx_dead[ps].any(f, t)
                     || dr.tx_dead[pr].any(f, t)
                     || dr.unplugged[pr].any(f, t)

@@ -3,6 +3,7 @@
 use super::probe::{std_frame, Probe};
 use super::{network, tx_records};
 use crate::frame::instant::{Duration, Instant};
+use crate::frame::Frame;
 use crate::machine::{ErrorCause, PortRequest, PortStatus};
 use crate::sim::timing::{bits_duration, error_frame_bits, frame_duration};
 use crate::sim::{FaultRates, RxFault, TraceRecord, TxOutcome};
@@ -246,6 +247,36 @@ fn delayed_frames_arrive_late_but_in_order() {
         .collect();
     assert_eq!(untils.len() as u64, sim.port_stats(slow.port(0)).rx_delayed);
     assert!(untils.iter().all(|u| late.iter().any(|(t, _)| t == u)));
+}
+
+#[test]
+fn a_port_whose_sends_are_corrupted_has_only_its_own_frames_destroyed() {
+    // A ground shift at one node: every frame it sends is destroyed until it stops, each
+    // retried; another sender on the same bus goes through at its first attempt.
+    let (mut sim, b) = network(1, 1, RATE);
+    let f = std_frame(0x181, &[1, 2, 3]);
+    let g = std_frame(0x182, &[4]);
+    let x = sim
+        .add_device("x", Probe::new(1).every(0, f, Instant::ZERO, LONG), &[b[0]])
+        .unwrap();
+    sim.add_device("y", Probe::new(1).every(0, g, ms(2), LONG), &[b[0]])
+        .unwrap();
+    let l = sim.add_device("l", Probe::new(1), &[b[0]]).unwrap();
+    sim.set_port_faults(x.port(0), FaultRates::NONE.with_corrupt_sent(1.0));
+    let port = x.port(0);
+    sim.at(ms(1), move |s| s.set_port_faults(port, FaultRates::NONE));
+    sim.run_until(ms(4));
+    let tx = tx_records(&sim);
+    let of = |frame: Frame| tx.iter().filter(move |t| t.frame == frame).collect::<Vec<_>>();
+    let (xs, ys) = (of(f), of(g));
+    assert!(xs.len() > 2, "{xs:?}");
+    assert!(xs[..xs.len() - 1]
+        .iter()
+        .all(|t| t.outcome == TxOutcome::ErrorFrame && t.start < ms(1)));
+    assert!(matches!(xs.last().unwrap().outcome, TxOutcome::Delivered { .. }));
+    assert_eq!(ys.len(), 1);
+    assert!(matches!(ys[0].outcome, TxOutcome::Delivered { .. }));
+    assert_eq!(sim.device(l).rx_on(0).len(), 2);
 }
 
 #[test]
