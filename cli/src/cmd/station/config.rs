@@ -40,6 +40,9 @@
 //! pair_heartbeat_ms = 50
 //! pair_timeout_ms = 150
 //! peers = [{ node = 2, priority = 1 }]   # the other masters of the network
+//! boards = [{ node = 0x10, eds = "io.eds" }, { node = 0x50, dcf = "io-b.dcf" }]
+//!                                  # optional: a pair member's EDS (names, types) or DCF
+//!                                  # (and its values written at boot); see [`boards`]
 //! on_stop = "stop"                 # NMT to all nodes when the station stops: none (default),
 //!                                  # stop, preop, reset, reset-comm
 //! gateway_net = 1                  # its 309-3 net number (default: its place in the file,
@@ -57,11 +60,13 @@ use serde::Deserialize;
 use std::ops::Range;
 use toml::Spanned;
 
+pub mod boards;
 mod gateway;
 mod http;
 mod mqtt;
 mod network;
 mod tls;
+pub use boards::Board;
 pub use gateway::Gateway;
 pub use http::{Control, Http};
 pub use mqtt::Mqtt;
@@ -117,6 +122,8 @@ pub struct Network {
     pub on_stop: Option<NmtCommand>,
     /// Its CiA 309-3 net number on the station's gateway.
     pub gateway_net: u16,
+    /// The device descriptions of its pairs' boards ([`boards`]).
+    pub boards: Vec<Board>,
 }
 
 /// Where a network runs.
@@ -189,6 +196,7 @@ struct NetworkTable {
     pair_timeout_ms: Option<Spanned<u64>>,
     #[serde(default)]
     peers: Option<Spanned<Vec<Peer>>>,
+    boards: Option<Spanned<Vec<Spanned<boards::BoardTable>>>>,
     on_stop: Option<Spanned<String>>,
     gateway_net: Option<Spanned<i64>>,
 }

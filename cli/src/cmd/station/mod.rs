@@ -172,6 +172,16 @@ async fn serve(g: &Global, st: &config::Station, duration_ms: Option<u64>) -> Re
             }
         }
         tracing::info!(target: "duocan::station", network = %n.name, buses = %n.buses, "started");
+        // Each board's description: its names and types for SDO by name.
+        if let Some((_, net)) = nets.last() {
+            for b in &n.boards {
+                for w in &b.desc.warnings {
+                    tracing::warn!(target: "duocan::station", network = %n.name,
+                        node = b.node, "{w}");
+                }
+                net.add_node(b.node, b.desc.clone());
+            }
+        }
     }
     tracing::info!(target: "duocan::station", station = %st.name, networks = nets.len(), "running");
     let mut logs = tokio::task::JoinSet::new();

@@ -53,6 +53,11 @@ pub(super) fn network(
     if let Err(e) = b.check() {
         return Err(place(src, &t, table, &name, &e));
     }
+    let pairs = t.pairs.as_ref().map_or(&[][..], |p| p.get_ref());
+    let boards = super::boards::boards(src, t.boards.as_ref(), pairs)?;
+    for cfg in boards.iter().filter_map(super::Board::slave_config) {
+        b = b.member_config(cfg);
+    }
     Ok(Network {
         name,
         buses,
@@ -60,6 +65,7 @@ pub(super) fn network(
         on_stop,
         // Numbered once every network is read (see `gateway::net_numbers`).
         gateway_net: 0,
+        boards,
     })
 }
 
