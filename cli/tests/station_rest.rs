@@ -397,7 +397,8 @@ fn bodies_and_the_control_rate_are_bounded() {
     let _ = std::fs::remove_dir_all(&d);
 }
 
-/// A board whose DCF the station file names: `check` shows it and its writes; at boot the
+/// A board whose DCF the station file names, on a network whose file names the CiA 302-6
+/// policy: `check` shows both, the status the policy run; at boot the
 /// master writes the DCF's value (Output 1 = 0x1234); REST reads and writes the board's entries
 /// by name and types them by the description; a board without one asks for INDEX/SUB and a
 /// type.
@@ -410,7 +411,8 @@ fn a_boards_dcf_configures_it_at_boot_and_names_its_entries() {
     let text = std::fs::read_to_string(&file).unwrap().replacen(
         "pairs = [[0x10, 0x50]]",
         &format!(
-            "pairs = [[0x10, 0x50]]\nboards = [{{ node = 0x10, dcf = {:?} }}]",
+            "pairs = [[0x10, 0x50]]\nboards = [{{ node = 0x10, dcf = {:?} }}]\n\
+             link = \"cia302-6\"",
             dcf.display().to_string()
         ),
         1,
@@ -418,7 +420,11 @@ fn a_boards_dcf_configures_it_at_boot_and_names_its_entries() {
     std::fs::write(&file, text).unwrap();
     let r = common::duocan(&["station", "check", file.to_str().unwrap()]);
     assert_eq!(r.code, 0, "{}", r.err);
-    let want = format!("    board 0x10: dcf {} (1 writes at boot)\n", dcf.display());
+    let want = format!(
+        "    link cia302-6, default bus 1, profile predefined\n    board 0x10: dcf {} (1 \
+         writes at boot)\n",
+        dcf.display()
+    );
     assert!(r.out.contains(&want), "{}", r.out);
     let (mut child, rx) = station(&file);
     let mut log = vec![];
@@ -427,6 +433,11 @@ fn a_boards_dcf_configures_it_at_boot_and_names_its_entries() {
         addr: &addr,
         token: None,
     };
+    // The network runs the policy its file names; the other one the default.
+    let (code, v) = c.get("/api/networks");
+    assert_eq!(code, 200, "{v}");
+    assert_eq!(v[0]["link"], json!("CiA 302-6 active-standby"), "{v}");
+    assert_eq!(v[1]["link"], json!("active-active"), "{v}");
     // Written at boot, read by its name and typed by the description.
     let v = c.get_until(&format!("{SDO}/Output%201"), 60, |v| {
         v["value"] == json!(0x1234)

@@ -43,6 +43,11 @@
 //! boards = [{ node = 0x10, eds = "io.eds" }, { node = 0x50, dcf = "io-b.dcf" }]
 //!                                  # optional: a pair member's EDS (names, types) or DCF
 //!                                  # (and its values written at boot); see [`boards`]
+//! profile = "predefined"           # the identifier profile (railway29 is refused: see [`link`])
+//! link = "active-active"           # the dual-bus policy: or "cia302-6", "ecss" ([`link`])
+//! merge = "exact"                  # active-active's receive merge: or "sticky"
+//! merge_timeout_ms = 40            # sticky: a sender's silence before it switches bus
+//! default_bus = 1                  # cia302-6 / ecss: the bus to start on (1 or 2)
 //! on_stop = "stop"                 # NMT to all nodes when the station stops: none (default),
 //!                                  # stop, preop, reset, reset-comm
 //! gateway_net = 1                  # its 309-3 net number (default: its place in the file,
@@ -63,6 +68,7 @@ use toml::Spanned;
 pub mod boards;
 mod gateway;
 mod http;
+pub mod link;
 mod mqtt;
 mod network;
 mod tls;
@@ -124,6 +130,8 @@ pub struct Network {
     pub gateway_net: u16,
     /// The device descriptions of its pairs' boards ([`boards`]).
     pub boards: Vec<Board>,
+    /// Its identifier profile and dual-bus policy, as `check` shows them ([`link`]).
+    pub link: link::Link,
 }
 
 /// Where a network runs.
@@ -197,6 +205,11 @@ struct NetworkTable {
     #[serde(default)]
     peers: Option<Spanned<Vec<Peer>>>,
     boards: Option<Spanned<Vec<Spanned<boards::BoardTable>>>>,
+    profile: Option<Spanned<String>>,
+    link: Option<Spanned<String>>,
+    merge: Option<Spanned<String>>,
+    merge_timeout_ms: Option<Spanned<u64>>,
+    default_bus: Option<Spanned<i64>>,
     on_stop: Option<Spanned<String>>,
     gateway_net: Option<Spanned<i64>>,
 }

@@ -4,7 +4,8 @@
 //! - `GET /`: the dashboard, a page for a browser that shows all of the below as it changes
 //!   ([`dashboard`](super::dashboard)).
 //! - `GET /api/networks`: every network as JSON — its buses, whether it is open, this master's
-//!   role, each port's state and counters, each pair's running board, the node table (state,
+//!   role, the dual-bus policy it runs (`link`: active-active, CiA 302-6 active-standby or
+//!   ECSS bus toggle), each port's state and counters, each pair's running board, the node table (state,
 //!   heard on which bus, last EMCY) and its last events with their times.
 //! - `GET /metrics`: the same as Prometheus metrics (text format 0.0.4): frames, error frames,
 //!   dropped frames and re-opens per port, port up, master active, running board per pair,
@@ -122,24 +123,33 @@ struct View {
     role: Option<MasterRole>,
     ports: Vec<duocan::net::PortView>,
     pairs: Vec<(String, Option<Member>)>,
+    /// The dual-bus layer's policy as it runs (`link` of the file).
+    link: Option<String>,
 }
 
 async fn view(w: &Watched) -> View {
     let role = w.net.role().await.ok();
     let ports = w.net.ports().await.unwrap_or_default();
-    let pairs = w
+    let (pairs, link) = w
         .net
         .with(|n, _| {
-            n.pairs()
+            let pairs = n
+                .pairs()
                 .map(|(_, p)| {
                     let (a, b) = (p.spec.node(Member::A).raw(), p.spec.node(Member::B).raw());
                     (format!("{a:#04x}/{b:#04x}"), p.active)
                 })
-                .collect()
+                .collect();
+            (pairs, Some(n.station().link.mode().to_string()))
         })
         .await
         .unwrap_or_default();
-    View { role, ports, pairs }
+    View {
+        role,
+        ports,
+        pairs,
+        link,
+    }
 }
 
 fn member(m: Option<Member>) -> &'static str {
@@ -182,6 +192,7 @@ async fn networks_json(State(s): State<Arc<Shared>>, headers: HeaderMap) -> Resp
             // A closed network (a simulated plant's end) answers nothing.
             "open": v.role.is_some(),
             "role": v.role.map(|r| r.to_string()),
+            "link": v.link,
             "ports": v.ports.iter().map(|p| json!({
                 "name": p.name,
                 "state": p.state,

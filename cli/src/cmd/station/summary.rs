@@ -24,6 +24,7 @@ pub(super) fn summary(st: &config::Station) -> String {
             pairs.join(" "),
             peers.join(" ")
         );
+        out += &format!("    {}\n", n.link);
         for d in &n.boards {
             let kind = match d.kind {
                 duocan::eds::FileKind::Eds => "eds",
