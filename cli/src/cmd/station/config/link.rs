@@ -72,7 +72,7 @@ impl std::fmt::Display for Link {
     }
 }
 
-fn one_of<'a>(
+fn one_of(
     src: &Source<'_>,
     s: &Spanned<String>,
     key: &str,
