@@ -2,11 +2,15 @@
 //! on a loopback TCP port and on a local socket, both serving both networks of the station by
 //! their net numbers; an unknown net is `ERROR:106`; an over-long line is answered and the
 //! connection goes on; the client limit holds for both listeners together; the socket file is
-//! its owner's, replaces a stale one and is gone after SIGTERM. Every read has a deadline.
+//! its owner's, replaces a stale one and is gone after SIGTERM; `/metrics` counts the clients
+//! refused and served. Every read has a deadline.
 
 mod common;
 #[path = "station_http/log.rs"]
 mod log;
+#[path = "station_mqtt/station.rs"]
+#[allow(dead_code)]
+mod station;
 use common::duocan;
 use log::{next_before, stderr_lines};
 use std::io::{BufRead, BufReader, Read, Write};
@@ -194,7 +198,7 @@ fn the_station_serves_309_3_on_tcp_and_a_local_socket_for_both_networks() {
         &station,
         format!(
             "[station]\ngateway = \"127.0.0.1:0\"\ngateway_socket = \"gw.sock\"\n\
-             gateway_max_clients = 3\n{NETWORKS}"
+             gateway_max_clients = 3\nhttp = \"127.0.0.1:0\"\n{NETWORKS}"
         ),
     )
     .unwrap();
@@ -221,9 +225,13 @@ fn the_station_serves_309_3_on_tcp_and_a_local_socket_for_both_networks() {
     let rx = stderr_lines(&mut child.0);
     let end = Instant::now() + Duration::from_secs(120);
     let (mut addr, mut on_socket, mut active) = (None, false, 0);
+    let mut http = None;
     let mut seen = vec![];
     while let Some(line) = next_before(&rx, end) {
         seen.push(line.clone());
+        if let Some(a) = line.split("http listening on ").nth(1) {
+            http = Some(a.trim().to_string());
+        }
         if let Some(a) = line.split("309-3 gateway listening on 127.0.0.1:").nth(1) {
             addr = Some(format!("127.0.0.1:{}", a.trim()));
         }
@@ -231,11 +239,11 @@ fn the_station_serves_309_3_on_tcp_and_a_local_socket_for_both_networks() {
         if line.contains(": A active") {
             active += 1;
         }
-        if addr.is_some() && on_socket && active == 2 {
+        if addr.is_some() && http.is_some() && on_socket && active == 2 {
             break;
         }
     }
-    let Some(addr) = addr.filter(|_| on_socket && active == 2) else {
+    let (Some(addr), Some(http)) = (addr.filter(|_| on_socket && active == 2), http) else {
         let _ = child.0.kill();
         panic!(
             "no gateway or no pair active in 120 s:\n{}",
@@ -260,6 +268,12 @@ fn the_station_serves_309_3_on_tcp_and_a_local_socket_for_both_networks() {
         "[0] ERROR:102 #request not processed in the present state: too many clients\r\n";
     assert_eq!(Client::tcp(&addr).rest(), too_many);
     assert_eq!(Client::unix(&sock).rest(), too_many);
+    // Counted in the metrics, with the three served.
+    let m = station::metrics(&http);
+    let refused = m["duocan_gateway_refused_total{reason=\"too_many_clients\"}"];
+    assert!(refused >= 2, "{m:?}");
+    assert_eq!(m["duocan_gateway_clients"], 3, "{m:?}");
+    assert_eq!(m["duocan_gateway_max_clients"], 3, "{m:?}");
     // The served ones go on.
     assert_eq!(tcp.ask("[20] 1 16 r 0x1018 2 u32"), "[20] 16");
     drop(third);

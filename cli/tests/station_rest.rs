@@ -396,3 +396,91 @@ fn bodies_and_the_control_rate_are_bounded() {
     let _ = child.wait();
     let _ = std::fs::remove_dir_all(&d);
 }
+
+/// A board whose DCF the station file names, on a network whose file names the CiA 302-6
+/// policy: `check` shows both, the status the policy run; at boot the
+/// master writes the DCF's value (Output 1 = 0x1234); REST reads and writes the board's entries
+/// by name and types them by the description; a board without one asks for INDEX/SUB and a
+/// type.
+#[test]
+fn a_boards_dcf_configures_it_at_boot_and_names_its_entries() {
+    let _one = common::one_station();
+    let d = dir("boards");
+    let file = station_file(&d, "http = \"127.0.0.1:0\"\nhttp_control = \"loopback\"\n");
+    let dcf = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("tests/station_files/board.dcf");
+    let text = std::fs::read_to_string(&file).unwrap().replacen(
+        "pairs = [[0x10, 0x50]]",
+        &format!(
+            "pairs = [[0x10, 0x50]]\nboards = [{{ node = 0x10, dcf = {:?} }}]\n\
+             link = \"cia302-6\"",
+            dcf.display().to_string()
+        ),
+        1,
+    );
+    std::fs::write(&file, text).unwrap();
+    let r = common::duocan(&["station", "check", file.to_str().unwrap()]);
+    assert_eq!(r.code, 0, "{}", r.err);
+    let want = format!(
+        "    link cia302-6, default bus 1, profile predefined\n    board 0x10: dcf {} (1 \
+         writes at boot)\n",
+        dcf.display()
+    );
+    assert!(r.out.contains(&want), "{}", r.out);
+    let (mut child, rx) = station(&file);
+    let mut log = vec![];
+    let addr = started(&rx, &mut log);
+    let c = Client {
+        addr: &addr,
+        token: None,
+    };
+    // The network runs the policy its file names; the other one the default.
+    let (code, v) = c.get("/api/networks");
+    assert_eq!(code, 200, "{v}");
+    assert_eq!(v[0]["link"], json!("CiA 302-6 active-standby"), "{v}");
+    assert_eq!(v[1]["link"], json!("active-active"), "{v}");
+    // Written at boot, read by its name and typed by the description.
+    let v = c.get_until(&format!("{SDO}/Output%201"), 60, |v| {
+        v["value"] == json!(0x1234)
+    });
+    assert_eq!(
+        v,
+        json!({"network": "east", "node": 16, "index": "0x6200", "sub": 1, "type": "u16",
+               "value": 0x1234, "name": "Output 1"})
+    );
+    // By INDEX/SUB without a type: the described one.
+    let (code, v) = c.get(&format!("{SDO}/0x6200/1"));
+    assert_eq!(
+        (code, &v["type"], &v["value"]),
+        (200, &json!("u16"), &json!(0x1234)),
+        "{v}"
+    );
+    // A type asked for still wins.
+    let (code, v) = c.get(&format!("{SDO}/identity%20object.vendor-id?type=x32"));
+    assert_eq!((code, &v["value"]), (200, &json!("0x00D0CA00")), "{v}");
+    // Written by name, the type from the description.
+    let (code, v) = c.send("PUT", &format!("{SDO}/Output%201"), Some(r#"{"value":77}"#));
+    assert_eq!(
+        (code, &v["value"], &v["type"]),
+        (200, &json!(77), &json!("u16")),
+        "{v}"
+    );
+    let (code, v) = c.get(&format!("{SDO}/0x6200/1"));
+    assert_eq!((code, &v["value"]), (200, &json!(77)), "{v}");
+    // Names the description does not have, a node without one, a write without a type.
+    let (code, v) = c.get(&format!("{SDO}/no%20such%20entry"));
+    assert_eq!(code, 404, "{v}");
+    assert!(why(&v).starts_with("node 0x10: "), "{v}");
+    let (code, v) = c.get("/api/networks/east/nodes/0x50/sdo/Output%201");
+    assert_eq!(code, 404, "{v}");
+    assert!(why(&v).contains("has no description"), "{v}");
+    let (code, v) = c.send(
+        "PUT",
+        "/api/networks/east/nodes/0x50/sdo/0x6200/1",
+        Some(r#"{"value":1}"#),
+    );
+    assert_eq!(code, 400, "{v}");
+    assert!(why(&v).starts_with("type: missing"), "{v}");
+    let _ = child.kill();
+    let _ = child.wait();
+    let _ = std::fs::remove_dir_all(&d);
+}

@@ -19,7 +19,7 @@ use crate::supervisor::{Supervisor, SupervisorConfig};
 use crate::LinkMode;
 use alloc::boxed::Box;
 use alloc::vec::Vec;
-use duocan::master::{objects, Master, MasterConfig};
+use duocan::master::{objects, Master, MasterConfig, SlaveConfig};
 use duocan::od::{comm, DynamicDictionary};
 use duocan::profile::Predefined;
 use duocan::{Duration, Instant, NodeId};
@@ -48,6 +48,7 @@ pub const DEFAULT_MASTER_TIMEOUT: Duration = Duration::from_millis(300);
 /// | [`pair_timeout`](Self::pair_timeout) | 300 ms | silence of a member after which it has failed |
 /// | [`boot_timeout`](Self::boot_timeout) | 5 s | a member not heard at all this long after power-on or a reset is reported (`NotHeard`) |
 /// | [`peer_master`](Self::peer_master) | none | another master-capable device |
+/// | [`member_config`](Self::member_config) | heartbeat only | what the master configures into a pair member at boot (a DCF's values: `SlaveConfig::from_dcf`) |
 /// | [`link`](Self::link) | active-active, guard period = the shorter heartbeat | the dual-bus layer |
 /// | [`master`](Self::master) | `MasterConfig::new()` | the CiA 302-2 master's own settings (other slaves, SDO timeout, queues) |
 ///
@@ -83,6 +84,7 @@ pub struct RedundantNetworkBuilder {
     boot_timeout: Duration,
     pairs: Vec<(u8, u8)>,
     peers: Vec<(u8, u8)>,
+    members: Vec<SlaveConfig>,
     link: Option<DualBusConfig>,
     master: MasterConfig,
 }
@@ -100,6 +102,7 @@ impl Default for RedundantNetworkBuilder {
             boot_timeout: PairsConfig::default().boot_timeout,
             pairs: Vec::new(),
             peers: Vec::new(),
+            members: Vec::new(),
             link: None,
             master: MasterConfig::new(),
         }
@@ -172,6 +175,16 @@ impl RedundantNetworkBuilder {
     /// Another master-capable device with its own priority (lower wins).
     pub fn peer_master_with_priority(mut self, node: u8, priority: u8) -> Self {
         self.peers.push((node, priority));
+        self
+    }
+    /// How the master configures pair member `cfg.node` when it boots (identity check,
+    /// configuration writes, PDOs: a DCF's values with `SlaveConfig::from_dcf`); the pair
+    /// supervisor overrides what supervision needs (heartbeat, start, assignment: see
+    /// [`Supervisor::add_pair_with`]). Default: the member's heartbeat only. A second config for
+    /// one node replaces the first; one for a node that is no pair member is not used.
+    pub fn member_config(mut self, cfg: SlaveConfig) -> Self {
+        self.members.retain(|c| c.node != cfg.node);
+        self.members.push(cfg);
         self
     }
     /// The dual-bus layer's configuration (default: active-active, health timing from the
@@ -342,7 +355,14 @@ impl RedundantNetworkBuilder {
         let mut sup = Box::new(Supervisor::new(master, cfg, Instant::ZERO));
         for &(a, b) in &self.pairs {
             let spec = PairSpec::new(id(a)?, id(b)?, self.pair_heartbeat, self.pair_timeout);
-            sup.add_pair(Instant::ZERO, spec)
+            let member = |node: NodeId| {
+                self.members
+                    .iter()
+                    .find(|c| c.node == node)
+                    .cloned()
+                    .unwrap_or_else(|| SlaveConfig::new(node))
+            };
+            sup.add_pair_with(Instant::ZERO, spec, member(spec.a), member(spec.b))
                 .map_err(RedundantError::Pair)?;
         }
         Ok(sup)

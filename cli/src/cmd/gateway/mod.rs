@@ -105,7 +105,7 @@ pub mod socket;
 pub(crate) mod value;
 
 pub use nets::GatewayNets;
-pub use serve::{accept, GatewayListener, Served};
+pub use serve::{accept, GatewayListener, GatewayStats, Served};
 
 #[cfg(test)]
 mod tests;

@@ -18,8 +18,37 @@ pub struct Served {
     nets: Arc<GatewayNets>,
     timeout_ms: u64,
     slots: Arc<tokio::sync::Semaphore>,
+    max_clients: usize,
     refused: Arc<AtomicU64>,
     note: fn(&str),
+}
+
+/// A gateway's client counts as they are now, for a station's `/metrics`: cheap to clone,
+/// read at any time while the gateway serves (and after).
+#[derive(Clone)]
+pub struct GatewayStats {
+    slots: Arc<tokio::sync::Semaphore>,
+    max_clients: usize,
+    refused: Arc<AtomicU64>,
+}
+
+impl GatewayStats {
+    /// Clients refused so far because the limit was reached (each told `ERROR:102`).
+    #[must_use]
+    pub fn refused(&self) -> u64 {
+        self.refused.load(Ordering::Relaxed)
+    }
+    /// Clients being served now, on every listener together.
+    #[must_use]
+    pub fn clients(&self) -> usize {
+        self.max_clients
+            .saturating_sub(self.slots.available_permits())
+    }
+    /// The limit of clients at once.
+    #[must_use]
+    pub fn max_clients(&self) -> usize {
+        self.max_clients
+    }
 }
 
 impl Served {
@@ -31,8 +60,19 @@ impl Served {
             nets: Arc::new(nets),
             timeout_ms,
             slots: Arc::new(tokio::sync::Semaphore::new(max_clients)),
+            max_clients,
             refused: Arc::new(AtomicU64::new(0)),
             note,
+        }
+    }
+
+    /// The counts of its clients, live.
+    #[must_use]
+    pub fn stats(&self) -> GatewayStats {
+        GatewayStats {
+            slots: self.slots.clone(),
+            max_clients: self.max_clients,
+            refused: self.refused.clone(),
         }
     }
 }

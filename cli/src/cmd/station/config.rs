@@ -40,6 +40,14 @@
 //! pair_heartbeat_ms = 50
 //! pair_timeout_ms = 150
 //! peers = [{ node = 2, priority = 1 }]   # the other masters of the network
+//! boards = [{ node = 0x10, eds = "io.eds" }, { node = 0x50, dcf = "io-b.dcf" }]
+//!                                  # optional: a pair member's EDS (names, types) or DCF
+//!                                  # (and its values written at boot); see [`boards`]
+//! profile = "predefined"           # the identifier profile (railway29 is refused: see [`link`])
+//! link = "active-active"           # the dual-bus policy: or "cia302-6", "ecss" ([`link`])
+//! merge = "exact"                  # active-active's receive merge: or "sticky"
+//! merge_timeout_ms = 40            # sticky: a sender's silence before it switches bus
+//! default_bus = 1                  # cia302-6 / ecss: the bus to start on (1 or 2)
 //! on_stop = "stop"                 # NMT to all nodes when the station stops: none (default),
 //!                                  # stop, preop, reset, reset-comm
 //! gateway_net = 1                  # its 309-3 net number (default: its place in the file,
@@ -57,11 +65,14 @@ use serde::Deserialize;
 use std::ops::Range;
 use toml::Spanned;
 
+pub mod boards;
 mod gateway;
 mod http;
+pub mod link;
 mod mqtt;
 mod network;
 mod tls;
+pub use boards::Board;
 pub use gateway::Gateway;
 pub use http::{Control, Http};
 pub use mqtt::Mqtt;
@@ -117,6 +128,10 @@ pub struct Network {
     pub on_stop: Option<NmtCommand>,
     /// Its CiA 309-3 net number on the station's gateway.
     pub gateway_net: u16,
+    /// The device descriptions of its pairs' boards ([`boards`]).
+    pub boards: Vec<Board>,
+    /// Its identifier profile and dual-bus policy, as `check` shows them ([`link`]).
+    pub link: link::Link,
 }
 
 /// Where a network runs.
@@ -189,6 +204,12 @@ struct NetworkTable {
     pair_timeout_ms: Option<Spanned<u64>>,
     #[serde(default)]
     peers: Option<Spanned<Vec<Peer>>>,
+    boards: Option<Spanned<Vec<Spanned<boards::BoardTable>>>>,
+    profile: Option<Spanned<String>>,
+    link: Option<Spanned<String>>,
+    merge: Option<Spanned<String>>,
+    merge_timeout_ms: Option<Spanned<u64>>,
+    default_bus: Option<Spanned<i64>>,
     on_stop: Option<Spanned<String>>,
     gateway_net: Option<Spanned<i64>>,
 }

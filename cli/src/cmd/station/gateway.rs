@@ -6,13 +6,16 @@
 //! the file from 1); a client starts on the file's first network, and `set network N` moves
 //! it. A net no network has is `ERROR:106`, naming the nets there are. Both listeners share
 //! one limit of clients at once; one past it is told `ERROR:102` and closed, and counted in
-//! the log. They are bound before any network opens (a station that cannot serve its gateway
+//! the log and in `/metrics` (`duocan_gateway_refused_total`, with the clients served now,
+//! `duocan_gateway_clients`: [`Running::stats`]). A remote client is never refused at run
+//! time: a TCP address other than loopback is refused by the check, unless
+//! `gateway_allow_remote` opens it to all. They are bound before any network opens (a station that cannot serve its gateway
 //! does not start), and close with the station: its clients are disconnected and the socket
 //! file removed.
 
 use super::config::{self, Gateway};
 use crate::cmd::gateway::socket::{self, SocketFile};
-use crate::cmd::gateway::{accept, GatewayListener, GatewayNets, Served};
+use crate::cmd::gateway::{accept, GatewayListener, GatewayNets, GatewayStats, Served};
 use crate::fail::Fail;
 use duocan_redundancy::net::RedundantNetwork;
 
@@ -52,6 +55,7 @@ pub struct Running {
     stop: tokio::sync::watch::Sender<bool>,
     tasks: tokio::task::JoinSet<()>,
     file: Option<SocketFile>,
+    stats: GatewayStats,
 }
 
 /// Serves `nets` (each with its network's settings) on the listeners of `bound`, each client
@@ -67,6 +71,7 @@ pub fn start(
         .map(|(n, net)| (n.gateway_net, n.name.clone(), (**net).clone()))
         .collect();
     let served = Served::new(GatewayNets::numbered(list), timeout_ms, max_clients, note);
+    let stats = served.stats();
     let (stop, _) = tokio::sync::watch::channel(false);
     let mut tasks = tokio::task::JoinSet::new();
     for l in bound.listeners {
@@ -80,10 +85,17 @@ pub fn start(
         stop,
         tasks,
         file: bound.file,
+        stats,
     }
 }
 
 impl Running {
+    /// Its clients' counts, live (what `/metrics` shows).
+    #[must_use]
+    pub fn stats(&self) -> GatewayStats {
+        self.stats.clone()
+    }
+
     /// Closes the listeners and every client's connection, then removes the socket file.
     pub async fn stop(mut self) {
         self.stop.send_replace(true);

@@ -4,11 +4,15 @@
 //! - `GET /`: the dashboard, a page for a browser that shows all of the below as it changes
 //!   ([`dashboard`](super::dashboard)).
 //! - `GET /api/networks`: every network as JSON — its buses, whether it is open, this master's
-//!   role, each port's state and counters, each pair's running board, the node table (state,
+//!   role, the dual-bus policy it runs (`link`: active-active, CiA 302-6 active-standby or
+//!   ECSS bus toggle), each port's state and counters, each pair's running board, the node table (state,
 //!   heard on which bus, last EMCY) and its last events with their times.
 //! - `GET /metrics`: the same as Prometheus metrics (text format 0.0.4): frames, error frames,
 //!   dropped frames and re-opens per port, port up, master active, running board per pair,
-//!   events and failovers per network; with a broker, the MQTT publisher's (`duocan_mqtt_*`).
+//!   events and failovers per network; with a broker, the MQTT publisher's (`duocan_mqtt_*`);
+//!   with a 309-3 gateway, its clients refused for want of room
+//!   (`duocan_gateway_refused_total{reason="too_many_clients"}`), served now and at most
+//!   (`duocan_gateway_clients`, `duocan_gateway_max_clients`).
 //! - `GET /api/events`: every network's events from now on, as server-sent events: one
 //!   `event: NETWORK` with the event's one line as its data, each as it happens. A client that
 //!   falls behind the network's bounded event queue is told how many it missed (`data: missed
@@ -39,6 +43,7 @@
 use super::access::{error, unauthorized, Access};
 use super::audit::AuditLog;
 use super::dashboard::{self, Recent};
+use crate::cmd::gateway::GatewayStats;
 use axum::extract::State;
 use axum::http::{header, HeaderMap, StatusCode};
 use axum::response::{IntoResponse, Response};
@@ -90,13 +95,20 @@ pub(super) struct Shared {
     pub(super) access: Access,
     pub(super) turns: Semaphore,
     streams: Arc<Semaphore>,
+    gateway: Option<GatewayStats>,
 }
 
-/// The router over `networks`, under the rules of `access`.
-pub fn router(networks: Vec<Arc<Watched>>, access: Access) -> Router {
+/// The router over `networks`, under the rules of `access`; `gateway`: the station's 309-3
+/// gateway's counts, for `/metrics`, if it serves one.
+pub fn router(
+    networks: Vec<Arc<Watched>>,
+    access: Access,
+    gateway: Option<GatewayStats>,
+) -> Router {
     let shared = Arc::new(Shared {
         networks,
         access,
+        gateway,
         turns: Semaphore::new(MAX_CLIENTS),
         streams: Arc::new(Semaphore::new(MAX_STREAMS)),
     });
@@ -122,24 +134,33 @@ struct View {
     role: Option<MasterRole>,
     ports: Vec<duocan::net::PortView>,
     pairs: Vec<(String, Option<Member>)>,
+    /// The dual-bus layer's policy as it runs (`link` of the file).
+    link: Option<String>,
 }
 
 async fn view(w: &Watched) -> View {
     let role = w.net.role().await.ok();
     let ports = w.net.ports().await.unwrap_or_default();
-    let pairs = w
+    let (pairs, link) = w
         .net
         .with(|n, _| {
-            n.pairs()
+            let pairs = n
+                .pairs()
                 .map(|(_, p)| {
                     let (a, b) = (p.spec.node(Member::A).raw(), p.spec.node(Member::B).raw());
                     (format!("{a:#04x}/{b:#04x}"), p.active)
                 })
-                .collect()
+                .collect();
+            (pairs, Some(n.station().link.mode().to_string()))
         })
         .await
         .unwrap_or_default();
-    View { role, ports, pairs }
+    View {
+        role,
+        ports,
+        pairs,
+        link,
+    }
 }
 
 fn member(m: Option<Member>) -> &'static str {
@@ -182,6 +203,7 @@ async fn networks_json(State(s): State<Arc<Shared>>, headers: HeaderMap) -> Resp
             // A closed network (a simulated plant's end) answers nothing.
             "open": v.role.is_some(),
             "role": v.role.map(|r| r.to_string()),
+            "link": v.link,
             "ports": v.ports.iter().map(|p| json!({
                 "name": p.name,
                 "state": p.state,
@@ -322,6 +344,9 @@ async fn metrics(State(s): State<Arc<Shared>>, headers: HeaderMap) -> Response {
             );
         }
     }
+    if let Some(gw) = &s.gateway {
+        gateway_metrics(&mut out, gw);
+    }
     super::mqtt::metrics(&mut out);
     (
         [(
@@ -331,6 +356,30 @@ async fn metrics(State(s): State<Arc<Shared>>, headers: HeaderMap) -> Response {
         out,
     )
         .into_response()
+}
+
+/// The 309-3 gateway's lines of `/metrics`.
+fn gateway_metrics(out: &mut String, gw: &GatewayStats) {
+    let _ = writeln!(
+        out,
+        "# HELP duocan_gateway_refused_total CiA 309-3 gateway clients refused (told \
+         ERROR:102 and closed): too many at once (gateway_max_clients).\n\
+         # TYPE duocan_gateway_refused_total counter\n\
+         duocan_gateway_refused_total{{reason=\"too_many_clients\"}} {}",
+        gw.refused()
+    );
+    let _ = writeln!(
+        out,
+        "# HELP duocan_gateway_clients CiA 309-3 gateway clients served now (TCP and socket).\n\
+         # TYPE duocan_gateway_clients gauge\nduocan_gateway_clients {}",
+        gw.clients()
+    );
+    let _ = writeln!(
+        out,
+        "# HELP duocan_gateway_max_clients The most CiA 309-3 gateway clients served at once.\n\
+         # TYPE duocan_gateway_max_clients gauge\nduocan_gateway_max_clients {}",
+        gw.max_clients()
+    );
 }
 
 async fn events(State(s): State<Arc<Shared>>, headers: HeaderMap) -> Response {

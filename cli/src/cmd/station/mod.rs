@@ -172,6 +172,16 @@ async fn serve(g: &Global, st: &config::Station, duration_ms: Option<u64>) -> Re
             }
         }
         tracing::info!(target: "duocan::station", network = %n.name, buses = %n.buses, "started");
+        // Each board's description: its names and types for SDO by name.
+        if let Some((_, net)) = nets.last() {
+            for b in &n.boards {
+                for w in &b.desc.warnings {
+                    tracing::warn!(target: "duocan::station", network = %n.name,
+                        node = b.node, "{w}");
+                }
+                net.add_node(b.node, b.desc.clone());
+            }
+        }
     }
     tracing::info!(target: "duocan::station", station = %st.name, networks = nets.len(), "running");
     let mut logs = tokio::task::JoinSet::new();
@@ -218,16 +228,17 @@ async fn serve(g: &Global, st: &config::Station, duration_ms: Option<u64>) -> Re
         }
     }
     let plant = st.mqtt.as_ref().map(|m| mqtt::start(m, &watched));
+    let gateway = gateway.map(|(bound, max)| gateway::start(bound, &nets, g.timeout, max));
     if let Some(listener) = listener {
         let local = listener.local_addr()?;
         let scheme = if tls.is_some() { "https" } else { "http" };
         tracing::info!(target: "duocan::station", "{scheme} listening on {local}");
-        let app = http::router(watched, access::Access::new(st.http.as_ref()));
+        let gw = gateway.as_ref().map(gateway::Running::stats);
+        let app = http::router(watched, access::Access::new(st.http.as_ref()), gw);
         // Each request knows its client's address: control actions are logged with it.
         let app = app.into_make_service_with_connect_info::<std::net::SocketAddr>();
         logs.spawn(tls::serve(listener, tls, app));
     }
-    let gateway = gateway.map(|(bound, max)| gateway::start(bound, &nets, g.timeout, max));
     let timer = async {
         match duration_ms {
             Some(ms) => tokio::time::sleep(std::time::Duration::from_millis(ms)).await,

@@ -2,6 +2,9 @@
 
 use super::config;
 
+/// The warnings of a board's description shown, at most.
+const SHOWN_WARNINGS: usize = 5;
+
 /// What a checked station runs, one line per network.
 pub(super) fn summary(st: &config::Station) -> String {
     let mut out = format!("station {}: {} networks\n", st.name, st.networks.len());
@@ -21,6 +24,37 @@ pub(super) fn summary(st: &config::Station) -> String {
             pairs.join(" "),
             peers.join(" ")
         );
+        out += &format!("    {}\n", n.link);
+        for d in &n.boards {
+            let kind = match d.kind {
+                duocan::eds::FileKind::Eds => "eds",
+                duocan::eds::FileKind::Dcf => "dcf",
+            };
+            let mut notes = Vec::new();
+            if d.kind == duocan::eds::FileKind::Dcf {
+                notes.push(format!("{} writes at boot", d.writes()));
+            }
+            if d.warnings() > 0 {
+                notes.push(format!("{} warnings", d.warnings()));
+            }
+            let notes = if notes.is_empty() {
+                String::new()
+            } else {
+                format!(" ({})", notes.join(", "))
+            };
+            out += &format!(
+                "    board {:#04x}: {kind} {}{notes}\n",
+                d.node,
+                d.path.display()
+            );
+            // What a lenient reading took: the operator sees what the file gets wrong.
+            for w in d.desc.warnings.iter().take(SHOWN_WARNINGS) {
+                out += &format!("      warning: {w}\n");
+            }
+            if d.warnings() > SHOWN_WARNINGS {
+                out += &format!("      … and {} more\n", d.warnings() - SHOWN_WARNINGS);
+            }
+        }
     }
     if let Some(h) = &st.http {
         // Who may do what, said plainly: an operator checks that control is as meant.

@@ -53,6 +53,15 @@ pub(super) fn network(
     if let Err(e) = b.check() {
         return Err(place(src, &t, table, &name, &e));
     }
+    let (link, shown) = super::link::link(src, &t)?;
+    if let Some(cfg) = link {
+        b = b.link(cfg);
+    }
+    let pairs = t.pairs.as_ref().map_or(&[][..], |p| p.get_ref());
+    let boards = super::boards::boards(src, t.boards.as_ref(), pairs)?;
+    for cfg in boards.iter().filter_map(super::Board::slave_config) {
+        b = b.member_config(cfg);
+    }
     Ok(Network {
         name,
         buses,
@@ -60,6 +69,8 @@ pub(super) fn network(
         on_stop,
         // Numbered once every network is read (see `gateway::net_numbers`).
         gateway_net: 0,
+        boards,
+        link: shown,
     })
 }
 

@@ -7,6 +7,8 @@
 //! |---|---|---|---|
 //! | `GET /api/networks/NET/nodes/ID/sdo/INDEX/SUB?type=u32` | read | | `{"network","node","index","sub","type","value"}` |
 //! | `PUT /api/networks/NET/nodes/ID/sdo/INDEX/SUB` | control | `{"type":"u32","value":1234}` | the same |
+//! | `GET /api/networks/NET/nodes/ID/sdo/NAME` | read | | the same, with `"name"` |
+//! | `PUT /api/networks/NET/nodes/ID/sdo/NAME` | control | `{"value":1234}` | the same |
 //! | `POST /api/networks/NET/nmt` | control | `{"command":"stop","node":16}` (`0`: all nodes) | `{"network","node","command"}` |
 //! | `POST /api/networks/NET/pairs/ID/switch` | control | none, or `{"to":"A"}` / `{"to":"B"}` | `{"network","pair","active"}` |
 //! | `POST /api/networks/NET/lss` | control | `{"command":"identify-non-configured"}`, or `configure` ([`lss`]) | `{"network",…}` |
@@ -14,7 +16,17 @@
 //! INDEX and SUB are numbers (`0x1018`, `4120`; `1`, `0x01`); the type is a CiA 309 name
 //! ([`value`]; a read without `?type=` gets the bytes, `hex`); a value whose size is not its
 //! type's is answered as its bytes (`"type":"hex"`). NMT commands: `start`, `stop`, `preop`,
-//! `reset`, `reset-comm`. A switch-over names the pair by either member's node-ID and goes to
+//! `reset`, `reset-comm`.
+//!
+//! **Names and types from the board's description.** A board whose EDS or DCF the station
+//! file names (`boards`, see [`config::boards`](super::config::boards)) is read and written by
+//! the name of an entry as the description resolves it (`Producer%20heartbeat%20time`,
+//! `Identity%20object.Vendor-ID`, `0x1017sub0`; without regard to case; an unknown or ambiguous
+//! name is a 404 listing the candidates), and a request that names no type gets the entry's
+//! data type (its CiA 309 name; `hex` where 309 has none), by name or by INDEX/SUB alike. A
+//! node without a description takes INDEX/SUB, and a read without a type gets its bytes.
+//!
+//! A switch-over names the pair by either member's node-ID and goes to
 //! `to`, or by default to the member that is not running.
 //!
 //! **Errors**, each a JSON `{"error": why}` naming what was wrong, and none changing anything:
@@ -64,6 +76,10 @@ pub(super) fn routes() -> Router<Arc<Shared>> {
         .route(
             "/api/networks/{net}/nodes/{id}/sdo/{index}/{sub}",
             get(sdo_read).put(sdo_write),
+        )
+        .route(
+            "/api/networks/{net}/nodes/{id}/sdo/{name}",
+            get(sdo_read_named).put(sdo_write_named),
         )
         .route("/api/networks/{net}/nmt", post(nmt))
         .route("/api/networks/{net}/pairs/{id}/switch", post(switch))
@@ -189,12 +205,11 @@ fn sdo_target<'a>(
     Ok((network(s, net)?, id, index, sub))
 }
 
-fn sdo_answer(w: &Watched, id: u8, index: u16, sub: u8, ty: &str, v: Value) -> Response {
-    axum::Json(json!({
+fn sdo_json(w: &Watched, id: u8, index: u16, sub: u8, ty: &str, v: Value) -> Value {
+    json!({
         "network": w.name, "node": id, "index": format!("0x{index:04X}"), "sub": sub,
         "type": ty, "value": v,
-    }))
-    .into_response()
+    })
 }
 
 async fn sdo_read(
@@ -207,12 +222,54 @@ async fn sdo_read(
         return Err(unauthorized());
     }
     let Query(q) = q.map_err(|e| bad(format!("query: {}", e.body_text())))?;
-    let name = q
-        .get("type")
-        .map_or("hex", String::as_str)
+    let (w, id, index, sub) = sdo_target(&s, &p)?;
+    let described = described_type(w, id, index, sub);
+    read(&s, w, id, (index, sub), q.get("type"), described, None).await
+}
+
+/// A read of an entry named by the node's description.
+async fn sdo_read_named(
+    State(s): State<Arc<Shared>>,
+    headers: HeaderMap,
+    Path((net, id, name)): Path<(String, String, String)>,
+    q: Result<Query<HashMap<String, String>>, QueryRejection>,
+) -> Reply {
+    if !s.access.may_read(&headers) {
+        return Err(unauthorized());
+    }
+    let Query(q) = q.map_err(|e| bad(format!("query: {}", e.body_text())))?;
+    let id = node_id(&id, false)?;
+    let w = network(&s, &net)?;
+    let (index, sub, ty, entry) = named(w, id, &name)?;
+    read(
+        &s,
+        w,
+        id,
+        (index, sub),
+        q.get("type"),
+        Some(ty),
+        Some(entry),
+    )
+    .await
+}
+
+/// Reads (`index`, `sub`) of node `id` as the type asked for, else the described one, else
+/// as bytes.
+async fn read(
+    s: &Shared,
+    w: &Watched,
+    id: u8,
+    (index, sub): (u16, u8),
+    asked: Option<&String>,
+    described: Option<String>,
+    entry: Option<String>,
+) -> Reply {
+    let name = asked
+        .cloned()
+        .or(described)
+        .unwrap_or_else(|| "hex".into())
         .to_ascii_lowercase();
     let ty = value::data_type(&name).map_err(bad)?;
-    let (w, id, index, sub) = sdo_target(&s, &p)?;
     let _turn = s.turns.acquire().await;
     let data = w
         .net
@@ -222,14 +279,50 @@ async fn sdo_read(
         .await
         .map_err(|e| net_error(&e))?;
     let (shown, v) = value::from_bytes(ty, &data);
-    Ok(sdo_answer(w, id, index, sub, shown.unwrap_or(&name), v))
+    let mut answer = sdo_json(w, id, index, sub, shown.unwrap_or(&name), v);
+    if let Some(e) = entry {
+        answer["name"] = Value::String(e);
+    }
+    Ok(axum::Json(answer).into_response())
+}
+
+/// The CiA 309 name of the data type node `id`'s description gives (`index`, `sub`), if the
+/// node has one and it describes the entry.
+fn described_type(w: &Watched, id: u8, index: u16, sub: u8) -> Option<String> {
+    let node = w.net.node(id);
+    let e = node.description()?.entry_at(index, sub)?;
+    Some(value::type_of(e.data_type).to_string())
+}
+
+/// The entry `name` of node `id`'s description: index, sub-index, its type's CiA 309 name
+/// and the entry's own name.
+fn named(w: &Watched, id: u8, name: &str) -> Result<(u16, u8, String, String), Response> {
+    let node = w.net.node(id);
+    let Some(desc) = node.description() else {
+        let why = format!(
+            "node {id:#04x} of network {:?} has no description: give INDEX/SUB \
+             (…/sdo/0x1017/0), or name its EDS or DCF in the station file (boards)",
+            w.name
+        );
+        return Err(error(StatusCode::NOT_FOUND, &why));
+    };
+    let e = desc
+        .entry(name)
+        .map_err(|e| error(StatusCode::NOT_FOUND, &format!("node {id:#04x}: {e}")))?;
+    Ok((
+        e.index,
+        e.sub,
+        value::type_of(e.data_type).to_string(),
+        e.name.clone(),
+    ))
 }
 
 #[derive(Deserialize)]
 #[serde(deny_unknown_fields)]
 struct SdoWrite {
+    /// The CiA 309 type; may be left out for an entry the node's description gives.
     #[serde(rename = "type")]
-    ty: String,
+    ty: Option<String>,
     value: Value,
 }
 
@@ -242,10 +335,60 @@ async fn sdo_write(
 ) -> Reply {
     let who = s.access.control(&headers)?;
     let req: SdoWrite = body(b)?;
-    let name = req.ty.to_ascii_lowercase();
+    let (w, id, index, sub) = sdo_target(&s, &p)?;
+    let described = described_type(w, id, index, sub);
+    write(&s, who, peer, w, id, (index, sub), req, described, None).await
+}
+
+/// A write of an entry named by the node's description.
+async fn sdo_write_named(
+    State(s): State<Arc<Shared>>,
+    ConnectInfo(peer): ConnectInfo<SocketAddr>,
+    headers: HeaderMap,
+    Path((net, id, name)): Path<(String, String, String)>,
+    b: Result<Bytes, BytesRejection>,
+) -> Reply {
+    let who = s.access.control(&headers)?;
+    let req: SdoWrite = body(b)?;
+    let id = node_id(&id, false)?;
+    let w = network(&s, &net)?;
+    let (index, sub, ty, entry) = named(w, id, &name)?;
+    write(
+        &s,
+        who,
+        peer,
+        w,
+        id,
+        (index, sub),
+        req,
+        Some(ty),
+        Some(entry),
+    )
+    .await
+}
+
+/// Writes the request's value to (`index`, `sub`) of node `id`, as its type, else the
+/// described one.
+#[allow(clippy::too_many_arguments)]
+async fn write(
+    s: &Shared,
+    who: &str,
+    peer: SocketAddr,
+    w: &Watched,
+    id: u8,
+    (index, sub): (u16, u8),
+    req: SdoWrite,
+    described: Option<String>,
+    entry: Option<String>,
+) -> Reply {
+    let Some(name) = req.ty.or(described).map(|t| t.to_ascii_lowercase()) else {
+        return Err(bad(
+            "type: missing: give the CiA 309 type (\"type\":\"u32\"), or name the node's EDS \
+             or DCF in the station file (boards) for its entries' types",
+        ));
+    };
     let ty = value::data_type(&name).map_err(bad)?;
     let data = value::to_bytes(ty, &req.value).map_err(bad)?;
-    let (w, id, index, sub) = sdo_target(&s, &p)?;
     let _turn = s.turns.acquire().await;
     let r = w.net.node(id).sdo().write_bytes(index, sub, data).await;
     let what = format!(
@@ -255,7 +398,11 @@ async fn sdo_write(
     );
     record(w, who, peer, &what);
     r.map_err(|e| net_error(&e))?;
-    Ok(sdo_answer(w, id, index, sub, &name, req.value))
+    let mut answer = sdo_json(w, id, index, sub, &name, req.value);
+    if let Some(e) = entry {
+        answer["name"] = Value::String(e);
+    }
+    Ok(axum::Json(answer).into_response())
 }
 
 #[derive(Deserialize)]

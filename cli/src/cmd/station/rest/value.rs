@@ -17,6 +17,42 @@ pub fn data_type(name: &str) -> Result<DataType, String> {
     })
 }
 
+/// The CiA 309 name of a dictionary data type (`hex` for those 309 names none of: DOMAIN is
+/// `d`, as base64).
+#[must_use]
+pub fn type_of(t: duocan::od::DataType) -> &'static str {
+    use duocan::od::DataType as T;
+    match t {
+        T::Boolean => "b",
+        T::Integer8 => "i8",
+        T::Integer16 => "i16",
+        T::Integer24 => "i24",
+        T::Integer32 => "i32",
+        T::Integer40 => "i40",
+        T::Integer48 => "i48",
+        T::Integer56 => "i56",
+        T::Integer64 => "i64",
+        T::Unsigned8 => "u8",
+        T::Unsigned16 => "u16",
+        T::Unsigned24 => "u24",
+        T::Unsigned32 => "u32",
+        T::Unsigned40 => "u40",
+        T::Unsigned48 => "u48",
+        T::Unsigned56 => "u56",
+        T::Unsigned64 => "u64",
+        T::Real32 => "r32",
+        T::Real64 => "r64",
+        T::VisibleString => "vs",
+        T::OctetString => "os",
+        T::UnicodeString => "us",
+        T::TimeOfDay => "t",
+        T::TimeDifference => "td",
+        T::Domain => "d",
+        #[allow(unreachable_patterns)]
+        _ => "hex",
+    }
+}
+
 fn bare(text: &str) -> Word {
     Word {
         text: text.to_string(),
@@ -83,6 +119,18 @@ pub fn from_bytes(ty: DataType, data: &[u8]) -> (Option<&'static str>, Value) {
 mod tests {
     use super::*;
     use serde_json::json;
+
+    #[test]
+    fn every_dictionary_type_has_a_309_name_the_gateway_takes() {
+        for code in 0..=0x30u16 {
+            if let Some(t) = duocan::od::DataType::from_code(code) {
+                let name = type_of(t);
+                assert!(data_type(name).is_ok(), "{t:?} as {name}");
+            }
+        }
+        assert_eq!(type_of(duocan::od::DataType::Unsigned16), "u16");
+        assert_eq!(type_of(duocan::od::DataType::VisibleString), "vs");
+    }
 
     #[test]
     fn values_go_both_ways() {
