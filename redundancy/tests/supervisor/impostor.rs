@@ -182,7 +182,7 @@ pub(crate) fn link_events(n: &SupNet, id: u8) -> Vec<LinkEvent> {
         .collect()
 }
 
-fn suspects(n: &SupNet, id: u8) -> Vec<(Instant, Suspicion)> {
+pub(crate) fn suspects(n: &SupNet, id: u8) -> Vec<(Instant, Suspicion)> {
     link_events(n, id)
         .into_iter()
         .filter_map(|e| match e.kind {

@@ -15,6 +15,7 @@ mod not_operational;
 mod on_bus;
 mod pairs;
 mod partition;
+mod producer_time;
 mod queues;
 mod seen_failover;
 mod sequence;

@@ -329,6 +329,7 @@ impl Plausibility {
             newest: NEVER,
             checked: NEVER,
             quiet: false,
+            producer: None,
         };
         if t.watched.len() >= self.capacity || t.watched.try_push(w).is_err() {
             self.refused = self.refused.saturating_add(1);
@@ -467,6 +468,7 @@ impl Plausibility {
 }
 
 mod idle;
+mod producer;
 mod rules;
 mod watch;
 use watch::{Track, Watch};

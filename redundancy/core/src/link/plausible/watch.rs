@@ -112,6 +112,9 @@ pub(super) struct Watch {
     /// The frame path needs to look no further; recomputed ([`Watch::settle`]) after anything
     /// else touched the entry.
     pub(super) quiet: bool,
+    /// A producer time (ms) downloaded to it, waiting for the server's confirmation
+    /// (`producer.rs`).
+    pub(super) producer: Option<u16>,
 }
 
 impl Watch {
