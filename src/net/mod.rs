@@ -227,8 +227,8 @@ impl NetOptions {
     }
     /// The options of a CANopen FD network (CiA 1301) on an FD-capable port: the network
     /// reads and writes the nodes' dictionaries over USDO, with the same calls and the same
-    /// results as over SDO (typed values, strings, bytes through [`RemoteSdo`]; streams stay
-    /// on SDO). `client` is the node-ID its USDO requests go out with (on 0x600 + `client`,
+    /// results as over SDO (typed values, strings, bytes through [`RemoteSdo`]; streams go
+    /// whole, at most [`MAX_TRANSFER`] bytes). `client` is the node-ID its USDO requests go out with (on 0x600 + `client`,
     /// in CAN FD frames): one no node of the network has, since USDO names its clients by
     /// their node-IDs. The nodes must serve USDO (a duocan node with
     /// [`NodeConfig::fd`](crate::NodeConfig::fd)).

@@ -17,7 +17,8 @@
 //! **Memory.** One client with one buffer of at most [`MAX_TRANSFER`](super::MAX_TRANSFER)
 //! bytes; at most one waiting transfer per node-ID (the per-node lock), so at most 127.
 //! Streams ([`RemoteSdo::read_to`](super::RemoteSdo::read_to),
-//! [`RemoteSdo::write_from`](super::RemoteSdo::write_from)) stay on SDO.
+//! [`RemoteSdo::write_from`](super::RemoteSdo::write_from)) go whole through the same client
+//! (see [`super::sdo_stream`]): duocan has no streamed USDO transfer.
 
 use super::error::NetError;
 use super::starts::Reply;

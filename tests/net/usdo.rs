@@ -197,3 +197,46 @@ async fn a_classic_node_on_the_fd_network_does_not_answer_usdo() {
     net.close().await;
     s.shutdown().await;
 }
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn streams_go_whole_over_usdo() {
+    let bus = MemBus::new("fd");
+    let net = Network::open_with(bus.port(), fd_options()).unwrap();
+    let s = fd_node(&bus, 6).await;
+    let sdo = net.node(6).sdo();
+    let blob = pattern(2500, 3);
+    let mut told = Vec::new();
+    let n = sdo
+        .write_from(0x2002, 0, &blob[..], Some(2500), |p| told.push(p.done))
+        .await
+        .unwrap();
+    assert_eq!((n, told), (2500, vec![2500]));
+    assert_eq!(s.read(0x2002, 0).await.unwrap(), blob);
+    let mut back = Vec::new();
+    assert_eq!(
+        sdo.read_to(0x2002, 0, &mut back, |_| {}).await.unwrap(),
+        2500
+    );
+    assert_eq!(back, blob);
+    // Without a size: up to the input's end. A size the input does not reach is an I/O error;
+    // more than the door's limit is refused before anything is sent.
+    let n = sdo.write_from(0x2002, 0, &blob[..100], None, |_| {}).await;
+    assert_eq!(n.unwrap(), 100);
+    let e = sdo
+        .write_from(0x2002, 0, &blob[..10], Some(20), |_| {})
+        .await
+        .unwrap_err();
+    assert!(matches!(e, NetError::Io { .. }), "{e:?}");
+    let big = duocan::net::MAX_TRANSFER as u64 + 1;
+    let e = sdo
+        .write_from(0x2002, 0, tokio::io::empty(), Some(big), |_| {})
+        .await
+        .unwrap_err();
+    match e {
+        NetError::Sdo(e) => assert!(matches!(e.kind, SdoErrorKind::TooLong { .. }), "{e:?}"),
+        other => panic!("{other:?}"),
+    }
+    assert_eq!(s.read(0x2002, 0).await.unwrap(), &blob[..100]);
+    net.close().await;
+    s.shutdown().await;
+}
