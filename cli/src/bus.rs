@@ -37,9 +37,13 @@ impl Bus {
 
 /// The options every network of the tool opens with.
 pub fn options(g: &Global, listen_only: bool) -> NetOptions {
-    NetOptions::default()
+    let opts = NetOptions::default()
         .with_sdo_timeout(std::time::Duration::from_millis(g.timeout))
-        .with_listen_only(listen_only)
+        .with_listen_only(listen_only);
+    match g.fd {
+        Some(client) => opts.with_fd(client),
+        None => opts,
+    }
 }
 
 /// Opens the bus `--bus` names, with the descriptions attached.
@@ -77,6 +81,12 @@ pub fn open_with(g: &Global, opts: NetOptions) -> Result<Bus, Fail> {
         Fail::usage("no bus: give --bus can0 (or can0,can1, udp, sim-station), or set DUOCAN_BUS")
     })?;
     let station = is_sim_station(&names.0);
+    if g.fd.is_some() && (names.0.len() != 1 || is_simulated(&names.0)) {
+        return Err(Fail::usage(
+            "--fd: a CANopen FD network runs on one interface (can0, udp:N), not a simulated \
+             one nor two",
+        ));
+    }
     let net = match names.0.as_slice() {
         [one] if station => open_dual_named(one, opts).map_err(|e| Fail::bus(e.to_string()))?,
         // `sim-nodes`, or a name that looks simulated and is told which ones there are.
@@ -142,7 +152,7 @@ pub fn descriptions(g: &Global) -> Result<BTreeMap<u8, Arc<Description>>, Fail> 
 fn open_one(g: &Global, name: &str, opts: NetOptions) -> Result<Network, Fail> {
     // Loopback unless told otherwise, as the library does.
     Ok(Network::open_with(
-        ports::open(name, g.udp_interface)?,
+        ports::open_fd(name, g.udp_interface, opts.fd.is_some())?,
         opts,
     )?)
 }

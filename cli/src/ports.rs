@@ -20,6 +20,16 @@ pub enum NamedPort {
 
 /// Opens the interface `name`; the UDP bus on loopback unless `udp_interface` says otherwise.
 pub fn open(name: &str, udp_interface: Option<std::net::Ipv4Addr>) -> Result<NamedPort, Fail> {
+    open_fd(name, udp_interface, false)
+}
+
+/// [`open`], for CAN FD frames too when `fd` (SocketCAN: `open_fd`, which checks the
+/// interface's MTU; the UDP bus: python-can's `fd=True`).
+pub fn open_fd(
+    name: &str,
+    udp_interface: Option<std::net::Ipv4Addr>,
+    fd: bool,
+) -> Result<NamedPort, Fail> {
     match parse_udp(name) {
         Some(spec) => {
             let mut cfg = match spec.map_err(Fail::usage)? {
@@ -30,10 +40,16 @@ pub fn open(name: &str, udp_interface: Option<std::net::Ipv4Addr>) -> Result<Nam
             if let Some(addr) = udp_interface {
                 cfg = cfg.on_interface(addr);
             }
+            if fd {
+                cfg = cfg.with_fd();
+            }
             UdpPort::open(cfg)
                 .map(NamedPort::Udp)
                 .map_err(|e| Fail::bus(e.to_string()))
         }
+        None if fd => SocketCanPort::open_fd(name)
+            .map(NamedPort::Can)
+            .map_err(|e| Fail::bus(e.to_string())),
         None => SocketCanPort::open(name)
             .map(NamedPort::Can)
             .map_err(|e| Fail::bus(e.to_string())),

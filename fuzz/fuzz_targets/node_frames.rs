@@ -2,12 +2,14 @@
 //! heartbeat producer and consumers, SDO server, PDOs, SYNC, EMCY, guarding): no panic, a
 //! bounded number of frames and events per input, and deadlines that move on once handled, also
 //! when the clock steps back, jumps an hour ahead or reaches the end of time (the clock contract).
+//! The slave is on a CANopen FD network (it serves USDO): a chunk whose first byte has bit 1 set
+//! hands it a CAN FD frame (the chunk's bytes, padded with 0xCC) instead of a classic one.
 #![no_main]
 
 mod common;
 
 use duocan::od::{comm, DynamicDictionary, ObjectDictionary};
-use duocan::{Duration, Frame, Id, Instant, Machine, Node, NodeConfig, NodeId};
+use duocan::{Duration, FdFrame, Frame, Id, Instant, Machine, Node, NodeConfig, NodeId};
 use libfuzzer_sys::fuzz_target;
 
 /// Most frames or events one input may cause (a full SDO sub-block is 127 segments).
@@ -26,7 +28,7 @@ fn node(id: u8, master: bool) -> Node<DynamicDictionary> {
     let cfg = if master {
         NodeConfig::master(nid)
     } else {
-        NodeConfig::slave(nid)
+        NodeConfig::slave(nid).with_fd(true)
     };
     let mut n = Node::new(cfg, od);
     n.boot(Instant::ZERO);
@@ -38,6 +40,11 @@ fn drain(n: &mut Node<DynamicDictionary>) {
     while n.poll_transmit().is_some() {
         k += 1;
         assert!(k <= MAX_PER_INPUT, "unbounded transmit queue");
+    }
+    let mut k = 0;
+    while n.poll_transmit_fd().is_some() {
+        k += 1;
+        assert!(k <= MAX_PER_INPUT, "unbounded FD transmit queue");
     }
     let mut k = 0;
     while n.poll_event().is_some() {
@@ -91,7 +98,12 @@ fuzz_target!(|data: &[u8]| {
         };
         let n = &mut nodes[usize::from(*who & 1)];
         expire(n, now);
-        if let Ok(f) = frame {
+        if *who & 2 == 2 {
+            let raw = Id::Standard(raw & 0x7FF);
+            if let Ok(f) = FdFrame::padded(raw, &d[..usize::from(dlc)], 0xCC) {
+                n.handle_frame_fd(now, &f);
+            }
+        } else if let Ok(f) = frame {
             n.handle_frame(now, &f);
         }
         drain(n);

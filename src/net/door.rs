@@ -7,9 +7,10 @@ use super::events::NetEvent;
 use super::link::DriverState;
 use super::pdo::table::PdoTable;
 use super::starts::{Start, Starts};
+use super::usdo::{UsdoDoor, UsdoStart};
 use crate::cia305::{LssMaster, LssMasterConfig, LssMasterEvent};
 use crate::frame::instant::{Duration, Instant};
-use crate::frame::Frame;
+use crate::frame::{FdFrame, Frame};
 use crate::machine::{Device, Machine, PortRequest, PortStatus};
 use crate::port::PortInput;
 use crate::NodeId;
@@ -52,6 +53,8 @@ pub(crate) struct Door {
     /// The latest instant an input, a timeout or a call carried: what LSS requests are handed
     /// to the core with.
     now: Instant,
+    /// The USDO client of a CANopen FD network ([`super::usdo`]); `None` on a classic one.
+    pub usdo: Option<UsdoDoor>,
 }
 
 impl Door {
@@ -69,6 +72,7 @@ impl Door {
             lss_watch: None,
             lss_dropped: 0,
             now: Instant::ZERO,
+            usdo: None,
         }
     }
     /// Expects a heartbeat or boot-up of `node` within `timeout` from `now` (zero: no longer):
@@ -105,6 +109,19 @@ impl Door {
     /// error if the core has no client now or the client refuses the transfer itself.
     pub fn sdo(&mut self, now: Instant, start: Start) -> Result<(), NetError> {
         self.starts.submit(self.core.client(), now, start)
+    }
+    /// Starts a whole-value transfer over USDO, or queues it behind the running one
+    /// ([`super::usdo`]); an error if the core may not send now, or the network is classic.
+    pub fn usdo(&mut self, now: Instant, start: UsdoStart) -> Result<(), NetError> {
+        self.now = now;
+        if !self.core.may_send(now) {
+            return Err(self.core.send_refused());
+        }
+        let Some(u) = &mut self.usdo else {
+            return Err(NetError::Argument("not a CANopen FD network".into()));
+        };
+        u.submit(now, start);
+        Ok(())
     }
     /// After every input and timeout (and a transfer the door aborted): the parked starts try
     /// again.
@@ -202,6 +219,9 @@ impl Device for Door {
         self.now = now;
         self.core.handle_timeout(now);
         self.lss.handle_timeout(now);
+        if let Some(u) = &mut self.usdo {
+            u.handle_timeout(now);
+        }
         self.link_inputs(now);
         self.check_awaited(now);
     }
@@ -226,6 +246,7 @@ impl Device for Door {
             awaited,
             self.starts.due(),
             self.lss.poll_timeout(),
+            self.usdo.as_ref().and_then(UsdoDoor::poll_timeout),
         ])
     }
     fn poll_event(&mut self) -> Option<CoreEvent> {
@@ -258,5 +279,25 @@ impl Device for Door {
             _ => {}
         }
         Some(e)
+    }
+    fn fd_capable(&self) -> bool {
+        self.usdo.is_some()
+    }
+    /// CAN FD frames are the USDO client's business only: answers on 0x580 + a node-ID.
+    fn handle_rx_fd(&mut self, now: Instant, _: usize, frame: &FdFrame, _: Instant) {
+        self.now = now;
+        if let Some(u) = &mut self.usdo {
+            u.handle_frame(now, frame);
+        }
+    }
+    /// The USDO client's requests, on the network's one port, while the core may send.
+    fn poll_transmit_fd(&mut self) -> Option<(usize, FdFrame)> {
+        let u = self.usdo.as_mut()?;
+        loop {
+            let f = u.poll_transmit()?;
+            if self.core.may_send(self.now) {
+                return Some((0, f));
+            }
+        }
     }
 }

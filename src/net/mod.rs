@@ -115,6 +115,7 @@ mod sdo;
 mod sdo_stream;
 mod sim;
 mod starts;
+mod usdo;
 mod value;
 
 pub use self::core::{CoreEvent, NetClient, NetCore, LSS_PLAN};
@@ -169,6 +170,9 @@ pub struct NetOptions {
     pub tap: Option<Arc<dyn crate::capture::recorder::Tap>>,
     /// The LSS master's answer timeout and fastscan settle time ([`Network::lss`]).
     pub lss: LssMasterConfig,
+    /// A CANopen FD network (CiA 1301), and the node-ID of the network's own USDO client
+    /// (`None`, the default: a classic network). See [`NetOptions::with_fd`].
+    pub fd: Option<NodeId>,
 }
 
 impl ::core::fmt::Debug for NetOptions {
@@ -178,6 +182,7 @@ impl ::core::fmt::Debug for NetOptions {
             .field("listen_only", &self.listen_only)
             .field("tap", &self.tap.is_some())
             .field("lss", &self.lss)
+            .field("fd", &self.fd)
             .finish()
     }
 }
@@ -189,6 +194,7 @@ impl Default for NetOptions {
             listen_only: false,
             tap: None,
             lss: LssMasterConfig::default(),
+            fd: None,
         }
     }
 }
@@ -217,6 +223,24 @@ impl NetOptions {
     #[must_use]
     pub fn with_lss(mut self, lss: LssMasterConfig) -> Self {
         self.lss = lss;
+        self
+    }
+    /// The options of a CANopen FD network (CiA 1301) on an FD-capable port: the network
+    /// reads and writes the nodes' dictionaries over USDO, with the same calls and the same
+    /// results as over SDO (typed values, strings, bytes through [`RemoteSdo`]; streams go
+    /// whole, at most [`MAX_TRANSFER`] bytes). `client` is the node-ID its USDO requests go out with (on 0x600 + `client`,
+    /// in CAN FD frames): one no node of the network has, since USDO names its clients by
+    /// their node-IDs. The nodes must serve USDO (a duocan node with
+    /// [`NodeConfig::fd`](crate::NodeConfig::fd)).
+    ///
+    /// **Why an option, not the port's say.** A port that carries CAN FD does not make the
+    /// network one: a classic node answers an FD frame with error frames, so only the user
+    /// knows that every node speaks FD. The network runs on one port then
+    /// ([`Network::open_with`]); the port must be opened for CAN FD (a classic one reports
+    /// each USDO request as a failed send, and the transfer times out).
+    #[must_use]
+    pub fn with_fd(mut self, client: NodeId) -> Self {
+        self.fd = Some(client);
         self
     }
     /// The options with `tap` told of every frame each port receives and sends.
@@ -360,7 +384,17 @@ impl Network {
                 "no tokio runtime: open the network from inside one (#[tokio::main])".into(),
             ));
         }
-        let door = Door::new(core, opts.lss);
+        if opts.fd.is_some() && ports.count() != 1 {
+            return Err(NetError::Port(format!(
+                "{}: a CANopen FD network (USDO) runs on one port, not {}",
+                ports.label(),
+                ports.count()
+            )));
+        }
+        let mut door = Door::new(core, opts.lss);
+        if let Some(me) = opts.fd {
+            door.usdo = Some(usdo::UsdoDoor::new(me, MAX_TRANSFER));
+        }
         let label = ports.label();
         let mut rt = ports.attach(Runtime::new(door).name(label));
         if let Some(tap) = &opts.tap {

@@ -4,6 +4,7 @@ use super::door::Door;
 use super::error::NetError;
 use super::remote::RemoteNode;
 use super::starts::{Begin, Start, Stream};
+use super::usdo::UsdoStart;
 use crate::cia301::sdo::{SdoOptions, TransferMode};
 use crate::frame::cob_id::NodeId;
 use crate::od::OdValue;
@@ -128,12 +129,50 @@ impl RemoteSdo {
         data: Option<Vec<u8>>,
     ) -> Result<Vec<u8>, NetError> {
         let (node, _turn) = self.turn().await?;
+        if self.node.network().shared.opts.fd.is_some() {
+            return self.usdo(node, index, sub, data).await;
+        }
         let opts = self.opts;
         let begin: Begin = Box::new(move |c, now| match &data {
             None => c.upload(now, node, index, sub, opts),
             Some(v) => c.download(now, node, index, sub, v, opts),
         });
         self.submit(node, None, begin).await
+    }
+
+    /// One whole-value transfer over USDO, on a CANopen FD network ([`super::usdo`]).
+    async fn usdo(
+        &self,
+        node: NodeId,
+        index: u16,
+        sub: u8,
+        data: Option<Vec<u8>>,
+    ) -> Result<Vec<u8>, NetError> {
+        let (reply, outcome) = oneshot::channel();
+        let timeout = self.opts.timeout;
+        let handle = &self.node.network().shared.handle;
+        let started = handle
+            .try_call(move |d: &mut Door, now| {
+                let start = UsdoStart {
+                    node,
+                    index,
+                    sub,
+                    data,
+                    timeout,
+                    due: now + timeout,
+                    reply,
+                };
+                d.usdo(now, start)
+            })
+            .await;
+        let r = match started {
+            Ok(()) => outcome.await.unwrap_or(Err(NetError::Closed)),
+            Err(e) => Err(e),
+        };
+        r.map_err(|e| match e {
+            NetError::Standby { node: None } => NetError::Standby { node: Some(node) },
+            e => e,
+        })
     }
 
     /// Hands a transfer's start to the door and waits for its outcome: the data read (empty

@@ -16,6 +16,12 @@
 //! reader holds the download; either longer than the SDO timeout aborts the transfer, as the
 //! node would.
 //!
+//! **On a CANopen FD network** ([`NetOptions::with_fd`](super::NetOptions::with_fd)) the nodes
+//! serve USDO, which duocan has no streamed transfer of: a stream goes whole over USDO
+//! ([`super::usdo`]), read into memory or collected from the reader first, so it is bounded by
+//! [`MAX_TRANSFER`](super::MAX_TRANSFER) (beyond it, [`SdoErrorKind::TooLong`]); the calls,
+//! the bytes and the errors are the same, the progress is told once, at the end.
+//!
 //! **Errors.** The one [`NetError`]: the node's or the client's abort as
 //! [`NetError::Sdo`], the local reader's or writer's failure as [`NetError::Io`] (the transfer
 //! is aborted and the node told).
@@ -112,6 +118,20 @@ impl RemoteSdo {
         mut out: W,
         mut progress: impl FnMut(TransferProgress),
     ) -> Result<u64, NetError> {
+        if self.is_fd() {
+            let data = self.read_bytes(index, sub).await?;
+            let node = self.node.id()?;
+            out.write_all(&data)
+                .await
+                .map_err(|e| io(node, index, sub, e))?;
+            out.flush().await.map_err(|e| io(node, index, sub, e))?;
+            let n = data.len() as u64;
+            progress(TransferProgress {
+                done: n,
+                total: Some(n),
+            });
+            return Ok(n);
+        }
         let (node, _turn) = self.turn().await?;
         let opts = self.opts;
         let (run, done) = self.start(node, index, sub, move |c, now| {
@@ -185,6 +205,9 @@ impl RemoteSdo {
             Some(Ok(n)) => Some(n),
             None => None,
         };
+        if self.is_fd() {
+            return self.write_whole(index, sub, input, size, progress).await;
+        }
         // A stream is never expedited (the initiate would carry the data, not there yet):
         // 1 to 4 bytes announced are read first and written as `write_bytes` writes them,
         // expedited unless segmented or block transfer is asked for. Expedited asked for any
@@ -318,6 +341,69 @@ async fn read_some<R: AsyncRead + Unpin>(
         return Ok(0);
     }
     input.read(&mut buf[..n]).await
+}
+
+impl RemoteSdo {
+    /// True on a CANopen FD network: transfers go over USDO.
+    fn is_fd(&self) -> bool {
+        self.node.network().shared.opts.fd.is_some()
+    }
+
+    /// [`RemoteSdo::write_from`] on a CANopen FD network: the input collected whole (at most
+    /// [`MAX_TRANSFER`](super::MAX_TRANSFER) bytes), then one USDO write.
+    async fn write_whole<R: AsyncRead + Unpin>(
+        &self,
+        index: u16,
+        sub: u8,
+        input: R,
+        size: Option<u64>,
+        mut progress: impl FnMut(TransferProgress),
+    ) -> Result<u64, NetError> {
+        let node = self.node.id()?;
+        let limit = super::MAX_TRANSFER;
+        let too_long = |len: u64| {
+            NetError::Sdo(SdoError {
+                node,
+                index,
+                sub,
+                direction: Direction::Download,
+                kind: SdoErrorKind::TooLong {
+                    len: usize::try_from(len).unwrap_or(usize::MAX),
+                    limit,
+                },
+            })
+        };
+        if let Some(n) = size.filter(|&n| n > limit as u64) {
+            return Err(too_long(n));
+        }
+        // One byte past the limit, to tell a value too long from one that fits exactly.
+        let want = size.unwrap_or(limit as u64 + 1);
+        let mut data = Vec::new();
+        input
+            .take(want)
+            .read_to_end(&mut data)
+            .await
+            .map_err(|e| io(node, index, sub, e))?;
+        let n = data.len() as u64;
+        if n > limit as u64 {
+            return Err(too_long(n));
+        }
+        if let Some(s) = size.filter(|&s| n < s) {
+            return Err(NetError::Io {
+                node,
+                index,
+                sub,
+                kind: std::io::ErrorKind::UnexpectedEof,
+                message: format!("the input ended after {n} of the {s} bytes announced"),
+            });
+        }
+        self.write_bytes(index, sub, data).await?;
+        progress(TransferProgress {
+            done: n,
+            total: Some(n),
+        });
+        Ok(n)
+    }
 }
 
 fn io(node: NodeId, index: u16, sub: u8, e: std::io::Error) -> NetError {

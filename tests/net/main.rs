@@ -18,3 +18,4 @@ mod rt;
 mod sdo;
 mod sdo_stream;
 mod tap;
+mod usdo;

@@ -97,6 +97,20 @@ pub trait Machine {
     fn poll_link_command(&mut self) -> Option<Self::LinkCommand> {
         None
     }
+    /// A CAN FD frame arrived from the (logical) bus (feature `fd`). The default ignores it: a
+    /// machine without CAN FD services never sees one. FD frames are kept apart from classic
+    /// ones (as in [`Device::handle_rx_fd`]) so that the classic path stays as it was.
+    #[cfg(feature = "fd")]
+    fn handle_frame_fd(&mut self, now: Instant, frame: &FdFrame) {
+        let _ = (now, frame);
+    }
+    /// Next CAN FD frame to put on the bus (feature `fd`); asked after the classic ones of
+    /// [`Machine::poll_transmit`]. The default has none.
+    #[cfg(feature = "fd")]
+    #[must_use]
+    fn poll_transmit_fd(&mut self) -> Option<FdFrame> {
+        None
+    }
 }
 
 /// What a bus link asks of the machine above it: the effects a redundancy scheme has on the
@@ -334,12 +348,47 @@ pub trait BusLink {
     fn handle_command(&mut self, now: Instant, cmd: Self::Command) {
         let _ = (now, cmd);
     }
+    /// Whether the layer carries CAN FD frames (feature `fd`; see [`Device::fd_capable`]). The
+    /// default is a classic-only layer, which drops what the methods below are given.
+    #[cfg(feature = "fd")]
+    fn fd_capable(&self) -> bool {
+        false
+    }
+    /// A CAN FD frame from `port` that arrived at `at`; returns the logical frame to deliver
+    /// upward, if any (feature `fd`). The default delivers nothing.
+    #[cfg(feature = "fd")]
+    fn handle_rx_fd(
+        &mut self,
+        now: Instant,
+        port: usize,
+        frame: &FdFrame,
+        at: Instant,
+    ) -> Option<FdFrame> {
+        let _ = (now, port, frame, at);
+        None
+    }
+    /// A logical CAN FD frame to send (feature `fd`). The default drops it.
+    #[cfg(feature = "fd")]
+    fn send_fd(&mut self, now: Instant, frame: &FdFrame) {
+        let _ = (now, frame);
+    }
+    /// Next CAN FD frame for a port (feature `fd`). The default has none.
+    #[cfg(feature = "fd")]
+    #[must_use]
+    fn poll_transmit_fd(&mut self) -> Option<(usize, FdFrame)> {
+        None
+    }
 }
 
 /// The trivial link: one port is the logical bus. Counts what the port reports.
+///
+/// With the feature `fd`, a link built with [`SinglePort::fd`] carries CAN FD frames as well
+/// (its port is FD-capable); one built with [`SinglePort::new`] stays classic.
 #[derive(Debug, Default)]
 pub struct SinglePort {
     out: Bounded<Frame, 4>,
+    #[cfg(feature = "fd")]
+    out_fd: Option<Bounded<FdFrame, 4>>,
     /// Frames received.
     pub rx_frames: u64,
     /// Frames reported sent.
@@ -355,6 +404,16 @@ impl SinglePort {
     #[must_use]
     pub fn new() -> Self {
         Self::default()
+    }
+    /// A pass-through link whose port speaks CAN FD (feature `fd`): FD frames go both ways,
+    /// four held for the driver at most (more are dropped, as classic ones are).
+    #[cfg(feature = "fd")]
+    #[must_use]
+    pub fn fd() -> Self {
+        SinglePort {
+            out_fd: Some(Bounded::new()),
+            ..Self::default()
+        }
     }
 }
 
@@ -391,6 +450,32 @@ impl BusLink for SinglePort {
     }
     fn poll_event(&mut self) -> Option<Infallible> {
         None
+    }
+    #[cfg(feature = "fd")]
+    fn fd_capable(&self) -> bool {
+        self.out_fd.is_some()
+    }
+    #[cfg(feature = "fd")]
+    fn handle_rx_fd(
+        &mut self,
+        _: Instant,
+        _: usize,
+        frame: &FdFrame,
+        _: Instant,
+    ) -> Option<FdFrame> {
+        self.out_fd.as_ref()?;
+        self.rx_frames += 1;
+        Some(*frame)
+    }
+    #[cfg(feature = "fd")]
+    fn send_fd(&mut self, _: Instant, frame: &FdFrame) {
+        if let Some(q) = &mut self.out_fd {
+            q.push(*frame);
+        }
+    }
+    #[cfg(feature = "fd")]
+    fn poll_transmit_fd(&mut self) -> Option<(usize, FdFrame)> {
+        self.out_fd.as_mut()?.pop().map(|f| (0, f))
     }
 }
 
@@ -530,6 +615,30 @@ where
         }
         self.machine.poll_event().map(StationEvent::Machine)
     }
+    #[cfg(feature = "fd")]
+    fn fd_capable(&self) -> bool {
+        self.link.fd_capable()
+    }
+    #[cfg(feature = "fd")]
+    fn handle_rx_fd(&mut self, now: Instant, port: usize, frame: &FdFrame, at: Instant) {
+        self.now = now;
+        let f = self.link.handle_rx_fd(now, port, frame, at);
+        self.forward(now);
+        if let Some(f) = f {
+            self.machine.handle_frame_fd(now, &f);
+            self.forward(now);
+        }
+    }
+    #[cfg(feature = "fd")]
+    fn poll_transmit_fd(&mut self) -> Option<(usize, FdFrame)> {
+        loop {
+            if let Some(x) = self.link.poll_transmit_fd() {
+                return Some(x);
+            }
+            let f = self.machine.poll_transmit_fd()?;
+            self.link.send_fd(self.now, &f);
+        }
+    }
 }
 
 /// Hands the link's requests to the machine above it.
@@ -612,5 +721,16 @@ where
         self.a
             .poll_link_command()
             .or_else(|| self.b.poll_link_command().map(Into::into))
+    }
+    #[cfg(feature = "fd")]
+    fn handle_frame_fd(&mut self, now: Instant, frame: &FdFrame) {
+        self.a.handle_frame_fd(now, frame);
+        self.b.handle_frame_fd(now, frame);
+    }
+    #[cfg(feature = "fd")]
+    fn poll_transmit_fd(&mut self) -> Option<FdFrame> {
+        self.a
+            .poll_transmit_fd()
+            .or_else(|| self.b.poll_transmit_fd())
     }
 }

@@ -141,4 +141,16 @@ where
             n.handle_link_request(now, req);
         }
     }
+    // LSS itself stays classic (CiA 305 on an FD network uses classic frames); the node's CAN
+    // FD services (USDO) get their frames.
+    #[cfg(feature = "fd")]
+    fn handle_frame_fd(&mut self, now: Instant, frame: &crate::frame::FdFrame) {
+        if let Some(n) = &mut self.node {
+            n.handle_frame_fd(now, frame);
+        }
+    }
+    #[cfg(feature = "fd")]
+    fn poll_transmit_fd(&mut self) -> Option<crate::frame::FdFrame> {
+        self.node.as_mut()?.poll_transmit_fd()
+    }
 }

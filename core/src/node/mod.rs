@@ -42,6 +42,8 @@
 //! # Ok::<(), duocan_core::AbortCode>(())
 //! ```
 
+#[cfg(feature = "fd")]
+use crate::cia1301::usdo::UsdoServer;
 use crate::cia301::emcy::EmcyProducer;
 use crate::cia301::guarding::{GuardMaster, GuardSlave};
 use crate::cia301::heartbeat::{HeartbeatConsumer, HeartbeatProducer};
@@ -55,6 +57,8 @@ use crate::frame::cob_id::NodeId;
 use crate::frame::instant::{earliest, Duration, Instant, TimeWatch};
 use crate::frame::queue::Bounded;
 use crate::frame::storage::{Inline, Storage};
+#[cfg(feature = "fd")]
+use crate::frame::FdFrame;
 use crate::frame::Frame;
 use crate::machine::{LinkRequest, Machine};
 use crate::od::abort::AbortCode;
@@ -100,6 +104,12 @@ pub struct NodeConfig {
     /// is heard again (CiA 301, what a slave does so that every master learns of it). A master
     /// handles its lost slaves itself (CiA 302-2) and does not announce them.
     pub heartbeat_loss_emcy: bool,
+    /// The node is on a CANopen FD network (CiA 1301; feature `fd`): it serves USDO requests
+    /// (CAN FD frames on 0x600 + the client's node-ID) from its dictionary and answers in CAN
+    /// FD frames on 0x580 + its node-ID, beside the classic SDO server (see
+    /// [`Node::usdo_server`] for why both). Off (the default): CAN FD frames are ignored.
+    #[cfg(feature = "fd")]
+    pub fd: bool,
 }
 
 // Builders: the struct is `#[non_exhaustive]` (it may gain fields), so code outside the crate
@@ -130,6 +140,13 @@ impl NodeConfig {
         self.observer = observer;
         self
     }
+    /// The configuration with [`fd`](Self::fd) replaced.
+    #[cfg(feature = "fd")]
+    #[must_use]
+    pub fn with_fd(mut self, fd: bool) -> Self {
+        self.fd = fd;
+        self
+    }
     /// The configuration with [`heartbeat_loss_emcy`](Self::heartbeat_loss_emcy) replaced.
     #[must_use]
     pub fn with_heartbeat_loss_emcy(mut self, heartbeat_loss_emcy: bool) -> Self {
@@ -150,6 +167,8 @@ impl NodeConfig {
             #[cfg(feature = "std")]
             observer: false,
             heartbeat_loss_emcy: true,
+            #[cfg(feature = "fd")]
+            fd: false,
         }
     }
     /// A master: starts itself, ignores NMT commands of others, consumes EMCY, handles lost
@@ -164,6 +183,8 @@ impl NodeConfig {
             #[cfg(feature = "std")]
             observer: false,
             heartbeat_loss_emcy: false,
+            #[cfg(feature = "fd")]
+            fd: false,
         }
     }
 }
@@ -176,6 +197,8 @@ mod events;
 mod left_out;
 pub mod lss;
 mod safety;
+#[cfg(all(test, feature = "std"))]
+mod usdo_tests;
 
 pub use safety::SrdoMarkError;
 mod parameters;
@@ -251,6 +274,10 @@ pub struct Node<
     core: NodeCore<D, P, GUARDED, TPDOS, RPDOS, S>,
     sdo: SdoServer,
     sdo_boots: u32,
+    /// The USDO server of a node on a CANopen FD network ([`NodeConfig::fd`]); `None` on a
+    /// classic one.
+    #[cfg(feature = "fd")]
+    usdo: Option<UsdoServer>,
 }
 
 impl<D: ObjectDictionary> Node<D, Predefined, ALL_NODES> {
@@ -326,6 +353,8 @@ impl<
             },
             sdo: SdoServer::new(SdoServerConfig::default()),
             sdo_boots: 0,
+            #[cfg(feature = "fd")]
+            usdo: None,
         }
     }
 
@@ -393,6 +422,22 @@ impl<
         &mut self.sdo
     }
 
+    /// The USDO server (CiA 1301), if the node is on a CANopen FD network ([`NodeConfig::fd`]):
+    /// its counters. It is built at boot (and rebuilt at every reset communication, with the
+    /// node-ID then in force) with the SDO server's timeout and transfer limit, so one
+    /// configuration ([`Node::sdo_server_mut`]) bounds both.
+    ///
+    /// **Why beside SDO, not instead of it.** A USDO request and an SDO request can carry the
+    /// same identifier (0x600 + the client's node-ID, 0x600 + the server's), but one is a CAN
+    /// FD frame and the other a classic one, so the two never mix. Keeping the classic server
+    /// lets tools that speak only SDO (and the transfers USDO has no counterpart for here:
+    /// block transfer) still reach the node; a network where every node is FD-capable may
+    /// carry both.
+    #[cfg(feature = "fd")]
+    pub fn usdo_server(&self) -> Option<&UsdoServer> {
+        self.usdo.as_ref()
+    }
+
     /// The clock contract ([`crate::frame::instant`]): on every input that carries a time, a step
     /// back of the caller's clock moves every time the node holds back with it. Public for an
     /// owner that watches the clock itself and must have the node measure the same step without
@@ -402,6 +447,10 @@ impl<
         if let Some(by) = self.core.clock.step_back(now) {
             self.core.step_back(by);
             self.sdo.step_back(by);
+            #[cfg(feature = "fd")]
+            if let Some(u) = &mut self.usdo {
+                u.step_back(by);
+            }
         }
     }
 
@@ -412,9 +461,18 @@ impl<
             self.sdo_boots = self.core.boots;
             let id = self.core.id();
             self.sdo.configure_from(&self.core.od, id);
+            #[cfg(feature = "fd")]
+            if self.core.cfg.fd {
+                let cfg = self.sdo.config();
+                self.usdo = Some(UsdoServer::new(id, cfg.timeout, cfg.max_transfer));
+            }
         }
         if !self.core.state.services().sdo {
             self.sdo.cancel();
+            #[cfg(feature = "fd")]
+            if let Some(u) = &mut self.usdo {
+                u.cancel();
+            }
         }
     }
 
@@ -690,6 +748,10 @@ impl<
         self.core.handle_timeout(now);
         self.sdo_follow_core();
         self.sdo.handle_timeout(now);
+        #[cfg(feature = "fd")]
+        if let Some(u) = &mut self.usdo {
+            u.handle_timeout(now);
+        }
     }
     fn poll_transmit(&mut self) -> Option<Frame> {
         if let Some(f) = self.core.tx.pop() {
@@ -700,7 +762,32 @@ impl<
         Some(f)
     }
     fn poll_timeout(&self) -> Option<Instant> {
-        earliest(self.core.poll_timeout(), self.sdo.poll_timeout())
+        let t = earliest(self.core.poll_timeout(), self.sdo.poll_timeout());
+        #[cfg(feature = "fd")]
+        let t = earliest(t, self.usdo.as_ref().and_then(UsdoServer::poll_timeout));
+        t
+    }
+    /// A USDO request (CiA 1301) is served while the NMT state allows SDO (pre-operational
+    /// and operational), as SDO requests are; other CAN FD frames are ignored.
+    #[cfg(feature = "fd")]
+    fn handle_frame_fd(&mut self, now: Instant, frame: &FdFrame) {
+        self.watch_clock(now);
+        let Some(usdo) = &mut self.usdo else {
+            return;
+        };
+        if !self.core.state.services().sdo {
+            return;
+        }
+        self.core.stats.rx_frames += 1;
+        if let Err(reason) = usdo.handle_frame(now, frame, &mut self.core) {
+            self.core.malformed(now, frame.id(), reason);
+        }
+    }
+    #[cfg(feature = "fd")]
+    fn poll_transmit_fd(&mut self) -> Option<FdFrame> {
+        let f = self.usdo.as_mut()?.poll_transmit()?;
+        self.core.stats.tx_frames += 1;
+        Some(f)
     }
     fn poll_event(&mut self) -> Option<NodeEvent> {
         self.core.events.pop()

@@ -8,6 +8,11 @@
 //!   reactions to writes.
 //! - [`UsdoClient`] runs one transfer at a time to any server; the result is a [`UsdoEvent`].
 //! - [`codec`] holds the frame formats, [`UsdoAbort`] the one-byte abort codes.
+//! - A [`Node`](crate::Node) configured for a CANopen FD network
+//!   ([`NodeConfig::fd`](crate::NodeConfig::fd)) runs a [`UsdoServer`] over its dictionary, fed
+//!   through [`Machine::handle_frame_fd`](crate::Machine::handle_frame_fd); a
+//!   [`Station`](crate::Station) hands it the FD frames of an FD-capable link
+//!   ([`SinglePort::fd`](crate::machine::SinglePort::fd)).
 //!
 //! # Addressing and sessions
 //!
