@@ -63,12 +63,15 @@ pub fn watch(run: &mut Run, f: Fault) {
     };
     let before = counters(run);
     let waited = tx_waited(run, &f);
+    let written = producer_written(run);
     let until = from + f.span().min(LONGEST) + AFTER;
     run.at(until, move |r| {
         let now = r.now();
         let seen = direct
             && match f {
                 Fault::SlowTx { .. } => tx_waited(r, &f) > waited,
+                // The master confirmed the download (a master that stayed standby did not).
+                Fault::ProducerTime { .. } => producer_written(r) > written,
                 // Past the stall time: a duocan sender's layer flushed the port and failed it
                 // (the node that is not duocan has no layer: its frames waited).
                 Fault::TxDrift { node, port, .. } => {
@@ -81,6 +84,14 @@ pub fn watch(run: &mut Run, f: Fault) {
             *r.effective.entry(f.class()).or_default() += 1;
         }
     });
+}
+
+/// Producer times the masters downloaded and had confirmed.
+fn producer_written(run: &Run) -> u32 {
+    [STRONG, WEAK]
+        .into_iter()
+        .map(|id| run.plant.sim.device(run.plant.master(id)).producer_done)
+        .sum()
 }
 
 /// How many frames a slow transmitter's port has held back (0 for other faults).
@@ -312,6 +323,7 @@ fn took_effect(run: &Run, f: Fault, from: Instant, to: Instant, before: &Counter
         | Fault::MasterBootLoop { .. }
         | Fault::StepBack { .. }
         | Fault::JumpAhead { .. }
+        | Fault::ProducerTime { .. }
         | Fault::ClockRate { .. } => true,
     }
 }

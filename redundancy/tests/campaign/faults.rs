@@ -200,6 +200,11 @@ pub enum Fault {
         every: Duration,
         dur: Duration,
     },
+    /// The application gives a board a new heartbeat producer time (`ms`) through the active
+    /// master's SDO client, as CiA 301 allows at run time: the board beats at once at the new
+    /// period; the consumer times stay (50 ms). Until its next boot, when its master
+    /// configures it again (20 ms).
+    ProducerTime { node: u8, ms: u16 },
 }
 
 impl Fault {
@@ -229,6 +234,7 @@ impl Fault {
             Fault::Noise { .. } => "noisy bus",
             Fault::Degrading { .. } => "degrading bus",
             Fault::GroundShift { .. } => "ground shift at one sender",
+            Fault::ProducerTime { .. } => "producer time changed at run time",
             Fault::Overrun { .. } => "controller overrun",
             Fault::SlowTx { .. } => "slow transmitter",
             Fault::TxDrift { .. } => "port writes drifting apart",
@@ -280,7 +286,10 @@ impl Fault {
                 every.saturating_mul(times as u64)
             }
             Fault::SwitchingLag { every, times, .. } => every.saturating_mul(times as u64),
-            Fault::Stops { .. } | Fault::StepBack { .. } | Fault::JumpAhead { .. } => ms(0),
+            Fault::Stops { .. }
+            | Fault::StepBack { .. }
+            | Fault::JumpAhead { .. }
+            | Fault::ProducerTime { .. } => ms(0),
         }
     }
 
@@ -533,6 +542,12 @@ pub fn apply(run: &mut Run, f: Fault) {
                 let t = r.now();
                 r.timeline.devs[d].shifted[port].end(t);
             });
+        }
+        Fault::ProducerTime { node, ms } => {
+            for id in [STRONG, WEAK] {
+                let m = run.plant.master(id);
+                run.plant.sim.device_mut(m).producer = Some((node, ms));
+            }
         }
         Fault::SlowTx {
             node,
@@ -953,7 +968,7 @@ pub fn drift_profile(load: u64, from: Instant, to: Instant) -> Vec<(Instant, Dur
 
 /// How many kinds of fault the campaign draws from (every class that holds, some in two
 /// shapes).
-pub const KINDS: usize = 31;
+pub const KINDS: usize = 32;
 
 /// Every kind [`draw`] knows: also receive clocks that drift apart (kind [`DRIFT`], always the
 /// last), which still fail combined with others (the "known and not fixed yet" of the user
@@ -962,6 +977,10 @@ pub const KINDS: usize = 31;
 pub const KINDS_WITH_DRIFT: usize = KINDS + 1;
 /// The drift's kind.
 pub const DRIFT: usize = KINDS;
+
+/// The kinds the campaign knew before a producer time changed at run time: the seeds in
+/// `REGRESSIONS_GROUND_SHIFT` draw from these.
+pub const KINDS_BEFORE_PRODUCER_TIME: usize = 31;
 
 /// The kinds the campaign knew before a ground shift at one sender: the seeds in
 /// `REGRESSIONS_DEGRADING` draw from these.
@@ -1209,6 +1228,10 @@ pub fn draw(rng: &mut Rng, pairs: u8, k: usize) -> Fault {
                 permille: [100, 300, 700][rng.below(3) as usize],
                 every: rng.ms(30, 300),
                 dur: rng.ms(300, 5_000),
+            },
+            31 => Fault::ProducerTime {
+                node: board(rng),
+                ms: [10, 15, 25][rng.below(3) as usize],
             },
             DRIFT => Fault::Drift {
                 node: any_node(rng),

@@ -29,6 +29,8 @@ pub const SEGMENTED_EVERY: u32 = 8;
 pub const EXPEDITED: (u16, u8) = (0x2000, 1);
 pub const SEGMENTED: (u16, u8) = (0x2001, 0);
 pub const STRING: &[u8] = b"duocan campaign board";
+/// The producer heartbeat time's object (written by [`crate::faults::Fault::ProducerTime`]).
+pub const PRODUCER_TIME: u16 = 0x1017;
 /// Each answer is waited for this long.
 pub const TIMEOUT: Duration = Duration::from_millis(500);
 /// A transfer ends within this: a transfer to a slave being booted waits for the boot's
@@ -91,6 +93,11 @@ pub struct Sdo {
     running: Option<duocan::sdo::RequestId>,
     repeats: u32,
     now: Instant,
+    /// A download of a producer heartbeat time (node, ms) to do next, while active
+    /// ([`crate::faults::Fault::ProducerTime`]).
+    pub producer: Option<(u8, u16)>,
+    /// Producer times downloaded and confirmed.
+    pub producer_done: u32,
 }
 
 impl Sdo {
@@ -113,6 +120,8 @@ impl Sdo {
             running: None,
             repeats: 0,
             now: at,
+            producer: None,
+            producer_done: 0,
         }
     }
 
@@ -126,6 +135,31 @@ impl Sdo {
             self.repeats = 0;
             self.next = now + PERIOD;
             return;
+        }
+        if let Some((server, ms)) = self.producer.take() {
+            // The application gives a board a new heartbeat period through the master.
+            let opts = SdoOptions::mode(TransferMode::Expedited).with_timeout(TIMEOUT);
+            let t = self.dev.read(now);
+            let r = self.dev.inner.machine.sdo_mut().download(
+                t,
+                NodeId::must(server),
+                PRODUCER_TIME,
+                0,
+                &ms.to_le_bytes(),
+                opts,
+            );
+            if let Ok(req) = r {
+                self.running = Some(req);
+                self.ledger.borrow_mut().open.push(Transfer {
+                    master: self.id,
+                    life: self.life,
+                    server,
+                    segmented: false,
+                    start: now,
+                    end: None,
+                });
+                return;
+            }
         }
         let job = self.jobs;
         let server = self.slaves[job as usize % self.slaves.len()];
@@ -175,6 +209,10 @@ impl Sdo {
         }
         self.running = None;
         let end = match &e.result {
+            Ok(_) if e.index == PRODUCER_TIME => {
+                self.producer_done += 1;
+                End::Done
+            }
             Ok(_) => {
                 let want: &[u8] = if e.index == SEGMENTED.0 {
                     STRING
