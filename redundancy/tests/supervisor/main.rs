@@ -3,6 +3,7 @@
 mod chaos;
 mod clock;
 mod combined;
+mod fd_rig;
 mod flying_master;
 mod impostor;
 mod impostor_idle;
