@@ -57,7 +57,10 @@ fn rig(lag: Duration) -> Net {
             .unwrap();
         node.boot(Instant::ZERO);
         let app = App::new(id, START, PERIOD, STOP);
-        let station: Dev = Station::new(DualBus::new(config()), Composite::new(node, app));
+        let station: Dev = Dev::new(Station::new(
+            DualBus::new(config()),
+            Composite::new(node, app),
+        ));
         devs.push(sim.add_device(format!("n{id}"), station, &buses).unwrap());
     }
     sim.set_port_latency(devs[0].port(1), lag);

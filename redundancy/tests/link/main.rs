@@ -1,6 +1,7 @@
 //! The dual-bus layer (`duocan_redundancy::link`): the merger, and each policy on the simulated dual bus.
 
 mod active_active;
+mod app_station;
 mod cia302_6;
 mod clock;
 mod clock_modes;
