@@ -14,6 +14,8 @@ mod fd;
 #[cfg(feature = "fd")]
 #[path = "../common/fd_end.rs"]
 mod fd_end;
+#[path = "../common/fd_station.rs"]
+mod fd_station;
 mod flapping;
 mod lag;
 mod lag_properties;

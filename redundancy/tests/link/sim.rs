@@ -10,7 +10,7 @@ use duocan::{Duration, Frame, Id, Instant, Machine, Node, NodeConfig, NodeEvent,
 use duocan_redundancy::{DualBus, DualBusConfig, LinkEvent, LinkEventKind, PortReason, PortState};
 use std::collections::VecDeque;
 
-pub use super::app_station::AppStation;
+pub use super::app_station::{AppStation, WideTpdo1};
 
 /// The application of every station: every `period`, TPDO1 (0x180 + id) with a counter and
 /// TPDO2 (0x280 + id) with a constant payload (the same frame again and again, a legitimate
@@ -336,7 +336,6 @@ pub fn network_wired(
 /// As [`network`], on CAN FD buses (1 Mbit/s nominal, `data_bitrate` in the data phase): every
 /// station's ports FD, the applications' TPDO1 sent as 64-byte FD frames (see
 /// `app_station.rs`).
-#[cfg(feature = "fd")]
 pub fn network_fd(
     seed: u64,
     slaves: u8,
@@ -360,9 +359,8 @@ fn build(
     let bus = |name| {
         let c = BusConfig::new(name, 1_000_000);
         match fd {
-            #[cfg(feature = "fd")]
             Some(data) => c.fd(data),
-            _ => c,
+            None => c,
         }
     };
     let buses = [sim.add_bus(bus("can1")), sim.add_bus(bus("can2"))];
@@ -402,12 +400,11 @@ fn build(
         let start = Instant::from_millis(100) + Duration::from_micros(300 * id as u64);
         let app = App::new(id, start, Duration::from_millis(10), stop);
         let mut link = DualBus::new(cfg(id));
-        #[cfg(feature = "fd")]
         for p in 0..2 {
             link.set_port_fd(p, fd.is_some());
         }
-        let mut station = AppStation::new(Station::new(link, Composite::new(node, app)));
-        station.fd = fd.is_some();
+        let wide = WideTpdo1 { fd: fd.is_some() };
+        let station = AppStation::new(Station::new(link, Composite::new(node, app)), wide);
         let wires = if crossed.contains(&id) {
             [buses[1], buses[0]]
         } else {

@@ -1,22 +1,21 @@
 //! CAN FD process data on the supervised network of `net.rs`: its slaves and masters as
 //! FD-capable devices, so that the failover scenarios run on FD buses as on classic ones.
 //!
-//! The library's generic `Station<L, M>` (a slave board: a node on a dual-bus layer) is
-//! classic-only: neither `BusLink` nor `Machine` has an FD path, so the simulator refuses it on
-//! a bus with a data bit rate. [`Board`] is that station with the FD path of its layer wired
-//! beside it (what a board's application would do), and the application's process data: on
-//! every SYNC it delivers, each member of a producing pair sends one 64-byte FD frame (BRS) on
-//! its TPDO1 identifier over the dual bus, both members of a pair the same bytes (the same
-//! function, as redundant boards compute it). [`FdMaster`] is a redundant master station whose
-//! application takes every FD frame its layer delivers, recording when.
+//! A slave [`Board`] is an [`FdStation`] (the library's generic `Station` is classic-only, see
+//! `common/fd_station.rs`) whose application sends the process data: on every SYNC it
+//! delivers, each member of a producing pair sends one 64-byte FD frame (BRS) on its TPDO1
+//! identifier over the dual bus, both members of a pair the same bytes (the same function, as
+//! redundant boards compute it). [`FdMaster`] is a redundant master station whose application
+//! takes every FD frame its layer delivers, recording when.
 #![allow(dead_code)]
 
+use crate::fd_station::{FdApp, FdStation};
 use core::ops::{Deref, DerefMut};
 use duocan::frame::FdFrame;
-use duocan::machine::{forward_commands, forward_requests, Device, PortRequest, PortStatus};
+use duocan::machine::Device;
 use duocan::od::DynamicDictionary;
-use duocan::{Frame, Id, Instant, Node, Station};
-use duocan_redundancy::{DualBus, SupervisedStation};
+use duocan::{Frame, Id, Instant, Node};
+use duocan_redundancy::SupervisedStation;
 
 /// The FD frame a producing member sends on the SYNC it was delivered at `at`: its TPDO1
 /// identifier, 64 bytes made from the SYNC's instant (equal for both members of a pair, a
@@ -36,84 +35,21 @@ fn data_byte(at: Instant, i: usize) -> u8 {
     (at.as_micros() as u8).wrapping_mul(7).wrapping_add(i as u8)
 }
 
-/// A slave board: a standard node on a dual-bus layer, FD-capable when its layer is; a
-/// producer of FD process data when `produces`.
-pub struct Board {
-    pub st: Station<DualBus, Node<DynamicDictionary>>,
+/// The application of a slave board (a standard node on a dual-bus layer): a producer of FD
+/// process data (`produces`) sends it on every SYNC the layer delivers.
+pub struct SyncProducer {
     pub id: u8,
     pub produces: bool,
 }
 
-impl Board {
-    /// What the layer delivered to the node: a SYNC has the producer send its process data.
-    fn delivered(&mut self, now: Instant, f: Option<Frame>) {
-        if self.produces && f.is_some_and(|f| f.id() == Id::Standard(0x80)) {
-            self.st
-                .link
-                .send_fd(now, &process_data(self.id, now))
-                .expect("a producer's ports are FD-capable");
-        }
+impl FdApp for SyncProducer {
+    fn on_delivered(&mut self, now: Instant, f: &Frame) -> Option<FdFrame> {
+        (self.produces && f.id() == Id::Standard(0x80)).then(|| process_data(self.id, now))
     }
 }
 
-impl Deref for Board {
-    type Target = Station<DualBus, Node<DynamicDictionary>>;
-    fn deref(&self) -> &Self::Target {
-        &self.st
-    }
-}
-impl DerefMut for Board {
-    fn deref_mut(&mut self) -> &mut Self::Target {
-        &mut self.st
-    }
-}
-
-impl Device for Board {
-    type Event = <Station<DualBus, Node<DynamicDictionary>> as Device>::Event;
-    fn port_count(&self) -> usize {
-        self.st.port_count()
-    }
-    fn handle_rx(&mut self, now: Instant, port: usize, frame: &Frame) {
-        let f = self.st.handle_rx_delivered(now, port, frame, None);
-        self.delivered(now, f);
-    }
-    fn handle_rx_at(&mut self, now: Instant, port: usize, frame: &Frame, at: Instant) {
-        let f = self.st.handle_rx_delivered(now, port, frame, Some(at));
-        self.delivered(now, f);
-    }
-    fn handle_port_status(&mut self, now: Instant, port: usize, status: PortStatus) {
-        self.st.handle_port_status(now, port, status);
-    }
-    fn handle_timeout(&mut self, now: Instant) {
-        self.st.handle_timeout(now);
-    }
-    fn poll_transmit(&mut self) -> Option<(usize, Frame)> {
-        self.st.poll_transmit()
-    }
-    fn poll_port_request(&mut self) -> Option<(usize, PortRequest)> {
-        self.st.poll_port_request()
-    }
-    fn poll_timeout(&self) -> Option<Instant> {
-        self.st.poll_timeout()
-    }
-    fn poll_event(&mut self) -> Option<Self::Event> {
-        self.st.poll_event()
-    }
-    fn fd_capable(&self) -> bool {
-        self.st.link.fd_capable()
-    }
-    // Through the layer (port health, reachability, the merge), and the exchange of requests
-    // and commands a classic frame is followed by; the node has no use for FD frames.
-    fn handle_rx_fd(&mut self, now: Instant, port: usize, frame: &FdFrame, at: Instant) {
-        let Station { link, machine, .. } = &mut self.st;
-        let _ = link.handle_rx_fd_at(now, port, frame, at);
-        forward_requests(now, link, machine);
-        forward_commands(now, machine, link);
-    }
-    fn poll_transmit_fd(&mut self) -> Option<(usize, FdFrame)> {
-        self.st.link.poll_transmit_fd()
-    }
-}
+/// A slave board: a node on a dual-bus layer, FD-capable when its layer is.
+pub type Board = FdStation<Node<DynamicDictionary>, SyncProducer>;
 
 /// A redundant master whose application takes every FD frame its layer delivers, at once:
 /// `(when, frame)`.

@@ -7,7 +7,7 @@
 //! (see `fd_rig.rs`).
 #![allow(dead_code)]
 
-use crate::fd_rig::{process_data, Board, FdMaster};
+use crate::fd_rig::{process_data, Board, FdMaster, SyncProducer};
 use crate::stepped::{ClockJump, ClockStep, Stepped};
 use duocan::frame::FdFrame;
 use duocan::machine::StationEvent;
@@ -182,11 +182,11 @@ pub fn slave_station(p: &Params, id: u8, now: Instant) -> SlaveDev {
     );
     node.boot(now);
     let pair = (id - 0x10) % 0x40;
-    Board {
-        st: Station::new(link(p), node),
+    let app = SyncProducer {
         id,
         produces: p.fd.is_some_and(|fd| pair < fd.producers),
-    }
+    };
+    Board::new(Station::new(link(p), node), app)
 }
 
 impl SupNet {
