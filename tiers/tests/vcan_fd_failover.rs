@@ -175,22 +175,20 @@ async fn fd_frames_arrive_once_while_vcan0_is_down_and_after_it_recovers() {
     let mut seen = vec![];
     let ok = tokio::time::timeout(StdDuration::from_secs(60), async {
         loop {
-            if let Ok(e) = ev.recv().await {
-                if let RuntimeEvent::Device(LinkEvent {
-                    kind:
-                        LinkEventKind::Port {
-                            port: 0,
-                            to,
-                            reason,
-                            ..
-                        },
-                    ..
-                }) = e
-                {
-                    seen.push((to, reason));
-                    if to == PortState::Ok {
-                        return;
-                    }
+            if let Ok(RuntimeEvent::Device(LinkEvent {
+                kind:
+                    LinkEventKind::Port {
+                        port: 0,
+                        to,
+                        reason,
+                        ..
+                    },
+                ..
+            })) = ev.recv().await
+            {
+                seen.push((to, reason));
+                if to == PortState::Ok {
+                    return;
                 }
             }
         }
