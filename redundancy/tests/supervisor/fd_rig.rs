@@ -5,7 +5,8 @@
 //! `common/fd_station.rs`) whose application sends the process data: on every SYNC it
 //! delivers, each member of a producing pair sends one 64-byte FD frame (BRS) on its TPDO1
 //! identifier over the dual bus, both members of a pair the same bytes (the same function, as
-//! redundant boards compute it). [`FdMaster`] is a redundant master station whose application
+//! redundant boards compute it), the standby too (its frames are what the same-function merge
+//! must hold back). [`FdMaster`] is a redundant master station whose application
 //! takes every FD frame its layer delivers, recording when.
 #![allow(dead_code)]
 
