@@ -2,7 +2,7 @@
 # Tier 2: real SocketCAN on vcan0/vcan1/vcan2, inside a qemu VM running Debian's stock kernel
 # (the host kernel has no CAN). Installs what it needs (qemu, busybox, the kernel deb's CAN
 # modules, can-utils), runs tiers/tests/vcan.rs, tiers/tests/vcan_fd.rs, tiers/tests/vcan_echo.rs, tiers/tests/vcan_failover.rs,
-# tiers/tests/vcan_redundant.rs, tiers/tests/vcan_reopen.rs, tiers/tests/vcan_load.rs, the
+# tiers/tests/vcan_fd_failover.rs, tiers/tests/vcan_redundant.rs, tiers/tests/vcan_reopen.rs, tiers/tests/vcan_load.rs, the
 # failover kit (.ci/kit-vm.sh), LSS (.ci/lss-vm.sh), the station file for SocketCAN
 # (.ci/station-vm.sh), these three through .ci/vm-script.sh,
 # tiers/tests/vcan_canopennode.rs (CANopenNode's canopend, built on the host from
@@ -53,6 +53,9 @@ echo "   controller's does once a frame was on the bus): a port's own frames com
 VCANVM_ECHO=1 cargo test -p duocan-tiers --features vcan --test vcan_echo || fail "confirmed transmissions on vcan"
 echo "== tier-vcan: the dual-bus layer (duocan-redundancy) failing over between vcan0 and vcan1"
 cargo test -p duocan-tiers --features vcan --test vcan_failover || fail "dual-bus failover on vcan"
+echo "== tier-vcan: the dual-bus layer carrying 64-byte CAN FD frames on vcan0 and vcan1 opened for"
+echo "   CAN FD: vcan0 down and up mid-run, every frame delivered once, the port failed and back"
+cargo test -p duocan-tiers --features vcan --test vcan_fd_failover || fail "dual-bus FD failover on vcan"
 echo "== tier-vcan: the redundant network's front door on vcan0,vcan1 (open_named, SDO, a bus failover)"
 cargo test -p duocan-tiers --features vcan --test vcan_redundant || fail "redundant front door on vcan"
 echo "== tier-vcan: a port that disappears comes back: vcan1 deleted and created again, bus-off"

@@ -13,31 +13,12 @@ use duocan::port::{Port, PortErrorKind, PortInput};
 use duocan::runtime::{Runtime, RuntimeEvent};
 use duocan::{Frame, Id, Instant, NmtCommand, NmtState, NmtTarget, NodeId};
 use rt::{collect, node, node_event, single, until_grown, wait_for};
-use std::process::Command;
 use std::time::Duration;
 
-fn ip(args: &[&str]) {
-    let st = Command::new("ip").args(args).status().expect("run ip");
-    assert!(st.success(), "ip {args:?} failed");
-}
-
-/// Takes an interface down; brings it back up when dropped (also when a test fails).
-struct LinkDown(&'static str);
-
-impl LinkDown {
-    fn new(ifname: &'static str) -> Self {
-        ip(&["link", "set", ifname, "down"]);
-        LinkDown(ifname)
-    }
-}
-
-impl Drop for LinkDown {
-    fn drop(&mut self) {
-        let _ = Command::new("ip")
-            .args(["link", "set", self.0, "up"])
-            .status();
-    }
-}
+#[path = "common/cut.rs"]
+mod cut;
+use cut::{port_reported, LinkDown};
+use std::process::Command;
 
 /// The next input of `p`. A frame must come with the kernel's receive timestamp, no later than
 /// now; it is returned without it (`None`), to be compared.
@@ -361,15 +342,7 @@ async fn bus_failover_when_an_interface_goes_down_and_recovery() {
     );
 
     drop(down);
-    wait_for(&mut ev, 5, "port 0 back up", |e| match e {
-        RuntimeEvent::Port {
-            port: 0,
-            status: PortStatus::Up,
-            ..
-        } => Some(()),
-        _ => None,
-    })
-    .await;
+    port_reported(&mut ev, 0, true, 5).await;
     // The slave's port 0 recovers too, and its frames reach the master on vcan0 again.
     until_grown(&mut ev, || rx(0), 5, 20, "frames on vcan0 after recovery").await;
     assert!(master.port_counters(0).unwrap().reopened >= 1);

@@ -1,14 +1,13 @@
 //! The dual-bus layer under duocan's tokio runtime on two real SocketCAN interfaces: vcan0 is
 //! set down mid-run and up again. Runs inside duocan's qemu VM (`.ci/tier-vcan.sh`).
 
-use duocan::machine::{PortStatus, Station, StationEvent};
+use duocan::machine::{Station, StationEvent};
 use duocan::node::NodeEventKind;
 use duocan::port::socketcan::SocketCanPort;
 use duocan::port::{Port, PortInput};
 use duocan::runtime::{Runtime, RuntimeEvent};
 use duocan::Duration;
 use duocan_redundancy::{DualBus, DualBusConfig, LinkEvent, LinkEventKind, LinkMode, PortState};
-use std::process::Command;
 use std::sync::{Arc, Mutex};
 use std::time::Duration as StdDuration;
 
@@ -16,6 +15,9 @@ use std::time::Duration as StdDuration;
 #[path = "../../tests/common/runtime.rs"]
 mod rt;
 use rt::wait_for;
+#[path = "common/cut.rs"]
+mod cut;
+use cut::{port_reported, LinkDown};
 
 type Dev = Station<DualBus, rt::TestNode>;
 type Ev = RuntimeEvent<StationEvent<LinkEvent, duocan::NodeEvent>>;
@@ -29,21 +31,6 @@ fn station(id: u8, master: bool, hb_ms: u16, consume: Option<(u8, u16)>) -> Dev 
     ));
     let consume: Vec<_> = consume.into_iter().collect();
     Station::new(link, rt::node(id, master, hb_ms, &consume))
-}
-
-fn ip(args: &[&str]) {
-    let st = Command::new("ip").args(args).status().expect("run ip");
-    assert!(st.success(), "ip {args:?} failed");
-}
-
-/// vcan0 down until dropped (also when the test fails).
-struct LinkDown;
-impl Drop for LinkDown {
-    fn drop(&mut self) {
-        let _ = Command::new("ip")
-            .args(["link", "set", "vcan0", "up"])
-            .status();
-    }
 }
 
 fn link_port(e: &Ev) -> Option<(u8, PortState)> {
@@ -156,17 +143,8 @@ async fn frames_keep_flowing_on_vcan1_while_vcan0_is_down_and_vcan0_recovers() {
         "{delivered} delivered of {a}+{b} received ({apart} written more than {window:?} apart)"
     );
 
-    ip(&["link", "set", "vcan0", "down"]);
-    let down = LinkDown;
-    wait_for(&mut ev, 5, "runtime reports port 0 down", |e| match e {
-        RuntimeEvent::Port {
-            port: 0,
-            status: PortStatus::Down(_),
-            ..
-        } => Some(()),
-        _ => None,
-    })
-    .await;
+    let down = LinkDown::new("vcan0");
+    port_reported(&mut ev, 0, false, 5).await;
     wait_for(&mut ev, 5, "layer marks port 0 failed", |e| {
         (link_port(e) == Some((0, PortState::Failed))).then_some(())
     })
@@ -191,15 +169,7 @@ async fn frames_keep_flowing_on_vcan1_while_vcan0_is_down_and_vcan0_recovers() {
     assert!(!lost, "the node above never lost the slave's heartbeat");
 
     drop(down);
-    wait_for(&mut ev, 5, "runtime reports port 0 up", |e| match e {
-        RuntimeEvent::Port {
-            port: 0,
-            status: PortStatus::Up,
-            ..
-        } => Some(()),
-        _ => None,
-    })
-    .await;
+    port_reported(&mut ev, 0, true, 5).await;
     wait_for(&mut ev, 10, "layer trusts port 0 again", |e| {
         (link_port(e) == Some((0, PortState::Ok))).then_some(())
     })

@@ -18,7 +18,13 @@ pub struct FdEnd {
 
 impl FdEnd {
     pub fn new() -> Self {
-        let mut link = DualBus::new(DualBusConfig::default());
+        Self::with_config(DualBusConfig::default())
+    }
+
+    /// As [`FdEnd::new`], its layer configured with `cfg` (a wider skew window in an emulated
+    /// VM, whose sender may write a frame's two copies further apart than real buses skew).
+    pub fn with_config(cfg: DualBusConfig) -> Self {
+        let mut link = DualBus::new(cfg);
         link.set_port_fd(0, true);
         link.set_port_fd(1, true);
         FdEnd {

@@ -12,7 +12,7 @@
 //! the frames whose content changes (the counter), corrected, reported, and the copies before
 //! the second such frame may come twice; repeats never measure it.
 
-use super::sim::{App, Dev, Net, HB_MS, MASTER};
+use super::sim::{App, Dev, Net, WideTpdo1, HB_MS, MASTER};
 use duocan::machine::{BusLink, Composite};
 use duocan::od::comm;
 use duocan::sim::{BusConfig, SimNetwork, TxOutcome};
@@ -57,7 +57,8 @@ fn rig(lag: Duration) -> Net {
             .unwrap();
         node.boot(Instant::ZERO);
         let app = App::new(id, START, PERIOD, STOP);
-        let station: Dev = Station::new(DualBus::new(config()), Composite::new(node, app));
+        let station = Station::new(DualBus::new(config()), Composite::new(node, app));
+        let station = Dev::new(station, WideTpdo1 { fd: false });
         devs.push(sim.add_device(format!("n{id}"), station, &buses).unwrap());
     }
     sim.set_port_latency(devs[0].port(1), lag);

@@ -1,6 +1,7 @@
 //! The dual-bus layer (`duocan_redundancy::link`): the merger, and each policy on the simulated dual bus.
 
 mod active_active;
+mod app_station;
 mod cia302_6;
 mod clock;
 mod clock_modes;
@@ -13,6 +14,8 @@ mod fd;
 #[cfg(feature = "fd")]
 #[path = "../common/fd_end.rs"]
 mod fd_end;
+#[path = "../common/fd_station.rs"]
+mod fd_station;
 mod flapping;
 mod lag;
 mod lag_properties;

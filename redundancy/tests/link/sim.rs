@@ -10,6 +10,8 @@ use duocan::{Duration, Frame, Id, Instant, Machine, Node, NodeConfig, NodeEvent,
 use duocan_redundancy::{DualBus, DualBusConfig, LinkEvent, LinkEventKind, PortReason, PortState};
 use std::collections::VecDeque;
 
+pub use super::app_station::{AppStation, WideTpdo1};
+
 /// The application of every station: every `period`, TPDO1 (0x180 + id) with a counter and
 /// TPDO2 (0x280 + id) with a constant payload (the same frame again and again, a legitimate
 /// repeat); records every such frame of the others.
@@ -89,7 +91,7 @@ impl Machine for App {
 }
 
 pub type Machines = Composite<Node<DynamicDictionary>, App>;
-pub type Dev = Station<DualBus, Machines>;
+pub type Dev = AppStation;
 pub type Ev = StationEvent<LinkEvent, CompositeEvent<NodeEvent, ()>>;
 
 pub const MASTER: u8 = 1;
@@ -328,11 +330,40 @@ pub fn network_wired(
     crossed: &[u8],
     stop: Instant,
 ) -> Net {
+    build(seed, slaves, cfg, crossed, None, stop)
+}
+
+/// As [`network`], on CAN FD buses (1 Mbit/s nominal, `data_bitrate` in the data phase): every
+/// station's ports FD, the applications' TPDO1 sent as 64-byte FD frames (see
+/// `app_station.rs`).
+pub fn network_fd(
+    seed: u64,
+    slaves: u8,
+    cfg: DualBusConfig,
+    data_bitrate: u32,
+    stop: Instant,
+) -> Net {
+    build(seed, slaves, |_| cfg, &[], Some(data_bitrate), stop)
+}
+
+/// The network of [`network_wired`], on FD buses with a data phase of `fd` if given.
+fn build(
+    seed: u64,
+    slaves: u8,
+    cfg: impl Fn(u8) -> DualBusConfig,
+    crossed: &[u8],
+    fd: Option<u32>,
+    stop: Instant,
+) -> Net {
     let mut sim = SimNetwork::new(seed);
-    let buses = [
-        sim.add_bus(BusConfig::new("can1", 1_000_000)),
-        sim.add_bus(BusConfig::new("can2", 1_000_000)),
-    ];
+    let bus = |name| {
+        let c = BusConfig::new(name, 1_000_000);
+        match fd {
+            Some(data) => c.fd(data),
+            None => c,
+        }
+    };
+    let buses = [sim.add_bus(bus("can1")), sim.add_bus(bus("can2"))];
     let mut devs = vec![];
     for id in 1..=slaves + 1 {
         let nid = NodeId::must(id);
@@ -368,7 +399,12 @@ pub fn network_wired(
         node.boot(Instant::ZERO);
         let start = Instant::from_millis(100) + Duration::from_micros(300 * id as u64);
         let app = App::new(id, start, Duration::from_millis(10), stop);
-        let station = Station::new(DualBus::new(cfg(id)), Composite::new(node, app));
+        let mut link = DualBus::new(cfg(id));
+        for p in 0..2 {
+            link.set_port_fd(p, fd.is_some());
+        }
+        let wide = WideTpdo1 { fd: fd.is_some() };
+        let station = AppStation::new(Station::new(link, Composite::new(node, app)), wide);
         let wires = if crossed.contains(&id) {
             [buses[1], buses[0]]
         } else {

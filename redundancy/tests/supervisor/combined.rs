@@ -1,5 +1,6 @@
 //! Combined faults in every order: bus 1 cut, the active member of a pair killed, the strong
 //! master killed. The system converges to one active master and one running member per pair.
+//! On classic buses, and on CAN FD buses with FD process data flowing throughout.
 
 use crate::net::*;
 use duocan::{Duration, Instant, NmtState};
@@ -13,11 +14,19 @@ enum Fault {
     KillStrong,
 }
 
-fn run(order: [Fault; 3], spacing: Duration) {
-    let mut n = SupNet::new(Params {
+fn classic() -> Params {
+    Params {
         pairs: 6,
         ..Params::default()
-    });
+    }
+}
+
+fn run(order: [Fault; 3], spacing: Duration) {
+    run_on(classic(), order, spacing);
+}
+
+fn run_on(p: Params, order: [Fault; 3], spacing: Duration) {
+    let mut n = SupNet::new(p);
     let mut t = Instant::from_millis(1000);
     for f in order {
         match f {
@@ -55,6 +64,16 @@ fn run(order: [Fault; 3], spacing: Duration) {
         [a(2)],
         "{ctx}"
     );
+    // The weak master's FD process data, through the bus cut, the takeover and pair 2's
+    // switch: the active member's frames, each once (none on classic buses).
+    for i in 0..6 {
+        let [from_a, from_b] = n.assert_fd_exactly_once(WEAK, i, t + Duration::from_millis(1500));
+        match (p.fd.is_some(), i) {
+            (false, _) => assert_eq!([from_a, from_b], [0, 0], "{ctx}"),
+            (true, 2) => assert!(from_a > 30 && from_b > 100, "{ctx}: {from_a} {from_b}"),
+            (true, _) => assert!(from_a > 180 && from_b == 0, "{ctx}: {from_a} {from_b}"),
+        }
+    }
 }
 
 const ORDERS: [[Fault; 3]; 6] = [
@@ -77,6 +96,15 @@ fn every_order_well_apart() {
 fn every_order_within_one_timeout() {
     for o in ORDERS {
         run(o, Duration::from_millis(17));
+    }
+}
+
+/// On CAN FD buses (1 Mbit/s nominal, 2 Mbit/s data), every member sending a 64-byte FD frame
+/// on every SYNC.
+#[test]
+fn on_fd_buses_every_order_within_one_timeout() {
+    for o in ORDERS {
+        run_on(classic().on_fd(2_000_000, 6), o, Duration::from_millis(17));
     }
 }
 

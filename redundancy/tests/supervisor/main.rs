@@ -3,6 +3,9 @@
 mod chaos;
 mod clock;
 mod combined;
+mod fd_rig;
+#[path = "../common/fd_station.rs"]
+mod fd_station;
 mod flying_master;
 mod impostor;
 mod impostor_idle;

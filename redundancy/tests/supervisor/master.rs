@@ -84,7 +84,20 @@ fn assert_takeover(n: &SupNet) -> Instant {
 
 #[test]
 fn strong_master_killed_weak_takes_over_without_resets_or_sync_gap_and_supervises() {
-    let mut n = net(params());
+    strong_master_killed(params());
+}
+
+/// The same on CAN FD buses (1 Mbit/s nominal, 5 Mbit/s data), the members of pairs 0 to 5
+/// sending a 64-byte FD frame on every SYNC: the same takeover instant and bounds, and the
+/// process data of the active members delivered once at the weak master across the takeover
+/// and across pair 5's switch after it.
+#[test]
+fn on_fd_buses_strong_master_killed_weak_takes_over_and_fd_process_data_flows_once() {
+    strong_master_killed(params().on_fd(5_000_000, 6));
+}
+
+fn strong_master_killed(p: Params) {
+    let mut n = net(p);
     n.sim.run_until(ms(1500));
     assert_eq!(n.role(STRONG), MasterRole::Active);
     n.kill_master_at(STRONG, KILL);
@@ -144,6 +157,18 @@ fn strong_master_killed_weak_takes_over_without_resets_or_sync_gap_and_supervise
     for i in 0..20 {
         let want = if i == 5 { Member::B } else { Member::A };
         assert_eq!(n.active_member(WEAK, i), Some(want), "pair {i}");
+    }
+    // FD process data: the strong master's while it ran, the weak one's all along (A's of
+    // pair 0 through the takeover; pair 5's A until it died, B's from its start at about
+    // 1.61 s to the end, about 139 cycles).
+    let strong = [0, 5].map(|i| n.assert_fd_exactly_once(STRONG, i, KILL));
+    let weak = [0, 5].map(|i| n.assert_fd_exactly_once(WEAK, i, ms(3000)));
+    if p.fd.is_some() {
+        assert!(strong.iter().all(|c| c[0] > 80 && c[1] == 0), "{strong:?}");
+        assert!(weak[0][0] > 230 && weak[0][1] == 0, "{weak:?}");
+        assert!(weak[1][0] > 80 && weak[1][1] > 130, "{weak:?}");
+    } else {
+        assert_eq!([strong, weak], [[[0; 2]; 2]; 2]);
     }
 }
 

@@ -1,13 +1,19 @@
 //! A supervised dual-bus network on the simulator: a strong master (node 1, priority 0) and a
 //! weak master (node 2, priority 1), each a `SupervisedStation`, and `pairs` A/B slave pairs
 //! (A = 0x10 + i, B = 0x50 + i), every device on both 1 Mbit/s buses. Slaves are standard nodes
-//! that boot at 0 with no heartbeat; the active master configures 0x1017.
+//! that boot at 0 with no heartbeat; the active master configures 0x1017. With
+//! [`Params::fd`] the buses are CAN FD (the same nominal bit rate, a data bit rate), every
+//! device FD-capable, and the members of the first pairs send FD process data on every SYNC
+//! (see `fd_rig.rs`).
 #![allow(dead_code)]
 
+use crate::fd_rig::{process_data, Board, FdMaster, SyncProducer};
 use crate::stepped::{ClockJump, ClockStep, Stepped};
+use duocan::frame::FdFrame;
 use duocan::machine::StationEvent;
 use duocan::master::{objects, Master, MasterConfig};
 use duocan::od::{comm, DynamicDictionary};
+use duocan::sim::timing::fd_frame_duration;
 use duocan::sim::{BusConfig, BusId, DevId, SimNetwork, TraceRecord, TxOutcome};
 use duocan::{Duration, Frame, Id, Instant, NmtCommand, Node, NodeConfig, NodeId, Station};
 use duocan_redundancy::supervisor::flying_master::{FlyingEvent, MasterRole, MasterRoleChange};
@@ -20,8 +26,8 @@ use duocan_redundancy::{
 
 /// A master station, on a clock that may step back ([`Params::clock_step`]) or jump ahead
 /// ([`Params::clock_jump`]).
-pub type MasterDev = Stepped<SupervisedStation<DynamicDictionary>>;
-pub type SlaveDev = Station<DualBus, Node<DynamicDictionary>>;
+pub type MasterDev = Stepped<FdMaster>;
+pub type SlaveDev = Board;
 
 pub const STRONG: u8 = 1;
 pub const WEAK: u8 = 2;
@@ -45,6 +51,45 @@ pub struct Params {
     pub clock_step: Option<ClockStep>,
     /// This master's clock (node-ID) jumps ahead then (none: it reads the simulated time).
     pub clock_jump: Option<(u8, ClockJump)>,
+    /// CAN FD buses and process data (none: classic buses, no FD frames).
+    pub fd: Option<FdNet>,
+}
+
+/// The FD network of [`Params::fd`].
+#[derive(Clone, Copy, Debug)]
+pub struct FdNet {
+    /// The data phase's bit rate (the nominal one is [`Params::bitrate`]).
+    pub data_bitrate: u32,
+    /// The members of pairs `0..producers` send a 64-byte FD frame on every SYNC.
+    pub producers: u8,
+}
+
+impl Params {
+    /// These parameters on FD buses with a data phase of `data_bitrate`, the members of the
+    /// first `producers` pairs sending FD process data.
+    pub fn on_fd(self, data_bitrate: u32, producers: u8) -> Params {
+        Params {
+            fd: Some(FdNet {
+                data_bitrate,
+                producers,
+            }),
+            ..self
+        }
+    }
+
+    /// How long the FD process data of one SYNC occupies a bus (zero on classic buses): a
+    /// frame of lower priority (a heartbeat, a boot-up, 0x700 + node) queued at a SYNC waits
+    /// that long at most behind it.
+    pub fn fd_burst(&self) -> Duration {
+        self.fd.map_or(Duration::ZERO, |fd| {
+            let one = fd_frame_duration(
+                &process_data(0x7F, Instant::ZERO),
+                self.bitrate,
+                fd.data_bitrate,
+            );
+            Duration::from_micros(one.as_micros() * 2 * fd.producers as u64)
+        })
+    }
 }
 
 impl Default for Params {
@@ -63,6 +108,7 @@ impl Default for Params {
             weak_start: Duration::ZERO,
             clock_step: None,
             clock_jump: None,
+            fd: None,
         }
     }
 }
@@ -83,10 +129,13 @@ pub struct SupNet {
 }
 
 fn link(p: &Params) -> DualBus {
-    DualBus::new(DualBusConfig::with_guard_period(
+    let mut link = DualBus::new(DualBusConfig::with_guard_period(
         LinkMode::ActiveActive,
         p.slave_hb,
-    ))
+    ));
+    link.set_port_fd(0, p.fd.is_some());
+    link.set_port_fd(1, p.fd.is_some());
+    link
 }
 
 /// A master built at simulated time `now` (at its clock's reading then).
@@ -96,7 +145,7 @@ pub fn master_station(p: &Params, id: u8, now: Instant) -> MasterDev {
         .clock_jump
         .filter(|j| j.0 == id && now < j.1.at)
         .map(|j| j.1);
-    let now = Stepped::<SupervisedStation<DynamicDictionary>>::reading(step, now);
+    let now = Stepped::<FdMaster>::reading(step, now);
     let nid = NodeId::must(id);
     let od = objects::master_dictionary(id, comm::Identity::default());
     let master = Master::new(nid, od, MasterConfig::new()).unwrap();
@@ -119,7 +168,7 @@ pub fn master_station(p: &Params, id: u8, now: Instant) -> MasterDev {
         )
         .unwrap();
     }
-    let station = SupervisedStation::new(link(p), sup).unwrap();
+    let station = FdMaster::new(SupervisedStation::new(link(p), sup).unwrap());
     match jump {
         Some(j) => Stepped::jumping(station, j),
         None => Stepped::new(station, step),
@@ -132,16 +181,22 @@ pub fn slave_station(p: &Params, id: u8, now: Instant) -> SlaveDev {
         comm::standard_dictionary(id, comm::Identity::default()),
     );
     node.boot(now);
-    Station::new(link(p), node)
+    let pair = (id - 0x10) % 0x40;
+    let app = SyncProducer {
+        id,
+        produces: p.fd.is_some_and(|fd| pair < fd.producers),
+    };
+    Board::new(Station::new(link(p), node), app)
 }
 
 impl SupNet {
     pub fn new(p: Params) -> SupNet {
         let mut sim = SimNetwork::new(p.seed);
-        let buses = [
-            sim.add_bus(BusConfig::new("can1", p.bitrate)),
-            sim.add_bus(BusConfig::new("can2", p.bitrate)),
-        ];
+        let bus = |name| match p.fd {
+            Some(fd) => BusConfig::new(name, p.bitrate).fd(fd.data_bitrate),
+            None => BusConfig::new(name, p.bitrate),
+        };
+        let buses = [sim.add_bus(bus("can1")), sim.add_bus(bus("can2"))];
         let m1 = sim
             .add_device("strong", master_station(&p, STRONG, Instant::ZERO), &buses)
             .unwrap();
@@ -386,5 +441,72 @@ impl SupNet {
             .collect();
         v.dedup();
         v
+    }
+
+    /// The FD process data of pair `pair` delivered on either bus: (end of its first copy,
+    /// sender, frame), once each, in order.
+    pub fn fd_on_wire(&self, pair: u8) -> Vec<(Instant, u8, FdFrame)> {
+        let mut v: Vec<(Instant, u8, FdFrame)> = vec![];
+        for r in self.sim.trace() {
+            let TraceRecord::Tx(x) = r else { continue };
+            let (TxOutcome::Delivered { .. }, Some(f)) = (x.outcome, x.fd.as_deref()) else {
+                continue;
+            };
+            let s = self.sender_node(x);
+            if s != a(pair) && s != b(pair) {
+                continue;
+            }
+            match v.iter_mut().find(|e| e.2 == *f) {
+                Some(e) => e.0 = e.0.min(x.end),
+                None => v.push((x.end, s, *f)),
+            }
+        }
+        v.sort_by_key(|e| e.0);
+        v
+    }
+
+    /// Checks master `m`'s FD process data of pair `pair` on the wire up to `until` (while it
+    /// runs): none delivered twice, none that was not on the wire, and exactly the frames of
+    /// the member active at the master when their first copy ended (the same-function merge;
+    /// a frame within a millisecond of a role change may go either way). Returns how many of
+    /// A's and of B's it delivered.
+    pub fn assert_fd_exactly_once(&self, m: u8, pair: u8, until: Instant) -> [usize; 2] {
+        let roles = self.pair_roles(m, pair);
+        let ids = [a(pair), b(pair)].map(|n| Id::Standard(0x180 + n as u16));
+        let got: Vec<FdFrame> = self
+            .sim
+            .device(self.master(m))
+            .fd_got
+            .iter()
+            .map(|x| x.1)
+            .filter(|f| ids.contains(&f.id()))
+            .collect();
+        let wire = self.fd_on_wire(pair);
+        for (i, f) in got.iter().enumerate() {
+            assert!(!got[..i].contains(f), "master {m}: {f:?} delivered twice");
+            assert!(
+                wire.iter().any(|w| w.2 == *f),
+                "master {m}: {f:?} delivered, never on the wire"
+            );
+        }
+        let mut counts = [0, 0];
+        for (end, s, f) in wire.iter().filter(|w| w.0 <= until) {
+            let member = if *s == a(pair) { Member::A } else { Member::B };
+            let delivered = got.contains(f);
+            if delivered {
+                counts[(member == Member::B) as usize] += 1;
+            }
+            let near = |t: Instant| t.saturating_since(*end).max(end.saturating_since(t));
+            if roles.iter().any(|r| near(r.at) <= Duration::from_millis(1)) {
+                continue;
+            }
+            let active = roles.iter().rfind(|r| r.at <= *end).and_then(|r| r.to);
+            assert_eq!(
+                delivered,
+                active == Some(member),
+                "master {m}, pair {pair}: FD frame of {s:#x} ended at {end}, active {active:?}"
+            );
+        }
+        counts
     }
 }

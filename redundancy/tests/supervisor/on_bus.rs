@@ -60,7 +60,20 @@ fn start_up_strong_master_active_first_members_active_weak_shadows() {
 
 #[test]
 fn active_member_killed_standby_started_within_consumer_time_plus_1ms_then_rejoins_as_standby() {
-    let mut n = SupNet::new(Params::default());
+    active_member_killed(Params::default());
+}
+
+/// The same on CAN FD buses (1 Mbit/s nominal, 2 Mbit/s data), every member sending a 64-byte
+/// FD frame on every SYNC: the same instants (heartbeats, classic frames, still drive the
+/// supervisor), and the masters' layers deliver A's process data until the switch and B's
+/// from then on, each frame once.
+#[test]
+fn on_fd_buses_active_member_killed_standby_started_and_its_fd_process_data_delivered_once() {
+    active_member_killed(Params::default().on_fd(2_000_000, 4));
+}
+
+fn active_member_killed(p: Params) {
+    let mut n = SupNet::new(p);
     n.kill_slave_at(a(0), ms(1003));
     n.revive_slave_at(a(0), ms(1500));
     n.sim.run_until(ms(2500));
@@ -94,7 +107,10 @@ fn active_member_killed_standby_started_within_consumer_time_plus_1ms_then_rejoi
         pair.member(Member::A).nmt,
         Some(duocan::NmtState::PreOperational)
     );
-    assert!(n.boot_ups_in(ms(1500), ms(1501)).contains(&a(0)));
+    // Revived at a SYNC: on FD buses its boot-up waits behind that SYNC's process data.
+    assert!(n
+        .boot_ups_in(ms(1500), ms(1501) + p.fd_burst())
+        .contains(&a(0)));
     // The weak master followed from the NMT commands on the wire.
     assert_eq!(n.active_member(WEAK, 0), Some(Member::B));
     let w = n.pair_roles(WEAK, 0);
@@ -115,6 +131,18 @@ fn active_member_killed_standby_started_within_consumer_time_plus_1ms_then_rejoi
         text.contains("active A -> B: active member silent since"),
         "{text}"
     );
+    for m in [STRONG, WEAK] {
+        let [from_a, from_b] = n.assert_fd_exactly_once(m, 0, ms(2500));
+        let [steady, none] = n.assert_fd_exactly_once(m, 1, ms(2500));
+        if p.fd.is_some() {
+            // A's until it died (about 40 cycles from the start at 610 ms), B's from the switch
+            // at about 1.05 s to the end (about 140 cycles); pair 1 A's all along.
+            assert!(from_a > 30 && from_b > 130, "master {m}: {from_a} {from_b}");
+            assert!(steady > 180 && none == 0, "master {m}: {steady} {none}");
+        } else {
+            assert_eq!([from_a, from_b, steady, none], [0; 4]);
+        }
+    }
 }
 
 #[test]

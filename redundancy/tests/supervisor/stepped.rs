@@ -8,6 +8,7 @@
 #![allow(dead_code)]
 
 use core::ops::{Deref, DerefMut};
+use duocan::frame::FdFrame;
 use duocan::machine::{Device, PortRequest, PortStatus};
 use duocan::{Duration, Frame, Instant};
 
@@ -138,5 +139,17 @@ impl<T: Device> Device for Stepped<T> {
     }
     fn poll_event(&mut self) -> Option<T::Event> {
         self.inner.poll_event()
+    }
+    fn fd_capable(&self) -> bool {
+        self.inner.fd_capable()
+    }
+    // On the device's clock, as `handle_rx_at`.
+    fn handle_rx_fd(&mut self, now: Instant, port: usize, frame: &FdFrame, at: Instant) {
+        let t = self.time(now);
+        let at = Self::reading(self.step.filter(|_| !self.stepped), at).min(t);
+        self.inner.handle_rx_fd(t, port, frame, at);
+    }
+    fn poll_transmit_fd(&mut self) -> Option<(usize, FdFrame)> {
+        self.inner.poll_transmit_fd()
     }
 }
