@@ -544,9 +544,12 @@ pub fn apply(run: &mut Run, f: Fault) {
             });
         }
         Fault::ProducerTime { node, ms } => {
+            // The application asks the master that holds the network (none: nothing happens).
             for id in [STRONG, WEAK] {
                 let m = run.plant.master(id);
-                run.plant.sim.device_mut(m).producer = Some((node, ms));
+                if run.plant.sim.is_powered(m) && run.plant.sup(id).role() == MasterRole::Active {
+                    run.plant.sim.device_mut(m).producer = Some((node, ms));
+                }
             }
         }
         Fault::SlowTx {
@@ -785,6 +788,7 @@ pub fn apply(run: &mut Run, f: Fault) {
                 r.plant.reboot_master(id);
                 r.timeline.devs[i].off.end(t);
                 r.timeline.devs[i].reboots.push(t);
+                r.plant.oracle.borrow_mut().rebuilt[i] = Some(t);
                 for s in r.settle_from.iter_mut() {
                     *s = t;
                 }
@@ -895,6 +899,7 @@ fn board_on(run: &mut Run, node: u8) {
     run.plant.reboot_slave(node);
     run.timeline.devs[i].off.end(t);
     run.timeline.devs[i].reboots.push(t);
+    run.plant.oracle.borrow_mut().rebuilt[i] = Some(t);
     run.settle_from[pair_of(node)] = t;
 }
 

@@ -257,6 +257,12 @@ pub struct Oracle {
     /// Per node: how far its clock reads ahead of the simulated time (µs; the campaign steps
     /// and jumps masters' clocks), to put its occurrences on the simulated time line.
     pub clock: [DeviceClock; MAX_NODES],
+    /// Per node: each span in which its producer time differed from the one its masters are
+    /// configured with (from a download the application made at run time until its next
+    /// boot-up; `Instant::MAX` while it has not booted).
+    pub producer_changed: [Vec<(Instant, Instant)>; MAX_NODES],
+    /// Per node: when it was last rebuilt (a master's or a board's power cycle).
+    pub rebuilt: [Option<Instant>; MAX_NODES],
     /// Per receiver and sender: when the newest heartbeat or boot-up delivered there was sent,
     /// and when its copy delivered there ended on the wire.
     newest: Vec<[Option<(Instant, Instant)>; MAX_NODES]>,
@@ -313,6 +319,12 @@ impl Oracle {
         if let (Id::Standard(id @ 0x701..=0x77F), [state]) = (frame.id(), frame.data()) {
             let v = self.beats.0.entry((id & 0x7F) as u8).or_default();
             v.push((at, *state));
+            if *state == 0 {
+                // Booted: its dictionary's producer time, which its master configures again.
+                if let Some((_, until)) = self.producer_changed[node].last_mut() {
+                    *until = (*until).min(at);
+                }
+            }
         }
         self.pending.push_back(Occurrence {
             sender: node,
@@ -531,6 +543,10 @@ impl Oracle {
                 if self.nodes[r].master && self.is_member_pdo(&o.frame) {
                     continue;
                 }
+                if self.nodes[r].master && is_error_control(&o.frame) && self.unknown_period(&o, r)
+                {
+                    continue;
+                }
                 let beats = &self.beats;
                 let calm = |node, end| beats.calm_after(node, end);
                 if wiring.excluded(o.sender, r, o.at, &o.frame, &calm) {
@@ -615,6 +631,30 @@ impl Oracle {
                 .iter()
                 .take_while(|n| n.at <= o.at + near)
                 .any(|n| n.sender == o.sender && spread(n))
+    }
+
+    /// Node `node` was given another producer time at `at` (a confirmed download): a new span
+    /// of [`Oracle::producer_changed`], or the one running goes on.
+    pub fn producer_changed(&mut self, node: usize, at: Instant) {
+        let spans = &mut self.producer_changed[node];
+        if spans.last().is_none_or(|s| s.1 != Instant::MAX) {
+            spans.push((at, Instant::MAX));
+        }
+    }
+
+    /// Whether `o` is a heartbeat of a board beating at a producer time the application
+    /// downloaded while master `r` was not running (it started after): `r`'s layer watches the
+    /// period it is configured with and, at twice the rate, takes the board for two devices
+    /// sharing its node-ID (the promise table: a master follows a download it saw; one that
+    /// starts later is configured anew by the application, or resets the board as an
+    /// impostor's victim and so configures it), until the verdict ends after its next boot.
+    fn unknown_period(&self, o: &Occurrence, r: usize) -> bool {
+        // After its boot-up, until three heartbeats at the configured pace end the verdict
+        // (the boot-up among the heartbeats it drops: rule 1 of `link::plausible`).
+        let tail = SLAVE_HB.saturating_mul(CALM_BEATS as u64 + 1);
+        self.producer_changed[o.sender].iter().any(|&(c, until)| {
+            c <= o.at && o.at < until.saturating_add(tail) && self.rebuilt[r].is_some_and(|b| b > c)
+        })
     }
 
     /// Whether `o`'s copies left within the skew window of each other, on either side of a

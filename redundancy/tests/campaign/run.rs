@@ -194,6 +194,12 @@ impl Run {
     fn check(&mut self, t: Instant) {
         // Exactly once.
         {
+            // Producer times the masters downloaded: the boards beat at another period since.
+            let writes = std::mem::take(&mut self.plant.sdo.borrow_mut().producer_writes);
+            for (board, at) in writes {
+                let i = crate::faults::dev_index(self, board);
+                self.plant.oracle.borrow_mut().producer_changed(i, at);
+            }
             let tl = &self.timeline;
             let powered = |_: usize| true;
             self.plant.oracle.borrow_mut().judge(t, tl, &powered);

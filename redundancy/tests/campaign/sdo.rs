@@ -77,6 +77,8 @@ pub struct Ledger {
     pub refused: u64,
     /// Per master node-ID (index `id − 1`): its life, counted up at each rebuild.
     pub lives: [u32; 2],
+    /// Producer times downloaded and confirmed, not yet told to the oracle: (board, when).
+    pub producer_writes: Vec<(u8, Instant)>,
 }
 
 /// A master's station with its SDO application: starts the jobs, notes their results.
@@ -211,6 +213,11 @@ impl Sdo {
         let end = match &e.result {
             Ok(_) if e.index == PRODUCER_TIME => {
                 self.producer_done += 1;
+                let board = e.node.raw();
+                self.ledger
+                    .borrow_mut()
+                    .producer_writes
+                    .push((board, self.now));
                 End::Done
             }
             Ok(_) => {
