@@ -455,6 +455,7 @@ impl<C: FrameClassifier, K: MergeCapacity> BusLink for DualBus<C, K> {
     fn send(&mut self, now: Instant, frame: &Frame) {
         self.watch_clock(now);
         // A watched node's producer time downloaded by this station's own client.
+        #[cfg(feature = "alloc")]
         self.plausible.on_sdo(frame);
         let info = self.info(frame);
         self.out.next_frame();

@@ -329,6 +329,7 @@ impl Plausibility {
             newest: NEVER,
             checked: NEVER,
             quiet: false,
+            #[cfg(feature = "alloc")]
             producer: None,
         };
         if t.watched.len() >= self.capacity || t.watched.try_push(w).is_err() {
@@ -468,6 +469,8 @@ impl Plausibility {
 }
 
 mod idle;
+// Without an allocator nothing is watched (see `ON`): no producer time to follow.
+#[cfg(feature = "alloc")]
 mod producer;
 mod rules;
 mod watch;

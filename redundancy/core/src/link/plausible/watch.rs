@@ -113,7 +113,8 @@ pub(super) struct Watch {
     /// else touched the entry.
     pub(super) quiet: bool,
     /// A producer time (ms) downloaded to it, waiting for the server's confirmation
-    /// (`producer.rs`).
+    /// (`producer.rs`; without an allocator nothing is watched).
+    #[cfg(feature = "alloc")]
     pub(super) producer: Option<u16>,
 }
 
