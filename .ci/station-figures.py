@@ -54,6 +54,9 @@ BUS_BASE = 41  # udp:41 … udp:48 (python-can's groups 239.74.163.43…, ports 
 HEARTBEAT_MS = 100
 SYNC_MS = 100
 TPDO_DLC = 8
+# Events and MQTT messages a client keeps (the latency of each sample is read within a second
+# of it): bounded memory however long a run.
+KEPT = 10_000
 
 
 def frame_bits(dlc):
@@ -408,6 +411,8 @@ class SseClient(threading.Thread):
                 name = line[6:].strip()
             elif line.startswith("data:"):
                 self.events.append((now, name, line[5:].strip()))
+                if len(self.events) > KEPT:
+                    del self.events[: KEPT // 2]  # bounded: only the recent ones are looked at
 
 
 class MqttClient(threading.Thread):
@@ -453,6 +458,8 @@ class MqttClient(threading.Thread):
                     if head & 0x06:
                         rest = rest[2:]  # a packet id (QoS > 0)
                     self.messages.append((now, topic, rest.decode(errors="replace")))
+                    if len(self.messages) > KEPT:
+                        del self.messages[: KEPT // 2]
         except (EOFError, OSError):
             pass
 
