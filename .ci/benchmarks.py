@@ -279,6 +279,22 @@ def parse_demo(out, since, quick):
             "demo.runs": {1: "one run", 2: "two runs", 3: "three runs"}.get(len(runs), f"{len(runs)} runs")}
 
 
+def parse_station(out, since, quick):
+    load = find(r"bus load: (\d+) % of 1 Mbit/s nominal .*, (\d+) frames/s received per bus", out, "station load")
+    cpu = find(r"CPU: ([\d.]+) % of one core", out, "station CPU")
+    frame = find(r"CPU per frame received: ([\d.]+) us; per CAN frame \(its two copies\): ([\d.]+) us", out,
+                 "station CPU per frame")
+    mem = find(r"resident memory: ([\d.]+) MiB \(after the latency runs ([\d.]+) MiB, peak ([\d.]+) MiB\)", out,
+               "station memory")
+    sse = find(r"event latency, .*, SSE: (.*)$", out, "station SSE latency")
+    mqtt = re.search(r"event latency, .*, MQTT: (.*)$", out, re.M)
+    return {"station.load": f"{load[1]} %", "station.frames": num(int(load[2])),
+            "station.cpu": f"{cpu[1]} %", "station.cpu-frame": f"{frame[1]} µs",
+            "station.cpu-can-frame": f"{frame[2]} µs", "station.rss": f"{mem[1]} MiB",
+            "station.peak": f"{mem[3]} MiB", "station.sse": sse[1],
+            "station.mqtt": mqtt[1] if mqtt else "not measured (no mosquitto)"}
+
+
 def rt_rows(out, what):
     """rt_overhead's ratio lines: {row: (median, low, high)} of every run, in order."""
     rows = {}
@@ -466,6 +482,12 @@ GROUPS = [
           ["cargo build -p duocan-cli",
            NETNS.format("cargo run -q --offline -p duocan-cli -- kit bench --bare udp:11 --a udp:12 --b udp:13 --frames 5000")],
           ["kit.added", "kit.ratio"], parse_kit, needs="unshare -rn"),
+    Group("station", "the station under load",
+          ["cargo build --release -p duocan-cli", NETNS.format("python3 .ci/station-figures.py")],
+          ["station.load", "station.frames", "station.cpu", "station.cpu-frame", "station.cpu-can-frame",
+           "station.rss", "station.peak", "station.sse", "station.mqtt"], parse_station,
+          quick=["cargo build --release -p duocan-cli", NETNS.format("python3 .ci/station-figures.py --quick")],
+          needs="unshare -rn (a user namespace) for the private UDP buses; mosquitto for the MQTT figure"),
     Group("fuzz", "fuzzing, five minutes per target, one at a time",
           ["FUZZ_SECONDS=300 FUZZ_JOBS=1 bash .ci/fuzz.sh"], ["fuzz.seconds", "fuzz.table"], parse_fuzz,
           quick=["FUZZ_SECONDS=2 bash .ci/fuzz.sh"], needs="cargo-fuzz"),

@@ -33,8 +33,8 @@ pub const SIM_MEMBER_FAILS: Duration = Duration::from_millis(4000);
 pub const SIM_END: Duration = Duration::from_millis(6000);
 /// How much later than member A member B boots: after the masters' power-on negotiation, so
 /// that the active master configures A alone and A is the active member, the same every run
-/// (booted together, the two would be configured in the same instant and the first reply to
-/// come back would decide).
+/// (booted together, A runs too, B waiting for A's configuration, but each run's frames would
+/// interleave differently).
 pub const SIM_B_BOOTS: Duration = Duration::from_millis(1000);
 
 pub(super) type Board = DualBusNode<DynamicDictionary>;

@@ -2,6 +2,7 @@
 
 mod chaos;
 mod clock;
+mod cold_start;
 mod combined;
 mod fd_rig;
 #[path = "../common/fd_station.rs"]

@@ -103,7 +103,12 @@ impl<S: Storage> PairSupervisor<S> {
         let mut best: Option<(Instant, usize, Member)> = None;
         for (p, pair) in self.pairs.iter().enumerate() {
             for s in &pair.members {
-                if let Some(t) = self.due(s) {
+                let mut due = self.due(s);
+                if s.member == Member::B {
+                    // A B waiting for A runs at the bound (`roles.rs`), before its deadline.
+                    due = earliest_of([due, self.wait_for_a_ends(p)]);
+                }
+                if let Some(t) = due {
                     if best.is_none_or(|b| t < b.0) {
                         best = Some((t, p, s.member));
                     }
@@ -130,6 +135,11 @@ impl<S: Storage> PairSupervisor<S> {
     fn expire(&mut self, t: Instant, p: usize, m: Member) {
         let s = self.pairs[p].members[idx(m)];
         match s.stage {
+            // Alive at the end of its wait for A (only that is due before its deadline): B
+            // runs. It becomes active, so the wait ends and the loop moves on.
+            Stage::Joined { deadline } if deadline > t && !self.is_suspect(s.node) => {
+                self.set_role(t, p, Some(m), RoleReason::FirstJoined)
+            }
             Stage::Joined { .. } => self.silent(t, p, m, s),
             Stage::Waiting { adopt_at, .. } => {
                 let adopt =

@@ -41,7 +41,9 @@ pub enum PairCommand {
 /// Why a pair's active member changed.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum RoleReason {
-    /// The first member configured became active.
+    /// The first member to run after a start: the first configured, except that B waits up to
+    /// the pair's consumer time for A while A is being configured (see the module docs,
+    /// "Member A first").
     FirstJoined,
     /// The active member was silent for the consumer time (last heartbeat given).
     ActiveSilent {

@@ -11,13 +11,27 @@
 //! - **Joining.** A member's boot-up asks for its configuration ([`PairCommand::Configure`]:
 //!   the CiA 302-2 boot process of the master, identity check, configuration, at least 0x1017);
 //!   when [`PairSupervisor::configured`] reports success it is *joined*. The first member of a
-//!   pair to be configured becomes active and is started — also when a heartbeat says it runs
+//!   pair to be configured becomes active (but see *Member A first* below) and is started — also when a heartbeat says it runs
 //!   already (a start is harmless to a running board, and the heartbeat may be a second
 //!   device's with its node-ID while the board itself booted pre-operational); the other stays
 //!   pre-operational as standby. A first start and a rejoin after a fault look the same. A failed configuration
 //!   resets the member (it boots and is configured again); a member that is not what the
 //!   configuration expects ([`PairSupervisor::rejected`]: wrong identity) is left alone, not
 //!   joined, until it boots again.
+//! - **Member A first.** A plant expects the configured primary, A, to run after a cold start,
+//!   and with both boards present which configuration ends first is a matter of timing. So B,
+//!   configured while the pair has no active member and A is being configured (its boot-up or
+//!   adoption was seen, it is trusted), waits for A: A configured within the bound becomes
+//!   active and B stays standby. The bound is the pair's consumer time from B's configuration:
+//!   at that instant exactly a live B is started and becomes active ([`RoleReason::FirstJoined`]);
+//!   a silent one is reset as always. The wait ends at once, B started, when A's configuration
+//!   fails, A is rejected or its heartbeats fall in doubt; a boot-up of A during the wait does not
+//!   extend it. Why that bound: a pair is allowed to run without a board for the consumer time
+//!   anyway (the time it takes to find its active member silent), so waiting for A costs no
+//!   more than a failover, and a pair whose B is ready is never without a running board for
+//!   longer; only one member is ever started. A pair whose A was never heard (dead, unplugged)
+//!   runs B at its configuration, as before; a table that takes command finds the pair without
+//!   an active member and starts the live one at once (a takeover, no cold start).
 //! - **Evaluation** is event-driven: every joined member has a deadline, its last heartbeat (or
 //!   its configuration, whichever is later) + the pair's consumer time. At the deadline exactly:
 //!   - active silent, standby alive → start the standby (it becomes active), reset the active;

@@ -1,7 +1,8 @@
 //! How members join and leave a pair and which one is active: joining after a configuration,
 //! leaving on a reset or a failure, the start of a new active member (first, so that it is on
-//! the bus at once), planned switches, and, for a table that follows another master, the roles
-//! read off what that master commands and what the members report.
+//! the bus at once), the wait for member A at a cold start, planned switches, and, for a table
+//! that follows another master, the roles read off what that master commands and what the
+//! members report.
 
 use super::state::Phase;
 use super::trust::bit;
@@ -42,6 +43,11 @@ impl<S: Storage> PairSupervisor<S> {
             return;
         }
         match self.pairs[p].active {
+            // B ready while A is still being configured: A is the board the plant expects to
+            // run, so B waits for it, within the bound (see "Member A first" in the module docs).
+            None if m == Member::B && self.awaits_a(p) => {
+                self.lower_next(now + spec.consumer_time);
+            }
             None => {
                 self.set_role(now, p, Some(m), RoleReason::FirstJoined);
             }
@@ -62,6 +68,7 @@ impl<S: Storage> PairSupervisor<S> {
         let pair = PairId(p as u8);
         let s = self.pairs[p].member_mut(m);
         let was_joined = s.joined();
+        let was_configuring = s.phase() == Phase::Configuring;
         s.stage = Stage::WAITING;
         s.since = t;
         let node = s.node;
@@ -79,6 +86,38 @@ impl<S: Storage> PairSupervisor<S> {
         }
         self.cmd(PairCommand::Forget { pair, member: m });
         self.lower_next(t + self.cfg.boot_timeout);
+        if m == Member::A && was_configuring {
+            // A B waiting for A's configuration runs now that it failed.
+            self.end_wait_for_a(t, p);
+        }
+    }
+
+    /// Whether the pair's B, joined, waits for A before it is started: commanding, no member
+    /// active, A being configured (its boot-up or adoption seen) and trusted.
+    pub(super) fn awaits_a(&self, p: usize) -> bool {
+        let pair = &self.pairs[p];
+        let a = pair.member(Member::A);
+        self.authority == Authority::Command
+            && pair.active.is_none()
+            && pair.member(Member::B).joined()
+            && a.phase() == Phase::Configuring
+            && !self.is_suspect(a.node)
+    }
+
+    /// The instant a waiting B runs at the latest: its configuration + the pair's consumer
+    /// time; `None` unless it waits ([`Self::awaits_a`]).
+    pub(super) fn wait_for_a_ends(&self, p: usize) -> Option<Instant> {
+        let pair = &self.pairs[p];
+        self.awaits_a(p)
+            .then(|| pair.member(Member::B).since + pair.spec.consumer_time)
+    }
+
+    /// A no longer keeps B waiting (its configuration failed, its heartbeats are in doubt):
+    /// a live B runs now, not at the bound.
+    pub(super) fn end_wait_for_a(&mut self, now: Instant, p: usize) {
+        if self.authority == Authority::Command && !self.awaits_a(p) {
+            self.ensure_active(now, p, RoleReason::FirstJoined);
+        }
     }
 
     /// Makes `to` active, starting it (commanding), and reports the change.

@@ -103,6 +103,10 @@ impl<S: Storage> PairSupervisor<S> {
         // pre-operational when the other member took over, and that one died since). A joined
         // one had it from its deadline, just run.
         let p = pair.0 as usize;
+        if m == Member::A {
+            // Not waited for while in doubt: a B waiting for it runs now.
+            self.end_wait_for_a(now, p);
+        }
         if duplicated && !joined && !self.alive(p, m.other(), now) {
             self.last_resort(p);
         }
