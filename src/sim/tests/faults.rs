@@ -267,13 +267,20 @@ fn a_port_whose_sends_are_corrupted_has_only_its_own_frames_destroyed() {
     sim.at(ms(1), move |s| s.set_port_faults(port, FaultRates::NONE));
     sim.run_until(ms(4));
     let tx = tx_records(&sim);
-    let of = |frame: Frame| tx.iter().filter(move |t| t.frame == frame).collect::<Vec<_>>();
+    let of = |frame: Frame| {
+        tx.iter()
+            .filter(move |t| t.frame == frame)
+            .collect::<Vec<_>>()
+    };
     let (xs, ys) = (of(f), of(g));
     assert!(xs.len() > 2, "{xs:?}");
     assert!(xs[..xs.len() - 1]
         .iter()
         .all(|t| t.outcome == TxOutcome::ErrorFrame && t.start < ms(1)));
-    assert!(matches!(xs.last().unwrap().outcome, TxOutcome::Delivered { .. }));
+    assert!(matches!(
+        xs.last().unwrap().outcome,
+        TxOutcome::Delivered { .. }
+    ));
     assert_eq!(ys.len(), 1);
     assert!(matches!(ys[0].outcome, TxOutcome::Delivered { .. }));
     assert_eq!(sim.device(l).rx_on(0).len(), 2);
