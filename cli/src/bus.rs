@@ -81,12 +81,13 @@ pub fn open_with(g: &Global, opts: NetOptions) -> Result<Bus, Fail> {
         Fail::usage("no bus: give --bus can0 (or can0,can1, udp, sim-station), or set DUOCAN_BUS")
     })?;
     let station = is_sim_station(&names.0);
-    if g.fd.is_some() && (names.0.len() != 1 || is_simulated(&names.0)) {
+    if g.fd.is_some() && is_simulated(&names.0) {
         return Err(Fail::usage(
-            "--fd: a CANopen FD network runs on one interface (can0, udp:N), not a simulated \
-             one nor two",
+            "--fd: a CANopen FD network runs on real interfaces (can0, udp:N, or two of them), \
+             not a simulated one",
         ));
     }
+    let fd = opts.fd.is_some();
     let net = match names.0.as_slice() {
         [one] if station => open_dual_named(one, opts).map_err(|e| Fail::bus(e.to_string()))?,
         // `sim-nodes`, or a name that looks simulated and is told which ones there are.
@@ -95,8 +96,8 @@ pub fn open_with(g: &Global, opts: NetOptions) -> Result<Bus, Fail> {
         }
         [one] => open_one(g, one, opts)?,
         [a, b] => open_dual(
-            ports::open(a, g.udp_interface)?,
-            ports::open(b, g.udp_interface)?,
+            ports::open_fd(a, g.udp_interface, fd)?,
+            ports::open_fd(b, g.udp_interface, fd)?,
             opts,
         )
         .map_err(|e| Fail::bus(e.to_string()))?,

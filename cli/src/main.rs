@@ -73,7 +73,7 @@ pub struct Global {
     pub quiet: bool,
     /// The bus is a CANopen FD network (CiA 1301): reads and writes go over USDO in CAN FD
     /// frames, with this node-ID as the tool's own (one no node of the network has). The
-    /// interface is opened for CAN FD; every node must serve USDO
+    /// interface (or both, merged) is opened for CAN FD; every node must serve USDO
     #[arg(long, global = true, value_name = "NODE-ID", value_parser = crate::args::parse_node)]
     pub fd: Option<NodeId>,
 }

@@ -15,25 +15,8 @@ use std::time::Duration;
 /// Runs `duocan --bus sim-station gateway` with `script` on standard input; returns exit code,
 /// standard output and standard error.
 fn gateway(script: &str) -> (i32, String, String) {
-    let mut child = Command::new(env!("CARGO_BIN_EXE_duocan"))
-        .args(["--bus", "sim-station", "gateway"])
-        .env_remove("DUOCAN_BUS")
-        .stdin(Stdio::piped())
-        .stdout(Stdio::piped())
-        .stderr(Stdio::piped())
-        .spawn()
-        .expect("run duocan");
-    let mut stdin = child.stdin.take().expect("stdin piped");
-    stdin
-        .write_all(script.as_bytes())
-        .expect("write the script");
-    drop(stdin);
-    let o = child.wait_with_output().expect("duocan ends");
-    (
-        o.status.code().unwrap_or(-1),
-        String::from_utf8_lossy(&o.stdout).into_owned(),
-        String::from_utf8_lossy(&o.stderr).into_owned(),
-    )
+    let r = common::duocan_with_input(&["--bus", "sim-station", "gateway"], script);
+    (r.code, r.out, r.err)
 }
 
 #[test]

@@ -18,6 +18,12 @@
 //! written once: its requests leave through [`NetCore::send`]). A core keeps only its own
 //! station.
 //!
+//! **CAN FD.** On a CANopen FD network the door's USDO client is the network's own, whatever
+//! the core (see [`super::usdo`]), but its frames go through the core's link as the door's
+//! classic frames do ([`NetCore::rx_fd`], [`NetCore::send_fd`]): over two buses a request goes
+//! out on both and an answer's two copies reach the client once. A core that carries no CAN FD
+//! is refused an FD network when it opens.
+//!
 //! **Order.** The door hands each input to the core first, then decodes what it delivered,
 //! then takes the link's own inputs ([`NetCore::poll_input`]) the same way; its own queued
 //! events come out before the core's.
@@ -29,7 +35,7 @@ use crate::cia301::nmt::{NmtCommand, NmtTarget};
 use crate::cia301::sdo::{RequestId, SdoError};
 use crate::frame::cob_id::NodeId;
 use crate::frame::instant::Instant;
-use crate::frame::Frame;
+use crate::frame::{FdFrame, Frame};
 use crate::machine::{Device, PortState};
 use crate::port::PortInput;
 use crate::NmtState;
@@ -68,6 +74,25 @@ pub trait NetCore: Device<Event = CoreEvent> + Send + 'static {
         frame: &Frame,
         at: Option<Instant>,
     ) -> Option<Frame>;
+    /// A CAN FD frame from `port`, received at `at`, returning what the link delivers upward:
+    /// once per occurrence over two buses, `None` for a copy. The default, a core that carries
+    /// no CAN FD ([`Device::fd_capable`] false), delivers none.
+    fn rx_fd(
+        &mut self,
+        now: Instant,
+        port: usize,
+        frame: &FdFrame,
+        at: Instant,
+    ) -> Option<FdFrame> {
+        let _ = (now, port, frame, at);
+        None
+    }
+    /// Hands a CAN FD frame of the network's own (a USDO request of the door's client) to the
+    /// link, which puts it on every bus; the core's [`Device::poll_transmit_fd`] gives it back
+    /// per port. The default, a core that carries no CAN FD, drops it.
+    fn send_fd(&mut self, now: Instant, frame: &FdFrame) {
+        let _ = (now, frame);
+    }
     /// The next input the link produced itself, as the driver of that port would have handed
     /// it over ([`NetLink::poll_input`](super::NetLink::poll_input)); the door handles it like
     /// a port's.

@@ -283,20 +283,28 @@ impl Device for Door {
     fn fd_capable(&self) -> bool {
         self.usdo.is_some()
     }
-    /// CAN FD frames are the USDO client's business only: answers on 0x580 + a node-ID.
-    fn handle_rx_fd(&mut self, now: Instant, _: usize, frame: &FdFrame, _: Instant) {
+    /// CAN FD frames are the USDO client's business only: answers on 0x580 + a node-ID, as the
+    /// core's link delivers them (over two buses, once).
+    fn handle_rx_fd(&mut self, now: Instant, port: usize, frame: &FdFrame, at: Instant) {
         self.now = now;
+        // No later than now, as a classic frame's stamp.
+        let Some(f) = self.core.rx_fd(now, port, frame, at.min(now)) else {
+            return;
+        };
         if let Some(u) = &mut self.usdo {
-            u.handle_frame(now, frame);
+            u.handle_frame(now, &f);
         }
     }
-    /// The USDO client's requests, on the network's one port, while the core may send.
+    /// The USDO client's requests, handed to the core's link while the core may send, one at
+    /// a time (the link's queue stays short); the link gives each back per port.
     fn poll_transmit_fd(&mut self) -> Option<(usize, FdFrame)> {
-        let u = self.usdo.as_mut()?;
         loop {
-            let f = u.poll_transmit()?;
+            if let Some(x) = self.core.poll_transmit_fd() {
+                return Some(x);
+            }
+            let f = self.usdo.as_mut()?.poll_transmit()?;
             if self.core.may_send(self.now) {
-                return Some((0, f));
+                self.core.send_fd(self.now, &f);
             }
         }
     }

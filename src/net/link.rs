@@ -59,7 +59,7 @@ impl BusLink for Box<dyn NetLink> {
     type Command = Infallible;
     crate::forward_bus_link!(*;
         port_count, handle_rx, handle_rx_at, handle_port_status, send, poll_transmit,
-        poll_port_request, handle_timeout, poll_timeout, poll_event, poll_machine_request
+        poll_port_request, handle_timeout, poll_timeout, poll_event, poll_machine_request, fd
     );
 }
 
@@ -67,13 +67,25 @@ impl BusLink for Box<dyn NetLink> {
 #[derive(Debug, Default)]
 pub(crate) struct OnePort(SinglePort);
 
+impl OnePort {
+    /// The link of a network with `opts`: its port carries CAN FD on a CANopen FD network
+    /// ([`NetOptions::with_fd`](super::NetOptions::with_fd)).
+    pub fn for_options(opts: &super::NetOptions) -> Self {
+        OnePort(if opts.fd.is_some() {
+            SinglePort::fd()
+        } else {
+            SinglePort::new()
+        })
+    }
+}
+
 impl BusLink for OnePort {
     type Event = NetEvent;
     type Command = Infallible;
     fn port_count(&self) -> usize {
         1
     }
-    crate::forward_bus_link!(0; handle_rx, handle_port_status, send, poll_transmit);
+    crate::forward_bus_link!(0; handle_rx, handle_port_status, send, poll_transmit, fd);
     fn handle_timeout(&mut self, _: Instant) {}
     fn poll_timeout(&self) -> Option<Instant> {
         None

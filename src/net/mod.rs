@@ -235,9 +235,11 @@ impl NetOptions {
     ///
     /// **Why an option, not the port's say.** A port that carries CAN FD does not make the
     /// network one: a classic node answers an FD frame with error frames, so only the user
-    /// knows that every node speaks FD. The network runs on one port then
-    /// ([`Network::open_with`]); the port must be opened for CAN FD (a classic one reports
-    /// each USDO request as a failed send, and the transfer times out).
+    /// knows that every node speaks FD. The network runs on one port
+    /// ([`Network::open_with`]), or on two through a link that carries CAN FD (the redundancy
+    /// crate's `open_dual`: each request on both buses, each answer taken once); any other
+    /// link or core is refused at open. The ports must be opened for CAN FD (a classic one
+    /// reports each USDO request as a failed send, and the transfer times out).
     #[must_use]
     pub fn with_fd(mut self, client: NodeId) -> Self {
         self.fd = Some(client);
@@ -295,7 +297,7 @@ impl Network {
     /// Opens the network on `port` with `opts`.
     pub fn open_with<P: Port>(port: P, opts: NetOptions) -> Result<Network, NetError> {
         Self::start(
-            Box::new(link::OnePort::default()),
+            Box::new(link::OnePort::for_options(&opts)),
             port,
             opts,
             sim::SimNodes::default(),
@@ -384,11 +386,11 @@ impl Network {
                 "no tokio runtime: open the network from inside one (#[tokio::main])".into(),
             ));
         }
-        if opts.fd.is_some() && ports.count() != 1 {
+        if opts.fd.is_some() && !core.fd_capable() {
             return Err(NetError::Port(format!(
-                "{}: a CANopen FD network (USDO) runs on one port, not {}",
+                "{}: a CANopen FD network (USDO) needs a link that carries CAN FD, and this {} does not",
                 ports.label(),
-                ports.count()
+                core.type_name()
             )));
         }
         let mut door = Door::new(core, opts.lss);

@@ -11,7 +11,7 @@ use super::{NetOptions, MAX_TRANSFER, SESSIONS};
 use crate::cia301::nmt::{NmtCommand, NmtTarget};
 use crate::cia301::sdo::TransferBuffer;
 use crate::frame::instant::Instant;
-use crate::frame::{Frame, Id};
+use crate::frame::{FdFrame, Frame, Id};
 use crate::machine::{
     BusLink, Composite, CompositeEvent, Device, Machine, PortRequest, PortState, PortStatus,
     Station, StationEvent,
@@ -127,6 +127,14 @@ impl Device for ObserverCore {
     fn poll_port_request(&mut self) -> Option<(usize, PortRequest)> {
         self.inner.poll_port_request()
     }
+    // CAN FD frames are the door's USDO client's only (the observer serves no USDO): they pass
+    // through the link, which merges and fans them out (`NetCore::rx_fd`, `NetCore::send_fd`).
+    fn fd_capable(&self) -> bool {
+        self.inner.link.fd_capable()
+    }
+    fn poll_transmit_fd(&mut self) -> Option<(usize, FdFrame)> {
+        self.inner.link.poll_transmit_fd()
+    }
     fn poll_timeout(&self) -> Option<Instant> {
         self.inner.poll_timeout()
     }
@@ -169,6 +177,23 @@ impl NetCore for ObserverCore {
     ) -> Option<Frame> {
         self.now = now;
         self.inner.handle_rx_delivered(now, port, frame, at)
+    }
+    fn rx_fd(
+        &mut self,
+        now: Instant,
+        port: usize,
+        frame: &FdFrame,
+        at: Instant,
+    ) -> Option<FdFrame> {
+        self.now = now;
+        self.inner.link.handle_rx_fd(now, port, frame, at)
+    }
+    /// `now` is not used, as for [`NetCore::send`]: the link is handed frames at the latest
+    /// input's instant.
+    fn send_fd(&mut self, _now: Instant, frame: &FdFrame) {
+        if !self.listen_only {
+            self.inner.link.send_fd(self.now, frame);
+        }
     }
     fn poll_input(&mut self) -> Option<(usize, PortInput<Instant>)> {
         self.inner.link.poll_input()

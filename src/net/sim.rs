@@ -230,7 +230,7 @@ impl Network {
             }
         }
         Self::start(
-            Box::new(super::link::OnePort::default()),
+            Box::new(super::link::OnePort::for_options(&opts)),
             port,
             opts,
             SimNodes(nodes),

@@ -5,7 +5,8 @@
 //! **Why in the door.** CANopen FD has no SDO: its nodes serve USDO, from any client, on
 //! identifiers that name the client (0x600 + the client's node-ID). So the client is the
 //! network's own, whatever core runs below (the observer, a master): the door keeps it, as it
-//! keeps the LSS master, and puts its CAN FD frames on the port itself.
+//! keeps the LSS master, and hands its CAN FD frames to the core's link (on two buses, the
+//! dual-bus layer sends each request on both and merges the answers' copies).
 //!
 //! **The rule.** The caller sees no difference: the same calls, the same values, and a failure
 //! is the same [`NetError::Sdo`] (node, object, direction, the CiA 301 abort code the USDO

@@ -4,6 +4,8 @@
 
 use std::process::{Command, Output, Stdio};
 
+pub mod fd;
+
 /// What a run of the tool gave: exit code, standard output, standard error.
 pub struct Run {
     pub code: i32,
@@ -18,6 +20,27 @@ pub fn duocan(args: &[&str]) -> Run {
         .env_remove("DUOCAN_BUS")
         .output()
         .expect("run duocan");
+    run_of(o)
+}
+
+/// [`duocan`] with `input` on standard input (closed after it: a gateway's script).
+pub fn duocan_with_input(args: &[&str], input: &str) -> Run {
+    use std::io::Write;
+    let mut child = Command::new(env!("CARGO_BIN_EXE_duocan"))
+        .args(args)
+        .env_remove("DUOCAN_BUS")
+        .stdin(Stdio::piped())
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .expect("run duocan");
+    let mut stdin = child.stdin.take().expect("stdin piped");
+    stdin.write_all(input.as_bytes()).expect("write the input");
+    drop(stdin);
+    run_of(child.wait_with_output().expect("duocan ends"))
+}
+
+fn run_of(o: Output) -> Run {
     Run {
         code: o.status.code().unwrap_or(-1),
         out: String::from_utf8_lossy(&o.stdout).into_owned(),

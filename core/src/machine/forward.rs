@@ -57,6 +57,11 @@ macro_rules! forward_device_to {
 /// `T` is (`forward_bus_link!(*; …)`). With `before = hook`, the methods that take the time
 /// call `self.hook(now)` first (a wrapper that keeps the latest instant). For a wrapper that
 /// only adds to the link below, so that the methods it does not change are written once here.
+///
+/// `fd` names the four CAN FD methods at once (`fd_capable`, `handle_rx_fd`, `send_fd`,
+/// `poll_transmit_fd`), each under `#[cfg(feature = "fd")]`: that is the feature of the crate
+/// the macro expands in, so name `fd` only in a crate whose `fd` feature turns on
+/// `duocan-core/fd`.
 #[doc(hidden)]
 #[macro_export]
 macro_rules! forward_bus_link {
@@ -142,6 +147,38 @@ macro_rules! forward_bus_link {
     (@one poll_machine_request, $to:tt, [$($hook:ident)?]) => {
         fn poll_machine_request(&mut self) -> Option<$crate::machine::LinkRequest> {
             $crate::forward_bus_link!(@to self, $to).poll_machine_request()
+        }
+    };
+    (@one fd, $to:tt, [$($hook:ident)?]) => {
+        #[cfg(feature = "fd")]
+        fn fd_capable(&self) -> bool {
+            $crate::machine::BusLink::fd_capable(&$crate::forward_bus_link!(@to self, $to))
+        }
+        #[cfg(feature = "fd")]
+        fn handle_rx_fd(
+            &mut self,
+            now: $crate::Instant,
+            port: usize,
+            frame: &$crate::frame::FdFrame,
+            at: $crate::Instant,
+        ) -> Option<$crate::frame::FdFrame> {
+            $(self.$hook(now);)?
+            $crate::machine::BusLink::handle_rx_fd(
+                &mut $crate::forward_bus_link!(@to self, $to),
+                now,
+                port,
+                frame,
+                at,
+            )
+        }
+        #[cfg(feature = "fd")]
+        fn send_fd(&mut self, now: $crate::Instant, frame: &$crate::frame::FdFrame) {
+            $(self.$hook(now);)?
+            $crate::machine::BusLink::send_fd(&mut $crate::forward_bus_link!(@to self, $to), now, frame);
+        }
+        #[cfg(feature = "fd")]
+        fn poll_transmit_fd(&mut self) -> Option<(usize, $crate::frame::FdFrame)> {
+            $crate::machine::BusLink::poll_transmit_fd(&mut $crate::forward_bus_link!(@to self, $to))
         }
     };
 }

@@ -198,7 +198,7 @@ mod left_out;
 pub mod lss;
 mod safety;
 #[cfg(all(test, feature = "std"))]
-mod usdo_tests;
+pub(crate) mod usdo_tests;
 
 pub use safety::SrdoMarkError;
 mod parameters;

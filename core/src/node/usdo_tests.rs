@@ -43,21 +43,31 @@ fn node(fd_node: bool, fd_port: bool) -> Fd {
     dev
 }
 
-/// The client and the node exchanging frames one millisecond apart until the client has its
-/// result (or `limit` milliseconds passed): the event, and every FD frame the node sent.
-struct Bus {
+/// The client and a device exchanging frames one millisecond apart until the client has its
+/// result (or `limit` milliseconds passed): the event, and every FD frame the device sent. The
+/// device is node 5 in a station by default; a CiA 302 master's tests use it too.
+pub(crate) struct Bus<D = Fd> {
     now: Instant,
     client: UsdoClient,
-    dev: Fd,
-    answers: Vec<FdFrame>,
+    pub dev: D,
+    server: NodeId,
+    pub answers: Vec<FdFrame>,
 }
 
 impl Bus {
     fn new(dev: Fd) -> Bus {
+        Bus::serving(dev, SERVER)
+    }
+}
+
+impl<D: Device> Bus<D> {
+    /// The client of node-ID 1 and `dev`, which serves USDO as node `server`.
+    pub fn serving(dev: D, server: NodeId) -> Self {
         Bus {
             now: Instant::from_millis(1),
             client: UsdoClient::new(CLIENT, 4096),
             dev,
+            server,
             answers: Vec::new(),
         }
     }
@@ -84,14 +94,20 @@ impl Bus {
         }
         panic!("no result");
     }
-    fn read(&mut self, index: u16) -> Result<Vec<u8>, AbortCode> {
-        self.client.upload(self.now, SERVER, index, 0, T).unwrap();
+    /// Reads sub 0 of `index` (sub `sub` with [`Bus::read_sub`]).
+    pub fn read(&mut self, index: u16) -> Result<Vec<u8>, AbortCode> {
+        self.read_sub(index, 0)
+    }
+    pub fn read_sub(&mut self, index: u16, sub: u8) -> Result<Vec<u8>, AbortCode> {
+        self.client
+            .upload(self.now, self.server, index, sub, T)
+            .unwrap();
         let e = self.run();
         e.result.map(|b| e_data(&b)).map_err(|e| e.code().unwrap())
     }
-    fn write(&mut self, index: u16, data: &[u8]) -> Result<(), AbortCode> {
+    pub fn write(&mut self, index: u16, data: &[u8]) -> Result<(), AbortCode> {
         self.client
-            .download(self.now, SERVER, index, 0, 0, data, T)
+            .download(self.now, self.server, index, 0, 0, data, T)
             .unwrap();
         self.run().result.map(drop).map_err(|e| e.code().unwrap())
     }

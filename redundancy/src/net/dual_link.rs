@@ -77,6 +77,16 @@ impl<const SLOTS: usize> DualLink<SLOTS> {
     pub fn bus(&self) -> &DualBus<Predefined, Capacity<SLOTS>> {
         &self.bus
     }
+    /// The link with both ports FD-capable: it carries the CAN FD frames of a
+    /// CANopen FD network ([`NetOptions::with_fd`]), each sent on both buses and merged once
+    /// received. Only where every node on both buses speaks CAN FD (see
+    /// [`DualBus::set_port_fd`]).
+    #[must_use]
+    pub fn fd(mut self) -> Self {
+        self.bus.set_port_fd(0, true);
+        self.bus.set_port_fd(1, true);
+        self
+    }
 }
 
 impl Default for DualLink {
@@ -101,7 +111,7 @@ impl<const SLOTS: usize> BusLink for DualLink<SLOTS> {
     }
     duocan::forward_bus_link!(bus;
         handle_rx, handle_rx_at, handle_port_status, send, poll_transmit, poll_port_request,
-        handle_timeout, poll_timeout
+        handle_timeout, poll_timeout, fd
     );
     fn poll_event(&mut self) -> Option<NetEvent> {
         self.bus.poll_event().map(net_event)
@@ -157,6 +167,11 @@ pub fn open_dual<P1: Port, P2: Port>(
 }
 
 /// [`open_dual`] with the layer configured by `cfg`.
+///
+/// With [`NetOptions::with_fd`], a CANopen FD network on two buses: the link
+/// carries CAN FD ([`DualLink::fd`]), the typed reads and writes go over USDO, each request on
+/// both buses and each answer taken once, so a transfer goes on while one bus is cut. Both
+/// ports must be opened for CAN FD.
 pub fn open_dual_with<P1: Port, P2: Port>(
     bus1: P1,
     bus2: P2,
@@ -164,8 +179,9 @@ pub fn open_dual_with<P1: Port, P2: Port>(
     opts: NetOptions,
 ) -> Result<Network, RedundantError> {
     let name = String::from(bus1.name());
-    Network::open_link(Box::new(DualLink::new(cfg)), (bus1, bus2), opts)
-        .map_err(|e| port_error(0, &name, e))
+    let link = DualLink::new(cfg);
+    let link = if opts.fd.is_some() { link.fd() } else { link };
+    Network::open_link(Box::new(link), (bus1, bus2), opts).map_err(|e| port_error(0, &name, e))
 }
 
 /// [`open_dual`] by name:

@@ -12,3 +12,4 @@ mod program;
 mod redundant;
 mod station;
 mod stream;
+mod usdo;

@@ -2,6 +2,11 @@
 //! node, then to its SDO client while a transfer may be running (an idle client is skipped: it
 //! has nothing to say until a transfer starts), then the boot and error-control machinery pumps
 //! what they produced.
+//!
+//! CAN FD frames (feature `fd`) go to the node only: on a CANopen FD network the master's node
+//! serves USDO (CiA 1301) from its dictionary as any node does (its configuration's
+//! [`NodeConfig::fd`](crate::node::NodeConfig::fd)), so a tool reads and writes the master's
+//! objects there too. The master's own client stays SDO (its boot and configuration of slaves).
 
 use super::*;
 
@@ -56,5 +61,18 @@ impl<D: ObjectDictionary, P: IdProfile> Machine for Master<D, P> {
 
     fn poll_event(&mut self) -> Option<MasterEvent> {
         self.events.pop_front()
+    }
+
+    #[cfg(feature = "fd")]
+    fn handle_frame_fd(&mut self, now: Instant, frame: &crate::frame::FdFrame) {
+        self.watch_own_clock(now);
+        self.node.handle_frame_fd(now, frame);
+        // A USDO write to the master's dictionary has the reactions of an SDO one.
+        self.pump(now);
+    }
+
+    #[cfg(feature = "fd")]
+    fn poll_transmit_fd(&mut self) -> Option<crate::frame::FdFrame> {
+        self.node.poll_transmit_fd()
     }
 }

@@ -123,6 +123,8 @@ mod program_run;
 mod slaves;
 mod slot_table;
 mod srdo;
+#[cfg(all(test, feature = "std"))]
+mod usdo_tests;
 
 pub use boot::{BootError, BootPhase, ErrorStatus, IdentityMismatch};
 pub use concise::{

@@ -25,6 +25,12 @@
 //!   counts it, with the merge's outcome, as a classic frame; the same-function merge of a pair
 //!   judges it by its identifier and first eight bytes. An FD frame is never a heartbeat (CANopen
 //!   error control is classic), so plausibility's heartbeat rules do not apply to it.
+//! - **Up and down a station**: as a [`BusLink`](duocan_core::BusLink), the layer carries
+//!   CAN FD frames for the machine above it (a node serving USDO, a master's USDO client)
+//!   through the same paths: what a port receives goes up merged, once per occurrence; what the
+//!   machine sends goes out as [`DualBus::send_fd`] routes it. On a layer with a classic-only
+//!   port the machine's FD frames are dropped and counted
+//!   ([`LinkStats::fd_refused`](super::LinkStats::fd_refused)): a machine has no error to take.
 //! - **Lag**: a twin within the window measures the lag as a classic one does; a twin beyond
 //!   the window (a *late* sample) is not taken from FD frames, as the layer holds a classic
 //!   frame only to withdraw such a sample (see `rx`).

@@ -40,6 +40,8 @@ use crate::link::same_function::PairError;
 use crate::link::sticky::StickyMerger;
 use crate::pair::{Member, PairId};
 use duocan_core::frame::instant::{earliest_of, TimeWatch};
+#[cfg(feature = "fd")]
+use duocan_core::frame::FdFrame;
 use duocan_core::machine::{BusLink, LinkRequest, PortRequest, PortStatus};
 use duocan_core::od::ObjectDictionary;
 use duocan_core::profile::Predefined;
@@ -101,6 +103,10 @@ pub struct LinkStats {
     pub superseded: u64,
     /// Watches refused because the plausibility table was full.
     pub watch_refused: u32,
+    /// CAN FD frames the machine above gave to send ([`BusLink::send_fd`]) while a port was
+    /// classic-only, dropped (see [`fd`]).
+    #[cfg(feature = "fd")]
+    pub fd_refused: u32,
 }
 
 /// The dual-bus layer. `C` classifies frames (heartbeats, senders, functions; the predefined
@@ -527,6 +533,35 @@ impl<C: FrameClassifier, K: MergeCapacity> BusLink for DualBus<C, K> {
             }
         }
     }
+
+    // CAN FD frames take the paths of `fd` (the inherent methods, which these call).
+    #[cfg(feature = "fd")]
+    fn fd_capable(&self) -> bool {
+        Self::fd_capable(self)
+    }
+
+    #[cfg(feature = "fd")]
+    fn handle_rx_fd(
+        &mut self,
+        now: Instant,
+        port: usize,
+        frame: &FdFrame,
+        at: Instant,
+    ) -> Option<FdFrame> {
+        self.handle_rx_fd_at(now, port, frame, at)
+    }
+
+    #[cfg(feature = "fd")]
+    fn send_fd(&mut self, now: Instant, frame: &FdFrame) {
+        if Self::send_fd(self, now, frame).is_err() {
+            self.stats.fd_refused = self.stats.fd_refused.saturating_add(1);
+        }
+    }
+
+    #[cfg(feature = "fd")]
+    fn poll_transmit_fd(&mut self) -> Option<(usize, FdFrame)> {
+        Self::poll_transmit_fd(self)
+    }
 }
 
 impl<C, K: MergeCapacity> core::fmt::Debug for DualBus<C, K> {
@@ -550,6 +585,8 @@ impl<C, K: MergeCapacity> core::fmt::Debug for DualBus<C, K> {
 mod clock;
 #[cfg(feature = "fd")]
 pub mod fd;
+#[cfg(all(test, feature = "fd"))]
+mod fd_tests;
 mod rx;
 #[cfg(test)]
 mod tests;
