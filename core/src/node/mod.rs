@@ -277,8 +277,15 @@ pub struct Node<
     /// The USDO server of a node on a CANopen FD network ([`NodeConfig::fd`]); `None` on a
     /// classic one.
     #[cfg(feature = "fd")]
-    usdo: Option<UsdoServer>,
+    usdo: Option<UsdoHolder>,
 }
+
+/// Where a node keeps its USDO server: on the heap where there is one, so that a classic node
+/// does not carry its frames and sessions (about 1 KB) inline; in place without an allocator.
+#[cfg(all(feature = "fd", feature = "alloc"))]
+type UsdoHolder = alloc::boxed::Box<UsdoServer>;
+#[cfg(all(feature = "fd", not(feature = "alloc")))]
+type UsdoHolder = UsdoServer;
 
 impl<D: ObjectDictionary> Node<D, Predefined, ALL_NODES> {
     /// A node with the predefined connection set. Nothing is sent until [`Node::boot`].
@@ -435,7 +442,7 @@ impl<
     /// carry both.
     #[cfg(feature = "fd")]
     pub fn usdo_server(&self) -> Option<&UsdoServer> {
-        self.usdo.as_ref()
+        self.usdo.as_ref().map(|u| core::borrow::Borrow::borrow(u))
     }
 
     /// The clock contract ([`crate::frame::instant`]): on every input that carries a time, a step
@@ -464,7 +471,7 @@ impl<
             #[cfg(feature = "fd")]
             if self.core.cfg.fd {
                 let cfg = self.sdo.config();
-                self.usdo = Some(UsdoServer::new(id, cfg.timeout, cfg.max_transfer));
+                self.usdo = Some(UsdoServer::new(id, cfg.timeout, cfg.max_transfer).into());
             }
         }
         if !self.core.state.services().sdo {
@@ -764,7 +771,7 @@ impl<
     fn poll_timeout(&self) -> Option<Instant> {
         let t = earliest(self.core.poll_timeout(), self.sdo.poll_timeout());
         #[cfg(feature = "fd")]
-        let t = earliest(t, self.usdo.as_ref().and_then(UsdoServer::poll_timeout));
+        let t = earliest(t, self.usdo.as_ref().and_then(|u| u.poll_timeout()));
         t
     }
     /// A USDO request (CiA 1301) is served while the NMT state allows SDO (pre-operational
