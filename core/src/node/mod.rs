@@ -442,7 +442,7 @@ impl<
     /// carry both.
     #[cfg(feature = "fd")]
     pub fn usdo_server(&self) -> Option<&UsdoServer> {
-        self.usdo.as_ref().map(|u| core::borrow::Borrow::borrow(u))
+        self.usdo.as_ref().map(core::borrow::Borrow::borrow)
     }
 
     /// The clock contract ([`crate::frame::instant`]): on every input that carries a time, a step
@@ -471,7 +471,10 @@ impl<
             #[cfg(feature = "fd")]
             if self.core.cfg.fd {
                 let cfg = self.sdo.config();
-                self.usdo = Some(UsdoServer::new(id, cfg.timeout, cfg.max_transfer).into());
+                let server = UsdoServer::new(id, cfg.timeout, cfg.max_transfer);
+                #[cfg(feature = "alloc")]
+                let server = alloc::boxed::Box::new(server);
+                self.usdo = Some(server);
             }
         }
         if !self.core.state.services().sdo {
