@@ -165,14 +165,7 @@ impl RemoteSdo {
                 d.usdo(now, start)
             })
             .await;
-        let r = match started {
-            Ok(()) => outcome.await.unwrap_or(Err(NetError::Closed)),
-            Err(e) => Err(e),
-        };
-        r.map_err(|e| match e {
-            NetError::Standby { node: None } => NetError::Standby { node: Some(node) },
-            e => e,
-        })
+        finished(node, started, outcome).await
     }
 
     /// Hands a transfer's start to the door and waits for its outcome: the data read (empty
@@ -200,14 +193,23 @@ impl RemoteSdo {
                 )
             })
             .await;
-        let r = match started {
-            Ok(()) => outcome.await.unwrap_or(Err(NetError::Closed)),
-            Err(e) => Err(e),
-        };
-        // A standby master's refusal names the node asked.
-        r.map_err(|e| match e {
-            NetError::Standby { node: None } => NetError::Standby { node: Some(node) },
-            e => e,
-        })
+        finished(node, started, outcome).await
     }
+}
+
+/// A transfer handed to the door (`started`), waited for to its outcome; a standby master's
+/// refusal names the node asked.
+async fn finished(
+    node: NodeId,
+    started: Result<(), NetError>,
+    outcome: oneshot::Receiver<Result<Vec<u8>, NetError>>,
+) -> Result<Vec<u8>, NetError> {
+    let r = match started {
+        Ok(()) => outcome.await.unwrap_or(Err(NetError::Closed)),
+        Err(e) => Err(e),
+    };
+    r.map_err(|e| match e {
+        NetError::Standby { node: None } => NetError::Standby { node: Some(node) },
+        e => e,
+    })
 }

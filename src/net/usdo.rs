@@ -98,9 +98,10 @@ impl UsdoDoor {
         }
         self.advance(now);
         let mut i = 0;
-        while let Some(s) = self.waiting.get(i) {
-            if s.due <= now {
-                let s = self.waiting.remove(i).expect("present");
+        while let Some(due) = self.waiting.get(i).map(|s| s.due) {
+            if due > now {
+                i += 1;
+            } else if let Some(s) = self.waiting.remove(i) {
                 let direction = match s.data {
                     None => Direction::Upload,
                     Some(_) => Direction::Download,
@@ -113,8 +114,6 @@ impl UsdoDoor {
                     kind: UsdoErrorKind::Client(AbortCode::TIMEOUT),
                 };
                 let _ = s.reply.send(Err(net_error(e)));
-            } else {
-                i += 1;
             }
         }
     }
