@@ -604,12 +604,17 @@ impl Oracle {
             let until = last + near;
             self.apart_until = Some(self.apart_until.map_or(until, |u| u.max(until)));
         }
-        self.apart_until.is_some_and(|u| o.at <= u)
-            || self
-                .pending
-                .iter()
-                .take_while(|n| n.at <= o.at + near)
-                .any(|n| n.sender == o.sender && spread(n).is_some())
+        self.apart_until.is_some_and(|u| o.at <= u) || self.apart_after(o, |n| spread(n).is_some())
+    }
+
+    /// Whether one of `o`'s sender's frames after it, near enough to be matched with it, is
+    /// `spread`.
+    fn apart_after(&self, o: &Occurrence, spread: impl Fn(&Occurrence) -> bool) -> bool {
+        let near = SKEW_WINDOW + HORIZON;
+        self.pending
+            .iter()
+            .take_while(|n| n.at <= o.at + near)
+            .any(|n| n.sender == o.sender && spread(n))
     }
 
     /// Whether `o`, of a sender that is not duocan, or one of that sender's frames after it and
@@ -624,13 +629,7 @@ impl Oracle {
             n.on_wire()
                 .is_some_and(|(a, b)| !within_window(clock.read(a), clock.read(b)))
         };
-        let near = SKEW_WINDOW + HORIZON;
-        spread(o)
-            || self
-                .pending
-                .iter()
-                .take_while(|n| n.at <= o.at + near)
-                .any(|n| n.sender == o.sender && spread(n))
+        spread(o) || self.apart_after(o, spread)
     }
 
     /// Node `node` was given another producer time at `at` (a confirmed download): a new span
