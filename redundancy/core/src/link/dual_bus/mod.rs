@@ -460,9 +460,9 @@ impl<C: FrameClassifier, K: MergeCapacity> BusLink for DualBus<C, K> {
 
     fn send(&mut self, now: Instant, frame: &Frame) {
         self.watch_clock(now);
-        // A watched node's producer time downloaded by this station's own client.
+        // A watched node reset, or its producer time downloaded, by this station.
         #[cfg(feature = "alloc")]
-        self.plausible.on_sdo(frame);
+        self.plausible.on_command(frame);
         let info = self.info(frame);
         self.out.next_frame();
         let mask = self

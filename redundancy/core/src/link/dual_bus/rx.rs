@@ -118,9 +118,10 @@ impl<C: FrameClassifier, K: MergeCapacity> DualBus<C, K> {
         let info = self.info(frame);
         // Every frame: when each bus was idle (rule 2's witness).
         self.plausible.on_frame(at, port, &self.health);
-        // A watched node's producer time downloaded by another client, and confirmed.
+        // A watched node reset, or its producer time downloaded and confirmed, by another
+        // station.
         #[cfg(feature = "alloc")]
-        self.plausible.on_sdo(frame);
+        self.plausible.on_command(frame);
         if let Some(n) = info.heartbeat.filter(|_| !self.plausible.is_empty()) {
             // A bus carrying this node's heartbeats far too fast: neither the policy, the
             // merger nor the stack above sees them.

@@ -32,10 +32,12 @@
 //!   failed for a transmit stall: neither the controller's restart (`Up`) nor received
 //!   frames revive it (a transceiver that receives but cannot send hears the network fine,
 //!   and goes bus-off again within a millisecond of every restart), only a probe confirmed
-//!   or its re-initialisation with its back-off; and (with a driver that confirms
-//!   transmissions) its probation ends only once a transmission was confirmed too, so a
-//!   quiet node's port is not ok between two of its heartbeats. Its state no longer flaps at
-//!   the pace of the controller's restarts.
+//!   or its re-initialisation with its back-off. After any bus-off (with a driver that
+//!   confirms transmissions) the port's probation ends only once a transmission was confirmed
+//!   too, so a quiet node's port is not ok between two of its heartbeats (with a producer
+//!   time longer than the probation, a transceiver that cannot send was back for a moment
+//!   after its first bus-off, every time). Its state no longer flaps at the pace of the
+//!   controller's restarts.
 //! - **Traffic is proof.** A failed port that receives a frame, or whose driver confirms a
 //!   transmission (someone on its bus acknowledged it), is recovering at once, whatever its
 //!   back-off: the bus works (and the other one may fail the next instant).
@@ -479,7 +481,11 @@ impl Health {
         if let Condition::Failed { revive_on_rx, .. } = &mut self.ports[p].cond {
             *revive_on_rx = !matches!(reason, PortReason::TxStalled { .. }) && !again;
         }
-        self.ports[p].tx_unproven |= again && self.ports[p].reports_outcomes;
+        // Any bus-off is its transmitter's (see the module documentation): received frames
+        // prove its receiver only, so its probation waits for a transmission confirmed (a
+        // transceiver that cannot send hears the network fine between its heartbeats, and
+        // was back for a moment after every first bus-off).
+        self.ports[p].tx_unproven |= bus_off && self.ports[p].reports_outcomes;
     }
 
     fn set(&mut self, at: Instant, p: usize, to: PortState, reason: PortReason, out: &mut Outbox) {

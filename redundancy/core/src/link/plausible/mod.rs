@@ -399,6 +399,14 @@ impl Plausibility {
     fn entry(&self, node: NodeId) -> Option<&Watch> {
         self.find(node).map(|i| &self.entries()[i])
     }
+    /// A frame received or sent by this station that may change how a watched node beats:
+    /// an NMT reset (`reset.rs`), a download to its producer time (`producer.rs`).
+    #[cfg(feature = "alloc")]
+    #[inline]
+    pub(crate) fn on_command(&mut self, frame: &duocan_core::Frame) {
+        self.on_nmt(frame);
+        self.on_sdo(frame);
+    }
     #[inline]
     fn find(&self, node: NodeId) -> Option<usize> {
         let t = self.table.as_deref()?;
@@ -472,6 +480,8 @@ mod idle;
 // Without an allocator nothing is watched (see `ON`): no producer time to follow.
 #[cfg(feature = "alloc")]
 mod producer;
+#[cfg(feature = "alloc")]
+mod reset;
 mod rules;
 mod watch;
 use watch::{Track, Watch};

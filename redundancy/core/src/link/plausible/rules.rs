@@ -102,6 +102,10 @@ impl Plausibility {
         let tr = &mut w.ports[p];
         let before = tr.last;
         tr.last = t;
+        if boot_up && core::mem::take(&mut tr.reset) {
+            // The boot-up a master's reset asked for: the verdict ends (`reset.rs`).
+            tr.tat = tr.tat.min(tq);
+        }
         if boot_up {
             // A new life: what it sent before is not this life's burst (a board reset twice
             // in a few periods, by a failover and its repair). At most one boot-up per two

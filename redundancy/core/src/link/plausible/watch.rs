@@ -29,6 +29,9 @@ pub(super) struct Track {
     pub(super) prev: u64,
     pub(super) calm: u8,
     pub(super) state: u8,
+    /// A master reset the node and its boot-up has not come over this bus yet: the boot-up
+    /// ends a verdict (`reset.rs`).
+    pub(super) reset: bool,
 }
 
 impl Track {
@@ -43,6 +46,7 @@ impl Track {
         prev: 0,
         calm: 0,
         state: 0,
+        reset: false,
     };
     pub(super) fn fast(&self) -> bool {
         self.fast

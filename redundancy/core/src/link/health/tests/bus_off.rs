@@ -75,3 +75,51 @@ fn a_port_bus_off_again_after_its_restart_stays_failed_until_a_probe_is_confirme
     h.on_rx(back, back, 0, RxOutcome::Duplicate, &mut out);
     assert_eq!(h.port(0).state(), PortState::Ok);
 }
+
+#[test]
+fn after_its_first_bus_off_a_port_is_ok_only_once_a_transmission_is_confirmed() {
+    // A node with a producer time longer than the probation (25 ms, the probation 20 ms): after
+    // its first bus-off and the restart, frames received alone made the port ok before its
+    // next heartbeat tested the transmitter, which could not send: ok and failed at every
+    // cycle (the campaign's seeds 1225 and 1337, a transceiver that cannot send).
+    let probation = HealthConfig::default().probation;
+    for confirms in [true, false] {
+        let mut h = Health::new(HealthConfig::default(), W);
+        let mut out = Outbox::new();
+        if confirms {
+            h.count_tx(ms(1), 0, 0);
+            h.on_status(ms(2), 0, PortStatus::TxOk, &mut out);
+        }
+        cycle(&mut h, &mut out, ms(10));
+        assert_eq!(h.port(0).state(), PortState::Recovering);
+        let mut t = ms(13);
+        while t < ms(13) + probation + Duration::from_millis(5) {
+            h.on_rx(t, t, 0, RxOutcome::Duplicate, &mut out);
+            t = t + Duration::from_millis(1);
+        }
+        // Without confirmations frames are all a port can go by (unchanged).
+        let expected = if confirms {
+            PortState::Recovering
+        } else {
+            PortState::Ok
+        };
+        assert_eq!(h.port(0).state(), expected, "driver confirms: {confirms}");
+        if confirms {
+            h.count_tx(t, 0, 1);
+            h.on_status(
+                t + Duration::from_micros(100),
+                0,
+                PortStatus::TxOk,
+                &mut out,
+            );
+            h.on_rx(
+                t + Duration::from_millis(1),
+                t,
+                0,
+                RxOutcome::Duplicate,
+                &mut out,
+            );
+            assert_eq!(h.port(0).state(), PortState::Ok);
+        }
+    }
+}

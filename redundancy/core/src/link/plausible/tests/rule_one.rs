@@ -316,3 +316,45 @@ fn a_board_reset_twice_in_a_few_periods_is_no_babbler_a_boot_up_babble_is() {
     assert_eq!(flagged, Some(5), "flagged at the sixth frame");
     assert_eq!(r.requests(), [(0x10, true)]);
 }
+
+#[test]
+fn the_boot_up_a_masters_reset_asked_for_ends_the_verdict_though_no_heartbeat_was_calm() {
+    // The node says pre-operational, a second device operational, on both buses, 5 ms apart,
+    // for 20 periods: no heartbeat counts as calm. The device falls silent; a master resets
+    // the node 5 ms after the node's last heartbeat (the moment the verdict made it suspect);
+    // the boot-up follows 0.2 ms later. Without the reset seen, the boot-up is dropped with the
+    // verdict (the master above would never see the board boot); with it, it passes on both
+    // buses and the verdict ends there.
+    for reset in [false, true] {
+        let mut r = Rig::new();
+        let mut t = 1_000_000;
+        for _ in 0..20 {
+            for (at, state) in [(t, 0x7F), (t + 5_000, 5)] {
+                for p in 0..2 {
+                    r.beat(us(at + p as u64 * 300), p, 0x10, state);
+                }
+            }
+            t += 12_000;
+        }
+        for p in 0..2 {
+            assert!(r.beat(us(t + p as u64 * 300), p, 0x10, 0x7F));
+        }
+        r.events();
+        if reset {
+            r.p.on_nmt(&Frame::new(Id::Standard(0), &[0x81, 0x10]).expect("two bytes"));
+        }
+        let boot = t + 5_200;
+        let dropped: Vec<bool> = (0..2)
+            .map(|p| r.beat(us(boot + p as u64 * 300), p, 0x10, 0))
+            .collect();
+        assert_eq!(dropped, [!reset; 2], "reset seen: {reset}");
+        let trusted: Vec<_> = r
+            .events()
+            .into_iter()
+            .filter(|e| matches!(e.kind, LinkEventKind::Trusted { .. }))
+            .map(|e| e.at)
+            .collect();
+        let expected = if reset { vec![us(boot)] } else { vec![] };
+        assert_eq!(trusted, expected, "reset seen: {reset}");
+    }
+}
