@@ -96,9 +96,20 @@ fn a_station_whose_buses_cannot_open_does_not_start() {
 }
 
 /// Two simulated networks: both start, their pairs' A members become active, and SIGTERM
-/// stops the station cleanly (exit 0, "stopped" last).
+/// stops the station cleanly (exit 0, "stopped" last), the NMT command of `on_stop` sent on
+/// the network that has one.
 #[test]
 fn a_station_runs_its_networks_until_sigterm() {
+    runs_until("TERM");
+}
+
+/// SIGINT (Ctrl-C) stops it the same way.
+#[test]
+fn a_station_runs_its_networks_until_sigint() {
+    runs_until("INT");
+}
+
+fn runs_until(signal: &str) {
     let _one = common::one_station();
     let mut child = common::station_run(file("tests/station_files/two.toml"))
         .spawn()
@@ -132,7 +143,7 @@ fn a_station_runs_its_networks_until_sigterm() {
     }
     let pid = child.id().to_string();
     let killed = Command::new("kill")
-        .args(["-TERM", &pid])
+        .args([&format!("-{signal}"), &pid])
         .status()
         .expect("kill");
     assert!(killed.success());
@@ -151,7 +162,18 @@ fn a_station_runs_its_networks_until_sigterm() {
             "{all}"
         );
     }
-    assert!(all.contains("stopping: SIGTERM station=two"), "{all}");
+    assert!(
+        all.contains(&format!("stopping: SIG{signal} station=two")),
+        "{all}"
+    );
+    // `on_stop = "preop"` on east only.
+    let sent: Vec<_> = lines.iter().filter(|l| l.contains("on_stop:")).collect();
+    assert_eq!(sent.len(), 1, "{all}");
+    assert!(
+        sent[0].contains("on_stop: EnterPreOperational sent to every node")
+            && sent[0].ends_with("network=east"),
+        "{all}"
+    );
     assert!(
         lines
             .last()
