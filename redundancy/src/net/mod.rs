@@ -260,12 +260,16 @@ impl RedundantNetworkBuilder {
     ///   [`SIM_END`] (the network closes, event streams end);
     /// - `sim-pairs:quiet`: the same buses, pairs and peers without the faults, running until
     ///   the network is closed;
+    /// - `sim-pairs:failover`: the faults of `sim-pairs`, after which the plant runs on what is
+    ///   left (bus 1 cut, the peers and the members that ran stopped) until the network is
+    ///   closed;
     /// - `A,B`: SocketCAN interfaces A (bus 1) and B (bus 2), such as `can0,can1` (feature
     ///   `socketcan`, Linux).
     pub fn open_named(&self, name: &str) -> Result<RedundantNetwork, RedundantError> {
         match name {
-            "sim-pairs" => return sim_pairs::open(self, false),
-            "sim-pairs:quiet" => return sim_pairs::open(self, true),
+            "sim-pairs" => return sim_pairs::open(self, sim_pairs::Plant::Script),
+            "sim-pairs:quiet" => return sim_pairs::open(self, sim_pairs::Plant::Quiet),
+            "sim-pairs:failover" => return sim_pairs::open(self, sim_pairs::Plant::Failover),
             _ => {}
         }
         if name == "sim" || name.starts_with("sim-") || name.starts_with("sim:") {
@@ -273,7 +277,8 @@ impl RedundantNetworkBuilder {
                 port: 0,
                 name: name.into(),
                 why: alloc::format!(
-                    "a redundant network on simulated buses is sim-pairs (or sim-pairs:quiet); {}",
+                    "a redundant network on simulated buses is sim-pairs (or sim-pairs:quiet, \
+                     sim-pairs:failover); {}",
                     duocan::net::SIM_NAMES
                 ),
             });

@@ -2,8 +2,10 @@
 //! declared pairs as simulated duocan boards, the declared peers as simulated redundant masters
 //! with the same settings, and a script of faults, so that a user sees a bus, a master and a
 //! pair failover without hardware. `open_named("sim-pairs:quiet")` is the same plant without
-//! the faults, running until the network closes (a station's simulated rack). Under tokio's
-//! paused clock (tests) the run is deterministic.
+//! the faults, running until the network closes (a station's simulated rack);
+//! `open_named("sim-pairs:failover")` plays the faults and then runs on what is left until the
+//! network closes (a station's demonstration rack: its dashboard shows the failovers and the
+//! rack goes on). Under tokio's paused clock (tests) the run is deterministic.
 
 use super::core::Net;
 use super::RedundantNetwork;
@@ -100,11 +102,22 @@ where
         })
 }
 
-/// Opens `b`'s network on a simulated station (see `open_named`): with the script of faults,
-/// or `quiet` without them until the network closes.
+/// What the simulated plant does (see `open_named`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(super) enum Plant {
+    /// The script of faults, then the network closes (`sim-pairs`).
+    Script,
+    /// No faults: the plant runs until the network closes (`sim-pairs:quiet`).
+    Quiet,
+    /// The script of faults, then the plant runs on what is left until the network closes
+    /// (`sim-pairs:failover`).
+    Failover,
+}
+
+/// Opens `b`'s network on a simulated station (see `open_named`) as `plant` says.
 pub(super) fn open(
     b: &RedundantNetworkBuilder,
-    quiet: bool,
+    plant: Plant,
 ) -> Result<RedundantNetwork, RedundantError> {
     let net = b.build_boxed()?;
     let buses = [MemBus::new("sim-bus1"), MemBus::new("sim-bus2")];
@@ -143,7 +156,7 @@ pub(super) fn open(
         later: b.pairs().iter().map(|&(_, b)| b).collect(),
         stop: stop_rx,
         start: tokio::time::Instant::now(),
-        quiet,
+        plant,
     };
     let sim = SimStation {
         stop,
@@ -165,8 +178,7 @@ struct Script {
     later: Vec<u8>,
     stop: watch::Receiver<bool>,
     start: tokio::time::Instant,
-    /// No faults: the plant runs until the network closes.
-    quiet: bool,
+    plant: Plant,
 }
 
 impl Script {
@@ -204,10 +216,8 @@ impl Script {
                 }
             }
         }
-        if self.quiet {
-            // Until the network closes, which stops the script.
-            let _ = self.stop.wait_for(|s| *s).await;
-            return false;
+        if self.plant == Plant::Quiet {
+            return self.until_closed().await;
         }
         if !self.until(SIM_BUS_FAILS).await {
             return false;
@@ -236,6 +246,15 @@ impl Script {
                 h.shutdown().await;
             }
         }
+        if self.plant == Plant::Failover {
+            return self.until_closed().await;
+        }
         self.until(SIM_END).await
+    }
+
+    /// Runs on until the network closes, which stops the script: false (not played to an end).
+    async fn until_closed(&mut self) -> bool {
+        let _ = self.stop.wait_for(|s| *s).await;
+        false
     }
 }

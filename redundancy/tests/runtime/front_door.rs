@@ -496,3 +496,55 @@ async fn the_quiet_simulated_station_runs_without_faults_until_closed() {
     );
     net.close().await;
 }
+
+/// `sim-pairs:failover`: the faults of `sim-pairs` (bus 1 cut, the peer stopped, the running
+/// member stopped), then the plant runs on what is left: past the scripted run's end (twice
+/// [`SIM_END`]) the network is still open, B runs the pair, this master is active, and B
+/// answers.
+#[tokio::test(start_paused = true)]
+async fn the_failover_simulated_station_fails_then_runs_on_until_closed() {
+    let net = RedundantNetwork::builder()
+        .node_id(2)
+        .heartbeat(ms(20))
+        .master_timeout(ms(50))
+        .pair(0x10, 0x50)
+        .pair_heartbeat(ms(25))
+        .pair_timeout(ms(80))
+        .peer_master(1)
+        .open_named("sim-pairs:failover")
+        .unwrap();
+    let mut events = net.events();
+    let until =
+        tokio::time::Instant::now() + std::time::Duration::from_micros(2 * SIM_END.as_micros());
+    let mut failovers = vec![];
+    while let Ok(Some(e)) = tokio::time::timeout_at(until, events.next()).await {
+        if e.is_failover() {
+            failovers.push(e.to_string());
+        }
+    }
+    assert!(
+        tokio::time::Instant::now() >= until,
+        "the stream ended early: {failovers:#?}"
+    );
+    assert_eq!(
+        failovers,
+        [
+            "bus 1: failed (port down: interface down)",
+            "this master: active",
+            "pair 0x10/0x50: B active"
+        ]
+    );
+    let active = net.active_members().await.unwrap();
+    assert_eq!(active.len(), 1);
+    assert_eq!(
+        active[0].1,
+        Some(Member::B),
+        "{}",
+        net.status().await.unwrap()
+    );
+    assert_eq!(
+        net.node(0x50).sdo().read::<u32>(0x1018, 2).await.unwrap(),
+        0x50
+    );
+    net.close().await;
+}
