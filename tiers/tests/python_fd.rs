@@ -156,11 +156,12 @@ async fn a_duocan_node_answers_python_usdo_requests() {
     let node = fd_node(&cfg, 5).await;
     let (g, p) = group(&cfg);
     let mut peer = Peer::spawn(&["rawfd", &g, &p]).await;
+    // Each answer is awaited by its identifier alone: python's listener may print it before
+    // the sender's "SENT" line, which `expect` would then have skipped past.
 
     // Expedited read of 0x1018:01 (vendor-ID 0x1234), session 7: destination 5, command 0x04,
     // session, index, sub, type and length unused.
     peer.send_line("send 610 0 1 0 0504071810010000").await;
-    peer.expect("SENT", 5).await;
     // The answer on 0x585 to client 0x10: command 0x44, the same session, index and sub,
     // UNSIGNED32 (7), 4 bytes; 12 bytes in all, BRS on.
     assert_eq!(
@@ -172,7 +173,6 @@ async fn a_duocan_node_answers_python_usdo_requests() {
     // 12-byte FD length.
     peer.send_line("send 610 0 1 0 0501081710000602fa00cccc")
         .await;
-    peer.expect("SENT", 5).await;
     assert_eq!(
         peer.expect("RX 585", 5).await,
         "RX 585 0 1 1 0 8 1041081710000000"
@@ -181,7 +181,6 @@ async fn a_duocan_node_answers_python_usdo_requests() {
 
     // A read of an entry the node does not have: an abort in the same session (9).
     peer.send_line("send 610 0 1 0 0504093412000000").await;
-    peer.expect("SENT", 5).await;
     let abort = peer.expect("RX 585", 5).await;
     assert!(
         abort.starts_with("RX 585 0 1 1 0 8 1080093412"),
