@@ -8,15 +8,19 @@
 //!   expedited read and an expedited write), and python sees the answer's exact bytes;
 //! - duocan's front door reads and writes a duocan node over USDO across the UDP bus, and
 //!   python, listening on the same bus, sees the requests and answers as CAN FD frames with
-//!   BRS on the identifiers CiA 1301 gives them.
+//!   BRS on the identifiers CiA 1301 gives them;
+//! - the `duocan` tool, a process of its own (`--fd`), reads and writes that node over USDO.
 //!
-//! Needs a private network namespace with loopback multicast and `DUOCAN_PYTHON` pointing at a
-//! python with `python-can`: `.ci/tier-python.sh` sets up both. Without them the test fails.
+//! Needs a private network namespace with loopback multicast, `DUOCAN_PYTHON` pointing at a
+//! python with `python-can`, and the tool built (`cargo build -p duocan-cli`):
+//! `.ci/tier-python.sh` sees to all three. Without them the test fails.
 
 #[path = "common/peer.rs"]
 mod peer;
 #[path = "../../tests/common/runtime.rs"]
 mod rt;
+#[path = "common/tool.rs"]
+mod tool;
 
 use duocan::machine::{SinglePort, Station};
 use duocan::net::{NetOptions, Network};
@@ -228,6 +232,54 @@ async fn the_door_reads_a_duocan_node_over_usdo_and_python_sees_fd_frames() {
             full += 1;
         }
     }
+    peer.stop().await;
+    node.shutdown().await;
+}
+
+/// `duocan --bus <bus> --fd 126 <args>`: the tool as a USDO client of node-ID 126.
+async fn tool_fd(bus: &str, args: &[&str]) -> (i32, String, String) {
+    let mut all = vec!["--fd", "126"];
+    all.extend_from_slice(args);
+    tool::duocan(bus, &all).await
+}
+
+/// The `duocan` tool, in a process of its own, reads and writes a duocan node over USDO
+/// (`--fd`); python sees the tool's requests as CAN FD frames on 0x600 + the tool's node-ID.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn the_tool_in_its_own_process_reads_and_writes_a_duocan_node_over_usdo() {
+    let cfg = UdpBusConfig::numbered(46).with_fd();
+    let node = fd_node(&cfg, 5).await;
+    let (g, p) = group(&cfg);
+    let mut peer = Peer::spawn(&["rawfd", &g, &p]).await;
+    let bus = "udp:46";
+    let (code, out, err) = tool_fd(bus, &["sdo", "read", "5", "0x1018", "1"]).await;
+    assert_eq!(code, 0, "{err}");
+    assert_eq!(out.trim(), "[34 12 00 00] = 4660 (0x00001234)");
+    let req = peer.expect("RX 67e", 5).await;
+    assert!(req.starts_with("RX 67e 0 1 1 0 8 0504"), "request {req}");
+
+    // 130 bytes: segmented both ways (60 bytes a segment).
+    let blob: String = pattern(130, 9)
+        .iter()
+        .map(|b| format!("{b:02x} "))
+        .collect();
+    let (code, _, err) = tool_fd(
+        bus,
+        &["sdo", "write", "5", "0x2002", "0", "hex", blob.trim()],
+    )
+    .await;
+    assert_eq!(code, 0, "{err}");
+    assert_eq!(node.read(0x2002, 0).await.unwrap(), pattern(130, 9));
+    let (code, out, err) = tool_fd(bus, &["sdo", "read", "5", "0x2002", "0", "hex"]).await;
+    assert_eq!(code, 0, "{err}");
+    let want: Vec<String> = pattern(130, 9).iter().map(|b| format!("{b:02x}")).collect();
+    let got: Vec<String> = out.split_whitespace().map(str::to_lowercase).collect();
+    assert_eq!(got, want, "the tool read {out:?}");
+
+    // An entry the node does not have: the tool says so and exits non-zero.
+    let (code, _, err) = tool_fd(bus, &["sdo", "read", "5", "0x2fff", "0"]).await;
+    assert_eq!(code, 1);
+    assert!(err.contains("object 0x2fff sub 0"), "{err}");
     peer.stop().await;
     node.shutdown().await;
 }
