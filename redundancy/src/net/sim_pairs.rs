@@ -3,7 +3,8 @@
 //! with the same settings, and a script of faults, so that a user sees a bus, a master and a
 //! pair failover without hardware. `open_named("sim-pairs:quiet")` is the same plant without
 //! the faults, running until the network closes (a station's simulated rack). Under tokio's
-//! paused clock (tests) the run is deterministic.
+//! paused clock (tests) the run is deterministic. A builder with `with_fd` gets the same plant
+//! as a CANopen FD network: every board and peer speaks CAN FD on both buses and serves USDO.
 
 use super::core::Net;
 use super::RedundantNetwork;
@@ -72,11 +73,16 @@ pub(super) async fn until(
 /// `duocan::net::SIM_VENDOR` and product code = node-ID; inputs 0x6000 on TPDO 1, outputs
 /// 0x6200 on RPDO 1, described by `duocan::net::sim_description`), booted (its boot-up goes out
 /// when its runtime starts).
-pub(super) fn board(id: NodeId) -> Board {
+///
+/// On a CANopen FD network (`fd`) the board speaks CAN FD on both ports and serves USDO.
+pub(super) fn board(id: NodeId, fd: bool) -> Board {
     let od = duocan::net::sim_dictionary(id);
-    let mut node = Node::new(NodeConfig::slave(id), od);
+    let mut node = Node::new(NodeConfig::slave(id).with_fd(fd), od);
     node.boot(Instant::ZERO);
-    Station::new(DualBus::new(DualBusConfig::default()), node)
+    let mut link = DualBus::new(DualBusConfig::default());
+    link.set_port_fd(0, fd);
+    link.set_port_fd(1, fd);
+    Station::new(link, node)
 }
 
 pub(super) fn spawn<D>(
@@ -107,6 +113,7 @@ pub(super) fn open(
     quiet: bool,
 ) -> Result<RedundantNetwork, RedundantError> {
     let net = b.build_boxed()?;
+    let fd = b.fd_client().is_some();
     let buses = [MemBus::new("sim-bus1"), MemBus::new("sim-bus2")];
     // This master's ports first: a port hears only what is sent after it exists.
     let (port1, cut) = buses[0].plugged_port();
@@ -124,7 +131,7 @@ pub(super) fn open(
                 boards.push((
                     a,
                     spawn(
-                        Box::new(board(id)),
+                        Box::new(board(id, fd)),
                         &alloc::format!("sim board {a}"),
                         &buses,
                     )?,
@@ -132,7 +139,7 @@ pub(super) fn open(
             }
         }
     }
-    let net = RedundantNetwork::start(net, ports)?;
+    let net = RedundantNetwork::start(net, ports, b.fd_client())?;
     let (stop, stop_rx) = watch::channel(false);
     let script = Script {
         net: net.clone(),
@@ -141,6 +148,7 @@ pub(super) fn open(
         peers,
         boards,
         later: b.pairs().iter().map(|&(_, b)| b).collect(),
+        fd,
         stop: stop_rx,
         start: tokio::time::Instant::now(),
         quiet,
@@ -167,6 +175,8 @@ struct Script {
     start: tokio::time::Instant,
     /// No faults: the plant runs until the network closes.
     quiet: bool,
+    /// A CANopen FD network: the boards speak CAN FD and serve USDO.
+    fd: bool,
 }
 
 impl Script {
@@ -199,7 +209,7 @@ impl Script {
         for b in core::mem::take(&mut self.later) {
             if let Some(id) = NodeId::new(b) {
                 let name = alloc::format!("sim board {b}");
-                if let Ok(h) = spawn(Box::new(board(id)), &name, &self.buses) {
+                if let Ok(h) = spawn(Box::new(board(id, self.fd)), &name, &self.buses) {
                     self.boards.push((b, h));
                 }
             }
