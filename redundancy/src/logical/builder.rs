@@ -20,9 +20,9 @@ use crate::LinkMode;
 use alloc::boxed::Box;
 use alloc::vec::Vec;
 use duocan::master::{objects, Master, MasterConfig, MasterSdoClient, SlaveConfig};
-use duocan::sdo::DEFAULT_LIMIT;
 use duocan::od::{comm, DynamicDictionary};
 use duocan::profile::Predefined;
+use duocan::sdo::DEFAULT_LIMIT;
 use duocan::{Duration, Instant, NodeConfig, NodeId};
 
 /// This master's heartbeat unless [`RedundantNetworkBuilder::heartbeat`] says otherwise.
@@ -351,10 +351,11 @@ impl RedundantNetworkBuilder {
     #[cfg(feature = "fd")]
     fn check_fd(&self) -> Result<(), RedundantError> {
         use crate::supervisor::fd_guarding::{GuardingOnFd, GuardingSource};
-        let members = self
-            .members
-            .iter()
-            .filter(|c| self.pairs.iter().any(|p| [p.0, p.1].contains(&c.node.raw())));
+        let members = self.members.iter().filter(|c| {
+            self.pairs
+                .iter()
+                .any(|p| [p.0, p.1].contains(&c.node.raw()))
+        });
         for c in self.master.slaves.iter().chain(members) {
             if let Some(source) = GuardingSource::of_slave(c) {
                 return Err(RedundantError::GuardingOnFd(GuardingOnFd {

@@ -84,9 +84,9 @@ use crate::supervisor::Supervisor;
 use crate::FrameClassifier;
 use core::fmt;
 use duocan::cia302::pdo_config::PdoConfig;
+use duocan::frame::storage::Heap;
 #[cfg(feature = "fd")]
 use duocan::frame::FdFrame;
-use duocan::frame::storage::Heap;
 use duocan::machine::Device;
 use duocan::master::{MasterError, SlaveView};
 use duocan::nmt::NmtTarget;

@@ -42,6 +42,7 @@ use crate::SupervisorEvent;
 use alloc::boxed::Box;
 use alloc::string::ToString;
 use duocan::cia305::LssError;
+use duocan::frame::FdFrame;
 use duocan::machine::{BusLink, Device, PortState, StationEvent};
 use duocan::master::MasterError;
 use duocan::net::{CoreEvent, ExtEvent, HeardOn, NetClient, NetCore, NetError, NetEvent};
@@ -50,7 +51,6 @@ use duocan::od::{comm, DynamicDictionary, ObjectDictionary};
 use duocan::runtime::SdoEvents;
 use duocan::AbortCode;
 use duocan::NodeEventKind;
-use duocan::frame::FdFrame;
 use duocan::{Frame, Instant, NmtCommand, NmtState, NodeId};
 
 /// The network the core runs.

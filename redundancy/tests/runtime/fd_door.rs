@@ -58,7 +58,10 @@ async fn round_trip(net: &RedundantNetwork, value: u16) -> Result<u8, NetError> 
 async fn usdo_to_the_running_board_goes_on_through_a_bus_cut_and_a_pair_failover() {
     let net = builder().open_named("sim-pairs").unwrap();
     // Until B is on the buses, A alone runs.
-    tokio::time::sleep(std::time::Duration::from_micros(SIM_B_BOOTS.as_micros() + 200_000)).await;
+    tokio::time::sleep(std::time::Duration::from_micros(
+        SIM_B_BOOTS.as_micros() + 200_000,
+    ))
+    .await;
     assert_eq!(net.role().await.unwrap(), MasterRole::Active);
     let a = net.node(0x10).sdo();
     assert_eq!(a.read::<u32>(0x1018, 1).await.unwrap(), SIM_VENDOR);
@@ -91,7 +94,10 @@ async fn usdo_to_the_running_board_goes_on_through_a_bus_cut_and_a_pair_failover
         runs.iter().any(|&(t, b)| b == 0x10 && t > cut + ms(100)),
         "{runs:?}"
     );
-    assert!(runs.iter().all(|&(t, b)| b == 0x10 || t >= stopped), "{runs:?}");
+    assert!(
+        runs.iter().all(|&(t, b)| b == 0x10 || t >= stopped),
+        "{runs:?}"
+    );
     assert!(
         runs.iter().any(|&(t, b)| b == 0x50 && t > stopped),
         "{runs:?} {failed:?}"
@@ -112,8 +118,8 @@ async fn usdo_to_the_running_board_goes_on_through_a_bus_cut_and_a_pair_failover
 #[tokio::test(start_paused = true)]
 async fn guarding_on_an_fd_network_is_refused_naming_the_node() {
     // The master guarding a plain slave (0x1F81 guard time).
-    let guarded = SlaveConfig::new(NodeId::must(0x20))
-        .with_assignment(Assignment::slave().guarded(100, 3));
+    let guarded =
+        SlaveConfig::new(NodeId::must(0x20)).with_assignment(Assignment::slave().guarded(100, 3));
     let mut master = MasterConfig::new();
     master.slaves.push(guarded.clone());
     let e = builder().master(master.clone()).build().unwrap_err();
@@ -127,7 +133,9 @@ async fn guarding_on_an_fd_network_is_refused_naming_the_node() {
     assert_eq!(e.node(), Some(NodeId::must(0x20)));
     let text = e.to_string();
     assert!(
-        text.contains("node 0x20") && text.contains("no remote frames") && text.contains("heartbeats"),
+        text.contains("node 0x20")
+            && text.contains("no remote frames")
+            && text.contains("heartbeats"),
         "{text}"
     );
     // On a classic network the same settings build.
@@ -152,7 +160,10 @@ async fn guarding_on_an_fd_network_is_refused_naming_the_node() {
         .open_named("sim-pairs")
         .err()
         .expect("refused");
-    assert!(matches!(e, RedundantError::GuardingOnFd(g) if g.node.raw() == 0x10), "{e}");
+    assert!(
+        matches!(e, RedundantError::GuardingOnFd(g) if g.node.raw() == 0x10),
+        "{e}"
+    );
     // A zero guard time is no guarding.
     let off = SlaveConfig::new(NodeId::must(0x10)).write_u16(0x100C, 0, 0);
     assert!(builder().member_config(off).build().is_ok());

@@ -121,7 +121,10 @@ fn transceiver_then_board(p: Params) -> (Duration, Duration) {
     }
     let pair = *n.sup(STRONG).pair_supervisor().pair(PairId(0)).unwrap();
     assert!(pair.member(Member::A).joined() && pair.member(Member::B).joined());
-    assert!(!n.sup(STRONG).pair_supervisor().is_suspect(NodeId::must(b(0))));
+    assert!(!n
+        .sup(STRONG)
+        .pair_supervisor()
+        .is_suspect(NodeId::must(b(0))));
 
     // A dies: its last heartbeat + the consumer time, B started on bus 1 alone.
     n.sim.run_until(ms(2500));
@@ -149,7 +152,11 @@ fn transceiver_then_board(p: Params) -> (Duration, Duration) {
     assert_eq!(roles[1].at, deadline);
     assert_eq!(
         (roles[1].from, roles[1].to, roles[1].reason),
-        (Some(Member::A), Some(Member::B), RoleReason::ActiveSilent { last })
+        (
+            Some(Member::A),
+            Some(Member::B),
+            RoleReason::ActiveSilent { last }
+        )
     );
     assert_eq!(n.active_member(WEAK, 0), Some(Member::B));
     // A's FD process data until it died, then B's, each once at both masters.

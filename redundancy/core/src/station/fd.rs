@@ -24,9 +24,9 @@ use super::{SupervisedLink, SupervisedStation};
 use crate::link::dual_bus::FdSendError;
 use duocan_core::frame::FdFrame;
 use duocan_core::machine::{forward_commands, forward_requests, BusLink, Station};
-use duocan_core::Machine;
 use duocan_core::od::ObjectDictionary;
 use duocan_core::Instant;
+use duocan_core::Machine;
 
 /// FD frames the station holds for the application.
 pub const FD_RX_QUEUE: usize = 16;

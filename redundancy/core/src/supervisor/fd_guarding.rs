@@ -98,9 +98,12 @@ impl GuardingSource {
         });
         assigned.or_else(|| {
             cfg.steps.iter().find_map(|step| match step {
-                ConfigStep::Write { index, sub: 0, data }
-                    if (*index == comm::GUARD_TIME || *index == comm::LIFE_TIME_FACTOR)
-                        && data.iter().any(|b| *b != 0) =>
+                ConfigStep::Write {
+                    index,
+                    sub: 0,
+                    data,
+                } if (*index == comm::GUARD_TIME || *index == comm::LIFE_TIME_FACTOR)
+                    && data.iter().any(|b| *b != 0) =>
                 {
                     Some(GuardingSource::SlaveConfig { index: *index })
                 }
@@ -134,8 +137,11 @@ impl<D: ObjectDictionary, P: IdProfile> Supervisor<D, P> {
         }
         for v in master.slaves() {
             // The live 0x1F81 entry first (written after the configuration, it rules).
-            let source = GuardingSource::of_assignment(v.assignment)
-                .or_else(|| master.slave_config(v.node).and_then(GuardingSource::of_slave));
+            let source = GuardingSource::of_assignment(v.assignment).or_else(|| {
+                master
+                    .slave_config(v.node)
+                    .and_then(GuardingSource::of_slave)
+            });
             if let Some(source) = source {
                 return Err(GuardingOnFd {
                     node: v.node,
