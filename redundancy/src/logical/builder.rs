@@ -19,10 +19,11 @@ use crate::supervisor::{Supervisor, SupervisorConfig};
 use crate::LinkMode;
 use alloc::boxed::Box;
 use alloc::vec::Vec;
-use duocan::master::{objects, Master, MasterConfig, SlaveConfig};
+use duocan::master::{objects, Master, MasterConfig, MasterSdoClient, SlaveConfig};
 use duocan::od::{comm, DynamicDictionary};
 use duocan::profile::Predefined;
-use duocan::{Duration, Instant, NodeId};
+use duocan::sdo::DEFAULT_LIMIT;
+use duocan::{Duration, Instant, NodeConfig, NodeId};
 
 /// This master's heartbeat unless [`RedundantNetworkBuilder::heartbeat`] says otherwise.
 pub const DEFAULT_HEARTBEAT: Duration = Duration::from_millis(100);
@@ -51,6 +52,7 @@ pub const DEFAULT_MASTER_TIMEOUT: Duration = Duration::from_millis(300);
 /// | [`member_config`](Self::member_config) | heartbeat only | what the master configures into a pair member at boot (a DCF's values: `SlaveConfig::from_dcf`) |
 /// | [`link`](Self::link) | active-active, guard period = the shorter heartbeat | the dual-bus layer |
 /// | [`master`](Self::master) | `MasterConfig::new()` | the CiA 302-2 master's own settings (other slaves, SDO timeout, queues) |
+/// | [`with_fd`](Self::with_fd) (feature `fd`) | classic | a CANopen FD network: both ports CAN FD, the master serving USDO, the door's reads and writes over USDO from the client node-ID given; heartbeats only |
 ///
 /// ```
 /// use duocan::Duration;
@@ -87,6 +89,8 @@ pub struct RedundantNetworkBuilder {
     members: Vec<SlaveConfig>,
     link: Option<DualBusConfig>,
     master: MasterConfig,
+    /// A CANopen FD network: the door's USDO client node-ID.
+    fd: Option<u8>,
 }
 
 impl Default for RedundantNetworkBuilder {
@@ -105,6 +109,7 @@ impl Default for RedundantNetworkBuilder {
             members: Vec::new(),
             link: None,
             master: MasterConfig::new(),
+            fd: None,
         }
     }
 }
@@ -200,6 +205,34 @@ impl RedundantNetworkBuilder {
         self
     }
 
+    /// A CANopen FD network (CiA 1301; feature `fd`), as duocan's `NetOptions::with_fd` opens
+    /// one on a single port or two: both ports of the dual-bus layer carry CAN FD (each FD
+    /// frame on both buses, merged once received), the master's node serves USDO from its
+    /// dictionary, and the front door (`RedundantNetwork`) reads and writes the nodes'
+    /// dictionaries over USDO with the same calls as over SDO, its requests going out from
+    /// `client` (1–127, a node-ID no device of the network has: USDO names its clients by
+    /// node-ID). The master itself still configures its slaves over SDO.
+    ///
+    /// **Heartbeats only.** CAN FD has no remote frames, so node guarding cannot run there: a
+    /// slave the master guards (a guard time in its 0x1F81 entry) or whose configuration sets
+    /// its life guarding (0x100C/0x100D) is refused by [`build`](Self::build)
+    /// ([`RedundantError::GuardingOnFd`], naming the node). Pair supervision, the flying master
+    /// and the dual-bus layer's port diagnosis judge heartbeats, as on classic buses.
+    ///
+    /// Every node on both buses must speak CAN FD and serve USDO (a duocan node with
+    /// `NodeConfig::with_fd`), and the ports must be opened for CAN FD.
+    #[cfg(feature = "fd")]
+    pub fn with_fd(mut self, client: u8) -> Self {
+        self.fd = Some(client);
+        self
+    }
+    /// The USDO client node-ID of a CANopen FD network ([`with_fd`](Self::with_fd)); `None`
+    /// on a classic one.
+    #[must_use]
+    pub fn fd_client(&self) -> Option<u8> {
+        self.fd
+    }
+
     /// This master's node-ID as set (checked by [`build`](Self::build)).
     #[must_use]
     pub fn this_node(&self) -> u8 {
@@ -273,6 +306,10 @@ impl RedundantNetworkBuilder {
             claim(a, Role::PairMember)?;
             claim(b, Role::PairMember)?;
         }
+        if let Some(client) = self.fd {
+            claim(client, Role::UsdoClient)?;
+            self.check_fd()?;
+        }
         let periods = [
             ("heartbeat", self.heartbeat),
             ("master_timeout", self.master_timeout),
@@ -309,6 +346,31 @@ impl RedundantNetworkBuilder {
         Ok(())
     }
 
+    /// Heartbeats only on a CANopen FD network: no slave of the master, pair member or not,
+    /// configured for guarding (the master's or its own life guarding).
+    #[cfg(feature = "fd")]
+    fn check_fd(&self) -> Result<(), RedundantError> {
+        use crate::supervisor::fd_guarding::{GuardingOnFd, GuardingSource};
+        let members = self.members.iter().filter(|c| {
+            self.pairs
+                .iter()
+                .any(|p| [p.0, p.1].contains(&c.node.raw()))
+        });
+        for c in self.master.slaves.iter().chain(members) {
+            if let Some(source) = GuardingSource::of_slave(c) {
+                return Err(RedundantError::GuardingOnFd(GuardingOnFd {
+                    node: c.node,
+                    source,
+                }));
+            }
+        }
+        Ok(())
+    }
+    #[cfg(not(feature = "fd"))]
+    fn check_fd(&self) -> Result<(), RedundantError> {
+        Ok(())
+    }
+
     /// Builds the network: master, supervisor with its pairs and peers, dual-bus layer, as one
     /// sans-IO [`LogicalNetwork`] (its clock starts at [`Instant::ZERO`]).
     pub fn build(&self) -> Result<LogicalNetwork<DynamicDictionary>, RedundantError> {
@@ -324,8 +386,19 @@ impl RedundantNetworkBuilder {
         let link = self
             .link
             .unwrap_or_else(|| DualBusConfig::with_guard_period(LinkMode::ActiveActive, guard));
-        let station =
-            SupervisedStation::new(DualBus::new(link), *sup).map_err(RedundantError::Link)?;
+        #[cfg(feature = "fd")]
+        if self.fd.is_some() {
+            // What was configured in the master besides the builder's settings.
+            sup.check_fd().map_err(RedundantError::GuardingOnFd)?;
+        }
+        #[cfg_attr(not(feature = "fd"), allow(unused_mut))]
+        let mut bus = DualBus::new(link);
+        #[cfg(feature = "fd")]
+        if self.fd.is_some() {
+            bus.set_port_fd(0, true);
+            bus.set_port_fd(1, true);
+        }
+        let station = SupervisedStation::new(bus, *sup).map_err(RedundantError::Link)?;
         Ok(Box::new(LogicalNetwork::new(station)))
     }
 
@@ -339,7 +412,15 @@ impl RedundantNetworkBuilder {
         };
         let me = id(self.node_id)?;
         let od = objects::master_dictionary(self.node_id, comm::Identity::default());
-        let master = Master::new(me, od, self.master.clone())
+        #[cfg_attr(not(feature = "fd"), allow(unused_mut))]
+        let mut node = NodeConfig::master(me);
+        #[cfg(feature = "fd")]
+        {
+            // On a CANopen FD network the master's node serves USDO too.
+            node = node.with_fd(self.fd.is_some());
+        }
+        let sdo = MasterSdoClient::with_sessions(DEFAULT_LIMIT, self.master.sdo_sessions);
+        let master = Master::with_parts(node, od, Predefined, sdo, self.master.clone())
             .map_err(|e| RedundantError::Network(super::NetworkError::Nmt(e)))?;
         let mut cfg = SupervisorConfig::new(
             self.priority,

@@ -123,10 +123,15 @@ impl RedundantNetwork {
     fn start<P1: Port, P2: Port>(
         net: Box<Net>,
         ports: (P1, P2),
+        fd: Option<u8>,
     ) -> Result<RedundantNetwork, RedundantError> {
         let name = ports.0.name().to_string();
         let core = Box::new(MasterCore::new(net));
-        match Network::open_core(core, ports, NetOptions::default()) {
+        let opts = match fd.and_then(NodeId::new) {
+            Some(client) => NetOptions::default().with_fd(client),
+            None => NetOptions::default(),
+        };
+        match Network::open_core(core, ports, opts) {
             Ok(net) => Ok(RedundantNetwork { net }),
             Err(NetError::Port(why)) => Err(RedundantError::Port { port: 0, name, why }),
             Err(e) => Err(e.into()),
@@ -248,7 +253,7 @@ impl RedundantNetworkBuilder {
         bus1: P1,
         bus2: P2,
     ) -> Result<RedundantNetwork, RedundantError> {
-        RedundantNetwork::start(self.build_boxed()?, (bus1, bus2))
+        RedundantNetwork::start(self.build_boxed()?, (bus1, bus2), self.fd_client())
     }
     /// Opens the network by name:
     ///

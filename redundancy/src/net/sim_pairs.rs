@@ -5,7 +5,9 @@
 //! the faults, running until the network closes (a station's simulated rack);
 //! `open_named("sim-pairs:failover")` plays the faults and then runs on what is left until the
 //! network closes (a station's demonstration rack: its dashboard shows the failovers and the
-//! rack goes on). Under tokio's paused clock (tests) the run is deterministic.
+//! rack goes on). Under tokio's paused clock (tests) the run is deterministic. A builder with
+//! `with_fd` gets the same plants as a CANopen FD network: every board and peer speaks CAN FD
+//! on both buses and serves USDO.
 
 use super::core::Net;
 use super::RedundantNetwork;
@@ -74,11 +76,16 @@ pub(super) async fn until(
 /// `duocan::net::SIM_VENDOR` and product code = node-ID; inputs 0x6000 on TPDO 1, outputs
 /// 0x6200 on RPDO 1, described by `duocan::net::sim_description`), booted (its boot-up goes out
 /// when its runtime starts).
-pub(super) fn board(id: NodeId) -> Board {
+///
+/// On a CANopen FD network (`fd`) the board speaks CAN FD on both ports and serves USDO.
+pub(super) fn board(id: NodeId, fd: bool) -> Board {
     let od = duocan::net::sim_dictionary(id);
-    let mut node = Node::new(NodeConfig::slave(id), od);
+    let mut node = Node::new(NodeConfig::slave(id).with_fd(fd), od);
     node.boot(Instant::ZERO);
-    Station::new(DualBus::new(DualBusConfig::default()), node)
+    let mut link = DualBus::new(DualBusConfig::default());
+    link.set_port_fd(0, fd);
+    link.set_port_fd(1, fd);
+    Station::new(link, node)
 }
 
 pub(super) fn spawn<D>(
@@ -120,6 +127,7 @@ pub(super) fn open(
     plant: Plant,
 ) -> Result<RedundantNetwork, RedundantError> {
     let net = b.build_boxed()?;
+    let fd = b.fd_client().is_some();
     let buses = [MemBus::new("sim-bus1"), MemBus::new("sim-bus2")];
     // This master's ports first: a port hears only what is sent after it exists.
     let (port1, cut) = buses[0].plugged_port();
@@ -137,7 +145,7 @@ pub(super) fn open(
                 boards.push((
                     a,
                     spawn(
-                        Box::new(board(id)),
+                        Box::new(board(id, fd)),
                         &alloc::format!("sim board {a}"),
                         &buses,
                     )?,
@@ -145,7 +153,7 @@ pub(super) fn open(
             }
         }
     }
-    let net = RedundantNetwork::start(net, ports)?;
+    let net = RedundantNetwork::start(net, ports, b.fd_client())?;
     let (stop, stop_rx) = watch::channel(false);
     let script = Script {
         net: net.clone(),
@@ -154,6 +162,7 @@ pub(super) fn open(
         peers,
         boards,
         later: b.pairs().iter().map(|&(_, b)| b).collect(),
+        fd,
         stop: stop_rx,
         start: tokio::time::Instant::now(),
         plant,
@@ -179,6 +188,8 @@ struct Script {
     stop: watch::Receiver<bool>,
     start: tokio::time::Instant,
     plant: Plant,
+    /// A CANopen FD network: the boards speak CAN FD and serve USDO.
+    fd: bool,
 }
 
 impl Script {
@@ -211,7 +222,7 @@ impl Script {
         for b in core::mem::take(&mut self.later) {
             if let Some(id) = NodeId::new(b) {
                 let name = alloc::format!("sim board {b}");
-                if let Ok(h) = spawn(Box::new(board(id)), &name, &self.buses) {
+                if let Ok(h) = spawn(Box::new(board(id, self.fd)), &name, &self.buses) {
                     self.boards.push((b, h));
                 }
             }
