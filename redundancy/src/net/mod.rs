@@ -265,9 +265,10 @@ impl RedundantNetworkBuilder {
     ///   [`SIM_END`] (the network closes, event streams end);
     /// - `sim-pairs:quiet`: the same buses, pairs and peers without the faults, running until
     ///   the network is closed;
-    /// - `sim-pairs:failover`: the faults of `sim-pairs`, after which the plant runs on what is
-    ///   left (bus 1 cut, the peers and the members that ran stopped) until the network is
-    ///   closed;
+    /// - `sim-pairs:failover`: the faults of `sim-pairs`, timed from the moment every pair has a
+    ///   running board once the B boards are on (not from the opening: a station's racks may take long to come up),
+    ///   after which the plant runs on what is left (bus 1 cut, the peers and the members that
+    ///   ran stopped) until the network is closed;
     /// - `A,B`: SocketCAN interfaces A (bus 1) and B (bus 2), such as `can0,can1` (feature
     ///   `socketcan`, Linux).
     pub fn open_named(&self, name: &str) -> Result<RedundantNetwork, RedundantError> {

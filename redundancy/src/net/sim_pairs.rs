@@ -116,8 +116,9 @@ pub(super) enum Plant {
     Script,
     /// No faults: the plant runs until the network closes (`sim-pairs:quiet`).
     Quiet,
-    /// The script of faults, then the plant runs on what is left until the network closes
-    /// (`sim-pairs:failover`).
+    /// The script of faults, timed from the moment every pair has a running board once the B
+    /// boards are on, then the
+    /// plant runs on what is left until the network closes (`sim-pairs:failover`).
     Failover,
 }
 
@@ -230,6 +231,9 @@ impl Script {
         if self.plant == Plant::Quiet {
             return self.until_closed().await;
         }
+        if self.plant == Plant::Failover && !self.until_every_pair_runs().await {
+            return false;
+        }
         if !self.until(SIM_BUS_FAILS).await {
             return false;
         }
@@ -261,6 +265,31 @@ impl Script {
             return self.until_closed().await;
         }
         self.until(SIM_END).await
+    }
+
+    /// `sim-pairs:failover`'s start: its faults come at their times after every pair has a
+    /// running board (checked once the B boards are on), not after the network opened, so that a station whose racks take long to
+    /// come up (many simulated boards on a small machine) still shows each failover from a
+    /// running rack. Polled every 100 ms; false if asked to stop first.
+    async fn until_every_pair_runs(&mut self) -> bool {
+        loop {
+            let running = self
+                .net
+                .with(|n, _| n.pairs().all(|(_, p)| p.active.is_some()))
+                .await
+                .unwrap_or(false);
+            if running {
+                self.start = tokio::time::Instant::now();
+                return true;
+            }
+            let next = tokio::time::Instant::now() + core::time::Duration::from_millis(100);
+            if tokio::time::timeout_at(next, self.stop.wait_for(|s| *s))
+                .await
+                .is_ok()
+            {
+                return false;
+            }
+        }
     }
 
     /// Runs on until the network closes, which stops the script: false (not played to an end).

@@ -517,11 +517,24 @@ async fn the_failover_simulated_station_fails_then_runs_on_until_closed() {
     let until =
         tokio::time::Instant::now() + std::time::Duration::from_micros(2 * SIM_END.as_micros());
     let mut failovers = vec![];
+    let mut a_runs = None;
     while let Ok(Some(e)) = tokio::time::timeout_at(until, events.next()).await {
+        if e.to_string() == "pair 0x10/0x50: A active" {
+            a_runs = e.at();
+        }
         if e.is_failover() {
-            failovers.push(e.to_string());
+            failovers.push((e.to_string(), e.at()));
         }
     }
+    // The faults are timed from the moment every pair has a running board once the B boards
+    // are on (seen within the script's 100 ms poll).
+    let (a_runs, cut) = (a_runs.unwrap(), failovers[0].1.unwrap());
+    let ready = a_runs.max(after(SIM_B_BOOTS));
+    assert!(
+        cut >= ready + SIM_BUS_FAILS && cut <= ready + SIM_BUS_FAILS + ms(110),
+        "A ran at {a_runs}, bus 1 failed at {cut}"
+    );
+    let failovers: Vec<String> = failovers.into_iter().map(|f| f.0).collect();
     assert!(
         tokio::time::Instant::now() >= until,
         "the stream ended early: {failovers:#?}"
