@@ -195,7 +195,8 @@ impl SimNetwork {
         port.stats.tx_attempts += 1;
         let generation = self.devices[port.dev as usize].generation;
         self.refresh_port(p);
-        let mut error = self.draw_detected_error(b, s, p);
+        let len = fd.as_ref().map_or(frame.data().len(), |f| f.data().len());
+        let mut error = self.draw_detected_error(b, s, p, len);
         let mut refused = false;
         let (bits, duration) = match &fd {
             None => {
@@ -261,11 +262,19 @@ impl SimNetwork {
         }
     }
 
-    /// Whether the frame starting on segment `s` will be destroyed by a detected error.
-    fn draw_detected_error(&mut self, b: usize, s: usize, sender: usize) -> bool {
+    /// Whether the frame starting on segment `s`, `len` data bytes, will be destroyed by a
+    /// detected error.
+    fn draw_detected_error(&mut self, b: usize, s: usize, sender: usize, len: usize) -> bool {
         let bus = &self.buses[b];
         let rate = bus.faults.map_or(0.0, |f| f.corrupt_detected);
         if chance(&mut self.rng, rate) {
+            return true;
+        }
+        let long = bus
+            .faults
+            .filter(|f| len >= usize::from(f.long_from))
+            .map_or(0.0, |f| f.corrupt_long);
+        if chance(&mut self.rng, long) {
             return true;
         }
         let own = self.ports[sender].faults.map_or(0.0, |f| f.corrupt_sent);

@@ -37,6 +37,15 @@ pub struct FaultRates {
     /// receives it, every port on the segment gets `PortStatus::Error(ErrorCause::Crc)`, the
     /// sender retransmits. Other senders' frames on the bus are not touched.
     pub corrupt_sent: f64,
+    /// As a bus rate only: an error is detected during a frame that carries at least
+    /// [`long_from`](FaultRates::long_from) data bytes (reflections on a bus too long for its
+    /// bit rate, a stub that grew: a disturbance that needs the frame on the wire for a while,
+    /// so a one-byte heartbeat passes where an eight-byte PDO fails). As
+    /// [`corrupt_detected`](FaultRates::corrupt_detected) otherwise: nobody receives it, every
+    /// port gets `PortStatus::Error(ErrorCause::Crc)`, the sender retransmits.
+    pub corrupt_long: f64,
+    /// The data length from which [`corrupt_long`](FaultRates::corrupt_long) applies.
+    pub long_from: u8,
 }
 
 impl FaultRates {
@@ -49,6 +58,8 @@ impl FaultRates {
         corrupt_detected: 0.0,
         corrupt_undetected: 0.0,
         corrupt_sent: 0.0,
+        corrupt_long: 0.0,
+        long_from: 0,
     };
 
     /// True when no fault can happen.
@@ -59,6 +70,7 @@ impl FaultRates {
             && self.corrupt_detected <= 0.0
             && self.corrupt_undetected <= 0.0
             && self.corrupt_sent <= 0.0
+            && self.corrupt_long <= 0.0
     }
     /// With drop probability `p`.
     #[must_use]
@@ -95,6 +107,16 @@ impl FaultRates {
     pub fn with_corrupt_sent(self, p: f64) -> Self {
         FaultRates {
             corrupt_sent: p,
+            ..self
+        }
+    }
+    /// With probability `p` of an error destroying a frame of `from` data bytes or more (a bus
+    /// rate).
+    #[must_use]
+    pub fn with_corrupt_long(self, p: f64, from: u8) -> Self {
+        FaultRates {
+            corrupt_long: p,
+            long_from: from,
             ..self
         }
     }

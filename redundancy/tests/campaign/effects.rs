@@ -275,7 +275,7 @@ fn took_effect(run: &Run, f: Fault, from: Instant, to: Instant, before: &Counter
             matches!(e, SupervisorEvent::Node(n) if matches!(n.kind,
                 NodeEventKind::RemoteState { node: x, to, .. } if x.raw() == node && to == state))
         }),
-        Fault::Noise { bus, .. } | Fault::Degrading { bus, .. } => {
+        Fault::Noise { bus, .. } | Fault::Degrading { bus, .. } | Fault::LongFrames { bus, .. } => {
             errors_grew(run, before, bus, None, None)
         }
         // The others see the errors of its frames on that bus.

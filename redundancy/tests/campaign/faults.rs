@@ -205,6 +205,18 @@ pub enum Fault {
     /// period; the consumer times stay (50 ms). Until its next boot, when its master
     /// configures it again (20 ms).
     ProducerTime { node: u8, ms: u16 },
+    /// Reflections on `bus` (a bus too long for its bit rate, a stub that grew): a detected
+    /// error destroys each frame of `from` data bytes or more there with probability
+    /// `permille`/1000, and its sender sends it again, for `dur`; shorter frames pass. A
+    /// one-byte heartbeat gets through where an eight-byte PDO or SDO frame fails: port
+    /// health sees a bus that works while what the application sends waits behind
+    /// retransmissions (at 1000 per mille its sender goes error passive, then bus-off).
+    LongFrames {
+        bus: usize,
+        permille: u16,
+        from: u8,
+        dur: Duration,
+    },
 }
 
 impl Fault {
@@ -235,6 +247,7 @@ impl Fault {
             Fault::Degrading { .. } => "degrading bus",
             Fault::GroundShift { .. } => "ground shift at one sender",
             Fault::ProducerTime { .. } => "producer time changed at run time",
+            Fault::LongFrames { .. } => "long frames lost on one bus",
             Fault::Overrun { .. } => "controller overrun",
             Fault::SlowTx { .. } => "slow transmitter",
             Fault::TxDrift { .. } => "port writes drifting apart",
@@ -270,6 +283,7 @@ impl Fault {
             | Fault::Drift { dur, .. }
             | Fault::ClockRate { dur, .. }
             | Fault::GroundShift { dur, .. }
+            | Fault::LongFrames { dur, .. }
             | Fault::TxDead { dur, .. } => dur,
             Fault::Sequence {
                 dur,
@@ -307,6 +321,7 @@ impl Fault {
                 | Fault::Noise { .. }
                 | Fault::Degrading { .. }
                 | Fault::GroundShift { .. }
+                | Fault::LongFrames { .. }
                 | Fault::Overrun { .. }
                 | Fault::SlowTx { .. }
                 | Fault::TxDrift { .. }
@@ -436,6 +451,21 @@ pub fn apply(run: &mut Run, f: Fault) {
         Fault::Noise { bus, permille, dur } => {
             let b = run.plant.buses[bus];
             let rates = FaultRates::NONE.with_corrupt_detected(f64::from(permille) / 1000.0);
+            for_a_while(run, dur, move |r, on| {
+                let rates = if on { rates } else { FaultRates::NONE };
+                r.plant.sim.set_bus_faults(b, rates);
+                let t = r.now();
+                r.timeline.noisy[bus].set(t, on);
+            });
+        }
+        Fault::LongFrames {
+            bus,
+            permille,
+            from,
+            dur,
+        } => {
+            let b = run.plant.buses[bus];
+            let rates = FaultRates::NONE.with_corrupt_long(f64::from(permille) / 1000.0, from);
             for_a_while(run, dur, move |r, on| {
                 let rates = if on { rates } else { FaultRates::NONE };
                 r.plant.sim.set_bus_faults(b, rates);
@@ -973,7 +1003,7 @@ pub fn drift_profile(load: u64, from: Instant, to: Instant) -> Vec<(Instant, Dur
 
 /// How many kinds of fault the campaign draws from (every class that holds, some in two
 /// shapes).
-pub const KINDS: usize = 32;
+pub const KINDS: usize = 33;
 
 /// Every kind [`draw`] knows: also receive clocks that drift apart (kind [`DRIFT`], always the
 /// last), which still fail combined with others (the "known and not fixed yet" of the user
@@ -982,6 +1012,10 @@ pub const KINDS: usize = 32;
 pub const KINDS_WITH_DRIFT: usize = KINDS + 1;
 /// The drift's kind.
 pub const DRIFT: usize = KINDS;
+
+/// The kinds the campaign knew before long frames lost on one bus: the seeds in
+/// `REGRESSIONS_PRODUCER_TIME` draw from these.
+pub const KINDS_BEFORE_LONG_FRAMES: usize = 32;
 
 /// The kinds the campaign knew before a producer time changed at run time: the seeds in
 /// `REGRESSIONS_GROUND_SHIFT` draw from these.
@@ -1237,6 +1271,14 @@ pub fn draw(rng: &mut Rng, pairs: u8, k: usize) -> Fault {
             31 => Fault::ProducerTime {
                 node: board(rng),
                 ms: [10, 15, 25][rng.below(3) as usize],
+            },
+            32 => Fault::LongFrames {
+                bus: rng.below(2) as usize,
+                permille: [300, 700, 1000][rng.below(3) as usize],
+                // An eight-byte frame (SDO, the campaign's PDOs) is hit from 5; from 2 a
+                // two-byte NMT command too; a heartbeat never.
+                from: [2, 5, 8][rng.below(3) as usize],
+                dur: rng.ms(200, 4_000),
             },
             DRIFT => Fault::Drift {
                 node: any_node(rng),

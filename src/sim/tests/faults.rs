@@ -287,6 +287,61 @@ fn a_port_whose_sends_are_corrupted_has_only_its_own_frames_destroyed() {
 }
 
 #[test]
+fn a_bus_that_destroys_long_frames_lets_short_ones_pass() {
+    // Reflections: every frame of 5 data bytes or more is destroyed until 1 ms, each retried;
+    // a one-byte frame on the same bus goes through at its first attempt.
+    let (mut sim, b) = network(1, 1, RATE);
+    let long = std_frame(0x181, &[1, 2, 3, 4, 5, 6, 7, 8]);
+    let short = std_frame(0x701, &[5]);
+    sim.add_device(
+        "x",
+        Probe::new(1).every(0, long, Instant::ZERO, LONG),
+        &[b[0]],
+    )
+    .unwrap();
+    sim.add_device("y", Probe::new(1).every(0, short, ms(2), LONG), &[b[0]])
+        .unwrap();
+    let l = sim.add_device("l", Probe::new(1), &[b[0]]).unwrap();
+    sim.set_bus_faults(b[0], FaultRates::NONE.with_corrupt_long(1.0, 5));
+    let bus = b[0];
+    sim.at(ms(1), move |s| s.set_bus_faults(bus, FaultRates::NONE));
+    sim.run_until(ms(4));
+    let tx = tx_records(&sim);
+    let of = |frame: Frame| {
+        tx.iter()
+            .filter(move |t| t.frame == frame)
+            .collect::<Vec<_>>()
+    };
+    let (ls, ss) = (of(long), of(short));
+    assert!(ls.len() > 2, "{ls:?}");
+    assert!(ls[..ls.len() - 1]
+        .iter()
+        .all(|t| t.outcome == TxOutcome::ErrorFrame && t.start < ms(1)));
+    assert!(matches!(
+        ls.last().unwrap().outcome,
+        TxOutcome::Delivered { .. }
+    ));
+    assert_eq!(ss.len(), 1);
+    assert!(matches!(ss[0].outcome, TxOutcome::Delivered { .. }));
+    assert_eq!(sim.device(l).rx_on(0).len(), 2);
+    // Four bytes are short of the threshold: never destroyed.
+    let (mut sim, b) = network(1, 1, RATE);
+    let four = std_frame(0x182, &[1, 2, 3, 4]);
+    sim.add_device(
+        "x",
+        Probe::new(1).every(0, four, Instant::ZERO, LONG),
+        &[b[0]],
+    )
+    .unwrap();
+    sim.add_device("l", Probe::new(1), &[b[0]]).unwrap();
+    sim.set_bus_faults(b[0], FaultRates::NONE.with_corrupt_long(1.0, 5));
+    sim.run_until(ms(1));
+    let tx = tx_records(&sim);
+    assert_eq!(tx.len(), 1);
+    assert!(matches!(tx[0].outcome, TxOutcome::Delivered { .. }));
+}
+
+#[test]
 fn detected_corruption_makes_error_frames_and_the_sender_retries() {
     let (mut sim, b) = network(1, 1, RATE);
     let f = std_frame(0x181, &[1, 2, 3]);
