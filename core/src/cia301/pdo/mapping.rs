@@ -648,3 +648,187 @@ mod tests {
         assert_eq!(out[0], 0xFE);
     }
 }
+
+/// The wide (CAN FD) packing: odd offsets and lengths, the 512-bit limit, and a property.
+#[cfg(all(test, feature = "fd"))]
+mod wide_tests {
+    use super::*;
+    use crate::od::{Access, DynamicDictionary, ObjectDef};
+    use proptest::prelude::*;
+
+    /// Objects 0x2100 + i (UNSIGNED64, or INTEGER16 where `signed` says), and the mapping of
+    /// `bits[i]` bits of each at 0x1600 (receive) and 0x1A00 (transmit).
+    fn od(bits: &[u8], signed: &[usize]) -> DynamicDictionary {
+        let mut defs = std::vec::Vec::new();
+        for (i, b) in bits.iter().enumerate() {
+            let t = if signed.contains(&i) {
+                DataType::Integer16
+            } else {
+                DataType::Unsigned64
+            };
+            defs.push(
+                ObjectDef::new(0x2100 + i as u16, 0, t)
+                    .mappable()
+                    .access(Access::Rw),
+            );
+            for m in [0x1600u16, 0x1A00] {
+                let raw = MapEntry::new(0x2100 + i as u16, 0, *b).raw();
+                defs.push(ObjectDef::u32(m, i as u8 + 1, Access::Rw, raw));
+            }
+        }
+        for m in [0x1600u16, 0x1A00] {
+            defs.push(ObjectDef::u8(m, 0, Access::Rw, bits.len() as u8));
+        }
+        DynamicDictionary::from_tables(1, &[&defs]).unwrap()
+    }
+
+    fn set(od: &mut DynamicDictionary, i: usize, v: u64) {
+        let n = od.get(0x2100 + i as u16, 0).unwrap().def.data_type.fixed_size().unwrap();
+        od.store(0x2100 + i as u16, 0, &v.to_le_bytes()[..n]).unwrap();
+    }
+
+    fn get(od: &DynamicDictionary, i: usize) -> u64 {
+        le_u64(od.get(0x2100 + i as u16, 0).unwrap().data)
+    }
+
+    /// The payload bit by bit, as CiA 301 numbers the bits.
+    fn reference(bits: &[u8], values: &[u64]) -> [u8; 64] {
+        let mut out = [0u8; 64];
+        let mut off = 0usize;
+        for (b, v) in bits.iter().zip(values) {
+            for k in 0..*b as usize {
+                if v >> k & 1 == 1 {
+                    out[(off + k) / 8] |= 1 << ((off + k) % 8);
+                }
+            }
+            off += *b as usize;
+        }
+        out
+    }
+
+    /// 3-, 13- and 64-bit entries across byte boundaries, 512 bits in all.
+    const ODD: [u8; 15] = [3, 13, 64, 64, 64, 64, 64, 64, 64, 13, 13, 13, 3, 3, 3];
+
+    #[test]
+    fn odd_lengths_at_odd_offsets_fill_64_bytes_and_come_back() {
+        assert_eq!(ODD.iter().map(|b| *b as u32).sum::<u32>(), FD_MAX_BITS);
+        let mut tx = od(&ODD, &[]);
+        let values: std::vec::Vec<u64> = (0..ODD.len())
+            .map(|i| 0x0123_4567_89AB_CDEFu64.rotate_left(7 * i as u32) ^ i as u64)
+            .collect();
+        for (i, v) in values.iter().enumerate() {
+            set(&mut tx, i, *v);
+        }
+        let m = Mapping::load(&tx, Dir::Transmit, 0x1A00, FD_MAX_BITS).unwrap();
+        assert_eq!((m.count(), m.bits(), m.bytes()), (15, 512, 64));
+        let mut out = [0u8; 64];
+        assert_eq!(m.pack_wide(&tx, 0x1A00, &mut out), 64);
+        assert_eq!(out, reference(&ODD, &values));
+        // The 13-bit entry starts at bit 3: bits 3..16.
+        assert_eq!(read_bits_wide(&out, 3, 13), values[1] & mask(13));
+        // A 64-bit entry at bit 16 spans bytes 2..10.
+        assert_eq!(read_bits_wide(&out, 16, 64), values[2]);
+
+        let mut rx = od(&ODD, &[]);
+        let m = Mapping::load(&rx, Dir::Receive, 0x1600, FD_MAX_BITS).unwrap();
+        let mut seen = 0;
+        m.unpack_wide(&mut rx, 0x1600, &out, |_, _| seen += 1);
+        assert_eq!(seen, 15);
+        for (i, (b, v)) in ODD.iter().zip(&values).enumerate() {
+            assert_eq!(get(&rx, i), v & mask(*b as u32), "entry {i}");
+        }
+    }
+
+    #[test]
+    fn short_signed_entries_are_sign_extended_on_the_wide_path() {
+        // 61 bits of filler, then a 13-bit INTEGER16 crossing bytes 7..9: beyond 64 bits.
+        let bits = [61u8, 13];
+        let mut rx = od(&bits, &[1]);
+        let mut p = [0u8; 64];
+        write_bits_wide(&mut p, 61, 13, 0x1FFE); // -2 in 13 bits
+        let m = Mapping::load(&rx, Dir::Receive, 0x1600, FD_MAX_BITS).unwrap();
+        m.unpack_wide(&mut rx, 0x1600, &p, |_, _| {});
+        assert_eq!(rx.get_value::<i16>(0x2101, 0), Ok(-2));
+    }
+
+    #[test]
+    fn beyond_the_frame_is_0x06040042() {
+        let mut bits = ODD.to_vec();
+        bits.push(1); // 513 bits
+        let od = od(&bits, &[]);
+        assert_eq!(
+            Mapping::load(&od, Dir::Transmit, 0x1A00, FD_MAX_BITS),
+            Err(AbortCode::PDO_LENGTH)
+        );
+        let entries = bits
+            .iter()
+            .enumerate()
+            .map(|(i, b)| MapEntry::new(0x2100 + i as u16, 0, *b));
+        assert_eq!(
+            check_mapping_within(&od, Dir::Transmit, entries.clone(), FD_MAX_BITS),
+            Err(AbortCode::PDO_LENGTH)
+        );
+        assert_eq!(
+            check_mapping_within(&od, Dir::Transmit, entries.clone().take(15), FD_MAX_BITS),
+            Ok(512)
+        );
+        // The classic limit stays 64 bits.
+        assert_eq!(
+            check_mapping(&od, Dir::Transmit, entries.take(3)),
+            Err(AbortCode::PDO_LENGTH)
+        );
+        assert_eq!(
+            Mapping::load(&od, Dir::Transmit, 0x1A00, MAX_BITS),
+            Err(AbortCode::PDO_LENGTH)
+        );
+    }
+
+    #[test]
+    fn wide_bits_beyond_the_payload_read_zero_and_are_dropped() {
+        let mut p = [0xFFu8; 4];
+        assert_eq!(read_bits_wide(&p, 28, 8), 0x0F);
+        assert_eq!(read_bits_wide(&p, 1000, 64), 0);
+        write_bits_wide(&mut p, 28, 8, 0);
+        assert_eq!(p, [0xFF, 0xFF, 0xFF, 0x0F]);
+        write_bits_wide(&mut p, u32::MAX, 64, 0); // nothing, no panic
+        assert_eq!(read_bits_wide(&[], 0, 64), 0);
+    }
+
+    proptest! {
+        /// Any mapping of up to 64 entries of 1–64 bits and at most 512 bits in all: packing
+        /// gives the bit-by-bit payload, and unpacking it gives every value back (masked to
+        /// its length).
+        #[test]
+        fn pack_then_unpack_returns_the_values(
+            entries in proptest::collection::vec((1u8..=64, any::<u64>()), 1..=64),
+        ) {
+            let mut total = 0u32;
+            let entries: std::vec::Vec<(u8, u64)> = entries
+                .into_iter()
+                .take_while(|(b, _)| {
+                    total += *b as u32;
+                    total <= FD_MAX_BITS
+                })
+                .collect();
+            prop_assume!(!entries.is_empty());
+            let bits: std::vec::Vec<u8> = entries.iter().map(|(b, _)| *b).collect();
+            let values: std::vec::Vec<u64> = entries.iter().map(|(_, v)| *v).collect();
+            let mut tx = od(&bits, &[]);
+            for (i, v) in values.iter().enumerate() {
+                set(&mut tx, i, *v);
+            }
+            let m = Mapping::load(&tx, Dir::Transmit, 0x1A00, FD_MAX_BITS).unwrap();
+            let mut out = [0u8; 64];
+            let n = m.pack_wide(&tx, 0x1A00, &mut out);
+            let sum: u32 = bits.iter().map(|b| *b as u32).sum();
+            prop_assert_eq!(n as u32, sum.div_ceil(8));
+            prop_assert_eq!(out, reference(&bits, &values));
+            let mut rx = od(&bits, &[]);
+            let m = Mapping::load(&rx, Dir::Receive, 0x1600, FD_MAX_BITS).unwrap();
+            m.unpack_wide(&mut rx, 0x1600, &out, |_, _| {});
+            for (i, (b, v)) in bits.iter().zip(&values).enumerate() {
+                prop_assert_eq!(get(&rx, i), v & mask(*b as u32));
+            }
+        }
+    }
+}
