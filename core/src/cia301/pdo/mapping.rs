@@ -683,8 +683,15 @@ mod wide_tests {
     }
 
     fn set(od: &mut DynamicDictionary, i: usize, v: u64) {
-        let n = od.get(0x2100 + i as u16, 0).unwrap().def.data_type.fixed_size().unwrap();
-        od.store(0x2100 + i as u16, 0, &v.to_le_bytes()[..n]).unwrap();
+        let n = od
+            .get(0x2100 + i as u16, 0)
+            .unwrap()
+            .def
+            .data_type
+            .fixed_size()
+            .unwrap();
+        od.store(0x2100 + i as u16, 0, &v.to_le_bytes()[..n])
+            .unwrap();
     }
 
     fn get(od: &DynamicDictionary, i: usize) -> u64 {
