@@ -320,15 +320,24 @@ mod tests {
         let mut t = PdoTable::default();
         let id = Id::Standard(0x185);
         // 3 + 13 + 7 × 64 + 48 bits = 512 bits.
-        let mut slots = vec![(3, Some(DataType::Unsigned8), false), (13, Some(DataType::Integer16), false)];
+        let mut slots = vec![
+            (3, Some(DataType::Unsigned8), false),
+            (13, Some(DataType::Integer16), false),
+        ];
         slots.extend([(64, Some(DataType::Unsigned64), false); 7]);
         slots.push((48, None, true));
-        t.learn(true, NodeId::must(5), 1, Some(learned(id, &slots))).unwrap();
+        t.learn(true, NodeId::must(5), 1, Some(learned(id, &slots)))
+            .unwrap();
         let mut data = [0u8; 64];
         crate::cia301::pdo::write_bits_wide(&mut data, 0, 3, 5);
         crate::cia301::pdo::write_bits_wide(&mut data, 3, 13, 0x1FFE); // -2
         for k in 0..7u32 {
-            crate::cia301::pdo::write_bits_wide(&mut data, 16 + 64 * k, 64, u64::MAX - u64::from(k));
+            crate::cia301::pdo::write_bits_wide(
+                &mut data,
+                16 + 64 * k,
+                64,
+                u64::MAX - u64::from(k),
+            );
         }
         let f = FdFrame::new(id, &data).unwrap();
         let (node, pdo, v) = t.decode_fd(&f).unwrap();
