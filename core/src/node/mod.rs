@@ -119,7 +119,10 @@ pub struct NodeConfig {
     /// The node is on a CANopen FD network (CiA 1301; feature `fd`): it serves USDO requests
     /// (CAN FD frames on 0x600 + the client's node-ID) from its dictionary and answers in CAN
     /// FD frames on 0x580 + its node-ID, beside the classic SDO server (see
-    /// [`Node::usdo_server`] for why both). Off (the default): CAN FD frames are ignored.
+    /// [`Node::usdo_server`] for why both); its PDOs carry up to 64 bytes and go (and are
+    /// taken) as CAN FD frames, its EMCY too (`cia301::pdo`, `cia301::emcy` say how), and it
+    /// decodes other nodes' CAN FD EMCY. Off (the default): CAN FD frames are ignored, PDOs
+    /// and EMCY are classic. Read at build: a node does not change networks.
     #[cfg(feature = "fd")]
     pub fd: bool,
 }

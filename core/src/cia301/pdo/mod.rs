@@ -17,7 +17,8 @@
 //! - mapping entries change only while the PDO is invalid and sub 0 is 0, sub 0 only while the
 //!   PDO is invalid (0x06090030, as CANopenNode and Lely answer); each entry must exist
 //!   (0x06020000/0x06090011), be mappable in that direction with a length it can hold
-//!   (0x06040041); sub 0 = n checks entries 1..n and their total against 64 bits (0x06040042).
+//!   (0x06040041); sub 0 = n checks entries 1..n and their total against 64 bits, 512 on a
+//!   CANopen FD network (0x06040042).
 //!
 //! **CAN FD (feature `fd`).** An engine told it is on a CANopen FD network (the node's
 //! `NodeConfig::fd`) checks mappings against 512 bits instead of 64 (0x06040042 beyond), sends
