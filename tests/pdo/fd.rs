@@ -33,6 +33,11 @@ fn entries(bits: &[u8]) -> Vec<u32> {
 /// Node `id` on an FD network (or not), operational at boot, with TPDO1 (0x180 + id, type 254)
 /// mapping `tx` and RPDO1 (on `rx_cob`, type 255) mapping `rx`.
 fn fd_node(id: u8, fd: bool, tx: &[u8], rx: &[u8], rx_cob: u32) -> FdNode {
+    fd_node_typed(id, fd, tx, rx, rx_cob, 255)
+}
+
+/// [`fd_node`] with RPDO1 of transmission type `rx_type`.
+fn fd_node_typed(id: u8, fd: bool, tx: &[u8], rx: &[u8], rx_cob: u32, rx_type: u8) -> FdNode {
     let nid = NodeId::must(id);
     let mut od = comm::standard_dictionary(id, comm::Identity::default());
     od.insert_all(&values()).unwrap();
@@ -49,7 +54,7 @@ fn fd_node(id: u8, fd: bool, tx: &[u8], rx: &[u8], rx_cob: u32) -> FdNode {
     od.insert_all(&params::rpdo_comm(
         1,
         duocan::od::DefaultValue::Unsigned(u64::from(rx_cob)),
-        255,
+        rx_type,
         0,
     ))
     .unwrap();
@@ -214,4 +219,25 @@ fn a_short_can_fd_rpdo_raises_emcy_0x8210_in_a_can_fd_frame_which_another_node_d
     assert!(
         std::iter::from_fn(|| other.poll_event()).any(|e| matches!(e.kind, K::Malformed { .. }))
     );
+}
+
+#[test]
+fn a_synchronous_64_byte_rpdo_takes_effect_at_the_sync() {
+    let t0 = Instant::ZERO;
+    let mut rx = fd_node_typed(1, true, &[], &EIGHT_U64, 0x185, 1);
+    rx.boot(t0);
+    let mut data = [0u8; 64];
+    for (i, b) in data.iter_mut().enumerate() {
+        *b = i as u8;
+    }
+    rx.handle_frame_fd(t0, &FdFrame::new(Id::Standard(0x185), &data).unwrap());
+    assert_eq!(
+        rx.od().get_value::<u64>(0x6107, 0),
+        Ok(0),
+        "waits for the SYNC"
+    );
+    rx.handle_frame(t0, &Frame::new(Id::Standard(0x80), &[]).unwrap());
+    let want = u64::from_le_bytes([56, 57, 58, 59, 60, 61, 62, 63]);
+    assert_eq!(rx.od().get_value::<u64>(0x6107, 0), Ok(want));
+    assert_eq!(rx.pdo_wide_dropped(), 0);
 }

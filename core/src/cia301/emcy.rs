@@ -349,6 +349,40 @@ mod tests {
         );
     }
 
+    #[cfg(feature = "fd")]
+    #[test]
+    fn the_can_fd_form_is_the_classic_eight_bytes_then_the_rest_uninterpreted() {
+        use crate::cia301::nmt::NmtState;
+        use crate::cia301::service::Recorder;
+        let m = EmcyMessage {
+            code: 0x8210,
+            register: 0x11,
+            data: [1, 0, 0, 0, 0],
+        };
+        let mut bytes = [0xEE; 20];
+        bytes[..8].copy_from_slice(&m.to_bytes());
+        let f = FdFrame::new(Id::Standard(0x85), &bytes).unwrap();
+        assert_eq!(EmcyMessage::from_fd_frame(&f), Ok((m, &[0xEE; 12][..])));
+        let short = FdFrame::new(Id::Standard(0x85), &bytes[..7]).unwrap();
+        assert_eq!(
+            EmcyMessage::from_fd_frame(&short),
+            Err(Malformed::WrongLength {
+                expected: 8,
+                got: 7
+            })
+        );
+        // A producer on a CANopen FD network sends it in a CAN FD frame of 8 bytes.
+        let mut p = EmcyProducer::default();
+        p.configure(CobId(0x85), 0);
+        p.raise(0x8210, register::COMMUNICATION, [1, 0, 0, 0, 0]);
+        let mut out = Recorder::new(NmtState::Operational);
+        out.fd = true;
+        p.handle_timeout(Instant::ZERO, &mut out);
+        assert!(out.frames.is_empty());
+        assert_eq!(out.fd_frames.len(), 1);
+        assert_eq!(out.fd_frames[0].data(), &m.to_bytes());
+    }
+
     #[test]
     fn inhibit_time_spaces_messages() {
         let mut p = EmcyProducer::default();
