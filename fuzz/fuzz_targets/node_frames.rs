@@ -12,8 +12,8 @@
 
 mod common;
 
-use duocan::od::{comm, Access, DataType, DefaultValue, DynamicDictionary, ObjectDef};
 use duocan::od::ObjectDictionary;
+use duocan::od::{comm, Access, DataType, DefaultValue, DynamicDictionary, ObjectDef};
 use duocan::pdo::params;
 use duocan::{Duration, FdFrame, Frame, Id, Instant, Machine, Node, NodeConfig, NodeId};
 use libfuzzer_sys::fuzz_target;
