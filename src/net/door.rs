@@ -283,14 +283,28 @@ impl Device for Door {
     fn fd_capable(&self) -> bool {
         self.usdo.is_some()
     }
-    /// CAN FD frames are the USDO client's business only: answers on 0x580 + a node-ID, as the
-    /// core's link delivers them (over two buses, once).
+    /// CAN FD frames, as the core's link delivers them (over two buses, once): a learned TPDO
+    /// of a node on a CANopen FD network (decoded as a classic one is, up to 64 bytes), else
+    /// the USDO client's answers on 0x580 + a node-ID.
     fn handle_rx_fd(&mut self, now: Instant, port: usize, frame: &FdFrame, at: Instant) {
         self.now = now;
         // No later than now, as a classic frame's stamp.
         let Some(f) = self.core.rx_fd(now, port, frame, at.min(now)) else {
             return;
         };
+        if let Some((node, pdo, values)) = self.pdos.decode_fd(&f) {
+            if self.decoded.len() < PDO_EVENTS {
+                self.decoded.push_back(NetEvent::Pdo {
+                    node,
+                    pdo,
+                    values,
+                    at: now,
+                });
+            } else {
+                self.pdo_dropped += 1;
+            }
+            return;
+        }
         if let Some(u) = &mut self.usdo {
             u.handle_frame(now, &f);
         }

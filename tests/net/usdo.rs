@@ -240,3 +240,71 @@ async fn streams_go_whole_over_usdo() {
     net.close().await;
     s.shutdown().await;
 }
+
+/// Node `id` on the FD network whose TPDO1 (0x180 + id, type 254, event timer 20 ms) maps eight
+/// UNSIGNED64 entries: 64 bytes in every CAN FD frame.
+async fn fd_tpdo_node(bus: &MemBus, id: u8) -> Handle<FdStation> {
+    use duocan::od::{comm, Access, DataType, ObjectDef};
+    use duocan::pdo::params;
+    let mut od = comm::standard_dictionary(id, comm::Identity::default());
+    let values: Vec<ObjectDef> = (0..8)
+        .map(|i| {
+            ObjectDef::new(0x6100 + i, 0, DataType::Unsigned64)
+                .mappable()
+                .access(Access::Rw)
+                .default(duocan::od::DefaultValue::Unsigned(u64::MAX - u64::from(i)))
+        })
+        .collect();
+    od.insert_all(&values).unwrap();
+    od.insert_all(&params::tpdo_comm(
+        1,
+        params::predefined_tpdo_cob(1),
+        254,
+        0,
+        20,
+    ))
+    .unwrap();
+    let entries: Vec<u32> = (0..8).map(|i| (0x6100 + i) << 16 | 64).collect();
+    od.insert_all(&params::tpdo_mapping::<9>(1, &entries))
+        .unwrap();
+    let n = TestNode::new(
+        duocan::NodeConfig::slave(NodeId::must(id))
+            .with_fd(true)
+            .with_auto_start(true),
+        od,
+    );
+    let s = Runtime::new(Station::new(SinglePort::fd(), n))
+        .port(bus.port())
+        .spawn()
+        .unwrap();
+    s.boot().await.unwrap();
+    s
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_64_byte_tpdo_in_can_fd_frames_is_decoded_by_the_door() {
+    use duocan::net::{AnyValue, NetEvent};
+    let bus = MemBus::new("fd-pdo");
+    let net = Network::open_with(bus.port(), fd_options()).unwrap();
+    let _s = fd_tpdo_node(&bus, 5).await;
+    let mut events = net.events();
+    // The mapping is read over USDO (the network learns it), then its frames are decoded.
+    let map = net.node(5).tpdo(1).read().await.unwrap();
+    assert_eq!(map.bits(), 512);
+    let got = tokio::time::timeout(Duration::from_secs(2), async {
+        loop {
+            if let Some(NetEvent::Pdo {
+                node, pdo, values, ..
+            }) = events.next().await
+            {
+                return (node, pdo, values);
+            }
+        }
+    })
+    .await
+    .expect("a decoded TPDO within 2 s");
+    assert_eq!((got.0, got.1), (NodeId::must(5), 1));
+    let v: Vec<AnyValue> = got.2.iter().map(|p| p.value.clone()).collect();
+    let want: Vec<AnyValue> = (0..8).map(|i| AnyValue::Unsigned(u64::MAX - i)).collect();
+    assert_eq!(v, want);
+}

@@ -3,6 +3,8 @@
 #[path = "../common/mod.rs"]
 mod common;
 mod engine;
+#[cfg(feature = "fd")]
+mod fd;
 #[cfg(feature = "mpdo")]
 mod mpdo;
 mod properties;

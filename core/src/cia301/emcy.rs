@@ -1,10 +1,23 @@
 //! Emergency objects: producer (0x1014 COB-ID, 0x1015 inhibit in 100 µs, 0x1001 error register,
 //! 0x1003 history kept by the node) and consumer decoding.
+//!
+//! **The CAN FD form (feature `fd`).** CANopen FD (CiA 1301) gives the EMCY message a longer
+//! form with further fields. Their exact layout is not taken here: no public source of it was
+//! at hand, and a layout guessed field by field would be wrong in a way no test here could
+//! show. What is built is the conservative form that any reading of it must accept: a node on
+//! a CANopen FD network sends the classic eight bytes (error code, error register, five
+//! manufacturer bytes, [`EmcyMessage::to_bytes`]) in a CAN FD frame of 8 bytes, and a
+//! consumer decodes a CAN FD EMCY of at least 8 bytes by those same first eight bytes
+//! ([`EmcyMessage::from_fd_frame`]), handing back the bytes after them uninterpreted (at most
+//! 56: the frame's, nothing is copied) for an application that knows their layout. A shorter
+//! one is malformed, as a classic EMCY of another length than 8 is.
 
 use crate::cia301::service::ServiceOutput;
 use crate::frame::cob_id::CobId;
 use crate::frame::instant::{shift_back, Duration, Instant};
 use crate::frame::queue::Bounded;
+#[cfg(feature = "fd")]
+use crate::frame::FdFrame;
 use crate::frame::Malformed;
 use crate::frame::{Frame, Id};
 
@@ -93,6 +106,29 @@ impl EmcyMessage {
                 register: *reg,
                 data: [d[0], d[1], d[2], d[3], d[4]],
             }),
+            d => Err(Malformed::WrongLength {
+                expected: 8,
+                got: d.len() as u8,
+            }),
+        }
+    }
+}
+
+#[cfg(feature = "fd")]
+impl EmcyMessage {
+    /// Decodes a received CAN FD EMCY (feature `fd`): the classic eight bytes first, then the
+    /// rest of the frame, uninterpreted (empty for an 8-byte frame). Fewer than 8 bytes are
+    /// [`Malformed::WrongLength`].
+    pub fn from_fd_frame(frame: &FdFrame) -> Result<(EmcyMessage, &[u8]), Malformed> {
+        match frame.data() {
+            [c0, c1, reg, d0, d1, d2, d3, d4, rest @ ..] => Ok((
+                EmcyMessage {
+                    code: u16::from_le_bytes([*c0, *c1]),
+                    register: *reg,
+                    data: [*d0, *d1, *d2, *d3, *d4],
+                },
+                rest,
+            )),
             d => Err(Malformed::WrongLength {
                 expected: 8,
                 got: d.len() as u8,
@@ -240,12 +276,20 @@ impl EmcyProducer {
     }
 
     /// Sends every waiting message the inhibit time lets go at `now`, if the NMT state allows
-    /// EMCY (otherwise they wait).
+    /// EMCY (otherwise they wait); on a CANopen FD network (feature `fd`) in CAN FD frames.
     pub fn handle_timeout<O: ServiceOutput>(&mut self, now: Instant, out: &mut O) {
         if !out.nmt_state().services().emcy {
             return;
         }
         while let Some(f) = self.poll_frame(now) {
+            #[cfg(feature = "fd")]
+            if out.fd_network() {
+                // A data frame of 8 bytes: always a CAN FD frame.
+                if let Ok(fd) = FdFrame::try_from(f) {
+                    out.send_fd(fd);
+                }
+                continue;
+            }
             out.send(f);
         }
     }
@@ -303,6 +347,40 @@ mod tests {
                 got: 2
             })
         );
+    }
+
+    #[cfg(feature = "fd")]
+    #[test]
+    fn the_can_fd_form_is_the_classic_eight_bytes_then_the_rest_uninterpreted() {
+        use crate::cia301::nmt::NmtState;
+        use crate::cia301::service::Recorder;
+        let m = EmcyMessage {
+            code: 0x8210,
+            register: 0x11,
+            data: [1, 0, 0, 0, 0],
+        };
+        let mut bytes = [0xEE; 20];
+        bytes[..8].copy_from_slice(&m.to_bytes());
+        let f = FdFrame::new(Id::Standard(0x85), &bytes).unwrap();
+        assert_eq!(EmcyMessage::from_fd_frame(&f), Ok((m, &[0xEE; 12][..])));
+        let short = FdFrame::new(Id::Standard(0x85), &bytes[..7]).unwrap();
+        assert_eq!(
+            EmcyMessage::from_fd_frame(&short),
+            Err(Malformed::WrongLength {
+                expected: 8,
+                got: 7
+            })
+        );
+        // A producer on a CANopen FD network sends it in a CAN FD frame of 8 bytes.
+        let mut p = EmcyProducer::default();
+        p.configure(CobId(0x85), 0);
+        p.raise(0x8210, register::COMMUNICATION, [1, 0, 0, 0, 0]);
+        let mut out = Recorder::new(NmtState::Operational);
+        out.fd = true;
+        p.handle_timeout(Instant::ZERO, &mut out);
+        assert!(out.frames.is_empty());
+        assert_eq!(out.fd_frames.len(), 1);
+        assert_eq!(out.fd_frames[0].data(), &m.to_bytes());
     }
 
     #[test]

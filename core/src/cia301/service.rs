@@ -15,6 +15,8 @@ use crate::cia301::pdo::PdoEvent;
 use crate::cia301::sync::SyncTick;
 use crate::frame::cob_id::NodeId;
 use crate::frame::instant::Instant;
+#[cfg(feature = "fd")]
+use crate::frame::FdFrame;
 use crate::frame::Frame;
 
 /// What a service produced besides ready frames, in the order it produced it.
@@ -50,6 +52,20 @@ pub trait ServiceOutput {
     fn send(&mut self, frame: Frame);
     /// Something that happened at `at`.
     fn event(&mut self, at: Instant, e: ServiceEvent);
+    /// The composing device is on a CANopen FD network (feature `fd`): the services that have a
+    /// CAN FD form (PDO, EMCY) send it. The default, for an output that has no CAN FD queue:
+    /// no.
+    #[cfg(feature = "fd")]
+    fn fd_network(&self) -> bool {
+        false
+    }
+    /// A CAN FD frame to send (feature `fd`; a full queue is the implementor's to count). The
+    /// default drops it: only an output whose [`ServiceOutput::fd_network`] is true is given
+    /// any.
+    #[cfg(feature = "fd")]
+    fn send_fd(&mut self, frame: FdFrame) {
+        let _ = frame;
+    }
 }
 
 /// An output that records everything, for the services' own tests.
@@ -57,6 +73,11 @@ pub trait ServiceOutput {
 pub(crate) struct Recorder {
     pub state: NmtState,
     pub frames: std::vec::Vec<Frame>,
+    /// CAN FD frames; only an FD recorder ([`Recorder::fd`]) is given any.
+    #[cfg(feature = "fd")]
+    pub fd_frames: std::vec::Vec<FdFrame>,
+    #[cfg(feature = "fd")]
+    pub fd: bool,
     pub events: std::vec::Vec<(Instant, ServiceEvent)>,
 }
 
@@ -66,6 +87,10 @@ impl Recorder {
         Recorder {
             state,
             frames: std::vec::Vec::new(),
+            #[cfg(feature = "fd")]
+            fd_frames: std::vec::Vec::new(),
+            #[cfg(feature = "fd")]
+            fd: false,
             events: std::vec::Vec::new(),
         }
     }
@@ -85,5 +110,13 @@ impl ServiceOutput for Recorder {
     }
     fn event(&mut self, at: Instant, e: ServiceEvent) {
         self.events.push((at, e));
+    }
+    #[cfg(feature = "fd")]
+    fn fd_network(&self) -> bool {
+        self.fd
+    }
+    #[cfg(feature = "fd")]
+    fn send_fd(&mut self, frame: FdFrame) {
+        self.fd_frames.push(frame);
     }
 }

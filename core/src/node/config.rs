@@ -137,7 +137,7 @@ impl<
 
     /// Rules of communication objects that depend on other entries or on running services.
     pub(super) fn validate_comm(&self, index: u16, sub: u8, data: &[u8]) -> Result<(), AbortCode> {
-        pdo::check_write(&self.od, index, sub, data)?;
+        pdo::check_write(&self.od, index, sub, data, self.pdo.max_bits())?;
         // CiA 304: the SRDO configuration changes only outside operational.
         if srdo_config::locked_in_operational(index) && self.state == NmtState::Operational {
             return Err(AbortCode::DEVICE_STATE);

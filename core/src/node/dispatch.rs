@@ -16,6 +16,8 @@ use crate::frame::cob_id::NodeId;
 use crate::frame::instant::{earliest_of, Duration, Instant};
 use crate::frame::queue::Bounded;
 use crate::frame::storage::Storage;
+#[cfg(feature = "fd")]
+use crate::frame::FdFrame;
 use crate::frame::Malformed;
 use crate::frame::{Frame, Id};
 use crate::od::{comm, ObjectDictionary};
@@ -33,6 +35,11 @@ macro_rules! node_out {
             id: $core.cfg.node_id,
             state: $core.state,
             then: FollowUp::default(),
+            #[cfg(feature = "fd")]
+            tx_fd: $core
+                .tx_fd
+                .as_mut()
+                .map(core::borrow::BorrowMut::borrow_mut),
         }
     };
 }
@@ -342,6 +349,35 @@ impl<
         self.stats.unhandled += 1;
     }
 
+    /// A CAN FD frame on a CANopen FD network: an RPDO of this node, or another node's EMCY in
+    /// its CAN FD form. False when it is neither (the USDO server may take it).
+    #[cfg(feature = "fd")]
+    pub(super) fn handle_frame_fd(&mut self, now: Instant, frame: &FdFrame) -> bool {
+        if self.state == NmtState::Initialising {
+            return false;
+        }
+        let (engine, mut io) = self.pdo_io();
+        if engine.handle_frame_fd(now, frame, &mut io) {
+            self.stats.rx_frames += 1;
+            self.pdo_emcy(now);
+            return true;
+        }
+        let id = frame.id();
+        let Some(ProfileFrame::Emcy(n)) = self.profile.classify(id, false) else {
+            return false;
+        };
+        self.stats.rx_frames += 1;
+        if self.is_own(n) || !self.state.services().emcy || !self.cfg.consume_emcy {
+            self.stats.unhandled += 1;
+            return true;
+        }
+        match EmcyMessage::from_fd_frame(frame) {
+            Ok((msg, _)) => self.event(now, NodeEventKind::Emcy { node: n, msg }),
+            Err(reason) => self.malformed(now, id, reason),
+        }
+        true
+    }
+
     pub(super) fn handle_frame(&mut self, now: Instant, frame: &Frame) {
         self.stats.rx_frames += 1;
         if self.state == NmtState::Initialising {
@@ -638,6 +674,9 @@ pub(super) struct NodeOut<'a, P> {
     id: NodeId,
     state: NmtState,
     then: FollowUp,
+    /// The node's CAN FD queue (PDOs and EMCY on a CANopen FD network).
+    #[cfg(feature = "fd")]
+    tx_fd: Option<&'a mut Bounded<FdFrame, { super::FD_TX_QUEUE }>>,
 }
 
 impl<P: IdProfile> ServiceOutput for NodeOut<'_, P> {
@@ -649,6 +688,18 @@ impl<P: IdProfile> ServiceOutput for NodeOut<'_, P> {
     fn send(&mut self, frame: Frame) {
         if self.tx.push(frame) {
             self.stats.tx_frames += 1;
+        }
+    }
+    #[cfg(feature = "fd")]
+    fn fd_network(&self) -> bool {
+        self.tx_fd.is_some()
+    }
+    #[cfg(feature = "fd")]
+    fn send_fd(&mut self, frame: FdFrame) {
+        if let Some(q) = &mut self.tx_fd {
+            if q.push(frame) {
+                self.stats.tx_frames += 1;
+            }
         }
     }
     fn event(&mut self, at: Instant, e: ServiceEvent) {

@@ -72,6 +72,18 @@ pub const HEARTBEAT_CONSUMERS: usize = 127;
 pub const TX_QUEUE: usize = 32;
 /// Events a node can hold before the application drains them.
 pub const EVENT_QUEUE: usize = 32;
+/// CAN FD frames (PDOs, EMCY) a node on a CANopen FD network can hold before the driver drains
+/// them (feature `fd`): fewer than the classic queue, each holding 64 bytes.
+#[cfg(feature = "fd")]
+pub const FD_TX_QUEUE: usize = 8;
+
+/// The CAN FD transmit queue of a node on a CANopen FD network: on the heap where there is one,
+/// so that a node built with `fd` but on a classic network carries one pointer, not ~600 bytes
+/// of frames; in place without an allocator.
+#[cfg(all(feature = "fd", feature = "alloc"))]
+type FdTxHolder = alloc::boxed::Box<Bounded<FdFrame, FD_TX_QUEUE>>;
+#[cfg(all(feature = "fd", not(feature = "alloc")))]
+type FdTxHolder = Bounded<FdFrame, FD_TX_QUEUE>;
 
 /// How many nodes a node can guard as an NMT master unless told otherwise: every node-ID.
 pub const ALL_NODES: usize = 127;
@@ -107,7 +119,10 @@ pub struct NodeConfig {
     /// The node is on a CANopen FD network (CiA 1301; feature `fd`): it serves USDO requests
     /// (CAN FD frames on 0x600 + the client's node-ID) from its dictionary and answers in CAN
     /// FD frames on 0x580 + its node-ID, beside the classic SDO server (see
-    /// [`Node::usdo_server`] for why both). Off (the default): CAN FD frames are ignored.
+    /// [`Node::usdo_server`] for why both); its PDOs carry up to 64 bytes and go (and are
+    /// taken) as CAN FD frames, its EMCY too (`cia301::pdo`, `cia301::emcy` say how), and it
+    /// decodes other nodes' CAN FD EMCY. Off (the default): CAN FD frames are ignored, PDOs
+    /// and EMCY are classic. Read at build: a node does not change networks.
     #[cfg(feature = "fd")]
     pub fd: bool,
 }
@@ -234,6 +249,10 @@ pub struct NodeCore<
     pdo: PdoEngine<TPDOS, RPDOS, S>,
     srdo: SrdoSet<NODE_SRDOS>,
     tx: Bounded<Frame, TX_QUEUE>,
+    /// The CAN FD frames of a node on a CANopen FD network (PDOs, EMCY), drained after the
+    /// classic ones.
+    #[cfg(feature = "fd")]
+    tx_fd: Option<FdTxHolder>,
     events: Bounded<NodeEvent, EVENT_QUEUE>,
     stats: NodeStats,
     /// Boot-ups so far: the SDO server re-reads its channel when this changes.
@@ -350,9 +369,22 @@ impl<
                 emcy: EmcyProducer::default(),
                 history_slots: 0,
                 nodes: NodeTable::default(),
-                pdo: PdoEngine::new(tpdos, rpdos),
+                pdo: {
+                    #[allow(unused_mut)] // set only with `fd`
+                    let mut engine = PdoEngine::new(tpdos, rpdos);
+                    #[cfg(feature = "fd")]
+                    engine.set_fd(cfg.fd);
+                    engine
+                },
                 srdo: SrdoSet::new(),
                 tx: Bounded::new(),
+                #[cfg(feature = "fd")]
+                tx_fd: cfg.fd.then(|| {
+                    #[cfg(feature = "alloc")]
+                    return alloc::boxed::Box::new(Bounded::new());
+                    #[cfg(not(feature = "alloc"))]
+                    Bounded::new()
+                }),
                 events: Bounded::new(),
                 stats: NodeStats::default(),
                 boots: 0,
@@ -692,6 +724,12 @@ impl<
     pub fn rpdo_capacity(&self) -> usize {
         self.core.pdo.rpdo_capacity()
     }
+    /// Payloads of synchronous CAN FD PDOs beyond 8 bytes dropped because the PDO engine's
+    /// table of them ([`pdo::WIDE_PAYLOADS`]) was full (feature `fd`); 0 on a classic network.
+    #[cfg(feature = "fd")]
+    pub fn pdo_wide_dropped(&self) -> u32 {
+        self.core.pdo.wide_dropped()
+    }
     /// What TPDO `pdo` (1-based) is doing; `None` beyond the node's capacity.
     pub fn tpdo_status(&self, pdo: u16) -> Option<TpdoStatus> {
         self.core.pdo.tpdo_status(pdo)
@@ -777,11 +815,16 @@ impl<
         let t = earliest(t, self.usdo.as_ref().and_then(|u| u.poll_timeout()));
         t
     }
-    /// A USDO request (CiA 1301) is served while the NMT state allows SDO (pre-operational
-    /// and operational), as SDO requests are; other CAN FD frames are ignored.
+    /// On a CANopen FD network: an RPDO of this node, another node's EMCY (when EMCY is
+    /// consumed), or a USDO request (CiA 1301), served while the NMT state allows SDO
+    /// (pre-operational and operational), as SDO requests are; other CAN FD frames are ignored.
     #[cfg(feature = "fd")]
     fn handle_frame_fd(&mut self, now: Instant, frame: &FdFrame) {
         self.watch_clock(now);
+        if self.core.cfg.fd && self.core.handle_frame_fd(now, frame) {
+            self.sdo_follow_core();
+            return;
+        }
         let Some(usdo) = &mut self.usdo else {
             return;
         };
@@ -795,6 +838,9 @@ impl<
     }
     #[cfg(feature = "fd")]
     fn poll_transmit_fd(&mut self) -> Option<FdFrame> {
+        if let Some(f) = self.core.tx_fd.as_mut().and_then(|q| q.pop()) {
+            return Some(f);
+        }
         let f = self.usdo.as_mut()?.poll_transmit()?;
         self.core.stats.tx_frames += 1;
         Some(f)

@@ -2,9 +2,9 @@
 //! decoded here when its frame arrives, a node's RPDO encoded here when it is sent.
 
 use super::{PdoValue, PdoValues};
-use crate::cia301::pdo::{read_bits, write_bits, MAX_BITS};
+use crate::cia301::pdo::{read_bits, read_bits_wide, write_bits, MAX_BITS};
 use crate::frame::cob_id::NodeId;
-use crate::frame::{Frame, Id};
+use crate::frame::{FdFrame, Frame, Id};
 use crate::net::value::AnyValue;
 use crate::od::DataType;
 use std::collections::BTreeMap;
@@ -100,6 +100,41 @@ impl PdoTable {
             }
         }
         Ok(())
+    }
+
+    /// The node, PDO number and values of a CAN FD frame that is a learned TPDO of up to 64
+    /// bytes (a node on a CANopen FD network); `None` for any other frame, and for one shorter
+    /// than its mapping. An entry of more than 64 bits (a string or domain) is its bytes.
+    pub fn decode_fd(&self, f: &FdFrame) -> Option<(NodeId, u16, PdoValues)> {
+        let l = self.rx.get(&key(f.id()))?;
+        let total: u32 = l.slots.iter().map(|s| u32::from(s.bits)).sum();
+        let data = f.data();
+        if data.len() * 8 < total as usize {
+            return None;
+        }
+        let mut offset = 0u32;
+        let mut values = Vec::with_capacity(l.slots.len());
+        for s in l.slots.iter() {
+            let bits = u32::from(s.bits);
+            if !s.dummy {
+                let value = if bits <= 64 {
+                    AnyValue::from_bits(s.data_type, read_bits_wide(data, offset, bits), bits)
+                } else {
+                    let bytes = (0..bits.div_ceil(8))
+                        .map(|k| read_bits_wide(data, offset + 8 * k, (bits - 8 * k).min(8)) as u8)
+                        .collect();
+                    AnyValue::Bytes(bytes)
+                };
+                values.push(PdoValue {
+                    index: s.index,
+                    sub: s.sub,
+                    name: s.name.clone(),
+                    value,
+                });
+            }
+            offset += bits;
+        }
+        Some((l.node, l.pdo, PdoValues(values.into())))
     }
 
     /// The node, PDO number and values of a frame that is a learned TPDO; `None` for any other
@@ -278,6 +313,40 @@ mod tests {
             }
             prop_assert!(t.decode(&Frame::new(Id::Standard(0x186), &data).unwrap()).is_none());
         }
+    }
+
+    #[test]
+    fn a_64_byte_can_fd_tpdo_is_decoded_at_odd_offsets() {
+        let mut t = PdoTable::default();
+        let id = Id::Standard(0x185);
+        // 3 + 13 + 7 × 64 + 48 bits = 512 bits.
+        let mut slots = vec![
+            (3, Some(DataType::Unsigned8), false),
+            (13, Some(DataType::Integer16), false),
+        ];
+        slots.extend([(64, Some(DataType::Unsigned64), false); 7]);
+        slots.push((48, None, true));
+        t.learn(true, NodeId::must(5), 1, Some(learned(id, &slots)))
+            .unwrap();
+        let mut data = [0u8; 64];
+        crate::cia301::pdo::write_bits_wide(&mut data, 0, 3, 5);
+        crate::cia301::pdo::write_bits_wide(&mut data, 3, 13, 0x1FFE); // -2
+        for k in 0..7u32 {
+            crate::cia301::pdo::write_bits_wide(
+                &mut data,
+                16 + 64 * k,
+                64,
+                u64::MAX - u64::from(k),
+            );
+        }
+        let f = FdFrame::new(id, &data).unwrap();
+        let (node, pdo, v) = t.decode_fd(&f).unwrap();
+        assert_eq!((node, pdo, v.len()), (NodeId::must(5), 1, 9));
+        assert_eq!(v[0].value, AnyValue::Unsigned(5));
+        assert_eq!(v[1].value, AnyValue::Signed(-2));
+        assert_eq!(v[8].value, AnyValue::Unsigned(u64::MAX - 6));
+        let short = FdFrame::new(id, &data[..48]).unwrap();
+        assert!(t.decode_fd(&short).is_none(), "shorter than its mapping");
     }
 
     #[test]

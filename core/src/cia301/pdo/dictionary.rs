@@ -1,7 +1,7 @@
 //! The PDO parameters in the dictionary: which object is which, the CiA 301 rules a write to
 //! them must pass (checked before it is stored), and reading a PDO's parameters for the engine.
 
-use super::mapping::{self, check_entry, Dir, MapEntry, Mapping, MAX_BITS, MAX_ENTRIES};
+use super::mapping::{self, check_entry, Dir, MapEntry, Mapping, MAX_ENTRIES};
 use super::params::{self, RPDO_COMM, RPDO_MAPPING, TPDO_COMM, TPDO_MAPPING};
 use super::rpdo::{Rpdo, RpdoParams};
 use super::tpdo::{Tpdo, TpdoParams};
@@ -51,12 +51,14 @@ pub(super) fn le_u32(data: &[u8]) -> u32 {
 }
 
 /// The CiA 301 rules of a write to a PDO parameter object, checked against the dictionary as it
-/// is before the write. Other indices pass.
+/// is before the write. Other indices pass. A mapping's total length is checked against
+/// `max_bits`, the frame a PDO of this node has: 64 bits classic, 512 on a CANopen FD network.
 pub(crate) fn check_write<D: ObjectDictionary + ?Sized>(
     od: &D,
     index: u16,
     sub: u8,
     data: &[u8],
+    max_bits: u32,
 ) -> Result<(), AbortCode> {
     let Some((dir, is_map, slot)) = classify(index) else {
         return Ok(());
@@ -88,7 +90,7 @@ pub(crate) fn check_write<D: ObjectDictionary + ?Sized>(
                 check_entry(od, dir, e)?;
                 bits += e.bits as u32;
             }
-            if bits > MAX_BITS {
+            if bits > max_bits {
                 return Err(AbortCode::PDO_LENGTH);
             }
             return Ok(());
@@ -150,7 +152,11 @@ pub(super) fn read_cob<D: ObjectDictionary + ?Sized>(od: &D, dir: Dir, slot: u16
         .map(CobId)
 }
 
-pub(super) fn read_tpdo<D: ObjectDictionary + ?Sized>(od: &D, slot: u16) -> TpdoParams {
+pub(super) fn read_tpdo<D: ObjectDictionary + ?Sized>(
+    od: &D,
+    slot: u16,
+    max_bits: u32,
+) -> TpdoParams {
     let Some(cob) = read_cob(od, Dir::Transmit, slot) else {
         return Tpdo::new().p;
     };
@@ -172,13 +178,13 @@ pub(super) fn read_tpdo<D: ObjectDictionary + ?Sized>(od: &D, slot: u16) -> Tpdo
     // An MPDO's entries are not used (and not checked).
     #[cfg(feature = "mpdo")]
     if p.mpdo.is_none() {
-        match Mapping::load(od, Dir::Transmit, map_index(Dir::Transmit, slot)) {
+        match Mapping::load(od, Dir::Transmit, map_index(Dir::Transmit, slot), max_bits) {
             Ok(m) => p.mapping = m,
             Err(e) => p.error = Some(e),
         }
     }
     #[cfg(not(feature = "mpdo"))]
-    match Mapping::load(od, Dir::Transmit, map_index(Dir::Transmit, slot)) {
+    match Mapping::load(od, Dir::Transmit, map_index(Dir::Transmit, slot), max_bits) {
         Ok(m) => p.mapping = m,
         Err(e) => p.error = Some(e),
     }
@@ -188,7 +194,11 @@ pub(super) fn read_tpdo<D: ObjectDictionary + ?Sized>(od: &D, slot: u16) -> Tpdo
     p
 }
 
-pub(super) fn read_rpdo<D: ObjectDictionary + ?Sized>(od: &D, slot: u16) -> RpdoParams {
+pub(super) fn read_rpdo<D: ObjectDictionary + ?Sized>(
+    od: &D,
+    slot: u16,
+    max_bits: u32,
+) -> RpdoParams {
     let Some(cob) = read_cob(od, Dir::Receive, slot) else {
         return Rpdo::new().p;
     };
@@ -205,13 +215,13 @@ pub(super) fn read_rpdo<D: ObjectDictionary + ?Sized>(od: &D, slot: u16) -> Rpdo
     };
     #[cfg(feature = "mpdo")]
     if p.mpdo.is_none() {
-        match Mapping::load(od, Dir::Receive, map_index(Dir::Receive, slot)) {
+        match Mapping::load(od, Dir::Receive, map_index(Dir::Receive, slot), max_bits) {
             Ok(m) => p.mapping = m,
             Err(e) => p.error = Some(e),
         }
     }
     #[cfg(not(feature = "mpdo"))]
-    match Mapping::load(od, Dir::Receive, map_index(Dir::Receive, slot)) {
+    match Mapping::load(od, Dir::Receive, map_index(Dir::Receive, slot), max_bits) {
         Ok(m) => p.mapping = m,
         Err(e) => p.error = Some(e),
     }

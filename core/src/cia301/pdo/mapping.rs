@@ -1,16 +1,33 @@
 //! PDO mapping: the entries of 0x16xx/0x1Axx, their validation against the dictionary, and the
-//! bit-granular packing of values into (and out of) the at most 64 bits of a classic CAN frame.
+//! bit-granular packing of values into (and out of) the at most 64 bits of a classic CAN frame,
+//! or (feature `fd`) the at most 64 bytes of a CAN FD frame.
 //!
 //! Bits are numbered as CiA 301 numbers them: bit 0 is the least significant bit of data byte 0,
 //! bit 8 the least significant bit of byte 1, and an entry's value occupies consecutive bits from
-//! its least significant bit up. Because a whole PDO is at most 64 bits, the frame is handled as
-//! one little-endian `u64` and every entry is a shift and a mask.
+//! its least significant bit up. Because a classic PDO is at most 64 bits, its frame is handled
+//! as one little-endian `u64` and every entry is a shift and a mask.
+//!
+//! **CAN FD (feature `fd`).** On a CANopen FD network a PDO carries up to 64 bytes
+//! ([`FD_MAX_BITS`] = 512 bits) in up to 64 entries, still bit-granular: an entry has any length
+//! its object allows and starts at any bit. A mapping of at most 64 bits still takes the `u64`
+//! path above (so a short PDO costs what it did); a longer one is packed entry by entry into a
+//! fixed 64-byte buffer ([`read_bits_wide`], [`write_bits_wide`]): no allocation, every index
+//! checked, bits beyond the buffer read as zero and are dropped on writing. Without `fd` none of
+//! this is built, and a mapping beyond 64 bits is refused (0x06040042) as before.
 
 use crate::od::abort::AbortCode;
 use crate::od::{DataType, ObjectDictionary};
 
-/// Largest number of bits (and entries) one PDO carries.
+/// Largest number of bits one classic PDO carries (8 bytes).
 pub const MAX_BITS: u32 = 64;
+/// Largest number of bits one PDO carries on a CANopen FD network (64 bytes).
+#[cfg(feature = "fd")]
+pub const FD_MAX_BITS: u32 = 512;
+/// The type of a mapping's total length: it fits 64 bits in a `u8`, 512 bits need a `u16`.
+#[cfg(not(feature = "fd"))]
+type Bits = u8;
+#[cfg(feature = "fd")]
+type Bits = u16;
 /// Largest number of mapping entries (sub 0 of a mapping parameter).
 pub const MAX_ENTRIES: u8 = 64;
 /// Entries cached inside the engine per PDO; longer (bit-granular) mappings are read from the
@@ -114,6 +131,17 @@ pub fn check_mapping<D: ObjectDictionary + ?Sized>(
     dir: Dir,
     entries: impl IntoIterator<Item = MapEntry>,
 ) -> Result<u32, AbortCode> {
+    check_mapping_within(od, dir, entries, MAX_BITS)
+}
+
+/// [`check_mapping`] against a frame of `max_bits`: [`MAX_BITS`] for a classic PDO,
+/// [`FD_MAX_BITS`] (feature `fd`) for one on a CANopen FD network (0x06040042 beyond it).
+pub fn check_mapping_within<D: ObjectDictionary + ?Sized>(
+    od: &D,
+    dir: Dir,
+    entries: impl IntoIterator<Item = MapEntry>,
+    max_bits: u32,
+) -> Result<u32, AbortCode> {
     let mut bits = 0u32;
     for (n, e) in entries.into_iter().enumerate() {
         if n >= MAX_ENTRIES as usize {
@@ -121,7 +149,7 @@ pub fn check_mapping<D: ObjectDictionary + ?Sized>(
         }
         check_entry(od, dir, e)?;
         bits += e.bits as u32;
-        if bits > MAX_BITS {
+        if bits > max_bits {
             return Err(AbortCode::PDO_LENGTH);
         }
     }
@@ -166,12 +194,77 @@ pub(crate) fn le_u64(data: &[u8]) -> u64 {
     u64::from_le_bytes(b)
 }
 
+/// Reads `len` bits (at most 64) at bit `offset` of a payload of any length (CiA 301 bit order):
+/// the wide counterpart of [`read_bits`] for CAN FD PDOs (feature `fd`). Bits beyond the payload
+/// read as zero; nothing panics.
+#[cfg(feature = "fd")]
+#[inline]
+pub fn read_bits_wide(payload: &[u8], offset: u32, len: u32) -> u64 {
+    let first = (offset / 8) as usize;
+    let shift = offset % 8;
+    // `len` ≤ 64 plus a shift ≤ 7 spans at most 9 bytes.
+    let mut acc = 0u128;
+    for (i, b) in payload.iter().skip(first).take(9).enumerate() {
+        acc |= (*b as u128) << (8 * i);
+    }
+    (acc >> shift) as u64 & mask(len)
+}
+
+/// Writes the `len` (at most 64) low bits of `value` at bit `offset` of a payload of any length
+/// (CiA 301 bit order), leaving the other bits as they were: the wide counterpart of
+/// [`write_bits`] (feature `fd`). Bits that would fall beyond the payload are dropped.
+#[cfg(feature = "fd")]
+#[inline]
+pub fn write_bits_wide(payload: &mut [u8], offset: u32, len: u32, value: u64) {
+    let first = (offset / 8) as usize;
+    let shift = offset % 8;
+    let m = (mask(len) as u128) << shift;
+    let v = ((value & mask(len)) as u128) << shift;
+    for (i, b) in payload.iter_mut().skip(first).take(9).enumerate() {
+        let (mb, vb) = ((m >> (8 * i)) as u8, (v >> (8 * i)) as u8);
+        *b = (*b & !mb) | vb;
+    }
+}
+
+/// Copies the `len` low bits of the little-endian `src` (missing bytes read as zero) to bit
+/// `offset` of `out`, 64 bits at a time.
+#[cfg(feature = "fd")]
+fn copy_in(out: &mut [u8], offset: u32, len: u32, src: &[u8]) {
+    let mut done = 0u32;
+    while done < len {
+        let n = (len - done).min(64);
+        let from = src.get((done / 8) as usize..).unwrap_or(&[]);
+        write_bits_wide(out, offset + done, n, le_u64(from));
+        done += n;
+    }
+}
+
+/// Copies `len` bits at bit `offset` of `payload` into the little-endian `dst` (as many bytes
+/// as it has), 64 bits at a time.
+#[cfg(feature = "fd")]
+fn copy_out(payload: &[u8], offset: u32, len: u32, dst: &mut [u8]) {
+    let mut done = 0u32;
+    while done < len {
+        let n = (len - done).min(64);
+        let v = read_bits_wide(payload, offset + done, n).to_le_bytes();
+        let at = (done / 8) as usize;
+        for (d, b) in dst
+            .iter_mut()
+            .skip(at)
+            .zip(v.iter().take(n.div_ceil(8) as usize))
+        {
+            *d = *b;
+        }
+        done += n;
+    }
+}
+
 /// The cached part of a PDO's mapping: the first [`CACHED`] entries, the count and total length.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub(crate) struct Mapping {
     entries: [MapEntry; CACHED],
     count: u8,
-    bits: u8,
+    bits: Bits,
 }
 
 impl Mapping {
@@ -191,16 +284,21 @@ impl Mapping {
             *slot = *e;
         }
         m.count = entries.len() as u8;
-        m.bits = entries.iter().fold(0u8, |a, e| a.saturating_add(e.bits));
+        #[allow(clippy::unnecessary_cast)] // `Bits` is `u8` without `fd`
+        let bits = entries
+            .iter()
+            .fold(0, |a: Bits, e| a.saturating_add(e.bits as Bits));
+        m.bits = bits;
         m
     }
 
-    /// Reads and checks the mapping stored at `map_index`. `Ok` with an empty mapping when the
-    /// object does not exist.
+    /// Reads and checks the mapping stored at `map_index` against a frame of `max_bits`
+    /// (0x06040042 beyond). `Ok` with an empty mapping when the object does not exist.
     pub(crate) fn load<D: ObjectDictionary + ?Sized>(
         od: &D,
         dir: Dir,
         map_index: u16,
+        max_bits: u32,
     ) -> Result<Mapping, AbortCode> {
         let Some(count) = od.get_u32(map_index, 0) else {
             return Ok(Mapping::default());
@@ -219,14 +317,14 @@ impl Mapping {
             let e = MapEntry::from_raw(raw);
             check_entry(od, dir, e)?;
             bits += e.bits as u32;
-            if bits > MAX_BITS {
+            if bits > max_bits {
                 return Err(AbortCode::PDO_LENGTH);
             }
             if let Some(slot) = m.entries.get_mut(s as usize - 1) {
                 *slot = e;
             }
         }
-        m.bits = bits as u8;
+        m.bits = bits as Bits;
         Ok(m)
     }
 
@@ -239,8 +337,9 @@ impl Mapping {
         self.bits as u32
     }
     /// Bytes a frame must carry.
+    #[allow(clippy::unnecessary_cast)] // `Bits` is `u8` without `fd`
     pub(crate) fn bytes(&self) -> u8 {
-        self.bits.div_ceil(8)
+        self.bits.div_ceil(8) as u8
     }
 
     /// Entry `k` (0-based): from the cache, or from the dictionary for long mappings.
@@ -315,6 +414,93 @@ impl Mapping {
             };
             let bytes = v.to_le_bytes();
             if od.store(e.index, e.sub, &bytes[..size.min(8)]).is_ok() {
+                written(e.index, e.sub);
+            }
+        }
+    }
+}
+
+/// The CAN FD side of a mapping (feature `fd`): up to 64 bytes.
+#[cfg(feature = "fd")]
+impl Mapping {
+    /// Builds a payload of up to 64 bytes from the current dictionary values; the bytes beyond
+    /// the mapping are zeros. Returns the mapped byte count. A mapping of at most 64 bits takes
+    /// the classic `u64` path.
+    pub(crate) fn pack_wide<D: ObjectDictionary + ?Sized>(
+        &self,
+        od: &D,
+        map_index: u16,
+        out: &mut [u8; 64],
+    ) -> u8 {
+        *out = [0; 64];
+        if self.bits() <= MAX_BITS {
+            let mut b = [0u8; 8];
+            let n = self.pack(od, map_index, &mut b);
+            out[..8].copy_from_slice(&b);
+            return n;
+        }
+        let mut off = 0u32;
+        for k in 0..self.count {
+            let e = self.entry(od, map_index, k);
+            let len = e.bits as u32;
+            if !e.is_dummy() {
+                if let Ok(en) = od.get(e.index, e.sub) {
+                    copy_in(out, off, len, en.data);
+                }
+            }
+            off += len;
+        }
+        self.bytes()
+    }
+
+    /// Writes a received payload of up to 64 bytes into the dictionary, as
+    /// [`Mapping::unpack`] does (zero- or sign-extension, `written` per entry stored). A
+    /// mapping of at most 64 bits takes the classic `u64` path.
+    pub(crate) fn unpack_wide<D: ObjectDictionary + ?Sized>(
+        &self,
+        od: &mut D,
+        map_index: u16,
+        payload: &[u8; 64],
+        mut written: impl FnMut(u16, u8),
+    ) {
+        if self.bits() <= MAX_BITS {
+            let mut b = [0u8; 8];
+            b.copy_from_slice(&payload[..8]);
+            return self.unpack(od, map_index, &b, written);
+        }
+        let mut off = 0u32;
+        for k in 0..self.count {
+            let e = self.entry(od, map_index, k);
+            let len = e.bits as u32;
+            let at = off;
+            off += len;
+            if e.is_dummy() {
+                continue;
+            }
+            let Ok(en) = od.get(e.index, e.sub) else {
+                continue;
+            };
+            let t = en.def.data_type;
+            // An entry is at most 255 bits: 32 bytes hold it.
+            let mut buf = [0u8; 32];
+            let size = match t.fixed_size() {
+                Some(n) => n,
+                None => (len / 8) as usize,
+            }
+            .min(buf.len());
+            if len <= 64 {
+                let raw = read_bits_wide(payload, at, len);
+                let v = if t.is_signed() && len < 64 && len > 0 && raw >> (len - 1) & 1 == 1 {
+                    raw | !mask(len)
+                } else {
+                    raw
+                };
+                let n = size.min(8);
+                buf[..n].copy_from_slice(&v.to_le_bytes()[..n]);
+            } else {
+                copy_out(payload, at, len, &mut buf);
+            }
+            if od.store(e.index, e.sub, &buf[..size]).is_ok() {
                 written(e.index, e.sub);
             }
         }
@@ -460,5 +646,196 @@ mod tests {
         let mut out = [0u8; 8];
         assert_eq!(m.pack(&od, 0x1A00, &mut out), 1);
         assert_eq!(out[0], 0xFE);
+    }
+}
+
+/// The wide (CAN FD) packing: odd offsets and lengths, the 512-bit limit, and a property.
+#[cfg(all(test, feature = "fd"))]
+mod wide_tests {
+    use super::*;
+    use crate::od::{Access, DynamicDictionary, ObjectDef};
+    use proptest::prelude::*;
+
+    /// Objects 0x2100 + i (UNSIGNED64, or INTEGER16 where `signed` says), and the mapping of
+    /// `bits[i]` bits of each at 0x1600 (receive) and 0x1A00 (transmit).
+    fn od(bits: &[u8], signed: &[usize]) -> DynamicDictionary {
+        let mut defs = std::vec::Vec::new();
+        for (i, b) in bits.iter().enumerate() {
+            let t = if signed.contains(&i) {
+                DataType::Integer16
+            } else {
+                DataType::Unsigned64
+            };
+            defs.push(
+                ObjectDef::new(0x2100 + i as u16, 0, t)
+                    .mappable()
+                    .access(Access::Rw),
+            );
+            for m in [0x1600u16, 0x1A00] {
+                let raw = MapEntry::new(0x2100 + i as u16, 0, *b).raw();
+                defs.push(ObjectDef::u32(m, i as u8 + 1, Access::Rw, raw));
+            }
+        }
+        for m in [0x1600u16, 0x1A00] {
+            defs.push(ObjectDef::u8(m, 0, Access::Rw, bits.len() as u8));
+        }
+        DynamicDictionary::from_tables(1, &[&defs]).unwrap()
+    }
+
+    fn set(od: &mut DynamicDictionary, i: usize, v: u64) {
+        let n = od
+            .get(0x2100 + i as u16, 0)
+            .unwrap()
+            .def
+            .data_type
+            .fixed_size()
+            .unwrap();
+        od.store(0x2100 + i as u16, 0, &v.to_le_bytes()[..n])
+            .unwrap();
+    }
+
+    fn get(od: &DynamicDictionary, i: usize) -> u64 {
+        le_u64(od.get(0x2100 + i as u16, 0).unwrap().data)
+    }
+
+    /// The payload bit by bit, as CiA 301 numbers the bits.
+    fn reference(bits: &[u8], values: &[u64]) -> [u8; 64] {
+        let mut out = [0u8; 64];
+        let mut off = 0usize;
+        for (b, v) in bits.iter().zip(values) {
+            for k in 0..*b as usize {
+                if v >> k & 1 == 1 {
+                    out[(off + k) / 8] |= 1 << ((off + k) % 8);
+                }
+            }
+            off += *b as usize;
+        }
+        out
+    }
+
+    /// 3-, 13- and 64-bit entries across byte boundaries, 512 bits in all.
+    const ODD: [u8; 15] = [3, 13, 64, 64, 64, 64, 64, 64, 64, 13, 13, 13, 3, 3, 3];
+
+    #[test]
+    fn odd_lengths_at_odd_offsets_fill_64_bytes_and_come_back() {
+        assert_eq!(ODD.iter().map(|b| *b as u32).sum::<u32>(), FD_MAX_BITS);
+        let mut tx = od(&ODD, &[]);
+        let values: std::vec::Vec<u64> = (0..ODD.len())
+            .map(|i| 0x0123_4567_89AB_CDEFu64.rotate_left(7 * i as u32) ^ i as u64)
+            .collect();
+        for (i, v) in values.iter().enumerate() {
+            set(&mut tx, i, *v);
+        }
+        let m = Mapping::load(&tx, Dir::Transmit, 0x1A00, FD_MAX_BITS).unwrap();
+        assert_eq!((m.count(), m.bits(), m.bytes()), (15, 512, 64));
+        let mut out = [0u8; 64];
+        assert_eq!(m.pack_wide(&tx, 0x1A00, &mut out), 64);
+        assert_eq!(out, reference(&ODD, &values));
+        // The 13-bit entry starts at bit 3: bits 3..16.
+        assert_eq!(read_bits_wide(&out, 3, 13), values[1] & mask(13));
+        // A 64-bit entry at bit 16 spans bytes 2..10.
+        assert_eq!(read_bits_wide(&out, 16, 64), values[2]);
+
+        let mut rx = od(&ODD, &[]);
+        let m = Mapping::load(&rx, Dir::Receive, 0x1600, FD_MAX_BITS).unwrap();
+        let mut seen = 0;
+        m.unpack_wide(&mut rx, 0x1600, &out, |_, _| seen += 1);
+        assert_eq!(seen, 15);
+        for (i, (b, v)) in ODD.iter().zip(&values).enumerate() {
+            assert_eq!(get(&rx, i), v & mask(*b as u32), "entry {i}");
+        }
+    }
+
+    #[test]
+    fn short_signed_entries_are_sign_extended_on_the_wide_path() {
+        // 61 bits of filler, then a 13-bit INTEGER16 crossing bytes 7..9: beyond 64 bits.
+        let bits = [61u8, 13];
+        let mut rx = od(&bits, &[1]);
+        let mut p = [0u8; 64];
+        write_bits_wide(&mut p, 61, 13, 0x1FFE); // -2 in 13 bits
+        let m = Mapping::load(&rx, Dir::Receive, 0x1600, FD_MAX_BITS).unwrap();
+        m.unpack_wide(&mut rx, 0x1600, &p, |_, _| {});
+        assert_eq!(rx.get_value::<i16>(0x2101, 0), Ok(-2));
+    }
+
+    #[test]
+    fn beyond_the_frame_is_0x06040042() {
+        let mut bits = ODD.to_vec();
+        bits.push(1); // 513 bits
+        let od = od(&bits, &[]);
+        assert_eq!(
+            Mapping::load(&od, Dir::Transmit, 0x1A00, FD_MAX_BITS),
+            Err(AbortCode::PDO_LENGTH)
+        );
+        let entries = bits
+            .iter()
+            .enumerate()
+            .map(|(i, b)| MapEntry::new(0x2100 + i as u16, 0, *b));
+        assert_eq!(
+            check_mapping_within(&od, Dir::Transmit, entries.clone(), FD_MAX_BITS),
+            Err(AbortCode::PDO_LENGTH)
+        );
+        assert_eq!(
+            check_mapping_within(&od, Dir::Transmit, entries.clone().take(15), FD_MAX_BITS),
+            Ok(512)
+        );
+        // The classic limit stays 64 bits.
+        assert_eq!(
+            check_mapping(&od, Dir::Transmit, entries.take(3)),
+            Err(AbortCode::PDO_LENGTH)
+        );
+        assert_eq!(
+            Mapping::load(&od, Dir::Transmit, 0x1A00, MAX_BITS),
+            Err(AbortCode::PDO_LENGTH)
+        );
+    }
+
+    #[test]
+    fn wide_bits_beyond_the_payload_read_zero_and_are_dropped() {
+        let mut p = [0xFFu8; 4];
+        assert_eq!(read_bits_wide(&p, 28, 8), 0x0F);
+        assert_eq!(read_bits_wide(&p, 1000, 64), 0);
+        write_bits_wide(&mut p, 28, 8, 0);
+        assert_eq!(p, [0xFF, 0xFF, 0xFF, 0x0F]);
+        write_bits_wide(&mut p, u32::MAX, 64, 0); // nothing, no panic
+        assert_eq!(read_bits_wide(&[], 0, 64), 0);
+    }
+
+    proptest! {
+        /// Any mapping of up to 64 entries of 1–64 bits and at most 512 bits in all: packing
+        /// gives the bit-by-bit payload, and unpacking it gives every value back (masked to
+        /// its length).
+        #[test]
+        fn pack_then_unpack_returns_the_values(
+            entries in proptest::collection::vec((1u8..=64, any::<u64>()), 1..=64),
+        ) {
+            let mut total = 0u32;
+            let entries: std::vec::Vec<(u8, u64)> = entries
+                .into_iter()
+                .take_while(|(b, _)| {
+                    total += *b as u32;
+                    total <= FD_MAX_BITS
+                })
+                .collect();
+            prop_assume!(!entries.is_empty());
+            let bits: std::vec::Vec<u8> = entries.iter().map(|(b, _)| *b).collect();
+            let values: std::vec::Vec<u64> = entries.iter().map(|(_, v)| *v).collect();
+            let mut tx = od(&bits, &[]);
+            for (i, v) in values.iter().enumerate() {
+                set(&mut tx, i, *v);
+            }
+            let m = Mapping::load(&tx, Dir::Transmit, 0x1A00, FD_MAX_BITS).unwrap();
+            let mut out = [0u8; 64];
+            let n = m.pack_wide(&tx, 0x1A00, &mut out);
+            let sum: u32 = bits.iter().map(|b| *b as u32).sum();
+            prop_assert_eq!(n as u32, sum.div_ceil(8));
+            prop_assert_eq!(out, reference(&bits, &values));
+            let mut rx = od(&bits, &[]);
+            let m = Mapping::load(&rx, Dir::Receive, 0x1600, FD_MAX_BITS).unwrap();
+            m.unpack_wide(&mut rx, 0x1600, &out, |_, _| {});
+            for (i, (b, v)) in bits.iter().zip(&values).enumerate() {
+                prop_assert_eq!(get(&rx, i), v & mask(*b as u32));
+            }
+        }
     }
 }

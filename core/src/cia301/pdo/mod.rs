@@ -17,7 +17,21 @@
 //! - mapping entries change only while the PDO is invalid and sub 0 is 0, sub 0 only while the
 //!   PDO is invalid (0x06090030, as CANopenNode and Lely answer); each entry must exist
 //!   (0x06020000/0x06090011), be mappable in that direction with a length it can hold
-//!   (0x06040041); sub 0 = n checks entries 1..n and their total against 64 bits (0x06040042).
+//!   (0x06040041); sub 0 = n checks entries 1..n and their total against 64 bits, 512 on a
+//!   CANopen FD network (0x06040042).
+//!
+//! **CAN FD (feature `fd`).** An engine told it is on a CANopen FD network (the node's
+//! `NodeConfig::fd`) checks mappings against 512 bits instead of 64 (0x06040042 beyond), sends
+//! every TPDO as a CAN FD frame and takes RPDOs from CAN FD frames (classic frames on an RPDO's
+//! identifier are still taken, as a classic frame holds a PDO of up to 8 bytes). A TPDO of `n`
+//! mapped bytes goes in the shortest CAN FD frame that holds them: 20 bytes in a 20-byte frame,
+//! 21 in a 24-byte one, the padding bytes zeros (as a dummy entry's bits are; a receiver ignores
+//! them, as it ignores the extra bytes of a frame longer than its mapping). The frames wait in
+//! the node's CAN FD queue, apart from the classic one: a TPDO and a classic frame queued at
+//! the same time may leave in either order. An RPDO frame shorter than its mapping is refused as
+//! on the classic path (EMCY 0x8210). MPDOs stay classic: an MPDO receiver ignores CAN FD frames.
+//! A synchronous RPDO or a type-252 TPDO longer than 8 bytes keeps its payload in a bounded
+//! table shared by the engine (the `wide` module says why and what happens when it is full).
 //!
 //! Dummy entries (index 0x0001–0x001B of a supported fixed-size type, sub 0) are placeholders:
 //! skipped on reception, zeros on transmission.
@@ -35,16 +49,25 @@ mod multiplexed;
 pub mod params;
 mod rpdo;
 mod tpdo;
+#[cfg(feature = "fd")]
+mod wide;
 
 pub use mapping::{
-    check_entry, check_mapping, mask, read_bits, write_bits, Dir, MapEntry, MAX_BITS, MAX_ENTRIES,
+    check_entry, check_mapping, check_mapping_within, mask, read_bits, write_bits, Dir, MapEntry,
+    MAX_BITS, MAX_ENTRIES,
 };
+#[cfg(feature = "fd")]
+pub use mapping::{read_bits_wide, write_bits_wide, FD_MAX_BITS};
+#[cfg(feature = "fd")]
+pub use wide::WIDE_PAYLOADS;
 
 use crate::cia301::emcy;
 use crate::cia301::service::{ServiceEvent, ServiceOutput};
 use crate::frame::instant::{earliest, Duration, Instant};
 use crate::frame::queue::Bounded;
 use crate::frame::storage::{BoundedVec, Inline, Storage, Table};
+#[cfg(feature = "fd")]
+use crate::frame::FdFrame;
 use crate::frame::{Frame, Id};
 use crate::od::abort::AbortCode;
 use crate::od::{key, ObjectDictionary};
@@ -101,6 +124,13 @@ impl<D, O: ServiceOutput> Io<'_, D, O> {
     fn event(&mut self, at: Instant, e: PdoEvent) {
         self.out.event(at, ServiceEvent::Pdo(e));
     }
+    /// A CAN FD frame of `data`, padded with zeros up to the next CAN FD length.
+    #[cfg(feature = "fd")]
+    fn send_fd(&mut self, id: Id, data: &[u8]) {
+        if let Ok(f) = FdFrame::padded(id, data, 0) {
+            self.out.send_fd(f);
+        }
+    }
 }
 
 /// The PDO engine of a node: `T` TPDOs and `R` RPDOs inline, or as many as it was built with on
@@ -121,6 +151,10 @@ pub(crate) struct PdoEngine<const T: usize, const R: usize, S: Storage = Inline>
     shorts: u16,
     #[cfg(feature = "mpdo")]
     mpdo: multiplexed::MpdoState,
+    /// On a CANopen FD network (`Some`): PDOs of up to 64 bytes in CAN FD frames, and the
+    /// payloads of the wide ones that wait for a SYNC or an RTR.
+    #[cfg(feature = "fd")]
+    wide: Option<wide::WideHolder>,
 }
 
 impl<const T: usize, const R: usize, S: Storage> PdoEngine<T, R, S> {
@@ -141,7 +175,36 @@ impl<const T: usize, const R: usize, S: Storage> PdoEngine<T, R, S> {
             shorts: 0,
             #[cfg(feature = "mpdo")]
             mpdo: multiplexed::MpdoState::default(),
+            #[cfg(feature = "fd")]
+            wide: None,
         }
+    }
+
+    /// The engine is on a CANopen FD network (or not): the PDO parameters are read again at
+    /// the next [`PdoEngine::load_all`] against the frame this gives.
+    #[cfg(feature = "fd")]
+    pub fn set_fd(&mut self, fd: bool) {
+        if fd != self.wide.is_some() {
+            self.wide = fd.then(wide::holder);
+        }
+    }
+
+    /// Wide payloads (synchronous CAN FD PDOs beyond 8 bytes) dropped because the engine's
+    /// table was full; 0 on a classic network.
+    #[cfg(feature = "fd")]
+    pub fn wide_dropped(&self) -> u32 {
+        self.wide.as_ref().map_or(0, |w| w.dropped())
+    }
+
+    /// The longest mapping a PDO of this engine may have: 64 bits, or 512 on a CANopen FD
+    /// network.
+    #[inline(always)]
+    pub fn max_bits(&self) -> u32 {
+        #[cfg(feature = "fd")]
+        if self.wide.is_some() {
+            return mapping::FD_MAX_BITS;
+        }
+        MAX_BITS
     }
 
     /// TPDOs the engine runs (TPDO1 up to this).
@@ -244,12 +307,12 @@ impl<const T: usize, const R: usize, S: Storage> PdoEngine<T, R, S> {
     ) {
         self.stop();
         for k in 0..self.tpdos.len() {
-            let p = read_tpdo(io.od, k as u16);
+            let p = read_tpdo(io.od, k as u16, self.max_bits());
             report(io, now, Dir::Transmit, k, p.id, p.error);
             self.tpdos[k].p = p;
         }
         for k in 0..self.rpdos.len() {
-            let p = read_rpdo(io.od, k as u16);
+            let p = read_rpdo(io.od, k as u16, self.max_bits());
             report(io, now, Dir::Receive, k, p.id, p.error);
             self.rpdos[k].p = p;
         }
@@ -267,7 +330,7 @@ impl<const T: usize, const R: usize, S: Storage> PdoEngine<T, R, S> {
         let k = slot as usize;
         match dir {
             Dir::Transmit if k < self.tpdos.len() => {
-                let new = read_tpdo(io.od, slot);
+                let new = read_tpdo(io.od, slot, self.max_bits());
                 let t = &mut self.tpdos[k];
                 let old = t.p;
                 if new == old {
@@ -284,6 +347,10 @@ impl<const T: usize, const R: usize, S: Storage> PdoEngine<T, R, S> {
                 } else {
                     t.stop();
                     t.p = new;
+                    #[cfg(feature = "fd")]
+                    if let Some(w) = &mut self.wide {
+                        w.take(wide::tx_key(k));
+                    }
                     if self.running {
                         t.start(now);
                     }
@@ -292,7 +359,7 @@ impl<const T: usize, const R: usize, S: Storage> PdoEngine<T, R, S> {
                 self.service_tpdo(k, now, io);
             }
             Dir::Receive if k < self.rpdos.len() => {
-                let new = read_rpdo(io.od, slot);
+                let new = read_rpdo(io.od, slot, self.max_bits());
                 let old = self.rpdos[k].p;
                 if new == old {
                     return;
@@ -304,6 +371,10 @@ impl<const T: usize, const R: usize, S: Storage> PdoEngine<T, R, S> {
                     let rec = self.rpdos[k].stop();
                     self.recovered(rec, k as u16 + 1);
                     self.rpdos[k].p = new;
+                    #[cfg(feature = "fd")]
+                    if let Some(w) = &mut self.wide {
+                        w.take(wide::rx_key(k));
+                    }
                     if self.running {
                         self.rpdos[k].start();
                     }
@@ -335,6 +406,10 @@ impl<const T: usize, const R: usize, S: Storage> PdoEngine<T, R, S> {
     pub fn stop(&mut self) {
         self.running = false;
         self.next = None;
+        #[cfg(feature = "fd")]
+        if let Some(w) = &mut self.wide {
+            w.clear();
+        }
         for t in self.tpdos.iter_mut() {
             t.stop();
         }
@@ -350,6 +425,10 @@ impl<const T: usize, const R: usize, S: Storage> PdoEngine<T, R, S> {
         now: Instant,
         io: &mut Io<'_, D, O>,
     ) {
+        #[cfg(feature = "fd")]
+        if self.wide.is_some() {
+            return self.send_tpdo_fd(k, now, io);
+        }
         let t = &mut self.tpdos[k];
         let Some(id) = t.p.id else { return };
         let mut buf = [0u8; 8];
@@ -357,6 +436,26 @@ impl<const T: usize, const R: usize, S: Storage> PdoEngine<T, R, S> {
             t.p.mapping
                 .pack(io.od, map_index(Dir::Transmit, k as u16), &mut buf);
         io.send(id, &buf[..n as usize]);
+        t.sent(now);
+        let d = t.deadline();
+        self.note(d);
+    }
+
+    /// Sends TPDO `k` in a CAN FD frame (up to 64 bytes, padded with zeros).
+    #[cfg(feature = "fd")]
+    fn send_tpdo_fd<D: ObjectDictionary, O: ServiceOutput>(
+        &mut self,
+        k: usize,
+        now: Instant,
+        io: &mut Io<'_, D, O>,
+    ) {
+        let t = &mut self.tpdos[k];
+        let Some(id) = t.p.id else { return };
+        let mut buf = [0u8; 64];
+        let n =
+            t.p.mapping
+                .pack_wide(io.od, map_index(Dir::Transmit, k as u16), &mut buf);
+        io.send_fd(id, &buf[..n as usize]);
         t.sent(now);
         let d = t.deadline();
         self.note(d);
@@ -445,6 +544,15 @@ impl<const T: usize, const R: usize, S: Storage> PdoEngine<T, R, S> {
         }
         for k in 0..self.rpdos.len() {
             if let Some(b) = self.rpdos[k].buffered.take() {
+                #[cfg(feature = "fd")]
+                if let Some(w) = &mut self.wide {
+                    if self.rpdos[k].p.mapping.bits() > MAX_BITS {
+                        if let Some(p) = w.take(wide::rx_key(k)) {
+                            self.apply_wide(k, now, &p, io);
+                        }
+                        continue;
+                    }
+                }
                 self.apply(k, now, &b, io);
             }
         }
@@ -454,6 +562,15 @@ impl<const T: usize, const R: usize, S: Storage> PdoEngine<T, R, S> {
                 OnSync::Send => self.send_tpdo(k, now, io),
                 OnSync::Sample => {
                     let t = &mut self.tpdos[k];
+                    #[cfg(feature = "fd")]
+                    if let (Some(w), true) = (&mut self.wide, t.p.mapping.bits() > MAX_BITS) {
+                        let mut buf = [0u8; 64];
+                        t.p.mapping
+                            .pack_wide(io.od, map_index(Dir::Transmit, k as u16), &mut buf);
+                        // The inline 8 bytes only say "sampled"; the table holds the payload.
+                        t.sampled = w.put(wide::tx_key(k), &buf).then_some([0; 8]);
+                        continue;
+                    }
                     let mut buf = [0u8; 8];
                     t.p.mapping
                         .pack(io.od, map_index(Dir::Transmit, k as u16), &mut buf);
@@ -491,6 +608,38 @@ impl<const T: usize, const R: usize, S: Storage> PdoEngine<T, R, S> {
         }
     }
 
+    /// [`PdoEngine::apply`] for a payload of up to 64 bytes (a CAN FD frame, or any buffered
+    /// one with `fd`).
+    #[cfg(feature = "fd")]
+    fn apply_wide<D: ObjectDictionary, O: ServiceOutput>(
+        &mut self,
+        k: usize,
+        now: Instant,
+        payload: &[u8; 64],
+        io: &mut Io<'_, D, O>,
+    ) {
+        let m = self.rpdos[k].p.mapping;
+        if m.bits() <= MAX_BITS {
+            // A classic-sized mapping (and an MPDO, always 8 bytes): the classic path.
+            let mut b = [0u8; 8];
+            b.copy_from_slice(&payload[..8]);
+            return self.apply(k, now, &b, io);
+        }
+        let track = !self.reverse.is_empty();
+        let mut keys: heapless::Vec<(u16, u8), { MAX_ENTRIES as usize }> = heapless::Vec::new();
+        m.unpack_wide(io.od, map_index(Dir::Receive, k as u16), payload, |i, s| {
+            if track {
+                let _ = keys.push((i, s));
+            }
+        });
+        if self.rx_events {
+            io.event(now, PdoEvent::RpdoReceived { pdo: k as u16 + 1 });
+        }
+        for (i, s) in keys {
+            self.written(now, i, s, io);
+        }
+    }
+
     /// A frame from the bus. False when it is no PDO of this node.
     pub fn handle_frame<D: ObjectDictionary, O: ServiceOutput>(
         &mut self,
@@ -508,7 +657,17 @@ impl<const T: usize, const R: usize, S: Storage> PdoEngine<T, R, S> {
                     OnRtr::SendSampled => {
                         let t = &mut self.tpdos[slot];
                         if let (Some(b), Some(id)) = (t.sampled, t.p.id) {
-                            io.send(id, &b[..t.p.mapping.bytes() as usize]);
+                            let n = t.p.mapping.bytes() as usize;
+                            #[cfg(feature = "fd")]
+                            if let Some(w) = &self.wide {
+                                match w.get(wide::tx_key(slot)) {
+                                    Some(p) if n > 8 => io.send_fd(id, &p[..n]),
+                                    _ => io.send_fd(id, &b[..n.min(8)]),
+                                }
+                                t.sent(now);
+                                continue;
+                            }
+                            io.send(id, &b[..n]);
                             t.sent(now);
                         }
                     }
@@ -549,6 +708,77 @@ impl<const T: usize, const R: usize, S: Storage> PdoEngine<T, R, S> {
                     let d = frame.data();
                     b[..d.len()].copy_from_slice(d);
                     self.apply(slot, now, &b, io);
+                }
+            }
+            self.recovered(rec, pdo);
+            let d = self.rpdos[slot].deadline();
+            self.note(d);
+        }
+        lo < hi
+    }
+
+    /// A CAN FD frame from the bus (feature `fd`). False when it is no PDO of this node, or the
+    /// engine is not on a CANopen FD network. An RPDO frame shorter than its mapping is refused
+    /// as a classic one is (event, EMCY 0x8210); an MPDO receiver ignores CAN FD frames.
+    #[cfg(feature = "fd")]
+    pub fn handle_frame_fd<D: ObjectDictionary, O: ServiceOutput>(
+        &mut self,
+        now: Instant,
+        frame: &FdFrame,
+        io: &mut Io<'_, D, O>,
+    ) -> bool {
+        if self.wide.is_none() {
+            return false;
+        }
+        let (lo, hi) = equal_range(&self.rx_index, id_key(frame.id()));
+        for i in lo..hi {
+            let slot = self.rx_index[i].1 as usize;
+            let pdo = slot as u16 + 1;
+            #[cfg(feature = "mpdo")]
+            if self.rpdos[slot].p.is_mpdo() {
+                continue;
+            }
+            let mut rec = Recovered::default();
+            match self.rpdos[slot].frame(now, frame.data(), &mut rec) {
+                OnFrame::Ignore => {}
+                OnFrame::Buffered => {
+                    if self.rpdos[slot].p.mapping.bits() > MAX_BITS {
+                        let mut b = [0u8; 64];
+                        for (d, s) in b.iter_mut().zip(frame.data()) {
+                            *d = *s;
+                        }
+                        let kept = self
+                            .wide
+                            .as_mut()
+                            .is_some_and(|w| w.put(wide::rx_key(slot), &b));
+                        if !kept {
+                            // Dropped (counted): nothing to apply at the SYNC.
+                            self.rpdos[slot].buffered = None;
+                        }
+                    }
+                }
+                OnFrame::TooShort {
+                    expected,
+                    got,
+                    first,
+                } => {
+                    if first {
+                        io.event(now, PdoEvent::RpdoTooShort { pdo, expected, got });
+                        Self::count_episode(
+                            &mut self.shorts,
+                            &mut self.emcy,
+                            emcy::code::PDO_LENGTH,
+                            true,
+                            pdo,
+                        );
+                    }
+                }
+                OnFrame::Apply => {
+                    let mut b = [0u8; 64];
+                    for (d, s) in b.iter_mut().zip(frame.data()) {
+                        *d = *s;
+                    }
+                    self.apply_wide(slot, now, &b, io);
                 }
             }
             self.recovered(rec, pdo);

@@ -162,8 +162,12 @@ impl Rpdo {
             self.deadline = Some(now + self.p.timeout);
         }
         if self.p.synchronous() {
+            // The first 8 bytes: all of a classic frame; the engine keeps a longer CAN FD
+            // payload itself (feature `fd`).
             let mut b = [0u8; 8];
-            b[..data.len()].copy_from_slice(data);
+            for (d, s) in b.iter_mut().zip(data) {
+                *d = *s;
+            }
             self.buffered = Some(b);
             OnFrame::Buffered
         } else {
