@@ -1,5 +1,5 @@
 //! PDOs on a CANopen FD network (feature `fd`): a TPDO of up to 64 bytes leaves as a CAN FD
-//! frame of the next CAN FD length (padding zeros), an RPDO of 64 bytes is written into the
+//! frame of the next CAN FD length (padding 0xCC, as CiA 1301 pads), an RPDO of 64 bytes is written into the
 //! dictionary, a short one raises EMCY 0x8210 (itself sent as a CAN FD frame), the 512-bit
 //! limit of a mapping, and another node decoding that EMCY.
 
@@ -112,7 +112,7 @@ fn a_64_byte_tpdo_leaves_as_one_can_fd_frame_and_fills_the_other_nodes_dictionar
 }
 
 #[test]
-fn odd_lengths_go_in_the_next_can_fd_length_padded_with_zeros() {
+fn odd_lengths_go_in_the_next_can_fd_length_padded_with_0xcc() {
     let t0 = Instant::ZERO;
     // 3 + 13 + 64 + 64 + 16 = 160 bits = 20 bytes: a 20-byte frame.
     let mut tx = fd_node(5, true, &[3, 13, 64, 64, 16], &[], 0x201);
@@ -123,7 +123,7 @@ fn odd_lengths_go_in_the_next_can_fd_length_padded_with_zeros() {
     let f = fd_frames(&mut tx)[0];
     assert_eq!(f.len(), 20);
     assert!(f.data().iter().all(|b| *b == 0xFF));
-    // 168 bits = 21 bytes: a 24-byte frame, bytes 21..24 zeros.
+    // 168 bits = 21 bytes: a 24-byte frame, bytes 21..24 0xCC.
     let mut tx = fd_node(5, true, &[3, 13, 64, 64, 24], &[], 0x201);
     for i in 0..5u16 {
         tx.set(t0, 0x6100 + i, 0, u64::MAX).unwrap();
@@ -131,7 +131,7 @@ fn odd_lengths_go_in_the_next_can_fd_length_padded_with_zeros() {
     tx.boot(t0);
     let f = fd_frames(&mut tx)[0];
     assert_eq!(f.len(), 24);
-    assert_eq!(&f.data()[20..], &[0xFF, 0, 0, 0]);
+    assert_eq!(&f.data()[20..], &[0xFF, 0xCC, 0xCC, 0xCC]);
 }
 
 #[test]

@@ -25,8 +25,8 @@
 //! every TPDO as a CAN FD frame and takes RPDOs from CAN FD frames (classic frames on an RPDO's
 //! identifier are still taken, as a classic frame holds a PDO of up to 8 bytes). A TPDO of `n`
 //! mapped bytes goes in the shortest CAN FD frame that holds them: 20 bytes in a 20-byte frame,
-//! 21 in a 24-byte one, the padding bytes zeros (as a dummy entry's bits are; a receiver ignores
-//! them, as it ignores the extra bytes of a frame longer than its mapping). The frames wait in
+//! 21 in a 24-byte one, the padding bytes 0xCC (CiA 1301's padding, as the USDO frames have; a
+//! receiver ignores them, as it ignores the extra bytes of a frame longer than its mapping). The frames wait in
 //! the node's CAN FD queue, apart from the classic one: a TPDO and a classic frame queued at
 //! the same time may leave in either order. An RPDO frame shorter than its mapping is refused as
 //! on the classic path (EMCY 0x8210). MPDOs stay classic: an MPDO receiver ignores CAN FD frames.
@@ -124,10 +124,10 @@ impl<D, O: ServiceOutput> Io<'_, D, O> {
     fn event(&mut self, at: Instant, e: PdoEvent) {
         self.out.event(at, ServiceEvent::Pdo(e));
     }
-    /// A CAN FD frame of `data`, padded with zeros up to the next CAN FD length.
+    /// A CAN FD frame of `data`, padded with 0xCC up to the next CAN FD length.
     #[cfg(feature = "fd")]
     fn send_fd(&mut self, id: Id, data: &[u8]) {
-        if let Ok(f) = FdFrame::padded(id, data, 0) {
+        if let Ok(f) = FdFrame::padded(id, data, 0xCC) {
             self.out.send_fd(f);
         }
     }
@@ -441,7 +441,7 @@ impl<const T: usize, const R: usize, S: Storage> PdoEngine<T, R, S> {
         self.note(d);
     }
 
-    /// Sends TPDO `k` in a CAN FD frame (up to 64 bytes, padded with zeros).
+    /// Sends TPDO `k` in a CAN FD frame (up to 64 bytes, padded with 0xCC).
     #[cfg(feature = "fd")]
     fn send_tpdo_fd<D: ObjectDictionary, O: ServiceOutput>(
         &mut self,
