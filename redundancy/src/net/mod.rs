@@ -248,7 +248,7 @@ impl RedundantNetworkBuilder {
         bus1: P1,
         bus2: P2,
     ) -> Result<RedundantNetwork, RedundantError> {
-        RedundantNetwork::start(self.build_boxed()?, (bus1, bus2))
+        RedundantNetwork::start(self.build_profiled()?, (bus1, bus2))
     }
     /// Opens the network by name:
     ///

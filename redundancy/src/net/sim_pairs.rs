@@ -4,12 +4,17 @@
 //! pair failover without hardware. `open_named("sim-pairs:quiet")` is the same plant without
 //! the faults, running until the network closes (a station's simulated rack). Under tokio's
 //! paused clock (tests) the run is deterministic.
+//!
+//! Every simulated device runs on the builder's identifier profile: on the railway 29-bit
+//! scheme the boards' nodes and dual-bus layers classify by it and their dictionaries hold the
+//! railway communication entries (SYNC, EMCY, SDO server) of their board addresses, so the
+//! plant is the same, frame for frame, on the other identifiers.
 
 use super::core::Net;
 use super::RedundantNetwork;
 use crate::link::config::DualBusConfig;
 use crate::link::dual_bus::{DualBus, DualBusNode};
-use crate::logical::{RedundantError, RedundantNetworkBuilder};
+use crate::logical::{NetProfile, RedundantError, RedundantNetworkBuilder};
 use alloc::boxed::Box;
 use alloc::string::ToString;
 use alloc::vec::Vec;
@@ -37,7 +42,7 @@ pub const SIM_END: Duration = Duration::from_millis(6000);
 /// interleave differently).
 pub const SIM_B_BOOTS: Duration = Duration::from_millis(1000);
 
-pub(super) type Board = DualBusNode<DynamicDictionary>;
+pub(super) type Board = DualBusNode<DynamicDictionary, NetProfile>;
 
 /// The simulated devices' script, running while the network is open; the network stops it
 /// when it closes ([`Network::on_close`](duocan::net::Network::on_close)).
@@ -70,13 +75,17 @@ pub(super) async fn until(
 
 /// A simulated duocan board `id`: `duocan::net`'s simulated node (identity with the vendor-ID
 /// `duocan::net::SIM_VENDOR` and product code = node-ID; inputs 0x6000 on TPDO 1, outputs
-/// 0x6200 on RPDO 1, described by `duocan::net::sim_description`), booted (its boot-up goes out
-/// when its runtime starts).
-pub(super) fn board(id: NodeId) -> Board {
-    let od = duocan::net::sim_dictionary(id);
-    let mut node = Node::new(NodeConfig::slave(id), od);
+/// 0x6200 on RPDO 1, described by `duocan::net::sim_description`) on `profile`, booted (its
+/// boot-up goes out when its runtime starts).
+pub(super) fn board(id: NodeId, profile: &NetProfile) -> Board {
+    let mut od = duocan::net::sim_dictionary(id);
+    profile.fit_dictionary(&mut od, id);
+    let mut node = Node::with_profile(NodeConfig::slave(id), od, profile.clone());
     node.boot(Instant::ZERO);
-    Station::new(DualBus::new(DualBusConfig::default()), node)
+    Station::new(
+        DualBus::with_classifier(DualBusConfig::default(), profile.clone()),
+        node,
+    )
 }
 
 pub(super) fn spawn<D>(
@@ -106,8 +115,16 @@ pub(super) fn open(
     b: &RedundantNetworkBuilder,
     quiet: bool,
 ) -> Result<RedundantNetwork, RedundantError> {
-    let net = b.build_boxed()?;
-    let buses = [MemBus::new("sim-bus1"), MemBus::new("sim-bus2")];
+    open_on(b, quiet, [MemBus::new("sim-bus1"), MemBus::new("sim-bus2")])
+}
+
+/// [`open`] on `buses` (a test listens on them).
+pub(super) fn open_on(
+    b: &RedundantNetworkBuilder,
+    quiet: bool,
+    buses: [MemBus; 2],
+) -> Result<RedundantNetwork, RedundantError> {
+    let net = b.build_profiled()?;
     // This master's ports first: a port hears only what is sent after it exists.
     let (port1, cut) = buses[0].plugged_port();
     let ports = (port1, buses[1].port());
@@ -115,7 +132,7 @@ pub(super) fn open(
     let mut boards = Vec::new();
     if tokio::runtime::Handle::try_current().is_ok() {
         for &(n, _) in b.peers() {
-            let dev = b.as_peer(n).build_boxed()?;
+            let dev = b.as_peer(n).build_profiled()?;
             peers.push(spawn(dev, &alloc::format!("sim master {n}"), &buses)?);
         }
         for &(a, _) in b.pairs() {
@@ -124,7 +141,7 @@ pub(super) fn open(
                 boards.push((
                     a,
                     spawn(
-                        Box::new(board(id)),
+                        Box::new(board(id, b.id_profile())),
                         &alloc::format!("sim board {a}"),
                         &buses,
                     )?,
@@ -141,6 +158,7 @@ pub(super) fn open(
         peers,
         boards,
         later: b.pairs().iter().map(|&(_, b)| b).collect(),
+        profile: b.id_profile().clone(),
         stop: stop_rx,
         start: tokio::time::Instant::now(),
         quiet,
@@ -163,6 +181,8 @@ struct Script {
     boards: Vec<(u8, Handle<Board>)>,
     /// The B members, booted [`SIM_B_BOOTS`].
     later: Vec<u8>,
+    /// The boards' identifier profile.
+    profile: NetProfile,
     stop: watch::Receiver<bool>,
     start: tokio::time::Instant,
     /// No faults: the plant runs until the network closes.
@@ -199,7 +219,7 @@ impl Script {
         for b in core::mem::take(&mut self.later) {
             if let Some(id) = NodeId::new(b) {
                 let name = alloc::format!("sim board {b}");
-                if let Ok(h) = spawn(Box::new(board(id)), &name, &self.buses) {
+                if let Ok(h) = spawn(Box::new(board(id, &self.profile)), &name, &self.buses) {
                     self.boards.push((b, h));
                 }
             }
