@@ -18,7 +18,10 @@ use crate::logical::{NetProfile, RedundantError, RedundantNetworkBuilder};
 use alloc::boxed::Box;
 use alloc::string::ToString;
 use alloc::vec::Vec;
-use duocan::od::DynamicDictionary;
+use duocan::cia301::pdo::params;
+use duocan::od::{DefaultValue, DynamicDictionary};
+use duocan::profile::railway::{self, RailFunction};
+use duocan::CobId;
 use duocan::port::mem::{Connector, MemBus};
 use duocan::runtime::{Handle, Runtime};
 use duocan::{Duration, Instant, Node, NodeConfig, NodeId, Station};
@@ -80,6 +83,17 @@ pub(super) async fn until(
 pub(super) fn board(id: NodeId, profile: &NetProfile) -> Board {
     let mut od = duocan::net::sim_dictionary(id);
     profile.fit_dictionary(&mut od, id);
+    if profile.is_railway() {
+        // Its process data on the railway identifiers too: inputs as state changes and
+        // outputs as commands of I/O port 1 (TPDO and RPDO 2–4 stay disabled).
+        let port1 = NetProfile::railway_address(id).with_port(1);
+        let cob = |f| DefaultValue::Unsigned(u64::from(CobId::from_id(railway::id(f, port1)).0));
+        let tpdo = params::tpdo_comm(1, cob(RailFunction::StateChange), 254, 0, 0);
+        let rpdo = params::rpdo_comm(1, cob(RailFunction::Command), 255, 0);
+        for def in tpdo.into_iter().chain(rpdo) {
+            od.upsert(def);
+        }
+    }
     let mut node = Node::with_profile(NodeConfig::slave(id), od, profile.clone());
     node.boot(Instant::ZERO);
     Station::new(
@@ -259,3 +273,6 @@ impl Script {
         self.until(SIM_END).await
     }
 }
+
+#[cfg(test)]
+mod tests;
