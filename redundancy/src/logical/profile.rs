@@ -252,4 +252,41 @@ mod tests {
         assert_eq!(od.get_u32(comm::SDO_SERVER, 1), Some(0x610));
         assert_eq!(od.get_u32(comm::EMCY_COB_ID, 0), Some(0x90));
     }
+
+    #[test]
+    fn build_names_the_predefined_set_and_build_profiled_runs_either() {
+        use super::super::{RedundantError, RedundantNetworkBuilder};
+        use duocan::od::{comm, ObjectDictionary};
+        let b = RedundantNetworkBuilder::default()
+            .pair(0x10, 0x50)
+            .profile(NetProfile::railway29());
+        let e = b.build().unwrap_err();
+        assert_eq!(
+            e,
+            RedundantError::ProfileNotPredefined {
+                profile: "railway29"
+            }
+        );
+        assert!(e.to_string().contains("build_profiled()"), "{e}");
+        let net = b.build_profiled().unwrap();
+        assert!(net.station().link.classifier().is_railway());
+        // The master's own dictionary: its SDO server and EMCY on its railway board address.
+        let table = RailwayProfile::with(&[(
+            NodeId::must(1),
+            NetProfile::railway_address(NodeId::must(1)),
+        )])
+        .unwrap();
+        let (rx, _) = table.sdo_cob_ids(NodeId::must(1)).unwrap();
+        assert_eq!(net.od().get_u32(comm::SDO_SERVER, 1), Some(rx));
+        assert_eq!(rx, 0x2821_0110);
+        let on_predefined = RedundantNetworkBuilder::default().pair(0x10, 0x50);
+        assert!(on_predefined.build().is_ok());
+        assert!(!on_predefined
+            .build_profiled()
+            .unwrap()
+            .station()
+            .link
+            .classifier()
+            .is_railway());
+    }
 }

@@ -383,7 +383,9 @@ async fn a_call_waits_for_the_networks_own_transfer_to_the_node() {
     // Member B is silent until it boots, and the supervisor probes it meanwhile: the client
     // is busy with its transfers to B.
     let b = NodeId::must(0x50);
-    let start = move |n: &mut LogicalNetwork<DynamicDictionary, NetProfile>, now| n.sdo_read(now, b, 0x1018, 1);
+    let start = move |n: &mut LogicalNetwork<DynamicDictionary, NetProfile>, now| {
+        n.sdo_read(now, b, 0x1018, 1)
+    };
     let busy = |r: &Result<_, NetworkError>| matches!(r, Err(NetworkError::Sdo(e)) if e.kind == SdoErrorKind::Busy);
     assert!(net.now() < after(SIM_B_BOOTS));
     assert!(busy(&net.with(start).await.unwrap()));
