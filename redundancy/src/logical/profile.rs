@@ -20,6 +20,7 @@
 //! flying-master frames (0x71–0x76) stay the 11-bit ones CiA 302-2 fixes, as on any network.
 
 use crate::FrameClassifier;
+use alloc::boxed::Box;
 use duocan::od::DynamicDictionary;
 use duocan::profile::railway::{self, DeviceAddress, RailFunction, RailwayProfile};
 use duocan::profile::{IdProfile, Predefined, ProfileFrame};
@@ -49,8 +50,9 @@ pub struct NetProfile(Scheme);
 enum Scheme {
     #[default]
     Predefined,
-    /// Every node-ID 1–127 in the table, at [`NetProfile::railway_address`].
-    Railway(RailwayProfile),
+    /// Every node-ID 1–127 in the table, at [`NetProfile::railway_address`] (boxed: the
+    /// table is a kilobyte, the predefined set nothing).
+    Railway(Box<RailwayProfile>),
 }
 
 impl NetProfile {
@@ -76,7 +78,7 @@ impl NetProfile {
                 let _ = table.add(node, Self::railway_address(node));
             }
         }
-        NetProfile(Scheme::Railway(table))
+        NetProfile(Scheme::Railway(Box::new(table)))
     }
 
     /// The board address of `node` on the railway layout: row [`RAILWAY_ROW`](Self::RAILWAY_ROW),
@@ -112,7 +114,7 @@ impl NetProfile {
     pub fn railway(&self) -> Option<&RailwayProfile> {
         match &self.0 {
             Scheme::Predefined => None,
-            Scheme::Railway(t) => Some(t),
+            Scheme::Railway(t) => Some(&**t),
         }
     }
 
@@ -193,7 +195,7 @@ impl FrameClassifier for NetProfile {
     fn sender(&self, frame: &Frame) -> Option<NodeId> {
         match &self.0 {
             Scheme::Predefined => FrameClassifier::sender(&Predefined, frame),
-            Scheme::Railway(p) => FrameClassifier::sender(p, frame),
+            Scheme::Railway(p) => FrameClassifier::sender(&**p, frame),
         }
     }
     #[inline]
