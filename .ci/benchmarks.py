@@ -197,6 +197,52 @@ def parse_merge(out, since, quick):
     return r
 
 
+def parse_usdo(out, since, quick):
+    rate, ratio, frames = {}, [], {}
+    for mbit in (2, 5):
+        for what in ("usdo expedited 56 B", "sdo block 56 B", "usdo segmented 64 KiB", "sdo block 64 KiB"):
+            m = find(rf"^fd 1/{mbit} Mbit/s {what} download \(simulated\): ([\d.]+) KiB/s in [^;]+; "
+                     rf"bus-time bound [\d.]+ KiB/s \([^,]+, (\d+) frames\): ([\d.]+)x the bound", out,
+                     f"usdo {what} at {mbit} Mbit/s")
+            rate[(what, mbit)] = float(m[1])
+            ratio.append(float(m[3]))
+            frames[what] = int(m[2])
+    two = lambda what: f"{rate[(what, 2)]:.1f} / {rate[(what, 5)]:.1f} KiB/s"
+    speed = lambda a, b: f"{rate[(a, 2)] / rate[(b, 2)]:.2f}× / {rate[(a, 5)] / rate[(b, 5)]:.2f}×"
+    r = {"usdo.expedited-rate": two("usdo expedited 56 B"), "usdo.block56-rate": two("sdo block 56 B"),
+         "usdo.segmented-rate": two("usdo segmented 64 KiB"), "usdo.block-rate": two("sdo block 64 KiB"),
+         "usdo.speedup56": speed("usdo expedited 56 B", "sdo block 56 B"),
+         "usdo.speedup64": speed("usdo segmented 64 KiB", "sdo block 64 KiB"),
+         "usdo.bound": f"{min(ratio):.3f}–{max(ratio):.3f}×" if min(ratio) != max(ratio) else f"{ratio[0]:.3f}×",
+         "usdo.frames": ", ".join(num(frames[w]) for w in ("usdo expedited 56 B", "sdo block 56 B",
+                                                             "usdo segmented 64 KiB", "sdo block 64 KiB"))}
+
+    def cpu(fn):
+        t = [criterion(g, fn, since)[0] for g in ("usdo_server", "usdo_client")]
+        return " / ".join(ns(x) if x < 1000 else f"{sig(x / 1e3)} µs" for x in t)
+    for fn, key in (("usdo_expedited_download_56", "expedited"), ("usdo_segmented_download_889", "segmented"),
+                    ("sdo_block_download_56", "block56"), ("sdo_block_download_889", "block889")):
+        r[f"usdo.{key}-cpu"] = cpu(fn)
+    return r
+
+
+def parse_fd_merge(out, since, quick):
+    lat, ratio = {}, []
+    for mbit in (2, 5):
+        for cut in ("both buses", "one bus cut"):
+            m = find(rf"^dual bus fd 1/{mbit} Mbit/s, 64-byte frame, {cut} \(simulated\): latency worst "
+                     rf"([\d.]+)(m?s), mean [^;]+; wire time up to ([\d.]+)(m?s): ([\d.]+)x", out,
+                     f"dual bus fd {mbit} Mbit/s {cut}")
+            lat[mbit] = float(m[1]) * (1 if m[2] == "ms" else 1000)
+            ratio.append(float(m[5]))
+    fd, _ = criterion("dual_bus_fd", "handle_rx_fd_64_bytes_per_frame", since)
+    classic, _ = criterion("dual_bus_fd", "handle_rx_classic_8_bytes_per_frame", since)
+    n = 10_000  # frames per iteration (the bench's FRAMES)
+    return {"fd.latency": f"{lat[2]:.3f} / {lat[5]:.3f} ms",
+            "fd.ratio": f"{max(ratio):.3f}×",
+            "fd.cpu": ns(fd / n), "fd.classic-cpu": ns(classic / n)}
+
+
 def parse_supervisor(out, since, quick):
     t, _ = criterion("supervisor", "railway_4x54_pairs_one_simulated_second", since)
     return {"supervisor.cpu": f"{t / 1e6:.1f} ms", "supervisor.real-time": f"{1e9 / t:.0f}×"}
@@ -416,6 +462,13 @@ GROUPS = [
           ["eds.size", "eds.import", "eds.dictionary", "eds.export"], parse_eds),
     Group("merge", "active-active merger", [bench("-p duocan-redundancy --bench merge")],
           ["merge.merger", "merge.dual-bus"], parse_merge),
+    Group("usdo", "USDO against SDO block transfer on an FD bus", [bench("--bench usdo")],
+          ["usdo.expedited-rate", "usdo.block56-rate", "usdo.segmented-rate", "usdo.block-rate", "usdo.speedup56",
+           "usdo.speedup64", "usdo.bound", "usdo.frames", "usdo.expedited-cpu", "usdo.segmented-cpu",
+           "usdo.block56-cpu", "usdo.block889-cpu"], parse_usdo),
+    Group("fd-merge", "a 64-byte CAN FD frame through the dual bus",
+          [bench("-p duocan-redundancy --bench fd")], ["fd.latency", "fd.ratio", "fd.cpu", "fd.classic-cpu"],
+          parse_fd_merge),
     Group("merge-memory", "merger memory", ["cargo test -p duocan-redundancy --test link merge_memory"],
           ["merge-memory"], parse_merge_memory),
     Group("supervisor", "supervisor", [bench("-p duocan-redundancy --bench supervisor")],

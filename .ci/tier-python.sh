@@ -38,8 +38,8 @@ cargo test -p duocan-redundancy --features tokio --lib --test runtime \
   || fail "the logical network object under the runtime (memory buses)"
 
 echo "== tier-python: build (outside the namespace)"
-cargo test -p duocan-tiers --features python --test python_peer --test python_eds \
-  --test python_starters --no-run || fail "build python_peer, python_eds and python_starters tests"
+cargo test -p duocan-tiers --features python --test python_peer --test python_fd --test python_eds \
+  --test python_starters --no-run || fail "build python_peer, python_fd, python_eds and python_starters tests"
 # The duocan tool and its test (which runs the tool's binary against a duocan node).
 cargo build -p duocan-cli || fail "build the duocan tool"
 cargo test -p duocan-tiers --features python --test cli_udp --test cli_gateway --test kit_udp --test udp_reader \
@@ -57,8 +57,8 @@ export DUOCAN_PYTHON="$VENV/bin/python"
 unshare -n sh -ec '
   ip link set lo up
   ip route add 224.0.0.0/4 dev lo
-  cargo test --offline -p duocan-tiers --features python --test python_peer
-' || fail "python peer tests"
+  cargo test --offline -p duocan-tiers --features python --test python_peer --test python_fd
+' || fail "python peer tests (CAN FD and USDO with python-can as a raw peer among them)"
 unshare -n sh -ec '
   ip link set lo up
   ip route add 224.0.0.0/4 dev lo

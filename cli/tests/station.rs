@@ -18,15 +18,16 @@ fn the_shipped_demo_station_checks_with_its_four_racks() {
     let r = duocan(&["station", "check", &demo]);
     assert_eq!(r.code, 0, "{}", r.err);
     assert!(r.out.starts_with("station demo: 4 networks\n"), "{}", r.out);
-    for rack in [
-        "turnout rack",
-        "signal rack",
-        "track-circuit rack",
-        "misc rack",
+    // The turnout rack's plant fails (and runs on), the others' run without faults.
+    for (rack, plant) in [
+        ("turnout rack", "failover"),
+        ("signal rack", "quiet"),
+        ("track-circuit rack", "quiet"),
+        ("misc rack", "quiet"),
     ] {
         assert!(
             r.out
-                .contains(&format!("  {rack} on sim-pairs:quiet: master 0x01")),
+                .contains(&format!("  {rack} on sim-pairs:{plant}: master 0x01")),
             "{}",
             r.out
         );
@@ -96,9 +97,20 @@ fn a_station_whose_buses_cannot_open_does_not_start() {
 }
 
 /// Two simulated networks: both start, their pairs' A members become active, and SIGTERM
-/// stops the station cleanly (exit 0, "stopped" last).
+/// stops the station cleanly (exit 0, "stopped" last), the NMT command of `on_stop` sent on
+/// the network that has one.
 #[test]
 fn a_station_runs_its_networks_until_sigterm() {
+    runs_until("TERM");
+}
+
+/// SIGINT (Ctrl-C) stops it the same way.
+#[test]
+fn a_station_runs_its_networks_until_sigint() {
+    runs_until("INT");
+}
+
+fn runs_until(signal: &str) {
     let _one = common::one_station();
     let mut child = common::station_run(file("tests/station_files/two.toml"))
         .spawn()
@@ -132,7 +144,7 @@ fn a_station_runs_its_networks_until_sigterm() {
     }
     let pid = child.id().to_string();
     let killed = Command::new("kill")
-        .args(["-TERM", &pid])
+        .args([&format!("-{signal}"), &pid])
         .status()
         .expect("kill");
     assert!(killed.success());
@@ -151,7 +163,18 @@ fn a_station_runs_its_networks_until_sigterm() {
             "{all}"
         );
     }
-    assert!(all.contains("stopping: SIGTERM station=two"), "{all}");
+    assert!(
+        all.contains(&format!("stopping: SIG{signal} station=two")),
+        "{all}"
+    );
+    // `on_stop = "preop"` on east only.
+    let sent: Vec<_> = lines.iter().filter(|l| l.contains("on_stop:")).collect();
+    assert_eq!(sent.len(), 1, "{all}");
+    assert!(
+        sent[0].contains("on_stop: EnterPreOperational sent to every node")
+            && sent[0].ends_with("network=east"),
+        "{all}"
+    );
     assert!(
         lines
             .last()

@@ -161,6 +161,25 @@ fn the_station_serves_its_status_and_metrics_over_http() {
         .collect();
     assert_eq!(rx.len(), 4, "{metrics}");
     assert!(rx.iter().all(|&n| n > 0), "{metrics}");
+    // Each port's lag behind the other (the meter's figure, in seconds): two ports per
+    // network, at most one of them behind (on a loaded machine a reader may run behind; the
+    // figure is then the port's, and the other's is zero).
+    let lag: Vec<f64> = metrics
+        .lines()
+        .filter(|l| l.starts_with("duocan_port_lag_seconds{"))
+        .map(|l| l.rsplit(' ').next().unwrap().parse().unwrap())
+        .collect();
+    assert_eq!(lag.len(), 4, "{metrics}");
+    assert!(
+        lag.chunks(2)
+            .all(|p| p.iter().all(|&s| (0.0..1.0).contains(&s)) && p.contains(&0.0)),
+        "{metrics}"
+    );
+    assert!(
+        metrics.contains("# TYPE duocan_port_lag_seconds gauge")
+            && metrics.contains("duocan_port_lag_seconds{network=\"west\",bus=\"2\","),
+        "{metrics}"
+    );
     let v: serde_json::Value = serde_json::from_str(&json).expect("json");
     assert_eq!(v[0]["name"], "east");
     assert_eq!(v[0]["role"], "active");

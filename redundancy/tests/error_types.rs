@@ -6,6 +6,7 @@ use duocan::sdo::{Direction, SdoError, SdoErrorKind};
 use duocan::{AbortCode, NodeId};
 use duocan_redundancy::link::config::ConfigError;
 use duocan_redundancy::link::same_function::PairError;
+use duocan_redundancy::supervisor::fd_guarding::{GuardingOnFd, GuardingSource};
 use duocan_redundancy::supervisor::flying_master::{FlyingMasterError, MasterRole};
 use duocan_redundancy::supervisor::pairs::PairsError;
 use duocan_redundancy::{AddPairError, JoinRefusal, NetworkError, PairId, RedundantError, Role};
@@ -24,6 +25,7 @@ const _: () = {
     check::<JoinRefusal>();
     check::<NetworkError>();
     check::<RedundantError>();
+    check::<GuardingOnFd>();
 };
 
 /// What a user function does: `?` on the error, nothing else.
@@ -69,6 +71,10 @@ fn each_error_ends_a_call_in_the_question_mark() {
     boxes(NetworkError::Standby);
     boxes(NetworkError::Sdo(sdo_error()));
     boxes(NetworkError::Closed);
+    boxes(GuardingOnFd {
+        node: NodeId::must(0x10),
+        source: GuardingSource::MasterGuards { guard_time_ms: 100 },
+    });
 }
 
 #[test]

@@ -27,9 +27,9 @@ type SimNode = Station<SinglePort, crate::node::Node<crate::od::DynamicDictionar
 /// What a name that looks simulated but is not one of the door's names is told: the simulated
 /// networks there are, what each holds and where it opens.
 pub const SIM_NAMES: &str = "the simulated networks are sim-nodes (one bus with nodes 1 to 10: \
-duocan::net::Network::open_named), sim-pairs and sim-pairs:quiet (two buses with a redundant \
-network's own pairs and peer masters, failing and coming back or not: the redundant builder's \
-open_named) and sim-station or sim-station:faults (a redundant station on two buses: \
+duocan::net::Network::open_named), sim-pairs, sim-pairs:quiet and sim-pairs:failover (two buses \
+with a redundant network's own pairs and peer masters: failing then closing, never failing, or \
+failing then running on: the redundant builder's open_named) and sim-station or sim-station:faults (a redundant station on two buses: \
 duocan_redundancy::net::open_dual_named, the tool's --bus)";
 
 /// The simulated nodes a network opened on `sim-nodes` keeps running.

@@ -11,6 +11,10 @@ udp_multicast bus. Driven by tests/python_peer.rs; talks to it through stdout li
                                           fastscan, gives it NODE, stores, watches it boot
     peer.py fd GROUP PORT                 python-can with fd=True: sends CAN FD frames (and one
                                           classic), then reports every frame it receives
+    peer.py rawfd GROUP PORT              python-can with fd=True, driven line by line: "send <id
+                                          hex> <ext> <brs> <esi> <data hex or ->" sends one CAN FD
+                                          frame (answered "SENT <id hex>"); reports every frame
+                                          it receives (a raw peer: USDO requests built by hand)
 Stdout: one line per event: "READY", "STATE <name>", "WRITE <index> <sub> <hex>" (a write to the
 LocalNode), "READ <index> <sub> <hex>", "WROTE <index> <sub>", "ABORT <index> <sub> <code>",
 "READ-NO-CRC …"/"WROTE-NO-CRC …" (block transfers that did not ask for CRC), "DONE", "SENT <n>",
@@ -318,6 +322,34 @@ def fd_peer(group, port):
     bus.shutdown()
 
 
+def raw_fd_peer(group, port):
+    """python-can's CAN FD bus as a raw peer: sends the frames stdin names, byte for byte, and
+    reports every frame it receives as an RX line."""
+    bus = can.Bus(interface="udp_multicast", channel=group, port=port, fd=True)
+
+    def listen():
+        while True:
+            m = bus.recv(0.1)
+            if m is None:
+                continue
+            say("RX", "%x" % m.arbitration_id, int(m.is_extended_id), int(m.is_fd),
+                int(m.bitrate_switch), int(m.error_state_indicator), m.dlc, bytes(m.data).hex() or "-")
+
+    threading.Thread(target=listen, daemon=True).start()
+    say("READY")
+    for line in sys.stdin:
+        words = line.split()
+        if len(words) != 6 or words[0] != "send":
+            say("ERROR", line.strip(), "expected: send ID EXT BRS ESI DATA")
+            continue
+        data = b"" if words[5] == "-" else bytes.fromhex(words[5])
+        bus.send(can.Message(arbitration_id=int(words[1], 16), is_extended_id=words[2] == "1",
+                             is_fd=True, bitrate_switch=words[3] == "1",
+                             error_state_indicator=words[4] == "1", data=data))
+        say("SENT", words[1])
+    bus.shutdown()
+
+
 def lss_master(node_id, group, port):
     """python `canopen`'s LSS master against one non-configured slave: LSS lines on stdout
     ("NON-CONFIGURED yes", "FASTSCAN True <4 parts hex>", "INQUIRED <what> <value>",
@@ -397,6 +429,8 @@ def main(argv):
         storage(int(argv[2], 0), argv[3], int(argv[4]))
     elif argv[1] == "fd":
         fd_peer(argv[2], int(argv[3]))
+    elif argv[1] == "rawfd":
+        raw_fd_peer(argv[2], int(argv[3]))
     elif argv[1] == "lss":
         lss_master(int(argv[2], 0), argv[3], int(argv[4]))
     elif argv[1] == "eds":

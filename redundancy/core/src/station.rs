@@ -10,7 +10,7 @@
 //! [`SupervisedStation::status`], the snapshot the application prints: ports, master role,
 //! pairs, the other slaves, and the nodes heard on one bus only. With the feature `fd`, a
 //! station whose layer's ports are all FD-capable runs on CAN FD buses and exchanges FD frames
-//! through its layer (see [`fd`]).
+//! through its layer, its supervisor's master serving USDO (see [`fd`]).
 //!
 //! A redundant master whose pair has only board A on the buses, and bus 2 cut:
 //!
@@ -263,9 +263,11 @@ impl<D: ObjectDictionary, L: SupervisedLink> Device for SupervisedStation<D, L> 
     ) {
         self.rx_fd(now, port, frame, at);
     }
+    /// The layer's FD copies, then the supervisor's FD frames (its master's USDO answers)
+    /// handed to the layer.
     #[cfg(feature = "fd")]
     fn poll_transmit_fd(&mut self) -> Option<(usize, duocan_core::frame::FdFrame)> {
-        self.station.link.dual_bus_mut().poll_transmit_fd()
+        self.station.poll_transmit_fd()
     }
     fn poll_event(&mut self) -> Option<Self::Event> {
         let e = self.station.poll_event()?;

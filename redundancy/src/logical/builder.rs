@@ -30,8 +30,7 @@ use duocan::master::{objects, Master, MasterConfig, MasterSdoClient, SlaveConfig
 use duocan::od::{comm, DynamicDictionary};
 use duocan::profile::{IdProfile, Predefined};
 use duocan::sdo::{Channel, DEFAULT_LIMIT};
-use duocan::NodeConfig;
-use duocan::{Duration, Instant, NodeId};
+use duocan::{Duration, Instant, NodeConfig, NodeId};
 
 /// This master's heartbeat unless [`RedundantNetworkBuilder::heartbeat`] says otherwise.
 pub const DEFAULT_HEARTBEAT: Duration = Duration::from_millis(100);
@@ -61,6 +60,7 @@ pub const DEFAULT_MASTER_TIMEOUT: Duration = Duration::from_millis(300);
 /// | [`link`](Self::link) | active-active, guard period = the shorter heartbeat | the dual-bus layer |
 /// | [`master`](Self::master) | `MasterConfig::new()` | the CiA 302-2 master's own settings (other slaves, SDO timeout, queues) |
 /// | [`profile`](Self::profile) | the predefined set | the identifier profile ([`NetProfile`]: the predefined set or the railway 29-bit scheme) |
+/// | [`with_fd`](Self::with_fd) (feature `fd`) | classic | a CANopen FD network: both ports CAN FD, the master serving USDO, the door's reads and writes over USDO from the client node-ID given; heartbeats only |
 ///
 /// ```
 /// use duocan::Duration;
@@ -98,6 +98,8 @@ pub struct RedundantNetworkBuilder {
     link: Option<DualBusConfig>,
     master: MasterConfig,
     profile: NetProfile,
+    /// A CANopen FD network: the door's USDO client node-ID.
+    fd: Option<u8>,
 }
 
 impl Default for RedundantNetworkBuilder {
@@ -117,6 +119,7 @@ impl Default for RedundantNetworkBuilder {
             link: None,
             master: MasterConfig::new(),
             profile: NetProfile::predefined(),
+            fd: None,
         }
     }
 }
@@ -227,6 +230,34 @@ impl RedundantNetworkBuilder {
         &self.profile
     }
 
+    /// A CANopen FD network (CiA 1301; feature `fd`), as duocan's `NetOptions::with_fd` opens
+    /// one on a single port or two: both ports of the dual-bus layer carry CAN FD (each FD
+    /// frame on both buses, merged once received), the master's node serves USDO from its
+    /// dictionary, and the front door (`RedundantNetwork`) reads and writes the nodes'
+    /// dictionaries over USDO with the same calls as over SDO, its requests going out from
+    /// `client` (1–127, a node-ID no device of the network has: USDO names its clients by
+    /// node-ID). The master itself still configures its slaves over SDO.
+    ///
+    /// **Heartbeats only.** CAN FD has no remote frames, so node guarding cannot run there: a
+    /// slave the master guards (a guard time in its 0x1F81 entry) or whose configuration sets
+    /// its life guarding (0x100C/0x100D) is refused by [`build`](Self::build)
+    /// ([`RedundantError::GuardingOnFd`], naming the node). Pair supervision, the flying master
+    /// and the dual-bus layer's port diagnosis judge heartbeats, as on classic buses.
+    ///
+    /// Every node on both buses must speak CAN FD and serve USDO (a duocan node with
+    /// `NodeConfig::with_fd`), and the ports must be opened for CAN FD.
+    #[cfg(feature = "fd")]
+    pub fn with_fd(mut self, client: u8) -> Self {
+        self.fd = Some(client);
+        self
+    }
+    /// The USDO client node-ID of a CANopen FD network ([`with_fd`](Self::with_fd)); `None`
+    /// on a classic one.
+    #[must_use]
+    pub fn fd_client(&self) -> Option<u8> {
+        self.fd
+    }
+
     /// This master's node-ID as set (checked by [`build`](Self::build)).
     #[must_use]
     pub fn this_node(&self) -> u8 {
@@ -300,6 +331,10 @@ impl RedundantNetworkBuilder {
             claim(a, Role::PairMember)?;
             claim(b, Role::PairMember)?;
         }
+        if let Some(client) = self.fd {
+            claim(client, Role::UsdoClient)?;
+            self.check_fd()?;
+        }
         let periods = [
             ("heartbeat", self.heartbeat),
             ("master_timeout", self.master_timeout),
@@ -333,6 +368,31 @@ impl RedundantNetworkBuilder {
                 });
             }
         }
+        Ok(())
+    }
+
+    /// Heartbeats only on a CANopen FD network: no slave of the master, pair member or not,
+    /// configured for guarding (the master's or its own life guarding).
+    #[cfg(feature = "fd")]
+    fn check_fd(&self) -> Result<(), RedundantError> {
+        use crate::supervisor::fd_guarding::{GuardingOnFd, GuardingSource};
+        let members = self.members.iter().filter(|c| {
+            self.pairs
+                .iter()
+                .any(|p| [p.0, p.1].contains(&c.node.raw()))
+        });
+        for c in self.master.slaves.iter().chain(members) {
+            if let Some(source) = GuardingSource::of_slave(c) {
+                return Err(RedundantError::GuardingOnFd(GuardingOnFd {
+                    node: c.node,
+                    source,
+                }));
+            }
+        }
+        Ok(())
+    }
+    #[cfg(not(feature = "fd"))]
+    fn check_fd(&self) -> Result<(), RedundantError> {
         Ok(())
     }
 
@@ -376,8 +436,19 @@ impl RedundantNetworkBuilder {
         let link = self
             .link
             .unwrap_or_else(|| DualBusConfig::with_guard_period(LinkMode::ActiveActive, guard));
-        let station = SupervisedStation::new(DualBus::with_classifier(link, profile), *sup)
-            .map_err(RedundantError::Link)?;
+        #[cfg(feature = "fd")]
+        if self.fd.is_some() {
+            // What was configured in the master besides the builder's settings.
+            sup.check_fd().map_err(RedundantError::GuardingOnFd)?;
+        }
+        #[cfg_attr(not(feature = "fd"), allow(unused_mut))]
+        let mut bus = DualBus::with_classifier(link, profile);
+        #[cfg(feature = "fd")]
+        if self.fd.is_some() {
+            bus.set_port_fd(0, true);
+            bus.set_port_fd(1, true);
+        }
+        let station = SupervisedStation::new(bus, *sup).map_err(RedundantError::Link)?;
         Ok(Box::new(LogicalNetwork::new(station)))
     }
 
@@ -396,16 +467,17 @@ impl RedundantNetworkBuilder {
         let me = id(self.node_id)?;
         let mut od = objects::master_dictionary(self.node_id, comm::Identity::default());
         self.profile.fit_dictionary(&mut od, me);
+        #[cfg_attr(not(feature = "fd"), allow(unused_mut))]
+        let mut node = NodeConfig::master(me);
+        #[cfg(feature = "fd")]
+        {
+            // On a CANopen FD network the master's node serves USDO too.
+            node = node.with_fd(self.fd.is_some());
+        }
         let sdo = MasterSdoClient::with_sessions(DEFAULT_LIMIT, self.master.sdo_sessions)
             .with_channels(channels);
-        let master = Master::with_parts(
-            NodeConfig::master(me),
-            od,
-            profile,
-            sdo,
-            self.master.clone(),
-        )
-        .map_err(|e| RedundantError::Network(super::NetworkError::Nmt(e)))?;
+        let master = Master::with_parts(node, od, profile, sdo, self.master.clone())
+            .map_err(|e| RedundantError::Network(super::NetworkError::Nmt(e)))?;
         let mut cfg = SupervisorConfig::new(
             self.priority,
             me,

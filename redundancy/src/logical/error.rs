@@ -21,6 +21,8 @@ pub enum Role {
     PairMember,
     /// A node addressed by a call.
     Node,
+    /// The front door's USDO client on a CANopen FD network (`.with_fd(…)`).
+    UsdoClient,
 }
 
 impl fmt::Display for Role {
@@ -30,6 +32,7 @@ impl fmt::Display for Role {
             Role::PeerMaster => "peer master",
             Role::PairMember => "pair member",
             Role::Node => "node",
+            Role::UsdoClient => "USDO client",
         })
     }
 }
@@ -111,6 +114,10 @@ pub enum RedundantError {
         /// Why.
         why: String,
     },
+    /// Node guarding configured on a CANopen FD network, which has no remote frames: the
+    /// node and how it is configured (feature `fd`).
+    #[cfg(feature = "fd")]
+    GuardingOnFd(crate::supervisor::fd_guarding::GuardingOnFd),
     /// The network has been closed (or its runtime stopped).
     Closed,
 }
@@ -121,6 +128,8 @@ impl RedundantError {
     pub fn node(&self) -> Option<NodeId> {
         match self {
             RedundantError::NodeTwice { node, .. } => Some(*node),
+            #[cfg(feature = "fd")]
+            RedundantError::GuardingOnFd(e) => Some(e.node),
             RedundantError::Network(NetworkError::Sdo(e)) => Some(e.node),
             #[cfg(feature = "tokio")]
             RedundantError::Net(e) => e.node(),
@@ -165,6 +174,8 @@ impl core::error::Error for RedundantError {
             RedundantError::Network(e) => Some(e),
             #[cfg(feature = "tokio")]
             RedundantError::Net(e) => Some(e),
+            #[cfg(feature = "fd")]
+            RedundantError::GuardingOnFd(e) => Some(e),
             _ => None,
         }
     }
@@ -212,6 +223,8 @@ impl fmt::Display for RedundantError {
                 "bus {} ({name:?}) could not be opened: {why}",
                 port + 1
             ),
+            #[cfg(feature = "fd")]
+            E::GuardingOnFd(e) => write!(f, "{e}"),
             E::Closed => f.write_str("the redundant network has been closed: open it again"),
         }
     }

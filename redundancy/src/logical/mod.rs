@@ -88,6 +88,8 @@ use crate::FrameClassifier;
 use core::fmt;
 use duocan::cia302::pdo_config::PdoConfig;
 use duocan::frame::storage::Heap;
+#[cfg(feature = "fd")]
+use duocan::frame::FdFrame;
 use duocan::machine::Device;
 use duocan::master::{MasterError, SlaveView};
 use duocan::nmt::NmtTarget;
@@ -396,6 +398,19 @@ impl<D: ObjectDictionary, P: IdProfile + FrameClassifier> Device for LogicalNetw
     type Event = NetworkEvent;
 
     duocan::forward_device_to!(station);
+    /// FD-capable when the station's layer is (both ports), on a CANopen FD network.
+    #[cfg(feature = "fd")]
+    fn fd_capable(&self) -> bool {
+        self.station.fd_capable()
+    }
+    #[cfg(feature = "fd")]
+    fn handle_rx_fd(&mut self, now: Instant, port: usize, frame: &FdFrame, at: Instant) {
+        self.station.handle_rx_fd(now, port, frame, at);
+    }
+    #[cfg(feature = "fd")]
+    fn poll_transmit_fd(&mut self) -> Option<(usize, FdFrame)> {
+        self.station.poll_transmit_fd()
+    }
     fn poll_event(&mut self) -> Option<NetworkEvent> {
         let e = self.station.poll_event()?;
         let at = events::when(&e);

@@ -24,6 +24,12 @@
 //! [`NetEvent::HeartbeatLost`]. States and boot-up waits are the door's, over what the
 //! master's node heard.
 //!
+//! **CAN FD.** On a CANopen FD network (the builder's `with_fd`) the door's USDO client sends
+//! its requests through the station's dual-bus layer, onto both buses, and takes each answer
+//! once as the layer delivers it; the supervisor's master serves USDO for its own dictionary
+//! through the same layer. The client sends only while this master may command, as the door's
+//! other frames.
+//!
 //! **SYNC.** `start_sync` and `stop_sync` change the SYNC period the builder's `.sync(…)`
 //! set, and nothing else: SYNC stays the flying master's, produced by the active master
 //! alone, so a standby master takes the period and produces at it once it takes over.
@@ -38,6 +44,7 @@ use crate::SupervisorEvent;
 use alloc::boxed::Box;
 use alloc::string::ToString;
 use duocan::cia305::LssError;
+use duocan::frame::FdFrame;
 use duocan::machine::{BusLink, Device, PortState, StationEvent};
 use duocan::master::MasterError;
 use duocan::net::{CoreEvent, ExtEvent, HeardOn, NetClient, NetCore, NetError, NetEvent};
@@ -141,6 +148,15 @@ impl Device for MasterCore {
     type Event = CoreEvent;
 
     duocan::forward_device_to!(net);
+    fn fd_capable(&self) -> bool {
+        self.net.fd_capable()
+    }
+    fn handle_rx_fd(&mut self, now: Instant, port: usize, frame: &FdFrame, at: Instant) {
+        self.net.handle_rx_fd(now, port, frame, at);
+    }
+    fn poll_transmit_fd(&mut self) -> Option<(usize, FdFrame)> {
+        self.net.poll_transmit_fd()
+    }
     fn poll_event(&mut self) -> Option<CoreEvent> {
         loop {
             let e = self.net.poll_event()?;
@@ -163,6 +179,25 @@ impl NetCore for MasterCore {
         self.net
             .station_mut()
             .handle_rx_delivered(now, port, frame, at)
+    }
+    /// On a CANopen FD network: through the station as a classic frame goes (the layer merges
+    /// the two copies, the supervisor's master serves USDO), the delivered frame to the door's
+    /// USDO client.
+    fn rx_fd(
+        &mut self,
+        now: Instant,
+        port: usize,
+        frame: &FdFrame,
+        at: Instant,
+    ) -> Option<FdFrame> {
+        self.net
+            .station_mut()
+            .handle_rx_fd_delivered(now, port, frame, at)
+    }
+    /// The door's USDO request goes to the dual-bus layer as the master's frames do: onto both
+    /// buses (the healthy ones). The door sends only while this master may command.
+    fn send_fd(&mut self, now: Instant, frame: &FdFrame) {
+        BusLink::send_fd(&mut self.net.station_mut().link, now, frame);
     }
     fn client(&mut self) -> Result<&mut NetClient, NetError> {
         let sup = self.net.station_mut().sup_mut();

@@ -123,10 +123,15 @@ impl RedundantNetwork {
     fn start<P1: Port, P2: Port>(
         net: Box<Net>,
         ports: (P1, P2),
+        fd: Option<u8>,
     ) -> Result<RedundantNetwork, RedundantError> {
         let name = ports.0.name().to_string();
         let core = Box::new(MasterCore::new(net));
-        match Network::open_core(core, ports, NetOptions::default()) {
+        let opts = match fd.and_then(NodeId::new) {
+            Some(client) => NetOptions::default().with_fd(client),
+            None => NetOptions::default(),
+        };
+        match Network::open_core(core, ports, opts) {
             Ok(net) => Ok(RedundantNetwork { net }),
             Err(NetError::Port(why)) => Err(RedundantError::Port { port: 0, name, why }),
             Err(e) => Err(e.into()),
@@ -249,7 +254,7 @@ impl RedundantNetworkBuilder {
         bus1: P1,
         bus2: P2,
     ) -> Result<RedundantNetwork, RedundantError> {
-        RedundantNetwork::start(self.build_profiled()?, (bus1, bus2))
+        RedundantNetwork::start(self.build_profiled()?, (bus1, bus2), self.fd_client())
     }
     /// Opens the network by name:
     ///
@@ -261,12 +266,17 @@ impl RedundantNetworkBuilder {
     ///   [`SIM_END`] (the network closes, event streams end);
     /// - `sim-pairs:quiet`: the same buses, pairs and peers without the faults, running until
     ///   the network is closed;
+    /// - `sim-pairs:failover`: the faults of `sim-pairs`, timed from the moment every pair has a
+    ///   running board once the B boards are on (not from the opening: a station's racks may take long to come up),
+    ///   after which the plant runs on what is left (bus 1 cut, the peers and the members that
+    ///   ran stopped) until the network is closed;
     /// - `A,B`: SocketCAN interfaces A (bus 1) and B (bus 2), such as `can0,can1` (feature
     ///   `socketcan`, Linux).
     pub fn open_named(&self, name: &str) -> Result<RedundantNetwork, RedundantError> {
         match name {
-            "sim-pairs" => return sim_pairs::open(self, false),
-            "sim-pairs:quiet" => return sim_pairs::open(self, true),
+            "sim-pairs" => return sim_pairs::open(self, sim_pairs::Plant::Script),
+            "sim-pairs:quiet" => return sim_pairs::open(self, sim_pairs::Plant::Quiet),
+            "sim-pairs:failover" => return sim_pairs::open(self, sim_pairs::Plant::Failover),
             _ => {}
         }
         if name == "sim" || name.starts_with("sim-") || name.starts_with("sim:") {
@@ -274,7 +284,8 @@ impl RedundantNetworkBuilder {
                 port: 0,
                 name: name.into(),
                 why: alloc::format!(
-                    "a redundant network on simulated buses is sim-pairs (or sim-pairs:quiet); {}",
+                    "a redundant network on simulated buses is sim-pairs (or sim-pairs:quiet, \
+                     sim-pairs:failover); {}",
                     duocan::net::SIM_NAMES
                 ),
             });

@@ -2,8 +2,12 @@
 //! declared pairs as simulated duocan boards, the declared peers as simulated redundant masters
 //! with the same settings, and a script of faults, so that a user sees a bus, a master and a
 //! pair failover without hardware. `open_named("sim-pairs:quiet")` is the same plant without
-//! the faults, running until the network closes (a station's simulated rack). Under tokio's
-//! paused clock (tests) the run is deterministic.
+//! the faults, running until the network closes (a station's simulated rack);
+//! `open_named("sim-pairs:failover")` plays the faults and then runs on what is left until the
+//! network closes (a station's demonstration rack: its dashboard shows the failovers and the
+//! rack goes on). Under tokio's paused clock (tests) the run is deterministic. A builder with
+//! `with_fd` gets the same plants as a CANopen FD network: every board and peer speaks CAN FD
+//! on both buses and serves USDO.
 //!
 //! Every simulated device runs on the builder's identifier profile: on the railway 29-bit
 //! scheme the boards' nodes and dual-bus layers classify by it and their dictionaries hold the
@@ -80,7 +84,9 @@ pub(super) async fn until(
 /// `duocan::net::SIM_VENDOR` and product code = node-ID; inputs 0x6000 on TPDO 1, outputs
 /// 0x6200 on RPDO 1, described by `duocan::net::sim_description`) on `profile`, booted (its
 /// boot-up goes out when its runtime starts).
-pub(super) fn board(id: NodeId, profile: &NetProfile) -> Board {
+///
+/// On a CANopen FD network (`fd`) the board speaks CAN FD on both ports and serves USDO.
+pub(super) fn board(id: NodeId, profile: &NetProfile, fd: bool) -> Board {
     let mut od = duocan::net::sim_dictionary(id);
     profile.fit_dictionary(&mut od, id);
     if profile.is_railway() {
@@ -94,12 +100,12 @@ pub(super) fn board(id: NodeId, profile: &NetProfile) -> Board {
             od.upsert(def);
         }
     }
-    let mut node = Node::with_profile(NodeConfig::slave(id), od, profile.clone());
+    let mut node = Node::with_profile(NodeConfig::slave(id).with_fd(fd), od, profile.clone());
     node.boot(Instant::ZERO);
-    Station::new(
-        DualBus::with_classifier(DualBusConfig::default(), profile.clone()),
-        node,
-    )
+    let mut link = DualBus::with_classifier(DualBusConfig::default(), profile.clone());
+    link.set_port_fd(0, fd);
+    link.set_port_fd(1, fd);
+    Station::new(link, node)
 }
 
 pub(super) fn spawn<D>(
@@ -123,22 +129,35 @@ where
         })
 }
 
-/// Opens `b`'s network on a simulated station (see `open_named`): with the script of faults,
-/// or `quiet` without them until the network closes.
+/// What the simulated plant does (see `open_named`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(super) enum Plant {
+    /// The script of faults, then the network closes (`sim-pairs`).
+    Script,
+    /// No faults: the plant runs until the network closes (`sim-pairs:quiet`).
+    Quiet,
+    /// The script of faults, timed from the moment every pair has a running board once the B
+    /// boards are on, then the
+    /// plant runs on what is left until the network closes (`sim-pairs:failover`).
+    Failover,
+}
+
+/// Opens `b`'s network on a simulated station (see `open_named`) as `plant` says.
 pub(super) fn open(
     b: &RedundantNetworkBuilder,
-    quiet: bool,
+    plant: Plant,
 ) -> Result<RedundantNetwork, RedundantError> {
-    open_on(b, quiet, [MemBus::new("sim-bus1"), MemBus::new("sim-bus2")])
+    open_on(b, plant, [MemBus::new("sim-bus1"), MemBus::new("sim-bus2")])
 }
 
 /// [`open`] on `buses` (a test listens on them).
 pub(super) fn open_on(
     b: &RedundantNetworkBuilder,
-    quiet: bool,
+    plant: Plant,
     buses: [MemBus; 2],
 ) -> Result<RedundantNetwork, RedundantError> {
     let net = b.build_profiled()?;
+    let fd = b.fd_client().is_some();
     // This master's ports first: a port hears only what is sent after it exists.
     let (port1, cut) = buses[0].plugged_port();
     let ports = (port1, buses[1].port());
@@ -155,7 +174,7 @@ pub(super) fn open_on(
                 boards.push((
                     a,
                     spawn(
-                        Box::new(board(id, b.id_profile())),
+                        Box::new(board(id, b.id_profile(), fd)),
                         &alloc::format!("sim board {a}"),
                         &buses,
                     )?,
@@ -163,7 +182,7 @@ pub(super) fn open_on(
             }
         }
     }
-    let net = RedundantNetwork::start(net, ports)?;
+    let net = RedundantNetwork::start(net, ports, b.fd_client())?;
     let (stop, stop_rx) = watch::channel(false);
     let script = Script {
         net: net.clone(),
@@ -173,9 +192,10 @@ pub(super) fn open_on(
         boards,
         later: b.pairs().iter().map(|&(_, b)| b).collect(),
         profile: b.id_profile().clone(),
+        fd,
         stop: stop_rx,
         start: tokio::time::Instant::now(),
-        quiet,
+        plant,
     };
     let sim = SimStation {
         stop,
@@ -199,8 +219,9 @@ struct Script {
     profile: NetProfile,
     stop: watch::Receiver<bool>,
     start: tokio::time::Instant,
-    /// No faults: the plant runs until the network closes.
-    quiet: bool,
+    plant: Plant,
+    /// A CANopen FD network: the boards speak CAN FD and serve USDO.
+    fd: bool,
 }
 
 impl Script {
@@ -233,14 +254,19 @@ impl Script {
         for b in core::mem::take(&mut self.later) {
             if let Some(id) = NodeId::new(b) {
                 let name = alloc::format!("sim board {b}");
-                if let Ok(h) = spawn(Box::new(board(id, &self.profile)), &name, &self.buses) {
+                if let Ok(h) = spawn(
+                    Box::new(board(id, &self.profile, self.fd)),
+                    &name,
+                    &self.buses,
+                ) {
                     self.boards.push((b, h));
                 }
             }
         }
-        if self.quiet {
-            // Until the network closes, which stops the script.
-            let _ = self.stop.wait_for(|s| *s).await;
+        if self.plant == Plant::Quiet {
+            return self.until_closed().await;
+        }
+        if self.plant == Plant::Failover && !self.until_every_pair_runs().await {
             return false;
         }
         if !self.until(SIM_BUS_FAILS).await {
@@ -270,7 +296,41 @@ impl Script {
                 h.shutdown().await;
             }
         }
+        if self.plant == Plant::Failover {
+            return self.until_closed().await;
+        }
         self.until(SIM_END).await
+    }
+
+    /// `sim-pairs:failover`'s start: its faults come at their times after every pair has a
+    /// running board (checked once the B boards are on), not after the network opened, so that a station whose racks take long to
+    /// come up (many simulated boards on a small machine) still shows each failover from a
+    /// running rack. Polled every 100 ms; false if asked to stop first.
+    async fn until_every_pair_runs(&mut self) -> bool {
+        loop {
+            let running = self
+                .net
+                .with(|n, _| n.pairs().all(|(_, p)| p.active.is_some()))
+                .await
+                .unwrap_or(false);
+            if running {
+                self.start = tokio::time::Instant::now();
+                return true;
+            }
+            let next = tokio::time::Instant::now() + core::time::Duration::from_millis(100);
+            if tokio::time::timeout_at(next, self.stop.wait_for(|s| *s))
+                .await
+                .is_ok()
+            {
+                return false;
+            }
+        }
+    }
+
+    /// Runs on until the network closes, which stops the script: false (not played to an end).
+    async fn until_closed(&mut self) -> bool {
+        let _ = self.stop.wait_for(|s| *s).await;
+        false
     }
 }
 

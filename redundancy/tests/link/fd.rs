@@ -1,15 +1,19 @@
 //! CAN FD frames through the dual-bus layer on two simulated FD buses: a frame sent once
 //! arrives once at the other end, with one bus cut it still arrives, port health counts FD
 //! traffic as classic traffic, and a link with a classic-only port refuses to send FD; a
-//! redundant master on FD buses sends and receives FD frames through its layer.
+//! redundant master on FD buses sends and receives FD frames through its layer, and its
+//! supervisor passes them to its CiA 302-2 master, whose node serves USDO.
 
 use super::fd_end::FdEnd;
+use duocan::cia1301::usdo::UsdoClient;
 use duocan::frame::FdFrame;
 use duocan::machine::BusLink;
-use duocan::master::{objects, Master, MasterConfig};
+use duocan::master::{objects, Master, MasterConfig, MasterSdoClient};
 use duocan::od::comm;
+use duocan::profile::Predefined;
+use duocan::sdo::DEFAULT_LIMIT;
 use duocan::sim::{BusConfig, BusId, DevId, SimError, SimNetwork};
-use duocan::{Frame, Id, Instant, NodeId};
+use duocan::{Frame, Id, Instant, NodeConfig, NodeId};
 use duocan_redundancy::link::dual_bus::FdSendError;
 use duocan_redundancy::{
     DualBus, DualBusConfig, PortState, RedundantMaster, Supervisor, SupervisorConfig,
@@ -126,10 +130,18 @@ fn a_link_with_a_classic_only_port_refuses_fd_frames() {
 /// A redundant master (supervisor and CiA 302-2 master, node 1) whose layer's ports are
 /// FD-capable or not.
 fn master(fd: bool) -> RedundantMaster {
+    master_serving(fd, false)
+}
+
+/// [`master`], its node serving USDO (a CANopen FD network's master) if `usdo`.
+fn master_serving(fd: bool, usdo: bool) -> RedundantMaster {
     let ms = duocan::Duration::from_millis;
     let nid = NodeId::must(1);
     let od = objects::master_dictionary(1, comm::Identity::default());
-    let master = Master::new(nid, od, MasterConfig::new()).unwrap();
+    let config = MasterConfig::new();
+    let sdo = MasterSdoClient::with_sessions(DEFAULT_LIMIT, config.sdo_sessions);
+    let node = NodeConfig::master(nid).with_fd(usdo);
+    let master = Master::with_parts(node, od, Predefined, sdo, config).unwrap();
     let cfg = SupervisorConfig::new(0, nid, ms(20), ms(50), ms(10));
     let sup = Supervisor::new(master, cfg, Instant::ZERO);
     let mut link = DualBus::new(DualBusConfig::default());
@@ -189,4 +201,72 @@ fn a_redundant_master_on_fd_buses_exchanges_fd_frames_once_with_one_bus_cut() {
     let left: Vec<_> = std::iter::from_fn(|| sim.device_mut(m).poll_fd_frame()).collect();
     assert_eq!(left.len(), 16);
     assert_eq!(left[15].data()[0], 15, "the oldest kept, in order");
+}
+
+#[test]
+fn a_redundant_masters_supervisor_passes_usdo_to_its_master_each_request_once_with_one_bus_cut() {
+    let ms = duocan::Duration::from_millis;
+    let mut sim = SimNetwork::new(352);
+    let buses = [
+        sim.add_bus(BusConfig::new("canfd0", 500_000).fd(2_000_000)),
+        sim.add_bus(BusConfig::new("canfd1", 500_000).fd(2_000_000)),
+    ];
+    let m = sim
+        .add_device("master", master_serving(true, true), &buses)
+        .unwrap();
+    let d = sim.add_device("tool", FdEnd::new(), &buses).unwrap();
+    sim.run_for(ms(200));
+    // A tool's USDO client, node-ID 0x7F, on both buses through its own layer.
+    let mut client = UsdoClient::new(NodeId::must(0x7F), 1024);
+    let server = NodeId::must(1);
+    let mut transfer = |sim: &mut SimNetwork, start: &dyn Fn(&mut UsdoClient, Instant)| {
+        start(&mut client, sim.now());
+        while let Some(f) = client.poll_transmit() {
+            send(sim, d, &f);
+        }
+        for _ in 0..20 {
+            sim.run_for(ms(2));
+            let answers: Vec<FdFrame> = sim.device_mut(d).got.drain(..).collect();
+            for a in answers {
+                client.handle_frame(sim.now(), &a);
+                while let Some(f) = client.poll_transmit() {
+                    send(sim, d, &f);
+                }
+            }
+            if let Some(e) = client.poll_event() {
+                return e.data().map(<[u8]>::to_vec).ok_or(e.result.err());
+            }
+        }
+        panic!("no answer");
+    };
+    // The master's heartbeat producer time (the supervisor's 20 ms), read from its dictionary.
+    let hb = transfer(&mut sim, &|c, now| {
+        c.upload(now, server, 0x1017, 0, ms(100)).unwrap();
+    });
+    assert_eq!(hb.unwrap(), 20u16.to_le_bytes());
+    // Bus 1 cut: a write and its read-back over bus 2.
+    sim.bus_down(buses[0]);
+    let written = transfer(&mut sim, &|c, now| {
+        c.download(now, server, 0x1017, 0, 0, &30u16.to_le_bytes(), ms(100))
+            .unwrap();
+    });
+    assert_eq!(written.unwrap(), Vec::<u8>::new());
+    let read = transfer(&mut sim, &|c, now| {
+        c.upload(now, server, 0x1017, 0, ms(100)).unwrap();
+    });
+    assert_eq!(read.unwrap(), 30u16.to_le_bytes());
+    // Each request served once (the layer merged the two copies before the supervisor).
+    let st = sim.device(m).sup().node().usdo_server().unwrap().stats();
+    assert_eq!((st.completed, st.aborted, st.repeats), (3, 0, 0));
+    // The supervisor's master took the write with an SDO write's reactions.
+    let od = sim.device(m).sup().node().od();
+    assert_eq!(
+        duocan::od::ObjectDictionary::get_u32(od, 0x1017, 0),
+        Some(30)
+    );
+    // The application's queue got each request once too (what else an FD frame is for is
+    // the application's).
+    let queued: Vec<_> = std::iter::from_fn(|| sim.device_mut(m).poll_fd_frame()).collect();
+    assert_eq!(queued.len(), 3, "{queued:?}");
+    assert!(queued.iter().all(|f| f.id() == Id::Standard(0x600 + 0x7F)));
 }

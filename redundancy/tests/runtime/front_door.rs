@@ -450,18 +450,22 @@ async fn the_wait_for_a_busy_client_ends_at_the_calls_timeout() {
     net.close().await;
 }
 
-/// `sim-pairs:quiet`: the same plant without the faults, running until the network is closed:
-/// past the scripted run's end (twice [`SIM_END`]) the network is still open, nothing failed
-/// over, and the pair's A member is still the active one.
-#[tokio::test(start_paused = true)]
-async fn the_quiet_simulated_station_runs_without_faults_until_closed() {
+/// Opens a network on the simulated plant `name` and collects its events for twice
+/// [`SIM_END`] (the end of `sim-pairs`' script): the stream must still be open then.
+async fn events_past_the_scripts_end(
+    name: &str,
+    node_id: u8,
+    peer: u8,
+) -> (RedundantNetwork, Vec<NetEvent>) {
     let net = RedundantNetwork::builder()
-        .node_id(1)
+        .node_id(node_id)
         .heartbeat(ms(20))
         .master_timeout(ms(50))
         .pair(0x10, 0x50)
-        .peer_master(2)
-        .open_named("sim-pairs:quiet")
+        .pair_heartbeat(ms(25))
+        .pair_timeout(ms(80))
+        .peer_master(peer)
+        .open_named(name)
         .unwrap();
     let mut events = net.events();
     let until =
@@ -474,27 +478,72 @@ async fn the_quiet_simulated_station_runs_without_faults_until_closed() {
         tokio::time::Instant::now() >= until,
         "the stream ended early: {seen:#?}"
     );
-    let failovers: Vec<String> = seen
-        .iter()
-        .filter(|e| e.is_failover())
-        .map(ToString::to_string)
-        .collect();
-    // The one role change at power-on (the negotiation), no bus, master or pair failover.
-    assert!(
-        failovers.iter().all(|l| l == "this master: active"),
-        "{failovers:#?}"
-    );
+    (net, seen)
+}
+
+/// The pair's running board is `m`, board 0x50 answers, and the network closes.
+async fn runs_answers_and_closes(net: RedundantNetwork, m: Member) {
     let active = net.active_members().await.unwrap();
     assert_eq!(active.len(), 1);
-    assert_eq!(
-        active[0].1,
-        Some(Member::A),
-        "{}",
-        net.status().await.unwrap()
-    );
+    assert_eq!(active[0].1, Some(m), "{}", net.status().await.unwrap());
     assert_eq!(
         net.node(0x50).sdo().read::<u32>(0x1018, 2).await.unwrap(),
         0x50
     );
     net.close().await;
+}
+
+fn failovers(events: &[NetEvent]) -> Vec<String> {
+    events
+        .iter()
+        .filter(|e| e.is_failover())
+        .map(ToString::to_string)
+        .collect()
+}
+
+/// `sim-pairs:quiet`: the same plant without the faults, running until the network is closed:
+/// past the scripted run's end (twice [`SIM_END`]) the network is still open, nothing failed
+/// over, and the pair's A member is still the active one.
+#[tokio::test(start_paused = true)]
+async fn the_quiet_simulated_station_runs_without_faults_until_closed() {
+    let (net, seen) = events_past_the_scripts_end("sim-pairs:quiet", 1, 2).await;
+    let failovers = failovers(&seen);
+    // The one role change at power-on (the negotiation), no bus, master or pair failover.
+    assert!(
+        failovers.iter().all(|l| l == "this master: active"),
+        "{failovers:#?}"
+    );
+    runs_answers_and_closes(net, Member::A).await;
+}
+
+/// `sim-pairs:failover`: the faults of `sim-pairs` (bus 1 cut, the peer stopped, the running
+/// member stopped), then the plant runs on what is left: past the scripted run's end (twice
+/// [`SIM_END`]) the network is still open, B runs the pair, this master is active, and B
+/// answers.
+#[tokio::test(start_paused = true)]
+async fn the_failover_simulated_station_fails_then_runs_on_until_closed() {
+    let (net, seen) = events_past_the_scripts_end("sim-pairs:failover", 2, 1).await;
+    assert_eq!(
+        failovers(&seen),
+        [
+            "bus 1: failed (port down: interface down)",
+            "this master: active",
+            "pair 0x10/0x50: B active"
+        ]
+    );
+    // The faults are timed from the moment every pair has a running board once the B boards
+    // are on (seen within the script's 100 ms poll).
+    let at = |line: &str| {
+        seen.iter()
+            .find(|e| e.to_string().starts_with(line))
+            .and_then(NetEvent::at)
+            .unwrap_or_else(|| panic!("no {line:?} in {seen:#?}"))
+    };
+    let (a_runs, cut) = (at("pair 0x10/0x50: A active"), at("bus 1: failed"));
+    let ready = a_runs.max(after(SIM_B_BOOTS));
+    assert!(
+        cut >= ready + SIM_BUS_FAILS && cut <= ready + SIM_BUS_FAILS + ms(110),
+        "A ran at {a_runs}, bus 1 failed at {cut}"
+    );
+    runs_answers_and_closes(net, Member::B).await;
 }

@@ -182,14 +182,19 @@ pub(crate) fn link_events(n: &SupNet, id: u8) -> Vec<LinkEvent> {
         .collect()
 }
 
-pub(crate) fn suspects(n: &SupNet, id: u8) -> Vec<(Instant, Suspicion)> {
+/// The layer's verdicts on node `node` at master `id`: (when, why).
+pub(crate) fn suspects_of(n: &SupNet, id: u8, node: u8) -> Vec<(Instant, Suspicion)> {
     link_events(n, id)
         .into_iter()
         .filter_map(|e| match e.kind {
-            LinkEventKind::Suspect { node, why } if node.raw() == a(0) => Some((e.at, why)),
+            LinkEventKind::Suspect { node: s, why } if s.raw() == node => Some((e.at, why)),
             _ => None,
         })
         .collect()
+}
+
+pub(crate) fn suspects(n: &SupNet, id: u8) -> Vec<(Instant, Suspicion)> {
+    suspects_of(n, id, a(0))
 }
 
 /// Rule 1's verdict when both buses carry two devices' heartbeats, found too fast at `v[0]`

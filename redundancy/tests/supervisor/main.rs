@@ -4,6 +4,7 @@ mod chaos;
 mod clock;
 mod cold_start;
 mod combined;
+mod fd_heartbeats;
 mod fd_rig;
 #[path = "../common/fd_station.rs"]
 mod fd_station;

@@ -168,6 +168,10 @@ pub fn master_station(p: &Params, id: u8, now: Instant) -> MasterDev {
         )
         .unwrap();
     }
+    if p.fd.is_some() {
+        // Heartbeats only: CAN FD has no remote frames for node guarding.
+        sup.check_fd().unwrap();
+    }
     let station = FdMaster::new(SupervisedStation::new(link(p), sup).unwrap());
     match jump {
         Some(j) => Stepped::jumping(station, j),

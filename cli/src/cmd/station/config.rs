@@ -29,7 +29,8 @@
 //! [[network]]
 //! name = "rack-1"                  # unique in the station
 //! buses = "can0,can1"              # two interfaces as --bus names them (udp:N too), or
-//!                                  # "sim-pairs" / "sim-pairs:quiet" (simulated buses)
+//!                                  # "sim-pairs" / "sim-pairs:quiet" /
+//!                                  # "sim-pairs:failover" (simulated buses)
 //! node_id = 1                      # this master
 //! priority = 0                     # flying-master priority (lower wins)
 //! heartbeat_ms = 50                # this master's heartbeat
@@ -80,7 +81,7 @@ pub use tls::{server_config, Tls};
 
 /// The simulated buses a network may name: the builder's plant with its fault script, and
 /// the same plant without faults.
-pub const SIM_BUSES: [&str; 2] = ["sim-pairs", "sim-pairs:quiet"];
+pub const SIM_BUSES: [&str; 3] = ["sim-pairs", "sim-pairs:quiet", "sim-pairs:failover"];
 
 /// A checked station.
 #[derive(Debug)]

@@ -8,7 +8,8 @@
 //!   ECSS bus toggle), each port's state and counters, each pair's running board, the node table (state,
 //!   heard on which bus, last EMCY) and its last events with their times.
 //! - `GET /metrics`: the same as Prometheus metrics (text format 0.0.4): frames, error frames,
-//!   dropped frames and re-opens per port, port up, master active, running board per pair,
+//!   dropped frames and re-opens per port, port up, each port's lag behind the other (as the
+//!   dual-bus layer measures it), master active, running board per pair,
 //!   events and failovers per network; with a broker, the MQTT publisher's (`duocan_mqtt_*`);
 //!   with a 309-3 gateway, its clients refused for want of room
 //!   (`duocan_gateway_refused_total{reason="too_many_clients"}`), served now and at most
@@ -136,12 +137,15 @@ struct View {
     pairs: Vec<(String, Option<Member>)>,
     /// The dual-bus layer's policy as it runs (`link` of the file).
     link: Option<String>,
+    /// How much later each port's copies come than the other port's, as the dual-bus layer
+    /// measures it (its lag meter; zero for the earlier port), in microseconds.
+    lag_us: [u64; 2],
 }
 
 async fn view(w: &Watched) -> View {
     let role = w.net.role().await.ok();
     let ports = w.net.ports().await.unwrap_or_default();
-    let (pairs, link) = w
+    let (pairs, link, lag_us) = w
         .net
         .with(|n, _| {
             let pairs = n
@@ -151,7 +155,9 @@ async fn view(w: &Watched) -> View {
                     (format!("{a:#04x}/{b:#04x}"), p.active)
                 })
                 .collect();
-            (pairs, Some(n.station().link.mode().to_string()))
+            let link = &n.station().link;
+            let lag = [0, 1].map(|p| link.lag().lag(p).as_micros());
+            (pairs, Some(link.mode().to_string()), lag)
         })
         .await
         .unwrap_or_default();
@@ -160,6 +166,7 @@ async fn view(w: &Watched) -> View {
         ports,
         pairs,
         link,
+        lag_us,
     }
 }
 
@@ -298,6 +305,26 @@ async fn metrics(State(s): State<Arc<Shared>>, headers: HeaderMap) -> Response {
                 label(&w.name),
                 p.index + 1,
                 label(&p.name)
+            );
+        }
+    }
+    let _ = writeln!(
+        out,
+        "# HELP duocan_port_lag_seconds How much later the port's copies come than the other \
+         port's (the dual-bus layer's lag meter; 0 for the earlier port).\n\
+         # TYPE duocan_port_lag_seconds gauge"
+    );
+    for (w, v) in &views {
+        for p in &v.ports {
+            let lag = v.lag_us.get(p.index).copied().unwrap_or(0);
+            let _ = writeln!(
+                out,
+                "duocan_port_lag_seconds{{network=\"{}\",bus=\"{}\",port=\"{}\"}} {}.{:06}",
+                label(&w.name),
+                p.index + 1,
+                label(&p.name),
+                lag / 1_000_000,
+                lag % 1_000_000
             );
         }
     }

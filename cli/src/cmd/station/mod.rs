@@ -263,8 +263,13 @@ async fn serve(g: &Global, st: &config::Station, duration_ms: Option<u64>) -> Re
     }
     for (n, net) in &nets {
         if let Some(cmd) = n.on_stop {
-            if let Err(e) = net.nmt_all(cmd).await {
-                tracing::warn!(target: "duocan::station", network = %n.name, "on_stop: {e}");
+            match net.nmt_all(cmd).await {
+                Ok(()) => {
+                    tracing::info!(target: "duocan::station", network = %n.name, "on_stop: {cmd:?} sent to every node")
+                }
+                Err(e) => {
+                    tracing::warn!(target: "duocan::station", network = %n.name, "on_stop: {e}")
+                }
             }
         }
         net.close().await;

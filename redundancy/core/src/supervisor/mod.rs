@@ -5,6 +5,7 @@
 //! | Slave-pair supervision: the pair table, joining, per-member deadlines, switch-over | [`pairs`] |
 //! | CiA 302-2 flying master: strong/weak by priority, takeover, conflict resolution | [`flying_master`] |
 //! | The audit trail of every role change, switch and toggle (and board addressed by LSS) | [`audit`] |
+//! | Heartbeat-only error control on a CANopen FD network (features `fd`, `alloc`): guarding configured there is refused at start | `fd_guarding` |
 //! | [`Supervisor`] (feature `alloc`): the machine composing them with the master; board replacement by LSS (CiA 305): a pair member arriving without node-ID is given its slot's ([`SupervisorConfig::with_lss`]) | `machine` |
 //!
 //! The supervisor decides; the dual-bus layer below is told the outcome (which board of a pair
@@ -109,6 +110,8 @@ pub mod audit;
 mod config;
 #[cfg(feature = "alloc")]
 mod events;
+#[cfg(all(feature = "fd", feature = "alloc"))]
+pub mod fd_guarding;
 pub mod flying_master;
 #[cfg(feature = "alloc")]
 mod machine;

@@ -56,7 +56,7 @@ async fn on_the_railway_profile_the_plant_fails_over_at_the_same_instants_on_29_
     let buses = [MemBus::new("sim-bus1"), MemBus::new("sim-bus2")];
     let wire = [listen(&buses[0]), listen(&buses[1])];
     let start = tokio::time::Instant::now();
-    let net = open_on(&b, false, buses).unwrap();
+    let net = open_on(&b, Plant::Script, buses).unwrap();
     let mut stream = net.events();
     let events = tokio::spawn(async move {
         let mut out = vec![];

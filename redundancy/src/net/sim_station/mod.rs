@@ -163,7 +163,7 @@ fn lss_board(serial: u32) -> Box<LssBoard> {
 
 #[inline(never)]
 fn new_board(id: u8) -> Box<Board> {
-    Box::new(board(NodeId::must(id), &NetProfile::predefined()))
+    Box::new(board(NodeId::must(id), &NetProfile::predefined(), false))
 }
 
 /// The masters' settings: 0x01 with its peer 0x02 and the pairs.

@@ -83,7 +83,8 @@ fn buses(src: &Source<'_>, s: &Spanned<String>) -> Result<Buses, String> {
     }
     let bad = |why: String| src.span(s.span(), "buses", why);
     let allowed = "two interfaces as \"can0,can1\" (SocketCAN, or python-can's UDP bus: \
-                   \"udp:1,udp:2\"), or \"sim-pairs\" / \"sim-pairs:quiet\" (simulated buses)";
+                   \"udp:1,udp:2\"), or \"sim-pairs\" / \"sim-pairs:quiet\" / \"sim-pairs:failover\" \
+                   (simulated buses)";
     let Some((a, b)) = text.split_once(',') else {
         return Err(bad(format!("{text:?} is not two buses: give {allowed}")));
     };

@@ -92,7 +92,10 @@ fn each_error_names_the_file_line_column_and_key() {
         e.starts_with("s.toml:3:9: buses: \"can0\" is not two buses"),
         "{e}"
     );
-    assert!(e.contains("sim-pairs:quiet"), "{e}");
+    assert!(
+        e.contains("sim-pairs:quiet") && e.contains("sim-pairs:failover"),
+        "{e}"
+    );
     let e = err("[[network]]\nname = \"a\"\nbuses = \"can0,can0\"\nnode_id = 1\n");
     assert!(e.contains("can0 twice"), "{e}");
     let e = err("[[network]]\nname = \"a\"\nbuses = \"udp:x,can0\"\nnode_id = 1\n");

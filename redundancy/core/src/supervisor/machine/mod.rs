@@ -52,6 +52,12 @@
 //! input; [`SupervisedStation`](crate::station::SupervisedStation) is that station with the
 //! pairs configured in the layer from the start and a status table.
 //!
+//! On a CANopen FD network (feature `fd`) the CAN FD frames the layer delivers go to the
+//! master, whose node serves USDO when it is configured to, and its answers go back through
+//! the layer on both buses; error control there is heartbeats alone, which is all the pair
+//! supervision and the flying master judge (node guarding needs remote frames, which CAN FD
+//! has not: a supervisor configured to guard is refused at start, see `fd_guarding`).
+//!
 //! This file holds the machine itself: its construction, the [`Machine`] inputs and the pump
 //! that moves every part's outputs to where they belong; `application.rs` holds what the
 //! application calls, `reactions.rs` what the supervisor does with what its parts report.
@@ -583,6 +589,25 @@ impl<D: ObjectDictionary, P: IdProfile> Machine for Supervisor<D, P> {
 
     fn poll_link_command(&mut self) -> Option<LinkCommand> {
         self.link.pop()
+    }
+
+    /// A CAN FD frame the layer delivered (feature `fd`): for the master, whose node serves
+    /// USDO (CiA 1301) on a CANopen FD network when it is configured to
+    /// ([`NodeConfig::fd`](duocan_core::NodeConfig::fd)). Heartbeats, NMT, the flying master's
+    /// frames and LSS are classic frames, so nothing else of the supervisor looks at it; it is
+    /// a frame heard all the same (the silence rule of the clock contract).
+    #[cfg(feature = "fd")]
+    fn handle_frame_fd(&mut self, now: Instant, frame: &duocan_core::frame::FdFrame) {
+        self.watch_clock(now);
+        self.heard = Some(now);
+        self.master.handle_frame_fd(now, frame);
+        self.pump(now);
+    }
+
+    /// The master's CAN FD frames (its node's USDO answers), after its classic ones.
+    #[cfg(feature = "fd")]
+    fn poll_transmit_fd(&mut self) -> Option<duocan_core::frame::FdFrame> {
+        self.master.poll_transmit_fd()
     }
 }
 

@@ -95,7 +95,7 @@ fn after_its_first_bus_off_a_port_is_ok_only_once_a_transmission_is_confirmed() 
         let mut t = ms(13);
         while t < ms(13) + probation + Duration::from_millis(5) {
             h.on_rx(t, t, 0, RxOutcome::Duplicate, &mut out);
-            t = t + Duration::from_millis(1);
+            t += Duration::from_millis(1);
         }
         // Without confirmations frames are all a port can go by (unchanged).
         let expected = if confirms {
