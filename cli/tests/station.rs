@@ -190,6 +190,56 @@ fn runs_until(signal: &str) {
     );
 }
 
+/// A network on the railway 29-bit profile: `check` shows the profile, and `run` runs it on
+/// the simulated plant, whose boards run in turn: A first, B once A stops (the plant's fault
+/// script, 4 s in).
+#[test]
+fn a_station_runs_a_network_on_the_railway_29_bit_profile() {
+    let rail = file("tests/station_files/railway.toml");
+    let r = duocan(&["station", "check", &rail]);
+    assert_eq!(r.code, 0, "{}", r.err);
+    assert!(r.out.contains("profile railway29"), "{}", r.out);
+    let _one = common::one_station();
+    let mut child = common::station_run(&rail).spawn().expect("run duocan");
+    let (tx, rx) = std::sync::mpsc::channel();
+    let stderr = child.stderr.take().expect("stderr");
+    let reader = std::thread::spawn(move || {
+        for line in BufReader::new(stderr).lines().map_while(Result::ok) {
+            let _ = tx.send(line);
+        }
+    });
+    let mut lines: Vec<String> = vec![];
+    let has = |l: &Vec<String>, what: &str| l.iter().any(|x| x.contains(what));
+    let end = Instant::now() + Duration::from_secs(120);
+    while !has(&lines, "pair 0x10/0x50: B active") {
+        let left = end.saturating_duration_since(Instant::now());
+        match rx.recv_timeout(left) {
+            Ok(l) => lines.push(l),
+            Err(_) => {
+                let _ = child.kill();
+                panic!("board B never ran in 120 s:\n{}", lines.join("\n"));
+            }
+        }
+    }
+    let _ = Command::new("kill")
+        .args(["-TERM", &child.id().to_string()])
+        .status();
+    let _ = child.wait();
+    reader.join().expect("reader");
+    lines.extend(rx.try_iter());
+    let all = lines.join("\n");
+    assert!(
+        all.contains("started network=rail buses=sim-pairs"),
+        "{all}"
+    );
+    let at = |what: &str| lines.iter().position(|l| l.contains(what));
+    let (a, b) = (
+        at("pair 0x10/0x50: A active network=rail"),
+        at("pair 0x10/0x50: B active network=rail"),
+    );
+    assert!(a.is_some() && a < b, "{all}");
+}
+
 /// The station's audit trail under SIGKILL: a station on two simulated networks whose plants
 /// fail (buses, masters, boards: audit records) is killed with SIGKILL after its first, third
 /// and fifth acknowledged record, and started again each time: every record acknowledged as

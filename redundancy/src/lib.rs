@@ -157,7 +157,7 @@ pub use duocan_redundancy_core::{Outbox, EVENT_QUEUE, FRAME_QUEUE, MACHINE_QUEUE
 pub use duocan_redundancy_core::{RedundantMaster, SupervisedLink, SupervisedStation};
 #[cfg(feature = "alloc")]
 pub use logical::{
-    LogicalNetwork, NetworkError, NetworkEvent, NetworkEventKind, RedundantError,
+    LogicalNetwork, NetProfile, NetworkError, NetworkEvent, NetworkEventKind, RedundantError,
     RedundantNetworkBuilder, Role,
 };
 #[cfg(feature = "tokio")]

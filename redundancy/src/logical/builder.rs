@@ -6,9 +6,16 @@
 //! master with its dictionary, the [`Supervisor`], the [`DualBus`] and the
 //! [`SupervisedStation`]. Every setting has a default; every bad one is a [`RedundantError`]
 //! naming it, found before anything is built.
+//!
+//! The identifier profile is a setting too ([`RedundantNetworkBuilder::profile`]): the network
+//! [`build`](RedundantNetworkBuilder::build) returns names the predefined set in its type, as
+//! every caller that never chose one expects; [`build_profiled`](RedundantNetworkBuilder::build_profiled)
+//! (what the async handle runs) returns one on a [`NetProfile`], whichever it holds. On the
+//! railway 29-bit scheme the master's dictionary gets the railway communication entries and
+//! its SDO client the railway channels of each node.
 
 use super::error::{RedundantError, Role};
-use super::LogicalNetwork;
+use super::{LogicalNetwork, NetProfile};
 use crate::link::config::DualBusConfig;
 use crate::link::dual_bus::DualBus;
 use crate::pair::{PairSpec, MAX_PAIRS};
@@ -16,13 +23,13 @@ use crate::station::SupervisedStation;
 use crate::supervisor::flying_master::MAX_PEERS;
 use crate::supervisor::pairs::PairsConfig;
 use crate::supervisor::{Supervisor, SupervisorConfig};
-use crate::LinkMode;
+use crate::{FrameClassifier, LinkMode};
 use alloc::boxed::Box;
 use alloc::vec::Vec;
 use duocan::master::{objects, Master, MasterConfig, MasterSdoClient, SlaveConfig};
 use duocan::od::{comm, DynamicDictionary};
-use duocan::profile::Predefined;
-use duocan::sdo::DEFAULT_LIMIT;
+use duocan::profile::{IdProfile, Predefined};
+use duocan::sdo::{Channel, DEFAULT_LIMIT};
 use duocan::{Duration, Instant, NodeConfig, NodeId};
 
 /// This master's heartbeat unless [`RedundantNetworkBuilder::heartbeat`] says otherwise.
@@ -52,6 +59,7 @@ pub const DEFAULT_MASTER_TIMEOUT: Duration = Duration::from_millis(300);
 /// | [`member_config`](Self::member_config) | heartbeat only | what the master configures into a pair member at boot (a DCF's values: `SlaveConfig::from_dcf`) |
 /// | [`link`](Self::link) | active-active, guard period = the shorter heartbeat | the dual-bus layer |
 /// | [`master`](Self::master) | `MasterConfig::new()` | the CiA 302-2 master's own settings (other slaves, SDO timeout, queues) |
+/// | [`profile`](Self::profile) | the predefined set | the identifier profile ([`NetProfile`]: the predefined set or the railway 29-bit scheme) |
 /// | [`with_fd`](Self::with_fd) (feature `fd`) | classic | a CANopen FD network: both ports CAN FD, the master serving USDO, the door's reads and writes over USDO from the client node-ID given; heartbeats only |
 ///
 /// ```
@@ -89,6 +97,7 @@ pub struct RedundantNetworkBuilder {
     members: Vec<SlaveConfig>,
     link: Option<DualBusConfig>,
     master: MasterConfig,
+    profile: NetProfile,
     /// A CANopen FD network: the door's USDO client node-ID.
     fd: Option<u8>,
 }
@@ -109,6 +118,7 @@ impl Default for RedundantNetworkBuilder {
             members: Vec::new(),
             link: None,
             master: MasterConfig::new(),
+            profile: NetProfile::predefined(),
             fd: None,
         }
     }
@@ -203,6 +213,21 @@ impl RedundantNetworkBuilder {
     pub fn master(mut self, cfg: MasterConfig) -> Self {
         self.master = cfg;
         self
+    }
+
+    /// The identifier profile (default: the CiA 301 predefined connection set;
+    /// `NetProfile::railway29()` for the railway 29-bit scheme, on which every device of the
+    /// network, this master, its peers and the pair members, must run). A network on another
+    /// profile than the predefined set is built with [`build_profiled`](Self::build_profiled)
+    /// or opened (`open`, `open_named`).
+    pub fn profile(mut self, profile: NetProfile) -> Self {
+        self.profile = profile;
+        self
+    }
+    /// The identifier profile as set.
+    #[must_use]
+    pub fn id_profile(&self) -> &NetProfile {
+        &self.profile
     }
 
     /// A CANopen FD network (CiA 1301; feature `fd`), as duocan's `NetOptions::with_fd` opens
@@ -372,7 +397,10 @@ impl RedundantNetworkBuilder {
     }
 
     /// Builds the network: master, supervisor with its pairs and peers, dual-bus layer, as one
-    /// sans-IO [`LogicalNetwork`] (its clock starts at [`Instant::ZERO`]).
+    /// sans-IO [`LogicalNetwork`] (its clock starts at [`Instant::ZERO`]), on the predefined
+    /// connection set: with another [`profile`](Self::profile) this is
+    /// [`RedundantError::ProfileNotPredefined`] (build it with
+    /// [`build_profiled`](Self::build_profiled)).
     pub fn build(&self) -> Result<LogicalNetwork<DynamicDictionary>, RedundantError> {
         self.build_boxed().map(|n| *n)
     }
@@ -380,8 +408,30 @@ impl RedundantNetworkBuilder {
     /// [`build`](Self::build), on the heap: the network is some 160 kB, more than a small
     /// thread's stack wants to move around (what a runtime takes).
     pub fn build_boxed(&self) -> Result<Box<LogicalNetwork<DynamicDictionary>>, RedundantError> {
+        if self.profile.is_railway() {
+            return Err(RedundantError::ProfileNotPredefined {
+                profile: self.profile.name(),
+            });
+        }
+        self.build_on(Predefined, Channel::predefined)
+    }
+
+    /// The network on the [`profile`](Self::profile) set, whichever it is (what the async
+    /// handle runs), on the heap.
+    pub fn build_profiled(
+        &self,
+    ) -> Result<Box<LogicalNetwork<DynamicDictionary, NetProfile>>, RedundantError> {
+        self.build_on(self.profile.clone(), self.profile.sdo_channels())
+    }
+
+    /// The network on `profile`, the master's SDO client on `channels`.
+    fn build_on<P: IdProfile + FrameClassifier + Clone>(
+        &self,
+        profile: P,
+        channels: fn(NodeId) -> Channel,
+    ) -> Result<Box<LogicalNetwork<DynamicDictionary, P>>, RedundantError> {
         self.check()?;
-        let sup = self.supervisor()?;
+        let sup = self.supervisor(profile.clone(), channels)?;
         let guard = self.heartbeat.min(self.pair_heartbeat);
         let link = self
             .link
@@ -392,7 +442,7 @@ impl RedundantNetworkBuilder {
             sup.check_fd().map_err(RedundantError::GuardingOnFd)?;
         }
         #[cfg_attr(not(feature = "fd"), allow(unused_mut))]
-        let mut bus = DualBus::new(link);
+        let mut bus = DualBus::with_classifier(link, profile);
         #[cfg(feature = "fd")]
         if self.fd.is_some() {
             bus.set_port_fd(0, true);
@@ -403,7 +453,11 @@ impl RedundantNetworkBuilder {
     }
 
     /// The master and its supervisor, with the pairs and peers (settings checked).
-    fn supervisor(&self) -> Result<Box<Supervisor<DynamicDictionary>>, RedundantError> {
+    fn supervisor<P: IdProfile>(
+        &self,
+        profile: P,
+        channels: fn(NodeId) -> Channel,
+    ) -> Result<Box<Supervisor<DynamicDictionary, P>>, RedundantError> {
         let id = |raw: u8| {
             NodeId::new(raw).ok_or(RedundantError::BadNodeId {
                 role: Role::Node,
@@ -411,7 +465,8 @@ impl RedundantNetworkBuilder {
             })
         };
         let me = id(self.node_id)?;
-        let od = objects::master_dictionary(self.node_id, comm::Identity::default());
+        let mut od = objects::master_dictionary(self.node_id, comm::Identity::default());
+        self.profile.fit_dictionary(&mut od, me);
         #[cfg_attr(not(feature = "fd"), allow(unused_mut))]
         let mut node = NodeConfig::master(me);
         #[cfg(feature = "fd")]
@@ -419,8 +474,9 @@ impl RedundantNetworkBuilder {
             // On a CANopen FD network the master's node serves USDO too.
             node = node.with_fd(self.fd.is_some());
         }
-        let sdo = MasterSdoClient::with_sessions(DEFAULT_LIMIT, self.master.sdo_sessions);
-        let master = Master::with_parts(node, od, Predefined, sdo, self.master.clone())
+        let sdo = MasterSdoClient::with_sessions(DEFAULT_LIMIT, self.master.sdo_sessions)
+            .with_channels(channels);
+        let master = Master::with_parts(node, od, profile, sdo, self.master.clone())
             .map_err(|e| RedundantError::Network(super::NetworkError::Nmt(e)))?;
         let mut cfg = SupervisorConfig::new(
             self.priority,

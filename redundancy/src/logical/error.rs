@@ -88,6 +88,12 @@ pub enum RedundantError {
         /// The capacity.
         max: usize,
     },
+    /// `build` or `build_boxed` was asked for a network on another identifier profile than
+    /// the predefined set, which is the one their type names.
+    ProfileNotPredefined {
+        /// The profile set ([`NetProfile::name`](super::NetProfile::name)).
+        profile: &'static str,
+    },
     /// The supervisor refused a pair.
     Pair(AddPairError),
     /// The dual-bus layer refused a pair.
@@ -203,6 +209,10 @@ impl fmt::Display for RedundantError {
                 value.as_millis()
             ),
             E::TooMany { what, max } => write!(f, "at most {max} {what}: declare fewer"),
+            E::ProfileNotPredefined { profile } => write!(
+                f,
+                "profile {profile}: build() and build_boxed() give a network on the predefined connection set; build this one with build_profiled() (or open it)"
+            ),
             E::Pair(e) => write!(f, "{e}"),
             E::Link(e) => write!(f, "{e}"),
             E::Network(e) => write!(f, "{e}"),

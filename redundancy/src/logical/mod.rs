@@ -8,6 +8,7 @@
 //! | need                         | call                                                        |
 //! |------------------------------|-------------------------------------------------------------|
 //! | building it                  | [`LogicalNetwork::builder`]: named settings with defaults, all checked ([`RedundantNetworkBuilder`]); with the `tokio` feature `.open(…)` / `.open_named(…)` give the async handle `net::RedundantNetwork` |
+//! | its identifier profile       | [`RedundantNetworkBuilder::profile`]: the predefined set or the railway 29-bit scheme, a value ([`NetProfile`], see [`profile`](NetProfile) for why not a type) |
 //! | the object dictionary        | [`LogicalNetwork::od`], [`read`](LogicalNetwork::read), [`write`](LogicalNetwork::write) |
 //! | SDO access to any node       | [`sdo_read`](LogicalNetwork::sdo_read), [`sdo_write`](LogicalNetwork::sdo_write): a [`RequestId`] now, [`NetworkEventKind::Sdo`] when done |
 //! | NMT commands                 | [`nmt`](LogicalNetwork::nmt)                                 |
@@ -67,12 +68,14 @@
 mod builder;
 mod error;
 mod events;
+mod profile;
 #[cfg(feature = "tokio")]
 pub(crate) use events::typed;
 
 pub use builder::{RedundantNetworkBuilder, DEFAULT_HEARTBEAT, DEFAULT_MASTER_TIMEOUT};
 pub use error::{RedundantError, Role};
 pub use events::{NetworkEvent, NetworkEventKind};
+pub use profile::NetProfile;
 
 use crate::link::dual_bus::DualBus;
 use crate::pair::{Member, PairId};

@@ -36,7 +36,9 @@
 
 use super::dual_link::heard_on;
 use super::events::RedundantEvent;
-use crate::logical::{LogicalNetwork, NetworkError, NetworkEvent, NetworkEventKind as K};
+use crate::logical::{
+    LogicalNetwork, NetProfile, NetworkError, NetworkEvent, NetworkEventKind as K,
+};
 use crate::supervisor::pairs::PairsEvent;
 use crate::SupervisorEvent;
 use alloc::boxed::Box;
@@ -53,8 +55,9 @@ use duocan::AbortCode;
 use duocan::NodeEventKind;
 use duocan::{Frame, Instant, NmtCommand, NmtState, NodeId};
 
-/// The network the core runs.
-pub(super) type Net = LogicalNetwork<DynamicDictionary>;
+/// The network the core runs: on the profile the builder was given, a value
+/// ([`NetProfile`]), so that the handle is one type whatever it runs.
+pub(super) type Net = LogicalNetwork<DynamicDictionary, NetProfile>;
 
 /// A [`LogicalNetwork`] as the core of a `duocan::net::Network` (boxed: the network is some
 /// 160 kB).

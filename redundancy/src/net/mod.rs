@@ -246,18 +246,19 @@ impl RedundantNetwork {
 }
 
 impl RedundantNetworkBuilder {
-    /// Opens the network on two ports (port 1 = bus 1): builds it and runs it under the duocan
-    /// runtime. Must be called inside a tokio runtime.
+    /// Opens the network on two ports (port 1 = bus 1): builds it on its
+    /// [`profile`](RedundantNetworkBuilder::profile) and runs it under the duocan runtime.
+    /// Must be called inside a tokio runtime.
     pub fn open<P1: Port, P2: Port>(
         &self,
         bus1: P1,
         bus2: P2,
     ) -> Result<RedundantNetwork, RedundantError> {
-        RedundantNetwork::start(self.build_boxed()?, (bus1, bus2), self.fd_client())
+        RedundantNetwork::start(self.build_profiled()?, (bus1, bus2), self.fd_client())
     }
     /// Opens the network by name:
     ///
-    /// - `sim-pairs`: two simulated buses carrying the declared pairs (`duocan::net`'s simulated node, with its process data) and
+    /// - `sim-pairs`: two simulated buses carrying the declared pairs (`duocan::net`'s simulated node, with its process data, on the builder's [`profile`](RedundantNetworkBuilder::profile)) and
     ///   peer masters (simulated redundant masters with the same settings), and a script of
     ///   faults: bus 1 of this master fails at [`SIM_BUS_FAILS`], the peer masters stop at
     ///   [`SIM_PEERS_FAIL`] (a standby master takes over), the active member of every pair

@@ -8,18 +8,26 @@
 //! rack goes on). Under tokio's paused clock (tests) the run is deterministic. A builder with
 //! `with_fd` gets the same plants as a CANopen FD network: every board and peer speaks CAN FD
 //! on both buses and serves USDO.
+//!
+//! Every simulated device runs on the builder's identifier profile: on the railway 29-bit
+//! scheme the boards' nodes and dual-bus layers classify by it and their dictionaries hold the
+//! railway communication entries (SYNC, EMCY, SDO server) of their board addresses, so the
+//! plant is the same, frame for frame, on the other identifiers.
 
 use super::core::Net;
 use super::RedundantNetwork;
 use crate::link::config::DualBusConfig;
 use crate::link::dual_bus::{DualBus, DualBusNode};
-use crate::logical::{RedundantError, RedundantNetworkBuilder};
+use crate::logical::{NetProfile, RedundantError, RedundantNetworkBuilder};
 use alloc::boxed::Box;
 use alloc::string::ToString;
 use alloc::vec::Vec;
-use duocan::od::DynamicDictionary;
+use duocan::cia301::pdo::params;
+use duocan::od::{DefaultValue, DynamicDictionary};
 use duocan::port::mem::{Connector, MemBus};
+use duocan::profile::railway::{self, RailFunction};
 use duocan::runtime::{Handle, Runtime};
+use duocan::CobId;
 use duocan::{Duration, Instant, Node, NodeConfig, NodeId, Station};
 use tokio::sync::watch;
 use tokio::task::JoinHandle;
@@ -41,7 +49,7 @@ pub const SIM_END: Duration = Duration::from_millis(6000);
 /// interleave differently).
 pub const SIM_B_BOOTS: Duration = Duration::from_millis(1000);
 
-pub(super) type Board = DualBusNode<DynamicDictionary>;
+pub(super) type Board = DualBusNode<DynamicDictionary, NetProfile>;
 
 /// The simulated devices' script, running while the network is open; the network stops it
 /// when it closes ([`Network::on_close`](duocan::net::Network::on_close)).
@@ -74,15 +82,27 @@ pub(super) async fn until(
 
 /// A simulated duocan board `id`: `duocan::net`'s simulated node (identity with the vendor-ID
 /// `duocan::net::SIM_VENDOR` and product code = node-ID; inputs 0x6000 on TPDO 1, outputs
-/// 0x6200 on RPDO 1, described by `duocan::net::sim_description`), booted (its boot-up goes out
-/// when its runtime starts).
+/// 0x6200 on RPDO 1, described by `duocan::net::sim_description`) on `profile`, booted (its
+/// boot-up goes out when its runtime starts).
 ///
 /// On a CANopen FD network (`fd`) the board speaks CAN FD on both ports and serves USDO.
-pub(super) fn board(id: NodeId, fd: bool) -> Board {
-    let od = duocan::net::sim_dictionary(id);
-    let mut node = Node::new(NodeConfig::slave(id).with_fd(fd), od);
+pub(super) fn board(id: NodeId, profile: &NetProfile, fd: bool) -> Board {
+    let mut od = duocan::net::sim_dictionary(id);
+    profile.fit_dictionary(&mut od, id);
+    if profile.is_railway() {
+        // Its process data on the railway identifiers too: inputs as state changes and
+        // outputs as commands of I/O port 1 (TPDO and RPDO 2–4 stay disabled).
+        let port1 = NetProfile::railway_address(id).with_port(1);
+        let cob = |f| DefaultValue::Unsigned(u64::from(CobId::from_id(railway::id(f, port1)).0));
+        let tpdo = params::tpdo_comm(1, cob(RailFunction::StateChange), 254, 0, 0);
+        let rpdo = params::rpdo_comm(1, cob(RailFunction::Command), 255, 0);
+        for def in tpdo.into_iter().chain(rpdo) {
+            od.upsert(def);
+        }
+    }
+    let mut node = Node::with_profile(NodeConfig::slave(id).with_fd(fd), od, profile.clone());
     node.boot(Instant::ZERO);
-    let mut link = DualBus::new(DualBusConfig::default());
+    let mut link = DualBus::with_classifier(DualBusConfig::default(), profile.clone());
     link.set_port_fd(0, fd);
     link.set_port_fd(1, fd);
     Station::new(link, node)
@@ -127,9 +147,17 @@ pub(super) fn open(
     b: &RedundantNetworkBuilder,
     plant: Plant,
 ) -> Result<RedundantNetwork, RedundantError> {
-    let net = b.build_boxed()?;
+    open_on(b, plant, [MemBus::new("sim-bus1"), MemBus::new("sim-bus2")])
+}
+
+/// [`open`] on `buses` (a test listens on them).
+pub(super) fn open_on(
+    b: &RedundantNetworkBuilder,
+    plant: Plant,
+    buses: [MemBus; 2],
+) -> Result<RedundantNetwork, RedundantError> {
+    let net = b.build_profiled()?;
     let fd = b.fd_client().is_some();
-    let buses = [MemBus::new("sim-bus1"), MemBus::new("sim-bus2")];
     // This master's ports first: a port hears only what is sent after it exists.
     let (port1, cut) = buses[0].plugged_port();
     let ports = (port1, buses[1].port());
@@ -137,7 +165,7 @@ pub(super) fn open(
     let mut boards = Vec::new();
     if tokio::runtime::Handle::try_current().is_ok() {
         for &(n, _) in b.peers() {
-            let dev = b.as_peer(n).build_boxed()?;
+            let dev = b.as_peer(n).build_profiled()?;
             peers.push(spawn(dev, &alloc::format!("sim master {n}"), &buses)?);
         }
         for &(a, _) in b.pairs() {
@@ -146,7 +174,7 @@ pub(super) fn open(
                 boards.push((
                     a,
                     spawn(
-                        Box::new(board(id, fd)),
+                        Box::new(board(id, b.id_profile(), fd)),
                         &alloc::format!("sim board {a}"),
                         &buses,
                     )?,
@@ -163,6 +191,7 @@ pub(super) fn open(
         peers,
         boards,
         later: b.pairs().iter().map(|&(_, b)| b).collect(),
+        profile: b.id_profile().clone(),
         fd,
         stop: stop_rx,
         start: tokio::time::Instant::now(),
@@ -186,6 +215,8 @@ struct Script {
     boards: Vec<(u8, Handle<Board>)>,
     /// The B members, booted [`SIM_B_BOOTS`].
     later: Vec<u8>,
+    /// The boards' identifier profile.
+    profile: NetProfile,
     stop: watch::Receiver<bool>,
     start: tokio::time::Instant,
     plant: Plant,
@@ -223,7 +254,11 @@ impl Script {
         for b in core::mem::take(&mut self.later) {
             if let Some(id) = NodeId::new(b) {
                 let name = alloc::format!("sim board {b}");
-                if let Ok(h) = spawn(Box::new(board(id, self.fd)), &name, &self.buses) {
+                if let Ok(h) = spawn(
+                    Box::new(board(id, &self.profile, self.fd)),
+                    &name,
+                    &self.buses,
+                ) {
                     self.boards.push((b, h));
                 }
             }
@@ -298,3 +333,6 @@ impl Script {
         false
     }
 }
+
+#[cfg(test)]
+mod tests;

@@ -13,7 +13,7 @@ use duocan_redundancy::net::{
 };
 use duocan_redundancy::supervisor::flying_master::{MasterReason, MasterRole, MasterRoleChange};
 use duocan_redundancy::supervisor::pairs::{RoleChange, RoleReason};
-use duocan_redundancy::{LogicalNetwork, Member, NetworkError, RedundantError};
+use duocan_redundancy::{LogicalNetwork, Member, NetProfile, NetworkError, RedundantError};
 
 fn ms(n: u64) -> Duration {
     Duration::from_millis(n)
@@ -176,7 +176,7 @@ async fn sdo_through_the_handle_to_a_pair_member_on_either_bus() {
     until_pair_active(&net).await;
     assert_eq!(net.role().await.unwrap(), MasterRole::Active);
     // A member's heartbeat the master guards already: watching it leaves its table as it is.
-    let table = |n: &mut LogicalNetwork<DynamicDictionary>, _| {
+    let table = |n: &mut LogicalNetwork<DynamicDictionary, NetProfile>, _| {
         use duocan::od::ObjectDictionary;
         (0..=127u8)
             .map(|s| n.od().get_u32(0x1016, s))
@@ -383,7 +383,9 @@ async fn a_call_waits_for_the_networks_own_transfer_to_the_node() {
     // Member B is silent until it boots, and the supervisor probes it meanwhile: the client
     // is busy with its transfers to B.
     let b = NodeId::must(0x50);
-    let start = move |n: &mut LogicalNetwork<DynamicDictionary>, now| n.sdo_read(now, b, 0x1018, 1);
+    let start = move |n: &mut LogicalNetwork<DynamicDictionary, NetProfile>, now| {
+        n.sdo_read(now, b, 0x1018, 1)
+    };
     let busy = |r: &Result<_, NetworkError>| matches!(r, Err(NetworkError::Sdo(e)) if e.kind == SdoErrorKind::Busy);
     assert!(net.now() < after(SIM_B_BOOTS));
     assert!(busy(&net.with(start).await.unwrap()));

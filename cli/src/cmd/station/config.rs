@@ -44,7 +44,7 @@
 //! boards = [{ node = 0x10, eds = "io.eds" }, { node = 0x50, dcf = "io-b.dcf" }]
 //!                                  # optional: a pair member's EDS (names, types) or DCF
 //!                                  # (and its values written at boot); see [`boards`]
-//! profile = "predefined"           # the identifier profile (railway29 is refused: see [`link`])
+//! profile = "predefined"           # the identifier profile: or "railway29" (see [`link`])
 //! link = "active-active"           # the dual-bus policy: or "cia302-6", "ecss" ([`link`])
 //! merge = "exact"                  # active-active's receive merge: or "sticky"
 //! merge_timeout_ms = 40            # sticky: a sender's silence before it switches bus

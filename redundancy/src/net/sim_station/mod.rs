@@ -21,7 +21,7 @@ use super::sim_pairs::{board, Board};
 use super::Net;
 use crate::link::config::DualBusConfig;
 use crate::link::dual_bus::DualBus;
-use crate::logical::{RedundantError, RedundantNetworkBuilder};
+use crate::logical::{NetProfile, RedundantError, RedundantNetworkBuilder};
 use alloc::boxed::Box;
 use alloc::string::ToString;
 use backplane::Backplane;
@@ -163,7 +163,7 @@ fn lss_board(serial: u32) -> Box<LssBoard> {
 
 #[inline(never)]
 fn new_board(id: u8) -> Box<Board> {
-    Box::new(board(NodeId::must(id), false))
+    Box::new(board(NodeId::must(id), &NetProfile::predefined(), false))
 }
 
 /// The masters' settings: 0x01 with its peer 0x02 and the pairs.
@@ -178,9 +178,9 @@ fn masters() -> RedundantNetworkBuilder {
 fn master(id: u8) -> Result<Box<Net>, RedundantError> {
     let b = masters();
     if id == b.this_node() {
-        b.build_boxed()
+        b.build_profiled()
     } else {
-        b.as_peer(id).build_boxed()
+        b.as_peer(id).build_profiled()
     }
 }
 

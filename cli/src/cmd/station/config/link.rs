@@ -3,7 +3,7 @@
 //! (`duocan_redundancy::DualBusConfig`).
 //!
 //! ```toml
-//! profile = "predefined"     # the CiA 301 predefined connection set (the only one, see below)
+//! profile = "predefined"     # the CiA 301 predefined connection set, or "railway29" (below)
 //! link = "active-active"     # or "cia302-6" (active-standby), "ecss" (bus toggling)
 //! merge = "exact"            # active-active: "exact" (every frame once) or "sticky"
 //! merge_timeout_ms = 40      # sticky: a sender's silence on its bus before it switches
@@ -22,15 +22,18 @@
 //! The health and reachability timing follow the shorter of `heartbeat_ms` and
 //! `pair_heartbeat_ms`, as the builder's default does.
 //!
-//! `profile = "railway29"` is refused: the redundant master (`RedundantNetwork`, the builder's
-//! `LogicalNetwork<_, Predefined>`) runs the predefined connection set only. The railway 29-bit
-//! scheme is in the library as an identifier profile and the dual-bus layer's frame classifier
-//! (`duocan::profile::railway::RailwayProfile`), for a station built in code; the key is there
-//! so that a file that asks for it is told so, not run on the wrong identifiers.
+//! `profile = "railway29"`: the whole network runs on the railway 29-bit identifier scheme
+//! (`duocan_redundancy::logical::NetProfile::railway29`): heartbeats, node guarding, EMCY,
+//! NMT, SYNC and SDO on 29-bit identifiers, a function code above the board address of each
+//! node-ID, which is fixed (row 1, cabinet = the node-ID's high nibble, layer 1, board = its
+//! low nibble) so that the file needs no address table and every device agrees on it; the
+//! flying-master frames stay CiA 302-2's 11-bit ones. The boards must run the same scheme at
+//! the same addresses (the simulated plant's do); a network's profile is one for all its
+//! devices, which is why it is a key of the network, not of a board.
 
 use super::{NetworkTable, Source};
 use duocan::Duration;
-use duocan_redundancy::logical::DEFAULT_HEARTBEAT;
+use duocan_redundancy::logical::{NetProfile, DEFAULT_HEARTBEAT};
 use duocan_redundancy::{Cia3026Config, DualBusConfig, EcssConfig, LinkMode, MergePolicy};
 use toml::Spanned;
 
@@ -52,8 +55,18 @@ pub struct Link {
     pub merge_timeout_ms: Option<u64>,
     /// The default bus (1 or 2) of cia302-6 and ecss.
     pub default_bus: Option<u8>,
-    /// The identifier profile (always `predefined`).
+    /// The identifier profile: one of [`PROFILES`].
     pub profile: &'static str,
+}
+
+impl Link {
+    /// The identifier profile the network's builder takes.
+    pub fn net_profile(&self) -> NetProfile {
+        match self.profile {
+            "railway29" => NetProfile::railway29(),
+            _ => NetProfile::predefined(),
+        }
+    }
 }
 
 impl std::fmt::Display for Link {
@@ -97,18 +110,7 @@ pub(super) fn link(
 ) -> Result<(Option<DualBusConfig>, Link), String> {
     let profile = match &t.profile {
         None => "predefined",
-        Some(p) => match one_of(src, p, "profile", &PROFILES)? {
-            "railway29" => {
-                return Err(src.span(
-                    p.span(),
-                    "profile",
-                    "\"railway29\": the redundant master runs the CiA 301 predefined \
-                     connection set only (give \"predefined\", or leave the key out); the \
-                     railway 29-bit profile is the library's for a station built in code",
-                ))
-            }
-            other => other,
-        },
+        Some(p) => one_of(src, p, "profile", &PROFILES)?,
     };
     let kind = match &t.link {
         None => "active-active",
@@ -234,13 +236,25 @@ mod tests {
     }
 
     #[test]
-    fn each_error_names_the_key_and_what_is_allowed() {
-        let e = err("profile = \"railway29\"\n");
-        assert!(
-            e.starts_with("s.toml:5:11: profile: \"railway29\": "),
-            "{e}"
+    fn the_railway_profile_is_taken_and_reaches_the_builder() {
+        assert_eq!(
+            shown("profile = \"railway29\"\n"),
+            "link active-active, merge exact, profile railway29"
         );
-        assert!(e.contains("predefined connection set only"), "{e}");
+        assert_eq!(
+            shown("profile = \" railway29 \"\nlink = \"cia302-6\"\n"),
+            "link cia302-6, default bus 1, profile railway29"
+        );
+        let st = parse(&format!("{HEAD}profile = \"railway29\"\n"), "s.toml").unwrap();
+        let net = &st.networks[0];
+        assert!(net.link.net_profile().is_railway());
+        assert_eq!(net.builder.id_profile().name(), "railway29");
+        let st = parse(HEAD, "s.toml").unwrap();
+        assert_eq!(st.networks[0].builder.id_profile().name(), "predefined");
+    }
+
+    #[test]
+    fn each_error_names_the_key_and_what_is_allowed() {
         let e = err("profile = \"can29\"\n");
         assert!(
             e.starts_with(

@@ -57,6 +57,7 @@ pub(super) fn network(
     if let Some(cfg) = link {
         b = b.link(cfg);
     }
+    b = b.profile(shown.net_profile());
     let pairs = t.pairs.as_ref().map_or(&[][..], |p| p.get_ref());
     let boards = super::boards::boards(src, t.boards.as_ref(), pairs)?;
     for cfg in boards.iter().filter_map(super::Board::slave_config) {
