@@ -532,7 +532,22 @@ impl Oracle {
             self.base += 1;
             self.judged += 1;
             self.indistinguishable(&mut o, wiring);
-            let excused = self.nodes[o.sender].foreign && self.apart(&o);
+            // A frame of the node that is not duocan that reached nobody never left it: its
+            // one transmit queue feeds both controllers, and a frame its controller on one bus
+            // cannot send (long frames lost there) holds every frame behind it until that
+            // controller gives up (bus-off). What the others receive of it is judged; what it
+            // never sent is not; nor what it sent held back longer than a merger remembers, in
+            // the backlog it then releases at once (its identical heartbeats back to back, a
+            // fraction of a millisecond apart, some with one copy only: no layer can pair
+            // them). Retransmissions on a noisy bus delay its frames far less: still judged.
+            let held = o
+                .arrived
+                .iter()
+                .flatten()
+                .min()
+                .is_some_and(|&a| a > o.at + HORIZON);
+            let excused = self.nodes[o.sender].foreign
+                && (o.reached.iter().all(|&n| n == 0) || held || self.apart(&o));
             for r in 0..self.nodes.len() {
                 if r == o.sender || !powered(r) || self.nodes[r].foreign || excused {
                     continue;
