@@ -331,6 +331,7 @@ impl Plausibility {
             quiet: false,
             #[cfg(feature = "alloc")]
             producer: None,
+            reset: 0,
         };
         if t.watched.len() >= self.capacity || t.watched.try_push(w).is_err() {
             self.refused = self.refused.saturating_add(1);

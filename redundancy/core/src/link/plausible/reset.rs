@@ -15,7 +15,7 @@
 //! at every boot-up, flags it again within a few periods (rule 1). A reset whose boot-up never
 //! comes ends at most one later verdict, at that boot-up.
 //!
-//! Memory: one flag per watched node and bus.
+//! Memory: one bit per watched node and bus.
 
 use super::{Plausibility, ON};
 use duocan_core::{Frame, Id, NodeId};
@@ -34,11 +34,11 @@ impl Plausibility {
         if target == 0 {
             if let Some(t) = self.table.as_deref_mut() {
                 for w in t.watched.iter_mut() {
-                    w.ports.iter_mut().for_each(|tr| tr.reset = true);
+                    w.reset = 0b11;
                 }
             }
         } else if let Some(i) = NodeId::new(target).and_then(|n| self.find(n)) {
-            self.at(i).ports.iter_mut().for_each(|tr| tr.reset = true);
+            self.at(i).reset = 0b11;
         }
     }
 }
@@ -53,7 +53,7 @@ mod tests {
     }
     fn flags(p: &Plausibility, node: u8) -> [bool; 2] {
         p.entry(NodeId::must(node))
-            .map_or([false; 2], |w| w.ports.map(|t| t.reset))
+            .map_or([false; 2], |w| [0, 1].map(|b| w.reset & (1 << b) != 0))
     }
 
     #[test]

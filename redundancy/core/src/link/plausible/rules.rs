@@ -99,10 +99,12 @@ impl Plausibility {
         let state = frame.data().first().copied();
         let boot_up = state == Some(0);
         let state = state.unwrap_or(u8::MAX);
+        let reset = boot_up && w.reset & (1 << p) != 0;
+        w.reset &= !(u8::from(boot_up) << p);
         let tr = &mut w.ports[p];
         let before = tr.last;
         tr.last = t;
-        if boot_up && core::mem::take(&mut tr.reset) {
+        if reset {
             // The boot-up a master's reset asked for: the verdict ends (`reset.rs`).
             tr.tat = tr.tat.min(tq);
         }

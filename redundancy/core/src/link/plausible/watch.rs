@@ -29,9 +29,6 @@ pub(super) struct Track {
     pub(super) prev: u64,
     pub(super) calm: u8,
     pub(super) state: u8,
-    /// A master reset the node and its boot-up has not come over this bus yet: the boot-up
-    /// ends a verdict (`reset.rs`).
-    pub(super) reset: bool,
 }
 
 impl Track {
@@ -46,7 +43,6 @@ impl Track {
         prev: 0,
         calm: 0,
         state: 0,
-        reset: false,
     };
     pub(super) fn fast(&self) -> bool {
         self.fast
@@ -120,6 +116,10 @@ pub(super) struct Watch {
     /// (`producer.rs`; without an allocator nothing is watched).
     #[cfg(feature = "alloc")]
     pub(super) producer: Option<u16>,
+    /// Per bus (bit `p`): a master reset the node and its boot-up has not come over that bus
+    /// yet, so the boot-up ends a verdict there (`reset.rs`). A byte of the entry, not a flag
+    /// per [`Track`]: that would have grown every entry by 16 bytes (alignment).
+    pub(super) reset: u8,
 }
 
 impl Watch {
