@@ -1,5 +1,6 @@
 //! The station's dashboard in a real browser: a headless Chromium (Debian's `chromium`) opens
-//! the page of a running station whose turnout rack's simulated plant fails, and the test
+//! the page of a station running the shipped demonstration's four racks
+//! (`examples/station/demo.toml`), whose turnout rack's simulated plant fails, and the test
 //! watches the page's DOM while the failover happens — the pair's running board turns from A
 //! to B, bus 1 fails, the failover shows in the live events and in the timeline, the quiet
 //! rack's board keeps running — then keeps a screenshot (its path is printed). Without the
@@ -158,11 +159,20 @@ fn the_dashboard_shows_a_failover_as_it_happens() {
     std::fs::create_dir_all(&dir).unwrap();
     // The browser first, warm before the plant's script starts its clock.
     let mut b = cdp::Browser::start(&dir);
-    let racks = std::fs::read_to_string(
-        PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("tests/station_files/dashboard.toml"),
-    )
-    .unwrap();
-    let file = dir.join("dashboard.toml");
+    // The shipped demonstration file's racks, under a station section of the test's own (an
+    // address the system picks, the tokens) and with the boards' device files found from here.
+    let examples = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../examples");
+    let demo = std::fs::read_to_string(examples.join("station/demo.toml")).unwrap();
+    let racks = &demo[demo.find("[[network]]").expect("the demo's networks")..];
+    let racks = racks.replace(
+        "\"../demo/devices/",
+        &format!("\"{}/", examples.join("demo/devices").display()),
+    );
+    assert!(
+        racks.contains("name = \"turnout rack\"\nbuses = \"sim-pairs:failover\""),
+        "the demo's turnout rack no longer fails: {racks}"
+    );
+    let file = dir.join("demo.toml");
     std::fs::write(
         &file,
         format!(

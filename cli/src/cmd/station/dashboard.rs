@@ -99,14 +99,28 @@ struct Seen {
 }
 
 impl Recent {
-    /// Keeps `e`, dropping the oldest event beyond [`RECENT`].
+    /// Keeps `e`, dropping the oldest event beyond [`RECENT`]: the oldest that is no failover
+    /// while failovers fill less than half of them, so that a failover (what the timeline is
+    /// for) outlives the chatter that follows it (a rack of ten pairs reports some sixty events
+    /// around one bus cut).
     pub fn push(&self, e: &NetEvent) {
         let at = std::time::SystemTime::now()
             .duration_since(std::time::UNIX_EPOCH)
             .map_or(0, |d| u64::try_from(d.as_millis()).unwrap_or(u64::MAX));
         let mut s = self.0.lock().unwrap_or_else(|e| e.into_inner());
         if s.events.len() == RECENT {
-            s.events.pop_front();
+            let failovers = s.events.iter().filter(|e| e.2).count();
+            let chatter = (failovers < RECENT / 2)
+                .then(|| s.events.iter().position(|e| !e.2))
+                .flatten();
+            match chatter {
+                Some(i) => {
+                    s.events.remove(i);
+                }
+                None => {
+                    s.events.pop_front();
+                }
+            }
         }
         s.events.push_back((at, e.to_string(), e.is_failover()));
         if let Some((node, msg)) = e.emcy() {
@@ -209,6 +223,34 @@ mod tests {
         // An error reset clears the node's emergency.
         r.push(&emcy(5, 0));
         assert_eq!(r.emcy(5), None);
+    }
+
+    #[test]
+    fn a_failover_outlives_the_chatter_after_it_up_to_half_the_events() {
+        let r = Recent::default();
+        let cut = NetEvent::PortState {
+            port: 0,
+            from: duocan::machine::PortState::Ok,
+            to: duocan::machine::PortState::Failed,
+            reason: duocan::machine::PortReason::Down(duocan::machine::ErrorCause::InterfaceDown),
+            at: duocan::Instant::ZERO,
+        };
+        assert!(cut.is_failover());
+        r.push(&cut);
+        for i in 0..3 * RECENT {
+            r.push(&emcy(5, 0x1000 + i as u16));
+        }
+        let j = r.json();
+        assert_eq!(j.len(), RECENT);
+        assert_eq!(j[0]["failover"], true, "{j:?}");
+        assert_eq!(j.iter().filter(|e| e["failover"] == true).count(), 1);
+        // Failovers fill at most half: beyond, the oldest goes, failover or not.
+        for _ in 0..RECENT {
+            r.push(&cut);
+        }
+        let j = r.json();
+        assert_eq!(j.len(), RECENT);
+        assert!(j.iter().all(|e| e["failover"] == true), "{j:?}");
     }
 
     #[test]
