@@ -6,6 +6,7 @@ use super::error::NetError;
 use super::events::NetEvent;
 use super::link::DriverState;
 use super::pdo::table::PdoTable;
+use super::pdo::PdoValues;
 use super::starts::{Start, Starts};
 use super::usdo::{UsdoDoor, UsdoStart};
 use crate::cia305::{LssMaster, LssMasterConfig, LssMasterEvent};
@@ -153,6 +154,19 @@ impl Door {
         }
         self.core.send(now, f)
     }
+    /// A decoded TPDO for the event stream, or counted as dropped when its queue is full.
+    fn decoded(&mut self, now: Instant, (node, pdo, values): (NodeId, u16, PdoValues)) {
+        if self.decoded.len() < PDO_EVENTS {
+            self.decoded.push_back(NetEvent::Pdo {
+                node,
+                pdo,
+                values,
+                at: now,
+            });
+        } else {
+            self.pdo_dropped += 1;
+        }
+    }
     /// A frame from `port`, with its receive timestamp if its driver gives one. Process data
     /// is decoded from what the link delivers: over two buses a TPDO's two copies are one.
     fn rx(&mut self, now: Instant, port: usize, frame: &Frame, at: Option<Instant>) {
@@ -160,17 +174,8 @@ impl Door {
             return;
         };
         self.lss.handle_frame(now, &frame);
-        if let Some((node, pdo, values)) = self.pdos.decode(&frame) {
-            if self.decoded.len() < PDO_EVENTS {
-                self.decoded.push_back(NetEvent::Pdo {
-                    node,
-                    pdo,
-                    values,
-                    at: now,
-                });
-            } else {
-                self.pdo_dropped += 1;
-            }
+        if let Some(decoded) = self.pdos.decode(&frame) {
+            self.decoded(now, decoded);
         }
     }
     /// A status of `port`'s driver.
@@ -292,17 +297,8 @@ impl Device for Door {
         let Some(f) = self.core.rx_fd(now, port, frame, at.min(now)) else {
             return;
         };
-        if let Some((node, pdo, values)) = self.pdos.decode_fd(&f) {
-            if self.decoded.len() < PDO_EVENTS {
-                self.decoded.push_back(NetEvent::Pdo {
-                    node,
-                    pdo,
-                    values,
-                    at: now,
-                });
-            } else {
-                self.pdo_dropped += 1;
-            }
+        if let Some(decoded) = self.pdos.decode_fd(&f) {
+            self.decoded(now, decoded);
             return;
         }
         if let Some(u) = &mut self.usdo {

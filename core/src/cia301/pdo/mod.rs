@@ -238,6 +238,26 @@ impl<const T: usize, const R: usize, S: Storage> PdoEngine<T, R, S> {
         self.next = earliest(self.next, t);
     }
 
+    /// RPDO `pdo` came shorter than its mapping, the first of an episode: the event, and the
+    /// length EMCY (0x8210) counted once per episode.
+    fn too_short<D: ObjectDictionary, O: ServiceOutput>(
+        &mut self,
+        now: Instant,
+        io: &mut Io<'_, D, O>,
+        pdo: u16,
+        expected: u8,
+        got: u8,
+    ) {
+        io.event(now, PdoEvent::RpdoTooShort { pdo, expected, got });
+        Self::count_episode(
+            &mut self.shorts,
+            &mut self.emcy,
+            emcy::code::PDO_LENGTH,
+            true,
+            pdo,
+        );
+    }
+
     fn count_episode(
         counter: &mut u16,
         emcy: &mut Bounded<EmcyAction, 8>,
@@ -690,19 +710,9 @@ impl<const T: usize, const R: usize, S: Storage> PdoEngine<T, R, S> {
                 OnFrame::TooShort {
                     expected,
                     got,
-                    first,
-                } => {
-                    if first {
-                        io.event(now, PdoEvent::RpdoTooShort { pdo, expected, got });
-                        Self::count_episode(
-                            &mut self.shorts,
-                            &mut self.emcy,
-                            emcy::code::PDO_LENGTH,
-                            true,
-                            pdo,
-                        );
-                    }
-                }
+                    first: true,
+                } => self.too_short(now, io, pdo, expected, got),
+                OnFrame::TooShort { .. } => {}
                 OnFrame::Apply => {
                     let mut b = [0u8; 8];
                     let d = frame.data();
@@ -760,19 +770,9 @@ impl<const T: usize, const R: usize, S: Storage> PdoEngine<T, R, S> {
                 OnFrame::TooShort {
                     expected,
                     got,
-                    first,
-                } => {
-                    if first {
-                        io.event(now, PdoEvent::RpdoTooShort { pdo, expected, got });
-                        Self::count_episode(
-                            &mut self.shorts,
-                            &mut self.emcy,
-                            emcy::code::PDO_LENGTH,
-                            true,
-                            pdo,
-                        );
-                    }
-                }
+                    first: true,
+                } => self.too_short(now, io, pdo, expected, got),
+                OnFrame::TooShort { .. } => {}
                 OnFrame::Apply => {
                     let mut b = [0u8; 64];
                     for (d, s) in b.iter_mut().zip(frame.data()) {
