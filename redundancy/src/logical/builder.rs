@@ -51,6 +51,7 @@ pub const DEFAULT_MASTER_TIMEOUT: Duration = Duration::from_millis(300);
 /// | [`heartbeat`](Self::heartbeat) | 100 ms | its heartbeat producer time |
 /// | [`master_timeout`](Self::master_timeout) | 300 ms | silence of the active master after which a standby takes over |
 /// | [`sync`](Self::sync) | none | SYNC period while active |
+/// | [`time`](Self::time) | none | TIME period while active (this machine's clock) |
 /// | [`pair`](Self::pair) | none | an A/B board pair |
 /// | [`pair_heartbeat`](Self::pair_heartbeat) | 100 ms | heartbeat configured into every pair member |
 /// | [`pair_timeout`](Self::pair_timeout) | 300 ms | silence of a member after which it has failed |
@@ -89,6 +90,7 @@ pub struct RedundantNetworkBuilder {
     heartbeat: Duration,
     master_timeout: Duration,
     sync: Option<Duration>,
+    time: Option<Duration>,
     pair_heartbeat: Duration,
     pair_timeout: Duration,
     boot_timeout: Duration,
@@ -110,6 +112,7 @@ impl Default for RedundantNetworkBuilder {
             heartbeat: DEFAULT_HEARTBEAT,
             master_timeout: DEFAULT_MASTER_TIMEOUT,
             sync: None,
+            time: None,
             pair_heartbeat: DEFAULT_HEARTBEAT,
             pair_timeout: DEFAULT_MASTER_TIMEOUT,
             boot_timeout: PairsConfig::default().boot_timeout,
@@ -156,6 +159,13 @@ impl RedundantNetworkBuilder {
     /// The SYNC period while this master is active (default: no SYNC).
     pub fn sync(mut self, period: impl Into<Duration>) -> Self {
         self.sync = Some(period.into());
+        self
+    }
+    /// The TIME period while this master is active (CiA 301 TIME, 0x1012), from its takeover on:
+    /// the time of day of its clock, set from this machine's wall clock (UTC) when the network
+    /// is built, or continued from the TIME it consumed as a standby. Default: no TIME.
+    pub fn time(mut self, period: impl Into<Duration>) -> Self {
+        self.time = Some(period.into());
         self
     }
     /// An A/B board pair: node `a` is member A, node `b` member B.
@@ -342,7 +352,9 @@ impl RedundantNetworkBuilder {
             ("pair_timeout", self.pair_timeout),
             ("boot_timeout", self.boot_timeout),
         ];
-        for (setting, d) in periods.into_iter().chain(self.sync.map(|d| ("sync", d))) {
+        let optional = [("sync", self.sync), ("time", self.time)];
+        let optional = optional.into_iter().filter_map(|(s, d)| d.map(|d| (s, d)));
+        for (setting, d) in periods.into_iter().chain(optional) {
             if d == Duration::ZERO {
                 return Err(RedundantError::ZeroDuration { setting });
             }
@@ -488,8 +500,16 @@ impl RedundantNetworkBuilder {
         for &(n, p) in &self.peers {
             cfg = cfg.with_peer(p, id(n)?);
         }
+        if let Some(t) = self.time {
+            cfg = cfg.with_time_period(t);
+        }
         cfg.pairs = cfg.pairs.with_boot_timeout(self.boot_timeout);
         let mut sup = Box::new(Supervisor::new(master, cfg, Instant::ZERO));
+        #[cfg(all(feature = "std", feature = "time"))]
+        if self.time.is_some() {
+            // A TIME producer needs a clock: this machine's, at the network's start.
+            sup.node_mut().set_time(Instant::ZERO, wall_time_of_day());
+        }
         for &(a, b) in &self.pairs {
             let spec = PairSpec::new(id(a)?, id(b)?, self.pair_heartbeat, self.pair_timeout);
             let member = |node: NodeId| {
@@ -504,4 +524,16 @@ impl RedundantNetworkBuilder {
         }
         Ok(sup)
     }
+}
+
+/// This machine's wall clock as CiA 301 TIME: days since 1984-01-01 and milliseconds after
+/// midnight (UTC). A clock before 1984 reads as its start.
+#[cfg(all(feature = "std", feature = "time"))]
+fn wall_time_of_day() -> duocan::cia301::time_stamp::TimeOfDay {
+    /// 1984-01-01T00:00:00Z in milliseconds since the Unix epoch.
+    const EPOCH_1984_MS: u64 = 441_763_200_000;
+    let unix_ms = std::time::SystemTime::now()
+        .duration_since(std::time::UNIX_EPOCH)
+        .map_or(0, |d| u64::try_from(d.as_millis()).unwrap_or(u64::MAX));
+    duocan::cia301::time_stamp::TimeOfDay::from_total_ms(unix_ms.saturating_sub(EPOCH_1984_MS))
 }

@@ -36,6 +36,7 @@
 //! heartbeat_ms = 50                # this master's heartbeat
 //! master_timeout_ms = 150          # a silent master has failed after this long
 //! sync_ms = 10                     # optional: SYNC production
+//! time_ms = 1000                   # optional: TIME production (this machine's clock, UTC)
 //! boot_timeout_ms = 2000           # optional: a slave's boot process gives up after this
 //! pairs = [[0x10, 0x50], [0x11, 0x51]]   # A/B node-IDs
 //! pair_heartbeat_ms = 50
@@ -198,6 +199,7 @@ struct NetworkTable {
     heartbeat_ms: Option<Spanned<u64>>,
     master_timeout_ms: Option<Spanned<u64>>,
     sync_ms: Option<Spanned<u64>>,
+    time_ms: Option<Spanned<u64>>,
     boot_timeout_ms: Option<Spanned<u64>>,
     #[serde(default)]
     pairs: Option<Spanned<Vec<[u8; 2]>>>,

@@ -153,3 +153,57 @@ async fn on_the_railway_profile_the_plant_fails_over_at_the_same_instants_on_29_
     // Nothing on the predefined identifiers of the members (heartbeat 0x710, SDO 0x590).
     assert!(!has(Id::Standard(0x710), None) && !has(Id::Standard(0x590), None));
 }
+
+/// When bus 2 carried a TIME frame (0x100, six bytes), from the start of a quiet plant for
+/// `secs` seconds: this master (node 1, the strong one) active, its peer (node 2, the same
+/// settings) standby.
+async fn time_frames(time: Option<Duration>, secs: u64) -> Vec<std::time::Duration> {
+    let mut b = RedundantNetworkBuilder::default()
+        .node_id(1)
+        .heartbeat(ms(20))
+        .master_timeout(ms(50))
+        .pair(0x10, 0x50)
+        .peer_master(2);
+    if let Some(t) = time {
+        b = b.time(t);
+    }
+    let buses = [MemBus::new("sim-bus1"), MemBus::new("sim-bus2")];
+    let start = tokio::time::Instant::now();
+    let heard = Arc::new(Mutex::new(Vec::new()));
+    let mut port = buses[1].port();
+    let out = heard.clone();
+    tokio::spawn(async move {
+        while let Ok(input) = port.recv().await {
+            let time = input
+                .frame()
+                .is_some_and(|f| f.id() == Id::Standard(0x100) && f.data().len() == 6);
+            if let (true, Ok(mut v)) = (time, out.lock()) {
+                v.push(start.elapsed());
+            }
+        }
+    });
+    let net = open_on(&b, Plant::Quiet, buses).unwrap();
+    tokio::time::sleep_until(start + std::time::Duration::from_secs(secs)).await;
+    assert_eq!(net.role().await.unwrap(), MasterRole::Active);
+    net.close().await;
+    let v = heard.lock().unwrap().clone();
+    v
+}
+
+/// `time(period)`: the active master produces TIME at that period from its takeover, its
+/// standby peer none (one frame per period on the bus); without it, none.
+#[tokio::test(start_paused = true)]
+async fn the_active_master_produces_time_at_the_period_it_was_given() {
+    let with = time_frames(Some(ms(100)), 3).await;
+    assert!(with.len() >= 20, "{with:?}");
+    assert!(with[0] < std::time::Duration::from_secs(1), "{with:?}");
+    for w in with.windows(2) {
+        let gap = w[1] - w[0];
+        assert!(
+            gap >= std::time::Duration::from_micros(99_500)
+                && gap <= std::time::Duration::from_micros(100_500),
+            "{with:?}"
+        );
+    }
+    assert!(time_frames(None, 3).await.is_empty());
+}

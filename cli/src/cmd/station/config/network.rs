@@ -31,6 +31,9 @@ pub(super) fn network(
     if let Some(d) = &t.sync_ms {
         b = b.sync(ms(d));
     }
+    if let Some(d) = &t.time_ms {
+        b = b.time(ms(d));
+    }
     if let Some(d) = &t.boot_timeout_ms {
         b = b.boot_timeout(ms(d));
     }
@@ -134,6 +137,7 @@ fn place(
             "heartbeat" => d(&t.heartbeat_ms),
             "master_timeout" => d(&t.master_timeout_ms),
             "sync" => d(&t.sync_ms),
+            "time" => d(&t.time_ms),
             "boot_timeout" => d(&t.boot_timeout_ms),
             "pair_heartbeat" => d(&t.pair_heartbeat_ms),
             "pair_timeout" => d(&t.pair_timeout_ms),

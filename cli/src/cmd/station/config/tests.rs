@@ -83,6 +83,8 @@ fn each_error_names_the_file_line_column_and_key() {
     assert!(e.starts_with("s.toml:5:9: peers: "), "{e}");
     let e = err(&format!("{HEAD}node_id = 1\nsync_ms = 0\n"));
     assert!(e.starts_with("s.toml:5:11: sync_ms: "), "{e}");
+    let e = err(&format!("{HEAD}node_id = 1\ntime_ms = 0\n"));
+    assert!(e.starts_with("s.toml:5:11: time_ms: "), "{e}");
     // The file's own keys.
     let e = err(&format!("{HEAD}node_id = 1\non_stop = \"halt\"\n"));
     assert!(e.starts_with("s.toml:5:11: on_stop: \"halt\""), "{e}");
