@@ -480,12 +480,12 @@ restart = {restart}
         let dir = folder("restart");
         let out = run_for_300ms(&one_device(script, true), &dir).await;
         let starts = std::fs::read_to_string(dir.join("starts")).unwrap();
-        assert!(out.lines().count() >= 3, "{out:?}");
-        assert_eq!(
-            out.lines().count(),
-            starts.lines().count(),
-            "{out:?} {starts:?}"
-        );
+        let (said, wrote) = (out.lines().count(), starts.lines().count());
+        assert!(wrote >= 3, "{out:?} {starts:?}");
+        // Every start's output kept: one line per start that got as far as its file, and the
+        // last start, killed at the end of the run, may have said its line but not yet written
+        // its file (the kill lands between its two commands).
+        assert!(said == wrote || said == wrote + 1, "{out:?} {starts:?}");
 
         let dir = folder("no-restart");
         let out = run_for_300ms(&one_device(script, false), &dir).await;
