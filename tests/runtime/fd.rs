@@ -26,6 +26,22 @@ fn traffic() -> (Vec<FdFrame>, Frame) {
     (fd, Frame::from_array(Id::Standard(0x205), [1, 2, 3]))
 }
 
+/// The port's counters once it counted `n` frames sent, or after a second: a frame is counted
+/// once its write returned, which may be after the tester read it.
+async fn tx_counted(
+    h: &duocan::runtime::Handle<Probe>,
+    n: u64,
+) -> duocan::port::PortCountersSnapshot {
+    let until = std::time::Instant::now() + std::time::Duration::from_secs(1);
+    loop {
+        let c = h.port_counters(0).unwrap();
+        if c.tx_frames >= n || std::time::Instant::now() >= until {
+            return c;
+        }
+        tokio::time::sleep(std::time::Duration::from_millis(1)).await;
+    }
+}
+
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn fd_frames_go_both_ways_and_a_classic_device_stays_classic() {
     let bus = MemBus::new("fd");
@@ -84,7 +100,7 @@ async fn fd_frames_go_both_ways_and_a_classic_device_stays_classic() {
     }
     assert_eq!(fd_seen, [f2, f0, f1]);
     assert_eq!(classic_seen, [plain]);
-    assert_eq!(fd.port_counters(0).unwrap().tx_frames, 4);
+    assert_eq!(tx_counted(&fd, 4).await.tx_frames, 4);
 
     // A classic device is not asked for FD frames (it said it has none): its classic ones
     // go out as before, nothing else.
@@ -125,7 +141,7 @@ async fn a_full_fd_queue_drops_and_counts() {
             other => panic!("{other:?}"),
         }
     }
-    let c = fd.port_counters(0).unwrap();
+    let c = tx_counted(&fd, PORT_FD_TX_QUEUE as u64).await;
     assert_eq!(
         (c.tx_frames, c.tx_dropped),
         (PORT_FD_TX_QUEUE as u64, extra as u64)
