@@ -283,6 +283,10 @@ pub struct Oracle {
     /// Until when a foreign sender's frames may be matched with a copy of its that left
     /// further apart than the window (see [`Oracle::apart`]).
     apart_until: Option<Instant>,
+    /// A foreign sender's copies that reached the wire after their occurrence was judged
+    /// (held in its transmit queue longer than [`JUDGE_AFTER`]): when they ended on the wire,
+    /// and the frame (see [`Oracle::beside_stale`]).
+    stale: VecDeque<(Instant, Frame)>,
 }
 
 impl Oracle {
@@ -357,6 +361,7 @@ impl Oracle {
         serial: Option<u64>,
         port: usize,
         wire: Instant,
+        frame: &Frame,
     ) {
         let node = |d: usize| self.nodes.iter().position(|n| n.device == d);
         let (Some(r), Some(s)) = (node(receiver), node(sender)) else {
@@ -366,6 +371,9 @@ impl Oracle {
         let of = serial.and_then(|k| self.nodes[s].copies.get(k as usize).copied().flatten());
         let newest = self.newest.get(r).and_then(|n| n[s]);
         let bus = (port & 1) ^ usize::from(self.nodes[r].swapped);
+        if self.nodes[s].foreign && of.is_some_and(|o| o < self.base) {
+            self.stale.push_back((wire, *frame));
+        }
         if let Some(o) = of.and_then(|o| self.occ(o)) {
             if o.reached[r] == 0
                 && is_heartbeat(&o.frame)
@@ -524,6 +532,14 @@ impl Oracle {
                 v.pop_front();
             }
         }
+        let near = (SKEW_WINDOW + HORIZON).as_micros();
+        while self
+            .stale
+            .front()
+            .is_some_and(|(w, _)| w.as_micros() + near < keep)
+        {
+            self.stale.pop_front();
+        }
         while let Some(o) = self.pending.front() {
             if o.at + JUDGE_AFTER > now {
                 break;
@@ -619,7 +635,27 @@ impl Oracle {
             let until = last + near;
             self.apart_until = Some(self.apart_until.map_or(until, |u| u.max(until)));
         }
-        self.apart_until.is_some_and(|u| o.at <= u) || self.apart_after(o, |n| spread(n).is_some())
+        self.apart_until.is_some_and(|u| o.at <= u)
+            || self.apart_after(o, |n| spread(n).is_some())
+            || self.beside_stale(o)
+    }
+
+    /// Whether a stale copy of `o`'s content (one its sender held longer than `o` waits to be
+    /// judged, see [`Oracle::stale`]) reached the wire near enough to `o`'s copies to be
+    /// matched with one of them (seed 1599: long frames lost on one bus for 1.5 s held the
+    /// queue of the node that is not duocan; when the fault ended that bus carried 44 copies
+    /// of its unchanging TPDO more than the other within 17 ms, stale ones first; a receiver
+    /// counts identical copies, so as many fresh ones came twice). No layer can tell a stale
+    /// copy from a fresh one of the same content: the count on that bus is what it sees.
+    fn beside_stale(&self, o: &Occurrence) -> bool {
+        let near = (SKEW_WINDOW + HORIZON).as_micros();
+        self.stale.iter().any(|(w, f)| {
+            *f == o.frame
+                && o.wire
+                    .iter()
+                    .flatten()
+                    .any(|a| a.as_micros().abs_diff(w.as_micros()) <= near)
+        })
     }
 
     /// Whether one of `o`'s sender's frames after it, near enough to be matched with it, is

@@ -485,6 +485,7 @@ impl Plant {
                 note.serial,
                 note.receiver.port,
                 note.wire,
+                &note.frame,
             );
         })));
         Plant {
