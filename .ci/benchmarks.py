@@ -38,6 +38,9 @@ import time
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 PAGE = os.path.join(ROOT, "BENCHMARKS.md")
+# The README's figures table repeats some of the page's figures between the same markers: the
+# script writes them there too, and the check holds them equal to the page's.
+README = os.path.join(ROOT, "README.md")
 MARKER = re.compile(r"<!-- figure: ([\w.-]+) -->(.*?)<!-- /figure -->", re.S)
 # A UDP bus in a private network namespace: loopback up, multicast routed to it.
 NETNS = "unshare -rn sh -c 'ip link set lo up; ip route add 224.0.0.0/4 dev lo; {}'"
@@ -585,6 +588,24 @@ def check(text):
     opened = len(re.findall(r"<!-- figure:", text))
     if opened != len(found):
         problems.append(f"{opened - len(found)} marker(s) without their closing <!-- /figure -->")
+    problems += check_readme(text)
+    return problems
+
+
+def check_readme(page):
+    """The README's markers: each one of the page's, with the page's figure (the problems)."""
+    with open(README) as f:
+        readme = f.read()
+    values = {m[1]: m[2] for m in MARKER.finditer(page)}
+    problems = []
+    for m in MARKER.finditer(readme):
+        if m[1] not in values:
+            problems.append(f"marker '{m[1]}' in README.md is no figure of BENCHMARKS.md")
+        elif m[2] != values[m[1]]:
+            problems.append(f"README.md's '{m[1]}' is {m[2]!r}, BENCHMARKS.md's {values[m[1]]!r}")
+    opened = len(re.findall(r"<!-- figure:", readme))
+    if opened != len(MARKER.findall(readme)):
+        problems.append("README.md has a marker without its closing <!-- /figure -->")
     return problems
 
 
@@ -645,6 +666,13 @@ def write(out, text, values, rows):
     with open(out + ".tmp", "w") as f:
         f.write(new)
     os.replace(out + ".tmp", out)
+    if out == PAGE:
+        with open(README) as f:
+            readme = f.read()
+        readme = MARKER.sub(lambda m: f"<!-- figure: {m[1]} -->{values.get(m[1], m[2])}<!-- /figure -->", readme)
+        with open(README + ".tmp", "w") as f:
+            f.write(readme)
+        os.replace(README + ".tmp", README)
 
 
 def main():
