@@ -14,6 +14,8 @@ mod fd;
 #[cfg(feature = "fd")]
 #[path = "../common/fd_end.rs"]
 mod fd_end;
+#[cfg(all(feature = "fd", feature = "cia302-6", feature = "ecss"))]
+mod fd_modes;
 #[path = "../common/fd_station.rs"]
 mod fd_station;
 mod flapping;
