@@ -43,7 +43,7 @@ cargo test -p duocan-tiers --features python --test python_peer --test python_fd
 # The duocan tool and its test (which runs the tool's binary against a duocan node).
 cargo build -p duocan-cli || fail "build the duocan tool"
 cargo test -p duocan-tiers --features python --test cli_udp --test cli_gateway --test kit_udp --test udp_reader \
-  --test lss_udp --no-run \
+  --test lss_udp --test station_udp --no-run \
   || fail "build the tool's tests"
 BENCH=1; [ "${1:-}" = "--no-bench" ] && BENCH=0
 if [ $BENCH = 1 ]; then
@@ -86,6 +86,11 @@ unshare -n sh -ec '
   ip route add 224.0.0.0/4 dev lo
   cargo test --offline -p duocan-tiers --features python --test kit_udp -- --nocapture
 ' || fail "the failover kit on real processes gives the simulator's verdicts"
+unshare -n sh -ec '
+  ip link set lo up
+  ip route add 224.0.0.0/4 dev lo
+  cargo test --offline -p duocan-tiers --features python --test station_udp
+' || fail "the shipped SocketCAN station file on the UDP bus: boards as processes, a killed board failed over"
 unshare -n sh -ec '
   ip link set lo up
   ip route add 224.0.0.0/4 dev lo
