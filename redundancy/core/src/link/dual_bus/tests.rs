@@ -207,3 +207,49 @@ fn frames_a_bus_silent_for_a_while_never_carried_measure_no_lag_against_it() {
     // Suspect for its silence, then ok again.
     a_repaired_bus((250, 290), false);
 }
+
+/// The transmit-stall rule flushes a port's queue only where the other bus reaches every node:
+/// a port that is some node's only way (its frames heard there alone) keeps its copies, late
+/// as they may be, for that node (a weak master whose transceiver on bus 1 cannot send hears
+/// bus 2 alone; a flush there took an SDO answer to it queued behind the overdue copy).
+#[test]
+fn a_port_that_is_some_nodes_only_way_is_not_flushed_for_a_stall() {
+    let cfg = DualBusConfig::default().with_reach_timeout(Duration::from_millis(50));
+    let stall = |sole: bool| {
+        let mut l = DualBus::new(cfg.clone());
+        let hb = Frame::from_array(Id::Standard(0x705), [5]);
+        // Node 5 heard on both buses, then (when `sole`) on bus 2 alone for longer than the
+        // reach timeout.
+        l.handle_rx(ms(0), 0, &hb);
+        l.handle_rx(ms(0), 1, &hb);
+        for t in (20..=200).step_by(20) {
+            if !sole {
+                l.handle_rx(ms(t), 0, &hb);
+            }
+            l.handle_rx(ms(t), 1, &hb);
+            l.handle_timeout(ms(t));
+        }
+        assert_eq!(l.reach().heard(NodeId::must(5)), Some([!sole, true]));
+        while l.poll_event().is_some() {}
+        while l.poll_port_request().is_some() {}
+        // A frame and an SDO answer behind it: bus 1 sends both at once, bus 2 neither.
+        let f = Frame::from_array(Id::Standard(0x190), [1]);
+        let answer = Frame::from_array(Id::Standard(0x590), [0x43, 0, 0x10, 0, 0, 0, 0, 0]);
+        l.send(ms(201), &f);
+        l.send(ms(201), &answer);
+        assert_eq!(drain(&mut l).len(), 4);
+        l.handle_port_status(ms(202), 0, PortStatus::TxOk);
+        l.handle_port_status(ms(202), 0, PortStatus::TxOk);
+        let due = l.poll_timeout().expect("the stall rule's deadline");
+        assert!(due < ms(210), "{due}");
+        l.handle_timeout(due);
+        let reinit = core::iter::from_fn(|| l.poll_port_request())
+            .any(|r| r == (1, PortRequest::Reinit));
+        (reinit, l.port_state(1))
+    };
+    // Bus 1 reaches node 5 too: the overdue copy and the one behind it are flushed.
+    assert_eq!(stall(false), (true, PortState::Failed));
+    // Bus 2 is node 5's only way: nothing flushed, the port stays ok, and the rule does not
+    // judge that frame again (no deadline left for it).
+    assert_eq!(stall(true), (false, PortState::Ok));
+}
