@@ -50,7 +50,10 @@ async fn a_name_with_fd_after_it_is_a_canopen_fd_network() {
         let Err(NetError::Port(why)) = Network::open_named("nosuchcan9:fd") else {
             panic!("nosuchcan9 opened");
         };
-        assert!(why.contains("nosuchcan9") && !why.contains("nosuchcan9:fd"), "{why}");
+        assert!(
+            why.contains("nosuchcan9") && !why.contains("nosuchcan9:fd"),
+            "{why}"
+        );
     }
 }
 
