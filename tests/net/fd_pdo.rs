@@ -252,3 +252,74 @@ async fn a_classic_network_refuses_a_mapping_over_64_bits() {
     assert_eq!(node.sdo().read::<u8>(0x1601, 0).await.unwrap(), 0);
     net.close().await;
 }
+
+/// End to end over the in-memory FD bus, each node on its runtime: a master's
+/// destination-address MPDO of eight bytes leaves as one 12-byte CAN FD frame and writes the
+/// UNSIGNED64 of node 5, whose dictionary shows it.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn an_fd_mpdo_between_two_runtime_stations_writes_eight_bytes() {
+    use duocan::od::{comm, Access, DataType, DefaultValue, ObjectDef};
+    use duocan::pdo::params;
+    const DAM_COB: u16 = 0x300;
+    let station = |id: u8, tx: bool| {
+        let mut od = comm::standard_dictionary(id, comm::Identity::default());
+        od.insert_all(&[ObjectDef::new(0x2200, 0, DataType::Unsigned64)
+            .mappable()
+            .access(Access::Rw)])
+            .unwrap();
+        let cob = DefaultValue::Unsigned(DAM_COB.into());
+        let mut mapping = if tx {
+            od.insert_all(&params::tpdo_comm(1, cob, 254, 0, 0))
+                .unwrap();
+            params::tpdo_mapping::<2>(1, &[]).to_vec()
+        } else {
+            od.insert_all(&params::rpdo_comm(1, cob, 254, 0)).unwrap();
+            params::rpdo_mapping::<2>(1, &[]).to_vec()
+        };
+        // 0xFF: a destination-address MPDO.
+        mapping[0] = ObjectDef::u8(mapping[0].index, 0, Access::Rw, 0xFF);
+        od.insert_all(&mapping).unwrap();
+        let n = TestNode::new(
+            duocan::NodeConfig::slave(NodeId::must(id))
+                .with_fd(true)
+                .with_auto_start(true),
+            od,
+        );
+        Station::new(SinglePort::fd(), n)
+    };
+    let bus = MemBus::new("fd-mpdo");
+    let mut wire = bus.port();
+    let master = Runtime::new(station(1, true))
+        .port(bus.port())
+        .spawn()
+        .unwrap();
+    let n5 = Runtime::new(station(5, false))
+        .port(bus.port())
+        .spawn()
+        .unwrap();
+    master.boot().await.unwrap();
+    n5.boot().await.unwrap();
+    let v = 0xFEDC_BA98_7654_3210u64;
+    master
+        .call(move |s, now| {
+            s.machine
+                .mpdo_send_dam(now, 1, 5, 0x2200, 0, &v.to_le_bytes())
+        })
+        .await
+        .unwrap()
+        .unwrap();
+    let f = next_fd(&mut wire, DAM_COB).await;
+    assert_eq!(f.data().len(), 12);
+    assert_eq!(f.data()[..4], [0x85, 0x00, 0x22, 0x00]);
+    let mut got = Vec::new();
+    for _ in 0..100 {
+        got = n5.read(0x2200, 0).await.unwrap();
+        if got == v.to_le_bytes() {
+            break;
+        }
+        tokio::time::sleep(Duration::from_millis(10)).await;
+    }
+    assert_eq!(got, v.to_le_bytes());
+    master.shutdown().await;
+    n5.shutdown().await;
+}
