@@ -323,3 +323,38 @@ async fn an_fd_mpdo_between_two_runtime_stations_writes_eight_bytes() {
     master.shutdown().await;
     n5.shutdown().await;
 }
+
+/// The simulated nodes of `sim-nodes:fd` through the door: RPDO1 sent by name in a CAN FD
+/// frame changes node 5's outputs (read back over USDO), and TPDO1, given an event timer by
+/// the door, arrives decoded by name.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn the_simulated_fd_nodes_pdos_through_the_door() {
+    use duocan::NmtState;
+    let net = Network::open_named("sim-nodes:fd").unwrap();
+    let node = net.add_node(5, duocan::net::sim_description().unwrap());
+    node.start().await.unwrap();
+    node.wait_for_state(NmtState::Operational, Duration::from_secs(2))
+        .await
+        .unwrap();
+    node.rpdo(1)
+        .send_named(&[("Output 1", 4321u16.into())])
+        .await
+        .unwrap();
+    let mut out = 0u16;
+    for _ in 0..100 {
+        out = node.sdo().read(0x6200, 1).await.unwrap();
+        if out == 4321 {
+            break;
+        }
+        tokio::time::sleep(Duration::from_millis(10)).await;
+    }
+    assert_eq!(out, 4321);
+    node.sdo().write(0x6000, 1, 77u16).await.unwrap();
+    node.tpdo(1)
+        .edit(|m| m.event_timer_ms = Some(20))
+        .await
+        .unwrap();
+    let v = node.wait_for_pdo(1, Duration::from_secs(2)).await.unwrap();
+    assert_eq!(v.get("Input 1"), Some(&AnyValue::Unsigned(77)));
+    net.close().await;
+}
