@@ -70,9 +70,10 @@ pub fn is_sim_station(names: &[String]) -> bool {
 }
 
 /// True when `--bus` names a built-in simulated network (the station, or `sim-nodes`: one bus
-/// with nodes 1 to 10), whose nodes carry the simulated description by themselves.
+/// with nodes 1 to 10, `sim-nodes:fd` on a CANopen FD bus), whose nodes carry the simulated
+/// description by themselves.
 pub fn is_simulated(names: &[String]) -> bool {
-    is_sim_station(names) || matches!(names, [one] if one == "sim-nodes")
+    is_sim_station(names) || matches!(names, [one] if one == "sim-nodes" || one == "sim-nodes:fd")
 }
 
 /// [`open`] with `opts` (a tap, for the commands that watch the wire).
@@ -81,10 +82,10 @@ pub fn open_with(g: &Global, opts: NetOptions) -> Result<Bus, Fail> {
         Fail::usage("no bus: give --bus can0 (or can0,can1, udp, sim-station), or set DUOCAN_BUS")
     })?;
     let station = is_sim_station(&names.0);
-    if g.fd.is_some() && is_simulated(&names.0) {
+    if g.fd.is_some() && station {
         return Err(Fail::usage(
-            "--fd: a CANopen FD network runs on real interfaces (can0, udp:N, or two of them), \
-             not a simulated one",
+            "--fd: a CANopen FD network runs on real interfaces (can0, udp:N, or two of them) \
+             or on sim-nodes, not on the simulated station",
         ));
     }
     let fd = opts.fd.is_some();

@@ -206,6 +206,44 @@ fn json_lines_carry_the_fields_of_each_kind() {
     assert_eq!(v[7]["master"], 2);
 }
 
+/// A CANopen FD network's capture: a 64-byte TPDO in a CAN FD frame is decoded as a PDO (its
+/// 64 bytes raw, and filtered by kind and node as any PDO), a USDO frame is not (said so,
+/// without a filter only); JSON marks the PDO `fd`.
+#[test]
+fn a_64_byte_pdo_in_a_can_fd_frame_is_decoded() {
+    let mut w = CandumpWriter::new(Vec::new());
+    let pdo = duocan::FdFrame::new(Id::Standard(0x185), &[0x5A; 64])
+        .unwrap()
+        .with_brs(true);
+    let usdo = duocan::FdFrame::new(Id::Standard(0x67F), &[0x01; 12]).unwrap();
+    w.write_fd(T0, "can0", &pdo).unwrap();
+    w.write_fd(T0 + 100, "can0", &usdo).unwrap();
+    let p = temp("fd.log");
+    std::fs::write(&p, w.into_inner()).unwrap();
+    let path = p.to_str().unwrap();
+    let out = ok(&["dump", path]);
+    let lines: Vec<&str> = out.lines().collect();
+    assert_eq!(lines.len(), 2, "{out}");
+    let want = format!("node 5 TPDO1 {}", ["5A"; 64].join(" "));
+    assert!(lines[0].ends_with(&want), "{out}");
+    assert!(
+        lines[1].ends_with("CAN FD frame of 12 bytes (not decoded)"),
+        "{out}"
+    );
+    let out = ok(&["dump", path, "--kind", "pdo", "--node", "5"]);
+    assert_eq!(out.lines().count(), 1, "{out}");
+    assert_eq!(ok(&["dump", path, "--node", "6"]), "");
+    let out = ok(&["--json", "dump", path, "--kind", "pdo"]);
+    let v: serde_json::Value = serde_json::from_str(out.trim()).unwrap();
+    assert_eq!(v["kind"], "pdo");
+    assert_eq!(v["pdo"], "TPDO1");
+    assert_eq!(
+        (v["fd"].clone(), v["brs"].clone()),
+        (true.into(), true.into())
+    );
+    assert_eq!(v["data"].as_str().unwrap().len(), 128);
+}
+
 #[test]
 fn a_bad_file_exits_1_naming_file_and_place_after_the_lines_before() {
     let p = temp("bad.log");

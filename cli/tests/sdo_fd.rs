@@ -51,3 +51,23 @@ fn sdo_read_and_write_go_over_usdo_with_fd() {
     assert_eq!(r.code, 2, "{}", r.err);
     rt.block_on(node.shutdown());
 }
+
+/// The simulated nodes on a CANopen FD bus: `--bus sim-nodes:fd`, or `sim-nodes` with `--fd`,
+/// read their identity over USDO, typed by the simulated description as on `sim-nodes`.
+#[test]
+fn the_simulated_fd_nodes_answer_over_usdo() {
+    for args in [
+        &["--bus", "sim-nodes:fd"][..],
+        &["--bus", "sim-nodes", "--fd", "127"][..],
+    ] {
+        let mut all = args.to_vec();
+        all.extend_from_slice(&["sdo", "read", "5", "0x1018", "1"]);
+        let r = duocan(&all);
+        assert_eq!(
+            (r.code, r.out.as_str()),
+            (0, "13683200\n"),
+            "{args:?}: {}",
+            r.err
+        );
+    }
+}

@@ -154,6 +154,15 @@ impl Door {
         }
         self.core.send(now, f)
     }
+    /// [`Door::send_own`] of a CAN FD frame (an RPDO on a CANopen FD network), handed to the
+    /// core's link as the USDO client's requests are.
+    pub fn send_own_fd(&mut self, now: Instant, f: &FdFrame) -> Result<(), NetError> {
+        if !self.core.may_send(now) {
+            return Err(self.core.send_refused());
+        }
+        self.core.send_fd(now, f);
+        Ok(())
+    }
     /// A decoded TPDO for the event stream, or counted as dropped when its queue is full.
     fn decoded(&mut self, now: Instant, (node, pdo, values): (NodeId, u16, PdoValues)) {
         if self.decoded.len() < PDO_EVENTS {

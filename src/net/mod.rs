@@ -130,7 +130,8 @@ pub use remote::RemoteNode;
 pub use sdo::RemoteSdo;
 pub use sdo_stream::{TransferProgress, STREAM_WINDOW};
 pub use sim::{
-    sim_description, sim_dictionary, SIM_DEVICE_NAME, SIM_HEARTBEAT_MS, SIM_NAMES, SIM_VENDOR,
+    sim_description, sim_dictionary, FD_CLIENT, SIM_DEVICE_NAME, SIM_HEARTBEAT_MS, SIM_NAMES,
+    SIM_VENDOR,
 };
 pub use value::AnyValue;
 
@@ -472,6 +473,14 @@ impl Network {
     #[must_use]
     pub fn is_listen_only(&self) -> bool {
         self.shared.opts.listen_only
+    }
+
+    /// The node-ID of the network's USDO client if it is a CANopen FD network
+    /// ([`NetOptions::with_fd`], or a name with `:fd` given to [`Network::open_named`]); `None`
+    /// on a classic one.
+    #[must_use]
+    pub fn fd_client(&self) -> Option<NodeId> {
+        self.shared.opts.fd
     }
 
     /// The network's LSS master (CiA 305): find devices by identity and give them a node-ID

@@ -5,6 +5,14 @@
 //! the tool: `sim-nodes` here (one bus, plain nodes), `sim-pairs` (a redundant network's own
 //! pairs and peer masters) and `sim-station` (a whole redundant station) in duocan-redundancy.
 //! A bare `sim` is none of them and says so ([`SIM_NAMES`]).
+//!
+//! **CAN FD.** A name with `:fd` after it opens a CANopen FD network (CiA 1301) there:
+//! `sim-nodes:fd` (the same nodes, on an FD bus, serving USDO instead of SDO), `can0:fd` (the
+//! interface opened for CAN FD, its MTU checked), `udp:fd` and `udp:N:fd` (python-can's bus
+//! with `fd=True`). The network's USDO client is [`FD_CLIENT`] unless the options name
+//! another ([`NetOptions::with_fd`]); options with FD open the port for CAN FD whatever the
+//! name. So a program that opens the name it is given (the starter examples) runs unchanged
+//! on an FD network: the typed reads and writes go over USDO, PDOs up to 64 bytes.
 
 use super::{NetError, NetOptions, Network};
 use crate::frame::cob_id::NodeId;
@@ -26,8 +34,8 @@ type SimNode = Station<SinglePort, crate::node::Node<crate::od::DynamicDictionar
 
 /// What a name that looks simulated but is not one of the door's names is told: the simulated
 /// networks there are, what each holds and where it opens.
-pub const SIM_NAMES: &str = "the simulated networks are sim-nodes (one bus with nodes 1 to 10: \
-duocan::net::Network::open_named), sim-pairs, sim-pairs:quiet and sim-pairs:failover (two buses \
+pub const SIM_NAMES: &str = "the simulated networks are sim-nodes and sim-nodes:fd (one bus \
+with nodes 1 to 10, classic or CANopen FD: duocan::net::Network::open_named), sim-pairs, sim-pairs:quiet and sim-pairs:failover (two buses \
 with a redundant network's own pairs and peer masters: failing then closing, never failing, or \
 failing then running on: the redundant builder's open_named) and sim-station or sim-station:faults (a redundant station on two buses: \
 duocan_redundancy::net::open_dual_named, the tool's --bus)";
@@ -45,12 +53,30 @@ impl SimNodes {
     }
 }
 
+/// The USDO client node-ID of a CANopen FD network a name opens (`sim-nodes:fd`, `can0:fd`)
+/// when the options name none: 127, the node-ID the door uses internally anyway.
+pub const FD_CLIENT: NodeId = NodeId::must(127);
+
 /// A duocan slave `id` as the simulated nodes are ([`sim_dictionary`]), booted (its boot-up
-/// goes out when its runtime starts).
-fn sim_node(id: NodeId) -> SimNode {
-    let mut node = crate::node::Node::new(NodeConfig::slave(id), sim_dictionary(id));
+/// goes out when its runtime starts); on a CANopen FD network (`fd`) it serves USDO and sends
+/// and receives its PDOs in CAN FD frames.
+fn sim_node(id: NodeId, fd: bool) -> SimNode {
+    let cfg = NodeConfig::slave(id).with_fd(fd);
+    let mut node = crate::node::Node::new(cfg, sim_dictionary(id));
     node.boot(Instant::ZERO);
-    Station::single(node)
+    if fd {
+        Station::new(SinglePort::fd(), node)
+    } else {
+        Station::single(node)
+    }
+}
+
+/// `name` without a trailing `:fd`, and whether it had one.
+fn fd_suffix(name: &str) -> (&str, bool) {
+    match name.strip_suffix(":fd") {
+        Some(base) => (base, true),
+        None => (name, false),
+    }
 }
 
 /// The dictionary of simulated node `id` (what [`Network::open_named`]`("sim-nodes")` runs, and
@@ -154,7 +180,7 @@ fn add_process_data(od: &mut crate::od::DynamicDictionary) {
 /// ```
 pub fn sim_description() -> Result<crate::eds::Description, NetError> {
     use crate::eds::{export_eds, Description, ExportOptions, ImportOptions};
-    let node = sim_node(NodeId::must(1));
+    let node = sim_node(NodeId::must(1), false);
     let text = export_eds(node.machine.od(), &ExportOptions::default())
         .map_err(|e| NetError::Argument(format!("the simulated nodes' EDS: {e}")))?;
     Ok(Description::parse(
@@ -174,6 +200,19 @@ impl Network {
     ///   feature `udp`);
     /// - anything else: a SocketCAN interface such as `can0` or `vcan0` (feature `socketcan`,
     ///   Linux).
+    ///
+    /// Each with `:fd` after it (`sim-nodes:fd`, `udp:3:fd`, `can0:fd`) is a CANopen FD network
+    /// there: the port opened for CAN FD, the nodes read and written over USDO with the same
+    /// calls (its client node-ID [`FD_CLIENT`] unless the options name one), and the simulated
+    /// nodes serving USDO.
+    ///
+    /// ```
+    /// # #[tokio::main] async fn main() -> Result<(), duocan::net::NetError> {
+    /// let net = duocan::net::Network::open_named("sim-nodes:fd")?;
+    /// let vendor: u32 = net.node(5).sdo().read(0x1018, 1).await?; // over USDO
+    /// assert_eq!(vendor, duocan::net::SIM_VENDOR);
+    /// # Ok(()) }
+    /// ```
     pub fn open_named(name: &str) -> Result<Network, NetError> {
         Self::open_named_with(name, NetOptions::default())
     }
@@ -183,8 +222,13 @@ impl Network {
         Self::open_named_with(name, NetOptions::default().with_listen_only(true))
     }
 
-    /// [`Network::open_named`] with options.
-    pub fn open_named_with(name: &str, opts: NetOptions) -> Result<Network, NetError> {
+    /// [`Network::open_named`] with options. Options with FD ([`NetOptions::with_fd`]) open the
+    /// named port for CAN FD as `:fd` after the name does.
+    pub fn open_named_with(name: &str, mut opts: NetOptions) -> Result<Network, NetError> {
+        let (name, fd) = fd_suffix(name);
+        if fd && opts.fd.is_none() {
+            opts.fd = Some(FD_CLIENT);
+        }
         if name == "sim-nodes" {
             return Self::simulated(1..=10, opts);
         }
@@ -200,7 +244,9 @@ impl Network {
     }
 
     /// Opens a network on a new in-memory bus with simulated nodes `ids` on it (as for
-    /// [`Network::open_named`]`("sim-nodes")`); node-IDs outside 1–127 are skipped.
+    /// [`Network::open_named`]`("sim-nodes")`); node-IDs outside 1–127 are skipped. With FD
+    /// options ([`NetOptions::with_fd`]) the bus is a CANopen FD one and the nodes serve USDO
+    /// (a node with the client's node-ID is skipped then).
     pub fn simulated(
         ids: impl IntoIterator<Item = u8>,
         opts: NetOptions,
@@ -220,8 +266,9 @@ impl Network {
         let port = bus.port();
         let mut nodes = Vec::new();
         if tokio::runtime::Handle::try_current().is_ok() {
-            for id in ids.into_iter().filter_map(NodeId::new) {
-                let h = Runtime::new(sim_node(id))
+            let ids = ids.into_iter().filter_map(NodeId::new);
+            for id in ids.filter(|&id| Some(id) != opts.fd) {
+                let h = Runtime::new(sim_node(id, opts.fd.is_some()))
                     .name(format!("sim node {}", id.raw()))
                     .port(bus.port())
                     .spawn()
@@ -252,6 +299,11 @@ fn udp(name: &str, opts: NetOptions) -> Result<Network, NetError> {
             }
         },
     };
+    let cfg = if opts.fd.is_some() {
+        cfg.with_fd()
+    } else {
+        cfg
+    };
     let port = UdpPort::open(cfg).map_err(|e| NetError::Port(e.to_string()))?;
     Network::open_with(port, opts)
 }
@@ -265,8 +317,15 @@ fn udp(name: &str, _: NetOptions) -> Result<Network, NetError> {
 
 #[cfg(all(feature = "socketcan", target_os = "linux"))]
 fn socketcan(name: &str, opts: NetOptions) -> Result<Network, NetError> {
-    let port = crate::port::socketcan::SocketCanPort::open(name)
-        .map_err(|e| NetError::Port(e.to_string()))?;
+    use crate::port::socketcan::SocketCanPort;
+    // On a CANopen FD network the interface is opened for CAN FD: one whose MTU is not the
+    // CAN FD MTU says so here.
+    let port = if opts.fd.is_some() {
+        SocketCanPort::open_fd(name)
+    } else {
+        SocketCanPort::open(name)
+    }
+    .map_err(|e| NetError::Port(e.to_string()))?;
     Network::open_with(port, opts)
 }
 

@@ -1,4 +1,5 @@
-//! The starter examples, run as users run them: on the simulated nodes (no `DUOCAN_BUS`) and,
+//! The starter examples, run as users run them: on the simulated nodes (no `DUOCAN_BUS`), on
+//! the simulated CANopen FD network (`DUOCAN_BUS=sim-nodes:fd`, the examples unchanged) and,
 //! for the monitor, on an in-memory bus where a node goes silent; the redundant master on the
 //! simulated redundant station.
 
@@ -25,6 +26,98 @@ mod redundant_pdo;
 fn read_sdo_reads_node_5_of_the_simulated_bus() {
     // Fails (Err) if node 5 did not answer with a u32.
     read_sdo::main().unwrap();
+}
+
+/// The name of the simulated CANopen FD network, as a user gives it in `DUOCAN_BUS`.
+const FD_BUS: &str = "sim-nodes:fd";
+
+/// `read_sdo`'s `main`, unchanged, with `DUOCAN_BUS=sim-nodes:fd`: this test binary runs itself
+/// for the one test above with the variable set (set here, it would reach every other test of
+/// the binary), and the run passes and prints node 5's vendor-ID.
+#[test]
+fn read_sdo_reads_node_5_of_the_simulated_fd_network() {
+    let name = "examples::read_sdo_reads_node_5_of_the_simulated_bus";
+    let out = std::process::Command::new(std::env::current_exe().unwrap())
+        .args([name, "--exact", "--nocapture", "--test-threads=1"])
+        .env("DUOCAN_BUS", FD_BUS)
+        .output()
+        .unwrap();
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        out.status.success(),
+        "{stdout}{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    assert!(stdout.contains("1 passed"), "{stdout}");
+    assert!(stdout.contains("node 5 vendor-ID: 0x00d0ca00"), "{stdout}");
+}
+
+/// What `read_sdo` does on `sim-nodes:fd` goes over USDO: the network is an FD one, the value
+/// is the simulated vendor-ID, and no classic SDO request or answer is on the wire (the tap
+/// sees every classic frame; over SDO it would see 0x605 and 0x585).
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn sim_nodes_fd_reads_and_writes_over_usdo_not_sdo() {
+    use duocan::capture::recorder::{Tap, TapDirection, TapPoint};
+    use duocan::net::NetOptions;
+    #[derive(Default)]
+    struct Seen(Mutex<Vec<u16>>);
+    impl Tap for Seen {
+        fn frame(&self, _: duocan::Instant, _: TapPoint, _: TapDirection, f: &duocan::Frame) {
+            if let duocan::Id::Standard(id) = f.id() {
+                self.0.lock().unwrap().push(id);
+            }
+        }
+    }
+    let seen = Arc::new(Seen::default());
+    let opts = NetOptions::default().with_tap(seen.clone() as Arc<dyn Tap>);
+    let net = Network::open_named_with(FD_BUS, opts).unwrap();
+    assert_eq!(net.fd_client(), Some(duocan::net::FD_CLIENT));
+    let node = net.node(5);
+    let vendor: u32 = node.sdo().read(0x1018, 1).await.unwrap();
+    assert_eq!(vendor, duocan::net::SIM_VENDOR);
+    node.sdo().write(0x1017, 0, 250u16).await.unwrap();
+    assert_eq!(node.sdo().read::<u16>(0x1017, 0).await.unwrap(), 250);
+    assert_eq!(
+        node.sdo().read_string(0x1008, 0).await.unwrap(),
+        duocan::net::SIM_DEVICE_NAME
+    );
+    let seen = seen.0.lock().unwrap().clone();
+    assert!(
+        !seen.iter().any(|id| (0x580..0x680).contains(id)),
+        "classic SDO frames on the FD network: {seen:x?}"
+    );
+    net.close().await;
+}
+
+/// `heartbeat_monitor`'s `monitor` on the network its `main` opens for
+/// `DUOCAN_BUS=sim-nodes:fd` (`Network::monitor_named`): the states of the ten simulated FD
+/// nodes, from their heartbeats.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn heartbeat_monitor_prints_the_states_of_the_simulated_fd_network() {
+    let net = Network::monitor_named(FD_BUS).unwrap();
+    assert_eq!(net.fd_client(), Some(duocan::net::FD_CLIENT));
+    let lines = Arc::new(Mutex::new(Vec::<String>::new()));
+    let out = lines.clone();
+    let run = tokio::spawn(heartbeat_monitor::monitor(net.clone(), move |l| {
+        out.lock().unwrap().push(l)
+    }));
+    let want: Vec<String> = (1..=10)
+        .map(|n| format!("node {n:#04x}: pre-operational"))
+        .collect();
+    for _ in 0..300 {
+        if want.iter().all(|w| lines.lock().unwrap().contains(w)) {
+            break;
+        }
+        tokio::time::sleep(Duration::from_millis(10)).await;
+    }
+    net.close().await;
+    run.await.unwrap().unwrap();
+    let lines = lines.lock().unwrap().clone();
+    // Each node's state, heard from its heartbeats (a machine that stalls the test past the
+    // watch's 500 ms may report a node lost and back in between: that is not asserted on).
+    for w in &want {
+        assert!(lines.contains(w), "{w}: {lines:?}");
+    }
 }
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]

@@ -6,6 +6,7 @@ mod door_checks;
 mod events;
 mod examples;
 mod ext;
+mod fd_pdo;
 mod monitor;
 mod named;
 mod nmt;

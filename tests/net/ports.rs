@@ -28,6 +28,35 @@ async fn sim_nodes_is_the_one_bus_simulated_network_and_sim_names_no_port() {
     }
 }
 
+/// `:fd` after a name opens a CANopen FD network there: `sim-nodes:fd` is the simulated nodes
+/// on an FD bus (their USDO answers the typed read), a simulated name that is no port of one
+/// bus stays an error with `:fd`, and a SocketCAN name is the interface without the suffix.
+#[tokio::test(start_paused = true)]
+async fn a_name_with_fd_after_it_is_a_canopen_fd_network() {
+    let net = Network::open_named("sim-nodes:fd").unwrap();
+    assert_eq!(net.fd_client(), Some(duocan::net::FD_CLIENT));
+    let vendor: u32 = net.node(10).sdo().read(0x1018, 1).await.unwrap();
+    assert_eq!(vendor, duocan::net::SIM_VENDOR);
+    net.close().await;
+    assert_eq!(Network::open_named("sim-nodes").unwrap().fd_client(), None);
+    for name in ["sim:fd", "sim-pairs:fd", "sim-nodes:fd:fd"] {
+        let Err(NetError::Port(why)) = Network::open_named(name) else {
+            panic!("{name} opened");
+        };
+        assert!(why.contains(duocan::net::SIM_NAMES), "{name}: {why}");
+    }
+    #[cfg(all(feature = "socketcan", target_os = "linux"))]
+    {
+        let Err(NetError::Port(why)) = Network::open_named("nosuchcan9:fd") else {
+            panic!("nosuchcan9 opened");
+        };
+        assert!(
+            why.contains("nosuchcan9") && !why.contains("nosuchcan9:fd"),
+            "{why}"
+        );
+    }
+}
+
 #[tokio::test(start_paused = true)]
 async fn one_port_shows_its_counters_and_the_state_its_driver_reported() {
     let bus = MemBus::new("mem0");

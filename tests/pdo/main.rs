@@ -7,6 +7,8 @@ mod engine;
 mod fd;
 #[cfg(feature = "mpdo")]
 mod mpdo;
+#[cfg(all(feature = "fd", feature = "mpdo"))]
+mod mpdo_fd;
 mod properties;
 mod sim;
 mod storage;

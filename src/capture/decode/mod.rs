@@ -39,7 +39,8 @@
 //! Bounded by construction: one small record per node-ID (127 of them, at most 4 KiB in all)
 //! for the SDO transfers, replaced by the next initiate frame. The PDO layouts grow only with what
 //! the caller gives ([`Decoder::add_pdo`], [`Decoder::describe`]), never with the traffic; a
-//! decoded line owns its bytes (at most 8) and names.
+//! decoded line owns its bytes (at most 8; 64 for a PDO in a CAN FD frame,
+//! [`Decoder::decode_fd`]) and names.
 //!
 //! # Order
 //!
@@ -97,7 +98,7 @@ pub use sdo::{SdoInfo, SdoService, SdoSide, SdoStep};
 use crate::cia301::pdo::Dir;
 use crate::eds::Description;
 use crate::frame::cob_id::{predefined, NodeId};
-use crate::frame::{Frame, Id};
+use crate::frame::{FdFrame, Frame, Id};
 use crate::profile::railway::RailwayProfile;
 use std::collections::BTreeMap;
 
@@ -175,6 +176,37 @@ impl Decoder {
         match frame.id() {
             Id::Standard(raw) => self.standard(raw, frame),
             Id::Extended(_) => railway::decode(&self.railway, &mut self.sdo, frame),
+        }
+    }
+
+    /// What a CAN FD `frame` is, if it is a PDO (a CANopen FD network's PDOs are up to 64
+    /// bytes): by a layout the decoder was given (its values by name and type, read at their
+    /// bit offsets over the whole frame), else a TPDO or RPDO on its predefined COB-ID (the
+    /// bytes). `None` for any other CAN FD frame (USDO, EMCY in its FD form: not decoded here).
+    ///
+    /// ```
+    /// use duocan::capture::decode::{Decoder, PdoFieldDef, PdoLayout};
+    /// use duocan::pdo::{Dir, MapEntry};
+    /// use duocan::{FdFrame, Id, NodeId};
+    ///
+    /// let mut dec = Decoder::new();
+    /// // TPDO1 of node 5: eight UNSIGNED64, 64 bytes.
+    /// let fields = (0..8).map(|k| PdoFieldDef::new(MapEntry::new(0x6100 + k, 0, 64))).collect();
+    /// let layout = PdoLayout { node: Some(NodeId::must(5)), dir: Dir::Transmit, number: 1, fields };
+    /// dec.add_pdo(Id::Standard(0x185), layout);
+    /// let mut data = [0u8; 64];
+    /// data[56] = 7;
+    /// let d = dec.decode_fd(&FdFrame::new(Id::Standard(0x185), &data).unwrap()).unwrap();
+    /// assert!(d.to_string().ends_with("0x6107:00 = 7"));
+    /// ```
+    pub fn decode_fd(&mut self, frame: &FdFrame) -> Option<DecodedFrame> {
+        if let Some(layout) = self.pdos.get(&frame.id()) {
+            return Some(pdo::decode_fd(layout, frame));
+        }
+        match predefined::classify(frame.id()) {
+            predefined::Function::Tpdo(k, node) => Some(pdo::raw_fd(node, Dir::Transmit, k, frame)),
+            predefined::Function::Rpdo(k, node) => Some(pdo::raw_fd(node, Dir::Receive, k, frame)),
+            _ => None,
         }
     }
 

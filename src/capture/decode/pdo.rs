@@ -5,10 +5,10 @@ use super::frames::{DecodedFrame, Hex, N};
 use super::kind::Kind;
 use super::services::{bad, wrong_length};
 use crate::cia301::pdo::params::{RPDO_COMM, RPDO_MAPPING, TPDO_COMM, TPDO_MAPPING};
-use crate::cia301::pdo::{read_bits, Dir, MapEntry, MAX_BITS};
+use crate::cia301::pdo::{read_bits, read_bits_wide, Dir, MapEntry, FD_MAX_BITS, MAX_BITS};
 use crate::eds::Description;
 use crate::frame::cob_id::{predefined, CobId, NodeId};
-use crate::frame::{Frame, Id};
+use crate::frame::{FdFrame, Frame, Id};
 use crate::od::DataType;
 use core::fmt;
 
@@ -212,6 +212,63 @@ pub(super) fn decode(layout: &PdoLayout, frame: &Frame) -> DecodedFrame {
                 sub: e.sub,
                 name: e.name.clone(),
                 value: value(e.data_type, read_bits(&payload, offset, bits), bits),
+            });
+        }
+        offset += bits;
+    }
+    DecodedFrame::Pdo(info)
+}
+
+/// A PDO of up to 64 bytes in a CAN FD frame (a CANopen FD network), on its predefined COB-ID:
+/// the raw bytes (padding included).
+pub(super) fn raw_fd(node: NodeId, dir: Dir, number: u8, frame: &FdFrame) -> DecodedFrame {
+    DecodedFrame::Pdo(PdoInfo {
+        node: Some(node),
+        dir,
+        number: number as u16,
+        remote: false,
+        data: frame.data().to_vec(),
+        fields: Vec::new(),
+    })
+}
+
+/// A PDO of up to 64 bytes in a CAN FD frame, by its layout: every entry of up to 64 bits at
+/// its bit offset (an entry over 64 bits, a string or domain, is skipped as a dummy is); the
+/// bytes after the mapping (the 0xCC padding) are not read.
+pub(super) fn decode_fd(layout: &PdoLayout, frame: &FdFrame) -> DecodedFrame {
+    let data = frame.data();
+    let mut info = PdoInfo {
+        node: layout.node,
+        dir: layout.dir,
+        number: layout.number,
+        remote: false,
+        data: data.to_vec(),
+        fields: Vec::new(),
+    };
+    let needed: u32 = layout.fields.iter().map(|e| e.bits as u32).sum();
+    let have = data.len() as u32 * 8;
+    if needed > have {
+        return bad(
+            Kind::Pdo,
+            layout.node,
+            format!(
+                "{}: CAN FD frame of {} bytes, its mapping has {}",
+                Label(layout.dir, layout.number),
+                data.len(),
+                needed.div_ceil(8)
+            ),
+        );
+    }
+    let mut offset = 0u32;
+    for e in &layout.fields {
+        let bits = e.bits as u32;
+        let entry = MapEntry::new(e.index, e.sub, e.bits);
+        if !entry.is_dummy() && bits <= 64 && offset + bits <= FD_MAX_BITS {
+            info.fields.push(PdoField {
+                index: e.index,
+                sub: e.sub,
+                name: e.name.clone(),
+                value: value(e.data_type, read_bits_wide(data, offset, bits), bits),
             });
         }
         offset += bits;

@@ -18,7 +18,7 @@ pub use table::MAX_LEARNED;
 
 use super::error::NetError;
 use super::value::AnyValue;
-use crate::cia301::pdo::{Dir, MapEntry, MAX_BITS, MAX_ENTRIES};
+use crate::cia301::pdo::{Dir, MapEntry, FD_MAX_BITS, MAX_BITS, MAX_ENTRIES};
 use crate::eds::Description;
 use crate::frame::cob_id::{CobId, NodeId};
 use crate::od::DataType;
@@ -95,10 +95,19 @@ pub struct PdoMap {
     /// The mapping, in order.
     pub entries: Vec<PdoVariable>,
     desc: Option<Arc<Description>>,
+    /// The most bits the network's PDOs carry: 64, 512 on a CANopen FD network.
+    max_bits: u32,
 }
 
 impl PdoMap {
-    pub(crate) fn new(node: NodeId, dir: Dir, pdo: u16, desc: Option<Arc<Description>>) -> Self {
+    /// An empty map of a PDO on a network whose PDOs carry `fd` ? 512 : 64 bits.
+    pub(crate) fn new(
+        node: NodeId,
+        dir: Dir,
+        pdo: u16,
+        desc: Option<Arc<Description>>,
+        fd: bool,
+    ) -> Self {
         PdoMap {
             node,
             dir,
@@ -111,6 +120,7 @@ impl PdoMap {
             sync_start: None,
             entries: Vec::new(),
             desc,
+            max_bits: if fd { FD_MAX_BITS } else { MAX_BITS },
         }
     }
 
@@ -133,19 +143,27 @@ impl PdoMap {
     }
 
     /// Maps `bits` bits of (`index`, `sub`) next, named from the description if it has the
-    /// entry. More than 64 entries or bits is [`NetError::Pdo`].
+    /// entry. More than 64 entries, or more bits than the network's PDOs carry, is
+    /// [`NetError::Pdo`]: 64 bits on a classic network, 512 (64 bytes, in CAN FD frames) on a
+    /// CANopen FD one.
     pub fn add(&mut self, index: u16, sub: u8, bits: u8) -> Result<&mut Self, NetError> {
         let v = PdoVariable::new(index, sub, bits, self.desc.as_deref());
         if bits == 0 {
             return Err(self.error("an entry of 0 bits maps nothing: give its length in bits"));
         }
         if self.entries.len() >= usize::from(MAX_ENTRIES)
-            || self.bits() + u32::from(bits) > MAX_BITS
+            || self.bits() + u32::from(bits) > self.max_bits
         {
             return Err(self.error(&format!(
-                "{} more bits do not fit: a PDO carries at most {MAX_BITS} bits (it has {})",
+                "{} more bits do not fit: a PDO carries at most {} bits (it has {}){}",
                 bits,
-                self.bits()
+                self.max_bits,
+                self.bits(),
+                if self.max_bits < FD_MAX_BITS {
+                    "; on a CANopen FD network 512"
+                } else {
+                    ""
+                }
             )));
         }
         self.entries.push(v);

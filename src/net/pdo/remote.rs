@@ -1,13 +1,12 @@
 //! One PDO of a remote node: its configuration over SDO, its values on the bus.
 
-use super::table::{Learned, PdoTable, Slot};
+use super::table::{AnyFrame, Learned, PdoTable, Slot};
 use super::{label, PdoMap, PdoValues, PdoVariable};
 use crate::cia301::pdo::params::{self, sub};
 use crate::cia301::pdo::{Dir, MapEntry, MAX_ENTRIES};
 use crate::cia301::sdo::SdoErrorKind;
 use crate::cia302::pdo_config::{AccessError, PdoConfig, PdoConfigurator, SdoAccess};
 use crate::frame::cob_id::{CobId, NodeId};
-use crate::frame::Frame;
 use crate::net::error::{Awaited, NetError};
 use crate::net::events::NetEvent;
 use crate::net::remote::RemoteNode;
@@ -166,6 +165,7 @@ impl RemotePdo {
             self.dir,
             self.pdo,
             self.node.description_arc(),
+            self.node.network().fd_client().is_some(),
         ))
     }
 
@@ -276,8 +276,14 @@ impl RemotePdo {
     fn config(&self, map: &PdoMap) -> Result<PdoConfig, NetError> {
         usable_cob_id(map)?;
         let entries: Vec<MapEntry> = map.entries.iter().map(PdoVariable::entry).collect();
-        if map.bits() > crate::cia301::pdo::MAX_BITS {
-            return Err(map.error("the mapping is longer than 64 bits: map fewer entries"));
+        if self.node.network().fd_client().is_some() {
+            if map.bits() > crate::cia301::pdo::FD_MAX_BITS {
+                return Err(map.error("the mapping is longer than 512 bits: map fewer entries"));
+            }
+        } else if map.bits() > crate::cia301::pdo::MAX_BITS {
+            return Err(map.error(
+                "the mapping is longer than 64 bits: map fewer entries (a CANopen FD network carries 512)",
+            ));
         }
         let mut cfg = PdoConfig::new(map.cob_id.with_valid(map.enabled), map.transmission_type)
             .mapping(&entries)
@@ -336,8 +342,10 @@ impl RemotePdo {
             return Err(not_ours(node, what));
         }
         let values = values.to_vec();
-        self.send_with(node, what, move |t, node, pdo| t.encode(node, pdo, &values))
-            .await
+        self.send_with(node, what, move |t, node, pdo, fd| {
+            t.encode(node, pdo, &values, fd)
+        })
+        .await
     }
 
     /// Sends the node's RPDO with the entries named in `values` set (names from the node's
@@ -354,8 +362,8 @@ impl RemotePdo {
             .iter()
             .map(|(n, v)| ((*n).to_owned(), v.clone()))
             .collect();
-        self.send_with(node, what, move |t, node, pdo| {
-            t.encode_named(node, pdo, &named)
+        self.send_with(node, what, move |t, node, pdo, fd| {
+            t.encode_named(node, pdo, &named, fd)
         })
         .await
     }
@@ -366,7 +374,7 @@ impl RemotePdo {
         &self,
         node: NodeId,
         what: String,
-        make: impl Fn(&mut PdoTable, NodeId, u16) -> Option<Result<Frame, String>>
+        make: impl Fn(&mut PdoTable, NodeId, u16, bool) -> Option<Result<AnyFrame, String>>
             + Clone
             + Send
             + 'static,
@@ -394,21 +402,27 @@ impl RemotePdo {
         &self,
         node: NodeId,
         what: String,
-        make: impl FnOnce(&mut PdoTable, NodeId, u16) -> Option<Result<Frame, String>> + Send + 'static,
+        make: impl FnOnce(&mut PdoTable, NodeId, u16, bool) -> Option<Result<AnyFrame, String>>
+            + Send
+            + 'static,
     ) -> Result<bool, NetError> {
         let pdo = self.pdo;
         self.node
             .network()
             .shared
             .handle
-            .try_call(move |d, now| match make(&mut d.pdos, node, pdo) {
-                None => Ok(false),
-                Some(Err(why)) => Err(NetError::BadValue {
-                    node,
-                    object: what,
-                    why,
-                }),
-                Some(Ok(f)) => d.send_own(now, f).map(|()| true),
+            .try_call(move |d, now| {
+                let fd = d.usdo.is_some();
+                match make(&mut d.pdos, node, pdo, fd) {
+                    None => Ok(false),
+                    Some(Err(why)) => Err(NetError::BadValue {
+                        node,
+                        object: what,
+                        why,
+                    }),
+                    Some(Ok(AnyFrame::Classic(f))) => d.send_own(now, f).map(|()| true),
+                    Some(Ok(AnyFrame::Fd(f))) => d.send_own_fd(now, &f).map(|()| true),
+                }
             })
             .await
             .map_err(|e| match e {

@@ -2,7 +2,7 @@
 //! decoded here when its frame arrives, a node's RPDO encoded here when it is sent.
 
 use super::{PdoValue, PdoValues};
-use crate::cia301::pdo::{read_bits, read_bits_wide, write_bits, MAX_BITS};
+use crate::cia301::pdo::{read_bits, read_bits_wide, write_bits_wide, FD_MAX_BITS, MAX_BITS};
 use crate::frame::cob_id::NodeId;
 use crate::frame::{FdFrame, Frame, Id};
 use crate::net::value::AnyValue;
@@ -170,15 +170,18 @@ impl PdoTable {
     }
 
     /// The frame of a node's learned RPDO carrying `values` (one per entry that is not a
-    /// dummy, in mapping order), or why it cannot be made; `None`: the RPDO is not known.
+    /// dummy, in mapping order), or why it cannot be made; `None`: the RPDO is not known. On a
+    /// CANopen FD network (`fd`) it is a CAN FD frame of up to 64 bytes, padded with 0xCC to the
+    /// next CAN FD length as the nodes pad their TPDOs; else a classic frame of up to 8.
     pub fn encode(
         &mut self,
         node: NodeId,
         pdo: u16,
         values: &[AnyValue],
-    ) -> Option<Result<Frame, String>> {
+        fd: bool,
+    ) -> Option<Result<AnyFrame, String>> {
         let (l, last) = self.tx.get_mut(&(node.raw(), pdo))?;
-        let r = encode(l, values);
+        let r = encode(l, values, fd);
         if r.is_ok() {
             last.clone_from_slice(values);
         }
@@ -192,7 +195,8 @@ impl PdoTable {
         node: NodeId,
         pdo: u16,
         named: &[(String, AnyValue)],
-    ) -> Option<Result<Frame, String>> {
+        fd: bool,
+    ) -> Option<Result<AnyFrame, String>> {
         let (l, last) = self.tx.get(&(node.raw(), pdo))?;
         let mut values = last.clone();
         let names: Vec<Option<&str>> = l
@@ -218,11 +222,23 @@ impl PdoTable {
             };
             values[k] = v.clone();
         }
-        self.encode(node, pdo, &values)
+        self.encode(node, pdo, &values, fd)
     }
 }
 
-fn encode(l: &Learned, values: &[AnyValue]) -> Result<Frame, String> {
+/// An RPDO's frame as the network sends it: classic, or CAN FD on a CANopen FD network.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub(crate) enum AnyFrame {
+    /// Up to 8 bytes, on a classic network.
+    Classic(Frame),
+    /// Up to 64 bytes, padded to a CAN FD length, on a CANopen FD network.
+    Fd(FdFrame),
+}
+
+/// The PDO padding byte of CiA 1301 (as the nodes' TPDOs and the USDO frames have).
+const PAD: u8 = 0xCC;
+
+fn encode(l: &Learned, values: &[AnyValue], fd: bool) -> Result<AnyFrame, String> {
     let wanted = l.slots.iter().filter(|s| !s.dummy).count();
     if values.len() != wanted {
         return Err(format!(
@@ -230,29 +246,75 @@ fn encode(l: &Learned, values: &[AnyValue]) -> Result<Frame, String> {
             values.len()
         ));
     }
-    let mut payload = [0u8; 8];
+    let most = if fd { FD_MAX_BITS } else { MAX_BITS };
+    let mut payload = [0u8; 64];
     let mut offset = 0u32;
     let mut given = values.iter();
     for s in l.slots.iter() {
         let bits = u32::from(s.bits);
-        if offset + bits > MAX_BITS {
-            return Err("its mapping is longer than 64 bits".into());
+        if offset + bits > most {
+            return Err(if fd {
+                "its mapping is longer than 512 bits (64 bytes)".into()
+            } else {
+                "its mapping is longer than 64 bits: a classic network carries 8 bytes (a CANopen FD network 64)".into()
+            });
         }
         if !s.dummy {
             let v = given.next().ok_or("too few values")?;
-            let raw = v.to_bits(s.data_type, bits).map_err(|why| {
+            let name = || {
                 let name = s
                     .name
                     .as_deref()
                     .map_or(String::new(), |n| format!(" {n:?}"));
-                format!("entry {:#06x} sub {}{name}: {why}", s.index, s.sub)
-            })?;
-            write_bits(&mut payload, offset, bits, raw);
+                format!("entry {:#06x} sub {}{name}", s.index, s.sub)
+            };
+            if bits <= 64 {
+                let raw = v
+                    .to_bits(s.data_type, bits)
+                    .map_err(|why| format!("{}: {why}", name()))?;
+                write_bits_wide(&mut payload, offset, bits, raw);
+            } else {
+                // An entry over 64 bits (a string or domain): its bytes, zeros after them.
+                let bytes: &[u8] = match v {
+                    AnyValue::Bytes(b) => b,
+                    AnyValue::Text(t) => t.as_bytes(),
+                    other => {
+                        return Err(format!(
+                            "{}: {bits} bits carry bytes or text, not {other:?}",
+                            name()
+                        ))
+                    }
+                };
+                if bytes.len() * 8 > bits as usize {
+                    return Err(format!(
+                        "{}: {} byte(s) do not fit in {bits} bits",
+                        name(),
+                        bytes.len()
+                    ));
+                }
+                for k in 0..bits.div_ceil(8) {
+                    let byte = bytes.get(k as usize).copied().unwrap_or(0);
+                    write_bits_wide(
+                        &mut payload,
+                        offset + 8 * k,
+                        (bits - 8 * k).min(8),
+                        byte.into(),
+                    );
+                }
+            }
         }
         offset += bits;
     }
-    let len = offset.div_ceil(8) as usize;
-    Frame::new(l.id, &payload[..len]).map_err(|e| format!("{e:?}"))
+    let data = &payload[..offset.div_ceil(8) as usize];
+    if fd {
+        FdFrame::padded(l.id, data, PAD)
+            .map(AnyFrame::Fd)
+            .map_err(|e| format!("{e:?}"))
+    } else {
+        Frame::new(l.id, data)
+            .map(AnyFrame::Classic)
+            .map_err(|e| format!("{e:?}"))
+    }
 }
 
 #[cfg(test)]
@@ -305,7 +367,9 @@ mod tests {
                 Some((_, _, values)) => {
                     prop_assert!(data.len() as u32 * 8 >= total);
                     let given: Vec<AnyValue> = values.iter().map(|v| v.value.clone()).collect();
-                    let back = t.encode(NodeId::must(5), 1, &given).unwrap().unwrap();
+                    let AnyFrame::Classic(back) = t.encode(NodeId::must(5), 1, &given, false).unwrap().unwrap() else {
+                        panic!("a classic frame on a classic network");
+                    };
                     let again = t.decode(&back).unwrap().2;
                     prop_assert_eq!(again, values);
                 }

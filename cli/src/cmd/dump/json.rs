@@ -5,7 +5,7 @@ use duocan::capture::decode::{
     DecodedFrame, FieldValue, PdoInfo, RailPayload, SdoInfo, SdoSide, SdoStep,
 };
 use duocan::emcy::EmcyMessage;
-use duocan::{Frame, Id, NmtCommand, NmtState, NmtTarget};
+use duocan::{FdFrame, Frame, Id, NmtCommand, NmtState, NmtTarget};
 use serde_json::{json, Map, Value};
 
 /// `0a0b0c`: bytes as JSON carries them.
@@ -23,6 +23,25 @@ pub fn line(timestamp_us: u64, interface: &str, frame: &Frame, d: &DecodedFrame)
     m.insert("extended".into(), json!(frame.id().is_extended()));
     m.insert("remote".into(), json!(frame.is_remote()));
     m.insert("dlc".into(), json!(frame.dlc()));
+    m.insert("data".into(), json!(hex(frame.data())));
+    m.insert("kind".into(), json!(d.kind().name()));
+    m.insert("node".into(), json!(d.node().map(|n| n.raw())));
+    m.insert("text".into(), json!(d.to_string()));
+    fields(&mut m, d);
+    Value::Object(m)
+}
+
+/// [`line`] of a CAN FD frame the decoder read (a PDO of up to 64 bytes): `"fd": true`, its
+/// `brs` flag, no `remote`.
+pub fn line_fd(timestamp_us: u64, interface: &str, frame: &FdFrame, d: &DecodedFrame) -> Value {
+    let mut m = Map::new();
+    m.insert("time".into(), json!(time_text(timestamp_us)));
+    m.insert("timestamp_us".into(), json!(timestamp_us));
+    m.insert("interface".into(), json!(interface));
+    m.insert("id".into(), json!(frame.id().raw()));
+    m.insert("extended".into(), json!(frame.id().is_extended()));
+    m.insert("fd".into(), json!(true));
+    m.insert("brs".into(), json!(frame.brs()));
     m.insert("data".into(), json!(hex(frame.data())));
     m.insert("kind".into(), json!(d.kind().name()));
     m.insert("node".into(), json!(d.node().map(|n| n.raw())));

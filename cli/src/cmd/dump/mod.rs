@@ -178,7 +178,7 @@ impl Dump {
         self.count.is_some_and(|n| self.out.lines >= n)
     }
 
-    /// Prints one record; error and CAN FD frames only without a filter.
+    /// Prints one record; error frames and CAN FD frames that are no PDO only without a filter.
     fn record(&mut self, timestamp_us: u64, interface: &str, record: &Record) {
         let time = json::time_text(timestamp_us);
         let frame = match record {
@@ -195,7 +195,23 @@ impl Dump {
                 };
                 return self.out.write(&line);
             }
-            Record::Fd(f) if self.filter.is_open() => {
+            Record::Fd(f) => {
+                // A PDO of up to 64 bytes is decoded; another CAN FD frame only without a filter.
+                if let Some(d) = self.decoder(interface).decode_fd(f) {
+                    if !self.filter.keeps(&d) {
+                        return;
+                    }
+                    let line = match self.out.json {
+                        true => json::line_fd(timestamp_us, interface, f, &d).to_string(),
+                        false => {
+                            format!("{time}  {interface:<5}  {:<8}  {d}", json::id_text(f.id()))
+                        }
+                    };
+                    return self.out.write(&line);
+                }
+                if !self.filter.is_open() {
+                    return;
+                }
                 let (id, data) = (f.id(), f.data());
                 let text = format!("CAN FD frame of {} bytes (not decoded)", data.len());
                 let line = match self.out.json {

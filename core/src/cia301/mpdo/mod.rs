@@ -55,10 +55,18 @@
 //!   contain the CiA table to check them against. A block size of 0 covering nothing is this
 //!   crate's choice.
 //! - **FD MPDO** ([`FdMpdo`], `fd` feature): **this crate's own choice**; the CiA 1301 text
-//!   was not at hand. The four header bytes are the classic ones; the value follows from byte
-//!   4, little-endian, up to 60 bytes, zero-filled to the CAN FD length that holds it. A
-//!   received FD MPDO must have a CAN FD length from 8 to 64 bytes. The node's engine runs
-//!   classic frames; the FD form is the codec for now.
+//!   was not at hand (neither the public references searched nor CiA 301 give an FD layout).
+//!   It keeps CiA 301's classic layout (above) in a CAN FD frame: the four header bytes are the
+//!   classic ones and the value follows from byte 4, little-endian, so a value of up to four
+//!   bytes is the classic MPDO's eight bytes exactly; a longer one (up to 60 bytes) is
+//!   zero-filled to the CAN FD length that holds it. A received FD MPDO must have a CAN FD
+//!   length from 8 to 64 bytes (another is counted in [`MpdoStats::malformed`]). On a CANopen
+//!   FD network (the node's `NodeConfig::fd`) the engine sends every MPDO in this form, in
+//!   destination- and source-address mode alike, and takes it, classic MPDOs still, on an
+//!   MPDO RPDO; the object takes as many of the value's bytes as it holds. A synchronous MPDO
+//!   RPDO keeps a frame's first eight bytes to the SYNC (the engine's inline buffer: no more
+//!   memory), so there values of up to four bytes apply and longer ones are refused as too
+//!   short; an asynchronous one takes any.
 //! - Transmission by the application only: an MPDO TPDO is not sent by SYNC, event timer or
 //!   remote request (it has no fixed content to send), and its inhibit time is not applied.
 //!

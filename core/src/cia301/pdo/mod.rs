@@ -29,7 +29,9 @@
 //! receiver ignores them, as it ignores the extra bytes of a frame longer than its mapping). The frames wait in
 //! the node's CAN FD queue, apart from the classic one: a TPDO and a classic frame queued at
 //! the same time may leave in either order. An RPDO frame shorter than its mapping is refused as
-//! on the classic path (EMCY 0x8210). MPDOs stay classic: an MPDO receiver ignores CAN FD frames.
+//! on the classic path (EMCY 0x8210). MPDOs (feature `mpdo`) travel as FD MPDOs there
+//! ([`crate::cia301::mpdo`] says which layout and why): the application's sends go in CAN FD
+//! frames, an MPDO receiver takes them (and classic MPDOs still).
 //! A synchronous RPDO or a type-252 TPDO longer than 8 bytes keeps its payload in a bounded
 //! table shared by the engine (the `wide` module says why and what happens when it is full).
 //!
@@ -729,7 +731,8 @@ impl<const T: usize, const R: usize, S: Storage> PdoEngine<T, R, S> {
 
     /// A CAN FD frame from the bus (feature `fd`). False when it is no PDO of this node, or the
     /// engine is not on a CANopen FD network. An RPDO frame shorter than its mapping is refused
-    /// as a classic one is (event, EMCY 0x8210); an MPDO receiver ignores CAN FD frames.
+    /// as a classic one is (event, EMCY 0x8210); an MPDO receiver takes FD MPDOs (a CAN FD
+    /// length of 8 to 64 bytes, else counted as malformed).
     #[cfg(feature = "fd")]
     pub fn handle_frame_fd<D: ObjectDictionary, O: ServiceOutput>(
         &mut self,
@@ -745,7 +748,7 @@ impl<const T: usize, const R: usize, S: Storage> PdoEngine<T, R, S> {
             let slot = self.rx_index[i].1 as usize;
             let pdo = slot as u16 + 1;
             #[cfg(feature = "mpdo")]
-            if self.rpdos[slot].p.is_mpdo() {
+            if !self.mpdo_fd_length_ok(slot, frame.data().len()) {
                 continue;
             }
             let mut rec = Recovered::default();
@@ -773,6 +776,10 @@ impl<const T: usize, const R: usize, S: Storage> PdoEngine<T, R, S> {
                     first: true,
                 } => self.too_short(now, io, pdo, expected, got),
                 OnFrame::TooShort { .. } => {}
+                #[cfg(feature = "mpdo")]
+                OnFrame::Apply if self.rpdos[slot].p.is_mpdo() => {
+                    self.apply_mpdo_fd(slot, now, frame.data(), io);
+                }
                 OnFrame::Apply => {
                     let mut b = [0u8; 64];
                     for (d, s) in b.iter_mut().zip(frame.data()) {
