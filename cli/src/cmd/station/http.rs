@@ -4,7 +4,8 @@
 //! - `GET /`: the dashboard, a page for a browser that shows all of the below as it changes
 //!   ([`dashboard`](super::dashboard)).
 //! - `GET /api/networks`: every network as JSON — its buses, whether it is open, this master's
-//!   role, the dual-bus policy it runs (`link`: active-active, CiA 302-6 active-standby or
+//!   role, each master's (`masters`: this one and its peers, node-ID, priority, role as this
+//!   master knows it, when a peer was last heard), the dual-bus policy it runs (`link`: active-active, CiA 302-6 active-standby or
 //!   ECSS bus toggle), each port's state and counters, each pair's running board, the node table (state,
 //!   heard on which bus, last EMCY) and its last events with their times.
 //! - `GET /metrics`: the same as Prometheus metrics (text format 0.0.4): frames, error frames,
@@ -30,11 +31,16 @@
 //! TOKEN` or gets 401 (the dashboard's 401 is a page that sends the token of its address's
 //! fragment: `/#token=TOKEN`). Control (SDO writes, NMT, switch-overs, LSS) is off unless the
 //! file gives it a token of its own (`http_control_token`) or, on loopback alone, opens it to
-//! loopback clients (`http_control = "loopback"`); a read token there is 403, and control
-//! requests are bounded in rate ([`access`](super::access)). Anything but these routes is
-//! 404; another method is 405. Bodies are bounded ([`rest::MAX_BODY`](super::rest::MAX_BODY),
-//! 413 over it); at most [`MAX_CLIENTS`] requests are served at once (more wait for their
-//! turn).
+//! loopback clients (`http_control = "loopback"`); a read token there is 403. Read and
+//! control requests are bounded in rate, each kind on its own (429 over it:
+//! [`access`](super::access)). Anything but these routes is 404; another method is 405.
+//! Bodies are bounded ([`rest::MAX_BODY`](super::rest::MAX_BODY), 413 over it); at most
+//! [`MAX_CLIENTS`] status and metrics requests are worked on at once (more wait for their
+//! turn), and at most `http_max_connections` connections are open at once (one more is 503:
+//! [`conns`](super::conns)). `/metrics` counts the refusals
+//! (`duocan_http_refused_total{reason=…}`: `too_many_connections`, `read_rate`,
+//! `control_rate`) and the connections open (`duocan_http_connections`,
+//! `duocan_http_max_connections`).
 //!
 //! **TLS.** With `http_tls_cert` and `http_tls_key` the station serves all of this over HTTPS
 //! only (rustls; [`tls`](super::tls) shakes hands before a connection reaches the router, and
@@ -43,6 +49,7 @@
 
 use super::access::{error, unauthorized, Access};
 use super::audit::AuditLog;
+use super::conns::ConnStats;
 use super::dashboard::{self, Recent};
 use crate::cmd::gateway::GatewayStats;
 use axum::extract::State;
@@ -51,7 +58,7 @@ use axum::response::{IntoResponse, Response};
 use axum::routing::get;
 use axum::Router;
 use duocan_redundancy::net::RedundantNetwork;
-use duocan_redundancy::supervisor::flying_master::MasterRole;
+use duocan_redundancy::supervisor::flying_master::{FlyingMaster, MasterRole};
 use duocan_redundancy::Member;
 use serde_json::json;
 use std::fmt::Write as _;
@@ -63,6 +70,8 @@ use tokio::sync::Semaphore;
 pub const MAX_CLIENTS: usize = 16;
 /// Event streams open at once.
 pub const MAX_STREAMS: usize = 8;
+/// Events a stream's client may be behind before it misses some.
+pub const STREAM_QUEUE: usize = 256;
 
 /// One network as the HTTP side sees it.
 pub struct Watched {
@@ -97,19 +106,23 @@ pub(super) struct Shared {
     pub(super) turns: Semaphore,
     streams: Arc<Semaphore>,
     gateway: Option<GatewayStats>,
+    conns: ConnStats,
 }
 
 /// The router over `networks`, under the rules of `access`; `gateway`: the station's 309-3
-/// gateway's counts, for `/metrics`, if it serves one.
+/// gateway's counts, for `/metrics`, if it serves one; `conns`: the connections its listener
+/// holds and refuses ([`conns`](super::conns)), for `/metrics`.
 pub fn router(
     networks: Vec<Arc<Watched>>,
     access: Access,
     gateway: Option<GatewayStats>,
+    conns: ConnStats,
 ) -> Router {
     let shared = Arc::new(Shared {
         networks,
         access,
         gateway,
+        conns,
         turns: Semaphore::new(MAX_CLIENTS),
         streams: Arc::new(Semaphore::new(MAX_STREAMS)),
     });
@@ -127,7 +140,28 @@ pub fn router(
                  nmt and pairs/ID/switch), /api/events, /api/role and /metrics are served",
             )
         })
+        .layer(axum::middleware::from_fn_with_state(
+            shared.clone(),
+            read_rate,
+        ))
         .with_state(shared)
+}
+
+/// Takes a read request (`GET`, `HEAD`) from the read rate once its role is checked: a
+/// request without the token it needs is refused by its route (401), at no cost to readers.
+async fn read_rate(
+    State(s): State<Arc<Shared>>,
+    req: axum::extract::Request,
+    next: axum::middleware::Next,
+) -> Response {
+    use axum::http::Method;
+    let read = matches!(*req.method(), Method::GET | Method::HEAD);
+    if read && s.access.may_read(req.headers()) {
+        if let Err(refused) = s.access.read_rate() {
+            return refused;
+        }
+    }
+    next.run(req).await
 }
 
 /// What is known of one network now.
@@ -140,14 +174,48 @@ struct View {
     /// How much later each port's copies come than the other port's, as the dual-bus layer
     /// measures it (its lag meter; zero for the earlier port), in microseconds.
     lag_us: [u64; 2],
+    /// This master and its peers, as its flying master knows them (this master first).
+    masters: Vec<serde_json::Value>,
+}
+
+/// This master and each peer master of `n` as JSON: node-ID, priority, role and, for a peer,
+/// how long ago it was last heard. A peer's role is what this master can tell: `active` (the
+/// master it follows, or heard claiming while it is active), `standby` (heard, not active),
+/// `lost` (silent longer than the master timeout) or `unheard` (never heard since the start).
+fn masters(fm: &FlyingMaster, now: duocan::Instant) -> Vec<serde_json::Value> {
+    let me = fm.rank();
+    let mut out = vec![json!({
+        "node": me.node.raw(),
+        "priority": me.priority,
+        "role": fm.role().to_string(),
+        "self": true,
+    })];
+    let timeout = fm.config().master_timeout;
+    for p in fm.peers() {
+        let age = p.last.map(|t| now.saturating_since(t));
+        let role = match age {
+            None => "unheard",
+            Some(a) if a > timeout => "lost",
+            _ if fm.active_master() == Some(p.rank) => "active",
+            _ => "standby",
+        };
+        out.push(json!({
+            "node": p.rank.node.raw(),
+            "priority": p.rank.priority,
+            "role": role,
+            "self": false,
+            "heard_ms_ago": age.map(|a| a.as_micros() / 1000),
+        }));
+    }
+    out
 }
 
 async fn view(w: &Watched) -> View {
     let role = w.net.role().await.ok();
     let ports = w.net.ports().await.unwrap_or_default();
-    let (pairs, link, lag_us) = w
+    let (pairs, link, lag_us, masters) = w
         .net
-        .with(|n, _| {
+        .with(|n, now| {
             let pairs = n
                 .pairs()
                 .map(|(_, p)| {
@@ -157,7 +225,12 @@ async fn view(w: &Watched) -> View {
                 .collect();
             let link = &n.station().link;
             let lag = [0, 1].map(|p| link.lag().lag(p).as_micros());
-            (pairs, Some(link.mode().to_string()), lag)
+            (
+                pairs,
+                Some(link.mode().to_string()),
+                lag,
+                masters(n.supervisor().flying_master(), now),
+            )
         })
         .await
         .unwrap_or_default();
@@ -167,6 +240,7 @@ async fn view(w: &Watched) -> View {
         pairs,
         link,
         lag_us,
+        masters,
     }
 }
 
@@ -210,6 +284,7 @@ async fn networks_json(State(s): State<Arc<Shared>>, headers: HeaderMap) -> Resp
             // A closed network (a simulated plant's end) answers nothing.
             "open": v.role.is_some(),
             "role": v.role.map(|r| r.to_string()),
+            "masters": v.masters,
             "link": v.link,
             "ports": v.ports.iter().map(|p| json!({
                 "name": p.name,
@@ -371,6 +446,7 @@ async fn metrics(State(s): State<Arc<Shared>>, headers: HeaderMap) -> Response {
             );
         }
     }
+    http_metrics(&mut out, &s);
     if let Some(gw) = &s.gateway {
         gateway_metrics(&mut out, gw);
     }
@@ -383,6 +459,61 @@ async fn metrics(State(s): State<Arc<Shared>>, headers: HeaderMap) -> Response {
         out,
     )
         .into_response()
+}
+
+/// The HTTP side's own lines of `/metrics`: its connections and what it refused.
+fn http_metrics(out: &mut String, s: &Shared) {
+    let (read, control) = s.access.refused();
+    let _ = writeln!(
+        out,
+        "# HELP duocan_http_refused_total HTTP requests and connections refused: too many \
+         connections open (503), over the read or the control rate (429).\n\
+         # TYPE duocan_http_refused_total counter\n\
+         duocan_http_refused_total{{reason=\"too_many_connections\"}} {}\n\
+         duocan_http_refused_total{{reason=\"read_rate\"}} {read}\n\
+         duocan_http_refused_total{{reason=\"control_rate\"}} {control}",
+        s.conns.refused()
+    );
+    let _ = writeln!(
+        out,
+        "# HELP duocan_http_connections HTTP connections open now.\n\
+         # TYPE duocan_http_connections gauge\nduocan_http_connections {}",
+        s.conns.open()
+    );
+    let _ = writeln!(
+        out,
+        "# HELP duocan_http_max_connections The most HTTP connections open at once \
+         (http_max_connections).\n\
+         # TYPE duocan_http_max_connections gauge\nduocan_http_max_connections {}",
+        s.conns.max()
+    );
+}
+
+/// One of a network's event lines to a stream's queue `tx`: first `missed N events` if the
+/// queue had no room for the last `missed` and has some now, then the line, or the line
+/// counted in `missed` if there is no room. False once the stream is gone.
+fn forward(
+    tx: &tokio::sync::mpsc::Sender<(String, String)>,
+    name: &str,
+    line: String,
+    missed: &mut u64,
+) -> bool {
+    use tokio::sync::mpsc::error::TrySendError;
+    if *missed > 0
+        && tx
+            .try_send((name.to_string(), format!("missed {missed} events")))
+            .is_ok()
+    {
+        *missed = 0;
+    }
+    match tx.try_send((name.to_string(), line)) {
+        Ok(()) => true,
+        Err(TrySendError::Full(_)) => {
+            *missed += 1;
+            true
+        }
+        Err(TrySendError::Closed(_)) => false,
+    }
 }
 
 /// The 309-3 gateway's lines of `/metrics`.
@@ -423,7 +554,7 @@ async fn events(State(s): State<Arc<Shared>>, headers: HeaderMap) -> Response {
     };
     // One bounded queue per client: each network's stream feeds it; a full queue drops the
     // client's oldest-to-come events and counts them, never holding a network up.
-    let (tx, rx) = tokio::sync::mpsc::channel::<(String, String)>(256);
+    let (tx, rx) = tokio::sync::mpsc::channel::<(String, String)>(STREAM_QUEUE);
     let mut feeds = tokio::task::JoinSet::new();
     for w in &s.networks {
         let mut ev = w.net.events();
@@ -435,17 +566,8 @@ async fn events(State(s): State<Arc<Shared>>, headers: HeaderMap) -> Response {
                     NetEvent::Lagged(n) => format!("missed {n} events"),
                     e => e.to_string(),
                 };
-                if missed > 0
-                    && tx
-                        .try_send((name.clone(), format!("missed {missed} events")))
-                        .is_ok()
-                {
-                    missed = 0;
-                }
-                match tx.try_send((name.clone(), line)) {
-                    Ok(()) => {}
-                    Err(tokio::sync::mpsc::error::TrySendError::Full(_)) => missed += 1,
-                    Err(tokio::sync::mpsc::error::TrySendError::Closed(_)) => return,
+                if !forward(&tx, &name, line, &mut missed) {
+                    return;
                 }
             }
         });
@@ -464,4 +586,27 @@ async fn events(State(s): State<Arc<Shared>>, headers: HeaderMap) -> Response {
     Sse::new(stream)
         .keep_alive(KeepAlive::default())
         .into_response()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::forward;
+
+    #[test]
+    fn a_stream_that_falls_behind_is_told_how_many_events_it_missed() {
+        let (tx, mut rx) = tokio::sync::mpsc::channel(2);
+        let mut missed = 0;
+        for i in 0..5 {
+            assert!(forward(&tx, "east", format!("e{i}"), &mut missed));
+        }
+        assert_eq!(missed, 3);
+        let mut got = vec![rx.try_recv().unwrap().1, rx.try_recv().unwrap().1];
+        // Room again: the count first, then the next event; the count starts over.
+        assert!(forward(&tx, "east", "e5".into(), &mut missed));
+        got.extend([rx.try_recv().unwrap().1, rx.try_recv().unwrap().1]);
+        assert_eq!(got, ["e0", "e1", "missed 3 events", "e5"]);
+        assert_eq!(missed, 0);
+        drop(rx);
+        assert!(!forward(&tx, "east", "e6".into(), &mut missed));
+    }
 }
