@@ -27,6 +27,7 @@ pub mod conns;
 pub mod dashboard;
 pub mod gateway;
 pub mod http;
+mod metrics;
 pub mod mqtt;
 pub mod rest;
 mod summary;
