@@ -5,11 +5,14 @@
 //! One more is answered `503 Service Unavailable` with a JSON message, closed and counted
 //! ([`ConnStats`], in `/metrics`); a browser's keep-alive or an event stream holds its slot
 //! until it closes, so the bound is on what the station holds, not on the request rate (that
-//! is [`access`](super::access)'s). Refusals are bounded too: at most [`MAX_REFUSING`] at
-//! once, each for at most [`REFUSAL`]; a flood beyond that is closed without a word (and
-//! still counted).
+//! is [`access`](super::access)'s). So that idle clients cannot hold every slot, a connection
+//! on which nothing was read or written for [`IDLE`] is closed (an event stream writes a
+//! keep-alive comment every 15 s; a dashboard asks twice a second). Refusals are bounded too:
+//! at most [`MAX_REFUSING`] at once, each for at most [`REFUSAL`]; a flood beyond that is
+//! closed without a word (and still counted).
 
 use axum::serve::Listener;
+use std::future::Future as _;
 use std::io;
 use std::pin::Pin;
 use std::sync::atomic::{AtomicU64, Ordering};
@@ -19,6 +22,8 @@ use std::time::Duration;
 use tokio::io::{AsyncRead, AsyncReadExt as _, AsyncWrite, AsyncWriteExt as _, ReadBuf};
 use tokio::sync::{OwnedSemaphorePermit, Semaphore};
 
+/// A connection on which nothing was read or written for this long is closed.
+pub const IDLE: Duration = Duration::from_secs(60);
 /// Refusals answered at once; more connections beyond the bound are closed at once.
 pub const MAX_REFUSING: usize = 16;
 /// How long a refusal may take: its answer written, the client's request read away so that
@@ -27,6 +32,7 @@ pub const REFUSAL: Duration = Duration::from_secs(2);
 
 struct Inner {
     max: usize,
+    idle: Duration,
     open: Arc<Semaphore>,
     refusing: Arc<Semaphore>,
     refused: AtomicU64,
@@ -37,10 +43,16 @@ struct Inner {
 pub struct ConnStats(Arc<Inner>);
 
 impl ConnStats {
-    /// Counts for at most `max` connections at once.
+    /// Counts for at most `max` connections at once, each closed after [`IDLE`] idle.
     pub fn new(max: usize) -> Self {
+        Self::with_idle(max, IDLE)
+    }
+
+    /// Counts for at most `max` connections at once, each closed after `idle` idle.
+    pub fn with_idle(max: usize, idle: Duration) -> Self {
         Self(Arc::new(Inner {
             max,
+            idle,
             open: Arc::new(Semaphore::new(max)),
             refusing: Arc::new(Semaphore::new(MAX_REFUSING)),
             refused: AtomicU64::new(0),
@@ -76,16 +88,36 @@ impl<L> Bounded<L> {
     }
 }
 
-/// A connection that holds its slot until it is dropped.
+/// A connection that holds its slot until it is dropped, and fails its reads once it has
+/// been idle too long (the server then closes it).
 pub struct Counted<Io> {
     io: Io,
     _slot: OwnedSemaphorePermit,
+    idle: Duration,
+    /// When it is idle too long, put off by every byte read or written.
+    deadline: Pin<Box<tokio::time::Sleep>>,
 }
 
 impl<Io> Counted<Io> {
+    fn new(io: Io, slot: OwnedSemaphorePermit, idle: Duration) -> Self {
+        let deadline = Box::pin(tokio::time::sleep(idle));
+        Self {
+            io,
+            _slot: slot,
+            idle,
+            deadline,
+        }
+    }
+
     /// The connection itself.
     pub fn inner(&self) -> &Io {
         &self.io
+    }
+
+    /// Something moved: the idle time starts over.
+    fn busy(&mut self) {
+        let at = tokio::time::Instant::now() + self.idle;
+        self.deadline.as_mut().reset(at);
     }
 }
 
@@ -101,7 +133,7 @@ where
         loop {
             let (io, addr) = self.inner.accept().await;
             if let Ok(slot) = self.stats.0.open.clone().try_acquire_owned() {
-                return (Counted { io, _slot: slot }, addr);
+                return (Counted::new(io, slot, self.stats.0.idle), addr);
             }
             self.stats.0.refused.fetch_add(1, Ordering::Relaxed);
             tracing::debug!(target: "duocan::station", "http: a connection refused: {} open",
@@ -156,7 +188,19 @@ impl<Io: AsyncRead + Unpin> AsyncRead for Counted<Io> {
         cx: &mut Context<'_>,
         buf: &mut ReadBuf<'_>,
     ) -> Poll<io::Result<()>> {
-        Pin::new(&mut self.get_mut().io).poll_read(cx, buf)
+        let me = self.get_mut();
+        let before = buf.filled().len();
+        match Pin::new(&mut me.io).poll_read(cx, buf) {
+            Poll::Ready(Ok(())) if buf.filled().len() > before => {
+                me.busy();
+                Poll::Ready(Ok(()))
+            }
+            Poll::Pending => match me.deadline.as_mut().poll(cx) {
+                Poll::Ready(()) => Poll::Ready(Err(io::ErrorKind::TimedOut.into())),
+                Poll::Pending => Poll::Pending,
+            },
+            done => done,
+        }
     }
 }
 
@@ -166,7 +210,12 @@ impl<Io: AsyncWrite + Unpin> AsyncWrite for Counted<Io> {
         cx: &mut Context<'_>,
         buf: &[u8],
     ) -> Poll<io::Result<usize>> {
-        Pin::new(&mut self.get_mut().io).poll_write(cx, buf)
+        let me = self.get_mut();
+        let r = Pin::new(&mut me.io).poll_write(cx, buf);
+        if matches!(r, Poll::Ready(Ok(n)) if n > 0) {
+            me.busy();
+        }
+        r
     }
 
     fn poll_flush(self: Pin<&mut Self>, cx: &mut Context<'_>) -> Poll<io::Result<()>> {
@@ -182,7 +231,12 @@ impl<Io: AsyncWrite + Unpin> AsyncWrite for Counted<Io> {
         cx: &mut Context<'_>,
         bufs: &[io::IoSlice<'_>],
     ) -> Poll<io::Result<usize>> {
-        Pin::new(&mut self.get_mut().io).poll_write_vectored(cx, bufs)
+        let me = self.get_mut();
+        let r = Pin::new(&mut me.io).poll_write_vectored(cx, bufs);
+        if matches!(r, Poll::Ready(Ok(n)) if n > 0) {
+            me.busy();
+        }
+        r
     }
 
     fn is_write_vectored(&self) -> bool {
@@ -226,5 +280,35 @@ mod tests {
             panic!("the fourth was not taken");
         };
         assert_eq!((stats.open(), stats.refused()), (2, 1));
+    }
+
+    #[tokio::test]
+    async fn an_idle_connection_is_closed_and_frees_its_slot() {
+        let tcp = tokio::net::TcpListener::bind("127.0.0.1:0").await.unwrap();
+        let addr = tcp.local_addr().unwrap();
+        let stats = ConnStats::with_idle(1, Duration::from_millis(300));
+        let mut l = Bounded::new(tcp, stats.clone());
+        let mut client = tokio::net::TcpStream::connect(addr).await.unwrap();
+        let (mut conn, _) = l.accept().await;
+        // Bytes keep it open: one read within the idle time, one written back.
+        client.write_all(b"x").await.unwrap();
+        let mut one = [0u8; 1];
+        conn.read_exact(&mut one).await.unwrap();
+        // Then silence after the last write: the next read fails once the idle time is
+        // over, not before.
+        let started = tokio::time::Instant::now();
+        conn.write_all(b"y").await.unwrap();
+        client.read_exact(&mut one).await.unwrap();
+        let read = tokio::time::timeout(Duration::from_secs(10), conn.read(&mut one)).await;
+        let e = read.expect("still waiting after 10 s").unwrap_err();
+        assert_eq!(e.kind(), io::ErrorKind::TimedOut);
+        assert!(
+            started.elapsed() >= Duration::from_millis(250),
+            "{:?}",
+            started.elapsed()
+        );
+        assert_eq!(stats.open(), 1);
+        drop(conn);
+        assert_eq!(stats.open(), 0);
     }
 }
