@@ -6,8 +6,10 @@
 //! ([`ConnStats`], in `/metrics`); a browser's keep-alive or an event stream holds its slot
 //! until it closes, so the bound is on what the station holds, not on the request rate (that
 //! is [`access`](super::access)'s). So that idle clients cannot hold every slot, a connection
-//! on which nothing was read or written for [`IDLE`] is closed (an event stream writes a
-//! keep-alive comment every 15 s; a dashboard asks twice a second). Refusals are bounded too:
+//! is closed when nothing moved on it for [`IDLE`] since it opened or since the station last
+//! wrote to it (an event stream writes a keep-alive comment every 15 s; a dashboard asks twice
+//! a second), or for [`BUSY`] since the client last sent something (a request may be worked on
+//! that long: an LSS fastscan of many devices says nothing until it is done). Refusals are bounded too:
 //! at most [`MAX_REFUSING`] at once, each for at most [`REFUSAL`]; a flood beyond that is
 //! closed without a word (and still counted).
 
@@ -22,8 +24,12 @@ use std::time::Duration;
 use tokio::io::{AsyncRead, AsyncReadExt as _, AsyncWrite, AsyncWriteExt as _, ReadBuf};
 use tokio::sync::{OwnedSemaphorePermit, Semaphore};
 
-/// A connection on which nothing was read or written for this long is closed.
+/// A connection on which nothing moved for this long since it opened or since the station
+/// last wrote to it is closed.
 pub const IDLE: Duration = Duration::from_secs(60);
+/// A connection on which nothing moved for this long since the client last sent something is
+/// closed.
+pub const BUSY: Duration = Duration::from_secs(600);
 /// Refusals answered at once; more connections beyond the bound are closed at once.
 pub const MAX_REFUSING: usize = 16;
 /// How long a refusal may take: its answer written, the client's request read away so that
@@ -114,10 +120,13 @@ impl<Io> Counted<Io> {
         &self.io
     }
 
-    /// Something moved: the idle time starts over.
-    fn busy(&mut self) {
-        let at = tokio::time::Instant::now() + self.idle;
-        self.deadline.as_mut().reset(at);
+    /// Something moved (`read`: from the client, which may now wait for its answer): the
+    /// idle time starts over.
+    fn moved(&mut self, read: bool) {
+        let idle = if read { BUSY.max(self.idle) } else { self.idle };
+        self.deadline
+            .as_mut()
+            .reset(tokio::time::Instant::now() + idle);
     }
 }
 
@@ -192,7 +201,7 @@ impl<Io: AsyncRead + Unpin> AsyncRead for Counted<Io> {
         let before = buf.filled().len();
         match Pin::new(&mut me.io).poll_read(cx, buf) {
             Poll::Ready(Ok(())) if buf.filled().len() > before => {
-                me.busy();
+                me.moved(true);
                 Poll::Ready(Ok(()))
             }
             Poll::Pending => match me.deadline.as_mut().poll(cx) {
@@ -213,7 +222,7 @@ impl<Io: AsyncWrite + Unpin> AsyncWrite for Counted<Io> {
         let me = self.get_mut();
         let r = Pin::new(&mut me.io).poll_write(cx, buf);
         if matches!(r, Poll::Ready(Ok(n)) if n > 0) {
-            me.busy();
+            me.moved(false);
         }
         r
     }
@@ -234,7 +243,7 @@ impl<Io: AsyncWrite + Unpin> AsyncWrite for Counted<Io> {
         let me = self.get_mut();
         let r = Pin::new(&mut me.io).poll_write_vectored(cx, bufs);
         if matches!(r, Poll::Ready(Ok(n)) if n > 0) {
-            me.busy();
+            me.moved(false);
         }
         r
     }
