@@ -246,11 +246,6 @@ fn a_station_runs_a_network_on_the_railway_29_bit_profile() {
 /// written is in its network's file, and every line there is a whole record.
 #[test]
 fn no_acknowledged_audit_record_is_lost_when_the_station_is_killed() {
-    let _one = common::one_station();
-    let dir = std::env::temp_dir().join(format!("duocan-station-kill-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
-    std::fs::create_dir_all(&dir).unwrap();
-    let station = dir.join("killed.toml");
     let net = |name: &str, id: u8| {
         format!(
             "[[network]]\nname = \"{name}\"\nbuses = \"sim-pairs\"\nnode_id = {id}\n\
@@ -259,14 +254,63 @@ fn no_acknowledged_audit_record_is_lost_when_the_station_is_killed() {
             id + 1
         )
     };
-    let text = format!(
-        "[station]\naudit_dir = \"trail\"\n\n{}{}",
-        net("east", 1),
-        net("west", 3)
+    let networks = format!("{}{}", net("east", 1), net("west", 3));
+    killed_three_times("kill", &networks, &["east", "west"], [1, 3, 5]);
+}
+
+/// The same on the shipped demonstration file's four racks (its networks under a station
+/// section of the test's own, with an audit trail), killed after its first, 100th and 400th
+/// acknowledged record: in the thick of its racks' start-up and failovers, the records
+/// coming by the hundred a second.
+#[test]
+fn the_shipped_demo_loses_no_acknowledged_audit_record_when_killed() {
+    let examples = std::path::PathBuf::from(file("../examples"));
+    let demo = std::fs::read_to_string(examples.join("station/demo.toml")).unwrap();
+    let racks = &demo[demo.find("[[network]]").expect("the demo's networks")..];
+    let racks = racks.replace(
+        "\"../demo/devices/",
+        &format!("\"{}/", examples.join("demo/devices").display()),
     );
-    std::fs::write(&station, text).unwrap();
+    let names = [
+        "turnout rack",
+        "signal rack",
+        "track-circuit rack",
+        "misc rack",
+    ];
+    killed_three_times("kill-demo", &racks, &names, [1, 100, 400]);
+}
+
+/// Runs a station on `networks` (station file text) with an audit trail, kills it with
+/// SIGKILL after each run's `kills`-th acknowledged record and starts it again each time;
+/// then checks that every acknowledged record is in its network's file and that every
+/// line of each of `names`' files is a whole record.
+fn killed_three_times(tag: &str, networks: &str, names: &[&str], kills: [usize; 3]) {
+    let _one = common::one_station();
+    let dir = std::env::temp_dir().join(format!("duocan-station-{tag}-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    let station = dir.join("killed.toml");
+    std::fs::write(
+        &station,
+        format!("[station]\naudit_dir = \"trail\"\n\n{networks}"),
+    )
+    .unwrap();
+    // A network's file, named as the station names it.
+    let audit_file = |network: &str| {
+        let name: String = network
+            .chars()
+            .map(|c| {
+                if c.is_ascii_alphanumeric() || c == '-' || c == '_' {
+                    c
+                } else {
+                    '_'
+                }
+            })
+            .collect();
+        dir.join("trail").join(format!("{name}.audit"))
+    };
     let mut acked: Vec<(String, String, String)> = vec![];
-    for kill_after in [1, 3, 5] {
+    for kill_after in kills {
         let mut child = common::station_run(station.to_str().unwrap())
             .env(
                 "DUOCAN_LOG",
@@ -283,13 +327,20 @@ fn no_acknowledged_audit_record_is_lost_when_the_station_is_killed() {
             if !line.contains("duocan::station::audit: written") {
                 continue;
             }
+            // The network's name may hold spaces: it runs up to the next field.
+            let network = line
+                .split_once("network=")
+                .and_then(|(_, r)| r.split_once(" run="))
+                .unwrap_or_else(|| panic!("no network in {line}"))
+                .0
+                .to_string();
             let field = |k: &str| {
                 line.split(' ')
                     .find_map(|w| w.strip_prefix(&format!("{k}=")))
                     .unwrap_or_else(|| panic!("no {k} in {line}"))
                     .to_string()
             };
-            acked.push((field("network"), field("run"), field("seq")));
+            acked.push((network, field("run"), field("seq")));
             this_run += 1;
             if this_run == kill_after {
                 break;
@@ -305,9 +356,9 @@ fn no_acknowledged_audit_record_is_lost_when_the_station_is_killed() {
             seen.join("\n")
         );
     }
-    assert_eq!(acked.len(), 9);
+    assert_eq!(acked.len(), kills.iter().sum::<usize>());
     for (network, run, seq) in &acked {
-        let file = dir.join("trail").join(format!("{network}.audit"));
+        let file = audit_file(network);
         let text = std::fs::read_to_string(&file).unwrap();
         let want = format!(" run={run} #{seq} ");
         assert!(
@@ -316,9 +367,8 @@ fn no_acknowledged_audit_record_is_lost_when_the_station_is_killed() {
             file.display()
         );
     }
-    for network in ["east", "west"] {
-        let text = std::fs::read_to_string(dir.join("trail").join(format!("{network}.audit")))
-            .unwrap_or_default();
+    for network in names {
+        let text = std::fs::read_to_string(audit_file(network)).unwrap_or_default();
         for line in text.lines() {
             let mut words = line.splitn(4, ' ');
             let (t, run, rec) = (words.next(), words.next(), words.next());

@@ -186,6 +186,31 @@ fn the_station_serves_its_status_and_metrics_over_http() {
     assert_eq!(v[1]["pairs"][0]["pair"], "0x10/0x50");
     assert_eq!(v[1]["pairs"][0]["active"], "A");
     assert_eq!(v[1]["ports"].as_array().map(Vec::len), Some(2));
+    // Every master of each network, this one first, its peers with their role as this master
+    // knows it: east has no peer; west's peer (node 4, priority 1) is heard and follows.
+    let me = serde_json::json!({ "node": 1, "priority": 0, "role": "active", "self": true });
+    assert_eq!(v[0]["masters"], serde_json::json!([me]), "{json}");
+    let masters = v[1]["masters"].as_array().expect("masters");
+    assert_eq!(masters.len(), 2, "{json}");
+    assert_eq!(
+        (&masters[0]["node"], &masters[0]["role"]),
+        (&3.into(), &"active".into())
+    );
+    let peer = &masters[1];
+    assert_eq!(
+        (
+            &peer["node"],
+            &peer["priority"],
+            &peer["role"],
+            &peer["self"]
+        ),
+        (&4.into(), &1.into(), &"standby".into(), &false.into()),
+        "{json}"
+    );
+    assert!(
+        peer["heard_ms_ago"].as_u64().is_some_and(|ms| ms < 2000),
+        "{json}"
+    );
     // What the dashboard shows: the node table (both members of the pair, A running, heard on
     // a bus) and the recent events with their times.
     assert_eq!(v[0]["open"], true);

@@ -14,6 +14,7 @@
 //! http_control = "loopback"        # or: control open to loopback clients (default "none")
 //! http_tls_cert = "tls/cert.pem"   # optional, with http_tls_key: HTTPS (PEM files, relative:
 //! http_tls_key = "tls/key.pem"     # to this file's folder)
+//! http_max_connections = 64        # connections open at once (more: 503)
 //! mqtt = "127.0.0.1:1883"          # optional: report to the plant's MQTT broker (host:port)
 //! mqtt_client_id = "duocan-depot"  # default: duocan-STATION
 //! mqtt_prefix = "duocan/depot"     # every topic's first levels; default: duocan/STATION
@@ -76,7 +77,7 @@ mod network;
 mod tls;
 pub use boards::Board;
 pub use gateway::Gateway;
-pub use http::{Control, Http};
+pub use http::{Control, Http, HTTP_MAX_CONNECTIONS};
 pub use mqtt::Mqtt;
 pub use tls::{server_config, Tls};
 
@@ -175,6 +176,7 @@ struct StationTable {
     http_control: Option<Spanned<String>>,
     http_tls_cert: Option<Spanned<String>>,
     http_tls_key: Option<Spanned<String>>,
+    http_max_connections: Option<Spanned<usize>>,
     mqtt: Option<Spanned<String>>,
     mqtt_client_id: Option<Spanned<String>>,
     mqtt_prefix: Option<Spanned<String>>,

@@ -4,7 +4,8 @@
 //! - `GET /`: the dashboard, a page for a browser that shows all of the below as it changes
 //!   ([`dashboard`](super::dashboard)).
 //! - `GET /api/networks`: every network as JSON — its buses, whether it is open, this master's
-//!   role, the dual-bus policy it runs (`link`: active-active, CiA 302-6 active-standby or
+//!   role, each master's (`masters`: this one and its peers, node-ID, priority, role as this
+//!   master knows it, when a peer was last heard), the dual-bus policy it runs (`link`: active-active, CiA 302-6 active-standby or
 //!   ECSS bus toggle), each port's state and counters, each pair's running board, the node table (state,
 //!   heard on which bus, last EMCY) and its last events with their times.
 //! - `GET /metrics`: the same as Prometheus metrics (text format 0.0.4): frames, error frames,
@@ -30,11 +31,16 @@
 //! TOKEN` or gets 401 (the dashboard's 401 is a page that sends the token of its address's
 //! fragment: `/#token=TOKEN`). Control (SDO writes, NMT, switch-overs, LSS) is off unless the
 //! file gives it a token of its own (`http_control_token`) or, on loopback alone, opens it to
-//! loopback clients (`http_control = "loopback"`); a read token there is 403, and control
-//! requests are bounded in rate ([`access`](super::access)). Anything but these routes is
-//! 404; another method is 405. Bodies are bounded ([`rest::MAX_BODY`](super::rest::MAX_BODY),
-//! 413 over it); at most [`MAX_CLIENTS`] requests are served at once (more wait for their
-//! turn).
+//! loopback clients (`http_control = "loopback"`); a read token there is 403. Read and
+//! control requests are bounded in rate, each kind on its own (429 over it:
+//! [`access`](super::access)). Anything but these routes is 404; another method is 405.
+//! Bodies are bounded ([`rest::MAX_BODY`](super::rest::MAX_BODY), 413 over it); at most
+//! [`MAX_CLIENTS`] status and metrics requests are worked on at once (more wait for their
+//! turn), and at most `http_max_connections` connections are open at once (one more is 503:
+//! [`conns`](super::conns)). `/metrics` counts the refusals
+//! (`duocan_http_refused_total{reason=…}`: `too_many_connections`, `read_rate`,
+//! `control_rate`) and the connections open (`duocan_http_connections`,
+//! `duocan_http_max_connections`).
 //!
 //! **TLS.** With `http_tls_cert` and `http_tls_key` the station serves all of this over HTTPS
 //! only (rustls; [`tls`](super::tls) shakes hands before a connection reaches the router, and
@@ -43,18 +49,18 @@
 
 use super::access::{error, unauthorized, Access};
 use super::audit::AuditLog;
+use super::conns::ConnStats;
 use super::dashboard::{self, Recent};
 use crate::cmd::gateway::GatewayStats;
 use axum::extract::State;
-use axum::http::{header, HeaderMap, StatusCode};
+use axum::http::{HeaderMap, StatusCode};
 use axum::response::{IntoResponse, Response};
 use axum::routing::get;
 use axum::Router;
 use duocan_redundancy::net::RedundantNetwork;
-use duocan_redundancy::supervisor::flying_master::MasterRole;
+use duocan_redundancy::supervisor::flying_master::{FlyingMaster, MasterRole};
 use duocan_redundancy::Member;
 use serde_json::json;
-use std::fmt::Write as _;
 use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::Arc;
 use tokio::sync::Semaphore;
@@ -63,6 +69,8 @@ use tokio::sync::Semaphore;
 pub const MAX_CLIENTS: usize = 16;
 /// Event streams open at once.
 pub const MAX_STREAMS: usize = 8;
+/// Events a stream's client may be behind before it misses some.
+pub const STREAM_QUEUE: usize = 256;
 
 /// One network as the HTTP side sees it.
 pub struct Watched {
@@ -96,27 +104,31 @@ pub(super) struct Shared {
     pub(super) access: Access,
     pub(super) turns: Semaphore,
     streams: Arc<Semaphore>,
-    gateway: Option<GatewayStats>,
+    pub(super) gateway: Option<GatewayStats>,
+    pub(super) conns: ConnStats,
 }
 
 /// The router over `networks`, under the rules of `access`; `gateway`: the station's 309-3
-/// gateway's counts, for `/metrics`, if it serves one.
+/// gateway's counts, for `/metrics`, if it serves one; `conns`: the connections its listener
+/// holds and refuses ([`conns`](super::conns)), for `/metrics`.
 pub fn router(
     networks: Vec<Arc<Watched>>,
     access: Access,
     gateway: Option<GatewayStats>,
+    conns: ConnStats,
 ) -> Router {
     let shared = Arc::new(Shared {
         networks,
         access,
         gateway,
+        conns,
         turns: Semaphore::new(MAX_CLIENTS),
         streams: Arc::new(Semaphore::new(MAX_STREAMS)),
     });
     Router::new()
         .route("/", get(page))
         .route("/api/networks", get(networks_json))
-        .route("/metrics", get(metrics))
+        .route("/metrics", get(super::metrics::metrics))
         .route("/api/events", get(events))
         .route("/api/role", get(role))
         .merge(super::rest::routes())
@@ -127,27 +139,86 @@ pub fn router(
                  nmt and pairs/ID/switch), /api/events, /api/role and /metrics are served",
             )
         })
+        .layer(axum::middleware::from_fn_with_state(
+            shared.clone(),
+            read_rate,
+        ))
         .with_state(shared)
 }
 
+/// Takes a read request (`GET`, `HEAD`) from the read rate once its role is checked: a
+/// request without the token it needs is refused by its route (401), at no cost to readers.
+async fn read_rate(
+    State(s): State<Arc<Shared>>,
+    req: axum::extract::Request,
+    next: axum::middleware::Next,
+) -> Response {
+    use axum::http::Method;
+    let read = matches!(*req.method(), Method::GET | Method::HEAD);
+    if read && s.access.may_read(req.headers()) {
+        if let Err(refused) = s.access.read_rate() {
+            return refused;
+        }
+    }
+    next.run(req).await
+}
+
 /// What is known of one network now.
-struct View {
-    role: Option<MasterRole>,
-    ports: Vec<duocan::net::PortView>,
-    pairs: Vec<(String, Option<Member>)>,
+pub(super) struct View {
+    /// This master's role (none: the network is closed).
+    pub(super) role: Option<MasterRole>,
+    /// Its ports.
+    pub(super) ports: Vec<duocan::net::PortView>,
+    /// Each pair (`A/B` node-IDs) and its running board.
+    pub(super) pairs: Vec<(String, Option<Member>)>,
     /// The dual-bus layer's policy as it runs (`link` of the file).
     link: Option<String>,
     /// How much later each port's copies come than the other port's, as the dual-bus layer
     /// measures it (its lag meter; zero for the earlier port), in microseconds.
-    lag_us: [u64; 2],
+    pub(super) lag_us: [u64; 2],
+    /// This master and its peers, as its flying master knows them (this master first).
+    masters: Vec<serde_json::Value>,
 }
 
-async fn view(w: &Watched) -> View {
+/// This master and each peer master of `n` as JSON: node-ID, priority, role and, for a peer,
+/// how long ago it was last heard. A peer's role is what this master can tell: `active` (the
+/// master it follows), `standby` (heard, not active),
+/// `lost` (silent longer than the master timeout) or `unheard` (never heard since the start).
+fn masters(fm: &FlyingMaster, now: duocan::Instant) -> Vec<serde_json::Value> {
+    let me = fm.rank();
+    let mut out = vec![json!({
+        "node": me.node.raw(),
+        "priority": me.priority,
+        "role": fm.role().to_string(),
+        "self": true,
+    })];
+    let timeout = fm.config().master_timeout;
+    for p in fm.peers() {
+        let age = p.last.map(|t| now.saturating_since(t));
+        let role = match age {
+            None => "unheard",
+            Some(a) if a > timeout => "lost",
+            _ if fm.active_master() == Some(p.rank) => "active",
+            _ => "standby",
+        };
+        out.push(json!({
+            "node": p.rank.node.raw(),
+            "priority": p.rank.priority,
+            "role": role,
+            "self": false,
+            "heard_ms_ago": age.map(|a| a.as_micros() / 1000),
+        }));
+    }
+    out
+}
+
+/// What is known of `w` now.
+pub(super) async fn view(w: &Watched) -> View {
     let role = w.net.role().await.ok();
     let ports = w.net.ports().await.unwrap_or_default();
-    let (pairs, link, lag_us) = w
+    let (pairs, link, lag_us, masters) = w
         .net
-        .with(|n, _| {
+        .with(|n, now| {
             let pairs = n
                 .pairs()
                 .map(|(_, p)| {
@@ -157,7 +228,12 @@ async fn view(w: &Watched) -> View {
                 .collect();
             let link = &n.station().link;
             let lag = [0, 1].map(|p| link.lag().lag(p).as_micros());
-            (pairs, Some(link.mode().to_string()), lag)
+            (
+                pairs,
+                Some(link.mode().to_string()),
+                lag,
+                masters(n.supervisor().flying_master(), now),
+            )
         })
         .await
         .unwrap_or_default();
@@ -167,6 +243,7 @@ async fn view(w: &Watched) -> View {
         pairs,
         link,
         lag_us,
+        masters,
     }
 }
 
@@ -210,6 +287,7 @@ async fn networks_json(State(s): State<Arc<Shared>>, headers: HeaderMap) -> Resp
             // A closed network (a simulated plant's end) answers nothing.
             "open": v.role.is_some(),
             "role": v.role.map(|r| r.to_string()),
+            "masters": v.masters,
             "link": v.link,
             "ports": v.ports.iter().map(|p| json!({
                 "name": p.name,
@@ -230,183 +308,31 @@ async fn networks_json(State(s): State<Arc<Shared>>, headers: HeaderMap) -> Resp
     axum::Json(out).into_response()
 }
 
-/// One of a port's counters.
-type Counter = fn(&duocan::port::PortCountersSnapshot) -> u64;
-
-/// A label value, escaped as the text format asks.
-fn label(s: &str) -> String {
-    s.replace('\\', "\\\\")
-        .replace('"', "\\\"")
-        .replace('\n', "\\n")
-}
-
-async fn metrics(State(s): State<Arc<Shared>>, headers: HeaderMap) -> Response {
-    if !s.access.may_read(&headers) {
-        return unauthorized();
+/// One of a network's event lines to a stream's queue `tx`: first `missed N events` if the
+/// queue had no room for the last `missed` and has some now, then the line, or the line
+/// counted in `missed` if there is no room. False once the stream is gone.
+fn forward(
+    tx: &tokio::sync::mpsc::Sender<(String, String)>,
+    name: &str,
+    line: String,
+    missed: &mut u64,
+) -> bool {
+    use tokio::sync::mpsc::error::TrySendError;
+    if *missed > 0
+        && tx
+            .try_send((name.to_string(), format!("missed {missed} events")))
+            .is_ok()
+    {
+        *missed = 0;
     }
-    let _turn = s.turns.acquire().await;
-    let mut views = Vec::new();
-    for w in &s.networks {
-        views.push((w, view(w).await));
-    }
-    let mut out = String::new();
-    let port_metrics: [(&str, &str, Counter); 5] = [
-        (
-            "duocan_port_rx_frames_total",
-            "Frames received on the port",
-            |c| c.rx_frames,
-        ),
-        (
-            "duocan_port_tx_frames_total",
-            "Frames sent on the port",
-            |c| c.tx_frames,
-        ),
-        (
-            "duocan_port_rx_error_frames_total",
-            "Error frames seen on the port",
-            |c| c.rx_error_frames,
-        ),
-        (
-            "duocan_port_tx_dropped_total",
-            "Frames dropped for want of room in the port's queue",
-            |c| c.tx_dropped,
-        ),
-        (
-            "duocan_port_reopened_total",
-            "Times the port was re-opened after a failure",
-            |c| c.reopened,
-        ),
-    ];
-    for (name, help, value) in port_metrics {
-        let _ = writeln!(out, "# HELP {name} {help}.\n# TYPE {name} counter");
-        for (w, v) in &views {
-            for p in &v.ports {
-                let _ = writeln!(
-                    out,
-                    "{name}{{network=\"{}\",bus=\"{}\",port=\"{}\"}} {}",
-                    label(&w.name),
-                    p.index + 1,
-                    label(&p.name),
-                    value(&p.counters)
-                );
-            }
+    match tx.try_send((name.to_string(), line)) {
+        Ok(()) => true,
+        Err(TrySendError::Full(_)) => {
+            *missed += 1;
+            true
         }
+        Err(TrySendError::Closed(_)) => false,
     }
-    let _ = writeln!(
-        out,
-        "# HELP duocan_port_up Whether the port works (state ok).\n# TYPE duocan_port_up gauge"
-    );
-    for (w, v) in &views {
-        for p in &v.ports {
-            let up = u8::from(p.state == "ok");
-            let _ = writeln!(
-                out,
-                "duocan_port_up{{network=\"{}\",bus=\"{}\",port=\"{}\"}} {up}",
-                label(&w.name),
-                p.index + 1,
-                label(&p.name)
-            );
-        }
-    }
-    let _ = writeln!(
-        out,
-        "# HELP duocan_port_lag_seconds How much later the port's copies come than the other \
-         port's (the dual-bus layer's lag meter; 0 for the earlier port).\n\
-         # TYPE duocan_port_lag_seconds gauge"
-    );
-    for (w, v) in &views {
-        for p in &v.ports {
-            let lag = v.lag_us.get(p.index).copied().unwrap_or(0);
-            let _ = writeln!(
-                out,
-                "duocan_port_lag_seconds{{network=\"{}\",bus=\"{}\",port=\"{}\"}} {}.{:06}",
-                label(&w.name),
-                p.index + 1,
-                label(&p.name),
-                lag / 1_000_000,
-                lag % 1_000_000
-            );
-        }
-    }
-    let _ = writeln!(out, "# HELP duocan_master_active Whether this station's master is the network's active one.\n# TYPE duocan_master_active gauge");
-    for (w, v) in &views {
-        let active = u8::from(v.role == Some(MasterRole::Active));
-        let _ = writeln!(
-            out,
-            "duocan_master_active{{network=\"{}\"}} {active}",
-            label(&w.name)
-        );
-    }
-    let _ = writeln!(out, "# HELP duocan_pair_active_member The pair's running board: 0 none, 1 A, 2 B.\n# TYPE duocan_pair_active_member gauge");
-    for (w, v) in &views {
-        for (pair, m) in &v.pairs {
-            let n = match m {
-                None => 0,
-                Some(Member::A) => 1,
-                Some(Member::B) => 2,
-            };
-            let _ = writeln!(
-                out,
-                "duocan_pair_active_member{{network=\"{}\",pair=\"{pair}\"}} {n}",
-                label(&w.name)
-            );
-        }
-    }
-    for (name, help, failovers) in [
-        ("duocan_events_total", "Events the network reported", false),
-        (
-            "duocan_failovers_total",
-            "Failovers (bus, master, pair) the network reported",
-            true,
-        ),
-    ] {
-        let _ = writeln!(out, "# HELP {name} {help}.\n# TYPE {name} counter");
-        for (w, _) in &views {
-            let n = if failovers { &w.failovers } else { &w.events };
-            let _ = writeln!(
-                out,
-                "{name}{{network=\"{}\"}} {}",
-                label(&w.name),
-                n.load(Ordering::Relaxed)
-            );
-        }
-    }
-    if let Some(gw) = &s.gateway {
-        gateway_metrics(&mut out, gw);
-    }
-    super::mqtt::metrics(&mut out);
-    (
-        [(
-            header::CONTENT_TYPE,
-            "text/plain; version=0.0.4; charset=utf-8",
-        )],
-        out,
-    )
-        .into_response()
-}
-
-/// The 309-3 gateway's lines of `/metrics`.
-fn gateway_metrics(out: &mut String, gw: &GatewayStats) {
-    let _ = writeln!(
-        out,
-        "# HELP duocan_gateway_refused_total CiA 309-3 gateway clients refused (told \
-         ERROR:102 and closed): too many at once (gateway_max_clients).\n\
-         # TYPE duocan_gateway_refused_total counter\n\
-         duocan_gateway_refused_total{{reason=\"too_many_clients\"}} {}",
-        gw.refused()
-    );
-    let _ = writeln!(
-        out,
-        "# HELP duocan_gateway_clients CiA 309-3 gateway clients served now (TCP and socket).\n\
-         # TYPE duocan_gateway_clients gauge\nduocan_gateway_clients {}",
-        gw.clients()
-    );
-    let _ = writeln!(
-        out,
-        "# HELP duocan_gateway_max_clients The most CiA 309-3 gateway clients served at once.\n\
-         # TYPE duocan_gateway_max_clients gauge\nduocan_gateway_max_clients {}",
-        gw.max_clients()
-    );
 }
 
 async fn events(State(s): State<Arc<Shared>>, headers: HeaderMap) -> Response {
@@ -423,7 +349,7 @@ async fn events(State(s): State<Arc<Shared>>, headers: HeaderMap) -> Response {
     };
     // One bounded queue per client: each network's stream feeds it; a full queue drops the
     // client's oldest-to-come events and counts them, never holding a network up.
-    let (tx, rx) = tokio::sync::mpsc::channel::<(String, String)>(256);
+    let (tx, rx) = tokio::sync::mpsc::channel::<(String, String)>(STREAM_QUEUE);
     let mut feeds = tokio::task::JoinSet::new();
     for w in &s.networks {
         let mut ev = w.net.events();
@@ -435,17 +361,8 @@ async fn events(State(s): State<Arc<Shared>>, headers: HeaderMap) -> Response {
                     NetEvent::Lagged(n) => format!("missed {n} events"),
                     e => e.to_string(),
                 };
-                if missed > 0
-                    && tx
-                        .try_send((name.clone(), format!("missed {missed} events")))
-                        .is_ok()
-                {
-                    missed = 0;
-                }
-                match tx.try_send((name.clone(), line)) {
-                    Ok(()) => {}
-                    Err(tokio::sync::mpsc::error::TrySendError::Full(_)) => missed += 1,
-                    Err(tokio::sync::mpsc::error::TrySendError::Closed(_)) => return,
+                if !forward(&tx, &name, line, &mut missed) {
+                    return;
                 }
             }
         });
@@ -464,4 +381,27 @@ async fn events(State(s): State<Arc<Shared>>, headers: HeaderMap) -> Response {
     Sse::new(stream)
         .keep_alive(KeepAlive::default())
         .into_response()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::forward;
+
+    #[test]
+    fn a_stream_that_falls_behind_is_told_how_many_events_it_missed() {
+        let (tx, mut rx) = tokio::sync::mpsc::channel(2);
+        let mut missed = 0;
+        for i in 0..5 {
+            assert!(forward(&tx, "east", format!("e{i}"), &mut missed));
+        }
+        assert_eq!(missed, 3);
+        let mut got = vec![rx.try_recv().unwrap().1, rx.try_recv().unwrap().1];
+        // Room again: the count first, then the next event; the count starts over.
+        assert!(forward(&tx, "east", "e5".into(), &mut missed));
+        got.extend([rx.try_recv().unwrap().1, rx.try_recv().unwrap().1]);
+        assert_eq!(got, ["e0", "e1", "missed 3 events", "e5"]);
+        assert_eq!(missed, 0);
+        drop(rx);
+        assert!(!forward(&tx, "east", "e6".into(), &mut missed));
+    }
 }

@@ -23,9 +23,11 @@
 pub mod access;
 pub mod audit;
 pub mod config;
+pub mod conns;
 pub mod dashboard;
 pub mod gateway;
 pub mod http;
+mod metrics;
 pub mod mqtt;
 pub mod rest;
 mod summary;
@@ -234,10 +236,16 @@ async fn serve(g: &Global, st: &config::Station, duration_ms: Option<u64>) -> Re
         let scheme = if tls.is_some() { "https" } else { "http" };
         tracing::info!(target: "duocan::station", "{scheme} listening on {local}");
         let gw = gateway.as_ref().map(gateway::Running::stats);
-        let app = http::router(watched, access::Access::new(st.http.as_ref()), gw);
+        let max = st
+            .http
+            .as_ref()
+            .map_or(config::HTTP_MAX_CONNECTIONS, |h| h.max_connections);
+        let conns = conns::ConnStats::new(max);
+        let access = access::Access::new(st.http.as_ref());
+        let app = http::router(watched, access, gw, conns.clone());
         // Each request knows its client's address: control actions are logged with it.
         let app = app.into_make_service_with_connect_info::<std::net::SocketAddr>();
-        logs.spawn(tls::serve(listener, tls, app));
+        logs.spawn(tls::serve(listener, tls, app, conns));
     }
     let timer = async {
         match duration_ms {

@@ -6,6 +6,7 @@
 //! [`MAX_HANDSHAKES`] at once: a client that connects and says nothing, or speaks plain HTTP
 //! to the HTTPS port, holds up no one else and is dropped.
 
+use super::conns::{Bounded, ConnStats};
 use axum::extract::connect_info::IntoMakeServiceWithConnectInfo;
 use rustls::ServerConfig;
 use std::net::SocketAddr;
@@ -97,25 +98,33 @@ impl axum::serve::Listener for Listener {
     }
 }
 
-/// Serves `app` on `tcp`, over TLS under `config` if given, until the runtime stops.
+/// Serves `app` on `tcp`, over TLS under `config` if given, until the runtime stops; at most
+/// `conns.max()` connections at once (over TLS: handshakes done).
 pub async fn serve(
     tcp: TcpListener,
     config: Option<Arc<ServerConfig>>,
     app: IntoMakeServiceWithConnectInfo<axum::Router, SocketAddr>,
+    conns: ConnStats,
 ) {
     use axum::serve::ListenerExt as _;
+    // Small answers go out at once rather than wait for more to fill a segment. (The tap
+    // also gives each request its client's address: axum knows it of a tapped listener.)
     let done = match config {
         Some(config) => match Listener::new(tcp, config) {
-            // Small answers go out at once rather than wait for more to fill a segment.
             Ok(tls) => {
-                let tls = tls.tap_io(|s| {
-                    let _ = s.get_ref().0.set_nodelay(true);
+                let tls = Bounded::new(tls, conns).tap_io(|s| {
+                    let _ = s.inner().get_ref().0.set_nodelay(true);
                 });
                 axum::serve(tls, app).await
             }
             Err(e) => Err(e),
         },
-        None => axum::serve(tcp, app).await,
+        None => {
+            let tcp = Bounded::new(tcp, conns).tap_io(|s| {
+                let _ = s.inner().set_nodelay(true);
+            });
+            axum::serve(tcp, app).await
+        }
     };
     if let Err(e) = done {
         tracing::error!(target: "duocan::station", "http: {e}");

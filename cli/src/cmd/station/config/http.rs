@@ -13,6 +13,10 @@
 //!
 //! With `http_tls_cert` and `http_tls_key` it serves HTTPS instead ([`super::tls`]); the rule
 //! stays the same (tokens travel encrypted then).
+//!
+//! `http_max_connections` bounds the connections open at once (REST, event streams and
+//! dashboards together; [`HTTP_MAX_CONNECTIONS`] by default, 1 to [`HTTP_CONNECTIONS_LIMIT`]):
+//! one more is answered 503 and closed.
 
 use super::{Source, StationTable};
 use toml::Spanned;
@@ -39,7 +43,16 @@ pub struct Http {
     pub control: Control,
     /// The certificate and key of HTTPS, if the station serves it (else plain HTTP).
     pub tls: Option<super::Tls>,
+    /// Most connections open at once; more are refused (503).
+    pub max_connections: usize,
 }
+
+/// [`Http::max_connections`] when the file does not say: a few dashboards, scripts and
+/// monitoring scrapes, each with a connection or two.
+pub const HTTP_MAX_CONNECTIONS: usize = 64;
+/// The most `http_max_connections` may be: each connection holds a file descriptor and its
+/// buffers.
+pub const HTTP_CONNECTIONS_LIMIT: usize = 4096;
 
 /// The shortest token taken.
 const MIN_TOKEN: usize = 16;
@@ -59,6 +72,10 @@ pub(super) fn http(src: &Source<'_>, t: &StationTable) -> Result<Option<Http>, S
             ("http_control", t.http_control.as_ref().map(Spanned::span)),
             ("http_tls_cert", t.http_tls_cert.as_ref().map(Spanned::span)),
             ("http_tls_key", t.http_tls_key.as_ref().map(Spanned::span)),
+            (
+                "http_max_connections",
+                t.http_max_connections.as_ref().map(Spanned::span),
+            ),
         ];
         if let Some((key, Some(span))) = others.into_iter().find(|(_, s)| s.is_some()) {
             return Err(src.span(span, key, "set http too"));
@@ -119,11 +136,20 @@ pub(super) fn http(src: &Source<'_>, t: &StationTable) -> Result<Option<Http>, S
             }
         }
     };
+    let max_connections = match &t.http_max_connections {
+        None => HTTP_MAX_CONNECTIONS,
+        Some(n) if (1..=HTTP_CONNECTIONS_LIMIT).contains(n.get_ref()) => *n.get_ref(),
+        Some(n) => {
+            let why = format!("1 to {HTTP_CONNECTIONS_LIMIT} connections");
+            return Err(src.span(n.span(), "http_max_connections", why));
+        }
+    };
     Ok(Some(Http {
         addr,
         token,
         control,
         tls: super::tls::tls(src, t)?,
+        max_connections,
     }))
 }
 

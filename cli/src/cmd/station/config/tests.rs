@@ -140,6 +140,24 @@ fn any_text_is_read_without_panicking() {
 }
 
 #[test]
+fn http_connections_are_bounded_as_the_file_says() {
+    let net = "\n\n[[network]]\nname = \"a\"\nbuses = \"sim-pairs\"\nnode_id = 1\n";
+    let head = "[station]\nhttp = \"127.0.0.1:0\"\nhttp_max_connections = ";
+    let st = parse(&format!("{head}3{net}"), "s.toml").unwrap();
+    assert_eq!(st.http.unwrap().max_connections, 3);
+    for bad in ["0", "4097"] {
+        let e = err(&format!("{head}{bad}{net}"));
+        assert!(
+            e.starts_with("s.toml:3:24: http_max_connections: 1 to 4096 connections"),
+            "{e}"
+        );
+    }
+    // Without an address, the bound is an address forgotten.
+    let e = err(&format!("[station]\nhttp_max_connections = 3{net}"));
+    assert!(e.contains("http_max_connections: set http too"), "{e}");
+}
+
+#[test]
 fn http_is_loopback_unless_a_token_is_given() {
     let head = "[station]\nhttp = ";
     let net = "\n\n[[network]]\nname = \"a\"\nbuses = \"sim-pairs\"\nnode_id = 1\n";
@@ -149,6 +167,7 @@ fn http_is_loopback_unless_a_token_is_given() {
         token: None,
         control: Control::Off,
         tls: None,
+        max_connections: HTTP_MAX_CONNECTIONS,
     };
     assert_eq!(st.http, Some(want));
     let e = err(&format!("{head}\"0.0.0.0:8080\"{net}"));
