@@ -243,8 +243,8 @@ fn a_port_that_is_some_nodes_only_way_is_not_flushed_for_a_stall() {
         let due = l.poll_timeout().expect("the stall rule's deadline");
         assert!(due < ms(210), "{due}");
         l.handle_timeout(due);
-        let reinit = core::iter::from_fn(|| l.poll_port_request())
-            .any(|r| r == (1, PortRequest::Reinit));
+        let reinit =
+            core::iter::from_fn(|| l.poll_port_request()).any(|r| r == (1, PortRequest::Reinit));
         (reinit, l.port_state(1))
     };
     // Bus 1 reaches node 5 too: the overdue copy and the one behind it are flushed.
