@@ -19,7 +19,7 @@ fn rig(mode: LinkMode) -> (SimNetwork, DevId<FdEnd>, DevId<FdEnd>) {
         sim.add_bus(BusConfig::new("canfd0", 500_000).fd(2_000_000)),
         sim.add_bus(BusConfig::new("canfd1", 500_000).fd(2_000_000)),
     ];
-    let cfg = || DualBusConfig::default().with_mode(mode.clone());
+    let cfg = || DualBusConfig::default().with_mode(mode);
     let a = sim
         .add_device("a", FdEnd::with_config(cfg()), &buses)
         .unwrap();

@@ -216,7 +216,7 @@ fn frames_a_bus_silent_for_a_while_never_carried_measure_no_lag_against_it() {
 fn a_port_that_is_some_nodes_only_way_is_not_flushed_for_a_stall() {
     let cfg = DualBusConfig::default().with_reach_timeout(Duration::from_millis(50));
     let stall = |sole: bool| {
-        let mut l = DualBus::new(cfg.clone());
+        let mut l = DualBus::new(cfg);
         let hb = Frame::from_array(Id::Standard(0x705), [5]);
         // Node 5 heard on both buses, then (when `sole`) on bus 2 alone for longer than the
         // reach timeout.
