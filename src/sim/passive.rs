@@ -14,8 +14,10 @@ const HIGHEST_PASSIVE: u16 = 255;
 
 impl SimNetwork {
     /// Holds one port controller's transmit error counter at `tec` or above (`Some`, clamped
-    /// to 128..=255: a marginal transceiver whose bit errors keep the counter there, error
-    /// passive without reaching bus-off), or lets it go (`None`). Held, the controller is error
+    /// to 128..=255: a marginal transceiver whose occasional bit errors keep the counter
+    /// there, error passive without reaching bus-off; those errors themselves are not
+    /// simulated, add [`FaultRates::corrupt_sent`](super::FaultRates::corrupt_sent) for them),
+    /// or lets it go (`None`). Held, the controller is error
     /// passive as ISO 11898-1 has it: it still sends and receives every frame, but after each
     /// frame it sent (delivered or not) it waits the suspend-transmission time, 8 bit times
     /// after the intermission, before it may start another, so a frame another node queues
