@@ -223,6 +223,12 @@ pub(super) struct Port {
     pub(super) tx_dead: bool,
     /// Its transmit error counter.
     pub(super) tec: u16,
+    /// The level its transmit error counter is held at (0: none; see
+    /// [`set_port_error_passive`](super::SimNetwork::set_port_error_passive)).
+    pub(super) tec_floor: u16,
+    /// Error passive after its own frame: it may not start another before this instant (the
+    /// suspend-transmission time).
+    pub(super) suspended: Option<Instant>,
     /// Bus-off until this instant (its automatic restart).
     pub(super) bus_off: Option<Instant>,
     /// When its next failing attempt ends (a dead transmitter with a frame to send).
@@ -259,6 +265,8 @@ impl Port {
             delay_tail: Instant::ZERO,
             tx_dead: false,
             tec: 0,
+            tec_floor: 0,
+            suspended: None,
             bus_off: None,
             dead_wake: None,
             stats: PortStats::default(),

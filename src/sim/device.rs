@@ -291,6 +291,7 @@ impl SimNetwork {
             self.devices[d].powered = true;
             for p in self.devices[d].port_range() {
                 self.refresh_port(p);
+                self.hold_again(p);
             }
             self.touch(d as u32);
         }
@@ -329,6 +330,7 @@ impl SimNetwork {
         self.devices[d].powered = true;
         for p in self.devices[d].port_range() {
             self.refresh_port(p);
+            self.hold_again(p);
         }
         self.touch(id.index);
         Ok(old)
@@ -350,6 +352,7 @@ impl SimNetwork {
             // Its controllers start afresh: error counters at zero, none bus-off.
             port.tec = 0;
             port.bus_off = None;
+            port.suspended = None;
             self.refresh_port(p);
         }
     }

@@ -183,7 +183,8 @@ impl SimNetwork {
         let live = self.devices[port.dev as usize].powered
             && port.iface_up
             && !port.transmitting
-            && port.bus_off.is_none();
+            && port.bus_off.is_none()
+            && !self.is_suspended(p);
         // A dead transmitter never reaches the wire: its attempts fail on their own.
         if live && port.tx_dead && matches!(port.head(self.now), Ok(Some(_))) {
             self.arm_dead_attempt(p);

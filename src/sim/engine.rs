@@ -4,9 +4,11 @@ use super::bus::{InFlight, FD_SERIAL};
 use super::fault::{chance, flip_bit, nth};
 use super::ids::BusId;
 use super::timing;
-use super::trace::{TraceRecord, TxOutcome, TxRecord};
+use super::trace::{RxFault, TraceRecord, TxOutcome, TxRecord};
+use super::tx_dead::PASSIVE;
 use super::SimNetwork;
 use crate::frame::instant::{earliest_of, Instant};
+use crate::frame::{FdFrame, Frame};
 use crate::machine::{ErrorCause, PortStatus};
 use core::cmp::Reverse;
 
@@ -288,9 +290,12 @@ impl SimNetwork {
         for &m in &bus.segments[s].members {
             let port = &self.ports[m as usize];
             let rate = port.faults.map_or(0.0, |f| f.corrupt_detected);
+            // An error-passive receiver's error flag is recessive: it destroys nothing (see
+            // `passive_flags`, drawn when the frame ends).
             if m as usize != sender
                 && port.iface_up
                 && port.bus_off.is_none()
+                && port.tec < PASSIVE
                 && self.devices[port.dev as usize].powered
                 && chance(&mut self.rng, rate)
             {
@@ -370,9 +375,6 @@ impl SimNetwork {
             TxOutcome::ErrorFrame => Some(PortStatus::Error(ErrorCause::Crc)),
             TxOutcome::Delivered { .. } => Some(PortStatus::TxOk),
         };
-        if sender_status == Some(PortStatus::TxOk) {
-            self.ports[p].tec = self.ports[p].tec.saturating_sub(1);
-        }
         if let Some(status) = sender_status {
             if outcome == TxOutcome::ErrorFrame {
                 self.ports[p].stats.error_frames += 1;
@@ -385,6 +387,15 @@ impl SimNetwork {
                 }
                 self.port_status(p, status);
             }
+        }
+        if sender_status == Some(PortStatus::TxOk) {
+            self.tx_ok_tec(p);
+        }
+        if alive {
+            self.suspend_after(p, tx.end);
+        }
+        if matches!(outcome, TxOutcome::Delivered { .. }) && self.buses[b].detect_ports > 0 {
+            self.passive_flags(b, &mut rx, &tx.frame, fd.as_ref());
         }
         match outcome {
             TxOutcome::ErrorFrame => {
@@ -425,6 +436,26 @@ impl SimNetwork {
             _ => {}
         }
         self.receivers = rx;
+    }
+
+    /// Receivers in `rx` that are error passive and detect an error in the frame that just
+    /// ended (their own rate of detected errors) raise a passive error flag: recessive, it
+    /// destroys the frame for nobody else, and they alone lose it. Taken out of `rx`.
+    fn passive_flags(&mut self, b: usize, rx: &mut Vec<u32>, sent: &Frame, fd: Option<&FdFrame>) {
+        let mut k = 0;
+        while k < rx.len() {
+            let r = rx[k] as usize;
+            let port = &self.ports[r];
+            let rate = port.faults.map_or(0.0, |f| f.corrupt_detected);
+            if port.tec >= PASSIVE && chance(&mut self.rng, rate) {
+                rx.remove(k);
+                self.ports[r].stats.error_frames += 1;
+                self.record_rx_with(b, r, sent, fd, RxFault::Dropped);
+                self.port_status(r, PortStatus::Error(ErrorCause::Crc));
+            } else {
+                k += 1;
+            }
+        }
     }
 
     /// Cuts short every frame on the bus's wires (partition or heal); senders retransmit.

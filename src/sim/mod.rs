@@ -62,6 +62,8 @@
 //! controller that sends late),
 //! [`set_port_tx_dead`](SimNetwork::set_port_tx_dead) (a transmitter that reaches nobody: bit
 //! errors, error passive, bus-off and its automatic restart, while the port still receives),
+//! [`set_port_error_passive`](SimNetwork::set_port_error_passive) (a controller held error
+//! passive: the suspend-transmission time after its frames, passive error flags),
 //! [`partition`](SimNetwork::partition), [`babble`](SimNetwork::babble),
 //! [`port_down`](SimNetwork::port_down) and [`power_off`](SimNetwork::power_off).
 //!
@@ -113,6 +115,7 @@ mod engine;
 mod fault;
 mod fd;
 mod ids;
+mod passive;
 mod rx;
 mod sched;
 pub mod timing;

@@ -89,7 +89,9 @@ pub struct RxRecord {
 /// What a receiving port suffered.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum RxFault {
-    /// Lost in the controller (reported as receive overflow).
+    /// Lost in the controller (reported as receive overflow), or by an error-passive
+    /// receiver that detected an error in it (its passive error flag destroys the frame for
+    /// it alone; reported as a CRC error).
     Dropped,
     /// Handed to the device twice.
     Duplicated,

@@ -16,8 +16,8 @@ pub(super) const SUSPEND_BITS: u32 = 8;
 /// occurrences of 11.
 pub(super) const BUS_OFF_RECOVERY_BITS: u32 = 128 * 11;
 /// The transmit error counter's levels: warning, error passive, bus-off.
-const WARNING: u16 = 96;
-const PASSIVE: u16 = 128;
+pub(super) const WARNING: u16 = 96;
+pub(super) const PASSIVE: u16 = 128;
 const BUS_OFF: u16 = 256;
 
 impl SimNetwork {
@@ -127,6 +127,11 @@ impl SimNetwork {
         self.ports[p].tec = 0;
         self.refresh_port(p);
         self.port_status(p, PortStatus::Up);
+        // A marginal transceiver that holds it error passive does so again.
+        let floor = self.ports[p].tec_floor;
+        if floor > 0 {
+            self.raise_tec(p, floor);
+        }
     }
 
     /// A re-initialisation of a bus-off port restarts its controller at once (true if it was
@@ -136,7 +141,9 @@ impl SimNetwork {
         if port.bus_off.take().is_none() {
             return false;
         }
-        port.tec = 0;
+        // Held error passive by a marginal transceiver, it is at once where the hold puts it
+        // (its device learns of it at the next report: the restart's `Up` comes after).
+        port.tec = port.tec_floor;
         true
     }
 }

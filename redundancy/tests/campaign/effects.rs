@@ -16,6 +16,7 @@
 //! - a board that stops: a master saw its heartbeat say so;
 //! - noise: error reports on that bus; an overrun: that controller's overflow reports;
 //! - a transceiver that cannot send: that controller reported a bus-off;
+//! - a controller stuck error passive: that controller reported error passive;
 //! - a slow transmitter: a frame waited in that controller for its delay;
 //! - port writes drifting apart: a frame waited in that controller, and (a duocan sender) its
 //!   layer failed the port for a transmit stall;
@@ -51,14 +52,16 @@ pub fn watch(run: &mut Run, f: Fault) {
         | Fault::MasterBootLoop { id, .. }
         | Fault::StepBack { id, .. }
         | Fault::JumpAhead { id, .. } => run.plant.sim.is_powered(run.plant.master(id)),
-        Fault::ClockRate { node, .. } | Fault::TxDead { node, .. }
+        Fault::ClockRate { node, .. }
+        | Fault::TxDead { node, .. }
+        | Fault::ErrorPassive { node, .. }
             if node == STRONG || node == WEAK =>
         {
             run.plant.sim.is_powered(run.plant.master(node))
         }
-        Fault::ClockRate { node, .. } | Fault::TxDead { node, .. } => {
-            run.plant.sim.is_powered(run.plant.slave(node).0)
-        }
+        Fault::ClockRate { node, .. }
+        | Fault::TxDead { node, .. }
+        | Fault::ErrorPassive { node, .. } => run.plant.sim.is_powered(run.plant.slave(node).0),
         _ => true,
     };
     let before = counters(run);
@@ -310,6 +313,11 @@ fn took_effect(run: &Run, f: Fault, from: Instant, to: Instant, before: &Counter
         Fault::TxDead { node, port, .. } => {
             let bus = bus_of(run, node, port);
             errors_grew(run, before, bus, Some(node), Some(ErrorCause::BusOff))
+        }
+        // Its controller reported error passive.
+        Fault::ErrorPassive { node, port, .. } => {
+            let bus = bus_of(run, node, port);
+            errors_grew(run, before, bus, Some(node), Some(ErrorCause::ErrorPassive))
         }
         Fault::Overrun { node, port, .. } => {
             let bus = bus_of(run, node, port);

@@ -217,6 +217,19 @@ pub enum Fault {
         from: u8,
         dur: Duration,
     },
+    /// A marginal transceiver on `port` of a board or a master: its controller's transmit
+    /// error counter held at `tec` (128 to 255: error passive, short of bus-off) for `dur`,
+    /// then counting down by one per frame sent (see
+    /// [`duocan::sim::SimNetwork::set_port_error_passive`]). It still sends and receives
+    /// every frame, but after each of its own it waits the suspend-transmission time (8 bit
+    /// times), so it loses the bus to every frame queued meanwhile, whatever its identifier;
+    /// its controller reports error passive.
+    ErrorPassive {
+        node: u8,
+        port: usize,
+        tec: u16,
+        dur: Duration,
+    },
 }
 
 impl Fault {
@@ -248,6 +261,7 @@ impl Fault {
             Fault::GroundShift { .. } => "ground shift at one sender",
             Fault::ProducerTime { .. } => "producer time changed at run time",
             Fault::LongFrames { .. } => "long frames lost on one bus",
+            Fault::ErrorPassive { .. } => "controller stuck error passive",
             Fault::Overrun { .. } => "controller overrun",
             Fault::SlowTx { .. } => "slow transmitter",
             Fault::TxDrift { .. } => "port writes drifting apart",
@@ -284,6 +298,7 @@ impl Fault {
             | Fault::ClockRate { dur, .. }
             | Fault::GroundShift { dur, .. }
             | Fault::LongFrames { dur, .. }
+            | Fault::ErrorPassive { dur, .. }
             | Fault::TxDead { dur, .. } => dur,
             Fault::Sequence {
                 dur,
@@ -456,6 +471,17 @@ pub fn apply(run: &mut Run, f: Fault) {
                 r.plant.sim.set_bus_faults(b, rates);
                 let t = r.now();
                 r.timeline.noisy[bus].set(t, on);
+            });
+        }
+        Fault::ErrorPassive {
+            node,
+            port,
+            tec,
+            dur,
+        } => {
+            let p = port_of(run, node, port);
+            for_a_while(run, dur, move |r, on| {
+                r.plant.sim.set_port_error_passive(p, on.then_some(tec));
             });
         }
         Fault::LongFrames {
@@ -1003,7 +1029,7 @@ pub fn drift_profile(load: u64, from: Instant, to: Instant) -> Vec<(Instant, Dur
 
 /// How many kinds of fault the campaign draws from (every class that holds, some in two
 /// shapes).
-pub const KINDS: usize = 33;
+pub const KINDS: usize = 34;
 
 /// Every kind [`draw`] knows: also receive clocks that drift apart (kind [`DRIFT`], always the
 /// last), which still fail combined with others (the "known and not fixed yet" of the user
@@ -1012,6 +1038,10 @@ pub const KINDS: usize = 33;
 pub const KINDS_WITH_DRIFT: usize = KINDS + 1;
 /// The drift's kind.
 pub const DRIFT: usize = KINDS;
+
+/// The kinds the campaign knew before a controller stuck error passive: the seeds in
+/// `REGRESSIONS_EVERY_KIND` draw from these.
+pub const KINDS_BEFORE_ERROR_PASSIVE: usize = 33;
 
 /// The kinds the campaign knew before long frames lost on one bus: the seeds in
 /// `REGRESSIONS_PRODUCER_TIME` draw from these.
@@ -1278,6 +1308,17 @@ pub fn draw(rng: &mut Rng, pairs: u8, k: usize) -> Fault {
                 // An eight-byte frame (SDO, the campaign's PDOs) is hit from 5; from 2 a
                 // two-byte NMT command too; a heartbeat never.
                 from: [2, 5, 8][rng.below(3) as usize],
+                dur: rng.ms(200, 4_000),
+            },
+            33 => Fault::ErrorPassive {
+                node: match rng.below(2) {
+                    0 => [STRONG, WEAK][rng.below(2) as usize],
+                    _ => board(rng),
+                },
+                port: rng.below(2) as usize,
+                // Just passive (a frame sent after the repair makes it active again), or
+                // far up (a hundred frames or more before it is).
+                tec: [128, 180, 250][rng.below(3) as usize],
                 dur: rng.ms(200, 4_000),
             },
             DRIFT => Fault::Drift {

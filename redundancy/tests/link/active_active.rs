@@ -1,6 +1,7 @@
 //! Active-active mode on the simulated dual bus: a master and 20 nodes exchange frames every
-//! 10 ms while a bus is cut, a single port is unplugged, or a port babbles. Nothing is lost or
-//! doubled at the application; port states follow, at exact instants in simulated time.
+//! 10 ms while a bus is cut, a single port is unplugged, a port babbles, or a controller is
+//! stuck error passive. Nothing is lost or doubled at the application; port states follow, at
+//! exact instants in simulated time.
 
 use crate::sim::*;
 use duocan::{Duration, Frame, Id, Instant};
@@ -527,5 +528,60 @@ fn a_slow_transmitter_on_one_bus_is_flushed_not_duplicated_and_used_again_at_its
         );
         assert_eq!(after.len(), 2, "port {port}: {after:?}");
         assert_eq!(after[1].2, PortState::Ok);
+    }
+}
+
+#[test]
+fn a_controller_stuck_error_passive_on_one_bus_loses_nothing_and_fails_no_port() {
+    // Node 5's controller on one bus held error passive from the cut to the repair: after each
+    // of its frames it sits out the suspend-transmission time, so on every 10 ms burst the 20
+    // other stations' frames go first there, while its twins on the other bus win by their
+    // identifier. The skew stays within the window: nothing lost or doubled, the port suspect
+    // for the report only, no other port touched.
+    const NODE: u8 = 5;
+    for (port, tec) in [(0, 128), (1, 250)] {
+        let mut net = network(7, SLAVES, active_active(), STOP);
+        let p = net.dev(NODE).port(port);
+        net.sim
+            .at(CUT, move |sim| sim.set_port_error_passive(p, Some(tec)));
+        net.sim.at(REPAIR, move |sim| {
+            assert!(sim.is_port_error_passive(p), "held until now");
+            sim.set_port_error_passive(p, None)
+        });
+        run_to_end(&mut net);
+        net.assert_application_exact();
+        net.assert_no_heartbeat_lost();
+        // The fault ran: some of its frames there came out after their twins on the other
+        // bus (each behind a frame queued while it sat out its suspend time).
+        let during = |bus: usize| -> Vec<Instant> {
+            let sent = net.sent_from(NODE, bus, CUT);
+            sent.into_iter().filter(|t| *t < REPAIR).collect()
+        };
+        let (held, other) = (during(port), during(1 - port));
+        assert_eq!(held.len(), other.len(), "port {port}");
+        let later = held.iter().zip(&other).filter(|(h, o)| h > o).count();
+        assert!(
+            later > held.len() / 4,
+            "port {port}: {later} of {} later",
+            held.len()
+        );
+        // Back to error active once it sent enough frames to count down under 128.
+        assert!(!net.sim.is_port_error_passive(p), "port {port}");
+        let ev = net.port_events(NODE, port as u8);
+        let warned = PortReason::Controller(duocan::machine::ErrorCause::ErrorWarning);
+        assert_eq!(
+            ev.iter().map(|e| (e.1, e.2, e.3)).collect::<Vec<_>>(),
+            [
+                (PortState::Ok, PortState::Suspect, warned),
+                (PortState::Suspect, PortState::Ok, PortReason::Traffic),
+            ],
+            "port {port}: {ev:?}"
+        );
+        assert_eq!(ev[0].0, CUT);
+        assert!(net.port_events(NODE, 1 - port as u8).is_empty());
+        for node in (1..=SLAVES + 1).filter(|n| *n != NODE) {
+            assert!(net.port_events(node, 0).is_empty(), "node {node}");
+            assert!(net.port_events(node, 1).is_empty(), "node {node}");
+        }
     }
 }

@@ -6,6 +6,7 @@ mod events;
 mod faults;
 mod fd;
 mod latency;
+mod passive;
 mod power;
 mod probe;
 mod tx_dead;
