@@ -442,14 +442,7 @@ const REGRESSIONS_DEGRADING: &[(u64, u64, bool, bool)] = &[
 
 /// Seeds drawn from the kinds up to a ground shift at one sender (before a producer time
 /// changed at run time) that failed and pass now, as [`REGRESSIONS_TX_DEAD`].
-const REGRESSIONS_GROUND_SHIFT: &[(u64, u64, bool, bool)] = &[
-    // Cyclic: the weak master, active with its transceiver on bus 1 unable to send, heard bus
-    // 2 alone and configured its boards there (25 frames back to back, all outranking a
-    // board's boot-up, which waited 3 ms on bus 2 while its twin went out on idle bus 1); the
-    // board's stall rule flushed its bus-2 queue and an SDO answer to that master with it. A
-    // port that is some node's only way is not flushed for a stall now.
-    (448, 9, false, false),
-];
+const REGRESSIONS_GROUND_SHIFT: &[(u64, u64, bool, bool)] = &[];
 
 /// Seeds drawn from the kinds up to a producer time changed at run time (before long frames
 /// lost on one bus) that failed and pass now, as [`REGRESSIONS_TX_DEAD`].

@@ -67,8 +67,11 @@ impl Reach {
                 *t = t.saturating_sub(by);
             }
         };
-        for t in self.last.iter_mut().flatten() {
-            back(t);
+        // Two loops, not `flatten`: its iterator adapter costs the bare-metal images flash.
+        for node in self.last.iter_mut() {
+            for t in node.iter_mut() {
+                back(t);
+            }
         }
         for (s, due) in self.status.iter().zip(self.due.iter_mut()) {
             if *s == Status::Pending {

@@ -486,22 +486,7 @@ impl<C: FrameClassifier, K: MergeCapacity> BusLink for DualBus<C, K> {
 
     fn handle_timeout(&mut self, now: Instant) {
         self.watch_clock(now);
-        // A port that is some node's only way (heard there alone): its copies are not flushed
-        // for a stall (see port health's transmit-stall rule).
-        let sole = if self.reach_enabled {
-            let mut sole = [false; 2];
-            for (_, heard) in self.reach.iter() {
-                match heard {
-                    [true, false] => sole[0] = true,
-                    [false, true] => sole[1] = true,
-                    _ => {}
-                }
-            }
-            sole
-        } else {
-            [false; 2]
-        };
-        self.health.handle_timeout(now, sole, &mut self.out);
+        self.health.handle_timeout(now, &mut self.out);
         if self.reach_enabled {
             self.reach.handle_timeout(now, &mut self.out);
         }

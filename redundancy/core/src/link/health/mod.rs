@@ -66,12 +66,7 @@
 //!   network fine), so such a port comes back when a frame it was handed is confirmed in time
 //!   (the node's heartbeat, which goes there as a probe, one at a time, and is judged by the
 //!   same rule: late, it is flushed and the port stays failed without a new event) or through
-//!   re-initialisation. Not where this port is some node's only way (reachability hears
-//!   that node on this port alone): a flush would take that node's copies with the overdue
-//!   one (a master whose other transceiver cannot send, hearing this bus alone, lost an SDO
-//!   answer queued behind an overdue boot-up copy), so the overdue copy goes late instead (a
-//!   duplicate, at worst, where both buses are heard) and the rule judges the next frame to
-//!   reach the front. Waiting alone is no stall:
+//!   re-initialisation. Waiting alone is no stall:
 //!   a low-priority frame can lose arbitration for longer than the window on a busy network,
 //!   and then it waits on both buses alike and its twins still match. Nor is a port judged
 //!   while the other port sends nothing (failed, or its driver never confirms): without a twin

@@ -88,8 +88,8 @@ impl Health {
     }
 
     /// Applies silence rules and re-initialisations due at `now`; events carry the deadlines.
-    pub(crate) fn handle_timeout(&mut self, now: Instant, sole: [bool; 2], out: &mut Outbox) {
-        for (p, only_way) in sole.into_iter().enumerate() {
+    pub(crate) fn handle_timeout(&mut self, now: Instant, out: &mut Outbox) {
+        for p in 0..2 {
             // At most the rule's two steps (suspect, then failed) per call: at the end of time a
             // deadline saturated at `Instant::MAX` stays due, and a loop would never end.
             for _ in 0..2 {
@@ -104,12 +104,6 @@ impl Health {
                 } else {
                     self.set(d, p, PortState::Suspect, reason, out);
                 }
-            }
-            if self.stall_deadline(p).is_some_and(|d| d <= now) && only_way {
-                // Some node hears this bus alone: a flush would take its copies with the
-                // overdue one. The copy goes late (a duplicate, at worst, where both buses are
-                // heard); the rule judges the next frame to reach the front.
-                self.ports[p].overtaken = None;
             }
             if let Some(d) = self.stall_deadline(p).filter(|d| *d <= now) {
                 // Flush now: whatever waits in the queue would only arrive as duplicates.

@@ -45,7 +45,7 @@ fn a_port_bus_off_again_after_its_restart_stays_failed_until_a_probe_is_confirme
     );
     // Its re-initialisation tries it again; a bus-off then fails it again, no more.
     let due = h.port(0).next_reinit().unwrap();
-    h.handle_timeout(due, [false; 2], &mut out);
+    h.handle_timeout(due, &mut out);
     assert_eq!(h.port(0).state(), PortState::Recovering);
     // A quiet node (pre-operational: a heartbeat every period) hands it nothing for longer
     // than the probation: frames received alone do not make it ok (seed 27: the port was ok

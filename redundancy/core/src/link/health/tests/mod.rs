@@ -24,7 +24,7 @@ fn traffic(h: &mut Health, out: &mut Outbox, from: u64, cut: u64, end: u64) {
     let mut t = from;
     while t < end {
         if let Some(d) = h.poll_timeout().filter(|d| *d < ms(t)) {
-            h.handle_timeout(d, [false; 2], out);
+            h.handle_timeout(d, out);
         }
         // Port 0's copy comes first: delivered whether or not port 0 is proven (port 1 has
         // not reached its time yet); port 1's is its twin.
@@ -55,7 +55,7 @@ fn a_repaired_port_in_a_quiet_network_is_not_failed_again_for_an_old_miss() {
     let mut t = 1000;
     while t < 5_000 {
         if let Some(d) = h.poll_timeout().filter(|d| *d <= ms(t)) {
-            h.handle_timeout(d, [false; 2], &mut out);
+            h.handle_timeout(d, &mut out);
         }
         t += 5;
     }
@@ -70,7 +70,7 @@ fn a_repaired_port_in_a_quiet_network_is_not_failed_again_for_an_old_miss() {
     h.on_rx(ms(5_000), ms(5_000), 0, RxOutcome::Delivered, &mut out);
     let d = h.poll_timeout().unwrap();
     assert_eq!(d, ms(5_000) + W);
-    h.handle_timeout(d, [false; 2], &mut out);
+    h.handle_timeout(d, &mut out);
     assert_eq!(h.port(1).state(), PortState::Failed);
 }
 
@@ -92,7 +92,7 @@ fn a_quiet_port_is_not_judged_next_to_a_failed_one() {
     let mut t = 1000;
     while t < 10_000 {
         if let Some(d) = h.poll_timeout().filter(|d| *d <= ms(t)) {
-            h.handle_timeout(d, [false; 2], &mut out);
+            h.handle_timeout(d, &mut out);
         }
         t += 10;
     }
@@ -161,11 +161,11 @@ fn a_quiet_network_fails_nobody() {
     let mut out = Outbox::new();
     traffic(&mut h, &mut out, 0, 1000, 1000);
     assert_eq!(h.poll_timeout(), None);
-    h.handle_timeout(ms(10_000), [false; 2], &mut out);
+    h.handle_timeout(ms(10_000), &mut out);
     assert!(port_events(&mut out).is_empty());
     // Traffic resumes, port 1 a little late: still nothing.
     traffic(&mut h, &mut out, 20_000, 30_000, 30_000);
-    h.handle_timeout(ms(30_500), [false; 2], &mut out);
+    h.handle_timeout(ms(30_500), &mut out);
     assert!(port_events(&mut out).is_empty());
 }
 
@@ -313,7 +313,7 @@ fn transmit_stall_flushes_and_fails_and_only_reinit_revives() {
     h.count_tx(ms(33), 1, 33);
     ok(&mut h, 34, 1);
     assert_eq!(h.poll_timeout(), Some(ms(41)));
-    h.handle_timeout(ms(41), [false; 2], &mut out);
+    h.handle_timeout(ms(41), &mut out);
     assert_eq!(out.requests.pop(), Some((0, PortRequest::Reinit)));
     assert_eq!(
         port_events(&mut out),
@@ -327,7 +327,7 @@ fn transmit_stall_flushes_and_fails_and_only_reinit_revives() {
     // Receiving (a babbler's frames) does not revive it; the back-off re-initialisation does.
     h.on_rx(ms(50), ms(50), 0, RxOutcome::Stale, &mut out);
     assert_eq!(h.port(0).state(), PortState::Failed);
-    h.handle_timeout(ms(144), [false; 2], &mut out);
+    h.handle_timeout(ms(144), &mut out);
     assert_eq!(h.port(0).state(), PortState::Recovering);
     assert_eq!(h.port(0).counters().reinits, 2);
     // A refused hand-over (queue full) concerns the newest frame: the oldest, handed at
@@ -371,7 +371,7 @@ fn a_stalled_port_comes_back_when_a_probe_is_confirmed_in_time() {
     h.count_tx(ms(1), 0, 1);
     h.count_tx(ms(1), 1, 1);
     h.on_status(ms(2), 1, PortStatus::TxOk, &mut out);
-    h.handle_timeout(ms(12), [false; 2], &mut out);
+    h.handle_timeout(ms(12), &mut out);
     assert!(h.port(0).stalled());
     assert_eq!(out.requests.pop(), Some((0, PortRequest::Reinit)));
     // Receiving tells nothing of its transmitter: a babbler's flood, nor the network's own
@@ -389,7 +389,7 @@ fn a_stalled_port_comes_back_when_a_probe_is_confirmed_in_time() {
     h.count_tx(ms(40), 1, 40);
     h.on_status(ms(41), 1, PortStatus::TxOk, &mut out);
     assert_eq!(h.stall_deadline(0), Some(ms(51)));
-    h.handle_timeout(ms(51), [false; 2], &mut out);
+    h.handle_timeout(ms(51), &mut out);
     assert_eq!(out.requests.pop(), Some((0, PortRequest::Reinit)));
     assert!(h.port(0).stalled());
     // The flushed probe's confirmation, had it gone out meanwhile, proves nothing.
@@ -488,7 +488,7 @@ fn a_port_whose_frames_are_acknowledged_is_not_failed_for_silence() {
     let mut t = 0;
     while t < 2000 {
         while let Some(d) = h.poll_timeout().filter(|d| *d < ms(t)) {
-            h.handle_timeout(d, [false; 2], &mut out);
+            h.handle_timeout(d, &mut out);
         }
         h.on_rx(ms(t), ms(t), 0, RxOutcome::Delivered, &mut out);
         if t < 1000 {

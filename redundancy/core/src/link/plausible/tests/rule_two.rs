@@ -372,7 +372,7 @@ fn rule_two_counts_the_silence_from_the_ports_return_to_ok() {
     while t <= 340 {
         for (dt, port, node) in [(0, 0, 0x50), (0, 1, 0x50), (300, 0, 0x10), (400, 1, 0x10)] {
             let at = ms(t) + Duration::from_micros(dt);
-            r.health.handle_timeout(at, [false; 2], &mut r.out);
+            r.health.handle_timeout(at, &mut r.out);
             if t == 256 && port == 1 && node == 0x50 {
                 // This station's own frame on bus 2 goes unacknowledged: the cut.
                 let nack = PortStatus::TxFailed(duocan_core::machine::ErrorCause::NoAck);
