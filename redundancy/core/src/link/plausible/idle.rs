@@ -101,8 +101,8 @@ impl Bus {
         if self.idle != 0 {
             self.idle = self.idle.saturating_sub(by).max(1);
         }
-        // Two loops, not `flat_map`: its iterator adapter costs the bare-metal images flash.
-        for end in ends {
+        // A loop, not `flat_map`: its iterator adapter costs the bare-metal images flash.
+        if let Some(end) = ends {
             for e in end.iter_mut() {
                 *e = e.saturating_sub(by);
             }
