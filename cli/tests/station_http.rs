@@ -5,7 +5,7 @@
 mod common;
 #[path = "station_http/log.rs"]
 mod log;
-use log::{file, next_before, stderr_lines};
+use log::{file, http_address, next_before, stderr_lines};
 use std::time::{Duration, Instant};
 
 /// `GET path` on `addr`, with the bearer `token` if any: the status code and the body.
@@ -265,20 +265,7 @@ fn the_station_streams_its_events_over_http() {
         .spawn()
         .expect("run duocan");
     let rx = stderr_lines(&mut child);
-    let end = Instant::now() + Duration::from_secs(120);
-    let addr = loop {
-        match next_before(&rx, end) {
-            Some(l) => {
-                if let Some(a) = l.split("http listening on ").nth(1) {
-                    break a.trim().to_string();
-                }
-            }
-            None => {
-                let _ = child.kill();
-                panic!("no http address in 120 s");
-            }
-        }
-    };
+    let addr = http_address(&mut child, &rx);
     // Without a token in the file, the dashboard is served to anyone on loopback.
     let (code, page) = dashboard(&addr, None);
     assert_eq!(code, 200, "{page}");

@@ -5,7 +5,7 @@
 mod common;
 #[path = "station_http/log.rs"]
 mod log;
-use log::{file, next_before, stderr_lines};
+use log::{file, http_address, stderr_lines};
 use std::io::{Read, Write};
 use std::net::TcpStream;
 use std::time::{Duration, Instant};
@@ -128,20 +128,7 @@ fn connections_streams_and_reads_are_bounded() {
         .spawn()
         .expect("run duocan");
     let rx = stderr_lines(&mut child);
-    let end = Instant::now() + Duration::from_secs(120);
-    let addr = loop {
-        match next_before(&rx, end) {
-            Some(l) => {
-                if let Some(a) = l.split("http listening on ").nth(1) {
-                    break a.trim().to_string();
-                }
-            }
-            None => {
-                let _ = child.kill();
-                panic!("no http address in 120 s");
-            }
-        }
-    };
+    let addr = http_address(&mut child, &rx);
     let check = std::panic::catch_unwind(|| bounded(&addr));
     let _ = child.kill();
     let _ = child.wait();

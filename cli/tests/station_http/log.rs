@@ -27,6 +27,28 @@ pub fn next_before(rx: &std::sync::mpsc::Receiver<String>, end: Instant) -> Opti
         .ok()
 }
 
+/// The address the station's HTTP server listens on, from its log, within 120 s; the station
+/// is killed and the test fails if it does not say.
+pub fn http_address(
+    child: &mut std::process::Child,
+    rx: &std::sync::mpsc::Receiver<String>,
+) -> String {
+    let end = Instant::now() + std::time::Duration::from_secs(120);
+    loop {
+        match next_before(rx, end) {
+            Some(l) => {
+                if let Some(a) = l.split("http listening on ").nth(1) {
+                    return a.trim().to_string();
+                }
+            }
+            None => {
+                let _ = child.kill();
+                panic!("no http address in 120 s");
+            }
+        }
+    }
+}
+
 pub fn file(rel: &str) -> String {
     PathBuf::from(env!("CARGO_MANIFEST_DIR"))
         .join(rel)
