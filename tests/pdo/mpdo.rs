@@ -11,15 +11,15 @@ use duocan::od::{Access, DefaultValue, ObjectDef, ObjectDictionary};
 use duocan::pdo::{params, PdoEvent};
 use duocan::{AbortCode, Frame, Id, NmtCommand, NmtState, NmtTarget};
 
-const MASTER: usize = 0;
-const N5: usize = 1;
-const N6: usize = 2;
+pub(super) const MASTER: usize = 0;
+pub(super) const N5: usize = 1;
+pub(super) const N6: usize = 2;
 /// The master's DAM channel, which every slave receives.
-const DAM_COB: u16 = 0x300;
+pub(super) const DAM_COB: u16 = 0x300;
 /// Node 5's SAM channel, which the master receives.
-const SAM_COB: u16 = 0x185;
+pub(super) const SAM_COB: u16 = 0x185;
 
-fn comm(tx: bool, pdo: u16, cob: u32) -> Vec<ObjectDef> {
+pub(super) fn comm(tx: bool, pdo: u16, cob: u32) -> Vec<ObjectDef> {
     let cob = DefaultValue::Unsigned(cob as u64);
     if tx {
         params::tpdo_comm(pdo, cob, 254, 0, 0).to_vec()
@@ -29,7 +29,7 @@ fn comm(tx: bool, pdo: u16, cob: u32) -> Vec<ObjectDef> {
 }
 
 /// A mapping parameter whose count marks an MPDO (0xFE, 0xFF).
-fn mpdo_mapping(tx: bool, pdo: u16, count: u8) -> Vec<ObjectDef> {
+pub(super) fn mpdo_mapping(tx: bool, pdo: u16, count: u8) -> Vec<ObjectDef> {
     let mut m = if tx {
         params::tpdo_mapping::<2>(pdo, &[]).to_vec()
     } else {

@@ -11,38 +11,12 @@ use duocan::mpdo::{dispatcher_list, scanner_list, DispatcherEntry, MpdoError};
 use duocan::node::NodeEventKind as K;
 use duocan::od::ObjectDictionary;
 use duocan::od::{comm, Access, DataType, DefaultValue, DynamicDictionary, ObjectDef};
-use duocan::pdo::{params, PdoEvent};
+use duocan::pdo::PdoEvent;
 use duocan::{FdFrame, Frame, Id, Instant, Machine, NmtState, Node, NodeConfig, NodeId};
 
 type FdNode = Node<DynamicDictionary>;
 
-const MASTER: usize = 0;
-const N5: usize = 1;
-const N6: usize = 2;
-/// The master's DAM channel, which every slave receives.
-const DAM_COB: u16 = 0x300;
-/// Node 5's SAM channel, which the master receives.
-const SAM_COB: u16 = 0x185;
-
-fn comm_params(tx: bool, pdo: u16, cob: u16) -> Vec<ObjectDef> {
-    let cob = DefaultValue::Unsigned(cob.into());
-    if tx {
-        params::tpdo_comm(pdo, cob, 254, 0, 0).to_vec()
-    } else {
-        params::rpdo_comm(pdo, cob, 254, 0).to_vec()
-    }
-}
-
-/// A mapping parameter whose count marks an MPDO (0xFE, 0xFF).
-fn mpdo_mapping(tx: bool, pdo: u16, count: u8) -> Vec<ObjectDef> {
-    let mut m = if tx {
-        params::tpdo_mapping::<2>(pdo, &[]).to_vec()
-    } else {
-        params::rpdo_mapping::<2>(pdo, &[]).to_vec()
-    };
-    m[0] = ObjectDef::u8(m[0].index, 0, Access::Rw, count);
-    m
-}
+use super::mpdo::{comm as comm_params, mpdo_mapping, DAM_COB, MASTER, N5, N6, SAM_COB};
 
 /// Node `id` (on a CANopen FD network if `fd`), operational, with 0x2000 (UNSIGNED16),
 /// 0x2200 (UNSIGNED64), 0x2201 (UNSIGNED64) writable and mappable, 0x6002 (UNSIGNED64)
@@ -111,9 +85,9 @@ impl FdWire {
             true,
             fd,
             &[
-                comm_params(true, 1, DAM_COB),
+                comm_params(true, 1, DAM_COB.into()),
                 mpdo_mapping(true, 1, 0xFF),
-                comm_params(false, 1, SAM_COB),
+                comm_params(false, 1, SAM_COB.into()),
                 mpdo_mapping(false, 1, 0xFE),
                 dispatch.to_vec(),
             ],
@@ -123,9 +97,9 @@ impl FdWire {
             false,
             fd,
             &[
-                comm_params(false, 1, DAM_COB),
+                comm_params(false, 1, DAM_COB.into()),
                 mpdo_mapping(false, 1, 0xFF),
-                comm_params(true, 1, SAM_COB),
+                comm_params(true, 1, SAM_COB.into()),
                 mpdo_mapping(true, 1, 0xFE),
                 scan.to_vec(),
             ],
@@ -134,7 +108,10 @@ impl FdWire {
             6,
             false,
             fd,
-            &[comm_params(false, 1, DAM_COB), mpdo_mapping(false, 1, 0xFF)],
+            &[
+                comm_params(false, 1, DAM_COB.into()),
+                mpdo_mapping(false, 1, 0xFF),
+            ],
         );
         let mut w = FdWire {
             nodes: vec![master, n5, n6],
