@@ -259,9 +259,10 @@ fn no_acknowledged_audit_record_is_lost_when_the_station_is_killed() {
 }
 
 /// The same on the shipped demonstration file's four racks (its networks under a station
-/// section of the test's own, with an audit trail), killed after its first, 100th and 400th
+/// section of the test's own, with an audit trail), killed after its first, 30th and 60th
 /// acknowledged record: in the thick of its racks' start-up and failovers, the records
-/// coming by the hundred a second.
+/// coming by the hundred a second. (A run writes some 90 to 120 records, as its plants' timing
+/// falls: CI's ran out at 93 when the second kill waited for the 100th.)
 #[test]
 fn the_shipped_demo_loses_no_acknowledged_audit_record_when_killed() {
     let examples = std::path::PathBuf::from(file("../examples"));
@@ -277,7 +278,7 @@ fn the_shipped_demo_loses_no_acknowledged_audit_record_when_killed() {
         "track-circuit rack",
         "misc rack",
     ];
-    killed_three_times("kill-demo", &racks, &names, [1, 100, 400]);
+    killed_three_times("kill-demo", &racks, &names, [1, 30, 60]);
 }
 
 /// Runs a station on `networks` (station file text) with an audit trail, kills it with
