@@ -15,34 +15,38 @@ pub fn hex(d: &[u8]) -> String {
 
 /// `{"time": "1700000000.000200", "timestamp_us": …, "interface": "can0", "id": 1541, …}`.
 pub fn line(timestamp_us: u64, interface: &str, frame: &Frame, d: &DecodedFrame) -> Value {
-    let mut m = Map::new();
-    m.insert("time".into(), json!(time_text(timestamp_us)));
-    m.insert("timestamp_us".into(), json!(timestamp_us));
-    m.insert("interface".into(), json!(interface));
-    m.insert("id".into(), json!(frame.id().raw()));
-    m.insert("extended".into(), json!(frame.id().is_extended()));
-    m.insert("remote".into(), json!(frame.is_remote()));
-    m.insert("dlc".into(), json!(frame.dlc()));
-    m.insert("data".into(), json!(hex(frame.data())));
-    m.insert("kind".into(), json!(d.kind().name()));
-    m.insert("node".into(), json!(d.node().map(|n| n.raw())));
-    m.insert("text".into(), json!(d.to_string()));
-    fields(&mut m, d);
-    Value::Object(m)
+    any_line(timestamp_us, interface, frame.id(), frame.data(), d, |m| {
+        m.insert("remote".into(), json!(frame.is_remote()));
+        m.insert("dlc".into(), json!(frame.dlc()));
+    })
 }
 
 /// [`line`] of a CAN FD frame the decoder read (a PDO of up to 64 bytes): `"fd": true`, its
 /// `brs` flag, no `remote`.
 pub fn line_fd(timestamp_us: u64, interface: &str, frame: &FdFrame, d: &DecodedFrame) -> Value {
+    any_line(timestamp_us, interface, frame.id(), frame.data(), d, |m| {
+        m.insert("fd".into(), json!(true));
+        m.insert("brs".into(), json!(frame.brs()));
+    })
+}
+
+/// What a classic and a CAN FD frame's lines share, with `own` adding the kind's fields.
+fn any_line(
+    timestamp_us: u64,
+    interface: &str,
+    id: Id,
+    data: &[u8],
+    d: &DecodedFrame,
+    own: impl FnOnce(&mut Map<String, Value>),
+) -> Value {
     let mut m = Map::new();
     m.insert("time".into(), json!(time_text(timestamp_us)));
     m.insert("timestamp_us".into(), json!(timestamp_us));
     m.insert("interface".into(), json!(interface));
-    m.insert("id".into(), json!(frame.id().raw()));
-    m.insert("extended".into(), json!(frame.id().is_extended()));
-    m.insert("fd".into(), json!(true));
-    m.insert("brs".into(), json!(frame.brs()));
-    m.insert("data".into(), json!(hex(frame.data())));
+    m.insert("id".into(), json!(id.raw()));
+    m.insert("extended".into(), json!(id.is_extended()));
+    own(&mut m);
+    m.insert("data".into(), json!(hex(data)));
     m.insert("kind".into(), json!(d.kind().name()));
     m.insert("node".into(), json!(d.node().map(|n| n.raw())));
     m.insert("text".into(), json!(d.to_string()));
