@@ -261,8 +261,8 @@ fn no_acknowledged_audit_record_is_lost_when_the_station_is_killed() {
 /// The same on the shipped demonstration file's four racks (its networks under a station
 /// section of the test's own, with an audit trail), killed after its first, 30th and 60th
 /// acknowledged record: in the thick of its racks' start-up and failovers, the records
-/// coming by the hundred a second. (A run writes some 90 to 120 records, as its plants' timing
-/// falls: CI's ran out at 93 when the second kill waited for the 100th.)
+/// coming by the hundred a second. (How many a run writes depends on its plants' timing: one
+/// in CI wrote 93 while the second kill waited for the 100th.)
 #[test]
 fn the_shipped_demo_loses_no_acknowledged_audit_record_when_killed() {
     let examples = std::path::PathBuf::from(file("../examples"));
