@@ -152,7 +152,9 @@ pub enum LinkEventKind {
     },
     /// Two or more devices share `node`'s node-ID: its heartbeats arrived on `port` at `rate`
     /// per second (measured over one producer period after the verdict at `since`), a small
-    /// multiple of the `allowed` rate.
+    /// multiple of the `allowed` rate. Neither this nor [`LinkEventKind::Babbling`] is
+    /// reported when that period held only the verdict's own heartbeat: a burst (a sender or
+    /// a reader that stalled and caught up), the suspicion alone tells it.
     DuplicateNode {
         /// The node-ID.
         node: NodeId,

@@ -289,7 +289,12 @@ impl Plausibility {
                     let end = tr.since.saturating_add(period);
                     if end <= t {
                         tr.measuring = false;
-                        out.event(report(node, id, p, tr, period, end));
+                        // One heartbeat in the period is the node's own pace: the verdict was
+                        // a burst (a sender or reader stalled and caught up), not a second
+                        // device, and a rate equal to the allowed one would say nothing.
+                        if tr.count > 1 {
+                            out.event(report(node, id, p, tr, period, end));
+                        }
                     } else {
                         soonest(end);
                     }

@@ -118,6 +118,44 @@ fn a_second_device_at_the_same_period_is_a_duplicate_not_a_babble() {
 }
 
 #[test]
+fn a_burst_of_the_nodes_own_heartbeats_is_no_duplicate_though_it_is_too_fast() {
+    // A node beating every 12 ms, on bus 1 alone, stalled by a loaded host: it sends the six
+    // heartbeats it owes at once, and its next one late again. Too fast for the bucket, but
+    // in the period after the verdict only the verdict's own heartbeat: no second device.
+    let mut r = Rig::new();
+    let mut stamps: Vec<u64> = (0..5).map(|k| 1_000_000 + k * 12_000).collect();
+    stamps.extend((0..6).map(|j| 1_132_000 + j)); // owed since 1.060 s
+    stamps.extend((0..18).map(|k| 1_146_000 + k * 12_000));
+    let dropped: Vec<u64> = stamps
+        .iter()
+        .copied()
+        .filter(|&t| r.beat(us(t), 0, 0x10, 5))
+        .collect();
+    let v = us(dropped[0]);
+    assert_eq!(
+        v,
+        us(1_132_005),
+        "the sixth of the burst is the first too many"
+    );
+    r.run(us(1_400_000));
+    let e = r.events();
+    let told = |k: LinkEventKind| e.iter().any(|e| e.kind == k);
+    assert!(told(LinkEventKind::Suspect {
+        node: n(0x10),
+        why: Suspicion::TooFast { port: 0 }
+    }));
+    assert!(told(LinkEventKind::Trusted { node: n(0x10) }));
+    // No rate reported: one heartbeat in [v, v + T) is no more than the period allows.
+    assert!(
+        !e.iter().any(|e| matches!(
+            e.kind,
+            LinkEventKind::DuplicateNode { .. } | LinkEventKind::Babbling { .. }
+        )),
+        "{e:?}"
+    );
+}
+
+#[test]
 fn a_duplicate_on_both_buses_is_told_as_such_and_the_node_alone_after_it_is_trusted_at_its_third_beat(
 ) {
     // A second device beats 0x10's heartbeat on both buses, 5 ms after the node's own, from
