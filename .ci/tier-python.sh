@@ -2,7 +2,8 @@
 # Tier 3: python-can / python `canopen` as an independent peer over python-can's udp_multicast
 # bus, inside a private network namespace (no packet can leave the machine), plus the runtime
 # overhead measurement on the UDP bus (bare socket echo vs the tokio runtime), duocan and python
-# `canopen` side by side on one UDP bus (tiers/tests/python_bench.rs), the duocan tool
+# `canopen` side by side on one UDP bus (tiers/tests/python_bench.rs), the dual-bus layer
+# delivering exactly once under CPU load on two UDP buses (tiers/tests/udp_load.rs), the duocan tool
 # against a duocan node on the UDP bus, the tool's CiA 309-3 gateway (over TCP) driving a
 # python `canopen` node, and python `canopen` reading a duocan node by the names of the EDS
 # duocan exported for it.
@@ -45,6 +46,9 @@ cargo build -p duocan-cli || fail "build the duocan tool"
 cargo test -p duocan-tiers --features python --test cli_udp --test cli_gateway --test kit_udp --test udp_reader \
   --test lss_udp --test station_udp --no-run \
   || fail "build the tool's tests"
+# Release build: the receiver under load must keep up with 10,000 datagrams a second, niced.
+cargo test --release -p duocan-tiers --features python --test udp_load --no-run \
+  || fail "build the exactly-once-under-load test"
 BENCH=1; [ "${1:-}" = "--no-bench" ] && BENCH=0
 if [ $BENCH = 1 ]; then
   cargo build --release --features udp --example rt_overhead || fail "build rt_overhead"
@@ -96,6 +100,13 @@ unshare -n sh -ec '
   ip route add 224.0.0.0/4 dev lo
   cargo test --offline -p duocan-tiers --features python --test cli_gateway
 ' || fail "a CiA 309-3 script over TCP to duocan gateway, a python canopen node on the UDP bus"
+# One test at a time: each loads every CPU.
+unshare -n sh -ec '
+  ip link set lo up
+  ip route add 224.0.0.0/4 dev lo
+  cargo test --release --offline -p duocan-tiers --features python --test udp_load -- --nocapture \
+    --test-threads 1
+' || fail "exactly once under CPU load on two UDP buses (the receiver niced under a busy loop per CPU)"
 unshare -n sh -ec '
   ip link set lo up
   ip route add 224.0.0.0/4 dev lo
