@@ -22,18 +22,19 @@ use std::time::Duration;
 mod apart;
 use apart::Apart;
 
-/// The two buses of a run: how a port on each is opened, and how bus 1 is taken down and up
-/// (where the wires can be).
+/// The two buses of a run: how a port on each is opened.
 pub trait Wires: Clone + Send + 'static {
     /// The port type.
     type P: Port + Send + 'static;
     /// A port on bus `bus` (0 or 1), a socket of its own.
     fn open(&self, bus: usize) -> Self::P;
-    /// Takes bus 1 down (`up` false) or brings it up again.
-    fn set_bus0(&self, up: bool);
     /// The bus's name in messages.
     fn name(&self, bus: usize) -> String;
 }
+
+/// Takes bus 1 down (`false`) or brings it up again (`true`): where the wires can be (a
+/// SocketCAN interface, not a UDP bus), a run may flap it.
+pub type Flap = fn(bool);
 
 /// The receiver: the layer and the recorder, and per port how late frames were handed over
 /// (the instant handled at minus the stamp): the longest, and how many more than the merger's
@@ -378,8 +379,8 @@ impl Watchdog {
 }
 
 /// Bus 1 goes down and up again every `down` + `up` until told to stop (and is left up).
-fn flap<W: Wires>(
-    wires: W,
+fn flap(
+    set_bus0: Flap,
     stop: Arc<AtomicBool>,
     down: Duration,
     up: Duration,
@@ -388,10 +389,10 @@ fn flap<W: Wires>(
         let mut flaps = 0;
         while !stop.load(Ordering::Relaxed) {
             std::thread::sleep(up);
-            wires.set_bus0(false);
+            set_bus0(false);
             flaps += 1;
             std::thread::sleep(down);
-            wires.set_bus0(true);
+            set_bus0(true);
         }
         flaps
     })
@@ -475,9 +476,9 @@ async fn send<W: Wires>(wires: &W, n: u32, rate: u32) -> (Vec<Frame>, usize, Dur
 }
 
 /// Sends `n` frames at `rate` frames/s, each on bus 1 then bus 2, with a busy loop on every
-/// CPU and the receiver niced ([`RECEIVER_NICE`]) (bus 1 flapping if `flapping`); what the layer delivered,
+/// CPU and the receiver niced ([`RECEIVER_NICE`]) (bus 1 flapping if `flapping` says how); what the layer delivered,
 /// judged.
-fn run<W: Wires>(wires: &W, n: u32, rate: u32, flapping: bool) -> Run {
+fn run<W: Wires>(wires: &W, n: u32, rate: u32, flapping: Option<Flap>) -> Run {
     let watchdog = Watchdog::start();
     let load = Load::start();
     let delivered = Arc::new(Mutex::new(Vec::with_capacity(n as usize + 64)));
@@ -558,9 +559,9 @@ fn run<W: Wires>(wires: &W, n: u32, rate: u32, flapping: bool) -> Run {
     });
     let read = ready.recv().unwrap();
     let stop_flap = Arc::new(AtomicBool::new(false));
-    let flapper = flapping.then(|| {
+    let flapper = flapping.map(|set_bus0| {
         flap(
-            wires.clone(),
+            set_bus0,
             stop_flap.clone(),
             Duration::from_millis(200),
             Duration::from_millis(300),
@@ -636,7 +637,7 @@ fn run<W: Wires>(wires: &W, n: u32, rate: u32, flapping: bool) -> Run {
 /// it shows is printed, not asserted); when every one was, the test fails saying so: it could
 /// not judge the layer under the load it is about, and a test that passes without judging
 /// would prove nothing.
-pub fn check<W: Wires>(wires: &W, n: u32, rate: u32, flapping: bool) {
+pub fn check<W: Wires>(wires: &W, n: u32, rate: u32, flapping: Option<Flap>) {
     let link: DualBus = DualBus::new(DualBusConfig::default());
     let (horizon, window) = (link.merger().horizon(), link.merger().window());
     drop(link);
@@ -690,7 +691,7 @@ pub fn check<W: Wires>(wires: &W, n: u32, rate: u32, flapping: bool) {
         "every occurrence exactly once"
     );
     let all = n as usize;
-    if flapping {
+    if flapping.is_some() {
         assert!(
             r.on_bus0 < all,
             "{} was down for some frames",
@@ -775,13 +776,13 @@ fn a_test_fails_when_no_run_could_be_judged() {
     assert!(quiet.clean(horizon));
 }
 
-fn print<W: Wires>(wires: &W, n: u32, rate: u32, flapping: bool, r: &Run) {
+fn print<W: Wires>(wires: &W, n: u32, rate: u32, flapping: Option<Flap>, r: &Run) {
     let ms = |d: Duration| d.as_secs_f64() * 1e3;
     println!(
         "{n} frames at {rate}/s{}: {:?}; sent in {:.1} s ({} on {}, copies up to {:.1} ms \
          apart, {} beyond the skew window), read {:?} ({:?} overrun); handed over late at most {} / {} ({} / {} beyond the horizon), copies up to {} apart; held up by the host \
          {:.1} ms at most, {:.0} ms of {:.1} s in all; CPU sender {:.2} s, receiver {:.2} s\n  {}",
-        if flapping { format!(", {} flapping", wires.name(0)) } else { String::new() },
+        if flapping.is_some() { format!(", {} flapping", wires.name(0)) } else { String::new() },
         r.verdict,
         r.took.as_secs_f64(),
         r.on_bus0,
