@@ -152,9 +152,10 @@ pub enum LinkEventKind {
     },
     /// Two or more devices share `node`'s node-ID: its heartbeats arrived on `port` at `rate`
     /// per second (measured over one producer period after the verdict at `since`), a small
-    /// multiple of the `allowed` rate. Neither this nor [`LinkEventKind::Babbling`] is
-    /// reported when that period held only the verdict's own heartbeat: a burst (a sender or
-    /// a reader that stalled and caught up), the suspicion alone tells it.
+    /// multiple of the `allowed` rate. A period that held one heartbeat is no measure: while
+    /// the verdict holds the next period is measured instead (`since` is then that period's
+    /// start), and a verdict that ends first was a burst (a sender or a reader that stalled
+    /// and caught up), reported by the suspicion alone, as for [`LinkEventKind::Babbling`].
     DuplicateNode {
         /// The node-ID.
         node: NodeId,

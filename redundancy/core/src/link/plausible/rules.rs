@@ -131,7 +131,7 @@ impl Plausibility {
         let excess = tat - tq > limit;
         // The cap keeps a babble's past from outliving it by more than `BURST + 2` drains.
         tr.tat = tat.min(tq.saturating_add(limit.saturating_add(drain)));
-        if tr.measuring && t > tr.since && t < tr.since.saturating_add(period) {
+        if tr.measuring && t >= tr.since && t < tr.since.saturating_add(period) {
             tr.count = tr.count.saturating_add(1);
         }
         let started = excess && !tr.fast;
@@ -287,11 +287,16 @@ impl Plausibility {
                 let tr = &mut w.ports[p];
                 if tr.measuring {
                     let end = tr.since.saturating_add(period);
-                    if end <= t {
+                    if end <= t && tr.count <= 1 && tr.fast {
+                        // One heartbeat in the period is the node's own pace: no rate to
+                        // report yet. While the verdict holds, the next period is measured (a
+                        // second device beating slower may have skipped this one); a verdict
+                        // that ends first was a burst (a sender or reader stalled and caught
+                        // up), and nothing is reported.
+                        (tr.since, tr.count) = (end, 0);
+                        soonest(end.saturating_add(period));
+                    } else if end <= t {
                         tr.measuring = false;
-                        // One heartbeat in the period is the node's own pace: the verdict was
-                        // a burst (a sender or reader stalled and caught up), not a second
-                        // device, and a rate equal to the allowed one would say nothing.
                         if tr.count > 1 {
                             out.event(report(node, id, p, tr, period, end));
                         }

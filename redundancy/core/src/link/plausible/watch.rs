@@ -13,8 +13,9 @@ pub(super) struct Track {
     pub(super) tat: u64,
     /// Its last heartbeat on this bus (µs), `NEVER`.
     pub(super) last: u64,
-    /// When its heartbeats here were last found too fast (µs): the start of the measuring
-    /// window.
+    /// The start of the measuring window (µs): when its heartbeats here were last found too
+    /// fast, or a later period measured while that verdict held (one with a single heartbeat
+    /// measured nothing).
     pub(super) since: u64,
     /// Heartbeats in the measuring window, `[since, since + T)`.
     pub(super) count: u32,

@@ -156,6 +156,33 @@ fn a_burst_of_the_nodes_own_heartbeats_is_no_duplicate_though_it_is_too_fast() {
 }
 
 #[test]
+fn a_second_device_at_twice_the_period_is_reported_whatever_its_phase() {
+    // A node beating every 12 ms on bus 1 and a second device with its node-ID every 24 ms:
+    // 1.5 heartbeats a period. In the period after the verdict the second device may not beat
+    // (a verdict at the node's heartbeat just after the device's): that period is measured
+    // again while the verdict holds, and the duplicate reported from one that shows it.
+    for offset in (1_000..24_000).step_by(1_000) {
+        let mut r = Rig::new();
+        let mut beats: Vec<u64> = (0..200).map(|k| 1_000_000 + k * 12_000).collect();
+        beats.extend((0..100).map(|k| 1_000_000 + offset + k * 24_000));
+        beats.sort_unstable();
+        for t in beats {
+            r.beat(us(t), 0, 0x10, 5);
+        }
+        r.run(us(3_500_000));
+        let dup = r.events().into_iter().find_map(|e| match e.kind {
+            LinkEventKind::DuplicateNode { rate, allowed, .. } => Some((rate, allowed)),
+            _ => None,
+        });
+        assert_eq!(
+            dup,
+            Some((2 * 1_000_000 / 12_000, 83)),
+            "offset {offset} µs: two heartbeats in the period measured"
+        );
+    }
+}
+
+#[test]
 fn a_duplicate_on_both_buses_is_told_as_such_and_the_node_alone_after_it_is_trusted_at_its_third_beat(
 ) {
     // A second device beats 0x10's heartbeat on both buses, 5 ms after the node's own, from
