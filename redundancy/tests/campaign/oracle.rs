@@ -272,6 +272,9 @@ pub struct Oracle {
     newest: Vec<[Option<(Instant, Instant)>; MAX_NODES]>,
     /// When the copy being handed over now ended on the wire.
     current_wire: Instant,
+    /// A bridge's copies that reached a receiver: when each ended on the wire, the sender of
+    /// the frame it copied, the receiver, the frame (see [`Oracle::beside_echo`]).
+    echoes: VecDeque<(Instant, usize, usize, Frame)>,
     /// Per receiver and sender: when the newest heartbeat or boot-up delivered there was sent,
     /// and the state it said (a boot-up: 0).
     state: Vec<[Option<(Instant, u8)>; MAX_NODES]>,
@@ -398,6 +401,7 @@ impl Oracle {
             if bridged {
                 o.bridged[r] = o.bridged[r].saturating_add(1);
                 o.bridged_wire[r] = Some(wire);
+                self.echoes.push_back((wire, s, r, *frame));
             } else {
                 o.wire[bus].get_or_insert(wire);
             }
@@ -554,6 +558,13 @@ impl Oracle {
         {
             self.stale.pop_front();
         }
+        while self
+            .echoes
+            .front()
+            .is_some_and(|e| e.0.as_micros() + (JUDGE_AFTER + SKEW_WINDOW).as_micros() < keep)
+        {
+            self.echoes.pop_front();
+        }
         while let Some(o) = self.pending.front() {
             if o.at + JUDGE_AFTER > now {
                 break;
@@ -625,6 +636,10 @@ impl Oracle {
                     // other's dropped as its twin (the merger's rule, see above).
                     (_, 0) if o.in_run && wiring.connected(o.sender, r, o.at).is_none() => None,
                     (_, 0) if o.superseded[r] || self.crossed(&o, r) => None,
+                    // The other side of the same: a copy of it met a bridge's copy of an
+                    // earlier identical frame of its sender within the window, and was taken
+                    // for its twin (which of the two is the copy, no receiver can tell).
+                    (_, 0) if self.beside_echo(&o, r) => None,
                     // Its only copy there handed over after a jump ahead of the receiver's
                     // clock, on the wire before it: as old as the jump to the layer, dropped
                     // as late (the promise table says so).
@@ -655,6 +670,18 @@ impl Oracle {
             n.sender == o.sender
                 && n.frame == o.frame
                 && n.wire.iter().flatten().any(|&w| within_window(w, echo))
+        })
+    }
+
+    /// Whether a copy of `o` on the wire came within the skew window of a bridge's copy of
+    /// another identical frame of its sender that reached receiver `r`.
+    fn beside_echo(&self, o: &Occurrence, r: usize) -> bool {
+        self.echoes.iter().any(|&(w, s, at, f)| {
+            s == o.sender
+                && at == r
+                && f == o.frame
+                && o.bridged_wire[r] != Some(w)
+                && o.wire.iter().flatten().any(|&t| within_window(t, w))
         })
     }
 
