@@ -161,6 +161,7 @@ impl SimNetwork {
                 serial: from.1,
                 frame: stand_in(frame),
                 fd: Some(*frame),
+                bridged: None,
             };
             if let Some(hook) = self.rx_hook.as_mut() {
                 hook(&note);

@@ -64,6 +64,8 @@
 //! errors, error passive, bus-off and its automatic restart, while the port still receives),
 //! [`set_port_error_passive`](SimNetwork::set_port_error_passive) (a controller held error
 //! passive: the suspend-transmission time after its frames, passive error flags),
+//! [`set_bridge`](SimNetwork::set_bridge) (a CAN-to-CAN bridge that copies one bus's frames
+//! onto the other, late: a device of its own on both buses),
 //! [`partition`](SimNetwork::partition), [`babble`](SimNetwork::babble),
 //! [`port_down`](SimNetwork::port_down) and [`power_off`](SimNetwork::power_off).
 //!
@@ -108,6 +110,7 @@
 //! # Ok::<(), duocan::sim::SimError>(())
 //! ```
 
+mod bridge;
 mod bus;
 mod device;
 mod drive;
@@ -125,6 +128,7 @@ mod tx_dead;
 #[cfg(test)]
 mod tests;
 
+pub use bridge::{Bridge, BridgeConfig, BridgeDirection, BridgeStats, Bridged};
 pub use bus::{BusStats, PortStats, StampClock, DEFAULT_TX_CAPACITY};
 
 /// Events each device's log holds while recording is off, unless
@@ -172,6 +176,8 @@ pub struct SimNetwork {
     receivers: Vec<u32>,
     in_action: bool,
     rx_hook: Option<RxHook>,
+    /// The bridge's device index ([`SimNetwork::set_bridge`]).
+    bridge: Option<u32>,
 }
 
 /// A frame handed to a device's port, as the receive hook sees it
@@ -192,6 +198,9 @@ pub struct RxNote {
     pub frame: Frame,
     /// The CAN FD frame as received, if it is one.
     pub fd: Option<FdFrame>,
+    /// The frame is a bridge's copy ([`SimNetwork::set_bridge`]; `sender` is the bridge's
+    /// port): where the frame it copied came from.
+    pub bridged: Option<Bridged>,
 }
 
 /// What [`SimNetwork::set_rx_hook`] takes.
@@ -220,6 +229,7 @@ impl SimNetwork {
             receivers: Vec::new(),
             in_action: false,
             rx_hook: None,
+            bridge: None,
         }
     }
 

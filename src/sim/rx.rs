@@ -186,6 +186,7 @@ impl SimNetwork {
                 serial: from.1,
                 frame: *frame,
                 fd: None,
+                bridged: self.bridged_origin(from),
             };
             if let Some(hook) = self.rx_hook.as_mut() {
                 hook(&note);
@@ -194,6 +195,11 @@ impl SimNetwork {
         let port = &mut self.ports[r];
         port.stats.rx += 1;
         let (d, local) = (port.dev as usize, port.local as usize);
+        if self.bridge.is_some() && self.is_bridge(d) {
+            self.bridge_heard(r, frame, wire, from);
+            return;
+        }
+        let port = &self.ports[r];
         if port.stamps {
             let at = port.clock.stamp(wire);
             self.devices[d].dev.handle_rx_at(self.now, local, frame, at);

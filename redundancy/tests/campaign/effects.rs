@@ -17,6 +17,7 @@
 //! - noise: error reports on that bus; an overrun: that controller's overflow reports;
 //! - a transceiver that cannot send: that controller reported a bus-off;
 //! - a controller stuck error passive: that controller reported error passive;
+//! - a bridge loop: the bridge's copies reached the other bus (acknowledged there);
 //! - a slow transmitter: a frame waited in that controller for its delay;
 //! - port writes drifting apart: a frame waited in that controller, and (a duocan sender) its
 //!   layer failed the port for a transmit stall;
@@ -66,6 +67,7 @@ pub fn watch(run: &mut Run, f: Fault) {
     };
     let before = counters(run);
     let waited = tx_waited(run, &f);
+    let bridged = bridge_sent(run);
     let written = producer_written(run);
     let until = from + f.span().min(LONGEST) + AFTER;
     run.at(until, move |r| {
@@ -73,6 +75,7 @@ pub fn watch(run: &mut Run, f: Fault) {
         let seen = direct
             && match f {
                 Fault::SlowTx { .. } => tx_waited(r, &f) > waited,
+                Fault::Bridge { .. } => bridge_sent(r) > bridged,
                 // The master confirmed the download (a master that stayed standby did not).
                 Fault::ProducerTime { .. } => producer_written(r) > written,
                 // Past the stall time: a duocan sender's layer flushed the port and failed it
@@ -95,6 +98,11 @@ fn producer_written(run: &Run) -> u32 {
         .into_iter()
         .map(|id| run.plant.sim.device(run.plant.master(id)).producer_done)
         .sum()
+}
+
+/// How many copies the bridge between the buses sent so far.
+fn bridge_sent(run: &Run) -> u64 {
+    run.plant.sim.bridge_stats().map_or(0, |s| s.sent)
 }
 
 /// How many frames a slow transmitter's port has held back (0 for other faults).
@@ -332,6 +340,7 @@ fn took_effect(run: &Run, f: Fault, from: Instant, to: Instant, before: &Counter
         | Fault::StepBack { .. }
         | Fault::JumpAhead { .. }
         | Fault::ProducerTime { .. }
+        | Fault::Bridge { .. }
         | Fault::ClockRate { .. } => true,
     }
 }

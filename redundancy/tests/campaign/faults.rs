@@ -230,6 +230,20 @@ pub enum Fault {
         tec: u16,
         dur: Duration,
     },
+    /// A bridge loop: a misconfigured CAN-to-CAN gateway or diagnostic repeater copies the
+    /// frames it receives on one bus onto the other `delay` later (`way` 0: bus 1 to bus 2, 1:
+    /// bus 2 to bus 1, 2: both ways, never a frame it sent itself), those of `ids` only (raw,
+    /// both ends included; `None`: all), holding at most `queue` (more are dropped), for `dur`
+    /// (see [`duocan::sim::SimNetwork::set_bridge`]). The receiving bus carries many frames
+    /// twice, its own copy and the bridged one, and a frame of a node cut from it still
+    /// appears there.
+    Bridge {
+        way: u8,
+        delay: Duration,
+        ids: Option<(u32, u32)>,
+        queue: usize,
+        dur: Duration,
+    },
 }
 
 impl Fault {
@@ -262,6 +276,7 @@ impl Fault {
             Fault::ProducerTime { .. } => "producer time changed at run time",
             Fault::LongFrames { .. } => "long frames lost on one bus",
             Fault::ErrorPassive { .. } => "controller stuck error passive",
+            Fault::Bridge { .. } => "bridge loop between the buses",
             Fault::Overrun { .. } => "controller overrun",
             Fault::SlowTx { .. } => "slow transmitter",
             Fault::TxDrift { .. } => "port writes drifting apart",
@@ -299,6 +314,7 @@ impl Fault {
             | Fault::GroundShift { dur, .. }
             | Fault::LongFrames { dur, .. }
             | Fault::ErrorPassive { dur, .. }
+            | Fault::Bridge { dur, .. }
             | Fault::TxDead { dur, .. } => dur,
             Fault::Sequence {
                 dur,
@@ -482,6 +498,34 @@ pub fn apply(run: &mut Run, f: Fault) {
             let p = port_of(run, node, port);
             for_a_while(run, dur, move |r, on| {
                 r.plant.sim.set_port_error_passive(p, on.then_some(tec));
+            });
+        }
+        Fault::Bridge {
+            way,
+            delay,
+            ids,
+            queue,
+            dur,
+        } => {
+            use duocan::sim::{BridgeConfig, BridgeDirection};
+            let [b1, b2] = run.plant.buses;
+            let direction = match way {
+                0 => BridgeDirection::FirstToSecond,
+                1 => BridgeDirection::SecondToFirst,
+                _ => BridgeDirection::Both,
+            };
+            let config = BridgeConfig {
+                direction,
+                delay,
+                ids,
+                queue,
+            };
+            for_a_while(run, dur, move |r, on| {
+                if on {
+                    r.plant.sim.set_bridge(b1, b2, config);
+                } else {
+                    r.plant.sim.clear_bridge();
+                }
             });
         }
         Fault::LongFrames {
@@ -1031,13 +1075,25 @@ pub fn drift_profile(load: u64, from: Instant, to: Instant) -> Vec<(Instant, Dur
 /// shapes).
 pub const KINDS: usize = 34;
 
+/// The kinds with a bridge loop between the buses (kind [`BRIDGE`]), which the layers do not
+/// hold yet (the "known and not fixed yet" of the user guide's redundant-master chapter: they
+/// deliver the bridge's copies as new frames), so the budget and the sweeps leave it out
+/// unless `CAMPAIGN_KINDS=35` (or `CAMPAIGN_DRIFT=1`) asks for it.
+pub const KINDS_WITH_BRIDGE: usize = KINDS + 1;
+/// The bridge loop's kind.
+pub const BRIDGE: usize = KINDS;
+
 /// Every kind [`draw`] knows: also receive clocks that drift apart (kind [`DRIFT`], always the
 /// last), which still fail combined with others (the "known and not fixed yet" of the user
 /// guide's redundant-master chapter), so the budget and the sweeps leave it out unless
-/// `CAMPAIGN_DRIFT=1` asks for it.
-pub const KINDS_WITH_DRIFT: usize = KINDS + 1;
+/// `CAMPAIGN_DRIFT=1` asks for it (with the bridge loop).
+pub const KINDS_WITH_DRIFT: usize = KINDS_WITH_BRIDGE + 1;
 /// The drift's kind.
-pub const DRIFT: usize = KINDS;
+pub const DRIFT: usize = KINDS_WITH_BRIDGE;
+
+/// The kinds the campaign knew before a bridge loop between the buses: the seeds in
+/// `REGRESSIONS_ERROR_PASSIVE` draw from these (all it holds, while the bridge is left out).
+pub const KINDS_BEFORE_BRIDGE: usize = 34;
 
 /// The kinds the campaign knew before a controller stuck error passive: the seeds in
 /// `REGRESSIONS_EVERY_KIND` draw from these.
@@ -1319,6 +1375,20 @@ pub fn draw(rng: &mut Rng, pairs: u8, k: usize) -> Fault {
                 // Just passive (a frame sent after the repair makes it active again), or
                 // far up (a hundred frames or more before it is).
                 tec: [128, 180, 250][rng.below(3) as usize],
+                dur: rng.ms(200, 4_000),
+            },
+            BRIDGE => Fault::Bridge {
+                way: rng.below(3) as u8,
+                delay: Duration::from_micros(500 + rng.below(9_501)),
+                // Everything, or the process data, or the heartbeats, or SYNC and EMCY.
+                ids: [
+                    None,
+                    None,
+                    Some((0x180, 0x4FF)),
+                    Some((0x700, 0x77F)),
+                    Some((0x080, 0x0FF)),
+                ][rng.below(5) as usize],
+                queue: [8, 32, 256][rng.below(3) as usize],
                 dur: rng.ms(200, 4_000),
             },
             DRIFT => Fault::Drift {

@@ -90,6 +90,10 @@ struct Occurrence {
     last_arrived: [Option<Instant>; MAX_NODES],
     /// Per bus: when its copy there ended on the wire (as a receiver saw it).
     wire: [Option<Instant>; 2],
+    /// Copies a bridge between the buses made of it that reached each receiver (see
+    /// [`Oracle::arriving`]), and when the latest of them ended on the wire.
+    bridged: [u8; MAX_NODES],
+    bridged_wire: [Option<Instant>; MAX_NODES],
 }
 
 impl Occurrence {
@@ -268,6 +272,9 @@ pub struct Oracle {
     newest: Vec<[Option<(Instant, Instant)>; MAX_NODES]>,
     /// When the copy being handed over now ended on the wire.
     current_wire: Instant,
+    /// A bridge's copies that reached a receiver: when each ended on the wire, the sender of
+    /// the frame it copied, the receiver, the frame (see [`Oracle::beside_echo`]).
+    echoes: VecDeque<(Instant, usize, usize, Frame)>,
     /// Per receiver and sender: when the newest heartbeat or boot-up delivered there was sent,
     /// and the state it said (a boot-up: 0).
     state: Vec<[Option<(Instant, u8)>; MAX_NODES]>,
@@ -342,6 +349,8 @@ impl Oracle {
             arrived: [None; MAX_NODES],
             last_arrived: [None; MAX_NODES],
             wire: [None; 2],
+            bridged: [0; MAX_NODES],
+            bridged_wire: [None; MAX_NODES],
         });
         self.base + self.pending.len() as u64 - 1
     }
@@ -353,7 +362,9 @@ impl Oracle {
 
     /// The simulator hands device `receiver`'s port `port` (on bus `port`, the other one if it
     /// is cabled crossed) the copy `serial`
-    /// of device `sender`, which ended on the wire at `wire`.
+    /// of device `sender`, which ended on the wire at `wire`; `bridged`: the copy is a bridge's
+    /// of that one (see [`duocan::sim::RxNote::bridged`]).
+    #[allow(clippy::too_many_arguments)]
     pub fn arriving(
         &mut self,
         receiver: usize,
@@ -362,6 +373,7 @@ impl Oracle {
         port: usize,
         wire: Instant,
         frame: &Frame,
+        bridged: bool,
     ) {
         let node = |d: usize| self.nodes.iter().position(|n| n.device == d);
         let (Some(r), Some(s)) = (node(receiver), node(sender)) else {
@@ -386,7 +398,13 @@ impl Oracle {
                 o.superseded[r] = true;
             }
             o.reached[r] = o.reached[r].saturating_add(1);
-            o.wire[bus].get_or_insert(wire);
+            if bridged {
+                o.bridged[r] = o.bridged[r].saturating_add(1);
+                o.bridged_wire[r] = Some(wire);
+                self.echoes.push_back((wire, s, r, *frame));
+            } else {
+                o.wire[bus].get_or_insert(wire);
+            }
         }
         self.current = Some((r, of));
         self.current_wire = wire;
@@ -540,6 +558,13 @@ impl Oracle {
         {
             self.stale.pop_front();
         }
+        while self
+            .echoes
+            .front()
+            .is_some_and(|e| e.0.as_micros() + (JUDGE_AFTER + SKEW_WINDOW).as_micros() < keep)
+        {
+            self.echoes.pop_front();
+        }
         while let Some(o) = self.pending.front() {
             if o.at + JUDGE_AFTER > now {
                 break;
@@ -591,6 +616,15 @@ impl Oracle {
                     // Delivered while its receive clocks disagreed beyond the lags its layer
                     // had measured: twice until the layer measures it (the promise table).
                     (2, 2) if o.unmeasured[r] => None,
+                    // A bridge loop's copy of it that reached the receiver within the skew
+                    // window of a copy of the next identical frame of its sender (the bridge's
+                    // delay a multiple of the sender's period): on that bus two identical
+                    // frames at once, as if it had sent twice; a frame names no sender and
+                    // carries no sequence number, so no receiver can tell which of the two is
+                    // the copy (the promise table): once more for each such copy, not judged.
+                    (_, d) if d > 1 && d <= 1 + o.bridged[r] && self.echo_beside_repeat(&o, r) => {
+                        None
+                    }
                     (_, d) if d > 1 => Some(Fault::Duplicated(d)),
                     (0, 0) => match wiring.connected(o.sender, r, o.at) {
                         Some(true) => Some(Fault::NeverArrived),
@@ -602,6 +636,10 @@ impl Oracle {
                     // other's dropped as its twin (the merger's rule, see above).
                     (_, 0) if o.in_run && wiring.connected(o.sender, r, o.at).is_none() => None,
                     (_, 0) if o.superseded[r] || self.crossed(&o, r) => None,
+                    // The other side of the same: a copy of it met a bridge's copy of an
+                    // earlier identical frame of its sender within the window, and was taken
+                    // for its twin (which of the two is the copy, no receiver can tell).
+                    (_, 0) if self.beside_echo(&o, r) => None,
                     // Its only copy there handed over after a jump ahead of the receiver's
                     // clock, on the wire before it: as old as the jump to the layer, dropped
                     // as late (the promise table says so).
@@ -620,6 +658,31 @@ impl Oracle {
                 }
             }
         }
+    }
+
+    /// Whether a bridge's copy of `o` reached receiver `r` within the skew window of a copy (on
+    /// either bus) of a later occurrence of the same frame of the same sender, not judged yet.
+    fn echo_beside_repeat(&self, o: &Occurrence, r: usize) -> bool {
+        let Some(echo) = o.bridged_wire[r] else {
+            return false;
+        };
+        self.pending.iter().any(|n| {
+            n.sender == o.sender
+                && n.frame == o.frame
+                && n.wire.iter().flatten().any(|&w| within_window(w, echo))
+        })
+    }
+
+    /// Whether a copy of `o` on the wire came within the skew window of a bridge's copy of
+    /// another identical frame of its sender that reached receiver `r`.
+    fn beside_echo(&self, o: &Occurrence, r: usize) -> bool {
+        self.echoes.iter().any(|&(w, s, at, f)| {
+            s == o.sender
+                && at == r
+                && f == o.frame
+                && o.bridged_wire[r] != Some(w)
+                && o.wire.iter().flatten().any(|&t| within_window(t, w))
+        })
     }
 
     /// Whether `o`, of a sender that is not duocan, is one of its frames whose copies left

@@ -479,13 +479,19 @@ impl Plant {
         });
         let o = oracle.clone();
         sim.set_rx_hook(Some(Box::new(move |note| {
+            // A bridge's copy is a copy of the frame it copied (the oracle judges it so).
+            let (sender, serial) = match note.bridged {
+                Some(b) => (b.sender.device.index(), b.serial),
+                None => (note.sender.device.index(), note.serial),
+            };
             o.borrow_mut().arriving(
                 note.receiver.device.index(),
-                note.sender.device.index(),
-                note.serial,
+                sender,
+                serial,
                 note.receiver.port,
                 note.wire,
                 &note.frame,
+                note.bridged.is_some(),
             );
         })));
         Plant {

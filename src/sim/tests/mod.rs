@@ -1,6 +1,7 @@
 //! Tests of the simulator, driving small probe devices.
 
 mod basic;
+mod bridge;
 mod determinism;
 mod events;
 mod faults;
