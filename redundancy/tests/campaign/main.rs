@@ -486,7 +486,14 @@ const REGRESSIONS_EVERY_KIND: &[(u64, u64, bool, bool)] = &[
 
 /// Seeds drawn from the kinds up to a controller stuck error passive (before a bridge loop)
 /// that failed and pass now, as [`REGRESSIONS_TX_DEAD`].
-const REGRESSIONS_ERROR_PASSIVE: &[(u64, u64, bool, bool)] = &[];
+///
+/// 3035 (both networks): board B's node-ID duplicated (a second device beating
+/// pre-operational) when A died; one master's bus 2 had just been re-initialised (recovering,
+/// nothing heard yet), so "too fast on every working bus" did not hold and B was taken for an
+/// impostor's victim, not a duplicated member to start as the last resort: the pair had no
+/// running board for 401 ms. A recovering port no longer counts as working there.
+const REGRESSIONS_ERROR_PASSIVE: &[(u64, u64, bool, bool)] =
+    &[(3035, 280, false, true), (3035, 280, true, true)];
 
 /// Seeds drawn with a bridge loop between the buses among the kinds
 /// (`faults::KINDS_WITH_BRIDGE`) that failed and pass now, as [`REGRESSIONS_TX_DEAD`]. None

@@ -392,12 +392,18 @@ impl Plausibility {
             self.unsynced = true;
             return;
         }
-        // Too fast on every bus that works (a failed port's bus may be the one cut), silent on
+        // Too fast on every bus that works (a failed port's bus may be the one cut, a
+        // recovering one's too: re-initialised, it has not shown it hears anything), silent on
         // none: a second device beats beside the node. (With one bus only by the first check,
         // a duplicate was taken for an impostor while the other bus was cut: the member was
         // reset, its boot-up lost among the duplicate's heartbeats, and its pair was left
         // without a running board when the other member died.)
-        let working = |q: usize| health.port(q).state() != PortState::Failed;
+        let working = |q: usize| {
+            !matches!(
+                health.port(q).state(),
+                PortState::Failed | PortState::Recovering
+            )
+        };
         let fast = |q: usize| w.ports[q].fast();
         let duplicated = suspect
             && w.one_bus.is_none()
